@@ -1,0 +1,69 @@
+//! The leg closure equations (paper eq. 1) and their derivative with respect
+//! to the pose.
+//!
+//! For leg `i`, with `a_i = R E_i` and the leg vector
+//! `d_i = a_i + t - B_i` of length `L_i = |d_i|` and direction `n_i`,
+//!
+//! ```text
+//! phi_i(pose, p, q) = |B_i - (R E_i + t)| - (l_i + q_i) = 0,   i = 1..6.
+//! ```
+//!
+//! A pose increment is `t <- t + dt`, `R <- exp([w]x) R`; then
+//! `d phi_i = n_i . dt + (a_i x n_i) . w`, which gives the 6 x 6 closure
+//! Jacobian `A` (rows `[n_i^T, (a_i x n_i)^T]`).
+
+use nalgebra::{Matrix3, Matrix6, Vector6};
+
+use crate::{Geometry, Pose, Vec3};
+
+/// The legs of a geometry at one pose.
+#[derive(Debug, Clone)]
+pub struct Legs {
+    /// Rotation matrix `R` of the pose.
+    pub rotation: Matrix3<f64>,
+    /// `a_i = R E_i`: platform joints rotated into the base frame.
+    pub rotated: [Vec3; 6],
+    /// Unit leg directions `n_i`, from base joint to platform joint.
+    pub direction: [Vec3; 6],
+    /// Leg lengths `L_i`.
+    pub length: [f64; 6],
+}
+
+impl Legs {
+    /// Evaluates the legs of `geometry` at `pose`.
+    pub fn at(geometry: &Geometry, pose: &Pose) -> Self {
+        let rotation = *pose.rotation.to_rotation_matrix().matrix();
+        let t = pose.translation.vector;
+        let rotated = geometry.platform.map(|e| rotation * e);
+        let mut direction = [Vec3::zeros(); 6];
+        let mut length = [0.0; 6];
+        for i in 0..6 {
+            let d = rotated[i] + t - geometry.base[i];
+            length[i] = d.norm();
+            direction[i] = d / length[i];
+        }
+        Self {
+            rotation,
+            rotated,
+            direction,
+            length,
+        }
+    }
+
+    /// Closure residuals `phi_i = L_i - (l_i + q_i)` (mm).
+    pub fn residual(&self, geometry: &Geometry, q: &[f64; 6]) -> Vector6<f64> {
+        Vector6::from_fn(|i, _| self.length[i] - (geometry.legs[i] + q[i]))
+    }
+
+    /// Closure Jacobian `A = d phi / d(t, w)`: row `i` is `[n_i^T, (a_i x n_i)^T]`.
+    pub fn pose_jacobian(&self) -> Matrix6<f64> {
+        let mut a = Matrix6::zeros();
+        for i in 0..6 {
+            let n = self.direction[i];
+            let m = self.rotated[i].cross(&n);
+            a.fixed_view_mut::<1, 3>(i, 0).copy_from(&n.transpose());
+            a.fixed_view_mut::<1, 3>(i, 3).copy_from(&m.transpose());
+        }
+        a
+    }
+}

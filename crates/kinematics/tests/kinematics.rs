@@ -1,0 +1,228 @@
+//! Numerical checks of the kinematics: inverse then forward kinematics over
+//! the workspace, analytic derivatives against central differences, and the
+//! canonical frames' invariance to rigid motions of the input frame.
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use parcal_kinematics::{
+    ForwardOptions, Geometry, KinematicsError, Params, Pose, Vec3, actuators, forward,
+    forward_from_home, paper, params, rotation_zyx, tip_jacobians,
+};
+
+/// SplitMix64: a tiny deterministic generator for test poses.
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self, low: f64, high: f64) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        low + (high - low) * (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A random pose of the design-frame workspace: tilt angles up to
+/// `max_tilt` degrees, the tool tip in x, y in [-80, 80], z in [340, 460].
+fn workspace_pose(rng: &mut Rng, geometry: &Geometry, max_tilt: f64) -> Pose {
+    let tilt = max_tilt.to_radians();
+    let rotation = rotation_zyx(
+        rng.uniform(-tilt, tilt),
+        rng.uniform(-tilt, tilt),
+        rng.uniform(-tilt, tilt),
+    );
+    let tip = Vec3::new(
+        rng.uniform(-80.0, 80.0),
+        rng.uniform(-80.0, 80.0),
+        rng.uniform(340.0, 460.0),
+    );
+    Pose::from_parts(Translation3::from(tip - rotation * geometry.tool), rotation)
+}
+
+#[test]
+fn inverse_then_forward_returns_the_pose_over_the_workspace() {
+    let mut rng = Rng(2004);
+    let options = ForwardOptions::default();
+    for geometry in [paper::design(), paper::truth()] {
+        let mut worst: f64 = 0.0;
+        for _ in 0..10_000 {
+            let pose = workspace_pose(&mut rng, &geometry, 15.0);
+            let q = actuators(&geometry, &pose);
+            let solution = forward_from_home(&geometry, &q, &options).expect("forward kinematics");
+            let error = (geometry.tool_tip(&solution.pose) - geometry.tool_tip(&pose)).norm();
+            worst = worst.max(error);
+        }
+        assert!(worst < 1e-9, "largest tool-tip error {worst:e} mm");
+    }
+}
+
+#[test]
+fn rotation_is_yaw_pitch_roll_about_fixed_axes() {
+    let (yaw, pitch, roll) = (0.3, -0.2, 0.1);
+    let rz = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw);
+    let ry = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), pitch);
+    let rx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), roll);
+    assert!(rotation_zyx(yaw, pitch, roll).angle_to(&(rz * ry * rx)) < 1e-14);
+}
+
+/// Tip of the canonical geometry of `p` at fixed `q`, by forward kinematics
+/// from `start`.
+fn tip(p: &Params, q: &[f64; 6], start: &Pose) -> Vec3 {
+    let geometry = params::from_params(p);
+    let solution = forward(&geometry, q, start, &ForwardOptions::default()).unwrap();
+    geometry.tool_tip(&solution.pose)
+}
+
+fn assert_columns_agree(name: &str, analytic: &[Vec3], numeric: &[Vec3]) {
+    let scale = analytic.iter().map(|c| c.norm()).fold(0.0, f64::max);
+    for (k, (a, n)) in analytic.iter().zip(numeric).enumerate() {
+        let error = (a - n).norm();
+        assert!(
+            error <= 1e-6 * a.norm().max(1e-3 * scale),
+            "{name} column {k}: analytic {a:?} numeric {n:?}"
+        );
+    }
+}
+
+#[test]
+fn tip_derivatives_agree_with_central_differences() {
+    let mut rng = Rng(7);
+    let design = paper::design();
+    let canonical = paper::truth().canonicalize().unwrap();
+    let p = params::to_params(&canonical.geometry);
+    for _ in 0..20 {
+        let pose = canonical.pose_from_input(&workspace_pose(&mut rng, &design, 15.0));
+        let q = actuators(&canonical.geometry, &pose);
+        let solution = forward(&canonical.geometry, &q, &pose, &ForwardOptions::default()).unwrap();
+        let jacobians = tip_jacobians(&canonical.geometry, &solution.legs).unwrap();
+
+        let h = 1e-4;
+        let analytic: Vec<Vec3> = (0..params::N_PARAMS)
+            .map(|k| jacobians.d_params.column(k).into())
+            .collect();
+        let numeric: Vec<Vec3> = (0..params::N_PARAMS)
+            .map(|k| {
+                let (mut plus, mut minus) = (p, p);
+                plus[k] += h;
+                minus[k] -= h;
+                (tip(&plus, &q, &pose) - tip(&minus, &q, &pose)) / (2.0 * h)
+            })
+            .collect();
+        assert_columns_agree("d tip / d p", &analytic, &numeric);
+
+        let analytic: Vec<Vec3> = (0..6).map(|i| jacobians.d_q.column(i).into()).collect();
+        let numeric: Vec<Vec3> = (0..6)
+            .map(|i| {
+                let (mut plus, mut minus) = (q, q);
+                plus[i] += h;
+                minus[i] -= h;
+                (tip(&p, &plus, &pose) - tip(&p, &minus, &pose)) / (2.0 * h)
+            })
+            .collect();
+        assert_columns_agree("d tip / d q", &analytic, &numeric);
+    }
+}
+
+#[test]
+fn canonical_geometry_is_invariant_to_rigid_motions_of_the_input_frames() {
+    let mut rng = Rng(11);
+    let truth = paper::truth();
+    let reference = truth.canonicalize().unwrap();
+    for _ in 0..50 {
+        let mut random_motion = || {
+            let axis = Vector3::new(
+                rng.uniform(-1.0, 1.0),
+                rng.uniform(-1.0, 1.0),
+                rng.uniform(-1.0, 1.0),
+            );
+            // Keep +z on the same side: tilts below 60 degrees.
+            let rotation =
+                UnitQuaternion::from_scaled_axis(axis.normalize() * rng.uniform(-1.0, 1.0));
+            let shift = Translation3::new(
+                rng.uniform(-500.0, 500.0),
+                rng.uniform(-500.0, 500.0),
+                rng.uniform(-500.0, 500.0),
+            );
+            Isometry3::from_parts(shift, rotation)
+        };
+        let (base_motion, platform_motion) = (random_motion(), random_motion());
+        let moved = Geometry {
+            base: truth
+                .base
+                .map(|b| base_motion.transform_point(&b.into()).coords),
+            platform: truth
+                .platform
+                .map(|e| platform_motion.transform_point(&e.into()).coords),
+            tool: platform_motion.transform_point(&truth.tool.into()).coords,
+            legs: truth.legs,
+        };
+        let canonical = moved.canonicalize().unwrap();
+        let difference =
+            params::to_params(&canonical.geometry) - params::to_params(&reference.geometry);
+        assert!(
+            difference.amax() < 1e-9,
+            "largest parameter change {:e}",
+            difference.amax()
+        );
+    }
+}
+
+#[test]
+fn forward_kinematics_failures_are_error_values() {
+    let geometry = paper::design();
+    let options = ForwardOptions::default();
+    let home = geometry.home_pose(&[0.0; 6]);
+
+    let mut q = [100.0; 6];
+    q[2] = -300.0;
+    assert_eq!(
+        forward(&geometry, &q, &home, &options).unwrap_err(),
+        KinematicsError::InfeasibleLeg {
+            leg: 3,
+            length: -65.0
+        }
+    );
+
+    q[2] = f64::NAN;
+    let error = forward(&geometry, &q, &home, &options).unwrap_err();
+    assert_eq!(
+        error.to_string(),
+        "actuator value q3 is not a finite number"
+    );
+
+    // Legs longer than the joints can ever be apart: no pose closes.
+    let error = forward(
+        &geometry,
+        &[1.0e4, 0.0, 0.0, 0.0, 0.0, 0.0],
+        &home,
+        &options,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(error, KinematicsError::NotConverged { .. }),
+        "{error}"
+    );
+
+    let few = ForwardOptions {
+        max_iterations: 1,
+        ..options
+    };
+    let error = forward(&geometry, &[120.0; 6], &home, &few).unwrap_err();
+    assert!(
+        matches!(error, KinematicsError::NotConverged { iterations: 1, .. }),
+        "{error}"
+    );
+
+    // Platform joints over the base joints with vertical legs: the closure
+    // Jacobian loses rank (no control of x, y and the yaw).
+    let singular = Geometry {
+        platform: geometry.base,
+        ..geometry.clone()
+    };
+    let upright = Pose::from_parts(
+        Translation3::new(0.0, 0.0, 200.0),
+        UnitQuaternion::identity(),
+    );
+    let error = forward(&singular, &[-30.0; 6], &upright, &options).unwrap_err();
+    assert_eq!(error, KinematicsError::SingularJacobian);
+}
