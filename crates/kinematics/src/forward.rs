@@ -46,7 +46,8 @@ pub(crate) fn solve_closure(
 ) -> Result<Vector6<f64>, KinematicsError> {
     let lu = a.lu();
     let pivots = lu.u().diagonal().map(f64::abs);
-    if !(pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max()) {
+    let well_conditioned = pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max();
+    if !well_conditioned {
         return Err(KinematicsError::SingularJacobian);
     }
     lu.solve(b).ok_or(KinematicsError::SingularJacobian)

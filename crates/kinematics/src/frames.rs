@@ -96,6 +96,65 @@ impl Geometry {
     }
 }
 
+/// Number of input coordinates of a geometry: 6 base joints, 6 platform
+/// joints, the tool (3 each) and 6 leg lengths.
+pub const N_INPUT_COORDINATES: usize = 45;
+
+/// The 45 input coordinates in the order `B1..B6 (x, y, z)`, `E1..E6 (x, y, z)`,
+/// `E_T (x, y, z)`, `l_1..l_6`.
+pub fn input_coordinates(geometry: &Geometry) -> SVector<f64, N_INPUT_COORDINATES> {
+    let mut x = SVector::<f64, N_INPUT_COORDINATES>::zeros();
+    let points = geometry
+        .base
+        .iter()
+        .chain(&geometry.platform)
+        .chain(std::iter::once(&geometry.tool));
+    for (k, point) in points.enumerate() {
+        x.fixed_rows_mut::<3>(3 * k).copy_from(point);
+    }
+    x.fixed_rows_mut::<6>(39).copy_from_slice(&geometry.legs);
+    x
+}
+
+/// The geometry of 45 input coordinates (inverse of [`input_coordinates`]).
+pub fn from_input_coordinates(x: &SVector<f64, N_INPUT_COORDINATES>) -> Geometry {
+    let point = |k: usize| Vec3::from(x.fixed_rows::<3>(3 * k));
+    Geometry {
+        base: std::array::from_fn(point),
+        platform: std::array::from_fn(|j| point(6 + j)),
+        tool: point(12),
+        legs: std::array::from_fn(|i| x[39 + i]),
+    }
+}
+
+/// `d p / d x`: the derivative of the 33 canonical parameters with respect to
+/// the 45 input coordinates, linearised at `geometry` by central differences
+/// (step 1e-4 mm: rounding ~1e-10 and truncation ~1e-10 relative on a
+/// geometry of ~100 mm; the canonicalisation is smooth away from degenerate
+/// geometry). Used to propagate input-frame
+/// tolerances to a full prior covariance `G Sigma_x G^T` of the parameters
+/// (spec section 4, propagated prior).
+pub fn parameter_jacobian(
+    geometry: &Geometry,
+) -> Result<SMatrix<f64, N_PARAMS, N_INPUT_COORDINATES>, KinematicsError> {
+    const STEP: f64 = 1e-4;
+    let x = input_coordinates(geometry);
+    let params_at = |x: SVector<f64, N_INPUT_COORDINATES>| -> Result<Params, KinematicsError> {
+        Ok(to_params(
+            &from_input_coordinates(&x).canonicalize()?.geometry,
+        ))
+    };
+    let mut jacobian = SMatrix::<f64, N_PARAMS, N_INPUT_COORDINATES>::zeros();
+    for k in 0..N_INPUT_COORDINATES {
+        let (mut plus, mut minus) = (x, x);
+        plus[k] += STEP;
+        minus[k] -= STEP;
+        let column = (params_at(plus)? - params_at(minus)?) / (2.0 * STEP);
+        jacobian.set_column(k, &column);
+    }
+    Ok(jacobian)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,63 +257,4 @@ mod tests {
             .coords;
         assert!((tip_canonical - mapped).norm() < 1e-12);
     }
-}
-
-/// Number of input coordinates of a geometry: 6 base joints, 6 platform
-/// joints, the tool (3 each) and 6 leg lengths.
-pub const N_INPUT_COORDINATES: usize = 45;
-
-/// The 45 input coordinates in the order `B1..B6 (x, y, z)`, `E1..E6 (x, y, z)`,
-/// `E_T (x, y, z)`, `l_1..l_6`.
-pub fn input_coordinates(geometry: &Geometry) -> SVector<f64, N_INPUT_COORDINATES> {
-    let mut x = SVector::<f64, N_INPUT_COORDINATES>::zeros();
-    let points = geometry
-        .base
-        .iter()
-        .chain(&geometry.platform)
-        .chain(std::iter::once(&geometry.tool));
-    for (k, point) in points.enumerate() {
-        x.fixed_rows_mut::<3>(3 * k).copy_from(point);
-    }
-    x.fixed_rows_mut::<6>(39).copy_from_slice(&geometry.legs);
-    x
-}
-
-/// The geometry of 45 input coordinates (inverse of [`input_coordinates`]).
-pub fn from_input_coordinates(x: &SVector<f64, N_INPUT_COORDINATES>) -> Geometry {
-    let point = |k: usize| Vec3::from(x.fixed_rows::<3>(3 * k));
-    Geometry {
-        base: std::array::from_fn(point),
-        platform: std::array::from_fn(|j| point(6 + j)),
-        tool: point(12),
-        legs: std::array::from_fn(|i| x[39 + i]),
-    }
-}
-
-/// `d p / d x`: the derivative of the 33 canonical parameters with respect to
-/// the 45 input coordinates, linearised at `geometry` by central differences
-/// (step 1e-4 mm: rounding ~1e-10 and truncation ~1e-10 relative on a
-/// geometry of ~100 mm; the canonicalisation is smooth away from degenerate
-/// geometry). Used to propagate input-frame
-/// tolerances to a full prior covariance `G Sigma_x G^T` of the parameters
-/// (spec section 4, propagated prior).
-pub fn parameter_jacobian(
-    geometry: &Geometry,
-) -> Result<SMatrix<f64, N_PARAMS, N_INPUT_COORDINATES>, KinematicsError> {
-    const STEP: f64 = 1e-4;
-    let x = input_coordinates(geometry);
-    let params_at = |x: SVector<f64, N_INPUT_COORDINATES>| -> Result<Params, KinematicsError> {
-        Ok(to_params(
-            &from_input_coordinates(&x).canonicalize()?.geometry,
-        ))
-    };
-    let mut jacobian = SMatrix::<f64, N_PARAMS, N_INPUT_COORDINATES>::zeros();
-    for k in 0..N_INPUT_COORDINATES {
-        let (mut plus, mut minus) = (x, x);
-        plus[k] += STEP;
-        minus[k] -= STEP;
-        let column = (params_at(plus)? - params_at(minus)?) / (2.0 * STEP);
-        jacobian.set_column(k, &column);
-    }
-    Ok(jacobian)
 }

@@ -43,16 +43,6 @@ impl Geometry {
         }
     }
 
-    /// The geometry as plain arrays `(base, platform, tool, legs)`.
-    pub fn to_arrays(&self) -> ([[f64; 3]; 6], [[f64; 3]; 6], [f64; 3], [f64; 6]) {
-        (
-            self.base.map(Into::into),
-            self.platform.map(Into::into),
-            self.tool.into(),
-            self.legs,
-        )
-    }
-
     /// Refuses NaN or infinite values, naming the offending coordinate.
     pub fn check_finite(&self) -> Result<(), KinematicsError> {
         let joints = |body: &str, joints: &[Vec3; 6]| {
