@@ -1,0 +1,87 @@
+//! `parcal inspect`: read and validate a dataset and summarise it.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use parcal_dataset::Dataset;
+use parcal_kinematics::{ForwardOptions, Geometry, forward_from_home};
+use rayon::prelude::*;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Dataset directory (machine.json, artefacts.json, measurements.csv[, truth.json]).
+    dataset: PathBuf,
+}
+
+/// How many failing rows to name.
+const LISTED_FAILURES: usize = 5;
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let dataset = Dataset::read(&args.dataset)?;
+    let machine = &dataset.machine;
+    let design = Geometry::from_arrays(
+        &machine.base_joints,
+        &machine.platform_joints,
+        &machine.tool,
+        &machine.leg_lengths,
+    );
+    design
+        .canonicalize()
+        .context("machine.json: the design geometry is degenerate")?;
+
+    let counts = dataset.contacts_per_ball();
+    let m = &dataset.measurements;
+    println!("dataset {}", args.dataset.display());
+    println!(
+        "  balls              {} ({:?} frame)",
+        counts.len(),
+        dataset.artefacts.frame
+    );
+    println!(
+        "  contacts           {} ({} .. {} per ball)",
+        m.q.len(),
+        counts.iter().min().unwrap_or(&0),
+        counts.iter().max().unwrap_or(&0)
+    );
+    println!("  ball distances     {}", dataset.artefacts.distances.len());
+    println!(
+        "  approach dirs      {}",
+        if m.direction.is_some() { "yes" } else { "no" }
+    );
+    println!(
+        "  truth              {}",
+        if dataset.truth.is_some() { "yes" } else { "no" }
+    );
+    for i in 0..6 {
+        let (lo, hi) =
+            m.q.iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q[i]), hi.max(q[i]))
+                });
+        println!("  q{}                 {lo:.4} .. {hi:.4} mm", i + 1);
+    }
+
+    let options = ForwardOptions::default();
+    let failures: Vec<(usize, String)> =
+        m.q.par_iter()
+            .enumerate()
+            .filter_map(|(row, q)| {
+                forward_from_home(&design, q, &options)
+                    .err()
+                    .map(|error| (row, error.to_string()))
+            })
+            .collect();
+    if failures.is_empty() {
+        println!("  forward kinematics with the design geometry succeeds on every row");
+        return Ok(());
+    }
+    for (row, error) in failures.iter().take(LISTED_FAILURES) {
+        // Line numbers of measurements.csv: the header is line 1.
+        eprintln!("  measurements.csv line {}: {error}", row + 2);
+    }
+    anyhow::bail!(
+        "forward kinematics with the design geometry fails on {} of {} rows of measurements.csv",
+        failures.len(),
+        m.q.len()
+    )
+}

@@ -1,0 +1,43 @@
+//! `parcal`: artefact calibration of parallel mechanisms (hexapods) with a
+//! priori knowledge, after Sato et al., Meas. Sci. Technol. 15 (2004) 1158.
+//!
+//! A thin binary: it parses arguments and wires the crates together.
+
+mod commands;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "parcal",
+    version,
+    about = "Artefact calibration of hexapods with a priori knowledge"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate a calibration campaign (the paper scenario by default) and write it as a dataset.
+    Simulate(commands::simulate::Args),
+    /// Read and validate a dataset and print a summary.
+    Inspect(commands::inspect::Args),
+}
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Command::Simulate(args) => commands::simulate::run(&args),
+        Command::Inspect(args) => commands::inspect::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

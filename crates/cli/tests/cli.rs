@@ -1,0 +1,128 @@
+//! End-to-end tests of the `parcal` binary.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn parcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_parcal"))
+        .args(args)
+        .output()
+        .expect("the parcal binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+fn simulate(dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["simulate", "--seed", "7", "--out", dir.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let output = parcal(&args);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    output
+}
+
+#[test]
+fn the_same_seed_gives_byte_identical_files() {
+    let temp = tempfile::tempdir().unwrap();
+    let (a, b) = (temp.path().join("a"), temp.path().join("b"));
+    simulate(&a, &[]);
+    simulate(&b, &[]);
+    for file in [
+        "machine.json",
+        "artefacts.json",
+        "measurements.csv",
+        "truth.json",
+    ] {
+        let (x, y) = (
+            std::fs::read(a.join(file)).unwrap(),
+            std::fs::read(b.join(file)).unwrap(),
+        );
+        assert!(
+            !x.is_empty() && x == y,
+            "{file} differs between two runs with the same seed"
+        );
+    }
+    let c = temp.path().join("c");
+    let output = parcal(&["simulate", "--seed", "8", "--out", c.to_str().unwrap()]);
+    assert!(output.status.success());
+    assert_ne!(
+        std::fs::read(a.join("measurements.csv")).unwrap(),
+        std::fs::read(c.join("measurements.csv")).unwrap()
+    );
+}
+
+#[test]
+fn simulate_prints_a_summary_and_scales() {
+    let temp = tempfile::tempdir().unwrap();
+    let output = simulate(
+        temp.path(),
+        &["--balls", "40", "--points-per-ball", "5", "--tilt", "20"],
+    );
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains("contacts           200 (5 per ball)"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("platform tilt"), "{stdout}");
+    let inspect = parcal(&["inspect", temp.path().to_str().unwrap()]);
+    assert!(inspect.status.success(), "{}", text(&inspect.stderr));
+    let stdout = text(&inspect.stdout);
+    assert!(stdout.contains("balls              40"), "{stdout}");
+    assert!(stdout.contains("succeeds on every row"), "{stdout}");
+}
+
+#[test]
+fn inspect_reads_the_reference_dataset() {
+    let reference =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1");
+    let output = parcal(&["inspect", reference.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(text(&output.stdout).contains("contacts           189 (7 .. 7 per ball)"));
+}
+
+/// A malformed dataset: exit code non-zero and a message naming the file.
+fn assert_inspect_fails(dir: &Path, expected: &[&str]) {
+    let output = parcal(&["inspect", dir.to_str().unwrap()]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    for part in expected {
+        assert!(stderr.contains(part), "expected {part:?} in: {stderr}");
+    }
+}
+
+#[test]
+fn inspect_reports_malformed_datasets() {
+    let temp = tempfile::tempdir().unwrap();
+    simulate(temp.path(), &[]);
+    let csv = temp.path().join("measurements.csv");
+    let original = std::fs::read_to_string(&csv).unwrap();
+
+    std::fs::write(&csv, original.replacen("b01,", "b99,", 1)).unwrap();
+    assert_inspect_fails(temp.path(), &["measurements.csv", "line 2", "b99"]);
+
+    let mut lines: Vec<String> = original.lines().map(String::from).collect();
+    lines[3] = lines[3]
+        .replacen(',', ",NaN,", 1)
+        .rsplitn(2, ',')
+        .nth(1)
+        .unwrap()
+        .to_string();
+    std::fs::write(&csv, lines.join("\n")).unwrap();
+    assert_inspect_fails(temp.path(), &["measurements.csv", "line 4"]);
+
+    // A contact the design machine cannot reach.
+    let mut lines: Vec<String> = original.lines().map(String::from).collect();
+    lines[5] = "b01,1000,1000,1000,0,0,0".to_string();
+    std::fs::write(&csv, lines.join("\n")).unwrap();
+    assert_inspect_fails(
+        temp.path(),
+        &["measurements.csv line 6", "fails on 1 of 189 rows"],
+    );
+
+    std::fs::remove_file(&csv).unwrap();
+    assert_inspect_fails(temp.path(), &["measurements.csv"]);
+
+    let missing = temp.path().join("nowhere");
+    assert_inspect_fails(&missing, &["machine.json"]);
+}

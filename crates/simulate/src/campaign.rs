@@ -1,0 +1,232 @@
+//! Simulation of one campaign: contacts, actuator readings with noise, and
+//! the forward-kinematics check of every contact.
+
+use nalgebra::{Matrix3, Translation3};
+use parcal_dataset::{
+    ArtefactFrame, Artefacts, Ball, Dataset, Machine, Measurements, PriorSigma, Repeatability,
+    Truth,
+};
+use parcal_kinematics::{
+    ForwardOptions, Geometry, Pose, Vec3, actuators, forward_from_home, rotation_zyx, tip_jacobians,
+};
+use rayon::prelude::*;
+
+use crate::{Rng, Scenario, SimulateError};
+
+/// A contact is accepted when the tool tip found by forward kinematics from
+/// the actuator readings is back on its simulated point within this many
+/// standard deviations of the noise (Mahalanobis distance; the chi-square(3)
+/// tail probability of 8 sigma is ~1e-13).
+const CHECK_SIGMAS: f64 = 8.0;
+
+/// One simulated contact.
+struct Contact {
+    /// The true contact point `C_i + r u` (design frame).
+    point: Vec3,
+    /// Actuator readings with noise.
+    q: [f64; 6],
+    /// Leg lengths `l_i + q_i` of the true machine.
+    legs: [f64; 6],
+    /// Tilt of the platform: angle between its z axis and the base's (rad).
+    tilt: f64,
+    /// Mahalanobis distance of the forward-kinematics tip from `point`.
+    check: f64,
+}
+
+/// The summary a person reads after a simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    pub balls: usize,
+    pub contacts: usize,
+    /// Smallest and largest leg length `l_i + q_i` (mm).
+    pub leg_length_range: (f64, f64),
+    /// Smallest and largest platform tilt (rad).
+    pub tilt_range: (f64, f64),
+    /// Largest Mahalanobis distance of a forward-kinematics tip from its
+    /// simulated contact point (in units of the noise).
+    pub worst_check: f64,
+}
+
+/// A simulated dataset and its summary.
+pub struct Simulation {
+    pub dataset: Dataset,
+    pub summary: Summary,
+}
+
+/// Ball ids `b01`, `b02`, ... zero-padded to the width of the largest.
+pub fn ball_id(index: usize, count: usize) -> String {
+    let width = count.to_string().len().max(2);
+    format!("b{:0width$}", index + 1)
+}
+
+/// Simulates the campaign `scenario` with random stream `seed`: for each
+/// ball (stream `(seed, ball)`) a calibrated radius `r + N(0, radius_sigma)`,
+/// then per contact a direction `u` uniform on the lower hemisphere, the
+/// platform orientation `Rz(yaw) Ry(pitch) Rx(roll)` with angles uniform in
+/// `[-max_tilt, max_tilt]`, the tool tip at `C + r u` plus tool noise, and
+/// actuator readings `q = L_true - l_true` plus actuator noise. Every contact
+/// is checked by forward kinematics with the true geometry.
+pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateError> {
+    let per_ball: Vec<(f64, Vec<Contact>)> = scenario
+        .centres
+        .par_iter()
+        .enumerate()
+        .map(|(ball, centre)| simulate_ball(scenario, seed, ball, centre))
+        .collect::<Result<_, _>>()?;
+
+    let count = scenario.centres.len();
+    let contacts: Vec<&Contact> = per_ball.iter().flat_map(|(_, c)| c).collect();
+    let range = |values: &mut dyn Iterator<Item = f64>| {
+        values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        })
+    };
+    let summary = Summary {
+        balls: count,
+        contacts: contacts.len(),
+        leg_length_range: range(&mut contacts.iter().flat_map(|c| c.legs)),
+        tilt_range: range(&mut contacts.iter().map(|c| c.tilt)),
+        worst_check: contacts.iter().map(|c| c.check).fold(0.0, f64::max),
+    };
+
+    let balls = per_ball
+        .iter()
+        .zip(&scenario.centres)
+        .enumerate()
+        .map(|(index, ((radius, _), centre))| Ball {
+            id: ball_id(index, count),
+            centre: (*centre).into(),
+            centre_sigma: scenario.centre_sigma,
+            radius: *radius,
+            radius_sigma: scenario.radius_sigma,
+        })
+        .collect();
+    let ball_of_contact =
+        (0..count).flat_map(|b| std::iter::repeat_n(b as u32, scenario.points_per_ball));
+    let dataset = Dataset {
+        machine: machine(scenario),
+        artefacts: Artefacts {
+            frame: ArtefactFrame::Design,
+            balls,
+            distances: Vec::new(),
+        },
+        measurements: Measurements {
+            ball: ball_of_contact.collect(),
+            q: contacts.iter().map(|c| c.q).collect(),
+            direction: None,
+        },
+        truth: Some(Truth {
+            base_joints: scenario.truth.base.map(Into::into),
+            platform_joints: scenario.truth.platform.map(Into::into),
+            tool: scenario.truth.tool.into(),
+            leg_lengths: scenario.truth.legs,
+            ball_centres: scenario.centres.iter().map(|&c| c.into()).collect(),
+            ball_radii: vec![scenario.radius; count],
+            contacts: contacts.iter().map(|c| c.point.into()).collect(),
+        }),
+    };
+    Ok(Simulation { dataset, summary })
+}
+
+/// machine.json of a scenario: the design geometry and the conditions.
+fn machine(scenario: &Scenario) -> Machine {
+    let design = &scenario.design;
+    let sigma = scenario.prior_sigma;
+    Machine {
+        base_joints: design.base.map(Into::into),
+        platform_joints: design.platform.map(Into::into),
+        tool: design.tool.into(),
+        leg_lengths: design.legs,
+        prior_sigma: PriorSigma {
+            base: sigma,
+            platform: sigma,
+            tool: sigma,
+            leg: sigma,
+        },
+        repeatability: Repeatability {
+            actuator: scenario.actuator_sigma,
+            tool: scenario.tool_sigma,
+        },
+    }
+}
+
+/// The calibrated radius and the contacts of one ball.
+fn simulate_ball(
+    scenario: &Scenario,
+    seed: u64,
+    ball: usize,
+    centre: &Vec3,
+) -> Result<(f64, Vec<Contact>), SimulateError> {
+    let mut rng = Rng::new(seed, ball as u64);
+    let calibrated_radius = scenario.radius + rng.normal(scenario.radius_sigma);
+    let contacts = (0..scenario.points_per_ball)
+        .map(|point| {
+            simulate_contact(scenario, &mut rng, centre).map_err(|reason| SimulateError::Contact {
+                ball: ball + 1,
+                point: point + 1,
+                reason,
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    Ok((calibrated_radius, contacts))
+}
+
+fn simulate_contact(scenario: &Scenario, rng: &mut Rng, centre: &Vec3) -> Result<Contact, String> {
+    let truth = &scenario.truth;
+    let u_z = -rng.unit();
+    let azimuth = rng.uniform(0.0, std::f64::consts::TAU);
+    let horizontal = (1.0 - u_z * u_z).sqrt();
+    let u = Vec3::new(horizontal * azimuth.cos(), horizontal * azimuth.sin(), u_z);
+    let point = centre + scenario.radius * u;
+
+    let tilt = scenario.max_tilt;
+    let [yaw, pitch, roll] = [(); 3].map(|()| rng.uniform(-tilt, tilt));
+    let rotation = rotation_zyx(yaw, pitch, roll);
+    let tool_noise = Vec3::from_fn(|_, _| rng.normal(scenario.tool_sigma));
+    let tip = point + tool_noise;
+    let pose = Pose::from_parts(Translation3::from(tip - rotation * truth.tool), rotation);
+
+    let exact = actuators(truth, &pose);
+    let q = exact.map(|q| q + rng.normal(scenario.actuator_sigma));
+    let legs = std::array::from_fn(|i| truth.legs[i] + q[i]);
+    let check = check_contact(truth, scenario, &q, &point)?;
+    let z_axis = rotation * Vec3::z();
+    Ok(Contact {
+        point,
+        q,
+        legs,
+        tilt: z_axis.z.clamp(-1.0, 1.0).acos(),
+        check,
+    })
+}
+
+/// Forward kinematics of the true machine from its home pose: the Mahalanobis
+/// distance of the tip from the simulated contact point under the noise
+/// covariance `s_t^2 I + s_a^2 J_q J_q^T`; refuses a contact beyond
+/// [`CHECK_SIGMAS`] or where forward kinematics fails.
+fn check_contact(
+    truth: &Geometry,
+    scenario: &Scenario,
+    q: &[f64; 6],
+    point: &Vec3,
+) -> Result<f64, String> {
+    let solution =
+        forward_from_home(truth, q, &ForwardOptions::default()).map_err(|e| e.to_string())?;
+    let d_q = tip_jacobians(truth, &solution.legs)
+        .map_err(|e| e.to_string())?
+        .d_q;
+    let covariance = Matrix3::identity() * scenario.tool_sigma.powi(2)
+        + d_q * d_q.transpose() * scenario.actuator_sigma.powi(2);
+    let error = truth.tool_tip(&solution.pose) - point;
+    let distance = covariance
+        .cholesky()
+        .map(|c| error.dot(&c.solve(&error)).sqrt())
+        .ok_or_else(|| "the noise covariance is not positive definite".to_string())?;
+    if distance > CHECK_SIGMAS {
+        return Err(format!(
+            "forward kinematics puts the tool tip {:.4} mm ({distance:.1} sigma) from the simulated contact",
+            error.norm()
+        ));
+    }
+    Ok(distance)
+}
