@@ -102,12 +102,10 @@ fn inspect_reports_malformed_datasets() {
     assert_inspect_fails(temp.path(), &["measurements.csv", "line 2", "b99"]);
 
     let mut lines: Vec<String> = original.lines().map(String::from).collect();
-    lines[3] = lines[3]
-        .replacen(',', ",NaN,", 1)
-        .rsplitn(2, ',')
-        .nth(1)
-        .unwrap()
-        .to_string();
+    // A NaN reading, same number of columns.
+    let (ball, rest) = lines[3].split_once(',').unwrap();
+    let (_, others) = rest.split_once(',').unwrap();
+    lines[3] = format!("{ball},NaN,{others}");
     std::fs::write(&csv, lines.join("\n")).unwrap();
     assert_inspect_fails(temp.path(), &["measurements.csv", "line 4"]);
 
