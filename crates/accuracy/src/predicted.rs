@@ -1,0 +1,373 @@
+//! Predicted accuracy maps: the parameter covariance propagated to the tool
+//! tip (spec section 5, paper figs. 3, 7, 10).
+//!
+//! At each target the model's tip Jacobian `J_k = d f(q_k, p) / d p` (3 x 33,
+//! at fixed actuator values) gives the tip covariance `J_k Σ_p J_kᵀ`; the
+//! absolute map is `sqrt(trace)` of it.
+//!
+//! The registered map removes what a rigid registration of the whole grid
+//! absorbs. Linearised, the best rigid motion of the tips onto the targets
+//! removes the component of the stacked tip error `δ = J δp` (3N) in the
+//! span of the rigid-motion directions of the target cloud, `B` (3N x 6),
+//! with rows `B_k = [I, -[c_k - c̄]x]` (translation, small rotation about
+//! the centroid `c̄`). With `P = I - B (BᵀB)⁻¹ Bᵀ`,
+//!
+//! ```text
+//! Σ_reg = (P J) Σ_p (P J)ᵀ,   (P J)_k = J_k - B_k M,   M = (BᵀB)⁻¹ Σ_k B_kᵀ J_k,
+//! ```
+//!
+//! so only the 6 x 6 `BᵀB` and the 6 x 33 `BᵀJ` are formed, never a 3N x 3N
+//! matrix, and the map is `sqrt(trace)` of each 3 x 3 diagonal block.
+//!
+//! `P` never increases the total, `sum_k trace Σ_reg,k <= sum_k trace Σ_k`,
+//! but one point's registered value can exceed its absolute one (a rigid fit
+//! of the whole grid may move a point whose own error is small); on the
+//! paper's maps it does not happen (tested).
+
+use nalgebra::{Matrix3x6, Matrix6, SMatrix};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3, tip_jacobians_at};
+
+use crate::model::{commands, model_geometry, unreachable};
+use crate::{AccuracyError, AccuracyMap, CanonicalTargets, MapGrid};
+
+/// A 33 x 33 parameter covariance (mm², parameters in the order of
+/// [`parcal_kinematics::PARAM_NAMES`]).
+pub type Covariance = SMatrix<f64, N_PARAMS, N_PARAMS>;
+
+/// Relative size of a negative tip variance still taken as rounding (and
+/// reported as 0); anything more negative means the covariance is not
+/// positive semi-definite.
+const ROUNDING: f64 = 1e-10;
+
+/// The predicted accuracy map of a model with canonical parameters `model`
+/// and covariance `covariance` (mm², the prior before calibration, the
+/// posterior after) on `grid`, whose targets and orientation are mapped into
+/// the canonical frames by the `design` geometry's transforms
+/// ([`CanonicalTargets`]). Spec section 5; values in mm.
+///
+/// Errors: an invalid grid or design, non-finite model or covariance, a
+/// target the model cannot reach (infeasible leg or singular pose, naming the
+/// grid point), a covariance that is not positive semi-definite.
+pub fn predicted(
+    design: &parcal_kinematics::Geometry,
+    model: &Params,
+    covariance: &Covariance,
+    grid: &MapGrid,
+) -> Result<AccuracyMap, AccuracyError> {
+    predicted_at(&CanonicalTargets::new(design, grid)?, model, covariance)
+}
+
+/// [`predicted`] at targets already mapped into the canonical frames (by
+/// whichever geometry's transforms, see [`CanonicalTargets::new`]).
+pub fn predicted_at(
+    targets: &CanonicalTargets,
+    model: &Params,
+    covariance: &Covariance,
+) -> Result<AccuracyMap, AccuracyError> {
+    let grid = &targets.grid;
+    let geometry = model_geometry(model)?;
+    if let Some(k) = covariance.iter().position(|v| !v.is_finite()) {
+        let (row, column) = (k % N_PARAMS, k / N_PARAMS);
+        let what = format!(
+            "covariance entry ({}, {})",
+            PARAM_NAMES[row], PARAM_NAMES[column]
+        );
+        return Err(AccuracyError::NonFinite { what });
+    }
+    let points: Vec<Vec3> = grid.points().collect();
+    let mut jacobians = Vec::with_capacity(points.len());
+    for (command, point) in commands(&geometry, targets)?.iter().zip(&points) {
+        let tip = tip_jacobians_at(&geometry, &command.pose)
+            .map_err(|source| unreachable(point, source))?;
+        jacobians.push(tip.d_params);
+    }
+    let absolute = tip_sigmas(&jacobians, covariance, &points)?;
+    remove_rigid_motions(&targets.points, &mut jacobians)?;
+    let registered = tip_sigmas(&jacobians, covariance, &points)?;
+    Ok(AccuracyMap {
+        grid: grid.clone(),
+        absolute,
+        registered,
+    })
+}
+
+/// `sqrt(trace(J_k Σ J_kᵀ))` per point (mm).
+fn tip_sigmas(
+    jacobians: &[SMatrix<f64, 3, N_PARAMS>],
+    covariance: &Covariance,
+    points: &[Vec3],
+) -> Result<Vec<f64>, AccuracyError> {
+    let magnitude = covariance.abs();
+    jacobians
+        .iter()
+        .zip(points)
+        .map(|(j, point)| {
+            let variance = (j * covariance).component_mul(j).sum();
+            let scale = (j.abs() * magnitude).component_mul(&j.abs()).sum();
+            if variance >= 0.0 {
+                Ok(variance.sqrt())
+            } else if variance >= -ROUNDING * scale {
+                Ok(0.0)
+            } else {
+                Err(AccuracyError::NotPositiveSemidefinite {
+                    x: point.x,
+                    y: point.y,
+                    variance,
+                })
+            }
+        })
+        .collect()
+}
+
+/// Replaces each 3 x C block `J_k` of the stacked Jacobian `J` (3N x C) by
+/// the block of `P J`, `P` the orthogonal projector that removes the six
+/// rigid-motion directions of the cloud `points` (see the module doc), in
+/// O(N C) memory. After it, `J δ` has no component that a rigid motion of
+/// the cloud can absorb, for any `δ`. Errors: fewer than three points, or
+/// collinear points (no unique rigid registration).
+pub fn remove_rigid_motions<const C: usize>(
+    points: &[Vec3],
+    jacobians: &mut [SMatrix<f64, 3, C>],
+) -> Result<(), AccuracyError> {
+    let refuse = |reason: String| Err(AccuracyError::Registration { reason });
+    if points.len() != jacobians.len() {
+        return refuse(format!(
+            "{} points but {} Jacobian blocks",
+            points.len(),
+            jacobians.len()
+        ));
+    }
+    if points.len() < 3 {
+        return refuse(format!("{} point(s); at least 3 are needed", points.len()));
+    }
+    let centroid = points.iter().sum::<Vec3>() / points.len() as f64;
+    let basis = |point: &Vec3| {
+        let mut b = Matrix3x6::zeros();
+        b.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+        b.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&-(point - centroid).cross_matrix());
+        b
+    };
+    let mut btb = Matrix6::zeros();
+    let mut btj = SMatrix::<f64, 6, C>::zeros();
+    for (point, j) in points.iter().zip(jacobians.iter()) {
+        let b = basis(point);
+        btb += b.transpose() * b;
+        btj += b.transpose() * j;
+    }
+    let Some(cholesky) = btb.cholesky() else {
+        return refuse("the points are collinear".to_string());
+    };
+    let m = cholesky.solve(&btj);
+    for (point, j) in points.iter().zip(jacobians.iter_mut()) {
+        *j -= basis(point) * m;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+    use parcal_kinematics::{paper, params};
+
+    fn paper_prior() -> Covariance {
+        Covariance::identity() * 0.1f64.powi(2)
+    }
+
+    fn design_model() -> Params {
+        params::to_params(&paper::design().canonicalize().unwrap().geometry)
+    }
+
+    #[test]
+    fn projection_matches_the_dense_projector() {
+        // Small cloud: compare with P = I - B (BᵀB)⁻¹ Bᵀ formed explicitly.
+        let points: Vec<Vec3> = (0..7)
+            .map(|k| {
+                let k = k as f64;
+                Vec3::new(10.0 * k.sin(), 7.0 * (1.3 * k).cos(), 400.0 + k)
+            })
+            .collect();
+        let blocks: Vec<SMatrix<f64, 3, 4>> = (0..7)
+            .map(|k| {
+                SMatrix::<f64, 3, 4>::from_fn(|r, c| ((3 * k + r) as f64 * 0.7 + c as f64).sin())
+            })
+            .collect();
+        let n = points.len();
+        let centroid = points.iter().sum::<Vec3>() / n as f64;
+        let mut b = DMatrix::zeros(3 * n, 6);
+        let mut j = DMatrix::zeros(3 * n, 4);
+        for k in 0..n {
+            b.view_mut((3 * k, 0), (3, 3)).fill_with_identity();
+            b.view_mut((3 * k, 3), (3, 3))
+                .copy_from(&-(points[k] - centroid).cross_matrix());
+            j.view_mut((3 * k, 0), (3, 4)).copy_from(&blocks[k]);
+        }
+        let btb_inv = (b.transpose() * &b).try_inverse().unwrap();
+        let dense = (DMatrix::identity(3 * n, 3 * n) - &b * btb_inv * b.transpose()) * j;
+        let mut projected = blocks.clone();
+        remove_rigid_motions(&points, &mut projected).unwrap();
+        for (k, block) in projected.iter().enumerate() {
+            let difference = (dense.view((3 * k, 0), (3, 4)) - block).amax();
+            assert!(difference < 1e-12, "block {k}: {difference:e}");
+        }
+        // Projecting twice changes nothing (P is idempotent).
+        let mut twice = projected.clone();
+        remove_rigid_motions(&points, &mut twice).unwrap();
+        for (a, b) in twice.iter().zip(&projected) {
+            assert!((a - b).amax() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn jacobians_of_pure_rigid_motions_are_removed() {
+        // J_k = B_k A: every parameter change moves the cloud rigidly.
+        let grid = MapGrid::paper();
+        let points: Vec<Vec3> = grid.points().collect();
+        let centroid = points.iter().sum::<Vec3>() / points.len() as f64;
+        let a = SMatrix::<f64, 6, 5>::from_fn(|r, c| ((r * 5 + c) as f64).cos());
+        let mut jacobians: Vec<SMatrix<f64, 3, 5>> = points
+            .iter()
+            .map(|p| {
+                let mut b = Matrix3x6::zeros();
+                b.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+                b.fixed_view_mut::<3, 3>(0, 3)
+                    .copy_from(&-(p - centroid).cross_matrix());
+                b * a
+            })
+            .collect();
+        let largest = jacobians.iter().map(|j| j.amax()).fold(0.0, f64::max);
+        assert!(largest > 10.0);
+        remove_rigid_motions(&points, &mut jacobians).unwrap();
+        let left = jacobians.iter().map(|j| j.amax()).fold(0.0, f64::max);
+        assert!(left < 1e-10 * largest, "left {left:e}");
+    }
+
+    #[test]
+    fn collinear_points_are_refused() {
+        let points: Vec<Vec3> = (0..5).map(|k| Vec3::new(k as f64, 0.0, 400.0)).collect();
+        let mut jacobians = vec![SMatrix::<f64, 3, 2>::zeros(); 5];
+        let error = remove_rigid_motions(&points, &mut jacobians).unwrap_err();
+        assert!(error.to_string().contains("collinear"), "{error}");
+    }
+
+    #[test]
+    fn a_tool_offset_covariance_is_a_pure_translation() {
+        // At constant orientation a tool-offset error moves every tip by the
+        // same R_c δE_T: absolute sqrt(trace) = sigma sqrt(3), registered 0.
+        let mut covariance = Covariance::zeros();
+        for k in params::TOOL_OFFSET..params::TOOL_OFFSET + 3 {
+            covariance[(k, k)] = 0.1f64.powi(2);
+        }
+        let grid = MapGrid::square(100.0, 20.0, 400.0);
+        let map = predicted(&paper::design(), &design_model(), &covariance, &grid).unwrap();
+        for (a, r) in map.absolute.iter().zip(&map.registered) {
+            assert!((a - 0.1 * 3f64.sqrt()).abs() < 1e-12, "absolute {a}");
+            assert!(*r < 1e-7, "registered {r:e}");
+        }
+    }
+
+    #[test]
+    fn a_rigid_rotation_covariance_leaves_no_registered_error() {
+        // Σ_p = G Gᵀ, the columns of G the least-squares parameter changes
+        // (G = J⁺ B_rot) that turn the whole tip cloud rigidly by 0.1 mrad
+        // about each axis through its centroid. The canonical parameters
+        // realise such rotations (J G = B_rot), so the absolute map is the
+        // rotation's lever arm and registration removes all of it.
+        let design = paper::design();
+        let grid = MapGrid::square(100.0, 25.0, 400.0);
+        let model = design_model();
+        let targets = CanonicalTargets::new(&design, &grid).unwrap();
+        let geometry = params::from_params(&model);
+        let n = targets.points.len();
+        let mut j = DMatrix::zeros(3 * n, N_PARAMS);
+        let mut rotations = DMatrix::zeros(3 * n, 3);
+        let centroid = targets.points.iter().sum::<Vec3>() / n as f64;
+        for (k, command) in commands(&geometry, &targets).unwrap().iter().enumerate() {
+            let tip = tip_jacobians_at(&geometry, &command.pose).unwrap();
+            j.view_mut((3 * k, 0), (3, N_PARAMS))
+                .copy_from(&tip.d_params);
+            rotations
+                .view_mut((3 * k, 0), (3, 3))
+                .copy_from(&(-1e-4 * (targets.points[k] - centroid).cross_matrix()));
+        }
+        let g = j.clone().pseudo_inverse(1e-12).unwrap() * &rotations;
+        let realised = (&j * &g - &rotations).amax();
+        assert!(realised < 1e-9, "J G - B_rot = {realised:e}");
+        let covariance = Covariance::from_iterator((&g * g.transpose()).iter().copied());
+        let map = predicted(&design, &model, &covariance, &grid).unwrap();
+        // Absolute: the lever arm, sqrt(trace) of the rotation's covariance
+        // sum_axes |1e-4 e_a x r|^2 = 2e-8 |r|^2.
+        for (k, point) in targets.points.iter().enumerate() {
+            let lever = 1e-4 * (2.0f64).sqrt() * (point - centroid).norm();
+            assert!((map.absolute[k] - lever).abs() < 1e-9, "point {k}");
+        }
+        let (absolute, registered) = (map.absolute_summary(), map.registered_summary());
+        println!("rigid-rotation covariance: absolute {absolute}; registered {registered}");
+        assert!(absolute.max > 0.019);
+        assert!(
+            registered.max < 1e-6 * absolute.max,
+            "registered {registered}"
+        );
+    }
+
+    #[test]
+    fn paper_prior_registered_never_exceeds_absolute() {
+        let map = predicted(
+            &paper::design(),
+            &design_model(),
+            &paper_prior(),
+            &MapGrid::paper(),
+        )
+        .unwrap();
+        for (a, r) in map.absolute.iter().zip(&map.registered) {
+            assert!(r <= a, "registered {r} > absolute {a}");
+        }
+        // The total (sum of squares) never grows under projection.
+        let total = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>();
+        assert!(total(&map.registered) <= total(&map.absolute));
+    }
+
+    #[test]
+    fn refuses_bad_models_and_covariances() {
+        let design = paper::design();
+        let grid = MapGrid::square(100.0, 50.0, 400.0);
+        let mut model = design_model();
+        model[5] = f64::NAN;
+        let error = predicted(&design, &model, &paper_prior(), &grid).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "model parameter z_b4 is not a finite number"
+        );
+        let mut covariance = paper_prior();
+        covariance[(12, 0)] = f64::INFINITY;
+        let error = predicted(&design, &design_model(), &covariance, &grid).unwrap_err();
+        assert!(error.to_string().contains("(l_1, y_b2)"), "{error}");
+        let covariance = -paper_prior();
+        let error = predicted(&design, &design_model(), &covariance, &grid).unwrap_err();
+        assert!(
+            matches!(error, AccuracyError::NotPositiveSemidefinite { x, y, .. } if x == -100.0 && y == -100.0)
+        );
+    }
+
+    #[test]
+    fn an_unreachable_target_names_the_grid_point() {
+        // A geometry given in its own canonical frames (both transforms are
+        // the identity) without tool offset, asked to put its tip at the
+        // origin: platform joint E1 lands on base joint B1, leg 1 would have
+        // length l + q = 0.
+        let mut geometry = params::from_params(&design_model());
+        geometry.tool = Vec3::zeros();
+        let model = params::to_params(&geometry);
+        let grid = MapGrid {
+            xs: vec![10.0, 0.0],
+            ys: vec![-5.0, 0.0],
+            z: 0.0,
+        };
+        let error = predicted(&geometry, &model, &paper_prior(), &grid).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "grid point (x = 0 mm, y = 0 mm) is unreachable by the model: leg 1 is infeasible: l + q = 0.000000 mm is not positive"
+        );
+    }
+}
