@@ -1,0 +1,52 @@
+//! The common shape of an observation block: `R` residual rows of one
+//! contact and their derivatives with respect to the three levels of
+//! unknowns of a calibration,
+//!
+//! ```text
+//!            p (33, global)   C_i (3, per ball)   θ_ij (P, per contact)
+//! c_ij  [    d_params         d_centre            d_angles           ]
+//! ```
+//!
+//! so that the solver sees one dense 33-wide block, one 3-wide block of the
+//! ball and one `P`-wide block of the contact, all of sizes known at compile
+//! time. The radius block ([`crate::RadiusBlock`]) has `R = 1, P = 0`, the
+//! coordinate block ([`crate::CoordinateBlock`]) `R = 3, P = 2`.
+
+use nalgebra::{SMatrix, SVector};
+use parcal_kinematics::N_PARAMS;
+
+use crate::Whitening;
+
+/// Residual and Jacobian blocks of one observation (mm; per mm, per mm, per
+/// rad), raw or whitened ([`BlockJacobians::whiten`]: then dimensionless,
+/// per mm, per mm, per rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlockJacobians<const R: usize, const P: usize> {
+    /// The residual `c` (R rows).
+    pub residual: SVector<f64, R>,
+    /// `dc/dp` (R x 33).
+    pub d_params: SMatrix<f64, R, N_PARAMS>,
+    /// `dc/dC` with respect to the ball centre (R x 3).
+    pub d_centre: SMatrix<f64, R, 3>,
+    /// `dc/dθ` with respect to the contact's angles (R x P).
+    pub d_angles: SMatrix<f64, R, P>,
+}
+
+/// The radius block's shape (paper eq. 9): one row, no angles.
+pub type RadiusJacobians = BlockJacobians<1, 0>;
+/// The coordinate block's shape (paper eq. 10): three rows, two angles.
+pub type CoordinateJacobians = BlockJacobians<3, 2>;
+
+impl<const R: usize, const P: usize> BlockJacobians<R, P> {
+    /// Paper eq. (5), the weighting `W^-1/2`: the block whitened by the
+    /// observation covariance `W = L Lᵀ`, `r_w = L⁻¹ c`, `J_w = L⁻¹ J`, so
+    /// that the least-squares cost `r_wᵀ r_w = cᵀ W⁻¹ c`.
+    pub fn whiten(&self, weight: &impl Whitening<R>) -> Self {
+        Self {
+            residual: weight.whiten(&self.residual),
+            d_params: weight.whiten(&self.d_params),
+            d_centre: weight.whiten(&self.d_centre),
+            d_angles: weight.whiten(&self.d_angles),
+        }
+    }
+}

@@ -1,0 +1,224 @@
+//! The per-contact direction chart of the transformed-coordinate observation
+//! (paper eq. 10).
+//!
+//! A contact direction `u` (unit vector from the ball centre to the contact
+//! point) lies on the lower hemisphere, near the pole where ordinary
+//! spherical angles are singular. Each contact therefore gets its own chart:
+//! tangent coordinates `θ = (θ1, θ2)` of the exponential map of the sphere
+//! about a reference direction `u0` (the initial estimate of the contact's
+//! direction), with an orthonormal tangent basis `(e1, e2)` of `u0`:
+//!
+//! ```text
+//! v = θ1 e1 + θ2 e2,   φ = |v| = |θ|,
+//! u(θ) = cos φ u0 + (sin φ / φ) v,                          u(0) = u0,
+//! du/dθ = s(φ) (E − u0 θᵀ) + b(φ) v θᵀ,                      E = [e1 e2],
+//! s(φ) = sin φ / φ,   b(φ) = s'(φ) / φ = (φ cos φ − sin φ) / φ³.
+//! ```
+//!
+//! The chart is regular for |θ| < π, and the angles stay near 0 during a
+//! calibration (they move by the contact's direction error, ~mrad).
+
+use nalgebra::{Matrix3x2, Vector2};
+use parcal_kinematics::Vec3;
+
+use crate::ObserveError;
+
+/// Below this `φ` (rad) `s` and `b` come from their Taylor series (truncation
+/// ~φ⁸/10⁶ < 10⁻²² there); above it from the closed forms, whose rounding
+/// (~ε/φ² for `b`) is then below 10⁻¹¹.
+const SERIES_BELOW: f64 = 1e-2;
+
+/// `s(φ) = sin φ / φ` and `b(φ) = (φ cos φ − sin φ) / φ³`, exact for every
+/// `φ >= 0`.
+fn sinc_terms(phi: f64) -> (f64, f64) {
+    if phi < SERIES_BELOW {
+        let p2 = phi * phi;
+        let s = 1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0));
+        let b = -1.0 / 3.0 + p2 / 30.0 * (1.0 - p2 / 28.0 * (1.0 - p2 / 54.0));
+        (s, b)
+    } else {
+        let (sin, cos) = phi.sin_cos();
+        (sin / phi, (phi * cos - sin) / (phi * phi * phi))
+    }
+}
+
+/// Tangent coordinates of the exponential map of the unit sphere about `u0`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DirectionChart {
+    u0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+}
+
+impl DirectionChart {
+    /// The chart about the direction of `reference` (any non-zero finite
+    /// vector; it is normalised). The tangent basis is that of Duff et al.,
+    /// "Building an orthonormal basis, revisited" (JCGT 6(1), 2017): a
+    /// deterministic function of `u0` with no singular direction, and
+    /// `e1 × e2 = u0`.
+    pub fn new(reference: &Vec3) -> Result<Self, ObserveError> {
+        let length = reference.norm();
+        if !(length.is_finite() && length > 0.0) {
+            return Err(ObserveError::DegenerateDirection {
+                what: "chart reference direction",
+                length,
+            });
+        }
+        let u0 = reference / length;
+        let sign = 1.0_f64.copysign(u0.z);
+        let a = -1.0 / (sign + u0.z);
+        let b = u0.x * u0.y * a;
+        let e1 = Vec3::new(1.0 + sign * u0.x * u0.x * a, sign * b, -sign * u0.x);
+        let e2 = Vec3::new(b, sign + u0.y * u0.y * a, -u0.y);
+        Ok(Self { u0, e1, e2 })
+    }
+
+    /// The reference direction `u0 = u(0)` (unit).
+    pub fn reference(&self) -> Vec3 {
+        self.u0
+    }
+
+    /// The tangent basis `E = [e1 e2]` (orthonormal columns, both ⟂ `u0`).
+    pub fn tangent_basis(&self) -> Matrix3x2<f64> {
+        Matrix3x2::from_columns(&[self.e1, self.e2])
+    }
+
+    /// Paper eq. (10), the direction: `u(θ) = cos φ u0 + (sin φ / φ) v`
+    /// with `v = θ1 e1 + θ2 e2`, `φ = |θ|` (θ in rad; `u` unit).
+    pub fn direction(&self, angles: &Vector2<f64>) -> Vec3 {
+        let phi = angles.norm();
+        let (s, _) = sinc_terms(phi);
+        phi.cos() * self.u0 + s * (self.tangent_basis() * angles)
+    }
+
+    /// Paper eq. (10), the direction's derivative `du/dθ` (3 x 2, per rad):
+    /// `s(φ) (E − u0 θᵀ) + b(φ) v θᵀ`, exact for every θ including 0.
+    pub fn derivative(&self, angles: &Vector2<f64>) -> Matrix3x2<f64> {
+        let (s, b) = sinc_terms(angles.norm());
+        let basis = self.tangent_basis();
+        let v = basis * angles;
+        s * (basis - self.u0 * angles.transpose()) + b * v * angles.transpose()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::assert_close;
+
+    const STEP: f64 = 1e-6;
+
+    fn finite_difference(chart: &DirectionChart, angles: &Vector2<f64>) -> Matrix3x2<f64> {
+        let mut jacobian = Matrix3x2::zeros();
+        for k in 0..2 {
+            let mut step = Vector2::zeros();
+            step[k] = STEP;
+            let column = (chart.direction(&(angles + step)) - chart.direction(&(angles - step)))
+                / (2.0 * STEP);
+            jacobian.set_column(k, &column);
+        }
+        jacobian
+    }
+
+    fn charts() -> Vec<DirectionChart> {
+        [
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(0.3, -0.2, -0.9),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(-0.2, 0.7, -1e-17),
+            Vec3::new(0.0, -1.0, 0.0),
+        ]
+        .iter()
+        .map(|u| DirectionChart::new(u).unwrap())
+        .collect()
+    }
+
+    #[test]
+    fn tangent_basis_is_orthonormal_and_right_handed_everywhere() {
+        for chart in charts() {
+            let (u0, e1, e2) = (chart.u0, chart.e1, chart.e2);
+            for (value, expected) in [
+                (u0.norm(), 1.0),
+                (e1.norm(), 1.0),
+                (e2.norm(), 1.0),
+                (e1.dot(&e2), 0.0),
+                (e1.dot(&u0), 0.0),
+                (e2.dot(&u0), 0.0),
+            ] {
+                assert!((value - expected).abs() < 1e-15, "{chart:?}");
+            }
+            assert!((e1.cross(&e2) - u0).norm() < 1e-15, "{chart:?}");
+        }
+    }
+
+    #[test]
+    fn direction_is_the_exponential_map() {
+        for chart in charts() {
+            assert_eq!(chart.direction(&Vector2::zeros()), chart.u0);
+            let angles = Vector2::new(0.3, -0.4);
+            let u = chart.direction(&angles);
+            // Unit, at angle |θ| = 0.5 from u0, towards E θ.
+            assert!((u.norm() - 1.0).abs() < 1e-15);
+            assert!((u.dot(&chart.u0) - 0.5_f64.cos()).abs() < 1e-15);
+            let towards = chart.tangent_basis() * angles;
+            assert!((u.dot(&towards) - 0.5 * 0.5_f64.sin()).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn derivative_matches_central_differences() {
+        let chart = DirectionChart::new(&Vec3::new(0.3, -0.2, -0.9)).unwrap();
+        for angles in [
+            Vector2::zeros(),
+            Vector2::new(1e-9, -0.7e-9),
+            Vector2::new(0.0, 0.99 * SERIES_BELOW),
+            Vector2::new(1.01 * SERIES_BELOW, 0.0),
+            Vector2::new(0.02, 0.005),
+            Vector2::new(-0.6, 0.9),
+        ] {
+            let analytic = chart.derivative(&angles);
+            assert_close(
+                &analytic,
+                &finite_difference(&chart, &angles),
+                1e-6,
+                "du/dθ",
+            );
+        }
+    }
+
+    #[test]
+    fn series_and_closed_forms_agree_at_the_switch() {
+        // Both are accurate to better than 1e-12 near the switch, so a wrong
+        // series coefficient shows here.
+        for phi in [0.5 * SERIES_BELOW, SERIES_BELOW, 5.0 * SERIES_BELOW] {
+            let p2 = phi * phi;
+            let series = (
+                1.0 - p2 / 6.0 + p2 * p2 / 120.0 - p2 * p2 * p2 / 5040.0,
+                -1.0 / 3.0 + p2 / 30.0 - p2 * p2 / 840.0 + p2 * p2 * p2 / 45360.0,
+            );
+            let closed = (
+                phi.sin() / phi,
+                (phi * phi.cos() - phi.sin()) / (phi * phi * phi),
+            );
+            let computed = sinc_terms(phi);
+            for (value, reference) in [(computed.0, closed.0), (computed.1, closed.1)] {
+                assert!((value / reference - 1.0).abs() < 1e-10, "φ = {phi}");
+            }
+            for (value, reference) in [(computed.0, series.0), (computed.1, series.1)] {
+                assert!((value / reference - 1.0).abs() < 1e-12, "φ = {phi}");
+            }
+        }
+        assert_eq!(sinc_terms(0.0), (1.0, -1.0 / 3.0));
+    }
+
+    #[test]
+    fn refuses_a_degenerate_reference() {
+        for bad in [Vec3::zeros(), Vec3::new(f64::NAN, 0.0, 1.0)] {
+            assert!(matches!(
+                DirectionChart::new(&bad),
+                Err(ObserveError::DegenerateDirection { .. })
+            ));
+        }
+    }
+}

@@ -1,0 +1,83 @@
+//! The radius observation (paper eq. 9, simulations I and III): a touched
+//! point lies on its ball,
+//!
+//! ```text
+//! c_ij = r_i − |f(q_ij, p) − C_i|,                           1 row,
+//! dc/dp = −nᵀ J_f,   dc/dC = nᵀ,   n = (T − C) / |T − C|,
+//! ```
+//!
+//! with `T = f(q_ij, p)` the tool tip and `J_f = dT/dp`. Unknowns: the 33
+//! parameters and the ball centre `C_i`; the calibrated radius `r_i` is data.
+
+use nalgebra::{SMatrix, SVector};
+use parcal_kinematics::Vec3;
+
+use crate::{ObserveError, RadiusJacobians, Tip};
+
+/// The radius observation of one contact on a ball of calibrated radius
+/// `radius` (mm).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadiusBlock {
+    /// The ball's calibrated radius `r_i` (mm).
+    pub radius: f64,
+}
+
+impl RadiusBlock {
+    /// Paper eq. (9): `c = r − |T − C|` (mm) at the tip `tip` (`T = f(q, p)`
+    /// with `J_f`) and the ball centre `centre` (mm, canonical base frame),
+    /// with `dc/dp = −nᵀ J_f` and `dc/dC = nᵀ`. Refuses a tip at the centre,
+    /// where the normal `n` is undefined.
+    pub fn evaluate(&self, tip: &Tip, centre: &Vec3) -> Result<RadiusJacobians, ObserveError> {
+        let offset = tip.position - centre;
+        let distance = offset.norm();
+        if !(distance.is_finite() && distance > 0.0) {
+            return Err(ObserveError::DegenerateDirection {
+                what: "contact normal (tool tip minus ball centre)",
+                length: distance,
+            });
+        }
+        let normal = (offset / distance).transpose();
+        Ok(RadiusJacobians {
+            residual: SVector::<f64, 1>::new(self.radius - distance),
+            d_params: -normal * tip.d_params,
+            d_centre: normal,
+            d_angles: SMatrix::zeros(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::{Contact, assert_close, central_difference};
+
+    #[test]
+    fn derivatives_match_central_differences_through_forward_kinematics() {
+        let contact = Contact::new();
+        let block = RadiusBlock { radius: 5.0 };
+        let tip = contact.tip();
+        let centre = contact.centre();
+        let blocks = block.evaluate(&tip, &centre).unwrap();
+        assert!((blocks.residual[0] - (5.0 - (tip.position - centre).norm())).abs() < 1e-15);
+        assert!(blocks.residual[0].abs() > 1e-3, "a non-trivial residual");
+
+        let by_params = central_difference(&contact.params(), 1e-4, |p| {
+            let tip = contact.tip_with(p);
+            block.evaluate(&tip, &centre).unwrap().residual
+        });
+        assert_close(&blocks.d_params, &by_params, 1e-6, "dc/dp");
+
+        let by_centre =
+            central_difference(&centre, 1e-5, |c| block.evaluate(&tip, c).unwrap().residual);
+        assert_close(&blocks.d_centre, &by_centre, 1e-6, "dc/dC");
+    }
+
+    #[test]
+    fn refuses_a_tip_at_the_centre() {
+        let tip = Contact::new().tip();
+        let error = RadiusBlock { radius: 5.0 }
+            .evaluate(&tip, &tip.position)
+            .unwrap_err();
+        assert!(matches!(error, ObserveError::DegenerateDirection { .. }));
+    }
+}

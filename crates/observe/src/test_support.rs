@@ -1,0 +1,126 @@
+//! Shared test fixtures: one contact of the paper's design machine, central
+//! differences, a tolerance check and a deterministic normal generator.
+
+use nalgebra::{SMatrix, SVector, Translation3};
+use parcal_kinematics::{
+    ForwardOptions, ForwardSolution, Geometry, Params, Pose, Vec3, actuators, forward, paper,
+    params, rotation_zyx,
+};
+
+use crate::Tip;
+
+/// Forward kinematics tight enough for central differences with step 1e-4:
+/// closure rounding ~1e-12 mm gives a difference error ~1e-8.
+const TIGHT: ForwardOptions = ForwardOptions {
+    tolerance: 1e-12,
+    max_iterations: 30,
+};
+
+/// One contact of the design machine (canonical frames): a tilted pose with
+/// the tip near z = 400 of the design frame, touching a ball of radius about
+/// 5 from below.
+pub struct Contact {
+    pub geometry: Geometry,
+    pub q: [f64; 6],
+    pub solution: ForwardSolution,
+}
+
+impl Contact {
+    pub fn new() -> Self {
+        let canonical = paper::design().canonicalize().unwrap();
+        let rotation = rotation_zyx(0.1, -0.05, 0.08);
+        let tip = Vec3::new(20.0, -30.0, 400.0);
+        let input_pose = Pose::from_parts(
+            Translation3::from(tip - rotation * paper::design().tool),
+            rotation,
+        );
+        let pose = canonical.pose_from_input(&input_pose);
+        let geometry = canonical.geometry;
+        let q = actuators(&geometry, &pose);
+        let solution = forward(&geometry, &q, &pose, &TIGHT).unwrap();
+        Self {
+            geometry,
+            q,
+            solution,
+        }
+    }
+
+    pub fn params(&self) -> Params {
+        params::to_params(&self.geometry)
+    }
+
+    pub fn tip(&self) -> Tip {
+        Tip::at(&self.geometry, &self.solution).unwrap()
+    }
+
+    /// The tip at the same actuator values `q` with parameters `p`.
+    pub fn tip_with(&self, p: &Params) -> Tip {
+        self.tip_with_actuators(p, &self.q)
+    }
+
+    /// The tip with parameters `p` at actuator values `q`, by forward
+    /// kinematics from this contact's pose.
+    pub fn tip_with_actuators(&self, p: &Params, q: &[f64; 6]) -> Tip {
+        let geometry = params::from_params(p);
+        let solution = forward(&geometry, q, &self.solution.pose, &TIGHT).unwrap();
+        Tip::at(&geometry, &solution).unwrap()
+    }
+
+    /// A ball centre 5.004 mm from the tip, the tip on its lower side.
+    pub fn centre(&self) -> Vec3 {
+        self.tip().position - 5.004 * Vec3::new(0.3, -0.2, -0.9).normalize()
+    }
+}
+
+/// Central differences of `f` at `x` with step `step`.
+pub fn central_difference<const N: usize, const R: usize>(
+    x: &SVector<f64, N>,
+    step: f64,
+    f: impl Fn(&SVector<f64, N>) -> SVector<f64, R>,
+) -> SMatrix<f64, R, N> {
+    let mut jacobian = SMatrix::<f64, R, N>::zeros();
+    for k in 0..N {
+        let (mut plus, mut minus) = (*x, *x);
+        plus[k] += step;
+        minus[k] -= step;
+        jacobian.set_column(k, &((f(&plus) - f(&minus)) / (2.0 * step)));
+    }
+    jacobian
+}
+
+/// Asserts `|analytic − reference| <= relative * max(1, |analytic|)`
+/// entrywise in the max norm.
+pub fn assert_close<const R: usize, const C: usize>(
+    analytic: &SMatrix<f64, R, C>,
+    reference: &SMatrix<f64, R, C>,
+    relative: f64,
+    what: &str,
+) {
+    let error = (analytic - reference).amax();
+    let scale = analytic.amax().max(1.0);
+    assert!(
+        error <= relative * scale,
+        "{what}: largest difference {error:e} against scale {scale:e}\nanalytic {analytic}\nreference {reference}"
+    );
+}
+
+/// SplitMix64 with Box-Muller normals.
+pub struct Rng(pub u64);
+
+impl Rng {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        // In (0, 1]: never 0, so the logarithm below is finite.
+        ((z >> 11) + 1) as f64 / (1u64 << 53) as f64
+    }
+
+    /// A standard normal draw.
+    pub fn normal(&mut self) -> f64 {
+        let (a, b) = (self.uniform(), self.uniform());
+        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+    }
+}
