@@ -1,0 +1,160 @@
+//! `calibration.json`: the result of a calibration.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::Point3;
+use crate::check::Check;
+use crate::error::Result;
+use crate::{json, shape};
+
+/// A machine geometry (identified values in the canonical frames).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GeometryRecord {
+    /// Base joints B1..B6.
+    #[serde(deserialize_with = "shape::joints")]
+    pub base_joints: [Point3; 6],
+    /// Platform joints E1..E6.
+    #[serde(deserialize_with = "shape::joints")]
+    pub platform_joints: [Point3; 6],
+    /// Tool tip E_T.
+    #[serde(deserialize_with = "shape::point")]
+    pub tool: Point3,
+    /// Initial leg lengths.
+    #[serde(deserialize_with = "shape::legs")]
+    pub leg_lengths: [f64; 6],
+}
+
+/// The identified kinematic parameters, by name (order and names of
+/// paper-scenario.md section 2), with their posterior sigmas.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct ParameterTable {
+    /// Parameter names, e.g. `y_b2`.
+    pub names: Vec<String>,
+    /// Identified values.
+    pub values: Vec<f64>,
+    /// Posterior standard deviations.
+    pub sigma: Vec<f64>,
+}
+
+/// An identified ball centre (base frame) and the sigma of each coordinate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CentreEstimate {
+    /// Centre.
+    #[serde(deserialize_with = "shape::point")]
+    pub centre: Point3,
+    /// Posterior standard deviation of each coordinate.
+    #[serde(deserialize_with = "shape::point")]
+    pub sigma: Point3,
+}
+
+/// One Gauss-Newton iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct IterationRecord {
+    /// Weighted cost (priors included).
+    pub cost: f64,
+    /// Norm of the step taken.
+    pub step_norm: f64,
+    /// RMS of the unweighted observation residuals.
+    pub residual_rms: f64,
+}
+
+/// The content of `calibration.json`.
+///
+/// Its serde form is the file's body (without `format`). `status` defaults
+/// to the empty string and `options` to an empty map when absent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Calibration {
+    /// Identified geometry in the canonical frames.
+    pub canonical: GeometryRecord,
+    /// The identified parameters.
+    pub parameters: ParameterTable,
+    /// Posterior covariance of the parameters (n x n for n parameters), or
+    /// empty if it could not be computed.
+    pub covariance: Vec<Vec<f64>>,
+    /// Identified ball centres by ball id.
+    pub ball_centres: BTreeMap<String, CentreEstimate>,
+    /// The prior used: `"paper"`, `"propagated"` or `"none"`.
+    pub prior: String,
+    /// One record per iteration.
+    pub iterations: Vec<IterationRecord>,
+    /// Whether the run converged.
+    pub converged: bool,
+    /// Why the run stopped (diverged, iteration limit, ...).
+    #[serde(default)]
+    pub status: String,
+    /// Free-form options of the run (simulation, observation, weights...).
+    #[serde(default)]
+    pub options: BTreeMap<String, serde_json::Value>,
+}
+
+impl Calibration {
+    /// Reads and checks a calibration file (extra fields are ignored).
+    pub fn read(path: &Path) -> Result<Self> {
+        let calibration: Self = json::read(path, json::CALIBRATION)?;
+        calibration.validate(Check::new(path))?;
+        Ok(calibration)
+    }
+
+    /// Writes a calibration file atomically. Every number must be finite
+    /// (JSON has no NaN): a non-finite value is an error naming its field.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        self.validate(Check::new(path))?;
+        json::write(path, json::CALIBRATION, self)
+    }
+
+    fn validate(&self, check: Check) -> Result<()> {
+        let c = &self.canonical;
+        check.geometry(&c.base_joints, &c.platform_joints, &c.tool, &c.leg_lengths)?;
+
+        let p = &self.parameters;
+        let n = p.names.len();
+        for (field, len) in [
+            ("parameters.values", p.values.len()),
+            ("parameters.sigma", p.sigma.len()),
+        ] {
+            if len != n {
+                return Err(check.error(
+                    field,
+                    format!("expected {n} values (one per name), found {len}"),
+                ));
+            }
+        }
+        check.values("parameters.values", &p.values)?;
+        check.values("parameters.sigma", &p.sigma)?;
+
+        if !self.covariance.is_empty() {
+            if self.covariance.len() != n {
+                return Err(check.error(
+                    "covariance",
+                    format!(
+                        "expected {n} rows (one per parameter), found {}",
+                        self.covariance.len()
+                    ),
+                ));
+            }
+            for (i, row) in self.covariance.iter().enumerate() {
+                let field = format!("covariance[{i}]");
+                if row.len() != n {
+                    return Err(
+                        check.error(field, format!("expected {n} columns, found {}", row.len()))
+                    );
+                }
+                check.values(&field, row)?;
+            }
+        }
+
+        for (id, estimate) in &self.ball_centres {
+            check.point(&format!("ball_centres.{id}.centre"), &estimate.centre)?;
+            check.point(&format!("ball_centres.{id}.sigma"), &estimate.sigma)?;
+        }
+        for (i, it) in self.iterations.iter().enumerate() {
+            check.finite(&format!("iterations[{i}].cost"), it.cost)?;
+            check.finite(&format!("iterations[{i}].step_norm"), it.step_norm)?;
+            check.finite(&format!("iterations[{i}].residual_rms"), it.residual_rms)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,160 @@
+//! A whole dataset: one directory, or one binary snapshot.
+
+use std::fs;
+use std::io;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::check::Check;
+use crate::error::{DatasetError, Result};
+use crate::{
+    ARTEFACTS_FILE, Artefacts, MACHINE_FILE, MEASUREMENTS_FILE, Machine, Measurements, TRUTH_FILE,
+    Truth, snapshot,
+};
+
+/// A dataset: the machine, the artefacts, the measurements and, for
+/// simulated datasets, the truth.
+///
+/// Every `Dataset` this crate returns is valid: values finite, sigmas and
+/// radii positive, ball ids unique, indices in range, one truth contact per
+/// measurement row.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Dataset {
+    /// `machine.json`.
+    pub machine: Machine,
+    /// `artefacts.json`.
+    pub artefacts: Artefacts,
+    /// `measurements.csv`.
+    pub measurements: Measurements,
+    /// `truth.json`, if present.
+    pub truth: Option<Truth>,
+}
+
+/// Options of [`Dataset::read_with`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// A ball with fewer contacts than this is an error (a ball with no
+    /// contact too, unless this is 0). Default 4: on a sphere of known radius
+    /// three points leave a mirror ambiguity, and the radius observation has
+    /// 3 centre unknowns per ball besides the 33 shared kinematic ones.
+    pub min_contacts_per_ball: usize,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self {
+            min_contacts_per_ball: 4,
+        }
+    }
+}
+
+impl Dataset {
+    /// Reads the dataset in directory `dir` with [`ReadOptions::default`].
+    pub fn read(dir: &Path) -> Result<Self> {
+        Self::read_with(dir, &ReadOptions::default())
+    }
+
+    /// Reads the dataset in directory `dir`: `machine.json`,
+    /// `artefacts.json`, `measurements.csv` (streamed) and, if present,
+    /// `truth.json`, checking each and their consistency.
+    pub fn read_with(dir: &Path, options: &ReadOptions) -> Result<Self> {
+        let machine = Machine::read(&dir.join(MACHINE_FILE))?;
+        let artefacts = Artefacts::read(&dir.join(ARTEFACTS_FILE))?;
+        let measurements_path = dir.join(MEASUREMENTS_FILE);
+        let measurements = Measurements::read(&measurements_path, &artefacts.balls)?;
+        let dataset = Self {
+            truth: Truth::read_if_present(
+                &dir.join(TRUTH_FILE),
+                &artefacts.balls,
+                measurements.len(),
+            )?,
+            machine,
+            artefacts,
+            measurements,
+        };
+        dataset.check_contacts(&measurements_path, options.min_contacts_per_ball)?;
+        Ok(dataset)
+    }
+
+    /// Writes the dataset into directory `dir` (created if needed), each
+    /// file atomically. The dataset is validated first, so nothing is
+    /// written if it is invalid. Without truth, a `truth.json` left in `dir`
+    /// by an earlier write is removed.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        self.validate_as(|name| dir.join(name))?;
+        fs::create_dir_all(dir).map_err(|e| DatasetError::io(dir, "create the directory", e))?;
+        self.machine.write(&dir.join(MACHINE_FILE))?;
+        self.artefacts.write(&dir.join(ARTEFACTS_FILE))?;
+        self.measurements
+            .write(&dir.join(MEASUREMENTS_FILE), &self.artefacts.balls)?;
+        let truth_path = dir.join(TRUTH_FILE);
+        match &self.truth {
+            Some(truth) => truth.write(&truth_path, &self.artefacts.balls),
+            None => match fs::remove_file(&truth_path) {
+                Err(e) if e.kind() != io::ErrorKind::NotFound => {
+                    Err(DatasetError::io(&truth_path, "remove the stale file", e))
+                }
+                _ => Ok(()),
+            },
+        }
+    }
+
+    /// Writes a binary snapshot (postcard behind a versioned, checksummed
+    /// header) to `path`, atomically. Loads much faster than the text files.
+    pub fn write_snapshot(&self, path: &Path) -> Result<()> {
+        self.validate_as(|_| path.to_path_buf())?;
+        snapshot::write(self, path)
+    }
+
+    /// Reads a snapshot written by [`Dataset::write_snapshot`]; a file of
+    /// another version, truncated or corrupt is an error.
+    pub fn read_snapshot(path: &Path) -> Result<Self> {
+        let dataset = snapshot::read(path)?;
+        dataset.validate_as(|_| path.to_path_buf())?;
+        Ok(dataset)
+    }
+
+    /// Number of contacts (measurement rows) of each ball, in
+    /// [`Artefacts::balls`] order.
+    pub fn contacts_per_ball(&self) -> Vec<usize> {
+        self.measurements.count_per_ball(self.artefacts.balls.len())
+    }
+
+    /// Checks what [`Dataset::write`] would write (everything that reading
+    /// checks except the minimum number of contacts per ball). Errors name
+    /// the file each value would go to.
+    pub fn validate(&self) -> Result<()> {
+        self.validate_as(|name| PathBuf::from(name))
+    }
+
+    /// Validates, naming the file of each part by `file(file_name)`.
+    fn validate_as(&self, file: impl Fn(&str) -> PathBuf) -> Result<()> {
+        let balls = self.artefacts.balls.len();
+        let rows = self.measurements.len();
+        self.machine.validate(Check::new(&file(MACHINE_FILE)))?;
+        self.artefacts.validate(Check::new(&file(ARTEFACTS_FILE)))?;
+        self.measurements
+            .validate(Check::new(&file(MEASUREMENTS_FILE)), balls)?;
+        match &self.truth {
+            Some(truth) => truth.validate(Check::new(&file(TRUTH_FILE)), balls, rows),
+            None => Ok(()),
+        }
+    }
+
+    /// Every ball has at least `min` contacts.
+    fn check_contacts(&self, path: &Path, min: usize) -> Result<()> {
+        let counts = self.contacts_per_ball();
+        let mut short = counts.iter().enumerate().filter(|&(_, &count)| count < min);
+        match short.next() {
+            None => Ok(()),
+            Some((i, &count)) => Err(DatasetError::TooFewContacts {
+                path: path.to_path_buf(),
+                ball: self.artefacts.balls[i].id.clone(),
+                count,
+                min,
+                others: short.count(),
+            }),
+        }
+    }
+}

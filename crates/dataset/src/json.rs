@@ -1,0 +1,319 @@
+//! Reading and writing the JSON files of the format: the `format` field,
+//! serde errors mapped to file + field, pretty deterministic output.
+
+use std::fmt;
+use std::fs;
+use std::io::{self, Write};
+use std::path::Path;
+
+use serde::de::{self, DeserializeOwned, Deserializer, IgnoredAny, MapAccess, Visitor};
+use serde::{Deserialize, Serialize};
+use serde_json::error::Category;
+
+use crate::atomic::{write_atomic, write_error};
+use crate::error::{DatasetError, Result};
+
+/// The kind of a JSON file, as named by its `format` field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Kind {
+    /// E.g. `parcal-machine`.
+    name: &'static str,
+    /// What this crate writes, e.g. `parcal-machine/1`.
+    current: &'static str,
+}
+
+pub(crate) const MACHINE: Kind = Kind {
+    name: "parcal-machine",
+    current: "parcal-machine/1",
+};
+pub(crate) const ARTEFACTS: Kind = Kind {
+    name: "parcal-artefacts",
+    current: "parcal-artefacts/1",
+};
+pub(crate) const TRUTH: Kind = Kind {
+    name: "parcal-truth",
+    current: "parcal-truth/1",
+};
+pub(crate) const CALIBRATION: Kind = Kind {
+    name: "parcal-calibration",
+    current: "parcal-calibration/1",
+};
+
+/// The major version this crate reads.
+const MAJOR: u64 = 1;
+
+impl Kind {
+    /// Accepts `NAME/1` and `NAME/1.N`; says what is wrong otherwise.
+    fn check(self, path: &Path, format: &str) -> Result<()> {
+        let error = |message: String| DatasetError::Format {
+            path: path.to_path_buf(),
+            format: format.to_owned(),
+            message,
+        };
+        let malformed = || {
+            error(format!(
+                "is not a {} format (expected \"{}\" or \"{}.N\")",
+                self.name, self.current, self.current
+            ))
+        };
+        let (name, version) = format.split_once('/').ok_or_else(malformed)?;
+        if name != self.name {
+            return Err(if name.starts_with("parcal-") {
+                error(format!("is a {name} file, not a {} file", self.name))
+            } else {
+                malformed()
+            });
+        }
+        let (major, minor) = version.split_once('.').unwrap_or((version, "0"));
+        let is_number = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+        if !is_number(major) || !is_number(minor) {
+            return Err(malformed());
+        }
+        match major.parse::<u64>() {
+            Ok(MAJOR) => Ok(()),
+            _ => Err(error(format!(
+                "has unknown major version {major}; this parcal reads version {MAJOR}"
+            ))),
+        }
+    }
+}
+
+/// Reads a required JSON file of the given kind.
+pub(crate) fn read<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<T> {
+    match read_if_present(path, kind)? {
+        Some(value) => Ok(value),
+        None => Err(DatasetError::MissingFile {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
+/// Reads an optional JSON file of the given kind: `None` if it does not exist.
+pub(crate) fn read_if_present<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<Option<T>> {
+    let bytes = match fs::read(path) {
+        Ok(bytes) => bytes,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(DatasetError::io(path, "read", e)),
+    };
+    parse(path, kind, &bytes).map(Some)
+}
+
+/// Parses the bytes of a JSON file of the given kind: the `format` first (so
+/// that a file of another version is refused as such), then the body.
+pub(crate) fn parse<T: DeserializeOwned>(path: &Path, kind: Kind, bytes: &[u8]) -> Result<T> {
+    let Header(format) = deserialize(path, bytes)?;
+    kind.check(path, &format)?;
+    deserialize(path, bytes)
+}
+
+/// The `format` field of a JSON document that must be an object (derived
+/// struct impls would also accept an array).
+struct Header(String);
+
+impl<'de> Deserialize<'de> for Header {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct HeaderVisitor;
+        impl<'de> Visitor<'de> for HeaderVisitor {
+            type Value = Header;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a JSON object with a \"format\" field")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Header, A::Error> {
+                let mut format = None;
+                while let Some(key) = map.next_key::<String>()? {
+                    if key == "format" {
+                        format = Some(map.next_value()?);
+                    } else {
+                        map.next_value::<IgnoredAny>()?;
+                    }
+                }
+                format
+                    .map(Header)
+                    .ok_or_else(|| de::Error::missing_field("format"))
+            }
+        }
+        d.deserialize_map(HeaderVisitor)
+    }
+}
+
+fn deserialize<T: DeserializeOwned>(path: &Path, bytes: &[u8]) -> Result<T> {
+    let mut de = serde_json::Deserializer::from_slice(bytes);
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let field = e.path().iter().next().map(|_| e.path().to_string());
+        map_error(path, field, e.into_inner())
+    })?;
+    de.end().map_err(|e| map_error(path, None, e))?;
+    Ok(value)
+}
+
+/// Turns a serde_json error, and the path of the field where it happened
+/// (`None` at the top level), into one sentence naming the file, the field
+/// and the line.
+fn map_error(path: &Path, field: Option<String>, inner: serde_json::Error) -> DatasetError {
+    // serde_json reports column 0 when the error is before a line's first
+    // character.
+    let (line, column) = (inner.line(), inner.column().max(1));
+    let category = inner.classify();
+    let message = strip_location(&inner);
+    let top_level = |message: String| DatasetError::Json {
+        path: path.to_path_buf(),
+        line,
+        column,
+        message,
+    };
+    if let (Category::Data, Some(name)) = (category, missing_field(&message)) {
+        let field = match field {
+            Some(parent) => format!("{parent}.{name}"),
+            None => name.to_owned(),
+        };
+        return DatasetError::field(path, field, "required field is missing");
+    }
+    match (category, field) {
+        (Category::Io, _) => DatasetError::io(path, "read", inner.into()),
+        (Category::Data, None) => top_level(message),
+        (Category::Data, Some(field)) => {
+            DatasetError::field(path, field, located(&message, line, column))
+        }
+        // The field path of a syntax error is unreliable (often `?`): the
+        // line and column say where it is.
+        (Category::Syntax | Category::Eof, _) => top_level(format!("invalid JSON: {message}")),
+    }
+}
+
+fn located(message: &str, line: usize, column: usize) -> String {
+    format!("{message} (line {line}, column {column})")
+}
+
+/// serde_json's message without its " at line L column C" suffix.
+fn strip_location(error: &serde_json::Error) -> String {
+    let full = error.to_string();
+    let suffix = format!(" at line {} column {}", error.line(), error.column());
+    full.strip_suffix(&suffix).unwrap_or(&full).to_owned()
+}
+
+/// The field name in serde's "missing field `name`" message.
+fn missing_field(message: &str) -> Option<&str> {
+    message.strip_prefix("missing field `")?.strip_suffix('`')
+}
+
+/// Writes `body` to `path` atomically as pretty JSON (indent 1), preceded by
+/// the `format` field of `kind`. Field order is the order of declaration, so
+/// the same data always gives the same bytes.
+pub(crate) fn write<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<()> {
+    #[derive(Serialize)]
+    struct Versioned<'a, T> {
+        format: &'static str,
+        #[serde(flatten)]
+        body: &'a T,
+    }
+    let document = Versioned {
+        format: kind.current,
+        body,
+    };
+    write_atomic(path, |w| {
+        let formatter = serde_json::ser::PrettyFormatter::with_indent(b" ");
+        let mut serializer = serde_json::Serializer::with_formatter(&mut *w, formatter);
+        document
+            .serialize(&mut serializer)
+            .map_err(|e| DatasetError::io(path, "write", e.into()))?;
+        w.write_all(b"\n").map_err(write_error(path))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(format: &str) -> Result<()> {
+        MACHINE.check(Path::new("machine.json"), format)
+    }
+
+    #[test]
+    fn accepts_version_1_and_its_minor_versions() {
+        check("parcal-machine/1").unwrap();
+        check("parcal-machine/1.0").unwrap();
+        check("parcal-machine/1.17").unwrap();
+    }
+
+    #[test]
+    fn refuses_an_unknown_major_version() {
+        assert_eq!(
+            check("parcal-machine/2").unwrap_err().to_string(),
+            "machine.json: format \"parcal-machine/2\" has unknown major version 2; \
+             this parcal reads version 1"
+        );
+        assert!(check("parcal-machine/0.9").is_err());
+        assert!(check("parcal-machine/2.1").is_err());
+    }
+
+    #[test]
+    fn refuses_another_kind_or_a_malformed_format() {
+        assert_eq!(
+            check("parcal-truth/1").unwrap_err().to_string(),
+            "machine.json: format \"parcal-truth/1\" is a parcal-truth file, \
+             not a parcal-machine file"
+        );
+        for bad in [
+            "",
+            "parcal-machine",
+            "parcal-machine/",
+            "parcal-machine/1.",
+            "x/1",
+            "parcal-machine/v1",
+            "parcal-machine/1.2.3",
+        ] {
+            let err = check(bad).unwrap_err().to_string();
+            assert!(
+                err.contains("is not a parcal-machine format"),
+                "{bad}: {err}"
+            );
+        }
+    }
+
+    #[derive(Debug, Deserialize, Serialize)]
+    struct Body {
+        a: f64,
+        inner: Inner,
+    }
+    #[derive(Debug, Deserialize, Serialize)]
+    struct Inner {
+        b: Vec<f64>,
+    }
+
+    fn parse_err(json: &str) -> String {
+        parse::<Body>(Path::new("x.json"), MACHINE, json.as_bytes())
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let f = r#""format": "parcal-machine/1""#;
+        assert_eq!(
+            parse_err(&format!(r#"{{{f}, "inner": {{"b": []}}}}"#)),
+            "x.json: field a: required field is missing"
+        );
+        assert_eq!(
+            parse_err(&format!(r#"{{{f}, "a": 1, "inner": {{}}}}"#)),
+            "x.json: field inner.b: required field is missing"
+        );
+        assert_eq!(
+            parse_err(&format!(r#"{{{f}, "a": 1, "inner": {{"b": [1, "x"]}}}}"#)),
+            "x.json: field inner.b[1]: invalid type: string \"x\", expected f64 (line 1, column 61)"
+        );
+        assert_eq!(
+            parse_err(r#"{"a": 1}"#),
+            "x.json: field format: required field is missing"
+        );
+        assert_eq!(
+            parse_err("{"),
+            "x.json: line 1, column 1: invalid JSON: EOF while parsing an object"
+        );
+        assert!(parse_err(&format!(r#"{{{f}}} x"#)).contains("invalid JSON: trailing characters"));
+        assert!(
+            parse_err(&format!(r#"{{{f}, "a": NaN}}"#)).contains("invalid JSON"),
+            "NaN is not JSON"
+        );
+        assert!(parse_err(&format!(r#"{{{f}, "a": 1e999}}"#)).contains("number out of range"));
+    }
+}

@@ -1,0 +1,167 @@
+//! Binary snapshots of a whole [`Dataset`]: postcard, behind a header.
+//!
+//! Layout (integers little-endian):
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 8 | magic `PARCALDS` |
+//! | 4 | snapshot version (u32), currently 1 |
+//! | 8 | payload length in bytes (u64) |
+//! | 8 | checksum of the payload (u64) |
+//! | n | payload: the `Dataset` in postcard |
+//!
+//! The payload is the serde form of the crate's public types, so any change
+//! to them must bump [`VERSION`].
+
+use std::fs;
+use std::io::{self, Write};
+use std::path::Path;
+
+use crate::Dataset;
+use crate::atomic::{write_atomic, write_error};
+use crate::error::{DatasetError, Result};
+
+const MAGIC: [u8; 8] = *b"PARCALDS";
+/// Version of the snapshot layout and payload.
+pub(crate) const VERSION: u32 = 1;
+const HEADER_LEN: usize = 8 + 4 + 8 + 8;
+
+/// Writes `dataset` (already validated) to `path` atomically.
+pub(crate) fn write(dataset: &Dataset, path: &Path) -> Result<()> {
+    let payload = postcard::to_stdvec(dataset)
+        .map_err(|e| DatasetError::snapshot(path, format!("cannot encode the dataset: {e}")))?;
+    write_atomic(path, |w| {
+        let mut header = Vec::with_capacity(HEADER_LEN);
+        header.extend_from_slice(&MAGIC);
+        header.extend_from_slice(&VERSION.to_le_bytes());
+        header.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        header.extend_from_slice(&checksum(&payload).to_le_bytes());
+        w.write_all(&header)
+            .and_then(|()| w.write_all(&payload))
+            .map_err(write_error(path))
+    })
+}
+
+/// Reads a snapshot, refusing anything but an intact one of this version.
+/// The caller validates the dataset.
+pub(crate) fn read(path: &Path) -> Result<Dataset> {
+    let bytes = fs::read(path).map_err(|e| match e.kind() {
+        io::ErrorKind::NotFound => DatasetError::MissingFile {
+            path: path.to_path_buf(),
+        },
+        _ => DatasetError::io(path, "read", e),
+    })?;
+    let error = |message: String| DatasetError::snapshot(path, message);
+
+    let magic_len = bytes.len().min(MAGIC.len());
+    if bytes[..magic_len] != MAGIC[..magic_len] {
+        return Err(error(
+            "is not a parcal dataset snapshot (wrong magic header)".into(),
+        ));
+    }
+    if bytes.len() < HEADER_LEN {
+        return Err(error(format!(
+            "is truncated: {} bytes, shorter than the {HEADER_LEN}-byte header",
+            bytes.len()
+        )));
+    }
+    let (header, payload) = bytes.split_at(HEADER_LEN);
+    let version = u32::from_le_bytes(header[8..12].try_into().expect("4 bytes"));
+    let declared = u64::from_le_bytes(header[12..20].try_into().expect("8 bytes"));
+    let sum = u64::from_le_bytes(header[20..28].try_into().expect("8 bytes"));
+    if version != VERSION {
+        return Err(error(format!(
+            "has snapshot version {version}; this parcal reads version {VERSION}"
+        )));
+    }
+    let actual = payload.len() as u64;
+    if actual < declared {
+        return Err(error(format!(
+            "is truncated: {actual} payload bytes, {declared} expected"
+        )));
+    }
+    if actual > declared {
+        return Err(error(format!(
+            "is corrupt: {} bytes past the {declared}-byte payload",
+            actual - declared
+        )));
+    }
+    if checksum(payload) != sum {
+        return Err(error("is corrupt: checksum mismatch".into()));
+    }
+    match postcard::take_from_bytes::<Dataset>(payload) {
+        Ok((dataset, [])) => Ok(dataset),
+        Ok((_, rest)) => Err(error(format!(
+            "is corrupt: {} bytes left after the dataset",
+            rest.len()
+        ))),
+        Err(e) => Err(error(format!("is corrupt: {e}"))),
+    }
+}
+
+/// A fast 64-bit checksum (word-wise multiply-rotate, then a final mix).
+/// Every step is a bijection of the state for a given word, so any change
+/// confined to one 8-byte word is always detected.
+fn checksum(bytes: &[u8]) -> u64 {
+    const K: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut h = 0x2545_f491_4f6c_dd1d ^ bytes.len() as u64;
+    let mut mix = |word: u64| h = (h ^ word).wrapping_mul(K).rotate_left(31);
+    let mut words = bytes.chunks_exact(8);
+    for word in &mut words {
+        mix(u64::from_le_bytes(word.try_into().expect("8 bytes")));
+    }
+    let mut tail = [0u8; 8];
+    tail[..words.remainder().len()].copy_from_slice(words.remainder());
+    mix(u64::from_le_bytes(tail));
+    // Final avalanche (splitmix64).
+    h ^= h >> 30;
+    h = h.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    h ^= h >> 27;
+    h = h.wrapping_mul(0x94d0_49bb_1331_11eb);
+    h ^ (h >> 31)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::checksum;
+
+    #[test]
+    fn checksum_sees_single_byte_changes_and_lengths() {
+        let data: Vec<u8> = (0..100u8).collect();
+        let base = checksum(&data);
+        for i in 0..data.len() {
+            let mut changed = data.clone();
+            changed[i] ^= 1;
+            assert_ne!(checksum(&changed), base, "byte {i}");
+        }
+        assert_ne!(checksum(&data[..99]), base);
+        assert_ne!(checksum(&[]), checksum(&[0]));
+    }
+}
+
+#[cfg(test)]
+mod validation_tests {
+    use crate::Dataset;
+
+    /// A snapshot with an intact header and checksum but invalid content (it
+    /// cannot be made through `Dataset::write_snapshot`) is still refused.
+    #[test]
+    fn reading_validates_the_content() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.parcal");
+        let mut dataset = Dataset::read(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../../shared/reference/paper-seed1"),
+        )
+        .unwrap();
+        dataset.measurements.ball[10] = 99;
+        super::write(&dataset, &path).unwrap();
+        assert_eq!(
+            Dataset::read_snapshot(&path).unwrap_err().to_string(),
+            format!(
+                "{}: line 12, column ball: ball index 99 is out of range (27 balls)",
+                path.display()
+            )
+        );
+    }
+}

@@ -1,0 +1,162 @@
+//! `truth.json` (simulated datasets only): the true geometry, balls and
+//! contact points.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::Point3;
+use crate::artefacts::{Ball, ball_index};
+use crate::check::Check;
+use crate::error::Result;
+use crate::shape::{self, IdMap, P3};
+use crate::{MEASUREMENTS_FILE, json};
+
+/// The truth behind a simulated dataset, in the frames of `machine.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// True base joints.
+    pub base_joints: [Point3; 6],
+    /// True platform joints.
+    pub platform_joints: [Point3; 6],
+    /// True tool tip.
+    pub tool: Point3,
+    /// True initial leg lengths.
+    pub leg_lengths: [f64; 6],
+    /// True ball centres, in [`Artefacts::balls`](crate::Artefacts::balls) order.
+    pub ball_centres: Vec<Point3>,
+    /// True ball radii, in [`Artefacts::balls`](crate::Artefacts::balls) order.
+    pub ball_radii: Vec<f64>,
+    /// True contact point of each measurement row, in row order.
+    pub contacts: Vec<Point3>,
+}
+
+/// `truth.json` as written: balls keyed by id.
+#[derive(Serialize, Deserialize)]
+struct TruthFile {
+    #[serde(deserialize_with = "shape::joints")]
+    base_joints: [Point3; 6],
+    #[serde(deserialize_with = "shape::joints")]
+    platform_joints: [Point3; 6],
+    #[serde(deserialize_with = "shape::point")]
+    tool: Point3,
+    #[serde(deserialize_with = "shape::legs")]
+    leg_lengths: [f64; 6],
+    ball_centres: IdMap<P3>,
+    ball_radii: IdMap<f64>,
+    #[serde(deserialize_with = "shape::points")]
+    contacts: Vec<Point3>,
+}
+
+impl Truth {
+    /// Reads and checks `truth.json` if it exists, against the balls and the
+    /// number of measurement rows.
+    pub(crate) fn read_if_present(
+        path: &Path,
+        balls: &[Ball],
+        rows: usize,
+    ) -> Result<Option<Self>> {
+        let Some(file) = json::read_if_present::<TruthFile>(path, json::TRUTH)? else {
+            return Ok(None);
+        };
+        let check = Check::new(path);
+        let truth = Self {
+            base_joints: file.base_joints,
+            platform_joints: file.platform_joints,
+            tool: file.tool,
+            leg_lengths: file.leg_lengths,
+            ball_centres: by_ball(check, "ball_centres", file.ball_centres, balls)?
+                .into_iter()
+                .map(|p| p.0)
+                .collect(),
+            ball_radii: by_ball(check, "ball_radii", file.ball_radii, balls)?,
+            contacts: file.contacts,
+        };
+        truth.validate(check, balls.len(), rows)?;
+        Ok(Some(truth))
+    }
+
+    /// Writes `truth.json` (the caller has validated).
+    pub(crate) fn write(&self, path: &Path, balls: &[Ball]) -> Result<()> {
+        let file = TruthFile {
+            base_joints: self.base_joints,
+            platform_joints: self.platform_joints,
+            tool: self.tool,
+            leg_lengths: self.leg_lengths,
+            ball_centres: keyed(balls, self.ball_centres.iter().copied().map(P3)),
+            ball_radii: keyed(balls, self.ball_radii.iter().copied()),
+            contacts: self.contacts.clone(),
+        };
+        json::write(path, json::TRUTH, &file)
+    }
+
+    /// Values finite, radii positive, one centre and radius per ball, one
+    /// contact per measurement row.
+    pub(crate) fn validate(&self, check: Check, ball_count: usize, rows: usize) -> Result<()> {
+        check.geometry(
+            &self.base_joints,
+            &self.platform_joints,
+            &self.tool,
+            &self.leg_lengths,
+        )?;
+        for (field, len) in [
+            ("ball_centres", self.ball_centres.len()),
+            ("ball_radii", self.ball_radii.len()),
+        ] {
+            if len != ball_count {
+                return Err(check.error(
+                    field,
+                    format!("expected {ball_count} balls (as in artefacts.json), found {len}"),
+                ));
+            }
+        }
+        check.points("ball_centres", &self.ball_centres)?;
+        for (i, &r) in self.ball_radii.iter().enumerate() {
+            check.positive(&format!("ball_radii[{i}]"), r)?;
+        }
+        if self.contacts.len() != rows {
+            return Err(check.error(
+                "contacts",
+                format!(
+                    "expected {rows} contact points (one per row of {MEASUREMENTS_FILE}), found {}",
+                    self.contacts.len()
+                ),
+            ));
+        }
+        check.points("contacts", &self.contacts)
+    }
+}
+
+/// `values` keyed by the ids of `balls`, in order.
+fn keyed<T>(balls: &[Ball], values: impl IntoIterator<Item = T>) -> IdMap<T> {
+    IdMap(balls.iter().map(|b| b.id.clone()).zip(values).collect())
+}
+
+/// The values of an id-keyed object in `balls` order: every ball exactly once.
+fn by_ball<T>(check: Check, field: &str, map: IdMap<T>, balls: &[Ball]) -> Result<Vec<T>> {
+    let index = ball_index(balls).expect("ball ids are unique");
+    let mut slots: Vec<Option<T>> = balls.iter().map(|_| None).collect();
+    for (id, value) in map.0 {
+        let &i = index.get(id.as_str()).ok_or_else(|| {
+            check.error(
+                field,
+                format!("unknown ball id {id:?} (not in artefacts.json)"),
+            )
+        })?;
+        if slots[i].replace(value).is_some() {
+            return Err(check.error(field, format!("ball id {id:?} appears twice")));
+        }
+    }
+    slots
+        .into_iter()
+        .zip(balls)
+        .map(|(slot, ball)| {
+            slot.ok_or_else(|| {
+                check.error(
+                    field,
+                    format!("ball {:?} of artefacts.json is missing", ball.id),
+                )
+            })
+        })
+        .collect()
+}

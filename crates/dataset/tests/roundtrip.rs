@@ -1,0 +1,431 @@
+//! Writing then reading gives back the same values, bit for bit; the
+//! reference dataset of an independent tool reads.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::fs;
+
+use common::*;
+use parcal_dataset::*;
+
+fn all_combinations() -> Vec<Parts> {
+    let mut out = Vec::new();
+    for truth in [false, true] {
+        for directions in [false, true] {
+            for distances in [false, true] {
+                out.push(Parts {
+                    truth,
+                    directions,
+                    distances,
+                });
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn write_then_read_is_bitwise_identical() {
+    for parts in all_combinations() {
+        let original = dataset(parts);
+        let dir = tempfile::tempdir().unwrap();
+        original.write(dir.path()).unwrap();
+        let read = Dataset::read(dir.path()).unwrap_or_else(|e| panic!("{parts:?}: {e}"));
+        assert_bitwise_eq(&read, &original);
+        assert_eq!(read.truth.is_some(), parts.truth);
+        assert_eq!(read.measurements.direction.is_some(), parts.directions);
+        assert_eq!(read.artefacts.distances.is_empty(), !parts.distances);
+    }
+}
+
+#[test]
+fn negative_zero_and_tiny_values_survive_the_text_files() {
+    let dir = written(ALL);
+    let read = Dataset::read(dir.path()).unwrap();
+    assert!(read.machine.tool[1].is_sign_negative() && read.machine.tool[1] == 0.0);
+    assert_eq!(
+        read.machine.repeatability.tool.to_bits(),
+        5e-324f64.to_bits()
+    );
+    let csv = fs::read_to_string(dir.path().join(MEASUREMENTS_FILE)).unwrap();
+    assert!(
+        csv.starts_with("ball,q1,q2,q3,q4,q5,q6,dir_x,dir_y,dir_z\n"),
+        "{csv}"
+    );
+    assert!(csv.contains(",-0,"), "-0.0 is written as -0: {csv}");
+}
+
+#[test]
+fn writing_is_deterministic() {
+    let a = written(ALL);
+    let b = written(ALL);
+    for file in [MACHINE_FILE, ARTEFACTS_FILE, MEASUREMENTS_FILE, TRUTH_FILE] {
+        let bytes_a = fs::read(a.path().join(file)).unwrap();
+        let bytes_b = fs::read(b.path().join(file)).unwrap();
+        assert!(bytes_a == bytes_b, "{file} differs between two writes");
+    }
+    // Rewriting what was read gives the same bytes again.
+    let read = Dataset::read(a.path()).unwrap();
+    let c = tempfile::tempdir().unwrap();
+    read.write(c.path()).unwrap();
+    for file in [MACHINE_FILE, ARTEFACTS_FILE, MEASUREMENTS_FILE, TRUTH_FILE] {
+        assert_eq!(
+            fs::read(a.path().join(file)).unwrap(),
+            fs::read(c.path().join(file)).unwrap(),
+            "{file}"
+        );
+    }
+}
+
+#[test]
+fn json_files_are_pretty_and_start_with_their_format() {
+    let dir = written(ALL);
+    for (file, format) in [
+        (MACHINE_FILE, "parcal-machine/1"),
+        (ARTEFACTS_FILE, "parcal-artefacts/1"),
+        (TRUTH_FILE, "parcal-truth/1"),
+    ] {
+        let text = fs::read_to_string(dir.path().join(file)).unwrap();
+        assert!(
+            text.starts_with(&format!("{{\n \"format\": \"{format}\",\n")),
+            "{file}: {}",
+            &text[..60]
+        );
+    }
+    let truth = fs::read_to_string(dir.path().join(TRUTH_FILE)).unwrap();
+    let ids = ["\"b01\": [", "\"b02\": [", "\"plate-3\": ["];
+    let positions: Vec<usize> = ids.iter().map(|id| truth.find(id).unwrap()).collect();
+    assert!(
+        positions.is_sorted(),
+        "ball_centres keyed by id in artefacts order"
+    );
+    let artefacts = fs::read_to_string(dir.path().join(ARTEFACTS_FILE)).unwrap();
+    assert!(
+        artefacts.contains("\"a\": \"b01\""),
+        "distances name balls by id"
+    );
+    assert!(artefacts.contains("\"frame\": \"canonical\""));
+}
+
+#[test]
+fn writing_creates_the_directory() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("a/b/dataset");
+    dataset(NONE).write(&dir).unwrap();
+    assert_eq!(Dataset::read(&dir).unwrap(), dataset(NONE));
+}
+
+#[test]
+fn writing_without_truth_removes_a_stale_truth_file() {
+    let dir = written(ALL);
+    dataset(NONE).write(dir.path()).unwrap();
+    assert!(!dir.path().join(TRUTH_FILE).exists());
+    assert_eq!(Dataset::read(dir.path()).unwrap().truth, None);
+}
+
+#[test]
+fn writing_leaves_no_temporary_files() {
+    let dir = written(ALL);
+    let mut names: Vec<String> = fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [ARTEFACTS_FILE, MACHINE_FILE, MEASUREMENTS_FILE, TRUTH_FILE]
+    );
+}
+
+#[test]
+fn an_invalid_dataset_is_not_written_at_all() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("out");
+    let mut bad = dataset(ALL);
+    bad.truth.as_mut().unwrap().contacts[7][2] = f64::NAN;
+    let err = bad.write(&dir).unwrap_err().to_string();
+    assert_error(
+        &err,
+        &dir,
+        TRUTH_FILE,
+        "field contacts[7][2]: value NaN is not a finite number",
+    );
+    assert!(!dir.exists(), "nothing is created");
+
+    // Over an existing dataset, the old files stay as they were.
+    let dir = written(NONE);
+    let before = fs::read(dir.path().join(MEASUREMENTS_FILE)).unwrap();
+    let mut bad = dataset(NONE);
+    bad.measurements.q[4][2] = f64::INFINITY;
+    let err = bad.write(dir.path()).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        MEASUREMENTS_FILE,
+        "line 6, column q3: value inf is not a finite number",
+    );
+    assert_eq!(
+        fs::read(dir.path().join(MEASUREMENTS_FILE)).unwrap(),
+        before
+    );
+}
+
+#[test]
+fn validate_names_the_file_and_field() {
+    let mut bad = dataset(NONE);
+    bad.artefacts.balls[1].radius = -5.0;
+    assert_eq!(
+        bad.validate().unwrap_err().to_string(),
+        "artefacts.json: field balls[1].radius: must be positive, found -5"
+    );
+    let mut bad = dataset(NONE);
+    bad.measurements.ball[3] = 3;
+    assert_eq!(
+        bad.validate().unwrap_err().to_string(),
+        "measurements.csv: line 5, column ball: ball index 3 is out of range (3 balls)"
+    );
+    assert_eq!(
+        bad.contacts_per_ball(),
+        [4, 5, 5],
+        "no panic on a bad index"
+    );
+}
+
+#[test]
+fn contacts_per_ball_counts_rows() {
+    let mut d = dataset(NONE);
+    assert_eq!(d.contacts_per_ball(), [5, 5, 5]);
+    d.measurements.ball[0] = 2;
+    assert_eq!(d.contacts_per_ball(), [4, 5, 6]);
+}
+
+#[test]
+fn columns_may_come_in_any_order_and_extra_columns_are_ignored() {
+    let dir = written(NONE);
+    write_csv(
+        dir.path(),
+        "q6, note ,q5,q4,q3,q2,q1,ball\n\
+         6,x,5,4,3,2,1,b01\n\
+         \n\
+         6,\"a, b\",5,4,3,2,1.5e2,b02\n\
+         6,,5,4,3,2,1,plate-3\n",
+    );
+    let d = Dataset::read_with(
+        dir.path(),
+        &ReadOptions {
+            min_contacts_per_ball: 1,
+        },
+    )
+    .unwrap();
+    assert_eq!(d.measurements.ball, [0, 1, 2]);
+    assert_eq!(d.measurements.q[0], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    assert_eq!(d.measurements.q[1][0], 150.0);
+    assert_eq!(d.measurements.direction, None);
+}
+
+#[test]
+fn extra_json_fields_are_ignored() {
+    let dir = written(ALL);
+    for file in [MACHINE_FILE, ARTEFACTS_FILE, TRUTH_FILE] {
+        edit_json(dir.path(), file, |v| {
+            v["comment"] = "written by hand".into();
+            v["nested"] = serde_json::json!({"a": [1, 2, {"b": null}]});
+        });
+    }
+    edit_json(dir.path(), ARTEFACTS_FILE, |v| {
+        v["balls"][0]["material"] = "ruby".into();
+        v["distances"][0]["certificate"] = 17.into();
+    });
+    edit_json(dir.path(), MACHINE_FILE, |v| {
+        v["prior_sigma"]["extra"] = 1.into();
+        v["format"] = "parcal-machine/1.4".into();
+    });
+    assert_bitwise_eq(&Dataset::read(dir.path()).unwrap(), &dataset(ALL));
+}
+
+#[test]
+fn the_reference_dataset_reads() {
+    let dir = reference_dir();
+    let d = Dataset::read(&dir).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.artefacts.balls.len(), 27);
+    assert_eq!(d.measurements.len(), 189);
+    assert_eq!(d.contacts_per_ball(), vec![7; 27]);
+    assert_eq!(d.artefacts.frame, ArtefactFrame::Design);
+    assert!(d.artefacts.distances.is_empty());
+    assert_eq!(d.measurements.direction, None);
+    assert_eq!(d.machine.base_joints[2], [-42.262, 90.631, 0.0]);
+    assert_eq!(d.machine.leg_lengths, [235.0; 6]);
+    assert_eq!(d.machine.repeatability.actuator, 0.001);
+    assert_eq!(d.artefacts.balls[0].id, "b01");
+    assert_eq!(d.artefacts.balls[0].radius, 4.999856933619536);
+    assert_eq!(d.measurements.q[0][0], 98.8199849693);
+    let truth = d.truth.as_ref().expect("truth.json is present");
+    assert_eq!(truth.tool, [0.099, 0.053, 60.411]);
+    assert_eq!(truth.leg_lengths[0], 234.934);
+    assert_eq!(truth.contacts.len(), 189);
+    assert_eq!(truth.ball_centres.len(), 27);
+    assert!(truth.ball_radii.iter().all(|&r| r == 5.0));
+
+    // And survives a round trip through parcal's own writer and a snapshot.
+    let out = tempfile::tempdir().unwrap();
+    d.write(out.path()).unwrap();
+    assert_bitwise_eq(&Dataset::read(out.path()).unwrap(), &d);
+    let snap = out.path().join("seed1.parcal");
+    d.write_snapshot(&snap).unwrap();
+    assert_bitwise_eq(&Dataset::read_snapshot(&snap).unwrap(), &d);
+}
+
+#[test]
+fn the_reference_calibrations_read() {
+    for (file, prior, iterations) in [
+        ("reference-III-paper.json", "paper", 5),
+        ("reference-IV-propagated.json", "propagated", 9),
+    ] {
+        let c = Calibration::read(&reference_dir().join(file)).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(c.prior, prior, "{file}");
+        assert_eq!(c.parameters.names.len(), 33);
+        assert_eq!(c.parameters.names[0], "y_b2");
+        assert_eq!(c.parameters.values.len(), 33);
+        assert_eq!(c.covariance.len(), 33);
+        assert!(c.covariance.iter().all(|row| row.len() == 33));
+        assert_eq!(c.ball_centres.len(), 27);
+        assert_eq!(c.iterations.len(), iterations);
+        assert!(c.converged);
+        assert_eq!(c.status, "converged");
+        assert_eq!(c.options["weights"], "prop");
+        assert!(c.options.contains_key("centre_sigma"));
+        assert_eq!(c.canonical.base_joints[0], [0.0; 3]);
+
+        let out = tempfile::tempdir().unwrap();
+        let path = out.path().join(CALIBRATION_FILE);
+        c.write(&path).unwrap();
+        assert_bitwise_eq(&Calibration::read(&path).unwrap(), &c);
+    }
+}
+
+fn calibration() -> Calibration {
+    let n = 3;
+    Calibration {
+        canonical: GeometryRecord {
+            base_joints: [[0.0, 1.0 / 3.0, -0.0]; 6],
+            platform_joints: [[1e-17, 2.0, 3.0]; 6],
+            tool: [0.0, 0.0, 60.0],
+            leg_lengths: [123456.789012345; 6],
+        },
+        parameters: ParameterTable {
+            names: vec!["y_b2".into(), "x_b3".into(), "y_b3".into()],
+            values: vec![17.432, -0.0, 1.0 / 3.0],
+            sigma: vec![0.06, 0.07, 5e-324],
+        },
+        covariance: (0..n)
+            .map(|i| (0..n).map(|j| (i + j) as f64 / 3.0).collect())
+            .collect(),
+        ball_centres: BTreeMap::from([(
+            "b01".to_owned(),
+            CentreEstimate {
+                centre: [-60.0, -60.0, 360.0 + 1e-13],
+                sigma: [0.02, 0.025, 0.02],
+            },
+        )]),
+        prior: "none".into(),
+        iterations: vec![IterationRecord {
+            cost: 18029.824089807713,
+            step_norm: 0.0,
+            residual_rms: 0.02489452864196506,
+        }],
+        converged: false,
+        status: "iteration limit".into(),
+        options: BTreeMap::from([("sim".to_owned(), serde_json::json!("IV"))]),
+    }
+}
+
+#[test]
+fn calibration_round_trips_and_defaults_status_and_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(CALIBRATION_FILE);
+    let c = calibration();
+    c.write(&path).unwrap();
+    assert_bitwise_eq(&Calibration::read(&path).unwrap(), &c);
+    let text = fs::read_to_string(&path).unwrap();
+    assert!(text.starts_with("{\n \"format\": \"parcal-calibration/1\",\n \"canonical\""));
+
+    edit_json(dir.path(), CALIBRATION_FILE, |v| {
+        let object = v.as_object_mut().unwrap();
+        object.remove("status");
+        object.remove("options");
+    });
+    let read = Calibration::read(&path).unwrap();
+    assert_eq!(read.status, "");
+    assert!(read.options.is_empty());
+}
+
+#[test]
+fn calibration_errors_name_the_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(CALIBRATION_FILE);
+
+    let mut c = calibration();
+    c.iterations[0].cost = f64::NAN;
+    let err = c.write(&path).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        CALIBRATION_FILE,
+        "field iterations[0].cost: value NaN",
+    );
+    assert!(!path.exists());
+
+    calibration().write(&path).unwrap();
+    edit_json(dir.path(), CALIBRATION_FILE, |v| {
+        v["covariance"][1] = serde_json::json!([1.0, 2.0]);
+    });
+    let err = Calibration::read(&path).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        CALIBRATION_FILE,
+        "field covariance[1]: expected 3 columns, found 2",
+    );
+
+    calibration().write(&path).unwrap();
+    edit_json(dir.path(), CALIBRATION_FILE, |v| {
+        v["parameters"]["sigma"] = serde_json::json!([1.0]);
+    });
+    let err = Calibration::read(&path).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        CALIBRATION_FILE,
+        "field parameters.sigma: expected 3 values (one per name), found 1",
+    );
+
+    calibration().write(&path).unwrap();
+    edit_json(dir.path(), CALIBRATION_FILE, |v| {
+        v.as_object_mut().unwrap().remove("converged");
+    });
+    let err = Calibration::read(&path).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        CALIBRATION_FILE,
+        "field converged: required field is missing",
+    );
+
+    calibration().write(&path).unwrap();
+    edit_json(dir.path(), CALIBRATION_FILE, |v| {
+        v["format"] = "parcal-calibration/3.1".into();
+    });
+    let err = Calibration::read(&path).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        CALIBRATION_FILE,
+        "has unknown major version 3",
+    );
+
+    let err = Calibration::read(&dir.path().join("absent.json"))
+        .unwrap_err()
+        .to_string();
+    assert_error(&err, dir.path(), "absent.json", "required file not found");
+}
