@@ -1,0 +1,31 @@
+//! Artefact calibration with a priori knowledge (Sato et al., Meas. Sci.
+//! Technol. 15 (2004) 1158, spec section 4): from a dataset to the
+//! identified kinematic parameters, ball centres and contact angles with
+//! their uncertainties, and a verdict on the priors.
+//!
+//! - [`setup`]: the initial estimates, weights and priors of a dataset;
+//! - [`problem`]: the observation blocks as the solver's problem;
+//! - [`run`]: one calibration and its calibration.json record;
+//! - [`conflict`]: prior-data conflict tests;
+//! - [`sphere_fit`]: initial ball centres.
+//!
+//! ```no_run
+//! use parcal_calibrate::{CalibrationOptions, Simulation, calibrate};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let dataset = parcal_dataset::Dataset::read("data/paper-seed1".as_ref())?;
+//! let run = calibrate(&dataset, &CalibrationOptions::simulation(Simulation::IV), &mut |_| {})?;
+//! println!("{} after {} iterations", run.status_text(), run.history.len());
+//! # Ok(()) }
+//! ```
+
+pub mod conflict;
+mod error;
+mod options;
+pub mod problem;
+pub mod run;
+pub mod setup;
+pub mod sphere_fit;
+
+pub use error::CalibrateError;
+pub use options::{CalibrationOptions, Method, Observation, PriorMode, Simulation, Weighting};
+pub use run::{CalibrationRun, ParamCovariance, calibrate};

@@ -1,0 +1,155 @@
+//! What a calibration run is asked to do (spec section 4).
+
+use std::fmt;
+
+/// The observation equation of every contact.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Observation {
+    /// Paper eq. (9): `c = r - |f(q, p) - C|`, one row per contact.
+    Radius,
+    /// Paper eq. (10): `c = C + r u(angles) - f(q, p)`, three rows and two
+    /// angle unknowns per contact.
+    Coordinates,
+}
+
+/// The a priori knowledge (paper eq. 7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PriorMode {
+    /// No prior (simulations I and II).
+    None,
+    /// The paper's form: every canonical parameter about its design value
+    /// with sigma `prior_sigma`, every ball centre about its initial estimate
+    /// (sigma `centre_sigma` of artefacts.json), every contact's angles about
+    /// their initial values (sigma [`CalibrationOptions::angle_sigma`]).
+    Paper,
+    /// The design tolerances on the input-frame coordinates propagated
+    /// through the canonicalisation to a full 33 x 33 prior; centre priors
+    /// only for balls located in the canonical frame, angle priors only for
+    /// contacts with a commanded approach direction.
+    Propagated,
+}
+
+/// How the observation covariance W is formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Weighting {
+    /// Actuator, tool and radius repeatabilities propagated through the
+    /// kinematics at the initial estimate, held fixed.
+    Propagated,
+    /// A plain diagonal: `sigma^2 = s_a^2 + s_t^2 + s_r^2` per row.
+    Diagonal,
+}
+
+/// The iteration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Method {
+    /// Paper eq. (5): the full Gauss-Newton step, no damping.
+    GaussNewton,
+    /// Levenberg-Marquardt.
+    LevenbergMarquardt,
+}
+
+/// The paper's four simulations (section 3.1, 3.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Simulation {
+    I,
+    II,
+    III,
+    IV,
+}
+
+impl Simulation {
+    pub const ALL: [Simulation; 4] = [Self::I, Self::II, Self::III, Self::IV];
+
+    /// The observation equation of the simulation.
+    pub fn observation(self) -> Observation {
+        match self {
+            Self::I | Self::III => Observation::Radius,
+            Self::II | Self::IV => Observation::Coordinates,
+        }
+    }
+
+    /// Whether the simulation uses a priori knowledge (III, IV).
+    pub fn has_prior(self) -> bool {
+        matches!(self, Self::III | Self::IV)
+    }
+}
+
+impl fmt::Display for Simulation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::I => "I",
+            Self::II => "II",
+            Self::III => "III",
+            Self::IV => "IV",
+        })
+    }
+}
+
+impl fmt::Display for PriorMode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::None => "none",
+            Self::Paper => "paper",
+            Self::Propagated => "propagated",
+        })
+    }
+}
+
+impl fmt::Display for Observation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Radius => "radius",
+            Self::Coordinates => "coordinates",
+        })
+    }
+}
+
+/// Everything a calibration run needs besides the dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationOptions {
+    pub observation: Observation,
+    pub prior: PriorMode,
+    pub weighting: Weighting,
+    pub method: Method,
+    /// Sigma of the per-contact angle prior (rad): the paper's 0.01 in paper
+    /// mode; in propagated mode it applies only to contacts with a commanded
+    /// approach direction.
+    pub angle_sigma: f64,
+    /// Iterations before giving up.
+    pub max_iterations: usize,
+    /// Converged when `|dx| / (|x| + 1) < step_tolerance` over all unknowns.
+    pub step_tolerance: f64,
+}
+
+impl CalibrationOptions {
+    /// The paper's simulation `sim` as the paper states it (paper-mode prior
+    /// for III and IV, Gauss-Newton, propagated weights).
+    pub fn simulation(sim: Simulation) -> Self {
+        let prior = if sim.has_prior() {
+            PriorMode::Paper
+        } else {
+            PriorMode::None
+        };
+        Self {
+            observation: sim.observation(),
+            prior,
+            ..Self::default()
+        }
+    }
+}
+
+impl Default for CalibrationOptions {
+    /// Transformed coordinates with the propagated prior (simulation IV as
+    /// parcal recommends it), Gauss-Newton.
+    fn default() -> Self {
+        Self {
+            observation: Observation::Coordinates,
+            prior: PriorMode::Propagated,
+            weighting: Weighting::Propagated,
+            method: Method::GaussNewton,
+            angle_sigma: 0.01,
+            max_iterations: 50,
+            step_tolerance: 1e-10,
+        }
+    }
+}

@@ -1,0 +1,323 @@
+//! One calibration run: set up, solve, judge the priors, and the record of
+//! the result (calibration.json).
+
+use std::collections::BTreeMap;
+
+use nalgebra::SVector;
+use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3, params};
+use parcal_observe::KinematicPrior;
+use parcal_solver::{
+    IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, State, Status, solve,
+};
+
+use crate::conflict::ConflictTest;
+use crate::problem::CalibrationProblem;
+use crate::setup::Setup;
+use crate::{CalibrateError, CalibrationOptions, Method, Observation, PriorMode};
+
+/// Covariance of the 33 parameters (mm^2).
+pub type ParamCovariance = nalgebra::SMatrix<f64, N_PARAMS, N_PARAMS>;
+
+/// The outcome of one calibration.
+pub struct CalibrationRun {
+    pub options: CalibrationOptions,
+    /// The design's canonical parameters (the initial estimate).
+    pub initial_params: Params,
+    /// The a priori knowledge on the parameters, if any.
+    pub prior: Option<KinematicPrior>,
+    /// Identified parameters (canonical frames).
+    pub params: Params,
+    /// Posterior covariance of the 33 (inverse of the undamped reduced
+    /// matrix at the final state); `None` when the run did not converge or
+    /// the matrix is not positive definite.
+    pub covariance: Option<ParamCovariance>,
+    pub ball_ids: Vec<String>,
+    /// Identified ball centres (canonical base frame).
+    pub centres: Vec<Vec3>,
+    /// Marginal sigmas of the centres (with the parameters' uncertainty).
+    pub centre_sigmas: Option<Vec<Vec3>>,
+    pub status: Status,
+    /// One record per iteration, then the final iterate.
+    pub history: Vec<IterationRecord>,
+    /// Whitened residual rows (contacts x rows per contact).
+    pub residual_rows: usize,
+    /// Spectrum of the reduced matrix at the end.
+    pub spectrum: Option<SpectrumDiagnostics>,
+    /// Prior-data conflict tests (kinematic parameters, ball centres).
+    pub conflicts: Vec<ConflictTest>,
+}
+
+impl CalibrationRun {
+    /// Whether the solver converged.
+    pub fn converged(&self) -> bool {
+        matches!(self.status, Status::Converged)
+    }
+
+    /// Marginal sigmas of the parameters.
+    pub fn sigmas(&self) -> Option<Params> {
+        self.covariance.map(|c| c.diagonal().map(f64::sqrt))
+    }
+
+    /// Condition number of the posterior covariance (ratio of the extreme
+    /// eigenvalues of the reduced matrix).
+    pub fn condition_number(&self) -> Option<f64> {
+        let eigenvalues = &self.spectrum.as_ref()?.eigenvalues;
+        Some(eigenvalues.last()? / eigenvalues.first()?)
+    }
+
+    /// RMS of the whitened residuals at the final iterate (1 at the noise
+    /// level).
+    pub fn residual_rms(&self) -> f64 {
+        self.history.last().map_or(f64::NAN, |r| {
+            (r.data_cost / self.residual_rows as f64).sqrt()
+        })
+    }
+
+    /// The status in one sentence (calibration.json's `status`).
+    pub fn status_text(&self) -> String {
+        status_text(&self.status)
+    }
+
+    /// The calibration.json record of this run.
+    pub fn record(&self) -> parcal_dataset::Calibration {
+        let geometry = params::from_params(&self.params);
+        let sigma = self.sigmas().unwrap_or_else(Params::zeros);
+        let covariance = self
+            .covariance
+            .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
+            .unwrap_or_default();
+        let ball_centres = self
+            .ball_ids
+            .iter()
+            .enumerate()
+            .map(|(k, id)| {
+                let sigma = self.centre_sigmas.as_ref().map_or(Vec3::zeros(), |s| s[k]);
+                (
+                    id.clone(),
+                    CentreEstimate {
+                        centre: self.centres[k].into(),
+                        sigma: sigma.into(),
+                    },
+                )
+            })
+            .collect();
+        let rows = self.residual_rows as f64;
+        let iterations = self
+            .history
+            .iter()
+            .map(|r| parcal_dataset::IterationRecord {
+                cost: r.cost,
+                step_norm: r.step_norm,
+                residual_rms: (r.data_cost / rows).sqrt(),
+            })
+            .collect();
+        let mut options = BTreeMap::new();
+        options.insert(
+            "observation".to_string(),
+            self.options.observation.to_string().into(),
+        );
+        options.insert(
+            "weights".to_string(),
+            format!("{:?}", self.options.weighting)
+                .to_lowercase()
+                .into(),
+        );
+        let method = match self.options.method {
+            Method::GaussNewton => "gauss-newton",
+            Method::LevenbergMarquardt => "levenberg-marquardt",
+        };
+        options.insert("method".to_string(), method.into());
+        parcal_dataset::Calibration {
+            canonical: GeometryRecord {
+                base_joints: geometry.base.map(Into::into),
+                platform_joints: geometry.platform.map(Into::into),
+                tool: geometry.tool.into(),
+                leg_lengths: geometry.legs,
+            },
+            parameters: ParameterTable {
+                names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
+                values: self.params.iter().copied().collect(),
+                sigma: sigma.iter().copied().collect(),
+            },
+            covariance,
+            ball_centres,
+            prior: self.options.prior.to_string(),
+            iterations,
+            converged: self.converged(),
+            status: self.status_text(),
+            options,
+        }
+    }
+}
+
+/// A solver status in one sentence.
+pub fn status_text(status: &Status) -> String {
+    match status {
+        Status::Converged => "converged".to_string(),
+        Status::IterationLimit => "iteration limit reached without convergence".to_string(),
+        Status::Diverged { iteration, reason } => {
+            format!("diverged at iteration {iteration}: {reason}")
+        }
+        Status::ProblemFailed {
+            iteration, message, ..
+        } => format!("failed at iteration {iteration}: {message}"),
+        other => format!("{other:?}"),
+    }
+}
+
+/// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
+pub fn calibrate(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<CalibrationRun, CalibrateError> {
+    let setup = Setup::new(dataset, options)?;
+    let solver_options = SolverOptions {
+        method: match options.method {
+            Method::GaussNewton => parcal_solver::Method::GaussNewton,
+            Method::LevenbergMarquardt => parcal_solver::Method::LevenbergMarquardt {
+                initial_lambda: 1e-3,
+            },
+        },
+        max_iterations: options.max_iterations,
+        step_tolerance: options.step_tolerance,
+        ..SolverOptions::default()
+    };
+    let solved = match options.observation {
+        Observation::Radius => {
+            let problem = setup.radius_problem(dataset, options)?;
+            solve_problem(&problem, &setup, &solver_options, observer, 1)
+        }
+        Observation::Coordinates => {
+            let problem = setup.coordinate_problem(dataset, options)?;
+            solve_problem(&problem, &setup, &solver_options, observer, 3)
+        }
+    };
+    let ball_ids: Vec<String> = dataset
+        .artefacts
+        .balls
+        .iter()
+        .map(|b| b.id.clone())
+        .collect();
+    let mut conflicts = Vec::new();
+    if let (Some(prior), Some(covariance)) = (&setup.prior, &solved.covariance) {
+        let d = solved.params - prior.mean();
+        conflicts.push(ConflictTest::new(
+            "kinematic parameters",
+            PARAM_NAMES.iter().map(|s| s.to_string()),
+            d.as_slice(),
+            prior.covariance().diagonal().as_slice(),
+            covariance.diagonal().as_slice(),
+            prior.chi_square(&solved.params),
+        ));
+    }
+    if let (PriorMode::Paper, Some(sigmas)) = (options.prior, &solved.centre_sigmas) {
+        conflicts.push(centre_conflict(
+            dataset,
+            &setup,
+            &solved.centres,
+            sigmas,
+            &ball_ids,
+        ));
+    }
+    Ok(CalibrationRun {
+        options: options.clone(),
+        initial_params: setup.initial_params,
+        prior: setup.prior,
+        params: solved.params,
+        covariance: solved.covariance,
+        ball_ids,
+        centres: solved.centres,
+        centre_sigmas: solved.centre_sigmas,
+        status: solved.status,
+        history: solved.history,
+        residual_rows: solved.residual_rows,
+        spectrum: solved.spectrum,
+        conflicts,
+    })
+}
+
+/// The conflict test of the paper-mode centre priors (mean: the initial
+/// estimate, sigma: artefacts.json's centre_sigma).
+fn centre_conflict(
+    dataset: &Dataset,
+    setup: &Setup,
+    centres: &[Vec3],
+    sigmas: &[Vec3],
+    ids: &[String],
+) -> ConflictTest {
+    let (mut names, mut d, mut prior, mut posterior) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut chi_square = 0.0;
+    for (k, ball) in dataset.artefacts.balls.iter().enumerate() {
+        for (c, axis) in ["x", "y", "z"].iter().enumerate() {
+            let difference = centres[k][c] - setup.initial_centres[k][c];
+            names.push(format!("centre {}.{axis}", ids[k]));
+            d.push(difference);
+            prior.push(ball.centre_sigma.powi(2));
+            posterior.push(sigmas[k][c].powi(2));
+            chi_square += (difference / ball.centre_sigma).powi(2);
+        }
+    }
+    ConflictTest::new("ball centres", names, &d, &prior, &posterior, chi_square)
+}
+
+/// The parts of a solution that do not depend on the point block size.
+struct Solved {
+    params: Params,
+    covariance: Option<ParamCovariance>,
+    centres: Vec<Vec3>,
+    centre_sigmas: Option<Vec<Vec3>>,
+    status: Status,
+    history: Vec<IterationRecord>,
+    residual_rows: usize,
+    spectrum: Option<SpectrumDiagnostics>,
+}
+
+fn solve_problem<const P: usize, const R: usize, Pr: Problem<N_PARAMS, 3, P, R>>(
+    problem: &Pr,
+    setup: &Setup,
+    options: &SolverOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+    rows_per_contact: usize,
+) -> Solved {
+    let initial = State {
+        global: setup.initial_params,
+        groups: setup.initial_centres.clone(),
+        points: vec![SVector::<f64, P>::zeros(); setup.order.len()],
+    };
+    let solution = solve(problem, initial, options, observer);
+    Solved {
+        params: solution.state.global,
+        covariance: solution.covariance,
+        centres: solution.state.groups,
+        centre_sigmas: solution.group_sigmas,
+        status: solution.status,
+        history: solution.history,
+        residual_rows: setup.order.len() * rows_per_contact,
+        spectrum: solution.spectrum,
+    }
+}
+
+/// The problem of a dataset for the dense reference check (tests, small
+/// problems only): the coordinate observation and its initial state.
+pub fn coordinate_problem_and_state(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+) -> Result<
+    (
+        CalibrationProblem<crate::problem::CoordinateObservations>,
+        State<N_PARAMS, 3, 2>,
+    ),
+    CalibrateError,
+> {
+    let setup = Setup::new(dataset, options)?;
+    let problem = setup.coordinate_problem(dataset, options)?;
+    let state = State {
+        global: setup.initial_params,
+        groups: setup.initial_centres.clone(),
+        points: vec![SVector::zeros(); setup.order.len()],
+    };
+    Ok((problem, state))
+}
