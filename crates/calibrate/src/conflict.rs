@@ -14,6 +14,9 @@
 //! A warning names the parameters with `|z|` beyond the two-sided 0.1 %
 //! quantile (3.29) and the global chi-square beyond its 99.9 % quantile.
 
+use parcal_kinematics::PARAM_NAMES;
+use parcal_observe::KinematicPrior;
+
 /// |z| beyond which one prior counts as contradicted (two-sided 0.1 %).
 pub const Z_LIMIT: f64 = 3.29;
 /// Upper tail probability of the global test.
@@ -126,6 +129,44 @@ impl ConflictTest {
             },
         ))
     }
+}
+
+/// Does the paper's diagonal prior express the design tolerances it stands
+/// for? A machine built within tolerance has canonical parameters with the
+/// propagated covariance `Sigma_t` (spec section 4); under the paper prior
+/// `Sigma_p` their chi-square then has expectation `tr(Sigma_p^-1 Sigma_t)`,
+/// 33 if the two agree. Returns a warning naming the parameters whose
+/// tolerance-implied sigma exceeds the paper's by more than 3 times, when
+/// that expectation is beyond the 99.9 % quantile of chi-square(33).
+pub fn paper_prior_consistency(
+    paper: &KinematicPrior,
+    tolerances: &KinematicPrior,
+) -> Option<String> {
+    let expected = (paper.information() * tolerances.covariance()).trace();
+    let n = paper.mean().len();
+    let limit = chi_square_quantile(n, 1.0 - TAIL);
+    if expected <= limit {
+        return None;
+    }
+    let (paper_sigma, tolerance_sigma) = (paper.sigma(), tolerances.sigma());
+    let mut understated: Vec<(usize, f64)> = (0..n)
+        .map(|k| (k, tolerance_sigma[k] / paper_sigma[k]))
+        .filter(|(_, ratio)| *ratio > 3.0)
+        .collect();
+    understated.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let listed: Vec<String> = understated
+        .iter()
+        .map(|&(k, ratio)| {
+            format!(
+                "{} ({:.3} vs {:.3} mm, x{ratio:.1})",
+                PARAM_NAMES[k], tolerance_sigma[k], paper_sigma[k]
+            )
+        })
+        .collect();
+    Some(format!(
+        "the paper-form prior is over-confident: a machine within the design tolerances has an expected chi-square of {expected:.0} for {n} under it (99.9% limit {limit:.1}), because the canonical frames tilt with the joints; the tolerances imply larger sigmas for {}. Use the propagated prior.",
+        listed.join(", ")
+    ))
 }
 
 /// Quantile of chi-square(`dof`) at probability `p`, by the Wilson-Hilferty

@@ -7,6 +7,7 @@
 //! - [`problem`]: the observation blocks as the solver's problem;
 //! - [`run`]: one calibration and its calibration.json record;
 //! - [`conflict`]: prior-data conflict tests;
+//! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
 //! - [`sphere_fit`]: initial ball centres.
 //!
 //! ```no_run
@@ -20,6 +21,7 @@
 
 pub mod conflict;
 mod error;
+pub mod evaluate;
 mod options;
 pub mod problem;
 pub mod run;

@@ -11,9 +11,9 @@ use parcal_solver::{
     IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, State, Status, solve,
 };
 
-use crate::conflict::ConflictTest;
+use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::problem::CalibrationProblem;
-use crate::setup::Setup;
+use crate::setup::{Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, Observation, PriorMode};
 
 /// Covariance of the 33 parameters (mm^2).
@@ -46,6 +46,9 @@ pub struct CalibrationRun {
     pub spectrum: Option<SpectrumDiagnostics>,
     /// Prior-data conflict tests (kinematic parameters, ball centres).
     pub conflicts: Vec<ConflictTest>,
+    /// Paper mode: the check of the diagonal prior against the propagated
+    /// design tolerances ([`crate::conflict::paper_prior_consistency`]).
+    pub prior_consistency: Option<String>,
 }
 
 impl CalibrationRun {
@@ -72,6 +75,16 @@ impl CalibrationRun {
         self.history.last().map_or(f64::NAN, |r| {
             (r.data_cost / self.residual_rows as f64).sqrt()
         })
+    }
+
+    /// Every warning about the priors, one sentence each.
+    pub fn warnings(&self) -> Vec<String> {
+        let conflicts = self.conflicts.iter().filter_map(ConflictTest::warning);
+        self.prior_consistency
+            .iter()
+            .cloned()
+            .chain(conflicts)
+            .collect()
     }
 
     /// The status in one sentence (calibration.json's `status`).
@@ -221,7 +234,20 @@ pub fn calibrate(
             &ball_ids,
         ));
     }
+    let prior_consistency = match (options.prior, &setup.prior) {
+        (PriorMode::Paper, Some(paper)) => {
+            let tolerances = kinematic_prior(
+                dataset,
+                &setup.design,
+                &setup.initial_params,
+                PriorMode::Propagated,
+            )?;
+            tolerances.and_then(|t| paper_prior_consistency(paper, &t))
+        }
+        _ => None,
+    };
     Ok(CalibrationRun {
+        prior_consistency,
         options: options.clone(),
         initial_params: setup.initial_params,
         prior: setup.prior,

@@ -247,7 +247,7 @@ fn weight_model(weighting: Weighting) -> WeightModel {
 /// parameter about its design value with its group's tolerance) or the
 /// tolerances of the input-frame coordinates propagated through the
 /// canonicalisation.
-fn kinematic_prior(
+pub fn kinematic_prior(
     dataset: &Dataset,
     design: &Geometry,
     design_params: &Params,

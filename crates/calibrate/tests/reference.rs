@@ -63,3 +63,54 @@ fn simulation_iii_paper_matches_the_reference() {
         "reference-III-paper.json",
     );
 }
+
+#[test]
+fn all_simulations_against_truth() {
+    let dataset = Dataset::read(&fixture()).unwrap();
+    let truth = dataset.truth.as_ref().unwrap();
+    let truth_geometry = parcal_kinematics::Geometry::from_arrays(
+        &truth.base_joints,
+        &truth.platform_joints,
+        &truth.tool,
+        &truth.leg_lengths,
+    );
+    let p_true =
+        parcal_kinematics::params::to_params(&truth_geometry.canonicalize().unwrap().geometry);
+    for (sim, prior) in [
+        (Simulation::I, PriorMode::None),
+        (Simulation::II, PriorMode::None),
+        (Simulation::III, PriorMode::Paper),
+        (Simulation::IV, PriorMode::Paper),
+        (Simulation::III, PriorMode::Propagated),
+        (Simulation::IV, PriorMode::Propagated),
+    ] {
+        let options = CalibrationOptions {
+            prior,
+            ..CalibrationOptions::simulation(sim)
+        };
+        let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+        let costs: Vec<String> = run
+            .history
+            .iter()
+            .map(|r| format!("{:.3e}", r.cost))
+            .collect();
+        eprintln!(
+            "{sim} {prior}: {} iterations, status {}, costs {:?}",
+            run.history.len(),
+            run.status_text(),
+            costs
+        );
+        if let Some(cov) = run.covariance {
+            let e = run.params - p_true;
+            let nees = e.dot(&(cov.try_inverse().unwrap() * e));
+            eprintln!(
+                "  NEES {nees:.1}, max |err| {:.4}, cond {:?}",
+                e.amax(),
+                run.condition_number()
+            );
+        }
+        for w in run.warnings() {
+            eprintln!("  WARNING {w}");
+        }
+    }
+}

@@ -26,12 +26,21 @@ enum Command {
     Simulate(commands::simulate::Args),
     /// Read and validate a dataset and print a summary.
     Inspect(commands::inspect::Args),
+    /// Calibrate a dataset: identified parameters with sigmas, accuracy, calibration.json.
+    Calibrate(commands::calibrate::Args),
+    /// Accuracy maps (absolute and registered, predicted and true) as CSV and PNG.
+    Accuracy(commands::accuracy::Args),
+    /// Reproduce the paper's simulations I-IV on one simulated dataset, with a report.
+    Paper(commands::paper::Args),
 }
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Simulate(args) => commands::simulate::run(&args),
         Command::Inspect(args) => commands::inspect::run(&args),
+        Command::Calibrate(args) => commands::calibrate::run(&args),
+        Command::Accuracy(args) => commands::accuracy::run(&args),
+        Command::Paper(args) => commands::paper::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -124,3 +124,90 @@ fn inspect_reports_malformed_datasets() {
     let missing = temp.path().join("nowhere");
     assert_inspect_fails(&missing, &["machine.json"]);
 }
+
+#[test]
+fn calibrate_writes_calibration_json_and_compares_with_the_truth() {
+    let temp = tempfile::tempdir().unwrap();
+    simulate(temp.path(), &[]);
+    let dir = temp.path().to_str().unwrap();
+    let output = parcal(&["calibrate", dir, "--sim", "IV", "--prior", "propagated"]);
+    let stdout = text(&output.stdout);
+    assert!(output.status.success(), "{}{stdout}", text(&output.stderr));
+    assert!(stdout.contains("status: converged"), "{stdout}");
+    assert!(stdout.contains("| z_eT |"), "{stdout}");
+    assert!(stdout.contains("error/sigma"), "{stdout}");
+    assert!(stdout.contains("NEES against the truth"), "{stdout}");
+    let calibration = parcal_dataset_calibration(&temp.path().join("calibration.json"));
+    assert!(
+        calibration.contains("\"prior\": \"propagated\"")
+            && calibration.contains("\"converged\": true")
+    );
+
+    // Paper mode: the prior warning fires.
+    let out = temp.path().join("paper.json");
+    let output = parcal(&[
+        "calibrate",
+        dir,
+        "--sim",
+        "III",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = text(&output.stdout);
+    assert!(output.status.success());
+    assert!(
+        stdout.contains("WARNING: the paper-form prior is over-confident"),
+        "{stdout}"
+    );
+
+    // Maps from the calibration.
+    let maps = temp.path().join("maps");
+    let output = parcal(&[
+        "accuracy",
+        dir,
+        "--calibration",
+        temp.path().join("calibration.json").to_str().unwrap(),
+        "--out",
+        maps.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(maps.join("accuracy.csv").exists());
+    assert!(maps.join("after_true_registered.png").exists());
+    assert!(maps.join("before_predicted_absolute.png").exists());
+}
+
+fn parcal_dataset_calibration(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn paper_writes_the_report() {
+    let temp = tempfile::tempdir().unwrap();
+    let output = parcal(&[
+        "paper",
+        "--seed",
+        "2",
+        "--out",
+        temp.path().to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let report = std::fs::read_to_string(temp.path().join("report.md")).unwrap();
+    for part in [
+        "## Convergence",
+        "| IV (propagated prior) | converged",
+        "## The paper's figures beside ours",
+        "### Where and why they differ",
+        "| z_b5 |",
+    ] {
+        assert!(report.contains(part), "report.md lacks {part:?}");
+    }
+    for file in [
+        "residuals-fig5.png",
+        "residuals-fig8.png",
+        "residuals.csv",
+        "calibration-IV-propagated.json",
+        "map-IV-propagated-after_true_registered.png",
+    ] {
+        assert!(temp.path().join(file).exists(), "{file} missing");
+    }
+}

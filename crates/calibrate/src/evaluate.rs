@@ -1,0 +1,127 @@
+//! What a calibration buys, and how it compares with the truth in
+//! simulation: the accuracy maps of spec section 5 before and after, the
+//! identified values against the true ones, and the normalised estimation
+//! error squared (NEES).
+
+use parcal_accuracy::{
+    AccuracyError, AccuracyMap, CanonicalTargets, MapGrid, predicted, true_error_at,
+};
+use parcal_dataset::Dataset;
+use parcal_kinematics::{Geometry, Params, Vec3, params};
+
+use crate::run::{CalibrationRun, ParamCovariance};
+use crate::setup::design_geometry;
+
+/// The true machine of a simulated dataset.
+pub struct Truth {
+    /// As given (truth.json's frames: those of machine.json).
+    pub input: Geometry,
+    /// In its own canonical frames.
+    pub canonical: Geometry,
+    /// Its canonical parameters.
+    pub params: Params,
+    /// True ball centres in the true canonical base frame.
+    pub centres: Vec<Vec3>,
+}
+
+impl Truth {
+    /// The truth of `dataset`, if it has one (`None` for a real machine).
+    pub fn of(dataset: &Dataset) -> Option<Result<Self, parcal_kinematics::KinematicsError>> {
+        let t = dataset.truth.as_ref()?;
+        let input =
+            Geometry::from_arrays(&t.base_joints, &t.platform_joints, &t.tool, &t.leg_lengths);
+        Some(input.canonicalize().map(|canonical| {
+            let centres = t
+                .ball_centres
+                .iter()
+                .map(|c| {
+                    canonical
+                        .base_from_input
+                        .transform_point(&(*c).into())
+                        .coords
+                })
+                .collect();
+            Self {
+                params: params::to_params(&canonical.geometry),
+                canonical: canonical.geometry,
+                input,
+                centres,
+            }
+        }))
+    }
+
+    /// NEES of an estimate: `(p^ - p)^T Sigma^-1 (p^ - p)` (expectation 33
+    /// when the covariance is honest).
+    pub fn nees(&self, estimate: &Params, covariance: &ParamCovariance) -> Option<f64> {
+        let error = estimate - self.params;
+        let information = covariance.cholesky()?.inverse();
+        Some(error.dot(&(information * error)))
+    }
+}
+
+/// The accuracy maps of one parameter set.
+pub struct Accuracy {
+    /// `J_f Sigma_p J_f^T` with the set's covariance (design-mapped targets).
+    pub predicted: AccuracyMap,
+    /// The true machine commanded by the model (simulation only): targets
+    /// placed with the truth's own frame transforms, i.e. the same physical
+    /// grid (spec section 5; the reference implementation's choice).
+    pub true_error: Option<AccuracyMap>,
+}
+
+/// The accuracy maps of `model` with `covariance` on the paper's grid.
+pub fn accuracy(
+    dataset: &Dataset,
+    truth: Option<&Truth>,
+    model: &Params,
+    covariance: &ParamCovariance,
+    grid: &MapGrid,
+) -> Result<Accuracy, AccuracyError> {
+    let design = design_geometry(dataset);
+    let predicted = predicted(&design, model, covariance, grid)?;
+    let true_error = truth
+        .map(|t| {
+            let targets = CanonicalTargets::new(&t.input, grid)?;
+            true_error_at(&targets, model, &t.canonical)
+        })
+        .transpose()?;
+    Ok(Accuracy {
+        predicted,
+        true_error,
+    })
+}
+
+/// Maps before (design with the prior) and after (estimate with the
+/// posterior) a calibration. `before` is `None` without a prior.
+pub struct BeforeAfter {
+    pub before: Option<Accuracy>,
+    pub after: Option<Accuracy>,
+}
+
+/// The accuracy a run buys.
+pub fn before_after(
+    dataset: &Dataset,
+    truth: Option<&Truth>,
+    run: &CalibrationRun,
+    grid: &MapGrid,
+) -> Result<BeforeAfter, AccuracyError> {
+    let before = run
+        .prior
+        .as_ref()
+        .map(|prior| {
+            accuracy(
+                dataset,
+                truth,
+                &run.initial_params,
+                prior.covariance(),
+                grid,
+            )
+        })
+        .transpose()?;
+    let after = run
+        .covariance
+        .as_ref()
+        .map(|covariance| accuracy(dataset, truth, &run.params, covariance, grid))
+        .transpose()?;
+    Ok(BeforeAfter { before, after })
+}

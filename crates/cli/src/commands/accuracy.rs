@@ -1,0 +1,91 @@
+//! `parcal accuracy`: the accuracy maps of spec section 5 as CSV and PNG.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use nalgebra::SMatrix;
+use parcal_accuracy::MapGrid;
+use parcal_calibrate::evaluate::{BeforeAfter, Truth, accuracy};
+use parcal_calibrate::setup::{design_geometry, kinematic_prior};
+use parcal_calibrate::{ParamCovariance, PriorMode};
+use parcal_dataset::{Calibration, Dataset};
+use parcal_kinematics::{N_PARAMS, Params, params};
+use parcal_report::{maps::write_maps, tables};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Dataset directory.
+    dataset: PathBuf,
+    /// A calibration.json to assess (its parameters and posterior covariance);
+    /// without it only the design (before calibration) is assessed.
+    #[arg(long)]
+    calibration: Option<PathBuf>,
+    /// Output directory for accuracy.csv and the PNG maps.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// The parameters and covariance of a calibration.json.
+fn calibrated(path: &PathBuf) -> anyhow::Result<(Params, ParamCovariance)> {
+    let calibration = Calibration::read(path)?;
+    let values = &calibration.parameters.values;
+    anyhow::ensure!(
+        values.len() == N_PARAMS,
+        "{}: expected {N_PARAMS} parameters, found {}",
+        path.display(),
+        values.len()
+    );
+    anyhow::ensure!(
+        calibration.converged && calibration.covariance.len() == N_PARAMS,
+        "{}: the calibration has no posterior covariance (status: {})",
+        path.display(),
+        calibration.status
+    );
+    let covariance = SMatrix::from_fn(|i, j| calibration.covariance[i][j]);
+    Ok((Params::from_column_slice(values), covariance))
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let dataset = Dataset::read(&args.dataset)?;
+    let truth = Truth::of(&dataset)
+        .transpose()
+        .context("truth.json: the true geometry is degenerate")?;
+    let design = design_geometry(&dataset);
+    let design_params = params::to_params(&design.canonicalize().context("machine.json")?.geometry);
+    let prior = kinematic_prior(&dataset, &design, &design_params, PriorMode::Propagated)?
+        .context("machine.json: no prior tolerances")?;
+    let grid = MapGrid::paper();
+    let before = accuracy(
+        &dataset,
+        truth.as_ref(),
+        &design_params,
+        prior.covariance(),
+        &grid,
+    )?;
+    let after = args
+        .calibration
+        .as_ref()
+        .map(|path| -> anyhow::Result<_> {
+            let (p, covariance) = calibrated(path)?;
+            Ok(accuracy(&dataset, truth.as_ref(), &p, &covariance, &grid)?)
+        })
+        .transpose()?;
+    let maps = BeforeAfter {
+        before: Some(before),
+        after,
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let pictures = write_maps(&args.out, "", "accuracy", &maps)?;
+    println!(
+        "{}",
+        tables::accuracy(&[("design (propagated prior) / calibration", &maps)])
+    );
+    println!(
+        "wrote {} and {} PNG maps to {}",
+        args.out.join("accuracy.csv").display(),
+        pictures.len(),
+        args.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,148 @@
+//! `parcal calibrate`: identify the parameters of a dataset, print the
+//! table and the accuracy summary, write calibration.json.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::ValueEnum;
+use parcal_accuracy::MapGrid;
+use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_calibrate::{
+    CalibrationOptions, Method, Observation, PriorMode, Simulation, Weighting, calibrate,
+};
+use parcal_dataset::Dataset;
+use parcal_report::tables;
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Sim {
+    #[value(name = "I")]
+    I,
+    #[value(name = "II")]
+    II,
+    #[value(name = "III")]
+    III,
+    #[value(name = "IV")]
+    IV,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ObservationArg {
+    Radius,
+    Coordinates,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PriorArg {
+    Paper,
+    Propagated,
+    None,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum WeightsArg {
+    Propagated,
+    Diagonal,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Dataset directory.
+    dataset: PathBuf,
+    /// One of the paper's simulations (observation and paper-mode prior);
+    /// --observation and --prior override its parts.
+    #[arg(long, value_enum, ignore_case = true)]
+    sim: Option<Sim>,
+    /// Observation equation: radius (paper eq. 9) or transformed coordinates (eq. 10).
+    #[arg(long, value_enum)]
+    observation: Option<ObservationArg>,
+    /// A priori knowledge (paper eq. 7): the paper's diagonal form, the design
+    /// tolerances propagated to the canonical parameters (default), or none.
+    #[arg(long, value_enum)]
+    prior: Option<PriorArg>,
+    /// Observation weights: repeatabilities propagated through the kinematics, or a plain diagonal.
+    #[arg(long, value_enum, default_value = "propagated")]
+    weights: WeightsArg,
+    /// Levenberg-Marquardt instead of the paper's Gauss-Newton (eq. 5).
+    #[arg(long)]
+    lm: bool,
+    /// Where to write calibration.json (default: DATASET/calibration.json).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+impl Args {
+    fn options(&self) -> CalibrationOptions {
+        let mut options = match self.sim {
+            Some(sim) => CalibrationOptions::simulation(match sim {
+                Sim::I => Simulation::I,
+                Sim::II => Simulation::II,
+                Sim::III => Simulation::III,
+                Sim::IV => Simulation::IV,
+            }),
+            None => CalibrationOptions::default(),
+        };
+        if let Some(observation) = self.observation {
+            options.observation = match observation {
+                ObservationArg::Radius => Observation::Radius,
+                ObservationArg::Coordinates => Observation::Coordinates,
+            };
+        }
+        if let Some(prior) = self.prior {
+            options.prior = match prior {
+                PriorArg::Paper => PriorMode::Paper,
+                PriorArg::Propagated => PriorMode::Propagated,
+                PriorArg::None => PriorMode::None,
+            };
+        }
+        options.weighting = match self.weights {
+            WeightsArg::Propagated => Weighting::Propagated,
+            WeightsArg::Diagonal => Weighting::Diagonal,
+        };
+        if self.lm {
+            options.method = Method::LevenbergMarquardt;
+        }
+        options
+    }
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let dataset = Dataset::read(&args.dataset)?;
+    let options = args.options();
+    eprintln!(
+        "calibrating {} contacts: {} observation, {} prior",
+        dataset.measurements.q.len(),
+        options.observation,
+        options.prior
+    );
+    let started = std::time::Instant::now();
+    let run = calibrate(&dataset, &options, &mut |record| {
+        eprintln!(
+            "  iteration: cost {:.6e}, step {:.3e} ({:.2} s)",
+            record.cost,
+            record.step_norm,
+            started.elapsed().as_secs_f64()
+        )
+    })?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| args.dataset.join("calibration.json"));
+    run.record().write(&out)?;
+
+    let truth = Truth::of(&dataset)
+        .transpose()
+        .context("truth.json: the true geometry is degenerate")?;
+    println!("{}", tables::run_summary(&run, truth.as_ref()));
+    println!("{}", tables::parameters(&run, truth.as_ref()));
+    let maps =
+        before_after(&dataset, truth.as_ref(), &run, &MapGrid::paper()).context("accuracy map")?;
+    println!("accuracy on the plane z = 400 of the design frame, um:\n");
+    println!("{}", tables::accuracy(&[("this calibration", &maps)]));
+    println!("calibration written to {}", out.display());
+    anyhow::ensure!(
+        run.converged(),
+        "the calibration did not converge: {}",
+        run.status_text()
+    );
+    Ok(())
+}

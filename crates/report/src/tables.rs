@@ -1,0 +1,130 @@
+//! Text tables of a calibration (Markdown pipe tables: readable in a
+//! terminal and in report.md).
+
+use std::fmt::Write;
+
+use parcal_calibrate::CalibrationRun;
+use parcal_calibrate::evaluate::{Accuracy, BeforeAfter, Truth};
+use parcal_kinematics::PARAM_NAMES;
+
+/// Parameter, value, sigma and, with a truth, the true value, the error and
+/// error / sigma (paper tables 3 and 4, with truth columns).
+pub fn parameters(run: &CalibrationRun, truth: Option<&Truth>) -> String {
+    let sigmas = run.sigmas();
+    let mut out = String::new();
+    let _ = write!(out, "| parameter | design | identified | sigma |");
+    if truth.is_some() {
+        let _ = write!(out, " true | error | error/sigma |");
+    }
+    out.push('\n');
+    out.push_str(if truth.is_some() {
+        "|---|---:|---:|---:|---:|---:|---:|\n"
+    } else {
+        "|---|---:|---:|---:|\n"
+    });
+    for (k, name) in PARAM_NAMES.iter().enumerate() {
+        let sigma = sigmas.map(|s| s[k]);
+        let _ = write!(
+            out,
+            "| {name} | {:.3} | {:.4} | {} |",
+            run.initial_params[k],
+            run.params[k],
+            sigma.map_or("-".to_string(), |s| format!("{s:.4}"))
+        );
+        if let Some(t) = truth {
+            let error = run.params[k] - t.params[k];
+            let normalised = sigma.map_or("-".to_string(), |s| format!("{:+.2}", error / s));
+            let _ = write!(out, " {:.4} | {error:+.4} | {normalised} |", t.params[k]);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The RMS and max of the maps, um, one row per map.
+pub fn accuracy(rows: &[(&str, &BeforeAfter)]) -> String {
+    let mut out = String::from(
+        "| map | predicted absolute RMS / max | predicted registered RMS / max | true absolute RMS / max | true registered RMS / max |\n|---|---:|---:|---:|---:|\n",
+    );
+    let cell = |summary: parcal_accuracy::MapSummary| {
+        format!("{:.1} / {:.1}", summary.rms * 1e3, summary.max * 1e3)
+    };
+    for (name, maps) in rows {
+        for (when, accuracy) in [("before", &maps.before), ("after", &maps.after)] {
+            let Some(Accuracy {
+                predicted,
+                true_error,
+            }) = accuracy
+            else {
+                continue;
+            };
+            let (true_abs, true_reg) = true_error.as_ref().map_or(("-".into(), "-".into()), |t| {
+                (cell(t.absolute_summary()), cell(t.registered_summary()))
+            });
+            let _ = writeln!(
+                out,
+                "| {name}, {when} | {} | {} | {true_abs} | {true_reg} |",
+                cell(predicted.absolute_summary()),
+                cell(predicted.registered_summary())
+            );
+        }
+    }
+    out
+}
+
+/// Status, iterations, residuals, conditioning and warnings of a run.
+pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "status: {} after {} iterations",
+        run.status_text(),
+        run.history.len().saturating_sub(1)
+    );
+    if let (Some(first), Some(last)) = (run.history.first(), run.history.last()) {
+        let _ = writeln!(
+            out,
+            "weighted |O|: {:.4} -> {:.4} (cost {:.4e} -> {:.4e}); whitened residual RMS {:.3} over {} rows",
+            first.cost.sqrt(),
+            last.cost.sqrt(),
+            first.cost,
+            last.cost,
+            run.residual_rms(),
+            run.residual_rows
+        );
+    }
+    if let Some(condition) = run.condition_number() {
+        let _ = writeln!(
+            out,
+            "condition number of the posterior covariance: {condition:.3e}"
+        );
+    }
+    if let Some(spectrum) = &run.spectrum {
+        for weak in spectrum.weakest.iter().take(2) {
+            let names: Vec<String> = weak
+                .dominant
+                .iter()
+                .map(|(k, c)| format!("{} {:+.2}", PARAM_NAMES[*k], c))
+                .collect();
+            let _ = writeln!(
+                out,
+                "weak direction: eigenvalue {:.3e} (sigma {:.3} mm) along {}",
+                weak.eigenvalue,
+                weak.eigenvalue.sqrt().recip(),
+                names.join(", ")
+            );
+        }
+    }
+    if let (Some(t), Some(covariance)) = (truth, &run.covariance) {
+        if let Some(nees) = t.nees(&run.params, covariance) {
+            let _ = writeln!(
+                out,
+                "NEES against the truth: {nees:.1} (33 expected for an honest covariance)"
+            );
+        }
+    }
+    for warning in run.warnings() {
+        let _ = writeln!(out, "WARNING: {warning}");
+    }
+    out
+}
