@@ -1,0 +1,246 @@
+//! Back-substitution: with `δg` known, every point is linearised again, its
+//! block reduced to `[d_point | d_group | r + d_global δg]` and eliminated
+//! again; the group's triangle gives `δc`, each point's triangle `δp`.
+
+use nalgebra::SVector;
+
+use crate::chunks::{Chunk, ElimBuffers, run_ordered, split_by};
+use crate::context::Context;
+use crate::eliminate::{
+    Failure, GroupRows, Tail, add_matrix_column_norms2, assemble_point, eliminate_point, push_group_prior_and_damping,
+};
+use crate::problem::{Problem, State};
+use crate::qr::{PriorRows, solve_upper_in_place};
+use crate::reduced::ReducedSystem;
+use crate::solution::BlockId;
+
+/// Sums over the unknowns that the iteration needs from a step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct StepSummary {
+    /// `|δ|²`.
+    pub(crate) delta_norm2: f64,
+    /// `|x|²`.
+    pub(crate) state_norm2: f64,
+    /// `bᵀδ`, with `b = Jᵀr + Λ (x − m)` the full gradient (half the gradient
+    /// of the cost).
+    pub(crate) gradient_dot: f64,
+    /// `δᵀ (λ D) δ`, the damping actually applied.
+    pub(crate) damping_quad: f64,
+}
+
+impl StepSummary {
+    fn add(&mut self, o: &StepSummary) {
+        self.delta_norm2 += o.delta_norm2;
+        self.state_norm2 += o.state_norm2;
+        self.gradient_dot += o.gradient_dot;
+        self.damping_quad += o.damping_quad;
+    }
+
+    /// The decrease of the linearised cost model predicted for the step:
+    /// `−2bᵀδ − δᵀHδ = −bᵀδ + δᵀ(λD)δ` since `(H + λD) δ = −b`.
+    pub(crate) fn predicted_decrease(&self) -> f64 {
+        -self.gradient_dot + self.damping_quad
+    }
+}
+
+impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context<'_, G, C, P, R, Pr>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    /// Completes the step `δg` of `system` (built at `state`) to all unknowns
+    /// and writes `δ` into `delta` (same shape as `state`).
+    pub(crate) fn back_substitute(
+        &mut self,
+        state: &State<G, C, P>,
+        system: &ReducedSystem,
+        dg: &SVector<f64, G>,
+        delta: &mut State<G, C, P>,
+    ) -> Result<StepSummary, Failure> {
+        let problem = self.problem;
+        let lambda = system.lambda;
+        let group_slices = split_by(&mut delta.groups, self.chunks.iter().map(|c| c.groups.len()));
+        let point_slices = split_by(&mut delta.points, self.chunks.iter().map(|c| c.points.len()));
+        let (pool, jobs) = self.jobs();
+        let jobs: Vec<_> = jobs
+            .into_iter()
+            .zip(group_slices)
+            .zip(point_slices)
+            .map(|(((chunk, caches), groups), points)| (chunk, caches, groups, points))
+            .collect();
+        let mut total = StepSummary::default();
+        let mut failure = None;
+        run_ordered(
+            jobs,
+            |(chunk, caches, groups, points)| {
+                pool.with(|ws| {
+                    let (bufs, _, point_data) = ws.split();
+                    let out = ChunkOut { groups, points };
+                    back_substitute_chunk::<G, C, P, R, Pr>(
+                        problem, chunk, state, caches, dg, lambda, bufs, point_data, out,
+                    )
+                })
+            },
+            |result| match result {
+                Ok(part) => {
+                    total.add(&part);
+                    true
+                }
+                Err(f) => {
+                    failure.get_or_insert(f);
+                    false
+                }
+            },
+        );
+        if let Some(f) = failure {
+            return Err(f);
+        }
+        // The global block.
+        let mut global = StepSummary {
+            delta_norm2: dg.norm_squared(),
+            state_norm2: state.global.norm_squared(),
+            gradient_dot: 0.0,
+            damping_quad: 0.0,
+        };
+        if let Some(prior) = problem.global_prior() {
+            let e = state.global - prior.mean;
+            for j in 0..G {
+                for i in j..G {
+                    let v = prior.information[(i, j)];
+                    global.gradient_dot += v * e[j] * dg[i];
+                    if i != j {
+                        global.gradient_dot += v * e[i] * dg[j];
+                    }
+                }
+            }
+        }
+        for j in 0..G {
+            global.damping_quad += system.damping[j] * dg[j] * dg[j];
+        }
+        total.add(&global);
+        delta.global = *dg;
+        Ok(total)
+    }
+}
+
+/// Where a chunk writes its `δ`.
+struct ChunkOut<'a, const C: usize, const P: usize> {
+    groups: &'a mut [SVector<f64, C>],
+    points: &'a mut [SVector<f64, P>],
+}
+
+#[allow(clippy::too_many_arguments)]
+fn back_substitute_chunk<const G: usize, const C: usize, const P: usize, const R: usize, Pr>(
+    problem: &Pr,
+    chunk: &Chunk,
+    state: &State<G, C, P>,
+    caches: &mut [Pr::PointCache],
+    dg: &SVector<f64, G>,
+    lambda: f64,
+    bufs: ElimBuffers<'_>,
+    point_data: &mut Vec<f64>,
+    out: ChunkOut<'_, C, P>,
+) -> Result<StepSummary, Failure>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    let ElimBuffers {
+        point: point_buf,
+        group: group_buf,
+        scratch,
+    } = bufs;
+    // Point block [d_point | d_group | t], group rows [d_group | t].
+    let pw = P + C + 1;
+    let gw = C + 1;
+    // Per point: P rows [R_pp⁻¹R_pc | R_pp⁻¹z_p], then b_p, then D_p.
+    let tri = P * gw;
+    let stride = tri + 2 * P;
+    let mut group = GroupRows::<C>::new(group_buf, gw);
+    let mut discard = |_: &[f64]| {};
+    let mut sum = StepSummary::default();
+    for k in chunk.groups.clone() {
+        let c = &state.groups[k];
+        let range = problem.group_points(k);
+        point_data.clear();
+        point_data.resize(range.len() * stride, 0.0);
+        group.reset();
+        let mut raw_norms2 = [0.0; C];
+        let mut b_c = SVector::<f64, C>::zeros();
+        for (j, i) in range.clone().enumerate() {
+            let p = &state.points[i];
+            let lin = problem
+                .linearize(i, &state.global, c, p, &mut caches[i - chunk.points.start])
+                .map_err(|e| Failure::Linearize {
+                    point: i,
+                    message: e.to_string(),
+                })?;
+            if !lin.is_finite() {
+                return Err(Failure::NonFinite { point: i });
+            }
+            let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
+            let mut b_p = lin.d_point.tr_mul(&lin.residual);
+            if let Some(prior) = &prior {
+                b_p += prior.gradient();
+            }
+            b_c += lin.d_group.tr_mul(&lin.residual);
+            sum.gradient_dot += lin.residual.dot(&(lin.d_global * dg));
+            if lambda > 0.0 {
+                add_matrix_column_norms2(&lin.d_group, &mut raw_norms2);
+            }
+            let (rows, d_p) = assemble_point(&lin, Tail::Stepped(dg), prior.as_ref(), lambda, point_buf);
+            if !eliminate_point::<P>(point_buf, rows, pw, scratch) {
+                return Err(Failure::Singular(BlockId::Point(i)));
+            }
+            let entry = &mut point_data[j * stride..(j + 1) * stride];
+            for a in 0..P {
+                entry[a * gw..(a + 1) * gw].copy_from_slice(&point_buf[a * pw + P..(a + 1) * pw]);
+            }
+            solve_upper_in_place(point_buf, pw, P, &mut entry[..tri], gw);
+            entry[tri..tri + P].copy_from_slice(b_p.as_slice());
+            entry[tri + P..].copy_from_slice(d_p.as_slice());
+            for r in P..rows {
+                group
+                    .next_row(scratch, &mut discard)
+                    .copy_from_slice(&point_buf[r * pw + P..(r + 1) * pw]);
+            }
+        }
+        let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
+        if let Some(prior) = &prior {
+            b_c += prior.gradient();
+        }
+        let d_c = push_group_prior_and_damping(&mut group, prior.as_ref(), raw_norms2, lambda, scratch, &mut discard);
+        let top = group
+            .finish(scratch, &mut discard)
+            .ok_or(Failure::Singular(BlockId::Group(k)))?;
+        let mut z = [0.0; C];
+        for (a, z) in z.iter_mut().enumerate() {
+            *z = top[a * gw + C];
+        }
+        solve_upper_in_place(top, gw, C, &mut z, 1);
+        let dc = SVector::<f64, C>::from_fn(|a, _| -z[a]);
+        out.groups[k - chunk.groups.start] = dc;
+        sum.delta_norm2 += dc.norm_squared();
+        sum.state_norm2 += c.norm_squared();
+        sum.gradient_dot += b_c.dot(&dc);
+        sum.damping_quad += lambda * d_c.component_mul(&dc).dot(&dc);
+        for (j, i) in range.enumerate() {
+            let entry = &point_data[j * stride..(j + 1) * stride];
+            let dp = SVector::<f64, P>::from_fn(|a, _| {
+                let row = &entry[a * gw..(a + 1) * gw];
+                let mut v = row[C];
+                for l in 0..C {
+                    v += row[l] * dc[l];
+                }
+                -v
+            });
+            let b_p = SVector::<f64, P>::from_column_slice(&entry[tri..tri + P]);
+            let d_p = SVector::<f64, P>::from_column_slice(&entry[tri + P..]);
+            let p = &state.points[i];
+            out.points[i - chunk.points.start] = dp;
+            sum.delta_norm2 += dp.norm_squared();
+            sum.state_norm2 += p.norm_squared();
+            sum.gradient_dot += b_p.dot(&dp);
+            sum.damping_quad += lambda * d_p.component_mul(&dp).dot(&dp);
+        }
+    }
+    Ok(sum)
+}

@@ -1,0 +1,243 @@
+//! The fixed partition of the groups into chunks, per-thread work buffers,
+//! and the parallel pass over chunks whose results are combined in chunk
+//! order (so that they do not depend on the number of threads).
+
+use std::ops::Range;
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+
+/// Chunks processed in parallel between two in-order reductions; bounds the
+/// memory held by per-chunk results.
+const CHUNKS_PER_WAVE: usize = 64;
+
+/// Rows of the per-thread group buffer (the group QR runs on at most this many
+/// rows at once; more rows are folded in batches).
+const GROUP_BUFFER_ROWS: usize = 256;
+/// Rows of the per-thread buffer of reduced rows, multiplied into the chunk's
+/// reduced matrix by one GEMM when full.
+const CHUNK_BUFFER_ROWS: usize = 2048;
+
+/// A run of whole groups and their points.
+#[derive(Clone, Debug)]
+pub(crate) struct Chunk {
+    pub(crate) groups: Range<usize>,
+    pub(crate) points: Range<usize>,
+}
+
+/// The block sizes of a problem.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Dims {
+    pub(crate) g: usize,
+    pub(crate) c: usize,
+    pub(crate) p: usize,
+    pub(crate) r: usize,
+}
+
+impl Dims {
+    /// Most rows of one point block: data, prior and damping rows.
+    pub(crate) fn point_rows(self) -> usize {
+        self.r + 2 * self.p
+    }
+    /// Width of a point block in the reduced-system pass.
+    pub(crate) fn point_width(self) -> usize {
+        self.p + self.c + self.g + 1
+    }
+    /// Width of a group row in the reduced-system pass.
+    pub(crate) fn group_width(self) -> usize {
+        self.c + self.g + 1
+    }
+    /// Width of a reduced row (global columns and the residual).
+    pub(crate) fn reduced_width(self) -> usize {
+        self.g + 1
+    }
+    /// Capacity of the group buffer: room for the running triangle, a full
+    /// point and the group's prior and damping rows, with plenty to spare.
+    pub(crate) fn group_capacity(self) -> usize {
+        GROUP_BUFFER_ROWS.max(4 * (self.c + self.point_rows()))
+    }
+}
+
+/// Reusable buffers of one thread: nothing is allocated per point.
+pub(crate) struct Workspace {
+    /// One point block, row-major.
+    pub(crate) point: Vec<f64>,
+    /// The group rows being eliminated, row-major.
+    pub(crate) group: Vec<f64>,
+    /// Reduced rows waiting for the GEMM, row-major.
+    pub(crate) reduced: Vec<f64>,
+    /// Householder scratch.
+    pub(crate) scratch: Vec<f64>,
+    /// Back-substitution data of the points of the current group.
+    pub(crate) point_data: Vec<f64>,
+}
+
+impl Workspace {
+    pub(crate) fn new(d: Dims) -> Self {
+        Self {
+            point: vec![0.0; d.point_rows() * d.point_width()],
+            group: vec![0.0; d.group_capacity() * d.group_width()],
+            reduced: vec![0.0; CHUNK_BUFFER_ROWS * d.reduced_width()],
+            scratch: vec![0.0; d.point_width()],
+            point_data: Vec::new(),
+        }
+    }
+
+    /// The buffers of the elimination, the reduced-row buffer and the
+    /// back-substitution data, borrowed separately.
+    pub(crate) fn split(&mut self) -> (ElimBuffers<'_>, &mut [f64], &mut Vec<f64>) {
+        (
+            ElimBuffers {
+                point: &mut self.point,
+                group: &mut self.group,
+                scratch: &mut self.scratch,
+            },
+            &mut self.reduced,
+            &mut self.point_data,
+        )
+    }
+}
+
+/// The buffers the elimination of points and groups works in.
+pub(crate) struct ElimBuffers<'w> {
+    pub(crate) point: &'w mut [f64],
+    pub(crate) group: &'w mut [f64],
+    pub(crate) scratch: &'w mut [f64],
+}
+
+/// A pool of workspaces: a task takes one, uses it, gives it back. At most
+/// one per concurrently running task (so per thread) is ever created.
+pub(crate) struct WorkspacePool {
+    dims: Dims,
+    free: Mutex<Vec<Workspace>>,
+}
+
+impl WorkspacePool {
+    pub(crate) fn new(dims: Dims) -> Self {
+        Self {
+            dims,
+            free: Mutex::new(Vec::new()),
+        }
+    }
+
+    pub(crate) fn with<T>(&self, f: impl FnOnce(&mut Workspace) -> T) -> T {
+        let taken = self.free.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        let mut ws = taken.unwrap_or_else(|| Workspace::new(self.dims));
+        let out = f(&mut ws);
+        self.free.lock().unwrap_or_else(|e| e.into_inner()).push(ws);
+        out
+    }
+}
+
+/// Splits the groups `0..n_groups` into chunks of `groups_per_chunk` groups,
+/// checking that the group ranges partition `0..n_points`.
+pub(crate) fn make_chunks(
+    group_points: impl Fn(usize) -> Range<usize>,
+    n_groups: usize,
+    n_points: usize,
+    groups_per_chunk: usize,
+) -> Result<Vec<Chunk>, String> {
+    if groups_per_chunk == 0 {
+        return Err("groups_per_chunk must be positive".into());
+    }
+    let mut chunks = Vec::with_capacity(n_groups.div_ceil(groups_per_chunk));
+    let mut next = 0;
+    let mut k0 = 0;
+    let mut start = 0;
+    for k in 0..n_groups {
+        let range = group_points(k);
+        if range.start != next || range.end < range.start {
+            return Err(format!(
+                "group {k} has points {range:?}, expected a range starting at {next}"
+            ));
+        }
+        next = range.end;
+        if k + 1 - k0 == groups_per_chunk || k + 1 == n_groups {
+            chunks.push(Chunk {
+                groups: k0..k + 1,
+                points: start..next,
+            });
+            k0 = k + 1;
+            start = next;
+        }
+    }
+    if next != n_points {
+        return Err(format!(
+            "the groups cover points 0..{next} but the state has {n_points} points"
+        ));
+    }
+    Ok(chunks)
+}
+
+/// Splits `items` into consecutive mutable slices of the given lengths.
+pub(crate) fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    let mut out = Vec::new();
+    for len in lengths {
+        let (head, tail) = items.split_at_mut(len);
+        out.push(head);
+        items = tail;
+    }
+    out
+}
+
+/// Runs `work` on every job, in parallel waves of `CHUNKS_PER_WAVE`, and feeds
+/// the results to `absorb` in job order; stops after a wave in which `absorb`
+/// returned `false`. The results given to `absorb`, and so anything it folds,
+/// do not depend on the number of threads.
+pub(crate) fn run_ordered<J, O, W, A>(jobs: Vec<J>, work: W, mut absorb: A)
+where
+    J: Send,
+    O: Send,
+    W: Fn(J) -> O + Sync,
+    A: FnMut(O) -> bool,
+{
+    let mut jobs = jobs.into_iter();
+    loop {
+        let wave: Vec<J> = jobs.by_ref().take(CHUNKS_PER_WAVE).collect();
+        if wave.is_empty() {
+            return;
+        }
+        let results: Vec<O> = wave.into_par_iter().map(&work).collect();
+        let mut go_on = true;
+        for r in results {
+            go_on &= absorb(r);
+        }
+        if !go_on {
+            return;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_partition_groups() {
+        let sizes = [3usize, 0, 2, 5, 1];
+        let starts: Vec<usize> = sizes
+            .iter()
+            .scan(0, |s, &n| {
+                let a = *s;
+                *s += n;
+                Some(a)
+            })
+            .collect();
+        let chunks = make_chunks(|k| starts[k]..starts[k] + sizes[k], 5, 11, 2).unwrap();
+        let got: Vec<_> = chunks.iter().map(|c| (c.groups.clone(), c.points.clone())).collect();
+        assert_eq!(got, vec![(0..2, 0..3), (2..4, 3..10), (4..5, 10..11)]);
+        assert!(make_chunks(|k| starts[k]..starts[k] + sizes[k], 5, 12, 2).is_err());
+        assert!(make_chunks(|k| k..k + 2, 3, 6, 2).is_err());
+        assert!(make_chunks(|k| k..k + 1, 3, 3, 0).is_err());
+    }
+
+    #[test]
+    fn ordered_run_keeps_job_order() {
+        let mut seen = Vec::new();
+        run_ordered((0..200).collect(), |j: usize| j * 2, |o| {
+            seen.push(o);
+            true
+        });
+        assert_eq!(seen, (0..200).map(|j| j * 2).collect::<Vec<_>>());
+    }
+}

@@ -1,0 +1,55 @@
+//! What stays fixed during a run: the problem, its chunking, the per-point
+//! caches and the per-thread workspaces.
+
+use crate::chunks::{Chunk, Dims, WorkspacePool, make_chunks, split_by};
+use crate::problem::{Problem, State};
+
+/// The chunks, each with the caches of its points.
+pub(crate) type Jobs<'c, T> = Vec<(&'c Chunk, &'c mut [T])>;
+
+/// The solver's view of a problem during one run.
+pub(crate) struct Context<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    pub(crate) problem: &'a Pr,
+    pub(crate) chunks: Vec<Chunk>,
+    pub(crate) dims: Dims,
+    pub(crate) pool: WorkspacePool,
+    pub(crate) caches: Vec<Pr::PointCache>,
+}
+
+impl<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context<'a, G, C, P, R, Pr>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    /// Checks the problem's structure against `state` and sets up the run.
+    pub(crate) fn new(problem: &'a Pr, state: &State<G, C, P>, groups_per_chunk: usize) -> Result<Self, String> {
+        let n_groups = problem.n_groups();
+        if state.groups.len() != n_groups {
+            return Err(format!(
+                "the problem has {n_groups} groups but the state {}",
+                state.groups.len()
+            ));
+        }
+        let chunks = make_chunks(|k| problem.group_points(k), n_groups, state.points.len(), groups_per_chunk)?;
+        if !state.is_finite() {
+            return Err("the initial state is not finite".into());
+        }
+        let caches = (0..state.points.len()).map(|i| problem.initial_cache(i)).collect();
+        let dims = Dims { g: G, c: C, p: P, r: R };
+        Ok(Self {
+            problem,
+            chunks,
+            dims,
+            pool: WorkspacePool::new(dims),
+            caches,
+        })
+    }
+
+    /// The workspace pool, and the chunks with their slices of the caches.
+    pub(crate) fn jobs(&mut self) -> (&WorkspacePool, Jobs<'_, Pr::PointCache>) {
+        let slices = split_by(&mut self.caches, self.chunks.iter().map(|c| c.points.len()));
+        (&self.pool, self.chunks.iter().zip(slices).collect())
+    }
+}

@@ -1,0 +1,152 @@
+//! Spectrum of the reduced `G × G` matrix: condition number and the
+//! near-singular directions of the global parameters.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::evd::{self, ComputeEigenvectors};
+use faer::{Mat, Par};
+
+/// Eigenvalues at most this fraction of the largest are always reported as
+/// weak directions.
+const WEAK_RELATIVE: f64 = 1e-10;
+/// At least this many of the smallest eigenvalues are reported.
+const MIN_WEAK: usize = 3;
+/// A weak direction's dominant indices cover at least this fraction of its
+/// squared norm…
+const DOMINANT_COVERAGE: f64 = 0.9;
+/// …with at most this many indices.
+const MAX_DOMINANT: usize = 6;
+
+/// Eigen-decomposition summary of the reduced matrix (the Schur complement of
+/// the normal matrix onto the global block, i.e. the information of the
+/// global parameters).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpectrumDiagnostics {
+    /// All eigenvalues, ascending. Empty if the eigen-decomposition failed.
+    pub eigenvalues: Vec<f64>,
+    /// The weakest directions, weakest first: the `MIN_WEAK` (3) smallest
+    /// eigenvalues, and any further ones below `1e-10 ×` the largest.
+    pub weakest: Vec<WeakDirection>,
+}
+
+/// One eigenvector of the reduced matrix with a small eigenvalue.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WeakDirection {
+    /// Its eigenvalue.
+    pub eigenvalue: f64,
+    /// Global indices with the largest `|component|` of the unit eigenvector,
+    /// descending, with the component's value: the fewest that cover ≥ 90 % of
+    /// its squared norm, at most 6.
+    pub dominant: Vec<(usize, f64)>,
+}
+
+impl SpectrumDiagnostics {
+    /// Decomposes the symmetric `n × n` matrix given row-major (both
+    /// triangles filled).
+    pub fn of_symmetric(matrix: &[f64], n: usize) -> Self {
+        assert_eq!(matrix.len(), n * n, "matrix must be n × n");
+        let a = Mat::<f64>::from_fn(n, n, |i, j| matrix[i * n + j]);
+        let mut u = Mat::<f64>::zeros(n, n);
+        let mut s = faer::diag::Diag::<f64>::zeros(n);
+        let mut mem = MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
+            n,
+            ComputeEigenvectors::Yes,
+            Par::Seq,
+            Default::default(),
+        ));
+        let ok = evd::self_adjoint_evd(
+            a.as_ref(),
+            s.as_mut(),
+            Some(u.as_mut()),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .is_ok();
+        if !ok {
+            return Self {
+                eigenvalues: Vec::new(),
+                weakest: Vec::new(),
+            };
+        }
+        let mut order: Vec<usize> = (0..n).collect();
+        let values: Vec<f64> = (0..n).map(|j| s[j]).collect();
+        order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+        let eigenvalues: Vec<f64> = order.iter().map(|&j| values[j]).collect();
+        let largest = eigenvalues.last().copied().unwrap_or(0.0).max(0.0);
+        let weakest = order
+            .iter()
+            .enumerate()
+            .take_while(|&(rank, &j)| rank < MIN_WEAK || values[j] <= WEAK_RELATIVE * largest)
+            .map(|(_, &j)| {
+                let v: Vec<f64> = (0..n).map(|i| u[(i, j)]).collect();
+                WeakDirection {
+                    eigenvalue: values[j],
+                    dominant: dominant_components(&v),
+                }
+            })
+            .collect();
+        Self {
+            eigenvalues,
+            weakest,
+        }
+    }
+
+    /// `λ_max / λ_min`; infinite if the smallest eigenvalue is not positive,
+    /// NaN if there are no eigenvalues.
+    pub fn condition_number(&self) -> f64 {
+        match (self.eigenvalues.first(), self.eigenvalues.last()) {
+            (Some(&lo), Some(&hi)) if lo > 0.0 => hi / lo,
+            (Some(_), Some(_)) => f64::INFINITY,
+            _ => f64::NAN,
+        }
+    }
+}
+
+/// The fewest largest-magnitude components covering `DOMINANT_COVERAGE` of
+/// the squared norm, at most `MAX_DOMINANT`.
+fn dominant_components(v: &[f64]) -> Vec<(usize, f64)> {
+    let total: f64 = v.iter().map(|x| x * x).sum();
+    let mut idx: Vec<usize> = (0..v.len()).collect();
+    idx.sort_by(|&a, &b| v[b].abs().total_cmp(&v[a].abs()).then(a.cmp(&b)));
+    let mut out = Vec::new();
+    let mut covered = 0.0;
+    for i in idx {
+        if out.len() == MAX_DOMINANT || covered >= DOMINANT_COVERAGE * total {
+            break;
+        }
+        covered += v[i] * v[i];
+        out.push((i, v[i]));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diagonal_matrix_spectrum_and_weak_direction() {
+        let n = 4;
+        let mut m = vec![0.0; n * n];
+        let diag = [5.0, 0.0, 2.0, 7.0];
+        for (i, d) in diag.iter().enumerate() {
+            m[i * n + i] = *d;
+        }
+        let s = SpectrumDiagnostics::of_symmetric(&m, n);
+        for (got, want) in s.eigenvalues.iter().zip([0.0, 2.0, 5.0, 7.0]) {
+            assert!((got - want).abs() < 1e-12, "{:?}", s.eigenvalues);
+        }
+        assert_eq!(s.weakest.len(), 3);
+        assert_eq!(s.weakest[0].dominant.len(), 1);
+        assert_eq!(s.weakest[0].dominant[0].0, 1);
+        assert_eq!(s.weakest[1].dominant[0].0, 2);
+        assert!(s.condition_number().is_infinite());
+    }
+
+    #[test]
+    fn dominant_covers_ninety_percent() {
+        let v = [0.1, -0.7, 0.1, 0.7, 0.0];
+        let d = dominant_components(&v);
+        assert_eq!(d.iter().map(|x| x.0).collect::<Vec<_>>(), vec![1, 3]);
+    }
+}

@@ -1,0 +1,351 @@
+//! The iteration: Gauss–Newton (full steps) or Levenberg–Marquardt (damped,
+//! gain-ratio acceptance, Nielsen's `λ` update), and the final evaluation
+//! (covariance, group sigmas, spectrum).
+
+use std::mem::swap;
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::context::Context;
+use crate::diagnostics::SpectrumDiagnostics;
+use crate::eliminate::Failure;
+use crate::options::{Method, SolverOptions};
+use crate::problem::{Problem, State};
+use crate::reduced::{ReducedSystem, ScaledCholesky};
+use crate::solution::{IterationRecord, Solution, Status};
+
+/// LM gives up when `λ` grows beyond this.
+const MAX_LAMBDA: f64 = 1e32;
+
+/// Solves the problem from `initial`; `observer` sees every history record
+/// as it is made. Never panics on bad numerics; see [`Status`] for how a run
+/// can end, and [`Solution`] for what is returned.
+pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr: Problem<G, C, P, R>>(
+    problem: &Pr,
+    initial: State<G, C, P>,
+    options: &SolverOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Solution<G, C, P> {
+    let invalid = |state, message: String| Solution {
+        state,
+        status: Status::InvalidProblem { message },
+        history: Vec::new(),
+        covariance: None,
+        group_sigmas: None,
+        spectrum: None,
+    };
+    if let Method::LevenbergMarquardt { initial_lambda } = options.method
+        && !(initial_lambda > 0.0 && initial_lambda <= MAX_LAMBDA)
+    {
+        return invalid(initial, format!("initial_lambda must be in (0, 1e32], got {initial_lambda}"));
+    }
+    match Context::new(problem, &initial, options.groups_per_chunk) {
+        Ok(ctx) => Run {
+            ctx,
+            options,
+            observer,
+            history: Vec::new(),
+        }
+        .run(initial),
+        Err(message) => invalid(initial, message),
+    }
+}
+
+/// `a += b`.
+fn add_into<const G: usize, const C: usize, const P: usize>(a: &mut State<G, C, P>, b: &State<G, C, P>) {
+    a.global += b.global;
+    for (x, y) in a.groups.iter_mut().zip(&b.groups) {
+        *x += y;
+    }
+    for (x, y) in a.points.iter_mut().zip(&b.points) {
+        *x += y;
+    }
+}
+
+/// One linear step of the Schur solver, as [`linear_step`] returns it.
+#[derive(Clone, Debug)]
+pub struct LinearStep<const G: usize, const C: usize, const P: usize> {
+    /// The step `δ`, laid out like the state.
+    pub delta: State<G, C, P>,
+    /// The cost at the state.
+    pub cost: f64,
+    /// The decrease of the linearised cost predicted for `δ`
+    /// (`−2bᵀδ − δᵀHδ`, priors included).
+    pub predicted_decrease: f64,
+}
+
+/// One step of the Schur solver at `state`, with Marquardt damping `lambda`
+/// (0: the Gauss–Newton step): `(H + λD) δ = −b`, without applying it. Meant
+/// for checks against [`dense_reference`](crate::dense_reference). Fails with
+/// the [`Status`] that [`solve`] would end with at this point.
+pub fn linear_step<const G: usize, const C: usize, const P: usize, const R: usize, Pr: Problem<G, C, P, R>>(
+    problem: &Pr,
+    state: &State<G, C, P>,
+    lambda: f64,
+    groups_per_chunk: usize,
+) -> Result<LinearStep<G, C, P>, Status> {
+    let failed = |f: Failure| match f {
+        Failure::Linearize { point, message } => Status::ProblemFailed {
+            iteration: 0,
+            point,
+            message,
+        },
+        Failure::NonFinite { point } => Status::ProblemFailed {
+            iteration: 0,
+            point,
+            message: "non-finite residual or Jacobian".into(),
+        },
+        Failure::Singular(block) => Status::SingularBlock { iteration: 0, block },
+    };
+    let mut ctx = Context::new(problem, state, groups_per_chunk).map_err(|message| Status::InvalidProblem { message })?;
+    let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
+    let factor = ScaledCholesky::new(&system.matrix, G).ok_or_else(|| Status::Singular {
+        iteration: 0,
+        diagnostics: Box::new(SpectrumDiagnostics::of_symmetric(&system.matrix, G)),
+    })?;
+    let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
+    let dg = SVector::<f64, G>::from_vec(factor.solve(&neg_b));
+    let mut delta = state.clone();
+    let summary = ctx.back_substitute(state, &system, &dg, &mut delta).map_err(failed)?;
+    Ok(LinearStep {
+        delta,
+        cost: system.cost(),
+        predicted_decrease: summary.predicted_decrease(),
+    })
+}
+
+struct Run<'o, 'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    ctx: Context<'a, G, C, P, R, Pr>,
+    options: &'o SolverOptions,
+    observer: &'o mut dyn FnMut(&IterationRecord),
+    history: Vec<IterationRecord>,
+}
+
+impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Run<'_, '_, G, C, P, R, Pr>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    fn record(&mut self, system: &ReducedSystem, step_norm: f64, lambda: f64, accepted: bool) {
+        let record = IterationRecord {
+            cost: system.cost(),
+            data_cost: system.data_cost,
+            prior_cost: system.prior_cost,
+            step_norm,
+            lambda,
+            accepted,
+        };
+        (self.observer)(&record);
+        self.history.push(record);
+    }
+
+    fn end(self, state: State<G, C, P>, status: Status) -> Solution<G, C, P> {
+        Solution {
+            state,
+            status,
+            history: self.history,
+            covariance: None,
+            group_sigmas: None,
+            spectrum: None,
+        }
+    }
+
+    /// Ends the run at `state` because a pass over the points failed after
+    /// `solves` linear solves.
+    fn fail(self, state: State<G, C, P>, solves: usize, failure: Failure) -> Solution<G, C, P> {
+        let status = match failure {
+            Failure::Linearize { point, message } => Status::ProblemFailed {
+                iteration: solves,
+                point,
+                message,
+            },
+            Failure::NonFinite { point } if solves == 0 => Status::ProblemFailed {
+                iteration: 0,
+                point,
+                message: "non-finite residual or Jacobian".into(),
+            },
+            Failure::NonFinite { point } => Status::Diverged {
+                iteration: solves,
+                reason: format!("non-finite residual or Jacobian at point {point}"),
+            },
+            Failure::Singular(block) => Status::SingularBlock {
+                iteration: solves,
+                block,
+            },
+        };
+        self.end(state, status)
+    }
+
+    fn diverged(self, state: State<G, C, P>, solves: usize, reason: String) -> Solution<G, C, P> {
+        self.end(
+            state,
+            Status::Diverged {
+                iteration: solves,
+                reason,
+            },
+        )
+    }
+
+    fn run(mut self, initial: State<G, C, P>) -> Solution<G, C, P> {
+        let options = self.options;
+        let damped = match options.method {
+            Method::GaussNewton => None,
+            Method::LevenbergMarquardt { initial_lambda } => Some(initial_lambda),
+        };
+        let mut lambda = damped.unwrap_or(0.0);
+        let mut nu = 2.0;
+        let mut x = initial;
+        let mut trial = x.clone();
+        let mut system = match self.ctx.reduce(&x, lambda) {
+            Ok(s) => s,
+            Err(f) => return self.fail(x, 0, f),
+        };
+        let initial_cost = system.cost();
+        if !initial_cost.is_finite() {
+            return self.diverged(x, 0, format!("initial cost is {initial_cost}"));
+        }
+        loop {
+            let solves = self.history.len();
+            if solves >= options.max_iterations {
+                return self.finish(x, system, Status::IterationLimit);
+            }
+            if !system.is_finite() {
+                return self.diverged(x, solves, "non-finite reduced system".into());
+            }
+            let Some(factor) = ScaledCholesky::new(&system.matrix, G) else {
+                if damped.is_none() {
+                    let diagnostics = SpectrumDiagnostics::of_symmetric(&system.matrix, G);
+                    self.record(&system, 0.0, 0.0, true);
+                    let mut solution = self.end(
+                        x,
+                        Status::Singular {
+                            iteration: solves,
+                            diagnostics: Box::new(diagnostics.clone()),
+                        },
+                    );
+                    solution.spectrum = Some(diagnostics);
+                    return solution;
+                }
+                // LM: numerically not positive definite despite the damping.
+                self.record(&system, 0.0, lambda, false);
+                lambda *= nu;
+                nu *= 2.0;
+                if lambda > MAX_LAMBDA {
+                    return self.diverged(x, solves + 1, format!("damping λ exceeded {MAX_LAMBDA:e}"));
+                }
+                system = match self.ctx.reduce(&x, lambda) {
+                    Ok(s) => s,
+                    Err(f) => return self.fail(x, solves + 1, f),
+                };
+                continue;
+            };
+            let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
+            let dg = SVector::<f64, G>::from_vec(factor.solve(&neg_b));
+            let summary = match self.ctx.back_substitute(&x, &system, &dg, &mut trial) {
+                Ok(s) => s,
+                Err(f) => return self.fail(x, solves, f),
+            };
+            add_into(&mut trial, &x);
+            let step_norm = summary.delta_norm2.sqrt();
+            let finite_step = step_norm.is_finite() && trial.is_finite();
+            if !finite_step && damped.is_none() {
+                self.record(&system, step_norm, lambda, false);
+                return self.diverged(x, solves + 1, format!("non-finite step (|δ| = {step_norm})"));
+            }
+            let converged = finite_step && step_norm / (summary.state_norm2.sqrt() + 1.0) < options.step_tolerance;
+            if damped.is_none() || converged {
+                // Gauss–Newton, or the converged step of either method: take it.
+                self.record(&system, step_norm, lambda, true);
+                let next = match self.ctx.reduce(&trial, 0.0) {
+                    Ok(s) => s,
+                    Err(f) => return self.fail(x, solves + 1, f),
+                };
+                let cost = next.cost();
+                if !cost.is_finite() || cost > options.divergence_ratio * initial_cost {
+                    return self.diverged(
+                        x,
+                        solves + 1,
+                        format!(
+                            "cost {cost:e} exceeds {:e} × initial cost {initial_cost:e}",
+                            options.divergence_ratio
+                        ),
+                    );
+                }
+                swap(&mut x, &mut trial);
+                system = next;
+                if converged {
+                    return self.finish(x, system, Status::Converged);
+                }
+                continue;
+            }
+            // Levenberg–Marquardt: evaluate the trial point, building its
+            // system with the damping a very good step would get next.
+            let lambda_good = lambda * (1.0 / 3.0);
+            let predicted = summary.predicted_decrease();
+            let next = if finite_step {
+                self.ctx.reduce(&trial, lambda_good).ok()
+            } else {
+                None
+            };
+            let gain = match &next {
+                Some(n) if n.cost().is_finite() && predicted > 0.0 => (system.cost() - n.cost()) / predicted,
+                _ => f64::NAN,
+            };
+            if gain > 0.0 {
+                self.record(&system, step_norm, lambda, true);
+                swap(&mut x, &mut trial);
+                let new_lambda = lambda * (1.0 / 3.0f64).max(1.0 - (2.0 * gain - 1.0).powi(3));
+                nu = 2.0;
+                system = match next {
+                    Some(n) if new_lambda == lambda_good => n,
+                    _ => match self.ctx.reduce(&x, new_lambda) {
+                        Ok(s) => s,
+                        Err(f) => return self.fail(x, solves + 1, f),
+                    },
+                };
+                lambda = new_lambda;
+            } else {
+                self.record(&system, step_norm, lambda, false);
+                lambda *= nu;
+                nu *= 2.0;
+                if lambda > MAX_LAMBDA {
+                    return self.diverged(x, solves + 1, format!("damping λ exceeded {MAX_LAMBDA:e}"));
+                }
+                system = match self.ctx.reduce(&x, lambda) {
+                    Ok(s) => s,
+                    Err(f) => return self.fail(x, solves + 1, f),
+                };
+            }
+        }
+    }
+
+    /// The final record, covariance, group sigmas and spectrum at `state`.
+    fn finish(mut self, state: State<G, C, P>, mut system: ReducedSystem, status: Status) -> Solution<G, C, P> {
+        let solves = self.history.len();
+        if system.lambda > 0.0 {
+            system = match self.ctx.reduce(&state, 0.0) {
+                Ok(s) => s,
+                Err(f) => return self.fail(state, solves, f),
+            };
+        }
+        self.record(&system, 0.0, 0.0, true);
+        let spectrum = system
+            .is_finite()
+            .then(|| SpectrumDiagnostics::of_symmetric(&system.matrix, G));
+        let covariance = system
+            .is_finite()
+            .then(|| ScaledCholesky::new(&system.matrix, G))
+            .flatten()
+            .map(|f| SMatrix::<f64, G, G>::from_row_slice(&f.inverse()));
+        let group_sigmas = covariance
+            .as_ref()
+            .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok());
+        let mut solution = self.end(state, status);
+        solution.covariance = covariance;
+        solution.group_sigmas = group_sigmas;
+        solution.spectrum = spectrum;
+        solution
+    }
+}

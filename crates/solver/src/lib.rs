@@ -1,0 +1,187 @@
+//! Sparse nonlinear least squares with three levels of unknowns, eliminated
+//! by a Schur complement in square-root (QR) form, in the manner of bundle
+//! adjustment. The crate knows nothing about hexapods.
+//!
+//! # The problem
+//!
+//! The unknowns are one dense **global** block `g ∈ Rᴳ`, one **group** block
+//! `c_k ∈ Rᶜ` per group `k`, and one **point** block `p_i ∈ Rᴾ` per point `i`
+//! (`P` may be 0); each point belongs to exactly one group `k(i)`, and the
+//! points of a group are contiguous. Point `i` has `R` whitened residual rows
+//! `r_i(g, c_k(i), p_i)`. The cost is
+//!
+//! ```text
+//! F(x) = Σ_i |r_i|²  +  Σ_blocks (x_b − m_b)ᵀ Λ_b (x_b − m_b)
+//! ```
+//!
+//! with optional Gaussian priors (mean `m_b`, full information `Λ_b`) on the
+//! global block, on each group block and on each point block. A prior is a
+//! set of extra rows `U_b (x_b − m_b)` with `U_bᵀU_b = Λ_b`, stacked under
+//! the Jacobian. The Gauss–Newton step (Sato et al. 2004, eq. 5) solves
+//!
+//! ```text
+//! (JᵀJ + Λ) δ = −(Jᵀr + Λ (x − m)),     x ← x + δ.
+//! ```
+//!
+//! # Block structure
+//!
+//! Two groups, points 0–1 in group 0 and 2–3 in group 1 (`·` is zero):
+//!
+//! ```text
+//!            p0   p1   p2   p3 │ c0   c1 │  g
+//!   r0    [ P0    ·    ·    ·  │ C0    · │ G0 ]
+//!   r1    [  ·   P1    ·    ·  │ C1    · │ G1 ]
+//!   r2    [  ·    ·   P2    ·  │  ·   C2 │ G2 ]
+//!   r3    [  ·    ·    ·   P3  │  ·   C3 │ G3 ]
+//! ```
+//!
+//! Point columns are block-diagonal, group columns block-diagonal over the
+//! groups, and the global columns dense. Eliminating points, then groups,
+//! leaves a small dense `G × G` system.
+//!
+//! # Elimination in square-root form
+//!
+//! Nothing is formed as a normal matrix except the final `G × G` one; all
+//! eliminations are orthogonal transformations of rows (cf. Demmel et al.,
+//! "Square Root Bundle Adjustment", CVPR 2021; Ceres'
+//! `SchurEliminatorForOneFBlock`).
+//!
+//! 1. **Point.** The rows `[P_i | C_i | G_i | r_i]` of point `i` (plus its
+//!    prior rows `[U_p | 0 | 0 | U_p(p−m_p)]`, plus damping rows) get a
+//!    Householder QR on the `P` point columns:
+//!
+//!    ```text
+//!    Qᵢᵀ [P_i C_i G_i r_i] = [ R_pp  R_pc  R_pg  z_p ]   back-substitution rows (P)
+//!                            [  0    A_c   A_g   a   ]   point-eliminated rows
+//!    ```
+//!
+//! 2. **Group.** The point-eliminated rows of all points of group `k` (plus
+//!    the group prior and damping rows) get a QR on the `C` group columns:
+//!
+//!    ```text
+//!    Q_kᵀ [A_c A_g a] = [ R_cc  R_cg  z_c ]   back-substitution rows (C)
+//!                       [  0    B_g   β   ]   reduced rows
+//!    ```
+//!
+//! 3. **Reduced system.** As the `Q`s are orthogonal, the reduced rows of all
+//!    groups satisfy `Σ [B_g β]ᵀ[B_g β] = [S b; bᵀ ρ]`, where `S` is the Schur
+//!    complement of the normal matrix onto the global block,
+//!    `S = H_gg − H_g,cp H_cp,cp⁻¹ H_cp,g`, and `b` the reduced gradient. `S`
+//!    and `b` come from one GEMM per buffer of reduced rows. The global prior
+//!    is added (`S += Λ_g`, `b += Λ_g(g − m_g)`) and `S δg = −b` is solved by
+//!    a Cholesky factorisation of `S` scaled to unit diagonal.
+//!
+//! 4. **Back-substitution.** A second pass linearises every point again
+//!    (its [`Problem::PointCache`] makes this cheap), folds the now known
+//!    `δg` into the residual column and repeats the small QRs; then
+//!    `R_cc δc = −(z_c + R_cg δg)` and `R_pp δp = −(z_p + R_pc δc + R_pg δg)`.
+//!
+//! 5. **Covariance** (after the last iterate, undamped): `Cov(g) = S⁻¹`, and
+//!    the full marginal covariance of each group,
+//!    `Cov(c_k) = R_cc⁻¹R_cc⁻ᵀ + K Cov(g) Kᵀ` with `K = R_cc⁻¹R_cg`, from one
+//!    more pass that recomputes the groups' triangles.
+//!
+//! # Levenberg–Marquardt
+//!
+//! [`Method::LevenbergMarquardt`] solves `(H + λD) δ = −b` with Marquardt's
+//! scaling `D = clamp(diag H, 1e-6, 1e32)` (diagonal of the full normal
+//! matrix, priors included; the clamp as in Ceres, so that a parameter no
+//! residual sees is still damped). The damping enters as extra rows
+//! `√(λ D_j) e_j` at each level: in each point block, in each group block
+//! (with `D` of the group summed over its points' raw Jacobians), and on the
+//! diagonal of `S`. The predicted decrease is `−bᵀδ + δᵀ(λD)δ`, accumulated
+//! during back-substitution; the step is accepted if the cost decreases
+//! (gain ratio `ρ > 0`), and `λ` follows Nielsen: `λ·max(1/3, 1 − (2ρ−1)³)`
+//! on acceptance, `λ·ν, ν ← 2ν` on rejection. The trial point is evaluated by
+//! building its reduced system with `λ/3`, which is what Nielsen's rule gives
+//! for a very good step (`ρ ≥ 0.94`): then an accepted step costs two passes
+//! over the points, otherwise (a weaker step, or a rejection) one more.
+//! A failed or non-finite evaluation at a trial point counts as a rejection.
+//! Gauss–Newton takes the full step, with no line search, and may diverge.
+//!
+//! # Parallelism, determinism, memory
+//!
+//! Groups are cut into chunks of [`SolverOptions::groups_per_chunk`]. Chunks
+//! run in parallel (rayon); each reduces its rows into its own partial
+//! `(G+1)²` matrix with fixed-size buffers (a group is folded in batches of
+//! at most 256 rows, reduced rows are multiplied in batches of 2048), and the
+//! partial results are summed sequentially in chunk order. Hence results are
+//! bit-identical for any number of threads. Nothing is allocated per point:
+//! each thread reuses its workspace (a few hundred kB). Per point the solver
+//! keeps only the point's cache, its value and its trial value
+//! (`2 · 8P` bytes + `size_of::<PointCache>()`); Jacobians are never stored
+//! across passes. During back-substitution a thread holds `8(P(C+3))` bytes
+//! per point of the group it is working on.
+//!
+//! # Example
+//!
+//! Points measured on circles of one common unknown radius (`G = 1`), with
+//! unknown centres (`C = 2`), no point unknowns (`P = 0`), one row per point
+//! (`R = 1`: distance to the centre minus the radius):
+//!
+//! ```
+//! use nalgebra::{SMatrix, SVector, Vector1, Vector2};
+//! use parcal_solver::{solve, Linearization, Problem, SolverOptions, State, Status};
+//!
+//! struct Circles { points: Vec<Vector2<f64>>, per_circle: usize }
+//!
+//! impl Problem<1, 2, 0, 1> for Circles {
+//!     type PointCache = ();
+//!     type Error = std::convert::Infallible;
+//!     fn n_groups(&self) -> usize { self.points.len() / self.per_circle }
+//!     fn group_points(&self, k: usize) -> std::ops::Range<usize> {
+//!         k * self.per_circle..(k + 1) * self.per_circle
+//!     }
+//!     fn initial_cache(&self, _i: usize) {}
+//!     fn linearize(&self, i: usize, radius: &Vector1<f64>, centre: &Vector2<f64>,
+//!                  _p: &SVector<f64, 0>, _cache: &mut ()) -> Result<Linearization<1, 2, 0, 1>, Self::Error> {
+//!         let d = self.points[i] - centre;
+//!         let n = d.norm();
+//!         Ok(Linearization {
+//!             residual: Vector1::new(n - radius[0]),
+//!             d_global: Vector1::new(-1.0),
+//!             d_group: (-d / n).transpose(),
+//!             d_point: SMatrix::zeros(),
+//!         })
+//!     }
+//! }
+//!
+//! let centres = [Vector2::new(0.0, 0.0), Vector2::new(5.0, 1.0)];
+//! let points = centres.iter().flat_map(|c| {
+//!     (0..5).map(move |j| c + 2.0 * Vector2::new((1.3 * j as f64).cos(), (1.3 * j as f64).sin()))
+//! }).collect();
+//! let problem = Circles { points, per_circle: 5 };
+//! let initial = State {
+//!     global: Vector1::new(1.5),
+//!     groups: vec![Vector2::new(0.3, -0.2), Vector2::new(4.6, 1.2)],
+//!     points: vec![SVector::zeros(); 10],
+//! };
+//! let solution = solve(&problem, initial, &SolverOptions::default(), &mut |_| {});
+//! assert_eq!(solution.status, Status::Converged);
+//! assert!((solution.state.global[0] - 2.0).abs() < 1e-9);
+//! assert!((solution.state.groups[1] - centres[1]).norm() < 1e-9);
+//! assert!(solution.covariance.is_some());
+//! ```
+
+// Dense kernels read best with index loops over several arrays at once.
+#![allow(clippy::needless_range_loop)]
+
+mod backsub;
+mod chunks;
+mod context;
+mod covariance;
+pub mod dense_reference;
+mod diagnostics;
+mod eliminate;
+mod iterate;
+mod options;
+mod problem;
+mod qr;
+mod reduced;
+mod solution;
+
+pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
+pub use iterate::{LinearStep, linear_step, solve};
+pub use options::{Method, SolverOptions};
+pub use problem::{GaussianPrior, Linearization, Problem, State};
+pub use solution::{BlockId, IterationRecord, Solution, Status};

@@ -1,0 +1,52 @@
+//! How the solver iterates.
+
+/// The iteration.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Method {
+    /// Plain Gauss–Newton (Sato et al. 2004, eq. 5): the full step of the
+    /// normal equations, no damping, no line search. It may diverge, and is
+    /// allowed to. The default.
+    #[default]
+    GaussNewton,
+    /// Levenberg–Marquardt with Marquardt's diagonal scaling: the normal
+    /// matrix `H` is replaced by `H + λ·D`, `D = clamp(diag H, 1e-6, 1e32)`,
+    /// the damping applied as extra rows at every level (point, group,
+    /// global). Steps are accepted on a cost decrease; `λ` follows Nielsen's
+    /// rule.
+    LevenbergMarquardt {
+        /// The starting `λ` (dimensionless thanks to the diagonal scaling;
+        /// `1e-4`…`1e-2` is typical).
+        initial_lambda: f64,
+    },
+}
+
+/// Iteration control.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolverOptions {
+    /// Gauss–Newton or Levenberg–Marquardt.
+    pub method: Method,
+    /// Maximum number of linear solves (for LM, rejected steps count too).
+    /// Zero evaluates the initial state only (cost, covariance, spectrum).
+    pub max_iterations: usize,
+    /// Converged when `|δ| / (|x| + 1) < step_tolerance`, norms over all
+    /// unknowns.
+    pub step_tolerance: f64,
+    /// Diverged when the cost exceeds `divergence_ratio × initial cost`.
+    pub divergence_ratio: f64,
+    /// Groups per unit of parallel work. The partial reduced systems are
+    /// summed in chunk order, so results depend on this number but not on the
+    /// number of threads.
+    pub groups_per_chunk: usize,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::GaussNewton,
+            max_iterations: 50,
+            step_tolerance: 1e-10,
+            divergence_ratio: 1e6,
+            groups_per_chunk: 64,
+        }
+    }
+}

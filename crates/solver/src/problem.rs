@@ -1,0 +1,163 @@
+//! What a caller implements: the residual blocks of one point, the optional
+//! Gaussian priors, and the state the solver iterates on.
+
+use std::ops::Range;
+
+use nalgebra::{SMatrix, SVector};
+
+/// The whitened residual of one point and its Jacobians with respect to the
+/// three blocks of unknowns it depends on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Linearization<const G: usize, const C: usize, const P: usize, const R: usize> {
+    /// Whitened residual `r_i` (already multiplied by the square root of the
+    /// measurement information).
+    pub residual: SVector<f64, R>,
+    /// `∂r_i/∂g`.
+    pub d_global: SMatrix<f64, R, G>,
+    /// `∂r_i/∂c_k(i)`.
+    pub d_group: SMatrix<f64, R, C>,
+    /// `∂r_i/∂p_i`.
+    pub d_point: SMatrix<f64, R, P>,
+}
+
+impl<const G: usize, const C: usize, const P: usize, const R: usize> Linearization<G, C, P, R> {
+    /// All-zero residual and Jacobians, to be filled in.
+    pub fn zeros() -> Self {
+        Self {
+            residual: SVector::zeros(),
+            d_global: SMatrix::zeros(),
+            d_group: SMatrix::zeros(),
+            d_point: SMatrix::zeros(),
+        }
+    }
+
+    /// Whether every entry is finite.
+    pub fn is_finite(&self) -> bool {
+        self.residual.iter().all(|v| v.is_finite())
+            && self.d_global.iter().all(|v| v.is_finite())
+            && self.d_group.iter().all(|v| v.is_finite())
+            && self.d_point.iter().all(|v| v.is_finite())
+    }
+}
+
+/// A Gaussian prior `N(mean, information⁻¹)` on one block of unknowns; it adds
+/// `(x − mean)ᵀ · information · (x − mean)` to the cost.
+///
+/// The information matrix must be symmetric positive semi-definite (a zero
+/// eigenvalue means "no information in that direction"). Only its lower
+/// triangle is read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GaussianPrior<const N: usize> {
+    /// Prior mean.
+    pub mean: SVector<f64, N>,
+    /// Prior information (inverse covariance), full `N × N`.
+    pub information: SMatrix<f64, N, N>,
+}
+
+impl<const N: usize> GaussianPrior<N> {
+    /// A prior from its mean and full information matrix.
+    pub fn new(mean: SVector<f64, N>, information: SMatrix<f64, N, N>) -> Self {
+        Self { mean, information }
+    }
+
+    /// An independent prior: information `diag(1/σ²)`. An infinite σ gives
+    /// zero information for that coordinate.
+    pub fn from_sigmas(mean: SVector<f64, N>, sigmas: SVector<f64, N>) -> Self {
+        let information = SMatrix::from_diagonal(&sigmas.map(|s| 1.0 / (s * s)));
+        Self { mean, information }
+    }
+
+    /// The prior's cost `(x − mean)ᵀ · information · (x − mean)`, reading the
+    /// lower triangle only.
+    pub fn cost(&self, x: &SVector<f64, N>) -> f64 {
+        let e = x - self.mean;
+        let mut total = 0.0;
+        for j in 0..N {
+            total += self.information[(j, j)] * e[j] * e[j];
+            for i in j + 1..N {
+                total += 2.0 * self.information[(i, j)] * e[i] * e[j];
+            }
+        }
+        total
+    }
+}
+
+/// A least-squares problem with one global block (`G` unknowns), `n_groups`
+/// group blocks (`C` unknowns each) and one point block (`P` unknowns) per
+/// point; point `i` has `R` whitened residual rows that depend on the global
+/// block, its group's block and its own block only.
+///
+/// Points are numbered `0..n_points`; the points of group `k` are the
+/// contiguous range [`group_points(k)`](Problem::group_points), and the ranges
+/// of groups `0, 1, …` follow each other without gaps, starting at 0.
+pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize>: Sync {
+    /// Per-point state kept by the solver between evaluations (e.g. a warm
+    /// start of an inner iteration). The solver keeps one per point for the
+    /// whole run and hands it to every [`linearize`](Problem::linearize) of
+    /// that point.
+    type PointCache: Clone + Send + Sync;
+    /// The error a linearisation can fail with.
+    type Error: std::error::Error + Send + Sync + 'static;
+
+    /// Number of groups.
+    fn n_groups(&self) -> usize;
+
+    /// Points of group `k`: contiguous, groups in order partition `0..n_points`.
+    fn group_points(&self, k: usize) -> Range<usize>;
+
+    /// The cache of point `i` before its first linearisation.
+    fn initial_cache(&self, i: usize) -> Self::PointCache;
+
+    /// Residual and Jacobians of point `i` at the given values of its blocks.
+    /// Called from several threads at once (for different points).
+    fn linearize(
+        &self,
+        i: usize,
+        global: &SVector<f64, G>,
+        group: &SVector<f64, C>,
+        point: &SVector<f64, P>,
+        cache: &mut Self::PointCache,
+    ) -> Result<Linearization<G, C, P, R>, Self::Error>;
+
+    /// Prior on the global block.
+    fn global_prior(&self) -> Option<&GaussianPrior<G>> {
+        None
+    }
+
+    /// Prior on the block of group `k`.
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<C>> {
+        let _ = k;
+        None
+    }
+
+    /// Prior on the block of point `i`.
+    fn point_prior(&self, i: usize) -> Option<GaussianPrior<P>> {
+        let _ = i;
+        None
+    }
+}
+
+/// Values of all unknowns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State<const G: usize, const C: usize, const P: usize> {
+    /// The global block.
+    pub global: SVector<f64, G>,
+    /// One block per group.
+    pub groups: Vec<SVector<f64, C>>,
+    /// One block per point.
+    pub points: Vec<SVector<f64, P>>,
+}
+
+impl<const G: usize, const C: usize, const P: usize> State<G, C, P> {
+    /// Whether every value is finite.
+    pub fn is_finite(&self) -> bool {
+        self.global.iter().all(|v| v.is_finite())
+            && self.groups.iter().all(|c| c.iter().all(|v| v.is_finite()))
+            && self.points.iter().all(|p| p.iter().all(|v| v.is_finite()))
+    }
+
+    /// Total number of unknowns.
+    pub fn n_unknowns(&self) -> usize {
+        G + C * self.groups.len() + P * self.points.len()
+    }
+}

@@ -1,0 +1,213 @@
+//! Small dense kernels on row-major row blocks: Householder QR of the leading
+//! columns, upper-triangular solves, and the square root of a prior's
+//! information matrix.
+
+use nalgebra::{SMatrix, SVector};
+
+/// Relative size below which a diagonal entry of a triangular factor counts as
+/// zero: `|R_jj| ≤ RANK_TOLERANCE · |column j|` means column `j` depends on
+/// the columns before it.
+pub(crate) const RANK_TOLERANCE: f64 = 1e-10;
+
+/// Householder QR of the leading `k` columns of the `m × n` row-major block
+/// `a` (row stride `n`); the reflections are applied to all `n` columns.
+///
+/// Afterwards rows `0..min(m, k)` hold the upper-triangular factor in columns
+/// `0..k` (and the transformed trailing columns), and rows `k..m` are exactly
+/// zero in columns `0..k`. `w` is scratch of length ≥ `n`. The reflections
+/// are orthogonal, so sums of squares of every column (and `AᵀA` of the whole
+/// block) are preserved.
+pub(crate) fn householder_rows(a: &mut [f64], m: usize, n: usize, k: usize, w: &mut [f64]) {
+    debug_assert!(a.len() >= m * n && w.len() >= n && k <= n);
+    for j in 0..k.min(m) {
+        let (head, tail) = a[..m * n].split_at_mut((j + 1) * n);
+        let pivot_row = &mut head[j * n..];
+        let mut sigma = 0.0;
+        for row in tail.chunks_exact(n) {
+            sigma += row[j] * row[j];
+        }
+        if sigma == 0.0 {
+            continue;
+        }
+        let alpha = pivot_row[j];
+        let norm = (alpha * alpha + sigma).sqrt();
+        let beta = if alpha > 0.0 { -norm } else { norm };
+        // H = I − τ v vᵀ with v = (1, x₁…/(α − β)), H x = β e₁.
+        let tau = (beta - alpha) / beta;
+        let inv = 1.0 / (alpha - beta);
+        let w = &mut w[j + 1..n];
+        w.copy_from_slice(&pivot_row[j + 1..n]);
+        for row in tail.chunks_exact_mut(n) {
+            row[j] *= inv;
+            let v = row[j];
+            for (wc, x) in w.iter_mut().zip(&row[j + 1..n]) {
+                *wc += v * x;
+            }
+        }
+        for wc in w.iter_mut() {
+            *wc *= tau;
+        }
+        for (x, wc) in pivot_row[j + 1..n].iter_mut().zip(w.iter()) {
+            *x -= wc;
+        }
+        for row in tail.chunks_exact_mut(n) {
+            let v = row[j];
+            for (x, wc) in row[j + 1..n].iter_mut().zip(w.iter()) {
+                *x -= v * wc;
+            }
+            row[j] = 0.0;
+        }
+        pivot_row[j] = beta;
+    }
+}
+
+/// Squared norms of the leading `k` columns of the `m × n` row-major block,
+/// added to `out[0..k]`.
+pub(crate) fn add_column_norms2(a: &[f64], m: usize, n: usize, k: usize, out: &mut [f64]) {
+    for row in a[..m * n].chunks_exact(n) {
+        for (o, x) in out[..k].iter_mut().zip(&row[..k]) {
+            *o += x * x;
+        }
+    }
+}
+
+/// Whether the triangular factor left by [`householder_rows`] in the leading
+/// `k` columns of the `m`-row block `a` (row stride `n`) has full rank
+/// relative to the squared column norms `norms2` taken before the
+/// factorisation.
+pub(crate) fn triangle_has_full_rank(a: &[f64], m: usize, n: usize, k: usize, norms2: &[f64]) -> bool {
+    if m < k {
+        return false;
+    }
+    (0..k).all(|j| {
+        let d = a[j * n + j].abs();
+        norms2[j] > 0.0 && d > RANK_TOLERANCE * norms2[j].sqrt()
+    })
+}
+
+/// Solves `U x = y` in place (`y` → `x`) for the upper-triangular `k × k`
+/// matrix in the leading columns of the row-major block `u` (row stride `n`).
+/// `y` has `k` rows of `cols` values each, row-major (stride `cols`).
+pub(crate) fn solve_upper_in_place(u: &[f64], n: usize, k: usize, y: &mut [f64], cols: usize) {
+    for j in (0..k).rev() {
+        let (head, tail) = y.split_at_mut((j + 1) * cols);
+        let yj = &mut head[j * cols..];
+        for l in j + 1..k {
+            let ujl = u[j * n + l];
+            for (a, b) in yj.iter_mut().zip(&tail[(l - j - 1) * cols..(l - j) * cols]) {
+                *a -= ujl * b;
+            }
+        }
+        let inv = 1.0 / u[j * n + j];
+        for a in yj.iter_mut() {
+            *a *= inv;
+        }
+    }
+}
+
+/// An upper-triangular `U` with `UᵀU = information`, from a Cholesky
+/// factorisation that tolerates semi-definite matrices: a pivot that is not
+/// positive (relative to the largest diagonal entry) leaves its row of `U`
+/// zero, which is exact for a positive semi-definite matrix (its Schur
+/// complements are semi-definite, so a zero pivot has a zero column below
+/// it). Negative information is thereby treated as zero. Reads the lower
+/// triangle only.
+pub(crate) fn information_sqrt<const N: usize>(information: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+    let scale = (0..N).map(|j| information[(j, j)].abs()).fold(0.0, f64::max);
+    let mut l = SMatrix::<f64, N, N>::zeros();
+    for j in 0..N {
+        let mut d = information[(j, j)];
+        for k in 0..j {
+            d -= l[(j, k)] * l[(j, k)];
+        }
+        if d.is_nan() || d <= 1e-14 * scale {
+            continue;
+        }
+        let ljj = d.sqrt();
+        l[(j, j)] = ljj;
+        for i in j + 1..N {
+            let mut x = information[(i, j)];
+            for k in 0..j {
+                x -= l[(i, k)] * l[(j, k)];
+            }
+            l[(i, j)] = x / ljj;
+        }
+    }
+    l.transpose()
+}
+
+/// The prior rows of one block at `x`: the square root `U` of the information
+/// and the whitened prior residual `e = U (x − mean)`, with `|e|²` the prior
+/// cost.
+pub(crate) struct PriorRows<const N: usize> {
+    pub(crate) sqrt: SMatrix<f64, N, N>,
+    pub(crate) residual: SVector<f64, N>,
+}
+
+impl<const N: usize> PriorRows<N> {
+    pub(crate) fn new(prior: &crate::GaussianPrior<N>, x: &SVector<f64, N>) -> Self {
+        let sqrt = information_sqrt(&prior.information);
+        let residual = sqrt * (x - prior.mean);
+        Self { sqrt, residual }
+    }
+
+    /// `Uᵀ e = information · (x − mean)`: the prior's part of the gradient.
+    pub(crate) fn gradient(&self) -> SVector<f64, N> {
+        self.sqrt.tr_mul(&self.residual)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+    }
+
+    #[test]
+    fn householder_preserves_gram_matrix_and_zeroes_leading_columns() {
+        let (m, n, k) = (7, 5, 3);
+        let mut seed = 1;
+        let a0: Vec<f64> = (0..m * n).map(|_| lcg(&mut seed)).collect();
+        let mut a = a0.clone();
+        let mut w = vec![0.0; n];
+        householder_rows(&mut a, m, n, k, &mut w);
+        for i in 0..n {
+            for j in 0..n {
+                let g0: f64 = (0..m).map(|r| a0[r * n + i] * a0[r * n + j]).sum();
+                let g1: f64 = (0..m).map(|r| a[r * n + i] * a[r * n + j]).sum();
+                assert!((g0 - g1).abs() < 1e-14, "{g0} {g1}");
+            }
+        }
+        for r in 0..m {
+            for j in 0..k.min(r) {
+                assert_eq!(a[r * n + j], 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn upper_solve_inverts() {
+        // U = [[2, 1], [0, 4]], y = [[3, 1], [8, 0]] → x = [[0.5, 0.5], [2, 0]]
+        let u = [2.0, 1.0, 9.0, 0.0, 4.0, 9.0];
+        let mut y = [3.0, 1.0, 8.0, 0.0];
+        solve_upper_in_place(&u, 3, 2, &mut y, 2);
+        assert_eq!(y, [0.5, 0.5, 2.0, 0.0]);
+    }
+
+    #[test]
+    fn information_sqrt_of_definite_and_semidefinite() {
+        let a = SMatrix::<f64, 3, 3>::new(4.0, 2.0, 0.0, 2.0, 5.0, 1.0, 0.0, 1.0, 3.0);
+        let u = information_sqrt(&a);
+        assert!((u.transpose() * u - a).norm() < 1e-14);
+        let v = SVector::<f64, 3>::new(1.0, -2.0, 0.5);
+        let b = v * v.transpose();
+        let u = information_sqrt(&b);
+        assert!((u.transpose() * u - b).norm() < 1e-14);
+        let z = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::<f64, 3>::new(1.0, 0.0, 2.0));
+        let u = information_sqrt(&z);
+        assert!((u.transpose() * u - z).norm() < 1e-14);
+    }
+}

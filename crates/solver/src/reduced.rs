@@ -1,0 +1,294 @@
+//! The reduced system on the global block: the chunks' partial matrices
+//! summed in chunk order, the global prior and damping added, and its
+//! Cholesky factorisation.
+
+use nalgebra::SVector;
+
+use crate::chunks::run_ordered;
+use crate::context::Context;
+use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk};
+use crate::problem::{Problem, State};
+
+/// `S δg = −b` on the global block, with the cost at the state it was built
+/// at.
+#[derive(Clone, Debug)]
+pub(crate) struct ReducedSystem {
+    /// `S`: `G × G`, row-major, symmetric; the global prior information and
+    /// the damping `λ D_g` included.
+    pub(crate) matrix: Vec<f64>,
+    /// `b`: the reduced gradient, the global prior's `Λ_g (g − m_g)` included.
+    pub(crate) rhs: Vec<f64>,
+    /// `λ D_g`, the damping added to the diagonal of `S` (zeros if undamped).
+    pub(crate) damping: Vec<f64>,
+    /// `Σ |r_i|²`.
+    pub(crate) data_cost: f64,
+    /// All prior terms.
+    pub(crate) prior_cost: f64,
+    /// The damping `λ` of the whole system.
+    pub(crate) lambda: f64,
+}
+
+impl ReducedSystem {
+    pub(crate) fn cost(&self) -> f64 {
+        self.data_cost + self.prior_cost
+    }
+
+    /// Whether `S` and `b` are finite.
+    pub(crate) fn is_finite(&self) -> bool {
+        self.matrix.iter().chain(&self.rhs).all(|v| v.is_finite())
+    }
+}
+
+/// What one chunk contributes.
+struct ChunkPart {
+    /// `(G + 1)²`, column-major; lower triangle of `[S b; bᵀ ρ]`.
+    normal: Vec<f64>,
+    data_cost: f64,
+    prior_cost: f64,
+    global_norms2: Vec<f64>,
+}
+
+impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context<'_, G, C, P, R, Pr>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    /// Linearises every point at `state` and builds the reduced system with
+    /// damping `lambda` (0: Gauss–Newton / undamped).
+    pub(crate) fn reduce(&mut self, state: &State<G, C, P>, lambda: f64) -> Result<ReducedSystem, Failure> {
+        let w = G + 1;
+        let dims = self.dims;
+        let problem = self.problem;
+        let mut total = vec![0.0; w * w];
+        let mut global_norms2 = vec![0.0; G];
+        let (mut data_cost, mut prior_cost) = (0.0, 0.0);
+        let mut failure = None;
+        let (pool, jobs) = self.jobs();
+        run_ordered(
+            jobs,
+            |(chunk, caches)| {
+                pool.with(|ws| {
+                    let (bufs, rows, _) = ws.split();
+                    let mut part = ChunkPart {
+                        normal: vec![0.0; w * w],
+                        data_cost: 0.0,
+                        prior_cost: 0.0,
+                        global_norms2: vec![0.0; if lambda > 0.0 { G } else { 0 }],
+                    };
+                    let mut sink = NormalSink::new(rows, w, &mut part.normal);
+                    let gn = (lambda > 0.0).then_some(&mut part.global_norms2[..]);
+                    let costs =
+                        eliminate_chunk::<G, C, P, R, _, _>(problem, chunk, state, caches, lambda, dims, bufs, gn, &mut sink)?;
+                    sink.flush();
+                    part.data_cost = costs.data;
+                    part.prior_cost = costs.prior;
+                    Ok(part)
+                })
+            },
+            |result: Result<ChunkPart, Failure>| match result {
+                Ok(part) => {
+                    if failure.is_none() {
+                        for (t, x) in total.iter_mut().zip(&part.normal) {
+                            *t += x;
+                        }
+                        for (t, x) in global_norms2.iter_mut().zip(&part.global_norms2) {
+                            *t += x;
+                        }
+                        data_cost += part.data_cost;
+                        prior_cost += part.prior_cost;
+                    }
+                    true
+                }
+                Err(f) => {
+                    failure.get_or_insert(f);
+                    false
+                }
+            },
+        );
+        if let Some(f) = failure {
+            return Err(f);
+        }
+        // Lower triangle (column-major) → symmetric row-major S; last row → b.
+        let mut matrix = vec![0.0; G * G];
+        let mut rhs = vec![0.0; G];
+        for j in 0..G {
+            for i in j..G {
+                let v = total[j * w + i];
+                matrix[i * G + j] = v;
+                matrix[j * G + i] = v;
+            }
+            rhs[j] = total[j * w + G];
+        }
+        if let Some(prior) = problem.global_prior() {
+            let e: SVector<f64, G> = state.global - prior.mean;
+            for j in 0..G {
+                for i in j..G {
+                    let v = prior.information[(i, j)];
+                    matrix[i * G + j] += v;
+                    if i != j {
+                        matrix[j * G + i] += v;
+                    }
+                    rhs[i] += v * e[j];
+                    if i != j {
+                        rhs[j] += v * e[i];
+                    }
+                }
+                global_norms2[j] += if lambda > 0.0 { prior.information[(j, j)] } else { 0.0 };
+            }
+            prior_cost += prior.cost(&state.global);
+        }
+        let mut damping = vec![0.0; G];
+        if lambda > 0.0 {
+            for j in 0..G {
+                damping[j] = lambda * damping_diagonal(global_norms2[j]);
+                matrix[j * G + j] += damping[j];
+            }
+        }
+        Ok(ReducedSystem {
+            matrix,
+            rhs,
+            damping,
+            data_cost,
+            prior_cost,
+            lambda,
+        })
+    }
+}
+
+/// Pivots of the Jacobi-scaled matrix (unit diagonal) at or below this count
+/// as zero: the reduced matrix is then treated as singular.
+pub(crate) const PIVOT_TOLERANCE: f64 = 1e-13;
+
+/// Cholesky factorisation `D^{-1/2} S D^{-1/2} = L Lᵀ` of a symmetric matrix
+/// scaled to unit diagonal (`D = diag S`), so that the pivot test is
+/// independent of the units of the parameters.
+pub(crate) struct ScaledCholesky {
+    n: usize,
+    /// `1/√S_jj`.
+    scale: Vec<f64>,
+    /// `L`, row-major, lower triangle.
+    l: Vec<f64>,
+}
+
+impl ScaledCholesky {
+    /// Factorises the row-major symmetric `n × n` matrix; `None` unless it is
+    /// numerically positive definite (a non-positive diagonal entry, or a
+    /// scaled pivot ≤ [`PIVOT_TOLERANCE`]).
+    pub(crate) fn new(a: &[f64], n: usize) -> Option<Self> {
+        let mut scale = vec![0.0; n];
+        for j in 0..n {
+            let d = a[j * n + j];
+            if !(d > 0.0 && d.is_finite()) {
+                return None;
+            }
+            scale[j] = 1.0 / d.sqrt();
+        }
+        let mut l = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..=i {
+                l[i * n + j] = a[i * n + j] * scale[i] * scale[j];
+            }
+        }
+        for j in 0..n {
+            let mut d = l[j * n + j];
+            for k in 0..j {
+                d -= l[j * n + k] * l[j * n + k];
+            }
+            if d.is_nan() || d <= PIVOT_TOLERANCE {
+                return None;
+            }
+            let ljj = d.sqrt();
+            l[j * n + j] = ljj;
+            for i in j + 1..n {
+                let mut x = l[i * n + j];
+                for k in 0..j {
+                    x -= l[i * n + k] * l[j * n + k];
+                }
+                l[i * n + j] = x / ljj;
+            }
+        }
+        Some(Self { n, scale, l })
+    }
+
+    /// `S⁻¹ b`.
+    pub(crate) fn solve(&self, b: &[f64]) -> Vec<f64> {
+        let n = self.n;
+        let mut y: Vec<f64> = b.iter().zip(&self.scale).map(|(b, s)| b * s).collect();
+        for i in 0..n {
+            let mut x = y[i];
+            for k in 0..i {
+                x -= self.l[i * n + k] * y[k];
+            }
+            y[i] = x / self.l[i * n + i];
+        }
+        for i in (0..n).rev() {
+            let mut x = y[i];
+            for k in i + 1..n {
+                x -= self.l[k * n + i] * y[k];
+            }
+            y[i] = x / self.l[i * n + i];
+        }
+        for (y, s) in y.iter_mut().zip(&self.scale) {
+            *y *= s;
+        }
+        y
+    }
+
+    /// `S⁻¹`, row-major, symmetrised.
+    pub(crate) fn inverse(&self) -> Vec<f64> {
+        let n = self.n;
+        let mut inv = vec![0.0; n * n];
+        let mut e = vec![0.0; n];
+        for j in 0..n {
+            e.fill(0.0);
+            e[j] = 1.0;
+            let col = self.solve(&e);
+            for i in 0..n {
+                inv[i * n + j] = col[i];
+            }
+        }
+        for i in 0..n {
+            for j in 0..i {
+                let v = 0.5 * (inv[i * n + j] + inv[j * n + i]);
+                inv[i * n + j] = v;
+                inv[j * n + i] = v;
+            }
+        }
+        inv
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaled_cholesky_solves_and_inverts_badly_scaled_matrix() {
+        // S = D^{1/2} M D^{1/2} with M well conditioned, D spanning 1e-8..1e8.
+        let n = 3;
+        let m = [4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0];
+        let d: [f64; 3] = [1e8, 1.0, 1e-8];
+        let s: Vec<f64> = (0..9).map(|k| m[k] * (d[k / 3] * d[k % 3]).sqrt()).collect();
+        let f = ScaledCholesky::new(&s, n).unwrap();
+        let x_true = [1e-4, 2.0, -3e4];
+        let b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| s[i * n + j] * x_true[j]).sum()).collect();
+        let x = f.solve(&b);
+        for i in 0..n {
+            assert!((x[i] - x_true[i]).abs() <= 1e-12 * x_true[i].abs());
+        }
+        let inv = f.inverse();
+        for i in 0..n {
+            for j in 0..n {
+                let p: f64 = (0..n).map(|k| s[i * n + k] * inv[k * n + j]).sum();
+                assert!((p - f64::from(u8::from(i == j))).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn scaled_cholesky_rejects_singular() {
+        assert!(ScaledCholesky::new(&[1.0, 0.0, 0.0, 0.0], 2).is_none());
+        assert!(ScaledCholesky::new(&[1.0, 1.0, 1.0, 1.0], 2).is_none());
+        assert!(ScaledCholesky::new(&[1.0, 2.0, 2.0, 1.0], 2).is_none());
+        assert!(ScaledCholesky::new(&[f64::NAN, 0.0, 0.0, 1.0], 2).is_none());
+    }
+}

@@ -1,0 +1,113 @@
+//! What the solver returns.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::diagnostics::SpectrumDiagnostics;
+use crate::problem::State;
+
+/// One line of the residual history.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IterationRecord {
+    /// Total cost at the iterate before the step (`data_cost + prior_cost`).
+    pub cost: f64,
+    /// `Σ |r_i|²`.
+    pub data_cost: f64,
+    /// Sum of the prior terms.
+    pub prior_cost: f64,
+    /// `|δ|` over all unknowns of the step computed at this iterate (0 for the
+    /// final iterate).
+    pub step_norm: f64,
+    /// The damping `λ` of the step (0 for Gauss–Newton).
+    pub lambda: f64,
+    /// Whether the step was taken. Always true for Gauss–Newton; a rejected
+    /// Levenberg–Marquardt step leaves the iterate unchanged, and the next
+    /// record has the same cost with a larger `λ`.
+    pub accepted: bool,
+}
+
+/// Which small block was found singular.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockId {
+    /// The block of this point.
+    Point(usize),
+    /// The block of this group (after eliminating its points).
+    Group(usize),
+}
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Status {
+    /// The step tolerance was met; the last step was applied.
+    Converged,
+    /// `max_iterations` linear solves without convergence.
+    IterationLimit,
+    /// The cost became non-finite or exceeded `divergence_ratio × initial`,
+    /// a step or linearisation became non-finite, or (LM) the damping grew
+    /// without bound. `iteration` is the index of the iterate at which this
+    /// was found.
+    Diverged {
+        /// Iterate index.
+        iteration: usize,
+        /// What happened, with numbers.
+        reason: String,
+    },
+    /// Gauss–Newton: the reduced `G × G` matrix is not numerically positive
+    /// definite at this iterate.
+    Singular {
+        /// Iterate index.
+        iteration: usize,
+        /// Spectrum of the reduced matrix and its weakest directions.
+        diagnostics: Box<SpectrumDiagnostics>,
+    },
+    /// Gauss–Newton: a point block, or a group block after eliminating its
+    /// points, has (numerically) dependent columns at this iterate: that
+    /// point's or group's unknowns are not determined by its residuals and
+    /// priors.
+    SingularBlock {
+        /// Iterate index.
+        iteration: usize,
+        /// The block.
+        block: BlockId,
+    },
+    /// The problem's `linearize` returned an error (at iterate 0 also: a
+    /// non-finite residual or Jacobian).
+    ProblemFailed {
+        /// Iterate index.
+        iteration: usize,
+        /// The point (the smallest failing index).
+        point: usize,
+        /// The error's message.
+        message: String,
+    },
+    /// The problem's structure does not match the initial state (group ranges
+    /// not a partition, wrong numbers of blocks, non-finite initial values,
+    /// zero `groups_per_chunk`). Nothing was evaluated.
+    InvalidProblem {
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// The result of [`solve`](crate::solve).
+#[derive(Clone, Debug)]
+pub struct Solution<const G: usize, const C: usize, const P: usize> {
+    /// The last iterate whose cost was evaluated and acceptable (finite; never
+    /// NaN).
+    pub state: State<G, C, P>,
+    /// How the run ended.
+    pub status: Status,
+    /// One record per linear solve, and one for the final iterate
+    /// (`step_norm` 0) when the run ends at an evaluated iterate.
+    pub history: Vec<IterationRecord>,
+    /// Inverse of the undamped reduced matrix at the final state (the marginal
+    /// covariance of the global block, given unit-variance whitened
+    /// residuals); `None` if it is not positive definite or the run did not
+    /// end with `Converged` or `IterationLimit`.
+    pub covariance: Option<SMatrix<f64, G, G>>,
+    /// Marginal standard deviations of each group block (including the global
+    /// uncertainty); present whenever `covariance` is.
+    pub group_sigmas: Option<Vec<SVector<f64, C>>>,
+    /// Spectrum of the undamped reduced matrix at the final state: for
+    /// `Converged`, `IterationLimit` and `Singular`.
+    pub spectrum: Option<SpectrumDiagnostics>,
+}

@@ -1,0 +1,405 @@
+//! Synthetic three-level test problems: spheres of known radius with unknown
+//! centres (groups, C = 3), touched at points measured through a smooth
+//! nonlinear distortion with 8 unknown parameters (the global block).
+//!
+//! * [`Touches`]: P = 2 (the touch's two angles on the sphere), R = 3 (the
+//!   measured point minus the distorted model point).
+//! * [`Distances`]: P = 0, R = 1 (distance of the corrected measurement to
+//!   the centre, minus the radius).
+#![allow(dead_code)]
+
+use std::fmt;
+use std::ops::Range;
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
+use parcal_solver::{GaussianPrior, Linearization, Problem, State};
+
+pub const G: usize = 8;
+
+/// splitmix64 with Box–Muller normals.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.uniform()
+    }
+    pub fn normal(&mut self) -> f64 {
+        let u1 = self.uniform().max(1e-300);
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+    pub fn vector<const N: usize>(&mut self, scale: f64) -> SVector<f64, N> {
+        SVector::from_fn(|_, _| scale * self.normal())
+    }
+    /// A random symmetric positive definite information matrix.
+    pub fn information<const N: usize>(&mut self, scale: f64) -> SMatrix<f64, N, N> {
+        let a = SMatrix::<f64, N, N>::from_fn(|_, _| self.normal());
+        scale * (a * a.transpose() + SMatrix::identity() * 0.5)
+    }
+}
+
+/// The linear part `E(g)` of the distortion `D(y) = (I + E) y + g6 |y|² y +
+/// g7 (y_x² + y_y²) e_z`.
+fn linear_part(g: &SVector<f64, G>) -> Matrix3<f64> {
+    Matrix3::new(g[0], g[3], 0.0, 0.0, g[1], g[4], g[5], 0.0, g[2])
+}
+
+/// `D(y; g)`, `∂D/∂y` and `∂D/∂g`; parameter `unseen` (if any) is ignored by
+/// the model.
+pub fn distort(y: &Vector3<f64>, g: &SVector<f64, G>, unseen: Option<usize>) -> (Vector3<f64>, Matrix3<f64>, SMatrix<f64, 3, G>) {
+    let mut g = *g;
+    if let Some(j) = unseen {
+        g[j] = 0.0;
+    }
+    let n2 = y.norm_squared();
+    let bowl = y.x * y.x + y.y * y.y;
+    let d = y + linear_part(&g) * y + g[6] * n2 * y + Vector3::new(0.0, 0.0, g[7] * bowl);
+    let mut dy = Matrix3::identity() + linear_part(&g) + g[6] * (n2 * Matrix3::identity() + 2.0 * y * y.transpose());
+    dy[(2, 0)] += 2.0 * g[7] * y.x;
+    dy[(2, 1)] += 2.0 * g[7] * y.y;
+    let mut dg = SMatrix::<f64, 3, G>::zeros();
+    dg[(0, 0)] = y.x;
+    dg[(1, 1)] = y.y;
+    dg[(2, 2)] = y.z;
+    dg[(0, 3)] = y.y;
+    dg[(1, 4)] = y.z;
+    dg[(2, 5)] = y.x;
+    dg.set_column(6, &(n2 * y));
+    dg[(2, 7)] = bowl;
+    if let Some(j) = unseen {
+        dg.set_column(j, &Vector3::zeros());
+    }
+    (d, dy, dg)
+}
+
+/// Unit vector at angles `(θ, φ)` and its derivatives.
+pub fn direction(p: &Vector2<f64>) -> (Vector3<f64>, SMatrix<f64, 3, 2>) {
+    let (st, ct) = p[0].sin_cos();
+    let (sp, cp) = p[1].sin_cos();
+    let u = Vector3::new(ct * cp, st * cp, sp);
+    let du = SMatrix::<f64, 3, 2>::new(-st * cp, -ct * sp, ct * cp, -st * sp, 0.0, cp);
+    (u, du)
+}
+
+/// An injected failure: `linearize` of `point` fails from its `call`-th call
+/// on (counted by the point's cache, starting at 0).
+#[derive(Clone, Copy, Debug)]
+pub struct Fail {
+    pub point: usize,
+    pub call: u32,
+}
+
+#[derive(Debug)]
+pub struct TestError(pub String);
+
+impl fmt::Display for TestError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for TestError {}
+
+/// Data and options shared by both models.
+#[derive(Clone, Debug)]
+pub struct Data {
+    pub radius: f64,
+    pub sigma: f64,
+    pub measurements: Vec<Vector3<f64>>,
+    pub starts: Vec<usize>,
+    pub global_prior: Option<GaussianPrior<G>>,
+    pub group_priors: Option<Vec<GaussianPrior<3>>>,
+    pub point_priors: Option<Vec<GaussianPrior<2>>>,
+    pub fail: Option<Fail>,
+    pub unseen: Option<usize>,
+}
+
+impl Data {
+    pub fn n_groups(&self) -> usize {
+        self.starts.len() - 1
+    }
+    pub fn n_points(&self) -> usize {
+        self.measurements.len()
+    }
+    fn range(&self, k: usize) -> Range<usize> {
+        self.starts[k]..self.starts[k + 1]
+    }
+    fn check_fail(&self, i: usize, calls: &mut u32) -> Result<(), TestError> {
+        let call = *calls;
+        *calls += 1;
+        match self.fail {
+            Some(f) if f.point == i && call >= f.call => Err(TestError(format!("injected failure at point {i}, call {call}"))),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// P = 2, R = 3: `r = (m − D(c + ρ u(θ, φ); g)) / σ`.
+pub struct Touches(pub Data);
+
+impl Problem<G, 3, 2, 3> for Touches {
+    type PointCache = u32;
+    type Error = TestError;
+
+    fn n_groups(&self) -> usize {
+        self.0.n_groups()
+    }
+    fn group_points(&self, k: usize) -> Range<usize> {
+        self.0.range(k)
+    }
+    fn initial_cache(&self, _i: usize) -> u32 {
+        0
+    }
+    fn linearize(
+        &self,
+        i: usize,
+        global: &SVector<f64, G>,
+        group: &SVector<f64, 3>,
+        point: &SVector<f64, 2>,
+        cache: &mut u32,
+    ) -> Result<Linearization<G, 3, 2, 3>, TestError> {
+        self.0.check_fail(i, cache)?;
+        let (u, du) = direction(point);
+        let y = group + self.0.radius * u;
+        let (d, dy, dg) = distort(&y, global, self.0.unseen);
+        let s = 1.0 / self.0.sigma;
+        Ok(Linearization {
+            residual: s * (self.0.measurements[i] - d),
+            d_global: -s * dg,
+            d_group: -s * dy,
+            d_point: -s * self.0.radius * dy * du,
+        })
+    }
+    fn global_prior(&self) -> Option<&GaussianPrior<G>> {
+        self.0.global_prior.as_ref()
+    }
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
+        self.0.group_priors.as_ref().map(|p| p[k].clone())
+    }
+    fn point_prior(&self, i: usize) -> Option<GaussianPrior<2>> {
+        self.0.point_priors.as_ref().map(|p| p[i].clone())
+    }
+}
+
+/// P = 0, R = 1: `r = (|D(m; g) − c| − ρ) / σ` (the distortion used as a
+/// correction of the measurement).
+pub struct Distances(pub Data);
+
+impl Problem<G, 3, 0, 1> for Distances {
+    type PointCache = u32;
+    type Error = TestError;
+
+    fn n_groups(&self) -> usize {
+        self.0.n_groups()
+    }
+    fn group_points(&self, k: usize) -> Range<usize> {
+        self.0.range(k)
+    }
+    fn initial_cache(&self, _i: usize) -> u32 {
+        0
+    }
+    fn linearize(
+        &self,
+        i: usize,
+        global: &SVector<f64, G>,
+        group: &SVector<f64, 3>,
+        _point: &SVector<f64, 0>,
+        cache: &mut u32,
+    ) -> Result<Linearization<G, 3, 0, 1>, TestError> {
+        self.0.check_fail(i, cache)?;
+        let (y, _, dg) = distort(&self.0.measurements[i], global, self.0.unseen);
+        let e = y - group;
+        let n = e.norm();
+        let s = 1.0 / self.0.sigma;
+        let unit = e / n;
+        Ok(Linearization {
+            residual: SVector::<f64, 1>::new(s * (n - self.0.radius)),
+            d_global: s * unit.transpose() * dg,
+            d_group: -s * unit.transpose(),
+            d_point: SMatrix::zeros(),
+        })
+    }
+    fn global_prior(&self) -> Option<&GaussianPrior<G>> {
+        self.0.global_prior.as_ref()
+    }
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
+        self.0.group_priors.as_ref().map(|p| p[k].clone())
+    }
+}
+
+/// How to generate a test case.
+#[derive(Clone, Copy, Debug)]
+pub struct Spec {
+    pub seed: u64,
+    pub n_groups: usize,
+    pub points_per_group: usize,
+    /// Measurement noise (also the whitening σ); 0 for exact data.
+    pub noise: f64,
+    pub priors: bool,
+}
+
+impl Default for Spec {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            n_groups: 6,
+            points_per_group: 8,
+            noise: 1e-3,
+            priors: false,
+        }
+    }
+}
+
+pub const RADIUS: f64 = 0.2;
+
+pub fn true_global() -> SVector<f64, G> {
+    SVector::from_column_slice(&[0.02, -0.015, 0.01, 0.012, -0.008, 0.006, 0.03, -0.02])
+}
+
+/// Touch angles spread over the sphere (away from the poles).
+fn touch_angles(rng: &mut Rng, j: usize, n: usize) -> Vector2<f64> {
+    let theta = 2.0 * std::f64::consts::PI * (j as f64 + 0.3 * rng.uniform()) / n as f64;
+    let phi = rng.range(-1.0, 1.0);
+    Vector2::new(theta, phi)
+}
+
+fn centres(rng: &mut Rng, n_groups: usize) -> Vec<SVector<f64, 3>> {
+    (0..n_groups)
+        .map(|_| Vector3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)))
+        .collect()
+}
+
+fn priors(rng: &mut Rng, spec: &Spec, truth: &State<G, 3, 2>, data: &mut Data, with_points: bool) {
+    if !spec.priors {
+        return;
+    }
+    data.global_prior = Some(GaussianPrior::new(truth.global + rng.vector::<G>(0.01), rng.information::<G>(1e3)));
+    data.group_priors = Some(
+        truth
+            .groups
+            .iter()
+            .map(|c| GaussianPrior::new(c + rng.vector::<3>(0.01), rng.information::<3>(1e2)))
+            .collect(),
+    );
+    if with_points {
+        data.point_priors = Some(
+            truth
+                .points
+                .iter()
+                .map(|p| GaussianPrior::new(p + rng.vector::<2>(0.05), rng.information::<2>(10.0)))
+                .collect(),
+        );
+    }
+}
+
+fn empty_data(spec: &Spec) -> Data {
+    Data {
+        radius: RADIUS,
+        sigma: if spec.noise > 0.0 { spec.noise } else { 1e-3 },
+        measurements: Vec::new(),
+        starts: (0..=spec.n_groups).map(|k| k * spec.points_per_group).collect(),
+        global_prior: None,
+        group_priors: None,
+        point_priors: None,
+        fail: None,
+        unseen: None,
+    }
+}
+
+/// A [`Touches`] case and its truth.
+pub fn touches(spec: Spec) -> (Touches, State<G, 3, 2>) {
+    let mut rng = Rng::new(spec.seed);
+    let g = true_global();
+    let groups = centres(&mut rng, spec.n_groups);
+    let mut data = empty_data(&spec);
+    let mut points = Vec::new();
+    for c in &groups {
+        for j in 0..spec.points_per_group {
+            let p = touch_angles(&mut rng, j, spec.points_per_group);
+            let y = c + RADIUS * direction(&p).0;
+            let m = distort(&y, &g, None).0 + rng.vector::<3>(spec.noise);
+            data.measurements.push(m);
+            points.push(p);
+        }
+    }
+    let truth = State {
+        global: g,
+        groups,
+        points,
+    };
+    priors(&mut rng, &spec, &truth, &mut data, true);
+    (Touches(data), truth)
+}
+
+/// A [`Distances`] case and its truth.
+pub fn distances(spec: Spec) -> (Distances, State<G, 3, 0>) {
+    let mut rng = Rng::new(spec.seed);
+    let g = true_global();
+    let groups = centres(&mut rng, spec.n_groups);
+    let mut data = empty_data(&spec);
+    for c in &groups {
+        for j in 0..spec.points_per_group {
+            let p = touch_angles(&mut rng, j, spec.points_per_group);
+            let y = c + RADIUS * direction(&p).0;
+            // Invert the correction D(m) = y by Newton.
+            let mut m = y;
+            for _ in 0..30 {
+                let (d, dy, _) = distort(&m, &g, None);
+                m -= dy.lu().solve(&(d - y)).expect("invertible distortion");
+            }
+            let noise = rng.normal() * spec.noise;
+            data.measurements.push(m + noise * (y - c).normalize());
+        }
+    }
+    let truth = State {
+        global: g,
+        groups,
+        points: vec![SVector::zeros(); spec.n_groups * spec.points_per_group],
+    };
+    let touches_truth = State {
+        global: truth.global,
+        groups: truth.groups.clone(),
+        points: vec![Vector2::zeros(); truth.points.len()],
+    };
+    priors(&mut rng, &spec, &touches_truth, &mut data, false);
+    (Distances(data), truth)
+}
+
+/// `truth` moved by a deterministic perturbation: global by `dg` (per
+/// component, random sign), centres by `dc`, angles by `dp`.
+pub fn perturb<const P: usize>(truth: &State<G, 3, P>, seed: u64, dg: f64, dc: f64, dp: f64) -> State<G, 3, P> {
+    let mut rng = Rng::new(seed ^ 0xABCDEF);
+    State {
+        global: truth.global + rng.vector::<G>(dg),
+        groups: truth.groups.iter().map(|c| c + rng.vector::<3>(dc)).collect(),
+        points: truth.points.iter().map(|p| p + rng.vector::<P>(dp)).collect(),
+    }
+}
+
+/// Largest relative difference of two vectors, relative to the larger norm.
+pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    let scale = a.iter().chain(b).map(|x| x.abs()).fold(0.0, f64::max).max(1e-300);
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max) / scale
+}
+
+/// All values of a state, flattened (global, groups, points).
+pub fn flatten<const C: usize, const P: usize>(s: &State<G, C, P>) -> Vec<f64> {
+    let mut v: Vec<f64> = s.global.iter().copied().collect();
+    v.extend(s.groups.iter().flat_map(|c| c.iter().copied()));
+    v.extend(s.points.iter().flat_map(|p| p.iter().copied()));
+    v
+}

@@ -1,0 +1,186 @@
+//! Gauss–Newton and Levenberg–Marquardt on noisy synthetic problems.
+
+mod common;
+
+use common::{G, Spec, direction, distances, flatten, perturb, rel_diff, touches};
+use parcal_solver::{IterationRecord, Method, Problem, Solution, SolverOptions, State, Status, solve};
+
+fn options(method: Method) -> SolverOptions {
+    SolverOptions {
+        method,
+        groups_per_chunk: 3,
+        ..SolverOptions::default()
+    }
+}
+
+const LM: Method = Method::LevenbergMarquardt { initial_lambda: 1e-3 };
+
+fn run<const P: usize, const R: usize, Pr: Problem<G, 3, P, R>>(
+    problem: &Pr,
+    start: &State<G, 3, P>,
+    method: Method,
+) -> (Solution<G, 3, P>, Vec<IterationRecord>) {
+    let mut seen = Vec::new();
+    let solution = solve(problem, start.clone(), &options(method), &mut |r| seen.push(r.clone()));
+    (solution, seen)
+}
+
+/// The estimate is within `k` sigmas of the truth, per global parameter and
+/// per centre coordinate, and its Mahalanobis distance is plausible.
+fn check_against_truth<const P: usize>(solution: &Solution<G, 3, P>, truth: &State<G, 3, P>, dof: usize) {
+    let cov = solution.covariance.expect("covariance");
+    let err = solution.state.global - truth.global;
+    let z: Vec<f64> = (0..G).map(|j| err[j] / cov[(j, j)].sqrt()).collect();
+    let mahalanobis = err.dot(&(cov.try_inverse().unwrap() * err));
+    let sigmas = solution.group_sigmas.as_ref().expect("group sigmas");
+    let zc = solution
+        .state
+        .groups
+        .iter()
+        .zip(&truth.groups)
+        .zip(sigmas)
+        .flat_map(|((c, t), s)| (0..3).map(move |j| (c[j] - t[j]) / s[j]))
+        .fold(0.0, |m: f64, z| m.max(z.abs()));
+    let cost = solution.history.last().unwrap().cost;
+    println!(
+        "global z-scores {:?}\nMahalanobis² {mahalanobis:.2} (χ²({G})), worst centre |z| {zc:.2}, cost {cost:.1} for {dof} degrees of freedom",
+        z.iter().map(|z| format!("{z:.2}")).collect::<Vec<_>>()
+    );
+    assert!(z.iter().all(|z| z.abs() < 4.0), "global parameter off by > 4σ: {z:?}");
+    assert!(mahalanobis < 30.0, "Mahalanobis² {mahalanobis}");
+    assert!(zc < 4.5, "centre off by {zc}σ");
+    let ratio = cost / dof as f64;
+    assert!((0.5..1.6).contains(&ratio), "cost / dof = {ratio}");
+}
+
+fn without_points<const P: usize>(s: &State<G, 3, P>) -> State<G, 3, 0> {
+    State {
+        global: s.global,
+        groups: s.groups.clone(),
+        points: Vec::new(),
+    }
+}
+
+fn check_history<const P: usize>(solution: &Solution<G, 3, P>, seen: &[IterationRecord]) {
+    assert_eq!(seen, &solution.history[..], "the observer saw every record");
+    let last = solution.history.last().unwrap();
+    assert_eq!(last.step_norm, 0.0);
+    assert!(solution.history[..solution.history.len() - 1].iter().all(|r| r.step_norm > 0.0));
+}
+
+#[test]
+fn gauss_newton_converges_to_truth_within_sigmas() {
+    let spec = Spec {
+        n_groups: 10,
+        points_per_group: 12,
+        ..Spec::default()
+    };
+    let (problem, truth) = touches(spec);
+    let start = perturb(&truth, 1, 0.01, 0.02, 0.1);
+    let (solution, seen) = run(&problem, &start, Method::GaussNewton);
+    println!("GN: {:?} after {} records", solution.status, solution.history.len());
+    for r in &solution.history {
+        println!("  cost {:.6e} step {:.3e}", r.cost, r.step_norm);
+    }
+    assert_eq!(solution.status, Status::Converged);
+    assert!(solution.history.len() <= 12);
+    assert!(solution.history.iter().all(|r| r.lambda == 0.0 && r.accepted));
+    check_history(&solution, &seen);
+    // 120 points × 3 rows, 8 + 30 + 240 unknowns.
+    check_against_truth(&solution, &truth, 360 - 278);
+    let spectrum = solution.spectrum.as_ref().unwrap();
+    assert!(spectrum.condition_number().is_finite());
+}
+
+#[test]
+fn gauss_newton_converges_without_point_unknowns() {
+    let spec = Spec {
+        n_groups: 10,
+        points_per_group: 12,
+        seed: 5,
+        ..Spec::default()
+    };
+    let (problem, truth) = distances(spec);
+    let start = perturb(&truth, 2, 0.01, 0.02, 0.0);
+    let (solution, seen) = run(&problem, &start, Method::GaussNewton);
+    println!("GN (P = 0): {:?} after {} records", solution.status, solution.history.len());
+    assert_eq!(solution.status, Status::Converged);
+    check_history(&solution, &seen);
+    check_against_truth(&solution, &truth, 120 - 38);
+}
+
+#[test]
+fn levenberg_marquardt_converges_where_gauss_newton_diverges() {
+    let spec = Spec {
+        n_groups: 10,
+        points_per_group: 12,
+        ..Spec::default()
+    };
+    let (problem, truth) = touches(spec);
+    let good_start = perturb(&truth, 1, 0.01, 0.02, 0.1);
+    let bad_start = perturb(&truth, 1, 0.1, 0.1, 1.0);
+    let (reference, _) = run(&problem, &good_start, Method::GaussNewton);
+    assert_eq!(reference.status, Status::Converged);
+
+    let (gn, gn_seen) = run(&problem, &bad_start, Method::GaussNewton);
+    println!("GN from the bad start: {:?} after {} records", gn.status, gn.history.len());
+    assert!(matches!(gn.status, Status::Diverged { .. }), "{:?}", gn.status);
+    assert!(gn.state.is_finite());
+    assert_eq!(gn_seen, gn.history);
+    let initial_cost = gn.history[0].cost;
+    assert!(gn.history.iter().all(|r| r.cost <= 1e6 * initial_cost));
+
+    let (lm, seen) = run(&problem, &bad_start, LM);
+    let rejected = lm.history.iter().filter(|r| !r.accepted).count();
+    println!(
+        "LM from the bad start: {:?} after {} records ({rejected} rejected), cost {:.4e} → {:.4e}",
+        lm.status,
+        lm.history.len(),
+        lm.history[0].cost,
+        lm.history.last().unwrap().cost
+    );
+    assert_eq!(lm.status, Status::Converged);
+    check_history(&lm, &seen);
+    // Accepted steps never increase the cost.
+    for w in lm.history.windows(2) {
+        assert!(w[1].cost <= w[0].cost * (1.0 + 1e-12), "{w:?}");
+        if !w[0].accepted {
+            assert_eq!(w[1].cost, w[0].cost);
+            assert!(w[1].lambda > w[0].lambda);
+        }
+    }
+    assert!(lm.history[..lm.history.len() - 1].iter().all(|r| r.lambda > 0.0));
+    // Same minimum as Gauss–Newton from a good start (the same touch
+    // directions, the angles may differ by the sphere's symmetries).
+    let diff = rel_diff(&flatten(&without_points(&lm.state)), &flatten(&without_points(&reference.state)));
+    let angle_diff = lm
+        .state
+        .points
+        .iter()
+        .zip(&reference.state.points)
+        .map(|(a, b)| (direction(a).0 - direction(b).0).norm())
+        .fold(0.0, f64::max);
+    println!("LM vs GN minimum: rel diff {diff:.2e}, directions {angle_diff:.2e}");
+    assert!(diff < 1e-7 && angle_diff < 1e-7);
+    check_against_truth(&lm, &truth, 360 - 278);
+}
+
+#[test]
+fn levenberg_marquardt_and_gauss_newton_agree_with_priors() {
+    let (problem, truth) = touches(Spec {
+        priors: true,
+        seed: 9,
+        ..Spec::default()
+    });
+    let start = perturb(&truth, 3, 0.01, 0.02, 0.1);
+    let (gn, _) = run(&problem, &start, Method::GaussNewton);
+    let (lm, _) = run(&problem, &start, LM);
+    assert_eq!(gn.status, Status::Converged);
+    assert_eq!(lm.status, Status::Converged);
+    assert!(gn.history.last().unwrap().prior_cost > 0.0);
+    let diff = rel_diff(&flatten(&lm.state), &flatten(&gn.state));
+    println!("with priors: GN {} records, LM {} records, rel diff {diff:.2e}", gn.history.len(), lm.history.len());
+    assert!(diff < 1e-7);
+    let cov_diff = rel_diff(gn.covariance.unwrap().as_slice(), lm.covariance.unwrap().as_slice());
+    assert!(cov_diff < 1e-6);
+}
