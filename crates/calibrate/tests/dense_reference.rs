@@ -3,6 +3,21 @@
 //! over all unknowns (33 parameters, 27 centres, and the 378 angles of the
 //! coordinate observation) and the posterior covariance of the 33, at the
 //! initial estimate, for both observations and both priors.
+//!
+//! Both sides are also compared with the exact solution of the same dense
+//! system (iterative refinement with double-double residuals, [`Refined`])
+//! and their normal-equation residuals are printed, so that a disagreement
+//! says which side is off. With the propagated prior the dense normal matrix
+//! has cond ~1e11 (the near-rigid tilt of spec section 4), and
+//! `dense_reference::solve` (one Cholesky of `JᵀJ`) is itself off by
+//! ~`cond · eps`: 3e-8 (coordinates) and 5e-9 (radius), against ~1e-10 for
+//! the Schur solver. The comparison with the plain dense solve is therefore
+//! held to 1e-9 on the paper case (paper prior, cond ~4e6) and to the plain
+//! solve's own accuracy, `10 cond eps`, with the propagated prior; the
+//! Schur solver is held to 1e-9 against the exact solution in every case.
+
+// `!(x <= limit)` fails on NaN too; index loops over several arrays read best.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 use std::time::Instant;
 
@@ -52,7 +67,6 @@ fn condition<const C: usize, const P: usize>(
     eigenvalues.max() / eigenvalues.min()
 }
 
-
 /// A double-double accumulator (Dekker/Knuth error-free transformations):
 /// sums of products to ~1e-32 relative, for the refined reference below.
 #[derive(Clone, Copy, Default)]
@@ -77,7 +91,10 @@ impl Dd {
 
     fn normalise(hi: f64, lo: f64) -> Self {
         let s = hi + lo;
-        Self { hi: s, lo: lo - (s - hi) }
+        Self {
+            hi: s,
+            lo: lo - (s - hi),
+        }
     }
 }
 
@@ -89,17 +106,24 @@ impl Dd {
 /// `cond(N) · eps < 1`. This is the exact solution of the linear system the
 /// dense reference assembles, without the `cond(N) · eps` error of solving
 /// the normal equations once in double precision.
+/// Refinement rounds (each gains ~5 digits at cond(N) ~ 1e11).
+const ROUNDS: usize = 3;
+
 struct Refined {
     j: nalgebra::DMatrix<f64>,
     cholesky: nalgebra::Cholesky<f64, nalgebra::Dyn>,
 }
 
 impl Refined {
-    fn new<const C: usize, const P: usize>(dense: &dense_reference::DenseReference<N_PARAMS, C, P>) -> Self {
+    fn new<const C: usize, const P: usize>(
+        dense: &dense_reference::DenseReference<N_PARAMS, C, P>,
+    ) -> Self {
         let (m, n) = (dense.jacobian.nrows(), dense.jacobian.ncols());
         let j = nalgebra::DMatrix::from_fn(m, n, |r, c| dense.jacobian[(r, c)]);
         let normal = nalgebra::DMatrix::from_fn(n, n, |a, b| dense.normal[(a, b)]);
-        let cholesky = normal.cholesky().expect("dense normal matrix positive definite");
+        let cholesky = normal
+            .cholesky()
+            .expect("dense normal matrix positive definite");
         Self { j, cholesky }
     }
 
@@ -147,8 +171,7 @@ impl Refined {
     /// The Gauss-Newton step `δ = −N⁻¹ Jᵀ r`, refined from `start`.
     fn step(&self, residual: &[f64], start: &[f64]) -> Vec<f64> {
         let zero = vec![0.0; self.j.ncols()];
-        let minus_r: Vec<f64> = residual.iter().map(|v| -v).collect();
-        self.solve(&zero, Some(&minus_r), start, 6)
+        self.solve(&zero, Some(residual), start, ROUNDS)
     }
 
     /// The first `N_PARAMS` columns of `N⁻¹` (the covariance of the global
@@ -163,7 +186,7 @@ impl Refined {
             for a in 0..N_PARAMS {
                 x0[a] = start[(a, k)];
             }
-            let x = self.solve(&e, None, x0.as_slice(), 6);
+            let x = self.solve(&e, None, x0.as_slice(), ROUNDS);
             for a in 0..N_PARAMS {
                 out[(a, k)] = x[a];
             }
@@ -175,7 +198,11 @@ impl Refined {
 /// Compares the Schur solver with the dense reference at `state`: the
 /// Gauss-Newton step (from `linear_step`, and from `solve` with one
 /// iteration, differencing the states), the covariance of the global block
-/// and the group sigmas (from `solve` with zero iterations).
+/// and the group sigmas (from `solve` with zero iterations, which evaluates
+/// the covariance at the initial state). Both are also compared with the
+/// exact solution of the same dense system ([`Refined`]), so that a failure
+/// says which side is off. Prints everything, then fails listing every
+/// check that did not hold.
 fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<N_PARAMS, C, P, R>>(
     label: &str,
     problem: &Pr,
@@ -188,19 +215,11 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<N_PARAMS,
     assert_eq!(n, state.n_unknowns());
 
     // The step as the solver's linear algebra computes it.
-    let schur = linear_step(
-        problem,
-        state,
-        0.0,
-        SolverOptions::default().groups_per_chunk,
-    )
-    .expect("Schur step");
-    let step_diff = rel_diff(&flatten(&schur.delta), &dense_step);
-    let global_diff = {
-        let a: Vec<f64> = schur.delta.global.iter().copied().collect();
-        let b: Vec<f64> = dense.step.global.iter().copied().collect();
-        rel_diff(&a, &b)
-    };
+    let chunk = SolverOptions::default().groups_per_chunk;
+    let schur = linear_step(problem, state, 0.0, chunk).expect("Schur step");
+    let schur_step = flatten(&schur.delta);
+    let step_diff = rel_diff(&schur_step, &dense_step);
+    let global_diff = rel_diff(schur.delta.global.as_slice(), dense.step.global.as_slice());
     let cost_diff = (schur.cost - dense.cost).abs() / dense.cost;
 
     // The first update of a real run: one Gauss-Newton iteration, state
@@ -221,8 +240,7 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<N_PARAMS,
         .map(|(after, before)| after - before)
         .collect();
     let taken_diff = rel_diff(&taken, &dense_step);
-    let history_norm = one.history[0].step_norm;
-    let norm_diff = (history_norm - norm(&dense_step)).abs() / norm(&dense_step);
+    let norm_diff = (one.history[0].step_norm - norm(&dense_step)).abs() / norm(&dense_step);
 
     // Covariance at the same state: zero iterations evaluate it there.
     let zero = solve(
@@ -241,77 +259,102 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<N_PARAMS,
     let schur_cov = zero.covariance.expect("Schur covariance");
     let dense_cov = dense.global_covariance().expect("dense covariance");
     let cov_diff = (schur_cov - dense_cov).norm() / dense_cov.norm();
-    let sigma_diff = {
-        let a: Vec<f64> = schur_cov.diagonal().iter().map(|v| v.sqrt()).collect();
-        let b: Vec<f64> = dense_cov.diagonal().iter().map(|v| v.sqrt()).collect();
-        a.iter()
-            .zip(&b)
+    let sigmas =
+        |c: &ParamCovariance| -> Vec<f64> { c.diagonal().iter().map(|v| v.sqrt()).collect() };
+    let worst_sigma_diff = |a: &ParamCovariance, b: &ParamCovariance| {
+        sigmas(a)
+            .iter()
+            .zip(sigmas(b))
             .map(|(x, y)| ((x - y) / y).abs())
             .fold(0.0, f64::max)
     };
-    let group_diff = {
-        let a: Vec<f64> = zero
-            .group_sigmas
-            .expect("Schur group sigmas")
-            .iter()
-            .flat_map(|s| s.iter().copied())
-            .collect();
-        let b: Vec<f64> = dense
-            .group_sigmas()
-            .expect("dense group sigmas")
-            .iter()
-            .flat_map(|s| s.iter().copied())
-            .collect();
-        rel_diff(&a, &b)
+    let sigma_diff = worst_sigma_diff(&schur_cov, &dense_cov);
+    let flat_sigmas = |s: Vec<nalgebra::SVector<f64, C>>| -> Vec<f64> {
+        s.iter().flat_map(|v| v.iter().copied()).collect()
     };
+    let schur_groups = flat_sigmas(zero.group_sigmas.expect("Schur group sigmas"));
+    let dense_groups = flat_sigmas(dense.group_sigmas().expect("dense group sigmas"));
+    let group_diff = rel_diff(&schur_groups, &dense_groups);
 
+    // The exact solution of the same dense system.
     let refined = Refined::new(&dense);
-    let residual: Vec<f64> = (0..dense.residual.nrows()).map(|r| dense.residual[(r, 0)]).collect();
+    let residual: Vec<f64> = (0..dense.residual.nrows())
+        .map(|r| dense.residual[(r, 0)])
+        .collect();
     let exact_step = refined.step(&residual, &dense_step);
     let exact_cov = refined.global_covariance(&dense_cov);
+    // Backward error: |Jᵀ(J δ + r)| / |Jᵀ r| (double-double), which needs no
+    // reference solution.
+    let origin = vec![0.0; n];
+    let gradient = norm(&refined.residual(&origin, &origin, Some(&residual)));
+    let backward =
+        |step: &[f64]| norm(&refined.residual(&origin, step, Some(&residual))) / gradient;
+    let (dense_backward, schur_backward) = (backward(&dense_step), backward(&schur_step));
+    let dense_step_error = rel_diff(&dense_step, &exact_step);
+    let schur_step_error = rel_diff(&schur_step, &exact_step);
+    let dense_cov_error = (dense_cov - exact_cov).norm() / exact_cov.norm();
+    let schur_cov_error = (schur_cov - exact_cov).norm() / exact_cov.norm();
+    let schur_sigma_error = worst_sigma_diff(&schur_cov, &exact_cov);
+
     println!(
-        "  refined: step rel error dense {:.2e}, Schur {:.2e}; covariance rel error dense {:.2e}, Schur {:.2e}",
-        rel_diff(&dense_step, &exact_step),
-        rel_diff(&flatten(&schur.delta), &exact_step),
-        (dense_cov - exact_cov).norm() / exact_cov.norm(),
-        (schur_cov - exact_cov).norm() / exact_cov.norm(),
-    );
-    println!(
-        "{label}: {n} unknowns, {} rows, cond(N) {:.2e}, |δ| {:.4e}\n\
-         \x20 step rel diff: linear_step {step_diff:.2e} (global block {global_diff:.2e}), \
-         solve(1 iteration) {taken_diff:.2e}, history |δ| {norm_diff:.2e}; cost rel diff {cost_diff:.2e}\n\
-         \x20 covariance of the 33 rel diff {cov_diff:.2e}, worst sigma rel diff {sigma_diff:.2e}, \
-         group sigmas rel diff {group_diff:.2e}  ({:.2} s)",
+        "{label}: {n} unknowns, {} rows, cond(N) {:.2e}, |δ| {:.4e}, {:.2} s\n\
+         \x20 Schur vs dense_reference::solve: step {step_diff:.2e} (global block {global_diff:.2e}), \
+         solve(1 iteration) {taken_diff:.2e}, recorded |δ| {norm_diff:.2e}, cost {cost_diff:.2e}\n\
+         \x20   covariance of the 33 {cov_diff:.2e}, worst sigma {sigma_diff:.2e}, centre sigmas {group_diff:.2e}\n\
+         \x20 error against the exact solution of the dense system: \
+         step dense {dense_step_error:.2e}, Schur {schur_step_error:.2e}; \
+         covariance dense {dense_cov_error:.2e}, Schur {schur_cov_error:.2e} (worst sigma {schur_sigma_error:.2e})\n\
+         \x20 normal-equation residual |Jᵀ(Jδ + r)| / |Jᵀr|: dense {dense_backward:.2e}, Schur {schur_backward:.2e}",
         dense.jacobian.nrows(),
         condition(&dense),
         norm(&dense_step),
         start.elapsed().as_secs_f64(),
     );
-    assert!(
-        step_diff < TOL,
-        "{label}: Schur step differs from the dense one by {step_diff:e}"
-    );
-    assert!(
-        taken_diff < TOL,
-        "{label}: the first update of solve differs from the dense step by {taken_diff:e}"
-    );
-    assert!(
-        norm_diff < TOL,
-        "{label}: the recorded |δ| differs from the dense one by {norm_diff:e}"
-    );
-    assert!(cost_diff < 1e-12, "{label}: cost differs by {cost_diff:e}");
-    assert!(
-        cov_diff < TOL,
-        "{label}: covariance of the 33 differs by {cov_diff:e}"
-    );
-    assert!(
-        sigma_diff < TOL,
-        "{label}: a parameter sigma differs by {sigma_diff:e}"
-    );
-    assert!(
-        group_diff < TOL,
-        "{label}: centre sigmas differ by {group_diff:e}"
-    );
+    // A single Cholesky of the normal matrix is itself accurate only to
+    // ~cond(N) eps: that, not 1e-9, bounds the comparison with it when the
+    // matrix is ill-conditioned (propagated prior); on the paper case the
+    // bound is below 1e-9 and the issue's 1e-9 applies. The Schur solver is
+    // held to 1e-9 against the exact solution in every case.
+    let plain_dense = TOL.max(10.0 * condition(&dense) * f64::EPSILON);
+    let checks = [
+        ("Schur step vs the dense step", step_diff, plain_dense),
+        (
+            "first update of solve vs the dense step",
+            taken_diff,
+            plain_dense,
+        ),
+        ("recorded |δ| vs the dense |δ|", norm_diff, plain_dense),
+        ("cost vs the dense cost", cost_diff, 1e-12),
+        (
+            "covariance of the 33 vs the dense one",
+            cov_diff,
+            plain_dense,
+        ),
+        (
+            "worst parameter sigma vs the dense one",
+            sigma_diff,
+            plain_dense,
+        ),
+        ("centre sigmas vs the dense ones", group_diff, plain_dense),
+        (
+            "Schur step vs the exact dense solution",
+            schur_step_error,
+            TOL,
+        ),
+        (
+            "Schur covariance vs the exact dense inverse",
+            schur_cov_error,
+            TOL,
+        ),
+    ];
+    let failed: Vec<String> = checks
+        .iter()
+        .filter(|(_, value, tol)| !(value < tol))
+        .map(|(what, value, tol)| {
+            format!("{what}: relative difference {value:.3e} (allowed {tol:e})")
+        })
+        .collect();
+    assert!(failed.is_empty(), "{label}:\n  {}", failed.join("\n  "));
 }
 
 fn options(sim: Simulation, prior: PriorMode) -> CalibrationOptions {
@@ -321,32 +364,46 @@ fn options(sim: Simulation, prior: PriorMode) -> CalibrationOptions {
     }
 }
 
-#[test]
-fn coordinate_observation_matches_the_dense_solve() {
+fn coordinates(prior: PriorMode) {
     let dataset = dataset();
-    for prior in [PriorMode::Propagated, PriorMode::Paper] {
-        let (problem, state) =
-            coordinate_problem_and_state(&dataset, &options(Simulation::IV, prior)).unwrap();
-        assert_eq!(state.n_unknowns(), 33 + 81 + 378);
-        compare(&format!("coordinates, {prior} prior"), &problem, &state);
-    }
+    let (problem, state) =
+        coordinate_problem_and_state(&dataset, &options(Simulation::IV, prior)).unwrap();
+    assert_eq!(state.n_unknowns(), 33 + 81 + 378);
+    compare(&format!("coordinates, {prior} prior"), &problem, &state);
 }
 
 /// There is no `radius_problem_and_state`; the public [`Setup`] builds the
 /// same problem and initial state as `calibrate` does.
-#[test]
-fn radius_observation_matches_the_dense_solve() {
+fn radius(prior: PriorMode) {
     let dataset = dataset();
-    for prior in [PriorMode::Propagated, PriorMode::Paper] {
-        let options = options(Simulation::III, prior);
-        let setup = Setup::new(&dataset, &options).unwrap();
-        let problem = setup.radius_problem(&dataset, &options).unwrap();
-        let state = State::<N_PARAMS, 3, 0> {
-            global: setup.initial_params,
-            groups: setup.initial_centres.clone(),
-            points: vec![nalgebra::SVector::zeros(); setup.order.len()],
-        };
-        assert_eq!(state.n_unknowns(), 33 + 81);
-        compare(&format!("radius, {prior} prior"), &problem, &state);
-    }
+    let options = options(Simulation::III, prior);
+    let setup = Setup::new(&dataset, &options).unwrap();
+    let problem = setup.radius_problem(&dataset, &options).unwrap();
+    let state = State::<N_PARAMS, 3, 0> {
+        global: setup.initial_params,
+        groups: setup.initial_centres.clone(),
+        points: vec![nalgebra::SVector::zeros(); setup.order.len()],
+    };
+    assert_eq!(state.n_unknowns(), 33 + 81);
+    compare(&format!("radius, {prior} prior"), &problem, &state);
+}
+
+#[test]
+fn coordinates_propagated_prior_matches_the_dense_solve() {
+    coordinates(PriorMode::Propagated);
+}
+
+#[test]
+fn coordinates_paper_prior_matches_the_dense_solve() {
+    coordinates(PriorMode::Paper);
+}
+
+#[test]
+fn radius_propagated_prior_matches_the_dense_solve() {
+    radius(PriorMode::Propagated);
+}
+
+#[test]
+fn radius_paper_prior_matches_the_dense_solve() {
+    radius(PriorMode::Paper);
 }

@@ -18,31 +18,60 @@ fn fixture() -> PathBuf {
 /// every sigma within 1e-6 relative, the same number of iterations.
 fn compare(sim: Simulation, prior: PriorMode, reference_file: &str) {
     let dataset = Dataset::read(&fixture()).unwrap();
-    let options = CalibrationOptions { prior, ..CalibrationOptions::simulation(sim) };
+    let options = CalibrationOptions {
+        prior,
+        ..CalibrationOptions::simulation(sim)
+    };
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     let reference = Calibration::read(&fixture().join(reference_file)).unwrap();
     assert!(run.converged() && reference.converged);
-    assert_eq!(run.history.len(), reference.iterations.len(), "iterations (records incl. the final one)");
+    assert_eq!(
+        run.history.len(),
+        reference.iterations.len(),
+        "iterations (records incl. the final one)"
+    );
     let sigmas = run.sigmas().unwrap();
     for k in 0..33 {
-        let (name, theirs, their_sigma) =
-            (&reference.parameters.names[k], reference.parameters.values[k], reference.parameters.sigma[k]);
+        let (name, theirs, their_sigma) = (
+            &reference.parameters.names[k],
+            reference.parameters.values[k],
+            reference.parameters.sigma[k],
+        );
         let normalised = (run.params[k] - theirs) / their_sigma;
-        assert!(normalised.abs() < 1e-4, "{name}: ours {} theirs {theirs} ({normalised:+e} sigma)", run.params[k]);
+        assert!(
+            normalised.abs() < 1e-4,
+            "{name}: ours {} theirs {theirs} ({normalised:+e} sigma)",
+            run.params[k]
+        );
         let ratio = sigmas[k] / their_sigma - 1.0;
-        assert!(ratio.abs() < 1e-6, "{name}: sigma ours {} theirs {their_sigma}", sigmas[k]);
+        assert!(
+            ratio.abs() < 1e-6,
+            "{name}: sigma ours {} theirs {their_sigma}",
+            sigmas[k]
+        );
     }
     let first = run.history[0].cost.sqrt();
     let their_first = reference.iterations[0].cost.sqrt();
-    assert!((first / their_first - 1.0).abs() < 1e-9, "initial |O|: ours {first} theirs {their_first}");
+    assert!(
+        (first / their_first - 1.0).abs() < 1e-9,
+        "initial |O|: ours {first} theirs {their_first}"
+    );
 }
 
 #[test]
 fn simulation_iv_propagated_matches_the_reference() {
-    compare(Simulation::IV, PriorMode::Propagated, "reference-IV-propagated.json");
+    compare(
+        Simulation::IV,
+        PriorMode::Propagated,
+        "reference-IV-propagated.json",
+    );
 }
 
 #[test]
 fn simulation_iii_paper_matches_the_reference() {
-    compare(Simulation::III, PriorMode::Paper, "reference-III-paper.json");
+    compare(
+        Simulation::III,
+        PriorMode::Paper,
+        "reference-III-paper.json",
+    );
 }

@@ -13,11 +13,12 @@
 //! where leg `i` contributes only through its own joints and length:
 //! `d phi_i / d B_i = -n_i^T`, `d phi_i / d E_i = n_i^T R`,
 //! `d phi_i / d l_i = -1`, and the tool enters directly, `dT / d E_T = R`.
+//! `K` comes from one LU of `A` solved transposed ([`crate::lu6`]).
 
 use nalgebra::{Matrix3x6, Matrix6x3, SMatrix};
 
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
-use crate::{Geometry, KinematicsError, Pose, closure::Legs, forward::solve_closure};
+use crate::{Geometry, KinematicsError, Pose, closure::Legs, lu6::Lu6};
 
 /// Tool-tip derivatives at one forward-kinematics solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,11 +42,11 @@ pub fn tip_jacobians(geometry: &Geometry, legs: &Legs) -> Result<TipJacobians, K
     p_transpose
         .fixed_view_mut::<3, 3>(3, 0)
         .copy_from(&tool.cross_matrix());
-    let a_transpose = legs.pose_jacobian().transpose();
+    let lu = Lu6::factor(&legs.pose_jacobian())?;
     let mut k = Matrix3x6::zeros();
     for c in 0..3 {
-        let column = solve_closure(a_transpose, &p_transpose.column(c).into_owned())?;
-        k.row_mut(c).copy_from(&column.transpose());
+        let row = lu.solve_transpose(&p_transpose.column(c).into_owned());
+        k.row_mut(c).copy_from(&row.transpose());
     }
     let mut d_params = SMatrix::<f64, 3, N_PARAMS>::zeros();
     for i in 0..6 {

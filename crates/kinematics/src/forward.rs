@@ -1,9 +1,9 @@
 //! Forward kinematics: actuator values -> pose, by Newton's method on the six
 //! pose unknowns of the closure equations (paper eq. 1, see [`crate::closure`]).
 
-use nalgebra::{Matrix6, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
-use crate::{Geometry, KinematicsError, Pose, closure::Legs};
+use crate::{Geometry, KinematicsError, Pose, closure::Legs, lu6::Lu6};
 
 /// Controls of the Newton iteration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -32,25 +32,6 @@ pub struct ForwardSolution {
     pub legs: Legs,
     /// Newton steps taken.
     pub iterations: usize,
-}
-
-/// Ratio of the smallest to the largest pivot below which the closure
-/// Jacobian counts as singular.
-const SINGULAR_PIVOT_RATIO: f64 = 1e-12;
-
-/// Solves `A x = b` for the 6 x 6 closure Jacobian, refusing a (nearly)
-/// singular `A`.
-pub(crate) fn solve_closure(
-    a: Matrix6<f64>,
-    b: &Vector6<f64>,
-) -> Result<Vector6<f64>, KinematicsError> {
-    let lu = a.lu();
-    let pivots = lu.u().diagonal().map(f64::abs);
-    let well_conditioned = pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max();
-    if !well_conditioned {
-        return Err(KinematicsError::SingularJacobian);
-    }
-    lu.solve(b).ok_or(KinematicsError::SingularJacobian)
 }
 
 /// Applies a pose increment `(dt, w)`: `t <- t + dt`, `R <- exp([w]x) R`.
@@ -101,7 +82,7 @@ pub fn forward(
         if iterations == options.max_iterations {
             break;
         }
-        let delta = solve_closure(legs.pose_jacobian(), &-residual)?;
+        let delta = Lu6::factor(&legs.pose_jacobian())?.solve(&-residual);
         let mut scale = 1.0;
         loop {
             let candidate = step(&pose, &delta, scale);

@@ -41,6 +41,7 @@ pub mod forward;
 pub mod frames;
 mod geometry;
 pub mod inverse;
+mod lu6;
 pub mod params;
 
 pub use derivatives::{TipJacobians, tip_jacobians, tip_jacobians_at};

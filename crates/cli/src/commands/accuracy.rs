@@ -8,13 +8,13 @@ use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{BeforeAfter, Truth, accuracy};
 use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
-use parcal_dataset::{Calibration, Dataset};
+use parcal_dataset::Calibration;
 use parcal_kinematics::{N_PARAMS, Params, params};
 use parcal_report::{maps::write_maps, tables};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Dataset directory.
+    /// Dataset directory, or a binary snapshot file (dataset.bin).
     dataset: PathBuf,
     /// A calibration.json to assess (its parameters and posterior covariance);
     /// without it only the design (before calibration) is assessed.
@@ -46,7 +46,7 @@ fn calibrated(path: &PathBuf) -> anyhow::Result<(Params, ParamCovariance)> {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let dataset = Dataset::read(&args.dataset)?;
+    let dataset = super::read_dataset(&args.dataset)?;
     let truth = Truth::of(&dataset)
         .transpose()
         .context("truth.json: the true geometry is degenerate")?;

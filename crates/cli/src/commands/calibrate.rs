@@ -10,7 +10,6 @@ use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{
     CalibrationOptions, Method, Observation, PriorMode, Simulation, Weighting, calibrate,
 };
-use parcal_dataset::Dataset;
 use parcal_report::tables;
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -46,7 +45,7 @@ enum WeightsArg {
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Dataset directory.
+    /// Dataset directory, or a binary snapshot file (dataset.bin).
     dataset: PathBuf,
     /// One of the paper's simulations (observation and paper-mode prior);
     /// --observation and --prior override its parts.
@@ -106,7 +105,7 @@ impl Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let dataset = Dataset::read(&args.dataset)?;
+    let dataset = super::read_dataset(&args.dataset)?;
     let options = args.options();
     eprintln!(
         "calibrating {} contacts: {} observation, {} prior",

@@ -3,13 +3,13 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_dataset::Dataset;
 use parcal_kinematics::{ForwardOptions, Geometry, forward_from_home};
 use rayon::prelude::*;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Dataset directory (machine.json, artefacts.json, measurements.csv[, truth.json]).
+    /// Dataset directory (machine.json, artefacts.json, measurements.csv[, truth.json]),
+    /// or a binary snapshot file (dataset.bin).
     dataset: PathBuf,
 }
 
@@ -17,7 +17,7 @@ pub struct Args {
 const LISTED_FAILURES: usize = 5;
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let dataset = Dataset::read(&args.dataset)?;
+    let dataset = super::read_dataset(&args.dataset)?;
     let machine = &dataset.machine;
     let design = Geometry::from_arrays(
         &machine.base_joints,
