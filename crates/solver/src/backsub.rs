@@ -7,7 +7,8 @@ use nalgebra::SVector;
 use crate::chunks::{Chunk, ElimBuffers, run_ordered, split_by};
 use crate::context::Context;
 use crate::eliminate::{
-    Failure, GroupRows, Tail, add_matrix_column_norms2, assemble_point, eliminate_point, push_group_prior_and_damping,
+    Failure, GroupRows, add_matrix_column_norms2, factor_point, push_group_prior_and_damping,
+    stepped_row,
 };
 use crate::problem::{Problem, State};
 use crate::qr::{PriorRows, solve_upper_in_place};
@@ -58,8 +59,14 @@ where
     ) -> Result<StepSummary, Failure> {
         let problem = self.problem;
         let lambda = system.lambda;
-        let group_slices = split_by(&mut delta.groups, self.chunks.iter().map(|c| c.groups.len()));
-        let point_slices = split_by(&mut delta.points, self.chunks.iter().map(|c| c.points.len()));
+        let group_slices = split_by(
+            &mut delta.groups,
+            self.chunks.iter().map(|c| c.groups.len()),
+        );
+        let point_slices = split_by(
+            &mut delta.points,
+            self.chunks.iter().map(|c| c.points.len()),
+        );
         let (pool, jobs) = self.jobs();
         let jobs: Vec<_> = jobs
             .into_iter()
@@ -148,8 +155,7 @@ where
         group: group_buf,
         scratch,
     } = bufs;
-    // Point block [d_point | d_group | t], group rows [d_group | t].
-    let pw = P + C + 1;
+    // Group rows [d_group | t], t = r + d_global δg.
     let gw = C + 1;
     // Per point: P rows [R_pp⁻¹R_pc | R_pp⁻¹z_p], then b_p, then D_p.
     let tri = P * gw;
@@ -167,47 +173,59 @@ where
         let mut b_c = SVector::<f64, C>::zeros();
         for (j, i) in range.clone().enumerate() {
             let p = &state.points[i];
-            let lin = problem
-                .linearize(i, &state.global, c, p, &mut caches[i - chunk.points.start])
-                .map_err(|e| Failure::Linearize {
-                    point: i,
-                    message: e.to_string(),
-                })?;
-            if !lin.is_finite() {
-                return Err(Failure::NonFinite { point: i });
-            }
+            let cache = &mut caches[i - chunk.points.start];
+            let lin = match problem.linearize(i, &state.global, c, p, cache) {
+                Ok(lin) => lin,
+                Err(e) => return Err(Failure::linearize(i, &e)),
+            };
             let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
             let mut b_p = lin.d_point.tr_mul(&lin.residual);
             if let Some(prior) = &prior {
                 b_p += prior.gradient();
             }
             b_c += lin.d_group.tr_mul(&lin.residual);
-            sum.gradient_dot += lin.residual.dot(&(lin.d_global * dg));
+            let global_step = lin.d_global * dg;
+            sum.gradient_dot += lin.residual.dot(&global_step);
             if lambda > 0.0 {
                 add_matrix_column_norms2(&lin.d_group, &mut raw_norms2);
             }
-            let (rows, d_p) = assemble_point(&lin, Tail::Stepped(dg), prior.as_ref(), lambda, point_buf);
-            if !eliminate_point::<P>(point_buf, rows, pw, scratch) {
-                return Err(Failure::Singular(BlockId::Point(i)));
-            }
+            let factor = factor_point(&lin, prior.as_ref(), lambda, point_buf, 0)
+                .ok_or(Failure::Singular(BlockId::Point(i)))?;
+            let m = factor.rows;
+            let t = lin.residual + global_step;
+            let (panel, q) = point_buf.split_at((R + 2 * P) * P);
             let entry = &mut point_data[j * stride..(j + 1) * stride];
             for a in 0..P {
-                entry[a * gw..(a + 1) * gw].copy_from_slice(&point_buf[a * pw + P..(a + 1) * pw]);
+                stepped_row(
+                    &lin,
+                    &t,
+                    prior.as_ref(),
+                    q,
+                    m,
+                    a,
+                    &mut entry[a * gw..(a + 1) * gw],
+                );
             }
-            solve_upper_in_place(point_buf, pw, P, &mut entry[..tri], gw);
+            solve_upper_in_place(panel, P, P, &mut entry[..tri], gw);
             entry[tri..tri + P].copy_from_slice(b_p.as_slice());
-            entry[tri + P..].copy_from_slice(d_p.as_slice());
-            for r in P..rows {
-                group
-                    .next_row(scratch, &mut discard)
-                    .copy_from_slice(&point_buf[r * pw + P..(r + 1) * pw]);
+            entry[tri + P..].copy_from_slice(factor.damping.as_slice());
+            for e in P..m {
+                let row = group.next_row(scratch, &mut discard);
+                stepped_row(&lin, &t, prior.as_ref(), q, m, e, row);
             }
         }
         let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
         if let Some(prior) = &prior {
             b_c += prior.gradient();
         }
-        let d_c = push_group_prior_and_damping(&mut group, prior.as_ref(), raw_norms2, lambda, scratch, &mut discard);
+        let d_c = push_group_prior_and_damping(
+            &mut group,
+            prior.as_ref(),
+            raw_norms2,
+            lambda,
+            scratch,
+            &mut discard,
+        );
         let top = group
             .finish(scratch, &mut discard)
             .ok_or(Failure::Singular(BlockId::Group(k)))?;

@@ -39,10 +39,6 @@ impl Dims {
     pub(crate) fn point_rows(self) -> usize {
         self.r + 2 * self.p
     }
-    /// Width of a point block in the reduced-system pass.
-    pub(crate) fn point_width(self) -> usize {
-        self.p + self.c + self.g + 1
-    }
     /// Width of a group row in the reduced-system pass.
     pub(crate) fn group_width(self) -> usize {
         self.c + self.g + 1
@@ -60,13 +56,13 @@ impl Dims {
 
 /// Reusable buffers of one thread: nothing is allocated per point.
 pub(crate) struct Workspace {
-    /// One point block, row-major.
+    /// One point's panel (`m × P`) and its orthogonal factor (`m × m`).
     pub(crate) point: Vec<f64>,
     /// The group rows being eliminated, row-major.
     pub(crate) group: Vec<f64>,
     /// Reduced rows waiting for the GEMM, row-major.
     pub(crate) reduced: Vec<f64>,
-    /// Householder scratch.
+    /// Householder scratch (grows to the largest need, then stays).
     pub(crate) scratch: Vec<f64>,
     /// Back-substitution data of the points of the current group.
     pub(crate) point_data: Vec<f64>,
@@ -75,10 +71,10 @@ pub(crate) struct Workspace {
 impl Workspace {
     pub(crate) fn new(d: Dims) -> Self {
         Self {
-            point: vec![0.0; d.point_rows() * d.point_width()],
+            point: vec![0.0; d.point_rows() * (d.p + d.point_rows())],
             group: vec![0.0; d.group_capacity() * d.group_width()],
             reduced: vec![0.0; CHUNK_BUFFER_ROWS * d.reduced_width()],
-            scratch: vec![0.0; d.point_width()],
+            scratch: Vec::new(),
             point_data: Vec::new(),
         }
     }
@@ -102,7 +98,7 @@ impl Workspace {
 pub(crate) struct ElimBuffers<'w> {
     pub(crate) point: &'w mut [f64],
     pub(crate) group: &'w mut [f64],
-    pub(crate) scratch: &'w mut [f64],
+    pub(crate) scratch: &'w mut Vec<f64>,
 }
 
 /// A pool of workspaces: a task takes one, uses it, gives it back. At most
@@ -170,7 +166,10 @@ pub(crate) fn make_chunks(
 }
 
 /// Splits `items` into consecutive mutable slices of the given lengths.
-pub(crate) fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+pub(crate) fn split_by<T>(
+    mut items: &mut [T],
+    lengths: impl Iterator<Item = usize>,
+) -> Vec<&mut [T]> {
     let mut out = Vec::new();
     for len in lengths {
         let (head, tail) = items.split_at_mut(len);
@@ -224,7 +223,10 @@ mod tests {
             })
             .collect();
         let chunks = make_chunks(|k| starts[k]..starts[k] + sizes[k], 5, 11, 2).unwrap();
-        let got: Vec<_> = chunks.iter().map(|c| (c.groups.clone(), c.points.clone())).collect();
+        let got: Vec<_> = chunks
+            .iter()
+            .map(|c| (c.groups.clone(), c.points.clone()))
+            .collect();
         assert_eq!(got, vec![(0..2, 0..3), (2..4, 3..10), (4..5, 10..11)]);
         assert!(make_chunks(|k| starts[k]..starts[k] + sizes[k], 5, 12, 2).is_err());
         assert!(make_chunks(|k| k..k + 2, 3, 6, 2).is_err());
@@ -234,10 +236,14 @@ mod tests {
     #[test]
     fn ordered_run_keeps_job_order() {
         let mut seen = Vec::new();
-        run_ordered((0..200).collect(), |j: usize| j * 2, |o| {
-            seen.push(o);
-            true
-        });
+        run_ordered(
+            (0..200).collect(),
+            |j: usize| j * 2,
+            |o| {
+                seen.push(o);
+                true
+            },
+        );
         assert_eq!(seen, (0..200).map(|j| j * 2).collect::<Vec<_>>());
     }
 }

@@ -19,12 +19,17 @@ where
     pub(crate) caches: Vec<Pr::PointCache>,
 }
 
-impl<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context<'a, G, C, P, R, Pr>
+impl<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
+    Context<'a, G, C, P, R, Pr>
 where
     Pr: Problem<G, C, P, R>,
 {
     /// Checks the problem's structure against `state` and sets up the run.
-    pub(crate) fn new(problem: &'a Pr, state: &State<G, C, P>, groups_per_chunk: usize) -> Result<Self, String> {
+    pub(crate) fn new(
+        problem: &'a Pr,
+        state: &State<G, C, P>,
+        groups_per_chunk: usize,
+    ) -> Result<Self, String> {
         let n_groups = problem.n_groups();
         if state.groups.len() != n_groups {
             return Err(format!(
@@ -32,12 +37,24 @@ where
                 state.groups.len()
             ));
         }
-        let chunks = make_chunks(|k| problem.group_points(k), n_groups, state.points.len(), groups_per_chunk)?;
+        let chunks = make_chunks(
+            |k| problem.group_points(k),
+            n_groups,
+            state.points.len(),
+            groups_per_chunk,
+        )?;
         if !state.is_finite() {
             return Err("the initial state is not finite".into());
         }
-        let caches = (0..state.points.len()).map(|i| problem.initial_cache(i)).collect();
-        let dims = Dims { g: G, c: C, p: P, r: R };
+        let caches = (0..state.points.len())
+            .map(|i| problem.initial_cache(i))
+            .collect();
+        let dims = Dims {
+            g: G,
+            c: C,
+            p: P,
+            r: R,
+        };
         Ok(Self {
             problem,
             chunks,

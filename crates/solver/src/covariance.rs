@@ -28,7 +28,10 @@ impl<const G: usize, const C: usize> EliminationSink for SigmaSink<'_, G, C> {
 
 /// Marginal sigmas of a group from its triangular rows `[R_cc | R_cg | z]`
 /// (row-major, width `C + G + 1`) and the global covariance.
-pub(crate) fn group_sigma<const G: usize, const C: usize>(top: &[f64], cov: &SMatrix<f64, G, G>) -> SVector<f64, C> {
+pub(crate) fn group_sigma<const G: usize, const C: usize>(
+    top: &[f64],
+    cov: &SMatrix<f64, G, G>,
+) -> SVector<f64, C> {
     let w = C + G + 1;
     let r_cc = SMatrix::<f64, C, C>::from_fn(|a, b| if b >= a { top[a * w + b] } else { 0.0 });
     let r_cg = SMatrix::<f64, C, G>::from_fn(|a, j| top[a * w + C + j]);
@@ -39,7 +42,10 @@ pub(crate) fn group_sigma<const G: usize, const C: usize>(top: &[f64], cov: &SMa
 }
 
 /// `U⁻¹ B` for upper-triangular `U`.
-fn upper_solve<const C: usize, const N: usize>(u: &SMatrix<f64, C, C>, mut b: SMatrix<f64, C, N>) -> SMatrix<f64, C, N> {
+fn upper_solve<const C: usize, const N: usize>(
+    u: &SMatrix<f64, C, C>,
+    mut b: SMatrix<f64, C, N>,
+) -> SMatrix<f64, C, N> {
     for a in (0..C).rev() {
         for l in a + 1..C {
             let ual = u[(a, l)];
@@ -81,7 +87,9 @@ where
                         first_group: chunk.groups.start,
                         out: Vec::with_capacity(chunk.groups.len()),
                     };
-                    eliminate_chunk::<G, C, P, R, _, _>(problem, chunk, state, caches, 0.0, dims, bufs, None, &mut sink)?;
+                    eliminate_chunk::<G, C, P, R, _, _>(
+                        problem, chunk, state, caches, 0.0, dims, bufs, None, &mut sink,
+                    )?;
                     Ok(sink.out)
                 })
             },

@@ -68,7 +68,11 @@ pub fn group_index<const G: usize, const C: usize>(k: usize, j: usize) -> usize 
 }
 
 /// Column of coordinate `j` of point `i`, in a problem with `n_groups` groups.
-pub fn point_index<const G: usize, const C: usize, const P: usize>(n_groups: usize, i: usize, j: usize) -> usize {
+pub fn point_index<const G: usize, const C: usize, const P: usize>(
+    n_groups: usize,
+    i: usize,
+    j: usize,
+) -> usize {
     G + n_groups * C + i * P + j
 }
 
@@ -117,7 +121,13 @@ fn information_rows(information: &Mat<f64>) -> Result<Mat<f64>, DenseError> {
 /// Builds and solves the full dense system of `problem` at `state` with
 /// Marquardt damping `lambda` (0: Gauss–Newton). Every point is linearised
 /// once, with a fresh [`initial_cache`](Problem::initial_cache).
-pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr: Problem<G, C, P, R>>(
+pub fn solve<
+    const G: usize,
+    const C: usize,
+    const P: usize,
+    const R: usize,
+    Pr: Problem<G, C, P, R>,
+>(
     problem: &Pr,
     state: &State<G, C, P>,
     lambda: f64,
@@ -145,7 +155,13 @@ pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr:
     for (i, &k) in point_group.iter().enumerate() {
         let mut cache = problem.initial_cache(i);
         let lin = problem
-            .linearize(i, &state.global, &state.groups[k], &state.points[i], &mut cache)
+            .linearize(
+                i,
+                &state.global,
+                &state.groups[k],
+                &state.points[i],
+                &mut cache,
+            )
             .map_err(|e| DenseError::Linearize {
                 point: i,
                 message: e.to_string(),
@@ -154,23 +170,35 @@ pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr:
             let mut entries = Vec::new();
             entries.extend((0..G).map(|j| (global_index(j), lin.d_global[(row, j)])));
             entries.extend((0..C).map(|j| (group_index::<G, C>(k, j), lin.d_group[(row, j)])));
-            entries.extend((0..P).map(|j| (point_index::<G, C, P>(n_groups, i, j), lin.d_point[(row, j)])));
+            entries.extend((0..P).map(|j| {
+                (
+                    point_index::<G, C, P>(n_groups, i, j),
+                    lin.d_point[(row, j)],
+                )
+            }));
             rows.push((entries, lin.residual[row]));
         }
     }
-    let mut prior_rows = |columns: Vec<usize>, info: Mat<f64>, error: Vec<f64>| -> Result<(), DenseError> {
-        let u = information_rows(&info)?;
-        for a in 0..columns.len() {
-            let entries = columns.iter().enumerate().map(|(j, &c)| (c, u[(a, j)])).collect();
-            let r = (0..columns.len()).map(|j| u[(a, j)] * error[j]).sum();
-            rows.push((entries, r));
-        }
-        Ok(())
-    };
+    let mut prior_rows =
+        |columns: Vec<usize>, info: Mat<f64>, error: Vec<f64>| -> Result<(), DenseError> {
+            let u = information_rows(&info)?;
+            for a in 0..columns.len() {
+                let entries = columns
+                    .iter()
+                    .enumerate()
+                    .map(|(j, &c)| (c, u[(a, j)]))
+                    .collect();
+                let r = (0..columns.len()).map(|j| u[(a, j)] * error[j]).sum();
+                rows.push((entries, r));
+            }
+            Ok(())
+        };
     for i in 0..n_points {
         if let Some(prior) = problem.point_prior(i) {
             prior_rows(
-                (0..P).map(|j| point_index::<G, C, P>(n_groups, i, j)).collect(),
+                (0..P)
+                    .map(|j| point_index::<G, C, P>(n_groups, i, j))
+                    .collect(),
                 Mat::from_fn(P, P, |a, b| prior.information[(a, b)]),
                 (0..P).map(|j| state.points[i][j] - prior.mean[j]).collect(),
             )?;
@@ -210,7 +238,9 @@ pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr:
             damped[(j, j)] += lambda * damping_diagonal(normal[(j, j)]);
         }
     }
-    let llt = damped.llt(Side::Lower).map_err(|_| DenseError::NotPositiveDefinite)?;
+    let llt = damped
+        .llt(Side::Lower)
+        .map_err(|_| DenseError::NotPositiveDefinite)?;
     let mut delta = Mat::<f64>::from_fn(n, 1, |j, _| -gradient[(j, 0)]);
     llt.solve_in_place(delta.as_mut());
     let inverse = normal.llt(Side::Lower).ok().map(|l| l.inverse());

@@ -1,7 +1,9 @@
-//! Point and group elimination in square-root form: the rows of every point
-//! are reduced by a small Householder QR on its point columns, the remaining
-//! rows of a group by a QR on its group columns, and what remains (global
-//! columns and residual only) is multiplied into the chunk's reduced matrix.
+//! Point and group elimination in square-root form: a small Householder QR
+//! of each point's panel (its rows restricted to the point columns) gives an
+//! explicit `Q`, whose nullspace part `Q₂ᵀ` turns the point's rows into
+//! point-eliminated rows; a QR on the group columns of a group's stacked rows
+//! eliminates the group; what remains (global columns and residual only) is
+//! multiplied into the chunk's reduced matrix by GEMM.
 
 use faer::linalg::matmul::triangular::{BlockStructure, matmul};
 use faer::{Accum, MatMut, MatRef, Par};
@@ -9,7 +11,9 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
 use crate::problem::{Linearization, Problem, State};
-use crate::qr::{PriorRows, add_column_norms2, householder_rows, triangle_has_full_rank};
+use crate::qr::{
+    PriorRows, RANK_TOLERANCE, add_column_norms2, householder_rows, triangle_has_full_rank,
+};
 use crate::solution::BlockId;
 
 /// Levenberg–Marquardt diagonal entries are clamped to this range (as in
@@ -35,101 +39,244 @@ pub(crate) enum Failure {
     Singular(BlockId),
 }
 
-/// The trailing columns a point block carries after its point and group
-/// columns.
-#[derive(Clone, Copy)]
-pub(crate) enum Tail<'a, const G: usize> {
-    /// The global columns and the residual (`G + 1` columns).
-    Global,
-    /// The residual after a known global step, `r + d_global · δg` (one
-    /// column).
-    Stepped(&'a SVector<f64, G>),
-}
-
-impl<const G: usize> Tail<'_, G> {
-    pub(crate) fn width(self) -> usize {
-        match self {
-            Tail::Global => G + 1,
-            Tail::Stepped(_) => 1,
+impl Failure {
+    pub(crate) fn linearize(point: usize, error: &impl std::fmt::Display) -> Self {
+        Failure::Linearize {
+            point,
+            message: error.to_string(),
         }
     }
 }
 
-/// Writes the rows of one point into `block` (row-major, width
-/// `P + C + tail`): its `R` data rows `[d_point | d_group | tail]`, then the
-/// prior rows `[U | 0 | (0…) e]`, then (if `lambda > 0`) the damping rows
-/// `[√(λ D_p) | 0 | 0]`. Returns the number of rows and the damping diagonal
-/// `D_p` (zero when undamped).
-pub(crate) fn assemble_point<const G: usize, const C: usize, const P: usize, const R: usize>(
+/// One point's panel `[d_point; U_p; √(λ D_p)]` (its data, prior and
+/// damping rows restricted to the point columns), factorised: `Qᵀ · panel =
+/// [R_pp; 0]` with `Q` explicit. Row `e` of `Qᵀ` applied to the point's full
+/// rows gives, for `e < P`, the point's back-substitution rows and, for
+/// `e ≥ P`, its point-eliminated rows (zero in the point columns): the rows of
+/// `Q₂ᵀ`, `Q₂ = Q[:, P..]`, span the left nullspace of the panel.
+pub(crate) struct PointFactor<const P: usize> {
+    /// Rows of the panel: `R` data rows, then `P` prior rows if any, then `P`
+    /// damping rows if damped.
+    pub(crate) rows: usize,
+    /// The damping diagonal `D_p` (zero when undamped).
+    pub(crate) damping: SVector<f64, P>,
+}
+
+/// Builds and factorises the panel of a point into `buf` (the panel, `m × P`
+/// row-major, then `Q`, `m × m` row-major, at offset `(R + 2P) · P`; only
+/// the columns from `first_column` on are formed). Returns `None` if the
+/// panel is rank deficient.
+pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const R: usize>(
     lin: &Linearization<G, C, P, R>,
-    tail: Tail<'_, G>,
     prior: Option<&PriorRows<P>>,
     lambda: f64,
-    block: &mut [f64],
-) -> (usize, SVector<f64, P>) {
-    let width = P + C + tail.width();
-    let mut rows = 0;
-    for row in 0..R {
-        let dst = &mut block[rows * width..(rows + 1) * width];
+    buf: &mut [f64],
+    first_column: usize,
+) -> Option<PointFactor<P>> {
+    let (panel, q) = buf.split_at_mut((R + 2 * P) * P);
+    if P == 0 {
+        identity(&mut q[..R * R], R);
+        return Some(PointFactor {
+            rows: R,
+            damping: SVector::zeros(),
+        });
+    }
+    let (panel, _) = panel.as_chunks_mut::<P>();
+    let mut m = 0;
+    for r in 0..R {
         for j in 0..P {
-            dst[j] = lin.d_point[(row, j)];
+            panel[m][j] = lin.d_point[(r, j)];
         }
-        for j in 0..C {
-            dst[P + j] = lin.d_group[(row, j)];
-        }
-        match tail {
-            Tail::Global => {
-                for j in 0..G {
-                    dst[P + C + j] = lin.d_global[(row, j)];
-                }
-                dst[P + C + G] = lin.residual[row];
-            }
-            Tail::Stepped(step) => {
-                let mut t = lin.residual[row];
-                for j in 0..G {
-                    t += lin.d_global[(row, j)] * step[j];
-                }
-                dst[P + C] = t;
-            }
-        }
-        rows += 1;
+        m += 1;
     }
     if let Some(prior) = prior {
-        for row in 0..P {
-            let dst = &mut block[rows * width..(rows + 1) * width];
-            dst.fill(0.0);
-            for j in row..P {
-                dst[j] = prior.sqrt[(row, j)];
+        for a in 0..P {
+            for j in 0..P {
+                panel[m][j] = if j >= a { prior.sqrt[(a, j)] } else { 0.0 };
             }
-            dst[width - 1] = prior.residual[row];
-            rows += 1;
+            m += 1;
         }
-    }
-    let mut diagonal = SVector::<f64, P>::zeros();
-    if lambda > 0.0 {
-        let mut norms2 = [0.0; P];
-        add_column_norms2(block, rows, width, P, &mut norms2);
-        for j in 0..P {
-            diagonal[j] = damping_diagonal(norms2[j]);
-            let dst = &mut block[rows * width..(rows + 1) * width];
-            dst.fill(0.0);
-            dst[j] = (lambda * diagonal[j]).sqrt();
-            rows += 1;
-        }
-    }
-    (rows, diagonal)
-}
-
-/// Householder QR of the `P` point columns of an assembled point block
-/// (`rows × width`, row-major); `false` if the point block is rank deficient.
-pub(crate) fn eliminate_point<const P: usize>(block: &mut [f64], rows: usize, width: usize, scratch: &mut [f64]) -> bool {
-    if P == 0 {
-        return true;
     }
     let mut norms2 = [0.0; P];
-    add_column_norms2(block, rows, width, P, &mut norms2);
-    householder_rows(block, rows, width, P, scratch);
-    triangle_has_full_rank(block, rows, width, P, &norms2)
+    for row in &panel[..m] {
+        for j in 0..P {
+            norms2[j] += row[j] * row[j];
+        }
+    }
+    let mut damping = SVector::<f64, P>::zeros();
+    if lambda > 0.0 {
+        for j in 0..P {
+            damping[j] = damping_diagonal(norms2[j]);
+            let d = lambda * damping[j];
+            panel[m] = [0.0; P];
+            panel[m][j] = d.sqrt();
+            norms2[j] += d;
+            m += 1;
+        }
+    }
+    if m < P {
+        return None;
+    }
+    let panel = &mut panel[..m];
+    let tau = point_householder(panel);
+    point_q(panel, &tau, &mut q[..m * m], first_column);
+    let full_rank = (0..P).all(|j| {
+        norms2[j] > 0.0 && panel[j][j] * panel[j][j] > RANK_TOLERANCE * RANK_TOLERANCE * norms2[j]
+    });
+    for (r, row) in panel.iter_mut().enumerate() {
+        for x in row.iter_mut().take(r) {
+            *x = 0.0;
+        }
+    }
+    full_rank.then_some(PointFactor { rows: m, damping })
+}
+
+fn identity(q: &mut [f64], m: usize) {
+    q.fill(0.0);
+    for i in 0..m {
+        q[i * m + i] = 1.0;
+    }
+}
+
+/// Householder QR of an `m × P` panel (`m ≥ P`): `R` on and above the
+/// diagonal, the reflectors `v_j` below it (unit diagonal implicit); returns
+/// the `τ_j` (`H_j = I − τ_j v_j v_jᵀ`).
+fn point_householder<const P: usize>(panel: &mut [[f64; P]]) -> [f64; P] {
+    let mut tau = [0.0; P];
+    for j in 0..P {
+        let mut sigma = 0.0;
+        for row in &panel[j + 1..] {
+            sigma += row[j] * row[j];
+        }
+        if sigma == 0.0 {
+            continue;
+        }
+        let alpha = panel[j][j];
+        let norm = (alpha * alpha + sigma).sqrt();
+        let beta = if alpha > 0.0 { -norm } else { norm };
+        tau[j] = (beta - alpha) / beta;
+        let inv = 1.0 / (alpha - beta);
+        let (head, tail) = panel.split_at_mut(j + 1);
+        let top = &mut head[j];
+        for row in tail.iter_mut() {
+            row[j] *= inv;
+        }
+        top[j] = beta;
+        for c in j + 1..P {
+            let mut s = top[c];
+            for row in tail.iter() {
+                s += row[j] * row[c];
+            }
+            s *= tau[j];
+            top[c] -= s;
+            for row in tail.iter_mut() {
+                row[c] -= s * row[j];
+            }
+        }
+    }
+    tau
+}
+
+/// `Q = H_0 ⋯ H_{P−1}` (`m × m`, row-major) from [`point_householder`],
+/// columns `first_column..m` only (the others are left as the identity's).
+fn point_q<const P: usize>(panel: &[[f64; P]], tau: &[f64; P], q: &mut [f64], first_column: usize) {
+    let m = panel.len();
+    identity(q, m);
+    for j in (0..P).rev() {
+        if tau[j] == 0.0 {
+            continue;
+        }
+        for c in j.max(first_column)..m {
+            let mut s = q[j * m + c];
+            for r in j + 1..m {
+                s += panel[r][j] * q[r * m + c];
+            }
+            s *= tau[j];
+            q[j * m + c] -= s;
+            for r in j + 1..m {
+                q[r * m + c] -= s * panel[r][j];
+            }
+        }
+    }
+}
+
+/// The coefficients `Q[0..R, e]` of the data rows in row `e` of `Qᵀ`.
+fn q_column<const R: usize>(q: &[f64], m: usize, e: usize) -> [f64; R] {
+    let mut c = [0.0; R];
+    for (r, c) in c.iter_mut().enumerate() {
+        *c = q[r * m + e];
+    }
+    c
+}
+
+/// `Σ_r c_r · M[r, j]` for every column `j` of an `R × N` matrix.
+fn combine_rows<const R: usize, const N: usize>(
+    c: &[f64; R],
+    m: &SMatrix<f64, R, N>,
+    out: &mut [f64],
+) {
+    for (j, o) in out.iter_mut().enumerate().take(N) {
+        let col = m.column(j);
+        let mut s = 0.0;
+        for r in 0..R {
+            s += c[r] * col[r];
+        }
+        *o = s;
+    }
+}
+
+/// Writes row `e` of `Qᵀ [d_group | d_global | r]` (prior rows contributing
+/// their residual) into `out` (`C + G + 1` values).
+pub(crate) fn eliminated_row<const G: usize, const C: usize, const P: usize, const R: usize>(
+    lin: &Linearization<G, C, P, R>,
+    prior: Option<&PriorRows<P>>,
+    q: &[f64],
+    m: usize,
+    e: usize,
+    out: &mut [f64],
+) {
+    let c = q_column::<R>(q, m, e);
+    combine_rows(&c, &lin.d_group, &mut out[..C]);
+    combine_rows(&c, &lin.d_global, &mut out[C..C + G]);
+    out[C + G] = residual_combination(&c, &lin.residual, prior, q, m, e);
+}
+
+/// `Σ_r c_r t_r + Σ_a Q[R + a, e] e_a`: a residual column `t` of the data
+/// rows, and the prior rows' residual `e`.
+pub(crate) fn residual_combination<const P: usize, const R: usize>(
+    c: &[f64; R],
+    t: &SVector<f64, R>,
+    prior: Option<&PriorRows<P>>,
+    q: &[f64],
+    m: usize,
+    e: usize,
+) -> f64 {
+    let mut s = 0.0;
+    for r in 0..R {
+        s += c[r] * t[r];
+    }
+    if let Some(prior) = prior {
+        for a in 0..P {
+            s += q[(R + a) * m + e] * prior.residual[a];
+        }
+    }
+    s
+}
+
+/// Row `e` of `Qᵀ [d_group | t]` (prior rows contributing their residual)
+/// into `out` (`C + 1` values).
+pub(crate) fn stepped_row<const G: usize, const C: usize, const P: usize, const R: usize>(
+    lin: &Linearization<G, C, P, R>,
+    t: &SVector<f64, R>,
+    prior: Option<&PriorRows<P>>,
+    q: &[f64],
+    m: usize,
+    e: usize,
+    out: &mut [f64],
+) {
+    let c = q_column::<R>(q, m, e);
+    combine_rows(&c, &lin.d_group, &mut out[..C]);
+    out[C] = residual_combination(&c, t, prior, q, m, e);
 }
 
 /// The rows of one group being eliminated: a row-major buffer whose first
@@ -169,7 +316,11 @@ impl<'w, const C: usize> GroupRows<'w, C> {
     }
 
     /// A slot for the next row (its old contents must be overwritten).
-    pub(crate) fn next_row(&mut self, scratch: &mut [f64], emit: &mut impl FnMut(&[f64])) -> &mut [f64] {
+    pub(crate) fn next_row(
+        &mut self,
+        scratch: &mut Vec<f64>,
+        emit: &mut impl FnMut(&[f64]),
+    ) -> &mut [f64] {
         if self.rows == self.capacity {
             self.fold(scratch, emit);
         }
@@ -180,9 +331,15 @@ impl<'w, const C: usize> GroupRows<'w, C> {
 
     /// QR on the group columns; emits the trailing columns (from column `C`)
     /// of the rows below the triangle.
-    fn fold(&mut self, scratch: &mut [f64], emit: &mut impl FnMut(&[f64])) {
+    fn fold(&mut self, scratch: &mut Vec<f64>, emit: &mut impl FnMut(&[f64])) {
         let w = self.width;
-        add_column_norms2(&self.buf[self.fresh * w..], self.rows - self.fresh, w, C, &mut self.norms2);
+        add_column_norms2(
+            &self.buf[self.fresh * w..],
+            self.rows - self.fresh,
+            w,
+            C,
+            &mut self.norms2,
+        );
         householder_rows(self.buf, self.rows, w, C, scratch);
         for r in C..self.rows {
             emit(&self.buf[r * w + C..(r + 1) * w]);
@@ -194,7 +351,11 @@ impl<'w, const C: usize> GroupRows<'w, C> {
     /// Folds the remaining rows; returns the group's triangular rows
     /// `[R_cc | R_c… | z_c]` (`C` rows of the buffer's width), or `None` if
     /// the group block is rank deficient.
-    pub(crate) fn finish(&mut self, scratch: &mut [f64], emit: &mut impl FnMut(&[f64])) -> Option<&[f64]> {
+    pub(crate) fn finish(
+        &mut self,
+        scratch: &mut Vec<f64>,
+        emit: &mut impl FnMut(&[f64]),
+    ) -> Option<&[f64]> {
         self.fold(scratch, emit);
         let w = self.width;
         triangle_has_full_rank(self.buf, self.rows, w, C, &self.norms2).then(|| &self.buf[..C * w])
@@ -210,7 +371,7 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
     prior: Option<&PriorRows<C>>,
     mut raw_norms2: [f64; C],
     lambda: f64,
-    scratch: &mut [f64],
+    scratch: &mut Vec<f64>,
     emit: &mut impl FnMut(&[f64]),
 ) -> SVector<f64, C> {
     if let Some(prior) = prior {
@@ -238,7 +399,10 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
 }
 
 /// Adds `Σ |column|²` of the `R × N` matrix to `out`.
-pub(crate) fn add_matrix_column_norms2<const R: usize, const N: usize>(m: &SMatrix<f64, R, N>, out: &mut [f64]) {
+pub(crate) fn add_matrix_column_norms2<const R: usize, const N: usize>(
+    m: &SMatrix<f64, R, N>,
+    out: &mut [f64],
+) {
     for (j, o) in out.iter_mut().enumerate().take(N) {
         *o += m.column(j).norm_squared();
     }
@@ -267,7 +431,14 @@ pub(crate) trait EliminationSink {
 /// `global_norms2`, if given, accumulates `Σ |d_global column|²` (the data
 /// part of the global damping diagonal).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn eliminate_chunk<const G: usize, const C: usize, const P: usize, const R: usize, Pr, S>(
+pub(crate) fn eliminate_chunk<
+    const G: usize,
+    const C: usize,
+    const P: usize,
+    const R: usize,
+    Pr,
+    S,
+>(
     problem: &Pr,
     chunk: &Chunk,
     state: &State<G, C, P>,
@@ -287,7 +458,6 @@ where
         group: group_buf,
         scratch,
     } = bufs;
-    let pw = dims.point_width();
     let mut group = GroupRows::<C>::new(group_buf, dims.group_width());
     let mut costs = Costs::default();
     for k in chunk.groups.clone() {
@@ -297,15 +467,10 @@ where
         for i in problem.group_points(k) {
             let cache = &mut caches[i - chunk.points.start];
             let p = &state.points[i];
-            let lin = problem
-                .linearize(i, &state.global, c, p, cache)
-                .map_err(|e| Failure::Linearize {
-                    point: i,
-                    message: e.to_string(),
-                })?;
-            if !lin.is_finite() {
-                return Err(Failure::NonFinite { point: i });
-            }
+            let lin = match problem.linearize(i, &state.global, c, p, cache) {
+                Ok(lin) => lin,
+                Err(e) => return Err(Failure::linearize(i, &e)),
+            };
             costs.data += lin.residual.norm_squared();
             let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
             if let Some(prior) = &prior {
@@ -317,14 +482,13 @@ where
                     add_matrix_column_norms2(&lin.d_global, out);
                 }
             }
-            let (rows, _) = assemble_point(&lin, Tail::Global, prior.as_ref(), lambda, point_buf);
-            if !eliminate_point::<P>(point_buf, rows, pw, scratch) {
-                return Err(Failure::Singular(BlockId::Point(i)));
-            }
-            for r in P..rows {
-                group
-                    .next_row(scratch, &mut |row| sink.reduced_row(row))
-                    .copy_from_slice(&point_buf[r * pw + P..(r + 1) * pw]);
+            let factor = factor_point(&lin, prior.as_ref(), lambda, point_buf, P)
+                .ok_or(Failure::Singular(BlockId::Point(i)))?;
+            let m = factor.rows;
+            let q = &point_buf[(R + 2 * P) * P..];
+            for e in P..m {
+                let row = group.next_row(scratch, &mut |row| sink.reduced_row(row));
+                eliminated_row(&lin, prior.as_ref(), q, m, e, row);
             }
         }
         let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
@@ -345,6 +509,32 @@ where
         sink.group_done(k, top);
     }
     Ok(costs)
+}
+
+/// After a chunk's sums came out non-finite: linearises its points again and
+/// names the first with a non-finite residual or Jacobian (checking every
+/// point on the fast path would cost more than the elimination of a small
+/// point). `None` if all are finite (the sums overflowed).
+pub(crate) fn find_non_finite<const G: usize, const C: usize, const P: usize, const R: usize, Pr>(
+    problem: &Pr,
+    chunk: &Chunk,
+    state: &State<G, C, P>,
+    caches: &mut [Pr::PointCache],
+) -> Option<Failure>
+where
+    Pr: Problem<G, C, P, R>,
+{
+    for k in chunk.groups.clone() {
+        for i in problem.group_points(k) {
+            let cache = &mut caches[i - chunk.points.start];
+            match problem.linearize(i, &state.global, &state.groups[k], &state.points[i], cache) {
+                Ok(lin) if lin.is_finite() => {}
+                Ok(_) => return Some(Failure::NonFinite { point: i }),
+                Err(e) => return Some(Failure::linearize(i, &e)),
+            }
+        }
+    }
+    None
 }
 
 /// Collects reduced rows and multiplies them into the lower triangle of the
@@ -405,4 +595,39 @@ impl EliminationSink for NormalSink<'_> {
     }
 
     fn group_done(&mut self, _k: usize, _top: &[f64]) {}
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn point_q_is_orthogonal_and_triangularises_the_panel() {
+        let a0: [[f64; 2]; 5] = [
+            [0.3, -1.2],
+            [0.8, 0.1],
+            [-0.5, 0.7],
+            [0.0, 0.4],
+            [1.1, -0.2],
+        ];
+        let mut panel = a0;
+        let tau = point_householder(&mut panel);
+        let m = panel.len();
+        let mut q = vec![0.0; m * m];
+        point_q(&panel, &tau, &mut q, 0);
+        for i in 0..m {
+            for j in 0..m {
+                let d: f64 = (0..m).map(|r| q[r * m + i] * q[r * m + j]).sum();
+                assert!((d - f64::from(u8::from(i == j))).abs() < 1e-14);
+            }
+        }
+        // (Qᵀ A)[e, j] is R (upper triangle) for e < 2 and 0 below.
+        for e in 0..m {
+            for j in 0..2 {
+                let x: f64 = (0..m).map(|r| q[r * m + e] * a0[r][j]).sum();
+                let want = if e <= j { panel[e][j] } else { 0.0 };
+                assert!((x - want).abs() < 1e-14, "{e} {j}: {x} vs {want}");
+            }
+        }
+    }
 }

@@ -16,11 +16,21 @@ use crate::solution::{IterationRecord, Solution, Status};
 
 /// LM gives up when `λ` grows beyond this.
 const MAX_LAMBDA: f64 = 1e32;
+/// An LM step with at least this gain ratio divides `λ` by 3 (and reuses the
+/// trial point's system, built with that damping); a weaker accepted step
+/// follows Nielsen's `λ · max(1/3, 1 − (2ρ − 1)³)`.
+const GOOD_GAIN: f64 = 0.75;
 
 /// Solves the problem from `initial`; `observer` sees every history record
 /// as it is made. Never panics on bad numerics; see [`Status`] for how a run
 /// can end, and [`Solution`] for what is returned.
-pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr: Problem<G, C, P, R>>(
+pub fn solve<
+    const G: usize,
+    const C: usize,
+    const P: usize,
+    const R: usize,
+    Pr: Problem<G, C, P, R>,
+>(
     problem: &Pr,
     initial: State<G, C, P>,
     options: &SolverOptions,
@@ -37,7 +47,10 @@ pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr:
     if let Method::LevenbergMarquardt { initial_lambda } = options.method
         && !(initial_lambda > 0.0 && initial_lambda <= MAX_LAMBDA)
     {
-        return invalid(initial, format!("initial_lambda must be in (0, 1e32], got {initial_lambda}"));
+        return invalid(
+            initial,
+            format!("initial_lambda must be in (0, 1e32], got {initial_lambda}"),
+        );
     }
     match Context::new(problem, &initial, options.groups_per_chunk) {
         Ok(ctx) => Run {
@@ -52,7 +65,10 @@ pub fn solve<const G: usize, const C: usize, const P: usize, const R: usize, Pr:
 }
 
 /// `a += b`.
-fn add_into<const G: usize, const C: usize, const P: usize>(a: &mut State<G, C, P>, b: &State<G, C, P>) {
+fn add_into<const G: usize, const C: usize, const P: usize>(
+    a: &mut State<G, C, P>,
+    b: &State<G, C, P>,
+) {
     a.global += b.global;
     for (x, y) in a.groups.iter_mut().zip(&b.groups) {
         *x += y;
@@ -78,7 +94,13 @@ pub struct LinearStep<const G: usize, const C: usize, const P: usize> {
 /// (0: the Gauss–Newton step): `(H + λD) δ = −b`, without applying it. Meant
 /// for checks against [`dense_reference`](crate::dense_reference). Fails with
 /// the [`Status`] that [`solve`] would end with at this point.
-pub fn linear_step<const G: usize, const C: usize, const P: usize, const R: usize, Pr: Problem<G, C, P, R>>(
+pub fn linear_step<
+    const G: usize,
+    const C: usize,
+    const P: usize,
+    const R: usize,
+    Pr: Problem<G, C, P, R>,
+>(
     problem: &Pr,
     state: &State<G, C, P>,
     lambda: f64,
@@ -95,9 +117,13 @@ pub fn linear_step<const G: usize, const C: usize, const P: usize, const R: usiz
             point,
             message: "non-finite residual or Jacobian".into(),
         },
-        Failure::Singular(block) => Status::SingularBlock { iteration: 0, block },
+        Failure::Singular(block) => Status::SingularBlock {
+            iteration: 0,
+            block,
+        },
     };
-    let mut ctx = Context::new(problem, state, groups_per_chunk).map_err(|message| Status::InvalidProblem { message })?;
+    let mut ctx = Context::new(problem, state, groups_per_chunk)
+        .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
     let factor = ScaledCholesky::new(&system.matrix, G).ok_or_else(|| Status::Singular {
         iteration: 0,
@@ -106,7 +132,9 @@ pub fn linear_step<const G: usize, const C: usize, const P: usize, const R: usiz
     let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
     let dg = SVector::<f64, G>::from_vec(factor.solve(&neg_b));
     let mut delta = state.clone();
-    let summary = ctx.back_substitute(state, &system, &dg, &mut delta).map_err(failed)?;
+    let summary = ctx
+        .back_substitute(state, &system, &dg, &mut delta)
+        .map_err(failed)?;
     Ok(LinearStep {
         delta,
         cost: system.cost(),
@@ -233,7 +261,11 @@ where
                 lambda *= nu;
                 nu *= 2.0;
                 if lambda > MAX_LAMBDA {
-                    return self.diverged(x, solves + 1, format!("damping λ exceeded {MAX_LAMBDA:e}"));
+                    return self.diverged(
+                        x,
+                        solves + 1,
+                        format!("damping λ exceeded {MAX_LAMBDA:e}"),
+                    );
                 }
                 system = match self.ctx.reduce(&x, lambda) {
                     Ok(s) => s,
@@ -252,9 +284,14 @@ where
             let finite_step = step_norm.is_finite() && trial.is_finite();
             if !finite_step && damped.is_none() {
                 self.record(&system, step_norm, lambda, false);
-                return self.diverged(x, solves + 1, format!("non-finite step (|δ| = {step_norm})"));
+                return self.diverged(
+                    x,
+                    solves + 1,
+                    format!("non-finite step (|δ| = {step_norm})"),
+                );
             }
-            let converged = finite_step && step_norm / (summary.state_norm2.sqrt() + 1.0) < options.step_tolerance;
+            let converged = finite_step
+                && step_norm / (summary.state_norm2.sqrt() + 1.0) < options.step_tolerance;
             if damped.is_none() || converged {
                 // Gauss–Newton, or the converged step of either method: take it.
                 self.record(&system, step_norm, lambda, true);
@@ -281,7 +318,7 @@ where
                 continue;
             }
             // Levenberg–Marquardt: evaluate the trial point, building its
-            // system with the damping a very good step would get next.
+            // system with the damping a good step gets next.
             let lambda_good = lambda * (1.0 / 3.0);
             let predicted = summary.predicted_decrease();
             let next = if finite_step {
@@ -290,28 +327,38 @@ where
                 None
             };
             let gain = match &next {
-                Some(n) if n.cost().is_finite() && predicted > 0.0 => (system.cost() - n.cost()) / predicted,
+                Some(n) if n.cost().is_finite() && predicted > 0.0 => {
+                    (system.cost() - n.cost()) / predicted
+                }
                 _ => f64::NAN,
             };
             if gain > 0.0 {
                 self.record(&system, step_norm, lambda, true);
                 swap(&mut x, &mut trial);
-                let new_lambda = lambda * (1.0 / 3.0f64).max(1.0 - (2.0 * gain - 1.0).powi(3));
                 nu = 2.0;
-                system = match next {
-                    Some(n) if new_lambda == lambda_good => n,
-                    _ => match self.ctx.reduce(&x, new_lambda) {
-                        Ok(s) => s,
-                        Err(f) => return self.fail(x, solves + 1, f),
-                    },
-                };
-                lambda = new_lambda;
+                match next {
+                    Some(n) if gain >= GOOD_GAIN => {
+                        lambda = lambda_good;
+                        system = n;
+                    }
+                    _ => {
+                        lambda *= (1.0 / 3.0f64).max(1.0 - (2.0 * gain - 1.0).powi(3));
+                        system = match self.ctx.reduce(&x, lambda) {
+                            Ok(s) => s,
+                            Err(f) => return self.fail(x, solves + 1, f),
+                        };
+                    }
+                }
             } else {
                 self.record(&system, step_norm, lambda, false);
                 lambda *= nu;
                 nu *= 2.0;
                 if lambda > MAX_LAMBDA {
-                    return self.diverged(x, solves + 1, format!("damping λ exceeded {MAX_LAMBDA:e}"));
+                    return self.diverged(
+                        x,
+                        solves + 1,
+                        format!("damping λ exceeded {MAX_LAMBDA:e}"),
+                    );
                 }
                 system = match self.ctx.reduce(&x, lambda) {
                     Ok(s) => s,
@@ -322,7 +369,12 @@ where
     }
 
     /// The final record, covariance, group sigmas and spectrum at `state`.
-    fn finish(mut self, state: State<G, C, P>, mut system: ReducedSystem, status: Status) -> Solution<G, C, P> {
+    fn finish(
+        mut self,
+        state: State<G, C, P>,
+        mut system: ReducedSystem,
+        status: Status,
+    ) -> Solution<G, C, P> {
         let solves = self.history.len();
         if system.lambda > 0.0 {
             system = match self.ctx.reduce(&state, 0.0) {

@@ -91,27 +91,46 @@
 //! (with `D` of the group summed over its points' raw Jacobians), and on the
 //! diagonal of `S`. The predicted decrease is `−bᵀδ + δᵀ(λD)δ`, accumulated
 //! during back-substitution; the step is accepted if the cost decreases
-//! (gain ratio `ρ > 0`), and `λ` follows Nielsen: `λ·max(1/3, 1 − (2ρ−1)³)`
-//! on acceptance, `λ·ν, ν ← 2ν` on rejection. The trial point is evaluated by
-//! building its reduced system with `λ/3`, which is what Nielsen's rule gives
-//! for a very good step (`ρ ≥ 0.94`): then an accepted step costs two passes
-//! over the points, otherwise (a weaker step, or a rejection) one more.
+//! (gain ratio `ρ > 0`), and `λ` follows Nielsen (`λ·max(1/3, 1 − (2ρ−1)³)`
+//! on acceptance, `λ·ν, ν ← 2ν` on rejection), with one change: the trial
+//! point is evaluated by building its reduced system with `λ/3`, and a good
+//! step (`ρ ≥ 0.75`) keeps that system and that `λ/3` (Nielsen would divide
+//! by 1.1–3 there). A good step then costs two passes over the points, like a
+//! Gauss–Newton step; a weaker step or a rejection one more.
 //! A failed or non-finite evaluation at a trial point counts as a rejection.
 //! Gauss–Newton takes the full step, with no line search, and may diverge.
 //!
 //! # Parallelism, determinism, memory
 //!
 //! Groups are cut into chunks of [`SolverOptions::groups_per_chunk`]. Chunks
-//! run in parallel (rayon); each reduces its rows into its own partial
-//! `(G+1)²` matrix with fixed-size buffers (a group is folded in batches of
-//! at most 256 rows, reduced rows are multiplied in batches of 2048), and the
-//! partial results are summed sequentially in chunk order. Hence results are
-//! bit-identical for any number of threads. Nothing is allocated per point:
-//! each thread reuses its workspace (a few hundred kB). Per point the solver
-//! keeps only the point's cache, its value and its trial value
-//! (`2 · 8P` bytes + `size_of::<PointCache>()`); Jacobians are never stored
-//! across passes. During back-substitution a thread holds `8(P(C+3))` bytes
-//! per point of the group it is working on.
+//! run in parallel (rayon, in waves of 64 chunks); each reduces its rows into
+//! its own partial `(G+1)²` matrix with fixed-size buffers (a group is folded
+//! in batches of at most 256 rows, reduced rows are multiplied in batches of
+//! 2048), and the partial results are summed sequentially in chunk order.
+//! Every kernel runs sequentially inside a chunk (`Par::Seq`). Hence results
+//! are bit-identical for any number of threads (they do depend on
+//! `groups_per_chunk`, at rounding level). Nothing is allocated per point:
+//! each thread reuses its workspace (about 0.7 MB for `G = 33`). Per point
+//! the solver keeps only the point's cache, its value and its trial value
+//! (`2 · 8P` bytes + `size_of::<PointCache>()`, 32 bytes for `P = 2` and a
+//! zero-sized cache); Jacobians are never stored across passes. During
+//! back-substitution a thread holds `8P(C+3)` bytes per point of the group it
+//! is working on.
+//!
+//! The point factor is computed once per pass: its panel
+//! `[d_point; U_p; √(λD_p)]` (`m × P`, `m = R` without prior or damping) is
+//! factorised and its `Q` formed explicitly; the point's `m − P` eliminated
+//! rows are then `Q₂ᵀ [d_group | d_global | r]` computed straight from the
+//! Jacobians (the "nullspace" form), without assembling the point's block.
+//! Damping at the point level makes every point contribute `R` reduced rows
+//! instead of `R − P`, so a Levenberg–Marquardt pass costs more than a
+//! Gauss–Newton one.
+//!
+//! # Checking
+//!
+//! [`linear_step`] returns one step of the Schur solver without applying it,
+//! and [`dense_reference`] solves the same step, and inverts the normal
+//! matrix, densely: for tests on small problems.
 //!
 //! # Example
 //!

@@ -12,7 +12,8 @@ pub enum Method {
     /// matrix `H` is replaced by `H + λ·D`, `D = clamp(diag H, 1e-6, 1e32)`,
     /// the damping applied as extra rows at every level (point, group,
     /// global). Steps are accepted on a cost decrease; `λ` follows Nielsen's
-    /// rule.
+    /// rule, except that a step with gain ratio ≥ 0.75 divides it by 3 (see the
+    /// crate documentation).
     LevenbergMarquardt {
         /// The starting `λ` (dimensionless thanks to the diagonal scaling;
         /// `1e-4`…`1e-2` is typical).

@@ -5,6 +5,8 @@ use std::ops::Range;
 
 use nalgebra::{SMatrix, SVector};
 
+use crate::qr::all_finite;
+
 /// The whitened residual of one point and its Jacobians with respect to the
 /// three blocks of unknowns it depends on.
 #[derive(Clone, Debug, PartialEq)]
@@ -33,10 +35,10 @@ impl<const G: usize, const C: usize, const P: usize, const R: usize> Linearizati
 
     /// Whether every entry is finite.
     pub fn is_finite(&self) -> bool {
-        self.residual.iter().all(|v| v.is_finite())
-            && self.d_global.iter().all(|v| v.is_finite())
-            && self.d_group.iter().all(|v| v.is_finite())
-            && self.d_point.iter().all(|v| v.is_finite())
+        all_finite(self.residual.as_slice())
+            && all_finite(self.d_global.as_slice())
+            && all_finite(self.d_group.as_slice())
+            && all_finite(self.d_point.as_slice())
     }
 }
 

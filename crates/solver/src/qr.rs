@@ -2,6 +2,8 @@
 //! columns, upper-triangular solves, and the square root of a prior's
 //! information matrix.
 
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{SMatrix, SVector};
 
 /// Relative size below which a diagonal entry of a triangular factor counts as
@@ -9,61 +11,177 @@ use nalgebra::{SMatrix, SVector};
 /// the columns before it.
 pub(crate) const RANK_TOLERANCE: f64 = 1e-10;
 
+/// Householder factorisation of the leading `k` columns of the `m × n`
+/// row-major block `a` (row stride `n`), the reflections applied to those
+/// `k` columns only: afterwards the upper triangle holds `R`, and below the
+/// diagonal of column `i` the reflector `v_i` (unit diagonal implicit), with
+/// `H_i = I − τ_i v_i v_iᵀ` and `τ_i` in `tau`. Returns the number of
+/// reflectors, `min(k, m)`.
+fn householder_panel(a: &mut [f64], m: usize, n: usize, k: usize, tau: &mut [f64]) -> usize {
+    let kk = k.min(m);
+    for j in 0..kk {
+        let mut sigma = 0.0;
+        for r in j + 1..m {
+            sigma += a[r * n + j] * a[r * n + j];
+        }
+        let alpha = a[j * n + j];
+        if sigma == 0.0 {
+            tau[j] = 0.0;
+            continue;
+        }
+        let norm = (alpha * alpha + sigma).sqrt();
+        let beta = if alpha > 0.0 { -norm } else { norm };
+        // H = I − τ v vᵀ with v = (1, x₁…/(α − β)), H x = β e₁.
+        tau[j] = (beta - alpha) / beta;
+        let inv = 1.0 / (alpha - beta);
+        for r in j + 1..m {
+            a[r * n + j] *= inv;
+        }
+        a[j * n + j] = beta;
+        for c in j + 1..k {
+            let mut s = a[j * n + c];
+            for r in j + 1..m {
+                s += a[r * n + j] * a[r * n + c];
+            }
+            s *= tau[j];
+            a[j * n + c] -= s;
+            for r in j + 1..m {
+                a[r * n + c] -= s * a[r * n + j];
+            }
+        }
+    }
+    kk
+}
+
+/// Component `r` of reflector `i` left by [`householder_panel`].
+fn reflector(a: &[f64], n: usize, r: usize, i: usize) -> f64 {
+    match r.cmp(&i) {
+        std::cmp::Ordering::Less => 0.0,
+        std::cmp::Ordering::Equal => 1.0,
+        std::cmp::Ordering::Greater => a[r * n + i],
+    }
+}
+
+/// Sets the reflectors below the diagonal to exact zeros.
+fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
+    for j in 0..kk {
+        for r in j + 1..m {
+            a[r * n + j] = 0.0;
+        }
+    }
+}
+
 /// Householder QR of the leading `k` columns of the `m × n` row-major block
 /// `a` (row stride `n`); the reflections are applied to all `n` columns.
 ///
 /// Afterwards rows `0..min(m, k)` hold the upper-triangular factor in columns
 /// `0..k` (and the transformed trailing columns), and rows `k..m` are exactly
-/// zero in columns `0..k`. `w` is scratch of length ≥ `n`. The reflections
-/// are orthogonal, so sums of squares of every column (and `AᵀA` of the whole
-/// block) are preserved.
-pub(crate) fn householder_rows(a: &mut [f64], m: usize, n: usize, k: usize, w: &mut [f64]) {
-    debug_assert!(a.len() >= m * n && w.len() >= n && k <= n);
-    for j in 0..k.min(m) {
-        let (head, tail) = a[..m * n].split_at_mut((j + 1) * n);
-        let pivot_row = &mut head[j * n..];
-        let mut sigma = 0.0;
-        for row in tail.chunks_exact(n) {
-            sigma += row[j] * row[j];
-        }
-        if sigma == 0.0 {
-            continue;
-        }
-        let alpha = pivot_row[j];
-        let norm = (alpha * alpha + sigma).sqrt();
-        let beta = if alpha > 0.0 { -norm } else { norm };
-        // H = I − τ v vᵀ with v = (1, x₁…/(α − β)), H x = β e₁.
-        let tau = (beta - alpha) / beta;
-        let inv = 1.0 / (alpha - beta);
-        let w = &mut w[j + 1..n];
-        w.copy_from_slice(&pivot_row[j + 1..n]);
-        for row in tail.chunks_exact_mut(n) {
-            row[j] *= inv;
-            let v = row[j];
-            for (wc, x) in w.iter_mut().zip(&row[j + 1..n]) {
-                *wc += v * x;
-            }
-        }
-        for wc in w.iter_mut() {
-            *wc *= tau;
-        }
-        for (x, wc) in pivot_row[j + 1..n].iter_mut().zip(w.iter()) {
-            *x -= wc;
-        }
-        for row in tail.chunks_exact_mut(n) {
-            let v = row[j];
-            for (x, wc) in row[j + 1..n].iter_mut().zip(w.iter()) {
-                *x -= v * wc;
-            }
-            row[j] = 0.0;
-        }
-        pivot_row[j] = beta;
+/// zero in columns `0..k`. The reflections are orthogonal, so sums of squares
+/// of every column (and `AᵀA` of the whole block) are preserved.
+///
+/// Blocked (compact WY, as LAPACK's `dgeqrt`): the reflectors are formed on
+/// the panel, `Q = I − V T Vᵀ`, and the trailing columns are updated as
+/// `A_t −= V (Tᵀ (Vᵀ A_t))` with two GEMMs. `scratch` grows as needed.
+pub(crate) fn householder_rows(
+    a: &mut [f64],
+    m: usize,
+    n: usize,
+    k: usize,
+    scratch: &mut Vec<f64>,
+) {
+    debug_assert!(a.len() >= m * n && k <= n);
+    let kk = k.min(m);
+    if kk == 0 {
+        return;
     }
+    let nt = n - k;
+    let need = kk + kk * kk + m * kk + kk * nt;
+    if scratch.len() < need {
+        scratch.resize(need, 0.0);
+    }
+    let (tau, rest) = scratch.split_at_mut(kk);
+    let (t, rest) = rest.split_at_mut(kk * kk);
+    let (v, rest) = rest.split_at_mut(m * kk);
+    let w = &mut rest[..kk * nt];
+    householder_panel(a, m, n, k, tau);
+    if nt > 0 {
+        for r in 0..m {
+            for i in 0..kk {
+                v[r * kk + i] = reflector(a, n, r, i);
+            }
+        }
+        // T (upper triangular) with H_0 ⋯ H_{kk−1} = I − V T Vᵀ (LAPACK's
+        // dlarft, forward, columnwise).
+        t.fill(0.0);
+        for i in 0..kk {
+            t[i * kk + i] = tau[i];
+            for l in 0..i {
+                let mut y = 0.0;
+                for r in i..m {
+                    y += v[r * kk + l] * v[r * kk + i];
+                }
+                w[l] = y;
+            }
+            for l in 0..i {
+                let mut s = 0.0;
+                for q in l..i {
+                    s += t[l * kk + q] * w[q];
+                }
+                t[l * kk + i] = -tau[i] * s;
+            }
+        }
+        let vm = MatRef::from_row_major_slice(v, m, kk);
+        // W = Vᵀ A_t.
+        {
+            let am = MatRef::from_row_major_slice(&a[..m * n], m, n).subcols(k, nt);
+            let wm = MatMut::from_row_major_slice_mut(w, kk, nt);
+            matmul(wm, Accum::Replace, vm.transpose(), am, 1.0, Par::Seq);
+        }
+        // W ← Tᵀ W (Tᵀ lower triangular: rows from the last).
+        for i in (0..kk).rev() {
+            let (head, tail) = w.split_at_mut(i * nt);
+            let wi = &mut tail[..nt];
+            for x in wi.iter_mut() {
+                *x *= t[i * kk + i];
+            }
+            for l in 0..i {
+                let tli = t[l * kk + i];
+                for (x, y) in wi.iter_mut().zip(&head[l * nt..(l + 1) * nt]) {
+                    *x += tli * y;
+                }
+            }
+        }
+        // A_t −= V W.
+        let am = MatMut::from_row_major_slice_mut(&mut a[..m * n], m, n).subcols_mut(k, nt);
+        let wm = MatRef::from_row_major_slice(w, kk, nt);
+        matmul(am, Accum::Add, vm, wm, -1.0, Par::Seq);
+    }
+    clear_reflectors(a, m, n, kk);
+}
+
+/// Whether all values are finite (branch-free, so that it vectorises).
+pub(crate) fn all_finite(values: &[f64]) -> bool {
+    // x · 0 is ±0 for finite x and NaN otherwise; four independent lanes
+    // let the compiler vectorise the sum.
+    let (lanes, rest) = values.as_chunks::<4>();
+    let mut acc = [0.0f64; 4];
+    for lane in lanes {
+        for (a, x) in acc.iter_mut().zip(lane) {
+            *a += x * 0.0;
+        }
+    }
+    for x in rest {
+        acc[0] += x * 0.0;
+    }
+    acc.iter().sum::<f64>() == 0.0
 }
 
 /// Squared norms of the leading `k` columns of the `m × n` row-major block,
 /// added to `out[0..k]`.
 pub(crate) fn add_column_norms2(a: &[f64], m: usize, n: usize, k: usize, out: &mut [f64]) {
+    if k == 0 {
+        return;
+    }
     for row in a[..m * n].chunks_exact(n) {
         for (o, x) in out[..k].iter_mut().zip(&row[..k]) {
             *o += x * x;
@@ -75,7 +193,13 @@ pub(crate) fn add_column_norms2(a: &[f64], m: usize, n: usize, k: usize, out: &m
 /// `k` columns of the `m`-row block `a` (row stride `n`) has full rank
 /// relative to the squared column norms `norms2` taken before the
 /// factorisation.
-pub(crate) fn triangle_has_full_rank(a: &[f64], m: usize, n: usize, k: usize, norms2: &[f64]) -> bool {
+pub(crate) fn triangle_has_full_rank(
+    a: &[f64],
+    m: usize,
+    n: usize,
+    k: usize,
+    norms2: &[f64],
+) -> bool {
     if m < k {
         return false;
     }
@@ -112,8 +236,12 @@ pub(crate) fn solve_upper_in_place(u: &[f64], n: usize, k: usize, y: &mut [f64],
 /// complements are semi-definite, so a zero pivot has a zero column below
 /// it). Negative information is thereby treated as zero. Reads the lower
 /// triangle only.
-pub(crate) fn information_sqrt<const N: usize>(information: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
-    let scale = (0..N).map(|j| information[(j, j)].abs()).fold(0.0, f64::max);
+pub(crate) fn information_sqrt<const N: usize>(
+    information: &SMatrix<f64, N, N>,
+) -> SMatrix<f64, N, N> {
+    let scale = (0..N)
+        .map(|j| information[(j, j)].abs())
+        .fold(0.0, f64::max);
     let mut l = SMatrix::<f64, N, N>::zeros();
     for j in 0..N {
         let mut d = information[(j, j)];
@@ -162,7 +290,9 @@ mod tests {
     use super::*;
 
     fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
     }
 
@@ -172,7 +302,7 @@ mod tests {
         let mut seed = 1;
         let a0: Vec<f64> = (0..m * n).map(|_| lcg(&mut seed)).collect();
         let mut a = a0.clone();
-        let mut w = vec![0.0; n];
+        let mut w = Vec::new();
         householder_rows(&mut a, m, n, k, &mut w);
         for i in 0..n {
             for j in 0..n {
@@ -186,6 +316,40 @@ mod tests {
                 assert_eq!(a[r * n + j], 0.0);
             }
         }
+    }
+
+    #[test]
+    fn householder_handles_short_and_zero_columns() {
+        // Fewer rows than reflectors, a zero column, and no trailing columns.
+        for (m, n, k) in [(2, 5, 3), (4, 3, 3), (1, 4, 2), (5, 4, 1)] {
+            let mut seed = 7;
+            let mut a0: Vec<f64> = (0..m * n).map(|_| lcg(&mut seed)).collect();
+            for r in 0..m {
+                a0[r * n] = 0.0;
+            }
+            let mut a = a0.clone();
+            let mut w = Vec::new();
+            householder_rows(&mut a, m, n, k, &mut w);
+            for i in 0..n {
+                for j in 0..n {
+                    let g0: f64 = (0..m).map(|r| a0[r * n + i] * a0[r * n + j]).sum();
+                    let g1: f64 = (0..m).map(|r| a[r * n + i] * a[r * n + j]).sum();
+                    assert!((g0 - g1).abs() < 1e-14, "{m} {n} {k}: {g0} {g1}");
+                }
+            }
+            for r in 0..m {
+                for j in 0..k.min(r) {
+                    assert_eq!(a[r * n + j], 0.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn finiteness_check() {
+        assert!(all_finite(&[1.0, -2.0, 0.0, f64::MAX, f64::MIN_POSITIVE]));
+        assert!(!all_finite(&[1.0, f64::NAN]));
+        assert!(!all_finite(&[f64::NEG_INFINITY, 1.0]));
     }
 
     #[test]

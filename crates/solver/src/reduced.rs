@@ -6,8 +6,9 @@ use nalgebra::SVector;
 
 use crate::chunks::run_ordered;
 use crate::context::Context;
-use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk};
+use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk, find_non_finite};
 use crate::problem::{Problem, State};
+use crate::qr::all_finite;
 
 /// `S δg = −b` on the global block, with the cost at the state it was built
 /// at.
@@ -54,7 +55,11 @@ where
 {
     /// Linearises every point at `state` and builds the reduced system with
     /// damping `lambda` (0: Gauss–Newton / undamped).
-    pub(crate) fn reduce(&mut self, state: &State<G, C, P>, lambda: f64) -> Result<ReducedSystem, Failure> {
+    pub(crate) fn reduce(
+        &mut self,
+        state: &State<G, C, P>,
+        lambda: f64,
+    ) -> Result<ReducedSystem, Failure> {
         let w = G + 1;
         let dims = self.dims;
         let problem = self.problem;
@@ -76,12 +81,30 @@ where
                     };
                     let mut sink = NormalSink::new(rows, w, &mut part.normal);
                     let gn = (lambda > 0.0).then_some(&mut part.global_norms2[..]);
-                    let costs =
-                        eliminate_chunk::<G, C, P, R, _, _>(problem, chunk, state, caches, lambda, dims, bufs, gn, &mut sink)?;
+                    let costs = match eliminate_chunk::<G, C, P, R, _, _>(
+                        problem, chunk, state, caches, lambda, dims, bufs, gn, &mut sink,
+                    ) {
+                        Ok(costs) => costs,
+                        // NaN makes blocks look singular: name the culprit instead.
+                        Err(Failure::Singular(block)) => {
+                            return Err(find_non_finite::<G, C, P, R, _>(
+                                problem, chunk, state, caches,
+                            )
+                            .unwrap_or(Failure::Singular(block)));
+                        }
+                        Err(f) => return Err(f),
+                    };
                     sink.flush();
                     part.data_cost = costs.data;
                     part.prior_cost = costs.prior;
-                    Ok(part)
+                    let finite = all_finite(&part.normal) && all_finite(&[costs.data, costs.prior]);
+                    if finite {
+                        return Ok(part);
+                    }
+                    match find_non_finite::<G, C, P, R, _>(problem, chunk, state, caches) {
+                        Some(failure) => Err(failure),
+                        None => Ok(part),
+                    }
                 })
             },
             |result: Result<ChunkPart, Failure>| match result {
@@ -132,7 +155,11 @@ where
                         rhs[j] += v * e[i];
                     }
                 }
-                global_norms2[j] += if lambda > 0.0 { prior.information[(j, j)] } else { 0.0 };
+                global_norms2[j] += if lambda > 0.0 {
+                    prior.information[(j, j)]
+                } else {
+                    0.0
+                };
             }
             prior_cost += prior.cost(&state.global);
         }
@@ -267,10 +294,14 @@ mod tests {
         let n = 3;
         let m = [4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0];
         let d: [f64; 3] = [1e8, 1.0, 1e-8];
-        let s: Vec<f64> = (0..9).map(|k| m[k] * (d[k / 3] * d[k % 3]).sqrt()).collect();
+        let s: Vec<f64> = (0..9)
+            .map(|k| m[k] * (d[k / 3] * d[k % 3]).sqrt())
+            .collect();
         let f = ScaledCholesky::new(&s, n).unwrap();
         let x_true = [1e-4, 2.0, -3e4];
-        let b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| s[i * n + j] * x_true[j]).sum()).collect();
+        let b: Vec<f64> = (0..n)
+            .map(|i| (0..n).map(|j| s[i * n + j] * x_true[j]).sum())
+            .collect();
         let x = f.solve(&b);
         for i in 0..n {
             assert!((x[i] - x_true[i]).abs() <= 1e-12 * x_true[i].abs());

@@ -43,10 +43,13 @@ pub enum Status {
     IterationLimit,
     /// The cost became non-finite or exceeded `divergence_ratio × initial`,
     /// a step or linearisation became non-finite, or (LM) the damping grew
-    /// without bound. `iteration` is the index of the iterate at which this
-    /// was found.
+    /// without bound.
+    ///
+    /// In every variant, `iteration` counts the linear solves done before the
+    /// event (0: at the initial state); for Gauss–Newton it is the index of
+    /// the iterate at which the event was found.
     Diverged {
-        /// Iterate index.
+        /// Linear solves before the event.
         iteration: usize,
         /// What happened, with numbers.
         reason: String,
@@ -54,7 +57,7 @@ pub enum Status {
     /// Gauss–Newton: the reduced `G × G` matrix is not numerically positive
     /// definite at this iterate.
     Singular {
-        /// Iterate index.
+        /// Linear solves before the event.
         iteration: usize,
         /// Spectrum of the reduced matrix and its weakest directions.
         diagnostics: Box<SpectrumDiagnostics>,
@@ -64,7 +67,7 @@ pub enum Status {
     /// point's or group's unknowns are not determined by its residuals and
     /// priors.
     SingularBlock {
-        /// Iterate index.
+        /// Linear solves before the event.
         iteration: usize,
         /// The block.
         block: BlockId,
@@ -72,7 +75,7 @@ pub enum Status {
     /// The problem's `linearize` returned an error (at iterate 0 also: a
     /// non-finite residual or Jacobian).
     ProblemFailed {
-        /// Iterate index.
+        /// Linear solves before the event.
         iteration: usize,
         /// The point (the smallest failing index).
         point: usize,
@@ -92,7 +95,7 @@ pub enum Status {
 #[derive(Clone, Debug)]
 pub struct Solution<const G: usize, const C: usize, const P: usize> {
     /// The last iterate whose cost was evaluated and acceptable (finite; never
-    /// NaN).
+    /// NaN). After a divergent step, the iterate it started from.
     pub state: State<G, C, P>,
     /// How the run ended.
     pub status: Status,

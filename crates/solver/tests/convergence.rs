@@ -3,7 +3,9 @@
 mod common;
 
 use common::{G, Spec, direction, distances, flatten, perturb, rel_diff, touches};
-use parcal_solver::{IterationRecord, Method, Problem, Solution, SolverOptions, State, Status, solve};
+use parcal_solver::{
+    IterationRecord, Method, Problem, Solution, SolverOptions, State, Status, solve,
+};
 
 fn options(method: Method) -> SolverOptions {
     SolverOptions {
@@ -13,7 +15,9 @@ fn options(method: Method) -> SolverOptions {
     }
 }
 
-const LM: Method = Method::LevenbergMarquardt { initial_lambda: 1e-3 };
+const LM: Method = Method::LevenbergMarquardt {
+    initial_lambda: 1e-3,
+};
 
 fn run<const P: usize, const R: usize, Pr: Problem<G, 3, P, R>>(
     problem: &Pr,
@@ -21,13 +25,19 @@ fn run<const P: usize, const R: usize, Pr: Problem<G, 3, P, R>>(
     method: Method,
 ) -> (Solution<G, 3, P>, Vec<IterationRecord>) {
     let mut seen = Vec::new();
-    let solution = solve(problem, start.clone(), &options(method), &mut |r| seen.push(r.clone()));
+    let solution = solve(problem, start.clone(), &options(method), &mut |r| {
+        seen.push(r.clone())
+    });
     (solution, seen)
 }
 
 /// The estimate is within `k` sigmas of the truth, per global parameter and
 /// per centre coordinate, and its Mahalanobis distance is plausible.
-fn check_against_truth<const P: usize>(solution: &Solution<G, 3, P>, truth: &State<G, 3, P>, dof: usize) {
+fn check_against_truth<const P: usize>(
+    solution: &Solution<G, 3, P>,
+    truth: &State<G, 3, P>,
+    dof: usize,
+) {
     let cov = solution.covariance.expect("covariance");
     let err = solution.state.global - truth.global;
     let z: Vec<f64> = (0..G).map(|j| err[j] / cov[(j, j)].sqrt()).collect();
@@ -46,7 +56,10 @@ fn check_against_truth<const P: usize>(solution: &Solution<G, 3, P>, truth: &Sta
         "global z-scores {:?}\nMahalanobis² {mahalanobis:.2} (χ²({G})), worst centre |z| {zc:.2}, cost {cost:.1} for {dof} degrees of freedom",
         z.iter().map(|z| format!("{z:.2}")).collect::<Vec<_>>()
     );
-    assert!(z.iter().all(|z| z.abs() < 4.0), "global parameter off by > 4σ: {z:?}");
+    assert!(
+        z.iter().all(|z| z.abs() < 4.0),
+        "global parameter off by > 4σ: {z:?}"
+    );
     assert!(mahalanobis < 30.0, "Mahalanobis² {mahalanobis}");
     assert!(zc < 4.5, "centre off by {zc}σ");
     let ratio = cost / dof as f64;
@@ -65,7 +78,11 @@ fn check_history<const P: usize>(solution: &Solution<G, 3, P>, seen: &[Iteration
     assert_eq!(seen, &solution.history[..], "the observer saw every record");
     let last = solution.history.last().unwrap();
     assert_eq!(last.step_norm, 0.0);
-    assert!(solution.history[..solution.history.len() - 1].iter().all(|r| r.step_norm > 0.0));
+    assert!(
+        solution.history[..solution.history.len() - 1]
+            .iter()
+            .all(|r| r.step_norm > 0.0)
+    );
 }
 
 #[test]
@@ -78,13 +95,22 @@ fn gauss_newton_converges_to_truth_within_sigmas() {
     let (problem, truth) = touches(spec);
     let start = perturb(&truth, 1, 0.01, 0.02, 0.1);
     let (solution, seen) = run(&problem, &start, Method::GaussNewton);
-    println!("GN: {:?} after {} records", solution.status, solution.history.len());
+    println!(
+        "GN: {:?} after {} records",
+        solution.status,
+        solution.history.len()
+    );
     for r in &solution.history {
         println!("  cost {:.6e} step {:.3e}", r.cost, r.step_norm);
     }
     assert_eq!(solution.status, Status::Converged);
     assert!(solution.history.len() <= 12);
-    assert!(solution.history.iter().all(|r| r.lambda == 0.0 && r.accepted));
+    assert!(
+        solution
+            .history
+            .iter()
+            .all(|r| r.lambda == 0.0 && r.accepted)
+    );
     check_history(&solution, &seen);
     // 120 points × 3 rows, 8 + 30 + 240 unknowns.
     check_against_truth(&solution, &truth, 360 - 278);
@@ -103,7 +129,11 @@ fn gauss_newton_converges_without_point_unknowns() {
     let (problem, truth) = distances(spec);
     let start = perturb(&truth, 2, 0.01, 0.02, 0.0);
     let (solution, seen) = run(&problem, &start, Method::GaussNewton);
-    println!("GN (P = 0): {:?} after {} records", solution.status, solution.history.len());
+    println!(
+        "GN (P = 0): {:?} after {} records",
+        solution.status,
+        solution.history.len()
+    );
     assert_eq!(solution.status, Status::Converged);
     check_history(&solution, &seen);
     check_against_truth(&solution, &truth, 120 - 38);
@@ -123,8 +153,16 @@ fn levenberg_marquardt_converges_where_gauss_newton_diverges() {
     assert_eq!(reference.status, Status::Converged);
 
     let (gn, gn_seen) = run(&problem, &bad_start, Method::GaussNewton);
-    println!("GN from the bad start: {:?} after {} records", gn.status, gn.history.len());
-    assert!(matches!(gn.status, Status::Diverged { .. }), "{:?}", gn.status);
+    println!(
+        "GN from the bad start: {:?} after {} records",
+        gn.status,
+        gn.history.len()
+    );
+    assert!(
+        matches!(gn.status, Status::Diverged { .. }),
+        "{:?}",
+        gn.status
+    );
     assert!(gn.state.is_finite());
     assert_eq!(gn_seen, gn.history);
     let initial_cost = gn.history[0].cost;
@@ -149,10 +187,17 @@ fn levenberg_marquardt_converges_where_gauss_newton_diverges() {
             assert!(w[1].lambda > w[0].lambda);
         }
     }
-    assert!(lm.history[..lm.history.len() - 1].iter().all(|r| r.lambda > 0.0));
+    assert!(
+        lm.history[..lm.history.len() - 1]
+            .iter()
+            .all(|r| r.lambda > 0.0)
+    );
     // Same minimum as Gauss–Newton from a good start (the same touch
     // directions, the angles may differ by the sphere's symmetries).
-    let diff = rel_diff(&flatten(&without_points(&lm.state)), &flatten(&without_points(&reference.state)));
+    let diff = rel_diff(
+        &flatten(&without_points(&lm.state)),
+        &flatten(&without_points(&reference.state)),
+    );
     let angle_diff = lm
         .state
         .points
@@ -179,8 +224,15 @@ fn levenberg_marquardt_and_gauss_newton_agree_with_priors() {
     assert_eq!(lm.status, Status::Converged);
     assert!(gn.history.last().unwrap().prior_cost > 0.0);
     let diff = rel_diff(&flatten(&lm.state), &flatten(&gn.state));
-    println!("with priors: GN {} records, LM {} records, rel diff {diff:.2e}", gn.history.len(), lm.history.len());
+    println!(
+        "with priors: GN {} records, LM {} records, rel diff {diff:.2e}",
+        gn.history.len(),
+        lm.history.len()
+    );
     assert!(diff < 1e-7);
-    let cov_diff = rel_diff(gn.covariance.unwrap().as_slice(), lm.covariance.unwrap().as_slice());
+    let cov_diff = rel_diff(
+        gn.covariance.unwrap().as_slice(),
+        lm.covariance.unwrap().as_slice(),
+    );
     assert!(cov_diff < 1e-6);
 }

@@ -9,11 +9,13 @@ use std::ops::Range;
 use common::{Fail, G, Spec, TestError, distances, flatten, perturb, rel_diff, touches};
 use nalgebra::{SMatrix, SVector, Vector1};
 use parcal_solver::{
-    BlockId, Linearization, Method, Problem, Solution, SolverOptions, State, Status, dense_reference, linear_step,
-    solve,
+    BlockId, Linearization, Method, Problem, Solution, SolverOptions, State, Status,
+    dense_reference, linear_step, solve,
 };
 
-const LM: Method = Method::LevenbergMarquardt { initial_lambda: 1e-3 };
+const LM: Method = Method::LevenbergMarquardt {
+    initial_lambda: 1e-3,
+};
 
 fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new()
@@ -28,7 +30,11 @@ fn bits<const C: usize, const P: usize>(s: &Solution<G, C, P>) -> Vec<u64> {
     for r in &s.history {
         v.extend([r.cost, r.data_cost, r.prior_cost, r.step_norm, r.lambda].map(f64::to_bits));
     }
-    v.extend(s.covariance.iter().flat_map(|c| c.iter().map(|x| x.to_bits())));
+    v.extend(
+        s.covariance
+            .iter()
+            .flat_map(|c| c.iter().map(|x| x.to_bits())),
+    );
     v.extend(
         s.group_sigmas
             .iter()
@@ -55,7 +61,11 @@ fn bit_identical_for_one_and_two_threads_and_run_to_run() {
             groups_per_chunk: 2,
             ..SolverOptions::default()
         };
-        let run = |threads| in_pool(threads, || solve(&problem, start.clone(), &options, &mut |_| {}));
+        let run = |threads| {
+            in_pool(threads, || {
+                solve(&problem, start.clone(), &options, &mut |_| {})
+            })
+        };
         let one = run(1);
         let two = run(2);
         let again = run(2);
@@ -148,7 +158,18 @@ fn failed_linearisation_later_names_point_and_keeps_last_iterate() {
     let start = perturb(&truth, 1, 0.01, 0.02, 0.1);
     let s = solve(&problem, start.clone(), &gn(), &mut |_| {});
     println!("GN: {:?}, {} records", s.status, s.history.len());
-    assert!(matches!(s.status, Status::ProblemFailed { iteration: 1, point: 30, .. }), "{:?}", s.status);
+    assert!(
+        matches!(
+            s.status,
+            Status::ProblemFailed {
+                iteration: 1,
+                point: 30,
+                ..
+            }
+        ),
+        "{:?}",
+        s.status
+    );
     assert_eq!(s.history.len(), 1);
     assert!(s.state.is_finite());
     assert_ne!(s.state, start);
@@ -156,9 +177,25 @@ fn failed_linearisation_later_names_point_and_keeps_last_iterate() {
     // LM: the failure at the trial point counts as a rejection; the retry at
     // the current iterate fails too and ends the run.
     problem.0.fail = Some(Fail { point: 30, call: 2 });
-    let s = solve(&problem, start.clone(), &SolverOptions { method: LM, ..gn() }, &mut |_| {});
+    let s = solve(
+        &problem,
+        start.clone(),
+        &SolverOptions { method: LM, ..gn() },
+        &mut |_| {},
+    );
     println!("LM: {:?}, {} records", s.status, s.history.len());
-    assert!(matches!(s.status, Status::ProblemFailed { iteration: 1, point: 30, .. }), "{:?}", s.status);
+    assert!(
+        matches!(
+            s.status,
+            Status::ProblemFailed {
+                iteration: 1,
+                point: 30,
+                ..
+            }
+        ),
+        "{:?}",
+        s.status
+    );
     assert_eq!(s.history.len(), 1);
     assert!(!s.history[0].accepted);
     assert_eq!(s.state, start);
@@ -222,9 +259,18 @@ fn exploding_problem_diverges_with_finite_state_and_history() {
         groups: vec![Vector1::new(0.0); 3],
         points: vec![SVector::zeros(); 3],
     };
-    let s = solve(&problem, start.clone(), &SolverOptions::default(), &mut |_| {});
+    let s = solve(
+        &problem,
+        start.clone(),
+        &SolverOptions::default(),
+        &mut |_| {},
+    );
     println!("GN: {:?}, history {:?}", s.status, s.history);
-    assert!(matches!(s.status, Status::Diverged { iteration: 1, .. }), "{:?}", s.status);
+    assert!(
+        matches!(s.status, Status::Diverged { iteration: 1, .. }),
+        "{:?}",
+        s.status
+    );
     assert_eq!(s.history.len(), 1);
     assert!(s.state.is_finite());
     assert_eq!(s.state, start);
@@ -235,7 +281,11 @@ fn exploding_problem_diverges_with_finite_state_and_history() {
     };
     let s = solve(&problem, far, &SolverOptions::default(), &mut |_| {});
     println!("GN from -30: {:?}", s.status);
-    assert!(matches!(s.status, Status::Diverged { .. }), "{:?}", s.status);
+    assert!(
+        matches!(s.status, Status::Diverged { .. }),
+        "{:?}",
+        s.status
+    );
     assert!(s.state.is_finite());
     // LM does not diverge.
     let s = solve(
@@ -248,7 +298,12 @@ fn exploding_problem_diverges_with_finite_state_and_history() {
         },
         &mut |_| {},
     );
-    println!("LM: {:?} after {} records, g = {}", s.status, s.history.len(), s.state.global[0]);
+    println!(
+        "LM: {:?} after {} records, g = {}",
+        s.status,
+        s.history.len(),
+        s.state.global[0]
+    );
     assert_eq!(s.status, Status::Converged);
     assert!(s.state.global[0].abs() < 1e-6);
 }
@@ -259,7 +314,11 @@ fn unobserved_global_parameter_is_singular_with_its_weak_direction() {
     problem.0.unseen = Some(7);
     let start = perturb(&truth, 1, 0.01, 0.02, 0.1);
     let s = solve(&problem, start.clone(), &gn(), &mut |_| {});
-    let Status::Singular { iteration, diagnostics } = &s.status else {
+    let Status::Singular {
+        iteration,
+        diagnostics,
+    } = &s.status
+    else {
         panic!("{:?}", s.status);
     };
     let weakest = &diagnostics.weakest[0];
@@ -281,7 +340,12 @@ fn unobserved_global_parameter_is_singular_with_its_weak_direction() {
 
     // LM damps the direction and converges; the final undamped matrix is
     // still singular: no covariance, and the spectrum says why.
-    let s = solve(&problem, start, &SolverOptions { method: LM, ..gn() }, &mut |_| {});
+    let s = solve(
+        &problem,
+        start,
+        &SolverOptions { method: LM, ..gn() },
+        &mut |_| {},
+    );
     assert_eq!(s.status, Status::Converged);
     assert!(s.covariance.is_none() && s.group_sigmas.is_none());
     let spectrum = s.spectrum.unwrap();
@@ -364,7 +428,14 @@ impl Problem<1, 1, 2, 3> for Degenerate {
             ),
             d_global: SMatrix::<f64, 3, 1>::new(0.0, 0.0, 1.0 + 0.1 * t),
             d_group: SMatrix::<f64, 3, 1>::new(0.0, 0.0, 1.0),
-            d_point: SMatrix::<f64, 3, 2>::new(1.0, 0.0, if blind { 1.0 } else { 0.0 }, if blind { 0.0 } else { 1.0 }, 1.0, 0.0),
+            d_point: SMatrix::<f64, 3, 2>::new(
+                1.0,
+                0.0,
+                if blind { 1.0 } else { 0.0 },
+                if blind { 0.0 } else { 1.0 },
+                1.0,
+                0.0,
+            ),
         })
     }
 }
@@ -376,15 +447,27 @@ fn invalid_input_is_reported_without_evaluation() {
     let mut wrong = truth.clone();
     wrong.groups.pop();
     let s = solve(&problem, wrong, &gn(), &mut |_| {});
-    assert!(matches!(s.status, Status::InvalidProblem { .. }), "{:?}", s.status);
+    assert!(
+        matches!(s.status, Status::InvalidProblem { .. }),
+        "{:?}",
+        s.status
+    );
     let mut wrong = truth.clone();
     wrong.points.push(SVector::zeros());
     let s = solve(&problem, wrong, &gn(), &mut |_| {});
-    assert!(matches!(s.status, Status::InvalidProblem { .. }), "{:?}", s.status);
+    assert!(
+        matches!(s.status, Status::InvalidProblem { .. }),
+        "{:?}",
+        s.status
+    );
     let mut wrong = truth.clone();
     wrong.global[0] = f64::NAN;
     let s = solve(&problem, wrong, &gn(), &mut |_| {});
-    assert!(matches!(s.status, Status::InvalidProblem { .. }), "{:?}", s.status);
+    assert!(
+        matches!(s.status, Status::InvalidProblem { .. }),
+        "{:?}",
+        s.status
+    );
     let s = solve(
         &problem,
         truth.clone(),
@@ -394,15 +477,25 @@ fn invalid_input_is_reported_without_evaluation() {
         },
         &mut |_| {},
     );
-    assert!(matches!(s.status, Status::InvalidProblem { .. }), "{:?}", s.status);
+    assert!(
+        matches!(s.status, Status::InvalidProblem { .. }),
+        "{:?}",
+        s.status
+    );
     let s = solve(
         &problem,
         truth,
         &SolverOptions {
-            method: Method::LevenbergMarquardt { initial_lambda: 0.0 },
+            method: Method::LevenbergMarquardt {
+                initial_lambda: 0.0,
+            },
             ..gn()
         },
         &mut |_| {},
     );
-    assert!(matches!(s.status, Status::InvalidProblem { .. }), "{:?}", s.status);
+    assert!(
+        matches!(s.status, Status::InvalidProblem { .. }),
+        "{:?}",
+        s.status
+    );
 }

@@ -10,7 +10,9 @@ use parcal_solver::{Problem, SolverOptions, State, Status, dense_reference, line
 const TOL: f64 = 1e-9;
 
 /// `−2 gᵀδ − δᵀNδ` from the dense system.
-fn dense_predicted_decrease<const C: usize, const P: usize>(d: &dense_reference::DenseReference<G, C, P>) -> f64 {
+fn dense_predicted_decrease<const C: usize, const P: usize>(
+    d: &dense_reference::DenseReference<G, C, P>,
+) -> f64 {
     let n = d.normal.nrows();
     let delta_state = &d.step;
     let n_groups = delta_state.groups.len();
@@ -121,8 +123,18 @@ fn compare_covariance<const C: usize, const P: usize, const R: usize, Pr: Proble
     let cov = solution.covariance.expect("covariance");
     let dense_cov = dense.global_covariance().expect("dense covariance");
     let cov_diff = rel_diff(cov.as_slice(), dense_cov.as_slice());
-    let sigmas: Vec<f64> = solution.group_sigmas.expect("sigmas").iter().flat_map(|s| s.iter().copied()).collect();
-    let dense_sigmas: Vec<f64> = dense.group_sigmas().unwrap().iter().flat_map(|s| s.iter().copied()).collect();
+    let sigmas: Vec<f64> = solution
+        .group_sigmas
+        .expect("sigmas")
+        .iter()
+        .flat_map(|s| s.iter().copied())
+        .collect();
+    let dense_sigmas: Vec<f64> = dense
+        .group_sigmas()
+        .unwrap()
+        .iter()
+        .flat_map(|s| s.iter().copied())
+        .collect();
     let sigma_diff = sigmas
         .iter()
         .zip(&dense_sigmas)

@@ -1,13 +1,15 @@
 //! Prints the time per iteration of a problem of the target's shape
 //! (G = 33, C = 3, P = 2, R = 3) with a cheap linearisation; asserts nothing
 //! about time. `PARCAL_SOLVER_TIMING_POINTS` sets the number of points
-//! (default 100 000; the target is < 0.5 s per iteration at 10⁶ on 2 threads).
+//! (default 50 000; the target is < 0.5 s per iteration at 10⁶ on 2 threads).
 
 use std::ops::Range;
 use std::time::Instant;
 
 use nalgebra::{SMatrix, SVector, Vector2, Vector3};
-use parcal_solver::{GaussianPrior, Linearization, Method, Problem, SolverOptions, State, Status, solve};
+use parcal_solver::{
+    GaussianPrior, Linearization, Method, Problem, SolverOptions, State, Status, solve,
+};
 
 const G: usize = 33;
 const PER_GROUP: usize = 100;
@@ -16,7 +18,18 @@ const RADIUS: f64 = 0.2;
 /// Quadratic distortion `D(y) = y + Σ_j g_j b_j(y)`: 10 monomials (1, x, y,
 /// z, x², y², z², xy, yz, zx) per axis and `|y|² y`.
 fn basis(y: &Vector3<f64>) -> SMatrix<f64, 3, G> {
-    let m = [1.0, y.x, y.y, y.z, y.x * y.x, y.y * y.y, y.z * y.z, y.x * y.y, y.y * y.z, y.z * y.x];
+    let m = [
+        1.0,
+        y.x,
+        y.y,
+        y.z,
+        y.x * y.x,
+        y.y * y.y,
+        y.z * y.z,
+        y.x * y.y,
+        y.y * y.z,
+        y.z * y.x,
+    ];
     let mut b = SMatrix::<f64, 3, G>::zeros();
     for a in 0..3 {
         for (j, v) in m.iter().enumerate() {
@@ -94,11 +107,13 @@ fn time_per_iteration() {
     let n_points: usize = std::env::var("PARCAL_SOLVER_TIMING_POINTS")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(100_000);
+        .unwrap_or(50_000);
     let n_groups = n_points / PER_GROUP;
     let mut seed = 12345u64;
     let mut rand = move || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((seed >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
     };
     let g_true = SVector::<f64, G>::from_fn(|_, _| 0.01 * rand());
@@ -109,8 +124,12 @@ fn time_per_iteration() {
     let mut measurements = Vec::with_capacity(n_groups * PER_GROUP);
     for c in &centres {
         for j in 0..PER_GROUP {
-            let p = Vector2::new(2.0 * std::f64::consts::PI * j as f64 / PER_GROUP as f64, 1.8 * rand());
-            let y = c + RADIUS * Vector3::new(p[0].cos() * p[1].cos(), p[0].sin() * p[1].cos(), p[1].sin());
+            let p = Vector2::new(
+                2.0 * std::f64::consts::PI * j as f64 / PER_GROUP as f64,
+                1.8 * rand(),
+            );
+            let y = c + RADIUS
+                * Vector3::new(p[0].cos() * p[1].cos(), p[0].sin() * p[1].cos(), p[1].sin());
             measurements.push(y + basis(&y) * g_true + Vector3::new(rand(), rand(), rand()) * 2e-3);
             points.push(p);
         }
@@ -121,15 +140,29 @@ fn time_per_iteration() {
     };
     let start = State {
         global: SVector::zeros(),
-        groups: centres.iter().map(|c| c + Vector3::new(0.01, -0.01, 0.005)).collect(),
-        points: points.iter().map(|p| p + Vector2::new(0.05, -0.05)).collect(),
+        groups: centres
+            .iter()
+            .map(|c| c + Vector3::new(0.01, -0.01, 0.005))
+            .collect(),
+        points: points
+            .iter()
+            .map(|p| p + Vector2::new(0.05, -0.05))
+            .collect(),
     };
     for (threads, method) in [
         (1, Method::GaussNewton),
         (2, Method::GaussNewton),
-        (2, Method::LevenbergMarquardt { initial_lambda: 1e-3 }),
+        (
+            2,
+            Method::LevenbergMarquardt {
+                initial_lambda: 1e-3,
+            },
+        ),
     ] {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         let options = SolverOptions {
             method,
             max_iterations: 4,
@@ -153,7 +186,10 @@ fn time_per_iteration() {
         for (cost, secs) in &laps {
             println!("  cost {cost:.6e}  {secs:.3} s since previous record");
         }
-        assert!(matches!(solution.status, Status::IterationLimit | Status::Converged));
+        assert!(matches!(
+            solution.status,
+            Status::IterationLimit | Status::Converged
+        ));
         assert!(solution.covariance.is_some());
     }
 }

@@ -60,7 +60,11 @@ fn linear_part(g: &SVector<f64, G>) -> Matrix3<f64> {
 
 /// `D(y; g)`, `∂D/∂y` and `∂D/∂g`; parameter `unseen` (if any) is ignored by
 /// the model.
-pub fn distort(y: &Vector3<f64>, g: &SVector<f64, G>, unseen: Option<usize>) -> (Vector3<f64>, Matrix3<f64>, SMatrix<f64, 3, G>) {
+pub fn distort(
+    y: &Vector3<f64>,
+    g: &SVector<f64, G>,
+    unseen: Option<usize>,
+) -> (Vector3<f64>, Matrix3<f64>, SMatrix<f64, 3, G>) {
     let mut g = *g;
     if let Some(j) = unseen {
         g[j] = 0.0;
@@ -68,7 +72,9 @@ pub fn distort(y: &Vector3<f64>, g: &SVector<f64, G>, unseen: Option<usize>) -> 
     let n2 = y.norm_squared();
     let bowl = y.x * y.x + y.y * y.y;
     let d = y + linear_part(&g) * y + g[6] * n2 * y + Vector3::new(0.0, 0.0, g[7] * bowl);
-    let mut dy = Matrix3::identity() + linear_part(&g) + g[6] * (n2 * Matrix3::identity() + 2.0 * y * y.transpose());
+    let mut dy = Matrix3::identity()
+        + linear_part(&g)
+        + g[6] * (n2 * Matrix3::identity() + 2.0 * y * y.transpose());
     dy[(2, 0)] += 2.0 * g[7] * y.x;
     dy[(2, 1)] += 2.0 * g[7] * y.y;
     let mut dg = SMatrix::<f64, 3, G>::zeros();
@@ -142,7 +148,9 @@ impl Data {
         let call = *calls;
         *calls += 1;
         match self.fail {
-            Some(f) if f.point == i && call >= f.call => Err(TestError(format!("injected failure at point {i}, call {call}"))),
+            Some(f) if f.point == i && call >= f.call => Err(TestError(format!(
+                "injected failure at point {i}, call {call}"
+            ))),
             _ => Ok(()),
         }
     }
@@ -279,7 +287,13 @@ fn touch_angles(rng: &mut Rng, j: usize, n: usize) -> Vector2<f64> {
 
 fn centres(rng: &mut Rng, n_groups: usize) -> Vec<SVector<f64, 3>> {
     (0..n_groups)
-        .map(|_| Vector3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)))
+        .map(|_| {
+            Vector3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            )
+        })
         .collect()
 }
 
@@ -287,7 +301,10 @@ fn priors(rng: &mut Rng, spec: &Spec, truth: &State<G, 3, 2>, data: &mut Data, w
     if !spec.priors {
         return;
     }
-    data.global_prior = Some(GaussianPrior::new(truth.global + rng.vector::<G>(0.01), rng.information::<G>(1e3)));
+    data.global_prior = Some(GaussianPrior::new(
+        truth.global + rng.vector::<G>(0.01),
+        rng.information::<G>(1e3),
+    ));
     data.group_priors = Some(
         truth
             .groups
@@ -311,7 +328,9 @@ fn empty_data(spec: &Spec) -> Data {
         radius: RADIUS,
         sigma: if spec.noise > 0.0 { spec.noise } else { 1e-3 },
         measurements: Vec::new(),
-        starts: (0..=spec.n_groups).map(|k| k * spec.points_per_group).collect(),
+        starts: (0..=spec.n_groups)
+            .map(|k| k * spec.points_per_group)
+            .collect(),
         global_prior: None,
         group_priors: None,
         point_priors: None,
@@ -381,19 +400,42 @@ pub fn distances(spec: Spec) -> (Distances, State<G, 3, 0>) {
 
 /// `truth` moved by a deterministic perturbation: global by `dg` (per
 /// component, random sign), centres by `dc`, angles by `dp`.
-pub fn perturb<const P: usize>(truth: &State<G, 3, P>, seed: u64, dg: f64, dc: f64, dp: f64) -> State<G, 3, P> {
+pub fn perturb<const P: usize>(
+    truth: &State<G, 3, P>,
+    seed: u64,
+    dg: f64,
+    dc: f64,
+    dp: f64,
+) -> State<G, 3, P> {
     let mut rng = Rng::new(seed ^ 0xABCDEF);
     State {
         global: truth.global + rng.vector::<G>(dg),
-        groups: truth.groups.iter().map(|c| c + rng.vector::<3>(dc)).collect(),
-        points: truth.points.iter().map(|p| p + rng.vector::<P>(dp)).collect(),
+        groups: truth
+            .groups
+            .iter()
+            .map(|c| c + rng.vector::<3>(dc))
+            .collect(),
+        points: truth
+            .points
+            .iter()
+            .map(|p| p + rng.vector::<P>(dp))
+            .collect(),
     }
 }
 
 /// Largest relative difference of two vectors, relative to the larger norm.
 pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    let scale = a.iter().chain(b).map(|x| x.abs()).fold(0.0, f64::max).max(1e-300);
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max) / scale
+    let scale = a
+        .iter()
+        .chain(b)
+        .map(|x| x.abs())
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+        / scale
 }
 
 /// All values of a state, flattened (global, groups, points).
