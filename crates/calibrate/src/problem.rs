@@ -7,12 +7,13 @@
 //! tool tip given by forward kinematics of the current parameters at the
 //! contact's actuator readings, whitened by the weight computed once at the
 //! initial estimate. Forward kinematics starts from the contact's previous
-//! pose (the solver keeps it as the point cache).
+//! pose, which the solver keeps as the point cache (the first time from the
+//! design's home pose).
 
 use std::ops::Range;
 
 use nalgebra::{SVector, Vector2};
-use parcal_kinematics::{ForwardOptions, N_PARAMS, Params, Pose, Vec3, forward, params};
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Params, Pose, Vec3, forward, params};
 use parcal_observe::{
     BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, RadiusBlock, RadiusWeight,
     Tip,
@@ -26,56 +27,66 @@ pub struct RadiusObservations {
     pub weights: Vec<RadiusWeight>,
 }
 
-/// Paper eq. (10) for every contact, the angles charted about the initial
-/// direction `u0` of each contact.
+/// Paper eq. (10) for every contact, the angles charted about each
+/// contact's initial direction `u0`.
 pub struct CoordinateObservations {
+    /// `u0` of each contact (unit, canonical base frame).
+    pub directions: Vec<Vec3>,
     pub weights: Vec<CoordinateWeight>,
-    pub charts: Vec<DirectionChart>,
-    /// Angle priors (sigma, rad) per contact; `None`: no angle prior.
-    pub angle_sigma: Option<Vec<f64>>,
+    /// Sigma of the angle prior of every contact (rad); `None`: no prior.
+    pub angle_sigma: Option<f64>,
 }
 
 /// The least-squares problem of one calibration, contacts sorted by ball.
-pub struct CalibrationProblem<O> {
-    /// Actuator readings per contact.
-    pub q: Vec<[f64; 6]>,
-    /// The measurements.csv row of each contact (0-based, without header).
-    pub rows: Vec<usize>,
+pub struct CalibrationProblem<'a, O> {
+    /// The design in canonical frames (its home pose starts the first FK).
+    pub design: Geometry,
+    /// Actuator readings, measurements.csv order (borrowed from the dataset).
+    pub q: &'a [[f64; 6]],
+    /// The measurements.csv row of each contact, sorted by ball.
+    pub rows: Vec<u32>,
     /// Contacts of each ball (contiguous).
     pub groups: Vec<Range<usize>>,
     /// Calibrated radius of each ball.
     pub radii: Vec<f64>,
-    /// The ball of each contact.
-    pub ball_of: Vec<u32>,
-    /// Start of every contact's first forward kinematics (design home pose).
-    pub home: Vec<Pose>,
     pub observations: O,
     pub global_prior: Option<GaussianPrior<N_PARAMS>>,
     pub centre_priors: Option<Vec<GaussianPrior<3>>>,
     pub forward_options: ForwardOptions,
 }
 
-impl<O> CalibrationProblem<O> {
+impl<O> CalibrationProblem<'_, O> {
+    fn row(&self, i: usize) -> usize {
+        self.rows[i] as usize
+    }
+
+    fn actuators(&self, i: usize) -> &[f64; 6] {
+        &self.q[self.row(i)]
+    }
+
     /// Paper eq. (2): the tool tip of the parameters `p` at contact `i`, by
     /// forward kinematics from the contact's cached pose, with `J_f`, `J_q`.
     fn tip(&self, i: usize, p: &Params, pose: &mut Pose) -> Result<Tip, CalibrateError> {
         let geometry = params::from_params(p);
-        let solution =
-            forward(&geometry, &self.q[i], pose, &self.forward_options).map_err(|source| {
-                CalibrateError::ForwardKinematics {
-                    row: self.rows[i],
-                    source,
-                }
-            })?;
+        let row = self.row(i);
+        let solution = forward(&geometry, self.actuators(i), pose, &self.forward_options)
+            .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
         *pose = solution.pose;
-        Tip::at(&geometry, &solution).map_err(|source| CalibrateError::Observation {
-            row: self.rows[i],
-            source,
-        })
+        Tip::at(&geometry, &solution).map_err(|source| CalibrateError::Observation { row, source })
+    }
+
+    fn home(&self, i: usize) -> Pose {
+        self.design.home_pose(self.actuators(i))
     }
 
     fn centre_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
         self.centre_priors.as_ref().map(|priors| priors[k].clone())
+    }
+
+    /// The radius of contact `i`'s ball: found by the group range it is in.
+    fn radius(&self, i: usize) -> f64 {
+        let ball = self.groups.partition_point(|g| g.end <= i);
+        self.radii[ball]
     }
 }
 
@@ -91,21 +102,36 @@ fn linearization<const R: usize, const P: usize>(
     }
 }
 
-impl Problem<N_PARAMS, 3, 0, 1> for CalibrationProblem<RadiusObservations> {
-    type PointCache = Pose;
-    type Error = CalibrateError;
+/// The parts of [`Problem`] that do not depend on the observation.
+macro_rules! common_problem_items {
+    () => {
+        type PointCache = Pose;
+        type Error = CalibrateError;
 
-    fn n_groups(&self) -> usize {
-        self.groups.len()
-    }
+        fn n_groups(&self) -> usize {
+            self.groups.len()
+        }
 
-    fn group_points(&self, k: usize) -> Range<usize> {
-        self.groups[k].clone()
-    }
+        fn group_points(&self, k: usize) -> Range<usize> {
+            self.groups[k].clone()
+        }
 
-    fn initial_cache(&self, i: usize) -> Pose {
-        self.home[i]
-    }
+        fn initial_cache(&self, i: usize) -> Pose {
+            self.home(i)
+        }
+
+        fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {
+            self.global_prior.as_ref()
+        }
+
+        fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
+            self.centre_prior(k)
+        }
+    };
+}
+
+impl Problem<N_PARAMS, 3, 0, 1> for CalibrationProblem<'_, RadiusObservations> {
+    common_problem_items!();
 
     fn linearize(
         &self,
@@ -116,40 +142,20 @@ impl Problem<N_PARAMS, 3, 0, 1> for CalibrationProblem<RadiusObservations> {
         cache: &mut Pose,
     ) -> Result<Linearization<N_PARAMS, 3, 0, 1>, CalibrateError> {
         let tip = self.tip(i, global, cache)?;
-        let radius = self.radii[self.ball_of[i] as usize];
-        let block = RadiusBlock { radius }
-            .evaluate(&tip, &Vec3::from(*group))
-            .map_err(|source| CalibrateError::Observation {
-                row: self.rows[i],
-                source,
-            })?;
+        let block = RadiusBlock {
+            radius: self.radius(i),
+        }
+        .evaluate(&tip, &Vec3::from(*group))
+        .map_err(|source| CalibrateError::Observation {
+            row: self.row(i),
+            source,
+        })?;
         Ok(linearization(block.whiten(&self.observations.weights[i])))
-    }
-
-    fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {
-        self.global_prior.as_ref()
-    }
-
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
-        self.centre_prior(k)
     }
 }
 
-impl Problem<N_PARAMS, 3, 2, 3> for CalibrationProblem<CoordinateObservations> {
-    type PointCache = Pose;
-    type Error = CalibrateError;
-
-    fn n_groups(&self) -> usize {
-        self.groups.len()
-    }
-
-    fn group_points(&self, k: usize) -> Range<usize> {
-        self.groups[k].clone()
-    }
-
-    fn initial_cache(&self, i: usize) -> Pose {
-        self.home[i]
-    }
+impl Problem<N_PARAMS, 3, 2, 3> for CalibrationProblem<'_, CoordinateObservations> {
+    common_problem_items!();
 
     fn linearize(
         &self,
@@ -160,9 +166,15 @@ impl Problem<N_PARAMS, 3, 2, 3> for CalibrationProblem<CoordinateObservations> {
         cache: &mut Pose,
     ) -> Result<Linearization<N_PARAMS, 3, 2, 3>, CalibrateError> {
         let tip = self.tip(i, global, cache)?;
+        let chart = DirectionChart::new(&self.observations.directions[i]).map_err(|source| {
+            CalibrateError::Observation {
+                row: self.row(i),
+                source,
+            }
+        })?;
         let block = CoordinateBlock {
-            radius: self.radii[self.ball_of[i] as usize],
-            chart: self.observations.charts[i],
+            radius: self.radius(i),
+            chart,
         };
         let jacobians = block.evaluate(&tip, &Vec3::from(*group), point);
         Ok(linearization(
@@ -170,16 +182,8 @@ impl Problem<N_PARAMS, 3, 2, 3> for CalibrationProblem<CoordinateObservations> {
         ))
     }
 
-    fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {
-        self.global_prior.as_ref()
-    }
-
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
-        self.centre_prior(k)
-    }
-
-    fn point_prior(&self, i: usize) -> Option<GaussianPrior<2>> {
-        let sigma = self.observations.angle_sigma.as_ref()?[i];
+    fn point_prior(&self, _i: usize) -> Option<GaussianPrior<2>> {
+        let sigma = self.observations.angle_sigma?;
         Some(GaussianPrior::from_sigmas(
             Vector2::zeros(),
             Vector2::repeat(sigma),

@@ -8,13 +8,13 @@ use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, State, Status, solve,
+    BlockId, IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, State, Status, solve,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::problem::CalibrationProblem;
-use crate::setup::{Setup, kinematic_prior};
-use crate::{CalibrateError, CalibrationOptions, Method, Observation, PriorMode};
+use crate::setup::{Observations, Setup, kinematic_prior};
+use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 
 /// Covariance of the 33 parameters (mm^2).
 pub type ParamCovariance = nalgebra::SMatrix<f64, N_PARAMS, N_PARAMS>;
@@ -42,6 +42,8 @@ pub struct CalibrationRun {
     pub history: Vec<IterationRecord>,
     /// Whitened residual rows (contacts x rows per contact).
     pub residual_rows: usize,
+    /// measurements.csv row of each contact in the solver's (by-ball) order.
+    pub rows: Vec<u32>,
     /// Spectrum of the reduced matrix at the end.
     pub spectrum: Option<SpectrumDiagnostics>,
     /// Prior-data conflict tests (kinematic parameters, ball centres).
@@ -87,9 +89,37 @@ impl CalibrationRun {
             .collect()
     }
 
-    /// The status in one sentence (calibration.json's `status`).
+    /// The status in one sentence (calibration.json's `status`), naming
+    /// parameters, balls and measurements.csv lines.
     pub fn status_text(&self) -> String {
-        status_text(&self.status)
+        match &self.status {
+            Status::Converged => "converged".to_string(),
+            Status::IterationLimit => "iteration limit reached without convergence".to_string(),
+            Status::Diverged { iteration, reason } => {
+                format!("diverged at iteration {iteration}: {reason}")
+            }
+            Status::ProblemFailed {
+                iteration, message, ..
+            } => format!("failed at iteration {iteration}: {message}"),
+            Status::Singular {
+                iteration,
+                diagnostics,
+            } => format!(
+                "the reduced system is singular at iteration {iteration}: {}",
+                weak_directions(diagnostics)
+            ),
+            Status::SingularBlock { iteration, block } => match block {
+                BlockId::Group(k) => format!(
+                    "at iteration {iteration} the centre of ball {} is not determined by its contacts",
+                    self.ball_ids[*k]
+                ),
+                BlockId::Point(i) => format!(
+                    "at iteration {iteration} the angles of the contact of measurements.csv line {} are not determined",
+                    self.rows[*i] + 2
+                ),
+            },
+            Status::InvalidProblem { message } => format!("invalid problem: {message}"),
+        }
     }
 
     /// The calibration.json record of this run.
@@ -164,19 +194,27 @@ impl CalibrationRun {
     }
 }
 
-/// A solver status in one sentence.
-pub fn status_text(status: &Status) -> String {
-    match status {
-        Status::Converged => "converged".to_string(),
-        Status::IterationLimit => "iteration limit reached without convergence".to_string(),
-        Status::Diverged { iteration, reason } => {
-            format!("diverged at iteration {iteration}: {reason}")
-        }
-        Status::ProblemFailed {
-            iteration, message, ..
-        } => format!("failed at iteration {iteration}: {message}"),
-        other => format!("{other:?}"),
-    }
+/// The weakest directions of a reduced system: eigenvalue and the
+/// parameters that dominate it.
+pub fn weak_directions(spectrum: &SpectrumDiagnostics) -> String {
+    let directions: Vec<String> = spectrum
+        .weakest
+        .iter()
+        .take(3)
+        .map(|weak| {
+            let names: Vec<String> = weak
+                .dominant
+                .iter()
+                .map(|(k, c)| format!("{} {:+.2}", PARAM_NAMES[*k], c))
+                .collect();
+            format!(
+                "eigenvalue {:.3e} along {}",
+                weak.eigenvalue,
+                names.join(", ")
+            )
+        })
+        .collect();
+    format!("smallest eigenvalues: {}", directions.join("; "))
 }
 
 /// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
@@ -185,7 +223,7 @@ pub fn calibrate(
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<CalibrationRun, CalibrateError> {
-    let setup = Setup::new(dataset, options)?;
+    let (setup, observations) = Setup::new(dataset, options)?;
     let solver_options = SolverOptions {
         method: match options.method {
             Method::GaussNewton => parcal_solver::Method::GaussNewton,
@@ -197,13 +235,13 @@ pub fn calibrate(
         step_tolerance: options.step_tolerance,
         ..SolverOptions::default()
     };
-    let solved = match options.observation {
-        Observation::Radius => {
-            let problem = setup.radius_problem(dataset, options)?;
+    let solved = match observations {
+        Observations::Radius(observations) => {
+            let problem = setup.problem(dataset, options, observations);
             solve_problem(&problem, &setup, &solver_options, observer, 1)
         }
-        Observation::Coordinates => {
-            let problem = setup.coordinate_problem(dataset, options)?;
+        Observations::Coordinates(observations) => {
+            let problem = setup.problem(dataset, options, observations);
             solve_problem(&problem, &setup, &solver_options, observer, 3)
         }
     };
@@ -261,6 +299,7 @@ pub fn calibrate(
         residual_rows: solved.residual_rows,
         spectrum: solved.spectrum,
         conflicts,
+        rows: setup.order,
     })
 }
 
@@ -326,20 +365,16 @@ fn solve_problem<const P: usize, const R: usize, Pr: Problem<N_PARAMS, 3, P, R>>
     }
 }
 
-/// The problem of a dataset for the dense reference check (tests, small
-/// problems only): the coordinate observation and its initial state.
-pub fn coordinate_problem_and_state(
-    dataset: &Dataset,
+/// The problem of a dataset and its initial state, for checks against the
+/// dense reference (tests, small problems only).
+pub fn problem_and_state<'a, O, const P: usize>(
+    dataset: &'a Dataset,
     options: &CalibrationOptions,
-) -> Result<
-    (
-        CalibrationProblem<crate::problem::CoordinateObservations>,
-        State<N_PARAMS, 3, 2>,
-    ),
-    CalibrateError,
-> {
-    let setup = Setup::new(dataset, options)?;
-    let problem = setup.coordinate_problem(dataset, options)?;
+    pick: impl FnOnce(Observations) -> Option<O>,
+) -> Result<(CalibrationProblem<'a, O>, State<N_PARAMS, 3, P>), CalibrateError> {
+    let (setup, observations) = Setup::new(dataset, options)?;
+    let observations = pick(observations).expect("the options' observation");
+    let problem = setup.problem(dataset, options, observations);
     let state = State {
         global: setup.initial_params,
         groups: setup.initial_centres.clone(),

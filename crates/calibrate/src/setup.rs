@@ -1,22 +1,28 @@
 //! From a dataset to the least-squares problem: the design in canonical
 //! frames, the contacts sorted by ball, the initial estimates (spec section
 //! 4), the weights and the priors.
+//!
+//! Memory: everything per contact that is kept is small (its row, the
+//! initial direction `u0` and the whitening of its weight); the design-FK
+//! tips and their derivatives are computed ball by ball and dropped.
+
+use std::ops::Range;
 
 use nalgebra::{SMatrix, Vector3};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
-    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, Vec3, forward_from_home, params,
+    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Vec3, forward_from_home, params,
 };
 use parcal_observe::{
-    CoordinateWeight, DirectionChart, InputSigmas, KinematicPrior, RadiusWeight, Repeatability,
-    Tip, WeightModel, coordinate_covariance, radius_variance,
+    CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability, Tip,
+    WeightModel, coordinate_covariance, radius_variance,
 };
 use parcal_solver::GaussianPrior;
 use rayon::prelude::*;
 
 use crate::problem::{CalibrationProblem, CoordinateObservations, RadiusObservations};
 use crate::sphere_fit::fit_centre;
-use crate::{CalibrateError, CalibrationOptions, PriorMode, Weighting};
+use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode, Weighting};
 
 /// The initial estimate and everything derived from the dataset once.
 pub struct Setup {
@@ -30,17 +36,18 @@ pub struct Setup {
     pub initial_centres: Vec<Vec3>,
     /// The a priori knowledge on `p`, if any.
     pub prior: Option<KinematicPrior>,
-    /// Contacts sorted by ball: `order[k]` is the measurements.csv row of
-    /// the k-th contact.
-    pub order: Vec<usize>,
+    /// Contacts sorted by ball: `order[k]` is the measurements.csv row (0-based,
+    /// header excluded) of the k-th contact.
+    pub order: Vec<u32>,
     /// Contact range of each ball in `order`.
-    pub groups: Vec<std::ops::Range<usize>>,
-    /// Design-FK tip and its derivatives at each contact (sorted order).
-    pub tips: Vec<Tip>,
-    /// Initial direction `u0` of each contact (sorted order).
-    pub directions: Vec<Vec3>,
-    /// Home pose of each contact (sorted order): the first FK start.
-    pub home: Vec<Pose>,
+    pub groups: Vec<Range<usize>>,
+}
+
+/// The observations of every contact (sorted order), for the observation
+/// equation of the options.
+pub enum Observations {
+    Radius(RadiusObservations),
+    Coordinates(CoordinateObservations),
 }
 
 /// The design geometry of machine.json.
@@ -50,80 +57,79 @@ pub fn design_geometry(dataset: &Dataset) -> Geometry {
 }
 
 impl Setup {
-    /// Initial estimates of spec section 4: `p` = the design's canonical
-    /// parameters; each ball centre = the best fit of its design-FK contact
-    /// points with the calibrated radius; each contact's direction = from
-    /// that centre to its design-FK point, or the commanded approach
-    /// direction when measurements.csv gives one.
-    pub fn new(dataset: &Dataset, options: &CalibrationOptions) -> Result<Self, CalibrateError> {
+    /// Initial estimates of spec section 4 and the observations: `p` = the
+    /// design's canonical parameters; each ball centre = the best fit of its
+    /// design-FK contact points with the calibrated radius; each contact's
+    /// direction `u0` = from that centre to its design-FK point, or the
+    /// commanded approach direction when measurements.csv gives one; the
+    /// weights at that estimate (held fixed afterwards).
+    pub fn new(
+        dataset: &Dataset,
+        options: &CalibrationOptions,
+    ) -> Result<(Self, Observations), CalibrateError> {
         let design = design_geometry(dataset);
         let canonical = design.canonicalize().map_err(CalibrateError::Design)?;
-        let geometry = &canonical.geometry;
-        let initial_params = params::to_params(geometry);
+        let initial_params = params::to_params(&canonical.geometry);
+        let (order, groups) = sort_by_ball(dataset);
 
-        let balls = dataset.artefacts.balls.len();
-        let mut order: Vec<usize> = (0..dataset.measurements.q.len()).collect();
-        order.sort_by_key(|&row| dataset.measurements.ball[row]);
-        let mut groups = vec![0..0; balls];
-        let mut start = 0;
-        for (ball, group) in groups.iter_mut().enumerate() {
-            let count = order[start..]
-                .iter()
-                .take_while(|&&row| dataset.measurements.ball[row] as usize == ball)
-                .count();
-            *group = start..start + count;
-            start += count;
-        }
-
-        let fk = ForwardOptions::default();
-        let solved: Vec<(Pose, Tip)> = order
-            .par_iter()
-            .map(|&row| {
-                let q = &dataset.measurements.q[row];
-                let solution = forward_from_home(geometry, q, &fk)
-                    .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
-                let tip = Tip::at(geometry, &solution)
-                    .map_err(|source| CalibrateError::Observation { row, source })?;
-                Ok((geometry.home_pose(q), tip))
-            })
-            .collect::<Result<_, CalibrateError>>()?;
-        let (home, tips): (Vec<Pose>, Vec<Tip>) = solved.into_iter().unzip();
-
-        let initial_centres = groups
-            .iter()
-            .zip(&dataset.artefacts.balls)
-            .map(|(group, ball)| {
-                let points: Vec<Vec3> = tips[group.clone()].iter().map(|t| t.position).collect();
-                fit_centre(&points, ball.radius).map_err(|source| CalibrateError::CentreFit {
-                    ball: ball.id.clone(),
-                    source,
-                })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-
-        let base_rotation = canonical.base_from_input.rotation;
-        let directions = order
-            .iter()
-            .zip(&tips)
-            .enumerate()
-            .map(|(k, (&row, tip))| match &dataset.measurements.direction {
-                Some(commanded) => {
-                    let d = Vec3::from(commanded[row]);
-                    match dataset.artefacts.frame {
-                        ArtefactFrame::Design => base_rotation * d,
-                        ArtefactFrame::Canonical => d,
-                    }
-                    .normalize()
-                }
-                None => {
-                    let ball = dataset.measurements.ball[order[k]] as usize;
-                    (tip.position - initial_centres[ball]).normalize()
-                }
-            })
-            .collect();
-
+        let starts = Starts {
+            dataset,
+            canonical: &canonical,
+            order: &order,
+            groups: &groups,
+            model: match options.weighting {
+                Weighting::Propagated => WeightModel::Propagated,
+                Weighting::Diagonal => WeightModel::Diagonal,
+            },
+        };
+        let (initial_centres, observations) = match options.observation {
+            Observation::Radius => {
+                let ContactStarts {
+                    centres, weights, ..
+                } = starts.compute(|model, repeatability, tip, u0| {
+                    RadiusWeight::from_variance(radius_variance(
+                        model,
+                        repeatability,
+                        &tip.d_q,
+                        u0,
+                    )?)
+                })?;
+                (
+                    centres,
+                    Observations::Radius(RadiusObservations { weights }),
+                )
+            }
+            Observation::Coordinates => {
+                let ContactStarts {
+                    centres,
+                    directions,
+                    weights,
+                } = starts.compute(|model, repeatability, tip, u0| {
+                    CoordinateWeight::from_covariance(&coordinate_covariance(
+                        model,
+                        repeatability,
+                        &tip.d_q,
+                        u0,
+                    )?)
+                })?;
+                // Paper mode: every contact's angles about their initial
+                // values; propagated mode: only where a commanded direction
+                // seeds them.
+                let angle_prior = match options.prior {
+                    PriorMode::Paper => true,
+                    PriorMode::Propagated => dataset.measurements.direction.is_some(),
+                    PriorMode::None => false,
+                };
+                let observations = CoordinateObservations {
+                    directions,
+                    weights,
+                    angle_sigma: angle_prior.then_some(options.angle_sigma),
+                };
+                (centres, Observations::Coordinates(observations))
+            }
+        };
         let prior = kinematic_prior(dataset, &design, &initial_params, options.prior)?;
-        Ok(Self {
+        let setup = Self {
             design,
             canonical,
             initial_params,
@@ -131,100 +137,23 @@ impl Setup {
             prior,
             order,
             groups,
-            tips,
-            directions,
-            home,
-        })
-    }
-
-    /// The problem with the radius observation (paper eq. 9).
-    pub fn radius_problem(
-        &self,
-        dataset: &Dataset,
-        options: &CalibrationOptions,
-    ) -> Result<CalibrationProblem<RadiusObservations>, CalibrateError> {
-        let model = weight_model(options.weighting);
-        let weights = self.each_contact(dataset, |row, tip, u0, repeatability| {
-            let variance = radius_variance(model, repeatability, &tip.d_q, u0)
-                .map_err(|source| CalibrateError::Observation { row, source })?;
-            RadiusWeight::from_variance(variance)
-                .map_err(|source| CalibrateError::Observation { row, source })
-        })?;
-        Ok(self.problem(dataset, options, RadiusObservations { weights }))
-    }
-
-    /// The problem with the transformed-coordinate observation (paper eq. 10).
-    pub fn coordinate_problem(
-        &self,
-        dataset: &Dataset,
-        options: &CalibrationOptions,
-    ) -> Result<CalibrationProblem<CoordinateObservations>, CalibrateError> {
-        let model = weight_model(options.weighting);
-        let weights = self.each_contact(dataset, |row, tip, u0, repeatability| {
-            let covariance = coordinate_covariance(model, repeatability, &tip.d_q, u0)
-                .map_err(|source| CalibrateError::Observation { row, source })?;
-            CoordinateWeight::from_covariance(&covariance)
-                .map_err(|source| CalibrateError::Observation { row, source })
-        })?;
-        let charts = self.each_contact(dataset, |row, _, u0, _| {
-            DirectionChart::new(u0).map_err(|source| CalibrateError::Observation { row, source })
-        })?;
-        // Paper mode: every contact's angles about their initial values;
-        // propagated mode: only where a commanded direction seeds them.
-        let angle_prior = match options.prior {
-            PriorMode::Paper => true,
-            PriorMode::Propagated => dataset.measurements.direction.is_some(),
-            PriorMode::None => false,
         };
-        let angle_sigma = angle_prior.then(|| vec![options.angle_sigma; self.order.len()]);
-        let observations = CoordinateObservations {
-            weights,
-            charts,
-            angle_sigma,
-        };
-        Ok(self.problem(dataset, options, observations))
+        Ok((setup, observations))
     }
 
-    /// `f(row, design tip, u0, repeatability)` for every contact, in sorted
-    /// order.
-    fn each_contact<T: Send>(
+    /// The problem of `observations` (which [`Setup::new`] returned).
+    pub fn problem<'a, O>(
         &self,
-        dataset: &Dataset,
-        f: impl Fn(usize, &Tip, &Vec3, &Repeatability) -> Result<T, CalibrateError> + Sync,
-    ) -> Result<Vec<T>, CalibrateError> {
-        let balls = &dataset.artefacts.balls;
-        let machine = &dataset.machine.repeatability;
-        self.order
-            .par_iter()
-            .zip(&self.tips)
-            .zip(&self.directions)
-            .map(|((&row, tip), u0)| {
-                let ball = &balls[dataset.measurements.ball[row] as usize];
-                let repeatability = Repeatability {
-                    actuator: machine.actuator,
-                    tool: machine.tool,
-                    radius: ball.radius_sigma,
-                };
-                f(row, tip, u0, &repeatability)
-            })
-            .collect()
-    }
-
-    fn problem<O>(
-        &self,
-        dataset: &Dataset,
+        dataset: &'a Dataset,
         options: &CalibrationOptions,
         observations: O,
-    ) -> CalibrationProblem<O> {
-        let m = &dataset.measurements;
-        let balls = &dataset.artefacts.balls;
+    ) -> CalibrationProblem<'a, O> {
         CalibrationProblem {
-            q: self.order.iter().map(|&row| m.q[row]).collect(),
+            design: self.canonical.geometry.clone(),
+            q: &dataset.measurements.q,
             rows: self.order.clone(),
             groups: self.groups.clone(),
-            radii: balls.iter().map(|b| b.radius).collect(),
-            ball_of: self.order.iter().map(|&row| m.ball[row]).collect(),
-            home: self.home.clone(),
+            radii: dataset.artefacts.balls.iter().map(|b| b.radius).collect(),
             observations,
             global_prior: self
                 .prior
@@ -236,10 +165,120 @@ impl Setup {
     }
 }
 
-fn weight_model(weighting: Weighting) -> WeightModel {
-    match weighting {
-        Weighting::Propagated => WeightModel::Propagated,
-        Weighting::Diagonal => WeightModel::Diagonal,
+/// Rows sorted by ball (stable) and each ball's range.
+fn sort_by_ball(dataset: &Dataset) -> (Vec<u32>, Vec<Range<usize>>) {
+    let balls = &dataset.measurements.ball;
+    let mut order: Vec<u32> = (0..balls.len() as u32).collect();
+    order.sort_by_key(|&row| balls[row as usize]);
+    let mut groups = Vec::with_capacity(dataset.artefacts.balls.len());
+    let mut start = 0;
+    for ball in 0..dataset.artefacts.balls.len() as u32 {
+        let count = order[start..]
+            .iter()
+            .take_while(|&&row| balls[row as usize] == ball)
+            .count();
+        groups.push(start..start + count);
+        start += count;
+    }
+    (order, groups)
+}
+
+/// Initial ball centres and, per contact (sorted order), `u0` and weight.
+struct ContactStarts<T> {
+    centres: Vec<Vec3>,
+    directions: Vec<Vec3>,
+    weights: Vec<T>,
+}
+
+/// The design-FK start of every ball and contact.
+struct Starts<'a> {
+    dataset: &'a Dataset,
+    canonical: &'a Canonical,
+    order: &'a [u32],
+    groups: &'a [Range<usize>],
+    model: WeightModel,
+}
+
+impl Starts<'_> {
+    /// Initial centres, and per contact (sorted order) its direction `u0`
+    /// and the whitening `weight(model, repeatability, design tip, u0)`.
+    /// Parallel over balls.
+    fn compute<T: Send>(
+        &self,
+        weight: impl Fn(WeightModel, &Repeatability, &Tip, &Vec3) -> Result<T, ObserveError> + Sync,
+    ) -> Result<ContactStarts<T>, CalibrateError> {
+        let per_ball: Vec<(Vec3, Vec<(Vec3, T)>)> = self
+            .groups
+            .par_iter()
+            .enumerate()
+            .map(|(ball, group)| self.ball(ball, &self.order[group.clone()], &weight))
+            .collect::<Result<_, _>>()?;
+        let centres = per_ball.iter().map(|(centre, _)| *centre).collect();
+        let (directions, weights) = per_ball
+            .into_iter()
+            .flat_map(|(_, contacts)| contacts)
+            .unzip();
+        Ok(ContactStarts {
+            centres,
+            directions,
+            weights,
+        })
+    }
+
+    /// The initial centre of one ball, and `(u0, weight)` of its contacts.
+    fn ball<T>(
+        &self,
+        ball: usize,
+        rows: &[u32],
+        weight: &impl Fn(WeightModel, &Repeatability, &Tip, &Vec3) -> Result<T, ObserveError>,
+    ) -> Result<(Vec3, Vec<(Vec3, T)>), CalibrateError> {
+        let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
+        let fk = ForwardOptions::default();
+        let tips = rows
+            .iter()
+            .map(|&row| {
+                let row = row as usize;
+                let solution = forward_from_home(geometry, &dataset.measurements.q[row], &fk)
+                    .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+                Tip::at(geometry, &solution)
+                    .map_err(|source| CalibrateError::Observation { row, source })
+            })
+            .collect::<Result<Vec<Tip>, _>>()?;
+        let artefact = &dataset.artefacts.balls[ball];
+        let points: Vec<Vec3> = tips.iter().map(|t| t.position).collect();
+        let centre =
+            fit_centre(&points, artefact.radius).map_err(|source| CalibrateError::CentreFit {
+                ball: artefact.id.clone(),
+                source,
+            })?;
+        let machine = &dataset.machine.repeatability;
+        let repeatability = Repeatability {
+            actuator: machine.actuator,
+            tool: machine.tool,
+            radius: artefact.radius_sigma,
+        };
+        let contacts = rows
+            .iter()
+            .zip(&tips)
+            .map(|(&row, tip)| {
+                let row = row as usize;
+                let u0 = match &dataset.measurements.direction {
+                    Some(commanded) => {
+                        let d = Vec3::from(commanded[row]);
+                        match dataset.artefacts.frame {
+                            ArtefactFrame::Design => self.canonical.base_from_input.rotation * d,
+                            ArtefactFrame::Canonical => d,
+                        }
+                        .normalize()
+                    }
+                    None => (tip.position - centre).normalize(),
+                };
+                let weight = weight(self.model, &repeatability, tip, &u0)
+                    .map_err(|source| CalibrateError::Observation { row, source })?;
+                Ok((u0, weight))
+            })
+            .collect::<Result<_, CalibrateError>>()?;
+        Ok((centre, contacts))
     }
 }
 

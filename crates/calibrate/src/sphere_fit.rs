@@ -38,7 +38,8 @@ pub fn fit_centre(points: &[Vec3], radius: f64) -> Result<Vec3, SphereFitError> 
     }
     let scale = normal.diagonal().max();
     let eigen = normal.symmetric_eigenvalues();
-    if !(eigen.min() > 1e-12 * scale) {
+    let determined = eigen.min() > 1e-12 * scale;
+    if !determined {
         return Err(SphereFitError::Degenerate);
     }
     let solution = normal

@@ -21,8 +21,8 @@
 
 use std::time::Instant;
 
-use parcal_calibrate::run::coordinate_problem_and_state;
-use parcal_calibrate::setup::Setup;
+use parcal_calibrate::run::problem_and_state;
+use parcal_calibrate::setup::Observations;
 use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, Simulation};
 use parcal_dataset::Dataset;
 use parcal_kinematics::N_PARAMS;
@@ -367,23 +367,23 @@ fn options(sim: Simulation, prior: PriorMode) -> CalibrationOptions {
 fn coordinates(prior: PriorMode) {
     let dataset = dataset();
     let (problem, state) =
-        coordinate_problem_and_state(&dataset, &options(Simulation::IV, prior)).unwrap();
+        problem_and_state(&dataset, &options(Simulation::IV, prior), |o| match o {
+            Observations::Coordinates(c) => Some(c),
+            Observations::Radius(_) => None,
+        })
+        .unwrap();
     assert_eq!(state.n_unknowns(), 33 + 81 + 378);
     compare(&format!("coordinates, {prior} prior"), &problem, &state);
 }
 
-/// There is no `radius_problem_and_state`; the public [`Setup`] builds the
-/// same problem and initial state as `calibrate` does.
 fn radius(prior: PriorMode) {
     let dataset = dataset();
-    let options = options(Simulation::III, prior);
-    let setup = Setup::new(&dataset, &options).unwrap();
-    let problem = setup.radius_problem(&dataset, &options).unwrap();
-    let state = State::<N_PARAMS, 3, 0> {
-        global: setup.initial_params,
-        groups: setup.initial_centres.clone(),
-        points: vec![nalgebra::SVector::zeros(); setup.order.len()],
-    };
+    let (problem, state) =
+        problem_and_state(&dataset, &options(Simulation::III, prior), |o| match o {
+            Observations::Radius(r) => Some(r),
+            Observations::Coordinates(_) => None,
+        })
+        .unwrap();
     assert_eq!(state.n_unknowns(), 33 + 81);
     compare(&format!("radius, {prior} prior"), &problem, &state);
 }

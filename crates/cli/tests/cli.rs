@@ -211,3 +211,51 @@ fn paper_writes_the_report() {
         assert!(temp.path().join(file).exists(), "{file} missing");
     }
 }
+
+#[test]
+fn an_underdetermined_calibration_names_the_weak_parameters_and_still_writes_its_file() {
+    // 4 balls x 4 contacts without a prior: 16 radius rows for 45 unknowns.
+    let temp = tempfile::tempdir().unwrap();
+    simulate(temp.path(), &["--balls", "4", "--points-per-ball", "4"]);
+    let dir = temp.path().to_str().unwrap();
+    let output = parcal(&["calibrate", dir, "--sim", "I"]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("error: the calibration did not converge: the reduced system is singular"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("smallest eigenvalues: eigenvalue") && stderr.contains(" along "),
+        "{stderr}"
+    );
+    let calibration = std::fs::read_to_string(temp.path().join("calibration.json")).unwrap();
+    assert!(
+        calibration.contains("\"converged\": false"),
+        "{calibration}"
+    );
+    assert!(calibration.contains("\"status\": \"the reduced system is singular at iteration 0"));
+    assert!(!calibration.contains("NaN"));
+}
+
+#[test]
+fn a_calibration_that_cannot_start_says_where() {
+    let temp = tempfile::tempdir().unwrap();
+    simulate(temp.path(), &[]);
+    let csv = temp.path().join("measurements.csv");
+    let mut lines: Vec<String> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .map(String::from)
+        .collect();
+    lines[9] = "b02,1000,1000,1000,0,0,0".to_string();
+    std::fs::write(&csv, lines.join("\n")).unwrap();
+    let output = parcal(&["calibrate", temp.path().to_str().unwrap()]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("measurements.csv line 10: forward kinematics failed"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
+}

@@ -48,11 +48,12 @@ impl Lu6 {
             if pivot == 0.0 || !pivot.is_finite() {
                 return Err(KinematicsError::SingularJacobian);
             }
-            for i in k + 1..6 {
-                let factor = lu[i][k] / pivot;
-                lu[i][k] = factor;
-                for j in k + 1..6 {
-                    lu[i][j] -= factor * lu[k][j];
+            let pivot_row = lu[k];
+            for row in lu.iter_mut().skip(k + 1) {
+                let factor = row[k] / pivot;
+                row[k] = factor;
+                for (value, above) in row.iter_mut().zip(&pivot_row).skip(k + 1) {
+                    *value -= factor * above;
                 }
             }
         }

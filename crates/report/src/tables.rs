@@ -115,13 +115,13 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
             );
         }
     }
-    if let (Some(t), Some(covariance)) = (truth, &run.covariance) {
-        if let Some(nees) = t.nees(&run.params, covariance) {
-            let _ = writeln!(
-                out,
-                "NEES against the truth: {nees:.1} (33 expected for an honest covariance)"
-            );
-        }
+    if let (Some(t), Some(covariance)) = (truth, &run.covariance)
+        && let Some(nees) = t.nees(&run.params, covariance)
+    {
+        let _ = writeln!(
+            out,
+            "NEES against the truth: {nees:.1} (33 expected for an honest covariance)"
+        );
     }
     for warning in run.warnings() {
         let _ = writeln!(out, "WARNING: {warning}");

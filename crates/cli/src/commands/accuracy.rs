@@ -1,6 +1,6 @@
 //! `parcal accuracy`: the accuracy maps of spec section 5 as CSV and PNG.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use nalgebra::SMatrix;
@@ -26,7 +26,7 @@ pub struct Args {
 }
 
 /// The parameters and covariance of a calibration.json.
-fn calibrated(path: &PathBuf) -> anyhow::Result<(Params, ParamCovariance)> {
+fn calibrated(path: &Path) -> anyhow::Result<(Params, ParamCovariance)> {
     let calibration = Calibration::read(path)?;
     let values = &calibration.parameters.values;
     anyhow::ensure!(

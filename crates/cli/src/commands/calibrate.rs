@@ -13,6 +13,10 @@ use parcal_calibrate::{
 use parcal_report::tables;
 
 #[derive(Clone, Copy, ValueEnum)]
+#[expect(
+    clippy::upper_case_acronyms,
+    reason = "the Roman numerals of the paper's simulations"
+)]
 enum Sim {
     #[value(name = "I")]
     I,
