@@ -151,7 +151,7 @@ mod validation_tests {
         let path = dir.path().join("x.parcal");
         let mut dataset = Dataset::read(
             &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../../../shared/reference/paper-seed1"),
+                .join("../../fixtures/reference-paper-seed1"),
         )
         .unwrap();
         dataset.measurements.ball[10] = 99;

@@ -187,5 +187,5 @@ pub fn assert_bitwise_eq<T: serde::Serialize + std::fmt::Debug + PartialEq>(a: &
 
 /// The reference dataset written by an independent tool.
 pub fn reference_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/reference/paper-seed1")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1")
 }
