@@ -115,13 +115,31 @@ pub struct CalibrationOptions {
     /// mode; in propagated mode it applies only to contacts with a commanded
     /// approach direction.
     pub angle_sigma: f64,
-    /// Iterations before giving up.
+    /// Iterations before giving up (linear solves; for Levenberg-Marquardt
+    /// rejected steps count too).
     pub max_iterations: usize,
     /// Converged when `|dx| / (|x| + 1) < step_tolerance` over all unknowns.
     pub step_tolerance: f64,
 }
 
+/// Default iteration limit of Gauss-Newton.
+pub const GAUSS_NEWTON_ITERATIONS: usize = 50;
+/// Default iteration limit of Levenberg-Marquardt: its damping must fall
+/// below the weakest relative eigenvalue of the problem (~3e-7 for the
+/// near-rigid tilt of the paper scenario) before that direction moves
+/// freely, which takes it ~60 steps on the paper scenario.
+pub const LEVENBERG_MARQUARDT_ITERATIONS: usize = 200;
+
 impl CalibrationOptions {
+    /// These options with Levenberg-Marquardt and its iteration limit.
+    pub fn levenberg_marquardt(self) -> Self {
+        Self {
+            method: Method::LevenbergMarquardt,
+            max_iterations: LEVENBERG_MARQUARDT_ITERATIONS,
+            ..self
+        }
+    }
+
     /// The paper's simulation `sim` as the paper states it (paper-mode prior
     /// for III and IV, Gauss-Newton, propagated weights).
     pub fn simulation(sim: Simulation) -> Self {
@@ -148,7 +166,7 @@ impl Default for CalibrationOptions {
             weighting: Weighting::Propagated,
             method: Method::GaussNewton,
             angle_sigma: 0.01,
-            max_iterations: 50,
+            max_iterations: GAUSS_NEWTON_ITERATIONS,
             step_tolerance: 1e-10,
         }
     }

@@ -75,3 +75,35 @@ fn simulation_iii_paper_matches_the_reference() {
         "reference-III-paper.json",
     );
 }
+
+/// Levenberg-Marquardt reaches the Gauss-Newton solution of the paper case
+/// (the same minimum: within 1e-3 of every sigma).
+#[test]
+fn levenberg_marquardt_reaches_the_gauss_newton_solution() {
+    let dataset = Dataset::read(&fixture()).unwrap();
+    let gn_options = CalibrationOptions {
+        prior: PriorMode::Propagated,
+        ..CalibrationOptions::simulation(Simulation::IV)
+    };
+    let gn = calibrate(&dataset, &gn_options, &mut |_| {}).unwrap();
+    let lm = calibrate(
+        &dataset,
+        &gn_options.clone().levenberg_marquardt(),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(
+        gn.converged() && lm.converged(),
+        "{} / {}",
+        gn.status_text(),
+        lm.status_text()
+    );
+    let sigmas = gn.sigmas().unwrap();
+    for k in 0..33 {
+        assert!(
+            ((lm.params[k] - gn.params[k]) / sigmas[k]).abs() < 1e-3,
+            "parameter {k}"
+        );
+    }
+    assert!(lm.history.iter().any(|r| r.lambda > 0.0));
+}

@@ -8,7 +8,7 @@ use clap::ValueEnum;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{
-    CalibrationOptions, Method, Observation, PriorMode, Simulation, Weighting, calibrate,
+    CalibrationOptions, Observation, PriorMode, Simulation, Weighting, calibrate,
 };
 use parcal_report::tables;
 
@@ -68,6 +68,9 @@ pub struct Args {
     /// Levenberg-Marquardt instead of the paper's Gauss-Newton (eq. 5).
     #[arg(long)]
     lm: bool,
+    /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
+    #[arg(long)]
+    max_iterations: Option<usize>,
     /// Where to write calibration.json (default: DATASET/calibration.json).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -102,7 +105,10 @@ impl Args {
             WeightsArg::Diagonal => Weighting::Diagonal,
         };
         if self.lm {
-            options.method = Method::LevenbergMarquardt;
+            options = options.levenberg_marquardt();
+        }
+        if let Some(limit) = self.max_iterations {
+            options.max_iterations = limit;
         }
         options
     }
