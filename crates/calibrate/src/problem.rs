@@ -8,7 +8,7 @@
 //! contact's actuator readings, whitened by the weight computed once at the
 //! initial estimate. Forward kinematics starts from the contact's previous
 //! pose, which the solver keeps as the point cache (the first time from the
-//! design's home pose).
+//! design's home pose, or a given warm start).
 
 use std::ops::Range;
 
@@ -53,6 +53,10 @@ pub struct CalibrationProblem<'a, O> {
     pub global_prior: Option<GaussianPrior<N_PARAMS>>,
     pub centre_priors: Option<Vec<GaussianPrior<3>>>,
     pub forward_options: ForwardOptions,
+    /// Warm starts of the first forward kinematics of each contact (sorted
+    /// order), e.g. the poses of a previous calibration; `None`: the design's
+    /// home pose.
+    pub starts: Option<Vec<Pose>>,
 }
 
 impl<O> CalibrationProblem<'_, O> {
@@ -75,8 +79,11 @@ impl<O> CalibrationProblem<'_, O> {
         Tip::at(&geometry, &solution).map_err(|source| CalibrateError::Observation { row, source })
     }
 
-    fn home(&self, i: usize) -> Pose {
-        self.design.home_pose(self.actuators(i))
+    fn start(&self, i: usize) -> Pose {
+        match &self.starts {
+            Some(starts) => starts[i],
+            None => self.design.home_pose(self.actuators(i)),
+        }
     }
 
     fn centre_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
@@ -117,7 +124,7 @@ macro_rules! common_problem_items {
         }
 
         fn initial_cache(&self, i: usize) -> Pose {
-            self.home(i)
+            self.start(i)
         }
 
         fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {

@@ -161,6 +161,7 @@ impl Setup {
                 .map(|prior| GaussianPrior::new(*prior.mean(), prior.information())),
             centre_priors: centre_priors(dataset, self, options.prior),
             forward_options: ForwardOptions::default(),
+            starts: None,
         }
     }
 }

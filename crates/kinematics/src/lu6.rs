@@ -2,9 +2,12 @@
 //! with solves by `A` and by `A^T` from one factorisation (the forward
 //! kinematics step needs the first, the tip derivatives the second).
 //!
-//! Fixed-size arrays: the loops unroll, nothing allocates. A matrix whose
+//! Fixed-size arrays and plain index loops (iterator adapters over the
+//! shrinking ranges defeat unrolling here): nothing allocates. A matrix whose
 //! smallest pivot is below [`SINGULAR_PIVOT_RATIO`] of its largest counts as
 //! singular (a singular configuration of the mechanism).
+
+#![allow(clippy::needless_range_loop, reason = "index arithmetic of the factorisation reads best")]
 
 use nalgebra::{Matrix6, Vector6};
 
@@ -23,37 +26,38 @@ pub struct Lu6 {
 
 impl Lu6 {
     /// Factorises `a`, refusing a (nearly) singular matrix.
+    #[inline]
     pub fn factor(a: &Matrix6<f64>) -> Result<Self, KinematicsError> {
+        // Row-major copy; nalgebra stores columns.
         let mut lu = [[0.0; 6]; 6];
-        for (i, row) in lu.iter_mut().enumerate() {
-            for (j, value) in row.iter_mut().enumerate() {
-                *value = a[(i, j)];
+        for (j, column) in a.column_iter().enumerate() {
+            for i in 0..6 {
+                lu[i][j] = column[i];
             }
         }
         let mut permutation = [0, 1, 2, 3, 4, 5];
         let (mut smallest, mut largest) = (f64::INFINITY, 0.0f64);
         for k in 0..6 {
-            let pivot_row = (k..6).fold(k, |best, i| {
-                if lu[i][k].abs() > lu[best][k].abs() {
-                    i
-                } else {
-                    best
+            let mut pivot_row = k;
+            for i in k + 1..6 {
+                if lu[i][k].abs() > lu[pivot_row][k].abs() {
+                    pivot_row = i;
                 }
-            });
+            }
             lu.swap(k, pivot_row);
             permutation.swap(k, pivot_row);
             let pivot = lu[k][k];
-            smallest = smallest.min(pivot.abs());
-            largest = largest.max(pivot.abs());
             if pivot == 0.0 || !pivot.is_finite() {
                 return Err(KinematicsError::SingularJacobian);
             }
-            let pivot_row = lu[k];
-            for row in lu.iter_mut().skip(k + 1) {
-                let factor = row[k] / pivot;
-                row[k] = factor;
-                for (value, above) in row.iter_mut().zip(&pivot_row).skip(k + 1) {
-                    *value -= factor * above;
+            smallest = smallest.min(pivot.abs());
+            largest = largest.max(pivot.abs());
+            let inverse = pivot.recip();
+            for i in k + 1..6 {
+                let factor = lu[i][k] * inverse;
+                lu[i][k] = factor;
+                for j in k + 1..6 {
+                    lu[i][j] -= factor * lu[k][j];
                 }
             }
         }

@@ -1,0 +1,36 @@
+//! One Gauss-Newton iteration (evaluate every block, eliminate, solve,
+//! back-substitute) of simulation IV with the propagated prior, at 10^3 to
+//! 10^6 contacts, with 1 and 2 threads.
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use parcal_benches::{campaign, warm_problem};
+use parcal_solver::{SolverOptions, linear_step};
+
+fn iteration(c: &mut Criterion) {
+    let mut group = c.benchmark_group("iteration");
+    group.sample_size(10);
+    let chunk = SolverOptions::default().groups_per_chunk;
+    for contacts in [1_000, 10_000, 100_000, 1_000_000] {
+        let dataset = campaign(contacts);
+        let (problem, state) = warm_problem(&dataset);
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            group.bench_with_input(
+                BenchmarkId::new(format!("{threads}-thread"), contacts),
+                &contacts,
+                |b, _| {
+                    b.iter(|| {
+                        pool.install(|| linear_step(&problem, &state, 0.0, chunk).expect("step"))
+                    })
+                },
+            );
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, iteration);
+criterion_main!(benches);

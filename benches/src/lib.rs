@@ -1,0 +1,71 @@
+//! Shared set-up of parcal's benchmarks: a simulated campaign of a given size
+//! and its calibration problem, warm (every contact's forward kinematics
+//! starts from its design solution, as in an iteration after the first).
+
+use nalgebra::Vector2;
+use parcal_calibrate::problem::{CalibrationProblem, CoordinateObservations};
+use parcal_calibrate::setup::{Observations, Setup};
+use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation};
+use parcal_dataset::Dataset;
+use parcal_kinematics::{ForwardOptions, N_PARAMS, Params, Pose, forward_from_home};
+use parcal_simulate::{Scenario, simulate};
+use parcal_solver::State;
+use rayon::prelude::*;
+
+/// Contacts per ball in every benchmark (the paper's 7).
+pub const POINTS_PER_BALL: usize = 7;
+
+/// The paper machine with `contacts / 7` balls filling the box, tilts up to
+/// 10 degrees, seed 1.
+pub fn campaign(contacts: usize) -> Dataset {
+    let scenario = Scenario::scaled(
+        contacts / POINTS_PER_BALL,
+        POINTS_PER_BALL,
+        10f64.to_radians(),
+    );
+    simulate(&scenario, 1).expect("simulation").dataset
+}
+
+/// Simulation IV with the propagated prior (the benchmark case).
+pub fn options() -> CalibrationOptions {
+    CalibrationOptions {
+        prior: PriorMode::Propagated,
+        ..CalibrationOptions::simulation(Simulation::IV)
+    }
+}
+
+/// The coordinate problem of `dataset`, warm-started at the design-FK poses,
+/// and a state a small step away from the initial estimate (every parameter
+/// moved by 1e-3 mm), so that each forward kinematics takes the one or two
+/// Newton steps of a typical iteration.
+pub fn warm_problem(
+    dataset: &Dataset,
+) -> (
+    CalibrationProblem<'_, CoordinateObservations>,
+    State<N_PARAMS, 3, 2>,
+) {
+    let options = options();
+    let (setup, observations) = Setup::new(dataset, &options).expect("setup");
+    let Observations::Coordinates(observations) = observations else {
+        unreachable!("simulation IV uses the coordinate observation")
+    };
+    let mut problem = setup.problem(dataset, &options, observations);
+    let design = &setup.canonical.geometry;
+    let fk = ForwardOptions::default();
+    let starts: Vec<Pose> = setup
+        .order
+        .par_iter()
+        .map(|&row| {
+            forward_from_home(design, &dataset.measurements.q[row as usize], &fk)
+                .expect("design FK")
+                .pose
+        })
+        .collect();
+    problem.starts = Some(starts);
+    let state = State {
+        global: setup.initial_params + Params::repeat(1e-3),
+        groups: setup.initial_centres.clone(),
+        points: vec![Vector2::zeros(); setup.order.len()],
+    };
+    (problem, state)
+}
