@@ -47,7 +47,14 @@ pub fn fit_centre(points: &[Vec3], radius: f64) -> Result<Vec3, SphereFitError> 
         .ok_or(SphereFitError::Degenerate)?
         .solve(&rhs);
     let mut centre = solution.xyz();
-    for _ in 0..50 {
+    let cost = |c: &Vec3| {
+        points
+            .iter()
+            .map(|p| ((c - (p - mean)).norm() - radius).powi(2))
+            .sum::<f64>()
+    };
+    let mut current = cost(&centre);
+    for _ in 0..MAX_ITERATIONS {
         let (mut jtj, mut jtr) = (Matrix3::<f64>::zeros(), Vec3::zeros());
         for p in points {
             let d = centre - (p - mean);
@@ -61,13 +68,31 @@ pub fn fit_centre(points: &[Vec3], radius: f64) -> Result<Vec3, SphereFitError> 
             .cholesky()
             .ok_or(SphereFitError::Degenerate)?
             .solve(&-jtr);
-        centre += step;
-        if step.norm() < 1e-13 * (1.0 + centre.norm()) {
+        // Step halving keeps every accepted step downhill.
+        let mut scale = 1.0;
+        let (next, next_cost) = loop {
+            let candidate = centre + scale * step;
+            let candidate_cost = cost(&candidate);
+            if candidate_cost <= current || scale < 1e-6 {
+                break (candidate, candidate_cost);
+            }
+            scale *= 0.5;
+        };
+        let moved = (next - centre).norm();
+        let stationary = current - next_cost <= 1e-15 * current;
+        (centre, current) = (next, next_cost);
+        if moved < STEP_TOLERANCE_MM || stationary {
             return Ok(centre + mean);
         }
     }
     Err(SphereFitError::NotConverged)
 }
+
+/// Gauss-Newton steps of the fit before giving up.
+const MAX_ITERATIONS: usize = 100;
+/// Converged when a step moves the centre less than this (mm): far below
+/// anything measurable, and above the rounding of an ill-conditioned fit.
+const STEP_TOLERANCE_MM: f64 = 1e-10;
 
 #[cfg(test)]
 mod tests {

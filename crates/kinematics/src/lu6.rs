@@ -7,7 +7,10 @@
 //! smallest pivot is below [`SINGULAR_PIVOT_RATIO`] of its largest counts as
 //! singular (a singular configuration of the mechanism).
 
-#![allow(clippy::needless_range_loop, reason = "index arithmetic of the factorisation reads best")]
+#![allow(
+    clippy::needless_range_loop,
+    reason = "index arithmetic of the factorisation reads best"
+)]
 
 use nalgebra::{Matrix6, Vector6};
 
