@@ -9,22 +9,37 @@ use std::path::Path;
 use parcal_plot::{LineChart, Series, line_chart};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let out = std::env::args().nth(1).unwrap_or_else(|| "performance-iteration.png".into());
+    let out = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "performance-iteration.png".into());
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/criterion/iteration");
     let mut series = Vec::new();
     for threads in ["1-thread", "2-thread"] {
         let mut points = Vec::new();
         for contacts in [1_000u32, 10_000, 100_000, 1_000_000] {
-            let path = root.join(threads).join(contacts.to_string()).join("new/estimates.json");
-            let Ok(text) = std::fs::read_to_string(&path) else { continue };
+            let path = root
+                .join(threads)
+                .join(contacts.to_string())
+                .join("new/estimates.json");
+            let Ok(text) = std::fs::read_to_string(&path) else {
+                continue;
+            };
             let estimates: serde_json::Value = serde_json::from_str(&text)?;
-            let nanoseconds = estimates["mean"]["point_estimate"].as_f64().ok_or("no mean in estimates.json")?;
-            println!("{threads} {contacts} contacts: {:.4} s per iteration", nanoseconds * 1e-9);
+            let nanoseconds = estimates["mean"]["point_estimate"]
+                .as_f64()
+                .ok_or("no mean in estimates.json")?;
+            println!(
+                "{threads} {contacts} contacts: {:.4} s per iteration",
+                nanoseconds * 1e-9
+            );
             points.push((f64::from(contacts), nanoseconds * 1e-9));
         }
         series.push((threads, points));
     }
-    let series: Vec<Series> = series.iter().map(|(name, points)| Series { name, points }).collect();
+    let series: Vec<Series> = series
+        .iter()
+        .map(|(name, points)| Series { name, points })
+        .collect();
     line_chart(
         Path::new(&out),
         &LineChart {

@@ -3,12 +3,12 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::SVector;
 use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    BlockId, IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, State, Status, solve,
+    BlockId, IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, State, Status,
+    WeakDirection, solve,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
@@ -201,20 +201,25 @@ pub fn weak_directions(spectrum: &SpectrumDiagnostics) -> String {
         .weakest
         .iter()
         .take(3)
-        .map(|weak| {
-            let names: Vec<String> = weak
-                .dominant
-                .iter()
-                .map(|(k, c)| format!("{} {:+.2}", PARAM_NAMES[*k], c))
-                .collect();
-            format!(
-                "eigenvalue {:.3e} along {}",
-                weak.eigenvalue,
-                names.join(", ")
-            )
-        })
+        .map(weak_direction)
         .collect();
     format!("smallest eigenvalues: {}", directions.join("; "))
+}
+
+/// One weak direction: its eigenvalue, the sigma it leaves (mm) and the
+/// parameters that dominate it.
+pub fn weak_direction(weak: &WeakDirection) -> String {
+    let names: Vec<String> = weak
+        .dominant
+        .iter()
+        .map(|(k, c)| format!("{} {:+.2}", PARAM_NAMES[*k], c))
+        .collect();
+    format!(
+        "eigenvalue {:.3e} (sigma {:.3} mm) along {}",
+        weak.eigenvalue,
+        weak.eigenvalue.max(0.0).sqrt().recip(),
+        names.join(", ")
+    )
 }
 
 /// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
@@ -347,12 +352,7 @@ fn solve_problem<const P: usize, const R: usize, Pr: Problem<N_PARAMS, 3, P, R>>
     observer: &mut dyn FnMut(&IterationRecord),
     rows_per_contact: usize,
 ) -> Solved {
-    let initial = State {
-        global: setup.initial_params,
-        groups: setup.initial_centres.clone(),
-        points: vec![SVector::<f64, P>::zeros(); setup.order.len()],
-    };
-    let solution = solve(problem, initial, options, observer);
+    let solution = solve(problem, setup.initial_state(), options, observer);
     Solved {
         params: solution.state.global,
         covariance: solution.covariance,
@@ -375,10 +375,5 @@ pub fn problem_and_state<'a, O, const P: usize>(
     let (setup, observations) = Setup::new(dataset, options)?;
     let observations = pick(observations).expect("the options' observation");
     let problem = setup.problem(dataset, options, observations);
-    let state = State {
-        global: setup.initial_params,
-        groups: setup.initial_centres.clone(),
-        points: vec![SVector::zeros(); setup.order.len()],
-    };
-    Ok((problem, state))
+    Ok((problem, setup.initial_state()))
 }

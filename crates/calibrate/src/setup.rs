@@ -8,7 +8,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{SMatrix, Vector3};
+use nalgebra::{SMatrix, SVector, Vector3};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Vec3, forward_from_home, params,
@@ -17,7 +17,7 @@ use parcal_observe::{
     CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability, Tip,
     WeightModel, coordinate_covariance, radius_variance,
 };
-use parcal_solver::GaussianPrior;
+use parcal_solver::{GaussianPrior, State};
 use rayon::prelude::*;
 
 use crate::problem::{CalibrationProblem, CoordinateObservations, RadiusObservations};
@@ -139,6 +139,17 @@ impl Setup {
             groups,
         };
         Ok((setup, observations))
+    }
+
+    /// The initial state of the solver: the design's parameters, the fitted
+    /// centres and zero angles (`P` = 2 for the coordinate observation, 0
+    /// for the radius observation).
+    pub fn initial_state<const P: usize>(&self) -> State<N_PARAMS, 3, P> {
+        State {
+            global: self.initial_params,
+            groups: self.initial_centres.clone(),
+            points: vec![SVector::zeros(); self.order.len()],
+        }
     }
 
     /// The problem of `observations` (which [`Setup::new`] returned).

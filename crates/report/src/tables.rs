@@ -5,6 +5,7 @@ use std::fmt::Write;
 
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::evaluate::{Accuracy, BeforeAfter, Truth};
+use parcal_calibrate::run::weak_direction;
 use parcal_kinematics::PARAM_NAMES;
 
 /// Parameter, value, sigma and, with a truth, the true value, the error and
@@ -101,18 +102,7 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
     }
     if let Some(spectrum) = &run.spectrum {
         for weak in spectrum.weakest.iter().take(2) {
-            let names: Vec<String> = weak
-                .dominant
-                .iter()
-                .map(|(k, c)| format!("{} {:+.2}", PARAM_NAMES[*k], c))
-                .collect();
-            let _ = writeln!(
-                out,
-                "weak direction: eigenvalue {:.3e} (sigma {:.3} mm) along {}",
-                weak.eigenvalue,
-                weak.eigenvalue.sqrt().recip(),
-                names.join(", ")
-            );
+            let _ = writeln!(out, "weak direction: {}", weak_direction(weak));
         }
     }
     if let (Some(t), Some(covariance)) = (truth, &run.covariance)
