@@ -13,10 +13,13 @@
 use std::ops::Range;
 
 use nalgebra::{SVector, Vector2};
-use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Params, Pose, Vec3, forward, params};
+use parcal_kinematics::{
+    ForwardOptions, ForwardSolution, Geometry, N_PARAMS, Params, Pose, Vec3, forward, params,
+    tip_derivative_along,
+};
 use parcal_observe::{
-    BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, RadiusBlock, RadiusWeight,
-    Tip,
+    BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, ObserveError, RadiusBlock,
+    RadiusWeight, Tip, Whitening,
 };
 use parcal_solver::{GaussianPrior, Linearization, Problem};
 
@@ -68,15 +71,56 @@ impl<O> CalibrationProblem<'_, O> {
         &self.q[self.row(i)]
     }
 
-    /// Paper eq. (2): the tool tip of the parameters `p` at contact `i`, by
-    /// forward kinematics from the contact's cached pose, with `J_f`, `J_q`.
-    fn tip(&self, i: usize, p: &Params, pose: &mut Pose) -> Result<Tip, CalibrateError> {
+    /// Forward kinematics of the parameters `p` at contact `i`, from the
+    /// contact's cached pose (updated).
+    fn forward(
+        &self,
+        i: usize,
+        p: &Params,
+        pose: &mut Pose,
+    ) -> Result<(Geometry, ForwardSolution), CalibrateError> {
         let geometry = params::from_params(p);
-        let row = self.row(i);
-        let solution = forward(&geometry, self.actuators(i), pose, &self.forward_options)
-            .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+        let solution = forward(&geometry, self.actuators(i), pose, &self.forward_options).map_err(
+            |source| CalibrateError::ForwardKinematics {
+                row: self.row(i),
+                source,
+            },
+        )?;
         *pose = solution.pose;
-        Tip::at(&geometry, &solution).map_err(|source| CalibrateError::Observation { row, source })
+        Ok((geometry, solution))
+    }
+
+    /// Paper eq. (2): the tool tip of the parameters `p` at contact `i`, with
+    /// `J_f` and `J_q`.
+    fn tip(&self, i: usize, p: &Params, pose: &mut Pose) -> Result<Tip, CalibrateError> {
+        let (geometry, solution) = self.forward(i, p, pose)?;
+        Tip::at(&geometry, &solution).map_err(|source| self.observation_error(i, source))
+    }
+
+    /// The tool tip of `p` at contact `i` without its Jacobians, and its
+    /// derivative `J_f dp` along `dp` (one LU solve instead of `J_f`).
+    fn tip_along(
+        &self,
+        i: usize,
+        p: &Params,
+        pose: &mut Pose,
+        dp: &Params,
+    ) -> Result<(Tip, Vec3), CalibrateError> {
+        let (geometry, solution) = self.forward(i, p, pose)?;
+        let along = tip_derivative_along(&geometry, &solution.legs, dp).map_err(|source| {
+            CalibrateError::ForwardKinematics {
+                row: self.row(i),
+                source,
+            }
+        })?;
+        Ok((Tip::position_only(geometry.tool_tip(&solution.pose)), along))
+    }
+
+    fn observation_error(&self, i: usize, source: ObserveError) -> CalibrateError {
+        CalibrateError::Observation {
+            row: self.row(i),
+            source,
+        }
     }
 
     fn start(&self, i: usize) -> Pose {
@@ -94,6 +138,18 @@ impl<O> CalibrationProblem<'_, O> {
     fn radius(&self, i: usize) -> f64 {
         let ball = self.groups.partition_point(|g| g.end <= i);
         self.radii[ball]
+    }
+}
+
+impl CalibrationProblem<'_, CoordinateObservations> {
+    /// The coordinate block of contact `i`: its ball's radius, its chart.
+    fn coordinate_block(&self, i: usize) -> Result<CoordinateBlock, CalibrateError> {
+        let chart = DirectionChart::new(&self.observations.directions[i])
+            .map_err(|source| self.observation_error(i, source))?;
+        Ok(CoordinateBlock {
+            radius: self.radius(i),
+            chart,
+        })
     }
 }
 
@@ -151,13 +207,42 @@ impl Problem<N_PARAMS, 3, 0, 1> for CalibrationProblem<'_, RadiusObservations> {
         let tip = self.tip(i, global, cache)?;
         let block = RadiusBlock {
             radius: self.radius(i),
-        }
-        .evaluate(&tip, &Vec3::from(*group))
-        .map_err(|source| CalibrateError::Observation {
-            row: self.row(i),
-            source,
-        })?;
-        Ok(linearization(block.whiten(&self.observations.weights[i])))
+        };
+        let jacobians = block
+            .evaluate(&tip, &Vec3::from(*group))
+            .map_err(|source| self.observation_error(i, source))?;
+        Ok(linearization(
+            jacobians.whiten(&self.observations.weights[i]),
+        ))
+    }
+
+    fn linearize_along(
+        &self,
+        i: usize,
+        global: &Params,
+        group: &SVector<f64, 3>,
+        _point: &SVector<f64, 0>,
+        cache: &mut Pose,
+        dg: &Params,
+    ) -> Result<(Linearization<N_PARAMS, 3, 0, 1>, SVector<f64, 1>), CalibrateError> {
+        let (tip, jf_dg) = self.tip_along(i, global, cache, dg)?;
+        let (centre, block) = (
+            Vec3::from(*group),
+            RadiusBlock {
+                radius: self.radius(i),
+            },
+        );
+        let weight = &self.observations.weights[i];
+        let jacobians = block
+            .evaluate(&tip, &centre)
+            .map_err(|source| self.observation_error(i, source))?;
+        let along = block
+            .along(&tip.position, &centre, &jf_dg)
+            .map_err(|source| self.observation_error(i, source))?;
+        Ok((
+            linearization(jacobians.whiten(weight)),
+            weight.whiten(&along),
+        ))
     }
 }
 
@@ -173,19 +258,29 @@ impl Problem<N_PARAMS, 3, 2, 3> for CalibrationProblem<'_, CoordinateObservation
         cache: &mut Pose,
     ) -> Result<Linearization<N_PARAMS, 3, 2, 3>, CalibrateError> {
         let tip = self.tip(i, global, cache)?;
-        let chart = DirectionChart::new(&self.observations.directions[i]).map_err(|source| {
-            CalibrateError::Observation {
-                row: self.row(i),
-                source,
-            }
-        })?;
-        let block = CoordinateBlock {
-            radius: self.radius(i),
-            chart,
-        };
+        let block = self.coordinate_block(i)?;
         let jacobians = block.evaluate(&tip, &Vec3::from(*group), point);
         Ok(linearization(
             jacobians.whiten(&self.observations.weights[i]),
+        ))
+    }
+
+    fn linearize_along(
+        &self,
+        i: usize,
+        global: &Params,
+        group: &SVector<f64, 3>,
+        point: &Vector2<f64>,
+        cache: &mut Pose,
+        dg: &Params,
+    ) -> Result<(Linearization<N_PARAMS, 3, 2, 3>, SVector<f64, 3>), CalibrateError> {
+        let (tip, jf_dg) = self.tip_along(i, global, cache, dg)?;
+        let block = self.coordinate_block(i)?;
+        let weight = &self.observations.weights[i];
+        let jacobians = block.evaluate(&tip, &Vec3::from(*group), point);
+        Ok((
+            linearization(jacobians.whiten(weight)),
+            weight.whiten(&block.along(&jf_dg)),
         ))
     }
 

@@ -15,10 +15,10 @@
 //! `d phi_i / d l_i = -1`, and the tool enters directly, `dT / d E_T = R`.
 //! `K` comes from one LU of `A` solved transposed ([`crate::lu6`]).
 
-use nalgebra::{Matrix3x6, Matrix6x3, SMatrix};
+use nalgebra::{Matrix3x6, Matrix6x3, SMatrix, Vector6};
 
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
-use crate::{Geometry, KinematicsError, Pose, closure::Legs, lu6::Lu6};
+use crate::{Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs, lu6::Lu6};
 
 /// Tool-tip derivatives at one forward-kinematics solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,6 +71,41 @@ pub fn tip_jacobians(geometry: &Geometry, legs: &Legs) -> Result<TipJacobians, K
         .fixed_view_mut::<3, 3>(0, TOOL_OFFSET)
         .copy_from(&rotation);
     Ok(TipJacobians { d_params, d_q: k })
+}
+
+/// `J_f dp`: the tip's derivative along a parameter direction `dp` at fixed
+/// `q`, without forming `J_f`. With `v = (d phi / dp) dp` (leg `i`:
+/// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`) and `w = A^-1 v`,
+/// `J_f dp = -P w + R dE_T = -(w_t + w_w x R E_T) + R dE_T`: one LU solve
+/// instead of three (the back-substitution of a calibration needs only this).
+pub fn tip_derivative_along(
+    geometry: &Geometry,
+    legs: &Legs,
+    dp: &Params,
+) -> Result<Vec3, KinematicsError> {
+    let rotation = legs.rotation;
+    let mut v = Vector6::zeros();
+    for i in 0..6 {
+        let n = legs.direction[i];
+        let n_platform = rotation.transpose() * n;
+        let mut change = -dp[leg_index(i)];
+        for c in 0..3 {
+            if let Some(k) = BASE_INDEX[i][c] {
+                change -= n[c] * dp[k];
+            }
+            if let Some(k) = PLATFORM_INDEX[i][c] {
+                change += n_platform[c] * dp[k];
+            }
+        }
+        v[i] = change;
+    }
+    let w = Lu6::factor(&legs.pose_jacobian())?.solve(&v);
+    let (w_t, w_w) = (
+        Vec3::from(w.fixed_rows::<3>(0)),
+        Vec3::from(w.fixed_rows::<3>(3)),
+    );
+    let tool_step = Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET));
+    Ok(rotation * tool_step - (w_t + w_w.cross(&(rotation * geometry.tool))))
 }
 
 /// [`tip_jacobians`] at a pose (evaluates the legs first).

@@ -226,3 +226,27 @@ fn forward_kinematics_failures_are_error_values() {
     let error = forward(&singular, &[-30.0; 6], &upright, &options).unwrap_err();
     assert_eq!(error, KinematicsError::SingularJacobian);
 }
+
+#[test]
+fn derivative_along_a_direction_equals_the_jacobian_times_it() {
+    let mut rng = Rng(23);
+    let design = paper::design();
+    let canonical = paper::truth().canonicalize().unwrap();
+    for _ in 0..50 {
+        let pose = canonical.pose_from_input(&workspace_pose(&mut rng, &design, 15.0));
+        let q = actuators(&canonical.geometry, &pose);
+        let solution = forward(&canonical.geometry, &q, &pose, &ForwardOptions::default()).unwrap();
+        let dp = Params::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+        let full = tip_jacobians(&canonical.geometry, &solution.legs)
+            .unwrap()
+            .d_params
+            * dp;
+        let along =
+            parcal_kinematics::tip_derivative_along(&canonical.geometry, &solution.legs, &dp)
+                .unwrap();
+        assert!(
+            (full - along).norm() <= 1e-12 * full.norm(),
+            "{full:?} vs {along:?}"
+        );
+    }
+}

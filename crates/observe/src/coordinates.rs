@@ -10,7 +10,7 @@
 //! Unknowns: the 33 parameters, the ball centre `C_i` and the contact's two
 //! angles `θ_ij`; the calibrated radius `r_i` is data.
 
-use nalgebra::{Matrix3, Vector2};
+use nalgebra::{Matrix3, Vector2, Vector3};
 use parcal_kinematics::Vec3;
 
 use crate::{CoordinateJacobians, DirectionChart, Tip};
@@ -38,6 +38,12 @@ impl CoordinateBlock {
             d_centre: Matrix3::identity(),
             d_angles: self.radius * self.chart.derivative(angles),
         }
+    }
+
+    /// `(dc/dp) dp = -J_f dp` for the tip's derivative `jf_dp = J_f dp`
+    /// along a parameter direction (mm).
+    pub fn along(&self, jf_dp: &Vec3) -> Vector3<f64> {
+        -jf_dp
     }
 }
 

@@ -9,7 +9,7 @@
 //! with `T = f(q_ij, p)` the tool tip and `J_f = dT/dp`. Unknowns: the 33
 //! parameters and the ball centre `C_i`; the calibrated radius `r_i` is data.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{SMatrix, SVector, Vector1};
 use parcal_kinematics::Vec3;
 
 use crate::{ObserveError, RadiusJacobians, Tip};
@@ -28,15 +28,8 @@ impl RadiusBlock {
     /// with `dc/dp = −nᵀ J_f` and `dc/dC = nᵀ`. Refuses a tip at the centre,
     /// where the normal `n` is undefined.
     pub fn evaluate(&self, tip: &Tip, centre: &Vec3) -> Result<RadiusJacobians, ObserveError> {
-        let offset = tip.position - centre;
-        let distance = offset.norm();
-        if !(distance.is_finite() && distance > 0.0) {
-            return Err(ObserveError::DegenerateDirection {
-                what: "contact normal (tool tip minus ball centre)",
-                length: distance,
-            });
-        }
-        let normal = (offset / distance).transpose();
+        let (normal, distance) = contact_normal(&tip.position, centre)?;
+        let normal = normal.transpose();
         Ok(RadiusJacobians {
             residual: SVector::<f64, 1>::new(self.radius - distance),
             d_params: -normal * tip.d_params,
@@ -44,6 +37,33 @@ impl RadiusBlock {
             d_angles: SMatrix::zeros(),
         })
     }
+
+    /// `(dc/dp) dp = -n . J_f dp` for the tip's derivative `jf_dp = J_f dp`
+    /// along a parameter direction, at the tip `position` and the ball
+    /// centre (mm); refuses a tip at the centre like [`RadiusBlock::evaluate`].
+    pub fn along(
+        &self,
+        position: &Vec3,
+        centre: &Vec3,
+        jf_dp: &Vec3,
+    ) -> Result<Vector1<f64>, ObserveError> {
+        let (normal, _) = contact_normal(position, centre)?;
+        Ok(Vector1::new(-normal.dot(jf_dp)))
+    }
+}
+
+/// The unit normal `n = (T - C) / |T - C|` and the distance `|T - C|`,
+/// refusing a tip at the centre, where `n` is undefined.
+fn contact_normal(position: &Vec3, centre: &Vec3) -> Result<(Vec3, f64), ObserveError> {
+    let offset = position - centre;
+    let distance = offset.norm();
+    if !(distance.is_finite() && distance > 0.0) {
+        return Err(ObserveError::DegenerateDirection {
+            what: "contact normal (tool tip minus ball centre)",
+            length: distance,
+        });
+    }
+    Ok((offset / distance, distance))
 }
 
 #[cfg(test)]

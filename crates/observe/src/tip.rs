@@ -19,6 +19,18 @@ pub struct Tip {
 }
 
 impl Tip {
+    /// A tip whose derivatives are not computed (zero): for evaluations that
+    /// need only the residual and the centre and angle blocks, the parameter
+    /// derivative being taken along one direction instead
+    /// ([`crate::RadiusBlock::along`], [`crate::CoordinateBlock::along`]).
+    pub fn position_only(position: Vec3) -> Self {
+        Self {
+            position,
+            d_params: SMatrix::zeros(),
+            d_q: Matrix3x6::zeros(),
+        }
+    }
+
     /// Paper eq. (2): the tip `T = R E_T + t` of `geometry` (canonical) at
     /// `solution` (forward kinematics of that geometry at the contact's `q`),
     /// with its analytic derivatives (mm).

@@ -1,6 +1,8 @@
-//! Back-substitution: with `δg` known, every point is linearised again, its
-//! block reduced to `[d_point | d_group | r + d_global δg]` and eliminated
-//! again; the group's triangle gives `δc`, each point's triangle `δp`.
+//! Back-substitution: with `δg` known, every point is linearised again
+//! ([`Problem::linearize_along`]: only `d_global δg` of the global Jacobian
+//! is needed), its block reduced to `[d_point | d_group | r + d_global δg]`
+//! and eliminated again; the group's triangle gives `δc`, each point's
+//! triangle `δp`.
 
 use nalgebra::SVector;
 
@@ -174,17 +176,17 @@ where
         for (j, i) in range.clone().enumerate() {
             let p = &state.points[i];
             let cache = &mut caches[i - chunk.points.start];
-            let lin = match problem.linearize(i, &state.global, c, p, cache) {
-                Ok(lin) => lin,
-                Err(e) => return Err(Failure::linearize(i, &e)),
-            };
+            let (lin, global_step) =
+                match problem.linearize_along(i, &state.global, c, p, cache, dg) {
+                    Ok(parts) => parts,
+                    Err(e) => return Err(Failure::linearize(i, &e)),
+                };
             let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
             let mut b_p = lin.d_point.tr_mul(&lin.residual);
             if let Some(prior) = &prior {
                 b_p += prior.gradient();
             }
             b_c += lin.d_group.tr_mul(&lin.residual);
-            let global_step = lin.d_global * dg;
             sum.gradient_dot += lin.residual.dot(&global_step);
             if lambda > 0.0 {
                 add_matrix_column_norms2(&lin.d_group, &mut raw_norms2);

@@ -121,6 +121,26 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         cache: &mut Self::PointCache,
     ) -> Result<Linearization<G, C, P, R>, Self::Error>;
 
+    /// Point `i`'s linearisation for back-substitution, which needs of
+    /// `d_global` only its product with the global step `dg`: returns the
+    /// linearisation (its `d_global` is not read) and `d_global · dg`. The
+    /// default linearises fully; a problem whose global Jacobian is costly
+    /// can compute the product directly, as a directional derivative.
+    #[allow(clippy::type_complexity)]
+    fn linearize_along(
+        &self,
+        i: usize,
+        global: &SVector<f64, G>,
+        group: &SVector<f64, C>,
+        point: &SVector<f64, P>,
+        cache: &mut Self::PointCache,
+        dg: &SVector<f64, G>,
+    ) -> Result<(Linearization<G, C, P, R>, SVector<f64, R>), Self::Error> {
+        let lin = self.linearize(i, global, group, point, cache)?;
+        let along = lin.d_global * dg;
+        Ok((lin, along))
+    }
+
     /// Prior on the global block.
     fn global_prior(&self) -> Option<&GaussianPrior<G>> {
         None
