@@ -14,8 +14,8 @@ use std::ops::Range;
 
 use nalgebra::{SVector, Vector2};
 use parcal_kinematics::{
-    ForwardOptions, ForwardSolution, Geometry, N_PARAMS, Params, Pose, Vec3, forward, params,
-    tip_derivative_along,
+    ForwardOptions, ForwardSolution, Geometry, N_PARAMS, Params, Pose, Vec3, derivative_along,
+    forward, forward::step as step_pose, params,
 };
 use parcal_observe::{
     BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, ObserveError, RadiusBlock,
@@ -98,7 +98,10 @@ impl<O> CalibrationProblem<'_, O> {
     }
 
     /// The tool tip of `p` at contact `i` without its Jacobians, and its
-    /// derivative `J_f dp` along `dp` (one LU solve instead of `J_f`).
+    /// derivative `J_f dp` along the step `dp` (one LU solve instead of
+    /// `J_f`). The cached pose becomes the first-order prediction of the
+    /// pose at `p + dp`, the next iteration's parameters, so that its forward
+    /// kinematics starts within `O(|dp|^2)` of the solution.
     fn tip_along(
         &self,
         i: usize,
@@ -107,13 +110,17 @@ impl<O> CalibrationProblem<'_, O> {
         dp: &Params,
     ) -> Result<(Tip, Vec3), CalibrateError> {
         let (geometry, solution) = self.forward(i, p, pose)?;
-        let along = tip_derivative_along(&geometry, &solution.legs, dp).map_err(|source| {
+        let along = derivative_along(&geometry, &solution.legs, dp).map_err(|source| {
             CalibrateError::ForwardKinematics {
                 row: self.row(i),
                 source,
             }
         })?;
-        Ok((Tip::position_only(geometry.tool_tip(&solution.pose)), along))
+        *pose = step_pose(&solution.pose, &along.pose, 1.0);
+        Ok((
+            Tip::position_only(geometry.tool_tip(&solution.pose)),
+            along.tip,
+        ))
     }
 
     fn observation_error(&self, i: usize, source: ObserveError) -> CalibrateError {

@@ -73,16 +73,27 @@ pub fn tip_jacobians(geometry: &Geometry, legs: &Legs) -> Result<TipJacobians, K
     Ok(TipJacobians { d_params, d_q: k })
 }
 
-/// `J_f dp`: the tip's derivative along a parameter direction `dp` at fixed
-/// `q`, without forming `J_f`. With `v = (d phi / dp) dp` (leg `i`:
-/// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`) and `w = A^-1 v`,
-/// `J_f dp = -P w + R dE_T = -(w_t + w_w x R E_T) + R dE_T`: one LU solve
-/// instead of three (the back-substitution of a calibration needs only this).
-pub fn tip_derivative_along(
+/// The pose's and the tip's derivatives along a parameter direction `dp` at
+/// fixed `q`, without forming `J_f`. With `v = (d phi / dp) dp` (leg `i`:
+/// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`), the pose moves by
+/// `(dt, w) = -A^-1 v` and the tip by `J_f dp = dt + w x R E_T + R dE_T`:
+/// one LU solve instead of three.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DerivativeAlong {
+    /// `(dt, w)`: the pose increment (`t <- t + dt`, `R <- exp([w]x) R`) per
+    /// unit of `dp`, to first order.
+    pub pose: Vector6<f64>,
+    /// `J_f dp` (mm).
+    pub tip: Vec3,
+}
+
+/// [`DerivativeAlong`] of a canonical `geometry` at a forward-kinematics
+/// solution's `legs`.
+pub fn derivative_along(
     geometry: &Geometry,
     legs: &Legs,
     dp: &Params,
-) -> Result<Vec3, KinematicsError> {
+) -> Result<DerivativeAlong, KinematicsError> {
     let rotation = legs.rotation;
     let mut v = Vector6::zeros();
     for i in 0..6 {
@@ -99,13 +110,14 @@ pub fn tip_derivative_along(
         }
         v[i] = change;
     }
-    let w = Lu6::factor(&legs.pose_jacobian())?.solve(&v);
-    let (w_t, w_w) = (
-        Vec3::from(w.fixed_rows::<3>(0)),
-        Vec3::from(w.fixed_rows::<3>(3)),
+    let pose = -Lu6::factor(&legs.pose_jacobian())?.solve(&v);
+    let (dt, w) = (
+        Vec3::from(pose.fixed_rows::<3>(0)),
+        Vec3::from(pose.fixed_rows::<3>(3)),
     );
     let tool_step = Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET));
-    Ok(rotation * tool_step - (w_t + w_w.cross(&(rotation * geometry.tool))))
+    let tip = dt + w.cross(&(rotation * geometry.tool)) + rotation * tool_step;
+    Ok(DerivativeAlong { pose, tip })
 }
 
 /// [`tip_jacobians`] at a pose (evaluates the legs first).

@@ -35,7 +35,7 @@ pub struct ForwardSolution {
 }
 
 /// Applies a pose increment `(dt, w)`: `t <- t + dt`, `R <- exp([w]x) R`.
-fn step(pose: &Pose, delta: &Vector6<f64>, scale: f64) -> Pose {
+pub fn step(pose: &Pose, delta: &Vector6<f64>, scale: f64) -> Pose {
     let mut next = *pose;
     next.translation.vector += scale * delta.fixed_rows::<3>(0);
     let w: Vector3<f64> = scale * delta.fixed_rows::<3>(3);

@@ -44,7 +44,9 @@ pub mod inverse;
 mod lu6;
 pub mod params;
 
-pub use derivatives::{TipJacobians, tip_derivative_along, tip_jacobians, tip_jacobians_at};
+pub use derivatives::{
+    DerivativeAlong, TipJacobians, derivative_along, tip_jacobians, tip_jacobians_at,
+};
 pub use error::KinematicsError;
 pub use forward::{ForwardOptions, ForwardSolution, forward, forward_from_home};
 pub use frames::Canonical;

@@ -242,11 +242,26 @@ fn derivative_along_a_direction_equals_the_jacobian_times_it() {
             .d_params
             * dp;
         let along =
-            parcal_kinematics::tip_derivative_along(&canonical.geometry, &solution.legs, &dp)
-                .unwrap();
+            parcal_kinematics::derivative_along(&canonical.geometry, &solution.legs, &dp).unwrap();
         assert!(
-            (full - along).norm() <= 1e-12 * full.norm(),
-            "{full:?} vs {along:?}"
+            (full - along.tip).norm() <= 1e-12 * full.norm(),
+            "{full:?} vs {:?}",
+            along.tip
+        );
+        // The pose prediction is first order: forward kinematics at p + h dp
+        // lands within O(h^2) of the predicted pose.
+        let h = 1e-3;
+        let moved = params::from_params(&(params::to_params(&canonical.geometry) + h * dp));
+        let predicted = parcal_kinematics::forward::step(&solution.pose, &along.pose, h);
+        let exact = forward(&moved, &q, &solution.pose, &ForwardOptions::default())
+            .unwrap()
+            .pose;
+        let miss = (predicted.translation.vector - exact.translation.vector).norm()
+            + predicted.rotation.angle_to(&exact.rotation) * 100.0;
+        let first_order = (h * along.pose).norm();
+        assert!(
+            miss < 1e-2 * first_order,
+            "prediction misses by {miss:e} (step {first_order:e})"
         );
     }
 }
