@@ -6,9 +6,10 @@
 //! Each contact's residual is its observation block (`parcal_observe`) at the
 //! tool tip given by forward kinematics of the current parameters at the
 //! contact's actuator readings, whitened by the weight computed once at the
-//! initial estimate. Forward kinematics starts from the contact's previous
-//! pose, which the solver keeps as the point cache (the first time from the
-//! design's home pose, or a given warm start).
+//! initial estimate. Forward kinematics starts from the pose the solver
+//! keeps as the contact's point cache: the first time the design's home pose
+//! (or a given warm start), then the first-order prediction of the pose at
+//! the next iteration's parameters, made during the back-substitution.
 
 use std::ops::Range;
 
