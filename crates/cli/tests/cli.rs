@@ -259,3 +259,22 @@ fn a_calibration_that_cannot_start_says_where() {
     );
     assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
 }
+
+#[test]
+fn a_binary_snapshot_calibrates_like_the_text_files() {
+    let temp = tempfile::tempdir().unwrap();
+    simulate(temp.path(), &["--binary"]);
+    let snapshot = temp.path().join("dataset.bin");
+    let output = parcal(&["calibrate", snapshot.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let from_snapshot = std::fs::read_to_string(temp.path().join("calibration.json")).unwrap();
+    let text_out = temp.path().join("from-text.json");
+    let output = parcal(&[
+        "calibrate",
+        temp.path().to_str().unwrap(),
+        "--out",
+        text_out.to_str().unwrap(),
+    ]);
+    assert!(output.status.success());
+    assert_eq!(from_snapshot, std::fs::read_to_string(text_out).unwrap());
+}

@@ -1,7 +1,7 @@
 //! `parcal calibrate`: identify the parameters of a dataset, print the
 //! table and the accuracy summary, write calibration.json.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::ValueEnum;
@@ -10,6 +10,7 @@ use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{
     CalibrationOptions, Observation, PriorMode, Simulation, Weighting, calibrate,
 };
+use parcal_dataset::CALIBRATION_FILE;
 use parcal_report::tables;
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -71,7 +72,7 @@ pub struct Args {
     /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
     #[arg(long)]
     max_iterations: Option<usize>,
-    /// Where to write calibration.json (default: DATASET/calibration.json).
+    /// Where to write calibration.json (default: calibration.json in the dataset's directory).
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -132,10 +133,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             started.elapsed().as_secs_f64()
         )
     })?;
+    // Default: calibration.json in the dataset directory (next to a snapshot file).
+    let directory = if args.dataset.is_file() {
+        args.dataset.parent().unwrap_or(Path::new("."))
+    } else {
+        &args.dataset
+    };
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| args.dataset.join("calibration.json"));
+        .unwrap_or_else(|| directory.join(CALIBRATION_FILE));
     run.record().write(&out)?;
 
     let truth = Truth::of(&dataset)
