@@ -65,9 +65,10 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
         source,
     })?;
     let simulation = simulate(&Scenario::paper(), seed)?;
-    let dataset_dir = out.join("dataset");
-    simulation.dataset.write(&dataset_dir)?;
-    let dataset = Dataset::read(&dataset_dir)?;
+    // The files are written for the user; the calibrations use the same
+    // values in memory (the format round-trips them bit for bit).
+    simulation.dataset.write(&out.join("dataset"))?;
+    let dataset = simulation.dataset;
     progress(&format!(
         "simulated the paper scenario (seed {seed}): {} contacts",
         simulation.summary.contacts

@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_kinematics::{ForwardOptions, Geometry, forward_from_home};
+use parcal_calibrate::setup::design_geometry;
+use parcal_kinematics::{ForwardOptions, forward_from_home};
 use rayon::prelude::*;
 
 #[derive(clap::Args)]
@@ -18,13 +19,7 @@ const LISTED_FAILURES: usize = 5;
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset(&args.dataset)?;
-    let machine = &dataset.machine;
-    let design = Geometry::from_arrays(
-        &machine.base_joints,
-        &machine.platform_joints,
-        &machine.tool,
-        &machine.leg_lengths,
-    );
+    let design = design_geometry(&dataset);
     design
         .canonicalize()
         .context("machine.json: the design geometry is degenerate")?;
