@@ -41,6 +41,7 @@ impl Synthetic {
 impl Problem<33, 3, 2, 3> for Synthetic {
     type PointCache = ();
     type Error = std::convert::Infallible;
+    type Jacobian = SMatrix<f64, 3, 33>;
 
     fn n_groups(&self) -> usize {
         self.groups
@@ -59,8 +60,10 @@ impl Problem<33, 3, 2, 3> for Synthetic {
         _: &SVector<f64, 3>,
         _: &SVector<f64, 2>,
         _: &mut (),
-    ) -> Result<Linearization<33, 3, 2, 3>, Self::Error> {
-        Ok(self.blocks[i % self.blocks.len()].clone())
+        out: &mut Linearization<33, 3, 2, 3>,
+    ) -> Result<(), Self::Error> {
+        out.clone_from(&self.blocks[i % self.blocks.len()]);
+        Ok(())
     }
 }
 

@@ -1,9 +1,13 @@
-//! Per contact: forward kinematics warm-started one iteration away, and the
-//! tool tip's analytic Jacobians (the work of one linearisation).
+//! Per contact: the kinematics of one linearisation (forward kinematics
+//! warm-started one iteration away, then one combination of the tip
+//! Jacobian's rows, as the elimination uses it), of one back-substitution
+//! (`J_f dp` at the converged pose) and, for comparison, the full 3 x 33
+//! tip Jacobian.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parcal_kinematics::{
-    ForwardOptions, Params, forward, forward_from_home, paper, params, tip_jacobians,
+    ForwardOptions, N_PARAMS, Params, TipDerivatives, Vec3, forward, forward_from_home, paper,
+    params,
 };
 use std::hint::black_box;
 
@@ -18,13 +22,36 @@ fn kinematics(c: &mut Criterion) {
         .iter()
         .map(|q| (*q, forward_from_home(&design, q, &fk).unwrap().pose))
         .collect();
-    c.bench_function("forward kinematics + tip Jacobian, per contact", |b| {
-        let mut k = 0;
+    let h = Vec3::new(0.3, -0.8, 0.5);
+    let dp = Params::repeat(1e-3);
+    let mut k = 0;
+    let mut next = || {
+        k += 1;
+        &contacts[k % contacts.len()]
+    };
+    c.bench_function(
+        "forward kinematics + one row combination of J_f, per contact",
+        |b| {
+            b.iter(|| {
+                let (q, start) = next();
+                let solution = forward(&moved, q, start, &fk).unwrap();
+                let mut row = [0.0; N_PARAMS];
+                TipDerivatives::new(&moved, &solution).params_row(&h, &mut row);
+                black_box(row)
+            })
+        },
+    );
+    c.bench_function("J_f dp at a known pose, per contact", |b| {
         b.iter(|| {
-            let (q, start) = &contacts[k % contacts.len()];
-            k += 1;
+            let (_, pose) = next();
+            black_box(TipDerivatives::at(&design, pose).unwrap().along(&dp))
+        })
+    });
+    c.bench_function("forward kinematics + full J_f, per contact", |b| {
+        b.iter(|| {
+            let (q, start) = next();
             let solution = forward(&moved, q, start, &fk).unwrap();
-            black_box(tip_jacobians(&moved, &solution.legs).unwrap())
+            black_box(TipDerivatives::new(&moved, &solution).jacobians())
         })
     });
 }

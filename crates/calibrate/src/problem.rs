@@ -11,18 +11,19 @@
 //! (or a given warm start), then the first-order prediction of the pose at
 //! the next iteration's parameters, made during the back-substitution.
 
+use std::cell::RefCell;
 use std::ops::Range;
 
-use nalgebra::{SVector, Vector2};
+use nalgebra::{SMatrix, SVector, Vector2};
 use parcal_kinematics::{
-    ForwardOptions, ForwardSolution, Geometry, N_PARAMS, Params, Pose, Vec3, derivative_along,
-    forward, forward::step as step_pose, params,
+    ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, forward,
+    forward::step as step_pose, params,
 };
 use parcal_observe::{
     BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, ObserveError, RadiusBlock,
-    RadiusWeight, Tip, Whitening,
+    RadiusWeight, Whitening,
 };
-use parcal_solver::{GaussianPrior, Linearization, Problem};
+use parcal_solver::{GaussianPrior, GlobalJacobian, Linearization, Problem};
 
 use crate::CalibrateError;
 
@@ -39,6 +40,110 @@ pub struct CoordinateObservations {
     pub weights: Vec<CoordinateWeight>,
     /// Sigma of the angle prior of every contact (rad); `None`: no prior.
     pub angle_sigma: Option<f64>,
+}
+
+/// One kind of observation of every contact: `R` residual rows, `P` angles
+/// per contact.
+pub trait ContactObservations<const R: usize, const P: usize>: Sync {
+    /// The whitening of contact `i`'s rows.
+    type Weight: Whitening<R>;
+
+    /// The raw (unwhitened) block of contact `i` on a ball of `radius`, at
+    /// the tool tip, the ball centre and the contact's angles.
+    fn block(
+        &self,
+        i: usize,
+        radius: f64,
+        tip: &Vec3,
+        centre: &Vec3,
+        angles: &SVector<f64, P>,
+    ) -> Result<BlockJacobians<R, P>, ObserveError>;
+
+    /// The weight of contact `i`.
+    fn weight(&self, i: usize) -> &Self::Weight;
+
+    /// The prior on contact `i`'s angles, if any.
+    fn angle_prior(&self, i: usize) -> Option<GaussianPrior<P>> {
+        let _ = i;
+        None
+    }
+}
+
+impl ContactObservations<1, 0> for RadiusObservations {
+    type Weight = RadiusWeight;
+
+    fn block(
+        &self,
+        _i: usize,
+        radius: f64,
+        tip: &Vec3,
+        centre: &Vec3,
+        _angles: &SVector<f64, 0>,
+    ) -> Result<BlockJacobians<1, 0>, ObserveError> {
+        RadiusBlock { radius }.evaluate(tip, centre)
+    }
+
+    fn weight(&self, i: usize) -> &RadiusWeight {
+        &self.weights[i]
+    }
+}
+
+impl ContactObservations<3, 2> for CoordinateObservations {
+    type Weight = CoordinateWeight;
+
+    fn block(
+        &self,
+        i: usize,
+        radius: f64,
+        tip: &Vec3,
+        centre: &Vec3,
+        angles: &Vector2<f64>,
+    ) -> Result<BlockJacobians<3, 2>, ObserveError> {
+        let chart = DirectionChart::new(&self.directions[i])?;
+        Ok(CoordinateBlock { radius, chart }.evaluate(tip, centre, angles))
+    }
+
+    fn weight(&self, i: usize) -> &CoordinateWeight {
+        &self.weights[i]
+    }
+
+    fn angle_prior(&self, _i: usize) -> Option<GaussianPrior<2>> {
+        let sigma = self.angle_sigma?;
+        Some(GaussianPrior::from_sigmas(
+            Vector2::zeros(),
+            Vector2::repeat(sigma),
+        ))
+    }
+}
+
+/// The global Jacobian of one whitened contact block, `dc_w/dp = d_tip J_f`
+/// (paper eq. 2 through eq. 9 or 10, whitened as in eq. 5), applied through
+/// the tip's derivatives instead of formed: a combination of its rows costs
+/// one transposed 6 x 6 solve, a product with a step one solve.
+#[derive(Debug, Clone)]
+pub struct ContactJacobian<const R: usize> {
+    /// The whitened `dc/dT` (R x 3).
+    pub d_tip: SMatrix<f64, R, 3>,
+    /// `J_f` and the pose's derivatives at the contact.
+    pub tip: TipDerivatives,
+}
+
+impl<const R: usize> GlobalJacobian<N_PARAMS, R> for ContactJacobian<R> {
+    fn zeros() -> Self {
+        Self {
+            d_tip: SMatrix::zeros(),
+            tip: TipDerivatives::default(),
+        }
+    }
+
+    fn combine_rows(&self, c: &[f64; R], out: &mut [f64]) {
+        let h = self.d_tip.tr_mul(&SVector::from(*c));
+        self.tip.params_row(&h, out);
+    }
+
+    fn apply(&self, v: &Params) -> SVector<f64, R> {
+        self.d_tip * self.tip.along(v).tip
+    }
 }
 
 /// The least-squares problem of one calibration, contacts sorted by ball.
@@ -72,63 +177,40 @@ impl<O> CalibrationProblem<'_, O> {
         &self.q[self.row(i)]
     }
 
-    /// Forward kinematics of the parameters `p` at contact `i`, from the
-    /// contact's cached pose (updated).
-    fn forward(
+    /// Contact `i`'s whitened block at the parameters `p`, the ball centre
+    /// and the contact's angles, into `out`: forward kinematics (paper eq. 1)
+    /// from the contact's cached pose (updated), the tool tip (eq. 2) and its
+    /// derivatives, and the observation block.
+    fn linearize_contact<const R: usize, const P: usize>(
         &self,
         i: usize,
         p: &Params,
+        centre: &Vec3,
+        angles: &SVector<f64, P>,
         pose: &mut Pose,
-    ) -> Result<(Geometry, ForwardSolution), CalibrateError> {
-        let geometry = params::from_params(p);
-        let solution = forward(&geometry, self.actuators(i), pose, &self.forward_options).map_err(
-            |source| CalibrateError::ForwardKinematics {
-                row: self.row(i),
-                source,
-            },
-        )?;
-        *pose = solution.pose;
-        Ok((geometry, solution))
-    }
-
-    /// Paper eq. (2): the tool tip of the parameters `p` at contact `i`, with
-    /// `J_f` and `J_q`.
-    fn tip(&self, i: usize, p: &Params, pose: &mut Pose) -> Result<Tip, CalibrateError> {
-        let (geometry, solution) = self.forward(i, p, pose)?;
-        Tip::at(&geometry, &solution).map_err(|source| self.observation_error(i, source))
-    }
-
-    /// The tool tip of `p` at contact `i` without its Jacobians, and its
-    /// derivative `J_f dp` along the step `dp` (one LU solve instead of
-    /// `J_f`). The cached pose becomes the first-order prediction of the
-    /// pose at `p + dp`, the next iteration's parameters, so that its forward
-    /// kinematics starts within `O(|dp|^2)` of the solution.
-    fn tip_along(
-        &self,
-        i: usize,
-        p: &Params,
-        pose: &mut Pose,
-        dp: &Params,
-    ) -> Result<(Tip, Vec3), CalibrateError> {
-        let (geometry, solution) = self.forward(i, p, pose)?;
-        let along = derivative_along(&geometry, &solution.legs, dp).map_err(|source| {
-            CalibrateError::ForwardKinematics {
-                row: self.row(i),
-                source,
-            }
-        })?;
-        *pose = step_pose(&solution.pose, &along.pose, 1.0);
-        Ok((
-            Tip::position_only(geometry.tool_tip(&solution.pose)),
-            along.tip,
-        ))
-    }
-
-    fn observation_error(&self, i: usize, source: ObserveError) -> CalibrateError {
-        CalibrateError::Observation {
-            row: self.row(i),
-            source,
-        }
+        out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
+    ) -> Result<(), CalibrateError>
+    where
+        O: ContactObservations<R, P>,
+    {
+        let row = self.row(i);
+        with_geometry(p, |geometry| {
+            let solution = forward(geometry, &self.q[row], pose, &self.forward_options)
+                .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+            *pose = solution.pose;
+            let tip = geometry.tool_tip(&solution.pose);
+            let block = self
+                .observations
+                .block(i, self.radius(i), &tip, centre, angles)
+                .map_err(|source| CalibrateError::Observation { row, source })?
+                .whiten(self.observations.weight(i));
+            out.residual = block.residual;
+            out.d_global.d_tip = block.d_tip;
+            out.d_global.tip = TipDerivatives::new(geometry, &solution);
+            out.d_group = block.d_centre;
+            out.d_point = block.d_angles;
+            Ok(())
+        })
     }
 
     fn start(&self, i: usize) -> Pose {
@@ -138,10 +220,6 @@ impl<O> CalibrationProblem<'_, O> {
         }
     }
 
-    fn centre_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
-        self.centre_priors.as_ref().map(|priors| priors[k].clone())
-    }
-
     /// The radius of contact `i`'s ball: found by the group range it is in.
     fn radius(&self, i: usize) -> f64 {
         let ball = self.groups.partition_point(|g| g.end <= i);
@@ -149,154 +227,84 @@ impl<O> CalibrationProblem<'_, O> {
     }
 }
 
-impl CalibrationProblem<'_, CoordinateObservations> {
-    /// The coordinate block of contact `i`: its ball's radius, its chart.
-    fn coordinate_block(&self, i: usize) -> Result<CoordinateBlock, CalibrateError> {
-        let chart = DirectionChart::new(&self.observations.directions[i])
-            .map_err(|source| self.observation_error(i, source))?;
-        Ok(CoordinateBlock {
-            radius: self.radius(i),
-            chart,
-        })
+/// Runs `f` on the canonical geometry of `p`, built once per thread and
+/// parameter vector: every contact of a pass is linearised at the same
+/// parameters, and building the geometry per contact cost more than
+/// comparing 33 numbers.
+fn with_geometry<T>(p: &Params, f: impl FnOnce(&Geometry) -> T) -> T {
+    thread_local! {
+        static LAST: RefCell<Option<(Params, Geometry)>> = const { RefCell::new(None) };
     }
+    LAST.with_borrow_mut(|last| {
+        if last.as_ref().is_none_or(|(q, _)| q != p) {
+            *last = Some((*p, params::from_params(p)));
+        }
+        let (_, geometry) = last.as_ref().expect("just set");
+        f(geometry)
+    })
 }
 
-/// The whitened block as the solver's linearisation.
-fn linearization<const R: usize, const P: usize>(
-    block: BlockJacobians<R, P>,
-) -> Linearization<N_PARAMS, 3, P, R> {
-    Linearization {
-        residual: block.residual,
-        d_global: block.d_params,
-        d_group: block.d_centre,
-        d_point: block.d_angles,
+impl<const R: usize, const P: usize, O> Problem<N_PARAMS, 3, P, R> for CalibrationProblem<'_, O>
+where
+    O: ContactObservations<R, P>,
+{
+    type PointCache = Pose;
+    type Error = CalibrateError;
+    type Jacobian = ContactJacobian<R>;
+
+    fn n_groups(&self) -> usize {
+        self.groups.len()
     }
-}
 
-/// The parts of [`Problem`] that do not depend on the observation.
-macro_rules! common_problem_items {
-    () => {
-        type PointCache = Pose;
-        type Error = CalibrateError;
+    fn group_points(&self, k: usize) -> Range<usize> {
+        self.groups[k].clone()
+    }
 
-        fn n_groups(&self) -> usize {
-            self.groups.len()
-        }
-
-        fn group_points(&self, k: usize) -> Range<usize> {
-            self.groups[k].clone()
-        }
-
-        fn initial_cache(&self, i: usize) -> Pose {
-            self.start(i)
-        }
-
-        fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {
-            self.global_prior.as_ref()
-        }
-
-        fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
-            self.centre_prior(k)
-        }
-    };
-}
-
-impl Problem<N_PARAMS, 3, 0, 1> for CalibrationProblem<'_, RadiusObservations> {
-    common_problem_items!();
+    fn initial_cache(&self, i: usize) -> Pose {
+        self.start(i)
+    }
 
     fn linearize(
         &self,
         i: usize,
         global: &Params,
         group: &SVector<f64, 3>,
-        _point: &SVector<f64, 0>,
+        point: &SVector<f64, P>,
         cache: &mut Pose,
-    ) -> Result<Linearization<N_PARAMS, 3, 0, 1>, CalibrateError> {
-        let tip = self.tip(i, global, cache)?;
-        let block = RadiusBlock {
-            radius: self.radius(i),
-        };
-        let jacobians = block
-            .evaluate(&tip, &Vec3::from(*group))
-            .map_err(|source| self.observation_error(i, source))?;
-        Ok(linearization(
-            jacobians.whiten(&self.observations.weights[i]),
-        ))
+        out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
+    ) -> Result<(), CalibrateError> {
+        self.linearize_contact(i, global, &Vec3::from(*group), point, cache, out)
     }
 
+    /// As [`Problem::linearize`], with `d_global dg` from one solve; the
+    /// cached pose becomes the first-order prediction of the pose at
+    /// `p + dg`, the next iteration's parameters, so that its forward
+    /// kinematics starts within `O(|dg|^2)` of the solution.
     fn linearize_along(
         &self,
         i: usize,
         global: &Params,
         group: &SVector<f64, 3>,
-        _point: &SVector<f64, 0>,
+        point: &SVector<f64, P>,
         cache: &mut Pose,
         dg: &Params,
-    ) -> Result<(Linearization<N_PARAMS, 3, 0, 1>, SVector<f64, 1>), CalibrateError> {
-        let (tip, jf_dg) = self.tip_along(i, global, cache, dg)?;
-        let (centre, block) = (
-            Vec3::from(*group),
-            RadiusBlock {
-                radius: self.radius(i),
-            },
-        );
-        let weight = &self.observations.weights[i];
-        let jacobians = block
-            .evaluate(&tip, &centre)
-            .map_err(|source| self.observation_error(i, source))?;
-        let along = block
-            .along(&tip.position, &centre, &jf_dg)
-            .map_err(|source| self.observation_error(i, source))?;
-        Ok((
-            linearization(jacobians.whiten(weight)),
-            weight.whiten(&along),
-        ))
-    }
-}
-
-impl Problem<N_PARAMS, 3, 2, 3> for CalibrationProblem<'_, CoordinateObservations> {
-    common_problem_items!();
-
-    fn linearize(
-        &self,
-        i: usize,
-        global: &Params,
-        group: &SVector<f64, 3>,
-        point: &Vector2<f64>,
-        cache: &mut Pose,
-    ) -> Result<Linearization<N_PARAMS, 3, 2, 3>, CalibrateError> {
-        let tip = self.tip(i, global, cache)?;
-        let block = self.coordinate_block(i)?;
-        let jacobians = block.evaluate(&tip, &Vec3::from(*group), point);
-        Ok(linearization(
-            jacobians.whiten(&self.observations.weights[i]),
-        ))
+        out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
+    ) -> Result<SVector<f64, R>, CalibrateError> {
+        self.linearize_contact(i, global, &Vec3::from(*group), point, cache, out)?;
+        let along = out.d_global.tip.along(dg);
+        *cache = step_pose(cache, &along.pose, 1.0);
+        Ok(out.d_global.d_tip * along.tip)
     }
 
-    fn linearize_along(
-        &self,
-        i: usize,
-        global: &Params,
-        group: &SVector<f64, 3>,
-        point: &Vector2<f64>,
-        cache: &mut Pose,
-        dg: &Params,
-    ) -> Result<(Linearization<N_PARAMS, 3, 2, 3>, SVector<f64, 3>), CalibrateError> {
-        let (tip, jf_dg) = self.tip_along(i, global, cache, dg)?;
-        let block = self.coordinate_block(i)?;
-        let weight = &self.observations.weights[i];
-        let jacobians = block.evaluate(&tip, &Vec3::from(*group), point);
-        Ok((
-            linearization(jacobians.whiten(weight)),
-            weight.whiten(&block.along(&jf_dg)),
-        ))
+    fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {
+        self.global_prior.as_ref()
     }
 
-    fn point_prior(&self, _i: usize) -> Option<GaussianPrior<2>> {
-        let sigma = self.observations.angle_sigma?;
-        Some(GaussianPrior::from_sigmas(
-            Vector2::zeros(),
-            Vector2::repeat(sigma),
-        ))
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
+        self.centre_priors.as_ref().map(|priors| priors[k].clone())
+    }
+
+    fn point_prior(&self, i: usize) -> Option<GaussianPrior<P>> {
+        self.observations.angle_prior(i)
     }
 }

@@ -90,7 +90,7 @@ impl Setup {
                     RadiusWeight::from_variance(radius_variance(
                         model,
                         repeatability,
-                        &tip.d_q,
+                        &tip.d_q(),
                         u0,
                     )?)
                 })?;
@@ -108,7 +108,7 @@ impl Setup {
                     CoordinateWeight::from_covariance(&coordinate_covariance(
                         model,
                         repeatability,
-                        &tip.d_q,
+                        &tip.d_q(),
                         u0,
                     )?)
                 })?;
@@ -252,8 +252,7 @@ impl Starts<'_> {
                 let row = row as usize;
                 let solution = forward_from_home(geometry, &dataset.measurements.q[row], &fk)
                     .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
-                Tip::at(geometry, &solution)
-                    .map_err(|source| CalibrateError::Observation { row, source })
+                Ok(Tip::at(geometry, &solution))
             })
             .collect::<Result<Vec<Tip>, _>>()?;
         let artefact = &dataset.artefacts.balls[ball];

@@ -14,7 +14,7 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector6};
 
-use crate::{Geometry, Pose, Vec3};
+use crate::{Geometry, KinematicsError, Pose, Vec3, lu6::Lu6};
 
 /// The legs of a geometry at one pose.
 #[derive(Debug, Clone)]
@@ -55,15 +55,24 @@ impl Legs {
         Vector6::from_fn(|i, _| self.length[i] - (geometry.legs[i] + q[i]))
     }
 
-    /// Closure Jacobian `A = d phi / d(t, w)`: row `i` is `[n_i^T, (a_i x n_i)^T]`.
-    pub fn pose_jacobian(&self) -> Matrix6<f64> {
-        let mut a = Matrix6::zeros();
-        for i in 0..6 {
+    /// The rows of the closure Jacobian `A = d phi / d(t, w)`: row `i` is
+    /// `[n_i^T, (a_i x n_i)^T]`.
+    pub fn closure_rows(&self) -> [[f64; 6]; 6] {
+        std::array::from_fn(|i| {
             let n = self.direction[i];
             let m = self.rotated[i].cross(&n);
-            a.fixed_view_mut::<1, 3>(i, 0).copy_from(&n.transpose());
-            a.fixed_view_mut::<1, 3>(i, 3).copy_from(&m.transpose());
-        }
-        a
+            [n.x, n.y, n.z, m.x, m.y, m.z]
+        })
+    }
+
+    /// The closure Jacobian `A` as a matrix ([`Legs::closure_rows`]).
+    pub fn pose_jacobian(&self) -> Matrix6<f64> {
+        let rows = self.closure_rows();
+        Matrix6::from_fn(|i, j| rows[i][j])
+    }
+
+    /// The LU factorisation of `A`; an error at a singular configuration.
+    pub fn factor(&self) -> Result<Lu6, KinematicsError> {
+        Lu6::factor(self.closure_rows())
     }
 }

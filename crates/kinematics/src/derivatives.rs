@@ -14,11 +14,19 @@
 //! `d phi_i / d B_i = -n_i^T`, `d phi_i / d E_i = n_i^T R`,
 //! `d phi_i / d l_i = -1`, and the tool enters directly, `dT / d E_T = R`.
 //! `K` comes from one LU of `A` solved transposed ([`crate::lu6`]).
+//!
+//! A calibration needs `J_f` only through products: a combination of its
+//! rows `h^T J_f` (`y = A^-T P^T h`, then leg `i` contributes `y_i` times its
+//! sparse row of `d phi / dp`: one transposed solve, no 3 x 33 matrix) and a
+//! directional derivative `J_f dp` (one solve). [`TipDerivatives`] keeps
+//! what both need; [`TipDerivatives::jacobians`] forms the full matrices.
 
-use nalgebra::{Matrix3x6, Matrix6x3, SMatrix, Vector6};
+use nalgebra::{Matrix3, Matrix3x6, SMatrix, Vector3, Vector6};
 
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
-use crate::{Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs, lu6::Lu6};
+use crate::{
+    ForwardSolution, Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs, lu6::Lu6,
+};
 
 /// Tool-tip derivatives at one forward-kinematics solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,55 +37,26 @@ pub struct TipJacobians {
     pub d_q: Matrix3x6<f64>,
 }
 
-/// Derivatives of the tip of a canonical `geometry` at the pose where its legs
-/// are `legs` (a forward-kinematics solution; [`crate::ForwardSolution::legs`]).
-pub fn tip_jacobians(geometry: &Geometry, legs: &Legs) -> Result<TipJacobians, KinematicsError> {
-    let rotation = legs.rotation;
-    let tool = rotation * geometry.tool;
-    // P^T = [I; [R E_T]x] (6 x 3); K^T = A^-T P^T.
-    let mut p_transpose = Matrix6x3::zeros();
-    p_transpose
-        .fixed_view_mut::<3, 3>(0, 0)
-        .fill_with_identity();
-    p_transpose
-        .fixed_view_mut::<3, 3>(3, 0)
-        .copy_from(&tool.cross_matrix());
-    let lu = Lu6::factor(&legs.pose_jacobian())?;
-    let mut k = Matrix3x6::zeros();
-    for c in 0..3 {
-        let row = lu.solve_transpose(&p_transpose.column(c).into_owned());
-        k.row_mut(c).copy_from(&row.transpose());
-    }
-    let mut d_params = SMatrix::<f64, 3, N_PARAMS>::zeros();
-    for i in 0..6 {
-        let k_i = k.column(i);
-        let n = legs.direction[i];
-        let n_platform = rotation.transpose() * n;
-        for (c, slot) in BASE_INDEX[i].iter().enumerate() {
-            if let Some(index) = slot {
-                d_params.column_mut(*index).copy_from(&(k_i * n[c]));
-            }
-        }
-        for (c, slot) in PLATFORM_INDEX[i].iter().enumerate() {
-            if let Some(index) = slot {
-                d_params
-                    .column_mut(*index)
-                    .copy_from(&(-k_i * n_platform[c]));
-            }
-        }
-        d_params.column_mut(leg_index(i)).copy_from(&k_i);
-    }
-    d_params
-        .fixed_view_mut::<3, 3>(0, TOOL_OFFSET)
-        .copy_from(&rotation);
-    Ok(TipJacobians { d_params, d_q: k })
+/// The derivatives of the tool tip of a canonical geometry at one
+/// forward-kinematics solution, as linear maps (module documentation). The
+/// default is a placeholder (the derivatives of a zero-length mechanism at
+/// the identity pose), to be overwritten.
+#[derive(Debug, Clone, Default)]
+pub struct TipDerivatives {
+    /// `R`: the platform's rotation.
+    rotation: Matrix3<f64>,
+    /// `n_i`: the unit leg directions.
+    direction: [Vec3; 6],
+    /// `R E_T`: the tool offset rotated into the base frame.
+    tool: Vec3,
+    /// LU of the closure Jacobian `A` ([`ForwardSolution::factor`]).
+    factor: Lu6,
 }
 
 /// The pose's and the tip's derivatives along a parameter direction `dp` at
 /// fixed `q`, without forming `J_f`. With `v = (d phi / dp) dp` (leg `i`:
 /// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`), the pose moves by
-/// `(dt, w) = -A^-1 v` and the tip by `J_f dp = dt + w x R E_T + R dE_T`:
-/// one LU solve instead of three.
+/// `(dt, w) = -A^-1 v` and the tip by `J_f dp = dt + w x R E_T + R dE_T`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DerivativeAlong {
     /// `(dt, w)`: the pose increment (`t <- t + dt`, `R <- exp([w]x) R`) per
@@ -87,40 +66,122 @@ pub struct DerivativeAlong {
     pub tip: Vec3,
 }
 
-/// [`DerivativeAlong`] of a canonical `geometry` at a forward-kinematics
-/// solution's `legs`.
-pub fn derivative_along(
-    geometry: &Geometry,
-    legs: &Legs,
-    dp: &Params,
-) -> Result<DerivativeAlong, KinematicsError> {
-    let rotation = legs.rotation;
-    let mut v = Vector6::zeros();
-    for i in 0..6 {
-        let n = legs.direction[i];
-        let n_platform = rotation.transpose() * n;
-        let mut change = -dp[leg_index(i)];
-        for c in 0..3 {
-            if let Some(k) = BASE_INDEX[i][c] {
-                change -= n[c] * dp[k];
-            }
-            if let Some(k) = PLATFORM_INDEX[i][c] {
-                change += n_platform[c] * dp[k];
-            }
-        }
-        v[i] = change;
+impl TipDerivatives {
+    /// The derivatives of `geometry`'s tip at its forward-kinematics
+    /// `solution`.
+    #[inline]
+    pub fn new(geometry: &Geometry, solution: &ForwardSolution) -> Self {
+        Self::of_legs(geometry, &solution.legs, solution.factor.clone())
     }
-    let pose = -Lu6::factor(&legs.pose_jacobian())?.solve(&v);
-    let (dt, w) = (
-        Vec3::from(pose.fixed_rows::<3>(0)),
-        Vec3::from(pose.fixed_rows::<3>(3)),
-    );
-    let tool_step = Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET));
-    let tip = dt + w.cross(&(rotation * geometry.tool)) + rotation * tool_step;
-    Ok(DerivativeAlong { pose, tip })
+
+    #[inline]
+    fn of_legs(geometry: &Geometry, legs: &Legs, factor: Lu6) -> Self {
+        Self {
+            rotation: legs.rotation,
+            direction: legs.direction,
+            tool: legs.rotation * geometry.tool,
+            factor,
+        }
+    }
+
+    /// The derivatives at `pose` (evaluates and factorises the legs).
+    pub fn at(geometry: &Geometry, pose: &Pose) -> Result<Self, KinematicsError> {
+        let legs = Legs::at(geometry, pose);
+        Ok(Self::of_legs(geometry, &legs, legs.factor()?))
+    }
+
+    /// `y = K^T h = A^-T P^T h`, `P^T h = (h, R E_T x h)`: the weights of the
+    /// closure rows in `h^T J_f`; also `h^T dT/dq = y^T`.
+    pub fn closure_weights(&self, h: &Vec3) -> Vector6<f64> {
+        let m = self.tool.cross(h);
+        self.factor
+            .solve_transpose(&Vector6::new(h.x, h.y, h.z, m.x, m.y, m.z))
+    }
+
+    /// `h^T J_f`, written into `out` (33 values): leg `i` adds `y_i` times
+    /// its row `(n_i; -R^T n_i; 1)` at its base joint, platform joint and
+    /// length, and the tool columns are `h^T R`.
+    pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
+        let y = self.closure_weights(h);
+        let rotation = &self.rotation;
+        for i in 0..6 {
+            let n = &self.direction[i];
+            let n_platform = rotation.tr_mul(n);
+            for c in 0..3 {
+                if let Some(k) = BASE_INDEX[i][c] {
+                    out[k] = y[i] * n[c];
+                }
+                if let Some(k) = PLATFORM_INDEX[i][c] {
+                    out[k] = -y[i] * n_platform[c];
+                }
+            }
+            out[leg_index(i)] = y[i];
+        }
+        let tool = rotation.tr_mul(h);
+        out[TOOL_OFFSET..TOOL_OFFSET + 3].copy_from_slice(tool.as_slice());
+    }
+
+    /// `J_f dp` and the pose's first-order change along `dp`
+    /// ([`DerivativeAlong`]): one LU solve.
+    pub fn along(&self, dp: &Params) -> DerivativeAlong {
+        let v = Vector6::from_fn(|i, _| {
+            let n = &self.direction[i];
+            let n_platform = self.rotation.tr_mul(n);
+            let mut change = -dp[leg_index(i)];
+            for c in 0..3 {
+                if let Some(k) = BASE_INDEX[i][c] {
+                    change -= n[c] * dp[k];
+                }
+                if let Some(k) = PLATFORM_INDEX[i][c] {
+                    change += n_platform[c] * dp[k];
+                }
+            }
+            change
+        });
+        let pose = -self.factor.solve(&v);
+        let (dt, w) = (
+            Vec3::from(pose.fixed_rows::<3>(0)),
+            Vec3::from(pose.fixed_rows::<3>(3)),
+        );
+        let tool_step = Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET));
+        let tip = dt + w.cross(&self.tool) + self.rotation * tool_step;
+        DerivativeAlong { pose, tip }
+    }
+
+    /// `dT/dq` (3 x 6): row `a` is [`TipDerivatives::closure_weights`] of
+    /// the base-frame axis `a`.
+    pub fn d_q(&self) -> Matrix3x6<f64> {
+        let mut d_q = Matrix3x6::zeros();
+        for axis in 0..3 {
+            let y = self.closure_weights(&Vector3::ith(axis, 1.0));
+            d_q.row_mut(axis).copy_from(&y.transpose());
+        }
+        d_q
+    }
+
+    /// The full `J_f` (3 x 33) and `dT/dq` (3 x 6): one row per base-frame
+    /// axis.
+    pub fn jacobians(&self) -> TipJacobians {
+        let mut d_params = SMatrix::<f64, 3, N_PARAMS>::zeros();
+        let mut row = [0.0; N_PARAMS];
+        for axis in 0..3 {
+            self.params_row(&Vector3::ith(axis, 1.0), &mut row);
+            d_params.row_mut(axis).copy_from_slice(&row);
+        }
+        TipJacobians {
+            d_params,
+            d_q: self.d_q(),
+        }
+    }
 }
 
-/// [`tip_jacobians`] at a pose (evaluates the legs first).
+/// Derivatives of the tip of a canonical `geometry` at its forward-kinematics
+/// `solution`, as full matrices ([`TipDerivatives::jacobians`]).
+pub fn tip_jacobians(geometry: &Geometry, solution: &ForwardSolution) -> TipJacobians {
+    TipDerivatives::new(geometry, solution).jacobians()
+}
+
+/// [`tip_jacobians`] at a pose (evaluates and factorises the legs first).
 pub fn tip_jacobians_at(geometry: &Geometry, pose: &Pose) -> Result<TipJacobians, KinematicsError> {
-    tip_jacobians(geometry, &Legs::at(geometry, pose))
+    Ok(TipDerivatives::at(geometry, pose)?.jacobians())
 }

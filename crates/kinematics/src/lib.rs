@@ -29,7 +29,7 @@
 //! assert!(error.norm() < 1e-9);
 //!
 //! // d tip / d p (3 x 33) and d tip / d q (3 x 6) at that pose.
-//! let jacobians = parcal_kinematics::tip_jacobians(&canonical, &solution.legs)?;
+//! let jacobians = parcal_kinematics::tip_jacobians(&canonical, &solution);
 //! assert_eq!(jacobians.d_params.ncols(), params::N_PARAMS);
 //! # Ok::<(), parcal_kinematics::KinematicsError>(())
 //! ```
@@ -41,11 +41,11 @@ pub mod forward;
 pub mod frames;
 mod geometry;
 pub mod inverse;
-mod lu6;
+pub mod lu6;
 pub mod params;
 
 pub use derivatives::{
-    DerivativeAlong, TipJacobians, derivative_along, tip_jacobians, tip_jacobians_at,
+    DerivativeAlong, TipDerivatives, TipJacobians, tip_jacobians, tip_jacobians_at,
 };
 pub use error::KinematicsError;
 pub use forward::{ForwardOptions, ForwardSolution, forward, forward_from_home};

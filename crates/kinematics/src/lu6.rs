@@ -12,60 +12,53 @@
     reason = "index arithmetic of the factorisation reads best"
 )]
 
-use nalgebra::{Matrix6, Vector6};
+use nalgebra::Vector6;
 
 use crate::KinematicsError;
 
 /// Ratio of the smallest to the largest pivot below which `A` is singular.
 pub const SINGULAR_PIVOT_RATIO: f64 = 1e-12;
 
-/// `P A = L U`: `L` unit lower triangular and `U` upper triangular, packed.
+/// `P A = L U`: `L` unit lower triangular and `U` upper triangular, packed,
+/// with the diagonal of `U` stored as its reciprocal (the solves multiply).
 #[derive(Debug, Clone)]
 pub struct Lu6 {
     lu: [[f64; 6]; 6],
     /// Row `k` of `P A` is row `permutation[k]` of `A`.
-    permutation: [usize; 6],
+    permutation: [u8; 6],
+}
+
+impl Default for Lu6 {
+    /// The factorisation of the identity.
+    fn default() -> Self {
+        Self {
+            // The identity is its own reciprocal diagonal.
+            lu: std::array::from_fn(|i| std::array::from_fn(|j| f64::from(u8::from(i == j)))),
+            permutation: [0, 1, 2, 3, 4, 5],
+        }
+    }
 }
 
 impl Lu6 {
-    /// Factorises `a`, refusing a (nearly) singular matrix.
+    /// Factorises the matrix with these rows, refusing a (nearly) singular
+    /// one.
     #[inline]
-    pub fn factor(a: &Matrix6<f64>) -> Result<Self, KinematicsError> {
-        // Row-major copy; nalgebra stores columns.
-        let mut lu = [[0.0; 6]; 6];
-        for (j, column) in a.column_iter().enumerate() {
-            for i in 0..6 {
-                lu[i][j] = column[i];
-            }
-        }
+    pub fn factor(rows: [[f64; 6]; 6]) -> Result<Self, KinematicsError> {
+        let mut lu = rows;
         let mut permutation = [0, 1, 2, 3, 4, 5];
-        let (mut smallest, mut largest) = (f64::INFINITY, 0.0f64);
-        for k in 0..6 {
-            let mut pivot_row = k;
-            for i in k + 1..6 {
-                if lu[i][k].abs() > lu[pivot_row][k].abs() {
-                    pivot_row = i;
-                }
-            }
-            lu.swap(k, pivot_row);
-            permutation.swap(k, pivot_row);
-            let pivot = lu[k][k];
-            if pivot == 0.0 || !pivot.is_finite() {
-                return Err(KinematicsError::SingularJacobian);
-            }
-            smallest = smallest.min(pivot.abs());
-            largest = largest.max(pivot.abs());
-            let inverse = pivot.recip();
-            for i in k + 1..6 {
-                let factor = lu[i][k] * inverse;
-                lu[i][k] = factor;
-                for j in k + 1..6 {
-                    lu[i][j] -= factor * lu[k][j];
-                }
-            }
-        }
-        let well_conditioned = smallest > SINGULAR_PIVOT_RATIO * largest;
-        if !well_conditioned {
+        let mut pivots = [0.0; 6];
+        // One elimination step per column, each with constant loop bounds
+        // (unrolled by the compiler).
+        pivots[0] = eliminate_column::<0>(&mut lu, &mut permutation);
+        pivots[1] = eliminate_column::<1>(&mut lu, &mut permutation);
+        pivots[2] = eliminate_column::<2>(&mut lu, &mut permutation);
+        pivots[3] = eliminate_column::<3>(&mut lu, &mut permutation);
+        pivots[4] = eliminate_column::<4>(&mut lu, &mut permutation);
+        pivots[5] = eliminate_column::<5>(&mut lu, &mut permutation);
+        let smallest = pivots.iter().fold(f64::INFINITY, |m, p| m.min(p.abs()));
+        let largest = pivots.iter().fold(0.0f64, |m, p| m.max(p.abs()));
+        // `!(a > b)` also refuses NaN pivots.
+        if !(smallest > SINGULAR_PIVOT_RATIO * largest && largest.is_finite()) {
             return Err(KinematicsError::SingularJacobian);
         }
         Ok(Self { lu, permutation })
@@ -76,10 +69,11 @@ impl Lu6 {
         let lu = &self.lu;
         let mut x = [0.0; 6];
         for i in 0..6 {
-            x[i] = b[self.permutation[i]] - (0..i).map(|j| lu[i][j] * x[j]).sum::<f64>();
+            x[i] =
+                b[usize::from(self.permutation[i])] - (0..i).map(|j| lu[i][j] * x[j]).sum::<f64>();
         }
         for i in (0..6).rev() {
-            x[i] = (x[i] - (i + 1..6).map(|j| lu[i][j] * x[j]).sum::<f64>()) / lu[i][i];
+            x[i] = (x[i] - (i + 1..6).map(|j| lu[i][j] * x[j]).sum::<f64>()) * lu[i][i];
         }
         Vector6::from(x)
     }
@@ -89,22 +83,68 @@ impl Lu6 {
         let lu = &self.lu;
         let mut z = [0.0; 6];
         for i in 0..6 {
-            z[i] = (b[i] - (0..i).map(|j| lu[j][i] * z[j]).sum::<f64>()) / lu[i][i];
+            z[i] = (b[i] - (0..i).map(|j| lu[j][i] * z[j]).sum::<f64>()) * lu[i][i];
         }
         for i in (0..6).rev() {
             z[i] -= (i + 1..6).map(|j| lu[j][i] * z[j]).sum::<f64>();
         }
         let mut x = Vector6::zeros();
         for (k, &row) in self.permutation.iter().enumerate() {
-            x[row] = z[k];
+            x[usize::from(row)] = z[k];
         }
         x
     }
 }
 
+/// Step `K` of the factorisation: the row with the largest entry in column
+/// `K` (from row `K` down) becomes the pivot row, then the rows below it are
+/// eliminated; returns the pivot (zero for a zero column, refused later).
+///
+/// Every index is a compile-time constant and the row exchange is a
+/// branch-free select, so that the whole factorisation stays in registers:
+/// exchanging rows through a run-time index stalls on store forwarding and
+/// made this three times slower.
+#[inline(always)]
+fn eliminate_column<const K: usize>(lu: &mut [[f64; 6]; 6], permutation: &mut [u8; 6]) -> f64 {
+    let (mut pivot_row, mut largest) = (K, lu[K][K].abs());
+    for i in K + 1..6 {
+        let candidate = lu[i][K].abs();
+        let better = candidate > largest;
+        largest = if better { candidate } else { largest };
+        pivot_row = if better { i } else { pivot_row };
+    }
+    for i in K + 1..6 {
+        let exchange = i == pivot_row;
+        for j in 0..6 {
+            let (top, other) = (lu[K][j], lu[i][j]);
+            lu[K][j] = if exchange { other } else { top };
+            lu[i][j] = if exchange { top } else { other };
+        }
+        let (top, other) = (permutation[K], permutation[i]);
+        permutation[K] = if exchange { other } else { top };
+        permutation[i] = if exchange { top } else { other };
+    }
+    let pivot = lu[K][K];
+    let inverse = if pivot == 0.0 { 0.0 } else { pivot.recip() };
+    lu[K][K] = inverse;
+    for i in K + 1..6 {
+        let factor = lu[i][K] * inverse;
+        lu[i][K] = factor;
+        for j in K + 1..6 {
+            lu[i][j] -= factor * lu[K][j];
+        }
+    }
+    pivot
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Matrix6;
+
+    fn rows(a: &Matrix6<f64>) -> [[f64; 6]; 6] {
+        std::array::from_fn(|i| std::array::from_fn(|j| a[(i, j)]))
+    }
 
     fn matrix() -> Matrix6<f64> {
         Matrix6::from_fn(|i, j| {
@@ -116,7 +156,7 @@ mod tests {
     fn solves_by_the_matrix_and_its_transpose() {
         let a = matrix();
         let b = Vector6::new(1.0, -2.0, 3.0, 0.5, -0.25, 4.0);
-        let lu = Lu6::factor(&a).unwrap();
+        let lu = Lu6::factor(rows(&a)).unwrap();
         assert!((a * lu.solve(&b) - b).amax() < 1e-12);
         assert!((a.transpose() * lu.solve_transpose(&b) - b).amax() < 1e-12);
     }
@@ -127,9 +167,9 @@ mod tests {
         let row = a.row(2).into_owned();
         a.set_row(4, &(row * 2.0));
         assert_eq!(
-            Lu6::factor(&a).unwrap_err(),
+            Lu6::factor(rows(&a)).unwrap_err(),
             KinematicsError::SingularJacobian
         );
-        assert!(Lu6::factor(&Matrix6::zeros()).is_err());
+        assert!(Lu6::factor([[0.0; 6]; 6]).is_err());
     }
 }

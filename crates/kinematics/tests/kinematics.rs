@@ -4,8 +4,8 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use parcal_kinematics::{
-    ForwardOptions, Geometry, KinematicsError, Params, Pose, Vec3, actuators, forward,
-    forward_from_home, paper, params, rotation_zyx, tip_jacobians,
+    ForwardOptions, Geometry, KinematicsError, Params, Pose, TipDerivatives, Vec3, actuators,
+    forward, forward_from_home, paper, params, rotation_zyx, tip_jacobians,
 };
 
 /// SplitMix64: a tiny deterministic generator for test poses.
@@ -94,7 +94,21 @@ fn tip_derivatives_agree_with_central_differences() {
         let pose = canonical.pose_from_input(&workspace_pose(&mut rng, &design, 15.0));
         let q = actuators(&canonical.geometry, &pose);
         let solution = forward(&canonical.geometry, &q, &pose, &ForwardOptions::default()).unwrap();
-        let jacobians = tip_jacobians(&canonical.geometry, &solution.legs).unwrap();
+        let jacobians = tip_jacobians(&canonical.geometry, &solution);
+
+        // From a start 1e-9 mm away, the one short Newton step keeps the
+        // factorisation of its start: the Jacobians hardly change.
+        let nearby = Pose::from_parts(
+            Translation3::from(pose.translation.vector + Vec3::new(1e-9, -2e-9, 1e-9)),
+            pose.rotation,
+        );
+        let reused = forward(&canonical.geometry, &q, &nearby, &ForwardOptions::default()).unwrap();
+        assert_eq!(reused.iterations, 1);
+        let reused = tip_jacobians(&canonical.geometry, &reused);
+        assert!(
+            (reused.d_params - jacobians.d_params).amax() < 1e-8 * jacobians.d_params.amax(),
+            "Jacobian from the reused factorisation"
+        );
 
         let h = 1e-4;
         let analytic: Vec<Vec3> = (0..params::N_PARAMS)
@@ -237,12 +251,17 @@ fn derivative_along_a_direction_equals_the_jacobian_times_it() {
         let q = actuators(&canonical.geometry, &pose);
         let solution = forward(&canonical.geometry, &q, &pose, &ForwardOptions::default()).unwrap();
         let dp = Params::from_fn(|_, _| rng.uniform(-1.0, 1.0));
-        let full = tip_jacobians(&canonical.geometry, &solution.legs)
-            .unwrap()
+        let full = tip_jacobians(&canonical.geometry, &solution).d_params * dp;
+        let derivatives = TipDerivatives::new(&canonical.geometry, &solution);
+        let along = derivatives.along(&dp);
+        // A combination of the rows, as the calibration's elimination uses.
+        let weights = Vec3::new(0.3, -1.2, 0.7);
+        let mut row = [0.0; params::N_PARAMS];
+        derivatives.params_row(&weights, &mut row);
+        let dense = tip_jacobians(&canonical.geometry, &solution)
             .d_params
-            * dp;
-        let along =
-            parcal_kinematics::derivative_along(&canonical.geometry, &solution.legs, &dp).unwrap();
+            .tr_mul(&weights);
+        assert!((Params::from(row) - dense).amax() <= 1e-12 * dense.amax());
         assert!(
             (full - along.tip).norm() <= 1e-12 * full.norm(),
             "{full:?} vs {:?}",

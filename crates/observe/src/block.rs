@@ -4,18 +4,21 @@
 //!
 //! ```text
 //!            p (33, global)   C_i (3, per ball)   θ_ij (P, per contact)
-//! c_ij  [    d_params         d_centre            d_angles           ]
+//! c_ij  [    d_tip J_f        d_centre            d_angles           ]
 //! ```
 //!
-//! so that the solver sees one dense 33-wide block, one 3-wide block of the
-//! ball and one `P`-wide block of the contact, all of sizes known at compile
-//! time. The radius block ([`crate::RadiusBlock`]) has `R = 1, P = 0`, the
+//! Every block sees the parameters only through the tool tip `T = f(q, p)`
+//! (paper eq. 2), so its parameter Jacobian is `dc/dT J_f` by the chain
+//! rule: the block keeps `d_tip = dc/dT` (R x 3) and the 33 columns are
+//! formed, or applied, through the tip's derivatives
+//! ([`BlockJacobians::d_params`]; a calibration applies them without
+//! forming them). All sizes are known at compile time. The radius block ([`crate::RadiusBlock`]) has `R = 1, P = 0`, the
 //! coordinate block ([`crate::CoordinateBlock`]) `R = 3, P = 2`.
 
 use nalgebra::{SMatrix, SVector};
 use parcal_kinematics::N_PARAMS;
 
-use crate::Whitening;
+use crate::{Tip, Whitening};
 
 /// Residual and Jacobian blocks of one observation (mm; per mm, per mm, per
 /// rad), raw or whitened ([`BlockJacobians::whiten`]: then dimensionless,
@@ -24,8 +27,8 @@ use crate::Whitening;
 pub struct BlockJacobians<const R: usize, const P: usize> {
     /// The residual `c` (R rows).
     pub residual: SVector<f64, R>,
-    /// `dc/dp` (R x 33).
-    pub d_params: SMatrix<f64, R, N_PARAMS>,
+    /// `dc/dT` with respect to the tool tip (R x 3); `dc/dp = dc/dT J_f`.
+    pub d_tip: SMatrix<f64, R, 3>,
     /// `dc/dC` with respect to the ball centre (R x 3).
     pub d_centre: SMatrix<f64, R, 3>,
     /// `dc/dθ` with respect to the contact's angles (R x P).
@@ -38,13 +41,18 @@ pub type RadiusJacobians = BlockJacobians<1, 0>;
 pub type CoordinateJacobians = BlockJacobians<3, 2>;
 
 impl<const R: usize, const P: usize> BlockJacobians<R, P> {
+    /// `dc/dp = dc/dT J_f` (R x 33), formed in full at the block's `tip`.
+    pub fn d_params(&self, tip: &Tip) -> SMatrix<f64, R, N_PARAMS> {
+        self.d_tip * tip.d_params()
+    }
+
     /// Paper eq. (5), the weighting `W^-1/2`: the block whitened by the
     /// observation covariance `W = L Lᵀ`, `r_w = L⁻¹ c`, `J_w = L⁻¹ J`, so
     /// that the least-squares cost `r_wᵀ r_w = cᵀ W⁻¹ c`.
     pub fn whiten(&self, weight: &impl Whitening<R>) -> Self {
         Self {
             residual: weight.whiten(&self.residual),
-            d_params: weight.whiten(&self.d_params),
+            d_tip: weight.whiten(&self.d_tip),
             d_centre: weight.whiten(&self.d_centre),
             d_angles: weight.whiten(&self.d_angles),
         }

@@ -10,10 +10,10 @@
 //! Unknowns: the 33 parameters, the ball centre `C_i` and the contact's two
 //! angles `θ_ij`; the calibrated radius `r_i` is data.
 
-use nalgebra::{Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix3, Vector2};
 use parcal_kinematics::Vec3;
 
-use crate::{CoordinateJacobians, DirectionChart, Tip};
+use crate::{CoordinateJacobians, DirectionChart};
 
 /// The coordinate observation of one contact on a ball of calibrated radius
 /// `radius` (mm), its direction charted about the contact's initial
@@ -27,23 +27,22 @@ pub struct CoordinateBlock {
 }
 
 impl CoordinateBlock {
-    /// Paper eq. (10): `c = C + r u(θ) − T` (mm) at the tip `tip`
-    /// (`T = f(q, p)` with `J_f`), the ball centre `centre` (mm, canonical
-    /// base frame) and the contact's angles `angles` (rad), with
-    /// `dc/dp = −J_f`, `dc/dC = I` and `dc/dθ = r du/dθ` (mm/rad).
-    pub fn evaluate(&self, tip: &Tip, centre: &Vec3, angles: &Vector2<f64>) -> CoordinateJacobians {
+    /// Paper eq. (10): `c = C + r u(θ) − T` (mm) at the tool tip `tip`
+    /// (`T = f(q, p)`), the ball centre `centre` (mm, canonical base frame)
+    /// and the contact's angles `angles` (rad), with `dc/dT = −I` (so
+    /// `dc/dp = −J_f`), `dc/dC = I` and `dc/dθ = r du/dθ` (mm/rad).
+    pub fn evaluate(
+        &self,
+        tip: &Vec3,
+        centre: &Vec3,
+        angles: &Vector2<f64>,
+    ) -> CoordinateJacobians {
         CoordinateJacobians {
-            residual: centre + self.radius * self.chart.direction(angles) - tip.position,
-            d_params: -tip.d_params,
+            residual: centre + self.radius * self.chart.direction(angles) - tip,
+            d_tip: -Matrix3::identity(),
             d_centre: Matrix3::identity(),
             d_angles: self.radius * self.chart.derivative(angles),
         }
-    }
-
-    /// `(dc/dp) dp = -J_f dp` for the tip's derivative `jf_dp = J_f dp`
-    /// along a parameter direction (mm).
-    pub fn along(&self, jf_dp: &Vec3) -> Vector3<f64> {
-        -jf_dp
     }
 }
 
@@ -62,30 +61,32 @@ mod tests {
             chart: DirectionChart::new(&(tip.position - centre)).unwrap(),
         };
         // At the initial direction the residual is the radial misfit only.
-        let at_zero = block.evaluate(&tip, &centre, &Vector2::zeros());
+        let at_zero = block.evaluate(&tip.position, &centre, &Vector2::zeros());
         let offset = tip.position - centre;
         let expected = (5.0 - offset.norm()) * offset.normalize();
         assert!((at_zero.residual - expected).norm() < 1e-13);
 
         let angles = Vector2::new(0.02, -0.015);
-        let blocks = block.evaluate(&tip, &centre, &angles);
+        let blocks = block.evaluate(&tip.position, &centre, &angles);
         assert!(blocks.residual.norm() > 0.05, "a non-trivial residual");
 
         let by_params = central_difference(&contact.params(), 1e-4, |p| {
             block
-                .evaluate(&contact.tip_with(p), &centre, &angles)
+                .evaluate(&contact.tip_with(p).position, &centre, &angles)
                 .residual
         });
-        assert_close(&blocks.d_params, &by_params, 1e-6, "dc/dp");
+        assert_close(&blocks.d_params(&tip), &by_params, 1e-6, "dc/dp");
 
-        let by_centre =
-            central_difference(&centre, 1e-5, |c| block.evaluate(&tip, c, &angles).residual);
+        let by_centre = central_difference(&centre, 1e-5, |c| {
+            block.evaluate(&tip.position, c, &angles).residual
+        });
         assert_close(&blocks.d_centre, &by_centre, 1e-6, "dc/dC");
 
         for angles in [Vector2::zeros(), angles] {
-            let analytic = block.evaluate(&tip, &centre, &angles).d_angles;
-            let by_angles =
-                central_difference(&angles, 1e-6, |a| block.evaluate(&tip, &centre, a).residual);
+            let analytic = block.evaluate(&tip.position, &centre, &angles).d_angles;
+            let by_angles = central_difference(&angles, 1e-6, |a| {
+                block.evaluate(&tip.position, &centre, a).residual
+            });
             assert_close(&analytic, &by_angles, 1e-6, "dc/dθ");
         }
     }

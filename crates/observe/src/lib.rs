@@ -12,7 +12,7 @@
 //! - [`CoordinateBlock`]: paper eq. (10), `c = C_i + r_i u(θ) − f(q, p)`
 //!   (3 rows; unknowns `p`, `C_i`, `θ`), with the contact direction charted
 //!   by [`DirectionChart`] (tangent coordinates of the exponential map).
-//! - [`BlockJacobians`]: the common shape `(residual, d_params, d_centre,
+//! - [`BlockJacobians`]: the common shape `(residual, d_tip, d_centre,
 //!   d_angles)` of both, and its [`BlockJacobians::whiten`].
 //! - [`weights`]: the observation covariance `W` of paper eq. (5) from the
 //!   actuator, tool and radius repeatabilities, and its whitening
@@ -35,21 +35,21 @@
 //! let design = paper::design().canonicalize()?.geometry;
 //! let pose = Pose::from_parts(Translation3::new(-60.0, 20.0, 300.0), rotation_zyx(0.1, -0.05, 0.02));
 //! let q = actuators(&design, &pose);
-//! let tip = Tip::at(&design, &forward_from_home(&design, &q, &ForwardOptions::default())?)?;
+//! let tip = Tip::at(&design, &forward_from_home(&design, &q, &ForwardOptions::default())?);
 //! let u0 = Vec3::new(0.2, 0.1, -1.0).normalize();
 //! let centre = tip.position - 5.0 * u0;
 //!
 //! // Paper eq. (10) at the initial direction: the residual vanishes.
 //! let block = CoordinateBlock { radius: 5.0, chart: DirectionChart::new(&u0)? };
-//! let raw = block.evaluate(&tip, &centre, &Vector2::zeros());
+//! let raw = block.evaluate(&tip.position, &centre, &Vector2::zeros());
 //! assert!(raw.residual.norm() < 1e-12);
 //!
 //! // Whitened by the covariance of 1 um repeatabilities: d c_w / d p is
 //! // about 1000 times d c / d p.
 //! let repeatability = Repeatability { actuator: 1e-3, tool: 1e-3, radius: 1e-3 };
-//! let w = coordinate_covariance(WeightModel::Propagated, &repeatability, &tip.d_q, &u0)?;
+//! let w = coordinate_covariance(WeightModel::Propagated, &repeatability, &tip.d_q(), &u0)?;
 //! let whitened = raw.whiten(&CoordinateWeight::from_covariance(&w)?);
-//! assert!(whitened.d_params.norm() > 100.0 * raw.d_params.norm());
+//! assert!(whitened.d_params(&tip).norm() > 100.0 * raw.d_params(&tip).norm());
 //! # Ok::<(), parcal_observe::ObserveError>(())
 //! ```
 

@@ -9,10 +9,10 @@
 //! with `T = f(q_ij, p)` the tool tip and `J_f = dT/dp`. Unknowns: the 33
 //! parameters and the ball centre `C_i`; the calibrated radius `r_i` is data.
 
-use nalgebra::{SMatrix, SVector, Vector1};
+use nalgebra::{SMatrix, SVector};
 use parcal_kinematics::Vec3;
 
-use crate::{ObserveError, RadiusJacobians, Tip};
+use crate::{ObserveError, RadiusJacobians};
 
 /// The radius observation of one contact on a ball of calibrated radius
 /// `radius` (mm).
@@ -23,32 +23,19 @@ pub struct RadiusBlock {
 }
 
 impl RadiusBlock {
-    /// Paper eq. (9): `c = r − |T − C|` (mm) at the tip `tip` (`T = f(q, p)`
-    /// with `J_f`) and the ball centre `centre` (mm, canonical base frame),
-    /// with `dc/dp = −nᵀ J_f` and `dc/dC = nᵀ`. Refuses a tip at the centre,
-    /// where the normal `n` is undefined.
-    pub fn evaluate(&self, tip: &Tip, centre: &Vec3) -> Result<RadiusJacobians, ObserveError> {
-        let (normal, distance) = contact_normal(&tip.position, centre)?;
+    /// Paper eq. (9): `c = r − |T − C|` (mm) at the tool tip `tip`
+    /// (`T = f(q, p)`) and the ball centre `centre` (mm, canonical base
+    /// frame), with `dc/dT = −nᵀ` (so `dc/dp = −nᵀ J_f`) and `dc/dC = nᵀ`.
+    /// Refuses a tip at the centre, where the normal `n` is undefined.
+    pub fn evaluate(&self, tip: &Vec3, centre: &Vec3) -> Result<RadiusJacobians, ObserveError> {
+        let (normal, distance) = contact_normal(tip, centre)?;
         let normal = normal.transpose();
         Ok(RadiusJacobians {
             residual: SVector::<f64, 1>::new(self.radius - distance),
-            d_params: -normal * tip.d_params,
+            d_tip: -normal,
             d_centre: normal,
             d_angles: SMatrix::zeros(),
         })
-    }
-
-    /// `(dc/dp) dp = -n . J_f dp` for the tip's derivative `jf_dp = J_f dp`
-    /// along a parameter direction, at the tip `position` and the ball
-    /// centre (mm); refuses a tip at the centre like [`RadiusBlock::evaluate`].
-    pub fn along(
-        &self,
-        position: &Vec3,
-        centre: &Vec3,
-        jf_dp: &Vec3,
-    ) -> Result<Vector1<f64>, ObserveError> {
-        let (normal, _) = contact_normal(position, centre)?;
-        Ok(Vector1::new(-normal.dot(jf_dp)))
     }
 }
 
@@ -77,18 +64,19 @@ mod tests {
         let block = RadiusBlock { radius: 5.0 };
         let tip = contact.tip();
         let centre = contact.centre();
-        let blocks = block.evaluate(&tip, &centre).unwrap();
+        let blocks = block.evaluate(&tip.position, &centre).unwrap();
         assert!((blocks.residual[0] - (5.0 - (tip.position - centre).norm())).abs() < 1e-15);
         assert!(blocks.residual[0].abs() > 1e-3, "a non-trivial residual");
 
         let by_params = central_difference(&contact.params(), 1e-4, |p| {
             let tip = contact.tip_with(p);
-            block.evaluate(&tip, &centre).unwrap().residual
+            block.evaluate(&tip.position, &centre).unwrap().residual
         });
-        assert_close(&blocks.d_params, &by_params, 1e-6, "dc/dp");
+        assert_close(&blocks.d_params(&tip), &by_params, 1e-6, "dc/dp");
 
-        let by_centre =
-            central_difference(&centre, 1e-5, |c| block.evaluate(&tip, c).unwrap().residual);
+        let by_centre = central_difference(&centre, 1e-5, |c| {
+            block.evaluate(&tip.position, c).unwrap().residual
+        });
         assert_close(&blocks.d_centre, &by_centre, 1e-6, "dc/dC");
     }
 
@@ -96,7 +84,7 @@ mod tests {
     fn refuses_a_tip_at_the_centre() {
         let tip = Contact::new().tip();
         let error = RadiusBlock { radius: 5.0 }
-            .evaluate(&tip, &tip.position)
+            .evaluate(&tip.position, &tip.position)
             .unwrap_err();
         assert!(matches!(error, ObserveError::DegenerateDirection { .. }));
     }

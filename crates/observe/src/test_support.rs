@@ -50,7 +50,7 @@ impl Contact {
     }
 
     pub fn tip(&self) -> Tip {
-        Tip::at(&self.geometry, &self.solution).unwrap()
+        Tip::at(&self.geometry, &self.solution)
     }
 
     /// The tip at the same actuator values `q` with parameters `p`.
@@ -63,7 +63,7 @@ impl Contact {
     pub fn tip_with_actuators(&self, p: &Params, q: &[f64; 6]) -> Tip {
         let geometry = params::from_params(p);
         let solution = forward(&geometry, q, &self.solution.pose, &TIGHT).unwrap();
-        Tip::at(&geometry, &solution).unwrap()
+        Tip::at(&geometry, &solution)
     }
 
     /// A ball centre 5.004 mm from the tip, the tip on its lower side.

@@ -229,7 +229,7 @@ mod tests {
         let tip = contact.tip();
         let u0 = (tip.position - contact.centre()).normalize();
         for model in [WeightModel::Propagated, WeightModel::Diagonal] {
-            let w = coordinate_covariance(model, &REPEATABILITY, &tip.d_q, &u0).unwrap();
+            let w = coordinate_covariance(model, &REPEATABILITY, &tip.d_q(), &u0).unwrap();
             let inverse = CoordinateWeight::from_covariance(&w)
                 .unwrap()
                 .inverse_factor();
@@ -243,25 +243,26 @@ mod tests {
                 Matrix3::from_diagonal(&inverse.diagonal())
             );
 
-            let variance = radius_variance(model, &REPEATABILITY, &tip.d_q, &u0).unwrap();
+            let variance = radius_variance(model, &REPEATABILITY, &tip.d_q(), &u0).unwrap();
             assert!((variance - u0.dot(&(w * u0))).abs() < 1e-18);
             let radius = RadiusWeight::from_variance(variance).unwrap();
             assert!((radius.sigma().powi(2) / variance - 1.0).abs() < 1e-15);
         }
         // Whitening a block applies L⁻¹ to every part.
         let weight = CoordinateWeight::from_covariance(
-            &coordinate_covariance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q, &u0).unwrap(),
+            &coordinate_covariance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q(), &u0)
+                .unwrap(),
         )
         .unwrap();
         let block = CoordinateBlock {
             radius: 5.0,
             chart: DirectionChart::new(&u0).unwrap(),
         };
-        let raw = block.evaluate(&tip, &contact.centre(), &Vector2::new(0.01, 0.02));
+        let raw = block.evaluate(&tip.position, &contact.centre(), &Vector2::new(0.01, 0.02));
         let whitened = raw.whiten(&weight);
         let l = weight.inverse_factor();
         assert!((whitened.residual - l * raw.residual).amax() < 1e-9);
-        assert!((whitened.d_params - l * raw.d_params).amax() < 1e-9);
+        assert!((whitened.d_tip - l * raw.d_tip).amax() < 1e-9);
         assert!((whitened.d_centre - l * raw.d_centre).amax() < 1e-9);
         assert!((whitened.d_angles - l * raw.d_angles).amax() < 1e-9);
     }
@@ -271,9 +272,9 @@ mod tests {
         let tip = Contact::new().tip();
         let u0 = Vector3::z();
         let sum: f64 = 0.25e-6 + 1e-6 + 4e-6;
-        let w = coordinate_covariance(WeightModel::Diagonal, &REPEATABILITY, &tip.d_q, &u0);
+        let w = coordinate_covariance(WeightModel::Diagonal, &REPEATABILITY, &tip.d_q(), &u0);
         assert!((w.unwrap() - sum * Matrix3::identity()).amax() < 1e-15 * sum);
-        let w = radius_variance(WeightModel::Diagonal, &REPEATABILITY, &tip.d_q, &u0);
+        let w = radius_variance(WeightModel::Diagonal, &REPEATABILITY, &tip.d_q(), &u0);
         assert!((w.unwrap() - sum).abs() < 1e-15 * sum);
     }
 
@@ -320,11 +321,12 @@ mod tests {
         let u0 = (tip.position - centre).normalize();
         let true_radius = (tip.position - centre).norm();
         let coordinate_weight = CoordinateWeight::from_covariance(
-            &coordinate_covariance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q, &u0).unwrap(),
+            &coordinate_covariance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q(), &u0)
+                .unwrap(),
         )
         .unwrap();
         let radius_weight = RadiusWeight::from_variance(
-            radius_variance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q, &u0).unwrap(),
+            radius_variance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q(), &u0).unwrap(),
         )
         .unwrap();
         let chart = DirectionChart::new(&u0).unwrap();
@@ -344,13 +346,13 @@ mod tests {
                 radius: calibrated_radius,
                 chart,
             }
-            .evaluate(&noisy, &centre, &Vector2::zeros())
+            .evaluate(&noisy.position, &centre, &Vector2::zeros())
             .whiten(&coordinate_weight)
             .residual;
             let radius = RadiusBlock {
                 radius: calibrated_radius,
             }
-            .evaluate(&noisy, &centre)
+            .evaluate(&noisy.position, &centre)
             .unwrap()
             .whiten(&radius_weight)
             .residual;

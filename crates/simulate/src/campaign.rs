@@ -212,9 +212,7 @@ fn check_contact(
 ) -> Result<f64, String> {
     let solution =
         forward_from_home(truth, q, &ForwardOptions::default()).map_err(|e| e.to_string())?;
-    let d_q = tip_jacobians(truth, &solution.legs)
-        .map_err(|e| e.to_string())?
-        .d_q;
+    let d_q = tip_jacobians(truth, &solution).d_q;
     let covariance = Matrix3::identity() * scenario.tool_sigma.powi(2)
         + d_q * d_q.transpose() * scenario.actuator_sigma.powi(2);
     let error = truth.tool_tip(&solution.pose) - point;

@@ -12,7 +12,7 @@ use crate::eliminate::{
     Failure, GroupRows, add_matrix_column_norms2, factor_point, push_group_prior_and_damping,
     stepped_row,
 };
-use crate::problem::{Problem, State};
+use crate::problem::{Linearization, Problem, State};
 use crate::qr::{PriorRows, solve_upper_in_place};
 use crate::reduced::ReducedSystem;
 use crate::solution::BlockId;
@@ -165,6 +165,7 @@ where
     let mut group = GroupRows::<C>::new(group_buf, gw);
     let mut discard = |_: &[f64]| {};
     let mut sum = StepSummary::default();
+    let mut lin = Linearization::zeros();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         let range = problem.group_points(k);
@@ -176,9 +177,9 @@ where
         for (j, i) in range.clone().enumerate() {
             let p = &state.points[i];
             let cache = &mut caches[i - chunk.points.start];
-            let (lin, global_step) =
-                match problem.linearize_along(i, &state.global, c, p, cache, dg) {
-                    Ok(parts) => parts,
+            let global_step =
+                match problem.linearize_along(i, &state.global, c, p, cache, dg, &mut lin) {
+                    Ok(step) => step,
                     Err(e) => return Err(Failure::linearize(i, &e)),
                 };
             let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));

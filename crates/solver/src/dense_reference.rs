@@ -16,7 +16,7 @@ use faer::{Mat, Side};
 use nalgebra::{SMatrix, SVector};
 
 use crate::eliminate::damping_diagonal;
-use crate::problem::{Problem, State};
+use crate::problem::{GlobalJacobian, Linearization, Problem, State};
 
 /// Why the dense reference could not be computed.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -152,23 +152,21 @@ pub fn solve<
     if point_group.contains(&usize::MAX) {
         return Err(DenseError::Structure);
     }
+    let mut lin = Linearization::zeros();
     for (i, &k) in point_group.iter().enumerate() {
         let mut cache = problem.initial_cache(i);
-        let lin = problem
-            .linearize(
-                i,
-                &state.global,
-                &state.groups[k],
-                &state.points[i],
-                &mut cache,
-            )
+        let (c, p) = (&state.groups[k], &state.points[i]);
+        problem
+            .linearize(i, &state.global, c, p, &mut cache, &mut lin)
             .map_err(|e| DenseError::Linearize {
                 point: i,
                 message: e.to_string(),
             })?;
+        let mut global_row = vec![0.0; G];
         for row in 0..R {
+            lin.d_global.row(row, &mut global_row);
             let mut entries = Vec::new();
-            entries.extend((0..G).map(|j| (global_index(j), lin.d_global[(row, j)])));
+            entries.extend((0..G).map(|j| (global_index(j), global_row[j])));
             entries.extend((0..C).map(|j| (group_index::<G, C>(k, j), lin.d_group[(row, j)])));
             entries.extend((0..P).map(|j| {
                 (

@@ -10,7 +10,7 @@ use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{SMatrix, SVector};
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
-use crate::problem::{Linearization, Problem, State};
+use crate::problem::{GlobalJacobian, Linearization, Problem, State};
 use crate::qr::{
     PriorRows, RANK_TOLERANCE, add_column_norms2, householder_rows, triangle_has_full_rank,
 };
@@ -66,8 +66,8 @@ pub(crate) struct PointFactor<const P: usize> {
 /// row-major, then `Q`, `m × m` row-major, at offset `(R + 2P) · P`; only
 /// the columns from `first_column` on are formed). Returns `None` if the
 /// panel is rank deficient.
-pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const R: usize>(
-    lin: &Linearization<G, C, P, R>,
+pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const R: usize, J>(
+    lin: &Linearization<G, C, P, R, J>,
     prior: Option<&PriorRows<P>>,
     lambda: f64,
     buf: &mut [f64],
@@ -209,26 +209,16 @@ fn q_column<const R: usize>(q: &[f64], m: usize, e: usize) -> [f64; R] {
     c
 }
 
-/// `Σ_r c_r · M[r, j]` for every column `j` of an `R × N` matrix.
-fn combine_rows<const R: usize, const N: usize>(
-    c: &[f64; R],
-    m: &SMatrix<f64, R, N>,
-    out: &mut [f64],
-) {
-    for (j, o) in out.iter_mut().enumerate().take(N) {
-        let col = m.column(j);
-        let mut s = 0.0;
-        for r in 0..R {
-            s += c[r] * col[r];
-        }
-        *o = s;
-    }
-}
-
 /// Writes row `e` of `Qᵀ [d_group | d_global | r]` (prior rows contributing
 /// their residual) into `out` (`C + G + 1` values).
-pub(crate) fn eliminated_row<const G: usize, const C: usize, const P: usize, const R: usize>(
-    lin: &Linearization<G, C, P, R>,
+pub(crate) fn eliminated_row<
+    const G: usize,
+    const C: usize,
+    const P: usize,
+    const R: usize,
+    J: GlobalJacobian<G, R>,
+>(
+    lin: &Linearization<G, C, P, R, J>,
     prior: Option<&PriorRows<P>>,
     q: &[f64],
     m: usize,
@@ -236,8 +226,8 @@ pub(crate) fn eliminated_row<const G: usize, const C: usize, const P: usize, con
     out: &mut [f64],
 ) {
     let c = q_column::<R>(q, m, e);
-    combine_rows(&c, &lin.d_group, &mut out[..C]);
-    combine_rows(&c, &lin.d_global, &mut out[C..C + G]);
+    lin.d_group.combine_rows(&c, &mut out[..C]);
+    lin.d_global.combine_rows(&c, &mut out[C..C + G]);
     out[C + G] = residual_combination(&c, &lin.residual, prior, q, m, e);
 }
 
@@ -265,8 +255,8 @@ pub(crate) fn residual_combination<const P: usize, const R: usize>(
 
 /// Row `e` of `Qᵀ [d_group | t]` (prior rows contributing their residual)
 /// into `out` (`C + 1` values).
-pub(crate) fn stepped_row<const G: usize, const C: usize, const P: usize, const R: usize>(
-    lin: &Linearization<G, C, P, R>,
+pub(crate) fn stepped_row<const G: usize, const C: usize, const P: usize, const R: usize, J>(
+    lin: &Linearization<G, C, P, R, J>,
     t: &SVector<f64, R>,
     prior: Option<&PriorRows<P>>,
     q: &[f64],
@@ -275,7 +265,7 @@ pub(crate) fn stepped_row<const G: usize, const C: usize, const P: usize, const 
     out: &mut [f64],
 ) {
     let c = q_column::<R>(q, m, e);
-    combine_rows(&c, &lin.d_group, &mut out[..C]);
+    lin.d_group.combine_rows(&c, &mut out[..C]);
     out[C] = residual_combination(&c, t, prior, q, m, e);
 }
 
@@ -460,6 +450,7 @@ where
     } = bufs;
     let mut group = GroupRows::<C>::new(group_buf, dims.group_width());
     let mut costs = Costs::default();
+    let mut lin = Linearization::zeros();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         group.reset();
@@ -467,10 +458,9 @@ where
         for i in problem.group_points(k) {
             let cache = &mut caches[i - chunk.points.start];
             let p = &state.points[i];
-            let lin = match problem.linearize(i, &state.global, c, p, cache) {
-                Ok(lin) => lin,
-                Err(e) => return Err(Failure::linearize(i, &e)),
-            };
+            if let Err(e) = problem.linearize(i, &state.global, c, p, cache, &mut lin) {
+                return Err(Failure::linearize(i, &e));
+            }
             costs.data += lin.residual.norm_squared();
             let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
             if let Some(prior) = &prior {
@@ -479,7 +469,7 @@ where
             if lambda > 0.0 {
                 add_matrix_column_norms2(&lin.d_group, &mut raw_norms2);
                 if let Some(out) = global_norms2.as_deref_mut() {
-                    add_matrix_column_norms2(&lin.d_global, out);
+                    lin.d_global.add_column_norms2(out);
                 }
             }
             let factor = factor_point(&lin, prior.as_ref(), lambda, point_buf, P)
@@ -524,12 +514,14 @@ pub(crate) fn find_non_finite<const G: usize, const C: usize, const P: usize, co
 where
     Pr: Problem<G, C, P, R>,
 {
+    let mut lin = Linearization::zeros();
     for k in chunk.groups.clone() {
         for i in problem.group_points(k) {
             let cache = &mut caches[i - chunk.points.start];
-            match problem.linearize(i, &state.global, &state.groups[k], &state.points[i], cache) {
-                Ok(lin) if lin.is_finite() => {}
-                Ok(_) => return Some(Failure::NonFinite { point: i }),
+            let (c, p) = (&state.groups[k], &state.points[i]);
+            match problem.linearize(i, &state.global, c, p, cache, &mut lin) {
+                Ok(()) if lin.is_finite() => {}
+                Ok(()) => return Some(Failure::NonFinite { point: i }),
                 Err(e) => return Some(Failure::linearize(i, &e)),
             }
         }

@@ -147,21 +147,24 @@
 //! impl Problem<1, 2, 0, 1> for Circles {
 //!     type PointCache = ();
 //!     type Error = std::convert::Infallible;
+//!     type Jacobian = SMatrix<f64, 1, 1>;
 //!     fn n_groups(&self) -> usize { self.points.len() / self.per_circle }
 //!     fn group_points(&self, k: usize) -> std::ops::Range<usize> {
 //!         k * self.per_circle..(k + 1) * self.per_circle
 //!     }
 //!     fn initial_cache(&self, _i: usize) {}
 //!     fn linearize(&self, i: usize, radius: &Vector1<f64>, centre: &Vector2<f64>,
-//!                  _p: &SVector<f64, 0>, _cache: &mut ()) -> Result<Linearization<1, 2, 0, 1>, Self::Error> {
+//!                  _p: &SVector<f64, 0>, _cache: &mut (),
+//!                  out: &mut Linearization<1, 2, 0, 1>) -> Result<(), Self::Error> {
 //!         let d = self.points[i] - centre;
 //!         let n = d.norm();
-//!         Ok(Linearization {
+//!         *out = Linearization {
 //!             residual: Vector1::new(n - radius[0]),
 //!             d_global: Vector1::new(-1.0),
 //!             d_group: (-d / n).transpose(),
 //!             d_point: SMatrix::zeros(),
-//!         })
+//!         };
+//!         Ok(())
 //!     }
 //! }
 //!
@@ -202,5 +205,5 @@ mod solution;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use iterate::{LinearStep, linear_step, solve};
 pub use options::{Method, SolverOptions};
-pub use problem::{GaussianPrior, Linearization, Problem, State};
+pub use problem::{GaussianPrior, GlobalJacobian, Linearization, Problem, State};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

@@ -7,27 +7,102 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::qr::all_finite;
 
+/// The Jacobian of a point's whitened residual (`R` rows) with respect to the
+/// global block (`G` unknowns), as the elimination uses it: through
+/// combinations of its rows and its product with a vector. A dense
+/// `SMatrix<f64, R, G>` is one; a problem whose global Jacobian is costly to
+/// form can implement the two products directly (e.g. one transposed solve
+/// per combination instead of `R` rows).
+pub trait GlobalJacobian<const G: usize, const R: usize>: Sized {
+    /// A zero Jacobian, the placeholder the solver hands to
+    /// [`Problem::linearize`] to be overwritten.
+    fn zeros() -> Self;
+
+    /// Writes `Σ_r c_r J[r, ·]` into `out` (`G` values).
+    fn combine_rows(&self, c: &[f64; R], out: &mut [f64]);
+
+    /// `J v`.
+    fn apply(&self, v: &SVector<f64, G>) -> SVector<f64, R>;
+
+    /// Row `r` of `J`, written into `out` (`G` values).
+    fn row(&self, r: usize, out: &mut [f64]) {
+        let mut c = [0.0; R];
+        c[r] = 1.0;
+        self.combine_rows(&c, out);
+    }
+
+    /// Adds `Σ_r J[r, j]²` to `out[j]` (`G` values).
+    fn add_column_norms2(&self, out: &mut [f64]) {
+        let mut row = [0.0; G];
+        for r in 0..R {
+            self.row(r, &mut row);
+            for (o, x) in out.iter_mut().zip(&row) {
+                *o += x * x;
+            }
+        }
+    }
+
+    /// Whether every entry is finite.
+    fn is_finite(&self) -> bool {
+        let mut row = [0.0; G];
+        (0..R).all(|r| {
+            self.row(r, &mut row);
+            all_finite(&row)
+        })
+    }
+}
+
+impl<const G: usize, const R: usize> GlobalJacobian<G, R> for SMatrix<f64, R, G> {
+    fn zeros() -> Self {
+        SMatrix::zeros()
+    }
+
+    fn combine_rows(&self, c: &[f64; R], out: &mut [f64]) {
+        for (j, o) in out.iter_mut().enumerate().take(G) {
+            let column = self.column(j);
+            *o = (0..R).map(|r| c[r] * column[r]).sum();
+        }
+    }
+
+    fn apply(&self, v: &SVector<f64, G>) -> SVector<f64, R> {
+        self * v
+    }
+
+    fn is_finite(&self) -> bool {
+        all_finite(self.as_slice())
+    }
+}
+
 /// The whitened residual of one point and its Jacobians with respect to the
-/// three blocks of unknowns it depends on.
+/// three blocks of unknowns it depends on; the global one as any
+/// [`GlobalJacobian`] (by default a dense matrix).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Linearization<const G: usize, const C: usize, const P: usize, const R: usize> {
+pub struct Linearization<
+    const G: usize,
+    const C: usize,
+    const P: usize,
+    const R: usize,
+    J = SMatrix<f64, R, G>,
+> {
     /// Whitened residual `r_i` (already multiplied by the square root of the
     /// measurement information).
     pub residual: SVector<f64, R>,
     /// `∂r_i/∂g`.
-    pub d_global: SMatrix<f64, R, G>,
+    pub d_global: J,
     /// `∂r_i/∂c_k(i)`.
     pub d_group: SMatrix<f64, R, C>,
     /// `∂r_i/∂p_i`.
     pub d_point: SMatrix<f64, R, P>,
 }
 
-impl<const G: usize, const C: usize, const P: usize, const R: usize> Linearization<G, C, P, R> {
+impl<const G: usize, const C: usize, const P: usize, const R: usize, J: GlobalJacobian<G, R>>
+    Linearization<G, C, P, R, J>
+{
     /// All-zero residual and Jacobians, to be filled in.
     pub fn zeros() -> Self {
         Self {
             residual: SVector::zeros(),
-            d_global: SMatrix::zeros(),
+            d_global: J::zeros(),
             d_group: SMatrix::zeros(),
             d_point: SMatrix::zeros(),
         }
@@ -36,7 +111,7 @@ impl<const G: usize, const C: usize, const P: usize, const R: usize> Linearizati
     /// Whether every entry is finite.
     pub fn is_finite(&self) -> bool {
         all_finite(self.residual.as_slice())
-            && all_finite(self.d_global.as_slice())
+            && self.d_global.is_finite()
             && all_finite(self.d_group.as_slice())
             && all_finite(self.d_point.as_slice())
     }
@@ -100,6 +175,8 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     type PointCache: Clone + Send + Sync;
     /// The error a linearisation can fail with.
     type Error: std::error::Error + Send + Sync + 'static;
+    /// The global Jacobian of a point (`SMatrix<f64, R, G>` when dense).
+    type Jacobian: GlobalJacobian<G, R>;
 
     /// Number of groups.
     fn n_groups(&self) -> usize;
@@ -110,8 +187,10 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     /// The cache of point `i` before its first linearisation.
     fn initial_cache(&self, i: usize) -> Self::PointCache;
 
-    /// Residual and Jacobians of point `i` at the given values of its blocks.
-    /// Called from several threads at once (for different points).
+    /// Residual and Jacobians of point `i` at the given values of its blocks,
+    /// written into `out` (the solver reuses one linearisation for all the
+    /// points it visits, so that nothing large is moved per point). Called
+    /// from several threads at once (for different points).
     fn linearize(
         &self,
         i: usize,
@@ -119,14 +198,15 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         group: &SVector<f64, C>,
         point: &SVector<f64, P>,
         cache: &mut Self::PointCache,
-    ) -> Result<Linearization<G, C, P, R>, Self::Error>;
+        out: &mut Linearization<G, C, P, R, Self::Jacobian>,
+    ) -> Result<(), Self::Error>;
 
     /// Point `i`'s linearisation for back-substitution, which needs of
-    /// `d_global` only its product with the global step `dg`: returns the
-    /// linearisation (its `d_global` is not read) and `d_global · dg`. The
-    /// default linearises fully; a problem whose global Jacobian is costly
-    /// can compute the product directly, as a directional derivative.
-    #[allow(clippy::type_complexity)]
+    /// `d_global` only its product with the global step `dg`: writes the
+    /// linearisation into `out` (its `d_global` is not read afterwards) and
+    /// returns `d_global · dg`. The default linearises fully; a problem can
+    /// also update its point cache for the next iteration here.
+    #[allow(clippy::too_many_arguments)]
     fn linearize_along(
         &self,
         i: usize,
@@ -135,10 +215,10 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         point: &SVector<f64, P>,
         cache: &mut Self::PointCache,
         dg: &SVector<f64, G>,
-    ) -> Result<(Linearization<G, C, P, R>, SVector<f64, R>), Self::Error> {
-        let lin = self.linearize(i, global, group, point, cache)?;
-        let along = lin.d_global * dg;
-        Ok((lin, along))
+        out: &mut Linearization<G, C, P, R, Self::Jacobian>,
+    ) -> Result<SVector<f64, R>, Self::Error> {
+        self.linearize(i, global, group, point, cache, out)?;
+        Ok(out.d_global.apply(dg))
     }
 
     /// Prior on the global block.

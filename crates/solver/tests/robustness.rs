@@ -224,6 +224,7 @@ struct Exponential {
 impl Problem<1, 1, 0, 2> for Exponential {
     type PointCache = ();
     type Error = TestError;
+    type Jacobian = SMatrix<f64, 2, 1>;
     fn n_groups(&self) -> usize {
         self.targets.len()
     }
@@ -238,14 +239,16 @@ impl Problem<1, 1, 0, 2> for Exponential {
         group: &Vector1<f64>,
         _point: &SVector<f64, 0>,
         _cache: &mut (),
-    ) -> Result<Linearization<1, 1, 0, 2>, TestError> {
+        out: &mut Linearization<1, 1, 0, 2>,
+    ) -> Result<(), TestError> {
         let e = global[0].exp();
-        Ok(Linearization {
+        *out = Linearization {
             residual: SVector::<f64, 2>::new(e - 1.0, group[0] - self.targets[i]),
             d_global: SMatrix::<f64, 2, 1>::new(e, 0.0),
             d_group: SMatrix::<f64, 2, 1>::new(0.0, 1.0),
             d_point: SMatrix::zeros(),
-        })
+        };
+        Ok(())
     }
 }
 
@@ -402,6 +405,7 @@ fn problem_without_blind_point() -> Degenerate {
 impl Problem<1, 1, 2, 3> for Degenerate {
     type PointCache = ();
     type Error = TestError;
+    type Jacobian = SMatrix<f64, 3, 1>;
     fn n_groups(&self) -> usize {
         3
     }
@@ -416,11 +420,12 @@ impl Problem<1, 1, 2, 3> for Degenerate {
         group: &Vector1<f64>,
         point: &SVector<f64, 2>,
         _cache: &mut (),
-    ) -> Result<Linearization<1, 1, 2, 3>, TestError> {
+        out: &mut Linearization<1, 1, 2, 3>,
+    ) -> Result<(), TestError> {
         let t = i as f64;
         let blind = i == self.blind;
         let second = if blind { point[0] } else { point[1] };
-        Ok(Linearization {
+        *out = Linearization {
             residual: SVector::<f64, 3>::new(
                 point[0] - 0.1 * t,
                 second - 0.2,
@@ -436,7 +441,8 @@ impl Problem<1, 1, 2, 3> for Degenerate {
                 1.0,
                 0.0,
             ),
-        })
+        };
+        Ok(())
     }
 }
 

@@ -162,6 +162,7 @@ pub struct Touches(pub Data);
 impl Problem<G, 3, 2, 3> for Touches {
     type PointCache = u32;
     type Error = TestError;
+    type Jacobian = SMatrix<f64, 3, G>;
 
     fn n_groups(&self) -> usize {
         self.0.n_groups()
@@ -179,18 +180,20 @@ impl Problem<G, 3, 2, 3> for Touches {
         group: &SVector<f64, 3>,
         point: &SVector<f64, 2>,
         cache: &mut u32,
-    ) -> Result<Linearization<G, 3, 2, 3>, TestError> {
+        out: &mut Linearization<G, 3, 2, 3>,
+    ) -> Result<(), TestError> {
         self.0.check_fail(i, cache)?;
         let (u, du) = direction(point);
         let y = group + self.0.radius * u;
         let (d, dy, dg) = distort(&y, global, self.0.unseen);
         let s = 1.0 / self.0.sigma;
-        Ok(Linearization {
+        *out = Linearization {
             residual: s * (self.0.measurements[i] - d),
             d_global: -s * dg,
             d_group: -s * dy,
             d_point: -s * self.0.radius * dy * du,
-        })
+        };
+        Ok(())
     }
     fn global_prior(&self) -> Option<&GaussianPrior<G>> {
         self.0.global_prior.as_ref()
@@ -210,6 +213,7 @@ pub struct Distances(pub Data);
 impl Problem<G, 3, 0, 1> for Distances {
     type PointCache = u32;
     type Error = TestError;
+    type Jacobian = SMatrix<f64, 1, G>;
 
     fn n_groups(&self) -> usize {
         self.0.n_groups()
@@ -227,19 +231,21 @@ impl Problem<G, 3, 0, 1> for Distances {
         group: &SVector<f64, 3>,
         _point: &SVector<f64, 0>,
         cache: &mut u32,
-    ) -> Result<Linearization<G, 3, 0, 1>, TestError> {
+        out: &mut Linearization<G, 3, 0, 1>,
+    ) -> Result<(), TestError> {
         self.0.check_fail(i, cache)?;
         let (y, _, dg) = distort(&self.0.measurements[i], global, self.0.unseen);
         let e = y - group;
         let n = e.norm();
         let s = 1.0 / self.0.sigma;
         let unit = e / n;
-        Ok(Linearization {
+        *out = Linearization {
             residual: SVector::<f64, 1>::new(s * (n - self.0.radius)),
             d_global: s * unit.transpose() * dg,
             d_group: -s * unit.transpose(),
             d_point: SMatrix::zeros(),
-        })
+        };
+        Ok(())
     }
     fn global_prior(&self) -> Option<&GaussianPrior<G>> {
         self.0.global_prior.as_ref()
