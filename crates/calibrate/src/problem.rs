@@ -152,11 +152,13 @@ pub struct CalibrationProblem<'a, O> {
     pub design: Geometry,
     /// Actuator readings, measurements.csv order (borrowed from the dataset).
     pub q: &'a [[f64; 6]],
+    /// The ball of each measurements.csv row (borrowed from the dataset).
+    pub ball: &'a [u32],
     /// The measurements.csv row of each contact, sorted by ball.
     pub rows: Vec<u32>,
     /// Contacts of each ball (contiguous).
     pub groups: Vec<Range<usize>>,
-    /// Calibrated radius of each ball.
+    /// Calibrated radius of each ball (the groups are the balls, in order).
     pub radii: Vec<f64>,
     pub observations: O,
     pub global_prior: Option<GaussianPrior<N_PARAMS>>,
@@ -220,10 +222,9 @@ impl<O> CalibrationProblem<'_, O> {
         }
     }
 
-    /// The radius of contact `i`'s ball: found by the group range it is in.
+    /// The radius of contact `i`'s ball.
     fn radius(&self, i: usize) -> f64 {
-        let ball = self.groups.partition_point(|g| g.end <= i);
-        self.radii[ball]
+        self.radii[self.ball[self.row(i)] as usize]
     }
 }
 
@@ -236,7 +237,10 @@ fn with_geometry<T>(p: &Params, f: impl FnOnce(&Geometry) -> T) -> T {
         static LAST: RefCell<Option<(Params, Geometry)>> = const { RefCell::new(None) };
     }
     LAST.with_borrow_mut(|last| {
-        if last.as_ref().is_none_or(|(q, _)| q != p) {
+        if last
+            .as_ref()
+            .is_none_or(|(q, _)| q.as_slice() != p.as_slice())
+        {
             *last = Some((*p, params::from_params(p)));
         }
         let (_, geometry) = last.as_ref().expect("just set");

@@ -162,6 +162,7 @@ impl Setup {
         CalibrationProblem {
             design: self.canonical.geometry.clone(),
             q: &dataset.measurements.q,
+            ball: &dataset.measurements.ball,
             rows: self.order.clone(),
             groups: self.groups.clone(),
             radii: dataset.artefacts.balls.iter().map(|b| b.radius).collect(),

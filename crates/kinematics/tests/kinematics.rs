@@ -96,7 +96,8 @@ fn tip_derivatives_agree_with_central_differences() {
         let solution = forward(&canonical.geometry, &q, &pose, &ForwardOptions::default()).unwrap();
         let jacobians = tip_jacobians(&canonical.geometry, &solution);
 
-        // From a start 1e-9 mm away, the one short Newton step keeps the
+        // From a start 1e-9 mm away, one short Newton step lands on the
+        // solution (not evaluated again) and keeps the legs and the
         // factorisation of its start: the Jacobians hardly change.
         let nearby = Pose::from_parts(
             Translation3::from(pose.translation.vector + Vec3::new(1e-9, -2e-9, 1e-9)),
@@ -104,6 +105,13 @@ fn tip_derivatives_agree_with_central_differences() {
         );
         let reused = forward(&canonical.geometry, &q, &nearby, &ForwardOptions::default()).unwrap();
         assert_eq!(reused.iterations, 1);
+        let closure = parcal_kinematics::closure::Legs::at(&canonical.geometry, &reused.pose)
+            .residual(&canonical.geometry, &q)
+            .amax();
+        assert!(
+            closure < 1e-12,
+            "closure residual {closure:e} after the short step"
+        );
         let reused = tip_jacobians(&canonical.geometry, &reused);
         assert!(
             (reused.d_params - jacobians.d_params).amax() < 1e-8 * jacobians.d_params.amax(),
