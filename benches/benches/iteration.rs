@@ -3,7 +3,7 @@
 //! 10^6 contacts, with 1 and 2 threads.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use parcal_benches::{campaign, warm_problem};
+use parcal_benches::{campaign, setup, warm_problem};
 use parcal_solver::{SolverOptions, linear_step};
 
 fn iteration(c: &mut Criterion) {
@@ -12,7 +12,8 @@ fn iteration(c: &mut Criterion) {
     let chunk = SolverOptions::default().groups_per_chunk;
     for contacts in [1_000, 10_000, 100_000, 1_000_000] {
         let dataset = campaign(contacts);
-        let (problem, state) = warm_problem(&dataset);
+        let (setup, observations) = setup(&dataset);
+        let (problem, state) = warm_problem(&dataset, &setup, observations);
         for threads in [1, 2] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)

@@ -34,22 +34,29 @@ pub fn options() -> CalibrationOptions {
     }
 }
 
-/// The coordinate problem of `dataset`, warm-started at the design-FK poses,
-/// and a state a small step away from the initial estimate (every parameter
-/// moved by 1e-3 mm), so that each forward kinematics takes the one or two
-/// Newton steps of a typical iteration.
-pub fn warm_problem(
-    dataset: &Dataset,
-) -> (
-    CalibrationProblem<'_, CoordinateObservations>,
-    State<N_PARAMS, 3, 2>,
-) {
-    let options = options();
-    let (setup, observations) = Setup::new(dataset, &options).expect("setup");
+/// The set-up of simulation IV on `dataset` and its coordinate observations.
+pub fn setup(dataset: &Dataset) -> (Setup, CoordinateObservations) {
+    let (setup, observations) = Setup::new(dataset, &options()).expect("setup");
     let Observations::Coordinates(observations) = observations else {
         unreachable!("simulation IV uses the coordinate observation")
     };
-    let mut problem = setup.problem(dataset, &options, observations);
+    (setup, observations)
+}
+
+/// The coordinate problem of `dataset`, warm-started at the design-FK poses,
+/// and a state a small step away from the initial estimate (every parameter
+/// moved by 1e-3 mm), so that each forward kinematics takes the two Newton
+/// steps of an iteration in mid-run (late iterations, which start from the
+/// predicted pose, take one).
+pub fn warm_problem<'a>(
+    dataset: &'a Dataset,
+    setup: &'a Setup,
+    observations: CoordinateObservations,
+) -> (
+    CalibrationProblem<'a, CoordinateObservations>,
+    State<N_PARAMS, 3, 2>,
+) {
+    let mut problem = setup.problem(dataset, &options(), observations);
     let design = &setup.canonical.geometry;
     let fk = ForwardOptions::default();
     let starts: Vec<Pose> = setup

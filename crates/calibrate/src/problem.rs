@@ -155,9 +155,9 @@ pub struct CalibrationProblem<'a, O> {
     /// The ball of each measurements.csv row (borrowed from the dataset).
     pub ball: &'a [u32],
     /// The measurements.csv row of each contact, sorted by ball.
-    pub rows: Vec<u32>,
+    pub rows: &'a [u32],
     /// Contacts of each ball (contiguous).
-    pub groups: Vec<Range<usize>>,
+    pub groups: &'a [Range<usize>],
     /// Calibrated radius of each ball (the groups are the balls, in order).
     pub radii: Vec<f64>,
     pub observations: O,

@@ -7,12 +7,11 @@ use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    BlockId, IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, State, Status,
-    WeakDirection, solve,
+    BlockId, IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, Status, WeakDirection,
+    solve,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
-use crate::problem::CalibrationProblem;
 use crate::setup::{Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 
@@ -363,17 +362,4 @@ fn solve_problem<const P: usize, const R: usize, Pr: Problem<N_PARAMS, 3, P, R>>
         residual_rows: setup.order.len() * rows_per_contact,
         spectrum: solution.spectrum,
     }
-}
-
-/// The problem of a dataset and its initial state, for checks against the
-/// dense reference (tests, small problems only).
-pub fn problem_and_state<'a, O, const P: usize>(
-    dataset: &'a Dataset,
-    options: &CalibrationOptions,
-    pick: impl FnOnce(Observations) -> Option<O>,
-) -> Result<(CalibrationProblem<'a, O>, State<N_PARAMS, 3, P>), CalibrateError> {
-    let (setup, observations) = Setup::new(dataset, options)?;
-    let observations = pick(observations).expect("the options' observation");
-    let problem = setup.problem(dataset, options, observations);
-    Ok((problem, setup.initial_state()))
 }

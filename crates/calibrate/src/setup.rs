@@ -154,7 +154,7 @@ impl Setup {
 
     /// The problem of `observations` (which [`Setup::new`] returned).
     pub fn problem<'a, O>(
-        &self,
+        &'a self,
         dataset: &'a Dataset,
         options: &CalibrationOptions,
         observations: O,
@@ -163,8 +163,8 @@ impl Setup {
             design: self.canonical.geometry.clone(),
             q: &dataset.measurements.q,
             ball: &dataset.measurements.ball,
-            rows: self.order.clone(),
-            groups: self.groups.clone(),
+            rows: &self.order,
+            groups: &self.groups,
             radii: dataset.artefacts.balls.iter().map(|b| b.radius).collect(),
             observations,
             global_prior: self
@@ -178,20 +178,21 @@ impl Setup {
     }
 }
 
-/// Rows sorted by ball (stable) and each ball's range.
+/// Rows sorted by ball (stable) and each ball's range: a counting sort,
+/// O(contacts), with no buffer beyond its output.
 fn sort_by_ball(dataset: &Dataset) -> (Vec<u32>, Vec<Range<usize>>) {
     let balls = &dataset.measurements.ball;
-    let mut order: Vec<u32> = (0..balls.len() as u32).collect();
-    order.sort_by_key(|&row| balls[row as usize]);
     let mut groups = Vec::with_capacity(dataset.artefacts.balls.len());
     let mut start = 0;
-    for ball in 0..dataset.artefacts.balls.len() as u32 {
-        let count = order[start..]
-            .iter()
-            .take_while(|&&row| balls[row as usize] == ball)
-            .count();
+    for count in dataset.contacts_per_ball() {
         groups.push(start..start + count);
         start += count;
+    }
+    let mut next: Vec<usize> = groups.iter().map(|g| g.start).collect();
+    let mut order = vec![0u32; balls.len()];
+    for (row, &ball) in balls.iter().enumerate() {
+        order[next[ball as usize]] = row as u32;
+        next[ball as usize] += 1;
     }
     (order, groups)
 }
@@ -216,21 +217,26 @@ impl Starts<'_> {
     /// Initial centres, and per contact (sorted order) its direction `u0`
     /// and the whitening `weight(model, repeatability, design tip, u0)`.
     /// Parallel over balls.
-    fn compute<T: Send>(
+    fn compute<T: Send + Sync + Default + Clone>(
         &self,
         weight: impl Fn(WeightModel, &Repeatability, &Tip, &Vec3) -> Result<T, ObserveError> + Sync,
     ) -> Result<ContactStarts<T>, CalibrateError> {
-        let per_ball: Vec<(Vec3, Vec<(Vec3, T)>)> = self
+        // Each ball writes its contacts' slots of the outputs: nothing per
+        // ball is collected and copied again.
+        let n = self.order.len();
+        let (mut directions, mut weights) = (vec![Vec3::zeros(); n], vec![T::default(); n]);
+        let lengths = || self.groups.iter().map(|g| g.len());
+        let centres = self
             .groups
             .par_iter()
             .enumerate()
-            .map(|(ball, group)| self.ball(ball, &self.order[group.clone()], &weight))
+            .zip(split_by(&mut directions, lengths()))
+            .zip(split_by(&mut weights, lengths()))
+            .map(|(((ball, group), directions), weights)| {
+                let rows = &self.order[group.clone()];
+                self.ball(ball, rows, &weight, directions, weights)
+            })
             .collect::<Result<_, _>>()?;
-        let centres = per_ball.iter().map(|(centre, _)| *centre).collect();
-        let (directions, weights) = per_ball
-            .into_iter()
-            .flat_map(|(_, contacts)| contacts)
-            .unzip();
         Ok(ContactStarts {
             centres,
             directions,
@@ -238,13 +244,16 @@ impl Starts<'_> {
         })
     }
 
-    /// The initial centre of one ball, and `(u0, weight)` of its contacts.
+    /// The initial centre of one ball; writes `(u0, weight)` of its contacts
+    /// (`rows`) into `directions` and `weights`.
     fn ball<T>(
         &self,
         ball: usize,
         rows: &[u32],
         weight: &impl Fn(WeightModel, &Repeatability, &Tip, &Vec3) -> Result<T, ObserveError>,
-    ) -> Result<(Vec3, Vec<(Vec3, T)>), CalibrateError> {
+        directions: &mut [Vec3],
+        weights: &mut [T],
+    ) -> Result<Vec3, CalibrateError> {
         let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
         let fk = ForwardOptions::default();
         let tips = rows
@@ -269,29 +278,36 @@ impl Starts<'_> {
             tool: machine.tool,
             radius: artefact.radius_sigma,
         };
-        let contacts = rows
-            .iter()
-            .zip(&tips)
-            .map(|(&row, tip)| {
-                let row = row as usize;
-                let u0 = match &dataset.measurements.direction {
-                    Some(commanded) => {
-                        let d = Vec3::from(commanded[row]);
-                        match dataset.artefacts.frame {
-                            ArtefactFrame::Design => self.canonical.base_from_input.rotation * d,
-                            ArtefactFrame::Canonical => d,
-                        }
-                        .normalize()
+        for (k, (&row, tip)) in rows.iter().zip(&tips).enumerate() {
+            let row = row as usize;
+            let u0 = match &dataset.measurements.direction {
+                Some(commanded) => {
+                    let d = Vec3::from(commanded[row]);
+                    match dataset.artefacts.frame {
+                        ArtefactFrame::Design => self.canonical.base_from_input.rotation * d,
+                        ArtefactFrame::Canonical => d,
                     }
-                    None => (tip.position - centre).normalize(),
-                };
-                let weight = weight(self.model, &repeatability, tip, &u0)
-                    .map_err(|source| CalibrateError::Observation { row, source })?;
-                Ok((u0, weight))
-            })
-            .collect::<Result<_, CalibrateError>>()?;
-        Ok((centre, contacts))
+                    .normalize()
+                }
+                None => (tip.position - centre).normalize(),
+            };
+            weights[k] = weight(self.model, &repeatability, tip, &u0)
+                .map_err(|source| CalibrateError::Observation { row, source })?;
+            directions[k] = u0;
+        }
+        Ok(centre)
     }
+}
+
+/// `items` cut into consecutive slices of the given lengths.
+fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    let mut slices = Vec::new();
+    for length in lengths {
+        let (head, tail) = items.split_at_mut(length);
+        slices.push(head);
+        items = tail;
+    }
+    slices
 }
 
 /// Paper eq. (7), the prior on the 33: the paper's diagonal form (each

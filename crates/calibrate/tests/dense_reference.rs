@@ -21,8 +21,7 @@
 
 use std::time::Instant;
 
-use parcal_calibrate::run::problem_and_state;
-use parcal_calibrate::setup::Observations;
+use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, Simulation};
 use parcal_dataset::Dataset;
 use parcal_kinematics::N_PARAMS;
@@ -365,25 +364,29 @@ fn options(sim: Simulation, prior: PriorMode) -> CalibrationOptions {
 }
 
 fn coordinates(prior: PriorMode) {
-    let dataset = dataset();
-    let (problem, state) =
-        problem_and_state(&dataset, &options(Simulation::IV, prior), |o| match o {
-            Observations::Coordinates(c) => Some(c),
-            Observations::Radius(_) => None,
-        })
-        .unwrap();
+    let (dataset, options) = (dataset(), options(Simulation::IV, prior));
+    let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+    let Observations::Coordinates(observations) = observations else {
+        panic!("simulation IV observes coordinates")
+    };
+    let (problem, state) = (
+        setup.problem(&dataset, &options, observations),
+        setup.initial_state(),
+    );
     assert_eq!(state.n_unknowns(), 33 + 81 + 378);
     compare(&format!("coordinates, {prior} prior"), &problem, &state);
 }
 
 fn radius(prior: PriorMode) {
-    let dataset = dataset();
-    let (problem, state) =
-        problem_and_state(&dataset, &options(Simulation::III, prior), |o| match o {
-            Observations::Radius(r) => Some(r),
-            Observations::Coordinates(_) => None,
-        })
-        .unwrap();
+    let (dataset, options) = (dataset(), options(Simulation::III, prior));
+    let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+    let Observations::Radius(observations) = observations else {
+        panic!("simulation III observes radii")
+    };
+    let (problem, state) = (
+        setup.problem(&dataset, &options, observations),
+        setup.initial_state(),
+    );
     assert_eq!(state.n_unknowns(), 33 + 81);
     compare(&format!("radius, {prior} prior"), &problem, &state);
 }

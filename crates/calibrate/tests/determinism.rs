@@ -1,15 +1,15 @@
 //! Results do not depend on the number of threads (bit for bit) nor on the
 //! order of the rows of measurements.csv (to rounding).
 
-use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation, calibrate};
+mod common;
+
+use common::{options, relative_differences, shuffled};
+use parcal_calibrate::{CalibrationRun, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
 
 fn run(dataset: &Dataset, threads: usize) -> CalibrationRun {
-    let options = CalibrationOptions {
-        prior: PriorMode::Propagated,
-        ..CalibrationOptions::simulation(Simulation::IV)
-    };
+    let options = options();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -45,29 +45,8 @@ fn shuffled_rows_give_the_same_calibration() {
         .unwrap()
         .dataset;
     let reference = run(&dataset, 2);
-    // A fixed permutation of the rows (truth contacts follow their rows).
-    let n = dataset.measurements.q.len();
-    let permutation: Vec<usize> = (0..n).map(|k| (k * 7919 + 13) % n).collect();
-    let mut sorted = permutation.clone();
-    sorted.sort_unstable();
-    assert!(
-        sorted.iter().enumerate().all(|(k, &p)| k == p),
-        "not a permutation"
-    );
-    let mut shuffled = dataset.clone();
-    shuffled.measurements.q = permutation
-        .iter()
-        .map(|&k| dataset.measurements.q[k])
-        .collect();
-    shuffled.measurements.ball = permutation
-        .iter()
-        .map(|&k| dataset.measurements.ball[k])
-        .collect();
-    let result = run(&shuffled, 2);
-    let scale = reference.params.norm();
-    let difference = (result.params - reference.params).norm() / scale;
-    assert!(difference < 1e-9, "relative difference {difference:e}");
-    let sigmas = (reference.sigmas().unwrap() - result.sigmas().unwrap()).amax()
-        / reference.sigmas().unwrap().amax();
+    let result = run(&shuffled(&dataset), 2);
+    let (params, sigmas) = relative_differences(&reference, &result);
+    assert!(params < 1e-9, "relative difference {params:e}");
     assert!(sigmas < 1e-9, "sigma difference {sigmas:e}");
 }

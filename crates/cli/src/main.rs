@@ -4,6 +4,7 @@
 //! A thin binary: it parses arguments and wires the crates together.
 
 mod commands;
+mod progress;
 
 use std::process::ExitCode;
 

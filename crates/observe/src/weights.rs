@@ -122,6 +122,13 @@ pub struct RadiusWeight {
     inverse_sigma: f64,
 }
 
+impl Default for RadiusWeight {
+    /// Unit weight (variance 1 mm²).
+    fn default() -> Self {
+        Self { inverse_sigma: 1.0 }
+    }
+}
+
 impl RadiusWeight {
     /// From the row's variance `w` (mm², [`radius_variance`]); refuses a
     /// variance that is not positive and finite.
@@ -154,6 +161,15 @@ impl Whitening<1> for RadiusWeight {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoordinateWeight {
     inverse_factor: [f64; 6],
+}
+
+impl Default for CoordinateWeight {
+    /// Unit weight (covariance `I` mm²).
+    fn default() -> Self {
+        Self {
+            inverse_factor: [1.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+        }
+    }
 }
 
 impl CoordinateWeight {

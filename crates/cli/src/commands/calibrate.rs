@@ -2,6 +2,7 @@
 //! table and the accuracy summary, write calibration.json.
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use anyhow::Context;
 use clap::ValueEnum;
@@ -12,6 +13,8 @@ use parcal_calibrate::{
 };
 use parcal_dataset::CALIBRATION_FILE;
 use parcal_report::tables;
+
+use crate::progress::Progress;
 
 #[derive(Clone, Copy, ValueEnum)]
 #[expect(
@@ -116,23 +119,31 @@ impl Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let dataset = super::read_dataset(&args.dataset)?;
     let options = args.options();
-    eprintln!(
+    let progress = Progress::bar("iteration", options.max_iterations as u64);
+    let read = Instant::now();
+    let dataset = super::read_dataset(&args.dataset)?;
+    progress.line(&format!(
+        "read {} contacts in {:.2} s",
+        dataset.measurements.q.len(),
+        read.elapsed().as_secs_f64()
+    ));
+    progress.line(&format!(
         "calibrating {} contacts: {} observation, {} prior",
         dataset.measurements.q.len(),
         options.observation,
         options.prior
-    );
-    let started = std::time::Instant::now();
+    ));
+    let started = Instant::now();
     let run = calibrate(&dataset, &options, &mut |record| {
-        eprintln!(
-            "  iteration: cost {:.6e}, step {:.3e} ({:.2} s)",
+        progress.step(&format!(
+            "cost {:.6e}, step {:.3e} ({:.2} s)",
             record.cost,
             record.step_norm,
             started.elapsed().as_secs_f64()
-        )
+        ))
     })?;
+    progress.finish();
     // Default: calibration.json in the dataset directory (next to a snapshot file).
     let directory = if args.dataset.is_file() {
         args.dataset.parent().unwrap_or(Path::new("."))

@@ -3,6 +3,8 @@
 
 use std::path::PathBuf;
 
+use crate::progress::Progress;
+
 #[derive(clap::Args)]
 pub struct Args {
     /// Seed of the simulated dataset.
@@ -14,6 +16,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    parcal_report::paper::reproduce(args.seed, &args.out, &mut |line| eprintln!("{line}"))?;
+    let progress = Progress::spinner();
+    parcal_report::paper::reproduce(args.seed, &args.out, &mut |line| progress.line(line))?;
     Ok(())
 }
