@@ -16,7 +16,7 @@ use std::ops::Range;
 
 use nalgebra::{SMatrix, SVector, Vector2};
 use parcal_kinematics::{
-    ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, forward,
+    ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3,
     forward::step as step_pose, params,
 };
 use parcal_observe::{
@@ -197,8 +197,11 @@ impl<O> CalibrationProblem<'_, O> {
     {
         let row = self.row(i);
         with_geometry(p, |geometry| {
-            let solution = forward(geometry, &self.q[row], pose, &self.forward_options)
+            let derivatives = &mut out.d_global.tip;
+            derivatives
+                .forward(geometry, &self.q[row], pose, &self.forward_options)
                 .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+            let solution = derivatives.solution();
             *pose = solution.pose;
             let tip = geometry.tool_tip(&solution.pose);
             let block = self
@@ -208,7 +211,6 @@ impl<O> CalibrationProblem<'_, O> {
                 .whiten(self.observations.weight(i));
             out.residual = block.residual;
             out.d_global.d_tip = block.d_tip;
-            out.d_global.tip = TipDerivatives::new(geometry, &solution);
             out.d_group = block.d_centre;
             out.d_point = block.d_angles;
             Ok(())

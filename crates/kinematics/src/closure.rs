@@ -17,7 +17,7 @@ use nalgebra::{Matrix3, Matrix6, Vector6};
 use crate::{Geometry, KinematicsError, Pose, Vec3, lu6::Lu6};
 
 /// The legs of a geometry at one pose.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Legs {
     /// Rotation matrix `R` of the pose.
     pub rotation: Matrix3<f64>,
@@ -32,21 +32,21 @@ pub struct Legs {
 impl Legs {
     /// Evaluates the legs of `geometry` at `pose`.
     pub fn at(geometry: &Geometry, pose: &Pose) -> Self {
-        let rotation = *pose.rotation.to_rotation_matrix().matrix();
+        let mut legs = Self::default();
+        legs.evaluate(geometry, pose);
+        legs
+    }
+
+    /// Evaluates the legs of `geometry` at `pose` in place.
+    #[inline]
+    pub fn evaluate(&mut self, geometry: &Geometry, pose: &Pose) {
+        self.rotation = *pose.rotation.to_rotation_matrix().matrix();
         let t = pose.translation.vector;
-        let rotated = geometry.platform.map(|e| rotation * e);
-        let mut direction = [Vec3::zeros(); 6];
-        let mut length = [0.0; 6];
         for i in 0..6 {
-            let d = rotated[i] + t - geometry.base[i];
-            length[i] = d.norm();
-            direction[i] = d / length[i];
-        }
-        Self {
-            rotation,
-            rotated,
-            direction,
-            length,
+            self.rotated[i] = self.rotation * geometry.platform[i];
+            let d = self.rotated[i] + t - geometry.base[i];
+            self.length[i] = d.norm();
+            self.direction[i] = d / self.length[i];
         }
     }
 
@@ -72,6 +72,7 @@ impl Legs {
     }
 
     /// The LU factorisation of `A`; an error at a singular configuration.
+    #[inline]
     pub fn factor(&self) -> Result<Lu6, KinematicsError> {
         Lu6::factor(self.closure_rows())
     }

@@ -21,11 +21,12 @@
 //! directional derivative `J_f dp` (one solve). [`TipDerivatives`] keeps
 //! what both need; [`TipDerivatives::jacobians`] forms the full matrices.
 
-use nalgebra::{Matrix3, Matrix3x6, SMatrix, Vector3, Vector6};
+use nalgebra::{Matrix3x6, SMatrix, Vector3, Vector6};
 
+use crate::forward::forward_in_place;
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
 use crate::{
-    ForwardSolution, Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs, lu6::Lu6,
+    ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs,
 };
 
 /// Tool-tip derivatives at one forward-kinematics solution.
@@ -43,14 +44,11 @@ pub struct TipJacobians {
 /// the identity pose), to be overwritten.
 #[derive(Debug, Clone, Default)]
 pub struct TipDerivatives {
-    /// `R`: the platform's rotation.
-    rotation: Matrix3<f64>,
-    /// `n_i`: the unit leg directions.
-    direction: [Vec3; 6],
+    /// The forward kinematics: the legs (`R`, `n_i`) and the LU of the
+    /// closure Jacobian `A` where they are.
+    solution: ForwardSolution,
     /// `R E_T`: the tool offset rotated into the base frame.
     tool: Vec3,
-    /// LU of the closure Jacobian `A` ([`ForwardSolution::factor`]).
-    factor: Lu6,
 }
 
 /// The pose's and the tip's derivatives along a parameter direction `dp` at
@@ -69,32 +67,52 @@ pub struct DerivativeAlong {
 impl TipDerivatives {
     /// The derivatives of `geometry`'s tip at its forward-kinematics
     /// `solution`.
-    #[inline]
     pub fn new(geometry: &Geometry, solution: &ForwardSolution) -> Self {
-        Self::of_legs(geometry, &solution.legs, solution.factor.clone())
-    }
-
-    #[inline]
-    fn of_legs(geometry: &Geometry, legs: &Legs, factor: Lu6) -> Self {
         Self {
-            rotation: legs.rotation,
-            direction: legs.direction,
-            tool: legs.rotation * geometry.tool,
-            factor,
+            tool: solution.legs.rotation * geometry.tool,
+            solution: solution.clone(),
         }
     }
 
     /// The derivatives at `pose` (evaluates and factorises the legs).
     pub fn at(geometry: &Geometry, pose: &Pose) -> Result<Self, KinematicsError> {
         let legs = Legs::at(geometry, pose);
-        Ok(Self::of_legs(geometry, &legs, legs.factor()?))
+        let solution = ForwardSolution {
+            pose: *pose,
+            factor: legs.factor()?,
+            legs,
+            iterations: 0,
+        };
+        Ok(Self::new(geometry, &solution))
+    }
+
+    /// Forward kinematics of `geometry` at `q` from `start`
+    /// ([`crate::forward()`]),
+    /// in place, leaving these derivatives at its solution.
+    pub fn forward(
+        &mut self,
+        geometry: &Geometry,
+        q: &[f64; 6],
+        start: &Pose,
+        options: &ForwardOptions,
+    ) -> Result<(), KinematicsError> {
+        self.solution.pose = *start;
+        forward_in_place(geometry, q, options, &mut self.solution)?;
+        self.tool = self.solution.legs.rotation * geometry.tool;
+        Ok(())
+    }
+
+    /// The forward-kinematics solution these derivatives are taken at.
+    pub fn solution(&self) -> &ForwardSolution {
+        &self.solution
     }
 
     /// `y = K^T h = A^-T P^T h`, `P^T h = (h, R E_T x h)`: the weights of the
     /// closure rows in `h^T J_f`; also `h^T dT/dq = y^T`.
     pub fn closure_weights(&self, h: &Vec3) -> Vector6<f64> {
         let m = self.tool.cross(h);
-        self.factor
+        self.solution
+            .factor
             .solve_transpose(&Vector6::new(h.x, h.y, h.z, m.x, m.y, m.z))
     }
 
@@ -103,9 +121,10 @@ impl TipDerivatives {
     /// length, and the tool columns are `h^T R`.
     pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
         let y = self.closure_weights(h);
-        let rotation = &self.rotation;
+        let legs = &self.solution.legs;
+        let rotation = &legs.rotation;
         for i in 0..6 {
-            let n = &self.direction[i];
+            let n = &legs.direction[i];
             let n_platform = rotation.tr_mul(n);
             for c in 0..3 {
                 if let Some(k) = BASE_INDEX[i][c] {
@@ -124,9 +143,10 @@ impl TipDerivatives {
     /// `J_f dp` and the pose's first-order change along `dp`
     /// ([`DerivativeAlong`]): one LU solve.
     pub fn along(&self, dp: &Params) -> DerivativeAlong {
+        let legs = &self.solution.legs;
         let v = Vector6::from_fn(|i, _| {
-            let n = &self.direction[i];
-            let n_platform = self.rotation.tr_mul(n);
+            let n = &legs.direction[i];
+            let n_platform = legs.rotation.tr_mul(n);
             let mut change = -dp[leg_index(i)];
             for c in 0..3 {
                 if let Some(k) = BASE_INDEX[i][c] {
@@ -138,13 +158,13 @@ impl TipDerivatives {
             }
             change
         });
-        let pose = -self.factor.solve(&v);
+        let pose = -self.solution.factor.solve(&v);
         let (dt, w) = (
             Vec3::from(pose.fixed_rows::<3>(0)),
             Vec3::from(pose.fixed_rows::<3>(3)),
         );
         let tool_step = Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET));
-        let tip = dt + w.cross(&self.tool) + self.rotation * tool_step;
+        let tip = dt + w.cross(&self.tool) + legs.rotation * tool_step;
         DerivativeAlong { pose, tip }
     }
 

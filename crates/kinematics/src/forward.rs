@@ -37,7 +37,7 @@ impl Default for ForwardOptions {
 }
 
 /// A converged forward kinematics.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct ForwardSolution {
     /// Pose of the platform frame in the base frame.
     pub pose: Pose,
@@ -77,6 +77,23 @@ pub fn forward(
     start: &Pose,
     options: &ForwardOptions,
 ) -> Result<ForwardSolution, KinematicsError> {
+    let mut solution = ForwardSolution {
+        pose: *start,
+        ..ForwardSolution::default()
+    };
+    forward_in_place(geometry, q, options, &mut solution)?;
+    Ok(solution)
+}
+
+/// [`forward`] from `solution.pose`, overwriting `solution` (unspecified
+/// after an error): the calibration's hot path, where moving the legs and
+/// the factorisation by value cost a tenth of an iteration.
+pub fn forward_in_place(
+    geometry: &Geometry,
+    q: &[f64; 6],
+    options: &ForwardOptions,
+    solution: &mut ForwardSolution,
+) -> Result<(), KinematicsError> {
     for (i, value) in q.iter().enumerate() {
         let length = geometry.legs[i] + value;
         if !length.is_finite() {
@@ -87,45 +104,42 @@ pub fn forward(
             return Err(KinematicsError::InfeasibleLeg { leg: i + 1, length });
         }
     }
-    let mut pose = *start;
-    let mut legs = Legs::at(geometry, &pose);
+    let ForwardSolution {
+        pose,
+        legs,
+        factor,
+        iterations,
+    } = solution;
+    legs.evaluate(geometry, pose);
     let mut residual = legs.residual(geometry, q);
     let mut largest = residual.amax();
-    for iterations in 0..=options.max_iterations {
+    for step_count in 0..=options.max_iterations {
+        *iterations = step_count;
         if largest < options.tolerance {
-            return Ok(ForwardSolution {
-                pose,
-                factor: legs.factor()?,
-                legs,
-                iterations,
-            });
+            *factor = legs.factor()?;
+            return Ok(());
         }
-        if iterations == options.max_iterations {
+        if step_count == options.max_iterations {
             break;
         }
-        let factor = legs.factor()?;
+        *factor = legs.factor()?;
         let delta = factor.solve(&-residual);
         if delta.amax() <= SHORT_STEP {
-            return Ok(ForwardSolution {
-                pose: step(&pose, &delta, 1.0),
-                legs,
-                factor,
-                iterations: iterations + 1,
-            });
+            *pose = step(pose, &delta, 1.0);
+            *iterations = step_count + 1;
+            return Ok(());
         }
+        // Step halving; the legs are evaluated in place at each candidate
+        // (the factorisation of the step's start is no longer needed).
+        let start = *pose;
         let mut scale = 1.0;
         loop {
-            let candidate = step(&pose, &delta, scale);
-            let candidate_legs = Legs::at(geometry, &candidate);
-            let candidate_residual = candidate_legs.residual(geometry, q);
-            let candidate_largest = candidate_residual.amax();
+            *pose = step(&start, &delta, scale);
+            legs.evaluate(geometry, pose);
+            residual = legs.residual(geometry, q);
+            let candidate_largest = residual.amax();
             if candidate_largest < largest || scale < 1e-3 {
-                (pose, legs, residual, largest) = (
-                    candidate,
-                    candidate_legs,
-                    candidate_residual,
-                    candidate_largest,
-                );
+                largest = candidate_largest;
                 break;
             }
             scale *= 0.5;
