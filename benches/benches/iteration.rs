@@ -2,7 +2,7 @@
 //! back-substitute) of simulation IV with the propagated prior, at 10^3 to
 //! 10^6 contacts, with 1 and 2 threads.
 
-use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use parcal_benches::{campaign, setup, warm_problem};
 use parcal_solver::{SolverOptions, linear_step};
 
@@ -23,9 +23,16 @@ fn iteration(c: &mut Criterion) {
                 BenchmarkId::new(format!("{threads}-thread"), contacts),
                 &contacts,
                 |b, _| {
-                    b.iter(|| {
-                        pool.install(|| linear_step(&problem, &state, 0.0, chunk).expect("step"))
-                    })
+                    b.iter_batched(
+                        || setup.poses.clone(),
+                        |poses| {
+                            pool.install(|| {
+                                linear_step(&problem, &state, Some(poses), 0.0, chunk)
+                                    .expect("step")
+                            })
+                        },
+                        BatchSize::PerIteration,
+                    )
                 },
             );
         }

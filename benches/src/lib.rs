@@ -7,10 +7,9 @@ use parcal_calibrate::problem::{CalibrationProblem, CoordinateObservations};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation};
 use parcal_dataset::Dataset;
-use parcal_kinematics::{ForwardOptions, N_PARAMS, Params, Pose, forward_from_home};
+use parcal_kinematics::{N_PARAMS, Params};
 use parcal_simulate::{Scenario, simulate};
 use parcal_solver::State;
-use rayon::prelude::*;
 
 /// Contacts per ball in every benchmark (the paper's 7).
 pub const POINTS_PER_BALL: usize = 7;
@@ -43,11 +42,11 @@ pub fn setup(dataset: &Dataset) -> (Setup, CoordinateObservations) {
     (setup, observations)
 }
 
-/// The coordinate problem of `dataset`, warm-started at the design-FK poses,
-/// and a state a small step away from the initial estimate (every parameter
-/// moved by 1e-3 mm), so that each forward kinematics takes the two Newton
-/// steps of an iteration in mid-run (late iterations, which start from the
-/// predicted pose, take one).
+/// The coordinate problem of `dataset` and a state a small step away from
+/// the initial estimate (every parameter moved by 1e-3 mm); the solver's
+/// caches are the design-FK poses ([`Setup::poses`]), so that each forward
+/// kinematics takes the two Newton steps of an iteration in mid-run (late
+/// iterations, which start from the predicted pose, take one).
 pub fn warm_problem<'a>(
     dataset: &'a Dataset,
     setup: &'a Setup,
@@ -56,19 +55,7 @@ pub fn warm_problem<'a>(
     CalibrationProblem<'a, CoordinateObservations>,
     State<N_PARAMS, 3, 2>,
 ) {
-    let mut problem = setup.problem(dataset, &options(), observations);
-    let design = &setup.canonical.geometry;
-    let fk = ForwardOptions::default();
-    let starts: Vec<Pose> = setup
-        .order
-        .par_iter()
-        .map(|&row| {
-            forward_from_home(design, &dataset.measurements.q[row as usize], &fk)
-                .expect("design FK")
-                .pose
-        })
-        .collect();
-    problem.starts = Some(starts);
+    let problem = setup.problem(dataset, &options(), observations);
     let state = State {
         global: setup.initial_params + Params::repeat(1e-3),
         groups: setup.initial_centres.clone(),

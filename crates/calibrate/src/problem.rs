@@ -7,9 +7,9 @@
 //! tool tip given by forward kinematics of the current parameters at the
 //! contact's actuator readings, whitened by the weight computed once at the
 //! initial estimate. Forward kinematics starts from the pose the solver
-//! keeps as the contact's point cache: the first time the design's home pose
-//! (or a given warm start), then the first-order prediction of the pose at
-//! the next iteration's parameters, made during the back-substitution.
+//! keeps as the contact's point cache: the first time the design's forward
+//! kinematics (from the set-up), then the first-order prediction of the pose
+//! at the next iteration's parameters, made during the back-substitution.
 
 use std::cell::RefCell;
 use std::ops::Range;
@@ -164,10 +164,6 @@ pub struct CalibrationProblem<'a, O> {
     pub global_prior: Option<GaussianPrior<N_PARAMS>>,
     pub centre_priors: Option<Vec<GaussianPrior<3>>>,
     pub forward_options: ForwardOptions,
-    /// Warm starts of the first forward kinematics of each contact (sorted
-    /// order), e.g. the poses of a previous calibration; `None`: the design's
-    /// home pose.
-    pub starts: Option<Vec<Pose>>,
 }
 
 impl<O> CalibrationProblem<'_, O> {
@@ -217,13 +213,6 @@ impl<O> CalibrationProblem<'_, O> {
         })
     }
 
-    fn start(&self, i: usize) -> Pose {
-        match &self.starts {
-            Some(starts) => starts[i],
-            None => self.design.home_pose(self.actuators(i)),
-        }
-    }
-
     /// The radius of contact `i`'s ball.
     fn radius(&self, i: usize) -> f64 {
         self.radii[self.ball[self.row(i)] as usize]
@@ -266,8 +255,11 @@ where
         self.groups[k].clone()
     }
 
+    /// The design's home pose at contact `i`'s actuator values (a
+    /// calibration hands the solver the design's forward kinematics instead,
+    /// [`crate::setup::Setup::poses`]).
     fn initial_cache(&self, i: usize) -> Pose {
-        self.start(i)
+        self.design.home_pose(self.actuators(i))
     }
 
     fn linearize(

@@ -4,11 +4,11 @@
 use std::collections::BTreeMap;
 
 use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3, params};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Pose, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
     BlockId, IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, Status, WeakDirection,
-    solve,
+    solve_with_caches,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
@@ -227,7 +227,8 @@ pub fn calibrate(
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<CalibrationRun, CalibrateError> {
-    let (setup, observations) = Setup::new(dataset, options)?;
+    let (mut setup, observations) = Setup::new(dataset, options)?;
+    let poses = std::mem::take(&mut setup.poses);
     let solver_options = SolverOptions {
         method: match options.method {
             Method::GaussNewton => parcal_solver::Method::GaussNewton,
@@ -242,11 +243,11 @@ pub fn calibrate(
     let solved = match observations {
         Observations::Radius(observations) => {
             let problem = setup.problem(dataset, options, observations);
-            solve_problem(&problem, &setup, &solver_options, observer, 1)
+            solve_problem(&problem, &setup, poses, &solver_options, observer, 1)
         }
         Observations::Coordinates(observations) => {
             let problem = setup.problem(dataset, options, observations);
-            solve_problem(&problem, &setup, &solver_options, observer, 3)
+            solve_problem(&problem, &setup, poses, &solver_options, observer, 3)
         }
     };
     let ball_ids: Vec<String> = dataset
@@ -344,14 +345,21 @@ struct Solved {
     spectrum: Option<SpectrumDiagnostics>,
 }
 
-fn solve_problem<const P: usize, const R: usize, Pr: Problem<N_PARAMS, 3, P, R>>(
+/// Solves `problem` from the set-up's initial state, the design's forward
+/// kinematics (`poses`) warm-starting the first iteration.
+fn solve_problem<const P: usize, const R: usize, Pr>(
     problem: &Pr,
     setup: &Setup,
+    poses: Vec<Pose>,
     options: &SolverOptions,
     observer: &mut dyn FnMut(&IterationRecord),
     rows_per_contact: usize,
-) -> Solved {
-    let solution = solve(problem, setup.initial_state(), options, observer);
+) -> Solved
+where
+    Pr: Problem<N_PARAMS, 3, P, R, PointCache = Pose>,
+{
+    let initial = setup.initial_state();
+    let solution = solve_with_caches(problem, initial, Some(poses), options, observer);
     Solved {
         params: solution.state.global,
         covariance: solution.covariance,

@@ -11,7 +11,7 @@ use std::ops::Range;
 use nalgebra::{SMatrix, SVector, Vector3};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
-    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Vec3, forward_from_home, params,
+    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, Vec3, forward_from_home, params,
 };
 use parcal_observe::{
     CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability, Tip,
@@ -41,6 +41,9 @@ pub struct Setup {
     pub order: Vec<u32>,
     /// Contact range of each ball in `order`.
     pub groups: Vec<Range<usize>>,
+    /// The design's forward kinematics of every contact (sorted order): the
+    /// solver's warm starts, to be moved into it (`std::mem::take`).
+    pub poses: Vec<Pose>,
 }
 
 /// The observations of every contact (sorted order), for the observation
@@ -82,10 +85,13 @@ impl Setup {
                 Weighting::Diagonal => WeightModel::Diagonal,
             },
         };
-        let (initial_centres, observations) = match options.observation {
+        let (initial_centres, poses, observations) = match options.observation {
             Observation::Radius => {
                 let ContactStarts {
-                    centres, weights, ..
+                    centres,
+                    weights,
+                    poses,
+                    ..
                 } = starts.compute(|model, repeatability, tip, u0| {
                     RadiusWeight::from_variance(radius_variance(
                         model,
@@ -96,6 +102,7 @@ impl Setup {
                 })?;
                 (
                     centres,
+                    poses,
                     Observations::Radius(RadiusObservations { weights }),
                 )
             }
@@ -104,6 +111,7 @@ impl Setup {
                     centres,
                     directions,
                     weights,
+                    poses,
                 } = starts.compute(|model, repeatability, tip, u0| {
                     CoordinateWeight::from_covariance(&coordinate_covariance(
                         model,
@@ -125,7 +133,7 @@ impl Setup {
                     weights,
                     angle_sigma: angle_prior.then_some(options.angle_sigma),
                 };
-                (centres, Observations::Coordinates(observations))
+                (centres, poses, Observations::Coordinates(observations))
             }
         };
         let prior = kinematic_prior(dataset, &design, &initial_params, options.prior)?;
@@ -137,6 +145,7 @@ impl Setup {
             prior,
             order,
             groups,
+            poses,
         };
         Ok((setup, observations))
     }
@@ -173,7 +182,6 @@ impl Setup {
                 .map(|prior| GaussianPrior::new(*prior.mean(), prior.information())),
             centre_priors: centre_priors(dataset, self, options.prior),
             forward_options: ForwardOptions::default(),
-            starts: None,
         }
     }
 }
@@ -202,6 +210,7 @@ struct ContactStarts<T> {
     centres: Vec<Vec3>,
     directions: Vec<Vec3>,
     weights: Vec<T>,
+    poses: Vec<Pose>,
 }
 
 /// The design-FK start of every ball and contact.
@@ -225,6 +234,7 @@ impl Starts<'_> {
         // ball is collected and copied again.
         let n = self.order.len();
         let (mut directions, mut weights) = (vec![Vec3::zeros(); n], vec![T::default(); n]);
+        let mut poses = vec![Pose::identity(); n];
         let lengths = || self.groups.iter().map(|g| g.len());
         let centres = self
             .groups
@@ -232,36 +242,44 @@ impl Starts<'_> {
             .enumerate()
             .zip(split_by(&mut directions, lengths()))
             .zip(split_by(&mut weights, lengths()))
-            .map(|(((ball, group), directions), weights)| {
+            .zip(split_by(&mut poses, lengths()))
+            .map(|((((ball, group), directions), weights), poses)| {
                 let rows = &self.order[group.clone()];
-                self.ball(ball, rows, &weight, directions, weights)
+                let contacts = ContactSlots {
+                    directions,
+                    weights,
+                    poses,
+                };
+                self.ball(ball, rows, &weight, contacts)
             })
             .collect::<Result<_, _>>()?;
         Ok(ContactStarts {
             centres,
             directions,
             weights,
+            poses,
         })
     }
 
-    /// The initial centre of one ball; writes `(u0, weight)` of its contacts
-    /// (`rows`) into `directions` and `weights`.
+    /// The initial centre of one ball; writes `u0`, the weight and the
+    /// design-FK pose of its contacts (`rows`) into their slots.
     fn ball<T>(
         &self,
         ball: usize,
         rows: &[u32],
         weight: &impl Fn(WeightModel, &Repeatability, &Tip, &Vec3) -> Result<T, ObserveError>,
-        directions: &mut [Vec3],
-        weights: &mut [T],
+        contacts: ContactSlots<'_, T>,
     ) -> Result<Vec3, CalibrateError> {
         let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
         let fk = ForwardOptions::default();
         let tips = rows
             .iter()
-            .map(|&row| {
+            .zip(contacts.poses.iter_mut())
+            .map(|(&row, pose)| {
                 let row = row as usize;
                 let solution = forward_from_home(geometry, &dataset.measurements.q[row], &fk)
                     .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+                *pose = solution.pose;
                 Ok(Tip::at(geometry, &solution))
             })
             .collect::<Result<Vec<Tip>, _>>()?;
@@ -291,12 +309,19 @@ impl Starts<'_> {
                 }
                 None => (tip.position - centre).normalize(),
             };
-            weights[k] = weight(self.model, &repeatability, tip, &u0)
+            contacts.weights[k] = weight(self.model, &repeatability, tip, &u0)
                 .map_err(|source| CalibrateError::Observation { row, source })?;
-            directions[k] = u0;
+            contacts.directions[k] = u0;
         }
         Ok(centre)
     }
+}
+
+/// One ball's slots of the per-contact outputs.
+struct ContactSlots<'s, T> {
+    directions: &'s mut [Vec3],
+    weights: &'s mut [T],
+    poses: &'s mut [Pose],
 }
 
 /// `items` cut into consecutive slices of the given lengths.

@@ -24,10 +24,13 @@ impl<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
 where
     Pr: Problem<G, C, P, R>,
 {
-    /// Checks the problem's structure against `state` and sets up the run.
+    /// Checks the problem's structure against `state` and sets up the run;
+    /// `caches`: the points' caches, `None` for the problem's
+    /// [`Problem::initial_cache`].
     pub(crate) fn new(
         problem: &'a Pr,
         state: &State<G, C, P>,
+        caches: Option<Vec<Pr::PointCache>>,
         groups_per_chunk: usize,
     ) -> Result<Self, String> {
         let n_groups = problem.n_groups();
@@ -46,9 +49,19 @@ where
         if !state.is_finite() {
             return Err("the initial state is not finite".into());
         }
-        let caches = (0..state.points.len())
-            .map(|i| problem.initial_cache(i))
-            .collect();
+        let caches = match caches {
+            Some(caches) if caches.len() != state.points.len() => {
+                return Err(format!(
+                    "{} point caches for {} points",
+                    caches.len(),
+                    state.points.len()
+                ));
+            }
+            Some(caches) => caches,
+            None => (0..state.points.len())
+                .map(|i| problem.initial_cache(i))
+                .collect(),
+        };
         let dims = Dims {
             g: G,
             c: C,

@@ -36,6 +36,25 @@ pub fn solve<
     options: &SolverOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Solution<G, C, P> {
+    solve_with_caches(problem, initial, None, options, observer)
+}
+
+/// [`solve`] with the points' caches given (e.g. warm starts computed with
+/// the initial estimate), moved into the run instead of
+/// [`Problem::initial_cache`]; `None`: from `initial_cache`.
+pub fn solve_with_caches<
+    const G: usize,
+    const C: usize,
+    const P: usize,
+    const R: usize,
+    Pr: Problem<G, C, P, R>,
+>(
+    problem: &Pr,
+    initial: State<G, C, P>,
+    caches: Option<Vec<Pr::PointCache>>,
+    options: &SolverOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Solution<G, C, P> {
     let invalid = |state, message: String| Solution {
         state,
         status: Status::InvalidProblem { message },
@@ -52,7 +71,7 @@ pub fn solve<
             format!("initial_lambda must be in (0, 1e32], got {initial_lambda}"),
         );
     }
-    match Context::new(problem, &initial, options.groups_per_chunk) {
+    match Context::new(problem, &initial, caches, options.groups_per_chunk) {
         Ok(ctx) => Run {
             ctx,
             options,
@@ -91,9 +110,11 @@ pub struct LinearStep<const G: usize, const C: usize, const P: usize> {
 }
 
 /// One step of the Schur solver at `state`, with Marquardt damping `lambda`
-/// (0: the Gauss–Newton step): `(H + λD) δ = −b`, without applying it. Meant
-/// for checks against [`dense_reference`](crate::dense_reference). Fails with
-/// the [`Status`] that [`solve`] would end with at this point.
+/// (0: the Gauss–Newton step): `(H + λD) δ = −b`, without applying it, the
+/// points' caches given or (`None`) from [`Problem::initial_cache`]. Meant
+/// for checks against [`dense_reference`](crate::dense_reference) and for
+/// benchmarks. Fails with the [`Status`] that [`solve`] would end with at
+/// this point.
 pub fn linear_step<
     const G: usize,
     const C: usize,
@@ -103,6 +124,7 @@ pub fn linear_step<
 >(
     problem: &Pr,
     state: &State<G, C, P>,
+    caches: Option<Vec<Pr::PointCache>>,
     lambda: f64,
     groups_per_chunk: usize,
 ) -> Result<LinearStep<G, C, P>, Status> {
@@ -122,7 +144,7 @@ pub fn linear_step<
             block,
         },
     };
-    let mut ctx = Context::new(problem, state, groups_per_chunk)
+    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
     let factor = ScaledCholesky::new(&system.matrix, G).ok_or_else(|| Status::Singular {

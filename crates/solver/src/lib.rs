@@ -203,7 +203,7 @@ mod reduced;
 mod solution;
 
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
-pub use iterate::{LinearStep, linear_step, solve};
+pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
 pub use options::{Method, SolverOptions};
 pub use problem::{GaussianPrior, GlobalJacobian, Linearization, Problem, State};
 pub use solution::{BlockId, IterationRecord, Solution, Status};
