@@ -12,7 +12,7 @@
 //! `d phi_i = n_i . dt + (a_i x n_i) . w`, which gives the 6 x 6 closure
 //! Jacobian `A` (rows `[n_i^T, (a_i x n_i)^T]`).
 
-use nalgebra::{Matrix3, Matrix6, Vector6};
+use nalgebra::{Matrix3, Vector6};
 
 use crate::{Geometry, KinematicsError, Pose, Vec3, lu6::Lu6};
 
@@ -46,7 +46,7 @@ impl Legs {
             self.rotated[i] = self.rotation * geometry.platform[i];
             let d = self.rotated[i] + t - geometry.base[i];
             self.length[i] = d.norm();
-            self.direction[i] = d / self.length[i];
+            self.direction[i] = d * self.length[i].recip();
         }
     }
 
@@ -63,12 +63,6 @@ impl Legs {
             let m = self.rotated[i].cross(&n);
             [n.x, n.y, n.z, m.x, m.y, m.z]
         })
-    }
-
-    /// The closure Jacobian `A` as a matrix ([`Legs::closure_rows`]).
-    pub fn pose_jacobian(&self) -> Matrix6<f64> {
-        let rows = self.closure_rows();
-        Matrix6::from_fn(|i, j| rows[i][j])
     }
 
     /// The LU factorisation of `A`; an error at a singular configuration.
