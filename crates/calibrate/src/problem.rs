@@ -148,7 +148,9 @@ impl<const R: usize> GlobalJacobian<N_PARAMS, R> for ContactJacobian<R> {
 
 /// The least-squares problem of one calibration, contacts sorted by ball.
 pub struct CalibrationProblem<'a, O> {
-    /// The design in canonical frames (its home pose starts the first FK).
+    /// The design in canonical frames (its home pose is the start of a
+    /// contact's first forward kinematics when the solver is given no
+    /// caches).
     pub design: Geometry,
     /// Actuator readings, measurements.csv order (borrowed from the dataset).
     pub q: &'a [[f64; 6]],
@@ -195,7 +197,7 @@ impl<O> CalibrationProblem<'_, O> {
         with_geometry(p, |geometry| {
             let derivatives = &mut out.d_global.tip;
             derivatives
-                .forward(geometry, &self.q[row], pose, &self.forward_options)
+                .forward(geometry, self.actuators(i), pose, &self.forward_options)
                 .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
             let solution = derivatives.solution();
             *pose = solution.pose;

@@ -17,7 +17,7 @@ use parcal_observe::{
     CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability, Tip,
     WeightModel, coordinate_covariance, radius_variance,
 };
-use parcal_solver::{GaussianPrior, State};
+use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
 
 use crate::problem::{CalibrationProblem, CoordinateObservations, RadiusObservations};
@@ -322,17 +322,6 @@ struct ContactSlots<'s, T> {
     directions: &'s mut [Vec3],
     weights: &'s mut [T],
     poses: &'s mut [Pose],
-}
-
-/// `items` cut into consecutive slices of the given lengths.
-fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
-    let mut slices = Vec::new();
-    for length in lengths {
-        let (head, tail) = items.split_at_mut(length);
-        slices.push(head);
-        items = tail;
-    }
-    slices
 }
 
 /// Paper eq. (7), the prior on the 33: the paper's diagonal form (each

@@ -165,11 +165,10 @@ pub(crate) fn make_chunks(
     Ok(chunks)
 }
 
-/// Splits `items` into consecutive mutable slices of the given lengths.
-pub(crate) fn split_by<T>(
-    mut items: &mut [T],
-    lengths: impl Iterator<Item = usize>,
-) -> Vec<&mut [T]> {
+/// Splits `items` into consecutive mutable slices of the given lengths
+/// (e.g. per-point arrays into the points of each group, to be filled in
+/// parallel).
+pub fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
     let mut out = Vec::new();
     for len in lengths {
         let (head, tail) = items.split_at_mut(len);

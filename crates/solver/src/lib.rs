@@ -202,6 +202,7 @@ mod qr;
 mod reduced;
 mod solution;
 
+pub use chunks::split_by;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
 pub use options::{Method, SolverOptions};
