@@ -44,6 +44,16 @@ impl Lu6 {
     /// one.
     #[inline]
     pub fn factor(rows: [[f64; 6]; 6]) -> Result<Self, KinematicsError> {
+        let mut factor = Self::default();
+        factor.factor_in_place(rows)?;
+        Ok(factor)
+    }
+
+    /// [`Lu6::factor`] into `self` (left unchanged on error): the forward
+    /// kinematics' hot path, where returning the 300-byte factorisation by
+    /// value cost a copy per factorisation.
+    #[inline]
+    pub fn factor_in_place(&mut self, rows: [[f64; 6]; 6]) -> Result<(), KinematicsError> {
         let mut lu = rows;
         let mut permutation = [0, 1, 2, 3, 4, 5];
         let mut pivots = [0.0; 6];
@@ -57,11 +67,14 @@ impl Lu6 {
         pivots[5] = eliminate_column::<5>(&mut lu, &mut permutation);
         let smallest = pivots.iter().fold(f64::INFINITY, |m, p| m.min(p.abs()));
         let largest = pivots.iter().fold(0.0f64, |m, p| m.max(p.abs()));
-        // `!(a > b)` also refuses NaN pivots.
-        if !(smallest > SINGULAR_PIVOT_RATIO * largest && largest.is_finite()) {
+        // `min` and `max` skip NaN: finiteness is checked on every pivot.
+        let finite = pivots.iter().all(|p| p.is_finite());
+        if !(finite && smallest > SINGULAR_PIVOT_RATIO * largest) {
             return Err(KinematicsError::SingularJacobian);
         }
-        Ok(Self { lu, permutation })
+        self.lu = lu;
+        self.permutation = permutation;
+        Ok(())
     }
 
     /// `x` with `A x = b`: `L y = P b`, `U x = y`.
@@ -171,5 +184,10 @@ mod tests {
             KinematicsError::SingularJacobian
         );
         assert!(Lu6::factor([[0.0; 6]; 6]).is_err());
+        // NaN pivots, which `min` and `max` would skip.
+        assert!(Lu6::factor([[f64::NAN; 6]; 6]).is_err());
+        let mut a = matrix();
+        a[(3, 3)] = f64::NAN;
+        assert!(Lu6::factor(rows(&a)).is_err());
     }
 }
