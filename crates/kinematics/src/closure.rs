@@ -70,4 +70,11 @@ impl Legs {
     pub fn factor(&self) -> Result<Lu6, KinematicsError> {
         Lu6::factor(self.closure_rows())
     }
+
+    /// [`Legs::factor`] into `factor` ([`Lu6::factor_in_place`]: no copy of
+    /// the factorisation on the forward kinematics' hot path).
+    #[inline]
+    pub fn factor_into(&self, factor: &mut Lu6) -> Result<(), KinematicsError> {
+        factor.factor_in_place(self.closure_rows())
+    }
 }

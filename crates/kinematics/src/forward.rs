@@ -116,13 +116,13 @@ pub fn forward_in_place(
     for step_count in 0..=options.max_iterations {
         *iterations = step_count;
         if largest < options.tolerance {
-            factor.factor_in_place(legs.closure_rows())?;
+            legs.factor_into(factor)?;
             return Ok(());
         }
         if step_count == options.max_iterations {
             break;
         }
-        factor.factor_in_place(legs.closure_rows())?;
+        legs.factor_into(factor)?;
         let delta = factor.solve(&-residual);
         if delta.amax() <= SHORT_STEP {
             *pose = step(pose, &delta, 1.0);
