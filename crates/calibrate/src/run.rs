@@ -37,7 +37,8 @@ pub struct CalibrationRun {
     /// Marginal sigmas of the centres (with the parameters' uncertainty).
     pub centre_sigmas: Option<Vec<Vec3>>,
     pub status: Status,
-    /// One record per iteration, then the final iterate.
+    /// One record per iterate at which a step was computed, then the final
+    /// iterate's ([`CalibrationRun::iterations`]).
     pub history: Vec<IterationRecord>,
     /// Whitened residual rows (contacts x rows per contact).
     pub residual_rows: usize,
@@ -56,6 +57,16 @@ impl CalibrationRun {
     /// Whether the solver converged.
     pub fn converged(&self) -> bool {
         matches!(self.status, Status::Converged)
+    }
+
+    /// Gauss-Newton iterations (linear solves; Levenberg-Marquardt: steps
+    /// tried): one per record but the final iterate's, and that iterate's
+    /// own when the run converged there (its step certified convergence
+    /// and was not applied, as in Ceres). The independent reference
+    /// implementation applies that last step and records one more iterate;
+    /// both count the same solves.
+    pub fn iterations(&self) -> usize {
+        self.history.len().saturating_sub(1) + usize::from(self.converged())
     }
 
     /// Marginal sigmas of the parameters.

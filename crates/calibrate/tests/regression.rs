@@ -53,8 +53,7 @@ struct RunSummary {
     simulation: String,
     prior: String,
     converged: bool,
-    /// Gauss-Newton steps taken (the history's records less the final
-    /// iterate's).
+    /// Gauss-Newton iterations (`CalibrationRun::iterations`).
     iterations: usize,
     /// Cost (data and priors) at the final iterate.
     final_cost: f64,
@@ -85,7 +84,7 @@ fn summarise(dataset: &Dataset) -> Vec<RunSummary> {
                 simulation: sim.to_string(),
                 prior: prior.to_string(),
                 converged: run.converged(),
-                iterations: run.history.len().saturating_sub(1),
+                iterations: run.iterations(),
                 final_cost: run.history.last().map_or(f64::NAN, |r| r.cost),
                 true_registered_rms,
                 names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),

@@ -90,7 +90,7 @@ fn run_one(
         "{seed:>4} {:>4} {:>10} {:>4} {:>5} {:>7} {:>6} {:>3} | {:>31} | {:>31} | {:>31} | {:>31} | {:.2} s",
         sim.to_string(),
         prior.to_string(),
-        run.history.len().saturating_sub(1),
+        run.iterations(),
         if run.converged() { "yes" } else { "no" },
         nees.map_or("-".into(), |v| format!("{v:.1}")),
         worst_z.map_or("-".into(), |v| format!("{v:.2}")),

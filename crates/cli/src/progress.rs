@@ -55,7 +55,8 @@ impl Progress {
     pub fn step(&self, message: &str) {
         match &self.bar {
             Some(bar) => {
-                // The solver records the final iterate after the last step.
+                // The solver records the final iterate after the last step
+                // taken.
                 if bar.length().is_some_and(|length| bar.position() >= length) {
                     bar.inc_length(1);
                 }

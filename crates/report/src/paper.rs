@@ -211,7 +211,7 @@ fn report(seed: u64, dataset: &Dataset, truth: Option<&Truth>, cases: &[Case]) -
             "| {} | {} | {} | {first:.2} -> {last:.3} | {} | {} |",
             case.name(),
             run.status_text(),
-            run.history.len().saturating_sub(1),
+            run.iterations(),
             run.condition_number()
                 .map_or("-".into(), |c| format!("{c:.2e}")),
             nees.map_or("-".into(), |n| format!("{n:.1}"))
@@ -296,7 +296,7 @@ fn comparison(cases: &[Case]) -> String {
             format!(
                 "{} ({} iterations)",
                 c.run.status_text(),
-                c.run.history.len().saturating_sub(1)
+                c.run.iterations()
             )
         })
     };

@@ -80,7 +80,7 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
         out,
         "status: {} after {} iterations",
         run.status_text(),
-        run.history.len().saturating_sub(1)
+        run.iterations()
     );
     if let (Some(first), Some(last)) = (run.history.first(), run.history.last()) {
         let _ = writeln!(

@@ -259,7 +259,7 @@ where
         loop {
             let solves = self.history.len();
             if solves >= options.max_iterations {
-                return self.finish(x, system, Status::IterationLimit);
+                return self.finish(x, system, 0.0, Status::IterationLimit);
             }
             if !system.is_finite() {
                 return self.diverged(x, solves, "non-finite reduced system".into());
@@ -314,8 +314,14 @@ where
             }
             let converged = finite_step
                 && step_norm / (summary.state_norm2.sqrt() + 1.0) < options.step_tolerance;
-            if damped.is_none() || converged {
-                // Gauss–Newton, or the converged step of either method: take it.
+            if converged {
+                // The step from `x` is below the tolerance: `x` is the
+                // solution, and everything reported is evaluated there (its
+                // system is at hand; applying the step would cost one more
+                // pass for a change below the tolerance).
+                return self.finish(x, system, step_norm, Status::Converged);
+            }
+            if damped.is_none() {
                 self.record(&system, step_norm, lambda, true);
                 let next = match self.ctx.reduce(&trial, 0.0) {
                     Ok(s) => s,
@@ -334,9 +340,6 @@ where
                 }
                 swap(&mut x, &mut trial);
                 system = next;
-                if converged {
-                    return self.finish(x, system, Status::Converged);
-                }
                 continue;
             }
             // Levenberg–Marquardt: evaluate the trial point, building its
@@ -390,11 +393,14 @@ where
         }
     }
 
-    /// The final record, covariance, group sigmas and spectrum at `state`.
+    /// The final record (with `step_norm`, the norm of the step computed
+    /// there and not applied, 0 if none), covariance, group sigmas and
+    /// spectrum at `state`.
     fn finish(
         mut self,
         state: State<G, C, P>,
         mut system: ReducedSystem,
+        step_norm: f64,
         status: Status,
     ) -> Solution<G, C, P> {
         let solves = self.history.len();
@@ -404,7 +410,7 @@ where
                 Err(f) => return self.fail(state, solves, f),
             };
         }
-        self.record(&system, 0.0, 0.0, true);
+        self.record(&system, step_norm, 0.0, true);
         let spectrum = system
             .is_finite()
             .then(|| SpectrumDiagnostics::of_symmetric(&system.matrix, G));

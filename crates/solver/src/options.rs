@@ -30,7 +30,7 @@ pub struct SolverOptions {
     /// Zero evaluates the initial state only (cost, covariance, spectrum).
     pub max_iterations: usize,
     /// Converged when `|δ| / (|x| + 1) < step_tolerance`, norms over all
-    /// unknowns.
+    /// unknowns: the run ends at `x`, without applying `δ`.
     pub step_tolerance: f64,
     /// Diverged when the cost exceeds `divergence_ratio × initial cost`.
     pub divergence_ratio: f64,

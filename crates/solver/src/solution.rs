@@ -14,8 +14,10 @@ pub struct IterationRecord {
     pub data_cost: f64,
     /// Sum of the prior terms.
     pub prior_cost: f64,
-    /// `|δ|` over all unknowns of the step computed at this iterate (0 for the
-    /// final iterate).
+    /// `|δ|` over all unknowns of the step computed at this iterate. For the
+    /// final iterate of a converged run, the step below the tolerance that
+    /// certified convergence and was not applied; 0 when no step was
+    /// computed there.
     pub step_norm: f64,
     /// The damping `λ` of the step (0 for Gauss–Newton).
     pub lambda: f64,
@@ -37,7 +39,9 @@ pub enum BlockId {
 /// How a run ended.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Status {
-    /// The step tolerance was met; the last step was applied.
+    /// The step computed at the returned state is below the step tolerance;
+    /// it was not applied, so that the state, its cost, the covariance and
+    /// the group sigmas all belong to the one iterate the test certified.
     Converged,
     /// `max_iterations` linear solves without convergence.
     IterationLimit,
@@ -99,8 +103,9 @@ pub struct Solution<const G: usize, const C: usize, const P: usize> {
     pub state: State<G, C, P>,
     /// How the run ended.
     pub status: Status,
-    /// One record per linear solve, and one for the final iterate
-    /// (`step_norm` 0) when the run ends at an evaluated iterate.
+    /// One record per linear solve whose step was taken or rejected, and one
+    /// for the final iterate when the run ends at an evaluated iterate (its
+    /// `step_norm`: the converged step, or 0).
     pub history: Vec<IterationRecord>,
     /// Inverse of the undamped reduced matrix at the final state (the marginal
     /// covariance of the global block, given unit-variance whitened
