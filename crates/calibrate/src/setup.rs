@@ -8,13 +8,13 @@
 
 use std::ops::Range;
 
-use nalgebra::{SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3x6, SMatrix, SVector, Vector3};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
-    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, Vec3, forward_from_home, params,
+    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
 };
 use parcal_observe::{
-    CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability, Tip,
+    CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability,
     WeightModel, coordinate_covariance, radius_variance,
 };
 use parcal_solver::{GaussianPrior, State, split_by};
@@ -92,13 +92,8 @@ impl Setup {
                     weights,
                     poses,
                     ..
-                } = starts.compute(|model, repeatability, tip, u0| {
-                    RadiusWeight::from_variance(radius_variance(
-                        model,
-                        repeatability,
-                        &tip.d_q(),
-                        u0,
-                    )?)
+                } = starts.compute(|model, repeatability, d_q, u0| {
+                    RadiusWeight::from_variance(radius_variance(model, repeatability, d_q, u0)?)
                 })?;
                 (
                     centres,
@@ -112,11 +107,11 @@ impl Setup {
                     directions,
                     weights,
                     poses,
-                } = starts.compute(|model, repeatability, tip, u0| {
+                } = starts.compute(|model, repeatability, d_q, u0| {
                     CoordinateWeight::from_covariance(&coordinate_covariance(
                         model,
                         repeatability,
-                        &tip.d_q(),
+                        d_q,
                         u0,
                     )?)
                 })?;
@@ -224,11 +219,12 @@ struct Starts<'a> {
 
 impl Starts<'_> {
     /// Initial centres, and per contact (sorted order) its direction `u0`
-    /// and the whitening `weight(model, repeatability, design tip, u0)`.
+    /// and the whitening `weight(model, repeatability, J_q, u0)` at the design tip.
     /// Parallel over balls.
     fn compute<T: Send + Sync + Default + Clone>(
         &self,
-        weight: impl Fn(WeightModel, &Repeatability, &Tip, &Vec3) -> Result<T, ObserveError> + Sync,
+        weight: impl Fn(WeightModel, &Repeatability, &Matrix3x6<f64>, &Vec3) -> Result<T, ObserveError>
+        + Sync,
     ) -> Result<ContactStarts<T>, CalibrateError> {
         // Each ball writes its contacts' slots of the outputs: nothing per
         // ball is collected and copied again.
@@ -267,22 +263,31 @@ impl Starts<'_> {
         &self,
         ball: usize,
         rows: &[u32],
-        weight: &impl Fn(WeightModel, &Repeatability, &Tip, &Vec3) -> Result<T, ObserveError>,
+        weight: &impl Fn(WeightModel, &Repeatability, &Matrix3x6<f64>, &Vec3) -> Result<T, ObserveError>,
         contacts: ContactSlots<'_, T>,
     ) -> Result<Vec3, CalibrateError> {
         let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
         let fk = ForwardOptions::default();
+        // Forward kinematics in place into one set of derivatives (no copy
+        // of the solution per contact); kept per contact: the tip and
+        // `J_q = dT/dq`.
+        let mut derivatives = TipDerivatives::default();
         let tips = rows
             .iter()
             .zip(contacts.poses.iter_mut())
             .map(|(&row, pose)| {
                 let row = row as usize;
-                let solution = forward_from_home(geometry, &dataset.measurements.q[row], &fk)
+                let q = &dataset.measurements.q[row];
+                derivatives
+                    .forward(geometry, q, &geometry.home_pose(q), &fk)
                     .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
-                *pose = solution.pose;
-                Ok(Tip::at(geometry, &solution))
+                *pose = derivatives.solution().pose;
+                Ok(DesignTip {
+                    position: geometry.tool_tip(pose),
+                    d_q: derivatives.d_q(),
+                })
             })
-            .collect::<Result<Vec<Tip>, _>>()?;
+            .collect::<Result<Vec<DesignTip>, _>>()?;
         let artefact = &dataset.artefacts.balls[ball];
         let points: Vec<Vec3> = tips.iter().map(|t| t.position).collect();
         let centre =
@@ -309,12 +314,19 @@ impl Starts<'_> {
                 }
                 None => (tip.position - centre).normalize(),
             };
-            contacts.weights[k] = weight(self.model, &repeatability, tip, &u0)
+            contacts.weights[k] = weight(self.model, &repeatability, &tip.d_q, &u0)
                 .map_err(|source| CalibrateError::Observation { row, source })?;
             contacts.directions[k] = u0;
         }
         Ok(centre)
     }
+}
+
+/// A contact's tool tip by the design's forward kinematics, and its
+/// derivative with respect to the actuators (the weights' `J_q`).
+struct DesignTip {
+    position: Vec3,
+    d_q: Matrix3x6<f64>,
 }
 
 /// One ball's slots of the per-contact outputs.

@@ -23,22 +23,25 @@ use parcal_kinematics::Vec3;
 
 use crate::ObserveError;
 
-/// Below this `φ` (rad) `s` and `b` come from their Taylor series (truncation
-/// ~φ⁸/10⁶ < 10⁻²² there); above it from the closed forms, whose rounding
-/// (~ε/φ² for `b`) is then below 10⁻¹¹.
+/// Below this `φ` (rad) `cos φ`, `s` and `b` come from their Taylor series
+/// (truncation ~φ⁸/10⁴ < 10⁻²⁰ there); above it from the closed forms,
+/// whose rounding (~ε/φ² for `b`) is then below 10⁻¹¹. The angles of a
+/// calibration stay below it after the first iterations, so that the chart
+/// then costs no trigonometric call.
 const SERIES_BELOW: f64 = 1e-2;
 
-/// `s(φ) = sin φ / φ` and `b(φ) = (φ cos φ − sin φ) / φ³`, exact for every
-/// `φ >= 0`.
-fn sinc_terms(phi: f64) -> (f64, f64) {
+/// `cos φ`, `s(φ) = sin φ / φ` and `b(φ) = (φ cos φ − sin φ) / φ³`, exact
+/// for every `φ >= 0`.
+fn trig_terms(phi: f64) -> (f64, f64, f64) {
     if phi < SERIES_BELOW {
         let p2 = phi * phi;
+        let cos = 1.0 - p2 / 2.0 * (1.0 - p2 / 12.0 * (1.0 - p2 / 30.0));
         let s = 1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0));
         let b = -1.0 / 3.0 + p2 / 30.0 * (1.0 - p2 / 28.0 * (1.0 - p2 / 54.0));
-        (s, b)
+        (cos, s, b)
     } else {
         let (sin, cos) = phi.sin_cos();
-        (sin / phi, (phi * cos - sin) / (phi * phi * phi))
+        (cos, sin / phi, (phi * cos - sin) / (phi * phi * phi))
     }
 }
 
@@ -86,18 +89,25 @@ impl DirectionChart {
     /// Paper eq. (10), the direction: `u(θ) = cos φ u0 + (sin φ / φ) v`
     /// with `v = θ1 e1 + θ2 e2`, `φ = |θ|` (θ in rad; `u` unit).
     pub fn direction(&self, angles: &Vector2<f64>) -> Vec3 {
-        let phi = angles.norm();
-        let (s, _) = sinc_terms(phi);
-        phi.cos() * self.u0 + s * (self.tangent_basis() * angles)
+        let (cos, s, _) = trig_terms(angles.norm());
+        cos * self.u0 + s * (self.tangent_basis() * angles)
     }
 
     /// Paper eq. (10), the direction's derivative `du/dθ` (3 x 2, per rad):
     /// `s(φ) (E − u0 θᵀ) + b(φ) v θᵀ`, exact for every θ including 0.
     pub fn derivative(&self, angles: &Vector2<f64>) -> Matrix3x2<f64> {
-        let (s, b) = sinc_terms(angles.norm());
+        self.direction_and_derivative(angles).1
+    }
+
+    /// [`DirectionChart::direction`] and [`DirectionChart::derivative`]
+    /// together, from one evaluation of `φ` and its trigonometric terms.
+    pub fn direction_and_derivative(&self, angles: &Vector2<f64>) -> (Vec3, Matrix3x2<f64>) {
+        let (cos, s, b) = trig_terms(angles.norm());
         let basis = self.tangent_basis();
         let v = basis * angles;
-        s * (basis - self.u0 * angles.transpose()) + b * v * angles.transpose()
+        let direction = cos * self.u0 + s * v;
+        let derivative = s * (basis - self.u0 * angles.transpose()) + b * v * angles.transpose();
+        (direction, derivative)
     }
 }
 
@@ -201,15 +211,17 @@ mod tests {
                 phi.sin() / phi,
                 (phi * phi.cos() - phi.sin()) / (phi * phi * phi),
             );
-            let computed = sinc_terms(phi);
-            for (value, reference) in [(computed.0, closed.0), (computed.1, closed.1)] {
+            let (cos, s, b) = trig_terms(phi);
+            for (value, reference) in [(s, closed.0), (b, closed.1)] {
                 assert!((value / reference - 1.0).abs() < 1e-10, "φ = {phi}");
             }
-            for (value, reference) in [(computed.0, series.0), (computed.1, series.1)] {
+            for (value, reference) in [(s, series.0), (b, series.1)] {
                 assert!((value / reference - 1.0).abs() < 1e-12, "φ = {phi}");
             }
+            // The cosine's series is exact to rounding on both sides.
+            assert!((cos - phi.cos()).abs() < 2e-16, "φ = {phi}");
         }
-        assert_eq!(sinc_terms(0.0), (1.0, -1.0 / 3.0));
+        assert_eq!(trig_terms(0.0), (1.0, 1.0, -1.0 / 3.0));
     }
 
     #[test]

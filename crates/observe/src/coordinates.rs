@@ -37,11 +37,12 @@ impl CoordinateBlock {
         centre: &Vec3,
         angles: &Vector2<f64>,
     ) -> CoordinateJacobians {
+        let (direction, derivative) = self.chart.direction_and_derivative(angles);
         CoordinateJacobians {
-            residual: centre + self.radius * self.chart.direction(angles) - tip,
+            residual: centre + self.radius * direction - tip,
             d_tip: -Matrix3::identity(),
             d_centre: Matrix3::identity(),
-            d_angles: self.radius * self.chart.derivative(angles),
+            d_angles: self.radius * derivative,
         }
     }
 }

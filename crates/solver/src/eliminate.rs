@@ -118,8 +118,14 @@ pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const
         return None;
     }
     let panel = &mut panel[..m];
-    let tau = point_householder(panel);
-    point_q(panel, &tau, &mut q[..m * m], first_column);
+    if m == R {
+        // Data rows only (no prior, undamped), the common case: the same
+        // code with a length known at compile time, so that its loops
+        // unroll.
+        householder_q(&mut panel[..R], &mut q[..R * R], first_column);
+    } else {
+        householder_q(panel, &mut q[..m * m], first_column);
+    }
     let full_rank = (0..P).all(|j| {
         norms2[j] > 0.0 && panel[j][j] * panel[j][j] > RANK_TOLERANCE * RANK_TOLERANCE * norms2[j]
     });
@@ -131,6 +137,7 @@ pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const
     full_rank.then_some(PointFactor { rows: m, damping })
 }
 
+#[inline(always)]
 fn identity(q: &mut [f64], m: usize) {
     q.fill(0.0);
     for i in 0..m {
@@ -138,9 +145,19 @@ fn identity(q: &mut [f64], m: usize) {
     }
 }
 
+/// [`point_householder`] of the panel, then its `Q` (`m × m`, row-major)
+/// into `q` by [`point_q`]. Inlined, so that a constant panel length
+/// reaches the loops.
+#[inline(always)]
+fn householder_q<const P: usize>(panel: &mut [[f64; P]], q: &mut [f64], first_column: usize) {
+    let tau = point_householder(panel);
+    point_q(panel, &tau, q, first_column);
+}
+
 /// Householder QR of an `m × P` panel (`m ≥ P`): `R` on and above the
 /// diagonal, the reflectors `v_j` below it (unit diagonal implicit); returns
 /// the `τ_j` (`H_j = I − τ_j v_j v_jᵀ`).
+#[inline(always)]
 fn point_householder<const P: usize>(panel: &mut [[f64; P]]) -> [f64; P] {
     let mut tau = [0.0; P];
     for j in 0..P {
@@ -179,6 +196,7 @@ fn point_householder<const P: usize>(panel: &mut [[f64; P]]) -> [f64; P] {
 
 /// `Q = H_0 ⋯ H_{P−1}` (`m × m`, row-major) from [`point_householder`],
 /// columns `first_column..m` only (the others are left as the identity's).
+#[inline(always)]
 fn point_q<const P: usize>(panel: &[[f64; P]], tau: &[f64; P], q: &mut [f64], first_column: usize) {
     let m = panel.len();
     identity(q, m);

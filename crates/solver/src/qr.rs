@@ -2,8 +2,6 @@
 //! columns, upper-triangular solves, and the square root of a prior's
 //! information matrix.
 
-use faer::linalg::matmul::matmul;
-use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{SMatrix, SVector};
 
 /// Relative size below which a diagonal entry of a triangular factor counts as
@@ -53,15 +51,6 @@ fn householder_panel(a: &mut [f64], m: usize, n: usize, k: usize, tau: &mut [f64
     kk
 }
 
-/// Component `r` of reflector `i` left by [`householder_panel`].
-fn reflector(a: &[f64], n: usize, r: usize, i: usize) -> f64 {
-    match r.cmp(&i) {
-        std::cmp::Ordering::Less => 0.0,
-        std::cmp::Ordering::Equal => 1.0,
-        std::cmp::Ordering::Greater => a[r * n + i],
-    }
-}
-
 /// Sets the reflectors below the diagonal to exact zeros.
 fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
     for j in 0..kk {
@@ -79,9 +68,12 @@ fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
 /// zero in columns `0..k`. The reflections are orthogonal, so sums of squares
 /// of every column (and `AᵀA` of the whole block) are preserved.
 ///
-/// Blocked (compact WY, as LAPACK's `dgeqrt`): the reflectors are formed on
-/// the panel, `Q = I − V T Vᵀ`, and the trailing columns are updated as
-/// `A_t −= V (Tᵀ (Vᵀ A_t))` with two GEMMs. `scratch` grows as needed.
+/// Each reflector `H_j = I − τ_j v_j v_jᵀ` is applied to the trailing columns
+/// in turn, `A_t −= τ_j v_j (v_jᵀ A_t)`, by two passes over the rows, each
+/// contiguous in the columns. A group has few columns to eliminate (`k` = 3
+/// for a ball centre) and a handful of rows, where this cost half the
+/// instructions of the compact-WY form (`Q = I − V T Vᵀ` and two GEMMs), whose
+/// GEMM calls were dominated by their set-up. `scratch` grows as needed.
 pub(crate) fn householder_rows(
     a: &mut [f64],
     m: usize,
@@ -95,66 +87,36 @@ pub(crate) fn householder_rows(
         return;
     }
     let nt = n - k;
-    let need = kk + kk * kk + m * kk + kk * nt;
-    if scratch.len() < need {
-        scratch.resize(need, 0.0);
+    if scratch.len() < kk + nt {
+        scratch.resize(kk + nt, 0.0);
     }
     let (tau, rest) = scratch.split_at_mut(kk);
-    let (t, rest) = rest.split_at_mut(kk * kk);
-    let (v, rest) = rest.split_at_mut(m * kk);
-    let w = &mut rest[..kk * nt];
+    let w = &mut rest[..nt];
     householder_panel(a, m, n, k, tau);
-    if nt > 0 {
-        for r in 0..m {
-            for i in 0..kk {
-                v[r * kk + i] = reflector(a, n, r, i);
+    for j in 0..kk {
+        if tau[j] == 0.0 {
+            continue;
+        }
+        // w = v_jᵀ A_t (v_j = 1 at row j, the panel's column j below it).
+        w.copy_from_slice(&a[j * n + k..(j + 1) * n]);
+        for r in j + 1..m {
+            let v = a[r * n + j];
+            for (x, y) in w.iter_mut().zip(&a[r * n + k..(r + 1) * n]) {
+                *x += v * y;
             }
         }
-        // T (upper triangular) with H_0 ⋯ H_{kk−1} = I − V T Vᵀ (LAPACK's
-        // dlarft, forward, columnwise).
-        t.fill(0.0);
-        for i in 0..kk {
-            t[i * kk + i] = tau[i];
-            for l in 0..i {
-                let mut y = 0.0;
-                for r in i..m {
-                    y += v[r * kk + l] * v[r * kk + i];
-                }
-                w[l] = y;
-            }
-            for l in 0..i {
-                let mut s = 0.0;
-                for q in l..i {
-                    s += t[l * kk + q] * w[q];
-                }
-                t[l * kk + i] = -tau[i] * s;
+        for x in w.iter_mut() {
+            *x *= tau[j];
+        }
+        for (y, x) in a[j * n + k..(j + 1) * n].iter_mut().zip(w.iter()) {
+            *y -= x;
+        }
+        for r in j + 1..m {
+            let v = a[r * n + j];
+            for (y, x) in a[r * n + k..(r + 1) * n].iter_mut().zip(w.iter()) {
+                *y -= v * x;
             }
         }
-        let vm = MatRef::from_row_major_slice(v, m, kk);
-        // W = Vᵀ A_t.
-        {
-            let am = MatRef::from_row_major_slice(&a[..m * n], m, n).subcols(k, nt);
-            let wm = MatMut::from_row_major_slice_mut(w, kk, nt);
-            matmul(wm, Accum::Replace, vm.transpose(), am, 1.0, Par::Seq);
-        }
-        // W ← Tᵀ W (Tᵀ lower triangular: rows from the last).
-        for i in (0..kk).rev() {
-            let (head, tail) = w.split_at_mut(i * nt);
-            let wi = &mut tail[..nt];
-            for x in wi.iter_mut() {
-                *x *= t[i * kk + i];
-            }
-            for l in 0..i {
-                let tli = t[l * kk + i];
-                for (x, y) in wi.iter_mut().zip(&head[l * nt..(l + 1) * nt]) {
-                    *x += tli * y;
-                }
-            }
-        }
-        // A_t −= V W.
-        let am = MatMut::from_row_major_slice_mut(&mut a[..m * n], m, n).subcols_mut(k, nt);
-        let wm = MatRef::from_row_major_slice(w, kk, nt);
-        matmul(am, Accum::Add, vm, wm, -1.0, Par::Seq);
     }
     clear_reflectors(a, m, n, kk);
 }
