@@ -7,6 +7,7 @@
 //! - [`problem`]: the observation blocks as the solver's problem;
 //! - [`run`]: one calibration and its calibration.json record;
 //! - [`conflict`]: prior-data conflict tests;
+//! - [`fit`]: each ball's goodness of fit;
 //! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
 //! - [`sphere_fit`]: initial ball centres.
 //!
@@ -22,6 +23,7 @@
 pub mod conflict;
 mod error;
 pub mod evaluate;
+pub mod fit;
 mod options;
 pub mod problem;
 pub mod run;

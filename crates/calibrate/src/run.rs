@@ -12,6 +12,7 @@ use parcal_solver::{
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
+use crate::fit::{BallMisfit, misfit_balls, misfit_warning};
 use crate::setup::{Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 
@@ -36,6 +37,10 @@ pub struct CalibrationRun {
     pub centres: Vec<Vec3>,
     /// Marginal sigmas of the centres (with the parameters' uncertainty).
     pub centre_sigmas: Option<Vec<Vec3>>,
+    /// Balls whose contacts fit far worse than the noise allows
+    /// ([`crate::fit`]); empty when none is, or when the run ended without
+    /// a covariance.
+    pub ball_misfits: Vec<BallMisfit>,
     pub status: Status,
     /// One record per iterate at which a step was computed, then the final
     /// iterate's ([`CalibrationRun::iterations`]).
@@ -89,13 +94,15 @@ impl CalibrationRun {
         })
     }
 
-    /// Every warning about the priors, one sentence each.
+    /// Every warning about the priors and the balls' fit, one sentence
+    /// each.
     pub fn warnings(&self) -> Vec<String> {
         let conflicts = self.conflicts.iter().filter_map(ConflictTest::warning);
         self.prior_consistency
             .iter()
             .cloned()
             .chain(conflicts)
+            .chain(misfit_warning(&self.ball_misfits))
             .collect()
     }
 
@@ -288,6 +295,10 @@ pub fn calibrate(
             &ball_ids,
         ));
     }
+    let ball_misfits = solved.centre_costs.as_ref().map_or_else(Vec::new, |costs| {
+        let contacts: Vec<usize> = setup.groups.iter().map(|g| g.len()).collect();
+        misfit_balls(&ball_ids, costs, &contacts)
+    });
     let prior_consistency = match (options.prior, &setup.prior) {
         (PriorMode::Paper, Some(paper)) => {
             let tolerances = kinematic_prior(
@@ -310,6 +321,7 @@ pub fn calibrate(
         ball_ids,
         centres: solved.centres,
         centre_sigmas: solved.centre_sigmas,
+        ball_misfits,
         status: solved.status,
         history: solved.history,
         residual_rows: solved.residual_rows,
@@ -350,6 +362,8 @@ struct Solved {
     covariance: Option<ParamCovariance>,
     centres: Vec<Vec3>,
     centre_sigmas: Option<Vec<Vec3>>,
+    /// Each ball's whitened data cost at the solution.
+    centre_costs: Option<Vec<f64>>,
     status: Status,
     history: Vec<IterationRecord>,
     residual_rows: usize,
@@ -376,6 +390,7 @@ where
         covariance: solution.covariance,
         centres: solution.state.groups,
         centre_sigmas: solution.group_sigmas,
+        centre_costs: solution.group_costs,
         status: solution.status,
         history: solution.history,
         residual_rows: setup.order.len() * rows_per_contact,

@@ -430,8 +430,9 @@ pub(crate) trait EliminationSink {
     /// One reduced row `[A_g | a]` (`G + 1` values).
     fn reduced_row(&mut self, row: &[f64]);
     /// The triangular rows `[R_cc | R_cg | z_c]` of group `k` (row-major,
-    /// `C` rows of width `C + G + 1`).
-    fn group_done(&mut self, k: usize, top: &[f64]);
+    /// `C` rows of width `C + G + 1`), and its points' data cost
+    /// `Σ |r_i|²`.
+    fn group_done(&mut self, k: usize, top: &[f64], data_cost: f64);
 }
 
 /// Eliminates the points and groups of one chunk at `state` with damping
@@ -473,13 +474,16 @@ where
         let c = &state.groups[k];
         group.reset();
         let mut raw_norms2 = [0.0; C];
+        let mut group_data = 0.0;
         for i in problem.group_points(k) {
             let cache = &mut caches[i - chunk.points.start];
             let p = &state.points[i];
             if let Err(e) = problem.linearize(i, &state.global, c, p, cache, &mut lin) {
                 return Err(Failure::linearize(i, &e));
             }
-            costs.data += lin.residual.norm_squared();
+            let data = lin.residual.norm_squared();
+            costs.data += data;
+            group_data += data;
             let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
             if let Some(prior) = &prior {
                 costs.prior += prior.residual.norm_squared();
@@ -514,7 +518,7 @@ where
         let top = group
             .finish(scratch, &mut |row| sink.reduced_row(row))
             .ok_or(Failure::Singular(BlockId::Group(k)))?;
-        sink.group_done(k, top);
+        sink.group_done(k, top, group_data);
     }
     Ok(costs)
 }
@@ -604,7 +608,7 @@ impl EliminationSink for NormalSink<'_> {
         self.filled += 1;
     }
 
-    fn group_done(&mut self, _k: usize, _top: &[f64]) {}
+    fn group_done(&mut self, _k: usize, _top: &[f64], _data_cost: f64) {}
 }
 
 #[cfg(test)]

@@ -61,6 +61,7 @@ pub fn solve_with_caches<
         history: Vec::new(),
         covariance: None,
         group_sigmas: None,
+        group_costs: None,
         spectrum: None,
     };
     if let Method::LevenbergMarquardt { initial_lambda } = options.method
@@ -198,6 +199,7 @@ where
             history: self.history,
             covariance: None,
             group_sigmas: None,
+            group_costs: None,
             spectrum: None,
         }
     }
@@ -419,12 +421,15 @@ where
             .then(|| ScaledCholesky::new(&system.matrix, G))
             .flatten()
             .map(|f| SMatrix::<f64, G, G>::from_row_slice(&f.inverse()));
-        let group_sigmas = covariance
+        let (group_sigmas, group_costs) = covariance
             .as_ref()
-            .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok());
+            .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok())
+            .map(|groups| groups.into_iter().unzip())
+            .unzip();
         let mut solution = self.end(state, status);
         solution.covariance = covariance;
         solution.group_sigmas = group_sigmas;
+        solution.group_costs = group_costs;
         solution.spectrum = spectrum;
         solution
     }

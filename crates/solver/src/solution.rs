@@ -115,6 +115,10 @@ pub struct Solution<const G: usize, const C: usize, const P: usize> {
     /// Marginal standard deviations of each group block (including the global
     /// uncertainty); present whenever `covariance` is.
     pub group_sigmas: Option<Vec<SVector<f64, C>>>,
+    /// Each group's data cost `Σ |r_i|²` over its points at the final state
+    /// (whitened: a goodness-of-fit statistic per group); present whenever
+    /// `group_sigmas` is.
+    pub group_costs: Option<Vec<f64>>,
     /// Spectrum of the undamped reduced matrix at the final state: for
     /// `Converged`, `IterationLimit` and `Singular`.
     pub spectrum: Option<SpectrumDiagnostics>,

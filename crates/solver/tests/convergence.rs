@@ -124,6 +124,16 @@ fn gauss_newton_converges_to_truth_within_sigmas() {
             .all(|r| r.lambda == 0.0 && r.accepted)
     );
     check_history(&solution, &seen);
+    // The groups' data costs, from the sigma pass at the final state, add
+    // up to the final record's data cost.
+    let group_costs = solution.group_costs.as_ref().expect("group costs");
+    assert_eq!(group_costs.len(), 10);
+    let data_cost = solution.history.last().unwrap().data_cost;
+    let total: f64 = group_costs.iter().sum();
+    assert!(
+        (total - data_cost).abs() <= 1e-12 * data_cost,
+        "{total} vs {data_cost}"
+    );
     // 120 points × 3 rows, 8 + 30 + 240 unknowns.
     check_against_truth(&solution, &truth, 360 - 278);
     let spectrum = solution.spectrum.as_ref().unwrap();

@@ -1,0 +1,116 @@
+//! Each ball's goodness of fit at the solution: a ball whose contacts fit
+//! far worse than the noise allows has a centre in a wrong local minimum
+//! (the mirror image of its contact cap, say) or a blunder among its
+//! contacts, and the calibration flags it instead of reporting it silently.
+//!
+//! At the solution a ball's share of the whitened data cost is
+//! chi-square distributed with `n − 3` degrees of freedom for `n` contacts:
+//! each contact leaves one row beyond its angles (three coordinate rows and
+//! two angles, or one radius row), and the centre takes three. A ball is
+//! flagged beyond the `1 − 0.001 / B` quantile for `B` balls (Bonferroni):
+//! a sound calibration flags any ball with probability at most 0.1 %.
+
+use crate::conflict::chi_square_quantile;
+
+/// Family-wise probability that a sound calibration flags any ball.
+pub const FAMILY_TAIL: f64 = 1e-3;
+
+/// A ball whose contacts fit worse than the noise allows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BallMisfit {
+    /// artefacts.json's id.
+    pub id: String,
+    /// Its share of the whitened data cost.
+    pub chi_square: f64,
+    /// Its contacts less 3.
+    pub degrees_of_freedom: usize,
+}
+
+/// The balls (ids, their whitened data costs and contact counts, in the
+/// same order) whose cost is beyond the `1 − FAMILY_TAIL / B` quantile of
+/// chi-square(`n − 3`); balls with fewer than 4 contacts have no degrees of
+/// freedom and are not tested.
+pub fn misfit_balls(ids: &[String], costs: &[f64], contacts: &[usize]) -> Vec<BallMisfit> {
+    let p = 1.0 - FAMILY_TAIL / ids.len().max(1) as f64;
+    ids.iter()
+        .zip(costs)
+        .zip(contacts)
+        .filter_map(|((id, &cost), &n)| {
+            let degrees_of_freedom = n.checked_sub(3).filter(|&d| d > 0)?;
+            // A NaN cost is never a pass.
+            let passes = cost <= chi_square_quantile(degrees_of_freedom, p);
+            (!passes).then(|| BallMisfit {
+                id: id.clone(),
+                chi_square: cost,
+                degrees_of_freedom,
+            })
+        })
+        .collect()
+}
+
+/// One sentence naming the misfit balls (the five worst), if any.
+pub fn misfit_warning(misfits: &[BallMisfit]) -> Option<String> {
+    if misfits.is_empty() {
+        return None;
+    }
+    let mut worst: Vec<&BallMisfit> = misfits.iter().collect();
+    worst.sort_by(|a, b| b.chi_square.total_cmp(&a.chi_square));
+    let named: Vec<String> = worst
+        .iter()
+        .take(5)
+        .map(|m| {
+            format!(
+                "{} (chi-square {:.1} for {})",
+                m.id, m.chi_square, m.degrees_of_freedom
+            )
+        })
+        .collect();
+    let more = misfits.len().saturating_sub(named.len());
+    let more = if more > 0 {
+        format!(" and {more} more")
+    } else {
+        String::new()
+    };
+    Some(match misfits.len() {
+        1 => format!(
+            "ball {} fits its contacts far worse than the noise allows: its centre is in a wrong local minimum or its contacts hold a blunder",
+            named[0]
+        ),
+        n => format!(
+            "{n} balls fit their contacts far worse than the noise allows: {}{more}; each has its centre in a wrong local minimum or a blunder among its contacts",
+            named.join(", ")
+        ),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_only_costs_beyond_the_family_quantile() {
+        let ids: Vec<String> = (0..1000).map(|k| format!("b{k}")).collect();
+        // chi-square(4) has mean 4; the 1 - 1e-6 quantile is about 34.
+        let mut costs = vec![4.0; 1000];
+        costs[17] = 20.0; // unusual for one ball, not for 1000 of them
+        costs[500] = 500.0;
+        costs[900] = f64::NAN; // a non-finite cost is never a pass
+        let mut contacts = vec![7; 1000];
+        contacts[3] = 3; // no degrees of freedom: not tested
+        costs[3] = 1e9;
+        let misfits = misfit_balls(&ids, &costs, &contacts);
+        let flagged: Vec<&str> = misfits.iter().map(|m| m.id.as_str()).collect();
+        assert_eq!(flagged, ["b500", "b900"]);
+        assert_eq!(misfits[0].degrees_of_freedom, 4);
+        let warning = misfit_warning(&misfits).unwrap();
+        assert!(
+            warning.starts_with("2 balls fit their contacts"),
+            "{warning}"
+        );
+        assert!(
+            warning.contains("b500 (chi-square 500.0 for 4)"),
+            "{warning}"
+        );
+        assert_eq!(misfit_warning(&[]), None);
+    }
+}
