@@ -269,14 +269,14 @@ impl Starts<'_> {
         let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
         let fk = ForwardOptions::default();
         // Forward kinematics in place into one set of derivatives (no copy
-        // of the solution per contact); kept per contact: the tip and
-        // `J_q = dT/dq`. A ball's first contact starts from the home pose,
+        // of the solution per contact); kept per contact: the tip (the
+        // points of the centre fit) and `J_q = dT/dq` (the weights). A ball's first contact starts from the home pose,
         // each next one from the pose predicted by the previous solution
         // (3.1 Newton steps per contact instead of 4.0 on the simulated
         // campaigns), and from the home pose again if that fails.
         let mut derivatives = TipDerivatives::default();
         let mut previous: Option<&[f64; 6]> = None;
-        let tips = rows
+        let (points, d_q): (Vec<Vec3>, Vec<Matrix3x6<f64>>) = rows
             .iter()
             .zip(contacts.poses.iter_mut())
             .map(|(&row, pose)| {
@@ -294,14 +294,10 @@ impl Starts<'_> {
                         .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
                 }
                 *pose = derivatives.solution().pose;
-                Ok(DesignTip {
-                    position: geometry.tool_tip(pose),
-                    d_q: derivatives.d_q(),
-                })
+                Ok((geometry.tool_tip(pose), derivatives.d_q()))
             })
-            .collect::<Result<Vec<DesignTip>, _>>()?;
+            .collect::<Result<_, CalibrateError>>()?;
         let artefact = &dataset.artefacts.balls[ball];
-        let points: Vec<Vec3> = tips.iter().map(|t| t.position).collect();
         let centre =
             fit_centre(&points, artefact.radius).map_err(|source| CalibrateError::CentreFit {
                 ball: artefact.id.clone(),
@@ -313,7 +309,7 @@ impl Starts<'_> {
             tool: machine.tool,
             radius: artefact.radius_sigma,
         };
-        for (k, (&row, tip)) in rows.iter().zip(&tips).enumerate() {
+        for (k, ((&row, tip), d_q)) in rows.iter().zip(&points).zip(&d_q).enumerate() {
             let row = row as usize;
             let u0 = match &dataset.measurements.direction {
                 Some(commanded) => {
@@ -324,21 +320,14 @@ impl Starts<'_> {
                     }
                     .normalize()
                 }
-                None => (tip.position - centre).normalize(),
+                None => (tip - centre).normalize(),
             };
-            contacts.weights[k] = weight(self.model, &repeatability, &tip.d_q, &u0)
+            contacts.weights[k] = weight(self.model, &repeatability, d_q, &u0)
                 .map_err(|source| CalibrateError::Observation { row, source })?;
             contacts.directions[k] = u0;
         }
         Ok(centre)
     }
-}
-
-/// A contact's tool tip by the design's forward kinematics, and its
-/// derivative with respect to the actuators (the weights' `J_q`).
-struct DesignTip {
-    position: Vec3,
-    d_q: Matrix3x6<f64>,
 }
 
 /// One ball's slots of the per-contact outputs.

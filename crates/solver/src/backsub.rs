@@ -9,10 +9,9 @@ use nalgebra::SVector;
 use crate::chunks::{Chunk, ElimBuffers, run_ordered, split_by};
 use crate::context::Context;
 use crate::eliminate::{
-    Failure, GroupRows, add_matrix_column_norms2, factor_point, push_group_prior_and_damping,
-    stepped_row,
+    Failure, GroupRows, factor_point, push_group_prior_and_damping, stepped_row,
 };
-use crate::problem::{Linearization, Problem, State};
+use crate::problem::{GlobalJacobian, Linearization, Problem, State};
 use crate::qr::{PriorRows, solve_upper_in_place};
 use crate::reduced::ReducedSystem;
 use crate::solution::BlockId;
@@ -190,7 +189,7 @@ where
             b_c += lin.d_group.tr_mul(&lin.residual);
             sum.gradient_dot += lin.residual.dot(&global_step);
             if lambda > 0.0 {
-                add_matrix_column_norms2(&lin.d_group, &mut raw_norms2);
+                lin.d_group.add_column_norms2(&mut raw_norms2);
             }
             let factor = factor_point(&lin, prior.as_ref(), lambda, point_buf, 0)
                 .ok_or(Failure::Singular(BlockId::Point(i)))?;

@@ -7,7 +7,7 @@
 
 use faer::linalg::matmul::triangular::{BlockStructure, matmul};
 use faer::{Accum, MatMut, MatRef, Par};
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
 use crate::problem::{GlobalJacobian, Linearization, Problem, State};
@@ -406,16 +406,6 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
     diagonal
 }
 
-/// Adds `Σ |column|²` of the `R × N` matrix to `out`.
-pub(crate) fn add_matrix_column_norms2<const R: usize, const N: usize>(
-    m: &SMatrix<f64, R, N>,
-    out: &mut [f64],
-) {
-    for (j, o) in out.iter_mut().enumerate().take(N) {
-        *o += m.column(j).norm_squared();
-    }
-}
-
 /// Costs accumulated over a chunk.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Costs {
@@ -489,7 +479,7 @@ where
                 costs.prior += prior.residual.norm_squared();
             }
             if lambda > 0.0 {
-                add_matrix_column_norms2(&lin.d_group, &mut raw_norms2);
+                lin.d_group.add_column_norms2(&mut raw_norms2);
                 if let Some(out) = global_norms2.as_deref_mut() {
                     lin.d_global.add_column_norms2(out);
                 }

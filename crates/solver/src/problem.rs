@@ -68,6 +68,12 @@ impl<const G: usize, const R: usize> GlobalJacobian<G, R> for SMatrix<f64, R, G>
         self * v
     }
 
+    fn add_column_norms2(&self, out: &mut [f64]) {
+        for (o, column) in out.iter_mut().zip(self.column_iter()) {
+            *o += column.norm_squared();
+        }
+    }
+
     fn is_finite(&self) -> bool {
         all_finite(self.as_slice())
     }
