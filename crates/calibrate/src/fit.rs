@@ -18,6 +18,8 @@ pub const FAMILY_TAIL: f64 = 1e-3;
 /// A ball whose contacts fit worse than the noise allows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BallMisfit {
+    /// Its index (artefacts.json order).
+    pub ball: usize,
     /// artefacts.json's id.
     pub id: String,
     /// Its share of the whitened data cost.
@@ -35,11 +37,13 @@ pub fn misfit_balls(ids: &[String], costs: &[f64], contacts: &[usize]) -> Vec<Ba
     ids.iter()
         .zip(costs)
         .zip(contacts)
-        .filter_map(|((id, &cost), &n)| {
+        .enumerate()
+        .filter_map(|(ball, ((id, &cost), &n))| {
             let degrees_of_freedom = n.checked_sub(3).filter(|&d| d > 0)?;
             // A NaN cost is never a pass.
             let passes = cost <= chi_square_quantile(degrees_of_freedom, p);
             (!passes).then(|| BallMisfit {
+                ball,
                 id: id.clone(),
                 chi_square: cost,
                 degrees_of_freedom,

@@ -67,6 +67,10 @@ pub trait ContactObservations<const R: usize, const P: usize>: Sync {
         let _ = i;
         None
     }
+
+    /// Contact `i`'s angles for the contact direction of `direction` (from
+    /// the ball centre to the tip; any non-zero length).
+    fn angles_toward(&self, i: usize, direction: &Vec3) -> Result<SVector<f64, P>, ObserveError>;
 }
 
 impl ContactObservations<1, 0> for RadiusObservations {
@@ -85,6 +89,11 @@ impl ContactObservations<1, 0> for RadiusObservations {
 
     fn weight(&self, i: usize) -> &RadiusWeight {
         &self.weights[i]
+    }
+
+    /// The radius observation has no angles.
+    fn angles_toward(&self, _i: usize, _direction: &Vec3) -> Result<SVector<f64, 0>, ObserveError> {
+        Ok(SVector::zeros())
     }
 }
 
@@ -113,6 +122,12 @@ impl ContactObservations<3, 2> for CoordinateObservations {
             Vector2::zeros(),
             Vector2::repeat(sigma),
         ))
+    }
+
+    /// The chart's inverse about the contact's `u0`
+    /// ([`DirectionChart::angles_of`]).
+    fn angles_toward(&self, i: usize, direction: &Vec3) -> Result<Vector2<f64>, ObserveError> {
+        Ok(DirectionChart::new(&self.directions[i])?.angles_of(direction))
     }
 }
 

@@ -7,13 +7,15 @@ use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Pose, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    BlockId, IterationRecord, Problem, SolverOptions, SpectrumDiagnostics, Status, WeakDirection,
+    BlockId, IterationRecord, Solution, SolverOptions, SpectrumDiagnostics, Status, WeakDirection,
     solve_with_caches,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls, misfit_warning};
-use crate::setup::{Observations, Setup, kinematic_prior};
+use crate::mirror::{WrongSide, wrong_side};
+use crate::problem::{CalibrationProblem, ContactObservations};
+use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 
 /// Covariance of the 33 parameters (mm^2).
@@ -41,6 +43,10 @@ pub struct CalibrationRun {
     /// ([`crate::fit`]); empty when none is, or when the run ended without
     /// a covariance.
     pub ball_misfits: Vec<BallMisfit>,
+    /// Balls that a first solution showed on the wrong side of their
+    /// contacts, re-seeded at the mirror image of their centre fit before
+    /// the calibration resumed ([`crate::mirror`]).
+    pub mirrored: Vec<Mirrored>,
     pub status: Status,
     /// One record per iterate at which a step was computed, then the final
     /// iterate's ([`CalibrationRun::iterations`]).
@@ -103,6 +109,22 @@ impl CalibrationRun {
             .cloned()
             .chain(conflicts)
             .chain(misfit_warning(&self.ball_misfits))
+            .collect()
+    }
+
+    /// What the run did beyond the method's iteration, one sentence each
+    /// (the balls re-seeded on the other side of their contacts).
+    pub fn notes(&self) -> Vec<String> {
+        self.mirrored
+            .iter()
+            .map(|m| {
+                format!(
+                    "ball {} was on the wrong side of its contacts after a first solution (chi-square {:.1}; its contact points at the calibrated geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
+                    m.id,
+                    m.side.chi_square,
+                    m.side.side.cost / m.side.mirror.cost
+                )
+            })
             .collect()
     }
 
@@ -258,16 +280,25 @@ pub fn calibrate(
         step_tolerance: options.step_tolerance,
         ..SolverOptions::default()
     };
+    let solver = SolverRun {
+        setup: &setup,
+        dataset,
+        options,
+        solver: &solver_options,
+    };
     let solved = match observations {
         Observations::Radius(observations) => {
-            let problem = setup.problem(dataset, options, observations);
-            solve_problem(&problem, &setup, poses, &solver_options, observer, 1)
+            let mut problem = setup.problem(dataset, options, observations);
+            solver.solve(&mut problem, poses, observer, 1)?
         }
         Observations::Coordinates(observations) => {
-            let problem = setup.problem(dataset, options, observations);
-            solve_problem(&problem, &setup, poses, &solver_options, observer, 3)
+            let mut problem = setup.problem(dataset, options, observations);
+            solver.solve(&mut problem, poses, observer, 3)?
         }
     };
+    for mirrored in &solved.mirrored {
+        setup.initial_centres[mirrored.ball] = mirrored.initial_centre;
+    }
     let ball_ids: Vec<String> = dataset
         .artefacts
         .balls
@@ -322,6 +353,7 @@ pub fn calibrate(
         centres: solved.centres,
         centre_sigmas: solved.centre_sigmas,
         ball_misfits,
+        mirrored: solved.mirrored,
         status: solved.status,
         history: solved.history,
         residual_rows: solved.residual_rows,
@@ -368,32 +400,159 @@ struct Solved {
     history: Vec<IterationRecord>,
     residual_rows: usize,
     spectrum: Option<SpectrumDiagnostics>,
+    /// Balls re-seeded on the other side of their contacts.
+    mirrored: Vec<Mirrored>,
 }
 
-/// Solves `problem` from the set-up's initial state, the design's forward
-/// kinematics (`poses`) warm-starting the first iteration.
-fn solve_problem<const P: usize, const R: usize, Pr>(
-    problem: &Pr,
-    setup: &Setup,
-    poses: Vec<Pose>,
-    options: &SolverOptions,
-    observer: &mut dyn FnMut(&IterationRecord),
-    rows_per_contact: usize,
-) -> Solved
-where
-    Pr: Problem<N_PARAMS, 3, P, R, PointCache = Pose>,
-{
-    let initial = setup.initial_state();
-    let solution = solve_with_caches(problem, initial, Some(poses), options, observer);
-    Solved {
-        params: solution.state.global,
-        covariance: solution.covariance,
-        centres: solution.state.groups,
-        centre_sigmas: solution.group_sigmas,
-        centre_costs: solution.group_costs,
-        status: solution.status,
-        history: solution.history,
-        residual_rows: setup.order.len() * rows_per_contact,
-        spectrum: solution.spectrum,
+/// What a solve needs besides the problem.
+struct SolverRun<'a> {
+    setup: &'a Setup,
+    dataset: &'a Dataset,
+    options: &'a CalibrationOptions,
+    solver: &'a SolverOptions,
+}
+
+impl SolverRun<'_> {
+    /// Solves `problem` from the set-up's initial state, the design's
+    /// forward kinematics (`poses`) warm-starting the first iteration; then,
+    /// if the solution shows balls on the wrong side of their contacts
+    /// ([`crate::mirror`]), re-seeds them and resumes from the solution
+    /// (once: the re-seeded balls' warm starts are those of the solution).
+    fn solve<const P: usize, const R: usize, O>(
+        &self,
+        problem: &mut CalibrationProblem<'_, O>,
+        poses: Vec<Pose>,
+        observer: &mut dyn FnMut(&IterationRecord),
+        rows_per_contact: usize,
+    ) -> Result<Solved, CalibrateError>
+    where
+        O: ContactObservations<R, P> + MirrorStart,
+    {
+        let setup = self.setup;
+        let mut caches = poses;
+        let mut solution = solve_with_caches(
+            &*problem,
+            setup.initial_state(),
+            &mut caches,
+            self.solver,
+            observer,
+        );
+        let wrong = self.wrong_sides(&solution, &caches)?;
+        let mut mirrored = Vec::with_capacity(wrong.len());
+        if !wrong.is_empty() {
+            // The solution's state is the next start (moved, not copied).
+            let Solution {
+                mut state,
+                history: first,
+                ..
+            } = solution;
+            for (side, tips) in wrong {
+                let k = side.ball;
+                let initial_centre = problem.observations.mirror_start(
+                    setup,
+                    self.dataset,
+                    self.options.weighting,
+                    k,
+                )?;
+                if let Some(priors) = &mut problem.centre_priors {
+                    priors[k].mean = initial_centre;
+                }
+                state.groups[k] = side.mirror.centre;
+                for (i, tip) in setup.groups[k].clone().zip(&tips) {
+                    let row = setup.order[i] as usize;
+                    state.points[i] = problem
+                        .observations
+                        .angles_toward(i, &(tip - side.mirror.centre))
+                        .map_err(|source| CalibrateError::Observation { row, source })?;
+                }
+                mirrored.push(Mirrored {
+                    ball: k,
+                    id: self.dataset.artefacts.balls[k].id.clone(),
+                    initial_centre,
+                    side,
+                });
+            }
+            solution = solve_with_caches(&*problem, state, &mut caches, self.solver, observer);
+            solution.history.splice(0..0, first);
+        }
+        Ok(Solved {
+            params: solution.state.global,
+            covariance: solution.covariance,
+            centres: solution.state.groups,
+            centre_sigmas: solution.group_sigmas,
+            centre_costs: solution.group_costs,
+            status: solution.status,
+            history: solution.history,
+            residual_rows: setup.order.len() * rows_per_contact,
+            spectrum: solution.spectrum,
+            mirrored,
+        })
     }
+
+    /// The misfit balls of `solution` ([`crate::fit`]) that are on the wrong
+    /// side of their contacts ([`crate::mirror`]), with their contact points
+    /// at the calibrated geometry; `caches`: the solution's poses.
+    fn wrong_sides<const P: usize>(
+        &self,
+        solution: &Solution<N_PARAMS, 3, P>,
+        caches: &[Pose],
+    ) -> Result<Vec<(WrongSide, Vec<Vec3>)>, CalibrateError> {
+        let (setup, dataset) = (self.setup, self.dataset);
+        let Some(costs) = &solution.group_costs else {
+            return Ok(Vec::new());
+        };
+        let ids: Vec<String> = dataset
+            .artefacts
+            .balls
+            .iter()
+            .map(|b| b.id.clone())
+            .collect();
+        let contacts: Vec<usize> = setup.groups.iter().map(|g| g.len()).collect();
+        let geometry = params::from_params(&solution.state.global);
+        let mut wrong = Vec::new();
+        for misfit in misfit_balls(&ids, costs, &contacts) {
+            let k = misfit.ball;
+            let group = setup.groups[k].clone();
+            let rows = &setup.order[group.clone()];
+            let actuators = rows.iter().map(|&row| dataset.measurements.q[row as usize]);
+            let found = wrong_side(
+                &geometry,
+                actuators,
+                &caches[group],
+                dataset.artefacts.balls[k].radius,
+                &solution.state.groups[k],
+            )
+            .map_err(|source| CalibrateError::ForwardKinematics {
+                row: rows[0] as usize,
+                source,
+            })?;
+            if let Some((side, mirror, tips)) = found {
+                let chi_square = misfit.chi_square;
+                wrong.push((
+                    WrongSide {
+                        ball: k,
+                        chi_square,
+                        side,
+                        mirror,
+                    },
+                    tips,
+                ));
+            }
+        }
+        Ok(wrong)
+    }
+}
+
+/// A ball re-seeded at the mirror image of its centre fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mirrored {
+    /// Its index (artefacts.json order).
+    pub ball: usize,
+    /// artefacts.json's id.
+    pub id: String,
+    /// Its new initial centre (the mirror fit of its design-FK contact
+    /// points).
+    pub initial_centre: Vec3,
+    /// What the first solution showed.
+    pub side: WrongSide,
 }

@@ -21,7 +21,7 @@ use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
 
 use crate::problem::{CalibrationProblem, CoordinateObservations, RadiusObservations};
-use crate::sphere_fit::fit_centre;
+use crate::sphere_fit::{best_fit, mirror_fit};
 use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode, Weighting};
 
 /// The initial estimate and everything derived from the dataset once.
@@ -80,10 +80,7 @@ impl Setup {
             canonical: &canonical,
             order: &order,
             groups: &groups,
-            model: match options.weighting {
-                Weighting::Propagated => WeightModel::Propagated,
-                Weighting::Diagonal => WeightModel::Diagonal,
-            },
+            model: weight_model(options.weighting),
         };
         let (initial_centres, poses, observations) = match options.observation {
             Observation::Radius => {
@@ -92,9 +89,7 @@ impl Setup {
                     weights,
                     poses,
                     ..
-                } = starts.compute(|model, repeatability, d_q, u0| {
-                    RadiusWeight::from_variance(radius_variance(model, repeatability, d_q, u0)?)
-                })?;
+                } = starts.compute::<RadiusWeight>()?;
                 (
                     centres,
                     poses,
@@ -107,14 +102,7 @@ impl Setup {
                     directions,
                     weights,
                     poses,
-                } = starts.compute(|model, repeatability, d_q, u0| {
-                    CoordinateWeight::from_covariance(&coordinate_covariance(
-                        model,
-                        repeatability,
-                        d_q,
-                        u0,
-                    )?)
-                })?;
+                } = starts.compute::<CoordinateWeight>()?;
                 // Paper mode: every contact's angles about their initial
                 // values; propagated mode: only where a commanded direction
                 // seeds them.
@@ -154,6 +142,37 @@ impl Setup {
             groups: self.initial_centres.clone(),
             points: vec![SVector::zeros(); self.order.len()],
         }
+    }
+
+    /// Starts ball `ball` at the mirror image of its centre fit instead
+    /// ([`mirror_fit`] of its design-FK contact points): returns that
+    /// initial centre and writes its contacts' `u0` and weights at it into
+    /// `directions` and `weights` (the ball's slots, sorted order), as if
+    /// the set-up had chosen that image. For a ball that the solution shows
+    /// on the wrong side of its contacts (see `run`).
+    pub fn mirror_start<T: StartWeight>(
+        &self,
+        dataset: &Dataset,
+        weighting: Weighting,
+        ball: usize,
+        directions: &mut [Vec3],
+        weights: &mut [T],
+    ) -> Result<Vec3, CalibrateError> {
+        let starts = Starts {
+            dataset,
+            canonical: &self.canonical,
+            order: &self.order,
+            groups: &self.groups,
+            model: weight_model(weighting),
+        };
+        let mut poses = vec![Pose::identity(); weights.len()];
+        let contacts = ContactSlots {
+            directions,
+            weights,
+            poses: &mut poses,
+        };
+        let rows = &self.order[self.groups[ball].clone()];
+        starts.ball(ball, rows, contacts, CentreStart::Mirror)
     }
 
     /// The problem of `observations` (which [`Setup::new`] returned).
@@ -219,13 +238,9 @@ struct Starts<'a> {
 
 impl Starts<'_> {
     /// Initial centres, and per contact (sorted order) its direction `u0`
-    /// and the whitening `weight(model, repeatability, J_q, u0)` at the design tip.
+    /// and its whitening at the design tip ([`StartWeight::at_start`]).
     /// Parallel over balls.
-    fn compute<T: Send + Sync + Default + Clone>(
-        &self,
-        weight: impl Fn(WeightModel, &Repeatability, &Matrix3x6<f64>, &Vec3) -> Result<T, ObserveError>
-        + Sync,
-    ) -> Result<ContactStarts<T>, CalibrateError> {
+    fn compute<T: StartWeight>(&self) -> Result<ContactStarts<T>, CalibrateError> {
         // Each ball writes its contacts' slots of the outputs: nothing per
         // ball is collected and copied again.
         let n = self.order.len();
@@ -246,7 +261,7 @@ impl Starts<'_> {
                     weights,
                     poses,
                 };
-                self.ball(ball, rows, &weight, contacts)
+                self.ball(ball, rows, contacts, CentreStart::BestFit)
             })
             .collect::<Result<_, _>>()?;
         Ok(ContactStarts {
@@ -257,14 +272,16 @@ impl Starts<'_> {
         })
     }
 
-    /// The initial centre of one ball; writes `u0`, the weight and the
-    /// design-FK pose of its contacts (`rows`) into their slots.
-    fn ball<T>(
+    /// The initial centre of one ball (the best fit of its design-FK contact
+    /// points, or that fit's mirror image, [`mirror_fit`]); writes `u0`, the
+    /// weight and the design-FK pose of its contacts (`rows`) into their
+    /// slots.
+    fn ball<T: StartWeight>(
         &self,
         ball: usize,
         rows: &[u32],
-        weight: &impl Fn(WeightModel, &Repeatability, &Matrix3x6<f64>, &Vec3) -> Result<T, ObserveError>,
         contacts: ContactSlots<'_, T>,
+        start: CentreStart,
     ) -> Result<Vec3, CalibrateError> {
         let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
         let fk = ForwardOptions::default();
@@ -298,11 +315,19 @@ impl Starts<'_> {
             })
             .collect::<Result<_, CalibrateError>>()?;
         let artefact = &dataset.artefacts.balls[ball];
-        let centre =
-            fit_centre(&points, artefact.radius).map_err(|source| CalibrateError::CentreFit {
-                ball: artefact.id.clone(),
-                source,
-            })?;
+        let fit_error = |source| CalibrateError::CentreFit {
+            ball: artefact.id.clone(),
+            source,
+        };
+        let fit = best_fit(&points, artefact.radius).map_err(fit_error)?;
+        let centre = match start {
+            CentreStart::BestFit => fit.centre,
+            CentreStart::Mirror => {
+                mirror_fit(&points, artefact.radius, &fit)
+                    .map_err(fit_error)?
+                    .centre
+            }
+        };
         let machine = &dataset.machine.repeatability;
         let repeatability = Repeatability {
             actuator: machine.actuator,
@@ -322,7 +347,7 @@ impl Starts<'_> {
                 }
                 None => (tip - centre).normalize(),
             };
-            contacts.weights[k] = weight(self.model, &repeatability, d_q, &u0)
+            contacts.weights[k] = T::at_start(self.model, &repeatability, d_q, &u0)
                 .map_err(|source| CalibrateError::Observation { row, source })?;
             contacts.directions[k] = u0;
         }
@@ -335,6 +360,103 @@ struct ContactSlots<'s, T> {
     directions: &'s mut [Vec3],
     weights: &'s mut [T],
     poses: &'s mut [Pose],
+}
+
+/// Which local minimum of a ball's centre fit starts the calibration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CentreStart {
+    /// The best fit (spec section 4).
+    BestFit,
+    /// Its mirror image through the contacts' plane ([`mirror_fit`]).
+    Mirror,
+}
+
+/// The whitening of one kind of observation, computed once at the initial
+/// estimate: the tip covariance propagated through `J_q = dT/dq` and the
+/// repeatabilities, at the contact's initial direction `u0`.
+pub trait StartWeight: Send + Sync + Default + Clone {
+    fn at_start(
+        model: WeightModel,
+        repeatability: &Repeatability,
+        d_q: &Matrix3x6<f64>,
+        u0: &Vec3,
+    ) -> Result<Self, ObserveError>;
+}
+
+impl StartWeight for RadiusWeight {
+    fn at_start(
+        model: WeightModel,
+        repeatability: &Repeatability,
+        d_q: &Matrix3x6<f64>,
+        u0: &Vec3,
+    ) -> Result<Self, ObserveError> {
+        RadiusWeight::from_variance(radius_variance(model, repeatability, d_q, u0)?)
+    }
+}
+
+impl StartWeight for CoordinateWeight {
+    fn at_start(
+        model: WeightModel,
+        repeatability: &Repeatability,
+        d_q: &Matrix3x6<f64>,
+        u0: &Vec3,
+    ) -> Result<Self, ObserveError> {
+        CoordinateWeight::from_covariance(&coordinate_covariance(model, repeatability, d_q, u0)?)
+    }
+}
+
+/// The observations of a kind whose balls can be re-seeded at the mirror
+/// image of their centre fit ([`Setup::mirror_start`]).
+pub trait MirrorStart {
+    /// Re-seeds ball `ball` of `setup` (its contacts' `u0` and weights);
+    /// returns its new initial centre.
+    fn mirror_start(
+        &mut self,
+        setup: &Setup,
+        dataset: &Dataset,
+        weighting: Weighting,
+        ball: usize,
+    ) -> Result<Vec3, CalibrateError>;
+}
+
+impl MirrorStart for RadiusObservations {
+    fn mirror_start(
+        &mut self,
+        setup: &Setup,
+        dataset: &Dataset,
+        weighting: Weighting,
+        ball: usize,
+    ) -> Result<Vec3, CalibrateError> {
+        let range = setup.groups[ball].clone();
+        // The radius observation keeps no direction.
+        let mut directions = vec![Vec3::zeros(); range.len()];
+        let weights = &mut self.weights[range];
+        setup.mirror_start(dataset, weighting, ball, &mut directions, weights)
+    }
+}
+
+impl MirrorStart for CoordinateObservations {
+    fn mirror_start(
+        &mut self,
+        setup: &Setup,
+        dataset: &Dataset,
+        weighting: Weighting,
+        ball: usize,
+    ) -> Result<Vec3, CalibrateError> {
+        let range = setup.groups[ball].clone();
+        let (directions, weights) = (
+            &mut self.directions[range.clone()],
+            &mut self.weights[range],
+        );
+        setup.mirror_start(dataset, weighting, ball, directions, weights)
+    }
+}
+
+fn weight_model(weighting: Weighting) -> WeightModel {
+    match weighting {
+        Weighting::Propagated => WeightModel::Propagated,
+        Weighting::Diagonal => WeightModel::Diagonal,
+    }
 }
 
 /// Paper eq. (7), the prior on the 33: the paper's diagonal form (each

@@ -17,18 +17,29 @@ pub enum SphereFitError {
     NotConverged,
 }
 
-/// Least-squares centre `C` minimising `sum_j (|x_j - C| - r)^2`.
+/// A centre fitted with a fixed radius.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphereFit {
+    /// The centre (mm).
+    pub centre: Vec3,
+    /// Its cost `sum_j (|x_j - C| - r)^2` (mm^2).
+    pub cost: f64,
+}
+
+/// Least-squares centre `C` minimising `sum_j (|x_j - C| - r)^2`, and its
+/// cost.
 ///
 /// Starts from the algebraic fit (`|x|^2 = 2 x.C + k`, linear in `C, k`, the
-/// radius free), then Gauss-Newton with the radius fixed at `radius`.
-pub fn fit_centre(points: &[Vec3], radius: f64) -> Result<Vec3, SphereFitError> {
+/// radius free), then Gauss-Newton with the radius fixed at `radius`
+/// ([`refine_centre`]).
+pub fn best_fit(points: &[Vec3], radius: f64) -> Result<SphereFit, SphereFitError> {
     if points.len() < 4 {
         return Err(SphereFitError::TooFewPoints {
             count: points.len(),
         });
     }
     // Centre the points for conditioning.
-    let mean = points.iter().sum::<Vec3>() / points.len() as f64;
+    let mean = mean(points);
     let (mut normal, mut rhs) = (Matrix4::<f64>::zeros(), Vector4::<f64>::zeros());
     for p in points {
         let d = p - mean;
@@ -46,7 +57,49 @@ pub fn fit_centre(points: &[Vec3], radius: f64) -> Result<Vec3, SphereFitError> 
         .cholesky()
         .ok_or(SphereFitError::Degenerate)?
         .solve(&rhs);
-    let mut centre = solution.xyz();
+    refine_centre(points, radius, &(solution.xyz() + mean))
+}
+
+/// The other local minimum of a fit whose points lie near a circle (a band
+/// of a sphere, say): with the radius fixed, the centre is determined only
+/// up to its mirror image through the points' plane, and which image fits
+/// better can turn on errors of a tenth of the radius. Gauss-Newton
+/// ([`refine_centre`]) from the mirror image of `fit.centre` through the
+/// least-squares plane of `points`; for points spread over a sphere it falls
+/// back to (or near) `fit` itself.
+pub fn mirror_fit(
+    points: &[Vec3],
+    radius: f64,
+    fit: &SphereFit,
+) -> Result<SphereFit, SphereFitError> {
+    let mean = mean(points);
+    let scatter = points
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<Matrix3<f64>>();
+    let eigen = scatter.symmetric_eigen();
+    let normal = eigen
+        .eigenvectors
+        .column(eigen.eigenvalues.imin())
+        .into_owned();
+    let image = fit.centre - 2.0 * normal * normal.dot(&(fit.centre - mean));
+    refine_centre(points, radius, &image)
+}
+
+/// Gauss-Newton for `min_C sum_j (|x_j - C| - r)^2` from `start`, every
+/// accepted step downhill (step halving).
+pub fn refine_centre(
+    points: &[Vec3],
+    radius: f64,
+    start: &Vec3,
+) -> Result<SphereFit, SphereFitError> {
+    if points.len() < 4 {
+        return Err(SphereFitError::TooFewPoints {
+            count: points.len(),
+        });
+    }
+    let mean = mean(points);
+    let mut centre = start - mean;
     let cost = |c: &Vec3| {
         points
             .iter()
@@ -82,10 +135,17 @@ pub fn fit_centre(points: &[Vec3], radius: f64) -> Result<Vec3, SphereFitError> 
         let stationary = current - next_cost <= 1e-15 * current;
         (centre, current) = (next, next_cost);
         if moved < STEP_TOLERANCE_MM || stationary {
-            return Ok(centre + mean);
+            return Ok(SphereFit {
+                centre: centre + mean,
+                cost: current,
+            });
         }
     }
     Err(SphereFitError::NotConverged)
+}
+
+fn mean(points: &[Vec3]) -> Vec3 {
+    points.iter().sum::<Vec3>() / points.len() as f64
 }
 
 /// Gauss-Newton steps of the fit before giving up.
@@ -118,7 +178,7 @@ mod tests {
     fn recovers_the_centre_of_exact_points() {
         let centre = Vec3::new(-100.0, 8.4, 399.7);
         let points = hemisphere(centre, 5.0, 7);
-        assert!((fit_centre(&points, 5.0).unwrap() - centre).norm() < 1e-10);
+        assert!((best_fit(&points, 5.0).unwrap().centre - centre).norm() < 1e-10);
     }
 
     #[test]
@@ -126,8 +186,53 @@ mod tests {
         // With radius 5.01 instead of 5 the centre moves along the mean
         // outward direction (up, for the lower hemisphere) by about 0.01.
         let centre = Vec3::new(3.0, -2.0, 360.0);
-        let fitted = fit_centre(&hemisphere(centre, 5.0, 9), 5.01).unwrap();
+        let fitted = best_fit(&hemisphere(centre, 5.0, 9), 5.01).unwrap().centre;
         assert!(fitted.z > centre.z && (fitted - centre).norm() < 0.03);
+    }
+
+    /// Points on a band of the lower hemisphere, between `low` and `high`
+    /// (heights relative to the radius).
+    fn band(centre: Vec3, radius: f64, count: usize, low: f64, high: f64) -> Vec<Vec3> {
+        (0..count)
+            .map(|k| {
+                let (azimuth, t) = (2.4 * k as f64, k as f64 / (count - 1) as f64);
+                let height = low + (high - low) * t;
+                let horizontal = (1.0 - height * height).sqrt();
+                centre
+                    + radius
+                        * Vec3::new(
+                            horizontal * azimuth.cos(),
+                            horizontal * azimuth.sin(),
+                            height,
+                        )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_mirror_fit_of_a_band_is_its_other_minimum() {
+        // A band below the equator: exact points fit the true centre with
+        // cost 0; the mirror minimum lies below the band, with a cost that
+        // grows with the band's width.
+        let centre = Vec3::new(-4.2, -57.5, 442.9);
+        let points = band(centre, 5.0, 7, -0.3, -0.1);
+        let truth = refine_centre(&points, 5.0, &centre).unwrap();
+        assert!(truth.cost < 1e-20 && (truth.centre - centre).norm() < 1e-9);
+        let mirror = mirror_fit(&points, 5.0, &truth).unwrap();
+        assert!(mirror.centre.z < centre.z - 1.5, "{mirror:?}");
+        assert!(mirror.cost > 1e-6, "{mirror:?}");
+        // And back: the mirror of the mirror is the truth.
+        let back = mirror_fit(&points, 5.0, &mirror).unwrap();
+        assert!((back.centre - centre).norm() < 1e-8, "{back:?}");
+    }
+
+    #[test]
+    fn points_spread_over_a_sphere_have_no_mirror_minimum() {
+        let centre = Vec3::new(3.0, -2.0, 360.0);
+        let points = hemisphere(centre, 5.0, 9);
+        let fit = best_fit(&points, 5.0).unwrap();
+        let mirror = mirror_fit(&points, 5.0, &fit).unwrap();
+        assert!((mirror.centre - centre).norm() < 1e-8, "{mirror:?}");
     }
 
     #[test]
@@ -135,12 +240,12 @@ mod tests {
         let centre = Vec3::new(0.0, 0.0, 400.0);
         let points = hemisphere(centre, 5.0, 3);
         assert_eq!(
-            fit_centre(&points, 5.0),
+            best_fit(&points, 5.0),
             Err(SphereFitError::TooFewPoints { count: 3 })
         );
         let flat: Vec<Vec3> = (0..6)
             .map(|k| Vec3::new(k as f64, (k * k) as f64, 1.0))
             .collect();
-        assert_eq!(fit_centre(&flat, 5.0), Err(SphereFitError::Degenerate));
+        assert_eq!(best_fit(&flat, 5.0), Err(SphereFitError::Degenerate));
     }
 }

@@ -109,6 +109,20 @@ impl DirectionChart {
         let derivative = s * (basis - self.u0 * angles.transpose()) + b * v * angles.transpose();
         (direction, derivative)
     }
+
+    /// The chart's inverse (the logarithm of the sphere about `u0`): the
+    /// angles `θ` with `u(θ)` the direction of `direction` (any non-zero
+    /// finite vector), `|θ| = atan2(|Eᵀu|, u·u0) ∈ [0, π]` along `Eᵀu`;
+    /// `θ = 0` for `u0` itself (and for `−u0`, where the chart is singular).
+    pub fn angles_of(&self, direction: &Vec3) -> Vector2<f64> {
+        let tangent = self.tangent_basis().transpose() * direction;
+        let sine = tangent.norm();
+        if sine == 0.0 {
+            return Vector2::zeros();
+        }
+        let phi = sine.atan2(self.u0.dot(direction));
+        tangent * (phi / sine)
+    }
 }
 
 #[cfg(test)]
@@ -222,6 +236,22 @@ mod tests {
             assert!((cos - phi.cos()).abs() < 2e-16, "φ = {phi}");
         }
         assert_eq!(trig_terms(0.0), (1.0, 1.0, -1.0 / 3.0));
+    }
+
+    #[test]
+    fn angles_of_inverts_the_direction() {
+        for chart in charts() {
+            for angles in [
+                Vector2::new(0.0, 0.0),
+                Vector2::new(1e-9, -3e-9),
+                Vector2::new(0.004, -0.007),
+                Vector2::new(-0.6, 0.9),
+                Vector2::new(2.5, -1.2),
+            ] {
+                let u = chart.direction(&angles);
+                assert_close(&chart.angles_of(&(7.5 * u)), &angles, 1e-12, "log of exp");
+            }
+        }
     }
 
     #[test]

@@ -113,6 +113,9 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
             "NEES against the truth: {nees:.1} (33 expected for an honest covariance)"
         );
     }
+    for note in run.notes() {
+        let _ = writeln!(out, "NOTE: {note}");
+    }
     for warning in run.warnings() {
         let _ = writeln!(out, "WARNING: {warning}");
     }

@@ -16,7 +16,7 @@ where
     pub(crate) chunks: Vec<Chunk>,
     pub(crate) dims: Dims,
     pub(crate) pool: WorkspacePool,
-    pub(crate) caches: Vec<Pr::PointCache>,
+    pub(crate) caches: &'a mut Vec<Pr::PointCache>,
 }
 
 impl<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
@@ -25,12 +25,12 @@ where
     Pr: Problem<G, C, P, R>,
 {
     /// Checks the problem's structure against `state` and sets up the run;
-    /// `caches`: the points' caches, `None` for the problem's
-    /// [`Problem::initial_cache`].
+    /// `caches`: the points' caches, filled from the problem's
+    /// [`Problem::initial_cache`] if empty, and updated by every pass.
     pub(crate) fn new(
         problem: &'a Pr,
         state: &State<G, C, P>,
-        caches: Option<Vec<Pr::PointCache>>,
+        caches: &'a mut Vec<Pr::PointCache>,
         groups_per_chunk: usize,
     ) -> Result<Self, String> {
         let n_groups = problem.n_groups();
@@ -49,19 +49,16 @@ where
         if !state.is_finite() {
             return Err("the initial state is not finite".into());
         }
-        let caches = match caches {
-            Some(caches) if caches.len() != state.points.len() => {
-                return Err(format!(
-                    "{} point caches for {} points",
-                    caches.len(),
-                    state.points.len()
-                ));
-            }
-            Some(caches) => caches,
-            None => (0..state.points.len())
-                .map(|i| problem.initial_cache(i))
-                .collect(),
-        };
+        if caches.is_empty() {
+            caches.extend((0..state.points.len()).map(|i| problem.initial_cache(i)));
+        }
+        if caches.len() != state.points.len() {
+            return Err(format!(
+                "{} point caches for {} points",
+                caches.len(),
+                state.points.len()
+            ));
+        }
         let dims = Dims {
             g: G,
             c: C,
@@ -79,7 +76,7 @@ where
 
     /// The workspace pool, and the chunks with their slices of the caches.
     pub(crate) fn jobs(&mut self) -> (&WorkspacePool, Jobs<'_, Pr::PointCache>) {
-        let slices = split_by(&mut self.caches, self.chunks.iter().map(|c| c.points.len()));
+        let slices = split_by(self.caches, self.chunks.iter().map(|c| c.points.len()));
         (&self.pool, self.chunks.iter().zip(slices).collect())
     }
 }

@@ -36,12 +36,13 @@ pub fn solve<
     options: &SolverOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Solution<G, C, P> {
-    solve_with_caches(problem, initial, None, options, observer)
+    solve_with_caches(problem, initial, &mut Vec::new(), options, observer)
 }
 
 /// [`solve`] with the points' caches given (e.g. warm starts computed with
-/// the initial estimate), moved into the run instead of
-/// [`Problem::initial_cache`]; `None`: from `initial_cache`.
+/// the initial estimate) instead of [`Problem::initial_cache`] (empty: from
+/// `initial_cache`). On return `caches` holds those of the run's last pass
+/// over the points: the warm starts of a follow-up run from the solution.
 pub fn solve_with_caches<
     const G: usize,
     const C: usize,
@@ -51,7 +52,7 @@ pub fn solve_with_caches<
 >(
     problem: &Pr,
     initial: State<G, C, P>,
-    caches: Option<Vec<Pr::PointCache>>,
+    caches: &mut Vec<Pr::PointCache>,
     options: &SolverOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Solution<G, C, P> {
@@ -145,7 +146,8 @@ pub fn linear_step<
             block,
         },
     };
-    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
+    let mut caches = caches.unwrap_or_default();
+    let mut ctx = Context::new(problem, state, &mut caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
     let factor = ScaledCholesky::new(&system.matrix, G).ok_or_else(|| Status::Singular {

@@ -1,0 +1,66 @@
+//! A ball on the wrong side of its contacts. With its radius fixed, a ball
+//! whose contacts lie near one circle (a band of the sphere) has two centre
+//! fits, mirror images through the contacts' plane
+//! ([`crate::sphere_fit::mirror_fit`]). With the design geometry, off by
+//! millimetres, the two can fit its contact points almost equally well, and
+//! the best fit the set-up starts from (spec section 4) can be the wrong
+//! image: the calibration then keeps that ball on the wrong side, its
+//! contacts fitting far worse than the noise allows ([`crate::fit`]). The
+//! calibrated geometry tells the sides apart: its contact points fit the
+//! right image to the noise level. A misfit ball whose calibrated contact
+//! points fit the mirror image [`MIRROR_GAIN`] times better is re-seeded
+//! there and the calibration resumes from the solution (see
+//! [`crate::run::calibrate`]).
+//!
+//! On the 10^6-contact campaign of docs/performance.md, one ball of 142857
+//! is in this case (chi-square 14053 for 4 at the first solution).
+
+use parcal_kinematics::{ForwardOptions, Geometry, KinematicsError, Pose, Vec3, forward};
+
+use crate::sphere_fit::{SphereFit, mirror_fit, refine_centre};
+
+/// A misfit ball is re-seeded when its calibrated contact points fit the
+/// mirror image at least this many times better (sum of squared distance
+/// errors) than the side it is on: a blunder among its contacts spoils
+/// both sides alike.
+pub const MIRROR_GAIN: f64 = 4.0;
+
+/// A ball found on the wrong side of its contacts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WrongSide {
+    /// Its index (artefacts.json order).
+    pub ball: usize,
+    /// Its whitened data cost at the solution it was found in.
+    pub chi_square: f64,
+    /// The fit of its calibrated contact points on the side it is on.
+    pub side: SphereFit,
+    /// Their fit at the mirror image: the re-seeded centre.
+    pub mirror: SphereFit,
+}
+
+/// Whether ball `ball` (its centre `centre`, of radius `radius`) is on the
+/// wrong side of its contacts at the calibrated `geometry`: `actuators`
+/// and `poses` are its contacts' actuator values and forward-kinematics
+/// warm starts. Returns the two fits and the contact points (at the
+/// calibrated geometry) when the mirror side fits [`MIRROR_GAIN`] times
+/// better.
+pub fn wrong_side(
+    geometry: &Geometry,
+    actuators: impl Iterator<Item = [f64; 6]>,
+    poses: &[Pose],
+    radius: f64,
+    centre: &Vec3,
+) -> Result<Option<(SphereFit, SphereFit, Vec<Vec3>)>, KinematicsError> {
+    let fk = ForwardOptions::default();
+    let tips = actuators
+        .zip(poses)
+        .map(|(q, start)| forward(geometry, &q, start, &fk).map(|s| geometry.tool_tip(&s.pose)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let Ok(side) = refine_centre(&tips, radius, centre) else {
+        return Ok(None);
+    };
+    let Ok(mirror) = mirror_fit(&tips, radius, &side) else {
+        return Ok(None);
+    };
+    Ok((mirror.cost * MIRROR_GAIN < side.cost).then_some((side, mirror, tips)))
+}
