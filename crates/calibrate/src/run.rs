@@ -280,11 +280,18 @@ pub fn calibrate(
         step_tolerance: options.step_tolerance,
         ..SolverOptions::default()
     };
+    let ball_ids: Vec<String> = dataset
+        .artefacts
+        .balls
+        .iter()
+        .map(|b| b.id.clone())
+        .collect();
     let solver = SolverRun {
         setup: &setup,
         dataset,
         options,
         solver: &solver_options,
+        ball_ids: &ball_ids,
     };
     let solved = match observations {
         Observations::Radius(observations) => {
@@ -299,12 +306,6 @@ pub fn calibrate(
     for mirrored in &solved.mirrored {
         setup.initial_centres[mirrored.ball] = mirrored.initial_centre;
     }
-    let ball_ids: Vec<String> = dataset
-        .artefacts
-        .balls
-        .iter()
-        .map(|b| b.id.clone())
-        .collect();
     let mut conflicts = Vec::new();
     if let (Some(prior), Some(covariance)) = (&setup.prior, &solved.covariance) {
         let d = solved.params - prior.mean();
@@ -326,10 +327,6 @@ pub fn calibrate(
             &ball_ids,
         ));
     }
-    let ball_misfits = solved.centre_costs.as_ref().map_or_else(Vec::new, |costs| {
-        let contacts: Vec<usize> = setup.groups.iter().map(|g| g.len()).collect();
-        misfit_balls(&ball_ids, costs, &contacts)
-    });
     let prior_consistency = match (options.prior, &setup.prior) {
         (PriorMode::Paper, Some(paper)) => {
             let tolerances = kinematic_prior(
@@ -352,7 +349,7 @@ pub fn calibrate(
         ball_ids,
         centres: solved.centres,
         centre_sigmas: solved.centre_sigmas,
-        ball_misfits,
+        ball_misfits: solved.ball_misfits,
         mirrored: solved.mirrored,
         status: solved.status,
         history: solved.history,
@@ -394,8 +391,8 @@ struct Solved {
     covariance: Option<ParamCovariance>,
     centres: Vec<Vec3>,
     centre_sigmas: Option<Vec<Vec3>>,
-    /// Each ball's whitened data cost at the solution.
-    centre_costs: Option<Vec<f64>>,
+    /// The balls that fit their contacts far worse than the noise allows.
+    ball_misfits: Vec<BallMisfit>,
     status: Status,
     history: Vec<IterationRecord>,
     residual_rows: usize,
@@ -410,6 +407,8 @@ struct SolverRun<'a> {
     dataset: &'a Dataset,
     options: &'a CalibrationOptions,
     solver: &'a SolverOptions,
+    /// artefacts.json's ids.
+    ball_ids: &'a [String],
 }
 
 impl SolverRun<'_> {
@@ -437,7 +436,7 @@ impl SolverRun<'_> {
             self.solver,
             observer,
         );
-        let wrong = self.wrong_sides(&solution, &caches)?;
+        let wrong = self.wrong_sides(&solution, &self.misfits(&solution), &caches)?;
         let mut mirrored = Vec::with_capacity(wrong.len());
         if !wrong.is_empty() {
             // The solution's state is the next start (moved, not copied).
@@ -467,7 +466,7 @@ impl SolverRun<'_> {
                 }
                 mirrored.push(Mirrored {
                     ball: k,
-                    id: self.dataset.artefacts.balls[k].id.clone(),
+                    id: self.ball_ids[k].clone(),
                     initial_centre,
                     side,
                 });
@@ -475,12 +474,13 @@ impl SolverRun<'_> {
             solution = solve_with_caches(&*problem, state, &mut caches, self.solver, observer);
             solution.history.splice(0..0, first);
         }
+        let ball_misfits = self.misfits(&solution);
         Ok(Solved {
             params: solution.state.global,
             covariance: solution.covariance,
             centres: solution.state.groups,
             centre_sigmas: solution.group_sigmas,
-            centre_costs: solution.group_costs,
+            ball_misfits,
             status: solution.status,
             history: solution.history,
             residual_rows: setup.order.len() * rows_per_contact,
@@ -489,28 +489,34 @@ impl SolverRun<'_> {
         })
     }
 
-    /// The misfit balls of `solution` ([`crate::fit`]) that are on the wrong
-    /// side of their contacts ([`crate::mirror`]), with their contact points
-    /// at the calibrated geometry; `caches`: the solution's poses.
+    /// The balls of `solution` that fit their contacts far worse than the
+    /// noise allows ([`crate::fit`]); none when it has no per-ball costs.
+    fn misfits<const P: usize>(&self, solution: &Solution<N_PARAMS, 3, P>) -> Vec<BallMisfit> {
+        solution
+            .group_costs
+            .as_ref()
+            .map_or_else(Vec::new, |costs| {
+                let contacts: Vec<usize> = self.setup.groups.iter().map(|g| g.len()).collect();
+                misfit_balls(self.ball_ids, costs, &contacts)
+            })
+    }
+
+    /// The `misfits` of `solution` that are on the wrong side of their
+    /// contacts ([`crate::mirror`]), with their contact points at the
+    /// calibrated geometry; `caches`: the solution's poses.
     fn wrong_sides<const P: usize>(
         &self,
         solution: &Solution<N_PARAMS, 3, P>,
+        misfits: &[BallMisfit],
         caches: &[Pose],
     ) -> Result<Vec<(WrongSide, Vec<Vec3>)>, CalibrateError> {
         let (setup, dataset) = (self.setup, self.dataset);
-        let Some(costs) = &solution.group_costs else {
+        if misfits.is_empty() {
             return Ok(Vec::new());
-        };
-        let ids: Vec<String> = dataset
-            .artefacts
-            .balls
-            .iter()
-            .map(|b| b.id.clone())
-            .collect();
-        let contacts: Vec<usize> = setup.groups.iter().map(|g| g.len()).collect();
+        }
         let geometry = params::from_params(&solution.state.global);
         let mut wrong = Vec::new();
-        for misfit in misfit_balls(&ids, costs, &contacts) {
+        for misfit in misfits {
             let k = misfit.ball;
             let group = setup.groups[k].clone();
             let rows = &setup.order[group.clone()];

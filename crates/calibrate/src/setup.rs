@@ -408,6 +408,12 @@ impl StartWeight for CoordinateWeight {
 /// The observations of a kind whose balls can be re-seeded at the mirror
 /// image of their centre fit ([`Setup::mirror_start`]).
 pub trait MirrorStart {
+    type Weight: StartWeight;
+
+    /// The `u0` (if the observation keeps one) and the weights of the
+    /// contacts `range` (sorted order).
+    fn starts(&mut self, range: Range<usize>) -> (Option<&mut [Vec3]>, &mut [Self::Weight]);
+
     /// Re-seeds ball `ball` of `setup` (its contacts' `u0` and weights);
     /// returns its new initial centre.
     fn mirror_start(
@@ -416,39 +422,35 @@ pub trait MirrorStart {
         dataset: &Dataset,
         weighting: Weighting,
         ball: usize,
-    ) -> Result<Vec3, CalibrateError>;
+    ) -> Result<Vec3, CalibrateError> {
+        let range = setup.groups[ball].clone();
+        let mut scratch = Vec::new();
+        let (directions, weights) = self.starts(range.clone());
+        let directions = directions.unwrap_or_else(|| {
+            scratch.resize(range.len(), Vec3::zeros());
+            &mut scratch
+        });
+        setup.mirror_start(dataset, weighting, ball, directions, weights)
+    }
 }
 
 impl MirrorStart for RadiusObservations {
-    fn mirror_start(
-        &mut self,
-        setup: &Setup,
-        dataset: &Dataset,
-        weighting: Weighting,
-        ball: usize,
-    ) -> Result<Vec3, CalibrateError> {
-        let range = setup.groups[ball].clone();
-        // The radius observation keeps no direction.
-        let mut directions = vec![Vec3::zeros(); range.len()];
-        let weights = &mut self.weights[range];
-        setup.mirror_start(dataset, weighting, ball, &mut directions, weights)
+    type Weight = RadiusWeight;
+
+    /// The radius observation keeps no direction.
+    fn starts(&mut self, range: Range<usize>) -> (Option<&mut [Vec3]>, &mut [RadiusWeight]) {
+        (None, &mut self.weights[range])
     }
 }
 
 impl MirrorStart for CoordinateObservations {
-    fn mirror_start(
-        &mut self,
-        setup: &Setup,
-        dataset: &Dataset,
-        weighting: Weighting,
-        ball: usize,
-    ) -> Result<Vec3, CalibrateError> {
-        let range = setup.groups[ball].clone();
-        let (directions, weights) = (
-            &mut self.directions[range.clone()],
+    type Weight = CoordinateWeight;
+
+    fn starts(&mut self, range: Range<usize>) -> (Option<&mut [Vec3]>, &mut [CoordinateWeight]) {
+        (
+            Some(&mut self.directions[range.clone()]),
             &mut self.weights[range],
-        );
-        setup.mirror_start(dataset, weighting, ball, directions, weights)
+        )
     }
 }
 

@@ -158,10 +158,13 @@ const STEP_TOLERANCE_MM: f64 = 1e-10;
 mod tests {
     use super::*;
 
-    fn hemisphere(centre: Vec3, radius: f64, count: usize) -> Vec<Vec3> {
+    /// `count` points at heights from `low` to `high` (in radii, evenly),
+    /// azimuths 2.4 rad apart.
+    fn band(centre: Vec3, radius: f64, count: usize, low: f64, high: f64) -> Vec<Vec3> {
         (0..count)
             .map(|k| {
-                let (azimuth, height) = (2.4 * k as f64, -0.15 - 0.8 * (k as f64 / count as f64));
+                let (azimuth, t) = (2.4 * k as f64, k as f64 / (count - 1) as f64);
+                let height = low + (high - low) * t;
                 let horizontal = (1.0 - height * height).sqrt();
                 centre
                     + radius
@@ -172,6 +175,13 @@ mod tests {
                         )
             })
             .collect()
+    }
+
+    /// `count` points of the lower hemisphere spread from 0.15 radii below
+    /// the equator down to near the pole.
+    fn hemisphere(centre: Vec3, radius: f64, count: usize) -> Vec<Vec3> {
+        let lowest = -0.15 - 0.8 * (count - 1) as f64 / count as f64;
+        band(centre, radius, count, -0.15, lowest)
     }
 
     #[test]
@@ -188,25 +198,6 @@ mod tests {
         let centre = Vec3::new(3.0, -2.0, 360.0);
         let fitted = best_fit(&hemisphere(centre, 5.0, 9), 5.01).unwrap().centre;
         assert!(fitted.z > centre.z && (fitted - centre).norm() < 0.03);
-    }
-
-    /// Points on a band of the lower hemisphere, between `low` and `high`
-    /// (heights relative to the radius).
-    fn band(centre: Vec3, radius: f64, count: usize, low: f64, high: f64) -> Vec<Vec3> {
-        (0..count)
-            .map(|k| {
-                let (azimuth, t) = (2.4 * k as f64, k as f64 / (count - 1) as f64);
-                let height = low + (high - low) * t;
-                let horizontal = (1.0 - height * height).sqrt();
-                centre
-                    + radius
-                        * Vec3::new(
-                            horizontal * azimuth.cos(),
-                            horizontal * azimuth.sin(),
-                            height,
-                        )
-            })
-            .collect()
     }
 
     #[test]
