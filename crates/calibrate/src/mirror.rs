@@ -7,13 +7,15 @@
 //! image: the calibration then keeps that ball on the wrong side, its
 //! contacts fitting far worse than the noise allows ([`crate::fit`]). The
 //! calibrated geometry tells the sides apart: its contact points fit the
-//! right image to the noise level. A misfit ball whose calibrated contact
-//! points fit the mirror image [`MIRROR_GAIN`] times better is re-seeded
-//! there and the calibration resumes from the solution (see
+//! right image to the noise level. The check is made at each iterate once
+//! Gauss-Newton has settled ([`SETTLED`]), from the ball costs of that
+//! iterate's elimination pass: a misfit ball whose contact points at the
+//! iterate's parameters fit the mirror image [`MIRROR_GAIN`] times better
+//! is re-seeded there and the calibration resumes from that iterate (see
 //! [`crate::run::calibrate`]).
 //!
 //! On the 10^6-contact campaign of docs/performance.md, one ball of 142857
-//! is in this case (chi-square 14053 for 4 at the first solution).
+//! is in this case (chi-square 14053 for 4 at the first settled iterate).
 
 use parcal_kinematics::{ForwardOptions, Geometry, KinematicsError, Pose, Vec3, forward};
 
@@ -25,14 +27,22 @@ use crate::sphere_fit::{SphereFit, mirror_fit, refine_centre};
 /// both sides alike.
 pub const MIRROR_GAIN: f64 = 4.0;
 
+/// The check is made at each iterate of a calibration whose cost is within
+/// this fraction of the previous iterate's: Gauss-Newton has then settled,
+/// and the geometry is good enough for a ball's misfit to be its own. On
+/// the campaigns of docs/performance.md the cost falls by orders of
+/// magnitude for two or three iterations, then moves by less than 1e-3.
+pub const SETTLED: f64 = 1e-2;
+
 /// A ball found on the wrong side of its contacts.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WrongSide {
     /// Its index (artefacts.json order).
     pub ball: usize,
-    /// Its whitened data cost at the solution it was found in.
+    /// Its whitened data cost at the iterate it was found at.
     pub chi_square: f64,
-    /// The fit of its calibrated contact points on the side it is on.
+    /// The fit of its contact points at that iterate's parameters on the
+    /// side it is on.
     pub side: SphereFit,
     /// Their fit at the mirror image: the re-seeded centre.
     pub mirror: SphereFit,

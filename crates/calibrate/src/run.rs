@@ -7,13 +7,13 @@ use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Pose, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    BlockId, IterationRecord, Solution, SolverOptions, SpectrumDiagnostics, Status, WeakDirection,
-    solve_with_caches,
+    BlockId, Iterate, IterationRecord, Monitor, Solution, SolverOptions, SpectrumDiagnostics,
+    Status, Verdict, WeakDirection, solve_with_caches,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls, misfit_warning};
-use crate::mirror::{WrongSide, wrong_side};
+use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
@@ -40,10 +40,10 @@ pub struct CalibrationRun {
     /// Marginal sigmas of the centres (with the parameters' uncertainty).
     pub centre_sigmas: Option<Vec<Vec3>>,
     /// Balls whose contacts fit far worse than the noise allows
-    /// ([`crate::fit`]); empty when none is, or when the run ended without
-    /// a covariance.
+    /// ([`crate::fit`]) at the final iterate; empty when none is, or when
+    /// the run failed before it.
     pub ball_misfits: Vec<BallMisfit>,
-    /// Balls that a first solution showed on the wrong side of their
+    /// Balls that a settled iterate showed on the wrong side of their
     /// contacts, re-seeded at the mirror image of their centre fit before
     /// the calibration resumed ([`crate::mirror`]).
     pub mirrored: Vec<Mirrored>,
@@ -119,8 +119,9 @@ impl CalibrationRun {
             .iter()
             .map(|m| {
                 format!(
-                    "ball {} was on the wrong side of its contacts after a first solution (chi-square {:.1}; its contact points at the calibrated geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
+                    "ball {} was on the wrong side of its contacts at iteration {} (chi-square {:.1}; its contact points at that iterate's geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
                     m.id,
+                    m.iteration,
                     m.side.chi_square,
                     m.side.side.cost / m.side.mirror.cost
                 )
@@ -157,6 +158,7 @@ impl CalibrationRun {
                     self.rows[*i] + 2
                 ),
             },
+            Status::Stopped { iteration } => format!("stopped at iteration {iteration}"),
             Status::InvalidProblem { message } => format!("invalid problem: {message}"),
         }
     }
@@ -413,15 +415,16 @@ struct SolverRun<'a> {
 
 impl SolverRun<'_> {
     /// Solves `problem` from the set-up's initial state, the design's
-    /// forward kinematics (`poses`) warm-starting the first iteration; then,
-    /// if the solution shows balls on the wrong side of their contacts
-    /// ([`crate::mirror`]), re-seeds them and resumes from the solution
-    /// (once: the re-seeded balls' warm starts are those of the solution).
+    /// forward kinematics (`poses`) warm-starting the first iteration. Once
+    /// Gauss-Newton has settled ([`SETTLED`]), every iterate is checked for
+    /// balls on the wrong side of their contacts ([`crate::mirror`]); if
+    /// there are, the run stops there, re-seeds them and resumes (once: the
+    /// re-seeded balls' warm starts are those of that iterate).
     fn solve<const P: usize, const R: usize, O>(
         &self,
         problem: &mut CalibrationProblem<'_, O>,
         poses: Vec<Pose>,
-        observer: &mut dyn FnMut(&IterationRecord),
+        mut observer: &mut dyn FnMut(&IterationRecord),
         rows_per_contact: usize,
     ) -> Result<Solved, CalibrateError>
     where
@@ -429,17 +432,23 @@ impl SolverRun<'_> {
     {
         let setup = self.setup;
         let mut caches = poses;
+        let mut watch = WrongSideWatch {
+            run: self,
+            observer: &mut *observer,
+            found: Ok(Vec::new()),
+        };
         let mut solution = solve_with_caches(
             &*problem,
             setup.initial_state(),
             &mut caches,
             self.solver,
-            observer,
+            &mut watch,
         );
-        let wrong = self.wrong_sides(&solution, &self.misfits(&solution), &caches)?;
+        let wrong = watch.found?;
         let mut mirrored = Vec::with_capacity(wrong.len());
-        if !wrong.is_empty() {
-            // The solution's state is the next start (moved, not copied).
+        if let Status::Stopped { iteration } = solution.status {
+            // The stopped iterate's state is the next start (moved, not
+            // copied).
             let Solution {
                 mut state,
                 history: first,
@@ -468,13 +477,17 @@ impl SolverRun<'_> {
                     ball: k,
                     id: self.ball_ids[k].clone(),
                     initial_centre,
+                    iteration,
                     side,
                 });
             }
-            solution = solve_with_caches(&*problem, state, &mut caches, self.solver, observer);
+            solution = solve_with_caches(&*problem, state, &mut caches, self.solver, &mut observer);
             solution.history.splice(0..0, first);
         }
-        let ball_misfits = self.misfits(&solution);
+        let ball_misfits = solution
+            .group_costs
+            .as_deref()
+            .map_or_else(Vec::new, |costs| self.misfits(costs));
         Ok(Solved {
             params: solution.state.global,
             covariance: solution.covariance,
@@ -489,24 +502,21 @@ impl SolverRun<'_> {
         })
     }
 
-    /// The balls of `solution` that fit their contacts far worse than the
-    /// noise allows ([`crate::fit`]); none when it has no per-ball costs.
-    fn misfits<const P: usize>(&self, solution: &Solution<N_PARAMS, 3, P>) -> Vec<BallMisfit> {
-        solution
-            .group_costs
-            .as_ref()
-            .map_or_else(Vec::new, |costs| {
-                let contacts: Vec<usize> = self.setup.groups.iter().map(|g| g.len()).collect();
-                misfit_balls(self.ball_ids, costs, &contacts)
-            })
+    /// The balls whose data costs (`costs`, one per ball) are far worse
+    /// than the noise allows ([`crate::fit`]).
+    fn misfits(&self, costs: &[f64]) -> Vec<BallMisfit> {
+        let contacts: Vec<usize> = self.setup.groups.iter().map(|g| g.len()).collect();
+        misfit_balls(self.ball_ids, costs, &contacts)
     }
 
-    /// The `misfits` of `solution` that are on the wrong side of their
-    /// contacts ([`crate::mirror`]), with their contact points at the
-    /// calibrated geometry; `caches`: the solution's poses.
-    fn wrong_sides<const P: usize>(
+    /// The `misfits` that are on the wrong side of their contacts at the
+    /// parameters `params` and centres `centres` ([`crate::mirror`]), with
+    /// their contact points at those parameters; `caches`: the contacts'
+    /// poses there (warm starts).
+    fn wrong_sides(
         &self,
-        solution: &Solution<N_PARAMS, 3, P>,
+        params: &Params,
+        centres: &[Vec3],
         misfits: &[BallMisfit],
         caches: &[Pose],
     ) -> Result<Vec<(WrongSide, Vec<Vec3>)>, CalibrateError> {
@@ -514,7 +524,7 @@ impl SolverRun<'_> {
         if misfits.is_empty() {
             return Ok(Vec::new());
         }
-        let geometry = params::from_params(&solution.state.global);
+        let geometry = params::from_params(params);
         let mut wrong = Vec::new();
         for misfit in misfits {
             let k = misfit.ball;
@@ -526,7 +536,7 @@ impl SolverRun<'_> {
                 actuators,
                 &caches[group],
                 dataset.artefacts.balls[k].radius,
-                &solution.state.groups[k],
+                &centres[k],
             )
             .map_err(|source| CalibrateError::ForwardKinematics {
                 row: rows[0] as usize,
@@ -549,6 +559,38 @@ impl SolverRun<'_> {
     }
 }
 
+/// Watches the first solve: records go to the observer; each settled
+/// iterate is checked for balls on the wrong side of their contacts, and
+/// the run stops at the first that has some.
+struct WrongSideWatch<'r, 'o> {
+    run: &'r SolverRun<'r>,
+    observer: &'o mut dyn FnMut(&IterationRecord),
+    /// The balls found (with their contact points), or the failure of the
+    /// check.
+    found: Result<Vec<(WrongSide, Vec<Vec3>)>, CalibrateError>,
+}
+
+impl<const P: usize> Monitor<N_PARAMS, 3, P, Pose> for WrongSideWatch<'_, '_> {
+    fn record(&mut self, record: &IterationRecord) {
+        (self.observer)(record);
+    }
+
+    fn inspect(&mut self, iterate: &Iterate<'_, N_PARAMS, 3, P, Pose>) -> Verdict {
+        if iterate.relative_change() > SETTLED {
+            return Verdict::Continue;
+        }
+        let state = iterate.state;
+        let misfits = self.run.misfits(iterate.group_costs);
+        self.found = self
+            .run
+            .wrong_sides(&state.global, &state.groups, &misfits, iterate.caches);
+        match &self.found {
+            Ok(wrong) if wrong.is_empty() => Verdict::Continue,
+            _ => Verdict::Stop,
+        }
+    }
+}
+
 /// A ball re-seeded at the mirror image of its centre fit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mirrored {
@@ -559,6 +601,9 @@ pub struct Mirrored {
     /// Its new initial centre (the mirror fit of its design-FK contact
     /// points).
     pub initial_centre: Vec3,
-    /// What the first solution showed.
+    /// The Gauss-Newton iterations before it was found (the first settled
+    /// iterate that showed it, [`SETTLED`]).
+    pub iteration: usize,
+    /// What that iterate showed.
     pub side: WrongSide,
 }

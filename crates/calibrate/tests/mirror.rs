@@ -1,11 +1,12 @@
 //! A ball whose contacts lie on a band of its sphere has two centre fits,
 //! mirror images through the band's plane, and with the design geometry the
 //! wrong one can fit best. The calibration finds such a ball on the wrong
-//! side after a first solution, re-seeds it at the mirror image and
+//! side once Gauss-Newton has settled, re-seeds it at the mirror image and
 //! resumes: the ball ends on the right side, fitting its contacts.
 
 use nalgebra::Translation3;
 use parcal_calibrate::evaluate::Truth;
+use parcal_calibrate::mirror::SETTLED;
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
@@ -72,6 +73,15 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
     assert!(side.mirror.cost * 10.0 < side.side.cost, "{side:?}");
     assert!(run.ball_misfits.is_empty(), "{:?}", run.ball_misfits);
     assert!(run.notes()[0].contains(&dataset.artefacts.balls[ball].id));
+    // Found at the first settled iterate, long before the run converged:
+    // the iterate before it still moved the cost by more than SETTLED.
+    let at = run.mirrored[0].iteration;
+    let (before, last) = (&run.history[at - 2], &run.history[at - 1]);
+    assert!(
+        (before.cost - last.cost).abs() > SETTLED * last.cost,
+        "{before:?} then {last:?}"
+    );
+    assert!(at + 3 < run.iterations(), "{at} of {}", run.iterations());
 
     // Its centre (canonical frames) within 4 sigma of the truth, on the
     // right side: the initial centre was about 1.1 mm below it.

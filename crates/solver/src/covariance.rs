@@ -1,8 +1,7 @@
 //! Uncertainty at the final state: `Cov(g) = S⁻¹` of the undamped reduced
 //! matrix, and the full marginal covariance of each group block,
 //! `Cov(c) = R_cc⁻¹R_cc⁻ᵀ + K Cov(g) Kᵀ` with `K = R_cc⁻¹R_cg` from the
-//! group's triangular rows (recomputed in one more pass over the points,
-//! which also gives each group's data cost).
+//! group's triangular rows (recomputed in one more pass over the points).
 
 use nalgebra::{SMatrix, SVector};
 
@@ -11,20 +10,19 @@ use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
 use crate::problem::{Problem, State};
 
-/// Turns each group's triangular rows into its marginal sigmas, and keeps
-/// its data cost.
+/// Turns each group's triangular rows into its marginal sigmas.
 struct SigmaSink<'a, const G: usize, const C: usize> {
     cov: &'a SMatrix<f64, G, G>,
     first_group: usize,
-    out: Vec<(SVector<f64, C>, f64)>,
+    out: Vec<SVector<f64, C>>,
 }
 
 impl<const G: usize, const C: usize> EliminationSink for SigmaSink<'_, G, C> {
     fn reduced_row(&mut self, _row: &[f64]) {}
 
-    fn group_done(&mut self, k: usize, top: &[f64], data_cost: f64) {
+    fn group_done(&mut self, k: usize, top: &[f64], _data_cost: f64) {
         debug_assert_eq!(k, self.first_group + self.out.len());
-        self.out.push((group_sigma(top, self.cov), data_cost));
+        self.out.push(group_sigma(top, self.cov));
     }
 }
 
@@ -67,13 +65,13 @@ impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context
 where
     Pr: Problem<G, C, P, R>,
 {
-    /// Marginal sigmas and data cost of every group at `state`, given the
-    /// covariance of the global block there.
+    /// Marginal sigmas of every group at `state`, given the covariance of
+    /// the global block there.
     pub(crate) fn group_sigmas(
         &mut self,
         state: &State<G, C, P>,
         cov: &SMatrix<f64, G, G>,
-    ) -> Result<Vec<(SVector<f64, C>, f64)>, Failure> {
+    ) -> Result<Vec<SVector<f64, C>>, Failure> {
         let problem = self.problem;
         let dims = self.dims;
         let mut sigmas = Vec::with_capacity(state.groups.len());
@@ -95,7 +93,7 @@ where
                     Ok(sink.out)
                 })
             },
-            |result: Result<Vec<(SVector<f64, C>, f64)>, Failure>| match result {
+            |result: Result<Vec<SVector<f64, C>>, Failure>| match result {
                 Ok(part) => {
                     sigmas.extend(part);
                     true

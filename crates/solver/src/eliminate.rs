@@ -543,7 +543,7 @@ where
 
 /// Collects reduced rows and multiplies them into the lower triangle of the
 /// chunk's augmented reduced matrix `[S b; bᵀ ρ] += AᵀA` by one GEMM whenever
-/// the buffer is full (and at the end).
+/// the buffer is full (and at the end); keeps each group's data cost.
 pub(crate) struct NormalSink<'a> {
     rows: &'a mut [f64],
     width: usize,
@@ -551,10 +551,17 @@ pub(crate) struct NormalSink<'a> {
     filled: usize,
     /// `(G + 1) × (G + 1)`, column-major; lower triangle accumulated.
     pub(crate) normal: &'a mut [f64],
+    /// `Σ |r_i|²` of each group of the chunk, in order.
+    group_costs: &'a mut Vec<f64>,
 }
 
 impl<'a> NormalSink<'a> {
-    pub(crate) fn new(rows: &'a mut [f64], width: usize, normal: &'a mut [f64]) -> Self {
+    pub(crate) fn new(
+        rows: &'a mut [f64],
+        width: usize,
+        normal: &'a mut [f64],
+        group_costs: &'a mut Vec<f64>,
+    ) -> Self {
         let capacity = rows.len() / width;
         Self {
             rows,
@@ -562,6 +569,7 @@ impl<'a> NormalSink<'a> {
             capacity,
             filled: 0,
             normal,
+            group_costs,
         }
     }
 
@@ -598,7 +606,9 @@ impl EliminationSink for NormalSink<'_> {
         self.filled += 1;
     }
 
-    fn group_done(&mut self, _k: usize, _top: &[f64], _data_cost: f64) {}
+    fn group_done(&mut self, _k: usize, _top: &[f64], data_cost: f64) {
+        self.group_costs.push(data_cost);
+    }
 }
 
 #[cfg(test)]

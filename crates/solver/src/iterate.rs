@@ -9,6 +9,7 @@ use nalgebra::{SMatrix, SVector};
 use crate::context::Context;
 use crate::diagnostics::SpectrumDiagnostics;
 use crate::eliminate::Failure;
+use crate::monitor::{Iterate, Monitor, Verdict};
 use crate::options::{Method, SolverOptions};
 use crate::problem::{Problem, State};
 use crate::reduced::{ReducedSystem, ScaledCholesky};
@@ -34,15 +35,16 @@ pub fn solve<
     problem: &Pr,
     initial: State<G, C, P>,
     options: &SolverOptions,
-    observer: &mut dyn FnMut(&IterationRecord),
+    mut observer: &mut dyn FnMut(&IterationRecord),
 ) -> Solution<G, C, P> {
-    solve_with_caches(problem, initial, &mut Vec::new(), options, observer)
+    solve_with_caches(problem, initial, &mut Vec::new(), options, &mut observer)
 }
 
 /// [`solve`] with the points' caches given (e.g. warm starts computed with
 /// the initial estimate) instead of [`Problem::initial_cache`] (empty: from
-/// `initial_cache`). On return `caches` holds those of the run's last pass
-/// over the points: the warm starts of a follow-up run from the solution.
+/// `initial_cache`), and a [`Monitor`] that sees each iterate and may stop
+/// the run there. On return `caches` holds those of the run's last pass over
+/// the points: the warm starts of a follow-up run from the solution.
 pub fn solve_with_caches<
     const G: usize,
     const C: usize,
@@ -54,7 +56,7 @@ pub fn solve_with_caches<
     initial: State<G, C, P>,
     caches: &mut Vec<Pr::PointCache>,
     options: &SolverOptions,
-    observer: &mut dyn FnMut(&IterationRecord),
+    monitor: &mut dyn Monitor<G, C, P, Pr::PointCache>,
 ) -> Solution<G, C, P> {
     let invalid = |state, message: String| Solution {
         state,
@@ -77,7 +79,7 @@ pub fn solve_with_caches<
         Ok(ctx) => Run {
             ctx,
             options,
-            observer,
+            monitor,
             history: Vec::new(),
         }
         .run(initial),
@@ -173,7 +175,7 @@ where
 {
     ctx: Context<'a, G, C, P, R, Pr>,
     options: &'o SolverOptions,
-    observer: &'o mut dyn FnMut(&IterationRecord),
+    monitor: &'o mut dyn Monitor<G, C, P, Pr::PointCache>,
     history: Vec<IterationRecord>,
 }
 
@@ -190,8 +192,25 @@ where
             lambda,
             accepted,
         };
-        (self.observer)(&record);
+        self.monitor.record(&record);
         self.history.push(record);
+    }
+
+    /// Shows the monitor the new iterate `x`, whose system is `system`.
+    fn inspect(
+        &mut self,
+        x: &State<G, C, P>,
+        system: &ReducedSystem,
+        previous_cost: Option<f64>,
+    ) -> Verdict {
+        self.monitor.inspect(&Iterate {
+            state: x,
+            solves: self.history.len(),
+            cost: system.cost(),
+            previous_cost,
+            group_costs: &system.group_costs,
+            caches: self.ctx.caches,
+        })
     }
 
     fn end(self, state: State<G, C, P>, status: Status) -> Solution<G, C, P> {
@@ -260,6 +279,10 @@ where
         if !initial_cost.is_finite() {
             return self.diverged(x, 0, format!("initial cost is {initial_cost}"));
         }
+        // The cost of the iterate before `x`, and whether the monitor has
+        // not seen `x` yet (an LM rejection keeps the iterate).
+        let mut previous_cost = None;
+        let mut new_iterate = true;
         loop {
             let solves = self.history.len();
             if solves >= options.max_iterations {
@@ -267,6 +290,12 @@ where
             }
             if !system.is_finite() {
                 return self.diverged(x, solves, "non-finite reduced system".into());
+            }
+            if new_iterate {
+                new_iterate = false;
+                if self.inspect(&x, &system, previous_cost) == Verdict::Stop {
+                    return self.end(x, Status::Stopped { iteration: solves });
+                }
             }
             let Some(factor) = ScaledCholesky::new(&system.matrix, G) else {
                 if damped.is_none() {
@@ -343,6 +372,8 @@ where
                     );
                 }
                 swap(&mut x, &mut trial);
+                previous_cost = Some(system.cost());
+                new_iterate = true;
                 system = next;
                 continue;
             }
@@ -364,6 +395,8 @@ where
             if gain > 0.0 {
                 self.record(&system, step_norm, lambda, true);
                 swap(&mut x, &mut trial);
+                previous_cost = Some(system.cost());
+                new_iterate = true;
                 nu = 2.0;
                 match next {
                     Some(n) if gain >= GOOD_GAIN => {
@@ -423,15 +456,13 @@ where
             .then(|| ScaledCholesky::new(&system.matrix, G))
             .flatten()
             .map(|f| SMatrix::<f64, G, G>::from_row_slice(&f.inverse()));
-        let (group_sigmas, group_costs) = covariance
+        let group_sigmas = covariance
             .as_ref()
-            .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok())
-            .map(|groups| groups.into_iter().unzip())
-            .unzip();
+            .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok());
         let mut solution = self.end(state, status);
         solution.covariance = covariance;
         solution.group_sigmas = group_sigmas;
-        solution.group_costs = group_costs;
+        solution.group_costs = Some(system.group_costs);
         solution.spectrum = spectrum;
         solution
     }

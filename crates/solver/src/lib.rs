@@ -100,6 +100,18 @@
 //! A failed or non-finite evaluation at a trial point counts as a rejection.
 //! Gauss–Newton takes the full step, with no line search, and may diverge.
 //!
+//! # Watching a run
+//!
+//! [`solve_with_caches`] takes a [`Monitor`]: it sees each history record,
+//! and each new iterate once its reduced system is built, with every
+//! group's data cost `Σ |r_i|²` from that elimination pass (free: the pass
+//! computes them anyway) and the points' caches. It may stop the run there,
+//! before the step ([`Status::Stopped`]): the caller can change the state
+//! (re-seed a group caught in a wrong minimum, say) and resume with the
+//! caches the run hands back. Resumed unchanged, the run takes the steps it
+//! would have taken (bit for bit when the problem's evaluation does not
+//! depend on its caches' history).
+//!
 //! # Parallelism, determinism, memory
 //!
 //! Groups are cut into chunks of [`SolverOptions::groups_per_chunk`]. Chunks
@@ -196,6 +208,7 @@ pub mod dense_reference;
 mod diagnostics;
 mod eliminate;
 mod iterate;
+mod monitor;
 mod options;
 mod problem;
 mod qr;
@@ -205,6 +218,7 @@ mod solution;
 pub use chunks::split_by;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
+pub use monitor::{Iterate, Monitor, Verdict};
 pub use options::{Method, SolverOptions};
 pub use problem::{GaussianPrior, GlobalJacobian, Linearization, Problem, State};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

@@ -23,6 +23,8 @@ pub(crate) struct ReducedSystem {
     pub(crate) damping: Vec<f64>,
     /// `Σ |r_i|²`.
     pub(crate) data_cost: f64,
+    /// Each group's share of `data_cost`, `Σ |r_i|²` over its points.
+    pub(crate) group_costs: Vec<f64>,
     /// All prior terms.
     pub(crate) prior_cost: f64,
     /// The damping `λ` of the whole system.
@@ -45,6 +47,7 @@ struct ChunkPart {
     /// `(G + 1)²`, column-major; lower triangle of `[S b; bᵀ ρ]`.
     normal: Vec<f64>,
     data_cost: f64,
+    group_costs: Vec<f64>,
     prior_cost: f64,
     global_norms2: Vec<f64>,
 }
@@ -66,6 +69,7 @@ where
         let mut total = vec![0.0; w * w];
         let mut global_norms2 = vec![0.0; G];
         let (mut data_cost, mut prior_cost) = (0.0, 0.0);
+        let mut group_costs = Vec::with_capacity(state.groups.len());
         let mut failure = None;
         let (pool, jobs) = self.jobs();
         run_ordered(
@@ -76,10 +80,12 @@ where
                     let mut part = ChunkPart {
                         normal: vec![0.0; w * w],
                         data_cost: 0.0,
+                        group_costs: Vec::with_capacity(chunk.groups.len()),
                         prior_cost: 0.0,
                         global_norms2: vec![0.0; if lambda > 0.0 { G } else { 0 }],
                     };
-                    let mut sink = NormalSink::new(rows, w, &mut part.normal);
+                    let mut sink =
+                        NormalSink::new(rows, w, &mut part.normal, &mut part.group_costs);
                     let gn = (lambda > 0.0).then_some(&mut part.global_norms2[..]);
                     let costs = match eliminate_chunk::<G, C, P, R, _, _>(
                         problem, chunk, state, caches, lambda, dims, bufs, gn, &mut sink,
@@ -117,6 +123,7 @@ where
                             *t += x;
                         }
                         data_cost += part.data_cost;
+                        group_costs.extend(part.group_costs);
                         prior_cost += part.prior_cost;
                     }
                     true
@@ -175,6 +182,7 @@ where
             rhs,
             damping,
             data_cost,
+            group_costs,
             prior_cost,
             lambda,
         })

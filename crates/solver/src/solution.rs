@@ -86,6 +86,12 @@ pub enum Status {
         /// The error's message.
         message: String,
     },
+    /// The [`Monitor`](crate::Monitor) stopped the run at the returned state,
+    /// before a step was computed there (no record for it in the history).
+    Stopped {
+        /// Linear solves before the event.
+        iteration: usize,
+    },
     /// The problem's structure does not match the initial state (group ranges
     /// not a partition, wrong numbers of blocks, non-finite initial values,
     /// zero `groups_per_chunk`). Nothing was evaluated.
@@ -116,8 +122,8 @@ pub struct Solution<const G: usize, const C: usize, const P: usize> {
     /// uncertainty); present whenever `covariance` is.
     pub group_sigmas: Option<Vec<SVector<f64, C>>>,
     /// Each group's data cost `Σ |r_i|²` over its points at the final state
-    /// (whitened: a goodness-of-fit statistic per group); present whenever
-    /// `group_sigmas` is.
+    /// (whitened: a goodness-of-fit statistic per group); present when the
+    /// run ended with `Converged` or `IterationLimit`.
     pub group_costs: Option<Vec<f64>>,
     /// Spectrum of the undamped reduced matrix at the final state: for
     /// `Converged`, `IterationLimit` and `Singular`.

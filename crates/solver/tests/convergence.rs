@@ -124,7 +124,7 @@ fn gauss_newton_converges_to_truth_within_sigmas() {
             .all(|r| r.lambda == 0.0 && r.accepted)
     );
     check_history(&solution, &seen);
-    // The groups' data costs, from the sigma pass at the final state, add
+    // The groups' data costs, from the final iterate's elimination pass, add
     // up to the final record's data cost.
     let group_costs = solution.group_costs.as_ref().expect("group costs");
     assert_eq!(group_costs.len(), 10);
