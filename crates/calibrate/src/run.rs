@@ -481,7 +481,12 @@ impl SolverRun<'_> {
                     side,
                 });
             }
-            solution = solve_with_caches(&*problem, state, &mut caches, self.solver, &mut observer);
+            // Both solves together within the iteration limit.
+            let rest = SolverOptions {
+                max_iterations: self.solver.max_iterations.saturating_sub(iteration),
+                ..self.solver.clone()
+            };
+            solution = solve_with_caches(&*problem, state, &mut caches, &rest, &mut observer);
             solution.history.splice(0..0, first);
         }
         let ball_misfits = solution

@@ -97,3 +97,18 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
     // The re-seeded initial centre is the one recorded.
     assert_ne!(run.mirrored[0].initial_centre, setup.initial_centres[ball]);
 }
+
+#[test]
+fn the_two_solves_share_the_iteration_limit() {
+    let scenario = Scenario::paper();
+    let dataset = with_band(&scenario, 1);
+    let options = CalibrationOptions {
+        max_iterations: 5,
+        ..options()
+    };
+    let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert_eq!(run.mirrored.len(), 1);
+    assert!(run.mirrored[0].iteration < 5);
+    assert_eq!(run.status, parcal_solver::Status::IterationLimit);
+    assert_eq!(run.iterations(), 5);
+}
