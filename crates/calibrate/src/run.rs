@@ -510,8 +510,11 @@ impl SolverRun<'_> {
     /// The balls whose data costs (`costs`, one per ball) are far worse
     /// than the noise allows ([`crate::fit`]).
     fn misfits(&self, costs: &[f64]) -> Vec<BallMisfit> {
-        let contacts: Vec<usize> = self.setup.groups.iter().map(|g| g.len()).collect();
-        misfit_balls(self.ball_ids, costs, &contacts)
+        misfit_balls(
+            self.ball_ids,
+            costs,
+            self.setup.groups.iter().map(|g| g.len()),
+        )
     }
 
     /// The `misfits` that are on the wrong side of their contacts at the

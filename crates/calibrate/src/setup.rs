@@ -287,10 +287,11 @@ impl Starts<'_> {
         let fk = ForwardOptions::default();
         // Forward kinematics in place into one set of derivatives (no copy
         // of the solution per contact); kept per contact: the tip (the
-        // points of the centre fit) and `J_q = dT/dq` (the weights). A ball's first contact starts from the home pose,
-        // each next one from the pose predicted by the previous solution
-        // (3.1 Newton steps per contact instead of 4.0 on the simulated
-        // campaigns), and from the home pose again if that fails.
+        // points of the centre fit) and `J_q = dT/dq` (the weights). A
+        // ball's first contact starts from the home pose, each next one
+        // from the pose predicted by the previous solution (3.1 Newton steps
+        // per contact instead of 4.0 on the simulated campaigns), and from
+        // the home pose again if that fails.
         let mut derivatives = TipDerivatives::default();
         let mut previous: Option<&[f64; 6]> = None;
         let (points, d_q): (Vec<Vec3>, Vec<Matrix3x6<f64>>) = rows
