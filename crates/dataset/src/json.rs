@@ -112,7 +112,14 @@ pub(crate) fn parse<T: DeserializeOwned>(path: &Path, kind: Kind, bytes: &[u8]) 
 /// a 10^6-contact campaign holds 90 MB of contact points). Whatever follows
 /// the field, syntax errors included, is the body's parse to report.
 fn format_field(path: &Path, bytes: &[u8]) -> Result<String> {
-    struct FormatVisitor<'f>(&'f mut Option<String>);
+    /// How far the scan got.
+    enum Format {
+        NotSeen,
+        /// The key, not yet its value.
+        Key,
+        Value(String),
+    }
+    struct FormatVisitor<'f>(&'f mut Format);
     impl<'de> Visitor<'de> for FormatVisitor<'_> {
         type Value = ();
         fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
@@ -123,7 +130,8 @@ fn format_field(path: &Path, bytes: &[u8]) -> Result<String> {
                 if key == "format" {
                     // Stop here: serde_json then reports the unread rest
                     // as an error, which the format found makes moot.
-                    *self.0 = Some(map.next_value()?);
+                    *self.0 = Format::Key;
+                    *self.0 = Format::Value(map.next_value()?);
                     return Ok(());
                 }
                 map.next_value::<IgnoredAny>()?;
@@ -131,13 +139,14 @@ fn format_field(path: &Path, bytes: &[u8]) -> Result<String> {
             Ok(())
         }
     }
-    let mut format = None;
+    let mut format = Format::NotSeen;
     let scanned =
         serde_json::Deserializer::from_slice(bytes).deserialize_map(FormatVisitor(&mut format));
     match (format, scanned) {
-        (Some(format), _) => Ok(format),
-        (None, Err(e)) => Err(map_error(path, None, e)),
-        (None, Ok(())) => Err(DatasetError::field(
+        (Format::Value(format), _) => Ok(format),
+        (Format::Key, Err(e)) => Err(map_error(path, Some("format".to_owned()), e)),
+        (Format::NotSeen, Err(e)) => Err(map_error(path, None, e)),
+        (_, Ok(())) => Err(DatasetError::field(
             path,
             "format",
             "required field is missing",
@@ -319,6 +328,10 @@ mod tests {
         );
         assert!(parse_err(r#"{"a": [1,, "format": "parcal-machine/2"}"#).contains("invalid JSON"),);
         assert!(parse_err(r#"[{"format": "parcal-machine/1"}]"#).contains("a JSON object"));
+        assert_eq!(
+            parse_err(r#"{"format": 1}"#),
+            "x.json: field format: invalid type: integer `1`, expected a string (line 1, column 12)"
+        );
     }
 
     #[test]
