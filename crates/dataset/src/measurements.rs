@@ -1,10 +1,11 @@
 //! `measurements.csv`: one row per contact, streamed.
 //!
 //! Columns are found by header name, in any order; other columns are
-//! ignored, fields are trimmed of surrounding whitespace and blank lines are
-//! skipped. Reading goes through one reused `csv::ByteRecord` and parses
-//! numbers from the bytes, so it allocates nothing per row (except to report
-//! an error) and scales to millions of rows. Writing uses Rust's shortest
+//! ignored, fields are trimmed of surrounding (ASCII) whitespace and blank
+//! lines are skipped. Reading goes through one reused `csv::ByteRecord`,
+//! trims each field as it is used and parses numbers from the bytes, so it
+//! allocates nothing per row (except to report an error) and scales to
+//! millions of rows. Writing uses Rust's shortest
 //! round-trip form of each `f64` (`{}`), so values read back bit for bit.
 
 use std::collections::HashMap;
@@ -13,7 +14,7 @@ use std::fs::File;
 use std::io::{self, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use csv::{ByteRecord, ReaderBuilder, Trim};
+use csv::{ByteRecord, ReaderBuilder};
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
@@ -65,10 +66,7 @@ impl Measurements {
     /// Parses CSV from `input`; errors name `path`. `input` is read once,
     /// front to back; it is rewound only to find the line of an error.
     pub(crate) fn parse<R: Read + Seek>(path: &Path, input: R, balls: &[Ball]) -> Result<Self> {
-        let mut reader = ReaderBuilder::new()
-            .trim(Trim::All)
-            .flexible(true)
-            .from_reader(input);
+        let mut reader = ReaderBuilder::new().flexible(true).from_reader(input);
         match Self::parse_records(&mut reader, balls) {
             Ok(measurements) => Ok(measurements),
             Err(Failure::Csv(e)) => Err(csv_error(path, e)),
@@ -122,7 +120,7 @@ impl Measurements {
                     format!("expected {} fields, found {}", columns.width, record.len()),
                 ));
             }
-            let id = &record[columns.ball];
+            let id = row.field(columns.ball);
             let ball = *index.get(id).ok_or_else(|| {
                 row.error(
                     Some(BALL),
@@ -258,7 +256,7 @@ impl Columns {
             let mut found = fields
                 .iter()
                 .enumerate()
-                .filter(|(_, f)| *f == name.as_bytes());
+                .filter(|(_, f)| f.trim_ascii() == name.as_bytes());
             match (found.next(), found.next()) {
                 (Some((i, _)), None) => Ok(Some(i)),
                 (None, _) => Ok(None),
@@ -338,6 +336,12 @@ struct Row<'a> {
 }
 
 impl Row<'_> {
+    /// Field `column` without surrounding ASCII whitespace (trimmed here
+    /// rather than by the CSV reader, whose trimming copies every record).
+    fn field(&self, column: usize) -> &[u8] {
+        self.record[column].trim_ascii()
+    }
+
     fn error(&self, column: Option<&'static str>, message: String) -> Failure {
         Failure::At {
             end: self.end,
@@ -361,7 +365,7 @@ impl Row<'_> {
     ) -> Result<[f64; N], Failure> {
         let mut out = [0.0; N];
         for ((slot, &column), &name) in out.iter_mut().zip(columns).zip(names) {
-            let bytes = &self.record[column];
+            let bytes = self.field(column);
             let value = std::str::from_utf8(bytes)
                 .ok()
                 .and_then(|text| text.parse::<f64>().ok())

@@ -575,7 +575,15 @@ fn csv_non_numeric_value() {
         "line 2, column q4: expected a number, found \"four\"",
     );
     expect_csv_error(
+        &csv_with(HEADER, "", &["b01,1,2,3, four ,5,6"]),
+        "line 2, column q4: expected a number, found \"four\"",
+    );
+    expect_csv_error(
         &csv_with(HEADER, "", &["b01,1,2,3,4,,6"]),
+        "line 2, column q5: empty field, expected a number",
+    );
+    expect_csv_error(
+        &csv_with(HEADER, "", &["b01,1,2,3,4, \t ,6"]),
         "line 2, column q5: empty field, expected a number",
     );
     expect_csv_error(

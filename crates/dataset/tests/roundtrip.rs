@@ -225,6 +225,27 @@ fn columns_may_come_in_any_order_and_extra_columns_are_ignored() {
 }
 
 #[test]
+fn header_names_and_fields_are_trimmed_of_whitespace() {
+    let dir = written(NONE);
+    write_csv(
+        dir.path(),
+        " ball ,q1,\tq2, q3 ,q4,q5,q6\r\n\
+         \tb01 , 1 ,2,3,4,5, 6.5\t\r\n\
+         b02,1,2,3,4,5,6\r\n\
+         plate-3 ,1,2,3,4,5,6\r\n",
+    );
+    let d = Dataset::read_with(
+        dir.path(),
+        &ReadOptions {
+            min_contacts_per_ball: 1,
+        },
+    )
+    .unwrap();
+    assert_eq!(d.measurements.ball, [0, 1, 2]);
+    assert_eq!(d.measurements.q[0], [1.0, 2.0, 3.0, 4.0, 5.0, 6.5]);
+}
+
+#[test]
 fn extra_json_fields_are_ignored() {
     let dir = written(ALL);
     for file in [MACHINE_FILE, ARTEFACTS_FILE, TRUTH_FILE] {
