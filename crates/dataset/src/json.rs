@@ -336,7 +336,7 @@ mod tests {
             parse_err(r#"{"format": "parcal-machine/1", "a": 1, "inner": {"b": [1,, "#)
                 .contains("invalid JSON: expected value")
         );
-        assert!(parse_err(r#"{"a": [1,, "format": "parcal-machine/2"}"#).contains("invalid JSON"),);
+        assert!(parse_err(r#"{"a": [1,, "format": "parcal-machine/2"}"#).contains("invalid JSON"));
         assert!(parse_err(r#"[{"format": "parcal-machine/1"}]"#).contains("a JSON object"));
         assert_eq!(
             parse_err(r#"{"format": 1}"#),

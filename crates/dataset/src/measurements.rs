@@ -5,8 +5,8 @@
 //! lines are skipped. Reading goes through one reused `csv::ByteRecord`,
 //! trims each field as it is used and parses numbers from the bytes, so it
 //! allocates nothing per row (except to report an error) and scales to
-//! millions of rows. Writing uses Rust's shortest
-//! round-trip form of each `f64` (`{}`), so values read back bit for bit.
+//! millions of rows. Writing uses Rust's shortest round-trip form of each
+//! `f64` (`{}`), so values read back bit for bit.
 
 use std::collections::HashMap;
 use std::fmt::Write as _;

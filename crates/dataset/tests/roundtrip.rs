@@ -200,24 +200,28 @@ fn contacts_per_ball_counts_rows() {
     assert_eq!(d.contacts_per_ball(), [4, 5, 6]);
 }
 
-#[test]
-fn columns_may_come_in_any_order_and_extra_columns_are_ignored() {
+/// The test dataset with `csv` as its measurements.csv, read allowing a
+/// single contact per ball.
+fn read_with_csv(csv: &str) -> Dataset {
     let dir = written(NONE);
-    write_csv(
-        dir.path(),
-        "q6, note ,q5,q4,q3,q2,q1,ball\n\
-         6,x,5,4,3,2,1,b01\n\
-         \n\
-         6,\"a, b\",5,4,3,2,1.5e2,b02\n\
-         6,,5,4,3,2,1,plate-3\n",
-    );
-    let d = Dataset::read_with(
+    write_csv(dir.path(), csv);
+    Dataset::read_with(
         dir.path(),
         &ReadOptions {
             min_contacts_per_ball: 1,
         },
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn columns_may_come_in_any_order_and_extra_columns_are_ignored() {
+    let csv = "q6, note ,q5,q4,q3,q2,q1,ball\n\
+         6,x,5,4,3,2,1,b01\n\
+         \n\
+         6,\"a, b\",5,4,3,2,1.5e2,b02\n\
+         6,,5,4,3,2,1,plate-3\n";
+    let d = read_with_csv(csv);
     assert_eq!(d.measurements.ball, [0, 1, 2]);
     assert_eq!(d.measurements.q[0], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
     assert_eq!(d.measurements.q[1][0], 150.0);
@@ -226,21 +230,11 @@ fn columns_may_come_in_any_order_and_extra_columns_are_ignored() {
 
 #[test]
 fn header_names_and_fields_are_trimmed_of_whitespace() {
-    let dir = written(NONE);
-    write_csv(
-        dir.path(),
-        " ball ,q1,\tq2, q3 ,q4,q5,q6\r\n\
+    let csv = " ball ,q1,\tq2, q3 ,q4,q5,q6\r\n\
          \tb01 , 1 ,2,3,4,5, 6.5\t\r\n\
          b02,1,2,3,4,5,6\r\n\
-         plate-3 ,1,2,3,4,5,6\r\n",
-    );
-    let d = Dataset::read_with(
-        dir.path(),
-        &ReadOptions {
-            min_contacts_per_ball: 1,
-        },
-    )
-    .unwrap();
+         plate-3 ,1,2,3,4,5,6\r\n";
+    let d = read_with_csv(csv);
     assert_eq!(d.measurements.ball, [0, 1, 2]);
     assert_eq!(d.measurements.q[0], [1.0, 2.0, 3.0, 4.0, 5.0, 6.5]);
 }
