@@ -2,7 +2,9 @@
 //! warm-started one iteration away, then one combination of the tip
 //! Jacobian's rows, as the elimination uses it), of one back-substitution
 //! (`J_f dp` at the converged pose) and, for comparison, the full 3 x 33
-//! tip Jacobian.
+//! tip Jacobian. As in a calibration's passes, one set of derivatives is
+//! reused from contact to contact (forward kinematics in place; its LU tries
+//! the previous contact's row order first).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parcal_kinematics::{
@@ -32,19 +34,23 @@ fn kinematics(c: &mut Criterion) {
     c.bench_function(
         "forward kinematics + one row combination of J_f, per contact",
         |b| {
+            let mut derivatives = TipDerivatives::default();
             b.iter(|| {
                 let (q, start) = next();
-                let solution = forward(&moved, q, start, &fk).unwrap();
+                derivatives.forward(&moved, q, start, &fk).unwrap();
                 let mut row = [0.0; N_PARAMS];
-                TipDerivatives::new(&moved, &solution).params_row(&h, &mut row);
+                derivatives.params_row(&h, &mut row);
                 black_box(row)
             })
         },
     );
     c.bench_function("J_f dp at a known pose, per contact", |b| {
+        let mut derivatives = TipDerivatives::default();
         b.iter(|| {
-            let (_, pose) = next();
-            black_box(TipDerivatives::at(&design, pose).unwrap().along(&dp))
+            let (q, pose) = next();
+            // Converged: no Newton step, the legs and one LU at `pose`.
+            derivatives.forward(&design, q, pose, &fk).unwrap();
+            black_box(derivatives.along(&dp))
         })
     });
     c.bench_function("forward kinematics + full J_f, per contact", |b| {
