@@ -26,6 +26,22 @@ pub const SINGULAR_PIVOT_RATIO: f64 = 1e-12;
 /// the largest entry below it in its column ([`Lu6::factor_in_place`]).
 pub const THRESHOLD: f64 = 0.25;
 
+/// The pivots of the six steps `step::<0>(args)` .. `step::<5>(args)` of a
+/// factorisation, in order: each step with constant loop bounds, unrolled
+/// by the compiler.
+macro_rules! each_column {
+    ($step:ident($($arg:expr),*)) => {
+        [
+            $step::<0>($($arg),*),
+            $step::<1>($($arg),*),
+            $step::<2>($($arg),*),
+            $step::<3>($($arg),*),
+            $step::<4>($($arg),*),
+            $step::<5>($($arg),*),
+        ]
+    };
+}
+
 /// `P A = L U`: `L` unit lower triangular and `U` upper triangular, packed,
 /// with the diagonal of `U` stored as its reciprocal (the solves multiply).
 #[derive(Debug, Clone)]
@@ -81,27 +97,13 @@ impl Lu6 {
             *row = rows[usize::from(k)];
         }
         let mut accepted = true;
-        let pivots = [
-            eliminate_in_order::<0>(lu, &mut accepted),
-            eliminate_in_order::<1>(lu, &mut accepted),
-            eliminate_in_order::<2>(lu, &mut accepted),
-            eliminate_in_order::<3>(lu, &mut accepted),
-            eliminate_in_order::<4>(lu, &mut accepted),
-            eliminate_in_order::<5>(lu, &mut accepted),
-        ];
+        let pivots = each_column!(eliminate_in_order(lu, &mut accepted));
         if accepted {
             return check_pivots(&pivots);
         }
         let mut lu = rows;
         let mut permutation = [0, 1, 2, 3, 4, 5];
-        let pivots = [
-            eliminate_column::<0>(&mut lu, &mut permutation),
-            eliminate_column::<1>(&mut lu, &mut permutation),
-            eliminate_column::<2>(&mut lu, &mut permutation),
-            eliminate_column::<3>(&mut lu, &mut permutation),
-            eliminate_column::<4>(&mut lu, &mut permutation),
-            eliminate_column::<5>(&mut lu, &mut permutation),
-        ];
+        let pivots = each_column!(eliminate_column(&mut lu, &mut permutation));
         check_pivots(&pivots)?;
         self.lu = lu;
         self.permutation = permutation;
@@ -234,35 +236,40 @@ mod tests {
         })
     }
 
-    #[test]
-    fn solves_by_the_matrix_and_its_transpose() {
-        let a = matrix();
-        let b = Vector6::new(1.0, -2.0, 3.0, 0.5, -0.25, 4.0);
-        let lu = Lu6::factor(rows(&a)).unwrap();
-        assert!((a * lu.solve(&b) - b).amax() < 1e-12);
-        assert!((a.transpose() * lu.solve_transpose(&b) - b).amax() < 1e-12);
+    /// `matrix()` with row 4 twice row 2.
+    fn singular() -> Matrix6<f64> {
+        let mut a = matrix();
+        let row = a.row(2).into_owned();
+        a.set_row(4, &(row * 2.0));
+        a
     }
 
-    /// `a` with its rows in the order `order`.
-    fn permuted(a: &Matrix6<f64>, order: [usize; 6]) -> Matrix6<f64> {
-        Matrix6::from_fn(|i, j| a[(order[i], j)])
-    }
-
+    /// `lu` solves by `a` and by its transpose.
     fn assert_solves(lu: &Lu6, a: &Matrix6<f64>) {
         let b = Vector6::new(1.0, -2.0, 3.0, 0.5, -0.25, 4.0);
         assert!((a * lu.solve(&b) - b).amax() < 1e-12);
         assert!((a.transpose() * lu.solve_transpose(&b) - b).amax() < 1e-12);
     }
 
+    #[test]
+    fn solves_by_the_matrix_and_its_transpose() {
+        let a = matrix();
+        assert_solves(&Lu6::factor(rows(&a)).unwrap(), &a);
+    }
+
+    /// The rows of `a` from the smallest `|a[(i, 0)]|` to the largest.
+    fn by_first_entry(a: &Matrix6<f64>) -> [usize; 6] {
+        let mut order = [0, 1, 2, 3, 4, 5];
+        order.sort_by(|&i, &j| a[(i, 0)].abs().total_cmp(&a[(j, 0)].abs()));
+        order
+    }
+
     /// `matrix()` with its row of smallest first entry moved to row `row`.
     fn small_first_pivot_at(row: usize) -> Matrix6<f64> {
         let a = matrix();
-        let small = (0..6)
-            .min_by(|&i, &j| a[(i, 0)].abs().total_cmp(&a[(j, 0)].abs()))
-            .unwrap();
         let mut order = [0, 1, 2, 3, 4, 5];
-        order.swap(row, small);
-        let b = permuted(&a, order);
+        order.swap(row, by_first_entry(&a)[0]);
+        let b = Matrix6::from_fn(|i, j| a[(order[i], j)]);
         assert!(b[(row, 0)].abs() < THRESHOLD * a.column(0).amax());
         b
     }
@@ -290,16 +297,10 @@ mod tests {
         // are exchanged as partial pivoting would.
         let b = small_first_pivot_at(usize::from(lu.permutation[0]));
         lu.factor_in_place(rows(&b)).unwrap();
-        let largest = (0..6)
-            .max_by(|&i, &j| b[(i, 0)].abs().total_cmp(&b[(j, 0)].abs()))
-            .unwrap();
-        assert_eq!(usize::from(lu.permutation[0]), largest);
+        assert_eq!(usize::from(lu.permutation[0]), by_first_entry(&b)[5]);
         assert_solves(&lu, &b);
         // Singular matrices are refused on either path.
-        let mut singular = a;
-        let row = singular.row(2).into_owned();
-        singular.set_row(4, &(row * 2.0));
-        assert!(lu.factor_in_place(rows(&singular)).is_err());
+        assert!(lu.factor_in_place(rows(&singular())).is_err());
         assert!(lu.factor_in_place([[0.0; 6]; 6]).is_err());
         assert!(lu.factor_in_place(rows(&a)).is_ok());
         assert_solves(&lu, &a);
@@ -307,11 +308,8 @@ mod tests {
 
     #[test]
     fn refuses_singular_matrices() {
-        let mut a = matrix();
-        let row = a.row(2).into_owned();
-        a.set_row(4, &(row * 2.0));
         assert_eq!(
-            Lu6::factor(rows(&a)).unwrap_err(),
+            Lu6::factor(rows(&singular())).unwrap_err(),
             KinematicsError::SingularJacobian
         );
         assert!(Lu6::factor([[0.0; 6]; 6]).is_err());
