@@ -59,7 +59,7 @@ const BLOCK: usize = 16;
 /// `A[:, c..c + B] −= τ v_j (v_jᵀ A[:, c..c + B])` for reflector `j` of
 /// [`householder_panel`] (`v_j` = 1 at row `j`, the panel's column `j`
 /// below it); the sums run over the rows in order, so any `B` gives the
-/// same bits.
+/// same bits. Returns `B`, the columns done.
 #[inline(always)]
 fn reflect_columns<const B: usize>(
     a: &mut [f64],
@@ -68,7 +68,7 @@ fn reflect_columns<const B: usize>(
     j: usize,
     c: usize,
     tau: f64,
-) {
+) -> usize {
     const IN_ROW: &str = "the block lies in the row";
     let (top, below) = a[j * n..m * n].split_at_mut(n);
     let top = top[c..].first_chunk_mut::<B>().expect(IN_ROW);
@@ -90,6 +90,7 @@ fn reflect_columns<const B: usize>(
             x[t] -= v * w[t];
         }
     }
+    B
 }
 
 /// Sets the reflectors below the diagonal to exact zeros.
@@ -140,26 +141,16 @@ pub(crate) fn householder_rows(
         if tau[j] == 0.0 {
             continue;
         }
+        // Blocks of BLOCK columns, then the last columns in halving blocks.
         let mut c = k;
-        while c + BLOCK <= n {
-            reflect_columns::<BLOCK>(a, m, n, j, c, tau[j]);
-            c += BLOCK;
-        }
-        // The last columns in halving blocks.
-        if c + 8 <= n {
-            reflect_columns::<8>(a, m, n, j, c, tau[j]);
-            c += 8;
-        }
-        if c + 4 <= n {
-            reflect_columns::<4>(a, m, n, j, c, tau[j]);
-            c += 4;
-        }
-        if c + 2 <= n {
-            reflect_columns::<2>(a, m, n, j, c, tau[j]);
-            c += 2;
-        }
-        if c < n {
-            reflect_columns::<1>(a, m, n, j, c, tau[j]);
+        while c < n {
+            c += match n - c {
+                BLOCK.. => reflect_columns::<BLOCK>(a, m, n, j, c, tau[j]),
+                8.. => reflect_columns::<8>(a, m, n, j, c, tau[j]),
+                4.. => reflect_columns::<4>(a, m, n, j, c, tau[j]),
+                2.. => reflect_columns::<2>(a, m, n, j, c, tau[j]),
+                _ => reflect_columns::<1>(a, m, n, j, c, tau[j]),
+            };
         }
     }
     clear_reflectors(a, m, n, kk);
