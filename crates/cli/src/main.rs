@@ -6,6 +6,7 @@
 mod commands;
 mod progress;
 
+use std::io::ErrorKind;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -45,11 +46,23 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of stdout (`parcal inspect d | head`) has what it
+        // wanted: stop quietly, as a program killed by SIGPIPE does.
+        Err(error) if closed_pipe(&error) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {}", one_sentence(&error));
+            progress::stderr_line(&format!("error: {}", one_sentence(&error)));
             ExitCode::FAILURE
         }
     }
+}
+
+/// Whether `error` is a write to a closed pipe.
+fn closed_pipe(error: &anyhow::Error) -> bool {
+    error.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == ErrorKind::BrokenPipe)
+    })
 }
 
 /// The error and its causes joined by ": ", skipping a cause that the

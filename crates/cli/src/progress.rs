@@ -8,7 +8,7 @@
 //!   iteration: cost 1.234567e3, step 4.560e-2 (0.12 s)
 //! ```
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -63,7 +63,7 @@ impl Progress {
                 bar.inc(1);
                 bar.set_message(message.to_owned());
             }
-            None => eprintln!("  {}: {message}", self.label),
+            None => stderr_line(&format!("  {}: {message}", self.label)),
         }
     }
 
@@ -71,7 +71,7 @@ impl Progress {
     pub fn line(&self, text: &str) {
         match &self.bar {
             Some(bar) => bar.println(text),
-            None => eprintln!("{text}"),
+            None => stderr_line(text),
         }
     }
 
@@ -81,6 +81,13 @@ impl Progress {
             bar.abandon();
         }
     }
+}
+
+/// `text` and a newline on stderr. A stderr that cannot be written (a
+/// closed pipe) loses the line and the run goes on: the results go to
+/// files and stdout, and `eprintln!` would panic instead.
+pub fn stderr_line(text: &str) {
+    let _ = writeln!(std::io::stderr(), "{text}");
 }
 
 /// Clears what was not finished (a spinner, or a run that ended in an

@@ -1,7 +1,7 @@
 //! End-to-end tests of the `parcal` binary.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 fn parcal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_parcal"))
@@ -277,4 +277,56 @@ fn a_binary_snapshot_calibrates_like_the_text_files() {
     ]);
     assert!(output.status.success());
     assert_eq!(from_snapshot, std::fs::read_to_string(text_out).unwrap());
+}
+
+/// Runs parcal with its stdout (and, if `close_stderr`, its stderr) a pipe
+/// whose reader is gone before parcal writes, as in `parcal inspect d | head
+/// -0`; returns the exit status and what reached stderr.
+fn with_closed_output(args: &[&str], close_stderr: bool) -> (std::process::ExitStatus, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_parcal"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the parcal binary runs");
+    drop(child.stdout.take());
+    if close_stderr {
+        drop(child.stderr.take());
+    }
+    let output = child.wait_with_output().expect("parcal ends");
+    (output.status, text(&output.stderr))
+}
+
+#[test]
+fn a_closed_output_pipe_ends_the_run_quietly_and_keeps_its_files() {
+    let reference =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1");
+    let reference = reference.to_str().unwrap();
+    let (status, stderr) = with_closed_output(&["inspect", reference], false);
+    assert!(status.success() && stderr.is_empty(), "{status}: {stderr}");
+
+    let temp = tempfile::tempdir().unwrap();
+    for close_stderr in [false, true] {
+        let out = temp.path().join(format!("calibration-{close_stderr}.json"));
+        let args = ["calibrate", reference, "--out", out.to_str().unwrap()];
+        let (status, stderr) = with_closed_output(&args, close_stderr);
+        assert!(status.success(), "{status}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        let calibration = parcal_dataset_calibration(&out);
+        assert!(calibration.contains("\"converged\": true"), "{calibration}");
+    }
+
+    // A calibration that fails still says so.
+    let out = temp.path().join("unfinished.json");
+    let args = [
+        "calibrate",
+        reference,
+        "--max-iterations",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let (status, stderr) = with_closed_output(&args, false);
+    assert!(!status.success(), "{stderr}");
+    assert!(stderr.contains("did not converge"), "{stderr}");
 }

@@ -1,5 +1,6 @@
 //! `parcal accuracy`: the accuracy maps of spec section 5 as CSV and PNG.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -77,15 +78,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let pictures = write_maps(&args.out, "", "accuracy", &maps)?;
-    println!(
+    let mut stdout = std::io::stdout().lock();
+    writeln!(
+        stdout,
         "{}",
         tables::accuracy(&[("design (propagated prior) / calibration", &maps)])
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "wrote {} and {} PNG maps to {}",
         args.out.join("accuracy.csv").display(),
         pictures.len(),
         args.out.display()
-    );
+    )?;
     Ok(())
 }

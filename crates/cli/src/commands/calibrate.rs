@@ -1,6 +1,7 @@
 //! `parcal calibrate`: identify the parameters of a dataset, print the
 //! table and the accuracy summary, write calibration.json.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -9,9 +10,9 @@ use clap::ValueEnum;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{
-    CalibrationOptions, Observation, PriorMode, Simulation, Weighting, calibrate,
+    CalibrationOptions, CalibrationRun, Observation, PriorMode, Simulation, Weighting, calibrate,
 };
-use parcal_dataset::CALIBRATION_FILE;
+use parcal_dataset::{CALIBRATION_FILE, Dataset};
 use parcal_report::tables;
 
 use crate::progress::Progress;
@@ -160,21 +161,40 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| directory.join(CALIBRATION_FILE));
     run.record().write(&out)?;
-
-    let truth = Truth::of(&dataset)
-        .transpose()
-        .context("truth.json: the true geometry is degenerate")?;
-    println!("{}", tables::run_summary(&run, truth.as_ref()));
-    println!("{}", tables::parameters(&run, truth.as_ref()));
-    let maps =
-        before_after(&dataset, truth.as_ref(), &run, &MapGrid::paper()).context("accuracy map")?;
-    println!("accuracy on the plane z = 400 of the design frame, um:\n");
-    println!("{}", tables::accuracy(&[("this calibration", &maps)]));
-    println!("calibration written to {}", out.display());
+    // A reader that closed stdout early does not hide a failed calibration.
+    let printed = print_results(&dataset, &run, &out);
     anyhow::ensure!(
         run.converged(),
         "the calibration did not converge: {}",
         run.status_text()
     );
+    printed
+}
+
+/// The summary, the parameter table and the accuracy of `run` on stdout.
+fn print_results(
+    dataset: &Dataset,
+    run: &CalibrationRun,
+    calibration: &Path,
+) -> anyhow::Result<()> {
+    let truth = Truth::of(dataset)
+        .transpose()
+        .context("truth.json: the true geometry is degenerate")?;
+    let maps =
+        before_after(dataset, truth.as_ref(), run, &MapGrid::paper()).context("accuracy map")?;
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "{}", tables::run_summary(run, truth.as_ref()))?;
+    writeln!(stdout, "{}", tables::parameters(run, truth.as_ref()))?;
+    writeln!(
+        stdout,
+        "accuracy on the plane z = 400 of the design frame, um:"
+    )?;
+    writeln!(stdout)?;
+    writeln!(
+        stdout,
+        "{}",
+        tables::accuracy(&[("this calibration", &maps)])
+    )?;
+    writeln!(stdout, "calibration written to {}", calibration.display())?;
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! `parcal inspect`: read and validate a dataset and summarise it.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -26,34 +27,43 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
     let counts = dataset.contacts_per_ball();
     let m = &dataset.measurements;
-    println!("dataset {}", args.dataset.display());
-    println!(
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "dataset {}", args.dataset.display())?;
+    writeln!(
+        stdout,
         "  balls              {} ({:?} frame)",
         counts.len(),
         dataset.artefacts.frame
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "  contacts           {} ({} .. {} per ball)",
         m.q.len(),
         counts.iter().min().unwrap_or(&0),
         counts.iter().max().unwrap_or(&0)
-    );
-    println!("  ball distances     {}", dataset.artefacts.distances.len());
-    println!(
+    )?;
+    writeln!(
+        stdout,
+        "  ball distances     {}",
+        dataset.artefacts.distances.len()
+    )?;
+    writeln!(
+        stdout,
         "  approach dirs      {}",
         if m.direction.is_some() { "yes" } else { "no" }
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "  truth              {}",
         if dataset.truth.is_some() { "yes" } else { "no" }
-    );
+    )?;
     for i in 0..6 {
         let (lo, hi) =
             m.q.iter()
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
                     (lo.min(q[i]), hi.max(q[i]))
                 });
-        println!("  q{}                 {lo:.4} .. {hi:.4} mm", i + 1);
+        writeln!(stdout, "  q{}                 {lo:.4} .. {hi:.4} mm", i + 1)?;
     }
 
     let options = ForwardOptions::default();
@@ -67,12 +77,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             })
             .collect();
     if failures.is_empty() {
-        println!("  forward kinematics with the design geometry succeeds on every row");
+        writeln!(
+            stdout,
+            "  forward kinematics with the design geometry succeeds on every row"
+        )?;
         return Ok(());
     }
     for (row, error) in failures.iter().take(LISTED_FAILURES) {
         // Line numbers of measurements.csv: the header is line 1.
-        eprintln!("  measurements.csv line {}: {error}", row + 2);
+        crate::progress::stderr_line(&format!("  measurements.csv line {}: {error}", row + 2));
     }
     anyhow::bail!(
         "forward kinematics with the design geometry fails on {} of {} rows of measurements.csv",

@@ -1,5 +1,6 @@
 //! `parcal simulate`: write a simulated campaign as a dataset.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -63,25 +64,34 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .with_context(|| format!("cannot write the snapshot {}", path.display()))?;
     }
     let s = &simulation.summary;
-    println!("simulated dataset written to {}", args.out.display());
-    println!("  seed               {}", args.seed);
-    println!("  balls              {}", s.balls);
-    println!(
+    let mut stdout = std::io::stdout().lock();
+    writeln!(
+        stdout,
+        "simulated dataset written to {}",
+        args.out.display()
+    )?;
+    writeln!(stdout, "  seed               {}", args.seed)?;
+    writeln!(stdout, "  balls              {}", s.balls)?;
+    writeln!(
+        stdout,
         "  contacts           {} ({} per ball)",
         s.contacts, scenario.points_per_ball
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "  leg lengths        {:.3} .. {:.3} mm",
         s.leg_length_range.0, s.leg_length_range.1
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "  platform tilt      {:.2} .. {:.2} deg",
         s.tilt_range.0.to_degrees(),
         s.tilt_range.1.to_degrees()
-    );
-    println!(
+    )?;
+    writeln!(
+        stdout,
         "  FK check           every contact's tip back on its ball, worst {:.2} sigma of the noise",
         s.worst_check
-    );
+    )?;
     Ok(())
 }
