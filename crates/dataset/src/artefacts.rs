@@ -180,8 +180,8 @@ impl Artefacts {
                     format!("joins ball {:?} to itself", self.balls[d.a].id),
                 ));
             }
-            check.positive(&format!("distances[{i}].length"), d.length)?;
-            check.positive(&format!("distances[{i}].sigma"), d.sigma)?;
+            check.positive(format_args!("distances[{i}].length"), d.length)?;
+            check.positive(format_args!("distances[{i}].sigma"), d.sigma)?;
         }
         Ok(())
     }
@@ -192,20 +192,19 @@ fn validate_balls(check: Check, balls: &[Ball]) -> Result<()> {
         return Err(check.error("balls", "lists no ball"));
     }
     for (i, ball) in balls.iter().enumerate() {
-        let field = |name: &str| format!("balls[{i}].{name}");
         if ball.id.is_empty() || ball.id.trim() != ball.id {
             return Err(check.error(
-                field("id"),
+                format!("balls[{i}].id"),
                 format!(
                     "ball id {:?} is empty or has leading or trailing whitespace",
                     ball.id
                 ),
             ));
         }
-        check.point(&field("centre"), &ball.centre)?;
-        check.positive(&field("centre_sigma"), ball.centre_sigma)?;
-        check.positive(&field("radius"), ball.radius)?;
-        check.positive(&field("radius_sigma"), ball.radius_sigma)?;
+        check.point(format_args!("balls[{i}].centre"), &ball.centre)?;
+        check.positive(format_args!("balls[{i}].centre_sigma"), ball.centre_sigma)?;
+        check.positive(format_args!("balls[{i}].radius"), ball.radius)?;
+        check.positive(format_args!("balls[{i}].radius_sigma"), ball.radius_sigma)?;
     }
     if let Err((first, i)) = ball_index(balls) {
         return Err(check.error(

@@ -147,13 +147,16 @@ impl Calibration {
         }
 
         for (id, estimate) in &self.ball_centres {
-            check.point(&format!("ball_centres.{id}.centre"), &estimate.centre)?;
-            check.point(&format!("ball_centres.{id}.sigma"), &estimate.sigma)?;
+            check.point(format_args!("ball_centres.{id}.centre"), &estimate.centre)?;
+            check.point(format_args!("ball_centres.{id}.sigma"), &estimate.sigma)?;
         }
         for (i, it) in self.iterations.iter().enumerate() {
-            check.finite(&format!("iterations[{i}].cost"), it.cost)?;
-            check.finite(&format!("iterations[{i}].step_norm"), it.step_norm)?;
-            check.finite(&format!("iterations[{i}].residual_rms"), it.residual_rms)?;
+            check.finite(format_args!("iterations[{i}].cost"), it.cost)?;
+            check.finite(format_args!("iterations[{i}].step_norm"), it.step_norm)?;
+            check.finite(
+                format_args!("iterations[{i}].residual_rms"),
+                it.residual_rms,
+            )?;
         }
         Ok(())
     }

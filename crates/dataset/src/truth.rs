@@ -112,7 +112,7 @@ impl Truth {
         }
         check.points("ball_centres", &self.ball_centres)?;
         for (i, &r) in self.ball_radii.iter().enumerate() {
-            check.positive(&format!("ball_radii[{i}]"), r)?;
+            check.positive(format_args!("ball_radii[{i}]"), r)?;
         }
         if self.contacts.len() != rows {
             return Err(check.error(
