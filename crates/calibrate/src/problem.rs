@@ -14,7 +14,7 @@
 use std::cell::RefCell;
 use std::ops::Range;
 
-use nalgebra::{SMatrix, SVector, Vector2};
+use nalgebra::{SMatrix, SVector, UnitVector3, Vector2};
 use parcal_kinematics::{
     ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3,
     forward::step as step_pose, params,
@@ -35,8 +35,9 @@ pub struct RadiusObservations {
 /// Paper eq. (10) for every contact, the angles charted about each
 /// contact's initial direction `u0`.
 pub struct CoordinateObservations {
-    /// `u0` of each contact (unit, canonical base frame).
-    pub directions: Vec<Vec3>,
+    /// `u0` of each contact (canonical base frame), from
+    /// [`parcal_observe::unit_direction`].
+    pub directions: Vec<UnitVector3<f64>>,
     pub weights: Vec<CoordinateWeight>,
     /// Sigma of the angle prior of every contact (rad); `None`: no prior.
     pub angle_sigma: Option<f64>,
@@ -108,7 +109,7 @@ impl ContactObservations<3, 2> for CoordinateObservations {
         centre: &Vec3,
         angles: &Vector2<f64>,
     ) -> Result<BlockJacobians<3, 2>, ObserveError> {
-        let chart = DirectionChart::new(&self.directions[i])?;
+        let chart = DirectionChart::about(&self.directions[i]);
         Ok(CoordinateBlock { radius, chart }.evaluate(tip, centre, angles))
     }
 
@@ -127,7 +128,7 @@ impl ContactObservations<3, 2> for CoordinateObservations {
     /// The chart's inverse about the contact's `u0`
     /// ([`DirectionChart::angles_of`]).
     fn angles_toward(&self, i: usize, direction: &Vec3) -> Result<Vector2<f64>, ObserveError> {
-        Ok(DirectionChart::new(&self.directions[i])?.angles_of(direction))
+        Ok(DirectionChart::about(&self.directions[i]).angles_of(direction))
     }
 }
 

@@ -8,14 +8,14 @@
 
 use std::ops::Range;
 
-use nalgebra::{Matrix3x6, SMatrix, SVector, Vector3, Vector6};
+use nalgebra::{Matrix3x6, SMatrix, SVector, UnitVector3, Vector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
 };
 use parcal_observe::{
     CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability,
-    WeightModel, coordinate_covariance, radius_variance,
+    WeightModel, coordinate_covariance, radius_variance, unit_direction,
 };
 use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
@@ -155,7 +155,7 @@ impl Setup {
         dataset: &Dataset,
         weighting: Weighting,
         ball: usize,
-        directions: &mut [Vec3],
+        directions: &mut [UnitVector3<f64>],
         weights: &mut [T],
     ) -> Result<Vec3, CalibrateError> {
         let starts = Starts {
@@ -222,7 +222,7 @@ fn sort_by_ball(dataset: &Dataset) -> (Vec<u32>, Vec<Range<usize>>) {
 /// Initial ball centres and, per contact (sorted order), `u0` and weight.
 struct ContactStarts<T> {
     centres: Vec<Vec3>,
-    directions: Vec<Vec3>,
+    directions: Vec<UnitVector3<f64>>,
     weights: Vec<T>,
     poses: Vec<Pose>,
 }
@@ -244,7 +244,7 @@ impl Starts<'_> {
         // Each ball writes its contacts' slots of the outputs: nothing per
         // ball is collected and copied again.
         let n = self.order.len();
-        let (mut directions, mut weights) = (vec![Vec3::zeros(); n], vec![T::default(); n]);
+        let (mut directions, mut weights) = (vec![Vec3::z_axis(); n], vec![T::default(); n]);
         let mut poses = vec![Pose::identity(); n];
         let lengths = || self.groups.iter().map(|g| g.len());
         let centres = self
@@ -263,6 +263,11 @@ impl Starts<'_> {
                 };
                 self.ball(ball, rows, contacts, CentreStart::BestFit)
             })
+            .collect::<Vec<_>>()
+            .into_iter()
+            // The first failing ball in artefacts.json order, whatever the
+            // threads' timing (a parallel collect into a `Result` returns
+            // whichever error came first).
             .collect::<Result<_, _>>()?;
         Ok(ContactStarts {
             centres,
@@ -337,19 +342,20 @@ impl Starts<'_> {
         };
         for (k, ((&row, tip), d_q)) in rows.iter().zip(&points).zip(&d_q).enumerate() {
             let row = row as usize;
-            let u0 = match &dataset.measurements.direction {
+            let observation_error = |source| CalibrateError::Observation { row, source };
+            let direction = match &dataset.measurements.direction {
                 Some(commanded) => {
                     let d = Vec3::from(commanded[row]);
                     match dataset.artefacts.frame {
                         ArtefactFrame::Design => self.canonical.base_from_input.rotation * d,
                         ArtefactFrame::Canonical => d,
                     }
-                    .normalize()
                 }
-                None => (tip - centre).normalize(),
+                None => tip - centre,
             };
-            contacts.weights[k] = T::at_start(self.model, &repeatability, d_q, &u0)
-                .map_err(|source| CalibrateError::Observation { row, source })?;
+            let u0 = unit_direction(&direction).map_err(observation_error)?;
+            contacts.weights[k] =
+                T::at_start(self.model, &repeatability, d_q, &u0).map_err(observation_error)?;
             contacts.directions[k] = u0;
         }
         Ok(centre)
@@ -358,7 +364,7 @@ impl Starts<'_> {
 
 /// One ball's slots of the per-contact outputs.
 struct ContactSlots<'s, T> {
-    directions: &'s mut [Vec3],
+    directions: &'s mut [UnitVector3<f64>],
     weights: &'s mut [T],
     poses: &'s mut [Pose],
 }
@@ -413,7 +419,10 @@ pub trait MirrorStart {
 
     /// The `u0` (if the observation keeps one) and the weights of the
     /// contacts `range` (sorted order).
-    fn starts(&mut self, range: Range<usize>) -> (Option<&mut [Vec3]>, &mut [Self::Weight]);
+    fn starts(
+        &mut self,
+        range: Range<usize>,
+    ) -> (Option<&mut [UnitVector3<f64>]>, &mut [Self::Weight]);
 
     /// Re-seeds ball `ball` of `setup` (its contacts' `u0` and weights);
     /// returns its new initial centre.
@@ -428,7 +437,7 @@ pub trait MirrorStart {
         let mut scratch = Vec::new();
         let (directions, weights) = self.starts(range.clone());
         let directions = directions.unwrap_or_else(|| {
-            scratch.resize(range.len(), Vec3::zeros());
+            scratch.resize(range.len(), Vec3::z_axis());
             &mut scratch
         });
         setup.mirror_start(dataset, weighting, ball, directions, weights)
@@ -439,7 +448,10 @@ impl MirrorStart for RadiusObservations {
     type Weight = RadiusWeight;
 
     /// The radius observation keeps no direction.
-    fn starts(&mut self, range: Range<usize>) -> (Option<&mut [Vec3]>, &mut [RadiusWeight]) {
+    fn starts(
+        &mut self,
+        range: Range<usize>,
+    ) -> (Option<&mut [UnitVector3<f64>]>, &mut [RadiusWeight]) {
         (None, &mut self.weights[range])
     }
 }
@@ -447,7 +459,10 @@ impl MirrorStart for RadiusObservations {
 impl MirrorStart for CoordinateObservations {
     type Weight = CoordinateWeight;
 
-    fn starts(&mut self, range: Range<usize>) -> (Option<&mut [Vec3]>, &mut [CoordinateWeight]) {
+    fn starts(
+        &mut self,
+        range: Range<usize>,
+    ) -> (Option<&mut [UnitVector3<f64>]>, &mut [CoordinateWeight]) {
         (
             Some(&mut self.directions[range.clone()]),
             &mut self.weights[range],

@@ -258,6 +258,21 @@ fn a_calibration_that_cannot_start_says_where() {
         "{stderr}"
     );
     assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
+
+    // Commanded approach directions, ball b01's first one zero: of the two
+    // balls that cannot start, the first in artefacts.json is named, however
+    // the threads ran.
+    let mut with_directions = vec![format!("{},dir_x,dir_y,dir_z", lines[0])];
+    with_directions.extend(lines[1..].iter().map(|line| format!("{line},0,0,-1")));
+    with_directions[1] = format!("{},0,0,0", lines[1]);
+    std::fs::write(&csv, with_directions.join("\n")).unwrap();
+    let output = parcal(&["calibrate", temp.path().to_str().unwrap()]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("measurements.csv line 2: ") && stderr.contains("reference direction"),
+        "{stderr}"
+    );
 }
 
 #[test]

@@ -18,7 +18,7 @@
 //! The chart is regular for |θ| < π, and the angles stay near 0 during a
 //! calibration (they move by the contact's direction error, ~mrad).
 
-use nalgebra::{Matrix3x2, Vector2};
+use nalgebra::{Matrix3x2, UnitVector3, Vector2};
 use parcal_kinematics::Vec3;
 
 use crate::ObserveError;
@@ -45,6 +45,20 @@ fn trig_terms(phi: f64) -> (f64, f64, f64) {
     }
 }
 
+/// The unit vector along `direction`, refusing a zero or non-finite one
+/// (which `nalgebra`'s `Unit::try_new` lets through as NaN): the reference
+/// direction `u0` of a chart.
+pub fn unit_direction(direction: &Vec3) -> Result<UnitVector3<f64>, ObserveError> {
+    let length = direction.norm();
+    if !(length.is_finite() && length > 0.0) {
+        return Err(ObserveError::DegenerateDirection {
+            what: "chart reference direction",
+            length,
+        });
+    }
+    Ok(UnitVector3::new_unchecked(direction / length))
+}
+
 /// Tangent coordinates of the exponential map of the unit sphere about `u0`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DirectionChart {
@@ -55,25 +69,25 @@ pub struct DirectionChart {
 
 impl DirectionChart {
     /// The chart about the direction of `reference` (any non-zero finite
-    /// vector; it is normalised). The tangent basis is that of Duff et al.,
+    /// vector; it is normalised, [`unit_direction`]).
+    pub fn new(reference: &Vec3) -> Result<Self, ObserveError> {
+        Ok(Self::about(&unit_direction(reference)?))
+    }
+
+    /// The chart about the unit direction `u0`, which is not normalised
+    /// again: a calibration builds each contact's chart from its stored
+    /// `u0` twice per iteration. The tangent basis is that of Duff et al.,
     /// "Building an orthonormal basis, revisited" (JCGT 6(1), 2017): a
     /// deterministic function of `u0` with no singular direction, and
     /// `e1 × e2 = u0`.
-    pub fn new(reference: &Vec3) -> Result<Self, ObserveError> {
-        let length = reference.norm();
-        if !(length.is_finite() && length > 0.0) {
-            return Err(ObserveError::DegenerateDirection {
-                what: "chart reference direction",
-                length,
-            });
-        }
-        let u0 = reference / length;
+    pub fn about(u0: &UnitVector3<f64>) -> Self {
+        let u0 = u0.into_inner();
         let sign = 1.0_f64.copysign(u0.z);
         let a = -1.0 / (sign + u0.z);
         let b = u0.x * u0.y * a;
         let e1 = Vec3::new(1.0 + sign * u0.x * u0.x * a, sign * b, -sign * u0.x);
         let e2 = Vec3::new(b, sign + u0.y * u0.y * a, -u0.y);
-        Ok(Self { u0, e1, e2 })
+        Self { u0, e1, e2 }
     }
 
     /// The reference direction `u0 = u(0)` (unit).
@@ -256,7 +270,11 @@ mod tests {
 
     #[test]
     fn refuses_a_degenerate_reference() {
-        for bad in [Vec3::zeros(), Vec3::new(f64::NAN, 0.0, 1.0)] {
+        for bad in [
+            Vec3::zeros(),
+            Vec3::new(f64::NAN, 0.0, 1.0),
+            Vec3::new(0.0, f64::INFINITY, 1.0),
+        ] {
             assert!(matches!(
                 DirectionChart::new(&bad),
                 Err(ObserveError::DegenerateDirection { .. })

@@ -65,7 +65,7 @@ mod tip;
 pub mod weights;
 
 pub use block::{BlockJacobians, CoordinateJacobians, RadiusJacobians};
-pub use chart::DirectionChart;
+pub use chart::{DirectionChart, unit_direction};
 pub use coordinates::CoordinateBlock;
 pub use error::ObserveError;
 pub use prior::{

@@ -67,12 +67,15 @@ pub fn ball_id(index: usize, count: usize) -> String {
 /// actuator readings `q = L_true - l_true` plus actuator noise. Every contact
 /// is checked by forward kinematics with the true geometry.
 pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateError> {
-    let per_ball: Vec<(f64, Vec<Contact>)> = scenario
+    let per_ball: Vec<Result<(f64, Vec<Contact>), SimulateError>> = scenario
         .centres
         .par_iter()
         .enumerate()
         .map(|(ball, centre)| simulate_ball(scenario, seed, ball, centre))
-        .collect::<Result<_, _>>()?;
+        .collect();
+    // The first failing ball in order, whatever the threads' timing (a
+    // parallel collect into a `Result` returns whichever error came first).
+    let per_ball: Vec<(f64, Vec<Contact>)> = per_ball.into_iter().collect::<Result<_, _>>()?;
 
     let count = scenario.centres.len();
     let contacts: Vec<&Contact> = per_ball.iter().flat_map(|(_, c)| c).collect();
