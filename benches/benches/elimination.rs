@@ -42,6 +42,10 @@ impl Problem<33, 3, 2, 3> for Synthetic {
     type PointCache = ();
     type Error = std::convert::Infallible;
     type Jacobian = SMatrix<f64, 3, 33>;
+    type Global = SVector<f64, 33>;
+    fn prepare_global(&self, global: &SVector<f64, 33>) -> Self::Global {
+        *global
+    }
 
     fn n_groups(&self) -> usize {
         self.groups

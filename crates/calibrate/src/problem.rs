@@ -11,7 +11,6 @@
 //! kinematics (from the set-up), then the first-order prediction of the pose
 //! at the next iteration's parameters, made during the back-substitution.
 
-use std::cell::RefCell;
 use std::ops::Range;
 
 use nalgebra::{SMatrix, SVector, UnitVector3, Vector2};
@@ -193,14 +192,15 @@ impl<O> CalibrationProblem<'_, O> {
         &self.q[self.row(i)]
     }
 
-    /// Contact `i`'s whitened block at the parameters `p`, the ball centre
-    /// and the contact's angles, into `out`: forward kinematics (paper eq. 1)
-    /// from the contact's cached pose (updated), the tool tip (eq. 2) and its
-    /// derivatives, and the observation block.
+    /// Contact `i`'s whitened block at the canonical geometry of the
+    /// current parameters, the ball centre and the contact's angles, into
+    /// `out`: forward kinematics (paper eq. 1) from the contact's cached pose
+    /// (updated), the tool tip (eq. 2) and its derivatives, and the
+    /// observation block.
     fn linearize_contact<const R: usize, const P: usize>(
         &self,
         i: usize,
-        p: &Params,
+        geometry: &Geometry,
         centre: &Vec3,
         angles: &SVector<f64, P>,
         pose: &mut Pose,
@@ -210,59 +210,29 @@ impl<O> CalibrationProblem<'_, O> {
         O: ContactObservations<R, P>,
     {
         let row = self.row(i);
-        with_geometry(p, |geometry| {
-            let derivatives = &mut out.d_global.tip;
-            derivatives
-                .forward(geometry, self.actuators(i), pose, &self.forward_options)
-                .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
-            let solution = derivatives.solution();
-            *pose = solution.pose;
-            let tip = geometry.tool_tip(&solution.pose);
-            let block = self
-                .observations
-                .block(i, self.radius(i), &tip, centre, angles)
-                .map_err(|source| CalibrateError::Observation { row, source })?
-                .whiten(self.observations.weight(i));
-            out.residual = block.residual;
-            out.d_global.d_tip = block.d_tip;
-            out.d_group = block.d_centre;
-            out.d_point = block.d_angles;
-            Ok(())
-        })
+        let derivatives = &mut out.d_global.tip;
+        derivatives
+            .forward(geometry, self.actuators(i), pose, &self.forward_options)
+            .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+        let solution = derivatives.solution();
+        *pose = solution.pose;
+        let tip = geometry.tool_tip(&solution.pose);
+        let block = self
+            .observations
+            .block(i, self.radius(i), &tip, centre, angles)
+            .map_err(|source| CalibrateError::Observation { row, source })?
+            .whiten(self.observations.weight(i));
+        out.residual = block.residual;
+        out.d_global.d_tip = block.d_tip;
+        out.d_group = block.d_centre;
+        out.d_point = block.d_angles;
+        Ok(())
     }
 
     /// The radius of contact `i`'s ball.
     fn radius(&self, i: usize) -> f64 {
         self.radii[self.ball[self.row(i)] as usize]
     }
-}
-
-/// Runs `f` on the canonical geometry of `p`, built once per thread and
-/// parameter vector: every contact of a pass is linearised at the same
-/// parameters, and building the geometry per contact cost more than
-/// comparing 33 numbers.
-fn with_geometry<T>(p: &Params, f: impl FnOnce(&Geometry) -> T) -> T {
-    thread_local! {
-        static LAST: RefCell<Option<(Params, Geometry)>> = const { RefCell::new(None) };
-    }
-    LAST.with_borrow_mut(|last| {
-        if last.as_ref().is_none_or(|(q, _)| !same_bits(q, p)) {
-            *last = Some((*p, params::from_params(p)));
-        }
-        let (_, geometry) = last.as_ref().expect("just set");
-        f(geometry)
-    })
-}
-
-/// Whether `a` and `b` hold the same bits: one pass without branches (the
-/// float comparison branched on every element for NaN, 2 % of a run), and
-/// equal bits give the same geometry.
-fn same_bits(a: &Params, b: &Params) -> bool {
-    a.as_slice()
-        .iter()
-        .zip(b.as_slice())
-        .fold(0, |differ, (x, y)| differ | (x.to_bits() ^ y.to_bits()))
-        == 0
 }
 
 impl<const R: usize, const P: usize, O> Problem<N_PARAMS, 3, P, R> for CalibrationProblem<'_, O>
@@ -272,6 +242,13 @@ where
     type PointCache = Pose;
     type Error = CalibrateError;
     type Jacobian = ContactJacobian<R>;
+    /// Every contact of a pass is linearised at the same parameters: their
+    /// canonical geometry is built once per pass.
+    type Global = Geometry;
+
+    fn prepare_global(&self, global: &Params) -> Geometry {
+        params::from_params(global)
+    }
 
     fn n_groups(&self) -> usize {
         self.groups.len()
@@ -291,7 +268,7 @@ where
     fn linearize(
         &self,
         i: usize,
-        global: &Params,
+        global: &Geometry,
         group: &SVector<f64, 3>,
         point: &SVector<f64, P>,
         cache: &mut Pose,
@@ -307,7 +284,7 @@ where
     fn linearize_along(
         &self,
         i: usize,
-        global: &Params,
+        global: &Geometry,
         group: &SVector<f64, 3>,
         point: &SVector<f64, P>,
         cache: &mut Pose,

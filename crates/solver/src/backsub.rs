@@ -77,6 +77,8 @@ where
             .collect();
         let mut total = StepSummary::default();
         let mut failure = None;
+        let global = problem.prepare_global(&state.global);
+        let global = &global;
         run_ordered(
             jobs,
             |(chunk, caches, groups, points)| {
@@ -84,7 +86,7 @@ where
                     let (bufs, _, point_data) = ws.split();
                     let out = ChunkOut { groups, points };
                     back_substitute_chunk::<G, C, P, R, Pr>(
-                        problem, chunk, state, caches, dg, lambda, bufs, point_data, out,
+                        problem, chunk, state, global, caches, dg, lambda, bufs, point_data, out,
                     )
                 })
             },
@@ -141,6 +143,7 @@ fn back_substitute_chunk<const G: usize, const C: usize, const P: usize, const R
     problem: &Pr,
     chunk: &Chunk,
     state: &State<G, C, P>,
+    global: &Pr::Global,
     caches: &mut [Pr::PointCache],
     dg: &SVector<f64, G>,
     lambda: f64,
@@ -176,11 +179,10 @@ where
         for (j, i) in range.clone().enumerate() {
             let p = &state.points[i];
             let cache = &mut caches[i - chunk.points.start];
-            let global_step =
-                match problem.linearize_along(i, &state.global, c, p, cache, dg, &mut lin) {
-                    Ok(step) => step,
-                    Err(e) => return Err(Failure::linearize(i, &e)),
-                };
+            let global_step = match problem.linearize_along(i, global, c, p, cache, dg, &mut lin) {
+                Ok(step) => step,
+                Err(e) => return Err(Failure::linearize(i, &e)),
+            };
             let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
             let mut b_p = lin.d_point.tr_mul(&lin.residual);
             if let Some(prior) = &prior {

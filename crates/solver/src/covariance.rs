@@ -76,6 +76,8 @@ where
         let dims = self.dims;
         let mut sigmas = Vec::with_capacity(state.groups.len());
         let mut failure = None;
+        let global = problem.prepare_global(&state.global);
+        let global = &global;
         let (pool, jobs) = self.jobs();
         run_ordered(
             jobs,
@@ -88,7 +90,7 @@ where
                         out: Vec::with_capacity(chunk.groups.len()),
                     };
                     eliminate_chunk::<G, C, P, R, _, _>(
-                        problem, chunk, state, caches, 0.0, dims, bufs, None, &mut sink,
+                        problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
                     )?;
                     Ok(sink.out)
                 })

@@ -153,11 +153,12 @@ pub fn solve<
         return Err(DenseError::Structure);
     }
     let mut lin = Linearization::zeros();
+    let global = problem.prepare_global(&state.global);
     for (i, &k) in point_group.iter().enumerate() {
         let mut cache = problem.initial_cache(i);
         let (c, p) = (&state.groups[k], &state.points[i]);
         problem
-            .linearize(i, &state.global, c, p, &mut cache, &mut lin)
+            .linearize(i, &global, c, p, &mut cache, &mut lin)
             .map_err(|e| DenseError::Linearize {
                 point: i,
                 message: e.to_string(),

@@ -425,8 +425,9 @@ pub(crate) trait EliminationSink {
     fn group_done(&mut self, k: usize, top: &[f64], data_cost: f64);
 }
 
-/// Eliminates the points and groups of one chunk at `state` with damping
-/// `lambda` (0: undamped). `caches` are the caches of the chunk's points.
+/// Eliminates the points and groups of one chunk at `state` (its global
+/// block prepared as `global`) with damping `lambda` (0: undamped). `caches`
+/// are the caches of the chunk's points.
 /// `global_norms2`, if given, accumulates `Σ |d_global column|²` (the data
 /// part of the global damping diagonal).
 #[allow(clippy::too_many_arguments)]
@@ -441,6 +442,7 @@ pub(crate) fn eliminate_chunk<
     problem: &Pr,
     chunk: &Chunk,
     state: &State<G, C, P>,
+    global: &Pr::Global,
     caches: &mut [Pr::PointCache],
     lambda: f64,
     dims: Dims,
@@ -468,7 +470,7 @@ where
         for i in problem.group_points(k) {
             let cache = &mut caches[i - chunk.points.start];
             let p = &state.points[i];
-            if let Err(e) = problem.linearize(i, &state.global, c, p, cache, &mut lin) {
+            if let Err(e) = problem.linearize(i, global, c, p, cache, &mut lin) {
                 return Err(Failure::linearize(i, &e));
             }
             let data = lin.residual.norm_squared();
@@ -513,7 +515,8 @@ where
     Ok(costs)
 }
 
-/// After a chunk's sums came out non-finite: linearises its points again and
+/// After a chunk's sums came out non-finite: linearises its points again (at
+/// `state`, its global block prepared as `global`) and
 /// names the first with a non-finite residual or Jacobian (checking every
 /// point on the fast path would cost more than the elimination of a small
 /// point). `None` if all are finite (the sums overflowed).
@@ -521,6 +524,7 @@ pub(crate) fn find_non_finite<const G: usize, const C: usize, const P: usize, co
     problem: &Pr,
     chunk: &Chunk,
     state: &State<G, C, P>,
+    global: &Pr::Global,
     caches: &mut [Pr::PointCache],
 ) -> Option<Failure>
 where
@@ -531,7 +535,7 @@ where
         for i in problem.group_points(k) {
             let cache = &mut caches[i - chunk.points.start];
             let (c, p) = (&state.groups[k], &state.points[i]);
-            match problem.linearize(i, &state.global, c, p, cache, &mut lin) {
+            match problem.linearize(i, global, c, p, cache, &mut lin) {
                 Ok(()) if lin.is_finite() => {}
                 Ok(()) => return Some(Failure::NonFinite { point: i }),
                 Err(e) => return Some(Failure::linearize(i, &e)),

@@ -160,6 +160,8 @@
 //!     type PointCache = ();
 //!     type Error = std::convert::Infallible;
 //!     type Jacobian = SMatrix<f64, 1, 1>;
+//!     type Global = Vector1<f64>; // the radius as it is
+//!     fn prepare_global(&self, radius: &Vector1<f64>) -> Vector1<f64> { *radius }
 //!     fn n_groups(&self) -> usize { self.points.len() / self.per_circle }
 //!     fn group_points(&self, k: usize) -> std::ops::Range<usize> {
 //!         k * self.per_circle..(k + 1) * self.per_circle

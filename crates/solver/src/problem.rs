@@ -183,6 +183,15 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     type Error: std::error::Error + Send + Sync + 'static;
     /// The global Jacobian of a point (`SMatrix<f64, R, G>` when dense).
     type Jacobian: GlobalJacobian<G, R>;
+    /// What the points' linearisations need of the global block: the block
+    /// itself (`SVector<f64, G>`), or what they would otherwise each derive
+    /// from it (e.g. a geometry built from parameters), made once per pass
+    /// over the points by [`prepare_global`](Problem::prepare_global).
+    type Global: Sync;
+
+    /// [`Problem::Global`] at the global block `global`, before a pass over
+    /// the points.
+    fn prepare_global(&self, global: &SVector<f64, G>) -> Self::Global;
 
     /// Number of groups.
     fn n_groups(&self) -> usize;
@@ -193,14 +202,15 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     /// The cache of point `i` before its first linearisation.
     fn initial_cache(&self, i: usize) -> Self::PointCache;
 
-    /// Residual and Jacobians of point `i` at the given values of its blocks,
-    /// written into `out` (the solver reuses one linearisation for all the
+    /// Residual and Jacobians of point `i` at the given values of its blocks
+    /// (the global one prepared, [`Problem::prepare_global`]), written into
+    /// `out` (the solver reuses one linearisation for all the
     /// points it visits, so that nothing large is moved per point). Called
     /// from several threads at once (for different points).
     fn linearize(
         &self,
         i: usize,
-        global: &SVector<f64, G>,
+        global: &Self::Global,
         group: &SVector<f64, C>,
         point: &SVector<f64, P>,
         cache: &mut Self::PointCache,
@@ -216,7 +226,7 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     fn linearize_along(
         &self,
         i: usize,
-        global: &SVector<f64, G>,
+        global: &Self::Global,
         group: &SVector<f64, C>,
         point: &SVector<f64, P>,
         cache: &mut Self::PointCache,

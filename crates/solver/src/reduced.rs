@@ -71,6 +71,8 @@ where
         let (mut data_cost, mut prior_cost) = (0.0, 0.0);
         let mut group_costs = Vec::with_capacity(state.groups.len());
         let mut failure = None;
+        let global = problem.prepare_global(&state.global);
+        let global = &global;
         let (pool, jobs) = self.jobs();
         run_ordered(
             jobs,
@@ -88,13 +90,13 @@ where
                         NormalSink::new(rows, w, &mut part.normal, &mut part.group_costs);
                     let gn = (lambda > 0.0).then_some(&mut part.global_norms2[..]);
                     let costs = match eliminate_chunk::<G, C, P, R, _, _>(
-                        problem, chunk, state, caches, lambda, dims, bufs, gn, &mut sink,
+                        problem, chunk, state, global, caches, lambda, dims, bufs, gn, &mut sink,
                     ) {
                         Ok(costs) => costs,
                         // NaN makes blocks look singular: name the culprit instead.
                         Err(Failure::Singular(block)) => {
                             return Err(find_non_finite::<G, C, P, R, _>(
-                                problem, chunk, state, caches,
+                                problem, chunk, state, global, caches,
                             )
                             .unwrap_or(Failure::Singular(block)));
                         }
@@ -107,7 +109,7 @@ where
                     if finite {
                         return Ok(part);
                     }
-                    match find_non_finite::<G, C, P, R, _>(problem, chunk, state, caches) {
+                    match find_non_finite::<G, C, P, R, _>(problem, chunk, state, global, caches) {
                         Some(failure) => Err(failure),
                         None => Ok(part),
                     }

@@ -225,6 +225,10 @@ impl Problem<1, 1, 0, 2> for Exponential {
     type PointCache = ();
     type Error = TestError;
     type Jacobian = SMatrix<f64, 2, 1>;
+    type Global = SVector<f64, 1>;
+    fn prepare_global(&self, global: &SVector<f64, 1>) -> Self::Global {
+        *global
+    }
     fn n_groups(&self) -> usize {
         self.targets.len()
     }
@@ -406,6 +410,10 @@ impl Problem<1, 1, 2, 3> for Degenerate {
     type PointCache = ();
     type Error = TestError;
     type Jacobian = SMatrix<f64, 3, 1>;
+    type Global = SVector<f64, 1>;
+    fn prepare_global(&self, global: &SVector<f64, 1>) -> Self::Global {
+        *global
+    }
     fn n_groups(&self) -> usize {
         3
     }

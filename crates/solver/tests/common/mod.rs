@@ -163,6 +163,10 @@ impl Problem<G, 3, 2, 3> for Touches {
     type PointCache = u32;
     type Error = TestError;
     type Jacobian = SMatrix<f64, 3, G>;
+    type Global = SVector<f64, G>;
+    fn prepare_global(&self, global: &SVector<f64, G>) -> Self::Global {
+        *global
+    }
 
     fn n_groups(&self) -> usize {
         self.0.n_groups()
@@ -214,6 +218,10 @@ impl Problem<G, 3, 0, 1> for Distances {
     type PointCache = u32;
     type Error = TestError;
     type Jacobian = SMatrix<f64, 1, G>;
+    type Global = SVector<f64, G>;
+    fn prepare_global(&self, global: &SVector<f64, G>) -> Self::Global {
+        *global
+    }
 
     fn n_groups(&self) -> usize {
         self.0.n_groups()
