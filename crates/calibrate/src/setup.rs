@@ -261,14 +261,18 @@ impl Starts<'_> {
                     weights,
                     poses,
                 };
+                // Boxed: a failure is rare, and the outcomes of all balls
+                // are kept until the first failing one is known.
                 self.ball(ball, rows, contacts, CentreStart::BestFit)
+                    .map_err(Box::new)
             })
             .collect::<Vec<_>>()
             .into_iter()
             // The first failing ball in artefacts.json order, whatever the
             // threads' timing (a parallel collect into a `Result` returns
             // whichever error came first).
-            .collect::<Result<_, _>>()?;
+            .collect::<Result<_, _>>()
+            .map_err(|error| *error)?;
         Ok(ContactStarts {
             centres,
             directions,
