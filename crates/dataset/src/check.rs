@@ -34,7 +34,8 @@ impl<'a> Check<'a> {
     }
 
     /// Finite. The field's name (`field`, e.g. `format_args!`) is only
-    /// formatted for an error: a file of 10^5 balls names 10^6 fields.
+    /// formatted for an error: the 142857 balls of a 10^6-contact campaign
+    /// have 714k checked fields.
     pub(crate) fn finite(&self, field: impl Display, value: f64) -> Result<()> {
         if value.is_finite() {
             Ok(())
