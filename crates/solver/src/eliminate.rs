@@ -64,8 +64,9 @@ pub(crate) struct PointFactor<const P: usize> {
 
 /// Builds and factorises the panel of a point into `buf` (the panel, `m × P`
 /// row-major, then `Q`, `m × m` row-major, at offset `(R + 2P) · P`; only
-/// the columns from `first_column` on are formed). Returns `None` if the
-/// panel is rank deficient.
+/// the columns from `first_column` on are formed; for 3 data rows, 2 point
+/// unknowns and only the eliminated row wanted, that row in closed form by
+/// [`panel_normal`]). Returns `None` if the panel is rank deficient.
 pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const R: usize, J>(
     lin: &Linearization<G, C, P, R, J>,
     prior: Option<&PriorRows<P>>,
@@ -77,6 +78,15 @@ pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const
     if P == 0 {
         identity(&mut q[..R * R], R);
         return Some(PointFactor {
+            rows: R,
+            damping: SVector::zeros(),
+        });
+    }
+    if R == 3 && P == 2 && prior.is_none() && lambda == 0.0 && first_column == P {
+        // Three data rows, two point unknowns, only the eliminated row
+        // wanted: the elimination's common case, in closed form.
+        let column = |j| [0, 1, 2].map(|r| lin.d_point[(r, j)]);
+        return panel_normal(column(0), column(1), &mut q[..R * R]).then_some(PointFactor {
             rows: R,
             damping: SVector::zeros(),
         });
@@ -135,6 +145,30 @@ pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const
         }
     }
     full_rank.then_some(PointFactor { rows: m, damping })
+}
+
+/// The column `Q[·, 2]` of a 3 x 2 panel `[c1 c2]` (its point-eliminated
+/// row), into `q` (3 x 3, row-major; the other columns are not formed):
+/// the unit normal `n = (c1 × c2) / |c1 × c2|` of the panel's columns,
+/// which is the Householder path's column up to its sign. Returns whether
+/// the panel has full rank by the Householder path's test,
+/// `R_22² > RANK_TOLERANCE² |c2|²` with `R_22 = |c1 × c2| / |c1|`, i.e.
+/// `|c1 × c2|² > RANK_TOLERANCE² |c1|² |c2|²` (false for a zero or
+/// non-finite column).
+#[inline(always)]
+fn panel_normal(c1: [f64; 3], c2: [f64; 3], q: &mut [f64]) -> bool {
+    let n = [
+        c1[1] * c2[2] - c1[2] * c2[1],
+        c1[2] * c2[0] - c1[0] * c2[2],
+        c1[0] * c2[1] - c1[1] * c2[0],
+    ];
+    let norm2 = |v: &[f64; 3]| v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    let cross2 = norm2(&n);
+    let scale = cross2.sqrt().recip();
+    for (r, x) in n.iter().enumerate() {
+        q[r * 3 + 2] = x * scale;
+    }
+    cross2 > RANK_TOLERANCE * RANK_TOLERANCE * norm2(&c1) * norm2(&c2)
 }
 
 #[inline(always)]
@@ -645,6 +679,56 @@ mod tests {
                 let x: f64 = (0..m).map(|r| q[r * m + e] * a0[r][j]).sum();
                 let want = if e <= j { panel[e][j] } else { 0.0 };
                 assert!((x - want).abs() < 1e-14, "{e} {j}: {x} vs {want}");
+            }
+        }
+    }
+
+    /// The Householder path's rank test and column 2 of its `Q`.
+    fn householder_normal(c1: [f64; 3], c2: [f64; 3]) -> (bool, [f64; 3]) {
+        let a0 = [0, 1, 2].map(|r| [c1[r], c2[r]]);
+        let mut panel = a0;
+        let tau = point_householder(&mut panel);
+        let mut q = [0.0; 9];
+        point_q(&panel, &tau, &mut q, 2);
+        let full_rank = (0..2).all(|j| {
+            let norm2: f64 = a0.iter().map(|row| row[j] * row[j]).sum();
+            norm2 > 0.0 && panel[j][j] * panel[j][j] > RANK_TOLERANCE * RANK_TOLERANCE * norm2
+        });
+        (full_rank, [q[2], q[5], q[8]])
+    }
+
+    #[test]
+    fn panel_normal_is_the_householder_column_and_rank_test() {
+        let tiny = 0.1 * RANK_TOLERANCE;
+        let panels = [
+            ([0.3, 0.8, -0.5], [-1.2, 0.1, 0.7], true),
+            ([2.0e3, -1.0e2, 3.0e1], [4.0, 5.0e3, -7.0e2], true),
+            ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], true),
+            ([1.0, 2.0, 3.0], [2.0, 4.0, 6.0 + tiny], false),
+            ([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], false),
+            ([0.0, 0.0, 0.0], [1.0, 2.0, 3.0], false),
+            ([f64::NAN, 0.0, 1.0], [1.0, 2.0, 3.0], false),
+        ];
+        for (c1, c2, full_rank) in panels {
+            let mut q = [0.0; 9];
+            let closed = panel_normal(c1, c2, &mut q);
+            let (householder, n) = householder_normal(c1, c2);
+            assert_eq!(
+                (closed, householder),
+                (full_rank, full_rank),
+                "{c1:?} {c2:?}"
+            );
+            if full_rank {
+                let ours = [q[2], q[5], q[8]];
+                let sign = ours
+                    .iter()
+                    .zip(&n)
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>()
+                    .signum();
+                for (a, b) in ours.iter().zip(&n) {
+                    assert!((a - sign * b).abs() < 1e-15, "{ours:?} vs {n:?}");
+                }
             }
         }
     }
