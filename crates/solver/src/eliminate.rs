@@ -64,9 +64,9 @@ pub(crate) struct PointFactor<const P: usize> {
 
 /// Builds and factorises the panel of a point into `buf` (the panel, `m × P`
 /// row-major, then `Q`, `m × m` row-major, at offset `(R + 2P) · P`; only
-/// the columns from `first_column` on are formed; for 3 data rows, 2 point
-/// unknowns and only the eliminated row wanted, that row in closed form by
-/// [`panel_normal`]). Returns `None` if the panel is rank deficient.
+/// the columns from `first_column` on are formed; for 3 data rows and 2
+/// point unknowns, in closed form by [`panel_normal`] and [`panel_qr`]).
+/// Returns `None` if the panel is rank deficient.
 pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const R: usize, J>(
     lin: &Linearization<G, C, P, R, J>,
     prior: Option<&PriorRows<P>>,
@@ -82,11 +82,18 @@ pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const
             damping: SVector::zeros(),
         });
     }
-    if R == 3 && P == 2 && prior.is_none() && lambda == 0.0 && first_column == P {
-        // Three data rows, two point unknowns, only the eliminated row
-        // wanted: the elimination's common case, in closed form.
+    if R == 3 && P == 2 && prior.is_none() && lambda == 0.0 {
+        // Three data rows and two point unknowns, the common case, in
+        // closed form: the eliminated row, and for the back-substitution
+        // the rest of `Q` and `R`.
         let column = |j| [0, 1, 2].map(|r| lin.d_point[(r, j)]);
-        return panel_normal(column(0), column(1), &mut q[..R * R]).then_some(PointFactor {
+        let (c1, c2) = (column(0), column(1));
+        let q = &mut q[..R * R];
+        let full_rank = panel_normal(c1, c2, q);
+        if first_column < P {
+            panel_qr(c1, c2, panel, q);
+        }
+        return full_rank.then_some(PointFactor {
             rows: R,
             damping: SVector::zeros(),
         });
@@ -169,6 +176,27 @@ fn panel_normal(c1: [f64; 3], c2: [f64; 3], q: &mut [f64]) -> bool {
         q[r * 3 + 2] = x * scale;
     }
     cross2 > RANK_TOLERANCE * RANK_TOLERANCE * norm2(&c1) * norm2(&c2)
+}
+
+/// The rest of the QR of a 3 x 2 panel `[c1 c2]` beside
+/// [`panel_normal`]'s column: `R` (2 x 2, upper triangular) into the first
+/// two rows of `panel` (3 x 2, row-major, zero below the diagonal) and the
+/// columns 0 and 1 of `Q` into `q` (3 x 3, row-major), by Gram-Schmidt:
+/// `r11 = |c1|`, `q1 = c1 / r11`, `r12 = q1 · c2`, `q2 = (c2 − r12 q1) / r22`
+/// with `r22 = |c2 − r12 q1|`; then `q1 × q2` is the normal. Meaningful when
+/// [`panel_normal`] found the panel of full rank.
+#[inline(always)]
+fn panel_qr(c1: [f64; 3], c2: [f64; 3], panel: &mut [f64], q: &mut [f64]) {
+    let r11 = (c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]).sqrt();
+    let q1 = c1.map(|x| x / r11);
+    let r12 = q1[0] * c2[0] + q1[1] * c2[1] + q1[2] * c2[2];
+    let u = [0, 1, 2].map(|r| c2[r] - r12 * q1[r]);
+    let r22 = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+    panel[..6].copy_from_slice(&[r11, r12, 0.0, r22, 0.0, 0.0]);
+    for r in 0..3 {
+        q[r * 3] = q1[r];
+        q[r * 3 + 1] = u[r] / r22;
+    }
 }
 
 #[inline(always)]
@@ -697,6 +725,32 @@ mod tests {
         (full_rank, [q[2], q[5], q[8]])
     }
 
+    /// [`panel_normal`] and [`panel_qr`] together give an orthogonal `Q`
+    /// and an upper-triangular `R` with `Q R = [c1 c2]`.
+    fn assert_is_qr_of(c1: [f64; 3], c2: [f64; 3]) {
+        let (mut panel, mut q) = ([f64::NAN; 6], [f64::NAN; 9]);
+        panel_normal(c1, c2, &mut q);
+        panel_qr(c1, c2, &mut panel, &mut q);
+        for i in 0..3 {
+            for j in 0..3 {
+                let d: f64 = (0..3).map(|r| q[r * 3 + i] * q[r * 3 + j]).sum();
+                assert!((d - f64::from(u8::from(i == j))).abs() < 1e-15, "{q:?}");
+            }
+        }
+        assert_eq!(
+            [panel[2], panel[4], panel[5]],
+            [0.0; 3],
+            "R is upper triangular"
+        );
+        let scale = c1.iter().chain(&c2).fold(0.0_f64, |a, x| a.max(x.abs()));
+        for (j, c) in [c1, c2].iter().enumerate() {
+            for r in 0..3 {
+                let x: f64 = (0..2).map(|a| q[r * 3 + a] * panel[a * 2 + j]).sum();
+                assert!((x - c[r]).abs() < 1e-15 * scale, "{j} {r}: {x} vs {}", c[r]);
+            }
+        }
+    }
+
     #[test]
     fn panel_normal_is_the_householder_column_and_rank_test() {
         let tiny = 0.1 * RANK_TOLERANCE;
@@ -729,6 +783,7 @@ mod tests {
                 for (a, b) in ours.iter().zip(&n) {
                     assert!((a - sign * b).abs() < 1e-15, "{ours:?} vs {n:?}");
                 }
+                assert_is_qr_of(c1, c2);
             }
         }
     }
