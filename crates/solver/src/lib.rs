@@ -48,7 +48,9 @@
 //!
 //! 1. **Point.** The rows `[P_i | C_i | G_i | r_i]` of point `i` (plus its
 //!    prior rows `[U_p | 0 | 0 | U_p(p−m_p)]`, plus damping rows) get a
-//!    Householder QR on the `P` point columns:
+//!    Householder QR on the `P` point columns (3 data rows and 2 point
+//!    columns alone: in closed form, the eliminated row being the unit
+//!    normal of the two columns):
 //!
 //!    ```text
 //!    Qᵢᵀ [P_i C_i G_i r_i] = [ R_pp  R_pc  R_pg  z_p ]   back-substitution rows (P)
