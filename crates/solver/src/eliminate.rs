@@ -7,7 +7,7 @@
 
 use faer::linalg::matmul::triangular::{BlockStructure, matmul};
 use faer::{Accum, MatMut, MatRef, Par};
-use nalgebra::SVector;
+use nalgebra::{SVector, Vector3};
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
 use crate::problem::{GlobalJacobian, Linearization, Problem, State};
@@ -86,12 +86,12 @@ pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const
         // Three data rows and two point unknowns, the common case, in
         // closed form: the eliminated row, and for the back-substitution
         // the rest of `Q` and `R`.
-        let column = |j| [0, 1, 2].map(|r| lin.d_point[(r, j)]);
+        let column = |j| Vector3::from_fn(|r, _| lin.d_point[(r, j)]);
         let (c1, c2) = (column(0), column(1));
         let q = &mut q[..R * R];
-        let full_rank = panel_normal(c1, c2, q);
+        let full_rank = panel_normal(&c1, &c2, q);
         if first_column < P {
-            panel_qr(c1, c2, panel, q);
+            panel_qr(&c1, &c2, panel, q);
         }
         return full_rank.then_some(PointFactor {
             rows: R,
@@ -163,35 +163,30 @@ pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const
 /// `|c1 × c2|² > RANK_TOLERANCE² |c1|² |c2|²` (false for a zero or
 /// non-finite column).
 #[inline(always)]
-fn panel_normal(c1: [f64; 3], c2: [f64; 3], q: &mut [f64]) -> bool {
-    let n = [
-        c1[1] * c2[2] - c1[2] * c2[1],
-        c1[2] * c2[0] - c1[0] * c2[2],
-        c1[0] * c2[1] - c1[1] * c2[0],
-    ];
-    let norm2 = |v: &[f64; 3]| v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-    let cross2 = norm2(&n);
+fn panel_normal(c1: &Vector3<f64>, c2: &Vector3<f64>, q: &mut [f64]) -> bool {
+    let n = c1.cross(c2);
+    let cross2 = n.norm_squared();
     let scale = cross2.sqrt().recip();
     for (r, x) in n.iter().enumerate() {
         q[r * 3 + 2] = x * scale;
     }
-    cross2 > RANK_TOLERANCE * RANK_TOLERANCE * norm2(&c1) * norm2(&c2)
+    cross2 > RANK_TOLERANCE * RANK_TOLERANCE * c1.norm_squared() * c2.norm_squared()
 }
 
 /// The rest of the QR of a 3 x 2 panel `[c1 c2]` beside
 /// [`panel_normal`]'s column: `R` (2 x 2, upper triangular) into the first
 /// two rows of `panel` (3 x 2, row-major, zero below the diagonal) and the
 /// columns 0 and 1 of `Q` into `q` (3 x 3, row-major), by Gram-Schmidt:
-/// `r11 = |c1|`, `q1 = c1 / r11`, `r12 = q1 · c2`, `q2 = (c2 − r12 q1) / r22`
-/// with `r22 = |c2 − r12 q1|`; then `q1 × q2` is the normal. Meaningful when
-/// [`panel_normal`] found the panel of full rank.
+/// `r11 = |c1|`, `q1 = c1 / r11`, `r12 = q1 · c2`, `q2 = u / r22` with
+/// `u = c2 − r12 q1`, `r22 = |u|`; then `q1 × q2` is the normal. Meaningful
+/// when [`panel_normal`] found the panel of full rank.
 #[inline(always)]
-fn panel_qr(c1: [f64; 3], c2: [f64; 3], panel: &mut [f64], q: &mut [f64]) {
-    let r11 = (c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]).sqrt();
-    let q1 = c1.map(|x| x / r11);
-    let r12 = q1[0] * c2[0] + q1[1] * c2[1] + q1[2] * c2[2];
-    let u = [0, 1, 2].map(|r| c2[r] - r12 * q1[r]);
-    let r22 = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+fn panel_qr(c1: &Vector3<f64>, c2: &Vector3<f64>, panel: &mut [f64], q: &mut [f64]) {
+    let r11 = c1.norm();
+    let q1 = c1 / r11;
+    let r12 = q1.dot(c2);
+    let u = c2 - r12 * q1;
+    let r22 = u.norm();
     panel[..6].copy_from_slice(&[r11, r12, 0.0, r22, 0.0, 0.0]);
     for r in 0..3 {
         q[r * 3] = q1[r];
@@ -729,8 +724,8 @@ mod tests {
     /// and an upper-triangular `R` with `Q R = [c1 c2]`.
     fn assert_is_qr_of(c1: [f64; 3], c2: [f64; 3]) {
         let (mut panel, mut q) = ([f64::NAN; 6], [f64::NAN; 9]);
-        panel_normal(c1, c2, &mut q);
-        panel_qr(c1, c2, &mut panel, &mut q);
+        panel_normal(&c1.into(), &c2.into(), &mut q);
+        panel_qr(&c1.into(), &c2.into(), &mut panel, &mut q);
         for i in 0..3 {
             for j in 0..3 {
                 let d: f64 = (0..3).map(|r| q[r * 3 + i] * q[r * 3 + j]).sum();
@@ -765,7 +760,7 @@ mod tests {
         ];
         for (c1, c2, full_rank) in panels {
             let mut q = [0.0; 9];
-            let closed = panel_normal(c1, c2, &mut q);
+            let closed = panel_normal(&c1.into(), &c2.into(), &mut q);
             let (householder, n) = householder_normal(c1, c2);
             assert_eq!(
                 (closed, householder),
