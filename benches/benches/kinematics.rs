@@ -7,9 +7,11 @@
 //! the previous contact's row order first).
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use parcal_kinematics::forward::forward_in_place;
+use parcal_kinematics::lanes::{LANES, forward_batch};
 use parcal_kinematics::{
-    ForwardOptions, N_PARAMS, Params, TipDerivatives, Vec3, forward, forward_from_home, paper,
-    params,
+    ForwardOptions, ForwardSolution, N_PARAMS, Params, Pose, TipDerivatives, Vec3, forward,
+    forward_from_home, paper, params,
 };
 use std::hint::black_box;
 
@@ -41,6 +43,30 @@ fn kinematics(c: &mut Criterion) {
                 let mut row = [0.0; N_PARAMS];
                 derivatives.params_row(&h, &mut row);
                 black_box(row)
+            })
+        },
+    );
+    c.bench_function("forward kinematics, per contact", |b| {
+        let mut solution = ForwardSolution::default();
+        b.iter(|| {
+            let (q, start) = next();
+            solution.pose = *start;
+            forward_in_place(&moved, q, &fk, &mut solution).unwrap();
+            black_box(solution.iterations)
+        })
+    });
+    c.bench_function(
+        "forward kinematics of 4 contacts in lanes, per 4 contacts",
+        |b| {
+            let mut solutions: [ForwardSolution; LANES] = Default::default();
+            b.iter(|| {
+                let batch: [&([f64; 6], Pose); LANES] = std::array::from_fn(|_| next());
+                let q = batch.map(|(q, _)| q);
+                for (solution, (_, start)) in solutions.iter_mut().zip(batch) {
+                    solution.pose = *start;
+                }
+                forward_batch(&moved, &q, &fk, &mut solutions, |s| s).unwrap();
+                black_box(solutions[0].iterations)
             })
         },
     );

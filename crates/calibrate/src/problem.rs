@@ -22,7 +22,7 @@ use parcal_observe::{
     BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, ObserveError, RadiusBlock,
     RadiusWeight, Whitening,
 };
-use parcal_solver::{GaussianPrior, GlobalJacobian, Linearization, Problem};
+use parcal_solver::{BATCH, GaussianPrior, GlobalJacobian, Linearization, Problem};
 
 use crate::CalibrateError;
 
@@ -192,35 +192,72 @@ impl<O> CalibrationProblem<'_, O> {
         &self.q[self.row(i)]
     }
 
-    /// Contact `i`'s whitened block at the canonical geometry of the
-    /// current parameters, the ball centre and the contact's angles, into
-    /// `out`: forward kinematics (paper eq. 1) from the contact's cached pose
-    /// (updated), the tool tip (eq. 2) and its derivatives, and the
-    /// observation block.
-    fn linearize_contact<const R: usize, const P: usize>(
+    /// The whitened blocks of the contacts `first..first + out.len()` (at
+    /// most [`BATCH`], of one ball) at the canonical geometry of the current
+    /// parameters, the ball centre and the contacts' angles, into `out`:
+    /// forward kinematics (paper eq. 1) of all of them from their cached
+    /// poses (updated; in SIMD lanes where the machine has AVX2), then for
+    /// each the tool tip (eq. 2) and its derivatives and the observation
+    /// block. An error names the first failing contact, as one contact at a
+    /// time would.
+    fn linearize_contacts<const R: usize, const P: usize>(
+        &self,
+        first: usize,
+        geometry: &Geometry,
+        centre: &Vec3,
+        angles: &[SVector<f64, P>],
+        poses: &mut [Pose],
+        out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
+    ) -> Result<(), (usize, CalibrateError)>
+    where
+        O: ContactObservations<R, P>,
+    {
+        let n = out.len();
+        let q: [&[f64; 6]; BATCH] =
+            std::array::from_fn(|j| self.actuators(first + j.min(n.saturating_sub(1))));
+        let kinematics = TipDerivatives::forward_batch(
+            geometry,
+            &q[..n],
+            poses,
+            &self.forward_options,
+            out,
+            |out| &mut out.d_global.tip,
+        );
+        let solved = kinematics.as_ref().map_or_else(|(j, _)| *j, |()| n);
+        for j in 0..solved {
+            let i = first + j;
+            poses[j] = out[j].d_global.tip.solution().pose;
+            self.observe_contact(i, geometry, centre, &angles[j], &mut out[j])
+                .map_err(|e| (i, e))?;
+        }
+        kinematics.map_err(|(j, source)| {
+            let row = self.row(first + j);
+            (first + j, CalibrateError::ForwardKinematics { row, source })
+        })
+    }
+
+    /// Contact `i`'s whitened observation block at the tool tip of its
+    /// forward kinematics (already in `out`), the ball centre and its
+    /// angles.
+    fn observe_contact<const R: usize, const P: usize>(
         &self,
         i: usize,
         geometry: &Geometry,
         centre: &Vec3,
         angles: &SVector<f64, P>,
-        pose: &mut Pose,
         out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
     ) -> Result<(), CalibrateError>
     where
         O: ContactObservations<R, P>,
     {
-        let row = self.row(i);
-        let derivatives = &mut out.d_global.tip;
-        derivatives
-            .forward(geometry, self.actuators(i), pose, &self.forward_options)
-            .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
-        let solution = derivatives.solution();
-        *pose = solution.pose;
-        let tip = geometry.tool_tip(&solution.pose);
+        let tip = geometry.tool_tip(&out.d_global.tip.solution().pose);
         let block = self
             .observations
             .block(i, self.radius(i), &tip, centre, angles)
-            .map_err(|source| CalibrateError::Observation { row, source })?
+            .map_err(|source| CalibrateError::Observation {
+                row: self.row(i),
+                source,
+            })?
             .whiten(self.observations.weight(i));
         out.residual = block.residual;
         out.d_global.d_tip = block.d_tip;
@@ -274,7 +311,27 @@ where
         cache: &mut Pose,
         out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
     ) -> Result<(), CalibrateError> {
-        self.linearize_contact(i, global, &Vec3::from(*group), point, cache, out)
+        let (points, caches, out) = (
+            std::slice::from_ref(point),
+            std::slice::from_mut(cache),
+            std::slice::from_mut(out),
+        );
+        self.linearize_batch(i, global, group, points, caches, out)
+            .map_err(|(_, e)| e)
+    }
+
+    /// The batch's forward kinematics together (in SIMD lanes where the
+    /// machine has AVX2), then each contact's tip and observation block.
+    fn linearize_batch(
+        &self,
+        first: usize,
+        global: &Geometry,
+        group: &SVector<f64, 3>,
+        points: &[SVector<f64, P>],
+        caches: &mut [Pose],
+        out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
+    ) -> Result<(), (usize, CalibrateError)> {
+        self.linearize_contacts(first, global, &Vec3::from(*group), points, caches, out)
     }
 
     /// As [`Problem::linearize`], with `d_global dg` from one solve; the
@@ -291,10 +348,38 @@ where
         dg: &Params,
         out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
     ) -> Result<SVector<f64, R>, CalibrateError> {
-        self.linearize_contact(i, global, &Vec3::from(*group), point, cache, out)?;
-        let along = out.d_global.tip.along(dg);
-        *cache = step_pose(cache, &along.pose, 1.0);
-        Ok(out.d_global.d_tip * along.tip)
+        let mut step = SVector::zeros();
+        let (points, caches, out, steps) = (
+            std::slice::from_ref(point),
+            std::slice::from_mut(cache),
+            std::slice::from_mut(out),
+            std::slice::from_mut(&mut step),
+        );
+        self.linearize_along_batch(i, global, group, points, caches, dg, out, steps)
+            .map_err(|(_, e)| e)?;
+        Ok(step)
+    }
+
+    /// As [`Problem::linearize_batch`], then each contact's `d_global dg`
+    /// and predicted pose as in [`Problem::linearize_along`].
+    fn linearize_along_batch(
+        &self,
+        first: usize,
+        global: &Geometry,
+        group: &SVector<f64, 3>,
+        points: &[SVector<f64, P>],
+        caches: &mut [Pose],
+        dg: &Params,
+        out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
+        steps: &mut [SVector<f64, R>],
+    ) -> Result<(), (usize, CalibrateError)> {
+        self.linearize_contacts(first, global, &Vec3::from(*group), points, caches, out)?;
+        for ((out, cache), step) in out.iter().zip(caches).zip(steps) {
+            let along = out.d_global.tip.along(dg);
+            *cache = step_pose(cache, &along.pose, 1.0);
+            *step = out.d_global.d_tip * along.tip;
+        }
+        Ok(())
     }
 
     fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {

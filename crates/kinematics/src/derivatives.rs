@@ -23,7 +23,8 @@
 
 use nalgebra::{Matrix3x6, SMatrix, Vector3, Vector6};
 
-use crate::forward::{forward_in_place, step};
+use crate::forward::step;
+use crate::lanes::forward_batch;
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
 use crate::{
     ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs,
@@ -96,9 +97,34 @@ impl TipDerivatives {
         start: &Pose,
         options: &ForwardOptions,
     ) -> Result<(), KinematicsError> {
-        self.solution.pose = *start;
-        forward_in_place(geometry, q, options, &mut self.solution)?;
-        self.tool = self.solution.legs.rotation * geometry.tool;
+        let items = std::slice::from_mut(self);
+        Self::forward_batch(geometry, &[q], &[*start], options, items, |d| d).map_err(|(_, e)| e)
+    }
+
+    /// [`TipDerivatives::forward`] of up to [`crate::lanes::LANES`]
+    /// contacts at once (in SIMD lanes where the machine has AVX2,
+    /// [`crate::lanes::forward_batch`]): the derivatives of item `l`
+    /// (`derivatives(&mut items[l])`) are left at the solution for `q[l]`
+    /// from `starts[l]`. An error is that of the first failing contact, with
+    /// its index (the other derivatives are then unspecified).
+    pub fn forward_batch<T>(
+        geometry: &Geometry,
+        q: &[&[f64; 6]],
+        starts: &[Pose],
+        options: &ForwardOptions,
+        items: &mut [T],
+        derivatives: impl Fn(&mut T) -> &mut Self,
+    ) -> Result<(), (usize, KinematicsError)> {
+        for (item, start) in items.iter_mut().zip(starts) {
+            derivatives(item).solution.pose = *start;
+        }
+        forward_batch(geometry, q, options, items, |item| {
+            &mut derivatives(item).solution
+        })?;
+        for item in items.iter_mut() {
+            let derivatives = derivatives(item);
+            derivatives.tool = derivatives.solution.legs.rotation * geometry.tool;
+        }
         Ok(())
     }
 

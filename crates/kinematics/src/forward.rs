@@ -94,16 +94,7 @@ pub fn forward_in_place(
     options: &ForwardOptions,
     solution: &mut ForwardSolution,
 ) -> Result<(), KinematicsError> {
-    for (i, value) in q.iter().enumerate() {
-        let length = geometry.legs[i] + value;
-        if !length.is_finite() {
-            let what = format!("actuator value q{}", i + 1);
-            return Err(KinematicsError::NonFinite { what });
-        }
-        if length <= 0.0 {
-            return Err(KinematicsError::InfeasibleLeg { leg: i + 1, length });
-        }
-    }
+    check_actuators(geometry, q)?;
     let ForwardSolution {
         pose,
         legs,
@@ -152,6 +143,22 @@ pub fn forward_in_place(
         iterations: options.max_iterations,
         residual: largest,
     })
+}
+
+/// Refuses a non-finite actuator value or one that makes a leg
+/// infeasible (`l_i + q_i <= 0`).
+pub(crate) fn check_actuators(geometry: &Geometry, q: &[f64; 6]) -> Result<(), KinematicsError> {
+    for (i, value) in q.iter().enumerate() {
+        let length = geometry.legs[i] + value;
+        if !length.is_finite() {
+            let what = format!("actuator value q{}", i + 1);
+            return Err(KinematicsError::NonFinite { what });
+        }
+        if length <= 0.0 {
+            return Err(KinematicsError::InfeasibleLeg { leg: i + 1, length });
+        }
+    }
+    Ok(())
 }
 
 /// Forward kinematics from the geometry's home pose ([`Geometry::home_pose`]).

@@ -7,7 +7,7 @@
 //! - [`frames`]: the canonical base and platform frames (paper 2.1) and the
 //!   conversion of a geometry given in any frame.
 //! - [`params`]: the 33 identifiable parameters (paper eq. 3) with their names.
-//! - [`inverse`] and [`forward`] kinematics (paper eqs. 1-2).
+//! - [`inverse`] and [`forward`](mod@forward) kinematics (paper eqs. 1-2).
 //! - [`derivatives`]: the tool tip's derivatives with respect to the 33
 //!   parameters and to the actuator values, by implicit differentiation.
 //!
@@ -41,8 +41,10 @@ pub mod forward;
 pub mod frames;
 mod geometry;
 pub mod inverse;
+pub mod lanes;
 pub mod lu6;
 pub mod params;
+mod simd;
 
 pub use derivatives::{
     DerivativeAlong, TipDerivatives, TipJacobians, tip_jacobians, tip_jacobians_at,

@@ -63,6 +63,17 @@ impl Default for Lu6 {
 }
 
 impl Lu6 {
+    /// The row order: row `k` of `P A` is row `permutation()[k]` of `A`.
+    pub(crate) fn permutation(&self) -> [u8; 6] {
+        self.permutation
+    }
+
+    /// The packed factors and the row order, to be written in place by
+    /// the lanes ([`crate::lanes`]), which factorise as [`Lu6`] does.
+    pub(crate) fn factors_mut(&mut self) -> (&mut [[f64; 6]; 6], &mut [u8; 6]) {
+        (&mut self.lu, &mut self.permutation)
+    }
+
     /// Factorises the matrix with these rows, refusing a (nearly) singular
     /// one.
     #[inline]

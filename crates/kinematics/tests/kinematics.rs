@@ -2,10 +2,11 @@
 //! the workspace, analytic derivatives against central differences, and the
 //! canonical frames' invariance to rigid motions of the input frame.
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
+use parcal_kinematics::lanes::forward_batch;
 use parcal_kinematics::{
-    ForwardOptions, Geometry, KinematicsError, Params, Pose, TipDerivatives, Vec3, actuators,
-    forward, forward_from_home, paper, params, rotation_zyx, tip_jacobians,
+    ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose, TipDerivatives, Vec3,
+    actuators, forward, forward_from_home, paper, params, rotation_zyx, tip_jacobians,
 };
 
 /// SplitMix64: a tiny deterministic generator for test poses.
@@ -321,4 +322,164 @@ fn predicted_pose_is_first_order_in_the_actuators() {
             "miss ratio {ratio} (4 expected)"
         );
     }
+}
+
+/// What `forward_batch` gives a batch: every solution, or the first error
+/// with its contact's index.
+type LanesOutcome = Result<Vec<ForwardSolution>, (usize, KinematicsError)>;
+
+/// Runs `forward_batch` on the contacts `(q, start)` (in SIMD lanes on a
+/// machine with AVX2, for two contacts and more) and the scalar forward
+/// kinematics on each; returns both solutions (or errors).
+fn lanes_and_scalar(
+    geometry: &Geometry,
+    contacts: &[([f64; 6], Pose)],
+    options: &ForwardOptions,
+) -> (LanesOutcome, Vec<Result<ForwardSolution, KinematicsError>>) {
+    let mut solutions: Vec<ForwardSolution> = contacts
+        .iter()
+        .map(|(_, start)| ForwardSolution {
+            pose: *start,
+            ..ForwardSolution::default()
+        })
+        .collect();
+    let q: Vec<&[f64; 6]> = contacts.iter().map(|(q, _)| q).collect();
+    let lanes = forward_batch(geometry, &q, options, &mut solutions, |s| s).map(|()| solutions);
+    let scalar = contacts
+        .iter()
+        .map(|(q, start)| forward(geometry, q, start, options))
+        .collect();
+    (lanes, scalar)
+}
+
+/// The lanes' solution is the scalar one up to rounding: the pose, the
+/// legs, the step count, and a factorisation that solves by the same
+/// closure Jacobian.
+fn assert_same_solution(lanes: &ForwardSolution, scalar: &ForwardSolution) {
+    assert_eq!(lanes.iterations, scalar.iterations);
+    let shift = (lanes.pose.translation.vector - scalar.pose.translation.vector).amax();
+    let turn = lanes.pose.rotation.angle_to(&scalar.pose.rotation);
+    assert!(
+        shift < 1e-10 && turn < 1e-12,
+        "pose differs by {shift:e} mm, {turn:e} rad"
+    );
+    for i in 0..6 {
+        assert!((lanes.legs.length[i] - scalar.legs.length[i]).abs() < 1e-10);
+        assert!((lanes.legs.direction[i] - scalar.legs.direction[i]).amax() < 1e-12);
+        assert!((lanes.legs.rotated[i] - scalar.legs.rotated[i]).amax() < 1e-10);
+    }
+    let b = Vector6::new(1.0, -2.0, 0.5, 3.0, -0.25, 1.5);
+    let x = scalar.factor.solve(&b);
+    let y = scalar.factor.solve_transpose(&b);
+    assert!((lanes.factor.solve(&b) - x).amax() < 1e-9 * x.amax());
+    assert!((lanes.factor.solve_transpose(&b) - y).amax() < 1e-9 * y.amax());
+}
+
+#[test]
+fn forward_kinematics_in_lanes_is_the_scalar_iteration() {
+    let mut rng = Rng(1158);
+    let options = ForwardOptions::default();
+    let geometry = paper::truth();
+    let mut histogram = [0; 8];
+    for round in 0..400 {
+        // Batches of 1 to 4 contacts, started one iteration away (a small
+        // pose error, two Newton steps), from the home pose (four steps), or
+        // turned by up to 80 degrees (five steps and more; the scalar
+        // iteration halves some of them, and the lanes hand those contacts
+        // over to it).
+        let contacts: Vec<([f64; 6], Pose)> = (0..round % 4 + 1)
+            .map(|_| {
+                let pose = workspace_pose(&mut rng, &geometry, 10.0);
+                let q = actuators(&geometry, &pose);
+                let start = if round % 5 == 0 {
+                    let turn = UnitQuaternion::from_scaled_axis(Vector3::new(
+                        rng.uniform(-0.8, 0.8),
+                        rng.uniform(-0.8, 0.8),
+                        rng.uniform(-0.8, 0.8),
+                    ));
+                    Pose::from_parts(pose.translation, turn * pose.rotation)
+                } else if round % 3 == 0 {
+                    geometry.home_pose(&q)
+                } else {
+                    let shift = Translation3::new(
+                        rng.uniform(-1e-3, 1e-3),
+                        rng.uniform(-1e-3, 1e-3),
+                        rng.uniform(-1e-3, 1e-3),
+                    );
+                    shift * pose
+                };
+                (q, start)
+            })
+            .collect();
+        let (lanes, scalar) = lanes_and_scalar(&geometry, &contacts, &options);
+        for (lanes, scalar) in lanes
+            .expect("forward kinematics in lanes")
+            .iter()
+            .zip(scalar)
+        {
+            let scalar = scalar.expect("scalar forward kinematics");
+            histogram[scalar.iterations.min(7)] += 1;
+            assert_same_solution(lanes, &scalar);
+        }
+    }
+    // Every regime was exercised.
+    assert!(
+        histogram[2] > 100 && histogram[4] > 100 && histogram[5..].iter().sum::<usize>() > 10,
+        "step counts {histogram:?}"
+    );
+}
+
+#[test]
+fn forward_kinematics_in_lanes_reports_the_first_failing_contact() {
+    let geometry = paper::design();
+    let options = ForwardOptions::default();
+    let home = geometry.home_pose(&[0.0; 6]);
+    let mut infeasible = [100.0; 6];
+    infeasible[2] = -300.0;
+    let mut nan = [100.0; 6];
+    nan[4] = f64::NAN;
+    let good = [120.0; 6];
+    // Legs too long to close: the scalar iteration's error, in lane 1.
+    let far = [1.0e4, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let cases: [(&[[f64; 6]], usize); 4] = [
+        (&[good, infeasible, nan], 1),
+        (&[good, good, nan, infeasible], 2),
+        (&[good, far, infeasible], 1),
+        (&[infeasible], 0),
+    ];
+    for (batch, first) in cases {
+        let contacts: Vec<_> = batch.iter().map(|q| (*q, home)).collect();
+        let (lanes, scalar) = lanes_and_scalar(&geometry, &contacts, &options);
+        let (lane, error) = lanes.expect_err("a failing contact");
+        assert_eq!(lane, first);
+        assert_eq!(
+            Err(error),
+            scalar[first].as_ref().map(|_| ()).map_err(Clone::clone)
+        );
+    }
+    // The iteration limit and a singular configuration, as in the scalar
+    // iteration.
+    let few = ForwardOptions {
+        max_iterations: 1,
+        ..options
+    };
+    let (lanes, _) = lanes_and_scalar(&geometry, &[(good, home), (good, home)], &few);
+    let (_, error) = lanes.expect_err("not converged in one step");
+    assert!(
+        matches!(error, KinematicsError::NotConverged { iterations: 1, .. }),
+        "{error}"
+    );
+    let singular = Geometry {
+        platform: geometry.base,
+        ..geometry.clone()
+    };
+    let upright = Pose::from_parts(
+        Translation3::new(0.0, 0.0, 200.0),
+        UnitQuaternion::identity(),
+    );
+    let (lanes, _) = lanes_and_scalar(&singular, &[(good, home), ([-30.0; 6], upright)], &options);
+    assert_eq!(
+        lanes.expect_err("singular").1,
+        KinematicsError::SingularJacobian
+    );
 }

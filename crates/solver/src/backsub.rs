@@ -9,9 +9,9 @@ use nalgebra::SVector;
 use crate::chunks::{Chunk, ElimBuffers, run_ordered, split_by};
 use crate::context::Context;
 use crate::eliminate::{
-    Failure, GroupRows, factor_point, push_group_prior_and_damping, stepped_row,
+    Failure, GroupRows, batches, factor_point, push_group_prior_and_damping, stepped_row,
 };
-use crate::problem::{GlobalJacobian, Linearization, Problem, State};
+use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::{PriorRows, solve_upper_in_place};
 use crate::reduced::ReducedSystem;
 use crate::solution::BlockId;
@@ -167,7 +167,8 @@ where
     let mut group = GroupRows::<C>::new(group_buf, gw);
     let mut discard = |_: &[f64]| {};
     let mut sum = StepSummary::default();
-    let mut lin = Linearization::zeros();
+    let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros());
+    let mut steps = [SVector::<f64, R>::zeros(); BATCH];
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         let range = problem.group_points(k);
@@ -176,46 +177,60 @@ where
         group.reset();
         let mut raw_norms2 = [0.0; C];
         let mut b_c = SVector::<f64, C>::zeros();
-        for (j, i) in range.clone().enumerate() {
-            let p = &state.points[i];
-            let cache = &mut caches[i - chunk.points.start];
-            let global_step = match problem.linearize_along(i, global, c, p, cache, dg, &mut lin) {
-                Ok(step) => step,
-                Err(e) => return Err(Failure::linearize(i, &e)),
-            };
-            let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
-            let mut b_p = lin.d_point.tr_mul(&lin.residual);
-            if let Some(prior) = &prior {
-                b_p += prior.gradient();
-            }
-            b_c += lin.d_group.tr_mul(&lin.residual);
-            sum.gradient_dot += lin.residual.dot(&global_step);
-            if lambda > 0.0 {
-                lin.d_group.add_column_norms2(&mut raw_norms2);
-            }
-            let factor = factor_point(&lin, prior.as_ref(), lambda, point_buf, 0)
-                .ok_or(Failure::Singular(BlockId::Point(i)))?;
-            let m = factor.rows;
-            let t = lin.residual + global_step;
-            let (panel, q) = point_buf.split_at((R + 2 * P) * P);
-            let entry = &mut point_data[j * stride..(j + 1) * stride];
-            for a in 0..P {
-                stepped_row(
-                    &lin,
-                    &t,
-                    prior.as_ref(),
-                    q,
-                    m,
-                    a,
-                    &mut entry[a * gw..(a + 1) * gw],
-                );
-            }
-            solve_upper_in_place(panel, P, P, &mut entry[..tri], gw);
-            entry[tri..tri + P].copy_from_slice(b_p.as_slice());
-            entry[tri + P..].copy_from_slice(factor.damping.as_slice());
-            for e in P..m {
-                let row = group.next_row(scratch, &mut discard);
-                stepped_row(&lin, &t, prior.as_ref(), q, m, e, row);
+        for batch in batches(range.clone()) {
+            let n = batch.len();
+            let caches =
+                &mut caches[batch.start - chunk.points.start..batch.end - chunk.points.start];
+            let points = &state.points[batch.clone()];
+            problem
+                .linearize_along_batch(
+                    batch.start,
+                    global,
+                    c,
+                    points,
+                    caches,
+                    dg,
+                    &mut lins[..n],
+                    &mut steps[..n],
+                )
+                .map_err(|(i, e)| Failure::linearize(i, &e))?;
+            for (i, (lin, global_step)) in batch.zip(lins.iter().zip(&steps)) {
+                let j = i - range.start;
+                let p = &state.points[i];
+                let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
+                let mut b_p = lin.d_point.tr_mul(&lin.residual);
+                if let Some(prior) = &prior {
+                    b_p += prior.gradient();
+                }
+                b_c += lin.d_group.tr_mul(&lin.residual);
+                sum.gradient_dot += lin.residual.dot(global_step);
+                if lambda > 0.0 {
+                    lin.d_group.add_column_norms2(&mut raw_norms2);
+                }
+                let factor = factor_point(lin, prior.as_ref(), lambda, point_buf, 0)
+                    .ok_or(Failure::Singular(BlockId::Point(i)))?;
+                let m = factor.rows;
+                let t = lin.residual + global_step;
+                let (panel, q) = point_buf.split_at((R + 2 * P) * P);
+                let entry = &mut point_data[j * stride..(j + 1) * stride];
+                for a in 0..P {
+                    stepped_row(
+                        lin,
+                        &t,
+                        prior.as_ref(),
+                        q,
+                        m,
+                        a,
+                        &mut entry[a * gw..(a + 1) * gw],
+                    );
+                }
+                solve_upper_in_place(panel, P, P, &mut entry[..tri], gw);
+                entry[tri..tri + P].copy_from_slice(b_p.as_slice());
+                entry[tri + P..].copy_from_slice(factor.damping.as_slice());
+                for e in P..m {
+                    let row = group.next_row(scratch, &mut discard);
+                    stepped_row(lin, &t, prior.as_ref(), q, m, e, row);
+                }
             }
         }
         let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));

@@ -5,12 +5,14 @@
 //! eliminates the group; what remains (global columns and residual only) is
 //! multiplied into the chunk's reduced matrix by GEMM.
 
+use std::ops::Range;
+
 use faer::linalg::matmul::triangular::{BlockStructure, matmul};
 use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{SVector, Vector3};
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
-use crate::problem::{GlobalJacobian, Linearization, Problem, State};
+use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::{
     PriorRows, RANK_TOLERANCE, add_column_norms2, householder_rows, triangle_has_full_rank,
 };
@@ -518,38 +520,49 @@ where
     } = bufs;
     let mut group = GroupRows::<C>::new(group_buf, dims.group_width());
     let mut costs = Costs::default();
-    let mut lin = Linearization::zeros();
+    let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros());
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         group.reset();
         let mut raw_norms2 = [0.0; C];
         let mut group_data = 0.0;
-        for i in problem.group_points(k) {
-            let cache = &mut caches[i - chunk.points.start];
-            let p = &state.points[i];
-            if let Err(e) = problem.linearize(i, global, c, p, cache, &mut lin) {
-                return Err(Failure::linearize(i, &e));
-            }
-            let data = lin.residual.norm_squared();
-            costs.data += data;
-            group_data += data;
-            let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
-            if let Some(prior) = &prior {
-                costs.prior += prior.residual.norm_squared();
-            }
-            if lambda > 0.0 {
-                lin.d_group.add_column_norms2(&mut raw_norms2);
-                if let Some(out) = global_norms2.as_deref_mut() {
-                    lin.d_global.add_column_norms2(out);
+        for batch in batches(problem.group_points(k)) {
+            let lins = &mut lins[..batch.len()];
+            let caches =
+                &mut caches[batch.start - chunk.points.start..batch.end - chunk.points.start];
+            problem
+                .linearize_batch(
+                    batch.start,
+                    global,
+                    c,
+                    &state.points[batch.clone()],
+                    caches,
+                    lins,
+                )
+                .map_err(|(i, e)| Failure::linearize(i, &e))?;
+            for (i, lin) in batch.zip(lins.iter()) {
+                let p = &state.points[i];
+                let data = lin.residual.norm_squared();
+                costs.data += data;
+                group_data += data;
+                let prior = problem.point_prior(i).map(|pr| PriorRows::new(&pr, p));
+                if let Some(prior) = &prior {
+                    costs.prior += prior.residual.norm_squared();
                 }
-            }
-            let factor = factor_point(&lin, prior.as_ref(), lambda, point_buf, P)
-                .ok_or(Failure::Singular(BlockId::Point(i)))?;
-            let m = factor.rows;
-            let q = &point_buf[(R + 2 * P) * P..];
-            for e in P..m {
-                let row = group.next_row(scratch, &mut |row| sink.reduced_row(row));
-                eliminated_row(&lin, prior.as_ref(), q, m, e, row);
+                if lambda > 0.0 {
+                    lin.d_group.add_column_norms2(&mut raw_norms2);
+                    if let Some(out) = global_norms2.as_deref_mut() {
+                        lin.d_global.add_column_norms2(out);
+                    }
+                }
+                let factor = factor_point(lin, prior.as_ref(), lambda, point_buf, P)
+                    .ok_or(Failure::Singular(BlockId::Point(i)))?;
+                let m = factor.rows;
+                let q = &point_buf[(R + 2 * P) * P..];
+                for e in P..m {
+                    let row = group.next_row(scratch, &mut |row| sink.reduced_row(row));
+                    eliminated_row(lin, prior.as_ref(), q, m, e, row);
+                }
             }
         }
         let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
@@ -570,6 +583,14 @@ where
         sink.group_done(k, top, group_data);
     }
     Ok(costs)
+}
+
+/// The points of a group in batches of at most [`BATCH`], in order.
+pub(crate) fn batches(points: Range<usize>) -> impl Iterator<Item = Range<usize>> {
+    points
+        .clone()
+        .step_by(BATCH)
+        .map(move |first| first..(first + BATCH).min(points.end))
 }
 
 /// After a chunk's sums came out non-finite: linearises its points again (at

@@ -224,5 +224,5 @@ pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
 pub use monitor::{Iterate, Monitor, Verdict};
 pub use options::{Method, SolverOptions};
-pub use problem::{GaussianPrior, GlobalJacobian, Linearization, Problem, State};
+pub use problem::{BATCH, GaussianPrior, GlobalJacobian, Linearization, Problem, State};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

@@ -165,6 +165,9 @@ impl<const N: usize> GaussianPrior<N> {
     }
 }
 
+/// Points linearised together at most ([`Problem::linearize_batch`]).
+pub const BATCH: usize = 4;
+
 /// A least-squares problem with one global block (`G` unknowns), `n_groups`
 /// group blocks (`C` unknowns each) and one point block (`P` unknowns) per
 /// point; point `i` has `R` whitened residual rows that depend on the global
@@ -217,6 +220,32 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         out: &mut Linearization<G, C, P, R, Self::Jacobian>,
     ) -> Result<(), Self::Error>;
 
+    /// [`Problem::linearize`] of the points `first..first + out.len()` (at
+    /// most [`BATCH`], all of one group), their blocks and caches given in
+    /// order. On failure: the first failing point and its error (the
+    /// outputs are then unspecified). The default linearises the points one
+    /// by one; a problem whose per-point work runs faster several points at
+    /// a time (e.g. in SIMD lanes) does them together. The solver always
+    /// linearises through this method.
+    #[allow(clippy::too_many_arguments)]
+    fn linearize_batch(
+        &self,
+        first: usize,
+        global: &Self::Global,
+        group: &SVector<f64, C>,
+        points: &[SVector<f64, P>],
+        caches: &mut [Self::PointCache],
+        out: &mut [Linearization<G, C, P, R, Self::Jacobian>],
+    ) -> Result<(), (usize, Self::Error)> {
+        for (j, (out, (point, cache))) in out.iter_mut().zip(points.iter().zip(caches)).enumerate()
+        {
+            let i = first + j;
+            self.linearize(i, global, group, point, cache, out)
+                .map_err(|e| (i, e))?;
+        }
+        Ok(())
+    }
+
     /// Point `i`'s linearisation for back-substitution, which needs of
     /// `d_global` only its product with the global step `dg`: writes the
     /// linearisation into `out` (its `d_global` is not read afterwards) and
@@ -235,6 +264,32 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     ) -> Result<SVector<f64, R>, Self::Error> {
         self.linearize(i, global, group, point, cache, out)?;
         Ok(out.d_global.apply(dg))
+    }
+
+    /// [`Problem::linearize_along`] of the points `first..first +
+    /// out.len()` as [`Problem::linearize_batch`] takes them; `d_global ·
+    /// dg` of each into `steps`.
+    #[allow(clippy::too_many_arguments)]
+    fn linearize_along_batch(
+        &self,
+        first: usize,
+        global: &Self::Global,
+        group: &SVector<f64, C>,
+        points: &[SVector<f64, P>],
+        caches: &mut [Self::PointCache],
+        dg: &SVector<f64, G>,
+        out: &mut [Linearization<G, C, P, R, Self::Jacobian>],
+        steps: &mut [SVector<f64, R>],
+    ) -> Result<(), (usize, Self::Error)> {
+        let points = points.iter().zip(caches);
+        for (j, ((out, step), (point, cache))) in out.iter_mut().zip(steps).zip(points).enumerate()
+        {
+            let i = first + j;
+            *step = self
+                .linearize_along(i, global, group, point, cache, dg, out)
+                .map_err(|e| (i, e))?;
+        }
+        Ok(())
     }
 
     /// Prior on the global block.

@@ -1,0 +1,197 @@
+//! The calibration linearises a ball's contacts in batches
+//! (`Problem::linearize_batch`: their forward kinematics together, in SIMD
+//! lanes on a machine with AVX2). A batch gives what one contact at a time
+//! gives, to rounding, and names the same failing contact.
+
+use nalgebra::{SVector, Vector2};
+use parcal_calibrate::problem::{ContactJacobian, CoordinateObservations};
+use parcal_calibrate::setup::{Observations, Setup};
+use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation};
+use parcal_dataset::Dataset;
+use parcal_kinematics::{N_PARAMS, Params, Pose};
+use parcal_simulate::{Scenario, simulate};
+use parcal_solver::{BATCH, GlobalJacobian, Linearization, Problem};
+
+type Lin = Linearization<N_PARAMS, 3, 2, 3, ContactJacobian<3>>;
+
+fn options() -> CalibrationOptions {
+    CalibrationOptions {
+        prior: PriorMode::Propagated,
+        ..CalibrationOptions::simulation(Simulation::IV)
+    }
+}
+
+fn dataset() -> Dataset {
+    simulate(&Scenario::scaled(12, 7, 10f64.to_radians()), 3)
+        .unwrap()
+        .dataset
+}
+
+fn setup(dataset: &Dataset) -> (Setup, CoordinateObservations) {
+    let (setup, observations) = Setup::new(dataset, &options()).unwrap();
+    let Observations::Coordinates(observations) = observations else {
+        unreachable!("simulation IV observes coordinates")
+    };
+    (setup, observations)
+}
+
+/// `|a - b| <= tolerance max(|b|, 1)`, entry by entry.
+fn assert_close(a: &[f64], b: &[f64], tolerance: f64, what: &str) {
+    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+    for (x, y) in a.iter().zip(b) {
+        assert!(
+            (x - y).abs() <= tolerance * scale,
+            "{what}: {a:?} against {b:?}"
+        );
+    }
+}
+
+/// The linearisations agree: the blocks to rounding, the global Jacobian
+/// row by row.
+fn assert_same(batch: &Lin, single: &Lin) {
+    assert_close(
+        batch.residual.as_slice(),
+        single.residual.as_slice(),
+        1e-12,
+        "residual",
+    );
+    assert_close(
+        batch.d_group.as_slice(),
+        single.d_group.as_slice(),
+        1e-12,
+        "d_group",
+    );
+    assert_close(
+        batch.d_point.as_slice(),
+        single.d_point.as_slice(),
+        1e-12,
+        "d_point",
+    );
+    for r in 0..3 {
+        let (mut a, mut b) = ([0.0; N_PARAMS], [0.0; N_PARAMS]);
+        batch.d_global.row(r, &mut a);
+        single.d_global.row(r, &mut b);
+        assert_close(&a, &b, 1e-9, "d_global");
+    }
+}
+
+fn assert_same_pose(a: &Pose, b: &Pose) {
+    assert!((a.translation.vector - b.translation.vector).amax() < 1e-9);
+    assert!(a.rotation.angle_to(&b.rotation) < 1e-12);
+}
+
+#[test]
+fn a_batch_is_its_contacts_one_at_a_time() {
+    let dataset = dataset();
+    let (setup, observations) = setup(&dataset);
+    let problem = setup.problem(&dataset, &options(), observations);
+    // Mid-run: parameters away from the design, angles away from zero, the
+    // poses the design's (two Newton steps per contact).
+    let global = problem.prepare_global(&(setup.initial_params + Params::repeat(1e-3)));
+    let dg = Params::from_fn(|k, _| 1e-4 * (k as f64 - 16.0));
+    let mut lanes_used = 0;
+    for k in 0..problem.n_groups() {
+        let centre = setup.initial_centres[k];
+        let contacts = problem.group_points(k);
+        for first in contacts.clone().step_by(BATCH) {
+            let n = (contacts.end - first).min(BATCH);
+            let range = first..first + n;
+            let angles: Vec<_> = range
+                .clone()
+                .map(|i| Vector2::new(1e-3 * i as f64, -2e-3))
+                .collect();
+            for along in [false, true] {
+                let mut poses = setup.poses[range.clone()].to_vec();
+                let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros()).collect();
+                let mut steps = vec![SVector::<f64, 3>::zeros(); n];
+                if along {
+                    problem
+                        .linearize_along_batch(
+                            first, &global, &centre, &angles, &mut poses, &dg, &mut batch,
+                            &mut steps,
+                        )
+                        .unwrap();
+                } else {
+                    problem
+                        .linearize_batch(first, &global, &centre, &angles, &mut poses, &mut batch)
+                        .unwrap();
+                }
+                for (j, i) in range.clone().enumerate() {
+                    let mut pose = setup.poses[i];
+                    let mut single = Lin::zeros();
+                    if along {
+                        let step = problem
+                            .linearize_along(
+                                i,
+                                &global,
+                                &centre,
+                                &angles[j],
+                                &mut pose,
+                                &dg,
+                                &mut single,
+                            )
+                            .unwrap();
+                        assert_close(step.as_slice(), steps[j].as_slice(), 1e-9, "d_global dg");
+                    } else {
+                        problem
+                            .linearize(i, &global, &centre, &angles[j], &mut pose, &mut single)
+                            .unwrap();
+                    }
+                    assert_same(&batch[j], &single);
+                    assert_same_pose(&poses[j], &pose);
+                    let iterations = batch[j].d_global.tip.solution().iterations;
+                    assert_eq!(iterations, single.d_global.tip.solution().iterations);
+                }
+                lanes_used += usize::from(n > 1);
+            }
+        }
+    }
+    assert!(lanes_used > 20, "batches of several contacts: {lanes_used}");
+}
+
+#[test]
+fn a_batch_names_its_first_failing_contact() {
+    let mut dataset = dataset();
+    let (setup, observations) = setup(&dataset);
+    // The third contact of ball 0 (sorted order) cannot be reached, and
+    // neither can the fourth.
+    let contacts = setup.groups[0].clone();
+    for j in [2, 3] {
+        let row = setup.order[contacts.start + j] as usize;
+        dataset.measurements.q[row] = [-1e4; 6];
+    }
+    let problem = setup.problem(&dataset, &options(), observations);
+    let global = problem.prepare_global(&setup.initial_params);
+    let centre = setup.initial_centres[0];
+    let angles = vec![Vector2::zeros(); BATCH];
+    let range = contacts.start..contacts.start + BATCH;
+    let mut poses = setup.poses[range.clone()].to_vec();
+    let mut batch: Vec<Lin> = (0..BATCH).map(|_| Lin::zeros()).collect();
+    let (failed, error) = problem
+        .linearize_batch(
+            range.start,
+            &global,
+            &centre,
+            &angles,
+            &mut poses,
+            &mut batch,
+        )
+        .expect_err("an unreachable contact");
+    assert_eq!(failed, range.start + 2);
+    let mut pose = setup.poses[failed];
+    let single = problem
+        .linearize(
+            failed,
+            &global,
+            &centre,
+            &angles[0],
+            &mut pose,
+            &mut Lin::zeros(),
+        )
+        .expect_err("the same contact alone");
+    assert_eq!(error.to_string(), single.to_string());
+    assert!(
+        error.to_string().contains("measurements.csv line"),
+        "{error}"
+    );
+}
