@@ -89,38 +89,6 @@ impl F64x4 {
         Self(unsafe { _mm256_min_pd(self.0, other.0) })
     }
 
-    /// `self < other` (false where either is NaN); likewise [`F64x4::le`],
-    /// [`F64x4::ge`], [`F64x4::gt`], [`F64x4::eq`].
-    #[inline(always)]
-    pub(crate) fn lt(self, other: Self) -> Mask4 {
-        // SAFETY: AVX code on an existing value (module documentation).
-        Mask4(unsafe { _mm256_cmp_pd::<_CMP_LT_OQ>(self.0, other.0) })
-    }
-
-    #[inline(always)]
-    pub(crate) fn le(self, other: Self) -> Mask4 {
-        // SAFETY: AVX code on an existing value (module documentation).
-        Mask4(unsafe { _mm256_cmp_pd::<_CMP_LE_OQ>(self.0, other.0) })
-    }
-
-    #[inline(always)]
-    pub(crate) fn ge(self, other: Self) -> Mask4 {
-        // SAFETY: AVX code on an existing value (module documentation).
-        Mask4(unsafe { _mm256_cmp_pd::<_CMP_GE_OQ>(self.0, other.0) })
-    }
-
-    #[inline(always)]
-    pub(crate) fn gt(self, other: Self) -> Mask4 {
-        // SAFETY: AVX code on an existing value (module documentation).
-        Mask4(unsafe { _mm256_cmp_pd::<_CMP_GT_OQ>(self.0, other.0) })
-    }
-
-    #[inline(always)]
-    pub(crate) fn eq(self, other: Self) -> Mask4 {
-        // SAFETY: AVX code on an existing value (module documentation).
-        Mask4(unsafe { _mm256_cmp_pd::<_CMP_EQ_OQ>(self.0, other.0) })
-    }
-
     #[inline(always)]
     pub(crate) fn is_nan(self) -> Mask4 {
         // SAFETY: AVX code on an existing value (module documentation).
@@ -134,6 +102,24 @@ impl F64x4 {
         Mask4(unsafe { _mm256_cmp_pd::<_CMP_LT_OQ>(self.abs().0, _mm256_set1_pd(f64::INFINITY)) })
     }
 }
+
+/// Lane-wise comparisons, false where either side is NaN (ordered,
+/// quiet: the predicates of `cmppd`).
+macro_rules! comparisons {
+    ($($name:ident: $predicate:ident),*) => {
+        impl F64x4 {
+            $(
+                #[inline(always)]
+                pub(crate) fn $name(self, other: Self) -> Mask4 {
+                    // SAFETY: AVX code on existing values (module documentation).
+                    Mask4(unsafe { _mm256_cmp_pd::<$predicate>(self.0, other.0) })
+                }
+            )*
+        }
+    };
+}
+
+comparisons!(lt: _CMP_LT_OQ, le: _CMP_LE_OQ, ge: _CMP_GE_OQ, gt: _CMP_GT_OQ, eq: _CMP_EQ_OQ);
 
 impl Mask4 {
     /// `a` in the lanes where the mask is set, `b` elsewhere.

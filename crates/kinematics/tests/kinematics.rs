@@ -236,16 +236,7 @@ fn forward_kinematics_failures_are_error_values() {
         "{error}"
     );
 
-    // Platform joints over the base joints with vertical legs: the closure
-    // Jacobian loses rank (no control of x, y and the yaw).
-    let singular = Geometry {
-        platform: geometry.base,
-        ..geometry.clone()
-    };
-    let upright = Pose::from_parts(
-        Translation3::new(0.0, 0.0, 200.0),
-        UnitQuaternion::identity(),
-    );
+    let (singular, upright) = singular_configuration(&geometry);
     let error = forward(&singular, &[-30.0; 6], &upright, &options).unwrap_err();
     assert_eq!(error, KinematicsError::SingularJacobian);
 }
@@ -322,6 +313,21 @@ fn predicted_pose_is_first_order_in_the_actuators() {
             "miss ratio {ratio} (4 expected)"
         );
     }
+}
+
+/// Platform joints over the base joints of `geometry` with vertical legs,
+/// and a pose of it: the closure Jacobian loses rank there (no control of
+/// x, y and the yaw).
+fn singular_configuration(geometry: &Geometry) -> (Geometry, Pose) {
+    let singular = Geometry {
+        platform: geometry.base,
+        ..geometry.clone()
+    };
+    let upright = Pose::from_parts(
+        Translation3::new(0.0, 0.0, 200.0),
+        UnitQuaternion::identity(),
+    );
+    (singular, upright)
 }
 
 /// What `forward_batch` gives a batch: every solution, or the first error
@@ -469,14 +475,7 @@ fn forward_kinematics_in_lanes_reports_the_first_failing_contact() {
         matches!(error, KinematicsError::NotConverged { iterations: 1, .. }),
         "{error}"
     );
-    let singular = Geometry {
-        platform: geometry.base,
-        ..geometry.clone()
-    };
-    let upright = Pose::from_parts(
-        Translation3::new(0.0, 0.0, 200.0),
-        UnitQuaternion::identity(),
-    );
+    let (singular, upright) = singular_configuration(&geometry);
     let (lanes, _) = lanes_and_scalar(&singular, &[(good, home), ([-30.0; 6], upright)], &options);
     assert_eq!(
         lanes.expect_err("singular").1,
