@@ -224,6 +224,7 @@ mod avx2 {
         (0..LANES).filter(move |l| mask & 1 << l != 0)
     }
 
+    /// The starting poses, one per lane.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn pack(poses: &[Pose; LANES]) -> Poses {
@@ -248,8 +249,9 @@ mod avx2 {
         nan.select(Lane::splat(f64::NAN), largest)
     }
 
-    /// [`crate::closure::Legs::evaluate`] and [`crate::closure::Legs::residual`] in lanes, with the rotation
-    /// matrix of `UnitQuaternion::to_rotation_matrix`.
+    /// [`crate::closure::Legs::evaluate`] and
+    /// [`crate::closure::Legs::residual`] in lanes, with the rotation matrix
+    /// of `UnitQuaternion::to_rotation_matrix`.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn evaluate(geometry: &Geometry, poses: &Poses, target: &[Lane; 6]) -> LaneLegs {
@@ -289,7 +291,8 @@ mod avx2 {
         legs
     }
 
-    /// [`crate::closure::Legs::closure_rows`] in lanes: row `i` is `[n_i^T, (a_i x n_i)^T]`.
+    /// [`crate::closure::Legs::closure_rows`] in lanes: row `i` is
+    /// `[n_i^T, (a_i x n_i)^T]`.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn legs_rows(legs: &LaneLegs) -> [[Lane; 6]; 6] {
@@ -308,17 +311,18 @@ mod avx2 {
     }
 
     /// The LU factorisation of each lane's matrix (rows `rows`), as
-    /// [`crate::lu6::Lu6::factor_in_place`] makes it: the rows are first tried in the
-    /// order `trial`, common to the lanes (no exchange), kept if every lane
-    /// passes the threshold test; otherwise partial pivoting, each lane
-    /// picking its own pivot rows by selects, and `trial` becomes lane 0's
-    /// order. Then [`crate::lu6::Lu6`]'s singularity test per lane. One call per
-    /// column, with compile-time indices, so that the matrices stay in
-    /// registers.
+    /// [`crate::lu6::Lu6::factor_in_place`] makes it: the rows are first
+    /// tried in the order `trial`, common to the lanes (no exchange), kept if
+    /// every lane passes the threshold test; otherwise partial pivoting, each
+    /// lane picking its own pivot rows by selects, and `trial` becomes lane
+    /// 0's order. Then [`crate::lu6::Lu6`]'s singularity test per lane. One
+    /// call per column, with compile-time indices, so that the matrices stay
+    /// in registers.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn factorise(rows: &[[Lane; 6]; 6], trial: &mut [u8; 6]) -> LaneLu {
         let mut lu: [[Lane; 6]; 6] = std::array::from_fn(|k| rows[usize::from(trial[k])]);
+        // Every lane accepted so far.
         let mut accepted = Lane::splat(0.0).eq(Lane::splat(0.0));
         let mut pivots = [
             eliminate_in_order::<0>(&mut lu, &mut accepted),

@@ -17,7 +17,7 @@
 
 #![allow(
     unsafe_code,
-    reason = "AVX intrinsics, on values that exist only on a machine with AVX2 (module documentation)"
+    reason = "AVX intrinsics on values that exist only on a machine with AVX2 (module docs)"
 )]
 
 use std::arch::x86_64::{
