@@ -2,9 +2,11 @@
 //! warm-started one iteration away, then one combination of the tip
 //! Jacobian's rows, as the elimination uses it), of one back-substitution
 //! (`J_f dp` at the converged pose) and, for comparison, the full 3 x 33
-//! tip Jacobian. As in a calibration's passes, one set of derivatives is
-//! reused from contact to contact (forward kinematics in place; its LU tries
-//! the previous contact's row order first).
+//! tip Jacobian; and the forward kinematics alone, one contact at a time
+//! and four at once (`lanes::forward_batch`: SIMD lanes on a machine with
+//! AVX2). As in a calibration's passes, one set of derivatives is reused
+//! from contact to contact (forward kinematics in place; its LU tries the
+//! previous contact's row order first).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parcal_kinematics::forward::forward_in_place;
