@@ -3,23 +3,18 @@
 //! lanes on a machine with AVX2). A batch gives what one contact at a time
 //! gives, to rounding, and names the same failing contact.
 
+mod common;
+
+use common::options;
 use nalgebra::{SVector, Vector2};
 use parcal_calibrate::problem::{ContactJacobian, CoordinateObservations};
 use parcal_calibrate::setup::{Observations, Setup};
-use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation};
 use parcal_dataset::Dataset;
 use parcal_kinematics::{N_PARAMS, Params, Pose};
 use parcal_simulate::{Scenario, simulate};
 use parcal_solver::{BATCH, GlobalJacobian, Linearization, Problem};
 
 type Lin = Linearization<N_PARAMS, 3, 2, 3, ContactJacobian<3>>;
-
-fn options() -> CalibrationOptions {
-    CalibrationOptions {
-        prior: PriorMode::Propagated,
-        ..CalibrationOptions::simulation(Simulation::IV)
-    }
-}
 
 fn dataset() -> Dataset {
     simulate(&Scenario::scaled(12, 7, 10f64.to_radians()), 3)

@@ -179,8 +179,7 @@ where
         let mut b_c = SVector::<f64, C>::zeros();
         for batch in batches(range.clone()) {
             let n = batch.len();
-            let caches =
-                &mut caches[batch.start - chunk.points.start..batch.end - chunk.points.start];
+            let caches = &mut caches[chunk.local(&batch)];
             let points = &state.points[batch.clone()];
             problem
                 .linearize_along_batch(

@@ -25,6 +25,14 @@ pub(crate) struct Chunk {
     pub(crate) points: Range<usize>,
 }
 
+impl Chunk {
+    /// Where the chunk's `points` (a range of the problem's points) sit in
+    /// the chunk's own per-point slices.
+    pub(crate) fn local(&self, points: &Range<usize>) -> Range<usize> {
+        points.start - self.points.start..points.end - self.points.start
+    }
+}
+
 /// The block sizes of a problem.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Dims {

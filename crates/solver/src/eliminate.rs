@@ -528,8 +528,7 @@ where
         let mut group_data = 0.0;
         for batch in batches(problem.group_points(k)) {
             let lins = &mut lins[..batch.len()];
-            let caches =
-                &mut caches[batch.start - chunk.points.start..batch.end - chunk.points.start];
+            let caches = &mut caches[chunk.local(&batch)];
             problem
                 .linearize_batch(
                     batch.start,
