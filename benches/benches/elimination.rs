@@ -40,6 +40,7 @@ impl Synthetic {
 
 impl Problem<33, 3, 2, 3> for Synthetic {
     type PointCache = ();
+    type Workspace = ();
     type Error = std::convert::Infallible;
     type Jacobian = SMatrix<f64, 3, 33>;
     type Global = SVector<f64, 33>;

@@ -1,19 +1,23 @@
 //! Per contact: the kinematics of one linearisation (forward kinematics
 //! warm-started one iteration away, then one combination of the tip
-//! Jacobian's rows, as the elimination uses it), of one back-substitution
-//! (`J_f dp` at the converged pose) and, for comparison, the full 3 x 33
-//! tip Jacobian; and the forward kinematics alone, one contact at a time
-//! and four at once (`lanes::forward_batch`: SIMD lanes on a machine with
-//! AVX2). As in a calibration's passes, one set of derivatives is reused
+//! Jacobian's rows, as the elimination uses it; one contact at a time and
+//! four at once, `lanes::forward_jacobian_batch`), of one back-substitution
+//! (`J_f dp` at the converged pose, one contact at a time and four at once,
+//! `lanes::forward_along_batch`) and, for comparison, the full 3 x 33 tip
+//! Jacobian; and the forward kinematics alone, one contact at a time and
+//! four at once (`lanes::forward_batch`). Four at once run in SIMD lanes on
+//! a machine with AVX2. As in a calibration's passes, one set of derivatives is reused
 //! from contact to contact (forward kinematics in place; its LU tries the
 //! previous contact's row order first).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parcal_kinematics::forward::forward_in_place;
-use parcal_kinematics::lanes::{LANES, forward_batch};
+use parcal_kinematics::lanes::{
+    LANES, PivotOrder, forward_along_batch, forward_batch, forward_jacobian_batch,
+};
 use parcal_kinematics::{
-    ForwardOptions, ForwardSolution, N_PARAMS, Params, Pose, TipDerivatives, Vec3, forward,
-    forward_from_home, paper, params,
+    ForwardOptions, ForwardSolution, N_PARAMS, Params, Pose, SolutionAlong, SolutionJacobian,
+    TipDerivatives, Vec3, forward, forward_from_home, paper, params,
 };
 use std::hint::black_box;
 
@@ -45,6 +49,24 @@ fn kinematics(c: &mut Criterion) {
                 let mut row = [0.0; N_PARAMS];
                 derivatives.params_row(&h, &mut row);
                 black_box(row)
+            })
+        },
+    );
+    c.bench_function(
+        "the same, 4 contacts in lanes (factored J_f), per 4 contacts",
+        |b| {
+            let mut trial = PivotOrder::default();
+            let mut out: [SolutionJacobian; LANES] = Default::default();
+            b.iter(|| {
+                let batch: [&([f64; 6], Pose); LANES] = std::array::from_fn(|_| next());
+                let (q, starts) = (batch.map(|(q, _)| q), batch.map(|(_, start)| *start));
+                forward_jacobian_batch(&moved, &q, &starts, &fk, &mut trial, &mut out, |s| s)
+                    .unwrap();
+                let mut rows = [[0.0; N_PARAMS]; LANES];
+                for (solution, row) in out.iter().zip(&mut rows) {
+                    solution.jacobian.params_row(&h, row);
+                }
+                black_box(rows)
             })
         },
     );
@@ -81,6 +103,19 @@ fn kinematics(c: &mut Criterion) {
             black_box(derivatives.along(&dp))
         })
     });
+    c.bench_function(
+        "J_f dp at the known poses of 4 contacts in lanes, per 4 contacts",
+        |b| {
+            let mut trial = PivotOrder::default();
+            let mut out = [SolutionAlong::default(); LANES];
+            b.iter(|| {
+                let batch: [&([f64; 6], Pose); LANES] = std::array::from_fn(|_| next());
+                let (q, poses) = (batch.map(|(q, _)| q), batch.map(|(_, pose)| *pose));
+                forward_along_batch(&design, &q, &poses, &dp, &fk, &mut trial, &mut out).unwrap();
+                black_box(out[0].tip)
+            })
+        },
+    );
     c.bench_function("forward kinematics + full J_f, per contact", |b| {
         b.iter(|| {
             let (q, start) = next();

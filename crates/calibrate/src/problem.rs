@@ -14,9 +14,10 @@
 use std::ops::Range;
 
 use nalgebra::{SMatrix, SVector, UnitVector3, Vector2};
+use parcal_kinematics::lanes::{PivotOrder, forward_along_batch, forward_jacobian_batch};
 use parcal_kinematics::{
-    ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3,
-    forward::step as step_pose, params,
+    ForwardOptions, Geometry, KinematicsError, N_PARAMS, Params, Pose, SolutionAlong,
+    SolutionJacobian, Vec3, params,
 };
 use parcal_observe::{
     BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, ObserveError, RadiusBlock,
@@ -133,31 +134,32 @@ impl ContactObservations<3, 2> for CoordinateObservations {
 
 /// The global Jacobian of one whitened contact block, `dc_w/dp = d_tip J_f`
 /// (paper eq. 2 through eq. 9 or 10, whitened as in eq. 5), applied through
-/// the tip's derivatives instead of formed: a combination of its rows costs
-/// one transposed 6 x 6 solve, a product with a step one solve.
+/// `J_f` in factored form instead of formed: a combination of its rows
+/// costs a 6 x 3 product and a sparse row, a product with a step a sparse
+/// row and a 3 x 6 product.
 #[derive(Debug, Clone)]
 pub struct ContactJacobian<const R: usize> {
     /// The whitened `dc/dT` (R x 3).
     pub d_tip: SMatrix<f64, R, 3>,
-    /// `J_f` and the pose's derivatives at the contact.
-    pub tip: TipDerivatives,
+    /// The contact's forward kinematics and `J_f` there.
+    pub tip: SolutionJacobian,
 }
 
 impl<const R: usize> GlobalJacobian<N_PARAMS, R> for ContactJacobian<R> {
     fn zeros() -> Self {
         Self {
             d_tip: SMatrix::zeros(),
-            tip: TipDerivatives::default(),
+            tip: SolutionJacobian::default(),
         }
     }
 
     fn combine_rows(&self, c: &[f64; R], out: &mut [f64]) {
         let h = self.d_tip.tr_mul(&SVector::from(*c));
-        self.tip.params_row(&h, out);
+        self.tip.jacobian.params_row(&h, out);
     }
 
     fn apply(&self, v: &Params) -> SVector<f64, R> {
-        self.d_tip * self.tip.along(v).tip
+        self.d_tip * self.tip.jacobian.along(v)
     }
 }
 
@@ -192,43 +194,26 @@ impl<O> CalibrationProblem<'_, O> {
         &self.q[self.row(i)]
     }
 
-    /// The whitened blocks of the contacts `first..first + out.len()` (at
-    /// most [`BATCH`], of one ball) at the canonical geometry of the current
-    /// parameters, the ball centre and the contacts' angles, into `out`:
-    /// forward kinematics (paper eq. 1) of all of them from their cached
-    /// poses (updated; in SIMD lanes where the machine has AVX2), then for
-    /// each the tool tip (eq. 2) and its derivatives and the observation
-    /// block. An error names the first failing contact, as one contact at a
-    /// time would.
-    fn linearize_contacts<const R: usize, const P: usize>(
+    /// The actuator values of the contacts `first..first + n` (at most
+    /// [`BATCH`]; the rest of the array repeats the last).
+    fn batch_actuators(&self, first: usize, n: usize) -> [&[f64; 6]; BATCH] {
+        std::array::from_fn(|j| self.actuators(first + j.min(n.saturating_sub(1))))
+    }
+
+    /// `each(j)` for the contacts `first + j`, `j < n`, of a batch whose
+    /// forward kinematics gave `kinematics`, in order, up to the first
+    /// whose kinematics failed: the first error in contact order, named by
+    /// its contact, as one contact at a time would give it.
+    fn contact_by_contact(
         &self,
         first: usize,
-        geometry: &Geometry,
-        centre: &Vec3,
-        angles: &[SVector<f64, P>],
-        poses: &mut [Pose],
-        out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
-    ) -> Result<(), (usize, CalibrateError)>
-    where
-        O: ContactObservations<R, P>,
-    {
-        let n = out.len();
-        let q: [&[f64; 6]; BATCH] =
-            std::array::from_fn(|j| self.actuators(first + j.min(n.saturating_sub(1))));
-        let kinematics = TipDerivatives::forward_batch(
-            geometry,
-            &q[..n],
-            poses,
-            &self.forward_options,
-            out,
-            |out| &mut out.d_global.tip,
-        );
+        n: usize,
+        kinematics: Result<(), (usize, KinematicsError)>,
+        mut each: impl FnMut(usize) -> Result<(), CalibrateError>,
+    ) -> Result<(), (usize, CalibrateError)> {
         let solved = kinematics.as_ref().map_or_else(|(j, _)| *j, |()| n);
         for j in 0..solved {
-            let i = first + j;
-            poses[j] = out[j].d_global.tip.solution().pose;
-            self.observe_contact(i, geometry, centre, &angles[j], &mut out[j])
-                .map_err(|e| (i, e))?;
+            each(j).map_err(|e| (first + j, e))?;
         }
         kinematics.map_err(|(j, source)| {
             let row = self.row(first + j);
@@ -236,21 +221,22 @@ impl<O> CalibrationProblem<'_, O> {
         })
     }
 
-    /// Contact `i`'s whitened observation block at the tool tip of its
-    /// forward kinematics (already in `out`), the ball centre and its
-    /// angles.
+    /// Contact `i`'s whitened observation block at the tool tip of the
+    /// platform `pose` (its forward kinematics), the ball centre and its
+    /// angles, into `out` (all but `d_global.tip`, the kinematics).
     fn observe_contact<const R: usize, const P: usize>(
         &self,
         i: usize,
         geometry: &Geometry,
         centre: &Vec3,
         angles: &SVector<f64, P>,
+        pose: &Pose,
         out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
     ) -> Result<(), CalibrateError>
     where
         O: ContactObservations<R, P>,
     {
-        let tip = geometry.tool_tip(&out.d_global.tip.solution().pose);
+        let tip = geometry.tool_tip(pose);
         let block = self
             .observations
             .block(i, self.radius(i), &tip, centre, angles)
@@ -277,6 +263,9 @@ where
     O: ContactObservations<R, P>,
 {
     type PointCache = Pose;
+    /// The row order the lanes first try in their factorisations
+    /// ([`forward_jacobian_batch`], [`forward_along_batch`]).
+    type Workspace = PivotOrder;
     type Error = CalibrateError;
     type Jacobian = ContactJacobian<R>;
     /// Every contact of a pass is linearised at the same parameters: their
@@ -316,12 +305,20 @@ where
             std::slice::from_mut(cache),
             std::slice::from_mut(out),
         );
-        self.linearize_batch(i, global, group, points, caches, out)
+        let workspace = &mut PivotOrder::default();
+        self.linearize_batch(i, global, group, points, caches, out, workspace)
             .map_err(|(_, e)| e)
     }
 
-    /// The batch's forward kinematics together (in SIMD lanes where the
-    /// machine has AVX2), then each contact's tip and observation block.
+    /// The whitened blocks of the contacts `first..first + out.len()` (at
+    /// most [`BATCH`], of one ball) at the canonical geometry of the current
+    /// parameters, the ball centre and the contacts' angles: forward
+    /// kinematics (paper eq. 1) of all of them from their cached poses
+    /// (updated; in SIMD lanes where the machine has AVX2), then for each
+    /// the tool tip (eq. 2) and its derivatives and the observation block.
+    /// An error names the first failing contact, as one contact at a time
+    /// would. The lanes' row order is carried from batch to batch in the
+    /// workspace.
     fn linearize_batch(
         &self,
         first: usize,
@@ -330,8 +327,24 @@ where
         points: &[SVector<f64, P>],
         caches: &mut [Pose],
         out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
+        workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
-        self.linearize_contacts(first, global, &Vec3::from(*group), points, caches, out)
+        let n = out.len();
+        let kinematics = forward_jacobian_batch(
+            global,
+            &self.batch_actuators(first, n)[..n],
+            caches,
+            &self.forward_options,
+            workspace,
+            out,
+            |out| &mut out.d_global.tip,
+        );
+        let centre = Vec3::from(*group);
+        self.contact_by_contact(first, n, kinematics, |j| {
+            let pose = out[j].d_global.tip.pose;
+            caches[j] = pose;
+            self.observe_contact(first + j, global, &centre, &points[j], &pose, &mut out[j])
+        })
     }
 
     /// As [`Problem::linearize`], with `d_global dg` from one solve; the
@@ -355,13 +368,17 @@ where
             std::slice::from_mut(out),
             std::slice::from_mut(&mut step),
         );
-        self.linearize_along_batch(i, global, group, points, caches, dg, out, steps)
+        let workspace = &mut PivotOrder::default();
+        self.linearize_along_batch(i, global, group, points, caches, dg, out, steps, workspace)
             .map_err(|(_, e)| e)?;
         Ok(step)
     }
 
-    /// As [`Problem::linearize_batch`], then each contact's `d_global dg`
-    /// and predicted pose as in [`Problem::linearize_along`].
+    /// As [`Problem::linearize_batch`], with each contact's forward
+    /// kinematics and its change along `dg` together (in SIMD lanes where
+    /// the machine has AVX2, [`forward_along_batch`]), the lanes' row order
+    /// carried from batch to batch in the workspace. `d_global.tip` is not
+    /// written: the back-substitution needs only `d_global dg`.
     fn linearize_along_batch(
         &self,
         first: usize,
@@ -372,14 +389,34 @@ where
         dg: &Params,
         out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
         steps: &mut [SVector<f64, R>],
+        workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
-        self.linearize_contacts(first, global, &Vec3::from(*group), points, caches, out)?;
-        for ((out, cache), step) in out.iter().zip(caches).zip(steps) {
-            let along = out.d_global.tip.along(dg);
-            *cache = step_pose(cache, &along.pose, 1.0);
-            *step = out.d_global.d_tip * along.tip;
-        }
-        Ok(())
+        let n = out.len();
+        let mut solutions = [SolutionAlong::default(); BATCH];
+        let kinematics = forward_along_batch(
+            global,
+            &self.batch_actuators(first, n)[..n],
+            caches,
+            dg,
+            &self.forward_options,
+            workspace,
+            &mut solutions[..n],
+        );
+        let centre = Vec3::from(*group);
+        self.contact_by_contact(first, n, kinematics, |j| {
+            let solution = &solutions[j];
+            self.observe_contact(
+                first + j,
+                global,
+                &centre,
+                &points[j],
+                &solution.pose,
+                &mut out[j],
+            )?;
+            caches[j] = solution.predicted;
+            steps[j] = out[j].d_global.d_tip * solution.tip;
+            Ok(())
+        })
     }
 
     fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {

@@ -10,6 +10,7 @@ use nalgebra::{SVector, Vector2};
 use parcal_calibrate::problem::{ContactJacobian, CoordinateObservations};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_dataset::Dataset;
+use parcal_kinematics::lanes::PivotOrder;
 use parcal_kinematics::{N_PARAMS, Params, Pose};
 use parcal_simulate::{Scenario, simulate};
 use parcal_solver::{BATCH, GlobalJacobian, Linearization, Problem};
@@ -41,9 +42,9 @@ fn assert_close(a: &[f64], b: &[f64], tolerance: f64, what: &str) {
     }
 }
 
-/// The linearisations agree: the blocks to rounding, the global Jacobian
-/// row by row.
-fn assert_same(batch: &Lin, single: &Lin) {
+/// The linearisations agree: the blocks to rounding, and (`global`) the
+/// global Jacobian row by row.
+fn assert_same(batch: &Lin, single: &Lin, global: bool) {
     assert_close(
         batch.residual.as_slice(),
         single.residual.as_slice(),
@@ -62,11 +63,15 @@ fn assert_same(batch: &Lin, single: &Lin) {
         1e-12,
         "d_point",
     );
-    for r in 0..3 {
-        let (mut a, mut b) = ([0.0; N_PARAMS], [0.0; N_PARAMS]);
-        batch.d_global.row(r, &mut a);
-        single.d_global.row(r, &mut b);
-        assert_close(&a, &b, 1e-9, "d_global");
+    if global {
+        for r in 0..3 {
+            let (mut a, mut b) = ([0.0; N_PARAMS], [0.0; N_PARAMS]);
+            batch.d_global.row(r, &mut a);
+            single.d_global.row(r, &mut b);
+            assert_close(&a, &b, 1e-9, "d_global");
+        }
+        let iterations = batch.d_global.tip.iterations;
+        assert_eq!(iterations, single.d_global.tip.iterations);
     }
 }
 
@@ -95,6 +100,9 @@ fn a_batch_is_its_contacts_one_at_a_time() {
                 .clone()
                 .map(|i| Vector2::new(1e-3 * i as f64, -2e-3))
                 .collect();
+            // The back-substitution's lanes carry their row order from
+            // batch to batch, as the solver's chunks do.
+            let mut workspace = PivotOrder::default();
             for along in [false, true] {
                 let mut poses = setup.poses[range.clone()].to_vec();
                 let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros()).collect();
@@ -102,13 +110,28 @@ fn a_batch_is_its_contacts_one_at_a_time() {
                 if along {
                     problem
                         .linearize_along_batch(
-                            first, &global, &centre, &angles, &mut poses, &dg, &mut batch,
+                            first,
+                            &global,
+                            &centre,
+                            &angles,
+                            &mut poses,
+                            &dg,
+                            &mut batch,
                             &mut steps,
+                            &mut workspace,
                         )
                         .unwrap();
                 } else {
                     problem
-                        .linearize_batch(first, &global, &centre, &angles, &mut poses, &mut batch)
+                        .linearize_batch(
+                            first,
+                            &global,
+                            &centre,
+                            &angles,
+                            &mut poses,
+                            &mut batch,
+                            &mut workspace,
+                        )
                         .unwrap();
                 }
                 for (j, i) in range.clone().enumerate() {
@@ -132,10 +155,10 @@ fn a_batch_is_its_contacts_one_at_a_time() {
                             .linearize(i, &global, &centre, &angles[j], &mut pose, &mut single)
                             .unwrap();
                     }
-                    assert_same(&batch[j], &single);
+                    // The back-substitution needs only `d_global dg` (the
+                    // steps, above) and keeps the predicted poses.
+                    assert_same(&batch[j], &single, !along);
                     assert_same_pose(&poses[j], &pose);
-                    let iterations = batch[j].d_global.tip.solution().iterations;
-                    assert_eq!(iterations, single.d_global.tip.solution().iterations);
                 }
                 lanes_used += usize::from(n > 1);
             }
@@ -162,6 +185,7 @@ fn a_batch_names_its_first_failing_contact() {
     let range = contacts.start..contacts.start + BATCH;
     let mut poses = setup.poses[range.clone()].to_vec();
     let mut batch: Vec<Lin> = (0..BATCH).map(|_| Lin::zeros()).collect();
+    let workspace = &mut PivotOrder::default();
     let (failed, error) = problem
         .linearize_batch(
             range.start,
@@ -170,9 +194,25 @@ fn a_batch_names_its_first_failing_contact() {
             &angles,
             &mut poses,
             &mut batch,
+            workspace,
         )
         .expect_err("an unreachable contact");
     assert_eq!(failed, range.start + 2);
+    let mut steps = vec![SVector::<f64, 3>::zeros(); BATCH];
+    let along = problem
+        .linearize_along_batch(
+            range.start,
+            &global,
+            &centre,
+            &angles,
+            &mut setup.poses[range.clone()].to_vec(),
+            &Params::repeat(1e-3),
+            &mut batch,
+            &mut steps,
+            workspace,
+        )
+        .expect_err("an unreachable contact");
+    assert_eq!((along.0, along.1.to_string()), (failed, error.to_string()));
     let mut pose = setup.poses[failed];
     let single = problem
         .linearize(

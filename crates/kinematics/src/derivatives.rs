@@ -21,10 +21,9 @@
 //! directional derivative `J_f dp` (one solve). [`TipDerivatives`] keeps
 //! what both need; [`TipDerivatives::jacobians`] forms the full matrices.
 
-use nalgebra::{Matrix3x6, SMatrix, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix3x6, Matrix6x3, SMatrix, Vector3, Vector6};
 
-use crate::forward::step;
-use crate::lanes::forward_batch;
+use crate::forward::{forward_in_place, step};
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
 use crate::{
     ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose, Vec3, closure::Legs,
@@ -65,6 +64,167 @@ pub struct DerivativeAlong {
     pub tip: Vec3,
 }
 
+/// A contact's forward-kinematics solution and its first-order change along
+/// a parameter direction `dp` ([`TipDerivatives::along`]), without the
+/// derivatives themselves: what a back-substitution needs of a contact
+/// ([`crate::lanes::forward_along_batch`] makes up to four at once).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SolutionAlong {
+    /// The solution's pose.
+    pub pose: Pose,
+    /// The first-order prediction of the pose at the parameters `p + dp`:
+    /// `pose` stepped by [`DerivativeAlong::pose`] ([`step`]).
+    pub predicted: Pose,
+    /// `J_f dp` (mm).
+    pub tip: Vec3,
+    /// Newton steps taken.
+    pub iterations: usize,
+}
+
+impl SolutionAlong {
+    /// Forward kinematics of `geometry` at `q` from `start`
+    /// ([`TipDerivatives::forward`]), then [`TipDerivatives::along`] `dp`
+    /// at the solution.
+    pub fn solve(
+        geometry: &Geometry,
+        q: &[f64; 6],
+        start: &Pose,
+        dp: &Params,
+        options: &ForwardOptions,
+    ) -> Result<Self, KinematicsError> {
+        let mut derivatives = TipDerivatives::default();
+        derivatives.forward(geometry, q, start, options)?;
+        let along = derivatives.along(dp);
+        let solution = derivatives.solution();
+        Ok(Self {
+            pose: solution.pose,
+            predicted: step(&solution.pose, &along.pose, 1.0),
+            tip: along.tip,
+            iterations: solution.iterations,
+        })
+    }
+}
+
+/// `J_f` in factored form, `J_f = -K d phi/dp + dT/dp|pose` with
+/// `K = P A^-1` (module documentation), kept as `K^T` (6 x 3), `R` and the
+/// leg directions `n_i` instead of the closure LU: a combination of its rows
+/// `h^T J_f` costs the product `y = K^T h` and a sparse row per leg, and
+/// `J_f dp = -K v + R dE_T` (`v` as in [`DerivativeAlong`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FactoredTipJacobian {
+    /// `K^T = A^-T P^T`: column `a` is [`TipDerivatives::closure_weights`]
+    /// of the base-frame axis `a` (and `dT/dq = K`).
+    pub weights: Matrix6x3<f64>,
+    /// The platform's rotation `R`.
+    pub rotation: Matrix3<f64>,
+    /// The leg directions `n_i`.
+    pub directions: [Vec3; 6],
+}
+
+impl FactoredTipJacobian {
+    /// `h^T J_f`, written into `out` (33 values), as
+    /// [`TipDerivatives::params_row`] forms it.
+    pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
+        leg_rows(
+            &(self.weights * h),
+            &self.rotation,
+            &self.directions,
+            h,
+            out,
+        );
+    }
+
+    /// `J_f dp` (mm).
+    pub fn along(&self, dp: &Params) -> Vec3 {
+        let v = closure_change(&self.rotation, &self.directions, dp);
+        self.rotation * tool_step(dp) - self.weights.tr_mul(&v)
+    }
+}
+
+/// A contact's forward-kinematics solution with its `J_f` in factored form:
+/// what a linearisation needs of a contact ([`crate::lanes::forward_jacobian_batch`]
+/// makes up to four at once).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SolutionJacobian {
+    /// The solution's pose.
+    pub pose: Pose,
+    /// `J_f` at the solution.
+    pub jacobian: FactoredTipJacobian,
+    /// Newton steps taken.
+    pub iterations: usize,
+}
+
+impl SolutionJacobian {
+    /// Forward kinematics of `geometry` at `q` from `start`
+    /// ([`TipDerivatives::forward`]), then [`TipDerivatives::factored`].
+    pub fn solve(
+        geometry: &Geometry,
+        q: &[f64; 6],
+        start: &Pose,
+        options: &ForwardOptions,
+    ) -> Result<Self, KinematicsError> {
+        let mut derivatives = TipDerivatives::default();
+        derivatives.forward(geometry, q, start, options)?;
+        let solution = derivatives.solution();
+        Ok(Self {
+            pose: solution.pose,
+            jacobian: derivatives.factored(),
+            iterations: solution.iterations,
+        })
+    }
+}
+
+/// `h^T J_f` from the closure weights `y = K^T h` (33 values into `out`):
+/// leg `i` adds `y_i` times its row `(n_i; -R^T n_i; 1)` at its base joint,
+/// platform joint and length, and the tool columns are `h^T R`.
+fn leg_rows(
+    y: &Vector6<f64>,
+    rotation: &Matrix3<f64>,
+    directions: &[Vec3; 6],
+    h: &Vec3,
+    out: &mut [f64],
+) {
+    for i in 0..6 {
+        let n = &directions[i];
+        let n_platform = rotation.tr_mul(n);
+        for c in 0..3 {
+            if let Some(k) = BASE_INDEX[i][c] {
+                out[k] = y[i] * n[c];
+            }
+            if let Some(k) = PLATFORM_INDEX[i][c] {
+                out[k] = -y[i] * n_platform[c];
+            }
+        }
+        out[leg_index(i)] = y[i];
+    }
+    let tool = rotation.tr_mul(h);
+    out[TOOL_OFFSET..TOOL_OFFSET + 3].copy_from_slice(tool.as_slice());
+}
+
+/// `v = (d phi / dp) dp`: leg `i` changes by
+/// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`.
+fn closure_change(rotation: &Matrix3<f64>, directions: &[Vec3; 6], dp: &Params) -> Vector6<f64> {
+    Vector6::from_fn(|i, _| {
+        let n = &directions[i];
+        let n_platform = rotation.tr_mul(n);
+        let mut change = -dp[leg_index(i)];
+        for c in 0..3 {
+            if let Some(k) = BASE_INDEX[i][c] {
+                change -= n[c] * dp[k];
+            }
+            if let Some(k) = PLATFORM_INDEX[i][c] {
+                change += n_platform[c] * dp[k];
+            }
+        }
+        change
+    })
+}
+
+/// The tool offset's part `dE_T` of `dp`.
+fn tool_step(dp: &Params) -> Vec3 {
+    Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET))
+}
+
 impl TipDerivatives {
     /// The derivatives of `geometry`'s tip at its forward-kinematics
     /// `solution`.
@@ -88,8 +248,9 @@ impl TipDerivatives {
     }
 
     /// Forward kinematics of `geometry` at `q` from `start`
-    /// ([`crate::forward()`]),
-    /// in place, leaving these derivatives at its solution.
+    /// ([`crate::forward()`]), in place, leaving these derivatives at its
+    /// solution. Four contacts at once, in SIMD lanes:
+    /// [`crate::lanes::forward_jacobian_batch`].
     pub fn forward(
         &mut self,
         geometry: &Geometry,
@@ -97,34 +258,9 @@ impl TipDerivatives {
         start: &Pose,
         options: &ForwardOptions,
     ) -> Result<(), KinematicsError> {
-        let items = std::slice::from_mut(self);
-        Self::forward_batch(geometry, &[q], &[*start], options, items, |d| d).map_err(|(_, e)| e)
-    }
-
-    /// [`TipDerivatives::forward`] of up to [`crate::lanes::LANES`]
-    /// contacts at once (in SIMD lanes where the machine has AVX2,
-    /// [`crate::lanes::forward_batch`]): the derivatives of item `l`
-    /// (`derivatives(&mut items[l])`) are left at the solution for `q[l]`
-    /// from `starts[l]`. An error is that of the first failing contact, with
-    /// its index (the other derivatives are then unspecified).
-    pub fn forward_batch<T>(
-        geometry: &Geometry,
-        q: &[&[f64; 6]],
-        starts: &[Pose],
-        options: &ForwardOptions,
-        items: &mut [T],
-        derivatives: impl Fn(&mut T) -> &mut Self,
-    ) -> Result<(), (usize, KinematicsError)> {
-        for (item, start) in items.iter_mut().zip(starts) {
-            derivatives(item).solution.pose = *start;
-        }
-        forward_batch(geometry, q, options, items, |item| {
-            &mut derivatives(item).solution
-        })?;
-        for item in items.iter_mut() {
-            let derivatives = derivatives(item);
-            derivatives.tool = derivatives.solution.legs.rotation * geometry.tool;
-        }
+        self.solution.pose = *start;
+        forward_in_place(geometry, q, options, &mut self.solution)?;
+        self.tool = self.solution.legs.rotation * geometry.tool;
         Ok(())
     }
 
@@ -146,52 +282,41 @@ impl TipDerivatives {
     /// its row `(n_i; -R^T n_i; 1)` at its base joint, platform joint and
     /// length, and the tool columns are `h^T R`.
     pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
-        let y = self.closure_weights(h);
         let legs = &self.solution.legs;
-        let rotation = &legs.rotation;
-        for i in 0..6 {
-            let n = &legs.direction[i];
-            let n_platform = rotation.tr_mul(n);
-            for c in 0..3 {
-                if let Some(k) = BASE_INDEX[i][c] {
-                    out[k] = y[i] * n[c];
-                }
-                if let Some(k) = PLATFORM_INDEX[i][c] {
-                    out[k] = -y[i] * n_platform[c];
-                }
-            }
-            out[leg_index(i)] = y[i];
-        }
-        let tool = rotation.tr_mul(h);
-        out[TOOL_OFFSET..TOOL_OFFSET + 3].copy_from_slice(tool.as_slice());
+        leg_rows(
+            &self.closure_weights(h),
+            &legs.rotation,
+            &legs.direction,
+            h,
+            out,
+        );
     }
 
     /// `J_f dp` and the pose's first-order change along `dp`
     /// ([`DerivativeAlong`]): one LU solve.
     pub fn along(&self, dp: &Params) -> DerivativeAlong {
         let legs = &self.solution.legs;
-        let v = Vector6::from_fn(|i, _| {
-            let n = &legs.direction[i];
-            let n_platform = legs.rotation.tr_mul(n);
-            let mut change = -dp[leg_index(i)];
-            for c in 0..3 {
-                if let Some(k) = BASE_INDEX[i][c] {
-                    change -= n[c] * dp[k];
-                }
-                if let Some(k) = PLATFORM_INDEX[i][c] {
-                    change += n_platform[c] * dp[k];
-                }
-            }
-            change
-        });
+        let v = closure_change(&legs.rotation, &legs.direction, dp);
         let pose = -self.solution.factor.solve(&v);
         let (dt, w) = (
             Vec3::from(pose.fixed_rows::<3>(0)),
             Vec3::from(pose.fixed_rows::<3>(3)),
         );
-        let tool_step = Vec3::from(dp.fixed_rows::<3>(TOOL_OFFSET));
-        let tip = dt + w.cross(&self.tool) + legs.rotation * tool_step;
+        let tip = dt + w.cross(&self.tool) + legs.rotation * tool_step(dp);
         DerivativeAlong { pose, tip }
+    }
+
+    /// `J_f` in factored form at these derivatives' solution (three
+    /// transposed solves).
+    pub fn factored(&self) -> FactoredTipJacobian {
+        let legs = &self.solution.legs;
+        FactoredTipJacobian {
+            weights: Matrix6x3::from_fn(|r, axis| {
+                self.closure_weights(&Vector3::ith(axis, 1.0))[r]
+            }),
+            rotation: legs.rotation,
+            directions: legs.direction,
+        }
     }
 
     /// The first-order prediction of the pose at actuator values changed by

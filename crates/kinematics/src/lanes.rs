@@ -13,14 +13,25 @@
 //! [`forward_in_place`] from its start, which also reports its error, so
 //! that every outcome is the scalar one. The closure LU pivots as
 //! [`crate::lu6::Lu6`] does, by threshold: the four lanes first try one
-//! row order together (the previous factorisation's), and fall back to
+//! row order together (an earlier factorisation's), and fall back to
 //! partial pivoting, each lane picking its own rows, when a lane would
 //! pivot on a small entry. The factors can then differ from the scalar
 //! code's by rounding; everything else is the same arithmetic in the same
 //! order.
 //!
+//! A calibration needs of each solution only products with the tip
+//! Jacobian `J_f`, and the lanes make them as each lane finishes, from the
+//! lanes' own factorisation, so that the factors are never written back:
+//! [`forward_jacobian_batch`] leaves `J_f` in factored form
+//! ([`crate::FactoredTipJacobian`]: `K = P A^-1` from three transposed
+//! solves, `R` and the leg directions; what an elimination's row
+//! combinations need), [`forward_along_batch`] the first-order change along
+//! a parameter step ([`crate::TipDerivatives::along`]: what a
+//! back-substitution needs). The caller carries the row order the lanes try
+//! first from call to call ([`PivotOrder`]).
+//!
 //! On a machine without AVX2 (or another architecture), and for a single
-//! contact, [`forward_batch`] runs the scalar iteration contact by contact.
+//! contact, each function runs the scalar code contact by contact.
 //! docs/performance.md gives what the lanes save.
 
 #![allow(
@@ -28,10 +39,11 @@
     reason = "index arithmetic over legs and matrix entries reads best"
 )]
 
+use crate::derivatives::{SolutionAlong, SolutionJacobian};
 use crate::forward::forward_in_place;
-use crate::{ForwardOptions, ForwardSolution, Geometry, KinematicsError};
+use crate::{ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose};
 
-/// Contacts per call of [`forward_batch`].
+/// Contacts per call of the functions of this module.
 pub const LANES: usize = 4;
 
 /// Forward kinematics of up to [`LANES`] contacts: the solution of item
@@ -65,15 +77,112 @@ pub fn forward_batch<T>(
     Ok(())
 }
 
+/// The row order in which the lanes first try to factorise the closure
+/// Jacobians ([`crate::lu6::Lu6`]'s threshold pivoting, shared by the four
+/// lanes): the order of an earlier factorisation, carried from one call to
+/// the next by the caller ([`forward_jacobian_batch`] and
+/// [`forward_along_batch`] keep no factorisation). The default is the
+/// identity, which the threshold test refuses for a hexapod's closure
+/// Jacobian: the first call pivots partially, and its order is kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PivotOrder([u8; 6]);
+
+impl Default for PivotOrder {
+    fn default() -> Self {
+        Self([0, 1, 2, 3, 4, 5])
+    }
+}
+
+/// Forward kinematics of up to [`LANES`] contacts from `starts`, as
+/// [`forward_batch`] runs it, and at each solution the first-order change
+/// along the parameter direction `dp` ([`SolutionAlong`], what
+/// [`SolutionAlong::solve`] gives), without keeping the derivatives: in SIMD
+/// lanes where the machine has AVX2, contact by contact otherwise. `trial`
+/// is the row order the lanes try first, updated for the next call. An
+/// error is that of the first failing contact, with its index; the other
+/// outputs are then unspecified.
+///
+/// # Panics
+/// If `q`, `starts` and `out` differ in length or hold more than [`LANES`]
+/// contacts.
+#[cfg_attr(
+    not(target_arch = "x86_64"),
+    allow(unused_variables, reason = "`trial` serves the lanes only")
+)]
+pub fn forward_along_batch(
+    geometry: &Geometry,
+    q: &[&[f64; 6]],
+    starts: &[Pose],
+    dp: &Params,
+    options: &ForwardOptions,
+    trial: &mut PivotOrder,
+    out: &mut [SolutionAlong],
+) -> Result<(), (usize, KinematicsError)> {
+    assert!(
+        q.len() == starts.len() && q.len() == out.len() && q.len() <= LANES,
+        "forward_along_batch takes up to {LANES} contacts, with a start and an output each"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if q.len() > 1 && crate::simd::avx2_available() {
+        return avx2::forward_along(geometry, q, starts, dp, options, trial, out);
+    }
+    for (l, out) in out.iter_mut().enumerate() {
+        *out = SolutionAlong::solve(geometry, q[l], &starts[l], dp, options).map_err(|e| (l, e))?;
+    }
+    Ok(())
+}
+
+/// Forward kinematics of up to [`LANES`] contacts from `starts`, as
+/// [`forward_batch`] runs it, and at each solution `J_f` in factored form
+/// ([`SolutionJacobian`], what [`SolutionJacobian::solve`] gives): the
+/// solution for `q[l]` into `solution(&mut items[l])`. In SIMD lanes where
+/// the machine has AVX2, contact by contact otherwise. `trial` is the row
+/// order the lanes try first, updated for the next call. An error is that
+/// of the first failing contact, with its index; the other outputs are
+/// then unspecified.
+///
+/// # Panics
+/// If `q`, `starts` and `items` differ in length or hold more than
+/// [`LANES`] contacts.
+#[cfg_attr(
+    not(target_arch = "x86_64"),
+    allow(unused_variables, reason = "`trial` serves the lanes only")
+)]
+pub fn forward_jacobian_batch<T>(
+    geometry: &Geometry,
+    q: &[&[f64; 6]],
+    starts: &[Pose],
+    options: &ForwardOptions,
+    trial: &mut PivotOrder,
+    items: &mut [T],
+    solution: impl Fn(&mut T) -> &mut SolutionJacobian,
+) -> Result<(), (usize, KinematicsError)> {
+    assert!(
+        q.len() == starts.len() && q.len() == items.len() && q.len() <= LANES,
+        "forward_jacobian_batch takes up to {LANES} contacts, with a start and an item each"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if q.len() > 1 && crate::simd::avx2_available() {
+        return avx2::forward_jacobian(geometry, q, starts, options, trial, items, solution);
+    }
+    for (l, item) in items.iter_mut().enumerate() {
+        *solution(item) =
+            SolutionJacobian::solve(geometry, q[l], &starts[l], options).map_err(|e| (l, e))?;
+    }
+    Ok(())
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use nalgebra::{Quaternion, Translation3, UnitQuaternion};
+    use nalgebra::{Matrix3, Quaternion, Translation3, UnitQuaternion};
 
-    use super::LANES;
+    use super::{LANES, PivotOrder};
+    use crate::derivatives::{SolutionAlong, SolutionJacobian};
     use crate::forward::{SHORT_STEP, check_actuators, forward_in_place};
     use crate::lu6::{SINGULAR_PIVOT_RATIO, THRESHOLD};
+    use crate::params::{BASE_INDEX, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
     use crate::simd::{F64x4, Mask4};
-    use crate::{ForwardOptions, ForwardSolution, Geometry, KinematicsError, Pose, Vec3};
+    use crate::{ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose, Vec3};
 
     type Lane = F64x4;
 
@@ -106,13 +215,178 @@ mod avx2 {
         regular: u32,
     }
 
-    /// [`super::forward_batch`] in lanes; the machine has AVX2.
+    /// Lanes leaving the iteration (the bits of `mask`) with their solution:
+    /// the pose, and the legs and factorisation it was reached with.
+    struct Finishing<'a> {
+        mask: u32,
+        poses: &'a Poses,
+        legs: &'a LaneLegs,
+        factor: &'a LaneLu,
+        /// Newton steps taken.
+        iterations: usize,
+    }
+
+    impl Finishing<'_> {
+        /// The indices of the lanes leaving.
+        fn lanes(&self) -> impl Iterator<Item = usize> {
+            lanes(self.mask)
+        }
+    }
+
+    /// [`super::forward_batch`] in lanes; the machine has AVX2. The rows are
+    /// first tried in the order of item 0's last factorisation.
     pub(super) fn forward<T>(
         geometry: &Geometry,
         q: &[&[f64; 6]],
         options: &ForwardOptions,
         items: &mut [T],
         solution: impl Fn(&mut T) -> &mut ForwardSolution,
+    ) -> Result<(), (usize, KinematicsError)> {
+        let n = q.len();
+        let starts: [Pose; LANES] =
+            std::array::from_fn(|l| solution(&mut items[l.min(n - 1)]).pose);
+        let mut trial = solution(&mut items[0]).factor.permutation();
+        let lanes = |starts: &_, feasible, items: &mut [T]| {
+            let mut finish = |lanes: &Finishing| unpack(lanes, items, &solution);
+            let trial = &mut trial;
+            // SAFETY: the caller checked that the machine runs AVX2.
+            unsafe { lockstep(geometry, q, options, starts, feasible, trial, &mut finish) }
+        };
+        let scalar = |l: usize, start: &Pose, item: &mut T| {
+            let solution = solution(item);
+            solution.pose = *start;
+            forward_in_place(geometry, q[l], options, solution)
+        };
+        run(geometry, q, &starts[..n], items, lanes, scalar)
+    }
+
+    /// [`super::forward_along_batch`] in lanes; the machine has AVX2.
+    pub(super) fn forward_along(
+        geometry: &Geometry,
+        q: &[&[f64; 6]],
+        starts: &[Pose],
+        dp: &Params,
+        options: &ForwardOptions,
+        trial: &mut PivotOrder,
+        out: &mut [SolutionAlong],
+    ) -> Result<(), (usize, KinematicsError)> {
+        let trial = &mut trial.0;
+        let lanes = |starts: &_, feasible, out: &mut [SolutionAlong]| {
+            // SAFETY: the caller checked that the machine runs AVX2.
+            unsafe { along_lockstep(geometry, q, options, starts, feasible, dp, trial, out) }
+        };
+        let scalar = |l: usize, start: &Pose, out: &mut SolutionAlong| {
+            *out = SolutionAlong::solve(geometry, q[l], start, dp, options)?;
+            Ok(())
+        };
+        run(geometry, q, starts, out, lanes, scalar)
+    }
+
+    /// [`super::forward_jacobian_batch`] in lanes; the machine has AVX2.
+    pub(super) fn forward_jacobian<T>(
+        geometry: &Geometry,
+        q: &[&[f64; 6]],
+        starts: &[Pose],
+        options: &ForwardOptions,
+        trial: &mut PivotOrder,
+        items: &mut [T],
+        solution: impl Fn(&mut T) -> &mut SolutionJacobian,
+    ) -> Result<(), (usize, KinematicsError)> {
+        let trial = &mut trial.0;
+        let lanes = |starts: &_, feasible, items: &mut [T]| {
+            let solution = &solution;
+            // SAFETY: the caller checked that the machine runs AVX2.
+            unsafe {
+                jacobian_lockstep(
+                    geometry, q, options, starts, feasible, trial, items, solution,
+                )
+            }
+        };
+        let scalar = |l: usize, start: &Pose, item: &mut T| {
+            *solution(item) = SolutionJacobian::solve(geometry, q[l], start, options)?;
+            Ok(())
+        };
+        run(geometry, q, starts, items, lanes, scalar)
+    }
+
+    /// The lanes' Newton iteration ([`lockstep`]), each lane's solution and
+    /// `J_f` in factored form ([`closure_weights`]) written into its item
+    /// as it finishes; returns the lanes left to the scalar path.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    fn jacobian_lockstep<T>(
+        geometry: &Geometry,
+        q: &[&[f64; 6]],
+        options: &ForwardOptions,
+        starts: &[Pose; LANES],
+        feasible: u32,
+        trial: &mut [u8; 6],
+        items: &mut [T],
+        solution: &impl Fn(&mut T) -> &mut SolutionJacobian,
+    ) -> u32 {
+        let mut finish = |lanes: &Finishing| {
+            let weights = closure_weights(geometry, lanes.legs, lanes.factor);
+            let legs = lanes.legs;
+            for l in lanes.lanes() {
+                let at = |v: &Lane| v.as_array()[l];
+                let solution = solution(&mut items[l]);
+                solution.pose = pose_of(lanes.poses, l);
+                let jacobian = &mut solution.jacobian;
+                for r in 0..6 {
+                    for a in 0..3 {
+                        jacobian.weights[(r, a)] = at(&weights[a][r]);
+                    }
+                    jacobian.directions[r] = vec_of(&legs.direction[r], l);
+                }
+                jacobian.rotation = Matrix3::from_fn(|r, c| at(&legs.rotation[r][c]));
+                solution.iterations = lanes.iterations;
+            }
+        };
+        lockstep(geometry, q, options, starts, feasible, trial, &mut finish)
+    }
+
+    /// The lanes' Newton iteration ([`lockstep`]), each lane's change along
+    /// `dp` ([`along`]) written into `out` as it finishes; returns the
+    /// lanes left to the scalar path.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    fn along_lockstep(
+        geometry: &Geometry,
+        q: &[&[f64; 6]],
+        options: &ForwardOptions,
+        starts: &[Pose; LANES],
+        feasible: u32,
+        dp: &Params,
+        trial: &mut [u8; 6],
+        out: &mut [SolutionAlong],
+    ) -> u32 {
+        let mut finish = |lanes: &Finishing| {
+            let (delta, tip) = along(geometry, lanes.legs, lanes.factor, dp);
+            let predicted = step(lanes.poses, &delta);
+            for l in lanes.lanes() {
+                out[l] = SolutionAlong {
+                    pose: pose_of(lanes.poses, l),
+                    predicted: pose_of(&predicted, l),
+                    tip: vec_of(&tip, l),
+                    iterations: lanes.iterations,
+                };
+            }
+        };
+        lockstep(geometry, q, options, starts, feasible, trial, &mut finish)
+    }
+
+    /// The actuator values checked ([`check_actuators`]), `lanes` run on
+    /// the feasible contacts (a bit per lane) from `starts` padded to
+    /// [`LANES`] with the last (it returns the lanes it leaves), then
+    /// `scalar` on each contact left, from its start: the first error in
+    /// contact order.
+    fn run<T>(
+        geometry: &Geometry,
+        q: &[&[f64; 6]],
+        starts: &[Pose],
+        items: &mut [T],
+        lanes: impl FnOnce(&[Pose; LANES], u32, &mut [T]) -> u32,
+        mut scalar: impl FnMut(usize, &Pose, &mut T) -> Result<(), KinematicsError>,
     ) -> Result<(), (usize, KinematicsError)> {
         let n = q.len();
         let mut errors: [Option<KinematicsError>; LANES] = Default::default();
@@ -122,16 +396,11 @@ mod avx2 {
         let feasible = (0..n)
             .filter(|&l| errors[l].is_none())
             .fold(0u32, |m, l| m | 1 << l);
-        let starts: [Pose; LANES] =
-            std::array::from_fn(|l| solution(&mut items[l.min(n - 1)]).pose);
-        // SAFETY: the caller checked that the machine runs AVX2.
-        let fallback =
-            unsafe { lockstep(geometry, q, options, &starts, feasible, items, &solution) };
+        let padded = std::array::from_fn(|l| starts[l.min(n - 1)]);
+        let fallback = lanes(&padded, feasible, items);
         for l in 0..n {
             if fallback & 1 << l != 0 {
-                let solution = solution(&mut items[l]);
-                solution.pose = starts[l];
-                errors[l] = forward_in_place(geometry, q[l], options, solution).err();
+                errors[l] = scalar(l, &starts[l], &mut items[l]).err();
             }
         }
         match errors
@@ -145,17 +414,20 @@ mod avx2 {
     }
 
     /// The lanes' Newton iteration over the contacts in `active` (a bit per
-    /// lane); returns the lanes left to the scalar iteration. Padding lanes
-    /// repeat the last contact.
+    /// lane) from `starts`, the rows of each factorisation first tried in the
+    /// order `trial` (updated as [`factorise`] does): `finish` is handed the
+    /// lanes as they finish, and the lanes left to the scalar iteration are
+    /// returned. Padding lanes repeat the last contact.
+    #[inline]
     #[target_feature(enable = "avx2")]
-    fn lockstep<T>(
+    fn lockstep(
         geometry: &Geometry,
         q: &[&[f64; 6]],
         options: &ForwardOptions,
         starts: &[Pose; LANES],
         mut active: u32,
-        items: &mut [T],
-        solution: &impl Fn(&mut T) -> &mut ForwardSolution,
+        trial: &mut [u8; 6],
+        finish: &mut impl FnMut(&Finishing),
     ) -> u32 {
         let n = q.len();
         let target: [Lane; 6] = std::array::from_fn(|i| {
@@ -163,7 +435,6 @@ mod avx2 {
                 geometry.legs[i] + q[l.min(n - 1)][i]
             }))
         });
-        let mut trial = solution(&mut items[0]).factor.permutation();
         let mut poses = pack(starts);
         let mut fallback = 0;
         let mut previous = Lane::splat(f64::INFINITY);
@@ -175,18 +446,19 @@ mod avx2 {
             let halved = !largest.lt(previous).bits() & active;
             fallback |= halved;
             active &= !halved;
-            let factor = factorise(&legs_rows(&legs), &mut trial);
+            let factor = factorise(&legs_rows(&legs), trial);
             let converged = largest.lt(Lane::splat(options.tolerance)).bits() & active;
             fallback |= converged & !factor.regular;
-            unpack(
-                converged & factor.regular,
-                &poses,
-                &legs,
-                &factor,
-                step_count,
-                items,
-                solution,
-            );
+            let done = converged & factor.regular;
+            if done != 0 {
+                finish(&Finishing {
+                    mask: done,
+                    poses: &poses,
+                    legs: &legs,
+                    factor: &factor,
+                    iterations: step_count,
+                });
+            }
             active &= !converged;
             if step_count == options.max_iterations {
                 fallback |= active;
@@ -200,15 +472,15 @@ mod avx2 {
             let delta = solve(&factor, &legs.residual.map(|r| -r));
             let stepped = step(&poses, &delta);
             let short = amax(&delta).le(Lane::splat(SHORT_STEP)).bits() & active;
-            unpack(
-                short,
-                &stepped,
-                &legs,
-                &factor,
-                step_count + 1,
-                items,
-                solution,
-            );
+            if short != 0 {
+                finish(&Finishing {
+                    mask: short,
+                    poses: &stepped,
+                    legs: &legs,
+                    factor: &factor,
+                    iterations: step_count + 1,
+                });
+            }
             active &= !short;
             if active == 0 {
                 break;
@@ -458,6 +730,63 @@ mod avx2 {
         x
     }
 
+    /// [`crate::lu6::Lu6::solve_transpose`] in lanes.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn solve_transpose(factor: &LaneLu, b: &[Lane; 6]) -> [Lane; 6] {
+        let lu = &factor.lu;
+        let mut z = [Lane::splat(0.0); 6];
+        for i in 0..6 {
+            let mut sum = Lane::splat(0.0);
+            for j in 0..i {
+                sum += lu[j][i] * z[j];
+            }
+            z[i] = (b[i] - sum) * lu[i][i];
+        }
+        for i in (0..6).rev() {
+            let mut sum = Lane::splat(0.0);
+            for j in i + 1..6 {
+                sum += lu[j][i] * z[j];
+            }
+            z[i] -= sum;
+        }
+        // `x[permutation[k]] = z[k]`.
+        std::array::from_fn(|r| {
+            let mut x = z[0];
+            for k in 1..6 {
+                x = factor.permutation[k]
+                    .eq(Lane::splat(r as f64))
+                    .select(z[k], x);
+            }
+            x
+        })
+    }
+
+    /// [`crate::TipDerivatives::closure_weights`] of the three base-frame
+    /// axes in lanes: `K^T = A^-T P^T` by columns, `P^T e_a = (e_a, R E_T x
+    /// e_a)`, at the solutions of `legs` and `factor`
+    /// ([`crate::FactoredTipJacobian::weights`]).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn closure_weights(geometry: &Geometry, legs: &LaneLegs, factor: &LaneLu) -> [[Lane; 6]; 3] {
+        let rotation = &legs.rotation;
+        let e = geometry.tool;
+        let (ex, ey, ez) = (Lane::splat(e.x), Lane::splat(e.y), Lane::splat(e.z));
+        let [tx, ty, tz]: [Lane; 3] = std::array::from_fn(|r| {
+            rotation[r][0] * ex + rotation[r][1] * ey + rotation[r][2] * ez
+        });
+        std::array::from_fn(|axis| {
+            let h: [Lane; 3] =
+                std::array::from_fn(|c| Lane::splat(if c == axis { 1.0 } else { 0.0 }));
+            let m = [
+                ty * h[2] - tz * h[1],
+                tz * h[0] - tx * h[2],
+                tx * h[1] - ty * h[0],
+            ];
+            solve_transpose(factor, &[h[0], h[1], h[2], m[0], m[1], m[2]])
+        })
+    }
+
     /// [`crate::forward::step`] with scale 1 in lanes: `t <- t + dt`, `R <-
     /// rot(w) R` by the Cayley quaternion `(1, w/2)`, normalised.
     #[inline]
@@ -484,28 +813,18 @@ mod avx2 {
         }
     }
 
-    /// Writes the lanes in `finished` (a bit per lane) into their solutions,
-    /// number by number (no lane structure is copied).
-    #[inline]
-    #[target_feature(enable = "avx2")]
+    /// Writes the lanes leaving into their solutions, number by number (no
+    /// lane structure is copied).
     fn unpack<T>(
-        finished: u32,
-        poses: &Poses,
-        legs: &LaneLegs,
-        factor: &LaneLu,
-        iterations: usize,
+        lanes: &Finishing,
         items: &mut [T],
         solution: &impl Fn(&mut T) -> &mut ForwardSolution,
     ) {
-        for l in lanes(finished) {
+        let (legs, factor) = (lanes.legs, lanes.factor);
+        for l in lanes.lanes() {
             let at = |v: &Lane| v.as_array()[l];
-            let vec = |v: &[Lane; 3]| Vec3::new(at(&v[0]), at(&v[1]), at(&v[2]));
-            let [i, j, k, w] = poses.quaternion.each_ref().map(at);
             let solution = solution(&mut items[l]);
-            solution.pose = Pose::from_parts(
-                Translation3::from(vec(&poses.translation)),
-                UnitQuaternion::new_unchecked(Quaternion::new(w, i, j, k)),
-            );
+            solution.pose = pose_of(lanes.poses, l);
             let out = &mut solution.legs;
             for r in 0..3 {
                 for c in 0..3 {
@@ -513,8 +832,8 @@ mod avx2 {
                 }
             }
             for leg in 0..6 {
-                out.rotated[leg] = vec(&legs.rotated[leg]);
-                out.direction[leg] = vec(&legs.direction[leg]);
+                out.rotated[leg] = vec_of(&legs.rotated[leg], l);
+                out.direction[leg] = vec_of(&legs.direction[leg], l);
                 out.length[leg] = at(&legs.length[leg]);
             }
             let (lu, permutation) = solution.factor.factors_mut();
@@ -524,7 +843,70 @@ mod avx2 {
                 }
                 permutation[r] = at(&factor.permutation[r]) as u8;
             }
-            solution.iterations = iterations;
+            solution.iterations = lanes.iterations;
         }
+    }
+
+    /// Lane `l`'s pose.
+    fn pose_of(poses: &Poses, l: usize) -> Pose {
+        let [i, j, k, w] = poses.quaternion.each_ref().map(|v| v.as_array()[l]);
+        Pose::from_parts(
+            Translation3::from(vec_of(&poses.translation, l)),
+            UnitQuaternion::new_unchecked(Quaternion::new(w, i, j, k)),
+        )
+    }
+
+    /// Lane `l`'s vector.
+    fn vec_of(v: &[Lane; 3], l: usize) -> Vec3 {
+        Vec3::new(v[0].as_array()[l], v[1].as_array()[l], v[2].as_array()[l])
+    }
+
+    /// [`crate::TipDerivatives::along`] in lanes, at the solutions of
+    /// `legs` and `factor`: the pose's first-order change `(dt, w) = -A^-1 v` along
+    /// `dp` (leg `i`: `v_i = -n_i . dB_i + (R^T n_i) . dE_i - dl_i`) and
+    /// `J_f dp = dt + w x R E_T + R dE_T`, in the scalar code's order.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn along(
+        geometry: &Geometry,
+        legs: &LaneLegs,
+        factor: &LaneLu,
+        dp: &Params,
+    ) -> ([Lane; 6], [Lane; 3]) {
+        let rotation = &legs.rotation;
+        let param = |k: usize| Lane::splat(dp[k]);
+        // `R x`, and `R^T x` (column `c` of `R` dotted with `x`).
+        let rotate = |x: &[Lane; 3]| -> [Lane; 3] {
+            std::array::from_fn(|r| {
+                rotation[r][0] * x[0] + rotation[r][1] * x[1] + rotation[r][2] * x[2]
+            })
+        };
+        let v: [Lane; 6] = std::array::from_fn(|i| {
+            let n = &legs.direction[i];
+            let n_platform: [Lane; 3] = std::array::from_fn(|c| {
+                rotation[0][c] * n[0] + rotation[1][c] * n[1] + rotation[2][c] * n[2]
+            });
+            let mut change = -param(leg_index(i));
+            for c in 0..3 {
+                if let Some(k) = BASE_INDEX[i][c] {
+                    change -= n[c] * param(k);
+                }
+                if let Some(k) = PLATFORM_INDEX[i][c] {
+                    change += n_platform[c] * param(k);
+                }
+            }
+            change
+        });
+        let pose = solve(factor, &v).map(|x| -x);
+        let tool = rotate(&<[f64; 3]>::from(geometry.tool).map(|x| Lane::splat(x)));
+        let tool_step = rotate(&std::array::from_fn(|c| param(TOOL_OFFSET + c)));
+        let [wx, wy, wz] = [pose[3], pose[4], pose[5]];
+        let turn = [
+            wy * tool[2] - wz * tool[1],
+            wz * tool[0] - wx * tool[2],
+            wx * tool[1] - wy * tool[0],
+        ];
+        let tip = std::array::from_fn(|a| pose[a] + turn[a] + tool_step[a]);
+        (pose, tip)
     }
 }

@@ -47,7 +47,8 @@ pub mod params;
 mod simd;
 
 pub use derivatives::{
-    DerivativeAlong, TipDerivatives, TipJacobians, tip_jacobians, tip_jacobians_at,
+    DerivativeAlong, FactoredTipJacobian, SolutionAlong, SolutionJacobian, TipDerivatives,
+    TipJacobians, tip_jacobians, tip_jacobians_at,
 };
 pub use error::KinematicsError;
 pub use forward::{ForwardOptions, ForwardSolution, forward, forward_from_home};

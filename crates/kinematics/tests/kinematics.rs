@@ -3,10 +3,13 @@
 //! canonical frames' invariance to rigid motions of the input frame.
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
-use parcal_kinematics::lanes::forward_batch;
+use parcal_kinematics::lanes::{
+    PivotOrder, forward_along_batch, forward_batch, forward_jacobian_batch,
+};
 use parcal_kinematics::{
-    ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose, TipDerivatives, Vec3,
-    actuators, forward, forward_from_home, paper, params, rotation_zyx, tip_jacobians,
+    ForwardOptions, ForwardSolution, Geometry, KinematicsError, N_PARAMS, Params, Pose,
+    SolutionAlong, SolutionJacobian, TipDerivatives, Vec3, actuators, forward, forward_from_home,
+    paper, params, rotation_zyx, tip_jacobians,
 };
 
 /// SplitMix64: a tiny deterministic generator for test poses.
@@ -330,6 +333,38 @@ fn singular_configuration(geometry: &Geometry) -> (Geometry, Pose) {
     (singular, upright)
 }
 
+/// Contacts of the workspace for batch `round` of a test: 1 to 4 of them,
+/// started one iteration away (a small pose error, two Newton steps), from
+/// the home pose (four steps), or turned by up to 80 degrees (five steps and
+/// more; the scalar iteration halves some of them, and the lanes hand those
+/// contacts over to it).
+fn random_batch(rng: &mut Rng, geometry: &Geometry, round: usize) -> Vec<([f64; 6], Pose)> {
+    (0..round % 4 + 1)
+        .map(|_| {
+            let pose = workspace_pose(rng, geometry, 10.0);
+            let q = actuators(geometry, &pose);
+            let start = if round.is_multiple_of(5) {
+                let turn = UnitQuaternion::from_scaled_axis(Vector3::new(
+                    rng.uniform(-0.8, 0.8),
+                    rng.uniform(-0.8, 0.8),
+                    rng.uniform(-0.8, 0.8),
+                ));
+                Pose::from_parts(pose.translation, turn * pose.rotation)
+            } else if round.is_multiple_of(3) {
+                geometry.home_pose(&q)
+            } else {
+                let shift = Translation3::new(
+                    rng.uniform(-1e-3, 1e-3),
+                    rng.uniform(-1e-3, 1e-3),
+                    rng.uniform(-1e-3, 1e-3),
+                );
+                shift * pose
+            };
+            (q, start)
+        })
+        .collect()
+}
+
 /// What `forward_batch` gives a batch: every solution, or the first error
 /// with its contact's index.
 type LanesOutcome = Result<Vec<ForwardSolution>, (usize, KinematicsError)>;
@@ -363,12 +398,7 @@ fn lanes_and_scalar(
 /// closure Jacobian.
 fn assert_same_solution(lanes: &ForwardSolution, scalar: &ForwardSolution) {
     assert_eq!(lanes.iterations, scalar.iterations);
-    let shift = (lanes.pose.translation.vector - scalar.pose.translation.vector).amax();
-    let turn = lanes.pose.rotation.angle_to(&scalar.pose.rotation);
-    assert!(
-        shift < 1e-10 && turn < 1e-12,
-        "pose differs by {shift:e} mm, {turn:e} rad"
-    );
+    assert_same_pose(&lanes.pose, &scalar.pose, "pose");
     for i in 0..6 {
         assert!((lanes.legs.length[i] - scalar.legs.length[i]).abs() < 1e-10);
         assert!((lanes.legs.direction[i] - scalar.legs.direction[i]).amax() < 1e-12);
@@ -381,6 +411,81 @@ fn assert_same_solution(lanes: &ForwardSolution, scalar: &ForwardSolution) {
     assert!((lanes.factor.solve_transpose(&b) - y).amax() < 1e-9 * y.amax());
 }
 
+/// What `forward_along_batch` gives a batch: every solution, or the first
+/// error with its contact's index.
+type AlongOutcome = Result<Vec<SolutionAlong>, (usize, KinematicsError)>;
+
+/// Runs `forward_along_batch` on the contacts `(q, start)` along `dp`, the
+/// rows first tried in the order `trial`, and `SolutionAlong::solve` on
+/// each; returns both.
+fn along_in_lanes_and_scalar(
+    geometry: &Geometry,
+    contacts: &[([f64; 6], Pose)],
+    dp: &Params,
+    options: &ForwardOptions,
+    trial: &mut PivotOrder,
+) -> (AlongOutcome, Vec<Result<SolutionAlong, KinematicsError>>) {
+    let q: Vec<&[f64; 6]> = contacts.iter().map(|(q, _)| q).collect();
+    let starts: Vec<Pose> = contacts.iter().map(|(_, start)| *start).collect();
+    let mut out = vec![SolutionAlong::default(); contacts.len()];
+    let lanes =
+        forward_along_batch(geometry, &q, &starts, dp, options, trial, &mut out).map(|()| out);
+    let scalar = contacts
+        .iter()
+        .map(|(q, start)| SolutionAlong::solve(geometry, q, start, dp, options))
+        .collect();
+    (lanes, scalar)
+}
+
+/// What `forward_jacobian_batch` gives a batch: every solution, or the first
+/// error with its contact's index.
+type JacobianOutcome = Result<Vec<SolutionJacobian>, (usize, KinematicsError)>;
+
+/// Runs `forward_jacobian_batch` on the contacts `(q, start)`, the rows
+/// first tried in the order `trial`, and `SolutionJacobian::solve` on each;
+/// returns both.
+fn jacobian_in_lanes_and_scalar(
+    geometry: &Geometry,
+    contacts: &[([f64; 6], Pose)],
+    options: &ForwardOptions,
+    trial: &mut PivotOrder,
+) -> (
+    JacobianOutcome,
+    Vec<Result<SolutionJacobian, KinematicsError>>,
+) {
+    let q: Vec<&[f64; 6]> = contacts.iter().map(|(q, _)| q).collect();
+    let starts: Vec<Pose> = contacts.iter().map(|(_, start)| *start).collect();
+    let mut out = vec![SolutionJacobian::default(); contacts.len()];
+    let lanes = forward_jacobian_batch(geometry, &q, &starts, options, trial, &mut out, |s| s)
+        .map(|()| out);
+    let scalar = contacts
+        .iter()
+        .map(|(q, start)| SolutionJacobian::solve(geometry, q, start, options))
+        .collect();
+    (lanes, scalar)
+}
+
+/// `|a - b| <= tolerance max |b|`, entry by entry.
+fn assert_close(a: &[f64], b: &[f64], tolerance: f64, what: &str) {
+    let scale = b.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    for (x, y) in a.iter().zip(b) {
+        assert!(
+            (x - y).abs() <= tolerance * scale,
+            "{what}: {a:?} against {b:?}"
+        );
+    }
+}
+
+/// Two poses agree to rounding.
+fn assert_same_pose(a: &Pose, b: &Pose, what: &str) {
+    let shift = (a.translation.vector - b.translation.vector).amax();
+    let turn = a.rotation.angle_to(&b.rotation);
+    assert!(
+        shift < 1e-10 && turn < 1e-12,
+        "{what} differs by {shift:e} mm, {turn:e} rad"
+    );
+}
+
 #[test]
 fn forward_kinematics_in_lanes_is_the_scalar_iteration() {
     let mut rng = Rng(1158);
@@ -388,35 +493,7 @@ fn forward_kinematics_in_lanes_is_the_scalar_iteration() {
     let geometry = paper::truth();
     let mut histogram = [0; 8];
     for round in 0..400 {
-        // Batches of 1 to 4 contacts, started one iteration away (a small
-        // pose error, two Newton steps), from the home pose (four steps), or
-        // turned by up to 80 degrees (five steps and more; the scalar
-        // iteration halves some of them, and the lanes hand those contacts
-        // over to it).
-        let contacts: Vec<([f64; 6], Pose)> = (0..round % 4 + 1)
-            .map(|_| {
-                let pose = workspace_pose(&mut rng, &geometry, 10.0);
-                let q = actuators(&geometry, &pose);
-                let start = if round % 5 == 0 {
-                    let turn = UnitQuaternion::from_scaled_axis(Vector3::new(
-                        rng.uniform(-0.8, 0.8),
-                        rng.uniform(-0.8, 0.8),
-                        rng.uniform(-0.8, 0.8),
-                    ));
-                    Pose::from_parts(pose.translation, turn * pose.rotation)
-                } else if round % 3 == 0 {
-                    geometry.home_pose(&q)
-                } else {
-                    let shift = Translation3::new(
-                        rng.uniform(-1e-3, 1e-3),
-                        rng.uniform(-1e-3, 1e-3),
-                        rng.uniform(-1e-3, 1e-3),
-                    );
-                    shift * pose
-                };
-                (q, start)
-            })
-            .collect();
+        let contacts = random_batch(&mut rng, &geometry, round);
         let (lanes, scalar) = lanes_and_scalar(&geometry, &contacts, &options);
         for (lanes, scalar) in lanes
             .expect("forward kinematics in lanes")
@@ -433,6 +510,108 @@ fn forward_kinematics_in_lanes_is_the_scalar_iteration() {
         histogram[2] > 100 && histogram[4] > 100 && histogram[5..].iter().sum::<usize>() > 10,
         "step counts {histogram:?}"
     );
+}
+
+#[test]
+fn change_along_parameters_in_lanes_is_the_scalar_one() {
+    let mut rng = Rng(2004);
+    let options = ForwardOptions::default();
+    let geometry = paper::truth();
+    let mut trial = PivotOrder::default();
+    let mut several = 0;
+    for round in 0..400 {
+        let contacts = random_batch(&mut rng, &geometry, round);
+        let dp = Params::from_fn(|_, _| rng.uniform(-1e-2, 1e-2));
+        let (lanes, scalar) =
+            along_in_lanes_and_scalar(&geometry, &contacts, &dp, &options, &mut trial);
+        for (lanes, scalar) in lanes.expect("lanes").iter().zip(scalar) {
+            let scalar = scalar.expect("scalar");
+            assert_eq!(lanes.iterations, scalar.iterations);
+            assert_same_pose(&lanes.pose, &scalar.pose, "pose");
+            assert_same_pose(&lanes.predicted, &scalar.predicted, "predicted pose");
+            let miss = (lanes.tip - scalar.tip).amax();
+            assert!(
+                miss <= 1e-9 * scalar.tip.amax(),
+                "J_f dp {} against {}",
+                lanes.tip,
+                scalar.tip
+            );
+            // The change is not trivial: a step of 1e-2 moves the tip.
+            assert!(scalar.tip.amax() > 1e-4, "{}", scalar.tip);
+        }
+        several += usize::from(contacts.len() > 1);
+    }
+    assert!(several >= 300, "{several} batches in lanes");
+}
+
+#[test]
+fn factored_tip_jacobian_in_lanes_is_the_scalar_one() {
+    let mut rng = Rng(1158_2004);
+    let options = ForwardOptions::default();
+    let geometry = paper::truth();
+    let mut trial = PivotOrder::default();
+    let mut several = 0;
+    for round in 0..400 {
+        let contacts = random_batch(&mut rng, &geometry, round);
+        let (lanes, scalar) =
+            jacobian_in_lanes_and_scalar(&geometry, &contacts, &options, &mut trial);
+        for (lanes, scalar) in lanes.expect("lanes").iter().zip(scalar) {
+            let scalar = scalar.expect("scalar");
+            assert_eq!(lanes.iterations, scalar.iterations);
+            assert_same_pose(&lanes.pose, &scalar.pose, "pose");
+            let (a, b) = (&lanes.jacobian, &scalar.jacobian);
+            assert_close(a.weights.as_slice(), b.weights.as_slice(), 1e-9, "K^T");
+            assert_close(a.rotation.as_slice(), b.rotation.as_slice(), 1e-12, "R");
+            for (n, m) in a.directions.iter().zip(&b.directions) {
+                assert_close(n.as_slice(), m.as_slice(), 1e-12, "n_i");
+            }
+        }
+        several += usize::from(contacts.len() > 1);
+    }
+    assert!(several >= 300, "{several} batches in lanes");
+}
+
+/// The factored `J_f` combines rows and takes products as the
+/// derivatives with their LU do.
+#[test]
+fn factored_tip_jacobian_is_the_tip_derivatives() {
+    let mut rng = Rng(33);
+    let options = ForwardOptions::default();
+    let geometry = paper::truth();
+    for _ in 0..50 {
+        let pose = workspace_pose(&mut rng, &geometry, 10.0);
+        let q = actuators(&geometry, &pose);
+        let mut derivatives = TipDerivatives::default();
+        derivatives
+            .forward(&geometry, &q, &geometry.home_pose(&q), &options)
+            .unwrap();
+        let factored = derivatives.factored();
+        let h = Vec3::new(
+            rng.uniform(-1.0, 1.0),
+            rng.uniform(-1.0, 1.0),
+            rng.uniform(-1.0, 1.0),
+        );
+        let (mut a, mut b) = ([0.0; N_PARAMS], [0.0; N_PARAMS]);
+        factored.params_row(&h, &mut a);
+        derivatives.params_row(&h, &mut b);
+        assert_close(&a, &b, 1e-12, "h^T J_f");
+        let dp = Params::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+        let along = derivatives.along(&dp).tip;
+        assert_close(
+            factored.along(&dp).as_slice(),
+            along.as_slice(),
+            1e-12,
+            "J_f dp",
+        );
+        // `K^T` is `dT/dq` transposed.
+        let d_q = derivatives.d_q();
+        assert_close(
+            factored.weights.transpose().as_slice(),
+            d_q.as_slice(),
+            1e-12,
+            "K",
+        );
+    }
 }
 
 #[test]
@@ -453,15 +632,20 @@ fn forward_kinematics_in_lanes_reports_the_first_failing_contact() {
         (&[good, far, infeasible], 1),
         (&[infeasible], 0),
     ];
+    let dp = Params::repeat(1e-3);
+    let mut trial = PivotOrder::default();
     for (batch, first) in cases {
         let contacts: Vec<_> = batch.iter().map(|q| (*q, home)).collect();
         let (lanes, scalar) = lanes_and_scalar(&geometry, &contacts, &options);
         let (lane, error) = lanes.expect_err("a failing contact");
         assert_eq!(lane, first);
         assert_eq!(
-            Err(error),
+            Err(error.clone()),
             scalar[first].as_ref().map(|_| ()).map_err(Clone::clone)
         );
+        // The same contact and error with the change along parameters.
+        let (along, _) = along_in_lanes_and_scalar(&geometry, &contacts, &dp, &options, &mut trial);
+        assert_eq!(along.expect_err("a failing contact"), (first, error));
     }
     // The iteration limit and a singular configuration, as in the scalar
     // iteration.
@@ -469,16 +653,32 @@ fn forward_kinematics_in_lanes_reports_the_first_failing_contact() {
         max_iterations: 1,
         ..options
     };
-    let (lanes, _) = lanes_and_scalar(&geometry, &[(good, home), (good, home)], &few);
+    let two = [(good, home), (good, home)];
+    let (lanes, _) = lanes_and_scalar(&geometry, &two, &few);
     let (_, error) = lanes.expect_err("not converged in one step");
     assert!(
         matches!(error, KinematicsError::NotConverged { iterations: 1, .. }),
         "{error}"
     );
+    let (along, _) = along_in_lanes_and_scalar(&geometry, &two, &dp, &few, &mut trial);
+    assert_eq!(along.expect_err("not converged in one step").1, error);
+    let (jacobian, _) = jacobian_in_lanes_and_scalar(&geometry, &two, &few, &mut trial);
+    assert_eq!(jacobian.expect_err("not converged in one step").1, error);
     let (singular, upright) = singular_configuration(&geometry);
-    let (lanes, _) = lanes_and_scalar(&singular, &[(good, home), ([-30.0; 6], upright)], &options);
+    let contacts = [(good, home), ([-30.0; 6], upright)];
+    let (lanes, _) = lanes_and_scalar(&singular, &contacts, &options);
     assert_eq!(
         lanes.expect_err("singular").1,
+        KinematicsError::SingularJacobian
+    );
+    let (along, _) = along_in_lanes_and_scalar(&singular, &contacts, &dp, &options, &mut trial);
+    assert_eq!(
+        along.expect_err("singular").1,
+        KinematicsError::SingularJacobian
+    );
+    let (jacobian, _) = jacobian_in_lanes_and_scalar(&singular, &contacts, &options, &mut trial);
+    assert_eq!(
+        jacobian.expect_err("singular").1,
         KinematicsError::SingularJacobian
     );
 }

@@ -169,6 +169,7 @@ where
     let mut sum = StepSummary::default();
     let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros());
     let mut steps = [SVector::<f64, R>::zeros(); BATCH];
+    let mut workspace = Pr::Workspace::default();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         let range = problem.group_points(k);
@@ -191,6 +192,7 @@ where
                     dg,
                     &mut lins[..n],
                     &mut steps[..n],
+                    &mut workspace,
                 )
                 .map_err(|(i, e)| Failure::linearize(i, &e))?;
             for (i, (lin, global_step)) in batch.zip(lins.iter().zip(&steps)) {

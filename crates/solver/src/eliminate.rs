@@ -521,6 +521,7 @@ where
     let mut group = GroupRows::<C>::new(group_buf, dims.group_width());
     let mut costs = Costs::default();
     let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros());
+    let mut workspace = Pr::Workspace::default();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         group.reset();
@@ -537,6 +538,7 @@ where
                     &state.points[batch.clone()],
                     caches,
                     lins,
+                    &mut workspace,
                 )
                 .map_err(|(i, e)| Failure::linearize(i, &e))?;
             for (i, lin) in batch.zip(lins.iter()) {

@@ -160,6 +160,7 @@
 //!
 //! impl Problem<1, 2, 0, 1> for Circles {
 //!     type PointCache = ();
+//!     type Workspace = ();
 //!     type Error = std::convert::Infallible;
 //!     type Jacobian = SMatrix<f64, 1, 1>;
 //!     type Global = Vector1<f64>; // the radius as it is

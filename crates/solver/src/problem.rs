@@ -182,6 +182,12 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     /// whole run and hands it to every [`linearize`](Problem::linearize) of
     /// that point.
     type PointCache: Clone + Send + Sync;
+    /// Working memory a problem carries from one batch of points to the
+    /// next (e.g. the row order a factorisation tries first): the solver
+    /// makes one (`Default`) per chunk of groups and pass over the points,
+    /// and hands it to the chunk's batches in order, so that what it
+    /// carries never depends on the number of threads. `()` if none.
+    type Workspace: Default + Send;
     /// The error a linearisation can fail with.
     type Error: std::error::Error + Send + Sync + 'static;
     /// The global Jacobian of a point (`SMatrix<f64, R, G>` when dense).
@@ -226,7 +232,7 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     /// outputs are then unspecified). The default linearises the points one
     /// by one; a problem whose per-point work runs faster several points at
     /// a time (e.g. in SIMD lanes) does them together. The solver always
-    /// linearises through this method.
+    /// linearises through this method, with its chunk's `workspace`.
     #[allow(clippy::too_many_arguments)]
     fn linearize_batch(
         &self,
@@ -236,7 +242,9 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         points: &[SVector<f64, P>],
         caches: &mut [Self::PointCache],
         out: &mut [Linearization<G, C, P, R, Self::Jacobian>],
+        workspace: &mut Self::Workspace,
     ) -> Result<(), (usize, Self::Error)> {
+        let _ = workspace;
         for (j, (out, (point, cache))) in out.iter_mut().zip(points.iter().zip(caches)).enumerate()
         {
             let i = first + j;
@@ -248,8 +256,8 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
 
     /// Point `i`'s linearisation for back-substitution, which needs of
     /// `d_global` only its product with the global step `dg`: writes the
-    /// linearisation into `out` (its `d_global` is not read afterwards) and
-    /// returns `d_global · dg`. The default linearises fully; a problem can
+    /// linearisation into `out` (its `d_global` is not read afterwards: a
+    /// problem need not write it) and returns `d_global · dg`. The default linearises fully; a problem can
     /// also update its point cache for the next iteration here.
     #[allow(clippy::too_many_arguments)]
     fn linearize_along(
@@ -280,7 +288,9 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         dg: &SVector<f64, G>,
         out: &mut [Linearization<G, C, P, R, Self::Jacobian>],
         steps: &mut [SVector<f64, R>],
+        workspace: &mut Self::Workspace,
     ) -> Result<(), (usize, Self::Error)> {
+        let _ = workspace;
         let points = points.iter().zip(caches);
         for (j, ((out, step), (point, cache))) in out.iter_mut().zip(steps).zip(points).enumerate()
         {

@@ -223,6 +223,7 @@ struct Exponential {
 
 impl Problem<1, 1, 0, 2> for Exponential {
     type PointCache = ();
+    type Workspace = ();
     type Error = TestError;
     type Jacobian = SMatrix<f64, 2, 1>;
     type Global = SVector<f64, 1>;
@@ -408,6 +409,7 @@ fn problem_without_blind_point() -> Degenerate {
 
 impl Problem<1, 1, 2, 3> for Degenerate {
     type PointCache = ();
+    type Workspace = ();
     type Error = TestError;
     type Jacobian = SMatrix<f64, 3, 1>;
     type Global = SVector<f64, 1>;

@@ -161,6 +161,7 @@ pub struct Touches(pub Data);
 
 impl Problem<G, 3, 2, 3> for Touches {
     type PointCache = u32;
+    type Workspace = ();
     type Error = TestError;
     type Jacobian = SMatrix<f64, 3, G>;
     type Global = SVector<f64, G>;
@@ -216,6 +217,7 @@ pub struct Distances(pub Data);
 
 impl Problem<G, 3, 0, 1> for Distances {
     type PointCache = u32;
+    type Workspace = ();
     type Error = TestError;
     type Jacobian = SMatrix<f64, 1, G>;
     type Global = SVector<f64, G>;
