@@ -20,6 +20,10 @@
 //! sparse row of `d phi / dp`: one transposed solve, no 3 x 33 matrix) and a
 //! directional derivative `J_f dp` (one solve). [`TipDerivatives`] keeps
 //! what both need; [`TipDerivatives::jacobians`] forms the full matrices.
+//! [`FactoredTipJacobian`] keeps `K^T` itself (three transposed solves,
+//! once) instead of the LU: a combination of rows is then a 6 x 3 product,
+//! and no factorisation need be kept per contact (what the SIMD lanes of
+//! [`crate::lanes`] leave).
 
 use nalgebra::{Matrix3, Matrix3x6, Matrix6x3, SMatrix, Vector3, Vector6};
 
