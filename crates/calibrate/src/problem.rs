@@ -21,7 +21,7 @@ use parcal_kinematics::{
 };
 use parcal_observe::{
     BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, ObserveError, RadiusBlock,
-    RadiusWeight, Whitening,
+    RadiusWeight,
 };
 use parcal_solver::{BATCH, GaussianPrior, GlobalJacobian, Linearization, Problem};
 
@@ -46,11 +46,9 @@ pub struct CoordinateObservations {
 /// One kind of observation of every contact: `R` residual rows, `P` angles
 /// per contact.
 pub trait ContactObservations<const R: usize, const P: usize>: Sync {
-    /// The whitening of contact `i`'s rows.
-    type Weight: Whitening<R>;
-
-    /// The raw (unwhitened) block of contact `i` on a ball of `radius`, at
-    /// the tool tip, the ball centre and the contact's angles.
+    /// The block of contact `i` on a ball of `radius`, at the tool tip, the
+    /// ball centre and the contact's angles, whitened by the contact's
+    /// weight (paper eq. 5).
     fn block(
         &self,
         i: usize,
@@ -59,9 +57,6 @@ pub trait ContactObservations<const R: usize, const P: usize>: Sync {
         centre: &Vec3,
         angles: &SVector<f64, P>,
     ) -> Result<BlockJacobians<R, P>, ObserveError>;
-
-    /// The weight of contact `i`.
-    fn weight(&self, i: usize) -> &Self::Weight;
 
     /// The prior on contact `i`'s angles, if any.
     fn angle_prior(&self, i: usize) -> Option<GaussianPrior<P>> {
@@ -75,21 +70,17 @@ pub trait ContactObservations<const R: usize, const P: usize>: Sync {
 }
 
 impl ContactObservations<1, 0> for RadiusObservations {
-    type Weight = RadiusWeight;
-
     fn block(
         &self,
-        _i: usize,
+        i: usize,
         radius: f64,
         tip: &Vec3,
         centre: &Vec3,
         _angles: &SVector<f64, 0>,
     ) -> Result<BlockJacobians<1, 0>, ObserveError> {
-        RadiusBlock { radius }.evaluate(tip, centre)
-    }
-
-    fn weight(&self, i: usize) -> &RadiusWeight {
-        &self.weights[i]
+        Ok(RadiusBlock { radius }
+            .evaluate(tip, centre)?
+            .whiten(&self.weights[i]))
     }
 
     /// The radius observation has no angles.
@@ -99,8 +90,7 @@ impl ContactObservations<1, 0> for RadiusObservations {
 }
 
 impl ContactObservations<3, 2> for CoordinateObservations {
-    type Weight = CoordinateWeight;
-
+    /// [`CoordinateBlock::evaluate_whitened`] in the contact's chart.
     fn block(
         &self,
         i: usize,
@@ -110,11 +100,8 @@ impl ContactObservations<3, 2> for CoordinateObservations {
         angles: &Vector2<f64>,
     ) -> Result<BlockJacobians<3, 2>, ObserveError> {
         let chart = DirectionChart::about(&self.directions[i]);
-        Ok(CoordinateBlock { radius, chart }.evaluate(tip, centre, angles))
-    }
-
-    fn weight(&self, i: usize) -> &CoordinateWeight {
-        &self.weights[i]
+        let block = CoordinateBlock { radius, chart };
+        Ok(block.evaluate_whitened(tip, centre, angles, &self.weights[i]))
     }
 
     fn angle_prior(&self, _i: usize) -> Option<GaussianPrior<2>> {
@@ -243,8 +230,7 @@ impl<O> CalibrationProblem<'_, O> {
             .map_err(|source| CalibrateError::Observation {
                 row: self.row(i),
                 source,
-            })?
-            .whiten(self.observations.weight(i));
+            })?;
         out.residual = block.residual;
         out.d_global.d_tip = block.d_tip;
         out.d_group = block.d_centre;

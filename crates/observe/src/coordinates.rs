@@ -13,7 +13,7 @@
 use nalgebra::{Matrix3, Vector2};
 use parcal_kinematics::Vec3;
 
-use crate::{CoordinateJacobians, DirectionChart};
+use crate::{CoordinateJacobians, CoordinateWeight, DirectionChart, Whitening};
 
 /// The coordinate observation of one contact on a ball of calibrated radius
 /// `radius` (mm), its direction charted about the contact's initial
@@ -43,6 +43,27 @@ impl CoordinateBlock {
             d_tip: -Matrix3::identity(),
             d_centre: Matrix3::identity(),
             d_angles: self.radius * derivative,
+        }
+    }
+
+    /// [`CoordinateBlock::evaluate`] whitened by `weight` (paper eq. 5),
+    /// the numbers of `evaluate(..).whiten(weight)`: the identity blocks
+    /// whitened are `∓L⁻¹` itself, so that only the residual and the angle
+    /// columns are multiplied (a third of the products).
+    pub fn evaluate_whitened(
+        &self,
+        tip: &Vec3,
+        centre: &Vec3,
+        angles: &Vector2<f64>,
+        weight: &CoordinateWeight,
+    ) -> CoordinateJacobians {
+        let (direction, derivative) = self.chart.direction_and_derivative(angles);
+        let inverse = weight.inverse_factor();
+        CoordinateJacobians {
+            residual: weight.whiten(&(centre + self.radius * direction - tip)),
+            d_tip: -inverse,
+            d_centre: inverse,
+            d_angles: weight.whiten(&(self.radius * derivative)),
         }
     }
 }
@@ -89,6 +110,35 @@ mod tests {
                 block.evaluate(&tip.position, &centre, a).residual
             });
             assert_close(&analytic, &by_angles, 1e-6, "dc/dθ");
+        }
+    }
+
+    #[test]
+    fn the_whitened_block_is_the_block_whitened() {
+        let contact = Contact::new();
+        let tip = contact.tip().position;
+        let centre = contact.centre();
+        let block = CoordinateBlock {
+            radius: 5.0,
+            chart: DirectionChart::new(&(tip - centre)).unwrap(),
+        };
+        // A full lower-triangular L^-1, signs mixed.
+        let covariance = Matrix3::new(4.0, 1.2, -0.7, 1.2, 2.5, 0.4, -0.7, 0.4, 1.8) * 1e-6;
+        let weight = CoordinateWeight::from_covariance(&covariance).unwrap();
+        for angles in [
+            Vector2::zeros(),
+            Vector2::new(0.02, -0.015),
+            Vector2::new(-0.3, 0.1),
+        ] {
+            let whitened = block.evaluate_whitened(&tip, &centre, &angles, &weight);
+            let reference = block.evaluate(&tip, &centre, &angles).whiten(&weight);
+            // The same numbers, not merely close ones.
+            assert_eq!(whitened, reference);
+            assert!(
+                whitened.d_tip[(2, 0)] != 0.0,
+                "a full L^-1: {}",
+                whitened.d_tip
+            );
         }
     }
 }
