@@ -512,18 +512,31 @@ fn forward_kinematics_in_lanes_is_the_scalar_iteration() {
     );
 }
 
-#[test]
-fn change_along_parameters_in_lanes_is_the_scalar_one() {
-    let mut rng = Rng(2004);
-    let options = ForwardOptions::default();
+/// Runs `check` on 400 random batches (`random_batch`) of the true
+/// geometry, with one row order carried from batch to batch, and checks
+/// that most of them ran in lanes (several contacts).
+fn over_random_batches(
+    seed: u64,
+    mut check: impl FnMut(&mut Rng, &Geometry, &[([f64; 6], Pose)], &mut PivotOrder),
+) {
+    let mut rng = Rng(seed);
     let geometry = paper::truth();
     let mut trial = PivotOrder::default();
     let mut several = 0;
     for round in 0..400 {
         let contacts = random_batch(&mut rng, &geometry, round);
+        check(&mut rng, &geometry, &contacts, &mut trial);
+        several += usize::from(contacts.len() > 1);
+    }
+    assert!(several >= 300, "{several} batches in lanes");
+}
+
+#[test]
+fn change_along_parameters_in_lanes_is_the_scalar_one() {
+    let options = ForwardOptions::default();
+    over_random_batches(2004, |rng, geometry, contacts, trial| {
         let dp = Params::from_fn(|_, _| rng.uniform(-1e-2, 1e-2));
-        let (lanes, scalar) =
-            along_in_lanes_and_scalar(&geometry, &contacts, &dp, &options, &mut trial);
+        let (lanes, scalar) = along_in_lanes_and_scalar(geometry, contacts, &dp, &options, trial);
         for (lanes, scalar) in lanes.expect("lanes").iter().zip(scalar) {
             let scalar = scalar.expect("scalar");
             assert_eq!(lanes.iterations, scalar.iterations);
@@ -539,22 +552,14 @@ fn change_along_parameters_in_lanes_is_the_scalar_one() {
             // The change is not trivial: a step of 1e-2 moves the tip.
             assert!(scalar.tip.amax() > 1e-4, "{}", scalar.tip);
         }
-        several += usize::from(contacts.len() > 1);
-    }
-    assert!(several >= 300, "{several} batches in lanes");
+    });
 }
 
 #[test]
 fn factored_tip_jacobian_in_lanes_is_the_scalar_one() {
-    let mut rng = Rng(1158_2004);
     let options = ForwardOptions::default();
-    let geometry = paper::truth();
-    let mut trial = PivotOrder::default();
-    let mut several = 0;
-    for round in 0..400 {
-        let contacts = random_batch(&mut rng, &geometry, round);
-        let (lanes, scalar) =
-            jacobian_in_lanes_and_scalar(&geometry, &contacts, &options, &mut trial);
+    over_random_batches(1158_2004, |_, geometry, contacts, trial| {
+        let (lanes, scalar) = jacobian_in_lanes_and_scalar(geometry, contacts, &options, trial);
         for (lanes, scalar) in lanes.expect("lanes").iter().zip(scalar) {
             let scalar = scalar.expect("scalar");
             assert_eq!(lanes.iterations, scalar.iterations);
@@ -566,9 +571,7 @@ fn factored_tip_jacobian_in_lanes_is_the_scalar_one() {
                 assert_close(n.as_slice(), m.as_slice(), 1e-12, "n_i");
             }
         }
-        several += usize::from(contacts.len() > 1);
-    }
-    assert!(several >= 300, "{several} batches in lanes");
+    });
 }
 
 /// The factored `J_f` combines rows and takes products as the
