@@ -71,10 +71,9 @@ pub fn forward_batch<T>(
     if q.len() > 1 && crate::simd::avx2_available() {
         return avx2::forward(geometry, q, options, items, solution);
     }
-    for (l, item) in items.iter_mut().enumerate() {
-        forward_in_place(geometry, q[l], options, solution(item)).map_err(|e| (l, e))?;
-    }
-    Ok(())
+    one_by_one(items, |l, item| {
+        forward_in_place(geometry, q[l], options, solution(item))
+    })
 }
 
 /// The row order in which the lanes first try to factorise the closure
@@ -126,10 +125,10 @@ pub fn forward_along_batch(
     if q.len() > 1 && crate::simd::avx2_available() {
         return avx2::forward_along(geometry, q, starts, dp, options, trial, out);
     }
-    for (l, out) in out.iter_mut().enumerate() {
-        *out = SolutionAlong::solve(geometry, q[l], &starts[l], dp, options).map_err(|e| (l, e))?;
-    }
-    Ok(())
+    one_by_one(out, |l, out| {
+        *out = SolutionAlong::solve(geometry, q[l], &starts[l], dp, options)?;
+        Ok(())
+    })
 }
 
 /// Forward kinematics of up to [`LANES`] contacts from `starts`, as
@@ -165,9 +164,20 @@ pub fn forward_jacobian_batch<T>(
     if q.len() > 1 && crate::simd::avx2_available() {
         return avx2::forward_jacobian(geometry, q, starts, options, trial, items, solution);
     }
+    one_by_one(items, |l, item| {
+        *solution(item) = SolutionJacobian::solve(geometry, q[l], &starts[l], options)?;
+        Ok(())
+    })
+}
+
+/// The scalar path of this module's functions: `solve(l, item)` contact
+/// by contact, up to the first error, returned with its index.
+fn one_by_one<T>(
+    items: &mut [T],
+    mut solve: impl FnMut(usize, &mut T) -> Result<(), KinematicsError>,
+) -> Result<(), (usize, KinematicsError)> {
     for (l, item) in items.iter_mut().enumerate() {
-        *solution(item) =
-            SolutionJacobian::solve(geometry, q[l], &starts[l], options).map_err(|e| (l, e))?;
+        solve(l, item).map_err(|e| (l, e))?;
     }
     Ok(())
 }
