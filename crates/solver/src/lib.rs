@@ -121,7 +121,9 @@
 //! its own partial `(G+1)²` matrix with fixed-size buffers (a group is folded
 //! in batches of at most 256 rows, reduced rows are multiplied in batches of
 //! 2048), and the partial results are summed sequentially in chunk order.
-//! Every kernel runs sequentially inside a chunk (`Par::Seq`). Hence results
+//! Every kernel runs sequentially inside a chunk (`Par::Seq`), and the
+//! points are linearised in batches of at most [`BATCH`] of one group, in
+//! order, with one [`Problem::Workspace`] per chunk and pass. Hence results
 //! are bit-identical for any number of threads (they do depend on
 //! `groups_per_chunk`, at rounding level). Nothing is allocated per point:
 //! each thread reuses its workspace (about 0.7 MB for `G = 33`). Per point
