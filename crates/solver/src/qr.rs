@@ -209,6 +209,8 @@ pub(crate) fn triangle_has_full_rank(
 /// Solves `U x = y` in place (`y` → `x`) for the upper-triangular `k × k`
 /// matrix in the leading columns of the row-major block `u` (row stride `n`).
 /// `y` has `k` rows of `cols` values each, row-major (stride `cols`).
+/// Inlined, so that a caller's compile-time sizes unroll it.
+#[inline(always)]
 pub(crate) fn solve_upper_in_place(u: &[f64], n: usize, k: usize, y: &mut [f64], cols: usize) {
     for j in (0..k).rev() {
         let (head, tail) = y.split_at_mut((j + 1) * cols);
