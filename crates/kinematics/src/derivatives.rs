@@ -96,8 +96,7 @@ impl SolutionAlong {
         dp: &Params,
         options: &ForwardOptions,
     ) -> Result<Self, KinematicsError> {
-        let mut derivatives = TipDerivatives::default();
-        derivatives.forward(geometry, q, start, options)?;
+        let derivatives = TipDerivatives::solved(geometry, q, start, options)?;
         let along = derivatives.along(dp);
         let solution = derivatives.solution();
         Ok(Self {
@@ -167,8 +166,7 @@ impl SolutionJacobian {
         start: &Pose,
         options: &ForwardOptions,
     ) -> Result<Self, KinematicsError> {
-        let mut derivatives = TipDerivatives::default();
-        derivatives.forward(geometry, q, start, options)?;
+        let derivatives = TipDerivatives::solved(geometry, q, start, options)?;
         let solution = derivatives.solution();
         Ok(Self {
             pose: solution.pose,
@@ -251,6 +249,19 @@ impl TipDerivatives {
         Ok(Self::new(geometry, &solution))
     }
 
+    /// New derivatives at the forward kinematics of `geometry` at `q` from
+    /// `start` ([`TipDerivatives::forward`]).
+    fn solved(
+        geometry: &Geometry,
+        q: &[f64; 6],
+        start: &Pose,
+        options: &ForwardOptions,
+    ) -> Result<Self, KinematicsError> {
+        let mut derivatives = Self::default();
+        derivatives.forward(geometry, q, start, options)?;
+        Ok(derivatives)
+    }
+
     /// Forward kinematics of `geometry` at `q` from `start`
     /// ([`crate::forward()`]), in place, leaving these derivatives at its
     /// solution. Four contacts at once, in SIMD lanes:
@@ -315,9 +326,7 @@ impl TipDerivatives {
     pub fn factored(&self) -> FactoredTipJacobian {
         let legs = &self.solution.legs;
         FactoredTipJacobian {
-            weights: Matrix6x3::from_fn(|r, axis| {
-                self.closure_weights(&Vector3::ith(axis, 1.0))[r]
-            }),
+            weights: self.d_q().transpose(),
             rotation: legs.rotation,
             directions: legs.direction,
         }
