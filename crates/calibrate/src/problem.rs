@@ -208,25 +208,23 @@ impl<O> CalibrationProblem<'_, O> {
         })
     }
 
-    /// Contact `i`'s whitened observation block at the tool tip of the
-    /// platform `pose` (its forward kinematics), the ball centre and its
+    /// Contact `i`'s whitened observation block at the tool tip `tip`
+    /// (from its forward kinematics, paper eq. 2), the ball centre and its
     /// angles, into `out` (all but `d_global.tip`, the kinematics).
     fn observe_contact<const R: usize, const P: usize>(
         &self,
         i: usize,
-        geometry: &Geometry,
+        tip: &Vec3,
         centre: &Vec3,
         angles: &SVector<f64, P>,
-        pose: &Pose,
         out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
     ) -> Result<(), CalibrateError>
     where
         O: ContactObservations<R, P>,
     {
-        let tip = geometry.tool_tip(pose);
         let block = self
             .observations
-            .block(i, self.radius(i), &tip, centre, angles)
+            .block(i, self.radius(i), tip, centre, angles)
             .map_err(|source| CalibrateError::Observation {
                 row: self.row(i),
                 source,
@@ -327,9 +325,10 @@ where
         );
         let centre = Vec3::from(*group);
         self.contact_by_contact(first, n, kinematics, |j| {
-            let pose = out[j].d_global.tip.pose;
-            caches[j] = pose;
-            self.observe_contact(first + j, global, &centre, &points[j], &pose, &mut out[j])
+            let solution = &out[j].d_global.tip;
+            let tip = solution.tool_tip;
+            caches[j] = solution.pose;
+            self.observe_contact(first + j, &tip, &centre, &points[j], &mut out[j])
         })
     }
 
@@ -393,10 +392,9 @@ where
             let solution = &solutions[j];
             self.observe_contact(
                 first + j,
-                global,
+                &solution.tool_tip,
                 &centre,
                 &points[j],
-                &solution.pose,
                 &mut out[j],
             )?;
             caches[j] = solution.predicted;

@@ -79,6 +79,8 @@ pub struct SolutionAlong {
     /// The first-order prediction of the pose at the parameters `p + dp`:
     /// `pose` stepped by [`DerivativeAlong::pose`] ([`step`]).
     pub predicted: Pose,
+    /// The tool tip at `pose`, [`Geometry::tool_tip`] (paper eq. 2).
+    pub tool_tip: Vec3,
     /// `J_f dp` (mm).
     pub tip: Vec3,
     /// Newton steps taken.
@@ -102,6 +104,7 @@ impl SolutionAlong {
         Ok(Self {
             pose: solution.pose,
             predicted: step(&solution.pose, &along.pose, 1.0),
+            tool_tip: geometry.tool_tip(&solution.pose),
             tip: along.tip,
             iterations: solution.iterations,
         })
@@ -151,6 +154,8 @@ impl FactoredTipJacobian {
 pub struct SolutionJacobian {
     /// The solution's pose.
     pub pose: Pose,
+    /// The tool tip at `pose`, [`Geometry::tool_tip`] (paper eq. 2).
+    pub tool_tip: Vec3,
     /// `J_f` at the solution.
     pub jacobian: FactoredTipJacobian,
     /// Newton steps taken.
@@ -170,6 +175,7 @@ impl SolutionJacobian {
         let solution = derivatives.solution();
         Ok(Self {
             pose: solution.pose,
+            tool_tip: geometry.tool_tip(&solution.pose),
             jacobian: derivatives.factored(),
             iterations: solution.iterations,
         })

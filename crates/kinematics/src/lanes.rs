@@ -188,7 +188,7 @@ mod avx2 {
 
     use super::{LANES, PivotOrder};
     use crate::derivatives::{SolutionAlong, SolutionJacobian};
-    use crate::forward::{SHORT_STEP, check_actuators, forward_in_place};
+    use crate::forward::{SHORT_STEP, forward_in_place};
     use crate::lu6::{SINGULAR_PIVOT_RATIO, THRESHOLD};
     use crate::params::{BASE_INDEX, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
     use crate::simd::{F64x4, Mask4};
@@ -267,7 +267,7 @@ mod avx2 {
             solution.pose = *start;
             forward_in_place(geometry, q[l], options, solution)
         };
-        run(geometry, q, &starts[..n], items, lanes, scalar)
+        run(q, &starts[..n], items, lanes, scalar)
     }
 
     /// [`super::forward_along_batch`] in lanes; the machine has AVX2.
@@ -289,7 +289,7 @@ mod avx2 {
             *out = SolutionAlong::solve(geometry, q[l], start, dp, options)?;
             Ok(())
         };
-        run(geometry, q, starts, out, lanes, scalar)
+        run(q, starts, out, lanes, scalar)
     }
 
     /// [`super::forward_jacobian_batch`] in lanes; the machine has AVX2.
@@ -316,7 +316,7 @@ mod avx2 {
             *solution(item) = SolutionJacobian::solve(geometry, q[l], start, options)?;
             Ok(())
         };
-        run(geometry, q, starts, items, lanes, scalar)
+        run(q, starts, items, lanes, scalar)
     }
 
     /// The lanes' Newton iteration ([`lockstep`]), each lane's solution and
@@ -336,11 +336,13 @@ mod avx2 {
     ) -> u32 {
         let mut finish = |lanes: &Finishing| {
             let weights = closure_weights(geometry, lanes.legs, lanes.factor);
+            let tool_tips = tool_tips(geometry, lanes.poses);
             let legs = lanes.legs;
             for l in lanes.lanes() {
                 let at = |v: &Lane| v.as_array()[l];
                 let solution = solution(&mut items[l]);
                 solution.pose = pose_of(lanes.poses, l);
+                solution.tool_tip = vec_of(&tool_tips, l);
                 let jacobian = &mut solution.jacobian;
                 for r in 0..6 {
                     for a in 0..3 {
@@ -373,10 +375,12 @@ mod avx2 {
         let mut finish = |lanes: &Finishing| {
             let (delta, tip) = along(geometry, lanes.legs, lanes.factor, dp);
             let predicted = step(lanes.poses, &delta);
+            let tool_tips = tool_tips(geometry, lanes.poses);
             for l in lanes.lanes() {
                 out[l] = SolutionAlong {
                     pose: pose_of(lanes.poses, l),
                     predicted: pose_of(&predicted, l),
+                    tool_tip: vec_of(&tool_tips, l),
                     tip: vec_of(&tip, l),
                     iterations: lanes.iterations,
                 };
@@ -385,13 +389,11 @@ mod avx2 {
         lockstep(geometry, q, options, starts, feasible, trial, &mut finish)
     }
 
-    /// The actuator values checked ([`check_actuators`]), `lanes` run on
-    /// the feasible contacts (a bit per lane) from `starts` padded to
-    /// [`LANES`] with the last (it returns the lanes it leaves), then
-    /// `scalar` on each contact left, from its start: the first error in
-    /// contact order.
+    /// `lanes` run on the contacts (a bit per lane) from `starts` padded
+    /// to [`LANES`] with the last (it returns the lanes it leaves, among
+    /// them those with an infeasible actuator value), then `scalar` on
+    /// each contact left, from its start: the first error in contact order.
     fn run<T>(
-        geometry: &Geometry,
         q: &[&[f64; 6]],
         starts: &[Pose],
         items: &mut [T],
@@ -399,15 +401,9 @@ mod avx2 {
         mut scalar: impl FnMut(usize, &Pose, &mut T) -> Result<(), KinematicsError>,
     ) -> Result<(), (usize, KinematicsError)> {
         let n = q.len();
-        let mut errors: [Option<KinematicsError>; LANES] = Default::default();
-        for l in 0..n {
-            errors[l] = check_actuators(geometry, q[l]).err();
-        }
-        let feasible = (0..n)
-            .filter(|&l| errors[l].is_none())
-            .fold(0u32, |m, l| m | 1 << l);
         let padded = std::array::from_fn(|l| starts[l.min(n - 1)]);
-        let fallback = lanes(&padded, feasible, items);
+        let fallback = lanes(&padded, (1 << n) - 1, items);
+        let mut errors: [Option<KinematicsError>; LANES] = Default::default();
         for l in 0..n {
             if fallback & 1 << l != 0 {
                 errors[l] = scalar(l, &starts[l], &mut items[l]).err();
@@ -427,7 +423,10 @@ mod avx2 {
     /// lane) from `starts`, the rows of each factorisation first tried in the
     /// order `trial` (updated as [`factorise`] does): `finish` is handed the
     /// lanes as they finish, and the lanes left to the scalar iteration are
-    /// returned. Padding lanes repeat the last contact.
+    /// returned, among them any whose actuator values the scalar iteration
+    /// refuses ([`crate::forward::check_actuators`]: a leg length `l_i + q_i` not finite or
+    /// not positive), so that it reports the error. Padding lanes repeat the
+    /// last contact.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn lockstep(
@@ -445,8 +444,14 @@ mod avx2 {
                 geometry.legs[i] + q[l.min(n - 1)][i]
             }))
         });
+        let feasible = target
+            .iter()
+            .fold(Lane::splat(0.0).eq(Lane::splat(0.0)), |m, t| {
+                m & t.gt(Lane::splat(0.0)) & t.is_finite()
+            });
+        let mut fallback = active & !feasible.bits();
+        active &= feasible.bits();
         let mut poses = pack(starts);
-        let mut fallback = 0;
         let mut previous = Lane::splat(f64::INFINITY);
         for step_count in 0..=options.max_iterations {
             let legs = evaluate(geometry, &poses, &target);
@@ -580,15 +585,8 @@ mod avx2 {
     fn legs_rows(legs: &LaneLegs) -> [[Lane; 6]; 6] {
         std::array::from_fn(|leg| {
             let [nx, ny, nz] = legs.direction[leg];
-            let [ax, ay, az] = legs.rotated[leg];
-            [
-                nx,
-                ny,
-                nz,
-                ay * nz - az * ny,
-                az * nx - ax * nz,
-                ax * ny - ay * nx,
-            ]
+            let [mx, my, mz] = cross(&legs.rotated[leg], &legs.direction[leg]);
+            [nx, ny, nz, mx, my, mz]
         })
     }
 
@@ -782,19 +780,41 @@ mod avx2 {
         let rotation = &legs.rotation;
         let e = geometry.tool;
         let (ex, ey, ez) = (Lane::splat(e.x), Lane::splat(e.y), Lane::splat(e.z));
-        let [tx, ty, tz]: [Lane; 3] = std::array::from_fn(|r| {
+        let tool: [Lane; 3] = std::array::from_fn(|r| {
             rotation[r][0] * ex + rotation[r][1] * ey + rotation[r][2] * ez
         });
         std::array::from_fn(|axis| {
             let h: [Lane; 3] =
                 std::array::from_fn(|c| Lane::splat(if c == axis { 1.0 } else { 0.0 }));
-            let m = [
-                ty * h[2] - tz * h[1],
-                tz * h[0] - tx * h[2],
-                tx * h[1] - ty * h[0],
-            ];
+            let m = cross(&tool, &h);
             solve_transpose(factor, &[h[0], h[1], h[2], m[0], m[1], m[2]])
         })
+    }
+
+    /// `a x b`, as nalgebra's `cross`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn cross(a: &[Lane; 3], b: &[Lane; 3]) -> [Lane; 3] {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+
+    /// [`Geometry::tool_tip`] of each pose in lanes, with nalgebra's
+    /// quaternion rotation `v + w t + q x t`, `t = 2 q x v` (`q` the
+    /// quaternion's vector part, `w` its scalar), in its order: the
+    /// scalar code's bits.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn tool_tips(geometry: &Geometry, poses: &Poses) -> [Lane; 3] {
+        let [i, j, k, w] = poses.quaternion;
+        let v = <[f64; 3]>::from(geometry.tool).map(|x| Lane::splat(x));
+        let two = Lane::splat(2.0);
+        let t = cross(&[i, j, k], &v).map(|x| x * two);
+        let turn = cross(&[i, j, k], &t);
+        std::array::from_fn(|r| t[r] * w + turn[r] + v[r] + poses.translation[r])
     }
 
     /// [`crate::forward::step`] with scale 1 in lanes: `t <- t + dt`, `R <-
@@ -910,12 +930,7 @@ mod avx2 {
         let pose = solve(factor, &v).map(|x| -x);
         let tool = rotate(&<[f64; 3]>::from(geometry.tool).map(|x| Lane::splat(x)));
         let tool_step = rotate(&std::array::from_fn(|c| param(TOOL_OFFSET + c)));
-        let [wx, wy, wz] = [pose[3], pose[4], pose[5]];
-        let turn = [
-            wy * tool[2] - wz * tool[1],
-            wz * tool[0] - wx * tool[2],
-            wx * tool[1] - wy * tool[0],
-        ];
+        let turn = cross(&[pose[3], pose[4], pose[5]], &tool);
         let tip = std::array::from_fn(|a| pose[a] + turn[a] + tool_step[a]);
         (pose, tip)
     }

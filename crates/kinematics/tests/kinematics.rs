@@ -542,6 +542,9 @@ fn change_along_parameters_in_lanes_is_the_scalar_one() {
             assert_eq!(lanes.iterations, scalar.iterations);
             assert_same_pose(&lanes.pose, &scalar.pose, "pose");
             assert_same_pose(&lanes.predicted, &scalar.predicted, "predicted pose");
+            // The lanes rotate the tool as nalgebra does: the same bits.
+            assert_eq!(lanes.tool_tip, geometry.tool_tip(&lanes.pose));
+            assert_eq!(scalar.tool_tip, geometry.tool_tip(&scalar.pose));
             let miss = (lanes.tip - scalar.tip).amax();
             assert!(
                 miss <= 1e-9 * scalar.tip.amax(),
@@ -564,6 +567,8 @@ fn factored_tip_jacobian_in_lanes_is_the_scalar_one() {
             let scalar = scalar.expect("scalar");
             assert_eq!(lanes.iterations, scalar.iterations);
             assert_same_pose(&lanes.pose, &scalar.pose, "pose");
+            assert_eq!(lanes.tool_tip, geometry.tool_tip(&lanes.pose));
+            assert_eq!(scalar.tool_tip, geometry.tool_tip(&scalar.pose));
             let (a, b) = (&lanes.jacobian, &scalar.jacobian);
             assert_close(a.weights.as_slice(), b.weights.as_slice(), 1e-9, "K^T");
             assert_close(a.rotation.as_slice(), b.rotation.as_slice(), 1e-12, "R");
@@ -626,13 +631,16 @@ fn forward_kinematics_in_lanes_reports_the_first_failing_contact() {
     infeasible[2] = -300.0;
     let mut nan = [100.0; 6];
     nan[4] = f64::NAN;
+    let mut infinite = [100.0; 6];
+    infinite[0] = f64::INFINITY;
     let good = [120.0; 6];
     // Legs too long to close: the scalar iteration's error, in lane 1.
     let far = [1.0e4, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let cases: [(&[[f64; 6]], usize); 4] = [
+    let cases: [(&[[f64; 6]], usize); 5] = [
         (&[good, infeasible, nan], 1),
         (&[good, good, nan, infeasible], 2),
         (&[good, far, infeasible], 1),
+        (&[good, good, good, infinite], 3),
         (&[infeasible], 0),
     ];
     let dp = Params::repeat(1e-3);
