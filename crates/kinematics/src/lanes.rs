@@ -553,29 +553,30 @@ mod avx2 {
             [ik - wj, wi + jk, ww - ii - jj + kk],
         ];
         let t = poses.translation;
-        let mut legs = LaneLegs {
-            rotation,
-            rotated: [[Lane::splat(0.0); 3]; 6],
-            direction: [[Lane::splat(0.0); 3]; 6],
-            length: [Lane::splat(0.0); 6],
-            residual: [Lane::splat(0.0); 6],
-        };
-        for leg in 0..6 {
+        // Built by `from_fn` rather than zeroed and filled: the zeroing was
+        // a `memset` of 1 KB per evaluation.
+        let rotated: [[Lane; 3]; 6] = std::array::from_fn(|leg| {
             let e = geometry.platform[leg];
             let (ex, ey, ez) = (Lane::splat(e.x), Lane::splat(e.y), Lane::splat(e.z));
-            let a: [Lane; 3] = std::array::from_fn(|r| {
-                rotation[r][0] * ex + rotation[r][1] * ey + rotation[r][2] * ez
-            });
-            let d: [Lane; 3] =
-                std::array::from_fn(|r| a[r] + t[r] - Lane::splat(geometry.base[leg][r]));
-            let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let inverse = Lane::splat(1.0) / length;
-            legs.rotated[leg] = a;
-            legs.direction[leg] = d.map(|v| v * inverse);
-            legs.length[leg] = length;
-            legs.residual[leg] = length - target[leg];
+            std::array::from_fn(|r| rotation[r][0] * ex + rotation[r][1] * ey + rotation[r][2] * ez)
+        });
+        let d: [[Lane; 3]; 6] = std::array::from_fn(|leg| {
+            std::array::from_fn(|r| rotated[leg][r] + t[r] - Lane::splat(geometry.base[leg][r]))
+        });
+        let length: [Lane; 6] = std::array::from_fn(|leg| {
+            (d[leg][0] * d[leg][0] + d[leg][1] * d[leg][1] + d[leg][2] * d[leg][2]).sqrt()
+        });
+        let direction = std::array::from_fn(|leg| {
+            let inverse = Lane::splat(1.0) / length[leg];
+            d[leg].map(|v| v * inverse)
+        });
+        LaneLegs {
+            rotation,
+            rotated,
+            direction,
+            length,
+            residual: std::array::from_fn(|leg| length[leg] - target[leg]),
         }
-        legs
     }
 
     /// [`crate::closure::Legs::closure_rows`] in lanes: row `i` is
