@@ -91,6 +91,7 @@ impl ContactObservations<1, 0> for RadiusObservations {
 
 impl ContactObservations<3, 2> for CoordinateObservations {
     /// [`CoordinateBlock::evaluate_whitened`] in the contact's chart.
+    #[inline(always)]
     fn block(
         &self,
         i: usize,

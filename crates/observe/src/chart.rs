@@ -80,6 +80,7 @@ impl DirectionChart {
     /// "Building an orthonormal basis, revisited" (JCGT 6(1), 2017): a
     /// deterministic function of `u0` with no singular direction, and
     /// `e1 × e2 = u0`.
+    #[inline]
     pub fn about(u0: &UnitVector3<f64>) -> Self {
         let u0 = u0.into_inner();
         let sign = 1.0_f64.copysign(u0.z);
@@ -115,6 +116,7 @@ impl DirectionChart {
 
     /// [`DirectionChart::direction`] and [`DirectionChart::derivative`]
     /// together, from one evaluation of `φ` and its trigonometric terms.
+    #[inline]
     pub fn direction_and_derivative(&self, angles: &Vector2<f64>) -> (Vec3, Matrix3x2<f64>) {
         let (cos, s, b) = trig_terms(angles.norm());
         let basis = self.tangent_basis();

@@ -50,6 +50,7 @@ impl CoordinateBlock {
     /// the numbers of `evaluate(..).whiten(weight)`: the identity blocks
     /// whitened are `∓L⁻¹` itself, so that only the residual and the angle
     /// columns are multiplied (a third of the products).
+    #[inline]
     pub fn evaluate_whitened(
         &self,
         tip: &Vec3,
