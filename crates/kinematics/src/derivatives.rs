@@ -130,6 +130,7 @@ pub struct FactoredTipJacobian {
 impl FactoredTipJacobian {
     /// `h^T J_f`, written into `out` (33 values), as
     /// [`TipDerivatives::params_row`] forms it.
+    #[inline]
     pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
         leg_rows(
             &(self.weights * h),
@@ -192,6 +193,10 @@ fn leg_rows(
     h: &Vec3,
     out: &mut [f64],
 ) {
+    // A fixed-size view: the indices are constants once the loops unroll.
+    let out: &mut [f64; N_PARAMS] = out
+        .first_chunk_mut()
+        .expect("a parameter row holds the 33 parameters");
     for i in 0..6 {
         let n = &directions[i];
         let n_platform = rotation.tr_mul(n);
