@@ -424,9 +424,9 @@ mod avx2 {
     /// order `trial` (updated as [`factorise`] does): `finish` is handed the
     /// lanes as they finish, and the lanes left to the scalar iteration are
     /// returned, among them any whose actuator values the scalar iteration
-    /// refuses ([`crate::forward::check_actuators`]: a leg length `l_i + q_i` not finite or
-    /// not positive), so that it reports the error. Padding lanes repeat the
-    /// last contact.
+    /// refuses (a leg length `l_i + q_i` not finite or not positive,
+    /// [`crate::forward::check_actuators`]), so that it reports the error.
+    /// Padding lanes repeat the last contact.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn lockstep(
@@ -444,11 +444,9 @@ mod avx2 {
                 geometry.legs[i] + q[l.min(n - 1)][i]
             }))
         });
-        let feasible = target
-            .iter()
-            .fold(Lane::splat(0.0).eq(Lane::splat(0.0)), |m, t| {
-                m & t.gt(Lane::splat(0.0)) & t.is_finite()
-            });
+        let feasible = target.iter().fold(every_lane(), |m, t| {
+            m & t.gt(Lane::splat(0.0)) & t.is_finite()
+        });
         let mut fallback = active & !feasible.bits();
         active &= feasible.bits();
         let mut poses = pack(starts);
@@ -506,6 +504,13 @@ mod avx2 {
         fallback
     }
 
+    /// A mask with every lane set.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn every_lane() -> Mask4 {
+        Lane::splat(0.0).eq(Lane::splat(0.0))
+    }
+
     /// The lane indices whose bits are set in `mask`.
     fn lanes(mask: u32) -> impl Iterator<Item = usize> {
         (0..LANES).filter(move |l| mask & 1 << l != 0)
@@ -553,8 +558,8 @@ mod avx2 {
             [ik - wj, wi + jk, ww - ii - jj + kk],
         ];
         let t = poses.translation;
-        // Built by `from_fn` rather than zeroed and filled: the zeroing was
-        // a `memset` of 1 KB per evaluation.
+        // Each array built by `from_fn`: zeroed first, then filled, they
+        // cost a 1 KB `memset` per evaluation.
         let rotated: [[Lane; 3]; 6] = std::array::from_fn(|leg| {
             let e = geometry.platform[leg];
             let (ex, ey, ez) = (Lane::splat(e.x), Lane::splat(e.y), Lane::splat(e.z));
@@ -604,7 +609,7 @@ mod avx2 {
     fn factorise(rows: &[[Lane; 6]; 6], trial: &mut [u8; 6]) -> LaneLu {
         let mut lu: [[Lane; 6]; 6] = std::array::from_fn(|k| rows[usize::from(trial[k])]);
         // Every lane accepted so far.
-        let mut accepted = Lane::splat(0.0).eq(Lane::splat(0.0));
+        let mut accepted = every_lane();
         let mut pivots = [
             eliminate_in_order::<0>(&mut lu, &mut accepted),
             eliminate_in_order::<1>(&mut lu, &mut accepted),
