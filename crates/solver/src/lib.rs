@@ -117,7 +117,7 @@
 //! # Parallelism, determinism, memory
 //!
 //! Groups are cut into chunks of [`SolverOptions::groups_per_chunk`]. Chunks
-//! run in parallel (rayon, in waves of 64 chunks); each reduces its rows into
+//! run in parallel (rayon, in waves of 256 chunks); each reduces its rows into
 //! its own partial `(G+1)²` matrix with fixed-size buffers (a group is folded
 //! in batches of at most 256 rows, reduced rows are multiplied in batches of
 //! 2048), and the partial results are summed sequentially in chunk order.
