@@ -121,14 +121,15 @@ pub fn forward_along_batch(
         q.len() == starts.len() && q.len() == out.len() && q.len() <= LANES,
         "forward_along_batch takes up to {LANES} contacts, with a start and an output each"
     );
+    let scalar = |l: usize, start: &Pose, out: &mut SolutionAlong| {
+        *out = SolutionAlong::solve(geometry, q[l], start, dp, options)?;
+        Ok(())
+    };
     #[cfg(target_arch = "x86_64")]
     if q.len() > 1 && crate::simd::avx2_available() {
-        return avx2::forward_along(geometry, q, starts, dp, options, trial, out);
+        return avx2::forward_along(geometry, q, starts, dp, options, trial, out, scalar);
     }
-    one_by_one(out, |l, out| {
-        *out = SolutionAlong::solve(geometry, q[l], &starts[l], dp, options)?;
-        Ok(())
-    })
+    one_by_one(out, |l, out| scalar(l, &starts[l], out))
 }
 
 /// Forward kinematics of up to [`LANES`] contacts from `starts`, as
@@ -160,14 +161,17 @@ pub fn forward_jacobian_batch<T>(
         q.len() == starts.len() && q.len() == items.len() && q.len() <= LANES,
         "forward_jacobian_batch takes up to {LANES} contacts, with a start and an item each"
     );
+    let scalar = |l: usize, start: &Pose, item: &mut T| {
+        *solution(item) = SolutionJacobian::solve(geometry, q[l], start, options)?;
+        Ok(())
+    };
     #[cfg(target_arch = "x86_64")]
     if q.len() > 1 && crate::simd::avx2_available() {
-        return avx2::forward_jacobian(geometry, q, starts, options, trial, items, solution);
+        return avx2::forward_jacobian(
+            geometry, q, starts, options, trial, items, &solution, scalar,
+        );
     }
-    one_by_one(items, |l, item| {
-        *solution(item) = SolutionJacobian::solve(geometry, q[l], &starts[l], options)?;
-        Ok(())
-    })
+    one_by_one(items, |l, item| scalar(l, &starts[l], item))
 }
 
 /// The scalar path of this module's functions: `solve(l, item)` contact
@@ -270,7 +274,9 @@ mod avx2 {
         run(q, &starts[..n], items, lanes, scalar)
     }
 
-    /// [`super::forward_along_batch`] in lanes; the machine has AVX2.
+    /// [`super::forward_along_batch`] in lanes, `scalar` its contact by
+    /// contact path; the machine has AVX2.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn forward_along(
         geometry: &Geometry,
         q: &[&[f64; 6]],
@@ -279,20 +285,19 @@ mod avx2 {
         options: &ForwardOptions,
         trial: &mut PivotOrder,
         out: &mut [SolutionAlong],
+        scalar: impl FnMut(usize, &Pose, &mut SolutionAlong) -> Result<(), KinematicsError>,
     ) -> Result<(), (usize, KinematicsError)> {
         let trial = &mut trial.0;
         let lanes = |starts: &_, feasible, out: &mut [SolutionAlong]| {
             // SAFETY: the caller checked that the machine runs AVX2.
             unsafe { along_lockstep(geometry, q, options, starts, feasible, dp, trial, out) }
         };
-        let scalar = |l: usize, start: &Pose, out: &mut SolutionAlong| {
-            *out = SolutionAlong::solve(geometry, q[l], start, dp, options)?;
-            Ok(())
-        };
         run(q, starts, out, lanes, scalar)
     }
 
-    /// [`super::forward_jacobian_batch`] in lanes; the machine has AVX2.
+    /// [`super::forward_jacobian_batch`] in lanes, `scalar` its contact by
+    /// contact path; the machine has AVX2.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn forward_jacobian<T>(
         geometry: &Geometry,
         q: &[&[f64; 6]],
@@ -300,21 +305,17 @@ mod avx2 {
         options: &ForwardOptions,
         trial: &mut PivotOrder,
         items: &mut [T],
-        solution: impl Fn(&mut T) -> &mut SolutionJacobian,
+        solution: &impl Fn(&mut T) -> &mut SolutionJacobian,
+        scalar: impl FnMut(usize, &Pose, &mut T) -> Result<(), KinematicsError>,
     ) -> Result<(), (usize, KinematicsError)> {
         let trial = &mut trial.0;
         let lanes = |starts: &_, feasible, items: &mut [T]| {
-            let solution = &solution;
             // SAFETY: the caller checked that the machine runs AVX2.
             unsafe {
                 jacobian_lockstep(
                     geometry, q, options, starts, feasible, trial, items, solution,
                 )
             }
-        };
-        let scalar = |l: usize, start: &Pose, item: &mut T| {
-            *solution(item) = SolutionJacobian::solve(geometry, q[l], start, options)?;
-            Ok(())
         };
         run(q, starts, items, lanes, scalar)
     }
