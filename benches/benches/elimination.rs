@@ -89,7 +89,11 @@ fn elimination(c: &mut Criterion) {
         .build()
         .unwrap();
     group.bench_function("1-thread, per 10^5 contacts", |b| {
-        b.iter(|| pool.install(|| linear_step(&problem, &state, None, 0.0, chunk).expect("step")))
+        b.iter(|| {
+            pool.install(|| {
+                linear_step(&problem, &state, &mut Vec::new(), 0.0, chunk).expect("step")
+            })
+        })
     });
     group.finish();
 }

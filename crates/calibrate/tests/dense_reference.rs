@@ -215,7 +215,7 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<N_PARAMS,
 
     // The step as the solver's linear algebra computes it.
     let chunk = SolverOptions::default().groups_per_chunk;
-    let schur = linear_step(problem, state, None, 0.0, chunk).expect("Schur step");
+    let schur = linear_step(problem, state, &mut Vec::new(), 0.0, chunk).expect("Schur step");
     let schur_step = flatten(&schur.delta);
     let step_diff = rel_diff(&schur_step, &dense_step);
     let global_diff = rel_diff(schur.delta.global.as_slice(), dense.step.global.as_slice());

@@ -114,9 +114,11 @@ pub struct LinearStep<const G: usize, const C: usize, const P: usize> {
 }
 
 /// One step of the Schur solver at `state`, with Marquardt damping `lambda`
-/// (0: the Gauss–Newton step): `(H + λD) δ = −b`, without applying it, the
-/// points' caches given or (`None`) from [`Problem::initial_cache`]. Meant
-/// for checks against [`dense_reference`](crate::dense_reference) and for
+/// (0: the Gauss–Newton step): `(H + λD) δ = −b`, without applying it.
+/// `caches` are the points' caches, as [`solve_with_caches`] takes them
+/// (empty: from [`Problem::initial_cache`]); on return they hold those of
+/// the step's last pass, the warm starts of a following step. Meant for
+/// checks against [`dense_reference`](crate::dense_reference) and for
 /// benchmarks. Fails with the [`Status`] that [`solve`] would end with at
 /// this point.
 pub fn linear_step<
@@ -128,7 +130,7 @@ pub fn linear_step<
 >(
     problem: &Pr,
     state: &State<G, C, P>,
-    caches: Option<Vec<Pr::PointCache>>,
+    caches: &mut Vec<Pr::PointCache>,
     lambda: f64,
     groups_per_chunk: usize,
 ) -> Result<LinearStep<G, C, P>, Status> {
@@ -148,8 +150,7 @@ pub fn linear_step<
             block,
         },
     };
-    let mut caches = caches.unwrap_or_default();
-    let mut ctx = Context::new(problem, state, &mut caches, groups_per_chunk)
+    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
     let factor = ScaledCholesky::new(&system.matrix, G).ok_or_else(|| Status::Singular {

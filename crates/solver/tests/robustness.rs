@@ -94,7 +94,7 @@ fn large_groups_are_folded_in_batches_and_still_match_dense() {
     });
     let state = perturb(&truth, 1, 0.01, 0.02, 0.1);
     for lambda in [0.0, 0.1] {
-        let schur = linear_step(&problem, &state, None, lambda, 64).unwrap();
+        let schur = linear_step(&problem, &state, &mut Vec::new(), lambda, 64).unwrap();
         let dense = dense_reference::solve(&problem, &state, lambda).unwrap();
         let diff = rel_diff(&flatten(&schur.delta), &flatten(&dense.step));
         println!("P = 2, 300 points per group, λ = {lambda}: rel diff {diff:.2e}");
@@ -107,7 +107,7 @@ fn large_groups_are_folded_in_batches_and_still_match_dense() {
     });
     let state = perturb(&truth, 1, 0.01, 0.02, 0.0);
     for lambda in [0.0, 0.1] {
-        let schur = linear_step(&problem, &state, None, lambda, 64).unwrap();
+        let schur = linear_step(&problem, &state, &mut Vec::new(), lambda, 64).unwrap();
         let dense = dense_reference::solve(&problem, &state, lambda).unwrap();
         let diff = rel_diff(&flatten(&schur.delta), &flatten(&dense.step));
         println!("P = 0, 1200 points per group, λ = {lambda}: rel diff {diff:.2e}");

@@ -45,7 +45,7 @@ fn compare_step<const C: usize, const P: usize, const R: usize, Pr: Problem<G, C
     lambda: f64,
 ) -> f64 {
     let dense = dense_reference::solve(problem, state, lambda).expect("dense reference");
-    let schur = linear_step(problem, state, None, lambda, 2).expect("schur step");
+    let schur = linear_step(problem, state, &mut Vec::new(), lambda, 2).expect("schur step");
     let diff = rel_diff(&flatten(&schur.delta), &flatten(&dense.step));
     let dense_pred = dense_predicted_decrease(&dense);
     let pred_diff = (schur.predicted_decrease - dense_pred).abs() / dense_pred.abs();
@@ -100,9 +100,25 @@ fn distances_step_matches_dense_with_and_without_priors() {
 fn step_is_independent_of_chunking_up_to_rounding() {
     let (problem, truth) = touches(Spec::default());
     let state = perturb(&truth, 3, 0.01, 0.02, 0.1);
-    let a = linear_step(&problem, &state, None, 0.0, 1).unwrap();
-    let b = linear_step(&problem, &state, None, 0.0, 1000).unwrap();
+    let a = linear_step(&problem, &state, &mut Vec::new(), 0.0, 1).unwrap();
+    let b = linear_step(&problem, &state, &mut Vec::new(), 0.0, 1000).unwrap();
     assert!(rel_diff(&flatten(&a.delta), &flatten(&b.delta)) < 1e-12);
+}
+
+#[test]
+fn step_hands_back_the_caches_of_its_passes() {
+    // The test problem's cache counts a point's linearisations: a step makes
+    // two passes (elimination, back-substitution), and a second step goes
+    // on from the caches the first handed back.
+    let (problem, truth) = touches(Spec::default());
+    let state = perturb(&truth, 3, 0.01, 0.02, 0.1);
+    let mut caches = Vec::new();
+    let first = linear_step(&problem, &state, &mut caches, 0.0, 2).unwrap();
+    assert_eq!(caches.len(), state.points.len());
+    assert!(caches.iter().all(|&calls| calls == 2), "{caches:?}");
+    let second = linear_step(&problem, &state, &mut caches, 0.0, 2).unwrap();
+    assert!(caches.iter().all(|&calls| calls == 4), "{caches:?}");
+    assert_eq!(flatten(&first.delta), flatten(&second.delta));
 }
 
 /// `solve` with no iteration evaluates the covariance at the given state.
