@@ -8,6 +8,7 @@
 //! - [`run`]: one calibration and its calibration.json record;
 //! - [`conflict`]: prior-data conflict tests;
 //! - [`fit`]: each ball's goodness of fit;
+//! - [`layout`]: the global block, named groups of parameters;
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
 //! - [`sphere_fit`]: initial ball centres.
@@ -25,6 +26,7 @@ pub mod conflict;
 mod error;
 pub mod evaluate;
 pub mod fit;
+pub mod layout;
 pub mod mirror;
 mod options;
 pub mod problem;

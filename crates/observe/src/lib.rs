@@ -12,6 +12,9 @@
 //! - [`CoordinateBlock`]: paper eq. (10), `c = C_i + r_i u(θ) − f(q, p)`
 //!   (3 rows; unknowns `p`, `C_i`, `θ`), with the contact direction charted
 //!   by [`DirectionChart`] (tangent coordinates of the exponential map).
+//! - [`DistanceBlock`]: a calibrated centre-to-centre distance of two balls
+//!   (ball plate, ball bar), `c = L_ab − |C_a − C_b|` (1 row; unknowns the
+//!   two centres).
 //! - [`BlockJacobians`]: the common shape `(residual, d_tip, d_centre,
 //!   d_angles)` of both, and its [`BlockJacobians::whiten`].
 //! - [`weights`]: the observation covariance `W` of paper eq. (5) from the
@@ -56,6 +59,7 @@
 mod block;
 mod chart;
 mod coordinates;
+mod distance;
 mod error;
 pub mod prior;
 mod radius;
@@ -67,6 +71,7 @@ pub mod weights;
 pub use block::{BlockJacobians, CoordinateJacobians, RadiusJacobians};
 pub use chart::{DirectionChart, unit_direction};
 pub use coordinates::CoordinateBlock;
+pub use distance::{DistanceBlock, DistanceJacobians};
 pub use error::ObserveError;
 pub use prior::{
     AnglePrior, CentrePrior, DiagonalPrior, InputSigmas, KinematicPrior, ParamCovariance,

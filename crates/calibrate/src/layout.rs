@@ -1,0 +1,156 @@
+//! The global block of a calibration: named groups of parameters, laid out
+//! one after the other, decided by the data.
+//!
+//! ```text
+//! g = [ p (33 kinematic) | C_a (3) | C_b (3) | … ]
+//!       always             one per ball tied by a distance
+//! ```
+//!
+//! - [`ParameterGroup::Kinematic`]: the 33 canonical parameters `p` of
+//!   paper eq. (1)–(2), first, always.
+//! - [`ParameterGroup::BallCentre`]: the centre of a ball that a calibrated
+//!   distance ties to another one. Such centres are coupled by the distance
+//!   rows, so they cannot be eliminated ball by ball; they join the global
+//!   block (a dense block for tens of balls), and the solver holds their
+//!   own group block fixed. Every other ball keeps its centre in its group
+//!   block, eliminated with its contacts (the fast path).
+//!
+//! Every parameter of the block has a name (`x_b1`, …, `centre B07.x`), so
+//! that a covariance, a prior or a weak direction can be read by name.
+
+use std::ops::Range;
+
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
+
+/// One named group of the global block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParameterGroup {
+    /// The 33 canonical kinematic parameters (paper section 2).
+    Kinematic,
+    /// The centre of ball `ball` (index in artefacts.json), canonical base
+    /// frame.
+    BallCentre {
+        /// Index of the ball in artefacts.json.
+        ball: usize,
+    },
+}
+
+impl ParameterGroup {
+    /// Number of parameters in the group.
+    pub fn size(self) -> usize {
+        match self {
+            Self::Kinematic => N_PARAMS,
+            Self::BallCentre { .. } => 3,
+        }
+    }
+}
+
+/// The global block: its groups in order, each with its range.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParameterLayout {
+    groups: Vec<(ParameterGroup, Range<usize>)>,
+    /// For each ball (artefacts.json order), the range of its centre in
+    /// the global block, if it is there.
+    centres: Vec<Option<Range<usize>>>,
+    size: usize,
+}
+
+impl ParameterLayout {
+    /// The kinematic parameters, then the centres of the `coupled` balls
+    /// (indices into artefacts.json's `n_balls` balls, each at most once,
+    /// in the order given).
+    pub fn new(n_balls: usize, coupled: &[usize]) -> Self {
+        let mut layout = Self {
+            groups: Vec::with_capacity(1 + coupled.len()),
+            centres: vec![None; n_balls],
+            size: 0,
+        };
+        layout.push(ParameterGroup::Kinematic);
+        for &ball in coupled {
+            let range = layout.push(ParameterGroup::BallCentre { ball });
+            debug_assert!(layout.centres[ball].is_none(), "ball {ball} coupled twice");
+            layout.centres[ball] = Some(range);
+        }
+        layout
+    }
+
+    fn push(&mut self, group: ParameterGroup) -> Range<usize> {
+        let range = self.size..self.size + group.size();
+        self.size = range.end;
+        self.groups.push((group, range.clone()));
+        range
+    }
+
+    /// Number of global parameters.
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// The groups in order, with their ranges.
+    pub fn groups(&self) -> &[(ParameterGroup, Range<usize>)] {
+        &self.groups
+    }
+
+    /// The range of the kinematic parameters (always `0..33`).
+    pub fn kinematic(&self) -> Range<usize> {
+        0..N_PARAMS
+    }
+
+    /// The range of ball `ball`'s centre in the global block, if it is
+    /// there (the ball is tied by a distance).
+    pub fn centre(&self, ball: usize) -> Option<Range<usize>> {
+        self.centres.get(ball).cloned().flatten()
+    }
+
+    /// Whether any ball centre is in the global block.
+    pub fn has_coupled_centres(&self) -> bool {
+        self.groups.len() > 1
+    }
+
+    /// The name of every global parameter, in order: the kinematic
+    /// parameters' ([`PARAM_NAMES`]), then `centre ID.x` etc. with the
+    /// balls' artefacts.json ids.
+    pub fn names(&self, ball_ids: &[String]) -> Vec<String> {
+        let mut names = Vec::with_capacity(self.size);
+        for (group, _) in &self.groups {
+            match *group {
+                ParameterGroup::Kinematic => {
+                    names.extend(PARAM_NAMES.iter().map(|s| s.to_string()))
+                }
+                ParameterGroup::BallCentre { ball } => names.extend(
+                    ["x", "y", "z"].map(|axis| format!("centre {}.{axis}", ball_ids[ball])),
+                ),
+            }
+        }
+        names
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn groups_follow_each_other_and_are_named() {
+        let layout = ParameterLayout::new(4, &[3, 1]);
+        assert_eq!(layout.size(), N_PARAMS + 6);
+        assert_eq!(layout.kinematic(), 0..N_PARAMS);
+        assert_eq!(layout.centre(3), Some(N_PARAMS..N_PARAMS + 3));
+        assert_eq!(layout.centre(1), Some(N_PARAMS + 3..N_PARAMS + 6));
+        assert_eq!(layout.centre(0), None);
+        assert_eq!(layout.centre(7), None);
+        let ids: Vec<String> = ["A", "B", "C", "D"].map(String::from).into();
+        let names = layout.names(&ids);
+        assert_eq!(names.len(), layout.size());
+        assert_eq!(names[0], PARAM_NAMES[0]);
+        assert_eq!(names[N_PARAMS], "centre D.x");
+        assert_eq!(names[N_PARAMS + 5], "centre B.z");
+    }
+
+    #[test]
+    fn without_distances_the_block_is_the_kinematic_parameters() {
+        let layout = ParameterLayout::new(27, &[]);
+        assert_eq!(layout.size(), N_PARAMS);
+        assert!(!layout.has_coupled_centres());
+    }
+}
