@@ -15,8 +15,8 @@ use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 use parcal_simulate::{Scenario, simulate};
 
-/// Noise seeds (the brief asks for at least 50; a calibration takes a few
-/// hundredths of a second in the dev profile, so more are affordable).
+/// Noise seeds (the brief asks for at least 50; the paper scenario's
+/// calibrations are small, so more are affordable).
 const SEEDS: u64 = 200;
 /// Accepted range of the mean NEES (expectation 33 = the number of
 /// parameters; its standard error over `SEEDS` honest runs is
