@@ -1,9 +1,9 @@
 //! One Gauss-Newton step of the iteration benchmark's problem (simulation
 //! IV, propagated prior, mid-run state) timed in a loop: each step from the
 //! same state and warm starts, its time printed, then the mean, median and
-//! fastest. Two builds run in turn on this shared machine, whose speed
-//! moves by tens of percent within minutes, compare better than two
-//! criterion runs minutes apart (docs/performance.md).
+//! fastest. On a shared machine, whose speed moves within minutes, two
+//! builds run in turn compare better than two criterion runs minutes
+//! apart (docs/performance.md).
 //!
 //! ```sh
 //! cargo run --release -p parcal-benches --example step_loop -- 1000000 6

@@ -16,8 +16,8 @@ use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 use parcal_simulate::{Scenario, simulate};
 
-/// Noise seeds (the brief asks for at least 50; a calibration takes a few
-/// hundredths of a second in the dev profile, so more are affordable).
+/// Noise seeds (the brief asks for at least 50; the paper scenario's
+/// calibrations are small, so more are affordable).
 const SEEDS: u64 = 200;
 /// The mean NEES must lie within this many of its standard errors of 33
 /// (the number of parameters). An honest covariance fails this with

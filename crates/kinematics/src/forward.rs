@@ -87,9 +87,8 @@ pub fn forward(
 
 /// [`forward`] from `solution.pose`, overwriting `solution` (unspecified
 /// after an error): the calibration's per-contact path (one contact, a
-/// machine without AVX2, and the rare cases of [`crate::lanes`]), where
-/// moving the legs and the factorisation by value cost a tenth of an
-/// iteration.
+/// machine without AVX2, and the rare cases of [`crate::lanes`]), which
+/// moves neither the legs nor the factorisation by value.
 pub fn forward_in_place(
     geometry: &Geometry,
     q: &[f64; 6],

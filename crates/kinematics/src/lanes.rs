@@ -32,7 +32,8 @@
 //!
 //! On a machine without AVX2 (or another architecture), and for a single
 //! contact, each function runs the scalar code contact by contact.
-//! docs/performance.md gives what the lanes save.
+//! `cargo bench -p parcal-benches --bench kinematics` compares the two
+//! (docs/performance.md).
 
 #![allow(
     clippy::needless_range_loop,

@@ -94,10 +94,9 @@ impl Lu6 {
     /// it in its column (threshold pivoting, as sparse LU codes do: a step
     /// multiplies the entries by at most `1 + 1 / THRESHOLD`). Otherwise
     /// partial pivoting starts again from `rows`. The trial exchanges no
-    /// rows, which is what a partial pivoting step costs most: 530 instead
-    /// of 720 instructions per factorisation in a calibration, where 1.7 %
-    /// of the trials fall back (docs/performance.md). The factors, equal up
-    /// to rounding, thus depend on the factorisation before: a sequence of
+    /// rows, which is what a partial pivoting step costs most, and in a
+    /// calibration few trials fall back. The factors, equal up to rounding,
+    /// thus depend on the factorisation before: a sequence of
     /// factorisations into the same `Lu6` is reproducible, and a
     /// calibration's passes start each chunk of balls from a new one.
     #[inline]
@@ -189,8 +188,7 @@ fn eliminate_in_order<const K: usize>(lu: &mut [[f64; 6]; 6], accepted: &mut boo
 ///
 /// Every index is a compile-time constant and the row exchange is a
 /// branch-free select, so that the whole factorisation stays in registers:
-/// exchanging rows through a run-time index stalls on store forwarding and
-/// made this three times slower.
+/// exchanging rows through a run-time index stalls on store forwarding.
 #[inline(always)]
 fn eliminate_column<const K: usize>(lu: &mut [[f64; 6]; 6], permutation: &mut [u8; 6]) -> f64 {
     let (mut pivot_row, mut largest) = (K, lu[K][K].abs());

@@ -34,8 +34,8 @@ const SERIES_BELOW: f64 = 1e-2;
 /// `p2 = φ²`, exact for every `φ >= 0`. Below the switch, Horner forms in
 /// `φ²` whose coefficients are constants: no square root and no division
 /// on the path every contact takes twice per iteration (the nested
-/// quotients `φ²/2 (1 − φ²/12 (…))` cost nine divisions, and `φ = |θ|` a
-/// square root: about 3 % of an iteration, docs/performance.md).
+/// quotients `φ²/2 (1 − φ²/12 (…))` would cost nine divisions, and
+/// `φ = |θ|` a square root).
 fn trig_terms(p2: f64) -> (f64, f64, f64) {
     if p2 < SERIES_BELOW * SERIES_BELOW {
         let cos = 1.0 + p2 * (-1.0 / 2.0 + p2 * (1.0 / 24.0 - p2 * (1.0 / 720.0)));
