@@ -3,8 +3,8 @@
 
 use nalgebra::{Matrix3, Translation3};
 use parcal_dataset::{
-    ArtefactFrame, Artefacts, Ball, Dataset, Machine, Measurements, PriorSigma, Repeatability,
-    Truth,
+    ArtefactFrame, Artefacts, Ball, Dataset, GeometryRecord, Machine, Measurements, PriorSigma,
+    Repeatability, Truth,
 };
 use parcal_kinematics::{
     ForwardOptions, Geometry, Pose, Vec3, actuators, forward_from_home, rotation_zyx, tip_jacobians,
@@ -119,10 +119,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
             direction: None,
         },
         truth: Some(Truth {
-            base_joints: scenario.truth.base.map(Into::into),
-            platform_joints: scenario.truth.platform.map(Into::into),
-            tool: scenario.truth.tool.into(),
-            leg_lengths: scenario.truth.legs,
+            geometry: record(&scenario.truth),
             ball_centres: scenario.centres.iter().map(|&c| c.into()).collect(),
             ball_radii: vec![scenario.radius; count],
             contacts: contacts.iter().map(|c| c.point.into()).collect(),
@@ -133,13 +130,9 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
 
 /// machine.json of a scenario: the design geometry and the conditions.
 fn machine(scenario: &Scenario) -> Machine {
-    let design = &scenario.design;
     let sigma = scenario.prior_sigma;
     Machine {
-        base_joints: design.base.map(Into::into),
-        platform_joints: design.platform.map(Into::into),
-        tool: design.tool.into(),
-        leg_lengths: design.legs,
+        geometry: record(&scenario.design),
         prior_sigma: PriorSigma {
             base: sigma,
             platform: sigma,
@@ -150,6 +143,16 @@ fn machine(scenario: &Scenario) -> Machine {
             actuator: scenario.actuator_sigma,
             tool: scenario.tool_sigma,
         },
+    }
+}
+
+/// A geometry as the dataset files hold it.
+fn record(geometry: &Geometry) -> GeometryRecord {
+    GeometryRecord {
+        base_joints: geometry.base.map(Into::into),
+        platform_joints: geometry.platform.map(Into::into),
+        tool: geometry.tool.into(),
+        leg_lengths: geometry.legs,
     }
 }
 
