@@ -11,7 +11,7 @@ use parcal_kinematics::{
 };
 use rayon::prelude::*;
 
-use crate::{Rng, Scenario, SimulateError};
+use crate::{Rng, Scenario, SimulateError, plate};
 
 /// A contact is accepted when the tool tip found by forward kinematics from
 /// the actuator readings is back on its simulated point within this many
@@ -65,7 +65,9 @@ pub fn ball_id(index: usize, count: usize) -> String {
 /// platform orientation `Rz(yaw) Ry(pitch) Rx(roll)` with angles uniform in
 /// `[-max_tilt, max_tilt]`, the tool tip at `C + r u` plus tool noise, and
 /// actuator readings `q = L_true - l_true` plus actuator noise. Every contact
-/// is checked by forward kinematics with the true geometry.
+/// is checked by forward kinematics with the true geometry. A ball plate, if
+/// the scenario has one, draws from a stream of its own (see
+/// [`Plate`](crate::Plate)): the contacts are the same without it.
 pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateError> {
     let per_ball: Vec<Result<(f64, Vec<Contact>), SimulateError>> = scenario
         .centres
@@ -104,6 +106,10 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
             radius_sigma: scenario.radius_sigma,
         })
         .collect();
+    let distances = match &scenario.plate {
+        Some(p) => plate::distances(p, &scenario.centres, seed)?,
+        None => Vec::new(),
+    };
     let ball_of_contact =
         (0..count).flat_map(|b| std::iter::repeat_n(b as u32, scenario.points_per_ball));
     let dataset = Dataset {
@@ -111,7 +117,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
         artefacts: Artefacts {
             frame: ArtefactFrame::Design,
             balls,
-            distances: Vec::new(),
+            distances,
         },
         measurements: Measurements {
             ball: ball_of_contact.collect(),
