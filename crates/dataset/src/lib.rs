@@ -10,7 +10,7 @@
 //! | `truth.json` | simulated datasets only: the true values | [`Truth`] |
 //!
 //! and a calibration writes `calibration.json` ([`Calibration`]). The format is
-//! specified in `shared/spec/dataset-format.md`.
+//! specified in `docs/dataset-format.md`.
 //!
 //! Reading checks everything (shapes, finite numbers, positive sigmas, ids,
 //! consistency between the files) and reports the first problem as a
