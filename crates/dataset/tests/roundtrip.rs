@@ -399,6 +399,15 @@ fn calibration_errors_name_the_file_and_field() {
     let path = dir.path().join(CALIBRATION_FILE);
 
     let mut c = calibration();
+    c.canonical.tool[1] = f64::INFINITY;
+    assert_error(
+        &c.write(&path).unwrap_err().to_string(),
+        dir.path(),
+        CALIBRATION_FILE,
+        "field canonical.tool[1]: value inf is not a finite number",
+    );
+
+    let mut c = calibration();
     c.iterations[0].cost = f64::NAN;
     let err = c.write(&path).unwrap_err().to_string();
     assert_error(
