@@ -28,8 +28,9 @@ impl Truth {
     /// The truth of `dataset`, if it has one (`None` for a real machine).
     pub fn of(dataset: &Dataset) -> Option<Result<Self, parcal_kinematics::KinematicsError>> {
         let t = dataset.truth.as_ref()?;
+        let g = &t.geometry;
         let input =
-            Geometry::from_arrays(&t.base_joints, &t.platform_joints, &t.tool, &t.leg_lengths);
+            Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
         Some(input.canonicalize().map(|canonical| {
             let centres = t
                 .ball_centres

@@ -55,7 +55,7 @@ pub enum Observations {
 
 /// The design geometry of machine.json.
 pub fn design_geometry(dataset: &Dataset) -> Geometry {
-    let m = &dataset.machine;
+    let m = &dataset.machine.geometry;
     Geometry::from_arrays(&m.base_joints, &m.platform_joints, &m.tool, &m.leg_lengths)
 }
 

@@ -73,6 +73,75 @@ fn simulate_prints_a_summary_and_scales() {
 }
 
 #[test]
+fn simulate_writes_a_ball_plate_and_inspect_counts_it() {
+    let temp = tempfile::tempdir().unwrap();
+    let (plain, plated) = (temp.path().join("plain"), temp.path().join("plated"));
+    simulate(&plain, &[]);
+    let output = simulate(&plated, &["--plate", "all", "--plate-sigma", "2"]);
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains("ball distances     351 (sigma 2 um)"),
+        "{stdout}"
+    );
+    // The plate has its own random stream: the contacts and the truth are
+    // those of the same seed without it.
+    for file in ["machine.json", "measurements.csv", "truth.json"] {
+        assert!(
+            std::fs::read(plain.join(file)).unwrap() == std::fs::read(plated.join(file)).unwrap(),
+            "{file} changed with the plate"
+        );
+    }
+    let artefacts = std::fs::read_to_string(plated.join("artefacts.json")).unwrap();
+    assert_eq!(artefacts.matches("\"sigma\": 0.002").count(), 351);
+
+    let inspect = parcal(&["inspect", plated.to_str().unwrap()]);
+    assert!(inspect.status.success(), "{}", text(&inspect.stderr));
+    let stdout = text(&inspect.stdout);
+    assert!(
+        stdout.contains("ball distances     351 (tying 27 balls)"),
+        "{stdout}"
+    );
+    let inspect = parcal(&["inspect", plain.to_str().unwrap()]);
+    assert!(text(&inspect.stdout).contains("ball distances     0\n"));
+
+    let some = temp.path().join("some");
+    simulate(&some, &["--plate", "5"]);
+    let inspect = parcal(&["inspect", some.to_str().unwrap()]);
+    let stdout = text(&inspect.stdout);
+    assert!(stdout.contains("ball distances     5 (tying "), "{stdout}");
+}
+
+#[test]
+fn simulate_refuses_a_bad_plate() {
+    let temp = tempfile::tempdir().unwrap();
+    let out = temp.path().join("x");
+    let out = out.to_str().unwrap();
+    for (args, expected) in [
+        (&["--plate", "0"][..], "a plate needs at least 1 pair"),
+        (
+            &["--plate", "some"][..],
+            "expected `all` or a number of pairs",
+        ),
+        (&["--plate-sigma", "2"][..], "--plate"),
+        (
+            &["--plate", "all", "--plate-sigma", "0"][..],
+            "--plate-sigma must be positive",
+        ),
+        (
+            &["--plate", "352"][..],
+            "ball plate: 352 pairs asked for, but 27 balls have 351",
+        ),
+    ] {
+        let mut all = vec!["simulate", "--out", out];
+        all.extend_from_slice(args);
+        let output = parcal(&all);
+        assert!(!output.status.success(), "{args:?}");
+        let stderr = text(&output.stderr);
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
 fn inspect_reads_the_reference_dataset() {
     let reference =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1");

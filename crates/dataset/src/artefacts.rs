@@ -41,8 +41,8 @@ pub struct Ball {
     pub radius_sigma: f64,
 }
 
-/// A calibrated centre-to-centre distance between two balls (one
-/// observation each).
+/// A calibrated centre-to-centre distance between two distinct balls, as
+/// from a ball plate or a ball bar (one observation each).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Distance {
     /// Index of the first ball in [`Artefacts::balls`].
@@ -62,7 +62,8 @@ pub struct Artefacts {
     pub frame: ArtefactFrame,
     /// The balls, in file order; measurements refer to them by index.
     pub balls: Vec<Ball>,
-    /// Calibrated distances; empty if the file has none.
+    /// Calibrated distances, each pair of balls at most once; empty if the
+    /// file has none.
     pub distances: Vec<Distance>,
 }
 
@@ -105,6 +106,7 @@ impl Artefacts {
     pub(crate) fn read(path: &Path) -> Result<Self> {
         let file: ArtefactsFile = json::read(path, json::ARTEFACTS)?;
         let check = Check::new(path);
+        // The ids must be unique to be resolved; `validate` checks the rest.
         validate_balls(check, &file.balls)?;
         let index = ball_index(&file.balls).expect("ids checked unique");
         let resolve = |i: usize, end: &str, id: &str| {
@@ -133,7 +135,7 @@ impl Artefacts {
             balls: file.balls,
             distances,
         };
-        artefacts.validate_distances(check)?;
+        artefacts.validate(check)?;
         Ok(artefacts)
     }
 
@@ -158,13 +160,17 @@ impl Artefacts {
     }
 
     /// Balls well-formed and unique, distances between two distinct balls.
+    /// Reading and writing (files and snapshots) check with this.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
         validate_balls(check, &self.balls)?;
         self.validate_distances(check)
     }
 
+    /// Each distance joins two distinct balls in range, no pair twice
+    /// (in either order), length and sigma positive.
     fn validate_distances(&self, check: Check) -> Result<()> {
         let n = self.balls.len();
+        let mut pairs = HashMap::with_capacity(self.distances.len());
         for (i, d) in self.distances.iter().enumerate() {
             for (end, ball) in [("a", d.a), ("b", d.b)] {
                 if ball >= n {
@@ -178,6 +184,15 @@ impl Artefacts {
                 return Err(check.error(
                     format!("distances[{i}]"),
                     format!("joins ball {:?} to itself", self.balls[d.a].id),
+                ));
+            }
+            if let Some(first) = pairs.insert((d.a.min(d.b), d.a.max(d.b)), i) {
+                return Err(check.error(
+                    format!("distances[{i}]"),
+                    format!(
+                        "joins balls {:?} and {:?} again (as distances[{first}] does)",
+                        self.balls[d.a].id, self.balls[d.b].id
+                    ),
                 ));
             }
             check.positive(format_args!("distances[{i}].length"), d.length)?;

@@ -1,75 +1,63 @@
-//! All-or-nothing file writes: write to a temporary name beside the target,
-//! then rename it into place.
+//! All-or-nothing file writes: a temporary file beside the target
+//! ([`tempfile::NamedTempFile`]), renamed into place once complete.
 
-use std::fs::{self, File, OpenOptions};
+use std::fs::File;
 use std::io::{self, BufWriter};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
+
+use tempfile::NamedTempFile;
 
 use crate::error::{DatasetError, Result};
 
 /// Writes `path` through `fill`, atomically: until `fill` has succeeded and
-/// the data is flushed, nothing exists under `path` (a previous file of that
+/// the data is synced, nothing exists under `path` (a previous file of that
 /// name is left untouched), and on any error the temporary file is removed.
+/// The file gets the permissions `fs::write` would give it.
 ///
 /// `fill` returns the crate's error type so that it can report errors of its
 /// own (e.g. a serializer's) against `path`.
 pub(crate) fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
 where
-    F: FnOnce(&mut BufWriter<File>) -> Result<()>,
+    F: FnOnce(&mut BufWriter<&File>) -> Result<()>,
 {
-    let (tmp, file) = create_temp(path)?;
-    let result = fill_and_sync(path, file, fill).and_then(|()| {
-        fs::rename(&tmp, path).map_err(|e| DatasetError::io(path, "rename into place", e))
-    });
-    if result.is_err() {
-        // Best effort: the error being reported matters more than this one.
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
-fn fill_and_sync<F>(path: &Path, file: File, fill: F) -> Result<()>
-where
-    F: FnOnce(&mut BufWriter<File>) -> Result<()>,
-{
-    let mut writer = BufWriter::new(file);
+    let tmp = create_temp(path)?;
+    let mut writer = BufWriter::new(tmp.as_file());
     fill(&mut writer)?;
-    let file = writer
+    writer
         .into_inner()
-        .map_err(|e| DatasetError::io(path, "write", e.into_error()))?;
-    file.sync_all()
-        .map_err(|e| DatasetError::io(path, "write", e))
+        .map_err(|e| DatasetError::io(path, "write", e.into_error()))?
+        .sync_all()
+        .map_err(|e| DatasetError::io(path, "write", e))?;
+    // On failure the temporary file is dropped, which removes it.
+    tmp.persist(path)
+        .map_err(|e| DatasetError::io(path, "rename into place", e.error))?;
+    Ok(())
 }
 
-/// Creates a new, uniquely named hidden file in the directory of `path`.
-fn create_temp(path: &Path) -> Result<(PathBuf, File)> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let name = path
-        .file_name()
-        .ok_or_else(|| {
-            DatasetError::io(
-                path,
-                "write",
-                io::Error::new(io::ErrorKind::InvalidInput, "not a file name"),
-            )
-        })?
-        .to_string_lossy();
-    loop {
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let tmp = path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()));
-        match OpenOptions::new().write(true).create_new(true).open(&tmp) {
-            Ok(file) => return Ok((tmp, file)),
-            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
-            Err(e) => {
-                return Err(DatasetError::io(
-                    path,
-                    "create a temporary file beside it",
-                    e,
-                ));
-            }
-        }
-    }
+/// A new hidden file `.NAME.XXXXXX.tmp` in the directory of `path`.
+fn create_temp(path: &Path) -> Result<NamedTempFile> {
+    let name = path.file_name().ok_or_else(|| {
+        DatasetError::io(
+            path,
+            "write",
+            io::Error::new(io::ErrorKind::InvalidInput, "not a file name"),
+        )
+    })?;
+    // A bare file name has the parent "", which tempfile takes as the
+    // current directory.
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut prefix = std::ffi::OsString::from(".");
+    prefix.push(name);
+    prefix.push(".");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // tempfile's default is owner-only (0o600); a dataset is as readable as
+    // any file the user writes (0o666 less the umask).
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder
+        .tempfile_in(dir)
+        .map_err(|e| DatasetError::io(path, "create a temporary file beside it", e))
 }
 
 /// Maps an I/O error of a writer to the crate's error for `path`.
@@ -80,6 +68,7 @@ pub(crate) fn write_error(path: &Path) -> impl Fn(io::Error) -> DatasetError + '
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
     use std::io::Write;
 
     fn entries(dir: &Path) -> Vec<String> {
@@ -121,6 +110,19 @@ mod tests {
         .unwrap_err();
         assert_eq!(fs::read(&old).unwrap(), b"old content");
         assert_eq!(entries(dir.path()), ["old.txt"]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn the_file_is_as_readable_as_one_fs_write_makes() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        write_atomic(&path, |w| w.write_all(b"x").map_err(write_error(&path))).unwrap();
+        let plain = dir.path().join("plain.txt");
+        fs::write(&plain, b"x").unwrap();
+        let mode = |p: &Path| fs::metadata(p).unwrap().permissions().mode();
+        assert_eq!(mode(&path), mode(&plain));
     }
 
     #[test]

@@ -8,24 +8,8 @@ use serde::{Deserialize, Serialize};
 use crate::Point3;
 use crate::check::Check;
 use crate::error::Result;
+use crate::geometry::GeometryRecord;
 use crate::{json, shape};
-
-/// A machine geometry (identified values in the canonical frames).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct GeometryRecord {
-    /// Base joints B1..B6.
-    #[serde(deserialize_with = "shape::joints")]
-    pub base_joints: [Point3; 6],
-    /// Platform joints E1..E6.
-    #[serde(deserialize_with = "shape::joints")]
-    pub platform_joints: [Point3; 6],
-    /// Tool tip E_T.
-    #[serde(deserialize_with = "shape::point")]
-    pub tool: Point3,
-    /// Initial leg lengths.
-    #[serde(deserialize_with = "shape::legs")]
-    pub leg_lengths: [f64; 6],
-}
 
 /// The identified kinematic parameters, by name (order and names of
 /// paper-scenario.md section 2), with their posterior sigmas.
@@ -106,8 +90,7 @@ impl Calibration {
     }
 
     fn validate(&self, check: Check) -> Result<()> {
-        let c = &self.canonical;
-        check.geometry(&c.base_joints, &c.platform_joints, &c.tool, &c.leg_lengths)?;
+        self.canonical.validate(check, "canonical.")?;
 
         let p = &self.parameters;
         let n = p.names.len();

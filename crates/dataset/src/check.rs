@@ -77,20 +77,6 @@ impl<'a> Check<'a> {
             Some(i) => self.point(format_args!("{field}[{i}]"), &points[i]),
         }
     }
-
-    /// The geometry fields shared by machine, truth and calibration files.
-    pub(crate) fn geometry(
-        &self,
-        base_joints: &[Point3; 6],
-        platform_joints: &[Point3; 6],
-        tool: &Point3,
-        leg_lengths: &[f64; 6],
-    ) -> Result<()> {
-        self.points("base_joints", base_joints)?;
-        self.points("platform_joints", platform_joints)?;
-        self.point("tool", tool)?;
-        self.values("leg_lengths", leg_lengths)
-    }
 }
 
 /// The message for a value that is NaN or infinite.

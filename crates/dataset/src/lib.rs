@@ -10,7 +10,7 @@
 //! | `truth.json` | simulated datasets only: the true values | [`Truth`] |
 //!
 //! and a calibration writes `calibration.json` ([`Calibration`]). The format is
-//! specified in `shared/spec/dataset-format.md`.
+//! specified in `docs/dataset-format.md`.
 //!
 //! Reading checks everything (shapes, finite numbers, positive sigmas, ids,
 //! consistency between the files) and reports the first problem as a
@@ -34,10 +34,12 @@
 //! };
 //! let dataset = Dataset {
 //!     machine: Machine {
-//!         base_joints: ring(100.0, 0.0),
-//!         platform_joints: ring(50.0, 0.0),
-//!         tool: [0.0, 0.0, 60.0],
-//!         leg_lengths: [235.0; 6],
+//!         geometry: GeometryRecord {
+//!             base_joints: ring(100.0, 0.0),
+//!             platform_joints: ring(50.0, 0.0),
+//!             tool: [0.0, 0.0, 60.0],
+//!             leg_lengths: [235.0; 6],
+//!         },
 //!         prior_sigma: PriorSigma { base: 0.1, platform: 0.1, tool: 0.1, leg: 0.1 },
 //!         repeatability: Repeatability { actuator: 0.001, tool: 0.001 },
 //!     },
@@ -83,6 +85,7 @@ mod calibration;
 mod check;
 mod dataset;
 mod error;
+mod geometry;
 mod json;
 mod machine;
 mod measurements;
@@ -91,11 +94,10 @@ mod snapshot;
 mod truth;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
-pub use calibration::{
-    Calibration, CentreEstimate, GeometryRecord, IterationRecord, ParameterTable,
-};
+pub use calibration::{Calibration, CentreEstimate, IterationRecord, ParameterTable};
 pub use dataset::{Dataset, ReadOptions};
 pub use error::DatasetError;
+pub use geometry::GeometryRecord;
 pub use machine::{Machine, PriorSigma, Repeatability};
 pub use measurements::Measurements;
 pub use truth::Truth;

@@ -5,10 +5,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::Point3;
 use crate::check::Check;
 use crate::error::Result;
-use crate::{json, shape};
+use crate::geometry::{GeometryRecord, WithGeometry};
+use crate::json;
 
 /// A priori standard deviation of every parameter of each group (the design
 /// tolerance), in mm.
@@ -35,48 +35,52 @@ pub struct Repeatability {
 
 /// The design (nominal) machine, in any base frame and any platform frame.
 ///
-/// Its serde form is the body of `machine.json` (without `format`).
+/// `machine.json` has the geometry's fields at its top level.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Machine {
-    /// Base joints B1..B6 in the base frame.
-    #[serde(deserialize_with = "shape::joints")]
-    pub base_joints: [Point3; 6],
-    /// Platform joints E1..E6 in the platform frame.
-    #[serde(deserialize_with = "shape::joints")]
-    pub platform_joints: [Point3; 6],
-    /// Tool tip E_T in the platform frame.
-    #[serde(deserialize_with = "shape::point")]
-    pub tool: Point3,
-    /// Initial leg lengths l1..l6 (leg i is `l_i + q_i` long).
-    #[serde(deserialize_with = "shape::legs")]
-    pub leg_lengths: [f64; 6],
+    /// Design geometry.
+    pub geometry: GeometryRecord,
     /// Design tolerances.
     pub prior_sigma: PriorSigma,
     /// Repeatability, used to weight the observations.
     pub repeatability: Repeatability,
 }
 
+/// The fields of `machine.json` after the geometry.
+#[derive(Serialize, Deserialize)]
+struct Conditions {
+    prior_sigma: PriorSigma,
+    repeatability: Repeatability,
+}
+
 impl Machine {
     /// Reads and checks `machine.json`.
     pub(crate) fn read(path: &Path) -> Result<Self> {
-        let machine: Self = json::read(path, json::MACHINE)?;
+        let file: WithGeometry<GeometryRecord, Conditions> = json::read(path, json::MACHINE)?;
+        let machine = Self {
+            geometry: file.geometry,
+            prior_sigma: file.rest.prior_sigma,
+            repeatability: file.rest.repeatability,
+        };
         machine.validate(Check::new(path))?;
         Ok(machine)
     }
 
     /// Writes `machine.json` (the caller has validated).
     pub(crate) fn write(&self, path: &Path) -> Result<()> {
-        json::write(path, json::MACHINE, self)
+        let file = WithGeometry {
+            geometry: &self.geometry,
+            rest: Conditions {
+                prior_sigma: self.prior_sigma,
+                repeatability: self.repeatability,
+            },
+        };
+        json::write(path, json::MACHINE, &file)
     }
 
     /// Every value finite; sigmas and repeatabilities positive.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
-        check.geometry(
-            &self.base_joints,
-            &self.platform_joints,
-            &self.tool,
-            &self.leg_lengths,
-        )?;
+        self.geometry.validate(check, "")?;
         let PriorSigma {
             base,
             platform,

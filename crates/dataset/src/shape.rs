@@ -86,14 +86,32 @@ pub(crate) fn point<'de, D: Deserializer<'de>>(d: D) -> Result<Point3, D::Error>
     P3::deserialize(d).map(|p| p.0)
 }
 
+/// The 6 joints of a base or platform: "expected 6 joints, found N".
+pub(crate) struct Joints(pub [Point3; 6]);
+
+impl<'de> Deserialize<'de> for Joints {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        fixed::<D, P3, 6>(d, "joints").map(|j| Joints(j.map(|p| p.0)))
+    }
+}
+
+/// The 6 leg lengths: "expected 6 leg lengths, found N".
+pub(crate) struct Legs(pub [f64; 6]);
+
+impl<'de> Deserialize<'de> for Legs {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        fixed::<D, f64, 6>(d, "leg lengths").map(Legs)
+    }
+}
+
 /// `deserialize_with` for the 6 joints of a base or platform.
 pub(crate) fn joints<'de, D: Deserializer<'de>>(d: D) -> Result<[Point3; 6], D::Error> {
-    fixed::<D, P3, 6>(d, "joints").map(|j| j.map(|p| p.0))
+    Joints::deserialize(d).map(|j| j.0)
 }
 
 /// `deserialize_with` for the 6 leg lengths.
 pub(crate) fn legs<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 6], D::Error> {
-    fixed::<D, f64, 6>(d, "leg lengths")
+    Legs::deserialize(d).map(|l| l.0)
 }
 
 /// `deserialize_with` for a list of points of any length.

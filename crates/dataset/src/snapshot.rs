@@ -5,9 +5,9 @@
 //! | bytes | content |
 //! |---|---|
 //! | 8 | magic `PARCALDS` |
-//! | 4 | snapshot version (u32), currently 1 |
+//! | 4 | snapshot version (u32), currently 2 |
 //! | 8 | payload length in bytes (u64) |
-//! | 8 | checksum of the payload (u64) |
+//! | 4 | CRC-32 (IEEE) of the payload (u32) |
 //! | n | payload: the `Dataset` in postcard |
 //!
 //! The payload is the serde form of the crate's public types, so any change
@@ -23,8 +23,8 @@ use crate::error::{DatasetError, Result};
 
 const MAGIC: [u8; 8] = *b"PARCALDS";
 /// Version of the snapshot layout and payload.
-pub(crate) const VERSION: u32 = 1;
-const HEADER_LEN: usize = 8 + 4 + 8 + 8;
+pub(crate) const VERSION: u32 = 2;
+const HEADER_LEN: usize = 8 + 4 + 8 + 4;
 
 /// Writes `dataset` (already validated) to `path` atomically.
 pub(crate) fn write(dataset: &Dataset, path: &Path) -> Result<()> {
@@ -35,7 +35,7 @@ pub(crate) fn write(dataset: &Dataset, path: &Path) -> Result<()> {
         header.extend_from_slice(&MAGIC);
         header.extend_from_slice(&VERSION.to_le_bytes());
         header.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        header.extend_from_slice(&checksum(&payload).to_le_bytes());
+        header.extend_from_slice(&crc32fast::hash(&payload).to_le_bytes());
         w.write_all(&header)
             .and_then(|()| w.write_all(&payload))
             .map_err(write_error(path))
@@ -68,10 +68,11 @@ pub(crate) fn read(path: &Path) -> Result<Dataset> {
     let (header, payload) = bytes.split_at(HEADER_LEN);
     let version = u32::from_le_bytes(header[8..12].try_into().expect("4 bytes"));
     let declared = u64::from_le_bytes(header[12..20].try_into().expect("8 bytes"));
-    let sum = u64::from_le_bytes(header[20..28].try_into().expect("8 bytes"));
+    let crc = u32::from_le_bytes(header[20..24].try_into().expect("4 bytes"));
     if version != VERSION {
         return Err(error(format!(
-            "has snapshot version {version}; this parcal reads version {VERSION}"
+            "has snapshot version {version}; this parcal reads version {VERSION} \
+             (write the snapshot again from the dataset's files)"
         )));
     }
     let actual = payload.len() as u64;
@@ -86,7 +87,7 @@ pub(crate) fn read(path: &Path) -> Result<Dataset> {
             actual - declared
         )));
     }
-    if checksum(payload) != sum {
+    if crc32fast::hash(payload) != crc {
         return Err(error("is corrupt: checksum mismatch".into()));
     }
     match postcard::take_from_bytes::<Dataset>(payload) {
@@ -99,48 +100,8 @@ pub(crate) fn read(path: &Path) -> Result<Dataset> {
     }
 }
 
-/// A fast 64-bit checksum (word-wise multiply-rotate, then a final mix).
-/// Every step is a bijection of the state for a given word, so any change
-/// confined to one 8-byte word is always detected.
-fn checksum(bytes: &[u8]) -> u64 {
-    const K: u64 = 0x9e37_79b9_7f4a_7c15;
-    let mut h = 0x2545_f491_4f6c_dd1d ^ bytes.len() as u64;
-    let mut mix = |word: u64| h = (h ^ word).wrapping_mul(K).rotate_left(31);
-    let mut words = bytes.chunks_exact(8);
-    for word in &mut words {
-        mix(u64::from_le_bytes(word.try_into().expect("8 bytes")));
-    }
-    let mut tail = [0u8; 8];
-    tail[..words.remainder().len()].copy_from_slice(words.remainder());
-    mix(u64::from_le_bytes(tail));
-    // Final avalanche (splitmix64).
-    h ^= h >> 30;
-    h = h.wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    h ^= h >> 27;
-    h = h.wrapping_mul(0x94d0_49bb_1331_11eb);
-    h ^ (h >> 31)
-}
-
 #[cfg(test)]
 mod tests {
-    use super::checksum;
-
-    #[test]
-    fn checksum_sees_single_byte_changes_and_lengths() {
-        let data: Vec<u8> = (0..100u8).collect();
-        let base = checksum(&data);
-        for i in 0..data.len() {
-            let mut changed = data.clone();
-            changed[i] ^= 1;
-            assert_ne!(checksum(&changed), base, "byte {i}");
-        }
-        assert_ne!(checksum(&data[..99]), base);
-        assert_ne!(checksum(&[]), checksum(&[0]));
-    }
-}
-
-#[cfg(test)]
-mod validation_tests {
     use crate::Dataset;
 
     /// A snapshot with an intact header and checksum but invalid content (it

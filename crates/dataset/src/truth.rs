@@ -9,20 +9,18 @@ use crate::Point3;
 use crate::artefacts::{Ball, ball_index};
 use crate::check::Check;
 use crate::error::Result;
+use crate::geometry::{GeometryRecord, WithGeometry};
 use crate::shape::{self, IdMap, P3};
 use crate::{MEASUREMENTS_FILE, json};
 
 /// The truth behind a simulated dataset, in the frames of `machine.json`.
+///
+/// `truth.json` has the geometry's fields at its top level and the balls
+/// keyed by id.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Truth {
-    /// True base joints.
-    pub base_joints: [Point3; 6],
-    /// True platform joints.
-    pub platform_joints: [Point3; 6],
-    /// True tool tip.
-    pub tool: Point3,
-    /// True initial leg lengths.
-    pub leg_lengths: [f64; 6],
+    /// True geometry.
+    pub geometry: GeometryRecord,
     /// True ball centres, in [`Artefacts::balls`](crate::Artefacts::balls) order.
     pub ball_centres: Vec<Point3>,
     /// True ball radii, in [`Artefacts::balls`](crate::Artefacts::balls) order.
@@ -31,17 +29,9 @@ pub struct Truth {
     pub contacts: Vec<Point3>,
 }
 
-/// `truth.json` as written: balls keyed by id.
+/// The fields of `truth.json` after the geometry: balls keyed by id.
 #[derive(Serialize, Deserialize)]
-struct TruthFile {
-    #[serde(deserialize_with = "shape::joints")]
-    base_joints: [Point3; 6],
-    #[serde(deserialize_with = "shape::joints")]
-    platform_joints: [Point3; 6],
-    #[serde(deserialize_with = "shape::point")]
-    tool: Point3,
-    #[serde(deserialize_with = "shape::legs")]
-    leg_lengths: [f64; 6],
+struct Balls {
     ball_centres: IdMap<P3>,
     ball_radii: IdMap<f64>,
     #[serde(deserialize_with = "shape::points")]
@@ -56,21 +46,20 @@ impl Truth {
         balls: &[Ball],
         rows: usize,
     ) -> Result<Option<Self>> {
-        let Some(file) = json::read_if_present::<TruthFile>(path, json::TRUTH)? else {
+        let Some(file) =
+            json::read_if_present::<WithGeometry<GeometryRecord, Balls>>(path, json::TRUTH)?
+        else {
             return Ok(None);
         };
         let check = Check::new(path);
         let truth = Self {
-            base_joints: file.base_joints,
-            platform_joints: file.platform_joints,
-            tool: file.tool,
-            leg_lengths: file.leg_lengths,
-            ball_centres: by_ball(check, "ball_centres", file.ball_centres, balls)?
+            geometry: file.geometry,
+            ball_centres: by_ball(check, "ball_centres", file.rest.ball_centres, balls)?
                 .into_iter()
                 .map(|p| p.0)
                 .collect(),
-            ball_radii: by_ball(check, "ball_radii", file.ball_radii, balls)?,
-            contacts: file.contacts,
+            ball_radii: by_ball(check, "ball_radii", file.rest.ball_radii, balls)?,
+            contacts: file.rest.contacts,
         };
         truth.validate(check, balls.len(), rows)?;
         Ok(Some(truth))
@@ -78,14 +67,13 @@ impl Truth {
 
     /// Writes `truth.json` (the caller has validated).
     pub(crate) fn write(&self, path: &Path, balls: &[Ball]) -> Result<()> {
-        let file = TruthFile {
-            base_joints: self.base_joints,
-            platform_joints: self.platform_joints,
-            tool: self.tool,
-            leg_lengths: self.leg_lengths,
-            ball_centres: keyed(balls, self.ball_centres.iter().copied().map(P3)),
-            ball_radii: keyed(balls, self.ball_radii.iter().copied()),
-            contacts: self.contacts.clone(),
+        let file = WithGeometry {
+            geometry: &self.geometry,
+            rest: Balls {
+                ball_centres: keyed(balls, self.ball_centres.iter().copied().map(P3)),
+                ball_radii: keyed(balls, self.ball_radii.iter().copied()),
+                contacts: self.contacts.clone(),
+            },
         };
         json::write(path, json::TRUTH, &file)
     }
@@ -93,12 +81,7 @@ impl Truth {
     /// Values finite, radii positive, one centre and radius per ball, one
     /// contact per measurement row.
     pub(crate) fn validate(&self, check: Check, ball_count: usize, rows: usize) -> Result<()> {
-        check.geometry(
-            &self.base_joints,
-            &self.platform_joints,
-            &self.tool,
-            &self.leg_lengths,
-        )?;
+        self.geometry.validate(check, "")?;
         for (field, len) in [
             ("ball_centres", self.ball_centres.len()),
             ("ball_radii", self.ball_radii.len()),

@@ -470,6 +470,119 @@ fn distance_from_a_ball_to_itself() {
 }
 
 #[test]
+fn distance_given_twice_in_either_order() {
+    // The test dataset has distances b01-plate-3 and b02-b01.
+    for (a, b) in [("b01", "plate-3"), ("plate-3", "b01")] {
+        expect_error(
+            ALL,
+            |dir| {
+                edit_json(dir, ARTEFACTS_FILE, |v| {
+                    let d = json!({"a": a, "b": b, "length": 60.0, "sigma": 0.001});
+                    v["distances"].as_array_mut().unwrap().push(d);
+                })
+            },
+            ARTEFACTS_FILE,
+            &format!(
+                "field distances[2]: joins balls {a:?} and {b:?} again (as distances[0] does)"
+            ),
+        );
+    }
+}
+
+#[test]
+fn distance_length_out_of_range() {
+    // JSON has no NaN or infinity; a number too large for f64 is refused
+    // with its field and line.
+    let dir = written(ALL);
+    let path = dir.path().join(ARTEFACTS_FILE);
+    let text = fs::read_to_string(&path).unwrap();
+    fs::write(
+        &path,
+        text.replacen("\"length\": 60.0003", "\"length\": 1e999", 1),
+    )
+    .unwrap();
+    assert_error(
+        &read_error(dir.path()),
+        dir.path(),
+        ARTEFACTS_FILE,
+        "invalid JSON: number out of range",
+    );
+}
+
+/// In-memory data is checked by the same rules as a file: `validate`,
+/// `write` and `write_snapshot` refuse it, naming the field.
+#[test]
+fn invalid_distances_in_memory() {
+    type Damage = fn(&mut Distance);
+    let cases: [(Damage, &str); 7] = [
+        (
+            |d| d.b = 99,
+            "field distances[1].b: ball index 99 is out of range (3 balls)",
+        ),
+        (
+            |d| d.a = d.b,
+            "field distances[1]: joins ball \"b01\" to itself",
+        ),
+        (
+            |d| (d.a, d.b) = (2, 0),
+            "field distances[1]: joins balls \"plate-3\" and \"b01\" again (as distances[0] does)",
+        ),
+        (
+            |d| d.length = f64::NAN,
+            "field distances[1].length: value NaN is not a finite number",
+        ),
+        (
+            |d| d.length = 0.0,
+            "field distances[1].length: must be positive, found 0",
+        ),
+        (
+            |d| d.sigma = f64::INFINITY,
+            "field distances[1].sigma: value inf is not a finite number",
+        ),
+        (
+            |d| d.sigma = -1e-3,
+            "field distances[1].sigma: must be positive, found -0.001",
+        ),
+    ];
+    for (damage, expected) in cases {
+        let mut bad = dataset(ALL);
+        damage(&mut bad.artefacts.distances[1]);
+        assert_eq!(
+            bad.validate().unwrap_err().to_string(),
+            format!("artefacts.json: {expected}")
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let err = bad.write(dir.path()).unwrap_err().to_string();
+        assert_error(&err, dir.path(), ARTEFACTS_FILE, expected);
+        let snapshot = dir.path().join("data.parcal");
+        let err = bad.write_snapshot(&snapshot).unwrap_err().to_string();
+        assert_eq!(err, format!("{}: {expected}", snapshot.display()));
+        assert!(
+            fs::read_dir(dir.path()).unwrap().next().is_none(),
+            "nothing written"
+        );
+    }
+}
+
+#[test]
+fn a_dataset_without_distances_reads_as_before() {
+    let dir = written(ALL);
+    edit_json(dir.path(), ARTEFACTS_FILE, |v| {
+        v.as_object_mut().unwrap().remove("distances");
+    });
+    let read = Dataset::read(dir.path()).unwrap();
+    assert!(read.artefacts.distances.is_empty());
+    edit_json(dir.path(), ARTEFACTS_FILE, |v| v["distances"] = json!([]));
+    assert!(
+        Dataset::read(dir.path())
+            .unwrap()
+            .artefacts
+            .distances
+            .is_empty()
+    );
+}
+
+#[test]
 fn unknown_frame() {
     expect_error(
         NONE,

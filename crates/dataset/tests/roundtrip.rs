@@ -43,7 +43,9 @@ fn write_then_read_is_bitwise_identical() {
 fn negative_zero_and_tiny_values_survive_the_text_files() {
     let dir = written(ALL);
     let read = Dataset::read(dir.path()).unwrap();
-    assert!(read.machine.tool[1].is_sign_negative() && read.machine.tool[1] == 0.0);
+    assert!(
+        read.machine.geometry.tool[1].is_sign_negative() && read.machine.geometry.tool[1] == 0.0
+    );
     assert_eq!(
         read.machine.repeatability.tool.to_bits(),
         5e-324f64.to_bits()
@@ -269,15 +271,15 @@ fn the_reference_dataset_reads() {
     assert_eq!(d.artefacts.frame, ArtefactFrame::Design);
     assert!(d.artefacts.distances.is_empty());
     assert_eq!(d.measurements.direction, None);
-    assert_eq!(d.machine.base_joints[2], [-42.262, 90.631, 0.0]);
-    assert_eq!(d.machine.leg_lengths, [235.0; 6]);
+    assert_eq!(d.machine.geometry.base_joints[2], [-42.262, 90.631, 0.0]);
+    assert_eq!(d.machine.geometry.leg_lengths, [235.0; 6]);
     assert_eq!(d.machine.repeatability.actuator, 0.001);
     assert_eq!(d.artefacts.balls[0].id, "b01");
     assert_eq!(d.artefacts.balls[0].radius, 4.999856933619536);
     assert_eq!(d.measurements.q[0][0], 98.8199849693);
     let truth = d.truth.as_ref().expect("truth.json is present");
-    assert_eq!(truth.tool, [0.099, 0.053, 60.411]);
-    assert_eq!(truth.leg_lengths[0], 234.934);
+    assert_eq!(truth.geometry.tool, [0.099, 0.053, 60.411]);
+    assert_eq!(truth.geometry.leg_lengths[0], 234.934);
     assert_eq!(truth.contacts.len(), 189);
     assert_eq!(truth.ball_centres.len(), 27);
     assert!(truth.ball_radii.iter().all(|&r| r == 5.0));
@@ -289,6 +291,22 @@ fn the_reference_dataset_reads() {
     let snap = out.path().join("seed1.parcal");
     d.write_snapshot(&snap).unwrap();
     assert_bitwise_eq(&Dataset::read_snapshot(&snap).unwrap(), &d);
+}
+
+#[test]
+fn parcal_s_own_fixture_is_rewritten_byte_for_byte() {
+    // fixtures/paper-seed1 was written by parcal: reading and writing it
+    // again gives the same files (field names, order, number forms).
+    let fixture = reference_dir().with_file_name("paper-seed1");
+    let d = Dataset::read(&fixture).unwrap_or_else(|e| panic!("{e}"));
+    let out = tempfile::tempdir().unwrap();
+    d.write(out.path()).unwrap();
+    for file in [MACHINE_FILE, ARTEFACTS_FILE, MEASUREMENTS_FILE, TRUTH_FILE] {
+        assert!(
+            fs::read(fixture.join(file)).unwrap() == fs::read(out.path().join(file)).unwrap(),
+            "{file} differs"
+        );
+    }
 }
 
 #[test]
@@ -379,6 +397,15 @@ fn calibration_round_trips_and_defaults_status_and_options() {
 fn calibration_errors_name_the_file_and_field() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(CALIBRATION_FILE);
+
+    let mut c = calibration();
+    c.canonical.tool[1] = f64::INFINITY;
+    assert_error(
+        &c.write(&path).unwrap_err().to_string(),
+        dir.path(),
+        CALIBRATION_FILE,
+        "field canonical.tool[1]: value inf is not a finite number",
+    );
 
     let mut c = calibration();
     c.iterations[0].cost = f64::NAN;

@@ -3,15 +3,15 @@
 
 use nalgebra::{Matrix3, Translation3};
 use parcal_dataset::{
-    ArtefactFrame, Artefacts, Ball, Dataset, Machine, Measurements, PriorSigma, Repeatability,
-    Truth,
+    ArtefactFrame, Artefacts, Ball, Dataset, GeometryRecord, Machine, Measurements, PriorSigma,
+    Repeatability, Truth,
 };
 use parcal_kinematics::{
     ForwardOptions, Geometry, Pose, Vec3, actuators, forward_from_home, rotation_zyx, tip_jacobians,
 };
 use rayon::prelude::*;
 
-use crate::{Rng, Scenario, SimulateError};
+use crate::{Rng, Scenario, SimulateError, plate};
 
 /// A contact is accepted when the tool tip found by forward kinematics from
 /// the actuator readings is back on its simulated point within this many
@@ -65,7 +65,9 @@ pub fn ball_id(index: usize, count: usize) -> String {
 /// platform orientation `Rz(yaw) Ry(pitch) Rx(roll)` with angles uniform in
 /// `[-max_tilt, max_tilt]`, the tool tip at `C + r u` plus tool noise, and
 /// actuator readings `q = L_true - l_true` plus actuator noise. Every contact
-/// is checked by forward kinematics with the true geometry.
+/// is checked by forward kinematics with the true geometry. A ball plate, if
+/// the scenario has one, draws from a stream of its own (see
+/// [`Plate`](crate::Plate)): the contacts are the same without it.
 pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateError> {
     let per_ball: Vec<Result<(f64, Vec<Contact>), SimulateError>> = scenario
         .centres
@@ -104,6 +106,10 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
             radius_sigma: scenario.radius_sigma,
         })
         .collect();
+    let distances = match &scenario.plate {
+        Some(p) => plate::distances(p, &scenario.centres, seed)?,
+        None => Vec::new(),
+    };
     let ball_of_contact =
         (0..count).flat_map(|b| std::iter::repeat_n(b as u32, scenario.points_per_ball));
     let dataset = Dataset {
@@ -111,7 +117,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
         artefacts: Artefacts {
             frame: ArtefactFrame::Design,
             balls,
-            distances: Vec::new(),
+            distances,
         },
         measurements: Measurements {
             ball: ball_of_contact.collect(),
@@ -119,10 +125,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
             direction: None,
         },
         truth: Some(Truth {
-            base_joints: scenario.truth.base.map(Into::into),
-            platform_joints: scenario.truth.platform.map(Into::into),
-            tool: scenario.truth.tool.into(),
-            leg_lengths: scenario.truth.legs,
+            geometry: record(&scenario.truth),
             ball_centres: scenario.centres.iter().map(|&c| c.into()).collect(),
             ball_radii: vec![scenario.radius; count],
             contacts: contacts.iter().map(|c| c.point.into()).collect(),
@@ -133,13 +136,9 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
 
 /// machine.json of a scenario: the design geometry and the conditions.
 fn machine(scenario: &Scenario) -> Machine {
-    let design = &scenario.design;
     let sigma = scenario.prior_sigma;
     Machine {
-        base_joints: design.base.map(Into::into),
-        platform_joints: design.platform.map(Into::into),
-        tool: design.tool.into(),
-        leg_lengths: design.legs,
+        geometry: record(&scenario.design),
         prior_sigma: PriorSigma {
             base: sigma,
             platform: sigma,
@@ -150,6 +149,16 @@ fn machine(scenario: &Scenario) -> Machine {
             actuator: scenario.actuator_sigma,
             tool: scenario.tool_sigma,
         },
+    }
+}
+
+/// A geometry as the dataset files hold it.
+fn record(geometry: &Geometry) -> GeometryRecord {
+    GeometryRecord {
+        base_joints: geometry.base.map(Into::into),
+        platform_joints: geometry.platform.map(Into::into),
+        tool: geometry.tool.into(),
+        leg_lengths: geometry.legs,
     }
 }
 

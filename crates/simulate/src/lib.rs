@@ -12,10 +12,12 @@
 //! ```
 
 mod campaign;
+mod plate;
 mod rng;
 mod scenario;
 
 pub use campaign::{Simulation, Summary, ball_id, simulate};
+pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
 pub use scenario::Scenario;
 
@@ -29,4 +31,7 @@ pub enum SimulateError {
         point: usize,
         reason: String,
     },
+    /// The ball plate asked for cannot be made.
+    #[error("ball plate: {0}")]
+    Plate(String),
 }

@@ -1,5 +1,6 @@
-//! The simulator's random numbers: xoshiro256++ seeded by SplitMix64, and
-//! normal deviates by the Box-Muller transform.
+//! The project's random numbers: xoshiro256++ seeded by SplitMix64, and
+//! normal deviates by the Box-Muller transform. The simulator draws from
+//! it, and tests that need reproducible random inputs should too.
 //!
 //! Our own few lines rather than `rand`, on purpose: a simulated dataset is a
 //! pure function of its seed, byte for byte, and must stay so across
@@ -30,7 +31,8 @@ impl Rng {
         }
     }
 
-    fn next_u64(&mut self) -> u64 {
+    /// The next 64 random bits (xoshiro256++).
+    pub fn next_u64(&mut self) -> u64 {
         let s = &mut self.state;
         let result = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
         let t = s[1] << 17;
@@ -46,6 +48,13 @@ impl Rng {
     /// Uniform in `[0, 1)` with 53 random bits.
     pub fn unit(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform in `0..n` (`n` > 0): the high 64 bits of the 128-bit
+    /// product of 64 random bits and `n` (Lemire 2019), biased by less than
+    /// `n / 2^64`.
+    pub fn below(&mut self, n: u64) -> u64 {
+        ((u128::from(self.next_u64()) * u128::from(n)) >> 64) as u64
     }
 
     /// Uniform in `[low, high)`.
@@ -86,5 +95,20 @@ mod tests {
         // Standard errors: 2/sqrt(n) = 0.0045 for the mean, ~0.0126 for the variance.
         assert!(mean.abs() < 0.02, "mean {mean}");
         assert!((variance - 4.0).abs() < 0.06, "variance {variance}");
+    }
+
+    #[test]
+    fn below_is_uniform_over_its_range() {
+        let mut rng = Rng::new(9, 0);
+        let n = 70_000;
+        let mut counts = [0u32; 7];
+        for _ in 0..n {
+            counts[rng.below(7) as usize] += 1;
+        }
+        // Each count is binomial(70000, 1/7): mean 10000, sd 92.6.
+        for (i, &c) in counts.iter().enumerate() {
+            assert!((f64::from(c) - 10_000.0).abs() < 5.0 * 92.6, "{i}: {c}");
+        }
+        assert_eq!(rng.below(1), 0);
     }
 }

@@ -4,6 +4,8 @@
 
 use parcal_kinematics::{Geometry, Vec3, paper};
 
+use crate::Plate;
+
 /// Everything that defines a simulated campaign except the seed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
@@ -29,6 +31,9 @@ pub struct Scenario {
     pub prior_sigma: f64,
     /// A priori sigma of the nominal ball centres (mm).
     pub centre_sigma: f64,
+    /// A calibrated ball plate over the balls, written as the distances of
+    /// artefacts.json; none in the paper.
+    pub plate: Option<Plate>,
 }
 
 impl Scenario {
@@ -57,6 +62,7 @@ impl Scenario {
             tool_sigma: 0.001,
             prior_sigma: 0.1,
             centre_sigma: 0.1,
+            plate: None,
         }
     }
 

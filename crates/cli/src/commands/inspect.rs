@@ -1,5 +1,6 @@
 //! `parcal inspect`: read and validate a dataset and summarise it.
 
+use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -42,11 +43,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         counts.iter().min().unwrap_or(&0),
         counts.iter().max().unwrap_or(&0)
     )?;
-    writeln!(
-        stdout,
-        "  ball distances     {}",
-        dataset.artefacts.distances.len()
-    )?;
+    let distances = &dataset.artefacts.distances;
+    if distances.is_empty() {
+        writeln!(stdout, "  ball distances     0")?;
+    } else {
+        let tied: BTreeSet<usize> = distances.iter().flat_map(|d| [d.a, d.b]).collect();
+        writeln!(
+            stdout,
+            "  ball distances     {} (tying {} balls)",
+            distances.len(),
+            tied.len()
+        )?;
+    }
     writeln!(
         stdout,
         "  approach dirs      {}",

@@ -4,7 +4,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_simulate::{Scenario, simulate};
+use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
 
 use super::SNAPSHOT_FILE;
 
@@ -26,6 +26,16 @@ pub struct Args {
     /// Largest |yaw|, |pitch|, |roll| of the platform at a contact, degrees.
     #[arg(long, default_value_t = 10.0)]
     tilt: f64,
+    /// Also write a calibrated ball plate as the distances of artefacts.json:
+    /// `all` pairs of balls (n (n - 1) / 2 distances for n balls), or a number
+    /// of distinct pairs drawn at random.
+    /// Each distance is the true one plus an error of --plate-sigma; the
+    /// contacts are the same as without a plate.
+    #[arg(long, value_name = "all|PAIRS", value_parser = parse_pairs)]
+    plate: Option<PlatePairs>,
+    /// Error of each calibrated distance of the plate (1 sigma), micrometres.
+    #[arg(long, value_name = "UM", default_value_t = 1.0, requires = "plate")]
+    plate_sigma: f64,
     /// Also write a binary snapshot of the dataset (postcard) to OUT/dataset.bin,
     /// which loads much faster than the text files.
     #[arg(long)]
@@ -42,7 +52,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "--tilt must be in [0, 90) degrees, got {}",
         args.tilt
     );
-    let scenario = match args.balls {
+    anyhow::ensure!(
+        args.plate_sigma.is_finite() && args.plate_sigma > 0.0,
+        "--plate-sigma must be positive, got {}",
+        args.plate_sigma
+    );
+    let mut scenario = match args.balls {
         None => Scenario {
             points_per_ball: args.points_per_ball,
             max_tilt: args.tilt.to_radians(),
@@ -51,6 +66,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some(0) => anyhow::bail!("--balls must be at least 1"),
         Some(balls) => Scenario::scaled(balls, args.points_per_ball, args.tilt.to_radians()),
     };
+    scenario.plate = args.plate.map(|pairs| Plate {
+        pairs,
+        sigma: args.plate_sigma * 1e-3,
+    });
     let simulation = simulate(&scenario, args.seed).context("simulation failed")?;
     simulation
         .dataset
@@ -77,6 +96,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "  contacts           {} ({} per ball)",
         s.contacts, scenario.points_per_ball
     )?;
+    if args.plate.is_some() {
+        writeln!(
+            stdout,
+            "  ball distances     {} (sigma {} um)",
+            simulation.dataset.artefacts.distances.len(),
+            args.plate_sigma
+        )?;
+    }
     writeln!(
         stdout,
         "  leg lengths        {:.3} .. {:.3} mm",
@@ -94,4 +121,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         s.worst_check
     )?;
     Ok(())
+}
+
+/// `--plate`: `all`, or a number of pairs (at least 1).
+fn parse_pairs(value: &str) -> Result<PlatePairs, String> {
+    if value == "all" {
+        return Ok(PlatePairs::All);
+    }
+    match value.parse::<u64>() {
+        Ok(0) => Err("a plate needs at least 1 pair".into()),
+        Ok(count) => Ok(PlatePairs::Random(count)),
+        Err(_) => Err(format!(
+            "expected `all` or a number of pairs, got {value:?}"
+        )),
+    }
 }

@@ -70,10 +70,12 @@ pub fn dataset(parts: Parts) -> Dataset {
         .collect();
     Dataset {
         machine: Machine {
-            base_joints: points(1),
-            platform_joints: points(2),
-            tool: [0.0, -0.0, 60.0 + 1.0 / 3.0],
-            leg_lengths: std::array::from_fn(|k| 235.0 + awkward(k)),
+            geometry: GeometryRecord {
+                base_joints: points(1),
+                platform_joints: points(2),
+                tool: [0.0, -0.0, 60.0 + 1.0 / 3.0],
+                leg_lengths: std::array::from_fn(|k| 235.0 + awkward(k)),
+            },
             prior_sigma: PriorSigma {
                 base: 0.1,
                 platform: 1.0 / 3.0,
@@ -119,10 +121,12 @@ pub fn dataset(parts: Parts) -> Dataset {
                 .then(|| (0..rows).map(|r| points::<1>(r + 5)[0]).collect()),
         },
         truth: parts.truth.then(|| Truth {
-            base_joints: points(3),
-            platform_joints: points(4),
-            tool: [awkward(1), awkward(2), 60.411],
-            leg_lengths: std::array::from_fn(|k| 234.9 + awkward(k + 3)),
+            geometry: GeometryRecord {
+                base_joints: points(3),
+                platform_joints: points(4),
+                tool: [awkward(1), awkward(2), 60.411],
+                leg_lengths: std::array::from_fn(|k| 234.9 + awkward(k + 3)),
+            },
             ball_centres: (0..3).map(|i| points::<1>(i + 7)[0]).collect(),
             ball_radii: vec![5.0, 1.0 / 3.0, 1e-17],
             contacts: (0..rows).map(|r| points::<1>(r + 11)[0]).collect(),

@@ -1,0 +1,264 @@
+//! The geometry block of `machine.json`, `truth.json` and
+//! `calibration.json`: base joints, platform joints, tool tip, initial leg
+//! lengths.
+//!
+//! `calibration.json` holds it as an object of its own (`canonical`);
+//! `machine.json` and `truth.json` have its fields at the top level, before
+//! the file's other fields ([`WithGeometry`]).
+
+use std::fmt;
+use std::marker::PhantomData;
+
+use serde::de::value::StringDeserializer;
+use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, Visitor};
+use serde::{Deserialize, Serialize};
+
+use crate::Point3;
+use crate::check::Check;
+use crate::error::Result;
+use crate::shape::{self, Joints, Legs, P3};
+
+/// A machine geometry, in the frames the file that holds it names.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GeometryRecord {
+    /// Base joints B1..B6 in the base frame.
+    #[serde(deserialize_with = "shape::joints")]
+    pub base_joints: [Point3; 6],
+    /// Platform joints E1..E6 in the platform frame.
+    #[serde(deserialize_with = "shape::joints")]
+    pub platform_joints: [Point3; 6],
+    /// Tool tip E_T in the platform frame.
+    #[serde(deserialize_with = "shape::point")]
+    pub tool: Point3,
+    /// Initial leg lengths l1..l6 (leg i is `l_i + q_i` long).
+    #[serde(deserialize_with = "shape::legs")]
+    pub leg_lengths: [f64; 6],
+}
+
+impl GeometryRecord {
+    /// Every value finite. Errors name the field after `parent` (`""` or
+    /// e.g. `"canonical."`).
+    pub(crate) fn validate(&self, check: Check, parent: &str) -> Result<()> {
+        check.points(format_args!("{parent}base_joints"), &self.base_joints)?;
+        check.points(
+            format_args!("{parent}platform_joints"),
+            &self.platform_joints,
+        )?;
+        check.point(format_args!("{parent}tool"), &self.tool)?;
+        check.values(format_args!("{parent}leg_lengths"), &self.leg_lengths)
+    }
+}
+
+/// A JSON object with the fields of `geometry` first, then those of `rest`.
+///
+/// Written through serde's `flatten`. Read by handing every key that is not
+/// a geometry field to `rest`'s own `Deserialize`, as the object streams
+/// by: serde's `flatten` would buffer the fields, and an error would lose
+/// its field path and line.
+#[derive(Debug, Serialize)]
+pub(crate) struct WithGeometry<G, T> {
+    #[serde(flatten)]
+    pub geometry: G,
+    #[serde(flatten)]
+    pub rest: T,
+}
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for WithGeometry<GeometryRecord, T> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_map(WithGeometryVisitor(PhantomData))
+    }
+}
+
+struct WithGeometryVisitor<T>(PhantomData<T>);
+
+impl<'de, T: Deserialize<'de>> Visitor<'de> for WithGeometryVisitor<T> {
+    type Value = WithGeometry<GeometryRecord, T>;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a JSON object")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+        let mut split = Split {
+            map,
+            geometry: PartialGeometry::default(),
+        };
+        let rest = T::deserialize(&mut split)?;
+        Ok(WithGeometry {
+            geometry: split.geometry.finish()?,
+            rest,
+        })
+    }
+}
+
+/// The object being read, as `rest` sees it: the geometry's fields are
+/// taken out on the way.
+struct Split<A> {
+    map: A,
+    geometry: PartialGeometry,
+}
+
+impl<'de, A: MapAccess<'de>> MapAccess<'de> for Split<A> {
+    type Error = A::Error;
+
+    fn next_key_seed<K: DeserializeSeed<'de>>(
+        &mut self,
+        seed: K,
+    ) -> Result<Option<K::Value>, A::Error> {
+        while let Some(key) = self.map.next_key::<String>()? {
+            if !self.geometry.read(&key, &mut self.map)? {
+                return seed.deserialize(StringDeserializer::new(key)).map(Some);
+            }
+        }
+        Ok(None)
+    }
+
+    fn next_value_seed<V: DeserializeSeed<'de>>(&mut self, seed: V) -> Result<V::Value, A::Error> {
+        self.map.next_value_seed(seed)
+    }
+}
+
+impl<'de, A: MapAccess<'de>> Deserializer<'de> for &mut Split<A> {
+    type Error = A::Error;
+
+    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, A::Error> {
+        visitor.visit_map(self)
+    }
+
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+        bytes byte_buf option unit unit_struct newtype_struct seq tuple
+        tuple_struct map struct enum identifier ignored_any
+    }
+}
+
+/// The geometry fields read so far.
+#[derive(Default)]
+struct PartialGeometry {
+    base_joints: Option<[Point3; 6]>,
+    platform_joints: Option<[Point3; 6]>,
+    tool: Option<Point3>,
+    leg_lengths: Option<[f64; 6]>,
+}
+
+impl PartialGeometry {
+    /// Reads the value of `key` from `map` if `key` is a geometry field;
+    /// `false` if it is not.
+    fn read<'de, A: MapAccess<'de>>(&mut self, key: &str, map: &mut A) -> Result<bool, A::Error> {
+        match key {
+            "base_joints" => fill(&mut self.base_joints, "base_joints", map, |j: Joints| j.0),
+            "platform_joints" => fill(
+                &mut self.platform_joints,
+                "platform_joints",
+                map,
+                |j: Joints| j.0,
+            ),
+            "tool" => fill(&mut self.tool, "tool", map, |p: P3| p.0),
+            "leg_lengths" => fill(&mut self.leg_lengths, "leg_lengths", map, |l: Legs| l.0),
+            _ => return Ok(false),
+        }?;
+        Ok(true)
+    }
+
+    /// The geometry, or the first missing field.
+    fn finish<E: de::Error>(self) -> Result<GeometryRecord, E> {
+        Ok(GeometryRecord {
+            base_joints: self
+                .base_joints
+                .ok_or_else(|| E::missing_field("base_joints"))?,
+            platform_joints: self
+                .platform_joints
+                .ok_or_else(|| E::missing_field("platform_joints"))?,
+            tool: self.tool.ok_or_else(|| E::missing_field("tool"))?,
+            leg_lengths: self
+                .leg_lengths
+                .ok_or_else(|| E::missing_field("leg_lengths"))?,
+        })
+    }
+}
+
+/// Reads the next value of `map` into `slot` (which must be empty: a field
+/// given twice is an error, as in serde's derived structs).
+fn fill<'de, A, V, T>(
+    slot: &mut Option<T>,
+    field: &'static str,
+    map: &mut A,
+    into: impl FnOnce(V) -> T,
+) -> Result<(), A::Error>
+where
+    A: MapAccess<'de>,
+    V: Deserialize<'de>,
+{
+    if slot.is_some() {
+        return Err(de::Error::duplicate_field(field));
+    }
+    *slot = Some(into(map.next_value()?));
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, PartialEq, Serialize, Deserialize)]
+    struct Rest {
+        a: f64,
+        #[serde(default)]
+        b: Vec<u32>,
+    }
+
+    const GEOMETRY: &str = r#""base_joints": [[1,2,3],[4,5,6],[7,8,9],[1,2,3],[4,5,6],[7,8,9]],
+        "platform_joints": [[1,0,0],[0,1,0],[0,0,1],[1,0,0],[0,1,0],[0,0,1]],
+        "tool": [0, 0, 60],
+        "leg_lengths": [235, 235, 235, 235, 235, 235]"#;
+
+    fn parse(json: &str) -> Result<WithGeometry<GeometryRecord, Rest>, String> {
+        let mut de = serde_json::Deserializer::from_str(json);
+        serde_path_to_error::deserialize(&mut de)
+            .map_err(|e| format!("{}: {}", e.path(), e.inner()))
+    }
+
+    #[test]
+    fn fields_of_both_parts_in_any_order_round_trip() {
+        let read = parse(&format!(
+            r#"{{"a": 1.5, {GEOMETRY}, "extra": [1, {{}}], "b": [7]}}"#
+        ))
+        .unwrap();
+        assert_eq!(read.geometry.tool, [0.0, 0.0, 60.0]);
+        assert_eq!(read.geometry.base_joints[2], [7.0, 8.0, 9.0]);
+        assert_eq!(read.rest, Rest { a: 1.5, b: vec![7] });
+        let text = serde_json::to_string(&read).unwrap();
+        assert!(text.starts_with(r#"{"base_joints":"#), "{text}");
+        assert!(
+            text.ends_with(
+                r#""leg_lengths":[235.0,235.0,235.0,235.0,235.0,235.0],"a":1.5,"b":[7]}"#
+            ),
+            "{text}"
+        );
+        let again: WithGeometry<GeometryRecord, Rest> = serde_json::from_str(&text).unwrap();
+        assert_eq!((again.geometry, again.rest), (read.geometry, read.rest));
+    }
+
+    #[test]
+    fn errors_keep_the_field_path_and_the_line() {
+        let bad_joints = GEOMETRY.replace("[7,8,9]]", "[7,8]]");
+        let err = parse(&format!("{{\"a\": 1,\n{bad_joints}}}")).unwrap_err();
+        assert!(
+            err.starts_with("base_joints[5]: expected 3 coordinates, found 2 at line 2 column"),
+            "{err}"
+        );
+        let err = parse(&format!(r#"{{{GEOMETRY}, "a": 1, "b": [1, "x"]}}"#)).unwrap_err();
+        assert!(err.starts_with("b[1]: invalid type: string \"x\""), "{err}");
+    }
+
+    #[test]
+    fn missing_and_repeated_fields_are_named() {
+        let without_tool = GEOMETRY.replace(r#""tool": [0, 0, 60],"#, "");
+        let err = parse(&format!(r#"{{{without_tool}, "a": 1}}"#)).unwrap_err();
+        assert!(err.contains("missing field `tool`"), "{err}");
+        let err = parse(&format!(r#"{{{GEOMETRY}}}"#)).unwrap_err();
+        assert!(err.contains("missing field `a`"), "{err}");
+        let err = parse(&format!(r#"{{{GEOMETRY}, "a": 1, "tool": [0, 0, 1]}}"#)).unwrap_err();
+        assert!(err.contains("duplicate field `tool`"), "{err}");
+    }
+}
