@@ -1,0 +1,96 @@
+//! A calibrated ball plate: the paper scenario (27 balls, 189 contacts,
+//! 1 um noise) with all 351 centre-to-centre distances known to 1 um,
+//! simulation IV with the propagated prior, over 8 noise seeds of one truth.
+//! The plate ties the balls' relative positions to a length standard, so
+//! the registered error on the paper's map falls well below that of the
+//! touches alone: its RMS over the seeds must be at most 1.5 um, and the
+//! predicted registered error must match the true one within 25 % (both as
+//! RMS over the seeds, since one dataset alone spreads widely).
+
+use parcal_accuracy::MapGrid;
+use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
+use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
+
+const SEEDS: std::ops::RangeInclusive<u64> = 1..=8;
+/// The bound on the true registered RMS over the seeds (mm).
+const REGISTERED_RMS_LIMIT: f64 = 1.5e-3;
+/// Largest relative difference of predicted and true registered RMS.
+const PREDICTION_TOLERANCE: f64 = 0.25;
+
+/// `(true, predicted)` registered RMS on the paper's map after calibrating
+/// the seed's dataset (mm), and the number of distances used.
+fn registered_rms(scenario: &Scenario, seed: u64) -> (f64, f64, usize) {
+    let dataset = simulate(scenario, seed).expect("simulation").dataset;
+    let truth = Truth::of(&dataset)
+        .expect("simulated truth")
+        .expect("canonical truth");
+    let options = CalibrationOptions {
+        prior: PriorMode::Propagated,
+        ..CalibrationOptions::simulation(Simulation::IV)
+    };
+    let run = calibrate(&dataset, &options, &mut |_| {}).expect("calibration");
+    assert!(run.converged(), "seed {seed}: {}", run.status_text());
+    let maps = before_after(&dataset, Some(&truth), &run, &MapGrid::paper()).expect("maps");
+    let after = maps.after.expect("posterior map");
+    let true_map = after.true_error.expect("true error map");
+    (
+        true_map.registered_summary().rms,
+        after.predicted.registered_summary().rms,
+        run.distances_used(),
+    )
+}
+
+fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
+#[test]
+fn a_ball_plate_brings_the_registered_error_to_the_micrometre() {
+    let touches = Scenario::paper();
+    let plate = Scenario {
+        plate: Some(Plate {
+            pairs: PlatePairs::All,
+            sigma: 1e-3,
+        }),
+        ..Scenario::paper()
+    };
+    let (mut with, mut predicted, mut without) = (Vec::new(), Vec::new(), Vec::new());
+    println!("seed  true registered RMS, um: touches / with plate (predicted)");
+    for seed in SEEDS {
+        let (alone, _, none) = registered_rms(&touches, seed);
+        let (tied, expected, used) = registered_rms(&plate, seed);
+        assert_eq!(none, 0, "seed {seed}: no plate, no distance");
+        assert_eq!(used, 351, "seed {seed}: every distance of the plate is used");
+        println!(
+            "{seed:>4}  {:>6.2} / {:>5.2} ({:.2})",
+            1e3 * alone,
+            1e3 * tied,
+            1e3 * expected
+        );
+        without.push(alone);
+        with.push(tied);
+        predicted.push(expected);
+    }
+    let (with, predicted, without) = (rms(&with), rms(&predicted), rms(&without));
+    println!(
+        "RMS over the seeds: touches {:.2} um, with plate {:.2} um, predicted {:.2} um",
+        1e3 * without,
+        1e3 * with,
+        1e3 * predicted
+    );
+    assert!(
+        with <= REGISTERED_RMS_LIMIT,
+        "with the plate: true registered RMS {:.2} um > {:.1} um",
+        1e3 * with,
+        1e3 * REGISTERED_RMS_LIMIT
+    );
+    assert!(
+        (predicted / with - 1.0).abs() <= PREDICTION_TOLERANCE,
+        "predicted registered RMS {:.2} um, true {:.2} um: more than {:.0} % apart",
+        1e3 * predicted,
+        1e3 * with,
+        100.0 * PREDICTION_TOLERANCE
+    );
+    assert!(with < without, "the plate must improve on the touches alone");
+}
