@@ -8,6 +8,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod compare;
 pub mod maps;
 pub mod paper;
 pub mod plots;
@@ -29,6 +30,8 @@ pub enum ReportError {
         path: std::path::PathBuf,
         reason: String,
     },
+    #[error("the simulated dataset has no truth")]
+    NoTruth,
     #[error("the true geometry is degenerate: {0}")]
     Truth(#[from] parcal_kinematics::KinematicsError),
     #[error("cannot write {path}: {source}")]
