@@ -1,20 +1,20 @@
-//! Log-log plot of the time per iteration against the number of contacts,
+//! Log-log plot (SVG) of the time per iteration against the number of contacts,
 //! 1 and 2 threads, from criterion's estimates of `cargo bench --bench
 //! iteration` (target/criterion/iteration/<threads>/<contacts>/new/estimates.json).
 //!
-//! `cargo run -p parcal-benches --example plot_iteration -- docs/performance-iteration.png`
+//! `cargo run -p parcal-benches --example plot_iteration -- docs/performance-iteration.svg`
 
 use std::path::Path;
 
-use parcal_plot::{LineChart, Series, line_chart};
+use parcal_report::plots::{LineChart, Series, line_chart};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args()
         .nth(1)
-        .unwrap_or_else(|| "performance-iteration.png".into());
+        .unwrap_or_else(|| "performance-iteration.svg".into());
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/criterion/iteration");
     let mut series = Vec::new();
-    for threads in ["1-thread", "2-thread"] {
+    for (threads, name) in [("1-thread", "1 thread"), ("2-thread", "2 threads")] {
         let mut points = Vec::new();
         for contacts in [1_000u32, 10_000, 100_000, 1_000_000] {
             let path = root
@@ -34,7 +34,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
             points.push((f64::from(contacts), nanoseconds * 1e-9));
         }
-        series.push((threads, points));
+        series.push((name, points));
     }
     let series: Vec<Series> = series
         .iter()

@@ -30,7 +30,7 @@ enum Command {
     Inspect(commands::inspect::Args),
     /// Calibrate a dataset: identified parameters with sigmas, accuracy, calibration.json.
     Calibrate(commands::calibrate::Args),
-    /// Accuracy maps (absolute and registered, predicted and true) as CSV and PNG.
+    /// Accuracy maps (absolute and registered, predicted and true) as CSV and SVG.
     Accuracy(commands::accuracy::Args),
     /// Reproduce the paper's simulations I-IV on one simulated dataset, with a report.
     Paper(commands::paper::Args),

@@ -241,8 +241,8 @@ fn calibrate_writes_calibration_json_and_compares_with_the_truth() {
     ]);
     assert!(output.status.success(), "{}", text(&output.stderr));
     assert!(maps.join("accuracy.csv").exists());
-    assert!(maps.join("after_true_registered.png").exists());
-    assert!(maps.join("before_predicted_absolute.png").exists());
+    assert!(maps.join("after_true_registered.svg").exists());
+    assert!(maps.join("before_predicted_absolute.svg").exists());
 }
 
 fn parcal_dataset_calibration(path: &Path) -> String {
@@ -271,11 +271,11 @@ fn paper_writes_the_report() {
         assert!(report.contains(part), "report.md lacks {part:?}");
     }
     for file in [
-        "residuals-fig5.png",
-        "residuals-fig8.png",
+        "residuals-fig5.svg",
+        "residuals-fig8.svg",
         "residuals.csv",
         "calibration-IV-propagated.json",
-        "map-IV-propagated-after_true_registered.png",
+        "map-IV-propagated-after_true_registered.svg",
     ] {
         assert!(temp.path().join(file).exists(), "{file} missing");
     }

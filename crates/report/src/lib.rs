@@ -1,5 +1,5 @@
 //! What a person reads after a calibration: parameter tables, accuracy maps
-//! (CSV and PNG) and the paper-reproduction report of `parcal paper`.
+//! (CSV and SVG) and the paper-reproduction report of `parcal paper`.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), parcal_report::ReportError> {
@@ -8,8 +8,10 @@
 //! # Ok(()) }
 //! ```
 
+pub mod compare;
 pub mod maps;
 pub mod paper;
+pub mod plots;
 pub mod tables;
 
 /// Why a report could not be written.
@@ -23,8 +25,13 @@ pub enum ReportError {
     Calibrate(#[from] parcal_calibrate::CalibrateError),
     #[error("accuracy map: {0}")]
     Accuracy(#[from] parcal_accuracy::AccuracyError),
-    #[error(transparent)]
-    Plot(#[from] parcal_plot::PlotError),
+    #[error("cannot plot {}: {reason}", path.display())]
+    Plot {
+        path: std::path::PathBuf,
+        reason: String,
+    },
+    #[error("the simulated dataset has no truth")]
+    NoTruth,
     #[error("the true geometry is degenerate: {0}")]
     Truth(#[from] parcal_kinematics::KinematicsError),
     #[error("cannot write {path}: {source}")]

@@ -6,7 +6,9 @@ use std::fmt::Write;
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::evaluate::{Accuracy, BeforeAfter, Truth};
 use parcal_calibrate::run::weak_direction;
-use parcal_kinematics::PARAM_NAMES;
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
+
+use crate::compare::nees_sentence;
 
 /// Parameter, value, sigma and, with a truth, the true value, the error and
 /// error / sigma (paper tables 3 and 4, with truth columns).
@@ -110,7 +112,8 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
     {
         let _ = writeln!(
             out,
-            "NEES against the truth: {nees:.1} (33 expected for an honest covariance)"
+            "NEES against the truth: {}",
+            nees_sentence(nees, N_PARAMS)
         );
     }
     for note in run.notes() {

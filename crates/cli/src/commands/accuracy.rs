@@ -1,4 +1,4 @@
-//! `parcal accuracy`: the accuracy maps of spec section 5 as CSV and PNG.
+//! `parcal accuracy`: the accuracy maps of spec section 5 as CSV and SVG.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -21,7 +21,7 @@ pub struct Args {
     /// without it only the design (before calibration) is assessed.
     #[arg(long)]
     calibration: Option<PathBuf>,
-    /// Output directory for accuracy.csv and the PNG maps.
+    /// Output directory for accuracy.csv and the SVG maps.
     #[arg(long)]
     out: PathBuf,
 }
@@ -86,7 +86,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     )?;
     writeln!(
         stdout,
-        "wrote {} and {} PNG maps to {}",
+        "wrote {} and {} SVG maps to {}",
         args.out.join("accuracy.csv").display(),
         pictures.len(),
         args.out.display()
