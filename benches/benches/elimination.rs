@@ -6,7 +6,7 @@
 use std::ops::Range;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{DVector, Dyn, OMatrix, SMatrix, SVector, U3};
 use parcal_solver::{Linearization, Problem, SolverOptions, State, linear_step};
 
 const POINTS: usize = 7;
@@ -14,7 +14,7 @@ const POINTS: usize = 7;
 /// Fixed pseudo-random blocks, 64 distinct ones.
 struct Synthetic {
     groups: usize,
-    blocks: Vec<Linearization<33, 3, 2, 3>>,
+    blocks: Vec<Linearization<3, 2, 3>>,
 }
 
 impl Synthetic {
@@ -29,7 +29,7 @@ impl Synthetic {
         let blocks = (0..64)
             .map(|_| Linearization {
                 residual: SVector::from_fn(|_, _| next()),
-                d_global: SMatrix::from_fn(|_, _| next()),
+                d_global: OMatrix::from_fn_generic(U3, Dyn(33), |_, _| next()),
                 d_group: SMatrix::from_fn(|_, _| next()) + SMatrix::identity(),
                 d_point: SMatrix::from_fn(|_, _| next()),
             })
@@ -38,15 +38,18 @@ impl Synthetic {
     }
 }
 
-impl Problem<33, 3, 2, 3> for Synthetic {
+impl Problem<3, 2, 3> for Synthetic {
     type PointCache = ();
     type Workspace = ();
     type Error = std::convert::Infallible;
-    type Jacobian = SMatrix<f64, 3, 33>;
-    type Global = SVector<f64, 33>;
-    fn prepare_global(&self, global: &SVector<f64, 33>) -> Self::Global {
-        *global
+    type Jacobian = OMatrix<f64, U3, Dyn>;
+    type Global = ();
+
+    fn global_size(&self) -> usize {
+        33
     }
+
+    fn prepare_global(&self, _: &DVector<f64>) {}
 
     fn n_groups(&self) -> usize {
         self.groups
@@ -61,13 +64,17 @@ impl Problem<33, 3, 2, 3> for Synthetic {
     fn linearize(
         &self,
         i: usize,
-        _: &SVector<f64, 33>,
+        _: &(),
         _: &SVector<f64, 3>,
         _: &SVector<f64, 2>,
         _: &mut (),
-        out: &mut Linearization<33, 3, 2, 3>,
+        out: &mut Linearization<3, 2, 3>,
     ) -> Result<(), Self::Error> {
-        out.clone_from(&self.blocks[i % self.blocks.len()]);
+        let block = &self.blocks[i % self.blocks.len()];
+        out.residual = block.residual;
+        out.d_global.copy_from(&block.d_global);
+        out.d_group = block.d_group;
+        out.d_point = block.d_point;
         Ok(())
     }
 }
@@ -76,7 +83,7 @@ fn elimination(c: &mut Criterion) {
     let groups = 100_000 / POINTS;
     let problem = Synthetic::new(groups);
     let state = State {
-        global: SVector::zeros(),
+        global: DVector::zeros(33),
         groups: vec![SVector::zeros(); groups],
         points: vec![SVector::zeros(); groups * POINTS],
     };

@@ -2,12 +2,12 @@
 //! and its calibration problem, warm (every contact's forward kinematics
 //! starts from its design solution, as in an iteration after the first).
 
-use nalgebra::Vector2;
+use nalgebra::{DVector, Vector2};
 use parcal_calibrate::problem::{CalibrationProblem, CoordinateObservations};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation};
 use parcal_dataset::Dataset;
-use parcal_kinematics::{N_PARAMS, Params};
+use parcal_kinematics::Params;
 use parcal_simulate::{Scenario, simulate};
 use parcal_solver::State;
 
@@ -51,13 +51,12 @@ pub fn warm_problem<'a>(
     dataset: &'a Dataset,
     setup: &'a Setup,
     observations: CoordinateObservations,
-) -> (
-    CalibrationProblem<'a, CoordinateObservations>,
-    State<N_PARAMS, 3, 2>,
-) {
+) -> (CalibrationProblem<'a, CoordinateObservations>, State<3, 2>) {
     let problem = setup.problem(dataset, &options(), observations);
     let state = State {
-        global: setup.initial_params + Params::repeat(1e-3),
+        global: DVector::from_column_slice(
+            (setup.initial_params + Params::repeat(1e-3)).as_slice(),
+        ),
         groups: setup.initial_centres.clone(),
         points: vec![Vector2::zeros(); setup.order.len()],
     };

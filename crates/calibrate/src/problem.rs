@@ -13,7 +13,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{SMatrix, SVector, UnitVector3, Vector2};
+use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, U3, UnitVector3, Vector2};
 use parcal_kinematics::lanes::{PivotOrder, forward_along_batch, forward_jacobian_batch};
 use parcal_kinematics::{
     ForwardOptions, Geometry, KinematicsError, N_PARAMS, Params, Pose, SolutionAlong,
@@ -59,7 +59,7 @@ pub trait ContactObservations<const R: usize, const P: usize>: Sync {
     ) -> Result<BlockJacobians<R, P>, ObserveError>;
 
     /// The prior on contact `i`'s angles, if any.
-    fn angle_prior(&self, i: usize) -> Option<GaussianPrior<P>> {
+    fn angle_prior(&self, i: usize) -> Option<GaussianPrior<Const<P>>> {
         let _ = i;
         None
     }
@@ -105,7 +105,7 @@ impl ContactObservations<3, 2> for CoordinateObservations {
         Ok(block.evaluate_whitened(tip, centre, angles, &self.weights[i]))
     }
 
-    fn angle_prior(&self, _i: usize) -> Option<GaussianPrior<2>> {
+    fn angle_prior(&self, _i: usize) -> Option<GaussianPrior<U2>> {
         let sigma = self.angle_sigma?;
         Some(GaussianPrior::from_sigmas(
             Vector2::zeros(),
@@ -124,7 +124,9 @@ impl ContactObservations<3, 2> for CoordinateObservations {
 /// (paper eq. 2 through eq. 9 or 10, whitened as in eq. 5), applied through
 /// `J_f` in factored form instead of formed: a combination of its rows
 /// costs a 6 x 3 product and a sparse row, a product with a step a sparse
-/// row and a 3 x 6 product.
+/// row and a 3 x 6 product. The calibration's global block is the 33
+/// kinematic parameters: they are its first 33 columns, and any further
+/// columns are zero.
 #[derive(Debug, Clone)]
 pub struct ContactJacobian<const R: usize> {
     /// The whitened `dc/dT` (R x 3).
@@ -133,8 +135,8 @@ pub struct ContactJacobian<const R: usize> {
     pub tip: SolutionJacobian,
 }
 
-impl<const R: usize> GlobalJacobian<N_PARAMS, R> for ContactJacobian<R> {
-    fn zeros() -> Self {
+impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
+    fn zeros(_global_size: usize) -> Self {
         Self {
             d_tip: SMatrix::zeros(),
             tip: SolutionJacobian::default(),
@@ -143,12 +145,39 @@ impl<const R: usize> GlobalJacobian<N_PARAMS, R> for ContactJacobian<R> {
 
     fn combine_rows(&self, c: &[f64; R], out: &mut [f64]) {
         let h = self.d_tip.tr_mul(&SVector::from(*c));
-        self.tip.jacobian.params_row(&h, out);
+        let (params, rest) = out.split_at_mut(N_PARAMS);
+        self.tip.jacobian.params_row(&h, params);
+        rest.fill(0.0);
     }
 
-    fn apply(&self, v: &Params) -> SVector<f64, R> {
-        self.d_tip * self.tip.jacobian.along(v)
+    fn apply(&self, v: &DVector<f64>) -> SVector<f64, R> {
+        self.d_tip * self.tip.jacobian.along(&kinematic_params(v))
     }
+
+    /// Rows formed on the stack (33 values): no scratch needed.
+    fn add_column_norms2(&self, out: &mut [f64], _row: &mut [f64]) {
+        let mut row = [0.0; N_PARAMS];
+        for r in 0..R {
+            self.row(r, &mut row);
+            for (o, x) in out.iter_mut().zip(&row) {
+                *o += x * x;
+            }
+        }
+    }
+
+    /// Rows formed on the stack (33 values): no scratch needed.
+    fn is_finite(&self, _row: &mut [f64]) -> bool {
+        let mut row = [0.0; N_PARAMS];
+        (0..R).all(|r| {
+            self.row(r, &mut row);
+            row.iter().all(|x| x.is_finite())
+        })
+    }
+}
+
+/// The kinematic parameters of a global block: its first 33 values.
+pub(crate) fn kinematic_params(global: &DVector<f64>) -> Params {
+    global.fixed_rows::<N_PARAMS>(0).into_owned()
 }
 
 /// The least-squares problem of one calibration, contacts sorted by ball.
@@ -168,8 +197,9 @@ pub struct CalibrationProblem<'a, O> {
     /// Calibrated radius of each ball (the groups are the balls, in order).
     pub radii: Vec<f64>,
     pub observations: O,
-    pub global_prior: Option<GaussianPrior<N_PARAMS>>,
-    pub centre_priors: Option<Vec<GaussianPrior<3>>>,
+    /// The prior on the global block (the 33 parameters).
+    pub global_prior: Option<GaussianPrior<Dyn>>,
+    pub centre_priors: Option<Vec<GaussianPrior<U3>>>,
     pub forward_options: ForwardOptions,
 }
 
@@ -218,7 +248,7 @@ impl<O> CalibrationProblem<'_, O> {
         tip: &Vec3,
         centre: &Vec3,
         angles: &SVector<f64, P>,
-        out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
+        out: &mut Linearization<3, P, R, ContactJacobian<R>>,
     ) -> Result<(), CalibrateError>
     where
         O: ContactObservations<R, P>,
@@ -243,7 +273,7 @@ impl<O> CalibrationProblem<'_, O> {
     }
 }
 
-impl<const R: usize, const P: usize, O> Problem<N_PARAMS, 3, P, R> for CalibrationProblem<'_, O>
+impl<const R: usize, const P: usize, O> Problem<3, P, R> for CalibrationProblem<'_, O>
 where
     O: ContactObservations<R, P>,
 {
@@ -257,8 +287,13 @@ where
     /// canonical geometry is built once per pass.
     type Global = Geometry;
 
-    fn prepare_global(&self, global: &Params) -> Geometry {
-        params::from_params(global)
+    /// The 33 kinematic parameters.
+    fn global_size(&self) -> usize {
+        N_PARAMS
+    }
+
+    fn prepare_global(&self, global: &DVector<f64>) -> Geometry {
+        params::from_params(&kinematic_params(global))
     }
 
     fn n_groups(&self) -> usize {
@@ -283,7 +318,7 @@ where
         group: &SVector<f64, 3>,
         point: &SVector<f64, P>,
         cache: &mut Pose,
-        out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
+        out: &mut Linearization<3, P, R, ContactJacobian<R>>,
     ) -> Result<(), CalibrateError> {
         let (points, caches, out) = (
             std::slice::from_ref(point),
@@ -311,7 +346,7 @@ where
         group: &SVector<f64, 3>,
         points: &[SVector<f64, P>],
         caches: &mut [Pose],
-        out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
+        out: &mut [Linearization<3, P, R, ContactJacobian<R>>],
         workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
         let n = out.len();
@@ -344,8 +379,8 @@ where
         group: &SVector<f64, 3>,
         point: &SVector<f64, P>,
         cache: &mut Pose,
-        dg: &Params,
-        out: &mut Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>,
+        dg: &DVector<f64>,
+        out: &mut Linearization<3, P, R, ContactJacobian<R>>,
     ) -> Result<SVector<f64, R>, CalibrateError> {
         let mut step = SVector::zeros();
         let (points, caches, out, steps) = (
@@ -372,12 +407,13 @@ where
         group: &SVector<f64, 3>,
         points: &[SVector<f64, P>],
         caches: &mut [Pose],
-        dg: &Params,
-        out: &mut [Linearization<N_PARAMS, 3, P, R, ContactJacobian<R>>],
+        dg: &DVector<f64>,
+        out: &mut [Linearization<3, P, R, ContactJacobian<R>>],
         steps: &mut [SVector<f64, R>],
         workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
         let n = out.len();
+        let dg = &kinematic_params(dg);
         let mut solutions = [SolutionAlong::default(); BATCH];
         let kinematics = forward_along_batch(
             global,
@@ -404,15 +440,15 @@ where
         })
     }
 
-    fn global_prior(&self) -> Option<&GaussianPrior<N_PARAMS>> {
+    fn global_prior(&self) -> Option<&GaussianPrior<Dyn>> {
         self.global_prior.as_ref()
     }
 
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<U3>> {
         self.centre_priors.as_ref().map(|priors| priors[k].clone())
     }
 
-    fn point_prior(&self, i: usize) -> Option<GaussianPrior<P>> {
+    fn point_prior(&self, i: usize) -> Option<GaussianPrior<Const<P>>> {
         self.observations.angle_prior(i)
     }
 }

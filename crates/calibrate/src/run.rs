@@ -14,7 +14,7 @@ use parcal_solver::{
 use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls, misfit_warning};
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
-use crate::problem::{CalibrationProblem, ContactObservations};
+use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 
@@ -494,8 +494,10 @@ impl SolverRun<'_> {
             .as_deref()
             .map_or_else(Vec::new, |costs| self.misfits(costs));
         Ok(Solved {
-            params: solution.state.global,
-            covariance: solution.covariance,
+            params: kinematic_params(&solution.state.global),
+            covariance: solution
+                .covariance
+                .map(|c| c.fixed_view::<N_PARAMS, N_PARAMS>(0, 0).into_owned()),
             centres: solution.state.groups,
             centre_sigmas: solution.group_sigmas,
             ball_misfits,
@@ -578,20 +580,21 @@ struct WrongSideWatch<'r, 'o> {
     found: Result<Vec<(WrongSide, Vec<Vec3>)>, CalibrateError>,
 }
 
-impl<const P: usize> Monitor<N_PARAMS, 3, P, Pose> for WrongSideWatch<'_, '_> {
+impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
     fn record(&mut self, record: &IterationRecord) {
         (self.observer)(record);
     }
 
-    fn inspect(&mut self, iterate: &Iterate<'_, N_PARAMS, 3, P, Pose>) -> Verdict {
+    fn inspect(&mut self, iterate: &Iterate<'_, 3, P, Pose>) -> Verdict {
         if iterate.relative_change() > SETTLED {
             return Verdict::Continue;
         }
         let state = iterate.state;
         let misfits = self.run.misfits(iterate.group_costs);
+        let params = kinematic_params(&state.global);
         self.found = self
             .run
-            .wrong_sides(&state.global, &state.groups, &misfits, iterate.caches);
+            .wrong_sides(&params, &state.groups, &misfits, iterate.caches);
         match &self.found {
             Ok(wrong) if wrong.is_empty() => Verdict::Continue,
             _ => Verdict::Stop,

@@ -8,7 +8,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{Matrix3x6, SMatrix, SVector, UnitVector3, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Matrix3x6, SMatrix, SVector, U3, UnitVector3, Vector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
@@ -136,9 +136,9 @@ impl Setup {
     /// The initial state of the solver: the design's parameters, the fitted
     /// centres and zero angles (`P` = 2 for the coordinate observation, 0
     /// for the radius observation).
-    pub fn initial_state<const P: usize>(&self) -> State<N_PARAMS, 3, P> {
+    pub fn initial_state<const P: usize>(&self) -> State<3, P> {
         State {
-            global: self.initial_params,
+            global: DVector::from_column_slice(self.initial_params.as_slice()),
             groups: self.initial_centres.clone(),
             points: vec![SVector::zeros(); self.order.len()],
         }
@@ -190,10 +190,12 @@ impl Setup {
             groups: &self.groups,
             radii: dataset.artefacts.balls.iter().map(|b| b.radius).collect(),
             observations,
-            global_prior: self
-                .prior
-                .as_ref()
-                .map(|prior| GaussianPrior::new(*prior.mean(), prior.information())),
+            global_prior: self.prior.as_ref().map(|prior| {
+                GaussianPrior::new(
+                    DVector::from_column_slice(prior.mean().as_slice()),
+                    DMatrix::from_column_slice(N_PARAMS, N_PARAMS, prior.information().as_slice()),
+                )
+            }),
             centre_priors: centre_priors(dataset, self, options.prior),
             forward_options: ForwardOptions::default(),
         }
@@ -527,7 +529,7 @@ fn centre_priors(
     dataset: &Dataset,
     setup: &Setup,
     mode: PriorMode,
-) -> Option<Vec<GaussianPrior<3>>> {
+) -> Option<Vec<GaussianPrior<U3>>> {
     let balls = &dataset.artefacts.balls;
     let means: Vec<Vec3> = match (mode, dataset.artefacts.frame) {
         (PriorMode::Paper, _) => setup.initial_centres.clone(),

@@ -6,7 +6,7 @@
 mod common;
 
 use common::options;
-use nalgebra::{SVector, Vector2};
+use nalgebra::{DVector, SVector, Vector2};
 use parcal_calibrate::problem::{ContactJacobian, CoordinateObservations};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_dataset::Dataset;
@@ -15,12 +15,17 @@ use parcal_kinematics::{N_PARAMS, Params, Pose};
 use parcal_simulate::{Scenario, simulate};
 use parcal_solver::{BATCH, GlobalJacobian, Linearization, Problem};
 
-type Lin = Linearization<N_PARAMS, 3, 2, 3, ContactJacobian<3>>;
+type Lin = Linearization<3, 2, 3, ContactJacobian<3>>;
 
 fn dataset() -> Dataset {
     simulate(&Scenario::scaled(12, 7, 10f64.to_radians()), 3)
         .unwrap()
         .dataset
+}
+
+/// The solver's global block of the parameters `params`.
+fn global_block(params: &Params) -> DVector<f64> {
+    DVector::from_column_slice(params.as_slice())
 }
 
 fn setup(dataset: &Dataset) -> (Setup, CoordinateObservations) {
@@ -87,8 +92,10 @@ fn a_batch_is_its_contacts_one_at_a_time() {
     let problem = setup.problem(&dataset, &options(), observations);
     // Mid-run: parameters away from the design, angles away from zero, the
     // poses the design's (two Newton steps per contact).
-    let global = problem.prepare_global(&(setup.initial_params + Params::repeat(1e-3)));
-    let dg = Params::from_fn(|k, _| 1e-4 * (k as f64 - 16.0));
+    let global = problem.prepare_global(&global_block(
+        &(setup.initial_params + Params::repeat(1e-3)),
+    ));
+    let dg = DVector::from_fn(N_PARAMS, |k, _| 1e-4 * (k as f64 - 16.0));
     let mut lanes_used = 0;
     for k in 0..problem.n_groups() {
         let centre = setup.initial_centres[k];
@@ -105,7 +112,7 @@ fn a_batch_is_its_contacts_one_at_a_time() {
             let mut workspace = PivotOrder::default();
             for along in [false, true] {
                 let mut poses = setup.poses[range.clone()].to_vec();
-                let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros()).collect();
+                let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros(N_PARAMS)).collect();
                 let mut steps = vec![SVector::<f64, 3>::zeros(); n];
                 if along {
                     problem
@@ -136,7 +143,7 @@ fn a_batch_is_its_contacts_one_at_a_time() {
                 }
                 for (j, i) in range.clone().enumerate() {
                     let mut pose = setup.poses[i];
-                    let mut single = Lin::zeros();
+                    let mut single = Lin::zeros(N_PARAMS);
                     if along {
                         let step = problem
                             .linearize_along(
@@ -179,12 +186,12 @@ fn a_batch_names_its_first_failing_contact() {
         dataset.measurements.q[row] = [-1e4; 6];
     }
     let problem = setup.problem(&dataset, &options(), observations);
-    let global = problem.prepare_global(&setup.initial_params);
+    let global = problem.prepare_global(&global_block(&setup.initial_params));
     let centre = setup.initial_centres[0];
     let angles = vec![Vector2::zeros(); BATCH];
     let range = contacts.start..contacts.start + BATCH;
     let mut poses = setup.poses[range.clone()].to_vec();
-    let mut batch: Vec<Lin> = (0..BATCH).map(|_| Lin::zeros()).collect();
+    let mut batch: Vec<Lin> = (0..BATCH).map(|_| Lin::zeros(N_PARAMS)).collect();
     let workspace = &mut PivotOrder::default();
     let (failed, error) = problem
         .linearize_batch(
@@ -206,7 +213,7 @@ fn a_batch_names_its_first_failing_contact() {
             &centre,
             &angles,
             &mut setup.poses[range.clone()].to_vec(),
-            &Params::repeat(1e-3),
+            &DVector::from_element(N_PARAMS, 1e-3),
             &mut batch,
             &mut steps,
             workspace,
@@ -221,7 +228,7 @@ fn a_batch_names_its_first_failing_contact() {
             &centre,
             &angles[0],
             &mut pose,
-            &mut Lin::zeros(),
+            &mut Lin::zeros(N_PARAMS),
         )
         .expect_err("the same contact alone");
     assert_eq!(error.to_string(), single.to_string());

@@ -4,14 +4,15 @@
 //! and eliminated again; the group's triangle gives `δc`, each point's
 //! triangle `δp`.
 
-use nalgebra::SVector;
+use nalgebra::{DVector, SVector};
 
-use crate::chunks::{Chunk, ElimBuffers, run_ordered, split_by};
+use crate::chunks::{Chunk, ElimBuffers, run_chunks, split_by};
 use crate::context::Context;
 use crate::eliminate::{
-    Failure, GroupRows, batches, factor_point, push_group_prior_and_damping, stepped_row,
+    Failure, GroupRows, add_group_column_norms2, batches, factor_point,
+    push_group_prior_and_damping, stepped_row,
 };
-use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
+use crate::problem::{BATCH, Linearization, Problem, State};
 use crate::qr::{PriorRows, solve_upper_in_place};
 use crate::reduced::ReducedSystem;
 use crate::solution::BlockId;
@@ -45,18 +46,18 @@ impl StepSummary {
     }
 }
 
-impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context<'_, G, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
     /// Completes the step `δg` of `system` (built at `state`) to all unknowns
     /// and writes `δ` into `delta` (same shape as `state`).
     pub(crate) fn back_substitute(
         &mut self,
-        state: &State<G, C, P>,
+        state: &State<C, P>,
         system: &ReducedSystem,
-        dg: &SVector<f64, G>,
-        delta: &mut State<G, C, P>,
+        dg: &DVector<f64>,
+        delta: &mut State<C, P>,
     ) -> Result<StepSummary, Failure> {
         let problem = self.problem;
         let lambda = system.lambda;
@@ -76,35 +77,22 @@ where
             .map(|(((chunk, caches), groups), points)| (chunk, caches, groups, points))
             .collect();
         let mut total = StepSummary::default();
-        let mut failure = None;
         let global = problem.prepare_global(&state.global);
         let global = &global;
-        run_ordered(
+        run_chunks(
+            pool,
             jobs,
-            |(chunk, caches, groups, points)| {
-                pool.with(|ws| {
-                    let (bufs, _, point_data) = ws.split();
-                    let out = ChunkOut { groups, points };
-                    back_substitute_chunk::<G, C, P, R, Pr>(
-                        problem, chunk, state, global, caches, dg, lambda, bufs, point_data, out,
-                    )
-                })
+            |ws, (chunk, caches, groups, points)| {
+                let (bufs, _, point_data) = ws.split();
+                let out = ChunkOut { groups, points };
+                back_substitute_chunk::<C, P, R, Pr>(
+                    problem, chunk, state, global, caches, dg, lambda, bufs, point_data, out,
+                )
             },
-            |result| match result {
-                Ok(part) => {
-                    total.add(&part);
-                    true
-                }
-                Err(f) => {
-                    failure.get_or_insert(f);
-                    false
-                }
-            },
-        );
-        if let Some(f) = failure {
-            return Err(f);
-        }
+            |part| total.add(&part),
+        )?;
         // The global block.
+        let g = dg.len();
         let mut global = StepSummary {
             delta_norm2: dg.norm_squared(),
             state_norm2: state.global.norm_squared(),
@@ -112,9 +100,9 @@ where
             damping_quad: 0.0,
         };
         if let Some(prior) = problem.global_prior() {
-            let e = state.global - prior.mean;
-            for j in 0..G {
-                for i in j..G {
+            let e = &state.global - &prior.mean;
+            for j in 0..g {
+                for i in j..g {
                     let v = prior.information[(i, j)];
                     global.gradient_dot += v * e[j] * dg[i];
                     if i != j {
@@ -123,11 +111,14 @@ where
                 }
             }
         }
-        for j in 0..G {
+        for (b, d) in system.observation_gradient.iter().zip(dg.iter()) {
+            global.gradient_dot += b * d;
+        }
+        for j in 0..g {
             global.damping_quad += system.damping[j] * dg[j] * dg[j];
         }
         total.add(&global);
-        delta.global = *dg;
+        delta.global.copy_from(dg);
         Ok(total)
     }
 }
@@ -139,25 +130,26 @@ struct ChunkOut<'a, const C: usize, const P: usize> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn back_substitute_chunk<const G: usize, const C: usize, const P: usize, const R: usize, Pr>(
+fn back_substitute_chunk<const C: usize, const P: usize, const R: usize, Pr>(
     problem: &Pr,
     chunk: &Chunk,
-    state: &State<G, C, P>,
+    state: &State<C, P>,
     global: &Pr::Global,
     caches: &mut [Pr::PointCache],
-    dg: &SVector<f64, G>,
+    dg: &DVector<f64>,
     lambda: f64,
     bufs: ElimBuffers<'_>,
     point_data: &mut Vec<f64>,
     out: ChunkOut<'_, C, P>,
 ) -> Result<StepSummary, Failure>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
     let ElimBuffers {
         point: point_buf,
         group: group_buf,
         scratch,
+        ..
     } = bufs;
     // Group rows [d_group | t], t = r + d_global δg.
     let gw = C + 1;
@@ -167,11 +159,12 @@ where
     let mut group = GroupRows::<C>::new(group_buf, gw);
     let mut discard = |_: &[f64]| {};
     let mut sum = StepSummary::default();
-    let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros());
+    let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros(dg.len()));
     let mut steps = [SVector::<f64, R>::zeros(); BATCH];
     let mut workspace = Pr::Workspace::default();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
+        let fixed = problem.group_is_fixed(k);
         let range = problem.group_points(k);
         point_data.clear();
         point_data.resize(range.len() * stride, 0.0);
@@ -206,7 +199,7 @@ where
                 b_c += lin.d_group.tr_mul(&lin.residual);
                 sum.gradient_dot += lin.residual.dot(global_step);
                 if lambda > 0.0 {
-                    lin.d_group.add_column_norms2(&mut raw_norms2);
+                    add_group_column_norms2(&lin.d_group, &mut raw_norms2);
                 }
                 let factor = factor_point(lin, prior.as_ref(), lambda, point_buf, 0)
                     .ok_or(Failure::Singular(BlockId::Point(i)))?;
@@ -228,38 +221,46 @@ where
                 solve_upper_in_place(panel, P, P, &mut entry[..tri], gw);
                 entry[tri..tri + P].copy_from_slice(b_p.as_slice());
                 entry[tri + P..].copy_from_slice(factor.damping.as_slice());
+                if fixed {
+                    continue;
+                }
                 for e in P..m {
                     let row = group.next_row(scratch, &mut discard);
                     stepped_row(lin, &t, prior.as_ref(), q, m, e, row);
                 }
             }
         }
-        let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
-        if let Some(prior) = &prior {
-            b_c += prior.gradient();
-        }
-        let d_c = push_group_prior_and_damping(
-            &mut group,
-            prior.as_ref(),
-            raw_norms2,
-            lambda,
-            scratch,
-            &mut discard,
-        );
-        let top = group
-            .finish(scratch, &mut discard)
-            .ok_or(Failure::Singular(BlockId::Group(k)))?;
-        let mut z = [0.0; C];
-        for (a, z) in z.iter_mut().enumerate() {
-            *z = top[a * gw + C];
-        }
-        solve_upper_in_place(top, gw, C, &mut z, 1);
-        let dc = SVector::<f64, C>::from_fn(|a, _| -z[a]);
+        let dc = if fixed {
+            SVector::<f64, C>::zeros()
+        } else {
+            let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
+            if let Some(prior) = &prior {
+                b_c += prior.gradient();
+            }
+            let d_c = push_group_prior_and_damping(
+                &mut group,
+                prior.as_ref(),
+                raw_norms2,
+                lambda,
+                scratch,
+                &mut discard,
+            );
+            let top = group
+                .finish(scratch, &mut discard)
+                .ok_or(Failure::Singular(BlockId::Group(k)))?;
+            let mut z = [0.0; C];
+            for (a, z) in z.iter_mut().enumerate() {
+                *z = top[a * gw + C];
+            }
+            solve_upper_in_place(top, gw, C, &mut z, 1);
+            let dc = SVector::<f64, C>::from_fn(|a, _| -z[a]);
+            sum.delta_norm2 += dc.norm_squared();
+            sum.state_norm2 += c.norm_squared();
+            sum.gradient_dot += b_c.dot(&dc);
+            sum.damping_quad += lambda * d_c.component_mul(&dc).dot(&dc);
+            dc
+        };
         out.groups[k - chunk.groups.start] = dc;
-        sum.delta_norm2 += dc.norm_squared();
-        sum.state_norm2 += c.norm_squared();
-        sum.gradient_dot += b_c.dot(&dc);
-        sum.damping_quad += lambda * d_c.component_mul(&dc).dot(&dc);
         for (j, i) in range.enumerate() {
             let entry = &point_data[j * stride..(j + 1) * stride];
             let dp = SVector::<f64, P>::from_fn(|a, _| {

@@ -76,6 +76,8 @@ pub(crate) struct Workspace {
     pub(crate) reduced: Vec<f64>,
     /// Householder scratch (grows to the largest need, then stays).
     pub(crate) scratch: Vec<f64>,
+    /// One group row (`C + G + 1` values).
+    pub(crate) row: Vec<f64>,
     /// Back-substitution data of the points of the current group.
     pub(crate) point_data: Vec<f64>,
 }
@@ -87,6 +89,7 @@ impl Workspace {
             group: vec![0.0; d.group_capacity() * d.group_width()],
             reduced: vec![0.0; CHUNK_BUFFER_ROWS * d.reduced_width()],
             scratch: Vec::new(),
+            row: vec![0.0; d.group_width()],
             point_data: Vec::new(),
         }
     }
@@ -99,6 +102,7 @@ impl Workspace {
                 point: &mut self.point,
                 group: &mut self.group,
                 scratch: &mut self.scratch,
+                row: &mut self.row,
             },
             &mut self.reduced,
             &mut self.point_data,
@@ -111,6 +115,9 @@ pub(crate) struct ElimBuffers<'w> {
     pub(crate) point: &'w mut [f64],
     pub(crate) group: &'w mut [f64],
     pub(crate) scratch: &'w mut Vec<f64>,
+    /// One group row: scratch for a row that skips the group buffer, or
+    /// for a global Jacobian's rows (its first `G` values).
+    pub(crate) row: &'w mut [f64],
 }
 
 /// A pool of workspaces: a task takes one, uses it, gives it back. At most
@@ -190,30 +197,36 @@ pub fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) ->
     out
 }
 
-/// Runs `work` on every job, in parallel waves of `CHUNKS_PER_WAVE`, and feeds
-/// the results to `absorb` in job order; stops after a wave in which `absorb`
-/// returned `false`. The results given to `absorb`, and so anything it folds,
-/// do not depend on the number of threads.
-pub(crate) fn run_ordered<J, O, W, A>(jobs: Vec<J>, work: W, mut absorb: A)
+/// One pass over the chunks: runs `work` on every job (a chunk and what it
+/// reads or writes) with a workspace of `pool`, in parallel waves of
+/// `CHUNKS_PER_WAVE`, and feeds the results to `absorb` in job order. The
+/// first error in job order ends the pass, after its wave. What `absorb`
+/// folds does not depend on the number of threads.
+pub(crate) fn run_chunks<J, O, E, W, A>(
+    pool: &WorkspacePool,
+    jobs: Vec<J>,
+    work: W,
+    mut absorb: A,
+) -> Result<(), E>
 where
     J: Send,
     O: Send,
-    W: Fn(J) -> O + Sync,
-    A: FnMut(O) -> bool,
+    E: Send,
+    W: Fn(&mut Workspace, J) -> Result<O, E> + Sync,
+    A: FnMut(O),
 {
     let mut jobs = jobs.into_iter();
     loop {
         let wave: Vec<J> = jobs.by_ref().take(CHUNKS_PER_WAVE).collect();
         if wave.is_empty() {
-            return;
+            return Ok(());
         }
-        let results: Vec<O> = wave.into_par_iter().map(&work).collect();
-        let mut go_on = true;
-        for r in results {
-            go_on &= absorb(r);
-        }
-        if !go_on {
-            return;
+        let results: Vec<Result<O, E>> = wave
+            .into_par_iter()
+            .map(|job| pool.with(|ws| work(ws, job)))
+            .collect();
+        for result in results {
+            absorb(result?);
         }
     }
 }
@@ -245,16 +258,22 @@ mod tests {
     }
 
     #[test]
-    fn ordered_run_keeps_job_order() {
+    fn a_pass_keeps_job_order_and_stops_at_the_first_error() {
+        let dims = Dims {
+            g: 1,
+            c: 1,
+            p: 0,
+            r: 1,
+        };
+        let pool = WorkspacePool::new(dims);
         let mut seen = Vec::new();
-        run_ordered(
-            (0..200).collect(),
-            |j: usize| j * 2,
-            |o| {
-                seen.push(o);
-                true
-            },
-        );
-        assert_eq!(seen, (0..200).map(|j| j * 2).collect::<Vec<_>>());
+        let double = |_: &mut Workspace, j: usize| Ok::<_, usize>(j * 2);
+        run_chunks(&pool, (0..600).collect(), double, |o| seen.push(o)).unwrap();
+        assert_eq!(seen, (0..600).map(|j| j * 2).collect::<Vec<_>>());
+        let mut seen = Vec::new();
+        let fail = |_: &mut Workspace, j: usize| if j % 100 == 7 { Err(j) } else { Ok(j) };
+        let first = run_chunks(&pool, (0..600).collect(), fail, |o| seen.push(o));
+        assert_eq!(first, Err(7));
+        assert_eq!(seen, (0..7).collect::<Vec<_>>());
     }
 }

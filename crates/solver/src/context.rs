@@ -8,9 +8,9 @@ use crate::problem::{Problem, State};
 pub(crate) type Jobs<'c, T> = Vec<(&'c Chunk, &'c mut [T])>;
 
 /// The solver's view of a problem during one run.
-pub(crate) struct Context<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
+pub(crate) struct Context<'a, const C: usize, const P: usize, const R: usize, Pr>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
     pub(crate) problem: &'a Pr,
     pub(crate) chunks: Vec<Chunk>,
@@ -19,20 +19,35 @@ where
     pub(crate) caches: &'a mut Vec<Pr::PointCache>,
 }
 
-impl<'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
-    Context<'a, G, C, P, R, Pr>
+impl<'a, const C: usize, const P: usize, const R: usize, Pr> Context<'a, C, P, R, Pr>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
     /// Checks the problem's structure against `state` and sets up the run;
     /// `caches`: the points' caches, filled from the problem's
     /// [`Problem::initial_cache`] if empty, and updated by every pass.
     pub(crate) fn new(
         problem: &'a Pr,
-        state: &State<G, C, P>,
+        state: &State<C, P>,
         caches: &'a mut Vec<Pr::PointCache>,
         groups_per_chunk: usize,
     ) -> Result<Self, String> {
+        let g = problem.global_size();
+        if state.global.len() != g {
+            return Err(format!(
+                "the problem has {g} global unknowns but the state {}",
+                state.global.len()
+            ));
+        }
+        if let Some(prior) = problem.global_prior() {
+            let (rows, columns) = prior.information.shape();
+            if prior.mean.len() != g || rows != g || columns != g {
+                return Err(format!(
+                    "the global prior has a mean of {} values and a {rows} x {columns} information matrix, for {g} global unknowns",
+                    prior.mean.len()
+                ));
+            }
+        }
         let n_groups = problem.n_groups();
         if state.groups.len() != n_groups {
             return Err(format!(
@@ -60,7 +75,7 @@ where
             ));
         }
         let dims = Dims {
-            g: G,
+            g,
             c: C,
             p: P,
             r: R,

@@ -2,113 +2,127 @@
 //! matrix, and the full marginal covariance of each group block,
 //! `Cov(c) = R_cc⁻¹R_cc⁻ᵀ + K Cov(g) Kᵀ` with `K = R_cc⁻¹R_cg` from the
 //! group's triangular rows (recomputed in one more pass over the points).
+//! A fixed group is not an unknown: its sigmas are zero.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Const, DMatrix, Dim, Dyn, Matrix, OMatrix, SMatrix, SVector, StorageMut};
 
-use crate::chunks::run_ordered;
+use crate::chunks::run_chunks;
 use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
 use crate::problem::{Problem, State};
 
 /// Turns each group's triangular rows into its marginal sigmas.
-struct SigmaSink<'a, const G: usize, const C: usize> {
-    cov: &'a SMatrix<f64, G, G>,
+struct SigmaSink<'a, const C: usize> {
+    cov: &'a DMatrix<f64>,
     first_group: usize,
+    /// `K = R_cc⁻¹R_cg` of the current group (`C × G`).
+    gain: OMatrix<f64, Const<C>, Dyn>,
     out: Vec<SVector<f64, C>>,
 }
 
-impl<const G: usize, const C: usize> EliminationSink for SigmaSink<'_, G, C> {
+impl<const C: usize> EliminationSink for SigmaSink<'_, C> {
     fn reduced_row(&mut self, _row: &[f64]) {}
 
-    fn group_done(&mut self, k: usize, top: &[f64], _data_cost: f64) {
+    fn group_done(&mut self, k: usize, top: Option<&[f64]>, _data_cost: f64) {
         debug_assert_eq!(k, self.first_group + self.out.len());
-        self.out.push(group_sigma(top, self.cov));
+        let sigma = match top {
+            Some(top) => group_sigma(top, self.cov, &mut self.gain),
+            None => SVector::zeros(),
+        };
+        self.out.push(sigma);
     }
 }
 
 /// Marginal sigmas of a group from its triangular rows `[R_cc | R_cg | z]`
-/// (row-major, width `C + G + 1`) and the global covariance.
-pub(crate) fn group_sigma<const G: usize, const C: usize>(
+/// (row-major, width `C + G + 1`) and the global covariance; `gain` is
+/// scratch for `K` (`C × G`).
+fn group_sigma<const C: usize>(
     top: &[f64],
-    cov: &SMatrix<f64, G, G>,
+    cov: &DMatrix<f64>,
+    gain: &mut OMatrix<f64, Const<C>, Dyn>,
 ) -> SVector<f64, C> {
-    let w = C + G + 1;
+    let g = cov.nrows();
+    let w = C + g + 1;
     let r_cc = SMatrix::<f64, C, C>::from_fn(|a, b| if b >= a { top[a * w + b] } else { 0.0 });
-    let r_cg = SMatrix::<f64, C, G>::from_fn(|a, j| top[a * w + C + j]);
-    let m = upper_solve(&r_cc, SMatrix::<f64, C, C>::identity());
-    let k = upper_solve(&r_cc, r_cg);
-    let kc = k * cov;
-    SVector::<f64, C>::from_fn(|a, _| (m.row(a).norm_squared() + kc.row(a).dot(&k.row(a))).sqrt())
+    let mut m = SMatrix::<f64, C, C>::identity();
+    upper_solve(&r_cc, &mut m);
+    for a in 0..C {
+        for j in 0..g {
+            gain[(a, j)] = top[a * w + C + j];
+        }
+    }
+    upper_solve(&r_cc, gain);
+    SVector::<f64, C>::from_fn(|a, _| {
+        // `(K Cov(g) Kᵀ)_aa`, with `(K Cov(g))_aj` summed over `l` in order.
+        let mut spread = 0.0;
+        for j in 0..g {
+            let mut kc = gain[(a, 0)] * cov[(0, j)];
+            for l in 1..g {
+                kc += gain[(a, l)] * cov[(l, j)];
+            }
+            spread += kc * gain[(a, j)];
+        }
+        (m.row(a).norm_squared() + spread).sqrt()
+    })
 }
 
-/// `U⁻¹ B` for upper-triangular `U`.
-fn upper_solve<const C: usize, const N: usize>(
+/// `B ← U⁻¹ B` for upper-triangular `U`.
+fn upper_solve<const C: usize, N: Dim, S>(
     u: &SMatrix<f64, C, C>,
-    mut b: SMatrix<f64, C, N>,
-) -> SMatrix<f64, C, N> {
+    b: &mut Matrix<f64, Const<C>, N, S>,
+) where
+    S: StorageMut<f64, Const<C>, N>,
+{
+    let n = b.ncols();
     for a in (0..C).rev() {
         for l in a + 1..C {
             let ual = u[(a, l)];
-            for j in 0..N {
+            for j in 0..n {
                 b[(a, j)] -= ual * b[(l, j)];
             }
         }
         let inv = 1.0 / u[(a, a)];
-        for j in 0..N {
+        for j in 0..n {
             b[(a, j)] *= inv;
         }
     }
-    b
 }
 
-impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context<'_, G, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
     /// Marginal sigmas of every group at `state`, given the covariance of
     /// the global block there.
     pub(crate) fn group_sigmas(
         &mut self,
-        state: &State<G, C, P>,
-        cov: &SMatrix<f64, G, G>,
+        state: &State<C, P>,
+        cov: &DMatrix<f64>,
     ) -> Result<Vec<SVector<f64, C>>, Failure> {
         let problem = self.problem;
         let dims = self.dims;
         let mut sigmas = Vec::with_capacity(state.groups.len());
-        let mut failure = None;
         let global = problem.prepare_global(&state.global);
         let global = &global;
         let (pool, jobs) = self.jobs();
-        run_ordered(
+        run_chunks(
+            pool,
             jobs,
-            |(chunk, caches)| {
-                pool.with(|ws| {
-                    let (bufs, _, _) = ws.split();
-                    let mut sink = SigmaSink {
-                        cov,
-                        first_group: chunk.groups.start,
-                        out: Vec::with_capacity(chunk.groups.len()),
-                    };
-                    eliminate_chunk::<G, C, P, R, _, _>(
-                        problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
-                    )?;
-                    Ok(sink.out)
-                })
+            |ws, (chunk, caches)| {
+                let (bufs, _, _) = ws.split();
+                let mut sink = SigmaSink {
+                    cov,
+                    first_group: chunk.groups.start,
+                    gain: OMatrix::zeros_generic(Const::<C>, Dyn(dims.g)),
+                    out: Vec::with_capacity(chunk.groups.len()),
+                };
+                eliminate_chunk::<C, P, R, _, _>(
+                    problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
+                )?;
+                Ok(sink.out)
             },
-            |result: Result<Vec<SVector<f64, C>>, Failure>| match result {
-                Ok(part) => {
-                    sigmas.extend(part);
-                    true
-                }
-                Err(f) => {
-                    failure.get_or_insert(f);
-                    false
-                }
-            },
-        );
-        match failure {
-            Some(f) => Err(f),
-            None => Ok(sigmas),
-        }
+            |part| sigmas.extend(part),
+        )?;
+        Ok(sigmas)
     }
 }

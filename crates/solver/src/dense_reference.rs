@@ -1,22 +1,23 @@
 //! A plain dense solve of the FULL normal equations, for checking the Schur
 //! solver on small problems (and for callers' own tests).
 //!
-//! It builds the whole Jacobian `J` — every point's rows, then the point,
-//! group and global prior rows (square roots of the information matrices by
-//! eigen-decomposition) — as a faer [`Mat`], forms `N = JᵀJ` and `Jᵀr`, and
-//! solves `(N + λ D) δ = −Jᵀr` with `D = clamp(diag N, 1e-6, 1e32)` (the same
-//! Marquardt scaling as the solver; `λ = 0` is Gauss–Newton). The unknowns are
-//! ordered `[g | c_0 … c_{K−1} | p_0 … p_{N−1}]`; see [`global_index`],
-//! [`group_index`] and [`point_index`]. Memory and time are cubic in the
-//! number of unknowns: small problems only.
+//! It builds the whole Jacobian `J` — every point's rows, the global
+//! observations' rows, then the point, group and global prior rows (square
+//! roots of the information matrices by eigen-decomposition) — as a faer
+//! [`Mat`], forms `N = JᵀJ` and `Jᵀr`, and solves `(N + λ D) δ = −Jᵀr` with
+//! `D = clamp(diag N, 1e-6, 1e32)` (the same Marquardt scaling as the
+//! solver; `λ = 0` is Gauss–Newton). The unknowns are ordered
+//! `[g | c_0 … c_{K−1} | p_0 … p_{N−1}]`, fixed groups left out; see
+//! [`Columns`]. Memory and time are cubic in the number of unknowns: small
+//! problems only.
 
 use faer::linalg::solvers::DenseSolveCore;
 use faer::prelude::Solve;
 use faer::{Mat, Side};
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{DMatrix, DVector, SVector};
 
 use crate::eliminate::damping_diagonal;
-use crate::problem::{GlobalJacobian, Linearization, Problem, State};
+use crate::problem::{GlobalJacobian, GlobalObservations, Linearization, Problem, State};
 
 /// Why the dense reference could not be computed.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -29,11 +30,17 @@ pub enum DenseError {
         /// The error's message.
         message: String,
     },
+    /// The global observations failed.
+    #[error("the global observations failed: {message}")]
+    GlobalObservations {
+        /// The error's message.
+        message: String,
+    },
     /// The (damped) normal matrix is not positive definite.
     #[error("the normal matrix is not positive definite")]
     NotPositiveDefinite,
-    /// The problem's groups do not match the state.
-    #[error("the problem's groups do not match the state")]
+    /// The problem's blocks do not match the state.
+    #[error("the problem's blocks do not match the state")]
     Structure,
     /// A prior's information matrix could not be decomposed (non-finite).
     #[error("a prior's information matrix is not finite")]
@@ -42,10 +49,13 @@ pub enum DenseError {
 
 /// The dense linear system at one state and its solution.
 #[derive(Clone, Debug)]
-pub struct DenseReference<const G: usize, const C: usize, const P: usize> {
-    /// The step `δ`, laid out like the state.
-    pub step: State<G, C, P>,
-    /// The full Jacobian, data rows then prior rows.
+pub struct DenseReference<const C: usize, const P: usize> {
+    /// The step `δ`, laid out like the state (zero for a fixed group).
+    pub step: State<C, P>,
+    /// Where each unknown's column is.
+    pub columns: Columns,
+    /// The full Jacobian: point rows, global observation rows, then prior
+    /// rows.
     pub jacobian: Mat<f64>,
     /// The full residual (one column).
     pub residual: Mat<f64>,
@@ -53,46 +63,102 @@ pub struct DenseReference<const G: usize, const C: usize, const P: usize> {
     pub normal: Mat<f64>,
     /// `N⁻¹` of the undamped normal matrix, if it is positive definite.
     pub inverse: Option<Mat<f64>>,
-    /// `|r|²`, data and prior rows.
+    /// `|r|²`, data, global observation and prior rows.
     pub cost: f64,
 }
 
-/// Column of global parameter `j`.
-pub fn global_index(j: usize) -> usize {
-    j
+/// The order of the unknowns, `[g | c_k … (groups not fixed) | p_0 …]`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Columns {
+    global_size: usize,
+    /// The first column of each group, `None` for a fixed group.
+    groups: Vec<Option<usize>>,
+    /// The first point column.
+    points: usize,
+    point_size: usize,
 }
 
-/// Column of coordinate `j` of group `k`.
-pub fn group_index<const G: usize, const C: usize>(k: usize, j: usize) -> usize {
-    G + k * C + j
-}
-
-/// Column of coordinate `j` of point `i`, in a problem with `n_groups` groups.
-pub fn point_index<const G: usize, const C: usize, const P: usize>(
-    n_groups: usize,
-    i: usize,
-    j: usize,
-) -> usize {
-    G + n_groups * C + i * P + j
-}
-
-impl<const G: usize, const C: usize, const P: usize> DenseReference<G, C, P> {
-    /// The `G × G` block of `N⁻¹`: the marginal covariance of the global
-    /// block.
-    pub fn global_covariance(&self) -> Option<SMatrix<f64, G, G>> {
-        self.inverse
-            .as_ref()
-            .map(|inv| SMatrix::from_fn(|i, j| inv[(global_index(i), global_index(j))]))
+impl Columns {
+    /// The columns of a problem whose groups (`C` unknowns each) are fixed
+    /// as `fixed` says, with `global_size` global and `point_size` point
+    /// unknowns.
+    pub fn new(global_size: usize, group_size: usize, point_size: usize, fixed: &[bool]) -> Self {
+        let mut next = global_size;
+        let groups = fixed
+            .iter()
+            .map(|&fixed| {
+                (!fixed).then(|| {
+                    next += group_size;
+                    next - group_size
+                })
+            })
+            .collect();
+        Self {
+            global_size,
+            groups,
+            points: next,
+            point_size,
+        }
     }
 
-    /// Marginal sigmas of every group from the diagonal of `N⁻¹`.
+    /// Column of global unknown `j`.
+    pub fn global(&self, j: usize) -> usize {
+        j
+    }
+
+    /// Column of coordinate `j` of group `k`; `None` if the group is fixed.
+    pub fn group(&self, k: usize, j: usize) -> Option<usize> {
+        self.groups[k].map(|first| first + j)
+    }
+
+    /// Column of coordinate `j` of point `i`.
+    pub fn point(&self, i: usize, j: usize) -> usize {
+        self.points + i * self.point_size + j
+    }
+
+    /// A state-shaped vector (e.g. a step) in this column order, fixed
+    /// groups left out.
+    pub fn vector<const C: usize, const P: usize>(&self, x: &State<C, P>) -> Mat<f64> {
+        let n = self.points + x.points.len() * self.point_size;
+        let mut v = Mat::<f64>::zeros(n, 1);
+        for j in 0..self.global_size {
+            v[(self.global(j), 0)] = x.global[j];
+        }
+        for (k, c) in x.groups.iter().enumerate() {
+            for j in 0..C {
+                if let Some(col) = self.group(k, j) {
+                    v[(col, 0)] = c[j];
+                }
+            }
+        }
+        for (i, p) in x.points.iter().enumerate() {
+            for j in 0..P {
+                v[(self.point(i, j), 0)] = p[j];
+            }
+        }
+        v
+    }
+}
+
+impl<const C: usize, const P: usize> DenseReference<C, P> {
+    /// The `G × G` block of `N⁻¹`: the marginal covariance of the global
+    /// block.
+    pub fn global_covariance(&self) -> Option<DMatrix<f64>> {
+        let g = self.step.global.len();
+        let c = &self.columns;
+        self.inverse
+            .as_ref()
+            .map(|inv| DMatrix::from_fn(g, g, |i, j| inv[(c.global(i), c.global(j))]))
+    }
+
+    /// Marginal sigmas of every group from the diagonal of `N⁻¹` (zero for
+    /// a fixed group).
     pub fn group_sigmas(&self) -> Option<Vec<SVector<f64, C>>> {
         self.inverse.as_ref().map(|inv| {
             (0..self.step.groups.len())
                 .map(|k| {
                     SVector::from_fn(|j, _| {
-                        let c = group_index::<G, C>(k, j);
-                        inv[(c, c)].sqrt()
+                        self.columns.group(k, j).map_or(0.0, |c| inv[(c, c)].sqrt())
                     })
                 })
                 .collect()
@@ -118,28 +184,30 @@ fn information_rows(information: &Mat<f64>) -> Result<Mat<f64>, DenseError> {
     Ok(Mat::from_fn(n, n, |a, j| s[a].max(0.0).sqrt() * u[(j, a)]))
 }
 
+/// One row of `J` (its non-zero entries by column) and its residual.
+type Row = (Vec<(usize, f64)>, f64);
+
 /// Builds and solves the full dense system of `problem` at `state` with
 /// Marquardt damping `lambda` (0: Gauss–Newton). Every point is linearised
-/// once, with a fresh [`initial_cache`](Problem::initial_cache).
-pub fn solve<
-    const G: usize,
-    const C: usize,
-    const P: usize,
-    const R: usize,
-    Pr: Problem<G, C, P, R>,
->(
+/// once, with a fresh [`initial_cache`](Problem::initial_cache). A fixed
+/// group's block is not an unknown: its columns are left out, and its
+/// prior, if any, adds a constant row (cost only).
+pub fn solve<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
-    state: &State<G, C, P>,
+    state: &State<C, P>,
     lambda: f64,
-) -> Result<DenseReference<G, C, P>, DenseError> {
+) -> Result<DenseReference<C, P>, DenseError> {
+    let g = problem.global_size();
     let n_groups = problem.n_groups();
     let n_points = state.points.len();
-    if state.groups.len() != n_groups {
+    if state.groups.len() != n_groups || state.global.len() != g {
         return Err(DenseError::Structure);
     }
-    let n = G + n_groups * C + n_points * P;
-    // Rows: data, then priors (point, group, global).
-    let mut rows: Vec<(Vec<(usize, f64)>, f64)> = Vec::new();
+    let fixed: Vec<bool> = (0..n_groups).map(|k| problem.group_is_fixed(k)).collect();
+    let columns = Columns::new(g, C, P, &fixed);
+    let n = columns.point(n_points, 0);
+    // Rows: data, global observations, then priors (point, group, global).
+    let mut rows: Vec<Row> = Vec::new();
     let mut point_group = vec![usize::MAX; n_points];
     for k in 0..n_groups {
         for i in problem.group_points(k) {
@@ -152,8 +220,9 @@ pub fn solve<
     if point_group.contains(&usize::MAX) {
         return Err(DenseError::Structure);
     }
-    let mut lin = Linearization::zeros();
+    let mut lin = Linearization::zeros(g);
     let global = problem.prepare_global(&state.global);
+    let mut global_row = vec![0.0; g];
     for (i, &k) in point_group.iter().enumerate() {
         let mut cache = problem.initial_cache(i);
         let (c, p) = (&state.groups[k], &state.points[i]);
@@ -163,29 +232,42 @@ pub fn solve<
                 point: i,
                 message: e.to_string(),
             })?;
-        let mut global_row = vec![0.0; G];
         for row in 0..R {
             lin.d_global.row(row, &mut global_row);
             let mut entries = Vec::new();
-            entries.extend((0..G).map(|j| (global_index(j), global_row[j])));
-            entries.extend((0..C).map(|j| (group_index::<G, C>(k, j), lin.d_group[(row, j)])));
-            entries.extend((0..P).map(|j| {
-                (
-                    point_index::<G, C, P>(n_groups, i, j),
-                    lin.d_point[(row, j)],
-                )
-            }));
+            entries.extend((0..g).map(|j| (columns.global(j), global_row[j])));
+            entries.extend(
+                (0..C).filter_map(|j| columns.group(k, j).map(|c| (c, lin.d_group[(row, j)]))),
+            );
+            entries.extend((0..P).map(|j| (columns.point(i, j), lin.d_point[(row, j)])));
             rows.push((entries, lin.residual[row]));
         }
     }
+    let mut observations = GlobalObservations::zeros(0, g);
+    problem
+        .global_observations(&state.global, &mut observations)
+        .map_err(|e| DenseError::GlobalObservations {
+            message: e.to_string(),
+        })?;
+    if observations.jacobian.ncols() != g
+        || observations.jacobian.nrows() != observations.residual.len()
+    {
+        return Err(DenseError::Structure);
+    }
+    for (r, &value) in observations.residual.iter().enumerate() {
+        let entries = (0..g)
+            .map(|j| (columns.global(j), observations.jacobian[(r, j)]))
+            .collect();
+        rows.push((entries, value));
+    }
     let mut prior_rows =
-        |columns: Vec<usize>, info: Mat<f64>, error: Vec<f64>| -> Result<(), DenseError> {
+        |columns: Vec<Option<usize>>, info: Mat<f64>, error: Vec<f64>| -> Result<(), DenseError> {
             let u = information_rows(&info)?;
             for a in 0..columns.len() {
                 let entries = columns
                     .iter()
                     .enumerate()
-                    .map(|(j, &c)| (c, u[(a, j)]))
+                    .filter_map(|(j, &c)| c.map(|c| (c, u[(a, j)])))
                     .collect();
                 let r = (0..columns.len()).map(|j| u[(a, j)] * error[j]).sum();
                 rows.push((entries, r));
@@ -195,9 +277,7 @@ pub fn solve<
     for i in 0..n_points {
         if let Some(prior) = problem.point_prior(i) {
             prior_rows(
-                (0..P)
-                    .map(|j| point_index::<G, C, P>(n_groups, i, j))
-                    .collect(),
+                (0..P).map(|j| Some(columns.point(i, j))).collect(),
                 Mat::from_fn(P, P, |a, b| prior.information[(a, b)]),
                 (0..P).map(|j| state.points[i][j] - prior.mean[j]).collect(),
             )?;
@@ -206,17 +286,20 @@ pub fn solve<
     for k in 0..n_groups {
         if let Some(prior) = problem.group_prior(k) {
             prior_rows(
-                (0..C).map(|j| group_index::<G, C>(k, j)).collect(),
+                (0..C).map(|j| columns.group(k, j)).collect(),
                 Mat::from_fn(C, C, |a, b| prior.information[(a, b)]),
                 (0..C).map(|j| state.groups[k][j] - prior.mean[j]).collect(),
             )?;
         }
     }
     if let Some(prior) = problem.global_prior() {
+        if prior.mean.len() != g || prior.information.shape() != (g, g) {
+            return Err(DenseError::Structure);
+        }
         prior_rows(
-            (0..G).map(global_index).collect(),
-            Mat::from_fn(G, G, |a, b| prior.information[(a, b)]),
-            (0..G).map(|j| state.global[j] - prior.mean[j]).collect(),
+            (0..g).map(|j| Some(columns.global(j))).collect(),
+            Mat::from_fn(g, g, |a, b| prior.information[(a, b)]),
+            (0..g).map(|j| state.global[j] - prior.mean[j]).collect(),
         )?;
     }
     let m = rows.len();
@@ -244,16 +327,17 @@ pub fn solve<
     llt.solve_in_place(delta.as_mut());
     let inverse = normal.llt(Side::Lower).ok().map(|l| l.inverse());
     let step = State {
-        global: SVector::from_fn(|j, _| delta[(global_index(j), 0)]),
+        global: DVector::from_fn(g, |j, _| delta[(columns.global(j), 0)]),
         groups: (0..n_groups)
-            .map(|k| SVector::from_fn(|j, _| delta[(group_index::<G, C>(k, j), 0)]))
+            .map(|k| SVector::from_fn(|j, _| columns.group(k, j).map_or(0.0, |c| delta[(c, 0)])))
             .collect(),
         points: (0..n_points)
-            .map(|i| SVector::from_fn(|j, _| delta[(point_index::<G, C, P>(n_groups, i, j), 0)]))
+            .map(|i| SVector::from_fn(|j, _| delta[(columns.point(i, j), 0)]))
             .collect(),
     };
     Ok(DenseReference {
         step,
+        columns,
         jacobian,
         residual,
         normal,

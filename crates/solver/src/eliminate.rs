@@ -9,7 +9,7 @@ use std::ops::Range;
 
 use faer::linalg::matmul::triangular::{BlockStructure, matmul};
 use faer::{Accum, MatMut, MatRef, Par};
-use nalgebra::{SVector, Vector3};
+use nalgebra::{SMatrix, SVector, Vector3};
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
@@ -30,13 +30,17 @@ pub(crate) fn damping_diagonal(normal_diagonal: f64) -> f64 {
     normal_diagonal.clamp(MIN_DIAGONAL, MAX_DIAGONAL)
 }
 
-/// Why a pass over the points stopped.
+/// Why a pass over the points stopped. `point`: the failing point, `None`
+/// for the global observations.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Failure {
-    /// `linearize` returned an error.
-    Linearize { point: usize, message: String },
-    /// `linearize` returned a non-finite value.
-    NonFinite { point: usize },
+    /// The problem's evaluation returned an error.
+    Linearize {
+        point: Option<usize>,
+        message: String,
+    },
+    /// The problem's evaluation returned a non-finite value.
+    NonFinite { point: Option<usize> },
     /// A point or group block is rank deficient.
     Singular(BlockId),
 }
@@ -44,7 +48,7 @@ pub(crate) enum Failure {
 impl Failure {
     pub(crate) fn linearize(point: usize, error: &impl std::fmt::Display) -> Self {
         Failure::Linearize {
-            point,
+            point: Some(point),
             message: error.to_string(),
         }
     }
@@ -69,8 +73,8 @@ pub(crate) struct PointFactor<const P: usize> {
 /// the columns from `first_column` on are formed; for 3 data rows and 2
 /// point unknowns, in closed form by [`panel_normal`] and [`panel_qr`]).
 /// Returns `None` if the panel is rank deficient.
-pub(crate) fn factor_point<const G: usize, const C: usize, const P: usize, const R: usize, J>(
-    lin: &Linearization<G, C, P, R, J>,
+pub(crate) fn factor_point<const C: usize, const P: usize, const R: usize, J>(
+    lin: &Linearization<C, P, R, J>,
     prior: Option<&PriorRows<P>>,
     lambda: f64,
     buf: &mut [f64],
@@ -277,6 +281,30 @@ fn point_q<const P: usize>(panel: &[[f64; P]], tau: &[f64; P], q: &mut [f64], fi
     }
 }
 
+/// Writes `Σ_r c_r d[r, ·]` into `out` (`C` values): a combination of the
+/// rows of a point's group Jacobian.
+#[inline(always)]
+pub(crate) fn combine_group_rows<const R: usize, const C: usize>(
+    d: &SMatrix<f64, R, C>,
+    c: &[f64; R],
+    out: &mut [f64],
+) {
+    for (j, o) in out.iter_mut().enumerate().take(C) {
+        let column = d.column(j);
+        *o = (0..R).map(|r| c[r] * column[r]).sum();
+    }
+}
+
+/// Adds the squared column norms of a point's group Jacobian to `out`.
+pub(crate) fn add_group_column_norms2<const R: usize, const C: usize>(
+    d: &SMatrix<f64, R, C>,
+    out: &mut [f64; C],
+) {
+    for (o, column) in out.iter_mut().zip(d.column_iter()) {
+        *o += column.norm_squared();
+    }
+}
+
 /// The coefficients `Q[0..R, e]` of the data rows in row `e` of `Qᵀ`.
 fn q_column<const R: usize>(q: &[f64], m: usize, e: usize) -> [f64; R] {
     let mut c = [0.0; R];
@@ -289,13 +317,12 @@ fn q_column<const R: usize>(q: &[f64], m: usize, e: usize) -> [f64; R] {
 /// Writes row `e` of `Qᵀ [d_group | d_global | r]` (prior rows contributing
 /// their residual) into `out` (`C + G + 1` values).
 pub(crate) fn eliminated_row<
-    const G: usize,
     const C: usize,
     const P: usize,
     const R: usize,
-    J: GlobalJacobian<G, R>,
+    J: GlobalJacobian<R>,
 >(
-    lin: &Linearization<G, C, P, R, J>,
+    lin: &Linearization<C, P, R, J>,
     prior: Option<&PriorRows<P>>,
     q: &[f64],
     m: usize,
@@ -303,9 +330,10 @@ pub(crate) fn eliminated_row<
     out: &mut [f64],
 ) {
     let c = q_column::<R>(q, m, e);
-    lin.d_group.combine_rows(&c, &mut out[..C]);
-    lin.d_global.combine_rows(&c, &mut out[C..C + G]);
-    out[C + G] = residual_combination(&c, &lin.residual, prior, q, m, e);
+    let (last, out) = out.split_last_mut().expect("a row has a residual");
+    combine_group_rows(&lin.d_group, &c, &mut out[..C]);
+    lin.d_global.combine_rows(&c, &mut out[C..]);
+    *last = residual_combination(&c, &lin.residual, prior, q, m, e);
 }
 
 /// `Σ_r c_r t_r + Σ_a Q[R + a, e] e_a`: a residual column `t` of the data
@@ -332,8 +360,8 @@ pub(crate) fn residual_combination<const P: usize, const R: usize>(
 
 /// Row `e` of `Qᵀ [d_group | t]` (prior rows contributing their residual)
 /// into `out` (`C + 1` values).
-pub(crate) fn stepped_row<const G: usize, const C: usize, const P: usize, const R: usize, J>(
-    lin: &Linearization<G, C, P, R, J>,
+pub(crate) fn stepped_row<const C: usize, const P: usize, const R: usize, J>(
+    lin: &Linearization<C, P, R, J>,
     t: &SVector<f64, R>,
     prior: Option<&PriorRows<P>>,
     q: &[f64],
@@ -342,7 +370,7 @@ pub(crate) fn stepped_row<const G: usize, const C: usize, const P: usize, const 
     out: &mut [f64],
 ) {
     let c = q_column::<R>(q, m, e);
-    lin.d_group.combine_rows(&c, &mut out[..C]);
+    combine_group_rows(&lin.d_group, &c, &mut out[..C]);
     out[C] = residual_combination(&c, t, prior, q, m, e);
 }
 
@@ -478,29 +506,24 @@ pub(crate) struct Costs {
 pub(crate) trait EliminationSink {
     /// One reduced row `[A_g | a]` (`G + 1` values).
     fn reduced_row(&mut self, row: &[f64]);
-    /// The triangular rows `[R_cc | R_cg | z_c]` of group `k` (row-major,
-    /// `C` rows of width `C + G + 1`), and its points' data cost
-    /// `Σ |r_i|²`.
-    fn group_done(&mut self, k: usize, top: &[f64], data_cost: f64);
+    /// Group `k` is done: its triangular rows `[R_cc | R_cg | z_c]`
+    /// (row-major, `C` rows of width `C + G + 1`; `None` for a fixed group,
+    /// which has none), and its points' data cost `Σ |r_i|²`.
+    fn group_done(&mut self, k: usize, top: Option<&[f64]>, data_cost: f64);
 }
 
 /// Eliminates the points and groups of one chunk at `state` (its global
 /// block prepared as `global`) with damping `lambda` (0: undamped). `caches`
 /// are the caches of the chunk's points.
 /// `global_norms2`, if given, accumulates `Σ |d_global column|²` (the data
-/// part of the global damping diagonal).
+/// part of the global damping diagonal). The points of a fixed group
+/// ([`Problem::group_is_fixed`]) send their point-eliminated rows, without
+/// the group columns, straight to the sink.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn eliminate_chunk<
-    const G: usize,
-    const C: usize,
-    const P: usize,
-    const R: usize,
-    Pr,
-    S,
->(
+pub(crate) fn eliminate_chunk<const C: usize, const P: usize, const R: usize, Pr, S>(
     problem: &Pr,
     chunk: &Chunk,
-    state: &State<G, C, P>,
+    state: &State<C, P>,
     global: &Pr::Global,
     caches: &mut [Pr::PointCache],
     lambda: f64,
@@ -510,20 +533,22 @@ pub(crate) fn eliminate_chunk<
     sink: &mut S,
 ) -> Result<Costs, Failure>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
     S: EliminationSink,
 {
     let ElimBuffers {
         point: point_buf,
         group: group_buf,
         scratch,
+        row: single,
     } = bufs;
     let mut group = GroupRows::<C>::new(group_buf, dims.group_width());
     let mut costs = Costs::default();
-    let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros());
+    let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros(dims.g));
     let mut workspace = Pr::Workspace::default();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
+        let fixed = problem.group_is_fixed(k);
         group.reset();
         let mut raw_norms2 = [0.0; C];
         let mut group_data = 0.0;
@@ -551,9 +576,9 @@ where
                     costs.prior += prior.residual.norm_squared();
                 }
                 if lambda > 0.0 {
-                    lin.d_group.add_column_norms2(&mut raw_norms2);
+                    add_group_column_norms2(&lin.d_group, &mut raw_norms2);
                     if let Some(out) = global_norms2.as_deref_mut() {
-                        lin.d_global.add_column_norms2(out);
+                        lin.d_global.add_column_norms2(out, &mut single[..dims.g]);
                     }
                 }
                 let factor = factor_point(lin, prior.as_ref(), lambda, point_buf, P)
@@ -561,14 +586,23 @@ where
                 let m = factor.rows;
                 let q = &point_buf[(R + 2 * P) * P..];
                 for e in P..m {
-                    let row = group.next_row(scratch, &mut |row| sink.reduced_row(row));
-                    eliminated_row(lin, prior.as_ref(), q, m, e, row);
+                    if fixed {
+                        eliminated_row(lin, prior.as_ref(), q, m, e, single);
+                        sink.reduced_row(&single[C..]);
+                    } else {
+                        let row = group.next_row(scratch, &mut |row| sink.reduced_row(row));
+                        eliminated_row(lin, prior.as_ref(), q, m, e, row);
+                    }
                 }
             }
         }
         let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
         if let Some(prior) = &prior {
             costs.prior += prior.residual.norm_squared();
+        }
+        if fixed {
+            sink.group_done(k, None, group_data);
+            continue;
         }
         push_group_prior_and_damping(
             &mut group,
@@ -581,7 +615,7 @@ where
         let top = group
             .finish(scratch, &mut |row| sink.reduced_row(row))
             .ok_or(Failure::Singular(BlockId::Group(k)))?;
-        sink.group_done(k, top, group_data);
+        sink.group_done(k, Some(top), group_data);
     }
     Ok(costs)
 }
@@ -599,24 +633,26 @@ pub(crate) fn batches(points: Range<usize>) -> impl Iterator<Item = Range<usize>
 /// names the first with a non-finite residual or Jacobian (checking every
 /// point on the fast path would cost more than the elimination of a small
 /// point). `None` if all are finite (the sums overflowed).
-pub(crate) fn find_non_finite<const G: usize, const C: usize, const P: usize, const R: usize, Pr>(
+pub(crate) fn find_non_finite<const C: usize, const P: usize, const R: usize, Pr>(
     problem: &Pr,
     chunk: &Chunk,
-    state: &State<G, C, P>,
+    state: &State<C, P>,
     global: &Pr::Global,
     caches: &mut [Pr::PointCache],
 ) -> Option<Failure>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
-    let mut lin = Linearization::zeros();
+    let g = state.global.len();
+    let mut lin = Linearization::zeros(g);
+    let mut row = vec![0.0; g];
     for k in chunk.groups.clone() {
         for i in problem.group_points(k) {
             let cache = &mut caches[i - chunk.points.start];
             let (c, p) = (&state.groups[k], &state.points[i]);
             match problem.linearize(i, global, c, p, cache, &mut lin) {
-                Ok(()) if lin.is_finite() => {}
-                Ok(()) => return Some(Failure::NonFinite { point: i }),
+                Ok(()) if lin.is_finite(&mut row) => {}
+                Ok(()) => return Some(Failure::NonFinite { point: Some(i) }),
                 Err(e) => return Some(Failure::linearize(i, &e)),
             }
         }
@@ -689,7 +725,7 @@ impl EliminationSink for NormalSink<'_> {
         self.filled += 1;
     }
 
-    fn group_done(&mut self, _k: usize, _top: &[f64], data_cost: f64) {
+    fn group_done(&mut self, _k: usize, _top: Option<&[f64]>, data_cost: f64) {
         self.group_costs.push(data_cost);
     }
 }

@@ -4,7 +4,7 @@
 
 use std::mem::swap;
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{DMatrix, DVector};
 
 use crate::context::Context;
 use crate::diagnostics::SpectrumDiagnostics;
@@ -25,18 +25,12 @@ const GOOD_GAIN: f64 = 0.75;
 /// Solves the problem from `initial`; `observer` sees every history record
 /// as it is made. Never panics on bad numerics; see [`Status`] for how a run
 /// can end, and [`Solution`] for what is returned.
-pub fn solve<
-    const G: usize,
-    const C: usize,
-    const P: usize,
-    const R: usize,
-    Pr: Problem<G, C, P, R>,
->(
+pub fn solve<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
-    initial: State<G, C, P>,
+    initial: State<C, P>,
     options: &SolverOptions,
     mut observer: &mut dyn FnMut(&IterationRecord),
-) -> Solution<G, C, P> {
+) -> Solution<C, P> {
     solve_with_caches(problem, initial, &mut Vec::new(), options, &mut observer)
 }
 
@@ -45,19 +39,13 @@ pub fn solve<
 /// `initial_cache`), and a [`Monitor`] that sees each iterate and may stop
 /// the run there. On return `caches` holds those of the run's last pass over
 /// the points: the warm starts of a follow-up run from the solution.
-pub fn solve_with_caches<
-    const G: usize,
-    const C: usize,
-    const P: usize,
-    const R: usize,
-    Pr: Problem<G, C, P, R>,
->(
+pub fn solve_with_caches<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
-    initial: State<G, C, P>,
+    initial: State<C, P>,
     caches: &mut Vec<Pr::PointCache>,
     options: &SolverOptions,
-    monitor: &mut dyn Monitor<G, C, P, Pr::PointCache>,
-) -> Solution<G, C, P> {
+    monitor: &mut dyn Monitor<C, P, Pr::PointCache>,
+) -> Solution<C, P> {
     let invalid = |state, message: String| Solution {
         state,
         status: Status::InvalidProblem { message },
@@ -88,11 +76,8 @@ pub fn solve_with_caches<
 }
 
 /// `a += b`.
-fn add_into<const G: usize, const C: usize, const P: usize>(
-    a: &mut State<G, C, P>,
-    b: &State<G, C, P>,
-) {
-    a.global += b.global;
+fn add_into<const C: usize, const P: usize>(a: &mut State<C, P>, b: &State<C, P>) {
+    a.global += &b.global;
     for (x, y) in a.groups.iter_mut().zip(&b.groups) {
         *x += y;
     }
@@ -101,11 +86,41 @@ fn add_into<const G: usize, const C: usize, const P: usize>(
     }
 }
 
+/// How a run ends when a pass over the points fails after `solves` linear
+/// solves: a non-finite evaluation is the problem's failure at the initial
+/// state and a divergence after a step.
+fn status_of(failure: Failure, solves: usize) -> Status {
+    let at = |point: Option<usize>| match point {
+        Some(point) => format!("point {point}"),
+        None => "the global observations".to_string(),
+    };
+    match failure {
+        Failure::Linearize { point, message } => Status::ProblemFailed {
+            iteration: solves,
+            point,
+            message,
+        },
+        Failure::NonFinite { point } if solves == 0 => Status::ProblemFailed {
+            iteration: 0,
+            point,
+            message: "non-finite residual or Jacobian".into(),
+        },
+        Failure::NonFinite { point } => Status::Diverged {
+            iteration: solves,
+            reason: format!("non-finite residual or Jacobian at {}", at(point)),
+        },
+        Failure::Singular(block) => Status::SingularBlock {
+            iteration: solves,
+            block,
+        },
+    }
+}
+
 /// One linear step of the Schur solver, as [`linear_step`] returns it.
 #[derive(Clone, Debug)]
-pub struct LinearStep<const G: usize, const C: usize, const P: usize> {
+pub struct LinearStep<const C: usize, const P: usize> {
     /// The step `δ`, laid out like the state.
-    pub delta: State<G, C, P>,
+    pub delta: State<C, P>,
     /// The cost at the state.
     pub cost: f64,
     /// The decrease of the linearised cost predicted for `δ`
@@ -121,44 +136,27 @@ pub struct LinearStep<const G: usize, const C: usize, const P: usize> {
 /// checks against [`dense_reference`](crate::dense_reference) and for
 /// benchmarks. Fails with the [`Status`] that [`solve`] would end with at
 /// this point.
-pub fn linear_step<
-    const G: usize,
-    const C: usize,
-    const P: usize,
-    const R: usize,
-    Pr: Problem<G, C, P, R>,
->(
+pub fn linear_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
-    state: &State<G, C, P>,
+    state: &State<C, P>,
     caches: &mut Vec<Pr::PointCache>,
     lambda: f64,
     groups_per_chunk: usize,
-) -> Result<LinearStep<G, C, P>, Status> {
-    let failed = |f: Failure| match f {
-        Failure::Linearize { point, message } => Status::ProblemFailed {
-            iteration: 0,
-            point,
-            message,
-        },
-        Failure::NonFinite { point } => Status::ProblemFailed {
-            iteration: 0,
-            point,
-            message: "non-finite residual or Jacobian".into(),
-        },
-        Failure::Singular(block) => Status::SingularBlock {
-            iteration: 0,
-            block,
-        },
-    };
+) -> Result<LinearStep<C, P>, Status> {
+    let failed = |f| status_of(f, 0);
     let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
-    let factor = ScaledCholesky::new(&system.matrix, G).ok_or_else(|| Status::Singular {
-        iteration: 0,
-        diagnostics: Box::new(SpectrumDiagnostics::of_symmetric(&system.matrix, G)),
-    })?;
+    let factor =
+        ScaledCholesky::new(&system.matrix, system.size()).ok_or_else(|| Status::Singular {
+            iteration: 0,
+            diagnostics: Box::new(SpectrumDiagnostics::of_symmetric(
+                &system.matrix,
+                system.size(),
+            )),
+        })?;
     let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
-    let dg = SVector::<f64, G>::from_vec(factor.solve(&neg_b));
+    let dg = DVector::from_vec(factor.solve(&neg_b));
     let mut delta = state.clone();
     let summary = ctx
         .back_substitute(state, &system, &dg, &mut delta)
@@ -170,24 +168,25 @@ pub fn linear_step<
     })
 }
 
-struct Run<'o, 'a, const G: usize, const C: usize, const P: usize, const R: usize, Pr>
+struct Run<'o, 'a, const C: usize, const P: usize, const R: usize, Pr>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
-    ctx: Context<'a, G, C, P, R, Pr>,
+    ctx: Context<'a, C, P, R, Pr>,
     options: &'o SolverOptions,
-    monitor: &'o mut dyn Monitor<G, C, P, Pr::PointCache>,
+    monitor: &'o mut dyn Monitor<C, P, Pr::PointCache>,
     history: Vec<IterationRecord>,
 }
 
-impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Run<'_, '_, G, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> Run<'_, '_, C, P, R, Pr>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
     fn record(&mut self, system: &ReducedSystem, step_norm: f64, lambda: f64, accepted: bool) {
         let record = IterationRecord {
             cost: system.cost(),
             data_cost: system.data_cost,
+            global_observation_cost: system.global_observation_cost,
             prior_cost: system.prior_cost,
             step_norm,
             lambda,
@@ -200,7 +199,7 @@ where
     /// Shows the monitor the new iterate `x`, whose system is `system`.
     fn inspect(
         &mut self,
-        x: &State<G, C, P>,
+        x: &State<C, P>,
         system: &ReducedSystem,
         previous_cost: Option<f64>,
     ) -> Verdict {
@@ -214,7 +213,7 @@ where
         })
     }
 
-    fn end(self, state: State<G, C, P>, status: Status) -> Solution<G, C, P> {
+    fn end(self, state: State<C, P>, status: Status) -> Solution<C, P> {
         Solution {
             state,
             status,
@@ -228,31 +227,11 @@ where
 
     /// Ends the run at `state` because a pass over the points failed after
     /// `solves` linear solves.
-    fn fail(self, state: State<G, C, P>, solves: usize, failure: Failure) -> Solution<G, C, P> {
-        let status = match failure {
-            Failure::Linearize { point, message } => Status::ProblemFailed {
-                iteration: solves,
-                point,
-                message,
-            },
-            Failure::NonFinite { point } if solves == 0 => Status::ProblemFailed {
-                iteration: 0,
-                point,
-                message: "non-finite residual or Jacobian".into(),
-            },
-            Failure::NonFinite { point } => Status::Diverged {
-                iteration: solves,
-                reason: format!("non-finite residual or Jacobian at point {point}"),
-            },
-            Failure::Singular(block) => Status::SingularBlock {
-                iteration: solves,
-                block,
-            },
-        };
-        self.end(state, status)
+    fn fail(self, state: State<C, P>, solves: usize, failure: Failure) -> Solution<C, P> {
+        self.end(state, status_of(failure, solves))
     }
 
-    fn diverged(self, state: State<G, C, P>, solves: usize, reason: String) -> Solution<G, C, P> {
+    fn diverged(self, state: State<C, P>, solves: usize, reason: String) -> Solution<C, P> {
         self.end(
             state,
             Status::Diverged {
@@ -262,7 +241,7 @@ where
         )
     }
 
-    fn run(mut self, initial: State<G, C, P>) -> Solution<G, C, P> {
+    fn run(mut self, initial: State<C, P>) -> Solution<C, P> {
         let options = self.options;
         let damped = match options.method {
             Method::GaussNewton => None,
@@ -298,9 +277,10 @@ where
                     return self.end(x, Status::Stopped { iteration: solves });
                 }
             }
-            let Some(factor) = ScaledCholesky::new(&system.matrix, G) else {
+            let Some(factor) = ScaledCholesky::new(&system.matrix, system.size()) else {
                 if damped.is_none() {
-                    let diagnostics = SpectrumDiagnostics::of_symmetric(&system.matrix, G);
+                    let diagnostics =
+                        SpectrumDiagnostics::of_symmetric(&system.matrix, system.size());
                     self.record(&system, 0.0, 0.0, true);
                     let mut solution = self.end(
                         x,
@@ -330,7 +310,7 @@ where
                 continue;
             };
             let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
-            let dg = SVector::<f64, G>::from_vec(factor.solve(&neg_b));
+            let dg = DVector::from_vec(factor.solve(&neg_b));
             let summary = match self.ctx.back_substitute(&x, &system, &dg, &mut trial) {
                 Ok(s) => s,
                 Err(f) => return self.fail(x, solves, f),
@@ -436,11 +416,11 @@ where
     /// spectrum at `state`.
     fn finish(
         mut self,
-        state: State<G, C, P>,
+        state: State<C, P>,
         mut system: ReducedSystem,
         step_norm: f64,
         status: Status,
-    ) -> Solution<G, C, P> {
+    ) -> Solution<C, P> {
         let solves = self.history.len();
         if system.lambda > 0.0 {
             system = match self.ctx.reduce(&state, 0.0) {
@@ -451,12 +431,12 @@ where
         self.record(&system, step_norm, 0.0, true);
         let spectrum = system
             .is_finite()
-            .then(|| SpectrumDiagnostics::of_symmetric(&system.matrix, G));
+            .then(|| SpectrumDiagnostics::of_symmetric(&system.matrix, system.size()));
         let covariance = system
             .is_finite()
-            .then(|| ScaledCholesky::new(&system.matrix, G))
+            .then(|| ScaledCholesky::new(&system.matrix, system.size()))
             .flatten()
-            .map(|f| SMatrix::<f64, G, G>::from_row_slice(&f.inverse()));
+            .map(|f| DMatrix::from_row_slice(system.size(), system.size(), &f.inverse()));
         let group_sigmas = covariance
             .as_ref()
             .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok());

@@ -7,11 +7,15 @@
 //! The unknowns are one dense **global** block `g ∈ Rᴳ`, one **group** block
 //! `c_k ∈ Rᶜ` per group `k`, and one **point** block `p_i ∈ Rᴾ` per point `i`
 //! (`P` may be 0); each point belongs to exactly one group `k(i)`, and the
-//! points of a group are contiguous. Point `i` has `R` whitened residual rows
-//! `r_i(g, c_k(i), p_i)`. The cost is
+//! points of a group are contiguous. `C`, `P` and the number of rows per
+//! point are compile-time constants; `G` is the problem's
+//! ([`Problem::global_size`]). Point `i` has `R` whitened residual rows
+//! `r_i(g, c_k(i), p_i)`, and a few **global observations** `r_o(g)`
+//! (`m` rows, [`Problem::global_observations`]) depend on the global block
+//! only. The cost is
 //!
 //! ```text
-//! F(x) = Σ_i |r_i|²  +  Σ_blocks (x_b − m_b)ᵀ Λ_b (x_b − m_b)
+//! F(x) = Σ_i |r_i|²  +  |r_o|²  +  Σ_blocks (x_b − m_b)ᵀ Λ_b (x_b − m_b)
 //! ```
 //!
 //! with optional Gaussian priors (mean `m_b`, full information `Λ_b`) on the
@@ -23,9 +27,13 @@
 //! (JᵀJ + Λ) δ = −(Jᵀr + Λ (x − m)),     x ← x + δ.
 //! ```
 //!
+//! A group may be **fixed** ([`Problem::group_is_fixed`]): its block keeps
+//! its value and is not an unknown (its columns are left out of `J`).
+//!
 //! # Block structure
 //!
-//! Two groups, points 0–1 in group 0 and 2–3 in group 1 (`·` is zero):
+//! Two groups, points 0–1 in group 0 and 2–3 in group 1, and the global
+//! observations (`·` is zero):
 //!
 //! ```text
 //!            p0   p1   p2   p3 │ c0   c1 │  g
@@ -33,11 +41,13 @@
 //!   r1    [  ·   P1    ·    ·  │ C1    · │ G1 ]
 //!   r2    [  ·    ·   P2    ·  │  ·   C2 │ G2 ]
 //!   r3    [  ·    ·    ·   P3  │  ·   C3 │ G3 ]
+//!   r_o   [  ·    ·    ·    ·  │  ·    · │ J_o]
 //! ```
 //!
 //! Point columns are block-diagonal, group columns block-diagonal over the
 //! groups, and the global columns dense. Eliminating points, then groups,
-//! leaves a small dense `G × G` system.
+//! leaves a small dense `G × G` system. If group 1 were fixed, its column
+//! `c1` would be absent.
 //!
 //! # Elimination in square-root form
 //!
@@ -65,34 +75,43 @@
 //!                       [  0    B_g   β   ]   reduced rows
 //!    ```
 //!
+//!    The point-eliminated rows `[A_g a]` of a fixed group are reduced rows
+//!    as they are (no `A_c`: no group QR).
+//!
 //! 3. **Reduced system.** As the `Q`s are orthogonal, the reduced rows of all
 //!    groups satisfy `Σ [B_g β]ᵀ[B_g β] = [S b; bᵀ ρ]`, where `S` is the Schur
 //!    complement of the normal matrix onto the global block,
 //!    `S = H_gg − H_g,cp H_cp,cp⁻¹ H_cp,g`, and `b` the reduced gradient. `S`
 //!    and `b` come from one GEMM per buffer of reduced rows. The global prior
-//!    is added (`S += Λ_g`, `b += Λ_g(g − m_g)`) and `S δg = −b` is solved by
-//!    a Cholesky factorisation of `S` scaled to unit diagonal.
+//!    and the global observations, which involve no other block, are added
+//!    as they are (`S += Λ_g + J_oᵀJ_o`, `b += Λ_g(g − m_g) + J_oᵀr_o`) and
+//!    `S δg = −b` is solved by a Cholesky factorisation of `S` scaled to
+//!    unit diagonal.
 //!
 //! 4. **Back-substitution.** A second pass linearises every point again
 //!    (its [`Problem::PointCache`] makes this cheap), folds the now known
 //!    `δg` into the residual column and repeats the small QRs; then
-//!    `R_cc δc = −(z_c + R_cg δg)` and `R_pp δp = −(z_p + R_pc δc + R_pg δg)`.
+//!    `R_cc δc = −(z_c + R_cg δg)` and `R_pp δp = −(z_p + R_pc δc + R_pg δg)`
+//!    (`δc = 0` for a fixed group).
 //!
 //! 5. **Covariance** (after the last iterate, undamped): `Cov(g) = S⁻¹`, and
 //!    the full marginal covariance of each group,
 //!    `Cov(c_k) = R_cc⁻¹R_cc⁻ᵀ + K Cov(g) Kᵀ` with `K = R_cc⁻¹R_cg`, from one
-//!    more pass that recomputes the groups' triangles.
+//!    more pass that recomputes the groups' triangles. A fixed group's block
+//!    is known: its sigmas are reported as zero, and `Cov(g)` is the
+//!    covariance given the fixed blocks.
 //!
 //! # Levenberg–Marquardt
 //!
 //! [`Method::LevenbergMarquardt`] solves `(H + λD) δ = −b` with Marquardt's
 //! scaling `D = clamp(diag H, 1e-6, 1e32)` (diagonal of the full normal
-//! matrix, priors included; the clamp as in Ceres, so that a parameter no
-//! residual sees is still damped). The damping enters as extra rows
-//! `√(λ D_j) e_j` at each level: in each point block, in each group block
-//! (with `D` of the group summed over its points' raw Jacobians), and on the
-//! diagonal of `S`. The predicted decrease is `−bᵀδ + δᵀ(λD)δ`, accumulated
-//! during back-substitution; the step is accepted if the cost decreases
+//! matrix, priors and global observations included; the clamp as in Ceres,
+//! so that a parameter no residual sees is still damped). The damping
+//! enters as extra rows `√(λ D_j) e_j` at each level: in each point block,
+//! in each group block (with `D` of the group summed over its points' raw
+//! Jacobians), and on the diagonal of `S`. The predicted decrease is
+//! `−bᵀδ + δᵀ(λD)δ`, accumulated during back-substitution; the step is
+//! accepted if the cost decreases
 //! (gain ratio `ρ > 0`), and `λ` follows Nielsen (`λ·max(1/3, 1 − (2ρ−1)³)`
 //! on acceptance, `λ·ν, ν ← 2ν` on rejection), with one change: the trial
 //! point is evaluated by building its reduced system with `λ/3`, and a good
@@ -118,9 +137,10 @@
 //!
 //! Groups are cut into chunks of [`SolverOptions::groups_per_chunk`]. Chunks
 //! run in parallel (rayon, in waves of 256 chunks); each reduces its rows into
-//! its own partial `(G+1)²` matrix with fixed-size buffers (a group is folded
-//! in batches of at most 256 rows, reduced rows are multiplied in batches of
-//! 2048), and the partial results are summed sequentially in chunk order.
+//! its own partial `(G+1)²` matrix with buffers sized once per run (a group
+//! is folded in batches of at most 256 rows, reduced rows are multiplied in
+//! batches of 2048), and the partial results are summed sequentially in
+//! chunk order.
 //! Every kernel runs sequentially inside a chunk (`Par::Seq`), and the
 //! points are linearised in batches of at most [`BATCH`] of one group, in
 //! order, with one [`Problem::Workspace`] per chunk and pass. Hence results
@@ -155,34 +175,32 @@
 //! (`R = 1`: distance to the centre minus the radius):
 //!
 //! ```
-//! use nalgebra::{SMatrix, SVector, Vector1, Vector2};
+//! use nalgebra::{DVector, Dyn, OMatrix, SVector, U1, Vector1, Vector2};
 //! use parcal_solver::{solve, Linearization, Problem, SolverOptions, State, Status};
 //!
 //! struct Circles { points: Vec<Vector2<f64>>, per_circle: usize }
 //!
-//! impl Problem<1, 2, 0, 1> for Circles {
+//! impl Problem<2, 0, 1> for Circles {
 //!     type PointCache = ();
 //!     type Workspace = ();
 //!     type Error = std::convert::Infallible;
-//!     type Jacobian = SMatrix<f64, 1, 1>;
-//!     type Global = Vector1<f64>; // the radius as it is
-//!     fn prepare_global(&self, radius: &Vector1<f64>) -> Vector1<f64> { *radius }
+//!     type Jacobian = OMatrix<f64, U1, Dyn>; // dense, 1 x G
+//!     type Global = f64; // the radius
+//!     fn global_size(&self) -> usize { 1 }
+//!     fn prepare_global(&self, global: &DVector<f64>) -> f64 { global[0] }
 //!     fn n_groups(&self) -> usize { self.points.len() / self.per_circle }
 //!     fn group_points(&self, k: usize) -> std::ops::Range<usize> {
 //!         k * self.per_circle..(k + 1) * self.per_circle
 //!     }
 //!     fn initial_cache(&self, _i: usize) {}
-//!     fn linearize(&self, i: usize, radius: &Vector1<f64>, centre: &Vector2<f64>,
+//!     fn linearize(&self, i: usize, radius: &f64, centre: &Vector2<f64>,
 //!                  _p: &SVector<f64, 0>, _cache: &mut (),
-//!                  out: &mut Linearization<1, 2, 0, 1>) -> Result<(), Self::Error> {
+//!                  out: &mut Linearization<2, 0, 1>) -> Result<(), Self::Error> {
 //!         let d = self.points[i] - centre;
 //!         let n = d.norm();
-//!         *out = Linearization {
-//!             residual: Vector1::new(n - radius[0]),
-//!             d_global: Vector1::new(-1.0),
-//!             d_group: (-d / n).transpose(),
-//!             d_point: SMatrix::zeros(),
-//!         };
+//!         out.residual = Vector1::new(n - radius);
+//!         out.d_global[0] = -1.0;
+//!         out.d_group = (-d / n).transpose();
 //!         Ok(())
 //!     }
 //! }
@@ -193,7 +211,7 @@
 //! }).collect();
 //! let problem = Circles { points, per_circle: 5 };
 //! let initial = State {
-//!     global: Vector1::new(1.5),
+//!     global: DVector::from_element(1, 1.5),
 //!     groups: vec![Vector2::new(0.3, -0.2), Vector2::new(4.6, 1.2)],
 //!     points: vec![SVector::zeros(); 10],
 //! };
@@ -227,5 +245,7 @@ pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
 pub use monitor::{Iterate, Monitor, Verdict};
 pub use options::{Method, SolverOptions};
-pub use problem::{BATCH, GaussianPrior, GlobalJacobian, Linearization, Problem, State};
+pub use problem::{
+    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
+};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

@@ -7,8 +7,8 @@ use crate::solution::IterationRecord;
 
 /// An iterate the solver has just evaluated (its reduced system is built),
 /// before the step there is computed.
-pub struct Iterate<'a, const G: usize, const C: usize, const P: usize, T> {
-    pub state: &'a State<G, C, P>,
+pub struct Iterate<'a, const C: usize, const P: usize, T> {
+    pub state: &'a State<C, P>,
     /// Linear solves before it (0: the initial state).
     pub solves: usize,
     /// Its cost (data and priors).
@@ -22,7 +22,7 @@ pub struct Iterate<'a, const G: usize, const C: usize, const P: usize, T> {
     pub caches: &'a [T],
 }
 
-impl<const G: usize, const C: usize, const P: usize, T> Iterate<'_, G, C, P, T> {
+impl<const C: usize, const P: usize, T> Iterate<'_, C, P, T> {
     /// `|cost − previous cost| / cost`: how far the iteration still moves
     /// the cost (infinite at the initial state).
     pub fn relative_change(&self) -> f64 {
@@ -43,18 +43,18 @@ pub enum Verdict {
 
 /// Watches a run of [`solve_with_caches`](crate::solve_with_caches). Any
 /// `FnMut(&IterationRecord)` is a monitor that records and never stops.
-pub trait Monitor<const G: usize, const C: usize, const P: usize, T> {
+pub trait Monitor<const C: usize, const P: usize, T> {
     /// Sees each history record as it is made.
     fn record(&mut self, record: &IterationRecord);
 
     /// Sees each new iterate once (the initial state, then each iterate a
     /// step led to; not an iterate the iteration limit ends the run at).
-    fn inspect(&mut self, _iterate: &Iterate<'_, G, C, P, T>) -> Verdict {
+    fn inspect(&mut self, _iterate: &Iterate<'_, C, P, T>) -> Verdict {
         Verdict::Continue
     }
 }
 
-impl<const G: usize, const C: usize, const P: usize, T, F> Monitor<G, C, P, T> for F
+impl<const C: usize, const P: usize, T, F> Monitor<C, P, T> for F
 where
     F: FnMut(&IterationRecord),
 {

@@ -3,26 +3,30 @@
 
 use std::ops::Range;
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::allocator::Allocator;
+use nalgebra::{
+    Const, DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, SMatrix, SVector,
+};
 
 use crate::qr::all_finite;
 
 /// The Jacobian of a point's whitened residual (`R` rows) with respect to the
-/// global block (`G` unknowns), as the elimination uses it: through
-/// combinations of its rows and its product with a vector. A dense
-/// `SMatrix<f64, R, G>` is one; a problem whose global Jacobian is costly to
-/// form can implement the two products directly (e.g. one transposed solve
-/// per combination instead of `R` rows).
-pub trait GlobalJacobian<const G: usize, const R: usize>: Sized {
-    /// A zero Jacobian, the placeholder the solver hands to
-    /// [`Problem::linearize`] to be overwritten.
-    fn zeros() -> Self;
+/// global block (`G` unknowns, [`Problem::global_size`]), as the
+/// elimination uses it: through combinations of its rows and its product
+/// with a vector. A dense `OMatrix<f64, Const<R>, Dyn>` (`R × G`) is one; a
+/// problem whose global Jacobian is costly to form can implement the two
+/// products directly (e.g. one transposed solve per combination instead of
+/// `R` rows).
+pub trait GlobalJacobian<const R: usize>: Sized {
+    /// A zero Jacobian with `global_size` columns, the placeholder the
+    /// solver hands to [`Problem::linearize`] to be overwritten.
+    fn zeros(global_size: usize) -> Self;
 
-    /// Writes `Σ_r c_r J[r, ·]` into `out` (`G` values).
+    /// Writes `Σ_r c_r J[r, ·]` into `out` (all its `G` values).
     fn combine_rows(&self, c: &[f64; R], out: &mut [f64]);
 
-    /// `J v`.
-    fn apply(&self, v: &SVector<f64, G>) -> SVector<f64, R>;
+    /// `J v` (`v`: `G` values).
+    fn apply(&self, v: &DVector<f64>) -> SVector<f64, R>;
 
     /// Row `r` of `J`, written into `out` (`G` values).
     fn row(&self, r: usize, out: &mut [f64]) {
@@ -31,64 +35,61 @@ pub trait GlobalJacobian<const G: usize, const R: usize>: Sized {
         self.combine_rows(&c, out);
     }
 
-    /// Adds `Σ_r J[r, j]²` to `out[j]` (`G` values).
-    fn add_column_norms2(&self, out: &mut [f64]) {
-        let mut row = [0.0; G];
+    /// Adds `Σ_r J[r, j]²` to `out[j]` (`G` values); `row` is scratch of
+    /// the same length (the default forms each row there).
+    fn add_column_norms2(&self, out: &mut [f64], row: &mut [f64]) {
         for r in 0..R {
-            self.row(r, &mut row);
-            for (o, x) in out.iter_mut().zip(&row) {
+            self.row(r, row);
+            for (o, x) in out.iter_mut().zip(row.iter()) {
                 *o += x * x;
             }
         }
     }
 
-    /// Whether every entry is finite.
-    fn is_finite(&self) -> bool {
-        let mut row = [0.0; G];
+    /// Whether every entry is finite; `row` is scratch of `G` values.
+    fn is_finite(&self, row: &mut [f64]) -> bool {
         (0..R).all(|r| {
-            self.row(r, &mut row);
-            all_finite(&row)
+            self.row(r, row);
+            all_finite(row)
         })
     }
 }
 
-impl<const G: usize, const R: usize> GlobalJacobian<G, R> for SMatrix<f64, R, G> {
-    fn zeros() -> Self {
-        SMatrix::zeros()
+impl<const R: usize> GlobalJacobian<R> for OMatrix<f64, Const<R>, Dyn> {
+    fn zeros(global_size: usize) -> Self {
+        OMatrix::zeros_generic(Const::<R>, Dyn(global_size))
     }
 
     fn combine_rows(&self, c: &[f64; R], out: &mut [f64]) {
-        for (j, o) in out.iter_mut().enumerate().take(G) {
-            let column = self.column(j);
+        for (o, column) in out.iter_mut().zip(self.column_iter()) {
             *o = (0..R).map(|r| c[r] * column[r]).sum();
         }
     }
 
-    fn apply(&self, v: &SVector<f64, G>) -> SVector<f64, R> {
+    fn apply(&self, v: &DVector<f64>) -> SVector<f64, R> {
         self * v
     }
 
-    fn add_column_norms2(&self, out: &mut [f64]) {
+    fn add_column_norms2(&self, out: &mut [f64], _row: &mut [f64]) {
         for (o, column) in out.iter_mut().zip(self.column_iter()) {
             *o += column.norm_squared();
         }
     }
 
-    fn is_finite(&self) -> bool {
+    fn is_finite(&self, _row: &mut [f64]) -> bool {
         all_finite(self.as_slice())
     }
 }
 
 /// The whitened residual of one point and its Jacobians with respect to the
 /// three blocks of unknowns it depends on; the global one as any
-/// [`GlobalJacobian`] (by default a dense matrix).
+/// [`GlobalJacobian`] (by default a dense `R × G` matrix).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Linearization<
-    const G: usize,
     const C: usize,
     const P: usize,
     const R: usize,
-    J = SMatrix<f64, R, G>,
+    J = OMatrix<f64, Const<R>, Dyn>,
 > {
     /// Whitened residual `r_i` (already multiplied by the square root of the
     /// measurement information).
@@ -101,63 +102,74 @@ pub struct Linearization<
     pub d_point: SMatrix<f64, R, P>,
 }
 
-impl<const G: usize, const C: usize, const P: usize, const R: usize, J: GlobalJacobian<G, R>>
-    Linearization<G, C, P, R, J>
+impl<const C: usize, const P: usize, const R: usize, J: GlobalJacobian<R>>
+    Linearization<C, P, R, J>
 {
-    /// All-zero residual and Jacobians, to be filled in.
-    pub fn zeros() -> Self {
+    /// All-zero residual and Jacobians (`global_size` global columns), to be
+    /// filled in.
+    pub fn zeros(global_size: usize) -> Self {
         Self {
             residual: SVector::zeros(),
-            d_global: J::zeros(),
+            d_global: J::zeros(global_size),
             d_group: SMatrix::zeros(),
             d_point: SMatrix::zeros(),
         }
     }
 
-    /// Whether every entry is finite.
-    pub fn is_finite(&self) -> bool {
+    /// Whether every entry is finite; `row` is scratch of `G` values
+    /// ([`GlobalJacobian::is_finite`]).
+    pub fn is_finite(&self, row: &mut [f64]) -> bool {
         all_finite(self.residual.as_slice())
-            && self.d_global.is_finite()
+            && self.d_global.is_finite(row)
             && all_finite(self.d_group.as_slice())
             && all_finite(self.d_point.as_slice())
     }
 }
 
-/// A Gaussian prior `N(mean, information⁻¹)` on one block of unknowns; it adds
-/// `(x − mean)ᵀ · information · (x − mean)` to the cost.
+/// A Gaussian prior `N(mean, information⁻¹)` on one block of unknowns of
+/// dimension `D` (`Const<N>` for a group or point block, `Dyn` for the
+/// global block); it adds `(x − mean)ᵀ · information · (x − mean)` to the
+/// cost.
 ///
 /// The information matrix must be symmetric positive semi-definite (a zero
 /// eigenvalue means "no information in that direction"). Only its lower
 /// triangle is read.
 #[derive(Clone, Debug, PartialEq)]
-pub struct GaussianPrior<const N: usize> {
+pub struct GaussianPrior<D: Dim>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
     /// Prior mean.
-    pub mean: SVector<f64, N>,
+    pub mean: OVector<f64, D>,
     /// Prior information (inverse covariance), full `N × N`.
-    pub information: SMatrix<f64, N, N>,
+    pub information: OMatrix<f64, D, D>,
 }
 
-impl<const N: usize> GaussianPrior<N> {
+impl<D: Dim> GaussianPrior<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
     /// A prior from its mean and full information matrix.
-    pub fn new(mean: SVector<f64, N>, information: SMatrix<f64, N, N>) -> Self {
+    pub fn new(mean: OVector<f64, D>, information: OMatrix<f64, D, D>) -> Self {
         Self { mean, information }
     }
 
     /// An independent prior: information `diag(1/σ²)`. An infinite σ gives
     /// zero information for that coordinate.
-    pub fn from_sigmas(mean: SVector<f64, N>, sigmas: SVector<f64, N>) -> Self {
-        let information = SMatrix::from_diagonal(&sigmas.map(|s| 1.0 / (s * s)));
+    pub fn from_sigmas(mean: OVector<f64, D>, sigmas: OVector<f64, D>) -> Self {
+        let information = OMatrix::from_diagonal(&sigmas.map(|s| 1.0 / (s * s)));
         Self { mean, information }
     }
 
     /// The prior's cost `(x − mean)ᵀ · information · (x − mean)`, reading the
     /// lower triangle only.
-    pub fn cost(&self, x: &SVector<f64, N>) -> f64 {
-        let e = x - self.mean;
+    pub fn cost(&self, x: &OVector<f64, D>) -> f64 {
+        let e = x - &self.mean;
+        let n = e.len();
         let mut total = 0.0;
-        for j in 0..N {
+        for j in 0..n {
             total += self.information[(j, j)] * e[j] * e[j];
-            for i in j + 1..N {
+            for i in j + 1..n {
                 total += 2.0 * self.information[(i, j)] * e[i] * e[j];
             }
         }
@@ -165,18 +177,49 @@ impl<const N: usize> GaussianPrior<N> {
     }
 }
 
+/// Residual rows that depend on the global block only, whitened, with their
+/// dense Jacobian: `m` rows `r_o(g)` and `J_o = ∂r_o/∂g` (`m × G`), `m`
+/// small (tens to a few hundred). [`Problem::global_observations`] fills
+/// them in, resizing both as it needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GlobalObservations {
+    /// `r_o` (`m` values).
+    pub residual: DVector<f64>,
+    /// `J_o` (`m × G`).
+    pub jacobian: DMatrix<f64>,
+}
+
+impl GlobalObservations {
+    /// `rows` zero rows on a global block of `global_size` unknowns.
+    pub fn zeros(rows: usize, global_size: usize) -> Self {
+        Self {
+            residual: DVector::zeros(rows),
+            jacobian: DMatrix::zeros(rows, global_size),
+        }
+    }
+
+    /// `|r_o|²`, their part of the cost.
+    pub fn cost(&self) -> f64 {
+        self.residual.norm_squared()
+    }
+}
+
 /// Points linearised together at most ([`Problem::linearize_batch`]).
 pub const BATCH: usize = 4;
 
-/// A least-squares problem with one global block (`G` unknowns), `n_groups`
-/// group blocks (`C` unknowns each) and one point block (`P` unknowns) per
-/// point; point `i` has `R` whitened residual rows that depend on the global
-/// block, its group's block and its own block only.
+/// A least-squares problem with one global block (`G` unknowns,
+/// [`global_size`](Problem::global_size)), `n_groups` group blocks (`C`
+/// unknowns each) and one point block (`P` unknowns) per point; point `i`
+/// has `R` whitened residual rows that depend on the global block, its
+/// group's block and its own block only. Optionally, a few residual rows
+/// depend on the global block only
+/// ([`global_observations`](Problem::global_observations)), and some groups
+/// are held fixed ([`group_is_fixed`](Problem::group_is_fixed)).
 ///
 /// Points are numbered `0..n_points`; the points of group `k` are the
 /// contiguous range [`group_points(k)`](Problem::group_points), and the ranges
 /// of groups `0, 1, …` follow each other without gaps, starting at 0.
-pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize>: Sync {
+pub trait Problem<const C: usize, const P: usize, const R: usize>: Sync {
     /// Per-point state kept by the solver between evaluations (e.g. a warm
     /// start of an inner iteration). The solver keeps one per point for the
     /// whole run and hands it to every [`linearize`](Problem::linearize) of
@@ -190,23 +233,39 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     type Workspace: Default + Send;
     /// The error a linearisation can fail with.
     type Error: std::error::Error + Send + Sync + 'static;
-    /// The global Jacobian of a point (`SMatrix<f64, R, G>` when dense).
-    type Jacobian: GlobalJacobian<G, R>;
+    /// The global Jacobian of a point (`OMatrix<f64, Const<R>, Dyn>` when
+    /// dense).
+    type Jacobian: GlobalJacobian<R>;
     /// What the points' linearisations need of the global block: the block
-    /// itself (`SVector<f64, G>`), or what they would otherwise each derive
-    /// from it (e.g. a geometry built from parameters), made once per pass
-    /// over the points by [`prepare_global`](Problem::prepare_global).
+    /// itself, or what they would otherwise each derive from it (e.g. a
+    /// geometry built from parameters), made once per pass over the points
+    /// by [`prepare_global`](Problem::prepare_global).
     type Global: Sync;
+
+    /// The number `G` of global unknowns: the length of the state's global
+    /// block.
+    fn global_size(&self) -> usize;
 
     /// [`Problem::Global`] at the global block `global`, before a pass over
     /// the points.
-    fn prepare_global(&self, global: &SVector<f64, G>) -> Self::Global;
+    fn prepare_global(&self, global: &DVector<f64>) -> Self::Global;
 
     /// Number of groups.
     fn n_groups(&self) -> usize;
 
     /// Points of group `k`: contiguous, groups in order partition `0..n_points`.
     fn group_points(&self, k: usize) -> Range<usize>;
+
+    /// Whether group `k`'s block is held at its value in the state instead
+    /// of being an unknown (the problem carries those unknowns elsewhere,
+    /// e.g. in the global block, or they are known). Its points' rows then
+    /// go to the reduced system without a group elimination; its step is
+    /// zero and its sigmas are reported as zero. Its prior, if any, still
+    /// adds its (constant) term to the cost. Default: no group is fixed.
+    fn group_is_fixed(&self, k: usize) -> bool {
+        let _ = k;
+        false
+    }
 
     /// The cache of point `i` before its first linearisation.
     fn initial_cache(&self, i: usize) -> Self::PointCache;
@@ -223,7 +282,7 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         group: &SVector<f64, C>,
         point: &SVector<f64, P>,
         cache: &mut Self::PointCache,
-        out: &mut Linearization<G, C, P, R, Self::Jacobian>,
+        out: &mut Linearization<C, P, R, Self::Jacobian>,
     ) -> Result<(), Self::Error>;
 
     /// [`Problem::linearize`] of the points `first..first + out.len()` (at
@@ -241,7 +300,7 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         group: &SVector<f64, C>,
         points: &[SVector<f64, P>],
         caches: &mut [Self::PointCache],
-        out: &mut [Linearization<G, C, P, R, Self::Jacobian>],
+        out: &mut [Linearization<C, P, R, Self::Jacobian>],
         workspace: &mut Self::Workspace,
     ) -> Result<(), (usize, Self::Error)> {
         let _ = workspace;
@@ -257,8 +316,9 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
     /// Point `i`'s linearisation for back-substitution, which needs of
     /// `d_global` only its product with the global step `dg`: writes the
     /// linearisation into `out` (its `d_global` is not read afterwards: a
-    /// problem need not write it) and returns `d_global · dg`. The default linearises fully; a problem can
-    /// also update its point cache for the next iteration here.
+    /// problem need not write it) and returns `d_global · dg`. The default
+    /// linearises fully; a problem can also update its point cache for the
+    /// next iteration here.
     #[allow(clippy::too_many_arguments)]
     fn linearize_along(
         &self,
@@ -267,8 +327,8 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         group: &SVector<f64, C>,
         point: &SVector<f64, P>,
         cache: &mut Self::PointCache,
-        dg: &SVector<f64, G>,
-        out: &mut Linearization<G, C, P, R, Self::Jacobian>,
+        dg: &DVector<f64>,
+        out: &mut Linearization<C, P, R, Self::Jacobian>,
     ) -> Result<SVector<f64, R>, Self::Error> {
         self.linearize(i, global, group, point, cache, out)?;
         Ok(out.d_global.apply(dg))
@@ -285,8 +345,8 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         group: &SVector<f64, C>,
         points: &[SVector<f64, P>],
         caches: &mut [Self::PointCache],
-        dg: &SVector<f64, G>,
-        out: &mut [Linearization<G, C, P, R, Self::Jacobian>],
+        dg: &DVector<f64>,
+        out: &mut [Linearization<C, P, R, Self::Jacobian>],
         steps: &mut [SVector<f64, R>],
         workspace: &mut Self::Workspace,
     ) -> Result<(), (usize, Self::Error)> {
@@ -302,36 +362,50 @@ pub trait Problem<const G: usize, const C: usize, const P: usize, const R: usize
         Ok(())
     }
 
-    /// Prior on the global block.
-    fn global_prior(&self) -> Option<&GaussianPrior<G>> {
+    /// The global observations at the global block `global`: residual rows
+    /// that depend on it only (e.g. distances between ball centres that
+    /// live in the global block), whitened, and their Jacobian, written
+    /// into `out` (given with 0 rows and `G` columns; resized as needed).
+    /// Evaluated once per pass over the points. Default: none.
+    fn global_observations(
+        &self,
+        global: &DVector<f64>,
+        out: &mut GlobalObservations,
+    ) -> Result<(), Self::Error> {
+        let _ = (global, out);
+        Ok(())
+    }
+
+    /// Prior on the global block (`G` values).
+    fn global_prior(&self) -> Option<&GaussianPrior<Dyn>> {
         None
     }
 
     /// Prior on the block of group `k`.
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<C>> {
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<Const<C>>> {
         let _ = k;
         None
     }
 
     /// Prior on the block of point `i`.
-    fn point_prior(&self, i: usize) -> Option<GaussianPrior<P>> {
+    fn point_prior(&self, i: usize) -> Option<GaussianPrior<Const<P>>> {
         let _ = i;
         None
     }
 }
 
-/// Values of all unknowns.
+/// Values of all unknowns (and of the fixed groups' blocks).
 #[derive(Clone, Debug, PartialEq)]
-pub struct State<const G: usize, const C: usize, const P: usize> {
-    /// The global block.
-    pub global: SVector<f64, G>,
+pub struct State<const C: usize, const P: usize> {
+    /// The global block (`G` values).
+    pub global: DVector<f64>,
     /// One block per group.
     pub groups: Vec<SVector<f64, C>>,
     /// One block per point.
     pub points: Vec<SVector<f64, P>>,
 }
 
-impl<const G: usize, const C: usize, const P: usize> State<G, C, P> {
+impl<const C: usize, const P: usize> State<C, P> {
     /// Whether every value is finite.
     pub fn is_finite(&self) -> bool {
         self.global.iter().all(|v| v.is_finite())
@@ -339,8 +413,9 @@ impl<const G: usize, const C: usize, const P: usize> State<G, C, P> {
             && self.points.iter().all(|p| p.iter().all(|v| v.is_finite()))
     }
 
-    /// Total number of unknowns.
+    /// Total number of values: the number of unknowns when no group is
+    /// fixed.
     pub fn n_unknowns(&self) -> usize {
-        G + C * self.groups.len() + P * self.points.len()
+        self.global.len() + C * self.groups.len() + P * self.points.len()
     }
 }

@@ -2,7 +2,7 @@
 //! columns, upper-triangular solves, and the square root of a prior's
 //! information matrix.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Const, SMatrix, SVector};
 
 /// Relative size below which a diagonal entry of a triangular factor counts as
 /// zero: `|R_jj| ≤ RANK_TOLERANCE · |column j|` means column `j` depends on
@@ -296,7 +296,7 @@ pub(crate) struct PriorRows<const N: usize> {
 }
 
 impl<const N: usize> PriorRows<N> {
-    pub(crate) fn new(prior: &crate::GaussianPrior<N>, x: &SVector<f64, N>) -> Self {
+    pub(crate) fn new(prior: &crate::GaussianPrior<Const<N>>, x: &SVector<f64, N>) -> Self {
         let sqrt = information_sqrt(&prior.information);
         let residual = sqrt * (x - prior.mean);
         Self { sqrt, residual }

@@ -2,29 +2,35 @@
 //! summed in chunk order, the global prior and damping added, and its
 //! Cholesky factorisation.
 
-use nalgebra::SVector;
+use nalgebra::DVector;
 
-use crate::chunks::run_ordered;
+use crate::chunks::run_chunks;
 use crate::context::Context;
 use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk, find_non_finite};
-use crate::problem::{Problem, State};
+use crate::problem::{GlobalObservations, Problem, State};
 use crate::qr::all_finite;
 
 /// `S δg = −b` on the global block, with the cost at the state it was built
 /// at.
 #[derive(Clone, Debug)]
 pub(crate) struct ReducedSystem {
-    /// `S`: `G × G`, row-major, symmetric; the global prior information and
-    /// the damping `λ D_g` included.
+    /// `S`: `G × G`, row-major, symmetric; the global prior information, the
+    /// global observations' `J_oᵀJ_o` and the damping `λ D_g` included.
     pub(crate) matrix: Vec<f64>,
-    /// `b`: the reduced gradient, the global prior's `Λ_g (g − m_g)` included.
+    /// `b`: the reduced gradient, the global prior's `Λ_g (g − m_g)` and the
+    /// global observations' `J_oᵀ r_o` included.
     pub(crate) rhs: Vec<f64>,
+    /// The global observations' part of `b`, `J_oᵀ r_o` (empty if there
+    /// are none).
+    pub(crate) observation_gradient: Vec<f64>,
     /// `λ D_g`, the damping added to the diagonal of `S` (zeros if undamped).
     pub(crate) damping: Vec<f64>,
     /// `Σ |r_i|²`.
     pub(crate) data_cost: f64,
     /// Each group's share of `data_cost`, `Σ |r_i|²` over its points.
     pub(crate) group_costs: Vec<f64>,
+    /// `|r_o|²` of the global observations.
+    pub(crate) global_observation_cost: f64,
     /// All prior terms.
     pub(crate) prior_cost: f64,
     /// The damping `λ` of the whole system.
@@ -33,7 +39,12 @@ pub(crate) struct ReducedSystem {
 
 impl ReducedSystem {
     pub(crate) fn cost(&self) -> f64 {
-        self.data_cost + self.prior_cost
+        self.data_cost + self.global_observation_cost + self.prior_cost
+    }
+
+    /// The number `G` of global unknowns.
+    pub(crate) fn size(&self) -> usize {
+        self.rhs.len()
     }
 
     /// Whether `S` and `b` are finite.
@@ -52,112 +63,99 @@ struct ChunkPart {
     global_norms2: Vec<f64>,
 }
 
-impl<const G: usize, const C: usize, const P: usize, const R: usize, Pr> Context<'_, G, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
 where
-    Pr: Problem<G, C, P, R>,
+    Pr: Problem<C, P, R>,
 {
     /// Linearises every point at `state` and builds the reduced system with
     /// damping `lambda` (0: Gauss–Newton / undamped).
     pub(crate) fn reduce(
         &mut self,
-        state: &State<G, C, P>,
+        state: &State<C, P>,
         lambda: f64,
     ) -> Result<ReducedSystem, Failure> {
-        let w = G + 1;
+        let g = self.dims.g;
+        let w = g + 1;
         let dims = self.dims;
         let problem = self.problem;
+        let observations = self.global_observations(&state.global)?;
         let mut total = vec![0.0; w * w];
-        let mut global_norms2 = vec![0.0; G];
+        let mut global_norms2 = vec![0.0; g];
         let (mut data_cost, mut prior_cost) = (0.0, 0.0);
         let mut group_costs = Vec::with_capacity(state.groups.len());
-        let mut failure = None;
         let global = problem.prepare_global(&state.global);
         let global = &global;
         let (pool, jobs) = self.jobs();
-        run_ordered(
+        run_chunks(
+            pool,
             jobs,
-            |(chunk, caches)| {
-                pool.with(|ws| {
-                    let (bufs, rows, _) = ws.split();
-                    let mut part = ChunkPart {
-                        normal: vec![0.0; w * w],
-                        data_cost: 0.0,
-                        group_costs: Vec::with_capacity(chunk.groups.len()),
-                        prior_cost: 0.0,
-                        global_norms2: vec![0.0; if lambda > 0.0 { G } else { 0 }],
-                    };
-                    let mut sink =
-                        NormalSink::new(rows, w, &mut part.normal, &mut part.group_costs);
-                    let gn = (lambda > 0.0).then_some(&mut part.global_norms2[..]);
-                    let costs = match eliminate_chunk::<G, C, P, R, _, _>(
-                        problem, chunk, state, global, caches, lambda, dims, bufs, gn, &mut sink,
-                    ) {
-                        Ok(costs) => costs,
-                        // NaN makes blocks look singular: name the culprit instead.
-                        Err(Failure::Singular(block)) => {
-                            return Err(find_non_finite::<G, C, P, R, _>(
-                                problem, chunk, state, global, caches,
-                            )
-                            .unwrap_or(Failure::Singular(block)));
-                        }
-                        Err(f) => return Err(f),
-                    };
-                    sink.flush();
-                    part.data_cost = costs.data;
-                    part.prior_cost = costs.prior;
-                    let finite = all_finite(&part.normal) && all_finite(&[costs.data, costs.prior]);
-                    if finite {
-                        return Ok(part);
+            |ws, (chunk, caches)| {
+                let (bufs, rows, _) = ws.split();
+                let mut part = ChunkPart {
+                    normal: vec![0.0; w * w],
+                    data_cost: 0.0,
+                    group_costs: Vec::with_capacity(chunk.groups.len()),
+                    prior_cost: 0.0,
+                    global_norms2: vec![0.0; if lambda > 0.0 { g } else { 0 }],
+                };
+                let mut sink = NormalSink::new(rows, w, &mut part.normal, &mut part.group_costs);
+                let gn = (lambda > 0.0).then_some(&mut part.global_norms2[..]);
+                let costs = match eliminate_chunk::<C, P, R, _, _>(
+                    problem, chunk, state, global, caches, lambda, dims, bufs, gn, &mut sink,
+                ) {
+                    Ok(costs) => costs,
+                    // NaN makes blocks look singular: name the culprit instead.
+                    Err(Failure::Singular(block)) => {
+                        return Err(find_non_finite::<C, P, R, _>(
+                            problem, chunk, state, global, caches,
+                        )
+                        .unwrap_or(Failure::Singular(block)));
                     }
-                    match find_non_finite::<G, C, P, R, _>(problem, chunk, state, global, caches) {
-                        Some(failure) => Err(failure),
-                        None => Ok(part),
-                    }
-                })
-            },
-            |result: Result<ChunkPart, Failure>| match result {
-                Ok(part) => {
-                    if failure.is_none() {
-                        for (t, x) in total.iter_mut().zip(&part.normal) {
-                            *t += x;
-                        }
-                        for (t, x) in global_norms2.iter_mut().zip(&part.global_norms2) {
-                            *t += x;
-                        }
-                        data_cost += part.data_cost;
-                        group_costs.extend(part.group_costs);
-                        prior_cost += part.prior_cost;
-                    }
-                    true
+                    Err(f) => return Err(f),
+                };
+                sink.flush();
+                part.data_cost = costs.data;
+                part.prior_cost = costs.prior;
+                let finite = all_finite(&part.normal) && all_finite(&[costs.data, costs.prior]);
+                if finite {
+                    return Ok(part);
                 }
-                Err(f) => {
-                    failure.get_or_insert(f);
-                    false
+                match find_non_finite::<C, P, R, _>(problem, chunk, state, global, caches) {
+                    Some(failure) => Err(failure),
+                    None => Ok(part),
                 }
             },
-        );
-        if let Some(f) = failure {
-            return Err(f);
-        }
+            |part: ChunkPart| {
+                for (t, x) in total.iter_mut().zip(&part.normal) {
+                    *t += x;
+                }
+                for (t, x) in global_norms2.iter_mut().zip(&part.global_norms2) {
+                    *t += x;
+                }
+                data_cost += part.data_cost;
+                group_costs.extend(part.group_costs);
+                prior_cost += part.prior_cost;
+            },
+        )?;
         // Lower triangle (column-major) → symmetric row-major S; last row → b.
-        let mut matrix = vec![0.0; G * G];
-        let mut rhs = vec![0.0; G];
-        for j in 0..G {
-            for i in j..G {
+        let mut matrix = vec![0.0; g * g];
+        let mut rhs = vec![0.0; g];
+        for j in 0..g {
+            for i in j..g {
                 let v = total[j * w + i];
-                matrix[i * G + j] = v;
-                matrix[j * G + i] = v;
+                matrix[i * g + j] = v;
+                matrix[j * g + i] = v;
             }
-            rhs[j] = total[j * w + G];
+            rhs[j] = total[j * w + g];
         }
         if let Some(prior) = problem.global_prior() {
-            let e: SVector<f64, G> = state.global - prior.mean;
-            for j in 0..G {
-                for i in j..G {
+            let e = &state.global - &prior.mean;
+            for j in 0..g {
+                for i in j..g {
                     let v = prior.information[(i, j)];
-                    matrix[i * G + j] += v;
+                    matrix[i * g + j] += v;
                     if i != j {
-                        matrix[j * G + i] += v;
+                        matrix[j * g + i] += v;
                     }
                     rhs[i] += v * e[j];
                     if i != j {
@@ -172,22 +170,84 @@ where
             }
             prior_cost += prior.cost(&state.global);
         }
-        let mut damping = vec![0.0; G];
+        let observation_gradient =
+            observations.add_normal(&mut matrix, &mut rhs, &mut global_norms2);
+        let mut damping = vec![0.0; g];
         if lambda > 0.0 {
-            for j in 0..G {
+            for j in 0..g {
                 damping[j] = lambda * damping_diagonal(global_norms2[j]);
-                matrix[j * G + j] += damping[j];
+                matrix[j * g + j] += damping[j];
             }
         }
         Ok(ReducedSystem {
             matrix,
             rhs,
+            observation_gradient,
             damping,
             data_cost,
             group_costs,
+            global_observation_cost: observations.cost(),
             prior_cost,
             lambda,
         })
+    }
+
+    /// The problem's global observations at `global`, checked: `m` rows and
+    /// `G` columns, finite.
+    fn global_observations(&self, global: &DVector<f64>) -> Result<GlobalObservations, Failure> {
+        let g = self.dims.g;
+        let mut observations = GlobalObservations::zeros(0, g);
+        self.problem
+            .global_observations(global, &mut observations)
+            .map_err(|e| Failure::Linearize {
+                point: None,
+                message: e.to_string(),
+            })?;
+        let (m, columns) = observations.jacobian.shape();
+        if observations.residual.len() != m || columns != g {
+            return Err(Failure::Linearize {
+                point: None,
+                message: format!(
+                    "{} residuals with a {m} x {columns} Jacobian on {g} global unknowns",
+                    observations.residual.len()
+                ),
+            });
+        }
+        let finite = all_finite(observations.residual.as_slice())
+            && all_finite(observations.jacobian.as_slice());
+        if !finite {
+            return Err(Failure::NonFinite { point: None });
+        }
+        Ok(observations)
+    }
+}
+
+impl GlobalObservations {
+    /// Adds `J_oᵀJ_o` to the row-major `G × G` matrix `s`, `J_oᵀ r_o` to `b`
+    /// and the squared column norms of `J_o` to `norms2` (the global
+    /// observations' part of the damping diagonal); returns `J_oᵀ r_o`
+    /// (empty without rows).
+    fn add_normal(&self, s: &mut [f64], b: &mut [f64], norms2: &mut [f64]) -> Vec<f64> {
+        let (m, g) = self.jacobian.shape();
+        if m == 0 {
+            return Vec::new();
+        }
+        let j = &self.jacobian;
+        let mut gradient = vec![0.0; g];
+        for a in 0..g {
+            let column = j.column(a);
+            for c in 0..=a {
+                let v = column.dot(&j.column(c));
+                s[a * g + c] += v;
+                if a != c {
+                    s[c * g + a] += v;
+                }
+            }
+            norms2[a] += column.norm_squared();
+            gradient[a] = column.dot(&self.residual);
+            b[a] += gradient[a];
+        }
+        gradient
     }
 }
 

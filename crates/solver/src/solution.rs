@@ -1,6 +1,6 @@
 //! What the solver returns.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{DMatrix, SVector};
 
 use crate::diagnostics::SpectrumDiagnostics;
 use crate::problem::State;
@@ -8,10 +8,15 @@ use crate::problem::State;
 /// One line of the residual history.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IterationRecord {
-    /// Total cost at the iterate before the step (`data_cost + prior_cost`).
+    /// Total cost at the iterate before the step (`data_cost +
+    /// global_observation_cost + prior_cost`).
     pub cost: f64,
-    /// `Σ |r_i|²`.
+    /// `Σ |r_i|²` over the points.
     pub data_cost: f64,
+    /// `|r_o|²` of the global observations
+    /// ([`Problem::global_observations`](crate::Problem::global_observations);
+    /// 0 without them).
+    pub global_observation_cost: f64,
     /// Sum of the prior terms.
     pub prior_cost: f64,
     /// `|δ|` over all unknowns of the step computed at this iterate. For the
@@ -76,13 +81,14 @@ pub enum Status {
         /// The block.
         block: BlockId,
     },
-    /// The problem's `linearize` returned an error (at iterate 0 also: a
-    /// non-finite residual or Jacobian).
+    /// The problem's `linearize` or `global_observations` returned an error
+    /// (at iterate 0 also: a non-finite residual or Jacobian).
     ProblemFailed {
         /// Linear solves before the event.
         iteration: usize,
-        /// The point (the smallest failing index).
-        point: usize,
+        /// The point (the smallest failing index); `None`: the global
+        /// observations.
+        point: Option<usize>,
         /// The error's message.
         message: String,
     },
@@ -103,10 +109,10 @@ pub enum Status {
 
 /// The result of [`solve`](crate::solve).
 #[derive(Clone, Debug)]
-pub struct Solution<const G: usize, const C: usize, const P: usize> {
+pub struct Solution<const C: usize, const P: usize> {
     /// The last iterate whose cost was evaluated and acceptable (finite; never
     /// NaN). After a divergent step, the iterate it started from.
-    pub state: State<G, C, P>,
+    pub state: State<C, P>,
     /// How the run ended.
     pub status: Status,
     /// One record per linear solve whose step was taken or rejected, and one
@@ -117,9 +123,10 @@ pub struct Solution<const G: usize, const C: usize, const P: usize> {
     /// covariance of the global block, given unit-variance whitened
     /// residuals); `None` if it is not positive definite or the run did not
     /// end with `Converged` or `IterationLimit`.
-    pub covariance: Option<SMatrix<f64, G, G>>,
+    pub covariance: Option<DMatrix<f64>>,
     /// Marginal standard deviations of each group block (including the global
-    /// uncertainty); present whenever `covariance` is.
+    /// uncertainty; zero for a fixed group); present whenever `covariance`
+    /// is.
     pub group_sigmas: Option<Vec<SVector<f64, C>>>,
     /// Each group's data cost `Σ |r_i|²` over its points at the final state
     /// (whitened: a goodness-of-fit statistic per group); present when the

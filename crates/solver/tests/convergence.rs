@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{G, Spec, direction, distances, flatten, perturb, rel_diff, touches};
+use common::{Spec, couple, direction, distances, flatten, perturb, rel_diff, touches};
 use parcal_solver::{
     IterationRecord, Method, Problem, Solution, SolverOptions, State, Status, solve,
 };
@@ -19,11 +19,11 @@ const LM: Method = Method::LevenbergMarquardt {
     initial_lambda: 1e-3,
 };
 
-fn run<const P: usize, const R: usize, Pr: Problem<G, 3, P, R>>(
+fn run<const P: usize, const R: usize, Pr: Problem<3, P, R>>(
     problem: &Pr,
-    start: &State<G, 3, P>,
+    start: &State<3, P>,
     method: Method,
-) -> (Solution<G, 3, P>, Vec<IterationRecord>) {
+) -> (Solution<3, P>, Vec<IterationRecord>) {
     let mut seen = Vec::new();
     let solution = solve(problem, start.clone(), &options(method), &mut |r| {
         seen.push(r.clone())
@@ -33,15 +33,12 @@ fn run<const P: usize, const R: usize, Pr: Problem<G, 3, P, R>>(
 
 /// The estimate is within `k` sigmas of the truth, per global parameter and
 /// per centre coordinate, and its Mahalanobis distance is plausible.
-fn check_against_truth<const P: usize>(
-    solution: &Solution<G, 3, P>,
-    truth: &State<G, 3, P>,
-    dof: usize,
-) {
-    let cov = solution.covariance.expect("covariance");
-    let err = solution.state.global - truth.global;
-    let z: Vec<f64> = (0..G).map(|j| err[j] / cov[(j, j)].sqrt()).collect();
-    let mahalanobis = err.dot(&(cov.try_inverse().unwrap() * err));
+fn check_against_truth<const P: usize>(solution: &Solution<3, P>, truth: &State<3, P>, dof: usize) {
+    let cov = solution.covariance.clone().expect("covariance");
+    let g = cov.nrows();
+    let err = &solution.state.global - &truth.global;
+    let z: Vec<f64> = (0..g).map(|j| err[j] / cov[(j, j)].sqrt()).collect();
+    let mahalanobis = err.dot(&(cov.try_inverse().unwrap() * &err));
     let sigmas = solution.group_sigmas.as_ref().expect("group sigmas");
     let zc = solution
         .state
@@ -49,26 +46,30 @@ fn check_against_truth<const P: usize>(
         .iter()
         .zip(&truth.groups)
         .zip(sigmas)
+        // A fixed group (sigma 0) is not an estimate.
+        .filter(|(_, s)| s.iter().all(|s| *s > 0.0))
         .flat_map(|((c, t), s)| (0..3).map(move |j| (c[j] - t[j]) / s[j]))
         .fold(0.0, |m: f64, z| m.max(z.abs()));
     let cost = solution.history.last().unwrap().cost;
     println!(
-        "global z-scores {:?}\nMahalanobis² {mahalanobis:.2} (χ²({G})), worst centre |z| {zc:.2}, cost {cost:.1} for {dof} degrees of freedom",
+        "global z-scores {:?}\nMahalanobis² {mahalanobis:.2} (χ²({g})), worst centre |z| {zc:.2}, cost {cost:.1} for {dof} degrees of freedom",
         z.iter().map(|z| format!("{z:.2}")).collect::<Vec<_>>()
     );
     assert!(
         z.iter().all(|z| z.abs() < 4.0),
         "global parameter off by > 4σ: {z:?}"
     );
-    assert!(mahalanobis < 30.0, "Mahalanobis² {mahalanobis}");
+    // χ²(G): mean G, standard deviation √(2G); 30 for G = 8 is 5.5 of them.
+    let limit = (g as f64 + 5.5 * (2.0 * g as f64).sqrt()).max(30.0);
+    assert!(mahalanobis < limit, "Mahalanobis² {mahalanobis}");
     assert!(zc < 4.5, "centre off by {zc}σ");
     let ratio = cost / dof as f64;
     assert!((0.5..1.6).contains(&ratio), "cost / dof = {ratio}");
 }
 
-fn without_points<const P: usize>(s: &State<G, 3, P>) -> State<G, 3, 0> {
+fn without_points<const P: usize>(s: &State<3, P>) -> State<3, 0> {
     State {
-        global: s.global,
+        global: s.global.clone(),
         groups: s.groups.clone(),
         points: Vec::new(),
     }
@@ -77,7 +78,7 @@ fn without_points<const P: usize>(s: &State<G, 3, P>) -> State<G, 3, 0> {
 /// The observer saw every record; every record but the last has a step;
 /// the last (a converged run's final state) has the step that certified
 /// convergence, below the tolerance relative to the state and not applied.
-fn check_history<const P: usize>(solution: &Solution<G, 3, P>, seen: &[IterationRecord]) {
+fn check_history<const P: usize>(solution: &Solution<3, P>, seen: &[IterationRecord]) {
     assert_eq!(seen, &solution.history[..], "the observer saw every record");
     let last = solution.history.last().unwrap();
     let state = &solution.state;
@@ -257,4 +258,46 @@ fn levenberg_marquardt_and_gauss_newton_agree_with_priors() {
         lm.covariance.unwrap().as_slice(),
     );
     assert!(cov_diff < 1e-6);
+}
+
+#[test]
+fn both_methods_converge_with_centres_in_the_global_block() {
+    // Groups 1, 3 and 4 have their centres in the global block, measured
+    // against each other by three distances; group 5 is held at the truth.
+    let spec = Spec {
+        n_groups: 10,
+        points_per_group: 12,
+        seed: 4,
+        ..Spec::default()
+    };
+    let (mut problem, truth) = touches(spec);
+    let truth = couple(&mut problem.0, &truth, &[1, 3, 4], &[5], 1e-3, 1);
+    let mut start = perturb(&truth, 1, 0.01, 0.02, 0.1);
+    start.groups[5] = truth.groups[5];
+    for method in [Method::GaussNewton, LM] {
+        let (solution, seen) = run(&problem, &start, method);
+        println!(
+            "{method:?}: {:?} after {} records, global observation cost {:.3e}",
+            solution.status,
+            solution.history.len(),
+            solution.history.last().unwrap().global_observation_cost
+        );
+        assert_eq!(solution.status, Status::Converged);
+        check_history(&solution, &seen);
+        let last = solution.history.last().unwrap();
+        assert!(last.global_observation_cost > 0.0);
+        assert_eq!(
+            last.cost,
+            last.data_cost + last.global_observation_cost + last.prior_cost
+        );
+        // The fixed groups keep their values and report zero sigmas.
+        let sigmas = solution.group_sigmas.as_ref().unwrap();
+        for k in [1, 3, 4, 5] {
+            assert_eq!(solution.state.groups[k], start.groups[k]);
+            assert_eq!(sigmas[k].norm(), 0.0);
+        }
+        // 360 rows and 3 distances; 8 + 9 global unknowns, 6 × 3 centres,
+        // 240 angles.
+        check_against_truth(&solution, &truth, 363 - 275);
+    }
 }

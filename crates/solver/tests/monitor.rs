@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{G, Spec, flatten, perturb, touches};
+use common::{Spec, flatten, perturb, touches};
 use parcal_solver::{
     Iterate, IterationRecord, Method, Monitor, SolverOptions, State, Status, Verdict, solve,
     solve_with_caches,
@@ -19,7 +19,7 @@ struct Seen {
     group_cost_sum: f64,
     groups: usize,
     caches: usize,
-    state: State<G, 3, 2>,
+    state: State<3, 2>,
 }
 
 /// Records everything and stops at the iterate after `stop_at` solves.
@@ -39,12 +39,12 @@ impl Recorder {
     }
 }
 
-impl Monitor<G, 3, 2, u32> for Recorder {
+impl Monitor<3, 2, u32> for Recorder {
     fn record(&mut self, record: &IterationRecord) {
         self.records.push(record.clone());
     }
 
-    fn inspect(&mut self, iterate: &Iterate<'_, G, 3, 2, u32>) -> Verdict {
+    fn inspect(&mut self, iterate: &Iterate<'_, 3, 2, u32>) -> Verdict {
         self.seen.push(Seen {
             solves: iterate.solves,
             cost: iterate.cost,

@@ -6,8 +6,11 @@ mod common;
 
 use std::ops::Range;
 
-use common::{Fail, G, Spec, TestError, distances, flatten, perturb, rel_diff, touches};
-use nalgebra::{SMatrix, SVector, Vector1};
+use common::{
+    Fail, G, ObservationFault, Spec, TestError, couple, distances, flatten, perturb, rel_diff,
+    touches,
+};
+use nalgebra::{DVector, Dyn, OMatrix, SMatrix, SVector, U2, U3, Vector1};
 use parcal_solver::{
     BlockId, Linearization, Method, Problem, Solution, SolverOptions, State, Status,
     dense_reference, linear_step, solve,
@@ -25,10 +28,12 @@ fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .install(f)
 }
 
-fn bits<const C: usize, const P: usize>(s: &Solution<G, C, P>) -> Vec<u64> {
+fn bits<const C: usize, const P: usize>(s: &Solution<C, P>) -> Vec<u64> {
     let mut v: Vec<u64> = flatten(&s.state).iter().map(|x| x.to_bits()).collect();
     for r in &s.history {
-        v.extend([r.cost, r.data_cost, r.prior_cost, r.step_norm, r.lambda].map(f64::to_bits));
+        let costs = [r.cost, r.data_cost, r.global_observation_cost, r.prior_cost];
+        v.extend(costs.map(f64::to_bits));
+        v.extend([r.step_norm, r.lambda].map(f64::to_bits));
     }
     v.extend(
         s.covariance
@@ -46,31 +51,45 @@ fn bits<const C: usize, const P: usize>(s: &Solution<G, C, P>) -> Vec<u64> {
 
 #[test]
 fn bit_identical_for_one_and_two_threads_and_run_to_run() {
-    // 150 groups in chunks of 2: 75 chunks, more than one parallel wave.
-    let (problem, truth) = touches(Spec {
-        n_groups: 150,
+    // 300 groups, one per chunk: more than one parallel wave. The second
+    // case moves four centres into the global block (distances between
+    // them) and holds one group.
+    let spec = Spec {
+        n_groups: 300,
         points_per_group: 10,
         priors: true,
         seed: 3,
         ..Spec::default()
-    });
-    let start = perturb(&truth, 8, 0.02, 0.03, 0.3);
-    for method in [Method::GaussNewton, LM] {
+    };
+    let (plain, truth) = touches(spec);
+    let plain_start = perturb(&truth, 8, 0.02, 0.03, 0.3);
+    let (mut coupled, truth) = touches(spec);
+    let truth = couple(&mut coupled.0, &truth, &[1, 3, 4, 200], &[5], 1e-3, 1);
+    let mut coupled_start = perturb(&truth, 8, 0.02, 0.03, 0.3);
+    coupled_start.groups[5] = truth.groups[5];
+    let cases = [
+        (Method::GaussNewton, &plain, &plain_start),
+        (LM, &plain, &plain_start),
+        (Method::GaussNewton, &coupled, &coupled_start),
+        (LM, &coupled, &coupled_start),
+    ];
+    for (method, problem, start) in cases {
         let options = SolverOptions {
             method,
-            groups_per_chunk: 2,
+            groups_per_chunk: 1,
             ..SolverOptions::default()
         };
         let run = |threads| {
             in_pool(threads, || {
-                solve(&problem, start.clone(), &options, &mut |_| {})
+                solve(problem, start.clone(), &options, &mut |_| {})
             })
         };
         let one = run(1);
         let two = run(2);
         let again = run(2);
         println!(
-            "{method:?}: {:?} after {} records; {} values compared",
+            "{method:?}, global size {}: {:?} after {} records; {} values compared",
+            start.global.len(),
             one.status,
             one.history.len(),
             bits(&one).len()
@@ -138,7 +157,7 @@ fn failed_linearisation_at_start_is_problem_failed() {
         match &s.status {
             Status::ProblemFailed {
                 iteration: 0,
-                point: 17,
+                point: Some(17),
                 message,
             } => assert!(message.contains("injected")),
             other => panic!("{other:?}"),
@@ -163,7 +182,7 @@ fn failed_linearisation_later_names_point_and_keeps_last_iterate() {
             s.status,
             Status::ProblemFailed {
                 iteration: 1,
-                point: 30,
+                point: Some(30),
                 ..
             }
         ),
@@ -189,7 +208,7 @@ fn failed_linearisation_later_names_point_and_keeps_last_iterate() {
             s.status,
             Status::ProblemFailed {
                 iteration: 1,
-                point: 30,
+                point: Some(30),
                 ..
             }
         ),
@@ -209,7 +228,7 @@ fn non_finite_linearisation_is_reported() {
     let s = solve(&problem, start, &gn(), &mut |_| {});
     println!("{:?}", s.status);
     assert!(
-        matches!(&s.status, Status::ProblemFailed { iteration: 0, point: 9, message } if message.contains("non-finite")),
+        matches!(&s.status, Status::ProblemFailed { iteration: 0, point: Some(9), message } if message.contains("non-finite")),
         "{:?}",
         s.status
     );
@@ -221,14 +240,17 @@ struct Exponential {
     targets: Vec<f64>,
 }
 
-impl Problem<1, 1, 0, 2> for Exponential {
+impl Problem<1, 0, 2> for Exponential {
     type PointCache = ();
     type Workspace = ();
     type Error = TestError;
-    type Jacobian = SMatrix<f64, 2, 1>;
-    type Global = SVector<f64, 1>;
-    fn prepare_global(&self, global: &SVector<f64, 1>) -> Self::Global {
-        *global
+    type Jacobian = OMatrix<f64, U2, Dyn>;
+    type Global = f64;
+    fn global_size(&self) -> usize {
+        1
+    }
+    fn prepare_global(&self, global: &DVector<f64>) -> f64 {
+        global[0]
     }
     fn n_groups(&self) -> usize {
         self.targets.len()
@@ -240,19 +262,16 @@ impl Problem<1, 1, 0, 2> for Exponential {
     fn linearize(
         &self,
         i: usize,
-        global: &Vector1<f64>,
+        global: &f64,
         group: &Vector1<f64>,
         _point: &SVector<f64, 0>,
         _cache: &mut (),
-        out: &mut Linearization<1, 1, 0, 2>,
+        out: &mut Linearization<1, 0, 2>,
     ) -> Result<(), TestError> {
-        let e = global[0].exp();
-        *out = Linearization {
-            residual: SVector::<f64, 2>::new(e - 1.0, group[0] - self.targets[i]),
-            d_global: SMatrix::<f64, 2, 1>::new(e, 0.0),
-            d_group: SMatrix::<f64, 2, 1>::new(0.0, 1.0),
-            d_point: SMatrix::zeros(),
-        };
+        let e = global.exp();
+        out.residual = SVector::<f64, 2>::new(e - 1.0, group[0] - self.targets[i]);
+        out.d_global.copy_from_slice(&[e, 0.0]);
+        out.d_group = SMatrix::<f64, 2, 1>::new(0.0, 1.0);
         Ok(())
     }
 }
@@ -263,7 +282,7 @@ fn exploding_problem_diverges_with_finite_state_and_history() {
         targets: vec![1.0, 2.0, 3.0],
     };
     let start = State {
-        global: Vector1::new(-3.0),
+        global: DVector::from_element(1, -3.0),
         groups: vec![Vector1::new(0.0); 3],
         points: vec![SVector::zeros(); 3],
     };
@@ -284,7 +303,7 @@ fn exploding_problem_diverges_with_finite_state_and_history() {
     assert_eq!(s.state, start);
     // From further out the step overflows exp: reported, not a panic.
     let far = State {
-        global: Vector1::new(-30.0),
+        global: DVector::from_element(1, -30.0),
         ..start.clone()
     };
     let s = solve(&problem, far, &SolverOptions::default(), &mut |_| {});
@@ -379,7 +398,7 @@ fn underdetermined_blocks_are_singular_blocks() {
     // A point whose second coordinate no row sees.
     let problem = Degenerate { blind: 4 };
     let start = State {
-        global: Vector1::new(0.5),
+        global: DVector::from_element(1, 0.5),
         groups: vec![Vector1::new(0.0); 3],
         points: vec![SVector::zeros(); 9],
     };
@@ -407,14 +426,17 @@ fn problem_without_blind_point() -> Degenerate {
     Degenerate { blind: usize::MAX }
 }
 
-impl Problem<1, 1, 2, 3> for Degenerate {
+impl Problem<1, 2, 3> for Degenerate {
     type PointCache = ();
     type Workspace = ();
     type Error = TestError;
-    type Jacobian = SMatrix<f64, 3, 1>;
-    type Global = SVector<f64, 1>;
-    fn prepare_global(&self, global: &SVector<f64, 1>) -> Self::Global {
-        *global
+    type Jacobian = OMatrix<f64, U3, Dyn>;
+    type Global = f64;
+    fn global_size(&self) -> usize {
+        1
+    }
+    fn prepare_global(&self, global: &DVector<f64>) -> f64 {
+        global[0]
     }
     fn n_groups(&self) -> usize {
         3
@@ -426,32 +448,30 @@ impl Problem<1, 1, 2, 3> for Degenerate {
     fn linearize(
         &self,
         i: usize,
-        global: &Vector1<f64>,
+        global: &f64,
         group: &Vector1<f64>,
         point: &SVector<f64, 2>,
         _cache: &mut (),
-        out: &mut Linearization<1, 1, 2, 3>,
+        out: &mut Linearization<1, 2, 3>,
     ) -> Result<(), TestError> {
         let t = i as f64;
         let blind = i == self.blind;
         let second = if blind { point[0] } else { point[1] };
-        *out = Linearization {
-            residual: SVector::<f64, 3>::new(
-                point[0] - 0.1 * t,
-                second - 0.2,
-                (1.0 + 0.1 * t) * global[0] + group[0] + point[0] - t,
-            ),
-            d_global: SMatrix::<f64, 3, 1>::new(0.0, 0.0, 1.0 + 0.1 * t),
-            d_group: SMatrix::<f64, 3, 1>::new(0.0, 0.0, 1.0),
-            d_point: SMatrix::<f64, 3, 2>::new(
-                1.0,
-                0.0,
-                if blind { 1.0 } else { 0.0 },
-                if blind { 0.0 } else { 1.0 },
-                1.0,
-                0.0,
-            ),
-        };
+        out.residual = SVector::<f64, 3>::new(
+            point[0] - 0.1 * t,
+            second - 0.2,
+            (1.0 + 0.1 * t) * global + group[0] + point[0] - t,
+        );
+        out.d_global.copy_from_slice(&[0.0, 0.0, 1.0 + 0.1 * t]);
+        out.d_group = SMatrix::<f64, 3, 1>::new(0.0, 0.0, 1.0);
+        out.d_point = SMatrix::<f64, 3, 2>::new(
+            1.0,
+            0.0,
+            if blind { 1.0 } else { 0.0 },
+            if blind { 0.0 } else { 1.0 },
+            1.0,
+            0.0,
+        );
         Ok(())
     }
 }
@@ -511,6 +531,65 @@ fn invalid_input_is_reported_without_evaluation() {
     );
     assert!(
         matches!(s.status, Status::InvalidProblem { .. }),
+        "{:?}",
+        s.status
+    );
+}
+
+/// The paper-like coupling of [`common::couple`]: three centres in the
+/// global block, measured by distances, and one held group.
+fn coupled() -> (common::Touches, State<3, 2>) {
+    let (mut problem, truth) = touches(Spec::default());
+    let truth = couple(&mut problem.0, &truth, &[1, 3, 4], &[5], 1e-3, 1);
+    (problem, truth)
+}
+
+#[test]
+fn failed_global_observations_are_problem_failures() {
+    let (mut problem, truth) = coupled();
+    let start = perturb(&truth, 1, 0.01, 0.02, 0.1);
+    problem.0.observation_fault = Some(ObservationFault::Error);
+    let s = solve(&problem, start.clone(), &gn(), &mut |_| {});
+    assert!(
+        matches!(&s.status, Status::ProblemFailed { iteration: 0, point: None, message } if message.contains("injected")),
+        "{:?}",
+        s.status
+    );
+    problem.0.observation_fault = Some(ObservationFault::WrongShape);
+    let s = solve(&problem, start.clone(), &gn(), &mut |_| {});
+    assert!(
+        matches!(&s.status, Status::ProblemFailed { iteration: 0, point: None, message } if message.contains("x 18")),
+        "{:?}",
+        s.status
+    );
+    problem.0.observation_fault = None;
+    problem.0.distances[1].measured = f64::NAN;
+    let s = solve(&problem, start, &gn(), &mut |_| {});
+    assert!(
+        matches!(&s.status, Status::ProblemFailed { iteration: 0, point: None, message } if message.contains("non-finite")),
+        "{:?}",
+        s.status
+    );
+}
+
+#[test]
+fn a_global_block_or_prior_of_the_wrong_size_is_invalid() {
+    let (mut problem, truth) = coupled();
+    let mut short = truth.clone();
+    short.global = short.global.rows(0, G).into_owned();
+    let s = solve(&problem, short, &gn(), &mut |_| {});
+    assert!(
+        matches!(&s.status, Status::InvalidProblem { message } if message.contains("17 global unknowns")),
+        "{:?}",
+        s.status
+    );
+    problem.0.global_prior = Some(parcal_solver::GaussianPrior::new(
+        DVector::zeros(G),
+        nalgebra::DMatrix::identity(G, G),
+    ));
+    let s = solve(&problem, truth, &gn(), &mut |_| {});
+    assert!(
+        matches!(&s.status, Status::InvalidProblem { message } if message.contains("global prior")),
         "{:?}",
         s.status
     );

@@ -3,33 +3,16 @@
 
 mod common;
 
-use common::{G, Spec, distances, flatten, perturb, rel_diff, touches};
-use faer::Mat;
+use common::{G, Spec, couple, distances, flatten, perturb, rel_diff, touches};
 use parcal_solver::{Problem, SolverOptions, State, Status, dense_reference, linear_step, solve};
 
 const TOL: f64 = 1e-9;
 
 /// `−2 gᵀδ − δᵀNδ` from the dense system.
 fn dense_predicted_decrease<const C: usize, const P: usize>(
-    d: &dense_reference::DenseReference<G, C, P>,
+    d: &dense_reference::DenseReference<C, P>,
 ) -> f64 {
-    let n = d.normal.nrows();
-    let delta_state = &d.step;
-    let n_groups = delta_state.groups.len();
-    let mut delta = Mat::<f64>::zeros(n, 1);
-    for j in 0..G {
-        delta[(dense_reference::global_index(j), 0)] = delta_state.global[j];
-    }
-    for (k, c) in delta_state.groups.iter().enumerate() {
-        for j in 0..C {
-            delta[(dense_reference::group_index::<G, C>(k, j), 0)] = c[j];
-        }
-    }
-    for (i, p) in delta_state.points.iter().enumerate() {
-        for j in 0..P {
-            delta[(dense_reference::point_index::<G, C, P>(n_groups, i, j), 0)] = p[j];
-        }
-    }
+    let delta = d.columns.vector(&d.step);
     let jd = &d.jacobian * &delta;
     let mut pred = 0.0;
     for r in 0..jd.nrows() {
@@ -39,9 +22,9 @@ fn dense_predicted_decrease<const C: usize, const P: usize>(
 }
 
 /// Compares one step at `state`; returns the relative step difference.
-fn compare_step<const C: usize, const P: usize, const R: usize, Pr: Problem<G, C, P, R>>(
+fn compare_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
-    state: &State<G, C, P>,
+    state: &State<C, P>,
     lambda: f64,
 ) -> f64 {
     let dense = dense_reference::solve(problem, state, lambda).expect("dense reference");
@@ -122,9 +105,9 @@ fn step_hands_back_the_caches_of_its_passes() {
 }
 
 /// `solve` with no iteration evaluates the covariance at the given state.
-fn compare_covariance<const C: usize, const P: usize, const R: usize, Pr: Problem<G, C, P, R>>(
+fn compare_covariance<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
-    state: &State<G, C, P>,
+    state: &State<C, P>,
 ) {
     let options = SolverOptions {
         max_iterations: 0,
@@ -151,10 +134,17 @@ fn compare_covariance<const C: usize, const P: usize, const R: usize, Pr: Proble
         .iter()
         .flat_map(|s| s.iter().copied())
         .collect();
+    // Fixed groups: zero on both sides.
     let sigma_diff = sigmas
         .iter()
         .zip(&dense_sigmas)
-        .map(|(a, b)| (a - b).abs() / b)
+        .map(|(a, b)| {
+            if *b == 0.0 {
+                a.abs()
+            } else {
+                (a - b).abs() / b
+            }
+        })
         .fold(0.0, f64::max);
     let spectrum = solution.spectrum.expect("spectrum");
     println!(
@@ -165,7 +155,7 @@ fn compare_covariance<const C: usize, const P: usize, const R: usize, Pr: Proble
     );
     assert!(cov_diff < TOL, "covariance differs: {cov_diff:e}");
     assert!(sigma_diff < TOL, "group sigmas differ: {sigma_diff:e}");
-    assert_eq!(spectrum.eigenvalues.len(), G);
+    assert_eq!(spectrum.eigenvalues.len(), state.global.len());
 }
 
 #[test]
@@ -181,4 +171,130 @@ fn covariance_and_group_sigmas_match_dense_inverse() {
         let (problem, truth) = distances(spec);
         compare_covariance(&problem, &perturb(&truth, 6, 0.005, 0.01, 0.0));
     }
+}
+
+/// Groups 1, 3 and 4 have their centres in the global block (fixed groups),
+/// measured against each other by three distances (σ 1e-3); group 5 is held
+/// at its value.
+const COUPLED: [usize; 3] = [1, 3, 4];
+const HELD: [usize; 1] = [5];
+
+#[test]
+fn coupled_touches_step_matches_dense() {
+    for priors in [false, true] {
+        let (mut problem, truth) = touches(Spec {
+            priors,
+            seed: 13,
+            ..Spec::default()
+        });
+        let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 1);
+        assert_eq!(problem.global_size(), G + 9);
+        assert_eq!(problem.0.distances.len(), 3);
+        let state = perturb(&truth, 4, 0.01, 0.02, 0.1);
+        compare_step(&problem, &state, 0.0);
+        compare_step(&problem, &state, 0.3);
+        compare_step(&problem, &state, 1e-4);
+        // A fixed group does not move; the others do.
+        let step = linear_step(&problem, &state, &mut Vec::new(), 0.0, 2).unwrap();
+        for k in 0..problem.n_groups() {
+            let fixed = COUPLED.contains(&k) || HELD.contains(&k);
+            assert_eq!(step.delta.groups[k].norm() == 0.0, fixed, "group {k}");
+        }
+    }
+}
+
+#[test]
+fn coupled_distances_step_matches_dense() {
+    for priors in [false, true] {
+        let (mut problem, truth) = distances(Spec {
+            priors,
+            seed: 17,
+            ..Spec::default()
+        });
+        let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 2);
+        let state = perturb(&truth, 5, 0.01, 0.02, 0.0);
+        compare_step(&problem, &state, 0.0);
+        compare_step(&problem, &state, 2.0);
+    }
+}
+
+#[test]
+fn coupled_covariance_and_group_sigmas_match_dense_inverse() {
+    for priors in [false, true] {
+        let spec = Spec {
+            priors,
+            seed: 23,
+            ..Spec::default()
+        };
+        let (mut problem, truth) = touches(spec);
+        let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 3);
+        compare_covariance(&problem, &perturb(&truth, 6, 0.005, 0.01, 0.05));
+        let (mut problem, truth) = distances(spec);
+        let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 4);
+        compare_covariance(&problem, &perturb(&truth, 6, 0.005, 0.01, 0.0));
+    }
+}
+
+/// Central differences of the residuals (data, global observation and
+/// prior rows) against the Jacobian the dense reference assembles from the
+/// problem's: every column, including the moved centres' and the
+/// distances' rows.
+fn check_jacobian<const P: usize, const R: usize, Pr: Problem<3, P, R>>(
+    problem: &Pr,
+    state: &State<3, P>,
+) {
+    let at = |x: &State<3, P>| dense_reference::solve(problem, x, 0.0).expect("dense");
+    let dense = at(state);
+    let columns = &dense.columns;
+    let h = 1e-6;
+    let mut worst: f64 = 0.0;
+    let mut check = |column: usize, shift: &dyn Fn(&mut State<3, P>, f64)| {
+        let (mut plus, mut minus) = (state.clone(), state.clone());
+        shift(&mut plus, h);
+        shift(&mut minus, -h);
+        let (rp, rm) = (at(&plus).residual, at(&minus).residual);
+        for r in 0..dense.jacobian.nrows() {
+            let fd = (rp[(r, 0)] - rm[(r, 0)]) / (2.0 * h);
+            let analytic = dense.jacobian[(r, column)];
+            let error = (fd - analytic).abs() / analytic.abs().max(1.0);
+            worst = worst.max(error);
+            assert!(error < 1e-5, "row {r}, column {column}: {fd} vs {analytic}");
+        }
+    };
+    for j in 0..state.global.len() {
+        check(columns.global(j), &|x, d| x.global[j] += d);
+    }
+    for k in 0..state.groups.len() {
+        for j in 0..3 {
+            if let Some(column) = columns.group(k, j) {
+                check(column, &|x, d| x.groups[k][j] += d);
+            }
+        }
+    }
+    for i in 0..state.points.len() {
+        for j in 0..P {
+            check(columns.point(i, j), &|x, d| x.points[i][j] += d);
+        }
+    }
+    println!(
+        "{} columns, worst relative difference {worst:.1e}",
+        dense.jacobian.ncols()
+    );
+}
+
+#[test]
+fn coupled_jacobians_match_finite_differences() {
+    let spec = Spec {
+        priors: true,
+        seed: 29,
+        n_groups: 6,
+        points_per_group: 4,
+        ..Spec::default()
+    };
+    let (mut problem, truth) = touches(spec);
+    let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 5);
+    check_jacobian(&problem, &perturb(&truth, 7, 0.01, 0.02, 0.1));
+    let (mut problem, truth) = distances(spec);
+    let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 6);
+    check_jacobian(&problem, &perturb(&truth, 7, 0.01, 0.02, 0.0));
 }

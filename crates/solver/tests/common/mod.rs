@@ -6,13 +6,21 @@
 //!   measured point minus the distorted model point).
 //! * [`Distances`]: P = 0, R = 1 (distance of the corrected measurement to
 //!   the centre, minus the radius).
+//!
+//! Optionally ([`couple`]) the centres of some groups live in the global
+//! block instead, after the 8 parameters (those groups are fixed), measured
+//! against each other by distances (the global observations); and some
+//! other groups are held at their values (fixed too).
 #![allow(dead_code)]
 
 use std::fmt;
 use std::ops::Range;
 
-use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
-use parcal_solver::{GaussianPrior, Linearization, Problem, State};
+use nalgebra::{
+    DMatrix, DVector, Dyn, Matrix3, OMatrix, RowVector3, SMatrix, SVector, U1, U2, U3, Vector2,
+    Vector3,
+};
+use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Problem, State};
 
 pub const G: usize = 8;
 
@@ -120,6 +128,15 @@ impl fmt::Display for TestError {
 
 impl std::error::Error for TestError {}
 
+/// A distance measured between two centres of the global block.
+#[derive(Clone, Copy, Debug)]
+pub struct Distance {
+    /// Their places in [`Data::global_centres`].
+    pub between: (usize, usize),
+    pub measured: f64,
+    pub sigma: f64,
+}
+
 /// Data and options shared by both models.
 #[derive(Clone, Debug)]
 pub struct Data {
@@ -127,11 +144,29 @@ pub struct Data {
     pub sigma: f64,
     pub measurements: Vec<Vector3<f64>>,
     pub starts: Vec<usize>,
-    pub global_prior: Option<GaussianPrior<G>>,
-    pub group_priors: Option<Vec<GaussianPrior<3>>>,
-    pub point_priors: Option<Vec<GaussianPrior<2>>>,
+    pub global_prior: Option<GaussianPrior<Dyn>>,
+    pub group_priors: Option<Vec<GaussianPrior<U3>>>,
+    pub point_priors: Option<Vec<GaussianPrior<U2>>>,
     pub fail: Option<Fail>,
     pub unseen: Option<usize>,
+    /// The groups whose centres are global unknowns `G + 3j..G + 3j + 3`
+    /// (`j`: their place here); these groups are fixed.
+    pub global_centres: Vec<usize>,
+    /// Groups held at their values (fixed).
+    pub held: Vec<usize>,
+    /// The global observations.
+    pub distances: Vec<Distance>,
+    /// A fault injected into [`Problem::global_observations`].
+    pub observation_fault: Option<ObservationFault>,
+}
+
+/// How [`Problem::global_observations`] goes wrong.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ObservationFault {
+    /// It returns an error.
+    Error,
+    /// Its Jacobian has one column too many.
+    WrongShape,
 }
 
 impl Data {
@@ -143,6 +178,69 @@ impl Data {
     }
     fn range(&self, k: usize) -> Range<usize> {
         self.starts[k]..self.starts[k + 1]
+    }
+    pub fn global_size(&self) -> usize {
+        G + 3 * self.global_centres.len()
+    }
+    fn is_fixed(&self, k: usize) -> bool {
+        self.global_centres.contains(&k) || self.held.contains(&k)
+    }
+    /// The global column of group `k`'s centre, if it lives there.
+    fn centre_column(&self, k: usize) -> Option<usize> {
+        let j = self.global_centres.iter().position(|&g| g == k)?;
+        Some(G + 3 * j)
+    }
+    /// The group of point `i`.
+    fn group_of(&self, i: usize) -> usize {
+        self.starts.partition_point(|&s| s <= i) - 1
+    }
+    /// Point `i`'s centre: from the global block if it lives there.
+    fn centre(&self, i: usize, global: &DVector<f64>, group: &SVector<f64, 3>) -> Vector3<f64> {
+        match self.centre_column(self.group_of(i)) {
+            Some(col) => global.fixed_rows::<3>(col).into_owned(),
+            None => *group,
+        }
+    }
+    /// Writes `−s ∂D/∂g` and (for a centre of the global block) `d_centre`
+    /// into a point's global Jacobian.
+    fn global_jacobian<const R: usize>(
+        &self,
+        i: usize,
+        d_params: &SMatrix<f64, R, G>,
+        d_centre: &SMatrix<f64, R, 3>,
+        out: &mut OMatrix<f64, nalgebra::Const<R>, Dyn>,
+    ) {
+        out.fill(0.0);
+        out.fixed_columns_mut::<G>(0).copy_from(d_params);
+        if let Some(col) = self.centre_column(self.group_of(i)) {
+            out.fixed_columns_mut::<3>(col).copy_from(d_centre);
+        }
+    }
+    /// The distances' whitened residuals and Jacobian.
+    fn observations(
+        &self,
+        global: &DVector<f64>,
+        out: &mut GlobalObservations,
+    ) -> Result<(), TestError> {
+        let mut columns = global.len();
+        match self.observation_fault {
+            Some(ObservationFault::Error) => {
+                return Err(TestError("injected failure of the distances".into()));
+            }
+            Some(ObservationFault::WrongShape) => columns += 1,
+            None => {}
+        }
+        *out = GlobalObservations::zeros(self.distances.len(), columns);
+        for (r, d) in self.distances.iter().enumerate() {
+            let (a, b) = (G + 3 * d.between.0, G + 3 * d.between.1);
+            let e: Vector3<f64> = global.fixed_rows::<3>(a) - global.fixed_rows::<3>(b);
+            let n = e.norm();
+            out.residual[r] = (n - d.measured) / d.sigma;
+            let u: RowVector3<f64> = e.transpose() / (n * d.sigma);
+            out.jacobian.fixed_view_mut::<1, 3>(r, a).copy_from(&u);
+            out.jacobian.fixed_view_mut::<1, 3>(r, b).copy_from(&(-u));
+        }
+        Ok(())
     }
     fn check_fail(&self, i: usize, calls: &mut u32) -> Result<(), TestError> {
         let call = *calls;
@@ -159,21 +257,26 @@ impl Data {
 /// P = 2, R = 3: `r = (m − D(c + ρ u(θ, φ); g)) / σ`.
 pub struct Touches(pub Data);
 
-impl Problem<G, 3, 2, 3> for Touches {
+impl Problem<3, 2, 3> for Touches {
     type PointCache = u32;
     type Workspace = ();
     type Error = TestError;
-    type Jacobian = SMatrix<f64, 3, G>;
-    type Global = SVector<f64, G>;
-    fn prepare_global(&self, global: &SVector<f64, G>) -> Self::Global {
-        *global
+    type Jacobian = OMatrix<f64, U3, Dyn>;
+    type Global = DVector<f64>;
+    fn global_size(&self) -> usize {
+        self.0.global_size()
     }
-
+    fn prepare_global(&self, global: &DVector<f64>) -> Self::Global {
+        global.clone()
+    }
     fn n_groups(&self) -> usize {
         self.0.n_groups()
     }
     fn group_points(&self, k: usize) -> Range<usize> {
         self.0.range(k)
+    }
+    fn group_is_fixed(&self, k: usize) -> bool {
+        self.0.is_fixed(k)
     }
     fn initial_cache(&self, _i: usize) -> u32 {
         0
@@ -181,32 +284,38 @@ impl Problem<G, 3, 2, 3> for Touches {
     fn linearize(
         &self,
         i: usize,
-        global: &SVector<f64, G>,
+        global: &DVector<f64>,
         group: &SVector<f64, 3>,
         point: &SVector<f64, 2>,
         cache: &mut u32,
-        out: &mut Linearization<G, 3, 2, 3>,
+        out: &mut Linearization<3, 2, 3>,
     ) -> Result<(), TestError> {
         self.0.check_fail(i, cache)?;
         let (u, du) = direction(point);
-        let y = group + self.0.radius * u;
-        let (d, dy, dg) = distort(&y, global, self.0.unseen);
+        let y = self.0.centre(i, global, group) + self.0.radius * u;
+        let (d, dy, dg) = distort(&y, &global.fixed_rows::<G>(0).into_owned(), self.0.unseen);
         let s = 1.0 / self.0.sigma;
-        *out = Linearization {
-            residual: s * (self.0.measurements[i] - d),
-            d_global: -s * dg,
-            d_group: -s * dy,
-            d_point: -s * self.0.radius * dy * du,
-        };
+        out.residual = s * (self.0.measurements[i] - d);
+        self.0
+            .global_jacobian(i, &(-s * dg), &(-s * dy), &mut out.d_global);
+        out.d_group = -s * dy;
+        out.d_point = -s * self.0.radius * dy * du;
         Ok(())
     }
-    fn global_prior(&self) -> Option<&GaussianPrior<G>> {
+    fn global_observations(
+        &self,
+        global: &DVector<f64>,
+        out: &mut GlobalObservations,
+    ) -> Result<(), TestError> {
+        self.0.observations(global, out)
+    }
+    fn global_prior(&self) -> Option<&GaussianPrior<Dyn>> {
         self.0.global_prior.as_ref()
     }
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<U3>> {
         self.0.group_priors.as_ref().map(|p| p[k].clone())
     }
-    fn point_prior(&self, i: usize) -> Option<GaussianPrior<2>> {
+    fn point_prior(&self, i: usize) -> Option<GaussianPrior<U2>> {
         self.0.point_priors.as_ref().map(|p| p[i].clone())
     }
 }
@@ -215,21 +324,26 @@ impl Problem<G, 3, 2, 3> for Touches {
 /// correction of the measurement).
 pub struct Distances(pub Data);
 
-impl Problem<G, 3, 0, 1> for Distances {
+impl Problem<3, 0, 1> for Distances {
     type PointCache = u32;
     type Workspace = ();
     type Error = TestError;
-    type Jacobian = SMatrix<f64, 1, G>;
-    type Global = SVector<f64, G>;
-    fn prepare_global(&self, global: &SVector<f64, G>) -> Self::Global {
-        *global
+    type Jacobian = OMatrix<f64, U1, Dyn>;
+    type Global = DVector<f64>;
+    fn global_size(&self) -> usize {
+        self.0.global_size()
     }
-
+    fn prepare_global(&self, global: &DVector<f64>) -> Self::Global {
+        global.clone()
+    }
     fn n_groups(&self) -> usize {
         self.0.n_groups()
     }
     fn group_points(&self, k: usize) -> Range<usize> {
         self.0.range(k)
+    }
+    fn group_is_fixed(&self, k: usize) -> bool {
+        self.0.is_fixed(k)
     }
     fn initial_cache(&self, _i: usize) -> u32 {
         0
@@ -237,30 +351,41 @@ impl Problem<G, 3, 0, 1> for Distances {
     fn linearize(
         &self,
         i: usize,
-        global: &SVector<f64, G>,
+        global: &DVector<f64>,
         group: &SVector<f64, 3>,
         _point: &SVector<f64, 0>,
         cache: &mut u32,
-        out: &mut Linearization<G, 3, 0, 1>,
+        out: &mut Linearization<3, 0, 1>,
     ) -> Result<(), TestError> {
         self.0.check_fail(i, cache)?;
-        let (y, _, dg) = distort(&self.0.measurements[i], global, self.0.unseen);
-        let e = y - group;
+        let params = global.fixed_rows::<G>(0).into_owned();
+        let (y, _, dg) = distort(&self.0.measurements[i], &params, self.0.unseen);
+        let e = y - self.0.centre(i, global, group);
         let n = e.norm();
         let s = 1.0 / self.0.sigma;
         let unit = e / n;
-        *out = Linearization {
-            residual: SVector::<f64, 1>::new(s * (n - self.0.radius)),
-            d_global: s * unit.transpose() * dg,
-            d_group: -s * unit.transpose(),
-            d_point: SMatrix::zeros(),
-        };
+        out.residual = SVector::<f64, 1>::new(s * (n - self.0.radius));
+        let d_centre = -s * unit.transpose();
+        self.0.global_jacobian(
+            i,
+            &(s * unit.transpose() * dg),
+            &d_centre,
+            &mut out.d_global,
+        );
+        out.d_group = d_centre;
         Ok(())
     }
-    fn global_prior(&self) -> Option<&GaussianPrior<G>> {
+    fn global_observations(
+        &self,
+        global: &DVector<f64>,
+        out: &mut GlobalObservations,
+    ) -> Result<(), TestError> {
+        self.0.observations(global, out)
+    }
+    fn global_prior(&self) -> Option<&GaussianPrior<Dyn>> {
         self.0.global_prior.as_ref()
     }
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<3>> {
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<U3>> {
         self.0.group_priors.as_ref().map(|p| p[k].clone())
     }
 }
@@ -313,13 +438,15 @@ fn centres(rng: &mut Rng, n_groups: usize) -> Vec<SVector<f64, 3>> {
         .collect()
 }
 
-fn priors(rng: &mut Rng, spec: &Spec, truth: &State<G, 3, 2>, data: &mut Data, with_points: bool) {
+fn priors(rng: &mut Rng, spec: &Spec, truth: &State<3, 2>, data: &mut Data, with_points: bool) {
     if !spec.priors {
         return;
     }
+    let mean = truth.global.fixed_rows::<G>(0) + rng.vector::<G>(0.01);
+    let information = rng.information::<G>(1e3);
     data.global_prior = Some(GaussianPrior::new(
-        truth.global + rng.vector::<G>(0.01),
-        rng.information::<G>(1e3),
+        DVector::from_column_slice(mean.as_slice()),
+        DMatrix::from_column_slice(G, G, information.as_slice()),
     ));
     data.group_priors = Some(
         truth
@@ -352,11 +479,19 @@ fn empty_data(spec: &Spec) -> Data {
         point_priors: None,
         fail: None,
         unseen: None,
+        global_centres: Vec::new(),
+        held: Vec::new(),
+        distances: Vec::new(),
+        observation_fault: None,
     }
 }
 
+fn global_block(g: &SVector<f64, G>) -> DVector<f64> {
+    DVector::from_column_slice(g.as_slice())
+}
+
 /// A [`Touches`] case and its truth.
-pub fn touches(spec: Spec) -> (Touches, State<G, 3, 2>) {
+pub fn touches(spec: Spec) -> (Touches, State<3, 2>) {
     let mut rng = Rng::new(spec.seed);
     let g = true_global();
     let groups = centres(&mut rng, spec.n_groups);
@@ -372,7 +507,7 @@ pub fn touches(spec: Spec) -> (Touches, State<G, 3, 2>) {
         }
     }
     let truth = State {
-        global: g,
+        global: global_block(&g),
         groups,
         points,
     };
@@ -381,7 +516,7 @@ pub fn touches(spec: Spec) -> (Touches, State<G, 3, 2>) {
 }
 
 /// A [`Distances`] case and its truth.
-pub fn distances(spec: Spec) -> (Distances, State<G, 3, 0>) {
+pub fn distances(spec: Spec) -> (Distances, State<3, 0>) {
     let mut rng = Rng::new(spec.seed);
     let g = true_global();
     let groups = centres(&mut rng, spec.n_groups);
@@ -401,12 +536,12 @@ pub fn distances(spec: Spec) -> (Distances, State<G, 3, 0>) {
         }
     }
     let truth = State {
-        global: g,
+        global: global_block(&g),
         groups,
         points: vec![SVector::zeros(); spec.n_groups * spec.points_per_group],
     };
     let touches_truth = State {
-        global: truth.global,
+        global: truth.global.clone(),
         groups: truth.groups.clone(),
         points: vec![Vector2::zeros(); truth.points.len()],
     };
@@ -414,18 +549,78 @@ pub fn distances(spec: Spec) -> (Distances, State<G, 3, 0>) {
     (Distances(data), truth)
 }
 
+/// Moves the centres of the groups `global_centres` into the global block
+/// (after the 8 parameters; those groups become fixed), measures the
+/// distance between every two of them (noise and whitening σ
+/// `distance_sigma`), holds the groups `held` at their values, and extends
+/// the global prior, if any, to the moved centres. Returns the truth in the
+/// new layout (a moved group's own block keeps its value, unused).
+pub fn couple<const P: usize>(
+    data: &mut Data,
+    truth: &State<3, P>,
+    global_centres: &[usize],
+    held: &[usize],
+    distance_sigma: f64,
+    seed: u64,
+) -> State<3, P> {
+    let mut rng = Rng::new(seed ^ 0x5EED);
+    let mut global: Vec<f64> = truth.global.iter().copied().collect();
+    for &k in global_centres {
+        global.extend(truth.groups[k].iter());
+    }
+    let n = global.len();
+    let global = DVector::from_vec(global);
+    data.global_centres = global_centres.to_vec();
+    data.held = held.to_vec();
+    data.distances.clear();
+    for a in 0..global_centres.len() {
+        for b in a + 1..global_centres.len() {
+            let e = truth.groups[global_centres[a]] - truth.groups[global_centres[b]];
+            data.distances.push(Distance {
+                between: (a, b),
+                measured: e.norm() + distance_sigma * rng.normal(),
+                sigma: distance_sigma,
+            });
+        }
+    }
+    if let Some(prior) = &mut data.global_prior {
+        let old = prior.mean.len();
+        let mut mean = global.clone();
+        mean.rows_mut(0, old).copy_from(&prior.mean);
+        let mut information = DMatrix::zeros(n, n);
+        information
+            .view_mut((0, 0), (old, old))
+            .copy_from(&prior.information);
+        for j in (old..n).step_by(3) {
+            let noise = rng.vector::<3>(0.01);
+            for t in 0..3 {
+                mean[j + t] += noise[t];
+            }
+            information
+                .view_mut((j, j), (3, 3))
+                .copy_from(&rng.information::<3>(1e2));
+        }
+        *prior = GaussianPrior::new(mean, information);
+    }
+    State {
+        global,
+        groups: truth.groups.clone(),
+        points: truth.points.clone(),
+    }
+}
+
 /// `truth` moved by a deterministic perturbation: global by `dg` (per
 /// component, random sign), centres by `dc`, angles by `dp`.
 pub fn perturb<const P: usize>(
-    truth: &State<G, 3, P>,
+    truth: &State<3, P>,
     seed: u64,
     dg: f64,
     dc: f64,
     dp: f64,
-) -> State<G, 3, P> {
+) -> State<3, P> {
     let mut rng = Rng::new(seed ^ 0xABCDEF);
     State {
-        global: truth.global + rng.vector::<G>(dg),
+        global: truth.global.map(|x| x + dg * rng.normal()),
         groups: truth
             .groups
             .iter()
@@ -455,7 +650,7 @@ pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// All values of a state, flattened (global, groups, points).
-pub fn flatten<const C: usize, const P: usize>(s: &State<G, C, P>) -> Vec<f64> {
+pub fn flatten<const C: usize, const P: usize>(s: &State<C, P>) -> Vec<f64> {
     let mut v: Vec<f64> = s.global.iter().copied().collect();
     v.extend(s.groups.iter().flat_map(|c| c.iter().copied()));
     v.extend(s.points.iter().flat_map(|p| p.iter().copied()));
