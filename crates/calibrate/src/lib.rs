@@ -13,6 +13,12 @@
 //! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
 //! - [`sphere_fit`]: initial ball centres.
 //!
+//! [`calibrate`] validates its dataset first ([`validate`]), so data built
+//! in memory fails with a [`CalibrateError`] rather than a panic. Errors
+//! name measurement rows (0-based), balls and dataset fields, never files:
+//! the caller that read the files adds them ([`CalibrateError::row`]).
+//! The `parcal` crate re-exports this crate with the others it needs.
+//!
 //! ```no_run
 //! use parcal_calibrate::{CalibrationOptions, Simulation, calibrate};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -33,7 +39,9 @@ pub mod problem;
 pub mod run;
 pub mod setup;
 pub mod sphere_fit;
+mod validate;
 
 pub use error::CalibrateError;
 pub use options::{CalibrationOptions, Method, Observation, PriorMode, Simulation, Weighting};
 pub use run::{CalibrationRun, ParamCovariance, calibrate};
+pub use validate::{MIN_CONTACTS_PER_BALL, validate};

@@ -264,11 +264,13 @@ pub fn weak_direction(weak: &WeakDirection) -> String {
 }
 
 /// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
+/// The dataset is validated first ([`crate::validate`]).
 pub fn calibrate(
     dataset: &Dataset,
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<CalibrationRun, CalibrateError> {
+    crate::validate(dataset)?;
     let (mut setup, observations) = Setup::new(dataset, options)?;
     let poses = std::mem::take(&mut setup.poses);
     let solver_options = SolverOptions {

@@ -232,8 +232,5 @@ fn a_batch_names_its_first_failing_contact() {
         )
         .expect_err("the same contact alone");
     assert_eq!(error.to_string(), single.to_string());
-    assert!(
-        error.to_string().contains("measurements.csv line"),
-        "{error}"
-    );
+    assert!(error.to_string().contains("measurement row"), "{error}");
 }

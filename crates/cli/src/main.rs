@@ -66,7 +66,8 @@ fn closed_pipe(error: &anyhow::Error) -> bool {
 }
 
 /// The error and its causes joined by ": ", skipping a cause that the
-/// message already states (the libraries' errors embed their causes).
+/// message already states: some library errors (dataset I/O, accuracy,
+/// report) still print their `source` in their message too.
 fn one_sentence(error: &anyhow::Error) -> String {
     let mut message = String::new();
     for cause in error.chain() {

@@ -323,7 +323,7 @@ fn a_calibration_that_cannot_start_says_where() {
     assert!(!output.status.success());
     let stderr = text(&output.stderr);
     assert!(
-        stderr.contains("measurements.csv line 10: forward kinematics failed"),
+        stderr.contains("measurements.csv line 10: measurement row 8: forward kinematics failed"),
         "{stderr}"
     );
     assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
@@ -340,6 +340,22 @@ fn a_calibration_that_cannot_start_says_where() {
     let stderr = text(&output.stderr);
     assert!(
         stderr.contains("measurements.csv line 2: ") && stderr.contains("reference direction"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn a_snapshot_with_too_few_contacts_per_ball_is_refused() {
+    // Reading the text files refuses it; a snapshot reaches the calibration,
+    // which refuses it too, naming the ball.
+    let temp = tempfile::tempdir().unwrap();
+    simulate(temp.path(), &["--points-per-ball", "3", "--binary"]);
+    let snapshot = temp.path().join("dataset.bin");
+    let output = parcal(&["calibrate", snapshot.to_str().unwrap()]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("error: ball \"b01\" has 3 contacts, fewer than the 4"),
         "{stderr}"
     );
 }

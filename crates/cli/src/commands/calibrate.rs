@@ -10,9 +10,10 @@ use clap::ValueEnum;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{
-    CalibrationOptions, CalibrationRun, Observation, PriorMode, Simulation, Weighting, calibrate,
+    CalibrateError, CalibrationOptions, CalibrationRun, Observation, PriorMode, Simulation,
+    Weighting, calibrate,
 };
-use parcal_dataset::{CALIBRATION_FILE, Dataset};
+use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
 use parcal_report::tables;
 
 use crate::progress::Progress;
@@ -124,11 +125,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let progress = Progress::bar("iteration", options.max_iterations as u64);
     let read = Instant::now();
     let mut dataset = super::read_dataset(&args.dataset)?;
-    // The true contact points of a simulation serve its checks, not a
-    // calibration or its evaluation: free them (24 bytes per contact).
-    if let Some(truth) = &mut dataset.truth {
-        truth.contacts = Vec::new();
-    }
+    // A simulation's true machine serves the evaluation, not the
+    // calibration: keep it, and free the dataset's truth.json with its true
+    // contact points (24 bytes per contact).
+    let truth = Truth::of(&dataset)
+        .transpose()
+        .context("truth.json: the true geometry is degenerate")?;
+    dataset.truth = None;
     progress.line(&format!(
         "read {} contacts in {:.2} s",
         dataset.measurements.q.len(),
@@ -148,7 +151,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             record.step_norm,
             started.elapsed().as_secs_f64()
         ))
-    })?;
+    })
+    .map_err(|error| in_dataset(error, &args.dataset))?;
     progress.finish();
     // Default: calibration.json in the dataset directory (next to a snapshot file).
     let directory = if args.dataset.is_file() {
@@ -162,7 +166,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .unwrap_or_else(|| directory.join(CALIBRATION_FILE));
     run.record().write(&out)?;
     // A reader that closed stdout early does not hide a failed calibration.
-    let printed = print_results(&dataset, &run, &out);
+    let printed = print_results(&dataset, truth.as_ref(), &run, &out);
     anyhow::ensure!(
         run.converged(),
         "the calibration did not converge: {}",
@@ -171,20 +175,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     printed
 }
 
+/// `error` with the file of its measurement row in front, if it names one:
+/// the line of measurements.csv (row + 2, the header is line 1), or the
+/// snapshot file.
+fn in_dataset(error: CalibrateError, dataset: &Path) -> anyhow::Error {
+    let Some(row) = error.row() else {
+        return error.into();
+    };
+    let place = if dataset.is_file() {
+        dataset.display().to_string()
+    } else {
+        let csv = dataset.join(MEASUREMENTS_FILE);
+        format!("{} line {}", csv.display(), row + 2)
+    };
+    anyhow::Error::new(error).context(place)
+}
+
 /// The summary, the parameter table and the accuracy of `run` on stdout.
 fn print_results(
     dataset: &Dataset,
+    truth: Option<&Truth>,
     run: &CalibrationRun,
     calibration: &Path,
 ) -> anyhow::Result<()> {
-    let truth = Truth::of(dataset)
-        .transpose()
-        .context("truth.json: the true geometry is degenerate")?;
-    let maps =
-        before_after(dataset, truth.as_ref(), run, &MapGrid::paper()).context("accuracy map")?;
+    let maps = before_after(dataset, truth, run, &MapGrid::paper()).context("accuracy map")?;
     let mut stdout = std::io::stdout().lock();
-    writeln!(stdout, "{}", tables::run_summary(run, truth.as_ref()))?;
-    writeln!(stdout, "{}", tables::parameters(run, truth.as_ref()))?;
+    writeln!(stdout, "{}", tables::run_summary(run, truth))?;
+    writeln!(stdout, "{}", tables::parameters(run, truth))?;
     writeln!(
         stdout,
         "accuracy on the plane z = 400 of the design frame, um:"

@@ -1,0 +1,110 @@
+//! parcal as a library: calibrate a hexapod (a 6-6 Stewart platform) from
+//! touches of calibration balls, with a priori knowledge of its design
+//! tolerances (Sato et al., "Artefact calibration of parallel mechanism",
+//! Meas. Sci. Technol. 15 (2004) 1158), and see what the calibration buys.
+//!
+//! This crate is the front door: it re-exports what a user needs from the
+//! workspace's crates, so that one dependency builds a dataset in memory or
+//! reads one from files, calibrates it, maps the accuracy and simulates
+//! campaigns. The root holds that workflow; each crate is also here whole:
+//!
+//! - [`dataset`]: the dataset format, reading and writing
+//!   ([`Dataset::read`], [`Dataset::write`], snapshots);
+//! - [`calibration`]: the calibration and its parts (set-up, problem,
+//!   prior-data conflict tests, evaluation against a truth);
+//! - [`accuracy`]: accuracy maps, predicted and true;
+//! - [`simulation`]: simulated campaigns (the paper's scenario and others);
+//! - [`kinematics`]: geometry, inverse and forward kinematics, the 33
+//!   canonical parameters.
+//!
+//! # Example
+//!
+//! Touches of 27 balls made with the paper's true machine (table 2 of Sato
+//! et al.), calibrated from its design values:
+//!
+//! ```
+//! use parcal::kinematics::{Pose, Vec3, actuators, paper, params, rotation_zyx};
+//! use parcal::{ArtefactFrame, Artefacts, Ball, CalibrationOptions, Dataset, Machine};
+//! use parcal::{Measurements, PARAM_NAMES, PriorSigma, Repeatability, calibrate};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let (design, truth) = (paper::design(), paper::truth());
+//! let machine = Machine {
+//!     base_joints: design.base.map(Into::into),
+//!     platform_joints: design.platform.map(Into::into),
+//!     tool: design.tool.into(),
+//!     leg_lengths: design.legs,
+//!     prior_sigma: PriorSigma { base: 0.1, platform: 0.1, tool: 0.1, leg: 0.1 },
+//!     repeatability: Repeatability { actuator: 0.001, tool: 0.001 },
+//! };
+//! // Balls of radius 5 mm on a 3 x 3 x 3 grid, each touched 7 times on its
+//! // lower half, the platform tilted by up to 0.17 rad.
+//! let (radius, mut balls, mut measurements) = (5.0, Vec::new(), Measurements::default());
+//! for i in 0..27 {
+//!     let grid = |k: u32| 60.0 * (k % 3) as f64 - 60.0;
+//!     let centre = [grid(i), grid(i / 3), 400.0 + grid(i / 9) * 2.0 / 3.0];
+//!     let (id, centre_sigma, radius_sigma) = (format!("b{i}"), 0.1, 0.001);
+//!     balls.push(Ball { id, centre, centre_sigma, radius, radius_sigma });
+//!     for j in 0..7 {
+//!         let (azimuth, t) = (2.4 * j as f64, (7 * i + j) as f64);
+//!         let u = Vec3::new(azimuth.cos(), azimuth.sin(), -0.3 - 0.3 * j as f64).normalize();
+//!         let turn = rotation_zyx(0.17 * t.sin(), 0.17 * (1.3 * t).cos(), 0.17 * (0.7 * t).sin());
+//!         let tip = Vec3::from(centre) + radius * u;
+//!         let pose = Pose::from_parts((tip - turn * truth.tool).into(), turn);
+//!         measurements.ball.push(i);
+//!         measurements.q.push(actuators(&truth, &pose));
+//!     }
+//! }
+//! let artefacts = Artefacts { frame: ArtefactFrame::Design, balls, distances: vec![] };
+//! let dataset = Dataset { machine, artefacts, measurements, truth: None };
+//!
+//! let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {})?;
+//! assert!(run.converged(), "{}", run.status_text());
+//! let sigmas = run.sigmas().expect("a converged run has a covariance");
+//! let prior = run.prior.as_ref().expect("the default options have a prior").covariance();
+//! let true_params = params::to_params(&truth.canonicalize()?.geometry);
+//! for (k, name) in PARAM_NAMES.iter().enumerate() {
+//!     let error = run.params[k] - true_params[k];
+//!     println!("{name:>4} {:9.4} mm +- {:.4} (error {error:+.4})", run.params[k], sigmas[k]);
+//!     // The touches sharpen the prior, and the truth is within 3 sigma.
+//!     assert!(sigmas[k] < prior[(k, k)].sqrt() && error.abs() < 3.0 * sigmas[k]);
+//! }
+//! # Ok(()) }
+//! ```
+//!
+//! # Errors
+//!
+//! [`calibrate`] validates its dataset first ([`validate`]): a bad index, a
+//! short array, a value that is not finite or a ball with too few contacts
+//! is a [`CalibrateError`], never a panic. A `CalibrateError` names what
+//! the calibration was given (a measurement row, 0-based; a ball; a field
+//! of the [`Dataset`]), states its cause in its message, and gives its row
+//! ([`CalibrateError::row`]) to a caller that read files and names the line
+//! (row + 2 of measurements.csv). [`DatasetError`]s of reading and writing
+//! name the file and line themselves.
+
+pub use parcal_accuracy as accuracy;
+pub use parcal_calibrate as calibration;
+pub use parcal_dataset as dataset;
+pub use parcal_kinematics as kinematics;
+pub use parcal_simulate as simulation;
+
+// The data: a dataset in memory, its files, a calibration's record.
+pub use parcal_dataset::{
+    ArtefactFrame, Artefacts, Ball, Calibration, Dataset, DatasetError, Distance, Machine,
+    Measurements, Point3, PriorSigma, ReadOptions, Repeatability, Truth,
+};
+
+// Calibration.
+pub use parcal_calibrate::{
+    CalibrateError, CalibrationOptions, CalibrationRun, MIN_CONTACTS_PER_BALL, Method, Observation,
+    ParamCovariance, PriorMode, Weighting, calibrate, validate,
+};
+pub use parcal_kinematics::{KinematicsError, N_PARAMS, PARAM_NAMES, Params};
+
+// What a calibration buys: accuracy maps before and after.
+pub use parcal_accuracy::{AccuracyError, AccuracyMap, MapGrid, MapSummary};
+pub use parcal_calibrate::evaluate::{Accuracy, BeforeAfter, before_after};
+
+// Simulated campaigns.
+pub use parcal_simulate::{Scenario, SimulateError, simulate};
