@@ -69,6 +69,13 @@ pub enum CalibrateError {
     },
     /// The a priori covariance built from `machine.prior_sigma` is unusable.
     Prior(ObserveError),
+    /// A calibrated distance could not be evaluated (the two centres
+    /// coincide).
+    Distance {
+        /// Its index in `artefacts.distances`.
+        index: usize,
+        source: ObserveError,
+    },
 }
 
 impl CalibrateError {
@@ -154,6 +161,9 @@ impl fmt::Display for CalibrateError {
                 f,
                 "machine.prior_sigma: the a priori covariance is unusable: {error}"
             ),
+            Self::Distance { index, source } => {
+                write!(f, "artefacts.distances[{index}]: {source}")
+            }
         }
     }
 }

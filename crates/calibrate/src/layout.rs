@@ -20,7 +20,8 @@
 
 use std::ops::Range;
 
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
+use nalgebra::{DMatrix, DVector};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Vec3};
 
 /// One named group of the global block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -105,6 +106,34 @@ impl ParameterLayout {
     /// Whether any ball centre is in the global block.
     pub fn has_coupled_centres(&self) -> bool {
         self.groups.len() > 1
+    }
+
+    /// Every ball's centre at a state of the solver: the global block's
+    /// (`global`) for a ball whose centre is there, its group's (`groups`,
+    /// one per ball) for the others.
+    pub fn ball_centres(&self, global: &DVector<f64>, groups: &[Vec3]) -> Vec<Vec3> {
+        groups
+            .iter()
+            .enumerate()
+            .map(|(ball, group)| match self.centre(ball) {
+                Some(range) => global.fixed_rows::<3>(range.start).into_owned(),
+                None => *group,
+            })
+            .collect()
+    }
+
+    /// Every ball's marginal sigmas: the square roots of the diagonal of
+    /// the global covariance for a ball whose centre is in the global
+    /// block, its group's sigmas (`groups`) for the others.
+    pub fn ball_sigmas(&self, global: &DMatrix<f64>, groups: &[Vec3]) -> Vec<Vec3> {
+        groups
+            .iter()
+            .enumerate()
+            .map(|(ball, group)| match self.centre(ball) {
+                Some(range) => Vec3::from_fn(|c, _| global[(range.start + c, range.start + c)].sqrt()),
+                None => *group,
+            })
+            .collect()
     }
 
     /// The name of every global parameter, in order: the kinematic

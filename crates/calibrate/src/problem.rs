@@ -1,7 +1,10 @@
-//! The calibration as the solver sees it: one global block (the 33
-//! kinematic parameters), one group per ball (its centre, 3), one point per
-//! contact (its two angles for the coordinate observation, none for the
-//! radius observation), and the priors.
+//! The calibration as the solver sees it: one global block (the
+//! [`ParameterLayout`]: the 33 kinematic parameters, then the centres of
+//! the balls tied by calibrated distances), one group per ball (its centre,
+//! 3; held fixed for a ball whose centre is in the global block), one point
+//! per contact (its two angles for the coordinate observation, none for the
+//! radius observation), the distances as global observations, and the
+//! priors.
 //!
 //! Each contact's residual is its observation block (`parcal_observe`) at the
 //! tool tip given by forward kinematics of the current parameters at the
@@ -20,12 +23,15 @@ use parcal_kinematics::{
     SolutionJacobian, Vec3, params,
 };
 use parcal_observe::{
-    BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, ObserveError, RadiusBlock,
-    RadiusWeight,
+    BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, DistanceBlock,
+    ObserveError, RadiusBlock, RadiusWeight,
 };
-use parcal_solver::{BATCH, GaussianPrior, GlobalJacobian, Linearization, Problem};
+use parcal_solver::{
+    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem,
+};
 
 use crate::CalibrateError;
+use crate::layout::ParameterLayout;
 
 /// Paper eq. (9) for every contact.
 pub struct RadiusObservations {
@@ -124,15 +130,28 @@ impl ContactObservations<3, 2> for CoordinateObservations {
 /// (paper eq. 2 through eq. 9 or 10, whitened as in eq. 5), applied through
 /// `J_f` in factored form instead of formed: a combination of its rows
 /// costs a 6 x 3 product and a sparse row, a product with a step a sparse
-/// row and a 3 x 6 product. The calibration's global block is the 33
-/// kinematic parameters: they are its first 33 columns, and any further
-/// columns are zero.
+/// row and a 3 x 6 product. The kinematic parameters are the global
+/// block's first 33 columns; a contact on a ball whose centre is in the
+/// global block ([`ParameterLayout::centre`]) also has its `dc/dC` there;
+/// every other column is zero.
 #[derive(Debug, Clone)]
 pub struct ContactJacobian<const R: usize> {
     /// The whitened `dc/dT` (R x 3).
     pub d_tip: SMatrix<f64, R, 3>,
     /// The contact's forward kinematics and `J_f` there.
     pub tip: SolutionJacobian,
+    /// For a ball whose centre is in the global block: the centre's first
+    /// column and the whitened `dc/dC` (R x 3).
+    pub centre: Option<(usize, SMatrix<f64, R, 3>)>,
+}
+
+impl<const R: usize> ContactJacobian<R> {
+    /// `dc/dC · δC` for a ball whose centre is in the global block, else 0.
+    fn centre_step(&self, v: &DVector<f64>) -> SVector<f64, R> {
+        self.centre.map_or_else(SVector::zeros, |(start, d_centre)| {
+            d_centre * v.fixed_rows::<3>(start)
+        })
+    }
 }
 
 impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
@@ -140,39 +159,83 @@ impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
         Self {
             d_tip: SMatrix::zeros(),
             tip: SolutionJacobian::default(),
+            centre: None,
         }
     }
 
     fn combine_rows(&self, c: &[f64; R], out: &mut [f64]) {
-        let h = self.d_tip.tr_mul(&SVector::from(*c));
+        let c = SVector::from(*c);
+        let h = self.d_tip.tr_mul(&c);
         let (params, rest) = out.split_at_mut(N_PARAMS);
         self.tip.jacobian.params_row(&h, params);
         rest.fill(0.0);
+        if let Some((start, d_centre)) = &self.centre {
+            let row = d_centre.tr_mul(&c);
+            out[*start..*start + 3].copy_from_slice(row.as_slice());
+        }
     }
 
     fn apply(&self, v: &DVector<f64>) -> SVector<f64, R> {
-        self.d_tip * self.tip.jacobian.along(&kinematic_params(v))
+        self.d_tip * self.tip.jacobian.along(&kinematic_params(v)) + self.centre_step(v)
     }
 
-    /// Rows formed on the stack (33 values): no scratch needed.
+    /// The kinematic rows formed on the stack (33 values), the centre's
+    /// columns from `dc/dC`: no scratch needed.
     fn add_column_norms2(&self, out: &mut [f64], _row: &mut [f64]) {
         let mut row = [0.0; N_PARAMS];
         for r in 0..R {
-            self.row(r, &mut row);
+            let mut c = [0.0; R];
+            c[r] = 1.0;
+            let h = self.d_tip.tr_mul(&SVector::from(c));
+            self.tip.jacobian.params_row(&h, &mut row);
             for (o, x) in out.iter_mut().zip(&row) {
                 *o += x * x;
             }
         }
+        if let Some((start, d_centre)) = &self.centre {
+            for (o, column) in out[*start..*start + 3].iter_mut().zip(d_centre.column_iter()) {
+                *o += column.norm_squared();
+            }
+        }
     }
 
-    /// Rows formed on the stack (33 values): no scratch needed.
+    /// The kinematic rows formed on the stack (33 values): no scratch
+    /// needed.
     fn is_finite(&self, _row: &mut [f64]) -> bool {
         let mut row = [0.0; N_PARAMS];
-        (0..R).all(|r| {
-            self.row(r, &mut row);
+        let kinematic = (0..R).all(|r| {
+            let mut c = [0.0; R];
+            c[r] = 1.0;
+            let h = self.d_tip.tr_mul(&SVector::from(c));
+            self.tip.jacobian.params_row(&h, &mut row);
             row.iter().all(|x| x.is_finite())
-        })
+        });
+        kinematic
+            && self
+                .centre
+                .is_none_or(|(_, d)| d.iter().all(|x| x.is_finite()))
     }
+}
+
+/// What every contact of a pass needs of the global block, made once per
+/// pass: the canonical geometry of the kinematic parameters, and the
+/// centres of the balls whose centre is in the global block.
+pub struct GlobalValues {
+    /// The canonical geometry of the kinematic parameters.
+    pub geometry: Geometry,
+    /// Per ball (artefacts.json order): its centre if it is in the global
+    /// block.
+    pub centres: Vec<Option<Vec3>>,
+}
+
+/// A calibrated distance between two balls' centres, both in the global
+/// block.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DistanceObservation {
+    /// The first column of each ball's centre in the global block.
+    pub columns: [usize; 2],
+    /// Its length and uncertainty.
+    pub block: DistanceBlock,
 }
 
 /// The kinematic parameters of a global block: its first 33 values.
@@ -197,8 +260,17 @@ pub struct CalibrationProblem<'a, O> {
     /// Calibrated radius of each ball (the groups are the balls, in order).
     pub radii: Vec<f64>,
     pub observations: O,
-    /// The prior on the global block (the 33 parameters).
+    /// The global block: the kinematic parameters, then the centres of the
+    /// balls tied by distances.
+    pub layout: ParameterLayout,
+    /// The calibrated distances (artefacts.json order).
+    pub distances: Vec<DistanceObservation>,
+    /// The prior on the global block (kinematic parameters and, where the
+    /// balls have centre priors, the centres in the block).
     pub global_prior: Option<GaussianPrior<Dyn>>,
+    /// The priors of the balls' centres (artefacts.json order); those of
+    /// balls whose centre is in the global block are part of
+    /// `global_prior` instead.
     pub centre_priors: Option<Vec<GaussianPrior<U3>>>,
     pub forward_options: ForwardOptions,
 }
@@ -240,13 +312,15 @@ impl<O> CalibrationProblem<'_, O> {
     }
 
     /// Contact `i`'s whitened observation block at the tool tip `tip`
-    /// (from its forward kinematics, paper eq. 2), the ball centre and its
-    /// angles, into `out` (all but `d_global.tip`, the kinematics).
+    /// (from its forward kinematics, paper eq. 2), its ball's centre and its
+    /// angles, into `out` (all but `d_global.tip`, the kinematics). `dc/dC`
+    /// goes to the group's columns, or to the global block's for a ball
+    /// whose centre is there (`in_global`: its first column).
     fn observe_contact<const R: usize, const P: usize>(
         &self,
         i: usize,
         tip: &Vec3,
-        centre: &Vec3,
+        (centre, in_global): (&Vec3, Option<usize>),
         angles: &SVector<f64, P>,
         out: &mut Linearization<3, P, R, ContactJacobian<R>>,
     ) -> Result<(), CalibrateError>
@@ -262,14 +336,43 @@ impl<O> CalibrationProblem<'_, O> {
             })?;
         out.residual = block.residual;
         out.d_global.d_tip = block.d_tip;
-        out.d_group = block.d_centre;
+        match in_global {
+            Some(start) => {
+                out.d_global.centre = Some((start, block.d_centre));
+                out.d_group = SMatrix::zeros();
+            }
+            None => {
+                out.d_global.centre = None;
+                out.d_group = block.d_centre;
+            }
+        }
         out.d_point = block.d_angles;
         Ok(())
     }
 
+    /// The ball of contact `i` (artefacts.json index).
+    fn ball_of(&self, i: usize) -> usize {
+        self.ball[self.row(i)] as usize
+    }
+
     /// The radius of contact `i`'s ball.
     fn radius(&self, i: usize) -> f64 {
-        self.radii[self.ball[self.row(i)] as usize]
+        self.radii[self.ball_of(i)]
+    }
+
+    /// The centre of the ball of contact `first` (its group's, or the
+    /// global block's) and, for the latter, its first global column.
+    fn centre_of(
+        &self,
+        first: usize,
+        global: &GlobalValues,
+        group: &SVector<f64, 3>,
+    ) -> (Vec3, Option<usize>) {
+        let ball = self.ball_of(first);
+        match global.centres[ball] {
+            Some(centre) => (centre, self.layout.centre(ball).map(|r| r.start)),
+            None => (Vec3::from(*group), None),
+        }
     }
 }
 
@@ -285,15 +388,28 @@ where
     type Jacobian = ContactJacobian<R>;
     /// Every contact of a pass is linearised at the same parameters: their
     /// canonical geometry is built once per pass.
-    type Global = Geometry;
+    type Global = GlobalValues;
 
-    /// The 33 kinematic parameters.
+    /// The layout's size: 33, plus 3 per ball tied by a distance.
     fn global_size(&self) -> usize {
-        N_PARAMS
+        self.layout.size()
     }
 
-    fn prepare_global(&self, global: &DVector<f64>) -> Geometry {
-        params::from_params(&kinematic_params(global))
+    fn prepare_global(&self, global: &DVector<f64>) -> GlobalValues {
+        GlobalValues {
+            geometry: params::from_params(&kinematic_params(global)),
+            centres: (0..self.radii.len())
+                .map(|ball| {
+                    let range = self.layout.centre(ball)?;
+                    Some(global.fixed_rows::<3>(range.start).into_owned())
+                })
+                .collect(),
+        }
+    }
+
+    /// The balls whose centre is in the global block.
+    fn group_is_fixed(&self, k: usize) -> bool {
+        self.layout.centre(k).is_some()
     }
 
     fn n_groups(&self) -> usize {
@@ -314,7 +430,7 @@ where
     fn linearize(
         &self,
         i: usize,
-        global: &Geometry,
+        global: &GlobalValues,
         group: &SVector<f64, 3>,
         point: &SVector<f64, P>,
         cache: &mut Pose,
@@ -342,7 +458,7 @@ where
     fn linearize_batch(
         &self,
         first: usize,
-        global: &Geometry,
+        global: &GlobalValues,
         group: &SVector<f64, 3>,
         points: &[SVector<f64, P>],
         caches: &mut [Pose],
@@ -351,7 +467,7 @@ where
     ) -> Result<(), (usize, CalibrateError)> {
         let n = out.len();
         let kinematics = forward_jacobian_batch(
-            global,
+            &global.geometry,
             &self.batch_actuators(first, n)[..n],
             caches,
             &self.forward_options,
@@ -359,12 +475,18 @@ where
             out,
             |out| &mut out.d_global.tip,
         );
-        let centre = Vec3::from(*group);
+        let (centre, in_global) = self.centre_of(first, global, group);
         self.contact_by_contact(first, n, kinematics, |j| {
             let solution = &out[j].d_global.tip;
             let tip = solution.tool_tip;
             caches[j] = solution.pose;
-            self.observe_contact(first + j, &tip, &centre, &points[j], &mut out[j])
+            self.observe_contact(
+                first + j,
+                &tip,
+                (&centre, in_global),
+                &points[j],
+                &mut out[j],
+            )
         })
     }
 
@@ -375,7 +497,7 @@ where
     fn linearize_along(
         &self,
         i: usize,
-        global: &Geometry,
+        global: &GlobalValues,
         group: &SVector<f64, 3>,
         point: &SVector<f64, P>,
         cache: &mut Pose,
@@ -403,7 +525,7 @@ where
     fn linearize_along_batch(
         &self,
         first: usize,
-        global: &Geometry,
+        global: &GlobalValues,
         group: &SVector<f64, 3>,
         points: &[SVector<f64, P>],
         caches: &mut [Pose],
@@ -413,29 +535,30 @@ where
         workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
         let n = out.len();
-        let dg = &kinematic_params(dg);
+        let d_params = &kinematic_params(dg);
         let mut solutions = [SolutionAlong::default(); BATCH];
         let kinematics = forward_along_batch(
-            global,
+            &global.geometry,
             &self.batch_actuators(first, n)[..n],
             caches,
-            dg,
+            d_params,
             &self.forward_options,
             workspace,
             &mut solutions[..n],
         );
-        let centre = Vec3::from(*group);
+        let (centre, in_global) = self.centre_of(first, global, group);
         self.contact_by_contact(first, n, kinematics, |j| {
             let solution = &solutions[j];
             self.observe_contact(
                 first + j,
                 &solution.tool_tip,
-                &centre,
+                (&centre, in_global),
                 &points[j],
                 &mut out[j],
             )?;
             caches[j] = solution.predicted;
-            steps[j] = out[j].d_global.d_tip * solution.tip;
+            let d_global = &out[j].d_global;
+            steps[j] = d_global.d_tip * solution.tip + d_global.centre_step(dg);
             Ok(())
         })
     }
@@ -444,8 +567,39 @@ where
         self.global_prior.as_ref()
     }
 
+    /// A ball's centre prior, unless its centre is in the global block
+    /// (then the prior is part of the global one).
     fn group_prior(&self, k: usize) -> Option<GaussianPrior<U3>> {
+        if self.group_is_fixed(k) {
+            return None;
+        }
         self.centre_priors.as_ref().map(|priors| priors[k].clone())
+    }
+
+    /// The calibrated distances, `c = (L_ab − |C_a − C_b|) / σ_ab`
+    /// ([`DistanceBlock`]), on the centres in the global block.
+    fn global_observations(
+        &self,
+        global: &DVector<f64>,
+        out: &mut GlobalObservations,
+    ) -> Result<(), CalibrateError> {
+        *out = GlobalObservations::zeros(self.distances.len(), global.len());
+        for (k, distance) in self.distances.iter().enumerate() {
+            let [a, b] = distance.columns;
+            let block = distance
+                .block
+                .evaluate(
+                    &global.fixed_rows::<3>(a).into_owned(),
+                    &global.fixed_rows::<3>(b).into_owned(),
+                )
+                .map_err(|source| CalibrateError::Distance { index: k, source })?;
+            out.residual[k] = block.residual[0];
+            for c in 0..3 {
+                out.jacobian[(k, a + c)] = block.d_first[c];
+                out.jacobian[(k, b + c)] = block.d_second[c];
+            }
+        }
+        Ok(())
     }
 
     fn point_prior(&self, i: usize) -> Option<GaussianPrior<Const<P>>> {

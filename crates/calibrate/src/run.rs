@@ -14,6 +14,7 @@ use parcal_solver::{
 use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls, misfit_warning};
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
+use crate::layout::ParameterLayout;
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
@@ -59,6 +60,11 @@ pub struct CalibrationRun {
     pub spectrum: Option<SpectrumDiagnostics>,
     /// Prior-data conflict tests (kinematic parameters, ball centres).
     pub conflicts: Vec<ConflictTest>,
+    /// The global block: the kinematic parameters, then the centres of the
+    /// balls tied by calibrated distances.
+    pub layout: ParameterLayout,
+    /// The calibrated distances (artefacts.json) used as observations.
+    pub distances_used: usize,
     /// Paper mode: the check of the diagonal prior against the propagated
     /// design tolerances ([`crate::conflict::paper_prior_consistency`]).
     pub prior_consistency: Option<String>,
@@ -360,6 +366,8 @@ pub fn calibrate(
         residual_rows: solved.residual_rows,
         spectrum: solved.spectrum,
         conflicts,
+        distances_used: dataset.artefacts.distances.len(),
+        layout: setup.layout,
         rows: setup.order,
     })
 }
@@ -468,6 +476,14 @@ impl SolverRun<'_> {
                     priors[k].mean = initial_centre;
                 }
                 state.groups[k] = side.mirror.centre;
+                if let Some(range) = setup.layout.centre(k) {
+                    state.global.rows_mut(range.start, 3).copy_from(&side.mirror.centre);
+                    if let (Some(global), Some(_)) =
+                        (&mut problem.global_prior, &problem.centre_priors)
+                    {
+                        global.mean.rows_mut(range.start, 3).copy_from(&initial_centre);
+                    }
+                }
                 for (i, tip) in setup.groups[k].clone().zip(&tips) {
                     let row = setup.order[i] as usize;
                     state.points[i] = problem
@@ -495,13 +511,20 @@ impl SolverRun<'_> {
             .group_costs
             .as_deref()
             .map_or_else(Vec::new, |costs| self.misfits(costs));
+        let layout = &setup.layout;
+        let state = &solution.state;
+        let centre_sigmas = solution
+            .group_sigmas
+            .as_deref()
+            .zip(solution.covariance.as_ref())
+            .map(|(groups, global)| layout.ball_sigmas(global, groups));
         Ok(Solved {
-            params: kinematic_params(&solution.state.global),
+            params: kinematic_params(&state.global),
+            centres: layout.ball_centres(&state.global, &state.groups),
+            centre_sigmas,
             covariance: solution
                 .covariance
                 .map(|c| c.fixed_view::<N_PARAMS, N_PARAMS>(0, 0).into_owned()),
-            centres: solution.state.groups,
-            centre_sigmas: solution.group_sigmas,
             ball_misfits,
             status: solution.status,
             history: solution.history,
@@ -594,9 +617,10 @@ impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
         let state = iterate.state;
         let misfits = self.run.misfits(iterate.group_costs);
         let params = kinematic_params(&state.global);
+        let centres = self.run.setup.layout.ball_centres(&state.global, &state.groups);
         self.found = self
             .run
-            .wrong_sides(&params, &state.groups, &misfits, iterate.caches);
+            .wrong_sides(&params, &centres, &misfits, iterate.caches);
         match &self.found {
             Ok(wrong) if wrong.is_empty() => Verdict::Continue,
             _ => Verdict::Stop,

@@ -8,19 +8,24 @@
 
 use std::ops::Range;
 
-use nalgebra::{DMatrix, DVector, Matrix3x6, SMatrix, SVector, U3, UnitVector3, Vector3, Vector6};
+use nalgebra::{
+    DMatrix, DVector, Dyn, Matrix3x6, SMatrix, SVector, U3, UnitVector3, Vector3, Vector6,
+};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
 };
 use parcal_observe::{
-    CoordinateWeight, InputSigmas, KinematicPrior, ObserveError, RadiusWeight, Repeatability,
-    WeightModel, coordinate_covariance, radius_variance, unit_direction,
+    CoordinateWeight, DistanceBlock, InputSigmas, KinematicPrior, ObserveError, RadiusWeight,
+    Repeatability, WeightModel, coordinate_covariance, radius_variance, unit_direction,
 };
 use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
 
-use crate::problem::{CalibrationProblem, CoordinateObservations, RadiusObservations};
+use crate::layout::ParameterLayout;
+use crate::problem::{
+    CalibrationProblem, CoordinateObservations, DistanceObservation, RadiusObservations,
+};
 use crate::sphere_fit::{best_fit, mirror_fit};
 use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode, Weighting};
 
@@ -44,6 +49,9 @@ pub struct Setup {
     /// The design's forward kinematics of every contact (sorted order): the
     /// solver's warm starts, to be moved into it (`std::mem::take`).
     pub poses: Vec<Pose>,
+    /// The global block: the kinematic parameters, then the centres of the
+    /// balls that calibrated distances tie together.
+    pub layout: ParameterLayout,
 }
 
 /// The observations of every contact (sorted order), for the observation
@@ -120,7 +128,9 @@ impl Setup {
             }
         };
         let prior = kinematic_prior(dataset, &design, &initial_params, options.prior)?;
+        let layout = ParameterLayout::new(dataset.artefacts.balls.len(), &tied_balls(dataset));
         let setup = Self {
+            layout,
             design,
             canonical,
             initial_params,
@@ -137,8 +147,17 @@ impl Setup {
     /// centres and zero angles (`P` = 2 for the coordinate observation, 0
     /// for the radius observation).
     pub fn initial_state<const P: usize>(&self) -> State<3, P> {
+        let mut global = DVector::zeros(self.layout.size());
+        global
+            .rows_mut(0, N_PARAMS)
+            .copy_from(&self.initial_params);
+        for (ball, centre) in self.initial_centres.iter().enumerate() {
+            if let Some(range) = self.layout.centre(ball) {
+                global.rows_mut(range.start, 3).copy_from(centre);
+            }
+        }
         State {
-            global: DVector::from_column_slice(self.initial_params.as_slice()),
+            global,
             groups: self.initial_centres.clone(),
             points: vec![SVector::zeros(); self.order.len()],
         }
@@ -182,6 +201,7 @@ impl Setup {
         options: &CalibrationOptions,
         observations: O,
     ) -> CalibrationProblem<'a, O> {
+        let centre_priors = centre_priors(dataset, self, options.prior);
         CalibrationProblem {
             design: self.canonical.geometry.clone(),
             q: &dataset.measurements.q,
@@ -190,16 +210,76 @@ impl Setup {
             groups: &self.groups,
             radii: dataset.artefacts.balls.iter().map(|b| b.radius).collect(),
             observations,
-            global_prior: self.prior.as_ref().map(|prior| {
-                GaussianPrior::new(
-                    DVector::from_column_slice(prior.mean().as_slice()),
-                    DMatrix::from_column_slice(N_PARAMS, N_PARAMS, prior.information().as_slice()),
-                )
-            }),
-            centre_priors: centre_priors(dataset, self, options.prior),
+            layout: self.layout.clone(),
+            distances: self.distances(dataset),
+            global_prior: self.global_prior(centre_priors.as_deref()),
+            centre_priors,
             forward_options: ForwardOptions::default(),
         }
     }
+
+    /// The calibrated distances of artefacts.json, on the centres in the
+    /// global block.
+    fn distances(&self, dataset: &Dataset) -> Vec<DistanceObservation> {
+        let column = |ball: usize| {
+            self.layout
+                .centre(ball)
+                .map_or(0, |range| range.start)
+        };
+        dataset
+            .artefacts
+            .distances
+            .iter()
+            .map(|d| DistanceObservation {
+                columns: [column(d.a), column(d.b)],
+                block: DistanceBlock {
+                    length: d.length,
+                    sigma: d.sigma,
+                },
+            })
+            .collect()
+    }
+
+    /// The prior on the global block: the kinematic prior on its first 33
+    /// values and, for each ball whose centre is in the block and has a
+    /// centre prior, that prior on its 3; `None` when neither exists.
+    fn global_prior(&self, centre_priors: Option<&[GaussianPrior<U3>]>) -> Option<GaussianPrior<Dyn>> {
+        let tied = |ball: usize| Some((self.layout.centre(ball)?, centre_priors?.get(ball)?));
+        let any_centre = (0..self.initial_centres.len()).any(|ball| tied(ball).is_some());
+        if self.prior.is_none() && !any_centre {
+            return None;
+        }
+        let n = self.layout.size();
+        let mut mean = DVector::zeros(n);
+        let mut information = DMatrix::zeros(n, n);
+        mean.rows_mut(0, N_PARAMS).copy_from(&self.initial_params);
+        if let Some(prior) = &self.prior {
+            mean.rows_mut(0, N_PARAMS).copy_from(prior.mean());
+            information
+                .view_mut((0, 0), (N_PARAMS, N_PARAMS))
+                .copy_from(&prior.information());
+        }
+        for ball in 0..self.initial_centres.len() {
+            if let Some((range, prior)) = tied(ball) {
+                mean.rows_mut(range.start, 3).copy_from(&prior.mean);
+                information
+                    .view_mut((range.start, range.start), (3, 3))
+                    .copy_from(&prior.information);
+            }
+        }
+        Some(GaussianPrior::new(mean, information))
+    }
+}
+
+/// The balls that calibrated distances tie together, in artefacts.json
+/// order: their centres go to the global block.
+fn tied_balls(dataset: &Dataset) -> Vec<usize> {
+    let mut tied = vec![false; dataset.artefacts.balls.len()];
+    for distance in &dataset.artefacts.distances {
+        tied[distance.a] = true;
+        tied[distance.b] = true;
+    }
+    (0..tied.len()).filter(|&ball| tied[ball]).collect()
 }
 
 /// Rows sorted by ball (stable) and each ball's range: a counting sort,
