@@ -130,7 +130,9 @@ impl ParameterLayout {
             .iter()
             .enumerate()
             .map(|(ball, group)| match self.centre(ball) {
-                Some(range) => Vec3::from_fn(|c, _| global[(range.start + c, range.start + c)].sqrt()),
+                Some(range) => {
+                    Vec3::from_fn(|c, _| global[(range.start + c, range.start + c)].sqrt())
+                }
                 None => *group,
             })
             .collect()

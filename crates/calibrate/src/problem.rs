@@ -23,8 +23,8 @@ use parcal_kinematics::{
     SolutionJacobian, Vec3, params,
 };
 use parcal_observe::{
-    BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, DistanceBlock,
-    ObserveError, RadiusBlock, RadiusWeight,
+    BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, DistanceBlock, ObserveError,
+    RadiusBlock, RadiusWeight,
 };
 use parcal_solver::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem,
@@ -148,9 +148,10 @@ pub struct ContactJacobian<const R: usize> {
 impl<const R: usize> ContactJacobian<R> {
     /// `dc/dC · δC` for a ball whose centre is in the global block, else 0.
     fn centre_step(&self, v: &DVector<f64>) -> SVector<f64, R> {
-        self.centre.map_or_else(SVector::zeros, |(start, d_centre)| {
-            d_centre * v.fixed_rows::<3>(start)
-        })
+        self.centre
+            .map_or_else(SVector::zeros, |(start, d_centre)| {
+                d_centre * v.fixed_rows::<3>(start)
+            })
     }
 }
 
@@ -193,7 +194,10 @@ impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
             }
         }
         if let Some((start, d_centre)) = &self.centre {
-            for (o, column) in out[*start..*start + 3].iter_mut().zip(d_centre.column_iter()) {
+            for (o, column) in out[*start..*start + 3]
+                .iter_mut()
+                .zip(d_centre.column_iter())
+            {
                 *o += column.norm_squared();
             }
         }

@@ -13,8 +13,8 @@ use parcal_solver::{
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls, misfit_warning};
-use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::layout::ParameterLayout;
+use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
@@ -152,7 +152,7 @@ impl CalibrationRun {
                 diagnostics,
             } => format!(
                 "the reduced system is singular at iteration {iteration}: {}",
-                weak_directions(diagnostics)
+                weak_directions(diagnostics, &self.layout.names(&self.ball_ids))
             ),
             Status::SingularBlock { iteration, block } => match block {
                 BlockId::Group(k) => format!(
@@ -242,24 +242,25 @@ impl CalibrationRun {
 }
 
 /// The weakest directions of a reduced system: eigenvalue and the
-/// parameters that dominate it.
-pub fn weak_directions(spectrum: &SpectrumDiagnostics) -> String {
+/// parameters that dominate it, named by `names` (the global block's,
+/// [`ParameterLayout::names`]).
+pub fn weak_directions(spectrum: &SpectrumDiagnostics, names: &[String]) -> String {
     let directions: Vec<String> = spectrum
         .weakest
         .iter()
         .take(3)
-        .map(weak_direction)
+        .map(|weak| weak_direction(weak, names))
         .collect();
     format!("smallest eigenvalues: {}", directions.join("; "))
 }
 
 /// One weak direction: its eigenvalue, the sigma it leaves (mm) and the
-/// parameters that dominate it.
-pub fn weak_direction(weak: &WeakDirection) -> String {
+/// parameters that dominate it, named by `names` (the global block's).
+pub fn weak_direction(weak: &WeakDirection, names: &[String]) -> String {
     let names: Vec<String> = weak
         .dominant
         .iter()
-        .map(|(k, c)| format!("{} {:+.2}", PARAM_NAMES[*k], c))
+        .map(|(k, c)| format!("{} {:+.2}", names[*k], c))
         .collect();
     format!(
         "eigenvalue {:.3e} (sigma {:.3} mm) along {}",
@@ -477,11 +478,17 @@ impl SolverRun<'_> {
                 }
                 state.groups[k] = side.mirror.centre;
                 if let Some(range) = setup.layout.centre(k) {
-                    state.global.rows_mut(range.start, 3).copy_from(&side.mirror.centre);
+                    state
+                        .global
+                        .rows_mut(range.start, 3)
+                        .copy_from(&side.mirror.centre);
                     if let (Some(global), Some(_)) =
                         (&mut problem.global_prior, &problem.centre_priors)
                     {
-                        global.mean.rows_mut(range.start, 3).copy_from(&initial_centre);
+                        global
+                            .mean
+                            .rows_mut(range.start, 3)
+                            .copy_from(&initial_centre);
                     }
                 }
                 for (i, tip) in setup.groups[k].clone().zip(&tips) {
@@ -617,7 +624,11 @@ impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
         let state = iterate.state;
         let misfits = self.run.misfits(iterate.group_costs);
         let params = kinematic_params(&state.global);
-        let centres = self.run.setup.layout.ball_centres(&state.global, &state.groups);
+        let centres = self
+            .run
+            .setup
+            .layout
+            .ball_centres(&state.global, &state.groups);
         self.found = self
             .run
             .wrong_sides(&params, &centres, &misfits, iterate.caches);

@@ -148,9 +148,7 @@ impl Setup {
     /// for the radius observation).
     pub fn initial_state<const P: usize>(&self) -> State<3, P> {
         let mut global = DVector::zeros(self.layout.size());
-        global
-            .rows_mut(0, N_PARAMS)
-            .copy_from(&self.initial_params);
+        global.rows_mut(0, N_PARAMS).copy_from(&self.initial_params);
         for (ball, centre) in self.initial_centres.iter().enumerate() {
             if let Some(range) = self.layout.centre(ball) {
                 global.rows_mut(range.start, 3).copy_from(centre);
@@ -221,11 +219,7 @@ impl Setup {
     /// The calibrated distances of artefacts.json, on the centres in the
     /// global block.
     fn distances(&self, dataset: &Dataset) -> Vec<DistanceObservation> {
-        let column = |ball: usize| {
-            self.layout
-                .centre(ball)
-                .map_or(0, |range| range.start)
-        };
+        let column = |ball: usize| self.layout.centre(ball).map_or(0, |range| range.start);
         dataset
             .artefacts
             .distances
@@ -243,7 +237,10 @@ impl Setup {
     /// The prior on the global block: the kinematic prior on its first 33
     /// values and, for each ball whose centre is in the block and has a
     /// centre prior, that prior on its 3; `None` when neither exists.
-    fn global_prior(&self, centre_priors: Option<&[GaussianPrior<U3>]>) -> Option<GaussianPrior<Dyn>> {
+    fn global_prior(
+        &self,
+        centre_priors: Option<&[GaussianPrior<U3>]>,
+    ) -> Option<GaussianPrior<Dyn>> {
         let tied = |ball: usize| Some((self.layout.centre(ball)?, centre_priors?.get(ball)?));
         let any_centre = (0..self.initial_centres.len()).any(|ball| tied(ball).is_some());
         if self.prior.is_none() && !any_centre {

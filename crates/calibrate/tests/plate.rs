@@ -63,7 +63,10 @@ fn a_ball_plate_brings_the_registered_error_to_its_prediction() {
         let (alone, _, none) = registered_rms(&touches, seed);
         let (tied, expected, used) = registered_rms(&plate, seed);
         assert_eq!(none, 0, "seed {seed}: no plate, no distance");
-        assert_eq!(used, 351, "seed {seed}: every distance of the plate is used");
+        assert_eq!(
+            used, 351,
+            "seed {seed}: every distance of the plate is used"
+        );
         println!(
             "{seed:>4}  {:>6.2} / {:>5.2} ({:.2})",
             1e3 * alone,

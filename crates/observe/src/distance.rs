@@ -93,7 +93,10 @@ mod tests {
         for sigma in [0.0, -1.0, f64::NAN] {
             let block = DistanceBlock { length: 1.0, sigma };
             let error = block.evaluate(&a, &Vec3::zeros()).unwrap_err();
-            assert!(matches!(error, ObserveError::InvalidSigma { .. }), "{sigma}");
+            assert!(
+                matches!(error, ObserveError::InvalidSigma { .. }),
+                "{sigma}"
+            );
         }
     }
 }

@@ -102,9 +102,20 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
             "condition number of the posterior covariance: {condition:.3e}"
         );
     }
+    if let Some(last) = run.history.last()
+        && run.distances_used > 0
+    {
+        let _ = writeln!(
+            out,
+            "ball distances: {} used, whitened residual RMS {:.3}",
+            run.distances_used,
+            (last.global_observation_cost / run.distances_used as f64).sqrt()
+        );
+    }
     if let Some(spectrum) = &run.spectrum {
+        let names = run.layout.names(&run.ball_ids);
         for weak in spectrum.weakest.iter().take(2) {
-            let _ = writeln!(out, "weak direction: {}", weak_direction(weak));
+            let _ = writeln!(out, "weak direction: {}", weak_direction(weak, &names));
         }
     }
     if let (Some(t), Some(covariance)) = (truth, &run.covariance)
