@@ -188,6 +188,7 @@ fn one_by_one<T>(
 }
 
 #[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code, reason = "the AVX2 kernels and their dispatch")]
 mod avx2 {
     use nalgebra::{Matrix3, Quaternion, Translation3, UnitQuaternion};
 

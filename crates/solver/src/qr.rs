@@ -126,6 +126,7 @@ fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
 /// Compiled twice: for AVX2, chosen at run time where the machine has it
 /// (the column blocks four wide instead of two), and for any x86-64. Both
 /// multiply and add in the same order, so they give the same bits.
+#[allow(unsafe_code, reason = "the AVX2 build, called after the feature check")]
 pub(crate) fn householder_rows(
     a: &mut [f64],
     m: usize,
