@@ -244,7 +244,9 @@ pub struct DistanceObservation {
 
 /// The kinematic parameters of a global block: its first 33 values.
 pub(crate) fn kinematic_params(global: &DVector<f64>) -> Params {
-    global.fixed_rows::<N_PARAMS>(0).into_owned()
+    let mut params = Params::zeros();
+    params.copy_from_slice(&global.as_slice()[..N_PARAMS]);
+    params
 }
 
 /// The least-squares problem of one calibration, contacts sorted by ball.

@@ -82,7 +82,7 @@ impl Columns {
     /// The columns of a problem whose groups (`C` unknowns each) are fixed
     /// as `fixed` says, with `global_size` global and `point_size` point
     /// unknowns.
-    pub fn new(global_size: usize, group_size: usize, point_size: usize, fixed: &[bool]) -> Self {
+    fn new(global_size: usize, group_size: usize, point_size: usize, fixed: &[bool]) -> Self {
         let mut next = global_size;
         let groups = fixed
             .iter()

@@ -1,26 +1,24 @@
-//! The iteration: Gauss–Newton (full steps) or Levenberg–Marquardt (damped,
-//! gain-ratio acceptance, Nielsen's `λ` update), and the final evaluation
-//! (covariance, group sigmas, spectrum).
+//! The iteration: one loop that solves a step, evaluates its trial point and
+//! leaves the decision to a step policy ([`crate::policy`]: Gauss–Newton or
+//! Levenberg–Marquardt), and the final evaluation (covariance, group
+//! sigmas, spectrum).
 
 use std::mem::swap;
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::backsub::StepSummary;
 use crate::context::Context;
 use crate::diagnostics::SpectrumDiagnostics;
 use crate::eliminate::Failure;
 use crate::monitor::{Iterate, Monitor, Verdict};
 use crate::options::{Method, SolverOptions};
+use crate::policy::{
+    Ending, GaussNewton, LevenbergMarquardt, MAX_LAMBDA, Response, StepPolicy, Trial, Unusable,
+};
 use crate::problem::{Problem, State};
 use crate::reduced::{ReducedSystem, ScaledCholesky};
 use crate::solution::{IterationRecord, Solution, Status};
-
-/// LM gives up when `λ` grows beyond this.
-const MAX_LAMBDA: f64 = 1e32;
-/// An LM step with at least this gain ratio divides `λ` by 3 (and reuses the
-/// trial point's system, built with that damping); a weaker accepted step
-/// follows Nielsen's `λ · max(1/3, 1 − (2ρ − 1)³)`.
-const GOOD_GAIN: f64 = 0.75;
 
 /// Solves the problem from `initial`; `observer` sees every history record
 /// as it is made. Never panics on bad numerics; see [`Status`] for how a run
@@ -63,15 +61,20 @@ pub fn solve_with_caches<const C: usize, const P: usize, const R: usize, Pr: Pro
             format!("initial_lambda must be in (0, 1e32], got {initial_lambda}"),
         );
     }
-    match Context::new(problem, &initial, caches, options.groups_per_chunk) {
+    let run = match Context::new(problem, &initial, caches, options.groups_per_chunk) {
         Ok(ctx) => Run {
             ctx,
             options,
             monitor,
             history: Vec::new(),
+        },
+        Err(message) => return invalid(initial, message),
+    };
+    match options.method {
+        Method::GaussNewton => run.run(initial, &mut GaussNewton::new(options)),
+        Method::LevenbergMarquardt { initial_lambda } => {
+            run.run(initial, &mut LevenbergMarquardt::new(initial_lambda))
         }
-        .run(initial),
-        Err(message) => invalid(initial, message),
     }
 }
 
@@ -116,6 +119,46 @@ fn status_of(failure: Failure, solves: usize) -> Status {
     }
 }
 
+impl Ending {
+    /// How a run ends here after `solves` linear solves, the step that led
+    /// here counted (a singular system had none).
+    fn status(self, solves: usize) -> Status {
+        match self {
+            Ending::Singular(diagnostics) => Status::Singular {
+                iteration: solves,
+                diagnostics: Box::new(diagnostics),
+            },
+            Ending::Diverged(reason) => Status::Diverged {
+                iteration: solves + 1,
+                reason,
+            },
+            Ending::Failed(failure) => status_of(failure, solves + 1),
+        }
+    }
+}
+
+impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
+where
+    Pr: Problem<C, P, R>,
+{
+    /// The step `δ` of `system` (built at `state`) into `delta`, laid out
+    /// like the state; `None` if the reduced matrix is not numerically
+    /// positive definite.
+    fn step(
+        &mut self,
+        state: &State<C, P>,
+        system: &ReducedSystem,
+        delta: &mut State<C, P>,
+    ) -> Result<Option<StepSummary>, Failure> {
+        let Some(factor) = ScaledCholesky::new(&system.matrix, system.size()) else {
+            return Ok(None);
+        };
+        let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
+        let dg = DVector::from_vec(factor.solve(&neg_b));
+        self.back_substitute(state, system, &dg, delta).map(Some)
+    }
+}
+
 /// One linear step of the Schur solver, as [`linear_step`] returns it.
 #[derive(Clone, Debug)]
 pub struct LinearStep<const C: usize, const P: usize> {
@@ -147,20 +190,14 @@ pub fn linear_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C
     let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
-    let factor =
-        ScaledCholesky::new(&system.matrix, system.size()).ok_or_else(|| Status::Singular {
-            iteration: 0,
-            diagnostics: Box::new(SpectrumDiagnostics::of_symmetric(
-                &system.matrix,
-                system.size(),
-            )),
-        })?;
-    let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
-    let dg = DVector::from_vec(factor.solve(&neg_b));
     let mut delta = state.clone();
     let summary = ctx
-        .back_substitute(state, &system, &dg, &mut delta)
-        .map_err(failed)?;
+        .step(state, &system, &mut delta)
+        .map_err(failed)?
+        .ok_or_else(|| {
+            let diagnostics = SpectrumDiagnostics::of_symmetric(&system.matrix, system.size());
+            Ending::Singular(diagnostics).status(0)
+        })?;
     Ok(LinearStep {
         delta,
         cost: system.cost(),
@@ -182,14 +219,15 @@ impl<const C: usize, const P: usize, const R: usize, Pr> Run<'_, '_, C, P, R, Pr
 where
     Pr: Problem<C, P, R>,
 {
-    fn record(&mut self, system: &ReducedSystem, step_norm: f64, lambda: f64, accepted: bool) {
+    /// Records the step solved from `system` (its `λ`, 0 if none).
+    fn record(&mut self, system: &ReducedSystem, step_norm: f64, accepted: bool) {
         let record = IterationRecord {
             cost: system.cost(),
             data_cost: system.data_cost,
             global_observation_cost: system.global_observation_cost,
             prior_cost: system.prior_cost,
             step_norm,
-            lambda,
+            lambda: system.lambda,
             accepted,
         };
         self.monitor.record(&record);
@@ -213,7 +251,13 @@ where
         })
     }
 
+    /// The solution at `state`, without the final evaluation; with the
+    /// spectrum when the reduced matrix was found singular.
     fn end(self, state: State<C, P>, status: Status) -> Solution<C, P> {
+        let spectrum = match &status {
+            Status::Singular { diagnostics, .. } => Some((**diagnostics).clone()),
+            _ => None,
+        };
         Solution {
             state,
             status,
@@ -221,7 +265,7 @@ where
             covariance: None,
             group_sigmas: None,
             group_costs: None,
-            spectrum: None,
+            spectrum,
         }
     }
 
@@ -241,17 +285,12 @@ where
         )
     }
 
-    fn run(mut self, initial: State<C, P>) -> Solution<C, P> {
+    /// The iteration from `initial`, each step judged by `policy`.
+    fn run(mut self, initial: State<C, P>, policy: &mut impl StepPolicy) -> Solution<C, P> {
         let options = self.options;
-        let damped = match options.method {
-            Method::GaussNewton => None,
-            Method::LevenbergMarquardt { initial_lambda } => Some(initial_lambda),
-        };
-        let mut lambda = damped.unwrap_or(0.0);
-        let mut nu = 2.0;
         let mut x = initial;
         let mut trial = x.clone();
-        let mut system = match self.ctx.reduce(&x, lambda) {
+        let mut system = match self.ctx.reduce(&x, policy.lambda()) {
             Ok(s) => s,
             Err(f) => return self.fail(x, 0, f),
         };
@@ -260,7 +299,7 @@ where
             return self.diverged(x, 0, format!("initial cost is {initial_cost}"));
         }
         // The cost of the iterate before `x`, and whether the monitor has
-        // not seen `x` yet (an LM rejection keeps the iterate).
+        // not seen `x` yet (a rejection keeps the iterate).
         let mut previous_cost = None;
         let mut new_iterate = true;
         loop {
@@ -277,136 +316,64 @@ where
                     return self.end(x, Status::Stopped { iteration: solves });
                 }
             }
-            let Some(factor) = ScaledCholesky::new(&system.matrix, system.size()) else {
-                if damped.is_none() {
-                    let diagnostics =
-                        SpectrumDiagnostics::of_symmetric(&system.matrix, system.size());
-                    self.record(&system, 0.0, 0.0, true);
-                    let mut solution = self.end(
-                        x,
-                        Status::Singular {
-                            iteration: solves,
-                            diagnostics: Box::new(diagnostics.clone()),
-                        },
-                    );
-                    solution.spectrum = Some(diagnostics);
-                    return solution;
-                }
-                // LM: numerically not positive definite despite the damping.
-                self.record(&system, 0.0, lambda, false);
-                lambda *= nu;
-                nu *= 2.0;
-                if lambda > MAX_LAMBDA {
-                    return self.diverged(
-                        x,
-                        solves + 1,
-                        format!("damping λ exceeded {MAX_LAMBDA:e}"),
-                    );
-                }
-                system = match self.ctx.reduce(&x, lambda) {
-                    Ok(s) => s,
-                    Err(f) => return self.fail(x, solves + 1, f),
-                };
-                continue;
-            };
-            let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
-            let dg = DVector::from_vec(factor.solve(&neg_b));
-            let summary = match self.ctx.back_substitute(&x, &system, &dg, &mut trial) {
-                Ok(s) => s,
+            // The step into `trial` and the policy's response; the trial
+            // point's system if it was built.
+            let (step_norm, response, next) = match self.ctx.step(&x, &system, &mut trial) {
                 Err(f) => return self.fail(x, solves, f),
-            };
-            add_into(&mut trial, &x);
-            let step_norm = summary.delta_norm2.sqrt();
-            let finite_step = step_norm.is_finite() && trial.is_finite();
-            if !finite_step && damped.is_none() {
-                self.record(&system, step_norm, lambda, false);
-                return self.diverged(
-                    x,
-                    solves + 1,
-                    format!("non-finite step (|δ| = {step_norm})"),
-                );
-            }
-            let converged = finite_step
-                && step_norm / (summary.state_norm2.sqrt() + 1.0) < options.step_tolerance;
-            if converged {
-                // The step from `x` is below the tolerance: `x` is the
-                // solution, and everything reported is evaluated there (its
-                // system is at hand; applying the step would cost one more
-                // pass for a change below the tolerance).
-                return self.finish(x, system, step_norm, Status::Converged);
-            }
-            if damped.is_none() {
-                self.record(&system, step_norm, lambda, true);
-                let next = match self.ctx.reduce(&trial, 0.0) {
-                    Ok(s) => s,
-                    Err(f) => return self.fail(x, solves + 1, f),
-                };
-                let cost = next.cost();
-                if !cost.is_finite() || cost > options.divergence_ratio * initial_cost {
-                    return self.diverged(
-                        x,
-                        solves + 1,
-                        format!(
-                            "cost {cost:e} exceeds {:e} × initial cost {initial_cost:e}",
-                            options.divergence_ratio
-                        ),
-                    );
-                }
-                swap(&mut x, &mut trial);
-                previous_cost = Some(system.cost());
-                new_iterate = true;
-                system = next;
-                continue;
-            }
-            // Levenberg–Marquardt: evaluate the trial point, building its
-            // system with the damping a good step gets next.
-            let lambda_good = lambda * (1.0 / 3.0);
-            let predicted = summary.predicted_decrease();
-            let next = if finite_step {
-                self.ctx.reduce(&trial, lambda_good).ok()
-            } else {
-                None
-            };
-            let gain = match &next {
-                Some(n) if n.cost().is_finite() && predicted > 0.0 => {
-                    (system.cost() - n.cost()) / predicted
-                }
-                _ => f64::NAN,
-            };
-            if gain > 0.0 {
-                self.record(&system, step_norm, lambda, true);
-                swap(&mut x, &mut trial);
-                previous_cost = Some(system.cost());
-                new_iterate = true;
-                nu = 2.0;
-                match next {
-                    Some(n) if gain >= GOOD_GAIN => {
-                        lambda = lambda_good;
-                        system = n;
+                Ok(None) => (0.0, policy.unusable(Unusable::Singular(&system)), None),
+                Ok(Some(summary)) => {
+                    add_into(&mut trial, &x);
+                    let step_norm = summary.delta_norm2.sqrt();
+                    if !(step_norm.is_finite() && trial.is_finite()) {
+                        let response = policy.unusable(Unusable::NonFinite { step_norm });
+                        (step_norm, response, None)
+                    } else if step_norm / (summary.state_norm2.sqrt() + 1.0)
+                        < options.step_tolerance
+                    {
+                        // The step from `x` is below the tolerance: `x` is
+                        // the solution, and everything reported is evaluated
+                        // there (its system is at hand; applying the step
+                        // would cost one more pass for a change below the
+                        // tolerance).
+                        return self.finish(x, system, step_norm, Status::Converged);
+                    } else {
+                        match self.ctx.reduce(&trial, policy.trial_lambda()) {
+                            Ok(next) => {
+                                let response = policy.judge(&Trial {
+                                    initial_cost,
+                                    cost: system.cost(),
+                                    predicted_decrease: summary.predicted_decrease(),
+                                    trial_cost: next.cost(),
+                                });
+                                (step_norm, response, Some(next))
+                            }
+                            Err(f) => (step_norm, policy.unusable(Unusable::Failed(f)), None),
+                        }
                     }
-                    _ => {
-                        lambda *= (1.0 / 3.0f64).max(1.0 - (2.0 * gain - 1.0).powi(3));
-                        system = match self.ctx.reduce(&x, lambda) {
+                }
+            };
+            let accepted = matches!(response, Response::Accept { .. });
+            self.record(&system, step_norm, accepted);
+            match response {
+                Response::Accept { keep_trial_system } => {
+                    swap(&mut x, &mut trial);
+                    previous_cost = Some(system.cost());
+                    new_iterate = true;
+                    system = match next {
+                        Some(next) if keep_trial_system => next,
+                        _ => match self.ctx.reduce(&x, policy.lambda()) {
                             Ok(s) => s,
                             Err(f) => return self.fail(x, solves + 1, f),
-                        };
-                    }
+                        },
+                    };
                 }
-            } else {
-                self.record(&system, step_norm, lambda, false);
-                lambda *= nu;
-                nu *= 2.0;
-                if lambda > MAX_LAMBDA {
-                    return self.diverged(
-                        x,
-                        solves + 1,
-                        format!("damping λ exceeded {MAX_LAMBDA:e}"),
-                    );
+                Response::Reject => {
+                    system = match self.ctx.reduce(&x, policy.lambda()) {
+                        Ok(s) => s,
+                        Err(f) => return self.fail(x, solves + 1, f),
+                    };
                 }
-                system = match self.ctx.reduce(&x, lambda) {
-                    Ok(s) => s,
-                    Err(f) => return self.fail(x, solves + 1, f),
-                };
+                Response::End(ending) => return self.end(x, ending.status(solves)),
             }
         }
     }
@@ -428,7 +395,7 @@ where
                 Err(f) => return self.fail(state, solves, f),
             };
         }
-        self.record(&system, step_norm, 0.0, true);
+        self.record(&system, step_norm, true);
         let spectrum = system
             .is_finite()
             .then(|| SpectrumDiagnostics::of_symmetric(&system.matrix, system.size()));

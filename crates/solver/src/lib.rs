@@ -101,7 +101,20 @@
 //!    is known: its sigmas are reported as zero, and `Cov(g)` is the
 //!    covariance given the fixed blocks.
 //!
-//! # Levenberg–Marquardt
+//! # Gauss–Newton and Levenberg–Marquardt
+//!
+//! One loop solves each step, evaluates its trial point (building the
+//! reduced system there) and leaves the decision to a step policy
+//! ([`Method`]), as Ceres keeps its trust-region strategy out of the
+//! minimiser.
+//!
+//! [`Method::GaussNewton`] takes the full step, with no line search, and
+//! may diverge: the run ends (`Diverged`, at the iterate before the step)
+//! when the cost becomes non-finite, exceeds
+//! [`SolverOptions::divergence_ratio`] times the initial cost, or rises by
+//! more than [`SolverOptions::step_divergence_ratio`] in one step; it ends
+//! too where there is no step (a singular reduced matrix, a non-finite
+//! step, a failed evaluation).
 //!
 //! [`Method::LevenbergMarquardt`] solves `(H + λD) δ = −b` with Marquardt's
 //! scaling `D = clamp(diag H, 1e-6, 1e32)` (diagonal of the full normal
@@ -111,15 +124,15 @@
 //! in each group block (with `D` of the group summed over its points' raw
 //! Jacobians), and on the diagonal of `S`. The predicted decrease is
 //! `−bᵀδ + δᵀ(λD)δ`, accumulated during back-substitution; the step is
-//! accepted if the cost decreases
-//! (gain ratio `ρ > 0`), and `λ` follows Nielsen (`λ·max(1/3, 1 − (2ρ−1)³)`
-//! on acceptance, `λ·ν, ν ← 2ν` on rejection), with one change: the trial
-//! point is evaluated by building its reduced system with `λ/3`, and a good
-//! step (`ρ ≥ 0.75`) keeps that system and that `λ/3` (Nielsen would divide
-//! by 1.1–3 there). A good step then costs two passes over the points, like a
-//! Gauss–Newton step; a weaker step or a rejection one more.
-//! A failed or non-finite evaluation at a trial point counts as a rejection.
-//! Gauss–Newton takes the full step, with no line search, and may diverge.
+//! accepted if the cost decreases (gain ratio `ρ > 0`), and `λ` follows
+//! Nielsen (`λ·max(1/3, 1 − (2ρ−1)³)` on acceptance, `λ·ν, ν ← 2ν` on
+//! rejection), with one change: the trial point is evaluated by building
+//! its reduced system with `λ/3`, and a good step (`ρ ≥ 0.75`) keeps that
+//! system and that `λ/3` (Nielsen would divide by 1.1–3 there). A good step
+//! then costs two passes over the points, like a Gauss–Newton step; a
+//! weaker step or a rejection one more. A singular reduced matrix, a
+//! non-finite step or a failed evaluation at a trial point counts as a
+//! rejection.
 //!
 //! # Watching a run
 //!
@@ -235,6 +248,7 @@ mod eliminate;
 mod iterate;
 mod monitor;
 mod options;
+mod policy;
 mod problem;
 mod qr;
 mod reduced;

@@ -32,8 +32,16 @@ pub struct SolverOptions {
     /// Converged when `|δ| / (|x| + 1) < step_tolerance`, norms over all
     /// unknowns: the run ends at `x`, without applying `δ`.
     pub step_tolerance: f64,
-    /// Diverged when the cost exceeds `divergence_ratio × initial cost`.
+    /// Gauss–Newton: diverged when the cost exceeds `divergence_ratio ×
+    /// initial cost`.
     pub divergence_ratio: f64,
+    /// Gauss–Newton: diverged when one step multiplies the cost by more
+    /// than this (a full step that overshot by orders of magnitude, from
+    /// which the iteration would seldom recover; the run ends at the
+    /// iterate the step started from). Levenberg–Marquardt rejects such a
+    /// step instead. The default is well above the largest rise seen in
+    /// converging calibrations (which start far from the solution).
+    pub step_divergence_ratio: f64,
     /// Groups per unit of parallel work. The partial reduced systems are
     /// summed in chunk order, so results depend on this number but not on the
     /// number of threads.
@@ -47,6 +55,7 @@ impl Default for SolverOptions {
             max_iterations: 50,
             step_tolerance: 1e-10,
             divergence_ratio: 1e6,
+            step_divergence_ratio: 1e5,
             groups_per_chunk: 64,
         }
     }

@@ -1,6 +1,6 @@
 //! The reduced system on the global block: the chunks' partial matrices
-//! summed in chunk order, the global prior and damping added, and its
-//! Cholesky factorisation.
+//! summed in chunk order, the global prior, the global observations and the
+//! damping added, and its Cholesky factorisation.
 
 use nalgebra::DVector;
 

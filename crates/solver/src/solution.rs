@@ -26,9 +26,12 @@ pub struct IterationRecord {
     pub step_norm: f64,
     /// The damping `λ` of the step (0 for Gauss–Newton).
     pub lambda: f64,
-    /// Whether the step was taken. Always true for Gauss–Newton; a rejected
-    /// Levenberg–Marquardt step leaves the iterate unchanged, and the next
-    /// record has the same cost with a larger `λ`.
+    /// Whether the step was taken: the next record, if any, is at its trial
+    /// point. A rejected Levenberg–Marquardt step leaves the iterate
+    /// unchanged, and the next record has the same cost with a larger `λ`.
+    /// A step that ends the run (singular reduced matrix, divergence, a
+    /// failed evaluation) is not taken: the run ends at the iterate it
+    /// started from. Every other Gauss–Newton step is taken.
     pub accepted: bool,
 }
 
@@ -50,9 +53,10 @@ pub enum Status {
     Converged,
     /// `max_iterations` linear solves without convergence.
     IterationLimit,
-    /// The cost became non-finite or exceeded `divergence_ratio × initial`,
-    /// a step or linearisation became non-finite, or (LM) the damping grew
-    /// without bound.
+    /// Gauss–Newton: the cost became non-finite, exceeded
+    /// `divergence_ratio × initial`, or one step multiplied it by more than
+    /// `step_divergence_ratio`; any method: a step or linearisation became
+    /// non-finite, or (LM) the damping grew without bound.
     ///
     /// In every variant, `iteration` counts the linear solves done before the
     /// event (0: at the initial state); for Gauss–Newton it is the index of

@@ -336,6 +336,42 @@ fn exploding_problem_diverges_with_finite_state_and_history() {
 }
 
 #[test]
+fn a_gauss_newton_step_that_raises_the_cost_too_much_diverges() {
+    // From g = −1.5 the full step overshoots to g ≈ 2 (the cost rises about
+    // 7 times), and Gauss–Newton comes back from there.
+    let problem = Exponential {
+        targets: vec![1.0, 2.0, 3.0],
+    };
+    let start = State {
+        global: DVector::from_element(1, -1.5),
+        groups: vec![Vector1::new(0.0); 3],
+        points: vec![SVector::zeros(); 3],
+    };
+    let s = solve(&problem, start.clone(), &gn(), &mut |_| {});
+    assert_eq!(s.status, Status::Converged);
+    let rise = s.history[1].cost / s.history[0].cost;
+    println!(
+        "GN: {} records, the first step raised the cost {rise:.1} times",
+        s.history.len()
+    );
+    assert!(rise > 5.0 && rise < 10.0, "{rise}");
+    let options = SolverOptions {
+        step_divergence_ratio: 5.0,
+        ..gn()
+    };
+    let s = solve(&problem, start.clone(), &options, &mut |_| {});
+    println!("{:?}", s.status);
+    assert!(
+        matches!(&s.status, Status::Diverged { iteration: 1, reason } if reason.contains("raised the cost")),
+        "{:?}",
+        s.status
+    );
+    assert_eq!(s.state, start);
+    assert_eq!(s.history.len(), 1);
+    assert!(!s.history[0].accepted);
+}
+
+#[test]
 fn unobserved_global_parameter_is_singular_with_its_weak_direction() {
     let (mut problem, truth) = touches(Spec::default());
     problem.0.unseen = Some(7);
