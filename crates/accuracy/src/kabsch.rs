@@ -99,25 +99,19 @@ pub fn registered_residuals(
 mod tests {
     use super::*;
     use nalgebra::{Unit, UnitQuaternion};
+    use rand::rngs::StdRng;
+    use rand::{RngExt, SeedableRng};
 
-    /// SplitMix64: a small deterministic generator for the tests.
-    struct Rng(u64);
-    impl Rng {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn vector(&mut self, scale: f64) -> Vec3 {
-            Vec3::from_fn(|_, _| scale * (2.0 * self.uniform() - 1.0))
-        }
-        fn rotation(&mut self) -> Rotation3<f64> {
-            let axis = Unit::new_normalize(self.vector(1.0));
-            let angle = std::f64::consts::PI * self.uniform();
-            UnitQuaternion::from_axis_angle(&axis, angle).to_rotation_matrix()
-        }
+    /// Entries uniform in [-scale, scale).
+    fn random_vector(rng: &mut StdRng, scale: f64) -> Vec3 {
+        Vec3::from_fn(|_, _| rng.random_range(-scale..scale))
+    }
+
+    /// A rotation by an angle uniform in [0, π) about a random axis.
+    fn random_rotation(rng: &mut StdRng) -> Rotation3<f64> {
+        let axis = Unit::new_normalize(random_vector(rng, 1.0));
+        let angle = rng.random_range(0.0..std::f64::consts::PI);
+        UnitQuaternion::from_axis_angle(&axis, angle).to_rotation_matrix()
     }
 
     fn max_residual(points: &[Vec3], targets: &[Vec3]) -> f64 {
@@ -127,12 +121,12 @@ mod tests {
 
     #[test]
     fn recovers_a_known_rigid_motion() {
-        let mut rng = Rng(7);
+        let mut rng = StdRng::seed_from_u64(7);
         for trial in 0..20 {
-            let points: Vec<Vec3> = (0..30).map(|_| rng.vector(100.0)).collect();
+            let points: Vec<Vec3> = (0..30).map(|_| random_vector(&mut rng, 100.0)).collect();
             let truth = RigidMotion {
-                rotation: rng.rotation(),
-                translation: rng.vector(500.0),
+                rotation: random_rotation(&mut rng),
+                translation: random_vector(&mut rng, 500.0),
             };
             let targets: Vec<Vec3> = points.iter().map(|p| truth.apply(p)).collect();
             let found = kabsch(&points, &targets).unwrap();
@@ -147,17 +141,17 @@ mod tests {
     fn planar_clouds_get_a_proper_rotation() {
         // A planar cloud (the map grid's case): H has a zero singular value
         // and its third singular direction has an arbitrary sign.
-        let mut rng = Rng(11);
+        let mut rng = StdRng::seed_from_u64(11);
         for trial in 0..20 {
             let points: Vec<Vec3> = (0..25)
                 .map(|_| {
-                    let p = rng.vector(100.0);
+                    let p = random_vector(&mut rng, 100.0);
                     Vec3::new(p.x, p.y, 400.0)
                 })
                 .collect();
             let truth = RigidMotion {
-                rotation: rng.rotation(),
-                translation: rng.vector(50.0),
+                rotation: random_rotation(&mut rng),
+                translation: random_vector(&mut rng, 50.0),
             };
             let targets: Vec<Vec3> = points.iter().map(|p| truth.apply(p)).collect();
             let found = kabsch(&points, &targets).unwrap();
@@ -179,10 +173,10 @@ mod tests {
                 Vec3::new(40.0 * s(0), 20.0 * s(1), 5.0 * s(2))
             })
             .collect();
-        let mut rng = Rng(3);
+        let mut rng = StdRng::seed_from_u64(3);
         let rigid = RigidMotion {
-            rotation: rng.rotation(),
-            translation: rng.vector(100.0),
+            rotation: random_rotation(&mut rng),
+            translation: random_vector(&mut rng, 100.0),
         };
         let targets: Vec<Vec3> = corners
             .iter()

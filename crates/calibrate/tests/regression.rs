@@ -16,11 +16,10 @@
 //! multiply-add): values 1e-6 mm, sigmas 1e-6 relative, final cost 1e-9
 //! relative, true registered RMS 1e-6 mm, iterations and convergence exact.
 
-// `!(x <= limit)` fails on NaN too; index loops over several arrays read best.
-#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+// `!(x <= limit)` fails on NaN too.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use std::collections::BTreeMap;
-use std::fmt::Write as _;
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use parcal_accuracy::MapGrid;
@@ -28,6 +27,11 @@ use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::PARAM_NAMES;
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
+use serde_json::Serializer;
+use serde_json::ser::{Formatter, PrettyFormatter};
+use serde_json::value::RawValue;
 
 const VALUE_TOL: f64 = 1e-6; // mm
 const SIGMA_REL_TOL: f64 = 1e-6;
@@ -47,8 +51,16 @@ fn expected_path() -> PathBuf {
     fixture().join("expected-summary.json")
 }
 
+/// The summary file: what it is, its units, and one entry per calibration.
+#[derive(Debug, Serialize, Deserialize)]
+struct SummaryFile {
+    about: String,
+    units: String,
+    runs: Vec<RunSummary>,
+}
+
 /// What the summary records of one calibration.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct RunSummary {
     simulation: String,
     prior: String,
@@ -56,12 +68,22 @@ struct RunSummary {
     /// Gauss-Newton iterations (`CalibrationRun::iterations`).
     iterations: usize,
     /// Cost (data and priors) at the final iterate.
+    #[serde(deserialize_with = "exact_f64")]
     final_cost: f64,
     /// True registered error RMS on the paper's map after calibration (mm).
+    #[serde(rename = "true_registered_rms_mm", deserialize_with = "exact_f64")]
     true_registered_rms: f64,
-    names: Vec<String>,
-    values: Vec<f64>,
-    sigmas: Vec<f64>,
+    parameters: Vec<Parameter>,
+}
+
+/// One identified parameter and its standard deviation (mm).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Parameter {
+    name: String,
+    #[serde(deserialize_with = "exact_f64")]
+    value: f64,
+    #[serde(deserialize_with = "exact_f64")]
+    sigma: f64,
 }
 
 fn summarise(dataset: &Dataset) -> Vec<RunSummary> {
@@ -80,6 +102,7 @@ fn summarise(dataset: &Dataset) -> Vec<RunSummary> {
                 .after
                 .and_then(|a| a.true_error)
                 .map_or(f64::NAN, |m| m.registered_summary().rms);
+            let sigmas = run.sigmas().expect("the calibration has sigmas");
             RunSummary {
                 simulation: sim.to_string(),
                 prior: prior.to_string(),
@@ -87,265 +110,170 @@ fn summarise(dataset: &Dataset) -> Vec<RunSummary> {
                 iterations: run.iterations(),
                 final_cost: run.history.last().map_or(f64::NAN, |r| r.cost),
                 true_registered_rms,
-                names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
-                values: run.params.iter().copied().collect(),
-                sigmas: run
-                    .sigmas()
-                    .map_or_else(Vec::new, |s| s.iter().copied().collect()),
+                parameters: PARAM_NAMES
+                    .iter()
+                    .zip(run.params.iter().zip(sigmas.iter()))
+                    .map(|(name, (&value, &sigma))| Parameter {
+                        name: name.to_string(),
+                        value,
+                        sigma,
+                    })
+                    .collect(),
             }
         })
         .collect()
 }
 
-// ---- the summary file (a small JSON writer and reader: the crate has no
-// JSON dependency) ----
+// ---- the summary file ----
 
-/// Shortest representation that reads back to the same f64 (Rust's `{:?}`),
-/// which is also valid JSON for finite values.
-fn number(x: f64) -> String {
-    assert!(x.is_finite(), "non-finite value {x} in the summary");
-    format!("{x:?}")
+/// Reads a JSON number with Rust's correctly rounded parser, so that the
+/// shortest representation written by [`SummaryFormatter`] reads back to the
+/// same f64. serde_json's default parser can miss by an ulp, and its exact
+/// one (feature `float_roundtrip`) would also change how parcal-dataset reads
+/// the fixture in this test build.
+fn exact_f64<'de, D: Deserializer<'de>>(deserializer: D) -> Result<f64, D::Error> {
+    let raw = <&RawValue>::deserialize(deserializer)?;
+    raw.get().parse().map_err(D::Error::custom)
+}
+
+/// serde_json's pretty layout, except that the objects in `parameters` take
+/// one line each (`{ "name": "x_b1", "value": …, "sigma": … }`) and numbers
+/// are written as Rust's `{:?}`: the shortest representation that reads back
+/// to the same f64, as the file has always been written.
+struct SummaryFormatter {
+    pretty: PrettyFormatter<'static>,
+    /// Containers open around the current value.
+    depth: usize,
+    /// Whether the current object is a parameter, written on one line.
+    inline: bool,
+}
+
+impl SummaryFormatter {
+    /// Root object, `runs`, a run, `parameters`: a parameter opens at depth 4.
+    const PARAMETER_DEPTH: usize = 4;
+}
+
+impl Formatter for SummaryFormatter {
+    fn write_f64<W: ?Sized + Write>(&mut self, writer: &mut W, value: f64) -> io::Result<()> {
+        write!(writer, "{value:?}")
+    }
+
+    fn begin_array<W: ?Sized + Write>(&mut self, writer: &mut W) -> io::Result<()> {
+        self.depth += 1;
+        self.pretty.begin_array(writer)
+    }
+
+    fn end_array<W: ?Sized + Write>(&mut self, writer: &mut W) -> io::Result<()> {
+        self.depth -= 1;
+        self.pretty.end_array(writer)
+    }
+
+    fn begin_array_value<W: ?Sized + Write>(
+        &mut self,
+        writer: &mut W,
+        first: bool,
+    ) -> io::Result<()> {
+        self.pretty.begin_array_value(writer, first)
+    }
+
+    fn end_array_value<W: ?Sized + Write>(&mut self, writer: &mut W) -> io::Result<()> {
+        self.pretty.end_array_value(writer)
+    }
+
+    fn begin_object<W: ?Sized + Write>(&mut self, writer: &mut W) -> io::Result<()> {
+        self.inline = self.depth == Self::PARAMETER_DEPTH;
+        self.depth += 1;
+        if self.inline {
+            writer.write_all(b"{ ")
+        } else {
+            self.pretty.begin_object(writer)
+        }
+    }
+
+    fn end_object<W: ?Sized + Write>(&mut self, writer: &mut W) -> io::Result<()> {
+        self.depth -= 1;
+        if self.inline {
+            self.inline = false;
+            writer.write_all(b" }")
+        } else {
+            self.pretty.end_object(writer)
+        }
+    }
+
+    fn begin_object_key<W: ?Sized + Write>(
+        &mut self,
+        writer: &mut W,
+        first: bool,
+    ) -> io::Result<()> {
+        match (self.inline, first) {
+            (true, true) => Ok(()),
+            (true, false) => writer.write_all(b", "),
+            (false, _) => self.pretty.begin_object_key(writer, first),
+        }
+    }
+
+    fn begin_object_value<W: ?Sized + Write>(&mut self, writer: &mut W) -> io::Result<()> {
+        self.pretty.begin_object_value(writer)
+    }
+
+    fn end_object_value<W: ?Sized + Write>(&mut self, writer: &mut W) -> io::Result<()> {
+        if self.inline {
+            Ok(())
+        } else {
+            self.pretty.end_object_value(writer)
+        }
+    }
 }
 
 fn to_json(runs: &[RunSummary]) -> String {
-    let mut s = String::from("{\n");
-    s.push_str("  \"about\": \"parcal's calibrations of fixtures/paper-seed1 (parcal simulate --seed 1); regenerate with: cargo test -p parcal-calibrate --test regression -- --ignored\",\n");
-    s.push_str("  \"units\": \"values, sigmas, true_registered_rms_mm in mm; final_cost dimensionless (whitened)\",\n");
-    s.push_str("  \"runs\": [\n");
-    for (r, run) in runs.iter().enumerate() {
-        s.push_str("    {\n");
-        let _ = writeln!(s, "      \"simulation\": \"{}\",", run.simulation);
-        let _ = writeln!(s, "      \"prior\": \"{}\",", run.prior);
-        let _ = writeln!(s, "      \"converged\": {},", run.converged);
-        let _ = writeln!(s, "      \"iterations\": {},", run.iterations);
-        let _ = writeln!(s, "      \"final_cost\": {},", number(run.final_cost));
-        let _ = writeln!(
-            s,
-            "      \"true_registered_rms_mm\": {},",
-            number(run.true_registered_rms)
-        );
-        s.push_str("      \"parameters\": [\n");
-        for k in 0..run.names.len() {
-            let _ = writeln!(
-                s,
-                "        {{ \"name\": \"{}\", \"value\": {}, \"sigma\": {} }}{}",
-                run.names[k],
-                number(run.values[k]),
-                number(run.sigmas[k]),
-                if k + 1 < run.names.len() { "," } else { "" }
-            );
-        }
-        s.push_str("      ]\n");
-        let _ = writeln!(s, "    }}{}", if r + 1 < runs.len() { "," } else { "" });
-    }
-    s.push_str("  ]\n}\n");
-    s
-}
-
-#[derive(Debug, Clone, PartialEq)]
-enum Json {
-    Null,
-    Bool(bool),
-    Number(f64),
-    String(String),
-    Array(Vec<Json>),
-    Object(BTreeMap<String, Json>),
-}
-
-struct Parser<'a> {
-    s: &'a [u8],
-    at: usize,
-}
-
-impl Parser<'_> {
-    fn parse(text: &str) -> Result<Json, String> {
-        let mut p = Parser {
-            s: text.as_bytes(),
-            at: 0,
-        };
-        let value = p.value()?;
-        p.space();
-        if p.at != p.s.len() {
-            return Err(format!("trailing characters at byte {}", p.at));
-        }
-        Ok(value)
-    }
-
-    fn space(&mut self) {
-        while self.at < self.s.len() && self.s[self.at].is_ascii_whitespace() {
-            self.at += 1;
+    for run in runs {
+        for x in [run.final_cost, run.true_registered_rms]
+            .into_iter()
+            .chain(run.parameters.iter().flat_map(|p| [p.value, p.sigma]))
+        {
+            // serde_json would write null, which does not read back.
+            assert!(x.is_finite(), "non-finite value {x} in the summary");
         }
     }
-
-    fn eat(&mut self, c: u8) -> Result<(), String> {
-        self.space();
-        if self.s.get(self.at) == Some(&c) {
-            self.at += 1;
-            Ok(())
-        } else {
-            Err(format!("expected '{}' at byte {}", c as char, self.at))
-        }
-    }
-
-    fn value(&mut self) -> Result<Json, String> {
-        self.space();
-        match self.s.get(self.at) {
-            Some(b'{') => {
-                self.at += 1;
-                let mut map = BTreeMap::new();
-                self.space();
-                if self.s.get(self.at) == Some(&b'}') {
-                    self.at += 1;
-                    return Ok(Json::Object(map));
-                }
-                loop {
-                    self.space();
-                    let key = self.string()?;
-                    self.eat(b':')?;
-                    map.insert(key, self.value()?);
-                    self.space();
-                    match self.s.get(self.at) {
-                        Some(b',') => self.at += 1,
-                        Some(b'}') => {
-                            self.at += 1;
-                            return Ok(Json::Object(map));
-                        }
-                        _ => return Err(format!("expected ',' or '}}' at byte {}", self.at)),
-                    }
-                }
-            }
-            Some(b'[') => {
-                self.at += 1;
-                let mut items = Vec::new();
-                self.space();
-                if self.s.get(self.at) == Some(&b']') {
-                    self.at += 1;
-                    return Ok(Json::Array(items));
-                }
-                loop {
-                    items.push(self.value()?);
-                    self.space();
-                    match self.s.get(self.at) {
-                        Some(b',') => self.at += 1,
-                        Some(b']') => {
-                            self.at += 1;
-                            return Ok(Json::Array(items));
-                        }
-                        _ => return Err(format!("expected ',' or ']' at byte {}", self.at)),
-                    }
-                }
-            }
-            Some(b'"') => self.string().map(Json::String),
-            Some(_) => {
-                let start = self.at;
-                while self.at < self.s.len() && !b",]} \t\r\n".contains(&self.s[self.at]) {
-                    self.at += 1;
-                }
-                let word =
-                    std::str::from_utf8(&self.s[start..self.at]).map_err(|e| e.to_string())?;
-                match word {
-                    "null" => Ok(Json::Null),
-                    "true" => Ok(Json::Bool(true)),
-                    "false" => Ok(Json::Bool(false)),
-                    _ => word
-                        .parse::<f64>()
-                        .map(Json::Number)
-                        .map_err(|e| format!("bad number '{word}' at byte {start}: {e}")),
-                }
-            }
-            None => Err("unexpected end of the file".into()),
-        }
-    }
-
-    /// A string without escapes other than \" and \\ (all the writer makes).
-    fn string(&mut self) -> Result<String, String> {
-        self.eat(b'"')?;
-        let mut out = Vec::new();
-        loop {
-            match self.s.get(self.at) {
-                None => return Err("unterminated string".into()),
-                Some(b'"') => {
-                    self.at += 1;
-                    return String::from_utf8(out).map_err(|e| e.to_string());
-                }
-                Some(b'\\') => {
-                    out.push(*self.s.get(self.at + 1).ok_or("unterminated escape")?);
-                    self.at += 2;
-                }
-                Some(&c) => {
-                    out.push(c);
-                    self.at += 1;
-                }
-            }
-        }
-    }
-}
-
-impl Json {
-    fn get(&self, key: &str) -> &Json {
-        match self {
-            Json::Object(map) => map
-                .get(key)
-                .unwrap_or_else(|| panic!("expected-summary.json: missing field {key}")),
-            _ => panic!("expected-summary.json: {key} looked up in a non-object"),
-        }
-    }
-
-    fn f64(&self) -> f64 {
-        match self {
-            Json::Number(x) => *x,
-            other => panic!("expected-summary.json: expected a number, found {other:?}"),
-        }
-    }
-
-    fn str(&self) -> &str {
-        match self {
-            Json::String(s) => s,
-            other => panic!("expected-summary.json: expected a string, found {other:?}"),
-        }
-    }
-
-    fn bool(&self) -> bool {
-        match self {
-            Json::Bool(b) => *b,
-            other => panic!("expected-summary.json: expected a boolean, found {other:?}"),
-        }
-    }
-
-    fn array(&self) -> &[Json] {
-        match self {
-            Json::Array(items) => items,
-            other => panic!("expected-summary.json: expected an array, found {other:?}"),
-        }
-    }
+    let file = SummaryFile {
+        about: "parcal's calibrations of fixtures/paper-seed1 (parcal simulate --seed 1); \
+                regenerate with: cargo test -p parcal-calibrate --test regression -- --ignored"
+            .into(),
+        units: "values, sigmas, true_registered_rms_mm in mm; final_cost dimensionless (whitened)"
+            .into(),
+        runs: runs.to_vec(),
+    };
+    let formatter = SummaryFormatter {
+        pretty: PrettyFormatter::new(),
+        depth: 0,
+        inline: false,
+    };
+    let mut bytes = Vec::new();
+    file.serialize(&mut Serializer::with_formatter(&mut bytes, formatter))
+        .expect("the summary serialises");
+    bytes.push(b'\n');
+    String::from_utf8(bytes).expect("serde_json writes UTF-8")
 }
 
 fn from_json(text: &str) -> Vec<RunSummary> {
-    let root = Parser::parse(text).unwrap_or_else(|e| panic!("expected-summary.json: {e}"));
-    root.get("runs")
-        .array()
-        .iter()
-        .map(|run| {
-            let parameters = run.get("parameters").array();
-            RunSummary {
-                simulation: run.get("simulation").str().to_string(),
-                prior: run.get("prior").str().to_string(),
-                converged: run.get("converged").bool(),
-                iterations: run.get("iterations").f64() as usize,
-                final_cost: run.get("final_cost").f64(),
-                true_registered_rms: run.get("true_registered_rms_mm").f64(),
-                names: parameters
-                    .iter()
-                    .map(|p| p.get("name").str().to_string())
-                    .collect(),
-                values: parameters.iter().map(|p| p.get("value").f64()).collect(),
-                sigmas: parameters.iter().map(|p| p.get("sigma").f64()).collect(),
-            }
-        })
-        .collect()
+    serde_json::from_str::<SummaryFile>(text)
+        .unwrap_or_else(|e| panic!("expected-summary.json: {e}"))
+        .runs
 }
 
 // ---- the tests ----
+
+/// The writer gives back the committed summary byte for byte from what the
+/// reader takes out of it, so regenerating it changes only the numbers.
+#[test]
+fn expected_summary_reads_and_writes_back_byte_for_byte() {
+    let text = std::fs::read_to_string(expected_path()).expect("expected-summary.json");
+    let written = to_json(&from_json(&text));
+    assert!(
+        written == text,
+        "expected-summary.json does not write back as it reads:\n{written}"
+    );
+}
 
 /// Writes fixtures/paper-seed1/expected-summary.json from the current code.
 #[test]
@@ -385,13 +313,16 @@ fn calibrations_of_paper_seed1_match_the_expected_summary() {
             (&a.simulation, &a.prior),
             "run order"
         );
-        assert_eq!(e.names, a.names, "{label}: parameter names");
-        assert_eq!(a.sigmas.len(), a.names.len(), "{label}: no sigmas");
-        let worst_value = (0..a.values.len())
-            .map(|k| (a.values[k] - e.values[k]).abs())
+        let names = |run: &RunSummary| -> Vec<String> {
+            run.parameters.iter().map(|p| p.name.clone()).collect()
+        };
+        assert_eq!(names(e), names(a), "{label}: parameter names");
+        let pairs = || e.parameters.iter().zip(&a.parameters);
+        let worst_value = pairs()
+            .map(|(e, a)| (a.value - e.value).abs())
             .fold(0.0, f64::max);
-        let worst_sigma = (0..a.sigmas.len())
-            .map(|k| ((a.sigmas[k] - e.sigmas[k]) / e.sigmas[k]).abs())
+        let worst_sigma = pairs()
+            .map(|(e, a)| ((a.sigma - e.sigma) / e.sigma).abs())
             .fold(0.0, f64::max);
         let cost = ((a.final_cost - e.final_cost) / e.final_cost).abs();
         let rms = (a.true_registered_rms - e.true_registered_rms).abs();
@@ -430,19 +361,19 @@ fn calibrations_of_paper_seed1_match_the_expected_summary() {
                 a.true_registered_rms, e.true_registered_rms
             ));
         }
-        for k in 0..a.values.len() {
-            let dv = (a.values[k] - e.values[k]).abs();
+        for (e, a) in pairs() {
+            let dv = (a.value - e.value).abs();
             if !(dv <= VALUE_TOL) {
                 failures.push(format!(
                     "{label}: {} = {} (expected {}), diff {dv:e} mm",
-                    a.names[k], a.values[k], e.values[k]
+                    a.name, a.value, e.value
                 ));
             }
-            let ds = ((a.sigmas[k] - e.sigmas[k]) / e.sigmas[k]).abs();
+            let ds = ((a.sigma - e.sigma) / e.sigma).abs();
             if !(ds <= SIGMA_REL_TOL) {
                 failures.push(format!(
                     "{label}: sigma of {} = {} (expected {}), rel diff {ds:e}",
-                    a.names[k], a.sigmas[k], e.sigmas[k]
+                    a.name, a.sigma, e.sigma
                 ));
             }
         }

@@ -11,41 +11,29 @@ use parcal_kinematics::{
     SolutionAlong, SolutionJacobian, TipDerivatives, Vec3, actuators, forward, forward_from_home,
     paper, params, rotation_zyx, tip_jacobians,
 };
-
-/// SplitMix64: a tiny deterministic generator for test poses.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, low: f64, high: f64) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        low + (high - low) * (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
 
 /// A random pose of the design-frame workspace: tilt angles up to
 /// `max_tilt` degrees, the tool tip in x, y in [-80, 80], z in [340, 460].
-fn workspace_pose(rng: &mut Rng, geometry: &Geometry, max_tilt: f64) -> Pose {
+fn workspace_pose(rng: &mut StdRng, geometry: &Geometry, max_tilt: f64) -> Pose {
     let tilt = max_tilt.to_radians();
     let rotation = rotation_zyx(
-        rng.uniform(-tilt, tilt),
-        rng.uniform(-tilt, tilt),
-        rng.uniform(-tilt, tilt),
+        rng.random_range(-tilt..tilt),
+        rng.random_range(-tilt..tilt),
+        rng.random_range(-tilt..tilt),
     );
     let tip = Vec3::new(
-        rng.uniform(-80.0, 80.0),
-        rng.uniform(-80.0, 80.0),
-        rng.uniform(340.0, 460.0),
+        rng.random_range(-80.0..80.0),
+        rng.random_range(-80.0..80.0),
+        rng.random_range(340.0..460.0),
     );
     Pose::from_parts(Translation3::from(tip - rotation * geometry.tool), rotation)
 }
 
 #[test]
 fn inverse_then_forward_returns_the_pose_over_the_workspace() {
-    let mut rng = Rng(2004);
+    let mut rng = StdRng::seed_from_u64(2004);
     let options = ForwardOptions::default();
     for geometry in [paper::design(), paper::truth()] {
         let mut worst: f64 = 0.0;
@@ -90,7 +78,7 @@ fn assert_columns_agree(name: &str, analytic: &[Vec3], numeric: &[Vec3]) {
 
 #[test]
 fn tip_derivatives_agree_with_central_differences() {
-    let mut rng = Rng(7);
+    let mut rng = StdRng::seed_from_u64(7);
     let design = paper::design();
     let canonical = paper::truth().canonicalize().unwrap();
     let p = params::to_params(&canonical.geometry);
@@ -151,23 +139,23 @@ fn tip_derivatives_agree_with_central_differences() {
 
 #[test]
 fn canonical_geometry_is_invariant_to_rigid_motions_of_the_input_frames() {
-    let mut rng = Rng(11);
+    let mut rng = StdRng::seed_from_u64(11);
     let truth = paper::truth();
     let reference = truth.canonicalize().unwrap();
     for _ in 0..50 {
         let mut random_motion = || {
             let axis = Vector3::new(
-                rng.uniform(-1.0, 1.0),
-                rng.uniform(-1.0, 1.0),
-                rng.uniform(-1.0, 1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
             );
             // Keep +z on the same side: tilts below 60 degrees.
             let rotation =
-                UnitQuaternion::from_scaled_axis(axis.normalize() * rng.uniform(-1.0, 1.0));
+                UnitQuaternion::from_scaled_axis(axis.normalize() * rng.random_range(-1.0..1.0));
             let shift = Translation3::new(
-                rng.uniform(-500.0, 500.0),
-                rng.uniform(-500.0, 500.0),
-                rng.uniform(-500.0, 500.0),
+                rng.random_range(-500.0..500.0),
+                rng.random_range(-500.0..500.0),
+                rng.random_range(-500.0..500.0),
             );
             Isometry3::from_parts(shift, rotation)
         };
@@ -246,14 +234,14 @@ fn forward_kinematics_failures_are_error_values() {
 
 #[test]
 fn derivative_along_a_direction_equals_the_jacobian_times_it() {
-    let mut rng = Rng(23);
+    let mut rng = StdRng::seed_from_u64(23);
     let design = paper::design();
     let canonical = paper::truth().canonicalize().unwrap();
     for _ in 0..50 {
         let pose = canonical.pose_from_input(&workspace_pose(&mut rng, &design, 15.0));
         let q = actuators(&canonical.geometry, &pose);
         let solution = forward(&canonical.geometry, &q, &pose, &ForwardOptions::default()).unwrap();
-        let dp = Params::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+        let dp = Params::from_fn(|_, _| rng.random_range(-1.0..1.0));
         let full = tip_jacobians(&canonical.geometry, &solution).d_params * dp;
         let derivatives = TipDerivatives::new(&canonical.geometry, &solution);
         let along = derivatives.along(&dp);
@@ -290,7 +278,7 @@ fn derivative_along_a_direction_equals_the_jacobian_times_it() {
 
 #[test]
 fn predicted_pose_is_first_order_in_the_actuators() {
-    let mut rng = Rng(31);
+    let mut rng = StdRng::seed_from_u64(31);
     let geometry = paper::truth();
     let options = ForwardOptions::default();
     for _ in 0..50 {
@@ -298,7 +286,7 @@ fn predicted_pose_is_first_order_in_the_actuators() {
         let q = actuators(&geometry, &pose);
         let mut derivatives = TipDerivatives::default();
         derivatives.forward(&geometry, &q, &pose, &options).unwrap();
-        let direction = nalgebra::Vector6::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+        let direction = nalgebra::Vector6::from_fn(|_, _| rng.random_range(-1.0..1.0));
         // The miss of the prediction against forward kinematics at q + h dq
         // shrinks as h^2: by 4 when h halves.
         let miss = |h: f64| {
@@ -338,25 +326,25 @@ fn singular_configuration(geometry: &Geometry) -> (Geometry, Pose) {
 /// the home pose (four steps), or turned by up to 80 degrees (five steps and
 /// more; the scalar iteration halves some of them, and the lanes hand those
 /// contacts over to it).
-fn random_batch(rng: &mut Rng, geometry: &Geometry, round: usize) -> Vec<([f64; 6], Pose)> {
+fn random_batch(rng: &mut StdRng, geometry: &Geometry, round: usize) -> Vec<([f64; 6], Pose)> {
     (0..round % 4 + 1)
         .map(|_| {
             let pose = workspace_pose(rng, geometry, 10.0);
             let q = actuators(geometry, &pose);
             let start = if round.is_multiple_of(5) {
                 let turn = UnitQuaternion::from_scaled_axis(Vector3::new(
-                    rng.uniform(-0.8, 0.8),
-                    rng.uniform(-0.8, 0.8),
-                    rng.uniform(-0.8, 0.8),
+                    rng.random_range(-0.8..0.8),
+                    rng.random_range(-0.8..0.8),
+                    rng.random_range(-0.8..0.8),
                 ));
                 Pose::from_parts(pose.translation, turn * pose.rotation)
             } else if round.is_multiple_of(3) {
                 geometry.home_pose(&q)
             } else {
                 let shift = Translation3::new(
-                    rng.uniform(-1e-3, 1e-3),
-                    rng.uniform(-1e-3, 1e-3),
-                    rng.uniform(-1e-3, 1e-3),
+                    rng.random_range(-1e-3..1e-3),
+                    rng.random_range(-1e-3..1e-3),
+                    rng.random_range(-1e-3..1e-3),
                 );
                 shift * pose
             };
@@ -488,7 +476,7 @@ fn assert_same_pose(a: &Pose, b: &Pose, what: &str) {
 
 #[test]
 fn forward_kinematics_in_lanes_is_the_scalar_iteration() {
-    let mut rng = Rng(1158);
+    let mut rng = StdRng::seed_from_u64(1158);
     let options = ForwardOptions::default();
     let geometry = paper::truth();
     let mut histogram = [0; 8];
@@ -517,9 +505,9 @@ fn forward_kinematics_in_lanes_is_the_scalar_iteration() {
 /// that most of them ran in lanes (several contacts).
 fn over_random_batches(
     seed: u64,
-    mut check: impl FnMut(&mut Rng, &Geometry, &[([f64; 6], Pose)], &mut PivotOrder),
+    mut check: impl FnMut(&mut StdRng, &Geometry, &[([f64; 6], Pose)], &mut PivotOrder),
 ) {
-    let mut rng = Rng(seed);
+    let mut rng = StdRng::seed_from_u64(seed);
     let geometry = paper::truth();
     let mut trial = PivotOrder::default();
     let mut several = 0;
@@ -535,7 +523,7 @@ fn over_random_batches(
 fn change_along_parameters_in_lanes_is_the_scalar_one() {
     let options = ForwardOptions::default();
     over_random_batches(2004, |rng, geometry, contacts, trial| {
-        let dp = Params::from_fn(|_, _| rng.uniform(-1e-2, 1e-2));
+        let dp = Params::from_fn(|_, _| rng.random_range(-1e-2..1e-2));
         let (lanes, scalar) = along_in_lanes_and_scalar(geometry, contacts, &dp, &options, trial);
         for (lanes, scalar) in lanes.expect("lanes").iter().zip(scalar) {
             let scalar = scalar.expect("scalar");
@@ -583,7 +571,7 @@ fn factored_tip_jacobian_in_lanes_is_the_scalar_one() {
 /// derivatives with their LU do.
 #[test]
 fn factored_tip_jacobian_is_the_tip_derivatives() {
-    let mut rng = Rng(33);
+    let mut rng = StdRng::seed_from_u64(33);
     let options = ForwardOptions::default();
     let geometry = paper::truth();
     for _ in 0..50 {
@@ -595,15 +583,15 @@ fn factored_tip_jacobian_is_the_tip_derivatives() {
             .unwrap();
         let factored = derivatives.factored();
         let h = Vec3::new(
-            rng.uniform(-1.0, 1.0),
-            rng.uniform(-1.0, 1.0),
-            rng.uniform(-1.0, 1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
         );
         let (mut a, mut b) = ([0.0; N_PARAMS], [0.0; N_PARAMS]);
         factored.params_row(&h, &mut a);
         derivatives.params_row(&h, &mut b);
         assert_close(&a, &b, 1e-12, "h^T J_f");
-        let dp = Params::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+        let dp = Params::from_fn(|_, _| rng.random_range(-1.0..1.0));
         let along = derivatives.along(&dp).tip;
         assert_close(
             factored.along(&dp).as_slice(),

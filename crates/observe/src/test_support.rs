@@ -1,5 +1,5 @@
 //! Shared test fixtures: one contact of the paper's design machine, central
-//! differences, a tolerance check and a deterministic normal generator.
+//! differences and a tolerance check.
 
 use nalgebra::{SMatrix, SVector, Translation3};
 use parcal_kinematics::{
@@ -102,25 +102,4 @@ pub fn assert_close<const R: usize, const C: usize>(
         error <= relative * scale,
         "{what}: largest difference {error:e} against scale {scale:e}\nanalytic {analytic}\nreference {reference}"
     );
-}
-
-/// SplitMix64 with Box-Muller normals.
-pub struct Rng(pub u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        // In (0, 1]: never 0, so the logarithm below is finite.
-        ((z >> 11) + 1) as f64 / (1u64 << 53) as f64
-    }
-
-    /// A standard normal draw.
-    pub fn normal(&mut self) -> f64 {
-        let (a, b) = (self.uniform(), self.uniform());
-        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-    }
 }

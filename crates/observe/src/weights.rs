@@ -225,7 +225,11 @@ mod tests {
     use nalgebra::{Matrix4, Vector2, Vector3, Vector4};
 
     use super::*;
-    use crate::test_support::{Contact, Rng};
+    use rand::rngs::StdRng;
+    use rand::{RngExt, SeedableRng};
+    use rand_distr::StandardNormal;
+
+    use crate::test_support::Contact;
     use crate::{CoordinateBlock, DirectionChart, RadiusBlock};
 
     /// Different sigmas, so that a swapped or missing term shows. At the
@@ -347,16 +351,17 @@ mod tests {
         .unwrap();
         let chart = DirectionChart::new(&u0).unwrap();
 
-        let mut rng = Rng(1158);
+        let mut rng = StdRng::seed_from_u64(1158);
+        let mut normal = || -> f64 { rng.sample(StandardNormal) };
         // Rows 0-2 whitened coordinate residual, row 3 whitened radius residual.
         let mut second_moment = Matrix4::<f64>::zeros();
         for _ in 0..DRAWS {
             let q: [f64; 6] =
-                std::array::from_fn(|i| contact.q[i] + REPEATABILITY.actuator * rng.normal());
+                std::array::from_fn(|i| contact.q[i] + REPEATABILITY.actuator * normal());
             let mut noisy = contact.tip_with_actuators(&p, &q);
             // The tool really stands at tip + δt while the encoders say q.
-            let tool = Vector3::from_fn(|_, _| REPEATABILITY.tool * rng.normal());
-            let calibrated_radius = true_radius + REPEATABILITY.radius * rng.normal();
+            let tool = Vector3::from_fn(|_, _| REPEATABILITY.tool * normal());
+            let calibrated_radius = true_radius + REPEATABILITY.radius * normal();
             noisy.position -= tool;
             let coordinate = CoordinateBlock {
                 radius: calibrated_radius,
