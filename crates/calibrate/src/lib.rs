@@ -42,6 +42,9 @@ pub mod sphere_fit;
 mod validate;
 
 pub use error::CalibrateError;
-pub use options::{CalibrationOptions, Method, Observation, PriorMode, Simulation, Weighting};
-pub use run::{CalibrationRun, ParamCovariance, calibrate};
+pub use options::{CalibrationOptions, Observation, PriorMode, Simulation};
+pub use parcal_kinematics::ParamCovariance;
+pub use parcal_observe::WeightModel;
+pub use parcal_solver::Method;
+pub use run::{CalibrationRun, calibrate};
 pub use validate::{MIN_CONTACTS_PER_BALL, validate};

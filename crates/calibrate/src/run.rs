@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Pose, Vec3, params};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params, Pose, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
     BlockId, Iterate, IterationRecord, Monitor, Solution, SolverOptions, SpectrumDiagnostics,
@@ -18,9 +18,6 @@ use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
-
-/// Covariance of the 33 parameters (mm^2).
-pub type ParamCovariance = nalgebra::SMatrix<f64, N_PARAMS, N_PARAMS>;
 
 /// The outcome of one calibration.
 pub struct CalibrationRun {
@@ -196,7 +193,7 @@ impl CalibrationRun {
         let iterations = self
             .history
             .iter()
-            .map(|r| parcal_dataset::IterationRecord {
+            .map(|r| parcal_dataset::IterationSummary {
                 cost: r.cost,
                 step_norm: r.step_norm,
                 residual_rms: (r.data_cost / rows).sqrt(),
@@ -215,7 +212,7 @@ impl CalibrationRun {
         );
         let method = match self.options.method {
             Method::GaussNewton => "gauss-newton",
-            Method::LevenbergMarquardt => "levenberg-marquardt",
+            Method::LevenbergMarquardt { .. } => "levenberg-marquardt",
         };
         options.insert("method".to_string(), method.into());
         parcal_dataset::Calibration {
@@ -281,12 +278,7 @@ pub fn calibrate(
     let (mut setup, observations) = Setup::new(dataset, options)?;
     let poses = std::mem::take(&mut setup.poses);
     let solver_options = SolverOptions {
-        method: match options.method {
-            Method::GaussNewton => parcal_solver::Method::GaussNewton,
-            Method::LevenbergMarquardt => parcal_solver::Method::LevenbergMarquardt {
-                initial_lambda: 1e-3,
-            },
-        },
+        method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
         ..SolverOptions::default()

@@ -98,7 +98,7 @@ pub use parcal_dataset::{
 // Calibration.
 pub use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, MIN_CONTACTS_PER_BALL, Method, Observation,
-    ParamCovariance, PriorMode, Weighting, calibrate, validate,
+    ParamCovariance, PriorMode, WeightModel, calibrate, validate,
 };
 pub use parcal_kinematics::{KinematicsError, N_PARAMS, PARAM_NAMES, Params};
 
