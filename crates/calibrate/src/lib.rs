@@ -24,7 +24,7 @@
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let dataset = parcal_dataset::Dataset::read("data/paper-seed1".as_ref())?;
 //! let run = calibrate(&dataset, &CalibrationOptions::simulation(Simulation::IV), &mut |_| {})?;
-//! println!("{} after {} iterations", run.status_text(), run.iterations());
+//! println!("{:?} after {} iterations", run.status, run.iterations());
 //! # Ok(()) }
 //! ```
 

@@ -59,7 +59,7 @@
 //! let dataset = Dataset { machine, artefacts, measurements, truth: None };
 //!
 //! let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {})?;
-//! assert!(run.converged(), "{}", run.status_text());
+//! assert!(run.converged(), "{:?}", run.status);
 //! let sigmas = run.sigmas().expect("a converged run has a covariance");
 //! let prior = run.prior.as_ref().expect("the default options have a prior").covariance();
 //! let true_params = params::to_params(&truth.canonicalize()?.geometry);

@@ -13,7 +13,7 @@ use parcal_calibrate::{
     WeightModel, calibrate,
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
-use parcal_report::tables;
+use parcal_report::{sentences, tables};
 
 use crate::progress::Progress;
 
@@ -112,13 +112,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| directory.join(CALIBRATION_FILE));
-    run.record().write(&out)?;
+    sentences::record(&run).write(&out)?;
     // A reader that closed stdout early does not hide a failed calibration.
     let printed = print_results(&dataset, truth.as_ref(), &run, &out);
     anyhow::ensure!(
         run.converged(),
         "the calibration did not converge: {}",
-        run.status_text()
+        sentences::status(&run)
     );
     printed
 }
