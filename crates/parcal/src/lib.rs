@@ -30,10 +30,12 @@
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let (design, truth) = (paper::design(), paper::truth());
 //! let machine = Machine {
-//!     base_joints: design.base.map(Into::into),
-//!     platform_joints: design.platform.map(Into::into),
-//!     tool: design.tool.into(),
-//!     leg_lengths: design.legs,
+//!     geometry: parcal::dataset::GeometryRecord {
+//!         base_joints: design.base.map(Into::into),
+//!         platform_joints: design.platform.map(Into::into),
+//!         tool: design.tool.into(),
+//!         leg_lengths: design.legs,
+//!     },
 //!     prior_sigma: PriorSigma { base: 0.1, platform: 0.1, tool: 0.1, leg: 0.1 },
 //!     repeatability: Repeatability { actuator: 0.001, tool: 0.001 },
 //! };
