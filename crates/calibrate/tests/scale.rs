@@ -43,7 +43,7 @@ fn a_hundred_thousand_contacts_converge() {
     assert!(
         run.converged(),
         "{}",
-        parcal_report::sentences::status(&run)
+        parcal_report::sentences::status(run)
     );
 }
 
@@ -77,7 +77,7 @@ fn a_hundred_thousand_contacts_recover_the_truth_within_3_sigma() {
     assert!(
         run.converged(),
         "{}",
-        parcal_report::sentences::status(&run)
+        parcal_report::sentences::status(run)
     );
     let truth = Truth::of(dataset)
         .expect("simulated truth")

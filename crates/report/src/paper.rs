@@ -231,7 +231,7 @@ fn report(
             md,
             "| {} | {} | {} | {first:.2} -> {last:.3} | {} | {} |",
             case.name(),
-            crate::sentences::status(&run),
+            crate::sentences::status(run),
             run.iterations(),
             run.condition_number()
                 .map_or("-".into(), |c| format!("{c:.2e}")),
