@@ -40,11 +40,7 @@ fn case() -> &'static (Dataset, CalibrationRun) {
 #[test]
 fn a_hundred_thousand_contacts_converge() {
     let (_, run) = case();
-    assert!(
-        run.converged(),
-        "{}",
-        parcal_report::sentences::status(run)
-    );
+    assert!(run.converged(), "{}", parcal_report::sentences::status(run));
 }
 
 #[test]
@@ -74,11 +70,7 @@ fn a_hundred_thousand_shuffled_rows_give_the_same_calibration() {
 #[test]
 fn a_hundred_thousand_contacts_recover_the_truth_within_3_sigma() {
     let (dataset, run) = case();
-    assert!(
-        run.converged(),
-        "{}",
-        parcal_report::sentences::status(run)
-    );
+    assert!(run.converged(), "{}", parcal_report::sentences::status(run));
     let truth = Truth::of(dataset)
         .expect("simulated truth")
         .expect("canonical truth");
