@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         report(&format!("iteration {iteration}"), contacts);
     })?;
     report("calibrated", contacts);
-    drop(run.record());
+    drop(parcal_report::sentences::record(&run));
     report("recorded", contacts);
     Ok(())
 }

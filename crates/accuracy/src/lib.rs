@@ -55,5 +55,6 @@ pub use grid::{CanonicalTargets, MapGrid};
 pub use kabsch::{RigidMotion, kabsch};
 pub use map::{AccuracyMap, MapSummary};
 pub use output::write_csv;
-pub use predicted::{Covariance, predicted, predicted_at, remove_rigid_motions};
+pub use parcal_kinematics::ParamCovariance;
+pub use predicted::{predicted, predicted_at, remove_rigid_motions};
 pub use truth::{true_error, true_error_at, true_tips};

@@ -25,14 +25,10 @@
 //! paper's maps it does not happen (tested).
 
 use nalgebra::{Matrix3x6, Matrix6, SMatrix};
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3, tip_jacobians_at};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params, Vec3, tip_jacobians_at};
 
 use crate::model::{commands, model_geometry, unreachable};
 use crate::{AccuracyError, AccuracyMap, CanonicalTargets, MapGrid};
-
-/// A 33 x 33 parameter covariance (mm², parameters in the order of
-/// [`parcal_kinematics::PARAM_NAMES`]).
-pub type Covariance = SMatrix<f64, N_PARAMS, N_PARAMS>;
 
 /// Relative size of a negative tip variance still taken as rounding (and
 /// reported as 0); anything more negative means the covariance is not
@@ -51,7 +47,7 @@ const ROUNDING: f64 = 1e-10;
 pub fn predicted(
     design: &parcal_kinematics::Geometry,
     model: &Params,
-    covariance: &Covariance,
+    covariance: &ParamCovariance,
     grid: &MapGrid,
 ) -> Result<AccuracyMap, AccuracyError> {
     predicted_at(&CanonicalTargets::new(design, grid)?, model, covariance)
@@ -62,7 +58,7 @@ pub fn predicted(
 pub fn predicted_at(
     targets: &CanonicalTargets,
     model: &Params,
-    covariance: &Covariance,
+    covariance: &ParamCovariance,
 ) -> Result<AccuracyMap, AccuracyError> {
     let grid = &targets.grid;
     let geometry = model_geometry(model)?;
@@ -94,7 +90,7 @@ pub fn predicted_at(
 /// `sqrt(trace(J_k Σ J_kᵀ))` per point (mm).
 fn tip_sigmas(
     jacobians: &[SMatrix<f64, 3, N_PARAMS>],
-    covariance: &Covariance,
+    covariance: &ParamCovariance,
     points: &[Vec3],
 ) -> Result<Vec<f64>, AccuracyError> {
     let magnitude = covariance.abs();
@@ -171,8 +167,8 @@ mod tests {
     use nalgebra::DMatrix;
     use parcal_kinematics::{paper, params};
 
-    fn paper_prior() -> Covariance {
-        Covariance::identity() * 0.1f64.powi(2)
+    fn paper_prior() -> ParamCovariance {
+        ParamCovariance::identity() * 0.1f64.powi(2)
     }
 
     fn design_model() -> Params {
@@ -255,7 +251,7 @@ mod tests {
     fn a_tool_offset_covariance_is_a_pure_translation() {
         // At constant orientation a tool-offset error moves every tip by the
         // same R_c δE_T: absolute sqrt(trace) = sigma sqrt(3), registered 0.
-        let mut covariance = Covariance::zeros();
+        let mut covariance = ParamCovariance::zeros();
         for k in params::TOOL_OFFSET..params::TOOL_OFFSET + 3 {
             covariance[(k, k)] = 0.1f64.powi(2);
         }
@@ -294,7 +290,7 @@ mod tests {
         let g = j.clone().pseudo_inverse(1e-12).unwrap() * &rotations;
         let realised = (&j * &g - &rotations).amax();
         assert!(realised < 1e-9, "J G - B_rot = {realised:e}");
-        let covariance = Covariance::from_iterator((&g * g.transpose()).iter().copied());
+        let covariance = ParamCovariance::from_iterator((&g * g.transpose()).iter().copied());
         let map = predicted(&design, &model, &covariance, &grid).unwrap();
         // Absolute: the lever arm, sqrt(trace) of the rotation's covariance
         // sum_axes |1e-4 e_a x r|^2 = 2e-8 |r|^2.

@@ -15,7 +15,7 @@
 //! parcal reproduces every printed figure to its last digit.
 
 use parcal_accuracy::{
-    AccuracyMap, CanonicalTargets, Covariance, MapGrid, predicted, true_error, true_error_at,
+    AccuracyMap, CanonicalTargets, MapGrid, ParamCovariance, predicted, true_error, true_error_at,
 };
 use parcal_kinematics::{Params, paper, params};
 
@@ -25,7 +25,7 @@ fn deviation(value: f64, reference: f64) -> f64 {
 }
 
 /// Reads a fixture: the parameter values, then the covariance.
-fn fixture(name: &str) -> (Params, Covariance) {
+fn fixture(name: &str) -> (Params, ParamCovariance) {
     let path = format!("{}/fixtures/{name}.txt", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let rows: Vec<Vec<f64>> = text
@@ -39,7 +39,7 @@ fn fixture(name: &str) -> (Params, Covariance) {
         .collect();
     assert_eq!(rows.len(), 34, "{path}");
     let values = Params::from_column_slice(&rows[0]);
-    let covariance = Covariance::from_fn(|r, c| rows[1 + r][c]);
+    let covariance = ParamCovariance::from_fn(|r, c| rows[1 + r][c]);
     (values, covariance)
 }
 
@@ -48,7 +48,7 @@ fn fixture(name: &str) -> (Params, Covariance) {
 struct Case {
     name: &'static str,
     model: Params,
-    covariance: Covariance,
+    covariance: ParamCovariance,
     reference: [f64; 3],
 }
 
@@ -60,7 +60,7 @@ fn cases() -> Vec<Case> {
         Case {
             name: "before calibration (design, paper prior)",
             model: design,
-            covariance: Covariance::identity() * 0.1f64.powi(2),
+            covariance: ParamCovariance::identity() * 0.1f64.powi(2),
             reference: [4.073, 0.0973, 0.584],
         },
         Case {

@@ -9,8 +9,8 @@ use parcal_accuracy::{
 use parcal_dataset::Dataset;
 use parcal_kinematics::{Geometry, Params, Vec3, params};
 
-use crate::run::{CalibrationRun, ParamCovariance};
 use crate::setup::design_geometry;
+use crate::{CalibrationRun, ParamCovariance};
 
 /// The true machine of a simulated dataset.
 pub struct Truth {

@@ -24,7 +24,7 @@
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let dataset = parcal_dataset::Dataset::read("data/paper-seed1".as_ref())?;
 //! let run = calibrate(&dataset, &CalibrationOptions::simulation(Simulation::IV), &mut |_| {})?;
-//! println!("{} after {} iterations", run.status_text(), run.iterations());
+//! println!("{:?} after {} iterations", run.status, run.iterations());
 //! # Ok(()) }
 //! ```
 
@@ -42,6 +42,9 @@ pub mod sphere_fit;
 mod validate;
 
 pub use error::CalibrateError;
-pub use options::{CalibrationOptions, Method, Observation, PriorMode, Simulation, Weighting};
-pub use run::{CalibrationRun, ParamCovariance, calibrate};
+pub use options::{CalibrationOptions, Observation, PriorMode, Simulation};
+pub use parcal_kinematics::ParamCovariance;
+pub use parcal_observe::WeightModel;
+pub use parcal_solver::Method;
+pub use run::{CalibrationRun, calibrate};
 pub use validate::{MIN_CONTACTS_PER_BALL, validate};

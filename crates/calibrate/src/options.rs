@@ -2,8 +2,12 @@
 
 use std::fmt;
 
+use parcal_observe::WeightModel;
+use parcal_solver::Method;
+
 /// The observation equation of every contact.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Observation {
     /// Paper eq. (9): `c = r - |f(q, p) - C|`, one row per contact.
     Radius,
@@ -14,13 +18,14 @@ pub enum Observation {
 
 /// The a priori knowledge (paper eq. 7).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum PriorMode {
     /// No prior (simulations I and II).
     None,
     /// The paper's form: every canonical parameter about its design value
     /// with sigma `prior_sigma`, every ball centre about its initial estimate
     /// (sigma `centre_sigma` of artefacts.json), every contact's angles about
-    /// their initial values (sigma [`CalibrationOptions::angle_sigma`]).
+    /// their initial values (sigma `angle_sigma` of the options).
     Paper,
     /// The design tolerances on the input-frame coordinates propagated
     /// through the canonicalisation to a full 33 x 33 prior; centre priors
@@ -29,31 +34,17 @@ pub enum PriorMode {
     Propagated,
 }
 
-/// How the observation covariance W is formed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Weighting {
-    /// Actuator, tool and radius repeatabilities propagated through the
-    /// kinematics at the initial estimate, held fixed.
-    Propagated,
-    /// A plain diagonal: `sigma^2 = s_a^2 + s_t^2 + s_r^2` per row.
-    Diagonal,
-}
-
-/// The iteration.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Method {
-    /// Paper eq. (5): the full Gauss-Newton step, no damping.
-    GaussNewton,
-    /// Levenberg-Marquardt.
-    LevenbergMarquardt,
-}
-
 /// The paper's four simulations (section 3.1, 3.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Simulation {
+    #[cfg_attr(feature = "clap", value(name = "I"))]
     I,
+    #[cfg_attr(feature = "clap", value(name = "II"))]
     II,
+    #[cfg_attr(feature = "clap", value(name = "III"))]
     III,
+    #[cfg_attr(feature = "clap", value(name = "IV"))]
     IV,
 }
 
@@ -109,7 +100,9 @@ impl fmt::Display for Observation {
 pub struct CalibrationOptions {
     pub observation: Observation,
     pub prior: PriorMode,
-    pub weighting: Weighting,
+    /// How the observation covariance W is formed; the propagated model is
+    /// evaluated at the initial estimate and held fixed.
+    pub weighting: WeightModel,
     pub method: Method,
     /// Sigma of the per-contact angle prior (rad): the paper's 0.01 in paper
     /// mode; in propagated mode it applies only to contacts with a commanded
@@ -131,10 +124,13 @@ pub const GAUSS_NEWTON_ITERATIONS: usize = 50;
 pub const LEVENBERG_MARQUARDT_ITERATIONS: usize = 200;
 
 impl CalibrationOptions {
-    /// These options with Levenberg-Marquardt and its iteration limit.
+    /// These options with Levenberg-Marquardt (initial `λ` 1e-3) and its
+    /// iteration limit.
     pub fn levenberg_marquardt(self) -> Self {
         Self {
-            method: Method::LevenbergMarquardt,
+            method: Method::LevenbergMarquardt {
+                initial_lambda: 1e-3,
+            },
             max_iterations: LEVENBERG_MARQUARDT_ITERATIONS,
             ..self
         }
@@ -163,7 +159,7 @@ impl Default for CalibrationOptions {
         Self {
             observation: Observation::Coordinates,
             prior: PriorMode::Propagated,
-            weighting: Weighting::Propagated,
+            weighting: WeightModel::Propagated,
             method: Method::GaussNewton,
             angle_sigma: 0.01,
             max_iterations: GAUSS_NEWTON_ITERATIONS,

@@ -4,23 +4,20 @@
 use std::collections::BTreeMap;
 
 use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Pose, Vec3, params};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params, Pose, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    BlockId, Iterate, IterationRecord, Monitor, Solution, SolverOptions, SpectrumDiagnostics,
-    Status, Verdict, WeakDirection, solve_with_caches,
+    Iterate, IterationRecord, Monitor, Solution, SolverOptions, SpectrumDiagnostics, Status,
+    Verdict, solve_with_caches,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
-use crate::fit::{BallMisfit, misfit_balls, misfit_warning};
+use crate::fit::{BallMisfit, misfit_balls};
 use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
-
-/// Covariance of the 33 parameters (mm^2).
-pub type ParamCovariance = nalgebra::SMatrix<f64, N_PARAMS, N_PARAMS>;
 
 /// The outcome of one calibration.
 pub struct CalibrationRun {
@@ -106,71 +103,9 @@ impl CalibrationRun {
         })
     }
 
-    /// Every warning about the priors and the balls' fit, one sentence
-    /// each.
-    pub fn warnings(&self) -> Vec<String> {
-        let conflicts = self.conflicts.iter().filter_map(ConflictTest::warning);
-        self.prior_consistency
-            .iter()
-            .cloned()
-            .chain(conflicts)
-            .chain(misfit_warning(&self.ball_misfits))
-            .collect()
-    }
-
-    /// What the run did beyond the method's iteration, one sentence each
-    /// (the balls re-seeded on the other side of their contacts).
-    pub fn notes(&self) -> Vec<String> {
-        self.mirrored
-            .iter()
-            .map(|m| {
-                format!(
-                    "ball {} was on the wrong side of its contacts at iteration {} (chi-square {:.1}; its contact points at that iterate's geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
-                    m.id,
-                    m.iteration,
-                    m.side.chi_square,
-                    m.side.side.cost / m.side.mirror.cost
-                )
-            })
-            .collect()
-    }
-
-    /// The status in one sentence (calibration.json's `status`), naming
-    /// parameters, balls and measurements.csv lines.
-    pub fn status_text(&self) -> String {
-        match &self.status {
-            Status::Converged => "converged".to_string(),
-            Status::IterationLimit => "iteration limit reached without convergence".to_string(),
-            Status::Diverged { iteration, reason } => {
-                format!("diverged at iteration {iteration}: {reason}")
-            }
-            Status::ProblemFailed {
-                iteration, message, ..
-            } => format!("failed at iteration {iteration}: {message}"),
-            Status::Singular {
-                iteration,
-                diagnostics,
-            } => format!(
-                "the reduced system is singular at iteration {iteration}: {}",
-                weak_directions(diagnostics, &self.layout.names(&self.ball_ids))
-            ),
-            Status::SingularBlock { iteration, block } => match block {
-                BlockId::Group(k) => format!(
-                    "at iteration {iteration} the centre of ball {} is not determined by its contacts",
-                    self.ball_ids[*k]
-                ),
-                BlockId::Point(i) => format!(
-                    "at iteration {iteration} the angles of the contact of measurements.csv line {} are not determined",
-                    self.rows[*i] + 2
-                ),
-            },
-            Status::Stopped { iteration } => format!("stopped at iteration {iteration}"),
-            Status::InvalidProblem { message } => format!("invalid problem: {message}"),
-        }
-    }
-
-    /// The calibration.json record of this run.
-    pub fn record(&self) -> parcal_dataset::Calibration {
+    /// The calibration.json record of this run, with `status`, the sentence
+    /// of its status (`parcal_report::sentences::status`).
+    pub fn record(&self, status: String) -> parcal_dataset::Calibration {
         let geometry = params::from_params(&self.params);
         let sigma = self.sigmas().unwrap_or_else(Params::zeros);
         let covariance = self
@@ -196,7 +131,7 @@ impl CalibrationRun {
         let iterations = self
             .history
             .iter()
-            .map(|r| parcal_dataset::IterationRecord {
+            .map(|r| parcal_dataset::IterationSummary {
                 cost: r.cost,
                 step_norm: r.step_norm,
                 residual_rms: (r.data_cost / rows).sqrt(),
@@ -215,7 +150,7 @@ impl CalibrationRun {
         );
         let method = match self.options.method {
             Method::GaussNewton => "gauss-newton",
-            Method::LevenbergMarquardt => "levenberg-marquardt",
+            Method::LevenbergMarquardt { .. } => "levenberg-marquardt",
         };
         options.insert("method".to_string(), method.into());
         parcal_dataset::Calibration {
@@ -235,39 +170,10 @@ impl CalibrationRun {
             prior: self.options.prior.to_string(),
             iterations,
             converged: self.converged(),
-            status: self.status_text(),
+            status,
             options,
         }
     }
-}
-
-/// The weakest directions of a reduced system: eigenvalue and the
-/// parameters that dominate it, named by `names` (the global block's,
-/// [`ParameterLayout::names`]).
-pub fn weak_directions(spectrum: &SpectrumDiagnostics, names: &[String]) -> String {
-    let directions: Vec<String> = spectrum
-        .weakest
-        .iter()
-        .take(3)
-        .map(|weak| weak_direction(weak, names))
-        .collect();
-    format!("smallest eigenvalues: {}", directions.join("; "))
-}
-
-/// One weak direction: its eigenvalue, the sigma it leaves (mm) and the
-/// parameters that dominate it, named by `names` (the global block's).
-pub fn weak_direction(weak: &WeakDirection, names: &[String]) -> String {
-    let names: Vec<String> = weak
-        .dominant
-        .iter()
-        .map(|(k, c)| format!("{} {:+.2}", names[*k], c))
-        .collect();
-    format!(
-        "eigenvalue {:.3e} (sigma {:.3} mm) along {}",
-        weak.eigenvalue,
-        weak.eigenvalue.max(0.0).sqrt().recip(),
-        names.join(", ")
-    )
 }
 
 /// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
@@ -281,12 +187,7 @@ pub fn calibrate(
     let (mut setup, observations) = Setup::new(dataset, options)?;
     let poses = std::mem::take(&mut setup.poses);
     let solver_options = SolverOptions {
-        method: match options.method {
-            Method::GaussNewton => parcal_solver::Method::GaussNewton,
-            Method::LevenbergMarquardt => parcal_solver::Method::LevenbergMarquardt {
-                initial_lambda: 1e-3,
-            },
-        },
+        method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
         ..SolverOptions::default()

@@ -16,7 +16,7 @@ use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
 };
 use parcal_observe::{
-    CoordinateWeight, DistanceBlock, InputSigmas, KinematicPrior, ObserveError, RadiusWeight,
+    CoordinateWeight, DistanceBlock, KinematicPrior, ObserveError, PriorSigma, RadiusWeight,
     Repeatability, WeightModel, coordinate_covariance, radius_variance, unit_direction,
 };
 use parcal_solver::{GaussianPrior, State, split_by};
@@ -27,7 +27,7 @@ use crate::problem::{
     CalibrationProblem, CoordinateObservations, DistanceObservation, RadiusObservations,
 };
 use crate::sphere_fit::{best_fit, mirror_fit};
-use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode, Weighting};
+use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode};
 
 /// The initial estimate and everything derived from the dataset once.
 pub struct Setup {
@@ -88,7 +88,7 @@ impl Setup {
             canonical: &canonical,
             order: &order,
             groups: &groups,
-            model: weight_model(options.weighting),
+            model: options.weighting,
         };
         let (initial_centres, poses, observations) = match options.observation {
             Observation::Radius => {
@@ -170,7 +170,7 @@ impl Setup {
     pub fn mirror_start<T: StartWeight>(
         &self,
         dataset: &Dataset,
-        weighting: Weighting,
+        weighting: WeightModel,
         ball: usize,
         directions: &mut [UnitVector3<f64>],
         weights: &mut [T],
@@ -180,7 +180,7 @@ impl Setup {
             canonical: &self.canonical,
             order: &self.order,
             groups: &self.groups,
-            model: weight_model(weighting),
+            model: weighting,
         };
         let mut poses = vec![Pose::identity(); weights.len()];
         let contacts = ContactSlots {
@@ -513,7 +513,7 @@ pub trait MirrorStart {
         &mut self,
         setup: &Setup,
         dataset: &Dataset,
-        weighting: Weighting,
+        weighting: WeightModel,
         ball: usize,
     ) -> Result<Vec3, CalibrateError> {
         let range = setup.groups[ball].clone();
@@ -553,13 +553,6 @@ impl MirrorStart for CoordinateObservations {
     }
 }
 
-fn weight_model(weighting: Weighting) -> WeightModel {
-    match weighting {
-        Weighting::Propagated => WeightModel::Propagated,
-        Weighting::Diagonal => WeightModel::Diagonal,
-    }
-}
-
 /// Paper eq. (7), the prior on the 33: the paper's diagonal form (each
 /// parameter about its design value with its group's tolerance) or the
 /// tolerances of the input-frame coordinates propagated through the
@@ -587,7 +580,7 @@ pub fn kinematic_prior(
             )
         }
         PriorMode::Propagated => {
-            let sigmas = InputSigmas {
+            let sigmas = PriorSigma {
                 base: sigma.base,
                 platform: sigma.platform,
                 tool: sigma.tool,

@@ -33,8 +33,10 @@ fn a_blunder_flags_its_ball_and_only_it() {
     // Ten times the mean of chi-square(4) and more.
     assert!(misfit.chi_square > 40.0, "{misfit:?}");
     assert!(
-        run.warnings().iter().any(|w| w.contains(&misfit.id)),
+        parcal_report::sentences::warnings(&run)
+            .iter()
+            .any(|w| w.contains(&misfit.id)),
         "{:?}",
-        run.warnings()
+        parcal_report::sentences::warnings(&run)
     );
 }

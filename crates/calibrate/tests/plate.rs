@@ -32,7 +32,11 @@ fn registered_rms(scenario: &Scenario, seed: u64) -> (f64, f64, usize) {
         ..CalibrationOptions::simulation(Simulation::IV)
     };
     let run = calibrate(&dataset, &options, &mut |_| {}).expect("calibration");
-    assert!(run.converged(), "seed {seed}: {}", run.status_text());
+    assert!(
+        run.converged(),
+        "seed {seed}: {}",
+        parcal_report::sentences::status(&run)
+    );
     let maps = before_after(&dataset, Some(&truth), &run, &MapGrid::paper()).expect("maps");
     let after = maps.after.expect("posterior map");
     let true_map = after.true_error.expect("true error map");

@@ -98,8 +98,8 @@ fn levenberg_marquardt_reaches_the_gauss_newton_solution() {
     assert!(
         gn.converged() && lm.converged(),
         "{} / {}",
-        gn.status_text(),
-        lm.status_text()
+        parcal_report::sentences::status(&gn),
+        parcal_report::sentences::status(&lm)
     );
     let sigmas = gn.sigmas().unwrap();
     for k in 0..33 {

@@ -40,7 +40,7 @@ fn case() -> &'static (Dataset, CalibrationRun) {
 #[test]
 fn a_hundred_thousand_contacts_converge() {
     let (_, run) = case();
-    assert!(run.converged(), "{}", run.status_text());
+    assert!(run.converged(), "{}", parcal_report::sentences::status(run));
 }
 
 #[test]
@@ -52,7 +52,11 @@ fn a_hundred_thousand_shuffled_rows_give_the_same_calibration() {
         "shuffled rows calibrated in {:.2} s",
         start.elapsed().as_secs_f64()
     );
-    assert!(result.converged(), "{}", result.status_text());
+    assert!(
+        result.converged(),
+        "{}",
+        parcal_report::sentences::status(&result)
+    );
     let (params, sigmas) = relative_differences(reference, &result);
     println!("relative difference: parameters {params:.2e}, sigmas {sigmas:.2e}");
     assert!(params < 1e-9, "relative difference {params:e}");
@@ -66,7 +70,7 @@ fn a_hundred_thousand_shuffled_rows_give_the_same_calibration() {
 #[test]
 fn a_hundred_thousand_contacts_recover_the_truth_within_3_sigma() {
     let (dataset, run) = case();
-    assert!(run.converged(), "{}", run.status_text());
+    assert!(run.converged(), "{}", parcal_report::sentences::status(run));
     let truth = Truth::of(dataset)
         .expect("simulated truth")
         .expect("canonical truth");

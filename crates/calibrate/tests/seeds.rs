@@ -96,7 +96,7 @@ fn run_one(
         if run.converged() { "yes" } else { "no" },
         nees.map_or("-".into(), |v| format!("{v:.1}")),
         worst_z.map_or("-".into(), |v| format!("{v:.2}")),
-        run.warnings().len(),
+        parcal_report::sentences::warnings(&run).len(),
         before_predicted,
         before_true,
         after_predicted,
@@ -104,11 +104,11 @@ fn run_one(
         start.elapsed().as_secs_f64(),
     );
     if !run.converged() {
-        println!("       status: {}", run.status_text());
+        println!("       status: {}", parcal_report::sentences::status(&run));
     }
     Outcome {
         converged: run.converged(),
-        warnings: run.warnings().len(),
+        warnings: parcal_report::sentences::warnings(&run).len(),
         nees,
         worst_z,
         true_registered_rms,

@@ -34,9 +34,10 @@ pub struct CentreEstimate {
     pub sigma: Point3,
 }
 
-/// One Gauss-Newton iteration.
+/// One iteration as calibration.json keeps it: the solver's record of the
+/// iteration reduced to its cost, step and residual RMS.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct IterationRecord {
+pub struct IterationSummary {
     /// Weighted cost (priors included).
     pub cost: f64,
     /// Norm of the step taken.
@@ -63,7 +64,7 @@ pub struct Calibration {
     /// The prior used: `"paper"`, `"propagated"` or `"none"`.
     pub prior: String,
     /// One record per iteration.
-    pub iterations: Vec<IterationRecord>,
+    pub iterations: Vec<IterationSummary>,
     /// Whether the run converged.
     pub converged: bool,
     /// Why the run stopped (diverged, iteration limit, ...).

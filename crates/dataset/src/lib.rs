@@ -94,7 +94,7 @@ mod snapshot;
 mod truth;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
-pub use calibration::{Calibration, CentreEstimate, IterationRecord, ParameterTable};
+pub use calibration::{Calibration, CentreEstimate, IterationSummary, ParameterTable};
 pub use dataset::{Dataset, ReadOptions};
 pub use error::DatasetError;
 pub use geometry::GeometryRecord;

@@ -362,7 +362,7 @@ fn calibration() -> Calibration {
             },
         )]),
         prior: "none".into(),
-        iterations: vec![IterationRecord {
+        iterations: vec![IterationSummary {
             cost: 18029.824089807713,
             step_norm: 0.0,
             residual_rms: 0.02489452864196506,

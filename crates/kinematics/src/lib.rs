@@ -56,4 +56,4 @@ pub use forward::{ForwardOptions, ForwardSolution, forward, forward_from_home};
 pub use frames::Canonical;
 pub use geometry::{Geometry, Pose, Vec3, paper, rotation_zyx};
 pub use inverse::{actuators, leg_lengths};
-pub use params::{N_PARAMS, PARAM_NAMES, Params};
+pub use params::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params};

@@ -11,7 +11,7 @@
 //! x_eT, y_eT, z_eT
 //! ```
 
-use nalgebra::SVector;
+use nalgebra::{SMatrix, SVector};
 
 use crate::{Geometry, Vec3};
 
@@ -20,6 +20,10 @@ pub const N_PARAMS: usize = 33;
 
 /// The parameter vector `p` in the order of [`PARAM_NAMES`] (mm).
 pub type Params = SVector<f64, N_PARAMS>;
+
+/// A covariance of the parameters (mm²), rows and columns in the order of
+/// [`PARAM_NAMES`].
+pub type ParamCovariance = SMatrix<f64, N_PARAMS, N_PARAMS>;
 
 /// Parameter names in the paper's order.
 pub const PARAM_NAMES: [&str; N_PARAMS] = [

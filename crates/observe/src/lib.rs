@@ -73,9 +73,7 @@ pub use chart::{DirectionChart, unit_direction};
 pub use coordinates::CoordinateBlock;
 pub use distance::{DistanceBlock, DistanceJacobians};
 pub use error::ObserveError;
-pub use prior::{
-    AnglePrior, CentrePrior, DiagonalPrior, InputSigmas, KinematicPrior, ParamCovariance,
-};
+pub use prior::{AnglePrior, CentrePrior, DiagonalPrior, KinematicPrior, PriorSigma};
 pub use radius::RadiusBlock;
 pub use tip::Tip;
 pub use weights::{

@@ -16,13 +16,10 @@
 
 use nalgebra::{SMatrix, SVector};
 use parcal_kinematics::frames::{N_INPUT_COORDINATES, parameter_jacobian};
-use parcal_kinematics::{Geometry, N_PARAMS, Params, params};
+use parcal_kinematics::{Geometry, ParamCovariance, Params, params};
 
 use crate::ObserveError;
 use crate::error::check_sigma;
-
-/// A 33 x 33 covariance of the canonical parameters (mm²).
-pub type ParamCovariance = SMatrix<f64, N_PARAMS, N_PARAMS>;
 
 /// A Cholesky pivot `L_kk²` below this fraction of the largest variance
 /// counts as a rank deficiency: rounding makes a singular covariance's
@@ -32,7 +29,7 @@ const RANK_PIVOT_RATIO: f64 = 1e-12;
 /// Design tolerances (1 sigma, mm) of the input-frame coordinates, one per
 /// group (machine.json's `prior_sigma`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InputSigmas {
+pub struct PriorSigma {
     /// Each coordinate of each base joint `B_i`.
     pub base: f64,
     /// Each coordinate of each platform joint `E_i`.
@@ -43,7 +40,7 @@ pub struct InputSigmas {
     pub leg: f64,
 }
 
-impl InputSigmas {
+impl PriorSigma {
     /// The 45 input-coordinate variances in the order of
     /// [`parcal_kinematics::frames::input_coordinates`] (mm²).
     fn variances(&self) -> Result<SVector<f64, N_INPUT_COORDINATES>, ObserveError> {
@@ -122,7 +119,7 @@ impl KinematicPrior {
     /// The 12 directions of `x` that `G` drops are the rigid motions of the
     /// base and platform frames, so `Σ_p` has full rank 33; a degenerate
     /// design that breaks this is refused.
-    pub fn propagated(design: &Geometry, sigmas: &InputSigmas) -> Result<Self, ObserveError> {
+    pub fn propagated(design: &Geometry, sigmas: &PriorSigma) -> Result<Self, ObserveError> {
         let scaled = parameter_jacobian(design)?
             * SMatrix::from_diagonal(&sigmas.variances()?.map(f64::sqrt));
         let covariance = scaled * scaled.transpose();
@@ -230,7 +227,7 @@ mod tests {
 
     use super::*;
 
-    const TOLERANCES: InputSigmas = InputSigmas {
+    const TOLERANCES: PriorSigma = PriorSigma {
         base: 0.1,
         platform: 0.1,
         tool: 0.1,
@@ -334,7 +331,7 @@ mod tests {
             KinematicPrior::paper(&design, 0.0),
             Err(ObserveError::InvalidSigma { .. })
         ));
-        let zero_legs = InputSigmas {
+        let zero_legs = PriorSigma {
             leg: 0.0,
             ..TOLERANCES
         };

@@ -54,6 +54,7 @@ impl Repeatability {
 
 /// How the observation covariance is modelled.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum WeightModel {
     /// The repeatabilities propagated through the kinematics (the default).
     #[default]

@@ -30,10 +30,12 @@
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let (design, truth) = (paper::design(), paper::truth());
 //! let machine = Machine {
-//!     base_joints: design.base.map(Into::into),
-//!     platform_joints: design.platform.map(Into::into),
-//!     tool: design.tool.into(),
-//!     leg_lengths: design.legs,
+//!     geometry: parcal::dataset::GeometryRecord {
+//!         base_joints: design.base.map(Into::into),
+//!         platform_joints: design.platform.map(Into::into),
+//!         tool: design.tool.into(),
+//!         leg_lengths: design.legs,
+//!     },
 //!     prior_sigma: PriorSigma { base: 0.1, platform: 0.1, tool: 0.1, leg: 0.1 },
 //!     repeatability: Repeatability { actuator: 0.001, tool: 0.001 },
 //! };
@@ -59,7 +61,7 @@
 //! let dataset = Dataset { machine, artefacts, measurements, truth: None };
 //!
 //! let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {})?;
-//! assert!(run.converged(), "{}", run.status_text());
+//! assert!(run.converged(), "{:?}", run.status);
 //! let sigmas = run.sigmas().expect("a converged run has a covariance");
 //! let prior = run.prior.as_ref().expect("the default options have a prior").covariance();
 //! let true_params = params::to_params(&truth.canonicalize()?.geometry);
@@ -98,7 +100,7 @@ pub use parcal_dataset::{
 // Calibration.
 pub use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, MIN_CONTACTS_PER_BALL, Method, Observation,
-    ParamCovariance, PriorMode, Weighting, calibrate, validate,
+    ParamCovariance, PriorMode, WeightModel, calibrate, validate,
 };
 pub use parcal_kinematics::{KinematicsError, N_PARAMS, PARAM_NAMES, Params};
 

@@ -12,6 +12,7 @@ pub mod compare;
 pub mod maps;
 pub mod paper;
 pub mod plots;
+pub mod sentences;
 pub mod tables;
 
 /// Why a report could not be written.

@@ -93,10 +93,9 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
         progress(&format!(
             "simulation {}: {}",
             case.name(),
-            case.run.status_text()
+            crate::sentences::status(&case.run)
         ));
-        case.run
-            .record()
+        crate::sentences::record(&case.run)
             .write(&out.join(format!("calibration-{}.json", case.file_stem())))?;
         Ok(case)
     };
@@ -232,7 +231,7 @@ fn report(
             md,
             "| {} | {} | {} | {first:.2} -> {last:.3} | {} | {} |",
             case.name(),
-            run.status_text(),
+            crate::sentences::status(run),
             run.iterations(),
             run.condition_number()
                 .map_or("-".into(), |c| format!("{c:.2e}")),
@@ -324,7 +323,7 @@ fn comparison(cases: &[Case; 6]) -> String {
     let status = |c: &Case| {
         format!(
             "{} ({} iterations)",
-            c.run.status_text(),
+            crate::sentences::status(&c.run),
             c.run.iterations()
         )
     };

@@ -5,10 +5,10 @@ use std::fmt::Write;
 
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::evaluate::{Accuracy, BeforeAfter, Truth};
-use parcal_calibrate::run::weak_direction;
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 
 use crate::compare::nees_sentence;
+use crate::sentences::{self, weak_direction};
 
 /// Parameter, value, sigma and, with a truth, the true value, the error and
 /// error / sigma (paper tables 3 and 4, with truth columns).
@@ -81,7 +81,7 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
     let _ = writeln!(
         out,
         "status: {} after {} iterations",
-        run.status_text(),
+        sentences::status(run),
         run.iterations()
     );
     if let (Some(first), Some(last)) = (run.history.first(), run.history.last()) {
@@ -127,10 +127,10 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
             nees_sentence(nees, N_PARAMS)
         );
     }
-    for note in run.notes() {
+    for note in sentences::notes(run) {
         let _ = writeln!(out, "NOTE: {note}");
     }
-    for warning in run.warnings() {
+    for warning in sentences::warnings(run) {
         let _ = writeln!(out, "WARNING: {warning}");
     }
     out

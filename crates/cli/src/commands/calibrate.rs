@@ -6,52 +6,16 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use clap::ValueEnum;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, Observation, PriorMode, Simulation,
-    Weighting, calibrate,
+    WeightModel, calibrate,
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
-use parcal_report::tables;
+use parcal_report::{sentences, tables};
 
 use crate::progress::Progress;
-
-#[derive(Clone, Copy, ValueEnum)]
-#[expect(
-    clippy::upper_case_acronyms,
-    reason = "the Roman numerals of the paper's simulations"
-)]
-enum Sim {
-    #[value(name = "I")]
-    I,
-    #[value(name = "II")]
-    II,
-    #[value(name = "III")]
-    III,
-    #[value(name = "IV")]
-    IV,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum ObservationArg {
-    Radius,
-    Coordinates,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum PriorArg {
-    Paper,
-    Propagated,
-    None,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum WeightsArg {
-    Propagated,
-    Diagonal,
-}
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -60,17 +24,17 @@ pub struct Args {
     /// One of the paper's simulations (observation and paper-mode prior);
     /// --observation and --prior override its parts.
     #[arg(long, value_enum, ignore_case = true)]
-    sim: Option<Sim>,
+    sim: Option<Simulation>,
     /// Observation equation: radius (paper eq. 9) or transformed coordinates (eq. 10).
     #[arg(long, value_enum)]
-    observation: Option<ObservationArg>,
+    observation: Option<Observation>,
     /// A priori knowledge (paper eq. 7): the paper's diagonal form, the design
     /// tolerances propagated to the canonical parameters (default), or none.
     #[arg(long, value_enum)]
-    prior: Option<PriorArg>,
+    prior: Option<PriorMode>,
     /// Observation weights: repeatabilities propagated through the kinematics, or a plain diagonal.
     #[arg(long, value_enum, default_value = "propagated")]
-    weights: WeightsArg,
+    weights: WeightModel,
     /// Levenberg-Marquardt instead of the paper's Gauss-Newton (eq. 5).
     #[arg(long)]
     lm: bool,
@@ -84,32 +48,16 @@ pub struct Args {
 
 impl Args {
     fn options(&self) -> CalibrationOptions {
-        let mut options = match self.sim {
-            Some(sim) => CalibrationOptions::simulation(match sim {
-                Sim::I => Simulation::I,
-                Sim::II => Simulation::II,
-                Sim::III => Simulation::III,
-                Sim::IV => Simulation::IV,
-            }),
-            None => CalibrationOptions::default(),
-        };
+        let mut options = self
+            .sim
+            .map_or_else(CalibrationOptions::default, CalibrationOptions::simulation);
         if let Some(observation) = self.observation {
-            options.observation = match observation {
-                ObservationArg::Radius => Observation::Radius,
-                ObservationArg::Coordinates => Observation::Coordinates,
-            };
+            options.observation = observation;
         }
         if let Some(prior) = self.prior {
-            options.prior = match prior {
-                PriorArg::Paper => PriorMode::Paper,
-                PriorArg::Propagated => PriorMode::Propagated,
-                PriorArg::None => PriorMode::None,
-            };
+            options.prior = prior;
         }
-        options.weighting = match self.weights {
-            WeightsArg::Propagated => Weighting::Propagated,
-            WeightsArg::Diagonal => Weighting::Diagonal,
-        };
+        options.weighting = self.weights;
         if self.lm {
             options = options.levenberg_marquardt();
         }
@@ -164,13 +112,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| directory.join(CALIBRATION_FILE));
-    run.record().write(&out)?;
+    sentences::record(&run).write(&out)?;
     // A reader that closed stdout early does not hide a failed calibration.
     let printed = print_results(&dataset, truth.as_ref(), &run, &out);
     anyhow::ensure!(
         run.converged(),
         "the calibration did not converge: {}",
-        run.status_text()
+        sentences::status(&run)
     );
     printed
 }

@@ -68,7 +68,7 @@ impl RunFigures {
             );
         Self {
             label: case.sim.to_string(),
-            status: run.status_text(),
+            status: crate::sentences::status(run),
             converged: run.converged(),
             iterations: run.iterations(),
             first_step_factor: (norms.len() > 1).then(|| norms[1] / norms[0]),

@@ -1,0 +1,104 @@
+//! A calibration run in sentences: its status (calibration.json's
+//! `status`), what it did beyond the iteration, its warnings, its weak
+//! directions. Calibrate keeps the numbers; this module words them.
+
+use parcal_calibrate::CalibrationRun;
+use parcal_calibrate::conflict::ConflictTest;
+use parcal_calibrate::fit::misfit_warning;
+use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
+
+/// The status in one sentence (calibration.json's `status`), naming
+/// parameters, balls and measurements.csv lines.
+pub fn status(run: &CalibrationRun) -> String {
+    match &run.status {
+        Status::Converged => "converged".to_string(),
+        Status::IterationLimit => "iteration limit reached without convergence".to_string(),
+        Status::Diverged { iteration, reason } => {
+            format!("diverged at iteration {iteration}: {reason}")
+        }
+        Status::ProblemFailed {
+            iteration, message, ..
+        } => format!("failed at iteration {iteration}: {message}"),
+        Status::Singular {
+            iteration,
+            diagnostics,
+        } => format!(
+            "the reduced system is singular at iteration {iteration}: {}",
+            weak_directions(diagnostics, &run.layout.names(&run.ball_ids))
+        ),
+        Status::SingularBlock { iteration, block } => match block {
+            BlockId::Group(k) => format!(
+                "at iteration {iteration} the centre of ball {} is not determined by its contacts",
+                run.ball_ids[*k]
+            ),
+            BlockId::Point(i) => format!(
+                "at iteration {iteration} the angles of the contact of measurements.csv line {} are not determined",
+                run.rows[*i] + 2
+            ),
+        },
+        Status::Stopped { iteration } => format!("stopped at iteration {iteration}"),
+        Status::InvalidProblem { message } => format!("invalid problem: {message}"),
+    }
+}
+
+/// The calibration.json record of `run`, its status in words.
+pub fn record(run: &CalibrationRun) -> parcal_dataset::Calibration {
+    run.record(status(run))
+}
+
+/// What the run did beyond the method's iteration, one sentence each (the
+/// balls re-seeded on the other side of their contacts).
+pub fn notes(run: &CalibrationRun) -> Vec<String> {
+    run.mirrored
+        .iter()
+        .map(|m| {
+            format!(
+                "ball {} was on the wrong side of its contacts at iteration {} (chi-square {:.1}; its contact points at that iterate's geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
+                m.id,
+                m.iteration,
+                m.side.chi_square,
+                m.side.side.cost / m.side.mirror.cost
+            )
+        })
+        .collect()
+}
+
+/// Every warning about the priors and the balls' fit, one sentence each.
+pub fn warnings(run: &CalibrationRun) -> Vec<String> {
+    let conflicts = run.conflicts.iter().filter_map(ConflictTest::warning);
+    run.prior_consistency
+        .iter()
+        .cloned()
+        .chain(conflicts)
+        .chain(misfit_warning(&run.ball_misfits))
+        .collect()
+}
+
+/// The weakest directions of a reduced system: eigenvalue and the
+/// parameters that dominate it, named by `names` (the global block's,
+/// [`parcal_calibrate::layout::ParameterLayout::names`]).
+pub fn weak_directions(spectrum: &SpectrumDiagnostics, names: &[String]) -> String {
+    let directions: Vec<String> = spectrum
+        .weakest
+        .iter()
+        .take(3)
+        .map(|weak| weak_direction(weak, names))
+        .collect();
+    format!("smallest eigenvalues: {}", directions.join("; "))
+}
+
+/// One weak direction: its eigenvalue, the sigma it leaves (mm) and the
+/// parameters that dominate it, named by `names` (the global block's).
+pub fn weak_direction(weak: &WeakDirection, names: &[String]) -> String {
+    let names: Vec<String> = weak
+        .dominant
+        .iter()
+        .map(|(k, c)| format!("{} {:+.2}", names[*k], c))
+        .collect();
+    format!(
+        "eigenvalue {:.3e} (sigma {:.3} mm) along {}",
+        weak.eigenvalue,
+        weak.eigenvalue.max(0.0).sqrt().recip(),
+        names.join(", ")
+    )
+}
