@@ -25,6 +25,7 @@ const TAIL: f64 = 1e-3;
 /// One a priori value compared with the estimate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Innovation {
+    /// What is tested (`kinematic parameters`, `ball centres`).
     pub name: String,
     /// Estimate minus prior mean.
     pub difference: f64,
@@ -37,7 +38,9 @@ pub struct Innovation {
 pub struct ConflictTest {
     /// What was tested (e.g. "kinematic parameters", "ball centres").
     pub what: String,
+    /// `Σ (x̂ − m)ᵀ Σ_prior⁻¹ (x̂ − m)` of the estimate against the prior.
     pub chi_square: f64,
+    /// Its degrees of freedom (the number of values tested).
     pub degrees_of_freedom: usize,
     /// The 99.9 % quantile of chi-square(degrees of freedom).
     pub limit: f64,

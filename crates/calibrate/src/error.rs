@@ -57,14 +57,25 @@ pub enum CalibrateError {
     Design(KinematicsError),
     /// Forward kinematics failed at the actuator readings of a row.
     /// (`source` is the cause, stated in the message; see the module doc.)
-    ForwardKinematics { row: usize, source: KinematicsError },
+    ForwardKinematics {
+        /// The measurement row.
+        row: usize,
+        /// Why forward kinematics failed.
+        source: KinematicsError,
+    },
     /// The observation of a row could not be formed (its direction, its
     /// weight).
-    Observation { row: usize, source: ObserveError },
+    Observation {
+        /// The measurement row.
+        row: usize,
+        /// Why the observation could not be formed.
+        source: ObserveError,
+    },
     /// A ball's contact points do not determine its initial centre.
     CentreFit {
         /// The ball's id.
         ball: String,
+        /// Why the sphere fit failed.
         source: SphereFitError,
     },
     /// The a priori covariance built from `machine.prior_sigma` is unusable.
@@ -74,6 +85,7 @@ pub enum CalibrateError {
     Distance {
         /// Its index in `artefacts.distances`.
         index: usize,
+        /// Why it could not be evaluated.
         source: ObserveError,
     },
 }

@@ -95,7 +95,9 @@ pub fn accuracy(
 /// Maps before (design with the prior) and after (estimate with the
 /// posterior) a calibration. `before` is `None` without a prior.
 pub struct BeforeAfter {
+    /// The design with the prior's covariance; `None` without a prior.
     pub before: Option<Accuracy>,
+    /// The estimate with the posterior covariance; `None` when there is none.
     pub after: Option<Accuracy>,
 }
 

@@ -39,16 +39,21 @@ pub enum PriorMode {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Simulation {
     #[cfg_attr(feature = "clap", value(name = "I"))]
+    /// Radius observation (eq. 9), no prior.
     I,
     #[cfg_attr(feature = "clap", value(name = "II"))]
+    /// Coordinate observation (eq. 10), no prior.
     II,
     #[cfg_attr(feature = "clap", value(name = "III"))]
+    /// Radius observation (eq. 9) with the a priori knowledge.
     III,
     #[cfg_attr(feature = "clap", value(name = "IV"))]
+    /// Coordinate observation (eq. 10) with the a priori knowledge.
     IV,
 }
 
 impl Simulation {
+    /// The four, in the paper's order.
     pub const ALL: [Simulation; 4] = [Self::I, Self::II, Self::III, Self::IV];
 
     /// The observation equation of the simulation.
@@ -98,11 +103,14 @@ impl fmt::Display for Observation {
 /// Everything a calibration run needs besides the dataset.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationOptions {
+    /// The observation equation of every contact.
     pub observation: Observation,
+    /// The a priori knowledge (paper eq. 7).
     pub prior: PriorMode,
     /// How the observation covariance W is formed; the propagated model is
     /// evaluated at the initial estimate and held fixed.
     pub weighting: WeightModel,
+    /// Gauss-Newton (paper eq. 5) or Levenberg-Marquardt.
     pub method: Method,
     /// Sigma of the per-contact angle prior (rad): the paper's 0.01 in paper
     /// mode; in propagated mode it applies only to contacts with a commanded

@@ -35,6 +35,7 @@ use crate::layout::ParameterLayout;
 
 /// Paper eq. (9) for every contact.
 pub struct RadiusObservations {
+    /// The whitening of each contact's row (sorted order).
     pub weights: Vec<RadiusWeight>,
 }
 
@@ -44,6 +45,7 @@ pub struct CoordinateObservations {
     /// `u0` of each contact (canonical base frame), from
     /// [`parcal_observe::unit_direction`].
     pub directions: Vec<UnitVector3<f64>>,
+    /// The whitening of each contact's three rows (sorted order).
     pub weights: Vec<CoordinateWeight>,
     /// Sigma of the angle prior of every contact (rad); `None`: no prior.
     pub angle_sigma: Option<f64>,
@@ -265,6 +267,7 @@ pub struct CalibrationProblem<'a, O> {
     pub groups: &'a [Range<usize>],
     /// Calibrated radius of each ball (the groups are the balls, in order).
     pub radii: Vec<f64>,
+    /// The observation of every contact (radius or coordinates).
     pub observations: O,
     /// The global block: the kinematic parameters, then the centres of the
     /// balls tied by distances.
@@ -278,6 +281,7 @@ pub struct CalibrationProblem<'a, O> {
     /// balls whose centre is in the global block are part of
     /// `global_prior` instead.
     pub centre_priors: Option<Vec<GaussianPrior<U3>>>,
+    /// Forward kinematics' tolerance and iteration limit.
     pub forward_options: ForwardOptions,
 }
 

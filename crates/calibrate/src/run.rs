@@ -21,6 +21,7 @@ use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 
 /// The outcome of one calibration.
 pub struct CalibrationRun {
+    /// What the run was asked to do.
     pub options: CalibrationOptions,
     /// The design's canonical parameters (the initial estimate).
     pub initial_params: Params,
@@ -32,6 +33,7 @@ pub struct CalibrationRun {
     /// matrix at the final state); `None` when the run did not converge or
     /// the matrix is not positive definite.
     pub covariance: Option<ParamCovariance>,
+    /// artefacts.json's ball ids, in its order.
     pub ball_ids: Vec<String>,
     /// Identified ball centres (canonical base frame).
     pub centres: Vec<Vec3>,
@@ -45,6 +47,7 @@ pub struct CalibrationRun {
     /// contacts, re-seeded at the mirror image of their centre fit before
     /// the calibration resumed ([`crate::mirror`]).
     pub mirrored: Vec<Mirrored>,
+    /// How the solver's run ended.
     pub status: Status,
     /// One record per iterate at which a step was computed, then the final
     /// iterate's ([`CalibrationRun::iterations`]).

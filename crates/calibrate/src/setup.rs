@@ -57,7 +57,9 @@ pub struct Setup {
 /// The observations of every contact (sorted order), for the observation
 /// equation of the options.
 pub enum Observations {
+    /// Paper eq. (9), one row per contact.
     Radius(RadiusObservations),
+    /// Paper eq. (10), three rows and two angles per contact.
     Coordinates(CoordinateObservations),
 }
 
@@ -465,6 +467,8 @@ enum CentreStart {
 /// estimate: the tip covariance propagated through `J_q = dT/dq` and the
 /// repeatabilities, at the contact's initial direction `u0`.
 pub trait StartWeight: Send + Sync + Default + Clone {
+    /// The whitening of a contact with tip derivatives `d_q` and initial
+    /// direction `u0`, under `model` and the machine's `repeatability`.
     fn at_start(
         model: WeightModel,
         repeatability: &Repeatability,
@@ -498,6 +502,7 @@ impl StartWeight for CoordinateWeight {
 /// The observations of a kind whose balls can be re-seeded at the mirror
 /// image of their centre fit ([`Setup::mirror_start`]).
 pub trait MirrorStart {
+    /// The whitening of one contact of this kind.
     type Weight: StartWeight;
 
     /// The `u0` (if the observation keeps one) and the weights of the

@@ -10,10 +10,16 @@ use parcal_kinematics::Vec3;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SphereFitError {
     #[error("{count} contact points cannot determine a sphere (at least 4 are needed)")]
-    TooFewPoints { count: usize },
+    /// Fewer than four points.
+    TooFewPoints {
+        /// The number of points given.
+        count: usize,
+    },
     #[error("the contact points are (nearly) coplanar and do not determine a sphere")]
+    /// Coplanar points.
     Degenerate,
     #[error("the fit with the calibrated radius did not converge")]
+    /// Gauss-Newton with the radius fixed did not converge.
     NotConverged,
 }
 

@@ -44,7 +44,6 @@ pub mod inverse;
 pub mod lanes;
 pub mod lu6;
 pub mod params;
-#[allow(unsafe_code, reason = "AVX intrinsics, sound behind the AVX2 check")]
 mod simd;
 
 pub use derivatives::{

@@ -11,19 +11,30 @@ pub enum ObserveError {
     Kinematics(#[from] KinematicsError),
     /// A direction (chart reference, contact normal) is zero or not finite.
     #[error("the {what} is not a usable direction (length {length:e})")]
-    DegenerateDirection { what: &'static str, length: f64 },
+    DegenerateDirection {
+        /// Which direction.
+        what: &'static str,
+        /// Its length.
+        length: f64,
+    },
     /// A standard deviation is negative, NaN or infinite (or zero where a
     /// prior needs it positive).
     #[error("the {what} {value:e} mm is not a valid standard deviation ({expected})")]
     InvalidSigma {
+        /// Which standard deviation.
         what: &'static str,
+        /// Its value.
         value: f64,
+        /// What is accepted.
         expected: &'static str,
     },
     /// A covariance is not symmetric positive definite, so it has no
     /// Cholesky factor, no inverse and no whitening.
     #[error("the {what} is not symmetric positive definite")]
-    NotPositiveDefinite { what: &'static str },
+    NotPositiveDefinite {
+        /// Which covariance.
+        what: &'static str,
+    },
 }
 
 /// Accepts a finite standard deviation, positive or (when `zero_allowed`)

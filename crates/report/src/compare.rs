@@ -19,6 +19,7 @@ pub enum NeesVerdict {
 }
 
 impl NeesVerdict {
+    /// The verdict on a NEES of `dof` degrees of freedom.
     pub fn of(nees: f64, dof: usize) -> Self {
         if nees > chi_square_quantile(dof, 1.0 - NEES_TAIL) {
             Self::OverConfident

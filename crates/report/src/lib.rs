@@ -18,26 +18,38 @@ pub mod tables;
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
+    /// Reading or writing a dataset failed.
     #[error(transparent)]
     Dataset(#[from] parcal_dataset::DatasetError),
+    /// The simulation failed.
     #[error(transparent)]
     Simulate(#[from] parcal_simulate::SimulateError),
+    /// A calibration could not be set up.
     #[error(transparent)]
     Calibrate(#[from] parcal_calibrate::CalibrateError),
+    /// An accuracy map could not be computed.
     #[error("accuracy map: {0}")]
     Accuracy(#[from] parcal_accuracy::AccuracyError),
     #[error("cannot plot {}: {reason}", path.display())]
+    /// A chart could not be drawn.
     Plot {
+        /// The chart's file.
         path: std::path::PathBuf,
+        /// Why.
         reason: String,
     },
+    /// The paper report needs the simulated truth.
     #[error("the simulated dataset has no truth")]
     NoTruth,
+    /// The true geometry cannot be put in canonical frames.
     #[error("the true geometry is degenerate: {0}")]
     Truth(#[from] parcal_kinematics::KinematicsError),
     #[error("cannot write {path}: {source}")]
+    /// A file could not be written.
     Io {
+        /// The file.
         path: std::path::PathBuf,
+        /// Why.
         source: std::io::Error,
     },
 }

@@ -58,15 +58,21 @@ use crate::{ReportError, write_text};
 /// `values[iy * xs.len() + ix]`, and row `iy = 0` is drawn at the bottom.
 #[derive(Debug, Clone, Copy)]
 pub struct HeatMap<'a> {
+    /// The chart's title.
     pub title: &'a str,
     /// A second, smaller title line (e.g. what is mapped); empty for none.
     pub subtitle: &'a str,
+    /// The cells' x centres.
     pub xs: &'a [f64],
+    /// The cells' y centres.
     pub ys: &'a [f64],
+    /// The cells' values, row-major.
     pub values: &'a [f64],
     /// Label of the colour bar, with the unit (e.g. `"error / um"`).
     pub value_label: &'a str,
+    /// Label of the x axis, with the unit.
     pub x_label: &'a str,
+    /// Label of the y axis, with the unit.
     pub y_label: &'a str,
 }
 
@@ -82,9 +88,13 @@ pub struct Series<'a> {
 /// Lines with point markers and a legend, each axis linear or logarithmic.
 #[derive(Debug, Clone, Copy)]
 pub struct LineChart<'a> {
+    /// The chart's title.
     pub title: &'a str,
+    /// Label of the x axis, with the unit.
     pub x_label: &'a str,
+    /// Label of the y axis, with the unit.
     pub y_label: &'a str,
+    /// The lines.
     pub series: &'a [Series<'a>],
     /// Logarithmic x axis (every x must be positive).
     pub log_x: bool,

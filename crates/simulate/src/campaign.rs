@@ -36,7 +36,9 @@ struct Contact {
 /// The summary a person reads after a simulation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Summary {
+    /// Number of balls.
     pub balls: usize,
+    /// Number of contacts (measurement rows).
     pub contacts: usize,
     /// Smallest and largest leg length `l_i + q_i` (mm).
     pub leg_length_range: (f64, f64),
@@ -49,7 +51,9 @@ pub struct Summary {
 
 /// A simulated dataset and its summary.
 pub struct Simulation {
+    /// The dataset, truth included.
     pub dataset: Dataset,
+    /// What a person reads about it.
     pub summary: Summary,
 }
 

@@ -27,8 +27,11 @@ pub enum SimulateError {
     /// A contact could not be simulated or failed its check.
     #[error("ball {ball}, contact {point}: {reason}")]
     Contact {
+        /// The ball (0-based).
         ball: usize,
+        /// The contact of that ball (0-based).
         point: usize,
+        /// Why.
         reason: String,
     },
     /// The ball plate asked for cannot be made.

@@ -8,6 +8,7 @@ use crate::solution::IterationRecord;
 /// An iterate the solver has just evaluated (its reduced system is built),
 /// before the step there is computed.
 pub struct Iterate<'a, const C: usize, const P: usize, T> {
+    /// The iterate.
     pub state: &'a State<C, P>,
     /// Linear solves before it (0: the initial state).
     pub solves: usize,
@@ -35,6 +36,7 @@ impl<const C: usize, const P: usize, T> Iterate<'_, C, P, T> {
 /// A [`Monitor`]'s answer to an iterate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Verdict {
+    /// Go on.
     Continue,
     /// End the run at this iterate with
     /// [`Status::Stopped`](crate::Status::Stopped).
