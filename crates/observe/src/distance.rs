@@ -17,6 +17,7 @@ use parcal_kinematics::Vec3;
 
 use crate::ObserveError;
 use crate::error::check_sigma;
+use crate::radius::unit_offset;
 
 /// A calibrated distance between the centres of two balls.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,15 +46,12 @@ impl DistanceBlock {
     /// finite, and coincident centres, where `n` is undefined.
     pub fn evaluate(&self, first: &Vec3, second: &Vec3) -> Result<DistanceJacobians, ObserveError> {
         let sigma = check_sigma("distance uncertainty", self.sigma, false)?;
-        let offset = first - second;
-        let distance = offset.norm();
-        if !(distance.is_finite() && distance > 0.0) {
-            return Err(ObserveError::DegenerateDirection {
-                what: "direction between the two ball centres of a distance",
-                length: distance,
-            });
-        }
-        let normal = (offset / (distance * sigma)).transpose();
+        let (unit, distance) = unit_offset(
+            first,
+            second,
+            "direction between the two ball centres of a distance",
+        )?;
+        let normal = (unit / sigma).transpose();
         Ok(DistanceJacobians {
             residual: SVector::<f64, 1>::new((self.length - distance) / sigma),
             d_first: -normal,

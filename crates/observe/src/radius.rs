@@ -28,7 +28,8 @@ impl RadiusBlock {
     /// frame), with `dc/dT = −nᵀ` (so `dc/dp = −nᵀ J_f`) and `dc/dC = nᵀ`.
     /// Refuses a tip at the centre, where the normal `n` is undefined.
     pub fn evaluate(&self, tip: &Vec3, centre: &Vec3) -> Result<RadiusJacobians, ObserveError> {
-        let (normal, distance) = contact_normal(tip, centre)?;
+        let (normal, distance) =
+            unit_offset(tip, centre, "contact normal (tool tip minus ball centre)")?;
         let normal = normal.transpose();
         Ok(RadiusJacobians {
             residual: SVector::<f64, 1>::new(self.radius - distance),
@@ -39,14 +40,19 @@ impl RadiusBlock {
     }
 }
 
-/// The unit normal `n = (T - C) / |T - C|` and the distance `|T - C|`,
-/// refusing a tip at the centre, where `n` is undefined.
-fn contact_normal(position: &Vec3, centre: &Vec3) -> Result<(Vec3, f64), ObserveError> {
-    let offset = position - centre;
+/// The unit vector `n = (a - b) / |a - b|` and the distance `|a - b|`,
+/// refusing coincident points (`what` names the direction), where `n` is
+/// undefined.
+pub(crate) fn unit_offset(
+    a: &Vec3,
+    b: &Vec3,
+    what: &'static str,
+) -> Result<(Vec3, f64), ObserveError> {
+    let offset = a - b;
     let distance = offset.norm();
     if !(distance.is_finite() && distance > 0.0) {
         return Err(ObserveError::DegenerateDirection {
-            what: "contact normal (tool tip minus ball centre)",
+            what,
             length: distance,
         });
     }
