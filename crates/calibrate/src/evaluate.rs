@@ -9,7 +9,6 @@ use parcal_accuracy::{
 use parcal_dataset::Dataset;
 use parcal_kinematics::{Geometry, Params, Vec3, params};
 
-use crate::setup::design_geometry;
 use crate::{CalibrationRun, ParamCovariance};
 
 /// The true machine of a simulated dataset.
@@ -70,16 +69,16 @@ pub struct Accuracy {
     pub true_error: Option<AccuracyMap>,
 }
 
-/// The accuracy maps of `model` with `covariance` on the paper's grid.
+/// The accuracy maps of `model` with `covariance` on the paper's grid, the
+/// targets placed by the `design` geometry (machine.json's frames).
 pub fn accuracy(
-    dataset: &Dataset,
+    design: &Geometry,
     truth: Option<&Truth>,
     model: &Params,
     covariance: &ParamCovariance,
     grid: &MapGrid,
 ) -> Result<Accuracy, AccuracyError> {
-    let design = design_geometry(dataset);
-    let predicted = predicted(&design, model, covariance, grid)?;
+    let predicted = predicted(design, model, covariance, grid)?;
     let true_error = truth
         .map(|t| {
             let targets = CanonicalTargets::new(&t.input, grid)?;
@@ -101,9 +100,9 @@ pub struct BeforeAfter {
     pub after: Option<Accuracy>,
 }
 
-/// The accuracy a run buys.
+/// The accuracy a run buys, the targets placed by the run's design
+/// geometry.
 pub fn before_after(
-    dataset: &Dataset,
     truth: Option<&Truth>,
     run: &CalibrationRun,
     grid: &MapGrid,
@@ -113,7 +112,7 @@ pub fn before_after(
         .as_ref()
         .map(|prior| {
             accuracy(
-                dataset,
+                &run.design,
                 truth,
                 &run.initial_params,
                 prior.covariance(),
@@ -124,7 +123,7 @@ pub fn before_after(
     let after = run
         .covariance
         .as_ref()
-        .map(|covariance| accuracy(dataset, truth, &run.params, covariance, grid))
+        .map(|covariance| accuracy(&run.design, truth, &run.params, covariance, grid))
         .transpose()?;
     Ok(BeforeAfter { before, after })
 }

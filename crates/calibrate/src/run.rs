@@ -4,7 +4,9 @@
 use std::collections::BTreeMap;
 
 use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params, Pose, Vec3, params};
+use parcal_kinematics::{
+    Geometry, N_PARAMS, PARAM_NAMES, ParamCovariance, Params, Pose, Vec3, params,
+};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
     Iterate, IterationRecord, Monitor, Solution, SolverOptions, SpectrumDiagnostics, Status,
@@ -23,6 +25,9 @@ use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 pub struct CalibrationRun {
     /// What the run was asked to do.
     pub options: CalibrationOptions,
+    /// The design geometry as given (machine.json's frames): where the
+    /// accuracy maps place their targets.
+    pub design: Geometry,
     /// The design's canonical parameters (the initial estimate).
     pub initial_params: Params,
     /// The a priori knowledge on the parameters, if any.
@@ -257,6 +262,7 @@ pub fn calibrate(
     Ok(CalibrationRun {
         prior_consistency,
         options: options.clone(),
+        design: setup.design,
         initial_params: setup.initial_params,
         prior: setup.prior,
         params: solved.params,

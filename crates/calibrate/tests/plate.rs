@@ -37,7 +37,7 @@ fn registered_rms(scenario: &Scenario, seed: u64) -> (f64, f64, usize) {
         "seed {seed}: {}",
         parcal_report::sentences::status(&run)
     );
-    let maps = before_after(&dataset, Some(&truth), &run, &MapGrid::paper()).expect("maps");
+    let maps = before_after(Some(&truth), &run, &MapGrid::paper()).expect("maps");
     let after = maps.after.expect("posterior map");
     let true_map = after.true_error.expect("true error map");
     (

@@ -97,7 +97,7 @@ fn summarise(dataset: &Dataset) -> Vec<RunSummary> {
                 ..CalibrationOptions::simulation(sim)
             };
             let run = calibrate(dataset, &options, &mut |_| {}).expect("calibration");
-            let maps = before_after(dataset, Some(&truth), &run, &MapGrid::paper()).expect("maps");
+            let maps = before_after(Some(&truth), &run, &MapGrid::paper()).expect("maps");
             let true_registered_rms = maps
                 .after
                 .and_then(|a| a.true_error)

@@ -73,7 +73,7 @@ fn run_one(
         ..CalibrationOptions::simulation(sim)
     };
     let run: CalibrationRun = calibrate(dataset, &options, &mut |_| {}).expect("calibration");
-    let maps = before_after(dataset, Some(truth), &run, &grid).expect("accuracy maps");
+    let maps = before_after(Some(truth), &run, &grid).expect("accuracy maps");
     let nees = run
         .covariance
         .as_ref()

@@ -83,7 +83,7 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
             ..CalibrationOptions::simulation(sim)
         };
         let run = calibrate(&dataset, &options, &mut |_| {})?;
-        let maps = before_after(&dataset, Some(&truth), &run, &grid)?;
+        let maps = before_after(Some(&truth), &run, &grid)?;
         let case = Case {
             sim,
             prior,

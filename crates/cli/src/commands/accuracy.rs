@@ -57,7 +57,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .context("machine.json: no prior tolerances")?;
     let grid = MapGrid::paper();
     let before = accuracy(
-        &dataset,
+        &design,
         truth.as_ref(),
         &design_params,
         prior.covariance(),
@@ -68,7 +68,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .as_ref()
         .map(|path| -> anyhow::Result<_> {
             let (p, covariance) = calibrated(path)?;
-            Ok(accuracy(&dataset, truth.as_ref(), &p, &covariance, &grid)?)
+            Ok(accuracy(&design, truth.as_ref(), &p, &covariance, &grid)?)
         })
         .transpose()?;
     let maps = BeforeAfter {

@@ -12,7 +12,7 @@ use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, Observation, PriorMode, Simulation,
     WeightModel, calibrate,
 };
-use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
+use parcal_dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE};
 use parcal_report::{sentences, tables};
 
 use crate::progress::Progress;
@@ -114,7 +114,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .unwrap_or_else(|| directory.join(CALIBRATION_FILE));
     sentences::record(&run).write(&out)?;
     // A reader that closed stdout early does not hide a failed calibration.
-    let printed = print_results(&dataset, truth.as_ref(), &run, &out);
+    let printed = print_results(truth.as_ref(), &run, &out);
     anyhow::ensure!(
         run.converged(),
         "the calibration did not converge: {}",
@@ -141,12 +141,11 @@ fn in_dataset(error: CalibrateError, dataset: &Path) -> anyhow::Error {
 
 /// The summary, the parameter table and the accuracy of `run` on stdout.
 fn print_results(
-    dataset: &Dataset,
     truth: Option<&Truth>,
     run: &CalibrationRun,
     calibration: &Path,
 ) -> anyhow::Result<()> {
-    let maps = before_after(dataset, truth, run, &MapGrid::paper()).context("accuracy map")?;
+    let maps = before_after(truth, run, &MapGrid::paper()).context("accuracy map")?;
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "{}", tables::run_summary(run, truth))?;
     writeln!(stdout, "{}", tables::parameters(run, truth))?;
