@@ -219,9 +219,15 @@ impl Setup {
     }
 
     /// The calibrated distances of artefacts.json, on the centres in the
-    /// global block.
+    /// global block (the layout holds every ball a distance names:
+    /// [`tied_balls`]).
     fn distances(&self, dataset: &Dataset) -> Vec<DistanceObservation> {
-        let column = |ball: usize| self.layout.centre(ball).map_or(0, |range| range.start);
+        let column = |ball: usize| {
+            self.layout
+                .centre(ball)
+                .expect("the layout holds the centre of every ball a distance names")
+                .start
+        };
         dataset
             .artefacts
             .distances
