@@ -180,6 +180,8 @@ impl CalibrationRun {
             converged: self.converged(),
             status,
             options,
+            machine: None,
+            sessions: Vec::new(),
         }
     }
 }

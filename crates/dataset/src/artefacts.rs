@@ -13,10 +13,11 @@ use crate::error::Result;
 use crate::{json, shape};
 
 /// The frame in which the ball centres are given.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ArtefactFrame {
     /// The base frame of `machine.json`'s `base_joints` (`"design"`).
+    #[default]
     Design,
     /// The canonical base frame (`"canonical"`): the artefact is located
     /// relative to the base joints and `centre_sigma` is used as a prior.
@@ -56,7 +57,7 @@ pub struct Distance {
 }
 
 /// The artefacts: balls (ids unique) and optional distances between them.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Artefacts {
     /// Frame of the ball centres.
     pub frame: ArtefactFrame,

@@ -9,6 +9,8 @@ use crate::Point3;
 use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::GeometryRecord;
+use crate::machine::Actuator;
+use crate::session::SessionRecord;
 use crate::{json, shape};
 
 /// The identified kinematic parameters, by name (order and names of
@@ -73,6 +75,28 @@ pub struct Calibration {
     /// Free-form options of the run (simulation, observation, weights...).
     #[serde(default)]
     pub options: BTreeMap<String, serde_json::Value>,
+    /// Calibrations of poses or points: the calibrated machine as another
+    /// tool would load it, in the frames of the first session.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub machine: Option<CalibratedMachine>,
+    /// Calibrations of poses or points: every session's nuisance.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sessions: Vec<SessionRecord>,
+}
+
+/// The calibrated machine in the frames of the first session: base joints
+/// in that session's instrument frame, platform joints (and tool) in the
+/// platform body frame (the canonical platform frame for points alone), and
+/// leg `i` of length `leg_lengths[i] + actuator.scale[i] q_i`, so that for
+/// every row of that session `|R p_i + t − b_i| = l_i + s_i q_i` up to the
+/// noise, `(R, t)` the measured pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibratedMachine {
+    /// The geometry.
+    pub geometry: GeometryRecord,
+    /// The actuators' unit and calibrated scales (`scale_sigma`: their
+    /// posterior sigmas).
+    pub actuator: Actuator,
 }
 
 impl Calibration {
@@ -133,6 +157,13 @@ impl Calibration {
         for (id, estimate) in &self.ball_centres {
             check.point(format_args!("ball_centres.{id}.centre"), &estimate.centre)?;
             check.point(format_args!("ball_centres.{id}.sigma"), &estimate.sigma)?;
+        }
+        if let Some(machine) = &self.machine {
+            machine.geometry.validate(check, "machine.geometry.")?;
+            check.values("machine.actuator.scale", &machine.actuator.scale)?;
+        }
+        for (k, session) in self.sessions.iter().enumerate() {
+            session.validate(check, &format!("sessions[{k}]"))?;
         }
         for (i, it) in self.iterations.iter().enumerate() {
             check.finite(format_args!("iterations[{i}].cost"), it.cost)?;

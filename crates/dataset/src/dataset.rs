@@ -9,12 +9,15 @@ use serde::{Deserialize, Serialize};
 use crate::check::Check;
 use crate::error::{DatasetError, Result};
 use crate::{
-    ARTEFACTS_FILE, Artefacts, MACHINE_FILE, MEASUREMENTS_FILE, Machine, Measurements, TRUTH_FILE,
-    Truth, snapshot,
+    ARTEFACTS_FILE, Artefacts, MACHINE_FILE, MEASUREMENTS_FILE, Machine, Measurements, POINTS_FILE,
+    POSES_FILE, TRUTH_FILE, Tracker, Truth, snapshot,
 };
 
-/// A dataset: the machine, the artefacts, the measurements and, for
-/// simulated datasets, the truth.
+/// A dataset: the machine, the artefacts and ball touches, the poses and
+/// points measured by instruments and, for simulated datasets, the truth.
+/// Ball touches (`artefacts.json` with `measurements.csv`), instrument
+/// measurements (`poses.csv`, `points.csv`) or both; whatever is absent is
+/// empty.
 ///
 /// Every `Dataset` this crate returns is valid: values finite, sigmas and
 /// radii positive, ball ids unique, indices in range, one truth contact per
@@ -27,6 +30,9 @@ pub struct Dataset {
     pub artefacts: Artefacts,
     /// `measurements.csv`.
     pub measurements: Measurements,
+    /// `poses.csv` and `points.csv`, with their sessions.
+    #[serde(default)]
+    pub tracker: Tracker,
     /// `truth.json`, if present.
     pub truth: Option<Truth>,
 }
@@ -58,11 +64,23 @@ impl Dataset {
     /// Reads the dataset in directory `dir`: `machine.json`,
     /// `artefacts.json`, `measurements.csv` (streamed) and, if present,
     /// `truth.json`, checking each and their consistency.
+    ///
+    /// `artefacts.json` and `measurements.csv` may be absent together when
+    /// `poses.csv` or `points.csv` is there.
     pub fn read_with(dir: &Path, options: &ReadOptions) -> Result<Self> {
         let machine = Machine::read(&dir.join(MACHINE_FILE))?;
-        let artefacts = Artefacts::read(&dir.join(ARTEFACTS_FILE))?;
-        let measurements_path = dir.join(MEASUREMENTS_FILE);
-        let measurements = Measurements::read(&measurements_path, &artefacts.balls)?;
+        let tracker = Tracker::read(&dir.join(POSES_FILE), &dir.join(POINTS_FILE))?;
+        let (artefacts_path, measurements_path) =
+            (dir.join(ARTEFACTS_FILE), dir.join(MEASUREMENTS_FILE));
+        let touches =
+            !tracker.is_empty() && !artefacts_path.exists() && !measurements_path.exists();
+        let (artefacts, measurements) = if touches {
+            (Artefacts::default(), Measurements::default())
+        } else {
+            let artefacts = Artefacts::read(&artefacts_path)?;
+            let measurements = Measurements::read(&measurements_path, &artefacts.balls)?;
+            (artefacts, measurements)
+        };
         let dataset = Self {
             truth: Truth::read_if_present(
                 &dir.join(TRUTH_FILE),
@@ -72,9 +90,17 @@ impl Dataset {
             machine,
             artefacts,
             measurements,
+            tracker,
         };
+        dataset.check_sessions(&dir.join(TRUTH_FILE))?;
+        dataset.check_instruments(&dir.join(MACHINE_FILE))?;
         dataset.check_contacts(&measurements_path, options.min_contacts_per_ball)?;
         Ok(dataset)
+    }
+
+    /// Whether the dataset has ball touches.
+    pub fn has_touches(&self) -> bool {
+        !self.measurements.is_empty()
     }
 
     /// Writes the dataset into directory `dir` (created if needed), each
@@ -85,9 +111,13 @@ impl Dataset {
         self.validate_as(|name| dir.join(name))?;
         fs::create_dir_all(dir).map_err(|e| DatasetError::io(dir, "create the directory", e))?;
         self.machine.write(&dir.join(MACHINE_FILE))?;
-        self.artefacts.write(&dir.join(ARTEFACTS_FILE))?;
-        self.measurements
-            .write(&dir.join(MEASUREMENTS_FILE), &self.artefacts.balls)?;
+        if self.has_touches() {
+            self.artefacts.write(&dir.join(ARTEFACTS_FILE))?;
+            self.measurements
+                .write(&dir.join(MEASUREMENTS_FILE), &self.artefacts.balls)?;
+        }
+        self.tracker
+            .write(&dir.join(POSES_FILE), &dir.join(POINTS_FILE))?;
         let truth_path = dir.join(TRUTH_FILE);
         match &self.truth {
             Some(truth) => truth.write(&truth_path, &self.artefacts.balls),
@@ -133,13 +163,56 @@ impl Dataset {
         let balls = self.artefacts.balls.len();
         let rows = self.measurements.len();
         self.machine.validate(Check::new(&file(MACHINE_FILE)))?;
-        self.artefacts.validate(Check::new(&file(ARTEFACTS_FILE)))?;
-        self.measurements
-            .validate(Check::new(&file(MEASUREMENTS_FILE)), balls)?;
-        match &self.truth {
-            Some(truth) => truth.validate(Check::new(&file(TRUTH_FILE)), balls, rows),
-            None => Ok(()),
+        if self.has_touches() || self.tracker.is_empty() {
+            self.artefacts.validate(Check::new(&file(ARTEFACTS_FILE)))?;
+            self.measurements
+                .validate(Check::new(&file(MEASUREMENTS_FILE)), balls)?;
         }
+        self.tracker.validate(
+            Check::new(&file(POSES_FILE)),
+            Check::new(&file(POINTS_FILE)),
+        )?;
+        if let Some(truth) = &self.truth {
+            truth.validate(Check::new(&file(TRUTH_FILE)), balls, rows)?;
+        }
+        self.check_sessions(&file(TRUTH_FILE))?;
+        self.check_instruments(&file(MACHINE_FILE))
+    }
+
+    /// A truth of instrument measurements has one record per session.
+    fn check_sessions(&self, truth_path: &Path) -> Result<()> {
+        let Some(truth) = &self.truth else {
+            return Ok(());
+        };
+        let (found, expected) = (truth.sessions.len(), self.tracker.sessions.len());
+        if found != expected {
+            return Err(Check::new(truth_path).error(
+                "sessions",
+                format!(
+                    "expected {expected} sessions (as in poses.csv and points.csv), found {found}"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Instrument measurements come with the instrument's repeatability.
+    fn check_instruments(&self, machine_path: &Path) -> Result<()> {
+        let r = &self.machine.repeatability;
+        let check = Check::new(machine_path);
+        if !self.tracker.is_empty() && r.position.is_none() {
+            return Err(check.error(
+                "repeatability.position",
+                "required when the dataset has poses.csv or points.csv (mm, per axis)",
+            ));
+        }
+        if !self.tracker.poses.is_empty() && r.orientation.is_none() {
+            return Err(check.error(
+                "repeatability.orientation",
+                "required when the dataset has poses.csv (rad, per axis)",
+            ));
+        }
+        Ok(())
     }
 
     /// Every ball has at least `min` contacts.

@@ -41,7 +41,9 @@
 //!             leg_lengths: [235.0; 6],
 //!         },
 //!         prior_sigma: PriorSigma { base: 0.1, platform: 0.1, tool: 0.1, leg: 0.1 },
-//!         repeatability: Repeatability { actuator: 0.001, tool: 0.001 },
+//!         repeatability: Repeatability { actuator: 0.001, tool: 0.001, position: None, orientation: None },
+//!         actuator: Actuator::default(),
+//!         session_model: SessionModel::default(),
 //!     },
 //!     artefacts: Artefacts {
 //!         frame: ArtefactFrame::Design,
@@ -59,6 +61,7 @@
 //!         q: vec![[100.0, 101.0, 102.0, 103.0, 104.0, 105.0 + 1.0 / 3.0]; 4],
 //!         direction: None,
 //!     },
+//!     tracker: Tracker::default(),
 //!     truth: None,
 //! };
 //!
@@ -89,17 +92,24 @@ mod geometry;
 mod json;
 mod machine;
 mod measurements;
+mod session;
 mod shape;
 mod snapshot;
+mod table;
+mod tracker;
 mod truth;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
-pub use calibration::{Calibration, CentreEstimate, IterationSummary, ParameterTable};
+pub use calibration::{
+    CalibratedMachine, Calibration, CentreEstimate, IterationSummary, ParameterTable,
+};
 pub use dataset::{Dataset, ReadOptions};
 pub use error::DatasetError;
 pub use geometry::GeometryRecord;
-pub use machine::{Machine, PriorSigma, Repeatability};
+pub use machine::{Actuator, Machine, PriorSigma, Repeatability, SessionModel};
 pub use measurements::Measurements;
+pub use session::{FrameRecord, SessionRecord};
+pub use tracker::{DEFAULT_SESSION, Points, Poses, Tracker};
 pub use truth::Truth;
 
 /// A point or vector: x, y, z in mm.
@@ -111,6 +121,10 @@ pub const MACHINE_FILE: &str = "machine.json";
 pub const ARTEFACTS_FILE: &str = "artefacts.json";
 /// File name of the measurements in a dataset directory.
 pub const MEASUREMENTS_FILE: &str = "measurements.csv";
+/// File name of the (optional) measured poses in a dataset directory.
+pub const POSES_FILE: &str = "poses.csv";
+/// File name of the (optional) measured tool points in a dataset directory.
+pub const POINTS_FILE: &str = "points.csv";
 /// File name of the (optional) truth in a dataset directory.
 pub const TRUTH_FILE: &str = "truth.json";
 /// Conventional file name of a calibration result.

@@ -24,13 +24,90 @@ pub struct PriorSigma {
     pub leg: f64,
 }
 
-/// One standard deviation of the machine's repeatability, in mm.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// One standard deviation of the machine's and the instruments'
+/// repeatability.
+///
+/// In JSON an absent instrument sigma is left out; binary snapshots (not
+/// self-describing) hold every field.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub struct Repeatability {
-    /// Actuator encoders, independent per actuator and per contact.
+    /// Actuator readings, independent per actuator and per reading, in the
+    /// actuators' unit ([`Actuator::unit`]; mm without `actuator`).
     pub actuator: f64,
-    /// Tool positioning, per axis and per contact.
+    /// Tool positioning, per axis and per contact (mm).
     pub tool: f64,
+    /// An instrument's position coordinates (poses.csv, points.csv), per
+    /// axis (mm). Required when the dataset has poses or points.
+    #[serde(default)]
+    pub position: Option<f64>,
+    /// An instrument's orientation (poses.csv), per axis of a small
+    /// rotation (rad). Required when the dataset has poses.
+    #[serde(default)]
+    pub orientation: Option<f64>,
+}
+
+impl Serialize for Repeatability {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let text = serializer.is_human_readable();
+        let optional = [("position", self.position), ("orientation", self.orientation)];
+        let fields = 2 + optional
+            .iter()
+            .filter(|(_, v)| !text || v.is_some())
+            .count();
+        let mut out = serializer.serialize_struct("Repeatability", fields)?;
+        out.serialize_field("actuator", &self.actuator)?;
+        out.serialize_field("tool", &self.tool)?;
+        for (name, value) in optional {
+            if text && value.is_none() {
+                out.skip_field(name)?;
+            } else {
+                out.serialize_field(name, &value)?;
+            }
+        }
+        out.end()
+    }
+}
+
+/// The actuators' reading unit and scale: leg `i` is `l_i + s_i q_i` long
+/// for a reading `q_i` (`machine.json`'s optional `actuator`; absent: unit
+/// mm, scale 1, known).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Actuator {
+    /// The readings' unit, free text (e.g. `rev`, `count`, `mm`).
+    pub unit: String,
+    /// Design scale of each actuator, mm per unit.
+    pub scale: [f64; 6],
+    /// A priori standard deviation of each scale (mm per unit); absent: the
+    /// scales are known and not estimated.
+    #[serde(default)]
+    pub scale_sigma: Option<[f64; 6]>,
+}
+
+impl Default for Actuator {
+    fn default() -> Self {
+        Self {
+            unit: "mm".to_owned(),
+            scale: [1.0; 6],
+            scale_sigma: None,
+        }
+    }
+}
+
+/// What changes from one measuring session to the next besides the
+/// instrument's frame (which is always a session's own): `machine.json`'s
+/// optional `session_model`. Each present sigma makes that group a
+/// per-session unknown with a zero-mean prior of that sigma relative to the
+/// first session; absent, the group is shared by all sessions.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct SessionModel {
+    /// Re-homing: a per-session zero offset of each leg (mm).
+    #[serde(default)]
+    pub leg_offset_sigma: Option<f64>,
+    /// A re-mounted marker body: a per-session origin of the platform body
+    /// frame (mm).
+    #[serde(default)]
+    pub body_origin_sigma: Option<f64>,
 }
 
 /// The design (nominal) machine, in any base frame and any platform frame.
@@ -44,6 +121,10 @@ pub struct Machine {
     pub prior_sigma: PriorSigma,
     /// Repeatability, used to weight the observations.
     pub repeatability: Repeatability,
+    /// The actuators' unit and scales.
+    pub actuator: Actuator,
+    /// What changes between measuring sessions.
+    pub session_model: SessionModel,
 }
 
 /// The fields of `machine.json` after the geometry.
@@ -51,6 +132,14 @@ pub struct Machine {
 struct Conditions {
     prior_sigma: PriorSigma,
     repeatability: Repeatability,
+    #[serde(default, skip_serializing_if = "is_default")]
+    actuator: Actuator,
+    #[serde(default, skip_serializing_if = "is_default")]
+    session_model: SessionModel,
+}
+
+fn is_default<T: Default + PartialEq>(value: &T) -> bool {
+    *value == T::default()
 }
 
 impl Machine {
@@ -61,6 +150,8 @@ impl Machine {
             geometry: file.geometry,
             prior_sigma: file.rest.prior_sigma,
             repeatability: file.rest.repeatability,
+            actuator: file.rest.actuator,
+            session_model: file.rest.session_model,
         };
         machine.validate(Check::new(path))?;
         Ok(machine)
@@ -73,6 +164,8 @@ impl Machine {
             rest: Conditions {
                 prior_sigma: self.prior_sigma,
                 repeatability: self.repeatability,
+                actuator: self.actuator.clone(),
+                session_model: self.session_model,
             },
         };
         json::write(path, json::MACHINE, &file)
@@ -91,7 +184,42 @@ impl Machine {
         check.positive("prior_sigma.platform", platform)?;
         check.positive("prior_sigma.tool", tool)?;
         check.positive("prior_sigma.leg", leg)?;
-        check.positive("repeatability.actuator", self.repeatability.actuator)?;
-        check.positive("repeatability.tool", self.repeatability.tool)
+        let r = &self.repeatability;
+        check.positive("repeatability.actuator", r.actuator)?;
+        check.positive("repeatability.tool", r.tool)?;
+        for (field, value) in [
+            ("repeatability.position", r.position),
+            ("repeatability.orientation", r.orientation),
+            (
+                "session_model.leg_offset_sigma",
+                self.session_model.leg_offset_sigma,
+            ),
+            (
+                "session_model.body_origin_sigma",
+                self.session_model.body_origin_sigma,
+            ),
+        ] {
+            if let Some(value) = value {
+                check.positive(field, value)?;
+            }
+        }
+        if self.actuator.unit.trim().is_empty() {
+            return Err(check.error("actuator.unit", "must not be empty"));
+        }
+        for (i, &s) in self.actuator.scale.iter().enumerate() {
+            check.positive(format_args!("actuator.scale[{i}]"), s)?;
+        }
+        if let Some(sigmas) = &self.actuator.scale_sigma {
+            for (i, &s) in sigmas.iter().enumerate() {
+                check.positive(format_args!("actuator.scale_sigma[{i}]"), s)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the actuators read in mm with scale 1 (no `actuator` block,
+    /// or one equal to it).
+    pub fn reads_millimetres(&self) -> bool {
+        self.actuator.scale == [1.0; 6] && self.actuator.scale_sigma.is_none()
     }
 }

@@ -10,6 +10,7 @@ use crate::artefacts::{Ball, ball_index};
 use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::{GeometryRecord, WithGeometry};
+use crate::session::SessionRecord;
 use crate::shape::{self, IdMap, P3};
 use crate::{MEASUREMENTS_FILE, json};
 
@@ -27,6 +28,12 @@ pub struct Truth {
     pub ball_radii: Vec<f64>,
     /// True contact point of each measurement row, in row order.
     pub contacts: Vec<Point3>,
+    /// True actuator scales (mm per unit), when the machine has
+    /// `actuator`.
+    pub actuator_scale: Option<[f64; 6]>,
+    /// True nuisance of each session of poses.csv and points.csv, in
+    /// session order.
+    pub sessions: Vec<SessionRecord>,
 }
 
 /// The fields of `truth.json` after the geometry: balls keyed by id.
@@ -36,6 +43,10 @@ struct Balls {
     ball_radii: IdMap<f64>,
     #[serde(deserialize_with = "shape::points")]
     contacts: Vec<Point3>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    actuator_scale: Option<[f64; 6]>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    sessions: Vec<SessionRecord>,
 }
 
 impl Truth {
@@ -60,6 +71,8 @@ impl Truth {
                 .collect(),
             ball_radii: by_ball(check, "ball_radii", file.rest.ball_radii, balls)?,
             contacts: file.rest.contacts,
+            actuator_scale: file.rest.actuator_scale,
+            sessions: file.rest.sessions,
         };
         truth.validate(check, balls.len(), rows)?;
         Ok(Some(truth))
@@ -73,6 +86,8 @@ impl Truth {
                 ball_centres: keyed(balls, self.ball_centres.iter().copied().map(P3)),
                 ball_radii: keyed(balls, self.ball_radii.iter().copied()),
                 contacts: self.contacts.clone(),
+                actuator_scale: self.actuator_scale,
+                sessions: self.sessions.clone(),
             },
         };
         json::write(path, json::TRUTH, &file)
@@ -106,7 +121,14 @@ impl Truth {
                 ),
             ));
         }
-        check.points("contacts", &self.contacts)
+        check.points("contacts", &self.contacts)?;
+        if let Some(scale) = &self.actuator_scale {
+            check.values("actuator_scale", scale)?;
+        }
+        for (k, session) in self.sessions.iter().enumerate() {
+            session.validate(check, &format!("sessions[{k}]"))?;
+        }
+        Ok(())
     }
 }
 

@@ -370,6 +370,8 @@ fn calibration() -> Calibration {
         converged: false,
         status: "iteration limit".into(),
         options: BTreeMap::from([("sim".to_owned(), serde_json::json!("IV"))]),
+        machine: None,
+        sessions: Vec::new(),
     }
 }
 

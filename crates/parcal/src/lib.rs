@@ -37,7 +37,9 @@
 //!         leg_lengths: design.legs,
 //!     },
 //!     prior_sigma: PriorSigma { base: 0.1, platform: 0.1, tool: 0.1, leg: 0.1 },
-//!     repeatability: Repeatability { actuator: 0.001, tool: 0.001 },
+//!     repeatability: Repeatability { actuator: 0.001, tool: 0.001, position: None, orientation: None },
+//!     actuator: Default::default(),
+//!     session_model: Default::default(),
 //! };
 //! // Balls of radius 5 mm on a 3 x 3 x 3 grid, each touched 7 times on its
 //! // lower half, the platform tilted by up to 0.17 rad.
@@ -58,7 +60,7 @@
 //!     }
 //! }
 //! let artefacts = Artefacts { frame: ArtefactFrame::Design, balls, distances: vec![] };
-//! let dataset = Dataset { machine, artefacts, measurements, truth: None };
+//! let dataset = Dataset { machine, artefacts, measurements, tracker: Default::default(), truth: None };
 //!
 //! let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {})?;
 //! assert!(run.converged(), "{:?}", run.status);

@@ -3,8 +3,8 @@
 
 use nalgebra::{Matrix3, Translation3};
 use parcal_dataset::{
-    ArtefactFrame, Artefacts, Ball, Dataset, GeometryRecord, Machine, Measurements, PriorSigma,
-    Repeatability, Truth,
+    Actuator, ArtefactFrame, Artefacts, Ball, Dataset, GeometryRecord, Machine, Measurements,
+    PriorSigma, Repeatability, SessionModel, Tracker, Truth,
 };
 use parcal_kinematics::{
     ForwardOptions, Geometry, Pose, Vec3, actuators, forward_from_home, rotation_zyx, tip_jacobians,
@@ -133,7 +133,10 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
             ball_centres: scenario.centres.iter().map(|&c| c.into()).collect(),
             ball_radii: vec![scenario.radius; count],
             contacts: contacts.iter().map(|c| c.point.into()).collect(),
+            actuator_scale: None,
+            sessions: Vec::new(),
         }),
+        tracker: Tracker::default(),
     };
     Ok(Simulation { dataset, summary })
 }
@@ -152,7 +155,11 @@ fn machine(scenario: &Scenario) -> Machine {
         repeatability: Repeatability {
             actuator: scenario.actuator_sigma,
             tool: scenario.tool_sigma,
+            position: None,
+            orientation: None,
         },
+        actuator: Actuator::default(),
+        session_model: SessionModel::default(),
     }
 }
 

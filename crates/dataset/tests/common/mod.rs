@@ -85,7 +85,11 @@ pub fn dataset(parts: Parts) -> Dataset {
             repeatability: Repeatability {
                 actuator: 0.001,
                 tool: 5e-324,
+                position: None,
+                orientation: None,
             },
+            actuator: Default::default(),
+            session_model: Default::default(),
         },
         artefacts: Artefacts {
             frame: if parts.distances {
@@ -130,7 +134,10 @@ pub fn dataset(parts: Parts) -> Dataset {
             ball_centres: (0..3).map(|i| points::<1>(i + 7)[0]).collect(),
             ball_radii: vec![5.0, 1.0 / 3.0, 1e-17],
             contacts: (0..rows).map(|r| points::<1>(r + 11)[0]).collect(),
+            actuator_scale: None,
+            sessions: Vec::new(),
         }),
+        tracker: Default::default(),
     }
 }
 

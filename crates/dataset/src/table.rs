@@ -1,0 +1,324 @@
+//! The machinery shared by the CSV files of a dataset: records parsed from
+//! bytes without a per-row allocation, columns found by header name, and
+//! errors that name the file, the line (the header is line 1) and the column.
+
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{self, BufWriter, Read, Seek, SeekFrom};
+use std::path::Path;
+
+use csv::{ByteRecord, ReaderBuilder};
+
+use crate::atomic::{write_atomic, write_error};
+use crate::check::not_finite;
+use crate::error::DatasetError;
+
+/// An error found while parsing, before its line number is known.
+pub(crate) enum Failure {
+    /// From the CSV reader itself (I/O).
+    Csv(csv::Error),
+    /// About the record that ended at byte `end` of the input.
+    At {
+        end: u64,
+        /// Newlines inside the record's (quoted) fields.
+        inner_newlines: u64,
+        /// The reader's line number, used if the input cannot be rescanned.
+        estimate: u64,
+        column: Option<&'static str>,
+        message: String,
+    },
+}
+
+impl From<csv::Error> for Failure {
+    fn from(e: csv::Error) -> Self {
+        Self::Csv(e)
+    }
+}
+
+/// One record (the header or a data row) being parsed.
+pub(crate) struct Row<'a> {
+    pub(crate) record: &'a ByteRecord,
+    /// Input offset just past the record.
+    pub(crate) end: u64,
+}
+
+impl Row<'_> {
+    /// Field `column` without surrounding ASCII whitespace (trimmed here
+    /// rather than by the CSV reader, whose trimming copies every record).
+    pub(crate) fn field(&self, column: usize) -> &[u8] {
+        self.record[column].trim_ascii()
+    }
+
+    pub(crate) fn error(&self, column: Option<&'static str>, message: String) -> Failure {
+        Failure::At {
+            end: self.end,
+            inner_newlines: self
+                .record
+                .as_slice()
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count() as u64,
+            estimate: self.record.position().map_or(1, csv::Position::line),
+            column,
+            message,
+        }
+    }
+
+    /// The finite numbers in `columns` (named `names`).
+    pub(crate) fn numbers<const N: usize>(
+        &self,
+        columns: &[usize; N],
+        names: &[&'static str; N],
+    ) -> Result<[f64; N], Failure> {
+        let mut out = [0.0; N];
+        for ((slot, &column), &name) in out.iter_mut().zip(columns).zip(names) {
+            let bytes = self.field(column);
+            let value = std::str::from_utf8(bytes)
+                .ok()
+                .and_then(|text| text.parse::<f64>().ok())
+                .ok_or_else(|| {
+                    let found = String::from_utf8_lossy(bytes);
+                    let message = if found.is_empty() {
+                        "empty field, expected a number".to_owned()
+                    } else {
+                        format!("expected a number, found {found:?}")
+                    };
+                    self.error(Some(name), message)
+                })?;
+            if !value.is_finite() {
+                return Err(self.error(Some(name), not_finite(value)));
+            }
+            *slot = value;
+        }
+        Ok(out)
+    }
+}
+
+/// The 1-based line on which the record that ended at byte `end` begins.
+///
+/// The CSV reader's own line numbers are off after blank lines (which it
+/// skips) and in files with CRLF line ends, so on error the input is rescanned:
+/// the last byte of the record (its terminator, or its last byte at the end
+/// of the input) is on line 1 + (newlines before it).
+pub(crate) fn line_of<R: Read + Seek>(mut input: R, end: u64, inner_newlines: u64) -> Option<u64> {
+    input.seek(SeekFrom::Start(0)).ok()?;
+    let mut before = input.take(end.saturating_sub(1));
+    let mut buffer = [0u8; 1 << 14];
+    let mut newlines = 0;
+    loop {
+        let n = before.read(&mut buffer).ok()?;
+        if n == 0 {
+            break;
+        }
+        newlines += buffer[..n].iter().filter(|&&b| b == b'\n').count() as u64;
+    }
+    Some((1 + newlines).saturating_sub(inner_newlines).max(1))
+}
+
+pub(crate) fn csv_error(path: &Path, error: csv::Error) -> DatasetError {
+    let line = error.position().map_or(0, csv::Position::line);
+    let message = error.to_string();
+    match error.into_kind() {
+        csv::ErrorKind::Io(e) => DatasetError::io(path, "read", e),
+        _ => DatasetError::csv(path, line, None, message),
+    }
+}
+
+/// Opens the CSV file `path` (absent: [`DatasetError::MissingFile`]) and
+/// parses it with `records`.
+pub(crate) fn read_file<T>(
+    path: &Path,
+    records: impl FnOnce(&mut csv::Reader<File>) -> Result<T, Failure>,
+) -> Result<T, DatasetError> {
+    let file = File::open(path).map_err(|e| match e.kind() {
+        io::ErrorKind::NotFound => DatasetError::MissingFile {
+            path: path.to_path_buf(),
+        },
+        _ => DatasetError::io(path, "read", e),
+    })?;
+    parse(path, file, records)
+}
+
+/// Parses CSV from `input` with `records`; errors name `path`. `input` is
+/// read once, front to back; it is rewound only to find the line of an
+/// error.
+pub(crate) fn parse<R: Read + Seek, T>(
+    path: &Path,
+    input: R,
+    records: impl FnOnce(&mut csv::Reader<R>) -> Result<T, Failure>,
+) -> Result<T, DatasetError> {
+    let mut reader = ReaderBuilder::new().flexible(true).from_reader(input);
+    match records(&mut reader) {
+        Ok(value) => Ok(value),
+        Err(Failure::Csv(e)) => Err(csv_error(path, e)),
+        Err(Failure::At {
+            end,
+            inner_newlines,
+            estimate,
+            column,
+            message,
+        }) => {
+            let line = line_of(reader.into_inner(), end, inner_newlines).unwrap_or(estimate);
+            Err(DatasetError::csv(path, line, column, message))
+        }
+    }
+}
+
+/// The header of a CSV file, its columns found by name.
+pub(crate) struct Header {
+    record: ByteRecord,
+    end: u64,
+}
+
+impl Header {
+    /// Reads the header of `reader`; an empty file is an error that names
+    /// the `expected` header.
+    pub(crate) fn read<R: Read>(
+        reader: &mut csv::Reader<R>,
+        expected: &str,
+    ) -> Result<Self, Failure> {
+        let header = Self {
+            record: reader.byte_headers()?.clone(),
+            end: reader.position().byte(),
+        };
+        if header.record.is_empty() {
+            return Err(header.error(format!(
+                "the file is empty (expected the header {expected})"
+            )));
+        }
+        Ok(header)
+    }
+
+    /// An error about the header line.
+    pub(crate) fn error(&self, message: String) -> Failure {
+        self.row().error(None, message)
+    }
+
+    fn row(&self) -> Row<'_> {
+        Row {
+            record: &self.record,
+            end: self.end,
+        }
+    }
+
+    /// Number of fields every row must have.
+    pub(crate) fn width(&self) -> usize {
+        self.record.len()
+    }
+
+    /// The column named `name` (surrounding whitespace ignored), if any; a
+    /// name given twice is an error.
+    pub(crate) fn find(&self, name: &str) -> Result<Option<usize>, Failure> {
+        let mut found = self
+            .record
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.trim_ascii() == name.as_bytes());
+        match (found.next(), found.next()) {
+            (Some((i, _)), None) => Ok(Some(i)),
+            (None, _) => Ok(None),
+            (Some(_), Some(_)) => Err(self.error(format!("the header names column {name} twice"))),
+        }
+    }
+
+    /// The column named `name`; its absence is an error that names the
+    /// `expected` header.
+    pub(crate) fn require(&self, name: &str, expected: &str) -> Result<usize, Failure> {
+        self.find(name)?.ok_or_else(|| {
+            self.error(format!(
+                "the header has no column {name} (it must name {expected})"
+            ))
+        })
+    }
+
+    /// The columns named `names`, all required.
+    pub(crate) fn require_all<const N: usize>(
+        &self,
+        names: &[&str; N],
+        expected: &str,
+    ) -> Result<[usize; N], Failure> {
+        let mut out = [0; N];
+        for (slot, name) in out.iter_mut().zip(names) {
+            *slot = self.require(name, expected)?;
+        }
+        Ok(out)
+    }
+}
+
+/// Iterates over the data rows of `reader`, each checked to have `width`
+/// fields, calling `each` on it; a file with no data row is an error.
+pub(crate) fn for_each_row<R: Read>(
+    reader: &mut csv::Reader<R>,
+    header: &Header,
+    what: &str,
+    mut each: impl FnMut(&Row) -> Result<(), Failure>,
+) -> Result<(), Failure> {
+    let mut record = ByteRecord::new();
+    let mut rows = 0usize;
+    while reader.read_byte_record(&mut record)? {
+        let row = Row {
+            record: &record,
+            end: reader.position().byte(),
+        };
+        if record.len() != header.width() {
+            return Err(row.error(
+                None,
+                format!("expected {} fields, found {}", header.width(), record.len()),
+            ));
+        }
+        each(&row)?;
+        rows += 1;
+    }
+    if rows == 0 {
+        return Err(header.error(format!("the header is followed by no {what} row")));
+    }
+    Ok(())
+}
+
+/// Writes `path` atomically as CSV: the `header`, then the rows `fill`
+/// writes through a [`NumberWriter`].
+pub(crate) fn write_file(
+    path: &Path,
+    header: &[&str],
+    fill: impl FnOnce(&mut NumberWriter<&mut BufWriter<&File>>) -> Result<(), csv::Error>,
+) -> Result<(), DatasetError> {
+    write_atomic(path, |w| {
+        let to_error = |e: csv::Error| DatasetError::io(path, "write", e.into());
+        let mut numbers = NumberWriter {
+            writer: csv::Writer::from_writer(w),
+            text: String::new(),
+        };
+        numbers.writer.write_record(header).map_err(to_error)?;
+        fill(&mut numbers).map_err(to_error)?;
+        numbers.writer.flush().map_err(write_error(path))
+    })
+}
+
+/// Writes CSV fields, numbers in Rust's shortest round-trip form (`{}`),
+/// so that they read back bit for bit.
+pub(crate) struct NumberWriter<W: io::Write> {
+    writer: csv::Writer<W>,
+    text: String,
+}
+
+impl<W: io::Write> NumberWriter<W> {
+    /// A text field.
+    pub(crate) fn text(&mut self, field: &str) -> Result<(), csv::Error> {
+        self.writer.write_field(field)
+    }
+
+    /// Number fields.
+    pub(crate) fn numbers(&mut self, values: &[f64]) -> Result<(), csv::Error> {
+        for &v in values {
+            self.text.clear();
+            write!(self.text, "{v}").expect("formatting into a String");
+            self.writer.write_field(&self.text)?;
+        }
+        Ok(())
+    }
+
+    /// Ends the row.
+    pub(crate) fn end_row(&mut self) -> Result<(), csv::Error> {
+        self.writer.write_record(None::<&[u8]>)
+    }
+}
