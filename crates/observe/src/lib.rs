@@ -15,6 +15,13 @@
 //! - [`DistanceBlock`]: a calibrated centre-to-centre distance of two balls
 //!   (ball plate, ball bar), `c = L_ab − |C_a − C_b|` (1 row; unknowns the
 //!   two centres).
+//! - [`PoseBlock`]: a platform pose measured by an instrument, in its
+//!   inverse-kinematics form `c_i = |T E_i − B_i| − L_i` (6 rows; unknowns
+//!   the joints, leg lengths and scales, the instrument and body frames).
+//! - [`PointBlock`]: a tool point measured by an instrument,
+//!   `c = F(f(q, p)) − P` (3 rows; unknowns `p`, the instrument frame).
+//! - [`frame`]: the instrument and body frames as corrections of a
+//!   reference.
 //! - [`BlockJacobians`]: the common shape `(residual, d_tip, d_centre,
 //!   d_angles)` of both, and its [`BlockJacobians::whiten`].
 //! - [`weights`]: the observation covariance `W` of paper eq. (5) from the
@@ -61,6 +68,9 @@ mod chart;
 mod coordinates;
 mod distance;
 mod error;
+pub mod frame;
+mod point;
+mod pose;
 pub mod prior;
 mod radius;
 #[cfg(test)]
@@ -73,6 +83,9 @@ pub use chart::{DirectionChart, unit_direction};
 pub use coordinates::CoordinateBlock;
 pub use distance::{DistanceBlock, DistanceJacobians};
 pub use error::ObserveError;
+pub use frame::FrameCorrection;
+pub use point::{PointBlock, PointJacobians, point_covariance};
+pub use pose::{PoseBlock, PoseJacobians, pose_covariance};
 pub use prior::{AnglePrior, CentrePrior, DiagonalPrior, KinematicPrior, PriorSigma};
 pub use radius::RadiusBlock;
 pub use tip::Tip;
