@@ -18,7 +18,9 @@
 //! instrument's, propagated through `∂c/∂M` ([`PoseJacobians::d_measurement`]).
 
 use nalgebra::{Isometry3, Matrix6, RowVector3, Vector6};
-use parcal_kinematics::{Geometry, Vec3};
+use parcal_kinematics::Geometry;
+#[cfg(test)]
+use parcal_kinematics::Vec3;
 
 use crate::ObserveError;
 use crate::frame::{FrameCorrection, skew};
@@ -92,14 +94,14 @@ impl PoseBlock<'_> {
             d_body: Matrix6::zeros(),
             d_measurement: Matrix6::zeros(),
         };
-        for i in 0..6 {
+        for (i, &leg) in lengths.iter().enumerate() {
             let e = geometry.platform[i];
             let y = e_b.transpose() * (e - self.body.translation);
             let z = pre.transform_point(&y.into()).coords;
             let x = e_f.transpose() * (z - self.tracker.translation);
             let (n, length) = unit_offset(&x, &geometry.base[i], "leg (pose observation)")?;
             let n = n.transpose();
-            out.residual[i] = length - lengths[i];
+            out.residual[i] = length - leg;
             out.d_base[i] = -n;
             out.d_platform[i] = n * dx_dy * e_b.transpose();
             let d_omega_f = n * self.tracker.d_rotate_back(&(z - self.tracker.translation));
