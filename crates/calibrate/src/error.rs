@@ -88,9 +88,65 @@ pub enum CalibrateError {
         /// Why it could not be evaluated.
         source: ObserveError,
     },
+    /// A row of poses.csv or points.csv could not be used (forward
+    /// kinematics failed, a leg of zero length, its covariance).
+    InstrumentRow {
+        /// The file of the row.
+        table: InstrumentTable,
+        /// The row (0-based, in file order).
+        row: usize,
+        /// Why.
+        reason: String,
+    },
+    /// A session's instrument frame could not be located from the design's
+    /// forward kinematics.
+    FrameStart {
+        /// The session's label.
+        session: String,
+        /// Why.
+        reason: String,
+    },
+    /// The dataset has both ball touches and instrument measurements, which
+    /// one calibration does not combine yet.
+    MixedData,
+}
+
+/// The file of an instrument measurement row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InstrumentTable {
+    /// poses.csv.
+    Poses,
+    /// points.csv.
+    Points,
+}
+
+impl InstrumentTable {
+    /// The file's name in a dataset directory.
+    pub fn file_name(self) -> &'static str {
+        match self {
+            Self::Poses => parcal_dataset::POSES_FILE,
+            Self::Points => parcal_dataset::POINTS_FILE,
+        }
+    }
+
+    /// What one row is: `pose`, `point`.
+    pub fn row_name(self) -> &'static str {
+        match self {
+            Self::Poses => "pose",
+            Self::Points => "point",
+        }
+    }
 }
 
 impl CalibrateError {
+    /// The instrument row the error is about, if it is about one.
+    pub fn instrument_row(&self) -> Option<(InstrumentTable, usize)> {
+        match self {
+            Self::InstrumentRow { table, row, .. } => Some((*table, *row)),
+            _ => None,
+        }
+    }
+
     /// The measurement row the error is about, if it is about one.
     pub fn row(&self) -> Option<usize> {
         match self {
@@ -108,12 +164,23 @@ impl CalibrateError {
     pub(crate) fn invalid_dataset(error: DatasetError) -> Self {
         let (row, field, message) = match error {
             DatasetError::Csv {
+                path,
                 line,
                 column,
                 message,
-                ..
             } => {
                 let row = usize::try_from(line.saturating_sub(2)).unwrap_or(usize::MAX);
+                let table = [InstrumentTable::Poses, InstrumentTable::Points]
+                    .into_iter()
+                    .find(|t| path.file_name().is_some_and(|n| n == t.file_name()));
+                if let Some(table) = table {
+                    let column = column.map_or_else(String::new, |c| format!("column {c}: "));
+                    return Self::InstrumentRow {
+                        table,
+                        row,
+                        reason: format!("invalid: {column}{message}"),
+                    };
+                }
                 (Some(row), column.unwrap_or_default(), message)
             }
             DatasetError::Field {
@@ -176,6 +243,17 @@ impl fmt::Display for CalibrateError {
             Self::Distance { index, source } => {
                 write!(f, "artefacts.distances[{index}]: {source}")
             }
+            Self::InstrumentRow { table, row, reason } => {
+                write!(f, "{} row {row}: {reason}", table.row_name())
+            }
+            Self::FrameStart { session, reason } => write!(
+                f,
+                "session {session:?}: no initial instrument frame: {reason}"
+            ),
+            Self::MixedData => f.write_str(
+                "the dataset has both ball touches (measurements.csv) and instrument \
+                 measurements (poses.csv, points.csv); calibrate them as two datasets",
+            ),
         }
     }
 }

@@ -2,8 +2,10 @@
 //! one after the other, decided by the data.
 //!
 //! ```text
-//! g = [ p (33 kinematic) | C_a (3) | C_b (3) | … ]
+//! g = [ p (33 kinematic) | C_a (3) | C_b (3) | … ]                     ball touches
 //!       always             one per ball tied by a distance
+//! g = [ p (33) | s (6) | F_1 (6) | F_2 (6) | … | B (6) | B_k (3) | o_k (6) | … ]
+//!                scales  one frame per session   body   per session     instruments
 //! ```
 //!
 //! - [`ParameterGroup::Kinematic`]: the 33 canonical parameters `p` of
@@ -14,6 +16,16 @@
 //!   block (a dense block for tens of balls), and the solver holds their
 //!   own group block fixed. Every other ball keeps its centre in its group
 //!   block, eliminated with its contacts (the fast path).
+//!
+//! - [`ParameterGroup::ActuatorScales`]: `s_1..s_6` (mm per actuator unit),
+//!   when machine.json gives their sigmas.
+//! - [`ParameterGroup::TrackerFrame`]: the correction `(ω, τ)` of a
+//!   session's instrument frame ([`parcal_observe::frame`]).
+//! - [`ParameterGroup::BodyFrame`]: the correction of the platform body
+//!   frame, for measured poses.
+//! - [`ParameterGroup::BodyOrigin`] and [`ParameterGroup::LegOffsets`]: a
+//!   later session's shift of the body origin and zero offsets of the legs
+//!   (machine.json's `session_model`).
 //!
 //! Every parameter of the block has a name (`x_b1`, …, `centre B07.x`), so
 //! that a covariance, a prior or a weak direction can be read by name.
@@ -34,6 +46,25 @@ pub enum ParameterGroup {
         /// Index of the ball in artefacts.json.
         ball: usize,
     },
+    /// The actuator scales `s_1..s_6` (mm per unit).
+    ActuatorScales,
+    /// The correction `(ω, τ)` of a session's instrument frame.
+    TrackerFrame {
+        /// The session (index into the dataset's sessions).
+        session: usize,
+    },
+    /// The correction `(ω, τ)` of the platform body frame.
+    BodyFrame,
+    /// A session's shift of the body frame's origin (platform frame, mm).
+    BodyOrigin {
+        /// The session.
+        session: usize,
+    },
+    /// A session's zero offsets of the six legs (mm).
+    LegOffsets {
+        /// The session.
+        session: usize,
+    },
 }
 
 impl ParameterGroup {
@@ -41,7 +72,35 @@ impl ParameterGroup {
     pub fn size(self) -> usize {
         match self {
             Self::Kinematic => N_PARAMS,
-            Self::BallCentre { .. } => 3,
+            Self::BallCentre { .. } | Self::BodyOrigin { .. } => 3,
+            Self::ActuatorScales
+            | Self::TrackerFrame { .. }
+            | Self::BodyFrame
+            | Self::LegOffsets { .. } => 6,
+        }
+    }
+
+    /// The names of the group's parameters, given the balls' and the
+    /// sessions' labels.
+    fn names(self, ball_ids: &[String], sessions: &[String]) -> Vec<String> {
+        const FRAME: [&str; 6] = ["wx", "wy", "wz", "tx", "ty", "tz"];
+        let axes = ["x", "y", "z"];
+        match self {
+            Self::Kinematic => PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
+            Self::BallCentre { ball } => axes
+                .map(|axis| format!("centre {}.{axis}", ball_ids[ball]))
+                .into(),
+            Self::ActuatorScales => (1..=6).map(|i| format!("s_{i}")).collect(),
+            Self::TrackerFrame { session } => FRAME
+                .map(|c| format!("frame {}.{c}", sessions[session]))
+                .into(),
+            Self::BodyFrame => FRAME.map(|c| format!("body.{c}")).into(),
+            Self::BodyOrigin { session } => axes
+                .map(|axis| format!("body origin {}.{axis}", sessions[session]))
+                .into(),
+            Self::LegOffsets { session } => (1..=6)
+                .map(|i| format!("o_{i} {}", sessions[session]))
+                .collect(),
         }
     }
 }
@@ -75,6 +134,24 @@ impl ParameterLayout {
         layout
     }
 
+    /// The kinematic parameters, then `groups` in order (instrument
+    /// measurements: no ball centre).
+    pub fn with_groups(groups: impl IntoIterator<Item = ParameterGroup>) -> Self {
+        let mut layout = Self::new(0, &[]);
+        for group in groups {
+            layout.push(group);
+        }
+        layout
+    }
+
+    /// The range of `group` in the global block, if it is there.
+    pub fn range(&self, group: ParameterGroup) -> Option<Range<usize>> {
+        self.groups
+            .iter()
+            .find(|(g, _)| *g == group)
+            .map(|(_, range)| range.clone())
+    }
+
     fn push(&mut self, group: ParameterGroup) -> Range<usize> {
         let range = self.size..self.size + group.size();
         self.size = range.end;
@@ -105,7 +182,7 @@ impl ParameterLayout {
 
     /// Whether any ball centre is in the global block.
     pub fn has_coupled_centres(&self) -> bool {
-        self.groups.len() > 1
+        self.centres.iter().any(Option::is_some)
     }
 
     /// Every ball's centre at a state of the solver: the global block's
@@ -140,20 +217,13 @@ impl ParameterLayout {
 
     /// The name of every global parameter, in order: the kinematic
     /// parameters' ([`PARAM_NAMES`]), then `centre ID.x` etc. with the
-    /// balls' artefacts.json ids.
-    pub fn names(&self, ball_ids: &[String]) -> Vec<String> {
-        let mut names = Vec::with_capacity(self.size);
-        for (group, _) in &self.groups {
-            match *group {
-                ParameterGroup::Kinematic => {
-                    names.extend(PARAM_NAMES.iter().map(|s| s.to_string()))
-                }
-                ParameterGroup::BallCentre { ball } => names.extend(
-                    ["x", "y", "z"].map(|axis| format!("centre {}.{axis}", ball_ids[ball])),
-                ),
-            }
-        }
-        names
+    /// balls' artefacts.json ids, `s_1`, `frame LABEL.wx`, `body.tx`, `body
+    /// origin LABEL.x`, `o_1 LABEL` with the sessions' labels.
+    pub fn names(&self, ball_ids: &[String], sessions: &[String]) -> Vec<String> {
+        self.groups
+            .iter()
+            .flat_map(|(group, _)| group.names(ball_ids, sessions))
+            .collect()
     }
 }
 
@@ -171,11 +241,37 @@ mod tests {
         assert_eq!(layout.centre(0), None);
         assert_eq!(layout.centre(7), None);
         let ids: Vec<String> = ["A", "B", "C", "D"].map(String::from).into();
-        let names = layout.names(&ids);
+        let names = layout.names(&ids, &[]);
         assert_eq!(names.len(), layout.size());
         assert_eq!(names[0], PARAM_NAMES[0]);
         assert_eq!(names[N_PARAMS], "centre D.x");
         assert_eq!(names[N_PARAMS + 5], "centre B.z");
+    }
+
+    #[test]
+    fn instrument_groups_follow_the_kinematic_parameters() {
+        let layout = ParameterLayout::with_groups([
+            ParameterGroup::ActuatorScales,
+            ParameterGroup::TrackerFrame { session: 0 },
+            ParameterGroup::BodyFrame,
+            ParameterGroup::TrackerFrame { session: 1 },
+            ParameterGroup::BodyOrigin { session: 1 },
+            ParameterGroup::LegOffsets { session: 1 },
+        ]);
+        assert_eq!(layout.size(), N_PARAMS + 6 + 6 + 6 + 6 + 3 + 6);
+        assert_eq!(
+            layout.range(ParameterGroup::TrackerFrame { session: 1 }),
+            Some(N_PARAMS + 18..N_PARAMS + 24)
+        );
+        assert_eq!(layout.range(ParameterGroup::LegOffsets { session: 0 }), None);
+        assert!(!layout.has_coupled_centres());
+        let names = layout.names(&[], &["mon".into(), "tue".into()]);
+        assert_eq!(names.len(), layout.size());
+        assert_eq!(names[N_PARAMS], "s_1");
+        assert_eq!(names[N_PARAMS + 6], "frame mon.wx");
+        assert_eq!(names[N_PARAMS + 17], "body.tz");
+        assert_eq!(names[N_PARAMS + 24], "body origin tue.x");
+        assert_eq!(names[N_PARAMS + 32], "o_6 tue");
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! - [`run`]: one calibration and its calibration.json record;
 //! - [`conflict`]: prior-data conflict tests;
 //! - [`fit`]: each ball's goodness of fit;
+//! - [`instruments`]: calibration from measured poses and points;
 //! - [`layout`]: the global block, named groups of parameters;
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
@@ -32,6 +33,7 @@ pub mod conflict;
 mod error;
 pub mod evaluate;
 pub mod fit;
+pub mod instruments;
 pub mod layout;
 pub mod mirror;
 mod options;
@@ -41,10 +43,10 @@ pub mod setup;
 pub mod sphere_fit;
 mod validate;
 
-pub use error::CalibrateError;
+pub use error::{CalibrateError, InstrumentTable};
 pub use options::{CalibrationOptions, Observation, PriorMode, Simulation};
 pub use parcal_kinematics::ParamCovariance;
 pub use parcal_observe::WeightModel;
-pub use parcal_solver::Method;
+pub use parcal_solver::{IterationRecord, Method};
 pub use run::{CalibrationRun, calibrate};
 pub use validate::{MIN_CONTACTS_PER_BALL, validate};

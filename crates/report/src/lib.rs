@@ -9,6 +9,7 @@
 //! ```
 
 pub mod compare;
+pub mod instruments;
 pub mod maps;
 pub mod paper;
 pub mod plots;

@@ -10,7 +10,29 @@ use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
 /// The status in one sentence (calibration.json's `status`), naming
 /// parameters, balls and measurements.csv lines.
 pub fn status(run: &CalibrationRun) -> String {
-    match &run.status {
+    solver_status(
+        &run.status,
+        &run.layout.names(&run.ball_ids, &[]),
+        |k| format!("the centre of ball {} is not determined by its contacts", run.ball_ids[k]),
+        |i| {
+            format!(
+                "the angles of the contact of measurements.csv line {} are not determined",
+                run.rows[i] + 2
+            )
+        },
+    )
+}
+
+/// A solver's status in one sentence: `names` name the global block's
+/// parameters, `group(k)` and `point(i)` say what a singular group or
+/// point block means.
+pub fn solver_status(
+    status: &Status,
+    names: &[String],
+    group: impl Fn(usize) -> String,
+    point: impl Fn(usize) -> String,
+) -> String {
+    match status {
         Status::Converged => "converged".to_string(),
         Status::IterationLimit => "iteration limit reached without convergence".to_string(),
         Status::Diverged { iteration, reason } => {
@@ -24,17 +46,11 @@ pub fn status(run: &CalibrationRun) -> String {
             diagnostics,
         } => format!(
             "the reduced system is singular at iteration {iteration}: {}",
-            weak_directions(diagnostics, &run.layout.names(&run.ball_ids))
+            weak_directions(diagnostics, names)
         ),
         Status::SingularBlock { iteration, block } => match block {
-            BlockId::Group(k) => format!(
-                "at iteration {iteration} the centre of ball {} is not determined by its contacts",
-                run.ball_ids[*k]
-            ),
-            BlockId::Point(i) => format!(
-                "at iteration {iteration} the angles of the contact of measurements.csv line {} are not determined",
-                run.rows[*i] + 2
-            ),
+            BlockId::Group(k) => format!("at iteration {iteration} {}", group(*k)),
+            BlockId::Point(i) => format!("at iteration {iteration} {}", point(*i)),
         },
         Status::Stopped { iteration } => format!("stopped at iteration {iteration}"),
         Status::InvalidProblem { message } => format!("invalid problem: {message}"),

@@ -8,12 +8,13 @@ use std::time::Instant;
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_calibrate::{
-    CalibrateError, CalibrationOptions, CalibrationRun, Observation, PriorMode, Simulation,
-    WeightModel, calibrate,
+    CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
+    Simulation, WeightModel, calibrate,
 };
-use parcal_dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE};
-use parcal_report::{sentences, tables};
+use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
+use parcal_report::{instruments, sentences, tables};
 
 use crate::progress::Progress;
 
@@ -76,6 +77,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // A simulation's true machine serves the evaluation, not the
     // calibration: keep it, and free the dataset's truth.json with its true
     // contact points (24 bytes per contact).
+    if !dataset.tracker.is_empty() {
+        return run_instruments(args, &dataset, &options, progress);
+    }
     let truth = Truth::of(&dataset)
         .transpose()
         .context("truth.json: the true geometry is degenerate")?;
@@ -93,25 +97,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     ));
     let started = Instant::now();
     let run = calibrate(&dataset, &options, &mut |record| {
-        progress.step(&format!(
-            "cost {:.6e}, step {:.3e} ({:.2} s)",
-            record.cost,
-            record.step_norm,
-            started.elapsed().as_secs_f64()
-        ))
+        step(&progress, record, started)
     })
     .map_err(|error| in_dataset(error, &args.dataset))?;
     progress.finish();
-    // Default: calibration.json in the dataset directory (next to a snapshot file).
-    let directory = if args.dataset.is_file() {
-        args.dataset.parent().unwrap_or(Path::new("."))
-    } else {
-        &args.dataset
-    };
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| directory.join(CALIBRATION_FILE));
+    let out = args.out_path();
     sentences::record(&run).write(&out)?;
     // A reader that closed stdout early does not hide a failed calibration.
     let printed = print_results(truth.as_ref(), &run, &out);
@@ -123,17 +113,84 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     printed
 }
 
-/// `error` with the file of its measurement row in front, if it names one:
-/// the line of measurements.csv (row + 2, the header is line 1), or the
-/// snapshot file.
+/// One iteration on the progress bar.
+fn step(progress: &Progress, record: &IterationRecord, started: Instant) {
+    progress.step(&format!(
+        "cost {:.6e}, step {:.3e} ({:.2} s)",
+        record.cost,
+        record.step_norm,
+        started.elapsed().as_secs_f64()
+    ))
+}
+
+/// Calibrates measured poses and points: summary and parameter table on
+/// stdout, calibration.json.
+fn run_instruments(
+    args: &Args,
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    progress: Progress,
+) -> anyhow::Result<()> {
+    let tracker = &dataset.tracker;
+    progress.line(&format!(
+        "calibrating {} poses and {} points in {} sessions, {} prior",
+        tracker.poses.len(),
+        tracker.points.len(),
+        tracker.sessions.len(),
+        options.prior
+    ));
+    let started = Instant::now();
+    let run = calibrate_instruments(dataset, options, &mut |record| {
+        step(&progress, record, started)
+    })
+    .map_err(|error| in_dataset(error, &args.dataset))?;
+    progress.finish();
+    let out = args.out_path();
+    instruments::record(&run).write(&out)?;
+    let mut stdout = std::io::stdout().lock();
+    let printed = writeln!(
+        stdout,
+        "{}\n{}\ncalibration written to {}",
+        instruments::summary(&run),
+        instruments::parameters(&run),
+        out.display()
+    );
+    anyhow::ensure!(
+        run.converged(),
+        "the calibration did not converge: {}",
+        instruments::status(&run)
+    );
+    Ok(printed?)
+}
+
+impl Args {
+    /// calibration.json's path: --out, or calibration.json in the
+    /// dataset's directory (next to a snapshot file).
+    fn out_path(&self) -> PathBuf {
+        let directory = if self.dataset.is_file() {
+            self.dataset.parent().unwrap_or(Path::new("."))
+        } else {
+            &self.dataset
+        };
+        self.out
+            .clone()
+            .unwrap_or_else(|| directory.join(CALIBRATION_FILE))
+    }
+}
+
+/// `error` with the file of its row in front, if it names one: the line of
+/// measurements.csv, poses.csv or points.csv (row + 2, the header is line
+/// 1), or the snapshot file.
 fn in_dataset(error: CalibrateError, dataset: &Path) -> anyhow::Error {
-    let Some(row) = error.row() else {
-        return error.into();
+    let (file, row) = match (error.row(), error.instrument_row()) {
+        (Some(row), _) => (MEASUREMENTS_FILE, row),
+        (None, Some((table, row))) => (table.file_name(), row),
+        (None, None) => return error.into(),
     };
     let place = if dataset.is_file() {
         dataset.display().to_string()
     } else {
-        let csv = dataset.join(MEASUREMENTS_FILE);
+        let csv = dataset.join(file);
         format!("{} line {}", csv.display(), row + 2)
     };
     anyhow::Error::new(error).context(place)

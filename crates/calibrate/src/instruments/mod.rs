@@ -1,0 +1,30 @@
+//! Calibration from instrument measurements: platform poses (motion
+//! capture, photogrammetry) and tool points (laser tracker), in sessions,
+//! with actuators that read in their own unit.
+//!
+//! - [`model`]: the global block (kinematic parameters, actuator scales,
+//!   each session's instrument frame, the body frame, each later session's
+//!   body origin and leg offsets) and what it means;
+//! - [`start`]: the initial frames (hand–eye for poses, Kabsch for points);
+//! - [`rows`]: every measured row as whitened residual rows;
+//! - [`problem`]: the solver's problem (a global block only);
+//! - [`run`]: one calibration and its calibration.json record.
+//!
+//! The gauge: the kinematic parameters live in the canonical frames
+//! (`parcal_kinematics::frames`); an instrument sees the base frame only
+//! through its session's frame `F_k`, and measured poses see the platform
+//! frame through the body frame `B`, so both frames are unknowns and the
+//! canonical frames fix the gauge. Points do not see the body frame (it is
+//! not in the layout) and poses do not see the tool (its prior alone
+//! determines it). docs/formulation.md says which parameters each kind of
+//! data determines.
+
+pub mod model;
+pub mod problem;
+pub mod rows;
+pub mod run;
+pub mod start;
+
+pub use crate::error::InstrumentTable;
+pub use model::{InstrumentModel, ModelValues};
+pub use run::{InstrumentRun, calibrate_instruments};

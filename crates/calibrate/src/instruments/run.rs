@@ -1,0 +1,410 @@
+//! One instrument calibration: set up, solve, and the record of the result
+//! (calibration.json with the calibrated machine and every session).
+
+use std::collections::BTreeMap;
+
+use nalgebra::{DMatrix, DVector, Dyn, Isometry3};
+use parcal_dataset::{
+    Actuator, CalibratedMachine, Calibration, Dataset, FrameRecord, GeometryRecord,
+    IterationSummary, ParameterTable, SessionRecord,
+};
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Vec3, params};
+use parcal_solver::{
+    GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status, solve,
+};
+
+use crate::instruments::model::{InstrumentModel, ModelValues};
+use crate::instruments::problem::InstrumentProblem;
+use crate::instruments::rows::InstrumentRows;
+use crate::instruments::start::{frame_start, measured_poses};
+use crate::layout::{ParameterGroup, ParameterLayout};
+use crate::setup::{design_geometry, kinematic_prior};
+use crate::{CalibrateError, CalibrationOptions, Method};
+
+/// The outcome of an instrument calibration.
+#[derive(Debug, Clone)]
+pub struct InstrumentRun {
+    /// What the run was asked to do.
+    pub options: CalibrationOptions,
+    /// The design geometry as given (machine.json's frames).
+    pub design: Geometry,
+    /// The global block's meaning.
+    pub model: InstrumentModel,
+    /// The initial global block.
+    pub initial: DVector<f64>,
+    /// The identified global block.
+    pub global: DVector<f64>,
+    /// The prior on the global block, if any.
+    pub prior: Option<GaussianPrior<Dyn>>,
+    /// The posterior covariance of the global block (inverse of the
+    /// undamped normal matrix at the final state); `None` when the run did
+    /// not converge or the matrix is not positive definite.
+    pub covariance: Option<DMatrix<f64>>,
+    /// How the solver's run ended.
+    pub status: Status,
+    /// One record per iteration.
+    pub history: Vec<IterationRecord>,
+    /// Whitened residual rows (6 per pose, 3 per point).
+    pub residual_rows: usize,
+    /// Spectrum of the normal matrix at the end.
+    pub spectrum: Option<SpectrumDiagnostics>,
+    /// Each pose's leg-length residuals `|T E_i − B_i| − L_i` at the
+    /// identified state (mm).
+    pub leg_residuals: Vec<[f64; 6]>,
+    /// Each point's residual `F(T) − P` at the identified state (mm).
+    pub point_residuals: Vec<Vec3>,
+    /// The actuators' unit.
+    pub unit: String,
+}
+
+/// Calibrates the poses and points of `dataset` (it must have no ball
+/// touches). `observer` sees each iteration.
+pub fn calibrate_instruments(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<InstrumentRun, CalibrateError> {
+    crate::validate(dataset)?;
+    if dataset.has_touches() {
+        return Err(CalibrateError::MixedData);
+    }
+    let design = design_geometry(dataset);
+    let canonical = design.canonicalize().map_err(CalibrateError::Design)?;
+    let design_params = params::to_params(&canonical.geometry);
+    let machine = &dataset.machine;
+    let tracker = &dataset.tracker;
+    let forward = ForwardOptions::default();
+    let start = frame_start(
+        tracker,
+        &canonical.geometry,
+        &machine.actuator.scale,
+        &forward,
+    )?;
+    let model = InstrumentModel {
+        layout: layout(dataset),
+        sessions: tracker.sessions.clone(),
+        tracker_references: start.trackers,
+        body_reference: start.body,
+        fixed_scales: machine.actuator.scale,
+    };
+    let initial = initial_block(&model.layout, &design_params, &machine.actuator.scale);
+    let mut rows = InstrumentRows {
+        tracker,
+        measured: measured_poses(tracker),
+        pose_weights: Vec::new(),
+        point_weights: Vec::new(),
+        point_starts: start.point_poses,
+        forward,
+    };
+    rows.weigh(&model, &model.values(&initial), &machine.repeatability)?;
+    let prior = prior(dataset, &design, &design_params, &model.layout, options)?;
+    let problem = InstrumentProblem { model, rows, prior };
+    let solver_options = SolverOptions {
+        method: options.method,
+        max_iterations: options.max_iterations,
+        step_tolerance: options.step_tolerance,
+        ..SolverOptions::default()
+    };
+    let state = State {
+        global: initial.clone(),
+        groups: Vec::new(),
+        points: Vec::new(),
+    };
+    let solution = solve(&problem, state, &solver_options, observer);
+    let InstrumentProblem { model, rows, prior } = problem;
+    let global = solution.state.global;
+    let values = model.values(&global);
+    let leg_residuals = (0..tracker.poses.len())
+        .map(|j| {
+            rows.pose(&model, &values, j)
+                .map(|b| std::array::from_fn(|i| b.residual[i]))
+        })
+        .collect::<Result<_, _>>()?;
+    let point_residuals = (0..tracker.points.len())
+        .map(|j| rows.point(&model, &values, j).map(|r| r.block.residual))
+        .collect::<Result<_, _>>()?;
+    Ok(InstrumentRun {
+        options: options.clone(),
+        design,
+        residual_rows: rows.len(),
+        model,
+        initial,
+        global,
+        prior,
+        covariance: solution.covariance,
+        status: solution.status,
+        history: solution.history,
+        spectrum: solution.spectrum,
+        leg_residuals,
+        point_residuals,
+        unit: machine.actuator.unit.clone(),
+    })
+}
+
+/// The groups the data determines: the scales when machine.json gives
+/// their sigmas; one instrument frame per session; the body frame when
+/// there are poses; for every later session with poses a body origin, and
+/// for every later session leg offsets, when the session model has them.
+fn layout(dataset: &Dataset) -> ParameterLayout {
+    let machine = &dataset.machine;
+    let tracker = &dataset.tracker;
+    let model = &machine.session_model;
+    let with_poses = |session: usize| tracker.poses.session.iter().any(|&s| s as usize == session);
+    let mut groups = Vec::new();
+    if machine.actuator.scale_sigma.is_some() {
+        groups.push(ParameterGroup::ActuatorScales);
+    }
+    for session in 0..tracker.sessions.len() {
+        groups.push(ParameterGroup::TrackerFrame { session });
+    }
+    if !tracker.poses.is_empty() {
+        groups.push(ParameterGroup::BodyFrame);
+    }
+    for session in 1..tracker.sessions.len() {
+        if model.body_origin_sigma.is_some() && with_poses(session) {
+            groups.push(ParameterGroup::BodyOrigin { session });
+        }
+        if model.leg_offset_sigma.is_some() {
+            groups.push(ParameterGroup::LegOffsets { session });
+        }
+    }
+    ParameterLayout::with_groups(groups)
+}
+
+/// The design's parameters and scales, every correction and offset zero.
+fn initial_block(layout: &ParameterLayout, design: &parcal_kinematics::Params, scales: &[f64; 6]) -> DVector<f64> {
+    let mut g = DVector::zeros(layout.size());
+    g.rows_mut(0, N_PARAMS).copy_from(design);
+    if let Some(r) = layout.range(ParameterGroup::ActuatorScales) {
+        g.rows_mut(r.start, 6).copy_from_slice(scales);
+    }
+    g
+}
+
+/// The prior on the global block: the kinematic prior of the options'
+/// mode, the scales about their design values (machine.json's
+/// `scale_sigma`), the later sessions' body origins and leg offsets about
+/// zero (`session_model`); none on the frames. `PriorMode::None`: no prior.
+fn prior(
+    dataset: &Dataset,
+    design: &Geometry,
+    design_params: &parcal_kinematics::Params,
+    layout: &ParameterLayout,
+    options: &CalibrationOptions,
+) -> Result<Option<GaussianPrior<Dyn>>, CalibrateError> {
+    let Some(kinematic) = kinematic_prior(dataset, design, design_params, options.prior)? else {
+        return Ok(None);
+    };
+    let n = layout.size();
+    let mut mean = DVector::zeros(n);
+    let mut information = DMatrix::zeros(n, n);
+    mean.rows_mut(0, N_PARAMS).copy_from(kinematic.mean());
+    information
+        .view_mut((0, 0), (N_PARAMS, N_PARAMS))
+        .copy_from(&kinematic.information());
+    let machine = &dataset.machine;
+    let mut diagonal = |start: usize, means: &[f64], sigmas: &[f64]| {
+        for (k, (m, s)) in means.iter().zip(sigmas).enumerate() {
+            mean[start + k] = *m;
+            information[(start + k, start + k)] = 1.0 / (s * s);
+        }
+    };
+    for (group, range) in layout.groups() {
+        match *group {
+            ParameterGroup::ActuatorScales => {
+                let sigmas = machine.actuator.scale_sigma.unwrap_or([f64::INFINITY; 6]);
+                diagonal(range.start, &machine.actuator.scale, &sigmas);
+            }
+            ParameterGroup::BodyOrigin { .. } => {
+                let sigma = machine.session_model.body_origin_sigma.unwrap_or(f64::INFINITY);
+                diagonal(range.start, &[0.0; 3], &[sigma; 3]);
+            }
+            ParameterGroup::LegOffsets { .. } => {
+                let sigma = machine.session_model.leg_offset_sigma.unwrap_or(f64::INFINITY);
+                diagonal(range.start, &[0.0; 6], &[sigma; 6]);
+            }
+            _ => {}
+        }
+    }
+    Ok(Some(GaussianPrior::new(mean, information)))
+}
+
+impl InstrumentRun {
+    /// Whether the solver converged.
+    pub fn converged(&self) -> bool {
+        matches!(self.status, Status::Converged)
+    }
+
+    /// The model at the identified state.
+    pub fn values(&self) -> ModelValues {
+        self.model.values(&self.global)
+    }
+
+    /// The names of the global block's parameters.
+    pub fn names(&self) -> Vec<String> {
+        self.model.layout.names(&[], &self.model.sessions)
+    }
+
+    /// Marginal posterior sigmas of the global block.
+    pub fn sigmas(&self) -> Option<DVector<f64>> {
+        self.covariance
+            .as_ref()
+            .map(|c| c.diagonal().map(f64::sqrt))
+    }
+
+    /// Each parameter's prior sigma (infinite without a prior on it).
+    pub fn prior_sigmas(&self) -> DVector<f64> {
+        let n = self.global.len();
+        match &self.prior {
+            // The prior's information is block-diagonal by group; the
+            // kinematic block is full: its marginal sigmas are those of
+            // its inverse.
+            Some(prior) => {
+                let mut sigmas = DVector::from_element(n, f64::INFINITY);
+                let kinematic = prior
+                    .information
+                    .view((0, 0), (N_PARAMS, N_PARAMS))
+                    .into_owned();
+                if let Some(covariance) = kinematic.try_inverse() {
+                    for k in 0..N_PARAMS {
+                        sigmas[k] = covariance[(k, k)].sqrt();
+                    }
+                }
+                for k in N_PARAMS..n {
+                    let information = prior.information[(k, k)];
+                    if information > 0.0 {
+                        sigmas[k] = information.sqrt().recip();
+                    }
+                }
+                sigmas
+            }
+            None => DVector::from_element(n, f64::INFINITY),
+        }
+    }
+
+    /// RMS of the whitened residuals at the final iterate (1 at the noise
+    /// level).
+    pub fn residual_rms(&self) -> f64 {
+        self.history.last().map_or(f64::NAN, |r| {
+            (r.global_observation_cost / self.residual_rows as f64).sqrt()
+        })
+    }
+
+    /// RMS of the poses' leg-length residuals (mm), or `None` without
+    /// poses.
+    pub fn leg_rms(&self) -> Option<f64> {
+        rms(self.leg_residuals.iter().flatten().copied())
+    }
+
+    /// RMS of the points' residual coordinates (mm), or `None` without
+    /// points.
+    pub fn point_rms(&self) -> Option<f64> {
+        rms(self.point_residuals.iter().flat_map(|p| p.iter().copied()))
+    }
+
+    /// The calibration.json record of this run, with `status`, the
+    /// sentence of its status.
+    pub fn record(&self, status: String) -> Calibration {
+        let values = self.values();
+        let sigma = self
+            .sigmas()
+            .unwrap_or_else(|| DVector::zeros(self.global.len()));
+        let covariance = self
+            .covariance
+            .as_ref()
+            .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
+            .unwrap_or_default();
+        let iterations = self
+            .history
+            .iter()
+            .map(|r| IterationSummary {
+                cost: r.cost,
+                step_norm: r.step_norm,
+                residual_rms: (r.global_observation_cost / self.residual_rows as f64).sqrt(),
+            })
+            .collect();
+        let method = match self.options.method {
+            Method::GaussNewton => "gauss-newton",
+            Method::LevenbergMarquardt { .. } => "levenberg-marquardt",
+        };
+        let options = BTreeMap::from([
+            ("observation".to_string(), "instruments".into()),
+            ("method".to_string(), method.into()),
+        ]);
+        let scale_sigma = self
+            .model
+            .layout
+            .range(ParameterGroup::ActuatorScales)
+            .map(|r| std::array::from_fn(|i| sigma[r.start + i]));
+        Calibration {
+            canonical: record(&values.geometry),
+            parameters: ParameterTable {
+                names: self.names(),
+                values: self.global.iter().copied().collect(),
+                sigma: sigma.iter().copied().collect(),
+            },
+            covariance,
+            ball_centres: BTreeMap::new(),
+            prior: self.options.prior.to_string(),
+            iterations,
+            converged: self.converged(),
+            status,
+            options,
+            machine: Some(CalibratedMachine {
+                geometry: record(&self.machine_in_first_session(&values)),
+                actuator: Actuator {
+                    unit: self.unit.clone(),
+                    scale: values.scales,
+                    scale_sigma,
+                },
+            }),
+            sessions: (0..self.model.sessions.len())
+                .map(|k| SessionRecord {
+                    label: self.model.sessions[k].clone(),
+                    tracker_frame: frame(&self.model.tracker_frame(&values, k)),
+                    body_frame: frame(&self.model.body_frame(&values, k)),
+                    leg_offsets: values.offsets[k],
+                })
+                .collect(),
+        }
+    }
+
+    /// The identified geometry in the first session's frames: base joints
+    /// in its instrument frame, platform joints and tool in its body frame.
+    pub fn machine_in_first_session(&self, values: &ModelValues) -> Geometry {
+        let (f, b) = (
+            self.model.tracker_frame(values, 0),
+            self.model.body_frame(values, 0).inverse(),
+        );
+        let g = &values.geometry;
+        let moved = |frame: &Isometry3<f64>, p: &Vec3| frame.transform_point(&(*p).into()).coords;
+        Geometry {
+            base: g.base.map(|p| moved(&f, &p)),
+            platform: g.platform.map(|p| moved(&b, &p)),
+            tool: moved(&b, &g.tool),
+            legs: g.legs,
+        }
+    }
+}
+
+fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (n, sum) = values.fold((0usize, 0.0), |(n, s), v| (n + 1, s + v * v));
+    (n > 0).then(|| (sum / n as f64).sqrt())
+}
+
+fn record(g: &Geometry) -> GeometryRecord {
+    GeometryRecord {
+        base_joints: g.base.map(Into::into),
+        platform_joints: g.platform.map(Into::into),
+        tool: g.tool.into(),
+        leg_lengths: g.legs,
+    }
+}
+
+fn frame(isometry: &Isometry3<f64>) -> FrameRecord {
+    let q = isometry.rotation.coords;
+    FrameRecord {
+        translation: isometry.translation.vector.into(),
+        rotation: [q.x, q.y, q.z, q.w],
+    }
+}

@@ -1,0 +1,101 @@
+//! An instrument calibration (measured poses and points) in sentences and
+//! tables.
+
+use std::fmt::Write;
+
+use parcal_calibrate::instruments::InstrumentRun;
+use parcal_dataset::Calibration;
+
+use crate::sentences::solver_status;
+
+/// Posterior over prior sigma below which the data determine a parameter.
+const DATA_DETERMINED: f64 = 0.5;
+/// Posterior over prior sigma above which the prior alone does.
+const PRIOR_DETERMINED: f64 = 0.9;
+
+/// The status in one sentence.
+pub fn status(run: &InstrumentRun) -> String {
+    // An instrument calibration has no group and no point block.
+    let none = |_: usize| String::new();
+    solver_status(&run.status, &run.names(), none, none)
+}
+
+/// The calibration.json record of `run`, its status in words.
+pub fn record(run: &InstrumentRun) -> Calibration {
+    run.record(status(run))
+}
+
+/// What determined a parameter, from its posterior and prior sigmas: `data`
+/// (the posterior sigma under half the prior's), `prior` (over 0.9 of it)
+/// or `data and prior`.
+pub fn determined_by(posterior: f64, prior: f64) -> &'static str {
+    let ratio = posterior / prior;
+    if ratio < DATA_DETERMINED {
+        "data"
+    } else if ratio > PRIOR_DETERMINED {
+        "prior"
+    } else {
+        "data and prior"
+    }
+}
+
+/// The run's summary: rows, residuals, iterations, status.
+pub fn summary(run: &InstrumentRun) -> String {
+    let tracker_rows = run.leg_residuals.len();
+    let points = run.point_residuals.len();
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{} sessions, {tracker_rows} poses, {points} points; {} unknowns",
+        run.model.sessions.len(),
+        run.global.len()
+    );
+    if let Some(rms) = run.leg_rms() {
+        let _ = writeln!(out, "pose residual (leg length): RMS {rms:.4} mm");
+    }
+    if let Some(rms) = run.point_rms() {
+        let _ = writeln!(out, "point residual (per coordinate): RMS {rms:.4} mm");
+    }
+    let _ = writeln!(
+        out,
+        "whitened residual RMS {:.3} (1 when the repeatabilities of machine.json are right)",
+        run.residual_rms()
+    );
+    let _ = writeln!(
+        out,
+        "{} after {} iterations",
+        status(run),
+        run.history.len().saturating_sub(1)
+    );
+    out
+}
+
+/// Parameter, initial and identified value, posterior and prior sigma, and
+/// what determined it ([`determined_by`]). Frame parameters are the
+/// corrections of the frames (rad, mm); calibration.json's `sessions` has
+/// the frames themselves.
+pub fn parameters(run: &InstrumentRun) -> String {
+    let sigmas = run.sigmas();
+    let prior = run.prior_sigmas();
+    let mut out = String::from(
+        "| parameter | initial | identified | sigma | prior sigma | determined by |\n|---|---:|---:|---:|---:|---|\n",
+    );
+    for (k, name) in run.names().iter().enumerate() {
+        let sigma = sigmas.as_ref().map(|s| s[k]);
+        let prior_sigma = prior[k];
+        let _ = writeln!(
+            out,
+            "| {name} | {:.4} | {:.4} | {} | {} | {} |",
+            run.initial[k],
+            run.global[k],
+            sigma.map_or("-".to_string(), |s| format!("{s:.4}")),
+            if prior_sigma.is_finite() {
+                format!("{prior_sigma:.4}")
+            } else {
+                "none".to_string()
+            },
+            sigma.map_or("-", |s| determined_by(s, prior_sigma))
+        );
+    }
+    out
+}
