@@ -20,8 +20,8 @@ mod scenario;
 
 use nalgebra::{Matrix6, Translation3, UnitQuaternion};
 use parcal_dataset::{
-    Actuator, Artefacts, Dataset, FrameRecord, Machine, Measurements, Repeatability,
-    SessionModel, SessionRecord, Tracker, Truth,
+    Actuator, Artefacts, Dataset, FrameRecord, Machine, Measurements, Repeatability, SessionModel,
+    SessionRecord, Tracker, Truth,
 };
 use parcal_kinematics::closure::Legs;
 use parcal_kinematics::{ForwardOptions, Geometry, Pose, Vec3, forward_from_home, rotation_zyx};
@@ -64,10 +64,13 @@ struct Row {
     tilt: f64,
 }
 
-/// The true nuisance of one session, as poses are transformed.
+/// The true nuisance of one session.
 struct Nuisance {
+    /// `F_k`: base frame to instrument frame.
     tracker: Pose,
+    /// `B_k`: body frame to platform frame.
     body: Pose,
+    /// `o_k` (mm).
     leg_offsets: [f64; 6],
 }
 
@@ -89,7 +92,11 @@ pub fn simulate_tracker(
     // The first failing session in order, whatever the threads' timing.
     let sessions: Vec<Session> = sessions.into_iter().collect::<Result<_, _>>()?;
 
-    let rows = || sessions.iter().flat_map(|s| s.poses.iter().chain(&s.points));
+    let rows = || {
+        sessions
+            .iter()
+            .flat_map(|s| s.poses.iter().chain(&s.points))
+    };
     let range = |values: &mut dyn Iterator<Item = f64>| {
         values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
@@ -156,8 +163,14 @@ fn check(s: &TrackerScenario) -> Result<(), SimulateError> {
         ("actuator", s.actuator_sigma),
         ("position", s.position_sigma),
         ("orientation", s.orientation_sigma),
-        ("leg offset", s.session_model.leg_offset_sigma.unwrap_or(0.0)),
-        ("body origin", s.session_model.body_origin_sigma.unwrap_or(0.0)),
+        (
+            "leg offset",
+            s.session_model.leg_offset_sigma.unwrap_or(0.0),
+        ),
+        (
+            "body origin",
+            s.session_model.body_origin_sigma.unwrap_or(0.0),
+        ),
     ];
     if let Some((name, sigma)) = sigmas.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
         return bad(format!(
@@ -171,15 +184,16 @@ fn check(s: &TrackerScenario) -> Result<(), SimulateError> {
             s.true_scale[i]
         ));
     }
-    let [low, high] = s.workspace.height;
     let ordered = |[a, b]: [f64; 2]| a.is_finite() && b.is_finite() && a <= b;
-    if !(ordered([low, high]) && ordered(s.stroke))
-        || !(s.workspace.half_width.is_finite() && s.workspace.half_width >= 0.0)
-        || !(s.max_tilt.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&s.max_tilt))
-    {
+    let w = &s.workspace;
+    let ranges = ordered(w.height)
+        && ordered(s.stroke)
+        && ordered([0.0, w.half_width])
+        && (0.0..std::f64::consts::FRAC_PI_2).contains(&s.max_tilt);
+    if !ranges {
         return bad(format!(
             "workspace (half width {}, height {:?}), stroke {:?} or tilt {} rad out of range",
-            s.workspace.half_width, s.workspace.height, s.stroke, s.max_tilt
+            w.half_width, w.height, s.stroke, s.max_tilt
         ));
     }
     Ok(())

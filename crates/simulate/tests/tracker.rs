@@ -43,7 +43,11 @@ impl Model {
                 &g.leg_lengths,
             ),
             scale: truth.actuator_scale.unwrap(),
-            tracker: truth.sessions.iter().map(|s| pose(&s.tracker_frame)).collect(),
+            tracker: truth
+                .sessions
+                .iter()
+                .map(|s| pose(&s.tracker_frame))
+                .collect(),
             body: truth.sessions.iter().map(|s| pose(&s.body_frame)).collect(),
             offsets: truth.sessions.iter().map(|s| s.leg_offsets).collect(),
         }
@@ -112,10 +116,14 @@ fn noiseless_readings_are_the_true_inverse_kinematics() {
         let measured = measured_pose(&poses.position[row], &poses.orientation[row]);
         let platform = model.platform(k, &measured);
         let q = model.readings(k, &platform);
-        for i in 0..6 {
-            assert!((q[i] - poses.q[row][i]).abs() < 1e-9, "pose {row}, q{}", i + 1);
-            let extension = model.scale[i] * q[i];
-            assert!((low..=high).contains(&extension), "pose {row}, leg {}", i + 1);
+        for (i, (q, written)) in q.iter().zip(&poses.q[row]).enumerate() {
+            assert!((q - written).abs() < 1e-9, "pose {row}, q{}", i + 1);
+            let extension = model.scale[i] * q;
+            assert!(
+                (low..=high).contains(&extension),
+                "pose {row}, leg {}",
+                i + 1
+            );
         }
         let t = platform.translation.vector;
         let w = &scenario.workspace;
@@ -171,14 +179,17 @@ fn the_noise_has_the_size_of_the_repeatability() {
         let weights = DMatrix::from_diagonal(&DVector::from_fn(6, |j, _| {
             if j < 3 { s_p * s_p } else { s_o * s_o }
         }));
-        let covariance = DMatrix::identity(6, 6) * (s_q * s_q)
-            + &jacobian * weights * jacobian.transpose();
+        let covariance =
+            DMatrix::identity(6, 6) * (s_q * s_q) + &jacobian * weights * jacobian.transpose();
         let residual = DVector::from_row_slice(&poses.q[row]) - readings(&Vector6::zeros());
         let whitened = covariance.cholesky().unwrap().solve(&residual);
         sum += residual.dot(&whitened);
     }
     let mean = sum / (6.0 * poses.len() as f64);
-    assert!((mean - 1.0).abs() < 5.0 * 0.047, "mean chi-square / dof {mean}");
+    assert!(
+        (mean - 1.0).abs() < 5.0 * 0.047,
+        "mean chi-square / dof {mean}"
+    );
 }
 
 #[test]
@@ -208,7 +219,12 @@ fn sessions_carry_their_truth() {
             assert_eq!(session.leg_offsets, [0.0; 6]);
             assert!(moved < 1e-12);
         } else {
-            assert!(session.leg_offsets.iter().all(|o| *o != 0.0 && o.abs() < 6.0));
+            assert!(
+                session
+                    .leg_offsets
+                    .iter()
+                    .all(|o| *o != 0.0 && o.abs() < 6.0)
+            );
             assert!(moved > 0.0 && moved < 3.0 * 6.0 * 0.5);
         }
     }
@@ -225,7 +241,12 @@ fn points_only_sessions_have_no_body_frame() {
     assert_eq!(dataset.tracker.points.len(), 150);
     assert_eq!(dataset.machine.repeatability.orientation, None);
     let truth = dataset.truth.unwrap();
-    assert!(truth.sessions.iter().all(|s| s.body_frame == FrameRecord::IDENTITY));
+    assert!(
+        truth
+            .sessions
+            .iter()
+            .all(|s| s.body_frame == FrameRecord::IDENTITY)
+    );
 }
 
 #[test]

@@ -75,6 +75,10 @@ pub struct FrameSpread {
 ///   + t_F`), either the platform body frame `M = F_k T B_k` (`B_k`:
 ///   `x_platform = R_B x_body + t_B`) or the tool tip `F_k (T E_T)`, for the
 ///   platform pose `T` (`x_base = R x_platform + t`).
+///
+/// A zero noise sigma draws no noise; such a dataset serves tests in
+/// memory, but cannot be written (machine.json wants positive
+/// repeatabilities).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackerScenario {
     /// Nominal geometry, design frame (written to machine.json).
