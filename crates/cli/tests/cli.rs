@@ -142,6 +142,68 @@ fn simulate_refuses_a_bad_plate() {
 }
 
 #[test]
+fn simulate_writes_instrument_sessions() {
+    let temp = tempfile::tempdir().unwrap();
+    let output = simulate(
+        temp.path(),
+        &[
+            "--tracker",
+            "poses",
+            "--sessions",
+            "2",
+            "--rows",
+            "12",
+            "--rehome",
+            "0.5",
+            "--position-sigma",
+            "0.02",
+            "--orientation-sigma",
+            "0.0002",
+        ],
+    );
+    let stdout = text(&output.stdout);
+    assert!(stdout.contains("sessions           2"), "{stdout}");
+    assert!(
+        stdout.contains("poses              24 (12 per session)"),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("points "), "{stdout}");
+    assert!(!temp.path().join("points.csv").exists());
+    let dataset = parcal_dataset::Dataset::read(temp.path()).unwrap();
+    assert_eq!(dataset.tracker.sessions, ["1", "2"]);
+    assert_eq!(dataset.tracker.poses.len(), 24);
+    assert_eq!(dataset.machine.session_model.leg_offset_sigma, Some(0.5));
+    let r = dataset.machine.repeatability;
+    assert_eq!((r.position, r.orientation), (Some(0.02), Some(0.0002)));
+    assert_eq!(dataset.truth.unwrap().sessions.len(), 2);
+
+    let out = temp.path().join("x");
+    let out = out.to_str().unwrap();
+    for (args, expected) in [
+        (
+            &["--tracker", "both", "--balls", "3"][..],
+            "cannot be used with",
+        ),
+        (&["--sessions", "2"][..], "--tracker"),
+        (
+            &["--tracker", "points", "--rows", "0"][..],
+            "--rows must be at least 1",
+        ),
+        (
+            &["--tracker", "poses", "--position-sigma", "0"][..],
+            "--position-sigma must be positive",
+        ),
+    ] {
+        let mut all = vec!["simulate", "--out", out];
+        all.extend_from_slice(args);
+        let output = parcal(&all);
+        assert!(!output.status.success(), "{args:?}");
+        let stderr = text(&output.stderr);
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
 fn inspect_reads_the_reference_dataset() {
     let reference =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1");

@@ -40,12 +40,18 @@ pub struct Summary {
     pub balls: usize,
     /// Number of contacts (measurement rows).
     pub contacts: usize,
-    /// Smallest and largest leg length `l_i + q_i` (mm).
+    /// Number of instrument sessions.
+    pub sessions: usize,
+    /// Number of rows of poses.csv.
+    pub poses: usize,
+    /// Number of rows of points.csv.
+    pub points: usize,
+    /// Smallest and largest true leg length (mm).
     pub leg_length_range: (f64, f64),
     /// Smallest and largest platform tilt (rad).
     pub tilt_range: (f64, f64),
     /// Largest Mahalanobis distance of a forward-kinematics tip from its
-    /// simulated contact point (in units of the noise).
+    /// simulated contact point (in units of the noise); 0 without contacts.
     pub worst_check: f64,
 }
 
@@ -93,6 +99,9 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
     let summary = Summary {
         balls: count,
         contacts: contacts.len(),
+        sessions: 0,
+        poses: 0,
+        points: 0,
         leg_length_range: range(&mut contacts.iter().flat_map(|c| c.legs)),
         tilt_range: range(&mut contacts.iter().map(|c| c.tilt)),
         worst_check: contacts.iter().map(|c| c.check).fold(0.0, f64::max),
@@ -164,7 +173,7 @@ fn machine(scenario: &Scenario) -> Machine {
 }
 
 /// A geometry as the dataset files hold it.
-fn record(geometry: &Geometry) -> GeometryRecord {
+pub(crate) fn record(geometry: &Geometry) -> GeometryRecord {
     GeometryRecord {
         base_joints: geometry.base.map(Into::into),
         platform_joints: geometry.platform.map(Into::into),

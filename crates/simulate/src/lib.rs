@@ -1,6 +1,8 @@
-//! Simulated artefact-calibration campaigns: the paper scenario of Sato et
-//! al. (2004) and scaled variants, written as parcal datasets with their
-//! truth (spec: paper-scenario.md section 3).
+//! Simulated calibration campaigns written as parcal datasets with their
+//! truth: artefact campaigns (the paper scenario of Sato et al. 2004 and
+//! scaled variants, spec: paper-scenario.md section 3) and instrument
+//! campaigns (platform poses or tool points seen by a laser tracker or
+//! motion capture, in sessions: [`simulate_tracker`]).
 //!
 //! ```
 //! use parcal_simulate::{Scenario, simulate};
@@ -10,16 +12,28 @@
 //! assert!(simulation.summary.worst_check < 8.0); // FK puts every tip back on its ball
 //! # Ok::<(), parcal_simulate::SimulateError>(())
 //! ```
+//!
+//! ```
+//! use parcal_simulate::{TrackerScenario, simulate_tracker};
+//!
+//! let simulation = simulate_tracker(&TrackerScenario::paper_like(), 1)?;
+//! let tracker = &simulation.dataset.tracker;
+//! assert_eq!(tracker.sessions, ["1", "2", "3"]);
+//! assert_eq!((tracker.poses.len(), tracker.points.len()), (150, 150));
+//! # Ok::<(), parcal_simulate::SimulateError>(())
+//! ```
 
 mod campaign;
 mod plate;
 mod rng;
 mod scenario;
+mod tracker;
 
 pub use campaign::{Simulation, Summary, ball_id, simulate};
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
 pub use scenario::Scenario;
+pub use tracker::{FrameSpread, TrackerKind, TrackerScenario, Workspace, simulate_tracker};
 
 /// Why a simulation failed.
 #[derive(Debug, thiserror::Error)]
@@ -37,4 +51,19 @@ pub enum SimulateError {
     /// The ball plate asked for cannot be made.
     #[error("ball plate: {0}")]
     Plate(String),
+    /// An instrument scenario's counts, ranges or sigmas make no sense.
+    #[error("instrument scenario: {0}")]
+    Scenario(String),
+    /// A row of an instrument campaign could not be simulated.
+    #[error("session {session}, {file} row {row}: {reason}")]
+    Row {
+        /// The session (1-based).
+        session: usize,
+        /// `poses` or `points`.
+        file: &'static str,
+        /// The row of that file in that session (1-based).
+        row: usize,
+        /// Why.
+        reason: String,
+    },
 }

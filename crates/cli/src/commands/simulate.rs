@@ -1,10 +1,15 @@
-//! `parcal simulate`: write a simulated campaign as a dataset.
+//! `parcal simulate`: write a simulated campaign as a dataset: ball
+//! touches (the paper scenario and scaled variants) or, with `--tracker`,
+//! instrument measurements in sessions.
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
+use parcal_simulate::{
+    Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, simulate,
+    simulate_tracker,
+};
 
 use super::SNAPSHOT_FILE;
 
@@ -18,20 +23,51 @@ pub struct Args {
     out: PathBuf,
     /// Number of balls on a regular grid filling x, y in [-80, 80], z in [340, 460]
     /// (default: the paper's 27 balls at x, y in {-60, 0, 60}, z in {360, 400, 440}).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "tracker")]
     balls: Option<usize>,
     /// Contacts per ball.
-    #[arg(long, default_value_t = 7)]
+    #[arg(long, default_value_t = 7, conflicts_with = "tracker")]
     points_per_ball: usize,
-    /// Largest |yaw|, |pitch|, |roll| of the platform at a contact, degrees.
+    /// Largest |yaw|, |pitch|, |roll| of the platform at a contact or a
+    /// tracked pose, degrees.
     #[arg(long, default_value_t = 10.0)]
     tilt: f64,
+    /// Simulate instrument measurements instead of ball touches: platform body
+    /// poses (poses.csv), tool points (points.csv) or both, in sessions, each
+    /// in its own instrument frame; readings with true actuator scales.
+    #[arg(long, value_enum)]
+    tracker: Option<Kind>,
+    /// The tracked machine: the paper's (readings in mm, a laser tracker) or
+    /// one in the spirit of Jugglebot (readings in motor revolutions, motion
+    /// capture, legs re-homed by 2 mm between sessions).
+    #[arg(long, value_enum, default_value_t = TrackedMachine::Paper, requires = "tracker")]
+    machine: TrackedMachine,
+    /// Number of measuring sessions (default: 3).
+    #[arg(long, requires = "tracker")]
+    sessions: Option<usize>,
+    /// Rows of each file per session (default: 50 for the paper's machine,
+    /// 108 for Jugglebot's).
+    #[arg(long, requires = "tracker")]
+    rows: Option<usize>,
+    /// Re-homing between sessions: each leg's zero offset in sessions 2, 3,
+    /// ... is drawn with this sigma, mm, and machine.json's
+    /// session_model.leg_offset_sigma says so (0: no re-homing).
+    #[arg(long, value_name = "MM", requires = "tracker")]
+    rehome: Option<f64>,
+    /// The instrument's position noise, 1 sigma per axis, mm (default: 0.01
+    /// for the paper's machine, 0.3 for Jugglebot's).
+    #[arg(long, value_name = "MM", requires = "tracker")]
+    position_sigma: Option<f64>,
+    /// The instrument's orientation noise, 1 sigma per axis, rad (default:
+    /// 1e-4 for the paper's machine, 1e-3 for Jugglebot's).
+    #[arg(long, value_name = "RAD", requires = "tracker")]
+    orientation_sigma: Option<f64>,
     /// Also write a calibrated ball plate as the distances of artefacts.json:
     /// `all` pairs of balls (n (n - 1) / 2 distances for n balls), or a number
     /// of distinct pairs drawn at random.
     /// Each distance is the true one plus an error of --plate-sigma; the
     /// contacts are the same as without a plate.
-    #[arg(long, value_name = "all|PAIRS", value_parser = parse_pairs)]
+    #[arg(long, value_name = "all|PAIRS", value_parser = parse_pairs, conflicts_with = "tracker")]
     plate: Option<PlatePairs>,
     /// Error of each calibrated distance of the plate (1 sigma), micrometres.
     #[arg(long, value_name = "UM", default_value_t = 1.0, requires = "plate")]
@@ -42,15 +78,38 @@ pub struct Args {
     binary: bool,
 }
 
+/// `--tracker`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Kind {
+    Poses,
+    Points,
+    Both,
+}
+
+/// `--machine`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum TrackedMachine {
+    Paper,
+    Jugglebot,
+}
+
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        args.points_per_ball > 0,
-        "--points-per-ball must be at least 1"
-    );
     anyhow::ensure!(
         args.tilt.is_finite() && (0.0..90.0).contains(&args.tilt),
         "--tilt must be in [0, 90) degrees, got {}",
         args.tilt
+    );
+    match args.tracker {
+        Some(kind) => run_tracker(args, kind),
+        None => run_touches(args),
+    }
+}
+
+/// A campaign of ball touches.
+fn run_touches(args: &Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.points_per_ball > 0,
+        "--points-per-ball must be at least 1"
     );
     anyhow::ensure!(
         args.plate_sigma.is_finite() && args.plate_sigma > 0.0,
@@ -71,25 +130,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         sigma: args.plate_sigma * 1e-3,
     });
     let simulation = simulate(&scenario, args.seed).context("simulation failed")?;
-    simulation
-        .dataset
-        .write(&args.out)
-        .with_context(|| format!("cannot write the dataset to {}", args.out.display()))?;
-    if args.binary {
-        let path = args.out.join(SNAPSHOT_FILE);
-        simulation
-            .dataset
-            .write_snapshot(&path)
-            .with_context(|| format!("cannot write the snapshot {}", path.display()))?;
-    }
+    write_dataset(args, &simulation)?;
     let s = &simulation.summary;
     let mut stdout = std::io::stdout().lock();
-    writeln!(
-        stdout,
-        "simulated dataset written to {}",
-        args.out.display()
-    )?;
-    writeln!(stdout, "  seed               {}", args.seed)?;
     writeln!(stdout, "  balls              {}", s.balls)?;
     writeln!(
         stdout,
@@ -104,6 +147,130 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.plate_sigma
         )?;
     }
+    write_ranges(&mut stdout, &simulation)?;
+    writeln!(
+        stdout,
+        "  FK check           every contact's tip back on its ball, worst {:.2} sigma of the noise",
+        s.worst_check
+    )?;
+    Ok(())
+}
+
+/// A campaign of instrument measurements.
+fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
+    let mut scenario = match args.machine {
+        TrackedMachine::Paper => TrackerScenario::paper_like(),
+        TrackedMachine::Jugglebot => TrackerScenario::jugglebot_like(),
+    };
+    scenario.kind = match kind {
+        Kind::Poses => TrackerKind::Poses,
+        Kind::Points => TrackerKind::Points,
+        Kind::Both => TrackerKind::Both,
+    };
+    scenario.max_tilt = args.tilt.to_radians();
+    if let Some(sessions) = args.sessions {
+        anyhow::ensure!(sessions > 0, "--sessions must be at least 1");
+        scenario.sessions = sessions;
+    }
+    if let Some(rows) = args.rows {
+        anyhow::ensure!(rows > 0, "--rows must be at least 1");
+        scenario.rows_per_session = rows;
+    }
+    if let Some(sigma) = args.rehome {
+        anyhow::ensure!(
+            sigma.is_finite() && sigma >= 0.0,
+            "--rehome must be a sigma in mm (0: none), got {sigma}"
+        );
+        scenario.session_model.leg_offset_sigma = (sigma > 0.0).then_some(sigma);
+    }
+    for (option, value, field) in [
+        (
+            "--position-sigma",
+            args.position_sigma,
+            &mut scenario.position_sigma,
+        ),
+        (
+            "--orientation-sigma",
+            args.orientation_sigma,
+            &mut scenario.orientation_sigma,
+        ),
+    ] {
+        if let Some(value) = value {
+            anyhow::ensure!(
+                value.is_finite() && value > 0.0,
+                "{option} must be positive, got {value}"
+            );
+            *field = value;
+        }
+    }
+    let simulation = simulate_tracker(&scenario, args.seed).context("simulation failed")?;
+    write_dataset(args, &simulation)?;
+    let s = &simulation.summary;
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "  sessions           {}", s.sessions)?;
+    for (name, rows) in [("poses", s.poses), ("points", s.points)] {
+        if rows > 0 {
+            writeln!(
+                stdout,
+                "  {name:<19}{rows} ({} per session)",
+                scenario.rows_per_session
+            )?;
+        }
+    }
+    writeln!(
+        stdout,
+        "  readings           unit {}, true scales within {:.2e} of the design",
+        scenario.unit,
+        (0..6)
+            .map(|i| (scenario.true_scale[i] / scenario.design_scale[i] - 1.0).abs())
+            .fold(0.0, f64::max)
+    )?;
+    write!(
+        stdout,
+        "  noise              actuators {} {}, position {} mm",
+        scenario.actuator_sigma, scenario.unit, scenario.position_sigma,
+    )?;
+    if scenario.kind.poses() {
+        write!(stdout, ", orientation {} rad", scenario.orientation_sigma)?;
+    }
+    writeln!(stdout)?;
+    if let Some(sigma) = scenario.session_model.leg_offset_sigma {
+        writeln!(
+            stdout,
+            "  re-homing          leg offsets of sigma {sigma} mm"
+        )?;
+    }
+    write_ranges(&mut stdout, &simulation)?;
+    Ok(())
+}
+
+/// Writes the dataset (and the snapshot with `--binary`), then the summary's
+/// first lines.
+fn write_dataset(args: &Args, simulation: &Simulation) -> anyhow::Result<()> {
+    simulation
+        .dataset
+        .write(&args.out)
+        .with_context(|| format!("cannot write the dataset to {}", args.out.display()))?;
+    if args.binary {
+        let path = args.out.join(SNAPSHOT_FILE);
+        simulation
+            .dataset
+            .write_snapshot(&path)
+            .with_context(|| format!("cannot write the snapshot {}", path.display()))?;
+    }
+    let mut stdout = std::io::stdout().lock();
+    writeln!(
+        stdout,
+        "simulated dataset written to {}",
+        args.out.display()
+    )?;
+    writeln!(stdout, "  seed               {}", args.seed)?;
+    Ok(())
+}
+
+/// The summary's leg length and tilt ranges.
+fn write_ranges(stdout: &mut impl Write, simulation: &Simulation) -> anyhow::Result<()> {
+    let s = &simulation.summary;
     writeln!(
         stdout,
         "  leg lengths        {:.3} .. {:.3} mm",
@@ -114,11 +281,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "  platform tilt      {:.2} .. {:.2} deg",
         s.tilt_range.0.to_degrees(),
         s.tilt_range.1.to_degrees()
-    )?;
-    writeln!(
-        stdout,
-        "  FK check           every contact's tip back on its ball, worst {:.2} sigma of the noise",
-        s.worst_check
     )?;
     Ok(())
 }
