@@ -106,6 +106,11 @@ pub enum CalibrateError {
         /// Why.
         reason: String,
     },
+    /// A calibration cannot be applied to a dataset (validation).
+    Calibration {
+        /// Why.
+        reason: String,
+    },
     /// The dataset has both ball touches and instrument measurements, which
     /// one calibration does not combine yet.
     MixedData,
@@ -250,6 +255,9 @@ impl fmt::Display for CalibrateError {
                 f,
                 "session {session:?}: no initial instrument frame: {reason}"
             ),
+            Self::Calibration { reason } => {
+                write!(f, "the calibration cannot be applied: {reason}")
+            }
             Self::MixedData => f.write_str(
                 "the dataset has both ball touches (measurements.csv) and instrument \
                  measurements (poses.csv, points.csv); calibrate them as two datasets",

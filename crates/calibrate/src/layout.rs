@@ -23,8 +23,9 @@
 //!   session's instrument frame ([`parcal_observe::frame`]).
 //! - [`ParameterGroup::BodyFrame`]: the correction of the platform body
 //!   frame, for measured poses.
-//! - [`ParameterGroup::BodyOrigin`] and [`ParameterGroup::LegOffsets`]: a
-//!   later session's shift of the body origin and zero offsets of the legs
+//! - [`ParameterGroup::BodyOrigin`], [`ParameterGroup::BodyRotation`] and
+//!   [`ParameterGroup::LegOffsets`]: a later session's shift of the body
+//!   origin, turn of the body frame and zero offsets of the legs
 //!   (machine.json's `session_model`).
 //!
 //! Every parameter of the block has a name (`x_b1`, …, `centre B07.x`), so
@@ -60,6 +61,12 @@ pub enum ParameterGroup {
         /// The session.
         session: usize,
     },
+    /// A session's turn of the body frame: a shift of its rotation vector
+    /// (rad).
+    BodyRotation {
+        /// The session.
+        session: usize,
+    },
     /// A session's zero offsets of the six legs (mm).
     LegOffsets {
         /// The session.
@@ -72,7 +79,7 @@ impl ParameterGroup {
     pub fn size(self) -> usize {
         match self {
             Self::Kinematic => N_PARAMS,
-            Self::BallCentre { .. } | Self::BodyOrigin { .. } => 3,
+            Self::BallCentre { .. } | Self::BodyOrigin { .. } | Self::BodyRotation { .. } => 3,
             Self::ActuatorScales
             | Self::TrackerFrame { .. }
             | Self::BodyFrame
@@ -97,6 +104,9 @@ impl ParameterGroup {
             Self::BodyFrame => FRAME.map(|c| format!("body.{c}")).into(),
             Self::BodyOrigin { session } => axes
                 .map(|axis| format!("body origin {}.{axis}", sessions[session]))
+                .into(),
+            Self::BodyRotation { session } => ["wx", "wy", "wz"]
+                .map(|axis| format!("body rotation {}.{axis}", sessions[session]))
                 .into(),
             Self::LegOffsets { session } => (1..=6)
                 .map(|i| format!("o_{i} {}", sessions[session]))
@@ -263,7 +273,10 @@ mod tests {
             layout.range(ParameterGroup::TrackerFrame { session: 1 }),
             Some(N_PARAMS + 18..N_PARAMS + 24)
         );
-        assert_eq!(layout.range(ParameterGroup::LegOffsets { session: 0 }), None);
+        assert_eq!(
+            layout.range(ParameterGroup::LegOffsets { session: 0 }),
+            None
+        );
         assert!(!layout.has_coupled_centres());
         let names = layout.names(&[], &["mon".into(), "tue".into()]);
         assert_eq!(names.len(), layout.size());

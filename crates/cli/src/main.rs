@@ -30,6 +30,8 @@ enum Command {
     Inspect(commands::inspect::Args),
     /// Calibrate a dataset: identified parameters with sigmas, accuracy, calibration.json.
     Calibrate(commands::calibrate::Args),
+    /// Apply a calibration of poses or points to data it was not fitted on (or cross-validate).
+    Validate(commands::validate::Args),
     /// Accuracy maps (absolute and registered, predicted and true) as CSV and SVG.
     Accuracy(commands::accuracy::Args),
     /// Reproduce the paper's simulations I-IV on one simulated dataset, with a report.
@@ -41,6 +43,7 @@ fn main() -> ExitCode {
         Command::Simulate(args) => commands::simulate::run(&args),
         Command::Inspect(args) => commands::inspect::run(&args),
         Command::Calibrate(args) => commands::calibrate::run(&args),
+        Command::Validate(args) => commands::validate::run(&args),
         Command::Accuracy(args) => commands::accuracy::run(&args),
         Command::Paper(args) => commands::paper::run(&args),
     };

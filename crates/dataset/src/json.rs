@@ -38,6 +38,10 @@ pub(crate) const CALIBRATION: Kind = Kind {
     name: "parcal-calibration",
     current: "parcal-calibration/1",
 };
+pub(crate) const VALIDATION: Kind = Kind {
+    name: "parcal-validation",
+    current: "parcal-validation/1",
+};
 
 /// The major version this crate reads.
 const MAJOR: u64 = 1;

@@ -98,6 +98,7 @@ mod snapshot;
 mod table;
 mod tracker;
 mod truth;
+mod validation;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
 pub use calibration::{
@@ -111,6 +112,7 @@ pub use measurements::Measurements;
 pub use session::{FrameRecord, SessionRecord};
 pub use tracker::{DEFAULT_SESSION, Points, Poses, Tracker};
 pub use truth::Truth;
+pub use validation::{NuisanceCandidate, ValidationRecord};
 
 /// A point or vector: x, y, z in mm.
 pub type Point3 = [f64; 3];
@@ -127,5 +129,7 @@ pub const POSES_FILE: &str = "poses.csv";
 pub const POINTS_FILE: &str = "points.csv";
 /// File name of the (optional) truth in a dataset directory.
 pub const TRUTH_FILE: &str = "truth.json";
+/// Conventional file name of a validation result.
+pub const VALIDATION_FILE: &str = "validation.json";
 /// Conventional file name of a calibration result.
 pub const CALIBRATION_FILE: &str = "calibration.json";

@@ -50,7 +50,10 @@ impl Serialize for Repeatability {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeStruct;
         let text = serializer.is_human_readable();
-        let optional = [("position", self.position), ("orientation", self.orientation)];
+        let optional = [
+            ("position", self.position),
+            ("orientation", self.orientation),
+        ];
         let fields = 2 + optional
             .iter()
             .filter(|(_, v)| !text || v.is_some())
@@ -108,6 +111,10 @@ pub struct SessionModel {
     /// frame (mm).
     #[serde(default)]
     pub body_origin_sigma: Option<f64>,
+    /// A re-mounted marker body: a per-session turn of the platform body
+    /// frame (rad).
+    #[serde(default)]
+    pub body_rotation_sigma: Option<f64>,
 }
 
 /// The design (nominal) machine, in any base frame and any platform frame.

@@ -99,3 +99,49 @@ pub fn parameters(run: &InstrumentRun) -> String {
     }
     out
 }
+
+/// A validation in a few lines: what was applied, what was re-fitted,
+/// the residuals observed and predicted.
+pub fn validation(record: &parcal_dataset::ValidationRecord) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "applied: {}", record.calibration);
+    if record.reference_rows > 0 {
+        let _ = writeln!(
+            out,
+            "re-fitted on the first {} rows of each session: {}",
+            record.reference_rows,
+            record.refitted.join(", ")
+        );
+        for candidate in &record.selection {
+            let _ = writeln!(
+                out,
+                "  candidate {}: expected prediction RMS {:.4} mm",
+                candidate.model, candidate.expected_rms_mm
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "predicted {} rows ({} poses, {} points): residual RMS {:.4} mm, max {:.4} mm; the calibration predicts RMS {:.4} mm",
+        record.rows,
+        record.poses,
+        record.points,
+        record.rms_mm,
+        record.max_mm,
+        record.predicted_rms_mm
+    );
+    if record.poses > 0 {
+        let legs: Vec<String> = record
+            .per_leg_rms_mm
+            .iter()
+            .enumerate()
+            .map(|(i, r)| format!("leg {} {r:.4}", i + 1))
+            .collect();
+        let _ = writeln!(
+            out,
+            "leg-length residual RMS per leg, mm: {}",
+            legs.join(", ")
+        );
+    }
+    out
+}

@@ -13,7 +13,12 @@ pub fn status(run: &CalibrationRun) -> String {
     solver_status(
         &run.status,
         &run.layout.names(&run.ball_ids, &[]),
-        |k| format!("the centre of ball {} is not determined by its contacts", run.ball_ids[k]),
+        |k| {
+            format!(
+                "the centre of ball {} is not determined by its contacts",
+                run.ball_ids[k]
+            )
+        },
         |i| {
             format!(
                 "the angles of the contact of measurements.csv line {} are not determined",

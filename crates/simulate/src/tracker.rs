@@ -279,6 +279,7 @@ fn draw_nuisance(scenario: &TrackerScenario, rng: &mut Rng, k: usize) -> Nuisanc
     let SessionModel {
         leg_offset_sigma,
         body_origin_sigma,
+        body_rotation_sigma,
     } = scenario.session_model;
     let mut body = scenario.body_frame;
     let mut leg_offsets = [0.0; 6];
@@ -288,6 +289,15 @@ fn draw_nuisance(scenario: &TrackerScenario, rng: &mut Rng, k: usize) -> Nuisanc
         }
         if let Some(sigma) = leg_offset_sigma {
             leg_offsets = std::array::from_fn(|_| rng.normal(sigma));
+        }
+        if let Some(sigma) = body_rotation_sigma {
+            // The body turned about the platform frame's origin:
+            // B_k = Exp(φ) ∘ B, φ ~ N(0, σ² I).
+            let turn = Vec3::from_fn(|_, _| rng.normal(sigma));
+            body = Pose::from_parts(
+                Translation3::identity(),
+                UnitQuaternion::from_scaled_axis(turn),
+            ) * body;
         }
     }
     Nuisance {

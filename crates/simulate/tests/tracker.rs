@@ -89,6 +89,7 @@ fn noiseless() -> TrackerScenario {
         session_model: SessionModel {
             leg_offset_sigma: Some(1.0),
             body_origin_sigma: Some(0.5),
+            body_rotation_sigma: None,
         },
         ..TrackerScenario::paper_like()
     }

@@ -8,7 +8,8 @@
 //! - [`start`]: the initial frames (hand–eye for poses, Kabsch for points);
 //! - [`rows`]: every measured row as whitened residual rows;
 //! - [`problem`]: the solver's problem (a global block only);
-//! - [`run`]: one calibration and its calibration.json record.
+//! - [`run`]: one calibration and its calibration.json record;
+//! - [`validate`]: a calibration applied to data it was not fitted on.
 //!
 //! The gauge: the kinematic parameters live in the canonical frames
 //! (`parcal_kinematics::frames`); an instrument sees the base frame only
@@ -24,7 +25,9 @@ pub mod problem;
 pub mod rows;
 pub mod run;
 pub mod start;
+pub mod validate;
 
 pub use crate::error::InstrumentTable;
 pub use model::{InstrumentModel, ModelValues};
 pub use run::{InstrumentRun, calibrate_instruments};
+pub use validate::{Calibrated, CrossValidation, Validation, cross_validate, validate};

@@ -4,12 +4,12 @@
 //! ```text
 //! L_i   = l_i + o_{k,i} + s_i q_i                       leg length, session k
 //! F_k   = F₀_k ∘ C_F,k                                  instrument frame
-//! B_k   = C_B,k ∘ B₀,    C_B,k = (Exp(ω_B), τ_B + ρ_k)   body frame
+//! B_k   = C_B,k ∘ B₀,    C_B,k = (Exp(ω_B + φ_k), τ_B + ρ_k)   body frame
 //! pose  M = F_k T(q) B_k         point  P = F_k T(q) E_T
 //! ```
 //!
-//! `o_{k,i}` and `ρ_k` are unknowns only for later sessions whose model
-//! has them (machine.json's `session_model`); `s_i` only when machine.json
+//! `o_{k,i}`, `ρ_k` and `φ_k` are unknowns only for later sessions whose
+//! model has them (machine.json's `session_model`); `s_i` only when machine.json
 //! gives the scales' sigmas (else the design scale). The first session has
 //! no offset and no origin shift: the leg lengths `l_i` and the body frame
 //! are its own.
@@ -64,24 +64,28 @@ impl InstrumentModel {
         };
         let scales = six(ParameterGroup::ActuatorScales)
             .map_or(self.fixed_scales, |s| std::array::from_fn(|i| s[i]));
-        let body = six(ParameterGroup::BodyFrame)
-            .map_or(FrameCorrection::IDENTITY, |p| FrameCorrection::from_params(&p));
+        let body = six(ParameterGroup::BodyFrame).map_or(FrameCorrection::IDENTITY, |p| {
+            FrameCorrection::from_params(&p)
+        });
         let n = self.sessions.len();
         let trackers = (0..n)
             .map(|session| {
                 six(ParameterGroup::TrackerFrame { session })
-                    .map_or(FrameCorrection::IDENTITY, |p| FrameCorrection::from_params(&p))
+                    .map_or(FrameCorrection::IDENTITY, |p| {
+                        FrameCorrection::from_params(&p)
+                    })
             })
             .collect();
         let bodies = (0..n)
             .map(|session| {
-                let shift = self
-                    .layout
-                    .range(ParameterGroup::BodyOrigin { session })
-                    .map_or(Vec3::zeros(), |r| g.fixed_rows::<3>(r.start).into_owned());
+                let three = |group: ParameterGroup| {
+                    self.layout
+                        .range(group)
+                        .map_or(Vec3::zeros(), |r| g.fixed_rows::<3>(r.start).into_owned())
+                };
                 FrameCorrection {
-                    translation: body.translation + shift,
-                    ..body
+                    rotation: body.rotation + three(ParameterGroup::BodyRotation { session }),
+                    translation: body.translation + three(ParameterGroup::BodyOrigin { session }),
                 }
             })
             .collect();

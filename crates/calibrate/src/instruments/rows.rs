@@ -4,10 +4,12 @@
 //! whitened by the covariance of the row formed once at the initial
 //! estimate (as the ball touches' weights are).
 
-use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3};
+use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix};
 use parcal_dataset::{Repeatability, Tracker};
 use parcal_kinematics::params::{BASE_INDEX, PLATFORM_INDEX, leg_index};
-use parcal_kinematics::{ForwardOptions, N_PARAMS, Pose, TipJacobians, Vec3, forward, tip_jacobians};
+use parcal_kinematics::{
+    ForwardOptions, N_PARAMS, Pose, TipJacobians, Vec3, forward, tip_jacobians,
+};
 use parcal_observe::{PointBlock, PoseBlock, PoseJacobians, point_covariance, pose_covariance};
 use parcal_solver::GlobalObservations;
 
@@ -27,6 +29,9 @@ pub struct InstrumentRows<'a> {
     pub pose_weights: Vec<Matrix6<f64>>,
     /// The whitening `L⁻¹` of each point's three rows.
     pub point_weights: Vec<Matrix3<f64>>,
+    /// The variance of every row (mm², the diagonal of each row's
+    /// covariance): each pose's six, then each point's three.
+    pub variances: Vec<f64>,
     /// Where each point's forward kinematics starts.
     pub point_starts: Vec<Pose>,
     /// Forward kinematics' tolerance and iteration limit.
@@ -41,7 +46,21 @@ pub struct PointRow {
     pub tip: TipJacobians,
 }
 
-impl InstrumentRows<'_> {
+impl<'a> InstrumentRows<'a> {
+    /// The rows of `tracker`, not yet weighed ([`InstrumentRows::weigh`]),
+    /// each point's forward kinematics starting at `point_starts`.
+    pub fn new(tracker: &'a Tracker, point_starts: Vec<Pose>, forward: ForwardOptions) -> Self {
+        Self {
+            tracker,
+            measured: crate::instruments::start::measured_poses(tracker),
+            pose_weights: Vec::new(),
+            point_weights: Vec::new(),
+            variances: Vec::new(),
+            point_starts,
+            forward,
+        }
+    }
+
     /// Number of residual rows: 6 per pose, 3 per point.
     pub fn len(&self) -> usize {
         6 * self.tracker.poses.len() + 3 * self.tracker.points.len()
@@ -137,10 +156,12 @@ impl InstrumentRows<'_> {
             row,
             reason: "its covariance is not positive definite".into(),
         };
+        let mut variances = Vec::with_capacity(self.len());
         self.pose_weights = (0..self.tracker.poses.len())
             .map(|j| {
                 let block = self.pose(model, values, j)?;
                 let w = pose_covariance(&block.d_measurement, &actuator, position, orientation);
+                variances.extend(w.diagonal().iter());
                 inverse_factor(&w).ok_or_else(|| refuse(InstrumentTable::Poses, j))
             })
             .collect::<Result<_, _>>()?;
@@ -149,9 +170,11 @@ impl InstrumentRows<'_> {
                 let row = self.point(model, values, j)?;
                 let d_lengths = row.block.d_tip * row.tip.d_q;
                 let w = point_covariance(&d_lengths, &actuator, position);
+                variances.extend(w.diagonal().iter());
                 inverse_factor(&w).ok_or_else(|| refuse(InstrumentTable::Points, j))
             })
             .collect::<Result<_, _>>()?;
+        self.variances = variances;
         Ok(())
     }
 
@@ -163,6 +186,28 @@ impl InstrumentRows<'_> {
         values: &ModelValues,
         out: &mut GlobalObservations,
     ) -> Result<(), CalibrateError> {
+        self.fill(model, values, true, out)
+    }
+
+    /// The rows as [`InstrumentRows::evaluate`] gives them, not whitened
+    /// (mm, per unit of each parameter).
+    pub fn raw(
+        &self,
+        model: &InstrumentModel,
+        values: &ModelValues,
+    ) -> Result<GlobalObservations, CalibrateError> {
+        let mut out = GlobalObservations::zeros(0, 0);
+        self.fill(model, values, false, &mut out)?;
+        Ok(out)
+    }
+
+    fn fill(
+        &self,
+        model: &InstrumentModel,
+        values: &ModelValues,
+        whiten: bool,
+        out: &mut GlobalObservations,
+    ) -> Result<(), CalibrateError> {
         let g = model.layout.size();
         *out = GlobalObservations::zeros(self.len(), g);
         let poses = self.tracker.poses.len();
@@ -170,15 +215,25 @@ impl InstrumentRows<'_> {
             let block = self.pose(model, values, j)?;
             let mut raw = DMatrix::zeros(6, g);
             self.pose_columns(model, j, &block, &mut raw);
-            let w = &self.pose_weights[j];
-            out.residual.rows_mut(6 * j, 6).copy_from(&(w * block.residual));
+            let w = if whiten {
+                self.pose_weights[j]
+            } else {
+                Matrix6::identity()
+            };
+            out.residual
+                .rows_mut(6 * j, 6)
+                .copy_from(&(w * block.residual));
             out.jacobian.rows_mut(6 * j, 6).copy_from(&(w * raw));
         }
         for j in 0..self.tracker.points.len() {
             let row = self.point(model, values, j)?;
             let mut raw = DMatrix::zeros(3, g);
             self.point_columns(model, j, &row, &mut raw);
-            let w = &self.point_weights[j];
+            let w = if whiten {
+                self.point_weights[j]
+            } else {
+                Matrix3::identity()
+            };
             let first = 6 * poses + 3 * j;
             out.residual
                 .rows_mut(first, 3)
@@ -212,7 +267,8 @@ impl InstrumentRows<'_> {
         }
         length_columns(model, session, q, &SMatrix::<f64, 6, 6>::identity(), out);
         if let Some(r) = layout.range(ParameterGroup::TrackerFrame { session }) {
-            out.view_mut((0, r.start), (6, 6)).copy_from(&block.d_tracker);
+            out.view_mut((0, r.start), (6, 6))
+                .copy_from(&block.d_tracker);
         }
         if let Some(r) = layout.range(ParameterGroup::BodyFrame) {
             out.view_mut((0, r.start), (6, 6)).copy_from(&block.d_body);
@@ -220,6 +276,10 @@ impl InstrumentRows<'_> {
         if let Some(r) = layout.range(ParameterGroup::BodyOrigin { session }) {
             out.view_mut((0, r.start), (6, 3))
                 .copy_from(&block.d_body.fixed_columns::<3>(3));
+        }
+        if let Some(r) = layout.range(ParameterGroup::BodyRotation { session }) {
+            out.view_mut((0, r.start), (6, 3))
+                .copy_from(&block.d_body.fixed_columns::<3>(0));
         }
     }
 
@@ -273,14 +333,4 @@ fn inverse_factor<const N: usize>(w: &SMatrix<f64, N, N>) -> Option<SMatrix<f64,
     }
     let factor = w.cholesky()?.unpack();
     factor.solve_lower_triangular(&SMatrix::identity())
-}
-
-/// The pose residual's leg-length rows as a plain vector, for reports.
-pub fn legs(block: &PoseJacobians) -> [f64; 6] {
-    std::array::from_fn(|i| block.residual[i])
-}
-
-/// A point residual as a vector.
-pub fn point_error(row: &PointRow) -> Vector3<f64> {
-    row.block.residual
 }

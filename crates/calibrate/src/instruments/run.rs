@@ -16,7 +16,7 @@ use parcal_solver::{
 use crate::instruments::model::{InstrumentModel, ModelValues};
 use crate::instruments::problem::InstrumentProblem;
 use crate::instruments::rows::InstrumentRows;
-use crate::instruments::start::{frame_start, measured_poses};
+use crate::instruments::start::frame_start;
 use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::setup::{design_geometry, kinematic_prior};
 use crate::{CalibrateError, CalibrationOptions, Method};
@@ -88,14 +88,7 @@ pub fn calibrate_instruments(
         fixed_scales: machine.actuator.scale,
     };
     let initial = initial_block(&model.layout, &design_params, &machine.actuator.scale);
-    let mut rows = InstrumentRows {
-        tracker,
-        measured: measured_poses(tracker),
-        pose_weights: Vec::new(),
-        point_weights: Vec::new(),
-        point_starts: start.point_poses,
-        forward,
-    };
+    let mut rows = InstrumentRows::new(tracker, start.point_poses, forward);
     rows.weigh(&model, &model.values(&initial), &machine.repeatability)?;
     let prior = prior(dataset, &design, &design_params, &model.layout, options)?;
     let problem = InstrumentProblem { model, rows, prior };
@@ -143,8 +136,9 @@ pub fn calibrate_instruments(
 
 /// The groups the data determines: the scales when machine.json gives
 /// their sigmas; one instrument frame per session; the body frame when
-/// there are poses; for every later session with poses a body origin, and
-/// for every later session leg offsets, when the session model has them.
+/// there are poses; for every later session with poses a body origin and a
+/// body rotation, and for every later session leg offsets, when the session
+/// model has them.
 fn layout(dataset: &Dataset) -> ParameterLayout {
     let machine = &dataset.machine;
     let tracker = &dataset.tracker;
@@ -164,6 +158,9 @@ fn layout(dataset: &Dataset) -> ParameterLayout {
         if model.body_origin_sigma.is_some() && with_poses(session) {
             groups.push(ParameterGroup::BodyOrigin { session });
         }
+        if model.body_rotation_sigma.is_some() && with_poses(session) {
+            groups.push(ParameterGroup::BodyRotation { session });
+        }
         if model.leg_offset_sigma.is_some() {
             groups.push(ParameterGroup::LegOffsets { session });
         }
@@ -172,7 +169,11 @@ fn layout(dataset: &Dataset) -> ParameterLayout {
 }
 
 /// The design's parameters and scales, every correction and offset zero.
-fn initial_block(layout: &ParameterLayout, design: &parcal_kinematics::Params, scales: &[f64; 6]) -> DVector<f64> {
+fn initial_block(
+    layout: &ParameterLayout,
+    design: &parcal_kinematics::Params,
+    scales: &[f64; 6],
+) -> DVector<f64> {
     let mut g = DVector::zeros(layout.size());
     g.rows_mut(0, N_PARAMS).copy_from(design);
     if let Some(r) = layout.range(ParameterGroup::ActuatorScales) {
@@ -216,11 +217,24 @@ fn prior(
                 diagonal(range.start, &machine.actuator.scale, &sigmas);
             }
             ParameterGroup::BodyOrigin { .. } => {
-                let sigma = machine.session_model.body_origin_sigma.unwrap_or(f64::INFINITY);
+                let sigma = machine
+                    .session_model
+                    .body_origin_sigma
+                    .unwrap_or(f64::INFINITY);
+                diagonal(range.start, &[0.0; 3], &[sigma; 3]);
+            }
+            ParameterGroup::BodyRotation { .. } => {
+                let sigma = machine
+                    .session_model
+                    .body_rotation_sigma
+                    .unwrap_or(f64::INFINITY);
                 diagonal(range.start, &[0.0; 3], &[sigma; 3]);
             }
             ParameterGroup::LegOffsets { .. } => {
-                let sigma = machine.session_model.leg_offset_sigma.unwrap_or(f64::INFINITY);
+                let sigma = machine
+                    .session_model
+                    .leg_offset_sigma
+                    .unwrap_or(f64::INFINITY);
                 diagonal(range.start, &[0.0; 6], &[sigma; 6]);
             }
             _ => {}

@@ -51,23 +51,20 @@ pub fn frame_start(
     scales: &[f64; 6],
     options: &ForwardOptions,
 ) -> Result<FrameStart, CalibrateError> {
-    let forward = |table: InstrumentTable, q: &[[f64; 6]]| {
-        q.iter()
-            .enumerate()
-            .map(|(row, q)| {
-                let extensions = std::array::from_fn(|i| scales[i] * q[i]);
-                forward_from_home(design, &extensions, options)
-                    .map(|s| s.pose)
-                    .map_err(|e| CalibrateError::InstrumentRow {
-                        table,
-                        row,
-                        reason: format!("the design's forward kinematics failed: {e}"),
-                    })
-            })
-            .collect::<Result<Vec<Pose>, _>>()
-    };
-    let pose_poses = forward(InstrumentTable::Poses, &tracker.poses.q)?;
-    let point_poses = forward(InstrumentTable::Points, &tracker.points.q)?;
+    let pose_poses = forward_poses(
+        InstrumentTable::Poses,
+        &tracker.poses.q,
+        design,
+        scales,
+        options,
+    )?;
+    let point_poses = forward_poses(
+        InstrumentTable::Points,
+        &tracker.points.q,
+        design,
+        scales,
+        options,
+    )?;
     let measured: Vec<Pose> = measured_poses(tracker);
     let sessions = tracker.sessions.len();
     let mut rotations = Vec::with_capacity(sessions);
@@ -90,8 +87,7 @@ pub fn frame_start(
     let mut trackers = vec![Isometry3::identity(); sessions];
     let mut body_translation = Vec3::zeros();
     if !tracker.poses.is_empty() {
-        let (translations, t_b) =
-            translations(tracker, &rotations, &measured, &pose_poses)?;
+        let (translations, t_b) = translations(tracker, &rotations, &measured, &pose_poses)?;
         body_translation = t_b;
         for (session, t) in translations.into_iter().enumerate() {
             if let (Some(r), Some(t)) = (rotations[session], t) {
@@ -124,6 +120,30 @@ pub fn frame_start(
         pose_poses,
         point_poses,
     })
+}
+
+/// The platform pose of `geometry` at every row's readings `q` (`scales`:
+/// mm per unit, no leg offset), by forward kinematics from home.
+pub fn forward_poses(
+    table: InstrumentTable,
+    q: &[[f64; 6]],
+    geometry: &Geometry,
+    scales: &[f64; 6],
+    options: &ForwardOptions,
+) -> Result<Vec<Pose>, CalibrateError> {
+    q.iter()
+        .enumerate()
+        .map(|(row, q)| {
+            let extensions = std::array::from_fn(|i| scales[i] * q[i]);
+            forward_from_home(geometry, &extensions, options)
+                .map(|s| s.pose)
+                .map_err(|e| CalibrateError::InstrumentRow {
+                    table,
+                    row,
+                    reason: format!("forward kinematics from home failed: {e}"),
+                })
+        })
+        .collect()
 }
 
 /// The measured poses of poses.csv as isometries.
@@ -220,22 +240,21 @@ fn translations(
         .filter(|&c| a.column(c).norm() > 0.0)
         .collect();
     let reduced = a.select_columns(&used);
-    let solution = reduced
-        .svd(true, true)
-        .solve(&b, 1e-12)
-        .map_err(|e| CalibrateError::FrameStart {
-            session: tracker.sessions[0].clone(),
-            reason: format!("the frames' translations cannot be solved for: {e}"),
-        })?;
+    let solution =
+        reduced
+            .svd(true, true)
+            .solve(&b, 1e-12)
+            .map_err(|e| CalibrateError::FrameStart {
+                session: tracker.sessions[0].clone(),
+                reason: format!("the frames' translations cannot be solved for: {e}"),
+            })?;
     let mut x = DVector::zeros(3 + 3 * sessions);
     for (k, &c) in used.iter().enumerate() {
         x[c] = solution[k];
     }
     let t_b = x.fixed_rows::<3>(0).into_owned();
     let t_f = (0..sessions)
-        .map(|s| {
-            rotations[s].map(|_| x.fixed_rows::<3>(3 + 3 * s).into_owned())
-        })
+        .map(|s| rotations[s].map(|_| x.fixed_rows::<3>(3 + 3 * s).into_owned()))
         .collect();
     Ok((t_f, t_b))
 }

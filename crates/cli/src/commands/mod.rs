@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod inspect;
 pub mod paper;
 pub mod simulate;
+pub mod validate;
 
 use std::path::Path;
 

@@ -243,6 +243,7 @@ impl TrackerScenario {
             session_model: SessionModel {
                 leg_offset_sigma: Some(2.0),
                 body_origin_sigma: None,
+                body_rotation_sigma: None,
             },
         }
     }

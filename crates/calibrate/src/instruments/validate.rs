@@ -1,0 +1,692 @@
+//! A calibration judged on measurements it was not fitted on.
+//!
+//! The calibrated geometry and scales are held; each session of the new
+//! data is seen either through the frames the calibration identified for
+//! it (same label), or, with `reference = N`, through its nuisance re-fitted
+//! on its first `N` rows: its instrument frame (always: a moved instrument
+//! or a new origin), its body origin (a re-mounted marker body, when
+//! machine.json's session model has `body_origin_sigma`) and its leg
+//! offsets (re-homing, with `leg_offset_sigma`), each with its prior. The
+//! remaining rows are predicted: for a pose, the leg-length residual
+//! `|T E_i − B_i| − L_i` (mm); for a point, its coordinates' residual.
+//!
+//! The predicted residual of a row, to first order, is
+//!
+//! ```text
+//! δr = G δθ − J_n K ε_ref + ε,   G = J_θ − J_n K B,   K = (AᵀA + Λ)⁻¹ Aᵀ,
+//! ```
+//!
+//! `θ` the calibration's parameters (covariance `Σ_θ` from
+//! calibration.json), `J_θ`, `J_n` the row's derivatives with respect to
+//! them and to the re-fitted nuisance, `A`, `B` the whitened derivatives of
+//! the reference rows, `Λ` the nuisance prior, `ε` the row's noise. Its
+//! variance `diag(G Σ_θ Gᵀ) + diag(J_n K Kᵀ J_nᵀ) + σ²_row` gives the
+//! predicted RMS.
+
+use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
+use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, Tracker};
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Params, Vec3, params};
+use parcal_solver::GlobalObservations;
+
+use crate::CalibrateError;
+use crate::instruments::InstrumentTable;
+use crate::instruments::model::InstrumentModel;
+use crate::instruments::rows::InstrumentRows;
+use crate::instruments::start::{forward_poses, frame_start};
+use crate::layout::{ParameterGroup, ParameterLayout};
+
+/// Iterations of the nuisance re-fit (Gauss–Newton from the frames' start).
+const REFIT_ITERATIONS: usize = 30;
+/// The re-fit has converged when its step is below this (relative).
+const REFIT_TOLERANCE: f64 = 1e-12;
+
+/// What validation needs of a calibration (calibration.json).
+#[derive(Debug, Clone)]
+pub struct Calibrated {
+    /// The canonical kinematic parameters.
+    pub params: Params,
+    /// The actuator scales (mm per unit).
+    pub scales: [f64; 6],
+    /// Each calibrated session: label, instrument frame, body frame, leg
+    /// offsets (canonical frames).
+    pub sessions: Vec<(String, Isometry3<f64>, Isometry3<f64>, [f64; 6])>,
+    /// The parameters' names.
+    pub names: Vec<String>,
+    /// Their covariance.
+    pub covariance: DMatrix<f64>,
+}
+
+impl Calibrated {
+    /// From a calibration of instrument measurements; refuses one without
+    /// sessions (a ball-touch calibration) or without a covariance.
+    pub fn from_record(calibration: &Calibration) -> Result<Self, CalibrateError> {
+        let refuse = |reason: &str| CalibrateError::Calibration {
+            reason: reason.to_owned(),
+        };
+        if calibration.sessions.is_empty() {
+            return Err(refuse(
+                "it has no session: it is not a calibration of poses or points",
+            ));
+        }
+        let n = calibration.parameters.names.len();
+        if calibration.covariance.len() != n {
+            return Err(refuse(
+                "it has no covariance (the calibration did not converge)",
+            ));
+        }
+        let c = &calibration.canonical;
+        let geometry =
+            Geometry::from_arrays(&c.base_joints, &c.platform_joints, &c.tool, &c.leg_lengths);
+        Ok(Self {
+            params: params::to_params(&geometry),
+            scales: calibration
+                .machine
+                .as_ref()
+                .map_or([1.0; 6], |m| m.actuator.scale),
+            sessions: calibration
+                .sessions
+                .iter()
+                .map(|s| {
+                    (
+                        s.label.clone(),
+                        isometry(&s.tracker_frame),
+                        isometry(&s.body_frame),
+                        s.leg_offsets,
+                    )
+                })
+                .collect(),
+            names: calibration.parameters.names.clone(),
+            covariance: DMatrix::from_fn(n, n, |i, j| calibration.covariance[i][j]),
+        })
+    }
+}
+
+fn isometry(record: &FrameRecord) -> Isometry3<f64> {
+    let [x, y, z, w] = record.rotation;
+    Isometry3::from_parts(
+        Translation3::from(Vec3::from(record.translation)),
+        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+    )
+}
+
+/// The outcome of a validation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Validation {
+    /// Predicted poses.
+    pub poses: usize,
+    /// Predicted points.
+    pub points: usize,
+    /// Rows per session used to re-fit its nuisance (0: the calibration's
+    /// frames).
+    pub reference: usize,
+    /// The re-fitted groups, by name.
+    pub refitted: Vec<String>,
+    /// Each candidate nuisance model (its groups' names joined by ` + `)
+    /// with its expected prediction RMS (mm, [`expected_prediction_error`]);
+    /// empty when there was one candidate or no re-fit.
+    pub selection: Vec<(String, f64)>,
+    /// Observed residuals of the predicted rows (mm): six leg lengths per
+    /// pose, then three coordinates per point.
+    pub residuals: Vec<f64>,
+    /// Their predicted standard deviations (mm).
+    pub predicted_sigmas: Vec<f64>,
+}
+
+impl Validation {
+    /// RMS of the observed residuals (mm).
+    pub fn rms(&self) -> f64 {
+        rms(&self.residuals)
+    }
+
+    /// Largest absolute residual (mm).
+    pub fn max(&self) -> f64 {
+        self.residuals.iter().fold(0.0, |m, r| m.max(r.abs()))
+    }
+
+    /// The RMS the calibration's covariance and the noise model predict.
+    pub fn predicted_rms(&self) -> f64 {
+        rms(&self.predicted_sigmas)
+    }
+
+    /// RMS of each leg's residual over the predicted poses (mm).
+    pub fn per_leg_rms(&self) -> [f64; 6] {
+        std::array::from_fn(|i| {
+            let leg: Vec<f64> = (0..self.poses).map(|j| self.residuals[6 * j + i]).collect();
+            rms(&leg)
+        })
+    }
+}
+
+fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
+}
+
+/// Applies `calibrated` to `dataset` (module doc). Without `reference`,
+/// every session of `dataset` must be one of the calibration's (by label).
+pub fn validate(
+    dataset: &Dataset,
+    calibrated: &Calibrated,
+    reference: Option<usize>,
+) -> Result<Validation, CalibrateError> {
+    crate::validate(dataset)?;
+    let tracker = &dataset.tracker;
+    if tracker.is_empty() {
+        return Err(CalibrateError::Calibration {
+            reason: "the dataset has no poses.csv or points.csv to validate on".into(),
+        });
+    }
+    let sessions = tracker.sessions.len();
+    // Which rows of each session are reference rows.
+    let n_ref = reference.unwrap_or(0);
+    let mut reference_rows = (Vec::new(), Vec::new());
+    let mut predicted_rows = (Vec::new(), Vec::new());
+    let mut seen = vec![0usize; sessions];
+    for (j, &s) in tracker.poses.session.iter().enumerate() {
+        let k = s as usize;
+        let target = if seen[k] < n_ref {
+            &mut reference_rows.0
+        } else {
+            &mut predicted_rows.0
+        };
+        target.push(j);
+        seen[k] += 1;
+    }
+    for (j, &s) in tracker.points.session.iter().enumerate() {
+        let k = s as usize;
+        let target = if seen[k] < n_ref {
+            &mut reference_rows.1
+        } else {
+            &mut predicted_rows.1
+        };
+        target.push(j);
+        seen[k] += 1;
+    }
+    if let Some(k) = (0..sessions).find(|&k| reference.is_some() && seen[k] <= n_ref) {
+        return Err(CalibrateError::Calibration {
+            reason: format!(
+                "session {:?} has {} rows: none is left to predict after the {n_ref} reference rows",
+                tracker.sessions[k], seen[k]
+            ),
+        });
+    }
+    let known = |k: usize| {
+        calibrated
+            .sessions
+            .iter()
+            .find(|(label, ..)| *label == tracker.sessions[k])
+    };
+    if reference.is_none()
+        && let Some(k) = (0..sessions).find(|&k| known(k).is_none())
+    {
+        return Err(CalibrateError::Calibration {
+            reason: format!(
+                "session {:?} is not one of the calibration's; give a number of reference rows to fit its frames on",
+                tracker.sessions[k]
+            ),
+        });
+    }
+    let geometry = params::from_params(&calibrated.params);
+    let forward = ForwardOptions::default();
+    let reference_set = subset(tracker, &reference_rows.0, &reference_rows.1);
+    let predicted_set = subset(tracker, &predicted_rows.0, &predicted_rows.1);
+    let first = &calibrated.sessions[0];
+    let body_reference = first.2;
+    // The frames' start: the calibration's for a known session without
+    // re-fit, the reference rows' hand-eye start otherwise.
+    let start = match reference {
+        Some(_) => Some(frame_start(
+            &reference_set,
+            &geometry,
+            &calibrated.scales,
+            &forward,
+        )?),
+        None => None,
+    };
+    let with_poses = |k: usize| tracker.poses.session.iter().any(|&s| s as usize == k);
+    let mut groups = vec![ParameterGroup::ActuatorScales];
+    if !tracker.poses.is_empty() {
+        groups.push(ParameterGroup::BodyFrame);
+    }
+    for session in 0..sessions {
+        groups.push(ParameterGroup::TrackerFrame { session });
+        if with_poses(session) {
+            groups.push(ParameterGroup::BodyOrigin { session });
+            groups.push(ParameterGroup::BodyRotation { session });
+        }
+        groups.push(ParameterGroup::LegOffsets { session });
+    }
+    let layout = ParameterLayout::with_groups(groups);
+    let mut global = DVector::zeros(layout.size());
+    global.rows_mut(0, N_PARAMS).copy_from(&calibrated.params);
+    let scales = layout
+        .range(ParameterGroup::ActuatorScales)
+        .expect("in the layout");
+    global
+        .rows_mut(scales.start, 6)
+        .copy_from_slice(&calibrated.scales);
+    let mut tracker_references = Vec::with_capacity(sessions);
+    for k in 0..sessions {
+        match (&start, known(k)) {
+            (Some(start), _) => tracker_references.push(start.trackers[k]),
+            (None, Some((_, f, b, offsets))) => {
+                tracker_references.push(*f);
+                // B_k = (Exp(φ_k), ρ_k) ∘ B₀ with B₀ the first session's.
+                let turn = b.rotation * body_reference.rotation.inverse();
+                if let Some(r) = layout.range(ParameterGroup::BodyRotation { session: k }) {
+                    global.rows_mut(r.start, 3).copy_from(&turn.scaled_axis());
+                }
+                if let Some(r) = layout.range(ParameterGroup::BodyOrigin { session: k }) {
+                    let shift = b.translation.vector - turn * body_reference.translation.vector;
+                    global.rows_mut(r.start, 3).copy_from(&shift);
+                }
+                let r = layout
+                    .range(ParameterGroup::LegOffsets { session: k })
+                    .expect("in the layout");
+                global.rows_mut(r.start, 6).copy_from_slice(offsets);
+            }
+            (None, None) => unreachable!("checked above"),
+        }
+    }
+    let model = InstrumentModel {
+        layout,
+        sessions: tracker.sessions.clone(),
+        tracker_references,
+        body_reference,
+        fixed_scales: calibrated.scales,
+    };
+    let machine = &dataset.machine;
+    let home = |set: &Tracker| {
+        forward_poses(
+            InstrumentTable::Points,
+            &set.points.q,
+            &geometry,
+            &calibrated.scales,
+            &forward,
+        )
+    };
+    let mut reference_rows_model =
+        InstrumentRows::new(&reference_set, home(&reference_set)?, forward);
+    let mut predicted = InstrumentRows::new(&predicted_set, home(&predicted_set)?, forward);
+    // The nuisance model: the frame, and the optional groups machine.json
+    // allows, the one with the least expected prediction error.
+    let optional: Vec<Optional> = [
+        machine
+            .session_model
+            .body_origin_sigma
+            .map(Optional::BodyOrigin),
+        machine
+            .session_model
+            .body_rotation_sigma
+            .map(Optional::BodyRotation),
+        machine
+            .session_model
+            .leg_offset_sigma
+            .map(Optional::LegOffsets),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let mut selection = Vec::new();
+    let nuisance = if reference.is_none() {
+        Nuisance::default()
+    } else {
+        let candidates: Vec<Nuisance> = (0..1usize << optional.len())
+            .map(|mask| {
+                let chosen: Vec<Optional> = (0..optional.len())
+                    .filter(|k| mask & (1 << k) != 0)
+                    .map(|k| optional[k])
+                    .collect();
+                Nuisance::new(&model, &chosen)
+            })
+            .collect();
+        if candidates.len() == 1 {
+            candidates.into_iter().next().expect("one candidate")
+        } else {
+            let values = model.values(&global);
+            reference_rows_model.weigh(&model, &values, &machine.repeatability)?;
+            predicted.weigh(&model, &values, &machine.repeatability)?;
+            for candidate in &candidates {
+                let score = expected_prediction_error(
+                    &model,
+                    &global,
+                    &reference_rows_model,
+                    &predicted,
+                    candidate,
+                )?;
+                selection.push((
+                    candidate.names.join(" + "),
+                    score.map_or(f64::INFINITY, f64::sqrt),
+                ));
+            }
+            let best = (0..candidates.len())
+                .min_by(|&a, &b| selection[a].1.total_cmp(&selection[b].1))
+                .expect("candidates");
+            candidates.into_iter().nth(best).expect("in range")
+        }
+    };
+    let values = model.values(&global);
+    reference_rows_model.weigh(&model, &values, &machine.repeatability)?;
+    predicted.weigh(&model, &values, &machine.repeatability)?;
+    let gain = refit(
+        &model,
+        &reference_rows_model,
+        &mut global,
+        &nuisance.columns,
+        &nuisance.information,
+    )?;
+    let values = model.values(&global);
+    let raw = predicted.raw(&model, &values)?;
+    let sigmas = predicted_sigmas(
+        calibrated,
+        &model,
+        &raw,
+        &predicted.variances,
+        &nuisance.columns,
+        gain.as_ref().map(|fit| (&fit.gain, &fit.held)),
+    );
+    Ok(Validation {
+        poses: predicted_set.poses.len(),
+        points: predicted_set.points.len(),
+        reference: n_ref,
+        refitted: nuisance.names,
+        selection,
+        residuals: raw.residual.iter().copied().collect(),
+        predicted_sigmas: sigmas,
+    })
+}
+
+/// A group a session may re-fit besides its instrument frame, with its
+/// prior sigma (mm, rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Optional {
+    BodyOrigin(f64),
+    BodyRotation(f64),
+    LegOffsets(f64),
+}
+
+/// The re-fitted columns of every session, their prior information and
+/// the groups' names.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Nuisance {
+    columns: Vec<usize>,
+    information: Vec<f64>,
+    names: Vec<String>,
+}
+
+impl Nuisance {
+    /// Every session's frame and the `optional` groups.
+    fn new(model: &InstrumentModel, optional: &[Optional]) -> Self {
+        let mut out = Self::default();
+        for (session, label) in model.sessions.iter().enumerate() {
+            let mut add = |group: ParameterGroup, sigma: f64, name: String| {
+                if let Some(range) = model.layout.range(group) {
+                    for c in range {
+                        out.columns.push(c);
+                        out.information.push(1.0 / (sigma * sigma));
+                    }
+                    out.names.push(name);
+                }
+            };
+            add(
+                ParameterGroup::TrackerFrame { session },
+                f64::INFINITY,
+                format!("frame {label}"),
+            );
+            for group in optional {
+                match *group {
+                    Optional::BodyOrigin(sigma) => add(
+                        ParameterGroup::BodyOrigin { session },
+                        sigma,
+                        format!("body origin {label}"),
+                    ),
+                    Optional::BodyRotation(sigma) => add(
+                        ParameterGroup::BodyRotation { session },
+                        sigma,
+                        format!("body rotation {label}"),
+                    ),
+                    Optional::LegOffsets(sigma) => add(
+                        ParameterGroup::LegOffsets { session },
+                        sigma,
+                        format!("leg offsets {label}"),
+                    ),
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The expected mean square of a prediction row's residual (mm²) with
+/// the nuisance model `nuisance` re-fitted on the reference rows: the
+/// reference rows' residual variance after the re-fit, `RSS / (m − p)`
+/// (`m` rows, `p` re-fitted parameters), plus the mean over the predicted
+/// rows of the re-fitted nuisance's variance propagated to them,
+/// `J_n (AᵀA + Λ)⁻¹ J_nᵀ`. It uses the reference rows' residuals and the
+/// predicted rows' geometry only, never their residuals. `None`: the
+/// reference rows do not determine the model.
+fn expected_prediction_error(
+    model: &InstrumentModel,
+    global: &DVector<f64>,
+    reference: &InstrumentRows,
+    predicted: &InstrumentRows,
+    nuisance: &Nuisance,
+) -> Result<Option<f64>, CalibrateError> {
+    let mut g = global.clone();
+    let Ok(Some(fit)) = refit(
+        model,
+        reference,
+        &mut g,
+        &nuisance.columns,
+        &nuisance.information,
+    ) else {
+        return Ok(None);
+    };
+    let values = model.values(&g);
+    let residual = reference.raw(model, &values)?.residual;
+    let dof = residual.len().saturating_sub(nuisance.columns.len());
+    if dof == 0 {
+        return Ok(None);
+    }
+    let variance = residual.norm_squared() / dof as f64;
+    let j_n = predicted
+        .raw(model, &values)?
+        .jacobian
+        .select_columns(&nuisance.columns);
+    let propagated = (&j_n * &fit.covariance).component_mul(&j_n).sum() / j_n.nrows().max(1) as f64;
+    Ok(Some(variance + propagated))
+}
+
+/// A re-fitted nuisance: `(AᵀA + Λ)⁻¹`, `K` and the reference rows'
+/// whitened Jacobian `B` on the held columns (module doc).
+struct Refit {
+    covariance: DMatrix<f64>,
+    gain: DMatrix<f64>,
+    held: DMatrix<f64>,
+}
+
+/// Gauss–Newton on the `nuisance` columns of the global block over the
+/// reference rows, the other columns held; `prior`: the information of
+/// each nuisance column (zero-mean about the start). `None` without
+/// nuisance.
+fn refit(
+    model: &InstrumentModel,
+    rows: &InstrumentRows,
+    global: &mut DVector<f64>,
+    nuisance: &[usize],
+    prior: &[f64],
+) -> Result<Option<Refit>, CalibrateError> {
+    if nuisance.is_empty() {
+        return Ok(None);
+    }
+    let mean: Vec<f64> = nuisance.iter().map(|&c| global[c]).collect();
+    let lambda = DMatrix::from_diagonal(&DVector::from_column_slice(prior));
+    let mut out = GlobalObservations::zeros(0, 0);
+    for _ in 0..REFIT_ITERATIONS {
+        rows.evaluate(model, &model.values(global), &mut out)?;
+        let a = out.jacobian.select_columns(nuisance);
+        let x = DVector::from_iterator(nuisance.len(), nuisance.iter().map(|&c| global[c]));
+        let offset = &x - DVector::from_column_slice(&mean);
+        let normal = a.transpose() * &a + &lambda;
+        let rhs = -(a.transpose() * &out.residual + &lambda * offset);
+        let step = normal
+            .clone()
+            .cholesky()
+            .ok_or_else(|| CalibrateError::Calibration {
+                reason: "the reference rows do not determine the session's frames and offsets"
+                    .into(),
+            })?
+            .solve(&rhs);
+        for (k, &c) in nuisance.iter().enumerate() {
+            global[c] += step[k];
+        }
+        if step.norm() < REFIT_TOLERANCE * (1.0 + x.norm()) {
+            break;
+        }
+    }
+    rows.evaluate(model, &model.values(global), &mut out)?;
+    let a = out.jacobian.select_columns(nuisance);
+    let held: Vec<usize> = (0..global.len())
+        .filter(|c| !nuisance.contains(c))
+        .collect();
+    let b = out.jacobian.select_columns(&held);
+    let normal = a.transpose() * &a + lambda;
+    let inverse = normal
+        .try_inverse()
+        .ok_or_else(|| CalibrateError::Calibration {
+            reason: "the reference rows do not determine the session's frames and offsets".into(),
+        })?;
+    Ok(Some(Refit {
+        gain: &inverse * a.transpose(),
+        covariance: inverse,
+        held: b,
+    }))
+}
+
+/// The predicted standard deviation of every raw row (module doc).
+fn predicted_sigmas(
+    calibrated: &Calibrated,
+    model: &InstrumentModel,
+    raw: &GlobalObservations,
+    variances: &[f64],
+    nuisance: &[usize],
+    gain: Option<(&DMatrix<f64>, &DMatrix<f64>)>,
+) -> Vec<f64> {
+    let names = model.layout.names(&[], &model.sessions);
+    let held: Vec<usize> = (0..names.len()).filter(|c| !nuisance.contains(c)).collect();
+    // Σ_θ on the held columns: the calibration's covariance by name (a
+    // parameter it does not have is exact: zero by definition).
+    let index: Vec<Option<usize>> = held
+        .iter()
+        .map(|&c| calibrated.names.iter().position(|n| *n == names[c]))
+        .collect();
+    let sigma_theta = DMatrix::from_fn(held.len(), held.len(), |i, j| match (index[i], index[j]) {
+        (Some(a), Some(b)) => calibrated.covariance[(a, b)],
+        _ => 0.0,
+    });
+    let j_theta = raw.jacobian.select_columns(&held);
+    let (g, refit_noise) = match gain {
+        Some((k, b)) => {
+            let j_n = raw.jacobian.select_columns(nuisance);
+            let jk = &j_n * k;
+            (j_theta - &jk * b, Some(jk))
+        }
+        None => (j_theta, None),
+    };
+    let propagated = &g * sigma_theta * g.transpose();
+    (0..raw.residual.len())
+        .map(|i| {
+            let refit = refit_noise
+                .as_ref()
+                .map_or(0.0, |jk| jk.row(i).norm_squared());
+            (propagated[(i, i)] + refit + variances[i]).sqrt()
+        })
+        .collect()
+}
+
+/// The rows `poses` and `points` of `tracker` (indices in file order), the
+/// sessions kept.
+fn subset(tracker: &Tracker, poses: &[usize], points: &[usize]) -> Tracker {
+    let p = &tracker.poses;
+    let t = &tracker.points;
+    Tracker {
+        sessions: tracker.sessions.clone(),
+        poses: Poses {
+            session: poses.iter().map(|&j| p.session[j]).collect(),
+            q: poses.iter().map(|&j| p.q[j]).collect(),
+            position: poses.iter().map(|&j| p.position[j]).collect(),
+            orientation: poses.iter().map(|&j| p.orientation[j]).collect(),
+        },
+        points: Points {
+            session: points.iter().map(|&j| t.session[j]).collect(),
+            q: points.iter().map(|&j| t.q[j]).collect(),
+            position: points.iter().map(|&j| t.position[j]).collect(),
+        },
+    }
+}
+
+/// A k-fold cross-validation: every row predicted by a calibration fitted
+/// on the other folds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrossValidation {
+    /// Number of folds.
+    pub folds: usize,
+    /// Each fold's validation (its rows predicted by the other folds'
+    /// calibration, through the calibration's own session frames).
+    pub validations: Vec<Validation>,
+}
+
+impl CrossValidation {
+    /// RMS of every held-out residual (mm).
+    pub fn rms(&self) -> f64 {
+        let all: Vec<f64> = self
+            .validations
+            .iter()
+            .flat_map(|v| v.residuals.iter().copied())
+            .collect();
+        rms(&all)
+    }
+
+    /// The RMS the folds' calibrations predict (mm).
+    pub fn predicted_rms(&self) -> f64 {
+        let all: Vec<f64> = self
+            .validations
+            .iter()
+            .flat_map(|v| v.predicted_sigmas.iter().copied())
+            .collect();
+        rms(&all)
+    }
+}
+
+/// Cross-validates the instrument calibration of `dataset` with `folds`
+/// folds: row `j` of each file is in fold `j mod folds`; each fold is
+/// predicted ([`validate`], no re-fit) by the calibration of the others.
+pub fn cross_validate(
+    dataset: &Dataset,
+    options: &crate::CalibrationOptions,
+    folds: usize,
+) -> Result<CrossValidation, CalibrateError> {
+    if folds < 2 {
+        return Err(CalibrateError::Calibration {
+            reason: format!("cross-validation needs at least 2 folds, not {folds}"),
+        });
+    }
+    let tracker = &dataset.tracker;
+    let mut validations = Vec::with_capacity(folds);
+    for fold in 0..folds {
+        let split = |n: usize, held: bool| -> Vec<usize> {
+            (0..n).filter(|j| (j % folds == fold) == held).collect()
+        };
+        let part = |held: bool| Dataset {
+            tracker: subset(
+                tracker,
+                &split(tracker.poses.len(), held),
+                &split(tracker.points.len(), held),
+            ),
+            ..dataset.clone()
+        };
+        let run = crate::instruments::calibrate_instruments(&part(false), options, &mut |_| {})?;
+        let calibrated = Calibrated::from_record(&run.record(String::new()))?;
+        validations.push(validate(&part(true), &calibrated, None)?);
+    }
+    Ok(CrossValidation { folds, validations })
+}

@@ -1,0 +1,112 @@
+//! `parcal validate`: apply a calibration of poses or points to
+//! measurements it was not fitted on, or cross-validate a dataset.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use parcal_calibrate::CalibrationOptions;
+use parcal_calibrate::instruments::{Calibrated, Validation, cross_validate, validate};
+use parcal_dataset::{Calibration, NuisanceCandidate, VALIDATION_FILE, ValidationRecord};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Dataset directory (poses.csv and/or points.csv), or a binary snapshot file.
+    dataset: PathBuf,
+    /// The calibration to apply (calibration.json of `parcal calibrate`).
+    #[arg(long, required_unless_present = "folds", conflicts_with = "folds")]
+    calibration: Option<PathBuf>,
+    /// Re-fit each session's nuisance (instrument frame; body origin and leg
+    /// offsets when machine.json's session_model has their sigmas) on its
+    /// first N rows, and predict the others. Without it, every session must
+    /// be one of the calibration's (same label) and is seen through the
+    /// calibration's frames.
+    #[arg(long, value_name = "N")]
+    reference: Option<usize>,
+    /// Instead of applying a calibration: K-fold cross-validation of the
+    /// dataset's own calibration (row j in fold j mod K).
+    #[arg(long, value_name = "K")]
+    folds: Option<usize>,
+    /// Where to write validation.json (default: validation.json in the dataset's directory).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let dataset = super::read_dataset(&args.dataset)?;
+    let (validation, calibration) = match (&args.calibration, args.folds) {
+        (Some(path), _) => {
+            let record = Calibration::read(path)?;
+            let calibrated =
+                Calibrated::from_record(&record).with_context(|| path.display().to_string())?;
+            (
+                validate(&dataset, &calibrated, args.reference)?,
+                path.display().to_string(),
+            )
+        }
+        (None, Some(folds)) => {
+            let options = CalibrationOptions::default();
+            let cross = cross_validate(&dataset, &options, folds)?;
+            let merged = Validation {
+                poses: cross.validations.iter().map(|v| v.poses).sum(),
+                points: cross.validations.iter().map(|v| v.points).sum(),
+                reference: 0,
+                refitted: Vec::new(),
+                selection: Vec::new(),
+                residuals: cross
+                    .validations
+                    .iter()
+                    .flat_map(|v| v.residuals.clone())
+                    .collect(),
+                predicted_sigmas: cross
+                    .validations
+                    .iter()
+                    .flat_map(|v| v.predicted_sigmas.clone())
+                    .collect(),
+            };
+            (merged, format!("{folds}-fold cross-validation"))
+        }
+        (None, None) => unreachable!("clap requires --calibration or --folds"),
+    };
+    let record = ValidationRecord {
+        calibration,
+        reference_rows: validation.reference,
+        refitted: validation.refitted.clone(),
+        selection: validation
+            .selection
+            .iter()
+            .map(|(model, rms)| NuisanceCandidate {
+                model: model.clone(),
+                expected_rms_mm: *rms,
+            })
+            .collect(),
+        rows: validation.poses + validation.points,
+        poses: validation.poses,
+        points: validation.points,
+        rms_mm: validation.rms(),
+        max_mm: validation.max(),
+        per_leg_rms_mm: if validation.poses > 0 {
+            validation.per_leg_rms()
+        } else {
+            [0.0; 6]
+        },
+        predicted_rms_mm: validation.predicted_rms(),
+    };
+    let out = args.out.clone().unwrap_or_else(|| {
+        let directory = if args.dataset.is_file() {
+            args.dataset.parent().map(PathBuf::from).unwrap_or_default()
+        } else {
+            args.dataset.clone()
+        };
+        directory.join(VALIDATION_FILE)
+    });
+    record.write(&out)?;
+    let mut stdout = std::io::stdout().lock();
+    writeln!(
+        stdout,
+        "{}",
+        parcal_report::instruments::validation(&record)
+    )?;
+    writeln!(stdout, "validation written to {}", out.display())?;
+    Ok(())
+}

@@ -1,0 +1,70 @@
+//! `validation.json`: a calibration applied to measurements it was not
+//! fitted on (`parcal validate`).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::check::Check;
+use crate::error::Result;
+use crate::json;
+
+/// The content of `validation.json`. Residuals are leg lengths for poses
+/// (`|R p_i + t − b_i| − l_i − s_i q_i`) and coordinates for points, mm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ValidationRecord {
+    /// The calibration file applied.
+    pub calibration: String,
+    /// Rows of each session used to re-fit its nuisance (0: none, the
+    /// calibration's frames).
+    pub reference_rows: usize,
+    /// The nuisance groups re-fitted, by name.
+    pub refitted: Vec<String>,
+    /// The candidate nuisance models with their expected prediction RMS;
+    /// the one with the least was re-fitted.
+    pub selection: Vec<NuisanceCandidate>,
+    /// Predicted rows (poses plus points).
+    pub rows: usize,
+    /// Predicted poses.
+    pub poses: usize,
+    /// Predicted points.
+    pub points: usize,
+    /// RMS of the residuals of the predicted rows.
+    pub rms_mm: f64,
+    /// Largest absolute residual.
+    pub max_mm: f64,
+    /// RMS of each leg's residual over the predicted poses (zeros without
+    /// poses).
+    pub per_leg_rms_mm: [f64; 6],
+    /// The RMS predicted from the calibration's covariance and the noise
+    /// model.
+    pub predicted_rms_mm: f64,
+}
+
+/// One candidate nuisance model of a validation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NuisanceCandidate {
+    /// Its groups, joined by ` + `.
+    pub model: String,
+    /// Expected RMS of a predicted row's residual (mm): the reference
+    /// rows' residual variance after the re-fit plus the re-fitted
+    /// nuisance's variance propagated to the predicted rows.
+    pub expected_rms_mm: f64,
+}
+
+impl ValidationRecord {
+    /// Writes `validation.json` atomically; every number must be finite.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let check = Check::new(path);
+        check.finite("rms_mm", self.rms_mm)?;
+        check.finite("max_mm", self.max_mm)?;
+        check.values("per_leg_rms_mm", &self.per_leg_rms_mm)?;
+        check.finite("predicted_rms_mm", self.predicted_rms_mm)?;
+        json::write(path, json::VALIDATION, self)
+    }
+
+    /// Reads `validation.json`.
+    pub fn read(path: &Path) -> Result<Self> {
+        json::read(path, json::VALIDATION)
+    }
+}
