@@ -29,5 +29,5 @@ pub mod validate;
 
 pub use crate::error::InstrumentTable;
 pub use model::{InstrumentModel, ModelValues};
-pub use run::{InstrumentRun, calibrate_instruments};
+pub use run::{InstrumentRun, InstrumentSetup, calibrate_instruments, setup};
 pub use validate::{Calibrated, CrossValidation, Validation, cross_validate, validate};

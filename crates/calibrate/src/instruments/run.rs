@@ -57,13 +57,26 @@ pub struct InstrumentRun {
     pub unit: String,
 }
 
-/// Calibrates the poses and points of `dataset` (it must have no ball
-/// touches). `observer` sees each iteration.
-pub fn calibrate_instruments(
-    dataset: &Dataset,
+/// An instrument calibration ready to solve: the problem at its initial
+/// estimate.
+pub struct InstrumentSetup<'a> {
+    /// The design geometry as given (machine.json's frames).
+    pub design: Geometry,
+    /// The problem.
+    pub problem: InstrumentProblem<'a>,
+    /// The initial global block: the design's parameters and scales, the
+    /// frames at their start ([`crate::instruments::start`]), every
+    /// correction and offset zero.
+    pub initial: DVector<f64>,
+}
+
+/// Sets up the calibration of the poses and points of `dataset` (it must
+/// have no ball touches): validation, the frames' start, the layout, the
+/// weights at the initial estimate, the prior.
+pub fn setup<'a>(
+    dataset: &'a Dataset,
     options: &CalibrationOptions,
-    observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<InstrumentRun, CalibrateError> {
+) -> Result<InstrumentSetup<'a>, CalibrateError> {
     crate::validate(dataset)?;
     if dataset.has_touches() {
         return Err(CalibrateError::MixedData);
@@ -91,7 +104,26 @@ pub fn calibrate_instruments(
     let mut rows = InstrumentRows::new(tracker, start.point_poses, forward);
     rows.weigh(&model, &model.values(&initial), &machine.repeatability)?;
     let prior = prior(dataset, &design, &design_params, &model.layout, options)?;
-    let problem = InstrumentProblem { model, rows, prior };
+    Ok(InstrumentSetup {
+        design,
+        problem: InstrumentProblem { model, rows, prior },
+        initial,
+    })
+}
+
+/// Calibrates the poses and points of `dataset` (it must have no ball
+/// touches): [`setup`], then the solver from the initial estimate.
+/// `observer` sees each iteration.
+pub fn calibrate_instruments(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<InstrumentRun, CalibrateError> {
+    let InstrumentSetup {
+        design,
+        problem,
+        initial,
+    } = setup(dataset, options)?;
     let solver_options = SolverOptions {
         method: options.method,
         max_iterations: options.max_iterations,
@@ -107,6 +139,7 @@ pub fn calibrate_instruments(
     let InstrumentProblem { model, rows, prior } = problem;
     let global = solution.state.global;
     let values = model.values(&global);
+    let tracker = &dataset.tracker;
     let leg_residuals = (0..tracker.poses.len())
         .map(|j| {
             rows.pose(&model, &values, j)
@@ -130,7 +163,7 @@ pub fn calibrate_instruments(
         spectrum: solution.spectrum,
         leg_residuals,
         point_residuals,
-        unit: machine.actuator.unit.clone(),
+        unit: dataset.machine.actuator.unit.clone(),
     })
 }
 

@@ -23,9 +23,10 @@
 //! variance `diag(G Σ_θ Gᵀ) + diag(J_n K Kᵀ J_nᵀ) + σ²_row` gives the
 //! predicted RMS.
 
-use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
+use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector6};
 use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, Tracker};
-use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Params, Vec3, params};
+use parcal_kinematics::{ForwardOptions, Geometry, Params, Vec3, params};
+use parcal_observe::FrameCorrection;
 use parcal_solver::GlobalObservations;
 
 use crate::CalibrateError;
@@ -52,6 +53,9 @@ pub struct Calibrated {
     pub sessions: Vec<(String, Isometry3<f64>, Isometry3<f64>, [f64; 6])>,
     /// The parameters' names.
     pub names: Vec<String>,
+    /// Their values (the frames': corrections of the calibration's
+    /// references, [`crate::instruments::model`]).
+    pub values: DVector<f64>,
     /// Their covariance.
     pub covariance: DMatrix<f64>,
 }
@@ -96,8 +100,27 @@ impl Calibrated {
                 })
                 .collect(),
             names: calibration.parameters.names.clone(),
+            values: DVector::from_column_slice(&calibration.parameters.values),
             covariance: DMatrix::from_fn(n, n, |i, j| calibration.covariance[i][j]),
         })
+    }
+}
+
+impl Calibrated {
+    /// The value of the parameter `name`, if the calibration has it.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        let k = self.names.iter().position(|n| n == name)?;
+        Some(self.values[k])
+    }
+
+    /// The frame correction `(ω, τ)` of the parameters `prefix.wx` …
+    /// `prefix.tz`, if the calibration has them.
+    fn correction(&self, prefix: &str) -> Option<FrameCorrection> {
+        let mut p = Vector6::zeros();
+        for (k, c) in ["wx", "wy", "wz", "tx", "ty", "tz"].iter().enumerate() {
+            p[k] = self.value(&format!("{prefix}.{c}"))?;
+        }
+        Some(FrameCorrection::from_params(&p))
     }
 }
 
@@ -229,8 +252,12 @@ pub fn validate(
     let forward = ForwardOptions::default();
     let reference_set = subset(tracker, &reference_rows.0, &reference_rows.1);
     let predicted_set = subset(tracker, &predicted_rows.0, &predicted_rows.1);
-    let first = &calibrated.sessions[0];
-    let body_reference = first.2;
+    // The calibration's own references, so that its covariance applies to
+    // its parameters as they are: B₀ = C_B⁻¹ ∘ B_first, F₀_k = F_k ∘ C_F,k⁻¹.
+    let body_correction = calibrated
+        .correction("body")
+        .unwrap_or(FrameCorrection::IDENTITY);
+    let body_reference = body_correction.isometry().inverse() * calibrated.sessions[0].2;
     // The frames' start: the calibration's for a known session without
     // re-fit, the reference rows' hand-eye start otherwise.
     let start = match reference {
@@ -256,33 +283,38 @@ pub fn validate(
         groups.push(ParameterGroup::LegOffsets { session });
     }
     let layout = ParameterLayout::with_groups(groups);
-    let mut global = DVector::zeros(layout.size());
-    global.rows_mut(0, N_PARAMS).copy_from(&calibrated.params);
-    let scales = layout
-        .range(ParameterGroup::ActuatorScales)
-        .expect("in the layout");
-    global
-        .rows_mut(scales.start, 6)
-        .copy_from_slice(&calibrated.scales);
+    // Every parameter at the calibration's value, by name, but the
+    // re-fitted sessions' nuisance (zero, about the reference rows' frames).
+    let names = layout.names(&[], &tracker.sessions);
+    // The groups shared by the sessions come first.
+    let shared = layout
+        .range(ParameterGroup::TrackerFrame { session: 0 })
+        .map_or(layout.size(), |r| r.start);
+    let mut global = DVector::from_fn(layout.size(), |c, _| {
+        let copied = reference.is_none() || c < shared;
+        copied
+            .then(|| calibrated.value(&names[c]))
+            .flatten()
+            .unwrap_or(0.0)
+    });
+    if layout.range(ParameterGroup::ActuatorScales).is_some() && calibrated.value("s_1").is_none() {
+        // A calibration with known scales: they are its machine's.
+        let r = layout
+            .range(ParameterGroup::ActuatorScales)
+            .expect("present");
+        global
+            .rows_mut(r.start, 6)
+            .copy_from_slice(&calibrated.scales);
+    }
     let mut tracker_references = Vec::with_capacity(sessions);
     for k in 0..sessions {
         match (&start, known(k)) {
             (Some(start), _) => tracker_references.push(start.trackers[k]),
-            (None, Some((_, f, b, offsets))) => {
-                tracker_references.push(*f);
-                // B_k = (Exp(φ_k), ρ_k) ∘ B₀ with B₀ the first session's.
-                let turn = b.rotation * body_reference.rotation.inverse();
-                if let Some(r) = layout.range(ParameterGroup::BodyRotation { session: k }) {
-                    global.rows_mut(r.start, 3).copy_from(&turn.scaled_axis());
-                }
-                if let Some(r) = layout.range(ParameterGroup::BodyOrigin { session: k }) {
-                    let shift = b.translation.vector - turn * body_reference.translation.vector;
-                    global.rows_mut(r.start, 3).copy_from(&shift);
-                }
-                let r = layout
-                    .range(ParameterGroup::LegOffsets { session: k })
-                    .expect("in the layout");
-                global.rows_mut(r.start, 6).copy_from_slice(offsets);
+            (None, Some((label, f, ..))) => {
+                let correction = calibrated
+                    .correction(&format!("frame {label}"))
+                    .unwrap_or(FrameCorrection::IDENTITY);
+                tracker_references.push(f * correction.isometry().inverse());
             }
             (None, None) => unreachable!("checked above"),
         }
@@ -593,6 +625,7 @@ fn predicted_sigmas(
         None => (j_theta, None),
     };
     let propagated = &g * sigma_theta * g.transpose();
+
     (0..raw.residual.len())
         .map(|i| {
             let refit = refit_noise
