@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use parcal_calibrate::setup::design_geometry;
+use parcal_dataset::Dataset;
 use parcal_kinematics::{ForwardOptions, forward_from_home};
 use rayon::prelude::*;
 
@@ -26,10 +27,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .canonicalize()
         .context("machine.json: the design geometry is degenerate")?;
 
-    let counts = dataset.contacts_per_ball();
-    let m = &dataset.measurements;
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "dataset {}", args.dataset.display())?;
+    if !dataset.tracker.is_empty() {
+        instruments(&mut stdout, &dataset)?;
+    }
+    if !dataset.has_touches() {
+        return Ok(());
+    }
+    let counts = dataset.contacts_per_ball();
+    let m = &dataset.measurements;
     writeln!(
         stdout,
         "  balls              {} ({:?} frame)",
@@ -60,11 +67,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "  approach dirs      {}",
         if m.direction.is_some() { "yes" } else { "no" }
     )?;
-    writeln!(
-        stdout,
-        "  truth              {}",
-        if dataset.truth.is_some() { "yes" } else { "no" }
-    )?;
+    truth_line(&mut stdout, &dataset)?;
     for i in 0..6 {
         let (lo, hi) =
             m.q.iter()
@@ -100,4 +103,60 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         failures.len(),
         m.q.len()
     )
+}
+
+fn truth_line(out: &mut impl Write, dataset: &Dataset) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "  truth              {}",
+        if dataset.truth.is_some() { "yes" } else { "no" }
+    )
+}
+
+/// The instrument measurements: sessions, rows, the readings' ranges in
+/// the actuators' unit, the instrument's repeatability.
+fn instruments(out: &mut impl Write, dataset: &Dataset) -> anyhow::Result<()> {
+    let tracker = &dataset.tracker;
+    let machine = &dataset.machine;
+    writeln!(
+        out,
+        "  poses              {} (poses.csv)",
+        tracker.poses.len()
+    )?;
+    writeln!(
+        out,
+        "  points             {} (points.csv)",
+        tracker.points.len()
+    )?;
+    for (label, (poses, points)) in tracker.sessions.iter().zip(tracker.rows_per_session()) {
+        writeln!(out, "  session {label:<10} {poses} poses, {points} points")?;
+    }
+    let unit = &machine.actuator.unit;
+    let scales = if machine.actuator.scale_sigma.is_some() {
+        "estimated"
+    } else {
+        "known"
+    };
+    writeln!(out, "  actuator unit      {unit} (scales {scales})")?;
+    for i in 0..6 {
+        let (lo, hi) = tracker
+            .poses
+            .q
+            .iter()
+            .chain(&tracker.points.q)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                (lo.min(q[i]), hi.max(q[i]))
+            });
+        writeln!(out, "  q{}                 {lo:.4} .. {hi:.4} {unit}", i + 1)?;
+    }
+    let r = &machine.repeatability;
+    let sigma = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v}"));
+    writeln!(
+        out,
+        "  instrument sigma   position {} mm, orientation {} rad",
+        sigma(r.position),
+        sigma(r.orientation)
+    )?;
+    truth_line(out, dataset)?;
+    Ok(())
 }
