@@ -25,10 +25,15 @@ pub fn record(run: &InstrumentRun) -> Calibration {
     run.record(status(run))
 }
 
-/// What determined a parameter, from its posterior and prior sigmas: `data`
-/// (the posterior sigma under half the prior's), `prior` (over 0.9 of it)
-/// or `data and prior`.
-pub fn determined_by(posterior: f64, prior: f64) -> &'static str {
+/// What determined a parameter, from the data's information on it and its
+/// posterior and prior sigmas: `prior (not observed)` when the data carry
+/// no information on it (it moves only through the prior's correlations),
+/// else `data` (the posterior sigma under half the prior's), `prior` (over
+/// 0.9 of it) or `data and prior`.
+pub fn determined_by(data_information: f64, posterior: f64, prior: f64) -> &'static str {
+    if data_information <= 0.0 {
+        return "prior (not observed)";
+    }
     let ratio = posterior / prior;
     if ratio < DATA_DETERMINED {
         "data"
@@ -94,7 +99,11 @@ pub fn parameters(run: &InstrumentRun) -> String {
             } else {
                 "none".to_string()
             },
-            sigma.map_or("-", |s| determined_by(s, prior_sigma))
+            sigma.map_or("-", |s| determined_by(
+                run.data_information[k],
+                s,
+                prior_sigma
+            ))
         );
     }
     out

@@ -30,4 +30,6 @@ pub mod validate;
 pub use crate::error::InstrumentTable;
 pub use model::{InstrumentModel, ModelValues};
 pub use run::{InstrumentRun, InstrumentSetup, calibrate_instruments, setup};
-pub use validate::{Calibrated, CrossValidation, Validation, cross_validate, validate};
+pub use validate::{
+    Calibrated, CalibratedSession, CrossValidation, Validation, cross_validate, validate,
+};

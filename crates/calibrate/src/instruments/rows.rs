@@ -314,11 +314,11 @@ fn length_columns<const R: usize>(
     out: &mut DMatrix<f64>,
 ) {
     let layout = &model.layout;
-    for i in 0..6 {
+    for (i, &qi) in q.iter().enumerate() {
         let column = -minus_d_lengths.column(i);
         if let Some(r) = layout.range(ParameterGroup::ActuatorScales) {
             out.view_mut((0, r.start + i), (R, 1))
-                .copy_from(&(column * q[i]));
+                .copy_from(&(column * qi));
         }
         if let Some(r) = layout.range(ParameterGroup::LegOffsets { session }) {
             out.view_mut((0, r.start + i), (R, 1)).copy_from(&column);

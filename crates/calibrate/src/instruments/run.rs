@@ -55,6 +55,10 @@ pub struct InstrumentRun {
     pub point_residuals: Vec<Vec3>,
     /// The actuators' unit.
     pub unit: String,
+    /// The information the data alone give each parameter at the
+    /// identified state, `diag(JᵀJ)` of the whitened rows (zero: the data
+    /// do not observe it, e.g. the tool tip from poses alone).
+    pub data_information: DVector<f64>,
 }
 
 /// An instrument calibration ready to solve: the problem at its initial
@@ -149,7 +153,16 @@ pub fn calibrate_instruments(
     let point_residuals = (0..tracker.points.len())
         .map(|j| rows.point(&model, &values, j).map(|r| r.block.residual))
         .collect::<Result<_, _>>()?;
+    let mut whitened = parcal_solver::GlobalObservations::zeros(0, 0);
+    rows.evaluate(&model, &values, &mut whitened)?;
+    let data_information = whitened
+        .jacobian
+        .row_iter()
+        .fold(DVector::zeros(global.len()), |sum, row| {
+            sum + row.transpose().component_mul(&row.transpose())
+        });
     Ok(InstrumentRun {
+        data_information,
         options: options.clone(),
         design,
         residual_rows: rows.len(),

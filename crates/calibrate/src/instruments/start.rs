@@ -13,8 +13,9 @@
 //! and their negatives, which centres both sets), the rotation part of
 //! the hand–eye calibration `AX = XB` (Park and Martin, IEEE Trans. Robot.
 //! Autom. 10, 1994, 717). Then `R_B` is the chordal mean of `R_Tjᵀ R_Fᵀ
-//! R_Mj`, and the translations solve the linear least squares `R_F R_Tj t_B
-//! + t_F = t_Mj − R_F t_Tj` (one `t_F` per session, `t_B` shared). A
+//! R_Mj`, and the translations solve the linear least squares
+//! `R_F R_Tj t_B + t_F = t_Mj − R_F t_Tj` (one `t_F` per session, `t_B`
+//! shared). A
 //! session of points alone: `F` is the best rigid motion of the design's
 //! tool tips onto the measured points (Kabsch).
 

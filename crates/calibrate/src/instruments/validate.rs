@@ -48,9 +48,8 @@ pub struct Calibrated {
     pub params: Params,
     /// The actuator scales (mm per unit).
     pub scales: [f64; 6],
-    /// Each calibrated session: label, instrument frame, body frame, leg
-    /// offsets (canonical frames).
-    pub sessions: Vec<(String, Isometry3<f64>, Isometry3<f64>, [f64; 6])>,
+    /// Each calibrated session's frames.
+    pub sessions: Vec<CalibratedSession>,
     /// The parameters' names.
     pub names: Vec<String>,
     /// Their values (the frames': corrections of the calibration's
@@ -90,13 +89,10 @@ impl Calibrated {
             sessions: calibration
                 .sessions
                 .iter()
-                .map(|s| {
-                    (
-                        s.label.clone(),
-                        isometry(&s.tracker_frame),
-                        isometry(&s.body_frame),
-                        s.leg_offsets,
-                    )
+                .map(|s| CalibratedSession {
+                    label: s.label.clone(),
+                    tracker_frame: isometry(&s.tracker_frame),
+                    body_frame: isometry(&s.body_frame),
                 })
                 .collect(),
             names: calibration.parameters.names.clone(),
@@ -104,6 +100,17 @@ impl Calibrated {
             covariance: DMatrix::from_fn(n, n, |i, j| calibration.covariance[i][j]),
         })
     }
+}
+
+/// A calibrated session's frames (canonical frames).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibratedSession {
+    /// Its label.
+    pub label: String,
+    /// Its instrument frame (canonical base → instrument).
+    pub tracker_frame: Isometry3<f64>,
+    /// Its body frame (body → canonical platform).
+    pub body_frame: Isometry3<f64>,
 }
 
 impl Calibrated {
@@ -236,7 +243,7 @@ pub fn validate(
         calibrated
             .sessions
             .iter()
-            .find(|(label, ..)| *label == tracker.sessions[k])
+            .find(|session| session.label == tracker.sessions[k])
     };
     if reference.is_none()
         && let Some(k) = (0..sessions).find(|&k| known(k).is_none())
@@ -257,7 +264,7 @@ pub fn validate(
     let body_correction = calibrated
         .correction("body")
         .unwrap_or(FrameCorrection::IDENTITY);
-    let body_reference = body_correction.isometry().inverse() * calibrated.sessions[0].2;
+    let body_reference = body_correction.isometry().inverse() * calibrated.sessions[0].body_frame;
     // The frames' start: the calibration's for a known session without
     // re-fit, the reference rows' hand-eye start otherwise.
     let start = match reference {
@@ -310,11 +317,11 @@ pub fn validate(
     for k in 0..sessions {
         match (&start, known(k)) {
             (Some(start), _) => tracker_references.push(start.trackers[k]),
-            (None, Some((label, f, ..))) => {
+            (None, Some(session)) => {
                 let correction = calibrated
-                    .correction(&format!("frame {label}"))
+                    .correction(&format!("frame {}", session.label))
                     .unwrap_or(FrameCorrection::IDENTITY);
-                tracker_references.push(f * correction.isometry().inverse());
+                tracker_references.push(session.tracker_frame * correction.isometry().inverse());
             }
             (None, None) => unreachable!("checked above"),
         }

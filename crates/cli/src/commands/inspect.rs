@@ -147,7 +147,11 @@ fn instruments(out: &mut impl Write, dataset: &Dataset) -> anyhow::Result<()> {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
                 (lo.min(q[i]), hi.max(q[i]))
             });
-        writeln!(out, "  q{}                 {lo:.4} .. {hi:.4} {unit}", i + 1)?;
+        writeln!(
+            out,
+            "  q{}                 {lo:.4} .. {hi:.4} {unit}",
+            i + 1
+        )?;
     }
     let r = &machine.repeatability;
     let sigma = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v}"));
