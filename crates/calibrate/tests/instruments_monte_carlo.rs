@@ -1,0 +1,367 @@
+//! Is the instrument calibration's covariance honest, and does it predict
+//! what it has not seen? Paper-like campaigns of poses, points and both, in
+//! three sessions, with re-homed legs and a re-mounted marker body.
+//!
+//! - [`true_block`] maps a simulation's truth to the global block; a
+//!   low-noise run checks the mapping coordinate by coordinate.
+//! - NEES: `e^T Σ^-1 e`, `e` the error of the whole global block, is
+//!   chi-square(n) for an honest covariance (`n` the block's size) when the
+//!   truth is drawn from the prior, so each seed draws one. Its mean over
+//!   the seeds must lie within 4 standard errors of `n` (the standard error
+//!   from the seeds' own spread). NEES is chi-square only to first order:
+//!   the prior-limited errors of weakly determined directions (the tilt of
+//!   the base plane against the instrument frames' common rotation; for
+//!   points, the frames' rotations) reach the tightly determined
+//!   combinations through the model's curvature, which adds to the NEES
+//!   about the fourth power of the design tolerance. With the paper-like
+//!   0.1 mm the mean exceeds `n` by more than the test allows; the test
+//!   uses 0.02 mm, where the first order holds.
+//! - Hold-out: a calibration on two sessions predicts a third one, its
+//!   frame, body origin and leg offsets re-fitted on its first rows; the
+//!   RMS it predicts must be within 20 % of the observed one (the issue's
+//!   requirement).
+
+use std::time::Instant;
+
+use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
+use parcal_calibrate::CalibrationOptions;
+use parcal_calibrate::instruments::{Calibrated, InstrumentRun, calibrate_instruments, validate};
+use parcal_calibrate::layout::ParameterGroup;
+use parcal_dataset::{Dataset, FrameRecord, PriorSigma, SessionModel, Tracker};
+use parcal_kinematics::{Geometry, Vec3, params};
+use parcal_simulate::{Rng, TrackerKind, TrackerScenario, simulate_tracker};
+
+const KINDS: [TrackerKind; 3] = [TrackerKind::Poses, TrackerKind::Points, TrackerKind::Both];
+
+/// Noise seeds of the NEES test, per kind.
+const NEES_SEEDS: u64 = 100;
+/// The mean NEES must lie within this many of its standard errors of the
+/// block's size: an honest covariance fails this with probability about
+/// 6e-5 per kind.
+const STANDARD_ERRORS: f64 = 4.0;
+/// The design tolerance of every input coordinate in the NEES test (mm).
+const TOLERANCE: f64 = 0.02;
+/// The random stream of a seed's true machine: apart from the sessions'
+/// streams `0..sessions` of the simulator.
+const TRUTH_STREAM: u64 = 1 << 32;
+
+/// The low-noise run's noise, as a fraction of the paper-like one.
+const LOW_NOISE: f64 = 0.01;
+/// Every coordinate of the low-noise run must be within this many sigmas
+/// of the truth: about 1e-4 for all of them together, by chance.
+const MAPPING_SIGMAS: f64 = 5.0;
+
+/// Noise seeds of the hold-out test, per kind.
+const HOLD_OUT_SEEDS: u64 = 30;
+/// Rows of the held-out session that re-fit its nuisance.
+const REFERENCE_ROWS: usize = 12;
+/// The issue's bound on `predicted / observed - 1` of the hold-out RMS.
+const HOLD_OUT_TOLERANCE: f64 = 0.2;
+
+/// The paper-like campaign of `kind` in 3 sessions of 40 rows; later
+/// sessions re-home the legs (0.5 mm) and re-mount the marker body (1 mm).
+fn campaign(kind: TrackerKind) -> TrackerScenario {
+    TrackerScenario {
+        kind,
+        sessions: 3,
+        rows_per_session: 40,
+        session_model: SessionModel {
+            leg_offset_sigma: Some(0.5),
+            body_origin_sigma: Some(1.0),
+            body_rotation_sigma: None,
+        },
+        ..TrackerScenario::paper_like()
+    }
+}
+
+/// `scenario` with design tolerances `tolerance` (mm) and a true machine
+/// drawn from them: each input coordinate of the design plus `N(0,
+/// tolerance²)`, each scale its design value plus `N(0, scale_sigma²)`.
+fn with_truth_from_prior(scenario: &TrackerScenario, tolerance: f64, seed: u64) -> TrackerScenario {
+    let mut rng = Rng::new(seed, TRUTH_STREAM);
+    let mut moved = |v: &Vec3| v + Vec3::from_fn(|_, _| rng.normal(tolerance));
+    let design = &scenario.design;
+    let truth = Geometry {
+        base: design.base.map(|b| moved(&b)),
+        platform: design.platform.map(|e| moved(&e)),
+        tool: moved(&design.tool),
+        legs: design.legs.map(|l| l + rng.normal(tolerance)),
+    };
+    let sigma = scenario
+        .scale_sigma
+        .expect("paper-like scales have a prior");
+    let true_scale = std::array::from_fn(|i| scenario.design_scale[i] + rng.normal(sigma[i]));
+    TrackerScenario {
+        truth,
+        true_scale,
+        prior_sigma: PriorSigma {
+            base: tolerance,
+            platform: tolerance,
+            tool: tolerance,
+            leg: tolerance,
+        },
+        ..scenario.clone()
+    }
+}
+
+/// A frame of the dataset files as an isometry.
+fn isometry(record: &FrameRecord) -> Isometry3<f64> {
+    let [x, y, z, w] = record.rotation;
+    Isometry3::from_parts(
+        Translation3::from(Vec3::from(record.translation)),
+        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+    )
+}
+
+/// The true global block of the simulated `dataset` in the layout of
+/// `run`. `T_b`, `T_p`: the true geometry's `base_from_input` and
+/// `platform_from_input`; `F_k`, `B_k`: the true frames (design base frame
+/// to instrument, body to design platform frame).
+///
+/// - kinematic: the true geometry's canonical parameters; scales: the
+///   true scales; leg offsets: the true ones;
+/// - `C_F,k = F₀_k⁻¹ F_k T_b⁻¹`, as `(Log R, t)`;
+/// - `C_B,k = T_p B_k B₀⁻¹`: the body frame's correction is session 0's
+///   `(ω_B, τ_B) = (Log R(C_B,0), t(C_B,0))`; a later session's turn and
+///   shift are `Log R(C_B,k) − ω_B` and `t(C_B,k) − τ_B`, exactly, since
+///   `C_B,k = (Exp(ω_B + φ_k), τ_B + ρ_k)`.
+fn true_block(dataset: &Dataset, run: &InstrumentRun) -> DVector<f64> {
+    let truth = dataset.truth.as_ref().expect("a simulated dataset");
+    let g = &truth.geometry;
+    let geometry =
+        Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
+    let canonical = geometry.canonicalize().expect("a canonical truth");
+    let model = &run.model;
+    let body = |k: usize| {
+        canonical.platform_from_input
+            * isometry(&truth.sessions[k].body_frame)
+            * model.body_reference.inverse()
+    };
+    let (omega_b, tau_b) = (body(0).rotation.scaled_axis(), body(0).translation.vector);
+    let correction = |c: &Isometry3<f64>| {
+        let (w, t) = (c.rotation.scaled_axis(), c.translation.vector);
+        vec![w.x, w.y, w.z, t.x, t.y, t.z]
+    };
+    let mut block = DVector::zeros(model.layout.size());
+    for (group, range) in model.layout.groups() {
+        let values = match *group {
+            ParameterGroup::Kinematic => params::to_params(&canonical.geometry).as_slice().to_vec(),
+            ParameterGroup::ActuatorScales => truth.actuator_scale.expect("true scales").to_vec(),
+            ParameterGroup::TrackerFrame { session } => correction(
+                &(model.tracker_references[session].inverse()
+                    * isometry(&truth.sessions[session].tracker_frame)
+                    * canonical.base_from_input.inverse()),
+            ),
+            ParameterGroup::BodyFrame => correction(&body(0)),
+            ParameterGroup::BodyRotation { session } => (body(session).rotation.scaled_axis()
+                - omega_b)
+                .as_slice()
+                .to_vec(),
+            ParameterGroup::BodyOrigin { session } => (body(session).translation.vector - tau_b)
+                .as_slice()
+                .to_vec(),
+            ParameterGroup::LegOffsets { session } => truth.sessions[session].leg_offsets.to_vec(),
+            ParameterGroup::BallCentre { .. } => unreachable!("no ball in an instrument campaign"),
+        };
+        block
+            .rows_mut(range.start, range.len())
+            .copy_from_slice(&values);
+    }
+    block
+}
+
+/// `e^T Σ^-1 e` by the Cholesky factor of `Σ`; `None` when `Σ` is not
+/// positive definite.
+fn nees(e: &DVector<f64>, covariance: &DMatrix<f64>) -> Option<f64> {
+    let factor = covariance.clone().cholesky()?;
+    Some(factor.l().solve_lower_triangular(e)?.norm_squared())
+}
+
+/// The mean of `values` and its standard error (sample sd / √N).
+fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (variance / n).sqrt())
+}
+
+/// The sessions `keep` of `dataset` (indices, renumbered in that order)
+/// with their rows in file order, without the truth.
+fn sessions_of(dataset: &Dataset, keep: &[usize]) -> Dataset {
+    let tracker = &dataset.tracker;
+    let renumber = |session: u32| {
+        keep.iter()
+            .position(|&k| k == session as usize)
+            .map(|k| k as u32)
+    };
+    let mut out = Tracker {
+        sessions: keep.iter().map(|&k| tracker.sessions[k].clone()).collect(),
+        ..Tracker::default()
+    };
+    let (poses, points) = (&tracker.poses, &tracker.points);
+    for j in 0..poses.len() {
+        if let Some(k) = renumber(poses.session[j]) {
+            out.poses.session.push(k);
+            out.poses.q.push(poses.q[j]);
+            out.poses.position.push(poses.position[j]);
+            out.poses.orientation.push(poses.orientation[j]);
+        }
+    }
+    for j in 0..points.len() {
+        if let Some(k) = renumber(points.session[j]) {
+            out.points.session.push(k);
+            out.points.q.push(points.q[j]);
+            out.points.position.push(points.position[j]);
+        }
+    }
+    Dataset {
+        tracker: out,
+        truth: None,
+        ..dataset.clone()
+    }
+}
+
+#[test]
+fn a_low_noise_calibration_finds_the_true_block() {
+    for kind in KINDS {
+        let noisy = TrackerScenario {
+            session_model: SessionModel {
+                body_rotation_sigma: Some(0.01),
+                ..campaign(kind).session_model
+            },
+            ..campaign(kind)
+        };
+        let scenario = TrackerScenario {
+            actuator_sigma: LOW_NOISE * noisy.actuator_sigma,
+            position_sigma: LOW_NOISE * noisy.position_sigma,
+            orientation_sigma: LOW_NOISE * noisy.orientation_sigma,
+            ..with_truth_from_prior(&noisy, TOLERANCE, 1)
+        };
+        let dataset = simulate_tracker(&scenario, 1).expect("simulation").dataset;
+        let run = calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
+            .expect("calibration");
+        assert!(run.converged(), "{kind:?}: {:?}", run.status);
+        let error = &run.global - true_block(&dataset, &run);
+        let z = error.component_div(&run.sigmas().expect("sigmas"));
+        let names = run.names();
+        let worst = z.iamax();
+        println!(
+            "{kind:?}, noise x{LOW_NOISE}: {} parameters, largest |error| / sigma {:.2} ({})",
+            z.len(),
+            z[worst].abs(),
+            names[worst]
+        );
+        let far: Vec<String> = (0..z.len())
+            .filter(|&k| z[k].abs() > MAPPING_SIGMAS)
+            .map(|k| format!("{} {:+.1} sigma", names[k], z[k]))
+            .collect();
+        assert!(far.is_empty(), "{kind:?}: {}", far.join(", "));
+    }
+}
+
+#[test]
+fn mean_nees_of_the_global_block_is_its_size() {
+    let start = Instant::now();
+    let mut failures = Vec::new();
+    for kind in KINDS {
+        let campaign = campaign(kind);
+        let mut values = Vec::new();
+        let mut size = 0;
+        for seed in 1..=NEES_SEEDS {
+            let scenario = with_truth_from_prior(&campaign, TOLERANCE, seed);
+            let dataset = simulate_tracker(&scenario, seed)
+                .expect("simulation")
+                .dataset;
+            let run = calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
+                .expect("calibration");
+            let Some(covariance) = run.covariance.as_ref().filter(|_| run.converged()) else {
+                failures.push(format!("{kind:?} seed {seed}: {:?}", run.status));
+                continue;
+            };
+            let error = &run.global - true_block(&dataset, &run);
+            size = error.len();
+            match nees(&error, covariance) {
+                Some(v) => values.push(v),
+                None => failures.push(format!("{kind:?} seed {seed}: covariance not SPD")),
+            }
+        }
+        let (mean, standard_error) = mean_and_standard_error(&values);
+        println!(
+            "{kind:?}: {} seeds, mean NEES {mean:.2} for {size} parameters, standard error \
+             {standard_error:.2} ({:+.1} standard errors)",
+            values.len(),
+            (mean - size as f64) / standard_error,
+        );
+        if (mean - size as f64).abs() > STANDARD_ERRORS * standard_error {
+            failures.push(format!(
+                "{kind:?}: mean NEES {mean:.2} is more than {STANDARD_ERRORS} standard errors \
+                 ({standard_error:.2}) from {size}"
+            ));
+        }
+    }
+    println!("NEES: {:.1} s", start.elapsed().as_secs_f64());
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn hold_out_rms_is_predicted_within_20_percent() {
+    let start = Instant::now();
+    let mut failures = Vec::new();
+    for kind in KINDS {
+        let scenario = campaign(kind);
+        let (mut observed, mut predicted) = (Vec::new(), Vec::new());
+        let (mut observed_squares, mut predicted_squares) = (0.0, 0.0);
+        for seed in 1..=HOLD_OUT_SEEDS {
+            let dataset = simulate_tracker(&scenario, seed)
+                .expect("simulation")
+                .dataset;
+            let run = calibrate_instruments(
+                &sessions_of(&dataset, &[0, 1]),
+                &CalibrationOptions::default(),
+                &mut |_| {},
+            )
+            .expect("calibration");
+            if !run.converged() {
+                failures.push(format!("{kind:?} seed {seed}: {:?}", run.status));
+                continue;
+            }
+            let calibrated = Calibrated::from_record(&run.record(String::new()))
+                .expect("a converged calibration");
+            // Session 3's label is not one of the calibration's: its
+            // nuisance is re-fitted on its first rows.
+            let validation = validate(
+                &sessions_of(&dataset, &[2]),
+                &calibrated,
+                Some(REFERENCE_ROWS),
+            )
+            .expect("validation");
+            observed.push(validation.rms());
+            predicted.push(validation.predicted_rms());
+            observed_squares += validation.residuals.iter().map(|r| r * r).sum::<f64>();
+            predicted_squares += validation
+                .predicted_sigmas
+                .iter()
+                .map(|s| s * s)
+                .sum::<f64>();
+        }
+        let (observed_mean, observed_se) = mean_and_standard_error(&observed);
+        let (predicted_mean, predicted_se) = mean_and_standard_error(&predicted);
+        let ratio_of_means = predicted_mean / observed_mean;
+        let pooled = (predicted_squares / observed_squares).sqrt();
+        println!(
+            "{kind:?}: {} seeds, observed RMS {observed_mean:.5} ± {observed_se:.5} mm, \
+             predicted {predicted_mean:.5} ± {predicted_se:.5} mm; ratio of the means \
+             {ratio_of_means:.3}, of the pooled RMS {pooled:.3}",
+            observed.len(),
+        );
+        for (what, ratio) in [("means", ratio_of_means), ("pooled RMS", pooled)] {
+            if (ratio - 1.0).abs() > HOLD_OUT_TOLERANCE {
+                failures.push(format!(
+                    "{kind:?}: predicted / observed hold-out RMS ({what}) {ratio:.3}"
+                ));
+            }
+        }
+    }
+    println!("hold-out: {:.1} s", start.elapsed().as_secs_f64());
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
