@@ -4,7 +4,9 @@
 //! cross-validated.
 
 use nalgebra::DVector;
-use parcal_calibrate::instruments::{Calibrated, InstrumentSetup, cross_validate, setup, validate};
+use parcal_calibrate::instruments::{
+    Calibrated, InstrumentSetup, cross_validate, setup, validate_calibration,
+};
 use parcal_calibrate::{CalibrateError, CalibrationOptions, InstrumentTable};
 use parcal_dataset::{Dataset, SessionModel};
 use parcal_kinematics::ForwardOptions;
@@ -173,7 +175,7 @@ fn jugglebot_fits_and_predicts_held_out_poses() {
     // The calibration applied to its own data through its own frames
     // reproduces the in-sample residuals.
     let calibrated = Calibrated::from_record(&run.record(String::new())).unwrap();
-    let again = validate(&dataset, &calibrated, None).unwrap();
+    let again = validate_calibration(&dataset, &calibrated, None).unwrap();
     assert!((again.rms() - in_sample).abs() < 1e-9 * in_sample);
 }
 
@@ -205,14 +207,14 @@ fn errors_name_the_row_and_the_session() {
     let calibrated = Calibrated::from_record(&run.record(String::new())).unwrap();
     let mut other_day = jugglebot();
     other_day.tracker.sessions = vec!["tuesday".into()];
-    let error = validate(&other_day, &calibrated, None)
+    let error = validate_calibration(&other_day, &calibrated, None)
         .unwrap_err()
         .to_string();
     assert!(
         error.contains("session \"tuesday\" is not one of the calibration's"),
         "{error}"
     );
-    let error = validate(&other_day, &calibrated, Some(108))
+    let error = validate_calibration(&other_day, &calibrated, Some(108))
         .unwrap_err()
         .to_string();
     assert!(error.contains("none is left to predict"), "{error}");

@@ -25,7 +25,9 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
 use parcal_calibrate::CalibrationOptions;
-use parcal_calibrate::instruments::{Calibrated, InstrumentRun, calibrate_instruments, validate};
+use parcal_calibrate::instruments::{
+    Calibrated, InstrumentRun, calibrate_instruments, validate_calibration,
+};
 use parcal_calibrate::layout::ParameterGroup;
 use parcal_dataset::{Dataset, FrameRecord, PriorSigma, SessionModel, Tracker};
 use parcal_kinematics::{Geometry, Vec3, params};
@@ -329,7 +331,7 @@ fn hold_out_rms_is_predicted_within_20_percent() {
                 .expect("a converged calibration");
             // Session 3's label is not one of the calibration's: its
             // nuisance is re-fitted on its first rows.
-            let validation = validate(
+            let validation = validate_calibration(
                 &sessions_of(&dataset, &[2]),
                 &calibrated,
                 Some(REFERENCE_ROWS),

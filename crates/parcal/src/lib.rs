@@ -1,5 +1,7 @@
 //! parcal as a library: calibrate a hexapod (a 6-6 Stewart platform) from
-//! touches of calibration balls, with a priori knowledge of its design
+//! touches of calibration balls, or from poses and points measured by an
+//! instrument ([`calibrate_instruments`], [`validate_calibration`]), with a
+//! priori knowledge of its design
 //! tolerances (Sato et al., "Artefact calibration of parallel mechanism",
 //! Meas. Sci. Technol. 15 (2004) 1158), and see what the calibration buys.
 //!
@@ -105,6 +107,14 @@ pub use parcal_calibrate::{
     ParamCovariance, PriorMode, WeightModel, calibrate, validate,
 };
 pub use parcal_kinematics::{KinematicsError, N_PARAMS, PARAM_NAMES, Params};
+
+// Instrument measurements (poses, points, in sessions): calibration, and a
+// calibration applied to data it was not fitted on.
+pub use parcal_calibrate::instruments::{
+    Calibrated, CrossValidation, InstrumentRun, Validation, calibrate_instruments, cross_validate,
+    validate_calibration,
+};
+pub use parcal_dataset::{Actuator, Points, Poses, SessionModel, Tracker, ValidationRecord};
 
 // What a calibration buys: accuracy maps before and after.
 pub use parcal_accuracy::{AccuracyError, AccuracyMap, MapGrid, MapSummary};

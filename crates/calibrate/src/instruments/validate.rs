@@ -193,7 +193,7 @@ fn rms(values: &[f64]) -> f64 {
 
 /// Applies `calibrated` to `dataset` (module doc). Without `reference`,
 /// every session of `dataset` must be one of the calibration's (by label).
-pub fn validate(
+pub fn validate_calibration(
     dataset: &Dataset,
     calibrated: &Calibrated,
     reference: Option<usize>,
@@ -364,6 +364,19 @@ pub fn validate(
     ]
     .into_iter()
     .flatten()
+    .filter(|group| {
+        // A body group exists only for sessions with poses.
+        let present = |g: fn(usize) -> ParameterGroup| {
+            (0..sessions).any(|session| model.layout.range(g(session)).is_some())
+        };
+        match group {
+            Optional::BodyOrigin(_) => present(|session| ParameterGroup::BodyOrigin { session }),
+            Optional::BodyRotation(_) => {
+                present(|session| ParameterGroup::BodyRotation { session })
+            }
+            Optional::LegOffsets(_) => true,
+        }
+    })
     .collect();
     let mut selection = Vec::new();
     let nuisance = if reference.is_none() {
@@ -699,7 +712,7 @@ impl CrossValidation {
 
 /// Cross-validates the instrument calibration of `dataset` with `folds`
 /// folds: row `j` of each file is in fold `j mod folds`; each fold is
-/// predicted ([`validate`], no re-fit) by the calibration of the others.
+/// predicted ([`validate_calibration`], no re-fit) by the calibration of the others.
 pub fn cross_validate(
     dataset: &Dataset,
     options: &crate::CalibrationOptions,
@@ -726,7 +739,7 @@ pub fn cross_validate(
         };
         let run = crate::instruments::calibrate_instruments(&part(false), options, &mut |_| {})?;
         let calibrated = Calibrated::from_record(&run.record(String::new()))?;
-        validations.push(validate(&part(true), &calibrated, None)?);
+        validations.push(validate_calibration(&part(true), &calibrated, None)?);
     }
     Ok(CrossValidation { folds, validations })
 }

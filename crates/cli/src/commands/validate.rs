@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use parcal_calibrate::CalibrationOptions;
-use parcal_calibrate::instruments::{Calibrated, Validation, cross_validate, validate};
+use parcal_calibrate::instruments::{Calibrated, Validation, cross_validate, validate_calibration};
 use parcal_dataset::{Calibration, NuisanceCandidate, VALIDATION_FILE, ValidationRecord};
 
 #[derive(clap::Args)]
@@ -40,7 +40,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let calibrated =
                 Calibrated::from_record(&record).with_context(|| path.display().to_string())?;
             (
-                validate(&dataset, &calibrated, args.reference)?,
+                validate_calibration(&dataset, &calibrated, args.reference)?,
                 path.display().to_string(),
             )
         }
