@@ -12,7 +12,8 @@
 //! - [`layout`]: the global block, named groups of parameters;
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
-//! - [`sphere_fit`]: initial ball centres.
+//! - [`sphere_fit`]: initial ball centres;
+//! - [`touch_validation`]: a ball-touch calibration applied to other touches.
 //!
 //! [`calibrate`] validates its dataset first ([`validate`]), so data built
 //! in memory fails with a [`CalibrateError`] rather than a panic. Errors
@@ -41,6 +42,7 @@ pub mod problem;
 pub mod run;
 pub mod setup;
 pub mod sphere_fit;
+pub mod touch_validation;
 mod validate;
 
 pub use error::{CalibrateError, InstrumentTable};

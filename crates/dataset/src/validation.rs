@@ -10,7 +10,8 @@ use crate::error::Result;
 use crate::json;
 
 /// The content of `validation.json`. Residuals are leg lengths for poses
-/// (`|R p_i + t − b_i| − l_i − s_i q_i`) and coordinates for points, mm.
+/// (`|R p_i + t − b_i| − l_i − s_i q_i`), coordinates for points, and the
+/// distance to the ball's surface for ball touches, mm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ValidationRecord {
     /// The calibration file applied.
@@ -23,12 +24,15 @@ pub struct ValidationRecord {
     /// The candidate nuisance models with their expected prediction RMS;
     /// the one with the least was re-fitted.
     pub selection: Vec<NuisanceCandidate>,
-    /// Predicted rows (poses plus points).
+    /// Predicted rows (poses plus points plus touches).
     pub rows: usize,
     /// Predicted poses.
     pub poses: usize,
     /// Predicted points.
     pub points: usize,
+    /// Predicted ball touches.
+    #[serde(default)]
+    pub contacts: usize,
     /// RMS of the residuals of the predicted rows.
     pub rms_mm: f64,
     /// Largest absolute residual.

@@ -117,7 +117,7 @@ pub fn validation(record: &parcal_dataset::ValidationRecord) -> String {
     if record.reference_rows > 0 {
         let _ = writeln!(
             out,
-            "re-fitted on the first {} rows of each session: {}",
+            "re-fitted on the first {} rows of each session (touches of each ball): {}",
             record.reference_rows,
             record.refitted.join(", ")
         );
@@ -131,10 +131,11 @@ pub fn validation(record: &parcal_dataset::ValidationRecord) -> String {
     }
     let _ = writeln!(
         out,
-        "predicted {} rows ({} poses, {} points): residual RMS {:.4} mm, max {:.4} mm; the calibration predicts RMS {:.4} mm",
+        "predicted {} rows ({} poses, {} points, {} ball touches): residual RMS {:.4} mm, max {:.4} mm; the calibration predicts RMS {:.4} mm",
         record.rows,
         record.poses,
         record.points,
+        record.contacts,
         record.rms_mm,
         record.max_mm,
         record.predicted_rms_mm

@@ -146,6 +146,8 @@ pub struct Validation {
     pub poses: usize,
     /// Predicted points.
     pub points: usize,
+    /// Predicted ball touches ([`crate::touch_validation`]).
+    pub contacts: usize,
     /// Rows per session used to re-fit its nuisance (0: the calibration's
     /// frames).
     pub reference: usize,
@@ -156,7 +158,8 @@ pub struct Validation {
     /// empty when there was one candidate or no re-fit.
     pub selection: Vec<(String, f64)>,
     /// Observed residuals of the predicted rows (mm): six leg lengths per
-    /// pose, then three coordinates per point.
+    /// pose, then three coordinates per point; or the distance of each
+    /// touch to its ball's surface.
     pub residuals: Vec<f64>,
     /// Their predicted standard deviations (mm).
     pub predicted_sigmas: Vec<f64>,
@@ -439,6 +442,7 @@ pub fn validate_calibration(
     Ok(Validation {
         poses: predicted_set.poses.len(),
         points: predicted_set.points.len(),
+        contacts: 0,
         reference: n_ref,
         refitted: nuisance.names,
         selection,

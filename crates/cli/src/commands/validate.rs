@@ -7,20 +7,21 @@ use std::path::PathBuf;
 use anyhow::Context;
 use parcal_calibrate::CalibrationOptions;
 use parcal_calibrate::instruments::{Calibrated, Validation, cross_validate, validate_calibration};
+use parcal_calibrate::touch_validation::validate_touches;
 use parcal_dataset::{Calibration, NuisanceCandidate, VALIDATION_FILE, ValidationRecord};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Dataset directory (poses.csv and/or points.csv), or a binary snapshot file.
+    /// Dataset directory (ball touches, or poses.csv and/or points.csv), or a binary snapshot file.
     dataset: PathBuf,
     /// The calibration to apply (calibration.json of `parcal calibrate`).
     #[arg(long, required_unless_present = "folds", conflicts_with = "folds")]
     calibration: Option<PathBuf>,
-    /// Re-fit each session's nuisance (instrument frame; body origin and leg
-    /// offsets when machine.json's session_model has their sigmas) on its
-    /// first N rows, and predict the others. Without it, every session must
-    /// be one of the calibration's (same label) and is seen through the
-    /// calibration's frames.
+    /// Re-fit each session's nuisance (instrument frame; body origin, body
+    /// rotation and leg offsets when machine.json's session_model has their
+    /// sigmas) on its first N rows, or each ball's centre on its first N
+    /// touches, and predict the others. Without it, every session (ball) must
+    /// be one of the calibration's (same label, id).
     #[arg(long, value_name = "N")]
     reference: Option<usize>,
     /// Instead of applying a calibration: K-fold cross-validation of the
@@ -35,6 +36,12 @@ pub struct Args {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset(&args.dataset)?;
     let (validation, calibration) = match (&args.calibration, args.folds) {
+        (Some(path), _) if dataset.tracker.is_empty() => {
+            let record = Calibration::read(path)?;
+            let validation = validate_touches(&dataset, &record, args.reference)
+                .with_context(|| path.display().to_string())?;
+            (validation, path.display().to_string())
+        }
         (Some(path), _) => {
             let record = Calibration::read(path)?;
             let calibrated =
@@ -50,6 +57,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let merged = Validation {
                 poses: cross.validations.iter().map(|v| v.poses).sum(),
                 points: cross.validations.iter().map(|v| v.points).sum(),
+                contacts: 0,
                 reference: 0,
                 refitted: Vec::new(),
                 selection: Vec::new(),
@@ -80,9 +88,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 expected_rms_mm: *rms,
             })
             .collect(),
-        rows: validation.poses + validation.points,
+        rows: validation.poses + validation.points + validation.contacts,
         poses: validation.poses,
         points: validation.points,
+        contacts: validation.contacts,
         rms_mm: validation.rms(),
         max_mm: validation.max(),
         per_leg_rms_mm: if validation.poses > 0 {
