@@ -27,6 +27,24 @@ const SESSION: &str = "session";
 const Q: [&str; 6] = ["q1", "q2", "q3", "q4", "q5", "q6"];
 const POSITION: [&str; 3] = ["x", "y", "z"];
 const ORIENTATION: [&str; 4] = ["qx", "qy", "qz", "qw"];
+/// Aliases of the columns: the header of the Jugglebot project's
+/// calibration poses (`leg_length_1`, `position_x`, `orientation_x`, …),
+/// so that its files read as they are.
+const Q_ALIASES: [&str; 6] = [
+    "leg_length_1",
+    "leg_length_2",
+    "leg_length_3",
+    "leg_length_4",
+    "leg_length_5",
+    "leg_length_6",
+];
+const POSITION_ALIASES: [&str; 3] = ["position_x", "position_y", "position_z"];
+const ORIENTATION_ALIASES: [&str; 4] = [
+    "orientation_x",
+    "orientation_y",
+    "orientation_z",
+    "orientation_w",
+];
 /// How far from 1 a quaternion's norm may be (it is normalised on use).
 const UNIT_TOLERANCE: f64 = 1e-3;
 
@@ -305,6 +323,21 @@ impl Sessions {
     }
 }
 
+/// The columns `names`, or all of their `aliases` when the header has none
+/// of `names`.
+fn columns<const N: usize>(
+    header: &Header,
+    names: &[&str; N],
+    aliases: &[&str; N],
+    expected: &str,
+) -> Result<[usize; N], Failure> {
+    if header.find(names[0])?.is_none() && header.find(aliases[0])?.is_some() {
+        header.require_all(aliases, expected)
+    } else {
+        header.require_all(names, expected)
+    }
+}
+
 fn expected(rest: &[&str]) -> String {
     format!("[{SESSION},]{},{}", Q.join(","), rest.join(","))
 }
@@ -316,9 +349,9 @@ fn read_poses<R: std::io::Read>(
     let expected = expected(&[POSITION.as_slice(), &ORIENTATION].concat());
     let header = Header::read(reader, &expected)?;
     let session = header.find(SESSION)?;
-    let q = header.require_all(&Q, &expected)?;
-    let position = header.require_all(&POSITION, &expected)?;
-    let orientation = header.require_all(&ORIENTATION, &expected)?;
+    let q = columns(&header, &Q, &Q_ALIASES, &expected)?;
+    let position = columns(&header, &POSITION, &POSITION_ALIASES, &expected)?;
+    let orientation = columns(&header, &ORIENTATION, &ORIENTATION_ALIASES, &expected)?;
     let mut out = Poses::default();
     table::for_each_row(reader, &header, "pose", |row| {
         out.session.push(sessions.of(row, session)?);
@@ -345,8 +378,8 @@ fn read_points<R: std::io::Read>(
     let expected = expected(&POSITION);
     let header = Header::read(reader, &expected)?;
     let session = header.find(SESSION)?;
-    let q = header.require_all(&Q, &expected)?;
-    let position = header.require_all(&POSITION, &expected)?;
+    let q = columns(&header, &Q, &Q_ALIASES, &expected)?;
+    let position = columns(&header, &POSITION, &POSITION_ALIASES, &expected)?;
     let mut out = Points::default();
     table::for_each_row(reader, &header, "point", |row| {
         out.session.push(sessions.of(row, session)?);
@@ -405,6 +438,17 @@ mod tests {
         let (a, b) = (dir.path().join("poses.csv"), dir.path().join("points.csv"));
         t.write(&a, &b).unwrap();
         assert_eq!(Tracker::read(&a, &b).unwrap(), t);
+    }
+
+    #[test]
+    fn the_jugglebot_header_reads_as_its_aliases() {
+        let poses = "leg_length_1,leg_length_2,leg_length_3,leg_length_4,leg_length_5,leg_length_6,\
+                     position_x,position_y,position_z,orientation_x,orientation_y,orientation_z,orientation_w\n\
+                     1,2,3,4,5,6,7,8,9,0,0,0.6,0.8\n";
+        let t = read(poses, None).unwrap();
+        assert_eq!(t.poses.q, [[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]]);
+        assert_eq!(t.poses.position, [[7.0, 8.0, 9.0]]);
+        assert_eq!(t.poses.orientation, [[0.0, 0.0, 0.6, 0.8]]);
     }
 
     #[test]
