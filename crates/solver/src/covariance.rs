@@ -10,6 +10,7 @@ use crate::chunks::run_chunks;
 use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
 use crate::problem::{Problem, State};
+use crate::qr::PriorRows;
 
 /// Turns each group's triangular rows into its marginal sigmas.
 struct SigmaSink<'a, const C: usize> {
@@ -20,10 +21,18 @@ struct SigmaSink<'a, const C: usize> {
     out: Vec<SVector<f64, C>>,
 }
 
-impl<const C: usize> EliminationSink for SigmaSink<'_, C> {
+impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R, J>
+    for SigmaSink<'_, C>
+{
     fn reduced_row(&mut self, _row: &[f64]) {}
 
-    fn group_done(&mut self, k: usize, top: Option<&[f64]>, _data_cost: f64) {
+    fn group_done(
+        &mut self,
+        k: usize,
+        top: Option<&[f64]>,
+        _prior: Option<&PriorRows<C>>,
+        _data_cost: f64,
+    ) {
         debug_assert_eq!(k, self.first_group + self.out.len());
         let sigma = match top {
             Some(top) => group_sigma(top, self.cov, &mut self.gain),

@@ -502,14 +502,36 @@ pub(crate) struct Costs {
     pub(crate) prior: f64,
 }
 
-/// Receives what the elimination of a chunk produces.
-pub(crate) trait EliminationSink {
+/// Receives what the elimination of a chunk produces, for a problem with
+/// `C` group and `P` point unknowns, `R` rows per point and global
+/// Jacobians `J`.
+pub(crate) trait EliminationSink<const C: usize, const P: usize, const R: usize, J> {
     /// One reduced row `[A_g | a]` (`G + 1` values).
     fn reduced_row(&mut self, row: &[f64]);
+    /// Point `i` is factorised: its linearisation, its prior rows, and the
+    /// `Q` of its panel (`m × m`, row-major, [`factor_point`]; only the
+    /// columns `P..m` are formed). Default: nothing.
+    fn point_factorised(
+        &mut self,
+        i: usize,
+        lin: &Linearization<C, P, R, J>,
+        prior: Option<&PriorRows<P>>,
+        q: &[f64],
+        m: usize,
+    ) {
+        let _ = (i, lin, prior, q, m);
+    }
     /// Group `k` is done: its triangular rows `[R_cc | R_cg | z_c]`
     /// (row-major, `C` rows of width `C + G + 1`; `None` for a fixed group,
-    /// which has none), and its points' data cost `Σ |r_i|²`.
-    fn group_done(&mut self, k: usize, top: Option<&[f64]>, data_cost: f64);
+    /// which has none), its prior rows, and its points' data cost
+    /// `Σ |r_i|²`.
+    fn group_done(
+        &mut self,
+        k: usize,
+        top: Option<&[f64]>,
+        prior: Option<&PriorRows<C>>,
+        data_cost: f64,
+    );
 }
 
 /// Eliminates the points and groups of one chunk at `state` (its global
@@ -534,7 +556,7 @@ pub(crate) fn eliminate_chunk<const C: usize, const P: usize, const R: usize, Pr
 ) -> Result<Costs, Failure>
 where
     Pr: Problem<C, P, R>,
-    S: EliminationSink,
+    S: EliminationSink<C, P, R, Pr::Jacobian>,
 {
     let ElimBuffers {
         point: point_buf,
@@ -585,6 +607,7 @@ where
                     .ok_or(Failure::Singular(BlockId::Point(i)))?;
                 let m = factor.rows;
                 let q = &point_buf[(R + 2 * P) * P..];
+                sink.point_factorised(i, lin, prior.as_ref(), q, m);
                 for e in P..m {
                     if fixed {
                         eliminated_row(lin, prior.as_ref(), q, m, e, single);
@@ -601,7 +624,7 @@ where
             costs.prior += prior.residual.norm_squared();
         }
         if fixed {
-            sink.group_done(k, None, group_data);
+            sink.group_done(k, None, prior.as_ref(), group_data);
             continue;
         }
         push_group_prior_and_damping(
@@ -615,7 +638,7 @@ where
         let top = group
             .finish(scratch, &mut |row| sink.reduced_row(row))
             .ok_or(Failure::Singular(BlockId::Group(k)))?;
-        sink.group_done(k, Some(top), group_data);
+        sink.group_done(k, Some(top), prior.as_ref(), group_data);
     }
     Ok(costs)
 }
@@ -715,7 +738,9 @@ impl<'a> NormalSink<'a> {
     }
 }
 
-impl EliminationSink for NormalSink<'_> {
+impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R, J>
+    for NormalSink<'_>
+{
     fn reduced_row(&mut self, row: &[f64]) {
         if self.filled == self.capacity {
             self.flush();
@@ -725,7 +750,13 @@ impl EliminationSink for NormalSink<'_> {
         self.filled += 1;
     }
 
-    fn group_done(&mut self, _k: usize, _top: Option<&[f64]>, data_cost: f64) {
+    fn group_done(
+        &mut self,
+        _k: usize,
+        _top: Option<&[f64]>,
+        _prior: Option<&PriorRows<C>>,
+        data_cost: f64,
+    ) {
         self.group_costs.push(data_cost);
     }
 }

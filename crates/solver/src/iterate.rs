@@ -92,7 +92,7 @@ fn add_into<const C: usize, const P: usize>(a: &mut State<C, P>, b: &State<C, P>
 /// How a run ends when a pass over the points fails after `solves` linear
 /// solves: a non-finite evaluation is the problem's failure at the initial
 /// state and a divergence after a step.
-fn status_of(failure: Failure, solves: usize) -> Status {
+pub(crate) fn status_of(failure: Failure, solves: usize) -> Status {
     let at = |point: Option<usize>| match point {
         Some(point) => format!("point {point}"),
         None => "the global observations".to_string(),

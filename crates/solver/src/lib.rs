@@ -101,6 +101,13 @@
 //!    is known: its sigmas are reported as zero, and `Cov(g)` is the
 //!    covariance given the fixed blocks.
 //!
+//! 6. **Redundancy** (on request, [`redundancy`]): the redundancy number
+//!    `r_j = 1 − h_j` of every whitened row, `h_j` its diagonal entry of
+//!    `J Cov Jᵀ` over all unknowns, from one more pass: a point's rows
+//!    through its `Q`, its group's triangle and `Cov(g)`, never the full
+//!    matrix; and the normalised residuals `e_j / √r_j`
+//!    ([`normalised_residual`]).
+//!
 //! # Gauss–Newton and Levenberg–Marquardt
 //!
 //! One loop solves each step, evaluates its trial point (building the
@@ -252,6 +259,7 @@ mod policy;
 mod problem;
 mod qr;
 mod reduced;
+mod redundancy;
 mod solution;
 
 pub use chunks::split_by;
@@ -262,4 +270,5 @@ pub use options::{Method, SolverOptions};
 pub use problem::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
 };
+pub use redundancy::{PriorLeverage, Redundancy, normalised_residual, redundancy};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

@@ -194,7 +194,10 @@ where
 
     /// The problem's global observations at `global`, checked: `m` rows and
     /// `G` columns, finite.
-    fn global_observations(&self, global: &DVector<f64>) -> Result<GlobalObservations, Failure> {
+    pub(crate) fn global_observations(
+        &self,
+        global: &DVector<f64>,
+    ) -> Result<GlobalObservations, Failure> {
         let g = self.dims.g;
         let mut observations = GlobalObservations::zeros(0, g);
         self.problem
@@ -330,6 +333,19 @@ impl ScaledCholesky {
         y
     }
 
+    /// The upper-triangular `U` with `S = UᵀU` (`U = (D^{1/2} L)ᵀ`),
+    /// row-major, zero below the diagonal.
+    pub(crate) fn upper_factor(&self) -> Vec<f64> {
+        let n = self.n;
+        let mut u = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..=i {
+                u[j * n + i] = self.l[i * n + j] / self.scale[i];
+            }
+        }
+        u
+    }
+
     /// `S⁻¹`, row-major, symmetrised.
     pub(crate) fn inverse(&self) -> Vec<f64> {
         let n = self.n;
@@ -375,6 +391,13 @@ mod tests {
         let x = f.solve(&b);
         for i in 0..n {
             assert!((x[i] - x_true[i]).abs() <= 1e-12 * x_true[i].abs());
+        }
+        let u = f.upper_factor();
+        for i in 0..n {
+            for j in 0..n {
+                let p: f64 = (0..n).map(|k| u[k * n + i] * u[k * n + j]).sum();
+                assert!((p - s[i * n + j]).abs() <= 1e-14 * (s[i * n + i] * s[j * n + j]).sqrt());
+            }
         }
         let inv = f.inverse();
         for i in 0..n {

@@ -1,0 +1,501 @@
+//! Redundancy numbers of the whitened residual rows at a state: the share
+//! of each row's error that shows in its residual (Förstner & Wrobel,
+//! "Photogrammetric Computer Vision", 2016, ch. 4), computed level by level
+//! through the factors the elimination keeps, never from the full matrix.
+//!
+//! # Leverage and redundancy
+//!
+//! Let `A` be the whitened Jacobian of all `M` rows (data, global
+//! observations, priors) over all `n` unknowns, `N = AᵀA` and
+//! `Cov = N⁻¹`. The hat matrix `A N⁻¹ Aᵀ` projects onto the column space
+//! of `A`, of rank `n`; its diagonal holds the rows' **leverages** `h_j` and
+//!
+//! ```text
+//! r_j = 1 − h_j,   0 ≤ r_j ≤ 1,   Σ_j r_j = M − n,
+//! ```
+//!
+//! their **redundancy numbers**: to first order the residual of row `j`
+//! responds to an error `ε` in its observation by `r_j ε`, and has variance
+//! `r_j`.
+//!
+//! # Through the levels
+//!
+//! The elimination keeps a block upper-triangular `𝓡` with `N = 𝓡ᵀ𝓡`:
+//! each point's rows `[R_pp R_pc R_pg]`, each group's `[R_cc R_cg]`, and
+//! `R_g` with `R_gᵀR_g = S` (Triggs et al., "Bundle adjustment — a modern
+//! synthesis", 2000, for the Schur form). Then `h_j = |𝓡⁻ᵀ a_jᵀ|²`, solved
+//! from the points down.
+//!
+//! The `m` rows of point `i` (`R` data rows, then `P` prior rows if it has
+//! a prior) are transformed by the `Q` of its panel. Row `j` splits as
+//!
+//! ```text
+//! a_j = Q₁[j,·] [R_pp R_pc R_pg]  +  q_j [0 E_c E_g],    q_j = Q₂[j,·],
+//! ```
+//!
+//! with `[E_c E_g] = Q₂ᵀ[d_group d_global]` the point's `m − P` eliminated
+//! rows. The first term is a combination of rows of `𝓡`: it puts `Q₁[j,·]`
+//! in the point's slots of `𝓡⁻ᵀa_jᵀ`, of squared norm `1 − |q_j|²` since the
+//! rows of `Q` are unit vectors. The second term goes on to the group and
+//! the global level:
+//!
+//! ```text
+//! y = R_cc⁻ᵀ E_cᵀ q_j,     u = Ũᵀ q_j,   Ũ = E_g − E_c K,   K = R_cc⁻¹R_cg,
+//! h_j = (1 − |q_j|²) + |y|² + uᵀ Cov(g) u,
+//! ```
+//!
+//! `u` being the row's reduced row and `Cov(g) = S⁻¹`. Hence
+//!
+//! ```text
+//! r_j = |q_j|² − q_jᵀ M q_j,    M = E_c (R_ccᵀR_cc)⁻¹ E_cᵀ + Ũ Cov(g) Ũᵀ,
+//! ```
+//!
+//! `M` (`(m − P) × (m − P)`) being the leverage of the point's eliminated
+//! rows at the group and global levels. With `Cov(g) = LLᵀ`,
+//! `M = VVᵀ`, where row `e` of `V` is `[R_cc⁻ᵀE_c[e,·]ᵀ | LᵀŨ[e,·]ᵀ]`. A
+//! fixed group has no group level (`M = E_g Cov(g) E_gᵀ`); for `P = 0`,
+//! `Q = I`. For three rows and two point unknowns, `Q₂` is the unit normal
+//! `n` of the panel's columns: `r_j = n_j² (1 − M)`.
+//!
+//! The point's residuals have covariance `Q₂ (I − M) Q₂ᵀ`: they are
+//! correlated (for `R = 3`, `P = 2`, all along `n`).
+//!
+//! A global observation row has `r_o = 1 − J_o[o,·] Cov(g) J_o[o,·]ᵀ`.
+//!
+//! # Priors
+//!
+//! Prior rows are rows too: a point's prior rows are rows `R..m` above, a
+//! group's `[U_c | 0]` enter at the group level (`q = 1`, `E_c = U_c`,
+//! `E_g = 0`). Their leverage sums over a block to `tr(Λ_b Cov(x_b))`,
+//! whatever square root `U_b` of `Λ_b` is taken; the global prior's is
+//! `tr(Λ_g Cov(g))`. Since all leverages sum to `n`,
+//!
+//! ```text
+//! Σ_data r_j + Σ_obs r_o = m_data + m_obs − n + Σ_b tr(Λ_b Cov(x_b)).
+//! ```
+//!
+//! # Cost
+//!
+//! One more pass over the points, like the group sigmas' pass: each
+//! group's eliminated rows are kept until its triangle is known, then each
+//! of its points costs `(m − P)` products with `Lᵀ` (`G²/2` each) and `R`
+//! quadratic forms of size `m − P`.
+
+use nalgebra::{DMatrix, SMatrix, SVector};
+
+use crate::chunks::{run_chunks, split_by};
+use crate::context::Context;
+use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
+use crate::iterate::status_of;
+use crate::problem::{GlobalJacobian, Linearization, Problem, State};
+use crate::qr::PriorRows;
+use crate::reduced::ScaledCholesky;
+use crate::solution::Status;
+
+/// Redundancy numbers of the whitened rows at one state, from
+/// [`redundancy`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Redundancy<const R: usize> {
+    /// `r_j` of each point's `R` data rows.
+    pub points: Vec<SVector<f64, R>>,
+    /// Each point's whitened residual `r_i` at the state.
+    pub point_residuals: Vec<SVector<f64, R>>,
+    /// `r_o` of each global observation row.
+    pub global_observations: Vec<f64>,
+    /// The global observations' whitened residuals `r_o` at the state.
+    pub global_observation_residuals: Vec<f64>,
+    /// The leverage taken by the prior rows.
+    pub prior_leverage: PriorLeverage,
+    /// `n`, the number of unknowns: `G`, `C` per group that is not fixed,
+    /// `P` per point.
+    pub unknowns: usize,
+}
+
+impl<const R: usize> Redundancy<R> {
+    /// `Σ r_j` over the data and global observation rows, which equals
+    /// `m_data + m_obs − n + prior_leverage.total()` (up to rounding).
+    pub fn total(&self) -> f64 {
+        let data: f64 = self.points.iter().map(|r| r.sum()).sum();
+        data + self.global_observations.iter().sum::<f64>()
+    }
+}
+
+/// Leverage of the prior rows, `Σ_b tr(Λ_b Cov(x_b))` over the blocks of
+/// each level: the number of unknowns the priors determine.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PriorLeverage {
+    /// Over the point priors.
+    pub points: f64,
+    /// Over the priors of the groups that are not fixed (a fixed group's
+    /// prior touches no unknown).
+    pub groups: f64,
+    /// Of the global prior.
+    pub global: f64,
+}
+
+impl PriorLeverage {
+    /// Over all prior rows.
+    pub fn total(&self) -> f64 {
+        self.points + self.groups + self.global
+    }
+
+    fn add(&mut self, other: &PriorLeverage) {
+        self.points += other.points;
+        self.groups += other.groups;
+        self.global += other.global;
+    }
+}
+
+/// Redundancy at or below which a row counts as determined by the unknowns
+/// it touches: its residual and its redundancy are both rounding noise.
+const MIN_REDUNDANCY: f64 = 1e-10;
+
+/// The normalised (studentised) residual `w_j = e_j / √r_j` of a row with
+/// whitened residual `e_j` and redundancy number `r_j`: standard normal
+/// for a correct model (Baarda's data snooping). `None` if `r_j ≤ 1e-10`
+/// (a row that no other row checks).
+///
+/// Exact for one row at a time; the `R` rows of a point have correlated
+/// residuals ([`redundancy`]), of which a per-row `w_j` is the row-wise
+/// approximation (for `R = 3`, `P = 2` the point's three `|w_j|` are
+/// equal).
+pub fn normalised_residual(residual: f64, redundancy: f64) -> Option<f64> {
+    (redundancy > MIN_REDUNDANCY).then(|| residual / redundancy.sqrt())
+}
+
+/// Redundancy numbers of every whitened row of `problem` at `state`, given
+/// the covariance `Cov(g)` of the global block there (e.g.
+/// [`Solution::covariance`](crate::Solution::covariance) with its state;
+/// its lower triangle is read): one pass over the points, in chunks of
+/// `groups_per_chunk` groups, bit-identical for any number of threads.
+/// `caches` as [`linear_step`](crate::linear_step) takes them. Fails with
+/// the [`Status`] a solve would end with at this state, or
+/// [`Status::InvalidProblem`] if the covariance is not `G × G` and
+/// numerically positive definite.
+pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
+    problem: &Pr,
+    state: &State<C, P>,
+    covariance: &DMatrix<f64>,
+    caches: &mut Vec<Pr::PointCache>,
+    groups_per_chunk: usize,
+) -> Result<Redundancy<R>, Status> {
+    let invalid = |message: String| Status::InvalidProblem { message };
+    let mut ctx = Context::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
+    let g = ctx.dims.g;
+    if covariance.shape() != (g, g) {
+        let (rows, columns) = covariance.shape();
+        return Err(invalid(format!(
+            "a {rows} x {columns} covariance for {g} global unknowns"
+        )));
+    }
+    let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
+    let factor = ScaledCholesky::new(symmetric.as_slice(), g)
+        .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
+    let factor = factor.upper_factor();
+    let observations = ctx
+        .global_observations(&state.global)
+        .map_err(|f| status_of(f, 0))?;
+    let mut redundancy = ctx
+        .point_redundancy(state, &factor)
+        .map_err(|f| status_of(f, 0))?;
+    let mut z = vec![0.0; g];
+    redundancy.global_observations = (0..observations.residual.len())
+        .map(|o| {
+            let row: Vec<f64> = observations.jacobian.row(o).iter().copied().collect();
+            times_factor(&factor, &row, &mut z);
+            1.0 - norm2(&z)
+        })
+        .collect();
+    redundancy.global_observation_residuals = observations.residual.iter().copied().collect();
+    if let Some(prior) = problem.global_prior() {
+        // tr(Λ Cov), both symmetric, from their lower triangles.
+        let mut trace = 0.0;
+        for j in 0..g {
+            trace += prior.information[(j, j)] * symmetric[(j, j)];
+            for i in j + 1..g {
+                trace += 2.0 * prior.information[(i, j)] * symmetric[(i, j)];
+            }
+        }
+        redundancy.prior_leverage.global = trace;
+    }
+    let free_groups = (0..problem.n_groups())
+        .filter(|&k| !problem.group_is_fixed(k))
+        .count();
+    redundancy.unknowns = g + C * free_groups + P * state.points.len();
+    Ok(redundancy)
+}
+
+impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
+where
+    Pr: Problem<C, P, R>,
+{
+    /// The redundancy of every point's rows and the leverage of the point
+    /// and group priors at `state`, given `U` with `Cov(g) = UᵀU`
+    /// (row-major, upper triangular); the global fields are left empty.
+    fn point_redundancy(
+        &mut self,
+        state: &State<C, P>,
+        factor: &[f64],
+    ) -> Result<Redundancy<R>, Failure> {
+        let problem = self.problem;
+        let dims = self.dims;
+        let n_points = state.points.len();
+        let mut points = vec![SVector::<f64, R>::zeros(); n_points];
+        let mut residuals = vec![SVector::<f64, R>::zeros(); n_points];
+        let lengths = || self.chunks.iter().map(|c| c.points.len());
+        let point_slices = split_by(&mut points, lengths());
+        let residual_slices = split_by(&mut residuals, lengths());
+        let mut prior_leverage = PriorLeverage::default();
+        let global = problem.prepare_global(&state.global);
+        let global = &global;
+        let (pool, jobs) = self.jobs();
+        let jobs: Vec<_> = jobs
+            .into_iter()
+            .zip(point_slices.into_iter().zip(residual_slices))
+            .collect();
+        run_chunks(
+            pool,
+            jobs,
+            |ws, ((chunk, caches), (redundancy, residuals))| {
+                let (bufs, _, rows) = ws.split();
+                rows.clear();
+                let mut sink = RedundancySink::<C, P, R> {
+                    factor,
+                    g: dims.g,
+                    rows,
+                    points: Vec::new(),
+                    coordinates: vec![0.0; R * (C + dims.g)],
+                    reduced: vec![0.0; dims.g],
+                    redundancy,
+                    residuals,
+                    done: 0,
+                    prior_leverage: PriorLeverage::default(),
+                };
+                eliminate_chunk::<C, P, R, _, _>(
+                    problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
+                )?;
+                Ok(sink.prior_leverage)
+            },
+            |part| prior_leverage.add(&part),
+        )?;
+        Ok(Redundancy {
+            points,
+            point_residuals: residuals,
+            global_observations: Vec::new(),
+            global_observation_residuals: Vec::new(),
+            prior_leverage,
+            unknowns: 0,
+        })
+    }
+}
+
+/// What a point of the current group leaves until the group's triangle is
+/// known: the `Q₂` rows of its data and prior rows; its eliminated rows
+/// are in [`RedundancySink::rows`].
+struct PointRows<const P: usize, const R: usize> {
+    /// `m − P`, the number of eliminated rows (at most `R`, undamped).
+    eliminated: usize,
+    /// `q_j` of the data rows (columns `0..eliminated`).
+    data: SMatrix<f64, R, R>,
+    /// `q_j` of the prior rows, if the point has a prior.
+    prior: Option<SMatrix<f64, P, R>>,
+}
+
+/// Turns each group's points into their redundancy numbers once the
+/// group's triangle is known.
+struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
+    /// `U` with `Cov(g) = UᵀU`, `G × G` row-major, upper triangular.
+    factor: &'a [f64],
+    g: usize,
+    /// The eliminated rows `[E_c | E_g | ·]` of the current group's points,
+    /// row-major, width `C + G + 1`.
+    rows: &'a mut Vec<f64>,
+    /// The current group's points, in order.
+    points: Vec<PointRows<P, R>>,
+    /// `V` of one point: a row `[y | Lᵀu]` (`C + G` values) per eliminated
+    /// row.
+    coordinates: Vec<f64>,
+    /// Scratch for a reduced row `u` (`G` values).
+    reduced: Vec<f64>,
+    /// The chunk's points' redundancy numbers and residuals.
+    redundancy: &'a mut [SVector<f64, R>],
+    residuals: &'a mut [SVector<f64, R>],
+    /// Points of the chunk written so far.
+    done: usize,
+    prior_leverage: PriorLeverage,
+}
+
+impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R, J>
+    for RedundancySink<'_, C, P, R>
+where
+    J: GlobalJacobian<R>,
+{
+    fn reduced_row(&mut self, _row: &[f64]) {}
+
+    fn point_factorised(
+        &mut self,
+        i: usize,
+        lin: &Linearization<C, P, R, J>,
+        prior: Option<&PriorRows<P>>,
+        q: &[f64],
+        m: usize,
+    ) {
+        let eliminated = m - P;
+        debug_assert!(eliminated <= R, "point {i} is damped");
+        let column = |row: usize, e: usize| {
+            if e < eliminated {
+                q[row * m + P + e]
+            } else {
+                0.0
+            }
+        };
+        self.residuals[self.done + self.points.len()] = lin.residual;
+        self.points.push(PointRows {
+            eliminated,
+            data: SMatrix::from_fn(column),
+            prior: prior.map(|_| SMatrix::from_fn(|a, e| column(R + a, e))),
+        });
+        let w = C + self.g + 1;
+        let start = self.rows.len();
+        self.rows.resize(start + eliminated * w, 0.0);
+        for (e, row) in self.rows[start..].chunks_exact_mut(w).enumerate() {
+            eliminated_row(lin, prior, q, m, P + e, row);
+        }
+    }
+
+    fn group_done(
+        &mut self,
+        _k: usize,
+        top: Option<&[f64]>,
+        prior: Option<&PriorRows<C>>,
+        _data_cost: f64,
+    ) {
+        let (g, w, cw) = (self.g, C + self.g + 1, C + self.g);
+        let mut first_row = 0;
+        for (j, point) in self.points.iter().enumerate() {
+            let n = point.eliminated;
+            for e in 0..n {
+                let row = &self.rows[(first_row + e) * w..(first_row + e + 1) * w];
+                let v = &mut self.coordinates[e * cw..(e + 1) * cw];
+                self.reduced.copy_from_slice(&row[C..C + g]);
+                let (y, z) = v.split_at_mut(C);
+                match top {
+                    Some(top) => eliminate_group::<C>(top, g, &row[..C], y, &mut self.reduced),
+                    None => y.fill(0.0),
+                }
+                times_factor(self.factor, &self.reduced, z);
+            }
+            first_row += n;
+            // M = V Vᵀ.
+            let mut m = SMatrix::<f64, R, R>::zeros();
+            for e in 0..n {
+                for f in 0..=e {
+                    let ve = &self.coordinates[e * cw..(e + 1) * cw];
+                    let vf = &self.coordinates[f * cw..(f + 1) * cw];
+                    let d = dot(ve, vf);
+                    m[(e, f)] = d;
+                    m[(f, e)] = d;
+                }
+            }
+            self.redundancy[self.done + j] =
+                SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
+            if let Some(q) = &point.prior {
+                for a in 0..P {
+                    self.prior_leverage.points += 1.0 - row_redundancy(q, a, &m, n);
+                }
+            }
+        }
+        if let (Some(top), Some(prior)) = (top, prior) {
+            // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0.
+            let (y, z) = self.coordinates[..cw].split_at_mut(C);
+            for a in 0..C {
+                let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(a, b)]);
+                self.reduced.fill(0.0);
+                eliminate_group::<C>(top, g, &u_row, y, &mut self.reduced);
+                times_factor(self.factor, &self.reduced, z);
+                self.prior_leverage.groups += norm2(y) + norm2(z);
+            }
+        }
+        self.done += self.points.len();
+        self.points.clear();
+        self.rows.clear();
+    }
+}
+
+/// `r_j = |q_j|² − q_jᵀ M q_j` for row `j` of `q` (its first `n` values).
+fn row_redundancy<const K: usize, const R: usize>(
+    q: &SMatrix<f64, K, R>,
+    j: usize,
+    m: &SMatrix<f64, R, R>,
+    n: usize,
+) -> f64 {
+    let mut length2 = 0.0;
+    let mut leverage = 0.0;
+    for e in 0..n {
+        let qe = q[(j, e)];
+        length2 += qe * qe;
+        let mut mq = 0.0;
+        for f in 0..n {
+            mq += m[(e, f)] * q[(j, f)];
+        }
+        leverage += qe * mq;
+    }
+    length2 - leverage
+}
+
+/// A row `[a_c | a_g]` at the group level of the triangle `top`
+/// (`[R_cc | R_cg | z_c]`, row-major, width `C + G + 1`): `y = R_cc⁻ᵀ a_c`
+/// into `y`, and `u ← u − R_cgᵀ y` (`u` holds `a_g` on entry; the reduced
+/// row `a_g − Kᵀa_c` on return).
+fn eliminate_group<const C: usize>(
+    top: &[f64],
+    g: usize,
+    a_c: &[f64],
+    y: &mut [f64],
+    u: &mut [f64],
+) {
+    let w = C + g + 1;
+    for a in 0..C {
+        let mut s = a_c[a];
+        for l in 0..a {
+            s -= top[l * w + a] * y[l];
+        }
+        y[a] = s / top[a * w + a];
+    }
+    for a in 0..C {
+        let r_cg = &top[a * w + C..a * w + C + g];
+        for (u, r) in u.iter_mut().zip(r_cg) {
+            *u -= r * y[a];
+        }
+    }
+}
+
+/// `z = U u` for the upper-triangular `U` (`G × G`, row-major) with
+/// `Cov(g) = UᵀU`, so that `|z|² = uᵀ Cov(g) u`.
+fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
+    let g = u.len();
+    for (j, z) in z.iter_mut().enumerate() {
+        *z = dot(&factor[j * g + j..(j + 1) * g], &u[j..]);
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm2(a: &[f64]) -> f64 {
+    dot(a, a)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normalised_residual_divides_by_the_root_of_the_redundancy() {
+        assert_eq!(normalised_residual(1.5, 0.25), Some(3.0));
+        assert_eq!(normalised_residual(-2.0, 1.0), Some(-2.0));
+        assert_eq!(normalised_residual(1e-9, 1e-11), None);
+        assert_eq!(normalised_residual(0.0, -1e-16), None);
+    }
+}
