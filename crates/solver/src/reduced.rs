@@ -333,17 +333,17 @@ impl ScaledCholesky {
         y
     }
 
-    /// The upper-triangular `U` with `S = UᵀU` (`U = (D^{1/2} L)ᵀ`),
-    /// row-major, zero below the diagonal.
-    pub(crate) fn upper_factor(&self) -> Vec<f64> {
+    /// The lower-triangular factor of `S` itself, `D^{1/2} L` with
+    /// `S = (D^{1/2} L)(D^{1/2} L)ᵀ`, row-major, zero above the diagonal.
+    pub(crate) fn lower_factor(&self) -> Vec<f64> {
         let n = self.n;
-        let mut u = vec![0.0; n * n];
+        let mut l = vec![0.0; n * n];
         for i in 0..n {
             for j in 0..=i {
-                u[j * n + i] = self.l[i * n + j] / self.scale[i];
+                l[i * n + j] = self.l[i * n + j] / self.scale[i];
             }
         }
-        u
+        l
     }
 
     /// `S⁻¹`, row-major, symmetrised.
@@ -392,10 +392,10 @@ mod tests {
         for i in 0..n {
             assert!((x[i] - x_true[i]).abs() <= 1e-12 * x_true[i].abs());
         }
-        let u = f.upper_factor();
+        let l = f.lower_factor();
         for i in 0..n {
             for j in 0..n {
-                let p: f64 = (0..n).map(|k| u[k * n + i] * u[k * n + j]).sum();
+                let p: f64 = (0..n).map(|k| l[i * n + k] * l[j * n + k]).sum();
                 assert!((p - s[i * n + j]).abs() <= 1e-14 * (s[i * n + i] * s[j * n + j]).sqrt());
             }
         }

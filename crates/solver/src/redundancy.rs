@@ -98,11 +98,12 @@ use crate::solution::Status;
 pub struct Redundancy<const R: usize> {
     /// `r_j` of each point's `R` data rows.
     pub points: Vec<SVector<f64, R>>,
-    /// Each point's whitened residual `r_i` at the state.
+    /// Each point's whitened residuals (the `e_j` of
+    /// [`normalised_residual`]) at the state.
     pub point_residuals: Vec<SVector<f64, R>>,
     /// `r_o` of each global observation row.
     pub global_observations: Vec<f64>,
-    /// The global observations' whitened residuals `r_o` at the state.
+    /// The global observations' whitened residuals at the state.
     pub global_observation_residuals: Vec<f64>,
     /// The leverage taken by the prior rows.
     pub prior_leverage: PriorLeverage,
@@ -191,7 +192,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
     let factor = ScaledCholesky::new(symmetric.as_slice(), g)
         .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
-    let factor = factor.upper_factor();
+    let factor = factor.lower_factor();
     let observations = ctx
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
@@ -230,8 +231,8 @@ where
     Pr: Problem<C, P, R>,
 {
     /// The redundancy of every point's rows and the leverage of the point
-    /// and group priors at `state`, given `U` with `Cov(g) = UᵀU`
-    /// (row-major, upper triangular); the global fields are left empty.
+    /// and group priors at `state`, given `L` with `Cov(g) = LLᵀ`
+    /// (row-major, lower triangular); the global fields are left empty.
     fn point_redundancy(
         &mut self,
         state: &State<C, P>,
@@ -258,12 +259,16 @@ where
             jobs,
             |ws, ((chunk, caches), (redundancy, residuals))| {
                 let (bufs, _, rows) = ws.split();
+                // Room for the largest group: nothing grows per point.
+                let largest = chunk.groups.clone().map(|k| problem.group_points(k).len());
+                let largest = largest.max().unwrap_or(0);
                 rows.clear();
+                rows.reserve(largest * R * dims.group_width());
                 let mut sink = RedundancySink::<C, P, R> {
                     factor,
                     g: dims.g,
                     rows,
-                    points: Vec::new(),
+                    points: Vec::with_capacity(largest),
                     coordinates: vec![0.0; R * (C + dims.g)],
                     reduced: vec![0.0; dims.g],
                     redundancy,
@@ -304,7 +309,7 @@ struct PointRows<const P: usize, const R: usize> {
 /// Turns each group's points into their redundancy numbers once the
 /// group's triangle is known.
 struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
-    /// `U` with `Cov(g) = UᵀU`, `G × G` row-major, upper triangular.
+    /// `L` with `Cov(g) = LLᵀ`, `G × G` row-major, lower triangular.
     factor: &'a [f64],
     g: usize,
     /// The eliminated rows `[E_c | E_g | ·]` of the current group's points,
@@ -470,12 +475,17 @@ fn eliminate_group<const C: usize>(
     }
 }
 
-/// `z = U u` for the upper-triangular `U` (`G × G`, row-major) with
-/// `Cov(g) = UᵀU`, so that `|z|² = uᵀ Cov(g) u`.
+/// `z = Lᵀu` for the lower-triangular `L` (`G × G`, row-major) with
+/// `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by rows of `L`
+/// (`z[..=i] += L[i, ..=i] u_i`), whose lanes are independent.
 fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     let g = u.len();
-    for (j, z) in z.iter_mut().enumerate() {
-        *z = dot(&factor[j * g + j..(j + 1) * g], &u[j..]);
+    z.fill(0.0);
+    for (i, &ui) in u.iter().enumerate() {
+        let row = &factor[i * g..i * g + i + 1];
+        for (z, l) in z.iter_mut().zip(row) {
+            *z += l * ui;
+        }
     }
 }
 

@@ -104,7 +104,9 @@ pub enum Status {
     },
     /// The problem's structure does not match the initial state (group ranges
     /// not a partition, wrong numbers of blocks, non-finite initial values,
-    /// zero `groups_per_chunk`). Nothing was evaluated.
+    /// zero `groups_per_chunk`), or the covariance given to
+    /// [`redundancy`](crate::redundancy) is not `G × G` positive definite.
+    /// Nothing was evaluated.
     InvalidProblem {
         /// What is wrong.
         message: String,

@@ -329,7 +329,9 @@ fn a_covariance_of_the_wrong_shape_or_not_definite_is_refused() {
 }
 
 /// Timing, not a check: the redundancy pass against one Gauss–Newton step
-/// (elimination and back-substitution) at 10^5 points, `G` = 35. Run with
+/// (elimination and back-substitution) and against the final evaluation
+/// of a solve (elimination, covariance, group sigmas' pass) at 10^5
+/// points, `G` = 35. Run with
 /// `cargo test --release -p parcal-solver --test redundancy -- --ignored
 /// --nocapture`.
 #[test]
@@ -365,11 +367,15 @@ fn timing_at_1e5_points() {
     let step = best(&mut || {
         linear_step(&problem, &state, &mut caches, 0.0, 64).unwrap();
     });
+    let final_evaluation = best(&mut || {
+        covariance(&problem, &state, 64);
+    });
     let pass = best(&mut || {
         redundancy(&problem, &state, &cov, &mut caches, 64).unwrap();
     });
     println!(
-        "G = {}, {} points, {} threads: one step {step:.3} s, redundancy {pass:.3} s (ratio {:.2})",
+        "G = {}, {} points, {} threads: one step {step:.3} s, covariance and group sigmas {final_evaluation:.3} s, \
+         redundancy {pass:.3} s (ratio to the step {:.2})",
         state.global.len(),
         state.points.len(),
         rayon::current_num_threads(),
