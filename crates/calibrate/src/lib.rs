@@ -12,6 +12,7 @@
 //! - [`layout`]: the global block, named groups of parameters;
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
+//! - [`verdict`]: the global test and the verdict of a run;
 //! - [`sphere_fit`]: initial ball centres;
 //! - [`touch_validation`]: a ball-touch calibration applied to other touches.
 //!
@@ -44,6 +45,7 @@ pub mod setup;
 pub mod sphere_fit;
 pub mod touch_validation;
 mod validate;
+pub mod verdict;
 
 pub use error::{CalibrateError, InstrumentTable};
 pub use options::{CalibrationOptions, Observation, PriorMode, Simulation};

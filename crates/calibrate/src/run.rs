@@ -10,7 +10,7 @@ use parcal_kinematics::{
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
     Iterate, IterationRecord, Monitor, Solution, SolverOptions, SpectrumDiagnostics, Status,
-    Verdict, solve_with_caches,
+    solve_with_caches,
 };
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
@@ -19,6 +19,7 @@ use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
+use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
 
 /// The outcome of one calibration.
@@ -73,12 +74,19 @@ pub struct CalibrationRun {
     /// Paper mode: the check of the diagonal prior against the propagated
     /// design tolerances ([`crate::conflict::paper_prior_consistency`]).
     pub prior_consistency: Option<String>,
+    /// The global test at the final state ([`crate::verdict`]).
+    pub global_test: Option<GlobalTest>,
 }
 
 impl CalibrationRun {
     /// Whether the solver converged.
     pub fn converged(&self) -> bool {
         matches!(self.status, Status::Converged)
+    }
+
+    /// The run's verdict ([`crate::verdict`]).
+    pub fn verdict(&self) -> Verdict {
+        Verdict::new(&self.status, self.global_test)
     }
 
     /// Gauss-Newton iterations (linear solves; Levenberg-Marquardt: steps
@@ -182,6 +190,11 @@ impl CalibrationRun {
             options,
             machine: None,
             sessions: Vec::new(),
+            verdict: String::new(),
+            reasons: Vec::new(),
+            warnings: Vec::new(),
+            global_test: None,
+            provenance: None,
         }
     }
 }
@@ -262,6 +275,7 @@ pub fn calibrate(
         _ => None,
     };
     Ok(CalibrationRun {
+        global_test: solved.global_test,
         prior_consistency,
         options: options.clone(),
         design: setup.design,
@@ -324,6 +338,8 @@ struct Solved {
     spectrum: Option<SpectrumDiagnostics>,
     /// Balls re-seeded on the other side of their contacts.
     mirrored: Vec<Mirrored>,
+    /// The global test at the final state.
+    global_test: Option<GlobalTest>,
 }
 
 /// What a solve needs besides the problem.
@@ -437,7 +453,17 @@ impl SolverRun<'_> {
             .as_deref()
             .zip(solution.covariance.as_ref())
             .map(|(groups, global)| layout.ball_sigmas(global, groups));
+        let (rows, unknowns) =
+            rows_and_unknowns(&*problem, setup.order.len(), problem.distances.len());
+        let global_test = solution.history.last().and_then(|record| {
+            GlobalTest::new(
+                record.cost,
+                rows.saturating_sub(unknowns),
+                GLOBAL_TEST_LEVEL,
+            )
+        });
         Ok(Solved {
+            global_test,
             params: kinematic_params(&state.global),
             centres: layout.ball_centres(&state.global, &state.groups),
             centre_sigmas,
@@ -529,9 +555,9 @@ impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
         (self.observer)(record);
     }
 
-    fn inspect(&mut self, iterate: &Iterate<'_, 3, P, Pose>) -> Verdict {
+    fn inspect(&mut self, iterate: &Iterate<'_, 3, P, Pose>) -> parcal_solver::Verdict {
         if iterate.relative_change() > SETTLED {
-            return Verdict::Continue;
+            return parcal_solver::Verdict::Continue;
         }
         let state = iterate.state;
         let misfits = self.run.misfits(iterate.group_costs);
@@ -545,8 +571,8 @@ impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
             .run
             .wrong_sides(&params, &centres, &misfits, iterate.caches);
         match &self.found {
-            Ok(wrong) if wrong.is_empty() => Verdict::Continue,
-            _ => Verdict::Stop,
+            Ok(wrong) if wrong.is_empty() => parcal_solver::Verdict::Continue,
+            _ => parcal_solver::Verdict::Stop,
         }
     }
 }

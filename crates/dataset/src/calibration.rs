@@ -82,6 +82,58 @@ pub struct Calibration {
     /// Calibrations of poses or points: every session's nuisance.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sessions: Vec<SessionRecord>,
+    /// `"accepted"` or `"rejected"` (empty in files written before
+    /// verdicts).
+    #[serde(default)]
+    pub verdict: String,
+    /// Why, one sentence each.
+    #[serde(default)]
+    pub reasons: Vec<String>,
+    /// Every warning of the run, one sentence each.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+    /// The global test of the a-posteriori variance factor.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub global_test: Option<GlobalTestRecord>,
+    /// Where the result comes from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+impl Calibration {
+    /// Whether the verdict is `"rejected"`.
+    pub fn is_rejected(&self) -> bool {
+        self.verdict == "rejected"
+    }
+}
+
+/// The global test of a calibration: `Ω ~ χ²(r)` under the model and the
+/// stated noise, two-sided at `level`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GlobalTestRecord {
+    /// `Ω`, the weighted sum of squares (priors included).
+    pub cost: f64,
+    /// The redundancy `r` (rows less unknowns).
+    pub redundancy: usize,
+    /// `s₀² = Ω / r`.
+    pub variance_factor: f64,
+    /// The test's level.
+    pub level: f64,
+    /// The interval of `s₀²` that passes.
+    pub interval: [f64; 2],
+    /// `"consistent"`, `"too large"` or `"too small"`.
+    pub outcome: String,
+}
+
+/// Where a calibration comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// The parcal version that computed it.
+    pub parcal_version: String,
+    /// The dataset as it was given (a directory or a snapshot).
+    pub dataset: String,
+    /// The dataset's checksum ([`crate::Dataset::checksum`]).
+    pub dataset_checksum: String,
 }
 
 /// The calibrated machine in the frames of the first session: base joints

@@ -98,6 +98,22 @@ impl Dataset {
         Ok(dataset)
     }
 
+    /// A checksum of what was measured (CRC-32 of the machine, artefacts,
+    /// measurements and instrument data in the snapshot's encoding, `crc32:`
+    /// and 8 hex digits; a simulation's truth is not part of it): the same
+    /// data, the same checksum, whatever the files' formatting. It
+    /// recognises a dataset; it is not a cryptographic hash.
+    pub fn checksum(&self) -> String {
+        let measured = (
+            &self.machine,
+            &self.artefacts,
+            &self.measurements,
+            &self.tracker,
+        );
+        let payload = postcard::to_stdvec(&measured).unwrap_or_default();
+        format!("crc32:{:08x}", crc32fast::hash(&payload))
+    }
+
     /// Whether the dataset has ball touches.
     pub fn has_touches(&self) -> bool {
         !self.measurements.is_empty()

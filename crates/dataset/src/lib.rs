@@ -102,7 +102,8 @@ mod validation;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
 pub use calibration::{
-    CalibratedMachine, Calibration, CentreEstimate, IterationSummary, ParameterTable,
+    CalibratedMachine, Calibration, CentreEstimate, GlobalTestRecord, IterationSummary,
+    ParameterTable, Provenance,
 };
 pub use dataset::{Dataset, ReadOptions};
 pub use error::DatasetError;

@@ -372,6 +372,22 @@ fn calibration() -> Calibration {
         options: BTreeMap::from([("sim".to_owned(), serde_json::json!("IV"))]),
         machine: None,
         sessions: Vec::new(),
+        verdict: "accepted".into(),
+        reasons: vec!["the solver converged".into()],
+        warnings: vec![],
+        global_test: Some(GlobalTestRecord {
+            cost: 187.5,
+            redundancy: 190,
+            variance_factor: 187.5 / 190.0,
+            level: 0.05,
+            interval: [0.8, 1.2],
+            outcome: "consistent".into(),
+        }),
+        provenance: Some(Provenance {
+            parcal_version: "0.1.0".into(),
+            dataset: "data/x".into(),
+            dataset_checksum: "crc32:0123abcd".into(),
+        }),
     }
 }
 

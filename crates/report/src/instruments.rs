@@ -6,7 +6,7 @@ use std::fmt::Write;
 use parcal_calibrate::instruments::InstrumentRun;
 use parcal_dataset::Calibration;
 
-use crate::sentences::solver_status;
+use crate::sentences::{solver_status, with_verdict};
 
 /// Posterior over prior sigma below which the data determine a parameter.
 const DATA_DETERMINED: f64 = 0.5;
@@ -20,9 +20,13 @@ pub fn status(run: &InstrumentRun) -> String {
     solver_status(&run.status, &run.names(), none, none)
 }
 
-/// The calibration.json record of `run`, its status in words.
+/// The calibration.json record of `run`: its status, verdict and reasons in
+/// words.
 pub fn record(run: &InstrumentRun) -> Calibration {
-    run.record(status(run))
+    let status = status(run);
+    let mut record = run.record(status.clone());
+    with_verdict(&mut record, &run.verdict(), &status, Vec::new());
+    record
 }
 
 /// What determined a parameter, from the data's information on it and its
@@ -72,6 +76,11 @@ pub fn summary(run: &InstrumentRun) -> String {
         status(run),
         run.history.len().saturating_sub(1)
     );
+    let record = record(run);
+    let _ = writeln!(out, "verdict: {}", record.verdict);
+    for reason in record.reasons.iter().chain(&record.warnings) {
+        let _ = writeln!(out, "  {reason}");
+    }
     out
 }
 

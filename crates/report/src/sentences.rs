@@ -5,6 +5,7 @@
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::conflict::ConflictTest;
 use parcal_calibrate::fit::misfit_warning;
+use parcal_calibrate::verdict::{Outcome, Verdict};
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
 
 /// The status in one sentence (calibration.json's `status`), naming
@@ -62,9 +63,65 @@ pub fn solver_status(
     }
 }
 
-/// The calibration.json record of `run`, its status in words.
+/// The calibration.json record of `run`: its status, verdict, reasons and
+/// warnings in words.
 pub fn record(run: &CalibrationRun) -> parcal_dataset::Calibration {
-    run.record(status(run))
+    let status = status(run);
+    let mut record = run.record(status.clone());
+    with_verdict(&mut record, &run.verdict(), &status, warnings(run));
+    record
+}
+
+/// Writes `verdict` into `record`: the decision, its reasons (the status
+/// sentence `status`, the global test), the `warnings` of the run and the
+/// global test's own when the fit is better than the noise allows.
+pub fn with_verdict(
+    record: &mut parcal_dataset::Calibration,
+    verdict: &Verdict,
+    status: &str,
+    mut warnings: Vec<String>,
+) {
+    record.verdict = if verdict.accepted {
+        "accepted"
+    } else {
+        "rejected"
+    }
+    .to_string();
+    record.reasons = vec![format!("the solver {status}")];
+    if let Some(test) = &verdict.global_test {
+        let (lower, upper) = test.interval;
+        let statement = format!(
+            "a-posteriori variance factor {:.3} (redundancy {}; chi-square interval [{lower:.3}, {upper:.3}] at {}% two-sided)",
+            test.variance_factor,
+            test.redundancy,
+            test.level * 100.0
+        );
+        match test.outcome {
+            Outcome::Consistent => record
+                .reasons
+                .push(format!("global test passed: {statement}")),
+            Outcome::TooLarge => record.reasons.push(format!(
+                "global test failed: the data do not fit their stated noise: {statement}; look for a blunder, a wrong radius or repeatability, or a model error"
+            )),
+            Outcome::TooSmall => warnings.push(format!(
+                "the fit is better than the stated noise allows: {statement}; the repeatabilities are pessimistic and the sigmas overstated"
+            )),
+        }
+        record.global_test = Some(parcal_dataset::GlobalTestRecord {
+            cost: test.cost,
+            redundancy: test.redundancy,
+            variance_factor: test.variance_factor,
+            level: test.level,
+            interval: [lower, upper],
+            outcome: match test.outcome {
+                Outcome::Consistent => "consistent",
+                Outcome::TooLarge => "too large",
+                Outcome::TooSmall => "too small",
+            }
+            .to_string(),
+        });
+    }
+    record.warnings = warnings;
 }
 
 /// What the run did beyond the method's iteration, one sentence each (the

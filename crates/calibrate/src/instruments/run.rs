@@ -19,6 +19,7 @@ use crate::instruments::rows::InstrumentRows;
 use crate::instruments::start::frame_start;
 use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::setup::{design_geometry, kinematic_prior};
+use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method};
 
 /// The outcome of an instrument calibration.
@@ -59,6 +60,8 @@ pub struct InstrumentRun {
     /// identified state, `diag(JᵀJ)` of the whitened rows (zero: the data
     /// do not observe it, e.g. the tool tip from poses alone).
     pub data_information: DVector<f64>,
+    /// The global test at the final state ([`crate::verdict`]).
+    pub global_test: Option<GlobalTest>,
 }
 
 /// An instrument calibration ready to solve: the problem at its initial
@@ -140,6 +143,14 @@ pub fn calibrate_instruments(
         points: Vec::new(),
     };
     let solution = solve(&problem, state, &solver_options, observer);
+    let (n_rows, unknowns) = rows_and_unknowns(&problem, 0, problem.rows.len());
+    let global_test = solution.history.last().and_then(|record| {
+        GlobalTest::new(
+            record.cost,
+            n_rows.saturating_sub(unknowns),
+            GLOBAL_TEST_LEVEL,
+        )
+    });
     let InstrumentProblem { model, rows, prior } = problem;
     let global = solution.state.global;
     let values = model.values(&global);
@@ -162,6 +173,7 @@ pub fn calibrate_instruments(
             sum + row.transpose().component_mul(&row.transpose())
         });
     Ok(InstrumentRun {
+        global_test,
         data_information,
         options: options.clone(),
         design,
@@ -295,6 +307,11 @@ impl InstrumentRun {
         matches!(self.status, Status::Converged)
     }
 
+    /// The run's verdict ([`crate::verdict`]).
+    pub fn verdict(&self) -> Verdict {
+        Verdict::new(&self.status, self.global_test)
+    }
+
     /// The model at the identified state.
     pub fn values(&self) -> ModelValues {
         self.model.values(&self.global)
@@ -426,6 +443,11 @@ impl InstrumentRun {
                     leg_offsets: values.offsets[k],
                 })
                 .collect(),
+            verdict: String::new(),
+            reasons: Vec::new(),
+            warnings: Vec::new(),
+            global_test: None,
+            provenance: None,
         }
     }
 

@@ -9,8 +9,8 @@ use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{BeforeAfter, Truth, accuracy};
 use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
-use parcal_dataset::Calibration;
-use parcal_kinematics::{N_PARAMS, Params, params};
+use parcal_dataset::Dataset;
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, params};
 use parcal_report::{maps::write_maps, tables};
 
 #[derive(clap::Args)]
@@ -24,18 +24,44 @@ pub struct Args {
     /// Output directory for accuracy.csv and the SVG maps.
     #[arg(long)]
     out: PathBuf,
+    /// Use a calibration whose verdict is "rejected".
+    #[arg(long)]
+    accept_rejected: bool,
+    /// Use a calibration of another dataset (its checksum differs from this one's).
+    #[arg(long)]
+    other_data: bool,
 }
 
-/// The parameters and covariance of a calibration.json.
-fn calibrated(path: &Path) -> anyhow::Result<(Params, ParamCovariance)> {
-    let calibration = Calibration::read(path)?;
-    let values = &calibration.parameters.values;
+/// The parameters and covariance of a calibration.json of `dataset`: a
+/// rejected one, or one of other data, only if the options say so; its
+/// parameters must be the 33, named and ordered as `PARAM_NAMES`.
+fn calibrated(
+    path: &Path,
+    dataset: &Dataset,
+    args: &Args,
+) -> anyhow::Result<(Params, ParamCovariance)> {
+    let calibration = super::read_calibration(path, args.accept_rejected)?;
+    if let Some(provenance) = &calibration.provenance {
+        anyhow::ensure!(
+            args.other_data || provenance.dataset_checksum == dataset.checksum(),
+            "{}: the calibration is of another dataset ({}, checksum {}; this one's is {}); give --other-data to map it here anyway",
+            path.display(),
+            provenance.dataset,
+            provenance.dataset_checksum,
+            dataset.checksum()
+        );
+    }
+    let names = &calibration.parameters.names;
     anyhow::ensure!(
-        values.len() == N_PARAMS,
-        "{}: expected {N_PARAMS} parameters, found {}",
+        names.len() == N_PARAMS && names.iter().zip(PARAM_NAMES).all(|(a, b)| a == b),
+        "{}: expected the {N_PARAMS} kinematic parameters {} .. {} in that order, found {} parameters ({})",
         path.display(),
-        values.len()
+        PARAM_NAMES[0],
+        PARAM_NAMES[N_PARAMS - 1],
+        names.len(),
+        names.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
     );
+    let values = &calibration.parameters.values;
     anyhow::ensure!(
         calibration.converged && calibration.covariance.len() == N_PARAMS,
         "{}: the calibration has no posterior covariance (status: {})",
@@ -67,7 +93,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .calibration
         .as_ref()
         .map(|path| -> anyhow::Result<_> {
-            let (p, covariance) = calibrated(path)?;
+            let (p, covariance) = calibrated(path, &dataset, args)?;
             Ok(accuracy(&design, truth.as_ref(), &p, &covariance, &grid)?)
         })
         .transpose()?;

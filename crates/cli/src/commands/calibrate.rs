@@ -102,14 +102,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     .map_err(|error| in_dataset(error, &args.dataset))?;
     progress.finish();
     let out = args.out_path();
-    sentences::record(&run).write(&out)?;
-    // A reader that closed stdout early does not hide a failed calibration.
-    let printed = print_results(truth.as_ref(), &run, &out);
-    anyhow::ensure!(
-        run.converged(),
-        "the calibration did not converge: {}",
-        sentences::status(&run)
-    );
+    let record = sentences::record(&run);
+    // A reader that closed stdout early does not hide a rejected
+    // calibration.
+    let printed = print_results(truth.as_ref(), &run, &record, &out);
+    super::write_calibration(record, &dataset, &args.dataset, &out)?;
     printed
 }
 
@@ -146,7 +143,6 @@ fn run_instruments(
     .map_err(|error| in_dataset(error, &args.dataset))?;
     progress.finish();
     let out = args.out_path();
-    instruments::record(&run).write(&out)?;
     let mut stdout = std::io::stdout().lock();
     let printed = writeln!(
         stdout,
@@ -155,11 +151,7 @@ fn run_instruments(
         instruments::parameters(&run),
         out.display()
     );
-    anyhow::ensure!(
-        run.converged(),
-        "the calibration did not converge: {}",
-        instruments::status(&run)
-    );
+    super::write_calibration(instruments::record(&run), dataset, &args.dataset, &out)?;
     Ok(printed?)
 }
 
@@ -196,10 +188,12 @@ fn in_dataset(error: CalibrateError, dataset: &Path) -> anyhow::Error {
     anyhow::Error::new(error).context(place)
 }
 
-/// The summary, the parameter table and the accuracy of `run` on stdout.
+/// The summary, the parameter table, the accuracy and the verdict of `run`
+/// on stdout.
 fn print_results(
     truth: Option<&Truth>,
     run: &CalibrationRun,
+    record: &parcal_dataset::Calibration,
     calibration: &Path,
 ) -> anyhow::Result<()> {
     let maps = before_after(truth, run, &MapGrid::paper()).context("accuracy map")?;
@@ -216,6 +210,10 @@ fn print_results(
         "{}",
         tables::accuracy(&[("this calibration", &maps)])
     )?;
+    writeln!(stdout, "verdict: {}", record.verdict)?;
+    for line in record.reasons.iter().chain(&record.warnings) {
+        writeln!(stdout, "  {line}")?;
+    }
     writeln!(stdout, "calibration written to {}", calibration.display())?;
     Ok(())
 }

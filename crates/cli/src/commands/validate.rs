@@ -8,7 +8,7 @@ use anyhow::Context;
 use parcal_calibrate::CalibrationOptions;
 use parcal_calibrate::instruments::{Calibrated, Validation, cross_validate, validate_calibration};
 use parcal_calibrate::touch_validation::validate_touches;
-use parcal_dataset::{Calibration, NuisanceCandidate, VALIDATION_FILE, ValidationRecord};
+use parcal_dataset::{NuisanceCandidate, VALIDATION_FILE, ValidationRecord};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -28,6 +28,9 @@ pub struct Args {
     /// dataset's own calibration (row j in fold j mod K).
     #[arg(long, value_name = "K")]
     folds: Option<usize>,
+    /// Apply a calibration whose verdict is "rejected".
+    #[arg(long)]
+    accept_rejected: bool,
     /// Where to write validation.json (default: validation.json in the dataset's directory).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -37,13 +40,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset(&args.dataset)?;
     let (validation, calibration) = match (&args.calibration, args.folds) {
         (Some(path), _) if dataset.tracker.is_empty() => {
-            let record = Calibration::read(path)?;
+            let record = super::read_calibration(path, args.accept_rejected)?;
             let validation = validate_touches(&dataset, &record, args.reference)
                 .with_context(|| path.display().to_string())?;
             (validation, path.display().to_string())
         }
         (Some(path), _) => {
-            let record = Calibration::read(path)?;
+            let record = super::read_calibration(path, args.accept_rejected)?;
             let calibrated =
                 Calibrated::from_record(&record).with_context(|| path.display().to_string())?;
             (

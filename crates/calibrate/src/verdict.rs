@@ -1,0 +1,157 @@
+//! Can the result be trusted? The global test of the a-posteriori variance
+//! factor, and the verdict of a run.
+//!
+//! With `Ω` the weighted sum of squares at the solution (every observation
+//! whitened by its a priori covariance; the priors count as observations)
+//! and `r = m − n` the redundancy (rows of data, global observations and
+//! priors, less the unknowns), the a-posteriori variance factor is
+//! `s₀² = Ω / r`. If the model and the a priori sigmas are right, `Ω ~
+//! χ²(r)` (Koch, "Parameter Estimation and Hypothesis Testing in Linear
+//! Models", 1999, section 4.3; Förstner and Wrobel, "Photogrammetric
+//! Computer Vision", 2016, section 4.6.8). The test is two-sided at level
+//! `α`: `Ω` above `χ²_{1−α/2}(r)` says the data do not fit their stated
+//! noise (a blunder, a wrong radius, a model error); `Ω` below
+//! `χ²_{α/2}(r)` says the fit is better than the stated noise allows (the
+//! repeatabilities are pessimistic and the sigmas overstated).
+
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+use parcal_solver::{Problem, Status};
+
+/// The default level of the global test.
+pub const GLOBAL_TEST_LEVEL: f64 = 0.05;
+
+/// Where `Ω` falls.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Inside the two-sided interval.
+    Consistent,
+    /// Above it: the data do not fit their stated noise.
+    TooLarge,
+    /// Below it: the fit is better than the stated noise allows.
+    TooSmall,
+}
+
+/// The global test of a run (module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GlobalTest {
+    /// `Ω`, the weighted sum of squares, priors included.
+    pub cost: f64,
+    /// `r = m − n`.
+    pub redundancy: usize,
+    /// `s₀² = Ω / r`.
+    pub variance_factor: f64,
+    /// The test's level `α`.
+    pub level: f64,
+    /// `χ²_{α/2}(r) / r` and `χ²_{1−α/2}(r) / r`: the interval of `s₀²`.
+    pub interval: (f64, f64),
+    /// Where `Ω` falls.
+    pub outcome: Outcome,
+}
+
+impl GlobalTest {
+    /// The test of `cost` with `redundancy` degrees of freedom at `level`;
+    /// `None` without redundancy (as many unknowns as rows).
+    pub fn new(cost: f64, redundancy: usize, level: f64) -> Option<Self> {
+        let chi = ChiSquared::new(redundancy as f64).ok()?;
+        let r = redundancy as f64;
+        let interval = (
+            chi.inverse_cdf(level / 2.0) / r,
+            chi.inverse_cdf(1.0 - level / 2.0) / r,
+        );
+        let variance_factor = cost / r;
+        let outcome = if variance_factor > interval.1 {
+            Outcome::TooLarge
+        } else if variance_factor < interval.0 {
+            Outcome::TooSmall
+        } else {
+            Outcome::Consistent
+        };
+        Some(Self {
+            cost,
+            redundancy,
+            variance_factor,
+            level,
+            interval,
+            outcome,
+        })
+    }
+}
+
+/// Rows and unknowns of a solved problem with `points` points and
+/// `global_rows` global observation rows: `R` rows per point, the global
+/// rows, and one row per dimension of every prior with information (a
+/// global prior counts the coordinates with positive information); a
+/// fixed group has neither unknowns nor prior rows.
+pub fn rows_and_unknowns<const C: usize, const P: usize, const R: usize, Pr>(
+    problem: &Pr,
+    points: usize,
+    global_rows: usize,
+) -> (usize, usize)
+where
+    Pr: Problem<C, P, R>,
+{
+    let g = problem.global_size();
+    let global_prior = problem.global_prior().map_or(0, |prior| {
+        (0..g).filter(|&k| prior.information[(k, k)] > 0.0).count()
+    });
+    let free_groups: Vec<usize> = (0..problem.n_groups())
+        .filter(|&k| !problem.group_is_fixed(k))
+        .collect();
+    let group_priors = free_groups
+        .iter()
+        .filter(|&&k| problem.group_prior(k).is_some())
+        .count();
+    let point_priors = (0..points)
+        .filter(|&i| P > 0 && problem.point_prior(i).is_some())
+        .count();
+    let rows = R * points + global_rows + global_prior + C * group_priors + P * point_priors;
+    let unknowns = g + C * free_groups.len() + P * points;
+    (rows, unknowns)
+}
+
+/// A run's verdict: accepted when it converged and its global test does
+/// not say the data misfit their noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// Whether the result may be used.
+    pub accepted: bool,
+    /// The global test, when the run converged with redundancy.
+    pub global_test: Option<GlobalTest>,
+}
+
+impl Verdict {
+    /// The verdict of a run that ended with `status` and, when it
+    /// converged, whose global test is `global_test`.
+    pub fn new(status: &Status, global_test: Option<GlobalTest>) -> Self {
+        let converged = matches!(status, Status::Converged);
+        let fits = global_test.is_none_or(|t| t.outcome != Outcome::TooLarge);
+        Self {
+            accepted: converged && fits,
+            global_test: global_test.filter(|_| converged),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interval_is_the_chi_square_quantiles() {
+        // χ²(100): 2.5 % and 97.5 % quantiles 74.222 and 129.561.
+        let t = GlobalTest::new(100.0, 100, 0.05).unwrap();
+        assert!((t.interval.0 * 100.0 - 74.222).abs() < 1e-3);
+        assert!((t.interval.1 * 100.0 - 129.561).abs() < 1e-3);
+        assert_eq!(t.outcome, Outcome::Consistent);
+        assert_eq!(
+            GlobalTest::new(130.0, 100, 0.05).unwrap().outcome,
+            Outcome::TooLarge
+        );
+        assert_eq!(
+            GlobalTest::new(74.0, 100, 0.05).unwrap().outcome,
+            Outcome::TooSmall
+        );
+        assert!(GlobalTest::new(1.0, 0, 0.05).is_none());
+    }
+}
