@@ -13,6 +13,9 @@
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
 //! - [`verdict`]: the global test and the verdict of a run;
+//! - [`reliability`]: redundancy numbers, normalised residuals, variance
+//!   components;
+//! - [`snooping`]: data snooping, the blunders found and removed;
 //! - [`sphere_fit`]: initial ball centres;
 //! - [`touch_validation`]: a ball-touch calibration applied to other touches.
 //!
@@ -40,8 +43,10 @@ pub mod layout;
 pub mod mirror;
 mod options;
 pub mod problem;
+pub mod reliability;
 pub mod run;
 pub mod setup;
+pub mod snooping;
 pub mod sphere_fit;
 pub mod touch_validation;
 mod validate;

@@ -18,6 +18,7 @@ use crate::fit::{BallMisfit, misfit_balls};
 use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
+use crate::reliability::Reliability;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
@@ -76,6 +77,9 @@ pub struct CalibrationRun {
     pub prior_consistency: Option<String>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
+    /// Every observation's check at the final state of a converged run
+    /// ([`crate::reliability`]).
+    pub reliability: Option<Reliability>,
 }
 
 impl CalibrationRun {
@@ -195,6 +199,7 @@ impl CalibrationRun {
             warnings: Vec::new(),
             global_test: None,
             provenance: None,
+            removed_observations: Vec::new(),
         }
     }
 }
@@ -276,6 +281,7 @@ pub fn calibrate(
     };
     Ok(CalibrationRun {
         global_test: solved.global_test,
+        reliability: solved.reliability,
         prior_consistency,
         options: options.clone(),
         design: setup.design,
@@ -340,6 +346,8 @@ struct Solved {
     mirrored: Vec<Mirrored>,
     /// The global test at the final state.
     global_test: Option<GlobalTest>,
+    /// The observations' checks at the final state.
+    reliability: Option<Reliability>,
 }
 
 /// What a solve needs besides the problem.
@@ -462,8 +470,25 @@ impl SolverRun<'_> {
                 GLOBAL_TEST_LEVEL,
             )
         });
+        let prior_rows = rows - rows_per_contact * setup.order.len() - problem.distances.len();
+        let reliability = match (&solution.covariance, solution.history.last()) {
+            (Some(covariance), Some(last)) if solution.status == Status::Converged => {
+                Some(Reliability::new(
+                    &*problem,
+                    &solution.state,
+                    covariance,
+                    &mut caches,
+                    self.solver.groups_per_chunk,
+                    &setup.order,
+                    last.prior_cost,
+                    prior_rows,
+                )?)
+            }
+            _ => None,
+        };
         Ok(Solved {
             global_test,
+            reliability,
             params: kinematic_params(&state.global),
             centres: layout.ball_centres(&state.global, &state.groups),
             centre_sigmas,

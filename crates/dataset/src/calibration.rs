@@ -98,6 +98,24 @@ pub struct Calibration {
     /// Where the result comes from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
+    /// The observations data snooping removed, in the order of removal.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub removed_observations: Vec<RemovedObservation>,
+}
+
+/// An observation removed by data snooping.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RemovedObservation {
+    /// Its file (`measurements.csv`).
+    pub file: String,
+    /// Its line there (the header is line 1).
+    pub line: u64,
+    /// Its normalised residual when it was removed.
+    pub normalised_residual: f64,
+    /// Its estimated gross error, in units of its standard deviation.
+    pub gross_error_sigmas: f64,
+    /// The a-posteriori variance factor before and after its removal.
+    pub variance_factor: [f64; 2],
 }
 
 impl Calibration {

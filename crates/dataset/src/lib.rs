@@ -103,7 +103,7 @@ mod validation;
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
 pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, GlobalTestRecord, IterationSummary,
-    ParameterTable, Provenance,
+    ParameterTable, Provenance, RemovedObservation,
 };
 pub use dataset::{Dataset, ReadOptions};
 pub use error::DatasetError;

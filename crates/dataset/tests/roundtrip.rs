@@ -388,6 +388,13 @@ fn calibration() -> Calibration {
             dataset: "data/x".into(),
             dataset_checksum: "crc32:0123abcd".into(),
         }),
+        removed_observations: vec![RemovedObservation {
+            file: "measurements.csv".into(),
+            line: 42,
+            normalised_residual: -51.5,
+            gross_error_sigmas: -60.25,
+            variance_factor: [14.5, 1.0 / 3.0],
+        }],
     }
 }
 

@@ -5,6 +5,8 @@
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::conflict::ConflictTest;
 use parcal_calibrate::fit::misfit_warning;
+use parcal_calibrate::reliability::{Reliability, UNCONTROLLED, critical_value};
+use parcal_calibrate::snooping::{SNOOPING_LEVEL, Snooped};
 use parcal_calibrate::verdict::{Outcome, Verdict};
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
 
@@ -66,9 +68,114 @@ pub fn solver_status(
 /// The calibration.json record of `run`: its status, verdict, reasons and
 /// warnings in words.
 pub fn record(run: &CalibrationRun) -> parcal_dataset::Calibration {
+    record_of(run, &|row| row)
+}
+
+/// [`record`] of a run whose measurements.csv row `i` is row
+/// `original_row(i)` of the dataset given.
+fn record_of(
+    run: &CalibrationRun,
+    original_row: &dyn Fn(usize) -> usize,
+) -> parcal_dataset::Calibration {
     let status = status(run);
     let mut record = run.record(status.clone());
-    with_verdict(&mut record, &run.verdict(), &status, warnings(run));
+    let mut warnings = warnings(run);
+    let mut reasons = Vec::new();
+    if let Some(reliability) = &run.reliability {
+        checks(reliability, original_row, &mut reasons, &mut warnings);
+    }
+    with_verdict(&mut record, &run.verdict(), &status, warnings);
+    record.reasons.extend(reasons);
+    record
+}
+
+/// The observations' checks in words: the variance components, the
+/// largest normalised residual against the data-snooping critical value,
+/// the uncontrolled contacts.
+fn checks(
+    reliability: &Reliability,
+    original_row: &dyn Fn(usize) -> usize,
+    reasons: &mut Vec<String>,
+    warnings: &mut Vec<String>,
+) {
+    let components: Vec<String> = reliability
+        .components
+        .iter()
+        .map(|c| {
+            format!(
+                "{} {:.3} (redundancy {:.1})",
+                c.group,
+                c.factor(),
+                c.redundancy
+            )
+        })
+        .collect();
+    reasons.push(format!("variance components: {}", components.join(", ")));
+    let line = |row: usize| original_row(row) + 2;
+    if let Some(worst) = reliability.worst() {
+        let w = worst.normalised.unwrap_or(0.0);
+        let critical = critical_value(SNOOPING_LEVEL, reliability.contacts.len());
+        let test = format!(
+            "largest normalised residual {w:+.2} at measurements.csv line {} (critical value {critical:.2} for {} contacts at {}% family-wise)",
+            line(worst.row),
+            reliability.contacts.len(),
+            SNOOPING_LEVEL * 100.0
+        );
+        if w.abs() > critical {
+            warnings.push(format!(
+                "{test}: that contact is likely a blunder; calibrate --snoop finds and removes blunders"
+            ));
+        } else {
+            reasons.push(format!(
+                "every contact passes the data-snooping test: {test}"
+            ));
+        }
+    }
+    let uncontrolled: Vec<String> = reliability
+        .uncontrolled()
+        .map(|c| line(c.row).to_string())
+        .collect();
+    if !uncontrolled.is_empty() {
+        warnings.push(format!(
+            "{} contacts have a redundancy under {UNCONTROLLED}: an error in them would go into the parameters unseen (measurements.csv lines {})",
+            uncontrolled.len(),
+            uncontrolled.iter().take(10).cloned().collect::<Vec<_>>().join(", ")
+        ));
+    }
+}
+
+/// The calibration.json record of a calibration with data snooping: the
+/// remaining contacts' run, and every removal with its line and what it
+/// did to the variance factor.
+pub fn snooped_record(snooped: &Snooped) -> parcal_dataset::Calibration {
+    let mut record = record_of(&snooped.run, &|row| snooped.original_rows[row]);
+    for removal in &snooped.removals {
+        record.reasons.push(format!(
+            "data snooping removed measurements.csv line {}: normalised residual {:+.1}, estimated gross error {:+.1} (its worst row's sigmas); variance factor {:.3} -> {:.3}",
+            removal.row + 2,
+            removal.normalised,
+            removal.gross_error,
+            removal.variance_factor_before,
+            removal.variance_factor_after
+        ));
+        record
+            .removed_observations
+            .push(parcal_dataset::RemovedObservation {
+                file: parcal_dataset::MEASUREMENTS_FILE.to_string(),
+                line: removal.row as u64 + 2,
+                normalised_residual: removal.normalised,
+                gross_error_sigmas: removal.gross_error,
+                variance_factor: [
+                    removal.variance_factor_before,
+                    removal.variance_factor_after,
+                ],
+            });
+    }
+    if let Some(stopped) = &snooped.stopped {
+        record
+            .warnings
+            .push(format!("data snooping stopped: {stopped}"));
+    }
     record
 }
 

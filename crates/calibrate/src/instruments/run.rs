@@ -448,6 +448,7 @@ impl InstrumentRun {
             warnings: Vec::new(),
             global_test: None,
             provenance: None,
+            removed_observations: Vec::new(),
         }
     }
 

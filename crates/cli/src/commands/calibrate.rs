@@ -9,6 +9,7 @@ use anyhow::Context;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::instruments::calibrate_instruments;
+use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
     Simulation, WeightModel, calibrate,
@@ -42,6 +43,11 @@ pub struct Args {
     /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
     #[arg(long)]
     max_iterations: Option<usize>,
+    /// Data snooping: remove the contact of largest normalised residual while
+    /// it fails the test at 5% family-wise, at most 10 (calibration.json lists
+    /// them under removed_observations).
+    #[arg(long)]
+    snoop: bool,
     /// Where to write calibration.json (default: calibration.json in the dataset's directory).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -96,13 +102,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         options.prior
     ));
     let started = Instant::now();
-    let run = calibrate(&dataset, &options, &mut |record| {
-        step(&progress, record, started)
-    })
-    .map_err(|error| in_dataset(error, &args.dataset))?;
+    let observer = &mut |record: &IterationRecord| step(&progress, record, started);
+    let (run, record) = if args.snoop {
+        let snooped =
+            calibrate_with_snooping(&dataset, &options, SNOOPING_LEVEL, MAX_REMOVALS, observer)
+                .map_err(|error| in_dataset(error, &args.dataset))?;
+        let record = sentences::snooped_record(&snooped);
+        (snooped.run, record)
+    } else {
+        let run = calibrate(&dataset, &options, observer)
+            .map_err(|error| in_dataset(error, &args.dataset))?;
+        let record = sentences::record(&run);
+        (run, record)
+    };
     progress.finish();
     let out = args.out_path();
-    let record = sentences::record(&run);
     // A reader that closed stdout early does not hide a rejected
     // calibration.
     let printed = print_results(truth.as_ref(), &run, &record, &out);

@@ -53,11 +53,18 @@ pub fn write_calibration(
     });
     record.write(out)?;
     if record.is_rejected() {
+        let failed: Vec<&str> = record
+            .reasons
+            .iter()
+            .filter(|r| {
+                r.contains("failed") || r.starts_with("the solver") && !r.ends_with("converged")
+            })
+            .map(String::as_str)
+            .collect();
         return Err(Rejected(format!(
-            "{} (written to {}): {}",
-            record.reasons.join("; "),
-            out.display(),
-            "do not use it; accuracy and validate refuse it without --accept-rejected"
+            "{} (written to {}; accuracy and validate refuse it without --accept-rejected)",
+            failed.join("; "),
+            out.display()
         ))
         .into());
     }
