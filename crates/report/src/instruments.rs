@@ -6,6 +6,10 @@ use std::fmt::Write;
 use parcal_calibrate::instruments::InstrumentRun;
 use parcal_dataset::Calibration;
 
+use parcal_calibrate::InstrumentTable;
+use parcal_calibrate::reliability::critical_value;
+use parcal_calibrate::snooping::SNOOPING_LEVEL;
+
 use crate::sentences::{solver_status, with_verdict};
 
 /// Posterior over prior sigma below which the data determine a parameter.
@@ -25,7 +29,43 @@ pub fn status(run: &InstrumentRun) -> String {
 pub fn record(run: &InstrumentRun) -> Calibration {
     let status = status(run);
     let mut record = run.record(status.clone());
-    with_verdict(&mut record, &run.verdict(), &status, Vec::new());
+    let (mut reasons, mut warnings) = (Vec::new(), Vec::new());
+    if let Some(reliability) = &run.reliability {
+        let components: Vec<String> = reliability
+            .components
+            .iter()
+            .map(|c| {
+                format!(
+                    "{} {:.3} (redundancy {:.1})",
+                    c.group,
+                    c.factor(),
+                    c.redundancy
+                )
+            })
+            .collect();
+        reasons.push(format!("variance components: {}", components.join(", ")));
+        if let Some((table, row, index, w)) = reliability.worst {
+            let critical = critical_value(SNOOPING_LEVEL, reliability.tests);
+            let what = match table {
+                InstrumentTable::Poses => format!("leg {}", index + 1),
+                InstrumentTable::Points => ["x", "y", "z"][index].to_string(),
+            };
+            let test = format!(
+                "largest normalised residual {w:+.2} at {} line {}, {what} (critical value {critical:.2} for {} rows at {}% family-wise)",
+                table.file_name(),
+                row + 2,
+                reliability.tests,
+                SNOOPING_LEVEL * 100.0
+            );
+            if w.abs() > critical {
+                warnings.push(format!("{test}: that row is likely a blunder"));
+            } else {
+                reasons.push(format!("every row passes the data-snooping test: {test}"));
+            }
+        }
+    }
+    with_verdict(&mut record, &run.verdict(), &status, warnings);
+    record.reasons.extend(reasons);
     record
 }
 
