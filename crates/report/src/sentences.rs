@@ -194,7 +194,11 @@ pub fn with_verdict(
         "rejected"
     }
     .to_string();
-    record.reasons = vec![format!("the solver {status}")];
+    record.reasons = vec![if status == "converged" {
+        "the solver converged".to_string()
+    } else {
+        format!("the solver stopped: {status}")
+    }];
     if let Some(test) = &verdict.global_test {
         let (lower, upper) = test.interval;
         let statement = format!(
