@@ -80,6 +80,9 @@ pub struct CalibrationRun {
     /// Every observation's check at the final state of a converged run
     /// ([`crate::reliability`]).
     pub reliability: Option<Reliability>,
+    /// When this is the Levenberg-Marquardt run made after a Gauss-Newton
+    /// run ran away: how that run ended ([`calibrate`]).
+    pub gauss_newton: Option<RunAway>,
 }
 
 impl CalibrationRun {
@@ -206,7 +209,52 @@ impl CalibrationRun {
 
 /// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
 /// The dataset is validated first ([`crate::validate`]).
+///
+/// A Gauss-Newton run that runs away (it ends diverged or at its
+/// iteration limit: a blunder or a start far from the solution, where full
+/// steps overshoot) is made again with Levenberg-Marquardt, whose steps
+/// never raise the cost; [`CalibrationRun::gauss_newton`] keeps how the
+/// first run ended.
 pub fn calibrate(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<CalibrationRun, CalibrateError> {
+    let run = calibrate_once(dataset, options, observer)?;
+    let costs = run.history.first().zip(run.history.last());
+    let ran_away = matches!(options.method, Method::GaussNewton)
+        && matches!(run.status, Status::Diverged { .. } | Status::IterationLimit)
+        && costs.is_some();
+    if !ran_away {
+        return Ok(run);
+    }
+    let lm = options.clone().levenberg_marquardt();
+    let mut again = calibrate_once(dataset, &lm, observer)?;
+    let (first, last) = costs.expect("checked above");
+    again.gauss_newton = Some(RunAway {
+        status: run.status,
+        initial_cost: first.cost,
+        final_cost: last.cost,
+        iterations: run.history.len().saturating_sub(1),
+    });
+    Ok(again)
+}
+
+/// How a Gauss-Newton run that ran away ended ([`calibrate`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunAway {
+    /// Its status.
+    pub status: Status,
+    /// Its cost at the start.
+    pub initial_cost: f64,
+    /// Its cost at its end.
+    pub final_cost: f64,
+    /// Its iterations.
+    pub iterations: usize,
+}
+
+/// One calibration with the options' method.
+fn calibrate_once(
     dataset: &Dataset,
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
@@ -280,6 +328,7 @@ pub fn calibrate(
         _ => None,
     };
     Ok(CalibrationRun {
+        gauss_newton: None,
         global_test: solved.global_test,
         reliability: solved.reliability,
         prior_consistency,

@@ -54,3 +54,31 @@ fn a_blunder_is_found_and_removed() {
     println!("true registered RMS: clean {clean_rms:.6} mm, after snooping {snooped_rms:.6} mm");
     assert!((snooped_rms / clean_rms - 1.0).abs() < 0.2);
 }
+
+/// Every ball's radius entered 20 um too small (the nominal radius instead
+/// of the calibrated one): the global test rejects the run, and the ball
+/// touches' variance component is above the interval. (The priors'
+/// component is as large: the wrong radius pulls the leg lengths away from
+/// their prior, so the components do not single out the touches.)
+#[test]
+fn a_wrong_radius_is_rejected_and_the_touches_named() {
+    let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
+    for ball in &mut dataset.artefacts.balls {
+        ball.radius -= 0.02;
+    }
+    let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    let test = run.global_test.unwrap();
+    println!("variance factor {:.2}", test.variance_factor);
+    assert_eq!(test.outcome, Outcome::TooLarge, "{test:?}");
+    assert!(!run.verdict().accepted);
+    let components = &run.reliability.as_ref().unwrap().components;
+    let factor = |group: &str| {
+        components
+            .iter()
+            .find(|c| c.group == group)
+            .map(|c| c.factor())
+            .unwrap()
+    };
+    println!("touches {:.2}, priors {:.2}", factor("ball touches"), factor("priors"));
+    assert!(factor("ball touches") > test.interval.1);
+}

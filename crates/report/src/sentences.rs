@@ -238,9 +238,18 @@ pub fn with_verdict(
 /// What the run did beyond the method's iteration, one sentence each (the
 /// balls re-seeded on the other side of their contacts).
 pub fn notes(run: &CalibrationRun) -> Vec<String> {
-    run.mirrored
-        .iter()
-        .map(|m| {
+    let run_away = run.gauss_newton.as_ref().map(|g| {
+        format!(
+            "Gauss-Newton did not converge ({} after {} iterations, cost {:.3e} -> {:.3e}): the calibration was made again with Levenberg-Marquardt",
+            solver_status(&g.status, &run.layout.names(&run.ball_ids, &[]), |_| String::new(), |_| String::new()),
+            g.iterations,
+            g.initial_cost,
+            g.final_cost
+        )
+    });
+    run_away
+        .into_iter()
+        .chain(run.mirrored.iter().map(|m| {
             format!(
                 "ball {} was on the wrong side of its contacts at iteration {} (chi-square {:.1}; its contact points at that iterate's geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
                 m.id,
@@ -248,7 +257,7 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
                 m.side.chi_square,
                 m.side.side.cost / m.side.mirror.cost
             )
-        })
+        }))
         .collect()
 }
 
