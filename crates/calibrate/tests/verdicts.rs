@@ -79,6 +79,53 @@ fn a_wrong_radius_is_rejected_and_the_touches_named() {
             .map(|c| c.factor())
             .unwrap()
     };
-    println!("touches {:.2}, priors {:.2}", factor("ball touches"), factor("priors"));
+    println!(
+        "touches {:.2}, priors {:.2}",
+        factor("ball touches"),
+        factor("priors")
+    );
     assert!(factor("ball touches") > test.interval.1);
+}
+
+/// Over clean Monte Carlo draws of the paper scenario: the global test
+/// (5 %, two-sided) rejects at its nominal rate, within the binomial
+/// interval (4 standard errors of 5 % over the draws), and data snooping
+/// removes nothing in at least 95 % of them.
+#[test]
+fn clean_data_raise_false_alarms_at_the_nominal_rate() {
+    let draws = 200u64;
+    let options = CalibrationOptions::default();
+    let (mut rejected, mut snooped_any) = (0usize, 0usize);
+    for seed in 1..=draws {
+        let dataset = simulate(&Scenario::paper(), seed).unwrap().dataset;
+        let snooped = calibrate_with_snooping(
+            &dataset,
+            &options,
+            SNOOPING_LEVEL,
+            MAX_REMOVALS,
+            &mut |_| {},
+        )
+        .unwrap();
+        // The data as given: the first calibration's global test, which is
+        // the final run's when nothing was removed.
+        let first = match snooped.removals.first() {
+            None => snooped.run.global_test.unwrap().outcome != Outcome::Consistent,
+            Some(removal) => {
+                snooped_any += 1;
+                let interval = snooped.run.global_test.unwrap().interval;
+                !(interval.0..=interval.1).contains(&removal.variance_factor_before)
+            }
+        };
+        rejected += usize::from(first);
+    }
+    let rate = rejected as f64 / draws as f64;
+    let se = (0.05 * 0.95 / draws as f64).sqrt();
+    println!(
+        "global test rejects {rejected} of {draws} ({rate:.3}, nominal 0.05 +- {se:.3}); snooping removed something in {snooped_any}"
+    );
+    assert!((rate - 0.05).abs() < 4.0 * se, "rejection rate {rate}");
+    assert!(
+        snooped_any as f64 <= 0.05 * draws as f64,
+        "{snooped_any} draws lost contacts"
+    );
 }
