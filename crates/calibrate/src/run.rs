@@ -210,11 +210,12 @@ impl CalibrationRun {
 /// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
 /// The dataset is validated first ([`crate::validate`]).
 ///
-/// A Gauss-Newton run that runs away (it ends diverged or at its
-/// iteration limit: a blunder or a start far from the solution, where full
-/// steps overshoot) is made again with Levenberg-Marquardt, whose steps
-/// never raise the cost; [`CalibrationRun::gauss_newton`] keeps how the
-/// first run ended.
+/// A Gauss-Newton run that runs away (it ends diverged, or at its
+/// iteration limit after a step raised the cost more than
+/// [`RUNAWAY_RISE`]-fold: a blunder or a start far from the solution, where
+/// full steps overshoot) is made again with Levenberg-Marquardt, whose
+/// steps never raise the cost; [`CalibrationRun::gauss_newton`] keeps how
+/// the first run ended.
 pub fn calibrate(
     dataset: &Dataset,
     options: &CalibrationOptions,
@@ -222,9 +223,17 @@ pub fn calibrate(
 ) -> Result<CalibrationRun, CalibrateError> {
     let run = calibrate_once(dataset, options, observer)?;
     let costs = run.history.first().zip(run.history.last());
+    let overshot = run
+        .history
+        .windows(2)
+        .any(|pair| pair[1].cost > RUNAWAY_RISE * pair[0].cost);
     let ran_away = matches!(options.method, Method::GaussNewton)
-        && matches!(run.status, Status::Diverged { .. } | Status::IterationLimit)
-        && costs.is_some();
+        && costs.is_some()
+        && match run.status {
+            Status::Diverged { .. } => true,
+            Status::IterationLimit => overshot,
+            _ => false,
+        };
     if !ran_away {
         return Ok(run);
     }
@@ -239,6 +248,10 @@ pub fn calibrate(
     });
     Ok(again)
 }
+
+/// The rise of the cost in one Gauss-Newton step that marks a run that
+/// did not converge as run away ([`calibrate`]).
+pub const RUNAWAY_RISE: f64 = 10.0;
 
 /// How a Gauss-Newton run that ran away ended ([`calibrate`]).
 #[derive(Debug, Clone, PartialEq)]
