@@ -642,9 +642,9 @@ impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
         (self.observer)(record);
     }
 
-    fn inspect(&mut self, iterate: &Iterate<'_, 3, P, Pose>) -> parcal_solver::Verdict {
+    fn inspect(&mut self, iterate: &Iterate<'_, 3, P, Pose>) -> parcal_solver::Decision {
         if iterate.relative_change() > SETTLED {
-            return parcal_solver::Verdict::Continue;
+            return parcal_solver::Decision::Continue;
         }
         let state = iterate.state;
         let misfits = self.run.misfits(iterate.group_costs);
@@ -658,8 +658,8 @@ impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
             .run
             .wrong_sides(&params, &centres, &misfits, iterate.caches);
         match &self.found {
-            Ok(wrong) if wrong.is_empty() => parcal_solver::Verdict::Continue,
-            _ => parcal_solver::Verdict::Stop,
+            Ok(wrong) if wrong.is_empty() => parcal_solver::Decision::Continue,
+            _ => parcal_solver::Decision::Stop,
         }
     }
 }

@@ -129,3 +129,28 @@ fn clean_data_raise_false_alarms_at_the_nominal_rate() {
         "{snooped_any} draws lost contacts"
     );
 }
+
+/// artefacts.json claiming `"frame": "canonical"` for centres given in the
+/// design frame: rejected by the global test, and the priors' variance
+/// component (the centres' priors, now in the wrong frame) is the largest.
+#[test]
+fn a_mislabelled_artefact_frame_is_rejected_and_the_priors_named() {
+    let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
+    dataset.artefacts.frame = parcal_dataset::ArtefactFrame::Canonical;
+    let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    assert!(!run.verdict().accepted);
+    let test = run.global_test.unwrap();
+    assert_eq!(test.outcome, Outcome::TooLarge, "{test:?}");
+    let components = &run.reliability.as_ref().unwrap().components;
+    let largest = components
+        .iter()
+        .max_by(|a, b| a.factor().total_cmp(&b.factor()))
+        .unwrap();
+    println!(
+        "variance factor {:.0}; largest component {} {:.0}",
+        test.variance_factor,
+        largest.group,
+        largest.factor()
+    );
+    assert_eq!(largest.group, "priors");
+}

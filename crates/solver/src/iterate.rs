@@ -11,7 +11,7 @@ use crate::backsub::StepSummary;
 use crate::context::Context;
 use crate::diagnostics::SpectrumDiagnostics;
 use crate::eliminate::Failure;
-use crate::monitor::{Iterate, Monitor, Verdict};
+use crate::monitor::{Decision, Iterate, Monitor};
 use crate::options::{Method, SolverOptions};
 use crate::policy::{
     Ending, GaussNewton, LevenbergMarquardt, MAX_LAMBDA, Response, StepPolicy, Trial, Unusable,
@@ -240,7 +240,7 @@ where
         x: &State<C, P>,
         system: &ReducedSystem,
         previous_cost: Option<f64>,
-    ) -> Verdict {
+    ) -> Decision {
         self.monitor.inspect(&Iterate {
             state: x,
             solves: self.history.len(),
@@ -312,7 +312,7 @@ where
             }
             if new_iterate {
                 new_iterate = false;
-                if self.inspect(&x, &system, previous_cost) == Verdict::Stop {
+                if self.inspect(&x, &system, previous_cost) == Decision::Stop {
                     return self.end(x, Status::Stopped { iteration: solves });
                 }
             }

@@ -265,7 +265,7 @@ mod solution;
 pub use chunks::split_by;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
-pub use monitor::{Iterate, Monitor, Verdict};
+pub use monitor::{Decision, Iterate, Monitor};
 pub use options::{Method, SolverOptions};
 pub use problem::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,

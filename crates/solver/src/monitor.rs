@@ -35,7 +35,7 @@ impl<const C: usize, const P: usize, T> Iterate<'_, C, P, T> {
 
 /// A [`Monitor`]'s answer to an iterate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Verdict {
+pub enum Decision {
     /// Go on.
     Continue,
     /// End the run at this iterate with
@@ -51,8 +51,8 @@ pub trait Monitor<const C: usize, const P: usize, T> {
 
     /// Sees each new iterate once (the initial state, then each iterate a
     /// step led to; not an iterate the iteration limit ends the run at).
-    fn inspect(&mut self, _iterate: &Iterate<'_, C, P, T>) -> Verdict {
-        Verdict::Continue
+    fn inspect(&mut self, _iterate: &Iterate<'_, C, P, T>) -> Decision {
+        Decision::Continue
     }
 }
 

@@ -6,7 +6,7 @@ mod common;
 
 use common::{Spec, flatten, perturb, touches};
 use parcal_solver::{
-    Iterate, IterationRecord, Method, Monitor, SolverOptions, State, Status, Verdict, solve,
+    Decision, Iterate, IterationRecord, Method, Monitor, SolverOptions, State, Status, solve,
     solve_with_caches,
 };
 
@@ -44,7 +44,7 @@ impl Monitor<3, 2, u32> for Recorder {
         self.records.push(record.clone());
     }
 
-    fn inspect(&mut self, iterate: &Iterate<'_, 3, 2, u32>) -> Verdict {
+    fn inspect(&mut self, iterate: &Iterate<'_, 3, 2, u32>) -> Decision {
         self.seen.push(Seen {
             solves: iterate.solves,
             cost: iterate.cost,
@@ -55,9 +55,9 @@ impl Monitor<3, 2, u32> for Recorder {
             state: iterate.state.clone(),
         });
         if Some(iterate.solves) == self.stop_at {
-            Verdict::Stop
+            Decision::Stop
         } else {
-            Verdict::Continue
+            Decision::Continue
         }
     }
 }
