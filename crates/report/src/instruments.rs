@@ -10,7 +10,7 @@ use parcal_calibrate::InstrumentTable;
 use parcal_calibrate::reliability::critical_value;
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 
-use crate::sentences::{solver_status, with_verdict};
+use crate::sentences::{solver_status, variance_components, with_verdict};
 
 /// Posterior over prior sigma below which the data determine a parameter.
 const DATA_DETERMINED: f64 = 0.5;
@@ -31,19 +31,7 @@ pub fn record(run: &InstrumentRun) -> Calibration {
     let mut record = run.record(status.clone());
     let (mut reasons, mut warnings) = (Vec::new(), Vec::new());
     if let Some(reliability) = &run.reliability {
-        let components: Vec<String> = reliability
-            .components
-            .iter()
-            .map(|c| {
-                format!(
-                    "{} {:.3} (redundancy {:.1})",
-                    c.group,
-                    c.factor(),
-                    c.redundancy
-                )
-            })
-            .collect();
-        reasons.push(format!("variance components: {}", components.join(", ")));
+        reasons.push(variance_components(&reliability.components));
         if let Some((table, row, index, w)) = reliability.worst {
             let critical = critical_value(SNOOPING_LEVEL, reliability.tests);
             let what = match table {

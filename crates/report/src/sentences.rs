@@ -5,7 +5,7 @@
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::conflict::ConflictTest;
 use parcal_calibrate::fit::misfit_warning;
-use parcal_calibrate::reliability::{Reliability, UNCONTROLLED, critical_value};
+use parcal_calibrate::reliability::{Reliability, UNCONTROLLED, VarianceComponent, critical_value};
 use parcal_calibrate::snooping::{SNOOPING_LEVEL, Snooped};
 use parcal_calibrate::verdict::{Outcome, Verdict};
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
@@ -98,19 +98,7 @@ fn checks(
     reasons: &mut Vec<String>,
     warnings: &mut Vec<String>,
 ) {
-    let components: Vec<String> = reliability
-        .components
-        .iter()
-        .map(|c| {
-            format!(
-                "{} {:.3} (redundancy {:.1})",
-                c.group,
-                c.factor(),
-                c.redundancy
-            )
-        })
-        .collect();
-    reasons.push(format!("variance components: {}", components.join(", ")));
+    reasons.push(variance_components(&reliability.components));
     let line = |row: usize| original_row(row) + 2;
     if let Some(worst) = reliability.worst() {
         let w = worst.normalised.unwrap_or(0.0);
@@ -142,6 +130,22 @@ fn checks(
             uncontrolled.iter().take(10).cloned().collect::<Vec<_>>().join(", ")
         ));
     }
+}
+
+/// The variance components of a run in one sentence.
+pub fn variance_components(components: &[VarianceComponent]) -> String {
+    let parts: Vec<String> = components
+        .iter()
+        .map(|c| {
+            format!(
+                "{} {:.3} (redundancy {:.1})",
+                c.group,
+                c.factor(),
+                c.redundancy
+            )
+        })
+        .collect();
+    format!("variance components: {}", parts.join(", "))
 }
 
 /// The calibration.json record of a calibration with data snooping: the

@@ -90,13 +90,18 @@ impl InstrumentReliability {
         covariance: &DMatrix<f64>,
         prior_cost: f64,
         prior_rows: usize,
+        groups_per_chunk: usize,
     ) -> Result<Self, CalibrateError> {
-        let numbers =
-            redundancy(problem, state, covariance, &mut Vec::new(), 64).map_err(|status| {
-                CalibrateError::Calibration {
-                    reason: format!("the redundancy numbers could not be computed: {status:?}"),
-                }
-            })?;
+        let numbers = redundancy(
+            problem,
+            state,
+            covariance,
+            &mut Vec::new(),
+            groups_per_chunk,
+        )
+        .map_err(|status| CalibrateError::Calibration {
+            reason: format!("the redundancy numbers could not be computed: {status:?}"),
+        })?;
         let (r, e) = (
             &numbers.global_observations,
             &numbers.global_observation_residuals,
@@ -228,6 +233,7 @@ pub fn calibrate_instruments(
                 covariance,
                 last.prior_cost,
                 n_rows - problem.rows.len(),
+                solver_options.groups_per_chunk,
             )?)
         }
         _ => None,
