@@ -44,6 +44,7 @@
 //!         repeatability: Repeatability { actuator: 0.001, tool: 0.001, position: None, orientation: None },
 //!         actuator: Actuator::default(),
 //!         session_model: SessionModel::default(),
+//!         stroke: None,
 //!     },
 //!     artefacts: Artefacts {
 //!         frame: ArtefactFrame::Design,

@@ -132,6 +132,9 @@ pub struct Machine {
     pub actuator: Actuator,
     /// What changes between measuring sessions.
     pub session_model: SessionModel,
+    /// The range `[min, max]` of every actuator reading, in the actuators'
+    /// unit (`machine.json`'s optional `stroke`): what the machine can reach.
+    pub stroke: Option<[f64; 2]>,
 }
 
 /// The fields of `machine.json` after the geometry.
@@ -143,6 +146,8 @@ struct Conditions {
     actuator: Actuator,
     #[serde(default, skip_serializing_if = "is_default")]
     session_model: SessionModel,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    stroke: Option<[f64; 2]>,
 }
 
 fn is_default<T: Default + PartialEq>(value: &T) -> bool {
@@ -159,6 +164,7 @@ impl Machine {
             repeatability: file.rest.repeatability,
             actuator: file.rest.actuator,
             session_model: file.rest.session_model,
+            stroke: file.rest.stroke,
         };
         machine.validate(Check::new(path))?;
         Ok(machine)
@@ -173,6 +179,7 @@ impl Machine {
                 repeatability: self.repeatability,
                 actuator: self.actuator.clone(),
                 session_model: self.session_model,
+                stroke: self.stroke,
             },
         };
         json::write(path, json::MACHINE, &file)
@@ -205,6 +212,10 @@ impl Machine {
                 "session_model.body_origin_sigma",
                 self.session_model.body_origin_sigma,
             ),
+            (
+                "session_model.body_rotation_sigma",
+                self.session_model.body_rotation_sigma,
+            ),
         ] {
             if let Some(value) = value {
                 check.positive(field, value)?;
@@ -219,6 +230,16 @@ impl Machine {
         if let Some(sigmas) = &self.actuator.scale_sigma {
             for (i, &s) in sigmas.iter().enumerate() {
                 check.positive(format_args!("actuator.scale_sigma[{i}]"), s)?;
+            }
+        }
+        if let Some([min, max]) = self.stroke {
+            check.finite("stroke[0]", min)?;
+            check.finite("stroke[1]", max)?;
+            if min >= max {
+                return Err(check.error(
+                    "stroke",
+                    format!("must be [min, max] with min < max, found [{min}, {max}]"),
+                ));
             }
         }
         Ok(())

@@ -42,6 +42,7 @@
 //!     repeatability: Repeatability { actuator: 0.001, tool: 0.001, position: None, orientation: None },
 //!     actuator: Default::default(),
 //!     session_model: Default::default(),
+//!     stroke: None,
 //! };
 //! // Balls of radius 5 mm on a 3 x 3 x 3 grid, each touched 7 times on its
 //! // lower half, the platform tilted by up to 0.17 rad.

@@ -169,6 +169,7 @@ fn machine(scenario: &Scenario) -> Machine {
         },
         actuator: Actuator::default(),
         session_model: SessionModel::default(),
+        stroke: None,
     }
 }
 

@@ -217,6 +217,7 @@ fn machine(s: &TrackerScenario) -> Machine {
             scale_sigma: s.scale_sigma,
         },
         session_model: s.session_model,
+        stroke: None,
     }
 }
 

@@ -90,6 +90,7 @@ pub fn dataset(parts: Parts) -> Dataset {
             },
             actuator: Default::default(),
             session_model: Default::default(),
+            stroke: None,
         },
         artefacts: Artefacts {
             frame: if parts.distances {
