@@ -16,11 +16,16 @@
 
 use parcal_kinematics::PARAM_NAMES;
 use parcal_observe::KinematicPrior;
+use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 /// |z| beyond which one prior counts as contradicted (two-sided 0.1 %).
 pub const Z_LIMIT: f64 = 3.29;
 /// Upper tail probability of the global test.
 const TAIL: f64 = 1e-3;
+/// A value whose posterior variance is within this fraction of its prior
+/// variance is not informed by the data: its estimate is the prior mean up
+/// to rounding, and nothing can contradict it.
+const UNINFORMED: f64 = 1e-9;
 
 /// One a priori value compared with the estimate.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,8 +34,9 @@ pub struct Innovation {
     pub name: String,
     /// Estimate minus prior mean.
     pub difference: f64,
-    /// Normalised innovation `z`.
-    pub z: f64,
+    /// Normalised innovation `z`; `None` when the data do not inform the
+    /// value (its posterior variance is its prior's up to `1e-9`).
+    pub z: Option<f64>,
 }
 
 /// The outcome of the conflict tests for one group of priors.
@@ -64,13 +70,11 @@ impl ConflictTest {
             .zip(differences)
             .zip(prior_variances.iter().zip(posterior_variances))
             .map(|((name, &difference), (&prior, &posterior))| {
-                // Guard: the posterior variance cannot exceed the prior's; a
-                // floor keeps z finite where the data add nothing.
-                let variance = (prior - posterior).max(1e-12 * prior);
+                let variance = prior - posterior;
                 Innovation {
                     name,
                     difference,
-                    z: difference / variance.sqrt(),
+                    z: (variance > UNINFORMED * prior).then(|| difference / variance.sqrt()),
                 }
             })
             .collect::<Vec<_>>();
@@ -89,9 +93,9 @@ impl ConflictTest {
         let mut out: Vec<&Innovation> = self
             .innovations
             .iter()
-            .filter(|i| i.z.abs() > Z_LIMIT)
+            .filter(|i| i.z.is_some_and(|z| z.abs() > Z_LIMIT))
             .collect();
-        out.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
+        out.sort_by(|a, b| z_size(b).total_cmp(&z_size(a)));
         out
     }
 
@@ -100,38 +104,53 @@ impl ConflictTest {
         self.chi_square > self.limit || !self.offenders().is_empty()
     }
 
-    /// A one-paragraph warning naming the worst offenders, or `None`.
+    /// A one-paragraph warning naming the test that failed and the worst
+    /// offenders, or `None`. Only a failed test is stated: a global
+    /// chi-square within its limit beside contradicted values would read
+    /// as a contradiction (it happens with a prior much tighter than the
+    /// data, whose chi-square is near 0 while the data still move values).
     pub fn warning(&self) -> Option<String> {
         if !self.conflicts() {
             return None;
         }
+        let mut findings = Vec::new();
+        if self.chi_square > self.limit {
+            findings.push(format!(
+                "chi-square {:.1} for {} (99.9% limit {:.1})",
+                self.chi_square, self.degrees_of_freedom, self.limit
+            ));
+        }
         let offenders = self.offenders();
-        let listed: Vec<String> = offenders
-            .iter()
-            .take(8)
-            .map(|i| format!("{} (z = {:+.1})", i.name, i.z))
-            .collect();
-        let more = offenders.len().saturating_sub(listed.len());
+        if !offenders.is_empty() {
+            let listed: Vec<String> = offenders
+                .iter()
+                .take(8)
+                .map(|i| format!("{} (z = {:+.1})", i.name, i.z.unwrap_or_default()))
+                .collect();
+            let more = offenders.len() - listed.len();
+            let tested = self.innovations.iter().filter(|i| i.z.is_some()).count();
+            findings.push(format!(
+                "{} of the {tested} values the data inform lie beyond |z| = {Z_LIMIT}: {}{}",
+                offenders.len(),
+                listed.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                },
+            ));
+        }
         Some(format!(
-            "the prior on the {} contradicts the data: chi-square {:.1} for {} (99.9% limit {:.1}); {} of {} values beyond |z| = {Z_LIMIT}{}{}",
+            "the prior on the {} contradicts the data: {}",
             self.what,
-            self.chi_square,
-            self.degrees_of_freedom,
-            self.limit,
-            offenders.len(),
-            self.innovations.len(),
-            if listed.is_empty() {
-                String::new()
-            } else {
-                format!(": {}", listed.join(", "))
-            },
-            if more > 0 {
-                format!(" and {more} more")
-            } else {
-                String::new()
-            },
+            findings.join("; ")
         ))
     }
+}
+
+/// `|z|` of an innovation, 0 when the data do not inform it.
+fn z_size(innovation: &Innovation) -> f64 {
+    innovation.z.map_or(0.0, f64::abs)
 }
 
 /// Does the paper's diagonal prior express the design tolerances it stands
@@ -172,62 +191,10 @@ pub fn paper_prior_consistency(
     ))
 }
 
-/// Quantile of chi-square(`dof`) at probability `p`, by the Wilson-Hilferty
-/// cube approximation (relative error below 1 % for dof >= 3 at the tails
-/// used here).
+/// Quantile of chi-square(`dof`) at probability `p` (statrs' inverse CDF);
+/// NaN for `dof = 0`.
 pub fn chi_square_quantile(dof: usize, p: f64) -> f64 {
-    let k = dof as f64;
-    let z = normal_quantile(p);
-    let h = 2.0 / (9.0 * k);
-    k * (1.0 - h + z * h.sqrt()).powi(3)
-}
-
-/// Standard normal quantile (Acklam's rational approximation, relative error
-/// below 1.2e-9).
-fn normal_quantile(p: f64) -> f64 {
-    const A: [f64; 6] = [
-        -3.969683028665376e1,
-        2.209460984245205e2,
-        -2.759285104469687e2,
-        1.383_577_518_672_69e2,
-        -3.066479806614716e1,
-        2.506628277459239,
-    ];
-    const B: [f64; 5] = [
-        -5.447609879822406e1,
-        1.615858368580409e2,
-        -1.556989798598866e2,
-        6.680131188771972e1,
-        -1.328068155288572e1,
-    ];
-    const C: [f64; 6] = [
-        -7.784894002430293e-3,
-        -3.223964580411365e-1,
-        -2.400758277161838,
-        -2.549732539343734,
-        4.374664141464968,
-        2.938163982698783,
-    ];
-    const D: [f64; 4] = [
-        7.784695709041462e-3,
-        3.224671290700398e-1,
-        2.445134137142996,
-        3.754408661907416,
-    ];
-    let tail = |q: f64| {
-        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
-            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
-    };
-    if p < 0.02425 {
-        tail((-2.0 * p.ln()).sqrt())
-    } else if p > 1.0 - 0.02425 {
-        -tail((-2.0 * (1.0 - p).ln()).sqrt())
-    } else {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
-            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
-    }
+    ChiSquared::new(dof as f64).map_or(f64::NAN, |chi| chi.inverse_cdf(p))
 }
 
 #[cfg(test)]
@@ -236,10 +203,10 @@ mod tests {
 
     #[test]
     fn quantiles_match_tables() {
-        // chi-square(33) 99.9 %: 63.870; chi-square(3) 99.9 %: 16.266.
-        assert!((chi_square_quantile(33, 0.999) - 63.870).abs() < 0.3);
-        assert!((chi_square_quantile(3, 0.999) - 16.266).abs() < 0.3);
-        assert!((normal_quantile(0.9995) - 3.2905).abs() < 1e-3);
+        // chi-square(33) 99.9 %: 63.870, 0.1 %: 13.431; chi-square(3) 99.9 %: 16.266.
+        assert!((chi_square_quantile(33, 0.999) - 63.870).abs() < 1e-3);
+        assert!((chi_square_quantile(3, 0.999) - 16.266).abs() < 1e-3);
+        assert!((chi_square_quantile(33, 0.001) - 13.431).abs() < 1e-3);
     }
 
     #[test]
@@ -265,5 +232,38 @@ mod tests {
         let warning = conflict.warning().unwrap();
         assert!(warning.contains("b (z = -10.5)"), "{warning}");
         assert_eq!(conflict.offenders().len(), 1);
+    }
+
+    #[test]
+    fn values_the_data_do_not_inform_are_not_tested() {
+        // A prior far tighter than the data: the posterior variance is the
+        // prior's up to rounding, and the estimate moves by rounding only.
+        let names = ["a", "b"].map(String::from);
+        let prior = [1e-18; 2];
+        let posterior = [1e-18 * (1.0 - 1e-13); 2];
+        let test = ConflictTest::new("test", names, &[1e-17, -1e-17], &prior, &posterior, 2e-16);
+        assert!(test.innovations.iter().all(|i| i.z.is_none()));
+        assert!(!test.conflicts() && test.warning().is_none());
+    }
+
+    #[test]
+    fn a_warning_states_only_the_tests_that_failed() {
+        // One value far out, the global chi-square within its limit: the
+        // warning names the value and not the passing chi-square.
+        let names = ["a", "b", "c"].map(String::from);
+        let test = ConflictTest::new(
+            "test",
+            names,
+            &[0.0, 0.05, 0.0],
+            &[0.01; 3],
+            &[0.0099; 3],
+            0.25,
+        );
+        let warning = test.warning().unwrap();
+        assert!(
+            warning.contains("1 of the 3 values the data inform lie beyond"),
+            "{warning}"
+        );
+        assert!(!warning.contains("chi-square"), "{warning}");
     }
 }

@@ -46,6 +46,14 @@ impl VarianceComponent {
     pub fn factor(&self) -> f64 {
         self.cost / self.redundancy
     }
+
+    /// Whether the group has at least one redundant observation's worth of
+    /// redundancy: below it, `Ω_g / r_g` divides by (almost) nothing and
+    /// says nothing of the group's noise (a prior much tighter than the
+    /// data, which nothing checks).
+    pub fn estimable(&self) -> bool {
+        self.redundancy >= 1.0
+    }
 }
 
 /// One contact's check.

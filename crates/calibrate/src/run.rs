@@ -112,10 +112,11 @@ impl CalibrationRun {
     }
 
     /// Condition number of the posterior covariance (ratio of the extreme
-    /// eigenvalues of the reduced matrix).
+    /// eigenvalues of the reduced matrix); infinite when the data and prior
+    /// leave a direction undetermined.
     pub fn condition_number(&self) -> Option<f64> {
-        let eigenvalues = &self.spectrum.as_ref()?.eigenvalues;
-        Some(eigenvalues.last()? / eigenvalues.first()?)
+        let spectrum = self.spectrum.as_ref()?;
+        (!spectrum.eigenvalues.is_empty()).then(|| spectrum.condition_number())
     }
 
     /// RMS of the whitened residuals at the final iterate (1 at the noise

@@ -361,6 +361,18 @@ fn an_underdetermined_calibration_names_the_weak_parameters_and_still_writes_its
         stderr.contains("smallest eigenvalues: eigenvalue") && stderr.contains(" along "),
         "{stderr}"
     );
+    // 45 - 16 directions have no information at all: said so, with no
+    // infinite sigma and no (negative) condition number.
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains(
+            "the data and the prior cannot identify the parameters: 29 directions of them have no information"
+        ),
+        "{stdout}"
+    );
+    for misleading in ["sigma inf", "condition number"] {
+        assert!(!stdout.contains(misleading), "{misleading}: {stdout}");
+    }
     let calibration = std::fs::read_to_string(temp.path().join("calibration.json")).unwrap();
     assert!(
         calibration.contains("\"converged\": false"),

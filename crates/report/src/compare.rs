@@ -190,7 +190,7 @@ mod tests {
 
     #[test]
     fn nees_is_judged_against_chi_square_quantiles() {
-        // chi-square(33): 0.1 % quantile about 14.3, 99.9 % about 63.9.
+        // chi-square(33): 0.1 % quantile about 13.4, 99.9 % about 63.9.
         assert_eq!(NeesVerdict::of(33.4, 33), NeesVerdict::Consistent);
         assert_eq!(NeesVerdict::of(45011.5, 33), NeesVerdict::OverConfident);
         assert_eq!(NeesVerdict::of(5.0, 33), NeesVerdict::UnderConfident);

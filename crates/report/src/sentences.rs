@@ -53,7 +53,11 @@ pub fn solver_status(
             iteration,
             diagnostics,
         } => format!(
-            "the reduced system is singular at iteration {iteration}: {}",
+            "the reduced system is singular at iteration {iteration}{}: {}",
+            match diagnostics.unidentified() {
+                0 => String::new(),
+                n => format!(" ({})", unidentified(n)),
+            },
             weak_directions(diagnostics, names)
         ),
         Status::SingularBlock { iteration, block } => match block {
@@ -137,12 +141,19 @@ pub fn variance_components(components: &[VarianceComponent]) -> String {
     let parts: Vec<String> = components
         .iter()
         .map(|c| {
-            format!(
-                "{} {:.3} (redundancy {:.1})",
-                c.group,
-                c.factor(),
-                c.redundancy
-            )
+            if c.estimable() {
+                format!(
+                    "{} {:.3} (redundancy {:.1})",
+                    c.group,
+                    c.factor(),
+                    c.redundancy
+                )
+            } else {
+                format!(
+                    "{} not estimable (redundancy {:.1}: nothing checks them)",
+                    c.group, c.redundancy
+                )
+            }
         })
         .collect();
     format!("variance components: {}", parts.join(", "))
@@ -297,10 +308,23 @@ pub fn weak_direction(weak: &WeakDirection, names: &[String]) -> String {
         .iter()
         .map(|(k, c)| format!("{} {:+.2}", names[*k], c))
         .collect();
+    let sigma = if weak.identified {
+        format!("sigma {:.3} mm", weak.eigenvalue.sqrt().recip())
+    } else {
+        "not identified".to_string()
+    };
     format!(
-        "eigenvalue {:.3e} (sigma {:.3} mm) along {}",
+        "eigenvalue {:.3e} ({sigma}) along {}",
         weak.eigenvalue,
-        weak.eigenvalue.max(0.0).sqrt().recip(),
         names.join(", ")
+    )
+}
+
+/// What `n` undetermined directions of the parameters mean, and what to do.
+pub fn unidentified(n: usize) -> String {
+    format!(
+        "the data and the prior cannot identify the parameters: {n} direction{} of them {} no information (zero eigenvalues of the reduced matrix, so no finite sigma); measure more balls and contacts, or calibrate with a prior",
+        if n == 1 { "" } else { "s" },
+        if n == 1 { "has" } else { "have" },
     )
 }

@@ -96,11 +96,16 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
             run.residual_rows
         );
     }
-    if let Some(condition) = run.condition_number() {
-        let _ = writeln!(
-            out,
-            "condition number of the posterior covariance: {condition:.3e}"
-        );
+    if let Some(spectrum) = &run.spectrum
+        && let Some(condition) = run.condition_number()
+    {
+        let _ = match spectrum.unidentified() {
+            0 => writeln!(
+                out,
+                "condition number of the posterior covariance: {condition:.3e}"
+            ),
+            n => writeln!(out, "{}", sentences::unidentified(n)),
+        };
     }
     if let Some(last) = run.history.last()
         && run.distances_used > 0

@@ -8,6 +8,9 @@ use faer::{Mat, Par};
 /// Eigenvalues at most this fraction of the largest are always reported as
 /// weak directions.
 const WEAK_RELATIVE: f64 = 1e-10;
+/// Eigenvalues at most `n ε` times the largest are zero up to rounding: the
+/// directions nothing in the problem determines.
+const UNIDENTIFIED_RELATIVE: f64 = f64::EPSILON;
 /// At least this many of the smallest eigenvalues are reported.
 const MIN_WEAK: usize = 3;
 /// A weak direction's dominant indices cover at least this fraction of its
@@ -33,6 +36,9 @@ pub struct SpectrumDiagnostics {
 pub struct WeakDirection {
     /// Its eigenvalue.
     pub eigenvalue: f64,
+    /// Whether the eigenvalue is above rounding (`n ε λ_max`): a direction
+    /// with a finite sigma. `false`: nothing in the problem determines it.
+    pub identified: bool,
     /// Global indices with the largest `|component|` of the unit eigenvector,
     /// descending, with the component's value: the fewest that cover ≥ 90 % of
     /// its squared norm, at most 6.
@@ -73,6 +79,7 @@ impl SpectrumDiagnostics {
         order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
         let eigenvalues: Vec<f64> = order.iter().map(|&j| values[j]).collect();
         let largest = eigenvalues.last().copied().unwrap_or(0.0).max(0.0);
+        let zero = zero_level(n, largest);
         let weakest = order
             .iter()
             .enumerate()
@@ -81,6 +88,7 @@ impl SpectrumDiagnostics {
                 let v: Vec<f64> = (0..n).map(|i| u[(i, j)]).collect();
                 WeakDirection {
                     eigenvalue: values[j],
+                    identified: values[j] > zero,
                     dominant: dominant_components(&v),
                 }
             })
@@ -91,15 +99,30 @@ impl SpectrumDiagnostics {
         }
     }
 
-    /// `λ_max / λ_min`; infinite if the smallest eigenvalue is not positive,
-    /// NaN if there are no eigenvalues.
+    /// `λ_max / λ_min`; infinite if a direction is not identified
+    /// ([`Self::unidentified`]), NaN if there are no eigenvalues.
     pub fn condition_number(&self) -> f64 {
         match (self.eigenvalues.first(), self.eigenvalues.last()) {
-            (Some(&lo), Some(&hi)) if lo > 0.0 => hi / lo,
-            (Some(_), Some(_)) => f64::INFINITY,
+            (Some(_), Some(_)) if self.unidentified() > 0 => f64::INFINITY,
+            (Some(&lo), Some(&hi)) => hi / lo,
             _ => f64::NAN,
         }
     }
+
+    /// The number of directions nothing in the problem determines: the
+    /// eigenvalues at most `n ε λ_max` (rounding of a zero eigenvalue).
+    pub fn unidentified(&self) -> usize {
+        let n = self.eigenvalues.len();
+        let largest = self.eigenvalues.last().copied().unwrap_or(0.0).max(0.0);
+        let zero = zero_level(n, largest);
+        self.eigenvalues.iter().take_while(|&&v| v <= zero).count()
+    }
+}
+
+/// The level at or below which an eigenvalue of an `n × n` matrix with
+/// largest eigenvalue `largest` is zero up to rounding.
+fn zero_level(n: usize, largest: f64) -> f64 {
+    n as f64 * UNIDENTIFIED_RELATIVE * largest
 }
 
 /// The fewest largest-magnitude components covering `DOMINANT_COVERAGE` of
@@ -140,6 +163,18 @@ mod tests {
         assert_eq!(s.weakest[0].dominant.len(), 1);
         assert_eq!(s.weakest[0].dominant[0].0, 1);
         assert_eq!(s.weakest[1].dominant[0].0, 2);
+        assert!(s.condition_number().is_infinite());
+        assert_eq!(s.unidentified(), 1);
+        assert!(!s.weakest[0].identified && s.weakest[1].identified);
+    }
+
+    #[test]
+    fn rounding_of_a_zero_eigenvalue_is_unidentified() {
+        // A rank-one matrix v vᵀ: two zero eigenvalues, computed as ±rounding.
+        let v = [1.0, 2.0, 3.0];
+        let m: Vec<f64> = (0..9).map(|k| v[k / 3] * v[k % 3] * 1e6).collect();
+        let s = SpectrumDiagnostics::of_symmetric(&m, 3);
+        assert_eq!(s.unidentified(), 2, "{:?}", s.eigenvalues);
         assert!(s.condition_number().is_infinite());
     }
 

@@ -592,7 +592,7 @@ mod tests {
             "the largest parameter error is 4.014 mm (z_b5, I) and 4.158 mm (z_b5, II)",
             "10847 um (I) and 11246 um (II) RMS, is 2.7 and 2.8 times larger than the design's 4073 um, and the true registered error falls from 97.3 um to 11.8 um (I) and 11.6 um (II) RMS.",
             "**The paper-mode prior contradicts its own truth.** Its sigma of 0.100 mm on every canonical parameter",
-            "chi-square of 1027.9 under it, for 33 parameters (99.9% quantile 64.0); the true z_b5 and z_b6 lie 16.6 and 15.8 sigma",
+            "chi-square of 1027.9 under it, for 33 parameters (99.9% quantile 63.9); the true z_b5 and z_b6 lie 16.6 and 15.8 sigma",
             "NEES is 45011.5 (III) and 45217.0 (IV) against an expected 33: over-confident.",
             "parcal warns about the prior on every paper-mode run",
             "**Absolute accuracy stays at the millimetre level in every case:** the true absolute error after calibration is 1.9-11.2 mm RMS over the 6 calibrations with a posterior (the design's: 4.1 mm)",
