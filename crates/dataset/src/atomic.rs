@@ -44,7 +44,9 @@ where
     if let Some(existing) = existing {
         tmp.as_file()
             .set_permissions(existing.permissions())
-            .map_err(|e| DatasetError::io(path, "keep the permissions of", e))?;
+            .map_err(|e| {
+                DatasetError::io(path, "keep the permissions of the file it replaces", e)
+            })?;
     }
     let mut writer = BufWriter::new(tmp.as_file());
     fill(&mut writer)?;
@@ -96,11 +98,12 @@ pub fn write_dir(dir: &Path, replace: bool, fill: impl FnOnce(&Path) -> Result<(
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o777));
     let new = builder
         .tempdir_in(parent)
-        .map_err(|e| DatasetError::io(dir, "create a temporary directory beside", e))?;
+        .map_err(|e| DatasetError::io(dir, "create a temporary directory beside it", e))?;
     let _in_flight = InFlight::register(new.path());
     if let Some((replaced, _)) = &existing {
-        fs::set_permissions(new.path(), replaced.permissions())
-            .map_err(|e| DatasetError::io(dir, "keep the permissions of", e))?;
+        fs::set_permissions(new.path(), replaced.permissions()).map_err(|e| {
+            DatasetError::io(dir, "keep the permissions of the directory it replaces", e)
+        })?;
     }
     fill(new.path())?;
     sync_directory(&new.path().join("."));
@@ -127,7 +130,7 @@ fn swap(new: TempDir, target: &Path, dir: &Path, prefix: &std::ffi::OsStr) -> Re
         .prefix(prefix)
         .suffix(temp::SUFFIX)
         .tempdir_in(parent)
-        .map_err(|e| DatasetError::io(dir, "create a temporary directory beside", e))?
+        .map_err(|e| DatasetError::io(dir, "create a temporary directory beside it", e))?
         .keep();
     let aside_in_flight = InFlight::register(&aside);
     temp::renaming(|| -> Result<()> {
@@ -303,7 +306,7 @@ fn create_temp(target: &Path, path: &Path) -> Result<(NamedTempFile, InFlight)> 
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
     let file = builder
         .tempfile_in(dir)
-        .map_err(|e| DatasetError::io(path, "create a temporary file beside", e))?;
+        .map_err(|e| DatasetError::io(path, "create a temporary file beside it", e))?;
     let in_flight = InFlight::register(file.path());
     Ok((file, in_flight))
 }
