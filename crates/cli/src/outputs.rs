@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use parcal_dataset::atomic;
 use parcal_dataset::{
     ARTEFACTS_FILE, MACHINE_FILE, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE, TRUTH_FILE,
@@ -41,8 +40,7 @@ pub fn check(inputs: &[PathBuf], outputs: &[PathBuf]) -> anyhow::Result<()> {
                 input.display()
             );
         }
-        atomic::check_file(output)
-            .with_context(|| format!("{} cannot be written; nothing was done", output.display()))?;
+        atomic::check_file(output)?;
     }
     Ok(())
 }

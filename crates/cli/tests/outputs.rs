@@ -207,7 +207,7 @@ fn outputs_that_cannot_be_written_are_found_before_the_work() {
     assert_eq!(output.status.code(), Some(1));
     let message = stderr(&output);
     assert!(
-        message.contains(&format!("{} cannot be written", inside.display())),
+        message.contains(&format!("{}: cannot write", inside.display())),
         "{message}"
     );
     assert!(

@@ -36,7 +36,9 @@ const PLATE_STREAM: u64 = u64::MAX;
 pub(crate) fn check_size(plate: &Plate, balls: usize) -> Result<usize, SimulateError> {
     let pairs = match plate.pairs {
         // n (n - 1) / 2 without overflow: halve the even factor first.
-        PlatePairs::All if balls.is_multiple_of(2) => (balls / 2).checked_mul(balls.saturating_sub(1)),
+        PlatePairs::All if balls.is_multiple_of(2) => {
+            (balls / 2).checked_mul(balls.saturating_sub(1))
+        }
         PlatePairs::All => balls.checked_mul(balls.saturating_sub(1) / 2),
         PlatePairs::Random(count) => usize::try_from(count).ok(),
     };

@@ -126,3 +126,19 @@ pub fn read_calibration(
     );
     Ok(record)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rejected_calibration_goes_beside_the_accepted_one() {
+        for (out, rejected) in [
+            ("d/calibration.json", "d/calibration.rejected.json"),
+            ("big.json", "big.rejected.json"),
+            ("d/result", "d/result.rejected"),
+        ] {
+            assert_eq!(rejected_path(Path::new(out)), Path::new(rejected));
+        }
+    }
+}
