@@ -106,6 +106,7 @@ pub fn write_dir(dir: &Path, replace: bool, fill: impl FnOnce(&Path) -> Result<(
         })?;
     }
     fill(new.path())?;
+    // The new directory's own entries (the files renamed into it).
     sync_directory(&new.path().join("."));
     match existing {
         Some((_, true)) => swap(new, &target, dir, &prefix),
@@ -148,8 +149,9 @@ fn swap(new: TempDir, target: &Path, dir: &Path, prefix: &std::ffi::OsStr) -> Re
     })?;
     let _ = new.keep();
     sync_directory(target);
-    fs::remove_dir_all(&aside)
-        .map_err(|e| DatasetError::io(&aside, "remove the replaced directory", e))?;
+    // The new set is in place: an old one that cannot be removed now is a
+    // stale temporary, which the next write into `parent` removes.
+    let _ = fs::remove_dir_all(&aside);
     drop(aside_in_flight);
     Ok(())
 }
