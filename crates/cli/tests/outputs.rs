@@ -342,17 +342,23 @@ fn stale_temporaries_of_a_dead_run_are_removed_by_the_next() {
 
 #[cfg(unix)]
 #[test]
-fn a_terminated_run_exits_143_and_leaves_no_temporaries() {
+fn a_run_terminated_while_writing_exits_143_and_leaves_no_temporaries() {
     let temp = tempfile::tempdir().unwrap();
     let out = temp.path().join("d");
-    // About 10^6 contacts: long enough to be interrupted.
+    // About 10^6 contacts: their files take a while to write.
     let mut child = Command::new(env!("CARGO_BIN_EXE_parcal"))
         .args(["simulate", "--balls", "150000", "--out", path(&out)])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // The signal comes once the dataset's hidden directory exists: while
+    // the files are being written.
+    let started = std::time::Instant::now();
+    while entries(temp.path()).is_empty() {
+        assert!(started.elapsed().as_secs() < 120, "no write started");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
     let killed = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
         .status()
@@ -360,7 +366,7 @@ fn a_terminated_run_exits_143_and_leaves_no_temporaries() {
     assert!(killed.success());
     let status = child.wait().unwrap();
     if status.success() {
-        eprintln!("skipped: the run finished before the signal");
+        eprintln!("skipped: the write finished before the signal");
         return;
     }
     assert_eq!(status.code(), Some(143), "{status}");
