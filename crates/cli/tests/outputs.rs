@@ -224,6 +224,40 @@ fn outputs_that_cannot_be_written_are_found_before_the_work() {
 
 #[cfg(unix)]
 #[test]
+fn a_read_only_output_directory_is_found_before_the_work_and_its_files_kept() {
+    use std::os::unix::fs::PermissionsExt;
+    let temp = tempfile::tempdir().unwrap();
+    let dir = temp.path().join("d");
+    simulated(&dir);
+    let maps = temp.path().join("maps");
+    fs::create_dir(&maps).unwrap();
+    fs::write(maps.join("accuracy.csv"), "good").unwrap();
+    fs::set_permissions(&maps, fs::Permissions::from_mode(0o555)).unwrap();
+    // Root (or CAP_DAC_OVERRIDE) writes there anyway: nothing to test.
+    if fs::write(maps.join("probe"), "x").is_ok() {
+        eprintln!("skipped: this user writes into read-only directories (root)");
+        return;
+    }
+    let output = parcal(&["accuracy", path(&dir), "--out", path(&maps)]);
+    assert_eq!(output.status.code(), Some(1));
+    let message = stderr(&output);
+    assert!(
+        message.contains("accuracy.csv: cannot create a temporary file"),
+        "{message}"
+    );
+    assert!(
+        output.stdout.is_empty(),
+        "refused before the maps are computed"
+    );
+    assert_eq!(
+        fs::read_to_string(maps.join("accuracy.csv")).unwrap(),
+        "good"
+    );
+    fs::set_permissions(&maps, fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+#[cfg(unix)]
+#[test]
 fn special_files_are_refused_and_symbolic_links_written_through() {
     use std::os::unix::fs::{FileTypeExt, PermissionsExt};
     let temp = tempfile::tempdir().unwrap();
