@@ -16,7 +16,7 @@
 //! - [`true_error`] (simulation): the distance from the true machine's tip
 //!   to the target, the truth given in its own canonical frames;
 //!
-//! with [`MapSummary`] (RMS, max), [`write_csv`] and the rigid registration
+//! with [`MapSummary`] (RMS, max), [`to_csv`] and the rigid registration
 //! [`mod@kabsch`]. Lengths in mm (summaries display in um).
 //!
 //! ```
@@ -54,7 +54,7 @@ pub use error::AccuracyError;
 pub use grid::{CanonicalTargets, MapGrid};
 pub use kabsch::{RigidMotion, kabsch};
 pub use map::{AccuracyMap, MapSummary};
-pub use output::write_csv;
+pub use output::to_csv;
 pub use parcal_kinematics::ParamCovariance;
 pub use predicted::{predicted, predicted_at, remove_rigid_motions};
 pub use truth::{true_error, true_error_at, true_tips};

@@ -1,15 +1,15 @@
-//! Accuracy maps written side by side as CSV, one row per grid point.
+//! Accuracy maps side by side as CSV, one row per grid point, in memory:
+//! the caller writes the file (parcal's atomic writer does).
 
 use std::path::Path;
 
 use crate::{AccuracyError, AccuracyMap};
 
-/// Writes `maps` (name, map) to the CSV file `path`, one row per grid point
-/// in map order: `x_mm, y_mm` (design frame), then for each map
+/// The content of the CSV file `path` of `maps` (name, map), one row per
+/// grid point in map order: `x_mm, y_mm` (design frame), then for each map
 /// `{name}_absolute_mm, {name}_registered_mm`. Numbers are written in full
-/// precision (mm). Errors name the file: no map, maps on different grids,
-/// a file that cannot be written.
-pub fn write_csv(path: &Path, maps: &[(&str, &AccuracyMap)]) -> Result<(), AccuracyError> {
+/// precision (mm). Errors name the file: no map, maps on different grids.
+pub fn to_csv(path: &Path, maps: &[(&str, &AccuracyMap)]) -> Result<Vec<u8>, AccuracyError> {
     let Some((_, first)) = maps.first() else {
         return Err(AccuracyError::NoMaps {
             path: path.to_path_buf(),
@@ -31,7 +31,7 @@ pub fn write_csv(path: &Path, maps: &[(&str, &AccuracyMap)]) -> Result<(), Accur
         path: path.to_path_buf(),
         source,
     };
-    let mut writer = csv::Writer::from_path(path).map_err(write_error)?;
+    let mut writer = csv::Writer::from_writer(Vec::new());
     let mut header = vec!["x_mm".to_string(), "y_mm".to_string()];
     for (name, _) in maps {
         header.push(format!("{name}_absolute_mm"));
@@ -49,7 +49,9 @@ pub fn write_csv(path: &Path, maps: &[(&str, &AccuracyMap)]) -> Result<(), Accur
         }
         writer.write_record(&row).map_err(write_error)?;
     }
-    writer.flush().map_err(|e| write_error(csv::Error::from(e)))
+    writer
+        .into_inner()
+        .map_err(|e| write_error(csv::Error::from(e.into_error())))
 }
 
 #[cfg(test)]
@@ -69,10 +71,9 @@ mod tests {
     fn writes_one_row_per_grid_point() {
         let grid = MapGrid::square(10.0, 10.0, 400.0);
         let (predicted, truth) = (map(&grid, 0.001), map(&grid, 0.1));
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("map.csv");
-        write_csv(&path, &[("predicted", &predicted), ("true", &truth)]).unwrap();
-        let text = std::fs::read_to_string(&path).unwrap();
+        let path = Path::new("map.csv");
+        let bytes = to_csv(path, &[("predicted", &predicted), ("true", &truth)]).unwrap();
+        let text = String::from_utf8(bytes).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 1 + 9);
         assert_eq!(
@@ -86,23 +87,18 @@ mod tests {
     #[test]
     fn errors_name_the_file() {
         let grid = MapGrid::square(10.0, 10.0, 400.0);
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("missing").join("map.csv");
-        let error = write_csv(&path, &[("m", &map(&grid, 1.0))]).unwrap_err();
-        let message = error.to_string();
-        assert!(
-            message.starts_with(&format!("{}: cannot write", path.display())),
-            "{message}"
-        );
+        let path = Path::new("out").join("map.csv");
         let other = map(&MapGrid::square(20.0, 10.0, 400.0), 1.0);
-        let error = write_csv(&path, &[("a", &map(&grid, 1.0)), ("b", &other)]).unwrap_err();
-        assert!(
-            error
-                .to_string()
-                .ends_with("map \"b\" does not fit the grid of the first map")
+        let error = to_csv(&path, &[("a", &map(&grid, 1.0)), ("b", &other)]).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            format!(
+                "{}: map \"b\" does not fit the grid of the first map",
+                path.display()
+            )
         );
         assert!(matches!(
-            write_csv(&path, &[]),
+            to_csv(&path, &[]),
             Err(AccuracyError::NoMaps { .. })
         ));
     }

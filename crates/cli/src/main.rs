@@ -4,6 +4,7 @@
 //! A thin binary: it parses arguments and wires the crates together.
 
 mod commands;
+mod outputs;
 mod progress;
 
 use std::io::ErrorKind;
@@ -39,7 +40,9 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    let cli = Cli::parse();
+    clean_up_when_interrupted();
+    let result = match cli.command {
         Command::Simulate(args) => commands::simulate::run(&args),
         Command::Inspect(args) => commands::inspect::run(&args),
         Command::Calibrate(args) => commands::calibrate::run(&args),
@@ -62,6 +65,25 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// On SIGINT or SIGTERM: removes the temporary files and directories of
+/// the writes under way (a rename into place under way finishes first) and
+/// exits with 128 + the signal's number (130, 143), as a shell reports a
+/// program killed by it.
+fn clean_up_when_interrupted() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
+        // Without the handler the default action stands: stale temporaries
+        // are removed by the next write into their directory.
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            parcal_dataset::atomic::remove_in_flight();
+            std::process::exit(128 + signal);
+        }
+    });
 }
 
 /// Whether `error` is a write to a closed pipe.

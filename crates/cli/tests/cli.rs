@@ -373,7 +373,11 @@ fn an_underdetermined_calibration_names_the_weak_parameters_and_still_writes_its
     for misleading in ["sigma inf", "condition number"] {
         assert!(!stdout.contains(misleading), "{misleading}: {stdout}");
     }
-    let calibration = std::fs::read_to_string(temp.path().join("calibration.json")).unwrap();
+    // Beside calibration.json, which a rejected run never replaces.
+    assert!(stderr.contains("calibration.rejected.json"), "{stderr}");
+    assert!(!temp.path().join("calibration.json").exists());
+    let calibration =
+        std::fs::read_to_string(temp.path().join("calibration.rejected.json")).unwrap();
     assert!(
         calibration.contains("\"converged\": false"),
         "{calibration}"

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::atomic;
 use crate::check::Check;
 use crate::error::{DatasetError, Result};
 use crate::{
@@ -35,6 +36,18 @@ pub struct Dataset {
     pub tracker: Tracker,
     /// `truth.json`, if present.
     pub truth: Option<Truth>,
+}
+
+/// Options of [`Dataset::write_with`].
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct WriteOptions {
+    /// Replace an existing, non-empty dataset directory as a whole (its
+    /// other files, e.g. a calibration of the old data, go with it).
+    /// Without it such a directory is an error.
+    pub replace: bool,
+    /// Also write a binary snapshot ([`Dataset::write_snapshot`]) under this
+    /// file name in the directory, as part of the set.
+    pub snapshot: Option<String>,
 }
 
 /// Options of [`Dataset::read_with`].
@@ -119,31 +132,59 @@ impl Dataset {
         !self.measurements.is_empty()
     }
 
-    /// Writes the dataset into directory `dir` (created if needed), each
-    /// file atomically. The dataset is validated first, so nothing is
-    /// written if it is invalid. Without truth, a `truth.json` left in `dir`
-    /// by an earlier write is removed.
+    /// Writes the dataset as the new directory `dir` with
+    /// [`WriteOptions::default`]: `dir` must not exist or be empty.
     pub fn write(&self, dir: &Path) -> Result<()> {
+        self.write_with(dir, &WriteOptions::default())
+    }
+
+    /// Writes the dataset as the directory `dir`, as a set: the files are
+    /// written into a hidden sibling directory that is then renamed into
+    /// place ([`atomic::write_dir`]), so that `dir` holds either what it
+    /// held before or the whole new dataset, never a mix. Its parents are
+    /// created if needed. The dataset is validated first, so nothing is
+    /// written if it is invalid. An existing non-empty `dir` is an error
+    /// unless [`WriteOptions::replace`], and then it must be a dataset.
+    pub fn write_with(&self, dir: &Path, options: &WriteOptions) -> Result<()> {
         self.validate_as(|name| dir.join(name))?;
-        fs::create_dir_all(dir).map_err(|e| DatasetError::io(dir, "create the directory", e))?;
-        self.machine.write(&dir.join(MACHINE_FILE))?;
-        if self.has_touches() {
-            self.artefacts.write(&dir.join(ARTEFACTS_FILE))?;
-            self.measurements
-                .write(&dir.join(MEASUREMENTS_FILE), &self.artefacts.balls)?;
+        Self::check_target(dir, options.replace)?;
+        atomic::write_dir(dir, options.replace, |new| {
+            self.machine.write(&new.join(MACHINE_FILE))?;
+            if self.has_touches() {
+                self.artefacts.write(&new.join(ARTEFACTS_FILE))?;
+                self.measurements
+                    .write(&new.join(MEASUREMENTS_FILE), &self.artefacts.balls)?;
+            }
+            self.tracker
+                .write(&new.join(POSES_FILE), &new.join(POINTS_FILE))?;
+            if let Some(truth) = &self.truth {
+                truth.write(&new.join(TRUTH_FILE), &self.artefacts.balls)?;
+            }
+            match &options.snapshot {
+                Some(name) => snapshot::write(self, &new.join(name)),
+                None => Ok(()),
+            }
+        })
+    }
+
+    /// Checks, before any work, that [`Dataset::write_with`] can write the
+    /// directory `dir`: absent or empty, or (with `replace`) a dataset
+    /// (a directory holding `machine.json`), in a place that can be
+    /// written.
+    pub fn check_target(dir: &Path, replace: bool) -> Result<()> {
+        atomic::check_dir_target(dir, replace)?;
+        let target = atomic::resolve(dir)?;
+        let full = fs::read_dir(&target).is_ok_and(|mut entries| entries.next().is_some());
+        if full && !target.join(MACHINE_FILE).is_file() {
+            return Err(DatasetError::io(
+                dir,
+                "replace",
+                io::Error::other(format!(
+                    "the directory is not a dataset (it has no {MACHINE_FILE}); only a dataset is replaced"
+                )),
+            ));
         }
-        self.tracker
-            .write(&dir.join(POSES_FILE), &dir.join(POINTS_FILE))?;
-        let truth_path = dir.join(TRUTH_FILE);
-        match &self.truth {
-            Some(truth) => truth.write(&truth_path, &self.artefacts.balls),
-            None => match fs::remove_file(&truth_path) {
-                Err(e) if e.kind() != io::ErrorKind::NotFound => {
-                    Err(DatasetError::io(&truth_path, "remove the stale file", e))
-                }
-                _ => Ok(()),
-            },
-        }
+        Ok(())
     }
 
     /// Writes a binary snapshot (postcard behind a versioned, checksummed

@@ -15,7 +15,8 @@
 //! Reading checks everything (shapes, finite numbers, positive sigmas, ids,
 //! consistency between the files) and reports the first problem as a
 //! [`DatasetError`] that names the file and the field or line. Writing is
-//! atomic per file, deterministic (same data, same bytes) and exact: every
+//! atomic ([`atomic`]): each file, and a dataset directory as a whole. It is
+//! deterministic (same data, same bytes) and exact: every
 //! `f64` reads back bit for bit. [`Dataset::write_snapshot`] and
 //! [`Dataset::read_snapshot`] store a whole dataset in a compact binary file
 //! that loads millions of contacts in a fraction of a second.
@@ -84,7 +85,7 @@
 //! ```
 
 mod artefacts;
-mod atomic;
+pub mod atomic;
 mod calibration;
 mod check;
 mod dataset;
@@ -97,6 +98,7 @@ mod session;
 mod shape;
 mod snapshot;
 mod table;
+mod temp;
 mod tracker;
 mod truth;
 mod validation;
@@ -106,7 +108,7 @@ pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, GlobalTestRecord, IterationSummary,
     ParameterTable, Provenance, RemovedObservation,
 };
-pub use dataset::{Dataset, ReadOptions};
+pub use dataset::{Dataset, ReadOptions, WriteOptions};
 pub use error::DatasetError;
 pub use geometry::GeometryRecord;
 pub use machine::{Actuator, Machine, PriorSigma, Repeatability, SessionModel};

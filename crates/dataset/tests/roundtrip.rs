@@ -119,11 +119,27 @@ fn writing_creates_the_directory() {
 }
 
 #[test]
-fn writing_without_truth_removes_a_stale_truth_file() {
+fn a_dataset_is_replaced_only_when_asked_and_then_as_a_whole() {
     let dir = written(ALL);
-    dataset(NONE).write(dir.path()).unwrap();
-    assert!(!dir.path().join(TRUTH_FILE).exists());
+    let error = dataset(NONE).write(dir.path()).unwrap_err().to_string();
+    assert!(error.contains("exists and is not empty"), "{error}");
+    assert!(dir.path().join(TRUTH_FILE).exists());
+    let replace = WriteOptions {
+        replace: true,
+        ..Default::default()
+    };
+    dataset(NONE).write_with(dir.path(), &replace).unwrap();
+    assert!(!dir.path().join(TRUTH_FILE).exists(), "no stale truth.json");
     assert_eq!(Dataset::read(dir.path()).unwrap().truth, None);
+    // Only a dataset is replaced.
+    let other = tempfile::tempdir().unwrap();
+    fs::write(other.path().join("notes.txt"), "mine").unwrap();
+    let error = dataset(NONE)
+        .write_with(other.path(), &replace)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("not a dataset"), "{error}");
+    assert!(other.path().join("notes.txt").exists());
 }
 
 #[test]

@@ -99,7 +99,7 @@ pub use parcal_simulate as simulation;
 // The data: a dataset in memory, its files, a calibration's record.
 pub use parcal_dataset::{
     ArtefactFrame, Artefacts, Ball, Calibration, Dataset, DatasetError, Distance, Machine,
-    Measurements, Point3, PriorSigma, ReadOptions, Repeatability, Truth,
+    Measurements, Point3, PriorSigma, ReadOptions, Repeatability, Truth, WriteOptions,
 };
 
 // Calibration.

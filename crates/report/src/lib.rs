@@ -55,10 +55,8 @@ pub enum ReportError {
     },
 }
 
-/// Writes a text file, naming it in the error.
+/// Writes a text file atomically (parcal's one writer,
+/// [`parcal_dataset::atomic`]), naming it in the error.
 pub fn write_text(path: &std::path::Path, text: &str) -> Result<(), ReportError> {
-    std::fs::write(path, text).map_err(|source| ReportError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    Ok(parcal_dataset::atomic::write_file(path, text.as_bytes())?)
 }

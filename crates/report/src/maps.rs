@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use parcal_accuracy::{AccuracyMap, write_csv};
+use parcal_accuracy::{AccuracyMap, to_csv};
 use parcal_calibrate::evaluate::BeforeAfter;
 
 use crate::ReportError;
@@ -24,8 +24,39 @@ fn named_maps(maps: &BeforeAfter) -> Vec<(&'static str, &'static str, &AccuracyM
     out
 }
 
+/// When (before, after calibration) and what (predicted, true) a map can be.
+const MAP_KINDS: [(&str, &str); 4] = [
+    ("before", "predicted"),
+    ("before", "true"),
+    ("after", "predicted"),
+    ("after", "true"),
+];
+/// The metrics of each map.
+const METRICS: [&str; 2] = ["absolute", "registered"];
+
+/// The SVG of one map and metric in `dir`.
+fn svg_path(dir: &Path, prefix: &str, when: &str, what: &str, metric: &str) -> PathBuf {
+    dir.join(format!("{prefix}{when}_{what}_{metric}.svg"))
+}
+
+/// The CSV of the maps in `dir`.
+fn csv_path(dir: &Path, prefix: &str) -> PathBuf {
+    dir.join(format!("{prefix}accuracy.csv"))
+}
+
+/// Every file [`write_maps`] may write into `dir` with `prefix`, whichever
+/// maps it is given: to check them before the maps are computed.
+pub fn map_files(dir: &Path, prefix: &str) -> Vec<PathBuf> {
+    let svgs = MAP_KINDS.iter().flat_map(|(when, what)| {
+        METRICS
+            .iter()
+            .map(move |metric| svg_path(dir, prefix, when, what, metric))
+    });
+    std::iter::once(csv_path(dir, prefix)).chain(svgs).collect()
+}
+
 /// Writes `{prefix}accuracy.csv` and an SVG per map and per metric (absolute,
-/// registered) into `dir`; returns the SVG paths.
+/// registered) into `dir`, each atomically; returns the SVG paths.
 pub fn write_maps(
     dir: &Path,
     prefix: &str,
@@ -33,20 +64,20 @@ pub fn write_maps(
     maps: &BeforeAfter,
 ) -> Result<Vec<PathBuf>, ReportError> {
     let named = named_maps(maps);
-    let names: Vec<String> = named
+    let columns: Vec<(String, &AccuracyMap)> = named
         .iter()
-        .map(|(when, what, _)| format!("{when}_{what}"))
+        .map(|(when, what, map)| (format!("{when}_{what}"), *map))
         .collect();
-    let columns: Vec<(&str, &AccuracyMap)> = names
+    let columns: Vec<(&str, &AccuracyMap)> = columns
         .iter()
-        .zip(&named)
-        .map(|(name, (_, _, map))| (name.as_str(), *map))
+        .map(|(name, map)| (name.as_str(), *map))
         .collect();
-    write_csv(&dir.join(format!("{prefix}accuracy.csv")), &columns)?;
+    let csv = csv_path(dir, prefix);
+    parcal_dataset::atomic::write_file(&csv, &to_csv(&csv, &columns)?)?;
     let mut written = Vec::new();
-    for (name, (when, what, map)) in names.iter().zip(&named) {
-        for (metric, values) in [("absolute", &map.absolute), ("registered", &map.registered)] {
-            let path = dir.join(format!("{prefix}{name}_{metric}.svg"));
+    for (when, what, map) in &named {
+        for (metric, values) in METRICS.into_iter().zip([&map.absolute, &map.registered]) {
+            let path = svg_path(dir, prefix, when, what, metric);
             let um: Vec<f64> = values.iter().map(|v| v * 1e3).collect();
             let title = format!("{title}, {when} calibration");
             let subtitle = format!("{what} {metric} error on the plane z = {} mm", map.grid.z);

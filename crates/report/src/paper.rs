@@ -9,6 +9,7 @@ use std::path::Path;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{BeforeAfter, Truth, before_after};
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation, calibrate};
+use parcal_dataset::{Dataset, WriteOptions};
 use parcal_kinematics::N_PARAMS;
 use parcal_simulate::{Scenario, simulate};
 
@@ -58,17 +59,27 @@ impl Case {
 }
 
 /// Simulates the paper scenario with `seed`, runs the six calibrations and
-/// writes the dataset, the calibrations, maps, plots and report.md to `out`.
+/// writes the dataset (replacing `out/dataset`, as a whole), the calibrations,
+/// maps, plots and report.md to `out`.
 pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Result<(), ReportError> {
     std::fs::create_dir_all(out).map_err(|source| ReportError::Io {
         path: out.to_path_buf(),
         source,
     })?;
+    // Every place written is checked before the work: the report's files
+    // go beside report.md; the dataset of an earlier run is replaced.
+    let dataset_dir = out.join("dataset");
+    parcal_dataset::atomic::check_file(&out.join("report.md"))?;
+    Dataset::check_target(&dataset_dir, true)?;
     let scenario = Scenario::paper();
     let simulation = simulate(&scenario, seed)?;
     // The files are written for the user; the calibrations use the same
     // values in memory (the format round-trips them bit for bit).
-    simulation.dataset.write(&out.join("dataset"))?;
+    let replace = WriteOptions {
+        replace: true,
+        ..WriteOptions::default()
+    };
+    simulation.dataset.write_with(&dataset_dir, &replace)?;
     let dataset = simulation.dataset;
     progress(&format!(
         "simulated the paper scenario (seed {seed}): {} contacts",

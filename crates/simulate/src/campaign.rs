@@ -79,6 +79,13 @@ pub fn ball_id(index: usize, count: usize) -> String {
 /// the scenario has one, draws from a stream of its own (see
 /// [`Plate`](crate::Plate)): the contacts are the same without it.
 pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateError> {
+    crate::check_rows(&[
+        ("balls", scenario.centres.len()),
+        ("contacts per ball", scenario.points_per_ball),
+    ])?;
+    if let Some(p) = &scenario.plate {
+        plate::check_size(p, scenario.centres.len())?;
+    }
     let per_ball: Vec<Result<(f64, Vec<Contact>), SimulateError>> = scenario
         .centres
         .par_iter()

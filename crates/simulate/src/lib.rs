@@ -35,6 +35,34 @@ pub use rng::Rng;
 pub use scenario::Scenario;
 pub use tracker::{FrameSpread, TrackerKind, TrackerScenario, Workspace, simulate_tracker};
 
+/// The most rows a simulated campaign may have: contacts, poses plus
+/// points, or calibrated distances. Ten times the largest campaign whose
+/// calibration is measured (`docs/performance.md`), and a few GB of memory
+/// and disk at most (`docs/reliability.md` gives the figures). A fixed
+/// bound, the same on every machine, so that a size given by mistake
+/// (`--balls 1000000000`) is an error before anything is allocated rather
+/// than an abort of the allocator.
+pub const MAX_ROWS: usize = 10_000_000;
+
+/// The product of `counts` (name, value), the rows of a campaign: an error
+/// naming every factor if it exceeds [`MAX_ROWS`] (overflow included).
+pub fn check_rows(counts: &[(&str, usize)]) -> Result<usize, SimulateError> {
+    let rows = counts
+        .iter()
+        .try_fold(1usize, |rows, (_, n)| rows.checked_mul(*n))
+        .filter(|&rows| rows <= MAX_ROWS);
+    rows.ok_or_else(|| {
+        let factors: Vec<String> = counts
+            .iter()
+            .map(|(name, n)| format!("{name} {n}"))
+            .collect();
+        SimulateError::TooLarge(format!(
+            "{} make more than the {MAX_ROWS} rows a simulated campaign may have",
+            factors.join(" x ")
+        ))
+    })
+}
+
 /// Why a simulation failed.
 #[derive(Debug, thiserror::Error)]
 pub enum SimulateError {
@@ -51,6 +79,9 @@ pub enum SimulateError {
     /// The ball plate asked for cannot be made.
     #[error("ball plate: {0}")]
     Plate(String),
+    /// The campaign would have more than [`MAX_ROWS`] rows.
+    #[error("too large: {0}")]
+    TooLarge(String),
     /// An instrument scenario's counts, ranges or sigmas make no sense.
     #[error("instrument scenario: {0}")]
     Scenario(String),

@@ -31,6 +31,20 @@ pub struct Plate {
 /// of a seed are the same with or without a plate.
 const PLATE_STREAM: u64 = u64::MAX;
 
+/// The number of distances of `plate` over `balls` balls, checked against
+/// [`MAX_ROWS`](crate::MAX_ROWS) before anything is drawn.
+pub(crate) fn check_size(plate: &Plate, balls: usize) -> Result<usize, SimulateError> {
+    let pairs = match plate.pairs {
+        // n (n - 1) / 2 without overflow: halve the even factor first.
+        PlatePairs::All if balls.is_multiple_of(2) => {
+            (balls / 2).checked_mul(balls.saturating_sub(1))
+        }
+        PlatePairs::All => balls.checked_mul(balls.saturating_sub(1) / 2),
+        PlatePairs::Random(count) => usize::try_from(count).ok(),
+    };
+    crate::check_rows(&[("distances of the ball plate", pairs.unwrap_or(usize::MAX))])
+}
+
 /// The calibrated distances of `plate` over the true centres, pairs
 /// `(a, b)` with `a < b` in increasing order: each length is
 /// `|C_a - C_b| + N(0, sigma)`. Stream `(seed, PLATE_STREAM)` draws the pairs

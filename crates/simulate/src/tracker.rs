@@ -159,6 +159,11 @@ fn check(s: &TrackerScenario) -> Result<(), SimulateError> {
             s.sessions, s.rows_per_session
         ));
     }
+    crate::check_rows(&[
+        ("sessions", s.sessions),
+        ("rows per session", s.rows_per_session),
+        ("files (poses and points)", s.kind.files()),
+    ])?;
     let sigmas = [
         ("actuator", s.actuator_sigma),
         ("position", s.position_sigma),

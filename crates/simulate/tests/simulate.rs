@@ -183,3 +183,47 @@ fn an_impossible_plate_is_an_error() {
         );
     }
 }
+
+#[test]
+fn a_campaign_beyond_the_row_bound_is_refused_before_anything_is_allocated() {
+    use parcal_simulate::{MAX_ROWS, check_rows};
+    assert_eq!(check_rows(&[("a", 1000), ("b", 7)]).unwrap(), 7000);
+    assert_eq!(check_rows(&[("a", MAX_ROWS)]).unwrap(), MAX_ROWS);
+    let error = check_rows(&[("--balls", usize::MAX), ("--points-per-ball", 7)])
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        error,
+        format!(
+            "too large: --balls {} x --points-per-ball 7 make more than the {MAX_ROWS} rows a simulated campaign may have",
+            usize::MAX
+        )
+    );
+    assert!(check_rows(&[("a", MAX_ROWS), ("b", 2)]).is_err());
+    // The library checks its scenarios too: a huge points_per_ball is an
+    // error at once (it would allocate ~10^18 contacts).
+    let huge = Scenario {
+        points_per_ball: usize::MAX / 2,
+        ..Scenario::paper()
+    };
+    assert!(matches!(
+        simulate(&huge, 1),
+        Err(SimulateError::TooLarge(_))
+    ));
+    // A plate of all pairs of 5000 balls: 12 497 500 distances.
+    let plated = Scenario {
+        plate: Some(Plate {
+            pairs: PlatePairs::All,
+            sigma: 1e-3,
+        }),
+        ..Scenario::scaled(5_000, 1, 0.1)
+    };
+    let Err(error) = simulate(&plated, 1) else {
+        panic!("simulated")
+    };
+    let error = error.to_string();
+    assert!(
+        error.contains("distances of the ball plate 12497500"),
+        "{error}"
+    );
+}

@@ -294,3 +294,22 @@ fn an_unreachable_stroke_is_an_error_naming_the_row() {
         Err(SimulateError::Scenario(_))
     ));
 }
+
+#[test]
+fn an_instrument_campaign_beyond_the_row_bound_is_refused() {
+    let huge = TrackerScenario {
+        sessions: 1 << 20,
+        rows_per_session: 1 << 20,
+        ..TrackerScenario::paper_like()
+    };
+    let Err(error) = simulate_tracker(&huge, 1) else {
+        panic!("simulated")
+    };
+    let error = error.to_string();
+    assert!(
+        error.starts_with(
+            "too large: sessions 1048576 x rows per session 1048576 x files (poses and points) 2"
+        ),
+        "{error}"
+    );
+}

@@ -11,7 +11,8 @@ use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
 use parcal_dataset::Dataset;
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, params};
-use parcal_report::{maps::write_maps, tables};
+use parcal_report::maps::{map_files, write_maps};
+use parcal_report::tables;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -74,6 +75,11 @@ fn calibrated(
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset(&args.dataset)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let mut inputs = crate::outputs::dataset_inputs(&args.dataset);
+    inputs.extend(args.calibration.clone());
+    crate::outputs::check(&inputs, &map_files(&args.out, ""))?;
     let truth = Truth::of(&dataset)
         .transpose()
         .context("truth.json: the true geometry is degenerate")?;
@@ -101,8 +107,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         before: Some(before),
         after,
     };
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
     let pictures = write_maps(&args.out, "", "accuracy", &maps)?;
     let mut stdout = std::io::stdout().lock();
     writeln!(

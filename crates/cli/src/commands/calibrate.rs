@@ -48,7 +48,9 @@ pub struct Args {
     /// them under removed_observations).
     #[arg(long)]
     snoop: bool,
-    /// Where to write calibration.json (default: calibration.json in the dataset's directory).
+    /// Where to write calibration.json (default: calibration.json in the
+    /// dataset's directory). A rejected calibration goes to
+    /// NAME.rejected.json beside it instead, leaving this file as it was.
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -80,11 +82,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let progress = Progress::bar("iteration", options.max_iterations as u64);
     let read = Instant::now();
     let mut dataset = super::read_dataset(&args.dataset)?;
+    let out = args.out_path();
+    super::check_calibration_outputs(&args.dataset, &out)?;
     // A simulation's true machine serves the evaluation, not the
     // calibration: keep it, and free the dataset's truth.json with its true
     // contact points (24 bytes per contact).
     if !dataset.tracker.is_empty() {
-        return run_instruments(args, &dataset, &options, progress);
+        return run_instruments(args, &dataset, &options, progress, &out);
     }
     let truth = Truth::of(&dataset)
         .transpose()
@@ -116,10 +120,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         (run, record)
     };
     progress.finish();
-    let out = args.out_path();
     // A reader that closed stdout early does not hide a rejected
     // calibration.
-    let printed = print_results(truth.as_ref(), &run, &record, &out);
+    let printed = print_results(
+        truth.as_ref(),
+        &run,
+        &record,
+        &super::calibration_destination(&record, &out),
+    );
     super::write_calibration(record, &dataset, &args.dataset, &out)?;
     printed
 }
@@ -141,6 +149,7 @@ fn run_instruments(
     dataset: &Dataset,
     options: &CalibrationOptions,
     progress: Progress,
+    out: &Path,
 ) -> anyhow::Result<()> {
     let tracker = &dataset.tracker;
     progress.line(&format!(
@@ -156,16 +165,16 @@ fn run_instruments(
     })
     .map_err(|error| in_dataset(error, &args.dataset))?;
     progress.finish();
-    let out = args.out_path();
+    let record = instruments::record(&run);
     let mut stdout = std::io::stdout().lock();
     let printed = writeln!(
         stdout,
         "{}\n{}\ncalibration written to {}",
         instruments::summary(&run),
         instruments::parameters(&run),
-        out.display()
+        super::calibration_destination(&record, out).display()
     );
-    super::write_calibration(instruments::record(&run), dataset, &args.dataset, &out)?;
+    super::write_calibration(record, dataset, &args.dataset, out)?;
     Ok(printed?)
 }
 

@@ -7,7 +7,7 @@ pub mod paper;
 pub mod simulate;
 pub mod validate;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use parcal_dataset::Dataset;
 
@@ -37,9 +37,43 @@ impl std::fmt::Display for Rejected {
 
 impl std::error::Error for Rejected {}
 
+/// Where a calibration whose verdict is rejected goes instead of `out`:
+/// `NAME.rejected.EXT` beside it (`calibration.rejected.json`), so that a
+/// rejected run never replaces an accepted calibration.
+pub fn rejected_path(out: &Path) -> PathBuf {
+    let stem = out.file_stem().unwrap_or_default();
+    let mut name = stem.to_os_string();
+    name.push(".rejected");
+    if let Some(extension) = out.extension() {
+        name.push(".");
+        name.push(extension);
+    }
+    out.with_file_name(name)
+}
+
+/// Where `record` is written: `out`, or [`rejected_path`] if rejected.
+pub fn calibration_destination(record: &parcal_dataset::Calibration, out: &Path) -> PathBuf {
+    if record.is_rejected() {
+        rejected_path(out)
+    } else {
+        out.to_path_buf()
+    }
+}
+
+/// Checks, before a calibration starts, that both its destinations (`out`
+/// and [`rejected_path`]) can be written and are none of the dataset's
+/// files.
+pub fn check_calibration_outputs(dataset: &Path, out: &Path) -> anyhow::Result<()> {
+    crate::outputs::check(
+        &crate::outputs::dataset_inputs(dataset),
+        &[out.to_path_buf(), rejected_path(out)],
+    )
+}
+
 /// Stamps `record` with its provenance (this parcal, the dataset given as
-/// `path` and its checksum), writes it to `out`, and turns a rejected
-/// verdict into [`Rejected`].
+/// `path` and its checksum), writes it to its
+/// [`calibration_destination`], and turns a rejected verdict into
+/// [`Rejected`] (which says where it went and that `out` is kept).
 pub fn write_calibration(
     mut record: parcal_dataset::Calibration,
     dataset: &Dataset,
@@ -51,7 +85,8 @@ pub fn write_calibration(
         dataset: path.display().to_string(),
         dataset_checksum: dataset.checksum(),
     });
-    record.write(out)?;
+    let destination = calibration_destination(&record, out);
+    record.write(&destination)?;
     if record.is_rejected() {
         let failed: Vec<&str> = record
             .reasons
@@ -61,10 +96,15 @@ pub fn write_calibration(
             })
             .map(String::as_str)
             .collect();
+        let kept = if out.exists() {
+            format!("; {} is left as it was", out.display())
+        } else {
+            String::new()
+        };
         return Err(Rejected(format!(
-            "{} (written to {}; accuracy and validate refuse it without --accept-rejected)",
+            "{} (written to {}{kept}; accuracy and validate refuse it without --accept-rejected)",
             failed.join("; "),
-            out.display()
+            destination.display()
         ))
         .into());
     }
@@ -85,4 +125,20 @@ pub fn read_calibration(
         record.reasons.join("; ")
     );
     Ok(record)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rejected_calibration_goes_beside_the_accepted_one() {
+        for (out, rejected) in [
+            ("d/calibration.json", "d/calibration.rejected.json"),
+            ("big.json", "big.rejected.json"),
+            ("d/result", "d/result.rejected"),
+        ] {
+            assert_eq!(rejected_path(Path::new(out)), Path::new(rejected));
+        }
+    }
 }

@@ -6,8 +6,9 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
+use parcal_dataset::{Dataset, DatasetError, WriteOptions};
 use parcal_simulate::{
-    Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, simulate,
+    Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, check_rows, simulate,
     simulate_tracker,
 };
 
@@ -18,9 +19,14 @@ pub struct Args {
     /// Seed of the random streams: the same seed gives byte-identical files.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Output directory (created if needed).
+    /// Output directory (created if needed), written as a whole: it must
+    /// not exist or be empty, unless --force.
     #[arg(long)]
     out: PathBuf,
+    /// Replace an existing dataset at --out, as a whole (its other files,
+    /// e.g. a calibration of the old data, go with it).
+    #[arg(long)]
+    force: bool,
     /// Number of balls on a regular grid filling x, y in [-80, 80], z in [340, 460]
     /// (default: the paper's 27 balls at x, y in {-60, 0, 60}, z in {360, 400, 440}).
     #[arg(long, conflicts_with = "tracker")]
@@ -99,6 +105,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "--tilt must be in [0, 90) degrees, got {}",
         args.tilt
     );
+    Dataset::check_target(&args.out, args.force).map_err(|error| {
+        let exists = matches!(&error, DatasetError::Io { source, .. }
+            if source.kind() == std::io::ErrorKind::AlreadyExists);
+        let hint = if exists {
+            "; give --force to replace it"
+        } else {
+            ""
+        };
+        anyhow::anyhow!("{error}{hint}")
+    })?;
     match args.tracker {
         Some(kind) => run_tracker(args, kind),
         None => run_touches(args),
@@ -116,6 +132,11 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
         "--plate-sigma must be positive, got {}",
         args.plate_sigma
     );
+    let balls = args.balls.unwrap_or(Scenario::paper().centres.len());
+    check_rows(&[
+        ("--balls", balls),
+        ("--points-per-ball", args.points_per_ball),
+    ])?;
     let mut scenario = match args.balls {
         None => Scenario {
             points_per_ball: args.points_per_ball,
@@ -203,6 +224,11 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
             *field = value;
         }
     }
+    check_rows(&[
+        ("--sessions", scenario.sessions),
+        ("--rows", scenario.rows_per_session),
+        ("files (poses and points)", scenario.kind.files()),
+    ])?;
     let simulation = simulate_tracker(&scenario, args.seed).context("simulation failed")?;
     write_dataset(args, &simulation)?;
     let s = &simulation.summary;
@@ -247,17 +273,14 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
 /// Writes the dataset (and the snapshot with `--binary`), then the summary's
 /// first lines.
 fn write_dataset(args: &Args, simulation: &Simulation) -> anyhow::Result<()> {
+    let options = WriteOptions {
+        replace: args.force,
+        snapshot: args.binary.then(|| SNAPSHOT_FILE.to_string()),
+    };
     simulation
         .dataset
-        .write(&args.out)
+        .write_with(&args.out, &options)
         .with_context(|| format!("cannot write the dataset to {}", args.out.display()))?;
-    if args.binary {
-        let path = args.out.join(SNAPSHOT_FILE);
-        simulation
-            .dataset
-            .write_snapshot(&path)
-            .with_context(|| format!("cannot write the snapshot {}", path.display()))?;
-    }
     let mut stdout = std::io::stdout().lock();
     writeln!(
         stdout,

@@ -38,6 +38,17 @@ pub struct Args {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset(&args.dataset)?;
+    let out = args.out.clone().unwrap_or_else(|| {
+        let directory = if args.dataset.is_file() {
+            args.dataset.parent().map(PathBuf::from).unwrap_or_default()
+        } else {
+            args.dataset.clone()
+        };
+        directory.join(VALIDATION_FILE)
+    });
+    let mut inputs = crate::outputs::dataset_inputs(&args.dataset);
+    inputs.extend(args.calibration.clone());
+    crate::outputs::check(&inputs, std::slice::from_ref(&out))?;
     let (validation, calibration) = match (&args.calibration, args.folds) {
         (Some(path), _) if dataset.tracker.is_empty() => {
             let record = super::read_calibration(path, args.accept_rejected)?;
@@ -104,14 +115,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         },
         predicted_rms_mm: validation.predicted_rms(),
     };
-    let out = args.out.clone().unwrap_or_else(|| {
-        let directory = if args.dataset.is_file() {
-            args.dataset.parent().map(PathBuf::from).unwrap_or_default()
-        } else {
-            args.dataset.clone()
-        };
-        directory.join(VALIDATION_FILE)
-    });
     record.write(&out)?;
     let mut stdout = std::io::stdout().lock();
     writeln!(

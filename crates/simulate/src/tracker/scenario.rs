@@ -30,6 +30,11 @@ impl TrackerKind {
     pub fn points(self) -> bool {
         matches!(self, Self::Points | Self::Both)
     }
+
+    /// How many files (poses.csv, points.csv) each row is written to.
+    pub fn files(self) -> usize {
+        usize::from(self.poses()) + usize::from(self.points())
+    }
 }
 
 /// Where the platform frame's origin is drawn, uniformly, in the base frame:
