@@ -74,6 +74,9 @@ pub enum ApplyError {
         /// Why.
         refusal: Refusal,
     },
+    /// The predicted accuracy could not be computed.
+    #[error("predicted accuracy: {0}")]
+    Prediction(String),
     /// A correction-table grid that cannot be interpolated.
     #[error("correction table grid: {0}")]
     Grid(String),

@@ -21,6 +21,7 @@ pub mod genhexkins;
 pub mod machine;
 mod model;
 pub mod placement;
+pub mod predicted;
 pub mod summary;
 pub mod table;
 mod target;
@@ -30,6 +31,7 @@ pub use corrected::{corrected_pose, corrected_poses};
 pub use error::{ApplyError, Refusal};
 pub use model::AppliedModel;
 pub use placement::{Placement, place};
+pub use predicted::predicted_registered;
 pub use table::{CorrectionTable, InterpolationError, TableGrid};
 pub use target::Target;
 
@@ -53,6 +55,8 @@ mod tests {
             unit: "mm".to_string(),
             stroke: None,
             placement,
+            canonical: truth,
+            covariance: None,
         }
     }
 }

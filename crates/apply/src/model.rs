@@ -2,7 +2,7 @@
 //! in the design frame, the actuators' scales, the stroke.
 
 use parcal_dataset::Calibration;
-use parcal_kinematics::Geometry;
+use parcal_kinematics::{Geometry, N_PARAMS, ParamCovariance};
 
 use crate::{ApplyError, Placement, place};
 
@@ -24,6 +24,12 @@ pub struct AppliedModel {
     pub stroke: Option<[f64; 2]>,
     /// How the calibrated geometry was placed.
     pub placement: Placement,
+    /// The calibrated geometry in its canonical frames (calibration.json's
+    /// `canonical`).
+    pub canonical: Geometry,
+    /// The posterior covariance of the 33 kinematic parameters (the leading
+    /// block of calibration.json's `covariance`), if computed.
+    pub covariance: Option<ParamCovariance>,
 }
 
 impl AppliedModel {
@@ -69,6 +75,15 @@ impl AppliedModel {
             unit: actuator.unit.clone(),
             stroke: design_machine.stroke,
             placement,
+            canonical,
+            covariance: kinematic_covariance(&record.covariance),
         })
     }
+}
+
+/// The leading 33 x 33 block of a covariance (the kinematic parameters come
+/// first in every calibration.json), or `None` if it is smaller.
+fn kinematic_covariance(covariance: &[Vec<f64>]) -> Option<ParamCovariance> {
+    (covariance.len() >= N_PARAMS && covariance.iter().all(|r| r.len() >= N_PARAMS))
+        .then(|| ParamCovariance::from_fn(|i, j| covariance[i][j]))
 }

@@ -45,7 +45,10 @@ mod tests {
         let truth = paper::truth();
         let scale = [1.0, 1.001, 0.999, 2.0, 0.5, 1.0];
         let poses = [
-            Pose::from_parts(Translation3::new(10.0, -20.0, 330.0), UnitQuaternion::identity()),
+            Pose::from_parts(
+                Translation3::new(10.0, -20.0, 330.0),
+                UnitQuaternion::identity(),
+            ),
             Pose::from_parts(
                 Translation3::new(-40.0, 30.0, 360.0),
                 UnitQuaternion::from_euler_angles(0.1, -0.1, 0.2),
