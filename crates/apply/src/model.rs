@@ -79,6 +79,29 @@ impl AppliedModel {
             covariance: kinematic_covariance(&record.covariance),
         })
     }
+
+    /// The nominal model beside this one: the design geometry and scales as
+    /// the calibrated model (what a controller without the calibration
+    /// commands), no covariance.
+    pub fn nominal(&self) -> Result<Self, ApplyError> {
+        let canonical = self
+            .design
+            .canonicalize()
+            .map_err(|source| ApplyError::Geometry {
+                what: "design geometry",
+                source,
+            })?
+            .geometry;
+        let (calibrated, placement) = place(&canonical, &self.design)?;
+        Ok(Self {
+            calibrated,
+            scale: self.design_scale,
+            placement,
+            canonical,
+            covariance: None,
+            ..self.clone()
+        })
+    }
 }
 
 /// The leading 33 x 33 block of a covariance (the kinematic parameters come

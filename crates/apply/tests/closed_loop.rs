@@ -11,7 +11,7 @@ use parcal_apply::genhexkins::hal_snippet;
 use parcal_apply::machine::calibrated_machine;
 use parcal_apply::predicted::{registered_errors, rms};
 use parcal_apply::{
-    AppliedModel, Command, Target, compensate, corrected_poses, place, predicted_registered,
+    AppliedModel, Command, Target, compensate, corrected_poses, predicted_registered,
 };
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::{Calibration, Dataset, Machine};
@@ -54,19 +54,6 @@ fn scenario(dataset: &Dataset) -> Scenario {
         truth: Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths),
         true_scale: truth.actuator_scale.unwrap_or([1.0; 6]),
         predicted_map_rms: map.registered_summary().rms,
-    }
-}
-
-/// The nominal model: the design, placed on itself.
-fn nominal(model: &AppliedModel) -> AppliedModel {
-    let canonical = model.design.canonicalize().unwrap().geometry;
-    let (calibrated, placement) = place(&canonical, &model.design).unwrap();
-    AppliedModel {
-        calibrated,
-        scale: model.design_scale,
-        placement,
-        canonical,
-        ..model.clone()
     }
 }
 
@@ -126,7 +113,7 @@ struct Figures {
 
 fn figures(s: &Scenario, targets: &[Target]) -> Figures {
     let commands = compensate(&s.model, targets).unwrap();
-    let nominal_commands = compensate(&nominal(&s.model), targets).unwrap();
+    let nominal_commands = compensate(&s.model.nominal().unwrap(), targets).unwrap();
     Figures {
         nominal: achieved_errors(s, &nominal_commands, targets),
         compensated: achieved_errors(s, &commands, targets),

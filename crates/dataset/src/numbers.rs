@@ -70,17 +70,24 @@ mod tests {
         let rows = vec![vec![1.0, -0.0, 1.0 / 3.0], vec![1e-300, 2.5, -7.0]];
         write_numbers(&path, &["a", "b", "c"], &rows).unwrap();
         let read = read_numbers(&path, &["c", "a", "b"], "test").unwrap();
-        assert_eq!(read[0].map(f64::to_bits), [1.0 / 3.0, 1.0, -0.0].map(f64::to_bits));
+        assert_eq!(
+            read[0].map(f64::to_bits),
+            [1.0 / 3.0, 1.0, -0.0].map(f64::to_bits)
+        );
         assert_eq!(read[1], [-7.0, 1e-300, 2.5]);
 
         std::fs::write(&path, "a,b\n1,2\n\n3,x\n").unwrap();
-        let error = read_numbers(&path, &["a", "b"], "test").unwrap_err().to_string();
+        let error = read_numbers(&path, &["a", "b"], "test")
+            .unwrap_err()
+            .to_string();
         assert!(
             error.ends_with("line 4, column b: expected a number, found \"x\""),
             "{error}"
         );
         std::fs::write(&path, "a,c\n1,2\n").unwrap();
-        let error = read_numbers(&path, &["a", "b"], "test").unwrap_err().to_string();
+        let error = read_numbers(&path, &["a", "b"], "test")
+            .unwrap_err()
+            .to_string();
         assert!(error.contains("the header has no column b"), "{error}");
 
         let error = write_numbers(&path, &["a"], &[vec![f64::NAN]])
