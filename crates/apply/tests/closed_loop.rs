@@ -4,6 +4,8 @@
 //! registered onto the targets; beside the nominal model's commands and the
 //! calibration's prediction. Round trips of the exports.
 
+#![allow(clippy::needless_range_loop)]
+
 use std::path::Path;
 
 use parcal_accuracy::{MapGrid, predicted};
