@@ -71,14 +71,21 @@ fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<(
     let commands = compensate(model, &targets).with_context(|| format!("{}", poses.display()))?;
     let header = ["q1", "q2", "q3", "q4", "q5", "q6"];
     let rows: Vec<Vec<f64>> = commands.iter().map(|c| c.q.to_vec()).collect();
-    if let Some(path) = &args.corrected_poses {
-        let corrected =
-            corrected_poses(model, &commands).with_context(|| format!("{}", poses.display()))?;
-        let rows: Vec<Vec<f64>> = corrected.iter().map(|t| t.row().to_vec()).collect();
+    // Everything is computed before anything is written.
+    let corrected = match &args.corrected_poses {
+        Some(path) => {
+            let poses = corrected_poses(model, &commands)
+                .with_context(|| format!("{}", poses.display()))?;
+            let rows: Vec<Vec<f64>> = poses.iter().map(|t| t.row().to_vec()).collect();
+            Some((path, rows))
+        }
+        None => None,
+    };
+    write_numbers(&args.out, &header, &rows)?;
+    if let Some((path, rows)) = corrected {
         write_numbers(path, &Target::COLUMNS, &rows)?;
         println!("corrected poses: {}", path.display());
     }
-    write_numbers(&args.out, &header, &rows)?;
     let worst = commands
         .iter()
         .map(|c| c.conditioning)
