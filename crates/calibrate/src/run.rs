@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, ParameterTable};
+use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, Machine, ParameterTable};
 use parcal_kinematics::{
     Geometry, N_PARAMS, PARAM_NAMES, ParamCovariance, Params, Pose, Vec3, params,
 };
@@ -30,6 +30,8 @@ pub struct CalibrationRun {
     /// The design geometry as given (machine.json's frames): where the
     /// accuracy maps place their targets.
     pub design: Geometry,
+    /// machine.json as given (recorded in calibration.json's `design`).
+    pub machine: Machine,
     /// The design's canonical parameters (the initial estimate).
     pub initial_params: Params,
     /// The a priori knowledge on the parameters, if any.
@@ -204,6 +206,7 @@ impl CalibrationRun {
             global_test: None,
             provenance: None,
             removed_observations: Vec::new(),
+            design: Some(self.machine.clone()),
         }
     }
 }
@@ -348,6 +351,7 @@ fn calibrate_once(
         prior_consistency,
         options: options.clone(),
         design: setup.design,
+        machine: dataset.machine.clone(),
         initial_params: setup.initial_params,
         prior: setup.prior,
         params: solved.params,

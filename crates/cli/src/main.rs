@@ -37,6 +37,10 @@ enum Command {
     Accuracy(commands::accuracy::Args),
     /// Reproduce the paper's simulations I-IV on one simulated dataset, with a report.
     Paper(commands::paper::Args),
+    /// Apply a calibration: targets to actuator commands, corrected poses, correction tables.
+    Compensate(commands::compensate::Args),
+    /// Export a calibration: calibrated machine.json, LinuxCNC genhexkins HAL, summary.
+    Export(commands::export::Args),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +53,8 @@ fn main() -> ExitCode {
         Command::Validate(args) => commands::validate::run(&args),
         Command::Accuracy(args) => commands::accuracy::run(&args),
         Command::Paper(args) => commands::paper::run(&args),
+        Command::Compensate(args) => commands::compensate::run(&args),
+        Command::Export(args) => commands::export::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,7 +9,7 @@ use crate::Point3;
 use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::GeometryRecord;
-use crate::machine::Actuator;
+use crate::machine::{Actuator, Machine};
 use crate::session::SessionRecord;
 use crate::{json, shape};
 
@@ -101,6 +101,17 @@ pub struct Calibration {
     /// The observations data snooping removed, in the order of removal.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub removed_observations: Vec<RemovedObservation>,
+    /// The design machine the calibration started from (machine.json as
+    /// given: the design geometry in the design frame, priors,
+    /// repeatability, actuator unit and design scales, stroke): what
+    /// applying the calibration needs besides the result (`None` in files
+    /// written before it was recorded).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "crate::machine::embedded"
+    )]
+    pub design: Option<Machine>,
 }
 
 /// An observation removed by data snooping.
@@ -122,6 +133,16 @@ impl Calibration {
     /// Whether the verdict is `"rejected"`.
     pub fn is_rejected(&self) -> bool {
         self.verdict == "rejected"
+    }
+
+    /// The actuators' unit and scales to apply: the calibrated ones
+    /// (`machine.actuator`) when the calibration identified them, else the
+    /// design's (`design.actuator`); `None` when the file has neither.
+    pub fn actuator(&self) -> Option<&Actuator> {
+        self.machine
+            .as_ref()
+            .map(|m| &m.actuator)
+            .or(self.design.as_ref().map(|d| &d.actuator))
     }
 }
 
@@ -231,6 +252,9 @@ impl Calibration {
         if let Some(machine) = &self.machine {
             machine.geometry.validate(check, "machine.geometry.")?;
             check.values("machine.actuator.scale", &machine.actuator.scale)?;
+        }
+        if let Some(design) = &self.design {
+            design.validate_in(check, "design.")?;
         }
         for (k, session) in self.sessions.iter().enumerate() {
             session.validate(check, &format!("sessions[{k}]"))?;

@@ -137,6 +137,52 @@ pub struct Machine {
     pub stroke: Option<[f64; 2]>,
 }
 
+/// `machine.json`'s object (without `format`) as read.
+type MachineFile = WithGeometry<GeometryRecord, Conditions>;
+
+impl From<MachineFile> for Machine {
+    fn from(file: MachineFile) -> Self {
+        Self {
+            geometry: file.geometry,
+            prior_sigma: file.rest.prior_sigma,
+            repeatability: file.rest.repeatability,
+            actuator: file.rest.actuator,
+            session_model: file.rest.session_model,
+            stroke: file.rest.stroke,
+        }
+    }
+}
+
+/// Serde of a machine held in another JSON file (calibration.json's
+/// `design`) as `machine.json`'s object without `format`; absent is `None`.
+/// Binary formats (not self-describing) take [`Machine`]'s own fields.
+pub(crate) mod embedded {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    use super::{Machine, MachineFile};
+
+    pub(crate) fn serialize<S: Serializer>(
+        machine: &Option<Machine>,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        if serializer.is_human_readable() {
+            machine.as_ref().map(Machine::file).serialize(serializer)
+        } else {
+            machine.serialize(serializer)
+        }
+    }
+
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<Option<Machine>, D::Error> {
+        if deserializer.is_human_readable() {
+            Ok(Option::<MachineFile>::deserialize(deserializer)?.map(Machine::from))
+        } else {
+            Option::<Machine>::deserialize(deserializer)
+        }
+    }
+}
+
 /// The fields of `machine.json` after the geometry.
 #[derive(Serialize, Deserialize)]
 struct Conditions {
@@ -155,24 +201,23 @@ fn is_default<T: Default + PartialEq>(value: &T) -> bool {
 }
 
 impl Machine {
-    /// Reads and checks `machine.json`.
-    pub(crate) fn read(path: &Path) -> Result<Self> {
-        let file: WithGeometry<GeometryRecord, Conditions> = json::read(path, json::MACHINE)?;
-        let machine = Self {
-            geometry: file.geometry,
-            prior_sigma: file.rest.prior_sigma,
-            repeatability: file.rest.repeatability,
-            actuator: file.rest.actuator,
-            session_model: file.rest.session_model,
-            stroke: file.rest.stroke,
-        };
+    /// Reads and checks a `machine.json` file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let file: MachineFile = json::read(path, json::MACHINE)?;
+        let machine = Self::from(file);
         machine.validate(Check::new(path))?;
         Ok(machine)
     }
 
-    /// Writes `machine.json` (the caller has validated).
-    pub(crate) fn write(&self, path: &Path) -> Result<()> {
-        let file = WithGeometry {
+    /// Checks and writes a `machine.json` file atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        self.validate(Check::new(path))?;
+        json::write(path, json::MACHINE, &self.file())
+    }
+
+    /// The object `machine.json` holds (without `format`).
+    fn file(&self) -> WithGeometry<&GeometryRecord, Conditions> {
+        WithGeometry {
             geometry: &self.geometry,
             rest: Conditions {
                 prior_sigma: self.prior_sigma,
@@ -181,27 +226,33 @@ impl Machine {
                 session_model: self.session_model,
                 stroke: self.stroke,
             },
-        };
-        json::write(path, json::MACHINE, &file)
+        }
     }
 
     /// Every value finite; sigmas and repeatabilities positive.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
-        self.geometry.validate(check, "")?;
+        self.validate_in(check, "")
+    }
+
+    /// [`Machine::validate`] of a machine held in field `parent` of another
+    /// file (`"design."`): errors name `parent` before the field.
+    pub(crate) fn validate_in(&self, check: Check, parent: &str) -> Result<()> {
+        let field = |name: &str| format!("{parent}{name}");
+        self.geometry.validate(check, parent)?;
         let PriorSigma {
             base,
             platform,
             tool,
             leg,
         } = self.prior_sigma;
-        check.positive("prior_sigma.base", base)?;
-        check.positive("prior_sigma.platform", platform)?;
-        check.positive("prior_sigma.tool", tool)?;
-        check.positive("prior_sigma.leg", leg)?;
+        check.positive(field("prior_sigma.base"), base)?;
+        check.positive(field("prior_sigma.platform"), platform)?;
+        check.positive(field("prior_sigma.tool"), tool)?;
+        check.positive(field("prior_sigma.leg"), leg)?;
         let r = &self.repeatability;
-        check.positive("repeatability.actuator", r.actuator)?;
-        check.positive("repeatability.tool", r.tool)?;
-        for (field, value) in [
+        check.positive(field("repeatability.actuator"), r.actuator)?;
+        check.positive(field("repeatability.tool"), r.tool)?;
+        for (name, value) in [
             ("repeatability.position", r.position),
             ("repeatability.orientation", r.orientation),
             (
@@ -218,26 +269,26 @@ impl Machine {
             ),
         ] {
             if let Some(value) = value {
-                check.positive(field, value)?;
+                check.positive(format_args!("{parent}{name}"), value)?;
             }
         }
         if self.actuator.unit.trim().is_empty() {
-            return Err(check.error("actuator.unit", "must not be empty"));
+            return Err(check.error(field("actuator.unit"), "must not be empty"));
         }
         for (i, &s) in self.actuator.scale.iter().enumerate() {
-            check.positive(format_args!("actuator.scale[{i}]"), s)?;
+            check.positive(format_args!("{parent}actuator.scale[{i}]"), s)?;
         }
         if let Some(sigmas) = &self.actuator.scale_sigma {
             for (i, &s) in sigmas.iter().enumerate() {
-                check.positive(format_args!("actuator.scale_sigma[{i}]"), s)?;
+                check.positive(format_args!("{parent}actuator.scale_sigma[{i}]"), s)?;
             }
         }
         if let Some([min, max]) = self.stroke {
-            check.finite("stroke[0]", min)?;
-            check.finite("stroke[1]", max)?;
+            check.finite(field("stroke[0]"), min)?;
+            check.finite(field("stroke[1]"), max)?;
             if min >= max {
                 return Err(check.error(
-                    "stroke",
+                    field("stroke"),
                     format!("must be [min, max] with min < max, found [{min}, {max}]"),
                 ));
             }

@@ -411,6 +411,10 @@ fn calibration() -> Calibration {
             gross_error_sigmas: -60.25,
             variance_factor: [14.5, 1.0 / 3.0],
         }],
+        design: Some(Machine {
+            stroke: Some([-5.0, 105.0]),
+            ..dataset(ALL).machine
+        }),
     }
 }
 
@@ -424,14 +428,48 @@ fn calibration_round_trips_and_defaults_status_and_options() {
     let text = fs::read_to_string(&path).unwrap();
     assert!(text.starts_with("{\n \"format\": \"parcal-calibration/1\",\n \"canonical\""));
 
+    // The design is machine.json's object, without its format.
+    let design: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let design = &design["design"];
+    assert_eq!(design["stroke"], serde_json::json!([-5.0, 105.0]));
+    assert!(design["base_joints"].is_array() && design.get("format").is_none());
+
     edit_json(dir.path(), CALIBRATION_FILE, |v| {
         let object = v.as_object_mut().unwrap();
         object.remove("status");
         object.remove("options");
+        object.remove("design");
     });
     let read = Calibration::read(&path).unwrap();
     assert_eq!(read.status, "");
     assert!(read.options.is_empty());
+    assert_eq!((&read.design, read.actuator()), (&None, None));
+}
+
+#[test]
+fn the_design_of_a_calibration_is_checked_and_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(CALIBRATION_FILE);
+    let mut c = calibration();
+    c.design.as_mut().unwrap().stroke = Some([3.0, 1.0]);
+    assert_error(
+        &c.write(&path).unwrap_err().to_string(),
+        dir.path(),
+        CALIBRATION_FILE,
+        "field design.stroke: must be [min, max] with min < max, found [3, 1]",
+    );
+    calibration().write(&path).unwrap();
+    edit_json(dir.path(), CALIBRATION_FILE, |v| {
+        v["design"]["prior_sigma"]["leg"] = serde_json::json!(0.0);
+    });
+    assert_error(
+        &Calibration::read(&path).unwrap_err().to_string(),
+        dir.path(),
+        CALIBRATION_FILE,
+        "field design.prior_sigma.leg: must be positive, found 0",
+    );
+    // Without a calibrated machine, the design's actuator applies.
+    assert_eq!(calibration().actuator(), Some(&Actuator::default()));
 }
 
 #[test]

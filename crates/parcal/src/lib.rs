@@ -17,7 +17,9 @@
 //! - [`accuracy`]: accuracy maps, predicted and true;
 //! - [`simulation`]: simulated campaigns (the paper's scenario and others);
 //! - [`kinematics`]: geometry, inverse and forward kinematics, the 33
-//!   canonical parameters.
+//!   canonical parameters;
+//! - [`apply`]: applying a calibration (commands, corrected poses, exports;
+//!   docs/apply.md).
 //!
 //! # Example
 //!
@@ -91,6 +93,7 @@
 //! name the file and line themselves.
 
 pub use parcal_accuracy as accuracy;
+pub use parcal_apply as apply;
 pub use parcal_calibrate as calibration;
 pub use parcal_dataset as dataset;
 pub use parcal_kinematics as kinematics;

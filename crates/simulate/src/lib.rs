@@ -24,12 +24,14 @@
 //! ```
 
 mod campaign;
+mod execute;
 mod plate;
 mod rng;
 mod scenario;
 mod tracker;
 
 pub use campaign::{Simulation, Summary, ball_id, simulate};
+pub use execute::execute;
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
 pub use scenario::Scenario;
@@ -85,6 +87,14 @@ pub enum SimulateError {
     /// An instrument scenario's counts, ranges or sigmas make no sense.
     #[error("instrument scenario: {0}")]
     Scenario(String),
+    /// A row of actuator commands could not be run ([`execute`]).
+    #[error("command row {row}: {reason}")]
+    Command {
+        /// The row (1-based).
+        row: usize,
+        /// Why.
+        reason: String,
+    },
     /// A row of an instrument campaign could not be simulated.
     #[error("session {session}, {file} row {row}: {reason}")]
     Row {

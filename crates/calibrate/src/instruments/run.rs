@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use nalgebra::{DMatrix, DVector, Dyn, Isometry3};
 use parcal_dataset::{
     Actuator, CalibratedMachine, Calibration, Dataset, FrameRecord, GeometryRecord,
-    IterationSummary, ParameterTable, SessionRecord,
+    IterationSummary, Machine, ParameterTable, SessionRecord,
 };
 use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Vec3, params};
 use parcal_solver::{
@@ -57,8 +57,9 @@ pub struct InstrumentRun {
     pub leg_residuals: Vec<[f64; 6]>,
     /// Each point's residual `F(T) − P` at the identified state (mm).
     pub point_residuals: Vec<Vec3>,
-    /// The actuators' unit.
-    pub unit: String,
+    /// machine.json as given (the design machine, recorded in
+    /// calibration.json's `design`).
+    pub machine: Machine,
     /// The information the data alone give each parameter at the
     /// identified state, `diag(JᵀJ)` of the whitened rows (zero: the data
     /// do not observe it, e.g. the tool tip from poses alone).
@@ -283,7 +284,7 @@ pub fn calibrate_instruments(
         spectrum: solution.spectrum,
         leg_residuals,
         point_residuals,
-        unit: dataset.machine.actuator.unit.clone(),
+        machine: dataset.machine.clone(),
     })
 }
 
@@ -525,7 +526,7 @@ impl InstrumentRun {
             machine: Some(CalibratedMachine {
                 geometry: record(&self.machine_in_first_session(&values)),
                 actuator: Actuator {
-                    unit: self.unit.clone(),
+                    unit: self.machine.actuator.unit.clone(),
                     scale: values.scales,
                     scale_sigma,
                 },
@@ -544,6 +545,7 @@ impl InstrumentRun {
             global_test: None,
             provenance: None,
             removed_observations: Vec::new(),
+            design: Some(self.machine.clone()),
         }
     }
 

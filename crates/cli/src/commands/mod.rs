@@ -2,6 +2,9 @@
 
 pub mod accuracy;
 pub mod calibrate;
+pub mod compensate;
+pub mod execute;
+pub mod export;
 pub mod inspect;
 pub mod paper;
 pub mod simulate;

@@ -82,6 +82,9 @@ pub struct Args {
     /// which loads much faster than the text files.
     #[arg(long)]
     binary: bool,
+    /// Run commands instead of simulating a campaign (--out is then a file).
+    #[command(flatten)]
+    execute: super::execute::RunArgs,
 }
 
 /// `--tracker`.
@@ -100,6 +103,9 @@ enum TrackedMachine {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if args.execute.requested() {
+        return super::execute::run(&args.execute, &args.out);
+    }
     anyhow::ensure!(
         args.tilt.is_finite() && (0.0..90.0).contains(&args.tilt),
         "--tilt must be in [0, 90) degrees, got {}",

@@ -1,0 +1,199 @@
+//! Targets to actuator commands by the calibrated model's inverse
+//! kinematics.
+//!
+//! For a target (tool tip `T`, orientation `R`, design frame) the placed
+//! calibrated geometry gives the pose `t = T - R E_T`, the leg lengths
+//! `L_i = |R E_i + t - B_i|` (paper eq. 1) and the readings
+//! `q_i = (L_i - l_i) / s_i` in the actuators' unit.
+//!
+//! A target is refused when a reading leaves the stroke, or near a
+//! singular configuration. The measure: the inverse-kinematics Jacobian
+//! `A = dL/d(t, w)` (rows `[n_i^T, (a_i x n_i)^T]`, `a_i = R E_i`,
+//! docs/formulation.md section 4) with its rotation columns divided by `r`,
+//! the RMS distance of the platform joints from their centroid, so that
+//! both halves are mm of leg per mm of joint motion; its singular values'
+//! ratio `sigma_min / sigma_max` must be at least [`SINGULARITY_RATIO`]. At
+//! that limit a leg-length error `dL` can move the platform by up to
+//! `|dL| / sigma_min`, a hundred times what the best direction allows.
+
+use nalgebra::Matrix6;
+use parcal_kinematics::{Geometry, Pose, closure::Legs};
+
+use crate::{AppliedModel, ApplyError, Refusal, Target};
+
+/// The smallest allowed `sigma_min / sigma_max` of the normalised inverse
+/// kinematics Jacobian (module doc).
+pub const SINGULARITY_RATIO: f64 = 1e-2;
+
+/// The command of one target.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Command {
+    /// Actuator readings, in the actuators' unit.
+    pub q: [f64; 6],
+    /// The pose the calibrated model expects (design frame).
+    pub pose: Pose,
+    /// `sigma_min / sigma_max` of the normalised Jacobian at `pose`.
+    pub conditioning: f64,
+}
+
+/// The normalised inverse-kinematics Jacobian of `geometry` at `legs`: `A`
+/// with its rotation columns divided by the platform's RMS joint radius.
+pub fn normalised_jacobian(geometry: &Geometry, legs: &Legs) -> Matrix6<f64> {
+    let centroid = geometry.platform.iter().sum::<parcal_kinematics::Vec3>() / 6.0;
+    let radius = (geometry
+        .platform
+        .iter()
+        .map(|e| (e - centroid).norm_squared())
+        .sum::<f64>()
+        / 6.0)
+        .sqrt();
+    let rows = legs.closure_rows();
+    Matrix6::from_fn(|i, j| {
+        if j < 3 {
+            rows[i][j]
+        } else {
+            rows[i][j] / radius
+        }
+    })
+}
+
+/// The command of `target` (module doc), or why it is refused.
+pub fn command(model: &AppliedModel, target: &Target) -> Result<Command, Refusal> {
+    target.check()?;
+    let geometry = &model.calibrated;
+    let pose = target.pose(&geometry.tool);
+    let legs = Legs::at(geometry, &pose);
+    if let Some(i) = legs
+        .length
+        .iter()
+        .position(|l| !(l.is_finite() && *l > 0.0))
+    {
+        return Err(Refusal::InfeasibleLeg {
+            leg: i + 1,
+            length: legs.length[i],
+        });
+    }
+    let q: [f64; 6] = std::array::from_fn(|i| (legs.length[i] - geometry.legs[i]) / model.scale[i]);
+    if let Some([min, max]) = model.stroke
+        && let Some(i) = q.iter().position(|q| !(min..=max).contains(q))
+    {
+        return Err(Refusal::OutsideStroke {
+            leg: i + 1,
+            reading: q[i],
+            unit: model.unit.clone(),
+            min,
+            max,
+        });
+    }
+    let singular = normalised_jacobian(geometry, &legs).singular_values();
+    let conditioning = singular.min() / singular.max();
+    // NaN (a degenerate Jacobian) is refused too.
+    if conditioning.is_nan() || conditioning < SINGULARITY_RATIO {
+        return Err(Refusal::NearSingular {
+            ratio: conditioning,
+            limit: SINGULARITY_RATIO,
+        });
+    }
+    Ok(Command {
+        q,
+        pose,
+        conditioning,
+    })
+}
+
+/// The commands of `targets`, in order; the first refused target is an
+/// error naming its row (1-based).
+pub fn compensate(model: &AppliedModel, targets: &[Target]) -> Result<Vec<Command>, ApplyError> {
+    targets
+        .iter()
+        .enumerate()
+        .map(|(k, target)| {
+            command(model, target).map_err(|refusal| ApplyError::Refused {
+                row: k + 1,
+                refusal,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+#[allow(clippy::needless_range_loop)]
+mod tests {
+    use super::*;
+    use crate::tests::paper_model;
+    use nalgebra::Vector6;
+    use parcal_kinematics::{Vec3, forward::step, leg_lengths};
+
+    fn target(x: f64, y: f64, z: f64, roll: f64, pitch: f64, yaw: f64) -> Target {
+        Target {
+            position: Vec3::new(x, y, z),
+            roll,
+            pitch,
+            yaw,
+        }
+    }
+
+    #[test]
+    fn readings_scale_leg_lengths_and_the_jacobian_matches_differences() {
+        let mut model = paper_model();
+        model.scale = [2.0, 0.5, 1.0, 4.0, 1.5, 0.25];
+        let t = target(20.0, -30.0, 410.0, 0.05, -0.08, 0.1);
+        let c = command(&model, &t).unwrap();
+        let lengths = leg_lengths(&model.calibrated, &c.pose);
+        for i in 0..6 {
+            let expected = model.calibrated.legs[i] + model.scale[i] * c.q[i];
+            assert!((expected - lengths[i]).abs() < 1e-9);
+        }
+        // dL/d(t, w) by central differences along the pose update
+        // t <- t + dt, R <- rot(w) R (kinematics' step).
+        let legs = Legs::at(&model.calibrated, &c.pose);
+        let rows = legs.closure_rows();
+        let h = 1e-6;
+        for j in 0..6 {
+            let delta = Vector6::from_fn(|k, _| if k == j { 1.0 } else { 0.0 });
+            let plus = leg_lengths(&model.calibrated, &step(&c.pose, &delta, h));
+            let minus = leg_lengths(&model.calibrated, &step(&c.pose, &delta, -h));
+            for i in 0..6 {
+                let numeric = (plus[i] - minus[i]) / (2.0 * h);
+                assert!(
+                    (numeric - rows[i][j]).abs() < 1e-6 * (1.0 + rows[i][j].abs()),
+                    "leg {i}, column {j}: {numeric} vs {}",
+                    rows[i][j]
+                );
+            }
+        }
+        assert!(c.conditioning > SINGULARITY_RATIO && c.conditioning <= 1.0);
+    }
+
+    #[test]
+    fn refusals_name_the_row_and_the_reason() {
+        let mut model = paper_model();
+        let centre = command(&model, &target(0.0, 0.0, 400.0, 0.0, 0.0, 0.0)).unwrap();
+        let (min, max) = centre
+            .q
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &q| {
+                (a.min(q), b.max(q))
+            });
+        model.stroke = Some([min - 1.0, max + 1.0]);
+        let targets = [
+            target(0.0, 0.0, 400.0, 0.0, 0.0, 0.0),
+            target(0.0, 0.0, 450.0, 0.0, 0.0, 0.0),
+        ];
+        let message = compensate(&model, &targets).unwrap_err().to_string();
+        assert!(message.starts_with("row 2: q"), "{message}");
+        assert!(message.contains("is outside the stroke"), "{message}");
+
+        model.stroke = None;
+        let message = compensate(&model, &[target(0.0, f64::NAN, 400.0, 0.0, 0.0, 0.0)])
+            .unwrap_err()
+            .to_string();
+        assert_eq!(message, "row 1: y is not a finite number");
+
+        // The platform lowered into the base's plane (the tool is 60 mm
+        // above it): every leg horizontal, no leg can lift it.
+        let flat = target(0.0, 0.0, 60.0, 0.0, 0.0, 0.0);
+        let message = compensate(&model, &[flat]).unwrap_err().to_string();
+        assert!(message.starts_with("row 1: near a singular"), "{message}");
+    }
+}

@@ -1,0 +1,83 @@
+//! The crate's errors: one sentence each, naming the row of a refused
+//! target.
+
+use parcal_kinematics::KinematicsError;
+
+/// Why one target cannot be commanded.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Refusal {
+    /// A value of the target is NaN or infinite.
+    #[error("{what} is not a finite number")]
+    NonFinite {
+        /// `x`, `roll`, ...
+        what: &'static str,
+    },
+    /// A leg would need a non-positive length.
+    #[error("leg {leg} would be {length:.6} mm long (not positive)")]
+    InfeasibleLeg {
+        /// The leg (1-based).
+        leg: usize,
+        /// Its length (mm).
+        length: f64,
+    },
+    /// An actuator reading outside machine.json's `stroke`.
+    #[error("q{leg} = {reading:.6} {unit} is outside the stroke [{min}, {max}]")]
+    OutsideStroke {
+        /// The actuator (1-based).
+        leg: usize,
+        /// Its reading.
+        reading: f64,
+        /// The actuators' unit.
+        unit: String,
+        /// The stroke.
+        min: f64,
+        /// The stroke.
+        max: f64,
+    },
+    /// Too close to a singular configuration ([`crate::SINGULARITY_RATIO`]).
+    #[error(
+        "near a singular configuration: the inverse kinematics Jacobian's smallest singular value is {ratio:.2e} of its largest (limit {limit:.0e})"
+    )]
+    NearSingular {
+        /// `sigma_min / sigma_max` of the normalised Jacobian.
+        ratio: f64,
+        /// The limit.
+        limit: f64,
+    },
+    /// The nominal model's forward kinematics failed at the commands.
+    #[error("the nominal model's forward kinematics failed: {0}")]
+    NominalForward(KinematicsError),
+}
+
+/// Why a calibration cannot be applied.
+#[derive(Debug, thiserror::Error)]
+pub enum ApplyError {
+    /// calibration.json lacks what applying needs.
+    #[error("{0}")]
+    Missing(String),
+    /// A geometry cannot define its frames or is not finite.
+    #[error("{what}: {source}")]
+    Geometry {
+        /// Which geometry.
+        what: &'static str,
+        /// Why.
+        source: KinematicsError,
+    },
+    /// The rigid fit of the calibrated joints onto the design's failed.
+    #[error("placing the calibrated geometry in the design frame: {0}")]
+    Placement(parcal_accuracy::AccuracyError),
+    /// A target was refused.
+    #[error("row {row}: {refusal}")]
+    Refused {
+        /// The row (1-based, the first after the header).
+        row: usize,
+        /// Why.
+        refusal: Refusal,
+    },
+    /// The predicted accuracy could not be computed.
+    #[error("predicted accuracy: {0}")]
+    Prediction(String),
+    /// A correction-table grid that cannot be interpolated.
+    #[error("correction table grid: {0}")]
+    Grid(String),
+}

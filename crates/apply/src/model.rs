@@ -1,0 +1,112 @@
+//! The model a calibration gives to apply: the calibrated geometry placed
+//! in the design frame, the actuators' scales, the stroke.
+
+use parcal_dataset::Calibration;
+use parcal_kinematics::{Geometry, N_PARAMS, ParamCovariance};
+
+use crate::{ApplyError, Placement, place};
+
+/// What applying a calibration uses, from calibration.json alone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AppliedModel {
+    /// The design geometry (design frame): the nominal model of a closed
+    /// controller.
+    pub design: Geometry,
+    /// The design scales (mm per unit).
+    pub design_scale: [f64; 6],
+    /// The calibrated geometry placed in the design frame ([`place`]).
+    pub calibrated: Geometry,
+    /// The calibrated scales (mm per unit): leg `i` is `l_i + s_i q_i` long.
+    pub scale: [f64; 6],
+    /// The actuators' unit.
+    pub unit: String,
+    /// The range of every reading (machine.json's `stroke`), if given.
+    pub stroke: Option<[f64; 2]>,
+    /// How the calibrated geometry was placed.
+    pub placement: Placement,
+    /// The calibrated geometry in its canonical frames (calibration.json's
+    /// `canonical`).
+    pub canonical: Geometry,
+    /// The posterior covariance of the 33 kinematic parameters (the leading
+    /// block of calibration.json's `covariance`), if computed.
+    pub covariance: Option<ParamCovariance>,
+}
+
+impl AppliedModel {
+    /// The model of `record`: its `canonical` geometry placed onto its
+    /// `design` geometry, the scales of [`Calibration::actuator`] (the
+    /// calibrated ones when identified, else the design's), the design's stroke. Leg offsets of
+    /// later instrument sessions are not applied: the first session's
+    /// homing is the one the initial leg lengths hold.
+    ///
+    /// Errors: no `design` (a calibration.json written before it was
+    /// recorded), a geometry that does not define its frames.
+    pub fn from_record(record: &Calibration) -> Result<Self, ApplyError> {
+        let design_machine = record.design.as_ref().ok_or_else(|| {
+            ApplyError::Missing(
+                "calibration.json has no `design` (the machine.json it was computed from); it was written by an older parcal: calibrate again to apply it"
+                    .to_string(),
+            )
+        })?;
+        let g = &design_machine.geometry;
+        let design =
+            Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
+        let c = &record.canonical;
+        let canonical =
+            Geometry::from_arrays(&c.base_joints, &c.platform_joints, &c.tool, &c.leg_lengths);
+        for (what, geometry) in [
+            ("design geometry", &design),
+            ("calibrated geometry", &canonical),
+        ] {
+            geometry
+                .canonicalize()
+                .map_err(|source| ApplyError::Geometry { what, source })?;
+        }
+        let (calibrated, placement) = place(&canonical, &design)?;
+        let actuator = record
+            .machine
+            .as_ref()
+            .map_or(&design_machine.actuator, |m| &m.actuator);
+        Ok(Self {
+            design,
+            design_scale: design_machine.actuator.scale,
+            calibrated,
+            scale: actuator.scale,
+            unit: actuator.unit.clone(),
+            stroke: design_machine.stroke,
+            placement,
+            canonical,
+            covariance: kinematic_covariance(&record.covariance),
+        })
+    }
+
+    /// The nominal model beside this one: the design geometry and scales as
+    /// the calibrated model (what a controller without the calibration
+    /// commands), no covariance.
+    pub fn nominal(&self) -> Result<Self, ApplyError> {
+        let canonical = self
+            .design
+            .canonicalize()
+            .map_err(|source| ApplyError::Geometry {
+                what: "design geometry",
+                source,
+            })?
+            .geometry;
+        let (calibrated, placement) = place(&canonical, &self.design)?;
+        Ok(Self {
+            calibrated,
+            scale: self.design_scale,
+            placement,
+            canonical,
+            covariance: None,
+            ..self.clone()
+        })
+    }
+}
+
+/// The leading 33 x 33 block of a covariance (the kinematic parameters come
+/// first in every calibration.json), or `None` if it is smaller.
+fn kinematic_covariance(covariance: &[Vec<f64>]) -> Option<ParamCovariance> {
+    (covariance.len() >= N_PARAMS && covariance.iter().all(|r| r.len() >= N_PARAMS))
+        .then(|| ParamCovariance::from_fn(|i, j| covariance[i][j]))
+}

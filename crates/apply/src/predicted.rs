@@ -1,0 +1,68 @@
+//! The accuracy the calibration predicts at commanded targets, after the
+//! user's rigid registration (the registered map of parcal-accuracy's
+//! `predicted`, at any targets and orientations).
+//!
+//! At each command's pose, mapped back into the canonical frames
+//! (`P_c = M_b^-1 P M_p`, `M_b`, `M_p` the placement), the tip Jacobian
+//! `J_k = dT/dp` (3 x 33, fixed readings, docs/formulation.md section 5)
+//! propagates the posterior covariance `Σ_p`; the rigid-motion directions of
+//! the target cloud are removed (`parcal_accuracy::remove_rigid_motions`),
+//! and the value at target `k` is `sqrt(trace(J_k Σ_p J_kᵀ))` (mm). The
+//! uncertainty of calibrated actuator scales is not included.
+
+use nalgebra::{Rotation3, Translation3, UnitQuaternion};
+use parcal_accuracy::{RigidMotion, remove_rigid_motions};
+use parcal_kinematics::{Pose, Vec3, tip_jacobians_at};
+
+use crate::{AppliedModel, ApplyError, Command};
+
+fn isometry(motion: &RigidMotion) -> Pose {
+    Pose::from_parts(
+        Translation3::from(motion.translation),
+        UnitQuaternion::from_rotation_matrix(&Rotation3::from(motion.rotation)),
+    )
+}
+
+/// The predicted registered tip error at each command (module doc), mm.
+/// Errors: no covariance in the calibration, a singular pose (naming the
+/// row), fewer than three or collinear targets.
+pub fn predicted_registered(
+    model: &AppliedModel,
+    commands: &[Command],
+) -> Result<Vec<f64>, ApplyError> {
+    let covariance = model.covariance.as_ref().ok_or_else(|| {
+        ApplyError::Missing("calibration.json has no covariance to predict the accuracy".into())
+    })?;
+    let (base, platform) = (
+        isometry(&model.placement.base),
+        isometry(&model.placement.platform),
+    );
+    let mut points = Vec::with_capacity(commands.len());
+    let mut jacobians = Vec::with_capacity(commands.len());
+    for (k, command) in commands.iter().enumerate() {
+        let pose_c = base.inverse() * command.pose * platform;
+        let tip = tip_jacobians_at(&model.canonical, &pose_c)
+            .map_err(|e| ApplyError::Prediction(format!("row {}: {e}", k + 1)))?;
+        points.push(model.canonical.tool_tip(&pose_c));
+        jacobians.push(tip.d_params);
+    }
+    remove_rigid_motions(&points, &mut jacobians)
+        .map_err(|e| ApplyError::Prediction(e.to_string()))?;
+    Ok(jacobians
+        .iter()
+        .map(|j| (j * covariance).component_mul(j).sum().max(0.0).sqrt())
+        .collect())
+}
+
+/// RMS of a set of values.
+pub fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
+/// The residuals after the best rigid motion of `achieved` onto `targets`
+/// (what a user's registration leaves), as distances (mm).
+pub fn registered_errors(achieved: &[Vec3], targets: &[Vec3]) -> Result<Vec<f64>, ApplyError> {
+    parcal_accuracy::kabsch::registered_residuals(achieved, targets)
+        .map(|(residuals, _)| residuals.iter().map(|r| r.norm()).collect())
+        .map_err(|e| ApplyError::Prediction(e.to_string()))
+}

@@ -1,0 +1,196 @@
+//! `parcal compensate`: targets to actuator commands with a calibration
+//! (docs/apply.md), corrected poses for controllers that use the nominal
+//! model, and correction tables.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use parcal_apply::predicted::rms;
+use parcal_apply::{
+    AppliedModel, CorrectionTable, TableGrid, Target, compensate, corrected_poses,
+    predicted_registered,
+};
+use parcal_dataset::{read_numbers, write_numbers};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The calibration to apply (calibration.json; it carries the design).
+    #[arg(long)]
+    calibration: PathBuf,
+    /// Targets: CSV with header x,y,z,roll,pitch,yaw (tool tip in mm and
+    /// R = Rz(yaw) Ry(pitch) Rx(roll) in rad, design frame).
+    #[arg(long, required_unless_present = "table", conflicts_with = "table")]
+    poses: Option<PathBuf>,
+    /// Instead of targets: a correction table over the grid
+    /// `x=MIN:MAX:N,y=...,z=...[,roll=...,pitch=...,yaw=...]` (absent axes
+    /// at 0), written to --out with its interpolation error printed.
+    #[arg(long)]
+    table: Option<String>,
+    /// Output: the commands (header q1..q6, in the actuators' unit), or the
+    /// correction table.
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write the corrected poses (header x,y,z,roll,pitch,yaw): what
+    /// to send to a controller that uses the nominal (design) model.
+    #[arg(long, conflicts_with = "table")]
+    corrected_poses: Option<PathBuf>,
+    /// Use a calibration whose verdict is "rejected".
+    #[arg(long)]
+    accept_rejected: bool,
+    /// Command with the nominal (design) model instead of the calibrated
+    /// one, for comparison.
+    #[arg(long)]
+    nominal: bool,
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let inputs: Vec<PathBuf> = std::iter::once(&args.calibration)
+        .chain(&args.poses)
+        .cloned()
+        .collect();
+    let outputs: Vec<PathBuf> = std::iter::once(&args.out)
+        .chain(&args.corrected_poses)
+        .cloned()
+        .collect();
+    crate::outputs::check(&inputs, &outputs)?;
+    let record = super::read_calibration(&args.calibration, args.accept_rejected)?;
+    let mut model = AppliedModel::from_record(&record)
+        .with_context(|| format!("{}", args.calibration.display()))?;
+    let p = &model.placement;
+    println!(
+        "calibrated geometry placed in the design frame: joints within {:.4} mm (base) and {:.4} mm (platform, tool) RMS of the design's",
+        p.base_rms, p.platform_rms
+    );
+    if args.nominal {
+        model = model.nominal()?;
+        println!("commanding with the nominal (design) model");
+    }
+    match (&args.poses, &args.table) {
+        (Some(poses), _) => commands(args, &model, poses),
+        (None, Some(spec)) => table(args, &model, spec),
+        (None, None) => anyhow::bail!("give --poses or --table"),
+    }
+}
+
+fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<()> {
+    let targets: Vec<Target> = read_numbers(poses, &Target::COLUMNS, "target")?
+        .iter()
+        .map(Target::from_row)
+        .collect();
+    let commands = compensate(model, &targets).with_context(|| format!("{}", poses.display()))?;
+    let header = ["q1", "q2", "q3", "q4", "q5", "q6"];
+    let rows: Vec<Vec<f64>> = commands.iter().map(|c| c.q.to_vec()).collect();
+    // Everything is computed before anything is written.
+    let corrected = match &args.corrected_poses {
+        Some(path) => {
+            let poses = corrected_poses(model, &commands)
+                .with_context(|| format!("{}", poses.display()))?;
+            let rows: Vec<Vec<f64>> = poses.iter().map(|t| t.row().to_vec()).collect();
+            Some((path, rows))
+        }
+        None => None,
+    };
+    write_numbers(&args.out, &header, &rows)?;
+    if let Some((path, rows)) = corrected {
+        write_numbers(path, &Target::COLUMNS, &rows)?;
+        println!("corrected poses: {}", path.display());
+    }
+    let worst = commands
+        .iter()
+        .map(|c| c.conditioning)
+        .fold(f64::INFINITY, f64::min);
+    println!(
+        "{} targets -> {} (readings in {}); smallest Jacobian singular-value ratio {worst:.3}",
+        commands.len(),
+        args.out.display(),
+        model.unit
+    );
+    // Three non-collinear targets at least: the registration is defined.
+    if let Ok(predicted) = predicted_registered(model, &commands) {
+        println!(
+            "predicted tip error after registration: RMS {:.1} um, max {:.1} um (posterior covariance of the 33 kinematic parameters)",
+            1e3 * rms(&predicted),
+            1e3 * predicted.iter().copied().fold(0.0, f64::max)
+        );
+    }
+    Ok(())
+}
+
+/// The most nodes a correction table may have: each costs an inverse and a
+/// forward kinematics, and the table is held in memory.
+const MAX_TABLE_NODES: usize = 10_000_000;
+
+/// Parses `x=MIN:MAX:N,...` (module doc of `--table`).
+fn grid(spec: &str) -> anyhow::Result<TableGrid> {
+    let mut axes: [Vec<f64>; 6] = Default::default();
+    for part in spec.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (name, range) = part
+            .split_once('=')
+            .with_context(|| format!("--table: {part:?} is not AXIS=MIN:MAX:N"))?;
+        let axis = Target::COLUMNS
+            .iter()
+            .position(|c| *c == name.trim())
+            .with_context(|| {
+                format!("--table: unknown axis {name:?} (one of x, y, z, roll, pitch, yaw)")
+            })?;
+        let fields: Vec<&str> = range.split(':').collect();
+        let parsed = match fields.as_slice() {
+            [min, max, n] => min
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .zip(max.trim().parse::<f64>().ok())
+                .zip(n.trim().parse::<usize>().ok()),
+            _ => None,
+        };
+        let ((min, max), n) = parsed
+            .filter(|&((min, max), n)| n >= 1 && min.is_finite() && max.is_finite())
+            .with_context(|| {
+                format!("--table: {part:?} is not AXIS=MIN:MAX:N with finite MIN, MAX and N >= 1")
+            })?;
+        anyhow::ensure!(
+            n <= MAX_TABLE_NODES,
+            "--table: {n} nodes on axis {name} (at most {MAX_TABLE_NODES} nodes in all)"
+        );
+        anyhow::ensure!(axes[axis].is_empty(), "--table: axis {name} given twice");
+        axes[axis] = match n {
+            1 => vec![min],
+            _ => (0..n)
+                .map(|k| min + (max - min) * k as f64 / (n - 1) as f64)
+                .collect(),
+        };
+    }
+    for values in &mut axes {
+        if values.is_empty() {
+            values.push(0.0);
+        }
+    }
+    let nodes = axes
+        .iter()
+        .try_fold(1usize, |n, values| n.checked_mul(values.len()))
+        .filter(|&n| n <= MAX_TABLE_NODES);
+    anyhow::ensure!(
+        nodes.is_some(),
+        "--table: more than {MAX_TABLE_NODES} nodes in all (the product of the axes' N)"
+    );
+    Ok(TableGrid { axes })
+}
+
+fn table(args: &Args, model: &AppliedModel, spec: &str) -> anyhow::Result<()> {
+    let grid = grid(spec)?;
+    let table = CorrectionTable::new(model, &grid).context("the correction table")?;
+    let error = table
+        .midpoint_error(model)
+        .context("the correction table's midpoints")?;
+    write_numbers(&args.out, &CorrectionTable::HEADER, &table.rows())?;
+    println!(
+        "correction table: {} nodes -> {}; multilinear interpolation error at the {} cell midpoints: position RMS {:.2} um, max {:.2} um; angles max {:.2e} rad",
+        grid.len(),
+        args.out.display(),
+        error.points,
+        1e3 * error.position_rms,
+        1e3 * error.position_max,
+        error.angle_max
+    );
+    Ok(())
+}

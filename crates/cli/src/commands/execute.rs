@@ -1,0 +1,100 @@
+//! `parcal simulate --run commands.csv --truth DATASET`: actuator commands
+//! run on a simulated dataset's true machine (docs/apply.md, the loop
+//! closed in simulation).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use parcal_apply::Target;
+use parcal_apply::predicted::{registered_errors, rms};
+use parcal_dataset::{read_numbers, write_numbers};
+use parcal_kinematics::{Geometry, Vec3};
+
+/// The options of `parcal simulate` that run commands.
+#[derive(clap::Args)]
+pub struct RunArgs {
+    /// Run these actuator commands (header q1..q6, as `parcal compensate`
+    /// writes them) on the true machine of --truth, and write what it
+    /// reaches to --out (a CSV file, header x,y,z,roll,pitch,yaw: the true
+    /// tool tip and platform angles in the design frame).
+    #[arg(long, value_name = "COMMANDS_CSV", requires = "truth")]
+    run: Option<PathBuf>,
+    /// The simulated dataset (directory or snapshot) whose truth.json runs
+    /// the commands.
+    #[arg(long, value_name = "DATASET", requires = "run")]
+    truth: Option<PathBuf>,
+    /// The targets the commands were made for: print the tip errors after
+    /// the best rigid registration of the reached tips onto them.
+    #[arg(long, value_name = "TARGETS_CSV", requires = "run")]
+    targets: Option<PathBuf>,
+}
+
+impl RunArgs {
+    /// Whether commands are to be run.
+    pub fn requested(&self) -> bool {
+        self.run.is_some()
+    }
+}
+
+/// Runs the commands and writes the reached poses to `out`.
+pub fn run(args: &RunArgs, out: &Path) -> anyhow::Result<()> {
+    let (Some(commands_path), Some(dataset_path)) = (&args.run, &args.truth) else {
+        anyhow::bail!("--run needs --truth");
+    };
+    let mut inputs = crate::outputs::dataset_inputs(dataset_path);
+    inputs.push(commands_path.clone());
+    crate::outputs::check(&inputs, &[out.to_path_buf()])?;
+    let dataset = super::read_dataset(dataset_path)?;
+    let truth = dataset.truth.as_ref().with_context(|| {
+        format!(
+            "{}: the dataset has no truth.json (only simulated datasets can run commands)",
+            dataset_path.display()
+        )
+    })?;
+    let g = &truth.geometry;
+    let machine =
+        Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
+    let scale = truth
+        .actuator_scale
+        .unwrap_or(dataset.machine.actuator.scale);
+    let commands = read_numbers(
+        commands_path,
+        &["q1", "q2", "q3", "q4", "q5", "q6"],
+        "command",
+    )?;
+    let poses = parcal_simulate::execute(&machine, &scale, &commands)
+        .with_context(|| format!("{}", commands_path.display()))?;
+    let reached: Vec<Target> = poses
+        .iter()
+        .map(|p| Target::of_pose(p, &machine.tool))
+        .collect();
+    let rows: Vec<Vec<f64>> = reached.iter().map(|t| t.row().to_vec()).collect();
+    write_numbers(out, &Target::COLUMNS, &rows)?;
+    println!(
+        "{} commands run on the true machine -> {}",
+        rows.len(),
+        out.display()
+    );
+    if let Some(path) = &args.targets {
+        let targets = read_numbers(path, &Target::COLUMNS, "target")?;
+        anyhow::ensure!(
+            targets.len() == reached.len(),
+            "{}: {} targets for {} commands",
+            path.display(),
+            targets.len(),
+            reached.len()
+        );
+        let goals: Vec<Vec3> = targets
+            .iter()
+            .map(|t| Target::from_row(t).position)
+            .collect();
+        let tips: Vec<Vec3> = reached.iter().map(|t| t.position).collect();
+        let errors = registered_errors(&tips, &goals)?;
+        println!(
+            "tip error after the best rigid registration onto the targets: RMS {:.1} um, max {:.1} um",
+            1e3 * rms(&errors),
+            1e3 * errors.iter().copied().fold(0.0, f64::max)
+        );
+    }
+    Ok(())
+}

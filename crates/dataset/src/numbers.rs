@@ -1,0 +1,99 @@
+//! Plain numeric CSV tables (targets, actuator commands, corrected poses,
+//! correction tables of docs/apply.md): named columns of finite numbers,
+//! read and written with the rules of the dataset's CSV files.
+
+use std::path::Path;
+
+use crate::error::Result;
+use crate::table::{self, Header};
+
+/// Reads the CSV file `path` whose header names (at least) `columns`, in any
+/// order; returns every data row's values in the order of `columns`. `what`
+/// names a row in errors (`"target"`). Errors name the file, the line and
+/// the column, as for measurements.csv; a file without data rows is an
+/// error.
+pub fn read_numbers<const N: usize>(
+    path: &Path,
+    columns: &[&'static str; N],
+    what: &str,
+) -> Result<Vec<[f64; N]>> {
+    let expected = columns.join(",");
+    table::read_file(path, |reader| {
+        let header = Header::read(reader, &expected)?;
+        let at = header.require_all(columns, &expected)?;
+        let mut rows = Vec::new();
+        table::for_each_row(reader, &header, what, |row| {
+            rows.push(row.numbers(&at, columns)?);
+            Ok(())
+        })?;
+        Ok(rows)
+    })
+}
+
+/// Writes `rows` to `path` atomically under `header`, every number in
+/// Rust's shortest form that reads back bit for bit. Refuses a row of
+/// another width or a non-finite value, naming the row (1-based) and the
+/// column; nothing is written then.
+pub fn write_numbers(path: &Path, header: &[&str], rows: &[Vec<f64>]) -> Result<()> {
+    let check = crate::check::Check::new(path);
+    for (k, row) in rows.iter().enumerate() {
+        if row.len() != header.len() {
+            return Err(check.error(
+                format!("row {}", k + 1),
+                format!("expected {} values, found {}", header.len(), row.len()),
+            ));
+        }
+        if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+            return Err(check.error(
+                format!("row {}, column {}", k + 1, header[j]),
+                crate::check::not_finite(row[j]),
+            ));
+        }
+    }
+    table::write_file(path, header, |w| {
+        for row in rows {
+            w.numbers(row)?;
+            w.end_row()?;
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_round_trip_and_errors_name_line_and_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        let rows = vec![vec![1.0, -0.0, 1.0 / 3.0], vec![1e-300, 2.5, -7.0]];
+        write_numbers(&path, &["a", "b", "c"], &rows).unwrap();
+        let read = read_numbers(&path, &["c", "a", "b"], "test").unwrap();
+        assert_eq!(
+            read[0].map(f64::to_bits),
+            [1.0 / 3.0, 1.0, -0.0].map(f64::to_bits)
+        );
+        assert_eq!(read[1], [-7.0, 1e-300, 2.5]);
+
+        std::fs::write(&path, "a,b\n1,2\n\n3,x\n").unwrap();
+        let error = read_numbers(&path, &["a", "b"], "test")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.ends_with("line 4, column b: expected a number, found \"x\""),
+            "{error}"
+        );
+        std::fs::write(&path, "a,c\n1,2\n").unwrap();
+        let error = read_numbers(&path, &["a", "b"], "test")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("the header has no column b"), "{error}");
+
+        let error = write_numbers(&path, &["a"], &[vec![f64::NAN]])
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("row 1, column a"), "{error}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "a,c\n1,2\n");
+    }
+}
