@@ -209,7 +209,7 @@ fn refusals_name_the_file_and_the_row_and_write_nothing() {
     )
     .unwrap();
     let error = compensate(&narrow);
-    assert!(error.contains("targets.csv: row 2: q"), "{error}");
+    assert!(error.contains("targets.csv: line 3: q"), "{error}");
     assert!(error.contains("outside the stroke [100, 160]"), "{error}");
 
     // A calibration written before the design was recorded.
@@ -219,4 +219,21 @@ fn refusals_name_the_file_and_the_row_and_write_nothing() {
     let error = compensate(&old);
     assert!(error.contains("has no `design`"), "{error}");
     assert!(!commands.exists());
+
+    // The output is one of the inputs.
+    let error = fails(&[
+        "compensate",
+        "--calibration",
+        s(&calibration),
+        "--poses",
+        s(&targets),
+        "--out",
+        s(&targets),
+    ]);
+    assert!(error.contains("which this run reads"), "{error}");
+    assert!(
+        fs::read_to_string(&targets)
+            .unwrap()
+            .starts_with("x,y,z,roll,pitch,yaw")
+    );
 }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use parcal_apply::predicted::rms;
 use parcal_apply::{
-    AppliedModel, CorrectionTable, TableGrid, Target, compensate, corrected_poses,
+    AppliedModel, ApplyError, CorrectionTable, TableGrid, Target, compensate, corrected_poses,
     predicted_registered,
 };
 use parcal_dataset::{read_numbers, write_numbers};
@@ -77,7 +77,13 @@ fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<(
         .iter()
         .map(Target::from_row)
         .collect();
-    let commands = compensate(model, &targets).with_context(|| format!("{}", poses.display()))?;
+    let commands = compensate(model, &targets).map_err(|error| match error {
+        // The file's line: the header is line 1.
+        ApplyError::Refused { row, refusal } => {
+            anyhow::anyhow!("{}: line {}: {refusal}", poses.display(), row + 1)
+        }
+        other => anyhow::Error::new(other).context(poses.display().to_string()),
+    })?;
     let header = ["q1", "q2", "q3", "q4", "q5", "q6"];
     let rows: Vec<Vec<f64>> = commands.iter().map(|c| c.q.to_vec()).collect();
     // Everything is computed before anything is written.
