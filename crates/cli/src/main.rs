@@ -36,6 +36,8 @@ enum Command {
     Accuracy(commands::accuracy::Args),
     /// Reproduce the paper's simulations I-IV on one simulated dataset, with a report.
     Paper(commands::paper::Args),
+    /// Plan the touches to measure: the most accurate calibration for a budget.
+    Plan(commands::plan::Args),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +48,7 @@ fn main() -> ExitCode {
         Command::Validate(args) => commands::validate::run(&args),
         Command::Accuracy(args) => commands::accuracy::run(&args),
         Command::Paper(args) => commands::paper::run(&args),
+        Command::Plan(args) => commands::plan::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -102,6 +102,7 @@ mod truth;
 mod validation;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
+pub use atomic::write_atomic;
 pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, GlobalTestRecord, IterationSummary,
     ParameterTable, Provenance, RemovedObservation,

@@ -156,7 +156,7 @@ fn is_default<T: Default + PartialEq>(value: &T) -> bool {
 
 impl Machine {
     /// Reads and checks `machine.json`.
-    pub(crate) fn read(path: &Path) -> Result<Self> {
+    pub fn read(path: &Path) -> Result<Self> {
         let file: WithGeometry<GeometryRecord, Conditions> = json::read(path, json::MACHINE)?;
         let machine = Self {
             geometry: file.geometry,

@@ -32,7 +32,7 @@ mod tracker;
 pub use campaign::{Simulation, Summary, ball_id, simulate};
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
-pub use scenario::Scenario;
+pub use scenario::{PlannedTouch, Scenario};
 pub use tracker::{FrameSpread, TrackerKind, TrackerScenario, Workspace, simulate_tracker};
 
 /// Why a simulation failed.

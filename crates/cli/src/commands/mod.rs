@@ -4,6 +4,7 @@ pub mod accuracy;
 pub mod calibrate;
 pub mod inspect;
 pub mod paper;
+pub mod plan;
 pub mod simulate;
 pub mod validate;
 

@@ -1,0 +1,429 @@
+//! Choosing the touches: greedy selection, then Fedorov exchange, with
+//! seeded restarts.
+//!
+//! The unknowns are the 33 parameters and every ball's centre (`n = 33 +
+//! 3 B`). The design's information is the prior's (the kinematic prior, the
+//! centre priors or [`WEAK_CENTRE_SIGMA`], the calibrated distances of a
+//! ball plate) plus `h hᵀ` per chosen touch ([`crate::information`]); the
+//! covariance `Σ = M⁻¹` is refactorised (Cholesky, `n³/3` flops) after each
+//! change of the design. A candidate's gain is its Sherman–Morrison
+//! decrease of the criterion ([`crate::criterion`]), evaluated for the
+//! whole pool with one product `[Σ_pp; Fᵀ Σ_pp] G` (`G` the 33 x pool
+//! matrix of the candidates' parameter rows) in parallel chunks of
+//! [`CHUNK`] candidates: the same numbers whatever the number of threads.
+//!
+//! Every ball the machine reaches gets at least [`min_touches_per_ball`]
+//! touches, the dataset reader's minimum (a ball's centre must be fixed
+//! before its touches say anything about `p`; from an empty design every
+//! single touch has almost no gain). One run: that many random touches per
+//! ball, then greedy additions up to the budget, then exchange passes (each
+//! chosen touch in turn removed and replaced by the best candidate, itself
+//! included; a touch of a ball at the minimum only by one of the same ball)
+//! until a pass improves the criterion by less than a relative 1e-6 or
+//! [`SelectOptions::passes`] passes are made. Restart `r` draws its
+//! seed from stream `r` of [`parcal_simulate::Rng`]; the best run is kept,
+//! the earliest on ties.
+
+use nalgebra::{DMatrix, Matrix3, SMatrix, SVector, Vector3};
+use parcal_kinematics::N_PARAMS;
+use parcal_simulate::Rng;
+use rayon::prelude::*;
+
+use crate::DesignError;
+use crate::criterion::{Criterion, CriterionValues, G_SHORTLIST, MapWeights, Square};
+use crate::information::ContactRow;
+
+/// Candidates per parallel chunk of the gain evaluation.
+pub const CHUNK: usize = 512;
+
+/// The fewest touches of a ball: what the dataset reader accepts
+/// (`parcal_dataset::ReadOptions`).
+pub fn min_touches_per_ball() -> usize {
+    parcal_dataset::ReadOptions::default().min_contacts_per_ball
+}
+
+/// The prior sigma of a ball centre that nothing locates (mm): weak enough
+/// to leave the calibration's figures unchanged once the ball has a few
+/// touches, finite so that the covariance exists for any design.
+pub const WEAK_CENTRE_SIGMA: f64 = 10.0;
+
+/// How the touches are chosen.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SelectOptions {
+    /// The budget: number of touches.
+    pub contacts: usize,
+    /// What is minimised.
+    pub criterion: Criterion,
+    /// At most this many touches per ball.
+    pub per_ball: Option<usize>,
+    /// Number of runs from different seeds.
+    pub restarts: usize,
+    /// Seed of the runs' random streams.
+    pub seed: u64,
+    /// Largest number of exchange passes per run.
+    pub passes: usize,
+}
+
+/// The chosen touches and their predicted figures.
+#[derive(Debug, Clone)]
+pub struct Selection {
+    /// Indices into the pool, sorted.
+    pub chosen: Vec<usize>,
+    /// The predicted posterior covariance of the 33 parameters (mm²).
+    pub covariance: Square,
+    /// Its figures.
+    pub values: CriterionValues,
+}
+
+/// The fixed part of a selection problem.
+pub struct Problem<'a> {
+    rows: &'a [ContactRow],
+    /// `G`: the candidates' parameter rows as columns (33 x pool).
+    stacked: DMatrix<f64>,
+    balls: usize,
+    /// The prior information of all unknowns (`n x n`).
+    prior: DMatrix<f64>,
+    map: &'a MapWeights,
+}
+
+impl<'a> Problem<'a> {
+    /// The problem of choosing among `rows` (touches of `balls` balls) with
+    /// prior information `prior` (`33 + 3 balls` square) and the map `map`.
+    pub fn new(
+        rows: &'a [ContactRow],
+        balls: usize,
+        prior: DMatrix<f64>,
+        map: &'a MapWeights,
+    ) -> Self {
+        let mut stacked = DMatrix::zeros(N_PARAMS, rows.len());
+        for (k, row) in rows.iter().enumerate() {
+            stacked.column_mut(k).copy_from(&row.params);
+        }
+        Self {
+            rows,
+            stacked,
+            balls,
+            prior,
+            map,
+        }
+    }
+
+    /// The figures of the prior alone (no touch).
+    pub fn prior_values(&self) -> Result<CriterionValues, DesignError> {
+        State::new(self)?.values()
+    }
+
+    /// The best design of `options` (module doc); `progress` hears one line
+    /// per run and pass.
+    pub fn select(
+        &self,
+        options: &SelectOptions,
+        progress: &mut dyn FnMut(&str),
+    ) -> Result<Selection, DesignError> {
+        if options.contacts == 0 || options.restarts == 0 {
+            return Err(DesignError::Options(format!(
+                "{} contacts, {} restarts: both must be at least 1",
+                options.contacts, options.restarts
+            )));
+        }
+        let mut best: Option<(f64, State)> = None;
+        for restart in 0..options.restarts {
+            let state = self.run(options, restart as u64, progress)?;
+            let value = state.values()?.value(options.criterion);
+            progress(&format!("run {}: criterion {value:.6e}", restart + 1));
+            if best.as_ref().is_none_or(|(v, _)| value < *v) {
+                best = Some((value, state));
+            }
+        }
+        let (_, state) = best.expect("at least one run");
+        let mut chosen = state.chosen.clone();
+        chosen.sort_unstable();
+        Ok(Selection {
+            chosen,
+            covariance: state.params_covariance(),
+            values: state.values()?,
+        })
+    }
+
+    /// One run: seed, greedy, exchange.
+    fn run(
+        &self,
+        options: &SelectOptions,
+        restart: u64,
+        progress: &mut dyn FnMut(&str),
+    ) -> Result<State<'_>, DesignError> {
+        let mut state = State::new(self)?;
+        let mut by_ball = vec![Vec::new(); self.balls];
+        for (k, row) in self.rows.iter().enumerate() {
+            by_ball[row.ball].push(k);
+        }
+        let reachable = by_ball.iter().filter(|c| !c.is_empty()).count();
+        let seeds = min_touches_per_ball();
+        if options.contacts < seeds * reachable || options.per_ball.is_some_and(|k| k < seeds) {
+            return Err(DesignError::Options(format!(
+                "{} contacts (at most {:?} per ball) cannot give each of the {reachable} balls the machine reaches {seeds} touches; plan fewer balls or more contacts",
+                options.contacts, options.per_ball
+            )));
+        }
+        let mut rng = Rng::new(options.seed, restart);
+        for candidates in by_ball.iter().filter(|c| !c.is_empty()) {
+            for _ in 0..seeds {
+                let pick = candidates[rng.below(candidates.len() as u64) as usize];
+                state.push(pick);
+            }
+        }
+        state.refresh()?;
+        while state.chosen.len() < options.contacts {
+            let best = state.best_addition(options, None)?;
+            state.push(best);
+            state.refresh()?;
+        }
+        let mut value = state.values()?.value(options.criterion);
+        for pass in 0..options.passes {
+            for slot in 0..state.chosen.len() {
+                let ball = self.rows[state.chosen[slot]].ball;
+                let only = (state.counts[ball] <= seeds).then_some(ball);
+                state.remove(slot);
+                state.refresh()?;
+                let best = state.best_addition(options, only)?;
+                state.put(slot, best);
+                state.refresh()?;
+            }
+            let next = state.values()?.value(options.criterion);
+            progress(&format!(
+                "run {}, exchange pass {}: criterion {next:.6e}",
+                restart + 1,
+                pass + 1
+            ));
+            let converged = value - next <= 1e-6 * value.abs();
+            value = next;
+            if converged {
+                break;
+            }
+        }
+        Ok(state)
+    }
+}
+
+/// A design in progress: its information and covariance.
+struct State<'a> {
+    problem: &'a Problem<'a>,
+    information: DMatrix<f64>,
+    covariance: DMatrix<f64>,
+    /// The chosen touches (pool indices); `usize::MAX` marks a slot being
+    /// exchanged.
+    chosen: Vec<usize>,
+    counts: Vec<usize>,
+}
+
+impl<'a> State<'a> {
+    fn new(problem: &'a Problem<'a>) -> Result<Self, DesignError> {
+        let mut state = Self {
+            problem,
+            information: problem.prior.clone(),
+            covariance: DMatrix::zeros(0, 0),
+            chosen: Vec::new(),
+            counts: vec![0; problem.balls],
+        };
+        state.refresh()?;
+        Ok(state)
+    }
+
+    /// `M += sign h hᵀ` for touch `k`.
+    fn accumulate(&mut self, k: usize, sign: f64) {
+        let row = &self.problem.rows[k];
+        let c = N_PARAMS + 3 * row.ball;
+        let (g, u) = (&row.params, &row.centre);
+        let m = &mut self.information;
+        let mut pp = m.view_mut((0, 0), (N_PARAMS, N_PARAMS));
+        pp += sign * g * g.transpose();
+        let mut pc = m.view_mut((0, c), (N_PARAMS, 3));
+        pc += sign * g * u.transpose();
+        let mut cp = m.view_mut((c, 0), (3, N_PARAMS));
+        cp += sign * u * g.transpose();
+        let mut cc = m.view_mut((c, c), (3, 3));
+        cc += sign * u * u.transpose();
+    }
+
+    fn push(&mut self, k: usize) {
+        self.accumulate(k, 1.0);
+        self.counts[self.problem.rows[k].ball] += 1;
+        self.chosen.push(k);
+    }
+
+    fn remove(&mut self, slot: usize) {
+        let k = self.chosen[slot];
+        self.accumulate(k, -1.0);
+        self.counts[self.problem.rows[k].ball] -= 1;
+        self.chosen[slot] = usize::MAX;
+    }
+
+    fn put(&mut self, slot: usize, k: usize) {
+        self.accumulate(k, 1.0);
+        self.counts[self.problem.rows[k].ball] += 1;
+        self.chosen[slot] = k;
+    }
+
+    /// `Σ = M⁻¹`.
+    fn refresh(&mut self) -> Result<(), DesignError> {
+        let cholesky = self
+            .information
+            .clone()
+            .cholesky()
+            .ok_or(DesignError::Singular)?;
+        self.covariance = cholesky.inverse();
+        Ok(())
+    }
+
+    fn params_covariance(&self) -> Square {
+        self.covariance
+            .fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
+            .clone_owned()
+    }
+
+    fn values(&self) -> Result<CriterionValues, DesignError> {
+        CriterionValues::of(&self.params_covariance(), self.problem.map).ok_or(DesignError::Singular)
+    }
+
+    /// The candidate whose addition decreases the criterion most (module
+    /// doc of [`crate::criterion`]), among those of balls below capacity
+    /// (and of ball `only` if given); the lowest index on ties.
+    fn best_addition(
+        &self,
+        options: &SelectOptions,
+        only: Option<usize>,
+    ) -> Result<usize, DesignError> {
+        let problem = self.problem;
+        let sigma_pp = self.params_covariance();
+        let factor = match options.criterion {
+            Criterion::Registered | Criterion::G => problem.map.factor,
+            Criterion::A => Square::identity(),
+            // F Fᵀ = Σ_pp⁻¹ with F = L⁻ᵀ, Σ_pp = L Lᵀ.
+            Criterion::D => {
+                let l = sigma_pp.cholesky().ok_or(DesignError::Singular)?.l();
+                l.try_inverse().ok_or(DesignError::Singular)?.transpose()
+            }
+        };
+        let mut top = DMatrix::zeros(2 * N_PARAMS, N_PARAMS);
+        top.view_mut((0, 0), (N_PARAMS, N_PARAMS)).copy_from(&sigma_pp);
+        top.view_mut((N_PARAMS, 0), (N_PARAMS, N_PARAMS))
+            .copy_from(&(factor.transpose() * sigma_pp));
+        let per_ball: Vec<BallBlocks> = (0..problem.balls)
+            .map(|b| {
+                let c = N_PARAMS + 3 * b;
+                let pc = self
+                    .covariance
+                    .fixed_view::<N_PARAMS, 3>(0, c)
+                    .clone_owned();
+                BallBlocks {
+                    factor_pc: factor.transpose() * pc,
+                    cc: self.covariance.fixed_view::<3, 3>(c, c).clone_owned(),
+                    pc,
+                }
+            })
+            .collect();
+        let capacity = options.per_ball.unwrap_or(usize::MAX);
+        let ratios: Vec<f64> = (0..problem.rows.len())
+            .step_by(CHUNK)
+            .collect::<Vec<_>>()
+            .par_iter()
+            .flat_map_iter(|&start| {
+                let len = CHUNK.min(problem.rows.len() - start);
+                let y = &top * problem.stacked.columns(start, len);
+                (0..len)
+                    .map(|j| {
+                        let row = &problem.rows[start + j];
+                        if self.counts[row.ball] >= capacity
+                            || only.is_some_and(|b| b != row.ball)
+                        {
+                            return f64::NEG_INFINITY;
+                        }
+                        let blocks = &per_ball[row.ball];
+                        let (s_p, w) = blocks.update(&y, j, &row.centre);
+                        let s_c = blocks.pc.tr_mul(&row.params) + blocks.cc * row.centre;
+                        let d = 1.0 + row.params.dot(&s_p) + row.centre.dot(&s_c);
+                        w.norm_squared() / d
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let best = match options.criterion {
+            Criterion::G => self.best_worst_point(&ratios, &sigma_pp, &per_ball),
+            _ => argmax(ratios.iter().copied()),
+        };
+        best.ok_or(DesignError::Capacity {
+            per_ball: capacity,
+            contacts: options.contacts,
+        })
+    }
+
+    /// G: among the [`G_SHORTLIST`] best by the registered ratio, the one
+    /// whose addition leaves the smallest worst map variance.
+    fn best_worst_point(
+        &self,
+        ratios: &[f64],
+        sigma_pp: &Square,
+        per_ball: &[BallBlocks],
+    ) -> Option<usize> {
+        let mut order: Vec<usize> = (0..ratios.len())
+            .filter(|&k| ratios[k].is_finite())
+            .collect();
+        order.sort_by(|&a, &b| ratios[b].total_cmp(&ratios[a]).then(a.cmp(&b)));
+        order.truncate(G_SHORTLIST);
+        order.sort_unstable();
+        let map = self.problem.map;
+        let variances = map.variances(sigma_pp);
+        let worst: Vec<f64> = order
+            .par_iter()
+            .map(|&k| {
+                let row = &self.problem.rows[k];
+                let blocks = &per_ball[row.ball];
+                let s_p = sigma_pp * row.params + blocks.pc * row.centre;
+                let s_c = blocks.pc.tr_mul(&row.params) + blocks.cc * row.centre;
+                let d = 1.0 + row.params.dot(&s_p) + row.centre.dot(&s_c);
+                map.jacobians
+                    .iter()
+                    .zip(&variances)
+                    .map(|(j, v)| v - (j * s_p).norm_squared() / d)
+                    .fold(f64::NEG_INFINITY, f64::max)
+            })
+            .collect();
+        argmax(worst.iter().map(|w| -w)).map(|i| order[i])
+    }
+}
+
+/// One ball's blocks of `Σ` for the gain evaluation.
+struct BallBlocks {
+    /// `Σ_pC` (33 x 3).
+    pc: SMatrix<f64, N_PARAMS, 3>,
+    /// `Fᵀ Σ_pC`.
+    factor_pc: SMatrix<f64, N_PARAMS, 3>,
+    /// `Σ_CC`.
+    cc: Matrix3<f64>,
+}
+
+impl BallBlocks {
+    /// `s_p = Σ_pp g + Σ_pC c` and `w = Fᵀ s_p` from column `j` of
+    /// `y = [Σ_pp; Fᵀ Σ_pp] G`.
+    fn update(
+        &self,
+        y: &DMatrix<f64>,
+        j: usize,
+        centre: &Vector3<f64>,
+    ) -> (SVector<f64, N_PARAMS>, SVector<f64, N_PARAMS>) {
+        let s_p = y.fixed_view::<N_PARAMS, 1>(0, j) + self.pc * centre;
+        let w = y.fixed_view::<N_PARAMS, 1>(N_PARAMS, j) + self.factor_pc * centre;
+        (s_p, w)
+    }
+}
+
+/// The index of the largest finite value, the lowest on ties.
+fn argmax(values: impl Iterator<Item = f64>) -> Option<usize> {
+    let mut best: Option<(usize, f64)> = None;
+    for (k, v) in values.enumerate() {
+        if v.is_finite() && best.is_none_or(|(_, b)| v > b) {
+            best = Some((k, v));
+        }
+    }
+    best.map(|(k, _)| k)
+}
