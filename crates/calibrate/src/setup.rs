@@ -26,7 +26,7 @@ use crate::layout::ParameterLayout;
 use crate::problem::{
     CalibrationProblem, CoordinateObservations, DistanceObservation, RadiusObservations,
 };
-use crate::sphere_fit::{best_fit, mirror_fit};
+use crate::sphere_fit::{SphereFitError, best_fit, mirror_fit};
 use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode};
 
 /// The initial estimate and everything derived from the dataset once.
@@ -400,8 +400,18 @@ impl Starts<'_> {
                     derivatives.predicted_pose(&Vector6::from_fn(|i, _| q[i] - before[i]))
                 });
                 previous = Some(q);
-                let from_prediction = predicted
-                    .is_some_and(|start| derivatives.forward(geometry, q, &start, &fk).is_ok());
+                // Newton's method from a first-order prediction far off
+                // (contacts of one ball at orientations tens of degrees
+                // apart) can converge to another assembly of the machine:
+                // its tip must land near the predicted one, or the contact
+                // starts from the home pose.
+                let from_prediction = predicted.is_some_and(|start| {
+                    derivatives.forward(geometry, q, &start, &fk).is_ok()
+                        && (geometry.tool_tip(&derivatives.solution().pose)
+                            - geometry.tool_tip(&start))
+                        .norm()
+                            <= PREDICTION_TOLERANCE_MM
+                });
                 if !from_prediction {
                     derivatives
                         .forward(geometry, q, &geometry.home_pose(q), &fk)
@@ -416,7 +426,15 @@ impl Starts<'_> {
             ball: artefact.id.clone(),
             source,
         };
-        let fit = best_fit(&points, artefact.radius).map_err(fit_error)?;
+        // A fit that crawls along a valley of its cost (a few close points
+        // whose design-FK errors are a tenth of the radius, as at large
+        // tilts) still ends downhill of its start: the data cannot place the
+        // centre along that valley at the design's accuracy, the
+        // calibration's iterations do.
+        let fit = match best_fit(&points, artefact.radius) {
+            Err(SphereFitError::NotConverged { last }) => last,
+            fit => fit.map_err(fit_error)?,
+        };
         let centre = match start {
             CentreStart::BestFit => fit.centre,
             CentreStart::Mirror => {
@@ -452,6 +470,13 @@ impl Starts<'_> {
         Ok(centre)
     }
 }
+
+/// How far (mm) the tip solved from a predicted start may land from the
+/// predicted tip: the prediction's error is second order in the readings'
+/// change, a few um for the few-mm changes between the contacts of a ball
+/// at like orientations; another assembly of the machine lies tens of mm
+/// away.
+const PREDICTION_TOLERANCE_MM: f64 = 1.0;
 
 /// One ball's slots of the per-contact outputs.
 struct ContactSlots<'s, T> {

@@ -12,15 +12,17 @@
 //! matrix of the candidates' parameter rows) in parallel chunks of
 //! [`CHUNK`] candidates: the same numbers whatever the number of threads.
 //!
-//! Every ball the machine reaches gets at least [`min_touches_per_ball`]
-//! touches, the dataset reader's minimum (a ball's centre must be fixed
-//! before its touches say anything about `p`; from an empty design every
-//! single touch has almost no gain). One run: that many random touches per
-//! ball, then greedy additions up to the budget, then exchange passes (each
-//! chosen touch in turn removed and replaced by the best candidate, itself
-//! included; a touch of a ball at the minimum only by one of the same ball)
-//! until a pass improves the criterion by less than a relative 1e-6 or
-//! [`SelectOptions::passes`] passes are made. Restart `r` draws its
+//! Every ball the machine reaches gets [`min_touches_per_ball`] anchor
+//! touches, the dataset reader's minimum, from directions as spread as its
+//! candidates allow (greedy on `det Σ u uᵀ`, the first drawn at random):
+//! a ball's centre must be fixed before its touches say anything about
+//! `p`, and a centre fixed by a few close touches is a strongly non-linear
+//! problem for the calibration (a tangential error `δ` of the start moves
+//! the distances by `δ²/2r`, far beyond the noise). The anchors stay; the
+//! rest of the budget is added greedily, then exchanged in passes (each
+//! touch in turn removed and replaced by the best candidate, itself
+//! included) until a pass improves the criterion by less than a relative
+//! 1e-6 or [`SelectOptions::passes`] passes are made. Restart `r` draws its
 //! seed from stream `r` of [`parcal_simulate::Rng`]; the best run is kept,
 //! the earliest on ties.
 
@@ -167,25 +169,23 @@ impl<'a> Problem<'a> {
         }
         let mut rng = Rng::new(options.seed, restart);
         for candidates in by_ball.iter().filter(|c| !c.is_empty()) {
-            for _ in 0..seeds {
-                let pick = candidates[rng.below(candidates.len() as u64) as usize];
-                state.push(pick);
+            for k in self.anchors(candidates, seeds, &mut rng) {
+                state.push(k);
             }
         }
+        let anchors = state.chosen.len();
         state.refresh()?;
         while state.chosen.len() < options.contacts {
-            let best = state.best_addition(options, None)?;
+            let best = state.best_addition(options)?;
             state.push(best);
             state.refresh()?;
         }
         let mut value = state.values()?.value(options.criterion);
         for pass in 0..options.passes {
-            for slot in 0..state.chosen.len() {
-                let ball = self.rows[state.chosen[slot]].ball;
-                let only = (state.counts[ball] <= seeds).then_some(ball);
+            for slot in anchors..state.chosen.len() {
                 state.remove(slot);
                 state.refresh()?;
-                let best = state.best_addition(options, only)?;
+                let best = state.best_addition(options)?;
                 state.put(slot, best);
                 state.refresh()?;
             }
@@ -202,6 +202,29 @@ impl<'a> Problem<'a> {
             }
         }
         Ok(state)
+    }
+}
+
+impl Problem<'_> {
+    /// `count` anchor touches among one ball's `candidates` (module doc):
+    /// the first at random, each next maximising `det(Σ u uᵀ + ε I)` of
+    /// those chosen (`u` the rows' centre parts, whitened normals), the
+    /// lowest index on ties.
+    fn anchors(&self, candidates: &[usize], count: usize, rng: &mut Rng) -> Vec<usize> {
+        let mut chosen = vec![candidates[rng.below(candidates.len() as u64) as usize]];
+        let outer = |k: usize| {
+            let u = self.rows[k].centre.normalize();
+            u * u.transpose()
+        };
+        let mut scatter = outer(chosen[0]) + Matrix3::identity() * 1e-6;
+        while chosen.len() < count {
+            let next = argmax(candidates.iter().map(|&k| (scatter + outer(k)).determinant()))
+                .map(|i| candidates[i])
+                .expect("a ball with candidates");
+            scatter += outer(next);
+            chosen.push(next);
+        }
+        chosen
     }
 }
 
@@ -286,13 +309,9 @@ impl<'a> State<'a> {
     }
 
     /// The candidate whose addition decreases the criterion most (module
-    /// doc of [`crate::criterion`]), among those of balls below capacity
-    /// (and of ball `only` if given); the lowest index on ties.
-    fn best_addition(
-        &self,
-        options: &SelectOptions,
-        only: Option<usize>,
-    ) -> Result<usize, DesignError> {
+    /// doc of [`crate::criterion`]), among those of balls below capacity;
+    /// the lowest index on ties.
+    fn best_addition(&self, options: &SelectOptions) -> Result<usize, DesignError> {
         let problem = self.problem;
         let sigma_pp = self.params_covariance();
         let factor = match options.criterion {
@@ -333,9 +352,7 @@ impl<'a> State<'a> {
                 (0..len)
                     .map(|j| {
                         let row = &problem.rows[start + j];
-                        if self.counts[row.ball] >= capacity
-                            || only.is_some_and(|b| b != row.ball)
-                        {
+                        if self.counts[row.ball] >= capacity {
                             return f64::NEG_INFINITY;
                         }
                         let blocks = &per_ball[row.ball];
