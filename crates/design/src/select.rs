@@ -12,16 +12,19 @@
 //! matrix of the candidates' parameter rows) in parallel chunks of
 //! [`CHUNK`] candidates: the same numbers whatever the number of threads.
 //!
-//! Every ball the machine reaches gets [`min_touches_per_ball`] anchor
-//! touches, the dataset reader's minimum, from directions as spread as its
-//! candidates allow (greedy on `det Σ u uᵀ`, the first drawn at random):
-//! a ball's centre must be fixed before its touches say anything about
-//! `p`, and a centre fixed by a few close touches is a strongly non-linear
-//! problem for the calibration (a tangential error `δ` of the start moves
-//! the distances by `δ²/2r`, far beyond the noise). The anchors stay; the
-//! rest of the budget is added greedily, then exchanged in passes (each
-//! touch in turn removed and replaced by the best candidate, itself
-//! included) until a pass improves the criterion by less than a relative
+//! Every ball the machine reaches keeps at least [`min_touches_per_ball`]
+//! touches (the dataset reader's minimum) spanning the directions: the
+//! smallest eigenvalue of its touches' `Σ u uᵀ` (unit normals) stays at
+//! least [`SPREAD`], or what its candidates allow. A ball's centre must be
+//! fixed before its touches say anything about `p`, and a centre fixed by
+//! a few close touches is a strongly non-linear problem for the
+//! calibration (a tangential error `δ` of the start moves the distances by
+//! `δ²/2r`, far beyond the noise: Gauss-Newton oscillates). One run: per
+//! ball that many anchor touches, as spread as possible (greedy on
+//! `det Σ u uᵀ`, the first drawn at random); greedy additions up to the
+//! budget; then exchange passes, each touch in turn removed and replaced by
+//! the best candidate (itself included) that keeps its ball's count and
+//! spread, until a pass improves the criterion by less than a relative
 //! 1e-6 or [`SelectOptions::passes`] passes are made. Restart `r` draws its
 //! seed from stream `r` of [`parcal_simulate::Rng`]; the best run is kept,
 //! the earliest on ties.
@@ -43,6 +46,11 @@ pub const CHUNK: usize = 512;
 pub fn min_touches_per_ball() -> usize {
     parcal_dataset::ReadOptions::default().min_contacts_per_ball
 }
+
+/// The smallest eigenvalue of `Σ u uᵀ` over a ball's touches that a plan
+/// keeps: four directions on the rim of a 60 degree cone about the stylus
+/// axis give 1.
+pub const SPREAD: f64 = 0.5;
 
 /// The prior sigma of a ball centre that nothing locates (mm): weak enough
 /// to leave the calibration's figures unchanged once the ball has a few
@@ -173,19 +181,33 @@ impl<'a> Problem<'a> {
                 state.push(k);
             }
         }
-        let anchors = state.chosen.len();
+        // A ball whose candidates cannot reach SPREAD keeps what its anchors
+        // reach.
+        let spread: Vec<f64> = state
+            .scatter
+            .iter()
+            .map(|s| SPREAD.min(smallest_eigenvalue(s) * (1.0 - 1e-9)))
+            .collect();
         state.refresh()?;
         while state.chosen.len() < options.contacts {
-            let best = state.best_addition(options)?;
+            let best = state.best_addition(options, None)?;
             state.push(best);
             state.refresh()?;
         }
         let mut value = state.values()?.value(options.criterion);
         for pass in 0..options.passes {
-            for slot in anchors..state.chosen.len() {
+            for slot in 0..state.chosen.len() {
+                let removed = state.chosen[slot];
+                let ball = self.rows[removed].ball;
                 state.remove(slot);
+                let short = state.counts[ball] < seeds
+                    || smallest_eigenvalue(&state.scatter[ball]) < spread[ball];
+                let required = short.then(|| Required {
+                    ball,
+                    spread: spread[ball],
+                });
                 state.refresh()?;
-                let best = state.best_addition(options)?;
+                let best = state.best_addition(options, required)?;
                 state.put(slot, best);
                 state.refresh()?;
             }
@@ -206,22 +228,28 @@ impl<'a> Problem<'a> {
 }
 
 impl Problem<'_> {
+    /// `u uᵀ` of touch `k`'s unit normal (the direction of its centre row).
+    fn direction(&self, k: usize) -> Matrix3<f64> {
+        let u = self.rows[k].centre.normalize();
+        u * u.transpose()
+    }
+
     /// `count` anchor touches among one ball's `candidates` (module doc):
     /// the first at random, each next maximising `det(Σ u uᵀ + ε I)` of
     /// those chosen (`u` the rows' centre parts, whitened normals), the
     /// lowest index on ties.
     fn anchors(&self, candidates: &[usize], count: usize, rng: &mut Rng) -> Vec<usize> {
         let mut chosen = vec![candidates[rng.below(candidates.len() as u64) as usize]];
-        let outer = |k: usize| {
-            let u = self.rows[k].centre.normalize();
-            u * u.transpose()
-        };
-        let mut scatter = outer(chosen[0]) + Matrix3::identity() * 1e-6;
+        let mut scatter = self.direction(chosen[0]) + Matrix3::identity() * 1e-6;
         while chosen.len() < count {
-            let next = argmax(candidates.iter().map(|&k| (scatter + outer(k)).determinant()))
+            let next = argmax(
+                candidates
+                    .iter()
+                    .map(|&k| (scatter + self.direction(k)).determinant()),
+            )
                 .map(|i| candidates[i])
                 .expect("a ball with candidates");
-            scatter += outer(next);
+            scatter += self.direction(next);
             chosen.push(next);
         }
         chosen
@@ -237,6 +265,15 @@ struct State<'a> {
     /// exchanged.
     chosen: Vec<usize>,
     counts: Vec<usize>,
+    /// Per ball, `Σ u uᵀ` of its touches' unit normals.
+    scatter: Vec<Matrix3<f64>>,
+}
+
+/// A replacement that must restore a ball's count and spread.
+#[derive(Clone, Copy)]
+struct Required {
+    ball: usize,
+    spread: f64,
 }
 
 impl<'a> State<'a> {
@@ -247,6 +284,7 @@ impl<'a> State<'a> {
             covariance: DMatrix::zeros(0, 0),
             chosen: Vec::new(),
             counts: vec![0; problem.balls],
+            scatter: vec![Matrix3::zeros(); problem.balls],
         };
         state.refresh()?;
         Ok(state)
@@ -269,21 +307,24 @@ impl<'a> State<'a> {
     }
 
     fn push(&mut self, k: usize) {
-        self.accumulate(k, 1.0);
-        self.counts[self.problem.rows[k].ball] += 1;
         self.chosen.push(k);
+        self.put(self.chosen.len() - 1, k);
     }
 
     fn remove(&mut self, slot: usize) {
         let k = self.chosen[slot];
+        let ball = self.problem.rows[k].ball;
         self.accumulate(k, -1.0);
-        self.counts[self.problem.rows[k].ball] -= 1;
+        self.counts[ball] -= 1;
+        self.scatter[ball] -= self.problem.direction(k);
         self.chosen[slot] = usize::MAX;
     }
 
     fn put(&mut self, slot: usize, k: usize) {
+        let ball = self.problem.rows[k].ball;
         self.accumulate(k, 1.0);
-        self.counts[self.problem.rows[k].ball] += 1;
+        self.counts[ball] += 1;
+        self.scatter[ball] += self.problem.direction(k);
         self.chosen[slot] = k;
     }
 
@@ -309,9 +350,14 @@ impl<'a> State<'a> {
     }
 
     /// The candidate whose addition decreases the criterion most (module
-    /// doc of [`crate::criterion`]), among those of balls below capacity;
-    /// the lowest index on ties.
-    fn best_addition(&self, options: &SelectOptions) -> Result<usize, DesignError> {
+    /// doc of [`crate::criterion`]), among those of balls below capacity
+    /// (and those that restore the `required` ball's count and spread); the
+    /// lowest index on ties.
+    fn best_addition(
+        &self,
+        options: &SelectOptions,
+        required: Option<Required>,
+    ) -> Result<usize, DesignError> {
         let problem = self.problem;
         let sigma_pp = self.params_covariance();
         let factor = match options.criterion {
@@ -352,7 +398,17 @@ impl<'a> State<'a> {
                 (0..len)
                     .map(|j| {
                         let row = &problem.rows[start + j];
-                        if self.counts[row.ball] >= capacity {
+                        // One touch of the ball restores its count; its
+                        // spread, only if the eigenvalue is back.
+                        let restores = |r: Required| {
+                            row.ball == r.ball
+                                && smallest_eigenvalue(
+                                    &(self.scatter[r.ball] + problem.direction(start + j)),
+                                ) >= r.spread
+                        };
+                        if self.counts[row.ball] >= capacity
+                            || required.is_some_and(|r| !restores(r))
+                        {
                             return f64::NEG_INFINITY;
                         }
                         let blocks = &per_ball[row.ball];
@@ -432,6 +488,11 @@ impl BallBlocks {
         let w = y.fixed_view::<N_PARAMS, 1>(N_PARAMS, j) + self.factor_pc * centre;
         (s_p, w)
     }
+}
+
+/// The smallest eigenvalue of a symmetric 3 x 3 matrix.
+fn smallest_eigenvalue(m: &Matrix3<f64>) -> f64 {
+    m.symmetric_eigenvalues().min()
 }
 
 /// The index of the largest finite value, the lowest on ties.

@@ -40,6 +40,10 @@ pub struct Args {
     /// Runs from different random seeds (the best is kept).
     #[arg(long, default_value_t = 2)]
     restarts: usize,
+    /// Largest angle between the approach direction and the stylus axis,
+    /// degrees: the shaft clears the ball within it.
+    #[arg(long, default_value_t = parcal_design::pool::MAX_APPROACH_DEGREES)]
+    max_approach: f64,
 }
 
 /// `--criterion`.
@@ -70,6 +74,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         seed: args.seed,
         per_ball: args.per_ball,
         restarts: args.restarts,
+        max_approach_degrees: args.max_approach,
         ..PlanOptions::new(args.contacts, args.tilt)
     };
     let progress = Progress::spinner();
