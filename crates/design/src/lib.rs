@@ -66,17 +66,17 @@ pub struct PlanOptions {
 
 impl PlanOptions {
     /// `contacts` touches within `tilt_degrees`, everything else by default:
-    /// the registered criterion, a pool of about 5000, seed 1, no per-ball
-    /// capacity, 2 runs of at most 3 exchange passes.
+    /// the registered criterion, a pool of about 20,000, seed 1, no
+    /// per-ball capacity, one run of at most 3 exchange passes.
     pub fn new(contacts: usize, tilt_degrees: f64) -> Self {
         Self {
             contacts,
             tilt_degrees,
             criterion: Criterion::Registered,
-            pool: 5000,
+            pool: 20_000,
             seed: 1,
             per_ball: None,
-            restarts: 2,
+            restarts: 1,
             passes: 3,
             max_approach_degrees: pool::MAX_APPROACH_DEGREES,
             min_conditioning: pool::MIN_CONDITIONING,

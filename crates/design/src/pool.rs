@@ -44,8 +44,10 @@ pub struct PoolOptions {
     pub stroke: [f64; 2],
 }
 
-/// The default largest approach angle: 60 degrees off the stylus axis.
-pub const MAX_APPROACH_DEGREES: f64 = 60.0;
+/// The default largest approach angle: 80 degrees off the stylus axis (a
+/// stylus whose shaft is thinner than its tip touches a ball up to its
+/// equator and a little beyond).
+pub const MAX_APPROACH_DEGREES: f64 = 80.0;
 
 /// The default singularity threshold on `sigma_min / sigma_max`.
 pub const MIN_CONDITIONING: f64 = 0.05;

@@ -29,7 +29,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = CriterionArg::Registered)]
     criterion: CriterionArg,
     /// Approximate number of candidate touches before the feasibility checks.
-    #[arg(long, default_value_t = 5000)]
+    #[arg(long, default_value_t = 20_000)]
     pool: usize,
     /// Seed of the restarts.
     #[arg(long, default_value_t = 1)]
@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long)]
     per_ball: Option<usize>,
     /// Runs from different random seeds (the best is kept).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 1)]
     restarts: usize,
     /// Largest angle between the approach direction and the stylus axis,
     /// degrees: the shaft clears the ball within it.
