@@ -15,7 +15,8 @@ fn planning(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("189 touches from a pool of 20,000 at +-30 degrees", |b| {
         b.iter(|| {
-            let planned = plan(&dataset.machine, &dataset.artefacts, &options, &mut |_| {}).unwrap();
+            let planned =
+                plan(&dataset.machine, &dataset.artefacts, &options, &mut |_| {}).unwrap();
             assert!(planned.pool_size >= 20_000);
             black_box(planned.predicted)
         })

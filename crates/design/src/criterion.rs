@@ -149,6 +149,8 @@ mod tests {
         let covariance = Square::from_fn(|r, c| if r == c { 2.0 } else { 0.1 });
         let values = CriterionValues::of(&covariance, &map).unwrap();
         let mean = map.variances(&covariance).iter().sum::<f64>() / 10.0;
-        assert!((values.registered_rms_um - mean.sqrt() * 1e3).abs() < 1e-9 * values.registered_rms_um);
+        assert!(
+            (values.registered_rms_um - mean.sqrt() * 1e3).abs() < 1e-9 * values.registered_rms_um
+        );
     }
 }

@@ -25,7 +25,9 @@ pub enum DesignError {
         stroke: [f64; 2],
     },
     /// The per-ball capacity cannot hold the budget.
-    #[error("--per-ball {per_ball} cannot hold {contacts} contacts on the balls the machine reaches")]
+    #[error(
+        "--per-ball {per_ball} cannot hold {contacts} contacts on the balls the machine reaches"
+    )]
     Capacity {
         /// The capacity.
         per_ball: usize,

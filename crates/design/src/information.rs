@@ -22,8 +22,8 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use parcal_kinematics::{Canonical, Geometry, N_PARAMS, Vec3, tip_jacobians_at};
 use parcal_observe::{Repeatability, WeightModel, coordinate_covariance};
 
-use crate::pool::{Candidate, NominalBall, tip_pose};
 use crate::DesignError;
+use crate::pool::{Candidate, NominalBall, tip_pose};
 
 /// The information row of one touch (whitened, dimensionless per mm).
 #[derive(Debug, Clone, PartialEq)]
@@ -65,11 +65,17 @@ pub fn contact_row(
 /// `L⁻ᵀ n` (so that `h x = (L⁻ᵀ n)ᵀ x`) for the covariance `w` and the
 /// unit direction `u` (module doc).
 fn normal_row(w: &Matrix3<f64>, u: &Vec3) -> Result<Vector3<f64>, DesignError> {
-    let cholesky = w
-        .cholesky()
-        .ok_or_else(|| DesignError::Options("the touch covariance is not positive definite".into()))?;
+    let cholesky = w.cholesky().ok_or_else(|| {
+        DesignError::Options("the touch covariance is not positive definite".into())
+    })?;
     let l = cholesky.l();
-    let t1 = u.cross(&if u.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() }).normalize();
+    let t1 = u
+        .cross(&if u.x.abs() < 0.9 {
+            Vec3::x()
+        } else {
+            Vec3::y()
+        })
+        .normalize();
     let t2 = u.cross(&t1);
     let solve = |t: &Vec3| l.solve_lower_triangular(t).expect("L is invertible");
     let n = solve(&t1).cross(&solve(&t2)).normalize();
@@ -108,7 +114,11 @@ mod tests {
         let design = paper::design();
         let canonical = design.canonicalize().unwrap();
         let sigma = 1e-3;
-        let repeatability = Repeatability { actuator: 0.0, tool: sigma, radius: 0.0 };
+        let repeatability = Repeatability {
+            actuator: 0.0,
+            tool: sigma,
+            radius: 0.0,
+        };
         let c = candidate(Vec3::new(0.3, -0.2, -1.0), [0.1, -0.05, 0.2]);
         let row = contact_row(&design, &canonical, &ball(), &c, &repeatability).unwrap();
         let u = canonical.base_from_input.rotation * c.direction;
@@ -117,7 +127,10 @@ mod tests {
         let point = ball().centre + ball().radius * c.direction;
         let pose = canonical.pose_from_input(&tip_pose(&design, &point, c.rotation()));
         let q = actuators(&canonical.geometry, &pose);
-        let centre = canonical.base_from_input.transform_point(&ball().centre.into()).coords;
+        let centre = canonical
+            .base_from_input
+            .transform_point(&ball().centre.into())
+            .coords;
         let p0 = params::to_params(&canonical.geometry);
         let residual = |p: &parcal_kinematics::Params| {
             let g = params::from_params(p);
@@ -146,7 +159,11 @@ mod tests {
         // 3-row block with the two angle columns eliminated equals h hᵀ.
         let design = paper::design();
         let canonical = design.canonicalize().unwrap();
-        let repeatability = Repeatability { actuator: 1e-3, tool: 1e-3, radius: 1e-3 };
+        let repeatability = Repeatability {
+            actuator: 1e-3,
+            tool: 1e-3,
+            radius: 1e-3,
+        };
         let c = candidate(Vec3::new(-0.5, 0.4, -0.7), [-0.3, 0.2, 0.1]);
         let row = contact_row(&design, &canonical, &ball(), &c, &repeatability).unwrap();
 
@@ -161,21 +178,37 @@ mod tests {
         let t1 = u.cross(&Vec3::z()).normalize();
         let t2 = u.cross(&t1);
         let mut block = SMatrix::<f64, 3, { N_PARAMS + 5 }>::zeros();
-        block.fixed_view_mut::<3, N_PARAMS>(0, 0).copy_from(&(-jacobians.d_params));
-        block.fixed_view_mut::<3, 3>(0, N_PARAMS).fill_with_identity();
-        block.fixed_view_mut::<3, 1>(0, N_PARAMS + 3).copy_from(&(5.0 * t1));
-        block.fixed_view_mut::<3, 1>(0, N_PARAMS + 4).copy_from(&(5.0 * t2));
+        block
+            .fixed_view_mut::<3, N_PARAMS>(0, 0)
+            .copy_from(&(-jacobians.d_params));
+        block
+            .fixed_view_mut::<3, 3>(0, N_PARAMS)
+            .fill_with_identity();
+        block
+            .fixed_view_mut::<3, 1>(0, N_PARAMS + 3)
+            .copy_from(&(5.0 * t1));
+        block
+            .fixed_view_mut::<3, 1>(0, N_PARAMS + 4)
+            .copy_from(&(5.0 * t2));
         let whitened = DMatrix::from_iterator(3, N_PARAMS + 5, (l_inv * block).iter().copied());
         let full = whitened.transpose() * &whitened;
         let n = N_PARAMS + 3;
         let kept = full.view((0, 0), (n, n));
         let cross = full.view((0, n), (n, 2));
-        let angles = full.view((n, n), (2, 2)).clone_owned().try_inverse().unwrap();
+        let angles = full
+            .view((n, n), (2, 2))
+            .clone_owned()
+            .try_inverse()
+            .unwrap();
         let schur = kept - cross * angles * cross.transpose();
         let mut h = DMatrix::zeros(n, 1);
         h.view_mut((0, 0), (N_PARAMS, 1)).copy_from(&row.params);
         h.view_mut((N_PARAMS, 0), (3, 1)).copy_from(&row.centre);
         let difference = (&schur - &h * h.transpose()).amax();
-        assert!(difference < 1e-6 * schur.amax(), "{difference:e} of {:e}", schur.amax());
+        assert!(
+            difference < 1e-6 * schur.amax(),
+            "{difference:e} of {:e}",
+            schur.amax()
+        );
     }
 }

@@ -100,7 +100,10 @@ pub struct Plan {
 }
 
 /// The nominal balls of `artefacts` in the design frame of `design`.
-pub fn nominal_balls(design: &Geometry, artefacts: &Artefacts) -> Result<Vec<NominalBall>, DesignError> {
+pub fn nominal_balls(
+    design: &Geometry,
+    artefacts: &Artefacts,
+) -> Result<Vec<NominalBall>, DesignError> {
     let canonical = design.canonicalize().map_err(DesignError::Design)?;
     let to_design = canonical.base_from_input.inverse();
     Ok(artefacts
@@ -154,10 +157,17 @@ pub fn plan(
                 tool: machine.repeatability.tool,
                 radius: ball.radius_sigma,
             };
-            contact_row(&design, &canonical, &balls[candidate.ball], candidate, &repeatability)
+            contact_row(
+                &design,
+                &canonical,
+                &balls[candidate.ball],
+                candidate,
+                &repeatability,
+            )
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let targets = CanonicalTargets::new(&design, &MapGrid::paper()).map_err(DesignError::Accuracy)?;
+    let targets =
+        CanonicalTargets::new(&design, &MapGrid::paper()).map_err(DesignError::Accuracy)?;
     let map = MapWeights::new(
         registered_jacobians(&targets, &params::to_params(&canonical.geometry))
             .map_err(DesignError::Accuracy)?,

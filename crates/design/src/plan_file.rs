@@ -117,13 +117,21 @@ pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>, DesignError> {
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| error(line, format!("{}: {field:?} is not a finite number", names[i + 1])))?;
+                .ok_or_else(|| {
+                    error(
+                        line,
+                        format!("{}: {field:?} is not a finite number", names[i + 1]),
+                    )
+                })?;
         }
         let direction = Vec3::new(values[0], values[1], values[2]);
         if (direction.norm() - 1.0).abs() > UNIT_TOLERANCE {
             return Err(error(
                 line,
-                format!("u = ({}, {}, {}) is not a unit vector", values[0], values[1], values[2]),
+                format!(
+                    "u = ({}, {}, {}) is not a unit vector",
+                    values[0], values[1], values[2]
+                ),
             ));
         }
         let ball = record[0].trim().to_string();
@@ -151,15 +159,28 @@ mod tests {
     fn bad_rows_are_named() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("plan.csv");
-        std::fs::write(&path, format!("{HEADER}\nb01,0,0,-1,0,0,0,1,2,3,4,5,6\nb02,0,0,-2,0,0,0,1,2,3,4,5,6\n")).unwrap();
+        std::fs::write(
+            &path,
+            format!("{HEADER}\nb01,0,0,-1,0,0,0,1,2,3,4,5,6\nb02,0,0,-2,0,0,0,1,2,3,4,5,6\n"),
+        )
+        .unwrap();
         let message = read_plan(&path).unwrap_err().to_string();
-        assert!(message.contains("line 3") && message.contains("not a unit vector"), "{message}");
+        assert!(
+            message.contains("line 3") && message.contains("not a unit vector"),
+            "{message}"
+        );
         std::fs::write(&path, format!("{HEADER}\nb01,0,0,-1,0,0,x,1,2,3,4,5,6\n")).unwrap();
         let message = read_plan(&path).unwrap_err().to_string();
-        assert!(message.contains("line 2") && message.contains("yaw"), "{message}");
+        assert!(
+            message.contains("line 2") && message.contains("yaw"),
+            "{message}"
+        );
         std::fs::write(&path, "ball,u\n").unwrap();
         let message = read_plan(&path).unwrap_err().to_string();
-        assert!(message.contains("line 1") && message.contains("header"), "{message}");
+        assert!(
+            message.contains("line 1") && message.contains("header"),
+            "{message}"
+        );
         std::fs::write(&path, format!("{HEADER}\nb01,0,0,-1,0,0,0.5,1,2,3,4,5,6\n")).unwrap();
         let rows = read_plan(&path).unwrap();
         assert_eq!(rows[0].ball, "b01");

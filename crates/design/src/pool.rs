@@ -92,7 +92,13 @@ pub fn tip_pose(design: &Geometry, point: &Vec3, rotation: UnitQuaternion<f64>) 
 /// `sigma_min / sigma_max` of the closure Jacobian of `design` at `pose`,
 /// rotation columns divided by the joint radius (module doc).
 pub fn conditioning(design: &Geometry, pose: &Pose) -> f64 {
-    let rho = (design.platform.iter().map(|e| e.norm_squared()).sum::<f64>() / 6.0).sqrt();
+    let rho = (design
+        .platform
+        .iter()
+        .map(|e| e.norm_squared())
+        .sum::<f64>()
+        / 6.0)
+        .sqrt();
     let rows = Legs::at(design, pose).closure_rows();
     let a = Matrix6::from_fn(|i, j| if j < 3 { rows[i][j] } else { rows[i][j] / rho });
     let sigma = a.singular_values();
@@ -258,7 +264,11 @@ mod tests {
         // 90 degrees turns the paper's machine into its singular
         // configuration (every leg in a plane through the vertical axis).
         let design = paper::design();
-        let home = tip_pose(&design, &Vec3::new(0.0, 0.0, 400.0), rotation_zyx(0.0, 0.0, 0.0));
+        let home = tip_pose(
+            &design,
+            &Vec3::new(0.0, 0.0, 400.0),
+            rotation_zyx(0.0, 0.0, 0.0),
+        );
         let turned = tip_pose(
             &design,
             &Vec3::new(0.0, 0.0, 400.0),

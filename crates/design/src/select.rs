@@ -247,8 +247,8 @@ impl Problem<'_> {
                     .iter()
                     .map(|&k| (scatter + self.direction(k)).determinant()),
             )
-                .map(|i| candidates[i])
-                .expect("a ball with candidates");
+            .map(|i| candidates[i])
+            .expect("a ball with candidates");
             scatter += self.direction(next);
             chosen.push(next);
         }
@@ -346,7 +346,8 @@ impl<'a> State<'a> {
     }
 
     fn values(&self) -> Result<CriterionValues, DesignError> {
-        CriterionValues::of(&self.params_covariance(), self.problem.map).ok_or(DesignError::Singular)
+        CriterionValues::of(&self.params_covariance(), self.problem.map)
+            .ok_or(DesignError::Singular)
     }
 
     /// The candidate whose addition decreases the criterion most (module
@@ -389,7 +390,8 @@ impl<'a> State<'a> {
             }
         };
         let mut top = DMatrix::zeros(2 * N_PARAMS, N_PARAMS);
-        top.view_mut((0, 0), (N_PARAMS, N_PARAMS)).copy_from(&sigma_pp);
+        top.view_mut((0, 0), (N_PARAMS, N_PARAMS))
+            .copy_from(&sigma_pp);
         top.view_mut((N_PARAMS, 0), (N_PARAMS, N_PARAMS))
             .copy_from(&(factor.transpose() * sigma_pp));
         let per_ball: Vec<BallBlocks> = (0..problem.balls)
@@ -531,10 +533,18 @@ mod tests {
     fn small_problem() -> (Vec<ContactRow>, MapWeights, DMatrix<f64>) {
         let design = paper::design();
         let canonical = design.canonicalize().unwrap();
-        let balls: Vec<NominalBall> = [(-50.0, -40.0, 380.0), (50.0, 0.0, 420.0), (0.0, 60.0, 400.0), (-30.0, 30.0, 440.0)]
-            .iter()
-            .map(|&(x, y, z)| NominalBall { centre: parcal_kinematics::Vec3::new(x, y, z), radius: 5.0 })
-            .collect();
+        let balls: Vec<NominalBall> = [
+            (-50.0, -40.0, 380.0),
+            (50.0, 0.0, 420.0),
+            (0.0, 60.0, 400.0),
+            (-30.0, 30.0, 440.0),
+        ]
+        .iter()
+        .map(|&(x, y, z)| NominalBall {
+            centre: parcal_kinematics::Vec3::new(x, y, z),
+            radius: 5.0,
+        })
+        .collect();
         let pool = candidate_pool(
             &design,
             &balls,
@@ -547,7 +557,11 @@ mod tests {
             },
         )
         .unwrap();
-        let repeatability = Repeatability { actuator: 1e-3, tool: 1e-3, radius: 1e-3 };
+        let repeatability = Repeatability {
+            actuator: 1e-3,
+            tool: 1e-3,
+            radius: 1e-3,
+        };
         let rows = pool
             .iter()
             .map(|c| contact_row(&design, &canonical, &balls[c.ball], c, &repeatability).unwrap())
@@ -558,13 +572,24 @@ mod tests {
         );
         let n = N_PARAMS + 12;
         let mut prior = DMatrix::identity(n, n) * WEAK_CENTRE_SIGMA.powi(-2);
-        prior.view_mut((0, 0), (N_PARAMS, N_PARAMS)).fill_with_identity();
-        prior.view_mut((0, 0), (N_PARAMS, N_PARAMS)).scale_mut(0.1f64.powi(-2));
+        prior
+            .view_mut((0, 0), (N_PARAMS, N_PARAMS))
+            .fill_with_identity();
+        prior
+            .view_mut((0, 0), (N_PARAMS, N_PARAMS))
+            .scale_mut(0.1f64.powi(-2));
         (rows, map, prior)
     }
 
     fn options(criterion: Criterion) -> SelectOptions {
-        SelectOptions { contacts: 24, criterion, per_ball: None, restarts: 1, seed: 3, passes: 2 }
+        SelectOptions {
+            contacts: 24,
+            criterion,
+            per_ball: None,
+            restarts: 1,
+            seed: 3,
+            passes: 2,
+        }
     }
 
     #[test]
@@ -580,12 +605,22 @@ mod tests {
             let (ratios, _, _) = state.ratios(&options(criterion), None).unwrap();
             let before = state.values().unwrap();
             for k in [0, rows.len() / 3, rows.len() - 1] {
-                let mut after = State { covariance: state.covariance.clone(), information: state.information.clone(), chosen: state.chosen.clone(), counts: state.counts.clone(), scatter: state.scatter.clone(), problem: &problem };
+                let mut after = State {
+                    covariance: state.covariance.clone(),
+                    information: state.information.clone(),
+                    chosen: state.chosen.clone(),
+                    counts: state.counts.clone(),
+                    scatter: state.scatter.clone(),
+                    problem: &problem,
+                };
                 after.push(k);
                 after.refresh().unwrap();
                 let after = after.values().unwrap();
                 let (expected, actual) = match criterion {
-                    Criterion::Registered => (ratios[k], (before.registered_rms_um.powi(2) - after.registered_rms_um.powi(2)) * 1e-6),
+                    Criterion::Registered => (
+                        ratios[k],
+                        (before.registered_rms_um.powi(2) - after.registered_rms_um.powi(2)) * 1e-6,
+                    ),
                     Criterion::A => (ratios[k], before.a - after.a),
                     _ => (-(1.0 - ratios[k]).ln(), before.d - after.d),
                 };
@@ -606,7 +641,11 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| problem.select(&options(Criterion::Registered), &mut |_| {}).unwrap())
+                .install(|| {
+                    problem
+                        .select(&options(Criterion::Registered), &mut |_| {})
+                        .unwrap()
+                })
         };
         let (one, two) = (select(1), select(2));
         assert_eq!(one.chosen, two.chosen);
@@ -619,11 +658,21 @@ mod tests {
             counts[rows[k].ball] += 1;
             scatter[rows[k].ball] += problem.direction(k);
         }
-        assert!(counts.iter().all(|&c| c >= min_touches_per_ball()), "{counts:?}");
-        assert!(scatter.iter().all(|s| smallest_eigenvalue(s) >= SPREAD), "spread");
+        assert!(
+            counts.iter().all(|&c| c >= min_touches_per_ball()),
+            "{counts:?}"
+        );
+        assert!(
+            scatter.iter().all(|s| smallest_eigenvalue(s) >= SPREAD),
+            "spread"
+        );
         // 24 touches of 4 balls: a fraction of the prior's registered error.
         let prior = problem.prior_values().unwrap().registered_rms_um;
-        assert!(one.values.registered_rms_um < prior / 2.0, "{prior} {:?}", one.values);
+        assert!(
+            one.values.registered_rms_um < prior / 2.0,
+            "{prior} {:?}",
+            one.values
+        );
     }
 
     #[test]
@@ -631,10 +680,18 @@ mod tests {
         let (rows, map, prior) = small_problem();
         let problem = Problem::new(&rows, 4, prior, &map);
         let plan = |c| problem.select(&options(c), &mut |_| {}).unwrap().values;
-        let (registered, g, d, a) = (plan(Criterion::Registered), plan(Criterion::G), plan(Criterion::D), plan(Criterion::A));
+        let (registered, g, d, a) = (
+            plan(Criterion::Registered),
+            plan(Criterion::G),
+            plan(Criterion::D),
+            plan(Criterion::A),
+        );
         // Each criterion does at least as well on its own figure as the
         // registered plan does (a small tolerance: exchange finds local optima).
-        assert!(g.registered_max_um <= registered.registered_max_um * 1.02, "{g:?} {registered:?}");
+        assert!(
+            g.registered_max_um <= registered.registered_max_um * 1.02,
+            "{g:?} {registered:?}"
+        );
         assert!(d.d <= registered.d + 0.5, "{d:?} {registered:?}");
         assert!(a.a <= registered.a * 1.02, "{a:?} {registered:?}");
         assert!(registered.registered_rms_um <= g.registered_rms_um * 1.02);

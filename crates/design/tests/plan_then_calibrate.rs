@@ -36,10 +36,21 @@ fn planned_touches_beat_random_ones_and_their_prediction_holds() {
         pool: 3000,
         ..PlanOptions::new(48, 25.0)
     };
-    let planned = plan(&template.machine, &template.artefacts, &options, &mut |_| {}).unwrap();
+    let planned = plan(
+        &template.machine,
+        &template.artefacts,
+        &options,
+        &mut |_| {},
+    )
+    .unwrap();
     assert_eq!(planned.contacts.len(), 48);
     let [low, high] = planned.stroke;
-    assert!(planned.contacts.iter().all(|c| c.q.iter().all(|q| (low..=high).contains(q))));
+    assert!(
+        planned
+            .contacts
+            .iter()
+            .all(|c| c.q.iter().all(|q| (low..=high).contains(q)))
+    );
 
     let scenario = Scenario {
         plan: Some(
@@ -74,7 +85,11 @@ fn planned_touches_beat_random_ones_and_their_prediction_holds() {
         // The calibration's own prediction (at its estimate) is the plan's
         // (at the design) to first order.
         let ratio = predicted_rms / planned.predicted.registered_rms_um;
-        assert!((ratio - 1.0).abs() < 0.1, "calibration predicts {predicted_rms}, the plan {}", planned.predicted.registered_rms_um);
+        assert!(
+            (ratio - 1.0).abs() < 0.1,
+            "calibration predicts {predicted_rms}, the plan {}",
+            planned.predicted.registered_rms_um
+        );
         planned_true += true_rms / SEEDS as f64;
         random_true += registered(&simulate(&random, seed).unwrap().dataset).0 / SEEDS as f64;
     }
