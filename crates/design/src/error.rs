@@ -34,6 +34,10 @@ pub enum DesignError {
         /// The budget.
         contacts: usize,
     },
+    /// A candidate touch's covariance (the propagated repeatabilities) is
+    /// not positive definite.
+    #[error("a candidate touch's covariance is not positive definite (all repeatabilities zero?)")]
+    TouchCovariance,
     /// The predicted information is not positive definite.
     #[error("the predicted information matrix is not positive definite")]
     Singular,

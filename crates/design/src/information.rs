@@ -65,9 +65,7 @@ pub fn contact_row(
 /// `L⁻ᵀ n` (so that `h x = (L⁻ᵀ n)ᵀ x`) for the covariance `w` and the
 /// unit direction `u` (module doc).
 fn normal_row(w: &Matrix3<f64>, u: &Vec3) -> Result<Vector3<f64>, DesignError> {
-    let cholesky = w.cholesky().ok_or_else(|| {
-        DesignError::Options("the touch covariance is not positive definite".into())
-    })?;
+    let cholesky = w.cholesky().ok_or(DesignError::TouchCovariance)?;
     let l = cholesky.l();
     let t1 = u
         .cross(&if u.x.abs() < 0.9 {
