@@ -170,9 +170,12 @@ impl<'a> Problem<'a> {
         let reachable = by_ball.iter().filter(|c| !c.is_empty()).count();
         let seeds = min_touches_per_ball();
         if options.contacts < seeds * reachable || options.per_ball.is_some_and(|k| k < seeds) {
+            let cap = options
+                .per_ball
+                .map_or(String::new(), |k| format!(" at most {k} per ball"));
             return Err(DesignError::Options(format!(
-                "{} contacts (at most {:?} per ball) cannot give each of the {reachable} balls the machine reaches {seeds} touches; plan fewer balls or more contacts",
-                options.contacts, options.per_ball
+                "{} contacts{cap} cannot give each of the {reachable} balls the machine reaches {seeds} touches (the dataset reader's minimum); plan fewer balls or more contacts",
+                options.contacts
             )));
         }
         let mut rng = Rng::new(options.seed, restart);
