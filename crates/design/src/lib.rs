@@ -24,8 +24,8 @@ pub mod select;
 
 use nalgebra::{DMatrix, Vector3};
 use parcal_accuracy::{CanonicalTargets, MapGrid, registered_jacobians};
-use parcal_dataset::{ArtefactFrame, Artefacts, Machine};
-use parcal_kinematics::{Geometry, N_PARAMS, Vec3, params};
+use parcal_dataset::{ArtefactFrame, Artefacts, Calibration, Machine};
+use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::{KinematicPrior, PriorSigma, Repeatability};
 use rayon::prelude::*;
 
@@ -91,7 +91,8 @@ pub struct Plan {
     pub contacts: Vec<Candidate>,
     /// Predicted figures after calibrating the plan's touches.
     pub predicted: CriterionValues,
-    /// The prior's figures (before calibration).
+    /// The figures before the plan's touches: the prior's, or in sequential
+    /// mode ([`plan_next`]) the calibration's.
     pub prior: CriterionValues,
     /// Number of feasible candidates the plan was chosen from.
     pub pool_size: usize,
@@ -131,9 +132,41 @@ pub fn plan(
     options: &PlanOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Plan, DesignError> {
+    plan_with(machine, artefacts, options, None, progress)
+}
+
+/// Sequential mode: the next `options.contacts` touches after the data of
+/// `calibration` (a converged calibration.json of this machine and these
+/// balls). Its estimate replaces the design as the model (the rows and the
+/// map are linearised there, the commands stay the design's), its
+/// posterior covariance of the 33 replaces the prior, and its centre
+/// sigmas locate the balls it measured (their correlations with the 33 are
+/// not in the record and are left out). No anchor touches: the balls are
+/// located already; calibrated distances are in the posterior already.
+pub fn plan_next(
+    machine: &Machine,
+    artefacts: &Artefacts,
+    calibration: &Calibration,
+    options: &PlanOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Plan, DesignError> {
+    plan_with(machine, artefacts, options, Some(calibration), progress)
+}
+
+fn plan_with(
+    machine: &Machine,
+    artefacts: &Artefacts,
+    options: &PlanOptions,
+    known: Option<&Calibration>,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Plan, DesignError> {
     let m = &machine.geometry;
     let design = Geometry::from_arrays(&m.base_joints, &m.platform_joints, &m.tool, &m.leg_lengths);
-    let canonical = design.canonicalize().map_err(DesignError::Design)?;
+    let mut canonical = design.canonicalize().map_err(DesignError::Design)?;
+    let known = known.map(Posterior::of).transpose()?;
+    if let Some(posterior) = &known {
+        canonical.geometry = params::from_params(&posterior.params);
+    }
     let stroke = machine.stroke.ok_or(DesignError::NoStroke)?;
     let balls = nominal_balls(&design, artefacts)?;
     let pool = candidate_pool(
@@ -172,7 +205,10 @@ pub fn plan(
         registered_jacobians(&targets, &params::to_params(&canonical.geometry))
             .map_err(DesignError::Accuracy)?,
     );
-    let prior = prior_information(machine, artefacts, &design, &balls)?;
+    let prior = match &known {
+        None => prior_information(machine, artefacts, &design, &balls)?,
+        Some(posterior) => posterior.information(artefacts)?,
+    };
     let problem = Problem::new(&rows, balls.len(), prior, &map);
     let selection = problem.select(
         &SelectOptions {
@@ -182,6 +218,7 @@ pub fn plan(
             restarts: options.restarts,
             seed: options.seed,
             passes: options.passes,
+            anchors: known.is_none(),
         },
         progress,
     )?;
@@ -247,4 +284,68 @@ fn prior_information(
         }
     }
     Ok(information)
+}
+
+/// What a calibration knows: its estimate, the information of its
+/// posterior covariance, and its centres' sigmas by ball id.
+struct Posterior<'a> {
+    params: Params,
+    information: DMatrix<f64>,
+    calibration: &'a Calibration,
+}
+
+impl<'a> Posterior<'a> {
+    /// Refuses a calibration that did not converge, has no covariance, or
+    /// whose parameters are not the 33 of paper eq. (3) in order.
+    fn of(calibration: &'a Calibration) -> Result<Self, DesignError> {
+        let refuse = |why: &str| Err(DesignError::Options(format!("the calibration {why}")));
+        let names = &calibration.parameters.names;
+        if names.len() != N_PARAMS || names.iter().zip(PARAM_NAMES).any(|(a, b)| a != b) {
+            return refuse("does not hold the 33 kinematic parameters in order");
+        }
+        if !calibration.converged || calibration.covariance.len() != N_PARAMS {
+            return refuse("did not converge or has no posterior covariance");
+        }
+        let covariance = DMatrix::from_fn(N_PARAMS, N_PARAMS, |i, j| {
+            calibration.covariance[i]
+                .get(j)
+                .copied()
+                .unwrap_or(f64::NAN)
+        });
+        let Some(cholesky) = covariance.cholesky() else {
+            return refuse("covariance is not positive definite");
+        };
+        Ok(Self {
+            params: Params::from_column_slice(&calibration.parameters.values),
+            information: cholesky.inverse(),
+            calibration,
+        })
+    }
+
+    /// The prior information of the 33 and the centres (`33 + 3 B`): the
+    /// posterior's on the 33, `1/sigma²` per coordinate of the centres it
+    /// estimated, [`WEAK_CENTRE_SIGMA`] for the others.
+    fn information(&self, artefacts: &Artefacts) -> Result<DMatrix<f64>, DesignError> {
+        let n = N_PARAMS + 3 * artefacts.balls.len();
+        let mut information = DMatrix::zeros(n, n);
+        information
+            .view_mut((0, 0), (N_PARAMS, N_PARAMS))
+            .copy_from(&self.information);
+        for (b, ball) in artefacts.balls.iter().enumerate() {
+            let sigma = match self.calibration.ball_centres.get(&ball.id) {
+                Some(estimate) => estimate.sigma,
+                None => [WEAK_CENTRE_SIGMA; 3],
+            };
+            for (c, s) in sigma.iter().enumerate() {
+                if !(s.is_finite() && *s > 0.0) {
+                    return Err(DesignError::Options(format!(
+                        "the calibration's centre sigma of ball {} is {s}",
+                        ball.id
+                    )));
+                }
+                information[(N_PARAMS + 3 * b + c, N_PARAMS + 3 * b + c)] = s.powi(-2);
+            }
+        }
+        Ok(information)
+    }
 }

@@ -72,6 +72,10 @@ pub struct SelectOptions {
     pub seed: u64,
     /// Largest number of exchange passes per run.
     pub passes: usize,
+    /// Whether every ball gets its anchor touches and keeps its minimum
+    /// and spread (module doc); not when the balls are located already
+    /// (sequential mode).
+    pub anchors: bool,
 }
 
 /// The chosen touches and their predicted figures.
@@ -168,7 +172,11 @@ impl<'a> Problem<'a> {
             by_ball[row.ball].push(k);
         }
         let reachable = by_ball.iter().filter(|c| !c.is_empty()).count();
-        let seeds = min_touches_per_ball();
+        let seeds = if options.anchors {
+            min_touches_per_ball()
+        } else {
+            0
+        };
         if options.contacts < seeds * reachable || options.per_ball.is_some_and(|k| k < seeds) {
             let cap = options
                 .per_ball
@@ -179,7 +187,7 @@ impl<'a> Problem<'a> {
             )));
         }
         let mut rng = Rng::new(options.seed, restart);
-        for candidates in by_ball.iter().filter(|c| !c.is_empty()) {
+        for candidates in by_ball.iter().filter(|c| seeds > 0 && !c.is_empty()) {
             for k in self.anchors(candidates, seeds, &mut rng) {
                 state.push(k);
             }

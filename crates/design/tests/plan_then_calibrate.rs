@@ -7,7 +7,7 @@ use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::Dataset;
-use parcal_design::{PlanOptions, plan};
+use parcal_design::{PlanOptions, plan, plan_next};
 use parcal_simulate::{PlannedTouch, Scenario, simulate};
 
 const SEEDS: u64 = 6;
@@ -103,4 +103,41 @@ fn planned_touches_beat_random_ones_and_their_prediction_holds() {
     // sqrt(E[RMS^2]) exceeds E[RMS] by about 10%.
     let ratio = planned.predicted.registered_rms_um / planned_true;
     assert!((0.7..1.6).contains(&ratio), "predicted / true = {ratio}");
+}
+
+#[test]
+fn the_next_touches_start_from_the_calibration() {
+    // Sequential mode: after calibrating a random campaign, the figures
+    // before the new touches are the calibration's own predicted map (same
+    // estimate, covariance and grid), and the new touches lower them.
+    let dataset = simulate(&Scenario::scaled(8, 6, 25f64.to_radians()), 2)
+        .unwrap()
+        .dataset;
+    let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    let maps = before_after(None, &run, &MapGrid::paper()).unwrap();
+    let calibrated = maps.after.unwrap().predicted.registered_summary().rms * 1e3;
+    let record = run.record("converged".into());
+    let options = PlanOptions {
+        pool: 3000,
+        ..PlanOptions::new(16, 25.0)
+    };
+    let next = plan_next(
+        &dataset.machine,
+        &dataset.artefacts,
+        &record,
+        &options,
+        &mut |_| {},
+    )
+    .unwrap();
+    let before = next.prior.registered_rms_um;
+    assert!(
+        (before - calibrated).abs() < 1e-6 * calibrated,
+        "plan {before} um, calibration {calibrated} um"
+    );
+    assert_eq!(next.contacts.len(), 16);
+    assert!(
+        next.predicted.registered_rms_um < 0.9 * before,
+        "{:?}",
+        next.predicted
+    );
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use parcal_dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
 use parcal_design::plan_file::{summary_path, write_plan};
-use parcal_design::{Criterion, CriterionValues, PlanOptions, plan};
+use parcal_design::{Criterion, CriterionValues, PlanOptions, plan, plan_next};
 
 use crate::progress::Progress;
 
@@ -40,6 +40,11 @@ pub struct Args {
     /// Runs from different random seeds (the best is kept).
     #[arg(long, default_value_t = 1)]
     restarts: usize,
+    /// Sequential mode: the next touches after the data of this
+    /// calibration.json (its estimate and posterior replace the design and
+    /// the prior).
+    #[arg(long, value_name = "CALIBRATION_JSON")]
+    after: Option<PathBuf>,
     /// Largest angle between the approach direction and the stylus axis,
     /// degrees: the shaft clears the ball within it.
     #[arg(long, default_value_t = parcal_design::pool::MAX_APPROACH_DEGREES)]
@@ -78,9 +83,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ..PlanOptions::new(args.contacts, args.tilt)
     };
     let progress = Progress::spinner();
-    let planned = plan(&machine, &artefacts, &options, &mut |line| {
-        progress.line(&format!("  {line}"))
-    })
+    let mut report = |line: &str| progress.line(&format!("  {line}"));
+    let planned = match &args.after {
+        None => plan(&machine, &artefacts, &options, &mut report),
+        Some(path) => {
+            let calibration = super::read_calibration(path, false)?;
+            plan_next(&machine, &artefacts, &calibration, &options, &mut report)
+        }
+    }
     .context("planning failed")?;
     progress.finish();
     write_plan(&args.out, &planned, &artefacts, &options)?;
@@ -97,7 +107,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         planned.contacts.len(),
         planned.pool_size
     )?;
-    for (label, values) in [("prior", &planned.prior), ("predicted", &planned.predicted)] {
+    let before = if args.after.is_some() {
+        "calibration"
+    } else {
+        "prior"
+    };
+    for (label, values) in [(before, &planned.prior), ("predicted", &planned.predicted)] {
         write_values(&mut stdout, label, values)?;
     }
     Ok(())
