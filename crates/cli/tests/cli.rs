@@ -563,6 +563,28 @@ fn plan_writes_a_plan_that_simulate_measures() {
     let inspect = parcal(&["inspect", data.to_str().unwrap()]);
     assert!(inspect.status.success(), "{}", text(&inspect.stderr));
 
+    // Sequential mode: the next touches after calibrating the planned data.
+    let calibrate = parcal(&["calibrate", data.to_str().unwrap()]);
+    assert!(calibrate.status.success(), "{}", text(&calibrate.stderr));
+    let next = temp.path().join("next.csv");
+    let output = parcal(&[
+        "plan",
+        data.to_str().unwrap(),
+        "--after",
+        data.join("calibration.json").to_str().unwrap(),
+        "--contacts",
+        "8",
+        "--tilt",
+        "20",
+        "--pool",
+        "2000",
+        "--out",
+        next.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(text(&output.stdout).contains("  calibration        registered RMS"));
+    assert_eq!(std::fs::read_to_string(&next).unwrap().lines().count(), 9);
+
     // A plan naming a ball the simulation does not have is refused, naming
     // the line.
     let output = parcal(&[
