@@ -600,6 +600,7 @@ mod tests {
             restarts: 1,
             seed: 3,
             passes: 2,
+            anchors: true,
         }
     }
 
