@@ -688,6 +688,28 @@ mod tests {
     }
 
     #[test]
+    fn the_per_ball_capacity_holds() {
+        let (rows, map, prior) = small_problem();
+        let problem = Problem::new(&rows, 4, prior, &map);
+        let capped = SelectOptions {
+            per_ball: Some(6),
+            ..options(Criterion::Registered)
+        };
+        let selection = problem.select(&capped, &mut |_| {}).unwrap();
+        let mut counts = [0; 4];
+        for &k in &selection.chosen {
+            counts[rows[k].ball] += 1;
+        }
+        assert_eq!(counts, [6; 4]);
+        let too_small = SelectOptions {
+            per_ball: Some(3),
+            ..options(Criterion::Registered)
+        };
+        let error = problem.select(&too_small, &mut |_| {}).unwrap_err();
+        assert!(error.to_string().contains("at most 3 per ball"), "{error}");
+    }
+
+    #[test]
     fn every_criterion_plans_and_g_lowers_the_worst_point() {
         let (rows, map, prior) = small_problem();
         let problem = Problem::new(&rows, 4, prior, &map);
