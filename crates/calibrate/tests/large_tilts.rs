@@ -37,9 +37,9 @@ fn random_campaigns_up_to_45_degrees_calibrate() {
 #[test]
 #[ignore = "the long sweep: 4 tilts x 50 seeds (cargo test -- --ignored)"]
 fn random_campaigns_up_to_45_degrees_calibrate_over_many_seeds() {
-    // Known: seed 33 at +-45 degrees ends at the iteration limit (one ball's
-    // initial centre 7 mm from the truth, twice the frame tilt's share; see
-    // docs/design.md). At most one campaign in a hundred may fail.
+    // Known: seed 33 at +-45 degrees ends at the iteration limit (one ball
+    // starts at the mirror image of its centre; docs/design.md). At most one
+    // campaign in a hundred may fail.
     let failures = sweep(&[20.0, 30.0, 40.0, 45.0], 1..=50);
     println!("{}", failures.join("\n"));
     assert!(failures.len() <= 2, "{}", failures.join("\n"));
