@@ -360,12 +360,76 @@ impl Starts<'_> {
             // whichever error came first).
             .collect::<Result<_, _>>()
             .map_err(|error| *error)?;
-        Ok(ContactStarts {
+        let mut starts = ContactStarts {
             centres,
             directions,
             weights,
             poses,
-        })
+        };
+        self.choose_mirror_images(&mut starts);
+        Ok(starts)
+    }
+
+    /// At large tilts the design-FK points of a ball (errors of half a mm)
+    /// can fit the mirror image of its centre better than the side it is on.
+    /// The other balls tell: every fitted centre sits at its nominal position
+    /// (artefacts.json, canonical frame) plus a common offset (the canonical
+    /// frames' tilt, a few mm), taken as the component-wise median over the
+    /// balls. A ball more than half its radius from where that puts it is
+    /// started at its mirror image ([`mirror_fit`]) when that lies nearer.
+    fn choose_mirror_images<T: StartWeight>(&self, starts: &mut ContactStarts<T>) {
+        let balls = &self.dataset.artefacts.balls;
+        let nominal: Vec<Vec3> = balls
+            .iter()
+            .map(|ball| {
+                let centre = Vec3::from(ball.centre);
+                match self.dataset.artefacts.frame {
+                    ArtefactFrame::Design => {
+                        self.canonical
+                            .base_from_input
+                            .transform_point(&centre.into())
+                            .coords
+                    }
+                    ArtefactFrame::Canonical => centre,
+                }
+            })
+            .collect();
+        let offsets: Vec<Vec3> = starts
+            .centres
+            .iter()
+            .zip(&nominal)
+            .map(|(c, n)| c - n)
+            .collect();
+        let shift = Vec3::from_fn(|axis, _| {
+            let mut values: Vec<f64> = offsets.iter().map(|o| o[axis]).collect();
+            values.sort_by(f64::total_cmp);
+            values.get(values.len() / 2).copied().unwrap_or(0.0)
+        });
+        for (ball, group) in self.groups.iter().enumerate() {
+            let miss = |centre: &Vec3| (centre - nominal[ball] - shift).norm();
+            if miss(&starts.centres[ball]) <= balls[ball].radius / 2.0 {
+                continue;
+            }
+            let range = group.clone();
+            let mut directions = starts.directions[range.clone()].to_vec();
+            let mut weights = starts.weights[range.clone()].to_vec();
+            let mut poses = starts.poses[range.clone()].to_vec();
+            let slots = ContactSlots {
+                directions: &mut directions,
+                weights: &mut weights,
+                poses: &mut poses,
+            };
+            let rows = &self.order[range.clone()];
+            let Ok(mirror) = self.ball(ball, rows, slots, CentreStart::Mirror) else {
+                continue;
+            };
+            if miss(&mirror) < miss(&starts.centres[ball]) {
+                starts.centres[ball] = mirror;
+                starts.directions[range.clone()].copy_from_slice(&directions);
+                starts.weights[range.clone()].clone_from_slice(&weights);
+                starts.poses[range].copy_from_slice(&poses);
+            }
+        }
     }
 
     /// The initial centre of one ball (the best fit of its design-FK contact
