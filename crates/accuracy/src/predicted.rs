@@ -71,12 +71,7 @@ pub fn predicted_at(
         return Err(AccuracyError::NonFinite { what });
     }
     let points: Vec<Vec3> = grid.points().collect();
-    let mut jacobians = Vec::with_capacity(points.len());
-    for (command, point) in commands(&geometry, targets)?.iter().zip(&points) {
-        let tip = tip_jacobians_at(&geometry, &command.pose)
-            .map_err(|source| unreachable(point, source))?;
-        jacobians.push(tip.d_params);
-    }
+    let mut jacobians = target_jacobians(targets, &geometry)?;
     let absolute = tip_sigmas(&jacobians, covariance, &points)?;
     remove_rigid_motions(&targets.points, &mut jacobians)?;
     let registered = tip_sigmas(&jacobians, covariance, &points)?;
@@ -85,6 +80,36 @@ pub fn predicted_at(
         absolute,
         registered,
     })
+}
+
+/// The registered tip Jacobians `(P J)_k` (3 x 33 per target, map order)
+/// of the model `model` at `targets`: the registered tip covariance of any
+/// parameter covariance `Σ_p` is `(P J)_k Σ_p (P J)_kᵀ` (module doc). What a
+/// measurement design needs to predict the registered map of a design it
+/// has not measured yet.
+pub fn registered_jacobians(
+    targets: &CanonicalTargets,
+    model: &Params,
+) -> Result<Vec<SMatrix<f64, 3, N_PARAMS>>, AccuracyError> {
+    let mut jacobians = target_jacobians(targets, &model_geometry(model)?)?;
+    remove_rigid_motions(&targets.points, &mut jacobians)?;
+    Ok(jacobians)
+}
+
+/// `J_k = d f(q_k, p) / d p` of `geometry` commanded to each target.
+fn target_jacobians(
+    targets: &CanonicalTargets,
+    geometry: &parcal_kinematics::Geometry,
+) -> Result<Vec<SMatrix<f64, 3, N_PARAMS>>, AccuracyError> {
+    commands(geometry, targets)?
+        .iter()
+        .zip(targets.grid.points())
+        .map(|(command, point)| {
+            tip_jacobians_at(geometry, &command.pose)
+                .map(|tip| tip.d_params)
+                .map_err(|source| unreachable(&point, source))
+        })
+        .collect()
 }
 
 /// `sqrt(trace(J_k Σ J_kᵀ))` per point (mm).

@@ -214,10 +214,10 @@ impl CalibrationRun {
 /// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
 /// The dataset is validated first ([`crate::validate`]).
 ///
-/// A Gauss-Newton run that runs away (it ends diverged, or at its
-/// iteration limit after a step raised the cost more than
-/// [`RUNAWAY_RISE`]-fold: a blunder or a start far from the solution, where
-/// full steps overshoot) is made again with Levenberg-Marquardt, whose
+/// A Gauss-Newton run that runs away (it ends diverged, or failed after
+/// its first step, or at its iteration limit after a step raised the cost
+/// more than [`RUNAWAY_RISE`]-fold: a blunder or a start far from the
+/// solution, where full steps overshoot) is made again with Levenberg-Marquardt, whose
 /// steps never raise the cost; [`CalibrationRun::gauss_newton`] keeps how
 /// the first run ended.
 pub fn calibrate(
@@ -235,6 +235,9 @@ pub fn calibrate(
         && costs.is_some()
         && match run.status {
             Status::Diverged { .. } => true,
+            // A full step to where the machine's forward kinematics fails
+            // (large tilts): Levenberg-Marquardt rejects such a step.
+            Status::ProblemFailed { iteration, .. } => iteration > 0,
             Status::IterationLimit => overshot,
             _ => false,
         };

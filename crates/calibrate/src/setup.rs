@@ -26,7 +26,7 @@ use crate::layout::ParameterLayout;
 use crate::problem::{
     CalibrationProblem, CoordinateObservations, DistanceObservation, RadiusObservations,
 };
-use crate::sphere_fit::{best_fit, mirror_fit};
+use crate::sphere_fit::{SphereFitError, best_fit, mirror_fit};
 use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode};
 
 /// The initial estimate and everything derived from the dataset once.
@@ -360,12 +360,76 @@ impl Starts<'_> {
             // whichever error came first).
             .collect::<Result<_, _>>()
             .map_err(|error| *error)?;
-        Ok(ContactStarts {
+        let mut starts = ContactStarts {
             centres,
             directions,
             weights,
             poses,
-        })
+        };
+        self.choose_mirror_images(&mut starts);
+        Ok(starts)
+    }
+
+    /// At large tilts the design-FK points of a ball (errors of half a mm)
+    /// can fit the mirror image of its centre better than the side it is on.
+    /// The other balls tell: every fitted centre sits at its nominal position
+    /// (artefacts.json, canonical frame) plus a common offset (the canonical
+    /// frames' tilt, a few mm), taken as the component-wise median over the
+    /// balls. A ball more than half its radius from where that puts it is
+    /// started at its mirror image ([`mirror_fit`]) when that lies nearer.
+    fn choose_mirror_images<T: StartWeight>(&self, starts: &mut ContactStarts<T>) {
+        let balls = &self.dataset.artefacts.balls;
+        let nominal: Vec<Vec3> = balls
+            .iter()
+            .map(|ball| {
+                let centre = Vec3::from(ball.centre);
+                match self.dataset.artefacts.frame {
+                    ArtefactFrame::Design => {
+                        self.canonical
+                            .base_from_input
+                            .transform_point(&centre.into())
+                            .coords
+                    }
+                    ArtefactFrame::Canonical => centre,
+                }
+            })
+            .collect();
+        let offsets: Vec<Vec3> = starts
+            .centres
+            .iter()
+            .zip(&nominal)
+            .map(|(c, n)| c - n)
+            .collect();
+        let shift = Vec3::from_fn(|axis, _| {
+            let mut values: Vec<f64> = offsets.iter().map(|o| o[axis]).collect();
+            values.sort_by(f64::total_cmp);
+            values.get(values.len() / 2).copied().unwrap_or(0.0)
+        });
+        for (ball, group) in self.groups.iter().enumerate() {
+            let miss = |centre: &Vec3| (centre - nominal[ball] - shift).norm();
+            if miss(&starts.centres[ball]) <= balls[ball].radius / 2.0 {
+                continue;
+            }
+            let range = group.clone();
+            let mut directions = starts.directions[range.clone()].to_vec();
+            let mut weights = starts.weights[range.clone()].to_vec();
+            let mut poses = starts.poses[range.clone()].to_vec();
+            let slots = ContactSlots {
+                directions: &mut directions,
+                weights: &mut weights,
+                poses: &mut poses,
+            };
+            let rows = &self.order[range.clone()];
+            let Ok(mirror) = self.ball(ball, rows, slots, CentreStart::Mirror) else {
+                continue;
+            };
+            if miss(&mirror) < miss(&starts.centres[ball]) {
+                starts.centres[ball] = mirror;
+                starts.directions[range.clone()].copy_from_slice(&directions);
+                starts.weights[range.clone()].clone_from_slice(&weights);
+                starts.poses[range].copy_from_slice(&poses);
+            }
+        }
     }
 
     /// The initial centre of one ball (the best fit of its design-FK contact
@@ -400,8 +464,18 @@ impl Starts<'_> {
                     derivatives.predicted_pose(&Vector6::from_fn(|i, _| q[i] - before[i]))
                 });
                 previous = Some(q);
-                let from_prediction = predicted
-                    .is_some_and(|start| derivatives.forward(geometry, q, &start, &fk).is_ok());
+                // Newton's method from a first-order prediction far off
+                // (contacts of one ball at orientations tens of degrees
+                // apart) can converge to another assembly of the machine:
+                // its tip must land near the predicted one, or the contact
+                // starts from the home pose.
+                let from_prediction = predicted.is_some_and(|start| {
+                    derivatives.forward(geometry, q, &start, &fk).is_ok()
+                        && (geometry.tool_tip(&derivatives.solution().pose)
+                            - geometry.tool_tip(&start))
+                        .norm()
+                            <= PREDICTION_TOLERANCE_MM
+                });
                 if !from_prediction {
                     derivatives
                         .forward(geometry, q, &geometry.home_pose(q), &fk)
@@ -416,7 +490,15 @@ impl Starts<'_> {
             ball: artefact.id.clone(),
             source,
         };
-        let fit = best_fit(&points, artefact.radius).map_err(fit_error)?;
+        // A fit that crawls along a valley of its cost (a few close points
+        // whose design-FK errors are a tenth of the radius, as at large
+        // tilts) still ends downhill of its start: the data cannot place the
+        // centre along that valley at the design's accuracy, the
+        // calibration's iterations do.
+        let fit = match best_fit(&points, artefact.radius) {
+            Err(SphereFitError::NotConverged { last }) => last,
+            fit => fit.map_err(fit_error)?,
+        };
         let centre = match start {
             CentreStart::BestFit => fit.centre,
             CentreStart::Mirror => {
@@ -452,6 +534,12 @@ impl Starts<'_> {
         Ok(centre)
     }
 }
+
+/// How far (mm) the tip solved from a predicted start may land from the
+/// predicted tip: the prediction's error is second order in the readings'
+/// change (contacts of one ball tens of degrees apart); another assembly
+/// of the machine lies tens of mm away.
+const PREDICTION_TOLERANCE_MM: f64 = 5.0;
 
 /// One ball's slots of the per-contact outputs.
 struct ContactSlots<'s, T> {

@@ -18,9 +18,15 @@ pub enum SphereFitError {
     #[error("the contact points are (nearly) coplanar and do not determine a sphere")]
     /// Coplanar points.
     Degenerate,
-    #[error("the fit with the calibrated radius did not converge")]
-    /// Gauss-Newton with the radius fixed did not converge.
-    NotConverged,
+    #[error("the fit with the calibrated radius did not converge (cost {:.3e} mm^2 after {MAX_ITERATIONS} steps)", last.cost)]
+    /// Gauss-Newton with the radius fixed did not converge: the points
+    /// leave the centre nearly free along a valley of the cost (a few close
+    /// points with errors of a tenth of the radius). `last` is the last
+    /// iterate, every step of which went downhill.
+    NotConverged {
+        /// The last iterate.
+        last: SphereFit,
+    },
 }
 
 /// A centre fitted with a fixed radius.
@@ -147,7 +153,12 @@ pub fn refine_centre(
             });
         }
     }
-    Err(SphereFitError::NotConverged)
+    Err(SphereFitError::NotConverged {
+        last: SphereFit {
+            centre: centre + mean,
+            cost: current,
+        },
+    })
 }
 
 fn mean(points: &[Vec3]) -> Vec3 {

@@ -41,6 +41,8 @@ enum Command {
     Compensate(commands::compensate::Args),
     /// Export a calibration: calibrated machine.json, LinuxCNC genhexkins HAL, summary.
     Export(commands::export::Args),
+    /// Plan the touches to measure: the most accurate calibration for a budget.
+    Plan(commands::plan::Args),
 }
 
 fn main() -> ExitCode {
@@ -55,6 +57,7 @@ fn main() -> ExitCode {
         Command::Paper(args) => commands::paper::run(&args),
         Command::Compensate(args) => commands::compensate::run(&args),
         Command::Export(args) => commands::export::run(&args),
+        Command::Plan(args) => commands::plan::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

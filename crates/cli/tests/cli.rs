@@ -533,3 +533,89 @@ fn a_closed_output_pipe_ends_the_run_quietly_and_keeps_its_files() {
         "{stderr}"
     );
 }
+
+#[test]
+fn plan_writes_a_plan_that_simulate_measures() {
+    let temp = tempfile::tempdir().unwrap();
+    let (template, data) = (temp.path().join("template"), temp.path().join("data"));
+    simulate(&template, &["--balls", "8", "--points-per-ball", "5"]);
+    let plan = temp.path().join("plan.csv");
+    let output = parcal(&[
+        "plan",
+        template.to_str().unwrap(),
+        "--contacts",
+        "40",
+        "--tilt",
+        "20",
+        "--pool",
+        "2000",
+        "--out",
+        plan.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    assert!(stdout.contains("touches            40 from"), "{stdout}");
+    assert!(
+        stdout.contains("predicted          registered RMS"),
+        "{stdout}"
+    );
+    let csv = std::fs::read_to_string(&plan).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("ball,u_x,u_y,u_z,roll,pitch,yaw,q1,q2,q3,q4,q5,q6")
+    );
+    assert_eq!(lines.count(), 40);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(temp.path().join("plan.json")).unwrap())
+            .unwrap();
+    let rms = summary["predicted"]["registered_rms_um"].as_f64().unwrap();
+    let prior = summary["prior"]["registered_rms_um"].as_f64().unwrap();
+    assert!(rms > 0.0 && rms < prior / 2.0, "{rms} {prior}");
+    assert_eq!(summary["options"]["contacts"], 40);
+
+    let output = simulate(&data, &["--balls", "8", "--plan", plan.to_str().unwrap()]);
+    assert!(text(&output.stdout).contains("contacts           40 (planned:"));
+    let inspect = parcal(&["inspect", data.to_str().unwrap()]);
+    assert!(inspect.status.success(), "{}", text(&inspect.stderr));
+
+    // Sequential mode: the next touches after calibrating the planned data.
+    let calibrate = parcal(&["calibrate", data.to_str().unwrap()]);
+    assert!(calibrate.status.success(), "{}", text(&calibrate.stderr));
+    let next = temp.path().join("next.csv");
+    let output = parcal(&[
+        "plan",
+        data.to_str().unwrap(),
+        "--after",
+        data.join("calibration.json").to_str().unwrap(),
+        "--contacts",
+        "8",
+        "--tilt",
+        "20",
+        "--pool",
+        "2000",
+        "--out",
+        next.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(text(&output.stdout).contains("  calibration        registered RMS"));
+    assert_eq!(std::fs::read_to_string(&next).unwrap().lines().count(), 9);
+
+    // A plan naming a ball the simulation does not have is refused, naming
+    // the line.
+    let output = parcal(&[
+        "simulate",
+        "--balls",
+        "4",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        temp.path().join("small").to_str().unwrap(),
+    ]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("plan.csv: line") && stderr.contains("is not one of the simulated balls"),
+        "{stderr}"
+    );
+}

@@ -104,7 +104,7 @@ pub(crate) fn ball_index(
 
 impl Artefacts {
     /// Reads and checks `artefacts.json`, resolving the distances' ids.
-    pub(crate) fn read(path: &Path) -> Result<Self> {
+    pub fn read(path: &Path) -> Result<Self> {
         let file: ArtefactsFile = json::read(path, json::ARTEFACTS)?;
         let check = Check::new(path);
         // The ids must be unique to be resolved; `validate` checks the rest.

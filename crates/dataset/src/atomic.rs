@@ -34,7 +34,7 @@ const MAX_LINKS: usize = 40;
 ///
 /// `fill` returns the crate's error type so that it can report errors of its
 /// own (e.g. a serializer's) against `path`.
-pub(crate) fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
+pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<&File>) -> Result<()>,
 {

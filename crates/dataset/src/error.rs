@@ -126,7 +126,8 @@ fn others_suffix(others: usize) -> String {
 }
 
 impl DatasetError {
-    pub(crate) fn io(path: &Path, action: &'static str, source: io::Error) -> Self {
+    /// An I/O error of `action` ("write", "rename into place") on `path`.
+    pub fn io(path: &Path, action: &'static str, source: io::Error) -> Self {
         Self::Io {
             path: path.to_path_buf(),
             action,

@@ -1,7 +1,7 @@
 //! Simulation of one campaign: contacts, actuator readings with noise, and
 //! the forward-kinematics check of every contact.
 
-use nalgebra::{Matrix3, Translation3};
+use nalgebra::{Matrix3, Translation3, UnitQuaternion};
 use parcal_dataset::{
     Actuator, ArtefactFrame, Artefacts, Ball, Dataset, GeometryRecord, Machine, Measurements,
     PriorSigma, Repeatability, SessionModel, Tracker, Truth,
@@ -73,18 +73,34 @@ pub fn ball_id(index: usize, count: usize) -> String {
 /// ball (stream `(seed, ball)`) a calibrated radius `r + N(0, radius_sigma)`,
 /// then per contact a direction `u` uniform on the lower hemisphere, the
 /// platform orientation `Rz(yaw) Ry(pitch) Rx(roll)` with angles uniform in
-/// `[-max_tilt, max_tilt]`, the tool tip at `C + r u` plus tool noise, and
+/// `[-max_tilt, max_tilt]` (or the planned `u` and orientation of the
+/// scenario's plan, ball by ball in plan order), the tool tip at `C + r u` plus tool noise, and
 /// actuator readings `q = L_true - l_true` plus actuator noise. Every contact
 /// is checked by forward kinematics with the true geometry. A ball plate, if
 /// the scenario has one, draws from a stream of its own (see
 /// [`Plate`](crate::Plate)): the contacts are the same without it.
 pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateError> {
-    crate::check_rows(&[
-        ("balls", scenario.centres.len()),
-        ("contacts per ball", scenario.points_per_ball),
-    ])?;
+    match &scenario.plan {
+        Some(plan) => crate::check_rows(&[("planned touches", plan.len())])?,
+        None => crate::check_rows(&[
+            ("balls", scenario.centres.len()),
+            ("contacts per ball", scenario.points_per_ball),
+        ])?,
+    };
     if let Some(p) = &scenario.plate {
         plate::check_size(p, scenario.centres.len())?;
+    }
+    if let Some(touch) = scenario
+        .plan
+        .iter()
+        .flatten()
+        .find(|t| t.ball >= scenario.centres.len())
+    {
+        return Err(SimulateError::Scenario(format!(
+            "a planned touch names ball {} of {}",
+            touch.ball + 1,
+            scenario.centres.len()
+        )));
     }
     let per_ball: Vec<Result<(f64, Vec<Contact>), SimulateError>> = scenario
         .centres
@@ -130,8 +146,10 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
         Some(p) => plate::distances(p, &scenario.centres, seed)?,
         None => Vec::new(),
     };
-    let ball_of_contact =
-        (0..count).flat_map(|b| std::iter::repeat_n(b as u32, scenario.points_per_ball));
+    let ball_of_contact = per_ball
+        .iter()
+        .enumerate()
+        .flat_map(|(b, (_, contacts))| std::iter::repeat_n(b as u32, contacts.len()));
     let dataset = Dataset {
         machine: machine(scenario),
         artefacts: Artefacts {
@@ -176,7 +194,7 @@ fn machine(scenario: &Scenario) -> Machine {
         },
         actuator: Actuator::default(),
         session_model: SessionModel::default(),
-        stroke: None,
+        stroke: scenario.stroke,
     }
 }
 
@@ -199,29 +217,57 @@ fn simulate_ball(
 ) -> Result<(f64, Vec<Contact>), SimulateError> {
     let mut rng = Rng::new(seed, ball as u64);
     let calibrated_radius = scenario.radius + rng.normal(scenario.radius_sigma);
-    let contacts = (0..scenario.points_per_ball)
-        .map(|point| {
-            simulate_contact(scenario, &mut rng, centre).map_err(|reason| SimulateError::Contact {
-                ball: ball + 1,
-                point: point + 1,
-                reason,
+    let error = |point: usize| {
+        move |reason| SimulateError::Contact {
+            ball: ball + 1,
+            point: point + 1,
+            reason,
+        }
+    };
+    let contacts = match &scenario.plan {
+        None => (0..scenario.points_per_ball)
+            .map(|point| {
+                let (u, rotation) = random_touch(scenario, &mut rng);
+                simulate_contact(scenario, &mut rng, centre, &u, rotation).map_err(error(point))
             })
-        })
-        .collect::<Result<_, _>>()?;
+            .collect::<Result<_, _>>()?,
+        Some(plan) => plan
+            .iter()
+            .filter(|touch| touch.ball == ball)
+            .enumerate()
+            .map(|(point, touch)| {
+                simulate_contact(scenario, &mut rng, centre, &touch.direction, touch.rotation)
+                    .map_err(error(point))
+            })
+            .collect::<Result<_, _>>()?,
+    };
     Ok((calibrated_radius, contacts))
 }
 
-fn simulate_contact(scenario: &Scenario, rng: &mut Rng, centre: &Vec3) -> Result<Contact, String> {
-    let truth = &scenario.truth;
+/// A random touch (spec section 3): `u` uniform on the lower hemisphere,
+/// the orientation's angles uniform in `[-max_tilt, max_tilt]`.
+fn random_touch(scenario: &Scenario, rng: &mut Rng) -> (Vec3, UnitQuaternion<f64>) {
     let u_z = -rng.unit();
     let azimuth = rng.uniform(0.0, std::f64::consts::TAU);
     let horizontal = (1.0 - u_z * u_z).sqrt();
     let u = Vec3::new(horizontal * azimuth.cos(), horizontal * azimuth.sin(), u_z);
-    let point = centre + scenario.radius * u;
-
     let tilt = scenario.max_tilt;
     let [yaw, pitch, roll] = [(); 3].map(|()| rng.uniform(-tilt, tilt));
-    let rotation = rotation_zyx(yaw, pitch, roll);
+    (u, rotation_zyx(yaw, pitch, roll))
+}
+
+/// The touch of direction `u` at orientation `rotation`: the true tip at
+/// `C + r u` plus tool noise, the true machine's readings plus actuator
+/// noise, checked by forward kinematics.
+fn simulate_contact(
+    scenario: &Scenario,
+    rng: &mut Rng,
+    centre: &Vec3,
+    u: &Vec3,
+    rotation: UnitQuaternion<f64>,
+) -> Result<Contact, String> {
+    let truth = &scenario.truth;
+    let point = centre + scenario.radius * u;
     let tool_noise = Vec3::from_fn(|_, _| rng.normal(scenario.tool_sigma));
     let tip = point + tool_noise;
     let pose = Pose::from_parts(Translation3::from(tip - rotation * truth.tool), rotation);

@@ -34,7 +34,7 @@ pub use campaign::{Simulation, Summary, ball_id, simulate};
 pub use execute::execute;
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
-pub use scenario::Scenario;
+pub use scenario::{PlannedTouch, Scenario};
 pub use tracker::{FrameSpread, TrackerKind, TrackerScenario, Workspace, simulate_tracker};
 
 /// The most rows a simulated campaign may have: contacts, poses plus

@@ -2,6 +2,7 @@
 //! conditions of the paper's table 1, with the choices the paper leaves open
 //! fixed as in the spec (paper-scenario.md section 3).
 
+use nalgebra::UnitQuaternion;
 use parcal_kinematics::{Geometry, Vec3, paper};
 
 use crate::Plate;
@@ -34,12 +35,31 @@ pub struct Scenario {
     /// A calibrated ball plate over the balls, written as the distances of
     /// artefacts.json; none in the paper.
     pub plate: Option<Plate>,
+    /// The range of every actuator reading `[min, max]` (mm), written to
+    /// machine.json.
+    pub stroke: Option<[f64; 2]>,
+    /// Planned touches (`parcal plan`) in place of the random ones:
+    /// `points_per_ball` is then ignored.
+    pub plan: Option<Vec<PlannedTouch>>,
+}
+
+/// One planned touch: the ball, the outward normal `u` at the contact point
+/// and the platform orientation, both in the design frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedTouch {
+    /// The ball (index into [`Scenario::centres`]).
+    pub ball: usize,
+    /// Unit outward normal `u`: the true contact point is `C + r u`.
+    pub direction: Vec3,
+    /// The platform orientation.
+    pub rotation: UnitQuaternion<f64>,
 }
 
 impl Scenario {
     /// The paper's scenario: table 2's machine, 27 balls on a 3 x 3 x 3 grid
     /// (x, y in {-60, 0, 60}, z in {360, 400, 440}), 7 contacts per ball,
-    /// tilts up to 10 degrees, the conditions of table 1.
+    /// tilts up to 10 degrees, the conditions of table 1, and the stroke of
+    /// readings 20 to 250 mm (leg lengths 255 to 485 mm).
     pub fn paper() -> Self {
         let steps = [-60.0, 0.0, 60.0];
         let mut centres = Vec::with_capacity(27);
@@ -63,6 +83,8 @@ impl Scenario {
             prior_sigma: 0.1,
             centre_sigma: 0.1,
             plate: None,
+            stroke: Some([20.0, 250.0]),
+            plan: None,
         }
     }
 
@@ -80,7 +102,10 @@ impl Scenario {
 
     /// Number of contacts of the campaign.
     pub fn contacts(&self) -> usize {
-        self.centres.len() * self.points_per_ball
+        match &self.plan {
+            Some(plan) => plan.len(),
+            None => self.centres.len() * self.points_per_ball,
+        }
     }
 }
 

@@ -7,6 +7,7 @@ pub mod execute;
 pub mod export;
 pub mod inspect;
 pub mod paper;
+pub mod plan;
 pub mod simulate;
 pub mod validate;
 

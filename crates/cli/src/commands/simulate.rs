@@ -7,9 +7,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use parcal_dataset::{Dataset, DatasetError, WriteOptions};
+use parcal_design::plan_file::read_plan;
+use parcal_kinematics::rotation_zyx;
 use parcal_simulate::{
-    Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, check_rows, simulate,
-    simulate_tracker,
+    PlannedTouch, Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, ball_id,
+    check_rows, simulate, simulate_tracker,
 };
 
 use super::SNAPSHOT_FILE;
@@ -78,6 +80,12 @@ pub struct Args {
     /// Error of each calibrated distance of the plate (1 sigma), micrometres.
     #[arg(long, value_name = "UM", default_value_t = 1.0, requires = "plate")]
     plate_sigma: f64,
+    /// Simulate exactly the touches of a plan.csv (`parcal plan`) instead of
+    /// random ones: the true contact point is the true centre + r u, the
+    /// platform orientation as planned (--points-per-ball and --tilt are
+    /// then not used for the touches).
+    #[arg(long, value_name = "PLAN_CSV", conflicts_with = "tracker")]
+    plan: Option<PathBuf>,
     /// Also write a binary snapshot of the dataset (postcard) to OUT/dataset.bin,
     /// which loads much faster than the text files.
     #[arg(long)]
@@ -156,16 +164,27 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
         pairs,
         sigma: args.plate_sigma * 1e-3,
     });
+    if let Some(path) = &args.plan {
+        scenario.plan = Some(planned_touches(path, scenario.centres.len())?);
+    }
     let simulation = simulate(&scenario, args.seed).context("simulation failed")?;
     write_dataset(args, &simulation)?;
     let s = &simulation.summary;
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "  balls              {}", s.balls)?;
-    writeln!(
-        stdout,
-        "  contacts           {} ({} per ball)",
-        s.contacts, scenario.points_per_ball
-    )?;
+    match &args.plan {
+        Some(path) => writeln!(
+            stdout,
+            "  contacts           {} (planned: {})",
+            s.contacts,
+            path.display()
+        )?,
+        None => writeln!(
+            stdout,
+            "  contacts           {} ({} per ball)",
+            s.contacts, scenario.points_per_ball
+        )?,
+    }
     if args.plate.is_some() {
         writeln!(
             stdout,
@@ -181,6 +200,34 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
         s.worst_check
     )?;
     Ok(())
+}
+
+/// The touches of plan.csv on the scenario's `balls` balls (ids `b01`..).
+fn planned_touches(path: &std::path::Path, balls: usize) -> anyhow::Result<Vec<PlannedTouch>> {
+    let rows = read_plan(path)?;
+    rows.iter()
+        .enumerate()
+        .map(|(k, row)| {
+            let ball = (0..balls)
+                .find(|&b| ball_id(b, balls) == row.ball)
+                .with_context(|| {
+                    format!(
+                        "{}: line {}: ball {:?} is not one of the simulated balls {} .. {}",
+                        path.display(),
+                        k + 2,
+                        row.ball,
+                        ball_id(0, balls),
+                        ball_id(balls - 1, balls)
+                    )
+                })?;
+            let [roll, pitch, yaw] = row.angles;
+            Ok(PlannedTouch {
+                ball,
+                direction: row.direction.normalize(),
+                rotation: rotation_zyx(yaw, pitch, roll),
+            })
+        })
+        .collect()
 }
 
 /// A campaign of instrument measurements.

@@ -1,0 +1,69 @@
+//! Why a plan could not be made, written or read.
+
+use std::path::PathBuf;
+
+use parcal_accuracy::AccuracyError;
+use parcal_dataset::DatasetError;
+use parcal_kinematics::KinematicsError;
+use parcal_observe::ObserveError;
+
+/// Why a plan could not be made, written or read.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// Options that make no sense.
+    #[error("invalid options: {0}")]
+    Options(String),
+    /// machine.json has no stroke: every pose would look reachable.
+    #[error("machine.json has no \"stroke\": [min, max] of the actuator readings; a plan needs it")]
+    NoStroke,
+    /// No candidate is feasible.
+    #[error(
+        "no candidate touch is feasible: every one has an actuator reading outside the stroke {stroke:?} or is near a singularity"
+    )]
+    EmptyPool {
+        /// The stroke.
+        stroke: [f64; 2],
+    },
+    /// The per-ball capacity cannot hold the budget.
+    #[error(
+        "--per-ball {per_ball} cannot hold {contacts} contacts on the balls the machine reaches"
+    )]
+    Capacity {
+        /// The capacity.
+        per_ball: usize,
+        /// The budget.
+        contacts: usize,
+    },
+    /// A candidate touch's covariance (the propagated repeatabilities) is
+    /// not positive definite.
+    #[error("a candidate touch's covariance is not positive definite (all repeatabilities zero?)")]
+    TouchCovariance,
+    /// The predicted information is not positive definite.
+    #[error("the predicted information matrix is not positive definite")]
+    Singular,
+    /// The design geometry does not define the canonical frames.
+    #[error("the design geometry is degenerate: {0}")]
+    Design(KinematicsError),
+    /// A candidate's tip derivatives do not exist.
+    #[error("a candidate pose: {0}")]
+    Kinematics(KinematicsError),
+    /// The machine's repeatabilities.
+    #[error("machine.json repeatability: {0}")]
+    Observe(ObserveError),
+    /// The accuracy map's targets.
+    #[error("the accuracy map: {0}")]
+    Accuracy(AccuracyError),
+    /// Writing the plan.
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    /// A plan file that cannot be read.
+    #[error("{}: line {line}: {reason}", path.display())]
+    PlanFile {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line (the header is line 1).
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+}

@@ -1,0 +1,191 @@
+//! plan.csv and plan.json (docs/dataset-format.md, "Plans").
+//!
+//! plan.csv, one touch per row:
+//! `ball,u_x,u_y,u_z,roll,pitch,yaw,q1,q2,q3,q4,q5,q6`: the ball id, the
+//! unit outward normal `u` at the intended contact point (design frame),
+//! the orientation `R = Rz(yaw) Ry(pitch) Rx(roll)` (rad, fixed axes of the
+//! design frame) and the nominal actuator commands (mm) that put the
+//! design's tool tip on `C + r u`. plan.json: the predicted figures, the
+//! prior's, and the options. Both written atomically.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use parcal_dataset::atomic::write_atomic;
+use parcal_dataset::{Artefacts, DatasetError};
+use parcal_kinematics::Vec3;
+
+use crate::{DesignError, Plan, PlanOptions};
+
+/// The header of plan.csv.
+pub const HEADER: &str = "ball,u_x,u_y,u_z,roll,pitch,yaw,q1,q2,q3,q4,q5,q6";
+
+/// Largest accepted `| |u| - 1 |` of a direction read from plan.csv.
+const UNIT_TOLERANCE: f64 = 1e-6;
+
+/// One row of plan.csv.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanRow {
+    /// The ball id (artefacts.json).
+    pub ball: String,
+    /// Unit outward normal at the contact point (design frame).
+    pub direction: Vec3,
+    /// `[roll, pitch, yaw]` (rad).
+    pub angles: [f64; 3],
+    /// Nominal actuator commands (mm).
+    pub q: [f64; 6],
+}
+
+/// plan.json beside plan.csv: `DIR/plan.csv` -> `DIR/plan.json`.
+pub fn summary_path(csv: &Path) -> PathBuf {
+    csv.with_extension("json")
+}
+
+/// Writes `plan` to `csv` and its summary to [`summary_path`], each
+/// atomically; `artefacts` names the balls.
+pub fn write_plan(
+    csv: &Path,
+    plan: &Plan,
+    artefacts: &Artefacts,
+    options: &PlanOptions,
+) -> Result<(), DesignError> {
+    let mut text = String::from(HEADER);
+    text.push('\n');
+    for c in &plan.contacts {
+        let u = c.direction;
+        let [roll, pitch, yaw] = c.angles;
+        text.push_str(&format!(
+            "{},{},{},{},{},{},{}",
+            artefacts.balls[c.ball].id, u.x, u.y, u.z, roll, pitch, yaw
+        ));
+        for q in c.q {
+            text.push_str(&format!(",{q}"));
+        }
+        text.push('\n');
+    }
+    write_bytes(csv, text.as_bytes())?;
+    let summary = serde_json::json!({
+        "predicted": plan.predicted,
+        "prior": plan.prior,
+        "criterion": options.criterion,
+        "pool_size": plan.pool_size,
+        "stroke": plan.stroke,
+        "options": options,
+    });
+    let json = serde_json::to_string_pretty(&summary).expect("plain numbers and strings");
+    write_bytes(&summary_path(csv), format!("{json}\n").as_bytes())
+}
+
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), DesignError> {
+    write_atomic(path, |w| {
+        w.write_all(bytes)
+            .map_err(|e| DatasetError::io(path, "write", e))
+    })?;
+    Ok(())
+}
+
+/// Reads plan.csv: the header, then rows of finite numbers with unit
+/// directions. Errors name the file and line.
+pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>, DesignError> {
+    let error = |line: usize, reason: String| DesignError::PlanFile {
+        path: path.to_path_buf(),
+        line,
+        reason,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_path(path)
+        .map_err(|e| error(0, e.to_string()))?;
+    let mut rows = Vec::new();
+    for (k, record) in reader.records().enumerate() {
+        let line = k + 1;
+        let record = record.map_err(|e| error(line, e.to_string()))?;
+        if line == 1 {
+            let header: Vec<&str> = record.iter().map(str::trim).collect();
+            if header.join(",") != HEADER {
+                return Err(error(1, format!("the header must be {HEADER:?}")));
+            }
+            continue;
+        }
+        if record.len() != 13 {
+            return Err(error(line, format!("{} fields, 13 expected", record.len())));
+        }
+        let names = HEADER.split(',').collect::<Vec<_>>();
+        let mut values = [0.0; 12];
+        for (i, value) in values.iter_mut().enumerate() {
+            let field = record[i + 1].trim();
+            *value = field
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    error(
+                        line,
+                        format!("{}: {field:?} is not a finite number", names[i + 1]),
+                    )
+                })?;
+        }
+        let direction = Vec3::new(values[0], values[1], values[2]);
+        if (direction.norm() - 1.0).abs() > UNIT_TOLERANCE {
+            return Err(error(
+                line,
+                format!(
+                    "u = ({}, {}, {}) is not a unit vector",
+                    values[0], values[1], values[2]
+                ),
+            ));
+        }
+        let ball = record[0].trim().to_string();
+        if ball.is_empty() {
+            return Err(error(line, "ball: empty id".into()));
+        }
+        rows.push(PlanRow {
+            ball,
+            direction,
+            angles: [values[3], values[4], values[5]],
+            q: std::array::from_fn(|i| values[6 + i]),
+        });
+    }
+    if rows.is_empty() {
+        return Err(error(1, "no touch in the plan".into()));
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_rows_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plan.csv");
+        std::fs::write(
+            &path,
+            format!("{HEADER}\nb01,0,0,-1,0,0,0,1,2,3,4,5,6\nb02,0,0,-2,0,0,0,1,2,3,4,5,6\n"),
+        )
+        .unwrap();
+        let message = read_plan(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 3") && message.contains("not a unit vector"),
+            "{message}"
+        );
+        std::fs::write(&path, format!("{HEADER}\nb01,0,0,-1,0,0,x,1,2,3,4,5,6\n")).unwrap();
+        let message = read_plan(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 2") && message.contains("yaw"),
+            "{message}"
+        );
+        std::fs::write(&path, "ball,u\n").unwrap();
+        let message = read_plan(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 1") && message.contains("header"),
+            "{message}"
+        );
+        std::fs::write(&path, format!("{HEADER}\nb01,0,0,-1,0,0,0.5,1,2,3,4,5,6\n")).unwrap();
+        let rows = read_plan(&path).unwrap();
+        assert_eq!(rows[0].ball, "b01");
+        assert_eq!(rows[0].angles, [0.0, 0.0, 0.5]);
+        assert_eq!(rows[0].q[5], 6.0);
+    }
+}
