@@ -28,6 +28,16 @@ pub enum DatasetError {
         source: io::Error,
     },
 
+    /// A file refused before its content is parsed: not a regular file
+    /// (a directory, a FIFO, a device), or larger than the cap of its kind.
+    #[error("{}: {message}", path.display())]
+    Refused {
+        /// The file concerned.
+        path: PathBuf,
+        /// Why it is refused.
+        message: String,
+    },
+
     /// A JSON file is not well-formed JSON, or its top level is not an
     /// object of the expected kind.
     #[error("{}: line {line}, column {column}: {message}", path.display())]
@@ -152,6 +162,13 @@ impl DatasetError {
             path: path.to_path_buf(),
             line,
             column: column.map(str::to_owned),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn refused(path: &Path, message: impl Into<String>) -> Self {
+        Self::Refused {
+            path: path.to_path_buf(),
             message: message.into(),
         }
     }

@@ -2,8 +2,7 @@
 //! serde errors mapped to file + field, pretty deterministic output.
 
 use std::fmt;
-use std::fs;
-use std::io::{self, Write};
+use std::io::Write;
 use std::path::Path;
 
 use serde::Serialize;
@@ -12,6 +11,7 @@ use serde_json::error::Category;
 
 use crate::atomic::{write_atomic, write_error};
 use crate::error::{DatasetError, Result};
+use crate::input;
 
 /// The kind of a JSON file, as named by its `format` field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,17 +94,17 @@ pub(crate) fn read<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<T> {
 
 /// Reads an optional JSON file of the given kind: `None` if it does not exist.
 pub(crate) fn read_if_present<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<Option<T>> {
-    let bytes = match fs::read(path) {
-        Ok(bytes) => bytes,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(DatasetError::io(path, "read", e)),
-    };
-    parse(path, kind, &bytes).map(Some)
+    match input::read_json(path)? {
+        Some(bytes) => parse(path, kind, &bytes).map(Some),
+        None => Ok(None),
+    }
 }
 
 /// Parses the bytes of a JSON file of the given kind: the `format` first (so
-/// that a file of another version is refused as such), then the body.
+/// that a file of another version is refused as such), then the body. A
+/// leading UTF-8 byte order mark is skipped.
 pub(crate) fn parse<T: DeserializeOwned>(path: &Path, kind: Kind, bytes: &[u8]) -> Result<T> {
+    let bytes = bytes.strip_prefix(input::BOM).unwrap_or(bytes);
     let format = format_field(path, bytes)?;
     kind.check(path, &format)?;
     deserialize(path, bytes)
