@@ -10,6 +10,7 @@ use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::GeometryRecord;
 use crate::machine::Actuator;
+use crate::quote::sanitized;
 use crate::session::SessionRecord;
 use crate::{json, shape};
 
@@ -225,6 +226,7 @@ impl Calibration {
         }
 
         for (id, estimate) in &self.ball_centres {
+            let id = sanitized(id);
             check.point(format_args!("ball_centres.{id}.centre"), &estimate.centre)?;
             check.point(format_args!("ball_centres.{id}.sigma"), &estimate.sigma)?;
         }

@@ -3,6 +3,8 @@
 use std::io;
 use std::path::{Path, PathBuf};
 
+use crate::quote::quoted;
+
 /// Why a dataset, calibration file or snapshot could not be read or written.
 ///
 /// Every variant names the file (its full path) and, where it applies, the
@@ -54,7 +56,7 @@ pub enum DatasetError {
 
     /// A JSON file's `format` field names another kind of file, a major
     /// version this crate does not read, or is malformed.
-    #[error("{}: format {format:?} {message}", path.display())]
+    #[error("{}: format {} {message}", path.display(), quoted(format))]
     Format {
         /// The file concerned.
         path: PathBuf,
@@ -91,8 +93,9 @@ pub enum DatasetError {
 
     /// A ball has fewer contacts than `ReadOptions::min_contacts_per_ball`.
     #[error(
-        "{}: ball {ball:?} has {count} contacts, fewer than the minimum of {min}{}",
+        "{}: ball {} has {count} contacts, fewer than the minimum of {min}{}",
         path.display(),
+        quoted(ball),
         others_suffix(*others)
     )]
     TooFewContacts {

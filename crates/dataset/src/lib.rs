@@ -94,6 +94,7 @@ mod input;
 mod json;
 mod machine;
 mod measurements;
+mod quote;
 mod session;
 mod shape;
 mod snapshot;

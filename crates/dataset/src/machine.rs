@@ -9,6 +9,7 @@ use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::{GeometryRecord, WithGeometry};
 use crate::json;
+use crate::quote::{has_control, quoted};
 
 /// A priori standard deviation of every parameter of each group (the design
 /// tolerance), in mm.
@@ -223,6 +224,12 @@ impl Machine {
         }
         if self.actuator.unit.trim().is_empty() {
             return Err(check.error("actuator.unit", "must not be empty"));
+        }
+        if has_control(&self.actuator.unit) {
+            return Err(check.error(
+                "actuator.unit",
+                format!("{} has a control character", quoted(&self.actuator.unit)),
+            ));
         }
         for (i, &s) in self.actuator.scale.iter().enumerate() {
             check.positive(format_args!("actuator.scale[{i}]"), s)?;

@@ -18,6 +18,7 @@ use crate::Point3;
 use crate::artefacts::{Ball, ball_index};
 use crate::check::{Check, not_finite};
 use crate::error::{DatasetError, Result};
+use crate::quote::quoted_bytes;
 use crate::table::{self, Failure, Header};
 
 const BALL: &str = "ball";
@@ -82,8 +83,8 @@ impl Measurements {
                 row.error(
                     Some(BALL),
                     format!(
-                        "unknown ball id {:?} (not in artefacts.json)",
-                        String::from_utf8_lossy(id)
+                        "unknown ball id {} (not in artefacts.json)",
+                        quoted_bytes(id)
                     ),
                 )
             })?;

@@ -13,6 +13,7 @@ use crate::atomic::{write_atomic, write_error};
 use crate::check::not_finite;
 use crate::error::DatasetError;
 use crate::input;
+use crate::quote::{quoted_bytes, sanitized};
 
 /// An error found while parsing, before its line number is known.
 pub(crate) enum Failure {
@@ -78,11 +79,10 @@ impl Row<'_> {
                 .ok()
                 .and_then(|text| text.parse::<f64>().ok())
                 .ok_or_else(|| {
-                    let found = String::from_utf8_lossy(bytes);
-                    let message = if found.is_empty() {
+                    let message = if bytes.is_empty() {
                         "empty field, expected a number".to_owned()
                     } else {
-                        format!("expected a number, found {found:?}")
+                        format!("expected a number, found {}", quoted_bytes(bytes))
                     };
                     self.error(Some(name), message)
                 })?;
@@ -118,7 +118,7 @@ pub(crate) fn line_of<R: Read + Seek>(mut input: R, end: u64, inner_newlines: u6
 
 pub(crate) fn csv_error(path: &Path, error: csv::Error) -> DatasetError {
     let line = error.position().map_or(0, csv::Position::line);
-    let message = error.to_string();
+    let message = sanitized(&error.to_string());
     match error.into_kind() {
         csv::ErrorKind::Io(e) => DatasetError::io(path, "read", e),
         _ => DatasetError::csv(path, line, None, message),

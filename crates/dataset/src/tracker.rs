@@ -21,6 +21,7 @@ use serde::{Deserialize, Serialize};
 use crate::Point3;
 use crate::check::{Check, not_finite};
 use crate::error::{DatasetError, Result};
+use crate::quote::{has_control, quoted};
 use crate::table::{self, Failure, Header, Row};
 
 const SESSION: &str = "session";
@@ -254,11 +255,14 @@ impl Tracker {
             };
             check_row(t.session[i], n, &t.q[i], &t.position[i], bad)?;
         }
+        if let Some(label) = self.sessions.iter().find(|l| has_control(l)) {
+            return Err(poses.error("sessions", control_label(label)));
+        }
         let used = self.rows_per_session();
         if let Some(s) = used.iter().position(|&(a, b)| a + b == 0) {
             return Err(poses.error(
                 "sessions",
-                format!("session {:?} has no row", self.sessions[s]),
+                format!("session {} has no row", quoted(&self.sessions[s])),
             ));
         }
         Ok(())
@@ -288,6 +292,14 @@ fn check_row(
     Ok(())
 }
 
+/// The message for a session label with a control character.
+fn control_label(label: &str) -> String {
+    format!(
+        "the session label {} has a control character",
+        quoted(label)
+    )
+}
+
 /// Session labels in order of first appearance.
 #[derive(Default)]
 struct Sessions {
@@ -307,6 +319,9 @@ impl Sessions {
                 })?;
                 if label.is_empty() {
                     return Err(row.error(Some(SESSION), "empty session label".into()));
+                }
+                if has_control(label) {
+                    return Err(row.error(Some(SESSION), control_label(label)));
                 }
                 label
             }

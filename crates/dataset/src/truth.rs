@@ -10,6 +10,7 @@ use crate::artefacts::{Ball, ball_index};
 use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::{GeometryRecord, WithGeometry};
+use crate::quote::quoted;
 use crate::session::SessionRecord;
 use crate::shape::{self, IdMap, P3};
 use crate::{MEASUREMENTS_FILE, json};
@@ -145,11 +146,11 @@ fn by_ball<T>(check: Check, field: &str, map: IdMap<T>, balls: &[Ball]) -> Resul
         let &i = index.get(id.as_str()).ok_or_else(|| {
             check.error(
                 field,
-                format!("unknown ball id {id:?} (not in artefacts.json)"),
+                format!("unknown ball id {} (not in artefacts.json)", quoted(&id)),
             )
         })?;
         if slots[i].replace(value).is_some() {
-            return Err(check.error(field, format!("ball id {id:?} appears twice")));
+            return Err(check.error(field, format!("ball id {} appears twice", quoted(&id))));
         }
     }
     slots
@@ -159,7 +160,7 @@ fn by_ball<T>(check: Check, field: &str, map: IdMap<T>, balls: &[Ball]) -> Resul
             slot.ok_or_else(|| {
                 check.error(
                     field,
-                    format!("ball {:?} of artefacts.json is missing", ball.id),
+                    format!("ball {} of artefacts.json is missing", quoted(&ball.id)),
                 )
             })
         })

@@ -131,3 +131,60 @@ fn a_byte_order_mark_is_skipped_in_json_and_csv() {
         "invalid JSON",
     );
 }
+
+#[test]
+fn quoted_input_is_escaped_and_shortened_in_every_message() {
+    let dir = written(NONE);
+    let red = "\u{1b}[31m";
+    let long = red.repeat(100_000);
+    let short = |message: &str| {
+        assert!(
+            message.len() < 400,
+            "{} bytes: {message:.300}",
+            message.len()
+        );
+        assert!(!message.contains('\u{1b}'), "{message:.300}");
+    };
+    write_csv(
+        dir.path(),
+        &format!("ball,q1,q2,q3,q4,q5,q6\nb01,1,2,3,4,5,{long}\n"),
+    );
+    let err = read_error(dir.path());
+    short(&err);
+    assert!(
+        err.contains("line 2, column q6: expected a number, found \"\\u{1b}[31m"),
+        "{err}"
+    );
+    assert!(err.ends_with("…\" (500000 characters)"), "{err}");
+    write_csv(
+        dir.path(),
+        &format!("ball,q1,q2,q3,q4,q5,q6\n{long},1,2,3,4,5,6\n"),
+    );
+    let err = read_error(dir.path());
+    short(&err);
+    assert!(
+        err.contains("line 2, column ball: unknown ball id \"\\u{1b}[31m"),
+        "{err}"
+    );
+    // A ball id is text for a terminal: a control character is refused.
+    let dir = written(NONE);
+    edit_json(dir.path(), ARTEFACTS_FILE, |v| {
+        v["balls"][1]["id"] = format!("b{red}02").into();
+    });
+    let err = read_error(dir.path());
+    assert_error(
+        &err,
+        dir.path(),
+        ARTEFACTS_FILE,
+        "field balls[1].id: ball id \"b\\u{1b}[31m02\" has a control character",
+    );
+    edit_json(dir.path(), ARTEFACTS_FILE, |v| {
+        v["balls"][1]["id"] = long.clone().into();
+        v["balls"][2]["id"] = long.clone().into();
+    });
+    short(&read_error(dir.path()));
+    edit_json(dir.path(), MACHINE_FILE, |v| {
+        v["prior_sigma"]["leg"] = long.clone().into();
+    });
+    short(&read_error(dir.path()));
+}
