@@ -198,8 +198,8 @@ impl Artefacts {
                     ),
                 ));
             }
-            check.positive(format_args!("distances[{i}].length"), d.length)?;
-            check.positive(format_args!("distances[{i}].sigma"), d.sigma)?;
+            check.positive_length(format_args!("distances[{i}].length"), d.length)?;
+            check.sigma(format_args!("distances[{i}].sigma"), d.sigma)?;
         }
         Ok(())
     }
@@ -226,9 +226,9 @@ fn validate_balls(check: Check, balls: &[Ball]) -> Result<()> {
             ));
         }
         check.point(format_args!("balls[{i}].centre"), &ball.centre)?;
-        check.positive(format_args!("balls[{i}].centre_sigma"), ball.centre_sigma)?;
-        check.positive(format_args!("balls[{i}].radius"), ball.radius)?;
-        check.positive(format_args!("balls[{i}].radius_sigma"), ball.radius_sigma)?;
+        check.sigma(format_args!("balls[{i}].centre_sigma"), ball.centre_sigma)?;
+        check.positive_length(format_args!("balls[{i}].radius"), ball.radius)?;
+        check.sigma(format_args!("balls[{i}].radius_sigma"), ball.radius_sigma)?;
     }
     if let Err((first, i)) = ball_index(balls) {
         return Err(check.error(

@@ -174,14 +174,14 @@ impl Calibration {
     /// Reads and checks a calibration file (extra fields are ignored).
     pub fn read(path: &Path) -> Result<Self> {
         let calibration: Self = json::read(path, json::CALIBRATION)?;
-        calibration.validate(Check::new(path))?;
+        calibration.validate(Check::result(path))?;
         Ok(calibration)
     }
 
     /// Writes a calibration file atomically. Every number must be finite
     /// (JSON has no NaN): a non-finite value is an error naming its field.
     pub fn write(&self, path: &Path) -> Result<()> {
-        self.validate(Check::new(path))?;
+        self.validate(Check::result(path))?;
         json::write(path, json::CALIBRATION, self)
     }
 

@@ -108,7 +108,8 @@ pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, GlobalTestRecord, IterationSummary,
     ParameterTable, Provenance, RemovedObservation,
 };
-pub use dataset::{Dataset, ReadOptions};
+pub use check::{MAX_LENGTH_MM, MIN_SIGMA};
+pub use dataset::{Dataset, MIN_CONTACTS_PER_BALL, ReadOptions};
 pub use error::DatasetError;
 pub use geometry::GeometryRecord;
 pub use input::JSON_CAP;

@@ -186,22 +186,24 @@ impl Machine {
         json::write(path, json::MACHINE, &file)
     }
 
-    /// Every value finite; sigmas and repeatabilities positive.
+    /// The geometry a machine's ([`GeometryRecord::validate_machine`]),
+    /// sigmas and repeatabilities within [`Check::sigma`]'s bounds, scales
+    /// positive, the unit a label.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
-        self.geometry.validate(check, "")?;
+        self.geometry.validate_machine(check)?;
         let PriorSigma {
             base,
             platform,
             tool,
             leg,
         } = self.prior_sigma;
-        check.positive("prior_sigma.base", base)?;
-        check.positive("prior_sigma.platform", platform)?;
-        check.positive("prior_sigma.tool", tool)?;
-        check.positive("prior_sigma.leg", leg)?;
+        check.sigma("prior_sigma.base", base)?;
+        check.sigma("prior_sigma.platform", platform)?;
+        check.sigma("prior_sigma.tool", tool)?;
+        check.sigma("prior_sigma.leg", leg)?;
         let r = &self.repeatability;
-        check.positive("repeatability.actuator", r.actuator)?;
-        check.positive("repeatability.tool", r.tool)?;
+        check.sigma("repeatability.actuator", r.actuator)?;
+        check.sigma("repeatability.tool", r.tool)?;
         for (field, value) in [
             ("repeatability.position", r.position),
             ("repeatability.orientation", r.orientation),
@@ -219,7 +221,7 @@ impl Machine {
             ),
         ] {
             if let Some(value) = value {
-                check.positive(field, value)?;
+                check.sigma(field, value)?;
             }
         }
         if self.actuator.unit.trim().is_empty() {
@@ -236,7 +238,7 @@ impl Machine {
         }
         if let Some(sigmas) = &self.actuator.scale_sigma {
             for (i, &s) in sigmas.iter().enumerate() {
-                check.positive(format_args!("actuator.scale_sigma[{i}]"), s)?;
+                check.sigma(format_args!("actuator.scale_sigma[{i}]"), s)?;
             }
         }
         if let Some([min, max]) = self.stroke {

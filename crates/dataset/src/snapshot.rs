@@ -128,12 +128,47 @@ mod tests {
                 .join("../../fixtures/reference-paper-seed1"),
         )
         .unwrap();
+        let valid = dataset.clone();
         dataset.measurements.ball[10] = 99;
         super::write(&dataset, &path).unwrap();
         assert_eq!(
             Dataset::read_snapshot(&path).unwrap_err().to_string(),
             format!(
                 "{}: line 12, column ball: ball index 99 is out of range (27 balls)",
+                path.display()
+            )
+        );
+        // As the text reader does: a ball with fewer than 4 contacts, a
+        // zero approach direction.
+        let mut dataset = valid.clone();
+        let first: Vec<usize> = (0..dataset.measurements.len())
+            .filter(|&r| dataset.measurements.ball[r] == 0)
+            .skip(3)
+            .collect();
+        for &r in first.iter().rev() {
+            dataset.measurements.ball.remove(r);
+            dataset.measurements.q.remove(r);
+            if let Some(truth) = &mut dataset.truth {
+                truth.contacts.remove(r);
+            }
+        }
+        super::write(&dataset, &path).unwrap();
+        let id = &dataset.artefacts.balls[0].id;
+        assert_eq!(
+            Dataset::read_snapshot(&path).unwrap_err().to_string(),
+            format!(
+                "{}: ball \"{id}\" has 3 contacts, fewer than the minimum of 4",
+                path.display()
+            )
+        );
+        let mut dataset = valid;
+        dataset.measurements.direction = Some(vec![[0.0, 0.0, -1.0]; dataset.measurements.len()]);
+        dataset.measurements.direction.as_mut().unwrap()[4] = [0.0; 3];
+        super::write(&dataset, &path).unwrap();
+        assert_eq!(
+            Dataset::read_snapshot(&path).unwrap_err().to_string(),
+            format!(
+                "{}: line 6: the approach direction (0, 0, 0) is zero, not a direction",
                 path.display()
             )
         );

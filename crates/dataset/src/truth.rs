@@ -94,10 +94,11 @@ impl Truth {
         json::write(path, json::TRUTH, &file)
     }
 
-    /// Values finite, radii positive, one centre and radius per ball, one
-    /// contact per measurement row.
+    /// The geometry a machine's ([`GeometryRecord::validate_machine`]),
+    /// lengths within bounds, radii positive, one centre and radius per
+    /// ball, one contact per measurement row.
     pub(crate) fn validate(&self, check: Check, ball_count: usize, rows: usize) -> Result<()> {
-        self.geometry.validate(check, "")?;
+        self.geometry.validate_machine(check)?;
         for (field, len) in [
             ("ball_centres", self.ball_centres.len()),
             ("ball_radii", self.ball_radii.len()),
@@ -111,7 +112,7 @@ impl Truth {
         }
         check.points("ball_centres", &self.ball_centres)?;
         for (i, &r) in self.ball_radii.iter().enumerate() {
-            check.positive(format_args!("ball_radii[{i}]"), r)?;
+            check.positive_length(format_args!("ball_radii[{i}]"), r)?;
         }
         if self.contacts.len() != rows {
             return Err(check.error(
