@@ -12,9 +12,12 @@
 //! and a calibration writes `calibration.json` ([`Calibration`]). The format is
 //! specified in `docs/dataset-format.md`.
 //!
-//! Reading checks everything (shapes, finite numbers, positive sigmas, ids,
-//! consistency between the files) and reports the first problem as a
-//! [`DatasetError`] that names the file and the field or line. Writing is
+//! Reading checks everything (shapes, finite and plausible numbers, sigmas,
+//! ids, a geometry with canonical frames, consistency between the files)
+//! and reports the first problem as a [`DatasetError`] that names the file
+//! and the field or line; the same validation guards writing and snapshots.
+//! Only regular files are read, JSON files up to [`JSON_CAP`] bytes and CSV
+//! lines up to [`CSV_LINE_CAP`] bytes (`docs/reliability.md`). Writing is
 //! atomic per file, deterministic (same data, same bytes) and exact: every
 //! `f64` reads back bit for bit. [`Dataset::write_snapshot`] and
 //! [`Dataset::read_snapshot`] store a whole dataset in a compact binary file
