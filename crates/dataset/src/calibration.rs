@@ -63,6 +63,7 @@ pub struct Calibration {
     /// empty if it could not be computed.
     pub covariance: Vec<Vec<f64>>,
     /// Identified ball centres by ball id.
+    #[serde(deserialize_with = "shape::unique_map")]
     pub ball_centres: BTreeMap<String, CentreEstimate>,
     /// The prior used: `"paper"`, `"propagated"` or `"none"`.
     pub prior: String,
@@ -74,7 +75,7 @@ pub struct Calibration {
     #[serde(default)]
     pub status: String,
     /// Free-form options of the run (simulation, observation, weights...).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shape::unique_map")]
     pub options: BTreeMap<String, serde_json::Value>,
     /// Calibrations of poses or points: the calibrated machine as another
     /// tool would load it, in the frames of the first session.

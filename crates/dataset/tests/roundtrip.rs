@@ -493,3 +493,26 @@ fn calibration_errors_name_the_file_and_field() {
         .to_string();
     assert_error(&err, dir.path(), "absent.json", "required file not found");
 }
+
+#[test]
+fn a_key_given_twice_in_calibration_json_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(CALIBRATION_FILE);
+    calibration().write(&path).unwrap();
+    let text = fs::read_to_string(&path).unwrap();
+    let entry = "\"ball_centres\": {";
+    assert!(text.contains(entry), "{text}");
+    let twice = text.replacen(
+        entry,
+        &format!("{entry} \"b01\": {{\"centre\": [0, 0, 0], \"sigma\": [1, 1, 1]}},"),
+        1,
+    );
+    fs::write(&path, twice).unwrap();
+    let err = Calibration::read(&path).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        CALIBRATION_FILE,
+        "field ball_centres: key \"b01\" is given twice",
+    );
+}
