@@ -4,7 +4,9 @@
 //! never panic, and what it returns `Ok` must be valid.
 //!
 //! A short run is part of the test suite; `PARCAL_FUZZ_CASES=N` sets the
-//! number of inputs per reader for a long one (docs/reliability.md).
+//! number of inputs per reader for a long one, `PARCAL_FUZZ_SEED=S` its
+//! seed (default 1: the suite's run is the same every time;
+//! docs/reliability.md).
 
 mod common;
 
@@ -16,14 +18,14 @@ use common::*;
 use parcal_dataset::*;
 use proptest::prelude::*;
 use proptest::sample::Index;
-use proptest::test_runner::{Config, TestRunner};
+use proptest::test_runner::{Config, RngSeed, TestRunner};
 
-/// Inputs per reader: `PARCAL_FUZZ_CASES`, or a few hundred.
-fn cases() -> u32 {
-    std::env::var("PARCAL_FUZZ_CASES")
+/// The value of environment variable `name`, or `default`.
+fn setting<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(300)
+        .unwrap_or(default)
 }
 
 /// Byte strings that matter to the formats, inserted by mutations.
@@ -137,7 +139,7 @@ fn input(valid: Vec<u8>) -> impl Strategy<Value = Vec<u8>> {
     ]
 }
 
-/// Runs `read` on `cases()` inputs drawn from `strategy`; `read` says
+/// Runs `read` on `PARCAL_FUZZ_CASES` inputs drawn from `strategy`; `read` says
 /// whether the input was accepted. Prints how many were, so that a run
 /// shows how deep the inputs got.
 fn fuzz(
@@ -146,7 +148,8 @@ fn fuzz(
     read: impl Fn(&[u8]) -> Result<bool, TestCaseError>,
 ) {
     let mut runner = TestRunner::new(Config {
-        cases: cases(),
+        cases: setting("PARCAL_FUZZ_CASES", 300),
+        rng_seed: RngSeed::Fixed(setting("PARCAL_FUZZ_SEED", 1)),
         failure_persistence: None,
         ..Config::default()
     });
