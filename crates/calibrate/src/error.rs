@@ -193,6 +193,9 @@ impl CalibrateError {
                 field,
                 message,
             } => (None, format!("{}.{field}", part(&path)), message),
+            DatasetError::TooFewContacts {
+                ball, count, min, ..
+            } => return Self::TooFewContacts { ball, count, min },
             other => (None, String::new(), other.to_string()),
         };
         Self::InvalidDataset {

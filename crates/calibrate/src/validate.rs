@@ -8,26 +8,18 @@ use crate::CalibrateError;
 
 /// Contacts a ball needs: its initial centre is the best-fit sphere of known
 /// radius through its contact points ([`crate::sphere_fit::best_fit`]),
-/// which takes 4 points.
-pub const MIN_CONTACTS_PER_BALL: usize = 4;
+/// which takes 4 points. The dataset's own minimum, so that what the
+/// dataset reads, writes and validates, a calibration accepts.
+pub const MIN_CONTACTS_PER_BALL: usize = parcal_dataset::MIN_CONTACTS_PER_BALL;
 
-/// What [`calibrate`](crate::calibrate) checks first: [`Dataset::validate`]
-/// (lengths, indices, finite values, positive sigmas; of the truth too,
-/// although the calibration does not read it: a dataset is valid as a
-/// whole) and at least [`MIN_CONTACTS_PER_BALL`] contacts per ball. Errors name the measurement
-/// row, the ball or the field ([`CalibrateError::InvalidDataset`],
-/// [`CalibrateError::TooFewContacts`]).
+/// What [`calibrate`](crate::calibrate) checks first: [`Dataset::validate`],
+/// the validation of every dataset read or written (lengths, indices,
+/// finite and plausible values, sigmas, a machine geometry with canonical
+/// frames, approach directions that normalise, at least
+/// [`MIN_CONTACTS_PER_BALL`] contacts per ball; of the truth too, although
+/// the calibration does not read it: a dataset is valid as a whole). Errors
+/// name the measurement row, the ball or the field
+/// ([`CalibrateError::InvalidDataset`], [`CalibrateError::TooFewContacts`]).
 pub fn validate(dataset: &Dataset) -> Result<(), CalibrateError> {
-    dataset
-        .validate()
-        .map_err(CalibrateError::invalid_dataset)?;
-    let counts = dataset.contacts_per_ball();
-    match counts.iter().position(|&n| n < MIN_CONTACTS_PER_BALL) {
-        None => Ok(()),
-        Some(i) => Err(CalibrateError::TooFewContacts {
-            ball: dataset.artefacts.balls[i].id.clone(),
-            count: counts[i],
-            min: MIN_CONTACTS_PER_BALL,
-        }),
-    }
+    dataset.validate().map_err(CalibrateError::invalid_dataset)
 }

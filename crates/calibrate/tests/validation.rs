@@ -119,3 +119,45 @@ fn a_failure_states_its_cause_once() {
     // The message states the cause; no `source` repeats it in a chain.
     assert!(std::error::Error::source(&error).is_none());
 }
+
+/// What the dataset's reader refuses (a zero approach direction, a tool a
+/// kilometre away, coincident joints, a repeatability whose weight
+/// overflows), the calibration refuses with the reader's words, before it
+/// starts: inspect and calibrate agree.
+#[test]
+fn what_the_reader_refuses_is_refused_before_the_calibration_starts() {
+    let mut dataset = campaign();
+    let mut directions = vec![[0.0, 0.0, -1.0]; dataset.measurements.len()];
+    directions[3] = [0.0; 3];
+    dataset.measurements.direction = Some(directions);
+    let (error, message) = refused(&dataset);
+    assert_eq!(error.row(), Some(3));
+    assert!(
+        message.ends_with("the approach direction (0, 0, 0) is zero, not a direction"),
+        "{message}"
+    );
+
+    let mut dataset = campaign();
+    dataset.machine.geometry.tool[2] = 1e12;
+    assert_eq!(
+        refused(&dataset).1,
+        "invalid dataset: field machine.tool[2]: 1e12 mm is beyond the 1e6 mm (1 km) \
+         a length may have (a unit error?)"
+    );
+
+    let mut dataset = campaign();
+    dataset.machine.geometry.platform_joints[3] = dataset.machine.geometry.platform_joints[0];
+    assert_eq!(
+        refused(&dataset).1,
+        "invalid dataset: field machine.platform_joints: degenerate geometry: \
+         platform joints 1 and 4 coincide"
+    );
+
+    let mut dataset = campaign();
+    dataset.machine.repeatability.actuator = 1e-300;
+    assert!(
+        refused(&dataset)
+            .1
+            .starts_with("invalid dataset: field machine.repeatability.actuator: a standard deviation of 1e-300 is too small"),
+    );
+}

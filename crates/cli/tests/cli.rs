@@ -407,36 +407,46 @@ fn a_calibration_that_cannot_start_says_where() {
     );
     assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
 
-    // Commanded approach directions, ball b01's first one zero: of the two
-    // balls that cannot start, the first in artefacts.json is named, however
-    // the threads ran.
+    // A zero commanded approach direction is refused as the dataset is
+    // read, by inspect as by calibrate.
     let mut with_directions = vec![format!("{},dir_x,dir_y,dir_z", lines[0])];
     with_directions.extend(lines[1..].iter().map(|line| format!("{line},0,0,-1")));
     with_directions[1] = format!("{},0,0,0", lines[1]);
     std::fs::write(&csv, with_directions.join("\n")).unwrap();
-    let output = parcal(&["calibrate", temp.path().to_str().unwrap()]);
-    assert!(!output.status.success());
-    let stderr = text(&output.stderr);
-    assert!(
-        stderr.contains("measurements.csv line 2: ") && stderr.contains("reference direction"),
-        "{stderr}"
-    );
+    for command in ["calibrate", "inspect"] {
+        let output = parcal(&[command, temp.path().to_str().unwrap()]);
+        assert!(!output.status.success());
+        let stderr = text(&output.stderr);
+        assert!(
+            stderr.contains(
+                "measurements.csv: line 2: the approach direction (0, 0, 0) is zero, not a direction"
+            ),
+            "{command}: {stderr}"
+        );
+    }
 }
 
 #[test]
-fn a_snapshot_with_too_few_contacts_per_ball_is_refused() {
-    // Reading the text files refuses it; a snapshot reaches the calibration,
-    // which refuses it too, naming the ball.
-    let temp = tempfile::tempdir().unwrap();
-    simulate(temp.path(), &["--points-per-ball", "3", "--binary"]);
-    let snapshot = temp.path().join("dataset.bin");
-    let output = parcal(&["calibrate", snapshot.to_str().unwrap()]);
-    assert!(!output.status.success());
-    let stderr = text(&output.stderr);
-    assert!(
-        stderr.contains("error: ball \"b01\" has 3 contacts, fewer than the 4"),
-        "{stderr}"
-    );
+fn a_dataset_with_too_few_contacts_per_ball_is_not_written() {
+    // The reader would refuse it, as text files or as a snapshot: the
+    // writer refuses it with the reader's message.
+    for binary in [false, true] {
+        let temp = tempfile::tempdir().unwrap();
+        let dir = temp.path().join("d");
+        let mut args = vec!["simulate", "--points-per-ball", "3", "--out"];
+        args.push(dir.to_str().unwrap());
+        if binary {
+            args.push("--binary");
+        }
+        let output = parcal(&args);
+        assert!(!output.status.success());
+        let stderr = text(&output.stderr);
+        assert!(
+            stderr.contains("ball \"b01\" has 3 contacts, fewer than the minimum of 4"),
+            "{stderr}"
+        );
+        assert!(!dir.join("measurements.csv").exists() && !dir.join("dataset.bin").exists());
+    }
 }
 
 #[test]

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::Point3;
 use crate::check::Check;
 use crate::error::Result;
+use crate::quote::{has_control, quoted};
 use crate::{json, shape};
 
 /// The frame in which the ball centres are given.
@@ -114,7 +115,7 @@ impl Artefacts {
             index.get(id).copied().ok_or_else(|| {
                 check.error(
                     format!("distances[{i}].{end}"),
-                    format!("unknown ball id {id:?} (not in balls)"),
+                    format!("unknown ball id {} (not in balls)", quoted(id)),
                 )
             })
         };
@@ -184,20 +185,21 @@ impl Artefacts {
             if d.a == d.b {
                 return Err(check.error(
                     format!("distances[{i}]"),
-                    format!("joins ball {:?} to itself", self.balls[d.a].id),
+                    format!("joins ball {} to itself", quoted(&self.balls[d.a].id)),
                 ));
             }
             if let Some(first) = pairs.insert((d.a.min(d.b), d.a.max(d.b)), i) {
                 return Err(check.error(
                     format!("distances[{i}]"),
                     format!(
-                        "joins balls {:?} and {:?} again (as distances[{first}] does)",
-                        self.balls[d.a].id, self.balls[d.b].id
+                        "joins balls {} and {} again (as distances[{first}] does)",
+                        quoted(&self.balls[d.a].id),
+                        quoted(&self.balls[d.b].id)
                     ),
                 ));
             }
-            check.positive(format_args!("distances[{i}].length"), d.length)?;
-            check.positive(format_args!("distances[{i}].sigma"), d.sigma)?;
+            check.positive_length(format_args!("distances[{i}].length"), d.length)?;
+            check.sigma(format_args!("distances[{i}].sigma"), d.sigma)?;
         }
         Ok(())
     }
@@ -212,22 +214,28 @@ fn validate_balls(check: Check, balls: &[Ball]) -> Result<()> {
             return Err(check.error(
                 format!("balls[{i}].id"),
                 format!(
-                    "ball id {:?} is empty or has leading or trailing whitespace",
-                    ball.id
+                    "ball id {} is empty or has leading or trailing whitespace",
+                    quoted(&ball.id)
                 ),
             ));
         }
+        if has_control(&ball.id) {
+            return Err(check.error(
+                format!("balls[{i}].id"),
+                format!("ball id {} has a control character", quoted(&ball.id)),
+            ));
+        }
         check.point(format_args!("balls[{i}].centre"), &ball.centre)?;
-        check.positive(format_args!("balls[{i}].centre_sigma"), ball.centre_sigma)?;
-        check.positive(format_args!("balls[{i}].radius"), ball.radius)?;
-        check.positive(format_args!("balls[{i}].radius_sigma"), ball.radius_sigma)?;
+        check.sigma(format_args!("balls[{i}].centre_sigma"), ball.centre_sigma)?;
+        check.positive_length(format_args!("balls[{i}].radius"), ball.radius)?;
+        check.sigma(format_args!("balls[{i}].radius_sigma"), ball.radius_sigma)?;
     }
     if let Err((first, i)) = ball_index(balls) {
         return Err(check.error(
             format!("balls[{i}].id"),
             format!(
-                "ball id {:?} is used twice (also by balls[{first}])",
-                balls[i].id
+                "ball id {} is used twice (also by balls[{first}])",
+                quoted(&balls[i].id)
             ),
         ));
     }

@@ -10,6 +10,7 @@ use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::GeometryRecord;
 use crate::machine::{Actuator, Machine};
+use crate::quote::sanitized;
 use crate::session::SessionRecord;
 use crate::{json, shape};
 
@@ -62,6 +63,7 @@ pub struct Calibration {
     /// empty if it could not be computed.
     pub covariance: Vec<Vec<f64>>,
     /// Identified ball centres by ball id.
+    #[serde(deserialize_with = "shape::unique_map")]
     pub ball_centres: BTreeMap<String, CentreEstimate>,
     /// The prior used: `"paper"`, `"propagated"` or `"none"`.
     pub prior: String,
@@ -73,7 +75,7 @@ pub struct Calibration {
     #[serde(default)]
     pub status: String,
     /// Free-form options of the run (simulation, observation, weights...).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shape::unique_map")]
     pub options: BTreeMap<String, serde_json::Value>,
     /// Calibrations of poses or points: the calibrated machine as another
     /// tool would load it, in the frames of the first session.
@@ -194,14 +196,14 @@ impl Calibration {
     /// Reads and checks a calibration file (extra fields are ignored).
     pub fn read(path: &Path) -> Result<Self> {
         let calibration: Self = json::read(path, json::CALIBRATION)?;
-        calibration.validate(Check::new(path))?;
+        calibration.validate(Check::result(path))?;
         Ok(calibration)
     }
 
     /// Writes a calibration file atomically. Every number must be finite
     /// (JSON has no NaN): a non-finite value is an error naming its field.
     pub fn write(&self, path: &Path) -> Result<()> {
-        self.validate(Check::new(path))?;
+        self.validate(Check::result(path))?;
         json::write(path, json::CALIBRATION, self)
     }
 
@@ -246,6 +248,7 @@ impl Calibration {
         }
 
         for (id, estimate) in &self.ball_centres {
+            let id = sanitized(id);
             check.point(format_args!("ball_centres.{id}.centre"), &estimate.centre)?;
             check.point(format_args!("ball_centres.{id}.sigma"), &estimate.sigma)?;
         }

@@ -54,16 +54,21 @@ pub struct WriteOptions {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ReadOptions {
     /// A ball with fewer contacts than this is an error (a ball with no
-    /// contact too, unless this is 0). Default 4: on a sphere of known radius
-    /// three points leave a mirror ambiguity, and the radius observation has
-    /// 3 centre unknowns per ball besides the 33 shared kinematic ones.
+    /// contact too, unless this is 0). Default [`MIN_CONTACTS_PER_BALL`].
     pub min_contacts_per_ball: usize,
 }
+
+/// The least number of contacts per ball of a dataset that is written,
+/// read from a snapshot or validated, and of one read by default
+/// ([`ReadOptions::default`]): on a sphere of known radius three points
+/// leave a mirror ambiguity, and a ball's initial centre is the best fit
+/// of at least four.
+pub const MIN_CONTACTS_PER_BALL: usize = 4;
 
 impl Default for ReadOptions {
     fn default() -> Self {
         Self {
-            min_contacts_per_ball: 4,
+            min_contacts_per_ball: MIN_CONTACTS_PER_BALL,
         }
     }
 }
@@ -82,7 +87,8 @@ impl Dataset {
     /// `poses.csv` or `points.csv` is there.
     pub fn read_with(dir: &Path, options: &ReadOptions) -> Result<Self> {
         let machine = Machine::read(&dir.join(MACHINE_FILE))?;
-        let tracker = Tracker::read(&dir.join(POSES_FILE), &dir.join(POINTS_FILE))?;
+        let scale = &machine.actuator.scale;
+        let tracker = Tracker::read(&dir.join(POSES_FILE), &dir.join(POINTS_FILE), scale)?;
         let (artefacts_path, measurements_path) =
             (dir.join(ARTEFACTS_FILE), dir.join(MEASUREMENTS_FILE));
         let touches =
@@ -91,7 +97,7 @@ impl Dataset {
             (Artefacts::default(), Measurements::default())
         } else {
             let artefacts = Artefacts::read(&artefacts_path)?;
-            let measurements = Measurements::read(&measurements_path, &artefacts.balls)?;
+            let measurements = Measurements::read(&measurements_path, &artefacts.balls, scale)?;
             (artefacts, measurements)
         };
         let dataset = Self {
@@ -105,9 +111,9 @@ impl Dataset {
             measurements,
             tracker,
         };
-        dataset.check_sessions(&dir.join(TRUTH_FILE))?;
-        dataset.check_instruments(&dir.join(MACHINE_FILE))?;
-        dataset.check_contacts(&measurements_path, options.min_contacts_per_ball)?;
+        // Each file was checked as it was read, by the checks of
+        // `validate_as`; what is left is across files.
+        dataset.check_across(|name| dir.join(name), options.min_contacts_per_ball)?;
         Ok(dataset)
     }
 
@@ -146,7 +152,7 @@ impl Dataset {
     /// written if it is invalid. An existing non-empty `dir` is an error
     /// unless [`WriteOptions::replace`], and then it must be a dataset.
     pub fn write_with(&self, dir: &Path, options: &WriteOptions) -> Result<()> {
-        self.validate_as(|name| dir.join(name))?;
+        self.validate_as(|name| dir.join(name), MIN_CONTACTS_PER_BALL)?;
         Self::check_target(dir, options.replace)?;
         atomic::write_dir(dir, options.replace, |new| {
             self.machine.write(&new.join(MACHINE_FILE))?;
@@ -190,15 +196,16 @@ impl Dataset {
     /// Writes a binary snapshot (postcard behind a versioned, checksummed
     /// header) to `path`, atomically. Loads much faster than the text files.
     pub fn write_snapshot(&self, path: &Path) -> Result<()> {
-        self.validate_as(|_| path.to_path_buf())?;
+        self.validate_as(|_| path.to_path_buf(), MIN_CONTACTS_PER_BALL)?;
         snapshot::write(self, path)
     }
 
     /// Reads a snapshot written by [`Dataset::write_snapshot`]; a file of
-    /// another version, truncated or corrupt is an error.
+    /// another version, truncated or corrupt is an error, and so is a
+    /// dataset that [`Dataset::validate`] refuses.
     pub fn read_snapshot(path: &Path) -> Result<Self> {
         let dataset = snapshot::read(path)?;
-        dataset.validate_as(|_| path.to_path_buf())?;
+        dataset.validate_as(|_| path.to_path_buf(), MIN_CONTACTS_PER_BALL)?;
         Ok(dataset)
     }
 
@@ -208,32 +215,45 @@ impl Dataset {
         self.measurements.count_per_ball(self.artefacts.balls.len())
     }
 
-    /// Checks what [`Dataset::write`] would write (everything that reading
-    /// checks except the minimum number of contacts per ball). Errors name
-    /// the file each value would go to.
+    /// Checks what [`Dataset::write`] would write: everything that reading
+    /// checks, with the default minimum of contacts per ball
+    /// ([`MIN_CONTACTS_PER_BALL`]). Errors name the file each value would go
+    /// to.
     pub fn validate(&self) -> Result<()> {
-        self.validate_as(|name| PathBuf::from(name))
+        self.validate_as(|name| PathBuf::from(name), MIN_CONTACTS_PER_BALL)
     }
 
-    /// Validates, naming the file of each part by `file(file_name)`.
-    fn validate_as(&self, file: impl Fn(&str) -> PathBuf) -> Result<()> {
+    /// The one validation of a dataset, of its files read, of a snapshot
+    /// read and of what is written: each part by the checks its reader
+    /// makes, then [`Dataset::check_across`]. Names the file of each part
+    /// by `file(file_name)`.
+    fn validate_as(&self, file: impl Fn(&str) -> PathBuf, min_contacts: usize) -> Result<()> {
         let balls = self.artefacts.balls.len();
         let rows = self.measurements.len();
+        let scale = &self.machine.actuator.scale;
         self.machine.validate(Check::new(&file(MACHINE_FILE)))?;
         if self.has_touches() || self.tracker.is_empty() {
             self.artefacts.validate(Check::new(&file(ARTEFACTS_FILE)))?;
             self.measurements
-                .validate(Check::new(&file(MEASUREMENTS_FILE)), balls)?;
+                .validate(Check::new(&file(MEASUREMENTS_FILE)), balls, scale)?;
         }
         self.tracker.validate(
             Check::new(&file(POSES_FILE)),
             Check::new(&file(POINTS_FILE)),
+            scale,
         )?;
         if let Some(truth) = &self.truth {
             truth.validate(Check::new(&file(TRUTH_FILE)), balls, rows)?;
         }
+        self.check_across(file, min_contacts)
+    }
+
+    /// The checks across files: the truth's sessions, the instruments'
+    /// repeatability, at least `min_contacts` contacts per ball.
+    fn check_across(&self, file: impl Fn(&str) -> PathBuf, min_contacts: usize) -> Result<()> {
         self.check_sessions(&file(TRUTH_FILE))?;
-        self.check_instruments(&file(MACHINE_FILE))
+        self.check_instruments(&file(MACHINE_FILE))?;
+        self.check_contacts(&file(MEASUREMENTS_FILE), min_contacts)
     }
 
     /// A truth of instrument measurements has one record per session.

@@ -3,6 +3,8 @@
 use std::io;
 use std::path::{Path, PathBuf};
 
+use crate::quote::quoted;
+
 /// Why a dataset, calibration file or snapshot could not be read or written.
 ///
 /// Every variant names the file (its full path) and, where it applies, the
@@ -28,6 +30,16 @@ pub enum DatasetError {
         source: io::Error,
     },
 
+    /// A file refused before its content is parsed: not a regular file
+    /// (a directory, a FIFO, a device), or larger than the cap of its kind.
+    #[error("{}: {message}", path.display())]
+    Refused {
+        /// The file concerned.
+        path: PathBuf,
+        /// Why it is refused.
+        message: String,
+    },
+
     /// A JSON file is not well-formed JSON, or its top level is not an
     /// object of the expected kind.
     #[error("{}: line {line}, column {column}: {message}", path.display())]
@@ -44,7 +56,7 @@ pub enum DatasetError {
 
     /// A JSON file's `format` field names another kind of file, a major
     /// version this crate does not read, or is malformed.
-    #[error("{}: format {format:?} {message}", path.display())]
+    #[error("{}: format {} {message}", path.display(), quoted(format))]
     Format {
         /// The file concerned.
         path: PathBuf,
@@ -81,8 +93,9 @@ pub enum DatasetError {
 
     /// A ball has fewer contacts than `ReadOptions::min_contacts_per_ball`.
     #[error(
-        "{}: ball {ball:?} has {count} contacts, fewer than the minimum of {min}{}",
+        "{}: ball {} has {count} contacts, fewer than the minimum of {min}{}",
         path.display(),
+        quoted(ball),
         others_suffix(*others)
     )]
     TooFewContacts {
@@ -153,6 +166,13 @@ impl DatasetError {
             path: path.to_path_buf(),
             line,
             column: column.map(str::to_owned),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn refused(path: &Path, message: impl Into<String>) -> Self {
+        Self::Refused {
+            path: path.to_path_buf(),
             message: message.into(),
         }
     }

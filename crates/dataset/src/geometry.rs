@@ -13,6 +13,8 @@ use serde::de::value::StringDeserializer;
 use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, Visitor};
 use serde::{Deserialize, Serialize};
 
+use parcal_kinematics::{Geometry, KinematicsError};
+
 use crate::Point3;
 use crate::check::Check;
 use crate::error::Result;
@@ -36,8 +38,8 @@ pub struct GeometryRecord {
 }
 
 impl GeometryRecord {
-    /// Every value finite. Errors name the field after `parent` (`""` or
-    /// e.g. `"canonical."`).
+    /// Every value a length ([`Check::length`]). Errors name the field after
+    /// `parent` (`""` or e.g. `"canonical."`).
     pub(crate) fn validate(&self, check: Check, parent: &str) -> Result<()> {
         check.points(format_args!("{parent}base_joints"), &self.base_joints)?;
         check.points(
@@ -45,7 +47,36 @@ impl GeometryRecord {
             &self.platform_joints,
         )?;
         check.point(format_args!("{parent}tool"), &self.tool)?;
-        check.values(format_args!("{parent}leg_lengths"), &self.leg_lengths)
+        check.lengths(format_args!("{parent}leg_lengths"), &self.leg_lengths)
+    }
+
+    /// The geometry of a machine to calibrate (machine.json, truth.json):
+    /// [`GeometryRecord::validate`], and its canonical frames exist (no two
+    /// joints of a body coincide, joints 1, 2 and 3 of each body are not
+    /// collinear), as the calibration's
+    /// [`canonicalize`](parcal_kinematics::Geometry::canonicalize) judges.
+    /// Errors name the field after `parent`, as [`GeometryRecord::validate`].
+    pub(crate) fn validate_machine(&self, check: Check, parent: &str) -> Result<()> {
+        self.validate(check, parent)?;
+        let geometry = Geometry::from_arrays(
+            &self.base_joints,
+            &self.platform_joints,
+            &self.tool,
+            &self.leg_lengths,
+        );
+        match geometry.canonicalize() {
+            Ok(_) => Ok(()),
+            Err(e) => {
+                let field = match &e {
+                    KinematicsError::CoincidentJoints { body, .. }
+                    | KinematicsError::CollinearFrameJoints { body, .. } => {
+                        format!("{parent}{body}_joints")
+                    }
+                    _ => format!("{parent}base_joints"),
+                };
+                Err(check.error(field, format!("degenerate geometry: {e}")))
+            }
+        }
     }
 }
 

@@ -2,16 +2,20 @@
 //! serde errors mapped to file + field, pretty deterministic output.
 
 use std::fmt;
-use std::fs;
-use std::io::{self, Write};
+use std::io::Write;
 use std::path::Path;
 
 use serde::Serialize;
-use serde::de::{DeserializeOwned, Deserializer, IgnoredAny, MapAccess, Visitor};
+use serde::de::value::StringDeserializer;
+use serde::de::{
+    self, DeserializeOwned, DeserializeSeed, Deserializer, IgnoredAny, MapAccess, Visitor,
+};
 use serde_json::error::Category;
 
 use crate::atomic::{write_atomic, write_error};
 use crate::error::{DatasetError, Result};
+use crate::input;
+use crate::quote::sanitized;
 
 /// The kind of a JSON file, as named by its `format` field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,17 +98,17 @@ pub(crate) fn read<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<T> {
 
 /// Reads an optional JSON file of the given kind: `None` if it does not exist.
 pub(crate) fn read_if_present<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<Option<T>> {
-    let bytes = match fs::read(path) {
-        Ok(bytes) => bytes,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(DatasetError::io(path, "read", e)),
-    };
-    parse(path, kind, &bytes).map(Some)
+    match input::read_json(path)? {
+        Some(bytes) => parse(path, kind, &bytes).map(Some),
+        None => Ok(None),
+    }
 }
 
 /// Parses the bytes of a JSON file of the given kind: the `format` first (so
-/// that a file of another version is refused as such), then the body.
+/// that a file of another version is refused as such), then the body. A
+/// leading UTF-8 byte order mark is skipped.
 pub(crate) fn parse<T: DeserializeOwned>(path: &Path, kind: Kind, bytes: &[u8]) -> Result<T> {
+    let bytes = bytes.strip_prefix(input::BOM).unwrap_or(bytes);
     let format = format_field(path, bytes)?;
     kind.check(path, &format)?;
     deserialize(path, bytes)
@@ -114,7 +118,8 @@ pub(crate) fn parse<T: DeserializeOwned>(path: &Path, kind: Kind, bytes: &[u8]) 
 /// as far as that field: the files this crate writes open with it, so the
 /// rest of a large file is scanned once, by the body's parse (truth.json of
 /// a 10^6-contact campaign holds 90 MB of contact points). Whatever follows
-/// the field, syntax errors included, is the body's parse to report.
+/// the field, syntax errors and a second `format` included, is the body's
+/// parse to report ([`WithoutFormat`]).
 fn format_field(path: &Path, bytes: &[u8]) -> Result<String> {
     /// How far the scan got.
     enum Format {
@@ -164,18 +169,86 @@ fn format_field(path: &Path, bytes: &[u8]) -> Result<String> {
 /// with it, so that the error names the field.
 fn deserialize<T: DeserializeOwned>(path: &Path, bytes: &[u8]) -> Result<T> {
     let mut de = serde_json::Deserializer::from_slice(bytes);
-    if let Ok(value) = T::deserialize(&mut de)
+    if let Ok(value) = T::deserialize(WithoutFormat(&mut de))
         && de.end().is_ok()
     {
         return Ok(value);
     }
     let mut de = serde_json::Deserializer::from_slice(bytes);
-    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
-        let field = e.path().iter().next().map(|_| e.path().to_string());
-        map_error(path, field, e.into_inner())
+    let mut track = serde_path_to_error::Track::new();
+    let tracked = serde_path_to_error::Deserializer::new(&mut de, &mut track);
+    let value = T::deserialize(WithoutFormat(tracked)).map_err(|e| {
+        let at = track.path();
+        let field = at.iter().next().map(|_| at.to_string());
+        map_error(path, field, e)
     })?;
     de.end().map_err(|e| map_error(path, None, e))?;
     Ok(value)
+}
+
+/// A document's top-level object without its `format` field, which the
+/// body's types do not have (and would ignore): the field was judged by
+/// [`format_field`], and a second one is refused as a duplicate, as any
+/// other field given twice is.
+struct WithoutFormat<D>(D);
+
+impl<'de, D: Deserializer<'de>> Deserializer<'de> for WithoutFormat<D> {
+    type Error = D::Error;
+
+    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, D::Error> {
+        self.0.deserialize_map(SkipFormat(visitor))
+    }
+
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+        bytes byte_buf option unit unit_struct newtype_struct seq tuple
+        tuple_struct map struct enum identifier ignored_any
+    }
+}
+
+/// The visitor of the body, given the object without its `format`.
+struct SkipFormat<V>(V);
+
+impl<'de, V: Visitor<'de>> Visitor<'de> for SkipFormat<V> {
+    type Value = V::Value;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        self.0.expecting(f)
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<V::Value, A::Error> {
+        self.0.visit_map(FormatSkipped { map, seen: false })
+    }
+}
+
+/// The fields of the top-level object but `format`.
+struct FormatSkipped<A> {
+    map: A,
+    seen: bool,
+}
+
+impl<'de, A: MapAccess<'de>> MapAccess<'de> for FormatSkipped<A> {
+    type Error = A::Error;
+
+    fn next_key_seed<K: DeserializeSeed<'de>>(
+        &mut self,
+        seed: K,
+    ) -> Result<Option<K::Value>, A::Error> {
+        while let Some(key) = self.map.next_key::<String>()? {
+            if key != "format" {
+                return seed.deserialize(StringDeserializer::new(key)).map(Some);
+            }
+            if std::mem::replace(&mut self.seen, true) {
+                return Err(de::Error::duplicate_field("format"));
+            }
+            self.map.next_value::<IgnoredAny>()?;
+        }
+        Ok(None)
+    }
+
+    fn next_value_seed<S: DeserializeSeed<'de>>(&mut self, seed: S) -> Result<S::Value, A::Error> {
+        self.map.next_value_seed(seed)
+    }
 }
 
 /// Turns a serde_json error, and the path of the field where it happened
@@ -186,7 +259,8 @@ fn map_error(path: &Path, field: Option<String>, inner: serde_json::Error) -> Da
     // character.
     let (line, column) = (inner.line(), inner.column().max(1));
     let category = inner.classify();
-    let message = strip_location(&inner);
+    let message = sanitized(&strip_location(&inner));
+    let field = field.map(|f| sanitized(&f));
     let top_level = |message: String| DatasetError::Json {
         path: path.to_path_buf(),
         line,
@@ -346,6 +420,49 @@ mod tests {
             parse_err(r#"{"format": 1}"#),
             "x.json: field format: invalid type: integer `1`, expected a string (line 1, column 12)"
         );
+    }
+
+    #[test]
+    fn a_second_format_field_is_refused_like_any_duplicate() {
+        let body = r#""a": 1, "inner": {"b": [2]}"#;
+        for json in [
+            format!(
+                "{{\"format\": \"parcal-machine/1\", {body},\n \"format\": \"parcal-truth/1\"}}"
+            ),
+            format!(
+                "{{\"format\": \"parcal-machine/1\", {body},\n \"format\": \"parcal-machine/1\"}}"
+            ),
+        ] {
+            assert_eq!(
+                parse_err(&json),
+                "x.json: line 2, column 9: duplicate field `format`"
+            );
+        }
+        assert_eq!(
+            parse_err(&format!(
+                r#"{{"format": "parcal-machine/1", {body}, "a": 2}}"#
+            )),
+            "x.json: line 1, column 63: duplicate field `a`"
+        );
+    }
+
+    #[test]
+    fn quoted_input_is_escaped_and_shortened() {
+        let f = r#""format": "parcal-machine/1""#;
+        let long = r"\u001b[31m".repeat(100_000);
+        let err = parse_err(&format!(r#"{{{f}, "a": "{long}", "inner": {{"b": []}}}}"#));
+        assert!(err.len() < 400, "{err}");
+        assert!(!err.contains('\u{1b}'), "{err}");
+        assert!(
+            err.starts_with("x.json: field a: invalid type: string \"\\u{1b}[31m"),
+            "{err}"
+        );
+        assert!(
+            err.ends_with("\", expected f64 (line 1, column 1000038)"),
+            "{err}"
+        );
+        let err = parse_err(&format!(r#"{{"format": "{long}"}}"#));
+        assert!(err.len() < 400 && !err.contains('\u{1b}'), "{err}");
     }
 
     #[test]

@@ -12,9 +12,12 @@
 //! and a calibration writes `calibration.json` ([`Calibration`]). The format is
 //! specified in `docs/dataset-format.md`.
 //!
-//! Reading checks everything (shapes, finite numbers, positive sigmas, ids,
-//! consistency between the files) and reports the first problem as a
-//! [`DatasetError`] that names the file and the field or line. Writing is
+//! Reading checks everything (shapes, finite and plausible numbers, sigmas,
+//! ids, a geometry with canonical frames, consistency between the files)
+//! and reports the first problem as a [`DatasetError`] that names the file
+//! and the field or line; the same validation guards writing and snapshots.
+//! Only regular files are read, JSON files up to [`JSON_CAP`] bytes and CSV
+//! lines up to [`CSV_LINE_CAP`] bytes (`docs/reliability.md`). Writing is
 //! atomic ([`atomic`]): each file, and a dataset directory as a whole. It is
 //! deterministic (same data, same bytes) and exact: every
 //! `f64` reads back bit for bit. [`Dataset::write_snapshot`] and
@@ -91,10 +94,12 @@ mod check;
 mod dataset;
 mod error;
 mod geometry;
+mod input;
 mod json;
 mod machine;
 mod measurements;
 mod numbers;
+mod quote;
 mod session;
 mod shape;
 mod snapshot;
@@ -109,13 +114,16 @@ pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, GlobalTestRecord, IterationSummary,
     ParameterTable, Provenance, RemovedObservation,
 };
-pub use dataset::{Dataset, ReadOptions, WriteOptions};
+pub use check::{MAX_LENGTH_MM, MIN_SIGMA};
+pub use dataset::{Dataset, MIN_CONTACTS_PER_BALL, ReadOptions, WriteOptions};
 pub use error::DatasetError;
 pub use geometry::GeometryRecord;
+pub use input::JSON_CAP;
 pub use machine::{Actuator, Machine, PriorSigma, Repeatability, SessionModel};
 pub use measurements::Measurements;
 pub use numbers::{read_numbers, write_numbers};
 pub use session::{FrameRecord, SessionRecord};
+pub use table::CSV_LINE_CAP;
 pub use tracker::{DEFAULT_SESSION, Points, Poses, Tracker};
 pub use truth::Truth;
 pub use validation::{NuisanceCandidate, ValidationRecord};

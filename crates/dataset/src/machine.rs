@@ -9,6 +9,7 @@ use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::{GeometryRecord, WithGeometry};
 use crate::json;
+use crate::quote::{has_control, quoted};
 
 /// A priori standard deviation of every parameter of each group (the design
 /// tolerance), in mm.
@@ -229,7 +230,9 @@ impl Machine {
         }
     }
 
-    /// Every value finite; sigmas and repeatabilities positive.
+    /// The geometry a machine's ([`GeometryRecord::validate_machine`]),
+    /// sigmas and repeatabilities within [`Check::sigma`]'s bounds, scales
+    /// positive, the unit a label.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
         self.validate_in(check, "")
     }
@@ -238,20 +241,20 @@ impl Machine {
     /// file (`"design."`): errors name `parent` before the field.
     pub(crate) fn validate_in(&self, check: Check, parent: &str) -> Result<()> {
         let field = |name: &str| format!("{parent}{name}");
-        self.geometry.validate(check, parent)?;
+        self.geometry.validate_machine(check, parent)?;
         let PriorSigma {
             base,
             platform,
             tool,
             leg,
         } = self.prior_sigma;
-        check.positive(field("prior_sigma.base"), base)?;
-        check.positive(field("prior_sigma.platform"), platform)?;
-        check.positive(field("prior_sigma.tool"), tool)?;
-        check.positive(field("prior_sigma.leg"), leg)?;
+        check.sigma(field("prior_sigma.base"), base)?;
+        check.sigma(field("prior_sigma.platform"), platform)?;
+        check.sigma(field("prior_sigma.tool"), tool)?;
+        check.sigma(field("prior_sigma.leg"), leg)?;
         let r = &self.repeatability;
-        check.positive(field("repeatability.actuator"), r.actuator)?;
-        check.positive(field("repeatability.tool"), r.tool)?;
+        check.sigma(field("repeatability.actuator"), r.actuator)?;
+        check.sigma(field("repeatability.tool"), r.tool)?;
         for (name, value) in [
             ("repeatability.position", r.position),
             ("repeatability.orientation", r.orientation),
@@ -269,18 +272,24 @@ impl Machine {
             ),
         ] {
             if let Some(value) = value {
-                check.positive(format_args!("{parent}{name}"), value)?;
+                check.sigma(format_args!("{parent}{name}"), value)?;
             }
         }
         if self.actuator.unit.trim().is_empty() {
             return Err(check.error(field("actuator.unit"), "must not be empty"));
+        }
+        if has_control(&self.actuator.unit) {
+            return Err(check.error(
+                field("actuator.unit"),
+                format!("{} has a control character", quoted(&self.actuator.unit)),
+            ));
         }
         for (i, &s) in self.actuator.scale.iter().enumerate() {
             check.positive(format_args!("{parent}actuator.scale[{i}]"), s)?;
         }
         if let Some(sigmas) = &self.actuator.scale_sigma {
             for (i, &s) in sigmas.iter().enumerate() {
-                check.positive(format_args!("{parent}actuator.scale_sigma[{i}]"), s)?;
+                check.sigma(format_args!("{parent}actuator.scale_sigma[{i}]"), s)?;
             }
         }
         if let Some([min, max]) = self.stroke {

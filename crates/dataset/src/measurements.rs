@@ -16,8 +16,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::Point3;
 use crate::artefacts::{Ball, ball_index};
-use crate::check::{Check, not_finite};
+use crate::check::{self, Check, not_finite};
 use crate::error::{DatasetError, Result};
+use crate::quote::quoted_bytes;
 use crate::table::{self, Failure, Header};
 
 const BALL: &str = "ball";
@@ -49,14 +50,15 @@ impl Measurements {
     }
 
     /// Reads `measurements.csv`, resolving ball ids against `balls` (whose
-    /// ids are unique).
-    pub(crate) fn read(path: &Path, balls: &[Ball]) -> Result<Self> {
-        table::read_file(path, |reader| Self::parse_records(reader, balls))
+    /// ids are unique); `scale` is the actuators' (mm per unit).
+    pub(crate) fn read(path: &Path, balls: &[Ball], scale: &[f64; 6]) -> Result<Self> {
+        table::read_file(path, |reader| Self::parse_records(reader, balls, scale))
     }
 
     fn parse_records<R: Read>(
         reader: &mut csv::Reader<R>,
         balls: &[Ball],
+        scale: &[f64; 6],
     ) -> Result<Self, Failure> {
         let index: HashMap<&[u8], u32> = ball_index(balls)
             .expect("ball ids are unique")
@@ -82,15 +84,23 @@ impl Measurements {
                 row.error(
                     Some(BALL),
                     format!(
-                        "unknown ball id {:?} (not in artefacts.json)",
-                        String::from_utf8_lossy(id)
+                        "unknown ball id {} (not in artefacts.json)",
+                        quoted_bytes(id)
                     ),
                 )
             })?;
+            let q = row.numbers(&columns.q, &Q)?;
+            let direction = match &columns.dir {
+                Some(dir) => Some(row.numbers(dir, &DIR)?),
+                None => None,
+            };
+            if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
+                return Err(row.error(column, message));
+            }
             out.ball.push(ball);
-            out.q.push(row.numbers(&columns.q, &Q)?);
-            if let (Some(dir), Some(directions)) = (&columns.dir, &mut out.direction) {
-                directions.push(row.numbers(dir, &DIR)?);
+            out.q.push(q);
+            if let (Some(d), Some(directions)) = (direction, &mut out.direction) {
+                directions.push(d);
             }
             Ok(())
         })?;
@@ -118,9 +128,10 @@ impl Measurements {
         })
     }
 
-    /// Arrays of equal length, ball indices in range, values finite. Errors
-    /// name the line the row has (or would have) in `measurements.csv`.
-    pub(crate) fn validate(&self, check: Check, ball_count: usize) -> Result<()> {
+    /// Arrays of equal length, ball indices in range, rows as
+    /// [`row_problem`] wants them (`scale`: the actuators'). Errors name the
+    /// line the row has (or would have) in `measurements.csv`.
+    pub(crate) fn validate(&self, check: Check, ball_count: usize, scale: &[f64; 6]) -> Result<()> {
         let rows = self.len();
         if rows == 0 {
             return Err(check.error("ball", "no measurement rows"));
@@ -148,13 +159,9 @@ impl Measurements {
                     format!("ball index {ball} is out of range ({ball_count} balls)"),
                 ));
             }
-            if let Some(k) = q.iter().position(|v| !v.is_finite()) {
-                return Err(bad(row, Q[k], not_finite(q[k])));
-            }
-            if let Some(d) = self.direction.as_ref().map(|d| &d[row])
-                && let Some(k) = d.iter().position(|v| !v.is_finite())
-            {
-                return Err(bad(row, DIR[k], not_finite(d[k])));
+            let direction = self.direction.as_ref().map(|d| &d[row]);
+            if let Some((column, message)) = row_problem(q, direction, scale) {
+                return Err(DatasetError::csv(check.path(), line(row), column, message));
             }
         }
         Ok(())
@@ -171,6 +178,42 @@ impl Measurements {
         }
         counts
     }
+}
+
+/// What is wrong with a row's numbers, if anything, and in which column:
+/// the readings as [`check::readings`] wants them, the direction's
+/// coordinates finite and its length, as the calibration normalises it
+/// (`sqrt(x² + y² + z²)`), finite and non-zero.
+fn row_problem(
+    q: &[f64; 6],
+    direction: Option<&Point3>,
+    scale: &[f64; 6],
+) -> Option<(Option<&'static str>, String)> {
+    if let Some((k, message)) = check::readings(q, scale) {
+        return Some((Some(Q[k]), message));
+    }
+    let d = direction?;
+    if let Some(k) = d.iter().position(|v| !v.is_finite()) {
+        return Some((Some(DIR[k]), not_finite(d[k])));
+    }
+    let length = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if length.is_finite() && length > 0.0 {
+        return None;
+    }
+    let shown = format!(
+        "({}, {}, {})",
+        check::shown(d[0]),
+        check::shown(d[1]),
+        check::shown(d[2])
+    );
+    let why = if length > 0.0 {
+        "is too large to normalise (its length overflows); give a unit vector"
+    } else if d.iter().all(|&v| v == 0.0) {
+        "is zero, not a direction"
+    } else {
+        "is too small to normalise (its length underflows to 0); give a unit vector"
+    };
+    Some((None, format!("the approach direction {shown} {why}")))
 }
 
 /// Where each column of interest is, by header name.

@@ -61,6 +61,6 @@ impl SessionRecord {
             .validate(check, &format!("{field}.tracker_frame"))?;
         self.body_frame
             .validate(check, &format!("{field}.body_frame"))?;
-        check.values(format_args!("{field}.leg_offsets"), &self.leg_offsets)
+        check.lengths(format_args!("{field}.leg_offsets"), &self.leg_offsets)
     }
 }

@@ -6,6 +6,7 @@
 //! own `[T; N]` does, so the same types also read back from postcard
 //! snapshots.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::marker::PhantomData;
 
@@ -14,6 +15,7 @@ use serde::ser::{SerializeMap, Serializer};
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
+use crate::quote::quoted;
 
 /// A point that deserializes with "expected 3 coordinates, found N".
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -131,6 +133,37 @@ pub(crate) fn points<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Point3>, D::
         }
     }
     d.deserialize_seq(PointsVisitor)
+}
+
+/// `deserialize_with` for an object keyed by name: a key given twice is an
+/// error (a map would keep the last value silently).
+pub(crate) fn unique_map<'de, D, T>(d: D) -> Result<BTreeMap<String, T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    struct UniqueVisitor<T>(PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> Visitor<'de> for UniqueVisitor<T> {
+        type Value = BTreeMap<String, T>;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("an object")
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+            let mut out = BTreeMap::new();
+            while let Some(key) = map.next_key::<String>()? {
+                if out.contains_key(&key) {
+                    return Err(de::Error::custom(format!(
+                        "key {} is given twice",
+                        quoted(&key)
+                    )));
+                }
+                let value = map.next_value()?;
+                out.insert(key, value);
+            }
+            Ok(out)
+        }
+    }
+    d.deserialize_map(UniqueVisitor(PhantomData))
 }
 
 /// A JSON object keyed by ball id, in file order, duplicates kept (the

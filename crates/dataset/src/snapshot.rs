@@ -13,13 +13,13 @@
 //! The payload is the serde form of the crate's public types, so any change
 //! to them must bump [`VERSION`].
 
-use std::fs;
-use std::io::{self, Write};
+use std::io::{Read, Write};
 use std::path::Path;
 
 use crate::Dataset;
 use crate::atomic::{write_atomic, write_error};
 use crate::error::{DatasetError, Result};
+use crate::input::{self, Input};
 
 const MAGIC: [u8; 8] = *b"PARCALDS";
 /// Version of the snapshot layout and payload.
@@ -43,29 +43,30 @@ pub(crate) fn write(dataset: &Dataset, path: &Path) -> Result<()> {
 }
 
 /// Reads a snapshot, refusing anything but an intact one of this version.
-/// The caller validates the dataset.
+/// The payload length in the header is checked against the file's size
+/// before the payload is read. The caller validates the dataset.
 pub(crate) fn read(path: &Path) -> Result<Dataset> {
-    let bytes = fs::read(path).map_err(|e| match e.kind() {
-        io::ErrorKind::NotFound => DatasetError::MissingFile {
-            path: path.to_path_buf(),
-        },
-        _ => DatasetError::io(path, "read", e),
-    })?;
+    let Input { file, len } = input::open_required(path)?;
     let error = |message: String| DatasetError::snapshot(path, message);
+    let read_error = |e| DatasetError::io(path, "read", e);
 
-    let magic_len = bytes.len().min(MAGIC.len());
-    if bytes[..magic_len] != MAGIC[..magic_len] {
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    (&file)
+        .take(HEADER_LEN as u64)
+        .read_to_end(&mut header)
+        .map_err(read_error)?;
+    let magic_len = header.len().min(MAGIC.len());
+    if header[..magic_len] != MAGIC[..magic_len] {
         return Err(error(
             "is not a parcal dataset snapshot (wrong magic header)".into(),
         ));
     }
-    if bytes.len() < HEADER_LEN {
+    if header.len() < HEADER_LEN {
         return Err(error(format!(
             "is truncated: {} bytes, shorter than the {HEADER_LEN}-byte header",
-            bytes.len()
+            header.len()
         )));
     }
-    let (header, payload) = bytes.split_at(HEADER_LEN);
     let version = u32::from_le_bytes(header[8..12].try_into().expect("4 bytes"));
     let declared = u64::from_le_bytes(header[12..20].try_into().expect("8 bytes"));
     let crc = u32::from_le_bytes(header[20..24].try_into().expect("4 bytes"));
@@ -75,18 +76,30 @@ pub(crate) fn read(path: &Path) -> Result<Dataset> {
              (write the snapshot again from the dataset's files)"
         )));
     }
-    let actual = payload.len() as u64;
-    if actual < declared {
-        return Err(error(format!(
-            "is truncated: {actual} payload bytes, {declared} expected"
-        )));
-    }
-    if actual > declared {
-        return Err(error(format!(
-            "is corrupt: {} bytes past the {declared}-byte payload",
-            actual - declared
-        )));
-    }
+    let check_length = |actual: u64| {
+        if actual < declared {
+            return Err(error(format!(
+                "is truncated: {actual} payload bytes, {declared} expected"
+            )));
+        }
+        if actual > declared {
+            return Err(error(format!(
+                "is corrupt: {} bytes past the {declared}-byte payload",
+                actual - declared
+            )));
+        }
+        Ok(())
+    };
+    check_length(len.saturating_sub(HEADER_LEN as u64))?;
+    // `declared` is the file's real size less the header: nothing larger
+    // than the file is allocated, and a file grown since is stopped.
+    let mut payload = Vec::with_capacity(usize::try_from(declared).unwrap_or(0));
+    (&file)
+        .take(declared.saturating_add(1))
+        .read_to_end(&mut payload)
+        .map_err(read_error)?;
+    check_length(payload.len() as u64)?;
+    let payload = payload.as_slice();
     if crc32fast::hash(payload) != crc {
         return Err(error("is corrupt: checksum mismatch".into()));
     }
@@ -115,12 +128,47 @@ mod tests {
                 .join("../../fixtures/reference-paper-seed1"),
         )
         .unwrap();
+        let valid = dataset.clone();
         dataset.measurements.ball[10] = 99;
         super::write(&dataset, &path).unwrap();
         assert_eq!(
             Dataset::read_snapshot(&path).unwrap_err().to_string(),
             format!(
                 "{}: line 12, column ball: ball index 99 is out of range (27 balls)",
+                path.display()
+            )
+        );
+        // As the text reader does: a ball with fewer than 4 contacts, a
+        // zero approach direction.
+        let mut dataset = valid.clone();
+        let first: Vec<usize> = (0..dataset.measurements.len())
+            .filter(|&r| dataset.measurements.ball[r] == 0)
+            .skip(3)
+            .collect();
+        for &r in first.iter().rev() {
+            dataset.measurements.ball.remove(r);
+            dataset.measurements.q.remove(r);
+            if let Some(truth) = &mut dataset.truth {
+                truth.contacts.remove(r);
+            }
+        }
+        super::write(&dataset, &path).unwrap();
+        let id = &dataset.artefacts.balls[0].id;
+        assert_eq!(
+            Dataset::read_snapshot(&path).unwrap_err().to_string(),
+            format!(
+                "{}: ball \"{id}\" has 3 contacts, fewer than the minimum of 4",
+                path.display()
+            )
+        );
+        let mut dataset = valid;
+        dataset.measurements.direction = Some(vec![[0.0, 0.0, -1.0]; dataset.measurements.len()]);
+        dataset.measurements.direction.as_mut().unwrap()[4] = [0.0; 3];
+        super::write(&dataset, &path).unwrap();
+        assert_eq!(
+            Dataset::read_snapshot(&path).unwrap_err().to_string(),
+            format!(
+                "{}: line 6: the approach direction (0, 0, 0) is zero, not a direction",
                 path.display()
             )
         );

@@ -12,6 +12,8 @@ use csv::{ByteRecord, ReaderBuilder};
 use crate::atomic::{write_atomic, write_error};
 use crate::check::not_finite;
 use crate::error::DatasetError;
+use crate::input;
+use crate::quote::{quoted_bytes, sanitized};
 
 /// An error found while parsing, before its line number is known.
 pub(crate) enum Failure {
@@ -77,11 +79,10 @@ impl Row<'_> {
                 .ok()
                 .and_then(|text| text.parse::<f64>().ok())
                 .ok_or_else(|| {
-                    let found = String::from_utf8_lossy(bytes);
-                    let message = if found.is_empty() {
+                    let message = if bytes.is_empty() {
                         "empty field, expected a number".to_owned()
                     } else {
-                        format!("expected a number, found {found:?}")
+                        format!("expected a number, found {}", quoted_bytes(bytes))
                     };
                     self.error(Some(name), message)
                 })?;
@@ -117,50 +118,155 @@ pub(crate) fn line_of<R: Read + Seek>(mut input: R, end: u64, inner_newlines: u6
 
 pub(crate) fn csv_error(path: &Path, error: csv::Error) -> DatasetError {
     let line = error.position().map_or(0, csv::Position::line);
-    let message = error.to_string();
+    let message = sanitized(&error.to_string());
     match error.into_kind() {
         csv::ErrorKind::Io(e) => DatasetError::io(path, "read", e),
         _ => DatasetError::csv(path, line, None, message),
     }
 }
 
-/// Opens the CSV file `path` (absent: [`DatasetError::MissingFile`]) and
-/// parses it with `records`.
+/// Opens the CSV file `path` (absent: [`DatasetError::MissingFile`]; not a
+/// regular file: [`DatasetError::Refused`]) and parses it with `records`.
 pub(crate) fn read_file<T>(
     path: &Path,
-    records: impl FnOnce(&mut csv::Reader<File>) -> Result<T, Failure>,
+    records: impl FnOnce(&mut CsvReader<File>) -> Result<T, Failure>,
 ) -> Result<T, DatasetError> {
-    let file = File::open(path).map_err(|e| match e.kind() {
-        io::ErrorKind::NotFound => DatasetError::MissingFile {
-            path: path.to_path_buf(),
-        },
-        _ => DatasetError::io(path, "read", e),
-    })?;
+    let file = input::open_required(path)?.file;
     parse(path, file, records)
 }
 
+/// The CSV reader of an input: lines at most [`CSV_LINE_CAP`] bytes long.
+pub(crate) type CsvReader<R> = csv::Reader<LineLimited<R>>;
+
 /// Parses CSV from `input` with `records`; errors name `path`. `input` is
-/// read once, front to back; it is rewound only to find the line of an
-/// error.
+/// read once, front to back (after a UTF-8 byte order mark, which is
+/// skipped); it is rewound only to find the line of an error.
 pub(crate) fn parse<R: Read + Seek, T>(
     path: &Path,
-    input: R,
-    records: impl FnOnce(&mut csv::Reader<R>) -> Result<T, Failure>,
+    mut input: R,
+    records: impl FnOnce(&mut CsvReader<R>) -> Result<T, Failure>,
 ) -> Result<T, DatasetError> {
-    let mut reader = ReaderBuilder::new().flexible(true).from_reader(input);
-    match records(&mut reader) {
-        Ok(value) => Ok(value),
-        Err(Failure::Csv(e)) => Err(csv_error(path, e)),
-        Err(Failure::At {
+    let skipped = skip_bom(&mut input).map_err(|e| DatasetError::io(path, "read", e))?;
+    let limited = LineLimited {
+        inner: input,
+        offset: skipped,
+        line_length: 0,
+        cap: CSV_LINE_CAP,
+    };
+    let mut reader = ReaderBuilder::new().flexible(true).from_reader(limited);
+    // Offsets of the CSV reader count from after the byte order mark.
+    let failure = match records(&mut reader) {
+        Ok(value) => return Ok(value),
+        Err(failure) => failure,
+    };
+    let input = reader.into_inner().inner;
+    match failure {
+        Failure::Csv(e) => match line_too_long(&e) {
+            Some(&LineTooLong { offset, cap }) => {
+                let line = line_of(input, offset + 1, 0).unwrap_or(0);
+                Err(DatasetError::csv(
+                    path,
+                    line,
+                    None,
+                    format!("the line is longer than {cap} bytes, the most a CSV line may have"),
+                ))
+            }
+            None => Err(csv_error(path, e)),
+        },
+        Failure::At {
             end,
             inner_newlines,
             estimate,
             column,
             message,
-        }) => {
-            let line = line_of(reader.into_inner(), end, inner_newlines).unwrap_or(estimate);
+        } => {
+            let line = line_of(input, end + skipped, inner_newlines).unwrap_or(estimate);
             Err(DatasetError::csv(path, line, column, message))
         }
+    }
+}
+
+/// Positions `input` after its UTF-8 byte order mark, if it has one, and
+/// returns the bytes skipped.
+fn skip_bom<R: Read + Seek>(input: &mut R) -> io::Result<u64> {
+    let mut start = [0u8; 3];
+    let mut n = 0;
+    while n < start.len() {
+        match input.read(&mut start[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    let skipped = if start[..n] == *input::BOM { 3 } else { 0 };
+    input.seek(SeekFrom::Start(skipped))?;
+    Ok(skipped)
+}
+
+/// The longest CSV line read, bytes (1 MiB): a row of measurements.csv is
+/// a few hundred bytes. A longer line (an endless one) is refused with its
+/// line number instead of growing the record without bound.
+pub const CSV_LINE_CAP: u64 = 1 << 20;
+
+/// A reader that fails when a line (bytes between two newlines) grows
+/// longer than `cap`.
+pub(crate) struct LineLimited<R> {
+    inner: R,
+    /// Offset in the input of the next byte read.
+    offset: u64,
+    /// Length of the line read so far (bytes since the last newline).
+    line_length: u64,
+    cap: u64,
+}
+
+/// The error of a line longer than the cap: it reached the cap at byte
+/// `offset` of the input.
+#[derive(Debug)]
+struct LineTooLong {
+    offset: u64,
+    cap: u64,
+}
+
+impl std::fmt::Display for LineTooLong {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "a line is longer than {} bytes", self.cap)
+    }
+}
+
+impl std::error::Error for LineTooLong {}
+
+fn line_too_long(error: &csv::Error) -> Option<&LineTooLong> {
+    match error.kind() {
+        csv::ErrorKind::Io(e) => e.get_ref()?.downcast_ref(),
+        _ => None,
+    }
+}
+
+impl<R: Read> Read for LineLimited<R> {
+    /// Reads at most `cap` bytes at a time, so that only a line that spans
+    /// reads can be too long: the check looks at the first and the last
+    /// newline of what was read, not at every byte.
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let most = buf
+            .len()
+            .min(usize::try_from(self.cap).unwrap_or(usize::MAX));
+        let n = self.inner.read(&mut buf[..most])?;
+        let chunk = &buf[..n];
+        let (first, last) = match chunk.iter().position(|&b| b == b'\n') {
+            Some(first) => (first, chunk.iter().rposition(|&b| b == b'\n')),
+            None => (n, None),
+        };
+        if self.line_length + first as u64 > self.cap {
+            return Err(io::Error::other(LineTooLong {
+                offset: self.offset + (self.cap - self.line_length),
+                cap: self.cap,
+            }));
+        }
+        self.line_length = match last {
+            Some(last) => (n - last - 1) as u64,
+            None => self.line_length + n as u64,
+        };
+        self.offset += n as u64;
+        Ok(n)
     }
 }
 

@@ -19,8 +19,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
-use crate::check::{Check, not_finite};
+use crate::check::{self, Check, not_finite};
 use crate::error::{DatasetError, Result};
+use crate::quote::{has_control, quoted};
 use crate::table::{self, Failure, Header, Row};
 
 const SESSION: &str = "session";
@@ -135,16 +136,17 @@ impl Tracker {
         counts
     }
 
-    /// Reads `poses.csv` and `points.csv` where they exist.
-    pub(crate) fn read(poses: &Path, points: &Path) -> Result<Self> {
+    /// Reads `poses.csv` and `points.csv` where they exist; `scale` is the
+    /// actuators' (mm per unit).
+    pub(crate) fn read(poses: &Path, points: &Path, scale: &[f64; 6]) -> Result<Self> {
         let mut sessions = Sessions::default();
         let poses = if poses.exists() {
-            table::read_file(poses, |reader| read_poses(reader, &mut sessions))?
+            table::read_file(poses, |reader| read_poses(reader, &mut sessions, scale))?
         } else {
             Poses::default()
         };
         let points = if points.exists() {
-            table::read_file(points, |reader| read_points(reader, &mut sessions))?
+            table::read_file(points, |reader| read_points(reader, &mut sessions, scale))?
         } else {
             Points::default()
         };
@@ -207,7 +209,7 @@ impl Tracker {
     /// Arrays of equal length, session indices in range, every session
     /// used, values finite, quaternions of unit norm. Errors name the file
     /// (`poses`, `points`) and the line the row has (or would have).
-    pub(crate) fn validate(&self, poses: Check, points: Check) -> Result<()> {
+    pub(crate) fn validate(&self, poses: Check, points: Check, scale: &[f64; 6]) -> Result<()> {
         let n = self.sessions.len();
         let p = &self.poses;
         let lengths = [p.session.len(), p.position.len(), p.orientation.len()];
@@ -224,7 +226,7 @@ impl Tracker {
             let bad = |column: &str, message: String| {
                 DatasetError::csv(poses.path(), i as u64 + 2, Some(column), message)
             };
-            check_row(p.session[i], n, &p.q[i], &p.position[i], bad)?;
+            check_row(p.session[i], n, (&p.q[i], &p.position[i]), scale, bad)?;
             if let Some(k) = p.orientation[i].iter().position(|v| !v.is_finite()) {
                 return Err(bad(ORIENTATION[k], not_finite(p.orientation[i][k])));
             }
@@ -252,25 +254,29 @@ impl Tracker {
             let bad = |column: &str, message: String| {
                 DatasetError::csv(points.path(), i as u64 + 2, Some(column), message)
             };
-            check_row(t.session[i], n, &t.q[i], &t.position[i], bad)?;
+            check_row(t.session[i], n, (&t.q[i], &t.position[i]), scale, bad)?;
+        }
+        if let Some(label) = self.sessions.iter().find(|l| has_control(l)) {
+            return Err(poses.error("sessions", control_label(label)));
         }
         let used = self.rows_per_session();
         if let Some(s) = used.iter().position(|&(a, b)| a + b == 0) {
             return Err(poses.error(
                 "sessions",
-                format!("session {:?} has no row", self.sessions[s]),
+                format!("session {} has no row", quoted(&self.sessions[s])),
             ));
         }
         Ok(())
     }
 }
 
-/// A row's session index in range and its numbers finite.
+/// A row's session index in range and its numbers as [`row_problem`]
+/// wants them.
 fn check_row(
     session: u32,
     sessions: usize,
-    q: &[f64; 6],
-    position: &Point3,
+    (q, position): (&[f64; 6], &Point3),
+    scale: &[f64; 6],
     bad: impl Fn(&str, String) -> DatasetError,
 ) -> Result<()> {
     if session as usize >= sessions {
@@ -279,13 +285,40 @@ fn check_row(
             format!("session index {session} is out of range ({sessions} sessions)"),
         ));
     }
-    if let Some(k) = q.iter().position(|v| !v.is_finite()) {
-        return Err(bad(Q[k], not_finite(q[k])));
+    match row_problem(q, position, scale) {
+        Some((column, message)) => Err(bad(column, message)),
+        None => Ok(()),
     }
-    if let Some(k) = position.iter().position(|v| !v.is_finite()) {
-        return Err(bad(POSITION[k], not_finite(position[k])));
+}
+
+/// What is wrong with a row's readings (as [`check::readings`] wants them)
+/// or position (a point within [`check::MAX_LENGTH_MM`]), and in which
+/// column.
+fn row_problem(
+    q: &[f64; 6],
+    position: &Point3,
+    scale: &[f64; 6],
+) -> Option<(&'static str, String)> {
+    if let Some((k, message)) = check::readings(q, scale) {
+        return Some((Q[k], message));
     }
-    Ok(())
+    position.iter().enumerate().find_map(|(k, &v)| {
+        if !v.is_finite() {
+            Some((POSITION[k], not_finite(v)))
+        } else if v.abs() > check::MAX_LENGTH_MM {
+            Some((POSITION[k], check::too_long(v)))
+        } else {
+            None
+        }
+    })
+}
+
+/// The message for a session label with a control character.
+fn control_label(label: &str) -> String {
+    format!(
+        "the session label {} has a control character",
+        quoted(label)
+    )
 }
 
 /// Session labels in order of first appearance.
@@ -307,6 +340,9 @@ impl Sessions {
                 })?;
                 if label.is_empty() {
                     return Err(row.error(Some(SESSION), "empty session label".into()));
+                }
+                if has_control(label) {
+                    return Err(row.error(Some(SESSION), control_label(label)));
                 }
                 label
             }
@@ -345,6 +381,7 @@ fn expected(rest: &[&str]) -> String {
 fn read_poses<R: std::io::Read>(
     reader: &mut csv::Reader<R>,
     sessions: &mut Sessions,
+    scale: &[f64; 6],
 ) -> Result<Poses, Failure> {
     let expected = expected(&[POSITION.as_slice(), &ORIENTATION].concat());
     let header = Header::read(reader, &expected)?;
@@ -355,8 +392,12 @@ fn read_poses<R: std::io::Read>(
     let mut out = Poses::default();
     table::for_each_row(reader, &header, "pose", |row| {
         out.session.push(sessions.of(row, session)?);
-        out.q.push(row.numbers(&q, &Q)?);
-        out.position.push(row.numbers(&position, &POSITION)?);
+        let (readings, point) = (row.numbers(&q, &Q)?, row.numbers(&position, &POSITION)?);
+        if let Some((column, message)) = row_problem(&readings, &point, scale) {
+            return Err(row.error(Some(column), message));
+        }
+        out.q.push(readings);
+        out.position.push(point);
         let quaternion = row.numbers(&orientation, &ORIENTATION)?;
         let norm = quaternion.iter().map(|v| v * v).sum::<f64>().sqrt();
         if (norm - 1.0).abs() > UNIT_TOLERANCE {
@@ -374,6 +415,7 @@ fn read_poses<R: std::io::Read>(
 fn read_points<R: std::io::Read>(
     reader: &mut csv::Reader<R>,
     sessions: &mut Sessions,
+    scale: &[f64; 6],
 ) -> Result<Points, Failure> {
     let expected = expected(&POSITION);
     let header = Header::read(reader, &expected)?;
@@ -383,8 +425,12 @@ fn read_points<R: std::io::Read>(
     let mut out = Points::default();
     table::for_each_row(reader, &header, "point", |row| {
         out.session.push(sessions.of(row, session)?);
-        out.q.push(row.numbers(&q, &Q)?);
-        out.position.push(row.numbers(&position, &POSITION)?);
+        let (readings, point) = (row.numbers(&q, &Q)?, row.numbers(&position, &POSITION)?);
+        if let Some((column, message)) = row_problem(&readings, &point, scale) {
+            return Err(row.error(Some(column), message));
+        }
+        out.q.push(readings);
+        out.position.push(point);
         Ok(())
     })?;
     Ok(out)
@@ -402,7 +448,7 @@ mod tests {
         if let Some(points) = points {
             fs::write(&b, points).unwrap();
         }
-        Tracker::read(&a, &b)
+        Tracker::read(&a, &b, &[1.0; 6])
     }
 
     const POSE_HEADER: &str = "q1,q2,q3,q4,q5,q6,x,y,z,qx,qy,qz,qw\n";
@@ -422,6 +468,7 @@ mod tests {
         t.validate(
             Check::new(Path::new("poses.csv")),
             Check::new(Path::new("points.csv")),
+            &[1.0; 6],
         )
         .unwrap();
     }
@@ -437,7 +484,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (a, b) = (dir.path().join("poses.csv"), dir.path().join("points.csv"));
         t.write(&a, &b).unwrap();
-        assert_eq!(Tracker::read(&a, &b).unwrap(), t);
+        assert_eq!(Tracker::read(&a, &b, &[1.0; 6]).unwrap(), t);
     }
 
     #[test]

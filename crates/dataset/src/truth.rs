@@ -10,6 +10,7 @@ use crate::artefacts::{Ball, ball_index};
 use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::{GeometryRecord, WithGeometry};
+use crate::quote::quoted;
 use crate::session::SessionRecord;
 use crate::shape::{self, IdMap, P3};
 use crate::{MEASUREMENTS_FILE, json};
@@ -93,10 +94,11 @@ impl Truth {
         json::write(path, json::TRUTH, &file)
     }
 
-    /// Values finite, radii positive, one centre and radius per ball, one
-    /// contact per measurement row.
+    /// The geometry a machine's ([`GeometryRecord::validate_machine`]),
+    /// lengths within bounds, radii positive, one centre and radius per
+    /// ball, one contact per measurement row.
     pub(crate) fn validate(&self, check: Check, ball_count: usize, rows: usize) -> Result<()> {
-        self.geometry.validate(check, "")?;
+        self.geometry.validate_machine(check, "")?;
         for (field, len) in [
             ("ball_centres", self.ball_centres.len()),
             ("ball_radii", self.ball_radii.len()),
@@ -110,7 +112,7 @@ impl Truth {
         }
         check.points("ball_centres", &self.ball_centres)?;
         for (i, &r) in self.ball_radii.iter().enumerate() {
-            check.positive(format_args!("ball_radii[{i}]"), r)?;
+            check.positive_length(format_args!("ball_radii[{i}]"), r)?;
         }
         if self.contacts.len() != rows {
             return Err(check.error(
@@ -145,11 +147,11 @@ fn by_ball<T>(check: Check, field: &str, map: IdMap<T>, balls: &[Ball]) -> Resul
         let &i = index.get(id.as_str()).ok_or_else(|| {
             check.error(
                 field,
-                format!("unknown ball id {id:?} (not in artefacts.json)"),
+                format!("unknown ball id {} (not in artefacts.json)", quoted(&id)),
             )
         })?;
         if slots[i].replace(value).is_some() {
-            return Err(check.error(field, format!("ball id {id:?} appears twice")));
+            return Err(check.error(field, format!("ball id {} appears twice", quoted(&id))));
         }
     }
     slots
@@ -159,7 +161,7 @@ fn by_ball<T>(check: Check, field: &str, map: IdMap<T>, balls: &[Ball]) -> Resul
             slot.ok_or_else(|| {
                 check.error(
                     field,
-                    format!("ball {:?} of artefacts.json is missing", ball.id),
+                    format!("ball {} of artefacts.json is missing", quoted(&ball.id)),
                 )
             })
         })

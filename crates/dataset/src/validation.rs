@@ -59,7 +59,7 @@ pub struct NuisanceCandidate {
 impl ValidationRecord {
     /// Writes `validation.json` atomically; every number must be finite.
     pub fn write(&self, path: &Path) -> Result<()> {
-        let check = Check::new(path);
+        let check = Check::result(path);
         check.finite("rms_mm", self.rms_mm)?;
         check.finite("max_mm", self.max_mm)?;
         check.values("per_leg_rms_mm", &self.per_leg_rms_mm)?;

@@ -46,10 +46,7 @@ fn negative_zero_and_tiny_values_survive_the_text_files() {
     assert!(
         read.machine.geometry.tool[1].is_sign_negative() && read.machine.geometry.tool[1] == 0.0
     );
-    assert_eq!(
-        read.machine.repeatability.tool.to_bits(),
-        5e-324f64.to_bits()
-    );
+    assert_eq!(read.measurements.q[0][5].to_bits(), 5e-324f64.to_bits());
     let csv = fs::read_to_string(dir.path().join(MEASUREMENTS_FILE)).unwrap();
     assert!(
         csv.starts_with("ball,q1,q2,q3,q4,q5,q6,dir_x,dir_y,dir_z\n"),
@@ -549,4 +546,27 @@ fn calibration_errors_name_the_file_and_field() {
         .unwrap_err()
         .to_string();
     assert_error(&err, dir.path(), "absent.json", "required file not found");
+}
+
+#[test]
+fn a_key_given_twice_in_calibration_json_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(CALIBRATION_FILE);
+    calibration().write(&path).unwrap();
+    let text = fs::read_to_string(&path).unwrap();
+    let entry = "\"ball_centres\": {";
+    assert!(text.contains(entry), "{text}");
+    let twice = text.replacen(
+        entry,
+        &format!("{entry} \"b01\": {{\"centre\": [0, 0, 0], \"sigma\": [1, 1, 1]}},"),
+        1,
+    );
+    fs::write(&path, twice).unwrap();
+    let err = Calibration::read(&path).unwrap_err().to_string();
+    assert_error(
+        &err,
+        dir.path(),
+        CALIBRATION_FILE,
+        "field ball_centres: key \"b01\" is given twice",
+    );
 }

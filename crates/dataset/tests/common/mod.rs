@@ -10,7 +10,8 @@ use parcal_dataset::*;
 use serde_json::Value;
 use tempfile::TempDir;
 
-/// Floats that are easy to get wrong when written as text.
+/// Floats that are easy to get wrong when written as text (within the
+/// plausibility bound of a length, `MAX_LENGTH_MM`).
 pub const AWKWARD: [f64; 8] = [
     1.0 / 3.0,
     1e-17,
@@ -18,7 +19,7 @@ pub const AWKWARD: [f64; 8] = [
     123456.789012345,
     0.1 + 0.2,
     5e-324,
-    -1.7976931348623157e308,
+    -999999.9999999999,
     2.0 / 3.0 * 1e-300,
 ];
 
@@ -60,7 +61,7 @@ pub fn dataset(parts: Parts) -> Dataset {
             centre: points::<1>(i)[0],
             centre_sigma: 0.1 + awkward(i).abs(),
             radius: 5.0 + awkward(i + 1),
-            radius_sigma: 1e-17 + i as f64,
+            radius_sigma: MIN_SIGMA + i as f64,
         })
         .collect();
     let rows = 15;
@@ -79,12 +80,12 @@ pub fn dataset(parts: Parts) -> Dataset {
             prior_sigma: PriorSigma {
                 base: 0.1,
                 platform: 1.0 / 3.0,
-                tool: 1e-17,
+                tool: MIN_SIGMA,
                 leg: 123456.789012345,
             },
             repeatability: Repeatability {
                 actuator: 0.001,
-                tool: 5e-324,
+                tool: 1.0 / 3.0 * 1e-11,
                 position: None,
                 orientation: None,
             },
@@ -111,7 +112,7 @@ pub fn dataset(parts: Parts) -> Dataset {
                         a: 1,
                         b: 0,
                         length: 123456.789012345,
-                        sigma: 1e-17,
+                        sigma: 1.0 / 3.0 * 1e-11,
                     },
                 ]
             } else {
