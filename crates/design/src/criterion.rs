@@ -110,12 +110,10 @@ pub struct CriterionValues {
 impl CriterionValues {
     /// The figures of `covariance`; `None` when it is not positive definite.
     pub fn of(covariance: &Square, map: &MapWeights) -> Option<Self> {
-        let cholesky = covariance.cholesky()?;
-        let d = 2.0 * cholesky.l().diagonal().map(f64::ln).sum();
-        let mean = (map.mean * covariance).trace().max(0.0);
+        let d = log_det(covariance)?;
         let worst = map.variances(covariance).into_iter().fold(0.0, f64::max);
         Some(Self {
-            registered_rms_um: mean.sqrt() * 1e3,
+            registered_rms_um: registered_rms_um(covariance, map),
             registered_max_um: worst.sqrt() * 1e3,
             d,
             a: covariance.trace(),
@@ -131,6 +129,31 @@ impl CriterionValues {
             Criterion::A => self.a,
         }
     }
+}
+
+impl Criterion {
+    /// `CriterionValues::of(covariance, map)?.value(self)`, computing only
+    /// this criterion's figure (only G needs every map point's variance).
+    pub fn of(self, covariance: &Square, map: &MapWeights) -> Option<f64> {
+        let d = log_det(covariance)?;
+        Some(match self {
+            Criterion::Registered => registered_rms_um(covariance, map),
+            Criterion::D => d,
+            Criterion::A => covariance.trace(),
+            Criterion::G => CriterionValues::of(covariance, map)?.registered_max_um,
+        })
+    }
+}
+
+/// `ln det Σ`; `None` when `Σ` is not positive definite.
+fn log_det(covariance: &Square) -> Option<f64> {
+    let cholesky = covariance.cholesky()?;
+    Some(2.0 * cholesky.l().diagonal().map(f64::ln).sum())
+}
+
+/// `sqrt(trace(A Σ))` in um.
+fn registered_rms_um(covariance: &Square, map: &MapWeights) -> f64 {
+    (map.mean * covariance).trace().max(0.0).sqrt() * 1e3
 }
 
 #[cfg(test)]

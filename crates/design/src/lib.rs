@@ -11,7 +11,9 @@
 //!   its ball's centre, linearised at the design;
 //! - [`criterion`]: the registered map criterion and D, A, G;
 //! - [`select`]: greedy selection, Fedorov exchange, seeded restarts;
-//! - [`plan_file`]: plan.csv and plan.json.
+//! - [`plan_file`]: plan.csv and plan.json;
+//! - [`tracker`]: the same for the poses of an instrument calibration
+//!   (laser tracker, motion capture).
 //!
 //! [`plan`] puts them together for a machine and its artefacts.
 
@@ -21,6 +23,7 @@ pub mod information;
 pub mod plan_file;
 pub mod pool;
 pub mod select;
+pub mod tracker;
 
 use nalgebra::{DMatrix, Vector3};
 use parcal_accuracy::{CanonicalTargets, MapGrid, registered_jacobians};

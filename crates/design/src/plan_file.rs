@@ -76,7 +76,8 @@ pub fn write_plan(
     write_bytes(&summary_path(csv), format!("{json}\n").as_bytes())
 }
 
-fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), DesignError> {
+/// Writes `bytes` to `path` atomically.
+pub(crate) fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), DesignError> {
     write_atomic(path, |w| {
         w.write_all(bytes)
             .map_err(|e| DatasetError::io(path, "write", e))

@@ -86,7 +86,13 @@ impl Candidate {
 /// The nominal pose (design frame) with the tool tip of `design` at
 /// `point` and orientation `rotation`.
 pub fn tip_pose(design: &Geometry, point: &Vec3, rotation: UnitQuaternion<f64>) -> Pose {
-    Pose::from_parts(Translation3::from(point - rotation * design.tool), rotation)
+    tip_pose_of_tool(&design.tool, point, rotation)
+}
+
+/// The pose with the tool point `tool` (platform frame) at `point` and
+/// orientation `rotation`.
+pub fn tip_pose_of_tool(tool: &Vec3, point: &Vec3, rotation: UnitQuaternion<f64>) -> Pose {
+    Pose::from_parts(Translation3::from(point - rotation * tool), rotation)
 }
 
 /// `sigma_min / sigma_max` of the closure Jacobian of `design` at `pose`,
@@ -103,6 +109,23 @@ pub fn conditioning(design: &Geometry, pose: &Pose) -> f64 {
     let a = Matrix6::from_fn(|i, j| if j < 3 { rows[i][j] } else { rows[i][j] / rho });
     let sigma = a.singular_values();
     sigma.min() / sigma.max()
+}
+
+/// The design's actuator readings `q_i = (L_i - l_i) / s_i` at `pose`
+/// (`s_i` in mm per unit) when every one is inside `stroke` and the pose's
+/// [`conditioning`] is at least `min_conditioning` (module doc); `None`
+/// otherwise.
+pub fn feasible_commands(
+    design: &Geometry,
+    pose: &Pose,
+    scale: &[f64; 6],
+    stroke: &[f64; 2],
+    min_conditioning: f64,
+) -> Option<[f64; 6]> {
+    let extension = actuators(design, pose);
+    let q: [f64; 6] = std::array::from_fn(|i| extension[i] / scale[i]);
+    let in_stroke = q.iter().all(|q| (stroke[0]..=stroke[1]).contains(q));
+    (in_stroke && conditioning(design, pose) >= min_conditioning).then_some(q)
 }
 
 /// The feasible candidates of `balls` for `design` (module doc), in a fixed
@@ -150,9 +173,13 @@ pub fn candidate_pool(
                 let direction = rotation * v;
                 let point = nominal.centre + nominal.radius * direction;
                 let pose = tip_pose(design, &point, rotation);
-                let q = actuators(design, &pose);
-                let in_stroke = q.iter().all(|q| (low..=high).contains(q));
-                if in_stroke && conditioning(design, &pose) >= options.min_conditioning {
+                if let Some(q) = feasible_commands(
+                    design,
+                    &pose,
+                    &[1.0; 6],
+                    &options.stroke,
+                    options.min_conditioning,
+                ) {
                     pool.push(Candidate {
                         ball,
                         direction,
@@ -172,7 +199,7 @@ pub fn candidate_pool(
 }
 
 /// `[roll, pitch, yaw]` on the grid of the tilt box.
-fn orientation_grid(tilt: f64) -> Vec<[f64; 3]> {
+pub(crate) fn orientation_grid(tilt: f64) -> Vec<[f64; 3]> {
     let n = ORIENTATION_LEVELS;
     let level = |k: usize| -tilt + 2.0 * tilt * k as f64 / (n - 1) as f64;
     let mut grid = Vec::with_capacity(n * n * n);

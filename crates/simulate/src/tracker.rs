@@ -5,8 +5,9 @@
 //! Session `k` draws from stream `(seed, k)`: first its instrument frame
 //! `F_k`, then (for `k >= 1`, when [`SessionModel`] asks) its body origin
 //! shift and its leg offsets, then its pose rows, then its point rows. Each
-//! row draws a pose until one is acceptable, then its noise: position (3),
-//! orientation (3, poses only), actuators (6).
+//! row draws a pose until one is acceptable (with a plan: takes the true
+//! machine's pose at the planned readings, forward kinematics), then its
+//! noise: position (3), orientation (3, poses only), actuators (6).
 //!
 //! A row at pose `T` of session `k` holds
 //!
@@ -189,6 +190,21 @@ fn check(s: &TrackerScenario) -> Result<(), SimulateError> {
             s.true_scale[i]
         ));
     }
+    if let Some(plan) = &s.plan {
+        if plan.len() != s.rows_per_session {
+            return bad(format!(
+                "{} planned poses but {} rows per session",
+                plan.len(),
+                s.rows_per_session
+            ));
+        }
+        if let Some(k) = plan.iter().position(|q| q.iter().any(|v| !v.is_finite())) {
+            return bad(format!(
+                "planned pose {} has a reading that is not finite",
+                k + 1
+            ));
+        }
+    }
     let ordered = |[a, b]: [f64; 2]| a.is_finite() && b.is_finite() && a <= b;
     let w = &s.workspace;
     let ranges = ordered(w.height)
@@ -239,14 +255,14 @@ fn simulate_session(
     let mut rows = |count: usize, pose: bool| {
         (0..count)
             .map(|row| {
-                simulate_row(scenario, &mut rng, &nuisance, reference, pose).map_err(|reason| {
-                    SimulateError::Row {
+                simulate_row(scenario, &mut rng, &nuisance, reference, pose, row).map_err(
+                    |reason| SimulateError::Row {
                         session: k + 1,
                         file: if pose { "poses" } else { "points" },
                         row: row + 1,
                         reason,
-                    }
-                })
+                    },
+                )
             })
             .collect::<Result<Vec<_>, _>>()
     };
@@ -313,7 +329,8 @@ fn draw_nuisance(scenario: &TrackerScenario, rng: &mut Rng, k: usize) -> Nuisanc
     }
 }
 
-/// One row: an acceptable pose, then the measurement and the readings with
+/// One row: an acceptable pose (the `row`-th planned one with a plan),
+/// then the measurement and the readings with
 /// their noise.
 fn simulate_row(
     scenario: &TrackerScenario,
@@ -321,8 +338,12 @@ fn simulate_row(
     nuisance: &Nuisance,
     reference: f64,
     pose_row: bool,
+    row: usize,
 ) -> Result<Row, String> {
-    let (pose, legs) = draw_pose(scenario, rng, &nuisance.leg_offsets, reference)?;
+    let (pose, legs) = match &scenario.plan {
+        Some(plan) => planned_pose(scenario, &plan[row], &nuisance.leg_offsets)?,
+        None => draw_pose(scenario, rng, &nuisance.leg_offsets, reference)?,
+    };
     let sigma = scenario.position_sigma;
     let position_noise = Vec3::from_fn(|_, _| rng.normal(sigma));
     let (position, orientation) = if pose_row {
@@ -389,6 +410,28 @@ fn draw_pose(
     Err(format!(
         "no pose in {MAX_DRAWS} draws has every leg within the stroke {low}..{high} mm and \
          stays away from singular configurations"
+    ))
+}
+
+/// The true machine's pose at the planned readings `q`: forward
+/// kinematics from the home pose with the leg lengths `l_i + o_i + s_i
+/// q_i` (true `l`, `s`), with those lengths.
+fn planned_pose(
+    scenario: &TrackerScenario,
+    q: &[f64; 6],
+    offsets: &[f64; 6],
+) -> Result<(Pose, [f64; 6]), String> {
+    let truth = &scenario.truth;
+    let shifted = Geometry {
+        legs: std::array::from_fn(|i| truth.legs[i] + offsets[i]),
+        ..truth.clone()
+    };
+    let extension: [f64; 6] = std::array::from_fn(|i| scenario.true_scale[i] * q[i]);
+    let solution = forward_from_home(&shifted, &extension, &ForwardOptions::default())
+        .map_err(|e| format!("the true machine does not reach the planned readings {q:?}: {e}"))?;
+    Ok((
+        solution.pose,
+        std::array::from_fn(|i| shifted.legs[i] + extension[i]),
     ))
 }
 

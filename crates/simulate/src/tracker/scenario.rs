@@ -131,6 +131,10 @@ pub struct TrackerScenario {
     /// `k >= 1`'s leg offsets, or body origin shift, `N(0, sigma^2)` per
     /// coordinate; written to machine.json as the calibration's prior.
     pub session_model: SessionModel,
+    /// Planned readings (`parcal plan --tracker`, actuators' unit): each
+    /// session measures the true machine at these commands, in order,
+    /// instead of drawing poses; `rows_per_session` must be their count.
+    pub plan: Option<Vec<[f64; 6]>>,
 }
 
 impl TrackerScenario {
@@ -178,6 +182,7 @@ impl TrackerScenario {
                 UnitQuaternion::from_axis_angle(&axis, 3f64.to_radians()),
             ),
             session_model: SessionModel::default(),
+            plan: None,
         }
     }
 
@@ -250,6 +255,7 @@ impl TrackerScenario {
                 body_origin_sigma: None,
                 body_rotation_sigma: None,
             },
+            plan: None,
         }
     }
 

@@ -1,0 +1,164 @@
+//! What one planned pose tells about the instrument calibration's unknowns,
+//! linearised at the design.
+//!
+//! The candidates are written as a noiseless campaign of one session seen
+//! through the identity instrument frame and the identity body frame
+//! (`M = T`, points `T E_T`), and set up exactly as
+//! `parcal calibrate` sets up measured poses and points
+//! (`parcal_calibrate::instruments::setup`): the same global block (the 33
+//! canonical parameters, the actuator scales when machine.json gives their
+//! sigmas, the session's instrument frame, the body frame when there are
+//! poses), the same whitened rows `L⁻¹ ∂c/∂g` (the pose block's six rows,
+//! the point block's three, `W = L Lᵀ` the propagated actuator and
+//! instrument covariance) and the same prior. A candidate's block is its
+//! rows of that Jacobian; the information of a design is
+//!
+//! ```text
+//! M = P + Σ_k J_kᵀ J_k,
+//! ```
+//!
+//! `P` the calibration's prior plus `I /` [`WEAK_FRAME_SIGMA`]² on the
+//! frames (which have no prior), so that `M` is invertible before the
+//! first pose. The criterion acts on the 33 × 33 block of `M⁻¹`: the Schur
+//! complement that eliminates the scales and the frames.
+
+use nalgebra::{DMatrix, UnitQuaternion};
+use parcal_calibrate::CalibrationOptions;
+use parcal_calibrate::instruments::setup;
+use parcal_calibrate::layout::ParameterGroup;
+use parcal_dataset::{Artefacts, Dataset, Machine, Measurements, Tracker};
+use parcal_kinematics::{Pose, Vec3};
+use parcal_simulate::TrackerKind;
+use parcal_solver::{GlobalObservations, Problem};
+
+use crate::DesignError;
+
+/// The prior sigma of the frames' corrections (mm and rad): a regulariser
+/// that leaves the figures unchanged once a few poses fix the frames.
+pub const WEAK_FRAME_SIGMA: f64 = 1e3;
+
+/// The candidates' whitened blocks and the prior, on the global block.
+#[derive(Debug, Clone)]
+pub struct PoseInformation {
+    /// Each candidate's rows (6 per pose, 3 per point, 9 for both) by
+    /// columns of the global block.
+    pub blocks: Vec<DMatrix<f64>>,
+    /// `P` (module doc).
+    pub prior: DMatrix<f64>,
+    /// The names of the global block's unknowns.
+    pub names: Vec<String>,
+}
+
+/// The blocks of the platform poses `poses` (design frame) with the
+/// design's readings `q` (actuators' unit), observed as `kind` says
+/// (module doc); `tool` is the design's tool point (platform frame).
+pub fn pose_information(
+    machine: &Machine,
+    tool: &Vec3,
+    kind: TrackerKind,
+    poses: &[Pose],
+    q: &[[f64; 6]],
+) -> Result<PoseInformation, DesignError> {
+    let dataset = campaign(machine, tool, kind, poses, q);
+    let refuse = |e: parcal_calibrate::CalibrateError| {
+        DesignError::Options(format!("the candidate poses as a campaign: {e}"))
+    };
+    let options = CalibrationOptions::default();
+    let set = setup(&dataset, &options).map_err(refuse)?;
+    let problem = &set.problem;
+    let n = problem.global_size();
+    let mut rows = GlobalObservations::zeros(0, 0);
+    problem
+        .global_observations(&set.initial, &mut rows)
+        .map_err(refuse)?;
+    let jacobian = &rows.jacobian;
+    let pose_rows = if kind.poses() { 6 * poses.len() } else { 0 };
+    let blocks = (0..poses.len())
+        .map(|k| {
+            let mut ranges = Vec::new();
+            if kind.poses() {
+                ranges.push(6 * k..6 * k + 6);
+            }
+            if kind.points() {
+                ranges.push(pose_rows + 3 * k..pose_rows + 3 * k + 3);
+            }
+            let r = ranges.iter().map(|r| r.len()).sum();
+            let mut block = DMatrix::zeros(r, n);
+            let mut at = 0;
+            for range in ranges {
+                block
+                    .rows_mut(at, range.len())
+                    .copy_from(&jacobian.rows(range.start, range.len()));
+                at += range.len();
+            }
+            block
+        })
+        .collect();
+    let layout = &problem.model.layout;
+    let mut prior = match &problem.prior {
+        Some(prior) => prior.information.clone(),
+        None => DMatrix::zeros(n, n),
+    };
+    for (group, range) in layout.groups() {
+        if matches!(
+            group,
+            ParameterGroup::TrackerFrame { .. } | ParameterGroup::BodyFrame
+        ) {
+            for i in range.clone() {
+                prior[(i, i)] += WEAK_FRAME_SIGMA.powi(-2);
+            }
+        }
+    }
+    Ok(PoseInformation {
+        blocks,
+        prior,
+        names: layout.names(&[], &problem.model.sessions),
+    })
+}
+
+/// The noiseless campaign of `poses`: one session, identity instrument and
+/// body frames, machine.json's stroke dropped (the pool checked it).
+fn campaign(
+    machine: &Machine,
+    tool: &Vec3,
+    kind: TrackerKind,
+    poses: &[Pose],
+    q: &[[f64; 6]],
+) -> Dataset {
+    let mut tracker = Tracker {
+        sessions: vec![parcal_dataset::DEFAULT_SESSION.to_owned()],
+        ..Tracker::default()
+    };
+    for (pose, q) in poses.iter().zip(q) {
+        if kind.poses() {
+            let t = &mut tracker.poses;
+            t.session.push(0);
+            t.q.push(*q);
+            t.position.push(pose.translation.vector.into());
+            t.orientation.push(quaternion(&pose.rotation));
+        }
+        if kind.points() {
+            let t = &mut tracker.points;
+            t.session.push(0);
+            t.q.push(*q);
+            t.position
+                .push(pose.transform_point(&(*tool).into()).coords.into());
+        }
+    }
+    Dataset {
+        machine: Machine {
+            stroke: None,
+            ..machine.clone()
+        },
+        artefacts: Artefacts::default(),
+        measurements: Measurements::default(),
+        tracker,
+        truth: None,
+    }
+}
+
+/// `[x, y, z, w]` of a rotation (poses.csv's order).
+fn quaternion(rotation: &UnitQuaternion<f64>) -> [f64; 4] {
+    let q = rotation.quaternion();
+    [q.i, q.j, q.k, q.w]
+}

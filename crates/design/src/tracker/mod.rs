@@ -1,0 +1,109 @@
+//! Measurement design for an instrument calibration: which platform poses
+//! to measure with a laser tracker (points) or motion capture (poses) so
+//! that the calibrated machine is most accurate for a given number of
+//! poses (docs/design.md, "Tracker poses").
+//!
+//! - [`pool`]: the feasible candidate poses on the workspace and tilt box;
+//! - [`information`]: each pose's whitened rows on the instrument
+//!   calibration's global block and the prior, linearised at the design;
+//! - [`select`]: greedy selection and Fedorov exchange of multi-row
+//!   candidates with shared nuisances;
+//! - [`plan_file`]: plan.csv and plan.json of poses.
+
+pub mod information;
+pub mod plan_file;
+pub mod pool;
+pub mod select;
+
+use parcal_accuracy::{CanonicalTargets, MapGrid, registered_jacobians};
+use parcal_dataset::Machine;
+use parcal_kinematics::{Geometry, params};
+use parcal_simulate::{TrackerKind, Workspace};
+
+use crate::DesignError;
+use crate::criterion::{Criterion, CriterionValues, MapWeights};
+
+pub use pool::CandidatePose;
+
+/// Everything a pose plan is asked for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PosePlanOptions {
+    /// The budget: number of poses.
+    pub poses: usize,
+    /// What the instrument measures at each pose.
+    pub kind: TrackerKind,
+    /// Where the platform origin may go (design base frame).
+    pub workspace: Workspace,
+    /// Largest |roll|, |pitch|, |yaw| (degrees).
+    pub tilt_degrees: f64,
+    /// What is minimised.
+    pub criterion: Criterion,
+    /// Largest number of exchange passes.
+    pub passes: usize,
+}
+
+/// A pose plan and what it is predicted to give.
+#[derive(Debug, Clone)]
+pub struct PosePlan {
+    /// The chosen poses, in pool order.
+    pub poses: Vec<CandidatePose>,
+    /// Predicted figures after calibrating the plan's poses.
+    pub predicted: CriterionValues,
+    /// The prior's figures.
+    pub prior: CriterionValues,
+    /// Number of feasible candidates the plan was chosen from.
+    pub pool_size: usize,
+}
+
+/// Plans `options.poses` poses for the instrument calibration of
+/// `machine` (module doc); `progress` hears one line per stage and pass.
+pub fn plan_poses(
+    machine: &Machine,
+    options: &PosePlanOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<PosePlan, DesignError> {
+    let m = &machine.geometry;
+    let design = Geometry::from_arrays(&m.base_joints, &m.platform_joints, &m.tool, &m.leg_lengths);
+    let canonical = design.canonicalize().map_err(DesignError::Design)?;
+    let pool = pool::pose_pool(
+        &design,
+        &options.workspace,
+        options.tilt_degrees.to_radians(),
+        &machine.actuator.scale,
+        machine.stroke,
+    )?;
+    progress(&format!("{} feasible candidate poses", pool.len()));
+    let poses: Vec<_> = pool.iter().map(|c| c.pose).collect();
+    let q: Vec<_> = pool.iter().map(|c| c.q).collect();
+    let rows = information::pose_information(machine, &design.tool, options.kind, &poses, &q)?;
+    let targets =
+        CanonicalTargets::new(&design, &MapGrid::paper()).map_err(DesignError::Accuracy)?;
+    let map = MapWeights::new(
+        registered_jacobians(&targets, &params::to_params(&canonical.geometry))
+            .map_err(DesignError::Accuracy)?,
+    );
+    let prior_covariance = select::params_block(
+        &rows
+            .prior
+            .clone()
+            .cholesky()
+            .ok_or(DesignError::Singular)?
+            .inverse(),
+    );
+    let prior = CriterionValues::of(&prior_covariance, &map).ok_or(DesignError::Singular)?;
+    let selection = select::select_poses(
+        &rows.blocks,
+        &rows.prior,
+        &map,
+        options.criterion,
+        options.poses,
+        options.passes,
+        progress,
+    )?;
+    Ok(PosePlan {
+        poses: selection.chosen.iter().map(|&k| pool[k].clone()).collect(),
+        predicted: CriterionValues::of(&selection.covariance, &map).ok_or(DesignError::Singular)?,
+        prior,
+        pool_size: pool.len(),
+    })
+}

@@ -1,0 +1,183 @@
+//! plan.csv and plan.json of a pose plan (docs/dataset-format.md, "Plans").
+//!
+//! plan.csv, one pose per row: `roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6`:
+//! the platform orientation `R = Rz(yaw) Ry(pitch) Rx(roll)` (rad, fixed
+//! axes of the design frame), the design's tool tip (mm, design frame) and
+//! the design's readings there (actuators' unit). plan.json: the predicted
+//! figures, the prior's, and the options. Both written atomically.
+
+use std::path::Path;
+
+use parcal_kinematics::{Pose, Vec3, rotation_zyx};
+
+use crate::DesignError;
+use crate::plan_file::summary_path;
+use crate::tracker::{PosePlan, PosePlanOptions};
+
+/// The header of a pose plan.csv.
+pub const HEADER: &str = "roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6";
+
+/// One row of a pose plan.csv.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PosePlanRow {
+    /// `[roll, pitch, yaw]` (rad).
+    pub angles: [f64; 3],
+    /// The design's tool tip (mm, design frame).
+    pub tip: Vec3,
+    /// The design's readings (actuators' unit).
+    pub q: [f64; 6],
+}
+
+impl PosePlanRow {
+    /// The platform pose that puts the tool point `tool` (platform frame)
+    /// on the row's tip with its orientation.
+    pub fn pose(&self, tool: &Vec3) -> Pose {
+        let [roll, pitch, yaw] = self.angles;
+        crate::pool::tip_pose_of_tool(tool, &self.tip, rotation_zyx(yaw, pitch, roll))
+    }
+}
+
+/// Writes `plan` to `csv` and its summary to [`summary_path`], each
+/// atomically.
+pub fn write_pose_plan(
+    csv: &Path,
+    plan: &PosePlan,
+    options: &PosePlanOptions,
+) -> Result<(), DesignError> {
+    let mut text = String::from(HEADER);
+    text.push('\n');
+    for c in &plan.poses {
+        let fields: Vec<String> = c
+            .angles
+            .iter()
+            .chain(c.tip.iter())
+            .chain(c.q.iter())
+            .map(f64::to_string)
+            .collect();
+        text.push_str(&fields.join(","));
+        text.push('\n');
+    }
+    crate::plan_file::write_bytes(csv, text.as_bytes())?;
+    let kind = match (options.kind.poses(), options.kind.points()) {
+        (true, true) => "both",
+        (true, false) => "poses",
+        _ => "points",
+    };
+    let summary = serde_json::json!({
+        "predicted": plan.predicted,
+        "prior": plan.prior,
+        "criterion": options.criterion,
+        "pool_size": plan.pool_size,
+        "options": {
+            "poses": options.poses,
+            "tracker": kind,
+            "workspace": {
+                "half_width": options.workspace.half_width,
+                "height": options.workspace.height,
+            },
+            "tilt_degrees": options.tilt_degrees,
+            "criterion": options.criterion,
+            "passes": options.passes,
+        },
+    });
+    let json = serde_json::to_string_pretty(&summary).expect("plain numbers and strings");
+    crate::plan_file::write_bytes(&summary_path(csv), format!("{json}\n").as_bytes())
+}
+
+/// Reads a pose plan.csv: the header, then rows of twelve finite numbers.
+/// Errors name the file, the line and the field.
+pub fn read_pose_plan(path: &Path) -> Result<Vec<PosePlanRow>, DesignError> {
+    let error = |line: usize, reason: String| DesignError::PlanFile {
+        path: path.to_path_buf(),
+        line,
+        reason,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_path(path)
+        .map_err(|e| error(0, e.to_string()))?;
+    let names: Vec<&str> = HEADER.split(',').collect();
+    let mut rows = Vec::new();
+    for (k, record) in reader.records().enumerate() {
+        let line = k + 1;
+        let record = record.map_err(|e| error(line, e.to_string()))?;
+        if line == 1 {
+            let header: Vec<&str> = record.iter().map(str::trim).collect();
+            if header.join(",") != HEADER {
+                return Err(error(1, format!("the header must be {HEADER:?}")));
+            }
+            continue;
+        }
+        if record.len() != names.len() {
+            return Err(error(
+                line,
+                format!("{} fields, {} expected", record.len(), names.len()),
+            ));
+        }
+        let mut values = [0.0; 12];
+        for (i, value) in values.iter_mut().enumerate() {
+            let field = record[i].trim();
+            *value = field
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    error(
+                        line,
+                        format!("{}: {field:?} is not a finite number", names[i]),
+                    )
+                })?;
+        }
+        rows.push(PosePlanRow {
+            angles: [values[0], values[1], values[2]],
+            tip: Vec3::new(values[3], values[4], values[5]),
+            q: std::array::from_fn(|i| values[6 + i]),
+        });
+    }
+    if rows.is_empty() {
+        return Err(error(1, "no pose in the plan".into()));
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_rows_are_named_and_good_ones_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plan.csv");
+        std::fs::write(
+            &path,
+            format!("{HEADER}\n0,0,0.5,1,2,300,1,2,3,4,5,6\n0,0,x,1,2,3,4,5,6,7,8,9\n"),
+        )
+        .unwrap();
+        let message = read_pose_plan(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 3") && message.contains("yaw"),
+            "{message}"
+        );
+        std::fs::write(&path, format!("{HEADER}\n0,0,0.5,1,2,300,1,2,3,4,5\n")).unwrap();
+        let message = read_pose_plan(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 2") && message.contains("11 fields"),
+            "{message}"
+        );
+        std::fs::write(&path, "ball,u\n").unwrap();
+        let message = read_pose_plan(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 1") && message.contains("header"),
+            "{message}"
+        );
+        std::fs::write(&path, format!("{HEADER}\n0,0,0.5,1,2,300,1,2,3,4,5,6\n")).unwrap();
+        let rows = read_pose_plan(&path).unwrap();
+        assert_eq!(rows[0].angles, [0.0, 0.0, 0.5]);
+        assert_eq!(rows[0].tip, Vec3::new(1.0, 2.0, 300.0));
+        assert_eq!(rows[0].q[5], 6.0);
+        // The pose puts the tool on the tip.
+        let tool = Vec3::new(0.0, 0.0, 50.0);
+        let pose = rows[0].pose(&tool);
+        assert!((pose.transform_point(&tool.into()).coords - rows[0].tip).norm() < 1e-12);
+    }
+}

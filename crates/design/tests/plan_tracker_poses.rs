@@ -1,0 +1,108 @@
+//! A cheap version of docs/design.md's tracker evidence: plan 30 poses of
+//! the paper's machine seen by a laser tracker's pose measurement, simulate
+//! exactly those with the truth of table 2 over several noise seeds,
+//! calibrate, and compare with 30 random poses of the same workspace and
+//! tilt.
+
+use parcal_accuracy::{MapGrid, true_error};
+use parcal_calibrate::CalibrationOptions;
+use parcal_calibrate::instruments::calibrate_instruments;
+use parcal_dataset::Dataset;
+use parcal_design::Criterion;
+use parcal_design::tracker::{PosePlanOptions, plan_poses};
+use parcal_kinematics::{Geometry, ParamCovariance};
+use parcal_simulate::{TrackerKind, TrackerScenario, simulate_tracker};
+
+const SEEDS: u64 = 4;
+const POSES: usize = 30;
+
+/// The true and the calibration's predicted registered RMS over the
+/// paper's map after calibrating `dataset` (um).
+fn registered(dataset: &Dataset) -> (f64, f64) {
+    let run = calibrate_instruments(dataset, &CalibrationOptions::default(), &mut |_| {})
+        .expect("calibration");
+    assert!(run.converged(), "the calibration did not converge");
+    let g = &dataset.truth.as_ref().unwrap().geometry;
+    let truth = Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths)
+        .canonicalize()
+        .unwrap()
+        .geometry;
+    let estimate = run.values().params;
+    let grid = MapGrid::paper();
+    let true_rms = true_error(&run.design, &estimate, &truth, &grid)
+        .unwrap()
+        .registered_summary()
+        .rms;
+    let covariance = run.covariance.as_ref().expect("a covariance");
+    let covariance = ParamCovariance::from_fn(|r, c| covariance[(r, c)]);
+    let predicted = parcal_accuracy::predicted(&run.design, &estimate, &covariance, &grid)
+        .unwrap()
+        .registered_summary()
+        .rms;
+    (true_rms * 1e3, predicted * 1e3)
+}
+
+#[test]
+fn planned_poses_beat_random_ones_and_their_prediction_holds() {
+    let random = TrackerScenario {
+        kind: TrackerKind::Poses,
+        sessions: 1,
+        rows_per_session: POSES,
+        ..TrackerScenario::paper_like()
+    };
+    let mut machine = simulate_tracker(&random, 1).unwrap().dataset.machine;
+    machine.stroke = Some(random.stroke);
+    let options = PosePlanOptions {
+        poses: POSES,
+        kind: TrackerKind::Poses,
+        workspace: random.workspace,
+        tilt_degrees: random.max_tilt.to_degrees(),
+        criterion: Criterion::Registered,
+        passes: 3,
+    };
+    let plan = plan_poses(&machine, &options, &mut |_| {}).unwrap();
+    assert_eq!(plan.poses.len(), POSES);
+    assert!(plan.predicted.registered_rms_um < plan.prior.registered_rms_um);
+    let planned = TrackerScenario {
+        plan: Some(plan.poses.iter().map(|c| c.q).collect()),
+        ..random.clone()
+    };
+    let (mut planned_true, mut random_true, mut planned_predicted) = (0.0, 0.0, 0.0);
+    for seed in 1..=SEEDS {
+        let (p, p_pred) = registered(&simulate_tracker(&planned, seed).unwrap().dataset);
+        let (r, r_pred) = registered(&simulate_tracker(&random, seed).unwrap().dataset);
+        eprintln!(
+            "seed {seed}: planned {p:.3} um (predicted {p_pred:.3}), random {r:.3} um (predicted {r_pred:.3})"
+        );
+        planned_true += p * p / SEEDS as f64;
+        random_true += r * r / SEEDS as f64;
+        planned_predicted += p_pred * p_pred / SEEDS as f64;
+    }
+    let (planned_true, random_true, planned_predicted) = (
+        planned_true.sqrt(),
+        random_true.sqrt(),
+        planned_predicted.sqrt(),
+    );
+    eprintln!(
+        "plan predicts {:.3} um; calibrations predict {planned_predicted:.3} um; true {planned_true:.3} um planned, {random_true:.3} um random",
+        plan.predicted.registered_rms_um
+    );
+    assert!(
+        planned_true < random_true,
+        "{planned_true} vs {random_true}"
+    );
+    // The plan's prediction is the calibrations' own (the same rows and
+    // prior, linearised at the design instead of the estimate, weighed at
+    // the design, the frames' weak prior): within 15 %.
+    let ratio = plan.predicted.registered_rms_um / planned_predicted;
+    assert!(
+        (ratio - 1.0).abs() < 0.15,
+        "plan {ratio} x the calibrations'"
+    );
+    // The true mean square over the seeds is a mean of 4 quadratic forms
+    // `eᵀ A e`, `e ~ N(0, Σ)`, whose expectation is the predicted square:
+    // with at least 3 effective degrees of freedom per seed it lies within
+    // a factor 4 of it (chi-square, 12 dof: P < 0.5 %), the RMS within 2.
+    let ratio = planned_true / plan.predicted.registered_rms_um;
+    assert!((0.5..2.0).contains(&ratio), "true {ratio} x predicted");
+}
