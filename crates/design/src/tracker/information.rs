@@ -162,3 +162,90 @@ fn quaternion(rotation: &UnitQuaternion<f64>) -> [f64; 4] {
     let q = rotation.quaternion();
     [q.i, q.j, q.k, q.w]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DVector;
+    use parcal_simulate::{TrackerScenario, simulate_tracker};
+
+    use crate::tracker::pool::pose_pool;
+
+    /// The paper's machine tracked (scales unknown) and five poses of its
+    /// pool at different positions and orientations (the frames' start
+    /// needs turns between poses).
+    fn case(kind: TrackerKind) -> (Machine, Vec<Pose>, Vec<[f64; 6]>) {
+        let scenario = TrackerScenario {
+            kind,
+            sessions: 1,
+            rows_per_session: 5,
+            ..TrackerScenario::paper_like()
+        };
+        let machine = simulate_tracker(&scenario, 1).unwrap().dataset.machine;
+        let pool = pose_pool(
+            &scenario.design,
+            &scenario.workspace,
+            scenario.max_tilt,
+            &machine.actuator.scale,
+            None,
+        )
+        .unwrap();
+        let picked: Vec<_> = (0..5).map(|k| &pool[k * pool.len() / 6 + 3 * k]).collect();
+        (
+            machine,
+            picked.iter().map(|c| c.pose).collect(),
+            picked.iter().map(|c| c.q).collect(),
+        )
+    }
+
+    #[test]
+    fn the_blocks_are_central_differences_of_the_whitened_residuals() {
+        for kind in [TrackerKind::Poses, TrackerKind::Points, TrackerKind::Both] {
+            let (machine, poses, q) = case(kind);
+            let tool = Vec3::from(machine.geometry.tool);
+            let information = pose_information(&machine, &tool, kind, &poses, &q).unwrap();
+            let dataset = campaign(&machine, &tool, kind, &poses, &q);
+            let set = setup(&dataset, &CalibrationOptions::default()).unwrap();
+            let n = set.problem.global_size();
+            let residual = |g: &DVector<f64>| {
+                let mut out = GlobalObservations::zeros(0, 0);
+                set.problem.global_observations(g, &mut out).unwrap();
+                out.residual
+            };
+            // Noiseless data at the design: every residual vanishes.
+            assert!(residual(&set.initial).amax() < 1e-6);
+            let rows_per_pose = information.blocks[0].nrows();
+            let pose_rows = if kind.poses() { 6 * poses.len() } else { 0 };
+            for i in 0..n {
+                let h = 1e-6 * set.initial[i].abs().max(1.0);
+                let mut plus = set.initial.clone();
+                plus[i] += h;
+                let mut minus = set.initial.clone();
+                minus[i] -= h;
+                let column = (residual(&plus) - residual(&minus)) / (2.0 * h);
+                for (k, block) in information.blocks.iter().enumerate() {
+                    let mut rows = Vec::new();
+                    if kind.poses() {
+                        rows.extend(6 * k..6 * k + 6);
+                    }
+                    if kind.points() {
+                        rows.extend(pose_rows + 3 * k..pose_rows + 3 * k + 3);
+                    }
+                    assert_eq!(rows.len(), rows_per_pose);
+                    for (r, &row) in rows.iter().enumerate() {
+                        let (analytic, numeric) = (block[(r, i)], column[row]);
+                        let scale = block.column(i).amax().max(1.0);
+                        assert!(
+                            (analytic - numeric).abs() < 1e-5 * scale,
+                            "{kind:?} pose {k} row {r} column {} ({}): {analytic} vs {numeric}",
+                            i,
+                            information.names[i]
+                        );
+                    }
+                }
+            }
+            // The frames have their weak prior, the 33 the calibration's.
+            assert!(information.prior.clone().cholesky().is_some());
+        }
+    }
+}
