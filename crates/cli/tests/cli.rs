@@ -629,3 +629,86 @@ fn plan_writes_a_plan_that_simulate_measures() {
         "{stderr}"
     );
 }
+
+#[test]
+fn plan_chooses_tracker_poses_that_simulate_measures() {
+    let temp = tempfile::tempdir().unwrap();
+    let template = temp.path().join("template");
+    simulate(
+        &template,
+        &["--tracker", "poses", "--sessions", "1", "--rows", "8"],
+    );
+    let plan = temp.path().join("plan.csv");
+    let args = |extra: &[&str]| {
+        let mut args = vec![
+            "plan",
+            template.to_str().unwrap(),
+            "--poses",
+            "8",
+            "--tilt",
+            "10",
+            "--out",
+            plan.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        parcal(&args)
+    };
+    // Without a workspace the pose plan is refused, saying what it needs.
+    let output = args(&[]);
+    assert!(!output.status.success());
+    assert!(
+        text(&output.stderr).contains("--workspace"),
+        "{}",
+        text(&output.stderr)
+    );
+    let output = args(&["--workspace", "60,300,380"]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(text(&output.stdout).contains("poses              8 from"));
+    let csv = std::fs::read_to_string(&plan).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6"));
+    let planned: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(planned.len(), 8);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(temp.path().join("plan.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["options"]["tracker"], "poses");
+    // Every session measures the planned readings (plus 1 um of noise).
+    let data = temp.path().join("planned");
+    simulate(
+        &data,
+        &[
+            "--tracker",
+            "poses",
+            "--sessions",
+            "2",
+            "--plan",
+            plan.to_str().unwrap(),
+        ],
+    );
+    let poses = std::fs::read_to_string(data.join("poses.csv")).unwrap();
+    let mut lines = poses.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let q1 = header.iter().position(|h| *h == "q1").unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .skip(q1)
+                .take(6)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 16);
+    for (k, row) in rows.iter().enumerate() {
+        let plan_row = &planned[k % 8];
+        for i in 0..6 {
+            assert!(
+                (row[i] - plan_row[6 + i]).abs() < 0.01,
+                "row {k}: {row:?} vs {plan_row:?}"
+            );
+        }
+    }
+}

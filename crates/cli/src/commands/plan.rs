@@ -1,4 +1,5 @@
-//! `parcal plan`: which ball touches to measure (docs/design.md).
+//! `parcal plan`: which ball touches, or which platform poses for an
+//! instrument, to measure (docs/design.md).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -6,17 +7,33 @@ use std::path::PathBuf;
 use anyhow::Context;
 use parcal_dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
 use parcal_design::plan_file::{summary_path, write_plan};
+use parcal_design::tracker::plan_file::write_pose_plan;
+use parcal_design::tracker::{PosePlanOptions, plan_poses};
 use parcal_design::{Criterion, CriterionValues, PlanOptions, plan, plan_next};
+use parcal_simulate::Workspace;
 
 use crate::progress::Progress;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Directory holding machine.json (with its "stroke") and artefacts.json.
+    /// Directory holding machine.json (with its "stroke") and artefacts.json;
+    /// or machine.json alone: a pose plan for an instrument (--tracker).
     dir: PathBuf,
     /// The budget: number of touches.
+    #[arg(long, conflicts_with = "poses")]
+    contacts: Option<usize>,
+    /// Plan platform poses measured by an instrument instead of ball
+    /// touches: body poses (motion capture), tool points (laser tracker) or
+    /// both (the default when DIR has no artefacts.json: poses).
+    #[arg(long, value_enum)]
+    tracker: Option<super::simulate::Kind>,
+    /// The budget of a pose plan: number of poses.
     #[arg(long)]
-    contacts: usize,
+    poses: Option<usize>,
+    /// Where a pose plan's platform origin may go: `|x|, |y| <= HALF_WIDTH`,
+    /// `Z_MIN <= z <= Z_MAX`, design base frame, mm.
+    #[arg(long, value_name = "HALF_WIDTH,Z_MIN,Z_MAX", value_parser = parse_workspace)]
+    workspace: Option<Workspace>,
     /// Largest |roll|, |pitch|, |yaw| of the platform, degrees.
     #[arg(long)]
     tilt: f64,
@@ -67,20 +84,25 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.tilt
     );
     let machine = Machine::read(&args.dir.join(MACHINE_FILE))?;
-    let artefacts = Artefacts::read(&args.dir.join(ARTEFACTS_FILE))?;
+    let artefacts_file = args.dir.join(ARTEFACTS_FILE);
+    let tracker = args
+        .tracker
+        .or_else(|| (!artefacts_file.exists()).then_some(super::simulate::Kind::Poses));
+    if let Some(kind) = tracker {
+        return run_tracker(args, &machine, kind);
+    }
+    let Some(contacts) = args.contacts else {
+        anyhow::bail!("--contacts is needed for a plan of ball touches");
+    };
+    let artefacts = Artefacts::read(&artefacts_file)?;
     let options = PlanOptions {
-        criterion: match args.criterion {
-            CriterionArg::Registered => Criterion::Registered,
-            CriterionArg::D => Criterion::D,
-            CriterionArg::A => Criterion::A,
-            CriterionArg::G => Criterion::G,
-        },
+        criterion: criterion(args.criterion),
         pool: args.pool,
         seed: args.seed,
         per_ball: args.per_ball,
         restarts: args.restarts,
         max_approach_degrees: args.max_approach,
-        ..PlanOptions::new(args.contacts, args.tilt)
+        ..PlanOptions::new(contacts, args.tilt)
     };
     let progress = Progress::spinner();
     let mut report = |line: &str| progress.line(&format!("  {line}"));
@@ -116,6 +138,83 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_values(&mut stdout, label, values)?;
     }
     Ok(())
+}
+
+/// A pose plan (`--tracker`, or DIR without artefacts.json).
+fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> anyhow::Result<()> {
+    let Some(poses) = args.poses else {
+        anyhow::bail!(
+            "--poses is needed for a pose plan (--tracker, or DIR without artefacts.json)"
+        );
+    };
+    let Some(workspace) = args.workspace else {
+        anyhow::bail!("--workspace HALF_WIDTH,Z_MIN,Z_MAX is needed for a pose plan");
+    };
+    anyhow::ensure!(
+        args.after.is_none() && args.per_ball.is_none(),
+        "--after and --per-ball apply to ball touches only"
+    );
+    let options = PosePlanOptions {
+        poses,
+        kind: kind.tracker_kind(),
+        workspace,
+        tilt_degrees: args.tilt,
+        criterion: criterion(args.criterion),
+        passes: PlanOptions::new(1, 0.0).passes,
+    };
+    let progress = Progress::spinner();
+    let mut report = |line: &str| progress.line(&format!("  {line}"));
+    let planned = plan_poses(machine, &options, &mut report).context("planning failed")?;
+    progress.finish();
+    write_pose_plan(&args.out, &planned, &options)?;
+    let mut stdout = std::io::stdout().lock();
+    writeln!(
+        stdout,
+        "plan written to {} and {}",
+        args.out.display(),
+        summary_path(&args.out).display()
+    )?;
+    writeln!(
+        stdout,
+        "  poses              {} from {} feasible candidates",
+        planned.poses.len(),
+        planned.pool_size
+    )?;
+    for (label, values) in [("prior", &planned.prior), ("predicted", &planned.predicted)] {
+        write_values(&mut stdout, label, values)?;
+    }
+    Ok(())
+}
+
+/// `--criterion`'s meaning.
+fn criterion(arg: CriterionArg) -> Criterion {
+    match arg {
+        CriterionArg::Registered => Criterion::Registered,
+        CriterionArg::D => Criterion::D,
+        CriterionArg::A => Criterion::A,
+        CriterionArg::G => Criterion::G,
+    }
+}
+
+/// `--workspace HALF_WIDTH,Z_MIN,Z_MAX`.
+fn parse_workspace(value: &str) -> Result<Workspace, String> {
+    let numbers: Vec<f64> = value
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("{v:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match numbers[..] {
+        [half_width, low, high]
+            if numbers.iter().all(|v| v.is_finite()) && half_width >= 0.0 && low <= high =>
+        {
+            Ok(Workspace {
+                half_width,
+                height: [low, high],
+            })
+        }
+        _ => Err(format!(
+            "{value:?}: three finite numbers HALF_WIDTH,Z_MIN,Z_MAX with HALF_WIDTH >= 0 and Z_MIN <= Z_MAX"
+        )),
+    }
 }
 
 /// One line of figures.

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use parcal_dataset::{Dataset, DatasetError, WriteOptions};
 use parcal_design::plan_file::read_plan;
+use parcal_design::tracker::plan_file::read_pose_plan;
 use parcal_kinematics::rotation_zyx;
 use parcal_simulate::{
     PlannedTouch, Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, ball_id,
@@ -83,8 +84,10 @@ pub struct Args {
     /// Simulate exactly the touches of a plan.csv (`parcal plan`) instead of
     /// random ones: the true contact point is the true centre + r u, the
     /// platform orientation as planned (--points-per-ball and --tilt are
-    /// then not used for the touches).
-    #[arg(long, value_name = "PLAN_CSV", conflicts_with = "tracker")]
+    /// then not used for the touches). With --tracker, a pose plan
+    /// (`parcal plan --tracker`): every session measures the true machine at
+    /// the planned readings (--rows and --tilt are then not used).
+    #[arg(long, value_name = "PLAN_CSV")]
     plan: Option<PathBuf>,
     /// Also write a binary snapshot of the dataset (postcard) to OUT/dataset.bin,
     /// which loads much faster than the text files.
@@ -95,12 +98,23 @@ pub struct Args {
     execute: super::execute::RunArgs,
 }
 
-/// `--tracker`.
+/// `--tracker` (also `parcal plan`'s).
 #[derive(Clone, Copy, clap::ValueEnum)]
-enum Kind {
+pub(crate) enum Kind {
     Poses,
     Points,
     Both,
+}
+
+impl Kind {
+    /// What the instrument measures.
+    pub(crate) fn tracker_kind(self) -> TrackerKind {
+        match self {
+            Kind::Poses => TrackerKind::Poses,
+            Kind::Points => TrackerKind::Points,
+            Kind::Both => TrackerKind::Both,
+        }
+    }
 }
 
 /// `--machine`.
@@ -236,11 +250,7 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
         TrackedMachine::Paper => TrackerScenario::paper_like(),
         TrackedMachine::Jugglebot => TrackerScenario::jugglebot_like(),
     };
-    scenario.kind = match kind {
-        Kind::Poses => TrackerKind::Poses,
-        Kind::Points => TrackerKind::Points,
-        Kind::Both => TrackerKind::Both,
-    };
+    scenario.kind = kind.tracker_kind();
     scenario.max_tilt = args.tilt.to_radians();
     if let Some(sessions) = args.sessions {
         anyhow::ensure!(sessions > 0, "--sessions must be at least 1");
@@ -276,6 +286,16 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
             );
             *field = value;
         }
+    }
+    if let Some(path) = &args.plan {
+        let plan = read_pose_plan(path)?;
+        anyhow::ensure!(
+            args.rows.is_none(),
+            "--rows and --plan: the plan's {} poses are the rows of each session",
+            plan.len()
+        );
+        scenario.rows_per_session = plan.len();
+        scenario.plan = Some(plan.into_iter().map(|row| row.q).collect());
     }
     check_rows(&[
         ("--sessions", scenario.sessions),
