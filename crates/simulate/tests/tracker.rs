@@ -313,3 +313,69 @@ fn an_instrument_campaign_beyond_the_row_bound_is_refused() {
         "{error}"
     );
 }
+
+#[test]
+fn planned_readings_are_measured_on_the_true_machine() {
+    // Readings of the design at three poses, measured noiselessly in two
+    // sessions re-homed by 1 mm: each row records the planned readings and
+    // the true machine's pose at them (forward kinematics with the true
+    // legs, scales and the session's offsets), seen through its frames.
+    let design = parcal_kinematics::paper::design();
+    let plan: Vec<[f64; 6]> = [
+        Pose::from_parts(
+            Translation3::new(0.0, 0.0, 340.0),
+            UnitQuaternion::identity(),
+        ),
+        Pose::from_parts(
+            Translation3::new(40.0, -30.0, 310.0),
+            UnitQuaternion::from_euler_angles(0.1, -0.05, 0.15),
+        ),
+        Pose::from_parts(
+            Translation3::new(-50.0, 20.0, 370.0),
+            UnitQuaternion::from_euler_angles(-0.1, 0.12, -0.08),
+        ),
+    ]
+    .iter()
+    .map(|p| {
+        let lengths = leg_lengths(&design, p);
+        std::array::from_fn(|i| lengths[i] - design.legs[i])
+    })
+    .collect();
+    let scenario = TrackerScenario {
+        kind: TrackerKind::Poses,
+        sessions: 2,
+        rows_per_session: plan.len(),
+        plan: Some(plan.clone()),
+        ..noiseless()
+    };
+    let dataset = simulate_tracker(&scenario, 3).unwrap().dataset;
+    let truth = dataset.truth.as_ref().unwrap();
+    let poses = &dataset.tracker.poses;
+    assert_eq!(poses.len(), 6);
+    for j in 0..6 {
+        let session = poses.session[j] as usize;
+        assert!((0..6).all(|i| (poses.q[j][i] - plan[j % 3][i]).abs() < 1e-9));
+        let record = &truth.sessions[session];
+        let shifted = Geometry {
+            legs: std::array::from_fn(|i| scenario.truth.legs[i] + record.leg_offsets[i]),
+            ..scenario.truth.clone()
+        };
+        let extension = std::array::from_fn(|i| scenario.true_scale[i] * plan[j % 3][i]);
+        let t = forward_from_home(&shifted, &extension, &ForwardOptions::default())
+            .unwrap()
+            .pose;
+        let expected = pose(&record.tracker_frame) * t * pose(&record.body_frame);
+        let measured = measured_pose(&poses.position[j], &poses.orientation[j]);
+        let error = expected.inverse() * measured;
+        assert!(error.translation.vector.norm() < 1e-9 && error.rotation.angle() < 1e-12);
+    }
+    // A plan of another length than the rows is refused.
+    let scenario = TrackerScenario {
+        rows_per_session: 2,
+        ..scenario
+    };
+    assert!(matches!(
+        simulate_tracker(&scenario, 3),
+        Err(SimulateError::Scenario(_))
+    ));
+}
