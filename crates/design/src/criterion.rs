@@ -175,5 +175,17 @@ mod tests {
         assert!(
             (values.registered_rms_um - mean.sqrt() * 1e3).abs() < 1e-9 * values.registered_rms_um
         );
+        // Each criterion alone is its figure among all of them.
+        for criterion in [
+            Criterion::Registered,
+            Criterion::D,
+            Criterion::A,
+            Criterion::G,
+        ] {
+            assert_eq!(
+                criterion.of(&covariance, &map),
+                Some(values.value(criterion))
+            );
+        }
     }
 }
