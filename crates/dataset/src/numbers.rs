@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use crate::error::Result;
+use crate::quote::{has_control, quoted_bytes};
 use crate::table::{self, Header};
 
 /// Reads the CSV file `path` whose header names (at least) `columns`, in any
@@ -24,6 +25,49 @@ pub fn read_numbers<const N: usize>(
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, what, |row| {
             rows.push(row.numbers(&at, columns)?);
+            Ok(())
+        })?;
+        Ok(rows)
+    })
+}
+
+/// [`read_numbers`] of a table whose rows also carry a text `label` column
+/// (e.g. a ball id): each row's label (not empty, no control character) and
+/// its values in the order of `columns`, which `check` accepts (or refuses
+/// with a reason, reported at the row's line).
+pub fn read_labelled_numbers<const N: usize>(
+    path: &Path,
+    label: &'static str,
+    columns: &[&'static str; N],
+    what: &str,
+    check: impl Fn(&[f64; N]) -> std::result::Result<(), String>,
+) -> Result<Vec<(String, [f64; N])>> {
+    let expected = std::iter::once(label)
+        .chain(columns.iter().copied())
+        .collect::<Vec<_>>()
+        .join(",");
+    table::read_file(path, |reader| {
+        let header = Header::read(reader, &expected)?;
+        let at_label = header.require(label, &expected)?;
+        let at = header.require_all(columns, &expected)?;
+        let mut rows = Vec::new();
+        table::for_each_row(reader, &header, what, |row| {
+            let bytes = row.field(at_label);
+            let text = std::str::from_utf8(bytes)
+                .ok()
+                .filter(|text| !text.is_empty() && !has_control(text))
+                .ok_or_else(|| {
+                    row.error(
+                        Some(label),
+                        format!(
+                            "expected a label (not empty, no control character), found {}",
+                            quoted_bytes(bytes)
+                        ),
+                    )
+                })?;
+            let values = row.numbers(&at, columns)?;
+            check(&values).map_err(|reason| row.error(None, reason))?;
+            rows.push((text.to_owned(), values));
             Ok(())
         })?;
         Ok(rows)
@@ -90,10 +134,33 @@ mod tests {
             .to_string();
         assert!(error.contains("the header has no column b"), "{error}");
 
+        std::fs::write(&path, "id,a\nb01,1\n\n,2\n").unwrap();
+        let labelled = |path: &Path| {
+            read_labelled_numbers(path, "id", &["a"], "test", |v| {
+                if v[0] > 0.0 {
+                    Ok(())
+                } else {
+                    Err("a must be positive".into())
+                }
+            })
+        };
+        let error = labelled(&path).unwrap_err().to_string();
+        assert!(
+            error.ends_with(
+                "line 4, column id: expected a label (not empty, no control character), found \"\""
+            ),
+            "{error}"
+        );
+        std::fs::write(&path, "a,id\n1,b01\n-1,b02\n").unwrap();
+        let error = labelled(&path).unwrap_err().to_string();
+        assert!(error.ends_with("line 3: a must be positive"), "{error}");
+        std::fs::write(&path, "a,id\n1,b01\n").unwrap();
+        assert_eq!(labelled(&path).unwrap(), [("b01".to_owned(), [1.0])]);
+
         let error = write_numbers(&path, &["a"], &[vec![f64::NAN]])
             .unwrap_err()
             .to_string();
         assert!(error.contains("row 1, column a"), "{error}");
-        assert_eq!(std::fs::read_to_string(&path).unwrap(), "a,c\n1,2\n");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "a,id\n1,b01\n");
     }
 }

@@ -1,7 +1,5 @@
 //! Why a plan could not be made, written or read.
 
-use std::path::PathBuf;
-
 use parcal_accuracy::AccuracyError;
 use parcal_dataset::DatasetError;
 use parcal_kinematics::KinematicsError;
@@ -56,14 +54,4 @@ pub enum DesignError {
     /// Writing the plan.
     #[error(transparent)]
     Dataset(#[from] DatasetError),
-    /// A plan file that cannot be read.
-    #[error("{}: line {line}: {reason}", path.display())]
-    PlanFile {
-        /// The file.
-        path: PathBuf,
-        /// 1-based line (the header is line 1).
-        line: usize,
-        /// What is wrong.
-        reason: String,
-    },
 }

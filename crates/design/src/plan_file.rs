@@ -12,13 +12,17 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use parcal_dataset::atomic::write_atomic;
-use parcal_dataset::{Artefacts, DatasetError};
+use parcal_dataset::{Artefacts, DatasetError, read_labelled_numbers};
 use parcal_kinematics::Vec3;
 
 use crate::{DesignError, Plan, PlanOptions};
 
 /// The header of plan.csv.
 pub const HEADER: &str = "ball,u_x,u_y,u_z,roll,pitch,yaw,q1,q2,q3,q4,q5,q6";
+/// The numeric columns of plan.csv, after `ball`.
+const COLUMNS: [&str; 12] = [
+    "u_x", "u_y", "u_z", "roll", "pitch", "yaw", "q1", "q2", "q3", "q4", "q5", "q6",
+];
 
 /// Largest accepted `| |u| - 1 |` of a direction read from plan.csv.
 const UNIT_TOLERANCE: f64 = 1e-6;
@@ -85,72 +89,30 @@ pub(crate) fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), DesignError> 
     Ok(())
 }
 
-/// Reads plan.csv: the header, then rows of finite numbers with unit
-/// directions. Errors name the file and line.
+/// Reads plan.csv (the dataset's CSV rules: columns by name, bounded
+/// lines, errors naming the file, line and column): finite numbers with
+/// unit directions.
 pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>, DesignError> {
-    let error = |line: usize, reason: String| DesignError::PlanFile {
-        path: path.to_path_buf(),
-        line,
-        reason,
-    };
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .from_path(path)
-        .map_err(|e| error(0, e.to_string()))?;
-    let mut rows = Vec::new();
-    for (k, record) in reader.records().enumerate() {
-        let line = k + 1;
-        let record = record.map_err(|e| error(line, e.to_string()))?;
-        if line == 1 {
-            let header: Vec<&str> = record.iter().map(str::trim).collect();
-            if header.join(",") != HEADER {
-                return Err(error(1, format!("the header must be {HEADER:?}")));
-            }
-            continue;
+    let rows = read_labelled_numbers(path, "ball", &COLUMNS, "touch", |v| {
+        let norm = Vec3::new(v[0], v[1], v[2]).norm();
+        if (norm - 1.0).abs() > UNIT_TOLERANCE {
+            Err(format!(
+                "u = ({}, {}, {}) is not a unit vector",
+                v[0], v[1], v[2]
+            ))
+        } else {
+            Ok(())
         }
-        if record.len() != 13 {
-            return Err(error(line, format!("{} fields, 13 expected", record.len())));
-        }
-        let names = HEADER.split(',').collect::<Vec<_>>();
-        let mut values = [0.0; 12];
-        for (i, value) in values.iter_mut().enumerate() {
-            let field = record[i + 1].trim();
-            *value = field
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    error(
-                        line,
-                        format!("{}: {field:?} is not a finite number", names[i + 1]),
-                    )
-                })?;
-        }
-        let direction = Vec3::new(values[0], values[1], values[2]);
-        if (direction.norm() - 1.0).abs() > UNIT_TOLERANCE {
-            return Err(error(
-                line,
-                format!(
-                    "u = ({}, {}, {}) is not a unit vector",
-                    values[0], values[1], values[2]
-                ),
-            ));
-        }
-        let ball = record[0].trim().to_string();
-        if ball.is_empty() {
-            return Err(error(line, "ball: empty id".into()));
-        }
-        rows.push(PlanRow {
+    })?;
+    Ok(rows
+        .into_iter()
+        .map(|(ball, v)| PlanRow {
             ball,
-            direction,
-            angles: [values[3], values[4], values[5]],
-            q: std::array::from_fn(|i| values[6 + i]),
-        });
-    }
-    if rows.is_empty() {
-        return Err(error(1, "no touch in the plan".into()));
-    }
-    Ok(rows)
+            direction: Vec3::new(v[0], v[1], v[2]),
+            angles: [v[3], v[4], v[5]],
+            q: std::array::from_fn(|i| v[6 + i]),
+        })
+        .collect())
 }
 
 #[cfg(test)]

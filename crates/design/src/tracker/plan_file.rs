@@ -8,6 +8,7 @@
 
 use std::path::Path;
 
+use parcal_dataset::read_numbers;
 use parcal_kinematics::{Pose, Vec3, rotation_zyx};
 
 use crate::DesignError;
@@ -16,6 +17,10 @@ use crate::tracker::{PosePlan, PosePlanOptions};
 
 /// The header of a pose plan.csv.
 pub const HEADER: &str = "roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6";
+/// Its columns.
+const COLUMNS: [&str; 12] = [
+    "roll", "pitch", "yaw", "x", "y", "z", "q1", "q2", "q3", "q4", "q5", "q6",
+];
 
 /// One row of a pose plan.csv.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,60 +89,17 @@ pub fn write_pose_plan(
     crate::plan_file::write_bytes(&summary_path(csv), format!("{json}\n").as_bytes())
 }
 
-/// Reads a pose plan.csv: the header, then rows of twelve finite numbers.
-/// Errors name the file, the line and the field.
+/// Reads a pose plan.csv (the dataset's CSV rules: columns by name,
+/// bounded lines, errors naming the file, line and column).
 pub fn read_pose_plan(path: &Path) -> Result<Vec<PosePlanRow>, DesignError> {
-    let error = |line: usize, reason: String| DesignError::PlanFile {
-        path: path.to_path_buf(),
-        line,
-        reason,
-    };
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .from_path(path)
-        .map_err(|e| error(0, e.to_string()))?;
-    let names: Vec<&str> = HEADER.split(',').collect();
-    let mut rows = Vec::new();
-    for (k, record) in reader.records().enumerate() {
-        let line = k + 1;
-        let record = record.map_err(|e| error(line, e.to_string()))?;
-        if line == 1 {
-            let header: Vec<&str> = record.iter().map(str::trim).collect();
-            if header.join(",") != HEADER {
-                return Err(error(1, format!("the header must be {HEADER:?}")));
-            }
-            continue;
-        }
-        if record.len() != names.len() {
-            return Err(error(
-                line,
-                format!("{} fields, {} expected", record.len(), names.len()),
-            ));
-        }
-        let mut values = [0.0; 12];
-        for (i, value) in values.iter_mut().enumerate() {
-            let field = record[i].trim();
-            *value = field
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    error(
-                        line,
-                        format!("{}: {field:?} is not a finite number", names[i]),
-                    )
-                })?;
-        }
-        rows.push(PosePlanRow {
-            angles: [values[0], values[1], values[2]],
-            tip: Vec3::new(values[3], values[4], values[5]),
-            q: std::array::from_fn(|i| values[6 + i]),
-        });
-    }
-    if rows.is_empty() {
-        return Err(error(1, "no pose in the plan".into()));
-    }
-    Ok(rows)
+    Ok(read_numbers(path, &COLUMNS, "pose")?
+        .into_iter()
+        .map(|v| PosePlanRow {
+            angles: [v[0], v[1], v[2]],
+            tip: Vec3::new(v[3], v[4], v[5]),
+            q: std::array::from_fn(|i| v[6 + i]),
+        })
+        .collect())
 }
 
 #[cfg(test)]
@@ -161,7 +123,7 @@ mod tests {
         std::fs::write(&path, format!("{HEADER}\n0,0,0.5,1,2,300,1,2,3,4,5\n")).unwrap();
         let message = read_pose_plan(&path).unwrap_err().to_string();
         assert!(
-            message.contains("line 2") && message.contains("11 fields"),
+            message.contains("line 2") && message.contains("found 11"),
             "{message}"
         );
         std::fs::write(&path, "ball,u\n").unwrap();
