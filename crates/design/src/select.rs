@@ -24,10 +24,11 @@
 //! `det Σ u uᵀ`, the first drawn at random); when the budget `N` is below
 //! that many touches of every ball the machine reaches, the design grows
 //! greedily instead, each step adding whichever lowers the criterion most
-//! per touch: an untouched ball's anchors or one touch of a touched ball
+//! per touch, an untouched ball's anchors or one touch of a touched ball
 //! (a new ball's first touches locate its centre, so fewer balls touched
-//! more often can beat more balls); otherwise greedy additions up to the
-//! budget; then exchange passes, each touch in turn removed and replaced by
+//! more often can beat more balls), once from no ball and once after the
+//! anchors of `⌊N / m⌋` balls (`m` that minimum), the better kept;
+//! otherwise greedy additions up to the budget; then exchange passes, each touch in turn removed and replaced by
 //! the best candidate (itself included) that keeps its ball's count and
 //! spread, until a pass improves the criterion by less than a relative
 //! 1e-6 or [`SelectOptions::passes`] passes are made. Restart `r` draws its
@@ -200,7 +201,16 @@ impl<'a> Problem<'a> {
             .collect();
         if seeds > 0 && options.contacts < seeds * reachable {
             state.allowed = vec![false; self.balls];
-            state.grow(anchors, options)?;
+            let mut best: Option<(f64, State)> = None;
+            for least in [0, options.contacts / seeds] {
+                let mut grown = state.clone();
+                grown.grow(anchors.clone(), least, options)?;
+                let value = grown.values()?.value(options.criterion);
+                if best.as_ref().is_none_or(|(v, _)| value < *v) {
+                    best = Some((value, grown));
+                }
+            }
+            state = best.expect("two growths").1;
         } else {
             for k in anchors.into_iter().flat_map(|(_, touches)| touches) {
                 state.push(k);
@@ -324,10 +334,12 @@ impl<'a> State<'a> {
     /// ball and its anchor touches) and the touched balls' candidates:
     /// each step takes whichever lowers the criterion most per touch, the
     /// anchors of an untouched ball (while the budget has room for them)
-    /// or the best single touch of a touched ball.
+    /// or the best single touch of a touched ball; only anchors until
+    /// `least` balls are touched.
     fn grow(
         &mut self,
         mut anchors: Vec<(usize, Vec<usize>)>,
+        least: usize,
         options: &SelectOptions,
     ) -> Result<(), DesignError> {
         let criterion = options.criterion;
@@ -340,7 +352,8 @@ impl<'a> State<'a> {
                     best = Some((decrease, anchor, touches.to_vec()));
                 }
             };
-            if self.allowed.iter().any(|&a| a) {
+            let touched = self.allowed.iter().filter(|&&a| a).count();
+            if touched > 0 && (touched >= least || anchors.is_empty()) {
                 match self.best_addition(options, None) {
                     Ok(k) => consider(current - self.value_with(&[k], criterion)?, None, &[k]),
                     Err(DesignError::Capacity { .. }) => {}
