@@ -4,8 +4,9 @@
 //! the default options, and compare the plan's predicted registered RMS
 //! with the true one (mean and standard deviation over the seeds).
 //!
-//! `cargo run --release -p parcal-benches --example design_scaling -- docs/design-scaling.svg [S]`
-//! (S noise seeds, 5 by default).
+//! `cargo run --release -p parcal-benches --example design_scaling -- docs/design-scaling.svg [S [R]]`
+//! (S noise seeds, 5 by default; R the sigma of the balls' calibrated radii
+//! in um, the paper scenario's by default).
 
 use std::path::Path;
 
@@ -30,7 +31,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let out = args.next().unwrap_or_else(|| "design-scaling.svg".into());
     let seeds: u64 = args.next().map_or(Ok(5), |s| s.parse())?;
-    let template = simulate(&Scenario::paper(), 1)?.dataset;
+    let paper = match args.next() {
+        Some(sigma) => Scenario {
+            radius_sigma: sigma.parse::<f64>()? * 1e-3,
+            ..Scenario::paper()
+        },
+        None => Scenario::paper(),
+    };
+    let template = simulate(&paper, 1)?.dataset;
     let mut cases = Vec::new();
     for tilt in TILTS {
         for contacts in BUDGETS {
@@ -52,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         })
                         .collect(),
                 ),
-                ..Scenario::paper()
+                ..paper.clone()
             };
             let mut true_rms = Vec::new();
             let mut balls = 0;
