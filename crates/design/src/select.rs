@@ -28,10 +28,10 @@
 //! (a new ball's first touches locate its centre, so fewer balls touched
 //! more often can beat more balls), once from no ball and once after the
 //! anchors of `⌊N / m⌋` balls (`m` that minimum), the better kept;
-//! otherwise greedy additions up to the budget; then exchange passes, each touch in turn removed and replaced by
-//! the best candidate (itself included) that keeps its ball's count and
-//! spread, until a pass improves the criterion by less than a relative
-//! 1e-6 or [`SelectOptions::passes`] passes are made. Restart `r` draws its
+//! otherwise greedy additions up to the budget; then exchange passes, each
+//! touch in turn removed and replaced by the best candidate (itself
+//! included) that keeps its ball's count and spread, until a pass improves
+//! the criterion by less than a relative 1e-6 or [`SelectOptions::passes`] passes are made. Restart `r` draws its
 //! seed from stream `r` of [`parcal_simulate::Rng`]; the best run is kept,
 //! the earliest on ties.
 

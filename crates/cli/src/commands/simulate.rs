@@ -83,7 +83,8 @@ pub struct Args {
     /// Simulate exactly the touches of a plan.csv (`parcal plan`) instead of
     /// random ones: the true contact point is the true centre + r u, the
     /// platform orientation as planned (--points-per-ball and --tilt are
-    /// then not used for the touches).
+    /// then not used for the touches); balls the plan leaves untouched are
+    /// left out of the dataset.
     #[arg(long, value_name = "PLAN_CSV", conflicts_with = "tracker")]
     plan: Option<PathBuf>,
     /// Also write a binary snapshot of the dataset (postcard) to OUT/dataset.bin,
