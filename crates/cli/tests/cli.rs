@@ -712,3 +712,54 @@ fn plan_chooses_tracker_poses_that_simulate_measures() {
         }
     }
 }
+
+#[test]
+fn a_budget_below_four_touches_per_ball_plans_fewer_balls() {
+    // 95 touches of the paper's 27 balls: fewer than the reader's 4 per
+    // ball, so the plan touches some balls and the simulation writes only
+    // those, which calibrate accepts.
+    let temp = tempfile::tempdir().unwrap();
+    let (template, data) = (temp.path().join("template"), temp.path().join("data"));
+    simulate(&template, &["--points-per-ball", "4"]);
+    let plan = temp.path().join("plan.csv");
+    let output = parcal(&[
+        "plan",
+        template.to_str().unwrap(),
+        "--contacts",
+        "95",
+        "--tilt",
+        "20",
+        "--pool",
+        "3000",
+        "--out",
+        plan.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let csv = std::fs::read_to_string(&plan).unwrap();
+    let mut per_ball = std::collections::BTreeMap::new();
+    for line in csv.lines().skip(1) {
+        *per_ball.entry(line.split(',').next().unwrap()).or_insert(0) += 1;
+    }
+    assert_eq!(per_ball.values().sum::<usize>(), 95);
+    assert!(per_ball.len() < 27, "{per_ball:?}");
+    assert!(per_ball.values().all(|&n| n >= 4), "{per_ball:?}");
+
+    let output = simulate(&data, &["--plan", plan.to_str().unwrap()]);
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains(&format!("  balls              {}\n", per_ball.len())),
+        "{stdout}"
+    );
+    let artefacts: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(data.join("artefacts.json")).unwrap())
+            .unwrap();
+    let ids: Vec<&str> = artefacts["balls"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(ids, per_ball.keys().copied().collect::<Vec<_>>());
+    let calibrate = parcal(&["calibrate", data.to_str().unwrap()]);
+    assert!(calibrate.status.success(), "{}", text(&calibrate.stderr));
+}

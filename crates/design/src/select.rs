@@ -12,7 +12,7 @@
 //! matrix of the candidates' parameter rows) in parallel chunks of
 //! [`CHUNK`] candidates: the same numbers whatever the number of threads.
 //!
-//! Every ball the machine reaches keeps at least [`min_touches_per_ball`]
+//! Every ball the design touches keeps at least [`min_touches_per_ball`]
 //! touches (the dataset reader's minimum) spanning the directions: the
 //! smallest eigenvalue of its touches' `Σ u uᵀ` (unit normals) stays at
 //! least [`SPREAD`], or what its candidates allow. A ball's centre must be
@@ -21,11 +21,17 @@
 //! calibration (a tangential error `δ` of the start moves the distances by
 //! `δ²/2r`, far beyond the noise: Gauss-Newton oscillates). One run: per
 //! ball that many anchor touches, as spread as possible (greedy on
-//! `det Σ u uᵀ`, the first drawn at random); greedy additions up to the
-//! budget; then exchange passes, each touch in turn removed and replaced by
-//! the best candidate (itself included) that keeps its ball's count and
-//! spread, until a pass improves the criterion by less than a relative
-//! 1e-6 or [`SelectOptions::passes`] passes are made. Restart `r` draws its
+//! `det Σ u uᵀ`, the first drawn at random); when the budget `N` is below
+//! that many touches of every ball the machine reaches, the design grows
+//! greedily instead, each step adding whichever lowers the criterion most
+//! per touch, an untouched ball's anchors or one touch of a touched ball
+//! (a new ball's first touches locate its centre, so fewer balls touched
+//! more often can beat more balls), once from no ball and once after the
+//! anchors of `⌊N / m⌋` balls (`m` that minimum), the better kept;
+//! otherwise greedy additions up to the budget; then exchange passes, each
+//! touch in turn removed and replaced by the best candidate (itself
+//! included) that keeps its ball's count and spread, until a pass improves
+//! the criterion by less than a relative 1e-6 or [`SelectOptions::passes`] passes are made. Restart `r` draws its
 //! seed from stream `r` of [`parcal_simulate::Rng`]; the best run is kept,
 //! the earliest on ties.
 
@@ -177,18 +183,36 @@ impl<'a> Problem<'a> {
         } else {
             0
         };
-        if options.contacts < seeds * reachable || options.per_ball.is_some_and(|k| k < seeds) {
+        if options.contacts < seeds || options.per_ball.is_some_and(|k| k < seeds) {
             let cap = options
                 .per_ball
                 .map_or(String::new(), |k| format!(" at most {k} per ball"));
             return Err(DesignError::Options(format!(
-                "{} contacts{cap} cannot give each of the {reachable} balls the machine reaches {seeds} touches (the dataset reader's minimum); plan fewer balls or more contacts",
+                "{} contacts{cap} cannot give a ball {seeds} touches (the dataset reader's minimum)",
                 options.contacts
             )));
         }
         let mut rng = Rng::new(options.seed, restart);
-        for candidates in by_ball.iter().filter(|c| seeds > 0 && !c.is_empty()) {
-            for k in self.anchors(candidates, seeds, &mut rng) {
+        let anchors: Vec<(usize, Vec<usize>)> = by_ball
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| seeds > 0 && !c.is_empty())
+            .map(|(ball, candidates)| (ball, self.anchors(candidates, seeds, &mut rng)))
+            .collect();
+        if seeds > 0 && options.contacts < seeds * reachable {
+            state.allowed = vec![false; self.balls];
+            let mut best: Option<(f64, State)> = None;
+            for least in [0, options.contacts / seeds] {
+                let mut grown = state.clone();
+                grown.grow(anchors.clone(), least, options)?;
+                let value = grown.values()?.value(options.criterion);
+                if best.as_ref().is_none_or(|(v, _)| value < *v) {
+                    best = Some((value, grown));
+                }
+            }
+            state = best.expect("two growths").1;
+        } else {
+            for k in anchors.into_iter().flat_map(|(_, touches)| touches) {
                 state.push(k);
             }
         }
@@ -268,6 +292,7 @@ impl Problem<'_> {
 }
 
 /// A design in progress: its information and covariance.
+#[derive(Clone)]
 struct State<'a> {
     problem: &'a Problem<'a>,
     information: DMatrix<f64>,
@@ -278,6 +303,9 @@ struct State<'a> {
     counts: Vec<usize>,
     /// Per ball, `Σ u uᵀ` of its touches' unit normals.
     scatter: Vec<Matrix3<f64>>,
+    /// Per ball, whether the design may touch it (all, unless the budget
+    /// is below the anchors of every ball).
+    allowed: Vec<bool>,
 }
 
 /// A replacement that must restore a ball's count and spread.
@@ -296,9 +324,71 @@ impl<'a> State<'a> {
             chosen: Vec::new(),
             counts: vec![0; problem.balls],
             scatter: vec![Matrix3::zeros(); problem.balls],
+            allowed: vec![true; problem.balls],
         };
         state.refresh()?;
         Ok(state)
+    }
+
+    /// Grows the design to the budget of `options` from `anchors` (each a
+    /// ball and its anchor touches) and the touched balls' candidates:
+    /// each step takes whichever lowers the criterion most per touch, the
+    /// anchors of an untouched ball (while the budget has room for them)
+    /// or the best single touch of a touched ball; only anchors until
+    /// `least` balls are touched.
+    fn grow(
+        &mut self,
+        mut anchors: Vec<(usize, Vec<usize>)>,
+        least: usize,
+        options: &SelectOptions,
+    ) -> Result<(), DesignError> {
+        let criterion = options.criterion;
+        while self.chosen.len() < options.contacts {
+            let current = self.values()?.value(criterion);
+            let room = options.contacts - self.chosen.len();
+            let mut best: Option<(f64, Option<usize>, Vec<usize>)> = None;
+            let mut consider = |decrease: f64, anchor: Option<usize>, touches: &[usize]| {
+                if best.as_ref().is_none_or(|(d, _, _)| decrease > *d) {
+                    best = Some((decrease, anchor, touches.to_vec()));
+                }
+            };
+            let touched = self.allowed.iter().filter(|&&a| a).count();
+            if touched > 0 && (touched >= least || anchors.is_empty()) {
+                match self.best_addition(options, None) {
+                    Ok(k) => consider(current - self.value_with(&[k], criterion)?, None, &[k]),
+                    Err(DesignError::Capacity { .. }) => {}
+                    Err(error) => return Err(error),
+                }
+            }
+            for (i, (_, touches)) in anchors.iter().enumerate() {
+                if touches.len() <= room {
+                    let decrease = current - self.value_with(touches, criterion)?;
+                    consider(decrease / touches.len() as f64, Some(i), touches);
+                }
+            }
+            let (_, anchor, touches) = best.ok_or(DesignError::Capacity {
+                per_ball: options.per_ball.unwrap_or(usize::MAX),
+                contacts: options.contacts,
+            })?;
+            if let Some(i) = anchor {
+                self.allowed[anchors.remove(i).0] = true;
+            }
+            for k in touches {
+                self.push(k);
+            }
+            self.refresh()?;
+        }
+        Ok(())
+    }
+
+    /// The criterion after adding `touches`.
+    fn value_with(&self, touches: &[usize], criterion: Criterion) -> Result<f64, DesignError> {
+        let mut trial = self.clone();
+        for &k in touches {
+            trial.push(k);
+        }
+        trial.refresh()?;
+        Ok(trial.values()?.value(criterion))
     }
 
     /// `M += sign h hᵀ` for touch `k`.
@@ -438,7 +528,8 @@ impl<'a> State<'a> {
                                     &(self.scatter[r.ball] + problem.direction(start + j)),
                                 ) >= r.spread
                         };
-                        if self.counts[row.ball] >= capacity
+                        if !self.allowed[row.ball]
+                            || self.counts[row.ball] >= capacity
                             || required.is_some_and(|r| !restores(r))
                         {
                             return f64::NEG_INFINITY;
@@ -617,14 +708,7 @@ mod tests {
             let (ratios, _, _) = state.ratios(&options(criterion), None).unwrap();
             let before = state.values().unwrap();
             for k in [0, rows.len() / 3, rows.len() - 1] {
-                let mut after = State {
-                    covariance: state.covariance.clone(),
-                    information: state.information.clone(),
-                    chosen: state.chosen.clone(),
-                    counts: state.counts.clone(),
-                    scatter: state.scatter.clone(),
-                    problem: &problem,
-                };
+                let mut after = state.clone();
                 after.push(k);
                 after.refresh().unwrap();
                 let after = after.values().unwrap();
@@ -707,6 +791,51 @@ mod tests {
         };
         let error = problem.select(&too_small, &mut |_| {}).unwrap_err();
         assert!(error.to_string().contains("at most 3 per ball"), "{error}");
+    }
+
+    #[test]
+    fn a_budget_below_every_balls_anchors_touches_the_best_balls() {
+        let (rows, map, prior) = small_problem();
+        let problem = Problem::new(&rows, 4, prior, &map);
+        let seeds = min_touches_per_ball();
+        let counts = |contacts| {
+            let selection = problem
+                .select(
+                    &SelectOptions {
+                        contacts,
+                        ..options(Criterion::Registered)
+                    },
+                    &mut |_| {},
+                )
+                .unwrap();
+            let mut counts = [0; 4];
+            for &k in &selection.chosen {
+                counts[rows[k].ball] += 1;
+            }
+            (counts, selection.values.registered_rms_um)
+        };
+        // Below m touches of every ball: some balls untouched, each touched
+        // ball at least m touches, the whole budget spent, and a larger
+        // budget predicts better.
+        let mut previous = f64::INFINITY;
+        for contacts in [seeds, 2 * seeds + 3, 3 * seeds, 4 * seeds - 1] {
+            let (counts, rms) = counts(contacts);
+            assert!(counts.contains(&0), "{contacts}: {counts:?}");
+            assert!(counts.iter().all(|&c| c == 0 || c >= seeds), "{counts:?}");
+            assert_eq!(counts.iter().sum::<usize>(), contacts);
+            assert!(rms < previous, "{contacts}: {rms} after {previous}");
+            previous = rms;
+        }
+        let error = problem
+            .select(
+                &SelectOptions {
+                    contacts: seeds - 1,
+                    ..options(Criterion::Registered)
+                },
+                &mut |_| {},
+            )
+            .unwrap_err();
+        assert!(error.to_string().contains("cannot give a ball"), "{error}");
     }
 
     #[test]

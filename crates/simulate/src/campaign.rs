@@ -76,7 +76,8 @@ pub fn ball_id(index: usize, count: usize) -> String {
 /// `[-max_tilt, max_tilt]` (or the planned `u` and orientation of the
 /// scenario's plan, ball by ball in plan order), the tool tip at `C + r u` plus tool noise, and
 /// actuator readings `q = L_true - l_true` plus actuator noise. Every contact
-/// is checked by forward kinematics with the true geometry. A ball plate, if
+/// is checked by forward kinematics with the true geometry; balls a plan
+/// leaves untouched are left out of the dataset. A ball plate, if
 /// the scenario has one, draws from a stream of its own (see
 /// [`Plate`](crate::Plate)): the contacts are the same without it.
 pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateError> {
@@ -113,14 +114,19 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
     let per_ball: Vec<(f64, Vec<Contact>)> = per_ball.into_iter().collect::<Result<_, _>>()?;
 
     let count = scenario.centres.len();
-    let contacts: Vec<&Contact> = per_ball.iter().flat_map(|(_, c)| c).collect();
+    // A plan may leave balls untouched: the dataset holds only the others
+    // (the reader wants every ball touched), under their scenario ids.
+    let kept: Vec<usize> = (0..count)
+        .filter(|&b| scenario.plan.is_none() || !per_ball[b].1.is_empty())
+        .collect();
+    let contacts: Vec<&Contact> = kept.iter().flat_map(|&b| &per_ball[b].1).collect();
     let range = |values: &mut dyn Iterator<Item = f64>| {
         values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         })
     };
     let summary = Summary {
-        balls: count,
+        balls: kept.len(),
         contacts: contacts.len(),
         sessions: 0,
         poses: 0,
@@ -130,26 +136,37 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
         worst_check: contacts.iter().map(|c| c.check).fold(0.0, f64::max),
     };
 
-    let balls = per_ball
+    let balls = kept
         .iter()
-        .zip(&scenario.centres)
-        .enumerate()
-        .map(|(index, ((radius, _), centre))| Ball {
+        .map(|&index| Ball {
             id: ball_id(index, count),
-            centre: (*centre).into(),
+            centre: scenario.centres[index].into(),
             centre_sigma: scenario.centre_sigma,
-            radius: *radius,
+            radius: per_ball[index].0,
             radius_sigma: scenario.radius_sigma,
         })
         .collect();
+    let mut position = vec![None; count];
+    for (new, &old) in kept.iter().enumerate() {
+        position[old] = Some(new);
+    }
     let distances = match &scenario.plate {
-        Some(p) => plate::distances(p, &scenario.centres, seed)?,
+        Some(p) => plate::distances(p, &scenario.centres, seed)?
+            .into_iter()
+            .filter_map(|d| {
+                Some(parcal_dataset::Distance {
+                    a: position[d.a]?,
+                    b: position[d.b]?,
+                    ..d
+                })
+            })
+            .collect(),
         None => Vec::new(),
     };
-    let ball_of_contact = per_ball
+    let ball_of_contact = kept
         .iter()
         .enumerate()
-        .flat_map(|(b, (_, contacts))| std::iter::repeat_n(b as u32, contacts.len()));
+        .flat_map(|(b, &old)| std::iter::repeat_n(b as u32, per_ball[old].1.len()));
     let dataset = Dataset {
         machine: machine(scenario),
         artefacts: Artefacts {
@@ -164,8 +181,8 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
         },
         truth: Some(Truth {
             geometry: record(&scenario.truth),
-            ball_centres: scenario.centres.iter().map(|&c| c.into()).collect(),
-            ball_radii: vec![scenario.radius; count],
+            ball_centres: kept.iter().map(|&b| scenario.centres[b].into()).collect(),
+            ball_radii: vec![scenario.radius; kept.len()],
             contacts: contacts.iter().map(|c| c.point.into()).collect(),
             actuator_scale: None,
             sessions: Vec::new(),

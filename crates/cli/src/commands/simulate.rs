@@ -84,7 +84,8 @@ pub struct Args {
     /// Simulate exactly the touches of a plan.csv (`parcal plan`) instead of
     /// random ones: the true contact point is the true centre + r u, the
     /// platform orientation as planned (--points-per-ball and --tilt are
-    /// then not used for the touches). With --tracker, a pose plan
+    /// then not used for the touches; balls the plan leaves untouched are
+    /// left out of the dataset). With --tracker, a pose plan
     /// (`parcal plan --tracker`): every session measures the true machine at
     /// the planned readings (--rows and --tilt are then not used).
     #[arg(long, value_name = "PLAN_CSV")]
