@@ -77,7 +77,8 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
 /// error unless `replace`: then it is renamed aside, the new one renamed
 /// in, and the old one removed (an interruption by a signal waits for the
 /// two renames; only a hard kill or power loss between them leaves `dir`
-/// absent, with the old and the new directory as hidden siblings).
+/// absent, with the old dataset kept as the hidden sibling
+/// `.NAME.parcal-PID-XXXXXX.old`, which no clean-up removes).
 /// A replaced directory's permissions are kept.
 pub fn write_dir(dir: &Path, replace: bool, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let target = resolve(dir)?;
@@ -129,7 +130,7 @@ fn swap(new: TempDir, target: &Path, dir: &Path, prefix: &std::ffi::OsStr) -> Re
     // (a directory may replace an empty one).
     let aside = tempfile::Builder::new()
         .prefix(prefix)
-        .suffix(temp::SUFFIX)
+        .suffix(temp::ASIDE_SUFFIX)
         .tempdir_in(parent)
         .map_err(|e| DatasetError::io(dir, "create a temporary directory beside it", e))?
         .keep();
@@ -149,8 +150,8 @@ fn swap(new: TempDir, target: &Path, dir: &Path, prefix: &std::ffi::OsStr) -> Re
     })?;
     let _ = new.keep();
     sync_directory(target);
-    // The new set is in place: an old one that cannot be removed now is a
-    // stale temporary, which the next write into `parent` removes.
+    // The new set is in place; an old one that cannot be removed now stays
+    // as the hidden `.NAME.parcal-PID-XXXXXX.old`.
     let _ = fs::remove_dir_all(&aside);
     drop(aside_in_flight);
     Ok(())
@@ -522,13 +523,16 @@ mod tests {
         fs::write(dir.path().join(&stale_file), b"x").unwrap();
         fs::create_dir(dir.path().join(&stale_dir)).unwrap();
         fs::write(dir.path().join(&stale_dir).join("machine.json"), b"x").unwrap();
-        // Kept: a running writer's (PID 1), and a user's file.
+        // Kept: a running writer's (PID 1), a user's file, and an old
+        // dataset a dead writer had renamed aside (data, not a temporary).
         let live = ".a.csv.parcal-1-Xy12ab.tmp";
         fs::write(dir.path().join(live), b"x").unwrap();
         fs::write(dir.path().join(".notes.tmp"), b"x").unwrap();
+        let aside = format!(".data.parcal-{dead}-Qq11ee.old");
+        fs::create_dir(dir.path().join(&aside)).unwrap();
         let path = dir.path().join("b.csv");
         write_file(&path, b"b").unwrap();
-        assert_eq!(entries(dir.path()), [live, ".notes.tmp", "b.csv"]);
+        assert_eq!(entries(dir.path()), [live, &aside, ".notes.tmp", "b.csv"]);
     }
 
     #[test]

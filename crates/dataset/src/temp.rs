@@ -16,6 +16,10 @@ use std::sync::{Mutex, MutexGuard};
 const MARK: &str = ".parcal-";
 /// The suffix of every temporary.
 pub(crate) const SUFFIX: &str = ".tmp";
+/// The suffix of an old dataset renamed aside while a new one replaces it:
+/// not a temporary, so never removed as a stale one (a hard kill between
+/// the two renames leaves the old dataset there, found by its name).
+pub(crate) const ASIDE_SUFFIX: &str = ".old";
 
 /// The temporaries of this process that exist now.
 static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
