@@ -15,7 +15,7 @@ use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_design::{PlanOptions, plan};
 use parcal_report::plots::{LineChart, Series, line_chart};
-use parcal_simulate::{PlannedTouch, Scenario, simulate};
+use parcal_simulate::{Scenario, simulate};
 
 const BUDGETS: [usize; 4] = [95, 189, 378, 756];
 const TILTS: [f64; 4] = [10.0, 20.0, 30.0, 40.0];
@@ -49,17 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &mut |_| {},
             )?;
             let scenario = Scenario {
-                plan: Some(
-                    planned
-                        .contacts
-                        .iter()
-                        .map(|c| PlannedTouch {
-                            ball: c.ball,
-                            direction: c.direction,
-                            rotation: c.rotation(),
-                        })
-                        .collect(),
-                ),
+                plan: Some(planned.touches()),
                 ..paper.clone()
             };
             let mut true_rms = Vec::new();

@@ -19,6 +19,7 @@
 use nalgebra::Matrix6;
 use parcal_kinematics::{Geometry, Pose, closure::Legs};
 
+use crate::error::row_by_row;
 use crate::{AppliedModel, ApplyError, Refusal, Target};
 
 /// The smallest allowed `sigma_min / sigma_max` of the normalised inverse
@@ -104,16 +105,7 @@ pub fn command(model: &AppliedModel, target: &Target) -> Result<Command, Refusal
 /// The commands of `targets`, in order; the first refused target is an
 /// error naming its row (1-based).
 pub fn compensate(model: &AppliedModel, targets: &[Target]) -> Result<Vec<Command>, ApplyError> {
-    targets
-        .iter()
-        .enumerate()
-        .map(|(k, target)| {
-            command(model, target).map_err(|refusal| ApplyError::Refused {
-                row: k + 1,
-                refusal,
-            })
-        })
-        .collect()
+    row_by_row(targets, |target| command(model, target))
 }
 
 #[cfg(test)]

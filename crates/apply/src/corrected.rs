@@ -10,6 +10,7 @@
 
 use parcal_kinematics::{ForwardOptions, forward};
 
+use crate::error::row_by_row;
 use crate::{AppliedModel, ApplyError, Command, Refusal, Target};
 
 /// The pose to send to a controller using the nominal model for it to
@@ -32,16 +33,7 @@ pub fn corrected_poses(
     model: &AppliedModel,
     commands: &[Command],
 ) -> Result<Vec<Target>, ApplyError> {
-    commands
-        .iter()
-        .enumerate()
-        .map(|(k, c)| {
-            corrected_pose(model, c).map_err(|refusal| ApplyError::Refused {
-                row: k + 1,
-                refusal,
-            })
-        })
-        .collect()
+    row_by_row(commands, |c| corrected_pose(model, c))
 }
 
 #[cfg(test)]

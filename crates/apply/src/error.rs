@@ -81,3 +81,21 @@ pub enum ApplyError {
     #[error("correction table grid: {0}")]
     Grid(String),
 }
+
+/// `f` of every item, in order; the first refusal is an error naming its
+/// row (1-based).
+pub(crate) fn row_by_row<T, U>(
+    items: &[T],
+    f: impl Fn(&T) -> Result<U, Refusal>,
+) -> Result<Vec<U>, ApplyError> {
+    items
+        .iter()
+        .enumerate()
+        .map(|(k, item)| {
+            f(item).map_err(|refusal| ApplyError::Refused {
+                row: k + 1,
+                refusal,
+            })
+        })
+        .collect()
+}

@@ -103,6 +103,21 @@ pub struct Plan {
     pub stroke: [f64; 2],
 }
 
+impl Plan {
+    /// The plan's touches as the simulator takes them
+    /// (`Scenario::plan`).
+    pub fn touches(&self) -> Vec<parcal_simulate::PlannedTouch> {
+        self.contacts
+            .iter()
+            .map(|c| parcal_simulate::PlannedTouch {
+                ball: c.ball,
+                direction: c.direction,
+                rotation: c.rotation(),
+            })
+            .collect()
+    }
+}
+
 /// The nominal balls of `artefacts` in the design frame of `design`.
 pub fn nominal_balls(
     design: &Geometry,

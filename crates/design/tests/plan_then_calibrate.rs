@@ -8,7 +8,7 @@ use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::Dataset;
 use parcal_design::{PlanOptions, plan, plan_next};
-use parcal_simulate::{PlannedTouch, Scenario, simulate};
+use parcal_simulate::{Scenario, simulate};
 
 const SEEDS: u64 = 6;
 
@@ -53,17 +53,7 @@ fn planned_touches_beat_random_ones_and_their_prediction_holds() {
     );
 
     let scenario = Scenario {
-        plan: Some(
-            planned
-                .contacts
-                .iter()
-                .map(|c| PlannedTouch {
-                    ball: c.ball,
-                    direction: c.direction,
-                    rotation: c.rotation(),
-                })
-                .collect(),
-        ),
+        plan: Some(planned.touches()),
         ..random.clone()
     };
     let (mut planned_true, mut random_true) = (0.0, 0.0);

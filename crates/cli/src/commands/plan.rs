@@ -2,7 +2,7 @@
 //! instrument, to measure (docs/design.md).
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use parcal_dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
@@ -116,27 +116,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     .context("planning failed")?;
     progress.finish();
     write_plan(&args.out, &planned, &artefacts, &options)?;
-    let mut stdout = std::io::stdout().lock();
-    writeln!(
-        stdout,
-        "plan written to {} and {}",
-        args.out.display(),
-        summary_path(&args.out).display()
-    )?;
-    writeln!(
-        stdout,
-        "  touches            {} from {} feasible candidates",
-        planned.contacts.len(),
-        planned.pool_size
-    )?;
     let before = if args.after.is_some() {
         "calibration"
     } else {
         "prior"
     };
-    for (label, values) in [(before, &planned.prior), ("predicted", &planned.predicted)] {
-        write_values(&mut stdout, label, values)?;
-    }
+    print_summary(
+        &args.out,
+        ("touches", planned.contacts.len()),
+        planned.pool_size,
+        [(before, &planned.prior), ("predicted", &planned.predicted)],
+    )?;
     Ok(())
 }
 
@@ -167,22 +157,12 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
     let planned = plan_poses(machine, &options, &mut report).context("planning failed")?;
     progress.finish();
     write_pose_plan(&args.out, &planned, &options)?;
-    let mut stdout = std::io::stdout().lock();
-    writeln!(
-        stdout,
-        "plan written to {} and {}",
-        args.out.display(),
-        summary_path(&args.out).display()
+    print_summary(
+        &args.out,
+        ("poses", planned.poses.len()),
+        planned.pool_size,
+        [("prior", &planned.prior), ("predicted", &planned.predicted)],
     )?;
-    writeln!(
-        stdout,
-        "  poses              {} from {} feasible candidates",
-        planned.poses.len(),
-        planned.pool_size
-    )?;
-    for (label, values) in [("prior", &planned.prior), ("predicted", &planned.predicted)] {
-        write_values(&mut stdout, label, values)?;
-    }
     Ok(())
 }
 
@@ -215,6 +195,31 @@ fn parse_workspace(value: &str) -> Result<Workspace, String> {
             "{value:?}: three finite numbers HALF_WIDTH,Z_MIN,Z_MAX with HALF_WIDTH >= 0 and Z_MIN <= Z_MAX"
         )),
     }
+}
+
+/// The plan's summary on stdout: where it was written, how many `what`
+/// were chosen from how many candidates, and the figures before and after.
+fn print_summary(
+    out: &Path,
+    (what, count): (&str, usize),
+    pool_size: usize,
+    figures: [(&str, &CriterionValues); 2],
+) -> anyhow::Result<()> {
+    let mut stdout = std::io::stdout().lock();
+    writeln!(
+        stdout,
+        "plan written to {} and {}",
+        out.display(),
+        summary_path(out).display()
+    )?;
+    writeln!(
+        stdout,
+        "  {what:<19}{count} from {pool_size} feasible candidates"
+    )?;
+    for (label, values) in figures {
+        write_values(&mut stdout, label, values)?;
+    }
+    Ok(())
 }
 
 /// One line of figures.
