@@ -11,7 +11,7 @@
 use std::path::Path;
 
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_design::{PlanOptions, plan};
 use parcal_report::plots::{LineChart, Series, line_chart};
@@ -64,7 +64,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     )
                     .into());
                 }
-                let truth = Truth::of(&dataset).ok_or("no truth")??;
+                let truth = TrueMachine::of(&dataset).ok_or("no truth")??;
                 let after = before_after(Some(&truth), &run, &MapGrid::paper())?
                     .after
                     .ok_or("no calibrated map")?;

@@ -158,12 +158,12 @@ fn seed_1_compensated_commands_reach_the_targets() {
     // registration removes up to second order. The nominal model's error
     // field is ten times larger, so that second order reaches a percent.
     let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
-    let truth = parcal_calibrate::evaluate::Truth::of(&dataset)
+    let truth = parcal_workflows::evaluate::TrueMachine::of(&dataset)
         .unwrap()
         .unwrap();
     let maps =
-        parcal_calibrate::evaluate::before_after(Some(&truth), &run, &MapGrid::paper()).unwrap();
-    let true_map = |a: &Option<parcal_calibrate::evaluate::Accuracy>| {
+        parcal_workflows::evaluate::before_after(Some(&truth), &run, &MapGrid::paper()).unwrap();
+    let true_map = |a: &Option<parcal_workflows::evaluate::Accuracy>| {
         a.as_ref()
             .unwrap()
             .true_error

@@ -11,7 +11,6 @@
 //! - [`instruments`]: calibration from measured poses and points;
 //! - [`layout`]: the global block, named groups of parameters;
 //! - [`mirror`]: a ball on the wrong side of its contacts;
-//! - [`evaluate`]: accuracy maps before and after, comparison with the truth;
 //! - [`verdict`]: the global test and the verdict of a run;
 //! - [`reliability`]: redundancy numbers, normalised residuals, variance
 //!   components;
@@ -36,7 +35,6 @@
 
 pub mod conflict;
 mod error;
-pub mod evaluate;
 pub mod fit;
 pub mod instruments;
 pub mod layout;

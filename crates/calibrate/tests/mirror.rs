@@ -5,7 +5,7 @@
 //! resumes: the ball ends on the right side, fitting its contacts.
 
 use nalgebra::Translation3;
-use parcal_calibrate::evaluate::Truth;
+use parcal_workflows::evaluate::TrueMachine;
 use parcal_calibrate::mirror::SETTLED;
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
@@ -89,7 +89,7 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
 
     // Its centre (canonical frames) within 4 sigma of the truth, on the
     // right side: the initial centre was about 1.1 mm below it.
-    let truth = Truth::of(&dataset).unwrap().unwrap();
+    let truth = TrueMachine::of(&dataset).unwrap().unwrap();
     let sigmas = run.centre_sigmas.as_ref().unwrap()[ball];
     let error = run.centres[ball] - truth.centres[ball];
     for axis in 0..3 {

@@ -11,7 +11,7 @@
 
 use std::time::Instant;
 
-use parcal_calibrate::evaluate::Truth;
+use parcal_workflows::evaluate::TrueMachine;
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 use parcal_simulate::{Scenario, simulate};
@@ -39,7 +39,7 @@ fn mean_nees_of_simulation_iv_propagated_is_chi_square_33() {
     let mut truth_params = None;
     for seed in 1..=SEEDS {
         let dataset = simulate(&scenario, seed).expect("simulation").dataset;
-        let truth = Truth::of(&dataset)
+        let truth = TrueMachine::of(&dataset)
             .expect("simulated truth")
             .expect("canonical truth");
         // One truth for every seed.

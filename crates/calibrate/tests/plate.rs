@@ -9,7 +9,7 @@
 //! standard error of that RMS near 5 %).
 
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
 
@@ -24,7 +24,7 @@ const PREDICTION_TOLERANCE: f64 = 0.25;
 /// the seed's dataset (mm), and the number of distances used.
 fn registered_rms(scenario: &Scenario, seed: u64) -> (f64, f64, usize) {
     let dataset = simulate(scenario, seed).expect("simulation").dataset;
-    let truth = Truth::of(&dataset)
+    let truth = TrueMachine::of(&dataset)
         .expect("simulated truth")
         .expect("canonical truth");
     let options = CalibrationOptions {

@@ -23,7 +23,7 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::PARAM_NAMES;
@@ -87,7 +87,7 @@ struct Parameter {
 }
 
 fn summarise(dataset: &Dataset) -> Vec<RunSummary> {
-    let truth = Truth::of(dataset)
+    let truth = TrueMachine::of(dataset)
         .expect("the fixture has its truth")
         .expect("canonical truth");
     RUNS.iter()

@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 use std::time::Instant;
 
 use common::{options, relative_differences, shuffled};
-use parcal_calibrate::evaluate::Truth;
+use parcal_workflows::evaluate::TrueMachine;
 use parcal_calibrate::{CalibrationRun, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::PARAM_NAMES;
@@ -71,7 +71,7 @@ fn a_hundred_thousand_shuffled_rows_give_the_same_calibration() {
 fn a_hundred_thousand_contacts_recover_the_truth_within_3_sigma() {
     let (dataset, run) = case();
     assert!(run.converged(), "{}", parcal_report::sentences::status(run));
-    let truth = Truth::of(dataset)
+    let truth = TrueMachine::of(dataset)
         .expect("simulated truth")
         .expect("canonical truth");
     let sigmas = run.sigmas().expect("sigmas of a converged run");

@@ -15,7 +15,7 @@
 use std::time::Instant;
 
 use parcal_accuracy::{AccuracyMap, MapGrid};
-use parcal_calibrate::evaluate::{Accuracy, Truth, before_after};
+use parcal_workflows::evaluate::{Accuracy, TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
@@ -61,7 +61,7 @@ struct Outcome {
 
 fn run_one(
     dataset: &Dataset,
-    truth: &Truth,
+    truth: &TrueMachine,
     seed: u64,
     sim: Simulation,
     prior: PriorMode,
@@ -137,7 +137,7 @@ fn paper_scenario_seeds_1_to_5() {
         let dataset = simulate(&Scenario::paper(), seed)
             .expect("simulation")
             .dataset;
-        let truth = Truth::of(&dataset)
+        let truth = TrueMachine::of(&dataset)
             .expect("simulated truth")
             .expect("canonical truth");
         for (sim, prior) in runs {

@@ -3,7 +3,7 @@
 //! tests' nominal rates only.
 
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, calibrate};
@@ -11,7 +11,7 @@ use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
 
 fn true_registered_rms(dataset: &Dataset, run: &CalibrationRun) -> f64 {
-    let truth = Truth::of(dataset).unwrap().unwrap();
+    let truth = TrueMachine::of(dataset).unwrap().unwrap();
     let maps = before_after(Some(&truth), run, &MapGrid::paper()).unwrap();
     maps.after
         .and_then(|a| a.true_error)

@@ -4,7 +4,7 @@
 //! same budget and tilt.
 
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::Dataset;
 use parcal_design::{PlanOptions, plan, plan_next};
@@ -16,7 +16,7 @@ const SEEDS: u64 = 6;
 fn registered(dataset: &Dataset) -> (f64, f64) {
     let run = calibrate(dataset, &CalibrationOptions::default(), &mut |_| {}).expect("calibration");
     assert!(run.converged(), "the calibration did not converge");
-    let truth = Truth::of(dataset).unwrap().unwrap();
+    let truth = TrueMachine::of(dataset).unwrap().unwrap();
     let after = before_after(Some(&truth), &run, &MapGrid::paper())
         .unwrap()
         .after

@@ -123,7 +123,7 @@ pub use parcal_dataset::{Actuator, Points, Poses, SessionModel, Tracker, Validat
 
 // What a calibration buys: accuracy maps before and after.
 pub use parcal_accuracy::{AccuracyError, AccuracyMap, MapGrid, MapSummary};
-pub use parcal_calibrate::evaluate::{Accuracy, BeforeAfter, before_after};
+pub use parcal_workflows::evaluate::{Accuracy, BeforeAfter, before_after};
 
 // Simulated campaigns.
 pub use parcal_simulate::{Scenario, SimulateError, simulate};

@@ -22,9 +22,9 @@ pub enum ReportError {
     /// Reading or writing a dataset failed.
     #[error(transparent)]
     Dataset(#[from] parcal_dataset::DatasetError),
-    /// The simulation failed.
+    /// A workflow (the paper study) stopped.
     #[error(transparent)]
-    Simulate(#[from] parcal_simulate::SimulateError),
+    Workflow(#[from] parcal_workflows::WorkflowError),
     /// A calibration could not be set up.
     #[error(transparent)]
     Calibrate(#[from] parcal_calibrate::CalibrateError),
@@ -39,12 +39,6 @@ pub enum ReportError {
         /// Why.
         reason: String,
     },
-    /// The paper report needs the simulated truth.
-    #[error("the simulated dataset has no truth")]
-    NoTruth,
-    /// The true geometry cannot be put in canonical frames.
-    #[error("the true geometry is degenerate: {0}")]
-    Truth(#[from] parcal_kinematics::KinematicsError),
     #[error("cannot write {path}: {source}")]
     /// A file could not be written.
     Io {

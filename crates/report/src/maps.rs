@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use parcal_accuracy::{AccuracyMap, to_csv};
-use parcal_calibrate::evaluate::BeforeAfter;
+use parcal_workflows::evaluate::BeforeAfter;
 
 use crate::ReportError;
 use crate::plots::{HeatMap, heat_map};

@@ -6,12 +6,11 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{BeforeAfter, Truth, before_after};
-use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation, calibrate};
+use parcal_calibrate::Simulation;
 use parcal_dataset::{Dataset, WriteOptions};
 use parcal_kinematics::N_PARAMS;
-use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::BeforeAfter;
+use parcal_workflows::paper::{PAPER_CASES, PaperCase, PaperStudy};
 
 use crate::plots::{LineChart, Series, line_chart};
 use crate::{ReportError, maps::write_maps, tables, write_text};
@@ -26,36 +25,9 @@ const PAPER_PREDICTED_AFTER: [(Simulation, &str); 2] = [
     (Simulation::IV, "0.01 mm (fig. 10)"),
 ];
 
-/// One of the calibrations of the report.
-struct Case {
-    sim: Simulation,
-    prior: PriorMode,
-    run: CalibrationRun,
-    maps: BeforeAfter,
-}
-
-impl Case {
-    fn name(&self) -> String {
-        match self.prior {
-            PriorMode::None => format!("{} (no prior)", self.sim),
-            prior => format!("{} ({prior} prior)", self.sim),
-        }
-    }
-
-    fn file_stem(&self) -> String {
-        format!("{}-{}", self.sim, self.prior)
-    }
-
-    /// `sqrt(cost)` per iteration: the weighted residual norm |O| of the
-    /// paper's figs. 5 and 8.
-    fn residual_norms(&self) -> Vec<(f64, f64)> {
-        self.run
-            .history
-            .iter()
-            .enumerate()
-            .map(|(k, r)| (k as f64, r.cost.sqrt()))
-            .collect()
-    }
+/// The stem of a calibration's files: `IV-propagated`.
+fn file_stem(case: &PaperCase) -> String {
+    format!("{}-{}", case.simulation, case.prior)
 }
 
 /// Simulates the paper scenario with `seed`, runs the six calibrations and
@@ -71,53 +43,36 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
     let dataset_dir = out.join("dataset");
     parcal_dataset::atomic::check_file(&out.join("report.md"))?;
     Dataset::check_target(&dataset_dir, true)?;
-    let scenario = Scenario::paper();
-    let simulation = simulate(&scenario, seed)?;
-    // The files are written for the user; the calibrations use the same
-    // values in memory (the format round-trips them bit for bit).
+    let study = PaperStudy::simulate(seed)?;
     let replace = WriteOptions {
         replace: true,
         ..WriteOptions::default()
     };
-    simulation.dataset.write_with(&dataset_dir, &replace)?;
-    let dataset = simulation.dataset;
+    // The files are written for the user; the calibrations use the same
+    // values in memory (the format round-trips them bit for bit).
+    study.dataset.write_with(&dataset_dir, &replace)?;
     progress(&format!(
         "simulated the paper scenario (seed {seed}): {} contacts",
-        simulation.summary.contacts
+        study.dataset.measurements.len()
     ));
-    let truth = Truth::of(&dataset).ok_or(ReportError::NoTruth)??;
-    let grid = MapGrid::paper();
-
-    let mut calibrate_case = |sim, prior| -> Result<Case, ReportError> {
-        let options = CalibrationOptions {
-            prior,
-            ..CalibrationOptions::simulation(sim)
-        };
-        let run = calibrate(&dataset, &options, &mut |_| {})?;
-        let maps = before_after(Some(&truth), &run, &grid)?;
-        let case = Case {
-            sim,
-            prior,
-            run,
-            maps,
-        };
+    let mut calibrate_case = |(simulation, prior)| -> Result<PaperCase, ReportError> {
+        let case = study.calibrate(simulation, prior)?;
         progress(&format!(
             "simulation {}: {}",
             case.name(),
             crate::sentences::status(&case.run)
         ));
         crate::sentences::record(&case.run)
-            .write(&out.join(format!("calibration-{}.json", case.file_stem())))?;
+            .write(&out.join(format!("calibration-{}.json", file_stem(&case))))?;
         Ok(case)
     };
-    // The order of `Findings::of`.
     let cases = [
-        calibrate_case(Simulation::I, PriorMode::None)?,
-        calibrate_case(Simulation::II, PriorMode::None)?,
-        calibrate_case(Simulation::III, PriorMode::Paper)?,
-        calibrate_case(Simulation::IV, PriorMode::Paper)?,
-        calibrate_case(Simulation::III, PriorMode::Propagated)?,
-        calibrate_case(Simulation::IV, PriorMode::Propagated)?,
+        calibrate_case(PAPER_CASES[0])?,
+        calibrate_case(PAPER_CASES[1])?,
+        calibrate_case(PAPER_CASES[2])?,
+        calibrate_case(PAPER_CASES[3])?,
+        calibrate_case(PAPER_CASES[4])?,
+        calibrate_case(PAPER_CASES[5])?,
     ];
 
     let mut pictures = Vec::new();
@@ -125,7 +80,7 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
         let title = format!("Simulation {}", case.name());
         pictures.extend(write_maps(
             out,
-            &format!("map-{}-", case.file_stem()),
+            &format!("map-{}-", file_stem(case)),
             &title,
             &case.maps,
         )?);
@@ -136,14 +91,14 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
         pictures.len()
     ));
 
-    let report = report(seed, &scenario, &truth, &grid, &cases);
+    let report = report(&study, &cases);
     write_text(&out.join("report.md"), &report)?;
     progress(&format!("report: {}", out.join("report.md").display()));
     Ok(())
 }
 
 /// residuals.csv and the SVGs of figs. 5 (I, II) and 8 (III, IV).
-fn write_histories(out: &Path, cases: &[Case]) -> Result<(), ReportError> {
+fn write_histories(out: &Path, cases: &[PaperCase]) -> Result<(), ReportError> {
     let mut csv =
         String::from("simulation,prior,iteration,cost,weighted_residual_norm,step_norm\n");
     for case in cases {
@@ -151,7 +106,7 @@ fn write_histories(out: &Path, cases: &[Case]) -> Result<(), ReportError> {
             let _ = writeln!(
                 csv,
                 "{},{},{k},{},{},{}",
-                case.sim,
+                case.simulation,
                 case.prior,
                 r.cost,
                 r.cost.sqrt(),
@@ -198,13 +153,8 @@ fn write_histories(out: &Path, cases: &[Case]) -> Result<(), ReportError> {
     Ok(())
 }
 
-fn report(
-    seed: u64,
-    scenario: &Scenario,
-    truth: &Truth,
-    grid: &MapGrid,
-    cases: &[Case; 6],
-) -> String {
+fn report(study: &PaperStudy, cases: &[PaperCase; 6]) -> String {
+    let (seed, scenario, truth, grid) = (study.seed, &study.scenario, &study.truth, &study.grid);
     let mut md = String::new();
     let _ = writeln!(
         md,
@@ -266,9 +216,9 @@ fn report(
     md.push_str(&tables::accuracy(&rows));
     for case in cases
         .iter()
-        .filter(|c| c.sim == Simulation::IV || c.sim == Simulation::III)
+        .filter(|c| c.simulation == Simulation::IV || c.simulation == Simulation::III)
     {
-        let stem = case.file_stem();
+        let stem = file_stem(case);
         let _ = writeln!(
             md,
             "\n{}: ![predicted absolute](map-{stem}-after_predicted_absolute.svg) ![true registered](map-{stem}-after_true_registered.svg)",
@@ -278,9 +228,9 @@ fn report(
 
     for case in cases
         .iter()
-        .filter(|c| c.sim == Simulation::III || c.sim == Simulation::IV)
+        .filter(|c| c.simulation == Simulation::III || c.simulation == Simulation::IV)
     {
-        let table = if case.sim == Simulation::III {
+        let table = if case.simulation == Simulation::III {
             "3"
         } else {
             "4"
@@ -313,15 +263,15 @@ fn micrometres(mm: f64) -> String {
 
 /// The paper's reported figures (section 4 of the spec) next to ours, and
 /// where and why they differ.
-fn comparison(cases: &[Case; 6]) -> String {
+fn comparison(cases: &[PaperCase; 6]) -> String {
     let [i, ii, iii, iv, _, iv_propagated] = cases.each_ref();
     let um = |v: f64| format!("{:.1} um", v * 1e3);
-    let predicted_after = |c: &Case| {
+    let predicted_after = |c: &PaperCase| {
         c.maps.after.as_ref().map_or("-".into(), |a| {
             format!("{} RMS", um(a.predicted.absolute_summary().rms))
         })
     };
-    let true_registered = |c: &Case| {
+    let true_registered = |c: &PaperCase| {
         c.maps
             .after
             .as_ref()
@@ -331,14 +281,14 @@ fn comparison(cases: &[Case; 6]) -> String {
     let before = iii.maps.before.as_ref().map_or("-".into(), |a| {
         format!("{} RMS", um(a.predicted.absolute_summary().rms))
     });
-    let status = |c: &Case| {
+    let status = |c: &PaperCase| {
         format!(
             "{} ({} iterations)",
             crate::sentences::status(&c.run),
             c.run.iterations()
         )
     };
-    let sigma_range = |c: &Case| {
+    let sigma_range = |c: &PaperCase| {
         c.run
             .sigmas()
             .map_or("-".into(), |s| format!("{:.3}-{:.3} mm", s.min(), s.max()))
@@ -376,7 +326,7 @@ fn comparison(cases: &[Case; 6]) -> String {
         let _ = writeln!(
             md,
             "| posterior sigmas, {} | 0.06-0.09 mm (table {table}) | {} |",
-            case.sim,
+            case.simulation,
             sigma_range(case)
         );
     }

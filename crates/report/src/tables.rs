@@ -4,7 +4,7 @@
 use std::fmt::Write;
 
 use parcal_calibrate::CalibrationRun;
-use parcal_calibrate::evaluate::{Accuracy, BeforeAfter, Truth};
+use parcal_workflows::evaluate::{Accuracy, BeforeAfter, TrueMachine};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 
 use crate::compare::nees_sentence;
@@ -12,7 +12,7 @@ use crate::sentences::{self, weak_direction};
 
 /// Parameter, value, sigma and, with a truth, the true value, the error and
 /// error / sigma (paper tables 3 and 4, with truth columns).
-pub fn parameters(run: &CalibrationRun, truth: Option<&Truth>) -> String {
+pub fn parameters(run: &CalibrationRun, truth: Option<&TrueMachine>) -> String {
     let sigmas = run.sigmas();
     let mut out = String::new();
     let _ = write!(out, "| parameter | design | identified | sigma |");
@@ -76,7 +76,7 @@ pub fn accuracy(rows: &[(&str, &BeforeAfter)]) -> String {
 }
 
 /// Status, iterations, residuals, conditioning and warnings of a run.
-pub fn run_summary(run: &CalibrationRun, truth: Option<&Truth>) -> String {
+pub fn run_summary(run: &CalibrationRun, truth: Option<&TrueMachine>) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,

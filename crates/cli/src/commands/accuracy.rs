@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use nalgebra::SMatrix;
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{BeforeAfter, Truth, accuracy};
+use parcal_workflows::evaluate::{BeforeAfter, TrueMachine, accuracy};
 use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
 use parcal_dataset::Dataset;
@@ -80,7 +80,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut inputs = crate::outputs::dataset_inputs(&args.dataset);
     inputs.extend(args.calibration.clone());
     crate::outputs::check(&inputs, &map_files(&args.out, ""))?;
-    let truth = Truth::of(&dataset)
+    let truth = TrueMachine::of(&dataset)
         .transpose()
         .context("truth.json: the true geometry is degenerate")?;
     let design = design_geometry(&dataset);

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::{
@@ -90,7 +90,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if !dataset.tracker.is_empty() {
         return run_instruments(args, &dataset, &options, progress, &out);
     }
-    let truth = Truth::of(&dataset)
+    let truth = TrueMachine::of(&dataset)
         .transpose()
         .context("truth.json: the true geometry is degenerate")?;
     dataset.truth = None;
@@ -214,7 +214,7 @@ fn in_dataset(error: CalibrateError, dataset: &Path) -> anyhow::Error {
 /// The summary, the parameter table, the accuracy and the verdict of `run`
 /// on stdout.
 fn print_results(
-    truth: Option<&Truth>,
+    truth: Option<&TrueMachine>,
     run: &CalibrationRun,
     record: &parcal_dataset::Calibration,
     calibration: &Path,

@@ -3,10 +3,11 @@
 //! gets other words.
 
 use parcal_calibrate::conflict::chi_square_quantile;
-use parcal_calibrate::evaluate::{Accuracy, Truth};
+use parcal_workflows::evaluate::{Accuracy, TrueMachine};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 
-use super::{Case, PAPER_PREDICTED_AFTER};
+use super::PAPER_PREDICTED_AFTER;
+use parcal_workflows::paper::PaperCase;
 use crate::compare::{NeesVerdict, changes, join, labelled, ratios};
 
 /// Tail probability beyond which the truth contradicts a prior.
@@ -55,7 +56,7 @@ pub(super) struct RunFigures {
 }
 
 impl RunFigures {
-    fn of(case: &Case, truth: &Truth) -> Self {
+    fn of(case: &PaperCase, truth: &TrueMachine) -> Self {
         let run = &case.run;
         let norms: Vec<f64> = run.history.iter().map(|r| r.cost.sqrt()).collect();
         let (k, error) = (run.params - truth.params)
@@ -67,7 +68,7 @@ impl RunFigures {
                 |best, (k, e)| if e > best.1 { (k, e) } else { best },
             );
         Self {
-            label: case.sim.to_string(),
+            label: case.simulation.to_string(),
             status: crate::sentences::status(run),
             converged: run.converged(),
             iterations: run.iterations(),
@@ -114,7 +115,7 @@ pub(super) struct Findings {
 impl Findings {
     /// `cases` in the report's order: I, II, III and IV with the paper
     /// prior, III and IV with the propagated prior.
-    pub fn of(cases: &[Case; 6], truth: &Truth) -> Self {
+    pub fn of(cases: &[PaperCase; 6], truth: &TrueMachine) -> Self {
         let figures = cases.each_ref().map(|c| RunFigures::of(c, truth));
         let [i, ii, iii_paper, iv_paper, iii_propagated, iv_propagated] = figures;
         let design = cases[4]

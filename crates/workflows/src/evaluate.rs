@@ -9,10 +9,11 @@ use parcal_accuracy::{
 use parcal_dataset::Dataset;
 use parcal_kinematics::{Geometry, Params, Vec3, params};
 
-use crate::{CalibrationRun, ParamCovariance};
+use parcal_calibrate::{CalibrationRun, ParamCovariance};
 
-/// The true machine of a simulated dataset.
-pub struct Truth {
+/// The true machine of a simulated dataset (truth.json's geometry and
+/// ball centres, [`parcal_dataset::Truth`], in canonical frames).
+pub struct TrueMachine {
     /// As given (truth.json's frames: those of machine.json).
     pub input: Geometry,
     /// In its own canonical frames.
@@ -23,7 +24,7 @@ pub struct Truth {
     pub centres: Vec<Vec3>,
 }
 
-impl Truth {
+impl TrueMachine {
     /// The truth of `dataset`, if it has one (`None` for a real machine).
     pub fn of(dataset: &Dataset) -> Option<Result<Self, parcal_kinematics::KinematicsError>> {
         let t = dataset.truth.as_ref()?;
@@ -73,7 +74,7 @@ pub struct Accuracy {
 /// targets placed by the `design` geometry (machine.json's frames).
 pub fn accuracy(
     design: &Geometry,
-    truth: Option<&Truth>,
+    truth: Option<&TrueMachine>,
     model: &Params,
     covariance: &ParamCovariance,
     grid: &MapGrid,
@@ -103,7 +104,7 @@ pub struct BeforeAfter {
 /// The accuracy a run buys, the targets placed by the run's design
 /// geometry.
 pub fn before_after(
-    truth: Option<&Truth>,
+    truth: Option<&TrueMachine>,
     run: &CalibrationRun,
     grid: &MapGrid,
 ) -> Result<BeforeAfter, AccuracyError> {
