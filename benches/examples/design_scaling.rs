@@ -11,11 +11,11 @@
 use std::path::Path;
 
 use parcal_accuracy::MapGrid;
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_design::{PlanOptions, plan};
 use parcal_report::plots::{LineChart, Series, line_chart};
 use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 const BUDGETS: [usize; 4] = [95, 189, 378, 756];
 const TILTS: [f64; 4] = [10.0, 20.0, 30.0, 40.0];

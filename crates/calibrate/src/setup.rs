@@ -16,8 +16,8 @@ use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
 };
 use parcal_observe::{
-    CoordinateWeight, DistanceBlock, KinematicPrior, ObserveError, PriorSigma, RadiusWeight,
-    Repeatability, WeightModel, coordinate_covariance, radius_variance, unit_direction,
+    CoordinateWeight, DistanceBlock, KinematicPrior, ObserveError, RadiusWeight, Repeatability,
+    WeightModel, coordinate_covariance, radius_variance, unit_direction,
 };
 use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
@@ -678,15 +678,7 @@ pub fn kinematic_prior(
                 SMatrix::<f64, N_PARAMS, N_PARAMS>::from_diagonal(&variances),
             )
         }
-        PriorMode::Propagated => {
-            let sigmas = PriorSigma {
-                base: sigma.base,
-                platform: sigma.platform,
-                tool: sigma.tool,
-                leg: sigma.leg,
-            };
-            KinematicPrior::propagated(design, &sigmas)
-        }
+        PriorMode::Propagated => KinematicPrior::propagated(design, sigma),
     };
     prior.map(Some).map_err(CalibrateError::Prior)
 }

@@ -5,13 +5,13 @@
 //! resumes: the ball ends on the right side, fitting its contacts.
 
 use nalgebra::Translation3;
-use parcal_workflows::evaluate::TrueMachine;
 use parcal_calibrate::mirror::SETTLED;
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::{Pose, Vec3, inverse::actuators, rotation_zyx};
 use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::TrueMachine;
 
 fn options() -> CalibrationOptions {
     CalibrationOptions {

@@ -11,10 +11,10 @@
 
 use std::time::Instant;
 
-use parcal_workflows::evaluate::TrueMachine;
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::TrueMachine;
 
 /// Noise seeds (the brief asks for at least 50; the paper scenario's
 /// calibrations are small, so more are affordable).

@@ -9,9 +9,9 @@
 //! standard error of that RMS near 5 %).
 
 use parcal_accuracy::MapGrid;
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=40;
 /// Smallest gain of the plate over the touches alone (true registered

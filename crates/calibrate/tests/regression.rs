@@ -23,10 +23,10 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use parcal_accuracy::MapGrid;
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::PARAM_NAMES;
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 use serde_json::Serializer;

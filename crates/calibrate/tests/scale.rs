@@ -10,11 +10,11 @@ use std::sync::OnceLock;
 use std::time::Instant;
 
 use common::{options, relative_differences, shuffled};
-use parcal_workflows::evaluate::TrueMachine;
 use parcal_calibrate::{CalibrationRun, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::PARAM_NAMES;
 use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::TrueMachine;
 
 /// The simulated campaign and its calibration, shared by the tests.
 fn case() -> &'static (Dataset, CalibrationRun) {

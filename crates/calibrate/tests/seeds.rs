@@ -15,10 +15,10 @@
 use std::time::Instant;
 
 use parcal_accuracy::{AccuracyMap, MapGrid};
-use parcal_workflows::evaluate::{Accuracy, TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::{Accuracy, TrueMachine, before_after};
 
 /// Spec section 5 (and the issue): simulation IV, propagated prior, true
 /// registered error RMS on the map after calibration (mm).

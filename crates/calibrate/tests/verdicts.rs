@@ -3,12 +3,12 @@
 //! tests' nominal rates only.
 
 use parcal_accuracy::MapGrid;
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 fn true_registered_rms(dataset: &Dataset, run: &CalibrationRun) -> f64 {
     let truth = TrueMachine::of(dataset).unwrap().unwrap();

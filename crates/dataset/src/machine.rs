@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use parcal_kinematics::PriorSigma;
 use serde::{Deserialize, Serialize};
 
 use crate::check::Check;
@@ -11,18 +12,15 @@ use crate::geometry::{GeometryRecord, WithGeometry};
 use crate::json;
 use crate::quote::{has_control, quoted};
 
-/// A priori standard deviation of every parameter of each group (the design
-/// tolerance), in mm.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PriorSigma {
-    /// Base joint coordinates.
-    pub base: f64,
-    /// Platform joint coordinates.
-    pub platform: f64,
-    /// Tool tip coordinates (platform frame).
-    pub tool: f64,
-    /// Initial leg lengths.
-    pub leg: f64,
+/// machine.json's `prior_sigma`: the design tolerance (1 sigma, mm) of every
+/// coordinate of each group, as [`PriorSigma`] in the same fields.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "PriorSigma")]
+struct PriorSigmaRecord {
+    base: f64,
+    platform: f64,
+    tool: f64,
+    leg: f64,
 }
 
 /// One standard deviation of the machine's and the instruments'
@@ -126,6 +124,7 @@ pub struct Machine {
     /// Design geometry.
     pub geometry: GeometryRecord,
     /// Design tolerances.
+    #[serde(with = "PriorSigmaRecord")]
     pub prior_sigma: PriorSigma,
     /// Repeatability, used to weight the observations.
     pub repeatability: Repeatability,
@@ -187,6 +186,7 @@ pub(crate) mod embedded {
 /// The fields of `machine.json` after the geometry.
 #[derive(Serialize, Deserialize)]
 struct Conditions {
+    #[serde(with = "PriorSigmaRecord")]
     prior_sigma: PriorSigma,
     repeatability: Repeatability,
     #[serde(default, skip_serializing_if = "is_default")]

@@ -29,7 +29,7 @@ use nalgebra::{DMatrix, Vector3};
 use parcal_accuracy::{CanonicalTargets, MapGrid, registered_jacobians};
 use parcal_dataset::{ArtefactFrame, Artefacts, Calibration, Machine};
 use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
-use parcal_observe::{KinematicPrior, PriorSigma, Repeatability};
+use parcal_observe::{KinematicPrior, Repeatability};
 use rayon::prelude::*;
 
 pub use criterion::{Criterion, CriterionValues};
@@ -261,17 +261,8 @@ fn prior_information(
     design: &Geometry,
     balls: &[NominalBall],
 ) -> Result<DMatrix<f64>, DesignError> {
-    let sigma = &machine.prior_sigma;
-    let kinematic = KinematicPrior::propagated(
-        design,
-        &PriorSigma {
-            base: sigma.base,
-            platform: sigma.platform,
-            tool: sigma.tool,
-            leg: sigma.leg,
-        },
-    )
-    .map_err(DesignError::Observe)?;
+    let kinematic =
+        KinematicPrior::propagated(design, &machine.prior_sigma).map_err(DesignError::Observe)?;
     let n = N_PARAMS + 3 * balls.len();
     let mut information = DMatrix::zeros(n, n);
     information

@@ -4,11 +4,11 @@
 //! same budget and tilt.
 
 use parcal_accuracy::MapGrid;
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::Dataset;
 use parcal_design::{PlanOptions, plan, plan_next};
 use parcal_simulate::{Scenario, simulate};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 const SEEDS: u64 = 6;
 

@@ -100,6 +100,33 @@ impl Geometry {
 /// joints, the tool (3 each) and 6 leg lengths.
 pub const N_INPUT_COORDINATES: usize = 45;
 
+/// Design tolerances (1 sigma, mm) of the input-frame coordinates, one per
+/// group (machine.json's `prior_sigma`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PriorSigma {
+    /// Each coordinate of each base joint `B_i`.
+    pub base: f64,
+    /// Each coordinate of each platform joint `E_i`.
+    pub platform: f64,
+    /// Each coordinate of the tool tip `E_T`.
+    pub tool: f64,
+    /// Each initial leg length `l_i`.
+    pub leg: f64,
+}
+
+impl PriorSigma {
+    /// The sigma of each of the 45 input coordinates, in the order of
+    /// [`input_coordinates`] (mm).
+    pub fn per_input_coordinate(&self) -> SVector<f64, N_INPUT_COORDINATES> {
+        SVector::from_fn(|k, _| match k {
+            0..18 => self.base,
+            18..36 => self.platform,
+            36..39 => self.tool,
+            _ => self.leg,
+        })
+    }
+}
+
 /// The 45 input coordinates in the order `B1..B6 (x, y, z)`, `E1..E6 (x, y, z)`,
 /// `E_T (x, y, z)`, `l_1..l_6`.
 pub fn input_coordinates(geometry: &Geometry) -> SVector<f64, N_INPUT_COORDINATES> {

@@ -52,7 +52,7 @@ pub use derivatives::{
 };
 pub use error::KinematicsError;
 pub use forward::{ForwardOptions, ForwardSolution, forward, forward_from_home};
-pub use frames::Canonical;
+pub use frames::{Canonical, PriorSigma};
 pub use geometry::{Geometry, Pose, Vec3, paper, rotation_zyx};
 pub use inverse::{actuators, leg_lengths};
 pub use params::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params};

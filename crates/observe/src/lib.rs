@@ -86,7 +86,7 @@ pub use error::ObserveError;
 pub use frame::FrameCorrection;
 pub use point::{PointBlock, PointJacobians, point_covariance};
 pub use pose::{PoseBlock, PoseJacobians, pose_covariance};
-pub use prior::{AnglePrior, CentrePrior, DiagonalPrior, KinematicPrior, PriorSigma};
+pub use prior::{AnglePrior, CentrePrior, DiagonalPrior, KinematicPrior};
 pub use radius::RadiusBlock;
 pub use tip::Tip;
 pub use weights::{

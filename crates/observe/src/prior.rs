@@ -16,7 +16,7 @@
 
 use nalgebra::{SMatrix, SVector};
 use parcal_kinematics::frames::{N_INPUT_COORDINATES, parameter_jacobian};
-use parcal_kinematics::{Geometry, ParamCovariance, Params, params};
+use parcal_kinematics::{Geometry, ParamCovariance, Params, PriorSigma, params};
 
 use crate::ObserveError;
 use crate::error::check_sigma;
@@ -26,38 +26,15 @@ use crate::error::check_sigma;
 /// pivots ~1e-16 of its scale, while a full-rank prior's are far above.
 const RANK_PIVOT_RATIO: f64 = 1e-12;
 
-/// Design tolerances (1 sigma, mm) of the input-frame coordinates, one per
-/// group (machine.json's `prior_sigma`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PriorSigma {
-    /// Each coordinate of each base joint `B_i`.
-    pub base: f64,
-    /// Each coordinate of each platform joint `E_i`.
-    pub platform: f64,
-    /// Each coordinate of the tool tip `E_T`.
-    pub tool: f64,
-    /// Each initial leg length `l_i`.
-    pub leg: f64,
-}
-
-impl PriorSigma {
-    /// The 45 input-coordinate variances in the order of
-    /// [`parcal_kinematics::frames::input_coordinates`] (mm²).
-    fn variances(&self) -> Result<SVector<f64, N_INPUT_COORDINATES>, ObserveError> {
-        let base = check_sigma("base prior sigma", self.base, false)?;
-        let platform = check_sigma("platform prior sigma", self.platform, false)?;
-        let tool = check_sigma("tool prior sigma", self.tool, false)?;
-        let leg = check_sigma("leg prior sigma", self.leg, false)?;
-        Ok(SVector::from_fn(|k, _| {
-            match k {
-                0..18 => base,
-                18..36 => platform,
-                36..39 => tool,
-                _ => leg,
-            }
-            .powi(2)
-        }))
-    }
+/// The 45 input-coordinate variances of `sigmas` in the order of
+/// [`parcal_kinematics::frames::input_coordinates`] (mm²), refusing a
+/// negative, zero or non-finite sigma.
+fn input_variances(sigmas: &PriorSigma) -> Result<SVector<f64, N_INPUT_COORDINATES>, ObserveError> {
+    check_sigma("base prior sigma", sigmas.base, false)?;
+    check_sigma("platform prior sigma", sigmas.platform, false)?;
+    check_sigma("tool prior sigma", sigmas.tool, false)?;
+    check_sigma("leg prior sigma", sigmas.leg, false)?;
+    Ok(sigmas.per_input_coordinate().map(|sigma| sigma.powi(2)))
 }
 
 /// A Gaussian prior `N(mean, covariance)` on the 33 canonical parameters,
@@ -121,7 +98,7 @@ impl KinematicPrior {
     /// design that breaks this is refused.
     pub fn propagated(design: &Geometry, sigmas: &PriorSigma) -> Result<Self, ObserveError> {
         let scaled = parameter_jacobian(design)?
-            * SMatrix::from_diagonal(&sigmas.variances()?.map(f64::sqrt));
+            * SMatrix::from_diagonal(&input_variances(sigmas)?.map(f64::sqrt));
         let covariance = scaled * scaled.transpose();
         let mean = params::to_params(&design.canonicalize()?.geometry);
         Self::new(mean, (covariance + covariance.transpose()) / 2.0)

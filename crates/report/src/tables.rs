@@ -4,8 +4,8 @@
 use std::fmt::Write;
 
 use parcal_calibrate::CalibrationRun;
-use parcal_workflows::evaluate::{Accuracy, BeforeAfter, TrueMachine};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
+use parcal_workflows::evaluate::{Accuracy, BeforeAfter, TrueMachine};
 
 use crate::compare::nees_sentence;
 use crate::sentences::{self, weak_direction};

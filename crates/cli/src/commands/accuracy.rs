@@ -6,13 +6,13 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use nalgebra::SMatrix;
 use parcal_accuracy::MapGrid;
-use parcal_workflows::evaluate::{BeforeAfter, TrueMachine, accuracy};
 use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
 use parcal_dataset::Dataset;
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, params};
 use parcal_report::maps::{map_files, write_maps};
 use parcal_report::tables;
+use parcal_workflows::evaluate::{BeforeAfter, TrueMachine, accuracy};
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -7,7 +7,6 @@ use std::time::Instant;
 
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::{
@@ -16,6 +15,7 @@ use parcal_calibrate::{
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
 use parcal_report::{instruments, sentences, tables};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 use crate::progress::Progress;
 

@@ -3,12 +3,12 @@
 //! gets other words.
 
 use parcal_calibrate::conflict::chi_square_quantile;
-use parcal_workflows::evaluate::{Accuracy, TrueMachine};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
+use parcal_workflows::evaluate::{Accuracy, TrueMachine};
 
 use super::PAPER_PREDICTED_AFTER;
-use parcal_workflows::paper::PaperCase;
 use crate::compare::{NeesVerdict, changes, join, labelled, ratios};
+use parcal_workflows::paper::PaperCase;
 
 /// Tail probability beyond which the truth contradicts a prior.
 const PRIOR_TAIL: f64 = 0.001;
