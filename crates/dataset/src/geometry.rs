@@ -9,8 +9,7 @@
 use std::fmt;
 use std::marker::PhantomData;
 
-use serde::de::value::StringDeserializer;
-use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, Visitor};
+use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::{Deserialize, Serialize};
 
 use parcal_kinematics::{Geometry, KinematicsError};
@@ -18,6 +17,7 @@ use parcal_kinematics::{Geometry, KinematicsError};
 use crate::Point3;
 use crate::check::Check;
 use crate::error::Result;
+use crate::fields::TakeFields;
 use crate::shape::{self, Joints, Legs, P3};
 
 /// A machine geometry, in the frames the file that holds it names.
@@ -110,56 +110,13 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for WithGeometryVisitor<T> {
     }
 
     fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
-        let mut split = Split {
-            map,
-            geometry: PartialGeometry::default(),
-        };
-        let rest = T::deserialize(&mut split)?;
+        let mut geometry = PartialGeometry::default();
+        let take = |key: &str, map: &mut A| geometry.read(key, map);
+        let rest = T::deserialize(&mut TakeFields { map, take })?;
         Ok(WithGeometry {
-            geometry: split.geometry.finish()?,
+            geometry: geometry.finish()?,
             rest,
         })
-    }
-}
-
-/// The object being read, as `rest` sees it: the geometry's fields are
-/// taken out on the way.
-struct Split<A> {
-    map: A,
-    geometry: PartialGeometry,
-}
-
-impl<'de, A: MapAccess<'de>> MapAccess<'de> for Split<A> {
-    type Error = A::Error;
-
-    fn next_key_seed<K: DeserializeSeed<'de>>(
-        &mut self,
-        seed: K,
-    ) -> Result<Option<K::Value>, A::Error> {
-        while let Some(key) = self.map.next_key::<String>()? {
-            if !self.geometry.read(&key, &mut self.map)? {
-                return seed.deserialize(StringDeserializer::new(key)).map(Some);
-            }
-        }
-        Ok(None)
-    }
-
-    fn next_value_seed<V: DeserializeSeed<'de>>(&mut self, seed: V) -> Result<V::Value, A::Error> {
-        self.map.next_value_seed(seed)
-    }
-}
-
-impl<'de, A: MapAccess<'de>> Deserializer<'de> for &mut Split<A> {
-    type Error = A::Error;
-
-    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, A::Error> {
-        visitor.visit_map(self)
-    }
-
-    serde::forward_to_deserialize_any! {
-        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
-        bytes byte_buf option unit unit_struct newtype_struct seq tuple
-        tuple_struct map struct enum identifier ignored_any
     }
 }
 

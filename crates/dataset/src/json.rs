@@ -6,14 +6,12 @@ use std::io::Write;
 use std::path::Path;
 
 use serde::Serialize;
-use serde::de::value::StringDeserializer;
-use serde::de::{
-    self, DeserializeOwned, DeserializeSeed, Deserializer, IgnoredAny, MapAccess, Visitor,
-};
+use serde::de::{self, DeserializeOwned, Deserializer, IgnoredAny, MapAccess, Visitor};
 use serde_json::error::Category;
 
 use crate::atomic::{write_atomic, write_error};
 use crate::error::{DatasetError, Result};
+use crate::fields::TakeFields;
 use crate::input;
 use crate::quote::sanitized;
 
@@ -217,37 +215,18 @@ impl<'de, V: Visitor<'de>> Visitor<'de> for SkipFormat<V> {
     }
 
     fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<V::Value, A::Error> {
-        self.0.visit_map(FormatSkipped { map, seen: false })
-    }
-}
-
-/// The fields of the top-level object but `format`.
-struct FormatSkipped<A> {
-    map: A,
-    seen: bool,
-}
-
-impl<'de, A: MapAccess<'de>> MapAccess<'de> for FormatSkipped<A> {
-    type Error = A::Error;
-
-    fn next_key_seed<K: DeserializeSeed<'de>>(
-        &mut self,
-        seed: K,
-    ) -> Result<Option<K::Value>, A::Error> {
-        while let Some(key) = self.map.next_key::<String>()? {
+        let mut seen = false;
+        let take = |key: &str, map: &mut A| -> Result<bool, A::Error> {
             if key != "format" {
-                return seed.deserialize(StringDeserializer::new(key)).map(Some);
+                return Ok(false);
             }
-            if std::mem::replace(&mut self.seen, true) {
+            if std::mem::replace(&mut seen, true) {
                 return Err(de::Error::duplicate_field("format"));
             }
-            self.map.next_value::<IgnoredAny>()?;
-        }
-        Ok(None)
-    }
-
-    fn next_value_seed<S: DeserializeSeed<'de>>(&mut self, seed: S) -> Result<S::Value, A::Error> {
-        self.map.next_value_seed(seed)
+            map.next_value::<IgnoredAny>()?;
+            Ok(true)
+        };
+        self.0.visit_map(TakeFields { map, take })
     }
 }
 

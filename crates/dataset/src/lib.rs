@@ -93,6 +93,7 @@ mod calibration;
 mod check;
 mod dataset;
 mod error;
+mod fields;
 mod geometry;
 mod input;
 mod json;
