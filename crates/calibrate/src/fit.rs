@@ -62,41 +62,6 @@ pub fn misfit_balls(
         .collect()
 }
 
-/// One sentence naming the misfit balls (the five worst), if any.
-pub fn misfit_warning(misfits: &[BallMisfit]) -> Option<String> {
-    if misfits.is_empty() {
-        return None;
-    }
-    let mut worst: Vec<&BallMisfit> = misfits.iter().collect();
-    worst.sort_by(|a, b| b.chi_square.total_cmp(&a.chi_square));
-    let named: Vec<String> = worst
-        .iter()
-        .take(5)
-        .map(|m| {
-            format!(
-                "{} (chi-square {:.1} for {})",
-                m.id, m.chi_square, m.degrees_of_freedom
-            )
-        })
-        .collect();
-    let more = misfits.len().saturating_sub(named.len());
-    let more = if more > 0 {
-        format!(" and {more} more")
-    } else {
-        String::new()
-    };
-    Some(match misfits.len() {
-        1 => format!(
-            "ball {} fits its contacts far worse than the noise allows: its centre is in a wrong local minimum or its contacts hold a blunder",
-            named[0]
-        ),
-        n => format!(
-            "{n} balls fit their contacts far worse than the noise allows: {}{more}; each has its centre in a wrong local minimum or a blunder among its contacts",
-            named.join(", ")
-        ),
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -116,15 +81,5 @@ mod tests {
         let flagged: Vec<&str> = misfits.iter().map(|m| m.id.as_str()).collect();
         assert_eq!(flagged, ["b500", "b900"]);
         assert_eq!(misfits[0].degrees_of_freedom, 4);
-        let warning = misfit_warning(&misfits).unwrap();
-        assert!(
-            warning.starts_with("2 balls fit their contacts"),
-            "{warning}"
-        );
-        assert!(
-            warning.contains("b500 (chi-square 500.0 for 4)"),
-            "{warning}"
-        );
-        assert_eq!(misfit_warning(&[]), None);
     }
 }

@@ -13,7 +13,7 @@ use parcal_solver::{
     solve_with_caches,
 };
 
-use crate::conflict::{ConflictTest, paper_prior_consistency};
+use crate::conflict::{ConflictTest, PaperPriorInconsistency, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls};
 use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
@@ -76,7 +76,7 @@ pub struct CalibrationRun {
     pub distances_used: usize,
     /// Paper mode: the check of the diagonal prior against the propagated
     /// design tolerances ([`crate::conflict::paper_prior_consistency`]).
-    pub prior_consistency: Option<String>,
+    pub prior_consistency: Option<PaperPriorInconsistency>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
     /// Every observation's check at the final state of a converged run

@@ -3,11 +3,12 @@
 //! directions. Calibrate keeps the numbers; this module words them.
 
 use parcal_calibrate::CalibrationRun;
-use parcal_calibrate::conflict::ConflictTest;
-use parcal_calibrate::fit::misfit_warning;
+use parcal_calibrate::conflict::{ConflictTest, PaperPriorInconsistency, Z_LIMIT};
+use parcal_calibrate::fit::BallMisfit;
 use parcal_calibrate::reliability::{Reliability, UNCONTROLLED, VarianceComponent, critical_value};
 use parcal_calibrate::snooping::{SNOOPING_LEVEL, Snooped};
 use parcal_calibrate::verdict::{Outcome, Verdict};
+use parcal_kinematics::PARAM_NAMES;
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
 
 /// The status in one sentence (calibration.json's `status`), naming
@@ -278,13 +279,112 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
 
 /// Every warning about the priors and the balls' fit, one sentence each.
 pub fn warnings(run: &CalibrationRun) -> Vec<String> {
-    let conflicts = run.conflicts.iter().filter_map(ConflictTest::warning);
+    let conflicts = run.conflicts.iter().filter_map(conflict_warning);
     run.prior_consistency
         .iter()
-        .cloned()
+        .map(paper_prior_warning)
         .chain(conflicts)
         .chain(misfit_warning(&run.ball_misfits))
         .collect()
+}
+
+/// A one-paragraph warning naming the conflict test that failed and the
+/// worst offenders, or `None`. Only a failed test is stated: a global
+/// chi-square within its limit beside contradicted values would read as a
+/// contradiction (it happens with a prior much tighter than the data, whose
+/// chi-square is near 0 while the data still move values).
+pub fn conflict_warning(test: &ConflictTest) -> Option<String> {
+    if !test.conflicts() {
+        return None;
+    }
+    let mut findings = Vec::new();
+    if test.chi_square > test.limit {
+        findings.push(format!(
+            "chi-square {:.1} for {} (99.9% limit {:.1})",
+            test.chi_square, test.degrees_of_freedom, test.limit
+        ));
+    }
+    let offenders = test.offenders();
+    if !offenders.is_empty() {
+        let listed: Vec<String> = offenders
+            .iter()
+            .take(8)
+            .map(|i| format!("{} (z = {:+.1})", i.name, i.z.unwrap_or_default()))
+            .collect();
+        let tested = test.innovations.iter().filter(|i| i.z.is_some()).count();
+        findings.push(format!(
+            "{} of the {tested} values the data inform lie beyond |z| = {Z_LIMIT}: {}{}",
+            offenders.len(),
+            listed.join(", "),
+            and_more(offenders.len() - listed.len()),
+        ));
+    }
+    Some(format!(
+        "the prior on the {} contradicts the data: {}",
+        test.what,
+        findings.join("; ")
+    ))
+}
+
+/// The paper-form prior's over-confidence in one sentence.
+pub fn paper_prior_warning(found: &PaperPriorInconsistency) -> String {
+    let listed: Vec<String> = found
+        .understated
+        .iter()
+        .map(|&(k, tolerance, paper)| {
+            format!(
+                "{} ({tolerance:.3} vs {paper:.3} mm, x{:.1})",
+                PARAM_NAMES[k],
+                tolerance / paper
+            )
+        })
+        .collect();
+    format!(
+        "the paper-form prior is over-confident: a machine within the design tolerances has an expected chi-square of {:.0} for {} under it (99.9% limit {:.1}), because the canonical frames tilt with the joints; the tolerances imply larger sigmas for {}. Use the propagated prior.",
+        found.expected_chi_square,
+        found.degrees_of_freedom,
+        found.limit,
+        listed.join(", ")
+    )
+}
+
+/// One sentence naming the misfit balls (the five worst), if any.
+pub fn misfit_warning(misfits: &[BallMisfit]) -> Option<String> {
+    if misfits.is_empty() {
+        return None;
+    }
+    let mut worst: Vec<&BallMisfit> = misfits.iter().collect();
+    worst.sort_by(|a, b| b.chi_square.total_cmp(&a.chi_square));
+    let named: Vec<String> = worst
+        .iter()
+        .take(5)
+        .map(|m| {
+            format!(
+                "{} (chi-square {:.1} for {})",
+                m.id, m.chi_square, m.degrees_of_freedom
+            )
+        })
+        .collect();
+    let more = and_more(misfits.len().saturating_sub(named.len()));
+    Some(match misfits.len() {
+        1 => format!(
+            "ball {} fits its contacts far worse than the noise allows: its centre is in a wrong local minimum or its contacts hold a blunder",
+            named[0]
+        ),
+        n => format!(
+            "{n} balls fit their contacts far worse than the noise allows: {}{more}; each has its centre in a wrong local minimum or a blunder among its contacts",
+            named.join(", ")
+        ),
+    })
+}
+
+/// " and N more" after a list cut short, nothing if it was not.
+fn and_more(more: usize) -> String {
+    if more > 0 {
+        format!(" and {more} more")
+    } else {
+        String::new()
+    }
 }
 
 /// The weakest directions of a reduced system: eigenvalue and the
@@ -327,4 +427,63 @@ pub fn unidentified(n: usize) -> String {
         if n == 1 { "" } else { "s" },
         if n == 1 { "has" } else { "have" },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_conflict_warning_names_the_offender_and_only_failed_tests() {
+        let names = || ["a", "b", "c"].map(String::from);
+        let conflict = ConflictTest::new(
+            "test",
+            names(),
+            &[0.1, -1.0, 0.0],
+            &[0.01; 3],
+            &[0.001; 3],
+            101.0,
+        );
+        let warning = conflict_warning(&conflict).unwrap();
+        assert!(warning.contains("b (z = -10.5)"), "{warning}");
+        assert!(warning.contains("chi-square 101.0 for 3"), "{warning}");
+        // One value far out, the global chi-square within its limit: the
+        // warning names the value and not the passing chi-square.
+        let one = ConflictTest::new(
+            "test",
+            names(),
+            &[0.0, 0.05, 0.0],
+            &[0.01; 3],
+            &[0.0099; 3],
+            0.25,
+        );
+        let warning = conflict_warning(&one).unwrap();
+        assert!(
+            warning.contains("1 of the 3 values the data inform lie beyond"),
+            "{warning}"
+        );
+        assert!(!warning.contains("chi-square"), "{warning}");
+        let agree = ConflictTest::new("test", names(), &[0.0; 3], &[0.01; 3], &[0.001; 3], 0.0);
+        assert_eq!(conflict_warning(&agree), None);
+    }
+
+    #[test]
+    fn a_misfit_warning_names_the_worst_balls() {
+        let misfit = |id: &str, chi_square| BallMisfit {
+            ball: 0,
+            id: id.to_string(),
+            chi_square,
+            degrees_of_freedom: 4,
+        };
+        let warning = misfit_warning(&[misfit("b900", f64::NAN), misfit("b500", 500.0)]).unwrap();
+        assert!(
+            warning.starts_with("2 balls fit their contacts"),
+            "{warning}"
+        );
+        assert!(
+            warning.contains("b500 (chi-square 500.0 for 4)"),
+            "{warning}"
+        );
+        assert_eq!(misfit_warning(&[]), None);
+    }
 }
