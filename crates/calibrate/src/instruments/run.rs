@@ -546,6 +546,7 @@ impl InstrumentRun {
             provenance: None,
             removed_observations: Vec::new(),
             design: Some(self.machine.clone()),
+            diagnostics: None,
         }
     }
 
