@@ -106,7 +106,7 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
             case.name(),
             crate::sentences::status(&case.run)
         ));
-        crate::sentences::record(&case.run)
+        crate::sentences::record(&case.run, &dataset)
             .write(&out.join(format!("calibration-{}.json", case.file_stem())))?;
         Ok(case)
     };
