@@ -44,6 +44,11 @@ pub fn blocks(subject: &Subject) -> Result<Vec<Block>, String> {
     Ok(out)
 }
 
+/// `n` and the noun in the singular or plural.
+fn counted(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
 fn number(value: f64, decimals: usize) -> Cell {
     Cell::number(format!("{value:.decimals$}"))
 }
@@ -65,9 +70,9 @@ fn verdict(c: &Calibration) -> Vec<Block> {
     });
     let line = match (c.verdict.as_str(), first) {
         ("accepted", _) => format!(
-            "{word}: the calibration passed its tests ({} reasons, {} warnings below).",
-            c.reasons.len(),
-            c.warnings.len()
+            "{word}: the calibration passed its tests ({}, {} below).",
+            counted(c.reasons.len(), "reason", "reasons"),
+            counted(c.warnings.len(), "warning", "warnings")
         ),
         ("rejected", Some(reason)) => format!("{word}: do not use this calibration: {reason}."),
         ("rejected", None) => format!("{word}: do not use this calibration."),
@@ -190,8 +195,6 @@ fn variance_components(c: &Calibration) -> Vec<Block> {
     if d.variance_components.is_empty() {
         return vec![];
     }
-    let interval = c.global_test.as_ref().map(|t| t.interval);
-    let outside = |f: f64| interval.is_some_and(|[lo, hi]| f < lo || f > hi);
     let rows = d
         .variance_components
         .iter()
@@ -203,7 +206,7 @@ fn variance_components(c: &Calibration) -> Vec<Block> {
                 number(v.cost, 3),
                 number(v.redundancy, 2),
                 if estimable {
-                    number(factor, 3).flagged(outside(factor))
+                    number(factor, 3)
                 } else {
                     Cell::number("not estimable")
                 },
