@@ -86,7 +86,11 @@ fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
     let html = fs::read_to_string(&out).unwrap();
     let c = json(&calibration);
     assert_eq!(c["verdict"], "accepted");
-    assert!(verdict_line(&html).starts_with("ACCEPTED"), "{}", verdict_line(&html));
+    assert!(
+        verdict_line(&html).starts_with("ACCEPTED"),
+        "{}",
+        verdict_line(&html)
+    );
 
     // The global test's numbers as calibration.json has them.
     let t = &c["global_test"];
@@ -129,7 +133,10 @@ fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
         assert!(svg.matches("<rect").count() > 5, "a histogram without bars");
     }
     assert!(svgs[0].contains("<polyline"), "the normal density curve");
-    assert!(svgs[2].matches("<rect").count() >= 21 * 21, "the map's cells");
+    assert!(
+        svgs[2].matches("<rect").count() >= 21 * 21,
+        "the map's cells"
+    );
     // Self-contained: no script, no resource fetched.
     for forbidden in ["<script", "src=", "href=", "@import", "url("] {
         assert!(!html.contains(forbidden), "the page has {forbidden}");
@@ -187,13 +194,7 @@ fn a_rejected_calibration_says_so_and_a_hostile_ball_id_is_escaped() {
     assert_eq!(calibrate.status.code(), Some(3), "a rejected calibration");
     let rejected = temp.path().join("calibration.rejected.json");
     let report = temp.path().join("report.html");
-    let stdout = ok(&[
-        "report",
-        "--calibration",
-        s(&rejected),
-        "--out",
-        s(&report),
-    ]);
+    let stdout = ok(&["report", "--calibration", s(&rejected), "--out", s(&report)]);
     assert!(stdout.contains("verdict: rejected"), "{stdout}");
     let html = fs::read_to_string(&report).unwrap();
     let line = verdict_line(&html);
@@ -216,13 +217,7 @@ fn an_instrument_calibration_reports_its_rows_and_says_why_it_has_no_map() {
     let calibration = temp.path().join("calibration.json");
     ok(&["calibrate", s(&data), "--out", s(&calibration)]);
     let out = temp.path().join("report.html");
-    ok(&[
-        "report",
-        "--calibration",
-        s(&calibration),
-        "--out",
-        s(&out),
-    ]);
+    ok(&["report", "--calibration", s(&calibration), "--out", s(&out)]);
     let html = fs::read_to_string(&out).unwrap();
     let c = json(&calibration);
     let verdict = verdict_line(&html);
@@ -231,7 +226,9 @@ fn an_instrument_calibration_reports_its_rows_and_says_why_it_has_no_map() {
     assert!(html.contains("<td>poses.csv</td>"));
     let tests = &c["diagnostics"]["observations"];
     assert!(html.contains(&format!("{} observations tested", tests["tested"])));
-    assert!(html.contains("No accuracy map: the map is computed for the 33 kinematic parameters alone"));
+    assert!(
+        html.contains("No accuracy map: the map is computed for the 33 kinematic parameters alone")
+    );
     assert_eq!(figures(&html).len(), 2, "the two histograms");
 }
 
@@ -258,7 +255,11 @@ fn a_report_never_overwrites_its_input_and_refuses_other_data() {
     }
     assert_eq!(fs::read(&calibration).unwrap(), before);
 
-    let other = copy_fixture("jugglebot", &temp.path().join("other"), &["machine.json", "poses.csv"]);
+    let other = copy_fixture(
+        "jugglebot",
+        &temp.path().join("other"),
+        &["machine.json", "poses.csv"],
+    );
     let output = parcal(&[
         "report",
         "--calibration",

@@ -426,7 +426,10 @@ impl Diagnostics {
     /// `n`) when given.
     fn validate(&self, check: Check, n: usize) -> Result<()> {
         for (k, c) in self.variance_components.iter().enumerate() {
-            check.finite(format_args!("diagnostics.variance_components[{k}].cost"), c.cost)?;
+            check.finite(
+                format_args!("diagnostics.variance_components[{k}].cost"),
+                c.cost,
+            )?;
             check.finite(
                 format_args!("diagnostics.variance_components[{k}].redundancy"),
                 c.redundancy,

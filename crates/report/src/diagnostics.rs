@@ -24,8 +24,8 @@ pub const LISTED: usize = 20;
 const WEAK_DIRECTIONS: usize = 5;
 /// Bins of the normalised residuals' histogram: `[-6, 6)` by 0.25.
 const NORMALISED_BINS: (f64, f64, usize) = (-6.0, 0.25, 48);
-/// Bins of the redundancy numbers' histogram over `[0, rows)`, `rows` the
-/// rows of one observation.
+/// Bins of the redundancy numbers' histogram over `[0, u)`, `u` the
+/// largest redundancy rounded up to a tenth of the rows of an observation.
 const REDUNDANCY_BINS: usize = 40;
 /// Posterior variance within this share of the prior's: the data did not
 /// inform the parameter (as the prior-data conflict test,
@@ -63,7 +63,10 @@ pub fn of_ball_run(
                 (Some(prior), by.to_string())
             })
             .unzip(),
-        (Some(sigmas), None) => (vec![None; sigmas.len()], vec!["data".to_string(); sigmas.len()]),
+        (Some(sigmas), None) => (
+            vec![None; sigmas.len()],
+            vec!["data".to_string(); sigmas.len()],
+        ),
         _ => (Vec::new(), Vec::new()),
     };
     let observations = run.reliability.as_ref().map(|reliability| {
@@ -116,7 +119,11 @@ pub fn of_instrument_run(run: &InstrumentRun) -> Diagnostics {
                 (InstrumentTable::Poses, k / 6, format!("leg {}", k % 6 + 1))
             } else {
                 let k = k - pose_rows;
-                (InstrumentTable::Points, k / 3, ["x", "y", "z"][k % 3].to_string())
+                (
+                    InstrumentTable::Points,
+                    k / 3,
+                    ["x", "y", "z"][k % 3].to_string(),
+                )
             };
             Tested {
                 file: table.file_name(),
@@ -205,14 +212,21 @@ fn tests(
     };
     let (lower, width, bins) = NORMALISED_BINS;
     let normalised_histogram = Histogram::of(row_normalised, lower, width, bins);
+    // Over [0, the largest redundancy rounded up to a tenth of the rows).
+    let rows = rows_per_observation.max(1) as f64;
+    let largest_redundancy = tested.iter().map(|t| t.redundancy).fold(0.0, f64::max);
+    let upper = rows * ((largest_redundancy / rows * 10.0).floor() + 1.0).min(10.0) / 10.0;
     let redundancy_histogram = Histogram::of(
         tested.iter().map(|t| t.redundancy),
         0.0,
-        rows_per_observation.max(1) as f64 / REDUNDANCY_BINS as f64,
+        upper / REDUNDANCY_BINS as f64,
         REDUNDANCY_BINS,
     );
     let redundancy = tested.iter().map(|t| t.redundancy).sum();
-    let uncontrolled = tested.iter().filter(|t| t.redundancy < UNCONTROLLED).count();
+    let uncontrolled = tested
+        .iter()
+        .filter(|t| t.redundancy < UNCONTROLLED)
+        .count();
     let w = |t: &Tested| t.normalised.map_or(-1.0, |(w, _)| w.abs());
     // Largest |w| first, then by file and row: the same for any order of
     // the observations with the same numbers.

@@ -203,7 +203,10 @@ pub fn bar_chart_svg(chart: &BarChart) -> Result<String, String> {
         ));
     }
     let curve = chart.curve.map_or(&[][..], |c| c.points);
-    if let Some((x, y)) = curve.iter().find(|(x, y)| !(x.is_finite() && y.is_finite())) {
+    if let Some((x, y)) = curve
+        .iter()
+        .find(|(x, y)| !(x.is_finite() && y.is_finite()))
+    {
         return Err(format!("the curve has the point ({x}, {y})"));
     }
     let end = chart.lower + chart.width * chart.counts.len() as f64;
@@ -233,19 +236,30 @@ pub fn bar_chart_svg(chart: &BarChart) -> Result<String, String> {
             .max_light_lines(1)
             .draw()?;
         let bar = PALETTE[0];
-        ctx.draw_series(chart.counts.iter().enumerate().filter(|(_, c)| **c > 0).map(
-            |(k, &c)| {
-                let x0 = chart.lower + chart.width * k as f64;
-                Rectangle::new([(x0, 0.0), (x0 + chart.width, c as f64)], bar.mix(0.7).filled())
-            },
-        ))?;
+        ctx.draw_series(
+            chart
+                .counts
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| **c > 0)
+                .map(|(k, &c)| {
+                    let x0 = chart.lower + chart.width * k as f64;
+                    Rectangle::new(
+                        [(x0, 0.0), (x0 + chart.width, c as f64)],
+                        bar.mix(0.7).filled(),
+                    )
+                }),
+        )?;
         if let Some(c) = chart.curve {
             let colour = PALETTE[3];
-            ctx.draw_series(LineSeries::new(c.points.iter().copied(), colour.stroke_width(2)))?
-                .label(c.name)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
+            ctx.draw_series(LineSeries::new(
+                c.points.iter().copied(),
+                colour.stroke_width(2),
+            ))?
+            .label(c.name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
         }
         if let Some((name, xs)) = chart.marks {
             let colour = PALETTE[7];

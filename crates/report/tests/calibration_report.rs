@@ -58,7 +58,11 @@ fn the_diagnostics_summarise_every_observation_s_test() {
     assert!((1..t.largest.len()).all(|k| w(k - 1) >= w(k)));
     // The uncontrolled, least redundancy first, counted as the run counts them.
     assert_eq!(t.uncontrolled, reliability.uncontrolled().count());
-    assert!(t.least_controlled.iter().all(|o| o.redundancy < t.uncontrolled_below));
+    assert!(
+        t.least_controlled
+            .iter()
+            .all(|o| o.redundancy < t.uncontrolled_below)
+    );
     // Every parameter attributed.
     assert_eq!(d.determined_by.len(), 33);
     assert_eq!(d.prior_sigma.len(), 33);
@@ -82,6 +86,11 @@ fn the_diagnostics_summarise_every_observation_s_test() {
         read.global_test.as_ref().unwrap()
     ))));
     assert!(html.contains(&escaped(&tests_sentence(t))));
-    let registered = subject.accuracy.as_ref().unwrap().predicted.registered_summary();
+    let registered = subject
+        .accuracy
+        .as_ref()
+        .unwrap()
+        .predicted
+        .registered_summary();
     assert!(html.contains(&format!("registered RMS {:.2} µm", registered.rms * 1e3)));
 }

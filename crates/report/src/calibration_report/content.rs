@@ -97,7 +97,10 @@ fn verdict(c: &Calibration) -> Vec<Block> {
 /// version, the options.
 fn provenance(subject: &Subject) -> Vec<Block> {
     let c = subject.calibration;
-    let mut rows = vec![vec![Cell::text("calibration file"), Cell::text(subject.file)]];
+    let mut rows = vec![vec![
+        Cell::text("calibration file"),
+        Cell::text(subject.file),
+    ]];
     match &c.provenance {
         Some(p) => rows.extend([
             vec![Cell::text("dataset"), Cell::text(&p.dataset)],
@@ -337,6 +340,15 @@ fn observations(c: &Calibration) -> Result<Vec<Block>, String> {
     out.push(Block::Paragraph(Tone::Plain, tests_sentence(t)));
     out.push(Block::Heading(3, "Largest normalised residuals".into()));
     out.push(checks_table(&t.largest, t.critical_value));
+    if t.largest
+        .iter()
+        .any(|o| o.file == parcal_dataset::MEASUREMENTS_FILE)
+    {
+        out.push(Block::Paragraph(
+            Tone::Note,
+            "A contact's w and estimated gross error are those of its row of largest |w| (in that row's sigmas); its redundancy is the sum over its rows, and its MDB (minimal detectable bias, at the test's per-observation level and 80% power) follows from that sum.".into(),
+        ));
+    }
     out.push(Block::Heading(3, "Uncontrolled observations".into()));
     out.push(Block::Paragraph(
         Tone::Plain,
@@ -423,8 +435,13 @@ fn parameters(c: &Calibration) -> Vec<Block> {
         Block::Paragraph(
             Tone::Plain,
             format!(
-                "{} parameters (mm; frame corrections in rad), posterior sigma against the prior's: the data determine a parameter whose ratio is under 0.5, the prior one whose ratio is over 0.9.",
-                p.names.len()
+                "{} parameters ({}), posterior sigma against the prior's: the data determine a parameter whose ratio is under 0.5, the prior one whose ratio is over 0.9.",
+                p.names.len(),
+                if p.names.len() == parcal_kinematics::N_PARAMS {
+                    "mm, canonical frames"
+                } else {
+                    "mm; actuator scales in mm per unit; frame corrections in rad and mm"
+                }
             ),
         ),
         Block::Table {
@@ -450,7 +467,11 @@ fn parameters(c: &Calibration) -> Vec<Block> {
 
 /// The weakest directions, named by their dominant parameters.
 fn weak_directions(c: &Calibration) -> Vec<Block> {
-    let Some(d) = c.diagnostics.as_ref().filter(|d| !d.weak_directions.is_empty()) else {
+    let Some(d) = c
+        .diagnostics
+        .as_ref()
+        .filter(|d| !d.weak_directions.is_empty())
+    else {
         return vec![];
     };
     let rows = d
@@ -464,9 +485,8 @@ fn weak_directions(c: &Calibration) -> Vec<Block> {
                 .collect();
             vec![
                 Cell::number(format!("{:.3e}", w.eigenvalue)),
-                w.sigma.map_or(Cell::text("not identified").flagged(true), |s| {
-                    number(s, 4)
-                }),
+                w.sigma
+                    .map_or(Cell::text("not identified").flagged(true), |s| number(s, 4)),
                 Cell::text(along.join(", ")),
             ]
         })
@@ -494,7 +514,10 @@ fn accuracy(accuracy: &Result<Accuracy, String>) -> Result<Vec<Block>, String> {
     let a = match accuracy {
         Ok(a) => a,
         Err(why) => {
-            out.push(Block::Paragraph(Tone::Note, format!("No accuracy map: {why}.")));
+            out.push(Block::Paragraph(
+                Tone::Note,
+                format!("No accuracy map: {why}."),
+            ));
             return Ok(out);
         }
     };

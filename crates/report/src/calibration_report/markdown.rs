@@ -60,7 +60,11 @@ pub fn render(blocks: &[Block]) -> String {
                         row.iter()
                             .map(|c| {
                                 let text = escape(&c.text);
-                                if c.flagged { format!("**{text}**") } else { text }
+                                if c.flagged {
+                                    format!("**{text}**")
+                                } else {
+                                    text
+                                }
                             })
                             .collect(),
                     ));

@@ -84,6 +84,12 @@ pub fn predicted_accuracy(
         .map_err(|e| format!("the dataset's true geometry is degenerate: {e}"))?;
     let params = Params::from_column_slice(&calibration.parameters.values);
     let covariance = ParamCovariance::from_fn(|i, j| calibration.covariance[i][j]);
-    accuracy(&design, truth.as_ref(), &params, &covariance, &MapGrid::paper())
-        .map_err(|e| format!("the accuracy map could not be computed: {e}"))
+    accuracy(
+        &design,
+        truth.as_ref(),
+        &params,
+        &covariance,
+        &MapGrid::paper(),
+    )
+    .map_err(|e| format!("the accuracy map could not be computed: {e}"))
 }
