@@ -125,16 +125,17 @@ fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
         assert!(html.contains(&cell), "{cell}");
     }
 
-    // Three figures, each with its data drawn: the histograms' bars (at
-    // least one bin per figure holds observations) and the 21 x 21 map.
+    // Four figures, each with its data drawn: the histograms' bars, the
+    // 33 x 33 correlation matrix and the 21 x 21 map.
     let svgs = figures(&html);
-    assert_eq!(svgs.len(), 3, "histogram, redundancy, accuracy map");
+    assert_eq!(svgs.len(), 4, "histogram, redundancy, correlation, map");
     for svg in &svgs[..2] {
         assert!(svg.matches("<rect").count() > 5, "a histogram without bars");
     }
     assert!(svgs[0].contains("<polyline"), "the normal density curve");
+    assert!(svgs[2].matches("<rect").count() >= 33 * 33, "the matrix");
     assert!(
-        svgs[2].matches("<rect").count() >= 21 * 21,
+        svgs[3].matches("<rect").count() >= 21 * 21,
         "the map's cells"
     );
     // Self-contained: no script, no resource fetched.
@@ -229,7 +230,7 @@ fn an_instrument_calibration_reports_its_rows_and_says_why_it_has_no_map() {
     assert!(
         html.contains("No accuracy map: the map is computed for the 33 kinematic parameters alone")
     );
-    assert_eq!(figures(&html).len(), 2, "the two histograms");
+    assert_eq!(figures(&html).len(), 3, "two histograms, the correlation");
 }
 
 #[test]

@@ -488,3 +488,22 @@ impl Diagnostics {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_histogram_counts_each_value_once_in_its_bin() {
+        // Bins [-1, -0.5), [-0.5, 0), [0, 0.5), [0.5, 1): edges go up.
+        let h = Histogram::of(
+            [-2.0, -1.0, -0.5, -0.1, 0.0, 0.99, 1.0, f64::NAN],
+            -1.0,
+            0.5,
+            4,
+        );
+        assert_eq!(h.counts, [1, 2, 1, 1]);
+        assert_eq!((h.below, h.above), (1, 2));
+        assert_eq!(h.total(), 8);
+    }
+}

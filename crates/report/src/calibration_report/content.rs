@@ -37,7 +37,7 @@ pub fn blocks(subject: &Subject) -> Result<Vec<Block>, String> {
     out.extend(variance_components(c));
     out.extend(removed(c));
     out.extend(observations(c)?);
-    out.extend(parameters(c));
+    out.extend(parameters(c)?);
     out.extend(weak_directions(c));
     out.extend(accuracy(&subject.accuracy)?);
     out.extend(iterations(c));
@@ -408,8 +408,9 @@ pub fn tests_sentence(t: &ObservationTests) -> String {
     )
 }
 
-/// The parameter table: value, sigma, prior sigma, what determined it.
-fn parameters(c: &Calibration) -> Vec<Block> {
+/// The parameter table: value, sigma, prior sigma, what determined it;
+/// the correlation matrix.
+fn parameters(c: &Calibration) -> Result<Vec<Block>, String> {
     let p = &c.parameters;
     let d = c.diagnostics.as_ref();
     let prior = |k: usize| d.and_then(|d| d.prior_sigma.get(k).copied().flatten());
@@ -462,7 +463,8 @@ fn parameters(c: &Calibration) -> Vec<Block> {
             "No posterior covariance: the sigmas are not meaningful.".into(),
         ));
     }
-    out
+    out.extend(figures::correlation(&p.names, &c.covariance)?);
+    Ok(out)
 }
 
 /// The weakest directions, named by their dominant parameters.

@@ -103,3 +103,42 @@ pub fn accuracy_map(map: &AccuracyMap) -> Result<Block, String> {
         ),
     })
 }
+
+/// The correlation matrix of the parameters, `ρ_ij = Σ_ij / √(Σ_ii Σ_jj)`,
+/// as an image: `None` without a covariance or with a parameter of zero
+/// variance.
+pub fn correlation(names: &[String], covariance: &[Vec<f64>]) -> Result<Option<Block>, String> {
+    let n = covariance.len();
+    if n == 0 || (0..n).any(|i| covariance[i][i] <= 0.0) {
+        return Ok(None);
+    }
+    let values: Vec<f64> = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k / n, k % n);
+            covariance[i][j] / (covariance[i][i] * covariance[j][j]).sqrt()
+        })
+        .collect();
+    let index: Vec<f64> = (1..=n).map(|k| k as f64).collect();
+    let svg = heat_map_svg(&HeatMap {
+        title: "Correlation of the parameters",
+        subtitle: "from the posterior covariance",
+        xs: &index,
+        ys: &index,
+        values: &values,
+        value_label: "correlation",
+        x_label: "parameter index",
+        y_label: "parameter index",
+    })?;
+    let legend: Vec<String> = names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| format!("{} {name}", k + 1))
+        .collect();
+    Ok(Some(Block::Figure {
+        svg,
+        caption: format!(
+            "Correlation matrix of the {n} parameters (index 1 at the lower left): {}.",
+            legend.join(", ")
+        ),
+    }))
+}
