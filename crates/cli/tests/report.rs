@@ -275,3 +275,35 @@ fn a_report_never_overwrites_its_input_and_refuses_other_data() {
     assert!(stderr.contains("--other-data"), "{stderr}");
     assert!(!temp.path().join("r.html").exists());
 }
+
+#[test]
+fn a_calibration_that_did_not_converge_is_reported_rejected_without_a_map() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let out = temp.path().join("calibration.json");
+    let calibrate = parcal(&[
+        "calibrate",
+        s(&data),
+        "--max-iterations",
+        "1",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(calibrate.status.code(), Some(3));
+    let report = temp.path().join("report.html");
+    ok(&[
+        "report",
+        "--calibration",
+        s(&temp.path().join("calibration.rejected.json")),
+        "--out",
+        s(&report),
+    ]);
+    let html = fs::read_to_string(&report).unwrap();
+    let line = verdict_line(&html);
+    assert!(
+        line.starts_with("REJECTED") && line.contains("the solver stopped"),
+        "{line}"
+    );
+    assert!(html.contains("No accuracy map: the calibration did not converge"));
+    assert!(html.contains("The observations were not tested"));
+}

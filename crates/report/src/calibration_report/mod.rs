@@ -57,7 +57,7 @@ pub fn render(subject: &Subject, format: Format) -> Result<String, ReportError> 
 /// posterior covariance, placed with the design machine (the `dataset`'s
 /// machine.json if given, else calibration.json's `design`), and with a
 /// simulated dataset's truth the true one. `Err` says why there is none
-/// (not the 33 kinematic parameters alone, no covariance, no design).
+/// (not the 33 kinematic parameters alone, not converged, no design).
 pub fn predicted_accuracy(
     calibration: &Calibration,
     dataset: Option<&Dataset>,
@@ -69,8 +69,11 @@ pub fn predicted_accuracy(
             names.len()
         ));
     }
-    if calibration.covariance.len() != N_PARAMS {
-        return Err("the calibration has no posterior covariance".to_string());
+    if !calibration.converged || calibration.covariance.len() != N_PARAMS {
+        return Err(format!(
+            "the calibration did not converge to a posterior covariance (status: {})",
+            calibration.status
+        ));
     }
     let machine = dataset
         .map(|d| &d.machine)
