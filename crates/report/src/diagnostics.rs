@@ -32,12 +32,23 @@ const REDUNDANCY_BINS: usize = 40;
 /// [`parcal_calibrate::conflict`]).
 const NOT_INFORMED: f64 = 1e-9;
 
+/// What an observation observes, named only when it is listed.
+#[derive(Clone, Copy)]
+enum Observes {
+    /// The ball of this index (artefacts.json order).
+    Ball(usize),
+    /// Leg `i` (0-based) of a pose.
+    Leg(usize),
+    /// Coordinate `i` (x, y, z) of a point.
+    Coordinate(usize),
+}
+
 /// One observation's numbers before they are summarised.
 struct Tested {
     file: &'static str,
     /// 0-based row of the file.
     row: usize,
-    observes: String,
+    observes: Observes,
     redundancy: f64,
     /// Normalised residual and estimated gross error of its worst row.
     normalised: Option<(f64, f64)>,
@@ -70,16 +81,12 @@ pub fn of_ball_run(
         _ => (Vec::new(), Vec::new()),
     };
     let observations = run.reliability.as_ref().map(|reliability| {
-        let ball = |row: usize| {
-            let k = dataset.measurements.ball[row] as usize;
-            format!("ball {}", dataset.artefacts.balls[k].id)
-        };
         let tested = reliability.contacts.iter().map(|c| {
             let row = original_row(c.row);
             Tested {
                 file: MEASUREMENTS_FILE,
                 row,
-                observes: ball(row),
+                observes: Observes::Ball(dataset.measurements.ball[row] as usize),
                 redundancy: c.redundancy,
                 normalised: c.normalised.zip(c.gross_error),
             }
@@ -89,6 +96,7 @@ pub fn of_ball_run(
             tested.collect(),
             reliability.row_normalised.iter().copied(),
             rows_per_contact,
+            &|k| dataset.artefacts.balls[k].id.as_str(),
         )
     });
     Diagnostics {
@@ -116,14 +124,10 @@ pub fn of_instrument_run(run: &InstrumentRun) -> Diagnostics {
         let pose_rows = 6 * run.leg_residuals.len();
         let tested = reliability.rows.iter().enumerate().map(|(k, &(r, e))| {
             let (table, row, observes) = if k < pose_rows {
-                (InstrumentTable::Poses, k / 6, format!("leg {}", k % 6 + 1))
+                (InstrumentTable::Poses, k / 6, Observes::Leg(k % 6))
             } else {
                 let k = k - pose_rows;
-                (
-                    InstrumentTable::Points,
-                    k / 3,
-                    ["x", "y", "z"][k % 3].to_string(),
-                )
+                (InstrumentTable::Points, k / 3, Observes::Coordinate(k % 3))
             };
             Tested {
                 file: table.file_name(),
@@ -137,7 +141,7 @@ pub fn of_instrument_run(run: &InstrumentRun) -> Diagnostics {
             .rows
             .iter()
             .filter_map(|&(r, e)| normalised_residual(e, r));
-        tests(tested.collect(), rows, 1)
+        tests(tested.collect(), rows, 1, &|_| "")
     });
     Diagnostics {
         variance_components: components(
@@ -191,18 +195,24 @@ fn weak_directions(
 /// The summary of `tested` (each observation of `rows_per_observation`
 /// rows) and of every row's normalised residual `row_normalised`: the
 /// data-snooping test at [`SNOOPING_LEVEL`] family-wise (Bonferroni), the
-/// minimal detectable biases at its per-test level and 80 % power.
-fn tests(
+/// minimal detectable biases at its per-test level and 80 % power;
+/// `ball_id(k)` is the id of ball `k`.
+fn tests<'a>(
     mut tested: Vec<Tested>,
     row_normalised: impl Iterator<Item = f64>,
     rows_per_observation: usize,
+    ball_id: &dyn Fn(usize) -> &'a str,
 ) -> ObservationTests {
     let m = tested.len();
     let per_test_level = SNOOPING_LEVEL / m.max(1) as f64;
     let check = |t: &Tested| ObservationCheck {
         file: t.file.to_string(),
         line: t.row as u64 + 2,
-        observes: t.observes.clone(),
+        observes: match t.observes {
+            Observes::Ball(k) => format!("ball {}", ball_id(k)),
+            Observes::Leg(i) => format!("leg {}", i + 1),
+            Observes::Coordinate(i) => ["x", "y", "z"][i].to_string(),
+        },
         redundancy: t.redundancy,
         normalised_residual: t.normalised.map(|(w, _)| w),
         gross_error_sigmas: t.normalised.map(|(_, g)| g),
