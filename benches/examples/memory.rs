@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         report(&format!("iteration {iteration}"), contacts);
     })?;
     report("calibrated", contacts);
-    drop(parcal_report::sentences::record(&run));
+    drop(parcal_report::sentences::record(&run, &dataset));
     report("recorded", contacts);
     Ok(())
 }

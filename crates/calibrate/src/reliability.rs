@@ -79,6 +79,9 @@ pub struct Reliability {
     pub components: Vec<VarianceComponent>,
     /// Every contact's check, in the solver's (by-ball) order.
     pub contacts: Vec<ContactCheck>,
+    /// The normalised residual of every row another observation checks
+    /// (standard normal under the model, unlike a contact's largest).
+    pub row_normalised: Vec<f64>,
 }
 
 impl Reliability {
@@ -146,9 +149,16 @@ impl Reliability {
                 redundancy: prior_rows as f64 - numbers.prior_leverage.total(),
             });
         }
+        let row_normalised = numbers
+            .points
+            .iter()
+            .zip(&numbers.point_residuals)
+            .flat_map(|(r, e)| (0..R).filter_map(|j| normalised_residual(e[j], r[j])))
+            .collect();
         Ok(Self {
             components,
             contacts,
+            row_normalised,
         })
     }
 

@@ -207,6 +207,7 @@ impl CalibrationRun {
             provenance: None,
             removed_observations: Vec::new(),
             design: Some(self.machine.clone()),
+            diagnostics: None,
         }
     }
 }

@@ -43,6 +43,8 @@ enum Command {
     Export(commands::export::Args),
     /// Plan the touches to measure: the most accurate calibration for a budget.
     Plan(commands::plan::Args),
+    /// The report of one calibration: a self-contained HTML page (or Markdown), verdict and tests first.
+    Report(commands::report::Args),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +60,7 @@ fn main() -> ExitCode {
         Command::Compensate(args) => commands::compensate::run(&args),
         Command::Export(args) => commands::export::run(&args),
         Command::Plan(args) => commands::plan::run(&args),
+        Command::Report(args) => commands::report::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

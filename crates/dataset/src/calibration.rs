@@ -114,6 +114,150 @@ pub struct Calibration {
         with = "crate::machine::embedded"
     )]
     pub design: Option<Machine>,
+    /// The checks behind the verdict, summarised for a report (`None` in
+    /// files written before they were recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub diagnostics: Option<Diagnostics>,
+}
+
+/// What calibration.json keeps of a run's checks: enough for `parcal
+/// report` without the dataset, bounded whatever the number of
+/// observations.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Diagnostics {
+    /// The variance component of each group of observations.
+    pub variance_components: Vec<VarianceComponentRecord>,
+    /// The observations' tests (absent when the run did not converge).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observations: Option<ObservationTests>,
+    /// Each parameter's prior sigma (`null`: no prior on it), in the order
+    /// of `parameters.names`; empty when unknown.
+    #[serde(default)]
+    pub prior_sigma: Vec<Option<f64>>,
+    /// What determined each parameter: `data`, `data and prior`, `prior`,
+    /// `prior (not observed)`; empty when unknown.
+    #[serde(default)]
+    pub determined_by: Vec<String>,
+    /// The weakest directions of the parameters, weakest first.
+    #[serde(default)]
+    pub weak_directions: Vec<WeakDirectionRecord>,
+}
+
+/// The variance component `Ω_g / r_g` of one group of observations.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VarianceComponentRecord {
+    /// The group (`ball touches`, `distances`, `poses`, `points`, `priors`).
+    pub group: String,
+    /// Its weighted sum of squares `Ω_g`.
+    pub cost: f64,
+    /// Its redundancy `r_g`.
+    pub redundancy: f64,
+}
+
+/// Every observation's test (Baarda's data snooping), summarised.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObservationTests {
+    /// Observations tested (contacts; rows of poses.csv and points.csv).
+    pub tested: usize,
+    /// The family-wise level of the test.
+    pub level: f64,
+    /// The critical value of `|w|` (Bonferroni over `tested`).
+    pub critical_value: f64,
+    /// The sum of the observations' redundancy numbers.
+    pub redundancy: f64,
+    /// Redundancy under which an observation counts as uncontrolled.
+    pub uncontrolled_below: f64,
+    /// How many observations are uncontrolled.
+    pub uncontrolled: usize,
+    /// The observations of largest `|w|`, largest first (a bounded number).
+    pub largest: Vec<ObservationCheck>,
+    /// The uncontrolled observations of least redundancy, least first (a
+    /// bounded number).
+    pub least_controlled: Vec<ObservationCheck>,
+    /// The normalised residuals of every residual row.
+    pub normalised_histogram: Histogram,
+    /// The redundancy numbers of every observation.
+    pub redundancy_histogram: Histogram,
+}
+
+/// One observation's test.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObservationCheck {
+    /// Its file (`measurements.csv`, `poses.csv`, `points.csv`).
+    pub file: String,
+    /// Its line there (the header is line 1).
+    pub line: u64,
+    /// What it observes: a ball id, a leg, a coordinate.
+    pub observes: String,
+    /// Its redundancy number.
+    pub redundancy: f64,
+    /// Its normalised residual `w` (`null`: nothing checks it).
+    pub normalised_residual: Option<f64>,
+    /// Its estimated gross error `e / r`, in units of its standard
+    /// deviation (`null`: nothing checks it).
+    pub gross_error_sigmas: Option<f64>,
+    /// Its minimal detectable bias at the test's level and 80 % power, in
+    /// units of its standard deviation (`null`: nothing checks it).
+    pub mdb_sigmas: Option<f64>,
+}
+
+/// Counts of values in equal bins `[lower + k width, lower + (k+1) width)`,
+/// with those below and above the bins.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Histogram {
+    /// The lower edge of the first bin.
+    pub lower: f64,
+    /// The width of every bin.
+    pub width: f64,
+    /// The count of each bin.
+    pub counts: Vec<u64>,
+    /// Values below the first bin.
+    pub below: u64,
+    /// Values at or above the end of the last bin.
+    pub above: u64,
+}
+
+impl Histogram {
+    /// The histogram of `values` in `bins` bins of `width` from `lower`
+    /// (values that are not finite count as above).
+    pub fn of(values: impl IntoIterator<Item = f64>, lower: f64, width: f64, bins: usize) -> Self {
+        let mut histogram = Self {
+            lower,
+            width,
+            counts: vec![0; bins],
+            below: 0,
+            above: 0,
+        };
+        for v in values {
+            let k = ((v - lower) / width).floor();
+            if k < 0.0 {
+                histogram.below += 1;
+            } else if k < bins as f64 {
+                histogram.counts[k as usize] += 1;
+            } else {
+                histogram.above += 1;
+            }
+        }
+        histogram
+    }
+
+    /// Every value counted.
+    pub fn total(&self) -> u64 {
+        self.counts.iter().sum::<u64>() + self.below + self.above
+    }
+}
+
+/// A weak direction of the parameters: an eigenvalue of the reduced
+/// normal matrix and the parameters that dominate its eigenvector.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WeakDirectionRecord {
+    /// The eigenvalue.
+    pub eigenvalue: f64,
+    /// The sigma it leaves along the direction, `1 / √λ` (`null`: not
+    /// identified).
+    pub sigma: Option<f64>,
+    /// The dominant parameters and their components.
+    pub dominant: Vec<(String, f64)>,
 }
 
 /// An observation removed by data snooping.
@@ -262,6 +406,9 @@ impl Calibration {
         for (k, session) in self.sessions.iter().enumerate() {
             session.validate(check, &format!("sessions[{k}]"))?;
         }
+        if let Some(diagnostics) = &self.diagnostics {
+            diagnostics.validate(check, n)?;
+        }
         for (i, it) in self.iterations.iter().enumerate() {
             check.finite(format_args!("iterations[{i}].cost"), it.cost)?;
             check.finite(format_args!("iterations[{i}].step_norm"), it.step_norm)?;
@@ -271,5 +418,92 @@ impl Calibration {
             )?;
         }
         Ok(())
+    }
+}
+
+impl Diagnostics {
+    /// Finite numbers, one prior sigma and attribution per parameter (of
+    /// `n`) when given.
+    fn validate(&self, check: Check, n: usize) -> Result<()> {
+        for (k, c) in self.variance_components.iter().enumerate() {
+            check.finite(
+                format_args!("diagnostics.variance_components[{k}].cost"),
+                c.cost,
+            )?;
+            check.finite(
+                format_args!("diagnostics.variance_components[{k}].redundancy"),
+                c.redundancy,
+            )?;
+        }
+        for (field, len) in [
+            ("diagnostics.prior_sigma", self.prior_sigma.len()),
+            ("diagnostics.determined_by", self.determined_by.len()),
+        ] {
+            if len != 0 && len != n {
+                return Err(check.error(
+                    field,
+                    format!("expected {n} values (one per parameter), found {len}"),
+                ));
+            }
+        }
+        for (k, sigma) in self.prior_sigma.iter().enumerate() {
+            if let Some(sigma) = sigma {
+                check.finite(format_args!("diagnostics.prior_sigma[{k}]"), *sigma)?;
+            }
+        }
+        for (k, weak) in self.weak_directions.iter().enumerate() {
+            check.finite(
+                format_args!("diagnostics.weak_directions[{k}].eigenvalue"),
+                weak.eigenvalue,
+            )?;
+        }
+        if let Some(tests) = &self.observations {
+            for (field, h) in [
+                ("normalised_histogram", &tests.normalised_histogram),
+                ("redundancy_histogram", &tests.redundancy_histogram),
+            ] {
+                if !(h.width > 0.0 && h.width.is_finite() && h.lower.is_finite()) {
+                    return Err(check.error(
+                        format!("diagnostics.observations.{field}"),
+                        "expected a finite lower edge and a positive bin width".to_string(),
+                    ));
+                }
+            }
+            for (list, checks) in [
+                ("largest", &tests.largest),
+                ("least_controlled", &tests.least_controlled),
+            ] {
+                for (k, c) in checks.iter().enumerate() {
+                    let values = [c.normalised_residual, c.gross_error_sigmas, c.mdb_sigmas];
+                    check.values(
+                        format_args!("diagnostics.observations.{list}[{k}]"),
+                        &[c.redundancy]
+                            .into_iter()
+                            .chain(values.into_iter().flatten())
+                            .collect::<Vec<_>>(),
+                    )?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_histogram_counts_each_value_once_in_its_bin() {
+        // Bins [-1, -0.5), [-0.5, 0), [0, 0.5), [0.5, 1): edges go up.
+        let h = Histogram::of(
+            [-2.0, -1.0, -0.5, -0.1, 0.0, 0.99, 1.0, f64::NAN],
+            -1.0,
+            0.5,
+            4,
+        );
+        assert_eq!(h.counts, [1, 2, 1, 1]);
+        assert_eq!((h.below, h.above), (1, 2));
+        assert_eq!(h.total(), 8);
     }
 }

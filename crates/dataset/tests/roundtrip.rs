@@ -412,6 +412,48 @@ fn calibration() -> Calibration {
             stroke: Some([-5.0, 105.0]),
             ..dataset(ALL).machine
         }),
+        diagnostics: Some(Diagnostics {
+            variance_components: vec![VarianceComponentRecord {
+                group: "ball touches".into(),
+                cost: 12.5,
+                redundancy: 10.25,
+            }],
+            observations: Some(ObservationTests {
+                tested: 12,
+                level: 0.05,
+                critical_value: 3.04,
+                redundancy: 10.25,
+                uncontrolled_below: 0.1,
+                uncontrolled: 1,
+                largest: vec![ObservationCheck {
+                    file: "measurements.csv".into(),
+                    line: 7,
+                    observes: "ball b01".into(),
+                    redundancy: 0.5,
+                    normalised_residual: Some(-2.5),
+                    gross_error_sigmas: Some(-3.5),
+                    mdb_sigmas: Some(6.25),
+                }],
+                least_controlled: vec![ObservationCheck {
+                    file: "measurements.csv".into(),
+                    line: 9,
+                    observes: "ball b01".into(),
+                    redundancy: 0.0,
+                    normalised_residual: None,
+                    gross_error_sigmas: None,
+                    mdb_sigmas: None,
+                }],
+                normalised_histogram: Histogram::of([-0.3, 0.1, 9.0], -5.0, 0.5, 20),
+                redundancy_histogram: Histogram::of([0.0, 0.5, 0.75], 0.0, 0.125, 8),
+            }),
+            prior_sigma: vec![Some(0.1), None, Some(0.5)],
+            determined_by: vec!["data".into(), "prior (not observed)".into(), "prior".into()],
+            weak_directions: vec![WeakDirectionRecord {
+                eigenvalue: 4.0,
+                sigma: Some(0.5),
+                dominant: vec![("y_b2".into(), 0.75)],
+            }],
+        }),
     }
 }
 

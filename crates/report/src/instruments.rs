@@ -54,6 +54,7 @@ pub fn record(run: &InstrumentRun) -> Calibration {
     }
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
+    record.diagnostics = Some(crate::diagnostics::of_instrument_run(run));
     record
 }
 

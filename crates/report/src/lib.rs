@@ -8,7 +8,9 @@
 //! # Ok(()) }
 //! ```
 
+pub mod calibration_report;
 pub mod compare;
+pub mod diagnostics;
 pub mod instruments;
 pub mod maps;
 pub mod paper;
@@ -31,6 +33,9 @@ pub enum ReportError {
     /// An accuracy map could not be computed.
     #[error("accuracy map: {0}")]
     Accuracy(#[from] parcal_accuracy::AccuracyError),
+    /// A figure of a report could not be drawn.
+    #[error("cannot draw a figure of the report: {0}")]
+    Figure(String),
     #[error("cannot plot {}: {reason}", path.display())]
     /// A chart could not be drawn.
     Plot {

@@ -102,6 +102,28 @@ pub struct LineChart<'a> {
     pub log_y: bool,
 }
 
+/// A histogram of counts in equal bins, with an optional curve over it
+/// (e.g. the counts a distribution expects) and marked x values.
+#[derive(Debug, Clone, Copy)]
+pub struct BarChart<'a> {
+    /// The chart's title.
+    pub title: &'a str,
+    /// Label of the x axis, with the unit.
+    pub x_label: &'a str,
+    /// Label of the y axis.
+    pub y_label: &'a str,
+    /// The lower edge of the first bin.
+    pub lower: f64,
+    /// The width of every bin.
+    pub width: f64,
+    /// The count of each bin.
+    pub counts: &'a [u64],
+    /// A curve drawn over the bars (its name in the legend).
+    pub curve: Option<Series<'a>>,
+    /// Vertical dashed lines at these x values (their name in the legend).
+    pub marks: Option<(&'a str, &'a [f64])>,
+}
+
 /// Writes `map` to the SVG file `path`.
 pub fn heat_map(path: &Path, map: &HeatMap) -> Result<(), ReportError> {
     let svg = heat_map_svg(map).map_err(|reason| plot_error(path, reason))?;
@@ -169,8 +191,118 @@ fn text(size: u32) -> TextStyle<'static> {
     (FONT, size).into_font().color(&BLACK)
 }
 
-/// The heat map as SVG text.
-fn heat_map_svg(map: &HeatMap) -> Result<String, String> {
+/// The histogram as SVG text (to write, or to put in a web page).
+pub fn bar_chart_svg(chart: &BarChart) -> Result<String, String> {
+    if chart.counts.is_empty() {
+        return Err("there are no bins".to_string());
+    }
+    if !(chart.width > 0.0 && chart.width.is_finite() && chart.lower.is_finite()) {
+        return Err(format!(
+            "bins from {} of width {} cannot be drawn",
+            chart.lower, chart.width
+        ));
+    }
+    let curve = chart.curve.map_or(&[][..], |c| c.points);
+    if let Some((x, y)) = curve
+        .iter()
+        .find(|(x, y)| !(x.is_finite() && y.is_finite()))
+    {
+        return Err(format!("the curve has the point ({x}, {y})"));
+    }
+    let end = chart.lower + chart.width * chart.counts.len() as f64;
+    let top = chart
+        .counts
+        .iter()
+        .map(|&c| c as f64)
+        .chain(curve.iter().map(|p| p.1))
+        .fold(1.0, f64::max)
+        * 1.1;
+    render(LINE_CHART_SIZE, |root| {
+        let mut ctx = ChartBuilder::on(root)
+            .caption(chart.title, text(TITLE_SIZE))
+            .margin(MARGIN)
+            .x_label_area_size(X_LABEL_AREA)
+            .y_label_area_size(Y_LABEL_AREA)
+            .build_cartesian_2d(chart.lower..end, 0.0..top)?;
+        ctx.configure_mesh()
+            .x_desc(chart.x_label)
+            .y_desc(chart.y_label)
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
+            .label_style(text(LABEL_SIZE))
+            .axis_desc_style(text(DESC_SIZE))
+            .bold_line_style(BLACK.mix(0.15))
+            .light_line_style(BLACK.mix(0.05))
+            .max_light_lines(1)
+            .draw()?;
+        let bar = PALETTE[0];
+        ctx.draw_series(
+            chart
+                .counts
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| **c > 0)
+                .map(|(k, &c)| {
+                    let x0 = chart.lower + chart.width * k as f64;
+                    Rectangle::new(
+                        [(x0, 0.0), (x0 + chart.width, c as f64)],
+                        bar.mix(0.7).filled(),
+                    )
+                }),
+        )?;
+        if let Some(c) = chart.curve {
+            let colour = PALETTE[3];
+            ctx.draw_series(LineSeries::new(
+                c.points.iter().copied(),
+                colour.stroke_width(2),
+            ))?
+            .label(c.name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
+        }
+        if let Some((name, xs)) = chart.marks {
+            let colour = PALETTE[7];
+            let inside: Vec<f64> = xs
+                .iter()
+                .copied()
+                .filter(|x| (chart.lower..=end).contains(x))
+                .collect();
+            for &x in &inside {
+                ctx.draw_series(DashedLineSeries::new(
+                    [(x, 0.0), (x, top)],
+                    6,
+                    4,
+                    colour.stroke_width(2),
+                ))?;
+            }
+            if !inside.is_empty() {
+                // The legend entry, once (a zero-length line).
+                ctx.draw_series(std::iter::once(PathElement::new(
+                    vec![(inside[0], 0.0), (inside[0], 0.0)],
+                    colour.stroke_width(2),
+                )))?
+                .label(name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                });
+            }
+        }
+        if chart.curve.is_some() || chart.marks.is_some() {
+            ctx.configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .margin(10)
+                .label_font(text(LABEL_SIZE))
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK.mix(0.4))
+                .draw()?;
+        }
+        Ok(())
+    })
+}
+
+/// The heat map as SVG text (to write, or to put in a web page).
+pub fn heat_map_svg(map: &HeatMap) -> Result<String, String> {
     let x_edges = cell_edges("x", map.xs)?;
     let y_edges = cell_edges("y", map.ys)?;
     let (nx, ny) = (map.xs.len(), map.ys.len());

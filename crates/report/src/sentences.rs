@@ -8,8 +8,11 @@ use parcal_calibrate::fit::BallMisfit;
 use parcal_calibrate::reliability::{Reliability, UNCONTROLLED, VarianceComponent, critical_value};
 use parcal_calibrate::snooping::{SNOOPING_LEVEL, Snooped};
 use parcal_calibrate::verdict::{Outcome, Verdict};
+use parcal_dataset::Dataset;
 use parcal_kinematics::PARAM_NAMES;
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
+
+use crate::diagnostics;
 
 /// The status in one sentence (calibration.json's `status`), naming
 /// parameters, balls and measurements.csv lines.
@@ -70,16 +73,17 @@ pub fn solver_status(
     }
 }
 
-/// The calibration.json record of `run`: its status, verdict, reasons and
-/// warnings in words.
-pub fn record(run: &CalibrationRun) -> parcal_dataset::Calibration {
-    record_of(run, &|row| row)
+/// The calibration.json record of `run` of `dataset`: its status,
+/// verdict, reasons and warnings in words, its diagnostics.
+pub fn record(run: &CalibrationRun, dataset: &Dataset) -> parcal_dataset::Calibration {
+    record_of(run, dataset, &|row| row)
 }
 
 /// [`record`] of a run whose measurements.csv row `i` is row
 /// `original_row(i)` of the dataset given.
 fn record_of(
     run: &CalibrationRun,
+    dataset: &Dataset,
     original_row: &dyn Fn(usize) -> usize,
 ) -> parcal_dataset::Calibration {
     let status = status(run);
@@ -91,6 +95,7 @@ fn record_of(
     }
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
+    record.diagnostics = Some(diagnostics::of_ball_run(run, dataset, original_row));
     record
 }
 
@@ -162,9 +167,9 @@ pub fn variance_components(components: &[VarianceComponent]) -> String {
 
 /// The calibration.json record of a calibration with data snooping: the
 /// remaining contacts' run, and every removal with its line and what it
-/// did to the variance factor.
-pub fn snooped_record(snooped: &Snooped) -> parcal_dataset::Calibration {
-    let mut record = record_of(&snooped.run, &|row| snooped.original_rows[row]);
+/// did to the variance factor; `dataset` is the dataset given.
+pub fn snooped_record(snooped: &Snooped, dataset: &Dataset) -> parcal_dataset::Calibration {
+    let mut record = record_of(&snooped.run, dataset, &|row| snooped.original_rows[row]);
     for removal in &snooped.removals {
         record.reasons.push(format!(
             "data snooping removed measurements.csv line {}: normalised residual {:+.1}, estimated gross error {:+.1} (its worst row's sigmas); variance factor {:.3} -> {:.3}",

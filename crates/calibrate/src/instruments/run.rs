@@ -82,6 +82,9 @@ pub struct InstrumentReliability {
     pub worst: Option<(InstrumentTable, usize, usize, f64)>,
     /// Number of rows tested.
     pub tests: usize,
+    /// Every row's redundancy number and whitened residual: 6 rows per
+    /// pose (legs 1-6) in poses.csv order, then 3 per point (x, y, z).
+    pub rows: Vec<(f64, f64)>,
 }
 
 impl InstrumentReliability {
@@ -142,6 +145,7 @@ impl InstrumentReliability {
             components,
             worst,
             tests: r.len(),
+            rows: r.iter().copied().zip(e.iter().copied()).collect(),
         })
     }
 }
@@ -546,6 +550,7 @@ impl InstrumentRun {
             provenance: None,
             removed_observations: Vec::new(),
             design: Some(self.machine.clone()),
+            diagnostics: None,
         }
     }
 

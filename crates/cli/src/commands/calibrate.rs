@@ -111,12 +111,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let snooped =
             calibrate_with_snooping(&dataset, &options, SNOOPING_LEVEL, MAX_REMOVALS, observer)
                 .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = sentences::snooped_record(&snooped);
+        let record = sentences::snooped_record(&snooped, &dataset);
         (snooped.run, record)
     } else {
         let run = calibrate(&dataset, &options, observer)
             .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = sentences::record(&run);
+        let record = sentences::record(&run, &dataset);
         (run, record)
     };
     progress.finish();

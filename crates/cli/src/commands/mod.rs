@@ -8,6 +8,7 @@ pub mod export;
 pub mod inspect;
 pub mod paper;
 pub mod plan;
+pub mod report;
 pub mod simulate;
 pub mod validate;
 

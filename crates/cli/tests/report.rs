@@ -1,0 +1,309 @@
+//! `parcal report`: the page's verdict line, its numbers against
+//! calibration.json's, non-blank figures, escaping, and the output checks.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn parcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_parcal"))
+        .args(args)
+        .output()
+        .expect("the parcal binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let output = parcal(args);
+    assert!(
+        output.status.success(),
+        "parcal {args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+fn s(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// A copy of the fixture `name`'s files in `dir/data`.
+fn copy_fixture(name: &str, dir: &Path, files: &[&str]) -> PathBuf {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fixtures")
+        .join(name);
+    let data = dir.join("data");
+    fs::create_dir_all(&data).unwrap();
+    for file in files {
+        fs::copy(fixture.join(file), data.join(file)).unwrap();
+    }
+    data
+}
+
+const PAPER_FILES: [&str; 4] = [
+    "machine.json",
+    "artefacts.json",
+    "measurements.csv",
+    "truth.json",
+];
+
+/// The text of the element with `id="verdict"`.
+fn verdict_line(html: &str) -> &str {
+    let start = html.find("id=\"verdict\"").expect("a verdict line");
+    let text = &html[start..];
+    let text = &text[text.find('>').unwrap() + 1..];
+    &text[..text.find("</p>").unwrap()]
+}
+
+/// The inline SVG figures of the page.
+fn figures(html: &str) -> Vec<&str> {
+    html.split("<svg")
+        .skip(1)
+        .map(|rest| &rest[..rest.find("</svg>").expect("a closed svg")])
+        .collect()
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let calibration = temp.path().join("calibration.json");
+    ok(&["calibrate", s(&data), "--out", s(&calibration)]);
+    let out = temp.path().join("report.html");
+    let stdout = ok(&[
+        "report",
+        "--calibration",
+        s(&calibration),
+        "--dataset",
+        s(&data),
+        "--out",
+        s(&out),
+    ]);
+    assert!(stdout.contains("verdict: accepted"), "{stdout}");
+    let html = fs::read_to_string(&out).unwrap();
+    let c = json(&calibration);
+    assert_eq!(c["verdict"], "accepted");
+    assert!(
+        verdict_line(&html).starts_with("ACCEPTED"),
+        "{}",
+        verdict_line(&html)
+    );
+
+    // The global test's numbers as calibration.json has them.
+    let t = &c["global_test"];
+    for number in [
+        format!("{:.3}", t["variance_factor"].as_f64().unwrap()),
+        format!(
+            "[{:.3}, {:.3}]",
+            t["interval"][0].as_f64().unwrap(),
+            t["interval"][1].as_f64().unwrap()
+        ),
+        format!("<td class=\"num\">{}</td>", t["redundancy"]),
+    ] {
+        assert!(html.contains(&number), "{number} is not on the page");
+    }
+    // The largest normalised residual, with its line, and every parameter.
+    let largest = &c["diagnostics"]["observations"]["largest"][0];
+    let row = format!(
+        "<td>measurements.csv</td><td class=\"num\">{}</td>",
+        largest["line"]
+    );
+    assert!(html.contains(&row), "{row}");
+    let w = format!("{:+.2}", largest["normalised_residual"].as_f64().unwrap());
+    assert!(html.contains(&w), "{w}");
+    let p = &c["parameters"];
+    for k in 0..33 {
+        let cell = format!(
+            "<td>{}</td><td class=\"num\">{:.4}</td><td class=\"num\">{:.4}</td>",
+            p["names"][k].as_str().unwrap(),
+            p["values"][k].as_f64().unwrap(),
+            p["sigma"][k].as_f64().unwrap()
+        );
+        assert!(html.contains(&cell), "{cell}");
+    }
+
+    // Four figures, each with its data drawn: the histograms' bars, the
+    // 33 x 33 correlation matrix and the 21 x 21 map.
+    let svgs = figures(&html);
+    assert_eq!(svgs.len(), 4, "histogram, redundancy, correlation, map");
+    for svg in &svgs[..2] {
+        assert!(svg.matches("<rect").count() > 5, "a histogram without bars");
+    }
+    assert!(svgs[0].contains("<polyline"), "the normal density curve");
+    assert!(svgs[2].matches("<rect").count() >= 33 * 33, "the matrix");
+    assert!(
+        svgs[3].matches("<rect").count() >= 21 * 21,
+        "the map's cells"
+    );
+    // Self-contained: no script, no resource fetched.
+    for forbidden in ["<script", "src=", "href=", "@import", "url("] {
+        assert!(!html.contains(forbidden), "the page has {forbidden}");
+    }
+
+    // Markdown says the same verdict.
+    let md = temp.path().join("report.md");
+    ok(&[
+        "report",
+        "--calibration",
+        s(&calibration),
+        "--out",
+        s(&md),
+        "--format",
+        "markdown",
+    ]);
+    let md = fs::read_to_string(md).unwrap();
+    assert!(md.contains("**ACCEPTED: "), "{md}");
+}
+
+#[test]
+fn a_rejected_calibration_says_so_and_a_hostile_ball_id_is_escaped() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES[..3]);
+    // Ball b02 renamed to markup, and a blunder of 0.05 mm in its first
+    // contact's first reading.
+    let hostile = "<img src=x onerror=alert(1)>&\"'";
+    let artefacts = data.join("artefacts.json");
+    let mut a = json(&artefacts);
+    let old = a["balls"][1]["id"].as_str().unwrap().to_string();
+    a["balls"][1]["id"] = hostile.into();
+    fs::write(&artefacts, serde_json::to_string(&a).unwrap()).unwrap();
+    let measurements = data.join("measurements.csv");
+    let mut blundered = false;
+    let text: Vec<String> = fs::read_to_string(&measurements)
+        .unwrap()
+        .lines()
+        .map(|line| {
+            let mut fields: Vec<String> = line.split(',').map(str::to_string).collect();
+            if fields[0] == old {
+                fields[0] = format!("\"{}\"", hostile.replace('"', "\"\""));
+                if !blundered {
+                    let q: f64 = fields[1].parse().unwrap();
+                    fields[1] = (q + 0.05).to_string();
+                    blundered = true;
+                }
+            }
+            fields.join(",")
+        })
+        .collect();
+    fs::write(&measurements, text.join("\n") + "\n").unwrap();
+
+    let out = temp.path().join("calibration.json");
+    let calibrate = parcal(&["calibrate", s(&data), "--out", s(&out)]);
+    assert_eq!(calibrate.status.code(), Some(3), "a rejected calibration");
+    let rejected = temp.path().join("calibration.rejected.json");
+    let report = temp.path().join("report.html");
+    let stdout = ok(&["report", "--calibration", s(&rejected), "--out", s(&report)]);
+    assert!(stdout.contains("verdict: rejected"), "{stdout}");
+    let html = fs::read_to_string(&report).unwrap();
+    let line = verdict_line(&html);
+    assert!(
+        line.starts_with("REJECTED") && line.contains("global test failed"),
+        "{line}"
+    );
+    // The blunder heads the largest normalised residuals, named by its ball.
+    let c = json(&rejected);
+    let largest = &c["diagnostics"]["observations"]["largest"][0];
+    assert_eq!(largest["observes"], format!("ball {hostile}"));
+    assert!(!html.contains(hostile) && !html.contains("<img"));
+    assert!(html.contains("ball &lt;img src=x onerror=alert(1)&gt;&amp;&quot;&#39;"));
+}
+
+#[test]
+fn an_instrument_calibration_reports_its_rows_and_says_why_it_has_no_map() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("jugglebot", temp.path(), &["machine.json", "poses.csv"]);
+    let calibration = temp.path().join("calibration.json");
+    ok(&["calibrate", s(&data), "--out", s(&calibration)]);
+    let out = temp.path().join("report.html");
+    ok(&["report", "--calibration", s(&calibration), "--out", s(&out)]);
+    let html = fs::read_to_string(&out).unwrap();
+    let c = json(&calibration);
+    let verdict = verdict_line(&html);
+    let word = c["verdict"].as_str().unwrap().to_uppercase();
+    assert!(verdict.starts_with(&word), "{verdict}");
+    assert!(html.contains("<td>poses.csv</td>"));
+    let tests = &c["diagnostics"]["observations"];
+    assert!(html.contains(&format!("{} observations tested", tests["tested"])));
+    assert!(
+        html.contains("No accuracy map: the map is computed for the 33 kinematic parameters alone")
+    );
+    assert_eq!(figures(&html).len(), 3, "two histograms, the correlation");
+}
+
+#[test]
+fn a_report_never_overwrites_its_input_and_refuses_other_data() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let calibration = temp.path().join("calibration.json");
+    ok(&["calibrate", s(&data), "--out", s(&calibration)]);
+    let before = fs::read(&calibration).unwrap();
+    for out in [&calibration, &data.join("machine.json")] {
+        let output = parcal(&[
+            "report",
+            "--calibration",
+            s(&calibration),
+            "--dataset",
+            s(&data),
+            "--out",
+            s(out),
+        ]);
+        assert_eq!(output.status.code(), Some(1));
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains("which this run reads"), "{stderr}");
+    }
+    assert_eq!(fs::read(&calibration).unwrap(), before);
+
+    let other = copy_fixture(
+        "jugglebot",
+        &temp.path().join("other"),
+        &["machine.json", "poses.csv"],
+    );
+    let output = parcal(&[
+        "report",
+        "--calibration",
+        s(&calibration),
+        "--dataset",
+        s(&other),
+        "--out",
+        s(&temp.path().join("r.html")),
+    ]);
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("--other-data"), "{stderr}");
+    assert!(!temp.path().join("r.html").exists());
+}
+
+#[test]
+fn a_calibration_that_did_not_converge_is_reported_rejected_without_a_map() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let out = temp.path().join("calibration.json");
+    let calibrate = parcal(&[
+        "calibrate",
+        s(&data),
+        "--max-iterations",
+        "1",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(calibrate.status.code(), Some(3));
+    let report = temp.path().join("report.html");
+    ok(&[
+        "report",
+        "--calibration",
+        s(&temp.path().join("calibration.rejected.json")),
+        "--out",
+        s(&report),
+    ]);
+    let html = fs::read_to_string(&report).unwrap();
+    let line = verdict_line(&html);
+    assert!(
+        line.starts_with("REJECTED") && line.contains("the solver stopped"),
+        "{line}"
+    );
+    assert!(html.contains("No accuracy map: the calibration did not converge"));
+    assert!(html.contains("The observations were not tested"));
+}

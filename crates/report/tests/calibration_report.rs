@@ -1,0 +1,96 @@
+//! calibration.json's diagnostics against the run they summarise, and the
+//! report of one calibration rendered from them.
+
+use std::path::Path;
+
+use parcal_calibrate::{CalibrationOptions, calibrate};
+use parcal_dataset::Dataset;
+use parcal_report::calibration_report::{
+    Format, Subject, global_sentence, predicted_accuracy, render, tests_sentence,
+};
+use parcal_report::diagnostics::LISTED;
+
+fn paper_seed1() -> Dataset {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/paper-seed1");
+    Dataset::read(&dir).unwrap()
+}
+
+#[test]
+fn the_diagnostics_summarise_every_observation_s_test() {
+    let dataset = paper_seed1();
+    let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    let record = parcal_report::sentences::record(&run, &dataset);
+    let reliability = run.reliability.as_ref().unwrap();
+    let d = record.diagnostics.as_ref().unwrap();
+    let t = d.observations.as_ref().unwrap();
+
+    // Every contact tested; the redundancy numbers of the contacts and of
+    // the priors sum to the global test's redundancy (rounding of the
+    // Schur levels, far below the 0.01 of a printed redundancy).
+    assert_eq!(t.tested, dataset.measurements.len());
+    let priors = d
+        .variance_components
+        .iter()
+        .find(|c| c.group == "priors")
+        .unwrap();
+    let global = record.global_test.as_ref().unwrap().redundancy as f64;
+    assert!(
+        (t.redundancy + priors.redundancy - global).abs() < 1e-6,
+        "{} + {} against {global}",
+        t.redundancy,
+        priors.redundancy
+    );
+    // The histograms count every checked row and every contact.
+    assert_eq!(
+        t.normalised_histogram.total() as usize,
+        reliability.row_normalised.len()
+    );
+    assert_eq!(
+        t.redundancy_histogram.total() as usize,
+        dataset.measurements.len()
+    );
+    // The largest |w| first, as the run's worst contact, a bounded list.
+    let worst = reliability.worst().unwrap();
+    assert_eq!(t.largest[0].line, worst.row as u64 + 2);
+    assert_eq!(t.largest[0].normalised_residual, worst.normalised);
+    assert!(t.largest.len() <= LISTED);
+    let w = |k: usize| t.largest[k].normalised_residual.unwrap().abs();
+    assert!((1..t.largest.len()).all(|k| w(k - 1) >= w(k)));
+    // The uncontrolled, least redundancy first, counted as the run counts them.
+    assert_eq!(t.uncontrolled, reliability.uncontrolled().count());
+    assert!(
+        t.least_controlled
+            .iter()
+            .all(|o| o.redundancy < t.uncontrolled_below)
+    );
+    // Every parameter attributed.
+    assert_eq!(d.determined_by.len(), 33);
+    assert_eq!(d.prior_sigma.len(), 33);
+
+    // The file keeps them: written and read back alike.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("calibration.json");
+    record.write(&path).unwrap();
+    let read = parcal_dataset::Calibration::read(&path).unwrap();
+    assert_eq!(read.diagnostics, record.diagnostics);
+
+    // The page states them.
+    let subject = Subject {
+        calibration: &read,
+        file: "calibration.json",
+        accuracy: predicted_accuracy(&read, None),
+    };
+    let html = render(&subject, Format::Html).unwrap();
+    let escaped = |s: &str| parcal_report::calibration_report::html::escape(s);
+    assert!(html.contains(&escaped(&global_sentence(
+        read.global_test.as_ref().unwrap()
+    ))));
+    assert!(html.contains(&escaped(&tests_sentence(t))));
+    let registered = subject
+        .accuracy
+        .as_ref()
+        .unwrap()
+        .predicted
+        .registered_summary();
+    assert!(html.contains(&format!("registered RMS {:.2} µm", registered.rms * 1e3)));
+}
