@@ -3,8 +3,8 @@
 //! it): the verdict first, then the tests, the observations, the
 //! parameters and the predicted accuracy.
 
-use parcal_workflows::evaluate::Accuracy;
 use parcal_dataset::{Calibration, GlobalTestRecord, ObservationCheck, ObservationTests};
+use parcal_workflows::evaluate::Accuracy;
 
 use super::document::{Block, Cell, Tone};
 use super::figures;

@@ -28,9 +28,9 @@ pub use content::{Subject, global_sentence, tests_sentence, title};
 
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::ParamCovariance;
-use parcal_workflows::evaluate::{Accuracy, TrueMachine, accuracy};
 use parcal_dataset::{Calibration, Dataset};
 use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, Params};
+use parcal_workflows::evaluate::{Accuracy, TrueMachine, accuracy};
 
 use crate::ReportError;
 
