@@ -15,10 +15,17 @@
 //!   gives), while the per-contact NEES falls more than 4 standard errors
 //!   below it: its covariance is wrong, too pessimistic here (the shared
 //!   error is spread over the contacts as independent noise).
+//! - The assembled ball columns (`dc/dC`, `dc/dr`, in the group block or,
+//!   for a ball tied by a distance, in the global block) match central
+//!   differences of the whitened residual.
 
+use nalgebra::{DVector, SVector, Vector2, Vector3, Vector4};
 use parcal_calibrate::evaluate::Truth;
+use parcal_calibrate::problem::ContactJacobian;
+use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, PriorMode, RadiusModel, Simulation, calibrate};
 use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
+use parcal_solver::{GlobalJacobian, Linearization, Problem};
 
 /// Allowed distance of a mean NEES from its reference, in standard errors.
 const STANDARD_ERRORS: f64 = 4.0;
@@ -94,4 +101,84 @@ fn a_large_radius_error_is_carried_per_ball_not_per_contact() {
     let se = |a: f64, b: f64| (a * a + b * b).sqrt();
     assert!((ball - floor).abs() <= STANDARD_ERRORS * se(ball_se, floor_se));
     assert!(floor - contact > STANDARD_ERRORS * se(contact_se, floor_se));
+}
+
+#[test]
+fn the_ball_columns_match_central_differences() {
+    let scenario = Scenario {
+        plate: Some(Plate {
+            pairs: PlatePairs::Random(10),
+            sigma: 1e-3,
+        }),
+        ..Scenario::paper()
+    };
+    let dataset = simulate(&scenario, 1).unwrap().dataset;
+    let options = CalibrationOptions::default();
+    assert_eq!(options.radius, RadiusModel::PerBall);
+    let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+    let Observations::Coordinates(observations) = observations else {
+        panic!("the default observes coordinates")
+    };
+    let problem = setup.problem::<_, 4>(&dataset, &options, observations);
+    let mut state = setup.initial_state::<4, 2>(&dataset);
+    // Away from the start: radii and centres moved, in the global block too.
+    let shift = Vector4::new(0.002, -0.001, 0.0015, 0.003);
+    for group in &mut state.groups {
+        *group += shift;
+    }
+    for (ball, _) in setup.groups.iter().enumerate() {
+        if let Some(range) = setup.layout.ball(ball) {
+            let moved = state.global.fixed_rows::<4>(range.start) + shift;
+            state
+                .global
+                .fixed_rows_mut::<4>(range.start)
+                .copy_from(&moved);
+        }
+    }
+    let angles = Vector2::new(0.01, -0.02);
+    let tied = (0..setup.groups.len()).find(|&b| setup.layout.ball(b).is_some());
+    let free = (0..setup.groups.len()).find(|&b| setup.layout.ball(b).is_none());
+    let (tied, free) = (tied.expect("a tied ball"), free.expect("a free ball"));
+    type Lin = Linearization<4, 2, 3, ContactJacobian<3, 4>>;
+    let residual = |ball: usize, global: &DVector<f64>, group: &SVector<f64, 4>| {
+        let i = setup.groups[ball].start;
+        let mut pose = setup.poses[i];
+        let mut out = Lin::zeros(problem.global_size());
+        let values = problem.prepare_global(global);
+        problem
+            .linearize(i, &values, group, &angles, &mut pose, &mut out)
+            .unwrap();
+        out
+    };
+    let step = 1e-6;
+    // A free ball: its group's four columns.
+    let at = residual(free, &state.global, &state.groups[free]);
+    for k in 0..4 {
+        let mut e = SVector::<f64, 4>::zeros();
+        e[k] = step;
+        let plus = residual(free, &state.global, &(state.groups[free] + e)).residual;
+        let minus = residual(free, &state.global, &(state.groups[free] - e)).residual;
+        let numeric: Vector3<f64> = (plus - minus) / (2.0 * step);
+        let analytic = at.d_group.column(k);
+        assert!(
+            (analytic - numeric).amax() <= 1e-6 * analytic.amax().max(1.0),
+            "free ball, column {k}: analytic {analytic}, numeric {numeric}"
+        );
+    }
+    // A tied ball: its four columns of the global block, none in its group.
+    let at = residual(tied, &state.global, &state.groups[tied]);
+    assert_eq!(at.d_group, nalgebra::SMatrix::<f64, 3, 4>::zeros());
+    let start = setup.layout.ball(tied).unwrap().start;
+    for k in 0..4 {
+        let mut e = DVector::zeros(state.global.len());
+        e[start + k] = step;
+        let plus = residual(tied, &(&state.global + &e), &state.groups[tied]).residual;
+        let minus = residual(tied, &(&state.global - &e), &state.groups[tied]).residual;
+        let numeric: Vector3<f64> = (plus - minus) / (2.0 * step);
+        let analytic = at.d_global.apply(&(e / step));
+        assert!(
+            (analytic - numeric).amax() <= 1e-6 * analytic.amax().max(1.0),
+            "tied ball, global column {k}: analytic {analytic}, numeric {numeric}"
+        );
+    }
 }
