@@ -96,7 +96,7 @@ mod tests {
                 .unwrap()
                 .residual
         });
-        assert_close(&blocks.d_radius.into(), &by_radius, 1e-9, "dc/dr");
+        assert_close(&blocks.d_radius, &by_radius, 1e-9, "dc/dr");
     }
 
     #[test]
