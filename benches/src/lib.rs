@@ -51,7 +51,10 @@ pub fn warm_problem<'a>(
     dataset: &'a Dataset,
     setup: &'a Setup,
     observations: CoordinateObservations,
-) -> (CalibrationProblem<'a, CoordinateObservations>, State<3, 2>) {
+) -> (
+    CalibrationProblem<'a, CoordinateObservations, 3>,
+    State<3, 2>,
+) {
     let problem = setup.problem(dataset, &options(), observations);
     let state = State {
         global: DVector::from_column_slice(

@@ -6,7 +6,10 @@
 //! At the solution a ball's share of the whitened data cost is
 //! chi-square distributed with `n − 3` degrees of freedom for `n` contacts:
 //! each contact leaves one row beyond its angles (three coordinate rows and
-//! two angles, or one radius row), and the centre takes three. A ball is
+//! two angles, or one radius row), and the centre takes three (a per-ball
+//! radius takes a fraction of one more, the share of its information that
+//! comes from the touches rather than its prior: testing `n − 3` is then
+//! slightly conservative). A ball is
 //! flagged beyond the `1 − 0.001 / B` quantile for `B` balls (Bonferroni):
 //! a sound calibration flags any ball with probability at most 0.1 %.
 

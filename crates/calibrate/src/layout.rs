@@ -2,8 +2,8 @@
 //! one after the other, decided by the data.
 //!
 //! ```text
-//! g = [ p (33 kinematic) | C_a (3) | C_b (3) | … ]                     ball touches
-//!       always             one per ball tied by a distance
+//! g = [ p (33 kinematic) | C_a (3) r_a (1) | C_b (3) r_b (1) | … ]     ball touches
+//!       always             one per ball tied by a distance (r: per-ball radius)
 //! g = [ p (33) | s (6) | F_1 (6) | F_2 (6) | … | B (6) | B_k (3) | o_k (6) | … ]
 //!                scales  one frame per session   body   per session     instruments
 //! ```
@@ -28,12 +28,13 @@
 //!   origin, turn of the body frame and zero offsets of the legs
 //!   (machine.json's `session_model`).
 //!
-//! Every parameter of the block has a name (`x_b1`, …, `centre B07.x`), so
+//! Every parameter of the block has a name (`x_b1`, …, `centre B07.x`,
+//! `radius B07`), so
 //! that a covariance, a prior or a weak direction can be read by name.
 
 use std::ops::Range;
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, SVector};
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Vec3};
 
 /// One named group of the global block.
@@ -44,6 +45,11 @@ pub enum ParameterGroup {
     /// The centre of ball `ball` (index in artefacts.json), canonical base
     /// frame.
     BallCentre {
+        /// Index of the ball in artefacts.json.
+        ball: usize,
+    },
+    /// The radius of ball `ball` (mm), right after its centre.
+    BallRadius {
         /// Index of the ball in artefacts.json.
         ball: usize,
     },
@@ -79,6 +85,7 @@ impl ParameterGroup {
     pub fn size(self) -> usize {
         match self {
             Self::Kinematic => N_PARAMS,
+            Self::BallRadius { .. } => 1,
             Self::BallCentre { .. } | Self::BodyOrigin { .. } | Self::BodyRotation { .. } => 3,
             Self::ActuatorScales
             | Self::TrackerFrame { .. }
@@ -97,6 +104,7 @@ impl ParameterGroup {
             Self::BallCentre { ball } => axes
                 .map(|axis| format!("centre {}.{axis}", ball_ids[ball]))
                 .into(),
+            Self::BallRadius { ball } => vec![format!("radius {}", ball_ids[ball])],
             Self::ActuatorScales => (1..=6).map(|i| format!("s_{i}")).collect(),
             Self::TrackerFrame { session } => FRAME
                 .map(|c| format!("frame {}.{c}", sessions[session]))
@@ -119,27 +127,32 @@ impl ParameterGroup {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ParameterLayout {
     groups: Vec<(ParameterGroup, Range<usize>)>,
-    /// For each ball (artefacts.json order), the range of its centre in
-    /// the global block, if it is there.
-    centres: Vec<Option<Range<usize>>>,
+    /// For each ball (artefacts.json order), the range of its unknowns
+    /// (centre, then radius if it is an unknown) in the global block, if
+    /// they are there.
+    balls: Vec<Option<Range<usize>>>,
     size: usize,
 }
 
 impl ParameterLayout {
     /// The kinematic parameters, then the centres of the `coupled` balls
     /// (indices into artefacts.json's `n_balls` balls, each at most once,
-    /// in the order given).
-    pub fn new(n_balls: usize, coupled: &[usize]) -> Self {
+    /// in the order given), each followed by its radius when `radii` (each
+    /// ball's radius an unknown).
+    pub fn new(n_balls: usize, coupled: &[usize], radii: bool) -> Self {
         let mut layout = Self {
-            groups: Vec::with_capacity(1 + coupled.len()),
-            centres: vec![None; n_balls],
+            groups: Vec::with_capacity(1 + 2 * coupled.len()),
+            balls: vec![None; n_balls],
             size: 0,
         };
         layout.push(ParameterGroup::Kinematic);
         for &ball in coupled {
-            let range = layout.push(ParameterGroup::BallCentre { ball });
-            debug_assert!(layout.centres[ball].is_none(), "ball {ball} coupled twice");
-            layout.centres[ball] = Some(range);
+            let mut range = layout.push(ParameterGroup::BallCentre { ball });
+            if radii {
+                range.end = layout.push(ParameterGroup::BallRadius { ball }).end;
+            }
+            debug_assert!(layout.balls[ball].is_none(), "ball {ball} coupled twice");
+            layout.balls[ball] = Some(range);
         }
         layout
     }
@@ -147,7 +160,7 @@ impl ParameterLayout {
     /// The kinematic parameters, then `groups` in order (instrument
     /// measurements: no ball centre).
     pub fn with_groups(groups: impl IntoIterator<Item = ParameterGroup>) -> Self {
-        let mut layout = Self::new(0, &[]);
+        let mut layout = Self::new(0, &[], false);
         for group in groups {
             layout.push(group);
         }
@@ -187,38 +200,68 @@ impl ParameterLayout {
     /// The range of ball `ball`'s centre in the global block, if it is
     /// there (the ball is tied by a distance).
     pub fn centre(&self, ball: usize) -> Option<Range<usize>> {
-        self.centres.get(ball).cloned().flatten()
+        self.ball(ball).map(|range| range.start..range.start + 3)
+    }
+
+    /// The range of ball `ball`'s unknowns in the global block (its
+    /// centre, then its radius if that is an unknown), if they are there
+    /// (the ball is tied by a distance).
+    pub fn ball(&self, ball: usize) -> Option<Range<usize>> {
+        self.balls.get(ball).cloned().flatten()
     }
 
     /// Whether any ball centre is in the global block.
     pub fn has_coupled_centres(&self) -> bool {
-        self.centres.iter().any(Option::is_some)
+        self.balls.iter().any(Option::is_some)
     }
 
-    /// Every ball's centre at a state of the solver: the global block's
-    /// (`global`) for a ball whose centre is there, its group's (`groups`,
-    /// one per ball) for the others.
-    pub fn ball_centres(&self, global: &DVector<f64>, groups: &[Vec3]) -> Vec<Vec3> {
+    /// Every ball's unknowns (centre, then radius when `G` = 4) at a state
+    /// of the solver: the global block's (`global`) for a ball whose
+    /// unknowns are there, its group's (`groups`, one per ball) for the
+    /// others.
+    pub fn ball_values<const G: usize>(
+        &self,
+        global: &DVector<f64>,
+        groups: &[SVector<f64, G>],
+    ) -> Vec<SVector<f64, G>> {
         groups
             .iter()
             .enumerate()
-            .map(|(ball, group)| match self.centre(ball) {
-                Some(range) => global.fixed_rows::<3>(range.start).into_owned(),
+            .map(|(ball, group)| match self.ball(ball) {
+                Some(range) => global.fixed_rows::<G>(range.start).into_owned(),
                 None => *group,
             })
             .collect()
     }
 
-    /// Every ball's marginal sigmas: the square roots of the diagonal of
-    /// the global covariance for a ball whose centre is in the global
-    /// block, its group's sigmas (`groups`) for the others.
-    pub fn ball_sigmas(&self, global: &DMatrix<f64>, groups: &[Vec3]) -> Vec<Vec3> {
+    /// Every ball's centre at a state of the solver ([`Self::ball_values`],
+    /// its first three).
+    pub fn ball_centres<const G: usize>(
+        &self,
+        global: &DVector<f64>,
+        groups: &[SVector<f64, G>],
+    ) -> Vec<Vec3> {
+        self.ball_values(global, groups)
+            .iter()
+            .map(|v| v.fixed_rows::<3>(0).into_owned())
+            .collect()
+    }
+
+    /// Every ball's marginal sigmas (centre, then radius when `G` = 4): the
+    /// square roots of the diagonal of the global covariance for a ball
+    /// whose unknowns are in the global block, its group's sigmas
+    /// (`groups`) for the others.
+    pub fn ball_sigmas<const G: usize>(
+        &self,
+        global: &DMatrix<f64>,
+        groups: &[SVector<f64, G>],
+    ) -> Vec<SVector<f64, G>> {
         groups
             .iter()
             .enumerate()
-            .map(|(ball, group)| match self.centre(ball) {
+            .map(|(ball, group)| match self.ball(ball) {
                 Some(range) => {
-                    Vec3::from_fn(|c, _| global[(range.start + c, range.start + c)].sqrt())
+                    SVector::from_fn(|c, _| global[(range.start + c, range.start + c)].sqrt())
                 }
                 None => *group,
             })
@@ -243,7 +286,7 @@ mod tests {
 
     #[test]
     fn groups_follow_each_other_and_are_named() {
-        let layout = ParameterLayout::new(4, &[3, 1]);
+        let layout = ParameterLayout::new(4, &[3, 1], false);
         assert_eq!(layout.size(), N_PARAMS + 6);
         assert_eq!(layout.kinematic(), 0..N_PARAMS);
         assert_eq!(layout.centre(3), Some(N_PARAMS..N_PARAMS + 3));
@@ -256,6 +299,27 @@ mod tests {
         assert_eq!(names[0], PARAM_NAMES[0]);
         assert_eq!(names[N_PARAMS], "centre D.x");
         assert_eq!(names[N_PARAMS + 5], "centre B.z");
+    }
+
+    #[test]
+    fn a_tied_ball_radius_follows_its_centre() {
+        let layout = ParameterLayout::new(4, &[3, 1], true);
+        assert_eq!(layout.size(), N_PARAMS + 8);
+        assert_eq!(layout.ball(3), Some(N_PARAMS..N_PARAMS + 4));
+        assert_eq!(layout.centre(3), Some(N_PARAMS..N_PARAMS + 3));
+        assert_eq!(layout.ball(1), Some(N_PARAMS + 4..N_PARAMS + 8));
+        assert_eq!(layout.ball(0), None);
+        let ids: Vec<String> = ["A", "B", "C", "D"].map(String::from).into();
+        let names = layout.names(&ids, &[]);
+        assert_eq!(names.len(), layout.size());
+        assert_eq!(names[N_PARAMS + 2], "centre D.z");
+        assert_eq!(names[N_PARAMS + 3], "radius D");
+        assert_eq!(names[N_PARAMS + 7], "radius B");
+        let global = DVector::from_fn(layout.size(), |k, _| k as f64);
+        let groups = vec![SVector::<f64, 4>::repeat(-1.0); 4];
+        let values = layout.ball_values(&global, &groups);
+        assert_eq!(values[1][3], (N_PARAMS + 7) as f64);
+        assert_eq!(values[0], groups[0]);
     }
 
     #[test]
@@ -289,7 +353,7 @@ mod tests {
 
     #[test]
     fn without_distances_the_block_is_the_kinematic_parameters() {
-        let layout = ParameterLayout::new(27, &[]);
+        let layout = ParameterLayout::new(27, &[], true);
         assert_eq!(layout.size(), N_PARAMS);
         assert!(!layout.has_coupled_centres());
     }

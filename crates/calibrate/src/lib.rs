@@ -51,7 +51,7 @@ mod validate;
 pub mod verdict;
 
 pub use error::{CalibrateError, InstrumentTable};
-pub use options::{CalibrationOptions, Observation, PriorMode, Simulation};
+pub use options::{CalibrationOptions, Observation, PriorMode, RadiusModel, Simulation};
 pub use parcal_kinematics::ParamCovariance;
 pub use parcal_observe::WeightModel;
 pub use parcal_solver::{IterationRecord, Method};

@@ -16,6 +16,43 @@ pub enum Observation {
     Coordinates,
 }
 
+/// How the error of each ball's calibrated radius enters the calibration.
+/// The radius is calibrated once per ball (spec section 3: one draw per
+/// ball), so its error is shared by every touch of that ball.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum RadiusModel {
+    /// Each ball's radius is an unknown beside its centre, with the prior
+    /// `N(r_calibrated, σ_r²)` of artefacts.json (`radius`, `radius_sigma`);
+    /// σ_r leaves the contacts' weights. Tied balls (calibrated distances)
+    /// have their radius in the global block, next to their centre.
+    #[cfg_attr(feature = "clap", value(name = "ball"))]
+    PerBall,
+    /// The calibrated radius is data and σ_r an independent error of every
+    /// contact, in the weights (paper eq. 5 as the paper states it).
+    #[cfg_attr(feature = "clap", value(name = "contact"))]
+    PerContact,
+}
+
+impl RadiusModel {
+    /// Ball unknowns: the centre, and the radius for [`RadiusModel::PerBall`].
+    pub fn ball_unknowns(self) -> usize {
+        match self {
+            Self::PerBall => 4,
+            Self::PerContact => 3,
+        }
+    }
+}
+
+impl fmt::Display for RadiusModel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::PerBall => "ball",
+            Self::PerContact => "contact",
+        })
+    }
+}
+
 /// The a priori knowledge (paper eq. 7).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
@@ -110,6 +147,8 @@ pub struct CalibrationOptions {
     /// How the observation covariance W is formed; the propagated model is
     /// evaluated at the initial estimate and held fixed.
     pub weighting: WeightModel,
+    /// Each ball's radius an unknown, or its error independent per contact.
+    pub radius: RadiusModel,
     /// Gauss-Newton (paper eq. 5) or Levenberg-Marquardt.
     pub method: Method,
     /// Sigma of the per-contact angle prior (rad): the paper's 0.01 in paper
@@ -145,7 +184,8 @@ impl CalibrationOptions {
     }
 
     /// The paper's simulation `sim` as the paper states it (paper-mode prior
-    /// for III and IV, Gauss-Newton, propagated weights).
+    /// for III and IV, Gauss-Newton, propagated weights, the radius error
+    /// per contact in the weights of eq. 5).
     pub fn simulation(sim: Simulation) -> Self {
         let prior = if sim.has_prior() {
             PriorMode::Paper
@@ -155,6 +195,7 @@ impl CalibrationOptions {
         Self {
             observation: sim.observation(),
             prior,
+            radius: RadiusModel::PerContact,
             ..Self::default()
         }
     }
@@ -162,12 +203,13 @@ impl CalibrationOptions {
 
 impl Default for CalibrationOptions {
     /// Transformed coordinates with the propagated prior (simulation IV as
-    /// parcal recommends it), Gauss-Newton.
+    /// parcal recommends it), each ball's radius an unknown, Gauss-Newton.
     fn default() -> Self {
         Self {
             observation: Observation::Coordinates,
             prior: PriorMode::Propagated,
             weighting: WeightModel::Propagated,
+            radius: RadiusModel::PerBall,
             method: Method::GaussNewton,
             angle_sigma: 0.01,
             max_iterations: GAUSS_NEWTON_ITERATIONS,

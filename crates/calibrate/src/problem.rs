@@ -1,10 +1,10 @@
 //! The calibration as the solver sees it: one global block (the
-//! [`ParameterLayout`]: the 33 kinematic parameters, then the centres of
-//! the balls tied by calibrated distances), one group per ball (its centre,
-//! 3; held fixed for a ball whose centre is in the global block), one point
-//! per contact (its two angles for the coordinate observation, none for the
-//! radius observation), the distances as global observations, and the
-//! priors.
+//! [`ParameterLayout`]: the 33 kinematic parameters, then the unknowns of
+//! the balls tied by calibrated distances), one group per ball (its centre
+//! and, for a per-ball radius, its radius: `G` = 3 or 4; held fixed for a
+//! ball whose unknowns are in the global block), one point per contact (its
+//! two angles for the coordinate observation, none for the radius
+//! observation), the distances as global observations, and the priors.
 //!
 //! Each contact's residual is its observation block (`parcal_observe`) at the
 //! tool tip given by forward kinematics of the current parameters at the
@@ -16,7 +16,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, U3, UnitVector3, Vector2};
+use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2};
 use parcal_kinematics::lanes::{PivotOrder, forward_along_batch, forward_jacobian_batch};
 use parcal_kinematics::{
     ForwardOptions, Geometry, KinematicsError, N_PARAMS, Params, Pose, SolutionAlong,
@@ -133,31 +133,32 @@ impl ContactObservations<3, 2> for CoordinateObservations {
 /// `J_f` in factored form instead of formed: a combination of its rows
 /// costs a 6 x 3 product and a sparse row, a product with a step a sparse
 /// row and a 3 x 6 product. The kinematic parameters are the global
-/// block's first 33 columns; a contact on a ball whose centre is in the
-/// global block ([`ParameterLayout::centre`]) also has its `dc/dC` there;
-/// every other column is zero.
+/// block's first 33 columns; a contact on a ball whose unknowns are in the
+/// global block ([`ParameterLayout::ball`]) also has their `G` columns
+/// there (`dc/dC`, and `dc/dr` for a per-ball radius); every other column
+/// is zero.
 #[derive(Debug, Clone)]
-pub struct ContactJacobian<const R: usize> {
+pub struct ContactJacobian<const R: usize, const G: usize> {
     /// The whitened `dc/dT` (R x 3).
     pub d_tip: SMatrix<f64, R, 3>,
     /// The contact's forward kinematics and `J_f` there.
     pub tip: SolutionJacobian,
-    /// For a ball whose centre is in the global block: the centre's first
-    /// column and the whitened `dc/dC` (R x 3).
-    pub centre: Option<(usize, SMatrix<f64, R, 3>)>,
+    /// For a ball whose unknowns are in the global block: their first
+    /// column and the whitened `dc/d(C, r)` (R x G).
+    pub centre: Option<(usize, SMatrix<f64, R, G>)>,
 }
 
-impl<const R: usize> ContactJacobian<R> {
-    /// `dc/dC · δC` for a ball whose centre is in the global block, else 0.
+impl<const R: usize, const G: usize> ContactJacobian<R, G> {
+    /// `dc/d(C, r) · δ(C, r)` for a ball whose unknowns are in the global
+    /// block, else 0.
     fn centre_step(&self, v: &DVector<f64>) -> SVector<f64, R> {
-        self.centre
-            .map_or_else(SVector::zeros, |(start, d_centre)| {
-                d_centre * v.fixed_rows::<3>(start)
-            })
+        self.centre.map_or_else(SVector::zeros, |(start, d_ball)| {
+            d_ball * v.fixed_rows::<G>(start)
+        })
     }
 }
 
-impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
+impl<const R: usize, const G: usize> GlobalJacobian<R> for ContactJacobian<R, G> {
     fn zeros(_global_size: usize) -> Self {
         Self {
             d_tip: SMatrix::zeros(),
@@ -174,7 +175,7 @@ impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
         rest.fill(0.0);
         if let Some((start, d_centre)) = &self.centre {
             let row = d_centre.tr_mul(&c);
-            out[*start..*start + 3].copy_from_slice(row.as_slice());
+            out[*start..*start + G].copy_from_slice(row.as_slice());
         }
     }
 
@@ -196,7 +197,7 @@ impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
             }
         }
         if let Some((start, d_centre)) = &self.centre {
-            for (o, column) in out[*start..*start + 3]
+            for (o, column) in out[*start..*start + G]
                 .iter_mut()
                 .zip(d_centre.column_iter())
             {
@@ -225,13 +226,13 @@ impl<const R: usize> GlobalJacobian<R> for ContactJacobian<R> {
 
 /// What every contact of a pass needs of the global block, made once per
 /// pass: the canonical geometry of the kinematic parameters, and the
-/// centres of the balls whose centre is in the global block.
-pub struct GlobalValues {
+/// unknowns of the balls whose unknowns are in the global block.
+pub struct GlobalValues<const G: usize> {
     /// The canonical geometry of the kinematic parameters.
     pub geometry: Geometry,
-    /// Per ball (artefacts.json order): its centre if it is in the global
-    /// block.
-    pub centres: Vec<Option<Vec3>>,
+    /// Per ball (artefacts.json order): its centre (and radius, `G` = 4)
+    /// if they are in the global block.
+    pub balls: Vec<Option<SVector<f64, G>>>,
 }
 
 /// A calibrated distance between two balls' centres, both in the global
@@ -251,8 +252,11 @@ pub(crate) fn kinematic_params(global: &DVector<f64>) -> Params {
     params
 }
 
-/// The least-squares problem of one calibration, contacts sorted by ball.
-pub struct CalibrationProblem<'a, O> {
+/// The least-squares problem of one calibration, contacts sorted by ball;
+/// `G` unknowns per ball: its centre (`G` = 3, the calibrated radius is
+/// data), or its centre and radius (`G` = 4,
+/// [`crate::RadiusModel::PerBall`]).
+pub struct CalibrationProblem<'a, O, const G: usize> {
     /// The design in canonical frames (its home pose is the start of a
     /// contact's first forward kinematics when the solver is given no
     /// caches).
@@ -265,27 +269,32 @@ pub struct CalibrationProblem<'a, O> {
     pub rows: &'a [u32],
     /// Contacts of each ball (contiguous).
     pub groups: &'a [Range<usize>],
-    /// Calibrated radius of each ball (the groups are the balls, in order).
+    /// Calibrated radius of each ball (the groups are the balls, in order);
+    /// with `G` = 4 only the prior's mean and the start.
     pub radii: Vec<f64>,
     /// The observation of every contact (radius or coordinates).
     pub observations: O,
-    /// The global block: the kinematic parameters, then the centres of the
+    /// The global block: the kinematic parameters, then the unknowns of the
     /// balls tied by distances.
     pub layout: ParameterLayout,
     /// The calibrated distances (artefacts.json order).
     pub distances: Vec<DistanceObservation>,
     /// The prior on the global block (kinematic parameters and, where the
-    /// balls have centre priors, the centres in the block).
+    /// balls have priors, the ball unknowns in the block).
     pub global_prior: Option<GaussianPrior<Dyn>>,
-    /// The priors of the balls' centres (artefacts.json order); those of
-    /// balls whose centre is in the global block are part of
-    /// `global_prior` instead.
-    pub centre_priors: Option<Vec<GaussianPrior<U3>>>,
+    /// The priors of the balls' unknowns (artefacts.json order): the
+    /// centre's where it has one (zero information otherwise) and, with
+    /// `G` = 4, the radius's; those of balls whose unknowns are in the
+    /// global block are part of `global_prior` instead.
+    pub ball_priors: Option<Vec<GaussianPrior<Const<G>>>>,
     /// Forward kinematics' tolerance and iteration limit.
     pub forward_options: ForwardOptions,
 }
 
-impl<O> CalibrationProblem<'_, O> {
+impl<O, const G: usize> CalibrationProblem<'_, O, G> {
+    /// Whether each ball's radius is an unknown (its group's last value).
+    const RADIUS_UNKNOWN: bool = G == 4;
+
     fn row(&self, i: usize) -> usize {
         self.rows[i] as usize
     }
@@ -322,38 +331,50 @@ impl<O> CalibrationProblem<'_, O> {
     }
 
     /// Contact `i`'s whitened observation block at the tool tip `tip`
-    /// (from its forward kinematics, paper eq. 2), its ball's centre and its
-    /// angles, into `out` (all but `d_global.tip`, the kinematics). `dc/dC`
-    /// goes to the group's columns, or to the global block's for a ball
-    /// whose centre is there (`in_global`: its first column).
+    /// (from its forward kinematics, paper eq. 2), its ball's unknowns and
+    /// its angles, into `out` (all but `d_global.tip`, the kinematics).
+    /// `dc/d(C, r)` goes to the group's columns, or to the global block's
+    /// for a ball whose unknowns are there (`in_global`: their first
+    /// column).
     fn observe_contact<const R: usize, const P: usize>(
         &self,
         i: usize,
         tip: &Vec3,
-        (centre, in_global): (&Vec3, Option<usize>),
+        (ball, in_global): (&SVector<f64, G>, Option<usize>),
         angles: &SVector<f64, P>,
-        out: &mut Linearization<3, P, R, ContactJacobian<R>>,
+        out: &mut Linearization<G, P, R, ContactJacobian<R, G>>,
     ) -> Result<(), CalibrateError>
     where
         O: ContactObservations<R, P>,
     {
+        let centre = ball.fixed_rows::<3>(0).into_owned();
+        let radius = if Self::RADIUS_UNKNOWN {
+            ball[G - 1]
+        } else {
+            self.radius(i)
+        };
         let block = self
             .observations
-            .block(i, self.radius(i), tip, centre, angles)
+            .block(i, radius, tip, &centre, angles)
             .map_err(|source| CalibrateError::Observation {
                 row: self.row(i),
                 source,
             })?;
         out.residual = block.residual;
         out.d_global.d_tip = block.d_tip;
+        let mut d_ball = SMatrix::<f64, R, G>::zeros();
+        d_ball.fixed_columns_mut::<3>(0).copy_from(&block.d_centre);
+        if Self::RADIUS_UNKNOWN {
+            d_ball.column_mut(G - 1).copy_from(&block.d_radius);
+        }
         match in_global {
             Some(start) => {
-                out.d_global.centre = Some((start, block.d_centre));
+                out.d_global.centre = Some((start, d_ball));
                 out.d_group = SMatrix::zeros();
             }
             None => {
                 out.d_global.centre = None;
-                out.d_group = block.d_centre;
+                out.d_group = d_ball;
             }
         }
         out.d_point = block.d_angles;
@@ -365,28 +386,29 @@ impl<O> CalibrationProblem<'_, O> {
         self.ball[self.row(i)] as usize
     }
 
-    /// The radius of contact `i`'s ball.
+    /// The calibrated radius of contact `i`'s ball.
     fn radius(&self, i: usize) -> f64 {
         self.radii[self.ball_of(i)]
     }
 
-    /// The centre of the ball of contact `first` (its group's, or the
-    /// global block's) and, for the latter, its first global column.
-    fn centre_of(
+    /// The unknowns of the ball of contact `first` (its group's, or the
+    /// global block's) and, for the latter, their first global column.
+    fn ball_unknowns(
         &self,
         first: usize,
-        global: &GlobalValues,
-        group: &SVector<f64, 3>,
-    ) -> (Vec3, Option<usize>) {
+        global: &GlobalValues<G>,
+        group: &SVector<f64, G>,
+    ) -> (SVector<f64, G>, Option<usize>) {
         let ball = self.ball_of(first);
-        match global.centres[ball] {
-            Some(centre) => (centre, self.layout.centre(ball).map(|r| r.start)),
-            None => (Vec3::from(*group), None),
+        match global.balls[ball] {
+            Some(values) => (values, self.layout.ball(ball).map(|r| r.start)),
+            None => (*group, None),
         }
     }
 }
 
-impl<const R: usize, const P: usize, O> Problem<3, P, R> for CalibrationProblem<'_, O>
+impl<const R: usize, const P: usize, const G: usize, O> Problem<G, P, R>
+    for CalibrationProblem<'_, O, G>
 where
     O: ContactObservations<R, P>,
 {
@@ -395,31 +417,31 @@ where
     /// ([`forward_jacobian_batch`], [`forward_along_batch`]).
     type Workspace = PivotOrder;
     type Error = CalibrateError;
-    type Jacobian = ContactJacobian<R>;
+    type Jacobian = ContactJacobian<R, G>;
     /// Every contact of a pass is linearised at the same parameters: their
     /// canonical geometry is built once per pass.
-    type Global = GlobalValues;
+    type Global = GlobalValues<G>;
 
-    /// The layout's size: 33, plus 3 per ball tied by a distance.
+    /// The layout's size: 33, plus `G` per ball tied by a distance.
     fn global_size(&self) -> usize {
         self.layout.size()
     }
 
-    fn prepare_global(&self, global: &DVector<f64>) -> GlobalValues {
+    fn prepare_global(&self, global: &DVector<f64>) -> GlobalValues<G> {
         GlobalValues {
             geometry: params::from_params(&kinematic_params(global)),
-            centres: (0..self.radii.len())
+            balls: (0..self.radii.len())
                 .map(|ball| {
-                    let range = self.layout.centre(ball)?;
-                    Some(global.fixed_rows::<3>(range.start).into_owned())
+                    let range = self.layout.ball(ball)?;
+                    Some(global.fixed_rows::<G>(range.start).into_owned())
                 })
                 .collect(),
         }
     }
 
-    /// The balls whose centre is in the global block.
+    /// The balls whose unknowns are in the global block.
     fn group_is_fixed(&self, k: usize) -> bool {
-        self.layout.centre(k).is_some()
+        self.layout.ball(k).is_some()
     }
 
     fn n_groups(&self) -> usize {
@@ -440,11 +462,11 @@ where
     fn linearize(
         &self,
         i: usize,
-        global: &GlobalValues,
-        group: &SVector<f64, 3>,
+        global: &GlobalValues<G>,
+        group: &SVector<f64, G>,
         point: &SVector<f64, P>,
         cache: &mut Pose,
-        out: &mut Linearization<3, P, R, ContactJacobian<R>>,
+        out: &mut Linearization<G, P, R, ContactJacobian<R, G>>,
     ) -> Result<(), CalibrateError> {
         let (points, caches, out) = (
             std::slice::from_ref(point),
@@ -468,11 +490,11 @@ where
     fn linearize_batch(
         &self,
         first: usize,
-        global: &GlobalValues,
-        group: &SVector<f64, 3>,
+        global: &GlobalValues<G>,
+        group: &SVector<f64, G>,
         points: &[SVector<f64, P>],
         caches: &mut [Pose],
-        out: &mut [Linearization<3, P, R, ContactJacobian<R>>],
+        out: &mut [Linearization<G, P, R, ContactJacobian<R, G>>],
         workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
         let n = out.len();
@@ -485,18 +507,12 @@ where
             out,
             |out| &mut out.d_global.tip,
         );
-        let (centre, in_global) = self.centre_of(first, global, group);
+        let (ball, in_global) = self.ball_unknowns(first, global, group);
         self.contact_by_contact(first, n, kinematics, |j| {
             let solution = &out[j].d_global.tip;
             let tip = solution.tool_tip;
             caches[j] = solution.pose;
-            self.observe_contact(
-                first + j,
-                &tip,
-                (&centre, in_global),
-                &points[j],
-                &mut out[j],
-            )
+            self.observe_contact(first + j, &tip, (&ball, in_global), &points[j], &mut out[j])
         })
     }
 
@@ -507,12 +523,12 @@ where
     fn linearize_along(
         &self,
         i: usize,
-        global: &GlobalValues,
-        group: &SVector<f64, 3>,
+        global: &GlobalValues<G>,
+        group: &SVector<f64, G>,
         point: &SVector<f64, P>,
         cache: &mut Pose,
         dg: &DVector<f64>,
-        out: &mut Linearization<3, P, R, ContactJacobian<R>>,
+        out: &mut Linearization<G, P, R, ContactJacobian<R, G>>,
     ) -> Result<SVector<f64, R>, CalibrateError> {
         let mut step = SVector::zeros();
         let (points, caches, out, steps) = (
@@ -535,12 +551,12 @@ where
     fn linearize_along_batch(
         &self,
         first: usize,
-        global: &GlobalValues,
-        group: &SVector<f64, 3>,
+        global: &GlobalValues<G>,
+        group: &SVector<f64, G>,
         points: &[SVector<f64, P>],
         caches: &mut [Pose],
         dg: &DVector<f64>,
-        out: &mut [Linearization<3, P, R, ContactJacobian<R>>],
+        out: &mut [Linearization<G, P, R, ContactJacobian<R, G>>],
         steps: &mut [SVector<f64, R>],
         workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
@@ -556,13 +572,13 @@ where
             workspace,
             &mut solutions[..n],
         );
-        let (centre, in_global) = self.centre_of(first, global, group);
+        let (ball, in_global) = self.ball_unknowns(first, global, group);
         self.contact_by_contact(first, n, kinematics, |j| {
             let solution = &solutions[j];
             self.observe_contact(
                 first + j,
                 &solution.tool_tip,
-                (&centre, in_global),
+                (&ball, in_global),
                 &points[j],
                 &mut out[j],
             )?;
@@ -577,13 +593,13 @@ where
         self.global_prior.as_ref()
     }
 
-    /// A ball's centre prior, unless its centre is in the global block
-    /// (then the prior is part of the global one).
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<U3>> {
+    /// A ball's prior, unless its unknowns are in the global block (then
+    /// the prior is part of the global one).
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<Const<G>>> {
         if self.group_is_fixed(k) {
             return None;
         }
-        self.centre_priors.as_ref().map(|priors| priors[k].clone())
+        self.ball_priors.as_ref().map(|priors| priors[k].clone())
     }
 
     /// The calibrated distances, `c = (L_ab − |C_a − C_b|) / σ_ab`

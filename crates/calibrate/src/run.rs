@@ -21,7 +21,7 @@ use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::reliability::Reliability;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
-use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
+use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
 
 /// The outcome of one calibration.
 pub struct CalibrationRun {
@@ -48,6 +48,11 @@ pub struct CalibrationRun {
     pub centres: Vec<Vec3>,
     /// Marginal sigmas of the centres (with the parameters' uncertainty).
     pub centre_sigmas: Option<Vec<Vec3>>,
+    /// Identified ball radii, when each ball's radius was an unknown
+    /// ([`crate::RadiusModel::PerBall`]).
+    pub radii: Option<Vec<f64>>,
+    /// Their marginal sigmas.
+    pub radius_sigmas: Option<Vec<f64>>,
     /// Balls whose contacts fit far worse than the noise allows
     /// ([`crate::fit`]) at the final iterate; empty when none is, or when
     /// the run failed before it.
@@ -144,11 +149,15 @@ impl CalibrationRun {
             .enumerate()
             .map(|(k, id)| {
                 let sigma = self.centre_sigmas.as_ref().map_or(Vec3::zeros(), |s| s[k]);
+                let radius = self.radii.as_ref().map(|r| r[k]);
                 (
                     id.clone(),
                     CentreEstimate {
                         centre: self.centres[k].into(),
                         sigma: sigma.into(),
+                        radius,
+                        radius_sigma: radius
+                            .map(|_| self.radius_sigmas.as_ref().map_or(0.0, |s| s[k])),
                     },
                 )
             })
@@ -179,6 +188,7 @@ impl CalibrationRun {
             Method::LevenbergMarquardt { .. } => "levenberg-marquardt",
         };
         options.insert("method".to_string(), method.into());
+        options.insert("radius".to_string(), self.options.radius.to_string().into());
         parcal_dataset::Calibration {
             canonical: GeometryRecord {
                 base_joints: geometry.base.map(Into::into),
@@ -302,13 +312,21 @@ fn calibrate_once(
         solver: &solver_options,
         ball_ids: &ball_ids,
     };
-    let solved = match observations {
-        Observations::Radius(observations) => {
-            let mut problem = setup.problem(dataset, options, observations);
+    let solved = match (observations, options.radius) {
+        (Observations::Radius(observations), RadiusModel::PerContact) => {
+            let mut problem = setup.problem::<_, 3>(dataset, options, observations);
             solver.solve(&mut problem, poses, observer, 1)?
         }
-        Observations::Coordinates(observations) => {
-            let mut problem = setup.problem(dataset, options, observations);
+        (Observations::Radius(observations), RadiusModel::PerBall) => {
+            let mut problem = setup.problem::<_, 4>(dataset, options, observations);
+            solver.solve(&mut problem, poses, observer, 1)?
+        }
+        (Observations::Coordinates(observations), RadiusModel::PerContact) => {
+            let mut problem = setup.problem::<_, 3>(dataset, options, observations);
+            solver.solve(&mut problem, poses, observer, 3)?
+        }
+        (Observations::Coordinates(observations), RadiusModel::PerBall) => {
+            let mut problem = setup.problem::<_, 4>(dataset, options, observations);
             solver.solve(&mut problem, poses, observer, 3)?
         }
     };
@@ -335,6 +353,9 @@ fn calibrate_once(
             sigmas,
             &ball_ids,
         ));
+    }
+    if let (Some(radii), Some(sigmas)) = (&solved.radii, &solved.radius_sigmas) {
+        conflicts.push(radius_conflict(dataset, radii, sigmas));
     }
     let prior_consistency = match (options.prior, &setup.prior) {
         (PriorMode::Paper, Some(paper)) => {
@@ -363,6 +384,8 @@ fn calibrate_once(
         ball_ids,
         centres: solved.centres,
         centre_sigmas: solved.centre_sigmas,
+        radii: solved.radii,
+        radius_sigmas: solved.radius_sigmas,
         ball_misfits: solved.ball_misfits,
         mirrored: solved.mirrored,
         status: solved.status,
@@ -401,12 +424,28 @@ fn centre_conflict(
     ConflictTest::new("ball centres", names, &d, &prior, &posterior, chi_square)
 }
 
+/// The conflict test of the radius priors of a per-ball radius (mean: the
+/// calibrated radius, sigma: artefacts.json's radius_sigma), each named
+/// `radius ID`: a calibrated radius the touches contradict shows here.
+fn radius_conflict(dataset: &Dataset, radii: &[f64], sigmas: &[f64]) -> ConflictTest {
+    let balls = &dataset.artefacts.balls;
+    let names = balls.iter().map(|ball| format!("radius {}", ball.id));
+    let d: Vec<f64> = balls.iter().zip(radii).map(|(b, r)| r - b.radius).collect();
+    let prior: Vec<f64> = balls.iter().map(|b| b.radius_sigma.powi(2)).collect();
+    let posterior: Vec<f64> = sigmas.iter().map(|s| s * s).collect();
+    let chi_square = d.iter().zip(&prior).map(|(d, v)| d * d / v).sum();
+    ConflictTest::new("ball radii", names, &d, &prior, &posterior, chi_square)
+}
+
 /// The parts of a solution that do not depend on the point block size.
 struct Solved {
     params: Params,
     covariance: Option<ParamCovariance>,
     centres: Vec<Vec3>,
     centre_sigmas: Option<Vec<Vec3>>,
+    /// With a per-ball radius: the radii and their sigmas.
+    radii: Option<Vec<f64>>,
+    radius_sigmas: Option<Vec<f64>>,
     /// The balls that fit their contacts far worse than the noise allows.
     ball_misfits: Vec<BallMisfit>,
     status: Status,
@@ -438,9 +477,9 @@ impl SolverRun<'_> {
     /// balls on the wrong side of their contacts ([`crate::mirror`]); if
     /// there are, the run stops there, re-seeds them and resumes (once: the
     /// re-seeded balls' warm starts are those of that iterate).
-    fn solve<const P: usize, const R: usize, O>(
+    fn solve<const G: usize, const P: usize, const R: usize, O>(
         &self,
-        problem: &mut CalibrationProblem<'_, O>,
+        problem: &mut CalibrationProblem<'_, O, G>,
         poses: Vec<Pose>,
         mut observer: &mut dyn FnMut(&IterationRecord),
         rows_per_contact: usize,
@@ -457,7 +496,7 @@ impl SolverRun<'_> {
         };
         let mut solution = solve_with_caches(
             &*problem,
-            setup.initial_state(),
+            setup.initial_state(self.dataset),
             &mut caches,
             self.solver,
             &mut watch,
@@ -480,17 +519,22 @@ impl SolverRun<'_> {
                     self.options.weighting,
                     k,
                 )?;
-                if let Some(priors) = &mut problem.centre_priors {
-                    priors[k].mean = initial_centre;
+                if let Some(priors) = &mut problem.ball_priors {
+                    priors[k]
+                        .mean
+                        .fixed_rows_mut::<3>(0)
+                        .copy_from(&initial_centre);
                 }
-                state.groups[k] = side.mirror.centre;
+                state.groups[k]
+                    .fixed_rows_mut::<3>(0)
+                    .copy_from(&side.mirror.centre);
                 if let Some(range) = setup.layout.centre(k) {
                     state
                         .global
                         .rows_mut(range.start, 3)
                         .copy_from(&side.mirror.centre);
                     if let (Some(global), Some(_)) =
-                        (&mut problem.global_prior, &problem.centre_priors)
+                        (&mut problem.global_prior, &problem.ball_priors)
                     {
                         global
                             .mean
@@ -527,11 +571,30 @@ impl SolverRun<'_> {
             .map_or_else(Vec::new, |costs| self.misfits(costs));
         let layout = &setup.layout;
         let state = &solution.state;
-        let centre_sigmas = solution
+        let ball_sigmas = solution
             .group_sigmas
             .as_deref()
             .zip(solution.covariance.as_ref())
             .map(|(groups, global)| layout.ball_sigmas(global, groups));
+        let centre_sigmas = ball_sigmas.as_ref().map(|sigmas| {
+            sigmas
+                .iter()
+                .map(|s| s.fixed_rows::<3>(0).into_owned())
+                .collect()
+        });
+        // A per-ball radius is each ball's last unknown.
+        let radius_unknown = G == 4;
+        let radii = radius_unknown.then(|| {
+            layout
+                .ball_values(&state.global, &state.groups)
+                .iter()
+                .map(|v| v[G - 1])
+                .collect()
+        });
+        let radius_sigmas = ball_sigmas
+            .as_ref()
+            .filter(|_| radius_unknown)
+            .map(|sigmas| sigmas.iter().map(|s| s[G - 1]).collect());
         let (rows, unknowns) =
             rows_and_unknowns(&*problem, setup.order.len(), problem.distances.len());
         let global_test = solution.history.last().and_then(|record| {
@@ -563,6 +626,8 @@ impl SolverRun<'_> {
             params: kinematic_params(&state.global),
             centres: layout.ball_centres(&state.global, &state.groups),
             centre_sigmas,
+            radii,
+            radius_sigmas,
             covariance: solution
                 .covariance
                 .map(|c| c.fixed_view::<N_PARAMS, N_PARAMS>(0, 0).into_owned()),
@@ -646,12 +711,12 @@ struct WrongSideWatch<'r, 'o> {
     found: Result<Vec<(WrongSide, Vec<Vec3>)>, CalibrateError>,
 }
 
-impl<const P: usize> Monitor<3, P, Pose> for WrongSideWatch<'_, '_> {
+impl<const G: usize, const P: usize> Monitor<G, P, Pose> for WrongSideWatch<'_, '_> {
     fn record(&mut self, record: &IterationRecord) {
         (self.observer)(record);
     }
 
-    fn inspect(&mut self, iterate: &Iterate<'_, 3, P, Pose>) -> parcal_solver::Decision {
+    fn inspect(&mut self, iterate: &Iterate<'_, G, P, Pose>) -> parcal_solver::Decision {
         if iterate.relative_change() > SETTLED {
             return parcal_solver::Decision::Continue;
         }

@@ -8,9 +8,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{
-    DMatrix, DVector, Dyn, Matrix3x6, SMatrix, SVector, U3, UnitVector3, Vector3, Vector6,
-};
+use nalgebra::{Const, DMatrix, DVector, Dyn, Matrix3x6, SMatrix, SVector, UnitVector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
@@ -27,7 +25,7 @@ use crate::problem::{
     CalibrationProblem, CoordinateObservations, DistanceObservation, RadiusObservations,
 };
 use crate::sphere_fit::{SphereFitError, best_fit, mirror_fit};
-use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode};
+use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode, RadiusModel};
 
 /// The initial estimate and everything derived from the dataset once.
 pub struct Setup {
@@ -49,9 +47,11 @@ pub struct Setup {
     /// The design's forward kinematics of every contact (sorted order): the
     /// solver's warm starts, to be moved into it (`std::mem::take`).
     pub poses: Vec<Pose>,
-    /// The global block: the kinematic parameters, then the centres of the
+    /// The global block: the kinematic parameters, then the unknowns of the
     /// balls that calibrated distances tie together.
     pub layout: ParameterLayout,
+    /// Each ball's radius an unknown, or its error in the contacts' weights.
+    pub radius: RadiusModel,
 }
 
 /// The observations of every contact (sorted order), for the observation
@@ -74,8 +74,10 @@ impl Setup {
     /// design's canonical parameters; each ball centre = the best fit of its
     /// design-FK contact points with the calibrated radius; each contact's
     /// direction `u0` = from that centre to its design-FK point, or the
-    /// commanded approach direction when measurements.csv gives one; the
-    /// weights at that estimate (held fixed afterwards).
+    /// commanded approach direction when measurements.csv gives one; each
+    /// ball's radius (when it is an unknown) = its calibrated radius; the
+    /// weights at that estimate (held fixed afterwards), with the radius
+    /// repeatability only when its error is taken per contact.
     pub fn new(
         dataset: &Dataset,
         options: &CalibrationOptions,
@@ -91,6 +93,7 @@ impl Setup {
             order: &order,
             groups: &groups,
             model: options.weighting,
+            radius: options.radius,
         };
         let (initial_centres, poses, observations) = match options.observation {
             Observation::Radius => {
@@ -130,9 +133,14 @@ impl Setup {
             }
         };
         let prior = kinematic_prior(dataset, &design, &initial_params, options.prior)?;
-        let layout = ParameterLayout::new(dataset.artefacts.balls.len(), &tied_balls(dataset));
+        let layout = ParameterLayout::new(
+            dataset.artefacts.balls.len(),
+            &tied_balls(dataset),
+            options.radius == RadiusModel::PerBall,
+        );
         let setup = Self {
             layout,
+            radius: options.radius,
             design,
             canonical,
             initial_params,
@@ -146,19 +154,26 @@ impl Setup {
     }
 
     /// The initial state of the solver: the design's parameters, the fitted
-    /// centres and zero angles (`P` = 2 for the coordinate observation, 0
-    /// for the radius observation).
-    pub fn initial_state<const P: usize>(&self) -> State<3, P> {
+    /// centres, with `G` = 4 the calibrated radii of `dataset`, and zero
+    /// angles (`P` = 2 for the coordinate observation, 0 for the radius
+    /// observation).
+    pub fn initial_state<const G: usize, const P: usize>(&self, dataset: &Dataset) -> State<G, P> {
+        let balls: Vec<SVector<f64, G>> = self
+            .initial_centres
+            .iter()
+            .zip(&dataset.artefacts.balls)
+            .map(|(centre, ball)| ball_vector(centre, ball.radius))
+            .collect();
         let mut global = DVector::zeros(self.layout.size());
         global.rows_mut(0, N_PARAMS).copy_from(&self.initial_params);
-        for (ball, centre) in self.initial_centres.iter().enumerate() {
-            if let Some(range) = self.layout.centre(ball) {
-                global.rows_mut(range.start, 3).copy_from(centre);
+        for (k, values) in balls.iter().enumerate() {
+            if let Some(range) = self.layout.ball(k) {
+                global.rows_mut(range.start, G).copy_from(values);
             }
         }
         State {
             global,
-            groups: self.initial_centres.clone(),
+            groups: balls,
             points: vec![SVector::zeros(); self.order.len()],
         }
     }
@@ -183,6 +198,7 @@ impl Setup {
             order: &self.order,
             groups: &self.groups,
             model: weighting,
+            radius: self.radius,
         };
         let mut poses = vec![Pose::identity(); weights.len()];
         let contacts = ContactSlots {
@@ -194,14 +210,21 @@ impl Setup {
         starts.ball(ball, rows, contacts, CentreStart::Mirror)
     }
 
-    /// The problem of `observations` (which [`Setup::new`] returned).
-    pub fn problem<'a, O>(
+    /// The problem of `observations` (which [`Setup::new`] returned), with
+    /// `G` unknowns per ball: 3 for [`RadiusModel::PerContact`], 4 for
+    /// [`RadiusModel::PerBall`] ([`RadiusModel::ball_unknowns`]).
+    pub fn problem<'a, O, const G: usize>(
         &'a self,
         dataset: &'a Dataset,
         options: &CalibrationOptions,
         observations: O,
-    ) -> CalibrationProblem<'a, O> {
-        let centre_priors = centre_priors(dataset, self, options.prior);
+    ) -> CalibrationProblem<'a, O, G> {
+        assert_eq!(
+            G,
+            self.radius.ball_unknowns(),
+            "the ball unknowns of the radius model"
+        );
+        let ball_priors = ball_priors::<G>(dataset, self, options.prior);
         CalibrationProblem {
             design: self.canonical.geometry.clone(),
             q: &dataset.measurements.q,
@@ -212,8 +235,8 @@ impl Setup {
             observations,
             layout: self.layout.clone(),
             distances: self.distances(dataset),
-            global_prior: self.global_prior(centre_priors.as_deref()),
-            centre_priors,
+            global_prior: self.global_prior(ball_priors.as_deref()),
+            ball_priors,
             forward_options: ForwardOptions::default(),
         }
     }
@@ -243,13 +266,13 @@ impl Setup {
     }
 
     /// The prior on the global block: the kinematic prior on its first 33
-    /// values and, for each ball whose centre is in the block and has a
-    /// centre prior, that prior on its 3; `None` when neither exists.
-    fn global_prior(
+    /// values and, for each ball whose unknowns are in the block and have a
+    /// prior, that prior on its `G`; `None` when neither exists.
+    fn global_prior<const G: usize>(
         &self,
-        centre_priors: Option<&[GaussianPrior<U3>]>,
+        ball_priors: Option<&[GaussianPrior<Const<G>>]>,
     ) -> Option<GaussianPrior<Dyn>> {
-        let tied = |ball: usize| Some((self.layout.centre(ball)?, centre_priors?.get(ball)?));
+        let tied = |ball: usize| Some((self.layout.ball(ball)?, ball_priors?.get(ball)?));
         let any_centre = (0..self.initial_centres.len()).any(|ball| tied(ball).is_some());
         if self.prior.is_none() && !any_centre {
             return None;
@@ -266,9 +289,9 @@ impl Setup {
         }
         for ball in 0..self.initial_centres.len() {
             if let Some((range, prior)) = tied(ball) {
-                mean.rows_mut(range.start, 3).copy_from(&prior.mean);
+                mean.rows_mut(range.start, G).copy_from(&prior.mean);
                 information
-                    .view_mut((range.start, range.start), (3, 3))
+                    .view_mut((range.start, range.start), (G, G))
                     .copy_from(&prior.information);
             }
         }
@@ -321,6 +344,7 @@ struct Starts<'a> {
     order: &'a [u32],
     groups: &'a [Range<usize>],
     model: WeightModel,
+    radius: RadiusModel,
 }
 
 impl Starts<'_> {
@@ -508,10 +532,15 @@ impl Starts<'_> {
             }
         };
         let machine = &dataset.machine.repeatability;
+        // A per-ball radius carries its error as an unknown with a prior,
+        // not in the weights.
         let repeatability = Repeatability {
             actuator: machine.actuator,
             tool: machine.tool,
-            radius: artefact.radius_sigma,
+            radius: match self.radius {
+                RadiusModel::PerContact => artefact.radius_sigma,
+                RadiusModel::PerBall => 0.0,
+            },
         };
         for (k, ((&row, tip), d_q)) in rows.iter().zip(&points).zip(&d_q).enumerate() {
             let row = row as usize;
@@ -683,28 +712,48 @@ pub fn kinematic_prior(
     prior.map(Some).map_err(CalibrateError::Prior)
 }
 
-/// Ball-centre priors: paper mode, every centre about its initial estimate
-/// with the ball's `centre_sigma`; propagated mode, only when artefacts.json
-/// locates the balls in the canonical base frame.
-fn centre_priors(
+/// A ball's unknowns: its centre and, with `G` = 4, its radius.
+fn ball_vector<const G: usize>(centre: &Vec3, radius: f64) -> SVector<f64, G> {
+    SVector::from_fn(|k, _| if k < 3 { centre[k] } else { radius })
+}
+
+/// The priors of the balls' unknowns. The centres': paper mode, every
+/// centre about its initial estimate with the ball's `centre_sigma`;
+/// propagated mode, only when artefacts.json locates the balls in the
+/// canonical base frame. With `G` = 4, every ball's radius about its
+/// calibrated value with its `radius_sigma` (the calibration's statement,
+/// in every prior mode); a ball without a centre prior then has zero
+/// information on its centre. `None` when no ball has a prior.
+fn ball_priors<const G: usize>(
     dataset: &Dataset,
     setup: &Setup,
     mode: PriorMode,
-) -> Option<Vec<GaussianPrior<U3>>> {
+) -> Option<Vec<GaussianPrior<Const<G>>>> {
     let balls = &dataset.artefacts.balls;
-    let means: Vec<Vec3> = match (mode, dataset.artefacts.frame) {
-        (PriorMode::Paper, _) => setup.initial_centres.clone(),
+    let means: Option<Vec<Vec3>> = match (mode, dataset.artefacts.frame) {
+        (PriorMode::Paper, _) => Some(setup.initial_centres.clone()),
         (PriorMode::Propagated, ArtefactFrame::Canonical) => {
-            balls.iter().map(|b| Vec3::from(b.centre)).collect()
+            Some(balls.iter().map(|b| Vec3::from(b.centre)).collect())
         }
-        _ => return None,
+        _ => None,
     };
+    if means.is_none() && G == 3 {
+        return None;
+    }
     Some(
-        means
+        balls
             .iter()
-            .zip(balls)
-            .map(|(mean, ball)| {
-                GaussianPrior::from_sigmas(*mean, Vector3::repeat(ball.centre_sigma))
+            .enumerate()
+            .map(|(k, ball)| {
+                let centre = means.as_ref().map(|m| m[k]);
+                let mean = ball_vector(&centre.unwrap_or(setup.initial_centres[k]), ball.radius);
+                let centre_sigma = if centre.is_some() {
+                    ball.centre_sigma
+                } else {
+                    f64::INFINITY
+                };
+                let sigmas = ball_vector(&Vec3::repeat(centre_sigma), ball.radius_sigma);
+                GaussianPrior::from_sigmas(mean, sigmas)
             })
             .collect(),
     )

@@ -98,14 +98,17 @@ where
     let free_groups: Vec<usize> = (0..problem.n_groups())
         .filter(|&k| !problem.group_is_fixed(k))
         .collect();
-    let group_priors = free_groups
+    // A group prior's rows: its informed values (a ball's radius prior
+    // without a centre prior informs one of its four).
+    let group_priors: usize = free_groups
         .iter()
-        .filter(|&&k| problem.group_prior(k).is_some())
-        .count();
+        .filter_map(|&k| problem.group_prior(k))
+        .map(|prior| (0..C).filter(|&c| prior.information[(c, c)] > 0.0).count())
+        .sum();
     let point_priors = (0..points)
         .filter(|&i| P > 0 && problem.point_prior(i).is_some())
         .count();
-    let rows = R * points + global_rows + global_prior + C * group_priors + P * point_priors;
+    let rows = R * points + global_rows + global_prior + group_priors + P * point_priors;
     let unknowns = g + C * free_groups.len() + P * points;
     (rows, unknowns)
 }

@@ -15,7 +15,7 @@ use parcal_kinematics::{N_PARAMS, Params, Pose};
 use parcal_simulate::{Scenario, simulate};
 use parcal_solver::{BATCH, GlobalJacobian, Linearization, Problem};
 
-type Lin = Linearization<3, 2, 3, ContactJacobian<3>>;
+type Lin = Linearization<3, 2, 3, ContactJacobian<3, 3>>;
 
 fn dataset() -> Dataset {
     simulate(&Scenario::scaled(12, 7, 10f64.to_radians()), 3)

@@ -1,9 +1,10 @@
 //! The Schur solver against a plain dense solve of the FULL normal equations
 //! on the paper scenario (simulate seed 1): the first Gauss-Newton update
-//! over all unknowns (33 parameters, 27 centres, and the 378 angles of the
-//! coordinate observation) and the posterior covariance of the 33, at the
-//! initial estimate, for both observations and both priors; and with a
-//! ball plate of 60 random distances, whose balls' centres join the global
+//! over all unknowns (33 parameters, 27 centres, with a per-ball radius 27
+//! radii, and the 378 angles of the coordinate observation) and the
+//! posterior covariance of the 33, at the initial estimate, for both
+//! observations, both priors and both radius models; and with a ball plate
+//! of 60 random distances, whose balls' centres (and radii) join the global
 //! block (coupled by the distances) while the other balls keep theirs.
 //!
 //! Both sides are also compared with the exact solution of the same dense
@@ -25,8 +26,10 @@
 
 use std::time::Instant;
 
+use parcal_calibrate::layout::ParameterGroup;
+use parcal_calibrate::problem::{CalibrationProblem, ContactObservations};
 use parcal_calibrate::setup::{Observations, Setup};
-use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, Simulation};
+use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, RadiusModel, Simulation};
 use parcal_dataset::Dataset;
 use parcal_kinematics::N_PARAMS;
 use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
@@ -49,15 +52,18 @@ const PLATE: Plate = Plate {
     sigma: 1e-3,
 };
 
-/// The unknowns of the paper scenario with `angles` per contact: the 33,
-/// three per ball tied by a distance (global block), three per ball
-/// (group blocks, those of tied balls held fixed) and the angles.
-fn unknowns(setup: &Setup, angles: usize) -> usize {
-    assert_eq!(
-        setup.layout.size(),
-        33 + 3 * (setup.layout.groups().len() - 1)
-    );
-    setup.layout.size() + 81 + 189 * angles
+/// The unknowns of the paper scenario with `G` per ball and `angles` per
+/// contact: the 33, `G` per ball tied by a distance (global block), `G` per
+/// ball (group blocks, those of tied balls held fixed) and the angles.
+fn unknowns<const G: usize>(setup: &Setup, angles: usize) -> usize {
+    let tied = setup
+        .layout
+        .groups()
+        .iter()
+        .filter(|(group, _)| matches!(group, ParameterGroup::BallCentre { .. }))
+        .count();
+    assert_eq!(setup.layout.size(), 33 + G * tied);
+    setup.layout.size() + 27 * G + 189 * angles
 }
 
 /// All unknowns in the dense reference's order `[g | c_0 .. | p_0 ..]`.
@@ -396,75 +402,113 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
     assert!(failed.is_empty(), "{label}:\n  {}", failed.join("\n  "));
 }
 
-fn options(sim: Simulation, prior: PriorMode) -> CalibrationOptions {
+fn options(sim: Simulation, prior: PriorMode, radius: RadiusModel) -> CalibrationOptions {
     CalibrationOptions {
         prior,
+        radius,
         ..CalibrationOptions::simulation(sim)
     }
 }
 
-fn coordinates(prior: PriorMode, plate: Option<Plate>) {
-    let (dataset, options) = (dataset(plate), options(Simulation::IV, prior));
+/// The problem of `observations` with `G` unknowns per ball, compared.
+fn check<const G: usize, const P: usize, const R: usize, O>(
+    label: &str,
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    setup: &Setup,
+    observations: O,
+) where
+    O: ContactObservations<R, P>,
+    for<'a> CalibrationProblem<'a, O, G>: Problem<G, P, R>,
+{
+    let problem = setup.problem::<_, G>(dataset, options, observations);
+    let state = setup.initial_state::<G, P>(dataset);
+    assert_eq!(state.n_unknowns(), unknowns::<G>(setup, P));
+    compare(label, &problem, &state);
+}
+
+fn coordinates(prior: PriorMode, plate: Option<Plate>, radius: RadiusModel) {
+    let (dataset, options) = (dataset(plate), options(Simulation::IV, prior, radius));
     let (setup, observations) = Setup::new(&dataset, &options).unwrap();
     let Observations::Coordinates(observations) = observations else {
         panic!("simulation IV observes coordinates")
     };
-    let (problem, state) = (
-        setup.problem(&dataset, &options, observations),
-        setup.initial_state(),
-    );
-    assert_eq!(state.n_unknowns(), unknowns(&setup, 2));
     let plate = if plate.is_some() { ", plate" } else { "" };
-    compare(
-        &format!("coordinates, {prior} prior{plate}"),
-        &problem,
-        &state,
-    );
+    let label = format!("coordinates, {prior} prior{plate}, radius per {radius}");
+    match radius {
+        RadiusModel::PerContact => {
+            check::<3, 2, 3, _>(&label, &dataset, &options, &setup, observations)
+        }
+        RadiusModel::PerBall => {
+            check::<4, 2, 3, _>(&label, &dataset, &options, &setup, observations)
+        }
+    }
 }
 
-fn radius(prior: PriorMode, plate: Option<Plate>) {
-    let (dataset, options) = (dataset(plate), options(Simulation::III, prior));
+fn radius(prior: PriorMode, plate: Option<Plate>, radius: RadiusModel) {
+    let (dataset, options) = (dataset(plate), options(Simulation::III, prior, radius));
     let (setup, observations) = Setup::new(&dataset, &options).unwrap();
     let Observations::Radius(observations) = observations else {
         panic!("simulation III observes radii")
     };
-    let (problem, state) = (
-        setup.problem(&dataset, &options, observations),
-        setup.initial_state(),
-    );
-    assert_eq!(state.n_unknowns(), unknowns(&setup, 0));
     let plate = if plate.is_some() { ", plate" } else { "" };
-    compare(&format!("radius, {prior} prior{plate}"), &problem, &state);
+    let label = format!("radius, {prior} prior{plate}, radius per {radius}");
+    match radius {
+        RadiusModel::PerContact => {
+            check::<3, 0, 1, _>(&label, &dataset, &options, &setup, observations)
+        }
+        RadiusModel::PerBall => {
+            check::<4, 0, 1, _>(&label, &dataset, &options, &setup, observations)
+        }
+    }
 }
 
 #[test]
 fn coordinates_propagated_prior_matches_the_dense_solve() {
-    coordinates(PriorMode::Propagated, None);
+    coordinates(PriorMode::Propagated, None, RadiusModel::PerContact);
 }
 
 #[test]
 fn coordinates_paper_prior_matches_the_dense_solve() {
-    coordinates(PriorMode::Paper, None);
+    coordinates(PriorMode::Paper, None, RadiusModel::PerContact);
 }
 
 #[test]
 fn radius_propagated_prior_matches_the_dense_solve() {
-    radius(PriorMode::Propagated, None);
+    radius(PriorMode::Propagated, None, RadiusModel::PerContact);
 }
 
 #[test]
 fn radius_paper_prior_matches_the_dense_solve() {
-    radius(PriorMode::Paper, None);
+    radius(PriorMode::Paper, None, RadiusModel::PerContact);
 }
 
 #[test]
 fn coordinates_with_a_plate_match_the_dense_solve() {
-    coordinates(PriorMode::Propagated, Some(PLATE));
-    coordinates(PriorMode::Paper, Some(PLATE));
+    coordinates(PriorMode::Propagated, Some(PLATE), RadiusModel::PerContact);
+    coordinates(PriorMode::Paper, Some(PLATE), RadiusModel::PerContact);
 }
 
 #[test]
 fn radius_with_a_plate_matches_the_dense_solve() {
-    radius(PriorMode::Propagated, Some(PLATE));
-    radius(PriorMode::Paper, Some(PLATE));
+    radius(PriorMode::Propagated, Some(PLATE), RadiusModel::PerContact);
+    radius(PriorMode::Paper, Some(PLATE), RadiusModel::PerContact);
+}
+
+/// Each ball's radius an unknown (4 per ball), without and with a plate
+/// (the tied balls' radii in the global block).
+#[test]
+fn per_ball_radii_match_the_dense_solve() {
+    for prior in [PriorMode::Propagated, PriorMode::Paper] {
+        coordinates(prior, None, RadiusModel::PerBall);
+        radius(prior, None, RadiusModel::PerBall);
+    }
+}
+
+#[test]
+fn per_ball_radii_with_a_plate_match_the_dense_solve() {
+    for prior in [PriorMode::Propagated, PriorMode::Paper] {
+        coordinates(prior, Some(PLATE), RadiusModel::PerBall);
+        radius(prior, Some(PLATE), RadiusModel::PerBall);
+    }
 }

@@ -163,7 +163,9 @@ fn true_block(dataset: &Dataset, run: &InstrumentRun) -> DVector<f64> {
                 .as_slice()
                 .to_vec(),
             ParameterGroup::LegOffsets { session } => truth.sessions[session].leg_offsets.to_vec(),
-            ParameterGroup::BallCentre { .. } => unreachable!("no ball in an instrument campaign"),
+            ParameterGroup::BallCentre { .. } | ParameterGroup::BallRadius { .. } => {
+                unreachable!("no ball in an instrument campaign")
+            }
         };
         block
             .rows_mut(range.start, range.len())

@@ -4,7 +4,9 @@
 //! the contact directions and the tilts). The NEES of the 33,
 //! `(p^ - p)^T Sigma^-1 (p^ - p)`, is chi-square(33) when the covariance is
 //! honest: its mean over the seeds must lie within 4 standard errors of 33
-//! (the standard error from the seeds' own spread).
+//! (the standard error from the seeds' own spread). The radius error is
+//! taken per contact, as the paper's simulations do; `radius_model.rs`
+//! tests the per-ball radius.
 
 // Index loops over several arrays read best.
 #![allow(clippy::needless_range_loop)]

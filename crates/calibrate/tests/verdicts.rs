@@ -5,7 +5,7 @@
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::verdict::Outcome;
-use parcal_calibrate::{CalibrationOptions, CalibrationRun, calibrate};
+use parcal_calibrate::{CalibrationOptions, CalibrationRun, RadiusModel, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
@@ -55,18 +55,78 @@ fn a_blunder_is_found_and_removed() {
     assert!((snooped_rms / clean_rms - 1.0).abs() < 0.2);
 }
 
-/// Every ball's radius entered 20 um too small (the nominal radius instead
-/// of the calibrated one): the global test rejects the run, and the ball
-/// touches' variance component is above the interval. (The priors'
-/// component is as large: the wrong radius pulls the leg lengths away from
-/// their prior, so the components do not single out the touches.)
+/// One ball's radius entered 20 um too small (20 of its sigmas). With each
+/// ball's radius an unknown (the default), the radius priors' conflict test
+/// names that radius alone, and the global test rejects the run.
 #[test]
-fn a_wrong_radius_is_rejected_and_the_touches_named() {
+fn a_wrong_radius_is_named_by_its_radius_prior() {
+    let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
+    dataset.artefacts.balls[4].radius -= 0.02;
+    let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    assert!(run.converged());
+    let radii = run
+        .conflicts
+        .iter()
+        .find(|c| c.what == "ball radii")
+        .expect("the radius priors' test");
+    let offenders: Vec<(&str, f64)> = radii
+        .offenders()
+        .iter()
+        .map(|i| (i.name.as_str(), i.z.unwrap()))
+        .collect();
+    println!("radius priors' offenders: {offenders:?}");
+    assert_eq!(offenders.len(), 1, "{offenders:?}");
+    assert_eq!(offenders[0].0, "radius b05");
+    // The estimate is above the radius given: the touches pull it back.
+    assert!(offenders[0].1 > 0.0);
+    let warning = parcal_report::sentences::conflict_warning(radii).unwrap();
+    assert!(warning.contains("radius b05"), "{warning}");
+    assert_eq!(run.global_test.unwrap().outcome, Outcome::TooLarge);
+}
+
+/// Every ball's radius entered 20 um too small (the nominal radius instead
+/// of the calibrated one), with each ball's radius an unknown: the global
+/// test rejects the run, but the radius priors do not name the radii. Seven
+/// touches per ball inform each radius little (its posterior sigma is 0.88
+/// to 0.98 of the prior's), and a shift common to every ball goes into the
+/// kinematic parameters and the centres rather than into the radii.
+#[test]
+fn a_common_radius_error_is_rejected_by_the_global_test() {
     let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
     for ball in &mut dataset.artefacts.balls {
         ball.radius -= 0.02;
     }
     let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    let test = run.global_test.unwrap();
+    let radii = run
+        .conflicts
+        .iter()
+        .find(|c| c.what == "ball radii")
+        .unwrap();
+    println!(
+        "variance factor {:.2}; radius priors' chi-square {:.1} for {}",
+        test.variance_factor, radii.chi_square, radii.degrees_of_freedom
+    );
+    assert_eq!(test.outcome, Outcome::TooLarge, "{test:?}");
+    assert!(!run.verdict().accepted);
+}
+
+/// The same with the radius error per contact (paper eq. 5): the global
+/// test rejects the run, and the ball touches' variance component is above
+/// the interval. (The priors' component is as large: the wrong radius pulls
+/// the leg lengths away from their prior, so the components do not single
+/// out the touches.)
+#[test]
+fn a_wrong_radius_per_contact_is_rejected_and_the_touches_named() {
+    let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
+    for ball in &mut dataset.artefacts.balls {
+        ball.radius -= 0.02;
+    }
+    let options = CalibrationOptions {
+        radius: RadiusModel::PerContact,
+        ..CalibrationOptions::default()
+    };
+    let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     let test = run.global_test.unwrap();
     println!("variance factor {:.2}", test.variance_factor);
     assert_eq!(test.outcome, Outcome::TooLarge, "{test:?}");
@@ -90,7 +150,7 @@ fn a_wrong_radius_is_rejected_and_the_touches_named() {
 /// Over clean Monte Carlo draws of the paper scenario: the global test
 /// (5 %, two-sided) rejects at its nominal rate, within the binomial
 /// interval (4 standard errors of 5 % over the draws), and data snooping
-/// removes nothing in at least 95 % of them.
+/// removes something in at most 5 % of them (plus 4 standard errors).
 #[test]
 fn clean_data_raise_false_alarms_at_the_nominal_rate() {
     let draws = 200u64;
@@ -124,9 +184,12 @@ fn clean_data_raise_false_alarms_at_the_nominal_rate() {
         "global test rejects {rejected} of {draws} ({rate:.3}, nominal 0.05 +- {se:.3}); snooping removed something in {snooped_any}"
     );
     assert!((rate - 0.05).abs() < 4.0 * se, "rejection rate {rate}");
+    // Bonferroni makes 5 % an upper bound of the family-wise rate; the
+    // count is binomial, allowed 4 of its standard errors above it.
+    let allowed = draws as f64 * (0.05 + 4.0 * se);
     assert!(
-        snooped_any as f64 <= 0.05 * draws as f64,
-        "{snooped_any} draws lost contacts"
+        snooped_any as f64 <= allowed,
+        "{snooped_any} draws lost contacts (allowed {allowed:.1})"
     );
 }
 

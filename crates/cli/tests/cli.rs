@@ -273,6 +273,17 @@ fn calibrate_writes_calibration_json_and_compares_with_the_truth() {
         calibration.contains("\"prior\": \"propagated\"")
             && calibration.contains("\"converged\": true")
     );
+    // --sim takes the radius error per contact: no radius estimates.
+    assert!(calibration.contains("\"radius\": \"contact\""));
+    assert!(!calibration.contains("\"radius_sigma\""));
+
+    // The default: each ball's radius an unknown, written with its sigma.
+    let out = temp.path().join("per-ball.json");
+    let output = parcal(&["calibrate", dir, "--out", out.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let per_ball = parcal_dataset_calibration(&out);
+    assert!(per_ball.contains("\"radius\": \"ball\""), "{per_ball}");
+    assert!(per_ball.contains("\"radius_sigma\": "), "{per_ball}");
 
     // Paper mode: the prior warning fires.
     let out = temp.path().join("paper.json");

@@ -26,7 +26,8 @@ pub struct ParameterTable {
     pub sigma: Vec<f64>,
 }
 
-/// An identified ball centre (base frame) and the sigma of each coordinate.
+/// An identified ball centre (base frame) and the sigma of each coordinate;
+/// the identified radius and its sigma when the radius was an unknown.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CentreEstimate {
     /// Centre.
@@ -35,6 +36,12 @@ pub struct CentreEstimate {
     /// Posterior standard deviation of each coordinate.
     #[serde(deserialize_with = "shape::point")]
     pub sigma: Point3,
+    /// Identified radius (mm), when each ball's radius was an unknown.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Its posterior standard deviation (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_sigma: Option<f64>,
 }
 
 /// One iteration as calibration.json keeps it: the solver's record of the

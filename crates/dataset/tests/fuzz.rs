@@ -273,6 +273,8 @@ fn calibration() -> Calibration {
             CentreEstimate {
                 centre: [1.0, 2.0, 400.0],
                 sigma: [1e-3; 3],
+                radius: None,
+                radius_sigma: None,
             },
         )]
         .into(),

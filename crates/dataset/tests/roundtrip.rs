@@ -372,6 +372,8 @@ fn calibration() -> Calibration {
             CentreEstimate {
                 centre: [-60.0, -60.0, 360.0 + 1e-13],
                 sigma: [0.02, 0.025, 0.02],
+                radius: Some(5.0 + 3e-4),
+                radius_sigma: Some(7e-4),
             },
         )]),
         prior: "none".into(),

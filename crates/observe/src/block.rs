@@ -3,9 +3,13 @@
 //! unknowns of a calibration,
 //!
 //! ```text
-//!            p (33, global)   C_i (3, per ball)   θ_ij (P, per contact)
-//! c_ij  [    d_tip J_f        d_centre            d_angles           ]
+//!            p (33, global)   C_i (3, per ball)   r_i (1, per ball)   θ_ij (P, per contact)
+//! c_ij  [    d_tip J_f        d_centre            d_radius            d_angles           ]
 //! ```
+//!
+//! The radius column is used when each ball's radius is an unknown (one
+//! calibration error per ball); when the calibrated radius is data, the
+//! column is ignored.
 //!
 //! Every block sees the parameters only through the tool tip `T = f(q, p)`
 //! (paper eq. 2), so its parameter Jacobian is `dc/dT J_f` by the chain
@@ -31,6 +35,8 @@ pub struct BlockJacobians<const R: usize, const P: usize> {
     pub d_tip: SMatrix<f64, R, 3>,
     /// `dc/dC` with respect to the ball centre (R x 3).
     pub d_centre: SMatrix<f64, R, 3>,
+    /// `dc/dr` with respect to the ball's radius (R x 1).
+    pub d_radius: SVector<f64, R>,
     /// `dc/dθ` with respect to the contact's angles (R x P).
     pub d_angles: SMatrix<f64, R, P>,
 }
@@ -54,6 +60,7 @@ impl<const R: usize, const P: usize> BlockJacobians<R, P> {
             residual: weight.whiten(&self.residual),
             d_tip: weight.whiten(&self.d_tip),
             d_centre: weight.whiten(&self.d_centre),
+            d_radius: weight.whiten(&self.d_radius),
             d_angles: weight.whiten(&self.d_angles),
         }
     }

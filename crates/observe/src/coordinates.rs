@@ -3,12 +3,13 @@
 //!
 //! ```text
 //! c_ij = C_i + r_i u(θ_ij) − f(q_ij, p),                     3 rows,
-//! dc/dp = −J_f,   dc/dC = I,   dc/dθ = r_i du/dθ,
+//! dc/dp = −J_f,   dc/dC = I,   dc/dr = u(θ),   dc/dθ = r_i du/dθ,
 //! ```
 //!
 //! with the direction `u(θ)` of the contact's chart ([`crate::DirectionChart`]).
-//! Unknowns: the 33 parameters, the ball centre `C_i` and the contact's two
-//! angles `θ_ij`; the calibrated radius `r_i` is data.
+//! Unknowns: the 33 parameters, the ball centre `C_i`, the contact's two
+//! angles `θ_ij` and, when the radius is modelled per ball, the ball's
+//! radius `r_i` (otherwise the calibrated radius is data).
 
 use nalgebra::{Matrix3, Vector2};
 use parcal_kinematics::Vec3;
@@ -20,7 +21,8 @@ use crate::{CoordinateJacobians, CoordinateWeight, DirectionChart, Whitening};
 /// direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoordinateBlock {
-    /// The ball's calibrated radius `r_i` (mm).
+    /// The ball's radius `r_i` (mm): the calibrated one, or the current
+    /// estimate when the radius is an unknown.
     pub radius: f64,
     /// The contact's direction chart (about the initial direction `u0`).
     pub chart: DirectionChart,
@@ -30,7 +32,8 @@ impl CoordinateBlock {
     /// Paper eq. (10): `c = C + r u(θ) − T` (mm) at the tool tip `tip`
     /// (`T = f(q, p)`), the ball centre `centre` (mm, canonical base frame)
     /// and the contact's angles `angles` (rad), with `dc/dT = −I` (so
-    /// `dc/dp = −J_f`), `dc/dC = I` and `dc/dθ = r du/dθ` (mm/rad).
+    /// `dc/dp = −J_f`), `dc/dC = I`, `dc/dr = u(θ)` and `dc/dθ = r du/dθ`
+    /// (mm/rad).
     pub fn evaluate(
         &self,
         tip: &Vec3,
@@ -42,14 +45,15 @@ impl CoordinateBlock {
             residual: centre + self.radius * direction - tip,
             d_tip: -Matrix3::identity(),
             d_centre: Matrix3::identity(),
+            d_radius: direction,
             d_angles: self.radius * derivative,
         }
     }
 
     /// [`CoordinateBlock::evaluate`] whitened by `weight` (paper eq. 5),
     /// the numbers of `evaluate(..).whiten(weight)`: the identity blocks
-    /// whitened are `∓L⁻¹` itself, so that only the residual and the angle
-    /// columns are multiplied (a third of the products).
+    /// whitened are `∓L⁻¹` itself, so that only the residual, the radius
+    /// and the angle columns are multiplied.
     #[inline]
     pub fn evaluate_whitened(
         &self,
@@ -64,6 +68,7 @@ impl CoordinateBlock {
             residual: weight.whiten(&(centre + self.radius * direction - tip)),
             d_tip: -inverse,
             d_centre: inverse,
+            d_radius: weight.whiten(&direction),
             d_angles: weight.whiten(&(self.radius * derivative)),
         }
     }
@@ -73,6 +78,7 @@ impl CoordinateBlock {
 mod tests {
     use super::*;
     use crate::test_support::{Contact, assert_close, central_difference};
+    use nalgebra::SVector;
 
     #[test]
     fn derivatives_match_central_differences_through_forward_kinematics() {
@@ -111,6 +117,17 @@ mod tests {
                 block.evaluate(&tip.position, &centre, a).residual
             });
             assert_close(&analytic, &by_angles, 1e-6, "dc/dθ");
+            let analytic = block.evaluate(&tip.position, &centre, &angles).d_radius;
+            // The residual is linear in r: a large step is exact up to rounding.
+            let by_radius = central_difference(&SVector::<f64, 1>::new(5.0), 1e-2, |r| {
+                CoordinateBlock {
+                    radius: r[0],
+                    ..block
+                }
+                .evaluate(&tip.position, &centre, &angles)
+                .residual
+            });
+            assert_close(&analytic, &by_radius, 1e-9, "dc/dr");
         }
     }
 

@@ -3,11 +3,12 @@
 //!
 //! ```text
 //! c_ij = r_i − |f(q_ij, p) − C_i|,                           1 row,
-//! dc/dp = −nᵀ J_f,   dc/dC = nᵀ,   n = (T − C) / |T − C|,
+//! dc/dp = −nᵀ J_f,   dc/dC = nᵀ,   dc/dr = 1,   n = (T − C) / |T − C|,
 //! ```
 //!
 //! with `T = f(q_ij, p)` the tool tip and `J_f = dT/dp`. Unknowns: the 33
-//! parameters and the ball centre `C_i`; the calibrated radius `r_i` is data.
+//! parameters, the ball centre `C_i` and, when the radius is modelled per
+//! ball, the ball's radius `r_i` (otherwise the calibrated radius is data).
 
 use nalgebra::{SMatrix, SVector};
 use parcal_kinematics::Vec3;
@@ -18,14 +19,16 @@ use crate::{ObserveError, RadiusJacobians};
 /// `radius` (mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RadiusBlock {
-    /// The ball's calibrated radius `r_i` (mm).
+    /// The ball's radius `r_i` (mm): the calibrated one, or the current
+    /// estimate when the radius is an unknown.
     pub radius: f64,
 }
 
 impl RadiusBlock {
     /// Paper eq. (9): `c = r − |T − C|` (mm) at the tool tip `tip`
     /// (`T = f(q, p)`) and the ball centre `centre` (mm, canonical base
-    /// frame), with `dc/dT = −nᵀ` (so `dc/dp = −nᵀ J_f`) and `dc/dC = nᵀ`.
+    /// frame), with `dc/dT = −nᵀ` (so `dc/dp = −nᵀ J_f`), `dc/dC = nᵀ` and
+    /// `dc/dr = 1`.
     /// Refuses a tip at the centre, where the normal `n` is undefined.
     pub fn evaluate(&self, tip: &Vec3, centre: &Vec3) -> Result<RadiusJacobians, ObserveError> {
         let (normal, distance) =
@@ -35,6 +38,7 @@ impl RadiusBlock {
             residual: SVector::<f64, 1>::new(self.radius - distance),
             d_tip: -normal,
             d_centre: normal,
+            d_radius: SVector::<f64, 1>::new(1.0),
             d_angles: SMatrix::zeros(),
         })
     }
@@ -84,6 +88,15 @@ mod tests {
             block.evaluate(&tip.position, c).unwrap().residual
         });
         assert_close(&blocks.d_centre, &by_centre, 1e-6, "dc/dC");
+
+        // The residual is linear in r: a large step is exact up to rounding.
+        let by_radius = central_difference(&SVector::<f64, 1>::new(5.0), 1e-2, |r| {
+            RadiusBlock { radius: r[0] }
+                .evaluate(&tip.position, &centre)
+                .unwrap()
+                .residual
+        });
+        assert_close(&blocks.d_radius, &by_radius, 1e-9, "dc/dr");
     }
 
     #[test]

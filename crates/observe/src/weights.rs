@@ -38,7 +38,10 @@ pub struct Repeatability {
     pub actuator: f64,
     /// `σ_t`: the tool positioning, each axis independently.
     pub tool: f64,
-    /// `σ_r`: the ball's calibrated radius (treated per contact).
+    /// `σ_r`: the ball's calibrated radius, treated as independent per
+    /// contact (paper eq. 5); 0 when each ball's radius is an unknown with
+    /// its own prior instead (its error is then shared by the ball's
+    /// contacts, not drawn per contact).
     pub radius: f64,
 }
 
@@ -285,6 +288,7 @@ mod tests {
         assert!((whitened.residual - l * raw.residual).amax() < 1e-9);
         assert!((whitened.d_tip - l * raw.d_tip).amax() < 1e-9);
         assert!((whitened.d_centre - l * raw.d_centre).amax() < 1e-9);
+        assert!((whitened.d_radius - l * raw.d_radius).amax() < 1e-9);
         assert!((whitened.d_angles - l * raw.d_angles).amax() < 1e-9);
     }
 

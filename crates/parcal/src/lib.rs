@@ -109,7 +109,7 @@ pub use parcal_dataset::{
 // Calibration.
 pub use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, MIN_CONTACTS_PER_BALL, Method, Observation,
-    ParamCovariance, PriorMode, WeightModel, calibrate, validate,
+    ParamCovariance, PriorMode, RadiusModel, WeightModel, calibrate, validate,
 };
 pub use parcal_kinematics::{KinematicsError, N_PARAMS, PARAM_NAMES, Params};
 

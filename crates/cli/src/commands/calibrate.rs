@@ -11,7 +11,7 @@ use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
-    Simulation, WeightModel, calibrate,
+    RadiusModel, Simulation, WeightModel, calibrate,
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
 use parcal_report::{instruments, sentences, tables};
@@ -37,6 +37,11 @@ pub struct Args {
     /// Observation weights: repeatabilities propagated through the kinematics, or a plain diagonal.
     #[arg(long, value_enum, default_value = "propagated")]
     weights: WeightModel,
+    /// The calibrated radius's error: one per ball, each ball's radius an
+    /// unknown with its calibration as prior (the default), or independent
+    /// per contact in the weights (paper eq. 5, the default of --sim).
+    #[arg(long, value_enum)]
+    radius: Option<RadiusModel>,
     /// Levenberg-Marquardt instead of the paper's Gauss-Newton (eq. 5).
     #[arg(long)]
     lm: bool,
@@ -67,6 +72,9 @@ impl Args {
             options.prior = prior;
         }
         options.weighting = self.weights;
+        if let Some(radius) = self.radius {
+            options.radius = radius;
+        }
         if self.lm {
             options = options.levenberg_marquardt();
         }
@@ -100,10 +108,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         read.elapsed().as_secs_f64()
     ));
     progress.line(&format!(
-        "calibrating {} contacts: {} observation, {} prior",
+        "calibrating {} contacts: {} observation, {} prior, radius error per {}",
         dataset.measurements.q.len(),
         options.observation,
-        options.prior
+        options.prior,
+        options.radius
     ));
     let started = Instant::now();
     let observer = &mut |record: &IterationRecord| step(&progress, record, started);
