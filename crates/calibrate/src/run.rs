@@ -17,6 +17,7 @@ use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls};
 use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
+use crate::mixed::InstrumentResult;
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::reliability::Reliability;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
@@ -74,6 +75,9 @@ pub struct CalibrationRun {
     pub layout: ParameterLayout,
     /// The calibrated distances (artefacts.json) used as observations.
     pub distances_used: usize,
+    /// The poses and points calibrated with the touches, if the dataset
+    /// has any ([`crate::mixed`]).
+    pub instruments: Option<InstrumentResult>,
     /// Paper mode: the check of the diagonal prior against the propagated
     /// design tolerances ([`crate::conflict::paper_prior_consistency`]).
     pub prior_consistency: Option<String>,
@@ -198,8 +202,14 @@ impl CalibrationRun {
             converged: self.converged(),
             status,
             options,
-            machine: None,
-            sessions: Vec::new(),
+            machine: self.instruments.as_ref().map(|i| {
+                i.model
+                    .calibrated_machine(&i.model.values(&i.global), &i.sigmas(), &self.machine)
+            }),
+            sessions: self
+                .instruments
+                .as_ref()
+                .map_or_else(Vec::new, |i| i.model.session_records(&i.model.values(&i.global))),
             verdict: String::new(),
             reasons: Vec::new(),
             warnings: Vec::new(),
@@ -304,10 +314,12 @@ fn calibrate_once(
     let solved = match observations {
         Observations::Radius(observations) => {
             let mut problem = setup.problem(dataset, options, observations);
+            problem.attach_instruments(dataset, &setup.initial_state::<0>().global)?;
             solver.solve(&mut problem, poses, observer, 1)?
         }
         Observations::Coordinates(observations) => {
             let mut problem = setup.problem(dataset, options, observations);
+            problem.attach_instruments(dataset, &setup.initial_state::<0>().global)?;
             solver.solve(&mut problem, poses, observer, 3)?
         }
     };
@@ -370,6 +382,7 @@ fn calibrate_once(
         spectrum: solved.spectrum,
         conflicts,
         distances_used: dataset.artefacts.distances.len(),
+        instruments: solved.instruments,
         layout: setup.layout,
         rows: setup.order,
     })
@@ -418,6 +431,8 @@ struct Solved {
     global_test: Option<GlobalTest>,
     /// The observations' checks at the final state.
     reliability: Option<Reliability>,
+    /// The poses and points calibrated with the touches.
+    instruments: Option<InstrumentResult>,
 }
 
 /// What a solve needs besides the problem.
@@ -531,8 +546,7 @@ impl SolverRun<'_> {
             .as_deref()
             .zip(solution.covariance.as_ref())
             .map(|(groups, global)| layout.ball_sigmas(global, groups));
-        let (rows, unknowns) =
-            rows_and_unknowns(&*problem, setup.order.len(), problem.distances.len());
+        let (rows, unknowns) = rows_and_unknowns(&*problem, setup.order.len(), problem.global_rows());
         let global_test = solution.history.last().and_then(|record| {
             GlobalTest::new(
                 record.cost,
@@ -540,7 +554,7 @@ impl SolverRun<'_> {
                 GLOBAL_TEST_LEVEL,
             )
         });
-        let prior_rows = rows - rows_per_contact * setup.order.len() - problem.distances.len();
+        let prior_rows = rows - rows_per_contact * setup.order.len() - problem.global_rows();
         let reliability = match (&solution.covariance, solution.history.last()) {
             (Some(covariance), Some(last)) if solution.status == Status::Converged => {
                 Some(Reliability::new(
@@ -552,11 +566,18 @@ impl SolverRun<'_> {
                     &setup.order,
                     last.prior_cost,
                     prior_rows,
+                    &problem.global_observation_groups(),
                 )?)
             }
             _ => None,
         };
+        let instruments = problem
+            .instruments
+            .as_ref()
+            .map(|i| i.result(&state.global, solution.covariance.as_ref()))
+            .transpose()?;
         Ok(Solved {
+            instruments,
             global_test,
             reliability,
             params: kinematic_params(&state.global),

@@ -130,7 +130,8 @@ impl Setup {
             }
         };
         let prior = kinematic_prior(dataset, &design, &initial_params, options.prior)?;
-        let layout = ParameterLayout::new(dataset.artefacts.balls.len(), &tied_balls(dataset));
+        let layout = ParameterLayout::new(dataset.artefacts.balls.len(), &tied_balls(dataset))
+            .extended(crate::instruments::run::groups(dataset));
         let setup = Self {
             layout,
             design,
@@ -215,6 +216,7 @@ impl Setup {
             global_prior: self.global_prior(centre_priors.as_deref()),
             centre_priors,
             forward_options: ForwardOptions::default(),
+            instruments: None,
         }
     }
 
