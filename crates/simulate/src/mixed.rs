@@ -41,7 +41,7 @@ pub fn simulate_mixed(
     }
     let Simulation {
         dataset: mut mixed,
-        summary: mut summary,
+        mut summary,
     } = simulate(touches, seed)?;
     let instruments = simulate_tracker(tracker, Rng::new(seed, TRACKER_STREAM).next_u64())?;
     let (from, s) = (instruments.dataset, instruments.summary);
