@@ -34,7 +34,7 @@ use parcal_solver::GlobalObservations;
 use crate::CalibrateError;
 use crate::instruments::model::InstrumentModel;
 use crate::instruments::rows::InstrumentRows;
-use crate::instruments::run::{group_priors, model_and_rows, residuals};
+use crate::instruments::run::{group_priors, model_and_rows, residuals, rms};
 use crate::layout::ParameterLayout;
 use crate::problem::CalibrationProblem;
 
@@ -130,6 +130,18 @@ pub struct InstrumentResult {
 }
 
 impl InstrumentResult {
+    /// RMS of the poses' leg-length residuals (mm), or `None` without
+    /// poses.
+    pub fn leg_rms(&self) -> Option<f64> {
+        rms(self.leg_residuals.iter().flatten().copied())
+    }
+
+    /// RMS of the points' residual coordinates (mm), or `None` without
+    /// points.
+    pub fn point_rms(&self) -> Option<f64> {
+        rms(self.point_residuals.iter().flat_map(|p| p.iter().copied()))
+    }
+
     /// Marginal sigmas of the global block (zero without a covariance).
     pub fn sigmas(&self) -> DVector<f64> {
         self.covariance.as_ref().map_or_else(
@@ -138,15 +150,14 @@ impl InstrumentResult {
         )
     }
 
-    /// The names of the global block's instrument parameters with their
-    /// values and sigmas (the kinematic parameters and the ball centres
-    /// are reported with the touches').
-    pub fn parameters(&self) -> Vec<(String, f64, f64)> {
+    /// The instrument parameters with their values and sigmas, named by
+    /// `names` (the whole global block's,
+    /// [`crate::CalibrationRun::names`]); the kinematic parameters and the
+    /// ball centres are reported with the touches'.
+    pub fn parameters(&self, names: &[String]) -> Vec<(String, f64, f64)> {
         let sigmas = self.sigmas();
-        let names = self.model.layout.names(&[], &self.model.sessions);
-        let first = self.first_instrument_column();
-        (first..self.global.len())
-            .map(|k| (names[k - first].clone(), self.global[k], sigmas[k]))
+        (self.first_instrument_column()..self.global.len())
+            .map(|k| (names[k].clone(), self.global[k], sigmas[k]))
             .collect()
     }
 

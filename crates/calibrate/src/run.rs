@@ -112,6 +112,17 @@ impl CalibrationRun {
         self.history.len().saturating_sub(1) + usize::from(self.converged())
     }
 
+    /// The names of the global block's parameters
+    /// ([`ParameterLayout::names`] with the balls' ids and the sessions'
+    /// labels).
+    pub fn names(&self) -> Vec<String> {
+        let sessions = self
+            .instruments
+            .as_ref()
+            .map_or(&[][..], |i| &i.model.sessions[..]);
+        self.layout.names(&self.ball_ids, sessions)
+    }
+
     /// Marginal sigmas of the parameters.
     pub fn sigmas(&self) -> Option<Params> {
         self.covariance.map(|c| c.diagonal().map(f64::sqrt))

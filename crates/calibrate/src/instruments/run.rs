@@ -631,7 +631,8 @@ impl InstrumentModel {
     }
 }
 
-fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {
+/// The RMS of `values`, or `None` without any.
+pub(crate) fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {
     let (n, sum) = values.fold((0usize, 0.0), |(n, s), v| (n + 1, s + v * v));
     (n > 0).then(|| (sum / n as f64).sqrt())
 }
