@@ -213,9 +213,15 @@ impl<'p, O> CalibrationProblem<'p, O> {
         dataset: &'p Dataset,
         initial: &DVector<f64>,
     ) -> Result<(), CalibrateError> {
-        self.instruments = InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
+        self.instruments =
+            InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
         if let (Some(_), Some(prior)) = (&self.instruments, &mut self.global_prior) {
-            group_priors(dataset, &self.layout, &mut prior.mean, &mut prior.information);
+            group_priors(
+                dataset,
+                &self.layout,
+                &mut prior.mean,
+                &mut prior.information,
+            );
         }
         Ok(())
     }

@@ -217,10 +217,9 @@ impl CalibrationRun {
                 i.model
                     .calibrated_machine(&i.model.values(&i.global), &i.sigmas(), &self.machine)
             }),
-            sessions: self
-                .instruments
-                .as_ref()
-                .map_or_else(Vec::new, |i| i.model.session_records(&i.model.values(&i.global))),
+            sessions: self.instruments.as_ref().map_or_else(Vec::new, |i| {
+                i.model.session_records(&i.model.values(&i.global))
+            }),
             verdict: String::new(),
             reasons: Vec::new(),
             warnings: Vec::new(),
@@ -557,7 +556,8 @@ impl SolverRun<'_> {
             .as_deref()
             .zip(solution.covariance.as_ref())
             .map(|(groups, global)| layout.ball_sigmas(global, groups));
-        let (rows, unknowns) = rows_and_unknowns(&*problem, setup.order.len(), problem.global_rows());
+        let (rows, unknowns) =
+            rows_and_unknowns(&*problem, setup.order.len(), problem.global_rows());
         let global_test = solution.history.last().and_then(|record| {
             GlobalTest::new(
                 record.cost,

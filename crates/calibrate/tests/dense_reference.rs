@@ -28,8 +28,9 @@ use std::time::Instant;
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, Simulation};
 use parcal_dataset::Dataset;
+use parcal_dataset::SessionModel;
 use parcal_kinematics::N_PARAMS;
-use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
+use parcal_simulate::{Plate, PlatePairs, Scenario, TrackerScenario, simulate, simulate_mixed};
 use parcal_solver::{Problem, SolverOptions, State, Status, dense_reference, linear_step, solve};
 
 /// Relative agreement asked of the step and of the covariance.
@@ -467,4 +468,82 @@ fn coordinates_with_a_plate_match_the_dense_solve() {
 fn radius_with_a_plate_matches_the_dense_solve() {
     radius(PriorMode::Propagated, Some(PLATE));
     radius(PriorMode::Paper, Some(PLATE));
+}
+
+/// The paper scenario (with `plate`) and a laser tracker's poses and points
+/// of the same machine in two sessions of 10 rows, legs re-homed
+/// (0.5 mm): the instrument rows are global observations on the kinematic
+/// parameters, the two frames, the body frame and the second session's
+/// leg offsets ([`parcal_calibrate::mixed`]).
+fn mixed(plate: Option<Plate>) -> Dataset {
+    let tracker = TrackerScenario {
+        true_scale: [1.0; 6],
+        scale_sigma: None,
+        sessions: 2,
+        rows_per_session: 10,
+        session_model: SessionModel {
+            leg_offset_sigma: Some(0.5),
+            body_origin_sigma: None,
+            body_rotation_sigma: None,
+        },
+        ..TrackerScenario::paper_like()
+    };
+    let touches = Scenario {
+        plate,
+        ..Scenario::paper()
+    };
+    simulate_mixed(&touches, &tracker, 1)
+        .expect("simulation")
+        .dataset
+}
+
+#[test]
+fn mixed_data_match_the_dense_solve() {
+    for (plate, prior) in [
+        (None, PriorMode::Propagated),
+        (Some(PLATE), PriorMode::Paper),
+    ] {
+        let dataset = mixed(plate);
+        let options = options(Simulation::IV, prior);
+        let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+        let Observations::Coordinates(observations) = observations else {
+            panic!("simulation IV observes coordinates")
+        };
+        let mut problem = setup.problem(&dataset, &options, observations);
+        let state = setup.initial_state();
+        problem.attach_instruments(&dataset, &state.global).unwrap();
+        // 33, the tied centres, 2 frames, the body frame, 1 session's
+        // offsets; the groups; the angles.
+        let tied = 3
+            * dataset.artefacts.distances.len().min(1)
+            * setup
+                .layout
+                .groups()
+                .iter()
+                .filter(|(g, _)| {
+                    matches!(
+                        g,
+                        parcal_calibrate::layout::ParameterGroup::BallCentre { .. }
+                    )
+                })
+                .count();
+        assert_eq!(setup.layout.size(), 33 + tied + 6 + 6 + 6 + 6);
+        assert_eq!(state.n_unknowns(), setup.layout.size() + 81 + 189 * 2);
+        let plate = if plate.is_some() { ", plate" } else { "" };
+        compare(
+            &format!("mixed, coordinates, {prior} prior{plate}"),
+            &problem,
+            &state,
+        );
+    }
+    let dataset = mixed(None);
+    let options = options(Simulation::III, PriorMode::Paper);
+    let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+    let Observations::Radius(observations) = observations else {
+        panic!("simulation III observes radii")
+    };
+    let mut problem = setup.problem(&dataset, &options, observations);
+    let state = setup.initial_state();
+    problem.attach_instruments(&dataset, &state.global).unwrap();
+    compare("mixed, radius, paper prior", &problem, &state);
 }

@@ -27,9 +27,7 @@ use std::time::Instant;
 
 use common::{mean_and_standard_error, nees, true_block};
 use parcal_calibrate::CalibrationOptions;
-use parcal_calibrate::instruments::{
-    Calibrated, calibrate_instruments, validate_calibration,
-};
+use parcal_calibrate::instruments::{Calibrated, calibrate_instruments, validate_calibration};
 use parcal_dataset::{Dataset, PriorSigma, SessionModel, Tracker};
 use parcal_kinematics::{Geometry, Vec3};
 use parcal_simulate::{Rng, TrackerKind, TrackerScenario, simulate_tracker};

@@ -558,7 +558,10 @@ impl InstrumentRun {
             converged: self.converged(),
             status,
             options,
-            machine: Some(self.model.calibrated_machine(&values, &sigma, &self.machine)),
+            machine: Some(
+                self.model
+                    .calibrated_machine(&values, &sigma, &self.machine),
+            ),
             sessions: self.model.session_records(&values),
             verdict: String::new(),
             reasons: Vec::new(),

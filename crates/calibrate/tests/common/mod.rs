@@ -4,10 +4,10 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
-use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation};
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
 use parcal_calibrate::instruments::InstrumentModel;
 use parcal_calibrate::layout::ParameterGroup;
+use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation};
 use parcal_dataset::{Dataset, FrameRecord};
 use parcal_kinematics::{Geometry, Vec3, params};
 
