@@ -44,7 +44,10 @@ fn instruments(c: &mut Criterion) {
     let mut group = c.benchmark_group("instruments");
     group.sample_size(10);
     let options = CalibrationOptions::default();
-    for (name, dataset) in [("jugglebot-108", jugglebot()), ("simulated-1002", simulated())] {
+    for (name, dataset) in [
+        ("jugglebot-108", jugglebot()),
+        ("simulated-1002", simulated()),
+    ] {
         group.bench_with_input(BenchmarkId::new("calibrate", name), &dataset, |b, d| {
             b.iter(|| {
                 let run = calibrate_instruments(d, &options, &mut |_| {}).expect("calibration");

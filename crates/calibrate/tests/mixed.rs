@@ -130,10 +130,7 @@ fn mixed_with_truth_from_prior(seed: u64) -> Dataset {
         prior_sigma: TOLERANCE,
         ..Scenario::paper()
     };
-    let tracker = TrackerScenario {
-        truth,
-        ..tracker()
-    };
+    let tracker = TrackerScenario { truth, ..tracker() };
     simulate_mixed(&touches, &tracker, seed)
         .expect("simulation")
         .dataset
@@ -246,7 +243,6 @@ fn actuator_scales_with_touches_are_refused() {
     assert!(matches!(error, CalibrateError::MixedData), "{error}");
     assert!(error.to_string().contains("actuator"), "{error}");
     let error = calibrate_instruments(&mixed(1), &CalibrationOptions::default(), &mut |_| {})
-        .err()
-        .expect("refused");
+        .expect_err("refused");
     assert!(matches!(error, CalibrateError::HasTouches), "{error}");
 }
