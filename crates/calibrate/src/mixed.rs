@@ -27,8 +27,8 @@
 use std::ops::Range;
 
 use nalgebra::{DMatrix, DVector};
-use parcal_dataset::Dataset;
-use parcal_kinematics::{Geometry, Vec3};
+use parcal_dataset::{Dataset, ParameterTable};
+use parcal_kinematics::{Geometry, N_PARAMS, Vec3};
 use parcal_solver::GlobalObservations;
 
 use crate::CalibrateError;
@@ -159,6 +159,29 @@ impl InstrumentResult {
         (self.first_instrument_column()..self.global.len())
             .map(|k| (names[k].clone(), self.global[k], sigmas[k]))
             .collect()
+    }
+
+    /// calibration.json's `parameters` and `covariance`: the kinematic and
+    /// the instrument parameters (the ball centres are in `ball_centres`),
+    /// named by `names` (the whole global block's); the covariance empty
+    /// without one.
+    pub fn table(&self, names: &[String]) -> (ParameterTable, Vec<Vec<f64>>) {
+        let columns: Vec<usize> = (0..N_PARAMS)
+            .chain(self.first_instrument_column()..self.global.len())
+            .collect();
+        let sigmas = self.sigmas();
+        let table = ParameterTable {
+            names: columns.iter().map(|&k| names[k].clone()).collect(),
+            values: columns.iter().map(|&k| self.global[k]).collect(),
+            sigma: columns.iter().map(|&k| sigmas[k]).collect(),
+        };
+        let covariance = self.covariance.as_ref().map_or_else(Vec::new, |c| {
+            columns
+                .iter()
+                .map(|&a| columns.iter().map(|&b| c[(a, b)]).collect())
+                .collect()
+        });
+        (table, covariance)
     }
 
     /// The first column after the kinematic parameters and the tied

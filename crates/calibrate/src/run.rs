@@ -149,10 +149,19 @@ impl CalibrationRun {
     pub fn record(&self, status: String) -> parcal_dataset::Calibration {
         let geometry = params::from_params(&self.params);
         let sigma = self.sigmas().unwrap_or_else(Params::zeros);
-        let covariance = self
-            .covariance
-            .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
-            .unwrap_or_default();
+        let (parameters, covariance) = match &self.instruments {
+            Some(instruments) => instruments.table(&self.names()),
+            None => (
+                ParameterTable {
+                    names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
+                    values: self.params.iter().copied().collect(),
+                    sigma: sigma.iter().copied().collect(),
+                },
+                self.covariance
+                    .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
+                    .unwrap_or_default(),
+            ),
+        };
         let ball_centres = self
             .ball_ids
             .iter()
@@ -201,11 +210,7 @@ impl CalibrationRun {
                 tool: geometry.tool.into(),
                 leg_lengths: geometry.legs,
             },
-            parameters: ParameterTable {
-                names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
-                values: self.params.iter().copied().collect(),
-                sigma: sigma.iter().copied().collect(),
-            },
+            parameters,
             covariance,
             ball_centres,
             prior: self.options.prior.to_string(),
