@@ -285,3 +285,82 @@ fn hold_out_rms_is_predicted_within_20_percent() {
     println!("hold-out: {:.1} s", start.elapsed().as_secs_f64());
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Seeds of the diagnosis at the paper-like tolerance.
+const PAPER_LIKE_SEEDS: u64 = 60;
+
+/// At the paper-like 0.1 mm tolerance the mean NEES of the whole block
+/// exceeds its size (module doc). Where the excess is: the NEES of the 33
+/// alone must stay within [`STANDARD_ERRORS`] of 33, both for a true
+/// machine drawn in the input coordinates and for one drawn in the
+/// canonical parameters from the Gaussian prior itself (which takes the
+/// linearisation of the prior's propagation out of the question); the
+/// whole block's is printed (docs/formulation.md, section 7).
+#[test]
+#[ignore = "a diagnosis: cargo test -p parcal-calibrate --test instruments_monte_carlo -- --ignored --nocapture"]
+fn at_the_paper_like_tolerance_the_kinematic_block_stays_honest() {
+    use nalgebra::DVector;
+    use parcal_kinematics::{N_PARAMS, Params, params};
+    const PAPER_LIKE: f64 = 0.1;
+    let mut failures = Vec::new();
+    for kind in [TrackerKind::Poses, TrackerKind::Points] {
+        let design = with_truth_from_prior(&campaign(kind), PAPER_LIKE, 0);
+        let first = simulate_tracker(&design, 0).expect("simulation").dataset;
+        let run = calibrate_instruments(&first, &CalibrationOptions::default(), &mut |_| {})
+            .expect("calibration");
+        let prior = run.prior.as_ref().expect("a prior");
+        let mean = prior.mean.rows(0, N_PARAMS).into_owned();
+        let information = prior
+            .information
+            .view((0, 0), (N_PARAMS, N_PARAMS))
+            .into_owned();
+        let factor = information
+            .try_inverse()
+            .and_then(|c| c.cholesky())
+            .expect("a positive definite prior")
+            .l();
+        for canonical in [false, true] {
+            let (mut whole, mut kinematic, mut size) = (Vec::new(), Vec::new(), 0);
+            for seed in 1..=PAPER_LIKE_SEEDS {
+                let mut scenario = with_truth_from_prior(&campaign(kind), PAPER_LIKE, seed);
+                if canonical {
+                    let mut rng = Rng::new(seed, TRUTH_STREAM + 1);
+                    let z = DVector::from_fn(N_PARAMS, |_, _| rng.normal(1.0));
+                    let p = &mean + &factor * z;
+                    scenario.truth = params::from_params(&Params::from_iterator(p.iter().copied()));
+                }
+                let dataset = simulate_tracker(&scenario, seed)
+                    .expect("simulation")
+                    .dataset;
+                let run =
+                    calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
+                        .expect("calibration");
+                let covariance = run.covariance.as_ref().expect("a covariance");
+                let error = &run.global - true_block(&dataset, &run.model);
+                size = error.len();
+                whole.push(nees(&error, covariance).expect("positive definite"));
+                let block = covariance.view((0, 0), (N_PARAMS, N_PARAMS)).into_owned();
+                kinematic.push(nees(&error.rows(0, N_PARAMS).into_owned(), &block).expect("SPD"));
+            }
+            let (m, se) = mean_and_standard_error(&whole);
+            let (mk, sek) = mean_and_standard_error(&kinematic);
+            let draw = if canonical {
+                "canonical parameters"
+            } else {
+                "input coordinates"
+            };
+            println!(
+                "{kind:?}, truth drawn in the {draw}: whole block {m:.1} +- {se:.1} for {size} \
+                 ({:+.1} SE); the 33 {mk:.1} +- {sek:.1} ({:+.1} SE)",
+                (m - size as f64) / se,
+                (mk - 33.0) / sek
+            );
+            if (mk - 33.0).abs() > STANDARD_ERRORS * sek {
+                failures.push(format!(
+                    "{kind:?}, {draw}: the 33's mean NEES {mk:.1} +- {sek:.1}"
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
