@@ -71,7 +71,8 @@ pub struct CalibrationRun {
     /// Prior-data conflict tests (kinematic parameters, ball centres).
     pub conflicts: Vec<ConflictTest>,
     /// The global block: the kinematic parameters, then the centres of the
-    /// balls tied by calibrated distances.
+    /// balls tied by calibrated distances, then the groups of the poses and
+    /// points if any ([`crate::mixed`]).
     pub layout: ParameterLayout,
     /// The calibrated distances (artefacts.json) used as observations.
     pub distances_used: usize,

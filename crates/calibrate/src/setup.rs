@@ -50,7 +50,8 @@ pub struct Setup {
     /// solver's warm starts, to be moved into it (`std::mem::take`).
     pub poses: Vec<Pose>,
     /// The global block: the kinematic parameters, then the centres of the
-    /// balls that calibrated distances tie together.
+    /// balls that calibrated distances tie together, then the groups of the
+    /// poses and points if any ([`crate::mixed`]).
     pub layout: ParameterLayout,
 }
 
