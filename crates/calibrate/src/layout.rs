@@ -160,11 +160,16 @@ impl ParameterLayout {
     /// The kinematic parameters, then `groups` in order (instrument
     /// measurements: no ball centre).
     pub fn with_groups(groups: impl IntoIterator<Item = ParameterGroup>) -> Self {
-        let mut layout = Self::new(0, &[], false);
+        Self::new(0, &[], false).extended(groups)
+    }
+
+    /// This layout, then `groups` in order (ball touches with instrument
+    /// measurements: the instrument groups after the tied centres).
+    pub fn extended(mut self, groups: impl IntoIterator<Item = ParameterGroup>) -> Self {
         for group in groups {
-            layout.push(group);
+            self.push(group);
         }
-        layout
+        self
     }
 
     /// The range of `group` in the global block, if it is there.

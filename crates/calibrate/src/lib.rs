@@ -11,6 +11,7 @@
 //! - [`instruments`]: calibration from measured poses and points;
 //! - [`layout`]: the global block, named groups of parameters;
 //! - [`mirror`]: a ball on the wrong side of its contacts;
+//! - [`mixed`]: ball touches with measured poses and points;
 //! - [`verdict`]: the global test and the verdict of a run;
 //! - [`reliability`]: redundancy numbers, normalised residuals, variance
 //!   components;
@@ -39,6 +40,7 @@ pub mod fit;
 pub mod instruments;
 pub mod layout;
 pub mod mirror;
+pub mod mixed;
 mod options;
 pub mod problem;
 pub mod reliability;

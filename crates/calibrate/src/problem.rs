@@ -32,6 +32,7 @@ use parcal_solver::{
 
 use crate::CalibrateError;
 use crate::layout::ParameterLayout;
+use crate::mixed::InstrumentObservations;
 
 /// Paper eq. (9) for every contact.
 pub struct RadiusObservations {
@@ -289,6 +290,9 @@ pub struct CalibrationProblem<'a, O, const G: usize> {
     pub ball_priors: Option<Vec<GaussianPrior<Const<G>>>>,
     /// Forward kinematics' tolerance and iteration limit.
     pub forward_options: ForwardOptions,
+    /// The poses and points measured with the touches, global
+    /// observations after the distances ([`crate::mixed`]).
+    pub instruments: Option<InstrumentObservations<'a>>,
 }
 
 impl<O, const G: usize> CalibrationProblem<'_, O, G> {
@@ -603,7 +607,9 @@ where
     }
 
     /// The calibrated distances, `c = (L_ab − |C_a − C_b|) / σ_ab`
-    /// ([`DistanceBlock`]), on the centres in the global block.
+    /// ([`DistanceBlock`]), on the centres in the global block; then the
+    /// poses and points measured with the touches, if any
+    /// ([`InstrumentObservations::append`]).
     fn global_observations(
         &self,
         global: &DVector<f64>,
@@ -625,7 +631,10 @@ where
                 out.jacobian[(k, b + c)] = block.d_second[c];
             }
         }
-        Ok(())
+        match &self.instruments {
+            Some(instruments) => instruments.append(global, out),
+            None => Ok(()),
+        }
     }
 
     fn point_prior(&self, i: usize) -> Option<GaussianPrior<Const<P>>> {

@@ -74,8 +74,8 @@ pub struct ContactCheck {
 /// The checks of a converged calibration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Reliability {
-    /// The variance components of the ball touches, the distances (if
-    /// any) and the priors (if any).
+    /// The variance components of the ball touches, the distances, poses
+    /// and points (if any) and the priors (if any).
     pub components: Vec<VarianceComponent>,
     /// Every contact's check, in the solver's (by-ball) order.
     pub contacts: Vec<ContactCheck>,
@@ -87,7 +87,9 @@ pub struct Reliability {
 impl Reliability {
     /// The redundancy numbers of `problem` at `state` (its points in
     /// measurements.csv rows `rows`), with `prior_cost` the final prior
-    /// term and `prior_rows` its number of rows.
+    /// term and `prior_rows` its number of rows; `global_groups`: the
+    /// groups of the global observation rows (name, rows), one variance
+    /// component each.
     #[allow(clippy::too_many_arguments)]
     pub fn new<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
         problem: &Pr,
@@ -98,6 +100,7 @@ impl Reliability {
         rows: &[u32],
         prior_cost: f64,
         prior_rows: usize,
+        global_groups: &[(&'static str, std::ops::Range<usize>)],
     ) -> Result<Self, CalibrateError> {
         let numbers: Redundancy<R> =
             redundancy(problem, state, covariance, caches, groups_per_chunk).map_err(|status| {
@@ -131,15 +134,16 @@ impl Reliability {
                 .sum(),
             redundancy: numbers.points.iter().map(|r| r.sum()).sum(),
         }];
-        if !numbers.global_observations.is_empty() {
+        for (group, range) in global_groups {
             components.push(VarianceComponent {
-                group: "distances",
-                cost: numbers
-                    .global_observation_residuals
+                group,
+                cost: numbers.global_observation_residuals.as_slice()[range.clone()]
                     .iter()
                     .map(|e| e * e)
                     .sum(),
-                redundancy: numbers.global_observations.iter().sum(),
+                redundancy: numbers.global_observations.as_slice()[range.clone()]
+                    .iter()
+                    .sum(),
             });
         }
         if prior_rows > 0 {

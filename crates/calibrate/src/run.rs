@@ -17,6 +17,7 @@ use crate::conflict::{ConflictTest, PaperPriorInconsistency, paper_prior_consist
 use crate::fit::{BallMisfit, misfit_balls};
 use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
+use crate::mixed::InstrumentResult;
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
 use crate::reliability::Reliability;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
@@ -75,10 +76,14 @@ pub struct CalibrationRun {
     /// Prior-data conflict tests (kinematic parameters, ball centres).
     pub conflicts: Vec<ConflictTest>,
     /// The global block: the kinematic parameters, then the centres of the
-    /// balls tied by calibrated distances.
+    /// balls tied by calibrated distances, then the groups of the poses and
+    /// points if any ([`crate::mixed`]).
     pub layout: ParameterLayout,
     /// The calibrated distances (artefacts.json) used as observations.
     pub distances_used: usize,
+    /// The poses and points calibrated with the touches, if the dataset
+    /// has any ([`crate::mixed`]).
+    pub instruments: Option<InstrumentResult>,
     /// Paper mode: the check of the diagonal prior against the propagated
     /// design tolerances ([`crate::conflict::paper_prior_consistency`]).
     pub prior_consistency: Option<PaperPriorInconsistency>,
@@ -113,6 +118,17 @@ impl CalibrationRun {
         self.history.len().saturating_sub(1) + usize::from(self.converged())
     }
 
+    /// The names of the global block's parameters
+    /// ([`ParameterLayout::names`] with the balls' ids and the sessions'
+    /// labels).
+    pub fn names(&self) -> Vec<String> {
+        let sessions = self
+            .instruments
+            .as_ref()
+            .map_or(&[][..], |i| &i.model.sessions[..]);
+        self.layout.names(&self.ball_ids, sessions)
+    }
+
     /// Marginal sigmas of the parameters.
     pub fn sigmas(&self) -> Option<Params> {
         self.covariance.map(|c| c.diagonal().map(f64::sqrt))
@@ -139,10 +155,19 @@ impl CalibrationRun {
     pub fn record(&self, status: String) -> parcal_dataset::Calibration {
         let geometry = params::from_params(&self.params);
         let sigma = self.sigmas().unwrap_or_else(Params::zeros);
-        let covariance = self
-            .covariance
-            .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
-            .unwrap_or_default();
+        let (parameters, covariance) = match &self.instruments {
+            Some(instruments) => instruments.table(&self.names()),
+            None => (
+                ParameterTable {
+                    names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
+                    values: self.params.iter().copied().collect(),
+                    sigma: sigma.iter().copied().collect(),
+                },
+                self.covariance
+                    .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
+                    .unwrap_or_default(),
+            ),
+        };
         let ball_centres = self
             .ball_ids
             .iter()
@@ -196,11 +221,7 @@ impl CalibrationRun {
                 tool: geometry.tool.into(),
                 leg_lengths: geometry.legs,
             },
-            parameters: ParameterTable {
-                names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
-                values: self.params.iter().copied().collect(),
-                sigma: sigma.iter().copied().collect(),
-            },
+            parameters,
             covariance,
             ball_centres,
             prior: self.options.prior.to_string(),
@@ -208,8 +229,13 @@ impl CalibrationRun {
             converged: self.converged(),
             status,
             options,
-            machine: None,
-            sessions: Vec::new(),
+            machine: self.instruments.as_ref().map(|i| {
+                i.model
+                    .calibrated_machine(&i.model.values(&i.global), &i.sigmas(), &self.machine)
+            }),
+            sessions: self.instruments.as_ref().map_or_else(Vec::new, |i| {
+                i.model.session_records(&i.model.values(&i.global))
+            }),
             verdict: String::new(),
             reasons: Vec::new(),
             warnings: Vec::new(),
@@ -284,6 +310,20 @@ pub struct RunAway {
     pub iterations: usize,
 }
 
+/// The touch problem of `observations` with `G` unknowns per ball, the
+/// dataset's poses and points attached as global observations
+/// ([`crate::mixed`]).
+fn touch_problem<'a, O, const G: usize>(
+    setup: &'a Setup,
+    dataset: &'a Dataset,
+    options: &CalibrationOptions,
+    observations: O,
+) -> Result<CalibrationProblem<'a, O, G>, CalibrateError> {
+    let mut problem = setup.problem::<_, G>(dataset, options, observations);
+    problem.attach_instruments(dataset, &setup.initial_state::<G, 0>(dataset).global)?;
+    Ok(problem)
+}
+
 /// One calibration with the options' method.
 fn calibrate_once(
     dataset: &Dataset,
@@ -314,19 +354,19 @@ fn calibrate_once(
     };
     let solved = match (observations, options.radius) {
         (Observations::Radius(observations), RadiusModel::PerContact) => {
-            let mut problem = setup.problem::<_, 3>(dataset, options, observations);
+            let mut problem = touch_problem::<_, 3>(&setup, dataset, options, observations)?;
             solver.solve(&mut problem, poses, observer, 1)?
         }
         (Observations::Radius(observations), RadiusModel::PerBall) => {
-            let mut problem = setup.problem::<_, 4>(dataset, options, observations);
+            let mut problem = touch_problem::<_, 4>(&setup, dataset, options, observations)?;
             solver.solve(&mut problem, poses, observer, 1)?
         }
         (Observations::Coordinates(observations), RadiusModel::PerContact) => {
-            let mut problem = setup.problem::<_, 3>(dataset, options, observations);
+            let mut problem = touch_problem::<_, 3>(&setup, dataset, options, observations)?;
             solver.solve(&mut problem, poses, observer, 3)?
         }
         (Observations::Coordinates(observations), RadiusModel::PerBall) => {
-            let mut problem = setup.problem::<_, 4>(dataset, options, observations);
+            let mut problem = touch_problem::<_, 4>(&setup, dataset, options, observations)?;
             solver.solve(&mut problem, poses, observer, 3)?
         }
     };
@@ -394,6 +434,7 @@ fn calibrate_once(
         spectrum: solved.spectrum,
         conflicts,
         distances_used: dataset.artefacts.distances.len(),
+        instruments: solved.instruments,
         layout: setup.layout,
         rows: setup.order,
     })
@@ -458,6 +499,8 @@ struct Solved {
     global_test: Option<GlobalTest>,
     /// The observations' checks at the final state.
     reliability: Option<Reliability>,
+    /// The poses and points calibrated with the touches.
+    instruments: Option<InstrumentResult>,
 }
 
 /// What a solve needs besides the problem.
@@ -596,7 +639,7 @@ impl SolverRun<'_> {
             .filter(|_| radius_unknown)
             .map(|sigmas| sigmas.iter().map(|s| s[G - 1]).collect());
         let (rows, unknowns) =
-            rows_and_unknowns(&*problem, setup.order.len(), problem.distances.len());
+            rows_and_unknowns(&*problem, setup.order.len(), problem.global_rows());
         let global_test = solution.history.last().and_then(|record| {
             GlobalTest::new(
                 record.cost,
@@ -604,7 +647,7 @@ impl SolverRun<'_> {
                 GLOBAL_TEST_LEVEL,
             )
         });
-        let prior_rows = rows - rows_per_contact * setup.order.len() - problem.distances.len();
+        let prior_rows = rows - rows_per_contact * setup.order.len() - problem.global_rows();
         let reliability = match (&solution.covariance, solution.history.last()) {
             (Some(covariance), Some(last)) if solution.status == Status::Converged => {
                 Some(Reliability::new(
@@ -616,11 +659,18 @@ impl SolverRun<'_> {
                     &setup.order,
                     last.prior_cost,
                     prior_rows,
+                    &problem.global_observation_groups(),
                 )?)
             }
             _ => None,
         };
+        let instruments = problem
+            .instruments
+            .as_ref()
+            .map(|i| i.result(&state.global, solution.covariance.as_ref()))
+            .transpose()?;
         Ok(Solved {
+            instruments,
             global_test,
             reliability,
             params: kinematic_params(&state.global),

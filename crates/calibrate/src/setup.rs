@@ -48,7 +48,8 @@ pub struct Setup {
     /// solver's warm starts, to be moved into it (`std::mem::take`).
     pub poses: Vec<Pose>,
     /// The global block: the kinematic parameters, then the unknowns of the
-    /// balls that calibrated distances tie together.
+    /// balls that calibrated distances tie together, then the groups of the
+    /// poses and points if any ([`crate::mixed`]).
     pub layout: ParameterLayout,
     /// Each ball's radius an unknown, or its error in the contacts' weights.
     pub radius: RadiusModel,
@@ -137,7 +138,8 @@ impl Setup {
             dataset.artefacts.balls.len(),
             &tied_balls(dataset),
             options.radius == RadiusModel::PerBall,
-        );
+        )
+        .extended(crate::instruments::run::groups(dataset));
         let setup = Self {
             layout,
             radius: options.radius,
@@ -238,6 +240,7 @@ impl Setup {
             global_prior: self.global_prior(ball_priors.as_deref()),
             ball_priors,
             forward_options: ForwardOptions::default(),
+            instruments: None,
         }
     }
 

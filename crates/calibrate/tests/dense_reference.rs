@@ -19,7 +19,9 @@
 //! solve's own accuracy, `10 cond eps`, with the propagated prior; the
 //! Schur solver is held to 1e-9 against the exact solution, or to its own
 //! accuracy `10 cond(S) eps` where the reduced matrix `S` it factorises is
-//! worse conditioned (centres in the global block).
+//! worse conditioned (centres in the global block). Mixed data (the touches
+//! with a laser tracker's poses and points, `mixed`) are held to the same
+//! checks.
 
 // `!(x <= limit)` fails on NaN too; index loops over several arrays read best.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
@@ -31,8 +33,9 @@ use parcal_calibrate::problem::{CalibrationProblem, ContactObservations};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, RadiusModel, Simulation};
 use parcal_dataset::Dataset;
+use parcal_dataset::SessionModel;
 use parcal_kinematics::N_PARAMS;
-use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
+use parcal_simulate::{Plate, PlatePairs, Scenario, TrackerScenario, simulate, simulate_mixed};
 use parcal_solver::{Problem, SolverOptions, State, Status, dense_reference, linear_step, solve};
 
 /// Relative agreement asked of the step and of the covariance.
@@ -511,4 +514,103 @@ fn per_ball_radii_with_a_plate_match_the_dense_solve() {
         coordinates(prior, Some(PLATE), RadiusModel::PerBall);
         radius(prior, Some(PLATE), RadiusModel::PerBall);
     }
+}
+
+/// The paper scenario (with `plate`) and a laser tracker's poses and points
+/// of the same machine in two sessions of 10 rows, legs re-homed
+/// (0.5 mm): the instrument rows are global observations on the kinematic
+/// parameters, the two frames, the body frame and the second session's
+/// leg offsets ([`parcal_calibrate::mixed`]).
+fn mixed(plate: Option<Plate>) -> Dataset {
+    let tracker = TrackerScenario {
+        true_scale: [1.0; 6],
+        scale_sigma: None,
+        sessions: 2,
+        rows_per_session: 10,
+        session_model: SessionModel {
+            leg_offset_sigma: Some(0.5),
+            body_origin_sigma: None,
+            body_rotation_sigma: None,
+        },
+        ..TrackerScenario::paper_like()
+    };
+    let touches = Scenario {
+        plate,
+        ..Scenario::paper()
+    };
+    simulate_mixed(&touches, &tracker, 1)
+        .expect("simulation")
+        .dataset
+}
+
+/// The problem of `observations` with `G` unknowns per ball and the
+/// dataset's poses and points attached, compared.
+fn check_mixed<const G: usize, const P: usize, const R: usize, O>(
+    label: &str,
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    setup: &Setup,
+    observations: O,
+) where
+    O: ContactObservations<R, P>,
+    for<'a> CalibrationProblem<'a, O, G>: Problem<G, P, R>,
+{
+    let mut problem = setup.problem::<_, G>(dataset, options, observations);
+    let state = setup.initial_state::<G, P>(dataset);
+    problem.attach_instruments(dataset, &state.global).unwrap();
+    assert_eq!(state.n_unknowns(), setup.layout.size() + 27 * G + 189 * P);
+    compare(label, &problem, &state);
+}
+
+#[test]
+fn mixed_data_match_the_dense_solve() {
+    for (plate, prior, radius) in [
+        (None, PriorMode::Propagated, RadiusModel::PerContact),
+        (None, PriorMode::Propagated, RadiusModel::PerBall),
+        (Some(PLATE), PriorMode::Paper, RadiusModel::PerContact),
+        (Some(PLATE), PriorMode::Paper, RadiusModel::PerBall),
+    ] {
+        let dataset = mixed(plate);
+        let options = options(Simulation::IV, prior, radius);
+        let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+        let Observations::Coordinates(observations) = observations else {
+            panic!("simulation IV observes coordinates")
+        };
+        // 33, the tied balls' unknowns, 2 frames, the body frame, 1
+        // session's offsets.
+        let tied = setup
+            .layout
+            .groups()
+            .iter()
+            .filter(|(g, _)| matches!(g, ParameterGroup::BallCentre { .. }))
+            .count();
+        let per_ball = match radius {
+            RadiusModel::PerContact => 3,
+            RadiusModel::PerBall => 4,
+        };
+        assert_eq!(setup.layout.size(), 33 + per_ball * tied + 6 + 6 + 6 + 6);
+        let plate = if plate.is_some() { ", plate" } else { "" };
+        let label = format!("mixed, coordinates, {prior} prior{plate}, radius per {radius}");
+        match radius {
+            RadiusModel::PerContact => {
+                check_mixed::<3, 2, 3, _>(&label, &dataset, &options, &setup, observations)
+            }
+            RadiusModel::PerBall => {
+                check_mixed::<4, 2, 3, _>(&label, &dataset, &options, &setup, observations)
+            }
+        }
+    }
+    let dataset = mixed(None);
+    let options = options(Simulation::III, PriorMode::Paper, RadiusModel::PerContact);
+    let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+    let Observations::Radius(observations) = observations else {
+        panic!("simulation III observes radii")
+    };
+    check_mixed::<3, 0, 1, _>(
+        "mixed, radius, paper prior",
+        &dataset,
+        &options,
+        &setup,
+        observations,
+    );
 }

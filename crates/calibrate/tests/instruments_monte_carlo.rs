@@ -2,7 +2,7 @@
 //! what it has not seen? Paper-like campaigns of poses, points and both, in
 //! three sessions, with re-homed legs and a re-mounted marker body.
 //!
-//! - [`true_block`] maps a simulation's truth to the global block; a
+//! - `true_block` maps a simulation's truth to the global block; a
 //!   low-noise run checks the mapping coordinate by coordinate.
 //! - NEES: `e^T Σ^-1 e`, `e` the error of the whole global block, is
 //!   chi-square(n) for an honest covariance (`n` the block's size) when the
@@ -21,16 +21,15 @@
 //!   RMS it predicts must be within 20 % of the observed one (the issue's
 //!   requirement).
 
+mod common;
+
 use std::time::Instant;
 
-use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
+use common::{mean_and_standard_error, nees, true_block};
 use parcal_calibrate::CalibrationOptions;
-use parcal_calibrate::instruments::{
-    Calibrated, InstrumentRun, calibrate_instruments, validate_calibration,
-};
-use parcal_calibrate::layout::ParameterGroup;
-use parcal_dataset::{Dataset, FrameRecord, PriorSigma, SessionModel, Tracker};
-use parcal_kinematics::{Geometry, Vec3, params};
+use parcal_calibrate::instruments::{Calibrated, calibrate_instruments, validate_calibration};
+use parcal_dataset::{Dataset, PriorSigma, SessionModel, Tracker};
+use parcal_kinematics::{Geometry, Vec3};
 use parcal_simulate::{Rng, TrackerKind, TrackerScenario, simulate_tracker};
 
 const KINDS: [TrackerKind; 3] = [TrackerKind::Poses, TrackerKind::Points, TrackerKind::Both];
@@ -106,89 +105,6 @@ fn with_truth_from_prior(scenario: &TrackerScenario, tolerance: f64, seed: u64) 
     }
 }
 
-/// A frame of the dataset files as an isometry.
-fn isometry(record: &FrameRecord) -> Isometry3<f64> {
-    let [x, y, z, w] = record.rotation;
-    Isometry3::from_parts(
-        Translation3::from(Vec3::from(record.translation)),
-        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
-    )
-}
-
-/// The true global block of the simulated `dataset` in the layout of
-/// `run`. `T_b`, `T_p`: the true geometry's `base_from_input` and
-/// `platform_from_input`; `F_k`, `B_k`: the true frames (design base frame
-/// to instrument, body to design platform frame).
-///
-/// - kinematic: the true geometry's canonical parameters; scales: the
-///   true scales; leg offsets: the true ones;
-/// - `C_F,k = F₀_k⁻¹ F_k T_b⁻¹`, as `(Log R, t)`;
-/// - `C_B,k = T_p B_k B₀⁻¹`: the body frame's correction is session 0's
-///   `(ω_B, τ_B) = (Log R(C_B,0), t(C_B,0))`; a later session's turn and
-///   shift are `Log R(C_B,k) − ω_B` and `t(C_B,k) − τ_B`, exactly, since
-///   `C_B,k = (Exp(ω_B + φ_k), τ_B + ρ_k)`.
-fn true_block(dataset: &Dataset, run: &InstrumentRun) -> DVector<f64> {
-    let truth = dataset.truth.as_ref().expect("a simulated dataset");
-    let g = &truth.geometry;
-    let geometry =
-        Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
-    let canonical = geometry.canonicalize().expect("a canonical truth");
-    let model = &run.model;
-    let body = |k: usize| {
-        canonical.platform_from_input
-            * isometry(&truth.sessions[k].body_frame)
-            * model.body_reference.inverse()
-    };
-    let (omega_b, tau_b) = (body(0).rotation.scaled_axis(), body(0).translation.vector);
-    let correction = |c: &Isometry3<f64>| {
-        let (w, t) = (c.rotation.scaled_axis(), c.translation.vector);
-        vec![w.x, w.y, w.z, t.x, t.y, t.z]
-    };
-    let mut block = DVector::zeros(model.layout.size());
-    for (group, range) in model.layout.groups() {
-        let values = match *group {
-            ParameterGroup::Kinematic => params::to_params(&canonical.geometry).as_slice().to_vec(),
-            ParameterGroup::ActuatorScales => truth.actuator_scale.expect("true scales").to_vec(),
-            ParameterGroup::TrackerFrame { session } => correction(
-                &(model.tracker_references[session].inverse()
-                    * isometry(&truth.sessions[session].tracker_frame)
-                    * canonical.base_from_input.inverse()),
-            ),
-            ParameterGroup::BodyFrame => correction(&body(0)),
-            ParameterGroup::BodyRotation { session } => (body(session).rotation.scaled_axis()
-                - omega_b)
-                .as_slice()
-                .to_vec(),
-            ParameterGroup::BodyOrigin { session } => (body(session).translation.vector - tau_b)
-                .as_slice()
-                .to_vec(),
-            ParameterGroup::LegOffsets { session } => truth.sessions[session].leg_offsets.to_vec(),
-            ParameterGroup::BallCentre { .. } | ParameterGroup::BallRadius { .. } => {
-                unreachable!("no ball in an instrument campaign")
-            }
-        };
-        block
-            .rows_mut(range.start, range.len())
-            .copy_from_slice(&values);
-    }
-    block
-}
-
-/// `e^T Σ^-1 e` by the Cholesky factor of `Σ`; `None` when `Σ` is not
-/// positive definite.
-fn nees(e: &DVector<f64>, covariance: &DMatrix<f64>) -> Option<f64> {
-    let factor = covariance.clone().cholesky()?;
-    Some(factor.l().solve_lower_triangular(e)?.norm_squared())
-}
-
-/// The mean of `values` and its standard error (sample sd / √N).
-fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (variance / n).sqrt())
-}
-
 /// The sessions `keep` of `dataset` (indices, renumbered in that order)
 /// with their rows in file order, without the truth.
 fn sessions_of(dataset: &Dataset, keep: &[usize]) -> Dataset {
@@ -245,7 +161,7 @@ fn a_low_noise_calibration_finds_the_true_block() {
         let run = calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
             .expect("calibration");
         assert!(run.converged(), "{kind:?}: {:?}", run.status);
-        let error = &run.global - true_block(&dataset, &run);
+        let error = &run.global - true_block(&dataset, &run.model);
         let z = error.component_div(&run.sigmas().expect("sigmas"));
         let names = run.names();
         let worst = z.iamax();
@@ -282,7 +198,7 @@ fn mean_nees_of_the_global_block_is_its_size() {
                 failures.push(format!("{kind:?} seed {seed}: {:?}", run.status));
                 continue;
             };
-            let error = &run.global - true_block(&dataset, &run);
+            let error = &run.global - true_block(&dataset, &run.model);
             size = error.len();
             match nees(&error, covariance) {
                 Some(v) => values.push(v),
@@ -367,5 +283,84 @@ fn hold_out_rms_is_predicted_within_20_percent() {
         }
     }
     println!("hold-out: {:.1} s", start.elapsed().as_secs_f64());
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Seeds of the diagnosis at the paper-like tolerance.
+const PAPER_LIKE_SEEDS: u64 = 60;
+
+/// At the paper-like 0.1 mm tolerance the mean NEES of the whole block
+/// exceeds its size (module doc). Where the excess is: the NEES of the 33
+/// alone must stay within [`STANDARD_ERRORS`] of 33, both for a true
+/// machine drawn in the input coordinates and for one drawn in the
+/// canonical parameters from the Gaussian prior itself (which takes the
+/// linearisation of the prior's propagation out of the question); the
+/// whole block's is printed (docs/formulation.md, section 7).
+#[test]
+#[ignore = "a diagnosis: cargo test -p parcal-calibrate --test instruments_monte_carlo -- --ignored --nocapture"]
+fn at_the_paper_like_tolerance_the_kinematic_block_stays_honest() {
+    use nalgebra::DVector;
+    use parcal_kinematics::{N_PARAMS, Params, params};
+    const PAPER_LIKE: f64 = 0.1;
+    let mut failures = Vec::new();
+    for kind in [TrackerKind::Poses, TrackerKind::Points] {
+        let design = with_truth_from_prior(&campaign(kind), PAPER_LIKE, 0);
+        let first = simulate_tracker(&design, 0).expect("simulation").dataset;
+        let run = calibrate_instruments(&first, &CalibrationOptions::default(), &mut |_| {})
+            .expect("calibration");
+        let prior = run.prior.as_ref().expect("a prior");
+        let mean = prior.mean.rows(0, N_PARAMS).into_owned();
+        let information = prior
+            .information
+            .view((0, 0), (N_PARAMS, N_PARAMS))
+            .into_owned();
+        let factor = information
+            .try_inverse()
+            .and_then(|c| c.cholesky())
+            .expect("a positive definite prior")
+            .l();
+        for canonical in [false, true] {
+            let (mut whole, mut kinematic, mut size) = (Vec::new(), Vec::new(), 0);
+            for seed in 1..=PAPER_LIKE_SEEDS {
+                let mut scenario = with_truth_from_prior(&campaign(kind), PAPER_LIKE, seed);
+                if canonical {
+                    let mut rng = Rng::new(seed, TRUTH_STREAM + 1);
+                    let z = DVector::from_fn(N_PARAMS, |_, _| rng.normal(1.0));
+                    let p = &mean + &factor * z;
+                    scenario.truth = params::from_params(&Params::from_iterator(p.iter().copied()));
+                }
+                let dataset = simulate_tracker(&scenario, seed)
+                    .expect("simulation")
+                    .dataset;
+                let run =
+                    calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
+                        .expect("calibration");
+                let covariance = run.covariance.as_ref().expect("a covariance");
+                let error = &run.global - true_block(&dataset, &run.model);
+                size = error.len();
+                whole.push(nees(&error, covariance).expect("positive definite"));
+                let block = covariance.view((0, 0), (N_PARAMS, N_PARAMS)).into_owned();
+                kinematic.push(nees(&error.rows(0, N_PARAMS).into_owned(), &block).expect("SPD"));
+            }
+            let (m, se) = mean_and_standard_error(&whole);
+            let (mk, sek) = mean_and_standard_error(&kinematic);
+            let draw = if canonical {
+                "canonical parameters"
+            } else {
+                "input coordinates"
+            };
+            println!(
+                "{kind:?}, truth drawn in the {draw}: whole block {m:.1} +- {se:.1} for {size} \
+                 ({:+.1} SE); the 33 {mk:.1} +- {sek:.1} ({:+.1} SE)",
+                (m - size as f64) / se,
+                (mk - 33.0) / sek
+            );
+            if (mk - 33.0).abs() > STANDARD_ERRORS * sek {
+                failures.push(format!(
+                    "{kind:?}, {draw}: the 33's mean NEES {mk:.1} +- {sek:.1}"
+                ));
+            }
+        }
+    }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -204,6 +204,69 @@ fn simulate_writes_instrument_sessions() {
 }
 
 #[test]
+fn touches_and_tracker_data_are_simulated_inspected_and_calibrated_together() {
+    let temp = tempfile::tempdir().unwrap();
+    let output = simulate(
+        temp.path(),
+        &[
+            "--tracker",
+            "both",
+            "--touches",
+            "--sessions",
+            "2",
+            "--rows",
+            "10",
+            "--rehome",
+            "0.5",
+        ],
+    );
+    let stdout = text(&output.stdout);
+    assert!(stdout.contains("contacts           189"), "{stdout}");
+    assert!(stdout.contains("poses              20"), "{stdout}");
+    let dir = temp.path().to_str().unwrap();
+    let output = parcal(&["inspect", dir]);
+    assert!(output.status.success());
+    let stdout = text(&output.stdout);
+    for kind in [
+        "poses              20",
+        "points             20",
+        "contacts           189",
+    ] {
+        assert!(stdout.contains(kind), "{kind}: {stdout}");
+    }
+    let output = parcal(&["calibrate", dir]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains("with 2 sessions, 20 poses, 20 points"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("| o_1 2 |"), "{stdout}");
+    assert!(stdout.contains("verdict: accepted"), "{stdout}");
+    let record = parcal_dataset::Calibration::read(&temp.path().join("calibration.json")).unwrap();
+    assert_eq!(record.sessions.len(), 2);
+    assert_eq!(record.ball_centres.len(), 27);
+
+    let out = temp.path().join("jugglebot");
+    let output = parcal(&[
+        "simulate",
+        "--out",
+        out.to_str().unwrap(),
+        "--tracker",
+        "poses",
+        "--touches",
+        "--machine",
+        "jugglebot",
+    ]);
+    assert!(!output.status.success());
+    assert!(
+        text(&output.stderr).contains("--machine paper"),
+        "{}",
+        text(&output.stderr)
+    );
+}
+
+#[test]
 fn inspect_reads_the_reference_dataset() {
     let reference =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1");

@@ -19,7 +19,7 @@ use crate::diagnostics;
 pub fn status(run: &CalibrationRun) -> String {
     solver_status(
         &run.status,
-        &run.layout.names(&run.ball_ids, &[]),
+        &run.names(),
         |k| {
             format!(
                 "the centre of ball {} is not determined by its contacts",
@@ -262,7 +262,7 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
     let run_away = run.gauss_newton.as_ref().map(|g| {
         format!(
             "Gauss-Newton did not converge ({} after {} iterations, cost {:.3e} -> {:.3e}): the calibration was made again with Levenberg-Marquardt",
-            solver_status(&g.status, &run.layout.names(&run.ball_ids, &[]), |_| String::new(), |_| String::new()),
+            solver_status(&g.status, &run.names(), |_| String::new(), |_| String::new()),
             g.iterations,
             g.initial_cost,
             g.final_cost

@@ -118,7 +118,7 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&TrueMachine>) -> String 
         );
     }
     if let Some(spectrum) = &run.spectrum {
-        let names = run.layout.names(&run.ball_ids, &[]);
+        let names = run.names();
         for weak in spectrum.weakest.iter().take(2) {
             let _ = writeln!(out, "weak direction: {}", weak_direction(weak, &names));
         }

@@ -2,7 +2,8 @@
 //! truth: artefact campaigns (the paper scenario of Sato et al. 2004 and
 //! scaled variants, spec: paper-scenario.md section 3) and instrument
 //! campaigns (platform poses or tool points seen by a laser tracker or
-//! motion capture, in sessions: [`simulate_tracker`]).
+//! motion capture, in sessions: [`simulate_tracker`]), and both of one true
+//! machine in one dataset ([`simulate_mixed`]).
 //!
 //! ```
 //! use parcal_simulate::{Scenario, simulate};
@@ -25,6 +26,7 @@
 
 mod campaign;
 mod execute;
+mod mixed;
 mod plate;
 mod rng;
 mod scenario;
@@ -32,6 +34,7 @@ mod tracker;
 
 pub use campaign::{Simulation, Summary, ball_id, simulate};
 pub use execute::execute;
+pub use mixed::simulate_mixed;
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
 pub use scenario::{PlannedTouch, Scenario};

@@ -164,7 +164,8 @@ pub struct InstrumentSetup<'a> {
 }
 
 /// Sets up the calibration of the poses and points of `dataset` (it must
-/// have no ball touches): validation, the frames' start, the layout, the
+/// have no ball touches: [`crate::calibrate`] takes touches with poses and
+/// points): validation, the frames' start, the layout, the
 /// weights at the initial estimate, the prior.
 pub fn setup<'a>(
     dataset: &'a Dataset,
@@ -172,30 +173,15 @@ pub fn setup<'a>(
 ) -> Result<InstrumentSetup<'a>, CalibrateError> {
     crate::validate(dataset)?;
     if dataset.has_touches() {
-        return Err(CalibrateError::MixedData);
+        return Err(CalibrateError::HasTouches);
     }
     let design = design_geometry(dataset);
     let canonical = design.canonicalize().map_err(CalibrateError::Design)?;
     let design_params = params::to_params(&canonical.geometry);
     let machine = &dataset.machine;
-    let tracker = &dataset.tracker;
-    let forward = ForwardOptions::default();
-    let start = frame_start(
-        tracker,
-        &canonical.geometry,
-        &machine.actuator.scale,
-        &forward,
-    )?;
-    let model = InstrumentModel {
-        layout: layout(dataset),
-        sessions: tracker.sessions.clone(),
-        tracker_references: start.trackers,
-        body_reference: start.body,
-        fixed_scales: machine.actuator.scale,
-    };
-    let initial = initial_block(&model.layout, &design_params, &machine.actuator.scale);
-    let mut rows = InstrumentRows::new(tracker, start.point_poses, forward);
-    rows.weigh(&model, &model.values(&initial), &machine.repeatability)?;
+    let layout = ParameterLayout::with_groups(groups(dataset));
+    let initial = initial_block(&layout, &design_params, &machine.actuator.scale);
+    let (model, rows) = model_and_rows(dataset, &canonical.geometry, layout, &initial)?;
     let prior = prior(dataset, &design, &design_params, &model.layout, options)?;
     Ok(InstrumentSetup {
         design,
@@ -253,16 +239,7 @@ pub fn calibrate_instruments(
     let InstrumentProblem { model, rows, prior } = problem;
     let global = solution.state.global;
     let values = model.values(&global);
-    let tracker = &dataset.tracker;
-    let leg_residuals = (0..tracker.poses.len())
-        .map(|j| {
-            rows.pose(&model, &values, j)
-                .map(|b| std::array::from_fn(|i| b.residual[i]))
-        })
-        .collect::<Result<_, _>>()?;
-    let point_residuals = (0..tracker.points.len())
-        .map(|j| rows.point(&model, &values, j).map(|r| r.block.residual))
-        .collect::<Result<_, _>>()?;
+    let (leg_residuals, point_residuals) = residuals(&rows, &model, &values)?;
     let mut whitened = parcal_solver::GlobalObservations::zeros(0, 0);
     rows.evaluate(&model, &values, &mut whitened)?;
     let data_information = whitened
@@ -292,17 +269,66 @@ pub fn calibrate_instruments(
     })
 }
 
+/// The model of `dataset`'s poses and points on the global block `layout`
+/// (which holds their [`groups`]) and their rows, weighed at the initial
+/// block `initial`: the instrument frames start from the design
+/// (`canonical`, [`frame_start`]).
+pub(crate) fn model_and_rows<'a>(
+    dataset: &'a Dataset,
+    canonical: &Geometry,
+    layout: ParameterLayout,
+    initial: &DVector<f64>,
+) -> Result<(InstrumentModel, InstrumentRows<'a>), CalibrateError> {
+    let machine = &dataset.machine;
+    let tracker = &dataset.tracker;
+    let forward = ForwardOptions::default();
+    let start = frame_start(tracker, canonical, &machine.actuator.scale, &forward)?;
+    let model = InstrumentModel {
+        layout,
+        sessions: tracker.sessions.clone(),
+        tracker_references: start.trackers,
+        body_reference: start.body,
+        fixed_scales: machine.actuator.scale,
+    };
+    let mut rows = InstrumentRows::new(tracker, start.point_poses, forward);
+    rows.weigh(&model, &model.values(initial), &machine.repeatability)?;
+    Ok((model, rows))
+}
+
+/// Each pose's leg-length residuals `|T E_i − B_i| − L_i` and each
+/// point's residual `F(T) − P` at `values` (mm).
+pub(crate) fn residuals(
+    rows: &InstrumentRows<'_>,
+    model: &InstrumentModel,
+    values: &ModelValues,
+) -> Result<(Vec<[f64; 6]>, Vec<Vec3>), CalibrateError> {
+    let tracker = rows.tracker;
+    let legs = (0..tracker.poses.len())
+        .map(|j| {
+            rows.pose(model, values, j)
+                .map(|b| std::array::from_fn(|i| b.residual[i]))
+        })
+        .collect::<Result<_, _>>()?;
+    let points = (0..tracker.points.len())
+        .map(|j| rows.point(model, values, j).map(|r| r.block.residual))
+        .collect::<Result<_, _>>()?;
+    Ok((legs, points))
+}
+
 /// The groups the data determines: the scales when machine.json gives
 /// their sigmas; one instrument frame per session; the body frame when
 /// there are poses; for every later session with poses a body origin and a
 /// body rotation, and for every later session leg offsets, when the session
-/// model has them.
-fn layout(dataset: &Dataset) -> ParameterLayout {
+/// model has them. None without poses and points.
+pub(crate) fn groups(dataset: &Dataset) -> Vec<ParameterGroup> {
     let machine = &dataset.machine;
     let tracker = &dataset.tracker;
     let model = &machine.session_model;
     let with_poses = |session: usize| tracker.poses.session.iter().any(|&s| s as usize == session);
     let mut groups = Vec::new();
+    if tracker.is_empty() {
+        return groups;
+    }
     if machine.actuator.scale_sigma.is_some() {
         groups.push(ParameterGroup::ActuatorScales);
     }
@@ -323,11 +349,11 @@ fn layout(dataset: &Dataset) -> ParameterLayout {
             groups.push(ParameterGroup::LegOffsets { session });
         }
     }
-    ParameterLayout::with_groups(groups)
+    groups
 }
 
 /// The design's parameters and scales, every correction and offset zero.
-fn initial_block(
+pub(crate) fn initial_block(
     layout: &ParameterLayout,
     design: &parcal_kinematics::Params,
     scales: &[f64; 6],
@@ -340,27 +366,17 @@ fn initial_block(
     g
 }
 
-/// The prior on the global block: the kinematic prior of the options'
-/// mode, the scales about their design values (machine.json's
-/// `scale_sigma`), the later sessions' body origins and leg offsets about
-/// zero (`session_model`); none on the frames. `PriorMode::None`: no prior.
-fn prior(
+/// Writes the priors of the instrument groups of `layout` into a prior's
+/// `mean` and `information`: the scales about their design values
+/// (machine.json's `scale_sigma`), the later sessions' body origins, body
+/// rotations and leg offsets about zero (`session_model`); none on the
+/// frames (the other groups' entries are left as they are).
+pub(crate) fn group_priors(
     dataset: &Dataset,
-    design: &Geometry,
-    design_params: &parcal_kinematics::Params,
     layout: &ParameterLayout,
-    options: &CalibrationOptions,
-) -> Result<Option<GaussianPrior<Dyn>>, CalibrateError> {
-    let Some(kinematic) = kinematic_prior(dataset, design, design_params, options.prior)? else {
-        return Ok(None);
-    };
-    let n = layout.size();
-    let mut mean = DVector::zeros(n);
-    let mut information = DMatrix::zeros(n, n);
-    mean.rows_mut(0, N_PARAMS).copy_from(kinematic.mean());
-    information
-        .view_mut((0, 0), (N_PARAMS, N_PARAMS))
-        .copy_from(&kinematic.information());
+    mean: &mut DVector<f64>,
+    information: &mut DMatrix<f64>,
+) {
     let machine = &dataset.machine;
     let mut diagonal = |start: usize, means: &[f64], sigmas: &[f64]| {
         for (k, (m, s)) in means.iter().zip(sigmas).enumerate() {
@@ -398,6 +414,30 @@ fn prior(
             _ => {}
         }
     }
+}
+
+/// The prior on the global block: the kinematic prior of the options'
+/// mode, the scales about their design values (machine.json's
+/// `scale_sigma`), the later sessions' body origins and leg offsets about
+/// zero (`session_model`); none on the frames. `PriorMode::None`: no prior.
+fn prior(
+    dataset: &Dataset,
+    design: &Geometry,
+    design_params: &parcal_kinematics::Params,
+    layout: &ParameterLayout,
+    options: &CalibrationOptions,
+) -> Result<Option<GaussianPrior<Dyn>>, CalibrateError> {
+    let Some(kinematic) = kinematic_prior(dataset, design, design_params, options.prior)? else {
+        return Ok(None);
+    };
+    let n = layout.size();
+    let mut mean = DVector::zeros(n);
+    let mut information = DMatrix::zeros(n, n);
+    mean.rows_mut(0, N_PARAMS).copy_from(kinematic.mean());
+    information
+        .view_mut((0, 0), (N_PARAMS, N_PARAMS))
+        .copy_from(&kinematic.information());
+    group_priors(dataset, layout, &mut mean, &mut information);
     Ok(Some(GaussianPrior::new(mean, information)))
 }
 
@@ -508,11 +548,6 @@ impl InstrumentRun {
             ("observation".to_string(), "instruments".into()),
             ("method".to_string(), method.into()),
         ]);
-        let scale_sigma = self
-            .model
-            .layout
-            .range(ParameterGroup::ActuatorScales)
-            .map(|r| std::array::from_fn(|i| sigma[r.start + i]));
         Calibration {
             canonical: record(&values.geometry),
             parameters: ParameterTable {
@@ -527,22 +562,11 @@ impl InstrumentRun {
             converged: self.converged(),
             status,
             options,
-            machine: Some(CalibratedMachine {
-                geometry: record(&self.machine_in_first_session(&values)),
-                actuator: Actuator {
-                    unit: self.machine.actuator.unit.clone(),
-                    scale: values.scales,
-                    scale_sigma,
-                },
-            }),
-            sessions: (0..self.model.sessions.len())
-                .map(|k| SessionRecord {
-                    label: self.model.sessions[k].clone(),
-                    tracker_frame: frame(&self.model.tracker_frame(&values, k)),
-                    body_frame: frame(&self.model.body_frame(&values, k)),
-                    leg_offsets: values.offsets[k],
-                })
-                .collect(),
+            machine: Some(
+                self.model
+                    .calibrated_machine(&values, &sigma, &self.machine),
+            ),
+            sessions: self.model.session_records(&values),
             verdict: String::new(),
             reasons: Vec::new(),
             warnings: Vec::new(),
@@ -554,12 +578,20 @@ impl InstrumentRun {
         }
     }
 
+    /// The identified geometry in the first session's frames
+    /// ([`InstrumentModel::machine_in_first_session`]).
+    pub fn machine_in_first_session(&self, values: &ModelValues) -> Geometry {
+        self.model.machine_in_first_session(values)
+    }
+}
+
+impl InstrumentModel {
     /// The identified geometry in the first session's frames: base joints
     /// in its instrument frame, platform joints and tool in its body frame.
     pub fn machine_in_first_session(&self, values: &ModelValues) -> Geometry {
         let (f, b) = (
-            self.model.tracker_frame(values, 0),
-            self.model.body_frame(values, 0).inverse(),
+            self.tracker_frame(values, 0),
+            self.body_frame(values, 0).inverse(),
         );
         let g = &values.geometry;
         let moved = |frame: &Isometry3<f64>, p: &Vec3| frame.transform_point(&(*p).into()).coords;
@@ -570,9 +602,45 @@ impl InstrumentRun {
             legs: g.legs,
         }
     }
+
+    /// calibration.json's `machine` at `values`, the global block's
+    /// marginal sigmas `sigma` giving the scales' (`design`: machine.json).
+    pub fn calibrated_machine(
+        &self,
+        values: &ModelValues,
+        sigma: &DVector<f64>,
+        design: &Machine,
+    ) -> CalibratedMachine {
+        let scale_sigma = self
+            .layout
+            .range(ParameterGroup::ActuatorScales)
+            .map(|r| std::array::from_fn(|i| sigma[r.start + i]));
+        CalibratedMachine {
+            geometry: record(&self.machine_in_first_session(values)),
+            actuator: Actuator {
+                unit: design.actuator.unit.clone(),
+                scale: values.scales,
+                scale_sigma,
+            },
+        }
+    }
+
+    /// calibration.json's `sessions` at `values`: each session's instrument
+    /// frame, body frame and leg offsets.
+    pub fn session_records(&self, values: &ModelValues) -> Vec<SessionRecord> {
+        (0..self.sessions.len())
+            .map(|k| SessionRecord {
+                label: self.sessions[k].clone(),
+                tracker_frame: frame(&self.tracker_frame(values, k)),
+                body_frame: frame(&self.body_frame(values, k)),
+                leg_offsets: values.offsets[k],
+            })
+            .collect()
+    }
 }
 
-fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {
+/// The RMS of `values`, or `None` without any.
+pub(crate) fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {
     let (n, sum) = values.fold((0usize, 0.0), |(n, s), v| (n + 1, s + v * v));
     (n > 0).then(|| (sum / n as f64).sqrt())
 }

@@ -1,10 +1,15 @@
-//! Helpers shared by the integration tests: the calibration case
-//! and a dataset with its measurement rows shuffled.
+//! Helpers shared by the integration tests: the calibration case,
+//! a dataset with its measurement rows shuffled, and a simulation's true
+//! global block with the NEES of an error.
 
 #![allow(dead_code)] // each test binary uses a different subset
 
+use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
+use parcal_calibrate::instruments::InstrumentModel;
+use parcal_calibrate::layout::ParameterGroup;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation};
-use parcal_dataset::Dataset;
+use parcal_dataset::{Dataset, FrameRecord};
+use parcal_kinematics::{Geometry, Vec3, params};
 
 /// Simulation IV with the propagated prior (the case, as in the
 /// benches).
@@ -50,4 +55,91 @@ pub fn relative_differences(reference: &CalibrationRun, result: &CalibrationRun)
         reference.sigmas().expect("sigmas"),
     );
     (params, (s - s_ref).amax() / s_ref.amax())
+}
+
+/// A frame of the dataset files as an isometry.
+pub fn isometry(record: &FrameRecord) -> Isometry3<f64> {
+    let [x, y, z, w] = record.rotation;
+    Isometry3::from_parts(
+        Translation3::from(Vec3::from(record.translation)),
+        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+    )
+}
+
+/// The true global block of the simulated `dataset` in the layout of
+/// `model` (ball centres in the canonical base frame). `T_b`, `T_p`: the true geometry's `base_from_input` and
+/// `platform_from_input`; `F_k`, `B_k`: the true frames (design base frame
+/// to instrument, body to design platform frame).
+///
+/// - kinematic: the true geometry's canonical parameters; scales: the
+///   true scales; leg offsets: the true ones;
+/// - `C_F,k = F₀_k⁻¹ F_k T_b⁻¹`, as `(Log R, t)`;
+/// - `C_B,k = T_p B_k B₀⁻¹`: the body frame's correction is session 0's
+///   `(ω_B, τ_B) = (Log R(C_B,0), t(C_B,0))`; a later session's turn and
+///   shift are `Log R(C_B,k) − ω_B` and `t(C_B,k) − τ_B`, exactly, since
+///   `C_B,k = (Exp(ω_B + φ_k), τ_B + ρ_k)`.
+pub fn true_block(dataset: &Dataset, model: &InstrumentModel) -> DVector<f64> {
+    let truth = dataset.truth.as_ref().expect("a simulated dataset");
+    let g = &truth.geometry;
+    let geometry =
+        Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
+    let canonical = geometry.canonicalize().expect("a canonical truth");
+    let body = |k: usize| {
+        canonical.platform_from_input
+            * isometry(&truth.sessions[k].body_frame)
+            * model.body_reference.inverse()
+    };
+    let (omega_b, tau_b) = (body(0).rotation.scaled_axis(), body(0).translation.vector);
+    let correction = |c: &Isometry3<f64>| {
+        let (w, t) = (c.rotation.scaled_axis(), c.translation.vector);
+        vec![w.x, w.y, w.z, t.x, t.y, t.z]
+    };
+    let mut block = DVector::zeros(model.layout.size());
+    for (group, range) in model.layout.groups() {
+        let values = match *group {
+            ParameterGroup::Kinematic => params::to_params(&canonical.geometry).as_slice().to_vec(),
+            ParameterGroup::ActuatorScales => truth.actuator_scale.expect("true scales").to_vec(),
+            ParameterGroup::TrackerFrame { session } => correction(
+                &(model.tracker_references[session].inverse()
+                    * isometry(&truth.sessions[session].tracker_frame)
+                    * canonical.base_from_input.inverse()),
+            ),
+            ParameterGroup::BodyFrame => correction(&body(0)),
+            ParameterGroup::BodyRotation { session } => (body(session).rotation.scaled_axis()
+                - omega_b)
+                .as_slice()
+                .to_vec(),
+            ParameterGroup::BodyOrigin { session } => (body(session).translation.vector - tau_b)
+                .as_slice()
+                .to_vec(),
+            ParameterGroup::LegOffsets { session } => truth.sessions[session].leg_offsets.to_vec(),
+            ParameterGroup::BallCentre { ball } => {
+                let centre = Vec3::from(truth.ball_centres[ball]);
+                (canonical.base_from_input * nalgebra::Point3::from(centre))
+                    .coords
+                    .as_slice()
+                    .to_vec()
+            }
+            ParameterGroup::BallRadius { ball } => vec![truth.ball_radii[ball]],
+        };
+        block
+            .rows_mut(range.start, range.len())
+            .copy_from_slice(&values);
+    }
+    block
+}
+
+/// `e^T Σ^-1 e` by the Cholesky factor of `Σ`; `None` when `Σ` is not
+/// positive definite.
+pub fn nees(e: &DVector<f64>, covariance: &DMatrix<f64>) -> Option<f64> {
+    let factor = covariance.clone().cholesky()?;
+    Some(factor.l().solve_lower_triangular(e)?.norm_squared())
+}
+
+/// The mean of `values` and its standard error (sample sd / √N).
+pub fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (variance / n).sqrt())
 }

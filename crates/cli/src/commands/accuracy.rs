@@ -35,7 +35,9 @@ pub struct Args {
 
 /// The parameters and covariance of a calibration.json of `dataset`: a
 /// rejected one, or one of other data, only if the options say so; its
-/// parameters must be the 33, named and ordered as `PARAM_NAMES`.
+/// parameters must start with the 33, named and ordered as `PARAM_NAMES`
+/// (a calibration with poses or points has its instrument parameters
+/// after them).
 fn calibrated(
     path: &Path,
     dataset: &Dataset,
@@ -54,8 +56,8 @@ fn calibrated(
     }
     let names = &calibration.parameters.names;
     anyhow::ensure!(
-        names.len() == N_PARAMS && names.iter().zip(PARAM_NAMES).all(|(a, b)| a == b),
-        "{}: expected the {N_PARAMS} kinematic parameters {} .. {} in that order, found {} parameters ({})",
+        names.len() >= N_PARAMS && names.iter().zip(PARAM_NAMES).all(|(a, b)| a == b),
+        "{}: expected the {N_PARAMS} kinematic parameters {} .. {} first, in that order, found {} parameters ({})",
         path.display(),
         PARAM_NAMES[0],
         PARAM_NAMES[N_PARAMS - 1],
@@ -64,13 +66,13 @@ fn calibrated(
     );
     let values = &calibration.parameters.values;
     anyhow::ensure!(
-        calibration.converged && calibration.covariance.len() == N_PARAMS,
+        calibration.converged && calibration.covariance.len() == names.len(),
         "{}: the calibration has no posterior covariance (status: {})",
         path.display(),
         calibration.status
     );
     let covariance = SMatrix::from_fn(|i, j| calibration.covariance[i][j]);
-    Ok((Params::from_column_slice(values), covariance))
+    Ok((Params::from_column_slice(&values[..N_PARAMS]), covariance))
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {

@@ -1,6 +1,7 @@
 //! `parcal calibrate`: identify the parameters of a dataset, print the
 //! table and the accuracy summary, write calibration.json.
 
+use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -8,6 +9,7 @@ use std::time::Instant;
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::instruments::calibrate_instruments;
+use parcal_calibrate::mixed::InstrumentResult;
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
@@ -95,7 +97,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // A simulation's true machine serves the evaluation, not the
     // calibration: keep it, and free the dataset's truth.json with its true
     // contact points (24 bytes per contact).
-    if !dataset.tracker.is_empty() {
+    if !dataset.has_touches() && !dataset.tracker.is_empty() {
         return run_instruments(args, &dataset, &options, progress, &out);
     }
     let truth = TrueMachine::of(&dataset)
@@ -114,6 +116,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         options.prior,
         options.radius
     ));
+    let tracker = &dataset.tracker;
+    if !tracker.is_empty() {
+        progress.line(&format!(
+            "  with {} poses and {} points in {} sessions",
+            tracker.poses.len(),
+            tracker.points.len(),
+            tracker.sessions.len()
+        ));
+    }
     let started = Instant::now();
     let observer = &mut |record: &IterationRecord| step(&progress, record, started);
     let (run, record) = if args.snoop {
@@ -139,6 +150,29 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     super::write_calibration(record, &dataset, &args.dataset, &out)?;
     printed
+}
+
+/// The poses and points calibrated with the touches: their residuals and
+/// the instrument parameters (the kinematic ones are in the table above).
+fn instrument_part(instruments: &InstrumentResult, names: &[String]) -> String {
+    let mut out = String::new();
+    let t = (
+        instruments.model.sessions.len(),
+        instruments.leg_residuals.len(),
+        instruments.point_residuals.len(),
+    );
+    let _ = writeln!(out, "with {} sessions, {} poses, {} points:", t.0, t.1, t.2);
+    if let Some(rms) = instruments.leg_rms() {
+        let _ = writeln!(out, "  pose residual (leg length): RMS {rms:.4} mm");
+    }
+    if let Some(rms) = instruments.point_rms() {
+        let _ = writeln!(out, "  point residual (per coordinate): RMS {rms:.4} mm");
+    }
+    out.push_str("\n| parameter | identified | sigma |\n|---|---:|---:|\n");
+    for (name, value, sigma) in instruments.parameters(names) {
+        let _ = writeln!(out, "| {name} | {value:.4} | {sigma:.4} |");
+    }
+    out
 }
 
 /// One iteration on the progress bar.
@@ -232,6 +266,9 @@ fn print_results(
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "{}", tables::run_summary(run, truth))?;
     writeln!(stdout, "{}", tables::parameters(run, truth))?;
+    if let Some(instruments) = &run.instruments {
+        writeln!(stdout, "{}", instrument_part(instruments, &run.names()))?;
+    }
     writeln!(
         stdout,
         "accuracy on the plane z = 400 of the design frame, um:"

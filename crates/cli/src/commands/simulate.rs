@@ -1,6 +1,7 @@
 //! `parcal simulate`: write a simulated campaign as a dataset: ball
 //! touches (the paper scenario and scaled variants) or, with `--tracker`,
-//! instrument measurements in sessions.
+//! instrument measurements in sessions (with `--touches`, and the paper's
+//! touches of the same machine).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -12,7 +13,7 @@ use parcal_design::tracker::plan_file::read_pose_plan;
 use parcal_kinematics::rotation_zyx;
 use parcal_simulate::{
     PlannedTouch, Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, ball_id,
-    check_rows, simulate, simulate_tracker,
+    check_rows, simulate, simulate_mixed, simulate_tracker,
 };
 
 use super::SNAPSHOT_FILE;
@@ -51,6 +52,11 @@ pub struct Args {
     /// capture, legs re-homed by 2 mm between sessions).
     #[arg(long, value_enum, default_value_t = TrackedMachine::Paper, requires = "tracker")]
     machine: TrackedMachine,
+    /// Also the paper's ball touches (27 balls, 7 contacts each) of the same
+    /// true machine, in the same dataset: one calibration takes both
+    /// (--machine paper; the actuators read mm, scales 1 and known).
+    #[arg(long, requires = "tracker")]
+    touches: bool,
     /// Number of measuring sessions (default: 3).
     #[arg(long, requires = "tracker")]
     sessions: Option<usize>,
@@ -303,10 +309,29 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
         ("--rows", scenario.rows_per_session),
         ("files (poses and points)", scenario.kind.files()),
     ])?;
-    let simulation = simulate_tracker(&scenario, args.seed).context("simulation failed")?;
+    let simulation = if args.touches {
+        anyhow::ensure!(
+            args.machine == TrackedMachine::Paper,
+            "--touches: the ball touches are the paper machine's (--machine paper)"
+        );
+        scenario.true_scale = [1.0; 6];
+        scenario.scale_sigma = None;
+        let touches = Scenario {
+            max_tilt: args.tilt.to_radians(),
+            ..Scenario::paper()
+        };
+        simulate_mixed(&touches, &scenario, args.seed)
+    } else {
+        simulate_tracker(&scenario, args.seed)
+    }
+    .context("simulation failed")?;
     write_dataset(args, &simulation)?;
     let s = &simulation.summary;
     let mut stdout = std::io::stdout().lock();
+    if args.touches {
+        writeln!(stdout, "  balls              {}", s.balls)?;
+        writeln!(stdout, "  contacts           {}", s.contacts)?;
+    }
     writeln!(stdout, "  sessions           {}", s.sessions)?;
     for (name, rows) in [("poses", s.poses), ("points", s.points)] {
         if rows > 0 {
