@@ -239,6 +239,7 @@ fn machine(s: &TrackerScenario) -> Machine {
         },
         session_model: s.session_model,
         stroke: None,
+        joint_limits: None,
     }
 }
 
