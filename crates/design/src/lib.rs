@@ -196,6 +196,7 @@ fn plan_with(
             max_approach: options.max_approach_degrees.to_radians(),
             min_conditioning: options.min_conditioning,
             stroke,
+            joint_limits: machine.joint_limits.map(|l| l.limits()),
         },
     )?;
     progress(&format!("{} feasible candidate touches", pool.len()));

@@ -656,6 +656,7 @@ mod tests {
                 max_approach: 1.3,
                 min_conditioning: 0.05,
                 stroke: [20.0, 250.0],
+                joint_limits: None,
             },
         )
         .unwrap();

@@ -131,3 +131,62 @@ fn the_next_touches_start_from_the_calibration() {
         next.predicted
     );
 }
+
+#[test]
+fn a_plan_keeps_every_joint_within_machine_json_limits() {
+    // Limits that the unlimited plan breaks, so that they bind.
+    let template = simulate(&Scenario::scaled(8, 6, 25f64.to_radians()), 1)
+        .unwrap()
+        .dataset;
+    let options = PlanOptions {
+        pool: 3000,
+        ..PlanOptions::new(48, 25.0)
+    };
+    let design = template.machine.geometry.clone();
+    let design = parcal_kinematics::Geometry::from_arrays(
+        &design.base_joints,
+        &design.platform_joints,
+        &design.tool,
+        &design.leg_lengths,
+    );
+    let balls = parcal_design::nominal_balls(&design, &template.artefacts).unwrap();
+    // The largest base and platform leans of a plan's touches (degrees),
+    // from the leg vectors R E_i + t - B_i about +z of each frame.
+    let largest_leans = |plan: &parcal_design::Plan| {
+        let mut largest = (0.0f64, 0.0f64);
+        for c in &plan.contacts {
+            let ball = &balls[c.ball];
+            let rotation = c.rotation();
+            let pose = parcal_design::pool::tip_pose(
+                &design,
+                &(ball.centre + ball.radius * c.direction),
+                rotation,
+            );
+            for i in 0..6 {
+                let leg = pose.rotation * design.platform[i] + pose.translation.vector
+                    - design.base[i];
+                let base = (leg.z / leg.norm()).acos().to_degrees();
+                let platform = ((pose.rotation.inverse() * leg).z / leg.norm())
+                    .acos()
+                    .to_degrees();
+                largest = (largest.0.max(base), largest.1.max(platform));
+            }
+        }
+        largest
+    };
+    let free = plan(&template.machine, &template.artefacts, &options, &mut |_| {}).unwrap();
+    let (base, platform) = largest_leans(&free);
+    let limits = parcal_dataset::JointLimitsRecord {
+        base_deg: Some(base - 2.0),
+        platform_deg: Some(platform - 2.0),
+        base_axes: None,
+        platform_axes: None,
+    };
+    let mut machine = template.machine.clone();
+    machine.joint_limits = Some(limits);
+    let limited = plan(&machine, &template.artefacts, &options, &mut |_| {}).unwrap();
+    assert_eq!(limited.contacts.len(), 48);
+    assert!(limited.pool_size < free.pool_size);
+    let (b, p) = largest_leans(&limited);
+    assert!(b <= base - 2.0 && p <= platform - 2.0, "{b} {p} vs {base} {platform}");
+}

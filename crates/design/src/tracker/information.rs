@@ -188,6 +188,7 @@ mod tests {
             scenario.max_tilt,
             &machine.actuator.scale,
             None,
+            None,
         )
         .unwrap();
         let picked: Vec<_> = (0..5).map(|k| &pool[k * pool.len() / 6 + 3 * k]).collect();

@@ -71,6 +71,7 @@ pub fn plan_poses(
         options.tilt_degrees.to_radians(),
         &machine.actuator.scale,
         machine.stroke,
+        machine.joint_limits.map(|l| l.limits()).as_ref(),
     )?;
     progress(&format!("{} feasible candidate poses", pool.len()));
     let poses: Vec<_> = pool.iter().map(|c| c.pose).collect();
