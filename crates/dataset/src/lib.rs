@@ -122,7 +122,9 @@ pub use geometry::GeometryRecord;
 pub use input::JSON_CAP;
 pub use machine::{Actuator, JointLimitsRecord, Machine, PriorSigma, Repeatability, SessionModel};
 pub use measurements::Measurements;
-pub use numbers::{read_labelled_numbers, read_numbers, write_numbers};
+pub use numbers::{
+    read_labelled_numbers, read_numbers, read_optionally_labelled_numbers, write_numbers,
+};
 pub use session::{FrameRecord, SessionRecord};
 pub use table::CSV_LINE_CAP;
 pub use tracker::{DEFAULT_SESSION, Points, Poses, Tracker};

@@ -30,6 +30,13 @@ pub struct Args {
     /// The budget of a pose plan: number of poses.
     #[arg(long)]
     poses: Option<usize>,
+    /// A pose plan over this many measuring sessions (re-homing, a
+    /// re-placed instrument), the poses shared evenly: each session's
+    /// instrument frame, and its leg offsets and body origin and turn when
+    /// machine.json's session_model gives their sigmas, are estimated with
+    /// the machine (plan.csv's session column).
+    #[arg(long, default_value_t = 1)]
+    sessions: usize,
     /// Where a pose plan's platform origin may go: `|x|, |y| <= HALF_WIDTH`,
     /// `Z_MIN <= z <= Z_MAX`, design base frame, mm.
     #[arg(long, value_name = "HALF_WIDTH,Z_MIN,Z_MAX", value_parser = parse_workspace)]
@@ -91,6 +98,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(kind) = tracker {
         return run_tracker(args, &machine, kind);
     }
+    anyhow::ensure!(
+        args.sessions == 1,
+        "--sessions applies to pose plans only (--tracker)"
+    );
     let Some(contacts) = args.contacts else {
         anyhow::bail!("--contacts is needed for a plan of ball touches");
     };
@@ -144,6 +155,7 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
         args.after.is_none() && args.per_ball.is_none(),
         "--after and --per-ball apply to ball touches only"
     );
+    anyhow::ensure!(args.sessions > 0, "--sessions must be at least 1");
     let options = PosePlanOptions {
         poses,
         kind: kind.tracker_kind(),
@@ -151,6 +163,7 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
         tilt_degrees: args.tilt,
         criterion: criterion(args.criterion),
         passes: PlanOptions::new(1, 0.0).passes,
+        sessions: args.sessions,
     };
     let progress = Progress::spinner();
     let mut report = |line: &str| progress.line(&format!("  {line}"));
