@@ -190,3 +190,39 @@ fn a_plan_keeps_every_joint_within_machine_json_limits() {
     let (b, p) = largest_leans(&limited);
     assert!(b <= base - 2.0 && p <= platform - 2.0, "{b} {p} vs {base} {platform}");
 }
+
+/// docs/design.md's small-budget table (`cargo test -p parcal-design --test
+/// plan_then_calibrate small_budget -- --ignored --nocapture`): 95 touches
+/// of the paper's 27 balls, the criterion's choice of balls (`min_balls`
+/// 0) against the default floor, 5 noise seeds each.
+#[test]
+#[ignore = "the documented run: a few minutes"]
+fn small_budget_evidence() {
+    let paper = Scenario::paper();
+    let template = simulate(&paper, 1).unwrap().dataset;
+    for tilt in [10.0, 30.0] {
+        for min_balls in [0, parcal_design::select::default_min_balls(95)] {
+            let options = PlanOptions {
+                min_balls,
+                ..PlanOptions::new(95, tilt)
+            };
+            let planned = plan(&template.machine, &template.artefacts, &options, &mut |_| {}).unwrap();
+            let mut balls: Vec<usize> = planned.contacts.iter().map(|c| c.ball).collect();
+            balls.dedup();
+            let scenario = Scenario {
+                plan: Some(planned.touches()),
+                ..paper.clone()
+            };
+            let true_rms: Vec<f64> = (1..=5)
+                .map(|seed| registered(&simulate(&scenario, seed).unwrap().dataset).0)
+                .collect();
+            let mean = true_rms.iter().sum::<f64>() / 5.0;
+            let sd = (true_rms.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / 4.0).sqrt();
+            println!(
+                "| +-{tilt} | {min_balls} | {} | {:.2} | {mean:.2} ({sd:.2}) |",
+                balls.len(),
+                planned.predicted.registered_rms_um
+            );
+        }
+    }
+}

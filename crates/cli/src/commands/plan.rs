@@ -61,6 +61,12 @@ pub struct Args {
     /// At most this many touches per ball.
     #[arg(long)]
     per_ball: Option<usize>,
+    /// A budget below 4 touches of every ball touches at least this many
+    /// balls (as many as the budget allows); 0 leaves it to the criterion,
+    /// which prefers few balls touched often (default: CONTACTS / 8, so
+    /// that a small budget still spreads over the artefact).
+    #[arg(long)]
+    min_balls: Option<usize>,
     /// Runs from different random seeds (the best is kept).
     #[arg(long, default_value_t = 1)]
     restarts: usize,
@@ -111,6 +117,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         pool: args.pool,
         seed: args.seed,
         per_ball: args.per_ball,
+        min_balls: args
+            .min_balls
+            .unwrap_or_else(|| parcal_design::select::default_min_balls(contacts)),
         restarts: args.restarts,
         max_approach_degrees: args.max_approach,
         ..PlanOptions::new(contacts, args.tilt)
@@ -152,8 +161,8 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
         anyhow::bail!("--workspace HALF_WIDTH,Z_MIN,Z_MAX is needed for a pose plan");
     };
     anyhow::ensure!(
-        args.after.is_none() && args.per_ball.is_none(),
-        "--after and --per-ball apply to ball touches only"
+        args.after.is_none() && args.per_ball.is_none() && args.min_balls.is_none(),
+        "--after, --per-ball and --min-balls apply to ball touches only"
     );
     anyhow::ensure!(args.sessions > 0, "--sessions must be at least 1");
     let options = PosePlanOptions {
