@@ -191,14 +191,18 @@ mod tests {
         let pose = command(&model, &tilted).unwrap().pose;
         let free = parcal_kinematics::JointLimits::along_normals(None, Some(1.5));
         let angles = free.angles(&model.calibrated, &pose).platform;
-        let leg = (0..6).max_by(|&a, &b| angles[a].total_cmp(&angles[b])).unwrap();
+        let leg = (0..6)
+            .max_by(|&a, &b| angles[a].total_cmp(&angles[b]))
+            .unwrap();
         model.joint_limits = Some(parcal_kinematics::JointLimits::along_normals(
             None,
             Some(angles[leg] - 1e-6),
         ));
         let level = target(0.0, 0.0, 400.0, 0.0, 0.0, 0.0);
         assert!(compensate(&model, &[level]).is_ok());
-        let message = compensate(&model, &[level, tilted]).unwrap_err().to_string();
+        let message = compensate(&model, &[level, tilted])
+            .unwrap_err()
+            .to_string();
         assert!(
             message.starts_with(&format!("row 2: the platform joint of leg {}", leg + 1)),
             "{message}"

@@ -725,7 +725,10 @@ fn plan_chooses_tracker_poses_that_simulate_measures() {
         .map(|l| {
             let mut fields = l.split(',');
             let session = fields.next().unwrap().to_owned();
-            (session, fields.skip(6).map(|v| v.parse().unwrap()).collect())
+            (
+                session,
+                fields.skip(6).map(|v| v.parse().unwrap()).collect(),
+            )
         })
         .collect();
     let sessions: Vec<&str> = planned.iter().map(|(s, _)| s.as_str()).collect();

@@ -223,7 +223,10 @@ impl JointLimitsRecord {
             }
             for (i, axis) in axes.iter().enumerate() {
                 for (c, value) in axis.iter().enumerate() {
-                    check.finite(format_args!("{}[{i}][{c}]", field(&format!("{end}_axes"))), *value)?;
+                    check.finite(
+                        format_args!("{}[{i}][{c}]", field(&format!("{end}_axes"))),
+                        *value,
+                    )?;
                 }
                 if axis.iter().all(|v| v.abs() < 1e-12) {
                     return Err(check.error(

@@ -340,7 +340,11 @@ mod tests {
         let free = candidate_pool(&design, &balls, &options(30.0)).unwrap();
         let pose_of = |c: &Candidate| {
             let ball = &balls[c.ball];
-            tip_pose(&design, &(ball.centre + ball.radius * c.direction), c.rotation())
+            tip_pose(
+                &design,
+                &(ball.centre + ball.radius * c.direction),
+                c.rotation(),
+            )
         };
         // Limits between the pool's smallest and largest leans, so that
         // both kinds of candidate exist.

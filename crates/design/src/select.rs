@@ -875,7 +875,10 @@ mod tests {
             for &k in &selection.chosen {
                 touched[rows[k].ball] += 1;
             }
-            assert!(touched.iter().filter(|&&c| c > 0).count() >= least, "{touched:?}");
+            assert!(
+                touched.iter().filter(|&&c| c > 0).count() >= least,
+                "{touched:?}"
+            );
             assert!(touched.iter().all(|&c| c == 0 || c >= seeds), "{touched:?}");
             assert_eq!(touched.iter().sum::<usize>(), contacts);
         }

@@ -163,8 +163,8 @@ fn a_plan_keeps_every_joint_within_machine_json_limits() {
                 rotation,
             );
             for i in 0..6 {
-                let leg = pose.rotation * design.platform[i] + pose.translation.vector
-                    - design.base[i];
+                let leg =
+                    pose.rotation * design.platform[i] + pose.translation.vector - design.base[i];
                 let base = (leg.z / leg.norm()).acos().to_degrees();
                 let platform = ((pose.rotation.inverse() * leg).z / leg.norm())
                     .acos()
@@ -174,7 +174,13 @@ fn a_plan_keeps_every_joint_within_machine_json_limits() {
         }
         largest
     };
-    let free = plan(&template.machine, &template.artefacts, &options, &mut |_| {}).unwrap();
+    let free = plan(
+        &template.machine,
+        &template.artefacts,
+        &options,
+        &mut |_| {},
+    )
+    .unwrap();
     let (base, platform) = largest_leans(&free);
     let limits = parcal_dataset::JointLimitsRecord {
         base_deg: Some(base - 2.0),
@@ -188,7 +194,10 @@ fn a_plan_keeps_every_joint_within_machine_json_limits() {
     assert_eq!(limited.contacts.len(), 48);
     assert!(limited.pool_size < free.pool_size);
     let (b, p) = largest_leans(&limited);
-    assert!(b <= base - 2.0 && p <= platform - 2.0, "{b} {p} vs {base} {platform}");
+    assert!(
+        b <= base - 2.0 && p <= platform - 2.0,
+        "{b} {p} vs {base} {platform}"
+    );
 }
 
 /// docs/design.md's small-budget table (`cargo test -p parcal-design --test
@@ -206,7 +215,13 @@ fn small_budget_evidence() {
                 min_balls,
                 ..PlanOptions::new(95, tilt)
             };
-            let planned = plan(&template.machine, &template.artefacts, &options, &mut |_| {}).unwrap();
+            let planned = plan(
+                &template.machine,
+                &template.artefacts,
+                &options,
+                &mut |_| {},
+            )
+            .unwrap();
             let mut balls: Vec<usize> = planned.contacts.iter().map(|c| c.ball).collect();
             balls.dedup();
             let scenario = Scenario {

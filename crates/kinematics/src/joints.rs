@@ -154,7 +154,10 @@ mod tests {
         geometry.platform[0] = Vec3::zeros();
         geometry.base[1] = Vec3::new(-30.0, 0.0, 0.0);
         geometry.platform[1] = Vec3::new(10.0, 0.0, 0.0);
-        let pose = Pose::from_parts(Translation3::new(0.0, 0.0, 40.0), rotation_zyx(0.0, 0.0, 0.0));
+        let pose = Pose::from_parts(
+            Translation3::new(0.0, 0.0, 40.0),
+            rotation_zyx(0.0, 0.0, 0.0),
+        );
         let limits = JointLimits::along_normals(None, None);
         let angles = limits.angles(&geometry, &pose);
         assert!(angles.base[0].abs() < 1e-15 && angles.platform[0].abs() < 1e-15);
@@ -162,7 +165,10 @@ mod tests {
         assert!((angles.base[1] - lean).abs() < 1e-14, "{}", angles.base[1]);
         // Rolling the platform by 0.1 rad tilts its axes: the vertical
         // leg's platform joint turns by 0.1, its base joint not at all.
-        let rolled = Pose::from_parts(Translation3::new(0.0, 0.0, 40.0), rotation_zyx(0.0, 0.0, 0.1));
+        let rolled = Pose::from_parts(
+            Translation3::new(0.0, 0.0, 40.0),
+            rotation_zyx(0.0, 0.0, 0.1),
+        );
         let angles = limits.angles(&geometry, &rolled);
         assert!(angles.base[0].abs() < 1e-15);
         assert!((angles.platform[0] - 0.1).abs() < 1e-14);
@@ -171,7 +177,10 @@ mod tests {
     #[test]
     fn the_first_joint_beyond_its_limit_is_named() {
         let geometry = paper::design();
-        let pose = Pose::from_parts(Translation3::new(0.0, 0.0, 250.0), rotation_zyx(0.0, 0.3, 0.0));
+        let pose = Pose::from_parts(
+            Translation3::new(0.0, 0.0, 250.0),
+            rotation_zyx(0.0, 0.3, 0.0),
+        );
         let open = JointLimits::along_normals(Some(1.5), Some(1.5));
         assert_eq!(open.violation(&geometry, &pose), None);
         let angles = open.angles(&geometry, &pose);

@@ -66,7 +66,9 @@ pub fn pose_information(
     sessions: usize,
 ) -> Result<PoseInformation, DesignError> {
     if sessions == 0 {
-        return Err(DesignError::Options("a plan needs at least 1 session".into()));
+        return Err(DesignError::Options(
+            "a plan needs at least 1 session".into(),
+        ));
     }
     let dataset = campaign(machine, tool, kind, poses, q, sessions);
     let refuse = |e: parcal_calibrate::CalibrateError| {
@@ -256,7 +258,12 @@ mod tests {
             assert_eq!(candidates, sessions * poses.len());
             let pose_rows = if kind.poses() { 6 * candidates } else { 0 };
             if sessions > 1 {
-                assert!(information.names.iter().any(|name| name.starts_with("o_1 2")));
+                assert!(
+                    information
+                        .names
+                        .iter()
+                        .any(|name| name.starts_with("o_1 2"))
+                );
             }
             for i in 0..n {
                 let h = 1e-6 * set.initial[i].abs().max(1.0);

@@ -90,8 +90,7 @@ pub fn plan_poses(
     progress(&format!("{} feasible candidate poses", pool.len()));
     let poses: Vec<_> = pool.iter().map(|c| c.pose).collect();
     let q: Vec<_> = pool.iter().map(|c| c.q).collect();
-    let rows =
-        information::pose_information(machine, &design.tool, options.kind, &poses, &q, k)?;
+    let rows = information::pose_information(machine, &design.tool, options.kind, &poses, &q, k)?;
     let targets =
         CanonicalTargets::new(&design, &MapGrid::paper()).map_err(DesignError::Accuracy)?;
     let map = MapWeights::new(

@@ -107,8 +107,8 @@ pub fn read_pose_plan(path: &Path) -> Result<Vec<PosePlanRow>, DesignError> {
             .into_iter()
             .map(|(session, v)| PosePlanRow {
                 session: session.unwrap_or_else(|| DEFAULT_SESSION.to_owned()),
-            angles: [v[0], v[1], v[2]],
-            tip: Vec3::new(v[3], v[4], v[5]),
+                angles: [v[0], v[1], v[2]],
+                tip: Vec3::new(v[3], v[4], v[5]),
                 q: std::array::from_fn(|i| v[6 + i]),
             })
             .collect(),
@@ -155,7 +155,11 @@ mod tests {
         let old = HEADER.strip_prefix("session,").unwrap();
         std::fs::write(&path, format!("{old}\n0,0,0.5,1,2,300,1,2,3,4,5,6\n")).unwrap();
         assert_eq!(read_pose_plan(&path).unwrap()[0].session, "1");
-        std::fs::write(&path, format!("{HEADER}\nmon,0,0,0.5,1,2,300,1,2,3,4,5,6\n")).unwrap();
+        std::fs::write(
+            &path,
+            format!("{HEADER}\nmon,0,0,0.5,1,2,300,1,2,3,4,5,6\n"),
+        )
+        .unwrap();
         let rows = read_pose_plan(&path).unwrap();
         assert_eq!(rows[0].session, "mon");
         assert_eq!(rows[0].angles, [0.0, 0.0, 0.5]);

@@ -115,7 +115,15 @@ mod tests {
             height: [300.0, 380.0],
         };
         let tilt = 10f64.to_radians();
-        let pool = pose_pool(&design, &workspace, tilt, &[1.0; 6], Some([0.0, 200.0]), None).unwrap();
+        let pool = pose_pool(
+            &design,
+            &workspace,
+            tilt,
+            &[1.0; 6],
+            Some([0.0, 200.0]),
+            None,
+        )
+        .unwrap();
         assert!(pool.len() > 1000, "{} candidates", pool.len());
         for c in &pool {
             assert!(c.q.iter().all(|q| (0.0..=200.0).contains(q)));

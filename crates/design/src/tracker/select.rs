@@ -87,9 +87,8 @@ pub fn select_poses(
     progress: &mut dyn FnMut(&str),
 ) -> Result<PoseSelection, DesignError> {
     let count: usize = quotas.quota.iter().sum();
-    let short = (0..quotas.quota.len()).find(|&g| {
-        quotas.group.iter().filter(|&&c| c == g).count() < quotas.quota[g]
-    });
+    let short = (0..quotas.quota.len())
+        .find(|&g| quotas.group.iter().filter(|&&c| c == g).count() < quotas.quota[g]);
     if count == 0 || quotas.group.len() != blocks.len() || short.is_some() {
         return Err(DesignError::Options(format!(
             "{count} poses ({:?} per session) from {} feasible candidates: plan at least 1 and at most as many as there are",
