@@ -43,9 +43,12 @@ fn joint_limits_round_trip_and_are_absent_by_default() {
     assert!((l.base.unwrap() - 40f64.to_radians()).abs() < 1e-15);
 }
 
+/// A damage to the limits and the message it gets.
+type Case = (fn(&mut JointLimitsRecord), &'static str);
+
 #[test]
 fn bad_joint_limits_are_refused_naming_the_field() {
-    let cases: [(fn(&mut JointLimitsRecord), &str); 5] = [
+    let cases: [Case; 5] = [
         (
             |l| l.base_deg = Some(0.0),
             "field joint_limits.base_deg: must be an angle in (0, 180] degrees, found 0",

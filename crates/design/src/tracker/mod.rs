@@ -70,7 +70,7 @@ pub fn plan_poses(
     progress: &mut dyn FnMut(&str),
 ) -> Result<PosePlan, DesignError> {
     let k = options.sessions;
-    if k == 0 || options.poses % k != 0 {
+    if k == 0 || !options.poses.is_multiple_of(k) {
         return Err(DesignError::Options(format!(
             "{} poses in {k} sessions: the sessions must share the poses evenly",
             options.poses
