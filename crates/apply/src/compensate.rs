@@ -6,8 +6,9 @@
 //! `L_i = |R E_i + t - B_i|` (paper eq. 1) and the readings
 //! `q_i = (L_i - l_i) / s_i` in the actuators' unit.
 //!
-//! A target is refused when a reading leaves the stroke, or near a
-//! singular configuration. The measure: the inverse-kinematics Jacobian
+//! A target is refused when a reading leaves the stroke, a joint is beyond
+//! machine.json's joint limits (`parcal_kinematics::joints`, with the
+//! calibrated geometry), or near a singular configuration. The measure: the inverse-kinematics Jacobian
 //! `A = dL/d(t, w)` (rows `[n_i^T, (a_i x n_i)^T]`, `a_i = R E_i`,
 //! docs/formulation.md section 4) with its rotation columns divided by `r`,
 //! the RMS distance of the platform joints from their centroid, so that
@@ -85,6 +86,13 @@ pub fn command(model: &AppliedModel, target: &Target) -> Result<Command, Refusal
             min,
             max,
         });
+    }
+    if let Some(violation) = model
+        .joint_limits
+        .as_ref()
+        .and_then(|limits| limits.violation(geometry, &pose))
+    {
+        return Err(Refusal::BeyondJointLimit(violation));
     }
     let singular = normalised_jacobian(geometry, &legs).singular_values();
     let conditioning = singular.min() / singular.max();
@@ -177,6 +185,29 @@ mod tests {
         assert!(message.contains("is outside the stroke"), "{message}");
 
         model.stroke = None;
+        // A joint limit just below the tilted target's largest platform
+        // joint angle refuses it, naming the joint; the level one passes.
+        let tilted = target(0.0, 0.0, 400.0, 0.0, 0.3, 0.0);
+        let pose = command(&model, &tilted).unwrap().pose;
+        let free = parcal_kinematics::JointLimits::along_normals(None, Some(1.5));
+        let angles = free.angles(&model.calibrated, &pose).platform;
+        let leg = (0..6)
+            .max_by(|&a, &b| angles[a].total_cmp(&angles[b]))
+            .unwrap();
+        model.joint_limits = Some(parcal_kinematics::JointLimits::along_normals(
+            None,
+            Some(angles[leg] - 1e-6),
+        ));
+        let level = target(0.0, 0.0, 400.0, 0.0, 0.0, 0.0);
+        assert!(compensate(&model, &[level]).is_ok());
+        let message = compensate(&model, &[level, tilted])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.starts_with(&format!("row 2: the platform joint of leg {}", leg + 1)),
+            "{message}"
+        );
+        model.joint_limits = None;
         let message = compensate(&model, &[target(0.0, f64::NAN, 400.0, 0.0, 0.0, 0.0)])
             .unwrap_err()
             .to_string();

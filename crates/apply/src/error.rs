@@ -34,6 +34,9 @@ pub enum Refusal {
         /// The stroke.
         max: f64,
     },
+    /// A joint beyond machine.json's `joint_limits`.
+    #[error("{0}")]
+    BeyondJointLimit(parcal_kinematics::JointViolation),
     /// Too close to a singular configuration ([`crate::SINGULARITY_RATIO`]).
     #[error(
         "near a singular configuration: the inverse kinematics Jacobian's smallest singular value is {ratio:.2e} of its largest (limit {limit:.0e})"

@@ -54,6 +54,7 @@ mod tests {
             scale: [1.0; 6],
             unit: "mm".to_string(),
             stroke: None,
+            joint_limits: None,
             placement,
             canonical: truth,
             covariance: None,

@@ -1,5 +1,5 @@
 //! The model a calibration gives to apply: the calibrated geometry placed
-//! in the design frame, the actuators' scales, the stroke.
+//! in the design frame, the actuators' scales, the stroke and joint limits.
 
 use parcal_dataset::Calibration;
 use parcal_kinematics::{Geometry, N_PARAMS, ParamCovariance};
@@ -22,6 +22,8 @@ pub struct AppliedModel {
     pub unit: String,
     /// The range of every reading (machine.json's `stroke`), if given.
     pub stroke: Option<[f64; 2]>,
+    /// The largest joint angles (machine.json's `joint_limits`), if given.
+    pub joint_limits: Option<parcal_kinematics::JointLimits>,
     /// How the calibrated geometry was placed.
     pub placement: Placement,
     /// The calibrated geometry in its canonical frames (calibration.json's
@@ -74,6 +76,7 @@ impl AppliedModel {
             scale: actuator.scale,
             unit: actuator.unit.clone(),
             stroke: design_machine.stroke,
+            joint_limits: design_machine.joint_limits.map(|l| l.limits()),
             placement,
             canonical,
             covariance: kinematic_covariance(&record.covariance),

@@ -740,9 +740,12 @@ fn plan_chooses_tracker_poses_that_simulate_measures() {
     assert!(text(&output.stdout).contains("poses              8 from"));
     let csv = std::fs::read_to_string(&plan).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6"));
+    assert_eq!(
+        lines.next(),
+        Some("session,roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6")
+    );
     let planned: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .map(|l| l.split(',').skip(1).map(|v| v.parse().unwrap()).collect())
         .collect();
     assert_eq!(planned.len(), 8);
     let summary: serde_json::Value =
@@ -785,6 +788,46 @@ fn plan_chooses_tracker_poses_that_simulate_measures() {
             );
         }
     }
+    // A plan over two sessions, 4 poses each: the simulation has the
+    // plan's sessions, each measuring its own poses.
+    let output = args(&["--workspace", "60,300,380", "--sessions", "2"]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let csv = std::fs::read_to_string(&plan).unwrap();
+    let planned: Vec<(String, Vec<f64>)> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let mut fields = l.split(',');
+            let session = fields.next().unwrap().to_owned();
+            (
+                session,
+                fields.skip(6).map(|v| v.parse().unwrap()).collect(),
+            )
+        })
+        .collect();
+    let sessions: Vec<&str> = planned.iter().map(|(s, _)| s.as_str()).collect();
+    assert_eq!(sessions, ["1", "1", "1", "1", "2", "2", "2", "2"]);
+    let data = temp.path().join("two-sessions");
+    simulate(
+        &data,
+        &["--tracker", "poses", "--plan", plan.to_str().unwrap()],
+    );
+    let poses = std::fs::read_to_string(data.join("poses.csv")).unwrap();
+    let mut lines = poses.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let (at_session, q1) = (
+        header.iter().position(|h| *h == "session").unwrap(),
+        header.iter().position(|h| *h == "q1").unwrap(),
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 8);
+    for (row, (session, q)) in rows.iter().zip(&planned) {
+        assert_eq!(row[at_session], session);
+        for i in 0..6 {
+            let measured: f64 = row[q1 + i].parse().unwrap();
+            assert!((measured - q[i]).abs() < 0.01, "{row:?} vs {q:?}");
+        }
+    }
 }
 
 #[test]
@@ -815,7 +858,8 @@ fn a_budget_below_four_touches_per_ball_plans_fewer_balls() {
         *per_ball.entry(line.split(',').next().unwrap()).or_insert(0) += 1;
     }
     assert_eq!(per_ball.values().sum::<usize>(), 95);
-    assert!(per_ball.len() < 27, "{per_ball:?}");
+    // The default floor: at least 95 / 8 = 11 balls.
+    assert!((11..27).contains(&per_ball.len()), "{per_ball:?}");
     assert!(per_ball.values().all(|&n| n >= 4), "{per_ball:?}");
 
     let output = simulate(&data, &["--plan", plan.to_str().unwrap()]);

@@ -49,6 +49,7 @@
 //!         actuator: Actuator::default(),
 //!         session_model: SessionModel::default(),
 //!         stroke: None,
+//!         joint_limits: None,
 //!     },
 //!     artefacts: Artefacts {
 //!         frame: ArtefactFrame::Design,
@@ -121,9 +122,11 @@ pub use dataset::{Dataset, MIN_CONTACTS_PER_BALL, ReadOptions, WriteOptions};
 pub use error::DatasetError;
 pub use geometry::GeometryRecord;
 pub use input::JSON_CAP;
-pub use machine::{Actuator, Machine, Repeatability, SessionModel};
+pub use machine::{Actuator, JointLimitsRecord, Machine, Repeatability, SessionModel};
 pub use measurements::Measurements;
-pub use numbers::{read_labelled_numbers, read_numbers, write_numbers};
+pub use numbers::{
+    read_labelled_numbers, read_numbers, read_optionally_labelled_numbers, write_numbers,
+};
 pub use parcal_kinematics::PriorSigma;
 pub use session::{FrameRecord, SessionRecord};
 pub use table::CSV_LINE_CAP;

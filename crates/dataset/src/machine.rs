@@ -61,11 +61,7 @@ impl Serialize for Repeatability {
         out.serialize_field("actuator", &self.actuator)?;
         out.serialize_field("tool", &self.tool)?;
         for (name, value) in optional {
-            if text && value.is_none() {
-                out.skip_field(name)?;
-            } else {
-                out.serialize_field(name, &value)?;
-            }
+            optional_field(&mut out, text, name, &value)?;
         }
         out.end()
     }
@@ -116,6 +112,132 @@ pub struct SessionModel {
     pub body_rotation_sigma: Option<f64>,
 }
 
+/// The largest angle between each leg and its joints' axes
+/// (`machine.json`'s optional `joint_limits`): what the joints allow.
+/// `parcal_kinematics::joints` gives the angles.
+///
+/// In JSON an absent field is left out; binary snapshots (not
+/// self-describing) hold every field.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+pub struct JointLimitsRecord {
+    /// Largest angle between a leg and its base joint's axis (degrees);
+    /// absent: unlimited.
+    #[serde(default)]
+    pub base_deg: Option<f64>,
+    /// Largest angle between a leg and its platform joint's axis
+    /// (degrees); absent: unlimited.
+    #[serde(default)]
+    pub platform_deg: Option<f64>,
+    /// Each base joint's axis (base frame, any length), in joint order;
+    /// absent: the base frame's `+z`.
+    #[serde(default)]
+    pub base_axes: Option<[[f64; 3]; 6]>,
+    /// Each platform joint's axis (platform frame, any length, along the
+    /// leg from base to platform), in joint order; absent: the platform
+    /// frame's `+z`.
+    #[serde(default)]
+    pub platform_axes: Option<[[f64; 3]; 6]>,
+}
+
+impl Serialize for JointLimitsRecord {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let text = serializer.is_human_readable();
+        let present = [
+            self.base_deg.is_some(),
+            self.platform_deg.is_some(),
+            self.base_axes.is_some(),
+            self.platform_axes.is_some(),
+        ];
+        let fields = present.iter().filter(|p| !text || **p).count();
+        let mut out = serializer.serialize_struct("JointLimitsRecord", fields)?;
+        optional_field(&mut out, text, "base_deg", &self.base_deg)?;
+        optional_field(&mut out, text, "platform_deg", &self.platform_deg)?;
+        optional_field(&mut out, text, "base_axes", &self.base_axes)?;
+        optional_field(&mut out, text, "platform_axes", &self.platform_axes)?;
+        out.end()
+    }
+}
+
+/// Serialises `value` as field `name`, skipped in text when absent.
+fn optional_field<S: serde::ser::SerializeStruct, T: Serialize>(
+    out: &mut S,
+    text: bool,
+    name: &'static str,
+    value: &Option<T>,
+) -> Result<(), S::Error> {
+    if text && value.is_none() {
+        out.skip_field(name)
+    } else {
+        out.serialize_field(name, value)
+    }
+}
+
+impl JointLimitsRecord {
+    /// The limits in radians with unit axes (absent axes `+z`).
+    pub fn limits(&self) -> parcal_kinematics::JointLimits {
+        let axes = |given: &Option<[[f64; 3]; 6]>| match given {
+            Some(axes) => axes.map(|a| parcal_kinematics::Vec3::from(a).normalize()),
+            None => [parcal_kinematics::Vec3::z(); 6],
+        };
+        parcal_kinematics::JointLimits {
+            base: self.base_deg.map(f64::to_radians),
+            platform: self.platform_deg.map(f64::to_radians),
+            base_axes: axes(&self.base_axes),
+            platform_axes: axes(&self.platform_axes),
+        }
+    }
+
+    /// Each given limit in `(0, 180]` degrees and at least one given; each
+    /// given axis finite and not zero, and only for an end with a limit.
+    fn validate(&self, check: Check, parent: &str) -> Result<()> {
+        let field = |name: &str| format!("{parent}joint_limits.{name}");
+        if self.base_deg.is_none() && self.platform_deg.is_none() {
+            return Err(check.error(
+                field("base_deg"),
+                "joint_limits needs base_deg, platform_deg or both",
+            ));
+        }
+        for (end, limit, axes) in [
+            ("base", self.base_deg, &self.base_axes),
+            ("platform", self.platform_deg, &self.platform_axes),
+        ] {
+            if let Some(limit) = limit {
+                let name = field(&format!("{end}_deg"));
+                check.finite(&name, limit)?;
+                if !(limit > 0.0 && limit <= 180.0) {
+                    return Err(check.error(
+                        name,
+                        format!("must be an angle in (0, 180] degrees, found {limit}"),
+                    ));
+                }
+            }
+            let Some(axes) = axes else { continue };
+            if limit.is_none() {
+                return Err(check.error(
+                    field(&format!("{end}_axes")),
+                    format!("given without {end}_deg"),
+                ));
+            }
+            for (i, axis) in axes.iter().enumerate() {
+                for (c, value) in axis.iter().enumerate() {
+                    check.finite(
+                        format_args!("{}[{i}][{c}]", field(&format!("{end}_axes"))),
+                        *value,
+                    )?;
+                }
+                if axis.iter().all(|v| v.abs() < 1e-12) {
+                    return Err(check.error(
+                        format!("{}[{i}]", field(&format!("{end}_axes"))),
+                        "an axis must not be zero",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The design (nominal) machine, in any base frame and any platform frame.
 ///
 /// `machine.json` has the geometry's fields at its top level.
@@ -135,6 +257,8 @@ pub struct Machine {
     /// The range `[min, max]` of every actuator reading, in the actuators'
     /// unit (`machine.json`'s optional `stroke`): what the machine can reach.
     pub stroke: Option<[f64; 2]>,
+    /// The largest joint angles (`machine.json`'s optional `joint_limits`).
+    pub joint_limits: Option<JointLimitsRecord>,
 }
 
 /// `machine.json`'s object (without `format`) as read.
@@ -149,6 +273,7 @@ impl From<MachineFile> for Machine {
             actuator: file.rest.actuator,
             session_model: file.rest.session_model,
             stroke: file.rest.stroke,
+            joint_limits: file.rest.joint_limits,
         }
     }
 }
@@ -195,6 +320,8 @@ struct Conditions {
     session_model: SessionModel,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     stroke: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    joint_limits: Option<JointLimitsRecord>,
 }
 
 fn is_default<T: Default + PartialEq>(value: &T) -> bool {
@@ -226,6 +353,7 @@ impl Machine {
                 actuator: self.actuator.clone(),
                 session_model: self.session_model,
                 stroke: self.stroke,
+                joint_limits: self.joint_limits,
             },
         }
     }
@@ -301,6 +429,9 @@ impl Machine {
                     format!("must be [min, max] with min < max, found [{min}, {max}]"),
                 ));
             }
+        }
+        if let Some(limits) = &self.joint_limits {
+            limits.validate(check, parent)?;
         }
         Ok(())
     }

@@ -42,32 +42,68 @@ pub fn read_labelled_numbers<const N: usize>(
     what: &str,
     check: impl Fn(&[f64; N]) -> std::result::Result<(), String>,
 ) -> Result<Vec<(String, [f64; N])>> {
+    let rows = read_labels_and_numbers(path, label, true, columns, what, check)?;
+    Ok(rows
+        .into_iter()
+        .map(|(label, values)| (label.expect("a required label"), values))
+        .collect())
+}
+
+/// [`read_labelled_numbers`] of a table whose `label` column is optional
+/// (poses.csv's `session`): `None` for every row of a table without it.
+pub fn read_optionally_labelled_numbers<const N: usize>(
+    path: &Path,
+    label: &'static str,
+    columns: &[&'static str; N],
+    what: &str,
+) -> Result<Vec<(Option<String>, [f64; N])>> {
+    read_labels_and_numbers(path, label, false, columns, what, |_| Ok(()))
+}
+
+fn read_labels_and_numbers<const N: usize>(
+    path: &Path,
+    label: &'static str,
+    required: bool,
+    columns: &[&'static str; N],
+    what: &str,
+    check: impl Fn(&[f64; N]) -> std::result::Result<(), String>,
+) -> Result<Vec<(Option<String>, [f64; N])>> {
     let expected = std::iter::once(label)
         .chain(columns.iter().copied())
         .collect::<Vec<_>>()
         .join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
-        let at_label = header.require(label, &expected)?;
+        let at_label = if required {
+            Some(header.require(label, &expected)?)
+        } else {
+            header.find(label)?
+        };
         let at = header.require_all(columns, &expected)?;
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, what, |row| {
-            let bytes = row.field(at_label);
-            let text = std::str::from_utf8(bytes)
-                .ok()
-                .filter(|text| !text.is_empty() && !has_control(text))
-                .ok_or_else(|| {
-                    row.error(
-                        Some(label),
-                        format!(
-                            "expected a label (not empty, no control character), found {}",
-                            quoted_bytes(bytes)
-                        ),
-                    )
-                })?;
+            let text = match at_label {
+                None => None,
+                Some(at_label) => {
+                    let bytes = row.field(at_label);
+                    let text = std::str::from_utf8(bytes)
+                        .ok()
+                        .filter(|text| !text.is_empty() && !has_control(text))
+                        .ok_or_else(|| {
+                            row.error(
+                                Some(label),
+                                format!(
+                                    "expected a label (not empty, no control character), found {}",
+                                    quoted_bytes(bytes)
+                                ),
+                            )
+                        })?;
+                    Some(text.to_owned())
+                }
+            };
             let values = row.numbers(&at, columns)?;
             check(&values).map_err(|reason| row.error(None, reason))?;
-            rows.push((text.to_owned(), values));
+            rows.push((text, values));
             Ok(())
         })?;
         Ok(rows)

@@ -5,7 +5,7 @@
 //! | bytes | content |
 //! |---|---|
 //! | 8 | magic `PARCALDS` |
-//! | 4 | snapshot version (u32), currently 4 |
+//! | 4 | snapshot version (u32), currently 5 |
 //! | 8 | payload length in bytes (u64) |
 //! | 4 | CRC-32 (IEEE) of the payload (u32) |
 //! | n | payload: the `Dataset` in postcard |
@@ -23,7 +23,7 @@ use crate::input::{self, Input};
 
 const MAGIC: [u8; 8] = *b"PARCALDS";
 /// Version of the snapshot layout and payload.
-pub(crate) const VERSION: u32 = 4;
+pub(crate) const VERSION: u32 = 5;
 const HEADER_LEN: usize = 8 + 4 + 8 + 4;
 
 /// Writes `dataset` (already validated) to `path` atomically.

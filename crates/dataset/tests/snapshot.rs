@@ -51,9 +51,9 @@ fn snapshot_wrong_magic() {
 
 #[test]
 fn snapshot_of_another_version() {
-    // Versions 1 (a checksum of its own), 2 (no instrument data) and 3 (no
-    // stroke), and a future version alike.
-    for version in [1u32, 2, 3, 7] {
+    // Versions 1 (a checksum of its own), 2 (no instrument data), 3 (no
+    // stroke) and 4 (no joint limits), and a future version alike.
+    for version in [1u32, 2, 3, 4, 7] {
         let (_dir, path) = snapshot_of(NONE);
         let mut bytes = fs::read(&path).unwrap();
         bytes[8..12].copy_from_slice(&version.to_le_bytes());
@@ -61,7 +61,7 @@ fn snapshot_of_another_version() {
         assert_eq!(
             snapshot_error(&path),
             format!(
-                "{}: has snapshot version {version}; this parcal reads version 4 \
+                "{}: has snapshot version {version}; this parcal reads version 5 \
                  (write the snapshot again from the dataset's files)",
                 path.display()
             )

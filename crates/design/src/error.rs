@@ -16,7 +16,7 @@ pub enum DesignError {
     NoStroke,
     /// No candidate is feasible.
     #[error(
-        "no candidate touch is feasible: every one has an actuator reading outside the stroke {stroke:?} or is near a singularity"
+        "no candidate touch is feasible: every one has an actuator reading outside the stroke {stroke:?}, is near a singularity or has a joint beyond machine.json's joint_limits"
     )]
     EmptyPool {
         /// The stroke.

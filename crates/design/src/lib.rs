@@ -56,6 +56,9 @@ pub struct PlanOptions {
     pub seed: u64,
     /// At most this many touches per ball.
     pub per_ball: Option<usize>,
+    /// When the budget is below every ball's anchor touches: touch at
+    /// least this many balls ([`select::SelectOptions::min_balls`]).
+    pub min_balls: usize,
     /// Runs from different random seeds.
     pub restarts: usize,
     /// Largest number of exchange passes per run.
@@ -70,7 +73,8 @@ pub struct PlanOptions {
 impl PlanOptions {
     /// `contacts` touches within `tilt_degrees`, everything else by default:
     /// the registered criterion, a pool of about 20,000, seed 1, no
-    /// per-ball capacity, one run of at most 3 exchange passes.
+    /// per-ball capacity, at least [`select::default_min_balls`] balls, one
+    /// run of at most 3 exchange passes.
     pub fn new(contacts: usize, tilt_degrees: f64) -> Self {
         Self {
             contacts,
@@ -79,6 +83,7 @@ impl PlanOptions {
             pool: 20_000,
             seed: 1,
             per_ball: None,
+            min_balls: select::default_min_balls(contacts),
             restarts: 1,
             passes: 3,
             max_approach_degrees: pool::MAX_APPROACH_DEGREES,
@@ -196,6 +201,7 @@ fn plan_with(
             max_approach: options.max_approach_degrees.to_radians(),
             min_conditioning: options.min_conditioning,
             stroke,
+            joint_limits: machine.joint_limits.map(|l| l.limits()),
         },
     )?;
     progress(&format!("{} feasible candidate touches", pool.len()));
@@ -237,6 +243,7 @@ fn plan_with(
             seed: options.seed,
             passes: options.passes,
             anchors: known.is_none(),
+            min_balls: options.min_balls,
         },
         progress,
     )?;

@@ -17,10 +17,15 @@
 //!   `[n_i^T, (R E_i x n_i)^T]`, `crates/kinematics/src/closure.rs`) with
 //!   its rotation columns divided by the platform's joint radius `rho`
 //!   (RMS of `|E_i|`, so that both halves are mm/mm) has
-//!   `sigma_min / sigma_max >= PoolOptions::min_conditioning`.
+//!   `sigma_min / sigma_max >= PoolOptions::min_conditioning`;
+//! - every joint is within machine.json's joint limits, when it gives them
+//!   ([`parcal_kinematics::joints`]: the angle between each leg and its
+//!   base and platform joints' axes).
 
 use nalgebra::{Matrix6, Translation3, UnitQuaternion};
-use parcal_kinematics::{Geometry, Pose, Vec3, actuators, closure::Legs, rotation_zyx};
+use parcal_kinematics::{
+    Geometry, JointLimits, Pose, Vec3, actuators, closure::Legs, rotation_zyx,
+};
 
 use crate::DesignError;
 
@@ -42,6 +47,8 @@ pub struct PoolOptions {
     pub min_conditioning: f64,
     /// The range of every actuator reading `[min, max]` (mm).
     pub stroke: [f64; 2],
+    /// The largest joint angles, when the machine has any.
+    pub joint_limits: Option<JointLimits>,
 }
 
 /// The default largest approach angle: 80 degrees off the stylus axis (a
@@ -112,20 +119,22 @@ pub fn conditioning(design: &Geometry, pose: &Pose) -> f64 {
 }
 
 /// The design's actuator readings `q_i = (L_i - l_i) / s_i` at `pose`
-/// (`s_i` in mm per unit) when every one is inside `stroke` and the pose's
-/// [`conditioning`] is at least `min_conditioning` (module doc); `None`
-/// otherwise.
+/// (`s_i` in mm per unit) when every one is inside `stroke`, the pose's
+/// [`conditioning`] is at least `min_conditioning` and every joint is
+/// within `joint_limits` if given (module doc); `None` otherwise.
 pub fn feasible_commands(
     design: &Geometry,
     pose: &Pose,
     scale: &[f64; 6],
     stroke: &[f64; 2],
     min_conditioning: f64,
+    joint_limits: Option<&JointLimits>,
 ) -> Option<[f64; 6]> {
     let extension = actuators(design, pose);
     let q: [f64; 6] = std::array::from_fn(|i| extension[i] / scale[i]);
     let in_stroke = q.iter().all(|q| (stroke[0]..=stroke[1]).contains(q));
-    (in_stroke && conditioning(design, pose) >= min_conditioning).then_some(q)
+    let in_joints = || joint_limits.is_none_or(|l| l.violation(design, pose).is_none());
+    (in_stroke && conditioning(design, pose) >= min_conditioning && in_joints()).then_some(q)
 }
 
 /// The feasible candidates of `balls` for `design` (module doc), in a fixed
@@ -179,6 +188,7 @@ pub fn candidate_pool(
                     &[1.0; 6],
                     &options.stroke,
                     options.min_conditioning,
+                    options.joint_limits.as_ref(),
                 ) {
                     pool.push(Candidate {
                         ball,
@@ -256,6 +266,7 @@ mod tests {
             max_approach: MAX_APPROACH_DEGREES.to_radians(),
             min_conditioning: MIN_CONDITIONING,
             stroke: [20.0, 250.0],
+            joint_limits: None,
         }
     }
 
@@ -304,6 +315,59 @@ mod tests {
         let (a, b) = (conditioning(&design, &home), conditioning(&design, &turned));
         assert!(a > 2.0 * MIN_CONDITIONING, "home {a}");
         assert!(b < MIN_CONDITIONING / 2.0, "home {a}, turned {b}");
+    }
+
+    /// The largest base and platform joint angles of `design` at `pose`
+    /// (degrees) about `+z` of each frame, from the leg vectors
+    /// `R E_i + t - B_i` directly.
+    fn leg_leans(design: &Geometry, pose: &Pose) -> (f64, f64) {
+        let rotation = pose.rotation.to_rotation_matrix();
+        let mut largest = (0.0f64, 0.0f64);
+        for i in 0..6 {
+            let leg = rotation * design.platform[i] + pose.translation.vector - design.base[i];
+            let base = (leg.z / leg.norm()).acos().to_degrees();
+            let in_platform = rotation.inverse() * leg;
+            let platform = (in_platform.z / leg.norm()).acos().to_degrees();
+            largest = (largest.0.max(base), largest.1.max(platform));
+        }
+        largest
+    }
+
+    #[test]
+    fn joint_limits_remove_exactly_the_touches_beyond_them() {
+        let design = paper::design();
+        let balls = paper_balls();
+        let free = candidate_pool(&design, &balls, &options(30.0)).unwrap();
+        let pose_of = |c: &Candidate| {
+            let ball = &balls[c.ball];
+            tip_pose(
+                &design,
+                &(ball.centre + ball.radius * c.direction),
+                c.rotation(),
+            )
+        };
+        // Limits between the pool's smallest and largest leans, so that
+        // both kinds of candidate exist.
+        let (base_deg, platform_deg) = (40.0, 35.0);
+        let within = |c: &Candidate| {
+            let (base, platform) = leg_leans(&design, &pose_of(c));
+            base <= base_deg && platform <= platform_deg
+        };
+        let expected: Vec<&Candidate> = free.iter().filter(|c| within(c)).collect();
+        assert!(
+            expected.len() > 100 && expected.len() + 100 < free.len(),
+            "{} of {} within the limits",
+            expected.len(),
+            free.len()
+        );
+        let mut limited_options = options(30.0);
+        limited_options.joint_limits = Some(JointLimits::along_normals(
+            Some(base_deg.to_radians()),
+            Some(platform_deg.to_radians()),
+        ));
+        let limited = candidate_pool(&design, &balls, &limited_options).unwrap();
+        assert_eq!(limited.len(), expected.len());
+        assert!(limited.iter().zip(&expected).all(|(a, b)| a == *b));
     }
 
     #[test]

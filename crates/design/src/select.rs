@@ -26,8 +26,10 @@
 //! greedily instead, each step adding whichever lowers the criterion most
 //! per touch, an untouched ball's anchors or one touch of a touched ball
 //! (a new ball's first touches locate its centre, so fewer balls touched
-//! more often can beat more balls), once from no ball and once after the
-//! anchors of `⌊N / m⌋` balls (`m` that minimum), the better kept;
+//! more often can beat more balls), once after the anchors of
+//! [`SelectOptions::min_balls`] balls (none by default in this module) and
+//! once after those of `⌊N / m⌋` balls (`m` that minimum), the better
+//! kept;
 //! otherwise greedy additions up to the budget; then exchange passes, each
 //! touch in turn removed and replaced by the best candidate (itself
 //! included) that keeps its ball's count and spread, until a pass improves
@@ -82,6 +84,19 @@ pub struct SelectOptions {
     /// and spread (module doc); not when the balls are located already
     /// (sequential mode).
     pub anchors: bool,
+    /// When the budget is below every ball's anchors: touch at least this
+    /// many balls (as many as the budget's anchors and the reachable balls
+    /// allow); 0 leaves the number to the criterion.
+    pub min_balls: usize,
+}
+
+/// The default [`SelectOptions::min_balls`] of a budget of `contacts`
+/// touches: enough balls that each has on average at most twice the
+/// reader's minimum, `⌊N / (2 m)⌋`, so that a small budget still spreads
+/// over the artefact (a metrologist's choice: the criterion alone prefers
+/// few balls touched often, docs/design.md).
+pub fn default_min_balls(contacts: usize) -> usize {
+    contacts / (2 * min_touches_per_ball())
 }
 
 /// The chosen touches and their predicted figures.
@@ -202,7 +217,11 @@ impl<'a> Problem<'a> {
         if seeds > 0 && options.contacts < seeds * reachable {
             state.allowed = vec![false; self.balls];
             let mut best: Option<(f64, State)> = None;
-            for least in [0, options.contacts / seeds] {
+            let most = options.contacts / seeds;
+            let floor = options.min_balls.min(most).min(reachable);
+            let mut leasts = vec![floor, most];
+            leasts.dedup();
+            for least in leasts.into_iter().filter(|&l| l >= floor) {
                 let mut grown = state.clone();
                 grown.grow(anchors.clone(), least, options)?;
                 let value = grown.values()?.value(options.criterion);
@@ -656,6 +675,7 @@ mod tests {
                 max_approach: 1.3,
                 min_conditioning: 0.05,
                 stroke: [20.0, 250.0],
+                joint_limits: None,
             },
         )
         .unwrap();
@@ -692,6 +712,7 @@ mod tests {
             seed: 3,
             passes: 2,
             anchors: true,
+            min_balls: 0,
         }
     }
 
@@ -836,6 +857,31 @@ mod tests {
             )
             .unwrap_err();
         assert!(error.to_string().contains("cannot give a ball"), "{error}");
+        // A floor on the balls touched holds, up to what the budget's
+        // anchors allow.
+        let floors = [(2 * seeds + 3, 2, 2), (3 * seeds, 3, 3), (3 * seeds, 9, 3)];
+        for (contacts, min_balls, least) in floors {
+            let selection = problem
+                .select(
+                    &SelectOptions {
+                        contacts,
+                        min_balls,
+                        ..options(Criterion::Registered)
+                    },
+                    &mut |_| {},
+                )
+                .unwrap();
+            let mut touched = [0; 4];
+            for &k in &selection.chosen {
+                touched[rows[k].ball] += 1;
+            }
+            assert!(
+                touched.iter().filter(|&&c| c > 0).count() >= least,
+                "{touched:?}"
+            );
+            assert!(touched.iter().all(|&c| c == 0 || c >= seeds), "{touched:?}");
+            assert_eq!(touched.iter().sum::<usize>(), contacts);
+        }
     }
 
     #[test]

@@ -131,3 +131,113 @@ fn the_next_touches_start_from_the_calibration() {
         next.predicted
     );
 }
+
+#[test]
+fn a_plan_keeps_every_joint_within_machine_json_limits() {
+    // Limits that the unlimited plan breaks, so that they bind.
+    let template = simulate(&Scenario::scaled(8, 6, 25f64.to_radians()), 1)
+        .unwrap()
+        .dataset;
+    let options = PlanOptions {
+        pool: 3000,
+        ..PlanOptions::new(48, 25.0)
+    };
+    let design = template.machine.geometry.clone();
+    let design = parcal_kinematics::Geometry::from_arrays(
+        &design.base_joints,
+        &design.platform_joints,
+        &design.tool,
+        &design.leg_lengths,
+    );
+    let balls = parcal_design::nominal_balls(&design, &template.artefacts).unwrap();
+    // The largest base and platform leans of a plan's touches (degrees),
+    // from the leg vectors R E_i + t - B_i about +z of each frame.
+    let largest_leans = |plan: &parcal_design::Plan| {
+        let mut largest = (0.0f64, 0.0f64);
+        for c in &plan.contacts {
+            let ball = &balls[c.ball];
+            let rotation = c.rotation();
+            let pose = parcal_design::pool::tip_pose(
+                &design,
+                &(ball.centre + ball.radius * c.direction),
+                rotation,
+            );
+            for i in 0..6 {
+                let leg =
+                    pose.rotation * design.platform[i] + pose.translation.vector - design.base[i];
+                let base = (leg.z / leg.norm()).acos().to_degrees();
+                let platform = ((pose.rotation.inverse() * leg).z / leg.norm())
+                    .acos()
+                    .to_degrees();
+                largest = (largest.0.max(base), largest.1.max(platform));
+            }
+        }
+        largest
+    };
+    let free = plan(
+        &template.machine,
+        &template.artefacts,
+        &options,
+        &mut |_| {},
+    )
+    .unwrap();
+    let (base, platform) = largest_leans(&free);
+    let limits = parcal_dataset::JointLimitsRecord {
+        base_deg: Some(base - 2.0),
+        platform_deg: Some(platform - 2.0),
+        base_axes: None,
+        platform_axes: None,
+    };
+    let mut machine = template.machine.clone();
+    machine.joint_limits = Some(limits);
+    let limited = plan(&machine, &template.artefacts, &options, &mut |_| {}).unwrap();
+    assert_eq!(limited.contacts.len(), 48);
+    assert!(limited.pool_size < free.pool_size);
+    let (b, p) = largest_leans(&limited);
+    assert!(
+        b <= base - 2.0 && p <= platform - 2.0,
+        "{b} {p} vs {base} {platform}"
+    );
+}
+
+/// docs/design.md's small-budget table (`cargo test -p parcal-design --test
+/// plan_then_calibrate small_budget -- --ignored --nocapture`): 95 touches
+/// of the paper's 27 balls, the criterion's choice of balls (`min_balls`
+/// 0) against the default floor, 5 noise seeds each.
+#[test]
+#[ignore = "the documented run: a few minutes"]
+fn small_budget_evidence() {
+    let paper = Scenario::paper();
+    let template = simulate(&paper, 1).unwrap().dataset;
+    for tilt in [10.0, 30.0] {
+        for min_balls in [0, parcal_design::select::default_min_balls(95)] {
+            let options = PlanOptions {
+                min_balls,
+                ..PlanOptions::new(95, tilt)
+            };
+            let planned = plan(
+                &template.machine,
+                &template.artefacts,
+                &options,
+                &mut |_| {},
+            )
+            .unwrap();
+            let mut balls: Vec<usize> = planned.contacts.iter().map(|c| c.ball).collect();
+            balls.dedup();
+            let scenario = Scenario {
+                plan: Some(planned.touches()),
+                ..paper.clone()
+            };
+            let true_rms: Vec<f64> = (1..=5)
+                .map(|seed| registered(&simulate(&scenario, seed).unwrap().dataset).0)
+                .collect();
+            let mean = true_rms.iter().sum::<f64>() / 5.0;
+            let sd = (true_rms.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / 4.0).sqrt();
+            println!(
+                "| +-{tilt} | {min_balls} | {} | {:.2} | {mean:.2} ({sd:.2}) |",
+                balls.len(),
+                planned.predicted.registered_rms_um
+            );
+        }
+    }
+}

@@ -8,6 +8,8 @@
 //!   conversion of a geometry given in any frame.
 //! - [`params`]: the 33 identifiable parameters (paper eq. 3) with their names.
 //! - [`inverse`] and [`forward`](mod@forward) kinematics (paper eqs. 1-2).
+//! - [`joints`]: the angles between the legs and their joints' axes, and
+//!   their limits.
 //! - [`derivatives`]: the tool tip's derivatives with respect to the 33
 //!   parameters and to the actuator values, by implicit differentiation.
 //!
@@ -41,6 +43,7 @@ pub mod forward;
 pub mod frames;
 mod geometry;
 pub mod inverse;
+pub mod joints;
 pub mod lanes;
 pub mod lu6;
 pub mod params;
@@ -55,4 +58,5 @@ pub use forward::{ForwardOptions, ForwardSolution, forward, forward_from_home};
 pub use frames::{Canonical, PriorSigma};
 pub use geometry::{Geometry, Pose, Vec3, paper, rotation_zyx};
 pub use inverse::{actuators, leg_lengths};
+pub use joints::{JointAngles, JointEnd, JointLimits, JointViolation};
 pub use params::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params};

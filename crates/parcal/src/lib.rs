@@ -45,6 +45,7 @@
 //!     actuator: Default::default(),
 //!     session_model: Default::default(),
 //!     stroke: None,
+//!     joint_limits: None,
 //! };
 //! // Balls of radius 5 mm on a 3 x 3 x 3 grid, each touched 7 times on its
 //! // lower half, the platform tilted by up to 0.17 rad.

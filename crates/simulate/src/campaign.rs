@@ -212,6 +212,7 @@ fn machine(scenario: &Scenario) -> Machine {
         actuator: Actuator::default(),
         session_model: SessionModel::default(),
         stroke: scenario.stroke,
+        joint_limits: None,
     }
 }
 

@@ -191,18 +191,29 @@ fn check(s: &TrackerScenario) -> Result<(), SimulateError> {
         ));
     }
     if let Some(plan) = &s.plan {
-        if plan.len() != s.rows_per_session {
+        if plan.len() != 1 && plan.len() != s.sessions {
             return bad(format!(
-                "{} planned poses but {} rows per session",
+                "a plan of {} sessions for {} sessions",
                 plan.len(),
-                s.rows_per_session
+                s.sessions
             ));
         }
-        if let Some(k) = plan.iter().position(|q| q.iter().any(|v| !v.is_finite())) {
-            return bad(format!(
-                "planned pose {} has a reading that is not finite",
-                k + 1
-            ));
+        for (session, plan) in plan.iter().enumerate() {
+            if plan.len() != s.rows_per_session {
+                return bad(format!(
+                    "{} planned poses in session {} but {} rows per session",
+                    plan.len(),
+                    session + 1,
+                    s.rows_per_session
+                ));
+            }
+            if let Some(k) = plan.iter().position(|q| q.iter().any(|v| !v.is_finite())) {
+                return bad(format!(
+                    "planned pose {} of session {} has a reading that is not finite",
+                    k + 1,
+                    session + 1
+                ));
+            }
         }
     }
     let ordered = |[a, b]: [f64; 2]| a.is_finite() && b.is_finite() && a <= b;
@@ -239,6 +250,7 @@ fn machine(s: &TrackerScenario) -> Machine {
         },
         session_model: s.session_model,
         stroke: None,
+        joint_limits: None,
     }
 }
 
@@ -255,7 +267,7 @@ fn simulate_session(
     let mut rows = |count: usize, pose: bool| {
         (0..count)
             .map(|row| {
-                simulate_row(scenario, &mut rng, &nuisance, reference, pose, row).map_err(
+                simulate_row(scenario, &mut rng, &nuisance, reference, pose, (k, row)).map_err(
                     |reason| SimulateError::Row {
                         session: k + 1,
                         file: if pose { "poses" } else { "points" },
@@ -329,8 +341,8 @@ fn draw_nuisance(scenario: &TrackerScenario, rng: &mut Rng, k: usize) -> Nuisanc
     }
 }
 
-/// One row: an acceptable pose (the `row`-th planned one with a plan),
-/// then the measurement and the readings with
+/// One row `(session, row)`: an acceptable pose (the session's `row`-th
+/// planned one with a plan), then the measurement and the readings with
 /// their noise.
 fn simulate_row(
     scenario: &TrackerScenario,
@@ -338,10 +350,13 @@ fn simulate_row(
     nuisance: &Nuisance,
     reference: f64,
     pose_row: bool,
-    row: usize,
+    (session, row): (usize, usize),
 ) -> Result<Row, String> {
     let (pose, legs) = match &scenario.plan {
-        Some(plan) => planned_pose(scenario, &plan[row], &nuisance.leg_offsets)?,
+        Some(plan) => {
+            let q = &plan[session.min(plan.len() - 1)][row];
+            planned_pose(scenario, q, &nuisance.leg_offsets)?
+        }
         None => draw_pose(scenario, rng, &nuisance.leg_offsets, reference)?,
     };
     let sigma = scenario.position_sigma;

@@ -317,7 +317,8 @@ fn an_instrument_campaign_beyond_the_row_bound_is_refused() {
 #[test]
 fn planned_readings_are_measured_on_the_true_machine() {
     // Readings of the design at three poses, measured noiselessly in two
-    // sessions re-homed by 1 mm: each row records the planned readings and
+    // sessions re-homed by 1 mm, the second in reverse order: each row
+    // records its session's planned readings and
     // the true machine's pose at them (forward kinematics with the true
     // legs, scales and the session's offsets), seen through its frames.
     let design = parcal_kinematics::paper::design();
@@ -345,22 +346,24 @@ fn planned_readings_are_measured_on_the_true_machine() {
         kind: TrackerKind::Poses,
         sessions: 2,
         rows_per_session: plan.len(),
-        plan: Some(plan.clone()),
+        plan: Some(vec![plan.clone(), plan.iter().rev().copied().collect()]),
         ..noiseless()
     };
+    let planned = |session: usize, row: usize| plan[if session == 0 { row } else { 2 - row }];
     let dataset = simulate_tracker(&scenario, 3).unwrap().dataset;
     let truth = dataset.truth.as_ref().unwrap();
     let poses = &dataset.tracker.poses;
     assert_eq!(poses.len(), 6);
     for j in 0..6 {
         let session = poses.session[j] as usize;
-        assert!((0..6).all(|i| (poses.q[j][i] - plan[j % 3][i]).abs() < 1e-9));
+        let q = planned(session, j % 3);
+        assert!((0..6).all(|i| (poses.q[j][i] - q[i]).abs() < 1e-9));
         let record = &truth.sessions[session];
         let shifted = Geometry {
             legs: std::array::from_fn(|i| scenario.truth.legs[i] + record.leg_offsets[i]),
             ..scenario.truth.clone()
         };
-        let extension = std::array::from_fn(|i| scenario.true_scale[i] * plan[j % 3][i]);
+        let extension = std::array::from_fn(|i| scenario.true_scale[i] * q[i]);
         let t = forward_from_home(&shifted, &extension, &ForwardOptions::default())
             .unwrap()
             .pose;
@@ -369,13 +372,20 @@ fn planned_readings_are_measured_on_the_true_machine() {
         let error = expected.inverse() * measured;
         assert!(error.translation.vector.norm() < 1e-9 && error.rotation.angle() < 1e-12);
     }
-    // A plan of another length than the rows is refused.
-    let scenario = TrackerScenario {
-        rows_per_session: 2,
-        ..scenario
+    // A plan of another length than the rows, or of more sessions, is
+    // refused.
+    let refused = |scenario: &TrackerScenario| {
+        matches!(
+            simulate_tracker(scenario, 3),
+            Err(SimulateError::Scenario(_))
+        )
     };
-    assert!(matches!(
-        simulate_tracker(&scenario, 3),
-        Err(SimulateError::Scenario(_))
-    ));
+    assert!(refused(&TrackerScenario {
+        rows_per_session: 2,
+        ..scenario.clone()
+    }));
+    assert!(refused(&TrackerScenario {
+        plan: Some(vec![plan.clone(); 3]),
+        ..scenario
+    }));
 }

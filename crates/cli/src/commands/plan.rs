@@ -30,6 +30,13 @@ pub struct Args {
     /// The budget of a pose plan: number of poses.
     #[arg(long)]
     poses: Option<usize>,
+    /// A pose plan over this many measuring sessions (re-homing, a
+    /// re-placed instrument), the poses shared evenly: each session's
+    /// instrument frame, and its leg offsets and body origin and turn when
+    /// machine.json's session_model gives their sigmas, are estimated with
+    /// the machine (plan.csv's session column).
+    #[arg(long, default_value_t = 1)]
+    sessions: usize,
     /// Where a pose plan's platform origin may go: `|x|, |y| <= HALF_WIDTH`,
     /// `Z_MIN <= z <= Z_MAX`, design base frame, mm.
     #[arg(long, value_name = "HALF_WIDTH,Z_MIN,Z_MAX", value_parser = parse_workspace)]
@@ -54,6 +61,12 @@ pub struct Args {
     /// At most this many touches per ball.
     #[arg(long)]
     per_ball: Option<usize>,
+    /// A budget below 4 touches of every ball touches at least this many
+    /// balls (as many as the budget allows); 0 leaves it to the criterion,
+    /// which prefers few balls touched often (default: CONTACTS / 8, so
+    /// that a small budget still spreads over the artefact).
+    #[arg(long)]
+    min_balls: Option<usize>,
     /// Runs from different random seeds (the best is kept).
     #[arg(long, default_value_t = 1)]
     restarts: usize,
@@ -91,6 +104,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(kind) = tracker {
         return run_tracker(args, &machine, kind);
     }
+    anyhow::ensure!(
+        args.sessions == 1,
+        "--sessions applies to pose plans only (--tracker)"
+    );
     let Some(contacts) = args.contacts else {
         anyhow::bail!("--contacts is needed for a plan of ball touches");
     };
@@ -100,6 +117,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         pool: args.pool,
         seed: args.seed,
         per_ball: args.per_ball,
+        min_balls: args
+            .min_balls
+            .unwrap_or_else(|| parcal_design::select::default_min_balls(contacts)),
         restarts: args.restarts,
         max_approach_degrees: args.max_approach,
         ..PlanOptions::new(contacts, args.tilt)
@@ -141,9 +161,10 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
         anyhow::bail!("--workspace HALF_WIDTH,Z_MIN,Z_MAX is needed for a pose plan");
     };
     anyhow::ensure!(
-        args.after.is_none() && args.per_ball.is_none(),
-        "--after and --per-ball apply to ball touches only"
+        args.after.is_none() && args.per_ball.is_none() && args.min_balls.is_none(),
+        "--after, --per-ball and --min-balls apply to ball touches only"
     );
+    anyhow::ensure!(args.sessions > 0, "--sessions must be at least 1");
     let options = PosePlanOptions {
         poses,
         kind: kind.tracker_kind(),
@@ -151,6 +172,7 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
         tilt_degrees: args.tilt,
         criterion: criterion(args.criterion),
         passes: PlanOptions::new(1, 0.0).passes,
+        sessions: args.sessions,
     };
     let progress = Progress::spinner();
     let mut report = |line: &str| progress.line(&format!("  {line}"));

@@ -92,8 +92,10 @@ pub struct Args {
     /// platform orientation as planned (--points-per-ball and --tilt are
     /// then not used for the touches; balls the plan leaves untouched are
     /// left out of the dataset). With --tracker, a pose plan
-    /// (`parcal plan --tracker`): every session measures the true machine at
-    /// the planned readings (--rows and --tilt are then not used).
+    /// (`parcal plan --tracker`): each of its sessions (`session` column)
+    /// measures the true machine at its planned readings; a plan of one
+    /// session is measured in every session of --sessions (--rows and
+    /// --tilt are then not used).
     #[arg(long, value_name = "PLAN_CSV")]
     plan: Option<PathBuf>,
     /// Also write a binary snapshot of the dataset (postcard) to OUT/dataset.bin,
@@ -251,6 +253,33 @@ fn planned_touches(path: &std::path::Path, balls: usize) -> anyhow::Result<Vec<P
         .collect()
 }
 
+/// The planned readings of a pose plan.csv by session, in order of the
+/// sessions' first rows; every session must have as many poses.
+fn planned_sessions(path: &std::path::Path) -> anyhow::Result<Vec<Vec<[f64; 6]>>> {
+    let mut labels: Vec<String> = Vec::new();
+    let mut sessions: Vec<Vec<[f64; 6]>> = Vec::new();
+    for row in read_pose_plan(path)? {
+        match labels.iter().position(|l| *l == row.session) {
+            Some(k) => sessions[k].push(row.q),
+            None => {
+                labels.push(row.session);
+                sessions.push(vec![row.q]);
+            }
+        }
+    }
+    if let Some(k) = sessions.iter().position(|s| s.len() != sessions[0].len()) {
+        anyhow::bail!(
+            "{}: session {:?} has {} poses and session {:?} {}: the simulator measures as many in every session",
+            path.display(),
+            labels[k],
+            sessions[k].len(),
+            labels[0],
+            sessions[0].len()
+        );
+    }
+    Ok(sessions)
+}
+
 /// A campaign of instrument measurements.
 fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
     let mut scenario = match args.machine {
@@ -295,14 +324,23 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.plan {
-        let plan = read_pose_plan(path)?;
+        let plan = planned_sessions(path)?;
         anyhow::ensure!(
             args.rows.is_none(),
-            "--rows and --plan: the plan's {} poses are the rows of each session",
-            plan.len()
+            "--rows and --plan: the plan's {} poses per session are the rows of each session",
+            plan[0].len()
         );
-        scenario.rows_per_session = plan.len();
-        scenario.plan = Some(plan.into_iter().map(|row| row.q).collect());
+        if plan.len() > 1 {
+            anyhow::ensure!(
+                args.sessions.is_none_or(|k| k == plan.len()),
+                "--sessions {} and --plan: the plan has {} sessions",
+                args.sessions.unwrap_or_default(),
+                plan.len()
+            );
+            scenario.sessions = plan.len();
+        }
+        scenario.rows_per_session = plan[0].len();
+        scenario.plan = Some(plan);
     }
     check_rows(&[
         ("--sessions", scenario.sessions),

@@ -92,6 +92,7 @@ pub fn dataset(parts: Parts) -> Dataset {
             actuator: Default::default(),
             session_model: Default::default(),
             stroke: None,
+            joint_limits: None,
         },
         artefacts: Artefacts {
             frame: if parts.distances {

@@ -1,14 +1,16 @@
 //! What one planned pose tells about the instrument calibration's unknowns,
 //! linearised at the design.
 //!
-//! The candidates are written as a noiseless campaign of one session seen
-//! through the identity instrument frame and the identity body frame
-//! (`M = T`, points `T E_T`), and set up exactly as
+//! The candidates are written as a noiseless campaign of `K` sessions
+//! (labelled `1`..`K`, every candidate pose in each; a candidate is a pose
+//! in a session) seen through the identity instrument frame and the
+//! identity body frame (`M = T`, points `T E_T`), and set up exactly as
 //! `parcal calibrate` sets up measured poses and points
 //! (`parcal_calibrate::instruments::setup`): the same global block (the 33
 //! canonical parameters, the actuator scales when machine.json gives their
-//! sigmas, the session's instrument frame, the body frame when there are
-//! poses), the same whitened rows `L⁻¹ ∂c/∂g` (the pose block's six rows,
+//! sigmas, each session's instrument frame, the body frame when there are
+//! poses, and each later session's leg offsets and body origin and turn as
+//! machine.json's `session_model` asks), the same whitened rows `L⁻¹ ∂c/∂g` (the pose block's six rows,
 //! the point block's three, `W = L Lᵀ` the propagated actuator and
 //! instrument covariance) and the same prior. A candidate's block is its
 //! rows of that Jacobian; the information of a design is
@@ -17,10 +19,11 @@
 //! M = P + Σ_k J_kᵀ J_k,
 //! ```
 //!
-//! `P` the calibration's prior plus `I /` [`WEAK_FRAME_SIGMA`]² on the
-//! frames (which have no prior), so that `M` is invertible before the
-//! first pose. The criterion acts on the 33 × 33 block of `M⁻¹`: the Schur
-//! complement that eliminates the scales and the frames.
+//! `P` the calibration's prior (with the session model's priors) plus
+//! `I /` [`WEAK_FRAME_SIGMA`]² on the frames (which have no prior), so
+//! that `M` is invertible before the first pose. The criterion acts on the
+//! 33 × 33 block of `M⁻¹`: the Schur complement that eliminates the scales,
+//! the frames and the sessions' nuisances.
 
 use nalgebra::{DMatrix, UnitQuaternion};
 use parcal_calibrate::CalibrationOptions;
@@ -41,7 +44,8 @@ pub const WEAK_FRAME_SIGMA: f64 = 1e3;
 #[derive(Debug, Clone)]
 pub struct PoseInformation {
     /// Each candidate's rows (6 per pose, 3 per point, 9 for both) by
-    /// columns of the global block.
+    /// columns of the global block; candidate `s P + k` is pose `k` of
+    /// `P` in session `s` (0-based).
     pub blocks: Vec<DMatrix<f64>>,
     /// `P` (module doc).
     pub prior: DMatrix<f64>,
@@ -50,16 +54,23 @@ pub struct PoseInformation {
 }
 
 /// The blocks of the platform poses `poses` (design frame) with the
-/// design's readings `q` (actuators' unit), observed as `kind` says
-/// (module doc); `tool` is the design's tool point (platform frame).
+/// design's readings `q` (actuators' unit), observed as `kind` says in
+/// each of `sessions` sessions (module doc); `tool` is the design's tool
+/// point (platform frame).
 pub fn pose_information(
     machine: &Machine,
     tool: &Vec3,
     kind: TrackerKind,
     poses: &[Pose],
     q: &[[f64; 6]],
+    sessions: usize,
 ) -> Result<PoseInformation, DesignError> {
-    let dataset = campaign(machine, tool, kind, poses, q);
+    if sessions == 0 {
+        return Err(DesignError::Options(
+            "a plan needs at least 1 session".into(),
+        ));
+    }
+    let dataset = campaign(machine, tool, kind, poses, q, sessions);
     let refuse = |e: parcal_calibrate::CalibrateError| {
         DesignError::Options(format!("the candidate poses as a campaign: {e}"))
     };
@@ -72,8 +83,9 @@ pub fn pose_information(
         .global_observations(&set.initial, &mut rows)
         .map_err(refuse)?;
     let jacobian = &rows.jacobian;
-    let pose_rows = if kind.poses() { 6 * poses.len() } else { 0 };
-    let blocks = (0..poses.len())
+    let candidates = sessions * poses.len();
+    let pose_rows = if kind.poses() { 6 * candidates } else { 0 };
+    let blocks = (0..candidates)
         .map(|k| {
             let mut ranges = Vec::new();
             if kind.poses() {
@@ -116,30 +128,33 @@ pub fn pose_information(
     })
 }
 
-/// The noiseless campaign of `poses`: one session, identity instrument and
-/// body frames, machine.json's stroke dropped (the pool checked it).
+/// The noiseless campaign of `poses` in each of `sessions` sessions
+/// (session-major), identity instrument and body frames, machine.json's
+/// stroke and joint limits dropped (the pool checked them).
 fn campaign(
     machine: &Machine,
     tool: &Vec3,
     kind: TrackerKind,
     poses: &[Pose],
     q: &[[f64; 6]],
+    sessions: usize,
 ) -> Dataset {
     let mut tracker = Tracker {
-        sessions: vec![parcal_dataset::DEFAULT_SESSION.to_owned()],
+        sessions: session_labels(sessions),
         ..Tracker::default()
     };
-    for (pose, q) in poses.iter().zip(q) {
+    let rows = (0..sessions as u32).flat_map(|s| poses.iter().zip(q).map(move |(p, q)| (s, p, q)));
+    for (session, pose, q) in rows {
         if kind.poses() {
             let t = &mut tracker.poses;
-            t.session.push(0);
+            t.session.push(session);
             t.q.push(*q);
             t.position.push(pose.translation.vector.into());
             t.orientation.push(quaternion(&pose.rotation));
         }
         if kind.points() {
             let t = &mut tracker.points;
-            t.session.push(0);
+            t.session.push(session);
             t.q.push(*q);
             t.position
                 .push(pose.transform_point(&(*tool).into()).coords.into());
@@ -148,6 +163,7 @@ fn campaign(
     Dataset {
         machine: Machine {
             stroke: None,
+            joint_limits: None,
             ..machine.clone()
         },
         artefacts: Artefacts::default(),
@@ -155,6 +171,12 @@ fn campaign(
         tracker,
         truth: None,
     }
+}
+
+/// The labels of `sessions` planned sessions: `1`, `2`, ... (the
+/// simulator's; `1` is the dataset's default session).
+pub fn session_labels(sessions: usize) -> Vec<String> {
+    (1..=sessions).map(|s| s.to_string()).collect()
 }
 
 /// `[x, y, z, w]` of a rotation (poses.csv's order).
@@ -188,6 +210,7 @@ mod tests {
             scenario.max_tilt,
             &machine.actuator.scale,
             None,
+            None,
         )
         .unwrap();
         let picked: Vec<_> = (0..5).map(|k| &pool[k * pool.len() / 6 + 3 * k]).collect();
@@ -200,11 +223,27 @@ mod tests {
 
     #[test]
     fn the_blocks_are_central_differences_of_the_whitened_residuals() {
-        for kind in [TrackerKind::Poses, TrackerKind::Points, TrackerKind::Both] {
-            let (machine, poses, q) = case(kind);
+        // Two sessions with re-homed legs and a re-mounted body: the
+        // later session's nuisances are columns too.
+        let cases = [
+            (TrackerKind::Poses, 1),
+            (TrackerKind::Points, 1),
+            (TrackerKind::Both, 1),
+            (TrackerKind::Both, 2),
+        ];
+        for (kind, sessions) in cases {
+            let (mut machine, poses, q) = case(kind);
+            if sessions > 1 {
+                machine.session_model = parcal_dataset::SessionModel {
+                    leg_offset_sigma: Some(0.5),
+                    body_origin_sigma: Some(0.2),
+                    body_rotation_sigma: Some(1e-3),
+                };
+            }
             let tool = Vec3::from(machine.geometry.tool);
-            let information = pose_information(&machine, &tool, kind, &poses, &q).unwrap();
-            let dataset = campaign(&machine, &tool, kind, &poses, &q);
+            let information =
+                pose_information(&machine, &tool, kind, &poses, &q, sessions).unwrap();
+            let dataset = campaign(&machine, &tool, kind, &poses, &q, sessions);
             let set = setup(&dataset, &CalibrationOptions::default()).unwrap();
             let n = set.problem.global_size();
             let residual = |g: &DVector<f64>| {
@@ -215,7 +254,17 @@ mod tests {
             // Noiseless data at the design: every residual vanishes.
             assert!(residual(&set.initial).amax() < 1e-6);
             let rows_per_pose = information.blocks[0].nrows();
-            let pose_rows = if kind.poses() { 6 * poses.len() } else { 0 };
+            let candidates = information.blocks.len();
+            assert_eq!(candidates, sessions * poses.len());
+            let pose_rows = if kind.poses() { 6 * candidates } else { 0 };
+            if sessions > 1 {
+                assert!(
+                    information
+                        .names
+                        .iter()
+                        .any(|name| name.starts_with("o_1 2"))
+                );
+            }
             for i in 0..n {
                 let h = 1e-6 * set.initial[i].abs().max(1.0);
                 let mut plus = set.initial.clone();

@@ -40,13 +40,20 @@ pub struct PosePlanOptions {
     pub criterion: Criterion,
     /// Largest number of exchange passes.
     pub passes: usize,
+    /// Number of measuring sessions (re-homing, a re-placed instrument):
+    /// the poses are split evenly between them, each session with its own
+    /// nuisances (the instrument frame, and the leg offsets and body origin
+    /// and turn when machine.json's `session_model` gives their sigmas).
+    pub sessions: usize,
 }
 
 /// A pose plan and what it is predicted to give.
 #[derive(Debug, Clone)]
 pub struct PosePlan {
-    /// The chosen poses, in pool order.
+    /// The chosen poses, by session, in pool order within each.
     pub poses: Vec<CandidatePose>,
+    /// The session (0-based) of each chosen pose.
+    pub sessions: Vec<usize>,
     /// Predicted figures after calibrating the plan's poses.
     pub predicted: CriterionValues,
     /// The prior's figures.
@@ -62,6 +69,13 @@ pub fn plan_poses(
     options: &PosePlanOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<PosePlan, DesignError> {
+    let k = options.sessions;
+    if k == 0 || !options.poses.is_multiple_of(k) {
+        return Err(DesignError::Options(format!(
+            "{} poses in {k} sessions: the sessions must share the poses evenly",
+            options.poses
+        )));
+    }
     let m = &machine.geometry;
     let design = Geometry::from_arrays(&m.base_joints, &m.platform_joints, &m.tool, &m.leg_lengths);
     let canonical = design.canonicalize().map_err(DesignError::Design)?;
@@ -71,11 +85,12 @@ pub fn plan_poses(
         options.tilt_degrees.to_radians(),
         &machine.actuator.scale,
         machine.stroke,
+        machine.joint_limits.map(|l| l.limits()).as_ref(),
     )?;
     progress(&format!("{} feasible candidate poses", pool.len()));
     let poses: Vec<_> = pool.iter().map(|c| c.pose).collect();
     let q: Vec<_> = pool.iter().map(|c| c.q).collect();
-    let rows = information::pose_information(machine, &design.tool, options.kind, &poses, &q)?;
+    let rows = information::pose_information(machine, &design.tool, options.kind, &poses, &q, k)?;
     let targets =
         CanonicalTargets::new(&design, &MapGrid::paper()).map_err(DesignError::Accuracy)?;
     let map = MapWeights::new(
@@ -91,17 +106,27 @@ pub fn plan_poses(
             .inverse(),
     );
     let prior = CriterionValues::of(&prior_covariance, &map).ok_or(DesignError::Singular)?;
+    let group: Vec<usize> = (0..rows.blocks.len()).map(|c| c / pool.len()).collect();
+    let quota = vec![options.poses / k; k];
     let selection = select::select_poses(
         &rows.blocks,
+        select::Quotas {
+            group: &group,
+            quota: &quota,
+        },
         &rows.prior,
         &map,
         options.criterion,
-        options.poses,
         options.passes,
         progress,
     )?;
     Ok(PosePlan {
-        poses: selection.chosen.iter().map(|&k| pool[k].clone()).collect(),
+        poses: selection
+            .chosen
+            .iter()
+            .map(|&c| pool[c % pool.len()].clone())
+            .collect(),
+        sessions: selection.chosen.iter().map(|&c| group[c]).collect(),
         predicted: CriterionValues::of(&selection.covariance, &map).ok_or(DesignError::Singular)?,
         prior,
         pool_size: pool.len(),

@@ -1,6 +1,8 @@
 //! plan.csv and plan.json of a pose plan (docs/dataset-format.md, "Plans").
 //!
-//! plan.csv, one pose per row: `roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6`:
+//! plan.csv, one pose per row:
+//! `session,roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6`: the session's label
+//! (as poses.csv's; optional on reading, every row then in session `1`),
 //! the platform orientation `R = Rz(yaw) Ry(pitch) Rx(roll)` (rad, fixed
 //! axes of the design frame), the design's tool tip (mm, design frame) and
 //! the design's readings there (actuators' unit). plan.json: the predicted
@@ -8,7 +10,7 @@
 
 use std::path::Path;
 
-use parcal_dataset::read_numbers;
+use parcal_dataset::{DEFAULT_SESSION, read_optionally_labelled_numbers};
 use parcal_kinematics::{Pose, Vec3, rotation_zyx};
 
 use crate::DesignError;
@@ -16,8 +18,10 @@ use crate::plan_file::summary_path;
 use crate::tracker::{PosePlan, PosePlanOptions};
 
 /// The header of a pose plan.csv.
-pub const HEADER: &str = "roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6";
-/// Its columns.
+pub const HEADER: &str = "session,roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6";
+/// The session's column.
+const SESSION: &str = "session";
+/// Its numeric columns.
 const COLUMNS: [&str; 12] = [
     "roll", "pitch", "yaw", "x", "y", "z", "q1", "q2", "q3", "q4", "q5", "q6",
 ];
@@ -25,6 +29,8 @@ const COLUMNS: [&str; 12] = [
 /// One row of a pose plan.csv.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PosePlanRow {
+    /// The session's label.
+    pub session: String,
     /// `[roll, pitch, yaw]` (rad).
     pub angles: [f64; 3],
     /// The design's tool tip (mm, design frame).
@@ -51,13 +57,16 @@ pub fn write_pose_plan(
 ) -> Result<(), DesignError> {
     let mut text = String::from(HEADER);
     text.push('\n');
-    for c in &plan.poses {
-        let fields: Vec<String> = c
-            .angles
-            .iter()
-            .chain(c.tip.iter())
-            .chain(c.q.iter())
-            .map(f64::to_string)
+    let labels = crate::tracker::information::session_labels(options.sessions);
+    for (c, &session) in plan.poses.iter().zip(&plan.sessions) {
+        let fields: Vec<String> = std::iter::once(labels[session].clone())
+            .chain(
+                c.angles
+                    .iter()
+                    .chain(c.tip.iter())
+                    .chain(c.q.iter())
+                    .map(f64::to_string),
+            )
             .collect();
         text.push_str(&fields.join(","));
         text.push('\n');
@@ -83,6 +92,7 @@ pub fn write_pose_plan(
             "tilt_degrees": options.tilt_degrees,
             "criterion": options.criterion,
             "passes": options.passes,
+            "sessions": options.sessions,
         },
     });
     let json = serde_json::to_string_pretty(&summary).expect("plain numbers and strings");
@@ -92,14 +102,17 @@ pub fn write_pose_plan(
 /// Reads a pose plan.csv (the dataset's CSV rules: columns by name,
 /// bounded lines, errors naming the file, line and column).
 pub fn read_pose_plan(path: &Path) -> Result<Vec<PosePlanRow>, DesignError> {
-    Ok(read_numbers(path, &COLUMNS, "pose")?
-        .into_iter()
-        .map(|v| PosePlanRow {
-            angles: [v[0], v[1], v[2]],
-            tip: Vec3::new(v[3], v[4], v[5]),
-            q: std::array::from_fn(|i| v[6 + i]),
-        })
-        .collect())
+    Ok(
+        read_optionally_labelled_numbers(path, SESSION, &COLUMNS, "pose")?
+            .into_iter()
+            .map(|(session, v)| PosePlanRow {
+                session: session.unwrap_or_else(|| DEFAULT_SESSION.to_owned()),
+                angles: [v[0], v[1], v[2]],
+                tip: Vec3::new(v[3], v[4], v[5]),
+                q: std::array::from_fn(|i| v[6 + i]),
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]
@@ -112,7 +125,7 @@ mod tests {
         let path = dir.path().join("plan.csv");
         std::fs::write(
             &path,
-            format!("{HEADER}\n0,0,0.5,1,2,300,1,2,3,4,5,6\n0,0,x,1,2,3,4,5,6,7,8,9\n"),
+            format!("{HEADER}\nmon,0,0,0.5,1,2,300,1,2,3,4,5,6\nmon,0,0,x,1,2,3,4,5,6,7,8,9\n"),
         )
         .unwrap();
         let message = read_pose_plan(&path).unwrap_err().to_string();
@@ -120,10 +133,10 @@ mod tests {
             message.contains("line 3") && message.contains("yaw"),
             "{message}"
         );
-        std::fs::write(&path, format!("{HEADER}\n0,0,0.5,1,2,300,1,2,3,4,5\n")).unwrap();
+        std::fs::write(&path, format!("{HEADER}\nmon,0,0,0.5,1,2,300,1,2,3,4,5\n")).unwrap();
         let message = read_pose_plan(&path).unwrap_err().to_string();
         assert!(
-            message.contains("line 2") && message.contains("found 11"),
+            message.contains("line 2") && message.contains("found 12"),
             "{message}"
         );
         std::fs::write(&path, "ball,u\n").unwrap();
@@ -132,8 +145,23 @@ mod tests {
             message.contains("line 1") && message.contains("header"),
             "{message}"
         );
-        std::fs::write(&path, format!("{HEADER}\n0,0,0.5,1,2,300,1,2,3,4,5,6\n")).unwrap();
+        std::fs::write(&path, format!("{HEADER}\n,0,0,0.5,1,2,300,1,2,3,4,5,6\n")).unwrap();
+        let message = read_pose_plan(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 2") && message.contains("session"),
+            "{message}"
+        );
+        // Without the session column every row is in session 1.
+        let old = HEADER.strip_prefix("session,").unwrap();
+        std::fs::write(&path, format!("{old}\n0,0,0.5,1,2,300,1,2,3,4,5,6\n")).unwrap();
+        assert_eq!(read_pose_plan(&path).unwrap()[0].session, "1");
+        std::fs::write(
+            &path,
+            format!("{HEADER}\nmon,0,0,0.5,1,2,300,1,2,3,4,5,6\n"),
+        )
+        .unwrap();
         let rows = read_pose_plan(&path).unwrap();
+        assert_eq!(rows[0].session, "mon");
         assert_eq!(rows[0].angles, [0.0, 0.0, 0.5]);
         assert_eq!(rows[0].tip, Vec3::new(1.0, 2.0, 300.0));
         assert_eq!(rows[0].q[5], 6.0);

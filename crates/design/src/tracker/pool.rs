@@ -4,11 +4,13 @@
 //! edges and corners included) times orientations on the grid of the tilt
 //! box (`crate::pool`, corners and edges included). A pose is kept when
 //! its design readings are inside machine.json's stroke (when it gives
-//! one) and its closure Jacobian is conditioned at least
-//! [`crate::pool::MIN_CONDITIONING`] ([`crate::pool::feasible_commands`]).
+//! one), its closure Jacobian is conditioned at least
+//! [`crate::pool::MIN_CONDITIONING`] and its joints are within
+//! machine.json's joint limits (when it gives them,
+//! [`crate::pool::feasible_commands`]).
 
 use nalgebra::Translation3;
-use parcal_kinematics::{Geometry, Pose, Vec3, rotation_zyx};
+use parcal_kinematics::{Geometry, JointLimits, Pose, Vec3, rotation_zyx};
 use parcal_simulate::Workspace;
 
 use crate::DesignError;
@@ -32,13 +34,14 @@ pub struct CandidatePose {
 
 /// The feasible poses of `design` (module doc), in a fixed order (z, y, x,
 /// then orientation); `scale` turns leg extensions into readings, `stroke`
-/// bounds the readings when given.
+/// bounds the readings and `joint_limits` the joint angles when given.
 pub fn pose_pool(
     design: &Geometry,
     workspace: &Workspace,
     tilt: f64,
     scale: &[f64; 6],
     stroke: Option<[f64; 2]>,
+    joint_limits: Option<&JointLimits>,
 ) -> Result<Vec<CandidatePose>, DesignError> {
     let [low, high] = workspace.height;
     let valid = tilt.is_finite()
@@ -71,9 +74,14 @@ pub fn pose_pool(
                         Translation3::from(origin),
                         rotation_zyx(yaw, pitch, roll),
                     );
-                    if let Some(q) =
-                        feasible_commands(design, &pose, scale, &stroke, MIN_CONDITIONING)
-                    {
+                    if let Some(q) = feasible_commands(
+                        design,
+                        &pose,
+                        scale,
+                        &stroke,
+                        MIN_CONDITIONING,
+                        joint_limits,
+                    ) {
                         pool.push(CandidatePose {
                             angles: *angles,
                             tip: design.tool_tip(&pose),
@@ -87,7 +95,7 @@ pub fn pose_pool(
     }
     if pool.is_empty() {
         return Err(DesignError::Options(format!(
-            "no candidate pose in the workspace (half width {w} mm, height {:?} mm) is within the stroke {stroke:?} and away from singularity",
+            "no candidate pose in the workspace (half width {w} mm, height {:?} mm) is within the stroke {stroke:?}, away from singularity and within the joint limits",
             workspace.height
         )));
     }
@@ -107,7 +115,15 @@ mod tests {
             height: [300.0, 380.0],
         };
         let tilt = 10f64.to_radians();
-        let pool = pose_pool(&design, &workspace, tilt, &[1.0; 6], Some([0.0, 200.0])).unwrap();
+        let pool = pose_pool(
+            &design,
+            &workspace,
+            tilt,
+            &[1.0; 6],
+            Some([0.0, 200.0]),
+            None,
+        )
+        .unwrap();
         assert!(pool.len() > 1000, "{} candidates", pool.len());
         for c in &pool {
             assert!(c.q.iter().all(|q| (0.0..=200.0).contains(q)));
@@ -119,7 +135,7 @@ mod tests {
                 && c.pose.translation.vector == Vec3::new(60.0, 60.0, 380.0))
         );
         // A scale of 2 mm per unit halves every reading.
-        let halved = pose_pool(&design, &workspace, tilt, &[2.0; 6], None).unwrap();
+        let halved = pose_pool(&design, &workspace, tilt, &[2.0; 6], None, None).unwrap();
         assert!(halved.len() >= pool.len());
         let same = halved.iter().find(|c| c.pose == pool[0].pose).unwrap();
         assert!((0..6).all(|i| (2.0 * same.q[i] - pool[0].q[i]).abs() < 1e-12));

@@ -13,11 +13,15 @@
 //! and the criterion ([`crate::criterion`]) is evaluated on its 33 × 33
 //! block `Σ'_pp = Σ_pp − U_pᵀ S⁻¹ U_p` (the nuisances eliminated). Each
 //! step evaluates every candidate in parallel and takes the smallest value,
-//! the earliest on ties: the same choice for any number of threads. Greedy
-//! additions up to the budget (a candidate at most once); then exchange
-//! passes, each chosen pose in turn removed and replaced by the best
-//! candidate not chosen (itself included), until a pass improves the
-//! criterion by less than a relative 1e-6 or `passes` passes are made.
+//! the earliest on ties: the same choice for any number of threads. Each
+//! candidate belongs to a group (its session) with a quota of poses: a
+//! session without poses would cost nothing, so the quotas, not the
+//! criterion, say how many poses each session measures. Greedy additions
+//! up to the quotas (a candidate at most once, only from groups below
+//! their quota); then exchange passes, each chosen pose in turn removed
+//! and replaced by the best candidate of its group not chosen (itself
+//! included), until a pass improves the criterion by less than a relative
+//! 1e-6 or `passes` passes are made.
 
 use nalgebra::DMatrix;
 use parcal_kinematics::N_PARAMS;
@@ -61,31 +65,48 @@ pub struct PoseSelection {
     pub covariance: Square,
 }
 
-/// The best `count` of `blocks` for `criterion` from the prior information
+/// Which group (session) each candidate is in, and how many poses each
+/// group gets.
+#[derive(Debug, Clone, Copy)]
+pub struct Quotas<'a> {
+    /// The group of each candidate.
+    pub group: &'a [usize],
+    /// The number of poses of each group.
+    pub quota: &'a [usize],
+}
+
+/// The best `quotas` of `blocks` for `criterion` from the prior information
 /// `prior` (module doc).
 pub fn select_poses(
     blocks: &[DMatrix<f64>],
+    quotas: Quotas,
     prior: &DMatrix<f64>,
     map: &MapWeights,
     criterion: Criterion,
-    count: usize,
     passes: usize,
     progress: &mut dyn FnMut(&str),
 ) -> Result<PoseSelection, DesignError> {
-    if count == 0 || count > blocks.len() {
+    let count: usize = quotas.quota.iter().sum();
+    let short = (0..quotas.quota.len())
+        .find(|&g| quotas.group.iter().filter(|&&c| c == g).count() < quotas.quota[g]);
+    if count == 0 || quotas.group.len() != blocks.len() || short.is_some() {
         return Err(DesignError::Options(format!(
-            "{count} poses from {} feasible candidates: plan at least 1 and at most as many as there are",
+            "{count} poses ({:?} per session) from {} feasible candidates: plan at least 1 and at most as many as there are",
+            quotas.quota,
             blocks.len()
         )));
     }
     let gram: Vec<DMatrix<f64>> = blocks.par_iter().map(|j| j.tr_mul(j)).collect();
     let mut information = prior.clone();
     let mut chosen: Vec<usize> = Vec::with_capacity(count);
+    let mut taken = vec![0; quotas.quota.len()];
     while chosen.len() < count {
         let sigma = inverse(&information)?;
-        let (k, _) = best(blocks, &sigma, map, criterion, &chosen, None)?;
+        let open = |k: usize| taken[quotas.group[k]] < quotas.quota[quotas.group[k]];
+        let (k, _) = best(blocks, &sigma, map, criterion, &chosen, None, open)?;
         information += &gram[k];
         chosen.push(k);
+        taken[quotas.group[k]] += 1;
     }
     let mut value = value_of(&information, map, criterion)?;
     progress(&format!("greedy: criterion {value:.6e}"));
@@ -95,7 +116,9 @@ pub fn select_poses(
             let removed = chosen[slot];
             let without = &information - &gram[removed];
             let sigma = inverse(&without)?;
-            let (k, v) = best(blocks, &sigma, map, criterion, &chosen, Some(removed))?;
+            let group = quotas.group[removed];
+            let same = |k: usize| quotas.group[k] == group;
+            let (k, v) = best(blocks, &sigma, map, criterion, &chosen, Some(removed), same)?;
             if k != removed && v < value {
                 information = without + &gram[k];
                 chosen[slot] = k;
@@ -126,8 +149,8 @@ fn value_of(
 }
 
 /// The candidate whose addition to the design of covariance `sigma` gives
-/// the smallest criterion, and that value: among those not in `chosen`,
-/// and `allowed` even if it is.
+/// the smallest criterion, and that value: among those `eligible` and not
+/// in `chosen`, and `allowed` even if it is.
 fn best(
     blocks: &[DMatrix<f64>],
     sigma: &DMatrix<f64>,
@@ -135,12 +158,13 @@ fn best(
     criterion: Criterion,
     chosen: &[usize],
     allowed: Option<usize>,
+    eligible: impl Fn(usize) -> bool + Sync,
 ) -> Result<(usize, f64), DesignError> {
     let values: Vec<Option<f64>> = blocks
         .par_iter()
         .enumerate()
         .map(|(k, j)| {
-            if chosen.contains(&k) && allowed != Some(k) {
+            if !eligible(k) || (chosen.contains(&k) && allowed != Some(k)) {
                 return None;
             }
             criterion.of(&updated_params_covariance(sigma, j)?, map)
@@ -194,13 +218,18 @@ mod tests {
                 })
                 .collect(),
         );
+        let one_group = vec![0; blocks.len()];
         let run = |passes: usize| {
+            let quotas = Quotas {
+                group: &one_group,
+                quota: &[8],
+            };
             select_poses(
                 &blocks,
+                quotas,
                 &prior,
                 &map,
                 Criterion::Registered,
-                8,
                 passes,
                 &mut |_| {},
             )
@@ -216,5 +245,23 @@ mod tests {
             .install(|| run(5));
         assert_eq!(single.chosen, exchanged.chosen);
         assert_eq!(exchanged.chosen.len(), 8);
+        // Two groups of 30 with quotas 3 and 5 get exactly those.
+        let halves: Vec<usize> = (0..blocks.len()).map(|k| k / 30).collect();
+        let quotas = Quotas {
+            group: &halves,
+            quota: &[3, 5],
+        };
+        let split = select_poses(
+            &blocks,
+            quotas,
+            &prior,
+            &map,
+            Criterion::Registered,
+            5,
+            &mut |_| {},
+        )
+        .unwrap();
+        let first = split.chosen.iter().filter(|&&k| k < 30).count();
+        assert_eq!((first, split.chosen.len() - first), (3, 5));
     }
 }

@@ -131,10 +131,12 @@ pub struct TrackerScenario {
     /// `k >= 1`'s leg offsets, or body origin shift, `N(0, sigma^2)` per
     /// coordinate; written to machine.json as the calibration's prior.
     pub session_model: SessionModel,
-    /// Planned readings (`parcal plan --tracker`, actuators' unit): each
-    /// session measures the true machine at these commands, in order,
-    /// instead of drawing poses; `rows_per_session` must be their count.
-    pub plan: Option<Vec<[f64; 6]>>,
+    /// Planned readings (`parcal plan --tracker`, actuators' unit), one
+    /// list per session, or one list that every session measures: a
+    /// session measures the true machine at its commands, in order,
+    /// instead of drawing poses; `rows_per_session` must be each list's
+    /// count.
+    pub plan: Option<Vec<Vec<[f64; 6]>>>,
 }
 
 impl TrackerScenario {
