@@ -9,9 +9,15 @@
 //!   is the sum over its rows; a contact with `r` near 0 is *uncontrolled*:
 //!   an error in it goes straight into the parameters.
 //! - The **normalised residual** `w_j = e_j / √r_j` (`e_j` whitened),
-//!   standard normal for a correct model; a contact's is its rows' largest
-//!   in magnitude.
-//! - The **minimal detectable bias** of a contact, in units of its
+//!   standard normal for a correct model. An observation (a contact, a
+//!   distance, a pose of six rows, a point of three) is tested as a whole
+//!   by its rows' largest `|w_j|`; the family of data snooping counts one
+//!   test per contact (its rows' `|w_j|` are equal for the coordinate
+//!   observation, Förstner and Wrobel 2016, and it has one row for the
+//!   radius observation) and per distance, and one per row of a pose or a
+//!   point (their rows are correlated but not equal: Bonferroni over the
+//!   rows, conservative).
+//! - The **minimal detectable bias** of a row, in units of its
 //!   standard deviation, `∇₀ = δ₀ / √r`, `δ₀ = z_{1−α/2} + z_{1−β}`: the
 //!   smallest error the test at level `α` finds with power `1 − β`.
 //! - The **variance component** of each group of observations, `σ̂² = Ω_g /
@@ -25,7 +31,8 @@ use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
 
-/// Redundancy below which a contact counts as uncontrolled.
+/// Redundancy (per test, [`ObservationId::tests`]) below which an
+/// observation counts as uncontrolled.
 pub const UNCONTROLLED: f64 = 0.1;
 /// Power `1 − β` of the minimal detectable bias.
 pub const POWER: f64 = 0.8;
@@ -56,34 +63,118 @@ impl VarianceComponent {
     }
 }
 
-/// One contact's check.
+/// An observation of a dataset, by its place there (0-based): what data
+/// snooping tests and removes as a whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ObservationId {
+    /// A ball touch: its measurements.csv row.
+    Contact(usize),
+    /// A calibrated distance: its index in artefacts.json's `distances`.
+    Distance(usize),
+    /// A measured pose (six rows): its poses.csv row.
+    Pose(usize),
+    /// A measured tool point (three rows): its points.csv row.
+    Point(usize),
+}
+
+impl ObservationId {
+    /// Its whitened rows.
+    pub fn rows(self) -> usize {
+        match self {
+            Self::Contact(_) | Self::Distance(_) => 1,
+            Self::Pose(_) => 6,
+            Self::Point(_) => 3,
+        }
+    }
+
+    /// The tests it adds to the family of data snooping (module doc): one
+    /// for a contact (its rows' `|w|` are equal for the coordinate
+    /// observation, and it has one row for the radius observation) and a
+    /// distance, one per row for a pose or a point.
+    pub fn tests(self) -> usize {
+        match self {
+            Self::Contact(_) => 1,
+            other => other.rows(),
+        }
+    }
+
+    /// The group of its variance component.
+    pub fn group(self) -> &'static str {
+        match self {
+            Self::Contact(_) => "ball touches",
+            Self::Distance(_) => "distances",
+            Self::Pose(_) => "poses",
+            Self::Point(_) => "points",
+        }
+    }
+}
+
+/// Its place, rows 0-based: `measurements.csv row 12`, `distances[3]`,
+/// `poses.csv row 4`, `points.csv row 7`.
+impl std::fmt::Display for ObservationId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Contact(k) => write!(f, "measurements.csv row {k}"),
+            Self::Distance(k) => write!(f, "distances[{k}]"),
+            Self::Pose(k) => write!(f, "poses.csv row {k}"),
+            Self::Point(k) => write!(f, "points.csv row {k}"),
+        }
+    }
+}
+
+/// One observation's check.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ContactCheck {
-    /// Its measurements.csv row (0-based).
-    pub row: usize,
+pub struct ObservationCheck {
+    /// The observation.
+    pub observation: ObservationId,
     /// Its redundancy (sum over its rows).
     pub redundancy: f64,
-    /// Its normalised residual (the row of largest magnitude); `None` when
-    /// no other observation checks it.
+    /// Its normalised residual: that of its row of largest magnitude;
+    /// `None` when no other observation checks it.
     pub normalised: Option<f64>,
-    /// Its estimated gross error `e / r` of that row, in units of the row's
+    /// That row's estimated gross error `e / r`, in units of the row's
     /// standard deviation.
     pub gross_error: Option<f64>,
+    /// That row, among the observation's (a pose's leg, a point's
+    /// coordinate).
+    pub row: usize,
+}
+
+impl ObservationCheck {
+    /// The check of `observation` from its rows' redundancy numbers `r` and
+    /// whitened residuals `e`: the largest normalised residual of its rows.
+    pub fn new(observation: ObservationId, r: &[f64], e: &[f64]) -> Self {
+        let worst = r
+            .iter()
+            .zip(e)
+            .enumerate()
+            .filter_map(|(j, (&r, &e))| normalised_residual(e, r).map(|w| (j, w, e / r)))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+        Self {
+            observation,
+            redundancy: r.iter().sum(),
+            normalised: worst.map(|(_, w, _)| w),
+            gross_error: worst.map(|(_, _, g)| g),
+            row: worst.map_or(0, |(j, _, _)| j),
+        }
+    }
 }
 
 /// The checks of a converged calibration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Reliability {
-    /// The variance components of the ball touches, the distances (if
-    /// any) and the priors (if any).
+    /// The variance components of each kind of observation present (ball
+    /// touches, distances, poses, points) and the priors (if any).
     pub components: Vec<VarianceComponent>,
-    /// Every contact's check, in the solver's (by-ball) order.
-    pub contacts: Vec<ContactCheck>,
+    /// Every observation's check: the contacts in the solver's (by-ball)
+    /// order, then the global observations in their order.
+    pub observations: Vec<ObservationCheck>,
 }
 
 impl Reliability {
-    /// The redundancy numbers of `problem` at `state` (its points in
-    /// measurements.csv rows `rows`), with `prior_cost` the final prior
+    /// The redundancy numbers of `problem` at `state`: its points are the
+    /// contacts of measurements.csv rows `rows`, its global observation
+    /// rows those of `global` in order; `prior_cost` is the final prior
     /// term and `prior_rows` its number of rows.
     #[allow(clippy::too_many_arguments)]
     pub fn new<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
@@ -93,6 +184,7 @@ impl Reliability {
         caches: &mut Vec<Pr::PointCache>,
         groups_per_chunk: usize,
         rows: &[u32],
+        global: &[ObservationId],
         prior_cost: f64,
         prior_rows: usize,
     ) -> Result<Self, CalibrateError> {
@@ -102,42 +194,66 @@ impl Reliability {
                     reason: format!("the redundancy numbers could not be computed: {status:?}"),
                 }
             })?;
-        let contacts = numbers
+        let (r, e) = (
+            &numbers.global_observations,
+            &numbers.global_observation_residuals,
+        );
+        let global_rows: usize = global.iter().map(|o| o.rows()).sum();
+        if global_rows != r.len() {
+            return Err(CalibrateError::Calibration {
+                reason: format!(
+                    "{} global observation rows for observations of {global_rows} rows",
+                    r.len()
+                ),
+            });
+        }
+        let mut observations: Vec<ObservationCheck> = numbers
             .points
             .iter()
             .zip(&numbers.point_residuals)
             .zip(rows)
             .map(|((r, e), &row)| {
-                let worst = (0..R)
-                    .filter_map(|j| normalised_residual(e[j], r[j]).map(|w| (w, e[j] / r[j])))
-                    .max_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
-                ContactCheck {
-                    row: row as usize,
-                    redundancy: r.sum(),
-                    normalised: worst.map(|(w, _)| w),
-                    gross_error: worst.map(|(_, g)| g),
-                }
+                ObservationCheck::new(
+                    ObservationId::Contact(row as usize),
+                    r.as_slice(),
+                    e.as_slice(),
+                )
             })
             .collect();
-        let mut components = vec![VarianceComponent {
-            group: "ball touches",
-            cost: numbers
-                .point_residuals
-                .iter()
-                .map(|e| e.norm_squared())
-                .sum(),
-            redundancy: numbers.points.iter().map(|r| r.sum()).sum(),
-        }];
-        if !numbers.global_observations.is_empty() {
-            components.push(VarianceComponent {
-                group: "distances",
-                cost: numbers
-                    .global_observation_residuals
-                    .iter()
-                    .map(|e| e * e)
-                    .sum(),
-                redundancy: numbers.global_observations.iter().sum(),
-            });
+        let mut first = 0;
+        for &observation in global {
+            let range = first..first + observation.rows();
+            observations.push(ObservationCheck::new(
+                observation,
+                &r[range.clone()],
+                &e[range.clone()],
+            ));
+            first = range.end;
+        }
+        // Each kind's cost and redundancy, in the order of first appearance.
+        let mut components: Vec<VarianceComponent> = Vec::new();
+        let costs = numbers
+            .point_residuals
+            .iter()
+            .map(|e| e.norm_squared())
+            .chain(global.iter().scan(0, |first, o| {
+                let range = *first..*first + o.rows();
+                *first = range.end;
+                Some(e[range].iter().map(|v| v * v).sum())
+            }));
+        for (check, cost) in observations.iter().zip(costs) {
+            let group = check.observation.group();
+            match components.iter_mut().find(|c| c.group == group) {
+                Some(component) => {
+                    component.cost += cost;
+                    component.redundancy += check.redundancy;
+                }
+                None => components.push(VarianceComponent {
+                    group,
+                    cost,
+                    redundancy: check.redundancy,
+                }),
+            }
         }
         if prior_rows > 0 {
             components.push(VarianceComponent {
@@ -148,25 +264,36 @@ impl Reliability {
         }
         Ok(Self {
             components,
-            contacts,
+            observations,
         })
     }
 
-    /// The contacts no other observation checks enough (redundancy under
-    /// [`UNCONTROLLED`]).
-    pub fn uncontrolled(&self) -> impl Iterator<Item = &ContactCheck> {
-        self.contacts.iter().filter(|c| c.redundancy < UNCONTROLLED)
+    /// The observations no other observation checks enough (redundancy
+    /// under [`UNCONTROLLED`] per test they add, [`ObservationId::tests`]).
+    pub fn uncontrolled(&self) -> impl Iterator<Item = &ObservationCheck> {
+        self.observations
+            .iter()
+            .filter(|c| c.redundancy < UNCONTROLLED * c.observation.tests() as f64)
     }
 
-    /// The contact of largest normalised residual.
-    pub fn worst(&self) -> Option<&ContactCheck> {
-        self.contacts
+    /// The observation of largest normalised residual.
+    pub fn worst(&self) -> Option<&ObservationCheck> {
+        self.observations
             .iter()
             .filter(|c| c.normalised.is_some())
             .max_by(|a, b| {
-                let w = |c: &ContactCheck| c.normalised.map_or(0.0, f64::abs);
+                let w = |c: &ObservationCheck| c.normalised.map_or(0.0, f64::abs);
                 w(a).total_cmp(&w(b))
             })
+    }
+
+    /// The size of the family of tests of data snooping
+    /// ([`ObservationId::tests`]).
+    pub fn tests(&self) -> usize {
+        self.observations
+            .iter()
+            .map(|c| c.observation.tests())
+            .sum()
     }
 }
 

@@ -18,7 +18,7 @@ use crate::fit::{BallMisfit, misfit_balls};
 use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
-use crate::reliability::Reliability;
+use crate::reliability::{ObservationId, Reliability};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
@@ -550,6 +550,9 @@ impl SolverRun<'_> {
                     &mut caches,
                     self.solver.groups_per_chunk,
                     &setup.order,
+                    &(0..problem.distances.len())
+                        .map(ObservationId::Distance)
+                        .collect::<Vec<_>>(),
                     last.prior_cost,
                     prior_rows,
                 )?)

@@ -4,6 +4,7 @@
 
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
+use parcal_calibrate::reliability::ObservationId;
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, calibrate};
@@ -44,8 +45,12 @@ fn a_blunder_is_found_and_removed() {
         &mut |_| {},
     )
     .unwrap();
-    let rows: Vec<usize> = snooped.removals.iter().map(|r| r.row).collect();
-    assert_eq!(rows, [row], "removed rows");
+    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    assert_eq!(
+        removed,
+        [ObservationId::Contact(row)],
+        "removed observations"
+    );
     assert!(snooped.run.verdict().accepted);
     let (clean_rms, snooped_rms) = (
         true_registered_rms(&clean, &clean_run),

@@ -309,7 +309,8 @@ fn calibration() -> Calibration {
         }),
         removed_observations: vec![RemovedObservation {
             file: MEASUREMENTS_FILE.into(),
-            line: 7,
+            line: Some(7),
+            field: None,
             normalised_residual: 4.5,
             gross_error_sigmas: 5.0,
             variance_factor: [1.5, 1.0],

@@ -403,7 +403,8 @@ fn calibration() -> Calibration {
         }),
         removed_observations: vec![RemovedObservation {
             file: "measurements.csv".into(),
-            line: 42,
+            line: Some(42),
+            field: None,
             normalised_residual: -51.5,
             gross_error_sigmas: -60.25,
             variance_factor: [14.5, 1.0 / 3.0],

@@ -9,7 +9,9 @@ use anyhow::Context;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::evaluate::{Truth, before_after};
 use parcal_calibrate::instruments::calibrate_instruments;
-use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
+use parcal_calibrate::snooping::{
+    MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
+};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
     Simulation, WeightModel, calibrate,
@@ -43,9 +45,10 @@ pub struct Args {
     /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
     #[arg(long)]
     max_iterations: Option<usize>,
-    /// Data snooping: remove the contact of largest normalised residual while
-    /// it fails the test at 5% family-wise, at most 10 (calibration.json lists
-    /// them under removed_observations).
+    /// Data snooping: remove the observation (contact, distance, pose or
+    /// point) of largest normalised residual while it fails the test at 5%
+    /// family-wise, at most 10 (calibration.json lists them under
+    /// removed_observations).
     #[arg(long)]
     snoop: bool,
     /// Where to write calibration.json (default: calibration.json in the
@@ -160,17 +163,30 @@ fn run_instruments(
         options.prior
     ));
     let started = Instant::now();
-    let run = calibrate_instruments(dataset, options, &mut |record| {
-        step(&progress, record, started)
-    })
-    .map_err(|error| in_dataset(error, &args.dataset))?;
+    let observer = &mut |record: &IterationRecord| step(&progress, record, started);
+    let (run, record) = if args.snoop {
+        let snooped = calibrate_instruments_with_snooping(
+            dataset,
+            options,
+            SNOOPING_LEVEL,
+            MAX_REMOVALS,
+            observer,
+        )
+        .map_err(|error| in_dataset(error, &args.dataset))?;
+        let record = instruments::snooped_record(&snooped);
+        (snooped.run, record)
+    } else {
+        let run = calibrate_instruments(dataset, options, observer)
+            .map_err(|error| in_dataset(error, &args.dataset))?;
+        let record = instruments::record(&run);
+        (run, record)
+    };
     progress.finish();
-    let record = instruments::record(&run);
     let mut stdout = std::io::stdout().lock();
     let printed = writeln!(
         stdout,
         "{}\n{}\ncalibration written to {}",
-        instruments::summary(&run),
+        instruments::summary(&run, &record),
         instruments::parameters(&run),
         super::calibration_destination(&record, out).display()
     );
