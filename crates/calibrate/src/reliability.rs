@@ -26,7 +26,7 @@
 //!   fit.
 
 use nalgebra::DMatrix;
-use parcal_solver::{Problem, Redundancy, State, normalised_residual, redundancy};
+use parcal_solver::{Problem, Redundancy, State, Status, normalised_residual, redundancy};
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
@@ -287,6 +287,15 @@ impl Reliability {
             })
     }
 
+    /// Whether the observation of largest normalised residual fails the
+    /// test of data snooping at family-wise `level`: `|w| > z_{1 − level /
+    /// (2m)}`, `m` = [`Reliability::tests`].
+    pub fn fails_snooping(&self, level: f64) -> bool {
+        self.worst()
+            .and_then(|c| c.normalised)
+            .is_some_and(|w| w.abs() > critical_value(level, self.tests()))
+    }
+
     /// The size of the family of tests of data snooping
     /// ([`ObservationId::tests`]).
     pub fn tests(&self) -> usize {
@@ -295,6 +304,16 @@ impl Reliability {
             .map(|c| c.observation.tests())
             .sum()
     }
+}
+
+/// Whether a run that ended with `status` is checked: converged, or at its
+/// iteration or time limit (whose final iterate's checks name the blunder
+/// that may have kept it from converging, for data snooping to remove).
+pub fn checked(status: &Status) -> bool {
+    matches!(
+        status,
+        Status::Converged | Status::IterationLimit | Status::TimeLimit
+    )
 }
 
 /// The critical value of data snooping over `tests` tests at family-wise

@@ -2,6 +2,7 @@
 //! the result (calibration.json).
 
 use std::collections::BTreeMap;
+use std::time::Instant;
 
 use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, Machine, ParameterTable};
 use parcal_kinematics::{
@@ -18,7 +19,7 @@ use crate::fit::{BallMisfit, misfit_balls};
 use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
-use crate::reliability::{ObservationId, Reliability};
+use crate::reliability::{ObservationId, Reliability, checked};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode};
@@ -79,8 +80,8 @@ pub struct CalibrationRun {
     pub prior_consistency: Option<String>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
-    /// Every observation's check at the final state of a converged run
-    /// ([`crate::reliability`]).
+    /// Every observation's check at the final state of a run that converged
+    /// or reached its iteration limit ([`crate::reliability::checked`]).
     pub reliability: Option<Reliability>,
     /// When this is the Levenberg-Marquardt run made after a Gauss-Newton
     /// run ran away: how that run ended ([`calibrate`]).
@@ -95,7 +96,11 @@ impl CalibrationRun {
 
     /// The run's verdict ([`crate::verdict`]).
     pub fn verdict(&self) -> Verdict {
-        Verdict::new(&self.status, self.global_test)
+        let outlier = self
+            .reliability
+            .as_ref()
+            .is_some_and(|r| r.fails_snooping(crate::snooping::SNOOPING_LEVEL));
+        Verdict::new(&self.status, self.global_test, outlier)
     }
 
     /// Gauss-Newton iterations (linear solves; Levenberg-Marquardt: steps
@@ -225,6 +230,7 @@ pub fn calibrate(
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<CalibrationRun, CalibrateError> {
+    let started = Instant::now();
     let run = calibrate_once(dataset, options, observer)?;
     let costs = run.history.first().zip(run.history.last());
     let overshot = run
@@ -244,7 +250,11 @@ pub fn calibrate(
     if !ran_away {
         return Ok(run);
     }
-    let lm = options.clone().levenberg_marquardt();
+    let mut lm = options.clone().levenberg_marquardt();
+    // What is left of the budget.
+    lm.time_limit = options
+        .time_limit
+        .map(|limit| limit.saturating_sub(started.elapsed()));
     let mut again = calibrate_once(dataset, &lm, observer)?;
     let (first, last) = costs.expect("checked above");
     again.gauss_newton = Some(RunAway {
@@ -286,6 +296,7 @@ fn calibrate_once(
         method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
+        time_limit: options.time_limit,
         ..SolverOptions::default()
     };
     let ball_ids: Vec<String> = dataset
@@ -448,6 +459,7 @@ impl SolverRun<'_> {
         O: ContactObservations<R, P> + MirrorStart,
     {
         let setup = self.setup;
+        let started = Instant::now();
         let mut caches = poses;
         let mut watch = WrongSideWatch {
             run: self,
@@ -512,9 +524,13 @@ impl SolverRun<'_> {
                     side,
                 });
             }
-            // Both solves together within the iteration limit.
+            // Both solves together within the iteration and time limits.
             let rest = SolverOptions {
                 max_iterations: self.solver.max_iterations.saturating_sub(iteration),
+                time_limit: self
+                    .solver
+                    .time_limit
+                    .map(|limit| limit.saturating_sub(started.elapsed())),
                 ..self.solver.clone()
             };
             solution = solve_with_caches(&*problem, state, &mut caches, &rest, &mut observer);
@@ -542,21 +558,19 @@ impl SolverRun<'_> {
         });
         let prior_rows = rows - rows_per_contact * setup.order.len() - problem.distances.len();
         let reliability = match (&solution.covariance, solution.history.last()) {
-            (Some(covariance), Some(last)) if solution.status == Status::Converged => {
-                Some(Reliability::new(
-                    &*problem,
-                    &solution.state,
-                    covariance,
-                    &mut caches,
-                    self.solver.groups_per_chunk,
-                    &setup.order,
-                    &(0..problem.distances.len())
-                        .map(ObservationId::Distance)
-                        .collect::<Vec<_>>(),
-                    last.prior_cost,
-                    prior_rows,
-                )?)
-            }
+            (Some(covariance), Some(last)) if checked(&solution.status) => Some(Reliability::new(
+                &*problem,
+                &solution.state,
+                covariance,
+                &mut caches,
+                self.solver.groups_per_chunk,
+                &setup.order,
+                &(0..problem.distances.len())
+                    .map(ObservationId::Distance)
+                    .collect::<Vec<_>>(),
+                last.prior_cost,
+                prior_rows,
+            )?),
             _ => None,
         };
         Ok(Solved {

@@ -46,6 +46,7 @@ pub fn solver_status(
     match status {
         Status::Converged => "converged".to_string(),
         Status::IterationLimit => "iteration limit reached without convergence".to_string(),
+        Status::TimeLimit => "time limit reached without convergence".to_string(),
         Status::Diverged { iteration, reason } => {
             format!("diverged at iteration {iteration}: {reason}")
         }
@@ -150,8 +151,8 @@ pub fn checks(
             SNOOPING_LEVEL * 100.0
         );
         if w.abs() > critical {
-            warnings.push(format!(
-                "{test}: that observation is likely a blunder; calibrate --snoop finds and removes blunders"
+            reasons.push(format!(
+                "data-snooping test failed: {test}: that observation is likely a blunder; calibrate --snoop finds and removes blunders"
             ));
         } else {
             reasons.push(format!(

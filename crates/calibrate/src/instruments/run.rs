@@ -18,7 +18,7 @@ use crate::instruments::problem::InstrumentProblem;
 use crate::instruments::rows::InstrumentRows;
 use crate::instruments::start::frame_start;
 use crate::layout::{ParameterGroup, ParameterLayout};
-use crate::reliability::{ObservationId, Reliability};
+use crate::reliability::{ObservationId, Reliability, checked};
 use crate::setup::{design_geometry, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method};
@@ -64,7 +64,7 @@ pub struct InstrumentRun {
     pub data_information: DVector<f64>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
-    /// Every row's check at the final state of a converged run.
+    /// Every row's check at the final state of a run that converged or reached its iteration limit ([`crate::reliability::checked`]).
     pub reliability: Option<Reliability>,
 }
 
@@ -139,6 +139,7 @@ pub fn calibrate_instruments(
         method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
+        time_limit: options.time_limit,
         ..SolverOptions::default()
     };
     let state = State {
@@ -149,7 +150,7 @@ pub fn calibrate_instruments(
     let solution = solve(&problem, state, &solver_options, observer);
     let (n_rows, unknowns) = rows_and_unknowns(&problem, 0, problem.rows.len());
     let reliability = match (&solution.covariance, solution.history.last()) {
-        (Some(covariance), Some(last)) if solution.status == Status::Converged => {
+        (Some(covariance), Some(last)) if checked(&solution.status) => {
             let tracker = problem.rows.tracker;
             let observations: Vec<ObservationId> = (0..tracker.poses.len())
                 .map(ObservationId::Pose)
@@ -335,7 +336,11 @@ impl InstrumentRun {
 
     /// The run's verdict ([`crate::verdict`]).
     pub fn verdict(&self) -> Verdict {
-        Verdict::new(&self.status, self.global_test)
+        let outlier = self
+            .reliability
+            .as_ref()
+            .is_some_and(|r| r.fails_snooping(crate::snooping::SNOOPING_LEVEL));
+        Verdict::new(&self.status, self.global_test, outlier)
     }
 
     /// The model at the identified state.

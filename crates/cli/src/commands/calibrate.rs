@@ -3,7 +3,7 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
@@ -45,6 +45,10 @@ pub struct Args {
     /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
     #[arg(long)]
     max_iterations: Option<usize>,
+    /// Wall-clock budget of the calibration, seconds: when it has passed the
+    /// run stops at its current iterate ("time limit reached", rejected).
+    #[arg(long, value_name = "SECONDS", value_parser = seconds)]
+    time_limit: Option<Duration>,
     /// Data snooping: remove the observation (contact, distance, pose or
     /// point) of largest normalised residual while it fails the test at 5%
     /// family-wise, at most 10 (calibration.json lists them under
@@ -76,6 +80,7 @@ impl Args {
         if let Some(limit) = self.max_iterations {
             options.max_iterations = limit;
         }
+        options.time_limit = self.time_limit;
         options
     }
 }
@@ -133,6 +138,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     super::write_calibration(record, &dataset, &args.dataset, &out)?;
     printed
+}
+
+/// A number of seconds, finite and not negative.
+fn seconds(text: &str) -> Result<Duration, String> {
+    let seconds: f64 = text.parse().map_err(|e| format!("{e}"))?;
+    Duration::try_from_secs_f64(seconds)
+        .map_err(|_| format!("{text} is not a finite, non-negative number of seconds"))
 }
 
 /// One iteration on the progress bar.
