@@ -19,7 +19,15 @@
 //!   rows, conservative).
 //! - The **minimal detectable bias** of a row, in units of its
 //!   standard deviation, `∇₀ = δ₀ / √r`, `δ₀ = z_{1−α/2} + z_{1−β}`: the
-//!   smallest error the test at level `α` finds with power `1 − β`.
+//!   smallest error the test at level `α` finds with power `1 − β`
+//!   (data snooping's: `α` its level over the family, Bonferroni).
+//! - The **external reliability** of a row: what an undetected error of
+//!   its minimal detectable bias does to the global block, `∇g = Cov(g)
+//!   u_j ∇₀`, summarised as the bias-to-noise ratio `λ = √(∇gᵀ Cov(g)⁻¹
+//!   ∇g) = δ₀ √(|z_j|² / r_j)` (Baarda 1968; Förstner and Wrobel 2016,
+//!   section 4.6.5), from the global leverage `|z_j|²` that the redundancy
+//!   pass gives (`parcal_solver::redundancy`); an observation's is its
+//!   rows' largest.
 //! - The **variance component** of each group of observations, `σ̂² = Ω_g /
 //!   r_g` (its weighted sum of squares over its redundancy): about 1 for a
 //!   group whose stated noise is right, larger for the group that does not
@@ -30,6 +38,7 @@ use parcal_solver::{Problem, Redundancy, State, Status, normalised_residual, red
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
+use crate::snooping::SNOOPING_LEVEL;
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
 /// observation counts as uncontrolled.
@@ -138,12 +147,33 @@ pub struct ObservationCheck {
     /// That row, among the observation's (a pose's leg, a point's
     /// coordinate).
     pub row: usize,
+    /// External reliability: the largest over its rows of the bias-to-noise
+    /// ratio `λ = δ₀ √(|z_j|² / r_j)` of the global block (kinematic
+    /// parameters and tied centres), the shift an undetected error of the
+    /// row's minimal detectable bias makes in them, in units of their own
+    /// noise (`√(∇gᵀ Cov(g)⁻¹ ∇g)`; `|z_j|²` the row's global leverage,
+    /// `parcal_solver::redundancy`); `None` when no row is checked.
+    pub bias_to_noise: Option<f64>,
 }
 
 impl ObservationCheck {
-    /// The check of `observation` from its rows' redundancy numbers `r` and
-    /// whitened residuals `e`: the largest normalised residual of its rows.
-    pub fn new(observation: ObservationId, r: &[f64], e: &[f64]) -> Self {
+    /// The check of `observation` from its rows' redundancy numbers `r`,
+    /// whitened residuals `e` and global leverages `global`: the largest
+    /// normalised residual of its rows, and the largest bias-to-noise
+    /// ratio for a minimal detectable bias of `delta0 / √r` row sigmas.
+    pub fn new(
+        observation: ObservationId,
+        r: &[f64],
+        e: &[f64],
+        global: &[f64],
+        delta0: f64,
+    ) -> Self {
+        let bias_to_noise = r
+            .iter()
+            .zip(global)
+            .filter(|(r, _)| normalised_residual(0.0, **r).is_some())
+            .map(|(r, h)| delta0 * (h.max(0.0) / r).sqrt())
+            .max_by(f64::total_cmp);
         let worst = r
             .iter()
             .zip(e)
@@ -156,6 +186,7 @@ impl ObservationCheck {
             normalised: worst.map(|(_, w, _)| w),
             gross_error: worst.map(|(_, _, g)| g),
             row: worst.map_or(0, |(j, _, _)| j),
+            bias_to_noise,
         }
     }
 }
@@ -207,19 +238,26 @@ impl Reliability {
                 ),
             });
         }
+        let tests = rows.len() + global.iter().map(|o| o.tests()).sum::<usize>();
+        let delta0 = minimal_detectable_bias(1.0, SNOOPING_LEVEL / tests.max(1) as f64);
         let mut observations: Vec<ObservationCheck> = numbers
             .points
             .iter()
             .zip(&numbers.point_residuals)
+            .zip(&numbers.point_global_leverage)
             .zip(rows)
-            .map(|((r, e), &row)| {
+            .map(|(((r, e), h), &row)| {
                 ObservationCheck::new(
                     ObservationId::Contact(row as usize),
                     r.as_slice(),
                     e.as_slice(),
+                    h.as_slice(),
+                    delta0,
                 )
             })
             .collect();
+        // A global observation row's leverage is all global: 1 − r_o.
+        let global_leverage: Vec<f64> = r.iter().map(|r| 1.0 - r).collect();
         let mut first = 0;
         for &observation in global {
             let range = first..first + observation.rows();
@@ -227,6 +265,8 @@ impl Reliability {
                 observation,
                 &r[range.clone()],
                 &e[range.clone()],
+                &global_leverage[range.clone()],
+                delta0,
             ));
             first = range.end;
         }
@@ -285,6 +325,21 @@ impl Reliability {
                 let w = |c: &ObservationCheck| c.normalised.map_or(0.0, f64::abs);
                 w(a).total_cmp(&w(b))
             })
+    }
+
+    /// The `n` observations of largest bias-to-noise ratio, largest first
+    /// (external reliability: those whose undetected blunders would move
+    /// the parameters most).
+    pub fn least_reliable(&self, n: usize) -> Vec<&ObservationCheck> {
+        let mut checked: Vec<&ObservationCheck> = self
+            .observations
+            .iter()
+            .filter(|c| c.bias_to_noise.is_some())
+            .collect();
+        let lambda = |c: &ObservationCheck| c.bias_to_noise.unwrap_or(0.0);
+        checked.sort_by(|a, b| lambda(b).total_cmp(&lambda(a)));
+        checked.truncate(n);
+        checked
     }
 
     /// Whether the observation of largest normalised residual fails the

@@ -160,6 +160,23 @@ pub fn checks(
             ));
         }
     }
+    let least: Vec<String> = reliability
+        .least_reliable(3)
+        .iter()
+        .map(|c| {
+            format!(
+                "{:.1} at {}",
+                c.bias_to_noise.unwrap_or(f64::NAN),
+                place(original(c.observation))
+            )
+        })
+        .collect();
+    if !least.is_empty() {
+        reasons.push(format!(
+            "external reliability (what an undetected blunder of an observation's minimal detectable bias moves the parameters by, in their sigmas), largest: {}",
+            least.join(", ")
+        ));
+    }
     let uncontrolled: Vec<String> = reliability
         .uncontrolled()
         .map(|c| place(original(c.observation)))
