@@ -100,7 +100,7 @@ fn a_wrong_radius_is_rejected_and_the_touches_named() {
 fn clean_data_raise_false_alarms_at_the_nominal_rate() {
     let draws = 200u64;
     let options = CalibrationOptions::default();
-    let (mut rejected, mut snooped_any) = (0usize, 0usize);
+    let (mut rejected, mut snooped_any, mut verdict_rejected) = (0usize, 0usize, 0usize);
     for seed in 1..=draws {
         let dataset = simulate(&Scenario::paper(), seed).unwrap().dataset;
         let snooped = calibrate_with_snooping(
@@ -122,12 +122,24 @@ fn clean_data_raise_false_alarms_at_the_nominal_rate() {
             }
         };
         rejected += usize::from(first);
+        // The verdict on the data as given: a failing data-snooping test
+        // (something was removed) rejects it, as a global test above its
+        // interval does.
+        let too_large = match snooped.removals.first() {
+            None => !snooped.run.verdict().accepted,
+            Some(_) => true,
+        };
+        verdict_rejected += usize::from(too_large);
     }
     let rate = rejected as f64 / draws as f64;
     let se = (0.05 * 0.95 / draws as f64).sqrt();
     println!(
-        "global test rejects {rejected} of {draws} ({rate:.3}, nominal 0.05 +- {se:.3}); snooping removed something in {snooped_any}"
+        "global test rejects {rejected} of {draws} ({rate:.3}, nominal 0.05 +- {se:.3}); snooping removed something in {snooped_any}; the verdict rejects {verdict_rejected}"
     );
+    // At most the global test's upper tail (2.5 %) plus snooping's 5 %,
+    // with 4 standard errors.
+    let bound = 0.075 + 4.0 * (0.075 * 0.925 / draws as f64).sqrt();
+    assert!(verdict_rejected as f64 <= bound * draws as f64);
     assert!((rate - 0.05).abs() < 4.0 * se, "rejection rate {rate}");
     assert!(
         snooped_any as f64 <= 0.05 * draws as f64,
