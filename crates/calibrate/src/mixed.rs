@@ -24,8 +24,6 @@
 //! must leave `actuator` at its default (unit mm, scale 1, known): else
 //! [`CalibrateError::MixedData`].
 
-use std::ops::Range;
-
 use nalgebra::{DMatrix, DVector};
 use parcal_dataset::{Dataset, ParameterTable};
 use parcal_kinematics::{Geometry, N_PARAMS, Vec3};
@@ -37,6 +35,7 @@ use crate::instruments::rows::InstrumentRows;
 use crate::instruments::run::{group_priors, model_and_rows, residuals, rms};
 use crate::layout::ParameterLayout;
 use crate::problem::CalibrationProblem;
+use crate::reliability::ObservationId;
 
 /// The poses and points of a calibration with ball touches.
 pub struct InstrumentObservations<'a> {
@@ -210,23 +209,19 @@ impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
         self.distances.len() + self.instruments.as_ref().map_or(0, |i| i.rows.len())
     }
 
-    /// The groups of the global observation rows, in order, for their
-    /// variance components: `distances`, `poses` (6 rows each), `points`
-    /// (3 rows each); empty groups left out.
-    pub fn global_observation_groups(&self) -> Vec<(&'static str, Range<usize>)> {
-        let d = self.distances.len();
+    /// The global observations, in the order of their rows: the
+    /// distances, then the poses (6 rows each), then the points (3 rows
+    /// each).
+    pub fn global_observation_ids(&self) -> Vec<ObservationId> {
         let (poses, points) = self.instruments.as_ref().map_or((0, 0), |i| {
             let t = i.rows.tracker;
-            (6 * t.poses.len(), 3 * t.points.len())
+            (t.poses.len(), t.points.len())
         });
-        [
-            ("distances", 0..d),
-            ("poses", d..d + poses),
-            ("points", d + poses..d + poses + points),
-        ]
-        .into_iter()
-        .filter(|(_, range)| !range.is_empty())
-        .collect()
+        (0..self.distances.len())
+            .map(ObservationId::Distance)
+            .chain((0..poses).map(ObservationId::Pose))
+            .chain((0..points).map(ObservationId::Point))
+            .collect()
     }
 
     /// Adds `dataset`'s poses and points to the problem (none without

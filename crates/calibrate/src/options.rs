@@ -1,6 +1,7 @@
 //! What a calibration run is asked to do (spec section 4).
 
 use std::fmt;
+use std::time::Duration;
 
 use parcal_observe::WeightModel;
 use parcal_solver::Method;
@@ -160,6 +161,9 @@ pub struct CalibrationOptions {
     pub max_iterations: usize,
     /// Converged when `|dx| / (|x| + 1) < step_tolerance` over all unknowns.
     pub step_tolerance: f64,
+    /// A wall-clock budget for the whole run (every solve it makes); the
+    /// run ends with `Status::TimeLimit` when it has passed. `None`: none.
+    pub time_limit: Option<Duration>,
 }
 
 /// Default iteration limit of Gauss-Newton.
@@ -214,6 +218,7 @@ impl Default for CalibrationOptions {
             angle_sigma: 0.01,
             max_iterations: GAUSS_NEWTON_ITERATIONS,
             step_tolerance: 1e-10,
+            time_limit: None,
         }
     }
 }

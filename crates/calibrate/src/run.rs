@@ -2,6 +2,7 @@
 //! the result (calibration.json).
 
 use std::collections::BTreeMap;
+use std::time::Instant;
 
 use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, Machine, ParameterTable};
 use parcal_kinematics::{
@@ -19,7 +20,7 @@ use crate::layout::ParameterLayout;
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::mixed::InstrumentResult;
 use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
-use crate::reliability::Reliability;
+use crate::reliability::{Reliability, checked};
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
@@ -89,8 +90,8 @@ pub struct CalibrationRun {
     pub prior_consistency: Option<PaperPriorInconsistency>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
-    /// Every observation's check at the final state of a converged run
-    /// ([`crate::reliability`]).
+    /// Every observation's check at the final state of a run that converged
+    /// or reached its iteration limit ([`crate::reliability::checked`]).
     pub reliability: Option<Reliability>,
     /// When this is the Levenberg-Marquardt run made after a Gauss-Newton
     /// run ran away: how that run ended ([`calibrate`]).
@@ -105,7 +106,11 @@ impl CalibrationRun {
 
     /// The run's verdict ([`crate::verdict`]).
     pub fn verdict(&self) -> Verdict {
-        Verdict::new(&self.status, self.global_test)
+        let outlier = self
+            .reliability
+            .as_ref()
+            .is_some_and(|r| r.fails_snooping(crate::snooping::SNOOPING_LEVEL));
+        Verdict::new(&self.status, self.global_test, outlier)
     }
 
     /// Gauss-Newton iterations (linear solves; Levenberg-Marquardt: steps
@@ -262,6 +267,7 @@ pub fn calibrate(
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<CalibrationRun, CalibrateError> {
+    let started = Instant::now();
     let run = calibrate_once(dataset, options, observer)?;
     let costs = run.history.first().zip(run.history.last());
     let overshot = run
@@ -281,7 +287,11 @@ pub fn calibrate(
     if !ran_away {
         return Ok(run);
     }
-    let lm = options.clone().levenberg_marquardt();
+    let mut lm = options.clone().levenberg_marquardt();
+    // What is left of the budget.
+    lm.time_limit = options
+        .time_limit
+        .map(|limit| limit.saturating_sub(started.elapsed()));
     let mut again = calibrate_once(dataset, &lm, observer)?;
     let (first, last) = costs.expect("checked above");
     again.gauss_newton = Some(RunAway {
@@ -337,6 +347,7 @@ fn calibrate_once(
         method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
+        time_limit: options.time_limit,
         ..SolverOptions::default()
     };
     let ball_ids: Vec<String> = dataset
@@ -531,6 +542,7 @@ impl SolverRun<'_> {
         O: ContactObservations<R, P> + MirrorStart,
     {
         let setup = self.setup;
+        let started = Instant::now();
         let mut caches = poses;
         let mut watch = WrongSideWatch {
             run: self,
@@ -600,9 +612,13 @@ impl SolverRun<'_> {
                     side,
                 });
             }
-            // Both solves together within the iteration limit.
+            // Both solves together within the iteration and time limits.
             let rest = SolverOptions {
                 max_iterations: self.solver.max_iterations.saturating_sub(iteration),
+                time_limit: self
+                    .solver
+                    .time_limit
+                    .map(|limit| limit.saturating_sub(started.elapsed())),
                 ..self.solver.clone()
             };
             solution = solve_with_caches(&*problem, state, &mut caches, &rest, &mut observer);
@@ -649,19 +665,17 @@ impl SolverRun<'_> {
         });
         let prior_rows = rows - rows_per_contact * setup.order.len() - problem.global_rows();
         let reliability = match (&solution.covariance, solution.history.last()) {
-            (Some(covariance), Some(last)) if solution.status == Status::Converged => {
-                Some(Reliability::new(
-                    &*problem,
-                    &solution.state,
-                    covariance,
-                    &mut caches,
-                    self.solver.groups_per_chunk,
-                    &setup.order,
-                    last.prior_cost,
-                    prior_rows,
-                    &problem.global_observation_groups(),
-                )?)
-            }
+            (Some(covariance), Some(last)) if checked(&solution.status) => Some(Reliability::new(
+                &*problem,
+                &solution.state,
+                covariance,
+                &mut caches,
+                self.solver.groups_per_chunk,
+                &setup.order,
+                &problem.global_observation_ids(),
+                last.prior_cost,
+                prior_rows,
+            )?),
             _ => None,
         };
         let instruments = problem

@@ -113,8 +113,10 @@ where
     (rows, unknowns)
 }
 
-/// A run's verdict: accepted when it converged and its global test does
-/// not say the data misfit their noise.
+/// A run's verdict: accepted when it converged, its global test does not
+/// say the data misfit their noise, and no observation fails the test of
+/// data snooping ([`crate::reliability::Reliability::fails_snooping`]: a
+/// blunder that `--snoop` would remove).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Verdict {
     /// Whether the result may be used.
@@ -125,12 +127,13 @@ pub struct Verdict {
 
 impl Verdict {
     /// The verdict of a run that ended with `status` and, when it
-    /// converged, whose global test is `global_test`.
-    pub fn new(status: &Status, global_test: Option<GlobalTest>) -> Self {
+    /// converged, whose global test is `global_test` and whose largest
+    /// normalised residual fails the test of data snooping if `outlier`.
+    pub fn new(status: &Status, global_test: Option<GlobalTest>, outlier: bool) -> Self {
         let converged = matches!(status, Status::Converged);
         let fits = global_test.is_none_or(|t| t.outcome != Outcome::TooLarge);
         Self {
-            accepted: converged && fits,
+            accepted: converged && fits && !outlier,
             global_test: global_test.filter(|_| converged),
         }
     }

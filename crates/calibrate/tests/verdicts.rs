@@ -3,6 +3,7 @@
 //! tests' nominal rates only.
 
 use parcal_accuracy::MapGrid;
+use parcal_calibrate::reliability::{ObservationId, minimal_detectable_bias};
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, RadiusModel, calibrate};
@@ -44,8 +45,12 @@ fn a_blunder_is_found_and_removed() {
         &mut |_| {},
     )
     .unwrap();
-    let rows: Vec<usize> = snooped.removals.iter().map(|r| r.row).collect();
-    assert_eq!(rows, [row], "removed rows");
+    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    assert_eq!(
+        removed,
+        [ObservationId::Contact(row)],
+        "removed observations"
+    );
     assert!(snooped.run.verdict().accepted);
     let (clean_rms, snooped_rms) = (
         true_registered_rms(&clean, &clean_run),
@@ -155,7 +160,7 @@ fn a_wrong_radius_per_contact_is_rejected_and_the_touches_named() {
 fn clean_data_raise_false_alarms_at_the_nominal_rate() {
     let draws = 200u64;
     let options = CalibrationOptions::default();
-    let (mut rejected, mut snooped_any) = (0usize, 0usize);
+    let (mut rejected, mut snooped_any, mut verdict_rejected) = (0usize, 0usize, 0usize);
     for seed in 1..=draws {
         let dataset = simulate(&Scenario::paper(), seed).unwrap().dataset;
         let snooped = calibrate_with_snooping(
@@ -177,12 +182,24 @@ fn clean_data_raise_false_alarms_at_the_nominal_rate() {
             }
         };
         rejected += usize::from(first);
+        // The verdict on the data as given: a failing data-snooping test
+        // (something was removed) rejects it, as a global test above its
+        // interval does.
+        let too_large = match snooped.removals.first() {
+            None => !snooped.run.verdict().accepted,
+            Some(_) => true,
+        };
+        verdict_rejected += usize::from(too_large);
     }
     let rate = rejected as f64 / draws as f64;
     let se = (0.05 * 0.95 / draws as f64).sqrt();
     println!(
-        "global test rejects {rejected} of {draws} ({rate:.3}, nominal 0.05 +- {se:.3}); snooping removed something in {snooped_any}"
+        "global test rejects {rejected} of {draws} ({rate:.3}, nominal 0.05 +- {se:.3}); snooping removed something in {snooped_any}; the verdict rejects {verdict_rejected}"
     );
+    // At most the global test's upper tail (2.5 %) plus snooping's 5 %,
+    // with 4 standard errors.
+    let bound = 0.075 + 4.0 * (0.075 * 0.925 / draws as f64).sqrt();
+    assert!(verdict_rejected as f64 <= bound * draws as f64);
     assert!((rate - 0.05).abs() < 4.0 * se, "rejection rate {rate}");
     // Bonferroni makes 5 % an upper bound of the family-wise rate; the
     // count is binomial, allowed 4 of its standard errors above it.
@@ -216,4 +233,115 @@ fn a_mislabelled_artefact_frame_is_rejected_and_the_priors_named() {
         largest.factor()
     );
     assert_eq!(largest.group, "priors");
+}
+
+/// The normalised residual of the contact of measurements.csv row `row`
+/// in a run (its rows' largest).
+fn contact_w(run: &CalibrationRun, row: usize) -> f64 {
+    run.reliability
+        .as_ref()
+        .unwrap()
+        .observations
+        .iter()
+        .find(|c| c.observation == ObservationId::Contact(row))
+        .and_then(|c| c.normalised)
+        .unwrap()
+}
+
+/// Blunders of 0.02 to 5 mm in one reading of the paper scenario (seed 1,
+/// row 38, leg 3). The reading's minimal detectable bias (mm) follows from
+/// the linear response of the contact's normalised residual to a blunder
+/// `b`, `w(b) = w(0) + s b`: `MDB = δ₀ / |s|`, `δ₀` at the data-snooping
+/// level of one test (Bonferroni) with power 80 %; `|s|` from blunders of
+/// ±50 um (`(|w(+b)| + |w(−b)|) / 2b`, exact while `|s b| > |w(0)|`).
+/// Every blunder above the MDB is detected: the run is rejected without
+/// snooping, and snooping removes that contact alone; detection never gets
+/// worse as the blunder grows.
+#[test]
+fn detection_is_monotone_in_the_blunder_above_its_minimal_detectable_bias() {
+    let clean = simulate(&Scenario::paper(), 1).unwrap().dataset;
+    let options = CalibrationOptions::default();
+    let (row, leg) = (38, 2);
+    let with_blunder = |b: f64| {
+        let mut d = clean.clone();
+        d.measurements.q[row][leg] += b;
+        d
+    };
+    let probe = 0.05;
+    let w = |b: f64| {
+        contact_w(
+            &calibrate(&with_blunder(b), &options, &mut |_| {}).unwrap(),
+            row,
+        )
+    };
+    let slope = (w(probe).abs() + w(-probe).abs()) / (2.0 * probe);
+    let reliability_tests = calibrate(&clean, &options, &mut |_| {})
+        .unwrap()
+        .reliability
+        .unwrap()
+        .tests();
+    let level = SNOOPING_LEVEL / reliability_tests as f64;
+    let mdb = minimal_detectable_bias(1.0, level) / slope;
+    println!("slope {slope:.1} per mm, MDB {:.1} um", 1e3 * mdb);
+    let mut detected_before = false;
+    for blunder in [0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0] {
+        let dataset = with_blunder(blunder);
+        let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+        let rejected = !run.verdict().accepted;
+        let snooped = calibrate_with_snooping(
+            &dataset,
+            &options,
+            SNOOPING_LEVEL,
+            MAX_REMOVALS,
+            &mut |_| {},
+        )
+        .unwrap();
+        let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+        let found = removed == [ObservationId::Contact(row)] && snooped.run.verdict().accepted;
+        println!(
+            "{:>6.0} um: {}, variance factor {:.2}, rejected {rejected}, w {:+.1}, snooping removed {removed:?}, accepted {}",
+            1e3 * blunder,
+            if run.converged() {
+                "converged"
+            } else {
+                "not converged"
+            },
+            run.global_test.map_or(f64::NAN, |t| t.variance_factor),
+            contact_w(&run, row),
+            snooped.run.verdict().accepted
+        );
+        let detected = rejected && found;
+        if blunder > mdb {
+            assert!(
+                detected,
+                "a blunder of {blunder} mm above the MDB {mdb:.4} mm"
+            );
+        }
+        assert!(
+            detected || !detected_before,
+            "{blunder} mm is not detected where a smaller blunder was"
+        );
+        detected_before = detected;
+    }
+}
+
+/// A zero time budget: the run stops at its first iterate with the time
+/// limit (not a divergence, and not made again with Levenberg-Marquardt),
+/// says so, and is rejected.
+#[test]
+fn a_time_limit_stops_the_run_and_rejects_it() {
+    let dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
+    let options = CalibrationOptions {
+        time_limit: Some(std::time::Duration::ZERO),
+        ..CalibrationOptions::default()
+    };
+    let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert_eq!(run.status, parcal_solver::Status::TimeLimit);
+    assert!(run.gauss_newton.is_none());
+    assert_eq!(run.iterations(), 0);
+    assert!(!run.verdict().accepted);
+    assert_eq!(
+        parcal_report::sentences::status(&run),
+        "time limit reached without convergence"
+    );
 }

@@ -190,10 +190,15 @@ pub struct ObservationTests {
 /// One observation's test.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObservationCheck {
-    /// Its file (`measurements.csv`, `poses.csv`, `points.csv`).
+    /// Its file (`measurements.csv`, `artefacts.json`, `poses.csv`,
+    /// `points.csv`).
     pub file: String,
-    /// Its line there (the header is line 1).
-    pub line: u64,
+    /// Its line there, for a CSV file (the header is line 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line: Option<u64>,
+    /// Its field, for a JSON file (`distances[3]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
     /// What it observes: a ball id, a leg, a coordinate.
     pub observes: String,
     /// Its redundancy number.
@@ -270,13 +275,20 @@ pub struct WeakDirectionRecord {
 /// An observation removed by data snooping.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RemovedObservation {
-    /// Its file (`measurements.csv`).
+    /// Its file (`measurements.csv`, `artefacts.json`, `poses.csv`,
+    /// `points.csv`).
     pub file: String,
-    /// Its line there (the header is line 1).
-    pub line: u64,
-    /// Its normalised residual when it was removed.
+    /// Its line there, for a CSV file (the header is line 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line: Option<u64>,
+    /// Its field, for a JSON file (`distances[3]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
+    /// Its normalised residual when it was removed (of its row of largest
+    /// magnitude, for an observation of several rows).
     pub normalised_residual: f64,
-    /// Its estimated gross error, in units of its standard deviation.
+    /// That row's estimated gross error, in units of its standard
+    /// deviation.
     pub gross_error_sigmas: f64,
     /// The a-posteriori variance factor before and after its removal.
     pub variance_factor: [f64; 2],

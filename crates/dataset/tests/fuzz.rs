@@ -311,7 +311,8 @@ fn calibration() -> Calibration {
         }),
         removed_observations: vec![RemovedObservation {
             file: MEASUREMENTS_FILE.into(),
-            line: 7,
+            line: Some(7),
+            field: None,
             normalised_residual: 4.5,
             gross_error_sigmas: 5.0,
             variance_factor: [1.5, 1.0],
@@ -331,7 +332,8 @@ fn calibration() -> Calibration {
                 uncontrolled: 1,
                 largest: vec![ObservationCheck {
                     file: MEASUREMENTS_FILE.into(),
-                    line: 7,
+                    line: Some(7),
+                    field: None,
                     observes: "ball b01".into(),
                     redundancy: 0.5,
                     normalised_residual: Some(-2.5),
@@ -340,7 +342,8 @@ fn calibration() -> Calibration {
                 }],
                 least_controlled: vec![ObservationCheck {
                     file: MEASUREMENTS_FILE.into(),
-                    line: 9,
+                    line: Some(9),
+                    field: None,
                     observes: "ball b01".into(),
                     redundancy: 0.0,
                     normalised_residual: None,

@@ -405,7 +405,8 @@ fn calibration() -> Calibration {
         }),
         removed_observations: vec![RemovedObservation {
             file: "measurements.csv".into(),
-            line: 42,
+            line: Some(42),
+            field: None,
             normalised_residual: -51.5,
             gross_error_sigmas: -60.25,
             variance_factor: [14.5, 1.0 / 3.0],
@@ -428,8 +429,9 @@ fn calibration() -> Calibration {
                 uncontrolled_below: 0.1,
                 uncontrolled: 1,
                 largest: vec![ObservationCheck {
-                    file: "measurements.csv".into(),
-                    line: 7,
+                    file: "artefacts.json".into(),
+                    line: None,
+                    field: Some("distances[3]".into()),
                     observes: "ball b01".into(),
                     redundancy: 0.5,
                     normalised_residual: Some(-2.5),
@@ -438,7 +440,8 @@ fn calibration() -> Calibration {
                 }],
                 least_controlled: vec![ObservationCheck {
                     file: "measurements.csv".into(),
-                    line: 9,
+                    line: Some(9),
+                    field: None,
                     observes: "ball b01".into(),
                     redundancy: 0.0,
                     normalised_residual: None,

@@ -4,19 +4,20 @@
 //! and least controlled observations, histograms of the rest).
 
 use parcal_calibrate::CalibrationRun;
-use parcal_calibrate::InstrumentTable;
 use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::reliability::{
-    UNCONTROLLED, VarianceComponent, critical_value, minimal_detectable_bias,
+    ObservationId, Reliability, UNCONTROLLED, VarianceComponent, critical_value,
+    minimal_detectable_bias,
 };
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_dataset::{
-    Dataset, Diagnostics, Histogram, MEASUREMENTS_FILE, ObservationCheck, ObservationTests,
-    VarianceComponentRecord, WeakDirectionRecord,
+    Dataset, Diagnostics, Histogram, ObservationCheck, ObservationTests, VarianceComponentRecord,
+    WeakDirectionRecord,
 };
-use parcal_solver::{SpectrumDiagnostics, normalised_residual};
+use parcal_solver::SpectrumDiagnostics;
 
 use crate::instruments::determined_by;
+use crate::sentences::location;
 
 /// How many observations each list of [`ObservationTests`] keeps.
 pub const LISTED: usize = 20;
@@ -32,26 +33,59 @@ const REDUNDANCY_BINS: usize = 40;
 /// [`parcal_calibrate::conflict`]).
 const NOT_INFORMED: f64 = 1e-9;
 
+/// One observation's numbers before they are summarised.
+struct Tested {
+    /// The observation, at its place in the dataset given.
+    observation: ObservationId,
+    /// What it observes: its ball, its distance's balls, the pose's leg or
+    /// the point's coordinate of its worst row.
+    observes: Observes,
+    redundancy: f64,
+    /// Normalised residual and estimated gross error of its worst row.
+    normalised: Option<(f64, f64)>,
+}
+
 /// What an observation observes, named only when it is listed.
 #[derive(Clone, Copy)]
 enum Observes {
     /// The ball of this index (artefacts.json order).
     Ball(usize),
+    /// The balls of distance `k` of artefacts.json.
+    Distance(usize),
     /// Leg `i` (0-based) of a pose.
     Leg(usize),
     /// Coordinate `i` (x, y, z) of a point.
     Coordinate(usize),
 }
 
-/// One observation's numbers before they are summarised.
-struct Tested {
-    file: &'static str,
-    /// 0-based row of the file.
-    row: usize,
-    observes: Observes,
-    redundancy: f64,
-    /// Normalised residual and estimated gross error of its worst row.
-    normalised: Option<(f64, f64)>,
+/// The checks of `reliability` as [`Tested`]: `original(o)` is the place
+/// in the dataset given of the run's observation `o`.
+fn tested(
+    reliability: &Reliability,
+    dataset: &Dataset,
+    original: &dyn Fn(ObservationId) -> ObservationId,
+) -> Vec<Tested> {
+    reliability
+        .observations
+        .iter()
+        .map(|check| {
+            let observation = original(check.observation);
+            let observes = match observation {
+                ObservationId::Contact(row) => {
+                    Observes::Ball(dataset.measurements.ball[row] as usize)
+                }
+                ObservationId::Distance(k) => Observes::Distance(k),
+                ObservationId::Pose(_) => Observes::Leg(check.row),
+                ObservationId::Point(_) => Observes::Coordinate(check.row),
+            };
+            Tested {
+                observation,
+                observes,
+                redundancy: check.redundancy,
+                normalised: check.normalised.zip(check.gross_error),
+            }
+        })
+        .collect()
 }
 
 /// The diagnostics of a ball-touch run: `dataset` the dataset given,
@@ -60,9 +94,9 @@ struct Tested {
 pub fn of_ball_run(
     run: &CalibrationRun,
     dataset: &Dataset,
-    original_row: &dyn Fn(usize) -> usize,
+    original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> Diagnostics {
-    let names = run.layout.names(&run.ball_ids, &[]);
+    let names = run.names();
     // calibration.json's parameters are the kinematic ones.
     let (prior_sigma, determined_by) = match (run.sigmas(), &run.prior) {
         (Some(sigmas), Some(prior)) => sigmas
@@ -81,22 +115,10 @@ pub fn of_ball_run(
         _ => (Vec::new(), Vec::new()),
     };
     let observations = run.reliability.as_ref().map(|reliability| {
-        let tested = reliability.contacts.iter().map(|c| {
-            let row = original_row(c.row);
-            Tested {
-                file: MEASUREMENTS_FILE,
-                row,
-                observes: Observes::Ball(dataset.measurements.ball[row] as usize),
-                redundancy: c.redundancy,
-                normalised: c.normalised.zip(c.gross_error),
-            }
-        });
-        let rows_per_contact = run.residual_rows / reliability.contacts.len().max(1);
         tests(
-            tested.collect(),
+            tested(reliability, dataset, original),
             reliability.row_normalised.iter().copied(),
-            rows_per_contact,
-            &|k| dataset.artefacts.balls[k].id.as_str(),
+            dataset,
         )
     });
     Diagnostics {
@@ -110,8 +132,14 @@ pub fn of_ball_run(
     }
 }
 
-/// The diagnostics of an instrument run (poses, points).
-pub fn of_instrument_run(run: &InstrumentRun) -> Diagnostics {
+/// The diagnostics of an instrument run (poses, points) of `dataset`,
+/// `original(o)` the place in the dataset given of the run's observation
+/// `o`.
+pub fn of_instrument_run(
+    run: &InstrumentRun,
+    dataset: &Dataset,
+    original: &dyn Fn(ObservationId) -> ObservationId,
+) -> Diagnostics {
     let names = run.names();
     let prior = run.prior_sigmas();
     let sigmas = run.sigmas();
@@ -121,27 +149,11 @@ pub fn of_instrument_run(run: &InstrumentRun) -> Diagnostics {
             .collect()
     });
     let observations = run.reliability.as_ref().map(|reliability| {
-        let pose_rows = 6 * run.leg_residuals.len();
-        let tested = reliability.rows.iter().enumerate().map(|(k, &(r, e))| {
-            let (table, row, observes) = if k < pose_rows {
-                (InstrumentTable::Poses, k / 6, Observes::Leg(k % 6))
-            } else {
-                let k = k - pose_rows;
-                (InstrumentTable::Points, k / 3, Observes::Coordinate(k % 3))
-            };
-            Tested {
-                file: table.file_name(),
-                row,
-                observes,
-                redundancy: r,
-                normalised: normalised_residual(e, r).map(|w| (w, e / r)),
-            }
-        });
-        let rows = reliability
-            .rows
-            .iter()
-            .filter_map(|&(r, e)| normalised_residual(e, r));
-        tests(tested.collect(), rows, 1, &|_| "")
+        tests(
+            tested(reliability, dataset, original),
+            reliability.row_normalised.iter().copied(),
+            dataset,
+        )
     });
     Diagnostics {
         variance_components: components(
@@ -192,39 +204,48 @@ fn weak_directions(
     })
 }
 
-/// The summary of `tested` (each observation of `rows_per_observation`
-/// rows) and of every row's normalised residual `row_normalised`: the
-/// data-snooping test at [`SNOOPING_LEVEL`] family-wise (Bonferroni), the
-/// minimal detectable biases at its per-test level and 80 % power;
-/// `ball_id(k)` is the id of ball `k`.
-fn tests<'a>(
+/// The summary of `tested` and of every row's normalised residual
+/// `row_normalised`: the data-snooping test at [`SNOOPING_LEVEL`]
+/// family-wise (Bonferroni over [`ObservationId::tests`]), the minimal
+/// detectable biases at its per-test level and 80 % power; balls and
+/// distances named by `dataset`'s artefacts.
+fn tests(
     mut tested: Vec<Tested>,
     row_normalised: impl Iterator<Item = f64>,
-    rows_per_observation: usize,
-    ball_id: &dyn Fn(usize) -> &'a str,
+    dataset: &Dataset,
 ) -> ObservationTests {
-    let m = tested.len();
+    let m: usize = tested.iter().map(|t| t.observation.tests()).sum();
     let per_test_level = SNOOPING_LEVEL / m.max(1) as f64;
-    let check = |t: &Tested| ObservationCheck {
-        file: t.file.to_string(),
-        line: t.row as u64 + 2,
-        observes: match t.observes {
-            Observes::Ball(k) => format!("ball {}", ball_id(k)),
-            Observes::Leg(i) => format!("leg {}", i + 1),
-            Observes::Coordinate(i) => ["x", "y", "z"][i].to_string(),
-        },
-        redundancy: t.redundancy,
-        normalised_residual: t.normalised.map(|(w, _)| w),
-        gross_error_sigmas: t.normalised.map(|(_, g)| g),
-        mdb_sigmas: t
-            .normalised
-            .map(|_| minimal_detectable_bias(t.redundancy, per_test_level)),
+    let balls = &dataset.artefacts.balls;
+    let check = |t: &Tested| {
+        let (file, line, field) = location(t.observation);
+        ObservationCheck {
+            file: file.to_string(),
+            line,
+            field,
+            observes: match t.observes {
+                Observes::Ball(k) => format!("ball {}", balls[k].id),
+                Observes::Distance(k) => {
+                    let d = &dataset.artefacts.distances[k];
+                    format!("balls {} and {}", d.a, d.b)
+                }
+                Observes::Leg(i) => format!("leg {}", i + 1),
+                Observes::Coordinate(i) => ["x", "y", "z"][i].to_string(),
+            },
+            redundancy: t.redundancy,
+            normalised_residual: t.normalised.map(|(w, _)| w),
+            gross_error_sigmas: t.normalised.map(|(_, g)| g),
+            mdb_sigmas: t
+                .normalised
+                .map(|_| minimal_detectable_bias(t.redundancy, per_test_level)),
+        }
     };
     let (lower, width, bins) = NORMALISED_BINS;
     let normalised_histogram = Histogram::of(row_normalised, lower, width, bins);
-    // Over [0, the largest redundancy rounded up to a tenth of the rows).
-    let rows = rows_per_observation.max(1) as f64;
+    // Over [0, the largest redundancy rounded up to a tenth of the rows
+    // of an observation, as many as that redundancy rounded up).
     let largest_redundancy = tested.iter().map(|t| t.redundancy).fold(0.0, f64::max);
+    let rows = largest_redundancy.ceil().max(1.0);
     let upper = rows * ((largest_redundancy / rows * 10.0).floor() + 1.0).min(10.0) / 10.0;
     let redundancy_histogram = Histogram::of(
         tested.iter().map(|t| t.redundancy),
@@ -242,8 +263,7 @@ fn tests<'a>(
     // the observations with the same numbers.
     tested.sort_by(|a, b| {
         w(b).total_cmp(&w(a))
-            .then(a.file.cmp(b.file))
-            .then(a.row.cmp(&b.row))
+            .then(order(a.observation).cmp(&order(b.observation)))
     });
     let largest = tested
         .iter()
@@ -254,8 +274,7 @@ fn tests<'a>(
     tested.sort_by(|a, b| {
         a.redundancy
             .total_cmp(&b.redundancy)
-            .then(a.file.cmp(b.file))
-            .then(a.row.cmp(&b.row))
+            .then(order(a.observation).cmp(&order(b.observation)))
     });
     let least_controlled = tested
         .iter()
@@ -274,5 +293,15 @@ fn tests<'a>(
         least_controlled,
         normalised_histogram,
         redundancy_histogram,
+    }
+}
+
+/// A fixed order of observations: by file, then by place.
+fn order(observation: ObservationId) -> (u8, usize) {
+    match observation {
+        ObservationId::Contact(k) => (0, k),
+        ObservationId::Distance(k) => (1, k),
+        ObservationId::Pose(k) => (2, k),
+        ObservationId::Point(k) => (3, k),
     }
 }

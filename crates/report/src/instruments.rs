@@ -4,13 +4,12 @@
 use std::fmt::Write;
 
 use parcal_calibrate::instruments::InstrumentRun;
-use parcal_dataset::Calibration;
+use parcal_dataset::{Calibration, Dataset};
 
-use parcal_calibrate::InstrumentTable;
-use parcal_calibrate::reliability::critical_value;
-use parcal_calibrate::snooping::SNOOPING_LEVEL;
+use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::snooping::Snooped;
 
-use crate::sentences::{solver_status, variance_components, with_verdict};
+use crate::sentences::{checks, solver_status, with_removals, with_verdict};
 
 /// Posterior over prior sigma below which the data determine a parameter.
 const DATA_DETERMINED: f64 = 0.5;
@@ -26,35 +25,36 @@ pub fn status(run: &InstrumentRun) -> String {
 
 /// The calibration.json record of `run`: its status, verdict and reasons in
 /// words.
-pub fn record(run: &InstrumentRun) -> Calibration {
+pub fn record(run: &InstrumentRun, dataset: &Dataset) -> Calibration {
+    record_of(run, dataset, &|observation| observation)
+}
+
+/// [`record`] of a run whose observation `o` is `original(o)` in the
+/// dataset given.
+fn record_of(
+    run: &InstrumentRun,
+    dataset: &Dataset,
+    original: &dyn Fn(ObservationId) -> ObservationId,
+) -> Calibration {
     let status = status(run);
     let mut record = run.record(status.clone());
     let (mut reasons, mut warnings) = (Vec::new(), Vec::new());
     if let Some(reliability) = &run.reliability {
-        reasons.push(variance_components(&reliability.components));
-        if let Some((table, row, index, w)) = reliability.worst {
-            let critical = critical_value(SNOOPING_LEVEL, reliability.tests);
-            let what = match table {
-                InstrumentTable::Poses => format!("leg {}", index + 1),
-                InstrumentTable::Points => ["x", "y", "z"][index].to_string(),
-            };
-            let test = format!(
-                "largest normalised residual {w:+.2} at {} line {}, {what} (critical value {critical:.2} for {} rows at {}% family-wise)",
-                table.file_name(),
-                row + 2,
-                reliability.tests,
-                SNOOPING_LEVEL * 100.0
-            );
-            if w.abs() > critical {
-                warnings.push(format!("{test}: that row is likely a blunder"));
-            } else {
-                reasons.push(format!("every row passes the data-snooping test: {test}"));
-            }
-        }
+        checks(reliability, original, &mut reasons, &mut warnings);
     }
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
-    record.diagnostics = Some(crate::diagnostics::of_instrument_run(run));
+    record.diagnostics = Some(crate::diagnostics::of_instrument_run(
+        run, dataset, original,
+    ));
+    record
+}
+
+/// The calibration.json record of an instrument calibration with data
+/// snooping ([`crate::sentences::snooped_record`]).
+pub fn snooped_record(snooped: &Snooped<InstrumentRun>, dataset: &Dataset) -> Calibration {
+    let mut record = record_of(&snooped.run, dataset, &|o| snooped.remaining.original(o));
+    with_removals(&mut record, &snooped.removals, snooped.stopped.as_deref());
     record
 }
 
@@ -77,8 +77,9 @@ pub fn determined_by(data_information: f64, posterior: f64, prior: f64) -> &'sta
     }
 }
 
-/// The run's summary: rows, residuals, iterations, status.
-pub fn summary(run: &InstrumentRun) -> String {
+/// The run's summary: rows, residuals, iterations, status, and the verdict
+/// of its calibration.json `record`.
+pub fn summary(run: &InstrumentRun, record: &Calibration) -> String {
     let tracker_rows = run.leg_residuals.len();
     let points = run.point_residuals.len();
     let mut out = String::new();
@@ -105,7 +106,6 @@ pub fn summary(run: &InstrumentRun) -> String {
         status(run),
         run.history.len().saturating_sub(1)
     );
-    let record = record(run);
     let _ = writeln!(out, "verdict: {}", record.verdict);
     for reason in record.reasons.iter().chain(&record.warnings) {
         let _ = writeln!(out, "  {reason}");

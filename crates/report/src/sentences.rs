@@ -5,10 +5,12 @@
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::conflict::{ConflictTest, PaperPriorInconsistency, Z_LIMIT};
 use parcal_calibrate::fit::BallMisfit;
-use parcal_calibrate::reliability::{Reliability, UNCONTROLLED, VarianceComponent, critical_value};
-use parcal_calibrate::snooping::{SNOOPING_LEVEL, Snooped};
+use parcal_calibrate::reliability::{
+    ObservationId, Reliability, UNCONTROLLED, VarianceComponent, critical_value,
+};
+use parcal_calibrate::snooping::{Removal, SNOOPING_LEVEL, Snooped};
 use parcal_calibrate::verdict::{Outcome, Verdict};
-use parcal_dataset::Dataset;
+use parcal_dataset::{ARTEFACTS_FILE, Dataset, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE};
 use parcal_kinematics::PARAM_NAMES;
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
 
@@ -47,6 +49,7 @@ pub fn solver_status(
     match status {
         Status::Converged => "converged".to_string(),
         Status::IterationLimit => "iteration limit reached without convergence".to_string(),
+        Status::TimeLimit => "time limit reached without convergence".to_string(),
         Status::Diverged { iteration, reason } => {
             format!("diverged at iteration {iteration}: {reason}")
         }
@@ -76,66 +79,116 @@ pub fn solver_status(
 /// The calibration.json record of `run` of `dataset`: its status,
 /// verdict, reasons and warnings in words, its diagnostics.
 pub fn record(run: &CalibrationRun, dataset: &Dataset) -> parcal_dataset::Calibration {
-    record_of(run, dataset, &|row| row)
+    record_of(run, dataset, &|observation| observation)
 }
 
-/// [`record`] of a run whose measurements.csv row `i` is row
-/// `original_row(i)` of the dataset given.
+/// [`record`] of a run whose observation `o` is `original(o)` in the
+/// dataset given.
 fn record_of(
     run: &CalibrationRun,
     dataset: &Dataset,
-    original_row: &dyn Fn(usize) -> usize,
+    original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> parcal_dataset::Calibration {
     let status = status(run);
     let mut record = run.record(status.clone());
     let mut warnings = warnings(run);
     let mut reasons = Vec::new();
     if let Some(reliability) = &run.reliability {
-        checks(reliability, original_row, &mut reasons, &mut warnings);
+        checks(reliability, original, &mut reasons, &mut warnings);
     }
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
-    record.diagnostics = Some(diagnostics::of_ball_run(run, dataset, original_row));
+    record.diagnostics = Some(diagnostics::of_ball_run(run, dataset, original));
     record
+}
+
+/// Where an observation is, as a user finds it: `measurements.csv line
+/// 40` (the header is line 1), `artefacts.json distances[3]`.
+pub fn place(observation: ObservationId) -> String {
+    let (file, line, field) = location(observation);
+    match (line, field) {
+        (Some(line), _) => format!("{file} line {line}"),
+        (None, Some(field)) => format!("{file} {field}"),
+        (None, None) => file.to_string(),
+    }
+}
+
+/// An observation's file and its line (CSV, header = line 1) or field
+/// (JSON).
+pub(crate) fn location(observation: ObservationId) -> (&'static str, Option<u64>, Option<String>) {
+    let line = |row: usize| Some(row as u64 + 2);
+    match observation {
+        ObservationId::Contact(row) => (MEASUREMENTS_FILE, line(row), None),
+        ObservationId::Distance(k) => (ARTEFACTS_FILE, None, Some(format!("distances[{k}]"))),
+        ObservationId::Pose(row) => (POSES_FILE, line(row), None),
+        ObservationId::Point(row) => (POINTS_FILE, line(row), None),
+    }
+}
+
+/// An observation's place and, for one of several rows, the row (a pose's
+/// leg, a point's coordinate).
+fn place_and_row(observation: ObservationId, row: usize) -> String {
+    match observation {
+        ObservationId::Pose(_) => format!("{}, leg {}", place(observation), row + 1),
+        ObservationId::Point(_) => format!("{}, {}", place(observation), ["x", "y", "z"][row]),
+        _ => place(observation),
+    }
 }
 
 /// The observations' checks in words: the variance components, the
 /// largest normalised residual against the data-snooping critical value,
-/// the uncontrolled contacts.
-fn checks(
+/// the uncontrolled observations; `original` gives an observation's place
+/// in the dataset given.
+pub fn checks(
     reliability: &Reliability,
-    original_row: &dyn Fn(usize) -> usize,
+    original: &dyn Fn(ObservationId) -> ObservationId,
     reasons: &mut Vec<String>,
     warnings: &mut Vec<String>,
 ) {
     reasons.push(variance_components(&reliability.components));
-    let line = |row: usize| original_row(row) + 2;
     if let Some(worst) = reliability.worst() {
         let w = worst.normalised.unwrap_or(0.0);
-        let critical = critical_value(SNOOPING_LEVEL, reliability.contacts.len());
+        let tests = reliability.tests();
+        let critical = critical_value(SNOOPING_LEVEL, tests);
         let test = format!(
-            "largest normalised residual {w:+.2} at measurements.csv line {} (critical value {critical:.2} for {} contacts at {}% family-wise)",
-            line(worst.row),
-            reliability.contacts.len(),
+            "largest normalised residual {w:+.2} at {} (critical value {critical:.2} for {tests} tests at {}% family-wise)",
+            place_and_row(original(worst.observation), worst.row),
             SNOOPING_LEVEL * 100.0
         );
         if w.abs() > critical {
-            warnings.push(format!(
-                "{test}: that contact is likely a blunder; calibrate --snoop finds and removes blunders"
+            reasons.push(format!(
+                "data-snooping test failed: {test}: that observation is likely a blunder; calibrate --snoop finds and removes blunders"
             ));
         } else {
             reasons.push(format!(
-                "every contact passes the data-snooping test: {test}"
+                "every observation passes the data-snooping test: {test}"
             ));
         }
     }
+    let least: Vec<String> = reliability
+        .least_reliable(3)
+        .iter()
+        .map(|c| {
+            format!(
+                "{:.1} at {}",
+                c.bias_to_noise.unwrap_or(f64::NAN),
+                place(original(c.observation))
+            )
+        })
+        .collect();
+    if !least.is_empty() {
+        reasons.push(format!(
+            "external reliability (what an undetected blunder of an observation's minimal detectable bias moves the parameters by, in their sigmas), largest: {}",
+            least.join(", ")
+        ));
+    }
     let uncontrolled: Vec<String> = reliability
         .uncontrolled()
-        .map(|c| line(c.row).to_string())
+        .map(|c| place(original(c.observation)))
         .collect();
     if !uncontrolled.is_empty() {
         warnings.push(format!(
-            "{} contacts have a redundancy under {UNCONTROLLED}: an error in them would go into the parameters unseen (measurements.csv lines {})",
+            "{} observations have a redundancy under {UNCONTROLLED} per test: an error in them would go into the parameters unseen ({})",
             uncontrolled.len(),
             uncontrolled.iter().take(10).cloned().collect::<Vec<_>>().join(", ")
         ));
@@ -166,24 +219,37 @@ pub fn variance_components(components: &[VarianceComponent]) -> String {
 }
 
 /// The calibration.json record of a calibration with data snooping: the
-/// remaining contacts' run, and every removal with its line and what it
-/// did to the variance factor; `dataset` is the dataset given.
+/// remaining observations' run, and every removal with its place and what
+/// it did to the variance factor; `dataset` is the dataset given.
 pub fn snooped_record(snooped: &Snooped, dataset: &Dataset) -> parcal_dataset::Calibration {
-    let mut record = record_of(&snooped.run, dataset, &|row| snooped.original_rows[row]);
-    for removal in &snooped.removals {
+    let mut record = record_of(&snooped.run, dataset, &|o| snooped.remaining.original(o));
+    with_removals(&mut record, &snooped.removals, snooped.stopped.as_deref());
+    record
+}
+
+/// Adds data snooping's `removals` to `record` (its reasons and
+/// `removed_observations`), and why it `stopped` to its warnings.
+pub fn with_removals(
+    record: &mut parcal_dataset::Calibration,
+    removals: &[Removal],
+    stopped: Option<&str>,
+) {
+    for removal in removals {
         record.reasons.push(format!(
-            "data snooping removed measurements.csv line {}: normalised residual {:+.1}, estimated gross error {:+.1} (its worst row's sigmas); variance factor {:.3} -> {:.3}",
-            removal.row + 2,
+            "data snooping removed {}: normalised residual {:+.1}, estimated gross error {:+.1} (its row's sigmas); variance factor {:.3} -> {:.3}",
+            place_and_row(removal.observation, removal.row),
             removal.normalised,
             removal.gross_error,
             removal.variance_factor_before,
             removal.variance_factor_after
         ));
+        let (file, line, field) = location(removal.observation);
         record
             .removed_observations
             .push(parcal_dataset::RemovedObservation {
-                file: parcal_dataset::MEASUREMENTS_FILE.to_string(),
-                line: removal.row as u64 + 2,
+                file: file.to_string(),
+                line,
+                field,
                 normalised_residual: removal.normalised,
                 gross_error_sigmas: removal.gross_error,
                 variance_factor: [
@@ -192,12 +258,11 @@ pub fn snooped_record(snooped: &Snooped, dataset: &Dataset) -> parcal_dataset::C
                 ],
             });
     }
-    if let Some(stopped) = &snooped.stopped {
+    if let Some(stopped) = stopped {
         record
             .warnings
             .push(format!("data snooping stopped: {stopped}"));
     }
-    record
 }
 
 /// Writes `verdict` into `record`: the decision, its reasons (the status

@@ -1,6 +1,7 @@
 //! calibration.json's diagnostics against the run they summarise, and the
 //! report of one calibration rendered from them.
 
+use parcal_calibrate::reliability::ObservationId;
 use std::path::Path;
 
 use parcal_calibrate::{CalibrationOptions, calibrate};
@@ -51,7 +52,10 @@ fn the_diagnostics_summarise_every_observation_s_test() {
     );
     // The largest |w| first, as the run's worst contact, a bounded list.
     let worst = reliability.worst().unwrap();
-    assert_eq!(t.largest[0].line, worst.row as u64 + 2);
+    let ObservationId::Contact(row) = worst.observation else {
+        panic!("the worst observation of a ball-touch run is a contact")
+    };
+    assert_eq!(t.largest[0].line, Some(row as u64 + 2));
     assert_eq!(t.largest[0].normalised_residual, worst.normalised);
     assert!(t.largest.len() <= LISTED);
     let w = |k: usize| t.largest[k].normalised_residual.unwrap().abs();

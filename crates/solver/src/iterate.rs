@@ -4,6 +4,7 @@
 //! sigmas, spectrum).
 
 use std::mem::swap;
+use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -288,6 +289,7 @@ where
     /// The iteration from `initial`, each step judged by `policy`.
     fn run(mut self, initial: State<C, P>, policy: &mut impl StepPolicy) -> Solution<C, P> {
         let options = self.options;
+        let started = Instant::now();
         let mut x = initial;
         let mut trial = x.clone();
         let mut system = match self.ctx.reduce(&x, policy.lambda()) {
@@ -306,6 +308,12 @@ where
             let solves = self.history.len();
             if solves >= options.max_iterations {
                 return self.finish(x, system, 0.0, Status::IterationLimit);
+            }
+            if options
+                .time_limit
+                .is_some_and(|limit| started.elapsed() >= limit)
+            {
+                return self.finish(x, system, 0.0, Status::TimeLimit);
             }
             if !system.is_finite() {
                 return self.diverged(x, solves, "non-finite reduced system".into());

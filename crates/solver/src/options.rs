@@ -1,5 +1,7 @@
 //! How the solver iterates.
 
+use std::time::Duration;
+
 /// The iteration.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Method {
@@ -42,6 +44,13 @@ pub struct SolverOptions {
     /// step instead. The default is well above the largest rise seen in
     /// converging calibrations (which start far from the solution).
     pub step_divergence_ratio: f64,
+    /// A wall-clock budget: when it has passed, the run ends at the current
+    /// iterate with [`Status::TimeLimit`](crate::Status::TimeLimit)
+    /// (checked before each linear solve, so a zero budget evaluates the
+    /// initial state only, as `max_iterations = 0` does). `None`: no
+    /// budget. A run that ends on it depends on the machine's speed, not on
+    /// its inputs alone.
+    pub time_limit: Option<Duration>,
     /// Groups per unit of parallel work. The partial reduced systems are
     /// summed in chunk order, so results depend on this number but not on the
     /// number of threads.
@@ -56,6 +65,7 @@ impl Default for SolverOptions {
             step_tolerance: 1e-10,
             divergence_ratio: 1e6,
             step_divergence_ratio: 1e5,
+            time_limit: None,
             groups_per_chunk: 64,
         }
     }

@@ -62,6 +62,19 @@
 //!
 //! A global observation row has `r_o = 1 − J_o[o,·] Cov(g) J_o[o,·]ᵀ`.
 //!
+//! # Global leverage (external reliability)
+//!
+//! An error `∇` in whitened row `j` moves the unknowns by `N⁻¹ a_jᵀ ∇`;
+//! its global part is `Cov(g) u_j ∇` (Schur complement), `u_j = Ũᵀ q_j`
+//! the row's reduced row. Measured in the global block's own noise, its
+//! size is `∇ √(u_jᵀ Cov(g) u_j) = ∇ |z_j|`, `z_j = Lᵀ u_j = Σ_e q_j[e]
+//! V[e, C..]`: the row's **global leverage** `|z_j|² ≤ h_j`, a by-product
+//! of the pass (for a global observation row it is its whole leverage
+//! `1 − r_o`). With `∇` the row's minimal detectable bias `δ₀ / √r_j`, the
+//! bias-to-noise ratio of the global block is `δ₀ √(|z_j|² / r_j)`
+//! (Baarda 1968; Förstner and Wrobel 2016, section 4.6.5, whose
+//! `δ₀ √((1 − r_j) / r_j)` is the same over all unknowns).
+//!
 //! # Priors
 //!
 //! Prior rows are rows too: a point's prior rows are rows `R..m` above, a
@@ -98,6 +111,9 @@ use crate::solution::Status;
 pub struct Redundancy<const R: usize> {
     /// `r_j` of each point's `R` data rows.
     pub points: Vec<SVector<f64, R>>,
+    /// The global leverage `|z_j|²` of each point's `R` data rows (module
+    /// doc).
+    pub point_global_leverage: Vec<SVector<f64, R>>,
     /// Each point's whitened residuals (the `e_j` of
     /// [`normalised_residual`]) at the state.
     pub point_residuals: Vec<SVector<f64, R>>,
@@ -243,21 +259,27 @@ where
         let n_points = state.points.len();
         let mut points = vec![SVector::<f64, R>::zeros(); n_points];
         let mut residuals = vec![SVector::<f64, R>::zeros(); n_points];
+        let mut global_leverage = vec![SVector::<f64, R>::zeros(); n_points];
         let lengths = || self.chunks.iter().map(|c| c.points.len());
         let point_slices = split_by(&mut points, lengths());
         let residual_slices = split_by(&mut residuals, lengths());
+        let leverage_slices = split_by(&mut global_leverage, lengths());
         let mut prior_leverage = PriorLeverage::default();
         let global = problem.prepare_global(&state.global);
         let global = &global;
         let (pool, jobs) = self.jobs();
         let jobs: Vec<_> = jobs
             .into_iter()
-            .zip(point_slices.into_iter().zip(residual_slices))
+            .zip(
+                point_slices
+                    .into_iter()
+                    .zip(residual_slices.into_iter().zip(leverage_slices)),
+            )
             .collect();
         run_chunks(
             pool,
             jobs,
-            |ws, ((chunk, caches), (redundancy, residuals))| {
+            |ws, ((chunk, caches), (redundancy, (residuals, global_leverage)))| {
                 let (bufs, _, rows) = ws.split();
                 // Room for the largest group: nothing grows per point.
                 let largest = chunk.groups.clone().map(|k| problem.group_points(k).len());
@@ -273,6 +295,7 @@ where
                     reduced: vec![0.0; dims.g],
                     redundancy,
                     residuals,
+                    global_leverage,
                     done: 0,
                     prior_leverage: PriorLeverage::default(),
                 };
@@ -285,6 +308,7 @@ where
         )?;
         Ok(Redundancy {
             points,
+            point_global_leverage: global_leverage,
             point_residuals: residuals,
             global_observations: Vec::new(),
             global_observation_residuals: Vec::new(),
@@ -325,6 +349,7 @@ struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
     /// The chunk's points' redundancy numbers and residuals.
     redundancy: &'a mut [SVector<f64, R>],
     residuals: &'a mut [SVector<f64, R>],
+    global_leverage: &'a mut [SVector<f64, R>],
     /// Points of the chunk written so far.
     done: usize,
     prior_leverage: PriorLeverage,
@@ -404,6 +429,17 @@ where
             }
             self.redundancy[self.done + j] =
                 SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
+            // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
+            self.global_leverage[self.done + j] = SVector::from_fn(|r, _| {
+                let mut z2 = 0.0;
+                for a in 0..g {
+                    let z: f64 = (0..n)
+                        .map(|e| point.data[(r, e)] * self.coordinates[e * cw + C + a])
+                        .sum();
+                    z2 += z * z;
+                }
+                z2
+            });
             if let Some(q) = &point.prior {
                 for a in 0..P {
                     self.prior_leverage.points += 1.0 - row_redundancy(q, a, &m, n);

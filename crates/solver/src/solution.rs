@@ -53,6 +53,9 @@ pub enum Status {
     Converged,
     /// `max_iterations` linear solves without convergence.
     IterationLimit,
+    /// The options' `time_limit` passed before convergence: the run ends at
+    /// the iterate it had reached, evaluated as at the iteration limit.
+    TimeLimit,
     /// Gauss–Newton: the cost became non-finite, exceeded
     /// `divergence_ratio × initial`, or one step multiplied it by more than
     /// `step_divergence_ratio`; any method: a step or linearisation became
@@ -128,7 +131,7 @@ pub struct Solution<const C: usize, const P: usize> {
     /// Inverse of the undamped reduced matrix at the final state (the marginal
     /// covariance of the global block, given unit-variance whitened
     /// residuals); `None` if it is not positive definite or the run did not
-    /// end with `Converged` or `IterationLimit`.
+    /// end with `Converged`, `IterationLimit` or `TimeLimit`.
     pub covariance: Option<DMatrix<f64>>,
     /// Marginal standard deviations of each group block (including the global
     /// uncertainty; zero for a fixed group); present whenever `covariance`
@@ -136,9 +139,9 @@ pub struct Solution<const C: usize, const P: usize> {
     pub group_sigmas: Option<Vec<SVector<f64, C>>>,
     /// Each group's data cost `Σ |r_i|²` over its points at the final state
     /// (whitened: a goodness-of-fit statistic per group); present when the
-    /// run ended with `Converged` or `IterationLimit`.
+    /// run ended with `Converged`, `IterationLimit` or `TimeLimit`.
     pub group_costs: Option<Vec<f64>>,
     /// Spectrum of the undamped reduced matrix at the final state: for
-    /// `Converged`, `IterationLimit` and `Singular`.
+    /// `Converged`, `IterationLimit`, `TimeLimit` and `Singular`.
     pub spectrum: Option<SpectrumDiagnostics>,
 }

@@ -301,3 +301,43 @@ fn both_methods_converge_with_centres_in_the_global_block() {
         check_against_truth(&solution, &truth, 363 - 275);
     }
 }
+
+/// A zero time budget: the run ends at the initial state with
+/// `TimeLimit` (not a divergence), evaluated there as at the iteration
+/// limit (one record, covariance and group sigmas); an ample budget
+/// changes nothing.
+#[test]
+fn a_time_limit_ends_the_run_at_its_iterate() {
+    let spec = Spec {
+        n_groups: 10,
+        points_per_group: 12,
+        ..Spec::default()
+    };
+    let (problem, truth) = touches(spec);
+    let start = perturb(&truth, 1, 0.01, 0.02, 0.1);
+    for method in [Method::GaussNewton, LM] {
+        let budget = |time_limit| SolverOptions {
+            time_limit,
+            ..options(method)
+        };
+        let zero = solve(
+            &problem,
+            start.clone(),
+            &budget(Some(std::time::Duration::ZERO)),
+            &mut |_| {},
+        );
+        assert_eq!(zero.status, Status::TimeLimit);
+        assert_eq!(zero.history.len(), 1);
+        assert_eq!(zero.state, start);
+        assert!(zero.covariance.is_some() && zero.group_sigmas.is_some());
+        let ample = solve(
+            &problem,
+            start.clone(),
+            &budget(Some(std::time::Duration::from_secs(3600))),
+            &mut |_| {},
+        );
+        let (free, _) = run(&problem, &start, method);
+        assert_eq!(ample.status, Status::Converged);
+        assert_eq!(ample.state, free.state);
+    }
+}

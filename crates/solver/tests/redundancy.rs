@@ -65,9 +65,33 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
     let m_obs = ours.global_observations.len();
     let mut worst: f64 = 0.0;
     let mut residual_worst: f64 = 0.0;
+    // The global leverage: the global part `w_g` of `N⁻¹ a_jᵀ` measured in
+    // the global block's covariance, `w_gᵀ Cov(g)⁻¹ w_g`.
+    let inv = dense.inverse.as_ref().expect("N⁻¹");
+    let g = state.global.len();
+    let cov_inverse = DMatrix::from_fn(g, g, |a, b| inv[(a, b)])
+        .try_inverse()
+        .expect("Cov(g)⁻¹");
+    let jacobian = &dense.jacobian;
+    let global_leverage = |j: usize| {
+        let w = nalgebra::DVector::from_fn(g, |a, _| {
+            (0..jacobian.ncols())
+                .map(|b| inv[(a, b)] * jacobian[(j, b)])
+                .sum::<f64>()
+        });
+        w.dot(&(&cov_inverse * &w))
+    };
+    let mut leverage_worst: f64 = 0.0;
     for i in 0..n_points {
         for r in 0..R {
             let j = i * R + r;
+            let dense_global = global_leverage(j);
+            leverage_worst =
+                leverage_worst.max((ours.point_global_leverage[i][r] - dense_global).abs());
+            assert!(
+                dense_global <= h[j] + 1e-12,
+                "global leverage within the row's"
+            );
             worst = worst.max((ours.points[i][r] - (1.0 - h[j])).abs());
             let e = dense.residual[(j, 0)];
             residual_worst = residual_worst.max((ours.point_residuals[i][r] - e).abs());
@@ -128,6 +152,11 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
     );
     assert_eq!(ours.unknowns, n);
     assert!(worst < TOL, "redundancy differs by {worst:e}");
+    println!("global leverage: max |Δ| {leverage_worst:.1e}");
+    assert!(
+        leverage_worst < TOL,
+        "global leverage differs by {leverage_worst:e}"
+    );
     assert!(prior_diff < TOL, "prior leverage differs by {prior_diff:e}");
     assert!(
         residual_worst < 1e-12,

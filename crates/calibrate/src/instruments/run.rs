@@ -10,17 +10,15 @@ use parcal_dataset::{
 };
 use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Vec3, params};
 use parcal_solver::{
-    GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status,
-    normalised_residual, redundancy, solve,
+    GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status, solve,
 };
 
-use crate::instruments::InstrumentTable;
 use crate::instruments::model::{InstrumentModel, ModelValues};
 use crate::instruments::problem::InstrumentProblem;
 use crate::instruments::rows::InstrumentRows;
 use crate::instruments::start::frame_start;
 use crate::layout::{ParameterGroup, ParameterLayout};
-use crate::reliability::VarianceComponent;
+use crate::reliability::{ObservationId, Reliability, checked};
 use crate::setup::{design_geometry, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method};
@@ -66,88 +64,8 @@ pub struct InstrumentRun {
     pub data_information: DVector<f64>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
-    /// Every row's check at the final state of a converged run.
-    pub reliability: Option<InstrumentReliability>,
-}
-
-/// The checks of an instrument calibration ([`crate::reliability`]): the
-/// variance components of the poses, the points and the priors, and the
-/// row of largest normalised residual.
-#[derive(Debug, Clone, PartialEq)]
-pub struct InstrumentReliability {
-    /// The variance components.
-    pub components: Vec<VarianceComponent>,
-    /// The row of largest normalised residual: its file, its row, the leg
-    /// (pose) or coordinate (point), and `w`.
-    pub worst: Option<(InstrumentTable, usize, usize, f64)>,
-    /// Number of rows tested.
-    pub tests: usize,
-    /// Every row's redundancy number and whitened residual: 6 rows per
-    /// pose (legs 1-6) in poses.csv order, then 3 per point (x, y, z).
-    pub rows: Vec<(f64, f64)>,
-}
-
-impl InstrumentReliability {
-    fn new(
-        problem: &InstrumentProblem,
-        state: &State<1, 0>,
-        covariance: &DMatrix<f64>,
-        prior_cost: f64,
-        prior_rows: usize,
-        groups_per_chunk: usize,
-    ) -> Result<Self, CalibrateError> {
-        let numbers = redundancy(
-            problem,
-            state,
-            covariance,
-            &mut Vec::new(),
-            groups_per_chunk,
-        )
-        .map_err(|status| CalibrateError::Calibration {
-            reason: format!("the redundancy numbers could not be computed: {status:?}"),
-        })?;
-        let (r, e) = (
-            &numbers.global_observations,
-            &numbers.global_observation_residuals,
-        );
-        let pose_rows = 6 * problem.rows.tracker.poses.len();
-        let component = |group, range: std::ops::Range<usize>| VarianceComponent {
-            group,
-            cost: e[range.clone()].iter().map(|v| v * v).sum(),
-            redundancy: r[range].iter().sum(),
-        };
-        let mut components = Vec::new();
-        if pose_rows > 0 {
-            components.push(component("poses", 0..pose_rows));
-        }
-        if r.len() > pose_rows {
-            components.push(component("points", pose_rows..r.len()));
-        }
-        if prior_rows > 0 {
-            components.push(VarianceComponent {
-                group: "priors",
-                cost: prior_cost,
-                redundancy: prior_rows as f64 - numbers.prior_leverage.total(),
-            });
-        }
-        let worst = (0..r.len())
-            .filter_map(|k| normalised_residual(e[k], r[k]).map(|w| (k, w)))
-            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-            .map(|(k, w)| {
-                if k < pose_rows {
-                    (InstrumentTable::Poses, k / 6, k % 6, w)
-                } else {
-                    let k = k - pose_rows;
-                    (InstrumentTable::Points, k / 3, k % 3, w)
-                }
-            });
-        Ok(Self {
-            components,
-            worst,
-            tests: r.len(),
-            rows: r.iter().copied().zip(e.iter().copied()).collect(),
-        })
-    }
+    /// Every row's check at the final state of a run that converged or reached its iteration limit ([`crate::reliability::checked`]).
+    pub reliability: Option<Reliability>,
 }
 
 /// An instrument calibration ready to solve: the problem at its initial
@@ -207,6 +125,7 @@ pub fn calibrate_instruments(
         method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
+        time_limit: options.time_limit,
         ..SolverOptions::default()
     };
     let state = State {
@@ -217,14 +136,22 @@ pub fn calibrate_instruments(
     let solution = solve(&problem, state, &solver_options, observer);
     let (n_rows, unknowns) = rows_and_unknowns(&problem, 0, problem.rows.len());
     let reliability = match (&solution.covariance, solution.history.last()) {
-        (Some(covariance), Some(last)) if solution.status == Status::Converged => {
-            Some(InstrumentReliability::new(
+        (Some(covariance), Some(last)) if checked(&solution.status) => {
+            let tracker = problem.rows.tracker;
+            let observations: Vec<ObservationId> = (0..tracker.poses.len())
+                .map(ObservationId::Pose)
+                .chain((0..tracker.points.len()).map(ObservationId::Point))
+                .collect();
+            Some(Reliability::new(
                 &problem,
                 &solution.state,
                 covariance,
+                &mut Vec::new(),
+                solver_options.groups_per_chunk,
+                &[],
+                &observations,
                 last.prior_cost,
                 n_rows - problem.rows.len(),
-                solver_options.groups_per_chunk,
             )?)
         }
         _ => None,
@@ -449,7 +376,11 @@ impl InstrumentRun {
 
     /// The run's verdict ([`crate::verdict`]).
     pub fn verdict(&self) -> Verdict {
-        Verdict::new(&self.status, self.global_test)
+        let outlier = self
+            .reliability
+            .as_ref()
+            .is_some_and(|r| r.fails_snooping(crate::snooping::SNOOPING_LEVEL));
+        Verdict::new(&self.status, self.global_test, outlier)
     }
 
     /// The model at the identified state.

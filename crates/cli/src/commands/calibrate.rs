@@ -4,13 +4,15 @@
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_calibrate::mixed::InstrumentResult;
-use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
+use parcal_calibrate::snooping::{
+    MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
+};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
     RadiusModel, Simulation, WeightModel, calibrate,
@@ -50,9 +52,14 @@ pub struct Args {
     /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
     #[arg(long)]
     max_iterations: Option<usize>,
-    /// Data snooping: remove the contact of largest normalised residual while
-    /// it fails the test at 5% family-wise, at most 10 (calibration.json lists
-    /// them under removed_observations).
+    /// Wall-clock budget of the calibration, seconds: when it has passed the
+    /// run stops at its current iterate ("time limit reached", rejected).
+    #[arg(long, value_name = "SECONDS", value_parser = seconds)]
+    time_limit: Option<Duration>,
+    /// Data snooping: remove the observation (contact, distance, pose or
+    /// point) of largest normalised residual while it fails the test at 5%
+    /// family-wise, at most 10 (calibration.json lists them under
+    /// removed_observations).
     #[arg(long)]
     snoop: bool,
     /// Where to write calibration.json (default: calibration.json in the
@@ -83,6 +90,7 @@ impl Args {
         if let Some(limit) = self.max_iterations {
             options.max_iterations = limit;
         }
+        options.time_limit = self.time_limit;
         options
     }
 }
@@ -175,6 +183,13 @@ fn instrument_part(instruments: &InstrumentResult, names: &[String]) -> String {
     out
 }
 
+/// A number of seconds, finite and not negative.
+fn seconds(text: &str) -> Result<Duration, String> {
+    let seconds: f64 = text.parse().map_err(|e| format!("{e}"))?;
+    Duration::try_from_secs_f64(seconds)
+        .map_err(|_| format!("{text} is not a finite, non-negative number of seconds"))
+}
+
 /// One iteration on the progress bar.
 fn step(progress: &Progress, record: &IterationRecord, started: Instant) {
     progress.step(&format!(
@@ -203,17 +218,30 @@ fn run_instruments(
         options.prior
     ));
     let started = Instant::now();
-    let run = calibrate_instruments(dataset, options, &mut |record| {
-        step(&progress, record, started)
-    })
-    .map_err(|error| in_dataset(error, &args.dataset))?;
+    let observer = &mut |record: &IterationRecord| step(&progress, record, started);
+    let (run, record) = if args.snoop {
+        let snooped = calibrate_instruments_with_snooping(
+            dataset,
+            options,
+            SNOOPING_LEVEL,
+            MAX_REMOVALS,
+            observer,
+        )
+        .map_err(|error| in_dataset(error, &args.dataset))?;
+        let record = instruments::snooped_record(&snooped, dataset);
+        (snooped.run, record)
+    } else {
+        let run = calibrate_instruments(dataset, options, observer)
+            .map_err(|error| in_dataset(error, &args.dataset))?;
+        let record = instruments::record(&run, dataset);
+        (run, record)
+    };
     progress.finish();
-    let record = instruments::record(&run);
     let mut stdout = std::io::stdout().lock();
     let printed = writeln!(
         stdout,
         "{}\n{}\ncalibration written to {}",
-        instruments::summary(&run),
+        instruments::summary(&run, &record),
         instruments::parameters(&run),
         super::calibration_destination(&record, out).display()
     );

@@ -281,7 +281,7 @@ fn removed(c: &Calibration) -> Vec<Block> {
             .map(|r| {
                 vec![
                     Cell::text(&r.file),
-                    Cell::number(r.line.to_string()),
+                    line_or_field(r.line, r.field.as_deref()),
                     Cell::number(format!("{:+.2}", r.normalised_residual)),
                     Cell::number(format!("{:+.2}", r.gross_error_sigmas)),
                     number(r.variance_factor[0], 3),
@@ -311,7 +311,7 @@ fn checks_table(checks: &[ObservationCheck], critical: f64) -> Block {
                 let failed = o.normalised_residual.is_some_and(|w| w.abs() > critical);
                 vec![
                     Cell::text(&o.file),
-                    Cell::number(o.line.to_string()),
+                    line_or_field(o.line, o.field.as_deref()),
                     Cell::text(&o.observes),
                     number(o.redundancy, 3),
                     o.normalised_residual
@@ -379,10 +379,14 @@ pub fn tests_sentence(t: &ObservationTests) -> String {
     let worst = t.largest.first().and_then(|o| {
         o.normalised_residual.map(|w| {
             format!(
-                "; the largest |w| is {:.2} at {} line {} ({}), {} the critical value",
+                "; the largest |w| is {:.2} at {} {} ({}), {} the critical value",
                 w.abs(),
                 o.file,
-                o.line,
+                match (o.line, &o.field) {
+                    (Some(line), _) => format!("line {line}"),
+                    (None, Some(field)) => field.clone(),
+                    (None, None) => String::new(),
+                },
                 o.observes,
                 if w.abs() > t.critical_value {
                     "above"
@@ -588,4 +592,12 @@ fn iterations(c: &Calibration) -> Vec<Block> {
             ),
         ),
     ]
+}
+
+/// The "line" column of an observation: its CSV line, or its JSON field.
+fn line_or_field(line: Option<u64>, field: Option<&str>) -> Cell {
+    match (line, field) {
+        (Some(line), _) => Cell::number(line.to_string()),
+        (None, field) => Cell::text(field.unwrap_or("-")),
+    }
 }

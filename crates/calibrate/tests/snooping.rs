@@ -1,0 +1,136 @@
+//! Data snooping beyond the ball touches: a blunder planted in a
+//! calibrated distance, in a pose row or in a point row is found, removed
+//! as a whole observation (named by its place in the dataset given), and
+//! the rest accepted.
+
+use parcal_calibrate::CalibrationOptions;
+use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::snooping::{
+    MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
+};
+use parcal_dataset::Dataset;
+use parcal_simulate::{
+    Plate, PlatePairs, Scenario, TrackerKind, TrackerScenario, simulate, simulate_tracker,
+};
+
+/// The paper scenario with 60 calibrated distances of 1 um.
+fn plate() -> Dataset {
+    let scenario = Scenario {
+        plate: Some(Plate {
+            pairs: PlatePairs::Random(60),
+            sigma: 1e-3,
+        }),
+        ..Scenario::paper()
+    };
+    simulate(&scenario, 1).unwrap().dataset
+}
+
+/// One session of 40 poses and 40 points (10 um, 0.1 mrad).
+fn instruments() -> Dataset {
+    let scenario = TrackerScenario {
+        kind: TrackerKind::Both,
+        sessions: 1,
+        rows_per_session: 40,
+        ..TrackerScenario::paper_like()
+    };
+    simulate_tracker(&scenario, 3).unwrap().dataset
+}
+
+/// A distance 50 um (50 sigma) too long: removed alone, the rest accepted.
+#[test]
+fn a_blunder_in_a_distance_is_removed() {
+    let mut dataset = plate();
+    let k = 17;
+    dataset.artefacts.distances[k].length += 0.05;
+    let options = CalibrationOptions::default();
+    let snooped = calibrate_with_snooping(
+        &dataset,
+        &options,
+        SNOOPING_LEVEL,
+        MAX_REMOVALS,
+        &mut |_| {},
+    )
+    .unwrap();
+    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    println!(
+        "removed {removed:?}, w {:?}",
+        snooped
+            .removals
+            .iter()
+            .map(|r| r.normalised)
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(removed, [ObservationId::Distance(k)]);
+    assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
+    assert_eq!(snooped.run.distances_used, 59);
+    let record = parcal_report::sentences::snooped_record(&snooped, &dataset);
+    let named = &record.removed_observations[0];
+    assert_eq!(
+        (named.file.as_str(), named.line, named.field.as_deref()),
+        ("artefacts.json", None, Some("distances[17]"))
+    );
+}
+
+/// A pose's position 0.5 mm (50 sigma) off in x: that pose's six rows are
+/// removed together, the rest accepted.
+#[test]
+fn a_blunder_in_a_pose_row_is_removed() {
+    let mut dataset = instruments();
+    let row = 11;
+    dataset.tracker.poses.position[row][0] += 0.5;
+    let snooped = calibrate_instruments_with_snooping(
+        &dataset,
+        &CalibrationOptions::default(),
+        SNOOPING_LEVEL,
+        MAX_REMOVALS,
+        &mut |_| {},
+    )
+    .unwrap();
+    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    assert_eq!(removed, [ObservationId::Pose(row)]);
+    assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
+    assert_eq!(snooped.run.leg_residuals.len(), 39);
+    let record = parcal_report::instruments::snooped_record(&snooped, &dataset);
+    let named = &record.removed_observations[0];
+    // The header is line 1.
+    assert_eq!((named.file.as_str(), named.line), ("poses.csv", Some(13)));
+}
+
+/// A point 0.5 mm (50 sigma) off in y: removed, the rest accepted.
+#[test]
+fn a_blunder_in_a_point_row_is_removed() {
+    let mut dataset = instruments();
+    let row = 23;
+    dataset.tracker.points.position[row][1] -= 0.5;
+    let snooped = calibrate_instruments_with_snooping(
+        &dataset,
+        &CalibrationOptions::default(),
+        SNOOPING_LEVEL,
+        MAX_REMOVALS,
+        &mut |_| {},
+    )
+    .unwrap();
+    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    assert_eq!(removed, [ObservationId::Point(row)]);
+    assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
+    assert_eq!(snooped.run.point_residuals.len(), 39);
+    let record = parcal_report::instruments::snooped_record(&snooped, &dataset);
+    let named = &record.removed_observations[0];
+    assert_eq!((named.file.as_str(), named.line), ("points.csv", Some(25)));
+}
+
+/// Clean data: nothing is removed and the run is accepted.
+#[test]
+fn clean_instrument_rows_are_kept() {
+    let dataset = instruments();
+    let snooped = calibrate_instruments_with_snooping(
+        &dataset,
+        &CalibrationOptions::default(),
+        SNOOPING_LEVEL,
+        MAX_REMOVALS,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(snooped.removals.is_empty());
+    assert!(snooped.run.verdict().accepted);
+}
