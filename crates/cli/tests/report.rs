@@ -305,5 +305,7 @@ fn a_calibration_that_did_not_converge_is_reported_rejected_without_a_map() {
         "{line}"
     );
     assert!(html.contains("No accuracy map: the calibration did not converge"));
-    assert!(html.contains("The observations were not tested"));
+    // A run at its iteration limit is checked at its last iterate, and the
+    // page says so.
+    assert!(html.contains("the observations were tested at its last iterate"));
 }

@@ -97,8 +97,11 @@ pub fn of_ball_run(
     original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> Diagnostics {
     let names = run.names();
-    // calibration.json's parameters are the kinematic ones.
+    // calibration.json's parameters are the kinematic ones, followed by the
+    // instrument groups' with poses or points, whose priors are attributed
+    // only by an instrument run: then none is.
     let (prior_sigma, determined_by) = match (run.sigmas(), &run.prior) {
+        _ if run.instruments.is_some() => (Vec::new(), Vec::new()),
         (Some(sigmas), Some(prior)) => sigmas
             .iter()
             .zip(prior.sigma().iter())

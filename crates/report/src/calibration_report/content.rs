@@ -333,10 +333,16 @@ fn observations(c: &Calibration) -> Result<Vec<Block>, String> {
     let Some(t) = c.diagnostics.as_ref().and_then(|d| d.observations.as_ref()) else {
         out.push(Block::Paragraph(
             Tone::Warning,
-            "The observations were not tested: the run did not converge, or calibration.json predates the recorded diagnostics (calibrate again to have them).".into(),
+            "The observations were not tested: the run stopped before an iterate could be checked, or calibration.json predates the recorded diagnostics (calibrate again to have them).".into(),
         ));
         return Ok(out);
     };
+    if !c.converged {
+        out.push(Block::Paragraph(
+            Tone::Warning,
+            "The run did not converge: the observations were tested at its last iterate, where a blunder that kept it from converging stands out; the numbers are not those of a solution.".into(),
+        ));
+    }
     out.push(Block::Paragraph(Tone::Plain, tests_sentence(t)));
     out.push(Block::Heading(3, "Largest normalised residuals".into()));
     out.push(checks_table(&t.largest, t.critical_value));
