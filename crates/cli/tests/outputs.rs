@@ -180,6 +180,27 @@ fn an_input_of_the_run_is_never_overwritten() {
             stderr(&output)
         );
     }
+    // A plan over one of the dataset's files, or into a missing
+    // directory, is refused before planning.
+    let before_machine = fs::read(dir.join("machine.json")).unwrap();
+    for out in [
+        dir.join("artefacts.json"),
+        temp.path().join("missing").join("plan.csv"),
+    ] {
+        let output = parcal(&[
+            "plan",
+            path(&dir),
+            "--contacts",
+            "189",
+            "--tilt",
+            "10",
+            "--out",
+            path(&out),
+        ]);
+        assert_eq!(output.status.code(), Some(1));
+        assert!(output.stdout.is_empty(), "refused before planning");
+    }
+    assert_eq!(fs::read(dir.join("machine.json")).unwrap(), before_machine);
     let roundabout = dir.join("..").join("d").join("machine.json");
     let output = parcal(&[
         "validate",

@@ -96,6 +96,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "--tilt must be in [0, 90) degrees, got {}",
         args.tilt
     );
+    // plan.csv and plan.json are checked before the work, against every
+    // file the plan reads.
+    let mut inputs = crate::outputs::dataset_inputs(&args.dir);
+    inputs.extend(args.after.iter().cloned());
+    crate::outputs::check(&inputs, &[args.out.clone(), summary_path(&args.out)])?;
     let machine = Machine::read(&args.dir.join(MACHINE_FILE))?;
     let artefacts_file = args.dir.join(ARTEFACTS_FILE);
     let tracker = args
