@@ -6,8 +6,8 @@
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::reliability::{
-    ObservationId, Reliability, UNCONTROLLED, VarianceComponent, critical_value,
-    minimal_detectable_bias,
+    ObservationCheck as Check, ObservationId, Reliability, UNCONTROLLED, VarianceComponent,
+    critical_value, minimal_detectable_bias,
 };
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_dataset::{
@@ -58,34 +58,26 @@ enum Observes {
     Coordinate(usize),
 }
 
-/// The checks of `reliability` as [`Tested`]: `original(o)` is the place
-/// in the dataset given of the run's observation `o`.
+/// `check` as [`Tested`]: `original(o)` is the place in the dataset given
+/// of the run's observation `o`.
 fn tested(
-    reliability: &Reliability,
+    check: &Check,
     dataset: &Dataset,
     original: &dyn Fn(ObservationId) -> ObservationId,
-) -> Vec<Tested> {
-    reliability
-        .observations
-        .iter()
-        .map(|check| {
-            let observation = original(check.observation);
-            let observes = match observation {
-                ObservationId::Contact(row) => {
-                    Observes::Ball(dataset.measurements.ball[row] as usize)
-                }
-                ObservationId::Distance(k) => Observes::Distance(k),
-                ObservationId::Pose(_) => Observes::Leg(check.row),
-                ObservationId::Point(_) => Observes::Coordinate(check.row),
-            };
-            Tested {
-                observation,
-                observes,
-                redundancy: check.redundancy,
-                normalised: check.normalised.zip(check.gross_error),
-            }
-        })
-        .collect()
+) -> Tested {
+    let observation = original(check.observation);
+    let observes = match observation {
+        ObservationId::Contact(row) => Observes::Ball(dataset.measurements.ball[row] as usize),
+        ObservationId::Distance(k) => Observes::Distance(k),
+        ObservationId::Pose(_) => Observes::Leg(check.row),
+        ObservationId::Point(_) => Observes::Coordinate(check.row),
+    };
+    Tested {
+        observation,
+        observes,
+        redundancy: check.redundancy,
+        normalised: check.normalised.zip(check.gross_error),
+    }
 }
 
 /// The diagnostics of a ball-touch run: `dataset` the dataset given,
@@ -118,11 +110,7 @@ pub fn of_ball_run(
         _ => (Vec::new(), Vec::new()),
     };
     let observations = run.reliability.as_ref().map(|reliability| {
-        tests(
-            tested(reliability, dataset, original),
-            reliability.row_normalised.iter().copied(),
-            dataset,
-        )
+        tests(reliability, dataset, original)
     });
     Diagnostics {
         variance_components: components(
@@ -152,11 +140,7 @@ pub fn of_instrument_run(
             .collect()
     });
     let observations = run.reliability.as_ref().map(|reliability| {
-        tests(
-            tested(reliability, dataset, original),
-            reliability.row_normalised.iter().copied(),
-            dataset,
-        )
+        tests(reliability, dataset, original)
     });
     Diagnostics {
         variance_components: components(
@@ -207,20 +191,24 @@ fn weak_directions(
     })
 }
 
-/// The summary of `tested` and of every row's normalised residual
-/// `row_normalised`: the data-snooping test at [`SNOOPING_LEVEL`]
-/// family-wise (Bonferroni over [`ObservationId::tests`]), the minimal
-/// detectable biases at its per-test level and 80 % power; balls and
-/// distances named by `dataset`'s artefacts.
+/// The summary of `reliability`'s checks and of every row's normalised
+/// residual: the data-snooping test at [`SNOOPING_LEVEL`] family-wise
+/// (Bonferroni over [`ObservationId::tests`]), the minimal detectable
+/// biases at its per-test level and 80 % power; observations placed by
+/// `original` in `dataset`, balls and distances named by its artefacts.
+/// Only the listed observations are gathered, so that the summary of a
+/// million contacts costs one index per observation.
 fn tests(
-    mut tested: Vec<Tested>,
-    row_normalised: impl Iterator<Item = f64>,
+    reliability: &Reliability,
     dataset: &Dataset,
+    original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> ObservationTests {
-    let m: usize = tested.iter().map(|t| t.observation.tests()).sum();
+    let checks = &reliability.observations;
+    let m: usize = checks.iter().map(|c| c.observation.tests()).sum();
     let per_test_level = SNOOPING_LEVEL / m.max(1) as f64;
     let balls = &dataset.artefacts.balls;
-    let check = |t: &Tested| {
+    let check = |k: &usize| {
+        let t = tested(&checks[*k], dataset, original);
         let (file, line, field) = location(t.observation);
         ObservationCheck {
             file: file.to_string(),
@@ -244,47 +232,51 @@ fn tests(
         }
     };
     let (lower, width, bins) = NORMALISED_BINS;
-    let normalised_histogram = Histogram::of(row_normalised, lower, width, bins);
+    let normalised_histogram = Histogram::of(
+        reliability.row_normalised.iter().copied(),
+        lower,
+        width,
+        bins,
+    );
     // Over [0, the largest redundancy rounded up to a tenth of the rows
     // of an observation, as many as that redundancy rounded up).
-    let largest_redundancy = tested.iter().map(|t| t.redundancy).fold(0.0, f64::max);
+    let largest_redundancy = checks.iter().map(|c| c.redundancy).fold(0.0, f64::max);
     let rows = largest_redundancy.ceil().max(1.0);
     let upper = rows * ((largest_redundancy / rows * 10.0).floor() + 1.0).min(10.0) / 10.0;
     let redundancy_histogram = Histogram::of(
-        tested.iter().map(|t| t.redundancy),
+        checks.iter().map(|c| c.redundancy),
         0.0,
         upper / REDUNDANCY_BINS as f64,
         REDUNDANCY_BINS,
     );
-    let redundancy = tested.iter().map(|t| t.redundancy).sum();
-    let uncontrolled = tested
+    let redundancy = checks.iter().map(|c| c.redundancy).sum();
+    let uncontrolled = checks
         .iter()
-        .filter(|t| t.redundancy < UNCONTROLLED)
+        .filter(|c| c.redundancy < UNCONTROLLED)
         .count();
-    let w = |t: &Tested| t.normalised.map_or(-1.0, |(w, _)| w.abs());
-    // Largest |w| first, then by file and row: the same for any order of
-    // the observations with the same numbers.
-    tested.sort_by(|a, b| {
-        w(b).total_cmp(&w(a))
-            .then(order(a.observation).cmp(&order(b.observation)))
-    });
-    let largest = tested
-        .iter()
-        .filter(|t| t.normalised.is_some())
-        .take(LISTED)
-        .map(check)
-        .collect();
-    tested.sort_by(|a, b| {
-        a.redundancy
-            .total_cmp(&b.redundancy)
-            .then(order(a.observation).cmp(&order(b.observation)))
-    });
-    let least_controlled = tested
-        .iter()
-        .take_while(|t| t.redundancy < UNCONTROLLED)
-        .take(LISTED)
-        .map(check)
-        .collect();
+    // Ties broken by the place in the dataset given: the same lists for
+    // any order of the observations with the same numbers.
+    let place = |k: &usize| order(original(checks[*k].observation));
+    let w = |k: &usize| checks[*k].normalised.map_or(-1.0, f64::abs);
+    let largest = first_listed(
+        (0..checks.len()).filter(|&k| checks[k].normalised.is_some()),
+        |a, b| w(b).total_cmp(&w(a)).then(place(a).cmp(&place(b))),
+    )
+    .iter()
+    .map(check)
+    .collect();
+    let least_controlled = first_listed(
+        (0..checks.len()).filter(|&k| checks[k].redundancy < UNCONTROLLED),
+        |a, b| {
+            checks[*a]
+                .redundancy
+                .total_cmp(&checks[*b].redundancy)
+                .then(place(a).cmp(&place(b)))
+        },
+    )
+    .iter()
+    .map(check)
+    .collect();
     ObservationTests {
         tested: m,
         level: SNOOPING_LEVEL,
@@ -307,4 +299,18 @@ fn order(observation: ObservationId) -> (u8, usize) {
         ObservationId::Pose(k) => (2, k),
         ObservationId::Point(k) => (3, k),
     }
+}
+
+/// The first [`LISTED`] of `indices` in the order `by`, in that order.
+fn first_listed(
+    indices: impl Iterator<Item = usize>,
+    by: impl Fn(&usize, &usize) -> std::cmp::Ordering,
+) -> Vec<usize> {
+    let mut indices: Vec<usize> = indices.collect();
+    if indices.len() > LISTED {
+        indices.select_nth_unstable_by(LISTED - 1, &by);
+        indices.truncate(LISTED);
+    }
+    indices.sort_by(by);
+    indices
 }
