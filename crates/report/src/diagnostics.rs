@@ -109,9 +109,10 @@ pub fn of_ball_run(
         ),
         _ => (Vec::new(), Vec::new()),
     };
-    let observations = run.reliability.as_ref().map(|reliability| {
-        tests(reliability, dataset, original)
-    });
+    let observations = run
+        .reliability
+        .as_ref()
+        .map(|reliability| tests(reliability, dataset, original));
     Diagnostics {
         variance_components: components(
             run.reliability.as_ref().map_or(&[][..], |r| &r.components),
@@ -139,9 +140,10 @@ pub fn of_instrument_run(
             .map(|k| determined_by(run.data_information[k], s[k], prior[k]).to_string())
             .collect()
     });
-    let observations = run.reliability.as_ref().map(|reliability| {
-        tests(reliability, dataset, original)
-    });
+    let observations = run
+        .reliability
+        .as_ref()
+        .map(|reliability| tests(reliability, dataset, original));
     Diagnostics {
         variance_components: components(
             run.reliability.as_ref().map_or(&[][..], |r| &r.components),
