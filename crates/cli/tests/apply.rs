@@ -3,50 +3,15 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn parcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_parcal"))
-        .args(args)
-        .output()
-        .expect("the parcal binary runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let output = parcal(args);
-    assert!(
-        output.status.success(),
-        "parcal {args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8_lossy(&output.stdout).into_owned()
-}
-
-fn fails(args: &[&str]) -> String {
-    let output = parcal(args);
-    assert!(!output.status.success(), "parcal {args:?} should fail");
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
+mod common;
+use common::{PAPER_FILES, copy_fixture, fails, ok, s};
 
 /// fixtures/paper-seed1 calibrated in `dir`; returns the dataset directory.
 fn calibrated(dir: &Path) -> PathBuf {
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/paper-seed1");
-    let data = dir.join("data");
-    fs::create_dir_all(&data).unwrap();
-    for file in [
-        "machine.json",
-        "artefacts.json",
-        "measurements.csv",
-        "truth.json",
-    ] {
-        fs::copy(fixture.join(file), data.join(file)).unwrap();
-    }
-    ok(&["calibrate", data.to_str().unwrap()]);
+    let data = copy_fixture("paper-seed1", dir, &PAPER_FILES);
+    ok(&["calibrate", s(&data)]);
     data
-}
-
-fn s(path: &Path) -> &str {
-    path.to_str().unwrap()
 }
 
 /// A 5 x 5 grid on z = 400, every tenth target tilted.

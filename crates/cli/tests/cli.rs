@@ -3,16 +3,8 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-fn parcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_parcal"))
-        .args(args)
-        .output()
-        .expect("the parcal binary runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+mod common;
+use common::{parcal, text};
 
 fn simulate(dir: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["simulate", "--seed", "7", "--out", dir.to_str().unwrap()];

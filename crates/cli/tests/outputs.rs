@@ -7,12 +7,8 @@ use std::fs;
 use std::path::Path;
 use std::process::{Command, Output};
 
-fn parcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_parcal"))
-        .args(args)
-        .output()
-        .expect("the parcal binary runs")
-}
+mod common;
+use common::parcal;
 
 fn stderr(output: &Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()

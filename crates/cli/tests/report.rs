@@ -2,49 +2,10 @@
 //! calibration.json's, non-blank figures, escaping, and the output checks.
 
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn parcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_parcal"))
-        .args(args)
-        .output()
-        .expect("the parcal binary runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let output = parcal(args);
-    assert!(
-        output.status.success(),
-        "parcal {args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8_lossy(&output.stdout).into_owned()
-}
-
-fn s(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-/// A copy of the fixture `name`'s files in `dir/data`.
-fn copy_fixture(name: &str, dir: &Path, files: &[&str]) -> PathBuf {
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../fixtures")
-        .join(name);
-    let data = dir.join("data");
-    fs::create_dir_all(&data).unwrap();
-    for file in files {
-        fs::copy(fixture.join(file), data.join(file)).unwrap();
-    }
-    data
-}
-
-const PAPER_FILES: [&str; 4] = [
-    "machine.json",
-    "artefacts.json",
-    "measurements.csv",
-    "truth.json",
-];
+mod common;
+use common::{PAPER_FILES, copy_fixture, ok, parcal, s};
 
 /// The text of the element with `id="verdict"`.
 fn verdict_line(html: &str) -> &str {

@@ -109,19 +109,12 @@ pub fn of_ball_run(
         ),
         _ => (Vec::new(), Vec::new()),
     };
-    let observations = run
-        .reliability
-        .as_ref()
-        .map(|reliability| tests(reliability, dataset, original));
-    Diagnostics {
-        variance_components: components(
-            run.reliability.as_ref().map_or(&[][..], |r| &r.components),
-        ),
-        observations,
-        prior_sigma,
-        determined_by,
-        weak_directions: weak_directions(run.spectrum.as_ref(), &names),
-    }
+    let checks = Checks {
+        reliability: run.reliability.as_ref(),
+        spectrum: run.spectrum.as_ref(),
+        names: &names,
+    };
+    checks.diagnostics(dataset, original, prior_sigma, determined_by)
 }
 
 /// The diagnostics of an instrument run (poses, points) of `dataset`,
@@ -140,22 +133,46 @@ pub fn of_instrument_run(
             .map(|k| determined_by(run.data_information[k], s[k], prior[k]).to_string())
             .collect()
     });
-    let observations = run
-        .reliability
-        .as_ref()
-        .map(|reliability| tests(reliability, dataset, original));
-    Diagnostics {
-        variance_components: components(
-            run.reliability.as_ref().map_or(&[][..], |r| &r.components),
-        ),
-        observations,
-        prior_sigma: if determined_by.is_empty() {
-            Vec::new()
-        } else {
-            prior.iter().map(|s| s.is_finite().then_some(*s)).collect()
-        },
-        determined_by,
-        weak_directions: weak_directions(run.spectrum.as_ref(), &names),
+    let prior_sigma = if determined_by.is_empty() {
+        Vec::new()
+    } else {
+        prior.iter().map(|s| s.is_finite().then_some(*s)).collect()
+    };
+    let checks = Checks {
+        reliability: run.reliability.as_ref(),
+        spectrum: run.spectrum.as_ref(),
+        names: &names,
+    };
+    checks.diagnostics(dataset, original, prior_sigma, determined_by)
+}
+
+/// What a run of either kind checked: its observations and its weakest
+/// directions, the global block's parameters named by `names`.
+struct Checks<'a> {
+    reliability: Option<&'a Reliability>,
+    spectrum: Option<&'a SpectrumDiagnostics>,
+    names: &'a [String],
+}
+
+impl Checks<'_> {
+    /// calibration.json's `diagnostics` with the parameters' attributions;
+    /// observations placed by `original` in `dataset`.
+    fn diagnostics(
+        &self,
+        dataset: &Dataset,
+        original: &dyn Fn(ObservationId) -> ObservationId,
+        prior_sigma: Vec<Option<f64>>,
+        determined_by: Vec<String>,
+    ) -> Diagnostics {
+        Diagnostics {
+            variance_components: components(self.reliability.map_or(&[][..], |r| &r.components)),
+            observations: self
+                .reliability
+                .map(|reliability| tests(reliability, dataset, original)),
+            prior_sigma,
+            determined_by,
+            weak_directions: weak_directions(self.spectrum, self.names),
+        }
     }
 }
 

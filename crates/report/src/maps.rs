@@ -81,21 +81,29 @@ pub fn write_maps(
             let um: Vec<f64> = values.iter().map(|v| v * 1e3).collect();
             let title = format!("{title}, {when} calibration");
             let subtitle = format!("{what} {metric} error on the plane z = {} mm", map.grid.z);
-            heat_map(
-                &path,
-                &HeatMap {
-                    title: &title,
-                    subtitle: &subtitle,
-                    xs: &map.grid.xs,
-                    ys: &map.grid.ys,
-                    values: &um,
-                    value_label: "error / µm",
-                    x_label: "x / mm (design frame)",
-                    y_label: "y / mm (design frame)",
-                },
-            )?;
+            heat_map(&path, &error_heat_map(&title, &subtitle, map, &um))?;
             written.push(path);
         }
     }
     Ok(written)
+}
+
+/// The heat map of `um`, errors (µm) on `map`'s grid, titled `title` and
+/// `subtitle`.
+pub fn error_heat_map<'a>(
+    title: &'a str,
+    subtitle: &'a str,
+    map: &'a AccuracyMap,
+    um: &'a [f64],
+) -> HeatMap<'a> {
+    HeatMap {
+        title,
+        subtitle,
+        xs: &map.grid.xs,
+        ys: &map.grid.ys,
+        values: um,
+        value_label: "error / µm",
+        x_label: "x / mm (design frame)",
+        y_label: "y / mm (design frame)",
+    }
 }

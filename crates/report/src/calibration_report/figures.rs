@@ -6,6 +6,7 @@ use parcal_accuracy::AccuracyMap;
 use parcal_dataset::ObservationTests;
 
 use super::document::Block;
+use crate::maps::error_heat_map;
 use crate::plots::{BarChart, HeatMap, Series, bar_chart_svg, heat_map_svg};
 
 /// Points of the density curve per bin.
@@ -83,16 +84,12 @@ pub fn redundancy_histogram(t: &ObservationTests) -> Result<Block, String> {
 pub fn accuracy_map(map: &AccuracyMap) -> Result<Block, String> {
     let um: Vec<f64> = map.registered.iter().map(|v| v * 1e3).collect();
     let subtitle = format!("registered error on the plane z = {} mm", map.grid.z);
-    let svg = heat_map_svg(&HeatMap {
-        title: "Predicted accuracy after calibration",
-        subtitle: &subtitle,
-        xs: &map.grid.xs,
-        ys: &map.grid.ys,
-        values: &um,
-        value_label: "error / µm",
-        x_label: "x / mm (design frame)",
-        y_label: "y / mm (design frame)",
-    })?;
+    let svg = heat_map_svg(&error_heat_map(
+        "Predicted accuracy after calibration",
+        &subtitle,
+        map,
+        &um,
+    ))?;
     let s = map.registered_summary();
     Ok(Block::Figure {
         svg,
