@@ -330,7 +330,11 @@ fn touch_problem<'a, O, const G: usize>(
     observations: O,
 ) -> Result<CalibrationProblem<'a, O, G>, CalibrateError> {
     let mut problem = setup.problem::<_, G>(dataset, options, observations);
-    problem.attach_instruments(dataset, &setup.initial_state::<G, 0>(dataset).global)?;
+    // The instrument rows are weighed at the initial global block, built
+    // only when there are such rows.
+    if !dataset.tracker.is_empty() {
+        problem.attach_instruments(dataset, &setup.initial_state::<G, 0>(dataset).global)?;
+    }
     Ok(problem)
 }
 

@@ -4,6 +4,7 @@
 use std::fmt::Write;
 
 use parcal_calibrate::instruments::InstrumentRun;
+use parcal_calibrate::mixed::InstrumentResult;
 use parcal_dataset::{Calibration, Dataset};
 
 use parcal_calibrate::reliability::ObservationId;
@@ -89,12 +90,7 @@ pub fn summary(run: &InstrumentRun, record: &Calibration) -> String {
         run.model.sessions.len(),
         run.global.len()
     );
-    if let Some(rms) = run.leg_rms() {
-        let _ = writeln!(out, "pose residual (leg length): RMS {rms:.4} mm");
-    }
-    if let Some(rms) = run.point_rms() {
-        let _ = writeln!(out, "point residual (per coordinate): RMS {rms:.4} mm");
-    }
+    residuals(&mut out, "", run.leg_rms(), run.point_rms());
     let _ = writeln!(
         out,
         "whitened residual RMS {:.3} (1 when the repeatabilities of machine.json are right)",
@@ -111,6 +107,45 @@ pub fn summary(run: &InstrumentRun, record: &Calibration) -> String {
         let _ = writeln!(out, "  {reason}");
     }
     out
+}
+
+/// The poses and points calibrated with ball touches: their residuals
+/// and the instrument parameters, named by `names` (the kinematic ones are
+/// in the touch calibration's table).
+pub fn mixed_summary(instruments: &InstrumentResult, names: &[String]) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "with {} sessions, {} poses, {} points:",
+        instruments.model.sessions.len(),
+        instruments.leg_residuals.len(),
+        instruments.point_residuals.len()
+    );
+    residuals(
+        &mut out,
+        "  ",
+        instruments.leg_rms(),
+        instruments.point_rms(),
+    );
+    out.push_str("\n| parameter | identified | sigma |\n|---|---:|---:|\n");
+    for (name, value, sigma) in instruments.parameters(names) {
+        let _ = writeln!(out, "| {name} | {value:.4} | {sigma:.4} |");
+    }
+    out
+}
+
+/// The RMS of the poses' leg-length residuals and of the points'
+/// coordinates (mm), those there are, one line each after `indent`.
+fn residuals(out: &mut String, indent: &str, legs: Option<f64>, points: Option<f64>) {
+    if let Some(rms) = legs {
+        let _ = writeln!(out, "{indent}pose residual (leg length): RMS {rms:.4} mm");
+    }
+    if let Some(rms) = points {
+        let _ = writeln!(
+            out,
+            "{indent}point residual (per coordinate): RMS {rms:.4} mm"
+        );
+    }
 }
 
 /// Parameter, initial and identified value, posterior and prior sigma, and

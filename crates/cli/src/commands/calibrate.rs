@@ -1,7 +1,6 @@
 //! `parcal calibrate`: identify the parameters of a dataset, print the
 //! table and the accuracy summary, write calibration.json.
 
-use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -9,7 +8,6 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::instruments::calibrate_instruments;
-use parcal_calibrate::mixed::InstrumentResult;
 use parcal_calibrate::snooping::{
     MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
 };
@@ -160,29 +158,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     printed
 }
 
-/// The poses and points calibrated with the touches: their residuals and
-/// the instrument parameters (the kinematic ones are in the table above).
-fn instrument_part(instruments: &InstrumentResult, names: &[String]) -> String {
-    let mut out = String::new();
-    let t = (
-        instruments.model.sessions.len(),
-        instruments.leg_residuals.len(),
-        instruments.point_residuals.len(),
-    );
-    let _ = writeln!(out, "with {} sessions, {} poses, {} points:", t.0, t.1, t.2);
-    if let Some(rms) = instruments.leg_rms() {
-        let _ = writeln!(out, "  pose residual (leg length): RMS {rms:.4} mm");
-    }
-    if let Some(rms) = instruments.point_rms() {
-        let _ = writeln!(out, "  point residual (per coordinate): RMS {rms:.4} mm");
-    }
-    out.push_str("\n| parameter | identified | sigma |\n|---|---:|---:|\n");
-    for (name, value, sigma) in instruments.parameters(names) {
-        let _ = writeln!(out, "| {name} | {value:.4} | {sigma:.4} |");
-    }
-    out
-}
-
 /// A number of seconds, finite and not negative.
 fn seconds(text: &str) -> Result<Duration, String> {
     let seconds: f64 = text.parse().map_err(|e| format!("{e}"))?;
@@ -295,7 +270,11 @@ fn print_results(
     writeln!(stdout, "{}", tables::run_summary(run, truth))?;
     writeln!(stdout, "{}", tables::parameters(run, truth))?;
     if let Some(instruments) = &run.instruments {
-        writeln!(stdout, "{}", instrument_part(instruments, &run.names()))?;
+        writeln!(
+            stdout,
+            "{}",
+            instruments::mixed_summary(instruments, &run.names())
+        )?;
     }
     writeln!(
         stdout,
