@@ -1,0 +1,65 @@
+//! Helpers shared by the end-to-end tests of the `parcal` binary: running
+//! it, its outcome, and copies of the fixtures.
+
+#![allow(dead_code)] // each test binary uses a different subset
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The files of a simulated paper dataset (fixtures/paper-seed1).
+pub const PAPER_FILES: [&str; 4] = [
+    "machine.json",
+    "artefacts.json",
+    "measurements.csv",
+    "truth.json",
+];
+
+/// Runs `parcal` with `args`.
+pub fn parcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_parcal"))
+        .args(args)
+        .output()
+        .expect("the parcal binary runs")
+}
+
+/// The standard output of a run that must succeed.
+pub fn ok(args: &[&str]) -> String {
+    let output = parcal(args);
+    assert!(
+        output.status.success(),
+        "parcal {args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// The standard error of a run that must fail.
+pub fn fails(args: &[&str]) -> String {
+    let output = parcal(args);
+    assert!(!output.status.success(), "parcal {args:?} should fail");
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// `bytes` as text.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// A path as an argument.
+pub fn s(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// A copy of the fixture `name`'s `files` in `dir/data`.
+pub fn copy_fixture(name: &str, dir: &Path, files: &[&str]) -> PathBuf {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fixtures")
+        .join(name);
+    let data = dir.join("data");
+    fs::create_dir_all(&data).unwrap();
+    for file in files {
+        fs::copy(fixture.join(file), data.join(file)).unwrap();
+    }
+    data
+}
