@@ -34,7 +34,8 @@
 //!   fit.
 
 use nalgebra::DMatrix;
-use parcal_solver::{Problem, Redundancy, State, Status, normalised_residual, redundancy};
+use parcal_dataset::Histogram;
+use parcal_solver::{Problem, State, Status, normalised_residual, redundancy};
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
@@ -131,43 +132,70 @@ impl std::fmt::Display for ObservationId {
     }
 }
 
-/// One observation's check.
+/// An [`ObservationId`] packed into 5 bytes: its kind and its place.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Packed {
+    kind: Kind,
+    index: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Contact,
+    Distance,
+    Pose,
+    Point,
+}
+
+impl Packed {
+    /// `observation` packed, or `None` if its place is past `u32::MAX`.
+    fn new(observation: ObservationId) -> Option<Self> {
+        let (kind, index) = match observation {
+            ObservationId::Contact(k) => (Kind::Contact, k),
+            ObservationId::Distance(k) => (Kind::Distance, k),
+            ObservationId::Pose(k) => (Kind::Pose, k),
+            ObservationId::Point(k) => (Kind::Point, k),
+        };
+        Some(Self {
+            kind,
+            index: u32::try_from(index).ok()?,
+        })
+    }
+
+    fn unpack(self) -> ObservationId {
+        let k = self.index as usize;
+        match self.kind {
+            Kind::Contact => ObservationId::Contact(k),
+            Kind::Distance => ObservationId::Distance(k),
+            Kind::Pose => ObservationId::Pose(k),
+            Kind::Point => ObservationId::Point(k),
+        }
+    }
+}
+
+/// One observation's check, kept for every observation (one per contact):
+/// what its numbers are derived from, in 40 bytes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObservationCheck {
-    /// The observation.
-    pub observation: ObservationId,
     /// Its redundancy (sum over its rows).
-    pub redundancy: f64,
-    /// Its normalised residual: that of its row of largest magnitude;
-    /// `None` when no other observation checks it.
-    pub normalised: Option<f64>,
-    /// That row's estimated gross error `e / r`, in units of the row's
-    /// standard deviation.
-    pub gross_error: Option<f64>,
-    /// That row, among the observation's (a pose's leg, a point's
-    /// coordinate).
-    pub row: usize,
-    /// External reliability: the largest over its rows of the bias-to-noise
-    /// ratio `λ = δ₀ √(|z_j|² / r_j)` of the global block (kinematic
-    /// parameters and tied centres), the shift an undetected error of the
-    /// row's minimal detectable bias makes in them, in units of their own
-    /// noise (`√(∇gᵀ Cov(g)⁻¹ ∇g)`; `|z_j|²` the row's global leverage,
-    /// `parcal_solver::redundancy`); `None` when no row is checked.
-    pub bias_to_noise: Option<f64>,
+    redundancy: f64,
+    /// The whitened residual `e` and redundancy number `r` of its row of
+    /// largest normalised residual; both 0 when no row is checked.
+    worst_residual: f64,
+    worst_redundancy: f64,
+    /// The largest bias-to-noise ratio of its checked rows (0 when none is).
+    bias_to_noise: f64,
+    observation: Packed,
+    /// That row, among the observation's (at most six).
+    row: u8,
 }
 
 impl ObservationCheck {
     /// The check of `observation` from its rows' redundancy numbers `r`,
-    /// whitened residuals `e` and global leverages `global`: the largest
-    /// normalised residual of its rows, and the largest bias-to-noise
-    /// ratio for a minimal detectable bias of `delta0 / √r` row sigmas.
-    pub fn new(
-        observation: ObservationId,
-        r: &[f64],
-        e: &[f64],
-        global: &[f64],
-        delta0: f64,
-    ) -> Self {
+    /// whitened residuals `e` and global leverages `global`: the row of
+    /// largest normalised residual, and the largest bias-to-noise ratio for
+    /// a minimal detectable bias of `delta0 / √r` row sigmas.
+    fn new(observation: Packed, r: &[f64], e: &[f64], global: &[f64], delta0: f64) -> Self {
         let bias_to_noise = r
             .iter()
             .zip(global)
@@ -178,16 +206,59 @@ impl ObservationCheck {
             .iter()
             .zip(e)
             .enumerate()
-            .filter_map(|(j, (&r, &e))| normalised_residual(e, r).map(|w| (j, w, e / r)))
+            .filter_map(|(j, (&r, &e))| normalised_residual(e, r).map(|w| (j, w, e, r)))
             .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+        let (row, worst_residual, worst_redundancy) = worst.map_or((0, 0.0, 0.0), |(j, _, e, r)| {
+            // `j` indexes an observation's rows: at most six.
+            (j as u8, e, r)
+        });
         Self {
-            observation,
             redundancy: r.iter().sum(),
-            normalised: worst.map(|(_, w, _)| w),
-            gross_error: worst.map(|(_, _, g)| g),
-            row: worst.map_or(0, |(j, _, _)| j),
-            bias_to_noise,
+            worst_residual,
+            worst_redundancy,
+            bias_to_noise: bias_to_noise.unwrap_or(0.0),
+            observation,
+            row,
         }
+    }
+
+    /// The observation.
+    pub fn observation(&self) -> ObservationId {
+        self.observation.unpack()
+    }
+
+    /// Its redundancy (sum over its rows).
+    pub fn redundancy(&self) -> f64 {
+        self.redundancy
+    }
+
+    /// Its normalised residual: that of its row of largest magnitude;
+    /// `None` when no other observation checks it.
+    pub fn normalised(&self) -> Option<f64> {
+        normalised_residual(self.worst_residual, self.worst_redundancy)
+    }
+
+    /// That row's estimated gross error `e / r`, in units of the row's
+    /// standard deviation.
+    pub fn gross_error(&self) -> Option<f64> {
+        self.normalised()
+            .map(|_| self.worst_residual / self.worst_redundancy)
+    }
+
+    /// That row, among the observation's (a pose's leg, a point's
+    /// coordinate).
+    pub fn row(&self) -> usize {
+        self.row.into()
+    }
+
+    /// External reliability: the largest over its rows of the bias-to-noise
+    /// ratio `λ = δ₀ √(|z_j|² / r_j)` of the global block (kinematic
+    /// parameters and tied centres), the shift an undetected error of the
+    /// row's minimal detectable bias makes in them, in units of their own
+    /// noise (`√(∇gᵀ Cov(g)⁻¹ ∇g)`; `|z_j|²` the row's global leverage,
+    /// `parcal_solver::redundancy`); `None` when no row is checked.
+    pub fn bias_to_noise(&self) -> Option<f64> {
+        self.normalised().map(|_| self.bias_to_noise)
     }
 }
 
@@ -200,16 +271,22 @@ pub struct Reliability {
     /// Every observation's check: the contacts in the solver's (by-ball)
     /// order, then the global observations in their order.
     pub observations: Vec<ObservationCheck>,
-    /// The normalised residual of every row (standard normal under the
-    /// model, unlike an observation's largest).
-    pub row_normalised: Vec<f64>,
+    /// The histogram ([`NORMALISED_BINS`]) of the normalised residual of
+    /// every checked row (standard normal under the model, unlike an
+    /// observation's largest).
+    pub row_normalised: Histogram,
 }
+
+/// Bins of the histogram of the rows' normalised residuals: `[-6, 6)` by
+/// 0.25.
+pub const NORMALISED_BINS: (f64, f64, usize) = (-6.0, 0.25, 48);
 
 impl Reliability {
     /// The redundancy numbers of `problem` at `state`: its points are the
     /// contacts of measurements.csv rows `rows`, its global observation
     /// rows those of `global` in order; `prior_cost` is the final prior
-    /// term and `prior_rows` its number of rows.
+    /// term and `prior_rows` its number of rows. Each contact's rows are
+    /// reduced to its check as the solver's pass hands them over.
     #[allow(clippy::too_many_arguments)]
     pub fn new<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
         problem: &Pr,
@@ -222,81 +299,83 @@ impl Reliability {
         prior_cost: f64,
         prior_rows: usize,
     ) -> Result<Self, CalibrateError> {
-        let numbers: Redundancy<R> =
-            redundancy(problem, state, covariance, caches, groups_per_chunk).map_err(|status| {
-                CalibrateError::Calibration {
-                    reason: format!("the redundancy numbers could not be computed: {status:?}"),
+        let failed = |reason: String| CalibrateError::Calibration { reason };
+        let global_ids = global
+            .iter()
+            .map(|&o| Packed::new(o).ok_or_else(|| failed(format!("{o}: too many observations"))))
+            .collect::<Result<Vec<_>, _>>()?;
+        let tests = rows.len() + global.iter().map(|o| o.tests()).sum::<usize>();
+        let delta0 = minimal_detectable_bias(1.0, SNOOPING_LEVEL / tests.max(1) as f64);
+        let (lower, width, bins) = NORMALISED_BINS;
+        let mut row_normalised = Histogram::of(std::iter::empty(), lower, width, bins);
+        let mut components: Vec<VarianceComponent> = Vec::new();
+        let mut observations = Vec::with_capacity(rows.len() + global.len());
+        let mut points = 0;
+        let numbers = redundancy(problem, state, covariance, caches, groups_per_chunk, |p| {
+            points += 1;
+            let Some(&row) = rows.get(points - 1) else {
+                return;
+            };
+            let (r, e) = (&p.redundancy, &p.residual);
+            let observation = Packed {
+                kind: Kind::Contact,
+                index: row,
+            };
+            let check = ObservationCheck::new(
+                observation,
+                r.as_slice(),
+                e.as_slice(),
+                p.global_leverage.as_slice(),
+                delta0,
+            );
+            add_to_component(&mut components, &check, e.norm_squared());
+            for (&e, &r) in e.iter().zip(r) {
+                if let Some(w) = normalised_residual(e, r) {
+                    row_normalised.add(w);
                 }
-            })?;
+            }
+            observations.push(check);
+        })
+        .map_err(|status| {
+            failed(format!(
+                "the redundancy numbers could not be computed: {status:?}"
+            ))
+        })?;
+        if points != rows.len() {
+            return Err(failed(format!(
+                "{points} contacts checked for {} measurements.csv rows",
+                rows.len()
+            )));
+        }
         let (r, e) = (
             &numbers.global_observations,
             &numbers.global_observation_residuals,
         );
         let global_rows: usize = global.iter().map(|o| o.rows()).sum();
         if global_rows != r.len() {
-            return Err(CalibrateError::Calibration {
-                reason: format!(
-                    "{} global observation rows for observations of {global_rows} rows",
-                    r.len()
-                ),
-            });
+            return Err(failed(format!(
+                "{} global observation rows for observations of {global_rows} rows",
+                r.len()
+            )));
         }
-        let tests = rows.len() + global.iter().map(|o| o.tests()).sum::<usize>();
-        let delta0 = minimal_detectable_bias(1.0, SNOOPING_LEVEL / tests.max(1) as f64);
-        let mut observations: Vec<ObservationCheck> = numbers
-            .points
-            .iter()
-            .zip(&numbers.point_residuals)
-            .zip(&numbers.point_global_leverage)
-            .zip(rows)
-            .map(|(((r, e), h), &row)| {
-                ObservationCheck::new(
-                    ObservationId::Contact(row as usize),
-                    r.as_slice(),
-                    e.as_slice(),
-                    h.as_slice(),
-                    delta0,
-                )
-            })
-            .collect();
         // A global observation row's leverage is all global: 1 − r_o.
         let global_leverage: Vec<f64> = r.iter().map(|r| 1.0 - r).collect();
         let mut first = 0;
-        for &observation in global {
+        for (observation, packed) in global.iter().zip(global_ids) {
             let range = first..first + observation.rows();
-            observations.push(ObservationCheck::new(
-                observation,
+            let check = ObservationCheck::new(
+                packed,
                 &r[range.clone()],
                 &e[range.clone()],
                 &global_leverage[range.clone()],
                 delta0,
-            ));
+            );
+            add_to_component(&mut components, &check, e[range.clone()].iter().map(|v| v * v).sum());
+            observations.push(check);
             first = range.end;
         }
-        // Each kind's cost and redundancy, in the order of first appearance.
-        let mut components: Vec<VarianceComponent> = Vec::new();
-        let costs = numbers
-            .point_residuals
-            .iter()
-            .map(|e| e.norm_squared())
-            .chain(global.iter().scan(0, |first, o| {
-                let range = *first..*first + o.rows();
-                *first = range.end;
-                Some(e[range].iter().map(|v| v * v).sum())
-            }));
-        for (check, cost) in observations.iter().zip(costs) {
-            let group = check.observation.group();
-            match components.iter_mut().find(|c| c.group == group) {
-                Some(component) => {
-                    component.cost += cost;
-                    component.redundancy += check.redundancy;
-                }
-                None => components.push(VarianceComponent {
-                    group,
-                    cost,
-                    redundancy: check.redundancy,
-                }),
-            }
+        for w in e.iter().zip(r).filter_map(|(&e, &r)| normalised_residual(e, r)) {
+            row_normalised.add(w);
         }
         if prior_rows > 0 {
             components.push(VarianceComponent {
@@ -305,14 +384,6 @@ impl Reliability {
                 redundancy: prior_rows as f64 - numbers.prior_leverage.total(),
             });
         }
-        let row_normalised = numbers
-            .points
-            .iter()
-            .zip(&numbers.point_residuals)
-            .flat_map(|(r, e)| (0..R).map(|j| (e[j], r[j])))
-            .chain(e.iter().copied().zip(r.iter().copied()))
-            .filter_map(|(e, r)| normalised_residual(e, r))
-            .collect();
         Ok(Self {
             components,
             observations,
@@ -325,16 +396,16 @@ impl Reliability {
     pub fn uncontrolled(&self) -> impl Iterator<Item = &ObservationCheck> {
         self.observations
             .iter()
-            .filter(|c| c.redundancy < UNCONTROLLED * c.observation.tests() as f64)
+            .filter(|c| c.redundancy < UNCONTROLLED * c.observation().tests() as f64)
     }
 
     /// The observation of largest normalised residual.
     pub fn worst(&self) -> Option<&ObservationCheck> {
         self.observations
             .iter()
-            .filter(|c| c.normalised.is_some())
+            .filter(|c| c.normalised().is_some())
             .max_by(|a, b| {
-                let w = |c: &ObservationCheck| c.normalised.map_or(0.0, f64::abs);
+                let w = |c: &ObservationCheck| c.normalised().map_or(0.0, f64::abs);
                 w(a).total_cmp(&w(b))
             })
     }
@@ -346,9 +417,9 @@ impl Reliability {
         let mut checked: Vec<&ObservationCheck> = self
             .observations
             .iter()
-            .filter(|c| c.bias_to_noise.is_some())
+            .filter(|c| c.bias_to_noise().is_some())
             .collect();
-        let lambda = |c: &ObservationCheck| c.bias_to_noise.unwrap_or(0.0);
+        let lambda = |c: &ObservationCheck| c.bias_to_noise().unwrap_or(0.0);
         checked.sort_by(|a, b| lambda(b).total_cmp(&lambda(a)));
         checked.truncate(n);
         checked
@@ -359,7 +430,7 @@ impl Reliability {
     /// (2m)}`, `m` = [`Reliability::tests`].
     pub fn fails_snooping(&self, level: f64) -> bool {
         self.worst()
-            .and_then(|c| c.normalised)
+            .and_then(|c| c.normalised())
             .is_some_and(|w| w.abs() > critical_value(level, self.tests()))
     }
 
@@ -368,8 +439,25 @@ impl Reliability {
     pub fn tests(&self) -> usize {
         self.observations
             .iter()
-            .map(|c| c.observation.tests())
+            .map(|c| c.observation().tests())
             .sum()
+    }
+}
+
+/// Adds `check`, of weighted sum of squares `cost`, to the variance
+/// component of its group (appended on its group's first appearance).
+fn add_to_component(components: &mut Vec<VarianceComponent>, check: &ObservationCheck, cost: f64) {
+    let group = check.observation().group();
+    match components.iter_mut().find(|c| c.group == group) {
+        Some(component) => {
+            component.cost += cost;
+            component.redundancy += check.redundancy;
+        }
+        None => components.push(VarianceComponent {
+            group,
+            cost,
+            redundancy: check.redundancy,
+        }),
     }
 }
 
@@ -404,6 +492,30 @@ fn standard_normal() -> Normal {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_check_keeps_its_worst_row_and_takes_40_bytes() {
+        let contact = Packed::new(ObservationId::Contact(7)).unwrap();
+        // Rows: w = 0.5 / √0.25 = 1, -0.9 / √0.36 = -1.5, unchecked.
+        let r = [0.25, 0.36, 1e-12];
+        let check = ObservationCheck::new(contact, &r, &[0.5, -0.9, 3.0], &[0.04, 0.09, 0.5], 2.0);
+        assert_eq!(check.observation(), ObservationId::Contact(7));
+        assert_eq!(check.redundancy(), r.iter().sum::<f64>());
+        assert_eq!(check.normalised(), Some(-0.9 / 0.6));
+        assert_eq!(check.gross_error(), Some(-0.9 / 0.36));
+        assert_eq!(check.row(), 1);
+        // λ = 2 √(h / r): 2 √0.16 = 0.8 and 2 √0.25 = 1.
+        assert_eq!(check.bias_to_noise(), Some(2.0 * (0.09f64 / 0.36).sqrt()));
+        let unchecked = ObservationCheck::new(contact, &[1e-11], &[1.0], &[1.0], 2.0);
+        assert_eq!(unchecked.normalised(), None);
+        assert_eq!(unchecked.gross_error(), None);
+        assert_eq!(unchecked.bias_to_noise(), None);
+        assert_eq!(std::mem::size_of::<ObservationCheck>(), 40);
+        let far = ObservationId::Pose(u32::MAX as usize + 1);
+        assert_eq!(Packed::new(far), None);
+        let last = ObservationId::Point(u32::MAX as usize);
+        assert_eq!(Packed::new(last).unwrap().unpack(), last);
+    }
 
     #[test]
     fn critical_values_are_normal_quantiles() {

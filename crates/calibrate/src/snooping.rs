@@ -204,14 +204,14 @@ fn snoop<Run: Snoopable>(
             })
         };
         let Some((worst, w, gross_error)) =
-            worst.and_then(|c| Some((c, c.normalised?, c.gross_error?)))
+            worst.and_then(|c| Some((c, c.normalised()?, c.gross_error()?)))
         else {
             return finish(run, removals, remaining, None);
         };
         if w.abs() <= critical {
             return finish(run, removals, remaining, None);
         }
-        let original = remaining.original(worst.observation);
+        let original = remaining.original(worst.observation());
         if removals.len() == max_removals {
             let stopped = format!(
                 "the limit of {max_removals} removals was reached with an observation still failing ({original}, |w| = {:.1})",
@@ -219,7 +219,7 @@ fn snoop<Run: Snoopable>(
             );
             return finish(run, removals, remaining, Some(stopped));
         }
-        if let ObservationId::Contact(row) = worst.observation {
+        if let ObservationId::Contact(row) = worst.observation() {
             let ball = current.measurements.ball[row] as usize;
             if current.contacts_per_ball()[ball] <= MIN_CONTACTS_PER_BALL {
                 let stopped = format!(
@@ -231,7 +231,7 @@ fn snoop<Run: Snoopable>(
             }
         }
         let mut next = current.clone();
-        remove(&mut next, worst.observation);
+        remove(&mut next, worst.observation());
         let next_run = match calibrate(&next) {
             Ok(next_run) => next_run,
             Err(error) => {
@@ -244,13 +244,13 @@ fn snoop<Run: Snoopable>(
         };
         removals.push(Removal {
             observation: original,
-            row: worst.row,
+            row: worst.row(),
             normalised: w,
             gross_error,
             variance_factor_before: run.variance_factor(),
             variance_factor_after: next_run.variance_factor(),
         });
-        remaining.remove(worst.observation);
+        remaining.remove(worst.observation());
         (current, run) = (next, next_run);
     }
 }

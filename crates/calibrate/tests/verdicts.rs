@@ -243,8 +243,8 @@ fn contact_w(run: &CalibrationRun, row: usize) -> f64 {
         .unwrap()
         .observations
         .iter()
-        .find(|c| c.observation == ObservationId::Contact(row))
-        .and_then(|c| c.normalised)
+        .find(|c| c.observation() == ObservationId::Contact(row))
+        .and_then(|c| c.normalised())
         .unwrap()
 }
 

@@ -240,17 +240,20 @@ impl Histogram {
             below: 0,
             above: 0,
         };
-        for v in values {
-            let k = ((v - lower) / width).floor();
-            if k < 0.0 {
-                histogram.below += 1;
-            } else if k < bins as f64 {
-                histogram.counts[k as usize] += 1;
-            } else {
-                histogram.above += 1;
-            }
-        }
+        values.into_iter().for_each(|v| histogram.add(v));
         histogram
+    }
+
+    /// Counts `v` (as above if it is not finite).
+    pub fn add(&mut self, v: f64) {
+        let k = ((v - self.lower) / self.width).floor();
+        if k < 0.0 {
+            self.below += 1;
+        } else if k < self.counts.len() as f64 {
+            self.counts[k as usize] += 1;
+        } else {
+            self.above += 1;
+        }
     }
 
     /// Every value counted.

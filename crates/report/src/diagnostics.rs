@@ -23,8 +23,6 @@ use crate::sentences::location;
 pub const LISTED: usize = 20;
 /// How many weak directions are kept.
 const WEAK_DIRECTIONS: usize = 5;
-/// Bins of the normalised residuals' histogram: `[-6, 6)` by 0.25.
-const NORMALISED_BINS: (f64, f64, usize) = (-6.0, 0.25, 48);
 /// Bins of the redundancy numbers' histogram over `[0, u)`, `u` the
 /// largest redundancy rounded up to a tenth of the rows of an observation.
 const REDUNDANCY_BINS: usize = 40;
@@ -65,18 +63,18 @@ fn tested(
     dataset: &Dataset,
     original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> Tested {
-    let observation = original(check.observation);
+    let observation = original(check.observation());
     let observes = match observation {
         ObservationId::Contact(row) => Observes::Ball(dataset.measurements.ball[row] as usize),
         ObservationId::Distance(k) => Observes::Distance(k),
-        ObservationId::Pose(_) => Observes::Leg(check.row),
-        ObservationId::Point(_) => Observes::Coordinate(check.row),
+        ObservationId::Pose(_) => Observes::Leg(check.row()),
+        ObservationId::Point(_) => Observes::Coordinate(check.row()),
     };
     Tested {
         observation,
         observes,
-        redundancy: check.redundancy,
-        normalised: check.normalised.zip(check.gross_error),
+        redundancy: check.redundancy(),
+        normalised: check.normalised().zip(check.gross_error()),
     }
 }
 
@@ -223,7 +221,7 @@ fn tests(
     original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> ObservationTests {
     let checks = &reliability.observations;
-    let m: usize = checks.iter().map(|c| c.observation.tests()).sum();
+    let m = reliability.tests();
     let per_test_level = SNOOPING_LEVEL / m.max(1) as f64;
     let balls = &dataset.artefacts.balls;
     let check = |k: &usize| {
@@ -250,46 +248,40 @@ fn tests(
                 .map(|_| minimal_detectable_bias(t.redundancy, per_test_level)),
         }
     };
-    let (lower, width, bins) = NORMALISED_BINS;
-    let normalised_histogram = Histogram::of(
-        reliability.row_normalised.iter().copied(),
-        lower,
-        width,
-        bins,
-    );
+    let normalised_histogram = reliability.row_normalised.clone();
     // Over [0, the largest redundancy rounded up to a tenth of the rows
     // of an observation, as many as that redundancy rounded up).
-    let largest_redundancy = checks.iter().map(|c| c.redundancy).fold(0.0, f64::max);
+    let largest_redundancy = checks.iter().map(|c| c.redundancy()).fold(0.0, f64::max);
     let rows = largest_redundancy.ceil().max(1.0);
     let upper = rows * ((largest_redundancy / rows * 10.0).floor() + 1.0).min(10.0) / 10.0;
     let redundancy_histogram = Histogram::of(
-        checks.iter().map(|c| c.redundancy),
+        checks.iter().map(|c| c.redundancy()),
         0.0,
         upper / REDUNDANCY_BINS as f64,
         REDUNDANCY_BINS,
     );
-    let redundancy = checks.iter().map(|c| c.redundancy).sum();
+    let redundancy = checks.iter().map(|c| c.redundancy()).sum();
     let uncontrolled = checks
         .iter()
-        .filter(|c| c.redundancy < UNCONTROLLED)
+        .filter(|c| c.redundancy() < UNCONTROLLED)
         .count();
     // Ties broken by the place in the dataset given: the same lists for
     // any order of the observations with the same numbers.
-    let place = |k: &usize| order(original(checks[*k].observation));
-    let w = |k: &usize| checks[*k].normalised.map_or(-1.0, f64::abs);
+    let place = |k: &usize| order(original(checks[*k].observation()));
+    let w = |k: &usize| checks[*k].normalised().map_or(-1.0, f64::abs);
     let largest = first_listed(
-        (0..checks.len()).filter(|&k| checks[k].normalised.is_some()),
+        (0..checks.len()).filter(|&k| checks[k].normalised().is_some()),
         |a, b| w(b).total_cmp(&w(a)).then(place(a).cmp(&place(b))),
     )
     .iter()
     .map(check)
     .collect();
     let least_controlled = first_listed(
-        (0..checks.len()).filter(|&k| checks[k].redundancy < UNCONTROLLED),
+        (0..checks.len()).filter(|&k| checks[k].redundancy() < UNCONTROLLED),
         |a, b| {
             checks[*a]
-                .redundancy
-                .total_cmp(&checks[*b].redundancy)
+                .redundancy()
+                .total_cmp(&checks[*b].redundancy())
                 .then(place(a).cmp(&place(b)))
         },
     )

@@ -147,12 +147,12 @@ pub fn checks(
 ) {
     reasons.push(variance_components(&reliability.components));
     if let Some(worst) = reliability.worst() {
-        let w = worst.normalised.unwrap_or(0.0);
+        let w = worst.normalised().unwrap_or(0.0);
         let tests = reliability.tests();
         let critical = critical_value(SNOOPING_LEVEL, tests);
         let test = format!(
             "largest normalised residual {w:+.2} at {} (critical value {critical:.2} for {tests} tests at {}% family-wise)",
-            place_and_row(original(worst.observation), worst.row),
+            place_and_row(original(worst.observation()), worst.row()),
             SNOOPING_LEVEL * 100.0
         );
         if w.abs() > critical {
@@ -171,8 +171,8 @@ pub fn checks(
         .map(|c| {
             format!(
                 "{:.1} at {}",
-                c.bias_to_noise.unwrap_or(f64::NAN),
-                place(original(c.observation))
+                c.bias_to_noise().unwrap_or(f64::NAN),
+                place(original(c.observation()))
             )
         })
         .collect();
@@ -184,7 +184,7 @@ pub fn checks(
     }
     let uncontrolled: Vec<String> = reliability
         .uncontrolled()
-        .map(|c| place(original(c.observation)))
+        .map(|c| place(original(c.observation())))
         .collect();
     if !uncontrolled.is_empty() {
         warnings.push(format!(

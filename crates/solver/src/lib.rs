@@ -270,5 +270,5 @@ pub use options::{Method, SolverOptions};
 pub use problem::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
 };
-pub use redundancy::{PriorLeverage, Redundancy, normalised_residual, redundancy};
+pub use redundancy::{PointRows, PriorLeverage, Redundancy, normalised_residual, redundancy};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

@@ -96,7 +96,7 @@
 
 use nalgebra::{DMatrix, SMatrix, SVector};
 
-use crate::chunks::{run_chunks, split_by};
+use crate::chunks::run_chunks;
 use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
 use crate::iterate::status_of;
@@ -105,18 +105,23 @@ use crate::qr::PriorRows;
 use crate::reduced::ScaledCholesky;
 use crate::solution::Status;
 
-/// Redundancy numbers of the whitened rows at one state, from
-/// [`redundancy`].
+/// The numbers of one point's `R` data rows at a state, handed by
+/// [`redundancy`] to its caller point by point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointRows<const R: usize> {
+    /// `r_j` of each row.
+    pub redundancy: SVector<f64, R>,
+    /// The whitened residual `e_j` of each row (as [`normalised_residual`]
+    /// takes it).
+    pub residual: SVector<f64, R>,
+    /// The global leverage `|z_j|²` of each row (module doc).
+    pub global_leverage: SVector<f64, R>,
+}
+
+/// What [`redundancy`] returns besides the points' rows: the global
+/// observation rows and the priors.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Redundancy<const R: usize> {
-    /// `r_j` of each point's `R` data rows.
-    pub points: Vec<SVector<f64, R>>,
-    /// The global leverage `|z_j|²` of each point's `R` data rows (module
-    /// doc).
-    pub point_global_leverage: Vec<SVector<f64, R>>,
-    /// Each point's whitened residuals (the `e_j` of
-    /// [`normalised_residual`]) at the state.
-    pub point_residuals: Vec<SVector<f64, R>>,
+pub struct Redundancy {
     /// `r_o` of each global observation row.
     pub global_observations: Vec<f64>,
     /// The global observations' whitened residuals at the state.
@@ -126,15 +131,6 @@ pub struct Redundancy<const R: usize> {
     /// `n`, the number of unknowns: `G`, `C` per group that is not fixed,
     /// `P` per point.
     pub unknowns: usize,
-}
-
-impl<const R: usize> Redundancy<R> {
-    /// `Σ r_j` over the data and global observation rows, which equals
-    /// `m_data + m_obs − n + prior_leverage.total()` (up to rounding).
-    pub fn total(&self) -> f64 {
-        let data: f64 = self.points.iter().map(|r| r.sum()).sum();
-        data + self.global_observations.iter().sum::<f64>()
-    }
 }
 
 /// Leverage of the prior rows, `Σ_b tr(Λ_b Cov(x_b))` over the blocks of
@@ -185,17 +181,21 @@ pub fn normalised_residual(residual: f64, redundancy: f64) -> Option<f64> {
 /// [`Solution::covariance`](crate::Solution::covariance) with its state;
 /// its lower triangle is read): one pass over the points, in chunks of
 /// `groups_per_chunk` groups, bit-identical for any number of threads.
-/// `caches` as [`linear_step`](crate::linear_step) takes them. Fails with
-/// the [`Status`] a solve would end with at this state, or
-/// [`Status::InvalidProblem`] if the covariance is not `G × G` and
-/// numerically positive definite.
+/// Each point's rows go to `visit`, in the order of the points, as each
+/// wave of chunks ends (nothing per point is kept here: the caller keeps
+/// what it needs of them); the global observation rows and the priors'
+/// leverage are returned. `caches` as [`linear_step`](crate::linear_step)
+/// takes them. Fails with the [`Status`] a solve would end with at this
+/// state, or [`Status::InvalidProblem`] if the covariance is not `G × G`
+/// and numerically positive definite.
 pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
     state: &State<C, P>,
     covariance: &DMatrix<f64>,
     caches: &mut Vec<Pr::PointCache>,
     groups_per_chunk: usize,
-) -> Result<Redundancy<R>, Status> {
+    visit: impl FnMut(&PointRows<R>),
+) -> Result<Redundancy, Status> {
     let invalid = |message: String| Status::InvalidProblem { message };
     let mut ctx = Context::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
     let g = ctx.dims.g;
@@ -212,18 +212,17 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     let observations = ctx
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
-    let mut redundancy = ctx
-        .point_redundancy(state, &factor)
+    let mut prior_leverage = ctx
+        .point_redundancy(state, &factor, visit)
         .map_err(|f| status_of(f, 0))?;
     let mut z = vec![0.0; g];
-    redundancy.global_observations = (0..observations.residual.len())
+    let global_observations = (0..observations.residual.len())
         .map(|o| {
             let row: Vec<f64> = observations.jacobian.row(o).iter().copied().collect();
             times_factor(&factor, &row, &mut z);
             1.0 - norm2(&z)
         })
         .collect();
-    redundancy.global_observation_residuals = observations.residual.iter().copied().collect();
     if let Some(prior) = problem.global_prior() {
         // tr(Λ Cov), both symmetric, from their lower triangles.
         let mut trace = 0.0;
@@ -233,53 +232,43 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
                 trace += 2.0 * prior.information[(i, j)] * symmetric[(i, j)];
             }
         }
-        redundancy.prior_leverage.global = trace;
+        prior_leverage.global = trace;
     }
     let free_groups = (0..problem.n_groups())
         .filter(|&k| !problem.group_is_fixed(k))
         .count();
-    redundancy.unknowns = g + C * free_groups + P * state.points.len();
-    Ok(redundancy)
+    Ok(Redundancy {
+        global_observations,
+        global_observation_residuals: observations.residual.iter().copied().collect(),
+        prior_leverage,
+        unknowns: g + C * free_groups + P * state.points.len(),
+    })
 }
 
 impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
 {
-    /// The redundancy of every point's rows and the leverage of the point
-    /// and group priors at `state`, given `L` with `Cov(g) = LLᵀ`
-    /// (row-major, lower triangular); the global fields are left empty.
+    /// The redundancy of every point's rows, handed to `visit` in the
+    /// order of the points, and the leverage of the point and group priors
+    /// at `state`, given `L` with `Cov(g) = LLᵀ` (row-major, lower
+    /// triangular).
     fn point_redundancy(
         &mut self,
         state: &State<C, P>,
         factor: &[f64],
-    ) -> Result<Redundancy<R>, Failure> {
+        mut visit: impl FnMut(&PointRows<R>),
+    ) -> Result<PriorLeverage, Failure> {
         let problem = self.problem;
         let dims = self.dims;
-        let n_points = state.points.len();
-        let mut points = vec![SVector::<f64, R>::zeros(); n_points];
-        let mut residuals = vec![SVector::<f64, R>::zeros(); n_points];
-        let mut global_leverage = vec![SVector::<f64, R>::zeros(); n_points];
-        let lengths = || self.chunks.iter().map(|c| c.points.len());
-        let point_slices = split_by(&mut points, lengths());
-        let residual_slices = split_by(&mut residuals, lengths());
-        let leverage_slices = split_by(&mut global_leverage, lengths());
         let mut prior_leverage = PriorLeverage::default();
         let global = problem.prepare_global(&state.global);
         let global = &global;
         let (pool, jobs) = self.jobs();
-        let jobs: Vec<_> = jobs
-            .into_iter()
-            .zip(
-                point_slices
-                    .into_iter()
-                    .zip(residual_slices.into_iter().zip(leverage_slices)),
-            )
-            .collect();
         run_chunks(
             pool,
             jobs,
-            |ws, ((chunk, caches), (redundancy, (residuals, global_leverage)))| {
+            |ws, (chunk, caches)| {
                 let (bufs, _, rows) = ws.split();
                 // Room for the largest group: nothing grows per point.
                 let largest = chunk.groups.clone().map(|k| problem.group_points(k).len());
@@ -293,35 +282,27 @@ where
                     points: Vec::with_capacity(largest),
                     coordinates: vec![0.0; R * (C + dims.g)],
                     reduced: vec![0.0; dims.g],
-                    redundancy,
-                    residuals,
-                    global_leverage,
-                    done: 0,
+                    out: Vec::with_capacity(chunk.points.len()),
                     prior_leverage: PriorLeverage::default(),
                 };
                 eliminate_chunk::<C, P, R, _, _>(
                     problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
                 )?;
-                Ok(sink.prior_leverage)
+                Ok((sink.prior_leverage, sink.out))
             },
-            |part| prior_leverage.add(&part),
+            |(part, points)| {
+                prior_leverage.add(&part);
+                points.iter().for_each(&mut visit);
+            },
         )?;
-        Ok(Redundancy {
-            points,
-            point_global_leverage: global_leverage,
-            point_residuals: residuals,
-            global_observations: Vec::new(),
-            global_observation_residuals: Vec::new(),
-            prior_leverage,
-            unknowns: 0,
-        })
+        Ok(prior_leverage)
     }
 }
 
 /// What a point of the current group leaves until the group's triangle is
 /// known: the `Q₂` rows of its data and prior rows; its eliminated rows
 /// are in [`RedundancySink::rows`].
-struct PointRows<const P: usize, const R: usize> {
+struct PendingPoint<const P: usize, const R: usize> {
     /// `m − P`, the number of eliminated rows (at most `R`, undamped).
     eliminated: usize,
     /// `q_j` of the data rows (columns `0..eliminated`).
@@ -340,18 +321,16 @@ struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
     /// row-major, width `C + G + 1`.
     rows: &'a mut Vec<f64>,
     /// The current group's points, in order.
-    points: Vec<PointRows<P, R>>,
+    points: Vec<PendingPoint<P, R>>,
     /// `V` of one point: a row `[y | Lᵀu]` (`C + G` values) per eliminated
     /// row.
     coordinates: Vec<f64>,
     /// Scratch for a reduced row `u` (`G` values).
     reduced: Vec<f64>,
-    /// The chunk's points' redundancy numbers and residuals.
-    redundancy: &'a mut [SVector<f64, R>],
-    residuals: &'a mut [SVector<f64, R>],
-    global_leverage: &'a mut [SVector<f64, R>],
-    /// Points of the chunk written so far.
-    done: usize,
+    /// The rows of the chunk's points so far: a point's residuals from its
+    /// factorisation, its redundancy and global leverage once its group is
+    /// done.
+    out: Vec<PointRows<R>>,
     prior_leverage: PriorLeverage,
 }
 
@@ -379,8 +358,12 @@ where
                 0.0
             }
         };
-        self.residuals[self.done + self.points.len()] = lin.residual;
-        self.points.push(PointRows {
+        self.out.push(PointRows {
+            redundancy: SVector::zeros(),
+            residual: lin.residual,
+            global_leverage: SVector::zeros(),
+        });
+        self.points.push(PendingPoint {
             eliminated,
             data: SMatrix::from_fn(column),
             prior: prior.map(|_| SMatrix::from_fn(|a, e| column(R + a, e))),
@@ -402,7 +385,8 @@ where
     ) {
         let (g, w, cw) = (self.g, C + self.g + 1, C + self.g);
         let mut first_row = 0;
-        for (j, point) in self.points.iter().enumerate() {
+        let done = self.out.len() - self.points.len();
+        for (point, out) in self.points.iter().zip(&mut self.out[done..]) {
             let n = point.eliminated;
             for e in 0..n {
                 let row = &self.rows[(first_row + e) * w..(first_row + e + 1) * w];
@@ -427,10 +411,9 @@ where
                     m[(f, e)] = d;
                 }
             }
-            self.redundancy[self.done + j] =
-                SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
+            out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
             // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
-            self.global_leverage[self.done + j] = SVector::from_fn(|r, _| {
+            out.global_leverage = SVector::from_fn(|r, _| {
                 let mut z2 = 0.0;
                 for a in 0..g {
                     let z: f64 = (0..n)
@@ -457,7 +440,6 @@ where
                 self.prior_leverage.groups += norm2(y) + norm2(z);
             }
         }
-        self.done += self.points.len();
         self.points.clear();
         self.rows.clear();
     }

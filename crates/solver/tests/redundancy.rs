@@ -9,7 +9,7 @@ use std::time::Instant;
 use common::{Spec, couple, distances, perturb, touches};
 use nalgebra::DMatrix;
 use parcal_solver::{
-    Problem, Redundancy, SolverOptions, State, Status, dense_reference, linear_step,
+    PointRows, Problem, Redundancy, SolverOptions, State, Status, dense_reference, linear_step,
     normalised_residual, redundancy, solve,
 };
 
@@ -30,6 +30,37 @@ fn covariance<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, 
     let solution = solve(problem, state.clone(), &options, &mut |_| {});
     assert_eq!(solution.status, Status::IterationLimit);
     solution.covariance.expect("covariance")
+}
+
+/// What the redundancy pass gives: every point's rows, in order, and the
+/// rest.
+struct Numbers<const R: usize> {
+    points: Vec<PointRows<R>>,
+    rest: Redundancy,
+}
+
+impl<const R: usize> Numbers<R> {
+    /// `Σ r_j` over the data and global observation rows, which equals
+    /// `m_data + m_obs − n + prior_leverage.total()` (up to rounding).
+    fn total(&self) -> f64 {
+        let data: f64 = self.points.iter().map(|p| p.redundancy.sum()).sum();
+        data + self.rest.global_observations.iter().sum::<f64>()
+    }
+}
+
+/// [`redundancy`] with every point's rows kept.
+fn numbers<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
+    problem: &Pr,
+    state: &State<C, P>,
+    covariance: &DMatrix<f64>,
+    caches: &mut Vec<Pr::PointCache>,
+    groups_per_chunk: usize,
+) -> Result<Numbers<R>, Status> {
+    let mut points = Vec::new();
+    let rest = redundancy(problem, state, covariance, caches, groups_per_chunk, |p| {
+        points.push(*p)
+    })?;
+    Ok(Numbers { points, rest })
 }
 
 /// The leverage `h_j = a_j N⁻¹ a_jᵀ` of every row of the dense Jacobian.
@@ -55,14 +86,14 @@ fn dense_leverage<const C: usize, const P: usize>(
 fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
     state: &State<C, P>,
-) -> Redundancy<R> {
+) -> Numbers<R> {
     let cov = covariance(problem, state, 2);
-    let ours = redundancy(problem, state, &cov, &mut Vec::new(), 2).expect("redundancy");
+    let ours = numbers(problem, state, &cov, &mut Vec::new(), 2).expect("redundancy");
     let dense = dense_reference::solve(problem, state, 0.0).expect("dense reference");
     let h = dense_leverage(&dense);
     let n_points = state.points.len();
     let m_data = R * n_points;
-    let m_obs = ours.global_observations.len();
+    let m_obs = ours.rest.global_observations.len();
     let mut worst: f64 = 0.0;
     let mut residual_worst: f64 = 0.0;
     // The global leverage: the global part `w_g` of `N⁻¹ a_jᵀ` measured in
@@ -87,21 +118,22 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
             let j = i * R + r;
             let dense_global = global_leverage(j);
             leverage_worst =
-                leverage_worst.max((ours.point_global_leverage[i][r] - dense_global).abs());
+                leverage_worst.max((ours.points[i].global_leverage[r] - dense_global).abs());
             assert!(
                 dense_global <= h[j] + 1e-12,
                 "global leverage within the row's"
             );
-            worst = worst.max((ours.points[i][r] - (1.0 - h[j])).abs());
+            worst = worst.max((ours.points[i].redundancy[r] - (1.0 - h[j])).abs());
             let e = dense.residual[(j, 0)];
-            residual_worst = residual_worst.max((ours.point_residuals[i][r] - e).abs());
+            residual_worst = residual_worst.max((ours.points[i].residual[r] - e).abs());
         }
     }
     for o in 0..m_obs {
         let j = m_data + o;
-        worst = worst.max((ours.global_observations[o] - (1.0 - h[j])).abs());
+        worst = worst.max((ours.rest.global_observations[o] - (1.0 - h[j])).abs());
         let e = dense.residual[(j, 0)];
-        residual_worst = residual_worst.max((ours.global_observation_residuals[o] - e).abs());
+        residual_worst =
+            residual_worst.max((ours.rest.global_observation_residuals[o] - e).abs());
     }
     // Prior rows: P per point prior, C per group prior, G for the global.
     let mut next = m_data + m_obs;
@@ -121,7 +153,7 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
         0.0
     };
     assert_eq!(next, h.len(), "every dense row accounted for");
-    let prior = ours.prior_leverage;
+    let prior = ours.rest.prior_leverage;
     let prior_diff = [
         (prior.points, dense_points),
         (prior.groups, dense_groups),
@@ -135,8 +167,8 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
     let range = ours
         .points
         .iter()
-        .flat_map(|r| r.iter().copied())
-        .chain(ours.global_observations.iter().copied())
+        .flat_map(|p| p.redundancy.iter().copied())
+        .chain(ours.rest.global_observations.iter().copied())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
             (lo.min(r), hi.max(r))
         });
@@ -150,7 +182,7 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
         prior.global,
         ours.total()
     );
-    assert_eq!(ours.unknowns, n);
+    assert_eq!(ours.rest.unknowns, n);
     assert!(worst < TOL, "redundancy differs by {worst:e}");
     println!("global leverage: max |Δ| {leverage_worst:.1e}");
     assert!(
@@ -199,7 +231,7 @@ fn redundancy_with_fixed_groups_and_global_observations_matches_dense() {
         let (mut problem, truth) = touches(spec);
         let truth = couple(&mut problem.0, &truth, &[1, 3, 4], &[5], 1e-3, 3);
         let ours = compare(&problem, &perturb(&truth, 6, 0.005, 0.01, 0.05));
-        assert_eq!(ours.global_observations.len(), 3);
+        assert_eq!(ours.rest.global_observations.len(), 3);
         let (mut problem, truth) = distances(spec);
         let truth = couple(&mut problem.0, &truth, &[1, 3, 4], &[5], 1e-3, 4);
         compare(&problem, &perturb(&truth, 6, 0.005, 0.01, 0.0));
@@ -234,13 +266,17 @@ fn normalised_residuals_have_unit_variance_at_the_solution() {
     );
     assert_eq!(solution.status, Status::Converged);
     let cov = solution.covariance.as_ref().unwrap();
-    let ours = redundancy(&problem, &solution.state, cov, &mut Vec::new(), 4).unwrap();
+    let ours = numbers(&problem, &solution.state, cov, &mut Vec::new(), 4).unwrap();
     // A touch has one eliminated row: at the solution its three residuals
     // lie along the panel's normal, and its three |w| are one.
     let mut spread: f64 = 0.0;
     let mut w2 = Vec::new();
-    for (e, r) in ours.point_residuals.iter().zip(&ours.points) {
-        let w = [0, 1, 2].map(|j| normalised_residual(e[j], r[j]).expect("redundant").abs());
+    for p in &ours.points {
+        let w = [0, 1, 2].map(|j| {
+            normalised_residual(p.residual[j], p.redundancy[j])
+                .expect("redundant")
+                .abs()
+        });
         let (min, max) = (
             w.iter().copied().fold(f64::INFINITY, f64::min),
             w[0].max(w[1]).max(w[2]),
@@ -261,12 +297,11 @@ fn normalised_residuals_have_unit_variance_at_the_solution() {
     );
     assert_eq!(solution.status, Status::Converged);
     let cov = solution.covariance.as_ref().unwrap();
-    let ours = redundancy(&problem, &solution.state, cov, &mut Vec::new(), 4).unwrap();
+    let ours = numbers(&problem, &solution.state, cov, &mut Vec::new(), 4).unwrap();
     let w2: Vec<f64> = ours
-        .point_residuals
+        .points
         .iter()
-        .zip(&ours.points)
-        .map(|(e, r)| normalised_residual(e[0], r[0]).unwrap().powi(2))
+        .map(|p| normalised_residual(p.residual[0], p.redundancy[0]).unwrap().powi(2))
         .collect();
     check_unit_variance(
         "distances",
@@ -279,7 +314,7 @@ fn normalised_residuals_have_unit_variance_at_the_solution() {
 /// `w²` of independent standard normals has mean 1 and variance 2; the
 /// cost is a χ² with mean `dof` and variance `2 dof`. Five standard
 /// deviations either way.
-fn check_unit_variance<const R: usize>(name: &str, w2: &[f64], cost: f64, ours: &Redundancy<R>) {
+fn check_unit_variance<const R: usize>(name: &str, w2: &[f64], cost: f64, ours: &Numbers<R>) {
     let n = w2.len() as f64;
     let mean = w2.iter().sum::<f64>() / n;
     let dof = ours.total();
@@ -306,15 +341,15 @@ fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .install(f)
 }
 
-fn bits<const R: usize>(r: &Redundancy<R>) -> Vec<u64> {
+fn bits<const R: usize>(r: &Numbers<R>) -> Vec<u64> {
     let mut v: Vec<u64> = r
         .points
         .iter()
-        .chain(&r.point_residuals)
-        .flat_map(|x| x.iter().map(|x| x.to_bits()))
+        .flat_map(|p| [p.redundancy, p.residual, p.global_leverage])
+        .flat_map(|x| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
         .collect();
-    v.extend(r.global_observations.iter().map(|x| x.to_bits()));
-    let p = r.prior_leverage;
+    v.extend(r.rest.global_observations.iter().map(|x| x.to_bits()));
+    let p = r.rest.prior_leverage;
     v.extend([p.points, p.groups, p.global].map(f64::to_bits));
     v
 }
@@ -336,7 +371,7 @@ fn bit_identical_for_one_and_two_threads() {
     let cov = covariance(&problem, &state, 1);
     let run = |threads| {
         in_pool(threads, || {
-            redundancy(&problem, &state, &cov, &mut Vec::new(), 1).unwrap()
+            numbers(&problem, &state, &cov, &mut Vec::new(), 1).unwrap()
         })
     };
     let (one, two) = (run(1), run(2));
@@ -349,7 +384,7 @@ fn a_covariance_of_the_wrong_shape_or_not_definite_is_refused() {
     let (problem, truth) = distances(Spec::default());
     let g = truth.global.len();
     for cov in [DMatrix::identity(g + 1, g + 1), DMatrix::zeros(g, g)] {
-        let result = redundancy(&problem, &truth, &cov, &mut Vec::new(), 2);
+        let result = redundancy(&problem, &truth, &cov, &mut Vec::new(), 2, |_| {});
         assert!(
             matches!(result, Err(Status::InvalidProblem { .. })),
             "{result:?}"
@@ -400,7 +435,7 @@ fn timing_at_1e5_points() {
         covariance(&problem, &state, 64);
     });
     let pass = best(&mut || {
-        redundancy(&problem, &state, &cov, &mut caches, 64).unwrap();
+        redundancy(&problem, &state, &cov, &mut caches, 64, |_| {}).unwrap();
     });
     println!(
         "G = {}, {} points, {} threads: one step {step:.3} s, covariance and group sigmas {final_evaluation:.3} s, \
