@@ -132,135 +132,97 @@ impl std::fmt::Display for ObservationId {
     }
 }
 
-/// An [`ObservationId`] packed into 5 bytes: its kind and its place.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Packed {
-    kind: Kind,
-    index: u32,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Kind {
-    Contact,
-    Distance,
-    Pose,
-    Point,
-}
-
-impl Packed {
-    /// `observation` packed, or `None` if its place is past `u32::MAX`.
-    fn new(observation: ObservationId) -> Option<Self> {
-        let (kind, index) = match observation {
-            ObservationId::Contact(k) => (Kind::Contact, k),
-            ObservationId::Distance(k) => (Kind::Distance, k),
-            ObservationId::Pose(k) => (Kind::Pose, k),
-            ObservationId::Point(k) => (Kind::Point, k),
-        };
-        Some(Self {
-            kind,
-            index: u32::try_from(index).ok()?,
-        })
-    }
-
-    fn unpack(self) -> ObservationId {
-        let k = self.index as usize;
-        match self.kind {
-            Kind::Contact => ObservationId::Contact(k),
-            Kind::Distance => ObservationId::Distance(k),
-            Kind::Pose => ObservationId::Pose(k),
-            Kind::Point => ObservationId::Point(k),
-        }
-    }
-}
-
-/// One observation's check, kept for every observation (one per contact):
-/// what its numbers are derived from, in 40 bytes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ObservationCheck {
+/// What an observation's check is derived from: its redundancy and its
+/// worst row's residual and redundancy number (24 bytes, kept for every
+/// contact).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Numbers {
     /// Its redundancy (sum over its rows).
     redundancy: f64,
     /// The whitened residual `e` and redundancy number `r` of its row of
     /// largest normalised residual; both 0 when no row is checked.
     worst_residual: f64,
     worst_redundancy: f64,
-    /// The largest bias-to-noise ratio of its checked rows (0 when none is).
-    bias_to_noise: f64,
-    observation: Packed,
-    /// That row, among the observation's (at most six).
+}
+
+/// One observation's check, from its rows' redundancy numbers `r`,
+/// whitened residuals `e` and global leverages `global`: its [`Numbers`],
+/// its worst row, and its bias-to-noise ratio for a minimal detectable
+/// bias of `delta0 / √r` row sigmas (`None` when no row is checked).
+fn check_rows(r: &[f64], e: &[f64], global: &[f64], delta0: f64) -> (Numbers, u8, Option<f64>) {
+    let bias_to_noise = r
+        .iter()
+        .zip(global)
+        .filter(|(r, _)| normalised_residual(0.0, **r).is_some())
+        .map(|(r, h)| delta0 * (h.max(0.0) / r).sqrt())
+        .max_by(f64::total_cmp);
+    let worst = r
+        .iter()
+        .zip(e)
+        .enumerate()
+        .filter_map(|(j, (&r, &e))| normalised_residual(e, r).map(|w| (j, w, e, r)))
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+    // `j` indexes an observation's rows: at most six.
+    let (row, worst_residual, worst_redundancy) =
+        worst.map_or((0, 0.0, 0.0), |(j, _, e, r)| (j as u8, e, r));
+    let numbers = Numbers {
+        redundancy: r.iter().sum(),
+        worst_residual,
+        worst_redundancy,
+    };
+    (numbers, row, bias_to_noise)
+}
+
+/// One observation's check (a view of [`Reliability`]'s storage).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObservationCheck {
+    observation: ObservationId,
+    numbers: Numbers,
     row: u8,
 }
 
 impl ObservationCheck {
-    /// The check of `observation` from its rows' redundancy numbers `r`,
-    /// whitened residuals `e` and global leverages `global`: the row of
-    /// largest normalised residual, and the largest bias-to-noise ratio for
-    /// a minimal detectable bias of `delta0 / √r` row sigmas.
-    fn new(observation: Packed, r: &[f64], e: &[f64], global: &[f64], delta0: f64) -> Self {
-        let bias_to_noise = r
-            .iter()
-            .zip(global)
-            .filter(|(r, _)| normalised_residual(0.0, **r).is_some())
-            .map(|(r, h)| delta0 * (h.max(0.0) / r).sqrt())
-            .max_by(f64::total_cmp);
-        let worst = r
-            .iter()
-            .zip(e)
-            .enumerate()
-            .filter_map(|(j, (&r, &e))| normalised_residual(e, r).map(|w| (j, w, e, r)))
-            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
-        let (row, worst_residual, worst_redundancy) = worst.map_or((0, 0.0, 0.0), |(j, _, e, r)| {
-            // `j` indexes an observation's rows: at most six.
-            (j as u8, e, r)
-        });
-        Self {
-            redundancy: r.iter().sum(),
-            worst_residual,
-            worst_redundancy,
-            bias_to_noise: bias_to_noise.unwrap_or(0.0),
-            observation,
-            row,
-        }
-    }
-
     /// The observation.
     pub fn observation(&self) -> ObservationId {
-        self.observation.unpack()
+        self.observation
     }
 
     /// Its redundancy (sum over its rows).
     pub fn redundancy(&self) -> f64 {
-        self.redundancy
+        self.numbers.redundancy
     }
 
     /// Its normalised residual: that of its row of largest magnitude;
     /// `None` when no other observation checks it.
     pub fn normalised(&self) -> Option<f64> {
-        normalised_residual(self.worst_residual, self.worst_redundancy)
+        normalised_residual(self.numbers.worst_residual, self.numbers.worst_redundancy)
     }
 
     /// That row's estimated gross error `e / r`, in units of the row's
     /// standard deviation.
     pub fn gross_error(&self) -> Option<f64> {
-        self.normalised()
-            .map(|_| self.worst_residual / self.worst_redundancy)
+        let Numbers {
+            worst_residual: e,
+            worst_redundancy: r,
+            ..
+        } = self.numbers;
+        self.normalised().map(|_| e / r)
     }
 
-    /// That row, among the observation's (a pose's leg, a point's
-    /// coordinate).
+    /// That row, among a pose's or a point's (its leg, its coordinate); 0
+    /// for a contact, whose rows are tested as one ([`ObservationId::tests`]).
     pub fn row(&self) -> usize {
         self.row.into()
     }
-
-    /// External reliability: the largest over its rows of the bias-to-noise
-    /// ratio `λ = δ₀ √(|z_j|² / r_j)` of the global block (kinematic
-    /// parameters and tied centres), the shift an undetected error of the
-    /// row's minimal detectable bias makes in them, in units of their own
-    /// noise (`√(∇gᵀ Cov(g)⁻¹ ∇g)`; `|z_j|²` the row's global leverage,
-    /// `parcal_solver::redundancy`); `None` when no row is checked.
-    pub fn bias_to_noise(&self) -> Option<f64> {
-        self.normalised().map(|_| self.bias_to_noise)
-    }
 }
+
+/// How many observations of largest bias-to-noise ratio a run keeps
+/// ([`Reliability::least_reliable`]).
+pub const LEAST_RELIABLE: usize = 10;
+
+/// Bins of the histogram of the rows' normalised residuals: `[-6, 6)` by
+/// 0.25.
+pub const NORMALISED_BINS: (f64, f64, usize) = (-6.0, 0.25, 48);
 
 /// The checks of a converged calibration.
 #[derive(Debug, Clone, PartialEq)]
@@ -268,25 +230,47 @@ pub struct Reliability {
     /// The variance components of each kind of observation present (ball
     /// touches, distances, poses, points) and the priors (if any).
     pub components: Vec<VarianceComponent>,
-    /// Every observation's check: the contacts in the solver's (by-ball)
-    /// order, then the global observations in their order.
-    pub observations: Vec<ObservationCheck>,
     /// The histogram ([`NORMALISED_BINS`]) of the normalised residual of
     /// every checked row (standard normal under the model, unlike an
     /// observation's largest).
     pub row_normalised: Histogram,
+    /// Each contact's numbers, by measurements.csv row.
+    contacts: Vec<Numbers>,
+    /// The global observations' checks, in order.
+    global: Vec<ObservationCheck>,
+    /// The [`LEAST_RELIABLE`] observations of largest bias-to-noise ratio,
+    /// largest first.
+    least_reliable: Vec<(ObservationId, f64)>,
+    /// The sum of the observations' redundancy, added up in the solver's
+    /// order of the contacts, then the global observations'.
+    redundancy: f64,
 }
 
-/// Bins of the histogram of the rows' normalised residuals: `[-6, 6)` by
-/// 0.25.
-pub const NORMALISED_BINS: (f64, f64, usize) = (-6.0, 0.25, 48);
+/// The observations of largest bias-to-noise ratio seen so far, largest
+/// first, the earlier seen first among equals.
+#[derive(Default)]
+struct LeastReliable(Vec<(ObservationId, f64)>);
+
+impl LeastReliable {
+    fn see(&mut self, observation: ObservationId, lambda: Option<f64>) {
+        let Some(lambda) = lambda else { return };
+        let at = self
+            .0
+            .partition_point(|(_, l)| l.total_cmp(&lambda) != std::cmp::Ordering::Less);
+        if at < LEAST_RELIABLE {
+            self.0.insert(at, (observation, lambda));
+            self.0.truncate(LEAST_RELIABLE);
+        }
+    }
+}
 
 impl Reliability {
     /// The redundancy numbers of `problem` at `state`: its points are the
-    /// contacts of measurements.csv rows `rows`, its global observation
-    /// rows those of `global` in order; `prior_cost` is the final prior
-    /// term and `prior_rows` its number of rows. Each contact's rows are
-    /// reduced to its check as the solver's pass hands them over.
+    /// contacts of measurements.csv rows `rows` (each row once), its
+    /// global observation rows those of `global` in order; `prior_cost` is
+    /// the final prior term and `prior_rows` its number of rows. Each
+    /// contact's rows are reduced to its numbers as the solver's pass
+    /// hands them over.
     #[allow(clippy::too_many_arguments)]
     pub fn new<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
         problem: &Pr,
@@ -300,47 +284,58 @@ impl Reliability {
         prior_rows: usize,
     ) -> Result<Self, CalibrateError> {
         let failed = |reason: String| CalibrateError::Calibration { reason };
-        let global_ids = global
-            .iter()
-            .map(|&o| Packed::new(o).ok_or_else(|| failed(format!("{o}: too many observations"))))
-            .collect::<Result<Vec<_>, _>>()?;
         let tests = rows.len() + global.iter().map(|o| o.tests()).sum::<usize>();
         let delta0 = minimal_detectable_bias(1.0, SNOOPING_LEVEL / tests.max(1) as f64);
         let (lower, width, bins) = NORMALISED_BINS;
         let mut row_normalised = Histogram::of(std::iter::empty(), lower, width, bins);
         let mut components: Vec<VarianceComponent> = Vec::new();
-        let mut observations = Vec::with_capacity(rows.len() + global.len());
+        let mut least_reliable = LeastReliable::default();
+        // As `Iterator::sum` adds up.
+        let mut redundancy_sum = -0.0;
+        let mut contacts = vec![Numbers::default(); rows.len()];
+        // Which rows have been seen, a bit each.
+        let mut seen = vec![0u64; rows.len().div_ceil(64)];
         let mut points = 0;
+        let mut bad_row = None;
         let numbers = redundancy(problem, state, covariance, caches, groups_per_chunk, |p| {
+            let i = points;
             points += 1;
-            let Some(&row) = rows.get(points - 1) else {
+            let row = rows.get(i).map_or(usize::MAX, |&row| row as usize);
+            let (word, bit) = (row / 64, 1 << (row % 64));
+            if row >= contacts.len() || seen[word] & bit != 0 {
+                bad_row.get_or_insert(i);
                 return;
-            };
+            }
+            seen[word] |= bit;
             let (r, e) = (&p.redundancy, &p.residual);
-            let observation = Packed {
-                kind: Kind::Contact,
-                index: row,
-            };
-            let check = ObservationCheck::new(
-                observation,
+            let observation = ObservationId::Contact(row);
+            let (numbers, _, lambda) = check_rows(
                 r.as_slice(),
                 e.as_slice(),
                 p.global_leverage.as_slice(),
                 delta0,
             );
-            add_to_component(&mut components, &check, e.norm_squared());
+            add_to_component(&mut components, observation, e.norm_squared(), &numbers);
             for (&e, &r) in e.iter().zip(r) {
                 if let Some(w) = normalised_residual(e, r) {
                     row_normalised.add(w);
                 }
             }
-            observations.push(check);
+            least_reliable.see(observation, lambda);
+            redundancy_sum += numbers.redundancy;
+            contacts[row] = numbers;
         })
         .map_err(|status| {
             failed(format!(
                 "the redundancy numbers could not be computed: {status:?}"
             ))
         })?;
+        if let Some(i) = bad_row {
+            return Err(failed(format!(
+                "contact {i} of the solver has no measurements.csv row of its own among {}",
+                rows.len()
+            )));
+        }
         if points != rows.len() {
             return Err(failed(format!(
                 "{points} contacts checked for {} measurements.csv rows",
@@ -361,20 +356,31 @@ impl Reliability {
         // A global observation row's leverage is all global: 1 − r_o.
         let global_leverage: Vec<f64> = r.iter().map(|r| 1.0 - r).collect();
         let mut first = 0;
-        for (observation, packed) in global.iter().zip(global_ids) {
+        let mut global_checks = Vec::with_capacity(global.len());
+        for &observation in global {
             let range = first..first + observation.rows();
-            let check = ObservationCheck::new(
-                packed,
+            let (numbers, row, lambda) = check_rows(
                 &r[range.clone()],
                 &e[range.clone()],
                 &global_leverage[range.clone()],
                 delta0,
             );
-            add_to_component(&mut components, &check, e[range.clone()].iter().map(|v| v * v).sum());
-            observations.push(check);
+            let cost = e[range.clone()].iter().map(|v| v * v).sum();
+            add_to_component(&mut components, observation, cost, &numbers);
+            least_reliable.see(observation, lambda);
+            redundancy_sum += numbers.redundancy;
+            global_checks.push(ObservationCheck {
+                observation,
+                numbers,
+                row,
+            });
             first = range.end;
         }
-        for w in e.iter().zip(r).filter_map(|(&e, &r)| normalised_residual(e, r)) {
+        for w in e
+            .iter()
+            .zip(r)
+            .filter_map(|(&e, &r)| normalised_residual(e, r))
+        {
             row_normalised.add(w);
         }
         if prior_rows > 0 {
@@ -386,43 +392,83 @@ impl Reliability {
         }
         Ok(Self {
             components,
-            observations,
             row_normalised,
+            contacts,
+            global: global_checks,
+            least_reliable: least_reliable.0,
+            redundancy: redundancy_sum,
         })
+    }
+
+    /// The sum of the observations' redundancy.
+    pub fn redundancy(&self) -> f64 {
+        self.redundancy
+    }
+
+    /// The number of observations checked.
+    pub fn len(&self) -> usize {
+        self.contacts.len() + self.global.len()
+    }
+
+    /// Whether no observation is checked.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The check of observation `k` of [`Reliability::observations`].
+    ///
+    /// # Panics
+    ///
+    /// If `k` is not below [`Reliability::len`].
+    pub fn observation(&self, k: usize) -> ObservationCheck {
+        match self.contacts.get(k) {
+            Some(&numbers) => ObservationCheck {
+                observation: ObservationId::Contact(k),
+                numbers,
+                row: 0,
+            },
+            None => self.global[k - self.contacts.len()],
+        }
+    }
+
+    /// Every observation's check: the contacts by measurements.csv row,
+    /// then the global observations in their order.
+    pub fn observations(&self) -> impl Iterator<Item = ObservationCheck> + '_ {
+        (0..self.len()).map(|k| self.observation(k))
     }
 
     /// The observations no other observation checks enough (redundancy
     /// under [`UNCONTROLLED`] per test they add, [`ObservationId::tests`]).
-    pub fn uncontrolled(&self) -> impl Iterator<Item = &ObservationCheck> {
-        self.observations
-            .iter()
-            .filter(|c| c.redundancy < UNCONTROLLED * c.observation().tests() as f64)
+    pub fn uncontrolled(&self) -> impl Iterator<Item = ObservationCheck> + '_ {
+        self.observations()
+            .filter(|c| c.redundancy() < UNCONTROLLED * c.observation().tests() as f64)
     }
 
-    /// The observation of largest normalised residual.
-    pub fn worst(&self) -> Option<&ObservationCheck> {
-        self.observations
-            .iter()
+    /// The observation of largest normalised residual (the first of
+    /// [`Reliability::observations`] among equals).
+    pub fn worst(&self) -> Option<ObservationCheck> {
+        let w = |c: &ObservationCheck| c.normalised().map_or(0.0, f64::abs);
+        self.observations()
             .filter(|c| c.normalised().is_some())
-            .max_by(|a, b| {
-                let w = |c: &ObservationCheck| c.normalised().map_or(0.0, f64::abs);
-                w(a).total_cmp(&w(b))
+            .reduce(|a, b| {
+                if w(&b).total_cmp(&w(&a)).is_gt() {
+                    b
+                } else {
+                    a
+                }
             })
     }
 
-    /// The `n` observations of largest bias-to-noise ratio, largest first
-    /// (external reliability: those whose undetected blunders would move
-    /// the parameters most).
-    pub fn least_reliable(&self, n: usize) -> Vec<&ObservationCheck> {
-        let mut checked: Vec<&ObservationCheck> = self
-            .observations
-            .iter()
-            .filter(|c| c.bias_to_noise().is_some())
-            .collect();
-        let lambda = |c: &ObservationCheck| c.bias_to_noise().unwrap_or(0.0);
-        checked.sort_by(|a, b| lambda(b).total_cmp(&lambda(a)));
-        checked.truncate(n);
-        checked
+    /// At most `n` (and [`LEAST_RELIABLE`]) observations of largest
+    /// bias-to-noise ratio, largest first (external reliability: those
+    /// whose undetected blunders would move the parameters most), each
+    /// with that ratio: the largest over its rows of `λ = δ₀ √(|z_j|² /
+    /// r_j)` for the global block (kinematic parameters and tied centres),
+    /// the shift an undetected error of the row's minimal detectable bias
+    /// makes in them, in units of their own noise (`√(∇gᵀ Cov(g)⁻¹ ∇g)`;
+    /// `|z_j|²` the row's global leverage, `parcal_solver::redundancy`).
+    pub fn least_reliable(&self, n: usize) -> &[(ObservationId, f64)] {
+        &self.least_reliable[..n.min(self.least_reliable.len())]
     }
 
     /// Whether the observation of largest normalised residual fails the
@@ -437,26 +483,34 @@ impl Reliability {
     /// The size of the family of tests of data snooping
     /// ([`ObservationId::tests`]).
     pub fn tests(&self) -> usize {
-        self.observations
-            .iter()
-            .map(|c| c.observation().tests())
-            .sum()
+        self.contacts.len()
+            + self
+                .global
+                .iter()
+                .map(|c| c.observation.tests())
+                .sum::<usize>()
     }
 }
 
-/// Adds `check`, of weighted sum of squares `cost`, to the variance
-/// component of its group (appended on its group's first appearance).
-fn add_to_component(components: &mut Vec<VarianceComponent>, check: &ObservationCheck, cost: f64) {
-    let group = check.observation().group();
+/// Adds an observation of `numbers` and weighted sum of squares `cost` to
+/// the variance component of its group (appended on its group's first
+/// appearance).
+fn add_to_component(
+    components: &mut Vec<VarianceComponent>,
+    observation: ObservationId,
+    cost: f64,
+    numbers: &Numbers,
+) {
+    let group = observation.group();
     match components.iter_mut().find(|c| c.group == group) {
         Some(component) => {
             component.cost += cost;
-            component.redundancy += check.redundancy;
+            component.redundancy += numbers.redundancy;
         }
         None => components.push(VarianceComponent {
             group,
             cost,
-            redundancy: check.redundancy,
+            redundancy: numbers.redundancy,
         }),
     }
 }
@@ -494,27 +548,48 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_check_keeps_its_worst_row_and_takes_40_bytes() {
-        let contact = Packed::new(ObservationId::Contact(7)).unwrap();
+    fn a_check_keeps_its_worst_row_in_24_bytes() {
         // Rows: w = 0.5 / √0.25 = 1, -0.9 / √0.36 = -1.5, unchecked.
         let r = [0.25, 0.36, 1e-12];
-        let check = ObservationCheck::new(contact, &r, &[0.5, -0.9, 3.0], &[0.04, 0.09, 0.5], 2.0);
-        assert_eq!(check.observation(), ObservationId::Contact(7));
+        let (numbers, row, lambda) = check_rows(&r, &[0.5, -0.9, 3.0], &[0.04, 0.09, 0.5], 2.0);
+        let check = ObservationCheck {
+            observation: ObservationId::Pose(7),
+            numbers,
+            row,
+        };
         assert_eq!(check.redundancy(), r.iter().sum::<f64>());
         assert_eq!(check.normalised(), Some(-0.9 / 0.6));
         assert_eq!(check.gross_error(), Some(-0.9 / 0.36));
         assert_eq!(check.row(), 1);
         // λ = 2 √(h / r): 2 √0.16 = 0.8 and 2 √0.25 = 1.
-        assert_eq!(check.bias_to_noise(), Some(2.0 * (0.09f64 / 0.36).sqrt()));
-        let unchecked = ObservationCheck::new(contact, &[1e-11], &[1.0], &[1.0], 2.0);
+        assert_eq!(lambda, Some(2.0 * (0.09f64 / 0.36).sqrt()));
+        let (numbers, _, lambda) = check_rows(&[1e-11], &[1.0], &[1.0], 2.0);
+        let unchecked = ObservationCheck { numbers, ..check };
         assert_eq!(unchecked.normalised(), None);
         assert_eq!(unchecked.gross_error(), None);
-        assert_eq!(unchecked.bias_to_noise(), None);
-        assert_eq!(std::mem::size_of::<ObservationCheck>(), 40);
-        let far = ObservationId::Pose(u32::MAX as usize + 1);
-        assert_eq!(Packed::new(far), None);
-        let last = ObservationId::Point(u32::MAX as usize);
-        assert_eq!(Packed::new(last).unwrap().unpack(), last);
+        assert_eq!(lambda, None);
+        assert_eq!(std::mem::size_of::<Numbers>(), 24);
+    }
+
+    #[test]
+    fn the_least_reliable_are_the_largest_ratios_earliest_first() {
+        let mut least = LeastReliable::default();
+        let ratios = [
+            1.0, 3.0, 2.0, 3.0, 0.5, 2.5, 2.0, 1.5, 0.2, 4.0, 0.1, 0.3, 2.0,
+        ];
+        for (k, &lambda) in ratios.iter().enumerate() {
+            least.see(ObservationId::Contact(k), Some(lambda));
+            least.see(ObservationId::Distance(k), None);
+        }
+        // What a stable sort by decreasing ratio keeps.
+        let mut sorted: Vec<(usize, f64)> = ratios.iter().copied().enumerate().collect();
+        sorted.sort_by(|a, b| b.1.total_cmp(&a.1));
+        sorted.truncate(LEAST_RELIABLE);
+        let expected: Vec<_> = sorted
+            .iter()
+            .map(|&(k, l)| (ObservationId::Contact(k), l))
+            .collect();
+        assert_eq!(least.0, expected);
     }
 
     #[test]

@@ -193,7 +193,7 @@ fn snoop<Run: Snoopable>(
             });
         };
         let critical = critical_value(level, reliability.tests());
-        let worst = reliability.worst().copied();
+        let worst = reliability.worst();
         let finish = |run, removals, remaining, stopped| {
             Ok(Snooped {
                 run,

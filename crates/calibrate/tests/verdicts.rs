@@ -241,8 +241,7 @@ fn contact_w(run: &CalibrationRun, row: usize) -> f64 {
     run.reliability
         .as_ref()
         .unwrap()
-        .observations
-        .iter()
+        .observations()
         .find(|c| c.observation() == ObservationId::Contact(row))
         .and_then(|c| c.normalised())
         .unwrap()

@@ -220,12 +220,11 @@ fn tests(
     dataset: &Dataset,
     original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> ObservationTests {
-    let checks = &reliability.observations;
     let m = reliability.tests();
     let per_test_level = SNOOPING_LEVEL / m.max(1) as f64;
     let balls = &dataset.artefacts.balls;
     let check = |k: &usize| {
-        let t = tested(&checks[*k], dataset, original);
+        let t = tested(&reliability.observation(*k), dataset, original);
         let (file, line, field) = location(t.observation);
         ObservationCheck {
             file: file.to_string(),
@@ -251,37 +250,36 @@ fn tests(
     let normalised_histogram = reliability.row_normalised.clone();
     // Over [0, the largest redundancy rounded up to a tenth of the rows
     // of an observation, as many as that redundancy rounded up).
-    let largest_redundancy = checks.iter().map(|c| c.redundancy()).fold(0.0, f64::max);
+    let checks = || reliability.observations();
+    let largest_redundancy = checks().map(|c| c.redundancy()).fold(0.0, f64::max);
     let rows = largest_redundancy.ceil().max(1.0);
     let upper = rows * ((largest_redundancy / rows * 10.0).floor() + 1.0).min(10.0) / 10.0;
     let redundancy_histogram = Histogram::of(
-        checks.iter().map(|c| c.redundancy()),
+        checks().map(|c| c.redundancy()),
         0.0,
         upper / REDUNDANCY_BINS as f64,
         REDUNDANCY_BINS,
     );
-    let redundancy = checks.iter().map(|c| c.redundancy()).sum();
-    let uncontrolled = checks
-        .iter()
-        .filter(|c| c.redundancy() < UNCONTROLLED)
-        .count();
+    let redundancy = reliability.redundancy();
+    let uncontrolled = checks().filter(|c| c.redundancy() < UNCONTROLLED).count();
     // Ties broken by the place in the dataset given: the same lists for
     // any order of the observations with the same numbers.
-    let place = |k: &usize| order(original(checks[*k].observation()));
-    let w = |k: &usize| checks[*k].normalised().map_or(-1.0, f64::abs);
+    let at = |k: &usize| reliability.observation(*k);
+    let place = |k: &usize| order(original(at(k).observation()));
+    let w = |k: &usize| at(k).normalised().map_or(-1.0, f64::abs);
     let largest = first_listed(
-        (0..checks.len()).filter(|&k| checks[k].normalised().is_some()),
+        (0..reliability.len()).filter(|&k| at(&k).normalised().is_some()),
         |a, b| w(b).total_cmp(&w(a)).then(place(a).cmp(&place(b))),
     )
     .iter()
     .map(check)
     .collect();
     let least_controlled = first_listed(
-        (0..checks.len()).filter(|&k| checks[k].redundancy() < UNCONTROLLED),
+        (0..reliability.len()).filter(|&k| at(&k).redundancy() < UNCONTROLLED),
         |a, b| {
-            checks[*a]
+            at(a)
                 .redundancy()
-                .total_cmp(&checks[*b].redundancy())
+                .total_cmp(&at(b).redundancy())
                 .then(place(a).cmp(&place(b)))
         },
     )

@@ -168,13 +168,7 @@ pub fn checks(
     let least: Vec<String> = reliability
         .least_reliable(3)
         .iter()
-        .map(|c| {
-            format!(
-                "{:.1} at {}",
-                c.bias_to_noise().unwrap_or(f64::NAN),
-                place(original(c.observation()))
-            )
-        })
+        .map(|(observation, lambda)| format!("{lambda:.1} at {}", place(original(*observation))))
         .collect();
     if !least.is_empty() {
         reasons.push(format!(

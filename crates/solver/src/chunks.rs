@@ -206,6 +206,25 @@ pub(crate) fn run_chunks<J, O, E, W, A>(
     pool: &WorkspacePool,
     jobs: Vec<J>,
     work: W,
+    absorb: A,
+) -> Result<(), E>
+where
+    J: Send,
+    O: Send,
+    E: Send,
+    W: Fn(&mut Workspace, J) -> Result<O, E> + Sync,
+    A: FnMut(O),
+{
+    run_chunks_in_waves(pool, jobs, CHUNKS_PER_WAVE, work, absorb)
+}
+
+/// [`run_chunks`] in waves of `chunks_per_wave` chunks (at least one): for
+/// a pass whose per-chunk results are large, fewer at a time.
+pub(crate) fn run_chunks_in_waves<J, O, E, W, A>(
+    pool: &WorkspacePool,
+    jobs: Vec<J>,
+    chunks_per_wave: usize,
+    work: W,
     mut absorb: A,
 ) -> Result<(), E>
 where
@@ -217,7 +236,7 @@ where
 {
     let mut jobs = jobs.into_iter();
     loop {
-        let wave: Vec<J> = jobs.by_ref().take(CHUNKS_PER_WAVE).collect();
+        let wave: Vec<J> = jobs.by_ref().take(chunks_per_wave.max(1)).collect();
         if wave.is_empty() {
             return Ok(());
         }
@@ -275,5 +294,8 @@ mod tests {
         let first = run_chunks(&pool, (0..600).collect(), fail, |o| seen.push(o));
         assert_eq!(first, Err(7));
         assert_eq!(seen, (0..7).collect::<Vec<_>>());
+        let mut seen = Vec::new();
+        run_chunks_in_waves(&pool, (0..600).collect(), 7, double, |o| seen.push(o)).unwrap();
+        assert_eq!(seen, (0..600).map(|j| j * 2).collect::<Vec<_>>());
     }
 }

@@ -96,7 +96,7 @@
 
 use nalgebra::{DMatrix, SMatrix, SVector};
 
-use crate::chunks::run_chunks;
+use crate::chunks::run_chunks_in_waves;
 use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
 use crate::iterate::status_of;
@@ -158,6 +158,12 @@ impl PriorLeverage {
         self.global += other.global;
     }
 }
+
+/// Chunks of the pass run in parallel between two hand-overs to the
+/// caller: each chunk's points' rows (`3 R` values a point) wait for the
+/// wave's end, so that fewer chunks a wave than the other passes' keep
+/// them small (about 1 MB at 64 groups of 7 points a chunk, `R = 3`).
+const CHUNKS_PER_WAVE: usize = 32;
 
 /// Redundancy at or below which a row counts as determined by the unknowns
 /// it touches: its residual and its redundancy are both rounding noise.
@@ -265,9 +271,10 @@ where
         let global = problem.prepare_global(&state.global);
         let global = &global;
         let (pool, jobs) = self.jobs();
-        run_chunks(
+        run_chunks_in_waves(
             pool,
             jobs,
+            CHUNKS_PER_WAVE,
             |ws, (chunk, caches)| {
                 let (bufs, _, rows) = ws.split();
                 // Room for the largest group: nothing grows per point.

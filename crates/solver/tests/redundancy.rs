@@ -132,8 +132,7 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
         let j = m_data + o;
         worst = worst.max((ours.rest.global_observations[o] - (1.0 - h[j])).abs());
         let e = dense.residual[(j, 0)];
-        residual_worst =
-            residual_worst.max((ours.rest.global_observation_residuals[o] - e).abs());
+        residual_worst = residual_worst.max((ours.rest.global_observation_residuals[o] - e).abs());
     }
     // Prior rows: P per point prior, C per group prior, G for the global.
     let mut next = m_data + m_obs;
@@ -301,7 +300,11 @@ fn normalised_residuals_have_unit_variance_at_the_solution() {
     let w2: Vec<f64> = ours
         .points
         .iter()
-        .map(|p| normalised_residual(p.residual[0], p.redundancy[0]).unwrap().powi(2))
+        .map(|p| {
+            normalised_residual(p.residual[0], p.redundancy[0])
+                .unwrap()
+                .powi(2)
+        })
         .collect();
     check_unit_variance(
         "distances",
