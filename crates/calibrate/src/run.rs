@@ -682,6 +682,9 @@ impl SolverRun<'_> {
             )?),
             _ => None,
         };
+        // The poses are not needed past the checks: their memory is the
+        // room of what follows.
+        drop(caches);
         let instruments = problem
             .instruments
             .as_ref()

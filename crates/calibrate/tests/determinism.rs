@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{options, relative_differences, shuffled};
+use common::{options, permutation, relative_differences, shuffled};
 use parcal_calibrate::{CalibrationRun, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
@@ -35,6 +35,9 @@ fn one_and_two_threads_give_identical_bits() {
             .collect::<Vec<_>>()
     };
     assert_eq!(costs(&one), costs(&two));
+    // The checks of every observation too.
+    assert!(one.reliability.is_some());
+    assert_eq!(one.reliability, two.reliability);
     // And run to run.
     assert_eq!(run(&dataset, 2).params, two.params);
 }
@@ -49,4 +52,31 @@ fn shuffled_rows_give_the_same_calibration() {
     let (params, sigmas) = relative_differences(&reference, &result);
     assert!(params < 1e-9, "relative difference {params:e}");
     assert!(sigmas < 1e-9, "sigma difference {sigmas:e}");
+    // Each contact's check is kept at its own row: row k of the shuffled
+    // rows is row `permutation[k]` of the dataset.
+    // Its redundancy depends on the geometry alone (rounding: 1e-9
+    // allowed); its normalised residual on the residual too, which moves
+    // with the parameters: their difference (1e-9 relative, about 4e-7 mm
+    // on 400 mm) over a noise of some 10 um moves a whitened residual by
+    // up to 4e-5 (1e-4 allowed).
+    let (a, b) = (
+        reference.reliability.as_ref().unwrap(),
+        result.reliability.as_ref().unwrap(),
+    );
+    let n = dataset.measurements.len();
+    assert_eq!((a.len(), b.len()), (n, n));
+    let permutation = permutation(n);
+    let (mut redundancy, mut normalised): (f64, f64) = (0.0, 0.0);
+    for k in 0..n {
+        let (ours, theirs) = (b.observation(k), a.observation(permutation[k]));
+        assert_eq!(
+            ours.observation(),
+            parcal_calibrate::reliability::ObservationId::Contact(k)
+        );
+        redundancy = redundancy.max((ours.redundancy() - theirs.redundancy()).abs());
+        let w = |c: &parcal_calibrate::reliability::ObservationCheck| c.normalised().unwrap().abs();
+        normalised = normalised.max((w(&ours) - w(&theirs)).abs());
+    }
+    println!("largest difference: redundancy {redundancy:.1e}, |w| {normalised:.1e}");
+    assert!(redundancy < 1e-9 && normalised < 1e-4);
 }

@@ -20,12 +20,18 @@ pub fn options() -> CalibrationOptions {
     }
 }
 
+/// The row of the dataset at row `k` of [`shuffled`]'s, for each `k` of
+/// `n` rows.
+pub fn permutation(n: usize) -> Vec<usize> {
+    (0..n).map(|k| (k * 7919 + 13) % n).collect()
+}
+
 /// `dataset` with its measurement rows in a fixed scrambled order, row `k`
 /// taken from row `(7919 k + 13) mod n`: every per-row column moves (ball,
 /// q, the directions if any, and the truth's contacts if any).
 pub fn shuffled(dataset: &Dataset) -> Dataset {
     let n = dataset.measurements.len();
-    let permutation: Vec<usize> = (0..n).map(|k| (k * 7919 + 13) % n).collect();
+    let permutation = permutation(n);
     let mut seen = vec![false; n];
     for &k in &permutation {
         seen[k] = true;
