@@ -67,8 +67,8 @@ fn shuffled_rows_give_the_same_calibration() {
     assert_eq!((a.len(), b.len()), (n, n));
     let permutation = permutation(n);
     let (mut redundancy, mut normalised): (f64, f64) = (0.0, 0.0);
-    for k in 0..n {
-        let (ours, theirs) = (b.observation(k), a.observation(permutation[k]));
+    for (k, &from) in permutation.iter().enumerate() {
+        let (ours, theirs) = (b.observation(k), a.observation(from));
         assert_eq!(
             ours.observation(),
             parcal_calibrate::reliability::ObservationId::Contact(k)
