@@ -246,21 +246,63 @@ pub struct Reliability {
     redundancy: f64,
 }
 
-/// The observations of largest bias-to-noise ratio seen so far, largest
-/// first, the earlier seen first among equals.
-#[derive(Default)]
-struct LeastReliable(Vec<(ObservationId, f64)>);
+/// What needs every observation, summed as they are seen (the contacts in
+/// the solver's order, then the global observations).
+struct Summary {
+    /// `δ₀` of the minimal detectable bias.
+    delta0: f64,
+    components: Vec<VarianceComponent>,
+    row_normalised: Histogram,
+    /// The observations of largest bias-to-noise ratio so far, largest
+    /// first, the earlier seen first among equals.
+    least_reliable: Vec<(ObservationId, f64)>,
+    /// Their redundancy, as `Iterator::sum` adds up.
+    redundancy: f64,
+}
 
-impl LeastReliable {
-    fn see(&mut self, observation: ObservationId, lambda: Option<f64>) {
-        let Some(lambda) = lambda else { return };
-        let at = self
-            .0
-            .partition_point(|(_, l)| l.total_cmp(&lambda) != std::cmp::Ordering::Less);
-        if at < LEAST_RELIABLE {
-            self.0.insert(at, (observation, lambda));
-            self.0.truncate(LEAST_RELIABLE);
+impl Summary {
+    fn new(delta0: f64) -> Self {
+        let (lower, width, bins) = NORMALISED_BINS;
+        Self {
+            delta0,
+            components: Vec::new(),
+            row_normalised: Histogram::of(std::iter::empty(), lower, width, bins),
+            least_reliable: Vec::new(),
+            redundancy: -0.0,
         }
+    }
+
+    /// Sums `observation`, of rows of redundancy numbers `r`, whitened
+    /// residuals `e` (weighted sum of squares `cost`) and global leverages
+    /// `global`; its numbers and worst row ([`check_rows`]).
+    fn see(
+        &mut self,
+        observation: ObservationId,
+        r: &[f64],
+        e: &[f64],
+        global: &[f64],
+        cost: f64,
+    ) -> (Numbers, u8) {
+        let (numbers, row, lambda) = check_rows(r, e, global, self.delta0);
+        add_to_component(&mut self.components, observation, cost, &numbers);
+        for w in e
+            .iter()
+            .zip(r)
+            .filter_map(|(&e, &r)| normalised_residual(e, r))
+        {
+            self.row_normalised.add(w);
+        }
+        if let Some(lambda) = lambda {
+            let at = self
+                .least_reliable
+                .partition_point(|(_, l)| l.total_cmp(&lambda) != std::cmp::Ordering::Less);
+            if at < LEAST_RELIABLE {
+                self.least_reliable.insert(at, (observation, lambda));
+                self.least_reliable.truncate(LEAST_RELIABLE);
+            }
+        }
+        self.redundancy += numbers.redundancy;
+        (numbers, row)
     }
 }
 
@@ -286,12 +328,7 @@ impl Reliability {
         let failed = |reason: String| CalibrateError::Calibration { reason };
         let tests = rows.len() + global.iter().map(|o| o.tests()).sum::<usize>();
         let delta0 = minimal_detectable_bias(1.0, SNOOPING_LEVEL / tests.max(1) as f64);
-        let (lower, width, bins) = NORMALISED_BINS;
-        let mut row_normalised = Histogram::of(std::iter::empty(), lower, width, bins);
-        let mut components: Vec<VarianceComponent> = Vec::new();
-        let mut least_reliable = LeastReliable::default();
-        // As `Iterator::sum` adds up.
-        let mut redundancy_sum = -0.0;
+        let mut summary = Summary::new(delta0);
         let mut contacts = vec![Numbers::default(); rows.len()];
         // Which rows have been seen, a bit each.
         let mut seen = vec![0u64; rows.len().div_ceil(64)];
@@ -307,22 +344,13 @@ impl Reliability {
                 return;
             }
             seen[word] |= bit;
-            let (r, e) = (&p.redundancy, &p.residual);
-            let observation = ObservationId::Contact(row);
-            let (numbers, _, lambda) = check_rows(
-                r.as_slice(),
-                e.as_slice(),
+            let (numbers, _) = summary.see(
+                ObservationId::Contact(row),
+                p.redundancy.as_slice(),
+                p.residual.as_slice(),
                 p.global_leverage.as_slice(),
-                delta0,
+                p.residual.norm_squared(),
             );
-            add_to_component(&mut components, observation, e.norm_squared(), &numbers);
-            for (&e, &r) in e.iter().zip(r) {
-                if let Some(w) = normalised_residual(e, r) {
-                    row_normalised.add(w);
-                }
-            }
-            least_reliable.see(observation, lambda);
-            redundancy_sum += numbers.redundancy;
             contacts[row] = numbers;
         })
         .map_err(|status| {
@@ -359,16 +387,15 @@ impl Reliability {
         let mut global_checks = Vec::with_capacity(global.len());
         for &observation in global {
             let range = first..first + observation.rows();
-            let (numbers, row, lambda) = check_rows(
+            let e = &e[range.clone()];
+            let cost = e.iter().map(|v| v * v).sum();
+            let (numbers, row) = summary.see(
+                observation,
                 &r[range.clone()],
-                &e[range.clone()],
+                e,
                 &global_leverage[range.clone()],
-                delta0,
+                cost,
             );
-            let cost = e[range.clone()].iter().map(|v| v * v).sum();
-            add_to_component(&mut components, observation, cost, &numbers);
-            least_reliable.see(observation, lambda);
-            redundancy_sum += numbers.redundancy;
             global_checks.push(ObservationCheck {
                 observation,
                 numbers,
@@ -376,13 +403,7 @@ impl Reliability {
             });
             first = range.end;
         }
-        for w in e
-            .iter()
-            .zip(r)
-            .filter_map(|(&e, &r)| normalised_residual(e, r))
-        {
-            row_normalised.add(w);
-        }
+        let mut components = summary.components;
         if prior_rows > 0 {
             components.push(VarianceComponent {
                 group: "priors",
@@ -392,11 +413,11 @@ impl Reliability {
         }
         Ok(Self {
             components,
-            row_normalised,
+            row_normalised: summary.row_normalised,
             contacts,
             global: global_checks,
-            least_reliable: least_reliable.0,
-            redundancy: redundancy_sum,
+            least_reliable: summary.least_reliable,
+            redundancy: summary.redundancy,
         })
     }
 
@@ -573,23 +594,26 @@ mod tests {
 
     #[test]
     fn the_least_reliable_are_the_largest_ratios_earliest_first() {
-        let mut least = LeastReliable::default();
-        let ratios = [
-            1.0, 3.0, 2.0, 3.0, 0.5, 2.5, 2.0, 1.5, 0.2, 4.0, 0.1, 0.3, 2.0,
+        // One row each, of redundancy 1 and global leverage h: with δ₀ = 1,
+        // λ = √h; a distance of no redundancy has none.
+        let mut summary = Summary::new(1.0);
+        let leverages = [
+            1.0, 9.0, 4.0, 9.0, 0.25, 6.25, 4.0, 2.25, 0.04, 16.0, 0.01, 0.09, 4.0,
         ];
-        for (k, &lambda) in ratios.iter().enumerate() {
-            least.see(ObservationId::Contact(k), Some(lambda));
-            least.see(ObservationId::Distance(k), None);
+        for (k, &h) in leverages.iter().enumerate() {
+            summary.see(ObservationId::Contact(k), &[1.0], &[0.0], &[h], 0.0);
+            summary.see(ObservationId::Distance(k), &[1e-11], &[0.0], &[h], 0.0);
         }
         // What a stable sort by decreasing ratio keeps.
-        let mut sorted: Vec<(usize, f64)> = ratios.iter().copied().enumerate().collect();
+        let mut sorted: Vec<(usize, f64)> =
+            leverages.iter().map(|h| h.sqrt()).enumerate().collect();
         sorted.sort_by(|a, b| b.1.total_cmp(&a.1));
         sorted.truncate(LEAST_RELIABLE);
         let expected: Vec<_> = sorted
             .iter()
             .map(|&(k, l)| (ObservationId::Contact(k), l))
             .collect();
-        assert_eq!(least.0, expected);
+        assert_eq!(summary.least_reliable, expected);
     }
 
     #[test]
