@@ -11,7 +11,7 @@ use parcal_kinematics::{
 };
 use rayon::prelude::*;
 
-use crate::{Rng, Scenario, SimulateError, plate};
+use crate::{PlannedTouch, Rng, Scenario, SimulateError, plate};
 
 /// A contact is accepted when the tool tip found by forward kinematics from
 /// the actuator readings is back on its simulated point within this many
@@ -260,6 +260,27 @@ fn simulate_ball(
             .collect::<Result<_, _>>()?,
     };
     Ok((calibrated_radius, contacts))
+}
+
+/// A random design: `points_per_ball` touches of every ball drawn as
+/// [`simulate`] draws them (`u` uniform on the lower hemisphere, angles
+/// uniform in `[-max_tilt, max_tilt]`), from stream `seed` alone. As the
+/// scenario's plan it fixes the design, so that simulations over seeds
+/// differ by their noise only.
+pub fn random_plan(scenario: &Scenario, seed: u64) -> Vec<PlannedTouch> {
+    let mut rng = Rng::new(seed, u64::MAX);
+    let mut plan = Vec::with_capacity(scenario.centres.len() * scenario.points_per_ball);
+    for ball in 0..scenario.centres.len() {
+        for _ in 0..scenario.points_per_ball {
+            let (direction, rotation) = random_touch(scenario, &mut rng);
+            plan.push(PlannedTouch {
+                ball,
+                direction,
+                rotation,
+            });
+        }
+    }
+    plan
 }
 
 /// A random touch (spec section 3): `u` uniform on the lower hemisphere,

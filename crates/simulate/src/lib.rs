@@ -32,7 +32,7 @@ mod rng;
 mod scenario;
 mod tracker;
 
-pub use campaign::{Simulation, Summary, ball_id, simulate};
+pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
 pub use execute::execute;
 pub use mixed::simulate_mixed;
 pub use plate::{Plate, PlatePairs};
