@@ -78,6 +78,24 @@ fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
         assert!(html.contains(&cell), "{cell}");
     }
 
+    // The external reliability on the map, as calibration.json has it.
+    let external = &c["diagnostics"]["external_reliability"];
+    assert_eq!(external.as_array().unwrap().len(), 5);
+    assert!(html.contains("External reliability on the accuracy map"));
+    for e in external.as_array().unwrap() {
+        let cells = format!(
+            "<td class=\"num\">{:.2}</td><td class=\"num\">{:.2}</td></tr>",
+            e["map_rms_um"].as_f64().unwrap(),
+            e["map_max_um"].as_f64().unwrap()
+        );
+        assert!(html.contains(&cells), "{cells}");
+    }
+    let first = format!(
+        "registered tool tip by {:.2} µm RMS",
+        external[0]["map_rms_um"].as_f64().unwrap()
+    );
+    assert!(html.contains(&first), "{first}");
+
     // Four figures, each with its data drawn: the histograms' bars, the
     // 33 x 33 correlation matrix and the 21 x 21 map.
     let svgs = figures(&html);
