@@ -61,18 +61,14 @@ pub fn external_shifts<const C: usize, const P: usize, const R: usize, Pr: Probl
     chosen.sort_by(|&a, &b| lambda(b).total_cmp(&lambda(a)).then(a.cmp(&b)));
     chosen.truncate(LEAST_RELIABLE);
     let points = state.points.len();
-    // The first global observation row of each observation after the
-    // contacts.
-    let mut first_row = vec![0; checks.len()];
-    for k in points + 1..checks.len() {
-        first_row[k] = first_row[k - 1] + checks[k - 1].observation.rows();
-    }
     let rows_of = |k: usize| -> Vec<RowId> {
         if k < points {
             (0..R).map(|row| RowId::Point { point: k, row }).collect()
         } else {
+            // After the rows of the global observations before it.
+            let first: usize = checks[points..k].iter().map(|c| c.observation.rows()).sum();
             (0..checks[k].observation.rows())
-                .map(|row| RowId::GlobalObservation(first_row[k] + row))
+                .map(|row| RowId::GlobalObservation(first + row))
                 .collect()
         }
     };
