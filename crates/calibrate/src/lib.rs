@@ -36,6 +36,7 @@
 
 pub mod conflict;
 mod error;
+pub mod external;
 pub mod fit;
 pub mod instruments;
 pub mod layout;

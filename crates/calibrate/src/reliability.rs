@@ -38,6 +38,7 @@ use parcal_solver::{Problem, Redundancy, State, Status, normalised_residual, red
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
+use crate::external::{ExternalShift, external_shifts};
 use crate::snooping::SNOOPING_LEVEL;
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
@@ -203,6 +204,9 @@ pub struct Reliability {
     /// The normalised residual of every row (standard normal under the
     /// model, unlike an observation's largest).
     pub row_normalised: Vec<f64>,
+    /// The global shift of the least reliable observations' minimal
+    /// detectable biases, largest `λ` first ([`crate::external`]).
+    pub external: Vec<ExternalShift>,
 }
 
 impl Reliability {
@@ -313,10 +317,12 @@ impl Reliability {
             .chain(e.iter().copied().zip(r.iter().copied()))
             .filter_map(|(e, r)| normalised_residual(e, r))
             .collect();
+        let external = external_shifts(problem, state, covariance, caches, &observations, delta0)?;
         Ok(Self {
             components,
             observations,
             row_normalised,
+            external,
         })
     }
 

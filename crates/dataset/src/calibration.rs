@@ -148,6 +148,41 @@ pub struct Diagnostics {
     /// The weakest directions of the parameters, weakest first.
     #[serde(default)]
     pub weak_directions: Vec<WeakDirectionRecord>,
+    /// External reliability on the accuracy map: what an undetected error
+    /// of one minimal detectable bias in each of the least reliable
+    /// observations (largest bias-to-noise ratio first) does to the
+    /// parameters and to the registered accuracy map; empty when not
+    /// computed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub external_reliability: Vec<ExternalReliabilityRecord>,
+}
+
+/// What an undetected error of one minimal detectable bias in one
+/// observation's row would do to the calibration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExternalReliabilityRecord {
+    /// The observation, as in [`ObservationTests`]' lists.
+    pub observation: ObservationCheck,
+    /// Its row of largest bias-to-noise ratio, 0-based (a pose's leg, a
+    /// point's coordinate, a contact's whitened row).
+    pub row: usize,
+    /// That row's redundancy number.
+    pub row_redundancy: f64,
+    /// That row's minimal detectable bias, in its standard deviations.
+    pub row_mdb_sigmas: f64,
+    /// That row's bias-to-noise ratio: the parameters' shift in their own
+    /// noise.
+    pub bias_to_noise: f64,
+    /// The shift of each kinematic parameter (the first of
+    /// `parameters.names`, in their order and units: mm, rad).
+    pub parameter_shift: Vec<f64>,
+    /// The registered tool-tip error that shift makes over the accuracy
+    /// grid, RMS and max in micrometres (absent without a map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_rms_um: Option<f64>,
+    /// See `map_rms_um`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_max_um: Option<f64>,
 }
 
 /// The variance component `Ω_g / r_g` of one group of observations.
@@ -442,7 +477,7 @@ impl Calibration {
 
 impl Diagnostics {
     /// Finite numbers, one prior sigma and attribution per parameter (of
-    /// `n`) when given.
+    /// `n`) when given, at most one parameter shift per parameter.
     fn validate(&self, check: Check, n: usize) -> Result<()> {
         for (k, c) in self.variance_components.iter().enumerate() {
             check.finite(
@@ -475,6 +510,31 @@ impl Diagnostics {
                 format_args!("diagnostics.weak_directions[{k}].eigenvalue"),
                 weak.eigenvalue,
             )?;
+        }
+        for (k, e) in self.external_reliability.iter().enumerate() {
+            let field = format!("diagnostics.external_reliability[{k}]");
+            if e.parameter_shift.len() > n {
+                return Err(check.error(
+                    format!("{field}.parameter_shift"),
+                    format!(
+                        "expected at most {n} values (one per parameter), found {}",
+                        e.parameter_shift.len()
+                    ),
+                ));
+            }
+            check.values(format_args!("{field}.parameter_shift"), &e.parameter_shift)?;
+            let numbers = [
+                ("row_redundancy", Some(e.row_redundancy)),
+                ("row_mdb_sigmas", Some(e.row_mdb_sigmas)),
+                ("bias_to_noise", Some(e.bias_to_noise)),
+                ("map_rms_um", e.map_rms_um),
+                ("map_max_um", e.map_max_um),
+            ];
+            for (name, value) in numbers {
+                if let Some(value) = value {
+                    check.finite(format_args!("{field}.{name}"), value)?;
+                }
+            }
         }
         if let Some(tests) = &self.observations {
             for (field, h) in [

@@ -360,6 +360,7 @@ fn calibration() -> Calibration {
                 sigma: Some(0.5),
                 dominant: vec![("y_b2".into(), 0.75)],
             }],
+            external_reliability: Vec::new(),
         }),
     }
 }

@@ -252,6 +252,7 @@ mod covariance;
 pub mod dense_reference;
 mod diagnostics;
 mod eliminate;
+mod influence;
 mod iterate;
 mod monitor;
 mod options;
@@ -264,6 +265,7 @@ mod solution;
 
 pub use chunks::split_by;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
+pub use influence::{RowId, RowInfluence, row_influence};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
 pub use monitor::{Decision, Iterate, Monitor};
 pub use options::{Method, SolverOptions};

@@ -199,16 +199,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     let invalid = |message: String| Status::InvalidProblem { message };
     let mut ctx = Context::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
     let g = ctx.dims.g;
-    if covariance.shape() != (g, g) {
-        let (rows, columns) = covariance.shape();
-        return Err(invalid(format!(
-            "a {rows} x {columns} covariance for {g} global unknowns"
-        )));
-    }
-    let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
-    let factor = ScaledCholesky::new(symmetric.as_slice(), g)
-        .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
-    let factor = factor.lower_factor();
+    let (symmetric, factor) = covariance_factor(covariance, g)?;
     let observations = ctx
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
@@ -240,6 +231,27 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
         .count();
     redundancy.unknowns = g + C * free_groups + P * state.points.len();
     Ok(redundancy)
+}
+
+/// `Cov(g)` (`G × G`, from the lower triangle of `covariance`) and `L`
+/// with `Cov(g) = LLᵀ` (row-major, lower triangular); fails with
+/// [`Status::InvalidProblem`] if it is not `G × G` and numerically positive
+/// definite.
+pub(crate) fn covariance_factor(
+    covariance: &DMatrix<f64>,
+    g: usize,
+) -> Result<(DMatrix<f64>, Vec<f64>), Status> {
+    let invalid = |message: String| Status::InvalidProblem { message };
+    if covariance.shape() != (g, g) {
+        let (rows, columns) = covariance.shape();
+        return Err(invalid(format!(
+            "a {rows} x {columns} covariance for {g} global unknowns"
+        )));
+    }
+    let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
+    let factor = ScaledCholesky::new(symmetric.as_slice(), g)
+        .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
+    Ok((symmetric, factor.lower_factor()))
 }
 
 impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
@@ -296,6 +308,7 @@ where
                     redundancy,
                     residuals,
                     global_leverage,
+                    global_z: None,
                     done: 0,
                     prior_leverage: PriorLeverage::default(),
                 };
@@ -321,7 +334,7 @@ where
 /// What a point of the current group leaves until the group's triangle is
 /// known: the `Q₂` rows of its data and prior rows; its eliminated rows
 /// are in [`RedundancySink::rows`].
-struct PointRows<const P: usize, const R: usize> {
+pub(crate) struct PointRows<const P: usize, const R: usize> {
     /// `m − P`, the number of eliminated rows (at most `R`, undamped).
     eliminated: usize,
     /// `q_j` of the data rows (columns `0..eliminated`).
@@ -332,27 +345,30 @@ struct PointRows<const P: usize, const R: usize> {
 
 /// Turns each group's points into their redundancy numbers once the
 /// group's triangle is known.
-struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
+pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
     /// `L` with `Cov(g) = LLᵀ`, `G × G` row-major, lower triangular.
-    factor: &'a [f64],
-    g: usize,
+    pub(crate) factor: &'a [f64],
+    pub(crate) g: usize,
     /// The eliminated rows `[E_c | E_g | ·]` of the current group's points,
     /// row-major, width `C + G + 1`.
-    rows: &'a mut Vec<f64>,
+    pub(crate) rows: &'a mut Vec<f64>,
     /// The current group's points, in order.
-    points: Vec<PointRows<P, R>>,
+    pub(crate) points: Vec<PointRows<P, R>>,
     /// `V` of one point: a row `[y | Lᵀu]` (`C + G` values) per eliminated
     /// row.
-    coordinates: Vec<f64>,
+    pub(crate) coordinates: Vec<f64>,
     /// Scratch for a reduced row `u` (`G` values).
-    reduced: Vec<f64>,
+    pub(crate) reduced: Vec<f64>,
     /// The chunk's points' redundancy numbers and residuals.
-    redundancy: &'a mut [SVector<f64, R>],
-    residuals: &'a mut [SVector<f64, R>],
-    global_leverage: &'a mut [SVector<f64, R>],
+    pub(crate) redundancy: &'a mut [SVector<f64, R>],
+    pub(crate) residuals: &'a mut [SVector<f64, R>],
+    pub(crate) global_leverage: &'a mut [SVector<f64, R>],
+    /// If asked ([`crate::influence`]), `z_j` of every row of the chunk's
+    /// points, `G` values per row, `R` rows per point.
+    pub(crate) global_z: Option<&'a mut [f64]>,
     /// Points of the chunk written so far.
-    done: usize,
-    prior_leverage: PriorLeverage,
+    pub(crate) done: usize,
+    pub(crate) prior_leverage: PriorLeverage,
 }
 
 impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R, J>
@@ -430,16 +446,19 @@ where
             self.redundancy[self.done + j] =
                 SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
             // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
-            self.global_leverage[self.done + j] = SVector::from_fn(|r, _| {
-                let mut z2 = 0.0;
-                for a in 0..g {
-                    let z: f64 = (0..n)
-                        .map(|e| point.data[(r, e)] * self.coordinates[e * cw + C + a])
-                        .sum();
-                    z2 += z * z;
+            let z = |r: usize, a: usize| -> f64 {
+                (0..n)
+                    .map(|e| point.data[(r, e)] * self.coordinates[e * cw + C + a])
+                    .sum()
+            };
+            self.global_leverage[self.done + j] =
+                SVector::from_fn(|r, _| (0..g).map(|a| z(r, a).powi(2)).sum());
+            if let Some(out) = self.global_z.as_deref_mut() {
+                let first = (self.done + j) * R * g;
+                for (k, value) in out[first..first + R * g].iter_mut().enumerate() {
+                    *value = z(k / g, k % g);
                 }
-                z2
-            });
+            }
             if let Some(q) = &point.prior {
                 for a in 0..P {
                     self.prior_leverage.points += 1.0 - row_redundancy(q, a, &m, n);
@@ -514,7 +533,7 @@ fn eliminate_group<const C: usize>(
 /// `z = Lᵀu` for the lower-triangular `L` (`G × G`, row-major) with
 /// `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by rows of `L`
 /// (`z[..=i] += L[i, ..=i] u_i`), whose lanes are independent.
-fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
+pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     let g = u.len();
     z.fill(0.0);
     for (i, &ui) in u.iter().enumerate() {

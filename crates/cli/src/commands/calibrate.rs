@@ -19,6 +19,7 @@ use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
 use parcal_report::{instruments, sentences, tables};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
 
+use super::{ReportRequest, report};
 use crate::progress::Progress;
 
 #[derive(clap::Args)]
@@ -65,6 +66,11 @@ pub struct Args {
     /// NAME.rejected.json beside it instead, leaving this file as it was.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also write the calibration's report (report.html and report.md, as
+    /// `parcal report` does) into the directory of calibration.json, a
+    /// rejected calibration's too.
+    #[arg(long)]
+    report: bool,
 }
 
 impl Args {
@@ -100,6 +106,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut dataset = super::read_dataset(&args.dataset)?;
     let out = args.out_path();
     super::check_calibration_outputs(&args.dataset, &out)?;
+    args.report_request(&out, None)
+        .map(|request| request.check(&args.dataset, &out))
+        .transpose()?;
     // A simulation's true machine serves the evaluation, not the
     // calibration: keep it, and free the dataset's truth.json with its true
     // contact points (24 bytes per contact).
@@ -148,13 +157,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     progress.finish();
     // A reader that closed stdout early does not hide a rejected
     // calibration.
+    let report = args.report_request(&out, truth.as_ref());
     let printed = print_results(
         truth.as_ref(),
         &run,
         &record,
         &super::calibration_destination(&record, &out),
+        report.as_ref(),
     );
-    super::write_calibration(record, &dataset, &args.dataset, &out)?;
+    super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
     printed
 }
 
@@ -212,6 +223,7 @@ fn run_instruments(
         (run, record)
     };
     progress.finish();
+    let report = args.report_request(out, None);
     let mut stdout = std::io::stdout().lock();
     let printed = writeln!(
         stdout,
@@ -219,8 +231,9 @@ fn run_instruments(
         instruments::summary(&run, &record),
         instruments::parameters(&run),
         super::calibration_destination(&record, out).display()
-    );
-    super::write_calibration(record, dataset, &args.dataset, out)?;
+    )
+    .and_then(|()| print_report(&mut stdout, report.as_ref()));
+    super::write_calibration(record, dataset, &args.dataset, out, report.as_ref())?;
     Ok(printed?)
 }
 
@@ -236,6 +249,31 @@ impl Args {
         self.out
             .clone()
             .unwrap_or_else(|| directory.join(CALIBRATION_FILE))
+    }
+
+    /// With `--report`, the report beside calibration.json `out`, with the
+    /// simulation's `truth` if any.
+    fn report_request<'a>(
+        &self,
+        out: &Path,
+        truth: Option<&'a TrueMachine>,
+    ) -> Option<ReportRequest<'a>> {
+        self.report.then(|| ReportRequest {
+            directory: report::directory_of(out).to_path_buf(),
+            truth,
+        })
+    }
+}
+
+/// Where `report` goes, on `stdout`.
+fn print_report(stdout: &mut impl Write, report: Option<&ReportRequest>) -> std::io::Result<()> {
+    match report {
+        Some(request) => writeln!(
+            stdout,
+            "report written to {}",
+            report::listed(&request.directory)
+        ),
+        None => Ok(()),
     }
 }
 
@@ -264,6 +302,7 @@ fn print_results(
     run: &CalibrationRun,
     record: &parcal_dataset::Calibration,
     calibration: &Path,
+    report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
     let maps = before_after(truth, run, &MapGrid::paper()).context("accuracy map")?;
     let mut stdout = std::io::stdout().lock();
@@ -291,5 +330,6 @@ fn print_results(
         writeln!(stdout, "  {line}")?;
     }
     writeln!(stdout, "calibration written to {}", calibration.display())?;
+    print_report(&mut stdout, report)?;
     Ok(())
 }
