@@ -273,6 +273,21 @@ impl ParameterLayout {
             .collect()
     }
 
+    /// The columns calibration.json's `parameters` hold, in order: every
+    /// group's but the balls' (their unknowns are in its `ball_centres`).
+    pub fn recorded(&self) -> Vec<usize> {
+        self.groups
+            .iter()
+            .filter(|(group, _)| {
+                !matches!(
+                    group,
+                    ParameterGroup::BallCentre { .. } | ParameterGroup::BallRadius { .. }
+                )
+            })
+            .flat_map(|(_, range)| range.clone())
+            .collect()
+    }
+
     /// The name of every global parameter, in order: the kinematic
     /// parameters' ([`PARAM_NAMES`]), then `centre ID.x` etc. with the
     /// balls' artefacts.json ids, `s_1`, `frame LABEL.wx`, `body.tx`, `body

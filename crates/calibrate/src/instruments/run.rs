@@ -242,22 +242,23 @@ pub(crate) fn residuals(
     Ok((legs, points))
 }
 
-/// The groups the data determines: the scales when machine.json gives
-/// their sigmas; one instrument frame per session; the body frame when
-/// there are poses; for every later session with poses a body origin and a
-/// body rotation, and for every later session leg offsets, when the session
-/// model has them. None without poses and points.
+/// The groups the data determines besides the kinematic parameters and
+/// the balls: the scales when machine.json gives their sigmas (for touches
+/// too); with poses or points, one instrument frame per session, the body
+/// frame when there are poses, for every later session with poses a body
+/// origin and a body rotation, and for every later session leg offsets,
+/// when the session model has them.
 pub(crate) fn groups(dataset: &Dataset) -> Vec<ParameterGroup> {
     let machine = &dataset.machine;
     let tracker = &dataset.tracker;
     let model = &machine.session_model;
     let with_poses = |session: usize| tracker.poses.session.iter().any(|&s| s as usize == session);
     let mut groups = Vec::new();
-    if tracker.is_empty() {
-        return groups;
-    }
     if machine.actuator.scale_sigma.is_some() {
         groups.push(ParameterGroup::ActuatorScales);
+    }
+    if tracker.is_empty() {
+        return groups;
     }
     for session in 0..tracker.sessions.len() {
         groups.push(ParameterGroup::TrackerFrame { session });
