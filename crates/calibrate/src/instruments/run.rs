@@ -8,7 +8,7 @@ use parcal_dataset::{
     Actuator, CalibratedMachine, Calibration, Dataset, FrameRecord, GeometryRecord,
     IterationSummary, Machine, ParameterTable, SessionRecord,
 };
-use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Vec3, params};
+use parcal_kinematics::{ForwardOptions, Geometry, Vec3, params};
 use parcal_solver::{
     GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status, solve,
 };
@@ -60,7 +60,8 @@ pub struct InstrumentRun {
     pub machine: Machine,
     /// The information the data alone give each parameter at the
     /// identified state, `diag(JᵀJ)` of the whitened rows (zero: the data
-    /// do not observe it, e.g. the tool tip from poses alone).
+    /// do not observe it; the tool, which poses alone do not observe, is
+    /// not in their layout at all).
     pub data_information: DVector<f64>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
@@ -97,7 +98,13 @@ pub fn setup<'a>(
     let canonical = design.canonicalize().map_err(CalibrateError::Design)?;
     let design_params = params::to_params(&canonical.geometry);
     let machine = &dataset.machine;
-    let layout = ParameterLayout::with_groups(groups(dataset));
+    // Poses alone measure the body frame, not the tool: it leaves the
+    // layout (points observe it).
+    let layout = if dataset.tracker.points.is_empty() {
+        ParameterLayout::without_tool(groups(dataset))
+    } else {
+        ParameterLayout::with_groups(groups(dataset))
+    };
     let initial = initial_block(&layout, &design_params, &machine.actuator.scale);
     let (model, rows) = model_and_rows(dataset, &canonical.geometry, layout, &initial)?;
     let prior = prior(dataset, &design, &design_params, &model.layout, options)?;
@@ -216,6 +223,7 @@ pub(crate) fn model_and_rows<'a>(
         tracker_references: start.trackers,
         body_reference: start.body,
         fixed_scales: machine.actuator.scale,
+        fixed_tool: canonical.tool,
     };
     let mut rows = InstrumentRows::new(tracker, start.point_poses, forward);
     rows.weigh(&model, &model.values(initial), &machine.repeatability)?;
@@ -280,14 +288,16 @@ pub(crate) fn groups(dataset: &Dataset) -> Vec<ParameterGroup> {
     groups
 }
 
-/// The design's parameters and scales, every correction and offset zero.
+/// The design's parameters (those of the layout) and scales, every
+/// correction and offset zero.
 pub(crate) fn initial_block(
     layout: &ParameterLayout,
     design: &parcal_kinematics::Params,
     scales: &[f64; 6],
 ) -> DVector<f64> {
     let mut g = DVector::zeros(layout.size());
-    g.rows_mut(0, N_PARAMS).copy_from(design);
+    let n = layout.kinematic().len();
+    g.rows_mut(0, n).copy_from(&design.rows(0, n));
     if let Some(r) = layout.range(ParameterGroup::ActuatorScales) {
         g.rows_mut(r.start, 6).copy_from_slice(scales);
     }
@@ -345,9 +355,11 @@ pub(crate) fn group_priors(
 }
 
 /// The prior on the global block: the kinematic prior of the options'
-/// mode, the scales about their design values (machine.json's
-/// `scale_sigma`), the later sessions' body origins and leg offsets about
-/// zero (`session_model`); none on the frames. `PriorMode::None`: no prior.
+/// mode (without the tool, its marginal on the joints and legs: the
+/// leading block of its covariance), the scales about their design values
+/// (machine.json's `scale_sigma`), the later sessions' body origins and
+/// leg offsets about zero (`session_model`); none on the frames.
+/// `PriorMode::None`: no prior.
 fn prior(
     dataset: &Dataset,
     design: &Geometry,
@@ -361,10 +373,26 @@ fn prior(
     let n = layout.size();
     let mut mean = DVector::zeros(n);
     let mut information = DMatrix::zeros(n, n);
-    mean.rows_mut(0, N_PARAMS).copy_from(kinematic.mean());
+    let k = layout.kinematic().len();
+    mean.rows_mut(0, k).copy_from(&kinematic.mean().rows(0, k));
+    let kinematic_information = if layout.has_tool() {
+        DMatrix::from_column_slice(k, k, kinematic.information().as_slice())
+    } else {
+        kinematic
+            .covariance()
+            .view((0, 0), (k, k))
+            .into_owned()
+            .cholesky()
+            .ok_or(CalibrateError::Prior(
+                parcal_observe::ObserveError::NotPositiveDefinite {
+                    what: "kinematic prior covariance",
+                },
+            ))?
+            .inverse()
+    };
     information
-        .view_mut((0, 0), (N_PARAMS, N_PARAMS))
-        .copy_from(&kinematic.information());
+        .view_mut((0, 0), (k, k))
+        .copy_from(&kinematic_information);
     group_priors(dataset, layout, &mut mean, &mut information);
     Ok(Some(GaussianPrior::new(mean, information)))
 }
@@ -410,16 +438,17 @@ impl InstrumentRun {
             // its inverse.
             Some(prior) => {
                 let mut sigmas = DVector::from_element(n, f64::INFINITY);
-                let kinematic = prior
+                let kinematic = self.model.layout.kinematic().len();
+                let block = prior
                     .information
-                    .view((0, 0), (N_PARAMS, N_PARAMS))
+                    .view((0, 0), (kinematic, kinematic))
                     .into_owned();
-                if let Some(covariance) = kinematic.try_inverse() {
-                    for k in 0..N_PARAMS {
+                if let Some(covariance) = block.try_inverse() {
+                    for k in 0..kinematic {
                         sigmas[k] = covariance[(k, k)].sqrt();
                     }
                 }
-                for k in N_PARAMS..n {
+                for k in kinematic..n {
                     let information = prior.information[(k, k)];
                     if information > 0.0 {
                         sigmas[k] = information.sqrt().recip();
