@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 mod common;
-use common::{parcal, s, text};
+use common::{copy_fixture, parcal, s, text};
 
 fn simulate(dir: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["simulate", "--seed", "7", "--out", dir.to_str().unwrap()];
@@ -316,6 +316,34 @@ fn touches_in_revolutions_calibrate_their_scales() {
         "5",
     ]);
     assert!(output.status.success(), "{}", text(&output.stderr));
+}
+
+/// Poses alone (fixtures/jugglebot) do not observe the tool:
+/// calibration.json holds no tool parameter, keeps the design's tool, and
+/// `parcal accuracy` (maps of the tool tip) says the tool was not
+/// calibrated.
+#[test]
+fn a_calibration_of_poses_alone_leaves_the_tool_out_and_accuracy_says_so() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("jugglebot", temp.path(), &["machine.json", "poses.csv"]);
+    let calibration = temp.path().join("calibration.json");
+    let output = parcal(&["calibrate", s(&data), "--out", s(&calibration)]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let record = parcal_dataset::Calibration::read(&calibration).unwrap();
+    let names = &record.parameters.names;
+    assert_eq!(names.len(), 30 + 6 + 6 + 6, "{names:?}");
+    assert!(!names.iter().any(|n| n.ends_with("_eT")), "{names:?}");
+    let output = parcal(&[
+        "accuracy",
+        s(&data),
+        "--calibration",
+        s(&calibration),
+        "--out",
+        s(&temp.path().join("maps")),
+    ]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(stderr.contains("did not calibrate the tool"), "{stderr}");
 }
 
 #[test]
