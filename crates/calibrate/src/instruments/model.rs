@@ -68,9 +68,7 @@ impl InstrumentModel {
         params
             .rows_mut(0, TOOL_OFFSET)
             .copy_from(&g.rows(0, TOOL_OFFSET));
-        params
-            .rows_mut(TOOL_OFFSET, 3)
-            .copy_from(&self.fixed_tool);
+        params.rows_mut(TOOL_OFFSET, 3).copy_from(&self.fixed_tool);
         params
     }
 

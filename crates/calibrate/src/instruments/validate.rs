@@ -26,9 +26,7 @@
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector6};
 use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, Tracker};
 use parcal_kinematics::params::TOOL_OFFSET;
-use parcal_kinematics::{
-    ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params,
-};
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::FrameCorrection;
 use parcal_solver::GlobalObservations;
 
