@@ -188,6 +188,22 @@ fn jugglebot_fits_and_predicts_held_out_poses() {
         .unwrap()
         .geometry;
     assert_eq!(record.canonical.tool, <[f64; 3]>::from(design.tool));
+    // The 33's covariance with the tool's rows from the prior conditional
+    // on the 30 is the posterior the 33 gave when the tool was an unknown
+    // of the layout: its sigmas were 8.2470, 8.2386, 10.1035 mm
+    // (docs/real-machine.md before the tool left the layout), and the 30's
+    // are the run's own.
+    let kinematic = run.kinematic_covariance().expect("a covariance");
+    let tool: Vec<f64> = (30..33).map(|k| kinematic[(k, k)].sqrt()).collect();
+    println!("tool sigmas from the conditional prior: {tool:?}");
+    for (sigma, before) in tool.iter().zip([8.2470, 8.2386, 10.1035]) {
+        assert!((sigma - before).abs() < 1e-3, "{sigma} against {before}");
+    }
+    let global = run.covariance.as_ref().unwrap();
+    assert_eq!(
+        kinematic.view((0, 0), (30, 30)),
+        global.view((0, 0), (30, 30))
+    );
     let machine = record.machine.as_ref().unwrap();
     let g = &machine.geometry;
     let poses = &dataset.tracker.poses;

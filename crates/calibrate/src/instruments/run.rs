@@ -8,7 +8,8 @@ use parcal_dataset::{
     Actuator, CalibratedMachine, Calibration, Dataset, FrameRecord, GeometryRecord,
     IterationSummary, Machine, ParameterTable, SessionRecord,
 };
-use parcal_kinematics::{ForwardOptions, Geometry, Vec3, params};
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, ParamCovariance, Vec3, params};
+use parcal_observe::KinematicPrior;
 use parcal_solver::{
     GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status, solve,
 };
@@ -58,6 +59,10 @@ pub struct InstrumentRun {
     /// machine.json as given (the design machine, recorded in
     /// calibration.json's `design`).
     pub machine: Machine,
+    /// The kinematic prior on the 33 (the options' mode), if any: the
+    /// tool's when the layout leaves it out
+    /// ([`InstrumentRun::kinematic_covariance`]).
+    pub kinematic_prior: Option<KinematicPrior>,
     /// The information the data alone give each parameter at the
     /// identified state, `diag(JᵀJ)` of the whitened rows (zero: the data
     /// do not observe it; the tool, which poses alone do not observe, is
@@ -171,6 +176,13 @@ pub fn calibrate_instruments(
         )
     });
     let InstrumentProblem { model, rows, prior } = problem;
+    let canonical = params::to_params(
+        &design
+            .canonicalize()
+            .map_err(CalibrateError::Design)?
+            .geometry,
+    );
+    let kinematic_prior = kinematic_prior(dataset, &design, &canonical, options.prior)?;
     let global = solution.state.global;
     let values = model.values(&global);
     let (leg_residuals, point_residuals) = residuals(&rows, &model, &values)?;
@@ -200,6 +212,7 @@ pub fn calibrate_instruments(
         leg_residuals,
         point_residuals,
         machine: dataset.machine.clone(),
+        kinematic_prior,
     })
 }
 
@@ -420,6 +433,46 @@ impl InstrumentRun {
     /// The names of the global block's parameters.
     pub fn names(&self) -> Vec<String> {
         self.model.layout.names(&[], &self.model.sessions)
+    }
+
+    /// The posterior covariance of the 33 kinematic parameters: the
+    /// global covariance's leading block; without the tool in the layout
+    /// (poses alone), the 30's block with the tool's rows from the
+    /// kinematic prior conditional on the 30, which the data do not
+    /// change: `C_ta = K P`, `C_tt = Σ_tt − K Σ_at + K P Kᵀ`,
+    /// `K = Σ_ta Σ_aa⁻¹` (`P` the 30's posterior covariance, `Σ` the
+    /// prior's). That is the covariance of the tool's conditional prior
+    /// mean `μ_t + K (â − μ_a)`; the held design tool differs from it by
+    /// `K (â − μ_a)`. `None` without a covariance, or with the tool left
+    /// out and no prior.
+    pub fn kinematic_covariance(&self) -> Option<ParamCovariance> {
+        let covariance = self.covariance.as_ref()?;
+        let a = self.model.layout.kinematic().len();
+        if a == N_PARAMS {
+            return Some(
+                covariance
+                    .fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
+                    .into_owned(),
+            );
+        }
+        let sigma = self.kinematic_prior.as_ref()?.covariance();
+        let t = N_PARAMS - a;
+        let sigma_aa = sigma.view((0, 0), (a, a)).into_owned();
+        let sigma_ta = sigma.view((a, 0), (t, a)).into_owned();
+        let gain = sigma_aa
+            .cholesky()?
+            .solve(&sigma_ta.transpose())
+            .transpose();
+        let p = covariance.view((0, 0), (a, a)).into_owned();
+        let c_ta = &gain * &p;
+        let c_tt =
+            sigma.view((a, a), (t, t)) - &gain * sigma_ta.transpose() + &c_ta * gain.transpose();
+        let mut out = ParamCovariance::zeros();
+        out.view_mut((0, 0), (a, a)).copy_from(&p);
+        out.view_mut((a, 0), (t, a)).copy_from(&c_ta);
+        out.view_mut((0, a), (a, t)).copy_from(&c_ta.transpose());
+        out.view_mut((a, a), (t, t)).copy_from(&c_tt);
+        Some(out)
     }
 
     /// Marginal posterior sigmas of the global block.
