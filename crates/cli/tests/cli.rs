@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 mod common;
-use common::{parcal, text};
+use common::{copy_fixture, parcal, s, text};
 
 fn simulate(dir: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["simulate", "--seed", "7", "--out", dir.to_str().unwrap()];
@@ -256,6 +256,94 @@ fn touches_and_tracker_data_are_simulated_inspected_and_calibrated_together() {
         "{}",
         text(&output.stderr)
     );
+}
+
+/// Touches read in motor revolutions with unknown scales: simulated,
+/// calibrated (the scales after the 33 in calibration.json, the
+/// calibrated actuator block in rev) and validated on another campaign.
+#[test]
+fn touches_in_revolutions_calibrate_their_scales() {
+    let temp = tempfile::tempdir().unwrap();
+    let output = simulate(temp.path(), &["--readings", "rev"]);
+    let stdout = text(&output.stdout);
+    assert!(stdout.contains("readings           unit rev"), "{stdout}");
+    let dir = temp.path().to_str().unwrap();
+    let output = parcal(&["calibrate", dir]);
+    let stdout = text(&output.stdout);
+    assert!(output.status.success(), "{}{stdout}", text(&output.stderr));
+    assert!(stdout.contains("verdict: accepted"), "{stdout}");
+    let calibration = temp.path().join("calibration.json");
+    let record = parcal_dataset::Calibration::read(&calibration).unwrap();
+    assert_eq!(
+        record.parameters.names[33..],
+        ["s_1", "s_2", "s_3", "s_4", "s_5", "s_6"]
+    );
+    let actuator = &record
+        .machine
+        .as_ref()
+        .expect("calibrated actuators")
+        .actuator;
+    assert_eq!(actuator.unit, "rev");
+    let truth = parcal_dataset::Dataset::read(temp.path())
+        .unwrap()
+        .truth
+        .unwrap()
+        .actuator_scale
+        .expect("true scales");
+    let sigma = actuator.scale_sigma.expect("their sigmas");
+    for i in 0..6 {
+        let z = (actuator.scale[i] - truth[i]) / sigma[i];
+        assert!(z.abs() < 4.5, "s_{}: {z:.2} sigma off", i + 1);
+    }
+
+    let other = temp.path().join("other");
+    let output = parcal(&[
+        "simulate",
+        "--seed",
+        "8",
+        "--readings",
+        "rev",
+        "--out",
+        s(&other),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let output = parcal(&[
+        "validate",
+        s(&other),
+        "--calibration",
+        s(&calibration),
+        "--reference",
+        "5",
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+}
+
+/// Poses alone (fixtures/jugglebot) do not observe the tool:
+/// calibration.json holds no tool parameter, keeps the design's tool, and
+/// `parcal accuracy` (maps of the tool tip) says the tool was not
+/// calibrated.
+#[test]
+fn a_calibration_of_poses_alone_leaves_the_tool_out_and_accuracy_says_so() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("jugglebot", temp.path(), &["machine.json", "poses.csv"]);
+    let calibration = temp.path().join("calibration.json");
+    let output = parcal(&["calibrate", s(&data), "--out", s(&calibration)]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let record = parcal_dataset::Calibration::read(&calibration).unwrap();
+    let names = &record.parameters.names;
+    assert_eq!(names.len(), 30 + 6 + 6 + 6, "{names:?}");
+    assert!(!names.iter().any(|n| n.ends_with("_eT")), "{names:?}");
+    let output = parcal(&[
+        "accuracy",
+        s(&data),
+        "--calibration",
+        s(&calibration),
+        "--out",
+        s(&temp.path().join("maps")),
+    ]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(stderr.contains("did not calibrate the tool"), "{stderr}");
 }
 
 #[test]

@@ -92,10 +92,10 @@ pub fn of_ball_run(
 ) -> Diagnostics {
     let names = run.names();
     // calibration.json's parameters are the kinematic ones, followed by the
-    // instrument groups' with poses or points, whose priors are attributed
-    // only by an instrument run: then none is.
+    // instrument groups' (the scales' too, with touches alone), whose
+    // priors are attributed only by an instrument run: then none is.
     let (prior_sigma, determined_by) = match (run.sigmas(), &run.prior) {
-        _ if run.instruments.is_some() => (Vec::new(), Vec::new()),
+        _ if run.layout.recorded().len() > run.params.len() => (Vec::new(), Vec::new()),
         (Some(sigmas), Some(prior)) => sigmas
             .iter()
             .zip(prior.sigma().iter())
