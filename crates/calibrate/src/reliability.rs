@@ -38,6 +38,7 @@ use parcal_solver::{Problem, Redundancy, State, Status, normalised_residual, red
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
+use crate::robust::{DownWeighted, down_weighted};
 use crate::snooping::SNOOPING_LEVEL;
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
@@ -203,6 +204,9 @@ pub struct Reliability {
     /// The normalised residual of every row (standard normal under the
     /// model, unlike an observation's largest).
     pub row_normalised: Vec<f64>,
+    /// With a robust loss, the observations it down-weighted
+    /// ([`crate::robust::down_weighted`]); `None` for least squares.
+    pub down_weighted: Option<Vec<DownWeighted>>,
 }
 
 impl Reliability {
@@ -313,10 +317,15 @@ impl Reliability {
             .chain(e.iter().copied().zip(r.iter().copied()))
             .filter_map(|(e, r)| normalised_residual(e, r))
             .collect();
+        let down_weighted = numbers
+            .weights
+            .is_some()
+            .then(|| down_weighted(&numbers, P, rows, global));
         Ok(Self {
             components,
             observations,
             row_normalised,
+            down_weighted,
         })
     }
 

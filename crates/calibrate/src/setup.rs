@@ -241,6 +241,7 @@ impl Setup {
             ball_priors,
             forward_options: ForwardOptions::default(),
             instruments: None,
+            loss: options.loss,
         }
     }
 

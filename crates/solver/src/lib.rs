@@ -253,6 +253,7 @@ pub mod dense_reference;
 mod diagnostics;
 mod eliminate;
 mod iterate;
+mod loss;
 mod monitor;
 mod options;
 mod policy;
@@ -265,10 +266,14 @@ mod solution;
 pub use chunks::split_by;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
+pub use loss::{CAUCHY_K, HUBER_K, Loss, Weighed};
 pub use monitor::{Decision, Iterate, Monitor};
 pub use options::{Method, SolverOptions};
 pub use problem::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
+    point_degrees_of_freedom,
 };
-pub use redundancy::{PriorLeverage, Redundancy, normalised_residual, redundancy};
+pub use redundancy::{
+    ObservationWeights, PriorLeverage, Redundancy, normalised_residual, redundancy,
+};
 pub use solution::{BlockId, IterationRecord, Solution, Status};
