@@ -167,10 +167,10 @@ pub struct CalibrationOptions {
     /// The loss of each observation ([`crate::robust`]): least squares
     /// (the default), or Huber's or Cauchy's with `k` in units of the
     /// observation's standard deviation, by iteratively reweighted least
-    /// squares. A contact is one observation (its whitened residual: one
-    /// degree of freedom, its angles absorbing the coordinate
-    /// observation's other two), a distance one row, a pose six rows, a
-    /// point three, each weighed by `u = |e| / √rows`; priors never.
+    /// squares. Each observation is weighed by its scaled residual `u =
+    /// |e| / √d`, `d` its degrees of freedom: a contact has one (the
+    /// coordinate observation's angles absorb two of its three rows), a
+    /// distance one, a pose six, a point three; priors are never weighed.
     pub loss: Loss,
 }
 
