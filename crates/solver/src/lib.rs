@@ -286,7 +286,7 @@ pub use monitor::{Decision, Iterate, Monitor};
 pub use options::{Method, SolverOptions};
 pub use problem::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
-    point_degrees_of_freedom,
+    WeighedRows, point_degrees_of_freedom,
 };
 pub use redundancy::{
     ObservationWeights, PriorLeverage, Redundancy, normalised_residual, redundancy,

@@ -233,14 +233,9 @@ impl GlobalObservations {
     /// residual ([`Loss::observation`], an observation of `n` rows having
     /// `n` degrees of freedom): residual and Jacobian rows scaled by `√w`.
     /// `sizes`: the rows of each observation, `None`: one each
-    /// ([`Problem::global_observation_rows`]). Returns each row's weight
-    /// (its observation's) and the observations' term of the loss, or why
-    /// `sizes` do not fit the rows.
-    pub fn weigh(
-        &mut self,
-        loss: Loss,
-        sizes: Option<&[usize]>,
-    ) -> Result<(Vec<f64>, f64), String> {
+    /// ([`Problem::global_observation_rows`]). Fails with why `sizes` do
+    /// not fit the rows.
+    pub fn weigh(&mut self, loss: Loss, sizes: Option<&[usize]>) -> Result<WeighedRows, String> {
         let m = self.residual.len();
         let one_each = vec![1; m];
         let sizes = sizes.unwrap_or(&one_each);
@@ -261,8 +256,18 @@ impl GlobalObservations {
             weights.resize(first + n, weighed.weight);
             cost += weighed.cost;
         }
-        Ok((weights, cost))
+        Ok(WeighedRows { weights, cost })
     }
+}
+
+/// The global observations weighed by a robust loss
+/// ([`GlobalObservations::weigh`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WeighedRows {
+    /// Each row's weight (its observation's).
+    pub weights: Vec<f64>,
+    /// The observations' term of the loss.
+    pub cost: f64,
 }
 
 /// The degrees of freedom of a point's `rows` residual rows as one

@@ -7,7 +7,7 @@ use nalgebra::DVector;
 use crate::chunks::run_chunks;
 use crate::context::Context;
 use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk, find_non_finite};
-use crate::problem::{GlobalObservations, Problem, State};
+use crate::problem::{GlobalObservations, Problem, State, WeighedRows};
 use crate::qr::all_finite;
 
 /// `S δg = −b` on the global block, with the cost at the state it was built
@@ -94,7 +94,7 @@ where
         let mut total = vec![0.0; w * w];
         let mut global_norms2 = vec![0.0; g];
         let (mut data_cost, mut prior_cost) = (0.0, 0.0);
-        let mut loss_cost = weighed.map(|(_, cost)| cost);
+        let mut loss_cost = weighed.map(|w| w.cost);
         let mut group_costs = Vec::with_capacity(state.groups.len());
         let global = problem.prepare_global(&state.global);
         let global = &global;
@@ -218,7 +218,7 @@ where
     pub(crate) fn global_observations(
         &self,
         global: &DVector<f64>,
-    ) -> Result<(GlobalObservations, Option<(Vec<f64>, f64)>), Failure> {
+    ) -> Result<(GlobalObservations, Option<WeighedRows>), Failure> {
         let g = self.dims.g;
         let mut observations = GlobalObservations::zeros(0, g);
         self.problem

@@ -236,8 +236,8 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
         })
         .collect();
     redundancy.global_observation_residuals = observations.residual.iter().copied().collect();
-    if let (Some(weights), Some((rows, _))) = (&mut redundancy.weights, weighed) {
-        weights.global_observations = rows;
+    if let (Some(weights), Some(weighed)) = (&mut redundancy.weights, weighed) {
+        weights.global_observations = weighed.weights;
     }
     if let Some(prior) = problem.global_prior() {
         // tr(Λ Cov), both symmetric, from their lower triangles.
