@@ -114,6 +114,15 @@ pub enum CalibrateError {
     /// An instrument calibration was asked of a dataset with ball touches
     /// ([`crate::calibrate`] calibrates them with its poses and points).
     HasTouches,
+    /// A robust loss where it does not apply ([`crate::robust`]): with
+    /// data snooping, which it replaces, or in a calibration of poses and
+    /// points alone.
+    RobustLoss {
+        /// The loss asked for.
+        loss: parcal_solver::Loss,
+        /// Where it does not apply.
+        reason: &'static str,
+    },
 }
 
 /// The file of an instrument measurement row.
@@ -265,6 +274,9 @@ impl fmt::Display for CalibrateError {
                 "the dataset has ball touches (measurements.csv): a calibration of poses and \
                  points alone leaves them out; calibrate the touches with them",
             ),
+            Self::RobustLoss { loss, reason } => {
+                write!(f, "the {loss} loss does not apply {reason}")
+            }
         }
     }
 }

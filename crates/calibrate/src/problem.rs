@@ -30,7 +30,7 @@ use parcal_observe::{
     RadiusBlock, RadiusWeight,
 };
 use parcal_solver::{
-    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem,
+    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Loss, Problem,
 };
 
 use crate::CalibrateError;
@@ -209,6 +209,14 @@ impl<const R: usize, const G: usize> GlobalJacobian<R> for ContactJacobian<R, G>
         self.d_tip * tip + self.centre_step(v)
     }
 
+    /// `d_tip` and the centre's columns (`J_f` is the kinematics').
+    fn scale(&mut self, factor: f64) {
+        self.d_tip *= factor;
+        if let Some((_, d_ball)) = &mut self.centre {
+            *d_ball *= factor;
+        }
+    }
+
     /// The kinematic rows formed on the stack (33 values), the centre's
     /// columns from `dc/dC`, the scales' from the leg-length columns: no
     /// scratch needed.
@@ -377,6 +385,9 @@ pub struct CalibrationProblem<'a, O, const G: usize> {
     /// The poses and points measured with the touches, global
     /// observations after the distances ([`crate::mixed`]).
     pub instruments: Option<InstrumentObservations<'a>>,
+    /// The loss of every contact, distance, pose and point
+    /// ([`crate::robust`]).
+    pub loss: Loss,
 }
 
 impl<O, const G: usize> CalibrationProblem<'_, O, G> {
@@ -756,5 +767,20 @@ where
 
     fn point_prior(&self, i: usize) -> Option<GaussianPrior<Const<P>>> {
         self.observations.angle_prior(i)
+    }
+
+    fn loss(&self) -> Loss {
+        self.loss
+    }
+
+    /// A distance of one row, a pose of six, a point of three
+    /// ([`CalibrationProblem::global_observation_ids`]).
+    fn global_observation_rows(&self) -> Option<Vec<usize>> {
+        Some(
+            self.global_observation_ids()
+                .iter()
+                .map(|o| o.rows())
+                .collect(),
+        )
     }
 }

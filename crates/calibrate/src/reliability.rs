@@ -39,6 +39,7 @@ use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
 use crate::external::{ExternalShift, external_shifts};
+use crate::robust::{DownWeighted, down_weighted};
 use crate::snooping::SNOOPING_LEVEL;
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
@@ -207,6 +208,9 @@ pub struct Reliability {
     /// The global shift of the least reliable observations' minimal
     /// detectable biases, largest `λ` first ([`crate::external`]).
     pub external: Vec<ExternalShift>,
+    /// With a robust loss, the observations it down-weighted
+    /// ([`crate::robust::down_weighted`]); `None` for least squares.
+    pub down_weighted: Option<Vec<DownWeighted>>,
 }
 
 impl Reliability {
@@ -318,11 +322,16 @@ impl Reliability {
             .filter_map(|(e, r)| normalised_residual(e, r))
             .collect();
         let external = external_shifts(problem, state, covariance, caches, &observations, delta0)?;
+        let down_weighted = numbers
+            .weights
+            .is_some()
+            .then(|| down_weighted(&numbers, P, rows, global));
         Ok(Self {
             components,
             observations,
             row_normalised,
             external,
+            down_weighted,
         })
     }
 

@@ -24,6 +24,7 @@ use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::mixed::InstrumentResult;
 use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations, kinematic_params};
 use crate::reliability::{Reliability, checked};
+use crate::robust::START_TOLERANCE;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
@@ -113,11 +114,16 @@ impl CalibrationRun {
     }
 
     /// The run's verdict ([`crate::verdict`]).
+    /// With a robust loss, the test of data snooping is replaced by the
+    /// number of observations it down-weighted ([`crate::robust`]).
     pub fn verdict(&self) -> Verdict {
         let outlier = self
             .reliability
             .as_ref()
-            .is_some_and(|r| r.fails_snooping(crate::snooping::SNOOPING_LEVEL));
+            .is_some_and(|r| match &r.down_weighted {
+                Some(down_weighted) => crate::robust::too_many(down_weighted),
+                None => r.fails_snooping(crate::snooping::SNOOPING_LEVEL),
+            });
         Verdict::new(&self.status, self.global_test, outlier)
     }
 
@@ -267,6 +273,7 @@ impl CalibrationRun {
         };
         options.insert("method".to_string(), method.into());
         options.insert("radius".to_string(), self.options.radius.to_string().into());
+        options.insert("loss".to_string(), self.options.loss.to_string().into());
         parcal_dataset::Calibration {
             canonical: geometry_record(&geometry),
             parameters,
@@ -287,6 +294,7 @@ impl CalibrationRun {
             global_test: None,
             provenance: None,
             removed_observations: Vec::new(),
+            down_weighted_observations: Vec::new(),
             design: Some(self.machine.clone()),
             diagnostics: None,
         }
@@ -607,11 +615,25 @@ impl SolverRun<'_> {
             observer: &mut *observer,
             found: Ok(Vec::new()),
         };
+        // A redescending loss starts from a robust estimate of Huber's
+        // ([`crate::robust::start`]), solved to a looser tolerance.
+        let loss = problem.loss;
+        let start = crate::robust::start(loss);
+        let first_stage = match start {
+            Some(start) => {
+                problem.loss = start;
+                SolverOptions {
+                    step_tolerance: self.solver.step_tolerance.max(START_TOLERANCE),
+                    ..self.solver.clone()
+                }
+            }
+            None => self.solver.clone(),
+        };
         let mut solution = solve_with_caches(
             &*problem,
             setup.initial_state(self.dataset),
             &mut caches,
-            self.solver,
+            &first_stage,
             &mut watch,
         );
         let wrong = watch.found?;
@@ -672,15 +694,36 @@ impl SolverRun<'_> {
             }
             // Both solves together within the iteration and time limits.
             let rest = SolverOptions {
-                max_iterations: self.solver.max_iterations.saturating_sub(iteration),
-                time_limit: self
-                    .solver
+                max_iterations: first_stage.max_iterations.saturating_sub(iteration),
+                time_limit: first_stage
                     .time_limit
                     .map(|limit| limit.saturating_sub(started.elapsed())),
-                ..self.solver.clone()
+                ..first_stage.clone()
             };
             solution = solve_with_caches(&*problem, state, &mut caches, &rest, &mut observer);
             solution.history.splice(0..0, first);
+        }
+        if start.is_some() {
+            problem.loss = loss;
+            if checked(&solution.status) {
+                // The rest of the iteration and time limits, from Huber's
+                // estimate.
+                let Solution {
+                    state,
+                    history: first,
+                    ..
+                } = solution;
+                let rest = SolverOptions {
+                    max_iterations: self.solver.max_iterations.saturating_sub(first.len()),
+                    time_limit: self
+                        .solver
+                        .time_limit
+                        .map(|limit| limit.saturating_sub(started.elapsed())),
+                    ..self.solver.clone()
+                };
+                solution = solve_with_caches(&*problem, state, &mut caches, &rest, &mut observer);
+                solution.history.splice(0..0, first);
+            }
         }
         let ball_misfits = solution
             .group_costs

@@ -250,6 +250,7 @@ impl Setup {
             ball_priors,
             forward_options: ForwardOptions::default(),
             instruments: None,
+            loss: options.loss,
         }
     }
 

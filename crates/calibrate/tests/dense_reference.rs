@@ -31,7 +31,10 @@ use std::time::Instant;
 use parcal_calibrate::layout::ParameterGroup;
 use parcal_calibrate::problem::{CalibrationProblem, ContactObservations};
 use parcal_calibrate::setup::{Observations, Setup};
-use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, RadiusModel, Simulation};
+use parcal_calibrate::{
+    CAUCHY_K, CalibrationOptions, HUBER_K, Loss, ParamCovariance, PriorMode, RadiusModel,
+    Simulation,
+};
 use parcal_dataset::Dataset;
 use parcal_dataset::SessionModel;
 use parcal_kinematics::N_PARAMS;
@@ -688,5 +691,27 @@ fn actuator_scales_match_the_dense_solve() {
                 check_mixed::<3, 0, 1, _>(&label, dataset, &options, &setup, o)
             }
         }
+    }
+}
+
+/// A robust loss weighs each contact's rows, each distance, and each pose's
+/// six rows and point's three as wholes: the weighted Schur solve against
+/// the dense one at the design, where most residuals are far beyond `k`
+/// (the contacts' global Jacobians scaled in factored form,
+/// `ContactJacobian::scale`, the tied balls' columns with them).
+#[test]
+fn robust_losses_match_the_dense_solve() {
+    for loss in [Loss::Huber { k: HUBER_K }, Loss::Cauchy { k: CAUCHY_K }] {
+        let dataset = mixed(Some(PLATE));
+        let options = CalibrationOptions {
+            loss,
+            ..options(Simulation::IV, PriorMode::Paper, RadiusModel::PerBall)
+        };
+        let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+        let Observations::Coordinates(observations) = observations else {
+            panic!("simulation IV observes coordinates")
+        };
+        let label = format!("mixed, coordinates, plate, radius per ball, {loss}");
+        check_mixed::<4, 2, 3, _>(&label, &dataset, &options, &setup, observations);
     }
 }

@@ -964,3 +964,51 @@ fn a_budget_below_four_touches_per_ball_plans_fewer_balls() {
     let calibrate = parcal(&["calibrate", data.to_str().unwrap()]);
     assert!(calibrate.status.success(), "{}", text(&calibrate.stderr));
 }
+
+/// `--loss`: a reading 5 mm off (measurements.csv line 40) is down-weighted
+/// by the Cauchy loss, listed in calibration.json with its line and in the
+/// verdict's reasons, and the loss recorded in the options; a bad loss, and
+/// a robust loss with --snoop (which it replaces), fail with a message.
+#[test]
+fn calibrate_with_a_robust_loss_lists_the_down_weighted_reading() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = common::copy_fixture("paper-seed1", temp.path(), &common::PAPER_FILES);
+    let csv = data.join("measurements.csv");
+    let text_csv = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text_csv.lines().map(String::from).collect();
+    let mut fields: Vec<String> = lines[39].split(',').map(String::from).collect();
+    fields[3] = (fields[3].parse::<f64>().unwrap() + 5.0).to_string();
+    lines[39] = fields.join(",");
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    let out = temp.path().join("cauchy.json");
+    let stdout = common::ok(&[
+        "calibrate",
+        common::s(&data),
+        "--loss",
+        "cauchy",
+        "--out",
+        common::s(&out),
+    ]);
+    assert!(stdout.contains("verdict: accepted"), "{stdout}");
+    assert!(
+        stdout.contains("down-weighted 1 observation")
+            && stdout.contains("measurements.csv line 40"),
+        "{stdout}"
+    );
+    let json = parcal_dataset_calibration(&out);
+    assert!(json.contains("\"loss\": \"cauchy:2.385\""), "{json}");
+    assert!(json.contains("\"down_weighted_observations\""), "{json}");
+    let record = parcal_dataset::Calibration::read(&out).unwrap();
+    let listed = &record.down_weighted_observations;
+    assert_eq!(listed.len(), 1);
+    assert_eq!(
+        (listed[0].file.as_str(), listed[0].line),
+        ("measurements.csv", Some(40))
+    );
+    assert!(listed[0].weight < 0.1 && listed[0].residual_sigmas > 7.0);
+
+    let error = common::fails(&["calibrate", common::s(&data), "--loss", "huber:0"]);
+    assert!(error.contains("k must be positive"), "{error}");
+    let error = common::fails(&["calibrate", common::s(&data), "--loss", "huber", "--snoop"]);
+    assert!(error.contains("data snooping"), "{error}");
+}

@@ -110,6 +110,10 @@ pub struct Calibration {
     /// The observations data snooping removed, in the order of removal.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub removed_observations: Vec<RemovedObservation>,
+    /// With a robust loss: the observations it down-weighted (final weight
+    /// under 0.1), in the dataset's order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub down_weighted_observations: Vec<DownWeightedObservation>,
     /// The design machine the calibration started from (machine.json as
     /// given: the design geometry in the design frame, priors,
     /// repeatability, actuator unit and design scales, stroke): what
@@ -329,6 +333,25 @@ pub struct RemovedObservation {
     pub variance_factor: [f64; 2],
 }
 
+/// An observation a robust loss down-weighted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DownWeightedObservation {
+    /// Its file (`measurements.csv`, `artefacts.json`, `poses.csv`,
+    /// `points.csv`).
+    pub file: String,
+    /// Its line there, for a CSV file (the header is line 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line: Option<u64>,
+    /// Its field, for a JSON file (`distances[3]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
+    /// Its final weight `w(u)`.
+    pub weight: f64,
+    /// Its scaled residual `u = |e| / √d` at the solution, in units of its
+    /// standard deviation.
+    pub residual_sigmas: f64,
+}
+
 impl Calibration {
     /// Whether the verdict is `"rejected"`.
     pub fn is_rejected(&self) -> bool {
@@ -462,6 +485,16 @@ impl Calibration {
         }
         if let Some(diagnostics) = &self.diagnostics {
             diagnostics.validate(check, n)?;
+        }
+        for (k, d) in self.down_weighted_observations.iter().enumerate() {
+            check.finite(
+                format_args!("down_weighted_observations[{k}].weight"),
+                d.weight,
+            )?;
+            check.finite(
+                format_args!("down_weighted_observations[{k}].residual_sigmas"),
+                d.residual_sigmas,
+            )?;
         }
         for (i, it) in self.iterations.iter().enumerate() {
             check.finite(format_args!("iterations[{i}].cost"), it.cost)?;

@@ -411,6 +411,13 @@ fn calibration() -> Calibration {
             gross_error_sigmas: -60.25,
             variance_factor: [14.5, 1.0 / 3.0],
         }],
+        down_weighted_observations: vec![DownWeightedObservation {
+            file: "artefacts.json".into(),
+            line: None,
+            field: Some("distances[3]".into()),
+            weight: 0.0125,
+            residual_sigmas: 107.6,
+        }],
         design: Some(Machine {
             stroke: Some([-5.0, 105.0]),
             ..dataset(ALL).machine

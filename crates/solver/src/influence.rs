@@ -82,7 +82,8 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
     {
         Some(
             ctx.global_observations(&state.global)
-                .map_err(|f| status_of(f, 0))?,
+                .map_err(|f| status_of(f, 0))?
+                .0,
         )
     } else {
         None
@@ -133,6 +134,8 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
         let mut redundancy = vec![SVector::<f64, R>::zeros(); n];
         let mut residuals = vec![SVector::<f64, R>::zeros(); n];
         let mut global_leverage = vec![SVector::<f64, R>::zeros(); n];
+        // A robust loss's weights, as the elimination applies them.
+        let mut weights = vec![1.0; n];
         pool.with(|ws| {
             let (bufs, _, rows) = ws.split();
             rows.clear();
@@ -147,6 +150,8 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
                 residuals: &mut residuals,
                 global_leverage: &mut global_leverage,
                 global_z: Some(&mut z),
+                first_point: points.start,
+                weights: &mut weights,
                 done: 0,
                 prior_leverage: PriorLeverage::default(),
             };

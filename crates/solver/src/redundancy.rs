@@ -123,9 +123,21 @@ pub struct Redundancy<const R: usize> {
     pub global_observation_residuals: Vec<f64>,
     /// The leverage taken by the prior rows.
     pub prior_leverage: PriorLeverage,
+    /// With a robust loss ([`Problem::loss`]), the weights by which the
+    /// rows here are weighted; `None` for least squares.
+    pub weights: Option<ObservationWeights>,
     /// `n`, the number of unknowns: `G`, `C` per group that is not fixed,
     /// `P` per point.
     pub unknowns: usize,
+}
+
+/// The weights of a robust loss at one state ([`crate::Loss`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObservationWeights {
+    /// Each point's.
+    pub points: Vec<f64>,
+    /// Each global observation row's (its observation's).
+    pub global_observations: Vec<f64>,
 }
 
 impl<const R: usize> Redundancy<R> {
@@ -200,7 +212,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     let mut ctx = Context::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
     let g = ctx.dims.g;
     let (symmetric, factor) = covariance_factor(covariance, g)?;
-    let observations = ctx
+    let (observations, weighed) = ctx
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
     let mut redundancy = ctx
@@ -215,6 +227,9 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
         })
         .collect();
     redundancy.global_observation_residuals = observations.residual.iter().copied().collect();
+    if let (Some(weights), Some(weighed)) = (&mut redundancy.weights, weighed) {
+        weights.global_observations = weighed.weights;
+    }
     if let Some(prior) = problem.global_prior() {
         // tr(Λ Cov), both symmetric, from their lower triangles.
         let mut trace = 0.0;
@@ -276,6 +291,9 @@ where
         let point_slices = split_by(&mut points, lengths());
         let residual_slices = split_by(&mut residuals, lengths());
         let leverage_slices = split_by(&mut global_leverage, lengths());
+        let robust = !problem.loss().is_squared();
+        let mut weights = vec![1.0; if robust { n_points } else { 0 }];
+        let weight_slices = split_by(&mut weights, lengths().map(|n| if robust { n } else { 0 }));
         let mut prior_leverage = PriorLeverage::default();
         let global = problem.prepare_global(&state.global);
         let global = &global;
@@ -283,15 +301,17 @@ where
         let jobs: Vec<_> = jobs
             .into_iter()
             .zip(
-                point_slices
-                    .into_iter()
-                    .zip(residual_slices.into_iter().zip(leverage_slices)),
+                point_slices.into_iter().zip(
+                    residual_slices
+                        .into_iter()
+                        .zip(leverage_slices.into_iter().zip(weight_slices)),
+                ),
             )
             .collect();
         run_chunks(
             pool,
             jobs,
-            |ws, ((chunk, caches), (redundancy, (residuals, global_leverage)))| {
+            |ws, ((chunk, caches), (redundancy, (residuals, (global_leverage, weights))))| {
                 let (bufs, _, rows) = ws.split();
                 // Room for the largest group: nothing grows per point.
                 let largest = chunk.groups.clone().map(|k| problem.group_points(k).len());
@@ -309,6 +329,8 @@ where
                     residuals,
                     global_leverage,
                     global_z: None,
+                    first_point: chunk.points.start,
+                    weights,
                     done: 0,
                     prior_leverage: PriorLeverage::default(),
                 };
@@ -326,6 +348,10 @@ where
             global_observations: Vec::new(),
             global_observation_residuals: Vec::new(),
             prior_leverage,
+            weights: robust.then(|| ObservationWeights {
+                points: weights,
+                global_observations: Vec::new(),
+            }),
             unknowns: 0,
         })
     }
@@ -366,6 +392,10 @@ pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: us
     /// If asked ([`crate::influence`]), `z_j` of every row of the chunk's
     /// points, `G` values per row, `R` rows per point.
     pub(crate) global_z: Option<&'a mut [f64]>,
+    /// The chunk's first point.
+    pub(crate) first_point: usize,
+    /// The chunk's points' weights (a robust loss; empty otherwise).
+    pub(crate) weights: &'a mut [f64],
     /// Points of the chunk written so far.
     pub(crate) done: usize,
     pub(crate) prior_leverage: PriorLeverage,
@@ -377,6 +407,10 @@ where
     J: GlobalJacobian<R>,
 {
     fn reduced_row(&mut self, _row: &[f64]) {}
+
+    fn point_weighed(&mut self, i: usize, weight: f64) {
+        self.weights[i - self.first_point] = weight;
+    }
 
     fn point_factorised(
         &mut self,

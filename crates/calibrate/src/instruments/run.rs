@@ -122,12 +122,20 @@ pub fn setup<'a>(
 
 /// Calibrates the poses and points of `dataset` (it must have no ball
 /// touches): [`setup`], then the solver from the initial estimate.
-/// `observer` sees each iteration.
+/// `observer` sees each iteration. Least squares only: a robust loss
+/// ([`crate::robust`]) applies to ball-touch calibrations.
 pub fn calibrate_instruments(
     dataset: &Dataset,
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<InstrumentRun, CalibrateError> {
+    if !options.loss.is_squared() {
+        return Err(CalibrateError::RobustLoss {
+            loss: options.loss,
+            reason: "to a calibration of poses and points alone: only to ball touches (with \
+                     or without poses and points)",
+        });
+    }
     let InstrumentSetup {
         design,
         problem,
@@ -587,6 +595,7 @@ impl InstrumentRun {
             global_test: None,
             provenance: None,
             removed_observations: Vec::new(),
+            down_weighted_observations: Vec::new(),
             design: Some(self.machine.clone()),
             diagnostics: None,
         }

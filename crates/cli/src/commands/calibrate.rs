@@ -12,8 +12,8 @@ use parcal_calibrate::snooping::{
     MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
 };
 use parcal_calibrate::{
-    CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
-    RadiusModel, Simulation, WeightModel, calibrate,
+    CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
+    PriorMode, RadiusModel, Simulation, WeightModel, calibrate,
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
 use parcal_report::{instruments, sentences, tables};
@@ -48,7 +48,8 @@ pub struct Args {
     /// Levenberg-Marquardt instead of the paper's Gauss-Newton (eq. 5).
     #[arg(long)]
     lm: bool,
-    /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
+    /// Iteration limit (default 50 for Gauss-Newton, 200 for
+    /// Levenberg-Marquardt or a robust --loss).
     #[arg(long)]
     max_iterations: Option<usize>,
     /// Wall-clock budget of the calibration, seconds: when it has passed the
@@ -61,6 +62,14 @@ pub struct Args {
     /// removed_observations).
     #[arg(long)]
     snoop: bool,
+    /// The loss of each observation: squared (least squares), huber[:K]
+    /// (K default 1.345) or cauchy[:K] (K default 2.385), K in units of the
+    /// observation's standard deviation, solved by iteratively reweighted
+    /// least squares; a robust loss replaces --snoop (calibration.json
+    /// lists the observations it down-weighted under
+    /// down_weighted_observations).
+    #[arg(long, value_name = "LOSS", default_value = "squared")]
+    loss: Loss,
     /// Where to write calibration.json (default: calibration.json in the
     /// dataset's directory). A rejected calibration goes to
     /// NAME.rejected.json beside it instead, leaving this file as it was.
@@ -91,6 +100,7 @@ impl Args {
         if self.lm {
             options = options.levenberg_marquardt();
         }
+        options = options.with_loss(self.loss);
         if let Some(limit) = self.max_iterations {
             options.max_iterations = limit;
         }
@@ -125,11 +135,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         read.elapsed().as_secs_f64()
     ));
     progress.line(&format!(
-        "calibrating {} contacts: {} observation, {} prior, radius error per {}",
+        "calibrating {} contacts: {} observation, {} prior, radius error per {}, {} loss",
         dataset.measurements.q.len(),
         options.observation,
         options.prior,
-        options.radius
+        options.radius,
+        options.loss
     ));
     let tracker = &dataset.tracker;
     if !tracker.is_empty() {
