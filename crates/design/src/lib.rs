@@ -177,8 +177,8 @@ pub fn plan(
 /// `calibration` (a converged calibration.json of this machine and these
 /// balls). Its estimate replaces the design as the model (the rows and the
 /// map are linearised there, the commands stay the design's), its
-/// posterior covariance of the 33 replaces the prior, and its centre
-/// sigmas locate the balls it measured (their correlations with the 33 are
+/// posterior covariance of the 33 replaces the prior, and its centre and
+/// radius sigmas locate the balls it measured (their correlations with the 33 are
 /// not in the record and are left out). No anchor touches: the balls are
 /// located already; calibrated distances are in the posterior already.
 pub fn plan_next(
