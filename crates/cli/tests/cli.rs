@@ -740,8 +740,46 @@ fn plan_writes_a_plan_that_simulate_measures() {
     let prior = summary["prior"]["registered_rms_um"].as_f64().unwrap();
     assert!(rms > 0.0 && rms < prior / 2.0, "{rms} {prior}");
     assert_eq!(summary["options"]["contacts"], 40);
+    // The radius model is calibrate's default; --radius takes calibrate's
+    // values.
+    assert_eq!(summary["options"]["radius"], "ball");
+    let contact = temp.path().join("contact.csv");
+    let output = parcal(&[
+        "plan",
+        template.to_str().unwrap(),
+        "--contacts",
+        "40",
+        "--tilt",
+        "20",
+        "--pool",
+        "2000",
+        "--radius",
+        "contact",
+        "--out",
+        contact.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(temp.path().join("contact.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["options"]["radius"], "contact");
 
-    let output = simulate(&data, &["--balls", "8", "--plan", plan.to_str().unwrap()]);
+    // Noise seed 2: 40 touches of 8 balls, each with its centre and radius
+    // unknown, leave every observation a redundancy under 0.1, where the
+    // data-snooping test rejects clean draws often (seeds 1, 4, 7 and 8 of
+    // 1-8); the sequential step below needs an accepted calibration.
+    let output = parcal(&[
+        "simulate",
+        "--seed",
+        "2",
+        "--balls",
+        "8",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        data.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
     assert!(text(&output.stdout).contains("contacts           40 (planned:"));
     let inspect = parcal(&["inspect", data.to_str().unwrap()]);
     assert!(inspect.status.success(), "{}", text(&inspect.stderr));
