@@ -57,4 +57,4 @@ pub use map::{AccuracyMap, MapSummary};
 pub use output::to_csv;
 pub use parcal_kinematics::ParamCovariance;
 pub use predicted::{predicted, predicted_at, registered_jacobians, remove_rigid_motions};
-pub use truth::{true_error, true_error_at, true_tips};
+pub use truth::{parameter_error, true_error, true_error_at, true_tips};

@@ -58,6 +58,22 @@ pub fn true_error_at(
     })
 }
 
+/// The error map of a parameter error `error`: [`true_error`] of the model
+/// `model` on a machine whose parameters are `model − error` (canonical,
+/// paper eq. 3), so that `error` plays the part of the model's parameter
+/// error. What an error of the parameters (e.g. the shift an undetected
+/// blunder makes) does to the tool tip; its registered map is, to first
+/// order, `|(P J)_k error|` ([`crate::registered_jacobians`]).
+pub fn parameter_error(
+    design: &Geometry,
+    model: &Params,
+    error: &Params,
+    grid: &MapGrid,
+) -> Result<AccuracyMap, AccuracyError> {
+    let machine = model_geometry(&(model - error))?;
+    true_error(design, model, &machine, grid)
+}
+
 /// The true tips `f(q_k, p_true)` (canonical base frame of the truth, mm)
 /// at the actuator values the model commands for each target, in map order.
 pub fn true_tips(
@@ -110,6 +126,28 @@ mod tests {
             "registered max {:e} mm",
             registered.max
         );
+    }
+
+    #[test]
+    fn a_parameter_error_maps_as_its_registered_jacobians() {
+        // A small error along every parameter: the map is linear in it.
+        let design = paper::design();
+        let model = params::to_params(&design.canonicalize().unwrap().geometry);
+        let error = Params::from_fn(|k, _| 1e-4 * ((k % 7) as f64 - 3.0));
+        let grid = MapGrid::square(100.0, 50.0, 400.0);
+        let map = parameter_error(&design, &model, &error, &grid).unwrap();
+        let targets = CanonicalTargets::new(&design, &grid).unwrap();
+        let jacobians = crate::registered_jacobians(&targets, &model).unwrap();
+        let mut worst: f64 = 0.0;
+        for (value, j) in map.registered.iter().zip(&jacobians) {
+            worst = worst.max((value - (j * error).norm()).abs());
+        }
+        let rms = map.registered_summary().rms;
+        println!("registered RMS {rms:.3e} mm, linear within {worst:.1e} mm");
+        // Second order in an error of 1e-4 (mm, rad) over lengths of 1e2.
+        assert!(rms > 1e-4 && worst < 1e-3 * rms, "{worst:e} of {rms:e}");
+        let zero = parameter_error(&design, &model, &Params::zeros(), &grid).unwrap();
+        assert!(zero.registered_summary().max < 1e-9);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! in the design frame, the actuators' scales, the stroke and joint limits.
 
 use parcal_dataset::Calibration;
-use parcal_kinematics::{Geometry, N_PARAMS, ParamCovariance};
+use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, ParamCovariance};
 
 use crate::{ApplyError, Placement, place};
 
@@ -79,7 +79,7 @@ impl AppliedModel {
             joint_limits: design_machine.joint_limits.map(|l| l.limits()),
             placement,
             canonical,
-            covariance: kinematic_covariance(&record.covariance),
+            covariance: kinematic_covariance(record),
         })
     }
 
@@ -107,9 +107,13 @@ impl AppliedModel {
     }
 }
 
-/// The leading 33 x 33 block of a covariance (the kinematic parameters come
-/// first in every calibration.json), or `None` if it is smaller.
-fn kinematic_covariance(covariance: &[Vec<f64>]) -> Option<ParamCovariance> {
-    (covariance.len() >= N_PARAMS && covariance.iter().all(|r| r.len() >= N_PARAMS))
+/// The leading 33 x 33 block of a calibration's covariance when its
+/// parameters start with the 33 (named as `PARAM_NAMES`), or `None`: no
+/// covariance, or a calibration that did not identify them all (poses
+/// alone leave the tool out).
+fn kinematic_covariance(record: &Calibration) -> Option<ParamCovariance> {
+    let (names, covariance) = (&record.parameters.names, &record.covariance);
+    let leading = names.len() >= N_PARAMS && names[..N_PARAMS] == PARAM_NAMES;
+    (leading && covariance.len() >= N_PARAMS && covariance.iter().all(|r| r.len() >= N_PARAMS))
         .then(|| ParamCovariance::from_fn(|i, j| covariance[i][j]))
 }

@@ -31,7 +31,10 @@ pub fn predicted_registered(
     commands: &[Command],
 ) -> Result<Vec<f64>, ApplyError> {
     let covariance = model.covariance.as_ref().ok_or_else(|| {
-        ApplyError::Missing("calibration.json has no covariance to predict the accuracy".into())
+        ApplyError::Missing(
+            "calibration.json has no covariance of the 33 kinematic parameters to predict the accuracy (none was computed, or the calibration left some out: the tool of poses alone)"
+                .into(),
+        )
     })?;
     let (base, platform) = (
         isometry(&model.placement.base),

@@ -111,13 +111,18 @@ pub enum CalibrateError {
         /// Why.
         reason: String,
     },
-    /// The dataset has both ball touches and instrument measurements, and
-    /// machine.json's `actuator` is not the default (mm, scale 1, known):
-    /// the touches' leg lengths are `l_i + q_i` ([`crate::mixed`]).
-    MixedData,
     /// An instrument calibration was asked of a dataset with ball touches
     /// ([`crate::calibrate`] calibrates them with its poses and points).
     HasTouches,
+    /// A robust loss where it does not apply ([`crate::robust`]): with
+    /// data snooping, which it replaces, or in a calibration of poses and
+    /// points alone.
+    RobustLoss {
+        /// The loss asked for.
+        loss: parcal_solver::Loss,
+        /// Where it does not apply.
+        reason: &'static str,
+    },
 }
 
 /// The file of an instrument measurement row.
@@ -265,16 +270,13 @@ impl fmt::Display for CalibrateError {
             Self::Calibration { reason } => {
                 write!(f, "the calibration cannot be applied: {reason}")
             }
-            Self::MixedData => f.write_str(
-                "machine.json: actuator: ball touches (measurements.csv) calibrated with \
-                 instrument measurements (poses.csv, points.csv) need actuators read in mm \
-                 with the known scale 1 (no actuator.scale, no actuator.scale_sigma); \
-                 calibrate them as two datasets",
-            ),
             Self::HasTouches => f.write_str(
                 "the dataset has ball touches (measurements.csv): a calibration of poses and \
                  points alone leaves them out; calibrate the touches with them",
             ),
+            Self::RobustLoss { loss, reason } => {
+                write!(f, "the {loss} loss does not apply {reason}")
+            }
         }
     }
 }

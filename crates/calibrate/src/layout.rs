@@ -9,7 +9,9 @@
 //! ```
 //!
 //! - [`ParameterGroup::Kinematic`]: the 33 canonical parameters `p` of
-//!   paper eq. (1)–(2), first, always.
+//!   paper eq. (1)–(2), first; or [`ParameterGroup::KinematicWithoutTool`],
+//!   their first 30 (joints and legs), when nothing observes the tool
+//!   (poses alone: the body frame is measured, not the tool).
 //! - [`ParameterGroup::BallCentre`]: the centre of a ball that a calibrated
 //!   distance ties to another one. Such centres are coupled by the distance
 //!   rows, so they cannot be eliminated ball by ball; they join the global
@@ -35,6 +37,7 @@
 use std::ops::Range;
 
 use nalgebra::{DMatrix, DVector, SVector};
+use parcal_kinematics::params::TOOL_OFFSET;
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Vec3};
 
 /// One named group of the global block.
@@ -42,6 +45,9 @@ use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Vec3};
 pub enum ParameterGroup {
     /// The 33 canonical kinematic parameters (paper section 2).
     Kinematic,
+    /// The canonical kinematic parameters but the tool `E_T`: the joints
+    /// and leg lengths (the first 30), when no data observe the tool.
+    KinematicWithoutTool,
     /// The centre of ball `ball` (index in artefacts.json), canonical base
     /// frame.
     BallCentre {
@@ -85,6 +91,7 @@ impl ParameterGroup {
     pub fn size(self) -> usize {
         match self {
             Self::Kinematic => N_PARAMS,
+            Self::KinematicWithoutTool => TOOL_OFFSET,
             Self::BallRadius { .. } => 1,
             Self::BallCentre { .. } | Self::BodyOrigin { .. } | Self::BodyRotation { .. } => 3,
             Self::ActuatorScales
@@ -101,6 +108,10 @@ impl ParameterGroup {
         let axes = ["x", "y", "z"];
         match self {
             Self::Kinematic => PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
+            Self::KinematicWithoutTool => PARAM_NAMES[..TOOL_OFFSET]
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
             Self::BallCentre { ball } => axes
                 .map(|axis| format!("centre {}.{axis}", ball_ids[ball]))
                 .into(),
@@ -163,6 +174,19 @@ impl ParameterLayout {
         Self::new(0, &[], false).extended(groups)
     }
 
+    /// The kinematic parameters but the tool
+    /// ([`ParameterGroup::KinematicWithoutTool`]), then `groups` in order:
+    /// instrument measurements that do not observe the tool (poses alone).
+    pub fn without_tool(groups: impl IntoIterator<Item = ParameterGroup>) -> Self {
+        let mut layout = Self {
+            groups: Vec::new(),
+            balls: Vec::new(),
+            size: 0,
+        };
+        layout.push(ParameterGroup::KinematicWithoutTool);
+        layout.extended(groups)
+    }
+
     /// This layout, then `groups` in order (ball touches with instrument
     /// measurements: the instrument groups after the tied centres).
     pub fn extended(mut self, groups: impl IntoIterator<Item = ParameterGroup>) -> Self {
@@ -197,9 +221,15 @@ impl ParameterLayout {
         &self.groups
     }
 
-    /// The range of the kinematic parameters (always `0..33`).
+    /// The range of the kinematic parameters: `0..33`, or `0..30` without
+    /// the tool.
     pub fn kinematic(&self) -> Range<usize> {
-        0..N_PARAMS
+        0..self.groups[0].0.size()
+    }
+
+    /// Whether the tool `E_T` is in the block (the 33 are).
+    pub fn has_tool(&self) -> bool {
+        self.kinematic().len() == N_PARAMS
     }
 
     /// The range of ball `ball`'s centre in the global block, if it is
@@ -270,6 +300,21 @@ impl ParameterLayout {
                 }
                 None => *group,
             })
+            .collect()
+    }
+
+    /// The columns calibration.json's `parameters` hold, in order: every
+    /// group's but the balls' (their unknowns are in its `ball_centres`).
+    pub fn recorded(&self) -> Vec<usize> {
+        self.groups
+            .iter()
+            .filter(|(group, _)| {
+                !matches!(
+                    group,
+                    ParameterGroup::BallCentre { .. } | ParameterGroup::BallRadius { .. }
+                )
+            })
+            .flat_map(|(_, range)| range.clone())
             .collect()
     }
 
@@ -354,6 +399,22 @@ mod tests {
         assert_eq!(names[N_PARAMS + 17], "body.tz");
         assert_eq!(names[N_PARAMS + 24], "body origin tue.x");
         assert_eq!(names[N_PARAMS + 32], "o_6 tue");
+    }
+
+    #[test]
+    fn without_the_tool_the_block_starts_with_the_joints_and_legs() {
+        let layout = ParameterLayout::without_tool([ParameterGroup::ActuatorScales]);
+        assert_eq!(layout.kinematic(), 0..TOOL_OFFSET);
+        assert!(!layout.has_tool());
+        assert_eq!(
+            layout.range(ParameterGroup::ActuatorScales),
+            Some(TOOL_OFFSET..TOOL_OFFSET + 6)
+        );
+        let names = layout.names(&[], &[]);
+        assert_eq!(names.len(), layout.size());
+        assert_eq!(names[TOOL_OFFSET - 1], PARAM_NAMES[TOOL_OFFSET - 1]);
+        assert_eq!(names[TOOL_OFFSET], "s_1");
+        assert!(ParameterLayout::with_groups([]).has_tool());
     }
 
     #[test]

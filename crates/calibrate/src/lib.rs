@@ -16,6 +16,7 @@
 //! - [`reliability`]: redundancy numbers, normalised residuals, variance
 //!   components;
 //! - [`snooping`]: data snooping, the blunders found and removed;
+//! - [`robust`]: a robust loss, the observations it down-weights;
 //! - [`sphere_fit`]: initial ball centres;
 //! - [`touch_validation`]: a ball-touch calibration applied to other touches.
 //!
@@ -36,6 +37,7 @@
 
 pub mod conflict;
 mod error;
+pub mod external;
 pub mod fit;
 pub mod instruments;
 pub mod layout;
@@ -44,6 +46,7 @@ pub mod mixed;
 mod options;
 pub mod problem;
 pub mod reliability;
+pub mod robust;
 pub mod run;
 pub mod setup;
 pub mod snooping;
@@ -56,6 +59,6 @@ pub use error::{CalibrateError, InstrumentTable};
 pub use options::{CalibrationOptions, Observation, PriorMode, RadiusModel, Simulation};
 pub use parcal_kinematics::ParamCovariance;
 pub use parcal_observe::WeightModel;
-pub use parcal_solver::{IterationRecord, Method};
+pub use parcal_solver::{CAUCHY_K, HUBER_K, IterationRecord, Loss, Method};
 pub use run::{CalibrationRun, calibrate};
 pub use validate::{MIN_CONTACTS_PER_BALL, validate};

@@ -19,20 +19,19 @@
 //! the instrument groups have the priors of an instrument calibration
 //! ([`crate::instruments::run::group_priors`]).
 //!
-//! A touch's leg length is `l_i + q_i`: the touches' readings are in mm.
-//! Instrument data with them must read the same actuators, so machine.json
-//! must leave `actuator` at its default (unit mm, scale 1, known): else
-//! [`CalibrateError::MixedData`].
+//! The touches and the instrument rows read the same actuators: leg `i` is
+//! `l_i + s_i q_i` long for both, and with unknown scales (machine.json's
+//! `actuator.scale_sigma`) both see the one group `s` of the layout.
 
 use nalgebra::{DMatrix, DVector};
-use parcal_dataset::{Dataset, ParameterTable};
-use parcal_kinematics::{Geometry, N_PARAMS, Vec3};
+use parcal_dataset::Dataset;
+use parcal_kinematics::{Geometry, Vec3};
 use parcal_solver::GlobalObservations;
 
 use crate::CalibrateError;
 use crate::instruments::model::InstrumentModel;
 use crate::instruments::rows::InstrumentRows;
-use crate::instruments::run::{group_priors, model_and_rows, residuals, rms};
+use crate::instruments::run::{model_and_rows, residuals, rms};
 use crate::layout::ParameterLayout;
 use crate::problem::CalibrationProblem;
 use crate::reliability::ObservationId;
@@ -58,10 +57,6 @@ impl<'a> InstrumentObservations<'a> {
     ) -> Result<Option<Self>, CalibrateError> {
         if dataset.tracker.is_empty() {
             return Ok(None);
-        }
-        let actuator = &dataset.machine.actuator;
-        if actuator.scale != [1.0; 6] || actuator.scale_sigma.is_some() {
-            return Err(CalibrateError::MixedData);
         }
         let (model, rows) = model_and_rows(dataset, canonical, layout.clone(), initial)?;
         Ok(Some(Self { model, rows }))
@@ -160,29 +155,6 @@ impl InstrumentResult {
             .collect()
     }
 
-    /// calibration.json's `parameters` and `covariance`: the kinematic and
-    /// the instrument parameters (the ball centres are in `ball_centres`),
-    /// named by `names` (the whole global block's); the covariance empty
-    /// without one.
-    pub fn table(&self, names: &[String]) -> (ParameterTable, Vec<Vec<f64>>) {
-        let columns: Vec<usize> = (0..N_PARAMS)
-            .chain(self.first_instrument_column()..self.global.len())
-            .collect();
-        let sigmas = self.sigmas();
-        let table = ParameterTable {
-            names: columns.iter().map(|&k| names[k].clone()).collect(),
-            values: columns.iter().map(|&k| self.global[k]).collect(),
-            sigma: columns.iter().map(|&k| sigmas[k]).collect(),
-        };
-        let covariance = self.covariance.as_ref().map_or_else(Vec::new, |c| {
-            columns
-                .iter()
-                .map(|&a| columns.iter().map(|&b| c[(a, b)]).collect())
-                .collect()
-        });
-        (table, covariance)
-    }
-
     /// The first column after the kinematic parameters and the tied
     /// centres.
     fn first_instrument_column(&self) -> usize {
@@ -225,8 +197,9 @@ impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
     }
 
     /// Adds `dataset`'s poses and points to the problem (none without
-    /// them): their rows, weighed at the initial block `initial`, and the
-    /// priors of their groups in the global prior.
+    /// them): their rows, weighed at the initial block `initial` (the
+    /// priors of their groups are part of the global prior already,
+    /// [`crate::setup::Setup::problem`]).
     pub fn attach_instruments(
         &mut self,
         dataset: &'p Dataset,
@@ -234,14 +207,6 @@ impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
     ) -> Result<(), CalibrateError> {
         self.instruments =
             InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
-        if let (Some(_), Some(prior)) = (&self.instruments, &mut self.global_prior) {
-            group_priors(
-                dataset,
-                &self.layout,
-                &mut prior.mean,
-                &mut prior.information,
-            );
-        }
         Ok(())
     }
 }

@@ -8,16 +8,19 @@
 //!
 //! Each contact's residual is its observation block (`parcal_observe`) at the
 //! tool tip given by forward kinematics of the current parameters at the
-//! contact's actuator readings, whitened by the weight computed once at the
-//! initial estimate. Forward kinematics starts from the pose the solver
+//! contact's leg extensions `s_i q_i` (readings `q_i` in the actuators' unit,
+//! scales `s_i` in mm per unit: known, or the layout's
+//! [`ParameterGroup::ActuatorScales`]), whitened by the weight computed once
+//! at the initial estimate. Forward kinematics starts from the pose the solver
 //! keeps as the contact's point cache: the first time the design's forward
 //! kinematics (from the set-up), then the first-order prediction of the pose
 //! at the next iteration's parameters, made during the back-substitution.
 
 use std::ops::Range;
 
-use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2};
+use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector6};
 use parcal_kinematics::lanes::{PivotOrder, forward_along_batch, forward_jacobian_batch};
+use parcal_kinematics::params::leg_index;
 use parcal_kinematics::{
     ForwardOptions, Geometry, KinematicsError, N_PARAMS, Params, Pose, SolutionAlong,
     SolutionJacobian, Vec3, params,
@@ -27,11 +30,11 @@ use parcal_observe::{
     RadiusBlock, RadiusWeight,
 };
 use parcal_solver::{
-    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem,
+    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Loss, Problem,
 };
 
 use crate::CalibrateError;
-use crate::layout::ParameterLayout;
+use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::mixed::InstrumentObservations;
 
 /// Paper eq. (9) for every contact.
@@ -136,8 +139,9 @@ impl ContactObservations<3, 2> for CoordinateObservations {
 /// row and a 3 x 6 product. The kinematic parameters are the global
 /// block's first 33 columns; a contact on a ball whose unknowns are in the
 /// global block ([`ParameterLayout::ball`]) also has their `G` columns
-/// there (`dc/dC`, and `dc/dr` for a per-ball radius); every other column
-/// is zero.
+/// there (`dc/dC`, and `dc/dr` for a per-ball radius); with unknown
+/// actuator scales, the six columns of `s` ([`ContactJacobian::scales`]);
+/// every other column is zero.
 #[derive(Debug, Clone)]
 pub struct ContactJacobian<const R: usize, const G: usize> {
     /// The whitened `dc/dT` (R x 3).
@@ -147,6 +151,11 @@ pub struct ContactJacobian<const R: usize, const G: usize> {
     /// For a ball whose unknowns are in the global block: their first
     /// column and the whitened `dc/d(C, r)` (R x G).
     pub centre: Option<(usize, SMatrix<f64, R, G>)>,
+    /// With unknown actuator scales: their first column and the contact's
+    /// readings `q`. Leg `i` is `l_i + s_i q_i` long, so
+    /// `dT/ds_i = q_i dT/dl_i`: the scale columns are the leg-length
+    /// columns of `J_f` times the readings.
+    pub scales: Option<(usize, [f64; 6])>,
 }
 
 impl<const R: usize, const G: usize> ContactJacobian<R, G> {
@@ -157,6 +166,15 @@ impl<const R: usize, const G: usize> ContactJacobian<R, G> {
             d_ball * v.fixed_rows::<G>(start)
         })
     }
+
+    /// `dT/ds · δs = Σ_i q_i δs_i dT/dl_i` (mm) with unknown scales, else 0:
+    /// `dT/dl = Kᵀ`'s transpose, the factored `J_f`'s closure weights.
+    fn scale_tip_step(&self, v: &DVector<f64>) -> Vec3 {
+        self.scales.map_or_else(Vec3::zeros, |(start, q)| {
+            let extension = Vector6::from_fn(|i, _| q[i] * v[start + i]);
+            self.tip.jacobian.weights.tr_mul(&extension)
+        })
+    }
 }
 
 impl<const R: usize, const G: usize> GlobalJacobian<R> for ContactJacobian<R, G> {
@@ -165,6 +183,7 @@ impl<const R: usize, const G: usize> GlobalJacobian<R> for ContactJacobian<R, G>
             d_tip: SMatrix::zeros(),
             tip: SolutionJacobian::default(),
             centre: None,
+            scales: None,
         }
     }
 
@@ -178,14 +197,29 @@ impl<const R: usize, const G: usize> GlobalJacobian<R> for ContactJacobian<R, G>
             let row = d_centre.tr_mul(&c);
             out[*start..*start + G].copy_from_slice(row.as_slice());
         }
+        if let Some((start, q)) = &self.scales {
+            for (i, q) in q.iter().enumerate() {
+                out[start + i] = out[leg_index(i)] * q;
+            }
+        }
     }
 
     fn apply(&self, v: &DVector<f64>) -> SVector<f64, R> {
-        self.d_tip * self.tip.jacobian.along(&kinematic_params(v)) + self.centre_step(v)
+        let tip = self.tip.jacobian.along(&kinematic_params(v)) + self.scale_tip_step(v);
+        self.d_tip * tip + self.centre_step(v)
+    }
+
+    /// `d_tip` and the centre's columns (`J_f` is the kinematics').
+    fn scale(&mut self, factor: f64) {
+        self.d_tip *= factor;
+        if let Some((_, d_ball)) = &mut self.centre {
+            *d_ball *= factor;
+        }
     }
 
     /// The kinematic rows formed on the stack (33 values), the centre's
-    /// columns from `dc/dC`: no scratch needed.
+    /// columns from `dc/dC`, the scales' from the leg-length columns: no
+    /// scratch needed.
     fn add_column_norms2(&self, out: &mut [f64], _row: &mut [f64]) {
         let mut row = [0.0; N_PARAMS];
         for r in 0..R {
@@ -195,6 +229,11 @@ impl<const R: usize, const G: usize> GlobalJacobian<R> for ContactJacobian<R, G>
             self.tip.jacobian.params_row(&h, &mut row);
             for (o, x) in out.iter_mut().zip(&row) {
                 *o += x * x;
+            }
+            if let Some((start, q)) = &self.scales {
+                for (i, q) in q.iter().enumerate() {
+                    out[start + i] += (row[leg_index(i)] * q).powi(2);
+                }
             }
         }
         if let Some((start, d_centre)) = &self.centre {
@@ -226,14 +265,64 @@ impl<const R: usize, const G: usize> GlobalJacobian<R> for ContactJacobian<R, G>
 }
 
 /// What every contact of a pass needs of the global block, made once per
-/// pass: the canonical geometry of the kinematic parameters, and the
-/// unknowns of the balls whose unknowns are in the global block.
+/// pass: the canonical geometry of the kinematic parameters, the actuator
+/// scales, and the unknowns of the balls whose unknowns are in the global
+/// block.
 pub struct GlobalValues<const G: usize> {
     /// The canonical geometry of the kinematic parameters.
     pub geometry: Geometry,
+    /// The actuator scales `s_i` (mm per unit) and, when they are
+    /// unknowns, their first column.
+    pub scales: ActuatorScales,
     /// Per ball (artefacts.json order): its centre (and radius, `G` = 4)
     /// if they are in the global block.
     pub balls: Vec<Option<SVector<f64, G>>>,
+}
+
+/// The actuator scales at one state: leg `i` is `l_i + s_i q_i` long for
+/// the reading `q_i` (machine.json's `actuator`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActuatorScales {
+    /// `s_i` (mm per unit).
+    pub values: [f64; 6],
+    /// The first column of [`ParameterGroup::ActuatorScales`] in the
+    /// global block, when the scales are unknowns.
+    pub column: Option<usize>,
+}
+
+impl ActuatorScales {
+    /// The scales at the global block `global` of `layout`: its
+    /// [`ParameterGroup::ActuatorScales`] if there, else the known `fixed`
+    /// ones.
+    pub fn at(layout: &ParameterLayout, global: &DVector<f64>, fixed: &[f64; 6]) -> Self {
+        let column = layout
+            .range(ParameterGroup::ActuatorScales)
+            .map(|r| r.start);
+        Self {
+            values: column.map_or(*fixed, |c| std::array::from_fn(|i| global[c + i])),
+            column,
+        }
+    }
+
+    /// The leg extensions `s_i q_i` (mm) of the readings `q`: what forward
+    /// kinematics takes.
+    pub fn extensions(&self, q: &[f64; 6]) -> [f64; 6] {
+        std::array::from_fn(|i| self.values[i] * q[i])
+    }
+
+    /// A parameter step `dp` with the change of the leg extensions of the
+    /// readings `q` along the scales' step in `dg` added to the leg
+    /// lengths' (`δ(l_i + s_i q_i) = δl_i + q_i δs_i`); `dp` itself with
+    /// known scales.
+    fn along(&self, dp: &Params, q: &[f64; 6], dg: &DVector<f64>) -> Params {
+        let mut dp = *dp;
+        if let Some(column) = self.column {
+            for (i, q) in q.iter().enumerate() {
+                dp[leg_index(i)] += q * dg[column + i];
+            }
+        }
+        dp
+    }
 }
 
 /// A calibrated distance between two balls' centres, both in the global
@@ -278,6 +367,9 @@ pub struct CalibrationProblem<'a, O, const G: usize> {
     /// The global block: the kinematic parameters, then the unknowns of the
     /// balls tied by distances.
     pub layout: ParameterLayout,
+    /// The actuators' scales when they are not unknowns (machine.json's
+    /// `actuator.scale`, mm per unit).
+    pub fixed_scales: [f64; 6],
     /// The calibrated distances (artefacts.json order).
     pub distances: Vec<DistanceObservation>,
     /// The prior on the global block (kinematic parameters and, where the
@@ -293,6 +385,9 @@ pub struct CalibrationProblem<'a, O, const G: usize> {
     /// The poses and points measured with the touches, global
     /// observations after the distances ([`crate::mixed`]).
     pub instruments: Option<InstrumentObservations<'a>>,
+    /// The loss of every contact, distance, pose and point
+    /// ([`crate::robust`]).
+    pub loss: Loss,
 }
 
 impl<O, const G: usize> CalibrationProblem<'_, O, G> {
@@ -307,10 +402,17 @@ impl<O, const G: usize> CalibrationProblem<'_, O, G> {
         &self.q[self.row(i)]
     }
 
-    /// The actuator values of the contacts `first..first + n` (at most
-    /// [`BATCH`]; the rest of the array repeats the last).
-    fn batch_actuators(&self, first: usize, n: usize) -> [&[f64; 6]; BATCH] {
-        std::array::from_fn(|j| self.actuators(first + j.min(n.saturating_sub(1))))
+    /// The leg extensions at `scales` of the contacts `first..first + n`
+    /// (at most [`BATCH`]; the rest of the array repeats the last).
+    fn batch_extensions(
+        &self,
+        scales: &ActuatorScales,
+        first: usize,
+        n: usize,
+    ) -> [[f64; 6]; BATCH] {
+        std::array::from_fn(|j| {
+            scales.extensions(self.actuators(first + j.min(n.saturating_sub(1))))
+        })
     }
 
     /// `each(j)` for the contacts `first + j`, `j < n`, of a batch whose
@@ -426,7 +528,8 @@ where
     /// canonical geometry is built once per pass.
     type Global = GlobalValues<G>;
 
-    /// The layout's size: 33, plus `G` per ball tied by a distance.
+    /// The layout's size: 33, plus `G` per ball tied by a distance, plus
+    /// the instrument groups (the scales among them).
     fn global_size(&self) -> usize {
         self.layout.size()
     }
@@ -434,6 +537,7 @@ where
     fn prepare_global(&self, global: &DVector<f64>) -> GlobalValues<G> {
         GlobalValues {
             geometry: params::from_params(&kinematic_params(global)),
+            scales: ActuatorScales::at(&self.layout, global, &self.fixed_scales),
             balls: (0..self.radii.len())
                 .map(|ball| {
                     let range = self.layout.ball(ball)?;
@@ -456,11 +560,15 @@ where
         self.groups[k].clone()
     }
 
-    /// The design's home pose at contact `i`'s actuator values (a
-    /// calibration hands the solver the design's forward kinematics instead,
-    /// [`crate::setup::Setup::poses`]).
+    /// The design's home pose at contact `i`'s leg extensions at the known
+    /// (or design) scales (a calibration hands the solver the design's
+    /// forward kinematics instead, [`crate::setup::Setup::poses`]).
     fn initial_cache(&self, i: usize) -> Pose {
-        self.design.home_pose(self.actuators(i))
+        let known = ActuatorScales {
+            values: self.fixed_scales,
+            column: None,
+        };
+        self.design.home_pose(&known.extensions(self.actuators(i)))
     }
 
     fn linearize(
@@ -502,9 +610,11 @@ where
         workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
         let n = out.len();
+        let extensions = self.batch_extensions(&global.scales, first, n);
+        let extensions: [&[f64; 6]; BATCH] = std::array::from_fn(|j| &extensions[j]);
         let kinematics = forward_jacobian_batch(
             &global.geometry,
-            &self.batch_actuators(first, n)[..n],
+            &extensions[..n],
             caches,
             &self.forward_options,
             workspace,
@@ -516,6 +626,10 @@ where
             let solution = &out[j].d_global.tip;
             let tip = solution.tool_tip;
             caches[j] = solution.pose;
+            out[j].d_global.scales = global
+                .scales
+                .column
+                .map(|column| (column, *self.actuators(first + j)));
             self.observe_contact(first + j, &tip, (&ball, in_global), &points[j], &mut out[j])
         })
     }
@@ -550,8 +664,11 @@ where
     /// As [`Problem::linearize_batch`], with each contact's forward
     /// kinematics and its change along `dg` together (in SIMD lanes where
     /// the machine has AVX2, [`forward_along_batch`]), the lanes' row order
-    /// carried from batch to batch in the workspace. `d_global.tip` is not
-    /// written: the back-substitution needs only `d_global dg`.
+    /// carried from batch to batch in the workspace. With unknown scales
+    /// each contact's step of its leg extensions differs
+    /// ([`ActuatorScales::along`]): the contacts go one at a time.
+    /// `d_global.tip` is not written: the back-substitution needs only
+    /// `d_global dg`.
     fn linearize_along_batch(
         &self,
         first: usize,
@@ -567,15 +684,26 @@ where
         let n = out.len();
         let d_params = &kinematic_params(dg);
         let mut solutions = [SolutionAlong::default(); BATCH];
-        let kinematics = forward_along_batch(
-            &global.geometry,
-            &self.batch_actuators(first, n)[..n],
-            caches,
-            d_params,
-            &self.forward_options,
-            workspace,
-            &mut solutions[..n],
-        );
+        let extensions = self.batch_extensions(&global.scales, first, n);
+        let extensions: [&[f64; 6]; BATCH] = std::array::from_fn(|j| &extensions[j]);
+        let mut along = |contacts: Range<usize>, dp: &Params, solutions: &mut [SolutionAlong]| {
+            forward_along_batch(
+                &global.geometry,
+                &extensions[contacts.clone()],
+                &caches[contacts],
+                dp,
+                &self.forward_options,
+                &mut *workspace,
+                solutions,
+            )
+        };
+        let kinematics = match global.scales.column {
+            None => along(0..n, d_params, &mut solutions[..n]),
+            Some(_) => (0..n).try_for_each(|j| {
+                let dp = global.scales.along(d_params, self.actuators(first + j), dg);
+                along(j..j + 1, &dp, &mut solutions[j..j + 1]).map_err(|(_, e)| (j, e))
+            }),
+        };
         let (ball, in_global) = self.ball_unknowns(first, global, group);
         self.contact_by_contact(first, n, kinematics, |j| {
             let solution = &solutions[j];
@@ -639,5 +767,20 @@ where
 
     fn point_prior(&self, i: usize) -> Option<GaussianPrior<Const<P>>> {
         self.observations.angle_prior(i)
+    }
+
+    fn loss(&self) -> Loss {
+        self.loss
+    }
+
+    /// A distance of one row, a pose of six, a point of three
+    /// ([`CalibrationProblem::global_observation_ids`]).
+    fn global_observation_rows(&self) -> Option<Vec<usize>> {
+        Some(
+            self.global_observation_ids()
+                .iter()
+                .map(|o| o.rows())
+                .collect(),
+        )
     }
 }

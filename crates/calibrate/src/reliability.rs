@@ -35,10 +35,14 @@
 
 use nalgebra::DMatrix;
 use parcal_dataset::Histogram;
-use parcal_solver::{Problem, State, Status, normalised_residual, redundancy};
+use parcal_solver::{
+    Problem, State, Status, normalised_residual, point_degrees_of_freedom, redundancy,
+};
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
+use crate::external::{self, ExternalShift, external_shifts};
+use crate::robust::{self, DownWeighted};
 use crate::snooping::SNOOPING_LEVEL;
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
@@ -244,6 +248,12 @@ pub struct Reliability {
     /// The sum of the observations' redundancy, added up in the solver's
     /// order of the contacts, then the global observations'.
     redundancy: f64,
+    /// The global shift of the least reliable observations' minimal
+    /// detectable biases, largest `λ` first ([`crate::external`]).
+    pub external: Vec<ExternalShift>,
+    /// With a robust loss, the observations it down-weighted
+    /// ([`crate::robust::down_weighted`]); `None` for least squares.
+    pub down_weighted: Option<Vec<DownWeighted>>,
 }
 
 /// What needs every observation, summed as they are seen (the contacts in
@@ -312,7 +322,9 @@ impl Reliability {
     /// global observation rows those of `global` in order; `prior_cost` is
     /// the final prior term and `prior_rows` its number of rows. Each
     /// contact's rows are reduced to its numbers as the solver's pass
-    /// hands them over.
+    /// hands them over (with a robust loss, a contact it down-weighted is
+    /// listed then); the shifts of the least reliable follow
+    /// ([`crate::external`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
         problem: &Pr,
@@ -334,6 +346,9 @@ impl Reliability {
         let mut seen = vec![0u64; rows.len().div_ceil(64)];
         let mut points = 0;
         let mut bad_row = None;
+        let robust = !problem.loss().is_squared();
+        let mut down_weighted = Vec::new();
+        let contact_dof = point_degrees_of_freedom(R, P);
         let numbers = redundancy(problem, state, covariance, caches, groups_per_chunk, |p| {
             let i = points;
             points += 1;
@@ -352,6 +367,12 @@ impl Reliability {
                 p.residual.norm_squared(),
             );
             contacts[row] = numbers;
+            down_weighted.extend(robust::down_weighted(
+                ObservationId::Contact(row),
+                p.weight,
+                p.residual.as_slice(),
+                contact_dof,
+            ));
         })
         .map_err(|status| {
             failed(format!(
@@ -383,6 +404,7 @@ impl Reliability {
         }
         // A global observation row's leverage is all global: 1 − r_o.
         let global_leverage: Vec<f64> = r.iter().map(|r| 1.0 - r).collect();
+        let global_weights = numbers.global_observation_weights.as_deref();
         let mut first = 0;
         let mut global_checks = Vec::with_capacity(global.len());
         for &observation in global {
@@ -401,8 +423,26 @@ impl Reliability {
                 numbers,
                 row,
             });
+            if let Some(weights) = global_weights {
+                down_weighted.extend(robust::down_weighted(
+                    observation,
+                    weights[range.start],
+                    e,
+                    observation.rows(),
+                ));
+            }
             first = range.end;
         }
+        let external = external_shifts(
+            problem,
+            state,
+            covariance,
+            caches,
+            &summary.least_reliable[..external::LEAST_RELIABLE.min(summary.least_reliable.len())],
+            rows,
+            global,
+            delta0,
+        )?;
         let mut components = summary.components;
         if prior_rows > 0 {
             components.push(VarianceComponent {
@@ -418,6 +458,8 @@ impl Reliability {
             global: global_checks,
             least_reliable: summary.least_reliable,
             redundancy: summary.redundancy,
+            external,
+            down_weighted: robust.then_some(down_weighted),
         })
     }
 
@@ -449,6 +491,18 @@ impl Reliability {
                 row: 0,
             },
             None => self.global[k - self.contacts.len()],
+        }
+    }
+
+    /// The check of `observation`, if it is checked.
+    pub fn check(&self, observation: ObservationId) -> Option<ObservationCheck> {
+        match observation {
+            ObservationId::Contact(k) => (k < self.contacts.len()).then(|| self.observation(k)),
+            _ => self
+                .global
+                .iter()
+                .find(|c| c.observation == observation)
+                .copied(),
         }
     }
 

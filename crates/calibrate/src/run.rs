@@ -4,7 +4,10 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use parcal_dataset::{CentreEstimate, Dataset, GeometryRecord, Machine, ParameterTable};
+use nalgebra::{DMatrix, DVector};
+use parcal_dataset::{
+    Actuator, CalibratedMachine, CentreEstimate, Dataset, GeometryRecord, Machine, ParameterTable,
+};
 use parcal_kinematics::{
     Geometry, N_PARAMS, PARAM_NAMES, ParamCovariance, Params, Pose, Vec3, params,
 };
@@ -16,11 +19,12 @@ use parcal_solver::{
 
 use crate::conflict::{ConflictTest, PaperPriorInconsistency, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls};
-use crate::layout::ParameterLayout;
+use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::mixed::InstrumentResult;
-use crate::problem::{CalibrationProblem, ContactObservations, kinematic_params};
+use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations, kinematic_params};
 use crate::reliability::{Reliability, checked};
+use crate::robust::START_TOLERANCE;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
@@ -44,6 +48,11 @@ pub struct CalibrationRun {
     /// matrix at the final state); `None` when the run did not converge or
     /// the matrix is not positive definite.
     pub covariance: Option<ParamCovariance>,
+    /// The identified global block ([`CalibrationRun::layout`]): the 33,
+    /// the tied balls' unknowns, the scales and the instrument groups.
+    pub global: DVector<f64>,
+    /// Its posterior covariance (the 33's is its leading block).
+    pub global_covariance: Option<DMatrix<f64>>,
     /// artefacts.json's ball ids, in its order.
     pub ball_ids: Vec<String>,
     /// Identified ball centres (canonical base frame).
@@ -105,11 +114,16 @@ impl CalibrationRun {
     }
 
     /// The run's verdict ([`crate::verdict`]).
+    /// With a robust loss, the test of data snooping is replaced by the
+    /// number of observations it down-weighted ([`crate::robust`]).
     pub fn verdict(&self) -> Verdict {
         let outlier = self
             .reliability
             .as_ref()
-            .is_some_and(|r| r.fails_snooping(crate::snooping::SNOOPING_LEVEL));
+            .is_some_and(|r| match &r.down_weighted {
+                Some(down_weighted) => crate::robust::too_many(down_weighted),
+                None => r.fails_snooping(crate::snooping::SNOOPING_LEVEL),
+            });
         Verdict::new(&self.status, self.global_test, outlier)
     }
 
@@ -155,24 +169,64 @@ impl CalibrationRun {
         })
     }
 
+    /// calibration.json's `parameters` and `covariance`: the global block's
+    /// [`ParameterLayout::recorded`] parameters (the balls' unknowns are in
+    /// `ball_centres`); the covariance empty without one.
+    fn parameter_table(&self) -> (ParameterTable, Vec<Vec<f64>>) {
+        let names = self.names();
+        let columns = self.layout.recorded();
+        let sigmas = self.global_covariance.as_ref().map_or_else(
+            || DVector::zeros(self.global.len()),
+            |c| c.diagonal().map(f64::sqrt),
+        );
+        let table = ParameterTable {
+            names: columns.iter().map(|&k| names[k].clone()).collect(),
+            values: columns.iter().map(|&k| self.global[k]).collect(),
+            sigma: columns.iter().map(|&k| sigmas[k]).collect(),
+        };
+        let covariance = self.global_covariance.as_ref().map_or_else(Vec::new, |c| {
+            columns
+                .iter()
+                .map(|&a| columns.iter().map(|&b| c[(a, b)]).collect())
+                .collect()
+        });
+        (table, covariance)
+    }
+
+    /// calibration.json's `machine`: with poses or points, the machine in
+    /// the first session's frames
+    /// ([`crate::instruments::InstrumentModel::calibrated_machine`]); with
+    /// touches alone and unknown scales, the canonical geometry with the
+    /// calibrated scales; else none (the design's actuators hold).
+    fn calibrated_machine(&self) -> Option<CalibratedMachine> {
+        if let Some(i) = &self.instruments {
+            let values = i.model.values(&i.global);
+            return Some(
+                i.model
+                    .calibrated_machine(&values, &i.sigmas(), &self.machine),
+            );
+        }
+        let range = self.layout.range(ParameterGroup::ActuatorScales)?;
+        let sigma = |k: usize| {
+            self.global_covariance
+                .as_ref()
+                .map_or(0.0, |c| c[(k, k)].sqrt())
+        };
+        Some(CalibratedMachine {
+            geometry: geometry_record(&params::from_params(&self.params)),
+            actuator: Actuator {
+                unit: self.machine.actuator.unit.clone(),
+                scale: std::array::from_fn(|i| self.global[range.start + i]),
+                scale_sigma: Some(std::array::from_fn(|i| sigma(range.start + i))),
+            },
+        })
+    }
+
     /// The calibration.json record of this run, with `status`, the sentence
     /// of its status (`parcal_report::sentences::status`).
     pub fn record(&self, status: String) -> parcal_dataset::Calibration {
         let geometry = params::from_params(&self.params);
-        let sigma = self.sigmas().unwrap_or_else(Params::zeros);
-        let (parameters, covariance) = match &self.instruments {
-            Some(instruments) => instruments.table(&self.names()),
-            None => (
-                ParameterTable {
-                    names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
-                    values: self.params.iter().copied().collect(),
-                    sigma: sigma.iter().copied().collect(),
-                },
-                self.covariance
-                    .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
-                    .unwrap_or_default(),
-            ),
-        };
+        let (parameters, covariance) = self.parameter_table();
         let ball_centres = self
             .ball_ids
             .iter()
@@ -219,13 +273,9 @@ impl CalibrationRun {
         };
         options.insert("method".to_string(), method.into());
         options.insert("radius".to_string(), self.options.radius.to_string().into());
+        options.insert("loss".to_string(), self.options.loss.to_string().into());
         parcal_dataset::Calibration {
-            canonical: GeometryRecord {
-                base_joints: geometry.base.map(Into::into),
-                platform_joints: geometry.platform.map(Into::into),
-                tool: geometry.tool.into(),
-                leg_lengths: geometry.legs,
-            },
+            canonical: geometry_record(&geometry),
             parameters,
             covariance,
             ball_centres,
@@ -234,10 +284,7 @@ impl CalibrationRun {
             converged: self.converged(),
             status,
             options,
-            machine: self.instruments.as_ref().map(|i| {
-                i.model
-                    .calibrated_machine(&i.model.values(&i.global), &i.sigmas(), &self.machine)
-            }),
+            machine: self.calibrated_machine(),
             sessions: self.instruments.as_ref().map_or_else(Vec::new, |i| {
                 i.model.session_records(&i.model.values(&i.global))
             }),
@@ -247,9 +294,20 @@ impl CalibrationRun {
             global_test: None,
             provenance: None,
             removed_observations: Vec::new(),
+            down_weighted_observations: Vec::new(),
             design: Some(self.machine.clone()),
             diagnostics: None,
         }
+    }
+}
+
+/// A geometry as calibration.json holds it.
+fn geometry_record(geometry: &Geometry) -> GeometryRecord {
+    GeometryRecord {
+        base_joints: geometry.base.map(Into::into),
+        platform_joints: geometry.platform.map(Into::into),
+        tool: geometry.tool.into(),
+        leg_lengths: geometry.legs,
     }
 }
 
@@ -436,6 +494,8 @@ fn calibrate_once(
         prior: setup.prior,
         params: solved.params,
         covariance: solved.covariance,
+        global: solved.global,
+        global_covariance: solved.global_covariance,
         ball_ids,
         centres: solved.centres,
         centre_sigmas: solved.centre_sigmas,
@@ -497,6 +557,8 @@ fn radius_conflict(dataset: &Dataset, radii: &[f64], sigmas: &[f64]) -> Conflict
 struct Solved {
     params: Params,
     covariance: Option<ParamCovariance>,
+    global: DVector<f64>,
+    global_covariance: Option<DMatrix<f64>>,
     centres: Vec<Vec3>,
     centre_sigmas: Option<Vec<Vec3>>,
     /// With a per-ball radius: the radii and their sigmas.
@@ -553,11 +615,25 @@ impl SolverRun<'_> {
             observer: &mut *observer,
             found: Ok(Vec::new()),
         };
+        // A redescending loss starts from a robust estimate of Huber's
+        // ([`crate::robust::start`]), solved to a looser tolerance.
+        let loss = problem.loss;
+        let start = crate::robust::start(loss);
+        let first_stage = match start {
+            Some(start) => {
+                problem.loss = start;
+                SolverOptions {
+                    step_tolerance: self.solver.step_tolerance.max(START_TOLERANCE),
+                    ..self.solver.clone()
+                }
+            }
+            None => self.solver.clone(),
+        };
         let mut solution = solve_with_caches(
             &*problem,
             setup.initial_state(self.dataset),
             &mut caches,
-            self.solver,
+            &first_stage,
             &mut watch,
         );
         let wrong = watch.found?;
@@ -618,15 +694,36 @@ impl SolverRun<'_> {
             }
             // Both solves together within the iteration and time limits.
             let rest = SolverOptions {
-                max_iterations: self.solver.max_iterations.saturating_sub(iteration),
-                time_limit: self
-                    .solver
+                max_iterations: first_stage.max_iterations.saturating_sub(iteration),
+                time_limit: first_stage
                     .time_limit
                     .map(|limit| limit.saturating_sub(started.elapsed())),
-                ..self.solver.clone()
+                ..first_stage.clone()
             };
             solution = solve_with_caches(&*problem, state, &mut caches, &rest, &mut observer);
             solution.history.splice(0..0, first);
+        }
+        if start.is_some() {
+            problem.loss = loss;
+            if checked(&solution.status) {
+                // The rest of the iteration and time limits, from Huber's
+                // estimate.
+                let Solution {
+                    state,
+                    history: first,
+                    ..
+                } = solution;
+                let rest = SolverOptions {
+                    max_iterations: self.solver.max_iterations.saturating_sub(first.len()),
+                    time_limit: self
+                        .solver
+                        .time_limit
+                        .map(|limit| limit.saturating_sub(started.elapsed())),
+                    ..self.solver.clone()
+                };
+                solution = solve_with_caches(&*problem, state, &mut caches, &rest, &mut observer);
+                solution.history.splice(0..0, first);
+            }
         }
         let ball_misfits = solution
             .group_costs
@@ -701,7 +798,10 @@ impl SolverRun<'_> {
             radius_sigmas,
             covariance: solution
                 .covariance
+                .as_ref()
                 .map(|c| c.fixed_view::<N_PARAMS, N_PARAMS>(0, 0).into_owned()),
+            global: solution.state.global,
+            global_covariance: solution.covariance,
             ball_misfits,
             status: solution.status,
             history: solution.history,
@@ -722,12 +822,14 @@ impl SolverRun<'_> {
     }
 
     /// The `misfits` that are on the wrong side of their contacts at the
-    /// parameters `params` and centres `centres` ([`crate::mirror`]), with
+    /// parameters `params`, scales `scales` and centres `centres`
+    /// ([`crate::mirror`]), with
     /// their contact points at those parameters; `caches`: the contacts'
     /// poses there (warm starts).
     fn wrong_sides(
         &self,
         params: &Params,
+        scales: &ActuatorScales,
         centres: &[Vec3],
         misfits: &[BallMisfit],
         caches: &[Pose],
@@ -742,7 +844,9 @@ impl SolverRun<'_> {
             let k = misfit.ball;
             let group = setup.groups[k].clone();
             let rows = &setup.order[group.clone()];
-            let actuators = rows.iter().map(|&row| dataset.measurements.q[row as usize]);
+            let actuators = rows
+                .iter()
+                .map(|&row| scales.extensions(&dataset.measurements.q[row as usize]));
             let found = wrong_side(
                 &geometry,
                 actuators,
@@ -794,14 +898,16 @@ impl<const G: usize, const P: usize> Monitor<G, P, Pose> for WrongSideWatch<'_, 
         let state = iterate.state;
         let misfits = self.run.misfits(iterate.group_costs);
         let params = kinematic_params(&state.global);
-        let centres = self
-            .run
-            .setup
-            .layout
-            .ball_centres(&state.global, &state.groups);
+        let setup = self.run.setup;
+        let scales = ActuatorScales::at(
+            &setup.layout,
+            &state.global,
+            &self.run.dataset.machine.actuator.scale,
+        );
+        let centres = setup.layout.ball_centres(&state.global, &state.groups);
         self.found = self
             .run
-            .wrong_sides(&params, &centres, &misfits, iterate.caches);
+            .wrong_sides(&params, &scales, &centres, &misfits, iterate.caches);
         match &self.found {
             Ok(wrong) if wrong.is_empty() => parcal_solver::Decision::Continue,
             _ => parcal_solver::Decision::Stop,

@@ -8,7 +8,9 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DMatrix, DVector, Dyn, Matrix3x6, SMatrix, SVector, UnitVector3, Vector6};
+use nalgebra::{
+    Const, DMatrix, DVector, Dyn, Matrix3x6, Matrix6, SMatrix, SVector, UnitVector3, Vector6,
+};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
@@ -20,9 +22,11 @@ use parcal_observe::{
 use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
 
+use crate::instruments::run::{group_priors, initial_block};
 use crate::layout::ParameterLayout;
 use crate::problem::{
-    CalibrationProblem, CoordinateObservations, DistanceObservation, RadiusObservations,
+    ActuatorScales, CalibrationProblem, CoordinateObservations, DistanceObservation,
+    RadiusObservations,
 };
 use crate::sphere_fit::{SphereFitError, best_fit, mirror_fit};
 use crate::{CalibrateError, CalibrationOptions, Observation, PriorMode, RadiusModel};
@@ -155,8 +159,9 @@ impl Setup {
         Ok((setup, observations))
     }
 
-    /// The initial state of the solver: the design's parameters, the fitted
-    /// centres, with `G` = 4 the calibrated radii of `dataset`, and zero
+    /// The initial state of the solver: the design's parameters and
+    /// scales, the fitted centres, with `G` = 4 the calibrated radii of
+    /// `dataset`, every instrument correction and offset zero, and zero
     /// angles (`P` = 2 for the coordinate observation, 0 for the radius
     /// observation).
     pub fn initial_state<const G: usize, const P: usize>(&self, dataset: &Dataset) -> State<G, P> {
@@ -166,8 +171,11 @@ impl Setup {
             .zip(&dataset.artefacts.balls)
             .map(|(centre, ball)| ball_vector(centre, ball.radius))
             .collect();
-        let mut global = DVector::zeros(self.layout.size());
-        global.rows_mut(0, N_PARAMS).copy_from(&self.initial_params);
+        let mut global = initial_block(
+            &self.layout,
+            &self.initial_params,
+            &dataset.machine.actuator.scale,
+        );
         for (k, values) in balls.iter().enumerate() {
             if let Some(range) = self.layout.ball(k) {
                 global.rows_mut(range.start, G).copy_from(values);
@@ -236,11 +244,13 @@ impl Setup {
             radii: dataset.artefacts.balls.iter().map(|b| b.radius).collect(),
             observations,
             layout: self.layout.clone(),
+            fixed_scales: dataset.machine.actuator.scale,
             distances: self.distances(dataset),
-            global_prior: self.global_prior(ball_priors.as_deref()),
+            global_prior: self.global_prior(dataset, ball_priors.as_deref()),
             ball_priors,
             forward_options: ForwardOptions::default(),
             instruments: None,
+            loss: options.loss,
         }
     }
 
@@ -269,10 +279,13 @@ impl Setup {
     }
 
     /// The prior on the global block: the kinematic prior on its first 33
-    /// values and, for each ball whose unknowns are in the block and have a
-    /// prior, that prior on its `G`; `None` when neither exists.
+    /// values, for each ball whose unknowns are in the block and have a
+    /// prior, that prior on its `G`, and the instrument groups' priors
+    /// ([`group_priors`]: the scales', the later sessions'); `None` when
+    /// neither the kinematic prior nor a centre prior exists.
     fn global_prior<const G: usize>(
         &self,
+        dataset: &Dataset,
         ball_priors: Option<&[GaussianPrior<Const<G>>]>,
     ) -> Option<GaussianPrior<Dyn>> {
         let tied = |ball: usize| Some((self.layout.ball(ball)?, ball_priors?.get(ball)?));
@@ -298,6 +311,7 @@ impl Setup {
                     .copy_from(&prior.information);
             }
         }
+        group_priors(dataset, &self.layout, &mut mean, &mut information);
         Some(GaussianPrior::new(mean, information))
     }
 }
@@ -472,6 +486,11 @@ impl Starts<'_> {
     ) -> Result<Vec3, CalibrateError> {
         let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
         let fk = ForwardOptions::default();
+        // The design scales: leg `i` extends by `s_i q_i`.
+        let scales = ActuatorScales {
+            values: dataset.machine.actuator.scale,
+            column: None,
+        };
         // Forward kinematics in place into one set of derivatives (no copy
         // of the solution per contact); kept per contact: the tip (the
         // points of the centre fit) and `J_q = dT/dq` (the weights). A
@@ -480,17 +499,17 @@ impl Starts<'_> {
         // per contact instead of 4.0 on the simulated campaigns), and from
         // the home pose again if that fails.
         let mut derivatives = TipDerivatives::default();
-        let mut previous: Option<&[f64; 6]> = None;
+        let mut previous: Option<[f64; 6]> = None;
         let (points, d_q): (Vec<Vec3>, Vec<Matrix3x6<f64>>) = rows
             .iter()
             .zip(contacts.poses.iter_mut())
             .map(|(&row, pose)| {
                 let row = row as usize;
-                let q = &dataset.measurements.q[row];
+                let q = &scales.extensions(&dataset.measurements.q[row]);
                 let predicted = previous.map(|before| {
                     derivatives.predicted_pose(&Vector6::from_fn(|i, _| q[i] - before[i]))
                 });
-                previous = Some(q);
+                previous = Some(*q);
                 // Newton's method from a first-order prediction far off
                 // (contacts of one ball at orientations tens of degrees
                 // apart) can converge to another assembly of the machine:
@@ -509,7 +528,9 @@ impl Starts<'_> {
                         .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
                 }
                 *pose = derivatives.solution().pose;
-                Ok((geometry.tool_tip(pose), derivatives.d_q()))
+                // dT/dq per unit of the reading: J_q diag(s).
+                let d_reading = derivatives.d_q() * Matrix6::from_diagonal(&scales.values.into());
+                Ok((geometry.tool_tip(pose), d_reading))
             })
             .collect::<Result<_, CalibrateError>>()?;
         let artefact = &dataset.artefacts.balls[ball];

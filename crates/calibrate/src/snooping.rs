@@ -9,7 +9,8 @@
 //! point's three) and calibrate again; stop when no observation exceeds
 //! it, when the limit of removals is reached, or when the observation
 //! cannot be removed (its ball would keep fewer contacts than its centre
-//! needs, or the calibration fails without it). One observation at a time:
+//! needs, or the calibration fails without it). A robust loss replaces
+//! data snooping ([`crate::robust`]): snooping refuses one. One observation at a time:
 //! a blunder spreads into the others' residuals, so the largest is removed
 //! first and the rest tested again.
 
@@ -149,6 +150,12 @@ pub fn calibrate_with_snooping(
     max_removals: usize,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Snooped, CalibrateError> {
+    if !options.loss.is_squared() {
+        return Err(CalibrateError::RobustLoss {
+            loss: options.loss,
+            reason: "with data snooping: it replaces it",
+        });
+    }
     snoop(dataset, level, max_removals, |d| {
         calibrate(d, options, &mut *observer)
     })

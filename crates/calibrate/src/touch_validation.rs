@@ -1,7 +1,8 @@
 //! A ball-touch calibration applied to touches it was not fitted on.
 //!
-//! The calibrated geometry is held; each contact's tool tip follows by
-//! forward kinematics (paper eq. 2) and its residual is its distance to
+//! The calibrated geometry and actuator scales are held; each contact's
+//! tool tip follows by forward kinematics (paper eq. 2) at its leg
+//! extensions `s_i q_i` and its residual is its distance to
 //! the ball's surface, `|f(q, p) − C| − r` (paper eq. 9, mm). Each ball's
 //! centre is fitted on its first `N` contacts with the calibrated radius
 //! (the artefact may have moved, or be another one), and its other
@@ -14,13 +15,15 @@
 //!
 //! The predicted residual of a contact, to first order, is
 //! `δr = G δp − n K ε_ref + ε`, `G = nᵀ J_f − n K B`: `n` its normal, `J_f`
-//! its tip's parameter Jacobian, `K = (AᵀWA)⁻¹AᵀW` the centre fit's gain on
+//! its tip's Jacobian on the calibrated parameters `p` (the 33 and, when
+//! the calibration identified them, the scales `s_1..s_6`:
+//! `dT/ds_i = q_i dT/dl_i`), `K = (AᵀWA)⁻¹AᵀW` the centre fit's gain on
 //! the reference contacts (rows `A` their normals, `W` their weights, `B`
 //! their `nᵀ J_f`), `ε` the noise (paper eq. 5's radius row, the
 //! repeatabilities propagated). Its variance is `G Σ_p Gᵀ + nᵀ Σ_C n + σ²`,
 //! `Σ_C = (AᵀWA)⁻¹`.
 
-use nalgebra::{Matrix3, SMatrix};
+use nalgebra::{DMatrix, Matrix3, Matrix3xX, Matrix6};
 use parcal_dataset::{Calibration, Dataset};
 use parcal_kinematics::{
     ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Vec3, forward_from_home, tip_jacobians,
@@ -29,6 +32,7 @@ use parcal_observe::{Repeatability, WeightModel, radius_variance};
 
 use crate::CalibrateError;
 use crate::instruments::Validation;
+use crate::problem::ActuatorScales;
 use crate::sphere_fit::best_fit;
 
 /// Applies the ball-touch `calibration` to the touches of `dataset` (module
@@ -51,14 +55,30 @@ pub fn validate_touches(
             "it has no covariance (the calibration did not converge)".into(),
         ));
     }
-    let covariance =
-        SMatrix::<f64, N_PARAMS, N_PARAMS>::from_fn(|i, j| calibration.covariance[i][j]);
+    // The calibrated parameters the touches depend on: the 33, then the
+    // scales if identified.
+    let scale_names: Vec<String> = (1..=6).map(|i| format!("s_{i}")).collect();
+    let scale_columns = names
+        .iter()
+        .position(|name| *name == scale_names[0])
+        .filter(|&k| names.get(k..k + 6) == Some(&scale_names[..]));
+    let columns: Vec<usize> = (0..N_PARAMS)
+        .chain(scale_columns.into_iter().flat_map(|k| k..k + 6))
+        .collect();
+    let m = columns.len();
+    let covariance = DMatrix::from_fn(m, m, |i, j| calibration.covariance[columns[i]][columns[j]]);
     let c = &calibration.canonical;
     let geometry =
         Geometry::from_arrays(&c.base_joints, &c.platform_joints, &c.tool, &c.leg_lengths);
     let machine = &dataset.machine.repeatability;
     let forward = ForwardOptions::default();
     let measurements = &dataset.measurements;
+    let scales = ActuatorScales {
+        values: calibration
+            .actuator()
+            .map_or(dataset.machine.actuator.scale, |a| a.scale),
+        column: None,
+    };
     let Some(n_ref) = reference else {
         return Err(refuse(
             "a ball-touch validation fits each ball's centre on its first touches: give their number (at least 4)".into(),
@@ -71,13 +91,19 @@ pub fn validate_touches(
             .collect();
         let mut tips = Vec::with_capacity(rows.len());
         for &row in &rows {
-            let solution = forward_from_home(&geometry, &measurements.q[row], &forward)
+            let extensions = scales.extensions(&measurements.q[row]);
+            let solution = forward_from_home(&geometry, &extensions, &forward)
                 .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
-            tips.push((
-                row,
-                tip_jacobians(&geometry, &solution),
-                geometry.tool_tip(&solution.pose),
-            ));
+            let jacobians = tip_jacobians(&geometry, &solution);
+            // dT/dp on the calibrated parameters; dT/dq per unit of the
+            // reading, J_q diag(s).
+            let q = &measurements.q[row];
+            let d_params = Matrix3xX::from_fn(m, |a, k| match k {
+                _ if k < N_PARAMS => jacobians.d_params[(a, k)],
+                _ => jacobians.d_q[(a, k - N_PARAMS)] * q[k - N_PARAMS],
+            });
+            let d_q = jacobians.d_q * Matrix6::from_diagonal(&scales.values.into());
+            tips.push((row, (d_params, d_q), geometry.tool_tip(&solution.pose)));
         }
         if rows.len() <= n_ref {
             return Err(refuse(format!(
@@ -97,12 +123,11 @@ pub fn validate_touches(
         // The centre fit linearised: A (normals), W, B (nᵀ J_f).
         let mut information = Matrix3::zeros();
         let mut weighted = Vec::with_capacity(n_ref);
-        for (row, jacobians, tip) in &tips[..n_ref] {
+        for (row, (d_params, d_q), tip) in &tips[..n_ref] {
             let normal = (tip - centre).normalize();
-            let variance =
-                contact_variance(machine, ball.radius_sigma, &jacobians.d_q, &normal, *row)?;
+            let variance = contact_variance(machine, ball.radius_sigma, d_q, &normal, *row)?;
             information += normal * normal.transpose() / variance;
-            weighted.push((normal / variance, normal.transpose() * jacobians.d_params));
+            weighted.push((normal / variance, normal.transpose() * d_params));
         }
         let centre_covariance = information.try_inverse().ok_or_else(|| {
             refuse(format!(
@@ -110,12 +135,11 @@ pub fn validate_touches(
                 ball.id
             ))
         })?;
-        // K B: the centre's first-order response to the parameters (3 x 33).
-        let response: SMatrix<f64, 3, N_PARAMS> = weighted
-            .iter()
-            .map(|(a, b)| centre_covariance * a * b)
-            .sum();
-        for (row, jacobians, tip) in &tips[n_ref.min(tips.len())..] {
+        // K B: the centre's first-order response to the parameters (3 x m).
+        let response = weighted.iter().fold(Matrix3xX::zeros(m), |sum, (a, b)| {
+            sum + centre_covariance * a * b
+        });
+        for (row, (d_params, d_q), tip) in &tips[n_ref.min(tips.len())..] {
             let offset = tip - centre;
             let distance = offset.norm();
             if distance == 0.0 {
@@ -126,11 +150,10 @@ pub fn validate_touches(
                 });
             }
             let normal = offset / distance;
-            let d_params = normal.transpose() * (jacobians.d_params - response);
-            let noise =
-                contact_variance(machine, ball.radius_sigma, &jacobians.d_q, &normal, *row)?;
+            let gain = normal.transpose() * (d_params - &response);
+            let noise = contact_variance(machine, ball.radius_sigma, d_q, &normal, *row)?;
             let variance = noise
-                + (d_params * covariance * d_params.transpose())[0]
+                + (&gain * &covariance * gain.transpose())[0]
                 + normal.dot(&(centre_covariance * normal));
             residuals.push(distance - ball.radius);
             sigmas.push(variance.sqrt());

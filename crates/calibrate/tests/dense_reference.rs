@@ -31,11 +31,16 @@ use std::time::Instant;
 use parcal_calibrate::layout::ParameterGroup;
 use parcal_calibrate::problem::{CalibrationProblem, ContactObservations};
 use parcal_calibrate::setup::{Observations, Setup};
-use parcal_calibrate::{CalibrationOptions, ParamCovariance, PriorMode, RadiusModel, Simulation};
+use parcal_calibrate::{
+    CAUCHY_K, CalibrationOptions, HUBER_K, Loss, ParamCovariance, PriorMode, RadiusModel,
+    Simulation,
+};
 use parcal_dataset::Dataset;
 use parcal_dataset::SessionModel;
 use parcal_kinematics::N_PARAMS;
-use parcal_simulate::{Plate, PlatePairs, Scenario, TrackerScenario, simulate, simulate_mixed};
+use parcal_simulate::{
+    Plate, PlatePairs, Readings, Scenario, TrackerScenario, simulate, simulate_mixed,
+};
 use parcal_solver::{Problem, SolverOptions, State, Status, dense_reference, linear_step, solve};
 
 /// Relative agreement asked of the step and of the covariance.
@@ -613,4 +618,100 @@ fn mixed_data_match_the_dense_solve() {
         &setup,
         observations,
     );
+}
+
+/// Touches read in motor revolutions with unknown scales (Jugglebot's,
+/// `parcal simulate --readings rev`), alone and with the paper tracker's
+/// poses and points read in mm with unknown scales: the six scales join
+/// the global block after the 33 (and the tied balls), seen by every
+/// contact and every instrument row.
+#[test]
+fn actuator_scales_match_the_dense_solve() {
+    let revolutions = Readings::of(&TrackerScenario::jugglebot_like());
+    let touches = simulate(&Scenario::paper().reading(revolutions), 1)
+        .expect("simulation")
+        .dataset;
+    let tracker = TrackerScenario {
+        sessions: 2,
+        rows_per_session: 10,
+        ..TrackerScenario::paper_like()
+    };
+    let both = simulate_mixed(
+        &Scenario {
+            plate: Some(PLATE),
+            ..Scenario::paper().reading(Readings::of(&tracker))
+        },
+        &tracker,
+        1,
+    )
+    .expect("simulation")
+    .dataset;
+    for (label, dataset, observation, radius) in [
+        (
+            "touches in rev, coordinates",
+            &touches,
+            Simulation::IV,
+            RadiusModel::PerContact,
+        ),
+        (
+            "touches in rev, radius",
+            &touches,
+            Simulation::III,
+            RadiusModel::PerBall,
+        ),
+        (
+            "mixed with scales, plate, coordinates",
+            &both,
+            Simulation::IV,
+            RadiusModel::PerBall,
+        ),
+    ] {
+        let options = options(observation, PriorMode::Propagated, radius);
+        let (setup, observations) = Setup::new(dataset, &options).unwrap();
+        assert_eq!(
+            setup
+                .layout
+                .range(ParameterGroup::ActuatorScales)
+                .map(|r| r.len()),
+            Some(6),
+            "{label}"
+        );
+        let label = format!("{label}, radius per {radius}");
+        match (observations, radius) {
+            (Observations::Coordinates(o), RadiusModel::PerContact) => {
+                check_mixed::<3, 2, 3, _>(&label, dataset, &options, &setup, o)
+            }
+            (Observations::Coordinates(o), RadiusModel::PerBall) => {
+                check_mixed::<4, 2, 3, _>(&label, dataset, &options, &setup, o)
+            }
+            (Observations::Radius(o), RadiusModel::PerBall) => {
+                check_mixed::<4, 0, 1, _>(&label, dataset, &options, &setup, o)
+            }
+            (Observations::Radius(o), RadiusModel::PerContact) => {
+                check_mixed::<3, 0, 1, _>(&label, dataset, &options, &setup, o)
+            }
+        }
+    }
+}
+
+/// A robust loss weighs each contact's rows, each distance, and each pose's
+/// six rows and point's three as wholes: the weighted Schur solve against
+/// the dense one at the design, where most residuals are far beyond `k`
+/// (the contacts' global Jacobians scaled in factored form,
+/// `ContactJacobian::scale`, the tied balls' columns with them).
+#[test]
+fn robust_losses_match_the_dense_solve() {
+    for loss in [Loss::Huber { k: HUBER_K }, Loss::Cauchy { k: CAUCHY_K }] {
+        let dataset = mixed(Some(PLATE));
+        let options = CalibrationOptions {
+            loss,
+            ..options(Simulation::IV, PriorMode::Paper, RadiusModel::PerBall)
+        };
+        let (setup, observations) = Setup::new(&dataset, &options).unwrap();
+        let Observations::Coordinates(observations) = observations else {
+            panic!("simulation IV observes coordinates")
+        };
+        let label = format!("mixed, coordinates, plate, radius per ball, {loss}");
+        check_mixed::<4, 2, 3, _>(&label, &dataset, &options, &setup, observations);
+    }
 }

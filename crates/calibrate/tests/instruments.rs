@@ -9,7 +9,7 @@ use parcal_calibrate::instruments::{
 };
 use parcal_calibrate::{CalibrateError, CalibrationOptions, InstrumentTable};
 use parcal_dataset::{Dataset, SessionModel};
-use parcal_kinematics::ForwardOptions;
+use parcal_kinematics::{ForwardOptions, PARAM_NAMES};
 use parcal_simulate::{TrackerKind, TrackerScenario, simulate_tracker};
 use parcal_solver::{SolverOptions, State, dense_reference, solve};
 
@@ -176,6 +176,34 @@ fn jugglebot_fits_and_predicts_held_out_poses() {
     // of the first session satisfies |R p_i + t − b_i| = l_i + s_i q_i up to
     // the calibration's own residual.
     let record = run.record(String::new());
+    // Poses alone do not observe the tool: it is not calibrated, and the
+    // record holds the design's (canonical frames) and no tool parameter.
+    assert!(!run.model.layout.has_tool());
+    let names = &record.parameters.names;
+    assert!(names.iter().all(|n| !n.ends_with("_eT")), "{names:?}");
+    assert_eq!(names[..30], PARAM_NAMES[..30]);
+    assert_eq!(record.covariance.len(), names.len());
+    let design = parcal_calibrate::setup::design_geometry(&dataset)
+        .canonicalize()
+        .unwrap()
+        .geometry;
+    assert_eq!(record.canonical.tool, <[f64; 3]>::from(design.tool));
+    // The 33's covariance with the tool's rows from the prior conditional
+    // on the 30 is the posterior the 33 gave when the tool was an unknown
+    // of the layout: its sigmas were 8.2470, 8.2386, 10.1035 mm
+    // (docs/real-machine.md before the tool left the layout), and the 30's
+    // are the run's own.
+    let kinematic = run.kinematic_covariance().expect("a covariance");
+    let tool: Vec<f64> = (30..33).map(|k| kinematic[(k, k)].sqrt()).collect();
+    println!("tool sigmas from the conditional prior: {tool:?}");
+    for (sigma, before) in tool.iter().zip([8.2470, 8.2386, 10.1035]) {
+        assert!((sigma - before).abs() < 1e-3, "{sigma} against {before}");
+    }
+    let global = run.covariance.as_ref().unwrap();
+    assert_eq!(
+        kinematic.view((0, 0), (30, 30)),
+        global.view((0, 0), (30, 30))
+    );
     let machine = record.machine.as_ref().unwrap();
     let g = &machine.geometry;
     let poses = &dataset.tracker.poses;

@@ -11,10 +11,11 @@
 //!   own spread; an honest covariance fails with probability about 6e-5).
 //! - At the paper's noise with a radius error 5 times the paper's (5 um),
 //!   the per-ball NEES stays within 4 standard errors of the NEES of the
-//!   same seeds with no radius error (what the noise's nonlinearity alone
-//!   gives), while the per-contact NEES falls more than 4 standard errors
-//!   below it: its covariance is wrong, too pessimistic here (the shared
-//!   error is spread over the contacts as independent noise).
+//!   same seeds with no radius error (what the design prior's pull and the
+//!   nonlinearity alone give, `nees_decomposition.rs`), while the
+//!   per-contact NEES falls more than 4 standard errors below it: its
+//!   covariance is wrong, too pessimistic here (the shared error is spread
+//!   over the contacts as independent noise).
 //! - The assembled ball columns (`dc/dC`, `dc/dr`, in the group block or,
 //!   for a ball tied by a distance, in the global block) match central
 //!   differences of the whitened residual.

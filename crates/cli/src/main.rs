@@ -43,7 +43,7 @@ enum Command {
     Export(commands::export::Args),
     /// Plan the touches to measure: the most accurate calibration for a budget.
     Plan(commands::plan::Args),
-    /// The report of one calibration: a self-contained HTML page (or Markdown), verdict and tests first.
+    /// The report of one calibration: a self-contained HTML page and its Markdown, verdict and tests first.
     Report(commands::report::Args),
 }
 

@@ -33,18 +33,10 @@ fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
     let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
     let calibration = temp.path().join("calibration.json");
     ok(&["calibrate", s(&data), "--out", s(&calibration)]);
-    let out = temp.path().join("report.html");
-    let stdout = ok(&[
-        "report",
-        "--calibration",
-        s(&calibration),
-        "--dataset",
-        s(&data),
-        "--out",
-        s(&out),
-    ]);
+    let stdout = ok(&["report", s(&calibration), "--dataset", s(&data)]);
     assert!(stdout.contains("verdict: accepted"), "{stdout}");
-    let html = fs::read_to_string(&out).unwrap();
+    // Both forms, beside the calibration by default.
+    let html = fs::read_to_string(temp.path().join("report.html")).unwrap();
     let c = json(&calibration);
     assert_eq!(c["verdict"], "accepted");
     assert!(
@@ -86,6 +78,24 @@ fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
         assert!(html.contains(&cell), "{cell}");
     }
 
+    // The external reliability on the map, as calibration.json has it.
+    let external = &c["diagnostics"]["external_reliability"];
+    assert_eq!(external.as_array().unwrap().len(), 5);
+    assert!(html.contains("External reliability on the accuracy map"));
+    for e in external.as_array().unwrap() {
+        let cells = format!(
+            "<td class=\"num\">{:.2}</td><td class=\"num\">{:.2}</td></tr>",
+            e["map_rms_um"].as_f64().unwrap(),
+            e["map_max_um"].as_f64().unwrap()
+        );
+        assert!(html.contains(&cells), "{cells}");
+    }
+    let first = format!(
+        "registered tool tip by {:.2} µm RMS",
+        external[0]["map_rms_um"].as_f64().unwrap()
+    );
+    assert!(html.contains(&first), "{first}");
+
     // Four figures, each with its data drawn: the histograms' bars, the
     // 33 x 33 correlation matrix and the 21 x 21 map.
     let svgs = figures(&html);
@@ -104,19 +114,14 @@ fn an_accepted_calibration_reports_its_verdict_numbers_and_figures() {
         assert!(!html.contains(forbidden), "the page has {forbidden}");
     }
 
-    // Markdown says the same verdict.
-    let md = temp.path().join("report.md");
-    ok(&[
-        "report",
-        "--calibration",
-        s(&calibration),
-        "--out",
-        s(&md),
-        "--format",
-        "markdown",
-    ]);
-    let md = fs::read_to_string(md).unwrap();
+    // Markdown says the same verdict; --out makes its directory.
+    let md = fs::read_to_string(temp.path().join("report.md")).unwrap();
     assert!(md.contains("**ACCEPTED: "), "{md}");
+    let elsewhere = temp.path().join("reports").join("paper");
+    ok(&["report", s(&calibration), "--out", s(&elsewhere)]);
+    let md = fs::read_to_string(elsewhere.join("report.md")).unwrap();
+    assert!(md.contains("**ACCEPTED: "), "{md}");
+    assert!(elsewhere.join("report.html").is_file());
 }
 
 #[test]
@@ -155,10 +160,9 @@ fn a_rejected_calibration_says_so_and_a_hostile_ball_id_is_escaped() {
     let calibrate = parcal(&["calibrate", s(&data), "--out", s(&out)]);
     assert_eq!(calibrate.status.code(), Some(3), "a rejected calibration");
     let rejected = temp.path().join("calibration.rejected.json");
-    let report = temp.path().join("report.html");
-    let stdout = ok(&["report", "--calibration", s(&rejected), "--out", s(&report)]);
+    let stdout = ok(&["report", s(&rejected)]);
     assert!(stdout.contains("verdict: rejected"), "{stdout}");
-    let html = fs::read_to_string(&report).unwrap();
+    let html = fs::read_to_string(temp.path().join("report.html")).unwrap();
     let line = verdict_line(&html);
     assert!(
         line.starts_with("REJECTED") && line.contains("global test failed"),
@@ -178,9 +182,8 @@ fn an_instrument_calibration_reports_its_rows_and_says_why_it_has_no_map() {
     let data = copy_fixture("jugglebot", temp.path(), &["machine.json", "poses.csv"]);
     let calibration = temp.path().join("calibration.json");
     ok(&["calibrate", s(&data), "--out", s(&calibration)]);
-    let out = temp.path().join("report.html");
-    ok(&["report", "--calibration", s(&calibration), "--out", s(&out)]);
-    let html = fs::read_to_string(&out).unwrap();
+    ok(&["report", s(&calibration)]);
+    let html = fs::read_to_string(temp.path().join("report.html")).unwrap();
     let c = json(&calibration);
     let verdict = verdict_line(&html);
     let word = c["verdict"].as_str().unwrap().to_uppercase();
@@ -198,43 +201,56 @@ fn an_instrument_calibration_reports_its_rows_and_says_why_it_has_no_map() {
 fn a_report_never_overwrites_its_input_and_refuses_other_data() {
     let temp = tempfile::tempdir().unwrap();
     let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
-    let calibration = temp.path().join("calibration.json");
+    // A calibration named report.md in the report's directory, and a
+    // report.html there that links to the dataset's machine.json.
+    let calibration = temp.path().join("report.md");
     ok(&["calibrate", s(&data), "--out", s(&calibration)]);
     let before = fs::read(&calibration).unwrap();
-    for out in [&calibration, &data.join("machine.json")] {
+    let output = parcal(&["report", s(&calibration), "--dataset", s(&data)]);
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("which this run reads"), "{stderr}");
+    assert_eq!(fs::read(&calibration).unwrap(), before);
+    #[cfg(unix)]
+    {
+        let out = temp.path().join("linked");
+        fs::create_dir(&out).unwrap();
+        let machine = data.join("machine.json");
+        let machine_before = fs::read(&machine).unwrap();
+        std::os::unix::fs::symlink(&machine, out.join("report.html")).unwrap();
         let output = parcal(&[
             "report",
-            "--calibration",
             s(&calibration),
             "--dataset",
             s(&data),
             "--out",
-            s(out),
+            s(&out),
         ]);
         assert_eq!(output.status.code(), Some(1));
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(stderr.contains("which this run reads"), "{stderr}");
+        assert_eq!(fs::read(&machine).unwrap(), machine_before);
+        assert!(!out.join("report.md").exists(), "nothing written");
     }
-    assert_eq!(fs::read(&calibration).unwrap(), before);
 
     let other = copy_fixture(
         "jugglebot",
         &temp.path().join("other"),
         &["machine.json", "poses.csv"],
     );
+    let out = temp.path().join("r");
     let output = parcal(&[
         "report",
-        "--calibration",
         s(&calibration),
         "--dataset",
         s(&other),
         "--out",
-        s(&temp.path().join("r.html")),
+        s(&out),
     ]);
     assert_eq!(output.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("--other-data"), "{stderr}");
-    assert!(!temp.path().join("r.html").exists());
+    assert!(!out.join("report.html").exists());
 }
 
 #[test]
@@ -251,15 +267,8 @@ fn a_calibration_that_did_not_converge_is_reported_rejected_without_a_map() {
         s(&out),
     ]);
     assert_eq!(calibrate.status.code(), Some(3));
-    let report = temp.path().join("report.html");
-    ok(&[
-        "report",
-        "--calibration",
-        s(&temp.path().join("calibration.rejected.json")),
-        "--out",
-        s(&report),
-    ]);
-    let html = fs::read_to_string(&report).unwrap();
+    ok(&["report", s(&temp.path().join("calibration.rejected.json"))]);
+    let html = fs::read_to_string(temp.path().join("report.html")).unwrap();
     let line = verdict_line(&html);
     assert!(
         line.starts_with("REJECTED") && line.contains("the solver stopped"),
@@ -269,4 +278,69 @@ fn a_calibration_that_did_not_converge_is_reported_rejected_without_a_map() {
     // A run at its iteration limit is checked at its last iterate, and the
     // page says so.
     assert!(html.contains("the observations were tested at its last iterate"));
+}
+
+#[test]
+fn calibrate_with_report_writes_the_report_beside_the_calibration_rejected_too() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let out = temp.path().join("run").join("calibration.json");
+    fs::create_dir(out.parent().unwrap()).unwrap();
+    let stdout = ok(&["calibrate", s(&data), "--out", s(&out), "--report"]);
+    let directory = out.parent().unwrap();
+    assert!(stdout.contains("report written to"), "{stdout}");
+    let html = fs::read_to_string(directory.join("report.html")).unwrap();
+    let md = fs::read_to_string(directory.join("report.md")).unwrap();
+    assert!(verdict_line(&html).starts_with("ACCEPTED"));
+    // The same pages as `parcal report` of that file and dataset (the true
+    // error of the simulation included).
+    assert!(
+        html.contains("true (simulation)"),
+        "the true error beside the predicted"
+    );
+    let again = temp.path().join("again");
+    ok(&["report", s(&out), "--dataset", s(&data), "--out", s(&again)]);
+    assert_eq!(fs::read_to_string(again.join("report.html")).unwrap(), html);
+    assert_eq!(fs::read_to_string(again.join("report.md")).unwrap(), md);
+
+    // A run stopped by its iteration limit is rejected, and its report says
+    // why; the accepted calibration.json is kept.
+    let accepted = fs::read(&out).unwrap();
+    let rejected = parcal(&[
+        "calibrate",
+        s(&data),
+        "--out",
+        s(&out),
+        "--max-iterations",
+        "1",
+        "--report",
+    ]);
+    assert_eq!(rejected.status.code(), Some(3));
+    assert_eq!(fs::read(&out).unwrap(), accepted);
+    let html = fs::read_to_string(directory.join("report.html")).unwrap();
+    let line = verdict_line(&html);
+    assert!(
+        line.starts_with("REJECTED") && line.contains("the solver stopped"),
+        "{line}"
+    );
+    assert!(html.contains("calibration.rejected.json"));
+
+    // The report may not replace the calibration.
+    let output = parcal(&[
+        "calibrate",
+        s(&data),
+        "--out",
+        s(&directory.join("report.html")),
+        "--report",
+    ]);
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("would overwrite the calibration"),
+        "{stderr}"
+    );
+    assert!(
+        verdict_line(&fs::read_to_string(directory.join("report.html")).unwrap())
+            .starts_with("REJECTED")
+    );
 }

@@ -110,6 +110,10 @@ pub struct Calibration {
     /// The observations data snooping removed, in the order of removal.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub removed_observations: Vec<RemovedObservation>,
+    /// With a robust loss: the observations it down-weighted (final weight
+    /// under 0.1), in the dataset's order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub down_weighted_observations: Vec<DownWeightedObservation>,
     /// The design machine the calibration started from (machine.json as
     /// given: the design geometry in the design frame, priors,
     /// repeatability, actuator unit and design scales, stroke): what
@@ -148,6 +152,41 @@ pub struct Diagnostics {
     /// The weakest directions of the parameters, weakest first.
     #[serde(default)]
     pub weak_directions: Vec<WeakDirectionRecord>,
+    /// External reliability on the accuracy map: what an undetected error
+    /// of one minimal detectable bias in each of the least reliable
+    /// observations (largest bias-to-noise ratio first) does to the
+    /// parameters and to the registered accuracy map; empty when not
+    /// computed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub external_reliability: Vec<ExternalReliabilityRecord>,
+}
+
+/// What an undetected error of one minimal detectable bias in one
+/// observation's row would do to the calibration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExternalReliabilityRecord {
+    /// The observation, as in [`ObservationTests`]' lists.
+    pub observation: ObservationCheck,
+    /// Its row of largest bias-to-noise ratio, 0-based (a pose's leg, a
+    /// point's coordinate, a contact's whitened row).
+    pub row: usize,
+    /// That row's redundancy number.
+    pub row_redundancy: f64,
+    /// That row's minimal detectable bias, in its standard deviations.
+    pub row_mdb_sigmas: f64,
+    /// That row's bias-to-noise ratio: the parameters' shift in their own
+    /// noise.
+    pub bias_to_noise: f64,
+    /// The shift of each kinematic parameter (the first of
+    /// `parameters.names`, in their order and units: mm, rad).
+    pub parameter_shift: Vec<f64>,
+    /// The registered tool-tip error that shift makes over the accuracy
+    /// grid, RMS and max in micrometres (absent without a map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_rms_um: Option<f64>,
+    /// See `map_rms_um`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_max_um: Option<f64>,
 }
 
 /// The variance component `Ω_g / r_g` of one group of observations.
@@ -297,6 +336,25 @@ pub struct RemovedObservation {
     pub variance_factor: [f64; 2],
 }
 
+/// An observation a robust loss down-weighted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DownWeightedObservation {
+    /// Its file (`measurements.csv`, `artefacts.json`, `poses.csv`,
+    /// `points.csv`).
+    pub file: String,
+    /// Its line there, for a CSV file (the header is line 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line: Option<u64>,
+    /// Its field, for a JSON file (`distances[3]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
+    /// Its final weight `w(u)`.
+    pub weight: f64,
+    /// Its scaled residual `u = |e| / √d` at the solution, in units of its
+    /// standard deviation.
+    pub residual_sigmas: f64,
+}
+
 impl Calibration {
     /// Whether the verdict is `"rejected"`.
     pub fn is_rejected(&self) -> bool {
@@ -431,6 +489,16 @@ impl Calibration {
         if let Some(diagnostics) = &self.diagnostics {
             diagnostics.validate(check, n)?;
         }
+        for (k, d) in self.down_weighted_observations.iter().enumerate() {
+            check.finite(
+                format_args!("down_weighted_observations[{k}].weight"),
+                d.weight,
+            )?;
+            check.finite(
+                format_args!("down_weighted_observations[{k}].residual_sigmas"),
+                d.residual_sigmas,
+            )?;
+        }
         for (i, it) in self.iterations.iter().enumerate() {
             check.finite(format_args!("iterations[{i}].cost"), it.cost)?;
             check.finite(format_args!("iterations[{i}].step_norm"), it.step_norm)?;
@@ -445,7 +513,7 @@ impl Calibration {
 
 impl Diagnostics {
     /// Finite numbers, one prior sigma and attribution per parameter (of
-    /// `n`) when given.
+    /// `n`) when given, at most one parameter shift per parameter.
     fn validate(&self, check: Check, n: usize) -> Result<()> {
         for (k, c) in self.variance_components.iter().enumerate() {
             check.finite(
@@ -478,6 +546,31 @@ impl Diagnostics {
                 format_args!("diagnostics.weak_directions[{k}].eigenvalue"),
                 weak.eigenvalue,
             )?;
+        }
+        for (k, e) in self.external_reliability.iter().enumerate() {
+            let field = format!("diagnostics.external_reliability[{k}]");
+            if e.parameter_shift.len() > n {
+                return Err(check.error(
+                    format!("{field}.parameter_shift"),
+                    format!(
+                        "expected at most {n} values (one per parameter), found {}",
+                        e.parameter_shift.len()
+                    ),
+                ));
+            }
+            check.values(format_args!("{field}.parameter_shift"), &e.parameter_shift)?;
+            let numbers = [
+                ("row_redundancy", Some(e.row_redundancy)),
+                ("row_mdb_sigmas", Some(e.row_mdb_sigmas)),
+                ("bias_to_noise", Some(e.bias_to_noise)),
+                ("map_rms_um", e.map_rms_um),
+                ("map_max_um", e.map_max_um),
+            ];
+            for (name, value) in numbers {
+                if let Some(value) = value {
+                    check.finite(format_args!("{field}.{name}"), value)?;
+                }
+            }
         }
         if let Some(tests) = &self.observations {
             for (field, h) in [

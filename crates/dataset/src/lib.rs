@@ -113,9 +113,10 @@ mod validation;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
 pub use calibration::{
-    CalibratedMachine, Calibration, CentreEstimate, Diagnostics, GlobalTestRecord, Histogram,
-    IterationSummary, ObservationCheck, ObservationTests, ParameterTable, Provenance,
-    RemovedObservation, VarianceComponentRecord, WeakDirectionRecord,
+    CalibratedMachine, Calibration, CentreEstimate, Diagnostics, DownWeightedObservation,
+    ExternalReliabilityRecord, GlobalTestRecord, Histogram, IterationSummary, ObservationCheck,
+    ObservationTests, ParameterTable, Provenance, RemovedObservation, VarianceComponentRecord,
+    WeakDirectionRecord,
 };
 pub use check::{MAX_LENGTH_MM, MIN_SIGMA};
 pub use dataset::{Dataset, MIN_CONTACTS_PER_BALL, ReadOptions, WriteOptions};

@@ -317,6 +317,7 @@ fn calibration() -> Calibration {
             gross_error_sigmas: 5.0,
             variance_factor: [1.5, 1.0],
         }],
+        down_weighted_observations: Vec::new(),
         diagnostics: Some(Diagnostics {
             variance_components: vec![VarianceComponentRecord {
                 group: "ball touches".into(),
@@ -360,6 +361,7 @@ fn calibration() -> Calibration {
                 sigma: Some(0.5),
                 dominant: vec![("y_b2".into(), 0.75)],
             }],
+            external_reliability: Vec::new(),
         }),
     }
 }

@@ -411,6 +411,13 @@ fn calibration() -> Calibration {
             gross_error_sigmas: -60.25,
             variance_factor: [14.5, 1.0 / 3.0],
         }],
+        down_weighted_observations: vec![DownWeightedObservation {
+            file: "artefacts.json".into(),
+            line: None,
+            field: Some("distances[3]".into()),
+            weight: 0.0125,
+            residual_sigmas: 107.6,
+        }],
         design: Some(Machine {
             stroke: Some([-5.0, 105.0]),
             ..dataset(ALL).machine
@@ -457,6 +464,25 @@ fn calibration() -> Calibration {
                 eigenvalue: 4.0,
                 sigma: Some(0.5),
                 dominant: vec![("y_b2".into(), 0.75)],
+            }],
+            external_reliability: vec![ExternalReliabilityRecord {
+                observation: ObservationCheck {
+                    file: "measurements.csv".into(),
+                    line: Some(14),
+                    field: None,
+                    observes: "ball b02".into(),
+                    redundancy: 0.75,
+                    normalised_residual: Some(0.5),
+                    gross_error_sigmas: Some(0.625),
+                    mdb_sigmas: Some(5.5),
+                },
+                row: 2,
+                row_redundancy: 0.25,
+                row_mdb_sigmas: 8.5,
+                bias_to_noise: 3.25,
+                parameter_shift: vec![0.001, -0.0025, 0.5e-4],
+                map_rms_um: Some(1.5),
+                map_max_um: Some(4.25),
             }],
         }),
     }

@@ -8,7 +8,7 @@
 //! - [`pool`]: the feasible candidate touches (stroke, singularity, stylus
 //!   approach);
 //! - [`information`]: one touch's information row on the 33 parameters and
-//!   its ball's centre, linearised at the design;
+//!   its ball's centre and radius, linearised at the design;
 //! - [`criterion`]: the registered map criterion and D, A, G;
 //! - [`select`]: greedy selection, Fedorov exchange, seeded restarts;
 //! - [`plan_file`]: plan.csv and plan.json;
@@ -27,6 +27,7 @@ pub mod tracker;
 
 use nalgebra::{DMatrix, Vector3};
 use parcal_accuracy::{CanonicalTargets, MapGrid, registered_jacobians};
+use parcal_calibrate::RadiusModel;
 use parcal_dataset::{ArtefactFrame, Artefacts, Calibration, Machine};
 use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::{KinematicPrior, Repeatability};
@@ -39,7 +40,7 @@ pub use pool::{Candidate, NominalBall};
 use criterion::MapWeights;
 use information::contact_row;
 use pool::{PoolOptions, candidate_pool};
-use select::{Problem, SelectOptions, WEAK_CENTRE_SIGMA};
+use select::{Problem, SelectOptions, WEAK_CENTRE_SIGMA, ball_offset};
 
 /// Everything a plan is asked for.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -68,13 +69,26 @@ pub struct PlanOptions {
     pub max_approach_degrees: f64,
     /// Smallest `sigma_min / sigma_max` of the scaled closure Jacobian.
     pub min_conditioning: f64,
+    /// How the calibration will treat each ball's calibrated radius
+    /// (`parcal calibrate --radius`; [`information`]).
+    #[serde(serialize_with = "display")]
+    pub radius: RadiusModel,
+}
+
+/// Serialises `value` as its `Display` text (`"ball"`, `"contact"`).
+fn display<S: serde::Serializer>(
+    value: &impl std::fmt::Display,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serializer.collect_str(value)
 }
 
 impl PlanOptions {
     /// `contacts` touches within `tilt_degrees`, everything else by default:
     /// the registered criterion, a pool of about 20,000, seed 1, no
     /// per-ball capacity, at least [`select::default_min_balls`] balls, one
-    /// run of at most 3 exchange passes.
+    /// run of at most 3 exchange passes, each ball's radius an unknown (the
+    /// calibration's default).
     pub fn new(contacts: usize, tilt_degrees: f64) -> Self {
         Self {
             contacts,
@@ -88,6 +102,7 @@ impl PlanOptions {
             passes: 3,
             max_approach_degrees: pool::MAX_APPROACH_DEGREES,
             min_conditioning: pool::MIN_CONDITIONING,
+            radius: parcal_calibrate::CalibrationOptions::default().radius,
         }
     }
 }
@@ -162,8 +177,8 @@ pub fn plan(
 /// `calibration` (a converged calibration.json of this machine and these
 /// balls). Its estimate replaces the design as the model (the rows and the
 /// map are linearised there, the commands stay the design's), its
-/// posterior covariance of the 33 replaces the prior, and its centre
-/// sigmas locate the balls it measured (their correlations with the 33 are
+/// posterior covariance of the 33 replaces the prior, and its centre and
+/// radius sigmas locate the balls it measured (their correlations with the 33 are
 /// not in the record and are left out). No anchor touches: the balls are
 /// located already; calibrated distances are in the posterior already.
 pub fn plan_next(
@@ -220,6 +235,7 @@ fn plan_with(
                 &balls[candidate.ball],
                 candidate,
                 &repeatability,
+                options.radius,
             )
         })
         .collect::<Result<Vec<_>, _>>()?;
@@ -256,10 +272,11 @@ fn plan_with(
     })
 }
 
-/// The prior information of the 33 parameters and the `B` centres
-/// (`33 + 3 B` square): the propagated kinematic prior (spec section 4);
-/// per centre `I / centre_sigma²` when artefacts.json locates the balls in
-/// the canonical frame, else `I /` [`WEAK_CENTRE_SIGMA`]²; and one row
+/// The prior information of the 33 parameters and the `B` balls' centres
+/// and radii (`33 + 4 B` square): the propagated kinematic prior (spec
+/// section 4); per centre `I / centre_sigma²` when artefacts.json locates
+/// the balls in the canonical frame, else `I /` [`WEAK_CENTRE_SIGMA`]²; per
+/// radius `1 / radius_sigma²` (its calibration); and one row
 /// `(e, −e) / sigma` per calibrated distance, `e` the unit vector between
 /// the nominal centres (canonical frame).
 fn prior_information(
@@ -270,8 +287,7 @@ fn prior_information(
 ) -> Result<DMatrix<f64>, DesignError> {
     let kinematic =
         KinematicPrior::propagated(design, &machine.prior_sigma).map_err(DesignError::Observe)?;
-    let n = N_PARAMS + 3 * balls.len();
-    let mut information = DMatrix::zeros(n, n);
+    let mut information = DMatrix::zeros(ball_offset(balls.len()), ball_offset(balls.len()));
     information
         .view_mut((0, 0), (N_PARAMS, N_PARAMS))
         .copy_from(&kinematic.information());
@@ -280,8 +296,9 @@ fn prior_information(
             ArtefactFrame::Canonical => ball.centre_sigma,
             ArtefactFrame::Design => WEAK_CENTRE_SIGMA,
         };
-        for c in 0..3 {
-            information[(N_PARAMS + 3 * b + c, N_PARAMS + 3 * b + c)] += centre_sigma.powi(-2);
+        let sigmas = [centre_sigma, centre_sigma, centre_sigma, ball.radius_sigma];
+        for (k, sigma) in sigmas.iter().enumerate() {
+            information[(ball_offset(b) + k, ball_offset(b) + k)] += sigma.powi(-2);
         }
     }
     let rotation = design
@@ -292,7 +309,7 @@ fn prior_information(
     for distance in &artefacts.distances {
         let e: Vector3<f64> =
             rotation * (balls[distance.a].centre - balls[distance.b].centre).normalize();
-        let (a, b) = (N_PARAMS + 3 * distance.a, N_PARAMS + 3 * distance.b);
+        let (a, b) = (ball_offset(distance.a), ball_offset(distance.b));
         let outer = e * e.transpose() / distance.sigma.powi(2);
         for (r, c, sign) in [(a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)] {
             let mut block = information.view_mut((r, c), (3, 3));
@@ -338,28 +355,39 @@ impl<'a> Posterior<'a> {
         })
     }
 
-    /// The prior information of the 33 and the centres (`33 + 3 B`): the
-    /// posterior's on the 33, `1/sigma²` per coordinate of the centres it
-    /// estimated, [`WEAK_CENTRE_SIGMA`] for the others.
+    /// The prior information of the 33 and the balls' centres and radii
+    /// (`33 + 4 B`): the posterior's on the 33, `1/sigma²` per coordinate of
+    /// the centres it estimated ([`WEAK_CENTRE_SIGMA`] for the others) and
+    /// per radius it estimated (artefacts.json's `radius_sigma` for the
+    /// others).
     fn information(&self, artefacts: &Artefacts) -> Result<DMatrix<f64>, DesignError> {
-        let n = N_PARAMS + 3 * artefacts.balls.len();
+        let n = ball_offset(artefacts.balls.len());
         let mut information = DMatrix::zeros(n, n);
         information
             .view_mut((0, 0), (N_PARAMS, N_PARAMS))
             .copy_from(&self.information);
         for (b, ball) in artefacts.balls.iter().enumerate() {
-            let sigma = match self.calibration.ball_centres.get(&ball.id) {
-                Some(estimate) => estimate.sigma,
-                None => [WEAK_CENTRE_SIGMA; 3],
-            };
-            for (c, s) in sigma.iter().enumerate() {
-                if !(s.is_finite() && *s > 0.0) {
+            let estimate = self.calibration.ball_centres.get(&ball.id);
+            let [x, y, z] = estimate.map_or([WEAK_CENTRE_SIGMA; 3], |e| e.sigma);
+            let radius = estimate
+                .and_then(|e| e.radius_sigma)
+                .unwrap_or(ball.radius_sigma);
+            for (k, (what, s)) in [
+                ("centre", x),
+                ("centre", y),
+                ("centre", z),
+                ("radius", radius),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                if !(s.is_finite() && s > 0.0) {
                     return Err(DesignError::Options(format!(
-                        "the calibration's centre sigma of ball {} is {s}",
+                        "the calibration's {what} sigma of ball {} is {s}",
                         ball.id
                     )));
                 }
-                information[(N_PARAMS + 3 * b + c, N_PARAMS + 3 * b + c)] = s.powi(-2);
+                information[(ball_offset(b) + k, ball_offset(b) + k)] = s.powi(-2);
             }
         }
         Ok(information)

@@ -1,15 +1,17 @@
 //! Choosing the touches: greedy selection, then Fedorov exchange, with
 //! seeded restarts.
 //!
-//! The unknowns are the 33 parameters and every ball's centre (`n = 33 +
-//! 3 B`). The design's information is the prior's (the kinematic prior, the
-//! centre priors or [`WEAK_CENTRE_SIGMA`], the calibrated distances of a
-//! ball plate) plus `h hᵀ` per chosen touch ([`crate::information`]); the
+//! The unknowns are the 33 parameters and every ball's centre and radius
+//! (`n = 33 + 4 B`). The design's information is the prior's (the kinematic
+//! prior, the centre priors or [`WEAK_CENTRE_SIGMA`], the radius priors,
+//! the calibrated distances of a ball plate) plus `h hᵀ` per chosen touch
+//! ([`crate::information`]); the
 //! covariance `Σ = M⁻¹` is refactorised (Cholesky, `n³/3` flops) after each
 //! change of the design. A candidate's gain is its Sherman–Morrison
 //! decrease of the criterion ([`crate::criterion`]), evaluated for the
 //! whole pool with one product `[Σ_pp; Fᵀ Σ_pp] G` (`G` the 33 x pool
-//! matrix of the candidates' parameter rows) in parallel chunks of
+//! matrix of the candidates' parameter rows) plus each ball's 4-column
+//! blocks `Σ_pb`, `Σ_bb` (centre and radius) in parallel chunks of
 //! [`CHUNK`] candidates: the same numbers whatever the number of threads.
 //!
 //! Every ball the design touches keeps at least [`min_touches_per_ball`]
@@ -37,14 +39,14 @@
 //! seed from stream `r` of [`parcal_simulate::Rng`]; the best run is kept,
 //! the earliest on ties.
 
-use nalgebra::{DMatrix, Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{DMatrix, Matrix3, Matrix4, SMatrix, SVector};
 use parcal_kinematics::N_PARAMS;
 use parcal_simulate::Rng;
 use rayon::prelude::*;
 
 use crate::DesignError;
 use crate::criterion::{Criterion, CriterionValues, G_SHORTLIST, MapWeights, Square};
-use crate::information::ContactRow;
+use crate::information::{BALL_UNKNOWNS, BallRow, ContactRow};
 
 /// Candidates per parallel chunk of the gain evaluation.
 pub const CHUNK: usize = 512;
@@ -123,7 +125,8 @@ pub struct Problem<'a> {
 
 impl<'a> Problem<'a> {
     /// The problem of choosing among `rows` (touches of `balls` balls) with
-    /// prior information `prior` (`33 + 3 balls` square) and the map `map`.
+    /// prior information `prior` (`33 + 4 balls` square: each ball's
+    /// centre, then its radius) and the map `map`.
     pub fn new(
         rows: &'a [ContactRow],
         balls: usize,
@@ -284,7 +287,7 @@ impl<'a> Problem<'a> {
 impl Problem<'_> {
     /// `u uᵀ` of touch `k`'s unit normal (the direction of its centre row).
     fn direction(&self, k: usize) -> Matrix3<f64> {
-        let u = self.rows[k].centre.normalize();
+        let u = self.rows[k].centre().normalize();
         u * u.transpose()
     }
 
@@ -413,16 +416,16 @@ impl<'a> State<'a> {
     /// `M += sign h hᵀ` for touch `k`.
     fn accumulate(&mut self, k: usize, sign: f64) {
         let row = &self.problem.rows[k];
-        let c = N_PARAMS + 3 * row.ball;
-        let (g, u) = (&row.params, &row.centre);
+        let c = ball_offset(row.ball);
+        let (g, u) = (&row.params, &row.on_ball);
         let m = &mut self.information;
         let mut pp = m.view_mut((0, 0), (N_PARAMS, N_PARAMS));
         pp += sign * g * g.transpose();
-        let mut pc = m.view_mut((0, c), (N_PARAMS, 3));
+        let mut pc = m.view_mut((0, c), (N_PARAMS, BALL_UNKNOWNS));
         pc += sign * g * u.transpose();
-        let mut cp = m.view_mut((c, 0), (3, N_PARAMS));
+        let mut cp = m.view_mut((c, 0), (BALL_UNKNOWNS, N_PARAMS));
         cp += sign * u * g.transpose();
-        let mut cc = m.view_mut((c, c), (3, 3));
+        let mut cc = m.view_mut((c, c), (BALL_UNKNOWNS, BALL_UNKNOWNS));
         cc += sign * u * u.transpose();
     }
 
@@ -516,14 +519,17 @@ impl<'a> State<'a> {
             .copy_from(&(factor.transpose() * sigma_pp));
         let per_ball: Vec<BallBlocks> = (0..problem.balls)
             .map(|b| {
-                let c = N_PARAMS + 3 * b;
+                let c = ball_offset(b);
                 let pc = self
                     .covariance
-                    .fixed_view::<N_PARAMS, 3>(0, c)
+                    .fixed_view::<N_PARAMS, BALL_UNKNOWNS>(0, c)
                     .clone_owned();
                 BallBlocks {
                     factor_pc: factor.transpose() * pc,
-                    cc: self.covariance.fixed_view::<3, 3>(c, c).clone_owned(),
+                    cc: self
+                        .covariance
+                        .fixed_view::<BALL_UNKNOWNS, BALL_UNKNOWNS>(c, c)
+                        .clone_owned(),
                     pc,
                 }
             })
@@ -554,9 +560,9 @@ impl<'a> State<'a> {
                             return f64::NEG_INFINITY;
                         }
                         let blocks = &per_ball[row.ball];
-                        let (s_p, w) = blocks.update(&y, j, &row.centre);
-                        let s_c = blocks.pc.tr_mul(&row.params) + blocks.cc * row.centre;
-                        let d = 1.0 + row.params.dot(&s_p) + row.centre.dot(&s_c);
+                        let (s_p, w) = blocks.update(&y, j, &row.on_ball);
+                        let s_c = blocks.pc.tr_mul(&row.params) + blocks.cc * row.on_ball;
+                        let d = 1.0 + row.params.dot(&s_p) + row.on_ball.dot(&s_c);
                         w.norm_squared() / d
                     })
                     .collect::<Vec<_>>()
@@ -586,9 +592,9 @@ impl<'a> State<'a> {
             .map(|&k| {
                 let row = &self.problem.rows[k];
                 let blocks = &per_ball[row.ball];
-                let s_p = sigma_pp * row.params + blocks.pc * row.centre;
-                let s_c = blocks.pc.tr_mul(&row.params) + blocks.cc * row.centre;
-                let d = 1.0 + row.params.dot(&s_p) + row.centre.dot(&s_c);
+                let s_p = sigma_pp * row.params + blocks.pc * row.on_ball;
+                let s_c = blocks.pc.tr_mul(&row.params) + blocks.cc * row.on_ball;
+                let d = 1.0 + row.params.dot(&s_p) + row.on_ball.dot(&s_c);
                 map.jacobians
                     .iter()
                     .zip(&variances)
@@ -600,27 +606,34 @@ impl<'a> State<'a> {
     }
 }
 
-/// One ball's blocks of `Σ` for the gain evaluation.
+/// Where ball `ball`'s unknowns (centre, then radius) start among all
+/// unknowns.
+pub fn ball_offset(ball: usize) -> usize {
+    N_PARAMS + BALL_UNKNOWNS * ball
+}
+
+/// One ball's blocks of `Σ` for the gain evaluation (`b` its centre and
+/// radius).
 struct BallBlocks {
-    /// `Σ_pC` (33 x 3).
-    pc: SMatrix<f64, N_PARAMS, 3>,
-    /// `Fᵀ Σ_pC`.
-    factor_pc: SMatrix<f64, N_PARAMS, 3>,
-    /// `Σ_CC`.
-    cc: Matrix3<f64>,
+    /// `Σ_pb` (33 x 4).
+    pc: SMatrix<f64, N_PARAMS, BALL_UNKNOWNS>,
+    /// `Fᵀ Σ_pb`.
+    factor_pc: SMatrix<f64, N_PARAMS, BALL_UNKNOWNS>,
+    /// `Σ_bb`.
+    cc: Matrix4<f64>,
 }
 
 impl BallBlocks {
-    /// `s_p = Σ_pp g + Σ_pC c` and `w = Fᵀ s_p` from column `j` of
+    /// `s_p = Σ_pp g + Σ_pb h_b` and `w = Fᵀ s_p` from column `j` of
     /// `y = [Σ_pp; Fᵀ Σ_pp] G`.
     fn update(
         &self,
         y: &DMatrix<f64>,
         j: usize,
-        centre: &Vector3<f64>,
+        on_ball: &BallRow,
     ) -> (SVector<f64, N_PARAMS>, SVector<f64, N_PARAMS>) {
-        let s_p = y.fixed_view::<N_PARAMS, 1>(0, j) + self.pc * centre;
-        let w = y.fixed_view::<N_PARAMS, 1>(N_PARAMS, j) + self.factor_pc * centre;
+        let s_p = y.fixed_view::<N_PARAMS, 1>(0, j) + self.pc * on_ball;
+        let w = y.fixed_view::<N_PARAMS, 1>(N_PARAMS, j) + self.factor_pc * on_ball;
         (s_p, w)
     }
 }
@@ -647,6 +660,7 @@ mod tests {
     use crate::information::contact_row;
     use crate::pool::{NominalBall, PoolOptions, candidate_pool};
     use parcal_accuracy::{CanonicalTargets, MapGrid, registered_jacobians};
+    use parcal_calibrate::RadiusModel;
     use parcal_kinematics::{paper, params};
     use parcal_observe::Repeatability;
 
@@ -686,13 +700,24 @@ mod tests {
         };
         let rows = pool
             .iter()
-            .map(|c| contact_row(&design, &canonical, &balls[c.ball], c, &repeatability).unwrap())
+            .map(|c| {
+                let model = RadiusModel::PerBall;
+                contact_row(
+                    &design,
+                    &canonical,
+                    &balls[c.ball],
+                    c,
+                    &repeatability,
+                    model,
+                )
+                .unwrap()
+            })
             .collect();
         let targets = CanonicalTargets::new(&design, &MapGrid::square(100.0, 25.0, 400.0)).unwrap();
         let map = MapWeights::new(
             registered_jacobians(&targets, &params::to_params(&canonical.geometry)).unwrap(),
         );
-        let n = N_PARAMS + 12;
+        let n = ball_offset(4);
         let mut prior = DMatrix::identity(n, n) * WEAK_CENTRE_SIGMA.powi(-2);
         prior
             .view_mut((0, 0), (N_PARAMS, N_PARAMS))
@@ -700,6 +725,11 @@ mod tests {
         prior
             .view_mut((0, 0), (N_PARAMS, N_PARAMS))
             .scale_mut(0.1f64.powi(-2));
+        // Each ball's radius about its calibrated value (1 um).
+        for ball in 0..4 {
+            let r = ball_offset(ball) + 3;
+            prior[(r, r)] = repeatability.radius.powi(-2);
+        }
         (rows, map, prior)
     }
 

@@ -10,7 +10,7 @@ use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_dataset::{Dataset, SessionModel};
 use parcal_design::Criterion;
 use parcal_design::tracker::{PosePlan, PosePlanOptions, plan_poses};
-use parcal_kinematics::{Geometry, ParamCovariance};
+use parcal_kinematics::Geometry;
 use parcal_simulate::{TrackerKind, TrackerScenario, simulate_tracker};
 
 const SEEDS: u64 = 4;
@@ -33,8 +33,9 @@ fn registered(dataset: &Dataset) -> (f64, f64) {
         .unwrap()
         .registered_summary()
         .rms;
-    let covariance = run.covariance.as_ref().expect("a covariance");
-    let covariance = ParamCovariance::from_fn(|r, c| covariance[(r, c)]);
+    // Poses alone leave the tool out of the layout: the 33's covariance
+    // takes its rows from the prior.
+    let covariance = run.kinematic_covariance().expect("a covariance");
     let predicted = parcal_accuracy::predicted(&run.design, &estimate, &covariance, &grid)
         .unwrap()
         .registered_summary()

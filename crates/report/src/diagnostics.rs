@@ -3,6 +3,7 @@
 //! the number of observations (the [`LISTED`] largest normalised residuals
 //! and least controlled observations, histograms of the rest).
 
+use parcal_accuracy::{MapGrid, parameter_error};
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::reliability::{
@@ -11,9 +12,10 @@ use parcal_calibrate::reliability::{
 };
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_dataset::{
-    Dataset, Diagnostics, Histogram, ObservationCheck, ObservationTests, VarianceComponentRecord,
-    WeakDirectionRecord,
+    Dataset, Diagnostics, ExternalReliabilityRecord, Histogram, ObservationCheck, ObservationTests,
+    VarianceComponentRecord, WeakDirectionRecord,
 };
+use parcal_kinematics::Params;
 use parcal_solver::SpectrumDiagnostics;
 
 use crate::instruments::determined_by;
@@ -88,10 +90,10 @@ pub fn of_ball_run(
 ) -> Diagnostics {
     let names = run.names();
     // calibration.json's parameters are the kinematic ones, followed by the
-    // instrument groups' with poses or points, whose priors are attributed
-    // only by an instrument run: then none is.
+    // instrument groups' (the scales' too, with touches alone), whose
+    // priors are attributed only by an instrument run: then none is.
     let (prior_sigma, determined_by) = match (run.sigmas(), &run.prior) {
-        _ if run.instruments.is_some() => (Vec::new(), Vec::new()),
+        _ if run.layout.recorded().len() > run.params.len() => (Vec::new(), Vec::new()),
         (Some(sigmas), Some(prior)) => sigmas
             .iter()
             .zip(prior.sigma().iter())
@@ -112,7 +114,49 @@ pub fn of_ball_run(
         spectrum: run.spectrum.as_ref(),
         names: &names,
     };
-    checks.diagnostics(dataset, original, prior_sigma, determined_by)
+    let mut diagnostics = checks.diagnostics(dataset, original, prior_sigma, determined_by);
+    if let Some(reliability) = &run.reliability {
+        diagnostics.external_reliability =
+            external_reliability(run, reliability, dataset, original);
+    }
+    diagnostics
+}
+
+/// calibration.json's `external_reliability` of a ball-touch run: each of
+/// the least reliable observations' kinematic parameter shift and, when
+/// the run converged, the registered map of that shift as the parameter
+/// error ([`parcal_accuracy::parameter_error`]) on the paper's grid, the
+/// targets placed by the run's design.
+fn external_reliability(
+    run: &CalibrationRun,
+    reliability: &Reliability,
+    dataset: &Dataset,
+    original: &dyn Fn(ObservationId) -> ObservationId,
+) -> Vec<ExternalReliabilityRecord> {
+    let level = per_test_level(reliability);
+    reliability
+        .external
+        .iter()
+        .filter_map(|shift| {
+            let check = reliability.check(shift.observation)?;
+            let error = Params::from_fn(|k, _| shift.global_shift[k]);
+            let map = run
+                .converged()
+                .then(|| parameter_error(&run.design, &run.params, &error, &MapGrid::paper()).ok())
+                .flatten()
+                .map(|map| map.registered_summary());
+            Some(ExternalReliabilityRecord {
+                observation: observation_record(&check, dataset, original, level),
+                row: shift.row,
+                row_redundancy: shift.redundancy,
+                row_mdb_sigmas: shift.minimal_detectable_bias,
+                bias_to_noise: shift.bias_to_noise,
+                parameter_shift: error.iter().copied().collect(),
+                map_rms_um: map.map(|m| 1e3 * m.rms),
+                map_max_um: map.map(|m| 1e3 * m.max),
+            })
+        })
+        .collect()
 }
 
 /// The diagnostics of an instrument run (poses, points) of `dataset`,
@@ -170,6 +214,7 @@ impl Checks<'_> {
             prior_sigma,
             determined_by,
             weak_directions: weak_directions(self.spectrum, self.names),
+            external_reliability: Vec::new(),
         }
     }
 }
@@ -221,32 +266,9 @@ fn tests(
     original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> ObservationTests {
     let m = reliability.tests();
-    let per_test_level = SNOOPING_LEVEL / m.max(1) as f64;
-    let balls = &dataset.artefacts.balls;
-    let check = |k: &usize| {
-        let t = tested(&reliability.observation(*k), dataset, original);
-        let (file, line, field) = location(t.observation);
-        ObservationCheck {
-            file: file.to_string(),
-            line,
-            field,
-            observes: match t.observes {
-                Observes::Ball(k) => format!("ball {}", balls[k].id),
-                Observes::Distance(k) => {
-                    let d = &dataset.artefacts.distances[k];
-                    format!("balls {} and {}", d.a, d.b)
-                }
-                Observes::Leg(i) => format!("leg {}", i + 1),
-                Observes::Coordinate(i) => ["x", "y", "z"][i].to_string(),
-            },
-            redundancy: t.redundancy,
-            normalised_residual: t.normalised.map(|(w, _)| w),
-            gross_error_sigmas: t.normalised.map(|(_, g)| g),
-            mdb_sigmas: t
-                .normalised
-                .map(|_| minimal_detectable_bias(t.redundancy, per_test_level)),
-        }
-    };
+    let level = per_test_level(reliability);
+    let check =
+        |k: &usize| observation_record(&reliability.observation(*k), dataset, original, level);
     let normalised_histogram = reliability.row_normalised.clone();
     // Over [0, the largest redundancy rounded up to a tenth of the rows
     // of an observation, as many as that redundancy rounded up).
@@ -297,6 +319,45 @@ fn tests(
         least_controlled,
         normalised_histogram,
         redundancy_histogram,
+    }
+}
+
+/// The level of each test of data snooping: [`SNOOPING_LEVEL`] over the
+/// family (Bonferroni).
+fn per_test_level(reliability: &Reliability) -> f64 {
+    SNOOPING_LEVEL / reliability.tests().max(1) as f64
+}
+
+/// calibration.json's record of `check`, placed by `original` in
+/// `dataset` (balls and distances named by its artefacts), its minimal
+/// detectable bias for tests at `level`.
+fn observation_record(
+    check: &Check,
+    dataset: &Dataset,
+    original: &dyn Fn(ObservationId) -> ObservationId,
+    level: f64,
+) -> ObservationCheck {
+    let t = tested(check, dataset, original);
+    let (file, line, field) = location(t.observation);
+    ObservationCheck {
+        file: file.to_string(),
+        line,
+        field,
+        observes: match t.observes {
+            Observes::Ball(k) => format!("ball {}", dataset.artefacts.balls[k].id),
+            Observes::Distance(k) => {
+                let d = &dataset.artefacts.distances[k];
+                format!("balls {} and {}", d.a, d.b)
+            }
+            Observes::Leg(i) => format!("leg {}", i + 1),
+            Observes::Coordinate(i) => ["x", "y", "z"][i].to_string(),
+        },
+        redundancy: t.redundancy,
+        normalised_residual: t.normalised.map(|(w, _)| w),
+        gross_error_sigmas: t.normalised.map(|(_, g)| g),
+        mdb_sigmas: t
+            .normalised
+            .map(|_| minimal_detectable_bias(t.redundancy, level)),
     }
 }
 

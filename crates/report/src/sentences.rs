@@ -8,7 +8,8 @@ use parcal_calibrate::fit::BallMisfit;
 use parcal_calibrate::reliability::{
     ObservationId, Reliability, UNCONTROLLED, VarianceComponent, critical_value,
 };
-use parcal_calibrate::snooping::{Removal, SNOOPING_LEVEL, Snooped};
+use parcal_calibrate::robust::{DOWN_WEIGHTED, DownWeighted, too_many};
+use parcal_calibrate::snooping::{MAX_REMOVALS, Removal, SNOOPING_LEVEL, Snooped};
 use parcal_calibrate::verdict::{Outcome, Verdict};
 use parcal_dataset::{ARTEFACTS_FILE, Dataset, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE};
 use parcal_kinematics::PARAM_NAMES;
@@ -95,6 +96,7 @@ fn record_of(
     let mut reasons = Vec::new();
     if let Some(reliability) = &run.reliability {
         checks(reliability, original, &mut reasons, &mut warnings);
+        record.down_weighted_observations = down_weighted_records(reliability, original);
     }
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
@@ -136,9 +138,10 @@ fn place_and_row(observation: ObservationId, row: usize) -> String {
 }
 
 /// The observations' checks in words: the variance components, the
-/// largest normalised residual against the data-snooping critical value,
-/// the uncontrolled observations; `original` gives an observation's place
-/// in the dataset given.
+/// largest normalised residual against the data-snooping critical value
+/// (with a robust loss, the observations it down-weighted instead), the
+/// uncontrolled observations; `original` gives an observation's place in
+/// the dataset given.
 pub fn checks(
     reliability: &Reliability,
     original: &dyn Fn(ObservationId) -> ObservationId,
@@ -146,7 +149,9 @@ pub fn checks(
     warnings: &mut Vec<String>,
 ) {
     reasons.push(variance_components(&reliability.components));
-    if let Some(worst) = reliability.worst() {
+    if let Some(down_weighted) = &reliability.down_weighted {
+        reasons.push(down_weighted_sentence(down_weighted, original));
+    } else if let Some(worst) = reliability.worst() {
         let w = worst.normalised().unwrap_or(0.0);
         let tests = reliability.tests();
         let critical = critical_value(SNOOPING_LEVEL, tests);
@@ -187,6 +192,70 @@ pub fn checks(
             uncontrolled.iter().take(10).cloned().collect::<Vec<_>>().join(", ")
         ));
     }
+}
+
+/// The observations a robust loss down-weighted in one sentence (the ten
+/// most down-weighted named), in the place of data snooping's test
+/// ([`parcal_calibrate::robust`]).
+pub fn down_weighted_sentence(
+    down_weighted: &[DownWeighted],
+    original: &dyn Fn(ObservationId) -> ObservationId,
+) -> String {
+    if down_weighted.is_empty() {
+        return format!(
+            "the robust loss down-weighted no observation (none has a weight under {DOWN_WEIGHTED})"
+        );
+    }
+    let mut worst: Vec<&DownWeighted> = down_weighted.iter().collect();
+    worst.sort_by(|a, b| a.weight.total_cmp(&b.weight));
+    let named: Vec<String> = worst
+        .iter()
+        .take(10)
+        .map(|d| {
+            format!(
+                "{} (weight {:.2e}, residual {:.1} sigmas)",
+                place(original(d.observation)),
+                d.weight,
+                d.residual
+            )
+        })
+        .collect();
+    let verdict = if too_many(down_weighted) {
+        format!(
+            "; more than the {MAX_REMOVALS} blunders data snooping would remove: the model, not a few observations, is wrong"
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "the robust loss down-weighted {} observation{} to a weight under {DOWN_WEIGHTED}, likely blunders: {}{}{verdict}",
+        down_weighted.len(),
+        if down_weighted.len() == 1 { "" } else { "s" },
+        named.join(", "),
+        and_more(down_weighted.len() - named.len()),
+    )
+}
+
+/// The down-weighted observations of `reliability` as calibration.json
+/// lists them, each with its file and line or field.
+pub fn down_weighted_records(
+    reliability: &Reliability,
+    original: &dyn Fn(ObservationId) -> ObservationId,
+) -> Vec<parcal_dataset::DownWeightedObservation> {
+    let listed = reliability.down_weighted.as_deref().unwrap_or_default();
+    listed
+        .iter()
+        .map(|d| {
+            let (file, line, field) = location(original(d.observation));
+            parcal_dataset::DownWeightedObservation {
+                file: file.to_string(),
+                line,
+                field,
+                weight: d.weight,
+                residual_sigmas: d.residual,
+            }
+        })
+        .collect()
 }
 
 /// The variance components of a run in one sentence.

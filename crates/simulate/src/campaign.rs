@@ -1,7 +1,7 @@
 //! Simulation of one campaign: contacts, actuator readings with noise, and
 //! the forward-kinematics check of every contact.
 
-use nalgebra::{Matrix3, Translation3, UnitQuaternion};
+use nalgebra::{Matrix3, Matrix6, Translation3, UnitQuaternion};
 use parcal_dataset::{
     Actuator, ArtefactFrame, Artefacts, Ball, Dataset, GeometryRecord, Machine, Measurements,
     PriorSigma, Repeatability, SessionModel, Tracker, Truth,
@@ -11,7 +11,7 @@ use parcal_kinematics::{
 };
 use rayon::prelude::*;
 
-use crate::{Rng, Scenario, SimulateError, plate};
+use crate::{PlannedTouch, Rng, Scenario, SimulateError, plate};
 
 /// A contact is accepted when the tool tip found by forward kinematics from
 /// the actuator readings is back on its simulated point within this many
@@ -23,9 +23,9 @@ const CHECK_SIGMAS: f64 = 8.0;
 struct Contact {
     /// The true contact point `C_i + r u` (design frame).
     point: Vec3,
-    /// Actuator readings with noise.
+    /// Actuator readings with noise (actuators' unit).
     q: [f64; 6],
-    /// Leg lengths `l_i + q_i` of the true machine.
+    /// Leg lengths `l_i + s_i q_i` of the true machine (true scales).
     legs: [f64; 6],
     /// Tilt of the platform: angle between its z axis and the base's (rad).
     tilt: f64,
@@ -75,7 +75,8 @@ pub fn ball_id(index: usize, count: usize) -> String {
 /// platform orientation `Rz(yaw) Ry(pitch) Rx(roll)` with angles uniform in
 /// `[-max_tilt, max_tilt]` (or the planned `u` and orientation of the
 /// scenario's plan, ball by ball in plan order), the tool tip at `C + r u` plus tool noise, and
-/// actuator readings `q = L_true - l_true` plus actuator noise. Every contact
+/// actuator readings `q = (L_true - l_true) / s_true` plus actuator noise
+/// (`s_true`: the true scales of [`Scenario::readings`]). Every contact
 /// is checked by forward kinematics with the true geometry; balls a plan
 /// leaves untouched are left out of the dataset. A ball plate, if
 /// the scenario has one, draws from a stream of its own (see
@@ -184,7 +185,8 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, SimulateEr
             ball_centres: kept.iter().map(|&b| scenario.centres[b].into()).collect(),
             ball_radii: vec![scenario.radius; kept.len()],
             contacts: contacts.iter().map(|c| c.point.into()).collect(),
-            actuator_scale: None,
+            actuator_scale: (!scenario.readings.is_default())
+                .then_some(scenario.readings.true_scale),
             sessions: Vec::new(),
         }),
         tracker: Tracker::default(),
@@ -209,7 +211,11 @@ fn machine(scenario: &Scenario) -> Machine {
             position: None,
             orientation: None,
         },
-        actuator: Actuator::default(),
+        actuator: Actuator {
+            unit: scenario.readings.unit.clone(),
+            scale: scenario.readings.design_scale,
+            scale_sigma: scenario.readings.scale_sigma,
+        },
         session_model: SessionModel::default(),
         stroke: scenario.stroke,
         joint_limits: None,
@@ -262,6 +268,27 @@ fn simulate_ball(
     Ok((calibrated_radius, contacts))
 }
 
+/// A random design: `points_per_ball` touches of every ball drawn as
+/// [`simulate`] draws them (`u` uniform on the lower hemisphere, angles
+/// uniform in `[-max_tilt, max_tilt]`), from stream `seed` alone. As the
+/// scenario's plan it fixes the design, so that simulations over seeds
+/// differ by their noise only.
+pub fn random_plan(scenario: &Scenario, seed: u64) -> Vec<PlannedTouch> {
+    let mut rng = Rng::new(seed, u64::MAX);
+    let mut plan = Vec::with_capacity(scenario.centres.len() * scenario.points_per_ball);
+    for ball in 0..scenario.centres.len() {
+        for _ in 0..scenario.points_per_ball {
+            let (direction, rotation) = random_touch(scenario, &mut rng);
+            plan.push(PlannedTouch {
+                ball,
+                direction,
+                rotation,
+            });
+        }
+    }
+    plan
+}
+
 /// A random touch (spec section 3): `u` uniform on the lower hemisphere,
 /// the orientation's angles uniform in `[-max_tilt, max_tilt]`.
 fn random_touch(scenario: &Scenario, rng: &mut Rng) -> (Vec3, UnitQuaternion<f64>) {
@@ -275,8 +302,8 @@ fn random_touch(scenario: &Scenario, rng: &mut Rng) -> (Vec3, UnitQuaternion<f64
 }
 
 /// The touch of direction `u` at orientation `rotation`: the true tip at
-/// `C + r u` plus tool noise, the true machine's readings plus actuator
-/// noise, checked by forward kinematics.
+/// `C + r u` plus tool noise, the true machine's readings (true scales)
+/// plus actuator noise, checked by forward kinematics.
 fn simulate_contact(
     scenario: &Scenario,
     rng: &mut Rng,
@@ -290,10 +317,13 @@ fn simulate_contact(
     let tip = point + tool_noise;
     let pose = Pose::from_parts(Translation3::from(tip - rotation * truth.tool), rotation);
 
+    let scale = &scenario.readings.true_scale;
     let exact = actuators(truth, &pose);
-    let q = exact.map(|q| q + rng.normal(scenario.actuator_sigma));
-    let legs = std::array::from_fn(|i| truth.legs[i] + q[i]);
-    let check = check_contact(truth, scenario, &q, &point)?;
+    let q: [f64; 6] =
+        std::array::from_fn(|i| exact[i] / scale[i] + rng.normal(scenario.actuator_sigma));
+    let extensions = std::array::from_fn(|i| scale[i] * q[i]);
+    let legs = std::array::from_fn(|i| truth.legs[i] + extensions[i]);
+    let check = check_contact(truth, scenario, &extensions, &point)?;
     let z_axis = rotation * Vec3::z();
     Ok(Contact {
         point,
@@ -304,19 +334,22 @@ fn simulate_contact(
     })
 }
 
-/// Forward kinematics of the true machine from its home pose: the Mahalanobis
-/// distance of the tip from the simulated contact point under the noise
-/// covariance `s_t^2 I + s_a^2 J_q J_q^T`; refuses a contact beyond
-/// [`CHECK_SIGMAS`] or where forward kinematics fails.
+/// Forward kinematics of the true machine from its home pose at the leg
+/// extensions `extensions` (mm): the Mahalanobis distance of the tip from
+/// the simulated contact point under the noise covariance
+/// `s_t^2 I + s_a^2 J_q S² J_q^T` (`S`: the true scales, `s_a` in the
+/// actuators' unit); refuses a contact beyond [`CHECK_SIGMAS`] or where
+/// forward kinematics fails.
 fn check_contact(
     truth: &Geometry,
     scenario: &Scenario,
-    q: &[f64; 6],
+    extensions: &[f64; 6],
     point: &Vec3,
 ) -> Result<f64, String> {
-    let solution =
-        forward_from_home(truth, q, &ForwardOptions::default()).map_err(|e| e.to_string())?;
-    let d_q = tip_jacobians(truth, &solution).d_q;
+    let solution = forward_from_home(truth, extensions, &ForwardOptions::default())
+        .map_err(|e| e.to_string())?;
+    let scale = Matrix6::from_diagonal(&scenario.readings.true_scale.into());
+    let d_q = tip_jacobians(truth, &solution).d_q * scale;
     let covariance = Matrix3::identity() * scenario.tool_sigma.powi(2)
         + d_q * d_q.transpose() * scenario.actuator_sigma.powi(2);
     let error = truth.tool_tip(&solution.pose) - point;

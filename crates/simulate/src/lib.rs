@@ -32,12 +32,12 @@ mod rng;
 mod scenario;
 mod tracker;
 
-pub use campaign::{Simulation, Summary, ball_id, simulate};
+pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
 pub use execute::execute;
 pub use mixed::simulate_mixed;
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
-pub use scenario::{PlannedTouch, Scenario};
+pub use scenario::{PlannedTouch, Readings, Scenario};
 pub use tracker::{FrameSpread, TrackerKind, TrackerScenario, Workspace, simulate_tracker};
 
 /// The most rows a simulated campaign may have: contacts, poses plus

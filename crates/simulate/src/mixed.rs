@@ -2,14 +2,15 @@
 //! machine, in one dataset: the touches of a [`Scenario`] and the sessions
 //! of a [`TrackerScenario`] with the same design and truth.
 //!
-//! The touches read their actuators in mm (leg `l_i + q_i`), so the
-//! instrument's readings must too: design and true scales 1, known. The
+//! The touches and the instrument read the same actuators (leg
+//! `l_i + s_i q_i`): both scenarios need the same readings (unit, design
+//! and true scales, the scales' prior) and the same actuator noise. The
 //! touches draw from the streams `(seed, ball)` ([`simulate`]); the
 //! instrument from the seed drawn by stream `(seed, TRACKER_STREAM)`
 //! ([`simulate_tracker`]), so that the two never share a stream.
 
 use crate::{
-    Rng, Scenario, SimulateError, Simulation, TrackerScenario, simulate, simulate_tracker,
+    Readings, Rng, Scenario, SimulateError, Simulation, TrackerScenario, simulate, simulate_tracker,
 };
 
 /// The stream that draws the instrument part's seed (the plate's is
@@ -31,12 +32,12 @@ pub fn simulate_mixed(
                 .into(),
         ));
     }
-    if tracker.design_scale != [1.0; 6]
-        || tracker.true_scale != [1.0; 6]
-        || tracker.scale_sigma.is_some()
+    if touches.readings != Readings::of(tracker) || touches.actuator_sigma != tracker.actuator_sigma
     {
         return Err(SimulateError::Scenario(
-            "with ball touches the actuators read mm: design and true scales 1, known".into(),
+            "touches and instrument measurements of one dataset read the same actuators: one \
+             unit, design and true scales, scale sigmas and actuator noise"
+                .into(),
         ));
     }
     let Simulation {
@@ -102,13 +103,20 @@ mod tests {
     }
 
     #[test]
-    fn scales_other_than_one_are_refused() {
+    fn other_readings_or_machines_are_refused() {
         let (touches, tracker) = scenarios();
         let scaled = TrackerScenario {
             true_scale: [1.001; 6],
             ..tracker.clone()
         };
         assert!(simulate_mixed(&touches, &scaled, 1).is_err());
+        let same = touches.clone().reading(Readings::of(&scaled));
+        let same = Scenario {
+            actuator_sigma: scaled.actuator_sigma,
+            ..same
+        };
+        let d = simulate_mixed(&same, &scaled, 1).unwrap().dataset;
+        assert_eq!(d.truth.unwrap().actuator_scale, Some([1.001; 6]));
         let other = TrackerScenario {
             truth: touches.design.clone(),
             ..tracker

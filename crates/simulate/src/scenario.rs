@@ -24,7 +24,8 @@ pub struct Scenario {
     pub radius: f64,
     /// Error of the calibrated radius given to the calibration (1 sigma, mm).
     pub radius_sigma: f64,
-    /// Actuator repeatability (1 sigma per actuator and contact, mm).
+    /// Actuator repeatability (1 sigma per actuator and contact, in the
+    /// actuators' unit: [`Scenario::readings`]).
     pub actuator_sigma: f64,
     /// Tool positioning repeatability (1 sigma per axis and contact, mm).
     pub tool_sigma: f64,
@@ -35,12 +36,57 @@ pub struct Scenario {
     /// A calibrated ball plate over the balls, written as the distances of
     /// artefacts.json; none in the paper.
     pub plate: Option<Plate>,
-    /// The range of every actuator reading `[min, max]` (mm), written to
-    /// machine.json.
+    /// The range of every actuator reading `[min, max]` (actuators' unit),
+    /// written to machine.json.
     pub stroke: Option<[f64; 2]>,
+    /// What the actuators read: leg `i` is `l_i + s_i q_i` long.
+    pub readings: Readings,
     /// Planned touches (`parcal plan`) in place of the random ones:
     /// `points_per_ball` is then ignored.
     pub plan: Option<Vec<PlannedTouch>>,
+}
+
+/// What the actuators read (machine.json's `actuator`, truth.json's
+/// `actuator_scale`): leg `i` is `l_i + s_i q_i` long for the reading `q_i`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Readings {
+    /// The readings' unit, free text (machine.json `actuator.unit`).
+    pub unit: String,
+    /// Design scales `s_i`, mm per unit (machine.json).
+    pub design_scale: [f64; 6],
+    /// True scales, mm per unit (truth.json).
+    pub true_scale: [f64; 6],
+    /// A priori sigma of each scale (mm per unit); `None`: scales known.
+    pub scale_sigma: Option<[f64; 6]>,
+}
+
+impl Readings {
+    /// Millimetres, scale 1 and known (machine.json's default).
+    pub fn millimetres() -> Self {
+        Self {
+            unit: "mm".to_owned(),
+            design_scale: [1.0; 6],
+            true_scale: [1.0; 6],
+            scale_sigma: None,
+        }
+    }
+
+    /// An instrument campaign's readings (`parcal simulate --tracker`'s
+    /// machines: Jugglebot's motor revolutions, `TrackerScenario::jugglebot_like`).
+    pub fn of(tracker: &crate::TrackerScenario) -> Self {
+        Self {
+            unit: tracker.unit.clone(),
+            design_scale: tracker.design_scale,
+            true_scale: tracker.true_scale,
+            scale_sigma: tracker.scale_sigma,
+        }
+    }
+
+    /// Whether these are machine.json's default readings (mm, scale 1,
+    /// known).
+    pub fn is_default(&self) -> bool {
+        *self == Self::millimetres()
+    }
 }
 
 /// One planned touch: the ball, the outward normal `u` at the contact point
@@ -84,7 +130,26 @@ impl Scenario {
             centre_sigma: 0.1,
             plate: None,
             stroke: Some([20.0, 250.0]),
+            readings: Readings::millimetres(),
             plan: None,
+        }
+    }
+
+    /// This campaign with the actuators reading `readings` instead of mm:
+    /// the same physical noise and stroke in their unit, the actuator
+    /// sigma divided by the mean design scale, the stroke widened to hold
+    /// every leg's readings (`[min / max s, max / min s]`).
+    pub fn reading(self, readings: Readings) -> Self {
+        let scales = readings.design_scale;
+        let mean = scales.iter().sum::<f64>() / 6.0;
+        let (low, high) = scales
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(l, h), &s| (l.min(s), h.max(s)));
+        Self {
+            actuator_sigma: self.actuator_sigma / mean,
+            stroke: self.stroke.map(|[min, max]| [min / high, max / low]),
+            readings,
+            ..self
         }
     }
 

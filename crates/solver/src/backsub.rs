@@ -162,6 +162,8 @@ where
     let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros(dg.len()));
     let mut steps = [SVector::<f64, R>::zeros(); BATCH];
     let mut workspace = Pr::Workspace::default();
+    let loss = problem.loss();
+    let robust = !loss.is_squared();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         let fixed = problem.group_is_fixed(k);
@@ -188,6 +190,12 @@ where
                     &mut workspace,
                 )
                 .map_err(|(i, e)| Failure::linearize(i, &e))?;
+            if robust {
+                // The elimination's weights: the same residuals.
+                for (lin, step) in lins[..n].iter_mut().zip(&mut steps[..n]) {
+                    *step *= lin.weigh(loss).weight.sqrt();
+                }
+            }
             for (i, (lin, global_step)) in batch.zip(lins.iter().zip(&steps)) {
                 let j = i - range.start;
                 let p = &state.points[i];

@@ -48,6 +48,9 @@ where
                 ));
             }
         }
+        if let Some(reason) = problem.loss().invalid() {
+            return Err(format!("the loss {reason}"));
+        }
         let n_groups = problem.n_groups();
         if state.groups.len() != n_groups {
             return Err(format!(

@@ -8,8 +8,10 @@
 //! `D = clamp(diag N, 1e-6, 1e32)` (the same Marquardt scaling as the
 //! solver; `λ = 0` is Gauss–Newton). The unknowns are ordered
 //! `[g | c_0 … c_{K−1} | p_0 … p_{N−1}]`, fixed groups left out; see
-//! [`Columns`]. Memory and time are cubic in the number of unknowns: small
-//! problems only.
+//! [`Columns`]. With a robust loss ([`Problem::loss`]) each point's and
+//! each global observation's rows are scaled by `√w(u)` at the state, as
+//! the solver weighs them. Memory and time are cubic in the number of
+//! unknowns: small problems only.
 
 use faer::linalg::solvers::DenseSolveCore;
 use faer::prelude::Solve;
@@ -17,7 +19,23 @@ use faer::{Mat, Side};
 use nalgebra::{DMatrix, DVector, SVector};
 
 use crate::eliminate::damping_diagonal;
-use crate::problem::{GlobalJacobian, GlobalObservations, Linearization, Problem, State};
+use crate::loss::Loss;
+use crate::problem::{
+    GlobalJacobian, GlobalObservations, Linearization, Problem, State, point_degrees_of_freedom,
+};
+
+/// `√w(u)` of an observation of `dof` degrees of freedom and whitened
+/// residual `residual` under `loss`, `u = |residual| / √dof`, from the
+/// loss's weight function alone.
+fn robust_scale(loss: Loss, residual: &[f64], dof: usize) -> f64 {
+    let norm: f64 = residual.iter().map(|e| e * e).sum::<f64>().sqrt();
+    loss.weight(norm / (dof as f64).sqrt()).sqrt()
+}
+
+/// A row's entries times `s`.
+fn scaled(entries: Vec<(usize, f64)>, s: f64) -> Vec<(usize, f64)> {
+    entries.into_iter().map(|(c, v)| (c, s * v)).collect()
+}
 
 /// Why the dense reference could not be computed.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -220,6 +238,7 @@ pub fn solve<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R
     if point_group.contains(&usize::MAX) {
         return Err(DenseError::Structure);
     }
+    let loss = problem.loss();
     let mut lin = Linearization::zeros(g);
     let global = problem.prepare_global(&state.global);
     let mut global_row = vec![0.0; g];
@@ -232,6 +251,11 @@ pub fn solve<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R
                 point: i,
                 message: e.to_string(),
             })?;
+        let s = robust_scale(
+            loss,
+            lin.residual.as_slice(),
+            point_degrees_of_freedom(R, P),
+        );
         for row in 0..R {
             lin.d_global.row(row, &mut global_row);
             let mut entries = Vec::new();
@@ -240,7 +264,7 @@ pub fn solve<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R
                 (0..C).filter_map(|j| columns.group(k, j).map(|c| (c, lin.d_group[(row, j)]))),
             );
             entries.extend((0..P).map(|j| (columns.point(i, j), lin.d_point[(row, j)])));
-            rows.push((entries, lin.residual[row]));
+            rows.push((scaled(entries, s), s * lin.residual[row]));
         }
     }
     let mut observations = GlobalObservations::zeros(0, g);
@@ -254,11 +278,25 @@ pub fn solve<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R
     {
         return Err(DenseError::Structure);
     }
-    for (r, &value) in observations.residual.iter().enumerate() {
-        let entries = (0..g)
-            .map(|j| (columns.global(j), observations.jacobian[(r, j)]))
-            .collect();
-        rows.push((entries, value));
+    let m_observations = observations.residual.len();
+    let sizes = match problem.global_observation_rows() {
+        Some(sizes) if !loss.is_squared() => sizes,
+        _ => vec![1; m_observations],
+    };
+    if sizes.iter().sum::<usize>() != m_observations {
+        return Err(DenseError::Structure);
+    }
+    let mut first = 0;
+    for n in sizes {
+        let rows_of = first..first + n;
+        let s = robust_scale(loss, &observations.residual.as_slice()[rows_of.clone()], n);
+        for r in rows_of {
+            let entries = (0..g)
+                .map(|j| (columns.global(j), observations.jacobian[(r, j)]))
+                .collect();
+            rows.push((scaled(entries, s), s * observations.residual[r]));
+        }
+        first += n;
     }
     let mut prior_rows =
         |columns: Vec<Option<usize>>, info: Mat<f64>, error: Vec<f64>| -> Result<(), DenseError> {

@@ -496,8 +496,11 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
 /// Costs accumulated over a chunk.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Costs {
-    /// `Σ |r_i|²`.
+    /// `Σ |r_i|²` (of the rows weighted by a robust loss).
     pub(crate) data: f64,
+    /// The points' term of a robust loss, `Σ 2 d ρ(u_i)` ([`crate::Loss`]);
+    /// 0 for least squares.
+    pub(crate) loss: f64,
     /// Point and group prior terms.
     pub(crate) prior: f64,
 }
@@ -508,6 +511,11 @@ pub(crate) struct Costs {
 pub(crate) trait EliminationSink<const C: usize, const P: usize, const R: usize, J> {
     /// One reduced row `[A_g | a]` (`G + 1` values).
     fn reduced_row(&mut self, row: &[f64]);
+    /// Point `i`'s rows were weighted by `weight` (a robust loss only,
+    /// [`Linearization::weigh`]), before it is factorised. Default: nothing.
+    fn point_weighed(&mut self, i: usize, weight: f64) {
+        let _ = (i, weight);
+    }
     /// Point `i` is factorised: its linearisation, its prior rows, and the
     /// `Q` of its panel (`m × m`, row-major, [`factor_point`]; only the
     /// columns `P..m` are formed). Default: nothing.
@@ -535,8 +543,9 @@ pub(crate) trait EliminationSink<const C: usize, const P: usize, const R: usize,
 }
 
 /// Eliminates the points and groups of one chunk at `state` (its global
-/// block prepared as `global`) with damping `lambda` (0: undamped). `caches`
-/// are the caches of the chunk's points.
+/// block prepared as `global`) with damping `lambda` (0: undamped), each
+/// point's rows weighted by the problem's robust loss if it has one.
+/// `caches` are the caches of the chunk's points.
 /// `global_norms2`, if given, accumulates `Σ |d_global column|²` (the data
 /// part of the global damping diagonal). The points of a fixed group
 /// ([`Problem::group_is_fixed`]) send their point-eliminated rows, without
@@ -568,6 +577,8 @@ where
     let mut costs = Costs::default();
     let mut lins: [_; BATCH] = std::array::from_fn(|_| Linearization::zeros(dims.g));
     let mut workspace = Pr::Workspace::default();
+    let loss = problem.loss();
+    let robust = !loss.is_squared();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         let fixed = problem.group_is_fixed(k);
@@ -588,6 +599,13 @@ where
                     &mut workspace,
                 )
                 .map_err(|(i, e)| Failure::linearize(i, &e))?;
+            if robust {
+                for (i, lin) in batch.clone().zip(lins.iter_mut()) {
+                    let weighed = lin.weigh(loss);
+                    costs.loss += weighed.cost;
+                    sink.point_weighed(i, weighed.weight);
+                }
+            }
             for (i, lin) in batch.zip(lins.iter()) {
                 let p = &state.points[i];
                 let data = lin.residual.norm_squared();

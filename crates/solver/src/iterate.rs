@@ -245,7 +245,7 @@ where
         self.monitor.inspect(&Iterate {
             state: x,
             solves: self.history.len(),
-            cost: system.cost(),
+            cost: system.loss(),
             previous_cost,
             group_costs: &system.group_costs,
             caches: self.ctx.caches,
@@ -296,7 +296,7 @@ where
             Ok(s) => s,
             Err(f) => return self.fail(x, 0, f),
         };
-        let initial_cost = system.cost();
+        let initial_cost = system.loss();
         if !initial_cost.is_finite() {
             return self.diverged(x, 0, format!("initial cost is {initial_cost}"));
         }
@@ -349,9 +349,9 @@ where
                             Ok(next) => {
                                 let response = policy.judge(&Trial {
                                     initial_cost,
-                                    cost: system.cost(),
+                                    cost: system.loss(),
                                     predicted_decrease: summary.predicted_decrease(),
-                                    trial_cost: next.cost(),
+                                    trial_cost: next.loss(),
                                 });
                                 (step_norm, response, Some(next))
                             }
@@ -365,7 +365,7 @@ where
             match response {
                 Response::Accept { keep_trial_system } => {
                     swap(&mut x, &mut trial);
-                    previous_cost = Some(system.cost());
+                    previous_cost = Some(system.loss());
                     new_iterate = true;
                     system = match next {
                         Some(next) if keep_trial_system => next,

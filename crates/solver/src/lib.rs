@@ -141,6 +141,21 @@
 //! non-finite step or a failed evaluation at a trial point counts as a
 //! rejection.
 //!
+//! # Robust loss
+//!
+//! A problem may put a robust loss ([`Loss`]: Huber's, Cauchy's) on its
+//! observations ([`Problem::loss`]): each point's rows form one
+//! observation ([`point_degrees_of_freedom`]), the global observations are
+//! grouped by [`Problem::global_observation_rows`], priors are never
+//! weighted. Every pass scales each observation's rows by `√w(u)` at the
+//! state it linearises at, right after the linearisation, so that the
+//! elimination, the back-substitution, the covariance and the redundancy
+//! numbers all see the same weighted problem: iteratively reweighted least
+//! squares inside the iteration (Holland and Welsch 1977). The steps are
+//! judged on the loss, which the weighted cost majorises; the history and
+//! the covariance are the weighted problem's. With least squares (the default) no weight is
+//! computed.
+//!
 //! # Watching a run
 //!
 //! [`solve_with_caches`] takes a [`Monitor`]: it sees each history record,
@@ -252,7 +267,9 @@ mod covariance;
 pub mod dense_reference;
 mod diagnostics;
 mod eliminate;
+mod influence;
 mod iterate;
+mod loss;
 mod monitor;
 mod options;
 mod policy;
@@ -264,11 +281,14 @@ mod solution;
 
 pub use chunks::split_by;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
+pub use influence::{RowId, RowInfluence, row_influence};
 pub use iterate::{LinearStep, linear_step, solve, solve_with_caches};
+pub use loss::{CAUCHY_K, HUBER_K, Loss, Weighed};
 pub use monitor::{Decision, Iterate, Monitor};
 pub use options::{Method, SolverOptions};
 pub use problem::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
+    WeighedRows, point_degrees_of_freedom,
 };
 pub use redundancy::{PointRows, PriorLeverage, Redundancy, normalised_residual, redundancy};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

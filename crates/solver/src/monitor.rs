@@ -12,9 +12,9 @@ pub struct Iterate<'a, const C: usize, const P: usize, T> {
     pub state: &'a State<C, P>,
     /// Linear solves before it (0: the initial state).
     pub solves: usize,
-    /// Its cost (data and priors).
+    /// Its cost (data and priors; with a robust loss, the loss).
     pub cost: f64,
-    /// The cost of the iterate before it (`None` at the initial state).
+    /// The same of the iterate before it (`None` at the initial state).
     pub previous_cost: Option<f64>,
     /// Each group's data cost `Σ |r_i|²` over its points (whitened: a
     /// goodness-of-fit statistic per group).

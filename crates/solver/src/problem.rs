@@ -8,6 +8,7 @@ use nalgebra::{
     Const, DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, SMatrix, SVector,
 };
 
+use crate::loss::{Loss, Weighed};
 use crate::qr::all_finite;
 
 /// The Jacobian of a point's whitened residual (`R` rows) with respect to the
@@ -27,6 +28,10 @@ pub trait GlobalJacobian<const R: usize>: Sized {
 
     /// `J v` (`v`: `G` values).
     fn apply(&self, v: &DVector<f64>) -> SVector<f64, R>;
+
+    /// `J ← factor · J`: the point's rows weighted by a robust loss
+    /// ([`Linearization::weigh`]).
+    fn scale(&mut self, factor: f64);
 
     /// Row `r` of `J`, written into `out` (`G` values).
     fn row(&self, r: usize, out: &mut [f64]) {
@@ -68,6 +73,10 @@ impl<const R: usize> GlobalJacobian<R> for OMatrix<f64, Const<R>, Dyn> {
 
     fn apply(&self, v: &DVector<f64>) -> SVector<f64, R> {
         self * v
+    }
+
+    fn scale(&mut self, factor: f64) {
+        *self *= factor;
     }
 
     fn add_column_norms2(&self, out: &mut [f64], _row: &mut [f64]) {
@@ -114,6 +123,23 @@ impl<const C: usize, const P: usize, const R: usize, J: GlobalJacobian<R>>
             d_group: SMatrix::zeros(),
             d_point: SMatrix::zeros(),
         }
+    }
+
+    /// Weighs the point's rows by the robust `loss` at their residual
+    /// ([`Loss::observation`], the point one observation of
+    /// [`point_degrees_of_freedom`] degrees): residual and Jacobians scaled
+    /// by `√w`. Returns the weight and the point's term of the loss.
+    pub fn weigh(&mut self, loss: Loss) -> Weighed {
+        let weighed =
+            loss.observation(self.residual.norm_squared(), point_degrees_of_freedom(R, P));
+        if weighed.weight != 1.0 {
+            let s = weighed.weight.sqrt();
+            self.residual *= s;
+            self.d_global.scale(s);
+            self.d_group *= s;
+            self.d_point *= s;
+        }
+        weighed
     }
 
     /// Whether every entry is finite; `row` is scratch of `G` values
@@ -201,6 +227,59 @@ impl GlobalObservations {
     /// `|r_o|²`, their part of the cost.
     pub fn cost(&self) -> f64 {
         self.residual.norm_squared()
+    }
+
+    /// Weighs each observation's rows by the robust `loss` at their
+    /// residual ([`Loss::observation`], an observation of `n` rows having
+    /// `n` degrees of freedom): residual and Jacobian rows scaled by `√w`.
+    /// `sizes`: the rows of each observation, `None`: one each
+    /// ([`Problem::global_observation_rows`]). Fails with why `sizes` do
+    /// not fit the rows.
+    pub fn weigh(&mut self, loss: Loss, sizes: Option<&[usize]>) -> Result<WeighedRows, String> {
+        let m = self.residual.len();
+        let one_each = vec![1; m];
+        let sizes = sizes.unwrap_or(&one_each);
+        let total: usize = sizes.iter().sum();
+        if total != m || sizes.contains(&0) {
+            return Err(format!(
+                "global observations of {total} rows in all (sizes {sizes:?}) for {m} rows"
+            ));
+        }
+        let (mut weights, mut cost) = (Vec::with_capacity(m), 0.0);
+        for &n in sizes {
+            let first = weights.len();
+            let rows = self.residual.rows(first, n);
+            let weighed = loss.observation(rows.norm_squared(), n);
+            let s = weighed.weight.sqrt();
+            self.residual.rows_mut(first, n).scale_mut(s);
+            self.jacobian.rows_mut(first, n).scale_mut(s);
+            weights.resize(first + n, weighed.weight);
+            cost += weighed.cost;
+        }
+        Ok(WeighedRows { weights, cost })
+    }
+}
+
+/// The global observations weighed by a robust loss
+/// ([`GlobalObservations::weigh`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WeighedRows {
+    /// Each row's weight (its observation's).
+    pub weights: Vec<f64>,
+    /// The observations' term of the loss.
+    pub cost: f64,
+}
+
+/// The degrees of freedom of a point's `rows` residual rows as one
+/// observation of a robust loss: `rows − point_unknowns` (at least 1), since
+/// its own `point_unknowns` unknowns, which no other row sees, absorb as many
+/// dimensions of its residual (three coordinates with two angles leave the
+/// one normal to the surface).
+pub const fn point_degrees_of_freedom(rows: usize, point_unknowns: usize) -> usize {
+    if rows > point_unknowns {
+        rows - point_unknowns
+    } else {
+        1
     }
 }
 
@@ -374,6 +453,23 @@ pub trait Problem<const C: usize, const P: usize, const R: usize>: Sync {
     ) -> Result<(), Self::Error> {
         let _ = (global, out);
         Ok(())
+    }
+
+    /// The loss of every point's rows (one observation per point, of
+    /// [`point_degrees_of_freedom`] degrees) and of every global
+    /// observation ([`Problem::global_observation_rows`]); priors are never
+    /// weighted. Default: least squares.
+    fn loss(&self) -> Loss {
+        Loss::Squared
+    }
+
+    /// The global observation rows grouped into observations, which a
+    /// robust loss weighs as wholes: the rows of each, in order, summing to
+    /// the rows [`Problem::global_observations`] writes; an observation of
+    /// `n` rows has `n` degrees of freedom. Read only with a robust loss.
+    /// Default: every row an observation.
+    fn global_observation_rows(&self) -> Option<Vec<usize>> {
+        None
     }
 
     /// Prior on the global block (`G` values).

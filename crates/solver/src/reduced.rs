@@ -7,7 +7,7 @@ use nalgebra::DVector;
 use crate::chunks::run_chunks;
 use crate::context::Context;
 use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk, find_non_finite};
-use crate::problem::{GlobalObservations, Problem, State};
+use crate::problem::{GlobalObservations, Problem, State, WeighedRows};
 use crate::qr::all_finite;
 
 /// `S δg = −b` on the global block, with the cost at the state it was built
@@ -33,13 +33,24 @@ pub(crate) struct ReducedSystem {
     pub(crate) global_observation_cost: f64,
     /// All prior terms.
     pub(crate) prior_cost: f64,
+    /// With a robust loss ([`crate::Loss`]), the data's and the global
+    /// observations' term of the loss; `None` for least squares.
+    pub(crate) loss_cost: Option<f64>,
     /// The damping `λ` of the whole system.
     pub(crate) lambda: f64,
 }
 
 impl ReducedSystem {
+    /// The cost of the (weighted) rows at the state, priors included.
     pub(crate) fn cost(&self) -> f64 {
         self.data_cost + self.global_observation_cost + self.prior_cost
+    }
+
+    /// The loss at the state, priors included: what the steps lower
+    /// ([`cost`](Self::cost) for least squares).
+    pub(crate) fn loss(&self) -> f64 {
+        self.loss_cost
+            .map_or_else(|| self.cost(), |loss| loss + self.prior_cost)
     }
 
     /// The number `G` of global unknowns.
@@ -58,6 +69,7 @@ struct ChunkPart {
     /// `(G + 1)²`, column-major; lower triangle of `[S b; bᵀ ρ]`.
     normal: Vec<f64>,
     data_cost: f64,
+    loss_cost: f64,
     group_costs: Vec<f64>,
     prior_cost: f64,
     global_norms2: Vec<f64>,
@@ -78,10 +90,11 @@ where
         let w = g + 1;
         let dims = self.dims;
         let problem = self.problem;
-        let observations = self.global_observations(&state.global)?;
+        let (observations, weighed) = self.global_observations(&state.global)?;
         let mut total = vec![0.0; w * w];
         let mut global_norms2 = vec![0.0; g];
         let (mut data_cost, mut prior_cost) = (0.0, 0.0);
+        let mut loss_cost = weighed.map(|w| w.cost);
         let mut group_costs = Vec::with_capacity(state.groups.len());
         let global = problem.prepare_global(&state.global);
         let global = &global;
@@ -94,6 +107,7 @@ where
                 let mut part = ChunkPart {
                     normal: vec![0.0; w * w],
                     data_cost: 0.0,
+                    loss_cost: 0.0,
                     group_costs: Vec::with_capacity(chunk.groups.len()),
                     prior_cost: 0.0,
                     global_norms2: vec![0.0; if lambda > 0.0 { g } else { 0 }],
@@ -115,6 +129,7 @@ where
                 };
                 sink.flush();
                 part.data_cost = costs.data;
+                part.loss_cost = costs.loss;
                 part.prior_cost = costs.prior;
                 let finite = all_finite(&part.normal) && all_finite(&[costs.data, costs.prior]);
                 if finite {
@@ -133,6 +148,9 @@ where
                     *t += x;
                 }
                 data_cost += part.data_cost;
+                if let Some(loss) = &mut loss_cost {
+                    *loss += part.loss_cost;
+                }
                 group_costs.extend(part.group_costs);
                 prior_cost += part.prior_cost;
             },
@@ -188,16 +206,19 @@ where
             group_costs,
             global_observation_cost: observations.cost(),
             prior_cost,
+            loss_cost,
             lambda,
         })
     }
 
     /// The problem's global observations at `global`, checked: `m` rows and
-    /// `G` columns, finite.
+    /// `G` columns, finite; with a robust loss, weighted
+    /// ([`GlobalObservations::weigh`]), with each row's weight and the
+    /// observations' term of the loss.
     pub(crate) fn global_observations(
         &self,
         global: &DVector<f64>,
-    ) -> Result<GlobalObservations, Failure> {
+    ) -> Result<(GlobalObservations, Option<WeighedRows>), Failure> {
         let g = self.dims.g;
         let mut observations = GlobalObservations::zeros(0, g);
         self.problem
@@ -221,7 +242,18 @@ where
         if !finite {
             return Err(Failure::NonFinite { point: None });
         }
-        Ok(observations)
+        let loss = self.problem.loss();
+        if loss.is_squared() {
+            return Ok((observations, None));
+        }
+        let sizes = self.problem.global_observation_rows();
+        let weighed = observations
+            .weigh(loss, sizes.as_deref())
+            .map_err(|message| Failure::Linearize {
+                point: None,
+                message,
+            })?;
+        Ok((observations, Some(weighed)))
     }
 }
 

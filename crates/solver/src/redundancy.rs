@@ -94,13 +94,15 @@
 //! of its points costs `(m − P)` products with `Lᵀ` (`G²/2` each) and `R`
 //! quadratic forms of size `m − P`.
 
+use std::collections::VecDeque;
+
 use nalgebra::{DMatrix, SMatrix, SVector};
 
 use crate::chunks::run_chunks_in_waves;
 use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
 use crate::iterate::status_of;
-use crate::problem::{GlobalJacobian, Linearization, Problem, State};
+use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::PriorRows;
 use crate::reduced::ScaledCholesky;
 use crate::solution::Status;
@@ -116,6 +118,10 @@ pub struct PointRows<const R: usize> {
     pub residual: SVector<f64, R>,
     /// The global leverage `|z_j|²` of each row (module doc).
     pub global_leverage: SVector<f64, R>,
+    /// The weight `w(u)` by which a robust loss ([`Problem::loss`]) scaled
+    /// the point's rows by `√w` (the numbers above are the weighted
+    /// rows'); 1 for least squares.
+    pub weight: f64,
 }
 
 /// What [`redundancy`] returns besides the points' rows: the global
@@ -128,6 +134,10 @@ pub struct Redundancy {
     pub global_observation_residuals: Vec<f64>,
     /// The leverage taken by the prior rows.
     pub prior_leverage: PriorLeverage,
+    /// With a robust loss ([`Problem::loss`]), the weight of each global
+    /// observation row (its observation's), by which the rows here are
+    /// weighted; `None` for least squares.
+    pub global_observation_weights: Option<Vec<f64>>,
     /// `n`, the number of unknowns: `G`, `C` per group that is not fixed,
     /// `P` per point.
     pub unknowns: usize,
@@ -160,7 +170,7 @@ impl PriorLeverage {
 }
 
 /// Chunks of the pass run in parallel between two hand-overs to the
-/// caller: each chunk's points' rows (`3 R` values a point) wait for the
+/// caller: each chunk's points' rows (`3 R + 1` values a point) wait for the
 /// wave's end, so that fewer chunks a wave than the other passes' keep
 /// them small (about 1 MB at 64 groups of 7 points a chunk, `R = 3`).
 const CHUNKS_PER_WAVE: usize = 32;
@@ -205,17 +215,8 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     let invalid = |message: String| Status::InvalidProblem { message };
     let mut ctx = Context::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
     let g = ctx.dims.g;
-    if covariance.shape() != (g, g) {
-        let (rows, columns) = covariance.shape();
-        return Err(invalid(format!(
-            "a {rows} x {columns} covariance for {g} global unknowns"
-        )));
-    }
-    let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
-    let factor = ScaledCholesky::new(symmetric.as_slice(), g)
-        .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
-    let factor = factor.lower_factor();
-    let observations = ctx
+    let (symmetric, factor) = covariance_factor(covariance, g)?;
+    let (observations, weighed) = ctx
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
     let mut prior_leverage = ctx
@@ -246,9 +247,31 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     Ok(Redundancy {
         global_observations,
         global_observation_residuals: observations.residual.iter().copied().collect(),
+        global_observation_weights: weighed.map(|weighed| weighed.weights),
         prior_leverage,
         unknowns: g + C * free_groups + P * state.points.len(),
     })
+}
+
+/// `Cov(g)` (`G × G`, from the lower triangle of `covariance`) and `L`
+/// with `Cov(g) = LLᵀ` (row-major, lower triangular); fails with
+/// [`Status::InvalidProblem`] if it is not `G × G` and numerically positive
+/// definite.
+pub(crate) fn covariance_factor(
+    covariance: &DMatrix<f64>,
+    g: usize,
+) -> Result<(DMatrix<f64>, Vec<f64>), Status> {
+    let invalid = |message: String| Status::InvalidProblem { message };
+    if covariance.shape() != (g, g) {
+        let (rows, columns) = covariance.shape();
+        return Err(invalid(format!(
+            "a {rows} x {columns} covariance for {g} global unknowns"
+        )));
+    }
+    let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
+    let factor = ScaledCholesky::new(symmetric.as_slice(), g)
+        .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
+    Ok((symmetric, factor.lower_factor()))
 }
 
 impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
@@ -282,16 +305,8 @@ where
                 let largest = largest.max().unwrap_or(0);
                 rows.clear();
                 rows.reserve(largest * R * dims.group_width());
-                let mut sink = RedundancySink::<C, P, R> {
-                    factor,
-                    g: dims.g,
-                    rows,
-                    points: Vec::with_capacity(largest),
-                    coordinates: vec![0.0; R * (C + dims.g)],
-                    reduced: vec![0.0; dims.g],
-                    out: Vec::with_capacity(chunk.points.len()),
-                    prior_leverage: PriorLeverage::default(),
-                };
+                let mut sink =
+                    RedundancySink::new(factor, dims.g, rows, largest, chunk.points.len(), false);
                 eliminate_chunk::<C, P, R, _, _>(
                     problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
                 )?;
@@ -320,7 +335,7 @@ struct PendingPoint<const P: usize, const R: usize> {
 
 /// Turns each group's points into their redundancy numbers once the
 /// group's triangle is known.
-struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
+pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
     /// `L` with `Cov(g) = LLᵀ`, `G × G` row-major, lower triangular.
     factor: &'a [f64],
     g: usize,
@@ -329,16 +344,49 @@ struct RedundancySink<'a, const C: usize, const P: usize, const R: usize> {
     rows: &'a mut Vec<f64>,
     /// The current group's points, in order.
     points: Vec<PendingPoint<P, R>>,
+    /// The robust loss's weights of the points weighed and not yet
+    /// factorised (a batch at most), in order, each with its point.
+    weighed: VecDeque<(usize, f64)>,
     /// `V` of one point: a row `[y | Lᵀu]` (`C + G` values) per eliminated
     /// row.
     coordinates: Vec<f64>,
     /// Scratch for a reduced row `u` (`G` values).
     reduced: Vec<f64>,
-    /// The rows of the chunk's points so far: a point's residuals from its
-    /// factorisation, its redundancy and global leverage once its group is
-    /// done.
-    out: Vec<PointRows<R>>,
+    /// The rows of the chunk's points so far: a point's residuals and
+    /// weight from its factorisation, its redundancy and global leverage
+    /// once its group is done.
+    pub(crate) out: Vec<PointRows<R>>,
+    /// If asked ([`crate::influence`]), `z_j` of every row of the points of
+    /// `out`: `G` values a row, `R` rows a point.
+    pub(crate) global_z: Option<Vec<f64>>,
     prior_leverage: PriorLeverage,
+}
+
+impl<'a, const C: usize, const P: usize, const R: usize> RedundancySink<'a, C, P, R> {
+    /// A sink for a chunk of `points` points whose largest group has
+    /// `largest` points, given `L` (`G × G`) and the workspace's `rows`;
+    /// keeping each row's `z_j` if `global_z`.
+    pub(crate) fn new(
+        factor: &'a [f64],
+        g: usize,
+        rows: &'a mut Vec<f64>,
+        largest: usize,
+        points: usize,
+        global_z: bool,
+    ) -> Self {
+        Self {
+            factor,
+            g,
+            rows,
+            points: Vec::with_capacity(largest),
+            weighed: VecDeque::with_capacity(BATCH),
+            coordinates: vec![0.0; R * (C + g)],
+            reduced: vec![0.0; g],
+            out: Vec::with_capacity(points),
+            global_z: global_z.then(|| Vec::with_capacity(points * R * g)),
+            prior_leverage: PriorLeverage::default(),
+        }
+    }
 }
 
 impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R, J>
@@ -347,6 +395,10 @@ where
     J: GlobalJacobian<R>,
 {
     fn reduced_row(&mut self, _row: &[f64]) {}
+
+    fn point_weighed(&mut self, i: usize, weight: f64) {
+        self.weighed.push_back((i, weight));
+    }
 
     fn point_factorised(
         &mut self,
@@ -365,10 +417,18 @@ where
                 0.0
             }
         };
+        let weight = match self.weighed.front() {
+            Some(&(j, weight)) if j == i => {
+                self.weighed.pop_front();
+                weight
+            }
+            _ => 1.0,
+        };
         self.out.push(PointRows {
             redundancy: SVector::zeros(),
             residual: lin.residual,
             global_leverage: SVector::zeros(),
+            weight,
         });
         self.points.push(PendingPoint {
             eliminated,
@@ -420,16 +480,15 @@ where
             }
             out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
             // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
-            out.global_leverage = SVector::from_fn(|r, _| {
-                let mut z2 = 0.0;
-                for a in 0..g {
-                    let z: f64 = (0..n)
-                        .map(|e| point.data[(r, e)] * self.coordinates[e * cw + C + a])
-                        .sum();
-                    z2 += z * z;
-                }
-                z2
-            });
+            let z = |r: usize, a: usize| -> f64 {
+                (0..n)
+                    .map(|e| point.data[(r, e)] * self.coordinates[e * cw + C + a])
+                    .sum()
+            };
+            out.global_leverage = SVector::from_fn(|r, _| (0..g).map(|a| z(r, a).powi(2)).sum());
+            if let Some(zs) = self.global_z.as_mut() {
+                zs.extend((0..R * g).map(|k| z(k / g, k % g)));
+            }
             if let Some(q) = &point.prior {
                 for a in 0..P {
                     self.prior_leverage.points += 1.0 - row_redundancy(q, a, &m, n);
@@ -503,7 +562,7 @@ fn eliminate_group<const C: usize>(
 /// `z = Lᵀu` for the lower-triangular `L` (`G × G`, row-major) with
 /// `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by rows of `L`
 /// (`z[..=i] += L[i, ..=i] u_i`), whose lanes are independent.
-fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
+pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     let g = u.len();
     z.fill(0.0);
     for (i, &ui) in u.iter().enumerate() {

@@ -5,7 +5,9 @@ use nalgebra::{DMatrix, SVector};
 use crate::diagnostics::SpectrumDiagnostics;
 use crate::problem::State;
 
-/// One line of the residual history.
+/// One line of the residual history. With a robust loss
+/// ([`Problem::loss`](crate::Problem::loss)) the costs are those of the rows
+/// as weighted at this iterate (the reweighted problem's), not the loss.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IterationRecord {
     /// Total cost at the iterate before the step (`data_cost +

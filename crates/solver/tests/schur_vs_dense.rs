@@ -4,7 +4,10 @@
 mod common;
 
 use common::{G, Spec, couple, distances, flatten, perturb, rel_diff, touches};
-use parcal_solver::{Problem, SolverOptions, State, Status, dense_reference, linear_step, solve};
+use parcal_solver::{
+    CAUCHY_K, HUBER_K, Loss, Problem, SolverOptions, State, Status, dense_reference, linear_step,
+    solve,
+};
 
 const TOL: f64 = 1e-9;
 
@@ -297,4 +300,58 @@ fn coupled_jacobians_match_finite_differences() {
     let (mut problem, truth) = distances(spec);
     let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 6);
     check_jacobian(&problem, &perturb(&truth, 7, 0.01, 0.02, 0.0));
+}
+
+/// With a robust loss, the Schur step, predicted decrease, cost and
+/// covariance against the dense reference, which weighs its rows from the
+/// loss's weight function alone. The perturbed states put most residuals
+/// well beyond `k` (the weights are in play: the weighted cost is far
+/// below least squares'), the distances are grouped into observations of
+/// two rows and one, and the priors are not weighted.
+#[test]
+fn robust_steps_and_covariance_match_dense() {
+    for loss in [Loss::Huber { k: HUBER_K }, Loss::Cauchy { k: CAUCHY_K }] {
+        let spec = Spec {
+            priors: true,
+            seed: 29,
+            ..Spec::default()
+        };
+        let (mut problem, truth) = touches(spec);
+        let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 5);
+        problem.0.observation_rows = Some(vec![2, 1]);
+        let state = perturb(&truth, 4, 0.01, 0.02, 0.1);
+        let squared = linear_step(&problem, &state, &mut Vec::new(), 0.0, 2).unwrap();
+        problem.0.loss = loss;
+        let weighted = linear_step(&problem, &state, &mut Vec::new(), 0.0, 2).unwrap();
+        println!(
+            "{loss}: cost {:.3e}, least squares {:.3e}",
+            weighted.cost, squared.cost
+        );
+        assert!(weighted.cost < 0.5 * squared.cost);
+        compare_step(&problem, &state, 0.0);
+        compare_step(&problem, &state, 0.3);
+        compare_covariance(&problem, &state);
+        let (mut problem, truth) = distances(spec);
+        let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 6);
+        problem.0.loss = loss;
+        let state = perturb(&truth, 5, 0.01, 0.02, 0.0);
+        compare_step(&problem, &state, 0.0);
+        compare_step(&problem, &state, 2.0);
+        compare_covariance(&problem, &state);
+    }
+}
+
+/// Global observation sizes that do not add up to its rows fail the pass
+/// with a message, not a panic.
+#[test]
+fn robust_observation_sizes_must_fit_the_rows() {
+    let (mut problem, truth) = touches(Spec::default());
+    let truth = couple(&mut problem.0, &truth, &COUPLED, &HELD, 1e-3, 5);
+    problem.0.loss = Loss::Huber { k: HUBER_K };
+    problem.0.observation_rows = Some(vec![2, 2]);
+    let failed = linear_step(&problem, &truth, &mut Vec::new(), 0.0, 2).unwrap_err();
+    let Status::ProblemFailed { message, .. } = failed else {
+        panic!("{failed:?}");
+    };
+    assert!(message.contains("4 rows in all"), "{message}");
 }

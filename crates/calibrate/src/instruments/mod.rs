@@ -15,10 +15,10 @@
 //! (`parcal_kinematics::frames`); an instrument sees the base frame only
 //! through its session's frame `F_k`, and measured poses see the platform
 //! frame through the body frame `B`, so both frames are unknowns and the
-//! canonical frames fix the gauge. Points do not see the body frame (it is
-//! not in the layout) and poses do not see the tool (its prior alone
-//! determines it). docs/formulation.md says which parameters each kind of
-//! data determines.
+//! canonical frames fix the gauge. Points do not see the body frame and
+//! poses do not see the tool: neither is then in the layout (poses alone
+//! hold the design's tool, not calibrated). docs/formulation.md says which
+//! parameters each kind of data determines.
 
 pub mod model;
 pub mod problem;

@@ -15,6 +15,7 @@
 //! are its own.
 
 use nalgebra::{DVector, Isometry3, Translation3};
+use parcal_kinematics::params::TOOL_OFFSET;
 use parcal_kinematics::{Geometry, Params, Vec3, params};
 use parcal_observe::FrameCorrection;
 
@@ -34,6 +35,9 @@ pub struct InstrumentModel {
     pub body_reference: Isometry3<f64>,
     /// The actuators' scales when they are not unknowns (mm per unit).
     pub fixed_scales: [f64; 6],
+    /// The tool `E_T` (canonical platform frame, mm) when the layout leaves
+    /// it out ([`ParameterLayout::without_tool`]): held, not calibrated.
+    pub fixed_tool: Vec3,
 }
 
 /// The model at one state of the global block.
@@ -54,9 +58,23 @@ pub struct ModelValues {
 }
 
 impl InstrumentModel {
+    /// The kinematic parameters at the global block `g`: its first 33, or
+    /// its first 30 and the fixed tool.
+    pub fn params(&self, g: &DVector<f64>) -> Params {
+        if self.layout.has_tool() {
+            return kinematic_params(g);
+        }
+        let mut params = Params::zeros();
+        params
+            .rows_mut(0, TOOL_OFFSET)
+            .copy_from(&g.rows(0, TOOL_OFFSET));
+        params.rows_mut(TOOL_OFFSET, 3).copy_from(&self.fixed_tool);
+        params
+    }
+
     /// The model's values at the global block `g`.
     pub fn values(&self, g: &DVector<f64>) -> ModelValues {
-        let params = kinematic_params(g);
+        let params = self.params(g);
         let six = |group: ParameterGroup| {
             self.layout
                 .range(group)

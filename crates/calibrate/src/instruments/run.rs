@@ -8,7 +8,8 @@ use parcal_dataset::{
     Actuator, CalibratedMachine, Calibration, Dataset, FrameRecord, GeometryRecord,
     IterationSummary, Machine, ParameterTable, SessionRecord,
 };
-use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, Vec3, params};
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, ParamCovariance, Vec3, params};
+use parcal_observe::KinematicPrior;
 use parcal_solver::{
     GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status, solve,
 };
@@ -58,9 +59,14 @@ pub struct InstrumentRun {
     /// machine.json as given (the design machine, recorded in
     /// calibration.json's `design`).
     pub machine: Machine,
+    /// The kinematic prior on the 33 (the options' mode), if any: the
+    /// tool's when the layout leaves it out
+    /// ([`InstrumentRun::kinematic_covariance`]).
+    pub kinematic_prior: Option<KinematicPrior>,
     /// The information the data alone give each parameter at the
     /// identified state, `diag(JᵀJ)` of the whitened rows (zero: the data
-    /// do not observe it, e.g. the tool tip from poses alone).
+    /// do not observe it; the tool, which poses alone do not observe, is
+    /// not in their layout at all).
     pub data_information: DVector<f64>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
@@ -97,7 +103,13 @@ pub fn setup<'a>(
     let canonical = design.canonicalize().map_err(CalibrateError::Design)?;
     let design_params = params::to_params(&canonical.geometry);
     let machine = &dataset.machine;
-    let layout = ParameterLayout::with_groups(groups(dataset));
+    // Poses alone measure the body frame, not the tool: it leaves the
+    // layout (points observe it).
+    let layout = if dataset.tracker.points.is_empty() {
+        ParameterLayout::without_tool(groups(dataset))
+    } else {
+        ParameterLayout::with_groups(groups(dataset))
+    };
     let initial = initial_block(&layout, &design_params, &machine.actuator.scale);
     let (model, rows) = model_and_rows(dataset, &canonical.geometry, layout, &initial)?;
     let prior = prior(dataset, &design, &design_params, &model.layout, options)?;
@@ -110,12 +122,20 @@ pub fn setup<'a>(
 
 /// Calibrates the poses and points of `dataset` (it must have no ball
 /// touches): [`setup`], then the solver from the initial estimate.
-/// `observer` sees each iteration.
+/// `observer` sees each iteration. Least squares only: a robust loss
+/// ([`crate::robust`]) applies to ball-touch calibrations.
 pub fn calibrate_instruments(
     dataset: &Dataset,
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<InstrumentRun, CalibrateError> {
+    if !options.loss.is_squared() {
+        return Err(CalibrateError::RobustLoss {
+            loss: options.loss,
+            reason: "to a calibration of poses and points alone: only to ball touches (with \
+                     or without poses and points)",
+        });
+    }
     let InstrumentSetup {
         design,
         problem,
@@ -164,6 +184,13 @@ pub fn calibrate_instruments(
         )
     });
     let InstrumentProblem { model, rows, prior } = problem;
+    let canonical = params::to_params(
+        &design
+            .canonicalize()
+            .map_err(CalibrateError::Design)?
+            .geometry,
+    );
+    let kinematic_prior = kinematic_prior(dataset, &design, &canonical, options.prior)?;
     let global = solution.state.global;
     let values = model.values(&global);
     let (leg_residuals, point_residuals) = residuals(&rows, &model, &values)?;
@@ -193,6 +220,7 @@ pub fn calibrate_instruments(
         leg_residuals,
         point_residuals,
         machine: dataset.machine.clone(),
+        kinematic_prior,
     })
 }
 
@@ -216,6 +244,7 @@ pub(crate) fn model_and_rows<'a>(
         tracker_references: start.trackers,
         body_reference: start.body,
         fixed_scales: machine.actuator.scale,
+        fixed_tool: canonical.tool,
     };
     let mut rows = InstrumentRows::new(tracker, start.point_poses, forward);
     rows.weigh(&model, &model.values(initial), &machine.repeatability)?;
@@ -242,22 +271,23 @@ pub(crate) fn residuals(
     Ok((legs, points))
 }
 
-/// The groups the data determines: the scales when machine.json gives
-/// their sigmas; one instrument frame per session; the body frame when
-/// there are poses; for every later session with poses a body origin and a
-/// body rotation, and for every later session leg offsets, when the session
-/// model has them. None without poses and points.
+/// The groups the data determines besides the kinematic parameters and
+/// the balls: the scales when machine.json gives their sigmas (for touches
+/// too); with poses or points, one instrument frame per session, the body
+/// frame when there are poses, for every later session with poses a body
+/// origin and a body rotation, and for every later session leg offsets,
+/// when the session model has them.
 pub(crate) fn groups(dataset: &Dataset) -> Vec<ParameterGroup> {
     let machine = &dataset.machine;
     let tracker = &dataset.tracker;
     let model = &machine.session_model;
     let with_poses = |session: usize| tracker.poses.session.iter().any(|&s| s as usize == session);
     let mut groups = Vec::new();
-    if tracker.is_empty() {
-        return groups;
-    }
     if machine.actuator.scale_sigma.is_some() {
         groups.push(ParameterGroup::ActuatorScales);
+    }
+    if tracker.is_empty() {
+        return groups;
     }
     for session in 0..tracker.sessions.len() {
         groups.push(ParameterGroup::TrackerFrame { session });
@@ -279,14 +309,16 @@ pub(crate) fn groups(dataset: &Dataset) -> Vec<ParameterGroup> {
     groups
 }
 
-/// The design's parameters and scales, every correction and offset zero.
+/// The design's parameters (those of the layout) and scales, every
+/// correction and offset zero.
 pub(crate) fn initial_block(
     layout: &ParameterLayout,
     design: &parcal_kinematics::Params,
     scales: &[f64; 6],
 ) -> DVector<f64> {
     let mut g = DVector::zeros(layout.size());
-    g.rows_mut(0, N_PARAMS).copy_from(design);
+    let n = layout.kinematic().len();
+    g.rows_mut(0, n).copy_from(&design.rows(0, n));
     if let Some(r) = layout.range(ParameterGroup::ActuatorScales) {
         g.rows_mut(r.start, 6).copy_from_slice(scales);
     }
@@ -344,9 +376,11 @@ pub(crate) fn group_priors(
 }
 
 /// The prior on the global block: the kinematic prior of the options'
-/// mode, the scales about their design values (machine.json's
-/// `scale_sigma`), the later sessions' body origins and leg offsets about
-/// zero (`session_model`); none on the frames. `PriorMode::None`: no prior.
+/// mode (without the tool, its marginal on the joints and legs: the
+/// leading block of its covariance), the scales about their design values
+/// (machine.json's `scale_sigma`), the later sessions' body origins and
+/// leg offsets about zero (`session_model`); none on the frames.
+/// `PriorMode::None`: no prior.
 fn prior(
     dataset: &Dataset,
     design: &Geometry,
@@ -360,10 +394,26 @@ fn prior(
     let n = layout.size();
     let mut mean = DVector::zeros(n);
     let mut information = DMatrix::zeros(n, n);
-    mean.rows_mut(0, N_PARAMS).copy_from(kinematic.mean());
+    let k = layout.kinematic().len();
+    mean.rows_mut(0, k).copy_from(&kinematic.mean().rows(0, k));
+    let kinematic_information = if layout.has_tool() {
+        DMatrix::from_column_slice(k, k, kinematic.information().as_slice())
+    } else {
+        kinematic
+            .covariance()
+            .view((0, 0), (k, k))
+            .into_owned()
+            .cholesky()
+            .ok_or(CalibrateError::Prior(
+                parcal_observe::ObserveError::NotPositiveDefinite {
+                    what: "kinematic prior covariance",
+                },
+            ))?
+            .inverse()
+    };
     information
-        .view_mut((0, 0), (N_PARAMS, N_PARAMS))
-        .copy_from(&kinematic.information());
+        .view_mut((0, 0), (k, k))
+        .copy_from(&kinematic_information);
     group_priors(dataset, layout, &mut mean, &mut information);
     Ok(Some(GaussianPrior::new(mean, information)))
 }
@@ -393,6 +443,46 @@ impl InstrumentRun {
         self.model.layout.names(&[], &self.model.sessions)
     }
 
+    /// The posterior covariance of the 33 kinematic parameters: the
+    /// global covariance's leading block; without the tool in the layout
+    /// (poses alone), the 30's block with the tool's rows from the
+    /// kinematic prior conditional on the 30, which the data do not
+    /// change: `C_ta = K P`, `C_tt = Σ_tt − K Σ_at + K P Kᵀ`,
+    /// `K = Σ_ta Σ_aa⁻¹` (`P` the 30's posterior covariance, `Σ` the
+    /// prior's). That is the covariance of the tool's conditional prior
+    /// mean `μ_t + K (â − μ_a)`; the held design tool differs from it by
+    /// `K (â − μ_a)`. `None` without a covariance, or with the tool left
+    /// out and no prior.
+    pub fn kinematic_covariance(&self) -> Option<ParamCovariance> {
+        let covariance = self.covariance.as_ref()?;
+        let a = self.model.layout.kinematic().len();
+        if a == N_PARAMS {
+            return Some(
+                covariance
+                    .fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
+                    .into_owned(),
+            );
+        }
+        let sigma = self.kinematic_prior.as_ref()?.covariance();
+        let t = N_PARAMS - a;
+        let sigma_aa = sigma.view((0, 0), (a, a)).into_owned();
+        let sigma_ta = sigma.view((a, 0), (t, a)).into_owned();
+        let gain = sigma_aa
+            .cholesky()?
+            .solve(&sigma_ta.transpose())
+            .transpose();
+        let p = covariance.view((0, 0), (a, a)).into_owned();
+        let c_ta = &gain * &p;
+        let c_tt =
+            sigma.view((a, a), (t, t)) - &gain * sigma_ta.transpose() + &c_ta * gain.transpose();
+        let mut out = ParamCovariance::zeros();
+        out.view_mut((0, 0), (a, a)).copy_from(&p);
+        out.view_mut((a, 0), (t, a)).copy_from(&c_ta);
+        out.view_mut((0, a), (a, t)).copy_from(&c_ta.transpose());
+        out.view_mut((a, a), (t, t)).copy_from(&c_tt);
+        Some(out)
+    }
+
     /// Marginal posterior sigmas of the global block.
     pub fn sigmas(&self) -> Option<DVector<f64>> {
         self.covariance
@@ -409,16 +499,17 @@ impl InstrumentRun {
             // its inverse.
             Some(prior) => {
                 let mut sigmas = DVector::from_element(n, f64::INFINITY);
-                let kinematic = prior
+                let kinematic = self.model.layout.kinematic().len();
+                let block = prior
                     .information
-                    .view((0, 0), (N_PARAMS, N_PARAMS))
+                    .view((0, 0), (kinematic, kinematic))
                     .into_owned();
-                if let Some(covariance) = kinematic.try_inverse() {
-                    for k in 0..N_PARAMS {
+                if let Some(covariance) = block.try_inverse() {
+                    for k in 0..kinematic {
                         sigmas[k] = covariance[(k, k)].sqrt();
                     }
                 }
-                for k in N_PARAMS..n {
+                for k in kinematic..n {
                     let information = prior.information[(k, k)];
                     if information > 0.0 {
                         sigmas[k] = information.sqrt().recip();
@@ -504,6 +595,7 @@ impl InstrumentRun {
             global_test: None,
             provenance: None,
             removed_observations: Vec::new(),
+            down_weighted_observations: Vec::new(),
             design: Some(self.machine.clone()),
             diagnostics: None,
         }

@@ -25,7 +25,8 @@
 
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector6};
 use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, Tracker};
-use parcal_kinematics::{ForwardOptions, Geometry, Params, Vec3, params};
+use parcal_kinematics::params::TOOL_OFFSET;
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::FrameCorrection;
 use parcal_solver::GlobalObservations;
 
@@ -208,6 +209,11 @@ pub fn validate_calibration(
             reason: "the dataset has no poses.csv or points.csv to validate on".into(),
         });
     }
+    if !tracker.points.is_empty() && calibrated.value(PARAM_NAMES[TOOL_OFFSET]).is_none() {
+        return Err(CalibrateError::Calibration {
+            reason: "it did not calibrate the tool (x_eT, y_eT, z_eT: its data, poses alone, do not observe it), and points.csv measures the tool".into(),
+        });
+    }
     let sessions = tracker.sessions.len();
     // Which rows of each session are reference rows.
     let n_ref = reference.unwrap_or(0);
@@ -300,11 +306,14 @@ pub fn validate_calibration(
     let shared = layout
         .range(ParameterGroup::TrackerFrame { session: 0 })
         .map_or(layout.size(), |r| r.start);
+    // A kinematic parameter the calibration did not identify (the tool of
+    // poses alone) is its canonical geometry's.
     let mut global = DVector::from_fn(layout.size(), |c, _| {
         let copied = reference.is_none() || c < shared;
         copied
             .then(|| calibrated.value(&names[c]))
             .flatten()
+            .or_else(|| (c < N_PARAMS).then(|| calibrated.params[c]))
             .unwrap_or(0.0)
     });
     if layout.range(ParameterGroup::ActuatorScales).is_some() && calibrated.value("s_1").is_none() {
@@ -335,6 +344,7 @@ pub fn validate_calibration(
         tracker_references,
         body_reference,
         fixed_scales: calibrated.scales,
+        fixed_tool: geometry.tool,
     };
     let machine = &dataset.machine;
     let home = |set: &Tracker| {

@@ -103,7 +103,9 @@ pub fn true_block(dataset: &Dataset, model: &InstrumentModel) -> DVector<f64> {
     let mut block = DVector::zeros(model.layout.size());
     for (group, range) in model.layout.groups() {
         let values = match *group {
-            ParameterGroup::Kinematic => params::to_params(&canonical.geometry).as_slice().to_vec(),
+            ParameterGroup::Kinematic | ParameterGroup::KinematicWithoutTool => {
+                params::to_params(&canonical.geometry).as_slice()[..range.len()].to_vec()
+            }
             ParameterGroup::ActuatorScales => truth.actuator_scale.expect("true scales").to_vec(),
             ParameterGroup::TrackerFrame { session } => correction(
                 &(model.tracker_references[session].inverse()

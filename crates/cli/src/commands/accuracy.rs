@@ -9,6 +9,7 @@ use parcal_accuracy::MapGrid;
 use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
 use parcal_dataset::Dataset;
+use parcal_kinematics::params::TOOL_OFFSET;
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, params};
 use parcal_report::maps::{map_files, write_maps};
 use parcal_report::tables;
@@ -55,6 +56,19 @@ fn calibrated(
         );
     }
     let names = &calibration.parameters.names;
+    // A calibration of poses alone holds the joints and legs but no tool.
+    let tool_left_out = names
+        .get(..TOOL_OFFSET)
+        .is_some_and(|leading| leading == &PARAM_NAMES[..TOOL_OFFSET])
+        && names.get(TOOL_OFFSET).map(String::as_str) != Some(PARAM_NAMES[TOOL_OFFSET]);
+    anyhow::ensure!(
+        !tool_left_out,
+        "{}: the calibration did not calibrate the tool ({}, {}, {}: its data, poses alone, do not observe it); the accuracy maps are of the tool tip: calibrate with points or ball touches",
+        path.display(),
+        PARAM_NAMES[N_PARAMS - 3],
+        PARAM_NAMES[N_PARAMS - 2],
+        PARAM_NAMES[N_PARAMS - 1]
+    );
     anyhow::ensure!(
         names.len() >= N_PARAMS && names.iter().zip(PARAM_NAMES).all(|(a, b)| a == b),
         "{}: expected the {N_PARAMS} kinematic parameters {} .. {} first, in that order, found {} parameters ({})",

@@ -12,13 +12,14 @@ use parcal_calibrate::snooping::{
     MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
 };
 use parcal_calibrate::{
-    CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Observation, PriorMode,
-    RadiusModel, Simulation, WeightModel, calibrate,
+    CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
+    PriorMode, RadiusModel, Simulation, WeightModel, calibrate,
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
 use parcal_report::{instruments, sentences, tables};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
 
+use super::{ReportRequest, report};
 use crate::progress::Progress;
 
 #[derive(clap::Args)]
@@ -47,7 +48,8 @@ pub struct Args {
     /// Levenberg-Marquardt instead of the paper's Gauss-Newton (eq. 5).
     #[arg(long)]
     lm: bool,
-    /// Iteration limit (default 50 for Gauss-Newton, 200 for Levenberg-Marquardt).
+    /// Iteration limit (default 50 for Gauss-Newton, 200 for
+    /// Levenberg-Marquardt or a robust --loss).
     #[arg(long)]
     max_iterations: Option<usize>,
     /// Wall-clock budget of the calibration, seconds: when it has passed the
@@ -60,11 +62,24 @@ pub struct Args {
     /// removed_observations).
     #[arg(long)]
     snoop: bool,
+    /// The loss of each observation: squared (least squares), huber[:K]
+    /// (K default 1.345) or cauchy[:K] (K default 2.385), K in units of the
+    /// observation's standard deviation, solved by iteratively reweighted
+    /// least squares; a robust loss replaces --snoop (calibration.json
+    /// lists the observations it down-weighted under
+    /// down_weighted_observations).
+    #[arg(long, value_name = "LOSS", default_value = "squared")]
+    loss: Loss,
     /// Where to write calibration.json (default: calibration.json in the
     /// dataset's directory). A rejected calibration goes to
     /// NAME.rejected.json beside it instead, leaving this file as it was.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also write the calibration's report (report.html and report.md, as
+    /// `parcal report` does) into the directory of calibration.json, a
+    /// rejected calibration's too.
+    #[arg(long)]
+    report: bool,
 }
 
 impl Args {
@@ -85,6 +100,7 @@ impl Args {
         if self.lm {
             options = options.levenberg_marquardt();
         }
+        options = options.with_loss(self.loss);
         if let Some(limit) = self.max_iterations {
             options.max_iterations = limit;
         }
@@ -100,6 +116,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut dataset = super::read_dataset(&args.dataset)?;
     let out = args.out_path();
     super::check_calibration_outputs(&args.dataset, &out)?;
+    args.report_request(&out, None)
+        .map(|request| request.check(&args.dataset, &out))
+        .transpose()?;
     // A simulation's true machine serves the evaluation, not the
     // calibration: keep it, and free the dataset's truth.json with its true
     // contact points (24 bytes per contact).
@@ -116,11 +135,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         read.elapsed().as_secs_f64()
     ));
     progress.line(&format!(
-        "calibrating {} contacts: {} observation, {} prior, radius error per {}",
+        "calibrating {} contacts: {} observation, {} prior, radius error per {}, {} loss",
         dataset.measurements.q.len(),
         options.observation,
         options.prior,
-        options.radius
+        options.radius,
+        options.loss
     ));
     let tracker = &dataset.tracker;
     if !tracker.is_empty() {
@@ -148,13 +168,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     progress.finish();
     // A reader that closed stdout early does not hide a rejected
     // calibration.
+    let report = args.report_request(&out, truth.as_ref());
     let printed = print_results(
         truth.as_ref(),
         &run,
         &record,
         &super::calibration_destination(&record, &out),
+        report.as_ref(),
     );
-    super::write_calibration(record, &dataset, &args.dataset, &out)?;
+    super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
     printed
 }
 
@@ -212,6 +234,7 @@ fn run_instruments(
         (run, record)
     };
     progress.finish();
+    let report = args.report_request(out, None);
     let mut stdout = std::io::stdout().lock();
     let printed = writeln!(
         stdout,
@@ -219,8 +242,9 @@ fn run_instruments(
         instruments::summary(&run, &record),
         instruments::parameters(&run),
         super::calibration_destination(&record, out).display()
-    );
-    super::write_calibration(record, dataset, &args.dataset, out)?;
+    )
+    .and_then(|()| print_report(&mut stdout, report.as_ref()));
+    super::write_calibration(record, dataset, &args.dataset, out, report.as_ref())?;
     Ok(printed?)
 }
 
@@ -236,6 +260,31 @@ impl Args {
         self.out
             .clone()
             .unwrap_or_else(|| directory.join(CALIBRATION_FILE))
+    }
+
+    /// With `--report`, the report beside calibration.json `out`, with the
+    /// simulation's `truth` if any.
+    fn report_request<'a>(
+        &self,
+        out: &Path,
+        truth: Option<&'a TrueMachine>,
+    ) -> Option<ReportRequest<'a>> {
+        self.report.then(|| ReportRequest {
+            directory: report::directory_of(out).to_path_buf(),
+            truth,
+        })
+    }
+}
+
+/// Where `report` goes, on `stdout`.
+fn print_report(stdout: &mut impl Write, report: Option<&ReportRequest>) -> std::io::Result<()> {
+    match report {
+        Some(request) => writeln!(
+            stdout,
+            "report written to {}",
+            report::listed(&request.directory)
+        ),
+        None => Ok(()),
     }
 }
 
@@ -264,6 +313,7 @@ fn print_results(
     run: &CalibrationRun,
     record: &parcal_dataset::Calibration,
     calibration: &Path,
+    report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
     let maps = before_after(truth, run, &MapGrid::paper()).context("accuracy map")?;
     let mut stdout = std::io::stdout().lock();
@@ -291,5 +341,6 @@ fn print_results(
         writeln!(stdout, "  {line}")?;
     }
     writeln!(stdout, "calibration written to {}", calibration.display())?;
+    print_report(&mut stdout, report)?;
     Ok(())
 }

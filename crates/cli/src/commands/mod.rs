@@ -15,6 +15,8 @@ pub mod validate;
 use std::path::{Path, PathBuf};
 
 use parcal_dataset::Dataset;
+use parcal_report::calibration_report::{Subject, accuracy_with};
+use parcal_workflows::evaluate::TrueMachine;
 
 /// The binary snapshot `parcal simulate --binary` writes next to the text files.
 pub const SNAPSHOT_FILE: &str = "dataset.bin";
@@ -75,15 +77,51 @@ pub fn check_calibration_outputs(dataset: &Path, out: &Path) -> anyhow::Result<(
     )
 }
 
+/// The report `calibrate --report` writes beside its calibration.
+pub struct ReportRequest<'a> {
+    /// The directory of report.html and report.md.
+    pub directory: PathBuf,
+    /// A simulation's true machine, for the true error beside the
+    /// predicted one.
+    pub truth: Option<&'a TrueMachine>,
+}
+
+impl ReportRequest<'_> {
+    /// Checks, before a calibration starts, that the report's files can be
+    /// written and are none of the dataset's files nor the calibration's
+    /// destinations (`out` and [`rejected_path`]), which do not exist yet.
+    pub fn check(&self, dataset: &Path, out: &Path) -> anyhow::Result<()> {
+        let files = report::report_paths(&self.directory);
+        for destination in [out.to_path_buf(), rejected_path(out)] {
+            let directory = report::directory_of(&destination);
+            let clash = files.iter().find(|file| {
+                file.file_name() == destination.file_name()
+                    && directory.canonicalize().ok()
+                        == report::directory_of(file).canonicalize().ok()
+            });
+            if let Some(file) = clash {
+                anyhow::bail!(
+                    "{}: the report would overwrite the calibration written there; give --out another name",
+                    file.display()
+                );
+            }
+        }
+        crate::outputs::check(&crate::outputs::dataset_inputs(dataset), &files)
+    }
+}
+
 /// Stamps `record` with its provenance (this parcal, the dataset given as
 /// `path` and its checksum), writes it to its
-/// [`calibration_destination`], and turns a rejected verdict into
-/// [`Rejected`] (which says where it went and that `out` is kept).
+/// [`calibration_destination`] and, if asked, its report beside it (a
+/// rejected calibration's too: the report says why), and turns a rejected
+/// verdict into [`Rejected`] (which says where it went and that `out` is
+/// kept).
 pub fn write_calibration(
     mut record: parcal_dataset::Calibration,
     dataset: &Dataset,
     path: &Path,
     out: &Path,
+    report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
     record.provenance = Some(parcal_dataset::Provenance {
         parcal_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -92,6 +130,15 @@ pub fn write_calibration(
     });
     let destination = calibration_destination(&record, out);
     record.write(&destination)?;
+    if let Some(request) = report {
+        let file = destination.display().to_string();
+        let subject = Subject {
+            calibration: &record,
+            file: &file,
+            accuracy: accuracy_with(&record, Some(&dataset.machine), request.truth),
+        };
+        report::write(&subject, &request.directory)?;
+    }
     if record.is_rejected() {
         let failed: Vec<&str> = record
             .reasons

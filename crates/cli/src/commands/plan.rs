@@ -5,6 +5,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use parcal_calibrate::RadiusModel;
 use parcal_dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
 use parcal_design::plan_file::{summary_path, write_plan};
 use parcal_design::tracker::plan_file::write_pose_plan;
@@ -79,6 +80,12 @@ pub struct Args {
     /// degrees: the shaft clears the ball within it.
     #[arg(long, default_value_t = parcal_design::pool::MAX_APPROACH_DEGREES)]
     max_approach: f64,
+    /// How the calibration will treat the balls' calibrated radii, as
+    /// `parcal calibrate --radius`: each ball's radius an unknown with its
+    /// calibration as prior (the default), or its error independent per
+    /// contact.
+    #[arg(long, value_enum)]
+    radius: Option<RadiusModel>,
 }
 
 /// `--criterion`.
@@ -117,6 +124,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         anyhow::bail!("--contacts is needed for a plan of ball touches");
     };
     let artefacts = Artefacts::read(&artefacts_file)?;
+    let defaults = PlanOptions::new(contacts, args.tilt);
     let options = PlanOptions {
         criterion: criterion(args.criterion),
         pool: args.pool,
@@ -127,7 +135,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .unwrap_or_else(|| parcal_design::select::default_min_balls(contacts)),
         restarts: args.restarts,
         max_approach_degrees: args.max_approach,
-        ..PlanOptions::new(contacts, args.tilt)
+        radius: args.radius.unwrap_or(defaults.radius),
+        ..defaults
     };
     let progress = Progress::spinner();
     let mut report = |line: &str| progress.line(&format!("  {line}"));
@@ -166,8 +175,11 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
         anyhow::bail!("--workspace HALF_WIDTH,Z_MIN,Z_MAX is needed for a pose plan");
     };
     anyhow::ensure!(
-        args.after.is_none() && args.per_ball.is_none() && args.min_balls.is_none(),
-        "--after, --per-ball and --min-balls apply to ball touches only"
+        args.after.is_none()
+            && args.per_ball.is_none()
+            && args.min_balls.is_none()
+            && args.radius.is_none(),
+        "--after, --per-ball, --min-balls and --radius apply to ball touches only"
     );
     anyhow::ensure!(args.sessions > 0, "--sessions must be at least 1");
     let options = PosePlanOptions {

@@ -1,23 +1,22 @@
 //! `parcal report`: the report of one calibration, a self-contained HTML
-//! page (or Markdown) a metrologist can sign: verdict and tests first.
+//! page and its Markdown twin a metrologist can sign: verdict and tests
+//! first.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use anyhow::Context;
 use parcal_report::calibration_report::{Format, Subject, predicted_accuracy, render};
 
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum ReportFormat {
-    /// One self-contained HTML page (inline SVG figures, no script).
-    Html,
-    /// Markdown (figures only by their caption).
-    Markdown,
-}
+/// The report's two files in its directory: the HTML page and the Markdown.
+pub const REPORT_FILES: [(&str, Format); 2] = [
+    ("report.html", Format::Html),
+    ("report.md", Format::Markdown),
+];
 
 #[derive(clap::Args)]
 pub struct Args {
     /// The calibration.json to report on (a rejected one too).
-    #[arg(long)]
     calibration: PathBuf,
     /// The dataset it was computed from (directory or snapshot): its
     /// machine places the accuracy map, and a simulation's truth adds the
@@ -27,22 +26,28 @@ pub struct Args {
     /// Use a dataset other than the one calibrated (its checksum differs).
     #[arg(long)]
     other_data: bool,
-    /// The report's file.
-    #[arg(long)]
-    out: PathBuf,
-    /// The report's form.
-    #[arg(long, value_enum, default_value = "html")]
-    format: ReportFormat,
+    /// The directory of report.html and report.md (default: the
+    /// calibration's directory).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let directory = args
+        .out
+        .clone()
+        .unwrap_or_else(|| directory_of(&args.calibration).to_path_buf());
     let mut inputs = args
         .dataset
         .as_deref()
         .map(crate::outputs::dataset_inputs)
         .unwrap_or_default();
     inputs.push(args.calibration.clone());
-    crate::outputs::check(&inputs, std::slice::from_ref(&args.out))?;
+    if args.out.is_some() && !directory.exists() {
+        std::fs::create_dir_all(&directory)
+            .with_context(|| format!("{}: cannot create the directory", directory.display()))?;
+    }
+    crate::outputs::check(&inputs, &report_paths(&directory))?;
     let calibration = parcal_dataset::Calibration::read(&args.calibration)?;
     let dataset = args
         .dataset
@@ -65,11 +70,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         file: &file,
         accuracy: predicted_accuracy(&calibration, dataset.as_ref()),
     };
-    let format = match args.format {
-        ReportFormat::Html => Format::Html,
-        ReportFormat::Markdown => Format::Markdown,
-    };
-    parcal_report::write_text(&args.out, &render(&subject, format)?)?;
+    write(&subject, &directory)?;
     writeln!(
         std::io::stdout().lock(),
         "verdict: {}\nreport written to {}",
@@ -78,7 +79,46 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         } else {
             &calibration.verdict
         },
-        args.out.display()
+        listed(&directory)
     )?;
+    Ok(())
+}
+
+/// The directory a file is in (`.` for a bare name).
+pub fn directory_of(file: &Path) -> &Path {
+    match file.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    }
+}
+
+/// The report's files in `directory` ([`REPORT_FILES`]).
+pub fn report_paths(directory: &Path) -> Vec<PathBuf> {
+    REPORT_FILES
+        .iter()
+        .map(|(name, _)| directory.join(name))
+        .collect()
+}
+
+/// `directory/report.html and directory/report.md`, for stdout.
+pub fn listed(directory: &Path) -> String {
+    let paths: Vec<String> = report_paths(directory)
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    paths.join(" and ")
+}
+
+/// Renders `subject` in both forms into `directory` ([`REPORT_FILES`]),
+/// each file written atomically; both are rendered before either is
+/// written.
+pub fn write(subject: &Subject, directory: &Path) -> anyhow::Result<()> {
+    let texts = REPORT_FILES
+        .iter()
+        .map(|(name, format)| Ok((directory.join(name), render(subject, *format)?)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    for (path, text) in texts {
+        parcal_report::write_text(&path, &text)?;
+    }
     Ok(())
 }

@@ -12,8 +12,8 @@ use parcal_design::plan_file::read_plan;
 use parcal_design::tracker::plan_file::read_pose_plan;
 use parcal_kinematics::rotation_zyx;
 use parcal_simulate::{
-    PlannedTouch, Plate, PlatePairs, Scenario, Simulation, TrackerKind, TrackerScenario, ball_id,
-    check_rows, simulate, simulate_mixed, simulate_tracker,
+    PlannedTouch, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind, TrackerScenario,
+    ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,
 };
 
 use super::SNAPSHOT_FILE;
@@ -38,6 +38,12 @@ pub struct Args {
     /// Contacts per ball.
     #[arg(long, default_value_t = 7, conflicts_with = "tracker")]
     points_per_ball: usize,
+    /// What the touches' actuators read: mm (scale 1, known), or motor
+    /// revolutions at the scales of --machine jugglebot's instrument
+    /// campaign (design about 71 mm/rev, true scales 1 % off, unknown with
+    /// a 2 % prior; the same noise and stroke in revolutions).
+    #[arg(long, value_enum, default_value_t = ReadingUnit::Mm, conflicts_with = "tracker")]
+    readings: ReadingUnit,
     /// Largest |yaw|, |pitch|, |roll| of the platform at a contact or a
     /// tracked pose, degrees.
     #[arg(long, default_value_t = 10.0)]
@@ -126,6 +132,13 @@ impl Kind {
     }
 }
 
+/// `--readings`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ReadingUnit {
+    Mm,
+    Rev,
+}
+
 /// `--machine`.
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum TrackedMachine {
@@ -190,6 +203,9 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.plan {
         scenario.plan = Some(planned_touches(path, scenario.centres.len())?);
     }
+    if args.readings == ReadingUnit::Rev {
+        scenario = scenario.reading(Readings::of(&TrackerScenario::jugglebot_like()));
+    }
     let simulation = simulate(&scenario, args.seed).context("simulation failed")?;
     write_dataset(args, &simulation)?;
     let s = &simulation.summary;
@@ -215,6 +231,9 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
             simulation.dataset.artefacts.distances.len(),
             args.plate_sigma
         )?;
+    }
+    if !scenario.readings.is_default() {
+        write_readings(&mut stdout, &scenario.readings)?;
     }
     write_ranges(&mut stdout, &simulation)?;
     writeln!(
@@ -380,14 +399,7 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
             )?;
         }
     }
-    writeln!(
-        stdout,
-        "  readings           unit {}, true scales within {:.2e} of the design",
-        scenario.unit,
-        (0..6)
-            .map(|i| (scenario.true_scale[i] / scenario.design_scale[i] - 1.0).abs())
-            .fold(0.0, f64::max)
-    )?;
+    write_readings(&mut stdout, &Readings::of(&scenario))?;
     write!(
         stdout,
         "  noise              actuators {} {}, position {} mm",
@@ -425,6 +437,20 @@ fn write_dataset(args: &Args, simulation: &Simulation) -> anyhow::Result<()> {
         args.out.display()
     )?;
     writeln!(stdout, "  seed               {}", args.seed)?;
+    Ok(())
+}
+
+/// The summary's line on the readings: their unit and how far the true
+/// scales are from the design's.
+fn write_readings(stdout: &mut impl Write, readings: &Readings) -> anyhow::Result<()> {
+    writeln!(
+        stdout,
+        "  readings           unit {}, true scales within {:.2e} of the design",
+        readings.unit,
+        (0..6)
+            .map(|i| (readings.true_scale[i] / readings.design_scale[i] - 1.0).abs())
+            .fold(0.0, f64::max)
+    )?;
     Ok(())
 }
 

@@ -40,6 +40,7 @@ pub fn blocks(subject: &Subject) -> Result<Vec<Block>, String> {
     out.extend(parameters(c)?);
     out.extend(weak_directions(c));
     out.extend(accuracy(&subject.accuracy)?);
+    out.extend(external_reliability(c, &subject.accuracy));
     out.extend(iterations(c));
     Ok(out)
 }
@@ -572,6 +573,125 @@ fn accuracy(accuracy: &Result<Accuracy, String>) -> Result<Vec<Block>, String> {
     });
     out.push(figures::accuracy_map(&a.predicted)?);
     Ok(out)
+}
+
+/// What an undetected blunder of one minimal detectable bias in each of
+/// the least reliable observations does to the parameters and to the
+/// registered map: a sentence and a table. Nothing for a calibration.json
+/// without them.
+fn external_reliability(c: &Calibration, accuracy: &Result<Accuracy, String>) -> Vec<Block> {
+    let Some(records) = c
+        .diagnostics
+        .as_ref()
+        .map(|d| &d.external_reliability)
+        .filter(|r| !r.is_empty())
+    else {
+        return vec![];
+    };
+    let p = &c.parameters;
+    // The parameter shifted most in its own sigmas.
+    let largest = |shift: &[f64]| {
+        shift
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| p.sigma.get(*k).is_some_and(|s| *s > 0.0))
+            .map(|(k, v)| (k, v / p.sigma[k]))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    };
+    let rows = records
+        .iter()
+        .map(|e| {
+            let o = &e.observation;
+            let most = largest(&e.parameter_shift);
+            vec![
+                Cell::text(&o.file),
+                line_or_field(o.line, o.field.as_deref()),
+                Cell::text(&o.observes),
+                Cell::number(e.row.to_string()),
+                number(e.row_redundancy, 3),
+                number(e.row_mdb_sigmas, 2),
+                number(e.bias_to_noise, 2),
+                most.map_or(Cell::text("-"), |(k, v)| {
+                    Cell::text(format!("{} {v:+.2}σ", p.names[k]))
+                }),
+                optional(e.map_rms_um, 2),
+                optional(e.map_max_um, 2),
+            ]
+        })
+        .collect();
+    let first = &records[0];
+    let o = &first.observation;
+    let place = match (o.line, &o.field) {
+        (Some(line), _) => format!("{} line {line}", o.file),
+        (None, Some(field)) => format!("{} {field}", o.file),
+        (None, None) => o.file.clone(),
+    };
+    let mut sentence = format!(
+        "An undetected blunder of one minimal detectable bias ({:.2} sigmas) in the least reliable observation, {place} ({}), would shift the parameters by {:.2} of their sigmas (λ)",
+        first.row_mdb_sigmas, o.observes, first.bias_to_noise
+    );
+    match (first.map_rms_um, first.map_max_um) {
+        (Some(rms), Some(max)) => {
+            sentence += &format!(
+                " and the registered tool tip by {rms:.2} µm RMS (max {max:.2} µm) over the accuracy grid"
+            );
+            if let Ok(a) = accuracy {
+                let predicted = a.predicted.registered_summary().rms * 1e3;
+                sentence += &format!(
+                    ", {:.2} times the predicted registered RMS of {predicted:.2} µm",
+                    rms / predicted
+                );
+            }
+        }
+        _ => {
+            sentence +=
+                "; no map: the run did not converge or is not of the 33 kinematic parameters alone"
+        }
+    }
+    sentence.push('.');
+    let worst_map = records
+        .iter()
+        .filter_map(|e| e.map_rms_um.map(|rms| (rms, e)))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some((rms, e)) = worst_map.filter(|(_, e)| !std::ptr::eq(*e, first)) {
+        let o = &e.observation;
+        sentence += &format!(
+            " Of these {}, the largest effect on the map is that of {} {} ({}), {rms:.2} µm RMS.",
+            records.len(),
+            o.file,
+            o.line.map_or_else(
+                || o.field.clone().unwrap_or_default(),
+                |l| format!("line {l}")
+            ),
+            o.observes
+        );
+    }
+    vec![
+        Block::Heading(2, "External reliability on the accuracy map".into()),
+        Block::Paragraph(Tone::Plain, sentence),
+        Block::Table {
+            header: vec![
+                "file".into(),
+                "line".into(),
+                "observes".into(),
+                "row".into(),
+                "r (row)".into(),
+                "MDB / σ".into(),
+                "λ".into(),
+                "largest parameter shift".into(),
+                "map RMS / µm".into(),
+                "map max / µm".into(),
+            ],
+            rows,
+        },
+        Block::Paragraph(
+            Tone::Note,
+            format!(
+                "The {} observations of largest bias-to-noise ratio λ; for each, its row of largest λ (a contact's whitened coordinate row, a pose's leg, a point's coordinate, 0-based) with an error of one minimal detectable bias (at the test's per-observation level and 80% power) that increases its whitened residual. That error shifts the parameters by Δp = −Cov u ∇₀ (u the row's reduced row); the map is the registered tool-tip error of a model whose parameters are off by Δp, on the grid of the predicted accuracy. The largest parameter shift is in that parameter's posterior sigmas.",
+                records.len()
+            ),
+        ),
+    ]
 }
 
 /// The iterations in one sentence.

@@ -28,7 +28,7 @@ pub use content::{Subject, global_sentence, tests_sentence, title};
 
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::ParamCovariance;
-use parcal_dataset::{Calibration, Dataset};
+use parcal_dataset::{Calibration, Dataset, Machine};
 use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, Params};
 use parcal_workflows::evaluate::{Accuracy, TrueMachine, accuracy};
 
@@ -62,6 +62,22 @@ pub fn predicted_accuracy(
     calibration: &Calibration,
     dataset: Option<&Dataset>,
 ) -> Result<Accuracy, String> {
+    let truth = dataset
+        .and_then(TrueMachine::of)
+        .transpose()
+        .map_err(|e| format!("the dataset's true geometry is degenerate: {e}"))?;
+    accuracy_with(calibration, dataset.map(|d| &d.machine), truth.as_ref())
+}
+
+/// [`predicted_accuracy`] placed with `machine` (else calibration.json's
+/// `design`), with the true error of `truth` if given: for a caller that
+/// has the dataset's parts but no longer the dataset (`calibrate
+/// --report`, which frees the truth's contact points).
+pub fn accuracy_with(
+    calibration: &Calibration,
+    machine: Option<&Machine>,
+    truth: Option<&TrueMachine>,
+) -> Result<Accuracy, String> {
     let names = &calibration.parameters.names;
     if names.len() != N_PARAMS || names.iter().zip(PARAM_NAMES).any(|(a, b)| a != b) {
         return Err(format!(
@@ -75,24 +91,13 @@ pub fn predicted_accuracy(
             calibration.status
         ));
     }
-    let machine = dataset
-        .map(|d| &d.machine)
+    let machine = machine
         .or(calibration.design.as_ref())
         .ok_or("calibration.json does not record its design machine; give --dataset")?;
     let g = &machine.geometry;
     let design = Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
-    let truth = dataset
-        .and_then(TrueMachine::of)
-        .transpose()
-        .map_err(|e| format!("the dataset's true geometry is degenerate: {e}"))?;
     let params = Params::from_column_slice(&calibration.parameters.values);
     let covariance = ParamCovariance::from_fn(|i, j| calibration.covariance[i][j]);
-    accuracy(
-        &design,
-        truth.as_ref(),
-        &params,
-        &covariance,
-        &MapGrid::paper(),
-    )
-    .map_err(|e| format!("the accuracy map could not be computed: {e}"))
+    accuracy(&design, truth, &params, &covariance, &MapGrid::paper())
+        .map_err(|e| format!("the accuracy map could not be computed: {e}"))
 }

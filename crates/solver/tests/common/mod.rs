@@ -20,7 +20,7 @@ use nalgebra::{
     DMatrix, DVector, Dyn, Matrix3, OMatrix, RowVector3, SMatrix, SVector, U1, U2, U3, Vector2,
     Vector3,
 };
-use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Problem, State};
+use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
@@ -155,6 +155,10 @@ pub struct Data {
     pub distances: Vec<Distance>,
     /// A fault injected into [`Problem::global_observations`].
     pub observation_fault: Option<ObservationFault>,
+    /// The loss of the points and global observations.
+    pub loss: Loss,
+    /// The rows of each global observation (`None`: one each).
+    pub observation_rows: Option<Vec<usize>>,
 }
 
 /// How [`Problem::global_observations`] goes wrong.
@@ -315,6 +319,12 @@ impl Problem<3, 2, 3> for Touches {
     fn point_prior(&self, i: usize) -> Option<GaussianPrior<U2>> {
         self.0.point_priors.as_ref().map(|p| p[i].clone())
     }
+    fn loss(&self) -> Loss {
+        self.0.loss
+    }
+    fn global_observation_rows(&self) -> Option<Vec<usize>> {
+        self.0.observation_rows.clone()
+    }
 }
 
 /// P = 0, R = 1: `r = (|D(m; g) − c| − ρ) / σ` (the distortion used as a
@@ -384,6 +394,12 @@ impl Problem<3, 0, 1> for Distances {
     }
     fn group_prior(&self, k: usize) -> Option<GaussianPrior<U3>> {
         self.0.group_priors.as_ref().map(|p| p[k].clone())
+    }
+    fn loss(&self) -> Loss {
+        self.0.loss
+    }
+    fn global_observation_rows(&self) -> Option<Vec<usize>> {
+        self.0.observation_rows.clone()
     }
 }
 
@@ -480,6 +496,8 @@ fn empty_data(spec: &Spec) -> Data {
         held: Vec::new(),
         distances: Vec::new(),
         observation_fault: None,
+        loss: Loss::Squared,
+        observation_rows: None,
     }
 }
 
