@@ -706,20 +706,27 @@ fn plan_writes_a_plan_that_simulate_measures() {
     let temp = tempfile::tempdir().unwrap();
     let (template, data) = (temp.path().join("template"), temp.path().join("data"));
     simulate(&template, &["--balls", "8", "--points-per-ball", "5"]);
+    // A plan of 40 touches at +-20 degrees from 2000 candidates.
+    let plan_into = |out: &std::path::Path, options: &[&str]| {
+        let mut args = vec![
+            "plan",
+            template.to_str().unwrap(),
+            "--contacts",
+            "40",
+            "--tilt",
+            "20",
+            "--pool",
+            "2000",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(options);
+        let output = parcal(&args);
+        assert!(output.status.success(), "{}", text(&output.stderr));
+        output
+    };
     let plan = temp.path().join("plan.csv");
-    let output = parcal(&[
-        "plan",
-        template.to_str().unwrap(),
-        "--contacts",
-        "40",
-        "--tilt",
-        "20",
-        "--pool",
-        "2000",
-        "--out",
-        plan.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{}", text(&output.stderr));
+    let output = plan_into(&plan, &[]);
     let stdout = text(&output.stdout);
     assert!(stdout.contains("touches            40 from"), "{stdout}");
     assert!(
@@ -744,21 +751,7 @@ fn plan_writes_a_plan_that_simulate_measures() {
     // values.
     assert_eq!(summary["options"]["radius"], "ball");
     let contact = temp.path().join("contact.csv");
-    let output = parcal(&[
-        "plan",
-        template.to_str().unwrap(),
-        "--contacts",
-        "40",
-        "--tilt",
-        "20",
-        "--pool",
-        "2000",
-        "--radius",
-        "contact",
-        "--out",
-        contact.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{}", text(&output.stderr));
+    plan_into(&contact, &["--radius", "contact"]);
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(temp.path().join("contact.json")).unwrap())
             .unwrap();
