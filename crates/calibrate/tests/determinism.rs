@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{options, permutation, relative_differences, shuffled};
+use common::{cost_bits, options, permutation, relative_differences, shuffled};
 use parcal_calibrate::{CalibrationRun, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
@@ -28,13 +28,7 @@ fn one_and_two_threads_give_identical_bits() {
     assert_eq!(one.params, two.params);
     assert_eq!(one.covariance, two.covariance);
     assert_eq!(one.centres, two.centres);
-    let costs = |r: &CalibrationRun| {
-        r.history
-            .iter()
-            .map(|h| h.cost.to_bits())
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(costs(&one), costs(&two));
+    assert_eq!(cost_bits(&one), cost_bits(&two));
     // The checks of every observation too.
     assert!(one.reliability.is_some());
     assert_eq!(one.reliability, two.reliability);

@@ -4,7 +4,9 @@
 //! registered error where the clean run has it; results do not depend on
 //! the number of threads; it refuses data snooping, which it replaces.
 
-use parcal_accuracy::MapGrid;
+mod common;
+
+use common::{cost_bits, true_registered_rms};
 use parcal_calibrate::reliability::ObservationId;
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::verdict::Outcome;
@@ -13,7 +15,6 @@ use parcal_calibrate::{
 };
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 const HUBER: Loss = Loss::Huber { k: HUBER_K };
 const CAUCHY: Loss = Loss::Cauchy { k: CAUCHY_K };
@@ -37,15 +38,6 @@ fn robust(loss: Loss) -> CalibrationOptions {
 
 fn paper() -> Dataset {
     simulate(&Scenario::paper(), 1).unwrap().dataset
-}
-
-fn true_registered_rms(dataset: &Dataset, run: &CalibrationRun) -> f64 {
-    let truth = TrueMachine::of(dataset).unwrap().unwrap();
-    let maps = before_after(Some(&truth), run, &MapGrid::paper()).unwrap();
-    maps.after
-        .and_then(|a| a.true_error)
-        .map(|m| m.registered_summary().rms)
-        .unwrap()
 }
 
 #[test]
@@ -158,13 +150,7 @@ fn one_and_two_threads_give_identical_bits() {
     assert_eq!(one.params, two.params);
     assert_eq!(one.covariance, two.covariance);
     assert_eq!(one.centres, two.centres);
-    let costs = |r: &CalibrationRun| {
-        r.history
-            .iter()
-            .map(|h| h.cost.to_bits())
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(costs(&one), costs(&two));
+    assert_eq!(cost_bits(&one), cost_bits(&two));
     let listed = |r: &CalibrationRun| r.reliability.as_ref().unwrap().down_weighted.clone();
     assert_eq!(listed(&one), listed(&two));
 }

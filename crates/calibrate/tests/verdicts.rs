@@ -2,23 +2,14 @@
 //! removed by data snooping, and clean data raise false alarms at the
 //! tests' nominal rates only.
 
-use parcal_accuracy::MapGrid;
+mod common;
+
+use common::true_registered_rms;
 use parcal_calibrate::reliability::{ObservationId, minimal_detectable_bias};
 use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, RadiusModel, calibrate};
-use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, simulate};
-use parcal_workflows::evaluate::{TrueMachine, before_after};
-
-fn true_registered_rms(dataset: &Dataset, run: &CalibrationRun) -> f64 {
-    let truth = TrueMachine::of(dataset).unwrap().unwrap();
-    let maps = before_after(Some(&truth), run, &MapGrid::paper()).unwrap();
-    maps.after
-        .and_then(|a| a.true_error)
-        .map(|m| m.registered_summary().rms)
-        .unwrap()
-}
 
 /// A reading off by 50 um (50 sigma of the actuators) among the 189 of the
 /// paper scenario: the global test rejects the run, data snooping removes

@@ -5,11 +5,13 @@
 #![allow(dead_code)] // each test binary uses a different subset
 
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
+use parcal_accuracy::MapGrid;
 use parcal_calibrate::instruments::InstrumentModel;
 use parcal_calibrate::layout::ParameterGroup;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation};
 use parcal_dataset::{Dataset, FrameRecord};
 use parcal_kinematics::{Geometry, Vec3, params};
+use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 /// Simulation IV with the propagated prior (the case, as in the
 /// benches).
@@ -150,4 +152,21 @@ pub fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
     let mean = values.iter().sum::<f64>() / n;
     let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
     (mean, (variance / n).sqrt())
+}
+
+/// The true registered RMS of `run` on the paper's map (mm), against the
+/// truth `dataset` was simulated from.
+pub fn true_registered_rms(dataset: &Dataset, run: &CalibrationRun) -> f64 {
+    let truth = TrueMachine::of(dataset).unwrap().unwrap();
+    let maps = before_after(Some(&truth), run, &MapGrid::paper()).unwrap();
+    maps.after
+        .and_then(|a| a.true_error)
+        .map(|m| m.registered_summary().rms)
+        .unwrap()
+}
+
+/// The bits of every iteration's cost: equal for runs that took the same
+/// steps.
+pub fn cost_bits(run: &CalibrationRun) -> Vec<u64> {
+    run.history.iter().map(|h| h.cost.to_bits()).collect()
 }
