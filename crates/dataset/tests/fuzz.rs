@@ -255,114 +255,16 @@ fn fuzz_points_csv() {
 }
 
 /// A calibration with every optional part.
-fn calibration() -> Calibration {
+/// [`calibration`] with a calibrated machine and a truth's sessions.
+fn full_calibration() -> Calibration {
     let d = full_dataset();
-    let n = 3;
     Calibration {
-        canonical: d.machine.geometry.clone(),
-        parameters: ParameterTable {
-            names: vec!["y_b2".into(), "x_b3".into(), "l1".into()],
-            values: vec![1.0 / 3.0, -0.0, 235.5],
-            sigma: vec![1e-3, 2e-3, 3e-3],
-        },
-        covariance: (0..n)
-            .map(|i| (0..n).map(|j| if i == j { 1e-6 } else { 1e-9 }).collect())
-            .collect(),
-        ball_centres: [(
-            "b01".to_owned(),
-            CentreEstimate {
-                centre: [1.0, 2.0, 400.0],
-                sigma: [1e-3; 3],
-                radius: None,
-                radius_sigma: None,
-            },
-        )]
-        .into(),
-        prior: "paper".into(),
-        iterations: vec![IterationSummary {
-            cost: 10.0,
-            step_norm: 0.5,
-            residual_rms: 1e-3,
-        }],
-        converged: true,
-        status: "converged".into(),
-        options: [("seed".to_owned(), serde_json::json!(7))].into(),
         machine: Some(CalibratedMachine {
             geometry: d.machine.geometry.clone(),
             actuator: Actuator::default(),
         }),
         sessions: d.truth.unwrap().sessions,
-        design: Some(d.machine.clone()),
-        verdict: "accepted".into(),
-        reasons: vec!["fine".into()],
-        warnings: vec![],
-        global_test: Some(GlobalTestRecord {
-            cost: 10.0,
-            redundancy: 12,
-            variance_factor: 0.8,
-            level: 0.05,
-            interval: [0.3, 1.9],
-            outcome: "consistent".into(),
-        }),
-        provenance: Some(Provenance {
-            parcal_version: "0.1.0".into(),
-            dataset: "d".into(),
-            dataset_checksum: "crc32:00000000".into(),
-        }),
-        removed_observations: vec![RemovedObservation {
-            file: MEASUREMENTS_FILE.into(),
-            line: Some(7),
-            field: None,
-            normalised_residual: 4.5,
-            gross_error_sigmas: 5.0,
-            variance_factor: [1.5, 1.0],
-        }],
-        down_weighted_observations: Vec::new(),
-        diagnostics: Some(Diagnostics {
-            variance_components: vec![VarianceComponentRecord {
-                group: "ball touches".into(),
-                cost: 12.5,
-                redundancy: 10.25,
-            }],
-            observations: Some(ObservationTests {
-                tested: 12,
-                level: 0.05,
-                critical_value: 3.04,
-                redundancy: 10.25,
-                uncontrolled_below: 0.1,
-                uncontrolled: 1,
-                largest: vec![ObservationCheck {
-                    file: MEASUREMENTS_FILE.into(),
-                    line: Some(7),
-                    field: None,
-                    observes: "ball b01".into(),
-                    redundancy: 0.5,
-                    normalised_residual: Some(-2.5),
-                    gross_error_sigmas: Some(-3.5),
-                    mdb_sigmas: Some(6.25),
-                }],
-                least_controlled: vec![ObservationCheck {
-                    file: MEASUREMENTS_FILE.into(),
-                    line: Some(9),
-                    field: None,
-                    observes: "ball b01".into(),
-                    redundancy: 0.0,
-                    normalised_residual: None,
-                    gross_error_sigmas: None,
-                    mdb_sigmas: None,
-                }],
-                normalised_histogram: Histogram::of([-0.3, 0.1, 9.0], -5.0, 0.5, 20),
-                redundancy_histogram: Histogram::of([0.0, 0.5, 0.75], 0.0, 0.125, 8),
-            }),
-            prior_sigma: vec![Some(0.1), None, Some(0.5)],
-            determined_by: vec!["data".into(), "prior (not observed)".into(), "prior".into()],
-            weak_directions: vec![WeakDirectionRecord {
-                eigenvalue: 4.0,
-                sigma: Some(0.5),
-                dominant: vec![("y_b2".into(), 0.75)],
-            }],
-            external_reliability: Vec::new(),
-        }),
+        ..calibration()
     }
 }
 
@@ -370,7 +272,7 @@ fn calibration() -> Calibration {
 fn fuzz_calibration_json() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(CALIBRATION_FILE);
-    calibration().write(&path).unwrap();
+    full_calibration().write(&path).unwrap();
     let valid = fs::read(&path).unwrap();
     fuzz(CALIBRATION_FILE, input(valid), |bytes| {
         fs::write(&path, bytes).unwrap();

@@ -203,3 +203,142 @@ pub fn assert_bitwise_eq<T: serde::Serialize + std::fmt::Debug + PartialEq>(a: &
 pub fn reference_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1")
 }
+
+/// A calibration record with every field set, awkward values included.
+pub fn calibration() -> Calibration {
+    let n = 3;
+    Calibration {
+        canonical: GeometryRecord {
+            base_joints: [[0.0, 1.0 / 3.0, -0.0]; 6],
+            platform_joints: [[1e-17, 2.0, 3.0]; 6],
+            tool: [0.0, 0.0, 60.0],
+            leg_lengths: [123456.789012345; 6],
+        },
+        parameters: ParameterTable {
+            names: vec!["y_b2".into(), "x_b3".into(), "y_b3".into()],
+            values: vec![17.432, -0.0, 1.0 / 3.0],
+            sigma: vec![0.06, 0.07, 5e-324],
+        },
+        covariance: (0..n)
+            .map(|i| (0..n).map(|j| (i + j) as f64 / 3.0).collect())
+            .collect(),
+        ball_centres: std::collections::BTreeMap::from([(
+            "b01".to_owned(),
+            CentreEstimate {
+                centre: [-60.0, -60.0, 360.0 + 1e-13],
+                sigma: [0.02, 0.025, 0.02],
+                radius: Some(5.0 + 3e-4),
+                radius_sigma: Some(7e-4),
+            },
+        )]),
+        prior: "none".into(),
+        iterations: vec![IterationSummary {
+            cost: 18029.824089807713,
+            step_norm: 0.0,
+            residual_rms: 0.02489452864196506,
+        }],
+        converged: false,
+        status: "iteration limit".into(),
+        options: std::collections::BTreeMap::from([("sim".to_owned(), serde_json::json!("IV"))]),
+        machine: None,
+        sessions: Vec::new(),
+        verdict: "accepted".into(),
+        reasons: vec!["the solver converged".into()],
+        warnings: vec![],
+        global_test: Some(GlobalTestRecord {
+            cost: 187.5,
+            redundancy: 190,
+            variance_factor: 187.5 / 190.0,
+            level: 0.05,
+            interval: [0.8, 1.2],
+            outcome: "consistent".into(),
+        }),
+        provenance: Some(Provenance {
+            parcal_version: "0.1.0".into(),
+            dataset: "data/x".into(),
+            dataset_checksum: "crc32:0123abcd".into(),
+        }),
+        removed_observations: vec![RemovedObservation {
+            file: "measurements.csv".into(),
+            line: Some(42),
+            field: None,
+            normalised_residual: -51.5,
+            gross_error_sigmas: -60.25,
+            variance_factor: [14.5, 1.0 / 3.0],
+        }],
+        down_weighted_observations: vec![DownWeightedObservation {
+            file: "artefacts.json".into(),
+            line: None,
+            field: Some("distances[3]".into()),
+            weight: 0.0125,
+            residual_sigmas: 107.6,
+        }],
+        design: Some(Machine {
+            stroke: Some([-5.0, 105.0]),
+            ..dataset(ALL).machine
+        }),
+        diagnostics: Some(Diagnostics {
+            variance_components: vec![VarianceComponentRecord {
+                group: "ball touches".into(),
+                cost: 12.5,
+                redundancy: 10.25,
+            }],
+            observations: Some(ObservationTests {
+                tested: 12,
+                level: 0.05,
+                critical_value: 3.04,
+                redundancy: 10.25,
+                uncontrolled_below: 0.1,
+                uncontrolled: 1,
+                largest: vec![ObservationCheck {
+                    file: "artefacts.json".into(),
+                    line: None,
+                    field: Some("distances[3]".into()),
+                    observes: "ball b01".into(),
+                    redundancy: 0.5,
+                    normalised_residual: Some(-2.5),
+                    gross_error_sigmas: Some(-3.5),
+                    mdb_sigmas: Some(6.25),
+                }],
+                least_controlled: vec![ObservationCheck {
+                    file: "measurements.csv".into(),
+                    line: Some(9),
+                    field: None,
+                    observes: "ball b01".into(),
+                    redundancy: 0.0,
+                    normalised_residual: None,
+                    gross_error_sigmas: None,
+                    mdb_sigmas: None,
+                }],
+                normalised_histogram: Histogram::of([-0.3, 0.1, 9.0], -5.0, 0.5, 20),
+                redundancy_histogram: Histogram::of([0.0, 0.5, 0.75], 0.0, 0.125, 8),
+            }),
+            prior_sigma: vec![Some(0.1), None, Some(0.5)],
+            determined_by: vec!["data".into(), "prior (not observed)".into(), "prior".into()],
+            weak_directions: vec![WeakDirectionRecord {
+                eigenvalue: 4.0,
+                sigma: Some(0.5),
+                dominant: vec![("y_b2".into(), 0.75)],
+            }],
+            external_reliability: vec![ExternalReliabilityRecord {
+                observation: ObservationCheck {
+                    file: "measurements.csv".into(),
+                    line: Some(14),
+                    field: None,
+                    observes: "ball b02".into(),
+                    redundancy: 0.75,
+                    normalised_residual: Some(0.5),
+                    gross_error_sigmas: Some(0.625),
+                    mdb_sigmas: Some(5.5),
+                },
+                row: 2,
+                row_redundancy: 0.25,
+                row_mdb_sigmas: 8.5,
+                bias_to_noise: 3.25,
+                parameter_shift: vec![0.001, -0.0025, 0.5e-4],
+                map_rms_um: Some(1.5),
+                map_max_um: Some(4.25),
+            }],
+        }),
+    }
+}
