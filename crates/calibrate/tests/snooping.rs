@@ -3,11 +3,11 @@
 //! as a whole observation (named by its place in the dataset given), and
 //! the rest accepted.
 
+mod common;
+
+use common::{removed, snoop, snoop_instruments};
 use parcal_calibrate::CalibrationOptions;
 use parcal_calibrate::reliability::ObservationId;
-use parcal_calibrate::snooping::{
-    MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
-};
 use parcal_dataset::Dataset;
 use parcal_simulate::{
     Plate, PlatePairs, Scenario, TrackerKind, TrackerScenario, simulate, simulate_tracker,
@@ -43,15 +43,8 @@ fn a_blunder_in_a_distance_is_removed() {
     let k = 17;
     dataset.artefacts.distances[k].length += 0.05;
     let options = CalibrationOptions::default();
-    let snooped = calibrate_with_snooping(
-        &dataset,
-        &options,
-        SNOOPING_LEVEL,
-        MAX_REMOVALS,
-        &mut |_| {},
-    )
-    .unwrap();
-    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    let snooped = snoop(&dataset, &options);
+    let removed = removed(&snooped);
     println!(
         "removed {removed:?}, w {:?}",
         snooped
@@ -78,15 +71,8 @@ fn a_blunder_in_a_pose_row_is_removed() {
     let mut dataset = instruments();
     let row = 11;
     dataset.tracker.poses.position[row][0] += 0.5;
-    let snooped = calibrate_instruments_with_snooping(
-        &dataset,
-        &CalibrationOptions::default(),
-        SNOOPING_LEVEL,
-        MAX_REMOVALS,
-        &mut |_| {},
-    )
-    .unwrap();
-    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    let snooped = snoop_instruments(&dataset);
+    let removed = removed(&snooped);
     assert_eq!(removed, [ObservationId::Pose(row)]);
     assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
     assert_eq!(snooped.run.leg_residuals.len(), 39);
@@ -102,15 +88,8 @@ fn a_blunder_in_a_point_row_is_removed() {
     let mut dataset = instruments();
     let row = 23;
     dataset.tracker.points.position[row][1] -= 0.5;
-    let snooped = calibrate_instruments_with_snooping(
-        &dataset,
-        &CalibrationOptions::default(),
-        SNOOPING_LEVEL,
-        MAX_REMOVALS,
-        &mut |_| {},
-    )
-    .unwrap();
-    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    let snooped = snoop_instruments(&dataset);
+    let removed = removed(&snooped);
     assert_eq!(removed, [ObservationId::Point(row)]);
     assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
     assert_eq!(snooped.run.point_residuals.len(), 39);
@@ -123,14 +102,7 @@ fn a_blunder_in_a_point_row_is_removed() {
 #[test]
 fn clean_instrument_rows_are_kept() {
     let dataset = instruments();
-    let snooped = calibrate_instruments_with_snooping(
-        &dataset,
-        &CalibrationOptions::default(),
-        SNOOPING_LEVEL,
-        MAX_REMOVALS,
-        &mut |_| {},
-    )
-    .unwrap();
+    let snooped = snoop_instruments(&dataset);
     assert!(snooped.removals.is_empty());
     assert!(snooped.run.verdict().accepted);
 }

@@ -4,9 +4,9 @@
 
 mod common;
 
-use common::true_registered_rms;
+use common::{removed, snoop, true_registered_rms};
 use parcal_calibrate::reliability::{ObservationId, minimal_detectable_bias};
-use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
+use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, RadiusModel, calibrate};
 use parcal_simulate::{Scenario, simulate};
@@ -28,15 +28,8 @@ fn a_blunder_is_found_and_removed() {
     let test = run.global_test.unwrap();
     assert_eq!(test.outcome, Outcome::TooLarge, "{test:?}");
     assert!(!run.verdict().accepted);
-    let snooped = calibrate_with_snooping(
-        &blundered,
-        &options,
-        SNOOPING_LEVEL,
-        MAX_REMOVALS,
-        &mut |_| {},
-    )
-    .unwrap();
-    let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+    let snooped = snoop(&blundered, &options);
+    let removed = removed(&snooped);
     assert_eq!(
         removed,
         [ObservationId::Contact(row)],
@@ -154,14 +147,7 @@ fn clean_data_raise_false_alarms_at_the_nominal_rate() {
     let (mut rejected, mut snooped_any, mut verdict_rejected) = (0usize, 0usize, 0usize);
     for seed in 1..=draws {
         let dataset = simulate(&Scenario::paper(), seed).unwrap().dataset;
-        let snooped = calibrate_with_snooping(
-            &dataset,
-            &options,
-            SNOOPING_LEVEL,
-            MAX_REMOVALS,
-            &mut |_| {},
-        )
-        .unwrap();
+        let snooped = snoop(&dataset, &options);
         // The data as given: the first calibration's global test, which is
         // the final run's when nothing was removed.
         let first = match snooped.removals.first() {
@@ -278,15 +264,8 @@ fn detection_is_monotone_in_the_blunder_above_its_minimal_detectable_bias() {
         let dataset = with_blunder(blunder);
         let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
         let rejected = !run.verdict().accepted;
-        let snooped = calibrate_with_snooping(
-            &dataset,
-            &options,
-            SNOOPING_LEVEL,
-            MAX_REMOVALS,
-            &mut |_| {},
-        )
-        .unwrap();
-        let removed: Vec<ObservationId> = snooped.removals.iter().map(|r| r.observation).collect();
+        let snooped = snoop(&dataset, &options);
+        let removed = removed(&snooped);
         let found = removed == [ObservationId::Contact(row)] && snooped.run.verdict().accepted;
         println!(
             "{:>6.0} um: {}, variance factor {:.2}, rejected {rejected}, w {:+.1}, snooping removed {removed:?}, accepted {}",

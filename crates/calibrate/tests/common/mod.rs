@@ -7,7 +7,13 @@
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::instruments::InstrumentModel;
+use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::layout::ParameterGroup;
+use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::snooping::{
+    MAX_REMOVALS, SNOOPING_LEVEL, Snooped, calibrate_instruments_with_snooping,
+    calibrate_with_snooping,
+};
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation};
 use parcal_dataset::{Dataset, FrameRecord};
 use parcal_kinematics::{Geometry, Vec3, params};
@@ -169,4 +175,27 @@ pub fn true_registered_rms(dataset: &Dataset, run: &CalibrationRun) -> f64 {
 /// steps.
 pub fn cost_bits(run: &CalibrationRun) -> Vec<u64> {
     run.history.iter().map(|h| h.cost.to_bits()).collect()
+}
+
+/// Data snooping of a touch (or mixed) calibration at the project's level
+/// and removal limit.
+pub fn snoop(dataset: &Dataset, options: &CalibrationOptions) -> Snooped {
+    calibrate_with_snooping(dataset, options, SNOOPING_LEVEL, MAX_REMOVALS, &mut |_| {}).unwrap()
+}
+
+/// Data snooping of an instrument calibration, as [`snoop`].
+pub fn snoop_instruments(dataset: &Dataset) -> Snooped<InstrumentRun> {
+    calibrate_instruments_with_snooping(
+        dataset,
+        &CalibrationOptions::default(),
+        SNOOPING_LEVEL,
+        MAX_REMOVALS,
+        &mut |_| {},
+    )
+    .unwrap()
+}
+
+/// The observations snooping removed, in order.
+pub fn removed<Run>(snooped: &Snooped<Run>) -> Vec<ObservationId> {
+    snooped.removals.iter().map(|r| r.observation).collect()
 }
