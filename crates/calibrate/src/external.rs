@@ -1,6 +1,6 @@
 //! External reliability as a shift of the parameters (Baarda 1968;
 //! Förstner and Wrobel, "Photogrammetric Computer Vision", 2016, section
-//! 4.6.5): for the [`LEAST_RELIABLE`] observations of largest
+//! 4.6.5): for the [`SHIFTED`] observations of largest
 //! bias-to-noise ratio `λ` (the first of
 //! [`Reliability::least_reliable`](crate::reliability::Reliability::least_reliable)),
 //! the shift of the
@@ -24,9 +24,9 @@ use crate::reliability::ObservationId;
 
 /// How many observations get their shift: those of largest `λ` (no more
 /// than the checks keep, [`crate::reliability::LEAST_RELIABLE`]).
-pub const LEAST_RELIABLE: usize = 5;
+pub const SHIFTED: usize = 5;
 
-const _: () = assert!(LEAST_RELIABLE <= crate::reliability::LEAST_RELIABLE);
+const _: () = assert!(SHIFTED <= crate::reliability::LEAST_RELIABLE);
 
 /// What an undetected error of one minimal detectable bias in one
 /// observation does to the global block.

@@ -438,7 +438,7 @@ impl Reliability {
             state,
             covariance,
             caches,
-            &summary.least_reliable[..external::LEAST_RELIABLE.min(summary.least_reliable.len())],
+            &summary.least_reliable[..external::SHIFTED.min(summary.least_reliable.len())],
             rows,
             global,
             delta0,
