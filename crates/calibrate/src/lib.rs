@@ -51,6 +51,7 @@ pub mod run;
 pub mod setup;
 pub mod snooping;
 pub mod sphere_fit;
+pub mod systematic;
 pub mod touch_validation;
 mod validate;
 pub mod verdict;

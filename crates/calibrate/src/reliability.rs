@@ -44,6 +44,7 @@ use crate::CalibrateError;
 use crate::external::{self, ExternalShift, external_shifts};
 use crate::robust::{self, DownWeighted};
 use crate::snooping::SNOOPING_LEVEL;
+use crate::systematic::SystematicTest;
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
 /// observation counts as uncontrolled.
@@ -254,6 +255,10 @@ pub struct Reliability {
     /// With a robust loss, the observations it down-weighted
     /// ([`crate::robust::down_weighted`]); `None` for least squares.
     pub down_weighted: Option<Vec<DownWeighted>>,
+    /// When the global test rejects a least-squares run, the tests of the
+    /// common errors that could explain it ([`crate::systematic`]); empty
+    /// otherwise.
+    pub systematic: Vec<SystematicTest>,
 }
 
 /// What needs every observation, summed as they are seen (the contacts in
@@ -460,6 +465,7 @@ impl Reliability {
             redundancy: summary.redundancy,
             external,
             down_weighted: robust.then_some(down_weighted),
+            systematic: Vec::new(),
         })
     }
 

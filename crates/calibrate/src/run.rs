@@ -26,7 +26,8 @@ use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations, ki
 use crate::reliability::{Reliability, checked};
 use crate::robust::START_TOLERANCE;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
-use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
+use crate::systematic::systematic_tests;
+use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Outcome, Verdict, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
 
 /// The outcome of one calibration.
@@ -765,7 +766,7 @@ impl SolverRun<'_> {
             )
         });
         let prior_rows = rows - rows_per_contact * setup.order.len() - problem.global_rows();
-        let reliability = match (&solution.covariance, solution.history.last()) {
+        let mut reliability = match (&solution.covariance, solution.history.last()) {
             (Some(covariance), Some(last)) if checked(&solution.status) => Some(Reliability::new(
                 &*problem,
                 &solution.state,
@@ -779,6 +780,19 @@ impl SolverRun<'_> {
             )?),
             _ => None,
         };
+        // A misfit of least squares: which common error explains it.
+        if let (Some(reliability), Some(test)) = (&mut reliability, &global_test)
+            && test.outcome == Outcome::TooLarge
+            && problem.loss.is_squared()
+        {
+            reliability.systematic = systematic_tests(
+                &mut *problem,
+                &solution.state,
+                &mut caches,
+                self.solver.groups_per_chunk,
+                test,
+            )?;
+        }
         // The poses are not needed past the checks: their memory is the
         // room of what follows.
         drop(caches);

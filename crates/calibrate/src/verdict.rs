@@ -32,6 +32,17 @@ pub enum Outcome {
     TooSmall,
 }
 
+impl Outcome {
+    /// Its name in calibration.json: `consistent`, `too large`, `too small`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Consistent => "consistent",
+            Self::TooLarge => "too large",
+            Self::TooSmall => "too small",
+        }
+    }
+}
+
 /// The global test of a run (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GlobalTest {

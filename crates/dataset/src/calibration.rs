@@ -159,6 +159,38 @@ pub struct Diagnostics {
     /// computed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub external_reliability: Vec<ExternalReliabilityRecord>,
+    /// When the global test rejects a least-squares run, the tests of the
+    /// common errors of the entered data that could explain the misfit;
+    /// empty otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub systematic_tests: Vec<SystematicTestRecord>,
+}
+
+/// The test of one common error of the entered data (the w-test of one
+/// additional parameter).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SystematicTestRecord {
+    /// The effect: `ball radius` (every ball's entered radius off by the
+    /// same length), `distance scale` (every calibrated distance off by the
+    /// same factor).
+    pub effect: String,
+    /// The correction of the entered data the residuals ask for: added to
+    /// every radius (mm), or `1 + estimate` multiplying every distance.
+    pub estimate: f64,
+    /// Its standard deviation.
+    pub sigma: f64,
+    /// The unit of `estimate` and `sigma` (`mm`, `1`).
+    pub unit: String,
+    /// The test's level.
+    pub level: f64,
+    /// The critical value of `|estimate / sigma|`.
+    pub critical_value: f64,
+    /// The a-posteriori variance factor with the effect removed (one more
+    /// unknown).
+    pub variance_factor_without: f64,
+    /// The global test's outcome with the effect removed (`consistent`,
+    /// `too large`, `too small`).
+    pub outcome_without: String,
 }
 
 /// What an undetected error of one minimal detectable bias in one
@@ -524,6 +556,19 @@ impl Diagnostics {
                 format_args!("diagnostics.variance_components[{k}].redundancy"),
                 c.redundancy,
             )?;
+        }
+        for (k, t) in self.systematic_tests.iter().enumerate() {
+            for (name, value) in [
+                ("estimate", t.estimate),
+                ("sigma", t.sigma),
+                ("critical_value", t.critical_value),
+                ("variance_factor_without", t.variance_factor_without),
+            ] {
+                check.finite(
+                    format_args!("diagnostics.systematic_tests[{k}].{name}"),
+                    value,
+                )?;
+            }
         }
         for (field, len) in [
             ("diagnostics.prior_sigma", self.prior_sigma.len()),

@@ -418,6 +418,15 @@ fn calibration_errors_name_the_file_and_field() {
     );
 
     let mut c = calibration();
+    c.diagnostics.as_mut().unwrap().systematic_tests[0].sigma = f64::NAN;
+    assert_error(
+        &c.write(&path).unwrap_err().to_string(),
+        dir.path(),
+        CALIBRATION_FILE,
+        "field diagnostics.systematic_tests[0].sigma: value NaN",
+    );
+
+    let mut c = calibration();
     c.iterations[0].cost = f64::NAN;
     let err = c.write(&path).unwrap_err().to_string();
     assert_error(

@@ -11,9 +11,11 @@ use parcal_calibrate::reliability::{
     critical_value, minimal_detectable_bias,
 };
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
+use parcal_calibrate::systematic::{SYSTEMATIC_LEVEL, SystematicTest};
+use parcal_calibrate::verdict::GlobalTest;
 use parcal_dataset::{
     Dataset, Diagnostics, ExternalReliabilityRecord, Histogram, ObservationCheck, ObservationTests,
-    VarianceComponentRecord, WeakDirectionRecord,
+    SystematicTestRecord, VarianceComponentRecord, WeakDirectionRecord,
 };
 use parcal_kinematics::Params;
 use parcal_solver::SpectrumDiagnostics;
@@ -118,8 +120,32 @@ pub fn of_ball_run(
     if let Some(reliability) = &run.reliability {
         diagnostics.external_reliability =
             external_reliability(run, reliability, dataset, original);
+        if let Some(global) = &run.global_test {
+            diagnostics.systematic_tests = systematic_tests(&reliability.systematic, global);
+        }
     }
     diagnostics
+}
+
+/// calibration.json's `systematic_tests` of a run whose global test is
+/// `global`.
+fn systematic_tests(tests: &[SystematicTest], global: &GlobalTest) -> Vec<SystematicTestRecord> {
+    tests
+        .iter()
+        .filter_map(|t| {
+            let without = t.without(global)?;
+            Some(SystematicTestRecord {
+                effect: t.effect.name().to_string(),
+                estimate: t.estimate,
+                sigma: t.sigma,
+                unit: t.effect.unit().to_string(),
+                level: SYSTEMATIC_LEVEL,
+                critical_value: t.critical_value(),
+                variance_factor_without: without.variance_factor,
+                outcome_without: without.outcome.name().to_string(),
+            })
+        })
+        .collect()
 }
 
 /// calibration.json's `external_reliability` of a ball-touch run: each of
@@ -215,6 +241,7 @@ impl Checks<'_> {
             determined_by,
             weak_directions: weak_directions(self.spectrum, self.names),
             external_reliability: Vec::new(),
+            systematic_tests: Vec::new(),
         }
     }
 }

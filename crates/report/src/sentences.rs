@@ -10,7 +10,8 @@ use parcal_calibrate::reliability::{
 };
 use parcal_calibrate::robust::{DOWN_WEIGHTED, DownWeighted, too_many};
 use parcal_calibrate::snooping::{MAX_REMOVALS, Removal, SNOOPING_LEVEL, Snooped};
-use parcal_calibrate::verdict::{Outcome, Verdict};
+use parcal_calibrate::systematic::{Effect, SYSTEMATIC_LEVEL, SystematicTest};
+use parcal_calibrate::verdict::{GlobalTest, Outcome, Verdict};
 use parcal_dataset::{ARTEFACTS_FILE, Dataset, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE};
 use parcal_kinematics::PARAM_NAMES;
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
@@ -97,11 +98,70 @@ fn record_of(
     if let Some(reliability) = &run.reliability {
         checks(reliability, original, &mut reasons, &mut warnings);
         record.down_weighted_observations = down_weighted_records(reliability, original);
+        if let Some(global) = &run.global_test {
+            reasons.extend(
+                reliability
+                    .systematic
+                    .iter()
+                    .filter_map(|t| systematic_sentence(t, global)),
+            );
+        }
     }
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
     record.diagnostics = Some(diagnostics::of_ball_run(run, dataset, original));
     record
+}
+
+/// The test of a common error of the entered data in one sentence: the
+/// correction it asks for, its significance, and whether it explains the
+/// misfit of the run whose global test is `global` alone.
+pub fn systematic_sentence(test: &SystematicTest, global: &GlobalTest) -> Option<String> {
+    let without = test.without(global)?;
+    let (w, critical) = (test.normalised(), test.critical_value());
+    let correction = match test.effect {
+        Effect::BallRadius => format!(
+            "every ball's radius corrected by {:+.4} +- {:.4} mm",
+            test.estimate, test.sigma
+        ),
+        Effect::DistanceScale => format!(
+            "every calibrated distance corrected by {:+.1} +- {:.1} ppm",
+            test.estimate * 1e6,
+            test.sigma * 1e6
+        ),
+    };
+    let statistic = format!(
+        "w = {w:+.2}, critical value {critical:.2} at {}%",
+        SYSTEMATIC_LEVEL * 100.0
+    );
+    let after = format!(
+        "variance factor {:.3} without it, interval [{:.3}, {:.3}]",
+        without.variance_factor, without.interval.0, without.interval.1
+    );
+    let what = match test.effect {
+        Effect::BallRadius => {
+            "check artefacts.json's radii (the calibrated radius, not the nominal one; the stylus tip's radius) and calibrate again"
+        }
+        Effect::DistanceScale => {
+            "check the distances' calibration and the plate's temperature against the calibration's, and calibrate again"
+        }
+    };
+    Some(if !test.significant() {
+        format!(
+            "no common {} error: the data ask for {correction} ({statistic})",
+            test.effect.name()
+        )
+    } else if without.outcome == Outcome::Consistent {
+        format!(
+            "a common {} error explains the misfit: the data ask for {correction} ({statistic}; {after}): {what}",
+            test.effect.name()
+        )
+    } else {
+        format!(
+            "a common {} error is significant but does not explain the misfit alone: the data ask for {correction} ({statistic}; {after})",
+            test.effect.name()
+        )
+    })
 }
 
 /// Where an observation is, as a user finds it: `measurements.csv line
@@ -373,12 +433,7 @@ pub fn with_verdict(
             variance_factor: test.variance_factor,
             level: test.level,
             interval: [lower, upper],
-            outcome: match test.outcome {
-                Outcome::Consistent => "consistent",
-                Outcome::TooLarge => "too large",
-                Outcome::TooSmall => "too small",
-            }
-            .to_string(),
+            outcome: test.outcome.name().to_string(),
         });
     }
     record.warnings = warnings;

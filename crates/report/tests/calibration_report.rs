@@ -98,3 +98,79 @@ fn the_diagnostics_summarise_every_observation_s_test() {
         .registered_summary();
     assert!(html.contains(&format!("registered RMS {:.2} µm", registered.rms * 1e3)));
 }
+
+/// Every ball's radius entered 20 um too small: calibration.json keeps the
+/// test of a common radius error as the run made it, a reason names the
+/// radius as the explanation, and the page has the systematic errors'
+/// section with the test's numbers.
+#[test]
+fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
+    let mut dataset = paper_seed1();
+    for ball in &mut dataset.artefacts.balls {
+        ball.radius -= 0.02;
+    }
+    let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    let record = parcal_report::sentences::record(&run, &dataset);
+    assert_eq!(record.verdict, "rejected");
+    let test = run.reliability.as_ref().unwrap().systematic[0];
+    let kept = &record.diagnostics.as_ref().unwrap().systematic_tests;
+    assert_eq!(
+        kept.len(),
+        run.reliability.as_ref().unwrap().systematic.len()
+    );
+    assert_eq!(kept[0].effect, "ball radius");
+    assert_eq!(
+        (kept[0].estimate, kept[0].sigma),
+        (test.estimate, test.sigma)
+    );
+    assert_eq!(kept[0].outcome_without, "consistent");
+    let sentence =
+        parcal_report::sentences::systematic_sentence(&test, run.global_test.as_ref().unwrap())
+            .unwrap();
+    assert!(sentence.starts_with("a common ball radius error explains the misfit"));
+    assert!(record.reasons.contains(&sentence), "{:?}", record.reasons);
+
+    let subject = Subject {
+        calibration: &record,
+        file: "calibration.json",
+        accuracy: predicted_accuracy(&record, None),
+    };
+    let html = render(&subject, Format::Html).unwrap();
+    assert!(html.contains("Systematic errors"));
+    assert!(html.contains(&format!("{:+.3e}", test.estimate)));
+    assert!(html.contains("explained by a common error of the entered data: ball radius"));
+}
+
+/// One reading 5 mm off, calibrated with the Cauchy loss: the page lists
+/// the down-weighted observation with its line and weight.
+#[test]
+fn the_page_lists_the_down_weighted_observations() {
+    let mut dataset = paper_seed1();
+    let row = 38;
+    dataset.measurements.q[row][2] += 5.0;
+    let options = CalibrationOptions {
+        loss: parcal_calibrate::Loss::Cauchy {
+            k: parcal_calibrate::CAUCHY_K,
+        },
+        ..CalibrationOptions::default()
+    };
+    let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    let record = parcal_report::sentences::record(&run, &dataset);
+    let listed = &record.down_weighted_observations;
+    let blunder = listed
+        .iter()
+        .find(|d| d.line == Some(row as u64 + 2))
+        .expect("the blunder down-weighted");
+    let subject = Subject {
+        calibration: &record,
+        file: "calibration.json",
+        accuracy: predicted_accuracy(&record, None),
+    };
+    let md = render(&subject, Format::Markdown).unwrap();
+    assert!(md.contains("## Down-weighted observations"), "{md}");
+    assert!(md.contains(&format!(
+        "| measurements.csv | {} | {:.2e} |",
+        row + 2,
+        blunder.weight
+    )));
+}

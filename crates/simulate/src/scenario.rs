@@ -5,7 +5,11 @@
 use nalgebra::UnitQuaternion;
 use parcal_kinematics::{Geometry, Vec3, paper};
 
-use crate::Plate;
+use crate::{Plate, Rng};
+
+/// The stream of [`Scenario::design_drawn`] (the balls use `0..n`, a
+/// random plan and the plate `u64::MAX`).
+const DESIGN_STREAM: u64 = u64::MAX - 1;
 
 /// Everything that defines a simulated campaign except the seed.
 #[derive(Debug, Clone, PartialEq)]
@@ -162,6 +166,33 @@ impl Scenario {
             points_per_ball,
             max_tilt,
             ..Self::paper()
+        }
+    }
+
+    /// This campaign with its design drawn about its truth: every
+    /// coordinate of the design (base and platform joints, tool, leg
+    /// lengths) the truth's plus a normal deviate of sigma `prior_sigma`,
+    /// from stream `(seed, DESIGN_STREAM)`. The truth is then a draw of the
+    /// prior the design states (design ± tolerance), as the statistical
+    /// tests of a calibration assume; the paper's table 2 is one fixed
+    /// truth, whose prior rows do not scatter from seed to seed.
+    pub fn design_drawn(self, seed: u64) -> Self {
+        let mut rng = Rng::new(seed, DESIGN_STREAM);
+        let sigma = self.prior_sigma;
+        let mut near = |v: &Vec3| v.map(|c| c + rng.normal(sigma));
+        let truth = &self.truth;
+        let base = truth.base.each_ref().map(&mut near);
+        let platform = truth.platform.each_ref().map(&mut near);
+        let tool = near(&truth.tool);
+        let legs = truth.legs.map(|l| l + rng.normal(sigma));
+        Self {
+            design: Geometry {
+                base,
+                platform,
+                tool,
+                legs,
+            },
+            ..self
         }
     }
 

@@ -339,6 +339,16 @@ pub fn calibration() -> Calibration {
                 map_rms_um: Some(1.5),
                 map_max_um: Some(4.25),
             }],
+            systematic_tests: vec![SystematicTestRecord {
+                effect: "ball radius".into(),
+                estimate: 0.02,
+                sigma: 0.0019,
+                unit: "mm".into(),
+                level: 0.001,
+                critical_value: 3.29,
+                variance_factor_without: 0.875,
+                outcome_without: "consistent".into(),
+            }],
         }),
     }
 }

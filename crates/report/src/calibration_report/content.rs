@@ -3,6 +3,7 @@
 //! it): the verdict first, then the tests, the observations, the
 //! parameters and the predicted accuracy.
 
+use parcal_calibrate::robust::DOWN_WEIGHTED;
 use parcal_dataset::{Calibration, GlobalTestRecord, ObservationCheck, ObservationTests};
 use parcal_workflows::evaluate::Accuracy;
 
@@ -35,7 +36,9 @@ pub fn blocks(subject: &Subject) -> Result<Vec<Block>, String> {
     out.extend(provenance(subject));
     out.extend(global_test(c));
     out.extend(variance_components(c));
+    out.extend(systematic_tests(c));
     out.extend(removed(c));
+    out.extend(down_weighted(c));
     out.extend(observations(c)?);
     out.extend(parameters(c)?);
     out.extend(weak_directions(c));
@@ -245,6 +248,110 @@ fn variance_components(c: &Calibration) -> Vec<Block> {
         ));
     }
     out
+}
+
+/// The tests of common errors of the entered data, when the global test
+/// rejected the run.
+fn systematic_tests(c: &Calibration) -> Vec<Block> {
+    let tests = c
+        .diagnostics
+        .as_ref()
+        .map_or(&[][..], |d| &d.systematic_tests[..]);
+    if tests.is_empty() {
+        return vec![];
+    }
+    let explaining: Vec<&str> = tests
+        .iter()
+        .filter(|t| {
+            (t.estimate / t.sigma).abs() > t.critical_value && t.outcome_without == "consistent"
+        })
+        .map(|t| t.effect.as_str())
+        .collect();
+    let summary = if explaining.is_empty() {
+        "No common error of the entered data tested here explains the misfit alone.".to_string()
+    } else {
+        format!(
+            "The misfit is explained by a common error of the entered data: {}. Correct the data and calibrate again.",
+            explaining.join(", ")
+        )
+    };
+    vec![
+        Block::Heading(2, "Systematic errors".into()),
+        Block::Paragraph(
+            Tone::Plain,
+            format!(
+                "The global test rejected the run: each common error below is estimated from the residuals as one more unknown (the correction the data ask for, with its σ), tested at {}% (|w| = |estimate / σ| against its critical value), and removed to see whether the rest fits. {summary}",
+                tests[0].level * 100.0
+            ),
+        ),
+        Block::Table {
+            header: vec![
+                "effect".into(),
+                "correction".into(),
+                "σ".into(),
+                "unit".into(),
+                "w".into(),
+                "critical value".into(),
+                "variance factor without it".into(),
+                "outcome without it".into(),
+            ],
+            rows: tests
+                .iter()
+                .map(|t| {
+                    let w = t.estimate / t.sigma;
+                    vec![
+                        Cell::text(&t.effect),
+                        Cell::number(format!("{:+.3e}", t.estimate)),
+                        Cell::number(format!("{:.1e}", t.sigma)),
+                        Cell::text(&t.unit),
+                        Cell::number(format!("{w:+.2}")).flagged(w.abs() > t.critical_value),
+                        number(t.critical_value, 2),
+                        number(t.variance_factor_without, 3),
+                        Cell::text(&t.outcome_without).flagged(t.outcome_without != "consistent"),
+                    ]
+                })
+                .collect(),
+        },
+    ]
+}
+
+/// The observations a robust loss down-weighted, when it did.
+fn down_weighted(c: &Calibration) -> Vec<Block> {
+    let listed = &c.down_weighted_observations;
+    if listed.is_empty() {
+        return vec![];
+    }
+    let mut sorted: Vec<_> = listed.iter().collect();
+    sorted.sort_by(|a, b| a.weight.total_cmp(&b.weight));
+    vec![
+        Block::Heading(2, "Down-weighted observations".into()),
+        Block::Paragraph(
+            Tone::Plain,
+            format!(
+                "The robust loss gave {} a weight under {DOWN_WEIGHTED}, least weight first: likely blunders, kept in the fit with little influence.",
+                counted(listed.len(), "observation", "observations")
+            ),
+        ),
+        Block::Table {
+            header: vec![
+                "file".into(),
+                "line".into(),
+                "weight".into(),
+                "residual / σ".into(),
+            ],
+            rows: sorted
+                .iter()
+                .map(|d| {
+                    vec![
+                        Cell::text(&d.file),
+                        line_or_field(d.line, d.field.as_deref()),
+                        Cell::number(format!("{:.2e}", d.weight)),
+                        number(d.residual_sigmas, 1),
+                    ]
+                })
+                .collect(),
+        },
+    ]
 }
 
 /// The observations data snooping removed.
