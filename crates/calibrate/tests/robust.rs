@@ -169,3 +169,22 @@ fn a_robust_loss_refuses_data_snooping() {
     };
     assert!(error.to_string().contains("data snooping"), "{error}");
 }
+
+/// A reading 5 mm short puts the tool tip near its ball's centre (radius
+/// 5 mm), where the contact's direction is undefined: Gauss-Newton with
+/// Huber's loss ends at its iteration limit above its first cost, is run
+/// again with Levenberg-Marquardt (the run-away rule), and the run that
+/// still has not settled is rejected, never accepted.
+#[test]
+fn a_tip_at_the_ball_centre_is_run_again_and_rejected() {
+    let mut blundered = paper();
+    blundered.measurements.q[38][2] -= 5.0;
+    let run = calibrate(&blundered, &robust(HUBER), &mut |_| {}).unwrap();
+    let first = run.gauss_newton.as_ref().expect("run again");
+    println!(
+        "Gauss-Newton: {:?}, cost {:.3e} -> {:.3e}; again: {:?}",
+        first.status, first.initial_cost, first.final_cost, run.status
+    );
+    assert!(first.final_cost > first.initial_cost);
+    assert!(!run.verdict().accepted);
+}
