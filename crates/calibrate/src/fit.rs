@@ -35,8 +35,8 @@ pub struct BallMisfit {
 /// same order) whose cost is beyond the `1 − FAMILY_TAIL / B` quantile of
 /// chi-square(`n − 3`); balls with fewer than 4 contacts have no degrees of
 /// freedom and are not tested.
-pub fn misfit_balls(
-    ids: &[String],
+pub fn misfit_balls<'a>(
+    ids: impl ExactSizeIterator<Item = &'a str>,
     costs: &[f64],
     contacts: impl IntoIterator<Item = usize>,
 ) -> Vec<BallMisfit> {
@@ -44,8 +44,7 @@ pub fn misfit_balls(
     // The quantile of each number of degrees of freedom, computed once
     // (limits[d]; index 0 is never read).
     let mut limits = vec![f64::NAN];
-    ids.iter()
-        .zip(costs)
+    ids.zip(costs)
         .zip(contacts)
         .enumerate()
         .filter_map(|(ball, ((id, &cost), n))| {
@@ -57,7 +56,7 @@ pub fn misfit_balls(
             let passes = cost <= limits[degrees_of_freedom];
             (!passes).then(|| BallMisfit {
                 ball,
-                id: id.clone(),
+                id: id.to_string(),
                 chi_square: cost,
                 degrees_of_freedom,
             })
@@ -80,7 +79,7 @@ mod tests {
         let mut contacts = vec![7; 1000];
         contacts[3] = 3; // no degrees of freedom: not tested
         costs[3] = 1e9;
-        let misfits = misfit_balls(&ids, &costs, contacts);
+        let misfits = misfit_balls(ids.iter().map(String::as_str), &costs, contacts);
         let flagged: Vec<&str> = misfits.iter().map(|m| m.id.as_str()).collect();
         assert_eq!(flagged, ["b500", "b900"]);
         assert_eq!(misfits[0].degrees_of_freedom, 4);

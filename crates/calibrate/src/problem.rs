@@ -335,6 +335,25 @@ pub struct DistanceObservation {
     pub block: DistanceBlock,
 }
 
+/// The prior of a ball's unknowns as artefacts.json states it: each value
+/// independent about its mean, with its standard deviation (infinite: no
+/// information). `2 G` values a ball where the full prior would keep `G +
+/// G²` (a million contacts have some 140 000 balls).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BallPrior<const G: usize> {
+    /// The mean: the centre, then the radius when `G` = 4.
+    pub mean: SVector<f64, G>,
+    /// The standard deviation of each value.
+    pub sigma: SVector<f64, G>,
+}
+
+impl<const G: usize> BallPrior<G> {
+    /// As the solver takes it: information `diag(1/σ²)`.
+    pub fn gaussian(&self) -> GaussianPrior<Const<G>> {
+        GaussianPrior::from_sigmas(self.mean, self.sigma)
+    }
+}
+
 /// The kinematic parameters of a global block: its first 33 values.
 pub(crate) fn kinematic_params(global: &DVector<f64>) -> Params {
     let mut params = Params::zeros();
@@ -379,7 +398,7 @@ pub struct CalibrationProblem<'a, O, const G: usize> {
     /// centre's where it has one (zero information otherwise) and, with
     /// `G` = 4, the radius's; those of balls whose unknowns are in the
     /// global block are part of `global_prior` instead.
-    pub ball_priors: Option<Vec<GaussianPrior<Const<G>>>>,
+    pub ball_priors: Option<Vec<BallPrior<G>>>,
     /// Forward kinematics' tolerance and iteration limit.
     pub forward_options: ForwardOptions,
     /// The poses and points measured with the touches, global
@@ -731,7 +750,7 @@ where
         if self.group_is_fixed(k) {
             return None;
         }
-        self.ball_priors.as_ref().map(|priors| priors[k].clone())
+        self.ball_priors.as_ref().map(|priors| priors[k].gaussian())
     }
 
     /// The calibrated distances, `c = (L_ab − |C_a − C_b|) / σ_ab`

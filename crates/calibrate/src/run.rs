@@ -418,18 +418,11 @@ fn calibrate_once(
         time_limit: options.time_limit,
         ..SolverOptions::default()
     };
-    let ball_ids: Vec<String> = dataset
-        .artefacts
-        .balls
-        .iter()
-        .map(|b| b.id.clone())
-        .collect();
     let solver = SolverRun {
         setup: &setup,
         dataset,
         options,
         solver: &solver_options,
-        ball_ids: &ball_ids,
     };
     let solved = match (observations, options.radius) {
         (Observations::Radius(observations), RadiusModel::PerContact) => {
@@ -452,6 +445,13 @@ fn calibrate_once(
     for mirrored in &solved.mirrored {
         setup.initial_centres[mirrored.ball] = mirrored.initial_centre;
     }
+    // Copied once the solve, where memory peaks, is over.
+    let ball_ids: Vec<String> = dataset
+        .artefacts
+        .balls
+        .iter()
+        .map(|b| b.id.clone())
+        .collect();
     let mut conflicts = Vec::new();
     if let (Some(prior), Some(covariance)) = (&setup.prior, &solved.covariance) {
         let d = solved.params - prior.mean();
@@ -592,8 +592,6 @@ struct SolverRun<'a> {
     dataset: &'a Dataset,
     options: &'a CalibrationOptions,
     solver: &'a SolverOptions,
-    /// artefacts.json's ids.
-    ball_ids: &'a [String],
 }
 
 impl SolverRun<'_> {
@@ -692,7 +690,7 @@ impl SolverRun<'_> {
                 }
                 mirrored.push(Mirrored {
                     ball: k,
-                    id: self.ball_ids[k].clone(),
+                    id: self.dataset.artefacts.balls[k].id.clone(),
                     initial_centre,
                     iteration,
                     side,
@@ -834,7 +832,7 @@ impl SolverRun<'_> {
     /// than the noise allows ([`crate::fit`]).
     fn misfits(&self, costs: &[f64]) -> Vec<BallMisfit> {
         misfit_balls(
-            self.ball_ids,
+            self.dataset.artefacts.balls.iter().map(|b| b.id.as_str()),
             costs,
             self.setup.groups.iter().map(|g| g.len()),
         )

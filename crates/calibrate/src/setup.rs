@@ -8,9 +8,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{
-    Const, DMatrix, DVector, Dyn, Matrix3x6, Matrix6, SMatrix, SVector, UnitVector3, Vector6,
-};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix3x6, Matrix6, SMatrix, SVector, UnitVector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
@@ -25,7 +23,7 @@ use rayon::prelude::*;
 use crate::instruments::run::{group_priors, initial_block};
 use crate::layout::ParameterLayout;
 use crate::problem::{
-    ActuatorScales, CalibrationProblem, CoordinateObservations, DistanceObservation,
+    ActuatorScales, BallPrior, CalibrationProblem, CoordinateObservations, DistanceObservation,
     RadiusObservations,
 };
 use crate::sphere_fit::{SphereFitError, best_fit, mirror_fit};
@@ -286,7 +284,7 @@ impl Setup {
     fn global_prior<const G: usize>(
         &self,
         dataset: &Dataset,
-        ball_priors: Option<&[GaussianPrior<Const<G>>]>,
+        ball_priors: Option<&[BallPrior<G>]>,
     ) -> Option<GaussianPrior<Dyn>> {
         let tied = |ball: usize| Some((self.layout.ball(ball)?, ball_priors?.get(ball)?));
         let any_centre = (0..self.initial_centres.len()).any(|ball| tied(ball).is_some());
@@ -305,6 +303,7 @@ impl Setup {
         }
         for ball in 0..self.initial_centres.len() {
             if let Some((range, prior)) = tied(ball) {
+                let prior = prior.gaussian();
                 mean.rows_mut(range.start, G).copy_from(&prior.mean);
                 information
                     .view_mut((range.start, range.start), (G, G))
@@ -752,7 +751,7 @@ fn ball_priors<const G: usize>(
     dataset: &Dataset,
     setup: &Setup,
     mode: PriorMode,
-) -> Option<Vec<GaussianPrior<Const<G>>>> {
+) -> Option<Vec<BallPrior<G>>> {
     let balls = &dataset.artefacts.balls;
     let means: Option<Vec<Vec3>> = match (mode, dataset.artefacts.frame) {
         (PriorMode::Paper, _) => Some(setup.initial_centres.clone()),
@@ -776,8 +775,8 @@ fn ball_priors<const G: usize>(
                 } else {
                     f64::INFINITY
                 };
-                let sigmas = ball_vector(&Vec3::repeat(centre_sigma), ball.radius_sigma);
-                GaussianPrior::from_sigmas(mean, sigmas)
+                let sigma = ball_vector(&Vec3::repeat(centre_sigma), ball.radius_sigma);
+                BallPrior { mean, sigma }
             })
             .collect(),
     )

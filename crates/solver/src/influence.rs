@@ -73,7 +73,10 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
     rows: &[RowId],
 ) -> Result<Vec<RowInfluence>, Status> {
     let invalid = |message: String| Status::InvalidProblem { message };
-    let ctx = Context::new(problem, state, caches, 1).map_err(invalid)?;
+    // One chunk of every group (the context checks the groups' points): the
+    // chosen groups are eliminated one at a time below, and a chunk per
+    // group would cost 32 bytes a group.
+    let ctx = Context::new(problem, state, caches, problem.n_groups().max(1)).map_err(invalid)?;
     let g = ctx.dims.g;
     let (_, factor) = covariance_factor(covariance, g)?;
     let observations = if rows
@@ -100,9 +103,7 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
                         state.points.len()
                     )));
                 }
-                let k = ctx.chunks.iter().find(|c| c.points.contains(&point));
-                let k = k.expect("the chunks cover the points").groups.start;
-                groups.push((k, point));
+                groups.push((group_of(problem, point), point));
             }
             RowId::GlobalObservation(o) => {
                 let m = observations.as_ref().map_or(0, |o| o.residual.len());
@@ -182,6 +183,25 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
             }
         })
         .collect())
+}
+
+/// The group of point `point` of `problem`, whose groups' points are
+/// contiguous and in order (as the context checked): the first group
+/// whose points end after it, by bisection.
+fn group_of<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
+    problem: &Pr,
+    point: usize,
+) -> usize {
+    let (mut low, mut high) = (0, problem.n_groups());
+    while low < high {
+        let middle = low + (high - low) / 2;
+        if problem.group_points(middle).end <= point {
+            low = middle + 1;
+        } else {
+            high = middle;
+        }
+    }
+    low
 }
 
 /// `−L z` for the lower-triangular `L` (`G × G`, row-major): the global
