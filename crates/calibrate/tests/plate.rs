@@ -141,3 +141,54 @@ fn a_ball_plate_brings_the_registered_error_to_its_prediction() {
         100.0 * PREDICTION_TOLERANCE
     );
 }
+
+/// The plate with its prior holding as stated (the design drawn about the
+/// truth in each seed, `Scenario::design_drawn`), seeds 1 to 30, at the
+/// paper's noise and at every noise (actuators, tool, radius, distances)
+/// times 0.1: the true registered RMS over the seeds, per um of noise,
+/// stays within 25 % of the predicted; at the smaller noise, where the
+/// problem is linear over the errors, the NEES of the 33 is 33 within 4
+/// standard errors of its mean. At the paper's noise it is printed: above
+/// 33 by the nonlinearity the next section of docs/calibration.md names.
+#[test]
+fn with_the_prior_holding_the_plate_s_prediction_is_the_truth() {
+    for scale in [1.0, 0.1] {
+        let (mut true_rms, mut predicted, mut nees) = (Vec::new(), Vec::new(), Vec::new());
+        for seed in 1..=30 {
+            let paper = Scenario::paper();
+            let scenario = Scenario {
+                plate: Some(Plate {
+                    pairs: PlatePairs::All,
+                    sigma: 1e-3 * scale,
+                }),
+                actuator_sigma: paper.actuator_sigma * scale,
+                tool_sigma: paper.tool_sigma * scale,
+                radius_sigma: paper.radius_sigma * scale,
+                ..paper
+            }
+            .design_drawn(seed);
+            let outcome = registered_rms(&scenario, seed);
+            true_rms.push(outcome.true_rms / scale);
+            predicted.push(outcome.predicted_rms / scale);
+            nees.push(outcome.nees);
+        }
+        let n = nees.len() as f64;
+        let mean_nees = nees.iter().sum::<f64>() / n;
+        let standard_error =
+            (nees.iter().map(|v| (v - mean_nees).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+                / n.sqrt();
+        let (true_rms, predicted) = (rms(&true_rms), rms(&predicted));
+        println!(
+            "noise x {scale}: true registered RMS {:.3} um per um of noise, predicted {:.3}; NEES {mean_nees:.1} +- {standard_error:.1}",
+            1e3 * true_rms,
+            1e3 * predicted
+        );
+        assert!((predicted / true_rms - 1.0).abs() <= PREDICTION_TOLERANCE);
+        if scale < 1.0 {
+            assert!(
+                (mean_nees - 33.0).abs() < 4.0 * standard_error,
+                "NEES {mean_nees}"
+            );
+        }
+    }
+}
