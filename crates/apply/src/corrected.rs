@@ -4,7 +4,7 @@
 //! its own nominal model, the design geometry: leg `i` of length
 //! `l_i^d + s_i^d q_i`. Sent the pose `P'`, it commands `q = IK_d(P')`. For
 //! the machine to reach the target it must command the calibrated model's
-//! `q` ([`crate::compensate`]), so the pose to send is the nominal forward
+//! `q` ([`crate::compensate`](fn@crate::compensate)), so the pose to send is the nominal forward
 //! kinematics of those commands, `P' = FK_d(q)`: the corrected pose, given
 //! as a target row (the design tool's tip and the platform's angles).
 

@@ -3,7 +3,7 @@
 //!
 //! - [`placement`]: the calibrated geometry (canonical frames) placed in the
 //!   design frame by the best rigid fit of its joints onto the design's;
-//! - [`compensate`]: targets (tool tip and platform orientation, design
+//! - [`compensate`](mod@compensate): targets (tool tip and platform orientation, design
 //!   frame) to actuator commands by the placed geometry's inverse
 //!   kinematics, refusing targets outside the stroke or near a singularity;
 //! - [`corrected`]: the poses to send to a controller that uses the nominal

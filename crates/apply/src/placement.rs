@@ -4,7 +4,7 @@
 //! (docs/formulation.md section 2): base frame on B1, B2, B3, platform frame
 //! on E1, E2, E3. A user commands targets in the design frame, so the
 //! calibrated geometry is placed there by the best rigid fit (Kabsch,
-//! [`parcal_accuracy::kabsch`]) of its base joints onto the design's base
+//! [`parcal_accuracy::kabsch`](fn@parcal_accuracy::kabsch)) of its base joints onto the design's base
 //! joints, and of its platform joints and tool tip onto the design's
 //! platform joints and tool. The choice is a convention: any rigid placement
 //! is the same machine, and the rigid registration a user makes afterwards

@@ -57,7 +57,9 @@ mod validate;
 pub mod verdict;
 
 pub use error::{CalibrateError, InstrumentTable};
-pub use options::{CalibrationOptions, Observation, PriorMode, RadiusModel, Simulation};
+pub use options::{
+    CalibrationOptions, Observation, PriorMode, ROBUST_ITERATIONS, RadiusModel, Simulation,
+};
 pub use parcal_kinematics::ParamCovariance;
 pub use parcal_observe::WeightModel;
 pub use parcal_solver::{CAUCHY_K, HUBER_K, IterationRecord, Loss, Method};

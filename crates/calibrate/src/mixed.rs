@@ -17,7 +17,7 @@
 //! Each pose's six rows and each point's three are weighed once at the
 //! initial estimate ([`InstrumentRows::weigh`]), as the contacts are, and
 //! the instrument groups have the priors of an instrument calibration
-//! ([`crate::instruments::run::group_priors`]).
+//! (`instruments::run::group_priors`).
 //!
 //! The touches and the instrument rows read the same actuators: leg `i` is
 //! `l_i + s_i q_i` long for both, and with unknown scales (machine.json's

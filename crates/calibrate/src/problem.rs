@@ -685,7 +685,7 @@ where
     /// the machine has AVX2, [`forward_along_batch`]), the lanes' row order
     /// carried from batch to batch in the workspace. With unknown scales
     /// each contact's step of its leg extensions differs
-    /// ([`ActuatorScales::along`]): the contacts go one at a time.
+    /// (`ActuatorScales::along`): the contacts go one at a time.
     /// `d_global.tip` is not written: the back-substitution needs only
     /// `d_global dg`.
     fn linearize_along_batch(

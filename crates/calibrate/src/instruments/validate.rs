@@ -155,7 +155,7 @@ pub struct Validation {
     /// The re-fitted groups, by name.
     pub refitted: Vec<String>,
     /// Each candidate nuisance model (its groups' names joined by ` + `)
-    /// with its expected prediction RMS (mm, [`expected_prediction_error`]);
+    /// with its expected prediction RMS (mm, `expected_prediction_error`);
     /// empty when there was one candidate or no re-fit.
     pub selection: Vec<(String, f64)>,
     /// Observed residuals of the predicted rows (mm): six leg lengths per
