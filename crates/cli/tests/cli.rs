@@ -103,6 +103,63 @@ fn simulate_writes_a_ball_plate_and_inspect_counts_it() {
     assert!(stdout.contains("ball distances     5 (tying "), "{stdout}");
 }
 
+/// `--design-drawn`: the same true machine, and machine.json's design a
+/// draw about it by the design tolerance: the 45 deviations of the design
+/// from the truth (joints, tool, legs), in tolerances, have a sum of
+/// squares inside chi-square(45)'s central 99.98 % (17.8 to 89.2, a
+/// single draw fails with probability 2e-4); the same seed draws the same
+/// design.
+#[test]
+fn simulate_draws_the_design_about_the_truth() {
+    let temp = tempfile::tempdir().unwrap();
+    let (paper, drawn, again) = (
+        temp.path().join("paper"),
+        temp.path().join("drawn"),
+        temp.path().join("again"),
+    );
+    simulate(&paper, &[]);
+    simulate(&drawn, &["--design-drawn"]);
+    simulate(&again, &["--design-drawn"]);
+    let json = |dir: &Path, file: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join(file)).unwrap()).unwrap()
+    };
+    let (truth, design) = (json(&drawn, "truth.json"), json(&drawn, "machine.json"));
+    for key in ["base_joints", "platform_joints", "tool", "leg_lengths"] {
+        assert_eq!(
+            truth[key],
+            json(&paper, "truth.json")[key],
+            "the truth's {key}"
+        );
+    }
+    assert_ne!(
+        design["base_joints"],
+        json(&paper, "machine.json")["base_joints"]
+    );
+    assert_eq!(design, json(&again, "machine.json"));
+    fn numbers(v: &serde_json::Value) -> Vec<f64> {
+        match v {
+            serde_json::Value::Array(items) => items.iter().flat_map(numbers).collect(),
+            other => vec![other.as_f64().unwrap()],
+        }
+    }
+    let mut sum = 0.0;
+    let mut count = 0;
+    for (key, sigma) in [
+        ("base_joints", "base"),
+        ("platform_joints", "platform"),
+        ("tool", "tool"),
+        ("leg_lengths", "leg"),
+    ] {
+        let tolerance = design["prior_sigma"][sigma].as_f64().unwrap();
+        for (d, t) in numbers(&design[key]).iter().zip(numbers(&truth[key])) {
+            sum += ((d - t) / tolerance).powi(2);
+            count += 1;
+        }
+    }
+    assert_eq!(count, 45);
+    assert!((17.8..89.2).contains(&sum), "sum of squares {sum}");
+}
+
 #[test]
 fn simulate_refuses_a_bad_plate() {
     let temp = tempfile::tempdir().unwrap();
