@@ -783,10 +783,12 @@ impl SolverRun<'_> {
             )?),
             _ => None,
         };
-        // A misfit of least squares: which common error explains it.
+        // A misfit of least squares at its minimum: which common error
+        // explains it.
         if let (Some(reliability), Some(test)) = (&mut reliability, &global_test)
             && test.outcome == Outcome::TooLarge
             && problem.loss.is_squared()
+            && matches!(solution.status, Status::Converged)
         {
             reliability.systematic = systematic_tests(
                 &mut *problem,

@@ -21,9 +21,9 @@
 //! Gauss–Newton step of the problem with the effect applied, `m(t) = ‖P
 //! e(t)‖² = Ω + 2t cᵀPê + t² cᵀPc` ([`parcal_solver::linear_step`]: the
 //! cost minus the predicted decrease; `Pê = ê` at convergence), at `t =
-//! ±h`: two linear solves per effect, made only for a run whose global test
-//! rejects it. The residuals are linear in both effects, so the two values
-//! give the quadratic exactly.
+//! ±h`: two linear solves per effect, made only for a converged
+//! least-squares run whose global test rejects it. The residuals are
+//! linear in both effects, so the two values give the quadratic exactly.
 
 use parcal_solver::{Problem, State, linear_step};
 
