@@ -94,8 +94,8 @@ fn per_ball_nees_is_chi_square_33_where_the_data_outweigh_the_prior() {
 /// seed (`Scenario::design_drawn`: the truth a draw of the prior the design
 /// states), and with table 2's one truth once its tool's z, 0.411 mm from
 /// the design (4.1 times the tolerance), is brought to 0.041 mm. As given,
-/// the one truth gives about 36.8 (docs/calibration.md): the prior pulls
-/// the estimate toward a design that deviation is improbable under.
+/// the one truth gives more (docs/calibration.md): the prior pulls the
+/// estimate toward a design that deviation is improbable under.
 #[test]
 fn per_ball_nees_is_chi_square_33_where_the_prior_holds() {
     let seeds = 200;

@@ -212,8 +212,8 @@ fn a_plate_scale_error_is_rejected_and_named() {
 /// Over 1000 clean Monte Carlo draws of the paper scenario, each with its
 /// design drawn about the truth by the design tolerance (so that the prior
 /// holds as the tests assume: with the fixed truth of table 2 the prior
-/// rows do not scatter, and the variance factor's spread is 0.91 of
-/// chi-square's): the variance factor has the mean and spread of
+/// rows do not scatter, and the variance factor spreads less than
+/// chi-square's, docs/calibration.md): the variance factor has the mean and spread of
 /// `χ²(r)/r` (mean within 4 standard errors of 1, standard deviation
 /// within 10 % of `√(2/r)`: 4 standard errors of a sample deviation over
 /// 1000 draws are 9 %); the global test (5 %, two-sided) rejects at its
