@@ -317,9 +317,9 @@ fn geometry_record(geometry: &Geometry) -> GeometryRecord {
 ///
 /// A Gauss-Newton run that runs away (it ends diverged, or failed after
 /// its first step, or at its iteration limit after a step raised the cost
-/// more than [`RUNAWAY_RISE`]-fold or with a cost above its first: a
-/// blunder or a start far from the solution, where full steps overshoot)
-/// is made again with Levenberg-Marquardt, whose
+/// more than [`RUNAWAY_RISE`]-fold, or with a cost above its first, or
+/// with a robust loss: a blunder or a start far from the solution, where
+/// full steps overshoot) is made again with Levenberg-Marquardt, whose
 /// steps never raise the cost; [`CalibrationRun::gauss_newton`] keeps how
 /// the first run ended.
 pub fn calibrate(
@@ -341,10 +341,13 @@ pub fn calibrate(
             // A full step to where the machine's forward kinematics fails
             // (large tilts): Levenberg-Marquardt rejects such a step.
             Status::ProblemFailed { iteration, .. } => iteration > 0,
-            // Or ended above where it started (a robust loss's
-            // iteration caught between two bad iterates).
+            // Or ended above where it started; or, with a robust loss,
+            // did not settle at all (its reweighting can keep full steps
+            // from settling where damped ones do).
             Status::IterationLimit => {
-                overshot || costs.is_some_and(|(first, last)| last.cost > first.cost)
+                overshot
+                    || costs.is_some_and(|(first, last)| last.cost > first.cost)
+                    || !options.loss.is_squared()
             }
             _ => false,
         };

@@ -539,20 +539,18 @@ impl Starts<'_> {
         };
         // A fit that crawls along a valley of its cost (a few close points
         // whose design-FK errors are a tenth of the radius, as at large
-        // tilts) still ends downhill of its start: the data cannot place the
-        // centre along that valley at the design's accuracy, the
-        // calibration's iterations do.
-        let fit = match best_fit(&points, artefact.radius) {
-            Err(SphereFitError::NotConverged { last }) => last,
-            fit => fit.map_err(fit_error)?,
+        // tilts, or a blunder among them) still ends downhill of its start:
+        // the data cannot place the centre along that valley at the design's
+        // accuracy, the calibration's iterations do (and its checks name
+        // the blunder). So for the fit of the mirror image.
+        let settled = |fit| match fit {
+            Err(SphereFitError::NotConverged { last }) => Ok(last),
+            fit => fit.map_err(fit_error),
         };
+        let fit = settled(best_fit(&points, artefact.radius))?;
         let centre = match start {
             CentreStart::BestFit => fit.centre,
-            CentreStart::Mirror => {
-                mirror_fit(&points, artefact.radius, &fit)
-                    .map_err(fit_error)?
-                    .centre
-            }
+            CentreStart::Mirror => settled(mirror_fit(&points, artefact.radius, &fit))?.centre,
         };
         let machine = &dataset.machine.repeatability;
         // A per-ball radius carries its error as an unknown with a prior,

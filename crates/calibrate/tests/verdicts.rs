@@ -9,8 +9,13 @@ use parcal_calibrate::reliability::{ObservationId, minimal_detectable_bias};
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_calibrate::systematic::Effect;
 use parcal_calibrate::verdict::Outcome;
-use parcal_calibrate::{CalibrationOptions, CalibrationRun, RadiusModel, calibrate};
+use parcal_calibrate::{
+    CAUCHY_K, CalibrationOptions, CalibrationRun, HUBER_K, Loss, RadiusModel, calibrate,
+};
 use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
+
+const HUBER: Loss = Loss::Huber { k: HUBER_K };
+const CAUCHY: Loss = Loss::Cauchy { k: CAUCHY_K };
 
 /// A reading off by 50 um (50 sigma of the actuators) among the 189 of the
 /// paper scenario: the global test rejects the run, data snooping removes
@@ -48,6 +53,66 @@ fn a_blunder_is_found_and_removed() {
 /// One ball's radius entered 20 um too small (20 of its sigmas). With each
 /// ball's radius an unknown (the default), the radius priors' conflict test
 /// names that radius alone, and the global test rejects the run.
+/// A reading 5 mm off (row 38, leg 3) in each of 30 draws of the paper
+/// scenario, the design drawn about the truth: data snooping removes that
+/// contact in every draw (with at most one other: a neighbour the blunder
+/// pulled beyond the critical value before it was removed) and accepts the
+/// rest, and the true registered RMS over the draws is within 20 % of the
+/// clean calibrations'. A blunder can leave its ball's initial sphere fit
+/// unconverged; the fit's last iterate is then the start. The robust
+/// losses on the same draws are printed (their runs that did not converge
+/// are rejected; docs/calibration.md).
+#[test]
+fn a_gross_blunder_is_removed_in_every_draw() {
+    let (row, draws) = (38, 30);
+    let options = CalibrationOptions::default();
+    let (mut clean_rms, mut snooped_rms) = (Vec::new(), Vec::new());
+    let mut robust: Vec<(Loss, usize, Vec<f64>)> = [HUBER, CAUCHY]
+        .into_iter()
+        .map(|loss| (loss, 0, Vec::new()))
+        .collect();
+    for seed in 1..=draws {
+        let clean = simulate(&Scenario::paper().design_drawn(seed), seed)
+            .unwrap()
+            .dataset;
+        let clean_run = calibrate(&clean, &options, &mut |_| {}).unwrap();
+        let mut blundered = clean.clone();
+        blundered.measurements.q[row][2] += 5.0;
+        let snooped = snoop(&blundered, &options);
+        let removed = removed(&snooped);
+        assert!(
+            removed.contains(&ObservationId::Contact(row)) && removed.len() <= 2,
+            "seed {seed}: removed {removed:?}"
+        );
+        assert!(snooped.run.verdict().accepted, "seed {seed}");
+        clean_rms.push(true_registered_rms(&clean, &clean_run));
+        snooped_rms.push(true_registered_rms(&blundered, &snooped.run));
+        for (loss, converged, rms) in &mut robust {
+            let robust = options.clone().with_loss(*loss);
+            let run = calibrate(&blundered, &robust, &mut |_| {}).unwrap();
+            if run.converged() {
+                *converged += 1;
+                rms.push(true_registered_rms(&blundered, &run));
+            }
+        }
+    }
+    let rms =
+        |values: &[f64]| (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
+    let (clean, snooped) = (rms(&clean_rms), rms(&snooped_rms));
+    println!(
+        "{draws} draws, true registered RMS: clean {:.2} um, 5 mm blunder snooped {:.2} um",
+        clean * 1e3,
+        snooped * 1e3
+    );
+    for (loss, converged, values) in &robust {
+        println!(
+            "  {loss}: converged in {converged} of {draws}, their true registered RMS {:.2} um",
+            rms(values) * 1e3
+        );
+    }
+    assert!((snooped / clean - 1.0).abs() < 0.2);
+}
+
 #[test]
 fn a_wrong_radius_is_named_by_its_radius_prior() {
     let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
