@@ -148,7 +148,7 @@ pub fn systematic_sentence(test: &SystematicTest, global: &GlobalTest) -> Option
     };
     Some(if !test.significant() {
         format!(
-            "no common {} error: the data ask for {correction} ({statistic})",
+            "no common {} error shows: the data ask for {correction} ({statistic})",
             test.effect.name()
         )
     } else if without.outcome == Outcome::Consistent {

@@ -139,6 +139,8 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     assert!(html.contains("Systematic errors"));
     assert!(html.contains(&format!("{:+.3e}", test.estimate)));
     assert!(html.contains("explained by a common error of the entered data: ball radius"));
+    // The verdict line says so too.
+    assert!(html.contains("explained by a common ball radius error (Systematic errors, below)"));
 }
 
 /// One reading 5 mm off, calibrated with the Cauchy loss: the page lists

@@ -78,7 +78,18 @@ fn verdict(c: &Calibration) -> Vec<Block> {
             counted(c.reasons.len(), "reason", "reasons"),
             counted(c.warnings.len(), "warning", "warnings")
         ),
-        ("rejected", Some(reason)) => format!("{word}: do not use this calibration: {reason}."),
+        ("rejected", Some(reason)) => {
+            let explained = explaining_effects(c);
+            let explained = if explained.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; explained by a common {} error (Systematic errors, below)",
+                    explained.join(" and a common ")
+                )
+            };
+            format!("{word}: do not use this calibration: {reason}{explained}.")
+        }
         ("rejected", None) => format!("{word}: do not use this calibration."),
         _ => format!(
             "{word}: this calibration.json was written before verdicts were recorded; its status: {}.",
@@ -260,13 +271,7 @@ fn systematic_tests(c: &Calibration) -> Vec<Block> {
     if tests.is_empty() {
         return vec![];
     }
-    let explaining: Vec<&str> = tests
-        .iter()
-        .filter(|t| {
-            (t.estimate / t.sigma).abs() > t.critical_value && t.outcome_without == "consistent"
-        })
-        .map(|t| t.effect.as_str())
-        .collect();
+    let explaining = explaining_effects(c);
     let summary = if explaining.is_empty() {
         "No common error of the entered data tested here explains the misfit alone.".to_string()
     } else {
@@ -313,6 +318,22 @@ fn systematic_tests(c: &Calibration) -> Vec<Block> {
                 .collect(),
         },
     ]
+}
+
+/// The common errors of the entered data that explain the misfit alone:
+/// significant, and the global test passes without them.
+fn explaining_effects(c: &Calibration) -> Vec<&str> {
+    let tests = c
+        .diagnostics
+        .as_ref()
+        .map_or(&[][..], |d| &d.systematic_tests[..]);
+    tests
+        .iter()
+        .filter(|t| {
+            (t.estimate / t.sigma).abs() > t.critical_value && t.outcome_without == "consistent"
+        })
+        .map(|t| t.effect.as_str())
+        .collect()
 }
 
 /// The observations a robust loss down-weighted, when it did.
