@@ -787,11 +787,17 @@ impl SolverRun<'_> {
             _ => None,
         };
         // A misfit of least squares at its minimum: which common error
-        // explains it.
+        // explains it (two linear solves per effect, within the time
+        // budget).
+        let in_time = self
+            .solver
+            .time_limit
+            .is_none_or(|limit| started.elapsed() < limit);
         if let (Some(reliability), Some(test)) = (&mut reliability, &global_test)
             && test.outcome == Outcome::TooLarge
             && problem.loss.is_squared()
             && matches!(solution.status, Status::Converged)
+            && in_time
         {
             reliability.systematic = systematic_tests(
                 &mut *problem,
