@@ -16,7 +16,7 @@
 
 mod common;
 
-use common::{mean_and_standard_error, nees, true_block};
+use common::{mean_and_standard_error, nees, rms, true_block};
 use nalgebra::DVector;
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::instruments::{Calibrated, calibrate_instruments, validate_calibration};
@@ -177,10 +177,6 @@ fn registered(dataset: &Dataset, params: &Params, covariance: &ParamCovariance) 
     let design = parcal_calibrate::setup::design_geometry(dataset);
     let maps = accuracy(&design, Some(&truth), params, covariance, &MapGrid::paper()).unwrap();
     maps.true_error.expect("truth").registered_summary().rms
-}
-
-fn rms(values: &[f64]) -> f64 {
-    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
 }
 
 /// Mixed data against each kind alone, on the same seeds: the true

@@ -11,6 +11,9 @@
 //! NEES of the 33 is printed: at this noise it is above 33 whatever the
 //! radius model (`monte_carlo.rs` tests it where the problem is linear).
 
+mod common;
+
+use common::{mean_and_standard_error, rms};
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::{CalibrationOptions, PriorMode, RadiusModel, Simulation, calibrate};
 use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
@@ -65,10 +68,6 @@ fn registered_rms(scenario: &Scenario, seed: u64) -> Outcome {
     }
 }
 
-fn rms(values: &[f64]) -> f64 {
-    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
-}
-
 #[test]
 fn a_ball_plate_brings_the_registered_error_to_its_prediction() {
     let touches = Scenario::paper();
@@ -112,10 +111,7 @@ fn a_ball_plate_brings_the_registered_error_to_its_prediction() {
         1e3 * mean(&with),
         1e3 * mean(&predicted)
     );
-    let n = nees.len() as f64;
-    let mean_nees = mean(&nees);
-    let standard_error =
-        (nees.iter().map(|v| (v - mean_nees).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() / n.sqrt();
+    let (mean_nees, standard_error) = mean_and_standard_error(&nees);
     println!(
         "NEES of the 33 with the plate: mean {mean_nees:.2} (33 expected, standard error {standard_error:.2})"
     );
@@ -172,11 +168,7 @@ fn with_the_prior_holding_the_plate_s_prediction_is_the_truth() {
             predicted.push(outcome.predicted_rms / scale);
             nees.push(outcome.nees);
         }
-        let n = nees.len() as f64;
-        let mean_nees = nees.iter().sum::<f64>() / n;
-        let standard_error =
-            (nees.iter().map(|v| (v - mean_nees).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-                / n.sqrt();
+        let (mean_nees, standard_error) = mean_and_standard_error(&nees);
         let (true_rms, predicted) = (rms(&true_rms), rms(&predicted));
         println!(
             "noise x {scale}: true registered RMS {:.3} um per um of noise, predicted {:.3}; NEES {mean_nees:.1} +- {standard_error:.1}",

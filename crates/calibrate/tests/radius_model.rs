@@ -22,6 +22,9 @@
 //!   for a ball tied by a distance, in the global block) match central
 //!   differences of the whitened residual.
 
+mod common;
+
+use common::mean_and_standard_error;
 use nalgebra::{DVector, SVector, Vector2, Vector3, Vector4};
 use parcal_calibrate::problem::ContactJacobian;
 use parcal_calibrate::setup::{Observations, Setup};
@@ -53,10 +56,7 @@ fn mean_nees(scenario: impl Fn(u64) -> Scenario, radius: RadiusModel, seeds: u64
             truth.nees(&run.params, &covariance).expect("NEES")
         })
         .collect();
-    let n = nees.len() as f64;
-    let mean = nees.iter().sum::<f64>() / n;
-    let sd = (nees.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-    (mean, sd / n.sqrt())
+    mean_and_standard_error(&nees)
 }
 
 /// The paper scenario with every noise (and the plate's sigma) scaled by

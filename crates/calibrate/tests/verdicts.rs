@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{removed, snoop, true_registered_rms};
+use common::{removed, rms, snoop, true_registered_rms};
 use parcal_calibrate::reliability::{ObservationId, minimal_detectable_bias};
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_calibrate::systematic::Effect;
@@ -96,8 +96,6 @@ fn a_gross_blunder_is_removed_in_every_draw() {
             }
         }
     }
-    let rms =
-        |values: &[f64]| (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
     let (clean, snooped) = (rms(&clean_rms), rms(&snooped_rms));
     println!(
         "{draws} draws, true registered RMS: clean {:.2} um, 5 mm blunder snooped {:.2} um",

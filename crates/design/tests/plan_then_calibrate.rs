@@ -6,7 +6,7 @@
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::{CalibrationOptions, RadiusModel, calibrate};
 use parcal_dataset::Dataset;
-use parcal_design::{PlanOptions, plan, plan_next};
+use parcal_design::{Plan, PlanOptions, plan, plan_next};
 use parcal_simulate::{Scenario, simulate};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
 
@@ -15,6 +15,11 @@ const SEEDS: u64 = 6;
 /// The true and the predicted registered RMS after calibrating `dataset` (um).
 fn registered(dataset: &Dataset) -> (f64, f64) {
     registered_with(dataset, &CalibrationOptions::default())
+}
+
+/// The plan of `options` for the machine and balls of `template`.
+fn plan_for(template: &Dataset, options: &PlanOptions) -> Plan {
+    plan(&template.machine, &template.artefacts, options, &mut |_| {}).expect("plan")
 }
 
 /// [`registered`] with the calibration's `options`.
@@ -41,13 +46,7 @@ fn planned_touches_beat_random_ones_and_their_prediction_holds() {
         pool: 3000,
         ..PlanOptions::new(48, 25.0)
     };
-    let planned = plan(
-        &template.machine,
-        &template.artefacts,
-        &options,
-        &mut |_| {},
-    )
-    .unwrap();
+    let planned = plan_for(&template, &options);
     assert_eq!(planned.contacts.len(), 48);
     let [low, high] = planned.stroke;
     assert!(
@@ -119,13 +118,7 @@ fn the_plans_prediction_is_the_calibrations_for_each_radius_model() {
             radius,
             ..PlanOptions::new(96, 25.0)
         };
-        let planned = plan(
-            &template.machine,
-            &template.artefacts,
-            &options,
-            &mut |_| {},
-        )
-        .unwrap();
+        let planned = plan_for(&template, &options);
         let scenario = Scenario {
             plan: Some(planned.touches()),
             ..random.clone()
@@ -242,13 +235,7 @@ fn a_plan_keeps_every_joint_within_machine_json_limits() {
         }
         largest
     };
-    let free = plan(
-        &template.machine,
-        &template.artefacts,
-        &options,
-        &mut |_| {},
-    )
-    .unwrap();
+    let free = plan_for(&template, &options);
     let (base, platform) = largest_leans(&free);
     let limits = parcal_dataset::JointLimitsRecord {
         base_deg: Some(base - 2.0),
@@ -283,13 +270,7 @@ fn small_budget_evidence() {
                 min_balls,
                 ..PlanOptions::new(95, tilt)
             };
-            let planned = plan(
-                &template.machine,
-                &template.artefacts,
-                &options,
-                &mut |_| {},
-            )
-            .unwrap();
+            let planned = plan_for(&template, &options);
             let mut balls: Vec<usize> = planned.contacts.iter().map(|c| c.ball).collect();
             balls.dedup();
             let scenario = Scenario {

@@ -152,6 +152,11 @@ pub fn nees(e: &DVector<f64>, covariance: &DMatrix<f64>) -> Option<f64> {
     Some(factor.l().solve_lower_triangular(e)?.norm_squared())
 }
 
+/// The root mean square of `values`.
+pub fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
 /// The mean of `values` and its standard error (sample sd / √N).
 pub fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
     let n = values.len() as f64;

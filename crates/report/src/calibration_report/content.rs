@@ -4,7 +4,9 @@
 //! parameters and the predicted accuracy.
 
 use parcal_calibrate::robust::DOWN_WEIGHTED;
-use parcal_dataset::{Calibration, GlobalTestRecord, ObservationCheck, ObservationTests};
+use parcal_dataset::{
+    Calibration, GlobalTestRecord, ObservationCheck, ObservationTests, SystematicTestRecord,
+};
 use parcal_workflows::evaluate::Accuracy;
 
 use super::document::{Block, Cell, Tone};
@@ -264,10 +266,7 @@ fn variance_components(c: &Calibration) -> Vec<Block> {
 /// The tests of common errors of the entered data, when the global test
 /// rejected the run.
 fn systematic_tests(c: &Calibration) -> Vec<Block> {
-    let tests = c
-        .diagnostics
-        .as_ref()
-        .map_or(&[][..], |d| &d.systematic_tests[..]);
+    let tests = systematic_records(c);
     if tests.is_empty() {
         return vec![];
     }
@@ -320,14 +319,17 @@ fn systematic_tests(c: &Calibration) -> Vec<Block> {
     ]
 }
 
+/// calibration.json's tests of common errors (none when not recorded).
+fn systematic_records(c: &Calibration) -> &[SystematicTestRecord] {
+    c.diagnostics
+        .as_ref()
+        .map_or(&[][..], |d| &d.systematic_tests[..])
+}
+
 /// The common errors of the entered data that explain the misfit alone:
 /// significant, and the global test passes without them.
 fn explaining_effects(c: &Calibration) -> Vec<&str> {
-    let tests = c
-        .diagnostics
-        .as_ref()
-        .map_or(&[][..], |d| &d.systematic_tests[..]);
-    tests
+    systematic_records(c)
         .iter()
         .filter(|t| {
             (t.estimate / t.sigma).abs() > t.critical_value && t.outcome_without == "consistent"
