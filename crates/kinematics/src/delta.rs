@@ -44,8 +44,8 @@ use std::f64::consts::PI;
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::mechanism::{
-    Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate,
-    ReadingJacobians, check_params, check_vector, pose_jacobian_at_fixed_readings,
+    Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians,
+    check_params, check_vector, pose_jacobian_at_fixed_readings,
 };
 
 /// Number of parameters of a linear delta.
@@ -72,9 +72,18 @@ pub const TOWERS: [&str; 3] = ["a", "b", "c"];
 pub const NOMINAL_ANGLE: [f64; 3] = [210.0, 330.0, 90.0];
 
 const POSE: [PoseCoordinate; 3] = [
-    PoseCoordinate { name: "x", unit: "mm" },
-    PoseCoordinate { name: "y", unit: "mm" },
-    PoseCoordinate { name: "z", unit: "mm" },
+    PoseCoordinate {
+        name: "x",
+        unit: "mm",
+    },
+    PoseCoordinate {
+        name: "y",
+        unit: "mm",
+    },
+    PoseCoordinate {
+        name: "z",
+        unit: "mm",
+    },
 ];
 
 /// The parameters of a linear delta in named form (their vector order is
@@ -292,7 +301,13 @@ impl LinearDelta {
         let mut parameters = Vec::with_capacity(N_PARAMS);
         for (i, tower) in TOWERS.iter().enumerate() {
             let name = format!("endstop_{tower}");
-            parameters.push(parameter(ENDSTOP + i, name, "mm", "endstops", tolerances.endstop));
+            parameters.push(parameter(
+                ENDSTOP + i,
+                name,
+                "mm",
+                "endstops",
+                tolerances.endstop,
+            ));
         }
         parameters.push(parameter(
             HOMED_HEIGHT,
@@ -301,15 +316,33 @@ impl LinearDelta {
             "homed height",
             tolerances.homed_height,
         ));
-        parameters.push(parameter(RADIUS, "radius".into(), "mm", "radius", tolerances.radius));
+        parameters.push(parameter(
+            RADIUS,
+            "radius".into(),
+            "mm",
+            "radius",
+            tolerances.radius,
+        ));
         for (i, tower) in TOWERS.iter().enumerate() {
             let name = format!("radius_{tower}");
             let sigma = tolerances.tower_radius;
-            parameters.push(parameter(TOWER_RADIUS + i, name, "mm", "tower radii", sigma));
+            parameters.push(parameter(
+                TOWER_RADIUS + i,
+                name,
+                "mm",
+                "tower radii",
+                sigma,
+            ));
         }
         for (i, tower) in TOWERS.iter().enumerate() {
             let name = format!("angle_{tower}");
-            parameters.push(parameter(ANGLE + i, name, "deg", "tower angles", tolerances.angle));
+            parameters.push(parameter(
+                ANGLE + i,
+                name,
+                "deg",
+                "tower angles",
+                tolerances.angle,
+            ));
         }
         for (i, tower) in TOWERS.iter().enumerate() {
             let name = format!("diagonal_{tower}");
@@ -516,7 +549,10 @@ impl Mechanism for LinearDelta {
         };
         vec![
             unit("homed height against the mean endstop correction", height),
-            unit("delta radius against the mean tower radius correction", radius),
+            unit(
+                "delta radius against the mean tower radius correction",
+                radius,
+            ),
             unit("rotation about z", rotation),
             unit("translation along x", translation([1.0, 0.0])),
             unit("translation along y", translation([0.0, 1.0])),
@@ -699,7 +735,11 @@ mod tests {
     fn random_pose(rng: &mut StdRng) -> [f64; 3] {
         let r = 100.0 * rng.random_range(0.0..1.0f64).sqrt();
         let angle = rng.random_range(0.0..2.0 * PI);
-        [r * angle.cos(), r * angle.sin(), rng.random_range(0.0..200.0)]
+        [
+            r * angle.cos(),
+            r * angle.sin(),
+            rng.random_range(0.0..200.0),
+        ]
     }
 
     #[test]
@@ -728,7 +768,9 @@ mod tests {
             let p = perturbed(&mut rng).to_vector();
             let pose = random_pose(&mut rng);
             let q = delta.inverse(p.as_slice(), &pose).unwrap();
-            let back = delta.forward(p.as_slice(), q.as_slice(), &[0.0; 3]).unwrap();
+            let back = delta
+                .forward(p.as_slice(), q.as_slice(), &[0.0; 3])
+                .unwrap();
             worst = worst.max((back - DVector::from_column_slice(&pose)).amax());
         }
         assert!(worst < 1e-9, "largest error {worst:e} mm");
@@ -742,9 +784,14 @@ mod tests {
             let p = perturbed(&mut rng).to_vector();
             let pose = random_pose(&mut rng);
             let analytic = delta.reading_jacobians(p.as_slice(), &pose).unwrap();
-            let numeric =
-                reading_jacobians_by_differences(&delta, p.as_slice(), &pose, &[1e-4; N_PARAMS], 1e-4)
-                    .unwrap();
+            let numeric = reading_jacobians_by_differences(
+                &delta,
+                p.as_slice(),
+                &pose,
+                &[1e-4; N_PARAMS],
+                1e-4,
+            )
+            .unwrap();
             // Steps 1e-4 on O(1) derivatives of lengths ~300 mm:
             // truncation ~h^2 / L^2, rounding ~1e-16 * 300 / 1e-4.
             let (dp, dx) = (
@@ -772,7 +819,11 @@ mod tests {
                 let down = probe_height(&delta, minus.as_slice(), p.as_slice(), *x, *y).unwrap();
                 let numeric = (up - down) / (2.0 * h);
                 let error = (numeric - jacobian[(row, k)]).abs();
-                assert!(error < 1e-7, "{} at point {row}: {error:e}", delta.parameters()[k].name);
+                assert!(
+                    error < 1e-7,
+                    "{} at point {row}: {error:e}",
+                    delta.parameters()[k].name
+                );
             }
         }
     }
@@ -792,7 +843,11 @@ mod tests {
         let jacobian = probe_height_jacobian(&delta, p.as_slice(), &points).unwrap();
         for freedom in &freedoms {
             let seen = (&jacobian * &freedom.direction).amax();
-            assert!(seen < 1e-10, "{}: probe heights move by {seen:e}", freedom.name);
+            assert!(
+                seen < 1e-10,
+                "{}: probe heights move by {seen:e}",
+                freedom.name
+            );
         }
         // And they are the whole nullspace: 16 - 5 = 11 singular values
         // clearly above zero.
@@ -801,6 +856,34 @@ mod tests {
         sorted.sort_by(f64::total_cmp);
         assert!(sorted[4] < 1e-9 * sorted[15], "{sorted:?}");
         assert!(sorted[5] > 1e-6 * sorted[15], "{sorted:?}");
+    }
+
+    #[test]
+    fn probe_heights_barely_see_a_common_scaling_of_rods_and_radius() {
+        // Lengthening every rod or the radius alone shows in the probe
+        // heights; together, in the best proportion, the two nearly cancel
+        // (both mainly bow the bed's apparent surface): probe heights see
+        // Z, hardly the XY scale.
+        let delta = LinearDelta::typical();
+        let p = design(&delta);
+        let jacobian =
+            probe_height_jacobian(&delta, p.as_slice(), &probe_rings(100.0, 3, 8)).unwrap();
+        let largest = jacobian.singular_values().max();
+        let mut rods = DVector::zeros(N_PARAMS);
+        for i in 0..3 {
+            rods[DIAGONAL + i] = 1.0;
+        }
+        let mut radius = DVector::zeros(N_PARAMS);
+        radius[RADIUS] = 1.0;
+        let (seen_rods, seen_radius) = (&jacobian * &rods, &jacobian * &radius);
+        let k = -seen_rods.dot(&seen_radius) / seen_radius.norm_squared();
+        let scale = &rods + k * &radius;
+        let gain = |v: &DVector<f64>| (&jacobian * v).norm() / v.norm() / largest;
+        let (rods, radius, scale) = (gain(&rods), gain(&radius), gain(&scale));
+        assert!(
+            scale < 0.2 * rods.min(radius) && k > 0.0,
+            "rods {rods:e}, radius {radius:e}, together {scale:e} (radius {k} mm per mm of rod)"
+        );
     }
 
     #[test]
@@ -835,10 +918,18 @@ mod tests {
     fn feasibility_names_the_limit() {
         let delta = LinearDelta::typical();
         let p = design(&delta);
-        assert!(delta.check_feasible(p.as_slice(), &[10.0, 20.0, 50.0]).is_ok());
-        let err = delta.check_feasible(p.as_slice(), &[120.0, 0.0, 50.0]).unwrap_err();
+        assert!(
+            delta
+                .check_feasible(p.as_slice(), &[10.0, 20.0, 50.0])
+                .is_ok()
+        );
+        let err = delta
+            .check_feasible(p.as_slice(), &[120.0, 0.0, 50.0])
+            .unwrap_err();
         assert!(err.to_string().contains("print radius"), "{err}");
-        let err = delta.check_feasible(p.as_slice(), &[0.0, 0.0, 310.0]).unwrap_err();
+        let err = delta
+            .check_feasible(p.as_slice(), &[0.0, 0.0, 310.0])
+            .unwrap_err();
         assert!(err.to_string().contains("carriage A"), "{err}");
         let err = delta.inverse(p.as_slice(), &[500.0, 0.0, 0.0]).unwrap_err();
         assert!(err.to_string().contains("beyond its diagonal rod"), "{err}");
@@ -851,7 +942,9 @@ mod tests {
                 travel: 400.0,
             },
         );
-        let err = steep.check_feasible(p.as_slice(), &[0.0, 0.0, 50.0]).unwrap_err();
+        let err = steep
+            .check_feasible(p.as_slice(), &[0.0, 0.0, 50.0])
+            .unwrap_err();
         assert!(err.to_string().contains("lean"), "{err}");
     }
 }

@@ -17,8 +17,8 @@ use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 use crate::closure::Legs;
 use crate::forward::step;
 use crate::mechanism::{
-    Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians,
-    check_params, check_vector,
+    Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians, check_params,
+    check_vector,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -28,12 +28,30 @@ use crate::{ForwardOptions, Geometry, KinematicsError, Params, Pose, PriorSigma,
 
 /// The pose coordinates of a hexapod.
 const POSE: [PoseCoordinate; 6] = [
-    PoseCoordinate { name: "t_x", unit: "mm" },
-    PoseCoordinate { name: "t_y", unit: "mm" },
-    PoseCoordinate { name: "t_z", unit: "mm" },
-    PoseCoordinate { name: "r_x", unit: "rad" },
-    PoseCoordinate { name: "r_y", unit: "rad" },
-    PoseCoordinate { name: "r_z", unit: "rad" },
+    PoseCoordinate {
+        name: "t_x",
+        unit: "mm",
+    },
+    PoseCoordinate {
+        name: "t_y",
+        unit: "mm",
+    },
+    PoseCoordinate {
+        name: "t_z",
+        unit: "mm",
+    },
+    PoseCoordinate {
+        name: "r_x",
+        unit: "rad",
+    },
+    PoseCoordinate {
+        name: "r_y",
+        unit: "rad",
+    },
+    PoseCoordinate {
+        name: "r_z",
+        unit: "rad",
+    },
 ];
 
 /// A hexapod design with its tolerances.
@@ -184,7 +202,9 @@ impl Mechanism for Hexapod {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::{design, pose_jacobian_at_fixed_readings, reading_jacobians_by_differences};
+    use crate::mechanism::{
+        design, pose_jacobian_at_fixed_readings, reading_jacobians_by_differences,
+    };
     use crate::{paper, rotation_zyx, tip_jacobians_at};
     use nalgebra::Translation3;
 
@@ -228,7 +248,9 @@ mod tests {
         let hexapod = hexapod();
         let p = design(&hexapod);
         let x = pose_vector(&sample_pose());
-        let analytic = hexapod.reading_jacobians(p.as_slice(), x.as_slice()).unwrap();
+        let analytic = hexapod
+            .reading_jacobians(p.as_slice(), x.as_slice())
+            .unwrap();
         let numeric = reading_jacobians_by_differences(
             &hexapod,
             p.as_slice(),
@@ -268,7 +290,8 @@ mod tests {
             tip.set_column(k, &column);
         }
         let reference = tip_jacobians_at(&geometry, &pose).unwrap().d_params;
-        let difference = (tip - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice())).amax();
+        let difference =
+            (tip - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice())).amax();
         assert!(difference < 1e-10, "{difference:e}");
     }
 

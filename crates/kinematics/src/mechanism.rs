@@ -326,8 +326,8 @@ pub fn reading_jacobians_by_differences(
         let (mut plus, mut minus) = (params.to_vec(), params.to_vec());
         plus[k] += h_p[k];
         minus[k] -= h_p[k];
-        let column = (mechanism.inverse(&plus, pose)? - mechanism.inverse(&minus, pose)?)
-            / (2.0 * h_p[k]);
+        let column =
+            (mechanism.inverse(&plus, pose)? - mechanism.inverse(&minus, pose)?) / (2.0 * h_p[k]);
         d_params.set_column(k, &column);
     }
     let mut d_pose = DMatrix::zeros(n_q, n_x);
