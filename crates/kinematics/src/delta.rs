@@ -385,6 +385,13 @@ impl LinearDelta {
         &self.limits
     }
 
+    /// The carriages' heights at their endstops in the firmware's
+    /// coordinate, `Z_i^home = H + sqrt(L_i^2 - r_i^2) + e_i` (mm): a
+    /// reading `q_i` is the carriage at `Z_i = q_i + Z_i^home`.
+    pub fn homed_carriage_heights(&self, params: &[f64]) -> Result<[f64; 3], MechanismError> {
+        Ok(self.towers(params)?.homed)
+    }
+
     fn towers(&self, params: &[f64]) -> Result<Towers, MechanismError> {
         check_params(self, params)?;
         Towers::of(&DeltaParams::from_slice(params))
