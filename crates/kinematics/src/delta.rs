@@ -457,7 +457,7 @@ impl Mechanism for LinearDelta {
         let a = (l1 - l2 + d * d) / (2.0 * d);
         let b = (l1 - l3 + i * i + j * j) / (2.0 * j) - a * i / j;
         let square = l1 - a * a - b * b;
-        if !(square >= 0.0) {
+        if square.is_nan() || square < 0.0 {
             return Err(MechanismError::Unreachable {
                 reason: format!(
                     "the arms do not meet: carriages at {:.3}, {:.3}, {:.3} mm from their endstops are too far apart",
@@ -588,11 +588,15 @@ impl Mechanism for LinearDelta {
         let mut canonical = p;
         canonical.radius = circumradius;
         canonical.tower_radius = [0.0; 3];
-        for i in 0..3 {
-            let [x, y] = towers.position[i];
+        for ((slot, [x, y]), nominal) in canonical
+            .angle
+            .iter_mut()
+            .zip(towers.position)
+            .zip(NOMINAL_ANGLE)
+        {
             let angle = (y - centre[1]).atan2(x - centre[0]) + turn;
-            let correction = angle.to_degrees() - NOMINAL_ANGLE[i];
-            canonical.angle[i] = (correction + 180.0).rem_euclid(360.0) - 180.0;
+            let correction = angle.to_degrees() - nominal;
+            *slot = (correction + 180.0).rem_euclid(360.0) - 180.0;
         }
         // The bed plane Z = t . x + 0 in the old frame is, with
         // x = centre + rot(-turn) x', the plane Z = (rot(turn) t) . x' + t . centre.
