@@ -4,6 +4,8 @@
 //!
 //! - [`rrf`]: RepRapFirmware's `M665`/`M666`/`G31` lines, read from a
 //!   `config.g` and written back.
+//! - [`klipper`]: Klipper's delta settings in a `printer.cfg`, read and
+//!   written as its `SAVE_CONFIG` block.
 //! - [`probes`]: probe heights (`probes.csv`, `x,y,z` as `G30 S-1`
 //!   reports them).
 //! - [`autocal`]: RepRapFirmware's 3- to 9-factor auto-calibration.
@@ -16,6 +18,7 @@ pub mod autocal;
 mod error;
 mod files;
 pub mod gcode;
+pub mod klipper;
 pub mod probes;
 pub mod rrf;
 
