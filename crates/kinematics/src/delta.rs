@@ -521,10 +521,8 @@ impl Mechanism for LinearDelta {
     /// and `da_i = (180/pi) d . (-sin phi_i, cos phi_i) / r_i`, with
     /// `de_i = r_i dr_i / sqrt(L_i^2 - r_i^2)` keeping the homed carriage
     /// heights and `dH = t . d` keeping the bed at `z = 0`.
-    fn gauge_freedoms(&self, params: &[f64]) -> Vec<GaugeFreedom> {
-        let Ok(towers) = self.towers(params) else {
-            return Vec::new();
-        };
+    fn gauge_freedoms(&self, params: &[f64]) -> Result<Vec<GaugeFreedom>, MechanismError> {
+        let towers = self.towers(params)?;
         let p = DeltaParams::from_slice(params);
         let unit = |name, v: DVector<f64>| GaugeFreedom {
             name,
@@ -554,7 +552,7 @@ impl Mechanism for LinearDelta {
             v[HOMED_HEIGHT] = towers.tilt[0] * d[0] + towers.tilt[1] * d[1];
             v
         };
-        vec![
+        Ok(vec![
             unit("homed height against the mean endstop correction", height),
             unit(
                 "delta radius against the mean tower radius correction",
@@ -563,7 +561,7 @@ impl Mechanism for LinearDelta {
             unit("rotation about z", rotation),
             unit("translation along x", translation([1.0, 0.0])),
             unit("translation along y", translation([0.0, 1.0])),
-        ]
+        ])
     }
 
     /// The same machine with its towers' circumcentre at the origin,
@@ -848,7 +846,7 @@ mod tests {
         let delta = LinearDelta::typical();
         let mut rng = StdRng::seed_from_u64(3);
         let p = perturbed(&mut rng).to_vector();
-        let freedoms = delta.gauge_freedoms(p.as_slice());
+        let freedoms = delta.gauge_freedoms(p.as_slice()).unwrap();
         assert_eq!(freedoms.len(), 5);
         let points = probe_rings(100.0, 3, 8);
         let jacobian = probe_height_jacobian(&delta, p.as_slice(), &points).unwrap();

@@ -240,6 +240,8 @@ mod tests {
             .unwrap();
         assert!((back - &x).amax() < 1e-10, "forward kinematics");
         assert_eq!(design(&hexapod).len(), N_PARAMS);
+        // Canonical by construction: no gauge freedom left.
+        assert!(hexapod.gauge_freedoms(p.as_slice()).unwrap().is_empty());
         assert_eq!(hexapod.parameters()[LEG_OFFSET].group, "leg lengths");
     }
 

@@ -214,8 +214,9 @@ pub trait Mechanism {
 
     /// The combinations of the parameters no measurement can see, at
     /// `params` (none by default: a canonical parametrisation).
-    fn gauge_freedoms(&self, _params: &[f64]) -> Vec<GaugeFreedom> {
-        Vec::new()
+    fn gauge_freedoms(&self, params: &[f64]) -> Result<Vec<GaugeFreedom>, MechanismError> {
+        check_params(self, params)?;
+        Ok(Vec::new())
     }
 
     /// The parameters of the same machine in the canonical frame, where
@@ -250,7 +251,10 @@ pub fn prior_sigma(mechanism: &dyn Mechanism) -> DVector<f64> {
 
 /// Refuses a parameter vector of the wrong length or with a non-finite
 /// value (named).
-pub fn check_params(mechanism: &dyn Mechanism, params: &[f64]) -> Result<(), MechanismError> {
+pub fn check_params<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    params: &[f64],
+) -> Result<(), MechanismError> {
     let expected = mechanism.parameters().len();
     if params.len() != expected {
         return Err(MechanismError::ParameterCount {
@@ -269,8 +273,8 @@ pub fn check_params(mechanism: &dyn Mechanism, params: &[f64]) -> Result<(), Mec
 
 /// Refuses a vector of `what` (`pose coordinates` or `readings`) of length
 /// other than `expected` or with a non-finite value.
-pub fn check_vector(
-    mechanism: &dyn Mechanism,
+pub fn check_vector<M: Mechanism + ?Sized>(
+    mechanism: &M,
     what: &'static str,
     values: &[f64],
     expected: usize,
