@@ -38,7 +38,7 @@ use parcal_kinematics::delta::{Limits, LinearDelta, Tolerances};
 use parcal_kinematics::mechanism::Mechanism;
 
 use crate::FirmwareError;
-use crate::probes::ProbePoint;
+use crate::probes::{MAX_PROBE_POINTS, ProbePoint};
 use crate::rrf::RrfDelta;
 
 /// The firmware's perturbation for its derivatives (mm or degrees).
@@ -185,7 +185,8 @@ pub fn apply(rrf: &RrfDelta, factors: usize, v: &[f64]) -> RrfDelta {
 /// RepRapFirmware's `factors`-factor auto-calibration of `rrf` from the
 /// probe heights `probes` (module documentation). Errors: an unsupported
 /// factor count, fewer points than factors, a point the parameters cannot
-/// reach, singular normal equations.
+/// reach, a non-finite value, more than [`MAX_PROBE_POINTS`] points,
+/// singular normal equations.
 pub fn auto_calibrate(
     rrf: &RrfDelta,
     probes: &[ProbePoint],
@@ -194,6 +195,21 @@ pub fn auto_calibrate(
     if !FACTOR_COUNTS.contains(&factors) {
         return Err(FirmwareError::Calibration(format!(
             "{factors} factors requested; RepRapFirmware calibrates 3, 4, 6, 7, 8 or 9"
+        )));
+    }
+    if let Some(k) = probes
+        .iter()
+        .position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()))
+    {
+        return Err(FirmwareError::Calibration(format!(
+            "probe point {} has a value that is not a finite number",
+            k + 1
+        )));
+    }
+    if probes.len() > MAX_PROBE_POINTS {
+        return Err(FirmwareError::Calibration(format!(
+            "{} probe points, more than the {MAX_PROBE_POINTS} a calibration takes",
+            probes.len()
         )));
     }
     if probes.len() < factors {

@@ -154,6 +154,13 @@ fn refuses_what_the_firmware_refuses() {
     far[2].x = 400.0;
     let err = auto_calibrate(&nominal(), &far, 3).unwrap_err();
     assert!(err.to_string().contains("probe point 3 at (400"), "{err}");
+    let mut bad = probes.clone();
+    bad[3].z = f64::NAN;
+    let err = auto_calibrate(&nominal(), &bad, 3).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "auto-calibration: probe point 4 has a value that is not a finite number"
+    );
     // All points at the centre: the endstops cannot be told apart.
     let centre = vec![
         ProbePoint {

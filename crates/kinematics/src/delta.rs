@@ -761,6 +761,18 @@ mod tests {
         for value in q.iter() {
             assert!((value - (120.0 - 300.0)).abs() < 1e-12, "{q}");
         }
+        // Homed (every q = 0), the nozzle of a printer without endstop
+        // corrections is at the homed height above the centre; a positive
+        // endstop correction puts carriage A's home higher, and the
+        // nozzle's with it.
+        let home = delta.forward(p.as_slice(), &[0.0; 3], &[0.0; 3]).unwrap();
+        assert!((home - DVector::from_column_slice(&[0.0, 0.0, 300.0])).amax() < 1e-9);
+        let mut corrected = p.clone();
+        corrected[ENDSTOP] = 0.3;
+        let home = delta
+            .forward(corrected.as_slice(), &[0.0; 3], &[0.0; 3])
+            .unwrap();
+        assert!(home[2] > 300.0, "{home}");
         // Tower A at 210 degrees: moving towards it raises carriage A most.
         let towards_a = [-50.0 * 3f64.sqrt() / 2.0, -25.0, 120.0];
         let q = delta.inverse(p.as_slice(), &towards_a).unwrap();
