@@ -304,6 +304,15 @@ pub fn pose_jacobian_at_fixed_readings(
     pose: &[f64],
 ) -> Result<DMatrix<f64>, MechanismError> {
     let jacobians = mechanism.reading_jacobians(params, pose)?;
+    let (actuators, coordinates) = jacobians.d_pose.shape();
+    if actuators != coordinates {
+        return Err(MechanismError::Dimension {
+            mechanism: mechanism.name().to_string(),
+            what: "actuators (one per pose coordinate)",
+            expected: coordinates,
+            found: actuators,
+        });
+    }
     let lu = jacobians.d_pose.lu();
     let solved = lu
         .solve(&jacobians.d_params)
@@ -322,6 +331,8 @@ pub fn reading_jacobians_by_differences(
     h_p: &[f64],
     h_x: f64,
 ) -> Result<ReadingJacobians, MechanismError> {
+    check_params(mechanism, params)?;
+    check_vector(mechanism, "parameter steps", h_p, params.len())?;
     let n_q = mechanism.actuators().len();
     let n_p = params.len();
     let n_x = pose.len();
