@@ -901,6 +901,9 @@ mod tests {
         let scale = &rods + k * &radius;
         let gain = |v: &DVector<f64>| (&jacobian * v).norm() / v.norm() / largest;
         let (rods, radius, scale) = (gain(&rods), gain(&radius), gain(&scale));
+        eprintln!(
+            "probe heights per unit change, relative to the largest singular value: rods {rods:.4}, radius {radius:.4}, rods with radius {k:.3} mm per mm {scale:.4}"
+        );
         assert!(
             scale < 0.2 * rods.min(radius) && k > 0.0,
             "rods {rods:e}, radius {radius:e}, together {scale:e} (radius {k} mm per mm of rod)"
