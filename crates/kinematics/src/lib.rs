@@ -13,7 +13,13 @@
 //! - [`derivatives`]: the tool tip's derivatives with respect to the 33
 //!   parameters and to the actuator values, by implicit differentiation.
 //!
-//! Lengths in mm, angles in rad.
+//! Every parallel mechanism implements one interface,
+//! [`mechanism::Mechanism`]: the hexapod ([`hexapod`], an adapter over the
+//! modules above) and the linear delta ([`delta`]); [`mechanisms`] is the
+//! list of them.
+//!
+//! Lengths in mm, angles in rad (the delta's tower angles in degrees, as
+//! its firmware gives them).
 //!
 //! ```
 //! use parcal_kinematics::{paper, params, rotation_zyx, Pose, ForwardOptions};
@@ -37,15 +43,19 @@
 //! ```
 
 pub mod closure;
+pub mod delta;
 pub mod derivatives;
 mod error;
 pub mod forward;
 pub mod frames;
 mod geometry;
+pub mod hexapod;
 pub mod inverse;
 pub mod joints;
 pub mod lanes;
 pub mod lu6;
+pub mod mechanism;
+pub mod mechanisms;
 pub mod params;
 mod simd;
 

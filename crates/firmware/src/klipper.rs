@@ -1,0 +1,278 @@
+//! Klipper's linear delta configuration: the `printer.cfg` settings of its
+//! delta kinematics, read as Klipper reads them (its main part, then the
+//! `SAVE_CONFIG` block at the end overriding it), and the `SAVE_CONFIG`
+//! block written as Klipper writes it after `DELTA_CALIBRATE`.
+//!
+//! - `[printer]`: `kinematics: delta`, `delta_radius`, `print_radius`
+//!   (default: the delta radius).
+//! - `[stepper_a]`, `[stepper_b]`, `[stepper_c]`: `angle` (degrees,
+//!   absolute; defaults 210, 330, 90), `arm_length` (B and C default to
+//!   A's), `position_endstop` (mm; B and C default to A's).
+//!
+//! Klipper's homed carriage height is `position_endstop_i +
+//! sqrt(arm_length_i^2 - delta_radius^2)`, the kinematics crate's
+//! `H + e_i + sqrt(L_i^2 - R^2)`: its `position_endstop_i` is `H + e_i`,
+//! read as `H` their mean and `e_i` the differences. Klipper has no bed
+//! tilt in its kinematics (a bed mesh corrects the bed).
+//!
+//! The file: `[section]` headers, `key: value` or `key = value` options
+//! (keys case-insensitive), `#` and `;` comments (inline after a space),
+//! indented continuation lines (skipped: only gcode macros have them),
+//! `[include ...]` not followed. Errors name the file and line.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use parcal_kinematics::delta::{DeltaParams, NOMINAL_ANGLE};
+
+use crate::FirmwareError;
+use crate::files::read_capped;
+use crate::rrf::MAX_CONFIG_BYTES;
+
+/// The line that opens Klipper's `SAVE_CONFIG` block.
+const SAVE_CONFIG_MARKER: &str = "#*# <---------------------- SAVE_CONFIG ---------------------->";
+/// The notice on the block's second line.
+const SAVE_CONFIG_NOTICE: &str =
+    "DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.";
+/// The prefix of every line of the block.
+const SAVE_CONFIG_PREFIX: &str = "#*#";
+/// The steppers of the towers.
+const STEPPERS: [&str; 3] = ["stepper_a", "stepper_b", "stepper_c"];
+
+/// The parameters of a linear delta as Klipper holds them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KlipperDelta {
+    /// `delta_radius` (mm).
+    pub delta_radius: f64,
+    /// `print_radius` (mm).
+    pub print_radius: f64,
+    /// Each tower's `angle` (degrees, counter-clockwise from +x).
+    pub angles: [f64; 3],
+    /// Each tower's `arm_length` (mm).
+    pub arm_lengths: [f64; 3],
+    /// Each tower's `position_endstop` (mm).
+    pub position_endstops: [f64; 3],
+}
+
+impl KlipperDelta {
+    /// The parameters in [`parcal_kinematics::delta`]'s form.
+    pub fn to_params(&self) -> DeltaParams {
+        let homed_height = self.position_endstops.iter().sum::<f64>() / 3.0;
+        DeltaParams {
+            endstop: self.position_endstops.map(|e| e - homed_height),
+            homed_height,
+            radius: self.delta_radius,
+            tower_radius: [0.0; 3],
+            angle: std::array::from_fn(|i| self.angles[i] - NOMINAL_ANGLE[i]),
+            diagonal: self.arm_lengths,
+            tilt: [0.0; 2],
+        }
+    }
+
+    /// Klipper's parameters of `params`; an error for a bed tilt or a
+    /// per-tower radius correction, which Klipper cannot hold.
+    pub fn from_params(params: &DeltaParams, print_radius: f64) -> Result<Self, FirmwareError> {
+        if params.tilt != [0.0; 2] || params.tower_radius != [0.0; 3] {
+            return Err(FirmwareError::Calibration(format!(
+                "Klipper's delta holds no bed tilt ({:?} %) nor per-tower radius corrections ({:?} mm)",
+                params.tilt, params.tower_radius
+            )));
+        }
+        Ok(Self {
+            delta_radius: params.radius,
+            print_radius,
+            angles: std::array::from_fn(|i| NOMINAL_ANGLE[i] + params.angle[i]),
+            arm_lengths: params.diagonal,
+            position_endstops: params.endstop.map(|e| params.homed_height + e),
+        })
+    }
+
+    /// The `SAVE_CONFIG` block Klipper writes after `DELTA_CALIBRATE`
+    /// (values to 1e-6, as Klipper writes them), to end a `printer.cfg`.
+    pub fn save_config_block(&self) -> String {
+        let mut block = format!(
+            "{SAVE_CONFIG_MARKER}\n{SAVE_CONFIG_PREFIX} {SAVE_CONFIG_NOTICE}\n#*#\n#*# [printer]\n#*# delta_radius = {:.6}\n",
+            self.delta_radius
+        );
+        for (i, stepper) in STEPPERS.iter().enumerate() {
+            block.push_str(&format!(
+                "#*#\n#*# [{stepper}]\n#*# angle = {:.6}\n#*# arm_length = {:.6}\n#*# position_endstop = {:.6}\n",
+                self.angles[i], self.arm_lengths[i], self.position_endstops[i]
+            ));
+        }
+        block
+    }
+}
+
+/// The options of a config file: `(section, key)` to value and line.
+struct Options {
+    path: PathBuf,
+    values: HashMap<(String, String), (String, u64)>,
+}
+
+impl Options {
+    /// Reads numbered lines into the options, a later value of a key
+    /// replacing an earlier one.
+    fn read(&mut self, lines: &[(u64, &str)]) -> Result<(), FirmwareError> {
+        let mut section: Option<String> = None;
+        for &(line, text) in lines {
+            let at = |message: String| FirmwareError::Line {
+                path: self.path.clone(),
+                line,
+                message,
+            };
+            if text.starts_with([' ', '\t']) {
+                // A continuation line (a macro's gcode).
+                continue;
+            }
+            let text = strip_comment(text).trim();
+            if text.is_empty() {
+                continue;
+            }
+            if let Some(header) = text.strip_prefix('[') {
+                let name = header
+                    .strip_suffix(']')
+                    .ok_or_else(|| at(format!("unclosed section header '{text}'")))?;
+                section = Some(name.trim().to_string());
+                continue;
+            }
+            let Some(split) = text.find([':', '=']) else {
+                return Err(at(format!(
+                    "'{text}' is neither a section nor a key: value"
+                )));
+            };
+            let Some(section) = &section else {
+                return Err(at(format!("'{text}' comes before any section")));
+            };
+            let key = text[..split].trim().to_lowercase();
+            let value = text[split + 1..].trim().to_string();
+            self.values.insert((section.clone(), key), (value, line));
+        }
+        Ok(())
+    }
+
+    /// The number of `section`/`key`, if given.
+    fn float(&self, section: &str, key: &str) -> Result<Option<f64>, FirmwareError> {
+        let Some((value, line)) = self.values.get(&(section.to_string(), key.to_string())) else {
+            return Ok(None);
+        };
+        match value.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(Some(v)),
+            _ => Err(FirmwareError::Line {
+                path: self.path.clone(),
+                line: *line,
+                message: format!("[{section}] {key}: '{value}' is not a number"),
+            }),
+        }
+    }
+
+    /// The number of `section`/`key`, required.
+    fn required(&self, section: &str, key: &str) -> Result<f64, FirmwareError> {
+        self.float(section, key)?
+            .ok_or_else(|| FirmwareError::Configuration {
+                path: self.path.clone(),
+                message: format!("no {key} in [{section}] (includes are not followed)"),
+            })
+    }
+}
+
+/// The line without an inline comment (`#` or `;` at its start or after
+/// whitespace).
+fn strip_comment(text: &str) -> &str {
+    let mut previous_blank = true;
+    for (i, c) in text.char_indices() {
+        if (c == '#' || c == ';') && previous_blank {
+            return &text[..i];
+        }
+        previous_blank = c.is_whitespace();
+    }
+    text
+}
+
+/// Reads the delta settings of a `printer.cfg`.
+pub fn read_printer_cfg(path: &Path) -> Result<KlipperDelta, FirmwareError> {
+    parse_printer_cfg(&read_capped(path, MAX_CONFIG_BYTES, "configuration")?, path)
+}
+
+/// [`read_printer_cfg`] of a text already read (`path` names it in
+/// errors).
+pub fn parse_printer_cfg(text: &str, path: &Path) -> Result<KlipperDelta, FirmwareError> {
+    let numbered: Vec<(u64, &str)> = text
+        .lines()
+        .enumerate()
+        .map(|(i, line)| (i as u64 + 1, line))
+        .collect();
+    let block_start = numbered
+        .iter()
+        .position(|(_, line)| line.trim_end() == SAVE_CONFIG_MARKER)
+        .unwrap_or(numbered.len());
+    let mut options = Options {
+        path: path.to_path_buf(),
+        values: HashMap::new(),
+    };
+    options.read(&numbered[..block_start])?;
+    let block: Vec<(u64, &str)> = numbered[block_start..]
+        .iter()
+        .skip(1)
+        .filter_map(|(line, text)| {
+            let rest = text.strip_prefix(SAVE_CONFIG_PREFIX)?;
+            let rest = rest.strip_prefix(' ').unwrap_or(rest);
+            (rest != SAVE_CONFIG_NOTICE).then_some((*line, rest))
+        })
+        .collect();
+    options.read(&block)?;
+    let kinematics = options
+        .values
+        .get(&("printer".to_string(), "kinematics".to_string()));
+    match kinematics {
+        Some((value, _)) if value == "delta" => {}
+        Some((value, line)) => {
+            return Err(FirmwareError::Line {
+                path: path.to_path_buf(),
+                line: *line,
+                message: format!("kinematics '{value}': not a linear delta"),
+            });
+        }
+        None => {
+            return Err(FirmwareError::Configuration {
+                path: path.to_path_buf(),
+                message: "no kinematics in [printer]: not a printer configuration".into(),
+            });
+        }
+    }
+    let delta_radius = options.required("printer", "delta_radius")?;
+    let print_radius = options
+        .float("printer", "print_radius")?
+        .unwrap_or(delta_radius);
+    let arm_a = options.required(STEPPERS[0], "arm_length")?;
+    let endstop_a = options.required(STEPPERS[0], "position_endstop")?;
+    let mut delta = KlipperDelta {
+        delta_radius,
+        print_radius,
+        angles: NOMINAL_ANGLE,
+        arm_lengths: [arm_a; 3],
+        position_endstops: [endstop_a; 3],
+    };
+    for (i, stepper) in STEPPERS.iter().enumerate() {
+        let given = [
+            ("angle", &mut delta.angles[i]),
+            ("arm_length", &mut delta.arm_lengths[i]),
+            ("position_endstop", &mut delta.position_endstops[i]),
+        ];
+        for (key, slot) in given {
+            if let Some(v) = options.float(stepper, key)? {
+                *slot = v;
+            }
+        }
+        if delta.arm_lengths[i] <= delta_radius {
+            return Err(FirmwareError::Configuration {
+                path: path.to_path_buf(),
+                message: format!(
+                    "[{stepper}] arm_length {} is not longer than delta_radius {delta_radius}",
+                    delta.arm_lengths[i]
+                ),
+            });
+        }
+    }
+    Ok(delta)
+}

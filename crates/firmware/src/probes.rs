@@ -1,0 +1,144 @@
+//! Probe heights: `probes.csv`, header `x,y,z`, one probe per row: the
+//! commanded nozzle position `x, y` (mm, firmware coordinates) and the
+//! height `z` (mm) that `G30 S-1` reports there, the firmware's nozzle
+//! height when the probe triggered less the trigger height (`G31 Z`):
+//! zero on a perfectly calibrated printer, positive where the bed is
+//! higher than the firmware believes.
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::FirmwareError;
+use crate::files::read_capped;
+
+/// The most probe points a file may hold (a bed probed every 2 mm over a
+/// 200 mm circle holds fewer).
+pub const MAX_PROBE_POINTS: usize = 10_000;
+/// The largest probe file read (bytes).
+pub const MAX_PROBE_BYTES: u64 = 1 << 20;
+
+/// One probe: where the nozzle was sent and the height reported.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbePoint {
+    /// Commanded nozzle x (mm).
+    pub x: f64,
+    /// Commanded nozzle y (mm).
+    pub y: f64,
+    /// Reported height (mm).
+    pub z: f64,
+}
+
+/// Reads a `probes.csv`.
+pub fn read_probes(path: &Path) -> Result<Vec<ProbePoint>, FirmwareError> {
+    let text = read_capped(path, MAX_PROBE_BYTES, "probe file")?;
+    parse_probes(text.as_bytes(), path)
+}
+
+/// [`read_probes`] of any reader (`path` names it in errors): the header
+/// must be `x,y,z`, every row three finite numbers, at most
+/// [`MAX_PROBE_POINTS`] rows.
+pub fn parse_probes<R: Read>(input: R, path: &Path) -> Result<Vec<ProbePoint>, FirmwareError> {
+    let at = |line: u64, message: String| FirmwareError::Line {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(input);
+    let header = reader.headers().map_err(|e| at(1, e.to_string()))?.clone();
+    if header.iter().collect::<Vec<_>>() != ["x", "y", "z"] {
+        let found = header.iter().collect::<Vec<_>>().join(",");
+        return Err(at(1, format!("the header is '{found}', expected 'x,y,z'")));
+    }
+    let mut points = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            at(line, e.to_string())
+        })?;
+        let line = record.position().map_or(0, |p| p.line());
+        if points.len() == MAX_PROBE_POINTS {
+            return Err(at(
+                line,
+                format!("more than {MAX_PROBE_POINTS} probe points"),
+            ));
+        }
+        if record.len() != 3 {
+            return Err(at(
+                line,
+                format!("{} fields, expected 3 (x,y,z)", record.len()),
+            ));
+        }
+        let mut values = [0.0; 3];
+        for (k, name) in ["x", "y", "z"].iter().enumerate() {
+            values[k] = record[k]
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    at(
+                        line,
+                        format!("{name}: '{}' is not a finite number", &record[k]),
+                    )
+                })?;
+        }
+        let [x, y, z] = values;
+        points.push(ProbePoint { x, y, z });
+    }
+    if points.is_empty() {
+        return Err(at(1, "no probe points".into()));
+    }
+    Ok(points)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_points_and_names_the_bad_line() {
+        let path = Path::new("probes.csv");
+        let points = parse_probes("x,y,z\n0,0,0.05\n-86.6,-50,-0.12\n".as_bytes(), path).unwrap();
+        assert_eq!(points.len(), 2);
+        assert_eq!(
+            points[1],
+            ProbePoint {
+                x: -86.6,
+                y: -50.0,
+                z: -0.12
+            }
+        );
+        let err = parse_probes("x,y,z\n0,0,0.05\n1,2,nan\n".as_bytes(), path).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "probes.csv: line 3: z: 'nan' is not a finite number"
+        );
+        let err = parse_probes("x,y,height\n0,0,0\n".as_bytes(), path).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "probes.csv: line 1: the header is 'x,y,height', expected 'x,y,z'"
+        );
+        let err = parse_probes("x,y,z\n0,0\n".as_bytes(), path).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "probes.csv: line 2: 2 fields, expected 3 (x,y,z)"
+        );
+        let err = parse_probes("x,y,z\n".as_bytes(), path).unwrap_err();
+        assert_eq!(err.to_string(), "probes.csv: line 1: no probe points");
+    }
+
+    #[test]
+    fn refuses_more_points_than_the_cap() {
+        let mut text = String::from("x,y,z\n");
+        for _ in 0..=MAX_PROBE_POINTS {
+            text.push_str("0,0,0\n");
+        }
+        let err = parse_probes(text.as_bytes(), Path::new("p.csv")).unwrap_err();
+        assert!(
+            err.to_string().contains("more than 10000 probe points"),
+            "{err}"
+        );
+    }
+}

@@ -1,0 +1,103 @@
+//! Reading Klipper's delta settings and writing its SAVE_CONFIG block.
+
+use std::path::Path;
+
+use parcal_firmware::klipper::{KlipperDelta, parse_printer_cfg, read_printer_cfg};
+
+const PRINTER_CFG: &str = "\
+# A kit delta
+[stepper_a]
+step_pin: PF0
+arm_length: 269.8   # measured
+position_endstop: 301.2
+homing_speed: 60
+
+[stepper_b]
+step_pin: PF6
+angle = 329.8
+
+[stepper_c]
+position_endstop: 300.9
+
+[printer]
+kinematics: delta
+max_velocity: 300
+delta_radius: 134.5
+print_radius: 110
+
+[gcode_macro PARK]
+gcode:
+    G1 X0 Y0 Z50 ; not a key: value of ours
+    M400
+";
+
+#[test]
+fn reads_the_settings_with_klippers_defaults() {
+    let delta = parse_printer_cfg(PRINTER_CFG, Path::new("printer.cfg")).unwrap();
+    assert_eq!(delta.delta_radius, 134.5);
+    assert_eq!(delta.print_radius, 110.0);
+    assert_eq!(delta.angles, [210.0, 329.8, 90.0]);
+    assert_eq!(delta.arm_lengths, [269.8; 3]);
+    assert_eq!(delta.position_endstops, [301.2, 301.2, 300.9]);
+    let params = delta.to_params();
+    assert!((params.homed_height - 301.1).abs() < 1e-12);
+    assert!((params.endstop[2] + 0.2).abs() < 1e-12);
+    assert!((params.angle[1] + 0.2).abs() < 1e-12);
+}
+
+#[test]
+fn the_save_config_block_overrides_and_reads_back() {
+    let calibrated = KlipperDelta {
+        delta_radius: 134.987654,
+        print_radius: 110.0,
+        angles: [210.123456, 329.876543, 90.0],
+        arm_lengths: [270.111111, 269.888888, 270.0],
+        position_endstops: [301.234567, 300.765432, 301.0],
+    };
+    let text = format!("{PRINTER_CFG}\n{}", calibrated.save_config_block());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("printer.cfg");
+    std::fs::write(&path, &text).unwrap();
+    let back = read_printer_cfg(&path).unwrap();
+    // Written to 1e-6: equal to the values, which have six decimals.
+    assert_eq!(back, calibrated);
+    let params = back.to_params();
+    assert_eq!(
+        KlipperDelta::from_params(&params, 110.0)
+            .unwrap()
+            .save_config_block(),
+        calibrated.save_config_block()
+    );
+}
+
+#[test]
+fn errors_name_the_file_and_line() {
+    let path = Path::new("printer.cfg");
+    let err = parse_printer_cfg(&PRINTER_CFG.replace("134.5", "13x"), path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "printer.cfg: line 18: [printer] delta_radius: '13x' is not a number"
+    );
+    let err = parse_printer_cfg(
+        &PRINTER_CFG.replace("kinematics: delta", "kinematics: corexy"),
+        path,
+    )
+    .unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "printer.cfg: line 16: kinematics 'corexy': not a linear delta"
+    );
+    let err = parse_printer_cfg(&PRINTER_CFG.replace("delta_radius: 134.5", ""), path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "printer.cfg: no delta_radius in [printer] (includes are not followed)"
+    );
+    let err = parse_printer_cfg("orphan: 1\n", path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "printer.cfg: line 1: 'orphan: 1' comes before any section"
+    );
+    let mut tilted = parse_printer_cfg(PRINTER_CFG, path).unwrap().to_params();
+    tilted.tilt = [0.1, 0.0];
+    assert!(KlipperDelta::from_params(&tilted, 110.0).is_err());
+}

@@ -1,0 +1,359 @@
+//! The interface every parallel mechanism implements: [`Mechanism`].
+//!
+//! A mechanism maps a pose `x` (its [`Mechanism::pose_coordinates`]) and a
+//! parameter vector `p` (its [`Mechanism::parameters`]) to the readings `q`
+//! of its actuators (inverse kinematics, `q = g(p, x)`), and back (forward
+//! kinematics, `x = f(p, q)`, one assembly mode). A calibration needs the
+//! analytic derivatives `G_p = dg/dp` and `G_x = dg/dx`
+//! ([`Mechanism::reading_jacobians`]); the derivative of the pose at fixed
+//! readings follows by implicit differentiation of `g(p, f(p, q)) = q`:
+//!
+//! ```text
+//! dx/dp |_q = -G_x^-1 G_p            (pose_jacobian_at_fixed_readings)
+//! ```
+//!
+//! Sizes are dynamic (slices in, [`DVector`]/[`DMatrix`] out): the hexapod
+//! has 33 parameters, 6 actuators and a 6-coordinate pose, the linear delta
+//! 16, 3 and 3.
+//!
+//! # Why a trait object
+//!
+//! The trait is object safe and used as `&dyn Mechanism`: a calibration
+//! picks its mechanism at run time from a file ([`crate::mechanisms`], the
+//! one list), the sizes are dynamic anyway, and the per-observation cost
+//! of a virtual call is small next to a forward kinematics (a Newton
+//! iteration or a trilateration). A mechanism with a hot path of its own
+//! (the hexapod's SIMD lanes, [`crate::lanes`]) keeps it behind its
+//! concrete type; the trait is the common door, not the only one.
+//!
+//! # Pose increments
+//!
+//! `G_x` is taken with respect to a local increment `dx` of the pose applied
+//! by [`Mechanism::retract`]: plain addition by default (a delta's effector
+//! translation), the left rotation increment for a pose with an
+//! orientation (the hexapod). Finite-difference checks step with `retract`.
+//!
+//! # Gauge
+//!
+//! Some parameter combinations change no measurement: a rigid motion of the
+//! frame the mechanism is described in, or two parameters that only enter
+//! as a sum. [`Mechanism::gauge_freedoms`] names them (as directions in
+//! parameter space, at given parameters) and [`Mechanism::canonicalize`]
+//! removes them, returning the parameters of the same machine in the
+//! mechanism's canonical frame. A parametrisation that is canonical by
+//! construction (the hexapod's 33) has none left.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::KinematicsError;
+
+/// One kinematic parameter: what it is and what the designer knows of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameter {
+    /// Short name, unique within the mechanism (`diagonal_a`, `y_b2`).
+    pub name: String,
+    /// Unit of the value, its prior and its derivatives' denominator
+    /// (`mm`, `deg`, `%`).
+    pub unit: &'static str,
+    /// The group it belongs to (`endstops`, `leg lengths`): one tolerance
+    /// per group in a design's file, one block per group in a report.
+    pub group: &'static str,
+    /// The design (nominal) value.
+    pub design: f64,
+    /// The builder's tolerance: one standard deviation of the prior
+    /// observation `p = design` (in `unit`).
+    pub prior_sigma: f64,
+}
+
+/// One coordinate of the pose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PoseCoordinate {
+    /// Name (`x`, `w_z`).
+    pub name: &'static str,
+    /// Unit (`mm`, `rad`).
+    pub unit: &'static str,
+}
+
+/// The model of one actuator's reading: `q = scale * raw + offset`, with
+/// `raw` what the controller counts (steps, encoder counts) and `q` the
+/// reading the kinematics uses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Actuator {
+    /// Name (`carriage A`, `leg 3`).
+    pub name: String,
+    /// Unit of `q` (`mm`).
+    pub unit: &'static str,
+    /// `q` per unit of `raw`.
+    pub scale: f64,
+    /// `q` at `raw = 0`.
+    pub offset: f64,
+}
+
+impl Actuator {
+    /// An actuator that reports `q` directly (scale 1, offset 0).
+    pub fn direct(name: String, unit: &'static str) -> Self {
+        Self {
+            name,
+            unit,
+            scale: 1.0,
+            offset: 0.0,
+        }
+    }
+
+    /// The reading `q` of a raw count.
+    pub fn reading(&self, raw: f64) -> f64 {
+        self.scale * raw + self.offset
+    }
+}
+
+/// The derivatives of the readings at one pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadingJacobians {
+    /// `G_p = dq/dp` (actuators x parameters).
+    pub d_params: DMatrix<f64>,
+    /// `G_x = dq/dx` (actuators x pose increment), `x` stepped by
+    /// [`Mechanism::retract`].
+    pub d_pose: DMatrix<f64>,
+}
+
+/// A parameter combination that no measurement can see.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GaugeFreedom {
+    /// What it is (`rotation about z`, `homed height + mean endstop`).
+    pub name: &'static str,
+    /// The direction in parameter space (at the parameters it was asked
+    /// at; unit Euclidean norm).
+    pub direction: DVector<f64>,
+}
+
+/// Why a pose cannot be reached or a reading cannot be assembled.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MechanismError {
+    /// A parameter vector of the wrong length.
+    #[error("{mechanism} has {expected} parameters, got {found}")]
+    ParameterCount {
+        /// The mechanism.
+        mechanism: String,
+        /// Its parameter count.
+        expected: usize,
+        /// The length given.
+        found: usize,
+    },
+    /// A pose or reading vector of the wrong length.
+    #[error("{mechanism} needs {expected} {what}, got {found}")]
+    Dimension {
+        /// The mechanism.
+        mechanism: String,
+        /// `pose coordinates` or `readings`.
+        what: &'static str,
+        /// The length it needs.
+        expected: usize,
+        /// The length given.
+        found: usize,
+    },
+    /// A NaN or infinite value.
+    #[error("{what} is not a finite number")]
+    NonFinite {
+        /// The value (`parameter diagonal_b`, `reading 2`).
+        what: String,
+    },
+    /// The pose is outside the mechanism's reach or limits.
+    #[error("unreachable: {reason}")]
+    Unreachable {
+        /// The limit violated, with its numbers.
+        reason: String,
+    },
+    /// `dq/dx` is singular at the pose (a singular configuration).
+    #[error("dq/dx is singular at this pose (a singular configuration)")]
+    Singular,
+    /// An error of the hexapod's kinematics.
+    #[error(transparent)]
+    Hexapod(#[from] KinematicsError),
+}
+
+/// A parallel mechanism (module documentation).
+pub trait Mechanism {
+    /// The mechanism's name (`hexapod`, `linear delta`).
+    fn name(&self) -> &str;
+
+    /// The parameters, in the order of every parameter vector.
+    fn parameters(&self) -> &[Parameter];
+
+    /// The pose coordinates, in the order of every pose vector.
+    fn pose_coordinates(&self) -> &[PoseCoordinate];
+
+    /// The actuators, in the order of every reading vector.
+    fn actuators(&self) -> &[Actuator];
+
+    /// Inverse kinematics: the readings `q = g(p, x)` that put the
+    /// mechanism at `pose`. An error when the pose cannot be assembled.
+    fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError>;
+
+    /// Forward kinematics: the pose `x = f(p, q)` at `readings`, in the
+    /// mechanism's working assembly mode; `start` is a nearby pose for an
+    /// iterative solution (closed forms ignore it).
+    fn forward(
+        &self,
+        params: &[f64],
+        readings: &[f64],
+        start: &[f64],
+    ) -> Result<DVector<f64>, MechanismError>;
+
+    /// `dq/dp` and `dq/dx` at `pose`, analytic.
+    fn reading_jacobians(
+        &self,
+        params: &[f64],
+        pose: &[f64],
+    ) -> Result<ReadingJacobians, MechanismError>;
+
+    /// The pose `x` moved by a local increment `dx` (module documentation);
+    /// by default `x + dx`.
+    fn retract(&self, pose: &[f64], increment: &[f64]) -> DVector<f64> {
+        DVector::from_column_slice(pose) + DVector::from_column_slice(increment)
+    }
+
+    /// The combinations of the parameters no measurement can see, at
+    /// `params` (none by default: a canonical parametrisation).
+    fn gauge_freedoms(&self, params: &[f64]) -> Result<Vec<GaugeFreedom>, MechanismError> {
+        check_params(self, params)?;
+        Ok(Vec::new())
+    }
+
+    /// The parameters of the same machine in the canonical frame, where
+    /// the gauge freedoms are fixed (the identity by default).
+    fn canonicalize(&self, params: &[f64]) -> Result<DVector<f64>, MechanismError> {
+        Ok(DVector::from_column_slice(params))
+    }
+
+    /// Whether `pose` is within the mechanism's limits (stroke, joint
+    /// angles, workspace); the first limit violated otherwise. Every pose
+    /// the inverse kinematics accepts by default.
+    fn check_feasible(&self, params: &[f64], pose: &[f64]) -> Result<(), MechanismError> {
+        self.inverse(params, pose).map(|_| ())
+    }
+}
+
+/// The design parameter vector of a mechanism.
+pub fn design(mechanism: &dyn Mechanism) -> DVector<f64> {
+    DVector::from_iterator(
+        mechanism.parameters().len(),
+        mechanism.parameters().iter().map(|p| p.design),
+    )
+}
+
+/// The prior standard deviations of a mechanism's parameters.
+pub fn prior_sigma(mechanism: &dyn Mechanism) -> DVector<f64> {
+    DVector::from_iterator(
+        mechanism.parameters().len(),
+        mechanism.parameters().iter().map(|p| p.prior_sigma),
+    )
+}
+
+/// Refuses a parameter vector of the wrong length or with a non-finite
+/// value (named).
+pub fn check_params<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    params: &[f64],
+) -> Result<(), MechanismError> {
+    let expected = mechanism.parameters().len();
+    if params.len() != expected {
+        return Err(MechanismError::ParameterCount {
+            mechanism: mechanism.name().to_string(),
+            expected,
+            found: params.len(),
+        });
+    }
+    match params.iter().position(|v| !v.is_finite()) {
+        Some(k) => Err(MechanismError::NonFinite {
+            what: format!("parameter {}", mechanism.parameters()[k].name),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Refuses a vector of `what` (`pose coordinates` or `readings`) of length
+/// other than `expected` or with a non-finite value.
+pub fn check_vector<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    what: &'static str,
+    values: &[f64],
+    expected: usize,
+) -> Result<(), MechanismError> {
+    if values.len() != expected {
+        return Err(MechanismError::Dimension {
+            mechanism: mechanism.name().to_string(),
+            what,
+            expected,
+            found: values.len(),
+        });
+    }
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(k) => Err(MechanismError::NonFinite {
+            what: format!("{what} {}", k + 1),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// `dx/dp` at fixed readings, `-G_x^-1 G_p` (module documentation), for a
+/// mechanism with as many actuators as pose coordinates. An error at a
+/// singular configuration (`G_x` not invertible).
+pub fn pose_jacobian_at_fixed_readings(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    pose: &[f64],
+) -> Result<DMatrix<f64>, MechanismError> {
+    let jacobians = mechanism.reading_jacobians(params, pose)?;
+    let (actuators, coordinates) = jacobians.d_pose.shape();
+    if actuators != coordinates {
+        return Err(MechanismError::Dimension {
+            mechanism: mechanism.name().to_string(),
+            what: "actuators (one per pose coordinate)",
+            expected: coordinates,
+            found: actuators,
+        });
+    }
+    let lu = jacobians.d_pose.lu();
+    let solved = lu
+        .solve(&jacobians.d_params)
+        .filter(|m| m.iter().all(|v| v.is_finite()))
+        .ok_or(MechanismError::Singular)?;
+    Ok(-solved)
+}
+
+/// Central-difference derivatives of the readings, for checking
+/// [`Mechanism::reading_jacobians`]: steps `h_p[k]` in parameter `k` and
+/// `h_x` in each pose increment.
+pub fn reading_jacobians_by_differences(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    pose: &[f64],
+    h_p: &[f64],
+    h_x: f64,
+) -> Result<ReadingJacobians, MechanismError> {
+    check_params(mechanism, params)?;
+    check_vector(mechanism, "parameter steps", h_p, params.len())?;
+    let n_q = mechanism.actuators().len();
+    let n_p = params.len();
+    let n_x = pose.len();
+    let mut d_params = DMatrix::zeros(n_q, n_p);
+    for k in 0..n_p {
+        let (mut plus, mut minus) = (params.to_vec(), params.to_vec());
+        plus[k] += h_p[k];
+        minus[k] -= h_p[k];
+        let column =
+            (mechanism.inverse(&plus, pose)? - mechanism.inverse(&minus, pose)?) / (2.0 * h_p[k]);
+        d_params.set_column(k, &column);
+    }
+    let mut d_pose = DMatrix::zeros(n_q, n_x);
+    for k in 0..n_x {
+        let step = DVector::from_fn(n_x, |i, _| if i == k { h_x } else { 0.0 });
+        let plus = mechanism.retract(pose, step.as_slice());
+        let minus = mechanism.retract(pose, (-step).as_slice());
+        let column = (mechanism.inverse(params, plus.as_slice())?
+            - mechanism.inverse(params, minus.as_slice())?)
+            / (2.0 * h_x);
+        d_pose.set_column(k, &column);
+    }
+    Ok(ReadingJacobians { d_params, d_pose })
+}
