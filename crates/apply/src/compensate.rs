@@ -89,7 +89,7 @@ pub fn command(model: &AppliedModel, target: &Target) -> Result<Command, Refusal
     }
     let height = platform_height(geometry, &pose);
     // NaN (a degenerate geometry) is refused too.
-    if !(height > 0.0) {
+    if height.is_nan() || height <= 0.0 {
         return Err(Refusal::OtherAssembly { depth: -height });
     }
     let q: [f64; 6] = std::array::from_fn(|i| (legs.length[i] - geometry.legs[i]) / model.scale[i]);
