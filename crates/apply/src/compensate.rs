@@ -6,9 +6,18 @@
 //! `L_i = |R E_i + t - B_i|` (paper eq. 1) and the readings
 //! `q_i = (L_i - l_i) / s_i` in the actuators' unit.
 //!
-//! A target is refused when a reading leaves the stroke, a joint is beyond
-//! machine.json's joint limits (`parcal_kinematics::joints`, with the
-//! calibrated geometry), or near a singular configuration. The measure: the inverse-kinematics Jacobian
+//! A target is refused, in this order, when it puts the platform on the
+//! other side of the base than the machine's assembly mode (its
+//! `parcal_kinematics::assembly::platform_height` is not positive: the
+//! legs cannot tell a pose from its mirror image through the base, and the
+//! machine would go to the mirror image), when a reading leaves the stroke,
+//! a joint is beyond machine.json's joint limits
+//! (`parcal_kinematics::joints`, with the calibrated geometry), near a
+//! singular configuration, or when the readings do not lead back to it: the
+//! forward kinematics from the home pose (the machine's assembly mode,
+//! `parcal_kinematics::assembly::reached_from_home`) must reach its pose
+//! within `parcal_kinematics::assembly::REACH_TOLERANCE`. The measure of
+//! singularity: the inverse-kinematics Jacobian
 //! `A = dL/d(t, w)` (rows `[n_i^T, (a_i x n_i)^T]`, `a_i = R E_i`,
 //! docs/formulation.md section 4) with its rotation columns divided by `r`,
 //! the RMS distance of the platform joints from their centroid, so that
@@ -18,6 +27,9 @@
 //! `|dL| / sigma_min`, a hundred times what the best direction allows.
 
 use nalgebra::Matrix6;
+use parcal_kinematics::assembly::{
+    REACH_TOLERANCE, platform_height, pose_distance, reached_from_home,
+};
 use parcal_kinematics::{Geometry, Pose, closure::Legs};
 
 use crate::error::row_by_row;
@@ -75,6 +87,11 @@ pub fn command(model: &AppliedModel, target: &Target) -> Result<Command, Refusal
             length: legs.length[i],
         });
     }
+    let height = platform_height(geometry, &pose);
+    // NaN (a degenerate geometry) is refused too.
+    if height.is_nan() || height <= 0.0 {
+        return Err(Refusal::OtherAssembly { depth: -height });
+    }
     let q: [f64; 6] = std::array::from_fn(|i| (legs.length[i] - geometry.legs[i]) / model.scale[i]);
     if let Some([min, max]) = model.stroke
         && let Some(i) = q.iter().position(|q| !(min..=max).contains(q))
@@ -103,11 +120,28 @@ pub fn command(model: &AppliedModel, target: &Target) -> Result<Command, Refusal
             limit: SINGULARITY_RATIO,
         });
     }
+    reaches(geometry, &pose)?;
     Ok(Command {
         q,
         pose,
         conditioning,
     })
+}
+
+/// Refuses a pose the machine does not come back to from its home pose at
+/// the pose's own leg lengths (module doc).
+fn reaches(geometry: &Geometry, pose: &Pose) -> Result<(), Refusal> {
+    let reached = reached_from_home(geometry, pose).map_err(Refusal::Unreached)?;
+    let distance = pose_distance(geometry, &reached, pose);
+    if distance <= REACH_TOLERANCE {
+        Ok(())
+    } else {
+        Err(Refusal::Elsewhere {
+            tip: geometry.tool_tip(&reached),
+            distance,
+            tolerance: REACH_TOLERANCE,
+        })
+    }
 }
 
 /// The commands of `targets`, in order; the first refused target is an
@@ -213,10 +247,57 @@ mod tests {
             .to_string();
         assert_eq!(message, "row 1: y is not a finite number");
 
-        // The platform lowered into the base's plane (the tool is 60 mm
-        // above it): every leg horizontal, no leg can lift it.
-        let flat = target(0.0, 0.0, 60.0, 0.0, 0.0, 0.0);
+        // The platform lowered to within a millimetre above the base's
+        // plane (the tool is 60.4 mm above it): every leg nearly
+        // horizontal, no leg can lift it.
+        let flat = target(0.0, 0.0, 61.0, 0.0, 0.0, 0.0);
         let message = compensate(&model, &[flat]).unwrap_err().to_string();
         assert!(message.starts_with("row 1: near a singular"), "{message}");
+    }
+
+    #[test]
+    fn a_target_below_the_base_is_refused_with_and_without_joint_limits() {
+        let mut model = paper_model();
+        let above = target(0.0, 0.0, 400.0, 0.0, 0.0, 0.0);
+        let below = target(0.0, 0.0, -400.0, 0.0, 0.0, 0.0);
+        for limits in [
+            None,
+            Some(parcal_kinematics::JointLimits::along_normals(
+                Some(0.7),
+                Some(0.7),
+            )),
+        ] {
+            model.joint_limits = limits;
+            assert!(compensate(&model, &[above]).is_ok());
+            let message = compensate(&model, &[above, below]).unwrap_err().to_string();
+            // The platform's joints at z = -400 - 60 = -460, the base's
+            // within 0.1 mm of z = 0 (the paper's truth).
+            assert!(
+                message.starts_with("row 2: the platform would be 46")
+                    && message.contains("mm below the base"),
+                "{message}"
+            );
+            assert!(message.contains("other assembly mode"), "{message}");
+        }
+    }
+
+    #[test]
+    fn readings_that_lead_to_another_pose_are_refused() {
+        let model = paper_model();
+        let geometry = &model.calibrated;
+        let above = target(10.0, -20.0, 400.0, 0.05, 0.0, 0.1).pose(&geometry.tool);
+        assert_eq!(reaches(geometry, &above), Ok(()));
+        // The platform below the base, level: its legs take the machine to
+        // near the mirror image, level at z = +460 (tool tip z = +520);
+        // near, for the truth's base joints lie up to 0.08 mm out of
+        // plane, which the 900 mm lever turns into millimetres.
+        let below = target(0.0, 0.0, -400.0, 0.0, 0.0, 0.0).pose(&geometry.tool);
+        match reaches(geometry, &below) {
+            Err(Refusal::Elsewhere { tip, distance, .. }) => {
+                assert!((tip - Vec3::new(0.0, 0.0, 520.0)).norm() < 5.0, "{tip}");
+                assert!(distance > 900.0, "{distance}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }

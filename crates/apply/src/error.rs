@@ -20,6 +20,33 @@ pub enum Refusal {
         /// Its length (mm).
         length: f64,
     },
+    /// The target puts the platform on the other side of the base than the
+    /// machine's assembly mode (`parcal_kinematics::assembly`).
+    #[error(
+        "the platform would be {depth:.3} mm below the base (its joints' centroid under the base joints' along the base's +z): that is the other assembly mode, and readings for it would drive the machine, assembled with the platform above its base, to the target's mirror image through the base"
+    )]
+    OtherAssembly {
+        /// How far below the base (mm, `-platform_height`).
+        depth: f64,
+    },
+    /// The readings' forward kinematics from the machine's home pose (its
+    /// assembly mode) reaches another pose.
+    #[error(
+        "the readings would take the machine elsewhere: from its home pose (its assembly mode) they reach the tool tip ({:.3}, {:.3}, {:.3}), the platform {distance:.3e} mm from the target's pose (tolerance {tolerance:.0e} mm)",
+        tip.x, tip.y, tip.z
+    )]
+    Elsewhere {
+        /// The tool tip reached (design frame, mm).
+        tip: parcal_kinematics::Vec3,
+        /// `parcal_kinematics::assembly::pose_distance` of the reached and
+        /// the target's pose (mm).
+        distance: f64,
+        /// `parcal_kinematics::assembly::REACH_TOLERANCE`.
+        tolerance: f64,
+    },
+    /// The readings' forward kinematics from the machine's home pose failed.
+    #[error("the readings' forward kinematics from the machine's home pose failed: {0}")]
+    Unreached(KinematicsError),
     /// An actuator reading outside machine.json's `stroke`.
     #[error("q{leg} = {reading:.6} {unit} is outside the stroke [{min}, {max}]")]
     OutsideStroke {

@@ -5,7 +5,9 @@
 //!   design frame by the best rigid fit of its joints onto the design's;
 //! - [`compensate`](mod@compensate): targets (tool tip and platform orientation, design
 //!   frame) to actuator commands by the placed geometry's inverse
-//!   kinematics, refusing targets outside the stroke or near a singularity;
+//!   kinematics, refusing targets outside the machine's assembly mode, the
+//!   stroke or the joint limits, near a singularity, or whose readings do
+//!   not lead back to them;
 //! - [`corrected`]: the poses to send to a controller that uses the nominal
 //!   (design) model, and a correction table over a workspace grid;
 //! - exports: [`machine`] (the calibrated machine.json), [`genhexkins`]

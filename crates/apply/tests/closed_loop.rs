@@ -18,7 +18,7 @@ use parcal_apply::{
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::{Calibration, Dataset, Machine};
 use parcal_kinematics::{Geometry, Vec3, leg_lengths};
-use parcal_simulate::execute;
+use parcal_simulate::{MachineLimits, execute};
 
 struct Scenario {
     record: Calibration,
@@ -62,7 +62,11 @@ fn scenario(dataset: &Dataset) -> Scenario {
 /// Registered tip errors (mm) of `commands` run on the true machine.
 fn achieved_errors(s: &Scenario, commands: &[Command], targets: &[Target]) -> Vec<f64> {
     let q: Vec<[f64; 6]> = commands.iter().map(|c| c.q).collect();
-    let poses = execute(&s.truth, &s.true_scale, &q).unwrap();
+    let limits = MachineLimits {
+        stroke: s.model.stroke,
+        joint_limits: s.model.joint_limits.as_ref(),
+    };
+    let poses = execute(&s.truth, &s.true_scale, limits, &q).unwrap();
     let tips: Vec<Vec3> = poses.iter().map(|p| s.truth.tool_tip(p)).collect();
     let goals: Vec<Vec3> = targets.iter().map(|t| t.position).collect();
     registered_errors(&tips, &goals).unwrap()

@@ -105,6 +105,7 @@ mod quote;
 mod session;
 mod shape;
 mod snapshot;
+mod stroke;
 mod table;
 mod temp;
 mod tracker;
@@ -130,6 +131,7 @@ pub use numbers::{
 };
 pub use parcal_kinematics::PriorSigma;
 pub use session::{FrameRecord, SessionRecord};
+pub use stroke::{OutsideStroke, STROKE_SIGMAS};
 pub use table::CSV_LINE_CAP;
 pub use tracker::{DEFAULT_SESSION, Points, Poses, Tracker};
 pub use truth::Truth;

@@ -16,7 +16,7 @@ pub enum DesignError {
     NoStroke,
     /// No candidate is feasible.
     #[error(
-        "no candidate touch is feasible: every one has an actuator reading outside the stroke {stroke:?}, is near a singularity or has a joint beyond machine.json's joint_limits"
+        "no candidate touch is feasible: every one puts the platform below the base (the other assembly mode), has an actuator reading outside the stroke {stroke:?}, is near a singularity or has a joint beyond machine.json's joint_limits"
     )]
     EmptyPool {
         /// The stroke.

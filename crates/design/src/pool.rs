@@ -12,6 +12,9 @@
 //!
 //! A candidate is kept when, with the design geometry, the tool tip at the
 //! nominal contact point `C + r u` and orientation `R`:
+//! - the platform is above the base, in the machine's assembly mode
+//!   ([`parcal_kinematics::assembly::platform_height`] positive: below
+//!   the base its readings would drive the machine to the mirror image);
 //! - every actuator reading `q_i = L_i - l_i` is inside the stroke;
 //! - the pose is away from singularity: the closure Jacobian `A` (rows
 //!   `[n_i^T, (R E_i x n_i)^T]`, `crates/kinematics/src/closure.rs`) with
@@ -23,6 +26,7 @@
 //!   base and platform joints' axes).
 
 use nalgebra::{Matrix6, Translation3, UnitQuaternion};
+use parcal_kinematics::assembly::platform_height;
 use parcal_kinematics::{
     Geometry, JointLimits, Pose, Vec3, actuators, closure::Legs, rotation_zyx,
 };
@@ -119,7 +123,8 @@ pub fn conditioning(design: &Geometry, pose: &Pose) -> f64 {
 }
 
 /// The design's actuator readings `q_i = (L_i - l_i) / s_i` at `pose`
-/// (`s_i` in mm per unit) when every one is inside `stroke`, the pose's
+/// (`s_i` in mm per unit) when the platform is above the base, every
+/// reading is inside `stroke`, the pose's
 /// [`conditioning`] is at least `min_conditioning` and every joint is
 /// within `joint_limits` if given (module doc); `None` otherwise.
 pub fn feasible_commands(
@@ -134,7 +139,11 @@ pub fn feasible_commands(
     let q: [f64; 6] = std::array::from_fn(|i| extension[i] / scale[i]);
     let in_stroke = q.iter().all(|q| (stroke[0]..=stroke[1]).contains(q));
     let in_joints = || joint_limits.is_none_or(|l| l.violation(design, pose).is_none());
-    (in_stroke && conditioning(design, pose) >= min_conditioning && in_joints()).then_some(q)
+    (platform_height(design, pose) > 0.0
+        && in_stroke
+        && conditioning(design, pose) >= min_conditioning
+        && in_joints())
+    .then_some(q)
 }
 
 /// The feasible candidates of `balls` for `design` (module doc), in a fixed
@@ -368,6 +377,23 @@ mod tests {
         let limited = candidate_pool(&design, &balls, &limited_options).unwrap();
         assert_eq!(limited.len(), expected.len());
         assert!(limited.iter().zip(&expected).all(|(a, b)| a == *b));
+    }
+
+    #[test]
+    fn balls_below_the_base_give_no_candidate() {
+        // The paper's balls mirrored through the base plane for a level
+        // platform (tip z -> 120 - z, the tool 60 mm above it): a level
+        // touch has the legs of a feasible touch above the base, the one
+        // the machine, assembled with the platform above, would make.
+        let below: Vec<NominalBall> = paper_balls()
+            .into_iter()
+            .map(|b| NominalBall {
+                centre: Vec3::new(b.centre.x, b.centre.y, 120.0 - b.centre.z),
+                ..b
+            })
+            .collect();
+        let error = candidate_pool(&paper::design(), &below, &options(30.0)).unwrap_err();
+        assert!(error.to_string().contains("below the base"), "{error}");
     }
 
     #[test]

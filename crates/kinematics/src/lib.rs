@@ -8,6 +8,9 @@
 //!   conversion of a geometry given in any frame.
 //! - [`params`]: the 33 identifiable parameters (paper eq. 3) with their names.
 //! - [`inverse`] and [`forward`](mod@forward) kinematics (paper eqs. 1-2).
+//! - [`assembly`]: the assembly mode, the branch of the forward kinematics
+//!   the machine is in (the platform above its base), and the checks of a
+//!   pose against it.
 //! - [`joints`]: the angles between the legs and their joints' axes, and
 //!   their limits.
 //! - [`derivatives`]: the tool tip's derivatives with respect to the 33
@@ -42,6 +45,7 @@
 //! # Ok::<(), parcal_kinematics::KinematicsError>(())
 //! ```
 
+pub mod assembly;
 pub mod closure;
 pub mod delta;
 pub mod derivatives;

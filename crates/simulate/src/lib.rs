@@ -33,7 +33,7 @@ mod scenario;
 mod tracker;
 
 pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
-pub use execute::execute;
+pub use execute::{MachineLimits, execute};
 pub use mixed::simulate_mixed;
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;

@@ -165,6 +165,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let record = sentences::record(&run, &dataset);
         (run, record)
     };
+    let record = with_stroke_warning(record, &dataset);
     progress.finish();
     // A reader that closed stdout early does not hide a rejected
     // calibration.
@@ -178,6 +179,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
     printed
+}
+
+/// `record` with a warning naming the dataset's first reading outside
+/// machine.json's stroke, if any (`Dataset::reading_outside_stroke`): it
+/// lands in calibration.json's warnings and the report.
+fn with_stroke_warning(
+    mut record: parcal_dataset::Calibration,
+    dataset: &Dataset,
+) -> parcal_dataset::Calibration {
+    record
+        .warnings
+        .extend(dataset.reading_outside_stroke().map(|o| o.to_string()));
+    record
 }
 
 /// A number of seconds, finite and not negative.
@@ -233,6 +247,7 @@ fn run_instruments(
         let record = instruments::record(&run, dataset);
         (run, record)
     };
+    let record = with_stroke_warning(record, dataset);
     progress.finish();
     let report = args.report_request(out, None);
     let mut stdout = std::io::stdout().lock();

@@ -1,6 +1,6 @@
 //! `parcal simulate --run commands.csv --truth DATASET`: actuator commands
 //! run on a simulated dataset's true machine (docs/apply.md, the loop
-//! closed in simulation).
+//! closed in simulation), within machine.json's stroke and joint limits.
 
 use std::path::{Path, PathBuf};
 
@@ -9,6 +9,7 @@ use parcal_apply::Target;
 use parcal_apply::predicted::{registered_errors, rms};
 use parcal_dataset::{read_numbers, write_numbers};
 use parcal_kinematics::{Geometry, Vec3};
+use parcal_simulate::{MachineLimits, SimulateError};
 
 /// The options of `parcal simulate` that run commands.
 #[derive(clap::Args)]
@@ -62,8 +63,21 @@ pub fn run(args: &RunArgs, out: &Path) -> anyhow::Result<()> {
         &["q1", "q2", "q3", "q4", "q5", "q6"],
         "command",
     )?;
-    let poses = parcal_simulate::execute(&machine, &scale, &commands)
-        .with_context(|| format!("{}", commands_path.display()))?;
+    let joint_limits = dataset.machine.joint_limits.map(|l| l.limits());
+    let limits = MachineLimits {
+        stroke: dataset.machine.stroke,
+        joint_limits: joint_limits.as_ref(),
+    };
+    let poses =
+        parcal_simulate::execute(&machine, &scale, limits, &commands).map_err(
+            |error| match error {
+                // The file's line: the header is line 1.
+                SimulateError::Command { row, reason } => {
+                    anyhow::anyhow!("{}: line {}: {reason}", commands_path.display(), row + 1)
+                }
+                other => anyhow::Error::new(other).context(commands_path.display().to_string()),
+            },
+        )?;
     let reached: Vec<Target> = poses
         .iter()
         .map(|p| Target::of_pose(p, &machine.tool))

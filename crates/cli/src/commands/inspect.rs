@@ -1,4 +1,5 @@
-//! `parcal inspect`: read and validate a dataset and summarise it.
+//! `parcal inspect`: read and validate a dataset and summarise it, with a
+//! warning naming the first reading outside machine.json's stroke.
 
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -29,6 +30,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "dataset {}", args.dataset.display())?;
+    if let Some(outside) = dataset.reading_outside_stroke() {
+        writeln!(stdout, "  warning: {outside}")?;
+    }
     if !dataset.tracker.is_empty() {
         instruments(&mut stdout, &dataset)?;
     }

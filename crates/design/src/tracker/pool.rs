@@ -3,8 +3,8 @@
 //! design base frame, [`POSITION_LEVELS`] levels per axis, the box's faces,
 //! edges and corners included) times orientations on the grid of the tilt
 //! box (`crate::pool`, corners and edges included). A pose is kept when
-//! its design readings are inside machine.json's stroke (when it gives
-//! one), its closure Jacobian is conditioned at least
+//! its platform is above the base (the machine's assembly mode), its
+//! design readings are inside machine.json's stroke (when it gives one), its closure Jacobian is conditioned at least
 //! [`crate::pool::MIN_CONDITIONING`] and its joints are within
 //! machine.json's joint limits (when it gives them,
 //! [`crate::pool::feasible_commands`]).
@@ -95,7 +95,7 @@ pub fn pose_pool(
     }
     if pool.is_empty() {
         return Err(DesignError::Options(format!(
-            "no candidate pose in the workspace (half width {w} mm, height {:?} mm) is within the stroke {stroke:?}, away from singularity and within the joint limits",
+            "no candidate pose in the workspace (half width {w} mm, height {:?} mm) has the platform above the base, within the stroke {stroke:?}, away from singularity and within the joint limits",
             workspace.height
         )));
     }
