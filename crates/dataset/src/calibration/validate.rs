@@ -70,10 +70,10 @@ impl Calibration {
 
     fn validate(&self, check: Check) -> Result<()> {
         self.validate_numbers(check)?;
+        self.validate_verdict(check)?;
         self.validate_geometry(check)?;
         self.validate_covariance(check)?;
         self.validate_posterior(check)?;
-        self.validate_verdict(check)?;
         self.validate_texts(check)?;
         if let Some(diagnostics) = &self.diagnostics {
             diagnostics.validate(check, self.parameters.names.len())?;
@@ -230,16 +230,15 @@ impl Calibration {
         if c.len() != n {
             return Err(check.error(
                 "covariance",
-                format!(
-                    "expected {n} rows (one per parameter), found {}",
-                    c.len()
-                ),
+                format!("expected {n} rows (one per parameter), found {}", c.len()),
             ));
         }
         for (i, row) in c.iter().enumerate() {
             let field = format!("covariance[{i}]");
             if row.len() != n {
-                return Err(check.error(field, format!("expected {n} columns, found {}", row.len())));
+                return Err(
+                    check.error(field, format!("expected {n} columns, found {}", row.len()))
+                );
             }
             check.values(&field, row)?;
         }
@@ -357,7 +356,12 @@ impl Calibration {
             self.reasons
                 .iter()
                 .position(|r| r.contains("test failed"))
-                .map(|k| format!("reasons[{k}] says a test failed: {}", quoted(&self.reasons[k])))
+                .map(|k| {
+                    format!(
+                        "reasons[{k}] says a test failed: {}",
+                        quoted(&self.reasons[k])
+                    )
+                })
         };
         match contradiction {
             None => Ok(()),
@@ -408,7 +412,12 @@ impl Calibration {
             check.text("provenance.dataset_checksum", &p.dataset_checksum)?;
         }
         for (k, r) in self.removed_observations.iter().enumerate() {
-            place_texts(check, &format!("removed_observations[{k}]"), &r.file, &r.field)?;
+            place_texts(
+                check,
+                &format!("removed_observations[{k}]"),
+                &r.file,
+                &r.field,
+            )?;
         }
         for (k, d) in self.down_weighted_observations.iter().enumerate() {
             let field = format!("down_weighted_observations[{k}]");
@@ -709,7 +718,11 @@ mod tests {
         let singular = vec![vec![4.0, 2.0], vec![2.0, 1.0]];
         assert_eq!(indefinite_at(&singular), None);
         // Correlation 1.5: indefinite at the second row.
-        let indefinite = vec![vec![1.0, 1.5, 0.0], vec![1.5, 1.0, 0.0], vec![0.0, 0.0, 1.0]];
+        let indefinite = vec![
+            vec![1.0, 1.5, 0.0],
+            vec![1.5, 1.0, 0.0],
+            vec![0.0, 0.0, 1.0],
+        ];
         assert_eq!(indefinite_at(&indefinite), Some(1));
     }
 }
