@@ -170,13 +170,21 @@ impl CalibrationRun {
         })
     }
 
+    /// The global block's covariance as calibration.json records it: none
+    /// when the run did not converge (its covariance at the last iterate is
+    /// no posterior accuracy), and then no sigma either.
+    fn posterior(&self) -> Option<&DMatrix<f64>> {
+        self.global_covariance.as_ref().filter(|_| self.converged())
+    }
+
     /// calibration.json's `parameters` and `covariance`: the global block's
     /// [`ParameterLayout::recorded`] parameters (the balls' unknowns are in
-    /// `ball_centres`); the covariance empty without one.
+    /// `ball_centres`); the covariance empty without one (and when the
+    /// run did not converge).
     fn parameter_table(&self) -> (ParameterTable, Vec<Vec<f64>>) {
         let names = self.names();
         let columns = self.layout.recorded();
-        let sigmas = self.global_covariance.as_ref().map_or_else(
+        let sigmas = self.posterior().map_or_else(
             || DVector::zeros(self.global.len()),
             |c| c.diagonal().map(f64::sqrt),
         );
@@ -185,7 +193,7 @@ impl CalibrationRun {
             values: columns.iter().map(|&k| self.global[k]).collect(),
             sigma: columns.iter().map(|&k| sigmas[k]).collect(),
         };
-        let covariance = self.global_covariance.as_ref().map_or_else(Vec::new, |c| {
+        let covariance = self.posterior().map_or_else(Vec::new, |c| {
             columns
                 .iter()
                 .map(|&a| columns.iter().map(|&b| c[(a, b)]).collect())
@@ -208,11 +216,7 @@ impl CalibrationRun {
             );
         }
         let range = self.layout.range(ParameterGroup::ActuatorScales)?;
-        let sigma = |k: usize| {
-            self.global_covariance
-                .as_ref()
-                .map_or(0.0, |c| c[(k, k)].sqrt())
-        };
+        let sigma = |k: usize| self.posterior().map_or(0.0, |c| c[(k, k)].sqrt());
         Some(CalibratedMachine {
             geometry: geometry_record(&params::from_params(&self.params)),
             actuator: Actuator {
@@ -224,16 +228,20 @@ impl CalibrationRun {
     }
 
     /// The calibration.json record of this run, with `status`, the sentence
-    /// of its status (`parcal_report::sentences::status`).
+    /// of its status (`parcal_report::sentences::status`); a run that did
+    /// not converge records no posterior covariance or sigma.
     pub fn record(&self, status: String) -> parcal_dataset::Calibration {
         let geometry = params::from_params(&self.params);
         let (parameters, covariance) = self.parameter_table();
+        let converged = self.converged();
+        let centre_sigmas = self.centre_sigmas.as_ref().filter(|_| converged);
+        let radius_sigmas = self.radius_sigmas.as_ref().filter(|_| converged);
         let ball_centres = self
             .ball_ids
             .iter()
             .enumerate()
             .map(|(k, id)| {
-                let sigma = self.centre_sigmas.as_ref().map_or(Vec3::zeros(), |s| s[k]);
+                let sigma = centre_sigmas.map_or(Vec3::zeros(), |s| s[k]);
                 let radius = self.radii.as_ref().map(|r| r[k]);
                 (
                     id.clone(),
@@ -241,8 +249,7 @@ impl CalibrationRun {
                         centre: self.centres[k].into(),
                         sigma: sigma.into(),
                         radius,
-                        radius_sigma: radius
-                            .map(|_| self.radius_sigmas.as_ref().map_or(0.0, |s| s[k])),
+                        radius_sigma: radius.map(|_| radius_sigmas.map_or(0.0, |s| s[k])),
                     },
                 )
             })

@@ -134,6 +134,46 @@ fn exports_are_written_and_the_machine_reads_as_a_design() {
 }
 
 #[test]
+fn a_run_that_did_not_converge_quotes_no_posterior_accuracy() {
+    // Two iterations: the iteration limit, a rejected calibration.
+    let dir = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", dir.path(), &PAPER_FILES);
+    let error = fails(&["calibrate", s(&data), "--max-iterations", "2"]);
+    assert!(error.contains("iteration limit"), "{error}");
+    let calibration = data.join("calibration.rejected.json");
+    let record = parcal_dataset::Calibration::read(&calibration).unwrap();
+    assert!(!record.converged && record.covariance.is_empty());
+    assert!(record.parameters.sigma.iter().all(|&s| s == 0.0));
+    let (targets, commands) = (
+        dir.path().join("targets.csv"),
+        dir.path().join("commands.csv"),
+    );
+    write_targets(&targets);
+    let out = ok(&[
+        "compensate",
+        "--calibration",
+        s(&calibration),
+        "--accept-rejected",
+        "--poses",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ]);
+    assert!(
+        out.contains("predicted tip error after registration: none (calibration.json has no posterior covariance"),
+        "{out}"
+    );
+    assert!(!out.contains(" um"), "{out}");
+    // Its report reads it too, and quotes no accuracy map.
+    ok(&[
+        "report",
+        s(&calibration),
+        "--out",
+        s(&dir.path().join("report")),
+    ]);
+}
+
+#[test]
 fn refusals_name_the_file_and_the_row_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let data = calibrated(dir.path());

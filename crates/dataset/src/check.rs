@@ -15,11 +15,15 @@ use std::path::Path;
 
 use crate::Point3;
 use crate::error::{DatasetError, Result};
+use crate::quote::{has_control, quoted};
 
 /// The largest magnitude of a length or coordinate, mm (1 km).
 pub const MAX_LENGTH_MM: f64 = 1e6;
 /// The smallest standard deviation, in its unit.
 pub const MIN_SIGMA: f64 = 1e-12;
+/// The smallest actuator scale, mm per unit (a nanometre per count; below
+/// it a reading would have to exceed 10^15 units to move a leg by 1 m).
+pub const MIN_SCALE: f64 = 1e-9;
 
 /// Checks values destined for (or read from) one file.
 #[derive(Debug, Clone, Copy)]
@@ -82,6 +86,51 @@ impl<'a> Check<'a> {
                 field.to_string(),
                 format!("must be positive, found {}", shown(value)),
             ))
+        }
+    }
+
+    /// Finite and not negative (a posterior sigma, 0 when none was
+    /// computed).
+    pub(crate) fn non_negative(&self, field: impl Display, value: f64) -> Result<()> {
+        self.finite(&field, value)?;
+        if value >= 0.0 {
+            Ok(())
+        } else {
+            Err(self.error(
+                field.to_string(),
+                format!("must not be negative, found {}", shown(value)),
+            ))
+        }
+    }
+
+    /// An actuator scale (mm per unit): within [[`MIN_SCALE`],
+    /// [`MAX_LENGTH_MM`]].
+    pub(crate) fn scale(&self, field: impl Display, value: f64) -> Result<()> {
+        self.positive(&field, value)?;
+        if (MIN_SCALE..=MAX_LENGTH_MM).contains(&value) {
+            Ok(())
+        } else {
+            Err(self.error(
+                field.to_string(),
+                format!(
+                    "a scale of {} mm per unit is implausible: it must lie in \
+                     [{MIN_SCALE:e}, {MAX_LENGTH_MM:e}] (a unit error?)",
+                    shown(value)
+                ),
+            ))
+        }
+    }
+
+    /// A text without control characters (which would act on the terminal
+    /// or the page that shows it).
+    pub(crate) fn text(&self, field: impl Display, text: &str) -> Result<()> {
+        if has_control(text) {
+            Err(self.error(
+                field.to_string(),
+                format!("{} has a control character", quoted(text)),
+            ))
+        } else {
+            Ok(())
         }
     }
 

@@ -360,7 +360,7 @@ impl Machine {
 
     /// The geometry a machine's ([`GeometryRecord::validate_machine`]),
     /// sigmas and repeatabilities within [`Check::sigma`]'s bounds, scales
-    /// positive, the unit a label.
+    /// within [`Check::scale`]'s, the unit a label.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
         self.validate_in(check, "")
     }
@@ -413,7 +413,7 @@ impl Machine {
             ));
         }
         for (i, &s) in self.actuator.scale.iter().enumerate() {
-            check.positive(format_args!("{parent}actuator.scale[{i}]"), s)?;
+            check.scale(format_args!("{parent}actuator.scale[{i}]"), s)?;
         }
         if let Some(sigmas) = &self.actuator.scale_sigma {
             for (i, &s) in sigmas.iter().enumerate() {

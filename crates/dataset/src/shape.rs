@@ -135,6 +135,56 @@ pub(crate) fn points<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Point3>, D::
     d.deserialize_seq(PointsVisitor)
 }
 
+/// A list of at most `MAX` elements: reading stops at element `MAX + 1`
+/// with "expected at most MAX elements", so a list a file inflates costs
+/// no more than `MAX` elements of memory and work.
+pub(crate) struct Bounded<T, const MAX: usize>(pub Vec<T>);
+
+impl<'de, T: Deserialize<'de>, const MAX: usize> Deserialize<'de> for Bounded<T, MAX> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct BoundedVisitor<T, const MAX: usize>(PhantomData<T>);
+        impl<'de, T: Deserialize<'de>, const MAX: usize> Visitor<'de> for BoundedVisitor<T, MAX> {
+            type Value = Bounded<T, MAX>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                write!(f, "an array of at most {MAX} elements")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let hint = seq.size_hint().unwrap_or(0).min(MAX).min(1 << 12);
+                let mut out = Vec::with_capacity(hint);
+                while let Some(element) = seq.next_element()? {
+                    if out.len() == MAX {
+                        return Err(de::Error::custom(format!(
+                            "expected at most {MAX} elements, found more"
+                        )));
+                    }
+                    out.push(element);
+                }
+                Ok(Bounded(out))
+            }
+        }
+        d.deserialize_seq(BoundedVisitor::<T, MAX>(PhantomData))
+    }
+}
+
+/// `deserialize_with` for a list of at most `MAX` elements ([`Bounded`]).
+pub(crate) fn bounded<'de, D, T, const MAX: usize>(d: D) -> Result<Vec<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    Bounded::<T, MAX>::deserialize(d).map(|list| list.0)
+}
+
+/// `deserialize_with` for a matrix of at most `MAX` rows of at most `MAX`
+/// numbers ([`Bounded`]).
+pub(crate) fn bounded_matrix<'de, D, const MAX: usize>(d: D) -> Result<Vec<Vec<f64>>, D::Error>
+where
+    D: Deserializer<'de>,
+{
+    let rows = Bounded::<Bounded<f64, MAX>, MAX>::deserialize(d)?;
+    Ok(rows.0.into_iter().map(|row| row.0).collect())
+}
+
 /// `deserialize_with` for an object keyed by name: a key given twice is an
 /// error (a map would keep the last value silently).
 pub(crate) fn unique_map<'de, D, T>(d: D) -> Result<BTreeMap<String, T>, D::Error>

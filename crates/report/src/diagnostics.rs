@@ -30,6 +30,16 @@ const WEAK_DIRECTIONS: usize = 5;
 /// Bins of the redundancy numbers' histogram over `[0, u)`, `u` the
 /// largest redundancy rounded up to a tenth of the rows of an observation.
 const REDUNDANCY_BINS: usize = 40;
+// What this module keeps is within what calibration.json's reader accepts
+// (parcal_dataset's bounds), so that a calibration parcal writes reads back.
+const _: () = assert!(
+    LISTED <= parcal_dataset::MAX_LISTED
+        && WEAK_DIRECTIONS <= parcal_dataset::MAX_LISTED
+        && parcal_calibrate::external::SHIFTED <= parcal_dataset::MAX_LISTED
+        && parcal_calibrate::snooping::MAX_REMOVALS <= parcal_dataset::MAX_LISTED
+        && REDUNDANCY_BINS <= parcal_dataset::MAX_BINS
+        && parcal_calibrate::reliability::NORMALISED_BINS.2 <= parcal_dataset::MAX_BINS
+);
 /// Posterior variance within this share of the prior's: the data did not
 /// inform the parameter (as the prior-data conflict test,
 /// [`parcal_calibrate::conflict`]).

@@ -543,14 +543,16 @@ impl InstrumentRun {
 
     /// The calibration.json record of this run, with `status`, the
     /// sentence of its status.
+    /// A run that did not converge records no covariance and no sigma (0):
+    /// its covariance at the last iterate is no posterior accuracy.
     pub fn record(&self, status: String) -> Calibration {
         let values = self.values();
-        let sigma = self
-            .sigmas()
-            .unwrap_or_else(|| DVector::zeros(self.global.len()));
-        let covariance = self
-            .covariance
-            .as_ref()
+        let posterior = self.covariance.as_ref().filter(|_| self.converged());
+        let sigma = posterior.map_or_else(
+            || DVector::zeros(self.global.len()),
+            |c| c.diagonal().map(f64::sqrt),
+        );
+        let covariance = posterior
             .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
             .unwrap_or_default();
         let iterations = self

@@ -111,8 +111,15 @@ fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<(
         args.out.display(),
         model.unit
     );
-    // Three non-collinear targets at least: the registration is defined.
-    if let Ok(predicted) = predicted_registered(model, &commands) {
+    if model.covariance.is_none() && !args.nominal {
+        // A run that did not converge records none: its covariance at the
+        // last iterate is no accuracy.
+        println!(
+            "predicted tip error after registration: none (calibration.json has no posterior covariance of the 33 kinematic parameters: the run did not converge, or none was computed)"
+        );
+    } else if let Ok(predicted) = predicted_registered(model, &commands) {
+        // Three non-collinear targets at least: the registration is
+        // defined.
         println!(
             "predicted tip error after registration: RMS {:.1} um, max {:.1} um (posterior covariance of the 33 kinematic parameters)",
             1e3 * rms(&predicted),

@@ -204,24 +204,43 @@ pub fn reference_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1")
 }
 
-/// A calibration record with every field set, awkward values included.
+/// A calibration record with every field set, awkward values included,
+/// that its reader accepts: the parameters are its canonical geometry's,
+/// the covariance positive definite with the sigmas its diagonal's roots,
+/// the verdict the one its tests give.
 pub fn calibration() -> Calibration {
-    let n = 3;
+    let covariance: Vec<Vec<f64>> = vec![
+        vec![0.0036, 1e-4, 0.0],
+        vec![1e-4, 0.0049, -1.0 / 3.0 * 1e-4],
+        vec![0.0, -1.0 / 3.0 * 1e-4, 5e-7],
+    ];
     Calibration {
         canonical: GeometryRecord {
-            base_joints: [[0.0, 1.0 / 3.0, -0.0]; 6],
-            platform_joints: [[1e-17, 2.0, 3.0]; 6],
+            base_joints: [
+                [0.0, 0.0, -0.0],
+                [0.0, 17.432, 0.0],
+                [-0.0, 1.0 / 3.0, 0.0],
+                [1.0 / 3.0, -0.0, 1e-17],
+                [60.0, 1e-17, 2.0],
+                [-60.0, 20.0, 3.0],
+            ],
+            platform_joints: [
+                [0.0; 3],
+                [0.0, 2.0, 0.0],
+                [1e-17, 2.0, 0.0],
+                [1e-17, 2.0, 3.0],
+                [1e-17, 2.0, 3.0],
+                [1e-17, 2.0, 3.0],
+            ],
             tool: [0.0, 0.0, 60.0],
             leg_lengths: [123456.789012345; 6],
         },
         parameters: ParameterTable {
             names: vec!["y_b2".into(), "x_b3".into(), "y_b3".into()],
             values: vec![17.432, -0.0, 1.0 / 3.0],
-            sigma: vec![0.06, 0.07, 5e-324],
+            sigma: (0..3).map(|k| covariance[k][k].sqrt()).collect(),
         },
-        covariance: (0..n)
-            .map(|i| (0..n).map(|j| (i + j) as f64 / 3.0).collect())
-            .collect(),
+        covariance,
         ball_centres: std::collections::BTreeMap::from([(
             "b01".to_owned(),
             CentreEstimate {
@@ -237,8 +256,8 @@ pub fn calibration() -> Calibration {
             step_norm: 0.0,
             residual_rms: 0.02489452864196506,
         }],
-        converged: false,
-        status: "iteration limit".into(),
+        converged: true,
+        status: "converged".into(),
         options: std::collections::BTreeMap::from([("sim".to_owned(), serde_json::json!("IV"))]),
         machine: None,
         sessions: Vec::new(),

@@ -6,7 +6,8 @@ use std::fmt::Write;
 use super::document::{Block, Cell, Tone};
 
 /// `text` with the five HTML metacharacters escaped (for element content
-/// and quoted attribute values alike).
+/// and quoted attribute values alike), and control characters but line
+/// breaks and tabs shown as Rust escapes them (`\u{1b}`).
 pub fn escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
@@ -16,6 +17,8 @@ pub fn escape(text: &str) -> String {
             '>' => out.push_str("&gt;"),
             '"' => out.push_str("&quot;"),
             '\'' => out.push_str("&#39;"),
+            '\n' | '\t' => out.push(c),
+            c if c.is_control() => out.extend(c.escape_debug()),
             c => out.push(c),
         }
     }
@@ -136,5 +139,10 @@ mod tests {
             escape("<script>alert('x')</script> & \"b\""),
             "&lt;script&gt;alert(&#39;x&#39;)&lt;/script&gt; &amp; &quot;b&quot;"
         );
+    }
+
+    #[test]
+    fn control_characters_are_shown_escaped() {
+        assert_eq!(escape("a\u{1b}[31m\u{7}b\nc"), "a\\u{1b}[31m\\u{7}b\nc");
     }
 }

@@ -6,7 +6,8 @@ use std::fmt::Write;
 use super::document::{Block, Tone};
 
 /// `text` with the characters that would end a table cell or start markup
-/// escaped, and line breaks as spaces.
+/// escaped, line breaks as spaces, and other control characters shown as
+/// Rust escapes them (`\u{1b}`).
 fn escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
@@ -16,6 +17,7 @@ fn escape(text: &str) -> String {
                 out.push(c);
             }
             '\n' | '\r' => out.push(' '),
+            c if c.is_control() => out.extend(c.escape_debug()),
             c => out.push(c),
         }
     }
@@ -77,4 +79,14 @@ pub fn render(blocks: &[Block]) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_are_shown_escaped() {
+        assert_eq!(escape("a|b\u{1b}[31m\nc"), "a\\|b\\u{1b}\\[31m c");
+    }
 }

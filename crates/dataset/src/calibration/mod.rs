@@ -1,28 +1,48 @@
-//! `calibration.json`: the result of a calibration.
+//! `calibration.json`: the result of a calibration, and how it is checked
+//! when read ([`validate`]).
+
+mod validate;
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
-use crate::check::Check;
-use crate::error::Result;
 use crate::geometry::GeometryRecord;
 use crate::machine::{Actuator, Machine};
-use crate::quote::sanitized;
 use crate::session::SessionRecord;
-use crate::{json, shape};
+use crate::shape;
+
+/// The most parameters a calibration.json may name, and so the most rows
+/// and columns of its covariance (the 33 kinematic parameters, 6 scales
+/// and 18 per instrument session leave room for 200 sessions).
+pub const MAX_PARAMETERS: usize = 4096;
+/// The most entries of each diagnostic list a calibration keeps a bounded
+/// number of (largest normalised residuals, least controlled
+/// observations, weak directions and their dominant parameters, external
+/// reliability, systematic tests, variance components, removed
+/// observations); parcal writes at most 20.
+pub const MAX_LISTED: usize = 100;
+/// The most bins of a histogram of calibration.json (parcal writes 48 and
+/// 40).
+pub const MAX_BINS: usize = 1000;
+/// The most sentences of `reasons`, and of `warnings`.
+pub const MAX_SENTENCES: usize = 1000;
+/// The most iterations calibration.json may record.
+pub const MAX_ITERATIONS: usize = 100_000;
 
 /// The identified kinematic parameters, by name (order and names of
 /// paper-scenario.md section 2), with their posterior sigmas.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct ParameterTable {
     /// Parameter names, e.g. `y_b2`.
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_PARAMETERS>")]
     pub names: Vec<String>,
     /// Identified values.
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_PARAMETERS>")]
     pub values: Vec<f64>,
     /// Posterior standard deviations.
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_PARAMETERS>")]
     pub sigma: Vec<f64>,
 }
 
@@ -68,6 +88,7 @@ pub struct Calibration {
     pub parameters: ParameterTable,
     /// Posterior covariance of the parameters (n x n for n parameters), or
     /// empty if it could not be computed.
+    #[serde(deserialize_with = "shape::bounded_matrix::<_, MAX_PARAMETERS>")]
     pub covariance: Vec<Vec<f64>>,
     /// Identified ball centres by ball id.
     #[serde(deserialize_with = "shape::unique_map")]
@@ -75,6 +96,7 @@ pub struct Calibration {
     /// The prior used: `"paper"`, `"propagated"` or `"none"`.
     pub prior: String,
     /// One record per iteration.
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_ITERATIONS>")]
     pub iterations: Vec<IterationSummary>,
     /// Whether the run converged.
     pub converged: bool,
@@ -89,17 +111,21 @@ pub struct Calibration {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub machine: Option<CalibratedMachine>,
     /// Calibrations of poses or points: every session's nuisance.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "shape::bounded::<_, _, MAX_PARAMETERS>"
+    )]
     pub sessions: Vec<SessionRecord>,
     /// `"accepted"` or `"rejected"` (empty in files written before
     /// verdicts).
     #[serde(default)]
     pub verdict: String,
     /// Why, one sentence each.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shape::bounded::<_, _, MAX_SENTENCES>")]
     pub reasons: Vec<String>,
     /// Every warning of the run, one sentence each.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shape::bounded::<_, _, MAX_SENTENCES>")]
     pub warnings: Vec<String>,
     /// The global test of the a-posteriori variance factor.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -108,7 +134,11 @@ pub struct Calibration {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
     /// The observations data snooping removed, in the order of removal.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "shape::bounded::<_, _, MAX_LISTED>"
+    )]
     pub removed_observations: Vec<RemovedObservation>,
     /// With a robust loss: the observations it down-weighted (final weight
     /// under 0.1), in the dataset's order.
@@ -137,32 +167,41 @@ pub struct Calibration {
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Diagnostics {
     /// The variance component of each group of observations.
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_LISTED>")]
     pub variance_components: Vec<VarianceComponentRecord>,
     /// The observations' tests (absent when the run did not converge).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub observations: Option<ObservationTests>,
     /// Each parameter's prior sigma (`null`: no prior on it), in the order
     /// of `parameters.names`; empty when unknown.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shape::bounded::<_, _, MAX_PARAMETERS>")]
     pub prior_sigma: Vec<Option<f64>>,
     /// What determined each parameter: `data`, `data and prior`, `prior`,
     /// `prior (not observed)`; empty when unknown.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shape::bounded::<_, _, MAX_PARAMETERS>")]
     pub determined_by: Vec<String>,
     /// The weakest directions of the parameters, weakest first.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shape::bounded::<_, _, MAX_LISTED>")]
     pub weak_directions: Vec<WeakDirectionRecord>,
     /// External reliability on the accuracy map: what an undetected error
     /// of one minimal detectable bias in each of the least reliable
     /// observations (largest bias-to-noise ratio first) does to the
     /// parameters and to the registered accuracy map; empty when not
     /// computed.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "shape::bounded::<_, _, MAX_LISTED>"
+    )]
     pub external_reliability: Vec<ExternalReliabilityRecord>,
     /// When the global test rejects a least-squares run, the tests of the
     /// common errors of the entered data that could explain the misfit;
     /// empty otherwise.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "shape::bounded::<_, _, MAX_LISTED>"
+    )]
     pub systematic_tests: Vec<SystematicTestRecord>,
 }
 
@@ -211,6 +250,7 @@ pub struct ExternalReliabilityRecord {
     pub bias_to_noise: f64,
     /// The shift of each kinematic parameter (the first of
     /// `parameters.names`, in their order and units: mm, rad).
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_PARAMETERS>")]
     pub parameter_shift: Vec<f64>,
     /// The registered tool-tip error that shift makes over the accuracy
     /// grid, RMS and max in micrometres (absent without a map).
@@ -248,9 +288,11 @@ pub struct ObservationTests {
     /// How many observations are uncontrolled.
     pub uncontrolled: usize,
     /// The observations of largest `|w|`, largest first (a bounded number).
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_LISTED>")]
     pub largest: Vec<ObservationCheck>,
     /// The uncontrolled observations of least redundancy, least first (a
     /// bounded number).
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_LISTED>")]
     pub least_controlled: Vec<ObservationCheck>,
     /// The normalised residuals of every residual row.
     pub normalised_histogram: Histogram,
@@ -293,6 +335,7 @@ pub struct Histogram {
     /// The width of every bin.
     pub width: f64,
     /// The count of each bin.
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_BINS>")]
     pub counts: Vec<u64>,
     /// Values below the first bin.
     pub below: u64,
@@ -343,6 +386,7 @@ pub struct WeakDirectionRecord {
     /// identified).
     pub sigma: Option<f64>,
     /// The dominant parameters and their components.
+    #[serde(deserialize_with = "shape::bounded::<_, _, MAX_LISTED>")]
     pub dominant: Vec<(String, f64)>,
 }
 
@@ -446,207 +490,6 @@ pub struct CalibratedMachine {
     /// The actuators' unit and calibrated scales (`scale_sigma`: their
     /// posterior sigmas).
     pub actuator: Actuator,
-}
-
-impl Calibration {
-    /// Reads and checks a calibration file (extra fields are ignored).
-    pub fn read(path: &Path) -> Result<Self> {
-        let calibration: Self = json::read(path, json::CALIBRATION)?;
-        calibration.validate(Check::result(path))?;
-        Ok(calibration)
-    }
-
-    /// Writes a calibration file atomically. Every number must be finite
-    /// (JSON has no NaN): a non-finite value is an error naming its field.
-    pub fn write(&self, path: &Path) -> Result<()> {
-        self.validate(Check::result(path))?;
-        json::write(path, json::CALIBRATION, self)
-    }
-
-    fn validate(&self, check: Check) -> Result<()> {
-        self.canonical.validate(check, "canonical.")?;
-
-        let p = &self.parameters;
-        let n = p.names.len();
-        for (field, len) in [
-            ("parameters.values", p.values.len()),
-            ("parameters.sigma", p.sigma.len()),
-        ] {
-            if len != n {
-                return Err(check.error(
-                    field,
-                    format!("expected {n} values (one per name), found {len}"),
-                ));
-            }
-        }
-        check.values("parameters.values", &p.values)?;
-        check.values("parameters.sigma", &p.sigma)?;
-
-        if !self.covariance.is_empty() {
-            if self.covariance.len() != n {
-                return Err(check.error(
-                    "covariance",
-                    format!(
-                        "expected {n} rows (one per parameter), found {}",
-                        self.covariance.len()
-                    ),
-                ));
-            }
-            for (i, row) in self.covariance.iter().enumerate() {
-                let field = format!("covariance[{i}]");
-                if row.len() != n {
-                    return Err(
-                        check.error(field, format!("expected {n} columns, found {}", row.len()))
-                    );
-                }
-                check.values(&field, row)?;
-            }
-        }
-
-        for (id, estimate) in &self.ball_centres {
-            let id = sanitized(id);
-            check.point(format_args!("ball_centres.{id}.centre"), &estimate.centre)?;
-            check.point(format_args!("ball_centres.{id}.sigma"), &estimate.sigma)?;
-        }
-        if let Some(machine) = &self.machine {
-            machine.geometry.validate(check, "machine.geometry.")?;
-            check.values("machine.actuator.scale", &machine.actuator.scale)?;
-        }
-        if let Some(design) = &self.design {
-            design.validate_in(check, "design.")?;
-        }
-        for (k, session) in self.sessions.iter().enumerate() {
-            session.validate(check, &format!("sessions[{k}]"))?;
-        }
-        if let Some(diagnostics) = &self.diagnostics {
-            diagnostics.validate(check, n)?;
-        }
-        for (k, d) in self.down_weighted_observations.iter().enumerate() {
-            check.finite(
-                format_args!("down_weighted_observations[{k}].weight"),
-                d.weight,
-            )?;
-            check.finite(
-                format_args!("down_weighted_observations[{k}].residual_sigmas"),
-                d.residual_sigmas,
-            )?;
-        }
-        for (i, it) in self.iterations.iter().enumerate() {
-            check.finite(format_args!("iterations[{i}].cost"), it.cost)?;
-            check.finite(format_args!("iterations[{i}].step_norm"), it.step_norm)?;
-            check.finite(
-                format_args!("iterations[{i}].residual_rms"),
-                it.residual_rms,
-            )?;
-        }
-        Ok(())
-    }
-}
-
-impl Diagnostics {
-    /// Finite numbers, one prior sigma and attribution per parameter (of
-    /// `n`) when given, at most one parameter shift per parameter.
-    fn validate(&self, check: Check, n: usize) -> Result<()> {
-        for (k, c) in self.variance_components.iter().enumerate() {
-            check.finite(
-                format_args!("diagnostics.variance_components[{k}].cost"),
-                c.cost,
-            )?;
-            check.finite(
-                format_args!("diagnostics.variance_components[{k}].redundancy"),
-                c.redundancy,
-            )?;
-        }
-        for (k, t) in self.systematic_tests.iter().enumerate() {
-            for (name, value) in [
-                ("estimate", t.estimate),
-                ("sigma", t.sigma),
-                ("critical_value", t.critical_value),
-                ("variance_factor_without", t.variance_factor_without),
-            ] {
-                check.finite(
-                    format_args!("diagnostics.systematic_tests[{k}].{name}"),
-                    value,
-                )?;
-            }
-        }
-        for (field, len) in [
-            ("diagnostics.prior_sigma", self.prior_sigma.len()),
-            ("diagnostics.determined_by", self.determined_by.len()),
-        ] {
-            if len != 0 && len != n {
-                return Err(check.error(
-                    field,
-                    format!("expected {n} values (one per parameter), found {len}"),
-                ));
-            }
-        }
-        for (k, sigma) in self.prior_sigma.iter().enumerate() {
-            if let Some(sigma) = sigma {
-                check.finite(format_args!("diagnostics.prior_sigma[{k}]"), *sigma)?;
-            }
-        }
-        for (k, weak) in self.weak_directions.iter().enumerate() {
-            check.finite(
-                format_args!("diagnostics.weak_directions[{k}].eigenvalue"),
-                weak.eigenvalue,
-            )?;
-        }
-        for (k, e) in self.external_reliability.iter().enumerate() {
-            let field = format!("diagnostics.external_reliability[{k}]");
-            if e.parameter_shift.len() > n {
-                return Err(check.error(
-                    format!("{field}.parameter_shift"),
-                    format!(
-                        "expected at most {n} values (one per parameter), found {}",
-                        e.parameter_shift.len()
-                    ),
-                ));
-            }
-            check.values(format_args!("{field}.parameter_shift"), &e.parameter_shift)?;
-            let numbers = [
-                ("row_redundancy", Some(e.row_redundancy)),
-                ("row_mdb_sigmas", Some(e.row_mdb_sigmas)),
-                ("bias_to_noise", Some(e.bias_to_noise)),
-                ("map_rms_um", e.map_rms_um),
-                ("map_max_um", e.map_max_um),
-            ];
-            for (name, value) in numbers {
-                if let Some(value) = value {
-                    check.finite(format_args!("{field}.{name}"), value)?;
-                }
-            }
-        }
-        if let Some(tests) = &self.observations {
-            for (field, h) in [
-                ("normalised_histogram", &tests.normalised_histogram),
-                ("redundancy_histogram", &tests.redundancy_histogram),
-            ] {
-                if !(h.width > 0.0 && h.width.is_finite() && h.lower.is_finite()) {
-                    return Err(check.error(
-                        format!("diagnostics.observations.{field}"),
-                        "expected a finite lower edge and a positive bin width".to_string(),
-                    ));
-                }
-            }
-            for (list, checks) in [
-                ("largest", &tests.largest),
-                ("least_controlled", &tests.least_controlled),
-            ] {
-                for (k, c) in checks.iter().enumerate() {
-                    let values = [c.normalised_residual, c.gross_error_sigmas, c.mdb_sigmas];
-                    check.values(
-                        format_args!("diagnostics.observations.{list}[{k}]"),
-                        &[c.redundancy]
-                            .into_iter()
-                            .chain(values.into_iter().flatten())
-                            .collect::<Vec<_>>(),
-                    )?;
-                }
-            }
-        }
-        Ok(())
-    }
 }
 
 #[cfg(test)]
