@@ -115,8 +115,8 @@ pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
 pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, Diagnostics, DownWeightedObservation,
     ExternalReliabilityRecord, GlobalTestRecord, Histogram, IterationSummary, ObservationCheck,
-    ObservationTests, ParameterTable, Provenance, RemovedObservation, SystematicTestRecord,
-    VarianceComponentRecord, WeakDirectionRecord,
+    ObservationTests, ParameterTable, Provenance, RemovedObservation, SystematicSensitivityRecord,
+    SystematicTestRecord, VarianceComponentRecord, WeakDirectionRecord,
 };
 pub use check::{MAX_LENGTH_MM, MIN_SIGMA};
 pub use dataset::{Dataset, MIN_CONTACTS_PER_BALL, ReadOptions, WriteOptions};

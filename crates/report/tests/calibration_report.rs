@@ -112,7 +112,7 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
     let record = parcal_report::sentences::record(&run, &dataset);
     assert_eq!(record.verdict, "rejected");
-    let test = run.reliability.as_ref().unwrap().systematic[0];
+    let test = &run.reliability.as_ref().unwrap().systematic[0];
     let kept = &record.diagnostics.as_ref().unwrap().systematic_tests;
     assert_eq!(
         kept.len(),
@@ -125,7 +125,7 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     );
     assert_eq!(kept[0].outcome_without, "consistent");
     let sentence =
-        parcal_report::sentences::systematic_sentence(&test, run.global_test.as_ref().unwrap())
+        parcal_report::sentences::systematic_sentence(test, run.global_test.as_ref().unwrap())
             .unwrap();
     assert!(sentence.starts_with("a common ball radius error explains the misfit"));
     assert!(record.reasons.contains(&sentence), "{:?}", record.reasons);

@@ -11,6 +11,7 @@ use parcal_workflows::evaluate::Accuracy;
 
 use super::document::{Block, Cell, Tone};
 use super::figures;
+use crate::sentences::sensitivity_sentence;
 
 /// The calibration a report is about.
 pub struct Subject<'a> {
@@ -39,6 +40,7 @@ pub fn blocks(subject: &Subject) -> Result<Vec<Block>, String> {
     out.extend(global_test(c));
     out.extend(variance_components(c));
     out.extend(systematic_tests(c));
+    out.extend(systematic_sensitivity(c));
     out.extend(removed(c));
     out.extend(down_weighted(c));
     out.extend(observations(c)?);
@@ -316,6 +318,57 @@ fn systematic_tests(c: &Calibration) -> Vec<Block> {
                 })
                 .collect(),
         },
+    ]
+}
+
+/// How large a common error of the entered data must be to show, and
+/// what one that does not show does to the registered error.
+fn systematic_sensitivity(c: &Calibration) -> Vec<Block> {
+    let records = c
+        .diagnostics
+        .as_ref()
+        .map_or(&[][..], |d| &d.systematic_sensitivity[..]);
+    if records.is_empty() {
+        return vec![];
+    }
+    let um = |v: Option<f64>| optional(v, 1);
+    vec![
+        Block::Heading(2, "Sensitivity to systematic errors".into()),
+        Block::Paragraph(
+            Tone::Plain,
+            format!(
+                "A common error of the entered data smaller than its minimal detectable bias passes every test, yet goes into the parameters. For each: that bias (the smallest error its test finds at {}% with {:.0}% power) and the registered error an undetected one of that size adds over the accuracy grid.",
+                records[0].level * 100.0,
+                records[0].power * 100.0
+            ),
+        ),
+        Block::Table {
+            header: vec![
+                "effect".into(),
+                "minimal detectable bias".into(),
+                "unit".into(),
+                "σ".into(),
+                "registered RMS (um)".into(),
+                "registered max (um)".into(),
+            ],
+            rows: records
+                .iter()
+                .map(|r| {
+                    vec![
+                        Cell::text(&r.effect),
+                        Cell::number(format!("{:.2e}", r.mdb)),
+                        Cell::text(&r.unit),
+                        Cell::number(format!("{:.1e}", r.sigma)),
+                        um(r.map_rms_um),
+                        um(r.map_max_um),
+                    ]
+                })
+                .collect(),
+        },
+        Block::List(
+            Tone::Plain,
+            records.iter().map(sensitivity_sentence).collect(),
+        ),
     ]
 }
 
