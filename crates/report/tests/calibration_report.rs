@@ -102,7 +102,8 @@ fn the_diagnostics_summarise_every_observation_s_test() {
 /// Every ball's radius entered 20 um too small: calibration.json keeps the
 /// test of a common radius error as the run made it, a reason names the
 /// radius as the explanation, and the page has the systematic errors'
-/// section with the test's numbers.
+/// section with the test's numbers, and that of the sensitivity with its
+/// sentence.
 #[test]
 fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     let mut dataset = paper_seed1();
@@ -141,6 +142,10 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     assert!(html.contains("explained by a common error of the entered data: ball radius"));
     // The verdict line says so too.
     assert!(html.contains("explained by a common ball radius error (Systematic errors, below)"));
+    // And the sensitivity, with its sentence.
+    let sensitivity = &record.diagnostics.as_ref().unwrap().systematic_sensitivity[0];
+    assert!(html.contains("Sensitivity to systematic errors"));
+    assert!(html.contains(&parcal_report::sentences::sensitivity_sentence(sensitivity)));
 }
 
 /// One reading 5 mm off, calibrated with the Cauchy loss: the page lists
