@@ -195,19 +195,16 @@ fn snoop<Run: Snoopable>(
         // elsewhere.
         let Some(reliability) = run.reliability() else {
             let stopped = (!run.converged()).then(|| {
-                format!(
-                    "the calibration{} did not converge: its residuals are not those of a least-squares minimum, so no observation is judged{}",
-                    if removals.is_empty() {
-                        ""
-                    } else {
-                        " without the removed observations"
-                    },
-                    if removals.is_empty() {
-                        " and nothing was removed"
-                    } else {
-                        " further"
-                    }
-                )
+                let not_judged = "its residuals are not those of a least-squares minimum";
+                if removals.is_empty() {
+                    format!(
+                        "the calibration did not converge: {not_judged}, so no observation is judged and nothing was removed"
+                    )
+                } else {
+                    format!(
+                        "the calibration without the removed observations did not converge: {not_judged}, so no further observation is judged"
+                    )
+                }
             });
             return Ok(Snooped {
                 critical_value: f64::NAN,

@@ -514,19 +514,22 @@ fn checks_table(checks: &[ObservationCheck], critical: f64) -> Block {
 /// uncontrolled observations, the histograms.
 fn observations(c: &Calibration) -> Result<Vec<Block>, String> {
     let mut out = vec![Block::Heading(2, "Observations".into())];
-    let Some(t) = c.diagnostics.as_ref().and_then(|d| d.observations.as_ref()) else {
-        out.push(Block::Paragraph(
-            Tone::Warning,
-            "The observations were not tested: the run stopped before an iterate could be checked, or calibration.json predates the recorded diagnostics (calibrate again to have them).".into(),
-        ));
-        return Ok(out);
-    };
+    // Only a least-squares minimum is judged (what an older file kept of
+    // a run that did not converge is not shown).
     if !c.converged {
         out.push(Block::Paragraph(
             Tone::Warning,
-            "The run did not converge: the observations were tested at its last iterate, where a blunder that kept it from converging stands out; the numbers are not those of a solution.".into(),
+            "The observations were not tested: the run did not converge, and only a least-squares minimum is judged (elsewhere the residuals carry the error the iteration had not yet removed, and would blame good observations).".into(),
         ));
+        return Ok(out);
     }
+    let Some(t) = c.diagnostics.as_ref().and_then(|d| d.observations.as_ref()) else {
+        out.push(Block::Paragraph(
+            Tone::Warning,
+            "The observations were not tested: calibration.json predates the recorded diagnostics (calibrate again to have them).".into(),
+        ));
+        return Ok(out);
+    };
     out.push(Block::Paragraph(Tone::Plain, tests_sentence(t)));
     out.push(Block::Heading(3, "Largest normalised residuals".into()));
     out.push(checks_table(&t.largest, t.critical_value));
