@@ -35,9 +35,7 @@
 
 use nalgebra::DMatrix;
 use parcal_dataset::Histogram;
-use parcal_solver::{
-    Problem, State, Status, normalised_residual, point_degrees_of_freedom, redundancy,
-};
+use parcal_solver::{Problem, State, normalised_residual, point_degrees_of_freedom, redundancy};
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
@@ -261,7 +259,8 @@ pub const LEAST_RELIABLE: usize = 10;
 /// 0.25.
 pub const NORMALISED_BINS: (f64, f64, usize) = (-6.0, 0.25, 48);
 
-/// The checks of a converged calibration.
+/// The checks of a converged calibration
+/// ([`crate::verdict::at_minimum`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Reliability {
     /// The variance components of each kind of observation present (ball
@@ -626,16 +625,6 @@ fn add_to_component(
             redundancy: numbers.redundancy,
         }),
     }
-}
-
-/// Whether a run that ended with `status` is checked: converged, or at its
-/// iteration or time limit (whose final iterate's checks name the blunder
-/// that may have kept it from converging, for data snooping to remove).
-pub fn checked(status: &Status) -> bool {
-    matches!(
-        status,
-        Status::Converged | Status::IterationLimit | Status::TimeLimit
-    )
 }
 
 /// The critical value of data snooping over `tests` tests at family-wise

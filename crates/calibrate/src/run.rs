@@ -23,11 +23,11 @@ use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::mixed::InstrumentResult;
 use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations, kinematic_params};
-use crate::reliability::{Reliability, checked};
+use crate::reliability::Reliability;
 use crate::robust::START_TOLERANCE;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
 use crate::systematic::systematic_tests;
-use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Outcome, Verdict, rows_and_unknowns};
+use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, at_minimum, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
 
 /// The outcome of one calibration.
@@ -66,8 +66,9 @@ pub struct CalibrationRun {
     /// Their marginal sigmas.
     pub radius_sigmas: Option<Vec<f64>>,
     /// Balls whose contacts fit far worse than the noise allows
-    /// ([`crate::fit`]) at the final iterate; empty when none is, or when
-    /// the run failed before it.
+    /// ([`crate::fit`]) at the final iterate of a converged run
+    /// ([`crate::verdict::at_minimum`]); empty when none is, or when the
+    /// run did not converge.
     pub ball_misfits: Vec<BallMisfit>,
     /// Balls that a settled iterate showed on the wrong side of their
     /// contacts, re-seeded at the mirror image of their centre fit before
@@ -84,7 +85,8 @@ pub struct CalibrationRun {
     pub rows: Vec<u32>,
     /// Spectrum of the reduced matrix at the end.
     pub spectrum: Option<SpectrumDiagnostics>,
-    /// Prior-data conflict tests (kinematic parameters, ball centres).
+    /// Prior-data conflict tests (kinematic parameters, ball centres) of a
+    /// converged run ([`crate::verdict::at_minimum`]).
     pub conflicts: Vec<ConflictTest>,
     /// The global block: the kinematic parameters, then the centres of the
     /// balls tied by calibrated distances, then the groups of the poses and
@@ -101,7 +103,7 @@ pub struct CalibrationRun {
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
     /// Every observation's check at the final state of a run that converged
-    /// or reached its iteration limit ([`crate::reliability::checked`]).
+    /// ([`crate::verdict::at_minimum`]); `None` otherwise.
     pub reliability: Option<Reliability>,
     /// When this is the Levenberg-Marquardt run made after a Gauss-Newton
     /// run ran away: how that run ended ([`calibrate`]).
@@ -463,7 +465,8 @@ fn calibrate_once(
         .map(|b| b.id.clone())
         .collect();
     let mut conflicts = Vec::new();
-    if let (Some(prior), Some(covariance)) = (&setup.prior, &solved.covariance) {
+    let judged = at_minimum(&solved.status);
+    if let (Some(prior), Some(covariance), true) = (&setup.prior, &solved.covariance, judged) {
         let d = solved.params - prior.mean();
         conflicts.push(ConflictTest::new(
             "kinematic parameters",
@@ -474,7 +477,7 @@ fn calibrate_once(
             prior.chi_square(&solved.params),
         ));
     }
-    if let (PriorMode::Paper, Some(sigmas)) = (options.prior, &solved.centre_sigmas) {
+    if let (PriorMode::Paper, Some(sigmas), true) = (options.prior, &solved.centre_sigmas, judged) {
         conflicts.push(centre_conflict(
             dataset,
             &setup,
@@ -483,7 +486,7 @@ fn calibrate_once(
             &ball_ids,
         ));
     }
-    if let (Some(radii), Some(sigmas)) = (&solved.radii, &solved.radius_sigmas) {
+    if let (Some(radii), Some(sigmas), true) = (&solved.radii, &solved.radius_sigmas, judged) {
         conflicts.push(radius_conflict(dataset, radii, sigmas));
     }
     let prior_consistency = match (options.prior, &setup.prior) {
@@ -719,9 +722,12 @@ impl SolverRun<'_> {
         }
         if start.is_some() {
             problem.loss = loss;
-            if checked(&solution.status) {
+            if matches!(
+                solution.status,
+                Status::Converged | Status::IterationLimit | Status::TimeLimit
+            ) {
                 // The rest of the iteration and time limits, from Huber's
-                // estimate.
+                // estimate (where a limit stopped it, if one did).
                 let Solution {
                     state,
                     history: first,
@@ -739,9 +745,13 @@ impl SolverRun<'_> {
                 solution.history.splice(0..0, first);
             }
         }
+        // The checks, the balls' misfits among them, judge a minimum only
+        // ([`at_minimum`]).
+        let judged = at_minimum(&solution.status);
         let ball_misfits = solution
             .group_costs
             .as_deref()
+            .filter(|_| judged)
             .map_or_else(Vec::new, |costs| self.misfits(costs));
         let layout = &setup.layout;
         let state = &solution.state;
@@ -780,7 +790,7 @@ impl SolverRun<'_> {
         });
         let prior_rows = rows - rows_per_contact * setup.order.len() - problem.global_rows();
         let mut reliability = match (&solution.covariance, solution.history.last()) {
-            (Some(covariance), Some(last)) if checked(&solution.status) => Some(Reliability::new(
+            (Some(covariance), Some(last)) if judged => Some(Reliability::new(
                 &*problem,
                 &solution.state,
                 covariance,
@@ -793,17 +803,15 @@ impl SolverRun<'_> {
             )?),
             _ => None,
         };
-        // A misfit of least squares at its minimum: which common error
-        // explains it (two linear solves per effect, within the time
-        // budget).
+        // The common errors of the entered data at the minimum of least
+        // squares: which explains a misfit, and how large one must be to
+        // show (two linear solves per effect, within the time budget).
         let in_time = self
             .solver
             .time_limit
             .is_none_or(|limit| started.elapsed() < limit);
         if let (Some(reliability), Some(test)) = (&mut reliability, &global_test)
-            && test.outcome == Outcome::TooLarge
             && problem.loss.is_squared()
-            && matches!(solution.status, Status::Converged)
             && in_time
         {
             reliability.systematic = systematic_tests(

@@ -1,7 +1,9 @@
 //! Data snooping (Baarda 1968): find the blunders among the observations
 //! (ball touches, calibrated distances, measured poses and points).
 //!
-//! Calibrate; if the observation of largest normalised residual
+//! Calibrate; if the run converged ([`crate::verdict::at_minimum`]: no
+//! observation is judged elsewhere, and snooping stops, saying so) and the
+//! observation of largest normalised residual
 //! ([`crate::reliability`]: an observation's is its rows' largest) exceeds
 //! the critical value of the family of tests, `|w| > z_{1 − α/(2m)}` (`m`
 //! tests, [`Reliability::tests`], family-wise level `α`, Bonferroni),
@@ -188,9 +190,22 @@ fn snoop<Run: Snoopable>(
     let mut removals: Vec<Removal> = Vec::new();
     let mut run = calibrate(&current)?;
     loop {
+        // The checks exist at a least-squares minimum only
+        // ([`crate::verdict::at_minimum`]): nothing is judged, or removed,
+        // elsewhere.
         let Some(reliability) = run.reliability() else {
-            let stopped =
-                (!run.converged()).then(|| "the calibration did not converge".to_string());
+            let stopped = (!run.converged()).then(|| {
+                let not_judged = "its residuals are not those of a least-squares minimum";
+                if removals.is_empty() {
+                    format!(
+                        "the calibration did not converge: {not_judged}, so no observation is judged and nothing was removed"
+                    )
+                } else {
+                    format!(
+                        "the calibration without the removed observations did not converge: {not_judged}, so no further observation is judged"
+                    )
+                }
+            });
             return Ok(Snooped {
                 critical_value: f64::NAN,
                 run,

@@ -2,7 +2,9 @@
 //! their noise, which common error of the entered data explains it (the
 //! w-test of a one-dimensional alternative hypothesis: Baarda, "A testing
 //! procedure for use in geodetic networks", 1968; Teunissen, "Testing
-//! theory", 2000, section 3.2).
+//! theory", 2000, section 3.2); and whatever the global test says, how
+//! large such an error must be to show, and what one that does not show
+//! does to the parameters.
 //!
 //! An [`Effect`] of size `t` (every ball's entered radius off by `t` mm,
 //! every calibrated distance off by the factor `1 + t`) changes the
@@ -21,15 +23,31 @@
 //! Gauss–Newton step of the problem with the effect applied, `m(t) = ‖P
 //! e(t)‖² = Ω + 2t cᵀPê + t² cᵀPc` ([`parcal_solver::linear_step`]: the
 //! cost minus the predicted decrease; `Pê = ê` at convergence), at `t =
-//! ±h`: two linear solves per effect, made only for a converged
-//! least-squares run whose global test rejects it. The residuals are
+//! ±h`: two linear solves per effect, made for every converged
+//! least-squares run ([`crate::verdict::at_minimum`]). The residuals are
 //! linear in both effects, so the two values give the quadratic exactly.
+//!
+//! **Sensitivity.** The smallest effect the test finds with power
+//! [`POWER`](crate::reliability::POWER) at level [`SYSTEMATIC_LEVEL`], its minimal detectable bias,
+//! is `|∇| = δ₀ σ_t = δ₀ / √(cᵀPc)`, `δ₀ = z_{1−α₀/2} + z_{POWER}`: an
+//! effect of that size moves `E(w)` to `δ₀` (Baarda 1968). An effect
+//! `∇` that goes undetected shifts the estimate of the global block by
+//!
+//! ```text
+//! Δg = −N⁻¹ Jᵀ c ∇ = ∇ (δ_g(h) − δ_g(−h)) / 2h,
+//! ```
+//!
+//! `δ_g(t)` the global part of the same two Gauss–Newton steps (the step
+//! is linear in `t`); its effect on the registered accuracy map is the
+//! report's (`parcal_report::diagnostics`), as for one observation's
+//! ([`crate::external`]).
 
+use nalgebra::DVector;
 use parcal_solver::{Problem, State, linear_step};
 
 use crate::CalibrateError;
 use crate::problem::{CalibrationProblem, ContactObservations};
-use crate::reliability::critical_value;
+use crate::reliability::{critical_value, minimal_detectable_bias};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest};
 
 /// The level of each systematic test (Baarda's `α₀` of one test).
@@ -83,7 +101,7 @@ impl Effect {
 }
 
 /// The test of one systematic effect.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SystematicTest {
     /// The effect.
     pub effect: Effect,
@@ -92,6 +110,10 @@ pub struct SystematicTest {
     pub estimate: f64,
     /// Its standard deviation `σ_t`.
     pub sigma: f64,
+    /// The shift of the global block's estimate per unit of the effect in
+    /// the entered data, `−N⁻¹ Jᵀ c` (module doc; the global block's units
+    /// per [`Effect::unit`]).
+    pub global_shift: DVector<f64>,
 }
 
 impl SystematicTest {
@@ -110,6 +132,19 @@ impl SystematicTest {
         self.normalised().abs() > self.critical_value()
     }
 
+    /// The effect's minimal detectable bias `δ₀ σ_t` (in [`Effect::unit`]):
+    /// the smallest the test finds at [`SYSTEMATIC_LEVEL`] with power
+    /// [`POWER`](crate::reliability::POWER).
+    pub fn minimal_detectable_bias(&self) -> f64 {
+        minimal_detectable_bias(1.0, SYSTEMATIC_LEVEL) * self.sigma
+    }
+
+    /// The shift of the global block that an undetected effect of one
+    /// minimal detectable bias makes.
+    pub fn undetected_shift(&self) -> DVector<f64> {
+        &self.global_shift * self.minimal_detectable_bias()
+    }
+
     /// The global test of the run `global` with the effect removed: `Ω −
     /// w²` with one degree of freedom fewer.
     pub fn without(&self, global: &GlobalTest) -> Option<GlobalTest> {
@@ -122,8 +157,9 @@ impl SystematicTest {
     }
 }
 
-/// The tests of the effects the data of `problem` can show, at its
-/// converged `state` whose global test is `global` (module doc); `caches`
+/// The tests of the effects the data of `problem` can show, with their
+/// shifts, at its converged `state` whose global test is `global` (module
+/// doc); `caches`
 /// as [`linear_step`] takes them. An effect no observation carries (no
 /// distances, no radius information) is left out.
 pub fn systematic_tests<const R: usize, const P: usize, const G: usize, O>(
@@ -143,7 +179,8 @@ where
             continue;
         }
         let h = effect.step();
-        let mut reduced = |t: f64| -> Result<f64, CalibrateError> {
+        // The linearised cost after the step and the step's global part.
+        let mut reduced = |t: f64| -> Result<(f64, DVector<f64>), CalibrateError> {
             let shifted: Vec<f64> = entered
                 .iter()
                 .map(|&v| v + t * effect.derivative(v))
@@ -154,9 +191,9 @@ where
             let step = step.map_err(|status| CalibrateError::Calibration {
                 reason: format!("the test of a common {} error: {status:?}", effect.name()),
             })?;
-            Ok(step.cost - step.predicted_decrease)
+            Ok((step.cost - step.predicted_decrease, step.delta.global))
         };
-        let (up, down) = (reduced(h)?, reduced(-h)?);
+        let ((up, step_up), (down, step_down)) = (reduced(h)?, reduced(-h)?);
         let c_pe = (up - down) / (4.0 * h);
         let c_pc = (up + down - 2.0 * global.cost) / (2.0 * h * h);
         // Nothing carries the effect (a radius prior without information,
@@ -166,6 +203,7 @@ where
                 effect,
                 estimate: -c_pe / c_pc,
                 sigma: c_pc.sqrt().recip(),
+                global_shift: (step_up - step_down) / (2.0 * h),
             });
         }
     }

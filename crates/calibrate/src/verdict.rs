@@ -124,6 +124,21 @@ where
     (rows, unknowns)
 }
 
+/// Whether a run that ended with `status` is at a least-squares minimum,
+/// the one state its tests may judge: converged. Elsewhere (an iteration
+/// or time limit, a failure) the residuals are not those of the estimate:
+/// at the initial state every contact carries the whole of the design's
+/// error, and its normalised residuals, the global test, the tests of
+/// systematic errors and the prior-data conflicts would blame good
+/// observations. So the checks ([`crate::reliability::Reliability`], the
+/// systematic tests and sensitivities, [`crate::conflict`], the balls'
+/// misfits) are made only when this holds; a run where it does not is
+/// rejected for not converging and names no blunder, and data snooping
+/// removes nothing from it.
+pub fn at_minimum(status: &Status) -> bool {
+    matches!(status, Status::Converged)
+}
+
 /// A run's verdict: accepted when it converged, its global test does not
 /// say the data misfit their noise, and no observation fails the test of
 /// data snooping ([`crate::reliability::Reliability::fails_snooping`]: a
@@ -141,7 +156,7 @@ impl Verdict {
     /// converged, whose global test is `global_test` and whose largest
     /// normalised residual fails the test of data snooping if `outlier`.
     pub fn new(status: &Status, global_test: Option<GlobalTest>, outlier: bool) -> Self {
-        let converged = matches!(status, Status::Converged);
+        let converged = at_minimum(status);
         let fits = global_test.is_none_or(|t| t.outcome != Outcome::TooLarge);
         Self {
             accepted: converged && fits && !outlier,

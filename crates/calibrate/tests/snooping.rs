@@ -106,3 +106,50 @@ fn clean_instrument_rows_are_kept() {
     assert!(snooped.removals.is_empty());
     assert!(snooped.run.verdict().accepted);
 }
+
+/// A distance 1 mm (1000 sigma) too long among 10 of 1 um (the paper
+/// scenario, seed 1, `distances[3]`). Within the default iteration limit
+/// the run does not converge (Gauss-Newton runs away, Levenberg-Marquardt
+/// does not settle): it is rejected, and neither the run nor data snooping
+/// blames anything (at that iterate a contact's normalised residual was
+/// the largest). Given the iterations to converge, the distance's
+/// normalised residual (its own redundancy number's) is the largest of
+/// all, and data snooping removes it first.
+#[test]
+fn a_gross_error_in_one_plate_distance_is_blamed_on_it() {
+    let scenario = Scenario {
+        plate: Some(Plate {
+            pairs: PlatePairs::Random(10),
+            sigma: 1e-3,
+        }),
+        ..Scenario::paper()
+    };
+    let mut dataset = simulate(&scenario, 1).unwrap().dataset;
+    let k = 3;
+    dataset.artefacts.distances[k].length += 1.0;
+    let options = CalibrationOptions::default();
+    let run = parcal_calibrate::calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert!(!run.converged(), "{:?}", run.status);
+    assert!(run.reliability.is_none());
+    let snooped = snoop(&dataset, &options);
+    assert!(snooped.removals.is_empty(), "{:?}", removed(&snooped));
+    assert!(!snooped.run.verdict().accepted);
+
+    let options = CalibrationOptions {
+        max_iterations: 2000,
+        ..options
+    };
+    let run = parcal_calibrate::calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert!(run.converged(), "{:?}", run.status);
+    let worst = run.reliability.as_ref().unwrap().worst().unwrap();
+    println!(
+        "converged in {} iterations: largest normalised residual {:+.1} at {} (redundancy {:.3})",
+        run.iterations(),
+        worst.normalised().unwrap(),
+        worst.observation(),
+        worst.redundancy()
+    );
+    assert_eq!(worst.observation(), ObservationId::Distance(k));
+    let snooped = snoop(&dataset, &options);
+    assert_eq!(removed(&snooped)[0], ObservationId::Distance(k));
+}

@@ -275,9 +275,8 @@ fn a_calibration_that_did_not_converge_is_reported_rejected_without_a_map() {
         "{line}"
     );
     assert!(html.contains("No accuracy map: the calibration did not converge"));
-    // A run at its iteration limit is checked at its last iterate, and the
-    // page says so.
-    assert!(html.contains("the observations were tested at its last iterate"));
+    // A run at its iteration limit is not judged, and the page says so.
+    assert!(html.contains("The observations were not tested: the run did not converge"));
 }
 
 #[test]

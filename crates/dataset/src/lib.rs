@@ -117,8 +117,8 @@ pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, Diagnostics, DownWeightedObservation,
     ExternalReliabilityRecord, GlobalTestRecord, Histogram, IterationSummary, MAX_BINS,
     MAX_ITERATIONS, MAX_LISTED, MAX_PARAMETERS, MAX_SENTENCES, ObservationCheck, ObservationTests,
-    ParameterTable, Provenance, RemovedObservation, SystematicTestRecord, VarianceComponentRecord,
-    WeakDirectionRecord,
+    ParameterTable, Provenance, RemovedObservation, SystematicSensitivityRecord,
+    SystematicTestRecord, VarianceComponentRecord, WeakDirectionRecord,
 };
 pub use check::{MAX_LENGTH_MM, MIN_SCALE, MIN_SIGMA};
 pub use dataset::{Dataset, MIN_CONTACTS_PER_BALL, ReadOptions, WriteOptions};

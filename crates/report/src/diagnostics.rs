@@ -7,15 +7,16 @@ use parcal_accuracy::{MapGrid, parameter_error};
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::reliability::{
-    ObservationCheck as Check, ObservationId, Reliability, UNCONTROLLED, VarianceComponent,
+    ObservationCheck as Check, ObservationId, POWER, Reliability, UNCONTROLLED, VarianceComponent,
     critical_value, minimal_detectable_bias,
 };
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_calibrate::systematic::{SYSTEMATIC_LEVEL, SystematicTest};
-use parcal_calibrate::verdict::GlobalTest;
+use parcal_calibrate::verdict::{GlobalTest, Outcome};
 use parcal_dataset::{
     Dataset, Diagnostics, ExternalReliabilityRecord, Histogram, ObservationCheck, ObservationTests,
-    SystematicTestRecord, VarianceComponentRecord, WeakDirectionRecord,
+    SystematicSensitivityRecord, SystematicTestRecord, VarianceComponentRecord,
+    WeakDirectionRecord,
 };
 use parcal_kinematics::Params;
 use parcal_solver::SpectrumDiagnostics;
@@ -133,13 +134,18 @@ pub fn of_ball_run(
         if let Some(global) = &run.global_test {
             diagnostics.systematic_tests = systematic_tests(&reliability.systematic, global);
         }
+        diagnostics.systematic_sensitivity = systematic_sensitivity(run, &reliability.systematic);
     }
     diagnostics
 }
 
 /// calibration.json's `systematic_tests` of a run whose global test is
-/// `global`.
+/// `global`: when it rejects the run, the tests of the common errors that
+/// could explain the misfit; none otherwise.
 fn systematic_tests(tests: &[SystematicTest], global: &GlobalTest) -> Vec<SystematicTestRecord> {
+    if global.outcome != Outcome::TooLarge {
+        return Vec::new();
+    }
     tests
         .iter()
         .filter_map(|t| {
@@ -154,6 +160,39 @@ fn systematic_tests(tests: &[SystematicTest], global: &GlobalTest) -> Vec<System
                 variance_factor_without: without.variance_factor,
                 outcome_without: without.outcome.name().to_string(),
             })
+        })
+        .collect()
+}
+
+/// calibration.json's `systematic_sensitivity` of a converged ball-touch
+/// run: each common error's minimal detectable bias, the kinematic
+/// parameters' shift of an undetected one of that size and the registered
+/// map of that shift as the parameter error
+/// ([`parcal_accuracy::parameter_error`]) on the paper's grid, as
+/// [`external_reliability`] maps one observation's.
+fn systematic_sensitivity(
+    run: &CalibrationRun,
+    tests: &[SystematicTest],
+) -> Vec<SystematicSensitivityRecord> {
+    tests
+        .iter()
+        .map(|test| {
+            let shift = test.undetected_shift();
+            let error = Params::from_fn(|k, _| shift[k]);
+            let map = parameter_error(&run.design, &run.params, &error, &MapGrid::paper())
+                .ok()
+                .map(|map| map.registered_summary());
+            SystematicSensitivityRecord {
+                effect: test.effect.name().to_string(),
+                unit: test.effect.unit().to_string(),
+                sigma: test.sigma,
+                mdb: test.minimal_detectable_bias(),
+                level: SYSTEMATIC_LEVEL,
+                power: POWER,
+                parameter_shift: error.iter().copied().collect(),
+                map_rms_um: map.map(|m| 1e3 * m.rms),
+                map_max_um: map.map(|m| 1e3 * m.max),
+            }
         })
         .collect()
 }
@@ -252,6 +291,7 @@ impl Checks<'_> {
             weak_directions: weak_directions(self.spectrum, self.names),
             external_reliability: Vec::new(),
             systematic_tests: Vec::new(),
+            systematic_sensitivity: Vec::new(),
         }
     }
 }

@@ -12,7 +12,10 @@ use parcal_calibrate::robust::{DOWN_WEIGHTED, DownWeighted, too_many};
 use parcal_calibrate::snooping::{MAX_REMOVALS, Removal, SNOOPING_LEVEL, Snooped};
 use parcal_calibrate::systematic::{Effect, SYSTEMATIC_LEVEL, SystematicTest};
 use parcal_calibrate::verdict::{GlobalTest, Outcome, Verdict};
-use parcal_dataset::{ARTEFACTS_FILE, Dataset, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE};
+use parcal_dataset::{
+    ARTEFACTS_FILE, Dataset, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE,
+    SystematicSensitivityRecord,
+};
 use parcal_kinematics::PARAM_NAMES;
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
 
@@ -95,22 +98,55 @@ fn record_of(
     let mut record = run.record(status.clone());
     let mut warnings = warnings(run);
     let mut reasons = Vec::new();
+    let diagnostics = diagnostics::of_ball_run(run, dataset, original);
     if let Some(reliability) = &run.reliability {
         checks(reliability, original, &mut reasons, &mut warnings);
         record.down_weighted_observations = down_weighted_records(reliability, original);
-        if let Some(global) = &run.global_test {
+        if let Some(global) = run.global_test.filter(|t| t.outcome == Outcome::TooLarge) {
             reasons.extend(
                 reliability
                     .systematic
                     .iter()
-                    .filter_map(|t| systematic_sentence(t, global)),
+                    .filter_map(|t| systematic_sentence(t, &global)),
             );
         }
     }
+    reasons.extend(
+        diagnostics
+            .systematic_sensitivity
+            .iter()
+            .map(sensitivity_sentence),
+    );
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
-    record.diagnostics = Some(diagnostics::of_ball_run(run, dataset, original));
+    record.diagnostics = Some(diagnostics);
     record
+}
+
+/// What an undetectable common error of the entered data could do, in
+/// one sentence: its minimal detectable bias (µm, ppm) and the registered
+/// error an undetected one of that size adds at most (and in RMS) over
+/// the accuracy grid.
+pub fn sensitivity_sentence(record: &SystematicSensitivityRecord) -> String {
+    let (mdb, unit) = match record.unit.as_str() {
+        "mm" => (record.mdb * 1e3, "um"),
+        _ => (record.mdb * 1e6, "ppm"),
+    };
+    let test = format!(
+        "the smallest its test finds at {}% with {:.0}% power",
+        record.level * 100.0,
+        record.power * 100.0
+    );
+    match (record.map_max_um, record.map_rms_um) {
+        (Some(max), Some(rms)) => format!(
+            "an undetectable common {} error of up to {mdb:.1} {unit} ({test}) could add up to {max:.1} um to the registered error (RMS {rms:.1} um over the accuracy grid)",
+            record.effect
+        ),
+        _ => format!(
+            "an undetectable common {} error could be up to {mdb:.1} {unit} ({test})",
+            record.effect
+        ),
+    }
 }
 
 /// The test of a common error of the entered data in one sentence: the
@@ -406,7 +442,9 @@ pub fn with_verdict(
     record.reasons = vec![if status == "converged" {
         "the solver converged".to_string()
     } else {
-        format!("the solver stopped: {status}")
+        format!(
+            "the solver stopped: {status}; its state is not a least-squares minimum, so no test judges it and no observation is named as a blunder"
+        )
     }];
     if let Some(test) = &verdict.global_test {
         let (lower, upper) = test.interval;

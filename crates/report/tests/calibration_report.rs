@@ -102,7 +102,8 @@ fn the_diagnostics_summarise_every_observation_s_test() {
 /// Every ball's radius entered 20 um too small: calibration.json keeps the
 /// test of a common radius error as the run made it, a reason names the
 /// radius as the explanation, and the page has the systematic errors'
-/// section with the test's numbers.
+/// section with the test's numbers, and that of the sensitivity with its
+/// sentence.
 #[test]
 fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     let mut dataset = paper_seed1();
@@ -112,7 +113,7 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
     let record = parcal_report::sentences::record(&run, &dataset);
     assert_eq!(record.verdict, "rejected");
-    let test = run.reliability.as_ref().unwrap().systematic[0];
+    let test = &run.reliability.as_ref().unwrap().systematic[0];
     let kept = &record.diagnostics.as_ref().unwrap().systematic_tests;
     assert_eq!(
         kept.len(),
@@ -125,7 +126,7 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     );
     assert_eq!(kept[0].outcome_without, "consistent");
     let sentence =
-        parcal_report::sentences::systematic_sentence(&test, run.global_test.as_ref().unwrap())
+        parcal_report::sentences::systematic_sentence(test, run.global_test.as_ref().unwrap())
             .unwrap();
     assert!(sentence.starts_with("a common ball radius error explains the misfit"));
     assert!(record.reasons.contains(&sentence), "{:?}", record.reasons);
@@ -141,6 +142,10 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
     assert!(html.contains("explained by a common error of the entered data: ball radius"));
     // The verdict line says so too.
     assert!(html.contains("explained by a common ball radius error (Systematic errors, below)"));
+    // And the sensitivity, with its sentence.
+    let sensitivity = &record.diagnostics.as_ref().unwrap().systematic_sensitivity[0];
+    assert!(html.contains("Sensitivity to systematic errors"));
+    assert!(html.contains(&parcal_report::sentences::sensitivity_sentence(sensitivity)));
 }
 
 /// One reading 5 mm off, calibrated with the Cauchy loss: the page lists

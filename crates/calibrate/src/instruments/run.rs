@@ -19,9 +19,9 @@ use crate::instruments::problem::InstrumentProblem;
 use crate::instruments::rows::InstrumentRows;
 use crate::instruments::start::frame_start;
 use crate::layout::{ParameterGroup, ParameterLayout};
-use crate::reliability::{ObservationId, Reliability, checked};
+use crate::reliability::{ObservationId, Reliability};
 use crate::setup::{design_geometry, kinematic_prior};
-use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, rows_and_unknowns};
+use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, at_minimum, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method};
 
 /// The outcome of an instrument calibration.
@@ -156,7 +156,7 @@ pub fn calibrate_instruments(
     let solution = solve(&problem, state, &solver_options, observer);
     let (n_rows, unknowns) = rows_and_unknowns(&problem, 0, problem.rows.len());
     let reliability = match (&solution.covariance, solution.history.last()) {
-        (Some(covariance), Some(last)) if checked(&solution.status) => {
+        (Some(covariance), Some(last)) if at_minimum(&solution.status) => {
             let tracker = problem.rows.tracker;
             let observations: Vec<ObservationId> = (0..tracker.poses.len())
                 .map(ObservationId::Pose)

@@ -203,6 +203,45 @@ pub struct Diagnostics {
         deserialize_with = "shape::bounded::<_, _, MAX_LISTED>"
     )]
     pub systematic_tests: Vec<SystematicTestRecord>,
+    /// For each common error of the entered data, whatever the global
+    /// test said: the smallest its test would detect and what one of that
+    /// size that went undetected would do; empty when not computed.
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "shape::bounded::<_, _, MAX_LISTED>"
+    )]
+    pub systematic_sensitivity: Vec<SystematicSensitivityRecord>,
+}
+
+/// How large a common error of the entered data must be for its test to
+/// find it (its minimal detectable bias), and what an undetected one of
+/// that size does to the parameters and the registered accuracy map.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SystematicSensitivityRecord {
+    /// The effect, as in [`SystematicTestRecord`].
+    pub effect: String,
+    /// The unit of `sigma` and `mdb` (`mm`, `1`).
+    pub unit: String,
+    /// The standard deviation of the effect's estimate.
+    pub sigma: f64,
+    /// Its minimal detectable bias: `δ₀ sigma`, the smallest effect its
+    /// test finds at `level` with probability `power`.
+    pub mdb: f64,
+    /// The test's level.
+    pub level: f64,
+    /// The test's power at `mdb`.
+    pub power: f64,
+    /// The shift of each kinematic parameter that an undetected effect of
+    /// one `mdb` makes (the first of `parameters.names`, their units).
+    pub parameter_shift: Vec<f64>,
+    /// The registered tool-tip error that shift makes over the accuracy
+    /// grid, RMS and max in micrometres (absent without a map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_rms_um: Option<f64>,
+    /// See `map_rms_um`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_max_um: Option<f64>,
 }
 
 /// The test of one common error of the entered data (the w-test of one

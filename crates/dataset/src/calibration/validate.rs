@@ -511,6 +511,32 @@ impl Diagnostics {
                 check.text(format_args!("{field}.{name}"), text)?;
             }
         }
+        for (k, t) in self.systematic_sensitivity.iter().enumerate() {
+            let field = format!("diagnostics.systematic_sensitivity[{k}]");
+            check.positive(format_args!("{field}.sigma"), t.sigma)?;
+            check.positive(format_args!("{field}.mdb"), t.mdb)?;
+            for (name, value) in [("level", t.level), ("power", t.power)] {
+                check.finite(format_args!("{field}.{name}"), value)?;
+            }
+            for (name, text) in [("effect", &t.effect), ("unit", &t.unit)] {
+                check.text(format_args!("{field}.{name}"), text)?;
+            }
+            if t.parameter_shift.len() > n {
+                return Err(check.error(
+                    format!("{field}.parameter_shift"),
+                    format!(
+                        "expected at most {n} values (one per parameter), found {}",
+                        t.parameter_shift.len()
+                    ),
+                ));
+            }
+            check.values(format_args!("{field}.parameter_shift"), &t.parameter_shift)?;
+            for (name, value) in [("map_rms_um", t.map_rms_um), ("map_max_um", t.map_max_um)] {
+                if let Some(value) = value {
+                    check.non_negative(format_args!("{field}.{name}"), value)?;
+                }
+            }
+        }
         for (field, len) in [
             ("diagnostics.prior_sigma", self.prior_sigma.len()),
             ("diagnostics.determined_by", self.determined_by.len()),

@@ -368,6 +368,17 @@ pub fn calibration() -> Calibration {
                 variance_factor_without: 0.875,
                 outcome_without: "consistent".into(),
             }],
+            systematic_sensitivity: vec![SystematicSensitivityRecord {
+                effect: "ball radius".into(),
+                unit: "mm".into(),
+                sigma: 0.0017,
+                mdb: 0.0070,
+                level: 0.001,
+                power: 0.8,
+                parameter_shift: vec![0.004, -0.002],
+                map_rms_um: Some(3.5),
+                map_max_um: Some(9.0),
+            }],
         }),
     }
 }

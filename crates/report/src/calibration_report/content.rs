@@ -11,6 +11,7 @@ use parcal_workflows::evaluate::Accuracy;
 
 use super::document::{Block, Cell, Tone};
 use super::figures;
+use crate::sentences::sensitivity_sentence;
 
 /// The calibration a report is about.
 pub struct Subject<'a> {
@@ -39,6 +40,7 @@ pub fn blocks(subject: &Subject) -> Result<Vec<Block>, String> {
     out.extend(global_test(c));
     out.extend(variance_components(c));
     out.extend(systematic_tests(c));
+    out.extend(systematic_sensitivity(c));
     out.extend(removed(c));
     out.extend(down_weighted(c));
     out.extend(observations(c)?);
@@ -319,6 +321,57 @@ fn systematic_tests(c: &Calibration) -> Vec<Block> {
     ]
 }
 
+/// How large a common error of the entered data must be to show, and
+/// what one that does not show does to the registered error.
+fn systematic_sensitivity(c: &Calibration) -> Vec<Block> {
+    let records = c
+        .diagnostics
+        .as_ref()
+        .map_or(&[][..], |d| &d.systematic_sensitivity[..]);
+    if records.is_empty() {
+        return vec![];
+    }
+    let um = |v: Option<f64>| optional(v, 1);
+    vec![
+        Block::Heading(2, "Sensitivity to systematic errors".into()),
+        Block::Paragraph(
+            Tone::Plain,
+            format!(
+                "A common error of the entered data smaller than its minimal detectable bias passes every test, yet goes into the parameters. For each: that bias (the smallest error its test finds at {}% with {:.0}% power) and the registered error an undetected one of that size adds over the accuracy grid.",
+                records[0].level * 100.0,
+                records[0].power * 100.0
+            ),
+        ),
+        Block::Table {
+            header: vec![
+                "effect".into(),
+                "minimal detectable bias".into(),
+                "unit".into(),
+                "σ".into(),
+                "registered RMS (um)".into(),
+                "registered max (um)".into(),
+            ],
+            rows: records
+                .iter()
+                .map(|r| {
+                    vec![
+                        Cell::text(&r.effect),
+                        Cell::number(format!("{:.2e}", r.mdb)),
+                        Cell::text(&r.unit),
+                        Cell::number(format!("{:.1e}", r.sigma)),
+                        um(r.map_rms_um),
+                        um(r.map_max_um),
+                    ]
+                })
+                .collect(),
+        },
+        Block::List(
+            Tone::Plain,
+            records.iter().map(sensitivity_sentence).collect(),
+        ),
+    ]
+}
+
 /// calibration.json's tests of common errors (none when not recorded).
 fn systematic_records(c: &Calibration) -> &[SystematicTestRecord] {
     c.diagnostics
@@ -461,19 +514,22 @@ fn checks_table(checks: &[ObservationCheck], critical: f64) -> Block {
 /// uncontrolled observations, the histograms.
 fn observations(c: &Calibration) -> Result<Vec<Block>, String> {
     let mut out = vec![Block::Heading(2, "Observations".into())];
-    let Some(t) = c.diagnostics.as_ref().and_then(|d| d.observations.as_ref()) else {
-        out.push(Block::Paragraph(
-            Tone::Warning,
-            "The observations were not tested: the run stopped before an iterate could be checked, or calibration.json predates the recorded diagnostics (calibrate again to have them).".into(),
-        ));
-        return Ok(out);
-    };
+    // Only a least-squares minimum is judged (what an older file kept of
+    // a run that did not converge is not shown).
     if !c.converged {
         out.push(Block::Paragraph(
             Tone::Warning,
-            "The run did not converge: the observations were tested at its last iterate, where a blunder that kept it from converging stands out; the numbers are not those of a solution.".into(),
+            "The observations were not tested: the run did not converge, and only a least-squares minimum is judged (elsewhere the residuals carry the error the iteration had not yet removed, and would blame good observations).".into(),
         ));
+        return Ok(out);
     }
+    let Some(t) = c.diagnostics.as_ref().and_then(|d| d.observations.as_ref()) else {
+        out.push(Block::Paragraph(
+            Tone::Warning,
+            "The observations were not tested: calibration.json predates the recorded diagnostics (calibrate again to have them).".into(),
+        ));
+        return Ok(out);
+    };
     out.push(Block::Paragraph(Tone::Plain, tests_sentence(t)));
     out.push(Block::Heading(3, "Largest normalised residuals".into()));
     out.push(checks_table(&t.largest, t.critical_value));
