@@ -368,6 +368,61 @@ fn a_plan_csv_and_a_plan_json_of_two_runs_are_refused_by_the_reader() {
     assert!(output.status.success(), "{}", stderr(&output));
 }
 
+/// A full disk while `calibrate --report` writes its calibration.json,
+/// report.html and report.md: the second run may write files of at most a
+/// size between calibration.json's and report.html's (RLIMIT_FSIZE, with
+/// SIGXFSZ ignored so that the write fails with EFBIG as on a full disk),
+/// so its calibration.json could be written but not its report. The set of
+/// the first run stays whole (not a new calibration beside the old
+/// report), and no temporary is left.
+#[cfg(unix)]
+#[test]
+fn a_full_disk_while_a_calibration_and_its_report_are_written_leaves_the_earlier_set() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = common::copy_fixture("paper-seed1", temp.path(), &common::PAPER_FILES);
+    let output = parcal(&["calibrate", path(&data), "--report"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let set = ["calibration.json", "report.html", "report.md"];
+    let first: Vec<Vec<u8>> = set
+        .iter()
+        .map(|f| fs::read(data.join(f)).unwrap())
+        .collect();
+    let (calibration, html) = (first[0].len(), first[1].len());
+    let blocks = (calibration + html) / 2 / 1024;
+    assert!(
+        blocks * 1024 > calibration && blocks * 1024 < html,
+        "{calibration} {html}"
+    );
+    // Levenberg-Marquardt: the same data, another calibration.json.
+    let output = Command::new("bash")
+        .args([
+            "-c",
+            "trap '' XFSZ; ulimit -f \"$1\"; shift; exec \"$@\"",
+            "limit",
+            &blocks.to_string(),
+            env!("CARGO_BIN_EXE_parcal"),
+            "calibrate",
+            path(&data),
+            "--report",
+            "--lm",
+        ])
+        .output()
+        .unwrap();
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(message.contains("report.html: cannot write"), "{message}");
+    for (file, bytes) in set.iter().zip(&first) {
+        assert!(
+            fs::read(data.join(file)).unwrap() == *bytes,
+            "{file} changed"
+        );
+    }
+    let mut expected: Vec<&str> = common::PAPER_FILES.to_vec();
+    expected.extend(set);
+    expected.sort_unstable();
+    assert_eq!(entries(&data), expected);
+}
+
 #[test]
 fn accuracy_leaves_no_map_of_an_earlier_run() {
     let temp = tempfile::tempdir().unwrap();
