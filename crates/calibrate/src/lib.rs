@@ -35,6 +35,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod bounds;
 pub mod conflict;
 mod error;
 pub mod external;

@@ -3,6 +3,7 @@
 //!
 //! A thin binary: it parses arguments and wires the crates together.
 
+mod bounds;
 mod commands;
 mod outputs;
 mod progress;

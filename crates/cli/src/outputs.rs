@@ -1,6 +1,8 @@
 //! The files a command writes, checked before its work starts: each can be
 //! written (absent or a regular file, through symbolic links, in a
-//! directory that takes new files) and none is a file the run reads.
+//! directory that takes new files), none is a file the run reads and no
+//! two are the same file. The command then writes them as a set
+//! ([`atomic::write_set`]).
 
 use std::path::{Path, PathBuf};
 
@@ -29,9 +31,24 @@ pub fn dataset_inputs(path: &Path) -> Vec<PathBuf> {
     .collect()
 }
 
-/// Checks that every one of `outputs` can be written and is none of
-/// `inputs` (the same file by device and inode, whatever the path).
+/// Checks that every one of `outputs` can be written, is none of `inputs`
+/// (the same file by device and inode, whatever the path) and none of the
+/// other outputs (the same [`atomic::destination`], whether or not it
+/// exists yet).
 pub fn check(inputs: &[PathBuf], outputs: &[PathBuf]) -> anyhow::Result<()> {
+    let destinations = outputs
+        .iter()
+        .map(|output| atomic::destination(output))
+        .collect::<Result<Vec<_>, _>>()?;
+    for (k, destination) in destinations.iter().enumerate() {
+        if let Some(j) = destinations[..k].iter().position(|d| d == destination) {
+            anyhow::bail!(
+                "{} and {} are the same file, and this run writes both; give them different names",
+                outputs[j].display(),
+                outputs[k].display()
+            );
+        }
+    }
     for output in outputs {
         if let Some(input) = inputs.iter().find(|input| same_file(output, input)) {
             anyhow::bail!(
@@ -86,5 +103,17 @@ mod tests {
             assert!(check(&inputs, &[link]).is_err());
         }
         check(&inputs, &[dir.path().join("calibration.json")]).unwrap();
+    }
+
+    #[test]
+    fn two_outputs_are_never_one_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("commands.csv");
+        let roundabout = dir.path().join(".").join("commands.csv");
+        let error = check(&[], &[out.clone(), roundabout])
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("are the same file"), "{error}");
+        check(&[], &[out, dir.path().join("poses.csv")]).unwrap();
     }
 }

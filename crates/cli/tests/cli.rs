@@ -236,7 +236,7 @@ fn simulate_writes_instrument_sessions() {
         (&["--sessions", "2"][..], "--tracker"),
         (
             &["--tracker", "points", "--rows", "0"][..],
-            "--rows must be at least 1",
+            "--rows 0: must be a whole number from 1 to",
         ),
         (
             &["--tracker", "poses", "--position-sigma", "0"][..],

@@ -28,6 +28,11 @@ fn entries(dir: &Path) -> Vec<String> {
     names
 }
 
+/// `args` as owned strings.
+fn strings(args: &[&str]) -> Vec<String> {
+    args.iter().map(|a| a.to_string()).collect()
+}
+
 /// The paper scenario (seed 7) simulated into `dir`.
 fn simulated(dir: &Path) {
     let output = parcal(&["simulate", "--seed", "7", "--out", path(dir)]);
@@ -38,14 +43,18 @@ fn simulated(dir: &Path) {
 fn sizes_beyond_the_bound_are_refused_before_anything_is_allocated() {
     let temp = tempfile::tempdir().unwrap();
     let out = temp.path().join("d");
-    for (args, named) in [
+    // One count beyond its bound: a usage error naming the flag; a product
+    // beyond the row bound: an error naming every factor.
+    for (args, code, named) in [
         (
             vec!["--balls", "18446744073709551615"],
-            "--balls 18446744073709551615",
+            2,
+            "--balls 18446744073709551615: must be a whole number from 1 to 10000000",
         ),
-        (vec!["--balls", "1000000000"], "--balls 1000000000"),
+        (vec!["--balls", "1000000000"], 2, "--balls 1000000000"),
         (
             vec!["--points-per-ball", "1000000000"],
+            2,
             "--points-per-ball 1000000000",
         ),
         (
@@ -57,7 +66,8 @@ fn sizes_beyond_the_bound_are_refused_before_anything_is_allocated() {
                 "--rows",
                 "1000000",
             ],
-            "--sessions 1000000 x --rows 1000000",
+            1,
+            "too large: --sessions 1000000 x --rows 1000000",
         ),
         (
             vec![
@@ -68,6 +78,7 @@ fn sizes_beyond_the_bound_are_refused_before_anything_is_allocated() {
                 "--plate",
                 "all",
             ],
+            1,
             "distances",
         ),
     ] {
@@ -75,14 +86,369 @@ fn sizes_beyond_the_bound_are_refused_before_anything_is_allocated() {
         all.extend(&args);
         let output = parcal(&all);
         let message = stderr(&output);
-        assert_eq!(output.status.code(), Some(1), "{args:?}: {message}");
-        assert!(
-            message.contains("too large") && message.contains(named),
-            "{message}"
-        );
+        assert_eq!(output.status.code(), Some(code), "{args:?}: {message}");
+        assert!(message.contains(named), "{message}");
         assert!(!message.contains("panicked"), "{message}");
         assert!(!out.exists(), "nothing written for {args:?}");
     }
+}
+
+#[test]
+fn counts_beyond_their_bounds_are_refused_before_any_work() {
+    let temp = tempfile::tempdir().unwrap();
+    let out = temp.path().join("plan.csv");
+    let dir = temp.path().join("d");
+    let (dir_arg, out_arg) = (path(&dir).to_owned(), path(&out).to_owned());
+    let plan = |counts: &[&'static str]| -> Vec<String> {
+        let mut args = vec!["plan", &dir_arg, "--tilt", "10", "--out", &out_arg];
+        args.extend(counts);
+        args.into_iter().map(String::from).collect()
+    };
+    let u64_max = "18446744073709551615";
+    for (args, named) in [
+        (
+            plan(&["--contacts", "10000000"]),
+            "--contacts 10000000: must be a whole number from 1 to 10000 (",
+        ),
+        (
+            plan(&["--contacts", "189", "--pool", u64_max]),
+            "--pool 18446744073709551615: must be a whole number from 1 to 1000000 (",
+        ),
+        (
+            plan(&["--contacts", "189", "--restarts", "0"]),
+            "--restarts 0",
+        ),
+        (plan(&["--poses", "0"]), "--poses 0"),
+        (
+            plan(&["--poses", "30", "--sessions", u64_max]),
+            "--sessions",
+        ),
+        (
+            strings(&["validate", &dir_arg, "--folds", u64_max]),
+            "--folds 18446744073709551615: must be a whole number from 2 to 100 (",
+        ),
+        (
+            strings(&["validate", &dir_arg, "--folds", "1"]),
+            "--folds 1",
+        ),
+        (
+            strings(&[
+                "validate",
+                &dir_arg,
+                "--calibration",
+                "c.json",
+                "--reference",
+                "0",
+            ]),
+            "--reference 0",
+        ),
+        (
+            strings(&[
+                "calibrate",
+                &dir_arg,
+                "--max-iterations",
+                "18446744073709551616",
+            ]),
+            "--max-iterations \"18446744073709551616\": must be a whole number from 0 to 10000",
+        ),
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let output = parcal(&args);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {message}");
+        assert!(message.contains(named), "{args:?}: {message}");
+        assert!(!out.exists());
+    }
+    // Counts within their bounds whose work is beyond the plan's: refused
+    // by the planner before the pool is made.
+    simulated(&dir);
+    let args = plan(&["--contacts", "10000", "--pool", "1000000"]);
+    let output = parcal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains("contacts 10000 x pool 1000000 x restarts 1 make more than 200000000 candidate evaluations"),
+        "{message}"
+    );
+    assert!(!out.exists());
+    // More folds than rows: refused by the cross-validation.
+    let tracked = temp.path().join("tracked");
+    let output = parcal(&[
+        "simulate",
+        "--tracker",
+        "poses",
+        "--sessions",
+        "1",
+        "--rows",
+        "10",
+        "--out",
+        path(&tracked),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let output = parcal(&["validate", path(&tracked), "--folds", "11"]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains("11 folds of 10 rows (poses or points): a fold would hold none"),
+        "{message}"
+    );
+    assert!(!tracked.join("validation.json").exists());
+}
+
+#[test]
+fn the_outputs_of_a_run_are_distinct_and_none_is_an_input() {
+    let temp = tempfile::tempdir().unwrap();
+    let (calibration, poses) = (temp.path().join("c.json"), temp.path().join("t.csv"));
+    fs::write(&calibration, "{}").unwrap();
+    fs::write(&poses, "x,y,z,roll,pitch,yaw\n0,0,400,0,0,0\n").unwrap();
+    // The commands and the corrected poses onto one file: refused before
+    // anything is read.
+    let both = temp.path().join("out.csv");
+    let roundabout = temp.path().join(".").join("out.csv");
+    let output = parcal(&[
+        "compensate",
+        "--calibration",
+        path(&calibration),
+        "--poses",
+        path(&poses),
+        "--out",
+        path(&both),
+        "--corrected-poses",
+        path(&roundabout),
+    ]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains("are the same file, and this run writes both"),
+        "{message}"
+    );
+    assert!(!both.exists());
+    // simulate --run onto its own --targets: refused, the targets kept.
+    let output = parcal(&[
+        "simulate",
+        "--run",
+        path(&temp.path().join("commands.csv")),
+        "--truth",
+        path(&temp.path().join("d")),
+        "--targets",
+        path(&poses),
+        "--out",
+        path(&poses),
+    ]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(message.contains("which this run reads"), "{message}");
+    assert_eq!(
+        fs::read_to_string(&poses).unwrap(),
+        "x,y,z,roll,pitch,yaw\n0,0,400,0,0,0\n"
+    );
+    // A plan whose plan.json would be plan.csv itself.
+    let output = parcal(&[
+        "plan",
+        path(temp.path()),
+        "--contacts",
+        "10",
+        "--tilt",
+        "10",
+        "--out",
+        path(&temp.path().join("plan.json")),
+    ]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(
+        stderr(&output).contains("are the same file"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn simulate_run_checks_its_targets_before_writing() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = common::copy_fixture(
+        "paper-seed1",
+        temp.path(),
+        &[
+            "machine.json",
+            "artefacts.json",
+            "measurements.csv",
+            "truth.json",
+        ],
+    );
+    // The first five touches' readings as commands.
+    let measurements = fs::read_to_string(data.join("measurements.csv")).unwrap();
+    let mut commands = String::from("q1,q2,q3,q4,q5,q6\n");
+    for line in measurements.lines().skip(1).take(5) {
+        commands += line.split_once(',').unwrap().1;
+        commands.push('\n');
+    }
+    let commands_path = temp.path().join("commands.csv");
+    fs::write(&commands_path, commands).unwrap();
+    let targets = temp.path().join("targets.csv");
+    fs::write(&targets, "x,y,z,roll,pitch,yaw\n0,0,400,0,0,0\n").unwrap();
+    let out = temp.path().join("reached.csv");
+    let output = parcal(&[
+        "simulate",
+        "--run",
+        path(&commands_path),
+        "--truth",
+        path(&data),
+        "--targets",
+        path(&targets),
+        "--out",
+        path(&out),
+    ]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains("targets.csv: 1 targets for 5 commands"),
+        "{message}"
+    );
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn a_plan_csv_and_a_plan_json_of_two_runs_are_refused_by_the_reader() {
+    let temp = tempfile::tempdir().unwrap();
+    let template = temp.path().join("t");
+    let output = parcal(&[
+        "simulate",
+        "--balls",
+        "8",
+        "--points-per-ball",
+        "5",
+        "--out",
+        path(&template),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let plan_csv = temp.path().join("plan.csv");
+    let plan = |contacts: &str| {
+        let output = parcal(&[
+            "plan",
+            path(&template),
+            "--contacts",
+            contacts,
+            "--tilt",
+            "20",
+            "--pool",
+            "500",
+            "--out",
+            path(&plan_csv),
+        ]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        fs::read(&plan_csv).unwrap()
+    };
+    let first = plan("32");
+    let summary = fs::read(temp.path().join("plan.json")).unwrap();
+    plan("33");
+    // plan.json of the first run beside plan.csv of the second: what a
+    // kill between the two renames leaves.
+    fs::write(temp.path().join("plan.json"), &summary).unwrap();
+    let simulate = |out: &str| {
+        parcal(&[
+            "simulate",
+            "--balls",
+            "8",
+            "--plan",
+            path(&plan_csv),
+            "--out",
+            path(&temp.path().join(out)),
+        ])
+    };
+    let output = simulate("a");
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains("plan.csv and") && message.contains("plan.json are not of the same plan"),
+        "{message}"
+    );
+    assert!(!temp.path().join("a").exists());
+    // The matching pair is read.
+    fs::write(&plan_csv, &first).unwrap();
+    let output = simulate("b");
+    assert!(output.status.success(), "{}", stderr(&output));
+}
+
+/// A full disk while `calibrate --report` writes its calibration.json,
+/// report.html and report.md: the second run may write files of at most a
+/// size between calibration.json's and report.html's (RLIMIT_FSIZE, with
+/// SIGXFSZ ignored so that the write fails with EFBIG as on a full disk),
+/// so its calibration.json could be written but not its report. The set of
+/// the first run stays whole (not a new calibration beside the old
+/// report), and no temporary is left.
+#[cfg(unix)]
+#[test]
+fn a_full_disk_while_a_calibration_and_its_report_are_written_leaves_the_earlier_set() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = common::copy_fixture("paper-seed1", temp.path(), &common::PAPER_FILES);
+    let output = parcal(&["calibrate", path(&data), "--report"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let set = ["calibration.json", "report.html", "report.md"];
+    let first: Vec<Vec<u8>> = set
+        .iter()
+        .map(|f| fs::read(data.join(f)).unwrap())
+        .collect();
+    let (calibration, html) = (first[0].len(), first[1].len());
+    let blocks = (calibration + html) / 2 / 1024;
+    assert!(
+        blocks * 1024 > calibration && blocks * 1024 < html,
+        "{calibration} {html}"
+    );
+    // Levenberg-Marquardt: the same data, another calibration.json.
+    let output = Command::new("bash")
+        .args([
+            "-c",
+            "trap '' XFSZ; ulimit -f \"$1\"; shift; exec \"$@\"",
+            "limit",
+            &blocks.to_string(),
+            env!("CARGO_BIN_EXE_parcal"),
+            "calibrate",
+            path(&data),
+            "--report",
+            "--lm",
+        ])
+        .output()
+        .unwrap();
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(message.contains("report.html: cannot write"), "{message}");
+    for (file, bytes) in set.iter().zip(&first) {
+        assert!(
+            fs::read(data.join(file)).unwrap() == *bytes,
+            "{file} changed"
+        );
+    }
+    let mut expected: Vec<&str> = common::PAPER_FILES.to_vec();
+    expected.extend(set);
+    expected.sort_unstable();
+    assert_eq!(entries(&data), expected);
+}
+
+#[test]
+fn accuracy_leaves_no_map_of_an_earlier_run() {
+    let temp = tempfile::tempdir().unwrap();
+    let dir = temp.path().join("d");
+    simulated(&dir);
+    let maps = temp.path().join("maps");
+    let accuracy = |dataset: &Path| {
+        let output = parcal(&["accuracy", path(dataset), "--out", path(&maps)]);
+        assert!(output.status.success(), "{}", stderr(&output));
+    };
+    // With truth.json: predicted and true maps.
+    accuracy(&dir);
+    assert!(maps.join("before_true_absolute.svg").exists());
+    fs::write(maps.join("notes.txt"), "mine").unwrap();
+    // Without it: the true maps of the earlier run do not stay.
+    fs::remove_file(dir.join("truth.json")).unwrap();
+    accuracy(&dir);
+    assert_eq!(
+        entries(&maps),
+        [
+            "accuracy.csv",
+            "before_predicted_absolute.svg",
+            "before_predicted_registered.svg",
+            "notes.txt"
+        ]
+    );
 }
 
 #[test]

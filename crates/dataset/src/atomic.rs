@@ -4,6 +4,9 @@
 //! A file is written to a hidden temporary beside its target, synced, given
 //! the target's permissions if it replaces one, and renamed into place; a
 //! directory is filled as a hidden sibling and renamed into place whole.
+//! The files one run writes together (a report's HTML and Markdown, a plan
+//! and its summary) are written as a set ([`write_set`]): every member to
+//! its temporary first, renamed into place only when all are complete.
 //! A symbolic link is written through: the file it points to is replaced,
 //! in that file's directory. A target that exists and is not a regular file
 //! (a directory, a device such as `/dev/null`, a pipe) is refused.
@@ -38,9 +41,38 @@ pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<&File>) -> Result<()>,
 {
+    let staged = stage(path, fill)?;
+    // Within a set, the rename waits for the set's other members.
+    let alone = SET.with_borrow_mut(|set| match set {
+        Some(pending) => pending.join(staged).map(|()| None),
+        None => Ok(Some(staged)),
+    })?;
+    match alone {
+        Some(staged) => temp::renaming(|| staged.persist()),
+        None => Ok(()),
+    }
+}
+
+/// A file written to its hidden temporary beside its target and synced,
+/// registered in flight, not yet renamed into place.
+struct Staged {
+    tmp: NamedTempFile,
+    /// The file the rename replaces or creates ([`destination`]).
+    target: PathBuf,
+    /// The path as given, for messages.
+    path: PathBuf,
+    _in_flight: InFlight,
+}
+
+/// Writes `path`'s temporary through `fill` ([`write_atomic`]); on any
+/// error the temporary is removed.
+fn stage<F>(path: &Path, fill: F) -> Result<Staged>
+where
+    F: FnOnce(&mut BufWriter<&File>) -> Result<()>,
+{
     let target = resolve(path)?;
     let existing = regular_or_absent(&target, path)?;
-    let (tmp, _in_flight) = create_temp(&target, path)?;
+    let (tmp, in_flight) = create_temp(&target, path)?;
     if let Some(existing) = existing {
         tmp.as_file()
             .set_permissions(existing.permissions())
@@ -55,11 +87,155 @@ where
         .map_err(|e| DatasetError::io(path, "write", e.into_error()))?
         .sync_all()
         .map_err(|e| DatasetError::io(path, "write", e))?;
-    // On failure the temporary file is dropped, which removes it.
-    temp::renaming(|| tmp.persist(&target))
-        .map_err(|e| DatasetError::io(path, "rename into place", e.error))?;
-    sync_directory(&target);
-    Ok(())
+    Ok(Staged {
+        tmp,
+        target: destination(path)?,
+        path: path.to_path_buf(),
+        _in_flight: in_flight,
+    })
+}
+
+impl Staged {
+    /// Renames the temporary into place (the caller holds
+    /// [`temp::renaming`]); on failure the temporary is removed.
+    fn persist(self) -> Result<()> {
+        self.tmp
+            .persist(&self.target)
+            .map_err(|e| DatasetError::io(&self.path, "rename into place", e.error))?;
+        sync_directory(&self.target);
+        Ok(())
+    }
+}
+
+/// The members of the set being written on this thread ([`write_set`]).
+struct Pending {
+    staged: Vec<Staged>,
+    /// Files the set replaces as a group: removed at the commit unless
+    /// the set writes them.
+    replaces: Vec<PathBuf>,
+}
+
+thread_local! {
+    /// The set [`write_set`] is writing on this thread, if any.
+    static SET: std::cell::RefCell<Option<Pending>> = const { std::cell::RefCell::new(None) };
+}
+
+impl Pending {
+    /// Adds `staged`; a file written twice in one set is an error (the
+    /// second would silently replace the first).
+    fn join(&mut self, staged: Staged) -> Result<()> {
+        if let Some(first) = self.staged.iter().find(|s| s.target == staged.target) {
+            return Err(DatasetError::io(
+                &staged.path,
+                "write",
+                io::Error::other(format!(
+                    "the same file as {}, written by the same run; give them different names",
+                    first.path.display()
+                )),
+            ));
+        }
+        self.staged.push(staged);
+        Ok(())
+    }
+
+    /// Renames every member into place, then removes the files of
+    /// `replaces` the set did not write. A failed rename (the target
+    /// changed under the run) stops there: the members not renamed are
+    /// removed, those renamed stay.
+    fn commit(self) -> Result<()> {
+        let written: Vec<PathBuf> = self.staged.iter().map(|s| s.target.clone()).collect();
+        for staged in self.staged {
+            staged.persist()?;
+        }
+        for path in &self.replaces {
+            let stale = destination(path)?;
+            if written.contains(&stale) {
+                continue;
+            }
+            match fs::remove_file(&stale) {
+                Err(e) if e.kind() != io::ErrorKind::NotFound => {
+                    return Err(DatasetError::io(
+                        path,
+                        "remove the file of an earlier run",
+                        e,
+                    ));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Writes a set of files, whole or not at all: every file that `write`
+/// writes on this thread through this module ([`write_atomic`],
+/// [`write_file`] and every writer built on them) goes to its temporary
+/// first, and only when `write` has succeeded, every member written and
+/// synced, are they renamed into place, one after the other, with an
+/// interruption waiting for the renames; then the files of `replaces`
+/// that the set did not write (the names an earlier run may have left)
+/// are removed. On any error of `write` (a full disk on any member, a
+/// failing serializer) every temporary is removed and every target,
+/// including `replaces`, is left as it was. A file written twice in the
+/// set is an error. A set written within a set joins it.
+///
+/// The renames are not one atomic act: a hard kill or a power loss
+/// between two of them leaves a mixed set, which readers of a set that
+/// matters (plan.csv and plan.json) detect by a checksum one member
+/// records of the other.
+pub fn write_set<T, E: From<DatasetError>>(
+    replaces: &[PathBuf],
+    write: impl FnOnce() -> std::result::Result<T, E>,
+) -> std::result::Result<T, E> {
+    let nested = SET.with_borrow_mut(|set| match set {
+        Some(pending) => {
+            pending.replaces.extend_from_slice(replaces);
+            true
+        }
+        None => {
+            *set = Some(Pending {
+                staged: Vec::new(),
+                replaces: replaces.to_vec(),
+            });
+            false
+        }
+    });
+    if nested {
+        return write();
+    }
+    /// Ends the set even if `write` panics: its temporaries are removed.
+    struct End;
+    impl Drop for End {
+        fn drop(&mut self) {
+            drop(SET.with_borrow_mut(Option::take));
+        }
+    }
+    let end = End;
+    let result = write();
+    let pending = SET.with_borrow_mut(Option::take);
+    drop(end);
+    let value = result?;
+    if let Some(pending) = pending {
+        temp::renaming(|| pending.commit())?;
+    }
+    Ok(value)
+}
+
+/// The file a write of `path` replaces or creates: symbolic links
+/// followed ([`resolve`]) and its directory canonical where it exists,
+/// so that two paths of one destination compare equal whether or not
+/// the file exists yet.
+pub fn destination(path: &Path) -> Result<PathBuf> {
+    let target = resolve(path)?;
+    let name = file_name(&target, path)?;
+    let directory = match parent(&target) {
+        dir if dir.as_os_str().is_empty() => Path::new("."),
+        dir => dir,
+    };
+    Ok(directory
+        .canonicalize()
+        .unwrap_or_else(|_| directory.to_path_buf())
+        .join(name))
 }
 
 /// Writes `bytes` to the file `path` atomically, as [`write_atomic`] does:
@@ -577,6 +753,54 @@ mod tests {
         assert_eq!(entries(&empty), ["one", "two"]);
         let error = write_dir(&dir.join("one"), true, fill(b"6")).unwrap_err();
         assert!(error.to_string().contains("not a directory"), "{error}");
+    }
+
+    #[test]
+    fn a_set_is_written_whole_or_not_at_all() {
+        let dir = tempfile::tempdir().unwrap();
+        let (html, md, stale) = (
+            dir.path().join("report.html"),
+            dir.path().join("report.md"),
+            dir.path().join("old.svg"),
+        );
+        let write_pair = |text: &'static [u8], fail: bool| {
+            write_set(std::slice::from_ref(&stale), || -> Result<()> {
+                write_file(&html, text)?;
+                if fail {
+                    // A full disk while the second member is written.
+                    return write_atomic(&md, |w| {
+                        w.write_all(b"half").map_err(write_error(&md))?;
+                        Err(write_error(&md)(io::Error::from(
+                            io::ErrorKind::StorageFull,
+                        )))
+                    });
+                }
+                write_file(&md, text)
+            })
+        };
+        write_pair(b"first", false).unwrap();
+        fs::write(&stale, b"of an earlier run").unwrap();
+        let error = write_pair(b"second", true).unwrap_err().to_string();
+        assert!(error.contains("report.md: cannot write"), "{error}");
+        assert_eq!(fs::read(&html).unwrap(), b"first", "the first member kept");
+        assert_eq!(fs::read(&md).unwrap(), b"first");
+        assert_eq!(entries(dir.path()), ["old.svg", "report.html", "report.md"]);
+        write_pair(b"third", false).unwrap();
+        assert_eq!(fs::read(&html).unwrap(), b"third");
+        assert_eq!(fs::read(&md).unwrap(), b"third");
+        // The stale file of the group is gone with the commit.
+        assert_eq!(entries(dir.path()), ["report.html", "report.md"]);
+        // One file twice in a set: refused, nothing written.
+        let roundabout = dir.path().join(".").join("report.html");
+        let error = write_set(&[], || -> Result<()> {
+            write_file(&html, b"a")?;
+            write_file(&roundabout, b"b")
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(error.contains("the same file as"), "{error}");
+        assert_eq!(fs::read(&html).unwrap(), b"third");
+        assert_eq!(entries(dir.path()), ["report.html", "report.md"]);
     }
 
     #[cfg(unix)]

@@ -130,7 +130,7 @@ impl Dataset {
             &self.tracker,
         );
         let payload = postcard::to_stdvec(&measured).unwrap_or_default();
-        format!("crc32:{:08x}", crc32fast::hash(&payload))
+        crate::checksum::of_bytes(&payload)
     }
 
     /// Whether the dataset has ball touches.

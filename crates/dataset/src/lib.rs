@@ -90,8 +90,10 @@
 
 mod artefacts;
 pub mod atomic;
+pub mod bounds;
 mod calibration;
 mod check;
+pub mod checksum;
 mod dataset;
 mod error;
 mod fields;

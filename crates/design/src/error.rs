@@ -51,6 +51,21 @@ pub enum DesignError {
     /// The accuracy map's targets.
     #[error("the accuracy map: {0}")]
     Accuracy(AccuracyError),
+    /// plan.json records another plan.csv's checksum than its plan.csv's.
+    #[error(
+        "{} and {} are not of the same plan: {} records the checksum {recorded} of the plan, {} has {actual} (written by two runs, or one interrupted between the two); plan again",
+        csv.display(), summary.display(), summary.display(), csv.display()
+    )]
+    MismatchedPair {
+        /// plan.csv.
+        csv: std::path::PathBuf,
+        /// plan.json.
+        summary: std::path::PathBuf,
+        /// The checksum plan.json records.
+        recorded: String,
+        /// plan.csv's.
+        actual: String,
+    },
     /// Writing the plan.
     #[error(transparent)]
     Dataset(#[from] DatasetError),

@@ -5,6 +5,7 @@
 //! names the choice as future work; docs/design.md gives the method and
 //! the figures.
 //!
+//! - [`bounds`]: the bounds of every count a plan is asked for;
 //! - [`pool`]: the feasible candidate touches (stroke, singularity, stylus
 //!   approach);
 //! - [`information`]: one touch's information row on the 33 parameters and
@@ -17,6 +18,7 @@
 //!
 //! [`plan`] puts them together for a machine and its artefacts.
 
+pub mod bounds;
 pub mod criterion;
 mod error;
 pub mod information;
@@ -28,6 +30,7 @@ pub mod tracker;
 use nalgebra::{DMatrix, Vector3};
 use parcal_accuracy::{CanonicalTargets, MapGrid, registered_jacobians};
 use parcal_calibrate::RadiusModel;
+use parcal_dataset::bounds::check_product;
 use parcal_dataset::{ArtefactFrame, Artefacts, Calibration, Machine};
 use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::{KinematicPrior, Repeatability};
@@ -104,6 +107,41 @@ impl PlanOptions {
             min_conditioning: pool::MIN_CONDITIONING,
             radius: parcal_calibrate::CalibrationOptions::default().radius,
         }
+    }
+}
+
+impl PlanOptions {
+    /// Checks every count against its [`bounds`], and the candidate
+    /// evaluations they make against [`bounds::MAX_EVALUATIONS`], before
+    /// any work.
+    pub fn check(&self) -> Result<(), DesignError> {
+        let refuse = DesignError::Options;
+        bounds::CONTACTS
+            .check("contacts", self.contacts)
+            .map_err(refuse)?;
+        bounds::POOL.check("pool", self.pool).map_err(refuse)?;
+        bounds::RESTARTS
+            .check("restarts", self.restarts)
+            .map_err(refuse)?;
+        bounds::MIN_BALLS
+            .check("min_balls", self.min_balls)
+            .map_err(refuse)?;
+        if let Some(per_ball) = self.per_ball {
+            bounds::PER_BALL
+                .check("per_ball", per_ball)
+                .map_err(refuse)?;
+        }
+        check_product(
+            &[
+                ("contacts", self.contacts),
+                ("pool", self.pool),
+                ("restarts", self.restarts),
+            ],
+            bounds::MAX_EVALUATIONS,
+            "candidate evaluations, the most a plan may take (a few minutes)",
+        )
+        .map_err(refuse)?;
+        Ok(())
     }
 }
 
@@ -198,6 +236,7 @@ fn plan_with(
     known: Option<&Calibration>,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Plan, DesignError> {
+    options.check()?;
     let m = &machine.geometry;
     let design = Geometry::from_arrays(&m.base_joints, &m.platform_joints, &m.tool, &m.leg_lengths);
     let mut canonical = design.canonicalize().map_err(DesignError::Design)?;

@@ -6,13 +6,14 @@
 //! the orientation `R = Rz(yaw) Ry(pitch) Rx(roll)` (rad, fixed axes of the
 //! design frame) and the nominal actuator commands (mm) that put the
 //! design's tool tip on `C + r u`. plan.json: the predicted figures, the
-//! prior's, and the options. Both written atomically.
+//! prior's, the options, and plan.csv's checksum. Written as a set
+//! ([`write_pair`]); read back only as a pair that matches
+//! ([`check_pair`]).
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use parcal_dataset::atomic::write_atomic;
-use parcal_dataset::{Artefacts, DatasetError, read_labelled_numbers};
+use parcal_dataset::atomic::{write_file, write_set};
+use parcal_dataset::{Artefacts, checksum, read_labelled_numbers};
 use parcal_kinematics::Vec3;
 
 use crate::{DesignError, Plan, PlanOptions};
@@ -67,7 +68,6 @@ pub fn write_plan(
         }
         text.push('\n');
     }
-    write_bytes(csv, text.as_bytes())?;
     let summary = serde_json::json!({
         "predicted": plan.predicted,
         "prior": plan.prior,
@@ -76,23 +76,57 @@ pub fn write_plan(
         "stroke": plan.stroke,
         "options": options,
     });
-    let json = serde_json::to_string_pretty(&summary).expect("plain numbers and strings");
-    write_bytes(&summary_path(csv), format!("{json}\n").as_bytes())
+    write_pair(csv, &text, summary)
 }
 
-/// Writes `bytes` to `path` atomically.
-pub(crate) fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), DesignError> {
-    write_atomic(path, |w| {
-        w.write_all(bytes)
-            .map_err(|e| DatasetError::io(path, "write", e))
+/// The field of plan.json that records plan.csv's checksum.
+const CSV_CHECKSUM: &str = "plan_csv_checksum";
+
+/// Writes the plan `text` to `csv` and `summary`, with the checksum of
+/// `text` added as [`CSV_CHECKSUM`], to [`summary_path`], as a set: both
+/// whole or neither ([`write_set`]).
+pub(crate) fn write_pair(
+    csv: &Path,
+    text: &str,
+    mut summary: serde_json::Value,
+) -> Result<(), DesignError> {
+    summary[CSV_CHECKSUM] = checksum::of_bytes(text.as_bytes()).into();
+    let json = serde_json::to_string_pretty(&summary).expect("plain numbers and strings");
+    write_set(&[], || {
+        write_file(csv, text.as_bytes())?;
+        write_file(&summary_path(csv), format!("{json}\n").as_bytes())
     })?;
     Ok(())
 }
 
+/// Checks that plan.json beside `csv` ([`summary_path`]), if there is one
+/// and it records a checksum (a plan.csv may be written by hand, and
+/// alone), is that of `csv`: a pair from two runs (one interrupted between
+/// its two renames) is refused, naming both files.
+pub(crate) fn check_pair(csv: &Path) -> Result<(), DesignError> {
+    let summary = summary_path(csv);
+    let Some(recorded) = checksum::recorded(&summary, CSV_CHECKSUM)? else {
+        return Ok(());
+    };
+    let actual = checksum::of_file(csv)?;
+    if recorded == actual {
+        Ok(())
+    } else {
+        Err(DesignError::MismatchedPair {
+            csv: csv.to_path_buf(),
+            summary,
+            recorded,
+            actual,
+        })
+    }
+}
+
 /// Reads plan.csv (the dataset's CSV rules: columns by name, bounded
 /// lines, errors naming the file, line and column): finite numbers with
-/// unit directions.
+/// unit directions; refused if plan.json beside it is of another plan
+/// ([`check_pair`]).
 pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>, DesignError> {
+    check_pair(path)?;
     let rows = read_labelled_numbers(path, "ball", &COLUMNS, "touch", |v| {
         let norm = Vec3::new(v[0], v[1], v[2]).norm();
         if (norm - 1.0).abs() > UNIT_TOLERANCE {
@@ -118,6 +152,27 @@ pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>, DesignError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_plan_csv_of_another_run_than_its_plan_json_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("plan.csv");
+        let row = |yaw: &str| format!("{HEADER}\nb01,0,0,-1,0,0,{yaw},1,2,3,4,5,6\n");
+        write_pair(&csv, &row("0.5"), serde_json::json!({"pool_size": 1})).unwrap();
+        assert_eq!(read_plan(&csv).unwrap()[0].angles[2], 0.5);
+        // plan.csv of another run beside this plan.json (a kill between
+        // the renames): refused, naming both.
+        std::fs::write(&csv, row("0.25")).unwrap();
+        let message = read_plan(&csv).unwrap_err().to_string();
+        assert!(
+            message.contains("plan.csv and")
+                && message.contains("plan.json are not of the same plan"),
+            "{message}"
+        );
+        // A plan.csv alone is read.
+        std::fs::remove_file(summary_path(&csv)).unwrap();
+        assert_eq!(read_plan(&csv).unwrap()[0].angles[2], 0.25);
+    }
 
     #[test]
     fn bad_rows_are_named() {

@@ -154,6 +154,9 @@ pub fn candidate_pool(
     balls: &[NominalBall],
     options: &PoolOptions,
 ) -> Result<Vec<Candidate>, DesignError> {
+    crate::bounds::POOL
+        .check("pool size", options.size)
+        .map_err(DesignError::Options)?;
     let [low, high] = options.stroke;
     let valid = options.tilt.is_finite()
         && (0.0..std::f64::consts::FRAC_PI_2).contains(&options.tilt)
@@ -163,7 +166,6 @@ pub fn candidate_pool(
         && low.is_finite()
         && high.is_finite()
         && low < high
-        && options.size > 0
         && !balls.is_empty();
     if !valid {
         return Err(DesignError::Options(format!(

@@ -158,12 +158,10 @@ impl<'a> Problem<'a> {
         options: &SelectOptions,
         progress: &mut dyn FnMut(&str),
     ) -> Result<Selection, DesignError> {
-        if options.contacts == 0 || options.restarts == 0 {
-            return Err(DesignError::Options(format!(
-                "{} contacts, {} restarts: both must be at least 1",
-                options.contacts, options.restarts
-            )));
-        }
+        crate::bounds::CONTACTS
+            .check("contacts", options.contacts)
+            .and_then(|_| crate::bounds::RESTARTS.check("restarts", options.restarts))
+            .map_err(DesignError::Options)?;
         let mut best: Option<(f64, State)> = None;
         for restart in 0..options.restarts {
             let state = self.run(options, restart as u64, progress)?;

@@ -32,6 +32,8 @@ mod rng;
 mod scenario;
 mod tracker;
 
+use parcal_dataset::bounds::{Count, check_product};
+
 pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
 pub use execute::{MachineLimits, execute};
 pub use mixed::simulate_mixed;
@@ -49,23 +51,24 @@ pub use tracker::{FrameSpread, TrackerKind, TrackerScenario, Workspace, simulate
 /// than an abort of the allocator.
 pub const MAX_ROWS: usize = 10_000_000;
 
+/// The bounds of each count of a campaign that sizes it (balls, contacts
+/// per ball, sessions, rows per session, plate pairs): at least 1, at most
+/// [`MAX_ROWS`], the bound on their product ([`check_rows`]).
+pub const COUNT: Count = Count::new(
+    1,
+    MAX_ROWS,
+    "the most rows a simulated campaign may have: a few GB of memory and disk",
+);
+
 /// The product of `counts` (name, value), the rows of a campaign: an error
 /// naming every factor if it exceeds [`MAX_ROWS`] (overflow included).
 pub fn check_rows(counts: &[(&str, usize)]) -> Result<usize, SimulateError> {
-    let rows = counts
-        .iter()
-        .try_fold(1usize, |rows, (_, n)| rows.checked_mul(*n))
-        .filter(|&rows| rows <= MAX_ROWS);
-    rows.ok_or_else(|| {
-        let factors: Vec<String> = counts
-            .iter()
-            .map(|(name, n)| format!("{name} {n}"))
-            .collect();
-        SimulateError::TooLarge(format!(
-            "{} make more than the {MAX_ROWS} rows a simulated campaign may have",
-            factors.join(" x ")
-        ))
-    })
+    check_product(
+        counts,
+        MAX_ROWS,
+        "rows, the most a simulated campaign may have",
+    )
+    .map_err(SimulateError::TooLarge)
 }
 
 /// Why a simulation failed.

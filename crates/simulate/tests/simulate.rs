@@ -195,7 +195,7 @@ fn a_campaign_beyond_the_row_bound_is_refused_before_anything_is_allocated() {
     assert_eq!(
         error,
         format!(
-            "too large: --balls {} x --points-per-ball 7 make more than the {MAX_ROWS} rows a simulated campaign may have",
+            "too large: --balls {} x --points-per-ball 7 make more than {MAX_ROWS} rows, the most a simulated campaign may have",
             usize::MAX
         )
     );

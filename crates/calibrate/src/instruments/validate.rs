@@ -732,12 +732,21 @@ pub fn cross_validate(
     options: &crate::CalibrationOptions,
     folds: usize,
 ) -> Result<CrossValidation, CalibrateError> {
-    if folds < 2 {
-        return Err(CalibrateError::Calibration {
-            reason: format!("cross-validation needs at least 2 folds, not {folds}"),
-        });
-    }
     let tracker = &dataset.tracker;
+    // Each fold holds at least one row of the longer file.
+    let rows = tracker.poses.len().max(tracker.points.len());
+    crate::bounds::FOLDS
+        .check("folds", folds)
+        .and_then(|folds| {
+            if folds <= rows {
+                Ok(folds)
+            } else {
+                Err(format!(
+                    "{folds} folds of {rows} rows (poses or points): a fold would hold none"
+                ))
+            }
+        })
+        .map_err(|reason| CalibrateError::Calibration { reason })?;
     let mut validations = Vec::with_capacity(folds);
     for fold in 0..folds {
         let split = |n: usize, held: bool| -> Vec<usize> {

@@ -9,6 +9,7 @@ use parcal_accuracy::MapGrid;
 use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
 use parcal_dataset::Dataset;
+use parcal_dataset::atomic::write_set;
 use parcal_kinematics::params::TOOL_OFFSET;
 use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, params};
 use parcal_report::maps::{map_files, write_maps};
@@ -123,7 +124,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         before: Some(before),
         after,
     };
-    let pictures = write_maps(&args.out, "", "accuracy", &maps)?;
+    // The maps as a set that replaces every map of an earlier run: a map
+    // this run does not draw (the true ones without truth.json, those
+    // after calibration without --calibration) does not stay beside the
+    // new ones.
+    let files = map_files(&args.out, "");
+    let pictures = write_set(&files, || write_maps(&args.out, "", "accuracy", &maps))?;
     let mut stdout = std::io::stdout().lock();
     writeln!(
         stdout,

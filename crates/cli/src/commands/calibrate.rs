@@ -13,13 +13,14 @@ use parcal_calibrate::snooping::{
 };
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
-    PriorMode, RadiusModel, Simulation, WeightModel, calibrate,
+    PriorMode, RadiusModel, Simulation, WeightModel, bounds, calibrate,
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
 use parcal_report::{instruments, sentences, tables};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 use super::{ReportRequest, report};
+use crate::bounds::Bounded;
 use crate::progress::Progress;
 
 #[derive(clap::Args)]
@@ -50,7 +51,7 @@ pub struct Args {
     lm: bool,
     /// Iteration limit (default 50 for Gauss-Newton, 200 for
     /// Levenberg-Marquardt or a robust --loss).
-    #[arg(long)]
+    #[arg(long, value_parser = Bounded(bounds::MAX_ITERATIONS))]
     max_iterations: Option<usize>,
     /// Wall-clock budget of the calibration, seconds: when it has passed the
     /// run stops at its current iterate ("time limit reached", rejected).

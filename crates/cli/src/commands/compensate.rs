@@ -10,6 +10,8 @@ use parcal_apply::{
     AppliedModel, ApplyError, CorrectionTable, TableGrid, Target, compensate, corrected_poses,
     predicted_registered,
 };
+use parcal_dataset::atomic::write_set;
+use parcal_dataset::bounds::{Count, check_product};
 use parcal_dataset::{read_numbers, write_numbers};
 
 #[derive(clap::Args)]
@@ -96,9 +98,15 @@ fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<(
         }
         None => None,
     };
-    write_numbers(&args.out, &header, &rows)?;
-    if let Some((path, rows)) = corrected {
-        write_numbers(path, &Target::COLUMNS, &rows)?;
+    // The commands and the corrected poses: both new, or both as they were.
+    write_set(&[], || -> anyhow::Result<()> {
+        write_numbers(&args.out, &header, &rows)?;
+        if let Some((path, rows)) = &corrected {
+            write_numbers(path, &Target::COLUMNS, rows)?;
+        }
+        Ok(())
+    })?;
+    if let Some((path, _)) = corrected {
         println!("corrected poses: {}", path.display());
     }
     let worst = commands
@@ -129,9 +137,14 @@ fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<(
     Ok(())
 }
 
-/// The most nodes a correction table may have: each costs an inverse and a
-/// forward kinematics, and the table is held in memory.
-const MAX_TABLE_NODES: usize = 10_000_000;
+/// The nodes of a correction table, on one axis and in all: each costs an
+/// inverse and a forward kinematics, and the table is held in memory (a
+/// row of 12 numbers per node, about 1 GB at the bound).
+const TABLE_NODES: Count = Count::new(
+    1,
+    10_000_000,
+    "each node costs an inverse and a forward kinematics and a row held in memory",
+);
 
 /// Parses `x=MIN:MAX:N,...` (module doc of `--table`).
 fn grid(spec: &str) -> anyhow::Result<TableGrid> {
@@ -157,14 +170,13 @@ fn grid(spec: &str) -> anyhow::Result<TableGrid> {
             _ => None,
         };
         let ((min, max), n) = parsed
-            .filter(|&((min, max), n)| n >= 1 && min.is_finite() && max.is_finite())
+            .filter(|&((min, max), _)| min.is_finite() && max.is_finite())
             .with_context(|| {
                 format!("--table: {part:?} is not AXIS=MIN:MAX:N with finite MIN, MAX and N >= 1")
             })?;
-        anyhow::ensure!(
-            n <= MAX_TABLE_NODES,
-            "--table: {n} nodes on axis {name} (at most {MAX_TABLE_NODES} nodes in all)"
-        );
+        TABLE_NODES
+            .check(&format!("--table: the nodes N of axis {name},"), n)
+            .map_err(anyhow::Error::msg)?;
         anyhow::ensure!(axes[axis].is_empty(), "--table: axis {name} given twice");
         axes[axis] = match n {
             1 => vec![min],
@@ -178,14 +190,13 @@ fn grid(spec: &str) -> anyhow::Result<TableGrid> {
             values.push(0.0);
         }
     }
-    let nodes = axes
+    let counts: Vec<(&str, usize)> = Target::COLUMNS
         .iter()
-        .try_fold(1usize, |n, values| n.checked_mul(values.len()))
-        .filter(|&n| n <= MAX_TABLE_NODES);
-    anyhow::ensure!(
-        nodes.is_some(),
-        "--table: more than {MAX_TABLE_NODES} nodes in all (the product of the axes' N)"
-    );
+        .zip(&axes)
+        .map(|(name, values)| (*name, values.len()))
+        .collect();
+    check_product(&counts, TABLE_NODES.max, "nodes, the most a table may have")
+        .map_err(|message| anyhow::anyhow!("--table: {message}"))?;
     Ok(TableGrid { axes })
 }
 

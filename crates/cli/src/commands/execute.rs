@@ -44,6 +44,7 @@ pub fn run(args: &RunArgs, out: &Path) -> anyhow::Result<()> {
     };
     let mut inputs = crate::outputs::dataset_inputs(dataset_path);
     inputs.push(commands_path.clone());
+    inputs.extend(args.targets.iter().cloned());
     crate::outputs::check(&inputs, &[out.to_path_buf()])?;
     let dataset = super::read_dataset(dataset_path)?;
     let truth = dataset.truth.as_ref().with_context(|| {
@@ -63,6 +64,25 @@ pub fn run(args: &RunArgs, out: &Path) -> anyhow::Result<()> {
         &["q1", "q2", "q3", "q4", "q5", "q6"],
         "command",
     )?;
+    // Every input is read and checked before anything is written.
+    let goals = args
+        .targets
+        .as_ref()
+        .map(|path| -> anyhow::Result<Vec<Vec3>> {
+            let targets = read_numbers(path, &Target::COLUMNS, "target")?;
+            anyhow::ensure!(
+                targets.len() == commands.len(),
+                "{}: {} targets for {} commands",
+                path.display(),
+                targets.len(),
+                commands.len()
+            );
+            Ok(targets
+                .iter()
+                .map(|t| Target::from_row(t).position)
+                .collect())
+        })
+        .transpose()?;
     let joint_limits = dataset.machine.joint_limits.map(|l| l.limits());
     let limits = MachineLimits {
         stroke: dataset.machine.stroke,
@@ -83,27 +103,17 @@ pub fn run(args: &RunArgs, out: &Path) -> anyhow::Result<()> {
         .map(|p| Target::of_pose(p, &machine.tool))
         .collect();
     let rows: Vec<Vec<f64>> = reached.iter().map(|t| t.row().to_vec()).collect();
+    let tips: Vec<Vec3> = reached.iter().map(|t| t.position).collect();
+    let errors = goals
+        .map(|goals| registered_errors(&tips, &goals))
+        .transpose()?;
     write_numbers(out, &Target::COLUMNS, &rows)?;
     println!(
         "{} commands run on the true machine -> {}",
         rows.len(),
         out.display()
     );
-    if let Some(path) = &args.targets {
-        let targets = read_numbers(path, &Target::COLUMNS, "target")?;
-        anyhow::ensure!(
-            targets.len() == reached.len(),
-            "{}: {} targets for {} commands",
-            path.display(),
-            targets.len(),
-            reached.len()
-        );
-        let goals: Vec<Vec3> = targets
-            .iter()
-            .map(|t| Target::from_row(t).position)
-            .collect();
-        let tips: Vec<Vec3> = reached.iter().map(|t| t.position).collect();
-        let errors = registered_errors(&tips, &goals)?;
+    if let Some(errors) = errors {
         println!(
             "tip error after the best rigid registration onto the targets: RMS {:.1} um, max {:.1} um",
             1e3 * rms(&errors),

@@ -129,16 +129,20 @@ pub fn write_calibration(
         dataset_checksum: dataset.checksum(),
     });
     let destination = calibration_destination(&record, out);
-    record.write(&destination)?;
-    if let Some(request) = report {
-        let file = destination.display().to_string();
-        let subject = Subject {
-            calibration: &record,
-            file: &file,
-            accuracy: accuracy_with(&record, Some(&dataset.machine), request.truth),
-        };
-        report::write(&subject, &request.directory)?;
-    }
+    // The calibration and its report: all new, or all as they were.
+    parcal_dataset::atomic::write_set(&[], || -> anyhow::Result<()> {
+        record.write(&destination)?;
+        if let Some(request) = report {
+            let file = destination.display().to_string();
+            let subject = Subject {
+                calibration: &record,
+                file: &file,
+                accuracy: accuracy_with(&record, Some(&dataset.machine), request.truth),
+            };
+            report::write(&subject, &request.directory)?;
+        }
+        Ok(())
+    })?;
     if record.is_rejected() {
         let failed: Vec<&str> = record
             .reasons

@@ -10,9 +10,10 @@ use parcal_dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
 use parcal_design::plan_file::{summary_path, write_plan};
 use parcal_design::tracker::plan_file::write_pose_plan;
 use parcal_design::tracker::{PosePlanOptions, plan_poses};
-use parcal_design::{Criterion, CriterionValues, PlanOptions, plan, plan_next};
+use parcal_design::{Criterion, CriterionValues, PlanOptions, bounds, plan, plan_next};
 use parcal_simulate::Workspace;
 
+use crate::bounds::Bounded;
 use crate::progress::Progress;
 
 #[derive(clap::Args)]
@@ -21,7 +22,7 @@ pub struct Args {
     /// or machine.json alone: a pose plan for an instrument (--tracker).
     dir: PathBuf,
     /// The budget: number of touches.
-    #[arg(long, conflicts_with = "poses")]
+    #[arg(long, conflicts_with = "poses", value_parser = Bounded(bounds::CONTACTS))]
     contacts: Option<usize>,
     /// Plan platform poses measured by an instrument instead of ball
     /// touches: body poses (motion capture), tool points (laser tracker) or
@@ -29,14 +30,14 @@ pub struct Args {
     #[arg(long, value_enum)]
     tracker: Option<super::simulate::Kind>,
     /// The budget of a pose plan: number of poses.
-    #[arg(long)]
+    #[arg(long, value_parser = Bounded(bounds::POSES))]
     poses: Option<usize>,
     /// A pose plan over this many measuring sessions (re-homing, a
     /// re-placed instrument), the poses shared evenly: each session's
     /// instrument frame, and its leg offsets and body origin and turn when
     /// machine.json's session_model gives their sigmas, are estimated with
     /// the machine (plan.csv's session column).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = Bounded(bounds::SESSIONS))]
     sessions: usize,
     /// Where a pose plan's platform origin may go: `|x|, |y| <= HALF_WIDTH`,
     /// `Z_MIN <= z <= Z_MAX`, design base frame, mm.
@@ -54,22 +55,22 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = CriterionArg::Registered)]
     criterion: CriterionArg,
     /// Approximate number of candidate touches before the feasibility checks.
-    #[arg(long, default_value_t = 20_000)]
+    #[arg(long, default_value_t = 20_000, value_parser = Bounded(bounds::POOL))]
     pool: usize,
     /// Seed of the restarts.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// At most this many touches per ball.
-    #[arg(long)]
+    #[arg(long, value_parser = Bounded(bounds::PER_BALL))]
     per_ball: Option<usize>,
     /// A budget below 4 touches of every ball touches at least this many
     /// balls (as many as the budget allows); 0 leaves it to the criterion,
     /// which prefers few balls touched often (default: CONTACTS / 8, so
     /// that a small budget still spreads over the artefact).
-    #[arg(long)]
+    #[arg(long, value_parser = Bounded(bounds::MIN_BALLS))]
     min_balls: Option<usize>,
     /// Runs from different random seeds (the best is kept).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = Bounded(bounds::RESTARTS))]
     restarts: usize,
     /// Sequential mode: the next touches after the data of this
     /// calibration.json (its estimate and posterior replace the design and
@@ -181,7 +182,6 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
             && args.radius.is_none(),
         "--after, --per-ball, --min-balls and --radius apply to ball touches only"
     );
-    anyhow::ensure!(args.sessions > 0, "--sessions must be at least 1");
     let options = PosePlanOptions {
         poses,
         kind: kind.tracker_kind(),

@@ -6,6 +6,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use parcal_dataset::atomic::write_set;
 use parcal_report::calibration_report::{Format, Subject, predicted_accuracy, render};
 
 /// The report's two files in its directory: the HTML page and the Markdown.
@@ -110,15 +111,17 @@ pub fn listed(directory: &Path) -> String {
 }
 
 /// Renders `subject` in both forms into `directory` ([`REPORT_FILES`]),
-/// each file written atomically; both are rendered before either is
-/// written.
+/// both rendered before either is written, and written as a set: both
+/// new or both as they were.
 pub fn write(subject: &Subject, directory: &Path) -> anyhow::Result<()> {
     let texts = REPORT_FILES
         .iter()
         .map(|(name, format)| Ok((directory.join(name), render(subject, *format)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    for (path, text) in texts {
-        parcal_report::write_text(&path, &text)?;
-    }
+    write_set(&[], || {
+        texts
+            .iter()
+            .try_for_each(|(path, text)| parcal_report::write_text(path, text))
+    })?;
     Ok(())
 }

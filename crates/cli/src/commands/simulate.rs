@@ -12,11 +12,12 @@ use parcal_design::plan_file::read_plan;
 use parcal_design::tracker::plan_file::read_pose_plan;
 use parcal_kinematics::rotation_zyx;
 use parcal_simulate::{
-    PlannedTouch, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind, TrackerScenario,
-    ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,
+    COUNT, PlannedTouch, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind,
+    TrackerScenario, ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,
 };
 
 use super::SNAPSHOT_FILE;
+use crate::bounds::Bounded;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -33,10 +34,10 @@ pub struct Args {
     force: bool,
     /// Number of balls on a regular grid filling x, y in [-80, 80], z in [340, 460]
     /// (default: the paper's 27 balls at x, y in {-60, 0, 60}, z in {360, 400, 440}).
-    #[arg(long, conflicts_with = "tracker")]
+    #[arg(long, conflicts_with = "tracker", value_parser = Bounded(COUNT))]
     balls: Option<usize>,
     /// Contacts per ball.
-    #[arg(long, default_value_t = 7, conflicts_with = "tracker")]
+    #[arg(long, default_value_t = 7, conflicts_with = "tracker", value_parser = Bounded(COUNT))]
     points_per_ball: usize,
     /// What the touches' actuators read: mm (scale 1, known), or motor
     /// revolutions at the scales of --machine jugglebot's instrument
@@ -64,11 +65,11 @@ pub struct Args {
     #[arg(long, requires = "tracker")]
     touches: bool,
     /// Number of measuring sessions (default: 3).
-    #[arg(long, requires = "tracker")]
+    #[arg(long, requires = "tracker", value_parser = Bounded(COUNT))]
     sessions: Option<usize>,
     /// Rows of each file per session (default: 50 for the paper's machine,
     /// 108 for Jugglebot's).
-    #[arg(long, requires = "tracker")]
+    #[arg(long, requires = "tracker", value_parser = Bounded(COUNT))]
     rows: Option<usize>,
     /// Re-homing between sessions: each leg's zero offset in sessions 2, 3,
     /// ... is drawn with this sigma, mm, and machine.json's
@@ -182,10 +183,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 /// A campaign of ball touches.
 fn run_touches(args: &Args) -> anyhow::Result<()> {
     anyhow::ensure!(
-        args.points_per_ball > 0,
-        "--points-per-ball must be at least 1"
-    );
-    anyhow::ensure!(
         args.plate_sigma.is_finite() && args.plate_sigma > 0.0,
         "--plate-sigma must be positive, got {}",
         args.plate_sigma
@@ -201,7 +198,6 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
             max_tilt: args.tilt.to_radians(),
             ..Scenario::paper()
         },
-        Some(0) => anyhow::bail!("--balls must be at least 1"),
         Some(balls) => Scenario::scaled(balls, args.points_per_ball, args.tilt.to_radians()),
     };
     scenario.plate = args.plate.map(|pairs| Plate {
@@ -319,11 +315,9 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
     scenario.kind = kind.tracker_kind();
     scenario.max_tilt = args.tilt.to_radians();
     if let Some(sessions) = args.sessions {
-        anyhow::ensure!(sessions > 0, "--sessions must be at least 1");
         scenario.sessions = sessions;
     }
     if let Some(rows) = args.rows {
-        anyhow::ensure!(rows > 0, "--rows must be at least 1");
         scenario.rows_per_session = rows;
     }
     if let Some(sigma) = args.rehome {

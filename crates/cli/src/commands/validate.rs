@@ -5,10 +5,12 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_calibrate::CalibrationOptions;
 use parcal_calibrate::instruments::{Calibrated, Validation, cross_validate, validate_calibration};
 use parcal_calibrate::touch_validation::validate_touches;
+use parcal_calibrate::{CalibrationOptions, bounds};
 use parcal_dataset::{NuisanceCandidate, VALIDATION_FILE, ValidationRecord};
+
+use crate::bounds::Bounded;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -22,11 +24,11 @@ pub struct Args {
     /// sigmas) on its first N rows, or each ball's centre on its first N
     /// touches, and predict the others. Without it, every session (ball) must
     /// be one of the calibration's (same label, id).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = Bounded(bounds::REFERENCE))]
     reference: Option<usize>,
     /// Instead of applying a calibration: K-fold cross-validation of the
     /// dataset's own calibration (row j in fold j mod K).
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = Bounded(bounds::FOLDS))]
     folds: Option<usize>,
     /// Apply a calibration whose verdict is "rejected".
     #[arg(long)]

@@ -20,8 +20,8 @@ use parcal_dataset::Machine;
 use parcal_kinematics::{Geometry, params};
 use parcal_simulate::{TrackerKind, Workspace};
 
-use crate::DesignError;
 use crate::criterion::{Criterion, CriterionValues, MapWeights};
+use crate::{DesignError, bounds};
 
 pub use pool::CandidatePose;
 
@@ -69,8 +69,15 @@ pub fn plan_poses(
     options: &PosePlanOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<PosePlan, DesignError> {
+    let refuse = DesignError::Options;
+    bounds::POSES
+        .check("poses", options.poses)
+        .map_err(refuse)?;
+    bounds::SESSIONS
+        .check("sessions", options.sessions)
+        .map_err(refuse)?;
     let k = options.sessions;
-    if k == 0 || !options.poses.is_multiple_of(k) {
+    if !options.poses.is_multiple_of(k) {
         return Err(DesignError::Options(format!(
             "{} poses in {k} sessions: the sessions must share the poses evenly",
             options.poses

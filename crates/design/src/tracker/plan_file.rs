@@ -6,7 +6,9 @@
 //! the platform orientation `R = Rz(yaw) Ry(pitch) Rx(roll)` (rad, fixed
 //! axes of the design frame), the design's tool tip (mm, design frame) and
 //! the design's readings there (actuators' unit). plan.json: the predicted
-//! figures, the prior's, and the options. Both written atomically.
+//! figures, the prior's, the options and plan.csv's checksum: a pair
+//! written as a set and read only if it matches, as a touch plan's
+//! ([`crate::plan_file`]).
 
 use std::path::Path;
 
@@ -14,7 +16,7 @@ use parcal_dataset::{DEFAULT_SESSION, read_optionally_labelled_numbers};
 use parcal_kinematics::{Pose, Vec3, rotation_zyx};
 
 use crate::DesignError;
-use crate::plan_file::summary_path;
+use crate::plan_file::{check_pair, write_pair};
 use crate::tracker::{PosePlan, PosePlanOptions};
 
 /// The header of a pose plan.csv.
@@ -48,8 +50,9 @@ impl PosePlanRow {
     }
 }
 
-/// Writes `plan` to `csv` and its summary to [`summary_path`], each
-/// atomically.
+/// Writes `plan` to `csv` and its summary to
+/// [`crate::plan_file::summary_path`] as a set
+/// ([`write_pair`]).
 pub fn write_pose_plan(
     csv: &Path,
     plan: &PosePlan,
@@ -71,7 +74,6 @@ pub fn write_pose_plan(
         text.push_str(&fields.join(","));
         text.push('\n');
     }
-    crate::plan_file::write_bytes(csv, text.as_bytes())?;
     let kind = match (options.kind.poses(), options.kind.points()) {
         (true, true) => "both",
         (true, false) => "poses",
@@ -95,13 +97,14 @@ pub fn write_pose_plan(
             "sessions": options.sessions,
         },
     });
-    let json = serde_json::to_string_pretty(&summary).expect("plain numbers and strings");
-    crate::plan_file::write_bytes(&summary_path(csv), format!("{json}\n").as_bytes())
+    write_pair(csv, &text, summary)
 }
 
 /// Reads a pose plan.csv (the dataset's CSV rules: columns by name,
-/// bounded lines, errors naming the file, line and column).
+/// bounded lines, errors naming the file, line and column); refused if
+/// plan.json beside it is of another plan ([`check_pair`]).
 pub fn read_pose_plan(path: &Path) -> Result<Vec<PosePlanRow>, DesignError> {
+    check_pair(path)?;
     Ok(
         read_optionally_labelled_numbers(path, SESSION, &COLUMNS, "pose")?
             .into_iter()

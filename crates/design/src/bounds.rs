@@ -1,0 +1,61 @@
+//! The bounds of a plan's counts ([`parcal_dataset::bounds`]), checked by
+//! [`crate::plan`] and [`crate::tracker::plan_poses`] before any work and
+//! by `parcal plan` as it parses its flags. The figures behind them are in
+//! docs/design.md ("Speed"): 189 touches from a pool of about 20,000 take
+//! about 7 s on 2 cores, and the time grows with the budget times the
+//! pool times the restarts.
+
+use parcal_dataset::bounds::Count;
+
+/// A touch plan's budget: 50 times the paper's 189 touches, whose
+/// selection at the default pool then takes about 6 minutes.
+pub const CONTACTS: Count = Count::new(
+    1,
+    10_000,
+    "50 times the paper's 189 touches: the selection's time grows with the budget times the pool",
+);
+
+/// The candidate pool asked for: 50 times the default 20,000. Each
+/// candidate holds its touch, its information row and its share of the
+/// gain products, about 1 KB: about 1 GB at the bound.
+pub const POOL: Count = Count::new(
+    1,
+    1_000_000,
+    "50 times the default 20,000 candidates, about 1 GB of rows and products",
+);
+
+/// Runs from different seeds: each is a whole selection.
+pub const RESTARTS: Count = Count::new(
+    1,
+    100,
+    "each restart is a whole selection: 100 of the paper's plan take about 12 minutes",
+);
+
+/// The per-ball capacity and the least number of balls touched: no more
+/// than a budget can be.
+pub const PER_BALL: Count = Count::new(1, CONTACTS.max, "no more than the largest budget");
+
+/// The least number of balls a small budget touches (0: the criterion's
+/// choice): no more than a budget can touch.
+pub const MIN_BALLS: Count = Count::new(0, CONTACTS.max, "no more than the largest budget");
+
+/// The most candidate evaluations of a touch plan, budget x pool x
+/// restarts: 50 times the paper's plan (189 x 20,000), a few minutes.
+pub const MAX_EVALUATIONS: usize = 200_000_000;
+
+/// A pose plan's budget: the selection inverts the information once per
+/// pose and evaluates every candidate (60 poses from 3375 candidates take
+/// about 10 s), so 1000 poses take a few minutes.
+pub const POSES: Count = Count::new(
+    1,
+    1000,
+    "the selection's time grows with the poses: 60 poses take about 10 s",
+);
+
+/// A pose plan's sessions: each adds its nuisances to every candidate's
+/// rows and a copy of the pool to choose from.
+pub const SESSIONS: Count = Count::new(
+    1,
+    100,
+    "each session adds a copy of the candidate pool and its nuisances to the problem",
+);
