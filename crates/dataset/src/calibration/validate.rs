@@ -712,7 +712,7 @@ fn indefinite_at(c: &[Vec<f64>]) -> Option<usize> {
             let dot: f64 = (0..j).map(|k| l[ri + k] * l[rj + k]).sum();
             if i == j {
                 let pivot = r - dot;
-                if !(pivot > 0.0) {
+                if pivot.is_nan() || pivot <= 0.0 {
                     return Some(i);
                 }
                 l[ri + i] = pivot.sqrt();
