@@ -188,7 +188,11 @@ mod tests {
         assert!((t.interval.1 - 1.39270).abs() < 1e-4, "{:?}", t.interval);
         assert!((t.ratio - 1.5 / 1.1).abs() < 1e-12);
         assert!(!t.rejects());
-        assert!(PredictionTest::new(154.0, 100, Some((220.0, 200))).unwrap().rejects());
+        assert!(
+            PredictionTest::new(154.0, 100, Some((220.0, 200)))
+                .unwrap()
+                .rejects()
+        );
     }
 
     #[test]

@@ -344,10 +344,8 @@ fn a_re_mounted_marker_body_is_rejected_and_the_body_origin_named() {
     let calibrated = Calibrated::from_record(&record).unwrap();
 
     let mut day2 = jugglebot();
-    day2.tracker = parcal_simulate::re_mounted(
-        &day2.tracker,
-        parcal_kinematics::Vec3::new(5.0, -3.0, 4.0),
-    );
+    day2.tracker =
+        parcal_simulate::re_mounted(&day2.tracker, parcal_kinematics::Vec3::new(5.0, -3.0, 4.0));
     day2.tracker.sessions = vec!["day 2".into()];
     day2.machine.session_model = SessionModel::default();
     let validation = validate_calibration(&day2, &calibrated, Some(12)).unwrap();

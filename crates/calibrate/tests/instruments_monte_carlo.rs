@@ -394,7 +394,13 @@ fn prediction_tests(seeds: std::ops::RangeInclusive<u64>) -> (usize, usize, Vec<
         too_small += usize::from(test.outcome == parcal_calibrate::verdict::Outcome::TooSmall);
         factors.push(test.statistic / test.rows as f64);
         if test.rejects() {
-            println!("seed {seed}: T/n {:.3}, refitted {:?}, RMS {:.4} predicted {:.4}", test.statistic / test.rows as f64, validation.refitted, validation.rms(), validation.predicted_rms());
+            println!(
+                "seed {seed}: T/n {:.3}, refitted {:?}, RMS {:.4} predicted {:.4}",
+                test.statistic / test.rows as f64,
+                validation.refitted,
+                validation.rms(),
+                validation.predicted_rms()
+            );
         }
     }
     (rejected, too_small, factors)
@@ -439,7 +445,13 @@ fn prediction_test_false_alarms_at_the_nominal_rate() {
          ({small_rate:.4}), nominal {nominal} ± {binomial:.4}; mean T/n {mean:.4} ± {se:.4}; {:.1} s",
         start.elapsed().as_secs_f64()
     );
-    assert!((rate - nominal).abs() < STANDARD_ERRORS * binomial, "{rate}");
-    assert!((small_rate - nominal).abs() < STANDARD_ERRORS * binomial, "{small_rate}");
+    assert!(
+        (rate - nominal).abs() < STANDARD_ERRORS * binomial,
+        "{rate}"
+    );
+    assert!(
+        (small_rate - nominal).abs() < STANDARD_ERRORS * binomial,
+        "{small_rate}"
+    );
     assert!((mean - 1.0).abs() < STANDARD_ERRORS * se, "{mean} ± {se}");
 }

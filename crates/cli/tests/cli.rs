@@ -1114,10 +1114,8 @@ fn a_re_mounted_marker_body_fails_validation_with_status_3_naming_the_body_origi
     let calibration = temp.path().join("calibration.json");
     ok(&["calibrate", s(&data), "--out", s(&calibration)]);
     let mut day2 = parcal_dataset::Dataset::read(&data).unwrap();
-    day2.tracker = parcal_simulate::re_mounted(
-        &day2.tracker,
-        parcal_kinematics::Vec3::new(5.0, -3.0, 4.0),
-    );
+    day2.tracker =
+        parcal_simulate::re_mounted(&day2.tracker, parcal_kinematics::Vec3::new(5.0, -3.0, 4.0));
     day2.machine.session_model = parcal_dataset::SessionModel::default();
     let day2_dir = temp.path().join("day2");
     day2.write(&day2_dir).unwrap();
@@ -1132,14 +1130,16 @@ fn a_re_mounted_marker_body_fails_validation_with_status_3_naming_the_body_origi
     let output = parcal(&args);
     let stderr = text(&output.stderr);
     assert_eq!(output.status.code(), Some(3), "{stderr}");
-    assert!(stderr.starts_with("rejected: prediction test failed"), "{stderr}");
+    assert!(
+        stderr.starts_with("rejected: prediction test failed"),
+        "{stderr}"
+    );
     assert!(
         stderr.contains("re-fitting the body origin would explain them")
             && stderr.contains("declare session_model.body_origin_sigma in machine.json"),
         "{stderr}"
     );
-    let record =
-        parcal_dataset::ValidationRecord::read(&day2_dir.join("validation.json")).unwrap();
+    let record = parcal_dataset::ValidationRecord::read(&day2_dir.join("validation.json")).unwrap();
     assert_eq!(record.verdict, "rejected");
     let test = record.test.expect("the test");
     assert_eq!(test.outcome, "too large");

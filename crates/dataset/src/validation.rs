@@ -122,3 +122,36 @@ impl ValidationRecord {
         self.verdict == "rejected"
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A validation.json written before validations had a verdict reads
+    /// with an empty verdict, no reason and no test, and is not rejected.
+    #[test]
+    fn a_file_without_a_verdict_still_reads() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("validation.json");
+        std::fs::write(
+            &path,
+            r#"{
+ "format": "parcal-validation/1",
+ "calibration": "day1/calibration.json",
+ "reference_rows": 12,
+ "refitted": ["frame tuesday"],
+ "selection": [],
+ "rows": 96, "poses": 96, "points": 0,
+ "rms_mm": 0.434, "max_mm": 1.32,
+ "per_leg_rms_mm": [0.46, 0.51, 0.51, 0.38, 0.37, 0.35],
+ "predicted_rms_mm": 0.442
+}"#,
+        )
+        .unwrap();
+        let record = ValidationRecord::read(&path).unwrap();
+        assert_eq!(record.verdict, "");
+        assert!(record.reasons.is_empty() && record.test.is_none());
+        assert!(!record.is_rejected());
+        assert_eq!(record.rows, 96);
+    }
+}

@@ -192,10 +192,7 @@ pub fn parameters(run: &InstrumentRun) -> String {
 pub fn validation_record(validation: &Validation, calibration: String) -> ValidationRecord {
     let test = validation.test();
     let accepted = validation.accepted();
-    let mut reasons: Vec<String> = test
-        .iter()
-        .map(|t| test_sentence(validation, t))
-        .collect();
+    let mut reasons: Vec<String> = test.iter().map(|t| test_sentence(validation, t)).collect();
     if !accepted {
         reasons.push(rejection_advice(validation));
     }

@@ -35,9 +35,7 @@
 //! residuals pass the test are its [`Explanation`]s.
 
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector6};
-use parcal_dataset::{
-    Calibration, Dataset, FrameRecord, Points, Poses, SessionModel, Tracker,
-};
+use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, SessionModel, Tracker};
 use parcal_kinematics::params::TOOL_OFFSET;
 use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::FrameCorrection;
@@ -916,8 +914,11 @@ impl CrossValidation {
     /// global tests pooled as one pass over the data (each row is in
     /// `K − 1` of the folds' calibrations): `(Σ Ω_k, Σ r_k) / (K − 1)`.
     pub fn pooled(&self) -> Validation {
-        let tests: Option<Vec<(f64, usize)>> =
-            self.validations.iter().map(|v| v.calibration_test).collect();
+        let tests: Option<Vec<(f64, usize)>> = self
+            .validations
+            .iter()
+            .map(|v| v.calibration_test)
+            .collect();
         let passes = self.folds.saturating_sub(1).max(1);
         let all = |part: fn(&Validation) -> &Vec<f64>| -> Vec<f64> {
             self.validations
