@@ -18,7 +18,9 @@
 //! - [`snooping`]: data snooping, the blunders found and removed;
 //! - [`robust`]: a robust loss, the observations it down-weights;
 //! - [`sphere_fit`]: initial ball centres;
-//! - [`touch_validation`]: a ball-touch calibration applied to other touches.
+//! - [`touch_validation`]: a ball-touch calibration applied to other touches;
+//! - [`prediction`]: the test of a validation's residuals against their
+//!   predicted covariance.
 //!
 //! [`calibrate`] validates its dataset first ([`validate`]), so data built
 //! in memory fails with a [`CalibrateError`] rather than a panic. Errors
@@ -45,6 +47,7 @@ pub mod layout;
 pub mod mirror;
 pub mod mixed;
 mod options;
+pub mod prediction;
 pub mod problem;
 pub mod reliability;
 pub mod robust;

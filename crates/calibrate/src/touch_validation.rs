@@ -21,9 +21,13 @@
 //! the reference contacts (rows `A` their normals, `W` their weights, `B`
 //! their `nᵀ J_f`), `ε` the noise (paper eq. 5's radius row, the
 //! repeatabilities propagated). Its variance is `G Σ_p Gᵀ + nᵀ Σ_C n + σ²`,
-//! `Σ_C = (AᵀWA)⁻¹`.
+//! `Σ_C = (AᵀWA)⁻¹`. The contacts share the parameters' error, and a
+//! ball's contacts its centre's: their covariance is `C = D + U Uᵀ`, `D`
+//! the contacts' noise `σ²` and a row of `U` `[G Σ_p^{1/2}, nᵀ Σ_C^{1/2}]`
+//! (the second block in its ball's three columns), and `rᵀ C⁻¹ r` gives the
+//! verdict ([`crate::prediction`]).
 
-use nalgebra::{DMatrix, Matrix3, Matrix3xX, Matrix6};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix3xX, Matrix6, RowDVector};
 use parcal_dataset::{Calibration, Dataset};
 use parcal_kinematics::{
     ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Vec3, forward_from_home, tip_jacobians,
@@ -32,6 +36,7 @@ use parcal_observe::{Repeatability, WeightModel, radius_variance};
 
 use crate::CalibrateError;
 use crate::instruments::Validation;
+use crate::prediction;
 use crate::problem::ActuatorScales;
 use crate::sphere_fit::best_fit;
 
@@ -84,7 +89,11 @@ pub fn validate_touches(
             "a ball-touch validation fits each ball's centre on its first touches: give their number (at least 4)".into(),
         ));
     };
-    let (mut residuals, mut sigmas) = (Vec::new(), Vec::new());
+    let covariance_root = prediction::square_root(&covariance);
+    let balls = dataset.artefacts.balls.len();
+    // Each predicted contact: its residual, its noise variance and its row
+    // of U (module doc).
+    let (mut residuals, mut noises, mut common) = (Vec::new(), Vec::new(), Vec::new());
     for (k, ball) in dataset.artefacts.balls.iter().enumerate() {
         let rows: Vec<usize> = (0..measurements.len())
             .filter(|&row| measurements.ball[row] as usize == k)
@@ -135,6 +144,14 @@ pub fn validate_touches(
                 ball.id
             ))
         })?;
+        let centre_root = Matrix3::from_column_slice(
+            prediction::square_root(&DMatrix::from_column_slice(
+                3,
+                3,
+                centre_covariance.as_slice(),
+            ))
+            .as_slice(),
+        );
         // K B: the centre's first-order response to the parameters (3 x m).
         let response = weighted.iter().fold(Matrix3xX::zeros(m), |sum, (a, b)| {
             sum + centre_covariance * a * b
@@ -151,13 +168,36 @@ pub fn validate_touches(
             }
             let normal = offset / distance;
             let gain = normal.transpose() * (d_params - &response);
-            let noise = contact_variance(machine, ball.radius_sigma, d_q, &normal, *row)?;
-            let variance = noise
-                + (&gain * &covariance * gain.transpose())[0]
-                + normal.dot(&(centre_covariance * normal));
+            let mut u = RowDVector::zeros(m + 3 * balls);
+            u.columns_mut(0, m).copy_from(&(gain * &covariance_root));
+            u.columns_mut(m + 3 * k, 3)
+                .copy_from(&(normal.transpose() * centre_root));
             residuals.push(distance - ball.radius);
-            sigmas.push(variance.sqrt());
+            noises.push(contact_variance(
+                machine,
+                ball.radius_sigma,
+                d_q,
+                &normal,
+                *row,
+            )?);
+            common.push(u);
         }
+    }
+    let mut u = DMatrix::zeros(common.len(), m + 3 * balls);
+    for (i, row) in common.iter().enumerate() {
+        u.row_mut(i).copy_from(row);
+    }
+    let sigmas = noises
+        .iter()
+        .enumerate()
+        .map(|(i, noise)| (noise + u.row(i).norm_squared()).sqrt())
+        .collect();
+    // Whitened by the contacts' noise.
+    let scale = DVector::from_iterator(noises.len(), noises.iter().map(|v| 1.0 / v.sqrt()));
+    let z = DVector::from_column_slice(&residuals).component_mul(&scale);
+    let mut v = u;
+    for (i, mut row) in v.row_iter_mut().enumerate() {
+        row *= scale[i];
     }
     Ok(Validation {
         poses: 0,
@@ -166,8 +206,14 @@ pub fn validate_touches(
         reference: n_ref,
         refitted: vec!["ball centres".into()],
         selection: Vec::new(),
+        statistic: prediction::statistic(&z, &v),
+        calibration_test: calibration
+            .global_test
+            .as_ref()
+            .map(|t| (t.cost, t.redundancy)),
         residuals,
         predicted_sigmas: sigmas,
+        explanations: Vec::new(),
     })
 }
 

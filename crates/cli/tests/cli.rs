@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 mod common;
-use common::{copy_fixture, parcal, s, text};
+use common::{copy_fixture, ok, parcal, s, text};
 
 fn simulate(dir: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["simulate", "--seed", "7", "--out", dir.to_str().unwrap()];
@@ -1099,4 +1099,60 @@ fn calibrate_with_a_robust_loss_lists_the_down_weighted_reading() {
     assert!(error.contains("k must be positive"), "{error}");
     let error = common::fails(&["calibrate", common::s(&data), "--loss", "huber", "--snoop"]);
     assert!(error.contains("data snooping"), "{error}");
+}
+
+/// The re-mounted session of the issue (fixtures/jugglebot's poses with
+/// the marker body moved 7.1 mm, machine.json without a session model),
+/// validated on 12 reference poses against the fixture's calibration:
+/// exit status 3, validation.json written with the verdict "rejected" and
+/// its test, and the message names the body origin and the setting that
+/// declares it.
+#[test]
+fn a_re_mounted_marker_body_fails_validation_with_status_3_naming_the_body_origin() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("jugglebot", temp.path(), &["machine.json", "poses.csv"]);
+    let calibration = temp.path().join("calibration.json");
+    ok(&["calibrate", s(&data), "--out", s(&calibration)]);
+    let mut day2 = parcal_dataset::Dataset::read(&data).unwrap();
+    day2.tracker =
+        parcal_simulate::re_mounted(&day2.tracker, parcal_kinematics::Vec3::new(5.0, -3.0, 4.0));
+    day2.machine.session_model = parcal_dataset::SessionModel::default();
+    let day2_dir = temp.path().join("day2");
+    day2.write(&day2_dir).unwrap();
+    let args = [
+        "validate",
+        s(&day2_dir),
+        "--calibration",
+        s(&calibration),
+        "--reference",
+        "12",
+    ];
+    let output = parcal(&args);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.starts_with("rejected: prediction test failed"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("re-fitting the body origin would explain them")
+            && stderr.contains("declare session_model.body_origin_sigma in machine.json"),
+        "{stderr}"
+    );
+    let record = parcal_dataset::ValidationRecord::read(&day2_dir.join("validation.json")).unwrap();
+    assert_eq!(record.verdict, "rejected");
+    let test = record.test.expect("the test");
+    assert_eq!(test.outcome, "too large");
+    assert_eq!(test.degrees_of_freedom, 6 * 96);
+    assert!(test.ratio > test.interval[1]);
+    // The fixture itself as another day's session is accepted.
+    let stdout = ok(&[
+        "validate",
+        s(&data),
+        "--calibration",
+        s(&calibration),
+        "--reference",
+        "12",
+    ]);
+    assert!(stdout.starts_with("verdict: accepted\n"), "{stdout}");
 }

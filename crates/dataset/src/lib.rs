@@ -138,7 +138,7 @@ pub use stroke::{OutsideStroke, STROKE_SIGMAS};
 pub use table::CSV_LINE_CAP;
 pub use tracker::{DEFAULT_SESSION, Points, Poses, Tracker};
 pub use truth::Truth;
-pub use validation::{NuisanceCandidate, ValidationRecord};
+pub use validation::{NuisanceCandidate, PredictionTestRecord, ValidationRecord};
 
 /// A point or vector: x, y, z in mm.
 pub type Point3 = [f64; 3];

@@ -3,9 +3,13 @@
 
 use std::fmt::Write;
 
-use parcal_calibrate::instruments::InstrumentRun;
+use parcal_calibrate::instruments::{InstrumentRun, SessionGroup, Validation};
 use parcal_calibrate::mixed::InstrumentResult;
-use parcal_dataset::{Calibration, Dataset};
+use parcal_calibrate::prediction::PredictionTest;
+use parcal_calibrate::verdict::Outcome;
+use parcal_dataset::{
+    Calibration, Dataset, NuisanceCandidate, PredictionTestRecord, ValidationRecord,
+};
 
 use parcal_calibrate::reliability::ObservationId;
 use parcal_calibrate::snooping::Snooped;
@@ -182,10 +186,151 @@ pub fn parameters(run: &InstrumentRun) -> String {
     out
 }
 
-/// A validation in a few lines: what was applied, what was re-fitted,
-/// the residuals observed and predicted.
-pub fn validation(record: &parcal_dataset::ValidationRecord) -> String {
+/// validation.json's record of `validation`, a validation of `calibration`
+/// (its file, or `K-fold cross-validation`): the numbers, the verdict and
+/// its reasons.
+pub fn validation_record(validation: &Validation, calibration: String) -> ValidationRecord {
+    let test = validation.test();
+    let accepted = validation.accepted();
+    let mut reasons: Vec<String> = test.iter().map(|t| test_sentence(validation, t)).collect();
+    if !accepted {
+        reasons.push(rejection_advice(validation));
+    }
+    ValidationRecord {
+        calibration,
+        reference_rows: validation.reference,
+        refitted: validation.refitted.clone(),
+        selection: validation
+            .selection
+            .iter()
+            .map(|(model, rms)| NuisanceCandidate {
+                model: model.clone(),
+                expected_rms_mm: *rms,
+            })
+            .collect(),
+        rows: validation.poses + validation.points + validation.contacts,
+        poses: validation.poses,
+        points: validation.points,
+        contacts: validation.contacts,
+        rms_mm: validation.rms(),
+        max_mm: validation.max(),
+        per_leg_rms_mm: if validation.poses > 0 {
+            validation.per_leg_rms()
+        } else {
+            [0.0; 6]
+        },
+        predicted_rms_mm: validation.predicted_rms(),
+        verdict: if accepted { "accepted" } else { "rejected" }.to_owned(),
+        reasons,
+        test: test.map(|t| PredictionTestRecord {
+            statistic: t.statistic,
+            degrees_of_freedom: t.rows,
+            calibration_variance_factor: t.calibration.map(|(cost, r)| cost / r as f64),
+            calibration_redundancy: t.calibration.map(|(_, r)| r),
+            ratio: t.ratio,
+            level: t.level,
+            interval: [t.interval.0, t.interval.1],
+            outcome: t.outcome.name().to_owned(),
+        }),
+    }
+}
+
+/// The prediction test of `validation` in one sentence.
+fn test_sentence(validation: &Validation, test: &PredictionTest) -> String {
+    let (rms, predicted) = (validation.rms(), validation.predicted_rms());
+    let statement = test_statement(test);
+    match test.outcome {
+        Outcome::Consistent => format!(
+            "prediction test passed: the residuals (RMS {rms:.4} mm) are as large as the calibration predicts ({predicted:.4} mm): {statement}"
+        ),
+        Outcome::TooLarge => format!(
+            "prediction test failed: the residuals are {:.1} times the predicted (RMS {rms:.4} mm against {predicted:.4} mm): {statement}: the calibration does not predict these data",
+            rms / predicted
+        ),
+        Outcome::TooSmall => format!(
+            "prediction test: the residuals are smaller than predicted (RMS {rms:.4} mm against {predicted:.4} mm): {statement}: the calibration's covariance or the repeatabilities are pessimistic"
+        ),
+    }
+}
+
+/// The numbers of `test`: `T`, `n`, the calibration's `s₀²` and the
+/// interval of `F`.
+fn test_statement(test: &PredictionTest) -> String {
+    let n = test.rows;
+    let (reference, distribution) = match test.calibration {
+        Some((cost, r)) => (
+            format!("the calibration's s₀² = {:.3}", cost / r as f64),
+            format!("F({n}, {r})"),
+        ),
+        None => ("1".to_owned(), format!("χ²({n})/{n}")),
+    };
+    format!(
+        "rᵀC⁻¹r = {:.1} over {n} rows, (T/n) / s₀² = {:.3} against {reference}, two-sided {}% interval [{:.3}, {:.3}] of {distribution}",
+        test.statistic,
+        test.ratio,
+        (1.0 - test.level) * 100.0,
+        test.interval.0,
+        test.interval.1,
+    )
+}
+
+/// What may have changed since the calibration, and what to do, for a
+/// rejected `validation`.
+fn rejection_advice(validation: &Validation) -> String {
+    if let Some(best) = validation.explanations.first() {
+        let names = |groups: &[SessionGroup]| {
+            groups
+                .iter()
+                .map(|g| format!("the {}", g.name()))
+                .collect::<Vec<_>>()
+                .join(" and ")
+        };
+        let what = format!(
+            "re-fitting {} would explain them (residual RMS {:.4} mm against {:.4} mm predicted; (T/n) / s₀² = {:.3} within [{:.3}, {:.3}])",
+            if best.groups.is_empty() {
+                "the instrument frame alone".to_owned()
+            } else {
+                names(&best.groups)
+            },
+            best.rms,
+            best.predicted_rms,
+            best.test.ratio,
+            best.test.interval.0,
+            best.test.interval.1,
+        );
+        let todo = if best.undeclared.is_empty() {
+            format!(
+                "machine.json declares them, but the model selection preferred {} from the reference rows alone: give more reference rows, spread over the workspace",
+                validation.refitted.join(" + ")
+            )
+        } else {
+            let settings: Vec<String> = best
+                .undeclared
+                .iter()
+                .map(|g| format!("{} in machine.json if {}", g.setting(), g.cause()))
+                .collect();
+            format!("declare {}", settings.join("; and "))
+        };
+        format!("{what}: {todo}")
+    } else if validation.reference > 0 && validation.contacts == 0 {
+        "no re-fit of the body origin, body rotation or leg offsets explains them: the machine has changed since the calibration (a joint, a leg, a scale), or the calibration does not transfer to these data; re-calibrate on data of the machine as it is".to_owned()
+    } else if validation.contacts > 0 {
+        "each ball's centre was re-fitted: the machine has changed since the calibration (a joint, a leg, a scale), or a ball's radius is wrong; re-calibrate on touches of the machine as it is".to_owned()
+    } else {
+        "the calibration does not predict rows of its own sessions: the repeatabilities of machine.json understate the noise, or the model misses an effect of the data (the calibration's global test and residuals say which)".to_owned()
+    }
+}
+
+/// A validation in a few lines: its verdict and reasons, what was
+/// applied, what was re-fitted, the residuals observed and predicted.
+pub fn validation(record: &ValidationRecord) -> String {
     let mut out = String::new();
+    if !record.verdict.is_empty() {
+        let _ = writeln!(out, "verdict: {}", record.verdict);
+        for reason in &record.reasons {
+            let _ = writeln!(out, "  - {reason}");
+        }
+    }
     let _ = writeln!(out, "applied: {}", record.calibration);
     if record.reference_rows > 0 {
         let _ = writeln!(

@@ -40,7 +40,9 @@ pub use mixed::simulate_mixed;
 pub use plate::{Plate, PlatePairs};
 pub use rng::Rng;
 pub use scenario::{PlannedTouch, Readings, Scenario};
-pub use tracker::{FrameSpread, TrackerKind, TrackerScenario, Workspace, simulate_tracker};
+pub use tracker::{
+    FrameSpread, TrackerKind, TrackerScenario, Workspace, re_mounted, simulate_tracker,
+};
 
 /// The most rows a simulated campaign may have: contacts, poses plus
 /// points, or calibrated distances. Ten times the largest campaign whose

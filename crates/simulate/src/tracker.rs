@@ -151,6 +151,19 @@ pub fn simulate_tracker(
     Ok(Simulation { dataset, summary })
 }
 
+/// `tracker` as recorded after its marker body was re-mounted `offset`
+/// (mm, body frame) away: every measured pose `M` becomes `M Trans(offset)`,
+/// its position `p + R_M offset`; the points are kept.
+pub fn re_mounted(tracker: &Tracker, offset: Vec3) -> Tracker {
+    let mut out = tracker.clone();
+    let poses = &mut out.poses;
+    for (position, &[x, y, z, w]) in poses.position.iter_mut().zip(&poses.orientation) {
+        let rotation = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        *position = (Vec3::from(*position) + rotation * offset).into();
+    }
+    out
+}
+
 /// The counts, ranges and sigmas of a scenario make sense.
 fn check(s: &TrackerScenario) -> Result<(), SimulateError> {
     let bad = |message: String| Err(SimulateError::Scenario(message));

@@ -31,6 +31,6 @@ pub use crate::error::InstrumentTable;
 pub use model::{InstrumentModel, ModelValues};
 pub use run::{InstrumentRun, InstrumentSetup, calibrate_instruments, setup};
 pub use validate::{
-    Calibrated, CalibratedSession, CrossValidation, Validation, cross_validate,
-    validate_calibration,
+    Calibrated, CalibratedSession, CrossValidation, Explanation, SessionGroup, Validation,
+    cross_validate, validate_calibration,
 };

@@ -20,11 +20,22 @@
 //! calibration.json), `J_θ`, `J_n` the row's derivatives with respect to
 //! them and to the re-fitted nuisance, `A`, `B` the whitened derivatives of
 //! the reference rows, `Λ` the nuisance prior, `ε` the row's noise. Its
-//! variance `diag(G Σ_θ Gᵀ) + diag(J_n K Kᵀ J_nᵀ) + σ²_row` gives the
-//! predicted RMS.
+//! covariance over the predicted rows is
+//!
+//! ```text
+//! C = D + U Uᵀ,   U = [G Σ_θ^{1/2}, J_n (K Kᵀ)^{1/2}],
+//! ```
+//!
+//! `D` the rows' noise (block-diagonal, a pose's six rows or a point's
+//! three); its diagonal gives the predicted RMS, and `rᵀ C⁻¹ r`, chi-square
+//! with one degree of freedom per row, the verdict ([`crate::prediction`]).
+//! A rejected validation with reference rows looks for what changed: each
+//! other choice of the optional groups (a group machine.json does not
+//! declare re-fitted without prior) is re-fitted, and those whose
+//! residuals pass the test are its [`Explanation`]s.
 
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector6};
-use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, Tracker};
+use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, SessionModel, Tracker};
 use parcal_kinematics::params::TOOL_OFFSET;
 use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
 use parcal_observe::FrameCorrection;
@@ -36,6 +47,7 @@ use crate::instruments::model::InstrumentModel;
 use crate::instruments::rows::InstrumentRows;
 use crate::instruments::start::{forward_poses, frame_start};
 use crate::layout::{ParameterGroup, ParameterLayout};
+use crate::prediction::{self, PredictionTest};
 
 /// Iterations of the nuisance re-fit (Gauss–Newton from the frames' start).
 const REFIT_ITERATIONS: usize = 30;
@@ -58,6 +70,9 @@ pub struct Calibrated {
     pub values: DVector<f64>,
     /// Their covariance.
     pub covariance: DMatrix<f64>,
+    /// Its global test `(Ω, r)`, if it has one: the prediction test's
+    /// reference ([`crate::prediction`]).
+    pub global_test: Option<(f64, usize)>,
 }
 
 impl Calibrated {
@@ -99,6 +114,10 @@ impl Calibrated {
             names: calibration.parameters.names.clone(),
             values: DVector::from_column_slice(&calibration.parameters.values),
             covariance: DMatrix::from_fn(n, n, |i, j| calibration.covariance[i][j]),
+            global_test: calibration
+                .global_test
+                .as_ref()
+                .map(|t| (t.cost, t.redundancy)),
         })
     }
 }
@@ -164,9 +183,108 @@ pub struct Validation {
     pub residuals: Vec<f64>,
     /// Their predicted standard deviations (mm).
     pub predicted_sigmas: Vec<f64>,
+    /// `rᵀ C⁻¹ r`: the residuals in their full predicted covariance
+    /// ([`crate::prediction`]).
+    pub statistic: f64,
+    /// The calibration's global test `(Ω, r)`, if it has one.
+    pub calibration_test: Option<(f64, usize)>,
+    /// When the test rejects and the nuisance was re-fitted: the other
+    /// nuisance models whose residuals would pass it, the least predicted
+    /// RMS first.
+    pub explanations: Vec<Explanation>,
+}
+
+/// A nuisance model that explains a rejected validation: re-fitted with it,
+/// the predicted rows pass the test.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Explanation {
+    /// The groups re-fitted besides the instrument frames.
+    pub groups: Vec<SessionGroup>,
+    /// Those of them machine.json's session model does not declare.
+    pub undeclared: Vec<SessionGroup>,
+    /// The residual RMS with them re-fitted (mm).
+    pub rms: f64,
+    /// The RMS then predicted (mm).
+    pub predicted_rms: f64,
+    /// The test then.
+    pub test: PredictionTest,
+}
+
+/// A group a session may re-fit besides its instrument frame (machine.json's
+/// `session_model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SessionGroup {
+    /// A shift of the body frame's origin: a re-mounted marker body.
+    BodyOrigin,
+    /// A turn of the body frame: a re-mounted marker body.
+    BodyRotation,
+    /// A zero offset of each leg: re-homing.
+    LegOffsets,
+}
+
+impl SessionGroup {
+    /// Every group, in the order the model selection tries them.
+    pub const ALL: [Self; 3] = [Self::BodyOrigin, Self::BodyRotation, Self::LegOffsets];
+
+    /// Its name: `body origin`, `body rotation`, `leg offsets`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::BodyOrigin => "body origin",
+            Self::BodyRotation => "body rotation",
+            Self::LegOffsets => "leg offsets",
+        }
+    }
+
+    /// The machine.json field that declares it.
+    pub fn setting(self) -> &'static str {
+        match self {
+            Self::BodyOrigin => "session_model.body_origin_sigma",
+            Self::BodyRotation => "session_model.body_rotation_sigma",
+            Self::LegOffsets => "session_model.leg_offset_sigma",
+        }
+    }
+
+    /// What it models, as a condition on the session.
+    pub fn cause(self) -> &'static str {
+        match self {
+            Self::BodyOrigin | Self::BodyRotation => "the marker body was re-mounted",
+            Self::LegOffsets => "the legs were re-homed",
+        }
+    }
+
+    /// Its prior sigma in `model`, if declared (mm, rad).
+    fn sigma(self, model: &SessionModel) -> Option<f64> {
+        match self {
+            Self::BodyOrigin => model.body_origin_sigma,
+            Self::BodyRotation => model.body_rotation_sigma,
+            Self::LegOffsets => model.leg_offset_sigma,
+        }
+    }
+
+    /// Its parameters in session `session`.
+    fn parameters(self, session: usize) -> ParameterGroup {
+        match self {
+            Self::BodyOrigin => ParameterGroup::BodyOrigin { session },
+            Self::BodyRotation => ParameterGroup::BodyRotation { session },
+            Self::LegOffsets => ParameterGroup::LegOffsets { session },
+        }
+    }
 }
 
 impl Validation {
+    /// The test of [`Validation::statistic`] with one degree of freedom per
+    /// predicted row against the calibration's variance factor
+    /// ([`crate::prediction`]).
+    pub fn test(&self) -> Option<PredictionTest> {
+        PredictionTest::new(self.statistic, self.residuals.len(), self.calibration_test)
+    }
+
+    /// Whether the calibration predicts these data: the test does not
+    /// reject.
+    pub fn accepted(&self) -> bool {
+        self.test().is_none_or(|t| !t.rejects())
+    }
+
     /// RMS of the observed residuals (mm).
     pub fn rms(&self) -> f64 {
         rms(&self.residuals)
@@ -360,49 +478,25 @@ pub fn validate_calibration(
         InstrumentRows::new(&reference_set, home(&reference_set)?, forward);
     let mut predicted = InstrumentRows::new(&predicted_set, home(&predicted_set)?, forward);
     // The nuisance model: the frame, and the optional groups machine.json
-    // allows, the one with the least expected prediction error.
-    let optional: Vec<Optional> = [
-        machine
-            .session_model
-            .body_origin_sigma
-            .map(Optional::BodyOrigin),
-        machine
-            .session_model
-            .body_rotation_sigma
-            .map(Optional::BodyRotation),
-        machine
-            .session_model
-            .leg_offset_sigma
-            .map(Optional::LegOffsets),
-    ]
-    .into_iter()
-    .flatten()
-    .filter(|group| {
-        // A body group exists only for sessions with poses.
-        let present = |g: fn(usize) -> ParameterGroup| {
-            (0..sessions).any(|session| model.layout.range(g(session)).is_some())
-        };
-        match group {
-            Optional::BodyOrigin(_) => present(|session| ParameterGroup::BodyOrigin { session }),
-            Optional::BodyRotation(_) => {
-                present(|session| ParameterGroup::BodyRotation { session })
-            }
-            Optional::LegOffsets(_) => true,
-        }
-    })
-    .collect();
+    // allows, the one with the least expected prediction error. A body
+    // group exists only for sessions with poses.
+    let present: Vec<SessionGroup> = SessionGroup::ALL
+        .into_iter()
+        .filter(|group| {
+            (0..sessions).any(|session| model.layout.range(group.parameters(session)).is_some())
+        })
+        .collect();
+    let optional: Vec<(SessionGroup, f64)> = present
+        .iter()
+        .filter_map(|&group| Some((group, group.sigma(&machine.session_model)?)))
+        .collect();
     let mut selection = Vec::new();
     let nuisance = if reference.is_none() {
         Nuisance::default()
     } else {
-        let candidates: Vec<Nuisance> = (0..1usize << optional.len())
-            .map(|mask| {
-                let chosen: Vec<Optional> = (0..optional.len())
-                    .filter(|k| mask & (1 << k) != 0)
-                    .map(|k| optional[k])
-                    .collect();
-                Nuisance::new(&model, &chosen)
-            })
+        let candidates: Vec<Nuisance> = subsets(&optional)
+            .iter()
+            .map(|chosen| Nuisance::new(&model, chosen))
             .collect();
         if candidates.len() == 1 {
             candidates.into_iter().next().expect("one candidate")
@@ -432,42 +526,86 @@ pub fn validate_calibration(
     let values = model.values(&global);
     reference_rows_model.weigh(&model, &values, &machine.repeatability)?;
     predicted.weigh(&model, &values, &machine.repeatability)?;
-    let gain = refit(
-        &model,
-        &reference_rows_model,
-        &mut global,
-        &nuisance.columns,
-        &nuisance.information,
-    )?;
-    let values = model.values(&global);
-    let raw = predicted.raw(&model, &values)?;
-    let sigmas = predicted_sigmas(
-        calibrated,
-        &model,
-        &raw,
-        &predicted.variances,
-        &nuisance.columns,
-        gain.as_ref().map(|fit| (&fit.gain, &fit.held)),
-    );
-    Ok(Validation {
+    let predict = |nuisance: &Nuisance| {
+        Prediction::new(
+            calibrated,
+            &model,
+            &global,
+            &reference_rows_model,
+            &predicted,
+            nuisance,
+        )
+    };
+    let chosen = predict(&nuisance)?;
+    let mut validation = Validation {
         poses: predicted_set.poses.len(),
         points: predicted_set.points.len(),
         contacts: 0,
         reference: n_ref,
-        refitted: nuisance.names,
+        refitted: nuisance.names.clone(),
         selection,
-        residuals: raw.residual.iter().copied().collect(),
-        predicted_sigmas: sigmas,
-    })
+        residuals: chosen.residuals,
+        predicted_sigmas: chosen.sigmas,
+        statistic: chosen.statistic,
+        calibration_test: calibrated.global_test,
+        explanations: Vec::new(),
+    };
+    if reference.is_some() && !validation.accepted() {
+        // Every other choice of the groups, an undeclared one free.
+        let all: Vec<(SessionGroup, f64)> = present
+            .iter()
+            .map(|&group| {
+                let sigma = group.sigma(&machine.session_model);
+                (group, sigma.unwrap_or(f64::INFINITY))
+            })
+            .collect();
+        for groups in subsets(&all) {
+            let candidate = Nuisance::new(&model, &groups);
+            if candidate.columns == nuisance.columns {
+                continue;
+            }
+            // A model the reference rows do not determine explains nothing.
+            let Ok(other) = predict(&candidate) else {
+                continue;
+            };
+            let test = PredictionTest::new(
+                other.statistic,
+                other.residuals.len(),
+                calibrated.global_test,
+            );
+            if let Some(test) = test.filter(|t| !t.rejects()) {
+                let groups: Vec<SessionGroup> = groups.iter().map(|(g, _)| *g).collect();
+                validation.explanations.push(Explanation {
+                    undeclared: groups
+                        .iter()
+                        .copied()
+                        .filter(|g| g.sigma(&machine.session_model).is_none())
+                        .collect(),
+                    groups,
+                    rms: rms(&other.residuals),
+                    predicted_rms: rms(&other.sigmas),
+                    test,
+                });
+            }
+        }
+        validation
+            .explanations
+            .sort_by(|a, b| a.predicted_rms.total_cmp(&b.predicted_rms));
+    }
+    Ok(validation)
 }
 
-/// A group a session may re-fit besides its instrument frame, with its
-/// prior sigma (mm, rad).
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Optional {
-    BodyOrigin(f64),
-    BodyRotation(f64),
-    LegOffsets(f64),
+/// Every subset of `groups`, in the order of a bit mask (the empty one
+/// first).
+fn subsets(groups: &[(SessionGroup, f64)]) -> Vec<Vec<(SessionGroup, f64)>> {
+    (0..1usize << groups.len())
+        .map(|mask| {
+            (0..groups.len())
+                .filter(|k| mask & (1 << k) != 0)
+                .map(|k| groups[k])
+                .collect()
+        })
+        .collect()
 }
 
 /// The re-fitted columns of every session, their prior information and
@@ -480,8 +618,9 @@ struct Nuisance {
 }
 
 impl Nuisance {
-    /// Every session's frame and the `optional` groups.
-    fn new(model: &InstrumentModel, optional: &[Optional]) -> Self {
+    /// Every session's frame and the `optional` groups with their prior
+    /// sigmas (infinite: no prior).
+    fn new(model: &InstrumentModel, optional: &[(SessionGroup, f64)]) -> Self {
         let mut out = Self::default();
         for (session, label) in model.sessions.iter().enumerate() {
             let mut add = |group: ParameterGroup, sigma: f64, name: String| {
@@ -498,24 +637,12 @@ impl Nuisance {
                 f64::INFINITY,
                 format!("frame {label}"),
             );
-            for group in optional {
-                match *group {
-                    Optional::BodyOrigin(sigma) => add(
-                        ParameterGroup::BodyOrigin { session },
-                        sigma,
-                        format!("body origin {label}"),
-                    ),
-                    Optional::BodyRotation(sigma) => add(
-                        ParameterGroup::BodyRotation { session },
-                        sigma,
-                        format!("body rotation {label}"),
-                    ),
-                    Optional::LegOffsets(sigma) => add(
-                        ParameterGroup::LegOffsets { session },
-                        sigma,
-                        format!("leg offsets {label}"),
-                    ),
-                }
+            for &(group, sigma) in optional {
+                add(
+                    group.parameters(session),
+                    sigma,
+                    format!("{} {label}", group.name()),
+                );
             }
         }
         out
@@ -628,46 +755,114 @@ fn refit(
     }))
 }
 
-/// The predicted standard deviation of every raw row (module doc).
-fn predicted_sigmas(
-    calibrated: &Calibrated,
-    model: &InstrumentModel,
-    raw: &GlobalObservations,
-    variances: &[f64],
-    nuisance: &[usize],
-    gain: Option<(&DMatrix<f64>, &DMatrix<f64>)>,
-) -> Vec<f64> {
-    let names = model.layout.names(&[], &model.sessions);
-    let held: Vec<usize> = (0..names.len()).filter(|c| !nuisance.contains(c)).collect();
-    // Σ_θ on the held columns: the calibration's covariance by name (a
-    // parameter it does not have is exact: zero by definition).
-    let index: Vec<Option<usize>> = held
-        .iter()
-        .map(|&c| calibrated.names.iter().position(|n| *n == names[c]))
-        .collect();
-    let sigma_theta = DMatrix::from_fn(held.len(), held.len(), |i, j| match (index[i], index[j]) {
-        (Some(a), Some(b)) => calibrated.covariance[(a, b)],
-        _ => 0.0,
-    });
-    let j_theta = raw.jacobian.select_columns(&held);
-    let (g, refit_noise) = match gain {
-        Some((k, b)) => {
-            let j_n = raw.jacobian.select_columns(nuisance);
-            let jk = &j_n * k;
-            (j_theta - &jk * b, Some(jk))
-        }
-        None => (j_theta, None),
-    };
-    let propagated = &g * sigma_theta * g.transpose();
+/// The predicted rows with a nuisance model re-fitted: their residuals,
+/// predicted sigmas and `rᵀ C⁻¹ r` (module doc).
+struct Prediction {
+    residuals: Vec<f64>,
+    sigmas: Vec<f64>,
+    statistic: f64,
+}
 
-    (0..raw.residual.len())
-        .map(|i| {
-            let refit = refit_noise
-                .as_ref()
-                .map_or(0.0, |jk| jk.row(i).norm_squared());
-            (propagated[(i, i)] + refit + variances[i]).sqrt()
+impl Prediction {
+    /// Re-fits `nuisance` on the `reference` rows from `global` and
+    /// predicts the `predicted` rows (both weighed).
+    fn new(
+        calibrated: &Calibrated,
+        model: &InstrumentModel,
+        global: &DVector<f64>,
+        reference: &InstrumentRows,
+        predicted: &InstrumentRows,
+        nuisance: &Nuisance,
+    ) -> Result<Self, CalibrateError> {
+        let mut global = global.clone();
+        let fit = refit(
+            model,
+            reference,
+            &mut global,
+            &nuisance.columns,
+            &nuisance.information,
+        )?;
+        let values = model.values(&global);
+        let raw = predicted.raw(model, &values)?;
+        let mut whitened = GlobalObservations::zeros(0, 0);
+        predicted.evaluate(model, &values, &mut whitened)?;
+        let common = CommonErrors::new(calibrated, model, &nuisance.columns, fit.as_ref());
+        let u = common.factor(&raw.jacobian);
+        let sigmas = (0..raw.residual.len())
+            .map(|i| (u.row(i).norm_squared() + predicted.variances[i]).sqrt())
+            .collect();
+        Ok(Self {
+            residuals: raw.residual.iter().copied().collect(),
+            sigmas,
+            statistic: prediction::statistic(
+                &whitened.residual,
+                &common.factor(&whitened.jacobian),
+            ),
         })
-        .collect()
+    }
+}
+
+/// The errors the predicted rows share (module doc): the calibration's
+/// parameters, held, and the re-fitted nuisance.
+struct CommonErrors<'a> {
+    /// The held columns.
+    held: Vec<usize>,
+    /// `Σ_θ^{1/2}` on them.
+    theta: DMatrix<f64>,
+    /// The nuisance columns.
+    nuisance: &'a [usize],
+    /// `K B` and `(K Kᵀ)^{1/2}` of the re-fit, if any.
+    refit: Option<(DMatrix<f64>, DMatrix<f64>)>,
+}
+
+impl<'a> CommonErrors<'a> {
+    fn new(
+        calibrated: &Calibrated,
+        model: &InstrumentModel,
+        nuisance: &'a [usize],
+        fit: Option<&Refit>,
+    ) -> Self {
+        let names = model.layout.names(&[], &model.sessions);
+        let held: Vec<usize> = (0..names.len()).filter(|c| !nuisance.contains(c)).collect();
+        // Σ_θ on the held columns: the calibration's covariance by name (a
+        // parameter it does not have is exact: zero by definition).
+        let index: Vec<Option<usize>> = held
+            .iter()
+            .map(|&c| calibrated.names.iter().position(|n| *n == names[c]))
+            .collect();
+        let sigma_theta =
+            DMatrix::from_fn(held.len(), held.len(), |i, j| match (index[i], index[j]) {
+                (Some(a), Some(b)) => calibrated.covariance[(a, b)],
+                _ => 0.0,
+            });
+        Self {
+            held,
+            theta: prediction::square_root(&sigma_theta),
+            nuisance,
+            refit: fit.map(|fit| {
+                (
+                    &fit.gain * &fit.held,
+                    prediction::square_root(&(&fit.gain * fit.gain.transpose())),
+                )
+            }),
+        }
+    }
+
+    /// `U = [G Σ_θ^{1/2}, J_n (K Kᵀ)^{1/2}]` of rows with Jacobian
+    /// `jacobian` on the global block (raw or whitened alike).
+    fn factor(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+        let j_theta = jacobian.select_columns(&self.held);
+        let Some((gain_held, refit_root)) = &self.refit else {
+            return j_theta * &self.theta;
+        };
+        let j_n = jacobian.select_columns(self.nuisance);
+        let g = j_theta - &j_n * gain_held;
+        let (a, b) = (self.theta.ncols(), refit_root.ncols());
+        let mut u = DMatrix::zeros(jacobian.nrows(), a + b);
+        u.columns_mut(0, a).copy_from(&(g * &self.theta));
+        u.columns_mut(a, b).copy_from(&(j_n * refit_root));
+        u
+    }
 }
 
 /// The rows `poses` and `points` of `tracker` (indices in file order), the
@@ -705,22 +900,49 @@ pub struct CrossValidation {
 impl CrossValidation {
     /// RMS of every held-out residual (mm).
     pub fn rms(&self) -> f64 {
-        let all: Vec<f64> = self
-            .validations
-            .iter()
-            .flat_map(|v| v.residuals.iter().copied())
-            .collect();
-        rms(&all)
+        self.pooled().rms()
     }
 
     /// The RMS the folds' calibrations predict (mm).
     pub fn predicted_rms(&self) -> f64 {
-        let all: Vec<f64> = self
+        self.pooled().predicted_rms()
+    }
+
+    /// The folds as one validation: their rows in fold order, each fold's
+    /// residuals tested against its own calibration's predicted covariance,
+    /// the statistics and their degrees of freedom summed; the folds'
+    /// global tests pooled as one pass over the data (each row is in
+    /// `K − 1` of the folds' calibrations): `(Σ Ω_k, Σ r_k) / (K − 1)`.
+    pub fn pooled(&self) -> Validation {
+        let tests: Option<Vec<(f64, usize)>> = self
             .validations
             .iter()
-            .flat_map(|v| v.predicted_sigmas.iter().copied())
+            .map(|v| v.calibration_test)
             .collect();
-        rms(&all)
+        let passes = self.folds.saturating_sub(1).max(1);
+        let all = |part: fn(&Validation) -> &Vec<f64>| -> Vec<f64> {
+            self.validations
+                .iter()
+                .flat_map(|v| part(v).iter().copied())
+                .collect()
+        };
+        Validation {
+            poses: self.validations.iter().map(|v| v.poses).sum(),
+            points: self.validations.iter().map(|v| v.points).sum(),
+            contacts: 0,
+            reference: 0,
+            refitted: Vec::new(),
+            selection: Vec::new(),
+            residuals: all(|v| &v.residuals),
+            predicted_sigmas: all(|v| &v.predicted_sigmas),
+            statistic: self.validations.iter().map(|v| v.statistic).sum(),
+            calibration_test: tests.map(|tests| {
+                let cost: f64 = tests.iter().map(|t| t.0).sum();
+                let redundancy: usize = tests.iter().map(|t| t.1).sum();
+                (cost / passes as f64, redundancy / passes)
+            }),
+            explanations: Vec::new(),
+        }
     }
 }
 
@@ -761,7 +983,8 @@ pub fn cross_validate(
             ..dataset.clone()
         };
         let run = crate::instruments::calibrate_instruments(&part(false), options, &mut |_| {})?;
-        let calibrated = Calibrated::from_record(&run.record(String::new()))?;
+        let mut calibrated = Calibrated::from_record(&run.record(String::new()))?;
+        calibrated.global_test = run.global_test.map(|t| (t.cost, t.redundancy));
         validations.push(validate_calibration(&part(true), &calibrated, None)?);
     }
     Ok(CrossValidation { folds, validations })

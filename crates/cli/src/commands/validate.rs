@@ -1,14 +1,16 @@
 //! `parcal validate`: apply a calibration of poses or points to
-//! measurements it was not fitted on, or cross-validate a dataset.
+//! measurements it was not fitted on, or cross-validate a dataset; exits
+//! with status 3 when the residuals are larger than the calibration
+//! predicts (validation.json is written either way).
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_calibrate::instruments::{Calibrated, Validation, cross_validate, validate_calibration};
+use parcal_calibrate::instruments::{Calibrated, cross_validate, validate_calibration};
 use parcal_calibrate::touch_validation::validate_touches;
 use parcal_calibrate::{CalibrationOptions, bounds};
-use parcal_dataset::{NuisanceCandidate, VALIDATION_FILE, ValidationRecord};
+use parcal_dataset::VALIDATION_FILE;
 
 use crate::bounds::Bounded;
 
@@ -70,53 +72,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         (None, Some(folds)) => {
             let options = CalibrationOptions::default();
             let cross = cross_validate(&dataset, &options, folds)?;
-            let merged = Validation {
-                poses: cross.validations.iter().map(|v| v.poses).sum(),
-                points: cross.validations.iter().map(|v| v.points).sum(),
-                contacts: 0,
-                reference: 0,
-                refitted: Vec::new(),
-                selection: Vec::new(),
-                residuals: cross
-                    .validations
-                    .iter()
-                    .flat_map(|v| v.residuals.clone())
-                    .collect(),
-                predicted_sigmas: cross
-                    .validations
-                    .iter()
-                    .flat_map(|v| v.predicted_sigmas.clone())
-                    .collect(),
-            };
-            (merged, format!("{folds}-fold cross-validation"))
+            (cross.pooled(), format!("{folds}-fold cross-validation"))
         }
         (None, None) => unreachable!("clap requires --calibration or --folds"),
     };
-    let record = ValidationRecord {
-        calibration,
-        reference_rows: validation.reference,
-        refitted: validation.refitted.clone(),
-        selection: validation
-            .selection
-            .iter()
-            .map(|(model, rms)| NuisanceCandidate {
-                model: model.clone(),
-                expected_rms_mm: *rms,
-            })
-            .collect(),
-        rows: validation.poses + validation.points + validation.contacts,
-        poses: validation.poses,
-        points: validation.points,
-        contacts: validation.contacts,
-        rms_mm: validation.rms(),
-        max_mm: validation.max(),
-        per_leg_rms_mm: if validation.poses > 0 {
-            validation.per_leg_rms()
-        } else {
-            [0.0; 6]
-        },
-        predicted_rms_mm: validation.predicted_rms(),
-    };
+    let record = parcal_report::instruments::validation_record(&validation, calibration);
     record.write(&out)?;
     let mut stdout = std::io::stdout().lock();
     writeln!(
@@ -125,5 +85,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         parcal_report::instruments::validation(&record)
     )?;
     writeln!(stdout, "validation written to {}", out.display())?;
+    if record.is_rejected() {
+        return Err(super::Rejected(format!(
+            "{} (validation written to {})",
+            record.reasons.join("; "),
+            out.display()
+        ))
+        .into());
+    }
     Ok(())
 }

@@ -1,0 +1,210 @@
+//! Are a validation's residuals as large as the calibration predicts? The
+//! chi-square test of the predicted rows against their full predicted
+//! covariance.
+//!
+//! The `n` predicted residuals `r` of a validation are correlated through
+//! the errors they share (the calibration's parameters, the re-fitted
+//! nuisance): their predicted covariance is
+//!
+//! ```text
+//! C = D + U Uᵀ,
+//! ```
+//!
+//! `D` the rows' own noise (block-diagonal: a pose's six rows, a point's
+//! three, a touch's one) and `U` the common errors, one column per
+//! direction of their covariance (`U = G Σ_θ^{1/2}` for the parameters,
+//! [`crate::instruments::validate`] and [`crate::touch_validation`] give
+//! `G`). Under the model and the stated covariances `T = rᵀ C⁻¹ r ~ χ²(n)`
+//! (Koch, "Parameter Estimation and Hypothesis Testing in Linear Models",
+//! 1999, section 2.4.1: the quadratic form of a normal vector in its
+//! inverse covariance). With `D = L Lᵀ`, `z = L⁻¹ r` (the whitened
+//! residuals) and `V = L⁻¹ U`, the Woodbury identity gives
+//!
+//! ```text
+//! T = zᵀz − yᵀ (I + VᵀV)⁻¹ y,   y = Vᵀ z,
+//! ```
+//!
+//! so `C` (`n × n`) is never formed. `D` is positive definite (every row's
+//! covariance passed its Cholesky factorisation when the rows were
+//! weighed), hence so is `C ⪰ D`: `T` has `n` degrees of freedom, no rank
+//! to decide, and `I + VᵀV` has eigenvalues at least 1, so its Cholesky
+//! factorisation cannot fail. A covariance read from calibration.json may
+//! have eigenvalues slightly below zero (rounding): [`square_root`] takes
+//! them as zero.
+//!
+//! The stated noise may be off by a common factor: the calibration's own
+//! global test estimates it, `s₀² = Ω / r` ([`crate::verdict`]). Since the
+//! predicted covariance is the stated one (the calibration's covariance
+//! and the rows' noise both scale with that factor), and the new rows are
+//! independent of the calibration's, the prediction's variance factor
+//! against the calibration's,
+//!
+//! ```text
+//! F = (T / n) / (Ω / r) ~ F(n, r),
+//! ```
+//!
+//! asks whether the new data fit the calibration as well as its own data
+//! did, whatever the common factor (Koch 1999, section 4.3.3: the ratio of
+//! two independent variance estimates). Without the calibration's global
+//! test (a file written before it), `s₀² = 1` is taken as known: `T / n ~
+//! χ²(n) / n`, the limit `r → ∞`. The test is two-sided at
+//! [`GLOBAL_TEST_LEVEL`], the calibration's convention: `F` above the upper
+//! quantile rejects (the calibration does not predict these data), below
+//! the lower one it is accepted and said (the predicted covariance is
+//! pessimistic).
+
+use nalgebra::{DMatrix, DVector};
+
+use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+
+use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Outcome};
+
+/// `T = rᵀ C⁻¹ r` from the whitened residuals `z = L⁻¹ r` and the whitened
+/// common errors `V = L⁻¹ U` (module doc).
+pub fn statistic(z: &DVector<f64>, v: &DMatrix<f64>) -> f64 {
+    let y = v.transpose() * z;
+    let capacitance = DMatrix::identity(v.ncols(), v.ncols()) + v.transpose() * v;
+    let correction = capacitance
+        .cholesky()
+        .map_or(0.0, |factor| y.dot(&factor.solve(&y)));
+    z.norm_squared() - correction
+}
+
+/// A square root `F` of the symmetric positive semi-definite `covariance`,
+/// `F Fᵀ = covariance`: `Q Λ^{1/2}` of its eigendecomposition, negative
+/// eigenvalues (rounding) taken as zero.
+pub fn square_root(covariance: &DMatrix<f64>) -> DMatrix<f64> {
+    let symmetric = (covariance + covariance.transpose()) * 0.5;
+    let eigen = symmetric.symmetric_eigen();
+    let mut root = eigen.eigenvectors;
+    for (k, lambda) in eigen.eigenvalues.iter().enumerate() {
+        root.column_mut(k).scale_mut(lambda.max(0.0).sqrt());
+    }
+    root
+}
+
+/// The prediction test (module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictionTest {
+    /// `T = rᵀ C⁻¹ r`.
+    pub statistic: f64,
+    /// `n`, the predicted rows.
+    pub rows: usize,
+    /// The calibration's global test `(Ω, r)`, if it has one.
+    pub calibration: Option<(f64, usize)>,
+    /// `F = (T / n) / s₀²` (`s₀² = 1` without the calibration's test).
+    pub ratio: f64,
+    /// The test's level `α`.
+    pub level: f64,
+    /// The interval of `F` that passes: the `α/2` and `1 − α/2` quantiles
+    /// of `F(n, r)`, or of `χ²(n) / n`.
+    pub interval: (f64, f64),
+    /// Where `F` falls.
+    pub outcome: Outcome,
+}
+
+impl PredictionTest {
+    /// The test of `statistic` over `rows` predicted rows against the
+    /// calibration's global test `calibration` (module doc); `None` without
+    /// a row.
+    pub fn new(statistic: f64, rows: usize, calibration: Option<(f64, usize)>) -> Option<Self> {
+        let level = GLOBAL_TEST_LEVEL;
+        let calibration = calibration.filter(|&(cost, r)| r > 0 && cost > 0.0);
+        let (ratio, interval) = match calibration {
+            Some((cost, r)) => {
+                let f = FisherSnedecor::new(rows as f64, r as f64).ok()?;
+                (
+                    statistic / rows as f64 / (cost / r as f64),
+                    (f.inverse_cdf(level / 2.0), f.inverse_cdf(1.0 - level / 2.0)),
+                )
+            }
+            None => {
+                let chi = GlobalTest::new(statistic, rows, level)?;
+                (chi.variance_factor, chi.interval)
+            }
+        };
+        let outcome = if ratio > interval.1 {
+            Outcome::TooLarge
+        } else if ratio < interval.0 {
+            Outcome::TooSmall
+        } else {
+            Outcome::Consistent
+        };
+        Some(Self {
+            statistic,
+            rows,
+            calibration,
+            ratio,
+            level,
+            interval,
+            outcome,
+        })
+    }
+
+    /// Whether it rejects: `F` above its interval.
+    pub fn rejects(&self) -> bool {
+        self.outcome == Outcome::TooLarge
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deterministic, well-spread matrix.
+    fn matrix(rows: usize, cols: usize, seed: f64) -> DMatrix<f64> {
+        DMatrix::from_fn(rows, cols, |i, j| {
+            ((i * cols + j) as f64 * 0.731 + seed).sin()
+        })
+    }
+
+    #[test]
+    fn the_statistic_is_the_dense_quadratic_form() {
+        let (n, k) = (9, 4);
+        let l = matrix(n, n, 0.3).lower_triangle() + DMatrix::identity(n, n) * 3.0;
+        let u = matrix(n, k, 1.7);
+        let r = DVector::from_fn(n, |i, _| (i as f64 * 1.3).cos());
+        let c = &l * l.transpose() + &u * u.transpose();
+        let dense = r.dot(&c.clone().cholesky().unwrap().solve(&r));
+        let l_inverse = l.try_inverse().unwrap();
+        let woodbury = statistic(&(&l_inverse * &r), &(&l_inverse * &u));
+        assert!(
+            (woodbury - dense).abs() < 1e-12 * dense,
+            "{woodbury} against {dense}"
+        );
+    }
+
+    #[test]
+    fn without_the_calibrations_test_it_is_the_chi_square_test() {
+        // χ²(100): 2.5 % and 97.5 % quantiles 74.222 and 129.561.
+        let t = PredictionTest::new(130.0, 100, None).unwrap();
+        assert!((t.interval.1 * 100.0 - 129.561).abs() < 1e-3);
+        assert!(t.rejects());
+        assert!(!PredictionTest::new(129.0, 100, None).unwrap().rejects());
+        // F(100, 200) at 97.5 %: 1.39270 (the density integrated by
+        // Simpson's rule); a calibration with s₀² = 1.1 admits T / n up to
+        // 1.1 times that.
+        let t = PredictionTest::new(150.0, 100, Some((220.0, 200))).unwrap();
+        assert!((t.interval.1 - 1.39270).abs() < 1e-4, "{:?}", t.interval);
+        assert!((t.ratio - 1.5 / 1.1).abs() < 1e-12);
+        assert!(!t.rejects());
+        assert!(
+            PredictionTest::new(154.0, 100, Some((220.0, 200)))
+                .unwrap()
+                .rejects()
+        );
+    }
+
+    #[test]
+    fn the_square_root_reproduces_the_covariance_and_floors_rounding() {
+        let a = matrix(5, 3, 0.9);
+        let covariance = &a * a.transpose();
+        let root = square_root(&covariance);
+        assert!((&root * root.transpose() - &covariance).norm() < 1e-12 * covariance.norm());
+        // A rank-3 covariance pushed slightly indefinite.
+        let rounded = &covariance - DMatrix::identity(5, 5) * 1e-12;
+        let root = square_root(&rounded);
+        assert!(root.iter().all(|v| v.is_finite()));
+        assert!((&root * root.transpose() - &covariance).norm() < 1e-9);
+    }
+}
