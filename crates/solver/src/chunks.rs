@@ -19,7 +19,7 @@ const CHUNKS_PER_WAVE: usize = 256;
 /// rows at once; more rows are folded in batches).
 const GROUP_BUFFER_ROWS: usize = 256;
 /// Rows of the per-thread buffer of reduced rows, multiplied into the chunk's
-/// reduced matrix by one GEMM when full.
+/// reduced matrix by one Gram update `AᵀA` when full.
 const CHUNK_BUFFER_ROWS: usize = 2048;
 
 /// A run of whole groups and their points.
@@ -72,7 +72,7 @@ pub(crate) struct Workspace {
     pub(crate) point: Vec<f64>,
     /// The group rows being eliminated, row-major.
     pub(crate) group: Vec<f64>,
-    /// Reduced rows waiting for the GEMM, row-major.
+    /// Reduced rows waiting for the Gram update, row-major.
     pub(crate) reduced: Vec<f64>,
     /// Householder scratch (grows to the largest need, then stays).
     pub(crate) scratch: Vec<f64>,

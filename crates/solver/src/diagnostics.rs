@@ -1,9 +1,9 @@
 //! Spectrum of the reduced `G × G` matrix: condition number and the
 //! near-singular directions of the global parameters.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::evd::{self, ComputeEigenvectors};
-use faer::{Mat, Par};
+use nalgebra::{DMatrix, SymmetricEigen};
+
+use crate::qr::all_finite;
 
 /// Eigenvalues at most this fraction of the largest are always reported as
 /// weak directions.
@@ -11,6 +11,9 @@ const WEAK_RELATIVE: f64 = 1e-10;
 /// Eigenvalues at most `n ε` times the largest are zero up to rounding: the
 /// directions nothing in the problem determines.
 const UNIDENTIFIED_RELATIVE: f64 = f64::EPSILON;
+/// The implicit QR iteration of the tridiagonal matrix gives up after this
+/// many steps per eigenvalue (LAPACK's `dsteqr` allows as many).
+const QR_SWEEPS_PER_EIGENVALUE: usize = 30;
 /// At least this many of the smallest eigenvalues are reported.
 const MIN_WEAK: usize = 3;
 /// A weak direction's dominant indices cover at least this fraction of its
@@ -24,7 +27,8 @@ const MAX_DOMINANT: usize = 6;
 /// global parameters).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpectrumDiagnostics {
-    /// All eigenvalues, ascending. Empty if the eigen-decomposition failed.
+    /// All eigenvalues, ascending. Empty if the matrix is not finite or the
+    /// eigen-decomposition failed.
     pub eigenvalues: Vec<f64>,
     /// The weakest directions, weakest first: the `MIN_WEAK` (3) smallest
     /// eigenvalues, and any further ones below `1e-10 ×` the largest.
@@ -50,30 +54,25 @@ impl SpectrumDiagnostics {
     /// triangles filled).
     pub fn of_symmetric(matrix: &[f64], n: usize) -> Self {
         assert_eq!(matrix.len(), n * n, "matrix must be n × n");
-        let a = Mat::<f64>::from_fn(n, n, |i, j| matrix[i * n + j]);
-        let mut u = Mat::<f64>::zeros(n, n);
-        let mut s = faer::diag::Diag::<f64>::zeros(n);
-        let mut mem = MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
-            n,
-            ComputeEigenvectors::Yes,
-            Par::Seq,
-            Default::default(),
-        ));
-        let ok = evd::self_adjoint_evd(
-            a.as_ref(),
-            s.as_mut(),
-            Some(u.as_mut()),
-            Par::Seq,
-            MemStack::new(&mut mem),
-            Default::default(),
-        )
-        .is_ok();
-        if !ok {
+        let decomposition = all_finite(matrix)
+            .then(|| {
+                SymmetricEigen::try_new(
+                    DMatrix::from_row_slice(n, n, matrix),
+                    f64::EPSILON,
+                    QR_SWEEPS_PER_EIGENVALUE * n,
+                )
+            })
+            .flatten();
+        let Some(SymmetricEigen {
+            eigenvalues: s,
+            eigenvectors: u,
+        }) = decomposition
+        else {
             return Self {
                 eigenvalues: Vec::new(),
                 weakest: Vec::new(),
             };
-        }
+        };
         let mut order: Vec<usize> = (0..n).collect();
         let values: Vec<f64> = (0..n).map(|j| s[j]).collect();
         order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));

@@ -3,15 +3,14 @@
 //! explicit `Q`, whose nullspace part `Q₂ᵀ` turns the point's rows into
 //! point-eliminated rows; a QR on the group columns of a group's stacked rows
 //! eliminates the group; what remains (global columns and residual only) is
-//! multiplied into the chunk's reduced matrix by GEMM.
+//! multiplied into the chunk's reduced matrix (`AᵀA`, [`add_gram_lower`]).
 
 use std::ops::Range;
 
-use faer::linalg::matmul::triangular::{BlockStructure, matmul};
-use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{SMatrix, SVector, Vector3};
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
+use crate::gram::add_gram_lower;
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::{
     PriorRows, RANK_TOLERANCE, add_column_norms2, householder_rows, triangle_has_full_rank,
@@ -702,8 +701,8 @@ where
 }
 
 /// Collects reduced rows and multiplies them into the lower triangle of the
-/// chunk's augmented reduced matrix `[S b; bᵀ ρ] += AᵀA` by one GEMM whenever
-/// the buffer is full (and at the end); keeps each group's data cost.
+/// chunk's augmented reduced matrix `[S b; bᵀ ρ] += AᵀA` ([`add_gram_lower`])
+/// whenever the buffer is full (and at the end); keeps each group's data cost.
 pub(crate) struct NormalSink<'a> {
     rows: &'a mut [f64],
     width: usize,
@@ -739,19 +738,7 @@ impl<'a> NormalSink<'a> {
             return;
         }
         let w = self.width;
-        let a = MatRef::from_row_major_slice(&self.rows[..self.filled * w], self.filled, w);
-        let dst = MatMut::from_column_major_slice_mut(self.normal, w, w);
-        matmul(
-            dst,
-            BlockStructure::TriangularLower,
-            Accum::Add,
-            a.transpose(),
-            BlockStructure::Rectangular,
-            a,
-            BlockStructure::Rectangular,
-            1.0,
-            Par::Seq,
-        );
+        add_gram_lower(self.normal, &self.rows[..self.filled * w], self.filled, w);
         self.filled = 0;
     }
 }

@@ -82,11 +82,11 @@
 //!    groups satisfy `Σ [B_g β]ᵀ[B_g β] = [S b; bᵀ ρ]`, where `S` is the Schur
 //!    complement of the normal matrix onto the global block,
 //!    `S = H_gg − H_g,cp H_cp,cp⁻¹ H_cp,g`, and `b` the reduced gradient. `S`
-//!    and `b` come from one GEMM per buffer of reduced rows. The global prior
-//!    and the global observations, which involve no other block, are added
-//!    as they are (`S += Λ_g + J_oᵀJ_o`, `b += Λ_g(g − m_g) + J_oᵀr_o`) and
-//!    `S δg = −b` is solved by a Cholesky factorisation of `S` scaled to
-//!    unit diagonal.
+//!    and `b` come from one Gram update `AᵀA` per buffer of reduced rows.
+//!    The global prior and the global observations, which involve no other
+//!    block, are added as they are (`S += Λ_g + J_oᵀJ_o`,
+//!    `b += Λ_g(g − m_g) + J_oᵀr_o`) and `S δg = −b` is solved by a
+//!    Cholesky factorisation of `S` scaled to unit diagonal.
 //!
 //! 4. **Back-substitution.** A second pass linearises every point again
 //!    (its [`Problem::PointCache`] makes this cheap), folds the now known
@@ -267,6 +267,7 @@ mod covariance;
 pub mod dense_reference;
 mod diagnostics;
 mod eliminate;
+mod gram;
 mod influence;
 mod iterate;
 mod loss;
