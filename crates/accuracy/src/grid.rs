@@ -1,4 +1,4 @@
-//! The map grid (spec section 5) and its targets in the canonical frames.
+//! The map grid (docs/paper-scenario.md section 5) and its targets in the canonical frames.
 //!
 //! The grid lies on a plane `z = const` of the DESIGN frame (the frame of
 //! table 2, centred on the base). The targets and the platform's home
@@ -11,7 +11,7 @@
 //!
 //! which is the only mapping a user has: the true machine's canonical frames
 //! differ from the design's by a tilt of ~10 mrad (12 mrad for the base of
-//! table 2), which is what makes the absolute error large (spec section 4).
+//! table 2), which is what makes the absolute error large (docs/paper-scenario.md section 4).
 //!
 //! In simulation the targets can also be mapped with the TRUE geometry's
 //! transforms (the truth given in the design frame): the map then shows the
@@ -119,7 +119,7 @@ pub struct CanonicalTargets {
 
 impl CanonicalTargets {
     /// Maps the grid with the canonical transforms of `frames`, a geometry
-    /// given in the design frame: the design (spec section 5, what a user
+    /// given in the design frame: the design (docs/paper-scenario.md section 5, what a user
     /// has) or, in simulation, the true geometry. Errors: an invalid grid, a
     /// geometry that does not define the canonical frames.
     pub fn new(frames: &Geometry, grid: &MapGrid) -> Result<Self, AccuracyError> {

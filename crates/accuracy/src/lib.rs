@@ -1,4 +1,4 @@
-//! Positioning-accuracy maps of a hexapod model (spec section 5; Sato et
+//! Positioning-accuracy maps of a hexapod model (docs/paper-scenario.md section 5; Sato et
 //! al., Meas. Sci. Technol. 15 (2004) 1158, figs. 3, 7, 10).
 //!
 //! A grid of targets on a plane of the design frame ([`MapGrid`], the

@@ -1,5 +1,5 @@
 //! Predicted accuracy maps: the parameter covariance propagated to the tool
-//! tip (spec section 5, paper figs. 3, 7, 10).
+//! tip (docs/paper-scenario.md section 5, paper figs. 3, 7, 10).
 //!
 //! At each target the model's tip Jacobian `J_k = d f(q_k, p) / d p` (3 x 33,
 //! at fixed actuator values) gives the tip covariance `J_k Σ_p J_kᵀ`; the

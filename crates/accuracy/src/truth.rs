@@ -1,5 +1,5 @@
 //! True accuracy maps (simulation only): where the true machine puts its
-//! tool tip when the model commands it to the targets (spec section 5).
+//! tool tip when the model commands it to the targets (docs/paper-scenario.md section 5).
 //!
 //! The model computes the actuator values `q_k` of each target; forward
 //! kinematics of the TRUE geometry (in its own canonical frames) at `q_k`,

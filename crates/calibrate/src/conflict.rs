@@ -129,7 +129,7 @@ pub struct PaperPriorInconsistency {
 
 /// Does the paper's diagonal prior express the design tolerances it stands
 /// for? A machine built within tolerance has canonical parameters with the
-/// propagated covariance `Sigma_t` (spec section 4); under the paper prior
+/// propagated covariance `Sigma_t` (docs/paper-scenario.md section 4); under the paper prior
 /// `Sigma_p` their chi-square then has expectation `tr(Sigma_p^-1 Sigma_t)`,
 /// 33 if the two agree. `Some` when that expectation is beyond the 99.9 %
 /// quantile of chi-square(33).

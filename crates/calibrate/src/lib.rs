@@ -1,5 +1,5 @@
 //! Artefact calibration with a priori knowledge (Sato et al., Meas. Sci.
-//! Technol. 15 (2004) 1158, spec section 4): from a dataset to the
+//! Technol. 15 (2004) 1158, docs/paper-scenario.md section 4): from a dataset to the
 //! identified kinematic parameters, ball centres and contact angles with
 //! their uncertainties, and a verdict on the priors.
 //!

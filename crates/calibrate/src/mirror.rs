@@ -3,7 +3,7 @@
 //! fits, mirror images through the contacts' plane
 //! ([`crate::sphere_fit::mirror_fit`]). With the design geometry, off by
 //! millimetres, the two can fit its contact points almost equally well, and
-//! the best fit the set-up starts from (spec section 4) can be the wrong
+//! the best fit the set-up starts from (docs/paper-scenario.md section 4) can be the wrong
 //! image: the calibration then keeps that ball on the wrong side, its
 //! contacts fitting far worse than the noise allows ([`crate::fit`]). The
 //! calibrated geometry tells the sides apart: its contact points fit the

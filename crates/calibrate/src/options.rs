@@ -1,4 +1,4 @@
-//! What a calibration run is asked to do (spec section 4).
+//! What a calibration run is asked to do (docs/paper-scenario.md section 4).
 
 use std::fmt;
 use std::time::Duration;
@@ -18,7 +18,7 @@ pub enum Observation {
 }
 
 /// How the error of each ball's calibrated radius enters the calibration.
-/// The radius is calibrated once per ball (spec section 3: one draw per
+/// The radius is calibrated once per ball (docs/paper-scenario.md section 3: one draw per
 /// ball), so its error is shared by every touch of that ball.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]

@@ -321,7 +321,7 @@ fn geometry_record(geometry: &Geometry) -> GeometryRecord {
     }
 }
 
-/// Calibrates `dataset` (spec section 4). `observer` sees each iteration.
+/// Calibrates `dataset` (docs/paper-scenario.md section 4). `observer` sees each iteration.
 /// The dataset is validated first ([`crate::validate`]).
 ///
 /// A Gauss-Newton run that runs away (it ends diverged, or failed after

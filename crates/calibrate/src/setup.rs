@@ -1,6 +1,6 @@
 //! From a dataset to the least-squares problem: the design in canonical
-//! frames, the contacts sorted by ball, the initial estimates (spec section
-//! 4), the weights and the priors.
+//! frames, the contacts sorted by ball, the initial estimates
+//! (docs/paper-scenario.md section 4), the weights and the priors.
 //!
 //! Memory: everything per contact that is kept is small (its row, the
 //! initial direction `u0` and the whitening of its weight); the design-FK
@@ -73,7 +73,7 @@ pub fn design_geometry(dataset: &Dataset) -> Geometry {
 }
 
 impl Setup {
-    /// Initial estimates of spec section 4 and the observations: `p` = the
+    /// Initial estimates of docs/paper-scenario.md section 4 and the observations: `p` = the
     /// design's canonical parameters; each ball centre = the best fit of its
     /// design-FK contact points with the calibrated radius; each contact's
     /// direction `u0` = from that centre to its design-FK point, or the
@@ -601,7 +601,7 @@ struct ContactSlots<'s, T> {
 /// Which local minimum of a ball's centre fit starts the calibration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum CentreStart {
-    /// The best fit (spec section 4).
+    /// The best fit (docs/paper-scenario.md section 4).
     BestFit,
     /// Its mirror image through the contacts' plane ([`mirror_fit`]).
     Mirror,

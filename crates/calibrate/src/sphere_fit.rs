@@ -1,5 +1,5 @@
 //! Initial ball centres: the best-fit centre of a ball's contact points with
-//! its calibrated radius (spec section 4: "the best-fit centre of its
+//! its calibrated radius (docs/paper-scenario.md section 4: "the best-fit centre of its
 //! contact points computed by forward kinematics with the design parameters,
 //! with the ball's calibrated radius").
 

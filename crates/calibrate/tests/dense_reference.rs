@@ -11,7 +11,7 @@
 //! system (iterative refinement with double-double residuals, [`Refined`])
 //! and their normal-equation residuals are printed, so that a disagreement
 //! says which side is off. With the propagated prior the dense normal matrix
-//! has cond ~1e11 (the near-rigid tilt of spec section 4), and
+//! has cond ~1e11 (the near-rigid tilt of docs/paper-scenario.md section 4), and
 //! `dense_reference::solve` (one Cholesky of `JᵀJ`) is itself off by
 //! ~`cond · eps`: 3e-8 (coordinates) and 5e-9 (radius), against ~1e-10 for
 //! the Schur solver. The comparison with the plain dense solve is therefore

@@ -2,7 +2,7 @@
 //! error taken per contact in the weights ([`RadiusModel::PerContact`],
 //! paper eq. 5), by the NEES of the 33, `(p^ - p)^T Sigma^-1 (p^ - p)`,
 //! over noise seeds of one truth (simulation IV, propagated prior). The
-//! simulator draws each ball's calibrated radius once (spec section 3), as
+//! simulator draws each ball's calibrated radius once (docs/paper-scenario.md section 3), as
 //! the per-ball model states.
 //!
 //! - Where the data outweigh the prior (every noise 100 times smaller than

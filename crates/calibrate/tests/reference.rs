@@ -1,6 +1,6 @@
 //! parcal against the independent implementation's calibrations of the same
-//! dataset (fixtures/reference-paper-seed1, copied from
-//! shared/reference/paper-seed1): same method and modelling choices, so the
+//! dataset (fixtures/reference-paper-seed1, its README says where it
+//! comes from): same method and modelling choices, so the
 //! identified values, sigmas and iteration counts must agree.
 
 use std::path::{Path, PathBuf};

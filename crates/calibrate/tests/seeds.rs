@@ -1,4 +1,4 @@
-//! The paper scenario over seeds 1-5 (spec sections 4-5): simulation IV with
+//! The paper scenario over seeds 1-5 (docs/paper-scenario.md sections 4-5): simulation IV with
 //! the propagated prior recovers the truth and brings the true registered
 //! error on the paper's map to at most 35 um RMS (the reference
 //! implementation: 97 um before, 14-25 um after); the paper-mode runs warn

@@ -2,7 +2,7 @@
 //! `Σ_pp` of the 33 parameters it predicts.
 //!
 //! With `(P J)_k` the registered tip Jacobians of the accuracy map's `N`
-//! points (`parcal_accuracy::registered_jacobians`, spec section 5), the
+//! points (`parcal_accuracy::registered_jacobians`, docs/paper-scenario.md section 5), the
 //! registered tip variance at point `k` is `v_k = trace((P J)_k Σ_pp (P J)_kᵀ)`.
 //!
 //! - [`Criterion::Registered`] (the default): the mean registered variance

@@ -312,8 +312,8 @@ fn plan_with(
 }
 
 /// The prior information of the 33 parameters and the `B` balls' centres
-/// and radii (`33 + 4 B` square): the propagated kinematic prior (spec
-/// section 4); per centre `I / centre_sigma²` when artefacts.json locates
+/// and radii (`33 + 4 B` square): the propagated kinematic prior
+/// (docs/paper-scenario.md section 4); per centre `I / centre_sigma²` when artefacts.json locates
 /// the balls in the canonical frame, else `I /` [`WEAK_CENTRE_SIGMA`]²; per
 /// radius `1 / radius_sigma²` (its calibration); and one row
 /// `(e, −e) / sigma` per calibrated distance, `e` the unit vector between

@@ -160,7 +160,7 @@ pub fn from_input_coordinates(x: &SVector<f64, N_INPUT_COORDINATES>) -> Geometry
 /// geometry of ~100 mm; the canonicalisation is smooth away from degenerate
 /// geometry). Used to propagate input-frame
 /// tolerances to a full prior covariance `G Sigma_x G^T` of the parameters
-/// (spec section 4, propagated prior).
+/// (docs/paper-scenario.md section 4, propagated prior).
 pub fn parameter_jacobian(
     geometry: &Geometry,
 ) -> Result<SMatrix<f64, N_PARAMS, N_INPUT_COORDINATES>, KinematicsError> {

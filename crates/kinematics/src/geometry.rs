@@ -104,7 +104,7 @@ pub fn rotation_zyx(yaw: f64, pitch: f64, roll: f64) -> UnitQuaternion<f64> {
 }
 
 /// The geometries of the paper's table 2 (Sato et al. 2004), in the design
-/// frame, with the two misprints of E6 corrected (spec section 1).
+/// frame, with the two misprints of E6 corrected (docs/paper-scenario.md section 1).
 pub mod paper {
     use super::{Geometry, Vec3};
 

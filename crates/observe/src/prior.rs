@@ -76,7 +76,7 @@ impl KinematicPrior {
         })
     }
 
-    /// Paper eq. (7) as the paper states it (spec section 4, paper mode):
+    /// Paper eq. (7) as the paper states it (docs/paper-scenario.md section 4, paper mode):
     /// mean = the design's canonical parameters (mm), every parameter
     /// independent with standard deviation `sigma` (mm; the paper's 0.1).
     pub fn paper(design_canonical: &Params, sigma: f64) -> Result<Self, ObserveError> {
@@ -87,7 +87,7 @@ impl KinematicPrior {
         )
     }
 
-    /// Paper eq. (7) with the tolerances where they belong (spec section 4,
+    /// Paper eq. (7) with the tolerances where they belong (docs/paper-scenario.md section 4,
     /// propagated mode): each of the 45 input-frame coordinates of `design`
     /// (any base and platform frames) independent with its group's sigma
     /// (mm), propagated through the canonicalisation linearised at the

@@ -1,6 +1,6 @@
 //! The observation covariance `W` of paper eq. (5) and its whitening.
 //!
-//! Three independent repeatabilities perturb each contact (spec section 3):
+//! Three independent repeatabilities perturb each contact (docs/paper-scenario.md section 3):
 //! the actuator values (`σ_a` per actuator), the tool positioning (`σ_t` per
 //! axis) and the ball radius (`σ_r`, along the contact direction). At the
 //! tip they give

@@ -289,7 +289,7 @@ pub fn random_plan(scenario: &Scenario, seed: u64) -> Vec<PlannedTouch> {
     plan
 }
 
-/// A random touch (spec section 3): `u` uniform on the lower hemisphere,
+/// A random touch (docs/paper-scenario.md section 3): `u` uniform on the lower hemisphere,
 /// the orientation's angles uniform in `[-max_tilt, max_tilt]`.
 fn random_touch(scenario: &Scenario, rng: &mut Rng) -> (Vec3, UnitQuaternion<f64>) {
     let u_z = -rng.unit();

@@ -1,6 +1,6 @@
 //! Simulated calibration campaigns written as parcal datasets with their
 //! truth: artefact campaigns (the paper scenario of Sato et al. 2004 and
-//! scaled variants, spec: paper-scenario.md section 3) and instrument
+//! scaled variants, docs/paper-scenario.md section 3) and instrument
 //! campaigns (platform poses or tool points seen by a laser tracker or
 //! motion capture, in sessions: [`simulate_tracker`]), and both of one true
 //! machine in one dataset ([`simulate_mixed`]).

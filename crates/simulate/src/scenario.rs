@@ -1,6 +1,6 @@
 //! What a simulated campaign is: the machine, the artefact layout and the
 //! conditions of the paper's table 1, with the choices the paper leaves open
-//! fixed as in the spec (paper-scenario.md section 3).
+//! fixed as docs/paper-scenario.md section 3 states them.
 
 use nalgebra::UnitQuaternion;
 use parcal_kinematics::{Geometry, Vec3, paper};

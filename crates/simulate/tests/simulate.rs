@@ -1,4 +1,4 @@
-//! The simulated campaign against its own definition (spec section 3).
+//! The simulated campaign against its own definition (docs/paper-scenario.md section 3).
 
 use parcal_dataset::Dataset;
 use parcal_kinematics::Vec3;

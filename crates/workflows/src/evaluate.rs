@@ -1,5 +1,5 @@
 //! What a calibration buys, and how it compares with the truth in
-//! simulation: the accuracy maps of spec section 5 before and after, the
+//! simulation: the accuracy maps of docs/paper-scenario.md section 5 before and after, the
 //! identified values against the true ones, and the normalised estimation
 //! error squared (NEES).
 
@@ -66,7 +66,7 @@ pub struct Accuracy {
     pub predicted: AccuracyMap,
     /// The true machine commanded by the model (simulation only): targets
     /// placed with the truth's own frame transforms, i.e. the same physical
-    /// grid (spec section 5; the reference implementation's choice).
+    /// grid (docs/paper-scenario.md section 5; the reference implementation's choice).
     pub true_error: Option<AccuracyMap>,
 }
 

@@ -3,7 +3,7 @@
 //! - [`evaluate`]: what a calibration buys, the accuracy maps before and
 //!   after, and in simulation the comparison with the truth;
 //! - [`paper`]: the paper study, one simulated dataset of the paper's
-//!   scenario calibrated six ways (simulations I-IV, spec section 4).
+//!   scenario calibrated six ways (simulations I-IV, docs/paper-scenario.md section 4).
 //!
 //! They compute; `parcal-report` writes what they find.
 //!

@@ -1,4 +1,4 @@
-//! The paper study (spec section 4): one dataset of the paper's scenario,
+//! The paper study (docs/paper-scenario.md section 4): one dataset of the paper's scenario,
 //! calibrated as simulations I and II without a prior, and III and IV with
 //! the paper's and with the propagated prior, each with its accuracy maps
 //! before and after against the truth.

@@ -1,4 +1,4 @@
-//! `parcal accuracy`: the accuracy maps of spec section 5 as CSV and SVG.
+//! `parcal accuracy`: the accuracy maps of docs/paper-scenario.md section 5 as CSV and SVG.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -32,7 +32,7 @@ pub const MAX_SENTENCES: usize = 1000;
 pub const MAX_ITERATIONS: usize = 100_000;
 
 /// The identified kinematic parameters, by name (order and names of
-/// paper-scenario.md section 2), with their posterior sigmas.
+/// docs/docs/paper-scenario.md section 2), with their posterior sigmas.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct ParameterTable {
     /// Parameter names, e.g. `y_b2`.

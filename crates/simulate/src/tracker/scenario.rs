@@ -188,7 +188,7 @@ impl TrackerScenario {
         }
     }
 
-    /// A machine in the spirit of Jugglebot (`shared/data/jugglebot`): its
+    /// A machine in the spirit of Jugglebot (`fixtures/jugglebot`): its
     /// nominal 6-6 geometry (base joints on a 410 mm circle, platform
     /// joints on a 219.075 mm circle, retracted legs 640.1966 mm, a tool
     /// point 100 mm above the platform), readings in motor revolutions with
@@ -268,7 +268,7 @@ impl TrackerScenario {
     }
 }
 
-/// Jugglebot's nominal machine (`shared/data/jugglebot/README.md`).
+/// Jugglebot's nominal machine (`fixtures/jugglebot/README.md`).
 mod jugglebot {
     use parcal_kinematics::{Geometry, Vec3};
 
