@@ -11,16 +11,19 @@
 //!   expectation under agreement, `n - tr(Sigma_0^-1 Sigma)`, is below `n`,
 //!   so the test is conservative.
 //!
-//! A prior is contradicted when a parameter has `|z|` beyond the two-sided
-//! 0.1 % quantile (3.29) or the global chi-square is beyond its 99.9 %
-//! quantile (`parcal_report::sentences` words it).
+//! A prior is contradicted when a value has `|z|` beyond the family-wise
+//! two-sided 0.1 % quantile over the `n` values the data inform
+//! (Bonferroni, `z_{1 − 0.001 / (2 n)}`: 3.29 for one value, 4.17 for 33,
+//! 5.79 for 142857, so that a clean run of any size names a value with
+//! probability at most 0.1 %, as data snooping judges the observations) or
+//! the global chi-square is beyond its 99.9 % quantile
+//! (`parcal_report::sentences` words it).
 
 use parcal_observe::KinematicPrior;
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
 
-/// |z| beyond which one prior counts as contradicted (two-sided 0.1 %).
-pub const Z_LIMIT: f64 = 3.29;
-/// Upper tail probability of the global test.
+/// Upper tail probability of the global test, and the family-wise level of
+/// the values' tests.
 const TAIL: f64 = 1e-3;
 /// A value whose posterior variance is within this fraction of its prior
 /// variance is not informed by the data: its estimate is the prior mean up
@@ -88,12 +91,28 @@ impl ConflictTest {
         }
     }
 
+    /// The number of values the data inform (those with a `z`).
+    pub fn informed(&self) -> usize {
+        self.innovations.iter().filter(|i| i.z.is_some()).count()
+    }
+
+    /// The `|z|` beyond which a value counts as contradicted: the two-sided
+    /// quantile at family-wise level 0.1 % over the [`informed`](Self::informed)
+    /// values (Bonferroni, module doc).
+    pub fn z_limit(&self) -> f64 {
+        let tests = self.informed().max(1) as f64;
+        Normal::new(0.0, 1.0)
+            .expect("a standard normal")
+            .inverse_cdf(1.0 - TAIL / (2.0 * tests))
+    }
+
     /// The contradicted priors, the largest `|z|` first.
     pub fn offenders(&self) -> Vec<&Innovation> {
+        let limit = self.z_limit();
         let mut out: Vec<&Innovation> = self
             .innovations
             .iter()
-            .filter(|i| i.z.is_some_and(|z| z.abs() > Z_LIMIT))
+            .filter(|i| i.z.is_some_and(|z| z.abs() > limit))
             .collect();
         out.sort_by(|a, b| z_size(b).total_cmp(&z_size(a)));
         out
@@ -211,5 +230,32 @@ mod tests {
         let test = ConflictTest::new("test", names, &[1e-17, -1e-17], &prior, &posterior, 2e-16);
         assert!(test.innovations.iter().all(|i| i.z.is_none()));
         assert!(!test.conflicts());
+    }
+
+    #[test]
+    fn the_limit_is_family_wise_over_the_values_the_data_inform() {
+        // Many values: |z| = 4.5 is beyond one value's 3.29 but within the
+        // family-wise limit of 142857 values (5.79); |z| = 6 is beyond it.
+        let n = 142_857;
+        let names = (0..n).map(|k| format!("radius {k}"));
+        let mut differences = vec![0.0; n];
+        differences[7] = 4.5;
+        differences[8] = -6.0;
+        let test = ConflictTest::new(
+            "ball radii",
+            names,
+            &differences,
+            &vec![2.0; n],
+            &vec![1.0; n],
+            n as f64,
+        );
+        assert!((test.z_limit() - 5.7909).abs() < 1e-3, "{}", test.z_limit());
+        let offenders = test.offenders();
+        assert_eq!(offenders.len(), 1);
+        assert_eq!(offenders[0].name, "radius 8");
+        // One value: the two-sided 0.1 % quantile itself.
+        let one = ConflictTest::new("one", ["a".to_string()], &[4.5], &[2.0], &[1.0], 20.25);
+        assert!((one.z_limit() - 3.2905).abs() < 1e-3);
+        assert_eq!(one.offenders().len(), 1);
     }
 }

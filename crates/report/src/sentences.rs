@@ -3,7 +3,7 @@
 //! directions. Calibrate keeps the numbers; this module words them.
 
 use parcal_calibrate::CalibrationRun;
-use parcal_calibrate::conflict::{ConflictTest, PaperPriorInconsistency, Z_LIMIT};
+use parcal_calibrate::conflict::{ConflictTest, PaperPriorInconsistency};
 use parcal_calibrate::fit::BallMisfit;
 use parcal_calibrate::reliability::{
     ObservationId, Reliability, UNCONTROLLED, VarianceComponent, critical_value,
@@ -537,10 +537,11 @@ pub fn conflict_warning(test: &ConflictTest) -> Option<String> {
             .take(8)
             .map(|i| format!("{} (z = {:+.1})", i.name, i.z.unwrap_or_default()))
             .collect();
-        let tested = test.innovations.iter().filter(|i| i.z.is_some()).count();
         findings.push(format!(
-            "{} of the {tested} values the data inform lie beyond |z| = {Z_LIMIT}: {}{}",
+            "{} of the {} values the data inform lie beyond |z| = {:.2} (0.1% family-wise): {}{}",
             offenders.len(),
+            test.informed(),
+            test.z_limit(),
             listed.join(", "),
             and_more(offenders.len() - listed.len()),
         ));
