@@ -5,7 +5,7 @@
 
 use nalgebra::DVector;
 use parcal_calibrate::instruments::{
-    Calibrated, InstrumentSetup, cross_validate, setup, validate_calibration,
+    Calibrated, InstrumentRun, InstrumentSetup, cross_validate, setup, validate_calibration,
 };
 use parcal_calibrate::{CalibrateError, CalibrationOptions, InstrumentTable};
 use parcal_dataset::{Dataset, SessionModel};
@@ -34,6 +34,16 @@ fn mixed() -> Dataset {
 fn jugglebot() -> Dataset {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/jugglebot");
     Dataset::read(&dir).unwrap()
+}
+
+/// The fixture's calibration with the default options.
+fn calibrated_jugglebot(dataset: &Dataset) -> InstrumentRun {
+    parcal_calibrate::instruments::calibrate_instruments(
+        dataset,
+        &CalibrationOptions::default(),
+        &mut |_| {},
+    )
+    .unwrap()
 }
 
 /// Every column of the raw (unwhitened) Jacobian of every row against
@@ -255,12 +265,7 @@ fn errors_name_the_row_and_the_session() {
         "{error}"
     );
     let dataset = jugglebot();
-    let run = parcal_calibrate::instruments::calibrate_instruments(
-        &dataset,
-        &CalibrationOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
+    let run = calibrated_jugglebot(&dataset);
     let calibrated = Calibrated::from_record(&run.record(String::new())).unwrap();
     let mut other_day = jugglebot();
     other_day.tracker.sessions = vec!["tuesday".into()];
@@ -333,12 +338,7 @@ fn touch_calibration_predicts_other_touches() {
 fn a_re_mounted_marker_body_is_rejected_and_the_body_origin_named() {
     use parcal_calibrate::instruments::SessionGroup;
     let dataset = jugglebot();
-    let run = parcal_calibrate::instruments::calibrate_instruments(
-        &dataset,
-        &CalibrationOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
+    let run = calibrated_jugglebot(&dataset);
     let record = parcal_report::instruments::record(&run, &dataset);
     assert!(record.global_test.is_some());
     let calibrated = Calibrated::from_record(&record).unwrap();
