@@ -109,7 +109,7 @@ fn a_blunder_is_down_weighted_and_named() {
                 assert!((rms / clean_rms - 1.0).abs() < 0.2, "{case}");
                 assert!(run.verdict().accepted, "{case}");
             }
-            let record = parcal_report::sentences::record(&run, &blundered);
+            let record = parcal_report::record::of_ball_run(&run, &blundered);
             let listed = &record.down_weighted_observations;
             assert_eq!(listed.len(), 1);
             assert_eq!(

@@ -534,7 +534,7 @@ fn a_run_that_did_not_converge_names_no_blunder() {
         let verdict = run.verdict();
         assert!(!verdict.accepted);
         assert_eq!(verdict.global_test, None);
-        let record = parcal_report::sentences::record(&run, &dataset);
+        let record = parcal_report::record::of_ball_run(&run, &dataset);
         assert!(
             record.reasons[0].contains("not a least-squares minimum"),
             "{:?}",
@@ -660,7 +660,7 @@ fn a_common_radius_error_below_its_mdb_passes_and_its_sensitivity_is_stated() {
     }
     let options = CalibrationOptions::default();
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
-    let record = parcal_report::sentences::record(&run, &dataset);
+    let record = parcal_report::record::of_ball_run(&run, &dataset);
     let test = run.global_test.unwrap();
     let sensitivity = &record.diagnostics.as_ref().unwrap().systematic_sensitivity;
     let radius = sensitivity

@@ -21,8 +21,7 @@ use parcal_dataset::{
 use parcal_kinematics::Params;
 use parcal_solver::SpectrumDiagnostics;
 
-use crate::instruments::determined_by;
-use crate::sentences::location;
+use crate::places::location;
 
 /// How many observations each list of [`ObservationTests`] keeps.
 pub const LISTED: usize = 20;
@@ -45,6 +44,30 @@ const _: () = assert!(
 /// inform the parameter (as the prior-data conflict test,
 /// [`parcal_calibrate::conflict`]).
 const NOT_INFORMED: f64 = 1e-9;
+
+/// Posterior over prior sigma below which the data determine a parameter.
+const DATA_DETERMINED: f64 = 0.5;
+/// Posterior over prior sigma above which the prior alone does.
+const PRIOR_DETERMINED: f64 = 0.9;
+
+/// What determined a parameter, from the data's information on it and its
+/// posterior and prior sigmas: `prior (not observed)` when the data carry
+/// no information on it (it moves only through the prior's correlations),
+/// else `data` (the posterior sigma under half the prior's), `prior` (over
+/// 0.9 of it) or `data and prior`.
+pub fn determined_by(data_information: f64, posterior: f64, prior: f64) -> &'static str {
+    if data_information <= 0.0 {
+        return "prior (not observed)";
+    }
+    let ratio = posterior / prior;
+    if ratio < DATA_DETERMINED {
+        "data"
+    } else if ratio > PRIOR_DETERMINED {
+        "prior"
+    } else {
+        "data and prior"
+    }
+}
 
 /// One observation's numbers before they are summarised.
 struct Tested {

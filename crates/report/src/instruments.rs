@@ -7,79 +7,16 @@ use parcal_calibrate::instruments::{InstrumentRun, SessionGroup, Validation};
 use parcal_calibrate::mixed::InstrumentResult;
 use parcal_calibrate::prediction::PredictionTest;
 use parcal_calibrate::verdict::Outcome;
-use parcal_dataset::{
-    Calibration, Dataset, NuisanceCandidate, PredictionTestRecord, ValidationRecord,
-};
+use parcal_dataset::{Calibration, NuisanceCandidate, PredictionTestRecord, ValidationRecord};
 
-use parcal_calibrate::reliability::ObservationId;
-use parcal_calibrate::snooping::Snooped;
-
-use crate::sentences::{checks, solver_status, with_removals, with_verdict};
-
-/// Posterior over prior sigma below which the data determine a parameter.
-const DATA_DETERMINED: f64 = 0.5;
-/// Posterior over prior sigma above which the prior alone does.
-const PRIOR_DETERMINED: f64 = 0.9;
+use crate::diagnostics::determined_by;
+use crate::verdict::solver_status;
 
 /// The status in one sentence.
 pub fn status(run: &InstrumentRun) -> String {
     // An instrument calibration has no group and no point block.
     let none = |_: usize| String::new();
     solver_status(&run.status, &run.names(), none, none)
-}
-
-/// The calibration.json record of `run`: its status, verdict and reasons in
-/// words.
-pub fn record(run: &InstrumentRun, dataset: &Dataset) -> Calibration {
-    record_of(run, dataset, &|observation| observation)
-}
-
-/// [`record`] of a run whose observation `o` is `original(o)` in the
-/// dataset given.
-fn record_of(
-    run: &InstrumentRun,
-    dataset: &Dataset,
-    original: &dyn Fn(ObservationId) -> ObservationId,
-) -> Calibration {
-    let status = status(run);
-    let mut record = run.record(status.clone());
-    let (mut reasons, mut warnings) = (Vec::new(), Vec::new());
-    if let Some(reliability) = &run.reliability {
-        checks(reliability, original, &mut reasons, &mut warnings);
-    }
-    with_verdict(&mut record, &run.verdict(), &status, warnings);
-    record.reasons.extend(reasons);
-    record.diagnostics = Some(crate::diagnostics::of_instrument_run(
-        run, dataset, original,
-    ));
-    record
-}
-
-/// The calibration.json record of an instrument calibration with data
-/// snooping ([`crate::sentences::snooped_record`]).
-pub fn snooped_record(snooped: &Snooped<InstrumentRun>, dataset: &Dataset) -> Calibration {
-    let mut record = record_of(&snooped.run, dataset, &|o| snooped.remaining.original(o));
-    with_removals(&mut record, &snooped.removals, snooped.stopped.as_deref());
-    record
-}
-
-/// What determined a parameter, from the data's information on it and its
-/// posterior and prior sigmas: `prior (not observed)` when the data carry
-/// no information on it (it moves only through the prior's correlations),
-/// else `data` (the posterior sigma under half the prior's), `prior` (over
-/// 0.9 of it) or `data and prior`.
-pub fn determined_by(data_information: f64, posterior: f64, prior: f64) -> &'static str {
-    if data_information <= 0.0 {
-        return "prior (not observed)";
-    }
-    let ratio = posterior / prior;
-    if ratio < DATA_DETERMINED {
-        "data"
-    } else if ratio > PRIOR_DETERMINED {
-        "prior"
-    } else {
-        "data and prior"
-    }
 }
 
 /// The run's summary: rows, residuals, iterations, status, and the verdict

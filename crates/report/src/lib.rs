@@ -1,5 +1,8 @@
-//! What a person reads after a calibration: parameter tables, accuracy maps
-//! (CSV and SVG) and the paper-reproduction report of `parcal paper`.
+//! What a person reads after a calibration: calibration.json's words
+//! ([`record`], built from [`sentences`], [`instruments`], [`checks`],
+//! [`verdict`], [`places`] and [`diagnostics`]), parameter tables, accuracy
+//! maps (CSV and SVG), the HTML/Markdown report of a calibration and the
+//! paper-reproduction report of `parcal paper`.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), parcal_report::ReportError> {
@@ -9,14 +12,18 @@
 //! ```
 
 pub mod calibration_report;
+pub mod checks;
 pub mod compare;
 pub mod diagnostics;
 pub mod instruments;
 pub mod maps;
 pub mod paper;
+pub mod places;
 pub mod plots;
+pub mod record;
 pub mod sentences;
 pub mod tables;
+pub mod verdict;
 
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]

@@ -8,7 +8,8 @@ use parcal_kinematics::{N_PARAMS, PARAM_NAMES};
 use parcal_workflows::evaluate::{Accuracy, BeforeAfter, TrueMachine};
 
 use crate::compare::nees_sentence;
-use crate::sentences::{self, weak_direction};
+use crate::sentences;
+use crate::verdict::{unidentified, weak_direction};
 
 /// Parameter, value, sigma and, with a truth, the true value, the error and
 /// error / sigma (paper tables 3 and 4, with truth columns).
@@ -104,7 +105,7 @@ pub fn run_summary(run: &CalibrationRun, truth: Option<&TrueMachine>) -> String 
                 out,
                 "condition number of the posterior covariance: {condition:.3e}"
             ),
-            n => writeln!(out, "{}", sentences::unidentified(n)),
+            n => writeln!(out, "{}", unidentified(n)),
         };
     }
     if let Some(last) = run.history.last()

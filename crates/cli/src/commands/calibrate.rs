@@ -16,7 +16,7 @@ use parcal_calibrate::{
     PriorMode, RadiusModel, Simulation, WeightModel, bounds, calibrate,
 };
 use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
-use parcal_report::{instruments, sentences, tables};
+use parcal_report::{instruments, record, tables};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 use super::{ReportRequest, report};
@@ -158,12 +158,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let snooped =
             calibrate_with_snooping(&dataset, &options, SNOOPING_LEVEL, MAX_REMOVALS, observer)
                 .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = sentences::snooped_record(&snooped, &dataset);
+        let record = record::of_snooped_ball_run(&snooped, &dataset);
         (snooped.run, record)
     } else {
         let run = calibrate(&dataset, &options, observer)
             .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = sentences::record(&run, &dataset);
+        let record = record::of_ball_run(&run, &dataset);
         (run, record)
     };
     let record = with_stroke_warning(record, &dataset);
@@ -240,12 +240,12 @@ fn run_instruments(
             observer,
         )
         .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = instruments::snooped_record(&snooped, dataset);
+        let record = record::of_snooped_instrument_run(&snooped, dataset);
         (snooped.run, record)
     } else {
         let run = calibrate_instruments(dataset, options, observer)
             .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = instruments::record(&run, dataset);
+        let record = record::of_instrument_run(&run, dataset);
         (run, record)
     };
     let record = with_stroke_warning(record, dataset);
