@@ -39,7 +39,7 @@ const ROUNDING: f64 = 1e-10;
 /// and covariance `covariance` (mm², the prior before calibration, the
 /// posterior after) on `grid`, whose targets and orientation are mapped into
 /// the canonical frames by the `design` geometry's transforms
-/// ([`CanonicalTargets`]). Spec section 5; values in mm.
+/// ([`CanonicalTargets`]), docs/paper-scenario.md section 5; values in mm.
 ///
 /// Errors: an invalid grid or design, non-finite model or covariance, a
 /// target the model cannot reach (infeasible leg or singular pose, naming the

@@ -339,9 +339,8 @@ fn a_re_mounted_marker_body_is_rejected_and_the_body_origin_named() {
     use parcal_calibrate::instruments::SessionGroup;
     let dataset = jugglebot();
     let run = calibrated_jugglebot(&dataset);
-    let record = parcal_report::record::of_instrument_run(&run, &dataset);
-    assert!(record.global_test.is_some());
-    let calibrated = Calibrated::from_record(&record).unwrap();
+    assert!(run.global_test.is_some());
+    let calibrated = Calibrated::of_run(&run).unwrap();
 
     let mut day2 = jugglebot();
     day2.tracker =

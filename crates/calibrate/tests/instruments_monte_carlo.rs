@@ -381,8 +381,7 @@ fn prediction_tests(seeds: std::ops::RangeInclusive<u64>) -> (usize, usize, Vec<
         let run = calibrate_instruments(&calibration, &CalibrationOptions::default(), &mut |_| {})
             .expect("calibration");
         assert!(run.converged(), "seed {seed}: {:?}", run.status);
-        let record = parcal_report::record::of_instrument_run(&run, &calibration);
-        let calibrated = Calibrated::from_record(&record).expect("a converged calibration");
+        let calibrated = Calibrated::of_run(&run).expect("a converged calibration");
         let validation = validate_calibration(
             &sessions_of(&dataset, &[2]),
             &calibrated,

@@ -63,11 +63,7 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
     assert!(up > 0.0, "the start is on the right side already ({up})");
 
     let run = calibrate(&dataset, &options(), &mut |_| {}).unwrap();
-    assert!(
-        run.converged(),
-        "{}",
-        parcal_report::sentences::status(&run)
-    );
+    assert!(run.converged(), "{:?}", run.status);
     let mirrored: Vec<usize> = run.mirrored.iter().map(|m| m.ball).collect();
     assert_eq!(mirrored, [ball]);
     let side = &run.mirrored[0].side;
@@ -76,7 +72,6 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
     assert!(side.chi_square > 40.0, "{side:?}");
     assert!(side.mirror.cost * 10.0 < side.side.cost, "{side:?}");
     assert!(run.ball_misfits.is_empty(), "{:?}", run.ball_misfits);
-    assert!(parcal_report::sentences::notes(&run)[0].contains(&dataset.artefacts.balls[ball].id));
     // Found at the first settled iterate, long before the run converged:
     // the iterate before it still moved the cost by more than SETTLED.
     let at = run.mirrored[0].iteration;

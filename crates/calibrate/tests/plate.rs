@@ -50,11 +50,7 @@ fn registered_rms(scenario: &Scenario, seed: u64) -> Outcome {
         ..CalibrationOptions::simulation(Simulation::IV)
     };
     let run = calibrate(&dataset, &options, &mut |_| {}).expect("calibration");
-    assert!(
-        run.converged(),
-        "seed {seed}: {}",
-        parcal_report::sentences::status(&run)
-    );
+    assert!(run.converged(), "seed {seed}: {:?}", run.status);
     let maps = before_after(Some(&truth), &run, &MapGrid::paper()).expect("maps");
     let after = maps.after.expect("posterior map");
     let true_map = after.true_error.expect("true error map");

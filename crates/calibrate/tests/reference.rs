@@ -97,9 +97,9 @@ fn levenberg_marquardt_reaches_the_gauss_newton_solution() {
     .unwrap();
     assert!(
         gn.converged() && lm.converged(),
-        "{} / {}",
-        parcal_report::sentences::status(&gn),
-        parcal_report::sentences::status(&lm)
+        "{:?} / {:?}",
+        gn.status,
+        lm.status
     );
     let sigmas = gn.sigmas().unwrap();
     for k in 0..33 {

@@ -40,7 +40,7 @@ fn case() -> &'static (Dataset, CalibrationRun) {
 #[test]
 fn a_hundred_thousand_contacts_converge() {
     let (_, run) = case();
-    assert!(run.converged(), "{}", parcal_report::sentences::status(run));
+    assert!(run.converged(), "{:?}", run.status);
 }
 
 #[test]
@@ -52,11 +52,7 @@ fn a_hundred_thousand_shuffled_rows_give_the_same_calibration() {
         "shuffled rows calibrated in {:.2} s",
         start.elapsed().as_secs_f64()
     );
-    assert!(
-        result.converged(),
-        "{}",
-        parcal_report::sentences::status(&result)
-    );
+    assert!(result.converged(), "{:?}", result.status);
     let (params, sigmas) = relative_differences(reference, &result);
     println!("relative difference: parameters {params:.2e}, sigmas {sigmas:.2e}");
     assert!(params < 1e-9, "relative difference {params:e}");
@@ -70,7 +66,7 @@ fn a_hundred_thousand_shuffled_rows_give_the_same_calibration() {
 #[test]
 fn a_hundred_thousand_contacts_recover_the_truth_within_3_sigma() {
     let (dataset, run) = case();
-    assert!(run.converged(), "{}", parcal_report::sentences::status(run));
+    assert!(run.converged(), "{:?}", run.status);
     let truth = TrueMachine::of(dataset)
         .expect("simulated truth")
         .expect("canonical truth");

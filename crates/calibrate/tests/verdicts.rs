@@ -5,7 +5,6 @@
 mod common;
 
 use common::{removed, rms, snoop, true_registered_rms};
-use parcal_accuracy::MapGrid;
 use parcal_calibrate::reliability::{ObservationId, minimal_detectable_bias};
 use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_calibrate::systematic::{Effect, SYSTEMATIC_LEVEL};
@@ -15,7 +14,6 @@ use parcal_calibrate::{
 };
 use parcal_kinematics::Params;
 use parcal_simulate::{Plate, PlatePairs, Scenario, simulate};
-use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 const HUBER: Loss = Loss::Huber { k: HUBER_K };
 const CAUCHY: Loss = Loss::Cauchy { k: CAUCHY_K };
@@ -155,8 +153,6 @@ fn a_wrong_radius_is_named_by_its_radius_prior() {
     assert_eq!(offenders[0].0, "radius b05");
     // The estimate is above the radius given: the touches pull it back.
     assert!(offenders[0].1 > 0.0);
-    let warning = parcal_report::sentences::conflict_warning(radii).unwrap();
-    assert!(warning.contains("radius b05"), "{warning}");
     assert_eq!(run.global_test.unwrap().outcome, Outcome::TooLarge);
 }
 
@@ -501,10 +497,6 @@ fn a_time_limit_stops_the_run_and_rejects_it() {
     assert!(run.gauss_newton.is_none());
     assert_eq!(run.iterations(), 0);
     assert!(!run.verdict().accepted);
-    assert_eq!(
-        parcal_report::sentences::status(&run),
-        "time limit reached without convergence"
-    );
 }
 
 /// A run stopped before it converged, at its initial state (no iteration,
@@ -534,25 +526,6 @@ fn a_run_that_did_not_converge_names_no_blunder() {
         let verdict = run.verdict();
         assert!(!verdict.accepted);
         assert_eq!(verdict.global_test, None);
-        let record = parcal_report::record::of_ball_run(&run, &dataset);
-        assert!(
-            record.reasons[0].contains("not a least-squares minimum"),
-            "{:?}",
-            record.reasons
-        );
-        // Neither an observation, a ball nor a prior is blamed.
-        for sentence in record.reasons.iter().chain(&record.warnings) {
-            for blame in [
-                "normalised residual",
-                "likely a blunder",
-                "far worse than the noise allows",
-                "contradicts the data",
-                "global test",
-            ] {
-                assert!(!sentence.contains(blame), "{sentence}");
-            }
-        }
-        assert!(record.diagnostics.unwrap().observations.is_none());
         let snooped = snoop(&dataset, &options);
         assert!(snooped.removals.is_empty(), "{:?}", removed(&snooped));
         let stopped = snooped.stopped.as_deref().unwrap_or_default();
@@ -643,56 +616,4 @@ fn an_undetected_common_error_of_one_mdb_moves_w_and_the_parameters_as_predicted
         assert!((dw + delta0).abs() < 0.02 * delta0, "{dw}");
         assert!(difference < 0.02, "{difference}");
     }
-}
-
-/// The case: every ball's radius entered 5 um too large on the
-/// paper scenario (seed 1) passes every test, being below the common
-/// radius error's minimal detectable bias, while its true registered error
-/// exceeds the predicted one; the run's record says how large an
-/// undetectable common radius error could be and what it would add
-/// (docs/calibration.md, "Sensitivity to systematic errors").
-#[test]
-fn a_common_radius_error_below_its_mdb_passes_and_its_sensitivity_is_stated() {
-    let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
-    let error = 0.005;
-    for ball in &mut dataset.artefacts.balls {
-        ball.radius += error;
-    }
-    let options = CalibrationOptions::default();
-    let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
-    let record = parcal_report::record::of_ball_run(&run, &dataset);
-    let test = run.global_test.unwrap();
-    let sensitivity = &record.diagnostics.as_ref().unwrap().systematic_sensitivity;
-    let radius = sensitivity
-        .iter()
-        .find(|s| s.effect == "ball radius")
-        .unwrap();
-    let truth = TrueMachine::of(&dataset).unwrap().unwrap();
-    let maps = before_after(Some(&truth), &run, &MapGrid::paper()).unwrap();
-    let after = maps.after.unwrap();
-    let (true_rms, predicted_rms) = (
-        after.true_error.unwrap().registered_summary().rms,
-        after.predicted.registered_summary().rms,
-    );
-    println!(
-        "+{:.0} um on every radius: variance factor {:.3} in [{:.3}, {:.3}], verdict {}; true registered RMS {:.1} um, predicted {:.1} um; radius MDB {:.1} um, its registered map RMS {:.1} um, max {:.1} um",
-        error * 1e3,
-        test.variance_factor,
-        test.interval.0,
-        test.interval.1,
-        record.verdict,
-        true_rms * 1e3,
-        predicted_rms * 1e3,
-        radius.mdb * 1e3,
-        radius.map_rms_um.unwrap(),
-        radius.map_max_um.unwrap()
-    );
-    assert_eq!(record.verdict, "accepted", "{:?}", record.reasons);
-    assert!(radius.mdb > error);
-    let sentence = record
-        .reasons
-        .iter()
-        .find(|r| r.starts_with("an undetectable common ball radius error of up to"))
-        .unwrap();
-    assert!(sentence.contains("to the registered error"), "{sentence}");
 }

@@ -9,7 +9,7 @@
 //!   states it ([`KinematicPrior::paper`]: design mean, every sigma 0.1) or
 //!   with the design tolerances put on the 45 input-frame coordinates and
 //!   propagated through the canonicalisation ([`KinematicPrior::propagated`]:
-//!   a full 33 x 33 covariance). Spec section 4 explains why the second is
+//!   a full 33 x 33 covariance). docs/paper-scenario.md section 4 explains why the second is
 //!   the one consistent with a real machine.
 //! - [`DiagonalPrior`]: independent Gaussians, for the ball centres (3) and
 //!   the contact angles (2).

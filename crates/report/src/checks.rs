@@ -162,3 +162,29 @@ pub(crate) fn and_more(more: usize) -> String {
         String::new()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A robust loss's down-weighted contact is named at its measurements.csv
+    /// line, in the dataset given (`original`).
+    #[test]
+    fn the_down_weighted_sentence_names_the_observation_in_the_dataset_given() {
+        let down_weighted = [DownWeighted {
+            observation: ObservationId::Contact(37),
+            weight: 0.01,
+            residual: 12.0,
+        }];
+        let shifted = |o: ObservationId| match o {
+            ObservationId::Contact(row) => ObservationId::Contact(row + 1),
+            other => other,
+        };
+        let sentence = down_weighted_sentence(&down_weighted, &shifted);
+        assert!(
+            sentence.contains("down-weighted 1 observation")
+                && sentence.contains("measurements.csv line 40"),
+            "{sentence}"
+        );
+    }
+}

@@ -36,3 +36,35 @@ pub(crate) fn place_and_row(observation: ObservationId, row: usize) -> String {
         _ => place(observation),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each kind of observation at its file and line (the header is line 1)
+    /// or field, as a user finds it.
+    #[test]
+    fn an_observation_is_placed_at_its_file_and_line_or_field() {
+        assert_eq!(
+            location(ObservationId::Contact(38)),
+            ("measurements.csv", Some(40), None)
+        );
+        assert_eq!(
+            location(ObservationId::Distance(17)),
+            ("artefacts.json", None, Some("distances[17]".to_string()))
+        );
+        assert_eq!(
+            location(ObservationId::Pose(11)),
+            ("poses.csv", Some(13), None)
+        );
+        assert_eq!(
+            location(ObservationId::Point(23)),
+            ("points.csv", Some(25), None)
+        );
+        assert_eq!(place(ObservationId::Pose(11)), "poses.csv line 13");
+        assert_eq!(
+            place_and_row(ObservationId::Point(23), 1),
+            "points.csv line 25, y"
+        );
+    }
+}

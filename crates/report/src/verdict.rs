@@ -179,3 +179,21 @@ pub fn unidentified(n: usize) -> String {
         if n == 1 { "has" } else { "have" },
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stopped_solver_is_worded_with_its_reason() {
+        let none = |_: usize| String::new();
+        assert_eq!(
+            solver_status(&Status::TimeLimit, &[], none, none),
+            "time limit reached without convergence"
+        );
+        assert_eq!(
+            solver_status(&Status::Stopped { iteration: 3 }, &[], none, none),
+            "stopped at iteration 3"
+        );
+    }
+}
