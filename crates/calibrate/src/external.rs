@@ -20,13 +20,11 @@ use nalgebra::{DMatrix, DVector};
 use parcal_solver::{Problem, RowId, State, normalised_residual, row_influence};
 
 use crate::CalibrateError;
-use crate::reliability::ObservationId;
+use crate::observation::ObservationId;
 
 /// How many observations get their shift: those of largest `λ` (no more
 /// than the checks keep, [`crate::reliability::LEAST_RELIABLE`]).
 pub const SHIFTED: usize = 5;
-
-const _: () = assert!(SHIFTED <= crate::reliability::LEAST_RELIABLE);
 
 /// What an undetected error of one minimal detectable bias in one
 /// observation does to the global block.

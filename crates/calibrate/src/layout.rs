@@ -38,7 +38,7 @@ use std::ops::Range;
 
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_kinematics::params::TOOL_OFFSET;
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Vec3};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3};
 
 /// One named group of the global block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -328,6 +328,13 @@ impl ParameterLayout {
             .flat_map(|(group, _)| group.names(ball_ids, sessions))
             .collect()
     }
+}
+
+/// The kinematic parameters of a global block: its first 33 values.
+pub(crate) fn kinematic_params(global: &DVector<f64>) -> Params {
+    let mut params = Params::zeros();
+    params.copy_from_slice(&global.as_slice()[..N_PARAMS]);
+    params
 }
 
 #[cfg(test)]

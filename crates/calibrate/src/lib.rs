@@ -13,6 +13,9 @@
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`mixed`]: ball touches with measured poses and points;
 //! - [`verdict`]: the global test and the verdict of a run;
+//! - [`observation`]: an observation by its place in the dataset;
+//! - [`hypothesis`]: the tests' shared terms: levels, critical values,
+//!   minimal detectable biases;
 //! - [`reliability`]: redundancy numbers, normalised residuals, variance
 //!   components;
 //! - [`snooping`]: data snooping, the blunders found and removed;
@@ -42,10 +45,12 @@ pub mod conflict;
 mod error;
 pub mod external;
 pub mod fit;
+pub mod hypothesis;
 pub mod instruments;
 pub mod layout;
 pub mod mirror;
 pub mod mixed;
+pub mod observation;
 mod options;
 pub mod prediction;
 pub mod problem;

@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! g = [ p (33) | C_a (3) … | s (6) | F_1 (6) … | B (6) | B_k (3) | o_k (6) … ]
-//!       touches  tied balls  the instrument groups (crate::instruments::run::groups)
+//!       touches  tied balls  the instrument groups (crate::instruments::observations::groups)
 //! ```
 //!
 //! The touches and the instruments see the same kinematic parameters in
@@ -17,7 +17,7 @@
 //! Each pose's six rows and each point's three are weighed once at the
 //! initial estimate ([`InstrumentRows::weigh`]), as the contacts are, and
 //! the instrument groups have the priors of an instrument calibration
-//! (`instruments::run::group_priors`).
+//! (`instruments::observations::group_priors`).
 //!
 //! The touches and the instrument rows read the same actuators: leg `i` is
 //! `l_i + s_i q_i` long for both, and with unknown scales (machine.json's
@@ -30,11 +30,9 @@ use parcal_solver::GlobalObservations;
 
 use crate::CalibrateError;
 use crate::instruments::model::InstrumentModel;
+use crate::instruments::observations::{model_and_rows, residuals, rms};
 use crate::instruments::rows::InstrumentRows;
-use crate::instruments::run::{model_and_rows, residuals, rms};
 use crate::layout::ParameterLayout;
-use crate::problem::CalibrationProblem;
-use crate::reliability::ObservationId;
 
 /// The poses and points of a calibration with ball touches.
 pub struct InstrumentObservations<'a> {
@@ -171,42 +169,5 @@ impl InstrumentResult {
                 )
             })
             .map_or(self.global.len(), |(_, range)| range.start)
-    }
-}
-
-impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
-    /// Number of global observation rows: the distances', then the
-    /// instruments'.
-    pub fn global_rows(&self) -> usize {
-        self.distances.len() + self.instruments.as_ref().map_or(0, |i| i.rows.len())
-    }
-
-    /// The global observations, in the order of their rows: the
-    /// distances, then the poses (6 rows each), then the points (3 rows
-    /// each).
-    pub fn global_observation_ids(&self) -> Vec<ObservationId> {
-        let (poses, points) = self.instruments.as_ref().map_or((0, 0), |i| {
-            let t = i.rows.tracker;
-            (t.poses.len(), t.points.len())
-        });
-        (0..self.distances.len())
-            .map(ObservationId::Distance)
-            .chain((0..poses).map(ObservationId::Pose))
-            .chain((0..points).map(ObservationId::Point))
-            .collect()
-    }
-
-    /// Adds `dataset`'s poses and points to the problem (none without
-    /// them): their rows, weighed at the initial block `initial` (the
-    /// priors of their groups are part of the global prior already,
-    /// [`crate::setup::Setup::problem`]).
-    pub fn attach_instruments(
-        &mut self,
-        dataset: &'p Dataset,
-        initial: &DVector<f64>,
-    ) -> Result<(), CalibrateError> {
-        self.instruments =
-            InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
-        Ok(())
     }
 }

@@ -19,6 +19,7 @@
 use std::ops::Range;
 
 use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector6};
+use parcal_dataset::Dataset;
 use parcal_kinematics::lanes::{PivotOrder, forward_along_batch, forward_jacobian_batch};
 use parcal_kinematics::params::leg_index;
 use parcal_kinematics::{
@@ -34,8 +35,9 @@ use parcal_solver::{
 };
 
 use crate::CalibrateError;
-use crate::layout::{ParameterGroup, ParameterLayout};
+use crate::layout::{ParameterGroup, ParameterLayout, kinematic_params};
 use crate::mixed::InstrumentObservations;
+use crate::observation::ObservationId;
 
 /// Paper eq. (9) for every contact.
 pub struct RadiusObservations {
@@ -352,13 +354,6 @@ impl<const G: usize> BallPrior<G> {
     pub fn gaussian(&self) -> GaussianPrior<Const<G>> {
         GaussianPrior::from_sigmas(self.mean, self.sigma)
     }
-}
-
-/// The kinematic parameters of a global block: its first 33 values.
-pub(crate) fn kinematic_params(global: &DVector<f64>) -> Params {
-    let mut params = Params::zeros();
-    params.copy_from_slice(&global.as_slice()[..N_PARAMS]);
-    params
 }
 
 /// The least-squares problem of one calibration, contacts sorted by ball;
@@ -801,5 +796,42 @@ where
                 .map(|o| o.rows())
                 .collect(),
         )
+    }
+}
+
+impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
+    /// Number of global observation rows: the distances', then the
+    /// instruments'.
+    pub fn global_rows(&self) -> usize {
+        self.distances.len() + self.instruments.as_ref().map_or(0, |i| i.rows.len())
+    }
+
+    /// The global observations, in the order of their rows: the
+    /// distances, then the poses (6 rows each), then the points (3 rows
+    /// each).
+    pub fn global_observation_ids(&self) -> Vec<ObservationId> {
+        let (poses, points) = self.instruments.as_ref().map_or((0, 0), |i| {
+            let t = i.rows.tracker;
+            (t.poses.len(), t.points.len())
+        });
+        (0..self.distances.len())
+            .map(ObservationId::Distance)
+            .chain((0..poses).map(ObservationId::Pose))
+            .chain((0..points).map(ObservationId::Point))
+            .collect()
+    }
+
+    /// Adds `dataset`'s poses and points to the problem (none without
+    /// them): their rows, weighed at the initial block `initial` (the
+    /// priors of their groups are part of the global prior already,
+    /// [`crate::setup::Setup::problem`]).
+    pub fn attach_instruments(
+        &mut self,
+        dataset: &'p Dataset,
+        initial: &DVector<f64>,
+    ) -> Result<(), CalibrateError> {
+        self.instruments =
+            InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
+        Ok(())
     }
 }

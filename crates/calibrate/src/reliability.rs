@@ -36,19 +36,17 @@
 use nalgebra::DMatrix;
 use parcal_dataset::Histogram;
 use parcal_solver::{Problem, State, normalised_residual, point_degrees_of_freedom, redundancy};
-use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::CalibrateError;
 use crate::external::{self, ExternalShift, external_shifts};
+use crate::hypothesis::{SNOOPING_LEVEL, critical_value, minimal_detectable_bias};
+use crate::observation::ObservationId;
 use crate::robust::{self, DownWeighted};
-use crate::snooping::SNOOPING_LEVEL;
 use crate::systematic::SystematicTest;
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
 /// observation counts as uncontrolled.
 pub const UNCONTROLLED: f64 = 0.1;
-/// Power `1 − β` of the minimal detectable bias.
-pub const POWER: f64 = 0.8;
 
 /// The variance component of one group of observations.
 #[derive(Debug, Clone, PartialEq)]
@@ -73,65 +71,6 @@ impl VarianceComponent {
     /// data, which nothing checks).
     pub fn estimable(&self) -> bool {
         self.redundancy >= 1.0
-    }
-}
-
-/// An observation of a dataset, by its place there (0-based): what data
-/// snooping tests and removes as a whole.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum ObservationId {
-    /// A ball touch: its measurements.csv row.
-    Contact(usize),
-    /// A calibrated distance: its index in artefacts.json's `distances`.
-    Distance(usize),
-    /// A measured pose (six rows): its poses.csv row.
-    Pose(usize),
-    /// A measured tool point (three rows): its points.csv row.
-    Point(usize),
-}
-
-impl ObservationId {
-    /// Its whitened rows.
-    pub fn rows(self) -> usize {
-        match self {
-            Self::Contact(_) | Self::Distance(_) => 1,
-            Self::Pose(_) => 6,
-            Self::Point(_) => 3,
-        }
-    }
-
-    /// The tests it adds to the family of data snooping (module doc): one
-    /// for a contact (its rows' `|w|` are equal for the coordinate
-    /// observation, and it has one row for the radius observation) and a
-    /// distance, one per row for a pose or a point.
-    pub fn tests(self) -> usize {
-        match self {
-            Self::Contact(_) => 1,
-            other => other.rows(),
-        }
-    }
-
-    /// The group of its variance component.
-    pub fn group(self) -> &'static str {
-        match self {
-            Self::Contact(_) => "ball touches",
-            Self::Distance(_) => "distances",
-            Self::Pose(_) => "poses",
-            Self::Point(_) => "points",
-        }
-    }
-}
-
-/// Its place, rows 0-based: `measurements.csv row 12`, `distances[3]`,
-/// `poses.csv row 4`, `points.csv row 7`.
-impl std::fmt::Display for ObservationId {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Contact(k) => write!(f, "measurements.csv row {k}"),
-            Self::Distance(k) => write!(f, "distances[{k}]"),
-            Self::Pose(k) => write!(f, "poses.csv row {k}"),
-            Self::Point(k) => write!(f, "points.csv row {k}"),
-        }
     }
 }
 
@@ -254,6 +193,7 @@ impl ObservationCheck {
 /// How many observations of largest bias-to-noise ratio a run keeps
 /// ([`Reliability::least_reliable`]).
 pub const LEAST_RELIABLE: usize = 10;
+const _: () = assert!(external::SHIFTED <= LEAST_RELIABLE);
 
 /// Bins of the histogram of the rows' normalised residuals: `[-6, 6)` by
 /// 0.25.
@@ -625,24 +565,6 @@ fn add_to_component(
             redundancy: numbers.redundancy,
         }),
     }
-}
-
-/// The critical value of data snooping over `tests` tests at family-wise
-/// level `level` (Bonferroni): `z_{1 − level / (2 tests)}`.
-pub fn critical_value(level: f64, tests: usize) -> f64 {
-    standard_normal().inverse_cdf(1.0 - level / (2.0 * tests.max(1) as f64))
-}
-
-/// The minimal detectable bias of an observation of redundancy `r`, in
-/// units of its standard deviation, for a test at `level` (two-sided) with
-/// power [`POWER`]: `(z_{1−level/2} + z_{POWER}) / √r`.
-pub fn minimal_detectable_bias(r: f64, level: f64) -> f64 {
-    let normal = standard_normal();
-    (normal.inverse_cdf(1.0 - level / 2.0) + normal.inverse_cdf(POWER)) / r.sqrt()
-}
-
-fn standard_normal() -> Normal {
-    Normal::new(0.0, 1.0).expect("a standard normal")
 }
 
 #[cfg(test)]

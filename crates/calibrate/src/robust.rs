@@ -32,13 +32,13 @@
 //! down-weighted blunder, so the snooping test is not part of the verdict
 //! and [`crate::snooping`] refuses a robust loss; instead a run that
 //! down-weights more observations than snooping would remove
-//! ([`crate::snooping::MAX_REMOVALS`]) is rejected, its model rather than a
+//! ([`crate::hypothesis::MAX_REMOVALS`]) is rejected, its model rather than a
 //! few blunders being wrong.
 
 use parcal_solver::{HUBER_K, Loss};
 
-use crate::reliability::ObservationId;
-use crate::snooping::MAX_REMOVALS;
+use crate::hypothesis::MAX_REMOVALS;
+use crate::observation::ObservationId;
 
 /// The loss a calibration with `loss` starts with, if not `loss` itself:
 /// Huber's (at [`HUBER_K`]) for Cauchy's, whose `ψ` redescends and whose

@@ -19,10 +19,11 @@ use parcal_solver::{
 
 use crate::conflict::{ConflictTest, PaperPriorInconsistency, paper_prior_consistency};
 use crate::fit::{BallMisfit, misfit_balls};
+use crate::layout::kinematic_params;
 use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::mirror::{SETTLED, WrongSide, wrong_side};
 use crate::mixed::InstrumentResult;
-use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations, kinematic_params};
+use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations};
 use crate::reliability::Reliability;
 use crate::robust::START_TOLERANCE;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
@@ -125,7 +126,7 @@ impl CalibrationRun {
             .as_ref()
             .is_some_and(|r| match &r.down_weighted {
                 Some(down_weighted) => crate::robust::too_many(down_weighted),
-                None => r.fails_snooping(crate::snooping::SNOOPING_LEVEL),
+                None => r.fails_snooping(crate::hypothesis::SNOOPING_LEVEL),
             });
         Verdict::new(&self.status, self.global_test, outlier)
     }

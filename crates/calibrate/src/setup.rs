@@ -20,7 +20,7 @@ use parcal_observe::{
 use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
 
-use crate::instruments::run::{group_priors, initial_block};
+use crate::instruments::observations::{self, group_priors, initial_block};
 use crate::layout::ParameterLayout;
 use crate::problem::{
     ActuatorScales, BallPrior, CalibrationProblem, CoordinateObservations, DistanceObservation,
@@ -141,7 +141,7 @@ impl Setup {
             &tied_balls(dataset),
             options.radius == RadiusModel::PerBall,
         )
-        .extended(crate::instruments::run::groups(dataset));
+        .extended(observations::groups(dataset));
         let setup = Self {
             layout,
             radius: options.radius,

@@ -19,14 +19,11 @@
 use parcal_dataset::Dataset;
 use parcal_solver::IterationRecord;
 
+use crate::hypothesis::critical_value;
 use crate::instruments::{InstrumentRun, calibrate_instruments};
-use crate::reliability::{ObservationId, Reliability, critical_value};
+use crate::observation::ObservationId;
+use crate::reliability::Reliability;
 use crate::{CalibrateError, CalibrationOptions, CalibrationRun, MIN_CONTACTS_PER_BALL, calibrate};
-
-/// The default family-wise level of data snooping.
-pub const SNOOPING_LEVEL: f64 = 0.05;
-/// The default limit of removals.
-pub const MAX_REMOVALS: usize = 10;
 
 /// One removed observation.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -28,7 +28,7 @@
 //! linear in both effects, so the two values give the quadratic exactly.
 //!
 //! **Sensitivity.** The smallest effect the test finds with power
-//! [`POWER`](crate::reliability::POWER) at level [`SYSTEMATIC_LEVEL`], its minimal detectable bias,
+//! [`POWER`](crate::hypothesis::POWER) at level [`SYSTEMATIC_LEVEL`], its minimal detectable bias,
 //! is `|∇| = δ₀ σ_t = δ₀ / √(cᵀPc)`, `δ₀ = z_{1−α₀/2} + z_{POWER}`: an
 //! effect of that size moves `E(w)` to `δ₀` (Baarda 1968). An effect
 //! `∇` that goes undetected shifts the estimate of the global block by
@@ -46,8 +46,8 @@ use nalgebra::DVector;
 use parcal_solver::{Problem, State, linear_step};
 
 use crate::CalibrateError;
+use crate::hypothesis::{critical_value, minimal_detectable_bias};
 use crate::problem::{CalibrationProblem, ContactObservations};
-use crate::reliability::{critical_value, minimal_detectable_bias};
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest};
 
 /// The level of each systematic test (Baarda's `α₀` of one test).
@@ -134,7 +134,7 @@ impl SystematicTest {
 
     /// The effect's minimal detectable bias `δ₀ σ_t` (in [`Effect::unit`]):
     /// the smallest the test finds at [`SYSTEMATIC_LEVEL`] with power
-    /// [`POWER`](crate::reliability::POWER).
+    /// [`POWER`](crate::hypothesis::POWER).
     pub fn minimal_detectable_bias(&self) -> f64 {
         minimal_detectable_bias(1.0, SYSTEMATIC_LEVEL) * self.sigma
     }

@@ -65,7 +65,7 @@ fn shuffled_rows_give_the_same_calibration() {
         let (ours, theirs) = (b.observation(k), a.observation(from));
         assert_eq!(
             ours.observation(),
-            parcal_calibrate::reliability::ObservationId::Contact(k)
+            parcal_calibrate::observation::ObservationId::Contact(k)
         );
         redundancy = redundancy.max((ours.redundancy() - theirs.redundancy()).abs());
         let w = |c: &parcal_calibrate::reliability::ObservationCheck| c.normalised().unwrap().abs();

@@ -7,8 +7,9 @@
 mod common;
 
 use common::{cost_bits, true_registered_rms};
-use parcal_calibrate::reliability::ObservationId;
-use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL, calibrate_with_snooping};
+use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
+use parcal_calibrate::observation::ObservationId;
+use parcal_calibrate::snooping::calibrate_with_snooping;
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{
     CAUCHY_K, CalibrateError, CalibrationOptions, CalibrationRun, HUBER_K, Loss, calibrate,

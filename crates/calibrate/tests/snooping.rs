@@ -7,7 +7,7 @@ mod common;
 
 use common::{removed, snoop, snoop_instruments};
 use parcal_calibrate::CalibrationOptions;
-use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::observation::ObservationId;
 use parcal_dataset::Dataset;
 use parcal_simulate::{
     Plate, PlatePairs, Scenario, TrackerKind, TrackerScenario, simulate, simulate_tracker,

@@ -5,8 +5,9 @@
 mod common;
 
 use common::{removed, rms, snoop, true_registered_rms};
-use parcal_calibrate::reliability::{ObservationId, minimal_detectable_bias};
-use parcal_calibrate::snooping::SNOOPING_LEVEL;
+use parcal_calibrate::hypothesis::SNOOPING_LEVEL;
+use parcal_calibrate::hypothesis::minimal_detectable_bias;
+use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::systematic::{Effect, SYSTEMATIC_LEVEL};
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{

@@ -2,11 +2,11 @@
 //! snooping's test or a robust loss's down-weighted observations, external
 //! reliability, uncontrolled observations.
 
-use parcal_calibrate::reliability::{
-    ObservationId, Reliability, UNCONTROLLED, VarianceComponent, critical_value,
-};
+use parcal_calibrate::hypothesis::critical_value;
+use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
+use parcal_calibrate::observation::ObservationId;
+use parcal_calibrate::reliability::{Reliability, UNCONTROLLED, VarianceComponent};
 use parcal_calibrate::robust::{DOWN_WEIGHTED, DownWeighted, too_many};
-use parcal_calibrate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL};
 
 use crate::places::{location, place, place_and_row};
 

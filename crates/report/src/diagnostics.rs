@@ -5,12 +5,13 @@
 
 use parcal_accuracy::{MapGrid, parameter_error};
 use parcal_calibrate::CalibrationRun;
+use parcal_calibrate::hypothesis::SNOOPING_LEVEL;
+use parcal_calibrate::hypothesis::{POWER, critical_value, minimal_detectable_bias};
 use parcal_calibrate::instruments::InstrumentRun;
+use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::reliability::{
-    ObservationCheck as Check, ObservationId, POWER, Reliability, UNCONTROLLED, VarianceComponent,
-    critical_value, minimal_detectable_bias,
+    ObservationCheck as Check, Reliability, UNCONTROLLED, VarianceComponent,
 };
-use parcal_calibrate::snooping::SNOOPING_LEVEL;
 use parcal_calibrate::systematic::{SYSTEMATIC_LEVEL, SystematicTest};
 use parcal_calibrate::verdict::{GlobalTest, Outcome};
 use parcal_dataset::{
@@ -36,7 +37,7 @@ const _: () = assert!(
     LISTED <= parcal_dataset::MAX_LISTED
         && WEAK_DIRECTIONS <= parcal_dataset::MAX_LISTED
         && parcal_calibrate::external::SHIFTED <= parcal_dataset::MAX_LISTED
-        && parcal_calibrate::snooping::MAX_REMOVALS <= parcal_dataset::MAX_LISTED
+        && parcal_calibrate::hypothesis::MAX_REMOVALS <= parcal_dataset::MAX_LISTED
         && REDUNDANCY_BINS <= parcal_dataset::MAX_BINS
         && parcal_calibrate::reliability::NORMALISED_BINS.2 <= parcal_dataset::MAX_BINS
 );

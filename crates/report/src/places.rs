@@ -1,7 +1,7 @@
 //! Where an observation is, as a user finds it: its file and line (CSV,
 //! header = line 1) or field (JSON).
 
-use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::observation::ObservationId;
 use parcal_dataset::{ARTEFACTS_FILE, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE};
 
 /// Where an observation is, as a user finds it: `measurements.csv line

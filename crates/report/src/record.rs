@@ -6,7 +6,7 @@
 
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::instruments::InstrumentRun;
-use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::snooping::Snooped;
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::{Calibration, Dataset};

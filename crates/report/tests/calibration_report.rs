@@ -1,7 +1,7 @@
 //! calibration.json's diagnostics against the run they summarise, and the
 //! report of one calibration rendered from them.
 
-use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::observation::ObservationId;
 use std::path::Path;
 
 use parcal_calibrate::{CalibrationOptions, calibrate};

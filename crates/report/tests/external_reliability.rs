@@ -8,7 +8,7 @@ use std::path::Path;
 
 use nalgebra::{Matrix3x6, Vector3, Vector6};
 use parcal_accuracy::{MapGrid, parameter_error};
-use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::{CalibrationOptions, WeightModel, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::{ForwardOptions, Params, Vec3, forward, forward_from_home, params};

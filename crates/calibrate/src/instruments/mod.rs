@@ -21,6 +21,7 @@
 //! parameters each kind of data determines.
 
 pub mod model;
+pub mod observations;
 pub mod problem;
 pub mod rows;
 pub mod run;

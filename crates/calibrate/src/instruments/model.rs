@@ -19,8 +19,8 @@ use parcal_kinematics::params::TOOL_OFFSET;
 use parcal_kinematics::{Geometry, Params, Vec3, params};
 use parcal_observe::FrameCorrection;
 
+use crate::layout::kinematic_params;
 use crate::layout::{ParameterGroup, ParameterLayout};
-use crate::problem::kinematic_params;
 
 /// The global block's layout and the fixed references of the frames.
 #[derive(Debug, Clone, PartialEq)]

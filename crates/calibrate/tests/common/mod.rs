@@ -6,13 +6,13 @@
 
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
 use parcal_accuracy::MapGrid;
+use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
 use parcal_calibrate::instruments::InstrumentModel;
 use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::layout::ParameterGroup;
-use parcal_calibrate::reliability::ObservationId;
+use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::snooping::{
-    MAX_REMOVALS, SNOOPING_LEVEL, Snooped, calibrate_instruments_with_snooping,
-    calibrate_with_snooping,
+    Snooped, calibrate_instruments_with_snooping, calibrate_with_snooping,
 };
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation};
 use parcal_dataset::{Dataset, FrameRecord};

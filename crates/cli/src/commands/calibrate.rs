@@ -7,10 +7,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use parcal_accuracy::MapGrid;
+use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
 use parcal_calibrate::instruments::calibrate_instruments;
-use parcal_calibrate::snooping::{
-    MAX_REMOVALS, SNOOPING_LEVEL, calibrate_instruments_with_snooping, calibrate_with_snooping,
-};
+use parcal_calibrate::snooping::{calibrate_instruments_with_snooping, calibrate_with_snooping};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
     PriorMode, RadiusModel, Simulation, WeightModel, bounds, calibrate,
