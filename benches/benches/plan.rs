@@ -1,10 +1,10 @@
 //! `parcal plan` at the paper's budget: 189 touches of the 27 balls within
 //! +-30 degrees chosen from a pool of about 20,000 candidates (the
 //! command's defaults: the registered criterion, one run of at most three
-//! exchange passes). docs/design.md records the pool size and the time.
+//! exchange passes). docs/plan.md records the pool size and the time.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use parcal_design::{PlanOptions, plan};
+use parcal_plan::{PlanOptions, plan};
 use parcal_simulate::{Scenario, simulate};
 use std::hint::black_box;
 

@@ -1,5 +1,5 @@
 //! Every count flag parsed within its bounds ([`parcal_dataset::bounds`]):
-//! `#[arg(long, value_parser = Bounded(parcal_design::POOL))]`. A value
+//! `#[arg(long, value_parser = Bounded(parcal_plan::POOL))]`. A value
 //! outside them is a usage error (exit status 2) naming the flag, the
 //! bounds and why, before anything is read or allocated.
 

@@ -97,8 +97,8 @@ pub use parcal_accuracy as accuracy;
 pub use parcal_apply as apply;
 pub use parcal_calibrate as calibration;
 pub use parcal_dataset as dataset;
-pub use parcal_design as design;
 pub use parcal_kinematics as kinematics;
+pub use parcal_plan as plan;
 pub use parcal_simulate as simulation;
 
 // The data: a dataset in memory, its files, a calibration's record.

@@ -1,5 +1,5 @@
 //! `parcal plan`: which ball touches, or which platform poses for an
-//! instrument, to measure (docs/design.md).
+//! instrument, to measure (docs/plan.md).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use parcal_calibrate::RadiusModel;
 use parcal_dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
-use parcal_design::plan_file::{summary_path, write_plan};
-use parcal_design::tracker::plan_file::write_pose_plan;
-use parcal_design::tracker::{PosePlanOptions, plan_poses};
-use parcal_design::{Criterion, CriterionValues, PlanOptions, bounds, plan, plan_next};
+use parcal_plan::plan_file::{summary_path, write_plan};
+use parcal_plan::tracker::plan_file::write_pose_plan;
+use parcal_plan::tracker::{PosePlanOptions, plan_poses};
+use parcal_plan::{Criterion, CriterionValues, PlanOptions, bounds, plan, plan_next};
 use parcal_simulate::Workspace;
 
 use crate::bounds::Bounded;
@@ -79,7 +79,7 @@ pub struct Args {
     after: Option<PathBuf>,
     /// Largest angle between the approach direction and the stylus axis,
     /// degrees: the shaft clears the ball within it.
-    #[arg(long, default_value_t = parcal_design::pool::MAX_APPROACH_DEGREES)]
+    #[arg(long, default_value_t = parcal_plan::pool::MAX_APPROACH_DEGREES)]
     max_approach: f64,
     /// How the calibration will treat the balls' calibrated radii, as
     /// `parcal calibrate --radius`: each ball's radius an unknown with its
@@ -133,7 +133,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         per_ball: args.per_ball,
         min_balls: args
             .min_balls
-            .unwrap_or_else(|| parcal_design::select::default_min_balls(contacts)),
+            .unwrap_or_else(|| parcal_plan::select::default_min_balls(contacts)),
         restarts: args.restarts,
         max_approach_degrees: args.max_approach,
         radius: args.radius.unwrap_or(defaults.radius),

@@ -8,9 +8,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use parcal_dataset::{Dataset, DatasetError, WriteOptions};
-use parcal_design::plan_file::read_plan;
-use parcal_design::tracker::plan_file::read_pose_plan;
 use parcal_kinematics::rotation_zyx;
+use parcal_plan::plan_file::read_plan;
+use parcal_plan::tracker::plan_file::read_pose_plan;
 use parcal_simulate::{
     COUNT, PlannedTouch, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind,
     TrackerScenario, ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,

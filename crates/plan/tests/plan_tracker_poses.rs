@@ -1,4 +1,4 @@
-//! A cheap version of docs/design.md's tracker evidence: plan 30 poses of
+//! A cheap version of docs/plan.md's tracker evidence: plan 30 poses of
 //! the paper's machine seen by a laser tracker's pose measurement, simulate
 //! exactly those with the truth of table 2 over several noise seeds,
 //! calibrate, and compare with 30 random poses of the same workspace and
@@ -8,9 +8,9 @@ use parcal_accuracy::{MapGrid, true_error};
 use parcal_calibrate::CalibrationOptions;
 use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_dataset::{Dataset, SessionModel};
-use parcal_design::Criterion;
-use parcal_design::tracker::{PosePlan, PosePlanOptions, plan_poses};
 use parcal_kinematics::Geometry;
+use parcal_plan::Criterion;
+use parcal_plan::tracker::{PosePlan, PosePlanOptions, plan_poses};
 use parcal_simulate::{TrackerKind, TrackerScenario, simulate_tracker};
 
 const SEEDS: u64 = 4;
@@ -139,7 +139,7 @@ fn planned_poses_beat_random_ones_and_their_prediction_holds() {
     assert!((0.5..2.0).contains(&ratio), "true {ratio} x predicted");
 }
 
-/// docs/design.md's table (`cargo test -p parcal-design --test
+/// docs/plan.md's table (`cargo test -p parcal-plan --test
 /// plan_tracker_poses -- --ignored --nocapture`): budgets 15, 30 and 60,
 /// 8 seeds.
 #[test]
@@ -157,8 +157,8 @@ fn evidence_table() {
 
 /// Two sessions with re-homed legs (0.5 mm) and a re-mounted marker body
 /// (0.2 mm, 1 mrad): the plan of 30 poses, 15 per session, against 15
-/// random poses per session; docs/design.md's two-session table
-/// (`cargo test -p parcal-design --test plan_tracker_poses two_sessions --
+/// random poses per session; docs/plan.md's two-session table
+/// (`cargo test -p parcal-plan --test plan_tracker_poses two_sessions --
 /// --ignored --nocapture`).
 #[test]
 #[ignore = "the documented run: a few minutes"]

@@ -1,10 +1,10 @@
-//! docs/design.md's scaling table and plot: for each budget and tilt, plan
+//! docs/plan.md's scaling table and plot: for each budget and tilt, plan
 //! the touches of the paper's 27 balls (default options), simulate exactly
 //! those with the truth of table 2 over noise seeds 1..=S, calibrate with
 //! the default options, and compare the plan's predicted registered RMS
 //! with the true one (mean and standard deviation over the seeds).
 //!
-//! `cargo run --release -p parcal-benches --example design_scaling -- docs/design-scaling.svg [S [R]]`
+//! `cargo run --release -p parcal-benches --example plan_scaling -- docs/plan-scaling.svg [S [R]]`
 //! (S noise seeds, 5 by default; R the sigma of the balls' calibrated radii
 //! in um, the paper scenario's by default).
 
@@ -12,7 +12,7 @@ use std::path::Path;
 
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::{CalibrationOptions, calibrate};
-use parcal_design::{PlanOptions, plan};
+use parcal_plan::{PlanOptions, plan};
 use parcal_report::plots::{LineChart, Series, line_chart};
 use parcal_simulate::{Scenario, simulate};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
@@ -29,7 +29,7 @@ struct Case {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let out = args.next().unwrap_or_else(|| "design-scaling.svg".into());
+    let out = args.next().unwrap_or_else(|| "plan-scaling.svg".into());
     let seeds: u64 = args.next().map_or(Ok(5), |s| s.parse())?;
     let paper = match args.next() {
         Some(sigma) => Scenario {

@@ -1,7 +1,7 @@
 //! The bounds of a plan's counts ([`parcal_dataset::bounds`]), checked by
 //! [`crate::plan`] and [`crate::tracker::plan_poses`] before any work and
 //! by `parcal plan` as it parses its flags. The figures behind them are in
-//! docs/design.md ("Speed"): 189 touches from a pool of about 20,000 take
+//! docs/plan.md ("Speed"): 189 touches from a pool of about 20,000 take
 //! about 7 s on 2 cores, and the time grows with the budget times the
 //! pool times the restarts.
 

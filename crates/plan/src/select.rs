@@ -96,7 +96,7 @@ pub struct SelectOptions {
 /// touches: enough balls that each has on average at most twice the
 /// reader's minimum, `⌊N / (2 m)⌋`, so that a small budget still spreads
 /// over the artefact (a metrologist's choice: the criterion alone prefers
-/// few balls touched often, docs/design.md).
+/// few balls touched often, docs/plan.md).
 pub fn default_min_balls(contacts: usize) -> usize {
     contacts / (2 * min_touches_per_ball())
 }

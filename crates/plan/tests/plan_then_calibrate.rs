@@ -1,4 +1,4 @@
-//! A cheap version of docs/design.md's evidence: plan the touches of a
+//! A cheap version of docs/plan.md's evidence: plan the touches of a
 //! small campaign, simulate exactly those with the truth of table 2 over
 //! several noise seeds, calibrate, and compare with random touches of the
 //! same budget and tilt.
@@ -6,7 +6,7 @@
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::{CalibrationOptions, RadiusModel, calibrate};
 use parcal_dataset::Dataset;
-use parcal_design::{Plan, PlanOptions, plan, plan_next};
+use parcal_plan::{Plan, PlanOptions, plan, plan_next};
 use parcal_simulate::{Scenario, simulate};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
 
@@ -210,15 +210,15 @@ fn a_plan_keeps_every_joint_within_machine_json_limits() {
         &design.tool,
         &design.leg_lengths,
     );
-    let balls = parcal_design::nominal_balls(&design, &template.artefacts).unwrap();
+    let balls = parcal_plan::nominal_balls(&design, &template.artefacts).unwrap();
     // The largest base and platform leans of a plan's touches (degrees),
     // from the leg vectors R E_i + t - B_i about +z of each frame.
-    let largest_leans = |plan: &parcal_design::Plan| {
+    let largest_leans = |plan: &parcal_plan::Plan| {
         let mut largest = (0.0f64, 0.0f64);
         for c in &plan.contacts {
             let ball = &balls[c.ball];
             let rotation = c.rotation();
-            let pose = parcal_design::pool::tip_pose(
+            let pose = parcal_plan::pool::tip_pose(
                 &design,
                 &(ball.centre + ball.radius * c.direction),
                 rotation,
@@ -255,7 +255,7 @@ fn a_plan_keeps_every_joint_within_machine_json_limits() {
     );
 }
 
-/// docs/design.md's small-budget table (`cargo test -p parcal-design --test
+/// docs/plan.md's small-budget table (`cargo test -p parcal-plan --test
 /// plan_then_calibrate small_budget -- --ignored --nocapture`): 95 touches
 /// of the paper's 27 balls, the criterion's choice of balls (`min_balls`
 /// 0) against the default floor, 5 noise seeds each.
@@ -265,7 +265,7 @@ fn small_budget_evidence() {
     let paper = Scenario::paper();
     let template = simulate(&paper, 1).unwrap().dataset;
     for tilt in [10.0, 30.0] {
-        for min_balls in [0, parcal_design::select::default_min_balls(95)] {
+        for min_balls in [0, parcal_plan::select::default_min_balls(95)] {
             let options = PlanOptions {
                 min_balls,
                 ..PlanOptions::new(95, tilt)

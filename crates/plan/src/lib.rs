@@ -1,8 +1,8 @@
-//! Measurement design for hexapod artefact calibration: which ball touches
+//! Measurement planning (`parcal plan`) for hexapod artefact calibration: which ball touches
 //! to measure, at which platform orientations, so that the calibrated
 //! machine is most accurate for a given number of touches. The paper
 //! (Sato et al., Meas. Sci. Technol. 15 (2004) 1158) measures at random and
-//! names the choice as future work; docs/design.md gives the method and
+//! names the choice as future work; docs/plan.md gives the method and
 //! the figures.
 //!
 //! - [`bounds`]: the bounds of every count a plan is asked for;
@@ -200,7 +200,7 @@ pub fn nominal_balls(
 }
 
 /// Plans `options.contacts` touches of the balls of `artefacts` on the
-/// machine of `machine` (module doc, docs/design.md); `progress` hears one
+/// machine of `machine` (module doc, docs/plan.md); `progress` hears one
 /// line per stage, run and exchange pass.
 pub fn plan(
     machine: &Machine,
