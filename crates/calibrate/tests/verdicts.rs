@@ -73,7 +73,7 @@ const BLUNDER_ITERATIONS: usize = 1000;
 /// that, and snooping removes nothing. A blunder can leave its ball's
 /// initial sphere fit unconverged; the fit's last iterate is then the
 /// start. The robust losses on the same draws are printed (their runs
-/// that did not converge are rejected; docs/calibration.md).
+/// that did not converge are rejected; docs/verdicts.md).
 #[test]
 fn a_gross_blunder_is_never_accepted_and_removed_where_the_run_converges() {
     let (row, draws) = (38, 30);
@@ -296,7 +296,7 @@ fn a_plate_scale_error_is_rejected_and_named() {
 /// design drawn about the truth by the design tolerance (so that the prior
 /// holds as the tests assume: with the fixed truth of table 2 the prior
 /// rows do not scatter, and the variance factor spreads less than
-/// chi-square's, docs/calibration.md): the variance factor has the mean and spread of
+/// chi-square's, docs/verdicts.md): the variance factor has the mean and spread of
 /// `χ²(r)/r` (mean within 4 standard errors of 1, standard deviation
 /// within 10 % of `√(2/r)`: 4 standard errors of a sample deviation over
 /// 1000 draws are 9 %); the global test (5 %, two-sided) rejects at its

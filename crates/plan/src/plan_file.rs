@@ -1,4 +1,4 @@
-//! plan.csv and plan.json (docs/dataset-format.md, "Plans").
+//! plan.csv and plan.json (docs/outputs-format.md, "plan.csv and plan.json").
 //!
 //! plan.csv, one touch per row:
 //! `ball,u_x,u_y,u_z,roll,pitch,yaw,q1,q2,q3,q4,q5,q6`: the ball id, the

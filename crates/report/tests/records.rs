@@ -52,7 +52,7 @@ fn the_record_of_a_run_that_did_not_converge_blames_nothing() {
 /// radius error's minimal detectable bias, while its true registered error
 /// exceeds the predicted one; the run's record says how large an
 /// undetectable common radius error could be and what it would add
-/// (docs/calibration.md, "Sensitivity to systematic errors").
+/// (docs/verdicts.md, "Sensitivity to systematic errors").
 #[test]
 fn a_common_radius_error_below_its_mdb_passes_and_its_sensitivity_is_stated() {
     let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;

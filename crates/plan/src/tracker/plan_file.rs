@@ -1,4 +1,4 @@
-//! plan.csv and plan.json of a pose plan (docs/dataset-format.md, "Plans").
+//! plan.csv and plan.json of a pose plan (docs/outputs-format.md, "plan.csv and plan.json").
 //!
 //! plan.csv, one pose per row:
 //! `session,roll,pitch,yaw,x,y,z,q1,q2,q3,q4,q5,q6`: the session's label
