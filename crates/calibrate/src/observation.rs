@@ -47,15 +47,15 @@ impl ObservationId {
     }
 }
 
-/// Its place, rows 0-based: `measurements.csv row 12`, `distances[3]`,
-/// `poses.csv row 4`, `points.csv row 7`.
+/// Its kind and index, 0-based: `contact 12`, `distance 3`, `pose 4`,
+/// `point 7` (the report names its file and line).
 impl std::fmt::Display for ObservationId {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Self::Contact(k) => write!(f, "measurements.csv row {k}"),
-            Self::Distance(k) => write!(f, "distances[{k}]"),
-            Self::Pose(k) => write!(f, "poses.csv row {k}"),
-            Self::Point(k) => write!(f, "points.csv row {k}"),
+            Self::Contact(k) => write!(f, "contact {k}"),
+            Self::Distance(k) => write!(f, "distance {k}"),
+            Self::Pose(k) => write!(f, "pose {k}"),
+            Self::Point(k) => write!(f, "point {k}"),
         }
     }
 }

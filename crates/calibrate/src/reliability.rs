@@ -357,13 +357,13 @@ impl Reliability {
         })?;
         if let Some(i) = bad_row {
             return Err(failed(format!(
-                "contact {i} of the solver has no measurements.csv row of its own among {}",
+                "contact {i} of the solver has no measured contact of its own among {}",
                 rows.len()
             )));
         }
         if points != rows.len() {
             return Err(failed(format!(
-                "{points} contacts checked for {} measurements.csv rows",
+                "{points} contacts checked for {} measured contacts",
                 rows.len()
             )));
         }

@@ -334,12 +334,12 @@ pub fn validate_calibration(
     let tracker = &dataset.tracker;
     if tracker.is_empty() {
         return Err(CalibrateError::Calibration {
-            reason: "the dataset has no poses.csv or points.csv to validate on".into(),
+            reason: "the dataset has no measured poses or points to validate on".into(),
         });
     }
     if !tracker.points.is_empty() && calibrated.value(PARAM_NAMES[TOOL_OFFSET]).is_none() {
         return Err(CalibrateError::Calibration {
-            reason: "it did not calibrate the tool (x_eT, y_eT, z_eT: its data, poses alone, do not observe it), and points.csv measures the tool".into(),
+            reason: "it did not calibrate the tool (x_eT, y_eT, z_eT: its data, poses alone, do not observe it), and measured points see the tool".into(),
         });
     }
     let sessions = tracker.sessions.len();
