@@ -93,7 +93,8 @@ fn nees_over_simulated_printers_matches_the_identifiable_count() {
     // printers are drawn from the priors, so the posterior covariance is
     // the error's: E[NEES] = 12.
     let delta = parcal_kinematics::delta::LinearDelta::typical();
-    let gauge = delta.gauge_freedoms(&vec![0.0; 16]).map_or(5, |g| g.len());
+    let design = parcal_kinematics::mechanism::design(&delta);
+    let gauge = delta.gauge_freedoms(design.as_slice()).unwrap().len();
     let expected = delta.parameters().len() + 1 - gauge;
     let (mean, standard_error, rank) = nees_over(30, 4);
     eprintln!("NEES over 30 printers: {mean:.3} +- {standard_error:.3} (rank {rank})");
@@ -104,15 +105,138 @@ fn nees_over_simulated_printers_matches_the_identifiable_count() {
     );
 }
 
+/// The undetermined directions in which every diagonal rod has a
+/// component of one sign (at least 0.25 prior sigma each): the common
+/// scale of the rods, which with the radius sets the XY scale.
+fn rod_scale_directions(run: &MechanismCalibration) -> usize {
+    let identifiability = run.identifiability.as_ref().expect("a covariance");
+    identifiability
+        .undetermined
+        .iter()
+        .filter(|direction| {
+            let rods: Vec<f64> = ["diagonal_a", "diagonal_b", "diagonal_c"]
+                .iter()
+                .filter_map(|rod| {
+                    direction
+                        .components
+                        .iter()
+                        .find(|(name, _)| name == rod)
+                        .map(|c| c.1)
+                })
+                .collect();
+            rods.len() == 3 && (rods.iter().all(|&v| v > 0.0) || rods.iter().all(|&v| v < 0.0))
+        })
+        .count()
+}
+
 #[test]
-fn explore() {
-    for distances in [0, 4] {
-        let dataset = simulate_delta(&scenario(3, distances), 3).unwrap();
-        let run = calibrate(&dataset, &MechanismOptions::default());
-        eprintln!("{:?}", run.reasons);
-        for p in &run.parameters {
-            eprintln!("{} {:.4} +- {:?}", p.name, p.value, p.sigma);
-        }
-        eprintln!("{:#?}", run.identifiability);
+fn probe_heights_leave_the_xy_scale_to_the_prior_and_a_part_distance_sets_it() {
+    let probes_only = simulate_delta(&scenario(3, 0), 3).unwrap();
+    let run = calibrate(&probes_only, &MechanismOptions::default());
+    assert!(run.verdict.accepted, "{:?}", run.reasons);
+    let statements = &run.identifiability.as_ref().unwrap().statements;
+    eprintln!("probe heights alone: {statements:#?}");
+    assert_eq!(rod_scale_directions(&run), 1, "{statements:?}");
+    assert!(
+        statements
+            .iter()
+            .any(|s| s.contains("diagonal_a") && s.contains("its prior sets it")),
+        "{statements:?}"
+    );
+    // The trigger height against the bed's height: no probe tells them
+    // apart, its prior alone sets it.
+    let ratio = |run: &MechanismCalibration, name: &str| {
+        let k = run.parameters.iter().position(|p| p.name == name).unwrap();
+        run.identifiability.as_ref().unwrap().sigma_ratio[k].unwrap()
+    };
+    assert!(ratio(&run, TRIGGER_HEIGHT) > 0.99);
+
+    // The same printer with four part distances: the rods' common scale
+    // is determined, and the rods' sigmas shrink.
+    let with_distances = simulate_delta(&scenario(3, 4), 3).unwrap();
+    let measured = calibrate(&with_distances, &MechanismOptions::default());
+    assert!(measured.verdict.accepted, "{:?}", measured.reasons);
+    eprintln!(
+        "with four part distances: {:#?}",
+        measured.identifiability.as_ref().unwrap().statements
+    );
+    assert_eq!(rod_scale_directions(&measured), 0);
+    for rod in ["diagonal_a", "diagonal_b", "diagonal_c", "radius"] {
+        assert!(
+            ratio(&measured, rod) < ratio(&run, rod),
+            "{rod}: {} with distances, {} without",
+            ratio(&measured, rod),
+            ratio(&run, rod)
+        );
     }
+}
+
+#[test]
+fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
+    let mut dataset = simulate_delta(&scenario(5, 4), 5).unwrap();
+    let blunder = 11;
+    dataset.probes[blunder][2] += 0.3;
+    let probe = ObservationRef {
+        kind: ObservationKind::Probe,
+        index: blunder,
+    };
+    let plain = calibrate(&dataset, &MechanismOptions::default());
+    assert!(!plain.verdict.accepted);
+    assert_eq!(plain.worst().map(|w| w.0), Some(probe));
+    assert!(
+        plain.reasons.iter().any(|r| r.contains("probe height 11")),
+        "{:?}",
+        plain.reasons
+    );
+    let snooped = calibrate(&dataset, &MechanismOptions::default().with_snooping(true));
+    eprintln!("{:#?}", snooped.reasons);
+    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
+    assert_eq!(snooped.removals[0].observation, probe);
+    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+    assert!(snooped.snooping_stopped.is_none());
+    // The remaining observations keep their places in the data given.
+    assert!(snooped.observations.iter().all(|c| c.observation != probe));
+    assert!(snooped.observations.iter().any(
+        |c| c.observation.index == blunder + 1 && c.observation.kind == ObservationKind::Probe
+    ));
+}
+
+#[test]
+fn readings_at_unknown_and_measured_poses_calibrate_a_delta() {
+    // Point samples only: 40 at unknown poses (three readings fix a pose
+    // of three coordinates: they carry no redundancy), 12 at measured
+    // poses (10 um per coordinate), which determine the parameters.
+    let scenario = DeltaScenario {
+        rings: 1,
+        per_ring: 3,
+        unknown_samples: 40,
+        known_samples: 12,
+        ..scenario(9, 0)
+    };
+    let mut dataset = simulate_delta(&scenario, 9).unwrap();
+    dataset.probes.clear();
+    let run = calibrate(&dataset, &MechanismOptions::default());
+    assert!(run.converged(), "{:?}", run.reasons);
+    assert!(run.parameter(TRIGGER_HEIGHT).is_none());
+    assert_eq!(run.poses.len(), 52);
+    // A sample at an unknown pose is not checked by the others.
+    let unknown = run
+        .observations
+        .iter()
+        .find(|c| c.observation.kind == ObservationKind::Sample && c.observation.index == 20)
+        .unwrap();
+    assert!(unknown.redundancy.iter().all(|&r| r < 1e-8), "{unknown:?}");
+    // Its pose absorbs its readings whole: no residual is left.
+    assert!(
+        unknown.residuals.iter().all(|e| e.abs() < 1e-6),
+        "{unknown:?}"
+    );
+    let n = 16;
+    // The estimate is consistent with the truth: its NEES within the
+    // chi-square's 99.9 % quantile of its rank (11: no trigger height).
+    let truth = canonical_truth(&dataset);
+    let error = run.values() - truth.rows(0, n);
+    let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
+    assert_eq!(rank, 11);
+    assert!(value < 31.26, "NEES {value:.2} over 11 dimensions");
 }

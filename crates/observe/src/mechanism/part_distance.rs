@@ -43,7 +43,7 @@ impl PartDistance {
         let (second, d_second) = reached(mechanism, params, configured, &self.second)?;
         let offset = first - second;
         let length = offset.norm();
-        if !(length > 0.0) {
+        if length == 0.0 || length.is_nan() {
             return Err(MechanismError::Unreachable {
                 reason: "the two positions of a distance coincide".to_string(),
             });
