@@ -4,7 +4,7 @@
 use parcal_kinematics::mechanism::MechanismError;
 use parcal_solver::Status;
 
-use super::data::ObservationRef;
+use super::observation::ObservationRef;
 
 /// Why [`calibrate_mechanism`](super::calibrate_mechanism) failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -14,8 +14,9 @@ use parcal_solver::{
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
 
-use super::data::{MAX_ACTUATORS, MIN_ACTUATORS, MechanismData, ObservationKind, ObservationRef};
+use super::data::{MAX_ACTUATORS, MIN_ACTUATORS, MechanismData};
 use super::error::MechanismCalibrationError;
+use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::problem::MechanismProblem;
 

@@ -20,8 +20,9 @@ use parcal_kinematics::mechanism::MechanismError;
 use parcal_observe::mechanism::Rows;
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem};
 
-use super::data::{MechanismData, ObservationKind, ObservationRef};
+use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
+use super::observation::{ObservationKind, ObservationRef};
 
 /// The problem of [`MechanismData`] (module doc).
 pub(crate) struct MechanismProblem<'a> {

@@ -11,11 +11,12 @@ use parcal_solver::Status;
 use crate::reliability::critical_value;
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
-use super::data::{MechanismData, ObservationRef, ParameterPrior};
+use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
 use super::fit::{Fit, ObservationCheck};
 use super::frame::canonical;
 use super::identifiability::{Identifiability, Inputs, identifiability};
+use super::observation::ObservationRef;
 use super::options::MechanismOptions;
 
 /// The name of the trigger height among the estimated unknowns.
