@@ -8,11 +8,12 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_calibrate::mechanism::{
     MechanismCalibration, MechanismData, MechanismOptions, ObservationKind, ObservationRef,
-    TRIGGER_HEIGHT, calibrate_mechanism,
+    Observations, TRIGGER_HEIGHT, calibrate_mechanism,
 };
 use parcal_dataset::mechanism::MechanismDataset;
 use parcal_kinematics::delta::DeltaParams;
 use parcal_kinematics::mechanism::Mechanism;
+use parcal_observe::mechanism::CommandedPoint;
 use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 
@@ -77,12 +78,18 @@ fn nees_over(draws: u64, distances: usize) -> (f64, f64, usize) {
         values.push(value);
         ranks.push(rank);
     }
+    ranks.dedup();
+    assert_eq!(ranks.len(), 1, "the identifiable count varies: {ranks:?}");
+    let (mean, standard_error) = mean_and_standard_error(&values);
+    (mean, standard_error, ranks[0])
+}
+
+/// The mean of `values` and its standard error from their spread.
+fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
     let n = values.len() as f64;
     let mean = values.iter().sum::<f64>() / n;
     let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    ranks.dedup();
-    assert_eq!(ranks.len(), 1, "the identifiable count varies: {ranks:?}");
-    (mean, (variance / n).sqrt(), ranks[0])
+    (mean, (variance / n).sqrt())
 }
 
 #[test]
@@ -239,4 +246,54 @@ fn readings_at_unknown_and_measured_poses_calibrate_a_delta() {
     let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
     assert_eq!(rank, 11);
     assert!(value < 31.26, "NEES {value:.2} over 11 dimensions");
+}
+
+#[test]
+fn positions_measured_at_commanded_positions_calibrate_a_delta() {
+    // A tracker measures the nozzle at 27 commanded positions (10 um per
+    // coordinate) of 30 printers drawn from their priors: no trigger
+    // height, 16 parameters less 5 gauge freedoms, 11 identifiable
+    // unknowns; the mean NEES within 4 standard errors of 11.
+    let values: Vec<f64> = (0..30).map(commanded_points_nees).collect();
+    let (mean, standard_error) = mean_and_standard_error(&values);
+    eprintln!(
+        "NEES over 30 printers measured at commanded positions: {mean:.3} +- {standard_error:.3}"
+    );
+    assert!(
+        (mean - 11.0).abs() < 4.0 * standard_error,
+        "mean NEES {mean:.3} +- {standard_error:.3}, expected 11"
+    );
+}
+
+/// The NEES of the calibration of printer `seed` from 27 positions
+/// measured at commanded positions.
+fn commanded_points_nees(seed: u64) -> f64 {
+    let dataset = simulate_delta(&scenario(seed, 0), seed).unwrap();
+    let truth = &dataset.truth.as_ref().unwrap().parameters;
+    let data = MechanismData::from_dataset(&dataset).unwrap();
+    let delta = data.mechanism.clone();
+    let mut noise = Rng::new(seed, 2000);
+    let mut points = Vec::new();
+    for i in 0..27 {
+        let grid = |k: usize| 60.0 * (k % 3) as f64 - 60.0;
+        let commanded = [grid(i), grid(i / 3), 20.0 + 50.0 * (i / 9) as f64];
+        let q = delta.inverse(&data.configured, &commanded).unwrap();
+        let reached = delta.forward(truth, q.as_slice(), &commanded).unwrap();
+        points.push(CommandedPoint {
+            commanded,
+            measured: std::array::from_fn(|k| reached[k] + noise.normal(0.01)),
+            sigma: [0.01; 3],
+        });
+    }
+    let data = data.with_observations(Observations {
+        points,
+        ..Observations::default()
+    });
+    let run = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    assert!(run.converged(), "seed {seed}: {:?}", run.reasons);
+    let n = delta.parameters().len();
+    let error = run.values() - canonical_truth(&dataset).rows(0, n);
+    let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
+    assert_eq!(rank, 11, "seed {seed}");
+    value
 }
