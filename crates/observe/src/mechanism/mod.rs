@@ -1,5 +1,5 @@
 //! Observation kinds of any mechanism with a 3-coordinate pose (a linear
-//! delta, a cable robot) through the [`Mechanism`] trait: each gives its
+//! delta, a cable robot) through the [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: each gives its
 //! whitened residual rows and their analytic Jacobians with respect to the
 //! true parameters `p` (and its own other unknowns).
 //!
