@@ -1,7 +1,8 @@
 //! Observation kinds of any mechanism with a 3-coordinate pose (a linear
-//! delta, a cable robot) through the [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: each gives its
-//! whitened residual rows and their analytic Jacobians with respect to the
-//! true parameters `p` (and its own other unknowns).
+//! delta, a cable robot) through the
+//! [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: each gives
+//! its whitened residual rows and their analytic Jacobians with respect to
+//! the true parameters `p` (and its own other unknowns).
 //!
 //! - [`ProbeHeight`]: a probe triggering on the bed, `(z(x) − h) / σ`
 //!   (1 row; unknowns `p`, the trigger height `h`);
