@@ -3,7 +3,7 @@
 
 use parcal_solver::Loss;
 
-use crate::snooping::{MAX_REMOVALS, SNOOPING_LEVEL};
+use crate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
 
 use super::error::MechanismCalibrationError;
 

@@ -8,7 +8,7 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_solver::Status;
 
-use crate::reliability::critical_value;
+use crate::hypothesis::critical_value;
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
 use super::data::{MechanismData, ParameterPrior};

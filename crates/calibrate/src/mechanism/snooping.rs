@@ -2,7 +2,7 @@
 //! [`crate::snooping`] does the hexapod's: at a least-squares minimum, if
 //! the observation of largest normalised residual exceeds the critical
 //! value of the family (`|w| > z_{1 − α/(2m)}`, `m` data rows,
-//! Bonferroni: [`crate::reliability::critical_value`]), remove it as a
+//! Bonferroni: [`crate::hypothesis::critical_value`]), remove it as a
 //! whole and calibrate again; stop when none exceeds it, when the limit of
 //! removals is reached, or when the calibration fails without it. Every
 //! observation of the result is named by its place in the data given.
