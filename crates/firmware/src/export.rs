@@ -128,17 +128,19 @@ pub fn export(
     })
 }
 
-/// One sentence of the position errors over `workspace`, in µm.
+/// One sentence of the position errors over `workspace`, in µm
+/// ([`PositionErrors`]).
 pub fn cost_sentence(cost: &PositionErrors, workspace: &Workspace) -> String {
     let um = |mm: f64| mm * 1000.0;
     format!(
-        "first layer Z error RMS {:.2} um, max {:.2} um over the printable disc of radius {} mm; 3D error RMS {:.2} um, max {:.2} um over the cylinder to {} mm",
+        "first layer Z error RMS {:.2} um, max {:.2} um over the printable disc of radius {} mm; 3D error RMS {:.2} um, max {:.2} um over the cylinder to {} mm; besides, a first-layer height offset of {:.2} um (set by the first-layer test)",
         um(cost.flatness_rms),
         um(cost.flatness_max),
         workspace.print_radius,
         um(cost.volume_rms),
         um(cost.volume_max),
-        workspace.height
+        workspace.height,
+        um(cost.z_offset)
     )
 }
 
