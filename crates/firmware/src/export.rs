@@ -133,7 +133,7 @@ pub fn export(
 pub fn cost_sentence(cost: &PositionErrors, workspace: &Workspace) -> String {
     let um = |mm: f64| mm * 1000.0;
     format!(
-        "first layer Z error RMS {:.2} um, max {:.2} um over the printable disc of radius {} mm; 3D error RMS {:.2} um, max {:.2} um over the cylinder to {} mm; besides, a first-layer height offset of {:.2} um (set by the first-layer test)",
+        "first layer Z error RMS {:.2} um, max {:.2} um over the printable disc of radius {:.1} mm; 3D error RMS {:.2} um, max {:.2} um over the cylinder to {:.1} mm; besides, a first-layer height offset of {:.2} um (set by the first-layer test)",
         um(cost.flatness_rms),
         um(cost.flatness_max),
         workspace.print_radius,
