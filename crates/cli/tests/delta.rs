@@ -185,3 +185,107 @@ fn a_format_of_another_mechanism_is_refused() {
     assert!(err.contains("linear delta"), "{err}");
     assert!(!d.join("hal").exists());
 }
+
+#[test]
+fn a_hexapod_calibration_is_not_exported_for_a_printer() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = common::copy_fixture("paper-seed1", dir.path(), &common::PAPER_FILES);
+    ok(&["calibrate", s(&data)]);
+    let out = dir.path().join("new.g");
+    let err = fails(&[
+        "export",
+        "--calibration",
+        s(&data.join("calibration.json")),
+        "--format",
+        "reprapfirmware",
+        "--print-radius",
+        "100",
+        "--out",
+        s(&out),
+    ]);
+    assert!(
+        err.contains("a hexapod calibration; --format reprapfirmware exports a linear delta's"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_blunder_is_named_and_removed_by_snooping() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    // Probe 10 (line 12) reads 0.3 mm off.
+    let probes = fs::read_to_string(d.join("probes.csv")).unwrap();
+    let mut lines: Vec<String> = probes.lines().map(String::from).collect();
+    let fields: Vec<f64> = lines[11].split(',').map(|v| v.parse().unwrap()).collect();
+    lines[11] = format!("{},{},{}", fields[0], fields[1], fields[2] + 0.3);
+    fs::write(d.join("probes.csv"), lines.join("\n") + "\n").unwrap();
+    let data = d.join("data");
+    ok(&[
+        "import",
+        "reprapfirmware",
+        "--config",
+        s(&d.join("config.g")),
+        "--probes",
+        s(&d.join("probes.csv")),
+        "--out",
+        s(&data),
+    ]);
+    // Without snooping the blunder fails the tests; with it, probe height
+    // 10 (0-based) is removed and the rest pass.
+    let err = fails(&["calibrate", s(&data)]);
+    assert!(err.contains("rejected"), "{err}");
+    let summary = ok(&["calibrate", s(&data), "--snoop"]);
+    assert!(
+        summary.contains("removed by data snooping: probe height 10 "),
+        "{summary}"
+    );
+    assert!(summary.contains("Verdict: accepted"), "{summary}");
+    // An option of the hexapod's calibration is refused by name.
+    let err = fails(&["calibrate", s(&data), "--lm"]);
+    assert!(
+        err.contains("--lm applies to a hexapod's calibration"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    ok(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--seed",
+        "5",
+        "--part-distances",
+        "3",
+        "--out",
+        s(&sim),
+    ]);
+    for file in ["machine.json", "probes.csv", "distances.csv", "truth.json"] {
+        assert!(sim.join(file).exists(), "{file}");
+    }
+    let summary = ok(&["calibrate", s(&sim)]);
+    assert!(summary.contains("3 part distances"), "{summary}");
+    let err = fails(&[
+        "simulate",
+        "--mechanism",
+        "scara",
+        "--out",
+        s(&dir.path().join("other")),
+    ]);
+    assert!(err.contains("unknown"), "{err}");
+    let err = fails(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--probe-rings",
+        "50",
+        "--out",
+        s(&dir.path().join("other")),
+    ]);
+    assert!(err.contains("--probe-rings"), "{err}");
+}
