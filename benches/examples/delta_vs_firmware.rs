@@ -4,18 +4,23 @@
 //! parcal's calibration, on the same probe heights, and parcal with a few
 //! part distances added.
 //!
-//! `cargo run --release -p parcal-benches --example delta_vs_firmware -- [PRINTERS [SEED]]`
-//! (30 printers and seed 1 by default).
+//! `cargo run --release -p parcal-benches --example delta_vs_firmware -- [PRINTERS [SEED [DRAW]]]`
+//! (30 printers, seed 1 and DRAW `uniform` by default; or `prior`).
 //!
 //! Each printer (its own random stream of the seed): rods 250-300 mm,
 //! delta radius 120-150 mm, homed height 300 mm, printable radius 0.75 of
 //! the delta radius or less, so that no arm leans more than about 64
-//! degrees (the farthest tower at most 0.9 of a rod away); off its nominal configuration by uniform errors of
-//! +-0.3 mm (endstops, each rod, radius, tower radii) and +-0.3 degree
-//! (tower angles), a bed tilt of +-0.1 %; probed at the centre and 3 rings
-//! of 8 points out to the printable radius, 10 um of probe noise. Part
-//! distances: 3 across a printed disc on the first layer, along 0, 60 and
-//! 120 degrees, 90 % of the printable diameter, measured to 10 um.
+//! degrees (the farthest tower at most 0.9 of a rod away). Its errors
+//! about that configuration: `uniform`, within +-0.3 mm (endstops, each
+//! rod, radius, tower radii, homed height) and +-0.3 degree (tower
+//! angles), a bed tilt within +-0.1 %, tighter than the builder's
+//! tolerances that parcal's prior states; `prior`, a draw of that prior
+//! (normal, the default tolerances as sigmas). Probed at the centre and 3
+//! rings of 8 points out to the printable radius, 10 um of probe noise.
+//! Part distances: 6 chords of the circle of 0.9 times the printable
+//! radius on the first layer (3 diameters and the triangle of the towers'
+//! directions), measured to 10 um. parcal's prior: the configuration and
+//! the default tolerances, the trigger height to 0.05 mm.
 //!
 //! Errors (`parcal_firmware::accuracy`): the machine's canonical frame,
 //! the first layer's height offset removed; flatness at z = 0 over the
@@ -34,7 +39,9 @@ use parcal_firmware::accuracy::{PositionErrors, Workspace, position_errors};
 use parcal_firmware::autocal::auto_calibrate;
 use parcal_firmware::probes::ProbePoint;
 use parcal_firmware::rrf::RrfDelta;
-use parcal_kinematics::delta::{DeltaParams, LinearDelta, N_PARAMS, probe_height, probe_rings};
+use parcal_kinematics::delta::{
+    DeltaParams, LinearDelta, N_PARAMS, Tolerances, probe_height, probe_rings,
+};
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{PartDistance, ProbeHeight};
 use parcal_simulate::Rng;
@@ -45,6 +52,30 @@ const MAX_PRINTERS: usize = 10_000;
 const PROBE_SIGMA: f64 = 0.01;
 /// The part distances' noise (mm).
 const DISTANCE_SIGMA: f64 = 0.01;
+/// The part distances: chords of the circle of 0.9 times the printable
+/// radius on the first layer, between the angles given (degrees): three
+/// diameters and the triangle of the towers' directions.
+const CHORDS: [(f64, f64); 6] = [
+    (0.0, 180.0),
+    (60.0, 240.0),
+    (120.0, 300.0),
+    (210.0, 330.0),
+    (330.0, 90.0),
+    (90.0, 210.0),
+];
+/// The first layer's height, where the part distances are measured (mm).
+const FIRST_LAYER: f64 = 0.2;
+
+/// How a printer's errors are drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Draw {
+    /// Uniform within +-0.3 mm or degree (tilt +-0.1 %): tighter than the
+    /// builder's tolerances, which the prior states.
+    Uniform,
+    /// Normal with the builder's tolerances: a draw of the prior.
+    Prior,
+}
+
 /// The probe's trigger height (mm, `G31 Z`), and the sigma of its prior
 /// (a first-layer test's).
 const TRIGGER_HEIGHT: (f64, f64) = (0.7, 0.05);
@@ -64,13 +95,8 @@ struct Distance {
     measured: f64,
 }
 
-/// A uniform deviate in `[-scale, scale)`.
-fn uniform(rng: &mut Rng, scale: f64) -> f64 {
-    rng.uniform(-scale, scale)
-}
-
 /// Printer `index` of `seed` (module documentation).
-fn printer(seed: u64, index: u64) -> Printer {
+fn printer(seed: u64, index: u64, draw: Draw) -> Printer {
     let mut rng = Rng::new(seed, index);
     let diagonal = rng.uniform(250.0, 300.0);
     let radius = rng.uniform(120.0, 150.0);
@@ -82,14 +108,25 @@ fn printer(seed: u64, index: u64) -> Printer {
         ..RrfDelta::default()
     };
     let mut truth = configured.to_params();
+    // Uniform errors within +-0.3 (tilt +-0.1), or a draw of the prior.
+    let (d, u) = (draw == Draw::Prior, &mut rng);
+    let mut error = |tolerance: f64, bound: f64| {
+        if d {
+            u.normal(tolerance)
+        } else {
+            u.uniform(-bound, bound)
+        }
+    };
+    let t = Tolerances::default();
     for i in 0..3 {
-        truth.endstop[i] += uniform(&mut rng, 0.3);
-        truth.diagonal[i] += uniform(&mut rng, 0.3);
-        truth.tower_radius[i] += uniform(&mut rng, 0.3);
-        truth.angle[i] += uniform(&mut rng, 0.3);
+        truth.endstop[i] += error(t.endstop, 0.3);
+        truth.diagonal[i] += error(t.diagonal, 0.3);
+        truth.tower_radius[i] += error(t.tower_radius, 0.3);
+        truth.angle[i] += error(t.angle, 0.3);
     }
-    truth.radius += uniform(&mut rng, 0.3);
-    truth.tilt = [uniform(&mut rng, 0.1), uniform(&mut rng, 0.1)];
+    truth.radius += error(t.radius, 0.3);
+    truth.homed_height += error(t.homed_height, 0.3);
+    truth.tilt = [error(t.tilt, 0.1), error(t.tilt, 0.1)];
     let delta = kinematics(&configured);
     let (t, c) = (truth.to_vector(), configured.to_params().to_vector());
     let probes = probe_rings(configured.print_radius, 3, 8)
@@ -101,19 +138,21 @@ fn printer(seed: u64, index: u64) -> Printer {
                 + rng.normal(PROBE_SIGMA),
         })
         .collect();
-    let half = 0.9 * configured.print_radius;
-    let distances = [0.0f64, 60.0, 120.0]
-        .into_iter()
-        .map(|angle| {
-            let (sin, cos) = angle.to_radians().sin_cos();
-            let first = [half * cos, half * sin, 0.2];
-            let second = [-half * cos, -half * sin, 0.2];
-            let reached = |target: &[f64; 3]| {
-                let q = delta.inverse(c.as_slice(), target).expect("reach");
-                delta
-                    .forward(t.as_slice(), q.as_slice(), target)
-                    .expect("reach")
-            };
+    let ring = 0.9 * configured.print_radius;
+    let on_ring = |angle: f64| {
+        let (sin, cos) = angle.to_radians().sin_cos();
+        [ring * cos, ring * sin, FIRST_LAYER]
+    };
+    let reached = |target: &[f64; 3]| {
+        let q = delta.inverse(c.as_slice(), target).expect("reach");
+        delta
+            .forward(t.as_slice(), q.as_slice(), target)
+            .expect("reach")
+    };
+    let distances = CHORDS
+        .iter()
+        .map(|&(from, to)| {
+            let (first, second) = (on_ring(from), on_ring(to));
             let measured = (reached(&first) - reached(&second)).norm() + rng.normal(DISTANCE_SIGMA);
             Distance {
                 first,
@@ -216,6 +255,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let printers: usize = args.next().map_or(Ok(30), |s| s.parse())?;
     let seed: u64 = args.next().map_or(Ok(1), |s| s.parse())?;
+    let draw = match args.next().as_deref() {
+        None | Some("uniform") => Draw::Uniform,
+        Some("prior") => Draw::Prior,
+        Some(other) => return Err(format!("DRAW is uniform or prior, got {other}").into()),
+    };
     if !(2..=MAX_PRINTERS).contains(&printers) {
         return Err(format!("PRINTERS must be from 2 to {MAX_PRINTERS}, got {printers}").into());
     }
@@ -225,13 +269,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "RepRapFirmware 7-factor",
         "RepRapFirmware 9-factor",
         "parcal, probe heights",
-        "parcal, probe heights and 3 part distances",
+        "parcal, probe heights and 6 part distances",
     ];
     let results: Vec<Vec<PositionErrors>> = (0..printers as u64)
-        .map(|index| errors(&printer(seed, index)))
+        .map(|index| errors(&printer(seed, index, draw)))
         .collect();
     println!(
-        "{printers} printers, seed {seed}: mean over the printers (standard error), um; paired difference of the RMS against the 9-factor fit"
+        "{printers} printers, seed {seed}, errors {draw:?}: mean over the printers (standard error), um; paired difference of the RMS against the 9-factor fit"
     );
     println!(
         "| method | flatness RMS | flatness max | 3D RMS | 3D max | flatness RMS - 9-factor | 3D RMS - 9-factor |"
