@@ -32,8 +32,9 @@ fn truth() -> DeltaParams {
     p
 }
 
-/// Writes config.g and the noiseless probe heights of [`truth`] at 37
-/// points (the centre and 3 rings of 12 out to 95 mm) into `dir`.
+/// Writes config.g, the noiseless probe heights of [`truth`] at 37
+/// points (the centre and 3 rings of 12 out to 95 mm) and 3 part
+/// distances (distances.csv) into `dir`.
 fn printer(dir: &Path) {
     fs::write(dir.join("config.g"), CONFIG).unwrap();
     let configured = read_config(&dir.join("config.g")).unwrap().delta;
@@ -45,6 +46,26 @@ fn printer(dir: &Path) {
         csv.push_str(&format!("{x:.3},{y:.3},{z:.4}\n"));
     }
     fs::write(dir.join("probes.csv"), csv).unwrap();
+    // Three diameters of a printed disc on the first layer, measured.
+    let mut csv = String::from("x1,y1,z1,x2,y2,z2,distance\n");
+    for angle in [0.0f64, 60.0, 120.0] {
+        let (sin, cos) = angle.to_radians().sin_cos();
+        let ends = [
+            [90.0 * cos, 90.0 * sin, 0.2],
+            [-90.0 * cos, -90.0 * sin, 0.2],
+        ];
+        let reached = ends.map(|end| {
+            let q = delta.inverse(c.as_slice(), &end).unwrap();
+            delta.forward(t.as_slice(), q.as_slice(), &end).unwrap()
+        });
+        let [a, b] = ends;
+        let d = (&reached[0] - &reached[1]).norm();
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{d:.4}\n",
+            a[0], a[1], a[2], b[0], b[1], b[2]
+        ));
+    }
+    fs::write(dir.join("distances.csv"), csv).unwrap();
     assert_eq!(delta.name(), "linear delta");
 }
 
@@ -61,11 +82,14 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
         s(&d.join("config.g")),
         "--probes",
         s(&d.join("probes.csv")),
+        "--distances",
+        s(&d.join("distances.csv")),
         "--out",
         s(&data),
     ]);
     let summary = ok(&["calibrate", s(&data)]);
     assert!(summary.contains("accepted"), "{summary}");
+    assert!(summary.contains("3 part distances"), "{summary}");
     assert!(summary.contains("diagonal_a"), "{summary}");
     let calibration = data.join("calibration.json");
     let out = d.join("new.g");

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
 use parcal_firmware::klipper::read_printer_cfg;
-use parcal_firmware::probes::{ProbePoint, read_probes};
+use parcal_firmware::probes::{ProbePoint, read_distances, read_probes};
 use parcal_firmware::rrf::read_config;
 use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances};
 use parcal_kinematics::mechanism::Mechanism;
@@ -43,6 +43,11 @@ struct FirmwareArgs {
     /// height reported there (mm).
     #[arg(long)]
     probes: PathBuf,
+    /// Part distances measured on a printed part: header
+    /// x1,y1,z1,x2,y2,z2,distance, two commanded positions and the distance
+    /// measured between them (mm).
+    #[arg(long)]
+    distances: Option<PathBuf>,
     /// The dataset directory to write (it must not exist or be empty,
     /// unless --force).
     #[arg(long)]
@@ -82,6 +87,9 @@ pub struct ToleranceArgs {
     /// The probe's repeatability, mm.
     #[arg(long, value_name = "MM", default_value_t = 0.01, value_parser = sigma)]
     probe_sigma: f64,
+    /// The part distances' standard deviation (a calliper's), mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.02, value_parser = sigma)]
+    distance_sigma: f64,
     /// The trigger height's standard deviation about the configured one
     /// (G31 Z; Klipper's z_offset is taken as 0), mm: a first-layer
     /// test's.
@@ -127,6 +135,7 @@ struct Configured {
 fn dataset(
     configured: &Configured,
     probes: &[ProbePoint],
+    distances: Vec<[f64; 7]>,
     tolerances: &ToleranceArgs,
 ) -> MechanismDataset {
     // The kinematics only: the files state no joint or travel limits.
@@ -150,6 +159,7 @@ fn dataset(
     }
     machine.noise = Noise {
         probe: Some(tolerances.probe_sigma),
+        distance: (!distances.is_empty()).then_some(tolerances.distance_sigma),
         ..Noise::default()
     };
     machine.trigger_height = Some(ValuePrior {
@@ -162,6 +172,7 @@ fn dataset(
             .iter()
             .map(|p| [p.x, p.y, p.z + configured.trigger_height])
             .collect(),
+        distances,
         ..MechanismDataset::default()
     }
 }
@@ -190,9 +201,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     };
     let probes = read_probes(&files.probes)?;
-    dataset(&configured, &probes, &files.tolerances).write_with(&files.out, files.force)?;
+    let distances = files
+        .distances
+        .as_deref()
+        .map(read_distances)
+        .transpose()?
+        .unwrap_or_default();
+    let n_distances = distances.len();
+    dataset(&configured, &probes, distances, &files.tolerances)
+        .write_with(&files.out, files.force)?;
     println!(
-        "{}: {firmware}'s configuration ({}) and {} probe heights ({})",
+        "{}: {firmware}'s configuration ({}), {} probe heights ({}) and {n_distances} part distances",
         files.out.display(),
         files.config.display(),
         probes.len(),
