@@ -3,7 +3,8 @@
 //! scaled variants, docs/paper-scenario.md section 3) and instrument
 //! campaigns (platform poses or tool points seen by a laser tracker or
 //! motion capture, in sessions: [`simulate_tracker`]), and both of one true
-//! machine in one dataset ([`simulate_mixed`]).
+//! machine in one dataset ([`simulate_mixed`]); and linear delta printers
+//! as mechanism datasets ([`delta`]).
 //!
 //! ```
 //! use parcal_simulate::{Scenario, simulate};
@@ -25,6 +26,7 @@
 //! ```
 
 mod campaign;
+pub mod delta;
 mod execute;
 mod mixed;
 mod plate;
@@ -92,6 +94,10 @@ pub enum SimulateError {
     /// The campaign would have more than [`MAX_ROWS`] rows.
     #[error("too large: {0}")]
     TooLarge(String),
+    /// A mechanism's simulation cannot be made (a count, a sigma, a pose
+    /// the machine cannot reach).
+    #[error("mechanism simulation: {0}")]
+    Mechanism(String),
     /// An instrument scenario's counts, ranges or sigmas make no sense.
     #[error("instrument scenario: {0}")]
     Scenario(String),
