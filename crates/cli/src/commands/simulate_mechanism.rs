@@ -1,30 +1,16 @@
 //! `parcal simulate --mechanism delta`: a simulated linear delta printer
-//! as a mechanism dataset with its truth (docs/delta.md).
-//!
-//! The printer runs with the typical kit printer's configuration
-//! ([`LinearDelta::typical`]); its true parameters and trigger height are
-//! a draw of the prior machine.json states (each the configured value
-//! plus a normal deviate of its tolerance), so that the calibration's
-//! statistical tests hold. Probes on rings over the printable disc
-//! ([`probe_rings`]): the commanded height `z_t` at which the probe
-//! triggers solves `z(f(p, g(p_c, (x, y, z_t)))) = h` (Newton's method
-//! with the slope 1 of a firmware that knows its machine), plus the probe
-//! noise. Part distances: across a printed disc on the first layer, at
-//! `z = 0.2`, along directions spread over 180 degrees, 90 % of the
-//! printable diameter long, each the true distance between the positions
-//! reached plus the distance noise. Every stream is `(seed, k)`.
+//! as a mechanism dataset with its truth (docs/delta.md), by
+//! [`parcal_simulate::delta`]: the typical kit printer's design, its true
+//! parameters and trigger height a draw of the prior machine.json states,
+//! probes on rings over the printable disc, part distances across it on
+//! the first layer.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use parcal_dataset::bounds::Count;
-use parcal_dataset::mechanism::{
-    MechanismDataset, MechanismMachine, MechanismTruth, Noise, ValuePrior,
-};
-use parcal_kinematics::delta::{LinearDelta, probe_rings};
-use parcal_kinematics::mechanism::{Mechanism, design};
 use parcal_kinematics::mechanisms;
-use parcal_simulate::Rng;
+use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 
 /// The bounds of `--probe-rings`.
 pub const RINGS: Count = Count::new(1, 20, "a bed probed on more rings than 20 gains nothing");
@@ -32,11 +18,6 @@ pub const RINGS: Count = Count::new(1, 20, "a bed probed on more rings than 20 g
 pub const PER_RING: Count = Count::new(3, 360, "a point every degree at most");
 /// The bounds of `--part-distances`.
 pub const DISTANCES: Count = Count::new(0, 180, "one distance per degree at most");
-
-/// The configured trigger height (mm) and its prior sigma.
-const TRIGGER_HEIGHT: (f64, f64) = (0.7, 0.05);
-/// The height of the first layer, where part distances are measured (mm).
-const FIRST_LAYER: f64 = 0.2;
 
 /// The options of a simulated mechanism (`parcal simulate --mechanism`).
 pub struct Request {
@@ -95,7 +76,15 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
             "{flag} must be in (0, 1] mm, got {sigma}"
         );
     }
-    let dataset = simulate(request)?;
+    let scenario = DeltaScenario {
+        rings: request.rings,
+        per_ring: request.per_ring,
+        distances: request.distances,
+        probe_sigma: request.probe_sigma,
+        distance_sigma: request.distance_sigma,
+        ..DeltaScenario::typical()
+    };
+    let dataset = simulate_delta(&scenario, request.seed)?;
     dataset
         .write_with(&request.out, request.force)
         .with_context(|| format!("{}", request.out.display()))?;
@@ -107,76 +96,4 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         request.seed
     );
     Ok(())
-}
-
-/// The simulated dataset (module documentation).
-fn simulate(request: &Request) -> anyhow::Result<MechanismDataset> {
-    let delta = LinearDelta::typical();
-    let configured = design(&delta);
-    let mut rng = Rng::new(request.seed, 0);
-    let truth: Vec<f64> = delta
-        .parameters()
-        .iter()
-        .map(|p| p.design + rng.normal(p.prior_sigma))
-        .collect();
-    let trigger = TRIGGER_HEIGHT.0 + rng.normal(TRIGGER_HEIGHT.1);
-    let (c, t) = (configured.as_slice(), truth.as_slice());
-    // Where the machine truly is when its firmware commands `target`.
-    let reached = |target: &[f64; 3]| -> anyhow::Result<nalgebra::DVector<f64>> {
-        let q = delta.inverse(c, target)?;
-        Ok(delta.forward(t, q.as_slice(), target)?)
-    };
-    let print_radius = delta.limits().print_radius;
-    let mut probes = Vec::new();
-    let mut noise = Rng::new(request.seed, 1);
-    for [x, y] in probe_rings(print_radius, request.rings, request.per_ring) {
-        let mut z = trigger;
-        let mut settled = false;
-        for _ in 0..50 {
-            let step = reached(&[x, y, z])?[2] - trigger;
-            z -= step;
-            settled = step.abs() < 1e-12;
-            if settled {
-                break;
-            }
-        }
-        anyhow::ensure!(
-            settled,
-            "the probe at ({x:.3}, {y:.3}) does not settle on the bed"
-        );
-        probes.push([x, y, z + noise.normal(request.probe_sigma)]);
-    }
-    let mut distances = Vec::new();
-    let half = 0.9 * print_radius;
-    for k in 0..request.distances {
-        let angle = std::f64::consts::PI * k as f64 / request.distances as f64;
-        let (sin, cos) = angle.sin_cos();
-        let first = [half * cos, half * sin, FIRST_LAYER];
-        let second = [-half * cos, -half * sin, FIRST_LAYER];
-        let length = (reached(&first)? - reached(&second)?).norm();
-        let measured = length + noise.normal(request.distance_sigma);
-        distances.push([
-            first[0], first[1], first[2], second[0], second[1], second[2], measured,
-        ]);
-    }
-    let mut machine = MechanismMachine::of(&delta);
-    machine.noise = Noise {
-        probe: Some(request.probe_sigma),
-        distance: (request.distances > 0).then_some(request.distance_sigma),
-        ..Noise::default()
-    };
-    machine.trigger_height = Some(ValuePrior {
-        value: TRIGGER_HEIGHT.0,
-        sigma: Some(TRIGGER_HEIGHT.1),
-    });
-    Ok(MechanismDataset {
-        machine,
-        probes,
-        distances,
-        truth: Some(MechanismTruth {
-            parameters: truth,
-            trigger_height: trigger,
-        }),
-        ..MechanismDataset::default()
-    })
 }
