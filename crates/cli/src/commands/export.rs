@@ -9,6 +9,7 @@ use parcal_apply::AppliedModel;
 use parcal_apply::genhexkins::hal_snippet;
 use parcal_apply::machine::calibrated_machine;
 use parcal_apply::summary::summary;
+use parcal_dataset::HEXAPOD;
 use parcal_dataset::atomic::write_file;
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use parcal_firmware::accuracy::Workspace;
@@ -36,20 +37,16 @@ impl Format {
     /// The mechanism whose calibration this format exports.
     fn mechanism(self) -> &'static str {
         match self {
-            Self::MachineJson | Self::Genhexkins | Self::Summary => "hexapod",
+            Self::MachineJson | Self::Genhexkins | Self::Summary => HEXAPOD,
             Self::Reprapfirmware | Self::Klipper => "linear delta",
         }
     }
 
     /// The format's name on the command line.
-    fn name(self) -> &'static str {
-        match self {
-            Self::MachineJson => "machine-json",
-            Self::Genhexkins => "genhexkins",
-            Self::Summary => "summary",
-            Self::Reprapfirmware => "reprapfirmware",
-            Self::Klipper => "klipper",
-        }
+    fn name(self) -> String {
+        clap::ValueEnum::to_possible_value(&self)
+            .map(|value| value.get_name().to_string())
+            .unwrap_or_default()
     }
 }
 
@@ -104,15 +101,21 @@ fn export_hexapod(args: &Args) -> anyhow::Result<()> {
 }
 
 /// The error of a calibration at `path` that is of another mechanism than
-/// `format` exports, if it is one.
+/// `format` exports, if it is one (read as either kind of calibration).
 fn mismatch(path: &Path, format: Format) -> Option<anyhow::Error> {
     let mechanism = match MechanismCalibrationRecord::read(path) {
         Ok(record) => record.mechanism,
         Err(_) => {
             parcal_dataset::Calibration::read(path).ok()?;
-            "hexapod".to_string()
+            HEXAPOD.to_string()
         }
     };
+    mismatch_of(path, &mechanism, format)
+}
+
+/// The error of a calibration of `mechanism` at `path` when `format`
+/// exports another mechanism's.
+fn mismatch_of(path: &Path, mechanism: &str, format: Format) -> Option<anyhow::Error> {
     (mechanism != format.mechanism()).then(|| {
         anyhow::anyhow!(
             "{}: a {mechanism} calibration; --format {} exports a {}'s",
@@ -130,14 +133,9 @@ fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
     let path = &args.calibration;
     let record = MechanismCalibrationRecord::read(path)
         .map_err(|error| mismatch(path, args.format).unwrap_or_else(|| error.into()))?;
-    anyhow::ensure!(
-        record.mechanism == args.format.mechanism(),
-        "{}: a {} calibration; --format {} exports a {}'s",
-        path.display(),
-        record.mechanism,
-        args.format.name(),
-        args.format.mechanism()
-    );
+    if let Some(error) = mismatch_of(path, &record.mechanism, args.format) {
+        return Err(error);
+    }
     anyhow::ensure!(
         record.accepted || args.accept_rejected,
         "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
