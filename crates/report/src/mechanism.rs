@@ -340,3 +340,69 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
     ));
     blocks
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+    use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
+    use parcal_kinematics::delta::{LinearDelta, probe_rings};
+
+    /// A printer exactly as configured, probed on 3 rings of 8 (25
+    /// probes), one probe 0.3 mm off, calibrated with snooping.
+    fn calibrated() -> (MechanismCalibrationRecord, Vec<[f64; 3]>) {
+        let delta = LinearDelta::typical();
+        let mut machine = MechanismMachine::of(&delta);
+        machine.noise = Noise {
+            probe: Some(0.01),
+            ..Noise::default()
+        };
+        machine.trigger_height = Some(ValuePrior {
+            value: 0.7,
+            sigma: Some(0.05),
+        });
+        let mut probes: Vec<[f64; 3]> = probe_rings(100.0, 3, 8)
+            .into_iter()
+            .map(|[x, y]| [x, y, 0.7])
+            .collect();
+        probes[5][2] += 0.3;
+        let dataset = MechanismDataset {
+            machine,
+            probes: probes.clone(),
+            ..MechanismDataset::default()
+        };
+        let data = MechanismData::from_dataset(&dataset).unwrap();
+        let options = MechanismOptions::default().with_snooping(true);
+        (
+            calibrate_mechanism(&data, &options).unwrap().record(),
+            probes,
+        )
+    }
+
+    #[test]
+    fn the_report_states_the_tests_parameters_and_what_determines_them() {
+        let (record, probes) = calibrated();
+        let markdown =
+            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        assert!(
+            markdown.contains("# Calibration of a linear delta"),
+            "{markdown}"
+        );
+        assert!(markdown.contains("Removed by data snooping"), "{markdown}");
+        assert!(markdown.contains("probe height 5 (row 0)"), "{markdown}");
+        assert!(markdown.contains("| diagonal\\_a | mm |"), "{markdown}");
+        assert!(markdown.contains("24 probe heights"), "{markdown}");
+        // Probe heights alone: the rods' scale is the prior's, and the
+        // report says what would determine it.
+        assert!(
+            markdown.contains("distances measured on a printed part"),
+            "{markdown}"
+        );
+        let html = render(&record, "calibration.json", Some(&probes), Format::Html).unwrap();
+        // One circle per probe tested, a cross for the one removed.
+        assert_eq!(html.matches("<circle").count(), 24, "circles");
+        // A record's probe that the probes given do not hold is named.
+        let err = probe_residual_svg(&record, &probes[..3]).unwrap_err();
+        assert!(err.contains("is not among the 3 probes"), "{err}");
+    }
+}
