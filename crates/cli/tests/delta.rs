@@ -294,6 +294,12 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     }
     let summary = ok(&["calibrate", s(&sim)]);
     assert!(summary.contains("3 part distances"), "{summary}");
+    // A command of the hexapod's says which commands take this dataset.
+    let err = fails(&["validate", s(&sim), "--folds", "3"]);
+    assert!(
+        err.contains("a linear delta's dataset: this command reads a hexapod's"),
+        "{err}"
+    );
     let err = fails(&[
         "simulate",
         "--mechanism",
