@@ -1,14 +1,21 @@
 //! The linear delta: one inverse and forward kinematics, the readings'
 //! analytic derivatives, the probe heights' Jacobian at 25 points, and
-//! RepRapFirmware's 9-factor auto-calibration on those 25 probes (the
-//! baseline parcal's delta calibration is to be compared against).
+//! on those 25 probes RepRapFirmware's 9-factor auto-calibration and
+//! parcal's calibration (all 16 parameters, the trigger height, the
+//! default tolerances as the prior).
+
+use std::sync::Arc;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use parcal_calibrate::mechanism::{
+    MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+};
 use parcal_firmware::autocal::auto_calibrate;
 use parcal_firmware::probes::ProbePoint;
 use parcal_firmware::rrf::RrfDelta;
 use parcal_kinematics::delta::{LinearDelta, probe_height, probe_height_jacobian, probe_rings};
 use parcal_kinematics::mechanism::{Mechanism, design};
+use parcal_observe::mechanism::ProbeHeight;
 use std::hint::black_box;
 
 fn delta(c: &mut Criterion) {
@@ -71,6 +78,26 @@ fn delta(c: &mut Criterion) {
         .collect();
     c.bench_function("RepRapFirmware 9-factor auto-calibration, 25 points", |b| {
         b.iter(|| auto_calibrate(black_box(&firmware), black_box(&probes), 9).unwrap())
+    });
+    // The same probes, the trigger height 0 mm known to 0.05 mm.
+    let observations = Observations {
+        probes: probes
+            .iter()
+            .map(|p| ProbeHeight {
+                commanded: [p.x, p.y, p.z],
+                sigma: 0.01,
+            })
+            .collect(),
+        ..Default::default()
+    };
+    let data = MechanismData::new(
+        Arc::new(LinearDelta::typical()),
+        f.iter().copied().collect(),
+        observations,
+    )
+    .with_trigger_height(0.0, Some(0.05));
+    c.bench_function("parcal delta calibration, 25 probes", |b| {
+        b.iter(|| calibrate_mechanism(black_box(&data), &MechanismOptions::default()).unwrap())
     });
 }
 

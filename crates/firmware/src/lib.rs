@@ -9,13 +9,19 @@
 //! - [`probes`]: probe heights (`probes.csv`, `x,y,z` as `G30 S-1`
 //!   reports them).
 //! - [`autocal`]: RepRapFirmware's 3- to 9-factor auto-calibration.
+//! - [`accuracy`]: the position errors of a firmware's parameters on a
+//!   machine (first-layer flatness, 3D error over the build volume).
+//! - [`export`]: calibrated parameters written for a firmware, with what
+//!   it cannot hold and what that costs.
 //! - [`gcode`]: G-code lines as the firmware parses them.
 //!
 //! The kinematics are [`parcal_kinematics::delta`]'s, in the firmware's
 //! conventions.
 
+pub mod accuracy;
 pub mod autocal;
 mod error;
+pub mod export;
 mod files;
 pub mod gcode;
 pub mod klipper;

@@ -3,7 +3,8 @@
 //! height `z` (mm) that `G30 S-1` reports there, the firmware's nozzle
 //! height when the probe triggered less the trigger height (`G31 Z`):
 //! zero on a perfectly calibrated printer, positive where the bed is
-//! higher than the firmware believes.
+//! higher than the firmware believes. And part distances measured on a
+//! printed part ([`read_distances`]).
 
 use std::io::Read;
 use std::path::Path;
@@ -38,6 +39,34 @@ pub fn read_probes(path: &Path) -> Result<Vec<ProbePoint>, FirmwareError> {
 /// must be `x,y,z`, every row three finite numbers, at most
 /// [`MAX_PROBE_POINTS`] rows.
 pub fn parse_probes<R: Read>(input: R, path: &Path) -> Result<Vec<ProbePoint>, FirmwareError> {
+    let rows = parse_rows(input, path, &["x", "y", "z"], "probe points")?;
+    Ok(rows
+        .into_iter()
+        .map(|[x, y, z]| ProbePoint { x, y, z })
+        .collect())
+}
+
+/// The columns of a part distances file.
+pub const DISTANCE_COLUMNS: [&str; 7] = ["x1", "y1", "z1", "x2", "y2", "z2", "distance"];
+
+/// Reads a part distances file: header `x1,y1,z1,x2,y2,z2,distance`, one
+/// row per distance measured on a printed part between two commanded
+/// positions (mm, firmware coordinates), at most [`MAX_PROBE_POINTS`]
+/// rows.
+pub fn read_distances(path: &Path) -> Result<Vec<[f64; 7]>, FirmwareError> {
+    let text = read_capped(path, MAX_PROBE_BYTES, "distance file")?;
+    parse_rows(text.as_bytes(), path, &DISTANCE_COLUMNS, "distances")
+}
+
+/// The rows of a CSV file of header `columns`, every field a finite
+/// number, at least one and at most [`MAX_PROBE_POINTS`] rows (`what`
+/// names them in errors).
+fn parse_rows<R: Read, const N: usize>(
+    input: R,
+    path: &Path,
+    columns: &[&str; N],
+    what: &str,
+) -> Result<Vec<[f64; N]>, FirmwareError> {
     let at = |line: u64, message: String| FirmwareError::Line {
         path: path.to_path_buf(),
         line,
@@ -48,31 +77,35 @@ pub fn parse_probes<R: Read>(input: R, path: &Path) -> Result<Vec<ProbePoint>, F
         .flexible(true)
         .from_reader(input);
     let header = reader.headers().map_err(|e| at(1, e.to_string()))?.clone();
-    if header.iter().collect::<Vec<_>>() != ["x", "y", "z"] {
+    if header.iter().collect::<Vec<_>>() != columns {
         let found = header.iter().collect::<Vec<_>>().join(",");
-        return Err(at(1, format!("the header is '{found}', expected 'x,y,z'")));
+        return Err(at(
+            1,
+            format!("the header is '{found}', expected '{}'", columns.join(",")),
+        ));
     }
-    let mut points = Vec::new();
+    let mut rows = Vec::new();
     for record in reader.records() {
         let record = record.map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
             at(line, e.to_string())
         })?;
         let line = record.position().map_or(0, |p| p.line());
-        if points.len() == MAX_PROBE_POINTS {
+        if rows.len() == MAX_PROBE_POINTS {
+            return Err(at(line, format!("more than {MAX_PROBE_POINTS} {what}")));
+        }
+        if record.len() != N {
             return Err(at(
                 line,
-                format!("more than {MAX_PROBE_POINTS} probe points"),
+                format!(
+                    "{} fields, expected {N} ({})",
+                    record.len(),
+                    columns.join(",")
+                ),
             ));
         }
-        if record.len() != 3 {
-            return Err(at(
-                line,
-                format!("{} fields, expected 3 (x,y,z)", record.len()),
-            ));
-        }
-        let mut values = [0.0; 3];
-        for (k, name) in ["x", "y", "z"].iter().enumerate() {
+        let mut values = [0.0; N];
+        for (k, name) in columns.iter().enumerate() {
             values[k] = record[k]
                 .parse::<f64>()
                 .ok()
@@ -84,13 +117,12 @@ pub fn parse_probes<R: Read>(input: R, path: &Path) -> Result<Vec<ProbePoint>, F
                     )
                 })?;
         }
-        let [x, y, z] = values;
-        points.push(ProbePoint { x, y, z });
+        rows.push(values);
     }
-    if points.is_empty() {
-        return Err(at(1, "no probe points".into()));
+    if rows.is_empty() {
+        return Err(at(1, format!("no {what}")));
     }
-    Ok(points)
+    Ok(rows)
 }
 
 #[cfg(test)]
@@ -127,6 +159,21 @@ mod tests {
         );
         let err = parse_probes("x,y,z\n".as_bytes(), path).unwrap_err();
         assert_eq!(err.to_string(), "probes.csv: line 1: no probe points");
+    }
+
+    #[test]
+    fn reads_distances_and_names_the_bad_field() {
+        let path = Path::new("distances.csv");
+        let header = "x1,y1,z1,x2,y2,z2,distance\n";
+        let text = format!("{header}-90,0,0.2,90,0,0.2,180.05\n");
+        let rows = parse_rows(text.as_bytes(), path, &DISTANCE_COLUMNS, "distances").unwrap();
+        assert_eq!(rows, vec![[-90.0, 0.0, 0.2, 90.0, 0.0, 0.2, 180.05]]);
+        let text = format!("{header}-90,0,0.2,90,0,0.2,180.05\n1,2,3,4,5,6,x\n");
+        let err = parse_rows(text.as_bytes(), path, &DISTANCE_COLUMNS, "distances").unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "distances.csv: line 3: distance: 'x' is not a finite number"
+        );
     }
 
     #[test]

@@ -5,11 +5,14 @@ pub mod calibrate;
 pub mod compensate;
 pub mod execute;
 pub mod export;
+pub mod import;
 pub mod inspect;
+pub mod mechanism;
 pub mod paper;
 pub mod plan;
 pub mod report;
 pub mod simulate;
+pub mod simulate_mechanism;
 pub mod validate;
 
 use std::path::{Path, PathBuf};
@@ -23,7 +26,15 @@ pub const SNAPSHOT_FILE: &str = "dataset.bin";
 
 /// Reads a dataset: a directory of text files, or a binary snapshot file
 /// (`*.bin`). A directory holding a snapshot is read from the text files.
+/// A dataset of another mechanism than the hexapod is refused, saying
+/// which commands take it.
 pub fn read_dataset(path: &Path) -> anyhow::Result<Dataset> {
+    if let Some(mechanism) = mechanism::declared(path)? {
+        anyhow::bail!(
+            "{}: a {mechanism}'s dataset: this command reads a hexapod's; a {mechanism}'s is calibrated (parcal calibrate), reported (parcal report) and exported (parcal export)",
+            path.display()
+        );
+    }
     Ok(if path.is_file() {
         Dataset::read_snapshot(path)?
     } else {

@@ -1,0 +1,408 @@
+//! The report of a mechanism calibration (a linear delta's; any
+//! mechanism's calibration.json, [`MechanismCalibrationRecord`]): the
+//! verdict and its tests first, then the observations tested, the
+//! parameters with their sigmas beside their prior sigmas, and what the
+//! data determine. Rendered as the calibration report is
+//! ([`crate::calibration_report`]'s HTML and Markdown). Every number is
+//! the record's or computed from it.
+
+use parcal_calibrate::mechanism::ObservationKind;
+use parcal_dataset::mechanism::MechanismCalibrationRecord;
+use plotters::prelude::*;
+
+use crate::calibration_report::Format;
+use crate::calibration_report::document::{Block, Cell, Tone};
+use crate::calibration_report::{html, markdown};
+
+/// The report of `calibration`, read from `file`, as `format`; with the
+/// dataset's `probes` (its probes.csv rows), the plot of their residuals
+/// over the bed.
+pub fn render(
+    calibration: &MechanismCalibrationRecord,
+    file: &str,
+    probes: Option<&[[f64; 3]]>,
+    format: Format,
+) -> Result<String, String> {
+    let title = format!("Calibration of a {} ({file})", calibration.mechanism);
+    let mut blocks = blocks(calibration, &title);
+    if let Some(probes) = probes.filter(|p| !p.is_empty()) {
+        blocks.push(Block::Heading(2, "Probe residuals over the bed".into()));
+        blocks.push(Block::Figure {
+            svg: probe_residual_svg(calibration, probes)?,
+            caption: "Each probe at its commanded XY: a filled circle where the bed is higher than the calibrated machine predicts (positive residual), an open one where lower; the radius grows with |e / sigma|; a cross marks a probe removed by data snooping.".into(),
+        });
+    }
+    Ok(match format {
+        Format::Html => html::render(&title, &blocks),
+        Format::Markdown => markdown::render(&blocks),
+    })
+}
+
+/// The probe residuals over the bed (the figure of [`render`]): each
+/// probe's whitened residual `e / sigma` at its commanded `(x, y)`; an
+/// error names a probe of the record that `probes` does not hold.
+pub fn probe_residual_svg(
+    calibration: &MechanismCalibrationRecord,
+    probes: &[[f64; 3]],
+) -> Result<String, String> {
+    let probe = ObservationKind::Probe.name();
+    let at = |index: usize| {
+        probes
+            .get(index)
+            .map(|p| (p[0], p[1]))
+            .ok_or_else(|| format!("{probe} {index} is not among the {} probes", probes.len()))
+    };
+    let residuals = calibration
+        .tests
+        .observations
+        .iter()
+        .filter(|o| o.kind == probe)
+        .map(|o| Ok((at(o.index)?, o.residuals.first().copied().unwrap_or(0.0))))
+        .collect::<Result<Vec<_>, String>>()?;
+    let removed = calibration
+        .tests
+        .removed
+        .iter()
+        .filter(|r| r.kind == probe)
+        .map(|r| at(r.index))
+        .collect::<Result<Vec<_>, String>>()?;
+    let reach = probes
+        .iter()
+        .map(|p| p[0].abs().max(p[1].abs()))
+        .fold(1.0, f64::max)
+        * 1.1;
+    let largest = residuals.iter().map(|(_, e)| e.abs()).fold(1.0, f64::max);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (640, 600)).into_drawing_area();
+        let draw = || -> Result<(), Box<dyn std::error::Error + '_>> {
+            root.fill(&WHITE)?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(
+                    format!("Probe residuals e / sigma (largest |e / sigma| {largest:.2})"),
+                    ("sans-serif", 20),
+                )
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .build_cartesian_2d(-reach..reach, -reach..reach)?;
+            chart
+                .configure_mesh()
+                .x_desc("x (mm)")
+                .y_desc("y (mm)")
+                .draw()?;
+            let blue = RGBColor(31, 119, 180);
+            let red = RGBColor(214, 39, 40);
+            chart.draw_series(residuals.iter().map(|&((x, y), e)| {
+                let size = (3.0 + 12.0 * e.abs() / largest).round() as i32;
+                let style = if e >= 0.0 {
+                    red.filled()
+                } else {
+                    blue.stroke_width(2)
+                };
+                Circle::new((x, y), size, style)
+            }))?;
+            chart.draw_series(
+                removed
+                    .iter()
+                    .map(|&(x, y)| Cross::new((x, y), 8, BLACK.stroke_width(2))),
+            )?;
+            root.present()?;
+            Ok(())
+        };
+        draw().map_err(|e| e.to_string())?;
+    }
+    Ok(svg)
+}
+
+/// The verdict in one sentence: accepted or rejected, and why.
+pub fn verdict_sentence(calibration: &MechanismCalibrationRecord) -> String {
+    let word = if calibration.accepted {
+        "accepted"
+    } else {
+        "rejected"
+    };
+    if calibration.reasons.is_empty() {
+        format!("Verdict: {word}.")
+    } else {
+        format!("Verdict: {word}: {}.", calibration.reasons.join("; "))
+    }
+}
+
+/// The global test in one sentence, or why there is none.
+pub fn global_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
+    let Some(test) = &calibration.global_test else {
+        return "No global test: the run did not converge to a least-squares minimum with redundancy."
+            .to_string();
+    };
+    format!(
+        "Global test: the a-posteriori variance factor {:.3} over {} degrees of freedom is {} (interval {:.3} to {:.3} at level {}).",
+        test.variance_factor,
+        test.redundancy,
+        test.outcome,
+        test.interval[0],
+        test.interval[1],
+        test.level
+    )
+}
+
+/// The w-tests in one sentence: the critical value and the largest
+/// normalised residual.
+pub fn w_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
+    let tests = &calibration.tests;
+    let limit = format!(
+        "w-tests: critical value {:.2} (family-wise level {} over {} data rows)",
+        tests.critical_value, tests.alpha, tests.data_rows
+    );
+    let worst = tests
+        .observations
+        .iter()
+        .flat_map(|o| {
+            o.normalised
+                .iter()
+                .enumerate()
+                .filter_map(move |(row, w)| w.map(|w| (o, row, w)))
+        })
+        .max_by(|a, b| a.2.abs().total_cmp(&b.2.abs()));
+    match worst {
+        Some((observation, row, w)) => format!(
+            "{limit}; the largest normalised residual is {w:.2} ({} {}, row {row}), {} the critical value.",
+            observation.kind,
+            observation.index,
+            if w.abs() > tests.critical_value {
+                "beyond"
+            } else {
+                "within"
+            }
+        ),
+        None => format!("{limit}; no row is checked by another."),
+    }
+}
+
+/// The observations tested, one line per kind present.
+pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    let mut counts: Vec<(&str, usize)> = Vec::new();
+    for observation in &calibration.tests.observations {
+        match counts
+            .iter_mut()
+            .find(|(kind, _)| *kind == observation.kind)
+        {
+            Some((_, n)) => *n += 1,
+            None => counts.push((&observation.kind, 1)),
+        }
+    }
+    counts
+        .into_iter()
+        .map(|(kind, n)| format!("{n} {kind}{}", if n == 1 { "" } else { "s" }))
+        .collect()
+}
+
+/// The parameter table: value, sigma, prior mean and sigma, and their
+/// ratio (how much the data narrowed the prior).
+pub fn parameter_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
+    calibration
+        .parameters
+        .iter()
+        .map(|p| {
+            let or_dash = |v: Option<f64>, digits: usize| {
+                v.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
+            };
+            vec![
+                p.name.clone(),
+                p.unit.clone(),
+                format!("{:.4}", p.value),
+                or_dash(p.sigma, 4),
+                format!("{:.4}", p.prior_mean),
+                or_dash(p.prior_sigma, 4),
+                or_dash(p.sigma_ratio, 3),
+            ]
+        })
+        .collect()
+}
+
+/// The header of [`parameter_rows`].
+pub const PARAMETER_HEADER: [&str; 7] = [
+    "parameter",
+    "unit",
+    "value",
+    "sigma",
+    "prior mean",
+    "prior sigma",
+    "sigma / prior sigma",
+];
+
+/// One sentence per observation removed by data snooping.
+pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    let factor = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3}"));
+    calibration
+        .tests
+        .removed
+        .iter()
+        .map(|r| {
+            format!(
+                "{} {} (row {}): normalised residual {:.2}; variance factor {} before, {} after",
+                r.kind,
+                r.index,
+                r.row,
+                r.normalised,
+                factor(r.variance_factor_before),
+                factor(r.variance_factor_after)
+            )
+        })
+        .collect()
+}
+
+/// The identifiability statements, or why there are none; for a linear
+/// delta calibrated without part distances whose undetermined directions
+/// involve the rods or the radius, what would determine them.
+pub fn identifiability_statements(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    let Some(identifiability) = &calibration.identifiability else {
+        return vec!["No covariance: what the data determine is not known.".to_string()];
+    };
+    let mut lines = identifiability.statements.clone();
+    let scale = |name: &str| name.starts_with("diagonal") || name == "radius";
+    let scale_undetermined = identifiability
+        .undetermined
+        .iter()
+        .any(|u| u.components.iter().any(|(name, _)| scale(name)));
+    let has_distances = calibration
+        .tests
+        .observations
+        .iter()
+        .any(|o| o.kind == ObservationKind::Distance.name());
+    if calibration.mechanism == "linear delta" && scale_undetermined && !has_distances {
+        lines.push(
+            "Probe heights see Z, hardly the XY scale: distances measured on a printed part (distances.csv) determine the diagonal rods and the radius.".to_string(),
+        );
+    }
+    lines
+}
+
+/// The report's blocks.
+fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
+    let tone = if calibration.accepted {
+        Tone::Accepted
+    } else {
+        Tone::Rejected
+    };
+    let mut blocks = vec![
+        Block::Heading(1, title.to_string()),
+        Block::Paragraph(tone, verdict_sentence(calibration)),
+        Block::Heading(2, "Tests".into()),
+        Block::Paragraph(Tone::Plain, global_test_sentence(calibration)),
+        Block::Paragraph(Tone::Plain, w_test_sentence(calibration)),
+        Block::Paragraph(
+            Tone::Plain,
+            format!(
+                "Solver: {} after {} linear solves.",
+                calibration.status, calibration.iterations
+            ),
+        ),
+    ];
+    if !calibration.tests.removed.is_empty() {
+        blocks.push(Block::Heading(3, "Removed by data snooping".into()));
+        blocks.push(Block::List(Tone::Warning, removal_sentences(calibration)));
+    }
+    if let Some(why) = &calibration.tests.snooping_stopped {
+        blocks.push(Block::Paragraph(Tone::Warning, why.clone()));
+    }
+    blocks.push(Block::Heading(2, "Observations tested".into()));
+    blocks.push(Block::List(Tone::Plain, observation_counts(calibration)));
+    blocks.push(Block::Heading(2, "Parameters (canonical frame)".into()));
+    let ratios_flag = |row: &[String]| row[6].parse::<f64>().is_ok_and(|r| r >= 0.9);
+    blocks.push(Block::Table {
+        header: PARAMETER_HEADER.iter().map(|s| s.to_string()).collect(),
+        rows: parameter_rows(calibration)
+            .into_iter()
+            .map(|row| {
+                let prior_only = ratios_flag(&row);
+                row.into_iter()
+                    .enumerate()
+                    .map(|(k, text)| {
+                        if k < 2 {
+                            Cell::text(text)
+                        } else {
+                            Cell::number(text).flagged(k == 6 && prior_only)
+                        }
+                    })
+                    .collect()
+            })
+            .collect(),
+    });
+    blocks.push(Block::Paragraph(
+        Tone::Note,
+        "A ratio sigma / prior sigma near 1 (flagged from 0.9) marks a parameter the data hardly inform: its value is its prior's.".into(),
+    ));
+    blocks.push(Block::Heading(2, "What the data determine".into()));
+    blocks.push(Block::List(
+        Tone::Plain,
+        identifiability_statements(calibration),
+    ));
+    blocks
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+    use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
+    use parcal_kinematics::delta::{LinearDelta, probe_rings};
+
+    /// A printer exactly as configured, probed on 3 rings of 8 (25
+    /// probes), one probe 0.3 mm off, calibrated with snooping.
+    fn calibrated() -> (MechanismCalibrationRecord, Vec<[f64; 3]>) {
+        let delta = LinearDelta::typical();
+        let mut machine = MechanismMachine::of(&delta);
+        machine.noise = Noise {
+            probe: Some(0.01),
+            ..Noise::default()
+        };
+        machine.trigger_height = Some(ValuePrior {
+            value: 0.7,
+            sigma: Some(0.05),
+        });
+        let mut probes: Vec<[f64; 3]> = probe_rings(100.0, 3, 8)
+            .into_iter()
+            .map(|[x, y]| [x, y, 0.7])
+            .collect();
+        probes[5][2] += 0.3;
+        let dataset = MechanismDataset {
+            machine,
+            probes: probes.clone(),
+            ..MechanismDataset::default()
+        };
+        let data = MechanismData::from_dataset(&dataset).unwrap();
+        let options = MechanismOptions::default().with_snooping(true);
+        (
+            calibrate_mechanism(&data, &options).unwrap().record(),
+            probes,
+        )
+    }
+
+    #[test]
+    fn the_report_states_the_tests_parameters_and_what_determines_them() {
+        let (record, probes) = calibrated();
+        let markdown =
+            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        assert!(
+            markdown.contains("# Calibration of a linear delta"),
+            "{markdown}"
+        );
+        assert!(markdown.contains("Removed by data snooping"), "{markdown}");
+        assert!(markdown.contains("probe height 5 (row 0)"), "{markdown}");
+        assert!(markdown.contains("| diagonal\\_a | mm |"), "{markdown}");
+        assert!(markdown.contains("24 probe heights"), "{markdown}");
+        // Probe heights alone: the rods' scale is the prior's, and the
+        // report says what would determine it.
+        assert!(
+            markdown.contains("distances measured on a printed part"),
+            "{markdown}"
+        );
+        let html = render(&record, "calibration.json", Some(&probes), Format::Html).unwrap();
+        // One circle per probe tested, a cross for the one removed.
+        assert_eq!(html.matches("<circle").count(), 24, "circles");
+        // A record's probe that the probes given do not hold is named.
+        let err = probe_residual_svg(&record, &probes[..3]).unwrap_err();
+        assert!(err.contains("is not among the 3 probes"), "{err}");
+    }
+}
