@@ -46,14 +46,15 @@
 //! Only distances enter, so a rigid motion of the room (the anchors, the
 //! encoder zero and every pose moved alike) changes no reading: three
 //! translations and three rotations ([`CableRobot::gauge_freedoms`]). The
-//! encoder zero ties the origin (a prior on it fixes the translations, as
+//! encoder zero ties the origin (a prior on it holds the translations, as
 //! the Hangprinter's convention of the origin at the encoder zero does);
 //! the rotations about it remain until positions measured in the room's
 //! frame fix them: one known point away from the origin fixes the two
-//! rotations that move it, two not in line with the origin all three. The
-//! canonical frame ([`CableRobot::canonicalize`]) has the encoder zero at
-//! the origin, the last anchor (the Hangprinter's D, above) on the +z axis
-//! and the first (A) in the plane `x = 0` at negative `y`.
+//! rotations that move it, two not in line with the origin all three.
+//! Without them the priors on the anchors hold the rotations. Either way
+//! the room's frame, the one the known positions and the priors are given
+//! in, is the canonical one: [`Mechanism::canonicalize`] is the identity,
+//! so a calibration reports the anchors where its data put them.
 //!
 //! Readings alone determine the rest: the `3 N + R + 3` parameters (`N`
 //! anchors, `R` radii, the encoder zero) less the 6 of the gauge, against
@@ -63,7 +64,7 @@
 
 use std::f64::consts::PI;
 
-use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Unit, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::mechanism::{
     Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians,
@@ -675,35 +676,6 @@ impl Mechanism for CableRobot {
         Ok(freedoms)
     }
 
-    /// The same machine moved rigidly so that the encoder zero is at the
-    /// origin, the last anchor on the +z axis and the first in the plane
-    /// `x = 0` at negative `y`.
-    fn canonicalize(&self, params: &[f64]) -> Result<DVector<f64>, MechanismError> {
-        self.checked(params)?;
-        let n = self.cables();
-        let zero = self.encoder_zero(params);
-        let top = self.anchor(params, n - 1) - zero;
-        let tilt = Rotation3::rotation_between(&top, &Vector3::z()).unwrap_or_else(|| {
-            // Straight down: half a turn about x.
-            Rotation3::from_axis_angle(&Vector3::x_axis(), PI)
-        });
-        let first = tilt * (self.anchor(params, 0) - zero);
-        let turn = Rotation3::from_axis_angle(
-            &Unit::new_normalize(Vector3::z()),
-            -PI / 2.0 - first.y.atan2(first.x),
-        );
-        let rotation = turn * tilt;
-        let mut canonical = DVector::from_column_slice(params);
-        for j in 0..n {
-            let moved = rotation * (self.anchor(params, j) - zero);
-            canonical
-                .rows_mut(self.anchor_index(j), 3)
-                .copy_from(&moved);
-        }
-        canonical.rows_mut(self.zero_index(), 3).fill(0.0);
-        Ok(canonical)
-    }
-
     /// Every spool within its line ([`Mechanism::inverse`]) and the
     /// effector strictly inside the anchors' convex hull: only there can
     /// every line be taut whatever the load (the lines' directions then
@@ -936,43 +908,6 @@ mod tests {
         let largest = sorted[sorted.len() - 1];
         assert!(sorted[5] < 1e-10 * largest, "{:?}", &sorted[..8]);
         assert!(sorted[6] > 1e-7 * largest, "{:?}", &sorted[..8]);
-    }
-
-    #[test]
-    fn canonicalize_keeps_the_machine_and_fixes_the_gauge() {
-        let robot = CableRobot::typical();
-        let mut rng = StdRng::seed_from_u64(5);
-        for _ in 0..20 {
-            let p = perturbed(&robot, &mut rng);
-            let canonical = robot.canonicalize(p.as_slice()).unwrap();
-            let c = canonical.as_slice();
-            assert!(robot.encoder_zero(c).amax() == 0.0);
-            let d = robot.anchor(c, 3);
-            assert!(d.x.abs() < 1e-9 && d.y.abs() < 1e-9 && d.z > 0.0, "{d}");
-            let a = robot.anchor(c, 0);
-            assert!(a.x.abs() < 1e-9 && a.y < 0.0, "{a}");
-            // The same machine: the same readings produce poses that are
-            // rigidly moved, so the distances between them are kept.
-            let poses: Vec<_> = (0..5).map(|_| random_pose(&mut rng)).collect();
-            let mut before = Vec::new();
-            let mut after = Vec::new();
-            for pose in &poses {
-                let q = robot.inverse(p.as_slice(), pose).unwrap();
-                before.push(DVector::from_column_slice(pose));
-                after.push(robot.forward(c, q.as_slice(), &[0.0; 3]).unwrap());
-            }
-            for i in 0..5 {
-                for j in 0..i {
-                    let (b, a) = (
-                        (&before[i] - &before[j]).norm(),
-                        (&after[i] - &after[j]).norm(),
-                    );
-                    assert!((b - a).abs() < 1e-8, "{b} vs {a}");
-                }
-            }
-            let again = robot.canonicalize(c).unwrap();
-            assert!((again - &canonical).amax() < 1e-9);
-        }
     }
 
     #[test]

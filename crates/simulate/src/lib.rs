@@ -3,7 +3,8 @@
 //! scaled variants, docs/paper-scenario.md section 3) and instrument
 //! campaigns (platform poses or tool points seen by a laser tracker or
 //! motion capture, in sessions: [`simulate_tracker`]), and both of one true
-//! machine in one dataset ([`simulate_mixed`]).
+//! machine in one dataset ([`simulate_mixed`]); cable robots' encoder
+//! readings with a few measured positions ([`simulate_cable`]).
 //!
 //! ```
 //! use parcal_simulate::{Scenario, simulate};
@@ -24,6 +25,7 @@
 //! # Ok::<(), parcal_simulate::SimulateError>(())
 //! ```
 
+mod cable;
 mod campaign;
 mod execute;
 mod mixed;
@@ -34,6 +36,7 @@ mod tracker;
 
 use parcal_dataset::bounds::{Count, check_product};
 
+pub use cable::{CableSample, CableScenario, CableSimulation, simulate_cable};
 pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
 pub use execute::{MachineLimits, execute};
 pub use mixed::simulate_mixed;
