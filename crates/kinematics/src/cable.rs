@@ -351,13 +351,16 @@ impl CableRobot {
     }
 
     /// The Hangprinter v4 with one radius per spool and the tolerances of
-    /// a hand-built machine: anchors 50 mm (hand measured), spool radii
-    /// 1 mm, encoder zero 1 mm.
+    /// a hand-built machine: anchors 50 mm (measured by hand: the source's
+    /// differ from its calibration by up to 67 mm), spool radii 1 mm
+    /// (the source's bounds 74.5..76.5), encoder zero 5 mm (where the
+    /// effector stood when the encoders were zeroed, against the frame of
+    /// the measured positions).
     pub fn typical() -> Self {
         let tolerances = Tolerances {
             anchor: 50.0,
             spool_radius: 1.0,
-            encoder_zero: 1.0,
+            encoder_zero: 5.0,
         };
         Self::hangprinter_v4(&[0, 1, 2, 3], &tolerances)
             .expect("the Hangprinter v4's design is valid")
