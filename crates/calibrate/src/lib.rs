@@ -10,6 +10,8 @@
 //! - [`fit`]: each ball's goodness of fit;
 //! - [`instruments`]: calibration from measured poses and points;
 //! - [`layout`]: the global block, named groups of parameters;
+//! - [`mechanism`]: the calibration of any mechanism with a 3-coordinate
+//!   pose (a linear delta, a cable robot) through the `Mechanism` trait;
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`mixed`]: ball touches with measured poses and points;
 //! - [`verdict`]: the global test and the verdict of a run;
@@ -44,6 +46,7 @@ pub mod external;
 pub mod fit;
 pub mod instruments;
 pub mod layout;
+pub mod mechanism;
 pub mod mirror;
 pub mod mixed;
 mod options;

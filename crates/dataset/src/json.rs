@@ -40,6 +40,14 @@ pub(crate) const CALIBRATION: Kind = Kind {
     name: "parcal-calibration",
     current: "parcal-calibration/1",
 };
+pub(crate) const MECHANISM_TRUTH: Kind = Kind {
+    name: "parcal-mechanism-truth",
+    current: "parcal-mechanism-truth/1",
+};
+pub(crate) const MECHANISM_CALIBRATION: Kind = Kind {
+    name: "parcal-mechanism-calibration",
+    current: "parcal-mechanism-calibration/1",
+};
 pub(crate) const VALIDATION: Kind = Kind {
     name: "parcal-validation",
     current: "parcal-validation/1",

@@ -7,7 +7,8 @@ use parcal_kinematics::PriorSigma;
 use serde::{Deserialize, Serialize};
 
 use crate::check::Check;
-use crate::error::Result;
+use crate::declared::{HEXAPOD, declared_mechanism};
+use crate::error::{DatasetError, Result};
 use crate::geometry::{GeometryRecord, WithGeometry};
 use crate::json;
 use crate::quote::{has_control, quoted};
@@ -331,6 +332,18 @@ fn is_default<T: Default + PartialEq>(value: &T) -> bool {
 impl Machine {
     /// Reads and checks a `machine.json` file.
     pub fn read(path: &Path) -> Result<Self> {
+        if let Some(name) = declared_mechanism(path)?
+            && name != HEXAPOD
+        {
+            return Err(DatasetError::field(
+                path,
+                "mechanism",
+                format!(
+                    "{} is not the hexapod this reader reads: read its dataset with the mechanism reader (parcal_dataset::mechanism::MechanismDataset::read)",
+                    quoted(&name)
+                ),
+            ));
+        }
         let file: MachineFile = json::read(path, json::MACHINE)?;
         let machine = Self::from(file);
         machine.validate(Check::new(path))?;

@@ -171,8 +171,9 @@ pub enum MechanismError {
     Hexapod(#[from] KinematicsError),
 }
 
-/// A parallel mechanism (module documentation).
-pub trait Mechanism {
+/// A parallel mechanism (module documentation). `Send + Sync`: a
+/// calibration evaluates its observations from several threads.
+pub trait Mechanism: Send + Sync {
     /// The mechanism's name (`hexapod`, `linear delta`).
     fn name(&self) -> &str;
 

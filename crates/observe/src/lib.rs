@@ -30,6 +30,11 @@
 //! - [`prior`]: paper eq. (7), [`KinematicPrior`] (paper or propagated form)
 //!   and [`DiagonalPrior`] for centres and angles.
 //!
+//! - [`mechanism`]: the observation kinds of any mechanism with a
+//!   3-coordinate pose (a linear delta, a cable robot), through the
+//!   `Mechanism` trait: probe heights, part distances, measured points,
+//!   readings at unknown poses.
+//!
 //! Lengths in mm, angles in rad, everything in the canonical base frame.
 //!
 //! ```
@@ -69,6 +74,7 @@ mod coordinates;
 mod distance;
 mod error;
 pub mod frame;
+pub mod mechanism;
 mod point;
 mod pose;
 pub mod prior;

@@ -122,6 +122,14 @@ pub use parcal_calibrate::instruments::{
 };
 pub use parcal_dataset::{Actuator, Points, Poses, SessionModel, Tracker, ValidationRecord};
 
+// Any mechanism with a 3-coordinate pose (a linear delta, a cable robot):
+// its dataset, calibration and record (docs/mechanisms.md).
+pub use parcal_calibrate::mechanism::{
+    MechanismCalibration, MechanismCalibrationError, MechanismData, MechanismOptions,
+    calibrate_mechanism,
+};
+pub use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
+
 // What a calibration buys: accuracy maps before and after.
 pub use parcal_accuracy::{AccuracyError, AccuracyMap, MapGrid, MapSummary};
 pub use parcal_workflows::evaluate::{Accuracy, BeforeAfter, before_after};

@@ -1,0 +1,425 @@
+//! A mechanism calibration's data in memory: the mechanism, the parameters
+//! its controller ran with, the priors, the observations; and their
+//! validation, which names the observation (kind, 0-based index) or the
+//! parameter at fault.
+
+use std::fmt;
+use std::sync::Arc;
+
+use parcal_kinematics::mechanism::Mechanism;
+use parcal_observe::mechanism::{
+    CommandedPoint, POSE_COORDINATES, PartDistance, PointSample, ProbeHeight,
+};
+
+use super::error::MechanismCalibrationError;
+
+/// The most observations of each kind: far beyond a calibration's needs
+/// (a probed bed holds tens to hundreds), and small enough that the
+/// dense checks over the rows stay within memory.
+pub const MAX_OBSERVATIONS: usize = 1_000_000;
+/// The fewest actuators a mechanism calibrated here may have (one per
+/// pose coordinate).
+pub const MIN_ACTUATORS: usize = 3;
+/// The most actuators (a cable robot of eight cables).
+pub const MAX_ACTUATORS: usize = 8;
+
+/// The kinds of observation of a mechanism calibration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ObservationKind {
+    /// A probe touching the bed ([`ProbeHeight`]).
+    Probe,
+    /// A distance measured on a part ([`PartDistance`]).
+    Distance,
+    /// A position measured at a commanded position ([`CommandedPoint`]).
+    Point,
+    /// Readings at an unknown or measured pose ([`PointSample`]).
+    Sample,
+}
+
+impl ObservationKind {
+    /// Every kind, in the order of the rows.
+    pub const ALL: [Self; 4] = [Self::Probe, Self::Distance, Self::Point, Self::Sample];
+
+    /// Its name in messages and files: `probe height`, `part distance`,
+    /// `measured point`, `point sample`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Probe => "probe height",
+            Self::Distance => "part distance",
+            Self::Point => "measured point",
+            Self::Sample => "point sample",
+        }
+    }
+}
+
+/// One observation: its kind and its 0-based index among those of its
+/// kind in the data given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ObservationRef {
+    /// The kind.
+    pub kind: ObservationKind,
+    /// The 0-based index.
+    pub index: usize,
+}
+
+impl fmt::Display for ObservationRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}", self.kind.name(), self.index)
+    }
+}
+
+/// The observations, by kind.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Observations {
+    /// Probe heights.
+    pub probes: Vec<ProbeHeight>,
+    /// Part distances.
+    pub distances: Vec<PartDistance>,
+    /// Measured points at commanded positions.
+    pub points: Vec<CommandedPoint>,
+    /// Readings at unknown or measured poses.
+    pub samples: Vec<PointSample>,
+}
+
+impl Observations {
+    /// The number of observations of `kind`.
+    pub fn count(&self, kind: ObservationKind) -> usize {
+        match kind {
+            ObservationKind::Probe => self.probes.len(),
+            ObservationKind::Distance => self.distances.len(),
+            ObservationKind::Point => self.points.len(),
+            ObservationKind::Sample => self.samples.len(),
+        }
+    }
+
+    /// The number of observations.
+    pub fn len(&self) -> usize {
+        ObservationKind::ALL.iter().map(|&k| self.count(k)).sum()
+    }
+
+    /// Whether there is none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// These observations without `observation`.
+    pub fn without(&self, observation: ObservationRef) -> Self {
+        let mut rest = self.clone();
+        let k = observation.index;
+        match observation.kind {
+            ObservationKind::Probe => drop(rest.probes.remove(k)),
+            ObservationKind::Distance => drop(rest.distances.remove(k)),
+            ObservationKind::Point => drop(rest.points.remove(k)),
+            ObservationKind::Sample => drop(rest.samples.remove(k)),
+        }
+        rest
+    }
+}
+
+/// A Gaussian prior on one unknown: its mean and standard deviation;
+/// without a standard deviation, no prior, the mean being only where the
+/// solver starts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParameterPrior {
+    /// The mean (the start of the solver).
+    pub mean: f64,
+    /// The standard deviation, `None` for no prior.
+    pub sigma: Option<f64>,
+}
+
+/// A mechanism calibration's data (module doc).
+#[derive(Clone)]
+#[non_exhaustive]
+pub struct MechanismData {
+    /// The mechanism.
+    pub mechanism: Arc<dyn Mechanism>,
+    /// The parameters the controller ran with, `p_c`: every commanded
+    /// position became readings through them.
+    pub configured: Vec<f64>,
+    /// Each parameter's prior (the builder's knowledge of the true
+    /// machine), in the mechanism's parameter order.
+    pub priors: Vec<ParameterPrior>,
+    /// The probe's trigger height `h` above the bed (mm): an unknown when
+    /// there are probe heights.
+    pub trigger_height: ParameterPrior,
+    /// The observations.
+    pub observations: Observations,
+}
+
+impl fmt::Debug for MechanismData {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("MechanismData")
+            .field("mechanism", &self.mechanism.name())
+            .field("configured", &self.configured)
+            .field("priors", &self.priors)
+            .field("trigger_height", &self.trigger_height)
+            .field("observations", &self.observations)
+            .finish()
+    }
+}
+
+impl MechanismData {
+    /// The data of `mechanism` run with `configured` parameters: each
+    /// parameter's prior its design value and tolerance
+    /// ([`parcal_kinematics::mechanism::Parameter`]), the trigger height
+    /// without a prior, starting at 0.
+    pub fn new(
+        mechanism: Arc<dyn Mechanism>,
+        configured: Vec<f64>,
+        observations: Observations,
+    ) -> Self {
+        let priors = mechanism
+            .parameters()
+            .iter()
+            .map(|p| ParameterPrior {
+                mean: p.design,
+                sigma: Some(p.prior_sigma),
+            })
+            .collect();
+        Self {
+            mechanism,
+            configured,
+            priors,
+            trigger_height: ParameterPrior {
+                mean: 0.0,
+                sigma: None,
+            },
+            observations,
+        }
+    }
+
+    /// These data with the prior sigma of every parameter of `group` set
+    /// to `sigma` (`None`: no prior). An error names a group the
+    /// mechanism does not have.
+    pub fn with_group_sigma(
+        mut self,
+        group: &str,
+        sigma: Option<f64>,
+    ) -> Result<Self, MechanismCalibrationError> {
+        let parameters = self.mechanism.parameters();
+        if !parameters.iter().any(|p| p.group == group) {
+            let mut groups: Vec<&str> = parameters.iter().map(|p| p.group).collect();
+            groups.dedup();
+            return Err(MechanismCalibrationError::InvalidData {
+                what: format!("parameter group {group:?}"),
+                reason: format!(
+                    "the {} has no such group (its groups: {})",
+                    self.mechanism.name(),
+                    groups.join(", ")
+                ),
+            });
+        }
+        for (prior, parameter) in self.priors.iter_mut().zip(parameters) {
+            if parameter.group == group {
+                prior.sigma = sigma;
+            }
+        }
+        Ok(self)
+    }
+
+    /// These data with every parameter's prior mean set to `means` (the
+    /// design the builder aimed at), keeping the sigmas.
+    pub fn with_prior_means(mut self, means: &[f64]) -> Self {
+        for (prior, &mean) in self.priors.iter_mut().zip(means) {
+            prior.mean = mean;
+        }
+        self
+    }
+
+    /// These data with the trigger height's prior `mean ± sigma`.
+    pub fn with_trigger_height(mut self, mean: f64, sigma: Option<f64>) -> Self {
+        self.trigger_height = ParameterPrior { mean, sigma };
+        self
+    }
+
+    /// These data with no prior on any parameter (the means kept as the
+    /// solver's start).
+    pub fn without_priors(mut self) -> Self {
+        for prior in &mut self.priors {
+            prior.sigma = None;
+        }
+        self
+    }
+
+    /// Whether the trigger height is an unknown: there are probe heights.
+    pub fn has_trigger_height(&self) -> bool {
+        !self.observations.probes.is_empty()
+    }
+
+    /// These data with other observations.
+    pub fn with_observations(&self, observations: Observations) -> Self {
+        Self {
+            observations,
+            ..self.clone()
+        }
+    }
+
+    /// Checks the data before any work: a mechanism with a 3-coordinate
+    /// pose and [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators; sizes
+    /// matching it; finite values; positive sigmas; counts within
+    /// [`MAX_OBSERVATIONS`] and at least one observation. The first
+    /// problem names the parameter or the observation.
+    pub fn validate(&self) -> Result<(), MechanismCalibrationError> {
+        let mechanism = self.mechanism.as_ref();
+        let invalid = |what: String, reason: String| {
+            Err(MechanismCalibrationError::InvalidData { what, reason })
+        };
+        let name = mechanism.name();
+        let coordinates = mechanism.pose_coordinates().len();
+        if coordinates != POSE_COORDINATES {
+            return invalid(
+                format!("the {name}"),
+                format!(
+                    "its pose has {coordinates} coordinates; this calibration takes a position (x, y, z)"
+                ),
+            );
+        }
+        let actuators = mechanism.actuators().len();
+        if !(MIN_ACTUATORS..=MAX_ACTUATORS).contains(&actuators) {
+            return invalid(
+                format!("the {name}"),
+                format!(
+                    "it has {actuators} actuators; this calibration takes {MIN_ACTUATORS} to {MAX_ACTUATORS}"
+                ),
+            );
+        }
+        let parameters = mechanism.parameters();
+        let n = parameters.len();
+        for (what, len) in [
+            ("configured parameters", self.configured.len()),
+            ("priors", self.priors.len()),
+        ] {
+            if len != n {
+                return invalid(
+                    what.to_string(),
+                    format!("{len} values for the {n} parameters of the {name}"),
+                );
+            }
+        }
+        for (k, parameter) in parameters.iter().enumerate() {
+            let what = || format!("parameter {}", parameter.name);
+            if !self.configured[k].is_finite() {
+                return invalid(
+                    what(),
+                    format!("configured value {} is not finite", self.configured[k]),
+                );
+            }
+            check_prior(&self.priors[k], what)?;
+        }
+        check_prior(&self.trigger_height, || "trigger height".to_string())?;
+        let observations = &self.observations;
+        for kind in ObservationKind::ALL {
+            let count = observations.count(kind);
+            if count > MAX_OBSERVATIONS {
+                return invalid(
+                    format!("{} observations", kind.name()),
+                    format!("{count} is more than the {MAX_OBSERVATIONS} accepted"),
+                );
+            }
+        }
+        if observations.is_empty() {
+            return invalid(
+                "observations".to_string(),
+                "there is none: nothing to calibrate from".to_string(),
+            );
+        }
+        let at = |kind, index| ObservationRef { kind, index };
+        for (k, probe) in observations.probes.iter().enumerate() {
+            let id = at(ObservationKind::Probe, k);
+            check_values(id, "commanded position", &probe.commanded)?;
+            check_sigma(id, probe.sigma)?;
+        }
+        for (k, distance) in observations.distances.iter().enumerate() {
+            let id = at(ObservationKind::Distance, k);
+            check_values(id, "first position", &distance.first)?;
+            check_values(id, "second position", &distance.second)?;
+            check_values(id, "distance", &[distance.distance])?;
+            check_sigma(id, distance.sigma)?;
+            if distance.first == distance.second {
+                return Err(observation_error(id, "its two positions coincide".into()));
+            }
+        }
+        for (k, point) in observations.points.iter().enumerate() {
+            let id = at(ObservationKind::Point, k);
+            check_values(id, "commanded position", &point.commanded)?;
+            check_values(id, "measured position", &point.measured)?;
+            for sigma in point.sigma {
+                check_sigma(id, sigma)?;
+            }
+        }
+        for (k, sample) in observations.samples.iter().enumerate() {
+            let id = at(ObservationKind::Sample, k);
+            if sample.readings.len() != actuators {
+                return Err(observation_error(
+                    id,
+                    format!(
+                        "{} readings for the {actuators} actuators of the {name}",
+                        sample.readings.len()
+                    ),
+                ));
+            }
+            check_values(id, "readings", &sample.readings)?;
+            check_sigma(id, sample.sigma)?;
+            if let Some((pose, sigmas)) = &sample.known_pose {
+                check_values(id, "known pose", pose)?;
+                for &sigma in sigmas {
+                    check_sigma(id, sigma)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn observation_error(observation: ObservationRef, reason: String) -> MechanismCalibrationError {
+    MechanismCalibrationError::Observation {
+        observation,
+        reason,
+    }
+}
+
+fn check_values(
+    observation: ObservationRef,
+    what: &str,
+    values: &[f64],
+) -> Result<(), MechanismCalibrationError> {
+    match values.iter().find(|v| !v.is_finite()) {
+        Some(v) => Err(observation_error(
+            observation,
+            format!("its {what} has a value {v} that is not finite"),
+        )),
+        None => Ok(()),
+    }
+}
+
+fn check_sigma(observation: ObservationRef, sigma: f64) -> Result<(), MechanismCalibrationError> {
+    if sigma.is_finite() && sigma > 0.0 {
+        Ok(())
+    } else {
+        Err(observation_error(
+            observation,
+            format!("its standard deviation {sigma} is not finite and positive"),
+        ))
+    }
+}
+
+fn check_prior(
+    prior: &ParameterPrior,
+    what: impl Fn() -> String,
+) -> Result<(), MechanismCalibrationError> {
+    let invalid = |reason| {
+        Err(MechanismCalibrationError::InvalidData {
+            what: what(),
+            reason,
+        })
+    };
+    if !prior.mean.is_finite() {
+        return invalid(format!("prior mean {} is not finite", prior.mean));
+    }
+    match prior.sigma {
+        Some(sigma) if !(sigma.is_finite() && sigma > 0.0) => invalid(format!(
+            "prior sigma {sigma} is not finite and positive (no prior: none)"
+        )),
+        _ => Ok(()),
+    }
+}

@@ -1,0 +1,234 @@
+//! What the data determine, and what only the priors do.
+//!
+//! - **Per parameter**: the ratio of its posterior sigma to its prior
+//!   sigma, both in the canonical frame ([`super::frame`]: the prior
+//!   covariance `diag(σ²)` propagated like the posterior's, `J_c diag(σ²)
+//!   J_cᵀ`). Near 1, the data taught nothing about it: it is determined
+//!   by its prior. A value the canonical frame fixes (prior sigma 0 there)
+//!   and a value whose canonical form involves a parameter without a prior
+//!   have no ratio.
+//! - **Directions**: the data-only information of the global block,
+//!   `I_d = Cov(g)⁻¹ − Λ_g` (the Schur complement less the prior; the
+//!   poses of point samples eliminated), scaled by the prior sigmas,
+//!   `M = D I_d D` (`D = diag(σ)`, the posterior sigma for an unknown
+//!   without a prior), so that an eigenvalue `λ` compares the data's
+//!   information along a direction with the prior's: the data alone
+//!   would give it a sigma `1/√λ` prior sigmas. The gauge directions
+//!   (`D⁻¹ z`, which no data see) are removed first, and every other
+//!   direction with `λ < 1`, whose data-only sigma exceeds its prior
+//!   sigma, is reported as set by the prior, named by the parameters that
+//!   make it up (components in units of their prior sigma).
+
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+
+/// A component of a direction at least this large (of a unit vector in
+/// prior-sigma units) names its parameter in the statement.
+const NAMED_COMPONENT: f64 = 0.25;
+/// A parameter whose posterior sigma is at least this fraction of its
+/// prior sigma is stated as determined by its prior.
+const PRIOR_BOUND: f64 = 0.9;
+
+/// A combination of the unknowns that the data alone do not determine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Undetermined {
+    /// Its components (name, value) in units of each unknown's prior
+    /// sigma, a unit vector, largest first, down to 0.25.
+    pub components: Vec<(String, f64)>,
+    /// The data-only sigma along it over the prior's, `1/√λ` (infinite
+    /// where the data do not see it at all).
+    pub data_to_prior: f64,
+}
+
+/// What the data determine (module doc).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct Identifiability {
+    /// The gauge freedoms, which the canonical frame removes.
+    pub gauge: Vec<String>,
+    /// The unknowns' posterior sigma over their prior sigma (canonical
+    /// frame), in the order of the result's parameters.
+    pub sigma_ratio: Vec<Option<f64>>,
+    /// The directions the data alone do not determine, weakest first.
+    pub undetermined: Vec<Undetermined>,
+    /// The above in words.
+    pub statements: Vec<String>,
+}
+
+/// The inputs of [`identifiability`]: every matrix over the global block.
+pub(crate) struct Inputs<'a> {
+    /// The unknowns' names.
+    pub names: &'a [String],
+    /// The fit-frame covariance `Cov(g)`.
+    pub covariance: &'a DMatrix<f64>,
+    /// The prior information `Λ_g` (diagonal).
+    pub prior_information: &'a DMatrix<f64>,
+    /// The canonical frame's derivative (`T`, identity beyond the
+    /// mechanism's parameters).
+    pub canonical: &'a DMatrix<f64>,
+    /// The gauge freedoms: names and directions (over the global block).
+    pub gauge: &'a [(String, DVector<f64>)],
+}
+
+/// The identifiability of a fit (module doc); `None` when `Cov(g)` is not
+/// positive definite.
+pub(crate) fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
+    let Inputs {
+        names,
+        covariance,
+        prior_information,
+        canonical,
+        gauge,
+    } = *inputs;
+    let g = names.len();
+    let prior_sigma: Vec<Option<f64>> = (0..g)
+        .map(|k| {
+            let information = prior_information[(k, k)];
+            (information > 0.0).then(|| 1.0 / information.sqrt())
+        })
+        .collect();
+    let sigma_ratio = sigma_ratios(covariance, canonical, &prior_sigma);
+    let information = covariance.clone().cholesky()?.inverse() - prior_information;
+    let scale = DVector::from_fn(g, |k, _| {
+        prior_sigma[k].unwrap_or_else(|| covariance[(k, k)].sqrt())
+    });
+    let scaled = DMatrix::from_fn(g, g, |i, j| {
+        scale[i] * scale[j] * 0.5 * (information[(i, j)] + information[(j, i)])
+    });
+    let basis = complement(gauge, &scale);
+    let reduced = basis.transpose() * &scaled * &basis;
+    let eigen = SymmetricEigen::new(reduced);
+    let mut order: Vec<usize> = (0..eigen.eigenvalues.len()).collect();
+    order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+    let undetermined: Vec<Undetermined> = order
+        .into_iter()
+        .filter(|&a| eigen.eigenvalues[a] < 1.0)
+        .map(|a| {
+            let lambda = eigen.eigenvalues[a];
+            let direction = &basis * eigen.eigenvectors.column(a);
+            let mut components: Vec<(String, f64)> = direction
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.abs() >= NAMED_COMPONENT)
+                .map(|(k, &v)| (names[k].clone(), v))
+                .collect();
+            components.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+            // One sign convention: the largest component positive.
+            if components.first().is_some_and(|c| c.1 < 0.0) {
+                components.iter_mut().for_each(|c| c.1 = -c.1);
+            }
+            Undetermined {
+                components,
+                data_to_prior: if lambda > 0.0 {
+                    1.0 / lambda.sqrt()
+                } else {
+                    f64::INFINITY
+                },
+            }
+        })
+        .collect();
+    let statements = statements(names, &sigma_ratio, &undetermined, gauge);
+    Some(Identifiability {
+        gauge: gauge.iter().map(|(name, _)| name.clone()).collect(),
+        sigma_ratio,
+        undetermined,
+        statements,
+    })
+}
+
+/// Posterior over prior sigma of each canonical value (module doc).
+fn sigma_ratios(
+    covariance: &DMatrix<f64>,
+    canonical: &DMatrix<f64>,
+    prior_sigma: &[Option<f64>],
+) -> Vec<Option<f64>> {
+    let g = prior_sigma.len();
+    let prior = DMatrix::from_diagonal(&DVector::from_fn(g, |k, _| {
+        prior_sigma[k].map_or(0.0, |s| s * s)
+    }));
+    let posterior = canonical * covariance * canonical.transpose();
+    let prior = canonical * prior * canonical.transpose();
+    (0..g)
+        .map(|k| {
+            let touches_unknown_prior =
+                (0..g).any(|j| prior_sigma[j].is_none() && canonical[(k, j)].abs() > 1e-9);
+            let prior_variance = prior[(k, k)];
+            let scale = posterior[(k, k)].max(prior_variance);
+            (!touches_unknown_prior && prior_variance > 1e-12 * scale.max(f64::MIN_POSITIVE))
+                .then(|| (posterior[(k, k)].max(0.0) / prior_variance).sqrt())
+        })
+        .collect()
+}
+
+/// An orthonormal basis of the complement of the scaled gauge directions
+/// `D⁻¹ z` (as columns).
+fn complement(gauge: &[(String, DVector<f64>)], scale: &DVector<f64>) -> DMatrix<f64> {
+    let g = scale.len();
+    if gauge.is_empty() {
+        return DMatrix::identity(g, g);
+    }
+    let directions = DMatrix::from_columns(
+        &gauge
+            .iter()
+            .map(|(_, z)| z.component_div(scale))
+            .collect::<Vec<_>>(),
+    );
+    let q = directions.qr().q();
+    let projector = DMatrix::identity(g, g) - &q * q.transpose();
+    let eigen = SymmetricEigen::new(projector);
+    let columns: Vec<DVector<f64>> = (0..g)
+        .filter(|&a| eigen.eigenvalues[a] > 0.5)
+        .map(|a| eigen.eigenvectors.column(a).into_owned())
+        .collect();
+    DMatrix::from_columns(&columns)
+}
+
+fn statements(
+    names: &[String],
+    sigma_ratio: &[Option<f64>],
+    undetermined: &[Undetermined],
+    gauge: &[(String, DVector<f64>)],
+) -> Vec<String> {
+    let mut statements = Vec::new();
+    if !gauge.is_empty() {
+        let names: Vec<&str> = gauge.iter().map(|(name, _)| name.as_str()).collect();
+        statements.push(format!(
+            "no measurement sees {}: the canonical frame fixes them",
+            names.join("; ")
+        ));
+    }
+    for direction in undetermined {
+        let combination: Vec<String> = direction
+            .components
+            .iter()
+            .map(|(name, v)| format!("{v:+.2} {name}"))
+            .collect();
+        let seen = if direction.data_to_prior.is_finite() {
+            format!(
+                "the data alone would give it {:.1} times its prior sigma",
+                direction.data_to_prior
+            )
+        } else {
+            "the data do not see it at all".to_string()
+        };
+        statements.push(format!(
+            "the data do not determine {} (in prior sigmas): {seen}, so its prior sets it",
+            combination.join(" ")
+        ));
+    }
+    let by_prior: Vec<String> = names
+        .iter()
+        .zip(sigma_ratio)
+        .filter_map(|(name, ratio)| {
+            ratio
+                .filter(|&r| r >= PRIOR_BOUND)
+                .map(|r| format!("{name} ({r:.2})"))
+        })
+        .collect();
+    if !by_prior.is_empty() {
+        statements.push(format!(
+            "determined by their prior, not by the data (posterior over prior sigma): {}",
+            by_prior.join(", ")
+        ));
+    }
+    statements
+}

@@ -1,0 +1,97 @@
+//! A mechanism dataset read from files
+//! ([`parcal_dataset::mechanism::MechanismDataset`]) as the data of a
+//! calibration: the mechanism from the one list, the configured
+//! parameters, the design as the priors' means with the mechanism's
+//! tolerances overridden per group, the trigger height's prior, and each
+//! observation with the noise of its kind.
+
+use std::sync::Arc;
+
+use parcal_dataset::mechanism::MechanismDataset;
+use parcal_kinematics::mechanisms;
+use parcal_observe::mechanism::{PartDistance, PointSample, ProbeHeight};
+
+use super::data::{MechanismData, Observations};
+use super::error::MechanismCalibrationError;
+
+impl MechanismData {
+    /// The data of `dataset` (module doc). The dataset's reader has
+    /// checked it; an unknown mechanism or a missing noise is still an
+    /// error here (a dataset built in memory).
+    pub fn from_dataset(dataset: &MechanismDataset) -> Result<Self, MechanismCalibrationError> {
+        let machine = &dataset.machine;
+        let mechanism = mechanisms::by_name(&machine.mechanism).ok_or_else(|| {
+            MechanismCalibrationError::InvalidData {
+                what: "mechanism".to_string(),
+                reason: format!(
+                    "unknown mechanism {:?} (known: {})",
+                    machine.mechanism,
+                    mechanisms::NAMES.join(", ")
+                ),
+            }
+        })?;
+        let noise = |sigma: Option<f64>, what: &str| {
+            sigma.ok_or_else(|| MechanismCalibrationError::InvalidData {
+                what: format!("noise.{what}"),
+                reason: "required: the dataset holds measurements of this kind".to_string(),
+            })
+        };
+        let n = &machine.noise;
+        let probes = dataset
+            .probes
+            .iter()
+            .map(|&commanded| {
+                Ok(ProbeHeight {
+                    commanded,
+                    sigma: noise(n.probe, "probe")?,
+                })
+            })
+            .collect::<Result<_, MechanismCalibrationError>>()?;
+        let distances = dataset
+            .distances
+            .iter()
+            .map(|row| {
+                Ok(PartDistance {
+                    first: [row[0], row[1], row[2]],
+                    second: [row[3], row[4], row[5]],
+                    distance: row[6],
+                    sigma: noise(n.distance, "distance")?,
+                })
+            })
+            .collect::<Result<_, MechanismCalibrationError>>()?;
+        let samples = dataset
+            .samples
+            .iter()
+            .map(|row| {
+                let known_pose = match row.position {
+                    Some(position) => Some((position, [noise(n.position, "position")?; 3])),
+                    None => None,
+                };
+                Ok(PointSample {
+                    readings: row.readings.clone(),
+                    sigma: noise(n.actuator, "actuator")?,
+                    known_pose,
+                })
+            })
+            .collect::<Result<_, MechanismCalibrationError>>()?;
+        let observations = Observations {
+            probes,
+            distances,
+            points: Vec::new(),
+            samples,
+        };
+        let mut data = MechanismData::new(
+            Arc::from(mechanism),
+            machine.configured.clone(),
+            observations,
+        )
+        .with_prior_means(&machine.design);
+        for (group, sigma) in &machine.tolerances {
+            data = data.with_group_sigma(group, *sigma)?;
+        }
+        if let Some(trigger) = machine.trigger_height {
+            data = data.with_trigger_height(trigger.value, trigger.sigma);
+        }
+        Ok(data)
+    }
+}

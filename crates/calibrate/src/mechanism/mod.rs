@@ -1,0 +1,127 @@
+//! One calibration for any mechanism whose pose is a position `(x, y, z)`
+//! (a linear delta, a cable robot), through the
+//! [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: probe
+//! heights, part distances, measured points and readings at unknown poses
+//! ([`parcal_observe::mechanism`]), with the builder's tolerances as
+//! priors, by the method of Sato et al. (2004) the hexapod's calibration
+//! follows.
+//!
+//! The stages, each importing only those above it:
+//!
+//! - [`data`]: the data in memory ([`MechanismData`]) and their validation;
+//! - [`options`]: loss, snooping, level, iteration limit
+//!   ([`MechanismOptions`]);
+//! - [`error`]: what can go wrong, naming the observation or parameter;
+//! - [`problem`]: the solver's problem (global block: parameters and the
+//!   trigger height; points: the poses of point samples);
+//! - [`fit`]: one solve, redundancy numbers, normalised residuals;
+//! - [`frame`]: the estimate and covariance in the canonical frame (the
+//!   gauge projected out);
+//! - [`identifiability`]: what the data determine and what only the priors
+//!   do;
+//! - [`result`]: the result ([`MechanismCalibration`]), its tests and
+//!   verdict;
+//! - [`snooping`]: data snooping;
+//! - [`input`]: a dataset read from files as [`MechanismData`];
+//! - [`record`]: a result as its `calibration.json` record.
+//!
+//! ```
+//! use std::sync::Arc;
+//! use parcal_calibrate::mechanism::{
+//!     MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+//! };
+//! use parcal_kinematics::delta::{LinearDelta, probe_rings};
+//! use parcal_kinematics::mechanism::design;
+//! use parcal_observe::mechanism::ProbeHeight;
+//!
+//! // A printer exactly as configured, probed on three rings: every probe
+//! // triggers at the commanded height 0.7 mm, the trigger height.
+//! let delta = LinearDelta::typical();
+//! let configured: Vec<f64> = design(&delta).iter().copied().collect();
+//! let probes = probe_rings(100.0, 3, 8)
+//!     .into_iter()
+//!     .map(|[x, y]| ProbeHeight { commanded: [x, y, 0.7], sigma: 0.01 })
+//!     .collect();
+//! let observations = Observations { probes, ..Default::default() };
+//! let data = MechanismData::new(Arc::new(delta), configured, observations)
+//!     .with_trigger_height(0.7, Some(0.05));
+//! let calibration = calibrate_mechanism(&data, &MechanismOptions::default())?;
+//! assert!(calibration.verdict.accepted, "{:?}", calibration.reasons);
+//! let radius = calibration.parameter("radius").unwrap();
+//! assert!((radius.value - 135.0).abs() < 1e-6);
+//! # Ok::<(), parcal_calibrate::mechanism::MechanismCalibrationError>(())
+//! ```
+
+pub mod data;
+pub mod error;
+pub mod fit;
+pub mod frame;
+pub mod identifiability;
+pub mod input;
+pub mod options;
+pub mod problem;
+pub mod record;
+pub mod result;
+pub mod snooping;
+
+pub use data::{MechanismData, ObservationKind, ObservationRef, Observations, ParameterPrior};
+pub use error::MechanismCalibrationError;
+pub use fit::ObservationCheck;
+pub use identifiability::{Identifiability, Undetermined};
+pub use options::MechanismOptions;
+pub use result::{EstimatedParameter, MechanismCalibration, Removal, TRIGGER_HEIGHT};
+
+/// Calibrates `data` with `options`: validates both, refuses a gauge
+/// freedom that no prior holds, fits (with data snooping if asked) and
+/// returns the estimate in the canonical frame with its tests, verdict and
+/// identifiability.
+pub fn calibrate_mechanism(
+    data: &MechanismData,
+    options: &MechanismOptions,
+) -> Result<MechanismCalibration, MechanismCalibrationError> {
+    options.validate()?;
+    data.validate()?;
+    check_gauge_priors(data)?;
+    if options.snoop {
+        snooping::snoop(data, options)
+    } else {
+        snooping::calibrate_once(data, options)
+    }
+}
+
+/// Refuses data where some gauge freedom moves only parameters without a
+/// prior: nothing would determine it.
+fn check_gauge_priors(data: &MechanismData) -> Result<(), MechanismCalibrationError> {
+    let mechanism = data.mechanism.as_ref();
+    let means: Vec<f64> = data.priors.iter().map(|p| p.mean).collect();
+    let freedoms = mechanism.gauge_freedoms(&means).map_err(|source| {
+        MechanismCalibrationError::Kinematics {
+            mechanism: mechanism.name().to_string(),
+            source,
+        }
+    })?;
+    for freedom in freedoms {
+        let held = freedom
+            .direction
+            .iter()
+            .zip(&data.priors)
+            .any(|(z, prior)| z.abs() > 1e-9 && prior.sigma.is_some());
+        if !held {
+            let moved: Vec<&str> = freedom
+                .direction
+                .iter()
+                .zip(mechanism.parameters())
+                .filter(|(z, _)| z.abs() > 1e-9)
+                .map(|(_, p)| p.name.as_str())
+                .collect();
+            return Err(MechanismCalibrationError::NotDetermined {
+                reason: format!(
+                    "no measurement sees the {} ({}), and none of its parameters has a prior: give one of them a prior",
+                    freedom.name,
+                    moved.join(", ")
+                ),
+            });
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,105 @@
+//! A mechanism calibration as its `calibration.json` record
+//! ([`parcal_dataset::mechanism::MechanismCalibrationRecord`]), built in
+//! this one place.
+
+use parcal_dataset::GlobalTestRecord;
+use parcal_dataset::mechanism::{
+    IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord, ParameterRecord,
+    RemovalRecord, TestsRecord, UndeterminedRecord,
+};
+
+use super::result::MechanismCalibration;
+
+impl MechanismCalibration {
+    /// The record of this calibration.
+    pub fn record(&self) -> MechanismCalibrationRecord {
+        let ratio = |k: usize| {
+            self.identifiability
+                .as_ref()
+                .and_then(|i| i.sigma_ratio.get(k).copied().flatten())
+        };
+        let finite = |v: f64| v.is_finite().then_some(v);
+        let parameters = self
+            .parameters
+            .iter()
+            .enumerate()
+            .map(|(k, p)| ParameterRecord {
+                name: p.name.clone(),
+                unit: p.unit.clone(),
+                group: p.group.clone(),
+                value: p.value,
+                sigma: p.sigma,
+                prior_mean: p.prior.mean,
+                prior_sigma: p.prior.sigma,
+                sigma_ratio: ratio(k),
+            })
+            .collect();
+        let observations = self
+            .observations
+            .iter()
+            .map(|c| ObservationRecord {
+                kind: c.observation.kind.name().to_string(),
+                index: c.observation.index,
+                residuals: c.residuals.clone(),
+                redundancy: c.redundancy.clone(),
+                normalised: c.normalised.clone(),
+            })
+            .collect();
+        let removed = self
+            .removals
+            .iter()
+            .map(|r| RemovalRecord {
+                kind: r.observation.kind.name().to_string(),
+                index: r.observation.index,
+                row: r.row,
+                normalised: r.normalised,
+                variance_factor_before: finite(r.variance_factor_before),
+                variance_factor_after: finite(r.variance_factor_after),
+            })
+            .collect();
+        MechanismCalibrationRecord {
+            mechanism: self.mechanism.clone(),
+            status: format!("{:?}", self.status),
+            iterations: self.iterations,
+            accepted: self.verdict.accepted,
+            reasons: self.reasons.clone(),
+            parameters,
+            covariance: self.covariance.as_ref().map(|c| {
+                c.row_iter()
+                    .map(|row| row.iter().copied().collect())
+                    .collect()
+            }),
+            global_test: self.global_test.map(|t| GlobalTestRecord {
+                cost: t.cost,
+                redundancy: t.redundancy,
+                variance_factor: t.variance_factor,
+                level: t.level,
+                interval: [t.interval.0, t.interval.1],
+                outcome: t.outcome.name().to_string(),
+            }),
+            tests: TestsRecord {
+                alpha: self.alpha,
+                data_rows: self.data_rows,
+                critical_value: self.critical_value,
+                observations,
+                removed,
+                snooping_stopped: self.snooping_stopped.clone(),
+            },
+            identifiability: self
+                .identifiability
+                .as_ref()
+                .map(|i| IdentifiabilityRecord {
+                    gauge: i.gauge.clone(),
+                    undetermined: i
+                        .undetermined
+                        .iter()
+                        .map(|u| UndeterminedRecord {
+                            components: u.components.clone(),
+                            data_to_prior: finite(u.data_to_prior),
+                        })
+                        .collect(),
+                    statements: i.statements.clone(),
+                }),
+        }
+    }
+}

@@ -1,0 +1,289 @@
+//! A mechanism calibration's result ([`MechanismCalibration`]), assembled
+//! from one fit: the estimate in the canonical frame ([`super::frame`]),
+//! the w-tests and the global test with the verdict the hexapod's
+//! calibrations give ([`crate::verdict`], [`crate::reliability`]'s
+//! critical value), and what the data determine
+//! ([`super::identifiability`]).
+
+use nalgebra::{DMatrix, DVector};
+use parcal_solver::Status;
+
+use crate::reliability::critical_value;
+use crate::verdict::{GlobalTest, Outcome, Verdict};
+
+use super::data::{MechanismData, ObservationRef, ParameterPrior};
+use super::error::MechanismCalibrationError;
+use super::fit::{Fit, ObservationCheck};
+use super::frame::canonical;
+use super::identifiability::{Identifiability, Inputs, identifiability};
+use super::options::MechanismOptions;
+
+/// The name of the trigger height among the estimated unknowns.
+pub const TRIGGER_HEIGHT: &str = "trigger_height";
+
+/// One estimated unknown: a parameter of the mechanism, or the trigger
+/// height.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatedParameter {
+    /// Its name (the mechanism's, or [`TRIGGER_HEIGHT`]).
+    pub name: String,
+    /// Its unit.
+    pub unit: String,
+    /// Its group (the mechanism's, or `probe`).
+    pub group: String,
+    /// Its estimate in the canonical frame.
+    pub value: f64,
+    /// Its standard deviation there, when the fit gave a covariance.
+    pub sigma: Option<f64>,
+    /// Its prior, as given.
+    pub prior: ParameterPrior,
+}
+
+/// An observation removed by data snooping.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Removal {
+    /// The observation, by its place in the data given.
+    pub observation: ObservationRef,
+    /// Its row of largest normalised residual.
+    pub row: usize,
+    /// That row's normalised residual when it was removed.
+    pub normalised: f64,
+    /// The a-posteriori variance factor before its removal.
+    pub variance_factor_before: f64,
+    /// And after (NaN without a global test).
+    pub variance_factor_after: f64,
+}
+
+/// The calibration of a mechanism.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct MechanismCalibration {
+    /// The mechanism's name.
+    pub mechanism: String,
+    /// The mechanism's parameters, then the trigger height when there were
+    /// probe heights: values and sigmas in the canonical frame.
+    pub parameters: Vec<EstimatedParameter>,
+    /// Their covariance in the canonical frame (rank: unknowns less gauge
+    /// freedoms), when the fit gave one.
+    pub covariance: Option<DMatrix<f64>>,
+    /// The poses of the point samples (the fit's frame), in the order of
+    /// the remaining samples.
+    pub poses: Vec<[f64; 3]>,
+    /// How the solver ended.
+    pub status: Status,
+    /// Its linear solves.
+    pub iterations: usize,
+    /// Every remaining observation's residuals, redundancy numbers and
+    /// normalised residuals (named by their place in the data given), at
+    /// a least-squares minimum; empty elsewhere.
+    pub observations: Vec<ObservationCheck>,
+    /// The global test, at a least-squares minimum with redundancy.
+    pub global_test: Option<GlobalTest>,
+    /// The critical value of the w-tests (family-wise `α` over the data
+    /// rows, Bonferroni).
+    pub critical_value: f64,
+    /// The number of data rows: the w-tests' family.
+    pub data_rows: usize,
+    /// The level `α` of the tests.
+    pub alpha: f64,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Why, in words.
+    pub reasons: Vec<String>,
+    /// The observations data snooping removed, in order.
+    pub removals: Vec<Removal>,
+    /// Why snooping stopped before every observation passed, if it did.
+    pub snooping_stopped: Option<String>,
+    /// What the data determine, when the fit gave a covariance.
+    pub identifiability: Option<Identifiability>,
+}
+
+impl MechanismCalibration {
+    /// The estimated values, in the order of [`Self::parameters`].
+    pub fn values(&self) -> DVector<f64> {
+        DVector::from_iterator(
+            self.parameters.len(),
+            self.parameters.iter().map(|p| p.value),
+        )
+    }
+
+    /// The estimate of the unknown named `name`.
+    pub fn parameter(&self, name: &str) -> Option<&EstimatedParameter> {
+        self.parameters.iter().find(|p| p.name == name)
+    }
+
+    /// Whether the solver converged.
+    pub fn converged(&self) -> bool {
+        matches!(self.status, Status::Converged)
+    }
+
+    /// The observation of largest `|w|` and its row and `w`.
+    pub fn worst(&self) -> Option<(ObservationRef, usize, f64)> {
+        worst(&self.observations)
+    }
+
+    /// The a-posteriori variance factor (NaN without a global test).
+    pub fn variance_factor(&self) -> f64 {
+        self.global_test.map_or(f64::NAN, |t| t.variance_factor)
+    }
+}
+
+/// The result of `fit` of `data` with `options` (module doc); its
+/// observations still named by their place in `data`.
+pub(crate) fn assemble(
+    data: &MechanismData,
+    fit: Fit,
+    options: &MechanismOptions,
+) -> Result<MechanismCalibration, MechanismCalibrationError> {
+    let mechanism = data.mechanism.as_ref();
+    let n = data.configured.len();
+    let mut parameters: Vec<EstimatedParameter> = mechanism
+        .parameters()
+        .iter()
+        .zip(&data.priors)
+        .map(|(p, prior)| EstimatedParameter {
+            name: p.name.clone(),
+            unit: p.unit.to_string(),
+            group: p.group.to_string(),
+            value: f64::NAN,
+            sigma: None,
+            prior: *prior,
+        })
+        .collect();
+    if data.has_trigger_height() {
+        parameters.push(EstimatedParameter {
+            name: TRIGGER_HEIGHT.to_string(),
+            unit: "mm".to_string(),
+            group: "probe".to_string(),
+            value: f64::NAN,
+            sigma: None,
+            prior: data.trigger_height,
+        });
+    }
+    let scale: Vec<f64> = data.priors.iter().map(|p| p.sigma.unwrap_or(1.0)).collect();
+    let frame = canonical(mechanism, &fit.global, fit.covariance.as_ref(), &scale)?;
+    for (k, parameter) in parameters.iter_mut().enumerate() {
+        parameter.value = frame.values[k];
+        parameter.sigma = frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt());
+    }
+    let g = fit.global.len();
+    let gauge: Vec<(String, DVector<f64>)> = mechanism
+        .gauge_freedoms(&fit.global.as_slice()[..n])
+        .map_err(|source| MechanismCalibrationError::Kinematics {
+            mechanism: mechanism.name().to_string(),
+            source,
+        })?
+        .into_iter()
+        .map(|freedom| {
+            let mut direction = DVector::zeros(g);
+            direction.rows_mut(0, n).copy_from(&freedom.direction);
+            (freedom.name.to_string(), direction)
+        })
+        .collect();
+    let names: Vec<String> = parameters.iter().map(|p| p.name.clone()).collect();
+    let identifiability = fit.covariance.as_ref().and_then(|covariance| {
+        identifiability(&Inputs {
+            names: &names,
+            covariance,
+            prior_information: &fit.prior_information,
+            canonical: &frame.transform,
+            gauge: &gauge,
+        })
+    });
+    let global_test = fit
+        .cost
+        .and_then(|cost| GlobalTest::new(cost, fit.redundancy, options.alpha));
+    let critical = critical_value(options.alpha, fit.data_rows);
+    let observations = fit.checks.unwrap_or_default();
+    let outlier = worst(&observations).is_some_and(|(_, _, w)| w.abs() > critical);
+    let verdict = Verdict::new(&fit.status, global_test, outlier);
+    let mut calibration = MechanismCalibration {
+        mechanism: mechanism.name().to_string(),
+        parameters,
+        covariance: frame.covariance,
+        poses: fit.poses,
+        global_test: verdict.global_test,
+        verdict,
+        status: fit.status,
+        iterations: fit.iterations,
+        observations,
+        critical_value: critical,
+        data_rows: fit.data_rows,
+        alpha: options.alpha,
+        reasons: Vec::new(),
+        removals: Vec::new(),
+        snooping_stopped: None,
+        identifiability,
+    };
+    calibration.reasons = reasons(&calibration);
+    Ok(calibration)
+}
+
+/// The observation of largest `|w|` among `observations`, its row and `w`.
+fn worst(observations: &[ObservationCheck]) -> Option<(ObservationRef, usize, f64)> {
+    observations
+        .iter()
+        .filter_map(|c| c.worst().map(|(row, w)| (c.observation, row, w)))
+        .max_by(|a, b| a.2.abs().total_cmp(&b.2.abs()))
+}
+
+/// The verdict's reasons, in words.
+pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
+    let (data_rows, alpha) = (calibration.data_rows, calibration.alpha);
+    let mut reasons = Vec::new();
+    if !calibration.converged() {
+        reasons.push(format!(
+            "the solver did not converge ({:?}): the residuals are not those of a least-squares minimum, so nothing is tested",
+            calibration.status
+        ));
+    }
+    if let Some(test) = calibration.global_test {
+        let (low, high) = test.interval;
+        let statement = match test.outcome {
+            Outcome::Consistent => "consistent with the stated noise",
+            Outcome::TooLarge => {
+                "too large: the data do not fit their stated noise (a blunder, a wrong sigma, a model error)"
+            }
+            Outcome::TooSmall => {
+                "too small: the fit is better than the stated noise allows (the sigmas are overstated)"
+            }
+        };
+        reasons.push(format!(
+            "global test: variance factor {:.3} over {} degrees of freedom, interval [{low:.3}, {high:.3}] at level {}: {statement}",
+            test.variance_factor, test.redundancy, test.level
+        ));
+    }
+    if let Some((observation, row, w)) = calibration.worst() {
+        let critical = calibration.critical_value;
+        let family = format!("family-wise level {alpha} over {data_rows} rows");
+        reasons.push(if w.abs() > critical {
+            format!(
+                "{observation} (row {row}) fails its w-test: |w| = {:.2} > {critical:.2} ({family}): a blunder that snooping would remove",
+                w.abs()
+            )
+        } else {
+            format!(
+                "every w-test passes: the largest, {observation} (row {row}), |w| = {:.2} <= {critical:.2} ({family})",
+                w.abs()
+            )
+        });
+    }
+    for removal in &calibration.removals {
+        reasons.push(format!(
+            "{} removed by snooping (|w| = {:.2}; variance factor {:.3} -> {:.3})",
+            removal.observation,
+            removal.normalised.abs(),
+            removal.variance_factor_before,
+            removal.variance_factor_after
+        ));
+    }
+    if let Some(stopped) = &calibration.snooping_stopped {
+        reasons.push(format!("snooping stopped: {stopped}"));
+    }
+    reasons.push(if calibration.verdict.accepted {
+        "accepted".to_string()
+    } else {
+        "rejected".to_string()
+    });
+    reasons
+}

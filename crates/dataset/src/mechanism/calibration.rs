@@ -1,0 +1,198 @@
+//! The record of a mechanism calibration (`calibration.json`, format
+//! `parcal-mechanism-calibration/1`): the mechanism, the estimated
+//! parameters in its canonical frame with their sigmas, priors and
+//! covariance, the verdict and its reasons, the tests (global test,
+//! w-tests, snooping) and the identifiability, so that `export` and
+//! `report` read one without the calibration's code.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::GlobalTestRecord;
+use crate::check::Check;
+use crate::error::Result;
+use crate::json;
+
+use super::machine::mechanism_named;
+
+/// One estimated unknown.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterRecord {
+    /// Its name (the mechanism's, or `trigger_height`).
+    pub name: String,
+    /// Its unit.
+    pub unit: String,
+    /// Its group.
+    pub group: String,
+    /// Its estimate (canonical frame).
+    pub value: f64,
+    /// Its standard deviation.
+    pub sigma: Option<f64>,
+    /// Its prior mean.
+    pub prior_mean: f64,
+    /// Its prior sigma (`None`: no prior).
+    pub prior_sigma: Option<f64>,
+    /// Its posterior over its prior sigma (canonical frame).
+    pub sigma_ratio: Option<f64>,
+}
+
+/// One observation's residuals and tests.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObservationRecord {
+    /// Its kind (`probe height`, `part distance`, `measured point`,
+    /// `point sample`).
+    pub kind: String,
+    /// Its 0-based index among those of its kind in the dataset.
+    pub index: usize,
+    /// Its rows' whitened residuals.
+    pub residuals: Vec<f64>,
+    /// Its rows' redundancy numbers.
+    pub redundancy: Vec<f64>,
+    /// Its rows' normalised residuals (`None`: not checked).
+    pub normalised: Vec<Option<f64>>,
+}
+
+/// An observation removed by snooping.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RemovalRecord {
+    /// Its kind.
+    pub kind: String,
+    /// Its 0-based index in the dataset.
+    pub index: usize,
+    /// Its row of largest `|w|`.
+    pub row: usize,
+    /// That `w`.
+    pub normalised: f64,
+    /// The variance factor before its removal.
+    pub variance_factor_before: Option<f64>,
+    /// And after.
+    pub variance_factor_after: Option<f64>,
+}
+
+/// The w-tests and data snooping.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TestsRecord {
+    /// The level `α`.
+    pub alpha: f64,
+    /// The data rows (the w-tests' family).
+    pub data_rows: usize,
+    /// The critical value of `|w|`.
+    pub critical_value: f64,
+    /// Every observation's numbers.
+    pub observations: Vec<ObservationRecord>,
+    /// The observations snooping removed.
+    pub removed: Vec<RemovalRecord>,
+    /// Why snooping stopped early, if it did.
+    pub snooping_stopped: Option<String>,
+}
+
+/// A combination of the unknowns the data alone do not determine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UndeterminedRecord {
+    /// Components in units of the prior sigmas, largest first.
+    pub components: Vec<(String, f64)>,
+    /// The data-only sigma over the prior's (`None`: unseen).
+    pub data_to_prior: Option<f64>,
+}
+
+/// What the data determine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdentifiabilityRecord {
+    /// The gauge freedoms the canonical frame fixes.
+    pub gauge: Vec<String>,
+    /// The directions set by the priors.
+    pub undetermined: Vec<UndeterminedRecord>,
+    /// In words.
+    pub statements: Vec<String>,
+}
+
+/// A mechanism calibration's record (module doc).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MechanismCalibrationRecord {
+    /// The mechanism's name.
+    pub mechanism: String,
+    /// How the solver ended.
+    pub status: String,
+    /// Its linear solves.
+    pub iterations: usize,
+    /// Whether the result may be used.
+    pub accepted: bool,
+    /// Why, in words.
+    pub reasons: Vec<String>,
+    /// The mechanism's parameters, then the trigger height if estimated.
+    pub parameters: Vec<ParameterRecord>,
+    /// Their covariance (canonical frame), row by row.
+    pub covariance: Option<Vec<Vec<f64>>>,
+    /// The global test.
+    pub global_test: Option<GlobalTestRecord>,
+    /// The w-tests and snooping.
+    pub tests: TestsRecord,
+    /// What the data determine.
+    pub identifiability: Option<IdentifiabilityRecord>,
+}
+
+impl MechanismCalibrationRecord {
+    /// The parameter named `name`.
+    pub fn parameter(&self, name: &str) -> Option<&ParameterRecord> {
+        self.parameters.iter().find(|p| p.name == name)
+    }
+
+    /// Reads and checks `calibration.json` at `path`.
+    pub fn read(path: &Path) -> Result<Self> {
+        let record: Self = json::read(path, json::MECHANISM_CALIBRATION)?;
+        record.validate(Check::result(path))?;
+        Ok(record)
+    }
+
+    /// Checks and writes `calibration.json` at `path` atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        self.validate(Check::result(path))?;
+        json::write(path, json::MECHANISM_CALIBRATION, self)
+    }
+
+    /// A known mechanism; unique parameter names; finite values, sigmas
+    /// and covariance of the parameters' size.
+    fn validate(&self, check: Check) -> Result<()> {
+        mechanism_named(check.path(), "mechanism", &self.mechanism)?;
+        let mut names = BTreeSet::new();
+        for (k, p) in self.parameters.iter().enumerate() {
+            let field = |name: &str| format!("parameters[{k}].{name}");
+            if !names.insert(p.name.as_str()) {
+                return Err(check.error(field("name"), format!("{:?} is given twice", p.name)));
+            }
+            check.finite(field("value"), p.value)?;
+            check.finite(field("prior_mean"), p.prior_mean)?;
+            for (name, value) in [
+                ("sigma", p.sigma),
+                ("prior_sigma", p.prior_sigma),
+                ("sigma_ratio", p.sigma_ratio),
+            ] {
+                if let Some(value) = value {
+                    check.non_negative(field(name), value)?;
+                }
+            }
+        }
+        if let Some(covariance) = &self.covariance {
+            let n = self.parameters.len();
+            if covariance.len() != n || covariance.iter().any(|row| row.len() != n) {
+                return Err(check.error(
+                    "covariance",
+                    format!("must be {n} x {n}, one row and column per parameter"),
+                ));
+            }
+            for (i, row) in covariance.iter().enumerate() {
+                check.values(format!("covariance[{i}]"), row)?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,335 @@
+//! A mechanism dataset's `machine.json`: the mechanism by name, the
+//! parameters its controller runs with and the design, the builder's
+//! tolerances per parameter group, the noise of each kind of measurement
+//! and the probe's trigger height.
+//!
+//! ```json
+//! {
+//!  "format": "parcal-machine/1",
+//!  "mechanism": "linear delta",
+//!  "configured": { "endstop_a": 0.0, "radius": 135.0, "...": 0.0 },
+//!  "design": { "...": 0.0 },
+//!  "tolerances": { "diagonal rods": 0.5, "tower radii": null },
+//!  "noise": { "probe": 0.01, "actuator": 0.005, "position": 0.01, "distance": 0.02 },
+//!  "trigger_height": { "value": 0.7, "sigma": 0.05 }
+//! }
+//! ```
+//!
+//! `configured` names every parameter of the mechanism
+//! (`parcal_kinematics::mechanisms`); `design`, the prior means, is
+//! optional (the configured values then) and names all of them when
+//! given; `tolerances` overrides the mechanism's default prior sigma of a
+//! group (`null`: no prior). Every noise is optional, but the one of each
+//! kind of measurement the dataset holds is required.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use parcal_kinematics::mechanism::Mechanism;
+use parcal_kinematics::mechanisms;
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Serialize, Serializer};
+
+use crate::check::Check;
+use crate::declared::{HEXAPOD, declared_mechanism};
+use crate::error::{DatasetError, Result};
+use crate::json;
+use crate::quote::quoted;
+
+/// The standard deviations of the measurements, each in its unit.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Noise {
+    /// A probe's trigger (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe: Option<f64>,
+    /// An actuator reading (the actuators' unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub actuator: Option<f64>,
+    /// A measured position's coordinate (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position: Option<f64>,
+    /// A measured distance (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance: Option<f64>,
+}
+
+/// A value with an optional standard deviation (a prior; without one,
+/// a start).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValuePrior {
+    /// The value (the prior's mean).
+    pub value: f64,
+    /// Its standard deviation; `None`: no prior.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<f64>,
+}
+
+/// A mechanism dataset's machine (module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MechanismMachine {
+    /// The mechanism's name, one of `parcal_kinematics::mechanisms::NAMES`.
+    pub mechanism: String,
+    /// The parameters the controller ran with, in the mechanism's order.
+    pub configured: Vec<f64>,
+    /// The design (the priors' means), in the mechanism's order.
+    pub design: Vec<f64>,
+    /// Prior sigmas overriding the mechanism's, by group (`None`: no
+    /// prior), in the order of first appearance of the groups.
+    pub tolerances: Vec<(String, Option<f64>)>,
+    /// The measurements' noise.
+    pub noise: Noise,
+    /// The probe's trigger height (mm; G31 Z for RepRapFirmware) and its
+    /// prior sigma.
+    pub trigger_height: Option<ValuePrior>,
+}
+
+/// `machine.json` as read.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MachineFile {
+    mechanism: Option<String>,
+    configured: BTreeMap<String, f64>,
+    #[serde(default)]
+    design: Option<BTreeMap<String, f64>>,
+    #[serde(default)]
+    tolerances: BTreeMap<String, Option<f64>>,
+    #[serde(default)]
+    noise: Noise,
+    #[serde(default)]
+    trigger_height: Option<ValuePrior>,
+}
+
+/// `machine.json` as written: names in the mechanism's order.
+#[derive(Serialize)]
+struct MachineOut<'a> {
+    mechanism: &'a str,
+    configured: Named<'a, f64>,
+    design: Option<Named<'a, f64>>,
+    #[serde(skip_serializing_if = "Named::is_empty")]
+    tolerances: Named<'a, Option<f64>>,
+    noise: Noise,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    trigger_height: Option<ValuePrior>,
+}
+
+/// An object of named values, in the order given.
+pub(crate) struct Named<'a, T>(pub Vec<(&'a str, T)>);
+
+impl<T> Named<'_, T> {
+    fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+impl<T: Serialize> Serialize for Named<'_, T> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        let mut map = serializer.serialize_map(Some(self.0.len()))?;
+        for (name, value) in &self.0 {
+            map.serialize_entry(name, value)?;
+        }
+        map.end()
+    }
+}
+
+/// The mechanism named `name`, or an error naming `field` of `path`.
+pub(crate) fn mechanism_named(path: &Path, field: &str, name: &str) -> Result<Box<dyn Mechanism>> {
+    mechanisms::by_name(name).ok_or_else(|| {
+        DatasetError::field(
+            path,
+            field,
+            format!(
+                "unknown mechanism {} (known: {})",
+                quoted(name),
+                mechanisms::NAMES.join(", ")
+            ),
+        )
+    })
+}
+
+/// The values of `named` in the order of `mechanism`'s parameters; an
+/// unknown or missing name is an error naming `field.NAME`.
+pub(crate) fn by_parameter(
+    check: Check,
+    mechanism: &dyn Mechanism,
+    field: &str,
+    named: &BTreeMap<String, f64>,
+) -> Result<Vec<f64>> {
+    let parameters = mechanism.parameters();
+    if let Some(unknown) = named
+        .keys()
+        .find(|name| !parameters.iter().any(|p| &p.name == *name))
+    {
+        return Err(check.error(
+            format!("{field}.{unknown}"),
+            format!("the {} has no parameter of this name", mechanism.name()),
+        ));
+    }
+    parameters
+        .iter()
+        .map(|p| {
+            let value = named.get(&p.name).copied().ok_or_else(|| {
+                check.error(
+                    format!("{field}.{}", p.name),
+                    "required parameter is missing",
+                )
+            })?;
+            check.finite(format!("{field}.{}", p.name), value)?;
+            Ok(value)
+        })
+        .collect()
+}
+
+impl MechanismMachine {
+    /// The machine of `mechanism` run with its design values, without
+    /// tolerance overrides, noise or trigger height.
+    pub fn of(mechanism: &dyn Mechanism) -> Self {
+        let design: Vec<f64> = mechanism.parameters().iter().map(|p| p.design).collect();
+        Self {
+            mechanism: mechanism.name().to_string(),
+            configured: design.clone(),
+            design,
+            tolerances: Vec::new(),
+            noise: Noise::default(),
+            trigger_height: None,
+        }
+    }
+
+    /// The mechanism (its typical design from the one list; the dataset's
+    /// own values are in [`Self::configured`] and [`Self::design`]).
+    pub fn mechanism(&self) -> Option<Box<dyn Mechanism>> {
+        mechanisms::by_name(&self.mechanism)
+    }
+
+    /// Reads and checks `machine.json` at `path`; a hexapod's (no
+    /// `"mechanism"`, or `"hexapod"`) is refused with a pointer to its
+    /// reader.
+    pub fn read(path: &Path) -> Result<Self> {
+        match declared_mechanism(path)? {
+            Some(name) if name != HEXAPOD => {}
+            _ => {
+                return Err(DatasetError::field(
+                    path,
+                    "mechanism",
+                    "this is a hexapod's machine (no mechanism named, or \"hexapod\"): read its dataset with the hexapod reader (parcal_dataset::Dataset::read)",
+                ));
+            }
+        }
+        let file: MachineFile = json::read(path, json::MACHINE)?;
+        let check = Check::new(path);
+        let name = file.mechanism.unwrap_or_default();
+        let mechanism = mechanism_named(path, "mechanism", &name)?;
+        let configured = by_parameter(check, mechanism.as_ref(), "configured", &file.configured)?;
+        let design = match &file.design {
+            Some(design) => by_parameter(check, mechanism.as_ref(), "design", design)?,
+            None => configured.clone(),
+        };
+        let mut tolerances: Vec<(String, Option<f64>)> = file.tolerances.into_iter().collect();
+        let order = |group: &str| {
+            mechanism
+                .parameters()
+                .iter()
+                .position(|p| p.group == group)
+                .unwrap_or(usize::MAX)
+        };
+        tolerances.sort_by_key(|(group, _)| order(group));
+        let machine = Self {
+            mechanism: name,
+            configured,
+            design,
+            tolerances,
+            noise: file.noise,
+            trigger_height: file.trigger_height,
+        };
+        machine.validate(check)?;
+        Ok(machine)
+    }
+
+    /// Checks and writes `machine.json` at `path` atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let check = Check::new(path);
+        self.validate(check)?;
+        let mechanism = mechanism_named(path, "mechanism", &self.mechanism)?;
+        let names: Vec<&str> = mechanism
+            .parameters()
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect();
+        let named =
+            |values: &[f64]| Named(names.iter().copied().zip(values.iter().copied()).collect());
+        let out = MachineOut {
+            mechanism: &self.mechanism,
+            configured: named(&self.configured),
+            design: (self.design != self.configured).then(|| named(&self.design)),
+            tolerances: Named(
+                self.tolerances
+                    .iter()
+                    .map(|(group, sigma)| (group.as_str(), *sigma))
+                    .collect(),
+            ),
+            noise: self.noise,
+            trigger_height: self.trigger_height,
+        };
+        json::write(path, json::MACHINE, &out)
+    }
+
+    /// The checks of [`Self::read`] and [`Self::write`]: a known mechanism,
+    /// one value per parameter, finite and within the length bound; known
+    /// groups; sigmas within their bounds.
+    pub(crate) fn validate(&self, check: Check) -> Result<()> {
+        let mechanism = mechanism_named(check.path(), "mechanism", &self.mechanism)?;
+        let parameters = mechanism.parameters();
+        for (field, values) in [("configured", &self.configured), ("design", &self.design)] {
+            if values.len() != parameters.len() {
+                return Err(check.error(
+                    field,
+                    format!(
+                        "{} values for the {} parameters of the {}",
+                        values.len(),
+                        parameters.len(),
+                        self.mechanism
+                    ),
+                ));
+            }
+            for (p, &value) in parameters.iter().zip(values.iter()) {
+                check.length(format!("{field}.{}", p.name), value)?;
+            }
+        }
+        for (group, sigma) in &self.tolerances {
+            if !parameters.iter().any(|p| p.group == group) {
+                let mut groups: Vec<&str> = parameters.iter().map(|p| p.group).collect();
+                groups.dedup();
+                return Err(check.error(
+                    format!("tolerances.{group}"),
+                    format!(
+                        "the {} has no such group (its groups: {})",
+                        self.mechanism,
+                        groups.join(", ")
+                    ),
+                ));
+            }
+            if let Some(sigma) = sigma {
+                check.sigma(format!("tolerances.{group}"), *sigma)?;
+            }
+        }
+        let noise = &self.noise;
+        for (name, sigma) in [
+            ("probe", noise.probe),
+            ("actuator", noise.actuator),
+            ("position", noise.position),
+            ("distance", noise.distance),
+        ] {
+            if let Some(sigma) = sigma {
+                check.sigma(format!("noise.{name}"), sigma)?;
+            }
+        }
+        if let Some(trigger) = &self.trigger_height {
+            check.length("trigger_height.value", trigger.value)?;
+            if let Some(sigma) = trigger.sigma {
+                check.sigma("trigger_height.sigma", sigma)?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,253 @@
+//! The dataset of a mechanism other than the hexapod (a linear delta, a
+//! cable robot): a directory, separate in its files from the hexapod's.
+//!
+//! | file | content | type |
+//! |---|---|---|
+//! | `machine.json` | the mechanism by name, configured and design parameters, tolerances, noise, trigger height | [`MechanismMachine`] |
+//! | `probes.csv` | probe heights (`x,y,z`) | [`MechanismDataset::probes`] |
+//! | `distances.csv` | part distances (`x1,y1,z1,x2,y2,z2,distance`) | [`MechanismDataset::distances`] |
+//! | `points.csv` | readings, with the position where known (`q1..qA,x,y,z`) | [`SampleRow`] |
+//! | `truth.json` | simulated datasets only: the true machine | [`MechanismTruth`] |
+//!
+//! and its calibration writes `calibration.json`
+//! ([`MechanismCalibrationRecord`]). The observation files are each
+//! optional, but one must be there. `machine.json` names its mechanism
+//! (`"mechanism"`); a `machine.json` without one is a hexapod's, which
+//! [`crate::Dataset::read`] reads, and each reader refuses the other's
+//! with a message naming the right one. Reading checks every value and
+//! names the file, the field or the line and column; writing is atomic,
+//! the directory as a whole ([`crate::atomic::write_dir`]).
+//!
+//! ```
+//! use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise};
+//! use parcal_kinematics::delta::LinearDelta;
+//!
+//! # fn main() -> Result<(), parcal_dataset::DatasetError> {
+//! let mut machine = MechanismMachine::of(&LinearDelta::typical());
+//! machine.noise = Noise { probe: Some(0.01), ..Noise::default() };
+//! let dataset = MechanismDataset {
+//!     machine,
+//!     probes: vec![[0.0, 0.0, 0.71], [50.0, 20.0, 0.69]],
+//!     ..MechanismDataset::default()
+//! };
+//! let dir = tempfile::tempdir().unwrap();
+//! let path = dir.path().join("delta");
+//! dataset.write(&path)?;
+//! assert_eq!(MechanismDataset::read(&path)?, dataset);
+//! // The hexapod's reader points to this one.
+//! let error = parcal_dataset::Dataset::read(&path).unwrap_err().to_string();
+//! assert!(error.contains("mechanism reader"), "{error}");
+//! # Ok(()) }
+//! ```
+
+mod calibration;
+mod machine;
+mod observations;
+mod truth;
+
+use std::path::Path;
+
+pub use calibration::{
+    IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord, ParameterRecord,
+    RemovalRecord, TestsRecord, UndeterminedRecord,
+};
+pub use machine::{MechanismMachine, Noise, ValuePrior};
+pub use observations::{
+    DISTANCE_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS, SampleRow,
+};
+pub use truth::MechanismTruth;
+
+use crate::atomic;
+use crate::check::Check;
+use crate::dataset::Dataset;
+use crate::error::{DatasetError, Result};
+use crate::input;
+
+use machine::mechanism_named;
+use observations::{read_rows, read_samples, write_rows, write_samples};
+
+/// The file of the machine.
+pub const MACHINE_FILE: &str = "machine.json";
+/// The file of the probe heights.
+pub const PROBES_FILE: &str = "probes.csv";
+/// The file of the part distances.
+pub const DISTANCES_FILE: &str = "distances.csv";
+/// The file of the readings at unknown or measured positions.
+pub const POINTS_FILE: &str = "points.csv";
+/// The file of a simulated dataset's truth.
+pub const TRUTH_FILE: &str = "truth.json";
+/// The file of a calibration.
+pub const CALIBRATION_FILE: &str = "calibration.json";
+
+/// A mechanism dataset (module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MechanismDataset {
+    /// The machine.
+    pub machine: MechanismMachine,
+    /// Probe heights: commanded `x, y` and the height `z` at which the
+    /// probe triggered (mm, the controller's coordinates).
+    pub probes: Vec<[f64; 3]>,
+    /// Part distances: two commanded positions and the distance measured
+    /// between them (mm).
+    pub distances: Vec<[f64; 7]>,
+    /// Readings at unknown or measured positions.
+    pub samples: Vec<SampleRow>,
+    /// The true machine of a simulated dataset.
+    pub truth: Option<MechanismTruth>,
+}
+
+impl Default for MechanismDataset {
+    /// A typical linear delta with no observation.
+    fn default() -> Self {
+        Self {
+            machine: MechanismMachine::of(&parcal_kinematics::delta::LinearDelta::typical()),
+            probes: Vec::new(),
+            distances: Vec::new(),
+            samples: Vec::new(),
+            truth: None,
+        }
+    }
+}
+
+impl MechanismDataset {
+    /// Reads the dataset in directory `dir` (module doc).
+    pub fn read(dir: &Path) -> Result<Self> {
+        let machine = MechanismMachine::read(&dir.join(MACHINE_FILE))?;
+        let present = |name: &str| -> Result<Option<std::path::PathBuf>> {
+            let path = dir.join(name);
+            Ok(input::open(&path)?.map(|_| path))
+        };
+        let probes = match present(PROBES_FILE)? {
+            Some(path) => read_rows(&path, &PROBE_COLUMNS, "probe")?,
+            None => Vec::new(),
+        };
+        let distances = match present(DISTANCES_FILE)? {
+            Some(path) => read_rows(&path, &DISTANCE_COLUMNS, "distance")?,
+            None => Vec::new(),
+        };
+        let samples = match present(POINTS_FILE)? {
+            Some(path) => {
+                let mechanism = mechanism_named(&path, "mechanism", &machine.mechanism)?;
+                read_samples(&path, mechanism.actuators().len())?
+            }
+            None => Vec::new(),
+        };
+        let truth = MechanismTruth::read_if_present(&dir.join(TRUTH_FILE), &machine.mechanism)?;
+        let dataset = Self {
+            machine,
+            probes,
+            distances,
+            samples,
+            truth,
+        };
+        dataset.validate(dir)?;
+        Ok(dataset)
+    }
+
+    /// Writes the dataset as the directory `dir`, as a set (atomically);
+    /// an existing non-empty `dir` is an error.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        self.write_with(dir, false)
+    }
+
+    /// [`Self::write`], replacing an existing dataset directory as a whole
+    /// if `replace`.
+    pub fn write_with(&self, dir: &Path, replace: bool) -> Result<()> {
+        self.validate(dir)?;
+        Dataset::check_target(dir, replace)?;
+        let name = &self.machine.mechanism;
+        atomic::write_dir(dir, replace, |new| {
+            self.machine.write(&new.join(MACHINE_FILE))?;
+            if !self.probes.is_empty() {
+                write_rows(&new.join(PROBES_FILE), &PROBE_COLUMNS, &self.probes)?;
+            }
+            if !self.distances.is_empty() {
+                write_rows(
+                    &new.join(DISTANCES_FILE),
+                    &DISTANCE_COLUMNS,
+                    &self.distances,
+                )?;
+            }
+            if !self.samples.is_empty() {
+                let path = new.join(POINTS_FILE);
+                let mechanism = mechanism_named(&path, "mechanism", name)?;
+                write_samples(&path, mechanism.actuators().len(), &self.samples)?;
+            }
+            if let Some(truth) = &self.truth {
+                truth.write(&new.join(TRUTH_FILE), name)?;
+            }
+            Ok(())
+        })
+    }
+
+    /// The checks that tie the files together: at least one observation,
+    /// counts within [`OBSERVATIONS`], values finite and within the length
+    /// bound, the noise of each kind present given.
+    fn validate(&self, dir: &Path) -> Result<()> {
+        let machine_path = dir.join(MACHINE_FILE);
+        let check = Check::new(&machine_path);
+        self.machine.validate(check)?;
+        let counts = [
+            (PROBES_FILE, self.probes.len()),
+            (DISTANCES_FILE, self.distances.len()),
+            (POINTS_FILE, self.samples.len()),
+        ];
+        if counts.iter().all(|&(_, n)| n == 0) {
+            return Err(DatasetError::Refused {
+                path: dir.to_path_buf(),
+                message: format!(
+                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}"
+                ),
+            });
+        }
+        for (file, count) in counts {
+            if count > OBSERVATIONS.max {
+                let path = dir.join(file);
+                return Err(Check::new(&path).error(
+                    "rows",
+                    OBSERVATIONS.refusal("the number of rows", &count.to_string()),
+                ));
+            }
+        }
+        let noise = &self.machine.noise;
+        for (needed, sigma, field) in [
+            (!self.probes.is_empty(), noise.probe, "noise.probe"),
+            (!self.distances.is_empty(), noise.distance, "noise.distance"),
+            (!self.samples.is_empty(), noise.actuator, "noise.actuator"),
+            (
+                self.samples.iter().any(|s| s.position.is_some()),
+                noise.position,
+                "noise.position",
+            ),
+        ] {
+            if needed && sigma.is_none() {
+                return Err(check.error(
+                    field,
+                    "required: the dataset holds measurements of this kind",
+                ));
+            }
+        }
+        let rows = |file: &str, rows: &mut dyn Iterator<Item = &[f64]>| -> Result<()> {
+            let path = dir.join(file);
+            let check = Check::new(&path);
+            for (k, row) in rows.enumerate() {
+                check.lengths(format!("row {}", k + 1), row)?;
+            }
+            Ok(())
+        };
+        rows(PROBES_FILE, &mut self.probes.iter().map(|r| r.as_slice()))?;
+        rows(
+            DISTANCES_FILE,
+            &mut self.distances.iter().map(|r| r.as_slice()),
+        )?;
+        let path = dir.join(POINTS_FILE);
+        let check = Check::new(&path);
+        for (k, sample) in self.samples.iter().enumerate() {
+            check.values(format!("row {}", k + 1), &sample.readings)?;
+            if let Some(position) = &sample.position {
+                check.lengths(format!("row {}", k + 1), position)?;
+            }
+        }
+        Ok(())
+    }
+}

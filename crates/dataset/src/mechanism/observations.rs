@@ -1,0 +1,174 @@
+//! A mechanism dataset's observation files, each optional:
+//!
+//! | file | header | one row per |
+//! |---|---|---|
+//! | `probes.csv` | `x,y,z` | probe: the commanded XY and the height at which it triggered (mm) |
+//! | `distances.csv` | `x1,y1,z1,x2,y2,z2,distance` | distance measured between two commanded positions (mm) |
+//! | `points.csv` | `q1..qA,x,y,z` | readings of the `A` actuators, and the position where known (`x,y,z` empty where not) |
+//!
+//! Every file holds at most [`OBSERVATIONS`]`.max` rows, counted as they are
+//! read, so that a huge file is refused before it fills memory.
+
+use std::path::Path;
+
+use crate::bounds::Count;
+use crate::error::{DatasetError, Result};
+use crate::table::{self, Failure, Header, Row};
+
+/// The bounds of the rows of each observation file: at least one (an
+/// empty file is an error), at most a million (far beyond a calibration's
+/// needs; each row costs a forward kinematics per iteration).
+pub const OBSERVATIONS: Count = Count::new(
+    1,
+    1_000_000,
+    "each row costs a forward kinematics per iteration",
+);
+
+/// The columns of probes.csv.
+pub const PROBE_COLUMNS: [&str; 3] = ["x", "y", "z"];
+/// The columns of distances.csv.
+pub const DISTANCE_COLUMNS: [&str; 7] = ["x1", "y1", "z1", "x2", "y2", "z2", "distance"];
+/// The reading columns of points.csv, of which a mechanism of `A`
+/// actuators uses the first `A`.
+pub const READING_COLUMNS: [&str; 8] = ["q1", "q2", "q3", "q4", "q5", "q6", "q7", "q8"];
+/// The position columns of points.csv.
+pub const POSITION_COLUMNS: [&str; 3] = ["x", "y", "z"];
+
+/// One row of points.csv: the readings, and the position if it was
+/// measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleRow {
+    /// The readings, one per actuator.
+    pub readings: Vec<f64>,
+    /// The measured position (mm), if any.
+    pub position: Option<[f64; 3]>,
+}
+
+/// The error of a file with more rows than [`OBSERVATIONS`] allows.
+fn too_many(row: &Row, what: &str) -> Failure {
+    row.error(
+        None,
+        OBSERVATIONS.refusal(&format!("the number of {what} rows"), "more"),
+    )
+}
+
+/// Reads the table `path` of `columns` (in any order), every field a
+/// finite number, at most [`OBSERVATIONS`] rows.
+pub(crate) fn read_rows<const N: usize>(
+    path: &Path,
+    columns: &[&'static str; N],
+    what: &str,
+) -> Result<Vec<[f64; N]>> {
+    let expected = columns.join(",");
+    table::read_file(path, |reader| {
+        let header = Header::read(reader, &expected)?;
+        let at = header.require_all(columns, &expected)?;
+        let mut rows = Vec::new();
+        table::for_each_row(reader, &header, what, |row| {
+            if rows.len() == OBSERVATIONS.max {
+                return Err(too_many(row, what));
+            }
+            rows.push(row.numbers(&at, columns)?);
+            Ok(())
+        })?;
+        Ok(rows)
+    })
+}
+
+/// Writes `rows` under `columns` to `path` atomically.
+pub(crate) fn write_rows<const N: usize>(
+    path: &Path,
+    columns: &[&'static str; N],
+    rows: &[[f64; N]],
+) -> Result<()> {
+    table::write_file(path, columns, |w| {
+        for row in rows {
+            w.numbers(row)?;
+            w.end_row()?;
+        }
+        Ok(())
+    })
+}
+
+/// Reads points.csv at `path` for a mechanism of `actuators` actuators:
+/// `q1..qA` and `x,y,z`, the position's three fields all empty or all
+/// numbers.
+pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRow>> {
+    let readings = &READING_COLUMNS[..actuators];
+    let expected = readings
+        .iter()
+        .chain(&POSITION_COLUMNS)
+        .copied()
+        .collect::<Vec<_>>()
+        .join(",");
+    table::read_file(path, |reader| {
+        let header = Header::read(reader, &expected)?;
+        let at_readings = readings
+            .iter()
+            .map(|name| header.require(name, &expected))
+            .collect::<std::result::Result<Vec<usize>, Failure>>()?;
+        let at_position = header.require_all(&POSITION_COLUMNS, &expected)?;
+        let mut rows = Vec::new();
+        table::for_each_row(reader, &header, "point", |row| {
+            if rows.len() == OBSERVATIONS.max {
+                return Err(too_many(row, "point"));
+            }
+            let mut values = Vec::with_capacity(actuators);
+            for (&column, &name) in at_readings.iter().zip(readings) {
+                values.push(row.numbers(&[column], &[name])?[0]);
+            }
+            let empty = at_position.map(|column| row.field(column).is_empty());
+            let position = if empty.iter().all(|&e| e) {
+                None
+            } else if empty.iter().any(|&e| e) {
+                return Err(row.error(
+                    None,
+                    "the position x,y,z must be given whole or left empty whole".to_string(),
+                ));
+            } else {
+                Some(row.numbers(&at_position, &POSITION_COLUMNS)?)
+            };
+            rows.push(SampleRow {
+                readings: values,
+                position,
+            });
+            Ok(())
+        })?;
+        Ok(rows)
+    })
+}
+
+/// Writes points.csv at `path` for a mechanism of `actuators` actuators.
+/// Refuses a row of another number of readings, naming it (1-based).
+pub(crate) fn write_samples(path: &Path, actuators: usize, rows: &[SampleRow]) -> Result<()> {
+    if let Some(k) = rows.iter().position(|r| r.readings.len() != actuators) {
+        return Err(DatasetError::Field {
+            path: path.to_path_buf(),
+            field: format!("row {}", k + 1),
+            message: format!(
+                "{} readings for {actuators} actuators",
+                rows[k].readings.len()
+            ),
+        });
+    }
+    let header: Vec<&str> = READING_COLUMNS[..actuators]
+        .iter()
+        .chain(&POSITION_COLUMNS)
+        .copied()
+        .collect();
+    table::write_file(path, &header, |w| {
+        for row in rows {
+            w.numbers(&row.readings)?;
+            match &row.position {
+                Some(position) => w.numbers(position)?,
+                None => {
+                    for _ in 0..3 {
+                        w.text("")?;
+                    }
+                }
+            }
+            w.end_row()?;
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,90 @@
+//! A simulated mechanism dataset's truth (`truth.json`): the true
+//! parameters by name and the true trigger height.
+//!
+//! ```json
+//! { "format": "parcal-mechanism-truth/1",
+//!   "parameters": { "endstop_a": 0.12, "...": 0.0 },
+//!   "trigger_height": 0.71 }
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::check::Check;
+use crate::error::Result;
+use crate::json;
+
+use super::machine::{Named, by_parameter, mechanism_named};
+
+/// The true machine of a simulated dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MechanismTruth {
+    /// The true parameters, in the mechanism's order.
+    pub parameters: Vec<f64>,
+    /// The true trigger height (mm).
+    pub trigger_height: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TruthFile {
+    parameters: BTreeMap<String, f64>,
+    trigger_height: f64,
+}
+
+#[derive(Serialize)]
+struct TruthOut<'a> {
+    parameters: Named<'a, f64>,
+    trigger_height: f64,
+}
+
+impl MechanismTruth {
+    /// Reads `truth.json` at `path` if present, for the mechanism `name`.
+    pub fn read_if_present(path: &Path, name: &str) -> Result<Option<Self>> {
+        let Some(file) = json::read_if_present::<TruthFile>(path, json::MECHANISM_TRUTH)? else {
+            return Ok(None);
+        };
+        let check = Check::new(path);
+        let mechanism = mechanism_named(path, "mechanism", name)?;
+        let parameters = by_parameter(check, mechanism.as_ref(), "parameters", &file.parameters)?;
+        check.length("trigger_height", file.trigger_height)?;
+        Ok(Some(Self {
+            parameters,
+            trigger_height: file.trigger_height,
+        }))
+    }
+
+    /// Writes `truth.json` at `path` atomically, for the mechanism `name`.
+    pub fn write(&self, path: &Path, name: &str) -> Result<()> {
+        let check = Check::new(path);
+        let mechanism = mechanism_named(path, "mechanism", name)?;
+        let parameters = mechanism.parameters();
+        if self.parameters.len() != parameters.len() {
+            return Err(check.error(
+                "parameters",
+                format!(
+                    "{} values for the {} parameters of the {name}",
+                    self.parameters.len(),
+                    parameters.len()
+                ),
+            ));
+        }
+        for (p, &value) in parameters.iter().zip(&self.parameters) {
+            check.length(format!("parameters.{}", p.name), value)?;
+        }
+        check.length("trigger_height", self.trigger_height)?;
+        let out = TruthOut {
+            parameters: Named(
+                parameters
+                    .iter()
+                    .map(|p| p.name.as_str())
+                    .zip(self.parameters.iter().copied())
+                    .collect(),
+            ),
+            trigger_height: self.trigger_height,
+        };
+        json::write(path, json::MECHANISM_TRUTH, &out)
+    }
+}

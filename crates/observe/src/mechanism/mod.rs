@@ -1,0 +1,118 @@
+//! Observation kinds of any mechanism with a 3-coordinate pose (a linear
+//! delta, a cable robot) through the [`Mechanism`] trait: each gives its
+//! whitened residual rows and their analytic Jacobians with respect to the
+//! true parameters `p` (and its own other unknowns).
+//!
+//! - [`ProbeHeight`]: a probe triggering on the bed, `(z(x) − h) / σ`
+//!   (1 row; unknowns `p`, the trigger height `h`);
+//! - [`PartDistance`]: the distance between two commanded positions as
+//!   measured on a printed or reference part (1 row; unknowns `p`);
+//! - [`CommandedPoint`]: the effector's position measured at a commanded
+//!   position (a tracker point; 3 rows; unknowns `p`);
+//! - [`PointSample`]: actuator readings at an unknown pose
+//!   (one row per actuator; unknowns `p` and the pose, a point block).
+//!
+//! # Commanded positions
+//!
+//! A controller moves to a commanded position `x_c` in its own coordinates
+//! by computing readings with the parameters it is configured with, `p_c`:
+//! `q = g(p_c, x_c)`. The machine, whose true parameters are `p`, is then
+//! at `x = f(p, q)`; at fixed readings its derivative is
+//! `dx/dp = −G_x⁻¹ G_p` ([`pose_jacobian_at_fixed_readings`]), which
+//! [`reached`] evaluates. `p_c` is known and fixed: only the true `p` is
+//! an unknown.
+
+mod commanded_point;
+mod part_distance;
+mod point_sample;
+mod probe;
+
+use nalgebra::{DMatrix, DVector};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, pose_jacobian_at_fixed_readings};
+
+pub use commanded_point::CommandedPoint;
+pub use part_distance::PartDistance;
+pub use point_sample::PointSample;
+pub use probe::ProbeHeight;
+
+/// The number of pose coordinates these kinds need: a position `(x, y, z)`.
+pub const POSE_COORDINATES: usize = 3;
+
+/// Whitened residual rows and their Jacobian with respect to the
+/// mechanism's parameters (and, for some kinds, other unknowns).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rows {
+    /// Whitened residuals `e / σ`.
+    pub residual: DVector<f64>,
+    /// `d(e / σ)/dp` (rows × parameters).
+    pub d_params: DMatrix<f64>,
+}
+
+/// Where the machine with true parameters `params` is when its controller,
+/// configured with `configured`, commands `commanded`: the pose
+/// `x = f(p, g(p_c, x_c))` and `dx/dp` at fixed readings (module doc).
+pub fn reached(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
+    commanded: &[f64; 3],
+) -> Result<(DVector<f64>, DMatrix<f64>), MechanismError> {
+    let readings = mechanism.inverse(configured, commanded)?;
+    let pose = mechanism.forward(params, readings.as_slice(), commanded)?;
+    let jacobian = pose_jacobian_at_fixed_readings(mechanism, params, pose.as_slice())?;
+    Ok((pose, jacobian))
+}
+
+/// Refuses a standard deviation that is not finite and positive.
+fn check_sigma(what: &'static str, sigma: f64) -> Result<(), MechanismError> {
+    if sigma.is_finite() && sigma > 0.0 {
+        Ok(())
+    } else {
+        Err(MechanismError::NonFinite {
+            what: format!("{what} {sigma} (a standard deviation must be finite and positive)"),
+        })
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod test_support {
+    //! A perturbed delta and central differences over its parameters.
+    use nalgebra::{DMatrix, DVector};
+    use parcal_kinematics::delta::{DeltaParams, LinearDelta};
+    use parcal_kinematics::mechanism::{Mechanism, design};
+
+    /// A typical delta, its configured (design) parameters and a true
+    /// machine a few tenths away.
+    pub fn delta() -> (LinearDelta, DVector<f64>, DVector<f64>) {
+        let delta = LinearDelta::typical();
+        let configured = design(&delta);
+        let mut truth = DeltaParams::from_slice(configured.as_slice());
+        truth.endstop = [0.3, -0.2, 0.1];
+        truth.radius += 0.4;
+        truth.tower_radius = [0.1, -0.2, 0.05];
+        truth.angle = [0.2, -0.3, 0.1];
+        truth.diagonal = [270.3, 269.8, 270.1];
+        truth.tilt = [0.1, -0.15];
+        (delta, configured, truth.to_vector())
+    }
+
+    /// Central differences of `f` over the parameters, step `h`.
+    pub fn differences(
+        mechanism: &dyn Mechanism,
+        params: &DVector<f64>,
+        h: f64,
+        f: impl Fn(&[f64]) -> DVector<f64>,
+    ) -> DMatrix<f64> {
+        let n = mechanism.parameters().len();
+        let rows = f(params.as_slice()).len();
+        let mut jacobian = DMatrix::zeros(rows, n);
+        for k in 0..n {
+            let (mut plus, mut minus) = (params.clone(), params.clone());
+            plus[k] += h;
+            minus[k] -= h;
+            let column = (f(plus.as_slice()) - f(minus.as_slice())) / (2.0 * h);
+            jacobian.set_column(k, &column);
+        }
+        jacobian
+    }
+}
