@@ -45,19 +45,22 @@
 //!
 //! Only distances enter, so a rigid motion of the room (the anchors, the
 //! encoder zero and every pose moved alike) changes no reading: three
-//! translations and three rotations ([`CableRobot::gauge_freedoms`]). The
+//! translations and three rotations ([`CableRobot::rigid_motions`]). The
 //! encoder zero ties the origin (a prior on it holds the translations, as
 //! the Hangprinter's convention of the origin at the encoder zero does);
 //! the rotations about it remain until positions measured in the room's
 //! frame fix them: one known point away from the origin fixes the two
 //! rotations that move it, two not in line with the origin all three.
-//! Without them the priors on the anchors hold the rotations. Either way
+//! Without them the priors on the anchors hold the rotations. So the
+//! rigid motions are no gauge of the mechanism but of a kind of data:
 //! the room's frame, the one the known positions and the priors are given
-//! in, is the canonical one: [`Mechanism::canonicalize`] is the identity,
-//! so a calibration reports the anchors where its data put them.
+//! in, is the canonical one ([`Mechanism::gauge_freedoms`] is empty and
+//! [`Mechanism::canonicalize`] the identity), a calibration reports the
+//! anchors where its data put them, and a calibration from readings alone
+//! finds the rotations determined by the priors only.
 //!
 //! Readings alone determine the rest: the `3 N + R + 3` parameters (`N`
-//! anchors, `R` radii, the encoder zero) less the 6 of the gauge, against
+//! anchors, `R` radii, the encoder zero) less the 6 rigid motions, against
 //! `N - 3` redundant readings per sample (each sample's pose takes 3), so
 //! at least `(3 N + R - 3) / (N - 3)` samples (11 for a Hangprinter with
 //! two radii, 13 with four) and many more for a well-conditioned fit.
@@ -530,6 +533,45 @@ impl CableRobot {
         }
         Ok(changes)
     }
+
+    /// The rigid motions of the room, which no reading sees (module
+    /// documentation): a translation `e_k` moves every anchor and the
+    /// encoder zero by `e_k`; a rotation `w` about the origin moves each
+    /// of them, `v`, by `w x v`. Six directions, each normalised. They are
+    /// not [`Mechanism::gauge_freedoms`]: a measured position sees them.
+    pub fn rigid_motions(&self, params: &[f64]) -> Result<Vec<GaugeFreedom>, MechanismError> {
+        self.checked(params)?;
+        let points: Vec<usize> = (0..self.cables())
+            .map(|j| self.anchor_index(j))
+            .chain([self.zero_index()])
+            .collect();
+        let motion = |name, of: &dyn Fn(Vector3<f64>) -> Vector3<f64>| {
+            let mut v = DVector::zeros(self.parameters.len());
+            for &index in &points {
+                let moved = of(Vector3::from_column_slice(&params[index..index + 3]));
+                v.rows_mut(index, 3).copy_from(&moved);
+            }
+            GaugeFreedom {
+                name,
+                direction: v.normalize(),
+            }
+        };
+        let names = [
+            ("translation along x", "rotation about x"),
+            ("translation along y", "rotation about y"),
+            ("translation along z", "rotation about z"),
+        ];
+        let mut freedoms = Vec::with_capacity(6);
+        for (axis, (translation, _)) in names.iter().enumerate() {
+            freedoms.push(motion(translation, &|_| Vector3::ith(axis, 1.0)));
+        }
+        for (axis, (_, rotation)) in names.iter().enumerate() {
+            freedoms.push(motion(rotation, &|v| {
+                Vector3::<f64>::ith(axis, 1.0).cross(&v)
+            }));
+        }
+        Ok(freedoms)
+    }
 }
 
 impl Mechanism for CableRobot {
@@ -639,44 +681,6 @@ impl Mechanism for CableRobot {
             d_params[(j, self.radius_index(self.radius_of_spool[j]))] = k * (r / wound - 1.0);
         }
         Ok(ReadingJacobians { d_params, d_pose })
-    }
-
-    /// The rigid motions of the room: a translation `e_k` moves every
-    /// anchor and the encoder zero by `e_k`; a rotation `w` about the
-    /// origin moves each of them, `v`, by `w x v`. Six directions, each
-    /// normalised.
-    fn gauge_freedoms(&self, params: &[f64]) -> Result<Vec<GaugeFreedom>, MechanismError> {
-        self.checked(params)?;
-        let points: Vec<usize> = (0..self.cables())
-            .map(|j| self.anchor_index(j))
-            .chain([self.zero_index()])
-            .collect();
-        let motion = |name, of: &dyn Fn(Vector3<f64>) -> Vector3<f64>| {
-            let mut v = DVector::zeros(self.parameters.len());
-            for &index in &points {
-                let moved = of(Vector3::from_column_slice(&params[index..index + 3]));
-                v.rows_mut(index, 3).copy_from(&moved);
-            }
-            GaugeFreedom {
-                name,
-                direction: v.normalize(),
-            }
-        };
-        let names = [
-            ("translation along x", "rotation about x"),
-            ("translation along y", "rotation about y"),
-            ("translation along z", "rotation about z"),
-        ];
-        let mut freedoms = Vec::with_capacity(6);
-        for (axis, (translation, _)) in names.iter().enumerate() {
-            freedoms.push(motion(translation, &|_| Vector3::ith(axis, 1.0)));
-        }
-        for (axis, (_, rotation)) in names.iter().enumerate() {
-            freedoms.push(motion(rotation, &|v| {
-                Vector3::<f64>::ith(axis, 1.0).cross(&v)
-            }));
-        }
-        Ok(freedoms)
     }
 
     /// Every spool within its line ([`Mechanism::inverse`]) and the
@@ -871,13 +875,14 @@ mod tests {
     }
 
     #[test]
-    fn gauge_freedoms_are_the_rigid_motions_and_nothing_else() {
+    fn the_readings_see_everything_but_the_rigid_motions() {
         let robot = CableRobot::typical();
         let mut rng = StdRng::seed_from_u64(3);
         let p = perturbed(&robot, &mut rng);
         let poses: Vec<[f64; 3]> = (0..30).map(|_| random_pose(&mut rng)).collect();
         let jacobian = measurement_jacobian(&robot, p.as_slice(), &poses);
-        let freedoms = robot.gauge_freedoms(p.as_slice()).unwrap();
+        let freedoms = robot.rigid_motions(p.as_slice()).unwrap();
+        assert!(robot.gauge_freedoms(p.as_slice()).unwrap().is_empty());
         assert_eq!(freedoms.len(), 6);
         let m = p.len();
         for (k, freedom) in freedoms.iter().enumerate() {
