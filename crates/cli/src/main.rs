@@ -40,8 +40,10 @@ enum Command {
     Paper(commands::paper::Args),
     /// Apply a calibration: targets to actuator commands, corrected poses, correction tables.
     Compensate(commands::compensate::Args),
-    /// Export a calibration: calibrated machine.json, LinuxCNC genhexkins HAL, summary.
+    /// Export a calibration: calibrated machine.json, LinuxCNC genhexkins HAL, summary; a delta's firmware lines.
     Export(commands::export::Args),
+    /// A delta printer's firmware configuration and probe log as a dataset (RepRapFirmware, Klipper).
+    Import(commands::import::Args),
     /// Plan the touches to measure: the most accurate calibration for a budget.
     Plan(commands::plan::Args),
     /// The report of one calibration: a self-contained HTML page and its Markdown, verdict and tests first.
@@ -60,6 +62,7 @@ fn main() -> ExitCode {
         Command::Paper(args) => commands::paper::run(&args),
         Command::Compensate(args) => commands::compensate::run(&args),
         Command::Export(args) => commands::export::run(&args),
+        Command::Import(args) => commands::import::run(&args),
         Command::Plan(args) => commands::plan::run(&args),
         Command::Report(args) => commands::report::run(&args),
     };

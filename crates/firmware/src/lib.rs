@@ -10,6 +10,10 @@
 //! - [`probes`]: probe heights (`probes.csv`, `x,y,z` as `G30 S-1`
 //!   reports them).
 //! - [`autocal`]: RepRapFirmware's 3- to 9-factor auto-calibration.
+//! - [`accuracy`]: the position errors of a firmware's parameters on a
+//!   machine (first-layer flatness, 3D error over the build volume).
+//! - [`export`]: calibrated parameters written for a firmware, with what
+//!   it cannot hold and what that costs.
 //! - [`hangprinter`]: a Hangprinter's anchors and spool radii (`M669`,
 //!   `M666 R`), written from a cable robot's calibration and read back.
 //! - [`gcode`]: G-code lines as the firmware parses them.
@@ -17,8 +21,10 @@
 //! The kinematics are [`parcal_kinematics::delta`]'s and
 //! [`parcal_kinematics::cable`]'s, in the firmware's conventions.
 
+pub mod accuracy;
 pub mod autocal;
 mod error;
+pub mod export;
 mod files;
 pub mod gcode;
 pub mod hangprinter;

@@ -13,6 +13,7 @@ pub mod compare;
 pub mod diagnostics;
 pub mod instruments;
 pub mod maps;
+pub mod mechanism;
 pub mod paper;
 pub mod plots;
 pub mod sentences;

@@ -111,6 +111,9 @@ impl Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if let Some(mechanism) = super::mechanism::declared(&args.dataset)? {
+        return super::mechanism::calibrate(&mechanism, args.mechanism_options()?);
+    }
     let options = args.options();
     let progress = Progress::bar("iteration", options.max_iterations as u64);
     let read = Instant::now();
@@ -267,6 +270,34 @@ fn run_instruments(
 impl Args {
     /// calibration.json's path: --out, or calibration.json in the
     /// dataset's directory (next to a snapshot file).
+    /// The options of a mechanism dataset's calibration; an error naming
+    /// an option given that only the hexapod's calibration has.
+    fn mechanism_options(&self) -> anyhow::Result<super::mechanism::CalibrateRequest> {
+        let hexapod_only = [
+            ("--sim", self.sim.is_some()),
+            ("--observation", self.observation.is_some()),
+            ("--prior", self.prior.is_some()),
+            ("--weights", self.weights != WeightModel::default()),
+            ("--radius", self.radius.is_some()),
+            ("--lm", self.lm),
+            ("--time-limit", self.time_limit.is_some()),
+        ];
+        if let Some((flag, _)) = hexapod_only.iter().find(|(_, given)| *given) {
+            anyhow::bail!(
+                "{}: {flag} applies to a hexapod's calibration, not to this mechanism's (its options: --snoop, --loss, --max-iterations, --out, --report)",
+                self.dataset.display()
+            );
+        }
+        Ok(super::mechanism::CalibrateRequest {
+            dataset: self.dataset.clone(),
+            out: self.out_path(),
+            report: self.report,
+            snoop: self.snoop,
+            loss: self.loss,
+            max_iterations: self.max_iterations,
+        })
+    }
+
     fn out_path(&self) -> PathBuf {
         let directory = if self.dataset.is_file() {
             self.dataset.parent().unwrap_or(Path::new("."))

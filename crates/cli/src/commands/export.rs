@@ -1,7 +1,8 @@
 //! `parcal export`: a calibration in the forms other tools load
-//! (docs/apply.md).
+//! (docs/apply.md; a linear delta's firmware, docs/delta.md). The format
+//! decides the mechanism: a calibration of another is refused.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use parcal_apply::AppliedModel;
@@ -9,6 +10,11 @@ use parcal_apply::genhexkins::hal_snippet;
 use parcal_apply::machine::calibrated_machine;
 use parcal_apply::summary::summary;
 use parcal_dataset::atomic::write_file;
+use parcal_dataset::mechanism::MechanismCalibrationRecord;
+use parcal_firmware::accuracy::Workspace;
+use parcal_firmware::export::{Firmware, cost_sentence, export};
+use parcal_kinematics::delta::{DeltaParams, N_PARAMS};
+use parcal_kinematics::mechanisms;
 
 /// What to export.
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -20,6 +26,31 @@ enum Format {
     Genhexkins,
     /// A human-readable summary with the covariance.
     Summary,
+    /// A linear delta's M665/M666 lines for RepRapFirmware's config.g.
+    Reprapfirmware,
+    /// A linear delta's SAVE_CONFIG block for Klipper's printer.cfg.
+    Klipper,
+}
+
+impl Format {
+    /// The mechanism whose calibration this format exports.
+    fn mechanism(self) -> &'static str {
+        match self {
+            Self::MachineJson | Self::Genhexkins | Self::Summary => "hexapod",
+            Self::Reprapfirmware | Self::Klipper => "linear delta",
+        }
+    }
+
+    /// The format's name on the command line.
+    fn name(self) -> &'static str {
+        match self {
+            Self::MachineJson => "machine-json",
+            Self::Genhexkins => "genhexkins",
+            Self::Summary => "summary",
+            Self::Reprapfirmware => "reprapfirmware",
+            Self::Klipper => "klipper",
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -36,6 +67,11 @@ pub struct Args {
     /// Use a calibration whose verdict is "rejected".
     #[arg(long)]
     accept_rejected: bool,
+    /// The printable radius of a delta (mm, M665 B or print_radius): the
+    /// firmware files hold it, the calibration does not; required by
+    /// --format reprapfirmware and klipper.
+    #[arg(long, value_name = "MM")]
+    print_radius: Option<f64>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -43,14 +79,123 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         std::slice::from_ref(&args.calibration),
         std::slice::from_ref(&args.out),
     )?;
-    let record = super::read_calibration(&args.calibration, args.accept_rejected)?;
-    let model = AppliedModel::from_record(&record)
-        .with_context(|| format!("{}", args.calibration.display()))?;
     match args.format {
-        Format::MachineJson => calibrated_machine(&record, &model)?.write(&args.out)?,
-        Format::Genhexkins => write_file(&args.out, hal_snippet(&model).as_bytes())?,
-        Format::Summary => write_file(&args.out, summary(&record, &model).as_bytes())?,
+        Format::Reprapfirmware => export_delta(args, Firmware::RepRapFirmware)?,
+        Format::Klipper => export_delta(args, Firmware::Klipper)?,
+        Format::MachineJson | Format::Genhexkins | Format::Summary => export_hexapod(args)?,
     }
     println!("{}", args.out.display());
     Ok(())
+}
+
+/// Exports a hexapod's calibration as `args.format`.
+fn export_hexapod(args: &Args) -> anyhow::Result<()> {
+    let record = super::read_calibration(&args.calibration, args.accept_rejected)
+        .map_err(|error| mismatch(&args.calibration, args.format).unwrap_or(error))?;
+    let model = AppliedModel::from_record(&record)
+        .with_context(|| format!("{}", args.calibration.display()))?;
+    let text = match args.format {
+        Format::MachineJson => return Ok(calibrated_machine(&record, &model)?.write(&args.out)?),
+        Format::Genhexkins => hal_snippet(&model),
+        _ => summary(&record, &model),
+    };
+    write_file(&args.out, text.as_bytes())?;
+    Ok(())
+}
+
+/// The error of a calibration at `path` that is of another mechanism than
+/// `format` exports, if it is one.
+fn mismatch(path: &Path, format: Format) -> Option<anyhow::Error> {
+    let mechanism = match MechanismCalibrationRecord::read(path) {
+        Ok(record) => record.mechanism,
+        Err(_) => {
+            parcal_dataset::Calibration::read(path).ok()?;
+            "hexapod".to_string()
+        }
+    };
+    (mechanism != format.mechanism()).then(|| {
+        anyhow::anyhow!(
+            "{}: a {mechanism} calibration; --format {} exports a {}'s",
+            path.display(),
+            format.name(),
+            format.mechanism()
+        )
+    })
+}
+
+/// Exports a linear delta's calibration for `firmware`: what the
+/// firmware cannot hold and what that costs are printed and written in
+/// the file's comment lines.
+fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
+    let path = &args.calibration;
+    let record = MechanismCalibrationRecord::read(path)
+        .map_err(|error| mismatch(path, args.format).unwrap_or_else(|| error.into()))?;
+    anyhow::ensure!(
+        record.mechanism == args.format.mechanism(),
+        "{}: a {} calibration; --format {} exports a {}'s",
+        path.display(),
+        record.mechanism,
+        args.format.name(),
+        args.format.mechanism()
+    );
+    anyhow::ensure!(
+        record.accepted || args.accept_rejected,
+        "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
+        path.display(),
+        record.reasons.join("; ")
+    );
+    let print_radius = args.print_radius.with_context(|| {
+        format!(
+            "--format {} needs --print-radius (the printable radius, M665 B or print_radius)",
+            args.format.name()
+        )
+    })?;
+    anyhow::ensure!(
+        print_radius.is_finite() && print_radius > 0.0,
+        "--print-radius must be a positive number of mm, got {print_radius}"
+    );
+    let calibrated = delta_parameters(&record, path)?;
+    let workspace = Workspace::of_printer(print_radius, calibrated.homed_height);
+    let exported = export(&calibrated, print_radius, firmware, &workspace)
+        .with_context(|| format!("{}", path.display()))?;
+    write_file(&args.out, exported.text.as_bytes())?;
+    for sentence in &exported.lost {
+        println!("lost: {sentence}");
+    }
+    println!("cost: {}", cost_sentence(&exported.cost, &workspace));
+    Ok(())
+}
+
+/// The delta's parameters of a calibration record, by name.
+fn delta_parameters(
+    record: &MechanismCalibrationRecord,
+    path: &Path,
+) -> anyhow::Result<DeltaParams> {
+    let delta = mechanisms::by_name(&record.mechanism).with_context(|| {
+        format!(
+            "{}: unknown mechanism {:?}",
+            path.display(),
+            record.mechanism
+        )
+    })?;
+    let values = delta
+        .parameters()
+        .iter()
+        .map(|p| {
+            record.parameter(&p.name).map(|r| r.value).with_context(|| {
+                format!(
+                    "{}: no parameter {} of the {}",
+                    path.display(),
+                    p.name,
+                    record.mechanism
+                )
+            })
+        })
+        .collect::<anyhow::Result<Vec<f64>>>()?;
+    anyhow::ensure!(
+        values.len() == N_PARAMS,
+        "{}: not a linear delta's parameters",
+        path.display()
+    );
+    Ok(DeltaParams::from_slice(&values))
 }

@@ -5,11 +5,14 @@ pub mod calibrate;
 pub mod compensate;
 pub mod execute;
 pub mod export;
+pub mod import;
 pub mod inspect;
+pub mod mechanism;
 pub mod paper;
 pub mod plan;
 pub mod report;
 pub mod simulate;
+pub mod simulate_mechanism;
 pub mod validate;
 
 use std::path::{Path, PathBuf};

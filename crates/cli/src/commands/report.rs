@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use parcal_dataset::atomic::write_set;
+use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use parcal_report::calibration_report::{Format, Subject, predicted_accuracy, render};
 
 /// The report's two files in its directory: the HTML page and the Markdown.
@@ -49,7 +50,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .with_context(|| format!("{}: cannot create the directory", directory.display()))?;
     }
     crate::outputs::check(&inputs, &report_paths(&directory))?;
-    let calibration = parcal_dataset::Calibration::read(&args.calibration)?;
+    let calibration = match parcal_dataset::Calibration::read(&args.calibration) {
+        Ok(calibration) => calibration,
+        Err(hexapod) => match MechanismCalibrationRecord::read(&args.calibration) {
+            Ok(record) => return write_mechanism(&record, &args.calibration, &directory),
+            Err(_) => return Err(hexapod.into()),
+        },
+    };
     let dataset = args
         .dataset
         .as_deref()
@@ -91,6 +98,25 @@ pub fn directory_of(file: &Path) -> &Path {
         Some(parent) if !parent.as_os_str().is_empty() => parent,
         _ => Path::new("."),
     }
+}
+
+/// Writes the report of a mechanism's calibration `record`, read from
+/// `path`, into `directory` (report.html and report.md, as a set).
+fn write_mechanism(
+    record: &MechanismCalibrationRecord,
+    path: &Path,
+    directory: &Path,
+) -> anyhow::Result<()> {
+    write_set(&[], || {
+        super::mechanism::write_report(record, &path.display().to_string(), directory)
+    })?;
+    writeln!(
+        std::io::stdout().lock(),
+        "{}\nreport written to {}",
+        parcal_report::mechanism::verdict_sentence(record),
+        listed(directory)
+    )?;
+    Ok(())
 }
 
 /// The report's files in `directory` ([`REPORT_FILES`]).

@@ -16,7 +16,7 @@ use parcal_simulate::{
     TrackerScenario, ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,
 };
 
-use super::SNAPSHOT_FILE;
+use super::{SNAPSHOT_FILE, simulate_mechanism};
 use crate::bounds::Bounded;
 
 #[derive(clap::Args)]
@@ -120,6 +120,36 @@ pub struct Args {
     /// Run commands instead of simulating a campaign (--out is then a file).
     #[command(flatten)]
     execute: super::execute::RunArgs,
+    /// Simulate a printer of another mechanism than the hexapod: `linear
+    /// delta` (or `delta`), probe heights and part distances with its
+    /// truth (docs/delta.md).
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["balls", "tracker", "plate", "plan", "design_drawn", "binary"])]
+    mechanism: Option<String>,
+    /// Probe rings over the printable disc (and its centre).
+    #[arg(long, default_value_t = 3, requires = "mechanism", value_parser = Bounded(simulate_mechanism::RINGS))]
+    probe_rings: usize,
+    /// Probe points on each ring.
+    #[arg(long, default_value_t = 8, requires = "mechanism", value_parser = Bounded(simulate_mechanism::PER_RING))]
+    probes_per_ring: usize,
+    /// Distances measured across a printed disc on the first layer.
+    #[arg(long, default_value_t = 0, requires = "mechanism", value_parser = Bounded(simulate_mechanism::DISTANCES))]
+    part_distances: usize,
+    /// The probe's noise, 1 sigma, mm.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.01,
+        requires = "mechanism"
+    )]
+    probe_sigma: f64,
+    /// The part distances' noise, 1 sigma, mm.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.01,
+        requires = "mechanism"
+    )]
+    distance_sigma: f64,
 }
 
 /// `--tracker` (also `parcal plan`'s).
@@ -158,6 +188,19 @@ enum TrackedMachine {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.execute.requested() {
         return super::execute::run(&args.execute, &args.out);
+    }
+    if let Some(mechanism) = &args.mechanism {
+        return simulate_mechanism::run(&simulate_mechanism::Request {
+            mechanism: mechanism.clone(),
+            seed: args.seed,
+            out: args.out.clone(),
+            force: args.force,
+            rings: args.probe_rings,
+            per_ring: args.probes_per_ring,
+            distances: args.part_distances,
+            probe_sigma: args.probe_sigma,
+            distance_sigma: args.distance_sigma,
+        });
     }
     anyhow::ensure!(
         args.tilt.is_finite() && (0.0..90.0).contains(&args.tilt),

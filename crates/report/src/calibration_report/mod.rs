@@ -19,10 +19,10 @@
 //! ```
 
 mod content;
-mod document;
+pub(crate) mod document;
 mod figures;
 pub mod html;
-mod markdown;
+pub(crate) mod markdown;
 
 pub use content::{Subject, global_sentence, tests_sentence, title};
 

@@ -1,0 +1,265 @@
+//! docs/delta.md's side-by-side table: on simulated kit printers, the
+//! first-layer flatness and the 3D error over the build volume after
+//! RepRapFirmware's 6-, 7- and 9-factor auto-calibration and after
+//! parcal's calibration, on the same probe heights, and parcal with a few
+//! part distances added.
+//!
+//! `cargo run --release -p parcal-benches --example delta_vs_firmware -- [PRINTERS [SEED]]`
+//! (30 printers and seed 1 by default).
+//!
+//! Each printer (its own random stream of the seed): rods 250-300 mm,
+//! delta radius 120-150 mm, homed height 300 mm, printable radius 0.75 of
+//! the delta radius or less, so that no arm leans more than about 64
+//! degrees (the farthest tower at most 0.9 of a rod away); off its nominal configuration by uniform errors of
+//! +-0.3 mm (endstops, each rod, radius, tower radii) and +-0.3 degree
+//! (tower angles), a bed tilt of +-0.1 %; probed at the centre and 3 rings
+//! of 8 points out to the printable radius, 10 um of probe noise. Part
+//! distances: 3 across a printed disc on the first layer, along 0, 60 and
+//! 120 degrees, 90 % of the printable diameter, measured to 10 um.
+//!
+//! Errors (`parcal_firmware::accuracy`): the machine's canonical frame,
+//! the first layer's height offset removed; flatness at z = 0 over the
+//! printable disc, 3D over the cylinder to half the homed height, on a
+//! 10 mm grid. The table gives the mean over the printers of each
+//! printer's RMS and max, with the standard error of the mean, and for
+//! each method against the firmware's 9-factor fit the mean paired
+//! difference of the RMS with its standard error.
+
+use std::sync::Arc;
+
+use parcal_calibrate::mechanism::{
+    MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+};
+use parcal_firmware::accuracy::{PositionErrors, Workspace, position_errors};
+use parcal_firmware::autocal::auto_calibrate;
+use parcal_firmware::probes::ProbePoint;
+use parcal_firmware::rrf::RrfDelta;
+use parcal_kinematics::delta::{DeltaParams, LinearDelta, N_PARAMS, probe_height, probe_rings};
+use parcal_kinematics::mechanism::Mechanism;
+use parcal_observe::mechanism::{PartDistance, ProbeHeight};
+use parcal_simulate::Rng;
+
+/// The largest number of printers a run takes.
+const MAX_PRINTERS: usize = 10_000;
+/// The probe noise (mm).
+const PROBE_SIGMA: f64 = 0.01;
+/// The part distances' noise (mm).
+const DISTANCE_SIGMA: f64 = 0.01;
+/// The probe's trigger height (mm, `G31 Z`), and the sigma of its prior
+/// (a first-layer test's).
+const TRIGGER_HEIGHT: (f64, f64) = (0.7, 0.05);
+
+/// One simulated printer and what was measured on it.
+struct Printer {
+    truth: DeltaParams,
+    configured: RrfDelta,
+    probes: Vec<ProbePoint>,
+    distances: Vec<Distance>,
+}
+
+/// A distance measured between two commanded positions.
+struct Distance {
+    first: [f64; 3],
+    second: [f64; 3],
+    measured: f64,
+}
+
+/// A uniform deviate in `[-scale, scale)`.
+fn uniform(rng: &mut Rng, scale: f64) -> f64 {
+    rng.uniform(-scale, scale)
+}
+
+/// Printer `index` of `seed` (module documentation).
+fn printer(seed: u64, index: u64) -> Printer {
+    let mut rng = Rng::new(seed, index);
+    let diagonal = rng.uniform(250.0, 300.0);
+    let radius = rng.uniform(120.0, 150.0);
+    let configured = RrfDelta {
+        diagonals: [diagonal; 3],
+        radius,
+        homed_height: 300.0,
+        print_radius: (0.75 * radius).min(0.9 * diagonal - radius),
+        ..RrfDelta::default()
+    };
+    let mut truth = configured.to_params();
+    for i in 0..3 {
+        truth.endstop[i] += uniform(&mut rng, 0.3);
+        truth.diagonal[i] += uniform(&mut rng, 0.3);
+        truth.tower_radius[i] += uniform(&mut rng, 0.3);
+        truth.angle[i] += uniform(&mut rng, 0.3);
+    }
+    truth.radius += uniform(&mut rng, 0.3);
+    truth.tilt = [uniform(&mut rng, 0.1), uniform(&mut rng, 0.1)];
+    let delta = kinematics(&configured);
+    let (t, c) = (truth.to_vector(), configured.to_params().to_vector());
+    let probes = probe_rings(configured.print_radius, 3, 8)
+        .into_iter()
+        .map(|[x, y]| ProbePoint {
+            x,
+            y,
+            z: probe_height(&delta, t.as_slice(), c.as_slice(), x, y).expect("probe")
+                + rng.normal(PROBE_SIGMA),
+        })
+        .collect();
+    let half = 0.9 * configured.print_radius;
+    let distances = [0.0f64, 60.0, 120.0]
+        .into_iter()
+        .map(|angle| {
+            let (sin, cos) = angle.to_radians().sin_cos();
+            let first = [half * cos, half * sin, 0.2];
+            let second = [-half * cos, -half * sin, 0.2];
+            let reached = |target: &[f64; 3]| {
+                let q = delta.inverse(c.as_slice(), target).expect("reach");
+                delta
+                    .forward(t.as_slice(), q.as_slice(), target)
+                    .expect("reach")
+            };
+            let measured = (reached(&first) - reached(&second)).norm() + rng.normal(DISTANCE_SIGMA);
+            Distance {
+                first,
+                second,
+                measured,
+            }
+        })
+        .collect();
+    Printer {
+        truth,
+        configured,
+        probes,
+        distances,
+    }
+}
+
+/// The kinematics of a configuration, without limits beyond reach.
+fn kinematics(configured: &RrfDelta) -> LinearDelta {
+    LinearDelta::new(
+        &configured.to_params(),
+        &Default::default(),
+        parcal_kinematics::delta::Limits {
+            print_radius: configured.print_radius,
+            max_arm_angle: 90.0,
+            travel: f64::INFINITY,
+        },
+    )
+}
+
+/// parcal's calibration of `printer` from its probe heights and, if
+/// `with_distances`, its part distances; the default tolerances as the
+/// prior about the configuration.
+fn parcal(printer: &Printer, with_distances: bool) -> DeltaParams {
+    let configured = printer.configured.to_params().to_vector();
+    let probes = printer
+        .probes
+        .iter()
+        .map(|p| ProbeHeight {
+            commanded: [p.x, p.y, p.z + TRIGGER_HEIGHT.0],
+            sigma: PROBE_SIGMA,
+        })
+        .collect();
+    let distances = if with_distances {
+        printer
+            .distances
+            .iter()
+            .map(|d| PartDistance {
+                first: d.first,
+                second: d.second,
+                distance: d.measured,
+                sigma: DISTANCE_SIGMA,
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let observations = Observations {
+        probes,
+        distances,
+        ..Default::default()
+    };
+    let data = MechanismData::new(
+        Arc::new(kinematics(&printer.configured)),
+        configured.iter().copied().collect(),
+        observations,
+    )
+    .with_trigger_height(TRIGGER_HEIGHT.0, Some(TRIGGER_HEIGHT.1));
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default()).expect("calibration");
+    DeltaParams::from_slice(&calibration.values().as_slice()[..N_PARAMS])
+}
+
+/// The errors of each method on one printer.
+fn errors(printer: &Printer) -> Vec<PositionErrors> {
+    let workspace = Workspace::of_printer(
+        printer.configured.print_radius,
+        printer.configured.homed_height,
+    );
+    let on_truth =
+        |fitted: &DeltaParams| position_errors(&printer.truth, fitted, &workspace).expect("errors");
+    let mut rows = vec![on_truth(&printer.configured.to_params())];
+    for factors in [6, 7, 9] {
+        let fit = auto_calibrate(&printer.configured, &printer.probes, factors).expect("fit");
+        rows.push(on_truth(&fit.delta.to_params()));
+    }
+    rows.push(on_truth(&parcal(printer, false)));
+    rows.push(on_truth(&parcal(printer, true)));
+    rows
+}
+
+/// Mean and standard error of the mean.
+fn mean_and_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (variance / n).sqrt())
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let printers: usize = args.next().map_or(Ok(30), |s| s.parse())?;
+    let seed: u64 = args.next().map_or(Ok(1), |s| s.parse())?;
+    if !(2..=MAX_PRINTERS).contains(&printers) {
+        return Err(format!("PRINTERS must be from 2 to {MAX_PRINTERS}, got {printers}").into());
+    }
+    let methods = [
+        "as configured",
+        "RepRapFirmware 6-factor",
+        "RepRapFirmware 7-factor",
+        "RepRapFirmware 9-factor",
+        "parcal, probe heights",
+        "parcal, probe heights and 3 part distances",
+    ];
+    let results: Vec<Vec<PositionErrors>> = (0..printers as u64)
+        .map(|index| errors(&printer(seed, index)))
+        .collect();
+    println!(
+        "{printers} printers, seed {seed}: mean over the printers (standard error), um; paired difference of the RMS against the 9-factor fit"
+    );
+    println!(
+        "| method | flatness RMS | flatness max | 3D RMS | 3D max | flatness RMS - 9-factor | 3D RMS - 9-factor |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let baseline = 3;
+    for (m, name) in methods.iter().enumerate() {
+        let column = |f: &dyn Fn(&PositionErrors) -> f64| {
+            mean_and_error(&results.iter().map(|r| 1e3 * f(&r[m])).collect::<Vec<_>>())
+        };
+        let paired = |f: &dyn Fn(&PositionErrors) -> f64| {
+            mean_and_error(
+                &results
+                    .iter()
+                    .map(|r| 1e3 * (f(&r[m]) - f(&r[baseline])))
+                    .collect::<Vec<_>>(),
+            )
+        };
+        let cell = |(mean, error): (f64, f64)| format!("{mean:.1} ({error:.1})");
+        println!(
+            "| {name} | {} | {} | {} | {} | {} | {} |",
+            cell(column(&|e| e.flatness_rms)),
+            cell(column(&|e| e.flatness_max)),
+            cell(column(&|e| e.volume_rms)),
+            cell(column(&|e| e.volume_max)),
+            cell(paired(&|e| e.flatness_rms)),
+            cell(paired(&|e| e.volume_rms)),
+        );
+    }
+    Ok(())
+}

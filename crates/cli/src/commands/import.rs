@@ -1,0 +1,202 @@
+//! `parcal import`: a printer's firmware configuration and probe log as a
+//! mechanism dataset (docs/delta.md): the configured parameters the
+//! firmware ran with, also the prior's means, the builder's tolerances as
+//! the prior's sigmas, and each probe as a probe height at the commanded
+//! position where it triggered, `(x, y, z + trigger height)`, the trigger
+//! height an unknown with its own prior.
+
+use std::path::PathBuf;
+
+use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
+use parcal_firmware::klipper::read_printer_cfg;
+use parcal_firmware::probes::{ProbePoint, read_probes};
+use parcal_firmware::rrf::read_config;
+use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances};
+use parcal_kinematics::mechanism::Mechanism;
+
+/// The largest tolerance or standard deviation accepted (mm, degrees or
+/// percent): beyond it a prior says nothing.
+const MAX_SIGMA: f64 = 100.0;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    firmware: Firmware,
+}
+
+#[derive(clap::Subcommand)]
+enum Firmware {
+    /// RepRapFirmware: config.g's M665, M666 and G31 lines, and the
+    /// heights G30 S-1 reported.
+    Reprapfirmware(FirmwareArgs),
+    /// Klipper: printer.cfg's delta settings (the SAVE_CONFIG block
+    /// included), and the probe heights less the probe's z_offset.
+    Klipper(FirmwareArgs),
+}
+
+#[derive(clap::Args)]
+struct FirmwareArgs {
+    /// The firmware's configuration (config.g or printer.cfg).
+    #[arg(long)]
+    config: PathBuf,
+    /// The probe log: header x,y,z, the commanded XY of each probe and the
+    /// height reported there (mm).
+    #[arg(long)]
+    probes: PathBuf,
+    /// The dataset directory to write (it must not exist or be empty,
+    /// unless --force).
+    #[arg(long)]
+    out: PathBuf,
+    /// Replace an existing dataset at --out, as a whole.
+    #[arg(long)]
+    force: bool,
+    #[command(flatten)]
+    tolerances: ToleranceArgs,
+}
+
+/// The builder's tolerances (one standard deviation each) and the probe's
+/// noise; the defaults are a kit printer's ([`Tolerances::default`]).
+#[derive(clap::Args)]
+pub struct ToleranceArgs {
+    /// Diagonal rods, mm.
+    #[arg(long, value_name = "MM", default_value_t = Tolerances::default().diagonal, value_parser = sigma)]
+    diagonal_tolerance: f64,
+    /// Delta radius, mm.
+    #[arg(long, value_name = "MM", default_value_t = Tolerances::default().radius, value_parser = sigma)]
+    radius_tolerance: f64,
+    /// Each tower's own radius, mm.
+    #[arg(long, value_name = "MM", default_value_t = Tolerances::default().tower_radius, value_parser = sigma)]
+    tower_radius_tolerance: f64,
+    /// Tower angles, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = Tolerances::default().angle, value_parser = sigma)]
+    angle_tolerance: f64,
+    /// Endstops, mm.
+    #[arg(long, value_name = "MM", default_value_t = Tolerances::default().endstop, value_parser = sigma)]
+    endstop_tolerance: f64,
+    /// Homed height, mm.
+    #[arg(long, value_name = "MM", default_value_t = Tolerances::default().homed_height, value_parser = sigma)]
+    homed_height_tolerance: f64,
+    /// Bed tilt, percent.
+    #[arg(long, value_name = "PERCENT", default_value_t = Tolerances::default().tilt, value_parser = sigma)]
+    tilt_tolerance: f64,
+    /// The probe's repeatability, mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.01, value_parser = sigma)]
+    probe_sigma: f64,
+    /// The trigger height's standard deviation about the configured one
+    /// (G31 Z; Klipper's z_offset is taken as 0), mm: a first-layer
+    /// test's.
+    #[arg(long, value_name = "MM", default_value_t = 0.05, value_parser = sigma)]
+    trigger_sigma: f64,
+}
+
+impl ToleranceArgs {
+    fn tolerances(&self) -> Tolerances {
+        Tolerances {
+            endstop: self.endstop_tolerance,
+            homed_height: self.homed_height_tolerance,
+            radius: self.radius_tolerance,
+            tower_radius: self.tower_radius_tolerance,
+            angle: self.angle_tolerance,
+            diagonal: self.diagonal_tolerance,
+            tilt: self.tilt_tolerance,
+        }
+    }
+}
+
+/// A standard deviation: finite, positive and at most [`MAX_SIGMA`].
+fn sigma(text: &str) -> Result<f64, String> {
+    let value: f64 = text.trim().parse().map_err(|e| format!("{e}"))?;
+    if value.is_finite() && value > 0.0 && value <= MAX_SIGMA {
+        Ok(value)
+    } else {
+        Err(format!(
+            "{text} is not a standard deviation in (0, {MAX_SIGMA}]"
+        ))
+    }
+}
+
+/// What a firmware's files say: the configured parameters, the printable
+/// radius and the trigger height.
+struct Configured {
+    params: DeltaParams,
+    print_radius: f64,
+    trigger_height: f64,
+}
+
+/// The mechanism dataset of a firmware's configuration and probe log.
+fn dataset(
+    configured: &Configured,
+    probes: &[ProbePoint],
+    tolerances: &ToleranceArgs,
+) -> MechanismDataset {
+    // The kinematics only: the files state no joint or travel limits.
+    let limits = Limits {
+        print_radius: configured.print_radius,
+        max_arm_angle: 90.0,
+        travel: f64::INFINITY,
+    };
+    let delta = LinearDelta::new(&configured.params, &tolerances.tolerances(), limits);
+    let mut machine = MechanismMachine::of(&delta);
+    for parameter in delta.parameters() {
+        if !machine
+            .tolerances
+            .iter()
+            .any(|(group, _)| group == parameter.group)
+        {
+            machine
+                .tolerances
+                .push((parameter.group.to_string(), Some(parameter.prior_sigma)));
+        }
+    }
+    machine.noise = Noise {
+        probe: Some(tolerances.probe_sigma),
+        ..Noise::default()
+    };
+    machine.trigger_height = Some(ValuePrior {
+        value: configured.trigger_height,
+        sigma: Some(tolerances.trigger_sigma),
+    });
+    MechanismDataset {
+        machine,
+        probes: probes
+            .iter()
+            .map(|p| [p.x, p.y, p.z + configured.trigger_height])
+            .collect(),
+        ..MechanismDataset::default()
+    }
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let (firmware, files) = match &args.firmware {
+        Firmware::Reprapfirmware(files) => ("RepRapFirmware", files),
+        Firmware::Klipper(files) => ("Klipper", files),
+    };
+    let configured = match &args.firmware {
+        Firmware::Reprapfirmware(files) => {
+            let config = read_config(&files.config)?;
+            Configured {
+                params: config.delta.to_params(),
+                print_radius: config.delta.print_radius,
+                trigger_height: config.probe.trigger_height,
+            }
+        }
+        Firmware::Klipper(files) => {
+            let delta = read_printer_cfg(&files.config)?;
+            Configured {
+                params: delta.to_params(),
+                print_radius: delta.print_radius,
+                trigger_height: 0.0,
+            }
+        }
+    };
+    let probes = read_probes(&files.probes)?;
+    dataset(&configured, &probes, &files.tolerances).write_with(&files.out, files.force)?;
+    println!(
+        "{}: {firmware}'s configuration ({}) and {} probe heights ({})",
+        files.out.display(),
+        files.config.display(),
+        probes.len(),
+        files.probes.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,176 @@
+//! The commands on a mechanism dataset (machine.json naming a mechanism
+//! other than the hexapod, docs/delta.md): its calibration, written as
+//! calibration.json with its report if asked, and the summary printed.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use parcal_calibrate::Loss;
+use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+use parcal_dataset::atomic::write_set;
+use parcal_dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
+use parcal_dataset::{HEXAPOD, declared_mechanism};
+use parcal_report::mechanism::{
+    PARAMETER_HEADER, identifiability_statements, observation_counts, parameter_rows,
+    removal_sentences, verdict_sentence,
+};
+
+/// The mechanism a dataset directory's machine.json names, `None` for a
+/// hexapod's dataset (or a snapshot file, always a hexapod's).
+pub fn declared(dataset: &Path) -> anyhow::Result<Option<String>> {
+    if dataset.is_file() {
+        return Ok(None);
+    }
+    let machine = dataset.join(MACHINE_FILE);
+    if !machine.exists() {
+        return Ok(None);
+    }
+    Ok(declared_mechanism(&machine)?.filter(|name| name != HEXAPOD))
+}
+
+/// What `parcal calibrate` asks of a mechanism dataset.
+pub struct CalibrateRequest {
+    /// The dataset directory.
+    pub dataset: PathBuf,
+    /// Where calibration.json goes (a rejected one beside it).
+    pub out: PathBuf,
+    /// Also write report.html and report.md beside it.
+    pub report: bool,
+    /// Data snooping.
+    pub snoop: bool,
+    /// The loss.
+    pub loss: Loss,
+    /// The iteration limit, if not the default.
+    pub max_iterations: Option<usize>,
+}
+
+/// Calibrates the mechanism dataset of `request`: prints the summary,
+/// writes calibration.json (and its report) atomically, and turns a
+/// rejected verdict into [`super::Rejected`].
+pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<()> {
+    let CalibrateRequest {
+        dataset: path,
+        out,
+        report,
+        snoop,
+        loss,
+        max_iterations,
+    } = request;
+    super::check_calibration_outputs(&path, &out)?;
+    let report_directory = report.then(|| super::report::directory_of(&out).to_path_buf());
+    if let Some(directory) = &report_directory {
+        crate::outputs::check(
+            &crate::outputs::dataset_inputs(&path),
+            &super::report::report_paths(directory),
+        )?;
+    }
+    let dataset = MechanismDataset::read(&path)?;
+    let data = MechanismData::from_dataset(&dataset)
+        .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
+    let mut options = MechanismOptions::default()
+        .with_snooping(snoop)
+        .with_loss(loss);
+    if let Some(limit) = max_iterations {
+        options.max_iterations = limit;
+    }
+    let calibration = calibrate_mechanism(&data, &options)
+        .map_err(|error| anyhow::anyhow!("{}: the {mechanism}: {error}", path.display()))?;
+    let record = calibration.record();
+    let destination = if record.accepted {
+        out.clone()
+    } else {
+        super::rejected_path(&out)
+    };
+    let file = destination.display().to_string();
+    write_set(&[], || -> anyhow::Result<()> {
+        record.write(&destination)?;
+        match &report_directory {
+            Some(directory) => write_report(&record, &file, directory),
+            None => Ok(()),
+        }
+    })?;
+    let mut stdout = std::io::stdout().lock();
+    print_summary(&record, &mut stdout)?;
+    writeln!(stdout, "calibration written to {file}")?;
+    if let Some(directory) = &report_directory {
+        writeln!(
+            stdout,
+            "report written to {}",
+            super::report::listed(directory)
+        )?;
+    }
+    if !record.accepted {
+        return Err(super::Rejected(format!(
+            "{} (written to {file}; export refuses it without --accept-rejected)",
+            record.reasons.join("; ")
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// Writes the report of `record` (calibration.json at `file`) into
+/// `directory`: report.html and report.md ([`super::report::REPORT_FILES`]).
+pub fn write_report(
+    record: &MechanismCalibrationRecord,
+    file: &str,
+    directory: &Path,
+) -> anyhow::Result<()> {
+    for (name, format) in super::report::REPORT_FILES {
+        let text = parcal_report::mechanism::render(record, file, format);
+        parcal_report::write_text(&directory.join(name), &text)?;
+    }
+    Ok(())
+}
+
+/// The summary of a mechanism calibration: the verdict with its tests,
+/// the observations tested, each parameter with its sigma and prior sigma,
+/// and what the data determine.
+pub fn print_summary(
+    calibration: &MechanismCalibrationRecord,
+    out: &mut impl Write,
+) -> std::io::Result<()> {
+    writeln!(out, "{}", verdict_sentence(calibration))?;
+    for removal in removal_sentences(calibration) {
+        writeln!(out, "removed by data snooping: {removal}")?;
+    }
+    writeln!(
+        out,
+        "observations: {}",
+        observation_counts(calibration).join(", ")
+    )?;
+    let rows = parameter_rows(calibration);
+    let widths: Vec<usize> = (0..PARAMETER_HEADER.len())
+        .map(|k| {
+            rows.iter()
+                .map(|row| row[k].len())
+                .chain([PARAMETER_HEADER[k].len()])
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let line = |cells: &[&str]| {
+        cells
+            .iter()
+            .zip(&widths)
+            .enumerate()
+            .map(|(k, (cell, width))| {
+                if k < 2 {
+                    format!("{cell:<width$}")
+                } else {
+                    format!("{cell:>width$}")
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
+    writeln!(out, "{}", line(&PARAMETER_HEADER))?;
+    for row in &rows {
+        let cells: Vec<&str> = row.iter().map(String::as_str).collect();
+        writeln!(out, "{}", line(&cells))?;
+    }
+    for statement in identifiability_statements(calibration) {
+        writeln!(out, "{statement}")?;
+    }
+    Ok(())
+}

@@ -1,0 +1,291 @@
+//! The linear delta end to end: a printer's config.g and probe log
+//! imported, calibrated, exported for its firmware and read back; bad
+//! files named with their line; a calibration exported in a format of
+//! another mechanism refused.
+
+mod common;
+
+use std::fs;
+use std::path::Path;
+
+use common::{fails, ok, s};
+use parcal_firmware::rrf::read_config;
+use parcal_kinematics::delta::{DeltaParams, LinearDelta, probe_height, probe_rings};
+use parcal_kinematics::mechanism::Mechanism;
+
+/// The printer's configuration as its firmware holds it.
+const CONFIG: &str = "; config.g of a kit delta\n\
+M550 P\"delta\"\n\
+M665 L270 R135 H300 B100\n\
+M666 X0 Y0 Z0\n\
+G31 P500 X0 Y0 Z0.7\n\
+M208 Z0 S1\n";
+
+/// A printer off its configuration by a few tenths.
+fn truth() -> DeltaParams {
+    let mut p = DeltaParams::symmetric(270.0, 135.0, 300.0);
+    p.endstop = [0.25, -0.1, -0.15];
+    p.angle = [0.2, -0.15, 0.0];
+    p.diagonal = [270.2, 269.9, 270.1];
+    p.radius = 134.7;
+    p.tilt = [0.04, -0.03];
+    p
+}
+
+/// Writes config.g and the noiseless probe heights of [`truth`] at 37
+/// points (the centre and 3 rings of 12 out to 95 mm) into `dir`.
+fn printer(dir: &Path) {
+    fs::write(dir.join("config.g"), CONFIG).unwrap();
+    let configured = read_config(&dir.join("config.g")).unwrap().delta;
+    let delta = LinearDelta::typical();
+    let (t, c) = (truth().to_vector(), configured.to_params().to_vector());
+    let mut csv = String::from("x,y,z\n");
+    for [x, y] in probe_rings(95.0, 3, 12) {
+        let z = probe_height(&delta, t.as_slice(), c.as_slice(), x, y).unwrap();
+        csv.push_str(&format!("{x:.3},{y:.3},{z:.4}\n"));
+    }
+    fs::write(dir.join("probes.csv"), csv).unwrap();
+    assert_eq!(delta.name(), "linear delta");
+}
+
+#[test]
+fn import_calibrate_export_reads_back_the_calibrated_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    let data = d.join("data");
+    ok(&[
+        "import",
+        "reprapfirmware",
+        "--config",
+        s(&d.join("config.g")),
+        "--probes",
+        s(&d.join("probes.csv")),
+        "--out",
+        s(&data),
+    ]);
+    let summary = ok(&["calibrate", s(&data)]);
+    assert!(summary.contains("accepted"), "{summary}");
+    assert!(summary.contains("diagonal_a"), "{summary}");
+    let calibration = data.join("calibration.json");
+    let out = d.join("new.g");
+    let said = ok(&[
+        "export",
+        "--calibration",
+        s(&calibration),
+        "--format",
+        "reprapfirmware",
+        "--print-radius",
+        "100",
+        "--out",
+        s(&out),
+    ]);
+    assert!(said.contains("cost"), "{said}");
+    let written = fs::read_to_string(&out).unwrap();
+    assert!(written.contains("; parcal: cost: "), "{written}");
+    let back = read_config(&out).unwrap().delta.to_params();
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&calibration).unwrap()).unwrap();
+    let value = |name: &str| -> f64 {
+        record["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap_or_else(|| panic!("{name} in {record}"))["value"]
+            .as_f64()
+            .unwrap()
+    };
+    // Written to 0.001 (mm, degrees, %): read back within half a step.
+    let half = 0.0005 + 1e-9;
+    let pairs = [
+        ("diagonal_a", back.diagonal[0]),
+        ("diagonal_b", back.diagonal[1]),
+        ("diagonal_c", back.diagonal[2]),
+        ("radius", back.radius),
+        ("homed_height", back.homed_height),
+        ("angle_a", back.angle[0]),
+        ("angle_b", back.angle[1]),
+        ("angle_c", back.angle[2]),
+        ("endstop_a", back.endstop[0]),
+        ("endstop_b", back.endstop[1]),
+        ("endstop_c", back.endstop[2]),
+        ("tilt_x", back.tilt[0]),
+        ("tilt_y", back.tilt[1]),
+    ];
+    for (name, read) in pairs {
+        assert!(
+            (value(name) - read).abs() <= half,
+            "{name}: calibrated {}, read back {read}",
+            value(name)
+        );
+    }
+}
+
+#[test]
+fn bad_files_are_named_with_their_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    let mut probes = fs::read_to_string(d.join("probes.csv")).unwrap();
+    probes.push_str("10,20,oops\n");
+    fs::write(d.join("bad.csv"), probes).unwrap();
+    let import = |config: &Path, probes: &Path| {
+        fails(&[
+            "import",
+            "reprapfirmware",
+            "--config",
+            s(config),
+            "--probes",
+            s(probes),
+            "--out",
+            s(&d.join("data")),
+        ])
+    };
+    let err = import(&d.join("config.g"), &d.join("bad.csv"));
+    assert!(
+        err.contains("bad.csv: line 39: z: 'oops' is not a finite number"),
+        "{err}"
+    );
+    fs::write(d.join("cartesian.g"), "M550 P\"box\"\nG31 Z1\n").unwrap();
+    let err = import(&d.join("cartesian.g"), &d.join("probes.csv"));
+    assert!(
+        err.contains("cartesian.g: no M665 line: not a linear delta's configuration"),
+        "{err}"
+    );
+    assert!(!d.join("data").exists());
+}
+
+#[test]
+fn a_format_of_another_mechanism_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    let data = d.join("data");
+    ok(&[
+        "import",
+        "reprapfirmware",
+        "--config",
+        s(&d.join("config.g")),
+        "--probes",
+        s(&d.join("probes.csv")),
+        "--out",
+        s(&data),
+    ]);
+    ok(&["calibrate", s(&data)]);
+    let err = fails(&[
+        "export",
+        "--calibration",
+        s(&data.join("calibration.json")),
+        "--format",
+        "genhexkins",
+        "--out",
+        s(&d.join("hal")),
+    ]);
+    assert!(err.contains("linear delta"), "{err}");
+    assert!(!d.join("hal").exists());
+}
+
+#[test]
+fn a_hexapod_calibration_is_not_exported_for_a_printer() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = common::copy_fixture("paper-seed1", dir.path(), &common::PAPER_FILES);
+    ok(&["calibrate", s(&data)]);
+    let out = dir.path().join("new.g");
+    let err = fails(&[
+        "export",
+        "--calibration",
+        s(&data.join("calibration.json")),
+        "--format",
+        "reprapfirmware",
+        "--print-radius",
+        "100",
+        "--out",
+        s(&out),
+    ]);
+    assert!(
+        err.contains("a hexapod calibration; --format reprapfirmware exports a linear delta's"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_blunder_is_named_and_removed_by_snooping() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    // Probe 10 (line 12) reads 0.3 mm off.
+    let probes = fs::read_to_string(d.join("probes.csv")).unwrap();
+    let mut lines: Vec<String> = probes.lines().map(String::from).collect();
+    let fields: Vec<f64> = lines[11].split(',').map(|v| v.parse().unwrap()).collect();
+    lines[11] = format!("{},{},{}", fields[0], fields[1], fields[2] + 0.3);
+    fs::write(d.join("probes.csv"), lines.join("\n") + "\n").unwrap();
+    let data = d.join("data");
+    ok(&[
+        "import",
+        "reprapfirmware",
+        "--config",
+        s(&d.join("config.g")),
+        "--probes",
+        s(&d.join("probes.csv")),
+        "--out",
+        s(&data),
+    ]);
+    // Without snooping the blunder fails the tests; with it, probe height
+    // 10 (0-based) is removed and the rest pass.
+    let err = fails(&["calibrate", s(&data)]);
+    assert!(err.contains("rejected"), "{err}");
+    let summary = ok(&["calibrate", s(&data), "--snoop"]);
+    assert!(
+        summary.contains("removed by data snooping: probe height 10 "),
+        "{summary}"
+    );
+    assert!(summary.contains("Verdict: accepted"), "{summary}");
+    // An option of the hexapod's calibration is refused by name.
+    let err = fails(&["calibrate", s(&data), "--lm"]);
+    assert!(
+        err.contains("--lm applies to a hexapod's calibration"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    ok(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--seed",
+        "5",
+        "--part-distances",
+        "3",
+        "--out",
+        s(&sim),
+    ]);
+    for file in ["machine.json", "probes.csv", "distances.csv", "truth.json"] {
+        assert!(sim.join(file).exists(), "{file}");
+    }
+    let summary = ok(&["calibrate", s(&sim)]);
+    assert!(summary.contains("3 part distances"), "{summary}");
+    let err = fails(&[
+        "simulate",
+        "--mechanism",
+        "scara",
+        "--out",
+        s(&dir.path().join("other")),
+    ]);
+    assert!(err.contains("unknown"), "{err}");
+    let err = fails(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--probe-rings",
+        "50",
+        "--out",
+        s(&dir.path().join("other")),
+    ]);
+    assert!(err.contains("--probe-rings"), "{err}");
+}

@@ -1,0 +1,224 @@
+//! A calibrated linear delta in a firmware's configuration, with what the
+//! firmware cannot hold and what that costs.
+//!
+//! The calibrated parameters are put in the canonical frame
+//! ([`LinearDelta::canonicalize`]), where the per-tower radius
+//! corrections and tower C's angle correction are zero: a gauge that no
+//! firmware needs. What remains is written as the firmware writes it
+//! (RepRapFirmware's `M665`/`M666` lines, Klipper's `SAVE_CONFIG` block),
+//! read back by this crate's reader of that firmware, and the machine the
+//! firmware will then believe in is compared with the calibrated one by
+//! [`position_errors`]: the cost of the export, rounding included.
+
+use std::path::Path;
+
+use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances};
+use parcal_kinematics::mechanism::Mechanism;
+
+use crate::FirmwareError;
+use crate::accuracy::{PositionErrors, Workspace, position_errors};
+use crate::klipper::{KlipperDelta, parse_printer_cfg};
+use crate::rrf::{RrfDelta, parse_config};
+
+/// The firmware to write for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Firmware {
+    /// RepRapFirmware: `M665`/`M666` lines for `config.g` or
+    /// `config-override.g`.
+    RepRapFirmware,
+    /// Klipper: the `SAVE_CONFIG` block that ends a `printer.cfg`.
+    Klipper,
+}
+
+impl Firmware {
+    /// The firmware's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::RepRapFirmware => "RepRapFirmware",
+            Self::Klipper => "Klipper",
+        }
+    }
+
+    /// The firmware's comment prefix.
+    fn comment(self) -> &'static str {
+        match self {
+            Self::RepRapFirmware => ";",
+            Self::Klipper => "#",
+        }
+    }
+}
+
+/// A calibrated delta written for a firmware.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Export {
+    /// The file's text: comment lines saying what is lost and what it
+    /// costs, then the firmware's lines.
+    pub text: String,
+    /// The parameters the firmware reads from `text`.
+    pub written: DeltaParams,
+    /// What the firmware cannot hold, one sentence each.
+    pub lost: Vec<String>,
+    /// The position errors of the firmware reading `text` on the
+    /// calibrated machine.
+    pub cost: PositionErrors,
+}
+
+/// The calibrated parameters `calibrated` of a delta with printable
+/// radius `print_radius`, written for `firmware` (module documentation);
+/// the cost evaluated over `workspace`.
+pub fn export(
+    calibrated: &DeltaParams,
+    print_radius: f64,
+    firmware: Firmware,
+    workspace: &Workspace,
+) -> Result<Export, FirmwareError> {
+    let canonical = canonical(calibrated, print_radius)?;
+    let mut lost = Vec::new();
+    if calibrated.tower_radius != [0.0; 3] || calibrated.angle[2] != 0.0 {
+        lost.push(format!(
+            "the per-tower radius corrections ({}) and tower C's angle correction ({:.4} deg) are a rigid motion of the frame, written as the same machine in the canonical frame",
+            millimetres(&calibrated.tower_radius),
+            calibrated.angle[2]
+        ));
+    }
+    let (lines, precision) = match firmware {
+        Firmware::RepRapFirmware => (
+            RrfDelta::from_params(&canonical, print_radius)?.calibration_lines(),
+            "lengths and angles to 0.001, the tilt to 0.001 %",
+        ),
+        Firmware::Klipper => {
+            let mut held = canonical;
+            if held.tilt != [0.0; 2] {
+                lost.push(format!(
+                    "the bed tilt (x {:.4} %, y {:.4} %): Klipper's delta has none (a bed mesh can correct it)",
+                    canonical.tilt[0], canonical.tilt[1]
+                ));
+                held.tilt = [0.0; 2];
+            }
+            (
+                KlipperDelta::from_params(&held, print_radius)?.save_config_block(),
+                "values to 1e-6",
+            )
+        }
+    };
+    lost.push(format!(
+        "rounding as {} writes ({precision})",
+        firmware.name()
+    ));
+    let written = read_back(&lines, firmware)?;
+    let cost = position_errors(&canonical, &written, workspace)?;
+    let comment = firmware.comment();
+    let mut text = format!(
+        "{comment} parcal: the calibrated linear delta for {}\n",
+        firmware.name()
+    );
+    for sentence in &lost {
+        text.push_str(&format!("{comment} parcal: lost: {sentence}\n"));
+    }
+    text.push_str(&format!(
+        "{comment} parcal: cost: {}\n",
+        cost_sentence(&cost, workspace)
+    ));
+    text.push_str(&lines);
+    Ok(Export {
+        text,
+        written,
+        lost,
+        cost,
+    })
+}
+
+/// One sentence of the position errors over `workspace`, in µm
+/// ([`PositionErrors`]).
+pub fn cost_sentence(cost: &PositionErrors, workspace: &Workspace) -> String {
+    let um = |mm: f64| mm * 1000.0;
+    format!(
+        "first layer Z error RMS {:.2} um, max {:.2} um over the printable disc of radius {:.1} mm; 3D error RMS {:.2} um, max {:.2} um over the cylinder to {:.1} mm; besides, a first-layer height offset of {:.2} um (set by the first-layer test)",
+        um(cost.flatness_rms),
+        um(cost.flatness_max),
+        workspace.print_radius,
+        um(cost.volume_rms),
+        um(cost.volume_max),
+        workspace.height,
+        um(cost.z_offset)
+    )
+}
+
+/// `params` in the linear delta's canonical frame.
+fn canonical(params: &DeltaParams, print_radius: f64) -> Result<DeltaParams, FirmwareError> {
+    let limits = Limits {
+        print_radius,
+        max_arm_angle: 90.0,
+        travel: f64::INFINITY,
+    };
+    let delta = LinearDelta::new(params, &Tolerances::default(), limits);
+    let canonical = delta
+        .canonicalize(params.to_vector().as_slice())
+        .map_err(|e| FirmwareError::Calibration(e.to_string()))?;
+    Ok(DeltaParams::from_slice(canonical.as_slice()))
+}
+
+/// The parameters `firmware`'s reader takes from `lines`.
+fn read_back(lines: &str, firmware: Firmware) -> Result<DeltaParams, FirmwareError> {
+    let source = Path::new("the exported lines");
+    Ok(match firmware {
+        Firmware::RepRapFirmware => parse_config(lines, source)?.delta.to_params(),
+        // The block ends a printer.cfg whose [printer] has delta kinematics.
+        Firmware::Klipper => {
+            parse_printer_cfg(&format!("[printer]\nkinematics: delta\n{lines}"), source)?
+                .to_params()
+        }
+    })
+}
+
+/// `[a, b, c]` as `a, b, c mm`.
+fn millimetres(values: &[f64; 3]) -> String {
+    format!("{:.4}, {:.4}, {:.4} mm", values[0], values[1], values[2])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn calibrated() -> DeltaParams {
+        let mut p = DeltaParams::symmetric(270.0, 135.0, 300.0);
+        p.endstop = [0.21, -0.13, -0.08];
+        p.angle = [0.23, -0.11, 0.05];
+        p.tower_radius = [0.1, -0.05, 0.02];
+        p.diagonal = [270.12, 269.91, 270.04];
+        p.tilt = [0.05, -0.02];
+        p
+    }
+
+    #[test]
+    fn reprapfirmware_holds_the_machine_to_its_rounding() {
+        let workspace = Workspace::of_printer(110.0, 300.0);
+        let export = export(&calibrated(), 110.0, Firmware::RepRapFirmware, &workspace).unwrap();
+        // Rounding to 0.001 mm moves the nozzle by a few µm at most.
+        assert!(export.cost.volume_max < 0.01, "{:?}", export.cost);
+        assert!(export.text.contains("; parcal: lost: the per-tower radius"));
+        assert!(export.text.contains("; parcal: cost: first layer"));
+        assert!(export.text.contains("\nM665 L"), "{}", export.text);
+    }
+
+    #[test]
+    fn klipper_loses_the_tilt_and_says_what_it_costs() {
+        let workspace = Workspace::of_printer(110.0, 300.0);
+        let export = export(&calibrated(), 110.0, Firmware::Klipper, &workspace).unwrap();
+        assert_eq!(export.written.tilt, [0.0; 2]);
+        assert!(export.lost.iter().any(|s| s.contains("bed tilt")));
+        // A tilt of 0.05 % across a radius of 110 mm: 55 µm at the edge.
+        let edge = 0.05e-2 * 110.0;
+        assert!(
+            export.cost.flatness_max > 0.8 * edge
+                && export.cost.flatness_max < 1.2 * edge.hypot(0.02e-2 * 110.0),
+            "{:?}",
+            export.cost
+        );
+        assert!(
+            export
+                .text
+                .starts_with("# parcal: the calibrated linear delta for Klipper\n")
+        );
+    }
+}

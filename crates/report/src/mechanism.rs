@@ -1,0 +1,250 @@
+//! The report of a mechanism calibration (a linear delta's; any
+//! mechanism's calibration.json, [`MechanismCalibrationRecord`]): the
+//! verdict and its tests first, then the observations tested, the
+//! parameters with their sigmas beside their prior sigmas, and what the
+//! data determine. Rendered as the calibration report is
+//! ([`crate::calibration_report`]'s HTML and Markdown). Every number is
+//! the record's or computed from it.
+
+use parcal_calibrate::mechanism::ObservationKind;
+use parcal_dataset::mechanism::MechanismCalibrationRecord;
+
+use crate::calibration_report::Format;
+use crate::calibration_report::document::{Block, Cell, Tone};
+use crate::calibration_report::{html, markdown};
+
+/// The report of `calibration`, read from `file`, as `format`.
+pub fn render(calibration: &MechanismCalibrationRecord, file: &str, format: Format) -> String {
+    let title = format!("Calibration of a {} ({file})", calibration.mechanism);
+    let blocks = blocks(calibration, &title);
+    match format {
+        Format::Html => html::render(&title, &blocks),
+        Format::Markdown => markdown::render(&blocks),
+    }
+}
+
+/// The verdict in one sentence: accepted or rejected, and why.
+pub fn verdict_sentence(calibration: &MechanismCalibrationRecord) -> String {
+    let word = if calibration.accepted {
+        "accepted"
+    } else {
+        "rejected"
+    };
+    if calibration.reasons.is_empty() {
+        format!("Verdict: {word}.")
+    } else {
+        format!("Verdict: {word}: {}.", calibration.reasons.join("; "))
+    }
+}
+
+/// The global test in one sentence, or why there is none.
+pub fn global_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
+    let Some(test) = &calibration.global_test else {
+        return "No global test: the run did not converge to a least-squares minimum with redundancy."
+            .to_string();
+    };
+    format!(
+        "Global test: the a-posteriori variance factor {:.3} over {} degrees of freedom is {} (interval {:.3} to {:.3} at level {}).",
+        test.variance_factor,
+        test.redundancy,
+        test.outcome,
+        test.interval[0],
+        test.interval[1],
+        test.level
+    )
+}
+
+/// The w-tests in one sentence: the critical value and the largest
+/// normalised residual.
+pub fn w_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
+    let tests = &calibration.tests;
+    let limit = format!(
+        "w-tests: critical value {:.2} (family-wise level {} over {} data rows)",
+        tests.critical_value, tests.alpha, tests.data_rows
+    );
+    let worst = tests
+        .observations
+        .iter()
+        .flat_map(|o| {
+            o.normalised
+                .iter()
+                .enumerate()
+                .filter_map(move |(row, w)| w.map(|w| (o, row, w)))
+        })
+        .max_by(|a, b| a.2.abs().total_cmp(&b.2.abs()));
+    match worst {
+        Some((observation, row, w)) => format!(
+            "{limit}; the largest normalised residual is {w:.2} ({} {}, row {row}), {} the critical value.",
+            observation.kind,
+            observation.index,
+            if w.abs() > tests.critical_value {
+                "beyond"
+            } else {
+                "within"
+            }
+        ),
+        None => format!("{limit}; no row is checked by another."),
+    }
+}
+
+/// The observations tested, one line per kind present.
+pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    let mut counts: Vec<(&str, usize)> = Vec::new();
+    for observation in &calibration.tests.observations {
+        match counts
+            .iter_mut()
+            .find(|(kind, _)| *kind == observation.kind)
+        {
+            Some((_, n)) => *n += 1,
+            None => counts.push((&observation.kind, 1)),
+        }
+    }
+    counts
+        .into_iter()
+        .map(|(kind, n)| format!("{n} {kind}{}", if n == 1 { "" } else { "s" }))
+        .collect()
+}
+
+/// The parameter table: value, sigma, prior mean and sigma, and their
+/// ratio (how much the data narrowed the prior).
+pub fn parameter_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
+    calibration
+        .parameters
+        .iter()
+        .map(|p| {
+            let or_dash = |v: Option<f64>, digits: usize| {
+                v.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
+            };
+            vec![
+                p.name.clone(),
+                p.unit.clone(),
+                format!("{:.4}", p.value),
+                or_dash(p.sigma, 4),
+                format!("{:.4}", p.prior_mean),
+                or_dash(p.prior_sigma, 4),
+                or_dash(p.sigma_ratio, 3),
+            ]
+        })
+        .collect()
+}
+
+/// The header of [`parameter_rows`].
+pub const PARAMETER_HEADER: [&str; 7] = [
+    "parameter",
+    "unit",
+    "value",
+    "sigma",
+    "prior mean",
+    "prior sigma",
+    "sigma / prior sigma",
+];
+
+/// One sentence per observation removed by data snooping.
+pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    let factor = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3}"));
+    calibration
+        .tests
+        .removed
+        .iter()
+        .map(|r| {
+            format!(
+                "{} {} (row {}): normalised residual {:.2}; variance factor {} before, {} after",
+                r.kind,
+                r.index,
+                r.row,
+                r.normalised,
+                factor(r.variance_factor_before),
+                factor(r.variance_factor_after)
+            )
+        })
+        .collect()
+}
+
+/// The identifiability statements, or why there are none; for a linear
+/// delta calibrated without part distances whose undetermined directions
+/// involve the rods or the radius, what would determine them.
+pub fn identifiability_statements(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    let Some(identifiability) = &calibration.identifiability else {
+        return vec!["No covariance: what the data determine is not known.".to_string()];
+    };
+    let mut lines = identifiability.statements.clone();
+    let scale = |name: &str| name.starts_with("diagonal") || name == "radius";
+    let scale_undetermined = identifiability
+        .undetermined
+        .iter()
+        .any(|u| u.components.iter().any(|(name, _)| scale(name)));
+    let has_distances = calibration
+        .tests
+        .observations
+        .iter()
+        .any(|o| o.kind == ObservationKind::Distance.name());
+    if calibration.mechanism == "linear delta" && scale_undetermined && !has_distances {
+        lines.push(
+            "Probe heights see Z, hardly the XY scale: distances measured on a printed part (distances.csv) determine the diagonal rods and the radius.".to_string(),
+        );
+    }
+    lines
+}
+
+/// The report's blocks.
+fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
+    let tone = if calibration.accepted {
+        Tone::Accepted
+    } else {
+        Tone::Rejected
+    };
+    let mut blocks = vec![
+        Block::Heading(1, title.to_string()),
+        Block::Paragraph(tone, verdict_sentence(calibration)),
+        Block::Heading(2, "Tests".into()),
+        Block::Paragraph(Tone::Plain, global_test_sentence(calibration)),
+        Block::Paragraph(Tone::Plain, w_test_sentence(calibration)),
+        Block::Paragraph(
+            Tone::Plain,
+            format!(
+                "Solver: {} after {} linear solves.",
+                calibration.status, calibration.iterations
+            ),
+        ),
+    ];
+    if !calibration.tests.removed.is_empty() {
+        blocks.push(Block::Heading(3, "Removed by data snooping".into()));
+        blocks.push(Block::List(Tone::Warning, removal_sentences(calibration)));
+    }
+    if let Some(why) = &calibration.tests.snooping_stopped {
+        blocks.push(Block::Paragraph(Tone::Warning, why.clone()));
+    }
+    blocks.push(Block::Heading(2, "Observations tested".into()));
+    blocks.push(Block::List(Tone::Plain, observation_counts(calibration)));
+    blocks.push(Block::Heading(2, "Parameters (canonical frame)".into()));
+    let ratios_flag = |row: &[String]| row[6].parse::<f64>().is_ok_and(|r| r >= 0.9);
+    blocks.push(Block::Table {
+        header: PARAMETER_HEADER.iter().map(|s| s.to_string()).collect(),
+        rows: parameter_rows(calibration)
+            .into_iter()
+            .map(|row| {
+                let prior_only = ratios_flag(&row);
+                row.into_iter()
+                    .enumerate()
+                    .map(|(k, text)| {
+                        if k < 2 {
+                            Cell::text(text)
+                        } else {
+                            Cell::number(text).flagged(k == 6 && prior_only)
+                        }
+                    })
+                    .collect()
+            })
+            .collect(),
+    });
+    blocks.push(Block::Paragraph(
+        Tone::Note,
+        "A ratio sigma / prior sigma near 1 (flagged from 0.9) marks a parameter the data hardly inform: its value is its prior's.".into(),
+    ));
+    blocks.push(Block::Heading(2, "What the data determine".into()));
+    blocks.push(Block::List(
+        Tone::Plain,
+        identifiability_statements(calibration),
+    ));
+    blocks
+}
