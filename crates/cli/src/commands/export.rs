@@ -13,6 +13,8 @@ use parcal_dataset::atomic::write_file;
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use parcal_firmware::accuracy::Workspace;
 use parcal_firmware::export::{Firmware, cost_sentence, export};
+use parcal_firmware::hangprinter::HangprinterConfig;
+use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::delta::{DeltaParams, N_PARAMS};
 use parcal_kinematics::mechanisms;
 
@@ -30,6 +32,9 @@ enum Format {
     Reprapfirmware,
     /// A linear delta's SAVE_CONFIG block for Klipper's printer.cfg.
     Klipper,
+    /// A cable robot's M669 anchors and M666 R spool radii for the
+    /// Hangprinter's RepRapFirmware config.g.
+    Hangprinter,
 }
 
 impl Format {
@@ -38,6 +43,7 @@ impl Format {
         match self {
             Self::MachineJson | Self::Genhexkins | Self::Summary => "hexapod",
             Self::Reprapfirmware | Self::Klipper => "linear delta",
+            Self::Hangprinter => "cable robot",
         }
     }
 
@@ -49,6 +55,7 @@ impl Format {
             Self::Summary => "summary",
             Self::Reprapfirmware => "reprapfirmware",
             Self::Klipper => "klipper",
+            Self::Hangprinter => "hangprinter",
         }
     }
 }
@@ -82,6 +89,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     match args.format {
         Format::Reprapfirmware => export_delta(args, Firmware::RepRapFirmware)?,
         Format::Klipper => export_delta(args, Firmware::Klipper)?,
+        Format::Hangprinter => export_hangprinter(args)?,
         Format::MachineJson | Format::Genhexkins | Format::Summary => export_hexapod(args)?,
     }
     println!("{}", args.out.display());
@@ -128,22 +136,7 @@ fn mismatch(path: &Path, format: Format) -> Option<anyhow::Error> {
 /// the file's comment lines.
 fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
     let path = &args.calibration;
-    let record = MechanismCalibrationRecord::read(path)
-        .map_err(|error| mismatch(path, args.format).unwrap_or_else(|| error.into()))?;
-    anyhow::ensure!(
-        record.mechanism == args.format.mechanism(),
-        "{}: a {} calibration; --format {} exports a {}'s",
-        path.display(),
-        record.mechanism,
-        args.format.name(),
-        args.format.mechanism()
-    );
-    anyhow::ensure!(
-        record.accepted || args.accept_rejected,
-        "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
-        path.display(),
-        record.reasons.join("; ")
-    );
+    let record = mechanism_record(args)?;
     let print_radius = args.print_radius.with_context(|| {
         format!(
             "--format {} needs --print-radius (the printable radius, M665 B or print_radius)",
@@ -166,19 +159,67 @@ fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The calibration record of `args`, of the mechanism `args.format`
+/// exports, accepted or `--accept-rejected`.
+fn mechanism_record(args: &Args) -> anyhow::Result<MechanismCalibrationRecord> {
+    let path = &args.calibration;
+    let record = MechanismCalibrationRecord::read(path)
+        .map_err(|error| mismatch(path, args.format).unwrap_or_else(|| error.into()))?;
+    anyhow::ensure!(
+        record.mechanism == args.format.mechanism(),
+        "{}: a {} calibration; --format {} exports a {}'s",
+        path.display(),
+        record.mechanism,
+        args.format.name(),
+        args.format.mechanism()
+    );
+    anyhow::ensure!(
+        record.accepted || args.accept_rejected,
+        "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
+        path.display(),
+        record.reasons.join("; ")
+    );
+    Ok(record)
+}
+
+/// Exports a cable robot's calibration as the Hangprinter's `M669` and
+/// `M666 R` lines.
+fn export_hangprinter(args: &Args) -> anyhow::Result<()> {
+    let path = &args.calibration;
+    let record = mechanism_record(args)?;
+    let robot = CableRobot::typical();
+    let values = named_values(&record, path)?;
+    let config = HangprinterConfig::from_params(&robot, &values)
+        .with_context(|| format!("{}", path.display()))?;
+    write_file(&args.out, config.lines().as_bytes())?;
+    Ok(())
+}
+
 /// The delta's parameters of a calibration record, by name.
 fn delta_parameters(
     record: &MechanismCalibrationRecord,
     path: &Path,
 ) -> anyhow::Result<DeltaParams> {
-    let delta = mechanisms::by_name(&record.mechanism).with_context(|| {
+    let values = named_values(record, path)?;
+    anyhow::ensure!(
+        values.len() == N_PARAMS,
+        "{}: not a linear delta's parameters",
+        path.display()
+    );
+    Ok(DeltaParams::from_slice(&values))
+}
+
+/// The values of a calibration record's mechanism parameters, in the
+/// mechanism's order, by name.
+fn named_values(record: &MechanismCalibrationRecord, path: &Path) -> anyhow::Result<Vec<f64>> {
+    let mechanism = mechanisms::by_name(&record.mechanism).with_context(|| {
         format!(
             "{}: unknown mechanism {:?}",
             path.display(),
             record.mechanism
         )
     })?;
-    let values = delta
+    mechanism
         .parameters()
         .iter()
         .map(|p| {
@@ -191,11 +232,5 @@ fn delta_parameters(
                 )
             })
         })
-        .collect::<anyhow::Result<Vec<f64>>>()?;
-    anyhow::ensure!(
-        values.len() == N_PARAMS,
-        "{}: not a linear delta's parameters",
-        path.display()
-    );
-    Ok(DeltaParams::from_slice(&values))
+        .collect()
 }
