@@ -162,7 +162,9 @@ fn figures(variant: &Variant) -> (f64, f64) {
         .map(|&k| {
             let calibration = calibrate(variant, &samples, |i| i != k);
             let known = Vector3::from(samples[k].position.unwrap());
-            (predict(variant, &calibration, &samples[k].readings) - known).norm_squared()
+            let error = (predict(variant, &calibration, &samples[k].readings) - known).norm();
+            eprintln!("{}: sample {k} left out: {error:.2} mm", variant.name);
+            error * error
         })
         .sum();
     let loo = (squares / known.len() as f64).sqrt();
