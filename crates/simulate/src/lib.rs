@@ -3,8 +3,9 @@
 //! scaled variants, docs/paper-scenario.md section 3) and instrument
 //! campaigns (platform poses or tool points seen by a laser tracker or
 //! motion capture, in sessions: [`simulate_tracker`]), and both of one true
-//! machine in one dataset ([`simulate_mixed`]); cable robots' encoder
-//! readings with a few measured positions ([`simulate_cable`]).
+//! machine in one dataset ([`simulate_mixed`]); linear delta printers as
+//! mechanism datasets ([`delta`]); cable robots' encoder readings with a
+//! few measured positions ([`simulate_cable`]).
 //!
 //! ```
 //! use parcal_simulate::{Scenario, simulate};
@@ -27,6 +28,7 @@
 
 mod cable;
 mod campaign;
+pub mod delta;
 mod execute;
 mod mixed;
 mod plate;
@@ -95,6 +97,10 @@ pub enum SimulateError {
     /// The campaign would have more than [`MAX_ROWS`] rows.
     #[error("too large: {0}")]
     TooLarge(String),
+    /// A mechanism's simulation cannot be made (a count, a sigma, a pose
+    /// the machine cannot reach).
+    #[error("mechanism simulation: {0}")]
+    Mechanism(String),
     /// An instrument scenario's counts, ranges or sigmas make no sense.
     #[error("instrument scenario: {0}")]
     Scenario(String),

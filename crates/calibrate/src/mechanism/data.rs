@@ -12,6 +12,7 @@ use parcal_observe::mechanism::{
 };
 
 use super::error::MechanismCalibrationError;
+use super::observation::{ObservationKind, ObservationRef};
 
 /// The most observations of each kind: far beyond a calibration's needs
 /// (a probed bed holds tens to hundreds), and small enough that the
@@ -22,51 +23,6 @@ pub const MAX_OBSERVATIONS: usize = 1_000_000;
 pub const MIN_ACTUATORS: usize = 3;
 /// The most actuators (a cable robot of eight cables).
 pub const MAX_ACTUATORS: usize = 8;
-
-/// The kinds of observation of a mechanism calibration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum ObservationKind {
-    /// A probe touching the bed ([`ProbeHeight`]).
-    Probe,
-    /// A distance measured on a part ([`PartDistance`]).
-    Distance,
-    /// A position measured at a commanded position ([`CommandedPoint`]).
-    Point,
-    /// Readings at an unknown or measured pose ([`PointSample`]).
-    Sample,
-}
-
-impl ObservationKind {
-    /// Every kind, in the order of the rows.
-    pub const ALL: [Self; 4] = [Self::Probe, Self::Distance, Self::Point, Self::Sample];
-
-    /// Its name in messages and files: `probe height`, `part distance`,
-    /// `measured point`, `point sample`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Probe => "probe height",
-            Self::Distance => "part distance",
-            Self::Point => "measured point",
-            Self::Sample => "point sample",
-        }
-    }
-}
-
-/// One observation: its kind and its 0-based index among those of its
-/// kind in the data given.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ObservationRef {
-    /// The kind.
-    pub kind: ObservationKind,
-    /// The 0-based index.
-    pub index: usize,
-}
-
-impl fmt::Display for ObservationRef {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} {}", self.kind.name(), self.index)
-    }
-}
 
 /// The observations, by kind.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -4,7 +4,7 @@
 use parcal_kinematics::mechanism::MechanismError;
 use parcal_solver::Status;
 
-use super::data::ObservationRef;
+use super::observation::ObservationRef;
 
 /// Why [`calibrate_mechanism`](super::calibrate_mechanism) failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -45,7 +45,17 @@ pub enum MechanismCalibrationError {
         /// Which unknowns, and what would determine them.
         reason: String,
     },
-    /// The solver could not start or stopped on a failure.
+    /// An observation failed to evaluate during the iteration (the
+    /// parameters went where the machine cannot reach a commanded
+    /// position).
+    #[error("the solver stopped at iteration {iteration}: {message}")]
+    Evaluation {
+        /// Linear solves before the failure.
+        iteration: usize,
+        /// The failure, naming the observation.
+        message: String,
+    },
+    /// The solver could not start.
     #[error("the solver stopped: {status:?}")]
     Solver {
         /// How it ended.

@@ -8,13 +8,15 @@
 
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_solver::{
-    Method, Problem, SolverOptions, State, Status, normalised_residual, redundancy, solve,
+    GlobalObservations, Method, Problem, SolverOptions, State, Status, normalised_residual,
+    redundancy, solve,
 };
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
 
-use super::data::{MAX_ACTUATORS, MIN_ACTUATORS, MechanismData, ObservationKind, ObservationRef};
+use super::data::{MAX_ACTUATORS, MIN_ACTUATORS, MechanismData};
 use super::error::MechanismCalibrationError;
+use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::problem::MechanismProblem;
 
@@ -97,6 +99,10 @@ fn fit_with<const R: usize>(
     let start = problem.start();
     let n = problem.n_params();
     let poses = problem.start_poses(&start.as_slice()[..n])?;
+    // Every global observation evaluated once at the start, so that a
+    // commanded position the machine cannot reach is named as such.
+    let mut rows = GlobalObservations::zeros(0, start.len());
+    <MechanismProblem as Problem<1, 3, R>>::global_observations(&problem, &start, &mut rows)?;
     let groups = <MechanismProblem as Problem<1, 3, R>>::n_groups(&problem);
     let state = State {
         global: start,
@@ -151,9 +157,11 @@ fn fit_with<const R: usize>(
 /// it).
 fn failure(status: &Status) -> Option<MechanismCalibrationError> {
     match status {
-        Status::ProblemFailed { message, .. } => Some(MechanismCalibrationError::InvalidData {
-            what: "an observation".to_string(),
-            reason: message.clone(),
+        Status::ProblemFailed {
+            iteration, message, ..
+        } => Some(MechanismCalibrationError::Evaluation {
+            iteration: *iteration,
+            message: message.clone(),
         }),
         Status::Singular { diagnostics, .. } => {
             let weak = diagnostics.weakest.iter().filter(|w| !w.identified).count();

@@ -8,10 +8,11 @@
 //!
 //! The stages, each importing only those above it:
 //!
+//! - [`observation`]: the observations' names (kind and index);
+//! - [`error`]: what can go wrong, naming the observation or parameter;
 //! - [`data`]: the data in memory ([`MechanismData`]) and their validation;
 //! - [`options`]: loss, snooping, level, iteration limit
 //!   ([`MechanismOptions`]);
-//! - [`error`]: what can go wrong, naming the observation or parameter;
 //! - [`problem`]: the solver's problem (global block: parameters and the
 //!   trigger height; points: the poses of point samples);
 //! - [`fit`]: one solve, redundancy numbers, normalised residuals;
@@ -58,16 +59,18 @@ pub mod fit;
 pub mod frame;
 pub mod identifiability;
 pub mod input;
+pub mod observation;
 pub mod options;
 pub mod problem;
 pub mod record;
 pub mod result;
 pub mod snooping;
 
-pub use data::{MechanismData, ObservationKind, ObservationRef, Observations, ParameterPrior};
+pub use data::{MechanismData, Observations, ParameterPrior};
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
 pub use identifiability::{Identifiability, Undetermined};
+pub use observation::{ObservationKind, ObservationRef};
 pub use options::MechanismOptions;
 pub use result::{EstimatedParameter, MechanismCalibration, Removal, TRIGGER_HEIGHT};
 

@@ -20,8 +20,9 @@ use parcal_kinematics::mechanism::MechanismError;
 use parcal_observe::mechanism::Rows;
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem};
 
-use super::data::{MechanismData, ObservationKind, ObservationRef};
+use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
+use super::observation::{ObservationKind, ObservationRef};
 
 /// The problem of [`MechanismData`] (module doc).
 pub(crate) struct MechanismProblem<'a> {
@@ -272,5 +273,131 @@ impl<const R: usize> Problem<1, 3, R> for MechanismProblem<'_> {
             Vector3::from(pose),
             Vector3::from(sigma),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use nalgebra::DVector;
+    use parcal_kinematics::delta::{DeltaParams, LinearDelta, probe_height};
+    use parcal_kinematics::mechanism::{Mechanism, design};
+    use parcal_observe::mechanism::{PartDistance, PointSample, ProbeHeight};
+    use parcal_solver::{SolverOptions, State, Status, dense_reference, linear_step, solve};
+
+    use super::*;
+    use crate::mechanism::data::Observations;
+
+    /// A delta configured as designed, truly a few tenths off: 7 probe
+    /// heights, 2 part distances, 3 point samples (the first at a measured
+    /// pose).
+    fn small_delta() -> MechanismData {
+        let delta = LinearDelta::typical();
+        let configured = design(&delta);
+        let mut truth = DeltaParams::from_slice(configured.as_slice());
+        truth.endstop = [0.3, -0.2, 0.1];
+        truth.radius += 0.4;
+        truth.angle = [0.2, -0.3, 0.1];
+        truth.diagonal = [270.3, 269.8, 270.1];
+        truth.tilt = [0.1, -0.15];
+        let truth = truth.to_vector();
+        let (p, c) = (truth.as_slice(), configured.as_slice());
+        let probes = [
+            [0.0, 0.0],
+            [80.0, 0.0],
+            [-40.0, 69.0],
+            [-40.0, -69.0],
+            [30.0, 30.0],
+            [-50.0, 10.0],
+            [10.0, -60.0],
+        ]
+        .iter()
+        .map(|&[x, y]| ProbeHeight {
+            commanded: [x, y, probe_height(&delta, p, c, x, y).unwrap() + 0.7],
+            sigma: 0.01,
+        })
+        .collect();
+        let distances = [
+            ([-60.0, -20.0, 0.2], [60.0, 20.0, 0.2]),
+            ([0.0, -70.0, 0.2], [0.0, 70.0, 0.2]),
+        ]
+        .iter()
+        .map(|&(first, second)| PartDistance {
+            first,
+            second,
+            distance: DVector::from_column_slice(&first)
+                .metric_distance(&DVector::from_column_slice(&second))
+                + 0.05,
+            sigma: 0.02,
+        })
+        .collect();
+        let samples = [
+            [10.0, 20.0, 50.0],
+            [-30.0, 40.0, 120.0],
+            [50.0, -10.0, 80.0],
+        ]
+        .iter()
+        .enumerate()
+        .map(|(k, pose)| PointSample {
+            readings: delta.inverse(p, pose).unwrap().iter().copied().collect(),
+            sigma: 0.005,
+            known_pose: (k == 0).then_some((*pose, [0.01; 3])),
+        })
+        .collect();
+        let observations = Observations {
+            probes,
+            distances,
+            points: Vec::new(),
+            samples,
+        };
+        MechanismData::new(
+            Arc::new(delta),
+            configured.iter().copied().collect(),
+            observations,
+        )
+        .with_trigger_height(0.6, Some(0.05))
+    }
+
+    #[test]
+    fn the_schur_step_and_covariance_match_the_dense_reference() {
+        let data = small_delta();
+        let problem = MechanismProblem::new(&data, Loss::Squared);
+        let start = problem.start();
+        let n = problem.n_params();
+        let poses = problem.start_poses(&start.as_slice()[..n]).unwrap();
+        let state = State {
+            global: start,
+            groups: vec![SVector::zeros()],
+            points: poses
+                .iter()
+                .map(|p| p + Vector3::new(0.3, -0.2, 0.1))
+                .collect(),
+        };
+        let dense = dense_reference::solve::<1, 3, 3, _>(&problem, &state, 0.0).unwrap();
+        let schur = linear_step::<1, 3, 3, _>(&problem, &state, &mut Vec::new(), 0.0, 64).unwrap();
+        let global = (&schur.delta.global - &dense.step.global).amax();
+        let points = schur
+            .delta
+            .points
+            .iter()
+            .zip(&dense.step.points)
+            .map(|(a, b)| (a - b).amax())
+            .fold(0.0, f64::max);
+        // Steps of O(1) from two factorisations of a system of condition
+        // ~1e8: agreement to ~1e-8 relative.
+        let scale = dense.step.global.amax();
+        assert!(
+            global < 1e-7 * scale && points < 1e-7 * scale,
+            "{global:e} {points:e}"
+        );
+
+        let solution = solve::<1, 3, 3, _>(&problem, state, &SolverOptions::default(), &mut |_| {});
+        assert_eq!(solution.status, Status::Converged);
+        let covariance = solution.covariance.unwrap();
+        let dense = dense_reference::solve::<1, 3, 3, _>(&problem, &solution.state, 0.0).unwrap();
+        let reference = dense.global_covariance().unwrap();
+        let error = (&covariance - &reference).amax();
+        assert!(error < 1e-7 * reference.amax(), "{error:e}");
     }
 }

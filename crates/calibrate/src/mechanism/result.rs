@@ -11,11 +11,12 @@ use parcal_solver::Status;
 use crate::reliability::critical_value;
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
-use super::data::{MechanismData, ObservationRef, ParameterPrior};
+use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
 use super::fit::{Fit, ObservationCheck};
 use super::frame::canonical;
 use super::identifiability::{Identifiability, Inputs, identifiability};
+use super::observation::ObservationRef;
 use super::options::MechanismOptions;
 
 /// The name of the trigger height among the estimated unknowns.
@@ -137,35 +138,34 @@ pub(crate) fn assemble(
 ) -> Result<MechanismCalibration, MechanismCalibrationError> {
     let mechanism = data.mechanism.as_ref();
     let n = data.configured.len();
-    let mut parameters: Vec<EstimatedParameter> = mechanism
+    let scale: Vec<f64> = data.priors.iter().map(|p| p.sigma.unwrap_or(1.0)).collect();
+    let frame = canonical(mechanism, &fit.global, fit.covariance.as_ref(), &scale)?;
+    let mut described: Vec<(String, &str, &str, ParameterPrior)> = mechanism
         .parameters()
         .iter()
         .zip(&data.priors)
-        .map(|(p, prior)| EstimatedParameter {
-            name: p.name.clone(),
-            unit: p.unit.to_string(),
-            group: p.group.to_string(),
-            value: f64::NAN,
-            sigma: None,
-            prior: *prior,
-        })
+        .map(|(p, prior)| (p.name.clone(), p.unit, p.group, *prior))
         .collect();
     if data.has_trigger_height() {
-        parameters.push(EstimatedParameter {
-            name: TRIGGER_HEIGHT.to_string(),
-            unit: "mm".to_string(),
-            group: "probe".to_string(),
-            value: f64::NAN,
-            sigma: None,
-            prior: data.trigger_height,
-        });
+        described.push((
+            TRIGGER_HEIGHT.to_string(),
+            "mm",
+            "probe",
+            data.trigger_height,
+        ));
     }
-    let scale: Vec<f64> = data.priors.iter().map(|p| p.sigma.unwrap_or(1.0)).collect();
-    let frame = canonical(mechanism, &fit.global, fit.covariance.as_ref(), &scale)?;
-    for (k, parameter) in parameters.iter_mut().enumerate() {
-        parameter.value = frame.values[k];
-        parameter.sigma = frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt());
-    }
+    let parameters: Vec<EstimatedParameter> = described
+        .into_iter()
+        .enumerate()
+        .map(|(k, (name, unit, group, prior))| EstimatedParameter {
+            name,
+            unit: unit.to_string(),
+            group: group.to_string(),
+            value: frame.values[k],
+            sigma: frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt()),
+            prior,
+        })
+        .collect();
     let g = fit.global.len();
     let gauge: Vec<(String, DVector<f64>)> = mechanism
         .gauge_freedoms(&fit.global.as_slice()[..n])

@@ -7,9 +7,10 @@
 //! removals is reached, or when the calibration fails without it. Every
 //! observation of the result is named by its place in the data given.
 
-use super::data::{MechanismData, ObservationKind, ObservationRef};
+use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::fit::fit;
+use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::result::{MechanismCalibration, Removal, assemble, reasons};
 
@@ -21,22 +22,15 @@ impl Remaining {
         Self(ObservationKind::ALL.map(|kind| (0..data.observations.count(kind)).collect()))
     }
 
-    fn slot(kind: ObservationKind) -> usize {
-        ObservationKind::ALL
-            .iter()
-            .position(|&k| k == kind)
-            .unwrap_or_default()
-    }
-
     fn original(&self, observation: ObservationRef) -> ObservationRef {
         ObservationRef {
-            index: self.0[Self::slot(observation.kind)][observation.index],
+            index: self.0[observation.kind.index()][observation.index],
             ..observation
         }
     }
 
     fn remove(&mut self, observation: ObservationRef) {
-        self.0[Self::slot(observation.kind)].remove(observation.index);
+        self.0[observation.kind.index()].remove(observation.index);
     }
 }
 

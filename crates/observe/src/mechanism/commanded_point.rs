@@ -3,7 +3,7 @@
 //! frame.
 //!
 //! With `x = f(p, g(p_c, x_c))` the position the machine truly reaches
-//! ([`super::reached`]), `m` the measured position and `σ_k` the standard
+//! ([`reached`]), `m` the measured position and `σ_k` the standard
 //! deviation of its coordinate `k`:
 //!
 //! ```text
@@ -13,7 +13,7 @@
 use nalgebra::DVector;
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 
-use super::{Rows, check_sigma, reached};
+use super::commanded::{Rows, check_sigma, reached};
 
 /// One measured position (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]

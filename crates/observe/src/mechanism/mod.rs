@@ -18,61 +18,22 @@
 //! by computing readings with the parameters it is configured with, `p_c`:
 //! `q = g(p_c, x_c)`. The machine, whose true parameters are `p`, is then
 //! at `x = f(p, q)`; at fixed readings its derivative is
-//! `dx/dp = −G_x⁻¹ G_p` ([`pose_jacobian_at_fixed_readings`]), which
+//! `dx/dp = −G_x⁻¹ G_p`
+//! ([`pose_jacobian_at_fixed_readings`](parcal_kinematics::mechanism::pose_jacobian_at_fixed_readings)), which
 //! [`reached`] evaluates. `p_c` is known and fixed: only the true `p` is
 //! an unknown.
 
+mod commanded;
 mod commanded_point;
 mod part_distance;
 mod point_sample;
 mod probe;
 
-use nalgebra::{DMatrix, DVector};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, pose_jacobian_at_fixed_readings};
-
+pub use commanded::{POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
 pub use point_sample::PointSample;
 pub use probe::ProbeHeight;
-
-/// The number of pose coordinates these kinds need: a position `(x, y, z)`.
-pub const POSE_COORDINATES: usize = 3;
-
-/// Whitened residual rows and their Jacobian with respect to the
-/// mechanism's parameters (and, for some kinds, other unknowns).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Rows {
-    /// Whitened residuals `e / σ`.
-    pub residual: DVector<f64>,
-    /// `d(e / σ)/dp` (rows × parameters).
-    pub d_params: DMatrix<f64>,
-}
-
-/// Where the machine with true parameters `params` is when its controller,
-/// configured with `configured`, commands `commanded`: the pose
-/// `x = f(p, g(p_c, x_c))` and `dx/dp` at fixed readings (module doc).
-pub fn reached(
-    mechanism: &dyn Mechanism,
-    params: &[f64],
-    configured: &[f64],
-    commanded: &[f64; 3],
-) -> Result<(DVector<f64>, DMatrix<f64>), MechanismError> {
-    let readings = mechanism.inverse(configured, commanded)?;
-    let pose = mechanism.forward(params, readings.as_slice(), commanded)?;
-    let jacobian = pose_jacobian_at_fixed_readings(mechanism, params, pose.as_slice())?;
-    Ok((pose, jacobian))
-}
-
-/// Refuses a standard deviation that is not finite and positive.
-fn check_sigma(what: &'static str, sigma: f64) -> Result<(), MechanismError> {
-    if sigma.is_finite() && sigma > 0.0 {
-        Ok(())
-    } else {
-        Err(MechanismError::NonFinite {
-            what: format!("{what} {sigma} (a standard deviation must be finite and positive)"),
-        })
-    }
-}
 
 #[cfg(test)]
 pub(crate) mod test_support {

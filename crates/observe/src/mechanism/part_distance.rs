@@ -2,7 +2,7 @@
 //! reference part (a calliper across a printed square, a ball bar).
 //!
 //! With `x_1 = f(p, g(p_c, c_1))` and `x_2 = f(p, g(p_c, c_2))` the
-//! positions the machine truly reaches ([`super::reached`]), `d` the
+//! positions the machine truly reaches ([`reached`]), `d` the
 //! measured distance and `σ` its standard deviation:
 //!
 //! ```text
@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 
-use super::{Rows, check_sigma, reached};
+use super::commanded::{Rows, check_sigma, reached};
 
 /// One measured distance (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,7 +43,7 @@ impl PartDistance {
         let (second, d_second) = reached(mechanism, params, configured, &self.second)?;
         let offset = first - second;
         let length = offset.norm();
-        if !(length > 0.0) {
+        if length == 0.0 || length.is_nan() {
             return Err(MechanismError::Unreachable {
                 reason: "the two positions of a distance coincide".to_string(),
             });

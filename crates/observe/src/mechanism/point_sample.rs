@@ -18,7 +18,7 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, check_vector};
 
-use super::{POSE_COORDINATES, Rows, check_sigma};
+use super::commanded::{POSE_COORDINATES, Rows, check_sigma};
 
 /// One set of readings (module doc).
 #[derive(Debug, Clone, PartialEq)]

@@ -20,7 +20,7 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 
-use super::{Rows, check_sigma, reached};
+use super::commanded::{Rows, check_sigma, reached};
 
 /// One probe reading (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]

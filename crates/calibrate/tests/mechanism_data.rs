@@ -1,0 +1,180 @@
+//! A mechanism calibration's data: errors that name the observation or
+//! the parameter, the options' checks, and the dataset and calibration
+//! record through their files.
+
+use std::sync::Arc;
+
+use parcal_calibrate::mechanism::{
+    MechanismCalibrationError, MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+};
+use parcal_calibrate::{HUBER_K, Loss};
+use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
+use parcal_dataset::{Calibration, Dataset};
+use parcal_kinematics::delta::{LinearDelta, probe_rings};
+use parcal_kinematics::mechanism::design;
+use parcal_observe::mechanism::{PointSample, ProbeHeight};
+use parcal_simulate::delta::{DeltaScenario, simulate_delta};
+
+/// A typical delta probed on two rings, as configured.
+fn probed() -> MechanismData {
+    let delta = LinearDelta::typical();
+    let configured: Vec<f64> = design(&delta).iter().copied().collect();
+    let probes = probe_rings(100.0, 2, 6)
+        .into_iter()
+        .map(|[x, y]| ProbeHeight {
+            commanded: [x, y, 0.7],
+            sigma: 0.01,
+        })
+        .collect();
+    let observations = Observations {
+        probes,
+        ..Observations::default()
+    };
+    MechanismData::new(Arc::new(delta), configured, observations)
+        .with_trigger_height(0.7, Some(0.05))
+}
+
+fn error_of(data: &MechanismData) -> String {
+    calibrate_mechanism(data, &MechanismOptions::default())
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn errors_name_the_observation_or_the_parameter() {
+    let mut data = probed();
+    data.observations.probes[2].commanded[1] = f64::NAN;
+    let error = error_of(&data);
+    assert!(error.starts_with("probe height 2: "), "{error}");
+
+    let mut data = probed();
+    data.observations.probes[4].commanded = [1000.0, 0.0, 0.7];
+    let error = error_of(&data);
+    assert!(error.starts_with("probe height 4: unreachable"), "{error}");
+
+    let mut data = probed();
+    data.observations.samples.push(PointSample {
+        readings: vec![-100.0, -100.0],
+        sigma: 0.005,
+        known_pose: None,
+    });
+    let error = error_of(&data);
+    assert!(
+        error.starts_with("point sample 0: 2 readings for the 3 actuators"),
+        "{error}"
+    );
+
+    let mut data = probed();
+    data.configured[11] = f64::INFINITY;
+    assert!(
+        error_of(&data).starts_with("parameter diagonal_a: "),
+        "{}",
+        error_of(&data)
+    );
+
+    let mut data = probed();
+    data.configured.pop();
+    assert!(error_of(&data).starts_with("configured parameters: 15 values"));
+
+    let error = probed()
+        .with_group_sigma("rods", Some(0.1))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("diagonal rods"), "{error}");
+
+    // No prior on any parameter: the gauge is determined by nothing.
+    let error = error_of(&probed().without_priors());
+    assert!(
+        error.starts_with("not determined: no measurement sees the homed height"),
+        "{error}"
+    );
+
+    let empty = probed().with_observations(Observations::default());
+    assert!(error_of(&empty).contains("there is none"));
+}
+
+#[test]
+fn options_are_checked_and_a_robust_loss_calibrates() {
+    let data = probed();
+    let refuse = |options: MechanismOptions| {
+        calibrate_mechanism(&data, &options)
+            .unwrap_err()
+            .to_string()
+    };
+    let huber = Loss::Huber { k: HUBER_K };
+    assert!(refuse(MechanismOptions::default().with_alpha(0.0)).contains("options.alpha"));
+    assert!(
+        refuse(
+            MechanismOptions::default()
+                .with_loss(huber)
+                .with_snooping(true)
+        )
+        .contains("the loss replaces it")
+    );
+    let run = calibrate_mechanism(&data, &MechanismOptions::default().with_loss(huber)).unwrap();
+    assert!(run.converged(), "{:?}", run.reasons);
+    assert!(matches!(
+        calibrate_mechanism(&data.clone().without_priors(), &MechanismOptions::default()),
+        Err(MechanismCalibrationError::NotDetermined { .. })
+    ));
+}
+
+#[test]
+fn a_dataset_calibrates_from_its_files_and_its_record_reads_back() {
+    let scenario = DeltaScenario {
+        distances: 2,
+        unknown_samples: 2,
+        known_samples: 2,
+        ..DeltaScenario::typical()
+    };
+    let dataset = simulate_delta(&scenario, 4).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("delta");
+    dataset.write(&path).unwrap();
+    let read = MechanismDataset::read(&path).unwrap();
+    assert_eq!(read, dataset);
+    let data = MechanismData::from_dataset(&read).unwrap();
+    assert_eq!(
+        (
+            data.observations.probes.len(),
+            data.observations.distances.len(),
+            data.observations.samples.len()
+        ),
+        (25, 2, 4)
+    );
+    let run = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    assert!(run.converged(), "{:?}", run.reasons);
+    let record = run.record();
+    let file = path.join("calibration.json");
+    record.write(&file).unwrap();
+    let back = MechanismCalibrationRecord::read(&file).unwrap();
+    assert_eq!(back, record);
+    assert_eq!(back.mechanism, "linear delta");
+    assert_eq!(back.parameters.len(), 17);
+    assert_eq!(
+        back.parameter("radius").unwrap().value,
+        run.parameter("radius").unwrap().value
+    );
+    // The hexapod's readers refuse the mechanism's files, and the other
+    // way round, each naming the right reader or kind.
+    let error = Dataset::read(&path).unwrap_err().to_string();
+    assert!(error.contains("mechanism reader"), "{error}");
+    let error = Calibration::read(&file).unwrap_err().to_string();
+    assert!(error.contains("parcal-mechanism-calibration"), "{error}");
+    let hexapod = parcal_simulate::simulate(&parcal_simulate::Scenario::paper(), 1)
+        .unwrap()
+        .dataset;
+    let hexapod_dir = dir.path().join("hexapod");
+    hexapod.write(&hexapod_dir).unwrap();
+    let error = MechanismDataset::read(&hexapod_dir)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("hexapod reader"), "{error}");
+    // A dataset file names its file and line.
+    std::fs::write(path.join("probes.csv"), "x,y,z\n1,2,3\n4,five,6\n").unwrap();
+    let error = MechanismDataset::read(&path).unwrap_err().to_string();
+    assert!(
+        error.ends_with("probes.csv: line 3, column y: expected a number, found \"five\""),
+        "{error}"
+    );
+}

@@ -1,0 +1,299 @@
+//! The calibration of a linear delta through the `Mechanism` trait
+//! (`parcal_calibrate::mechanism`), on printers simulated by
+//! `parcal_simulate::delta`: the estimate's consistency with its
+//! covariance (NEES), a probe blunder found by snooping, what probe
+//! heights alone cannot determine and what a part distance adds, and
+//! readings at unknown poses.
+
+use nalgebra::{DMatrix, DVector};
+use parcal_calibrate::mechanism::{
+    MechanismCalibration, MechanismData, MechanismOptions, ObservationKind, ObservationRef,
+    Observations, TRIGGER_HEIGHT, calibrate_mechanism,
+};
+use parcal_dataset::mechanism::MechanismDataset;
+use parcal_kinematics::delta::DeltaParams;
+use parcal_kinematics::mechanism::Mechanism;
+use parcal_observe::mechanism::CommandedPoint;
+use parcal_simulate::Rng;
+use parcal_simulate::delta::{DeltaScenario, simulate_delta};
+
+/// A printer of the range: rods 250-300 mm, radius 120-150 mm,
+/// drawn from stream `seed`.
+fn scenario(seed: u64, distances: usize) -> DeltaScenario {
+    let mut rng = Rng::new(seed, 1000);
+    DeltaScenario {
+        design: DeltaParams::symmetric(
+            rng.uniform(250.0, 300.0),
+            rng.uniform(120.0, 150.0),
+            rng.uniform(280.0, 350.0),
+        ),
+        distances,
+        ..DeltaScenario::typical()
+    }
+}
+
+fn calibrate(dataset: &MechanismDataset, options: &MechanismOptions) -> MechanismCalibration {
+    let data = MechanismData::from_dataset(dataset).expect("a simulated dataset converts");
+    calibrate_mechanism(&data, options).expect("a simulated printer calibrates")
+}
+
+/// The true unknowns in the canonical frame: the parameters
+/// canonicalised, then the trigger height.
+fn canonical_truth(dataset: &MechanismDataset) -> DVector<f64> {
+    let truth = dataset.truth.as_ref().expect("simulated");
+    let delta = parcal_kinematics::delta::LinearDelta::typical();
+    let canonical = delta.canonicalize(&truth.parameters).unwrap();
+    let mut values: Vec<f64> = canonical.iter().copied().collect();
+    values.push(truth.trigger_height);
+    DVector::from_vec(values)
+}
+
+/// `eᵀ Cov⁺ e` over the covariance's range, and its rank (eigenvalues
+/// above 1e-9 of the largest: the gauge directions' are rounding noise).
+fn nees(error: &DVector<f64>, covariance: &DMatrix<f64>) -> (f64, usize) {
+    let eigen = covariance.clone().symmetric_eigen();
+    let largest = eigen.eigenvalues.max();
+    let mut nees = 0.0;
+    let mut rank = 0;
+    for (k, &lambda) in eigen.eigenvalues.iter().enumerate() {
+        if lambda > 1e-9 * largest {
+            rank += 1;
+            nees += eigen.eigenvectors.column(k).dot(error).powi(2) / lambda;
+        }
+    }
+    (nees, rank)
+}
+
+/// NEES over `draws` printers, with `distances` part distances each: the
+/// mean, its standard error from the draws, and the identifiable count.
+fn nees_over(draws: u64, distances: usize) -> (f64, f64, usize) {
+    let mut values = Vec::new();
+    let mut ranks = Vec::new();
+    for seed in 0..draws {
+        let dataset = simulate_delta(&scenario(seed, distances), seed).unwrap();
+        let run = calibrate(&dataset, &MechanismOptions::default());
+        assert!(run.converged(), "seed {seed}: {:?}", run.reasons);
+        let error = run.values() - canonical_truth(&dataset);
+        let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
+        values.push(value);
+        ranks.push(rank);
+    }
+    ranks.dedup();
+    assert_eq!(ranks.len(), 1, "the identifiable count varies: {ranks:?}");
+    let (mean, standard_error) = mean_and_standard_error(&values);
+    (mean, standard_error, ranks[0])
+}
+
+/// The mean of `values` and its standard error from their spread.
+fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (variance / n).sqrt())
+}
+
+#[test]
+fn nees_over_simulated_printers_matches_the_identifiable_count() {
+    // 16 parameters and the trigger height, less the delta's 5 gauge
+    // freedoms (its `gauge_freedoms`): 12 identifiable unknowns, the rank
+    // of the canonical covariance (checked draw by draw). The true
+    // printers are drawn from the priors, so the posterior covariance is
+    // the error's: E[NEES] = 12.
+    let delta = parcal_kinematics::delta::LinearDelta::typical();
+    let design = parcal_kinematics::mechanism::design(&delta);
+    let gauge = delta.gauge_freedoms(design.as_slice()).unwrap().len();
+    let expected = delta.parameters().len() + 1 - gauge;
+    let (mean, standard_error, rank) = nees_over(30, 4);
+    eprintln!("NEES over 30 printers: {mean:.3} +- {standard_error:.3} (rank {rank})");
+    assert_eq!(rank, expected);
+    assert!(
+        (mean - expected as f64).abs() < 4.0 * standard_error,
+        "mean NEES {mean:.3} +- {standard_error:.3}, expected {expected}"
+    );
+}
+
+/// The undetermined directions in which every diagonal rod has a
+/// component of one sign (at least 0.25 prior sigma each): the common
+/// scale of the rods, which with the radius sets the XY scale.
+fn rod_scale_directions(run: &MechanismCalibration) -> usize {
+    let identifiability = run.identifiability.as_ref().expect("a covariance");
+    identifiability
+        .undetermined
+        .iter()
+        .filter(|direction| {
+            let rods: Vec<f64> = ["diagonal_a", "diagonal_b", "diagonal_c"]
+                .iter()
+                .filter_map(|rod| {
+                    direction
+                        .components
+                        .iter()
+                        .find(|(name, _)| name == rod)
+                        .map(|c| c.1)
+                })
+                .collect();
+            rods.len() == 3 && (rods.iter().all(|&v| v > 0.0) || rods.iter().all(|&v| v < 0.0))
+        })
+        .count()
+}
+
+#[test]
+fn probe_heights_leave_the_xy_scale_to_the_prior_and_a_part_distance_sets_it() {
+    let probes_only = simulate_delta(&scenario(3, 0), 3).unwrap();
+    let run = calibrate(&probes_only, &MechanismOptions::default());
+    assert!(run.verdict.accepted, "{:?}", run.reasons);
+    let statements = &run.identifiability.as_ref().unwrap().statements;
+    eprintln!("probe heights alone: {statements:#?}");
+    assert_eq!(rod_scale_directions(&run), 1, "{statements:?}");
+    assert!(
+        statements
+            .iter()
+            .any(|s| s.contains("diagonal_a") && s.contains("its prior sets it")),
+        "{statements:?}"
+    );
+    // The trigger height against the bed's height: no probe tells them
+    // apart, its prior alone sets it.
+    let ratio = |run: &MechanismCalibration, name: &str| {
+        let k = run.parameters.iter().position(|p| p.name == name).unwrap();
+        run.identifiability.as_ref().unwrap().sigma_ratio[k].unwrap()
+    };
+    assert!(ratio(&run, TRIGGER_HEIGHT) > 0.99);
+
+    // The same printer with four part distances: the rods' common scale
+    // is determined, and the rods' sigmas shrink.
+    let with_distances = simulate_delta(&scenario(3, 4), 3).unwrap();
+    let measured = calibrate(&with_distances, &MechanismOptions::default());
+    assert!(measured.verdict.accepted, "{:?}", measured.reasons);
+    eprintln!(
+        "with four part distances: {:#?}",
+        measured.identifiability.as_ref().unwrap().statements
+    );
+    assert_eq!(rod_scale_directions(&measured), 0);
+    for rod in ["diagonal_a", "diagonal_b", "diagonal_c", "radius"] {
+        assert!(
+            ratio(&measured, rod) < ratio(&run, rod),
+            "{rod}: {} with distances, {} without",
+            ratio(&measured, rod),
+            ratio(&run, rod)
+        );
+    }
+}
+
+#[test]
+fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
+    let mut dataset = simulate_delta(&scenario(5, 4), 5).unwrap();
+    let blunder = 11;
+    dataset.probes[blunder][2] += 0.3;
+    let probe = ObservationRef {
+        kind: ObservationKind::Probe,
+        index: blunder,
+    };
+    let plain = calibrate(&dataset, &MechanismOptions::default());
+    assert!(!plain.verdict.accepted);
+    assert_eq!(plain.worst().map(|w| w.0), Some(probe));
+    assert!(
+        plain.reasons.iter().any(|r| r.contains("probe height 11")),
+        "{:?}",
+        plain.reasons
+    );
+    let snooped = calibrate(&dataset, &MechanismOptions::default().with_snooping(true));
+    eprintln!("{:#?}", snooped.reasons);
+    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
+    assert_eq!(snooped.removals[0].observation, probe);
+    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+    assert!(snooped.snooping_stopped.is_none());
+    // The remaining observations keep their places in the data given.
+    assert!(snooped.observations.iter().all(|c| c.observation != probe));
+    assert!(snooped.observations.iter().any(
+        |c| c.observation.index == blunder + 1 && c.observation.kind == ObservationKind::Probe
+    ));
+}
+
+#[test]
+fn readings_at_unknown_and_measured_poses_calibrate_a_delta() {
+    // Point samples only: 40 at unknown poses (three readings fix a pose
+    // of three coordinates: they carry no redundancy), 12 at measured
+    // poses (10 um per coordinate), which determine the parameters.
+    let scenario = DeltaScenario {
+        rings: 1,
+        per_ring: 3,
+        unknown_samples: 40,
+        known_samples: 12,
+        ..scenario(9, 0)
+    };
+    let mut dataset = simulate_delta(&scenario, 9).unwrap();
+    dataset.probes.clear();
+    let run = calibrate(&dataset, &MechanismOptions::default());
+    assert!(run.converged(), "{:?}", run.reasons);
+    assert!(run.parameter(TRIGGER_HEIGHT).is_none());
+    assert_eq!(run.poses.len(), 52);
+    // A sample at an unknown pose is not checked by the others.
+    let unknown = run
+        .observations
+        .iter()
+        .find(|c| c.observation.kind == ObservationKind::Sample && c.observation.index == 20)
+        .unwrap();
+    assert!(unknown.redundancy.iter().all(|&r| r < 1e-8), "{unknown:?}");
+    // Its pose absorbs its readings whole: no residual is left.
+    assert!(
+        unknown.residuals.iter().all(|e| e.abs() < 1e-6),
+        "{unknown:?}"
+    );
+    let n = 16;
+    // The estimate is consistent with the truth: its NEES within the
+    // chi-square's 99.9 % quantile of its rank (11: no trigger height).
+    let truth = canonical_truth(&dataset);
+    let error = run.values() - truth.rows(0, n);
+    let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
+    assert_eq!(rank, 11);
+    assert!(value < 31.26, "NEES {value:.2} over 11 dimensions");
+}
+
+#[test]
+fn positions_measured_at_commanded_positions_calibrate_a_delta() {
+    // A tracker measures the nozzle at 27 commanded positions (10 um per
+    // coordinate) of 30 printers drawn from their priors: no trigger
+    // height, 16 parameters less 5 gauge freedoms, 11 identifiable
+    // unknowns; the mean NEES within 4 standard errors of 11.
+    let values: Vec<f64> = (0..30).map(commanded_points_nees).collect();
+    let (mean, standard_error) = mean_and_standard_error(&values);
+    eprintln!(
+        "NEES over 30 printers measured at commanded positions: {mean:.3} +- {standard_error:.3}"
+    );
+    assert!(
+        (mean - 11.0).abs() < 4.0 * standard_error,
+        "mean NEES {mean:.3} +- {standard_error:.3}, expected 11"
+    );
+}
+
+/// The NEES of the calibration of printer `seed` from 27 positions
+/// measured at commanded positions.
+fn commanded_points_nees(seed: u64) -> f64 {
+    let dataset = simulate_delta(&scenario(seed, 0), seed).unwrap();
+    let truth = &dataset.truth.as_ref().unwrap().parameters;
+    let data = MechanismData::from_dataset(&dataset).unwrap();
+    let delta = data.mechanism.clone();
+    let mut noise = Rng::new(seed, 2000);
+    let mut points = Vec::new();
+    for i in 0..27 {
+        let grid = |k: usize| 60.0 * (k % 3) as f64 - 60.0;
+        let commanded = [grid(i), grid(i / 3), 20.0 + 50.0 * (i / 9) as f64];
+        let q = delta.inverse(&data.configured, &commanded).unwrap();
+        let reached = delta.forward(truth, q.as_slice(), &commanded).unwrap();
+        points.push(CommandedPoint {
+            commanded,
+            measured: std::array::from_fn(|k| reached[k] + noise.normal(0.01)),
+            sigma: [0.01; 3],
+        });
+    }
+    let data = data.with_observations(Observations {
+        points,
+        ..Observations::default()
+    });
+    let run = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    assert!(run.converged(), "seed {seed}: {:?}", run.reasons);
+    let n = delta.parameters().len();
+    let error = run.values() - canonical_truth(&dataset).rows(0, n);
+    let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
+    assert_eq!(rank, 11, "seed {seed}");
+    value
+}

@@ -1,0 +1,311 @@
+//! Simulated linear delta printers: a true printer drawn about its design
+//! by the builder's tolerances, its bed probed on rings by a controller
+//! that runs the design, a few distances measured on a printed part, and
+//! readings taken at unknown or measured positions; written as a
+//! mechanism dataset ([`MechanismDataset`]) with its truth.
+//!
+//! Every true parameter is `design + N(0, tolerance²)` (the prior the
+//! calibration states, so that its posterior is the right one), the
+//! trigger height `h + N(0, σ_h²)`. A probe at commanded `(x, y)` reports
+//! the commanded height `z_t` at which the true effector is
+//! `h + N(0, σ_p²)` above the bed: the root of
+//! `f_z(p, g(p_c, (x, y, z_t))) = h + ε`, by Newton's method with slope 1.
+//! A part distance is measured between two commanded positions opposite
+//! each other about the centre at angles spread over the bed, at the
+//! height of a first layer (0.2 mm), with noise `N(0, σ_d²)`. A point
+//! sample's readings are `g(p, x) + N(0, σ_q²)` at a pose `x` drawn in the
+//! print volume, its position measured with noise `N(0, σ_x²)` for the
+//! first ones. Deterministic for a seed: each kind draws from its own
+//! stream.
+
+use parcal_dataset::bounds::check_product;
+use parcal_dataset::mechanism::{
+    MechanismDataset, MechanismMachine, MechanismTruth, Noise, OBSERVATIONS, SampleRow, ValuePrior,
+};
+use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances, probe_rings};
+use parcal_kinematics::mechanism::Mechanism;
+
+use crate::{Rng, SimulateError};
+
+/// The height of a first layer, where part distances are measured (mm).
+const FIRST_LAYER: f64 = 0.2;
+
+/// What to simulate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeltaScenario {
+    /// The design (what the controller runs with, the priors' means).
+    pub design: DeltaParams,
+    /// The builder's tolerances (the priors' sigmas, and the spread of the
+    /// true printer about the design).
+    pub tolerances: Tolerances,
+    /// The print radius: probes and parts within it (mm).
+    pub print_radius: f64,
+    /// Probe rings (the centre, then `per_ring` points on each).
+    pub rings: usize,
+    /// Probe points per ring.
+    pub per_ring: usize,
+    /// The probe's repeatability (mm).
+    pub probe_sigma: f64,
+    /// The trigger height's nominal value (mm, G31 Z).
+    pub trigger_height: f64,
+    /// Its prior sigma, and the spread of the true one (mm).
+    pub trigger_sigma: f64,
+    /// Part distances measured.
+    pub distances: usize,
+    /// Their standard deviation (mm).
+    pub distance_sigma: f64,
+    /// Point samples at unknown positions.
+    pub unknown_samples: usize,
+    /// Point samples at measured positions.
+    pub known_samples: usize,
+    /// The readings' standard deviation (mm).
+    pub actuator_sigma: f64,
+    /// A measured position's coordinate's standard deviation (mm).
+    pub position_sigma: f64,
+}
+
+impl DeltaScenario {
+    /// A kit printer ([`LinearDelta::typical`]'s design and tolerances)
+    /// probed on 3 rings of 8 points (25 probes) within 100 mm at 10 µm,
+    /// trigger height 0.7 ± 0.05 mm, no distance and no point sample.
+    pub fn typical() -> Self {
+        Self {
+            design: DeltaParams::symmetric(270.0, 135.0, 300.0),
+            tolerances: Tolerances::default(),
+            print_radius: 100.0,
+            rings: 3,
+            per_ring: 8,
+            probe_sigma: 0.01,
+            trigger_height: 0.7,
+            trigger_sigma: 0.05,
+            distances: 0,
+            distance_sigma: 0.02,
+            unknown_samples: 0,
+            known_samples: 0,
+            actuator_sigma: 0.005,
+            position_sigma: 0.01,
+        }
+    }
+
+    /// The delta of this scenario's design and tolerances.
+    pub fn delta(&self) -> LinearDelta {
+        let limits = Limits {
+            print_radius: self.print_radius,
+            ..*LinearDelta::typical().limits()
+        };
+        LinearDelta::new(&self.design, &self.tolerances, limits)
+    }
+
+    fn check(&self) -> Result<(), SimulateError> {
+        let invalid = |what: &str| Err(SimulateError::Mechanism(what.to_string()));
+        let refused = SimulateError::Mechanism;
+        for (name, count) in [("rings", self.rings), ("probes per ring", self.per_ring)] {
+            OBSERVATIONS.check(name, count).map_err(refused)?;
+        }
+        check_product(
+            &[("rings", self.rings), ("probes per ring", self.per_ring)],
+            OBSERVATIONS.max - 1,
+            "probes, the most a mechanism dataset holds with the centre's",
+        )
+        .map_err(SimulateError::TooLarge)?;
+        for (name, count) in [
+            ("distances", self.distances),
+            ("point samples", self.unknown_samples + self.known_samples),
+        ] {
+            if count > 0 {
+                OBSERVATIONS.check(name, count).map_err(refused)?;
+            }
+        }
+        let sigmas = [
+            self.probe_sigma,
+            self.trigger_sigma,
+            self.distance_sigma,
+            self.actuator_sigma,
+            self.position_sigma,
+        ];
+        if sigmas.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return invalid("every standard deviation must be finite and positive");
+        }
+        if !(self.print_radius.is_finite() && self.print_radius > 0.0) {
+            return invalid("the print radius must be finite and positive");
+        }
+        Ok(())
+    }
+}
+
+/// The streams of the draws, one per kind, so that adding one kind of
+/// measurement leaves the others' draws unchanged.
+#[derive(Clone, Copy)]
+enum Stream {
+    Truth = 0,
+    Probes = 1,
+    Distances = 2,
+    Samples = 3,
+}
+
+/// Simulates `scenario` with `seed` (module doc).
+pub fn simulate_delta(
+    scenario: &DeltaScenario,
+    seed: u64,
+) -> Result<MechanismDataset, SimulateError> {
+    scenario.check()?;
+    let delta = scenario.delta();
+    let configured: Vec<f64> = scenario.design.to_vector().iter().copied().collect();
+    let rng = |stream: Stream| Rng::new(seed, stream as u64);
+    let mut draw = rng(Stream::Truth);
+    let truth: Vec<f64> = delta
+        .parameters()
+        .iter()
+        .map(|p| p.design + draw.normal(p.prior_sigma))
+        .collect();
+    let trigger = scenario.trigger_height + draw.normal(scenario.trigger_sigma);
+    let failed = |what: String| SimulateError::Mechanism(what);
+
+    let mut noise = rng(Stream::Probes);
+    let probes = probe_rings(scenario.print_radius, scenario.rings, scenario.per_ring)
+        .into_iter()
+        .enumerate()
+        .map(|(k, [x, y])| {
+            let target = trigger + noise.normal(scenario.probe_sigma);
+            let z = trigger_height_command(&delta, &truth, &configured, [x, y], target)
+                .map_err(|e| failed(format!("probe {k}: {e}")))?;
+            Ok([x, y, z])
+        })
+        .collect::<Result<Vec<_>, SimulateError>>()?;
+
+    let mut noise = rng(Stream::Distances);
+    let distances = (0..scenario.distances)
+        .map(|k| {
+            let angle = std::f64::consts::PI * (k as f64 + 0.5) / scenario.distances as f64;
+            let r = 0.8 * scenario.print_radius;
+            let first = [r * angle.cos(), r * angle.sin(), FIRST_LAYER];
+            let second = [-first[0], -first[1], FIRST_LAYER];
+            let reached = |c: &[f64; 3]| {
+                let q = delta.inverse(&configured, c)?;
+                delta.forward(&truth, q.as_slice(), c)
+            };
+            let (a, b) = (reached(&first), reached(&second));
+            let (a, b) = a
+                .and_then(|a| Ok((a, b?)))
+                .map_err(|e| failed(format!("distance {k}: {e}")))?;
+            let d = (a - b).norm() + noise.normal(scenario.distance_sigma);
+            Ok([
+                first[0], first[1], first[2], second[0], second[1], second[2], d,
+            ])
+        })
+        .collect::<Result<Vec<_>, SimulateError>>()?;
+
+    let mut noise = rng(Stream::Samples);
+    let total = scenario.known_samples + scenario.unknown_samples;
+    let samples = (0..total)
+        .map(|k| {
+            let r = scenario.print_radius * noise.unit().sqrt();
+            let angle = noise.uniform(0.0, 2.0 * std::f64::consts::PI);
+            let pose = [r * angle.cos(), r * angle.sin(), noise.uniform(0.0, 150.0)];
+            let q = delta
+                .inverse(&truth, &pose)
+                .map_err(|e| failed(format!("point sample {k}: {e}")))?;
+            let readings = q
+                .iter()
+                .map(|q| q + noise.normal(scenario.actuator_sigma))
+                .collect();
+            let position = (k < scenario.known_samples)
+                .then(|| pose.map(|x| x + noise.normal(scenario.position_sigma)));
+            Ok(SampleRow { readings, position })
+        })
+        .collect::<Result<Vec<_>, SimulateError>>()?;
+
+    let tolerances = {
+        let mut groups: Vec<(String, Option<f64>)> = Vec::new();
+        for p in delta.parameters() {
+            if !groups.iter().any(|(g, _)| g == p.group) {
+                groups.push((p.group.to_string(), Some(p.prior_sigma)));
+            }
+        }
+        groups
+    };
+    let machine = MechanismMachine {
+        tolerances,
+        noise: Noise {
+            probe: Some(scenario.probe_sigma),
+            distance: (!distances.is_empty()).then_some(scenario.distance_sigma),
+            actuator: (!samples.is_empty()).then_some(scenario.actuator_sigma),
+            position: (scenario.known_samples > 0).then_some(scenario.position_sigma),
+        },
+        trigger_height: Some(ValuePrior {
+            value: scenario.trigger_height,
+            sigma: Some(scenario.trigger_sigma),
+        }),
+        ..MechanismMachine::of(&delta)
+    };
+    Ok(MechanismDataset {
+        machine,
+        probes,
+        distances,
+        samples,
+        truth: Some(MechanismTruth {
+            parameters: truth,
+            trigger_height: trigger,
+        }),
+    })
+}
+
+/// The commanded height at `(x, y)` at which the machine of true
+/// parameters `truth`, run with `configured`, has its effector `target`
+/// above the bed (module doc).
+fn trigger_height_command(
+    delta: &LinearDelta,
+    truth: &[f64],
+    configured: &[f64],
+    [x, y]: [f64; 2],
+    target: f64,
+) -> Result<f64, String> {
+    let mut z = target;
+    for _ in 0..50 {
+        let q = delta
+            .inverse(configured, &[x, y, z])
+            .map_err(|e| e.to_string())?;
+        let height = delta
+            .forward(truth, q.as_slice(), &[x, y, z])
+            .map_err(|e| e.to_string())?[2];
+        let error = height - target;
+        z -= error;
+        if error.abs() < 1e-12 {
+            return Ok(z);
+        }
+    }
+    Err(format!("the probe at ({x:.3}, {y:.3}) does not settle"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_simulation_is_a_function_of_its_seed_and_reads_back() {
+        let scenario = DeltaScenario {
+            distances: 3,
+            unknown_samples: 2,
+            known_samples: 1,
+            ..DeltaScenario::typical()
+        };
+        let a = simulate_delta(&scenario, 7).unwrap();
+        assert_eq!(a, simulate_delta(&scenario, 7).unwrap());
+        assert_ne!(a, simulate_delta(&scenario, 8).unwrap());
+        assert_eq!(
+            (a.probes.len(), a.distances.len(), a.samples.len()),
+            (25, 3, 3)
+        );
+        assert!(a.samples[0].position.is_some() && a.samples[1].position.is_none());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("delta");
+        a.write(&path).unwrap();
+        assert_eq!(MechanismDataset::read(&path).unwrap(), a);
+        let bad = DeltaScenario {
+            rings: 0,
+            ..DeltaScenario::typical()
+        };
+        let error = simulate_delta(&bad, 1).unwrap_err().to_string();
+        assert!(error.contains("rings"), "{error}");
+    }
+}
