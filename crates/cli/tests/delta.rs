@@ -289,3 +289,77 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     ]);
     assert!(err.contains("--probe-rings"), "{err}");
 }
+
+#[test]
+fn klipper_import_and_export_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    fs::write(
+        d.join("printer.cfg"),
+        "[printer]\nkinematics: delta\ndelta_radius: 135\nprint_radius: 100\n\n\
+         [stepper_a]\narm_length: 270\nposition_endstop: 300\n\n[stepper_b]\n\n[stepper_c]\n",
+    )
+    .unwrap();
+    // The same printer's probe heights, less Klipper's z_offset (0 here).
+    let data = d.join("data");
+    ok(&[
+        "import",
+        "klipper",
+        "--config",
+        s(&d.join("printer.cfg")),
+        "--probes",
+        s(&d.join("probes.csv")),
+        "--out",
+        s(&data),
+    ]);
+    ok(&["calibrate", s(&data)]);
+    let out = d.join("save_config.cfg");
+    let said = ok(&[
+        "export",
+        "--calibration",
+        s(&data.join("calibration.json")),
+        "--format",
+        "klipper",
+        "--print-radius",
+        "100",
+        "--out",
+        s(&out),
+    ]);
+    // Klipper holds no bed tilt: export says so and what it costs.
+    assert!(said.contains("lost: the bed tilt"), "{said}");
+    let block = fs::read_to_string(&out).unwrap();
+    let back = parcal_firmware::klipper::parse_printer_cfg(
+        &format!("[printer]\nkinematics: delta\n{block}"),
+        &out,
+    )
+    .unwrap()
+    .to_params();
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(data.join("calibration.json")).unwrap()).unwrap();
+    let value = |name: &str| {
+        record["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap()["value"]
+            .as_f64()
+            .unwrap()
+    };
+    // Written to 1e-6: read back within half a step (and the mean of
+    // three such for the homed height).
+    for (name, read) in [
+        ("diagonal_a", back.diagonal[0]),
+        ("radius", back.radius),
+        ("angle_b", back.angle[1]),
+        ("endstop_c", back.endstop[2]),
+        ("homed_height", back.homed_height),
+    ] {
+        assert!(
+            (value(name) - read).abs() < 1e-6,
+            "{name}: {} vs {read}",
+            value(name)
+        );
+    }
+}

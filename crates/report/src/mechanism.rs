@@ -8,19 +8,111 @@
 
 use parcal_calibrate::mechanism::ObservationKind;
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
+use plotters::prelude::*;
 
 use crate::calibration_report::Format;
 use crate::calibration_report::document::{Block, Cell, Tone};
 use crate::calibration_report::{html, markdown};
 
-/// The report of `calibration`, read from `file`, as `format`.
-pub fn render(calibration: &MechanismCalibrationRecord, file: &str, format: Format) -> String {
+/// The report of `calibration`, read from `file`, as `format`; with the
+/// dataset's `probes` (its probes.csv rows), the plot of their residuals
+/// over the bed.
+pub fn render(
+    calibration: &MechanismCalibrationRecord,
+    file: &str,
+    probes: Option<&[[f64; 3]]>,
+    format: Format,
+) -> Result<String, String> {
     let title = format!("Calibration of a {} ({file})", calibration.mechanism);
-    let blocks = blocks(calibration, &title);
-    match format {
+    let mut blocks = blocks(calibration, &title);
+    if let Some(probes) = probes.filter(|p| !p.is_empty()) {
+        blocks.push(Block::Heading(2, "Probe residuals over the bed".into()));
+        blocks.push(Block::Figure {
+            svg: probe_residual_svg(calibration, probes)?,
+            caption: "Each probe at its commanded XY: a filled circle where the bed is higher than the calibrated machine predicts (positive residual), an open one where lower; the radius grows with |e / sigma|; a cross marks a probe removed by data snooping.".into(),
+        });
+    }
+    Ok(match format {
         Format::Html => html::render(&title, &blocks),
         Format::Markdown => markdown::render(&blocks),
+    })
+}
+
+/// The probe residuals over the bed (the figure of [`render`]): each
+/// probe's whitened residual `e / sigma` at its commanded `(x, y)`; an
+/// error names a probe of the record that `probes` does not hold.
+pub fn probe_residual_svg(
+    calibration: &MechanismCalibrationRecord,
+    probes: &[[f64; 3]],
+) -> Result<String, String> {
+    let probe = ObservationKind::Probe.name();
+    let at = |index: usize| {
+        probes
+            .get(index)
+            .map(|p| (p[0], p[1]))
+            .ok_or_else(|| format!("{probe} {index} is not among the {} probes", probes.len()))
+    };
+    let residuals = calibration
+        .tests
+        .observations
+        .iter()
+        .filter(|o| o.kind == probe)
+        .map(|o| Ok((at(o.index)?, o.residuals.first().copied().unwrap_or(0.0))))
+        .collect::<Result<Vec<_>, String>>()?;
+    let removed = calibration
+        .tests
+        .removed
+        .iter()
+        .filter(|r| r.kind == probe)
+        .map(|r| at(r.index))
+        .collect::<Result<Vec<_>, String>>()?;
+    let reach = probes
+        .iter()
+        .map(|p| p[0].abs().max(p[1].abs()))
+        .fold(1.0, f64::max)
+        * 1.1;
+    let largest = residuals.iter().map(|(_, e)| e.abs()).fold(1.0, f64::max);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (640, 600)).into_drawing_area();
+        let draw = || -> Result<(), Box<dyn std::error::Error + '_>> {
+            root.fill(&WHITE)?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(
+                    format!("Probe residuals e / sigma (largest |e / sigma| {largest:.2})"),
+                    ("sans-serif", 20),
+                )
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .build_cartesian_2d(-reach..reach, -reach..reach)?;
+            chart
+                .configure_mesh()
+                .x_desc("x (mm)")
+                .y_desc("y (mm)")
+                .draw()?;
+            let blue = RGBColor(31, 119, 180);
+            let red = RGBColor(214, 39, 40);
+            chart.draw_series(residuals.iter().map(|&((x, y), e)| {
+                let size = (3.0 + 12.0 * e.abs() / largest).round() as i32;
+                let style = if e >= 0.0 {
+                    red.filled()
+                } else {
+                    blue.stroke_width(2)
+                };
+                Circle::new((x, y), size, style)
+            }))?;
+            chart.draw_series(
+                removed
+                    .iter()
+                    .map(|&(x, y)| Cross::new((x, y), 8, BLACK.stroke_width(2))),
+            )?;
+            root.present()?;
+            Ok(())
+        };
+        draw().map_err(|e| e.to_string())?;
     }
+    Ok(svg)
 }
 
 /// The verdict in one sentence: accepted or rejected, and why.

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use parcal_dataset::atomic::write_set;
-use parcal_dataset::mechanism::MechanismCalibrationRecord;
+use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
 use parcal_report::calibration_report::{Format, Subject, predicted_accuracy, render};
 
 /// The report's two files in its directory: the HTML page and the Markdown.
@@ -53,7 +53,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let calibration = match parcal_dataset::Calibration::read(&args.calibration) {
         Ok(calibration) => calibration,
         Err(hexapod) => match MechanismCalibrationRecord::read(&args.calibration) {
-            Ok(record) => return write_mechanism(&record, &args.calibration, &directory),
+            Ok(record) => return write_mechanism(&record, args, &directory),
             Err(_) => return Err(hexapod.into()),
         },
     };
@@ -100,15 +100,23 @@ pub fn directory_of(file: &Path) -> &Path {
     }
 }
 
-/// Writes the report of a mechanism's calibration `record`, read from
-/// `path`, into `directory` (report.html and report.md, as a set).
+/// Writes the report of a mechanism's calibration `record` (read from
+/// `args.calibration`; with `args.dataset`, its probe residuals over the
+/// bed) into `directory` (report.html and report.md, as a set).
 fn write_mechanism(
     record: &MechanismCalibrationRecord,
-    path: &Path,
+    args: &Args,
     directory: &Path,
 ) -> anyhow::Result<()> {
+    let dataset = args
+        .dataset
+        .as_deref()
+        .map(MechanismDataset::read)
+        .transpose()?;
+    let probes = dataset.as_ref().map(|d| d.probes.as_slice());
+    let file = args.calibration.display().to_string();
     write_set(&[], || {
-        super::mechanism::write_report(record, &path.display().to_string(), directory)
+        super::mechanism::write_report(record, &file, probes, directory)
     })?;
     writeln!(
         std::io::stdout().lock(),
