@@ -1,6 +1,7 @@
 //! Printer firmware and parcal: the configurations of linear delta
 //! printers and the calibration their firmware makes, reimplemented as
-//! the baseline parcal is compared against.
+//! the baseline parcal is compared against, and the Hangprinter's
+//! (a cable robot's) anchors and spool radii.
 //!
 //! - [`rrf`]: RepRapFirmware's `M665`/`M666`/`G31` lines, read from a
 //!   `config.g` and written back.
@@ -13,10 +14,12 @@
 //!   machine (first-layer flatness, 3D error over the build volume).
 //! - [`export`]: calibrated parameters written for a firmware, with what
 //!   it cannot hold and what that costs.
+//! - [`hangprinter`]: a Hangprinter's anchors and spool radii (`M669`,
+//!   `M666 R`), written from a cable robot's calibration and read back.
 //! - [`gcode`]: G-code lines as the firmware parses them.
 //!
-//! The kinematics are [`parcal_kinematics::delta`]'s, in the firmware's
-//! conventions.
+//! The kinematics are [`parcal_kinematics::delta`]'s and
+//! [`parcal_kinematics::cable`]'s, in the firmware's conventions.
 
 pub mod accuracy;
 pub mod autocal;
@@ -24,6 +27,7 @@ mod error;
 pub mod export;
 mod files;
 pub mod gcode;
+pub mod hangprinter;
 pub mod klipper;
 pub mod probes;
 pub mod rrf;

@@ -18,8 +18,8 @@
 //!
 //! Every parallel mechanism implements one interface,
 //! [`mechanism::Mechanism`]: the hexapod ([`hexapod`], an adapter over the
-//! modules above) and the linear delta ([`delta`]); [`mechanisms`] is the
-//! list of them.
+//! modules above), the linear delta ([`delta`]) and the cable robot
+//! ([`cable`]); [`mechanisms`] is the list of them.
 //!
 //! Lengths in mm, angles in rad (the delta's tower angles in degrees, as
 //! its firmware gives them).
@@ -46,6 +46,7 @@
 //! ```
 
 pub mod assembly;
+pub mod cable;
 pub mod closure;
 pub mod delta;
 pub mod derivatives;

@@ -2,16 +2,18 @@
 //! module and implements [`Mechanism`]; a file names its mechanism by one
 //! of [`NAMES`] and [`by_name`] builds its typical design.
 
+use crate::cable::CableRobot;
 use crate::delta::LinearDelta;
 use crate::hexapod::Hexapod;
 use crate::mechanism::Mechanism;
 use crate::{PriorSigma, paper};
 
 /// The names of the known mechanisms, as files give them.
-pub const NAMES: [&str; 2] = ["hexapod", "linear delta"];
+pub const NAMES: [&str; 3] = ["hexapod", "linear delta", "cable robot"];
 
 /// The typical design of the mechanism named `name` (the paper's hexapod
-/// with 0.1 mm tolerances, a kit linear delta), or `None` for an unknown
+/// with 0.1 mm tolerances, a kit linear delta, the Hangprinter v4), or
+/// `None` for an unknown
 /// name.
 pub fn by_name(name: &str) -> Option<Box<dyn Mechanism>> {
     match name {
@@ -26,6 +28,7 @@ pub fn by_name(name: &str) -> Option<Box<dyn Mechanism>> {
             Some(Box::new(hexapod))
         }
         "linear delta" => Some(Box::new(LinearDelta::typical())),
+        "cable robot" => Some(Box::new(CableRobot::typical())),
         _ => None,
     }
 }

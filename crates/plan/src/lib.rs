@@ -14,7 +14,9 @@
 //! - [`select`]: greedy selection, Fedorov exchange, seeded restarts;
 //! - [`plan_file`]: plan.csv and plan.json;
 //! - [`tracker`]: the same for the poses of an instrument calibration
-//!   (laser tracker, motion capture).
+//!   (laser tracker, motion capture);
+//! - [`samples`]: which poses a mechanism calibrated from readings at
+//!   unknown poses (a cable robot) should sample next.
 //!
 //! [`plan`] puts them together for a machine and its artefacts.
 
@@ -24,6 +26,7 @@ mod error;
 pub mod information;
 pub mod plan_file;
 pub mod pool;
+pub mod samples;
 pub mod select;
 pub mod tracker;
 

@@ -3,8 +3,9 @@
 //! scaled variants, docs/paper-scenario.md section 3) and instrument
 //! campaigns (platform poses or tool points seen by a laser tracker or
 //! motion capture, in sessions: [`simulate_tracker`]), and both of one true
-//! machine in one dataset ([`simulate_mixed`]); and linear delta printers
-//! as mechanism datasets ([`delta`]).
+//! machine in one dataset ([`simulate_mixed`]); linear delta printers as
+//! mechanism datasets ([`delta`]); cable robots' encoder readings with a
+//! few measured positions ([`simulate_cable`]).
 //!
 //! ```
 //! use parcal_simulate::{Scenario, simulate};
@@ -25,6 +26,7 @@
 //! # Ok::<(), parcal_simulate::SimulateError>(())
 //! ```
 
+mod cable;
 mod campaign;
 pub mod delta;
 mod execute;
@@ -36,6 +38,7 @@ mod tracker;
 
 use parcal_dataset::bounds::{Count, check_product};
 
+pub use cable::{CableSample, CableScenario, CableSimulation, simulate_cable};
 pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
 pub use execute::{MachineLimits, execute};
 pub use mixed::simulate_mixed;

@@ -14,6 +14,8 @@ use parcal_dataset::atomic::write_file;
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use parcal_firmware::accuracy::Workspace;
 use parcal_firmware::export::{Firmware, cost_sentence, export};
+use parcal_firmware::hangprinter::HangprinterConfig;
+use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::delta::{DeltaParams, N_PARAMS};
 use parcal_kinematics::mechanisms;
 
@@ -31,6 +33,9 @@ enum Format {
     Reprapfirmware,
     /// A linear delta's SAVE_CONFIG block for Klipper's printer.cfg.
     Klipper,
+    /// A cable robot's M669 anchors and M666 R spool radii for the
+    /// Hangprinter's RepRapFirmware config.g.
+    Hangprinter,
 }
 
 impl Format {
@@ -39,6 +44,7 @@ impl Format {
         match self {
             Self::MachineJson | Self::Genhexkins | Self::Summary => HEXAPOD,
             Self::Reprapfirmware | Self::Klipper => "linear delta",
+            Self::Hangprinter => "cable robot",
         }
     }
 
@@ -79,6 +85,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     match args.format {
         Format::Reprapfirmware => export_delta(args, Firmware::RepRapFirmware)?,
         Format::Klipper => export_delta(args, Firmware::Klipper)?,
+        Format::Hangprinter => export_hangprinter(args)?,
         Format::MachineJson | Format::Genhexkins | Format::Summary => export_hexapod(args)?,
     }
     println!("{}", args.out.display());
@@ -131,17 +138,7 @@ fn mismatch_of(path: &Path, mechanism: &str, format: Format) -> Option<anyhow::E
 /// the file's comment lines.
 fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
     let path = &args.calibration;
-    let record = MechanismCalibrationRecord::read(path)
-        .map_err(|error| mismatch(path, args.format).unwrap_or_else(|| error.into()))?;
-    if let Some(error) = mismatch_of(path, &record.mechanism, args.format) {
-        return Err(error);
-    }
-    anyhow::ensure!(
-        record.accepted || args.accept_rejected,
-        "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
-        path.display(),
-        record.reasons.join("; ")
-    );
+    let record = mechanism_record(args)?;
     let print_radius = args.print_radius.with_context(|| {
         format!(
             "--format {} needs --print-radius (the printable radius, M665 B or print_radius)",
@@ -164,19 +161,62 @@ fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The calibration record of `args`, of the mechanism `args.format`
+/// exports, accepted or `--accept-rejected`.
+fn mechanism_record(args: &Args) -> anyhow::Result<MechanismCalibrationRecord> {
+    let path = &args.calibration;
+    let record = MechanismCalibrationRecord::read(path)
+        .map_err(|error| mismatch(path, args.format).unwrap_or_else(|| error.into()))?;
+    if let Some(error) = mismatch_of(path, &record.mechanism, args.format) {
+        return Err(error);
+    }
+    anyhow::ensure!(
+        record.accepted || args.accept_rejected,
+        "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
+        path.display(),
+        record.reasons.join("; ")
+    );
+    Ok(record)
+}
+
+/// Exports a cable robot's calibration as the Hangprinter's `M669` and
+/// `M666 R` lines.
+fn export_hangprinter(args: &Args) -> anyhow::Result<()> {
+    let path = &args.calibration;
+    let record = mechanism_record(args)?;
+    let robot = CableRobot::typical();
+    let values = named_values(&record, path)?;
+    let config = HangprinterConfig::from_params(&robot, &values)
+        .with_context(|| format!("{}", path.display()))?;
+    write_file(&args.out, config.lines().as_bytes())?;
+    Ok(())
+}
+
 /// The delta's parameters of a calibration record, by name.
 fn delta_parameters(
     record: &MechanismCalibrationRecord,
     path: &Path,
 ) -> anyhow::Result<DeltaParams> {
-    let delta = mechanisms::by_name(&record.mechanism).with_context(|| {
+    let values = named_values(record, path)?;
+    anyhow::ensure!(
+        values.len() == N_PARAMS,
+        "{}: not a linear delta's parameters",
+        path.display()
+    );
+    Ok(DeltaParams::from_slice(&values))
+}
+
+/// The values of a calibration record's mechanism parameters, in the
+/// mechanism's order, by name.
+fn named_values(record: &MechanismCalibrationRecord, path: &Path) -> anyhow::Result<Vec<f64>> {
+    let mechanism = mechanisms::by_name(&record.mechanism).with_context(|| {
         format!(
             "{}: unknown mechanism {:?}",
             path.display(),
             record.mechanism
         )
     })?;
-    let values = delta
+    mechanism
         .parameters()
         .iter()
         .map(|p| {
@@ -189,11 +229,5 @@ fn delta_parameters(
                 )
             })
         })
-        .collect::<anyhow::Result<Vec<f64>>>()?;
-    anyhow::ensure!(
-        values.len() == N_PARAMS,
-        "{}: not a linear delta's parameters",
-        path.display()
-    );
-    Ok(DeltaParams::from_slice(&values))
+        .collect()
 }

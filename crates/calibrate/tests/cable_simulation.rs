@@ -1,0 +1,89 @@
+//! Simulated cable robots (`parcal_simulate::simulate_cable`): the truth,
+//! drawn from the design's priors, recovered within the sigmas the
+//! mechanism calibration reports. The normalised estimation error
+//! `NEES = (p̂ − p)ᵀ C⁻¹ (p̂ − p)` over the parameters has mean equal to
+//! their number when the covariance `C` is right; its mean over the draws
+//! must be within 4 standard errors of it (the standard error from the
+//! draws' own scatter).
+
+use std::sync::Arc;
+
+use parcal_calibrate::mechanism::{
+    MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+};
+use parcal_kinematics::cable::CableRobot;
+use parcal_kinematics::mechanism::{Mechanism, design};
+use parcal_observe::mechanism::PointSample;
+use parcal_simulate::{CableScenario, simulate_cable};
+
+/// The NEES of the calibration of the campaign of `seed`.
+fn nees(robot: &CableRobot, scenario: &CableScenario, seed: u64) -> f64 {
+    let simulation = simulate_cable(robot, scenario, seed).unwrap();
+    let samples = simulation
+        .samples
+        .iter()
+        .map(|sample| PointSample {
+            readings: sample.readings.clone(),
+            sigma: scenario.reading_sigma,
+            known_pose: sample.known.map(|p| (p, scenario.position_sigma)),
+        })
+        .collect();
+    let observations = Observations {
+        samples,
+        ..Default::default()
+    };
+    let configured: Vec<f64> = design(robot).iter().copied().collect();
+    let data = MechanismData::new(Arc::new(robot.clone()), configured, observations);
+    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    assert!(
+        calibration.converged(),
+        "seed {seed}: {:?}",
+        calibration.status
+    );
+    let n = robot.parameters().len();
+    let error = calibration.values().rows(0, n) - &simulation.truth;
+    let covariance = calibration
+        .covariance
+        .as_ref()
+        .unwrap()
+        .view((0, 0), (n, n))
+        .clone_owned();
+    let solved = covariance.cholesky().unwrap().solve(&error);
+    error.dot(&solved)
+}
+
+/// Mean NEES over `draws` seeds, its standard error, and the number of
+/// parameters.
+fn mean_nees(draws: u64) -> (f64, f64, f64) {
+    let robot = CableRobot::typical();
+    let scenario = CableScenario::hangprinter();
+    let values: Vec<f64> = (0..draws)
+        .map(|seed| nees(&robot, &scenario, seed))
+        .collect();
+    let count = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / count;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (count - 1.0);
+    (
+        mean,
+        (variance / count).sqrt(),
+        robot.parameters().len() as f64,
+    )
+}
+
+#[test]
+fn the_truth_is_recovered_within_the_reported_sigmas() {
+    let (mean, standard_error, parameters) = mean_nees(40);
+    eprintln!("mean NEES {mean:.2} +- {standard_error:.2} over 40 draws, {parameters} parameters");
+    assert!(
+        (mean - parameters).abs() <= 4.0 * standard_error,
+        "mean NEES {mean} vs {parameters} (standard error {standard_error})"
+    );
+}
+
+#[test]
+#[ignore = "400 draws: cargo test -p parcal-calibrate --test cable_simulation -- --ignored --nocapture"]
+fn the_truth_is_recovered_within_the_reported_sigmas_over_400_draws() {
+    let (mean, standard_error, parameters) = mean_nees(400);
+    eprintln!("mean NEES {mean:.2} +- {standard_error:.2} over 400 draws, {parameters} parameters");
+    assert!((mean - parameters).abs() <= 4.0 * standard_error);
+}

@@ -1,0 +1,224 @@
+//! Simulated cable robots: a true machine drawn from the design's priors,
+//! effector positions drawn in its working volume, and the encoder angles
+//! each position gives, with noise; a few positions measured, as a camera
+//! (the Hangprinter's hp-mark) measures them.
+//!
+//! The first sample is the encoder zero (every reading zero up to its
+//! noise, the position measured there), then the known positions on the
+//! bed (`z` = 0), then the unknown ones anywhere in the volume. Every
+//! position is one where every line is taut
+//! ([`Mechanism::check_feasible`]). Deterministic for a seed: the truth,
+//! the positions and the noise each draw from their own stream.
+
+use nalgebra::DVector;
+use parcal_kinematics::cable::CableRobot;
+use parcal_kinematics::mechanism::{Mechanism, design};
+
+use crate::{COUNT, Rng, SimulateError};
+
+/// The most draws of a position before a simulation gives up finding a
+/// feasible one.
+const MAX_TRIES: usize = 10_000;
+
+/// What to simulate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CableScenario {
+    /// The number of samples (encoder readings), the encoder zero
+    /// included.
+    pub samples: usize,
+    /// How many of them have a measured position: the encoder zero and
+    /// `known - 1` points on the bed.
+    pub known: usize,
+    /// The standard deviation of each encoder reading (degrees).
+    pub reading_sigma: f64,
+    /// The standard deviation of each measured coordinate (mm).
+    pub position_sigma: [f64; 3],
+    /// The working volume: `|x|, |y|` up to this (mm) ...
+    pub half_width: f64,
+    /// ... and `z` from 0 up to this (mm).
+    pub height: f64,
+}
+
+impl CableScenario {
+    /// The Hangprinter data's shape (`fixtures/hangprinter`): 44 samples,
+    /// 9 measured, readings to 1 degree (0.05 mm of line), positions to
+    /// 1 mm, a volume 1 m wide and 1.4 m high.
+    pub fn hangprinter() -> Self {
+        Self {
+            samples: 44,
+            known: 9,
+            reading_sigma: 1.0,
+            position_sigma: [1.0; 3],
+            half_width: 500.0,
+            height: 1400.0,
+        }
+    }
+
+    fn check(&self) -> Result<(), SimulateError> {
+        let bad = |reason: String| Err(SimulateError::Scenario(format!("cable robot: {reason}")));
+        COUNT
+            .check("samples", self.samples)
+            .map_err(SimulateError::Scenario)?;
+        if !(1..=self.samples).contains(&self.known) {
+            return bad(format!(
+                "{} measured positions of {} samples: at least the encoder zero's, at most every one",
+                self.known, self.samples
+            ));
+        }
+        let sigmas = [
+            self.reading_sigma,
+            self.position_sigma[0],
+            self.position_sigma[1],
+            self.position_sigma[2],
+        ];
+        if sigmas.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+            return bad(format!(
+                "the noise {sigmas:?} must be finite and not negative"
+            ));
+        }
+        if !(self.half_width > 0.0
+            && self.height > 0.0
+            && self.half_width.is_finite()
+            && self.height.is_finite())
+        {
+            return bad(format!(
+                "the volume (half width {}, height {}) must be positive",
+                self.half_width, self.height
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One simulated sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CableSample {
+    /// The encoder angles, noisy (degrees).
+    pub readings: Vec<f64>,
+    /// The measured position, noisy, if measured (mm).
+    pub known: Option<[f64; 3]>,
+    /// The true position (mm).
+    pub position: [f64; 3],
+}
+
+/// A simulated cable robot campaign.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CableSimulation {
+    /// The true parameters.
+    pub truth: DVector<f64>,
+    /// The samples, the encoder zero first.
+    pub samples: Vec<CableSample>,
+}
+
+/// The stream of the true machine.
+const TRUTH: u64 = 0;
+/// The stream of the positions.
+const POSITIONS: u64 = 1;
+/// The stream of the noise.
+const NOISE: u64 = 2;
+
+/// Simulates `scenario` on `robot` for `seed`: the truth drawn from the
+/// priors (each parameter its design plus a normal deviate of its prior
+/// sigma), the positions, the readings with their noise.
+pub fn simulate_cable(
+    robot: &CableRobot,
+    scenario: &CableScenario,
+    seed: u64,
+) -> Result<CableSimulation, SimulateError> {
+    scenario.check()?;
+    let mut rng = Rng::new(seed, TRUTH);
+    let mut truth = design(robot);
+    for (value, parameter) in truth.iter_mut().zip(robot.parameters()) {
+        *value += rng.normal(parameter.prior_sigma);
+    }
+    let params = truth.as_slice();
+    let zero = robot.encoder_zero(params);
+    let mut rng = Rng::new(seed, POSITIONS);
+    let mut positions = vec![[zero.x, zero.y, zero.z]];
+    for i in 1..scenario.samples {
+        let on_bed = i < scenario.known;
+        let position = (0..MAX_TRIES)
+            .map(|_| {
+                let w = scenario.half_width;
+                let z = if on_bed { 0.0 } else { rng.uniform(0.0, scenario.height) };
+                [rng.uniform(-w, w), rng.uniform(-w, w), z]
+            })
+            .find(|p| robot.check_feasible(params, p).is_ok())
+            .ok_or_else(|| {
+                SimulateError::Scenario(format!(
+                    "cable robot: no position of sample {i} within the volume keeps every line taut in {MAX_TRIES} draws"
+                ))
+            })?;
+        positions.push(position);
+    }
+    let mut rng = Rng::new(seed, NOISE);
+    let samples = positions
+        .iter()
+        .enumerate()
+        .map(|(i, position)| {
+            let exact = robot
+                .inverse(params, position)
+                .map_err(|e| SimulateError::Scenario(format!("cable robot: sample {i}: {e}")))?;
+            let readings = exact
+                .iter()
+                .map(|q| q + rng.normal(scenario.reading_sigma))
+                .collect();
+            let known = (i < scenario.known).then(|| {
+                std::array::from_fn(|k| position[k] + rng.normal(scenario.position_sigma[k]))
+            });
+            Ok(CableSample {
+                readings,
+                known,
+                position: *position,
+            })
+        })
+        .collect::<Result<_, SimulateError>>()?;
+    Ok(CableSimulation { truth, samples })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_seed_gives_one_campaign_of_taut_lines() {
+        let robot = CableRobot::typical();
+        let scenario = CableScenario::hangprinter();
+        let a = simulate_cable(&robot, &scenario, 7).unwrap();
+        assert_eq!(a, simulate_cable(&robot, &scenario, 7).unwrap());
+        assert_ne!(a.truth, simulate_cable(&robot, &scenario, 8).unwrap().truth);
+        assert_eq!(a.samples.len(), 44);
+        assert_eq!(a.samples.iter().filter(|s| s.known.is_some()).count(), 9);
+        let params = a.truth.as_slice();
+        for (i, sample) in a.samples.iter().enumerate() {
+            robot.check_feasible(params, &sample.position).unwrap();
+            // The noise is the scenario's: readings within 6 sigma of the
+            // exact ones.
+            let exact = robot.inverse(params, &sample.position).unwrap();
+            let worst = exact
+                .iter()
+                .zip(&sample.readings)
+                .map(|(e, r)| (e - r).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 6.0 * scenario.reading_sigma, "sample {i}: {worst}");
+        }
+        // The encoder zero reads zero, up to the noise.
+        assert!(a.samples[0].readings.iter().all(|q| q.abs() < 6.0));
+    }
+
+    #[test]
+    fn an_impossible_scenario_is_refused() {
+        let robot = CableRobot::typical();
+        let mut scenario = CableScenario::hangprinter();
+        scenario.known = 0;
+        let err = simulate_cable(&robot, &scenario, 1).unwrap_err();
+        assert!(err.to_string().contains("0 measured positions"), "{err}");
+        let mut scenario = CableScenario::hangprinter();
+        // Bed positions over a square of 2 km: one in a million or so is
+        // under the anchors.
+        scenario.half_width = 1e6;
+        scenario.known = 44;
+        let err = simulate_cable(&robot, &scenario, 1).unwrap_err();
+        assert!(err.to_string().contains("taut"), "{err}");
+    }
+}
