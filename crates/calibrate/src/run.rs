@@ -819,7 +819,7 @@ impl SolverRun<'_> {
             .map(|sigmas| sigmas.iter().map(|s| s[G - 1]).collect());
         // The common errors of the entered data at the minimum of least
         // squares: which explains a misfit, and how large one must be to
-        // show (two linear solves per effect, within the time budget).
+        // show (two elimination passes per effect, within the time budget).
         let in_time = self
             .solver
             .time_limit
