@@ -161,6 +161,10 @@ pub struct CalibrationOptions {
     pub max_iterations: usize,
     /// Converged when `|dx| / (|x| + 1) < step_tolerance` over all unknowns.
     pub step_tolerance: f64,
+    /// Converged, too, when a Gauss-Newton step would move no unknown by
+    /// more than this many of its standard deviations
+    /// ([`parcal_solver::SolverOptions::sigma_tolerance`]).
+    pub sigma_tolerance: f64,
     /// A wall-clock budget for the whole run (every solve it makes); the
     /// run ends with `Status::TimeLimit` when it has passed. `None`: none.
     pub time_limit: Option<Duration>,
@@ -246,6 +250,7 @@ impl Default for CalibrationOptions {
             angle_sigma: 0.01,
             max_iterations: GAUSS_NEWTON_ITERATIONS,
             step_tolerance: 1e-10,
+            sigma_tolerance: parcal_solver::SIGMA_TOLERANCE,
             time_limit: None,
             loss: Loss::Squared,
         }

@@ -33,7 +33,7 @@
 //!   group whose stated noise is right, larger for the group that does not
 //!   fit.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, SVector};
 use parcal_dataset::Histogram;
 use parcal_solver::{Problem, State, normalised_residual, point_degrees_of_freedom, redundancy};
 
@@ -300,7 +300,9 @@ impl Reliability {
     /// contact's rows are reduced to its numbers as the solver's pass
     /// hands them over (with a robust loss, a contact it down-weighted is
     /// listed then); the shifts of the least reliable follow
-    /// ([`crate::external`]).
+    /// ([`crate::external`]). Also returns the groups' marginal sigmas,
+    /// which the same pass gives
+    /// ([`parcal_solver::Redundancy::group_sigmas`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
         problem: &Pr,
@@ -312,7 +314,7 @@ impl Reliability {
         global: &[ObservationId],
         prior_cost: f64,
         prior_rows: usize,
-    ) -> Result<Self, CalibrateError> {
+    ) -> Result<(Self, Vec<SVector<f64, C>>), CalibrateError> {
         let failed = |reason: String| CalibrateError::Calibration { reason };
         let tests = rows.len() + global.iter().map(|o| o.tests()).sum::<usize>();
         let delta0 = minimal_detectable_bias(1.0, SNOOPING_LEVEL / tests.max(1) as f64);
@@ -427,7 +429,7 @@ impl Reliability {
                 redundancy: prior_rows as f64 - numbers.prior_leverage.total(),
             });
         }
-        Ok(Self {
+        let reliability = Self {
             components,
             row_normalised: summary.row_normalised,
             contacts,
@@ -437,7 +439,8 @@ impl Reliability {
             external,
             down_weighted: robust.then_some(down_weighted),
             systematic: Vec::new(),
-        })
+        };
+        Ok((reliability, numbers.group_sigmas))
     }
 
     /// The sum of the observations' redundancy.

@@ -14,7 +14,7 @@ use parcal_kinematics::{
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
     Iterate, IterationRecord, Monitor, Solution, SolverOptions, SpectrumDiagnostics, Status,
-    solve_with_caches,
+    group_sigmas, solve_with_caches,
 };
 
 use crate::conflict::{ConflictTest, PaperPriorInconsistency, paper_prior_consistency};
@@ -428,7 +428,10 @@ fn calibrate_once(
         method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
+        sigma_tolerance: options.sigma_tolerance,
         time_limit: options.time_limit,
+        // The checks' pass gives them ([`SolverRun::solve`]).
+        group_sigmas: false,
         ..SolverOptions::default()
     };
     let solver = SolverRun {
@@ -756,8 +759,43 @@ impl SolverRun<'_> {
             .map_or_else(Vec::new, |costs| self.misfits(costs));
         let layout = &setup.layout;
         let state = &solution.state;
-        let ball_sigmas = solution
-            .group_sigmas
+        let (rows, unknowns) =
+            rows_and_unknowns(&*problem, setup.order.len(), problem.global_rows());
+        let global_test = solution.history.last().and_then(|record| {
+            GlobalTest::new(
+                record.cost,
+                rows.saturating_sub(unknowns),
+                GLOBAL_TEST_LEVEL,
+            )
+        });
+        let prior_rows = rows - rows_per_contact * setup.order.len() - problem.global_rows();
+        // The checks' pass gives the balls' sigmas too; without it, a pass
+        // of their own.
+        let groups_per_chunk = self.solver.groups_per_chunk;
+        let (mut reliability, group_sigmas) = match (&solution.covariance, solution.history.last())
+        {
+            (Some(covariance), Some(last)) if judged => {
+                let (reliability, sigmas) = Reliability::new(
+                    &*problem,
+                    state,
+                    covariance,
+                    &mut caches,
+                    groups_per_chunk,
+                    &setup.order,
+                    &problem.global_observation_ids(),
+                    last.prior_cost,
+                    prior_rows,
+                )?;
+                (Some(reliability), Some(sigmas))
+            }
+            (Some(covariance), _) => {
+                let sigmas =
+                    group_sigmas(&*problem, state, covariance, &mut caches, groups_per_chunk);
+                (None, sigmas.ok())
+            }
+            _ => (None, None),
+        };
+        let ball_sigmas = group_sigmas
             .as_deref()
             .zip(solution.covariance.as_ref())
             .map(|(groups, global)| layout.ball_sigmas(global, groups));
@@ -780,33 +818,9 @@ impl SolverRun<'_> {
             .as_ref()
             .filter(|_| radius_unknown)
             .map(|sigmas| sigmas.iter().map(|s| s[G - 1]).collect());
-        let (rows, unknowns) =
-            rows_and_unknowns(&*problem, setup.order.len(), problem.global_rows());
-        let global_test = solution.history.last().and_then(|record| {
-            GlobalTest::new(
-                record.cost,
-                rows.saturating_sub(unknowns),
-                GLOBAL_TEST_LEVEL,
-            )
-        });
-        let prior_rows = rows - rows_per_contact * setup.order.len() - problem.global_rows();
-        let mut reliability = match (&solution.covariance, solution.history.last()) {
-            (Some(covariance), Some(last)) if judged => Some(Reliability::new(
-                &*problem,
-                &solution.state,
-                covariance,
-                &mut caches,
-                self.solver.groups_per_chunk,
-                &setup.order,
-                &problem.global_observation_ids(),
-                last.prior_cost,
-                prior_rows,
-            )?),
-            _ => None,
-        };
         // The common errors of the entered data at the minimum of least
         // squares: which explains a misfit, and how large one must be to
-        // show (two linear solves per effect, within the time budget).
+        // show (two elimination passes per effect, within the time budget).
         let in_time = self
             .solver
             .time_limit
@@ -815,13 +829,8 @@ impl SolverRun<'_> {
             && problem.loss.is_squared()
             && in_time
         {
-            reliability.systematic = systematic_tests(
-                &mut *problem,
-                &solution.state,
-                &mut caches,
-                self.solver.groups_per_chunk,
-                test,
-            )?;
+            reliability.systematic =
+                systematic_tests(&mut *problem, state, &mut caches, groups_per_chunk, test)?;
         }
         // The poses are not needed past the checks: their memory is the
         // room of what follows.

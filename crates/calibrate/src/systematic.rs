@@ -19,11 +19,11 @@
 //!
 //! and removing the effect (one more unknown) lowers the weighted sum of
 //! squares `Ω` by `w²`: the variance factor becomes `(Ω − w²) / (r − 1)`.
-//! The two quadratic forms come from the linearised cost after one
-//! Gauss–Newton step of the problem with the effect applied, `m(t) = ‖P
-//! e(t)‖² = Ω + 2t cᵀPê + t² cᵀPc` ([`parcal_solver::linear_step`]: the
-//! cost minus the predicted decrease; `Pê = ê` at convergence), at `t =
-//! ±h`: two linear solves per effect, made for every converged
+//! The two quadratic forms come from the minimum of the linearised cost of
+//! the problem with the effect applied, `m(t) = ‖P e(t)‖² = Ω + 2t cᵀPê +
+//! t² cᵀPc` ([`parcal_solver::reduced_step`]: `ρ − bᵀS⁻¹b` of the reduced
+//! system; `Pê = ê` at convergence), at `t = ±h`: two passes over the
+//! contacts per effect, no back-substitution, made for every converged
 //! least-squares run ([`crate::verdict::at_minimum`]). The residuals are
 //! linear in both effects, so the two values give the quadratic exactly.
 //!
@@ -37,13 +37,13 @@
 //! Δg = −N⁻¹ Jᵀ c ∇ = ∇ (δ_g(h) − δ_g(−h)) / 2h,
 //! ```
 //!
-//! `δ_g(t)` the global part of the same two Gauss–Newton steps (the step
-//! is linear in `t`); its effect on the registered accuracy map is the
+//! `δ_g(t)` the global part of the Gauss–Newton step of the same two
+//! reduced systems (the step is linear in `t`); its effect on the registered accuracy map is the
 //! report's (`parcal_report::diagnostics`), as for one observation's
 //! ([`crate::external`]).
 
 use nalgebra::DVector;
-use parcal_solver::{Problem, State, linear_step};
+use parcal_solver::{Problem, State, reduced_step};
 
 use crate::CalibrateError;
 use crate::hypothesis::{critical_value, minimal_detectable_bias};
@@ -160,7 +160,7 @@ impl SystematicTest {
 /// The tests of the effects the data of `problem` can show, with their
 /// shifts, at its converged `state` whose global test is `global` (module
 /// doc); `caches`
-/// as [`linear_step`] takes them. An effect no observation carries (no
+/// as [`reduced_step`] takes them. An effect no observation carries (no
 /// distances, no radius information) is left out.
 pub fn systematic_tests<const R: usize, const P: usize, const G: usize, O>(
     problem: &mut CalibrationProblem<'_, O, G>,
@@ -179,19 +179,19 @@ where
             continue;
         }
         let h = effect.step();
-        // The linearised cost after the step and the step's global part.
+        // The minimum of the linearised cost and the step's global part.
         let mut reduced = |t: f64| -> Result<(f64, DVector<f64>), CalibrateError> {
             let shifted: Vec<f64> = entered
                 .iter()
                 .map(|&v| v + t * effect.derivative(v))
                 .collect();
             problem.set_entered(effect, &shifted);
-            let step = linear_step(&*problem, state, caches, 0.0, groups_per_chunk);
+            let step = reduced_step(&*problem, state, caches, groups_per_chunk);
             problem.set_entered(effect, &entered);
             let step = step.map_err(|status| CalibrateError::Calibration {
                 reason: format!("the test of a common {} error: {status:?}", effect.name()),
             })?;
-            Ok((step.cost - step.predicted_decrease, step.delta.global))
+            Ok((step.minimum, step.global))
         };
         let ((up, step_up), (down, step_down)) = (reduced(h)?, reduced(-h)?);
         let c_pe = (up - down) / (4.0 * h);

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_dataset::{Calibration, Dataset};
+use parcal_solver::SIGMA_TOLERANCE;
 
 fn fixture() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/reference-paper-seed1")
@@ -14,16 +15,36 @@ fn fixture() -> PathBuf {
 
 /// Calibrates the reference dataset and compares with `reference_file`:
 /// every value within 1e-4 of the reference sigma (the reference prints 16
-/// digits; both solve the same equations to a step tolerance of 1e-10),
-/// every sigma within 1e-6 relative, the same number of iterations.
+/// digits; both solve the same equations to a step tolerance of 1e-10,
+/// parcal's sigma rule off), every sigma within 1e-6 relative, the same
+/// number of iterations. With the default stopping rule, which ends a
+/// run whose step is below `SIGMA_TOLERANCE` standard deviations, every
+/// value is within that many of the reference sigma.
 fn compare(sim: Simulation, prior: PriorMode, reference_file: &str) {
     let dataset = Dataset::read(&fixture()).unwrap();
     let options = CalibrationOptions {
         prior,
         ..CalibrationOptions::simulation(sim)
     };
-    let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     let reference = Calibration::read(&fixture().join(reference_file)).unwrap();
+    let default = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert!(default.converged());
+    let worst = (0..33)
+        .map(|k| {
+            ((default.params[k] - reference.parameters.values[k]) / reference.parameters.sigma[k])
+                .abs()
+        })
+        .fold(0.0, f64::max);
+    println!(
+        "the sigma rule: {} iterations, worst |value - reference| {worst:.2e} sigma",
+        default.iterations()
+    );
+    assert!(worst < SIGMA_TOLERANCE, "{worst:e} sigma");
+    let options = CalibrationOptions {
+        sigma_tolerance: 0.0,
+        ..options
+    };
+    let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     assert!(run.converged() && reference.converged);
     // The reference records the initial iterate and one per step, the
     // converged one included; parcal ends at the iterate whose step

@@ -44,6 +44,19 @@ impl StepSummary {
     pub(crate) fn predicted_decrease(&self) -> f64 {
         -self.gradient_dot + self.damping_quad
     }
+
+    /// `√(δᵀHδ)`, `H` the undamped normal matrix: `δᵀHδ = −bᵀδ − δᵀ(λD)δ`
+    /// since `(H + λD) δ = −b` (rounding can make a vanishing step's
+    /// negative: 0 then; NaN stays NaN). The step in standard deviations
+    /// ([`IterationRecord::step_sigmas`](crate::IterationRecord::step_sigmas)).
+    pub(crate) fn sigmas(&self) -> f64 {
+        let quadratic = -self.gradient_dot - self.damping_quad;
+        if quadratic < 0.0 {
+            0.0
+        } else {
+            quadratic.sqrt()
+        }
+    }
 }
 
 impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>

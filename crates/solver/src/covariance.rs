@@ -1,7 +1,8 @@
 //! Uncertainty at the final state: `Cov(g) = S⁻¹` of the undamped reduced
 //! matrix, and the full marginal covariance of each group block,
 //! `Cov(c) = R_cc⁻¹R_cc⁻ᵀ + K Cov(g) Kᵀ` with `K = R_cc⁻¹R_cg` from the
-//! group's triangular rows (recomputed in one more pass over the points).
+//! group's triangular rows (recomputed in one more pass over the points,
+//! or given by the redundancy pass, [`crate::redundancy`]).
 //! A fixed group is not an unknown: its sigmas are zero.
 
 use nalgebra::{Const, DMatrix, Dim, Dyn, Matrix, OMatrix, SMatrix, SVector, StorageMut};
@@ -9,16 +10,45 @@ use nalgebra::{Const, DMatrix, Dim, Dyn, Matrix, OMatrix, SMatrix, SVector, Stor
 use crate::chunks::run_chunks;
 use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
+use crate::iterate::status_of;
 use crate::problem::{Problem, State};
 use crate::qr::PriorRows;
+use crate::solution::Status;
+
+/// Each group's marginal sigmas from its triangular rows, in the order the
+/// groups are eliminated.
+pub(crate) struct GroupSigmas<'a, const C: usize> {
+    cov: &'a DMatrix<f64>,
+    /// `K = R_cc⁻¹R_cg` of the current group (`C × G`).
+    gain: OMatrix<f64, Const<C>, Dyn>,
+    pub(crate) out: Vec<SVector<f64, C>>,
+}
+
+impl<'a, const C: usize> GroupSigmas<'a, C> {
+    /// For `groups` groups, given `Cov(g)`.
+    pub(crate) fn new(cov: &'a DMatrix<f64>, groups: usize) -> Self {
+        Self {
+            cov,
+            gain: OMatrix::zeros_generic(Const::<C>, Dyn(cov.nrows())),
+            out: Vec::with_capacity(groups),
+        }
+    }
+
+    /// The sigmas of the next group, of triangular rows `top` (`None`: a
+    /// fixed group, whose sigmas are zero).
+    pub(crate) fn push(&mut self, top: Option<&[f64]>) {
+        let sigma = match top {
+            Some(top) => group_sigma(top, self.cov, &mut self.gain),
+            None => SVector::zeros(),
+        };
+        self.out.push(sigma);
+    }
+}
 
 /// Turns each group's triangular rows into its marginal sigmas.
 struct SigmaSink<'a, const C: usize> {
-    cov: &'a DMatrix<f64>,
     first_group: usize,
-    /// `K = R_cc⁻¹R_cg` of the current group (`C × G`).
-    gain: OMatrix<f64, Const<C>, Dyn>,
-    out: Vec<SVector<f64, C>>,
+    sigmas: GroupSigmas<'a, C>,
 }
 
 impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R, J>
@@ -33,12 +63,8 @@ impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R,
         _prior: Option<&PriorRows<C>>,
         _data_cost: f64,
     ) {
-        debug_assert_eq!(k, self.first_group + self.out.len());
-        let sigma = match top {
-            Some(top) => group_sigma(top, self.cov, &mut self.gain),
-            None => SVector::zeros(),
-        };
-        self.out.push(sigma);
+        debug_assert_eq!(k, self.first_group + self.sigmas.out.len());
+        self.sigmas.push(top);
     }
 }
 
@@ -120,18 +146,34 @@ where
             |ws, (chunk, caches)| {
                 let (bufs, _, _) = ws.split();
                 let mut sink = SigmaSink {
-                    cov,
                     first_group: chunk.groups.start,
-                    gain: OMatrix::zeros_generic(Const::<C>, Dyn(dims.g)),
-                    out: Vec::with_capacity(chunk.groups.len()),
+                    sigmas: GroupSigmas::new(cov, chunk.groups.len()),
                 };
                 eliminate_chunk::<C, P, R, _, _>(
                     problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
                 )?;
-                Ok(sink.out)
+                Ok(sink.sigmas.out)
             },
             |part| sigmas.extend(part),
         )?;
         Ok(sigmas)
     }
+}
+
+/// The marginal sigmas of every group of `problem` at `state`, given the
+/// covariance `Cov(g)` of the global block there (what
+/// [`Solution::group_sigmas`](crate::Solution::group_sigmas) holds): one
+/// pass over the points. `caches` as [`linear_step`](crate::linear_step)
+/// takes them.
+pub fn group_sigmas<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
+    problem: &Pr,
+    state: &State<C, P>,
+    covariance: &DMatrix<f64>,
+    caches: &mut Vec<Pr::PointCache>,
+    groups_per_chunk: usize,
+) -> Result<Vec<SVector<f64, C>>, Status> {
+    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
+        .map_err(|message| Status::InvalidProblem { message })?;
+    ctx.group_sigmas(state, covariance)
+        .map_err(|f| status_of(f, 0))
 }

@@ -502,6 +502,9 @@ pub(crate) struct Costs {
     pub(crate) loss: f64,
     /// Point and group prior terms.
     pub(crate) prior: f64,
+    /// The prior terms of fixed groups (part of `prior`): rows without an
+    /// unknown, which no reduced row carries.
+    pub(crate) fixed_prior: f64,
 }
 
 /// Receives what the elimination of a chunk produces, for a problem with
@@ -638,7 +641,11 @@ where
         }
         let prior = problem.group_prior(k).map(|pr| PriorRows::new(&pr, c));
         if let Some(prior) = &prior {
-            costs.prior += prior.residual.norm_squared();
+            let cost = prior.residual.norm_squared();
+            costs.prior += cost;
+            if fixed {
+                costs.fixed_prior += cost;
+            }
         }
         if fixed {
             sink.group_done(k, None, prior.as_ref(), group_data);

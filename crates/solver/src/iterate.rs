@@ -151,13 +151,19 @@ where
         system: &ReducedSystem,
         delta: &mut State<C, P>,
     ) -> Result<Option<StepSummary>, Failure> {
-        let Some(factor) = ScaledCholesky::new(&system.matrix, system.size()) else {
+        let Some(dg) = global_step(system) else {
             return Ok(None);
         };
-        let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
-        let dg = DVector::from_vec(factor.solve(&neg_b));
         self.back_substitute(state, system, &dg, delta).map(Some)
     }
+}
+
+/// The step's global part `δg = −S⁻¹b` of `system`; `None` if the reduced
+/// matrix is not numerically positive definite.
+fn global_step(system: &ReducedSystem) -> Option<DVector<f64>> {
+    let factor = ScaledCholesky::new(&system.matrix, system.size())?;
+    let neg_b: Vec<f64> = system.rhs.iter().map(|b| -b).collect();
+    Some(DVector::from_vec(factor.solve(&neg_b)))
 }
 
 /// One linear step of the Schur solver, as [`linear_step`] returns it.
@@ -195,15 +201,72 @@ pub fn linear_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C
     let summary = ctx
         .step(state, &system, &mut delta)
         .map_err(failed)?
-        .ok_or_else(|| {
-            let diagnostics = SpectrumDiagnostics::of_symmetric(&system.matrix, system.size());
-            Ending::Singular(diagnostics).status(0)
-        })?;
+        .ok_or_else(|| singular_at_start(&system))?;
     Ok(LinearStep {
         delta,
         cost: system.cost(),
         predicted_decrease: summary.predicted_decrease(),
     })
+}
+
+/// The size of a step: `|δ|` and `√(δᵀHδ)`
+/// ([`IterationRecord::step_sigmas`]).
+#[derive(Clone, Copy)]
+struct StepSize {
+    norm: f64,
+    sigmas: f64,
+}
+
+impl StepSize {
+    /// No step computed.
+    const NONE: Self = Self {
+        norm: 0.0,
+        sigmas: 0.0,
+    };
+}
+
+/// The global part of a Gauss–Newton step and the minimum of the
+/// linearised cost it reaches, as [`reduced_step`] returns them.
+#[derive(Clone, Debug)]
+pub struct ReducedStep {
+    /// The step's global part `δg = −S⁻¹b`.
+    pub global: DVector<f64>,
+    /// The cost at the state.
+    pub cost: f64,
+    /// The minimum of the linearised cost, priors included: `ρ − bᵀS⁻¹b`,
+    /// `ρ` the cost left once the points and groups are eliminated (the
+    /// same number as [`LinearStep`]'s `cost − predicted_decrease`, up to
+    /// rounding).
+    pub minimum: f64,
+}
+
+/// The Gauss–Newton step's global part at `state` and the minimum of the
+/// linearised cost, from the reduced system alone: one pass over the
+/// points, no back-substitution and no copy of the state. `caches` as
+/// [`linear_step`] takes them. Fails with the [`Status`] that [`solve`]
+/// would end with at this point.
+pub fn reduced_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
+    problem: &Pr,
+    state: &State<C, P>,
+    caches: &mut Vec<Pr::PointCache>,
+    groups_per_chunk: usize,
+) -> Result<ReducedStep, Status> {
+    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
+        .map_err(|message| Status::InvalidProblem { message })?;
+    let system = ctx.reduce(state, 0.0).map_err(|f| status_of(f, 0))?;
+    let global = global_step(&system).ok_or_else(|| singular_at_start(&system))?;
+    Ok(ReducedStep {
+        minimum: system.linear_minimum(global.as_slice()),
+        cost: system.cost(),
+        global,
+    })
+}
+
+/// How a run ends at its initial state when `system`, built there, is
+/// singular.
+fn singular_at_start(system: &ReducedSystem) -> Status {
+    let diagnostics = SpectrumDiagnostics::of_symmetric(&system.matrix, system.size());
+    Ending::Singular(diagnostics).status(0)
 }
 
 struct Run<'o, 'a, const C: usize, const P: usize, const R: usize, Pr>
@@ -220,14 +283,15 @@ impl<const C: usize, const P: usize, const R: usize, Pr> Run<'_, '_, C, P, R, Pr
 where
     Pr: Problem<C, P, R>,
 {
-    /// Records the step solved from `system` (its `λ`, 0 if none).
-    fn record(&mut self, system: &ReducedSystem, step_norm: f64, accepted: bool) {
+    /// Records the step solved from `system` (its `λ`; 0 if none).
+    fn record(&mut self, system: &ReducedSystem, step: StepSize, accepted: bool) {
         let record = IterationRecord {
             cost: system.cost(),
             data_cost: system.data_cost,
             global_observation_cost: system.global_observation_cost,
             prior_cost: system.prior_cost,
-            step_norm,
+            step_norm: step.norm,
+            step_sigmas: step.sigmas,
             lambda: system.lambda,
             accepted,
         };
@@ -307,13 +371,13 @@ where
         loop {
             let solves = self.history.len();
             if solves >= options.max_iterations {
-                return self.finish(x, system, 0.0, Status::IterationLimit);
+                return self.finish(x, system, StepSize::NONE, Status::IterationLimit);
             }
             if options
                 .time_limit
                 .is_some_and(|limit| started.elapsed() >= limit)
             {
-                return self.finish(x, system, 0.0, Status::TimeLimit);
+                return self.finish(x, system, StepSize::NONE, Status::TimeLimit);
             }
             if !system.is_finite() {
                 return self.diverged(x, solves, "non-finite reduced system".into());
@@ -326,24 +390,33 @@ where
             }
             // The step into `trial` and the policy's response; the trial
             // point's system if it was built.
-            let (step_norm, response, next) = match self.ctx.step(&x, &system, &mut trial) {
+            let (step, response, next) = match self.ctx.step(&x, &system, &mut trial) {
                 Err(f) => return self.fail(x, solves, f),
-                Ok(None) => (0.0, policy.unusable(Unusable::Singular(&system)), None),
+                Ok(None) => (
+                    StepSize::NONE,
+                    policy.unusable(Unusable::Singular(&system)),
+                    None,
+                ),
                 Ok(Some(summary)) => {
                     add_into(&mut trial, &x);
-                    let step_norm = summary.delta_norm2.sqrt();
+                    let step = StepSize {
+                        norm: summary.delta_norm2.sqrt(),
+                        sigmas: summary.sigmas(),
+                    };
+                    let step_norm = step.norm;
                     if !(step_norm.is_finite() && trial.is_finite()) {
                         let response = policy.unusable(Unusable::NonFinite { step_norm });
-                        (step_norm, response, None)
+                        (step, response, None)
                     } else if step_norm / (summary.state_norm2.sqrt() + 1.0)
                         < options.step_tolerance
+                        || (system.lambda == 0.0 && step.sigmas < options.sigma_tolerance)
                     {
-                        // The step from `x` is below the tolerance: `x` is
+                        // The step from `x` is below a tolerance: `x` is
                         // the solution, and everything reported is evaluated
                         // there (its system is at hand; applying the step
                         // would cost one more pass for a change below the
                         // tolerance).
-                        return self.finish(x, system, step_norm, Status::Converged);
+                        return self.finish(x, system, step, Status::Converged);
                     } else {
                         match self.ctx.reduce(&trial, policy.trial_lambda()) {
                             Ok(next) => {
@@ -353,15 +426,15 @@ where
                                     predicted_decrease: summary.predicted_decrease(),
                                     trial_cost: next.loss(),
                                 });
-                                (step_norm, response, Some(next))
+                                (step, response, Some(next))
                             }
-                            Err(f) => (step_norm, policy.unusable(Unusable::Failed(f)), None),
+                            Err(f) => (step, policy.unusable(Unusable::Failed(f)), None),
                         }
                     }
                 }
             };
             let accepted = matches!(response, Response::Accept { .. });
-            self.record(&system, step_norm, accepted);
+            self.record(&system, step, accepted);
             match response {
                 Response::Accept { keep_trial_system } => {
                     swap(&mut x, &mut trial);
@@ -386,14 +459,14 @@ where
         }
     }
 
-    /// The final record (with `step_norm`, the norm of the step computed
-    /// there and not applied, 0 if none), covariance, group sigmas and
-    /// spectrum at `state`.
+    /// The final record (with `step`, the size of the step computed there
+    /// and not applied, [`StepSize::NONE`] if none), covariance, group
+    /// sigmas and spectrum at `state`.
     fn finish(
         mut self,
         state: State<C, P>,
         mut system: ReducedSystem,
-        step_norm: f64,
+        step: StepSize,
         status: Status,
     ) -> Solution<C, P> {
         let solves = self.history.len();
@@ -403,7 +476,7 @@ where
                 Err(f) => return self.fail(state, solves, f),
             };
         }
-        self.record(&system, step_norm, true);
+        self.record(&system, step, true);
         let spectrum = system
             .is_finite()
             .then(|| SpectrumDiagnostics::of_symmetric(&system.matrix, system.size()));
@@ -414,6 +487,7 @@ where
             .map(|f| DMatrix::from_row_slice(system.size(), system.size(), &f.inverse()));
         let group_sigmas = covariance
             .as_ref()
+            .filter(|_| self.options.group_sigmas)
             .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok());
         let mut solution = self.end(state, status);
         solution.covariance = covariance;

@@ -23,6 +23,9 @@ pub enum Method {
     },
 }
 
+/// The default [`SolverOptions::sigma_tolerance`].
+pub const SIGMA_TOLERANCE: f64 = 1e-3;
+
 /// Iteration control.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolverOptions {
@@ -34,6 +37,16 @@ pub struct SolverOptions {
     /// Converged when `|δ| / (|x| + 1) < step_tolerance`, norms over all
     /// unknowns: the run ends at `x`, without applying `δ`.
     pub step_tolerance: f64,
+    /// Converged, too, when an undamped step is below this many standard
+    /// deviations, `√(δᵀHδ) < sigma_tolerance`: it would move no unknown,
+    /// nor any linear function of them (a centre, a predicted pose error),
+    /// by more than `sigma_tolerance` of its posterior standard deviation,
+    /// and the cost by less than `sigma_tolerance²`
+    /// ([`IterationRecord::step_sigmas`](crate::IterationRecord::step_sigmas));
+    /// the run ends at `x`. 0: off (the step tolerance alone). Damped
+    /// (Levenberg–Marquardt) steps are judged by the step tolerance alone:
+    /// a short damped step does not say the minimum is near.
+    pub sigma_tolerance: f64,
     /// Gauss–Newton: diverged when the cost exceeds `divergence_ratio ×
     /// initial cost`.
     pub divergence_ratio: f64,
@@ -51,6 +64,13 @@ pub struct SolverOptions {
     /// budget. A run that ends on it depends on the machine's speed, not on
     /// its inputs alone.
     pub time_limit: Option<Duration>,
+    /// Whether a run's end computes the groups' marginal sigmas
+    /// ([`Solution::group_sigmas`](crate::Solution::group_sigmas), one more
+    /// pass over the points). A caller that makes the redundancy pass
+    /// ([`redundancy`](crate::redundancy())), which gives them as well, or
+    /// [`group_sigmas`](crate::group_sigmas()) when it needs them, turns it
+    /// off.
+    pub group_sigmas: bool,
     /// Groups per unit of parallel work. The partial reduced systems are
     /// summed in chunk order, so results depend on this number but not on the
     /// number of threads.
@@ -63,9 +83,11 @@ impl Default for SolverOptions {
             method: Method::GaussNewton,
             max_iterations: 50,
             step_tolerance: 1e-10,
+            sigma_tolerance: SIGMA_TOLERANCE,
             divergence_ratio: 1e6,
             step_divergence_ratio: 1e5,
             time_limit: None,
+            group_sigmas: true,
             groups_per_chunk: 64,
         }
     }

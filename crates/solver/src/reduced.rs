@@ -25,6 +25,12 @@ pub(crate) struct ReducedSystem {
     pub(crate) observation_gradient: Vec<f64>,
     /// `λ D_g`, the damping added to the diagonal of `S` (zeros if undamped).
     pub(crate) damping: Vec<f64>,
+    /// `ρ`: the cost left once the points and groups are eliminated (each
+    /// block's rows' part orthogonal to its own columns, their priors and
+    /// damping rows included), plus the global prior's and the global
+    /// observations' terms; the minimum of the linearised cost is `ρ −
+    /// bᵀS⁻¹b` ([`ReducedSystem::linear_minimum`]).
+    pub(crate) reduced_cost: f64,
     /// `Σ |r_i|²`.
     pub(crate) data_cost: f64,
     /// Each group's share of `data_cost`, `Σ |r_i|²` over its points.
@@ -53,6 +59,12 @@ impl ReducedSystem {
             .map_or_else(|| self.cost(), |loss| loss + self.prior_cost)
     }
 
+    /// The minimum of the linearised cost (damped if `λ > 0`), `ρ + bᵀδg`
+    /// for the step's global part `δg = −S⁻¹b`.
+    pub(crate) fn linear_minimum(&self, dg: &[f64]) -> f64 {
+        self.reduced_cost + self.rhs.iter().zip(dg).map(|(b, d)| b * d).sum::<f64>()
+    }
+
     /// The number `G` of global unknowns.
     pub(crate) fn size(&self) -> usize {
         self.rhs.len()
@@ -72,6 +84,8 @@ struct ChunkPart {
     loss_cost: f64,
     group_costs: Vec<f64>,
     prior_cost: f64,
+    /// Its fixed groups' prior terms ([`crate::eliminate::Costs::fixed_prior`]).
+    fixed_prior_cost: f64,
     global_norms2: Vec<f64>,
 }
 
@@ -93,7 +107,7 @@ where
         let (observations, weighed) = self.global_observations(&state.global)?;
         let mut total = vec![0.0; w * w];
         let mut global_norms2 = vec![0.0; g];
-        let (mut data_cost, mut prior_cost) = (0.0, 0.0);
+        let (mut data_cost, mut prior_cost, mut fixed_prior_cost) = (0.0, 0.0, 0.0);
         let mut loss_cost = weighed.map(|w| w.cost);
         let mut group_costs = Vec::with_capacity(state.groups.len());
         let global = problem.prepare_global(&state.global);
@@ -110,6 +124,7 @@ where
                     loss_cost: 0.0,
                     group_costs: Vec::with_capacity(chunk.groups.len()),
                     prior_cost: 0.0,
+                    fixed_prior_cost: 0.0,
                     global_norms2: vec![0.0; if lambda > 0.0 { g } else { 0 }],
                 };
                 let mut sink = NormalSink::new(rows, w, &mut part.normal, &mut part.group_costs);
@@ -131,6 +146,7 @@ where
                 part.data_cost = costs.data;
                 part.loss_cost = costs.loss;
                 part.prior_cost = costs.prior;
+                part.fixed_prior_cost = costs.fixed_prior;
                 let finite = all_finite(&part.normal) && all_finite(&[costs.data, costs.prior]);
                 if finite {
                     return Ok(part);
@@ -153,6 +169,7 @@ where
                 }
                 group_costs.extend(part.group_costs);
                 prior_cost += part.prior_cost;
+                fixed_prior_cost += part.fixed_prior_cost;
             },
         )?;
         // Lower triangle (column-major) → symmetric row-major S; last row → b.
@@ -166,6 +183,7 @@ where
             }
             rhs[j] = total[j * w + g];
         }
+        let mut reduced_cost = total[g * w + g] + fixed_prior_cost;
         if let Some(prior) = problem.global_prior() {
             let e = &state.global - &prior.mean;
             for j in 0..g {
@@ -186,7 +204,9 @@ where
                     0.0
                 };
             }
-            prior_cost += prior.cost(&state.global);
+            let cost = prior.cost(&state.global);
+            prior_cost += cost;
+            reduced_cost += cost;
         }
         let observation_gradient =
             observations.add_normal(&mut matrix, &mut rhs, &mut global_norms2);
@@ -197,14 +217,16 @@ where
                 matrix[j * g + j] += damping[j];
             }
         }
+        let global_observation_cost = observations.cost();
         Ok(ReducedSystem {
             matrix,
             rhs,
             observation_gradient,
             damping,
+            reduced_cost: reduced_cost + global_observation_cost,
             data_cost,
             group_costs,
-            global_observation_cost: observations.cost(),
+            global_observation_cost,
             prior_cost,
             loss_cost,
             lambda,

@@ -100,6 +100,7 @@ use nalgebra::{DMatrix, SMatrix, SVector};
 
 use crate::chunks::run_chunks_in_waves;
 use crate::context::Context;
+use crate::covariance::GroupSigmas;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
 use crate::iterate::status_of;
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
@@ -127,7 +128,11 @@ pub struct PointRows<const R: usize> {
 /// What [`redundancy`] returns besides the points' rows: the global
 /// observation rows and the priors.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Redundancy {
+pub struct Redundancy<const C: usize> {
+    /// The marginal sigmas of every group (those of
+    /// [`Solution::group_sigmas`](crate::Solution::group_sigmas)), from the
+    /// same pass.
+    pub group_sigmas: Vec<SVector<f64, C>>,
     /// `r_o` of each global observation row.
     pub global_observations: Vec<f64>,
     /// The global observations' whitened residuals at the state.
@@ -200,7 +205,11 @@ pub fn normalised_residual(residual: f64, redundancy: f64) -> Option<f64> {
 /// Each point's rows go to `visit`, in the order of the points, as each
 /// wave of chunks ends (nothing per point is kept here: the caller keeps
 /// what it needs of them); the global observation rows and the priors'
-/// leverage are returned. `caches` as [`linear_step`](crate::linear_step)
+/// leverage are returned, and the groups' marginal sigmas (the
+/// elimination gives them along the way, as a solve's final pass would;
+/// a caller that asks for both spares that pass with
+/// [`SolverOptions::group_sigmas`](crate::SolverOptions::group_sigmas)).
+/// `caches` as [`linear_step`](crate::linear_step)
 /// takes them. Fails with the [`Status`] a solve would end with at this
 /// state, or [`Status::InvalidProblem`] if the covariance is not `G × G`
 /// and numerically positive definite.
@@ -211,7 +220,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     caches: &mut Vec<Pr::PointCache>,
     groups_per_chunk: usize,
     visit: impl FnMut(&PointRows<R>),
-) -> Result<Redundancy, Status> {
+) -> Result<Redundancy<C>, Status> {
     let invalid = |message: String| Status::InvalidProblem { message };
     let mut ctx = Context::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
     let g = ctx.dims.g;
@@ -219,8 +228,8 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     let (observations, weighed) = ctx
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
-    let mut prior_leverage = ctx
-        .point_redundancy(state, &factor, visit)
+    let (mut prior_leverage, group_sigmas) = ctx
+        .point_redundancy(state, covariance, &factor, visit)
         .map_err(|f| status_of(f, 0))?;
     let mut z = vec![0.0; g];
     let global_observations = (0..observations.residual.len())
@@ -245,6 +254,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
         .filter(|&k| !problem.group_is_fixed(k))
         .count();
     Ok(Redundancy {
+        group_sigmas,
         global_observations,
         global_observation_residuals: observations.residual.iter().copied().collect(),
         global_observation_weights: weighed.map(|weighed| weighed.weights),
@@ -279,18 +289,20 @@ where
     Pr: Problem<C, P, R>,
 {
     /// The redundancy of every point's rows, handed to `visit` in the
-    /// order of the points, and the leverage of the point and group priors
-    /// at `state`, given `L` with `Cov(g) = LLᵀ` (row-major, lower
-    /// triangular).
+    /// order of the points, the leverage of the point and group priors and
+    /// every group's marginal sigmas at `state`, given `Cov(g)` and `L`
+    /// with `Cov(g) = LLᵀ` (row-major, lower triangular).
     fn point_redundancy(
         &mut self,
         state: &State<C, P>,
+        covariance: &DMatrix<f64>,
         factor: &[f64],
         mut visit: impl FnMut(&PointRows<R>),
-    ) -> Result<PriorLeverage, Failure> {
+    ) -> Result<(PriorLeverage, Vec<SVector<f64, C>>), Failure> {
         let problem = self.problem;
         let dims = self.dims;
         let mut prior_leverage = PriorLeverage::default();
+        let mut group_sigmas = Vec::with_capacity(state.groups.len());
         let global = problem.prepare_global(&state.global);
         let global = &global;
         let (pool, jobs) = self.jobs();
@@ -307,17 +319,20 @@ where
                 rows.reserve(largest * R * dims.group_width());
                 let mut sink =
                     RedundancySink::new(factor, dims.g, rows, largest, chunk.points.len(), false);
+                sink.sigmas = Some(GroupSigmas::new(covariance, chunk.groups.len()));
                 eliminate_chunk::<C, P, R, _, _>(
                     problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
                 )?;
-                Ok((sink.prior_leverage, sink.out))
+                let sigmas = sink.sigmas.map_or_else(Vec::new, |s| s.out);
+                Ok((sink.prior_leverage, sink.out, sigmas))
             },
-            |(part, points)| {
+            |(part, points, sigmas)| {
                 prior_leverage.add(&part);
                 points.iter().for_each(&mut visit);
+                group_sigmas.extend(sigmas);
             },
         )?;
-        Ok(prior_leverage)
+        Ok((prior_leverage, group_sigmas))
     }
 }
 
@@ -359,6 +374,9 @@ pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: us
     /// If asked ([`crate::influence`]), `z_j` of every row of the points of
     /// `out`: `G` values a row, `R` rows a point.
     pub(crate) global_z: Option<Vec<f64>>,
+    /// If asked ([`redundancy`]), the marginal sigmas of the chunk's
+    /// groups.
+    pub(crate) sigmas: Option<GroupSigmas<'a, C>>,
     prior_leverage: PriorLeverage,
 }
 
@@ -384,6 +402,7 @@ impl<'a, const C: usize, const P: usize, const R: usize> RedundancySink<'a, C, P
             reduced: vec![0.0; g],
             out: Vec::with_capacity(points),
             global_z: global_z.then(|| Vec::with_capacity(points * R * g)),
+            sigmas: None,
             prior_leverage: PriorLeverage::default(),
         }
     }
@@ -450,6 +469,9 @@ where
         prior: Option<&PriorRows<C>>,
         _data_cost: f64,
     ) {
+        if let Some(sigmas) = &mut self.sigmas {
+            sigmas.push(top);
+        }
         let (g, w, cw) = (self.g, C + self.g + 1, C + self.g);
         let mut first_row = 0;
         let done = self.out.len() - self.points.len();

@@ -26,6 +26,12 @@ pub struct IterationRecord {
     /// certified convergence and was not applied; 0 when no step was
     /// computed there.
     pub step_norm: f64,
+    /// The same step in standard deviations, `√(δᵀHδ)` (`H` the undamped
+    /// normal matrix, priors included): no unknown, nor any linear function
+    /// of them, moves by more than this many of its posterior standard
+    /// deviations (Cauchy–Schwarz: `|aᵀδ| ≤ √(aᵀH⁻¹a) √(δᵀHδ)`); the
+    /// linearised cost falls by its square. 0 when no step was computed.
+    pub step_sigmas: f64,
     /// The damping `λ` of the step (0 for Gauss–Newton).
     pub lambda: f64,
     /// Whether the step was taken: the next record, if any, is at its trial
@@ -49,7 +55,9 @@ pub enum BlockId {
 /// How a run ended.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Status {
-    /// The step computed at the returned state is below the step tolerance;
+    /// The step computed at the returned state is below the step tolerance,
+    /// or (undamped) below the sigma tolerance
+    /// ([`SolverOptions::sigma_tolerance`](crate::SolverOptions::sigma_tolerance));
     /// it was not applied, so that the state, its cost, the covariance and
     /// the group sigmas all belong to the one iterate the test certified.
     Converged,
@@ -137,7 +145,8 @@ pub struct Solution<const C: usize, const P: usize> {
     pub covariance: Option<DMatrix<f64>>,
     /// Marginal standard deviations of each group block (including the global
     /// uncertainty; zero for a fixed group); present whenever `covariance`
-    /// is.
+    /// is, unless [`SolverOptions::group_sigmas`](crate::SolverOptions::group_sigmas)
+    /// is off.
     pub group_sigmas: Option<Vec<SVector<f64, C>>>,
     /// Each group's data cost `Σ |r_i|²` over its points at the final state
     /// (whitened: a goodness-of-fit statistic per group); present when the

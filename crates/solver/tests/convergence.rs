@@ -4,7 +4,8 @@ mod common;
 
 use common::{Spec, couple, direction, distances, flatten, perturb, rel_diff, touches};
 use parcal_solver::{
-    IterationRecord, Method, Problem, Solution, SolverOptions, State, Status, solve,
+    IterationRecord, Method, Problem, SIGMA_TOLERANCE, Solution, SolverOptions, State, Status,
+    solve,
 };
 
 fn options(method: Method) -> SolverOptions {
@@ -77,7 +78,8 @@ fn without_points<const P: usize>(s: &State<3, P>) -> State<3, 0> {
 
 /// The observer saw every record; every record but the last has a step;
 /// the last (a converged run's final state) has the step that certified
-/// convergence, below the tolerance relative to the state and not applied.
+/// convergence, not applied: below the step tolerance relative to the
+/// state, or, undamped, below the sigma tolerance.
 fn check_history<const P: usize>(solution: &Solution<3, P>, seen: &[IterationRecord]) {
     assert_eq!(seen, &solution.history[..], "the observer saw every record");
     let last = solution.history.last().unwrap();
@@ -87,9 +89,11 @@ fn check_history<const P: usize>(solution: &Solution<3, P>, seen: &[IterationRec
         + state.points.iter().map(|p| p.norm_squared()).sum::<f64>();
     let tolerance = SolverOptions::default().step_tolerance;
     assert!(
-        last.step_norm / (state_norm2.sqrt() + 1.0) < tolerance,
-        "final step {}",
-        last.step_norm
+        last.step_norm / (state_norm2.sqrt() + 1.0) < tolerance
+            || (last.lambda == 0.0 && last.step_sigmas < SIGMA_TOLERANCE),
+        "final step {} ({} sigma)",
+        last.step_norm,
+        last.step_sigmas
     );
     assert!(
         solution.history[..solution.history.len() - 1]
@@ -141,6 +145,64 @@ fn gauss_newton_converges_to_truth_within_sigmas() {
     assert!(spectrum.condition_number().is_finite());
 }
 
+/// The sigma rule alone (no step tolerance) ends a Gauss–Newton run at a
+/// step below [`SIGMA_TOLERANCE`] standard deviations, and there every
+/// global parameter and centre coordinate is within that many of its
+/// sigmas of the minimum (solved to a step tolerance of 1e-14 without the
+/// rule): the step left is the bound of what the run leaves undone, the
+/// steps after it being smaller still.
+#[test]
+fn the_sigma_rule_ends_within_its_tolerance_of_the_minimum() {
+    let spec = Spec {
+        n_groups: 10,
+        points_per_group: 12,
+        ..Spec::default()
+    };
+    let (problem, truth) = touches(spec);
+    let start = perturb(&truth, 1, 0.01, 0.02, 0.1);
+    let sigma_rule = SolverOptions {
+        step_tolerance: 0.0,
+        ..options(Method::GaussNewton)
+    };
+    let ended = solve(&problem, start.clone(), &sigma_rule, &mut |_| {});
+    let tight = SolverOptions {
+        step_tolerance: 1e-14,
+        sigma_tolerance: 0.0,
+        ..options(Method::GaussNewton)
+    };
+    let minimum = solve(&problem, start, &tight, &mut |_| {});
+    assert_eq!(ended.status, Status::Converged);
+    assert_eq!(minimum.status, Status::Converged);
+    let last = ended.history.last().unwrap();
+    assert!(last.step_sigmas < SIGMA_TOLERANCE, "{}", last.step_sigmas);
+    let cov = minimum.covariance.as_ref().expect("covariance");
+    let mut worst: f64 = 0.0;
+    for j in 0..cov.nrows() {
+        let z = (ended.state.global[j] - minimum.state.global[j]) / cov[(j, j)].sqrt();
+        worst = worst.max(z.abs());
+    }
+    let sigmas = minimum.group_sigmas.as_ref().expect("group sigmas");
+    for ((a, b), s) in ended
+        .state
+        .groups
+        .iter()
+        .zip(&minimum.state.groups)
+        .zip(sigmas)
+    {
+        for j in 0..3 {
+            worst = worst.max(((a[j] - b[j]) / s[j]).abs());
+        }
+    }
+    println!(
+        "sigma rule: {} records, last step {:.2e} sigma; tight: {} records; worst |Δ|/σ {worst:.2e}",
+        ended.history.len(),
+        last.step_sigmas,
+        minimum.history.len()
+    );
+    assert!(ended.history.len() < minimum.history.len());
+    assert!(worst < SIGMA_TOLERANCE, "{worst}");
+}
+
 #[test]
 fn gauss_newton_converges_without_point_unknowns() {
     let spec = Spec {
@@ -172,7 +234,13 @@ fn levenberg_marquardt_converges_where_gauss_newton_diverges() {
     let (problem, truth) = touches(spec);
     let good_start = perturb(&truth, 1, 0.01, 0.02, 0.1);
     let bad_start = perturb(&truth, 1, 0.1, 0.1, 1.0);
-    let (reference, _) = run(&problem, &good_start, Method::GaussNewton);
+    // The minimum to the step tolerance, as Levenberg–Marquardt reaches it
+    // (the sigma rule would end Gauss–Newton up to 1e-3 sigma short).
+    let to_step_tolerance = SolverOptions {
+        sigma_tolerance: 0.0,
+        ..options(Method::GaussNewton)
+    };
+    let reference = solve(&problem, good_start, &to_step_tolerance, &mut |_| {});
     assert_eq!(reference.status, Status::Converged);
 
     let (gn, gn_seen) = run(&problem, &bad_start, Method::GaussNewton);

@@ -130,6 +130,7 @@ fn an_error_added_to_a_reading_moves_the_solution_by_the_shift() {
         let (problem, truth) = tied(noise);
         let options = SolverOptions {
             step_tolerance: 1e-14,
+            sigma_tolerance: 0.0,
             groups_per_chunk: 2,
             ..SolverOptions::default()
         };

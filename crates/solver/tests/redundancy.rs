@@ -7,7 +7,7 @@ mod common;
 use std::time::Instant;
 
 use common::{Spec, couple, distances, perturb, touches};
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, SVector};
 use parcal_solver::{
     PointRows, Problem, Redundancy, SolverOptions, State, Status, dense_reference, linear_step,
     normalised_residual, redundancy, solve,
@@ -16,12 +16,12 @@ use parcal_solver::{
 const TOL: f64 = 1e-9;
 
 /// The covariance of the global block at `state` (`solve` without
-/// iterations evaluates it there).
-fn covariance<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
+/// iterations evaluates it there), and the groups' sigmas of that solve.
+fn evaluated<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
     state: &State<C, P>,
     groups_per_chunk: usize,
-) -> DMatrix<f64> {
+) -> (DMatrix<f64>, Vec<SVector<f64, C>>) {
     let options = SolverOptions {
         max_iterations: 0,
         groups_per_chunk,
@@ -29,17 +29,27 @@ fn covariance<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, 
     };
     let solution = solve(problem, state.clone(), &options, &mut |_| {});
     assert_eq!(solution.status, Status::IterationLimit);
-    solution.covariance.expect("covariance")
+    let sigmas = solution.group_sigmas.expect("group sigmas");
+    (solution.covariance.expect("covariance"), sigmas)
+}
+
+/// The covariance of the global block at `state`.
+fn covariance<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
+    problem: &Pr,
+    state: &State<C, P>,
+    groups_per_chunk: usize,
+) -> DMatrix<f64> {
+    evaluated(problem, state, groups_per_chunk).0
 }
 
 /// What the redundancy pass gives: every point's rows, in order, and the
 /// rest.
-struct Numbers<const R: usize> {
+struct Numbers<const C: usize, const R: usize> {
     points: Vec<PointRows<R>>,
-    rest: Redundancy,
+    rest: Redundancy<C>,
 }
 
-impl<const R: usize> Numbers<R> {
+impl<const C: usize, const R: usize> Numbers<C, R> {
     /// `Σ r_j` over the data and global observation rows, which equals
     /// `m_data + m_obs − n + prior_leverage.total()` (up to rounding).
     fn total(&self) -> f64 {
@@ -55,7 +65,7 @@ fn numbers<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
     covariance: &DMatrix<f64>,
     caches: &mut Vec<Pr::PointCache>,
     groups_per_chunk: usize,
-) -> Result<Numbers<R>, Status> {
+) -> Result<Numbers<C, R>, Status> {
     let mut points = Vec::new();
     let rest = redundancy(problem, state, covariance, caches, groups_per_chunk, |p| {
         points.push(*p)
@@ -86,9 +96,11 @@ fn dense_leverage<const C: usize, const P: usize>(
 fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
     state: &State<C, P>,
-) -> Numbers<R> {
-    let cov = covariance(problem, state, 2);
+) -> Numbers<C, R> {
+    let (cov, sigmas) = evaluated(problem, state, 2);
     let ours = numbers(problem, state, &cov, &mut Vec::new(), 2).expect("redundancy");
+    // The groups' sigmas of the same pass are the solve's own.
+    assert_eq!(ours.rest.group_sigmas, sigmas);
     let dense = dense_reference::solve(problem, state, 0.0).expect("dense reference");
     let h = dense_leverage(&dense);
     let n_points = state.points.len();
@@ -254,6 +266,7 @@ fn normalised_residuals_have_unit_variance_at_the_solution() {
     let options = SolverOptions {
         groups_per_chunk: 4,
         step_tolerance: 1e-14,
+        sigma_tolerance: 0.0,
         ..SolverOptions::default()
     };
     let (problem, truth) = touches(spec);
@@ -317,7 +330,12 @@ fn normalised_residuals_have_unit_variance_at_the_solution() {
 /// `w²` of independent standard normals has mean 1 and variance 2; the
 /// cost is a χ² with mean `dof` and variance `2 dof`. Five standard
 /// deviations either way.
-fn check_unit_variance<const R: usize>(name: &str, w2: &[f64], cost: f64, ours: &Numbers<R>) {
+fn check_unit_variance<const C: usize, const R: usize>(
+    name: &str,
+    w2: &[f64],
+    cost: f64,
+    ours: &Numbers<C, R>,
+) {
     let n = w2.len() as f64;
     let mean = w2.iter().sum::<f64>() / n;
     let dof = ours.total();
@@ -344,7 +362,7 @@ fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .install(f)
 }
 
-fn bits<const R: usize>(r: &Numbers<R>) -> Vec<u64> {
+fn bits<const C: usize, const R: usize>(r: &Numbers<C, R>) -> Vec<u64> {
     let mut v: Vec<u64> = r
         .points
         .iter()
@@ -354,6 +372,12 @@ fn bits<const R: usize>(r: &Numbers<R>) -> Vec<u64> {
     v.extend(r.rest.global_observations.iter().map(|x| x.to_bits()));
     let p = r.rest.prior_leverage;
     v.extend([p.points, p.groups, p.global].map(f64::to_bits));
+    v.extend(
+        r.rest
+            .group_sigmas
+            .iter()
+            .flat_map(|s| s.iter().map(|x| x.to_bits())),
+    );
     v
 }
 

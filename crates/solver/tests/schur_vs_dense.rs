@@ -5,8 +5,8 @@ mod common;
 
 use common::{G, Spec, couple, distances, flatten, perturb, rel_diff, touches};
 use parcal_solver::{
-    CAUCHY_K, HUBER_K, Loss, Problem, SolverOptions, State, Status, dense_reference, linear_step,
-    solve,
+    CAUCHY_K, HUBER_K, Loss, Method, Problem, SolverOptions, State, Status, dense_reference,
+    linear_step, reduced_step, solve,
 };
 
 const TOL: f64 = 1e-9;
@@ -43,6 +43,44 @@ fn compare_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P
     assert!(diff < TOL, "step differs: {diff:e}");
     assert!(pred_diff < TOL, "predicted decrease differs: {pred_diff:e}");
     assert!(cost_diff < 1e-12, "cost differs: {cost_diff:e}");
+    if lambda == 0.0 && problem.loss().is_squared() {
+        // The reduced system alone gives the same global step and the
+        // minimum of the linearised cost, `cost − predicted decrease` (of
+        // least squares: a robust loss's is that of the reweighted rows).
+        let reduced = reduced_step(problem, state, &mut Vec::new(), 2).expect("reduced step");
+        assert_eq!(reduced.global, schur.delta.global);
+        let minimum = dense.cost - dense_pred;
+        // Relative to the cost: what is subtracted to reach the minimum.
+        let minimum_diff = (reduced.minimum - minimum).abs() / dense.cost;
+        println!(
+            "minimum {:.9e} vs {minimum:.9e} (rel {minimum_diff:.1e})",
+            reduced.minimum
+        );
+        assert!(minimum_diff < TOL, "minimum differs: {minimum_diff:e}");
+    }
+    // The step in standard deviations, √(δᵀHδ) with the undamped H, as
+    // the solver records it.
+    let method = if lambda == 0.0 {
+        Method::GaussNewton
+    } else {
+        Method::LevenbergMarquardt {
+            initial_lambda: lambda,
+        }
+    };
+    let options = SolverOptions {
+        method,
+        max_iterations: 1,
+        groups_per_chunk: 2,
+        ..SolverOptions::default()
+    };
+    let one = solve(problem, state.clone(), &options, &mut |_| {});
+    let jd = &dense.jacobian * dense.columns.vector(&dense.step);
+    let sigmas = (0..jd.nrows())
+        .map(|r| jd[(r, 0)] * jd[(r, 0)])
+        .sum::<f64>()
+        .sqrt();
+    let sigmas_diff = (one.history[0].step_sigmas - sigmas).abs() / sigmas;
+    assert!(sigmas_diff < TOL, "step in sigmas differs: {sigmas_diff:e}");
     diff
 }
 

@@ -147,6 +147,7 @@ pub fn calibrate_instruments(
         method: options.method,
         max_iterations: options.max_iterations,
         step_tolerance: options.step_tolerance,
+        sigma_tolerance: options.sigma_tolerance,
         time_limit: options.time_limit,
         ..SolverOptions::default()
     };
@@ -164,17 +165,20 @@ pub fn calibrate_instruments(
                 .map(ObservationId::Pose)
                 .chain((0..tracker.points.len()).map(ObservationId::Point))
                 .collect();
-            Some(Reliability::new(
-                &problem,
-                &solution.state,
-                covariance,
-                &mut Vec::new(),
-                solver_options.groups_per_chunk,
-                &[],
-                &observations,
-                last.prior_cost,
-                n_rows - problem.rows.len(),
-            )?)
+            Some(
+                Reliability::new(
+                    &problem,
+                    &solution.state,
+                    covariance,
+                    &mut Vec::new(),
+                    solver_options.groups_per_chunk,
+                    &[],
+                    &observations,
+                    last.prior_cost,
+                    n_rows - problem.rows.len(),
+                )?
+                .0,
+            )
         }
         _ => None,
     };

@@ -207,9 +207,10 @@ fn seconds(text: &str) -> Result<Duration, String> {
 /// One iteration on the progress bar.
 fn step(progress: &Progress, record: &IterationRecord, started: Instant) {
     progress.step(&format!(
-        "cost {:.6e}, step {:.3e} ({:.2} s)",
+        "cost {:.6e}, step {:.3e} ({:.2e} sigma) ({:.2} s)",
         record.cost,
         record.step_norm,
+        record.step_sigmas,
         started.elapsed().as_secs_f64()
     ))
 }
