@@ -22,13 +22,9 @@ use parcal_workflows::evaluate::TrueMachine;
 pub const SNAPSHOT_FILE: &str = "dataset.bin";
 
 /// Reads a dataset: a directory of text files, or a binary snapshot file
-/// (`*.bin`). A directory holding a snapshot is read from the text files.
+/// (`*.bin`) ([`parcal::command::read_dataset`]).
 pub fn read_dataset(path: &Path) -> anyhow::Result<Dataset> {
-    Ok(if path.is_file() {
-        Dataset::read_snapshot(path)?
-    } else {
-        Dataset::read(path)?
-    })
+    Ok(parcal::command::read_dataset(path)?)
 }
 
 /// A calibration that was computed and written, but whose verdict is
@@ -123,11 +119,10 @@ pub fn write_calibration(
     out: &Path,
     report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
-    record.provenance = Some(parcal_dataset::Provenance {
-        parcal_version: env!("CARGO_PKG_VERSION").to_string(),
-        dataset: path.display().to_string(),
-        dataset_checksum: dataset.checksum(),
-    });
+    record.provenance = Some(parcal::command::provenance(
+        dataset,
+        &path.display().to_string(),
+    ));
     let destination = calibration_destination(&record, out);
     // The calibration and its report: all new, or all as they were.
     parcal_dataset::atomic::write_set(&[], || -> anyhow::Result<()> {
