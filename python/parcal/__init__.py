@@ -19,18 +19,16 @@ from ._parcal import (
     Error,
     __version__,
     calibrate,
+    simulate,
+    validate,
 )
-
 
 __all__ = [
     "Calibration",
     "Dataset",
     "Error",
     "__version__",
-    "accuracy",
     "calibrate",
-    "compensate",
-    "plan",
     "simulate",
     "validate",
 ]

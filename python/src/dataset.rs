@@ -40,6 +40,16 @@ pub struct Dataset {
     pub given: String,
 }
 
+impl Dataset {
+    /// `inner`, made in memory.
+    pub fn in_memory(inner: parcal::Dataset) -> Self {
+        Self {
+            inner,
+            given: IN_MEMORY.to_string(),
+        }
+    }
+}
+
 #[pymethods]
 impl Dataset {
     #[new]
@@ -77,16 +87,13 @@ impl Dataset {
                 position,
             };
         }
-        Ok(Self {
-            inner: parcal::Dataset {
-                machine,
-                artefacts,
-                measurements,
-                tracker,
-                truth: None,
-            },
-            given: IN_MEMORY.to_string(),
-        })
+        Ok(Self::in_memory(parcal::Dataset {
+            machine,
+            artefacts,
+            measurements,
+            tracker,
+            truth: None,
+        }))
     }
 
     /// Reads the dataset at `path`: a directory of files, or a binary

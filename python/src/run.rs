@@ -105,6 +105,13 @@ impl Calibration {
     }
 }
 
+impl Calibration {
+    /// calibration.json's content.
+    pub fn record(&self) -> &parcal::Calibration {
+        &self.record
+    }
+}
+
 #[pymethods]
 impl Calibration {
     /// `"accepted"` or `"rejected"`.

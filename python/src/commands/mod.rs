@@ -1,10 +1,14 @@
 //! The commands besides `calibrate`, each calling what `parcal COMMAND`
-//! calls, with numpy arrays where the command writes CSV.
+//! calls.
+
+mod simulate;
+mod validate;
 
 use pyo3::prelude::*;
 
 /// Adds the commands' functions to module `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    let _ = m;
+    m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     Ok(())
 }

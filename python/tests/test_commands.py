@@ -1,0 +1,48 @@
+"""parcal.simulate and parcal.validate against the parcal binary."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+import parcal
+from conftest import ROOT
+
+
+def test_simulate_makes_the_dataset_of_the_cli(tmp_path, cli):
+    cli("simulate", "--seed", 3, "--balls", 40, "--points-per-ball", 5, "--tilt", 15, "--out", tmp_path / "cli")
+    mine = parcal.simulate(3, balls=40, points_per_ball=5, tilt=15)
+    theirs = parcal.Dataset.read(tmp_path / "cli")
+    assert mine.checksum == theirs.checksum
+    assert mine.contacts == 200 and np.array_equal(mine.q, theirs.q)
+    with pytest.raises(parcal.Error, match=r"tilt must be in \[0, 90\) degrees, got 90"):
+        parcal.simulate(1, tilt=90)
+
+
+def validation_json(path):
+    record = json.loads(path.read_text())
+    del record["format"]
+    return record
+
+
+def test_validate_a_calibration_of_touches_as_the_cli(paper, cli):
+    calibration = paper.parent / "calibration.json"
+    cli("calibrate", paper, "--out", calibration)
+    cli("validate", paper, "--calibration", calibration, "--reference", 4, "--out", paper.parent / "v.json")
+    dataset = parcal.Dataset.read(paper)
+    mine = parcal.validate(dataset, calibration=str(calibration), reference=4)
+    assert mine == validation_json(paper.parent / "v.json")
+    assert mine["verdict"] in ("accepted", "rejected")
+    with pytest.raises(parcal.Error, match="give calibration or folds"):
+        parcal.validate(dataset)
+
+
+def test_cross_validate_jugglebot_as_the_cli(tmp_path, cli):
+    path = tmp_path / "jugglebot"
+    shutil.copytree(ROOT / "fixtures" / "jugglebot", path)
+    cli("validate", path, "--folds", 3, "--out", tmp_path / "v.json")
+    mine = parcal.validate(parcal.Dataset.read(path), folds=3)
+    assert mine == validation_json(tmp_path / "v.json")
+    with pytest.raises(parcal.Error, match=r"folds 1: must be a whole number"):
+        parcal.validate(parcal.Dataset.read(path), folds=1)
