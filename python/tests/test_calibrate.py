@@ -150,3 +150,15 @@ def test_a_python_thread_runs_while_a_calibration_runs(medium):
         sys.setswitchinterval(interval)
     assert run.converged
     assert during > 0
+
+
+def test_jugglebot_poses_give_the_calibration_json_of_the_cli(tmp_path, cli):
+    from conftest import ROOT
+
+    path = tmp_path / "jugglebot"
+    __import__("shutil").copytree(ROOT / "fixtures" / "jugglebot", path)
+    cli("calibrate", path, "--out", tmp_path / "cli.json")
+    run = parcal.calibrate(parcal.Dataset.read(str(path)))
+    assert run.to_json() == (tmp_path / "cli.json").read_text()
+    assert run.leg_residuals.shape == (108, 6) and run.point_residuals.shape == (0, 3)
+    assert set(run.observations["kind"]) == {"pose"}
