@@ -67,11 +67,22 @@ impl Dataset {
         let measurements = measurements(&artefacts, ball, q, direction)?;
         let mut tracker = Tracker::default();
         if let Some(poses) = poses {
-            let (session, q, position) = instrument_rows(poses, "poses", &mut tracker.sessions)?;
+            let Points {
+                session,
+                q,
+                position,
+            } = instrument_rows(poses, "poses", &mut tracker.sessions)?;
             let orientation = rows::<4>(
                 &required(poses, "poses", "orientation")?,
                 "poses[\"orientation\"]",
             )?;
+            if orientation.len() != q.len() {
+                return Err(to_py(format!(
+                    "poses: orientation has {} rows and q {}: one of each per row",
+                    orientation.len(),
+                    q.len()
+                )));
+            }
             tracker.poses = Poses {
                 session,
                 q,
@@ -80,12 +91,7 @@ impl Dataset {
             };
         }
         if let Some(points) = points {
-            let (session, q, position) = instrument_rows(points, "points", &mut tracker.sessions)?;
-            tracker.points = Points {
-                session,
-                q,
-                position,
-            };
+            tracker.points = instrument_rows(points, "points", &mut tracker.sessions)?;
         }
         Ok(Self::in_memory(parcal::Dataset {
             machine,
@@ -327,12 +333,12 @@ fn required<'py>(dict: &Bound<'py, PyDict>, what: &str, key: &str) -> PyResult<B
 
 /// The rows of poses or points (`what`): each row's session (its label
 /// numbered in `sessions`, in order of first appearance), readings and
-/// position.
+/// position (the poses' orientations apart).
 fn instrument_rows(
     dict: &Bound<'_, PyDict>,
     what: &str,
     sessions: &mut Vec<String>,
-) -> PyResult<(Vec<u32>, Vec<[f64; 6]>, Vec<[f64; 3]>)> {
+) -> PyResult<Points> {
     let q = rows::<6>(&required(dict, what, "q")?, &format!("{what}[\"q\"]"))?;
     let position = rows::<3>(
         &required(dict, what, "position")?,
@@ -366,7 +372,11 @@ fn instrument_rows(
             u32::try_from(k).map_err(to_py)
         })
         .collect::<PyResult<_>>()?;
-    Ok((session, q, position))
+    Ok(Points {
+        session,
+        q,
+        position,
+    })
 }
 
 /// Rows of poses or points as a dict of their session labels and arrays.

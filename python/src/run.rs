@@ -74,9 +74,17 @@ pub struct Calibration {
     record: parcal::Calibration,
     /// Every observation's test.
     tests: ObservationTests,
-    /// A calibration of poses and points alone: each pose's leg-length
-    /// residuals and each point's residual at the identified state (mm).
-    instrument_residuals: Option<(Vec<[f64; 6]>, Vec<[f64; 3]>)>,
+    /// A calibration of poses and points alone: its residuals.
+    instrument_residuals: Option<InstrumentResiduals>,
+}
+
+/// The residuals of a calibration of poses and points alone at the
+/// identified state (mm).
+struct InstrumentResiduals {
+    /// Each pose's leg-length residuals.
+    legs: Vec<[f64; 6]>,
+    /// Each point's residual.
+    points: Vec<[f64; 3]>,
 }
 
 impl Calibration {
@@ -88,13 +96,14 @@ impl Calibration {
         } = recorded;
         record.provenance = Some(provenance);
         let instrument_residuals = match run {
-            FittedRun::Instruments(run) => Some((
-                run.leg_residuals,
-                run.point_residuals
+            FittedRun::Instruments(run) => Some(InstrumentResiduals {
+                legs: run.leg_residuals,
+                points: run
+                    .point_residuals
                     .iter()
                     .map(|r| [r.x, r.y, r.z])
                     .collect(),
-            )),
+            }),
             FittedRun::Touches(_) => None,
         };
         Self {
@@ -245,7 +254,7 @@ impl Calibration {
     fn leg_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.instrument_residuals
             .as_ref()
-            .map(|(legs, _)| array2(py, legs))
+            .map(|r| array2(py, &r.legs))
     }
 
     /// A calibration of poses and points alone: each point's residual
@@ -254,7 +263,7 @@ impl Calibration {
     fn point_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.instrument_residuals
             .as_ref()
-            .map(|(_, points)| array2(py, points))
+            .map(|r| array2(py, &r.points))
     }
 
     /// calibration.json's content as a dict.
