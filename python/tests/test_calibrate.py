@@ -162,3 +162,18 @@ def test_jugglebot_poses_give_the_calibration_json_of_the_cli(tmp_path, cli):
     assert run.to_json() == (tmp_path / "cli.json").read_text()
     assert run.leg_residuals.shape == (108, 6) and run.point_residuals.shape == (0, 3)
     assert set(run.observations["kind"]) == {"pose"}
+
+
+def test_poses_built_in_memory_give_the_values_of_the_files(tmp_path):
+    from conftest import ROOT
+
+    path = ROOT / "fixtures" / "jugglebot"
+    table = np.loadtxt(path / "poses.csv", delimiter=",", skiprows=1)
+    machine = json.loads((path / "machine.json").read_text())
+    poses = {"q": table[:, 0:6], "position": table[:, 6:9], "orientation": table[:, 9:13]}
+    dataset = parcal.Dataset(machine, poses=poses)
+    assert dataset.checksum == parcal.Dataset.read(path).checksum
+    assert np.array_equal(parcal.calibrate(dataset).values, parcal.calibrate(parcal.Dataset.read(path)).values)
+    poses["orientation"] = table[:-1, 9:13]
+    with pytest.raises(parcal.Error, match="poses: orientation has 107 rows and q 108"):
+        parcal.Dataset(machine, poses=poses)
