@@ -19,6 +19,7 @@ from ._parcal import (
     Error,
     __version__,
     calibrate,
+    compensate,
     simulate,
     validate,
 )
@@ -29,6 +30,7 @@ __all__ = [
     "Error",
     "__version__",
     "calibrate",
+    "compensate",
     "simulate",
     "validate",
 ]

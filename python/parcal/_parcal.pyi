@@ -197,3 +197,15 @@ def validate(
     """Validates ``dataset`` as ``parcal validate`` does (a calibration
     applied to it, or its K-fold cross-validation); returns
     validation.json's content."""
+
+def compensate(
+    calibration: Union[Calibration, PathLike],
+    targets: npt.ArrayLike,
+    *,
+    nominal: bool = False,
+    accept_rejected: bool = False,
+) -> dict[str, FloatArray]:
+    """The actuator commands that bring the tool tip to each target (n x 6:
+    x, y, z mm, roll, pitch, yaw rad, design frame), as ``parcal
+    compensate`` computes them: a dict of ``q`` (n x 6), ``conditioning``
+    (n) and ``corrected_poses`` (n x 6)."""

@@ -46,3 +46,19 @@ def test_cross_validate_jugglebot_as_the_cli(tmp_path, cli):
     assert mine == validation_json(tmp_path / "v.json")
     with pytest.raises(parcal.Error, match=r"folds 1: must be a whole number"):
         parcal.validate(parcal.Dataset.read(path), folds=1)
+
+
+def test_compensate_gives_the_commands_of_the_cli(paper, cli, tmp_path):
+    calibration = tmp_path / "calibration.json"
+    cli("calibrate", paper, "--out", calibration)
+    targets = np.array([[10.0 * k, -5.0 * k, 400.0 + k, 0.01 * k, -0.02, 0.005 * k] for k in range(5)])
+    np.savetxt(tmp_path / "targets.csv", targets, delimiter=",", header="x,y,z,roll,pitch,yaw", comments="", fmt="%.17g")
+    cli("compensate", "--calibration", calibration, "--poses", tmp_path / "targets.csv",
+        "--out", tmp_path / "q.csv", "--corrected-poses", tmp_path / "corrected.csv")
+    mine = parcal.compensate(str(calibration), targets)
+    assert np.array_equal(mine["q"], np.loadtxt(tmp_path / "q.csv", delimiter=",", skiprows=1))
+    assert np.array_equal(mine["corrected_poses"], np.loadtxt(tmp_path / "corrected.csv", delimiter=",", skiprows=1))
+    assert np.all((mine["conditioning"] > 0) & (mine["conditioning"] <= 1))
+    targets[3, 2] = 5000.0
+    with pytest.raises(parcal.Error, match=r"target row 3: "):
+        parcal.compensate(parcal.calibrate(parcal.Dataset.read(paper)), targets)

@@ -1,17 +1,15 @@
 //! `parcal.validate`: a calibration applied to data it was not fitted on,
 //! or a dataset's cross-validation, as `parcal validate` makes them.
 
-use std::path::PathBuf;
-
 use parcal::calibration::bounds::{FOLDS, REFERENCE};
 use parcal::calibration::touch_validation::validate_touches;
 use parcal::{Calibrated, CalibrationOptions, cross_validate, validate_calibration};
 use pyo3::prelude::*;
 
+use super::calibration_record;
 use crate::convert::to_python;
 use crate::dataset::Dataset;
 use crate::error::to_py;
-use crate::run::Calibration;
 
 /// Validates `dataset` as `parcal validate` does, and returns what it
 /// writes to validation.json (a dict with its `verdict` and `reasons`).
@@ -38,20 +36,7 @@ pub fn validate<'py>(
     }
     let (validation, name) = match (calibration, folds) {
         (Some(calibration), None) => {
-            let (record, name) = match calibration.cast::<Calibration>() {
-                Ok(run) => (run.get().record().clone(), "(in memory)".to_string()),
-                Err(_) => {
-                    let path: PathBuf = calibration.extract()?;
-                    let record = parcal::Calibration::read(&path).map_err(to_py)?;
-                    (record, path.display().to_string())
-                }
-            };
-            if record.is_rejected() && !accept_rejected {
-                return Err(to_py(format!(
-                    "{name}: the calibration was rejected ({}); give accept_rejected=True to use it anyway",
-                    record.reasons.join("; ")
-                )));
-            }
+            let (record, name) = calibration_record(calibration, accept_rejected)?;
             let validation = py.detach(|| {
                 if dataset.tracker.is_empty() {
                     validate_touches(dataset, &record, reference)
