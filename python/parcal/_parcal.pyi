@@ -209,3 +209,14 @@ def compensate(
     x, y, z mm, roll, pitch, yaw rad, design frame), as ``parcal
     compensate`` computes them: a dict of ``q`` (n x 6), ``conditioning``
     (n) and ``corrected_poses`` (n x 6)."""
+
+def accuracy(
+    dataset: Dataset,
+    calibration: Union[Calibration, PathLike, None] = None,
+    *,
+    accept_rejected: bool = False,
+    other_data: bool = False,
+) -> dict[str, Any]:
+    """The accuracy maps ``parcal accuracy`` writes to accuracy.csv: ``x``,
+    ``y`` (mm), ``z``, and each map (``before_predicted_absolute``, ...,
+    ``after_true_registered``) as a ``len(y) x len(x)`` array (mm)."""

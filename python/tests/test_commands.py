@@ -62,3 +62,22 @@ def test_compensate_gives_the_commands_of_the_cli(paper, cli, tmp_path):
     targets[3, 2] = 5000.0
     with pytest.raises(parcal.Error, match=r"target row 3: "):
         parcal.compensate(parcal.calibrate(parcal.Dataset.read(paper)), targets)
+
+
+def test_accuracy_gives_the_maps_of_the_cli(paper, cli, tmp_path):
+    calibration = tmp_path / "calibration.json"
+    cli("calibrate", paper, "--out", calibration)
+    cli("accuracy", paper, "--calibration", calibration, "--out", tmp_path / "maps")
+    with open(tmp_path / "maps" / "accuracy.csv") as f:
+        header = f.readline().strip().split(",")
+    table = np.loadtxt(tmp_path / "maps" / "accuracy.csv", delimiter=",", skiprows=1)
+    mine = parcal.accuracy(parcal.Dataset.read(paper), str(calibration))
+    assert np.array_equal(np.meshgrid(mine["x"], mine["y"])[0].ravel(), table[:, 0])
+    for k, column in enumerate(header[2:], start=2):
+        assert np.array_equal(mine[column.removesuffix("_mm")].ravel(), table[:, k]), column
+    other = parcal.simulate(5)
+    with pytest.raises(parcal.Error, match=r"the calibration is of another dataset"):
+        parcal.accuracy(other, str(calibration))
+    assert set(parcal.accuracy(other)) == {"x", "y", "z"} | {
+        f"before_{m}_{k}" for m in ("predicted", "true") for k in ("absolute", "registered")
+    }

@@ -23,7 +23,8 @@
 //! - [`report`]: presentation (calibration.json's records in words,
 //!   tables, maps);
 //! - [`command`]: a calibration as `parcal calibrate` makes it, with
-//!   calibration.json's record, for every front end.
+//!   calibration.json's record, for every front end;
+//! - [`maps`]: the accuracy maps as `parcal accuracy` makes them.
 //!
 //! # Example
 //!
@@ -107,6 +108,7 @@ pub use parcal_report as report;
 pub use parcal_simulate as simulation;
 
 pub mod command;
+pub mod maps;
 
 // The data: a dataset in memory, its files, a calibration's record.
 pub use parcal_dataset::{

@@ -1,6 +1,7 @@
 //! The commands besides `calibrate`, each calling what `parcal COMMAND`
 //! calls.
 
+mod accuracy;
 mod compensate;
 mod simulate;
 mod validate;
@@ -14,6 +15,7 @@ use crate::run::Calibration;
 
 /// Adds the commands' functions to module `m`.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(accuracy::accuracy, m)?)?;
     m.add_function(wrap_pyfunction!(compensate::compensate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
