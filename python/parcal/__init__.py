@@ -21,6 +21,7 @@ from ._parcal import (
     accuracy,
     calibrate,
     compensate,
+    plan,
     simulate,
     validate,
 )
@@ -33,6 +34,7 @@ __all__ = [
     "accuracy",
     "calibrate",
     "compensate",
+    "plan",
     "simulate",
     "validate",
 ]

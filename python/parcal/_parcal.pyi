@@ -220,3 +220,23 @@ def accuracy(
     """The accuracy maps ``parcal accuracy`` writes to accuracy.csv: ``x``,
     ``y`` (mm), ``z``, and each map (``before_predicted_absolute``, ...,
     ``after_true_registered``) as a ``len(y) x len(x)`` array (mm)."""
+
+def plan(
+    dataset: Dataset,
+    contacts: int,
+    tilt: float,
+    *,
+    criterion: Literal["registered", "d", "a", "g"] = "registered",
+    pool: int = 20000,
+    seed: int = 1,
+    per_ball: Optional[int] = None,
+    min_balls: Optional[int] = None,
+    restarts: int = 1,
+    max_approach: Optional[float] = None,
+    radius: Optional[Literal["ball", "contact"]] = None,
+    after: Union[Calibration, PathLike, None] = None,
+) -> dict[str, Any]:
+    """The ball touches ``parcal plan`` chooses for the same options: a dict
+    of ``ball`` (ids), ``direction`` (n x 3), ``angles`` (n x 3: roll,
+    pitch, yaw), ``q`` (n x 6), and ``prior``, ``predicted``,
+    ``pool_size``, ``stroke``."""

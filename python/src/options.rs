@@ -84,7 +84,7 @@ fn typed<'a, 'py, T: FromPyObject<'a, 'py>>(
 
 /// `value` as one of the values of a `T`, named as the command names them
 /// (case ignored).
-fn choice<T: ValueEnum>(name: &str, value: &Bound<'_, PyAny>) -> PyResult<T> {
+pub fn choice<T: ValueEnum>(name: &str, value: &Bound<'_, PyAny>) -> PyResult<T> {
     let text: String = typed(name, value, "a string")?;
     T::from_str(&text, true).map_err(|_| {
         let names: Vec<String> = T::value_variants()

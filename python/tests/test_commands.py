@@ -81,3 +81,16 @@ def test_accuracy_gives_the_maps_of_the_cli(paper, cli, tmp_path):
     assert set(parcal.accuracy(other)) == {"x", "y", "z"} | {
         f"before_{m}_{k}" for m in ("predicted", "true") for k in ("absolute", "registered")
     }
+
+
+def test_plan_chooses_the_touches_of_the_cli(paper, cli, tmp_path):
+    cli("plan", paper, "--contacts", 40, "--tilt", 20, "--pool", 1000, "--out", tmp_path / "plan.csv")
+    table = np.loadtxt(tmp_path / "plan.csv", delimiter=",", skiprows=1, usecols=range(1, 13))
+    balls = np.loadtxt(tmp_path / "plan.csv", delimiter=",", skiprows=1, usecols=0, dtype=str)
+    summary = json.loads((tmp_path / "plan.json").read_text())
+    mine = parcal.plan(parcal.Dataset.read(paper), 40, 20, pool=1000)
+    assert mine["ball"] == list(balls)
+    assert np.array_equal(np.hstack([mine["direction"], mine["angles"], mine["q"]]), table)
+    assert mine["predicted"] == summary["predicted"] and mine["pool_size"] == summary["pool_size"]
+    with pytest.raises(parcal.Error, match=r'criterion: "e" is not one of registered, d, a, g'):
+        parcal.plan(parcal.Dataset.read(paper), 40, 20, criterion="e")

@@ -3,6 +3,7 @@
 
 mod accuracy;
 mod compensate;
+mod plan;
 mod simulate;
 mod validate;
 
@@ -17,6 +18,7 @@ use crate::run::Calibration;
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(accuracy::accuracy, m)?)?;
     m.add_function(wrap_pyfunction!(compensate::compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     Ok(())
