@@ -19,7 +19,12 @@
 //! - [`kinematics`]: geometry, inverse and forward kinematics, the 33
 //!   canonical parameters;
 //! - [`apply`]: applying a calibration (commands, corrected poses, exports;
-//!   docs/apply.md).
+//!   docs/apply.md);
+//! - [`report`]: presentation (calibration.json's records in words,
+//!   tables, maps);
+//! - [`command`]: a calibration as `parcal calibrate` makes it, with
+//!   calibration.json's record, for every front end;
+//! - [`maps`]: the accuracy maps as `parcal accuracy` makes them.
 //!
 //! # Example
 //!
@@ -99,7 +104,11 @@ pub use parcal_calibrate as calibration;
 pub use parcal_dataset as dataset;
 pub use parcal_kinematics as kinematics;
 pub use parcal_plan as plan;
+pub use parcal_report as report;
 pub use parcal_simulate as simulation;
+
+pub mod command;
+pub mod maps;
 
 // The data: a dataset in memory, its files, a calibration's record.
 pub use parcal_dataset::{

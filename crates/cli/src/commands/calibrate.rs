@@ -6,16 +6,17 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use parcal_accuracy::MapGrid;
-use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
-use parcal_calibrate::instruments::calibrate_instruments;
-use parcal_calibrate::snooping::{calibrate_instruments_with_snooping, calibrate_with_snooping};
-use parcal_calibrate::{
-    CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
-    PriorMode, RadiusModel, Simulation, WeightModel, bounds, calibrate,
+use parcal::command::{
+    CalibrateFlags, FittedRun, RecordedRun, calibrate_recorded, calibrates_instruments,
 };
-use parcal_dataset::{CALIBRATION_FILE, Dataset, MEASUREMENTS_FILE};
-use parcal_report::{instruments, record, tables};
+use parcal_accuracy::MapGrid;
+use parcal_calibrate::instruments::InstrumentRun;
+use parcal_calibrate::{
+    CalibrateError, CalibrationRun, IterationRecord, Loss, Observation, PriorMode, RadiusModel,
+    Simulation, WeightModel, bounds,
+};
+use parcal_dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE};
+use parcal_report::{instruments, tables};
 use parcal_workflows::evaluate::{TrueMachine, before_after};
 
 use super::{ReportRequest, report};
@@ -83,29 +84,20 @@ pub struct Args {
 }
 
 impl Args {
-    fn options(&self) -> CalibrationOptions {
-        let mut options = self
-            .sim
-            .map_or_else(CalibrationOptions::default, CalibrationOptions::simulation);
-        if let Some(observation) = self.observation {
-            options.observation = observation;
+    /// The flags that shape the calibration.
+    fn flags(&self) -> CalibrateFlags {
+        CalibrateFlags {
+            sim: self.sim,
+            observation: self.observation,
+            prior: self.prior,
+            weights: self.weights,
+            radius: self.radius,
+            lm: self.lm,
+            max_iterations: self.max_iterations,
+            time_limit: self.time_limit,
+            snoop: self.snoop,
+            loss: self.loss,
         }
-        if let Some(prior) = self.prior {
-            options.prior = prior;
-        }
-        options.weighting = self.weights;
-        if let Some(radius) = self.radius {
-            options.radius = radius;
-        }
-        if self.lm {
-            options = options.levenberg_marquardt();
-        }
-        options = options.with_loss(self.loss);
-        if let Some(limit) = self.max_iterations {
-            options.max_iterations = limit;
-        }
-        options.time_limit = self.time_limit;
-        options
     }
 }
 
@@ -113,7 +105,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(mechanism) = super::mechanism::declared(&args.dataset)? {
         return super::mechanism::calibrate(&mechanism, args.mechanism_options()?);
     }
-    let options = args.options();
+    let flags = args.flags();
+    let options = flags.options();
     let progress = Progress::bar("iteration", options.max_iterations as u64);
     let read = Instant::now();
     let mut dataset = super::read_dataset(&args.dataset)?;
@@ -122,79 +115,66 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     args.report_request(&out, None)
         .map(|request| request.check(&args.dataset, &out))
         .transpose()?;
+    let tracker = &dataset.tracker;
     // A simulation's true machine serves the evaluation, not the
     // calibration: keep it, and free the dataset's truth.json with its true
     // contact points (24 bytes per contact).
-    if !dataset.has_touches() && !dataset.tracker.is_empty() {
-        return run_instruments(args, &dataset, &options, progress, &out);
-    }
-    let truth = TrueMachine::of(&dataset)
-        .transpose()
-        .context("truth.json: the true geometry is degenerate")?;
-    dataset.truth = None;
-    progress.line(&format!(
-        "read {} contacts in {:.2} s",
-        dataset.measurements.q.len(),
-        read.elapsed().as_secs_f64()
-    ));
-    progress.line(&format!(
-        "calibrating {} contacts: {} observation, {} prior, radius error per {}, {} loss",
-        dataset.measurements.q.len(),
-        options.observation,
-        options.prior,
-        options.radius,
-        options.loss
-    ));
-    let tracker = &dataset.tracker;
-    if !tracker.is_empty() {
+    let truth = if calibrates_instruments(&dataset) {
         progress.line(&format!(
-            "  with {} poses and {} points in {} sessions",
+            "calibrating {} poses and {} points in {} sessions, {} prior",
             tracker.poses.len(),
             tracker.points.len(),
-            tracker.sessions.len()
+            tracker.sessions.len(),
+            options.prior
         ));
-    }
+        None
+    } else {
+        let truth = TrueMachine::of(&dataset)
+            .transpose()
+            .context("truth.json: the true geometry is degenerate")?;
+        progress.line(&format!(
+            "read {} contacts in {:.2} s",
+            dataset.measurements.q.len(),
+            read.elapsed().as_secs_f64()
+        ));
+        progress.line(&format!(
+            "calibrating {} contacts: {} observation, {} prior, radius error per {}, {} loss",
+            dataset.measurements.q.len(),
+            options.observation,
+            options.prior,
+            options.radius,
+            options.loss
+        ));
+        if !tracker.is_empty() {
+            progress.line(&format!(
+                "  with {} poses and {} points in {} sessions",
+                tracker.poses.len(),
+                tracker.points.len(),
+                tracker.sessions.len()
+            ));
+        }
+        dataset.truth = None;
+        truth
+    };
     let started = Instant::now();
     let observer = &mut |record: &IterationRecord| step(&progress, record, started);
-    let (run, record) = if args.snoop {
-        let snooped =
-            calibrate_with_snooping(&dataset, &options, SNOOPING_LEVEL, MAX_REMOVALS, observer)
-                .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = record::of_snooped_ball_run(&snooped, &dataset);
-        (snooped.run, record)
-    } else {
-        let run = calibrate(&dataset, &options, observer)
-            .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = record::of_ball_run(&run, &dataset);
-        (run, record)
-    };
-    let record = with_stroke_warning(record, &dataset);
+    let RecordedRun { run, record, .. } = calibrate_recorded(&dataset, &flags, observer)
+        .map_err(|error| in_dataset(error, &args.dataset))?;
     progress.finish();
     // A reader that closed stdout early does not hide a rejected
     // calibration.
     let report = args.report_request(&out, truth.as_ref());
-    let printed = print_results(
-        truth.as_ref(),
-        &run,
-        &record,
-        &super::calibration_destination(&record, &out),
-        report.as_ref(),
-    );
+    let destination = super::calibration_destination(&record, &out);
+    let printed = match &run {
+        FittedRun::Touches(run) => {
+            print_results(truth.as_ref(), run, &record, &destination, report.as_ref())
+        }
+        FittedRun::Instruments(run) => {
+            print_instruments(run, &record, &destination, report.as_ref())
+        }
+    };
     super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
     printed
-}
-
-/// `record` with a warning naming the dataset's first reading outside
-/// machine.json's stroke, if any (`Dataset::reading_outside_stroke`): it
-/// lands in calibration.json's warnings and the report.
-fn with_stroke_warning(
-    mut record: parcal_dataset::Calibration,
-    dataset: &Dataset,
-) -> parcal_dataset::Calibration {
-    record
-        .warnings
-        .extend(dataset.reading_outside_stroke().map(|o| o.to_string()));
-    record
 }
 
 /// A number of seconds, finite and not negative.
@@ -215,56 +195,24 @@ fn step(progress: &Progress, record: &IterationRecord, started: Instant) {
     ))
 }
 
-/// Calibrates measured poses and points: summary and parameter table on
-/// stdout, calibration.json.
-fn run_instruments(
-    args: &Args,
-    dataset: &Dataset,
-    options: &CalibrationOptions,
-    progress: Progress,
-    out: &Path,
+/// The summary and parameter table of a calibration of measured poses and
+/// points on stdout.
+fn print_instruments(
+    run: &InstrumentRun,
+    record: &parcal_dataset::Calibration,
+    calibration: &Path,
+    report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
-    let tracker = &dataset.tracker;
-    progress.line(&format!(
-        "calibrating {} poses and {} points in {} sessions, {} prior",
-        tracker.poses.len(),
-        tracker.points.len(),
-        tracker.sessions.len(),
-        options.prior
-    ));
-    let started = Instant::now();
-    let observer = &mut |record: &IterationRecord| step(&progress, record, started);
-    let (run, record) = if args.snoop {
-        let snooped = calibrate_instruments_with_snooping(
-            dataset,
-            options,
-            SNOOPING_LEVEL,
-            MAX_REMOVALS,
-            observer,
-        )
-        .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = record::of_snooped_instrument_run(&snooped, dataset);
-        (snooped.run, record)
-    } else {
-        let run = calibrate_instruments(dataset, options, observer)
-            .map_err(|error| in_dataset(error, &args.dataset))?;
-        let record = record::of_instrument_run(&run, dataset);
-        (run, record)
-    };
-    let record = with_stroke_warning(record, dataset);
-    progress.finish();
-    let report = args.report_request(out, None);
     let mut stdout = std::io::stdout().lock();
-    let printed = writeln!(
+    writeln!(
         stdout,
         "{}\n{}\ncalibration written to {}",
-        instruments::summary(&run, &record),
-        instruments::parameters(&run),
-        super::calibration_destination(&record, out).display()
-    )
-    .and_then(|()| print_report(&mut stdout, report.as_ref()));
-    super::write_calibration(record, dataset, &args.dataset, out, report.as_ref())?;
-    Ok(printed?)
+        instruments::summary(run, record),
+        instruments::parameters(run),
+        calibration.display()
+    )?;
+    print_report(&mut stdout, report)?;
+    Ok(())
 }
 
 impl Args {

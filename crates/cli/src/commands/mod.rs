@@ -25,9 +25,8 @@ use parcal_workflows::evaluate::TrueMachine;
 pub const SNAPSHOT_FILE: &str = "dataset.bin";
 
 /// Reads a dataset: a directory of text files, or a binary snapshot file
-/// (`*.bin`). A directory holding a snapshot is read from the text files.
-/// A dataset of another mechanism than the hexapod is refused, saying
-/// which commands take it.
+/// (`*.bin`, [`parcal::command::read_dataset`]). A dataset of another
+/// mechanism than the hexapod is refused, saying which commands take it.
 pub fn read_dataset(path: &Path) -> anyhow::Result<Dataset> {
     if let Some(mechanism) = mechanism::declared(path)? {
         anyhow::bail!(
@@ -35,11 +34,7 @@ pub fn read_dataset(path: &Path) -> anyhow::Result<Dataset> {
             path.display()
         );
     }
-    Ok(if path.is_file() {
-        Dataset::read_snapshot(path)?
-    } else {
-        Dataset::read(path)?
-    })
+    Ok(parcal::command::read_dataset(path)?)
 }
 
 /// A calibration that was computed and written, but whose verdict is
@@ -134,11 +129,10 @@ pub fn write_calibration(
     out: &Path,
     report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
-    record.provenance = Some(parcal_dataset::Provenance {
-        parcal_version: env!("CARGO_PKG_VERSION").to_string(),
-        dataset: path.display().to_string(),
-        dataset_checksum: dataset.checksum(),
-    });
+    record.provenance = Some(parcal::command::provenance(
+        dataset,
+        &path.display().to_string(),
+    ));
     let destination = calibration_destination(&record, out);
     // The calibration and its report: all new, or all as they were.
     parcal_dataset::atomic::write_set(&[], || -> anyhow::Result<()> {

@@ -1,0 +1,229 @@
+//! A dataset's calibration as `parcal calibrate` makes it, for every front
+//! end (the binary, the Python package): the options from the command's
+//! flags ([`CalibrateFlags`]), the calibration of ball touches (with poses
+//! and points beside them) or of poses and points alone, with or without
+//! data snooping, and calibration.json's record of it ([`calibrate_recorded`]);
+//! a dataset read from a directory or a snapshot ([`read_dataset`]).
+
+use std::path::Path;
+use std::time::Duration;
+
+use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
+use parcal_calibrate::instruments::{InstrumentRun, calibrate_instruments};
+use parcal_calibrate::observation::ObservationId;
+use parcal_calibrate::reliability::Reliability;
+use parcal_calibrate::snooping::{
+    Remaining, calibrate_instruments_with_snooping, calibrate_with_snooping,
+};
+use parcal_calibrate::{
+    CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
+    PriorMode, RadiusModel, Simulation, WeightModel, calibrate,
+};
+use parcal_dataset::{Calibration, Dataset, DatasetError, Provenance};
+use parcal_report::record;
+
+/// Reads a dataset as the commands do: a directory of text files, or a
+/// binary snapshot file (`dataset.bin`). A directory holding a snapshot is
+/// read from the text files.
+pub fn read_dataset(path: &Path) -> Result<Dataset, DatasetError> {
+    if path.is_file() {
+        Dataset::read_snapshot(path)
+    } else {
+        Dataset::read(path)
+    }
+}
+
+/// The flags of `parcal calibrate` that shape a calibration (the
+/// command's `--sim`, `--observation`, `--prior`, `--weights`, `--radius`,
+/// `--lm`, `--max-iterations`, `--time-limit`, `--snoop`, `--loss`); the
+/// default is the command without flags.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrateFlags {
+    /// One of the paper's simulations; `observation` and `prior` override
+    /// its parts.
+    pub sim: Option<Simulation>,
+    /// The observation equation.
+    pub observation: Option<Observation>,
+    /// The a priori knowledge.
+    pub prior: Option<PriorMode>,
+    /// The observation weights.
+    pub weights: WeightModel,
+    /// The calibrated radius's error.
+    pub radius: Option<RadiusModel>,
+    /// Levenberg-Marquardt instead of Gauss-Newton.
+    pub lm: bool,
+    /// The iteration limit, if not the method's default.
+    pub max_iterations: Option<usize>,
+    /// The wall-clock budget of the calibration.
+    pub time_limit: Option<Duration>,
+    /// Data snooping ([`SNOOPING_LEVEL`], at most [`MAX_REMOVALS`]).
+    pub snoop: bool,
+    /// The loss of each observation.
+    pub loss: Loss,
+}
+
+impl Default for CalibrateFlags {
+    fn default() -> Self {
+        Self {
+            sim: None,
+            observation: None,
+            prior: None,
+            weights: WeightModel::Propagated,
+            radius: None,
+            lm: false,
+            max_iterations: None,
+            time_limit: None,
+            snoop: false,
+            loss: Loss::Squared,
+        }
+    }
+}
+
+impl CalibrateFlags {
+    /// The calibration options these flags ask for: the simulation's (or
+    /// the defaults), its parts overridden, then the method, the loss and
+    /// the limits.
+    pub fn options(&self) -> CalibrationOptions {
+        let mut options = self
+            .sim
+            .map_or_else(CalibrationOptions::default, CalibrationOptions::simulation);
+        if let Some(observation) = self.observation {
+            options.observation = observation;
+        }
+        if let Some(prior) = self.prior {
+            options.prior = prior;
+        }
+        options.weighting = self.weights;
+        if let Some(radius) = self.radius {
+            options.radius = radius;
+        }
+        if self.lm {
+            options = options.levenberg_marquardt();
+        }
+        options = options.with_loss(self.loss);
+        if let Some(limit) = self.max_iterations {
+            options.max_iterations = limit;
+        }
+        options.time_limit = self.time_limit;
+        options
+    }
+}
+
+/// The run behind a record: of ball touches (poses and points beside them,
+/// if any), or of poses and points alone.
+pub enum FittedRun {
+    /// Ball touches ([`calibrate`]).
+    Touches(Box<CalibrationRun>),
+    /// Poses and points alone ([`calibrate_instruments`]).
+    Instruments(Box<InstrumentRun>),
+}
+
+impl FittedRun {
+    /// Every observation's check at the final state, if the run has them.
+    pub fn reliability(&self) -> Option<&Reliability> {
+        match self {
+            Self::Touches(run) => run.reliability.as_ref(),
+            Self::Instruments(run) => run.reliability.as_ref(),
+        }
+    }
+}
+
+/// A calibration and its record.
+pub struct RecordedRun {
+    /// The run (of the observations data snooping left, if it removed
+    /// any).
+    pub run: FittedRun,
+    /// Where the run's observations are in the dataset given.
+    pub remaining: Remaining,
+    /// calibration.json's content, without its provenance ([`provenance`]).
+    pub record: Calibration,
+}
+
+impl RecordedRun {
+    /// Where the run's `observation` is in the dataset given.
+    pub fn original(&self, observation: ObservationId) -> ObservationId {
+        self.remaining.original(observation)
+    }
+}
+
+/// Whether `dataset` is calibrated from its poses and points alone: it has
+/// no ball touches, and instrument data.
+pub fn calibrates_instruments(dataset: &Dataset) -> bool {
+    !dataset.has_touches() && !dataset.tracker.is_empty()
+}
+
+/// Calibrates `dataset` as `parcal calibrate` with `flags` does, calling
+/// `observer` at each iteration, and makes calibration.json's record of it
+/// (with a warning naming the first reading outside machine.json's stroke,
+/// if any).
+pub fn calibrate_recorded(
+    dataset: &Dataset,
+    flags: &CalibrateFlags,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<RecordedRun, CalibrateError> {
+    let options = flags.options();
+    let (run, remaining, mut record) = match (calibrates_instruments(dataset), flags.snoop) {
+        (false, true) => {
+            let snooped =
+                calibrate_with_snooping(dataset, &options, SNOOPING_LEVEL, MAX_REMOVALS, observer)?;
+            let record = record::of_snooped_ball_run(&snooped, dataset);
+            (
+                FittedRun::Touches(Box::new(snooped.run)),
+                snooped.remaining,
+                record,
+            )
+        }
+        (false, false) => {
+            let run = calibrate(dataset, &options, observer)?;
+            let record = record::of_ball_run(&run, dataset);
+            (
+                FittedRun::Touches(Box::new(run)),
+                Remaining::all(dataset),
+                record,
+            )
+        }
+        (true, true) => {
+            let snooped = calibrate_instruments_with_snooping(
+                dataset,
+                &options,
+                SNOOPING_LEVEL,
+                MAX_REMOVALS,
+                observer,
+            )?;
+            let record = record::of_snooped_instrument_run(&snooped, dataset);
+            (
+                FittedRun::Instruments(Box::new(snooped.run)),
+                snooped.remaining,
+                record,
+            )
+        }
+        (true, false) => {
+            let run = calibrate_instruments(dataset, &options, observer)?;
+            let record = record::of_instrument_run(&run, dataset);
+            (
+                FittedRun::Instruments(Box::new(run)),
+                Remaining::all(dataset),
+                record,
+            )
+        }
+    };
+    record
+        .warnings
+        .extend(dataset.reading_outside_stroke().map(|o| o.to_string()));
+    Ok(RecordedRun {
+        run,
+        remaining,
+        record,
+    })
+}
+
+/// calibration.json's provenance of a calibration of `dataset`, given as
+/// `given` (a directory or a snapshot's path): this parcal's version, that
+/// name, the dataset's checksum.
+pub fn provenance(dataset: &Dataset, given: &str) -> Provenance {
+    Provenance {
+        parcal_version: env!("CARGO_PKG_VERSION").to_string(),
+        dataset: given.to_string(),
+        dataset_checksum: dataset.checksum(),
+    }
+}

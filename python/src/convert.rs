@@ -1,0 +1,74 @@
+//! Between Python and the library: dicts through JSON (what the files
+//! hold), arrays of rows through numpy (float64, one row per
+//! observation).
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde::Serialize;
+
+use crate::error::to_py;
+
+/// `object` (a dict, a list...) as JSON text, by Python's `json.dumps`.
+pub fn json_text(object: &Bound<'_, PyAny>, what: &str) -> PyResult<String> {
+    let json = object.py().import("json")?;
+    json.call_method1("dumps", (object,))
+        .and_then(|text| text.extract())
+        .map_err(|error| to_py(format!("{what}: not JSON: {error}")))
+}
+
+/// `value` as Python objects (dicts, lists, numbers), by its JSON form.
+pub fn to_python<'py>(py: Python<'py>, value: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(value).map_err(to_py)?;
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+/// `object` as float64 rows of `N` columns, named `what` in errors (with
+/// the row of a value that is not finite).
+pub fn rows<const N: usize>(object: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f64; N]>> {
+    let array = float_array(object, what)?;
+    let array: PyReadonlyArray2<f64> = array.extract().map_err(|_| {
+        to_py(format!(
+            "{what}: expected a 2-D array of {N} columns, got {} dimension(s)",
+            array.ndim()
+        ))
+    })?;
+    let view = array.as_array();
+    if view.ncols() != N {
+        return Err(to_py(format!(
+            "{what}: expected {N} columns, got {}",
+            view.ncols()
+        )));
+    }
+    Ok(view
+        .rows()
+        .into_iter()
+        .map(|row| std::array::from_fn(|k| row[k]))
+        .collect())
+}
+
+/// `object` as a float64 numpy array (numpy's `asarray`).
+fn float_array<'py>(
+    object: &Bound<'py, PyAny>,
+    what: &str,
+) -> PyResult<Bound<'py, numpy::PyUntypedArray>> {
+    let py = object.py();
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    let array = py
+        .import("numpy")?
+        .call_method("asarray", (object,), Some(&kwargs))
+        .map_err(|error| to_py(format!("{what}: not an array of numbers: {error}")))?;
+    Ok(array.cast_into::<numpy::PyUntypedArray>()?)
+}
+
+/// Rows of `N` numbers as an `n x N` array.
+pub fn array2<'py, const N: usize>(
+    py: Python<'py>,
+    rows: &[[f64; N]],
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    PyArray1::from_vec(py, flat)
+        .reshape([rows.len(), N])
+        .expect("n x N numbers reshape to n rows of N")
+}

@@ -1,0 +1,27 @@
+//! parcal in Python: the extension module `parcal._parcal`, which the
+//! package `parcal` (python/parcal) re-exports. Datasets read from files
+//! or built from dicts and numpy arrays ([`dataset`]), their calibration as
+//! `parcal calibrate` makes it ([`calibrate`], [`run`]), and the other
+//! commands with numpy arrays where the command writes CSV ([`commands`]).
+//! Every error is `parcal.Error`, a `ValueError` ([`error`]).
+
+mod calibrate;
+mod commands;
+mod convert;
+mod dataset;
+mod error;
+mod options;
+mod run;
+
+use pyo3::prelude::*;
+
+/// The extension module: its classes, functions and exception.
+#[pymodule]
+fn _parcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("Error", m.py().get_type::<error::Error>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<dataset::Dataset>()?;
+    m.add_class::<run::Calibration>()?;
+    m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
+    commands::register(m)
+}

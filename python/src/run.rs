@@ -1,0 +1,297 @@
+//! `parcal.Calibration`: a calibration's result, as calibration.json
+//! holds it (`to_json`), with its numbers as numpy arrays.
+
+use std::path::PathBuf;
+
+use numpy::{PyArray1, PyArray2};
+use parcal::calibration::observation::ObservationId;
+use parcal::command::{FittedRun, RecordedRun};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::convert::{array2, to_python};
+use crate::error::to_py;
+
+/// Every observation's test at the final state: the columns of
+/// `Calibration.observations`.
+#[derive(Default)]
+struct ObservationTests {
+    /// `contact`, `distance`, `pose` or `point`.
+    kind: Vec<&'static str>,
+    /// Its row (0-based) in the dataset given: measurements, distances,
+    /// poses or points.
+    index: Vec<usize>,
+    /// Its redundancy number (the sum over its rows).
+    redundancy: Vec<f64>,
+    /// The normalised residual `w = e / √r` of its row of largest `|w|`
+    /// (NaN when no other observation checks it).
+    normalised: Vec<f64>,
+    /// That row's whitened residual `e` (in units of its sigma).
+    residual: Vec<f64>,
+    /// That row's estimated gross error `e / r` (in units of its sigma).
+    gross_error: Vec<f64>,
+}
+
+impl ObservationTests {
+    /// The tests of `recorded`'s run, by the observations' places in the
+    /// dataset given; empty when the run has none (it did not converge).
+    fn of(recorded: &RecordedRun) -> Self {
+        let mut tests = Self::default();
+        let Some(reliability) = recorded.run.reliability() else {
+            return tests;
+        };
+        for check in reliability.observations() {
+            let (kind, index) = match recorded.original(check.observation()) {
+                ObservationId::Contact(k) => ("contact", k),
+                ObservationId::Distance(k) => ("distance", k),
+                ObservationId::Pose(k) => ("pose", k),
+                ObservationId::Point(k) => ("point", k),
+            };
+            let (w, g) = (check.normalised(), check.gross_error());
+            tests.kind.push(kind);
+            tests.index.push(index);
+            tests.redundancy.push(check.redundancy());
+            tests.normalised.push(w.unwrap_or(f64::NAN));
+            tests.gross_error.push(g.unwrap_or(f64::NAN));
+            // w = e / √r and g = e / r: e = w² / g (0 when g is).
+            tests.residual.push(match (w, g) {
+                (Some(w), Some(g)) if g != 0.0 => w * w / g,
+                (Some(_), Some(_)) => 0.0,
+                _ => f64::NAN,
+            });
+        }
+        tests
+    }
+}
+
+/// A calibration: its verdict and reasons, the identified parameters with
+/// their sigmas and covariance, the ball centres, every observation's
+/// test, and calibration.json (`to_json`, `write`) exactly as `parcal
+/// calibrate` writes it for the same data and options.
+#[pyclass(module = "parcal", frozen)]
+pub struct Calibration {
+    /// calibration.json's content, provenance included.
+    record: parcal::Calibration,
+    /// Every observation's test.
+    tests: ObservationTests,
+    /// A calibration of poses and points alone: its residuals.
+    instrument_residuals: Option<InstrumentResiduals>,
+}
+
+/// The residuals of a calibration of poses and points alone at the
+/// identified state (mm).
+struct InstrumentResiduals {
+    /// Each pose's leg-length residuals.
+    legs: Vec<[f64; 6]>,
+    /// Each point's residual.
+    points: Vec<[f64; 3]>,
+}
+
+impl Calibration {
+    /// The result of `recorded`, its record stamped with `provenance`.
+    pub fn new(recorded: RecordedRun, provenance: parcal::dataset::Provenance) -> Self {
+        let tests = ObservationTests::of(&recorded);
+        let RecordedRun {
+            run, mut record, ..
+        } = recorded;
+        record.provenance = Some(provenance);
+        let instrument_residuals = match run {
+            FittedRun::Instruments(run) => Some(InstrumentResiduals {
+                legs: run.leg_residuals,
+                points: run
+                    .point_residuals
+                    .iter()
+                    .map(|r| [r.x, r.y, r.z])
+                    .collect(),
+            }),
+            FittedRun::Touches(_) => None,
+        };
+        Self {
+            record,
+            tests,
+            instrument_residuals,
+        }
+    }
+}
+
+impl Calibration {
+    /// calibration.json's content.
+    pub fn record(&self) -> &parcal::Calibration {
+        &self.record
+    }
+}
+
+#[pymethods]
+impl Calibration {
+    /// `"accepted"` or `"rejected"`.
+    #[getter]
+    fn verdict(&self) -> &str {
+        &self.record.verdict
+    }
+
+    /// Why the verdict, one sentence each.
+    #[getter]
+    fn reasons(&self) -> Vec<String> {
+        self.record.reasons.clone()
+    }
+
+    /// Every warning of the run, one sentence each.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.record.warnings.clone()
+    }
+
+    /// Whether the solver converged.
+    #[getter]
+    fn converged(&self) -> bool {
+        self.record.converged
+    }
+
+    /// How the solver's run ended.
+    #[getter]
+    fn status(&self) -> &str {
+        &self.record.status
+    }
+
+    /// The identified parameters' names (`x_b1` .. `z_t`, then any
+    /// actuator scales and instrument parameters).
+    #[getter]
+    fn names(&self) -> Vec<String> {
+        self.record.parameters.names.clone()
+    }
+
+    /// The identified parameters' values (mm, rad), in the order of `names`.
+    #[getter]
+    fn values<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.record.parameters.values)
+    }
+
+    /// Their posterior standard deviations.
+    #[getter]
+    fn sigmas<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.record.parameters.sigma)
+    }
+
+    /// Their posterior covariance (n x n; 0 x 0 when it could not be
+    /// computed).
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let n = self.record.covariance.len();
+        PyArray2::from_vec2(py, &self.record.covariance)
+            .map_err(to_py)
+            .map(|a| {
+                if n == 0 {
+                    PyArray2::zeros(py, [0, 0], false)
+                } else {
+                    a
+                }
+            })
+    }
+
+    /// The identified ball centres (canonical base frame, mm), by ball id.
+    #[getter]
+    fn ball_ids(&self) -> Vec<String> {
+        self.record.ball_centres.keys().cloned().collect()
+    }
+
+    /// The identified ball centres (n x 3, mm), in the order of `ball_ids`.
+    #[getter]
+    fn ball_centres<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let centres: Vec<[f64; 3]> = self
+            .record
+            .ball_centres
+            .values()
+            .map(|c| c.centre)
+            .collect();
+        array2(py, &centres)
+    }
+
+    /// Their posterior standard deviations (n x 3, mm).
+    #[getter]
+    fn ball_centre_sigmas<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let sigmas: Vec<[f64; 3]> = self.record.ball_centres.values().map(|c| c.sigma).collect();
+        array2(py, &sigmas)
+    }
+
+    /// Every observation's test at the final state (empty when the run did
+    /// not converge), as arrays of one entry per observation: `kind`
+    /// (`contact`, `distance`, `pose`, `point`), `index` (its row in the
+    /// dataset given: measurements, distances, poses, points; 0-based),
+    /// `redundancy` (its redundancy number), `normalised_residual` (`w`
+    /// of its row of largest `|w|`; NaN when nothing checks it),
+    /// `residual` (that row's whitened residual, in sigmas) and
+    /// `gross_error` (that row's estimated gross error `e / r`, in sigmas).
+    #[getter]
+    fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = &self.tests;
+        let dict = PyDict::new(py);
+        dict.set_item("kind", t.kind.clone())?;
+        dict.set_item(
+            "index",
+            PyArray1::from_vec(py, t.index.iter().map(|&k| k as i64).collect()),
+        )?;
+        dict.set_item("redundancy", PyArray1::from_slice(py, &t.redundancy))?;
+        dict.set_item(
+            "normalised_residual",
+            PyArray1::from_slice(py, &t.normalised),
+        )?;
+        dict.set_item("residual", PyArray1::from_slice(py, &t.residual))?;
+        dict.set_item("gross_error", PyArray1::from_slice(py, &t.gross_error))?;
+        Ok(dict)
+    }
+
+    /// The normalised residual of every observation (`observations`'
+    /// `normalised_residual`).
+    #[getter]
+    fn normalised_residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.tests.normalised)
+    }
+
+    /// A calibration of poses and points alone: each pose's leg-length
+    /// residuals `|T E_i - B_i| - L_i` at the identified state (n x 6, mm);
+    /// `None` for a calibration of ball touches.
+    #[getter]
+    fn leg_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.instrument_residuals
+            .as_ref()
+            .map(|r| array2(py, &r.legs))
+    }
+
+    /// A calibration of poses and points alone: each point's residual
+    /// (n x 3, mm); `None` for a calibration of ball touches.
+    #[getter]
+    fn point_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.instrument_residuals
+            .as_ref()
+            .map(|r| array2(py, &r.points))
+    }
+
+    /// calibration.json's content as a dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.record)
+    }
+
+    /// calibration.json's text: the bytes `parcal calibrate` writes for
+    /// the same data (given by the same path) and options.
+    fn to_json(&self) -> PyResult<String> {
+        let directory = tempfile::tempdir().map_err(to_py)?;
+        let path = directory.path().join(parcal::dataset::CALIBRATION_FILE);
+        self.record.write(&path).map_err(to_py)?;
+        std::fs::read_to_string(&path).map_err(to_py)
+    }
+
+    /// Writes calibration.json to `path` (atomically: the whole file, or
+    /// the file as it was).
+    fn write(&self, path: PathBuf) -> PyResult<()> {
+        self.record.write(&path).map_err(to_py)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "parcal.Calibration({}, {} parameters, {})",
+            self.record.verdict,
+            self.record.parameters.names.len(),
+            self.record.status
+        )
+    }
+}
