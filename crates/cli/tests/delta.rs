@@ -6,7 +6,7 @@
 mod common;
 
 use std::fs;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::{fails, ok, s};
 use parcal_firmware::rrf::read_config;
@@ -69,24 +69,37 @@ fn printer(dir: &Path) {
     assert_eq!(delta.name(), "linear delta");
 }
 
+/// `parcal import reprapfirmware` of the printer in `d` (config.g,
+/// probes.csv and, `with_distances`, distances.csv) into `d/data`.
+fn import_printer(d: &Path, with_distances: bool) -> PathBuf {
+    let data = d.join("data");
+    let (config, probes, distances) = (
+        d.join("config.g"),
+        d.join("probes.csv"),
+        d.join("distances.csv"),
+    );
+    let mut args = vec![
+        "import",
+        "reprapfirmware",
+        "--config",
+        s(&config),
+        "--probes",
+        s(&probes),
+    ];
+    if with_distances {
+        args.extend(["--distances", s(&distances)]);
+    }
+    args.extend(["--out", s(&data)]);
+    ok(&args);
+    data
+}
+
 #[test]
 fn import_calibrate_export_reads_back_the_calibrated_parameters() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     printer(d);
-    let data = d.join("data");
-    ok(&[
-        "import",
-        "reprapfirmware",
-        "--config",
-        s(&d.join("config.g")),
-        "--probes",
-        s(&d.join("probes.csv")),
-        "--distances",
-        s(&d.join("distances.csv")),
-        "--out",
-        s(&data),
-    ]);
+    let data = import_printer(d, true);
     let summary = ok(&["calibrate", s(&data)]);
     assert!(summary.contains("accepted"), "{summary}");
     assert!(summary.contains("3 part distances"), "{summary}");
@@ -185,17 +198,7 @@ fn a_format_of_another_mechanism_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     printer(d);
-    let data = d.join("data");
-    ok(&[
-        "import",
-        "reprapfirmware",
-        "--config",
-        s(&d.join("config.g")),
-        "--probes",
-        s(&d.join("probes.csv")),
-        "--out",
-        s(&data),
-    ]);
+    let data = import_printer(d, false);
     ok(&["calibrate", s(&data)]);
     let err = fails(&[
         "export",
@@ -245,17 +248,7 @@ fn a_blunder_is_named_and_removed_by_snooping() {
     let fields: Vec<f64> = lines[11].split(',').map(|v| v.parse().unwrap()).collect();
     lines[11] = format!("{},{},{}", fields[0], fields[1], fields[2] + 0.3);
     fs::write(d.join("probes.csv"), lines.join("\n") + "\n").unwrap();
-    let data = d.join("data");
-    ok(&[
-        "import",
-        "reprapfirmware",
-        "--config",
-        s(&d.join("config.g")),
-        "--probes",
-        s(&d.join("probes.csv")),
-        "--out",
-        s(&data),
-    ]);
+    let data = import_printer(d, false);
     // Without snooping the blunder fails the tests; with it, probe height
     // 10 (0-based) is removed and the rest pass.
     let err = fails(&["calibrate", s(&data)]);

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use crate::bounds::Count;
 use crate::error::Result;
 use crate::quote::{has_control, quoted_bytes};
 use crate::table::{self, Header};
@@ -18,12 +19,29 @@ pub fn read_numbers<const N: usize>(
     columns: &[&'static str; N],
     what: &str,
 ) -> Result<Vec<[f64; N]>> {
+    read_numbers_within(path, columns, what, None)
+}
+
+/// [`read_numbers`] of at most `limit.max` rows when a `limit` is given:
+/// the row after them is refused at its line, before it is stored.
+pub(crate) fn read_numbers_within<const N: usize>(
+    path: &Path,
+    columns: &[&'static str; N],
+    what: &str,
+    limit: Option<&Count>,
+) -> Result<Vec<[f64; N]>> {
     let expected = columns.join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
         let at = header.require_all(columns, &expected)?;
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, what, |row| {
+            if let Some(limit) = limit.filter(|limit| rows.len() == limit.max) {
+                return Err(row.error(
+                    None,
+                    limit.refusal(&format!("the number of {what} rows"), "more"),
+                ));
+            }
             rows.push(row.numbers(&at, columns)?);
             Ok(())
         })?;

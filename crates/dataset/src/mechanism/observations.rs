@@ -13,6 +13,7 @@ use std::path::Path;
 
 use crate::bounds::Count;
 use crate::error::{DatasetError, Result};
+use crate::numbers::read_numbers_within;
 use crate::table::{self, Failure, Header, Row};
 
 /// The bounds of the rows of each observation file: at least one (an
@@ -59,20 +60,7 @@ pub(crate) fn read_rows<const N: usize>(
     columns: &[&'static str; N],
     what: &str,
 ) -> Result<Vec<[f64; N]>> {
-    let expected = columns.join(",");
-    table::read_file(path, |reader| {
-        let header = Header::read(reader, &expected)?;
-        let at = header.require_all(columns, &expected)?;
-        let mut rows = Vec::new();
-        table::for_each_row(reader, &header, what, |row| {
-            if rows.len() == OBSERVATIONS.max {
-                return Err(too_many(row, what));
-            }
-            rows.push(row.numbers(&at, columns)?);
-            Ok(())
-        })?;
-        Ok(rows)
-    })
+    read_numbers_within(path, columns, what, Some(&OBSERVATIONS))
 }
 
 /// Writes `rows` under `columns` to `path` atomically.
