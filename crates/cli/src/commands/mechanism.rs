@@ -85,7 +85,12 @@ pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<(
     write_set(&[], || -> anyhow::Result<()> {
         record.write(&destination)?;
         match &report_directory {
-            Some(directory) => write_report(&record, &file, Some(&dataset.probes), directory),
+            Some(directory) => super::report::write_mechanism_report(
+                &record,
+                &file,
+                Some(&dataset.probes),
+                directory,
+            ),
             None => Ok(()),
         }
     })?;
@@ -105,23 +110,6 @@ pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<(
             record.reasons.join("; ")
         ))
         .into());
-    }
-    Ok(())
-}
-
-/// Writes the report of `record` (calibration.json at `file`), with the
-/// residuals of the dataset's `probes` if given, into `directory`:
-/// report.html and report.md ([`super::report::REPORT_FILES`]).
-pub fn write_report(
-    record: &MechanismCalibrationRecord,
-    file: &str,
-    probes: Option<&[[f64; 3]]>,
-    directory: &Path,
-) -> anyhow::Result<()> {
-    for (name, format) in super::report::REPORT_FILES {
-        let text = parcal_report::mechanism::render(record, file, probes, format)
-            .map_err(|e| anyhow::anyhow!("{file}: cannot draw the report's figure: {e}"))?;
-        parcal_report::write_text(&directory.join(name), &text)?;
     }
     Ok(())
 }

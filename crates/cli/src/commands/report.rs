@@ -116,7 +116,7 @@ fn write_mechanism(
     let probes = dataset.as_ref().map(|d| d.probes.as_slice());
     let file = args.calibration.display().to_string();
     write_set(&[], || {
-        super::mechanism::write_report(record, &file, probes, directory)
+        write_mechanism_report(record, &file, probes, directory)
     })?;
     writeln!(
         std::io::stdout().lock(),
@@ -157,5 +157,22 @@ pub fn write(subject: &Subject, directory: &Path) -> anyhow::Result<()> {
             .iter()
             .try_for_each(|(path, text)| parcal_report::write_text(path, text))
     })?;
+    Ok(())
+}
+
+/// Writes the report of `record` (calibration.json at `file`), with the
+/// residuals of the dataset's `probes` if given, into `directory`:
+/// report.html and report.md ([`REPORT_FILES`]).
+pub fn write_mechanism_report(
+    record: &MechanismCalibrationRecord,
+    file: &str,
+    probes: Option<&[[f64; 3]]>,
+    directory: &Path,
+) -> anyhow::Result<()> {
+    for (name, format) in REPORT_FILES {
+        let text = parcal_report::mechanism::render(record, file, probes, format)
+            .map_err(|e| anyhow::anyhow!("{file}: cannot draw the report's figure: {e}"))?;
+        parcal_report::write_text(&directory.join(name), &text)?;
+    }
     Ok(())
 }
