@@ -427,7 +427,7 @@ const FALSE_ALARM_SEEDS: u64 = 400;
 /// The prediction test rejects a calibration that does transfer at its
 /// nominal rate, `α / 2` (the upper tail of the two-sided test), within
 /// [`STANDARD_ERRORS`] binomial standard errors; the too-small outcomes
-/// likewise (docs/reliability.md).
+/// likewise (docs/validation-verdicts.md).
 #[test]
 #[ignore = "400 calibrations: cargo test -p parcal-calibrate --test instruments_monte_carlo prediction_test_false -- --ignored --nocapture"]
 fn prediction_test_false_alarms_at_the_nominal_rate() {

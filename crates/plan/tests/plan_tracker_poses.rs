@@ -1,4 +1,4 @@
-//! A cheap version of docs/plan.md's tracker evidence: plan 30 poses of
+//! A cheap version of docs/plan-poses.md's evidence: plan 30 poses of
 //! the paper's machine seen by a laser tracker's pose measurement, simulate
 //! exactly those with the truth of table 2 over several noise seeds,
 //! calibrate, and compare with 30 random poses of the same workspace and
@@ -139,7 +139,7 @@ fn planned_poses_beat_random_ones_and_their_prediction_holds() {
     assert!((0.5..2.0).contains(&ratio), "true {ratio} x predicted");
 }
 
-/// docs/plan.md's table (`cargo test -p parcal-plan --test
+/// docs/plan-poses.md's table (`cargo test -p parcal-plan --test
 /// plan_tracker_poses -- --ignored --nocapture`): budgets 15, 30 and 60,
 /// 8 seeds.
 #[test]
@@ -157,7 +157,7 @@ fn evidence_table() {
 
 /// Two sessions with re-homed legs (0.5 mm) and a re-mounted marker body
 /// (0.2 mm, 1 mrad): the plan of 30 poses, 15 per session, against 15
-/// random poses per session; docs/plan.md's two-session table
+/// random poses per session; docs/plan-poses.md's two-session table
 /// (`cargo test -p parcal-plan --test plan_tracker_poses two_sessions --
 /// --ignored --nocapture`).
 #[test]

@@ -1,7 +1,7 @@
 //! Measurement design for an instrument calibration: which platform poses
 //! to measure with a laser tracker (points) or motion capture (poses) so
 //! that the calibrated machine is most accurate for a given number of
-//! poses (docs/plan.md, "Tracker poses").
+//! poses (docs/plan-poses.md).
 //!
 //! - [`pool`]: the feasible candidate poses on the workspace and tilt box;
 //! - [`information`]: each pose's whitened rows on the instrument
