@@ -189,7 +189,7 @@ fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
     };
     let plain = calibrate(&dataset, &MechanismOptions::default());
     assert!(!plain.verdict.accepted);
-    assert_eq!(plain.worst().map(|w| w.0), Some(probe));
+    assert_eq!(plain.worst().map(|w| w.observation), Some(probe));
     assert!(
         plain.reasons.iter().any(|r| r.contains("probe height 11")),
         "{:?}",

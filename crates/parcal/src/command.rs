@@ -134,7 +134,7 @@ pub struct RecordedRun {
     /// any).
     pub run: FittedRun,
     /// Where the run's observations are in the dataset given.
-    pub remaining: Remaining,
+    pub remaining: Remaining<ObservationId>,
     /// calibration.json's content, without its provenance ([`provenance`]).
     pub record: Calibration,
 }

@@ -26,7 +26,10 @@ pub fn of_ball_run(run: &CalibrationRun, dataset: &Dataset) -> Calibration {
 /// snooping: the remaining observations' run, and every removal with its
 /// place and what it did to the variance factor; `dataset` is the dataset
 /// given.
-pub fn of_snooped_ball_run(snooped: &Snooped, dataset: &Dataset) -> Calibration {
+pub fn of_snooped_ball_run(
+    snooped: &Snooped<CalibrationRun, ObservationId>,
+    dataset: &Dataset,
+) -> Calibration {
     let mut record = ball_run(&snooped.run, dataset, &|o| snooped.remaining.original(o));
     with_removals(&mut record, &snooped.removals, snooped.stopped.as_deref());
     record
@@ -41,7 +44,7 @@ pub fn of_instrument_run(run: &InstrumentRun, dataset: &Dataset) -> Calibration 
 /// The calibration.json record of an instrument calibration with data
 /// snooping ([`of_snooped_ball_run`]).
 pub fn of_snooped_instrument_run(
-    snooped: &Snooped<InstrumentRun>,
+    snooped: &Snooped<InstrumentRun, ObservationId>,
     dataset: &Dataset,
 ) -> Calibration {
     let mut record = instrument_run(&snooped.run, dataset, &|o| snooped.remaining.original(o));

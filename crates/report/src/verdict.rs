@@ -2,6 +2,7 @@
 //! verdict with its reasons, data snooping's removals, the directions the
 //! data cannot determine.
 
+use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::snooping::Removal;
 use parcal_calibrate::verdict::{Outcome, Verdict};
 use parcal_solver::{BlockId, SpectrumDiagnostics, Status, WeakDirection};
@@ -104,7 +105,7 @@ pub fn with_verdict(
 /// `removed_observations`), and why it `stopped` to its warnings.
 pub fn with_removals(
     record: &mut parcal_dataset::Calibration,
-    removals: &[Removal],
+    removals: &[Removal<ObservationId>],
     stopped: Option<&str>,
 ) {
     for removal in removals {

@@ -72,7 +72,7 @@ pub use fit::ObservationCheck;
 pub use identifiability::{Identifiability, Undetermined};
 pub use observation::{ObservationKind, ObservationRef};
 pub use options::MechanismOptions;
-pub use result::{EstimatedParameter, MechanismCalibration, Removal, TRIGGER_HEIGHT};
+pub use result::{EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
 
 /// Calibrates `data` with `options`: validates both, refuses a gauge
 /// freedom that no prior holds, fits (with data snooping if asked) and

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 use parcal_solver::Status;
 
 use crate::hypothesis::critical_value;
+use crate::snooping::{Removal, Worst};
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
 use super::data::{MechanismData, ParameterPrior};
@@ -38,21 +39,6 @@ pub struct EstimatedParameter {
     pub sigma: Option<f64>,
     /// Its prior, as given.
     pub prior: ParameterPrior,
-}
-
-/// An observation removed by data snooping.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Removal {
-    /// The observation, by its place in the data given.
-    pub observation: ObservationRef,
-    /// Its row of largest normalised residual.
-    pub row: usize,
-    /// That row's normalised residual when it was removed.
-    pub normalised: f64,
-    /// The a-posteriori variance factor before its removal.
-    pub variance_factor_before: f64,
-    /// And after (NaN without a global test).
-    pub variance_factor_after: f64,
 }
 
 /// The calibration of a mechanism.
@@ -92,7 +78,7 @@ pub struct MechanismCalibration {
     /// Why, in words.
     pub reasons: Vec<String>,
     /// The observations data snooping removed, in order.
-    pub removals: Vec<Removal>,
+    pub removals: Vec<Removal<ObservationRef>>,
     /// Why snooping stopped before every observation passed, if it did.
     pub snooping_stopped: Option<String>,
     /// What the data determine, when the fit gave a covariance.
@@ -118,8 +104,8 @@ impl MechanismCalibration {
         matches!(self.status, Status::Converged)
     }
 
-    /// The observation of largest `|w|` and its row and `w`.
-    pub fn worst(&self) -> Option<(ObservationRef, usize, f64)> {
+    /// The observation of largest `|w|`.
+    pub fn worst(&self) -> Option<Worst<ObservationRef>> {
         worst(&self.observations)
     }
 
@@ -195,7 +181,7 @@ pub(crate) fn assemble(
         .and_then(|cost| GlobalTest::new(cost, fit.redundancy, options.alpha));
     let critical = critical_value(options.alpha, fit.data_rows);
     let observations = fit.checks.unwrap_or_default();
-    let outlier = worst(&observations).is_some_and(|(_, _, w)| w.abs() > critical);
+    let outlier = worst(&observations).is_some_and(|w| w.normalised.abs() > critical);
     let verdict = Verdict::new(&fit.status, global_test, outlier);
     let mut calibration = MechanismCalibration {
         mechanism: mechanism.name().to_string(),
@@ -219,12 +205,20 @@ pub(crate) fn assemble(
     Ok(calibration)
 }
 
-/// The observation of largest `|w|` among `observations`, its row and `w`.
-fn worst(observations: &[ObservationCheck]) -> Option<(ObservationRef, usize, f64)> {
+/// The observation of largest `|w|` among `observations`.
+fn worst(observations: &[ObservationCheck]) -> Option<Worst<ObservationRef>> {
     observations
         .iter()
-        .filter_map(|c| c.worst().map(|(row, w)| (c.observation, row, w)))
-        .max_by(|a, b| a.2.abs().total_cmp(&b.2.abs()))
+        .filter_map(|c| {
+            let (row, normalised) = c.worst()?;
+            Some(Worst {
+                observation: c.observation,
+                row,
+                normalised,
+                gross_error: c.residuals[row] / c.redundancy[row],
+            })
+        })
+        .max_by(|a, b| a.normalised.abs().total_cmp(&b.normalised.abs()))
 }
 
 /// The verdict's reasons, in words.
@@ -253,7 +247,13 @@ pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
             test.variance_factor, test.redundancy, test.level
         ));
     }
-    if let Some((observation, row, w)) = calibration.worst() {
+    if let Some(Worst {
+        observation,
+        row,
+        normalised: w,
+        ..
+    }) = calibration.worst()
+    {
         let critical = calibration.critical_value;
         let family = format!("family-wise level {alpha} over {data_rows} rows");
         reasons.push(if w.abs() > critical {

@@ -1,36 +1,70 @@
-//! Data snooping of a mechanism calibration (Baarda 1968), as
-//! [`crate::snooping`] does the hexapod's: at a least-squares minimum, if
-//! the observation of largest normalised residual exceeds the critical
-//! value of the family (`|w| > z_{1 − α/(2m)}`, `m` data rows,
-//! Bonferroni: [`crate::hypothesis::critical_value`]), remove it as a
-//! whole and calibrate again; stop when none exceeds it, when the limit of
-//! removals is reached, or when the calibration fails without it. Every
-//! observation of the result is named by its place in the data given.
+//! Data snooping of a mechanism calibration, on the path every calibration
+//! takes ([`crate::snooping`]): every observation of the result is named
+//! by its place in the data given.
+
+use crate::snooping::{Place, Removable, Snoopable, Tests, snoop as snoop_data};
 
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::fit::fit;
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::result::{MechanismCalibration, Removal, assemble, reasons};
+use super::result::{MechanismCalibration, assemble, reasons};
 
-/// Where each remaining observation is in the data given, by kind.
-struct Remaining([Vec<usize>; 4]);
+impl Place for ObservationRef {
+    const KINDS: usize = ObservationKind::ALL.len();
 
-impl Remaining {
-    fn all(data: &MechanismData) -> Self {
-        Self(ObservationKind::ALL.map(|kind| (0..data.observations.count(kind)).collect()))
+    fn kind(self) -> usize {
+        self.kind.index()
     }
 
-    fn original(&self, observation: ObservationRef) -> ObservationRef {
-        ObservationRef {
-            index: self.0[observation.kind.index()][observation.index],
-            ..observation
+    fn index(self) -> usize {
+        self.index
+    }
+
+    fn at(self, index: usize) -> Self {
+        Self { index, ..self }
+    }
+}
+
+impl Removable for MechanismData {
+    type Place = ObservationRef;
+
+    fn counts(&self) -> Vec<usize> {
+        ObservationKind::ALL
+            .iter()
+            .map(|&kind| self.observations.count(kind))
+            .collect()
+    }
+
+    /// Refuses data that would not be valid without it.
+    fn without(&self, observation: ObservationRef) -> Result<Self, String> {
+        let rest = self.with_observations(self.observations.without(observation));
+        rest.validate()
+            .map_err(|error| format!("without it, {error}"))?;
+        Ok(rest)
+    }
+}
+
+impl Snoopable for MechanismCalibration {
+    type Place = ObservationRef;
+
+    fn tests(&self) -> Option<Tests<ObservationRef>> {
+        if !self.converged() {
+            return None;
         }
+        Some(Tests {
+            size: self.data_rows,
+            worst: self.worst(),
+        })
     }
 
-    fn remove(&mut self, observation: ObservationRef) {
-        self.0[observation.kind.index()].remove(observation.index);
+    fn variance_factor(&self) -> f64 {
+        MechanismCalibration::variance_factor(self)
+    }
+
+    fn converged(&self) -> bool {
+        MechanismCalibration::converged(self)
     }
 }
 
@@ -42,60 +76,21 @@ pub(crate) fn calibrate_once(
     assemble(data, fit(data, options)?, options)
 }
 
-/// Calibrates `data` with data snooping (module doc).
+/// Calibrates `data` with data snooping at the options' level, the
+/// result's observations named by their place in `data`.
 pub(crate) fn snoop(
     data: &MechanismData,
     options: &MechanismOptions,
 ) -> Result<MechanismCalibration, MechanismCalibrationError> {
-    let mut current = data.clone();
-    let mut remaining = Remaining::all(data);
-    let mut removals = Vec::new();
-    let mut run = calibrate_once(&current, options)?;
-    let stopped = loop {
-        let Some((worst, row, w)) = run.worst() else {
-            break (!run.converged()).then(|| {
-                "the calibration did not converge, so no observation is judged".to_string()
-            });
-        };
-        if w.abs() <= run.critical_value {
-            break None;
-        }
-        let original = remaining.original(worst);
-        if removals.len() == options.max_removals {
-            break Some(format!(
-                "the limit of {} removals was reached with an observation still failing ({original}, |w| = {:.2})",
-                options.max_removals,
-                w.abs()
-            ));
-        }
-        let next = current.with_observations(current.observations.without(worst));
-        let next_run = match next
-            .validate()
-            .and_then(|()| calibrate_once(&next, options))
-        {
-            Ok(next_run) => next_run,
-            Err(error) => {
-                break Some(format!(
-                    "the failing observation ({original}, |w| = {:.2}) cannot be removed: without it, {error}",
-                    w.abs()
-                ));
-            }
-        };
-        removals.push(Removal {
-            observation: original,
-            row,
-            normalised: w,
-            variance_factor_before: run.variance_factor(),
-            variance_factor_after: next_run.variance_factor(),
-        });
-        remaining.remove(worst);
-        (current, run) = (next, next_run);
-    };
+    let snooped = snoop_data(data, options.alpha, options.max_removals, |data| {
+        calibrate_once(data, options)
+    })?;
+    let mut run = snooped.run;
     for check in &mut run.observations {
-        check.observation = remaining.original(check.observation);
+        check.observation = snooped.remaining.original(check.observation);
     }
-    run.removals = removals;
-    run.snooping_stopped = stopped;
+    run.removals = snooped.removals;
+    run.snooping_stopped = snooped.stopped;
     run.reasons = reasons(&run);
     Ok(run)
 }

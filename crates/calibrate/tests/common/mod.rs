@@ -184,12 +184,15 @@ pub fn cost_bits(run: &CalibrationRun) -> Vec<u64> {
 
 /// Data snooping of a touch (or mixed) calibration at the project's level
 /// and removal limit.
-pub fn snoop(dataset: &Dataset, options: &CalibrationOptions) -> Snooped {
+pub fn snoop(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+) -> Snooped<CalibrationRun, ObservationId> {
     calibrate_with_snooping(dataset, options, SNOOPING_LEVEL, MAX_REMOVALS, &mut |_| {}).unwrap()
 }
 
 /// Data snooping of an instrument calibration, as [`snoop`].
-pub fn snoop_instruments(dataset: &Dataset) -> Snooped<InstrumentRun> {
+pub fn snoop_instruments(dataset: &Dataset) -> Snooped<InstrumentRun, ObservationId> {
     calibrate_instruments_with_snooping(
         dataset,
         &CalibrationOptions::default(),
@@ -201,6 +204,6 @@ pub fn snoop_instruments(dataset: &Dataset) -> Snooped<InstrumentRun> {
 }
 
 /// The observations snooping removed, in order.
-pub fn removed<Run>(snooped: &Snooped<Run>) -> Vec<ObservationId> {
+pub fn removed<Run>(snooped: &Snooped<Run, ObservationId>) -> Vec<ObservationId> {
     snooped.removals.iter().map(|r| r.observation).collect()
 }
