@@ -179,13 +179,10 @@ where
             break (critical, None);
         };
         let original = remaining.original(worst.observation);
-        let failing = format!(
-            "the failing observation ({original}, |w| = {:.1})",
-            worst.normalised.abs()
-        );
+        let failing = format!("({original}, |w| = {:.1})", worst.normalised.abs());
         if removals.len() == max_removals {
             let stopped = format!(
-                "the limit of {max_removals} removals was reached with {failing} still failing"
+                "the limit of {max_removals} removals was reached with an observation still failing {failing}"
             );
             break (critical, Some(stopped));
         }
@@ -202,7 +199,9 @@ where
             Err(why) => {
                 break (
                     critical,
-                    Some(format!("{failing} cannot be removed: {why}")),
+                    Some(format!(
+                        "the failing observation {failing} cannot be removed: {why}"
+                    )),
                 );
             }
         };
