@@ -271,7 +271,7 @@ impl fmt::Display for CalibrateError {
                 write!(f, "the calibration cannot be applied: {reason}")
             }
             Self::HasTouches => f.write_str(
-                "the dataset has ball touches (measurements.csv): a calibration of poses and \
+                "the dataset has ball touches: a calibration of poses and \
                  points alone leaves them out; calibrate the touches with them",
             ),
             Self::RobustLoss { loss, reason } => {
