@@ -1,18 +1,18 @@
 //! Per contact: the kinematics of one linearisation (forward kinematics
 //! warm-started one iteration away, then one combination of the tip
 //! Jacobian's rows, as the elimination uses it; one contact at a time and
-//! four at once, `lanes::forward_jacobian_batch`), of one back-substitution
+//! four at once, `forward_batch::forward_jacobian_batch`), of one back-substitution
 //! (`J_f dp` at the converged pose, one contact at a time and four at once,
-//! `lanes::forward_along_batch`) and, for comparison, the full 3 x 33 tip
+//! `forward_batch::forward_along_batch`) and, for comparison, the full 3 x 33 tip
 //! Jacobian; and the forward kinematics alone, one contact at a time and
-//! four at once (`lanes::forward_batch`). Four at once run in SIMD lanes on
+//! four at once (`forward_batch::forward_batch`). Four at once run in SIMD lanes on
 //! a machine with AVX2. As in a calibration's passes, one set of derivatives is reused
 //! from contact to contact (forward kinematics in place; its LU tries the
 //! previous contact's row order first).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parcal_kinematics::forward::forward_in_place;
-use parcal_kinematics::lanes::{
+use parcal_kinematics::forward_batch::{
     LANES, PivotOrder, forward_along_batch, forward_batch, forward_jacobian_batch,
 };
 use parcal_kinematics::{

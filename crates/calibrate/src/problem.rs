@@ -20,15 +20,15 @@ use std::ops::Range;
 
 use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector6};
 use parcal_dataset::Dataset;
-use parcal_kinematics::lanes::{PivotOrder, forward_along_batch, forward_jacobian_batch};
+use parcal_kinematics::forward_batch::{PivotOrder, forward_along_batch, forward_jacobian_batch};
 use parcal_kinematics::params::leg_index;
 use parcal_kinematics::{
     ForwardOptions, Geometry, KinematicsError, N_PARAMS, Params, Pose, SolutionAlong,
     SolutionJacobian, Vec3, params,
 };
 use parcal_observe::{
-    BlockJacobians, CoordinateBlock, CoordinateWeight, DirectionChart, DistanceBlock, ObserveError,
-    RadiusBlock, RadiusWeight,
+    BlockJacobians, CoordinateBlock, CoordinateWhitening, DirectionChart, DistanceBlock,
+    ObserveError, RadiusBlock, RadiusWhitening,
 };
 use parcal_solver::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Loss, Problem,
@@ -42,7 +42,7 @@ use crate::observation::ObservationId;
 /// Paper eq. (9) for every contact.
 pub struct RadiusObservations {
     /// The whitening of each contact's row (sorted order).
-    pub weights: Vec<RadiusWeight>,
+    pub weights: Vec<RadiusWhitening>,
 }
 
 /// Paper eq. (10) for every contact, the angles charted about each
@@ -52,7 +52,7 @@ pub struct CoordinateObservations {
     /// [`parcal_observe::unit_direction`].
     pub directions: Vec<UnitVector3<f64>>,
     /// The whitening of each contact's three rows (sorted order).
-    pub weights: Vec<CoordinateWeight>,
+    pub weights: Vec<CoordinateWhitening>,
     /// Sigma of the angle prior of every contact (rad); `None`: no prior.
     pub angle_sigma: Option<f64>,
 }

@@ -577,7 +577,7 @@ fn radius_conflict(dataset: &Dataset, radii: &[f64], sigmas: &[f64]) -> Conflict
 }
 
 /// The parts of a solution that do not depend on the point block size.
-struct Solved {
+struct Estimate {
     params: Params,
     covariance: Option<ParamCovariance>,
     global: DVector<f64>,
@@ -624,7 +624,7 @@ impl SolverRun<'_> {
         poses: Vec<Pose>,
         mut observer: &mut dyn FnMut(&IterationRecord),
         rows_per_contact: usize,
-    ) -> Result<Solved, CalibrateError>
+    ) -> Result<Estimate, CalibrateError>
     where
         O: ContactObservations<R, P> + MirrorStart,
     {
@@ -840,7 +840,7 @@ impl SolverRun<'_> {
             .as_ref()
             .map(|i| i.result(&state.global, solution.covariance.as_ref()))
             .transpose()?;
-        Ok(Solved {
+        Ok(Estimate {
             instruments,
             global_test,
             reliability,

@@ -14,8 +14,8 @@ use parcal_kinematics::{
     Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
 };
 use parcal_observe::{
-    CoordinateWeight, DistanceBlock, KinematicPrior, ObserveError, RadiusWeight, Repeatability,
-    WeightModel, coordinate_covariance, radius_variance, unit_direction,
+    CoordinateWhitening, DistanceBlock, KinematicPrior, ObserveError, RadiusWhitening,
+    Repeatability, WeightModel, coordinate_covariance, radius_variance, unit_direction,
 };
 use parcal_solver::{GaussianPrior, State, split_by};
 use rayon::prelude::*;
@@ -90,7 +90,7 @@ impl Setup {
         let initial_params = params::to_params(&canonical.geometry);
         let (order, groups) = sort_by_ball(dataset);
 
-        let starts = Starts {
+        let starts = DesignStart {
             dataset,
             canonical: &canonical,
             order: &order,
@@ -105,7 +105,7 @@ impl Setup {
                     weights,
                     poses,
                     ..
-                } = starts.compute::<RadiusWeight>()?;
+                } = starts.compute::<RadiusWhitening>()?;
                 (
                     centres,
                     poses,
@@ -118,7 +118,7 @@ impl Setup {
                     directions,
                     weights,
                     poses,
-                } = starts.compute::<CoordinateWeight>()?;
+                } = starts.compute::<CoordinateWhitening>()?;
                 // Paper mode: every contact's angles about their initial
                 // values; propagated mode: only where a commanded direction
                 // seeds them.
@@ -192,7 +192,7 @@ impl Setup {
     /// `directions` and `weights` (the ball's slots, sorted order), as if
     /// the set-up had chosen that image. For a ball that the solution shows
     /// on the wrong side of its contacts (see `run`).
-    pub fn mirror_start<T: StartWeight>(
+    pub fn mirror_start<T: StartWhitening>(
         &self,
         dataset: &Dataset,
         weighting: WeightModel,
@@ -200,7 +200,7 @@ impl Setup {
         directions: &mut [UnitVector3<f64>],
         weights: &mut [T],
     ) -> Result<Vec3, CalibrateError> {
-        let starts = Starts {
+        let starts = DesignStart {
             dataset,
             canonical: &self.canonical,
             order: &self.order,
@@ -354,7 +354,7 @@ struct ContactStarts<T> {
 }
 
 /// The design-FK start of every ball and contact.
-struct Starts<'a> {
+struct DesignStart<'a> {
     dataset: &'a Dataset,
     canonical: &'a Canonical,
     order: &'a [u32],
@@ -363,11 +363,11 @@ struct Starts<'a> {
     radius: RadiusModel,
 }
 
-impl Starts<'_> {
+impl DesignStart<'_> {
     /// Initial centres, and per contact (sorted order) its direction `u0`
-    /// and its whitening at the design tip ([`StartWeight::at_start`]).
+    /// and its whitening at the design tip ([`StartWhitening::at_start`]).
     /// Parallel over balls.
-    fn compute<T: StartWeight>(&self) -> Result<ContactStarts<T>, CalibrateError> {
+    fn compute<T: StartWhitening>(&self) -> Result<ContactStarts<T>, CalibrateError> {
         // Each ball writes its contacts' slots of the outputs: nothing per
         // ball is collected and copied again.
         let n = self.order.len();
@@ -417,7 +417,7 @@ impl Starts<'_> {
     /// frames' tilt, a few mm), taken as the component-wise median over the
     /// balls. A ball more than half its radius from where that puts it is
     /// started at its mirror image ([`mirror_fit`]) when that lies nearer.
-    fn choose_mirror_images<T: StartWeight>(&self, starts: &mut ContactStarts<T>) {
+    fn choose_mirror_images<T: StartWhitening>(&self, starts: &mut ContactStarts<T>) {
         let balls = &self.dataset.artefacts.balls;
         let nominal: Vec<Vec3> = balls
             .iter()
@@ -476,7 +476,7 @@ impl Starts<'_> {
     /// points, or that fit's mirror image, [`mirror_fit`]); writes `u0`, the
     /// weight and the design-FK pose of its contacts (`rows`) into their
     /// slots.
-    fn ball<T: StartWeight>(
+    fn ball<T: StartWhitening>(
         &self,
         ball: usize,
         rows: &[u32],
@@ -610,7 +610,7 @@ enum CentreStart {
 /// The whitening of one kind of observation, computed once at the initial
 /// estimate: the tip covariance propagated through `J_q = dT/dq` and the
 /// repeatabilities, at the contact's initial direction `u0`.
-pub trait StartWeight: Send + Sync + Default + Clone {
+pub trait StartWhitening: Send + Sync + Default + Clone {
     /// The whitening of a contact with tip derivatives `d_q` and initial
     /// direction `u0`, under `model` and the machine's `repeatability`.
     fn at_start(
@@ -621,25 +621,25 @@ pub trait StartWeight: Send + Sync + Default + Clone {
     ) -> Result<Self, ObserveError>;
 }
 
-impl StartWeight for RadiusWeight {
+impl StartWhitening for RadiusWhitening {
     fn at_start(
         model: WeightModel,
         repeatability: &Repeatability,
         d_q: &Matrix3x6<f64>,
         u0: &Vec3,
     ) -> Result<Self, ObserveError> {
-        RadiusWeight::from_variance(radius_variance(model, repeatability, d_q, u0)?)
+        RadiusWhitening::from_variance(radius_variance(model, repeatability, d_q, u0)?)
     }
 }
 
-impl StartWeight for CoordinateWeight {
+impl StartWhitening for CoordinateWhitening {
     fn at_start(
         model: WeightModel,
         repeatability: &Repeatability,
         d_q: &Matrix3x6<f64>,
         u0: &Vec3,
     ) -> Result<Self, ObserveError> {
-        CoordinateWeight::from_covariance(&coordinate_covariance(model, repeatability, d_q, u0)?)
+        CoordinateWhitening::from_covariance(&coordinate_covariance(model, repeatability, d_q, u0)?)
     }
 }
 
@@ -647,7 +647,7 @@ impl StartWeight for CoordinateWeight {
 /// image of their centre fit ([`Setup::mirror_start`]).
 pub trait MirrorStart {
     /// The whitening of one contact of this kind.
-    type Weight: StartWeight;
+    type Weight: StartWhitening;
 
     /// The `u0` (if the observation keeps one) and the weights of the
     /// contacts `range` (sorted order).
@@ -677,24 +677,24 @@ pub trait MirrorStart {
 }
 
 impl MirrorStart for RadiusObservations {
-    type Weight = RadiusWeight;
+    type Weight = RadiusWhitening;
 
     /// The radius observation keeps no direction.
     fn starts(
         &mut self,
         range: Range<usize>,
-    ) -> (Option<&mut [UnitVector3<f64>]>, &mut [RadiusWeight]) {
+    ) -> (Option<&mut [UnitVector3<f64>]>, &mut [RadiusWhitening]) {
         (None, &mut self.weights[range])
     }
 }
 
 impl MirrorStart for CoordinateObservations {
-    type Weight = CoordinateWeight;
+    type Weight = CoordinateWhitening;
 
     fn starts(
         &mut self,
         range: Range<usize>,
-    ) -> (Option<&mut [UnitVector3<f64>]>, &mut [CoordinateWeight]) {
+    ) -> (Option<&mut [UnitVector3<f64>]>, &mut [CoordinateWhitening]) {
         (
             Some(&mut self.directions[range.clone()]),
             &mut self.weights[range],

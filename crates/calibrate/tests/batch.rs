@@ -10,7 +10,7 @@ use nalgebra::{DVector, SVector, Vector2};
 use parcal_calibrate::problem::{ContactJacobian, CoordinateObservations};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_dataset::Dataset;
-use parcal_kinematics::lanes::PivotOrder;
+use parcal_kinematics::forward_batch::PivotOrder;
 use parcal_kinematics::{N_PARAMS, Params, Pose};
 use parcal_simulate::{Scenario, simulate};
 use parcal_solver::{BATCH, GlobalJacobian, Linearization, Problem};

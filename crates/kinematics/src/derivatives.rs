@@ -23,7 +23,7 @@
 //! [`FactoredTipJacobian`] keeps `K^T` itself (three transposed solves,
 //! once) instead of the LU: a combination of rows is then a 6 x 3 product,
 //! and no factorisation need be kept per contact (what the SIMD lanes of
-//! [`crate::lanes`] leave).
+//! [`crate::forward_batch`] leave).
 
 use nalgebra::{Matrix3, Matrix3x6, Matrix6x3, SMatrix, Vector3, Vector6};
 
@@ -71,7 +71,7 @@ pub struct DerivativeAlong {
 /// A contact's forward-kinematics solution and its first-order change along
 /// a parameter direction `dp` ([`TipDerivatives::along`]), without the
 /// derivatives themselves: what a back-substitution needs of a contact
-/// ([`crate::lanes::forward_along_batch`] makes up to four at once).
+/// ([`crate::forward_batch::forward_along_batch`] makes up to four at once).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SolutionAlong {
     /// The solution's pose.
@@ -149,7 +149,7 @@ impl FactoredTipJacobian {
 }
 
 /// A contact's forward-kinematics solution with its `J_f` in factored form:
-/// what a linearisation needs of a contact ([`crate::lanes::forward_jacobian_batch`]
+/// what a linearisation needs of a contact ([`crate::forward_batch::forward_jacobian_batch`]
 /// makes up to four at once).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct SolutionJacobian {
@@ -276,7 +276,7 @@ impl TipDerivatives {
     /// Forward kinematics of `geometry` at `q` from `start`
     /// ([`crate::forward()`]), in place, leaving these derivatives at its
     /// solution. Four contacts at once, in SIMD lanes:
-    /// [`crate::lanes::forward_jacobian_batch`].
+    /// [`crate::forward_batch::forward_jacobian_batch`].
     pub fn forward(
         &mut self,
         geometry: &Geometry,

@@ -87,7 +87,7 @@ pub fn forward(
 
 /// [`forward`] from `solution.pose`, overwriting `solution` (unspecified
 /// after an error): the calibration's per-contact path (one contact, a
-/// machine without AVX2, and the rare cases of [`crate::lanes`]), which
+/// machine without AVX2, and the rare cases of [`crate::forward_batch`]), which
 /// moves neither the legs nor the factorisation by value.
 pub fn forward_in_place(
     geometry: &Geometry,

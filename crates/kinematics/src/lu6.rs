@@ -69,7 +69,7 @@ impl Lu6 {
     }
 
     /// The packed factors and the row order, to be written in place by
-    /// the lanes ([`crate::lanes`]), which factorise as [`Lu6`] does.
+    /// the lanes ([`crate::forward_batch`]), which factorise as [`Lu6`] does.
     pub(crate) fn factors_mut(&mut self) -> (&mut [[f64; 6]; 6], &mut [u8; 6]) {
         (&mut self.lu, &mut self.permutation)
     }

@@ -23,7 +23,7 @@
 //! one list), the sizes are dynamic anyway, and the per-observation cost
 //! of a virtual call is small next to a forward kinematics (a Newton
 //! iteration or a trilateration). A mechanism with a hot path of its own
-//! (the hexapod's SIMD lanes, [`crate::lanes`]) keeps it behind its
+//! (the hexapod's SIMD lanes, [`crate::forward_batch`]) keeps it behind its
 //! concrete type; the trait is the common door, not the only one.
 //!
 //! # Pose increments

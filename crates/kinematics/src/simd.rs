@@ -1,5 +1,5 @@
 //! Four `f64` lanes in one 256-bit AVX register, for the kernels that run
-//! the same arithmetic on four contacts at once ([`crate::lanes`]).
+//! the same arithmetic on four contacts at once ([`crate::forward_batch`]).
 //!
 //! The operations are the AVX instructions themselves (`core::arch`
 //! intrinsics, each inlined into its caller), which are only sound on a

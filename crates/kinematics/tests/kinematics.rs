@@ -3,7 +3,7 @@
 //! canonical frames' invariance to rigid motions of the input frame.
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
-use parcal_kinematics::lanes::{
+use parcal_kinematics::forward_batch::{
     PivotOrder, forward_along_batch, forward_batch, forward_jacobian_batch,
 };
 use parcal_kinematics::{

@@ -14,7 +14,7 @@
 use nalgebra::{Matrix3, Vector2};
 use parcal_kinematics::Vec3;
 
-use crate::{CoordinateJacobians, CoordinateWeight, DirectionChart, Whitening};
+use crate::{CoordinateJacobians, CoordinateWhitening, DirectionChart, Whitening};
 
 /// The coordinate observation of one contact on a ball of calibrated radius
 /// `radius` (mm), its direction charted about the contact's initial
@@ -60,7 +60,7 @@ impl CoordinateBlock {
         tip: &Vec3,
         centre: &Vec3,
         angles: &Vector2<f64>,
-        weight: &CoordinateWeight,
+        weight: &CoordinateWhitening,
     ) -> CoordinateJacobians {
         let (direction, derivative) = self.chart.direction_and_derivative(angles);
         let inverse = weight.inverse_factor();
@@ -142,7 +142,7 @@ mod tests {
         };
         // A full lower-triangular L^-1, signs mixed.
         let covariance = Matrix3::new(4.0, 1.2, -0.7, 1.2, 2.5, 0.4, -0.7, 0.4, 1.8) * 1e-6;
-        let weight = CoordinateWeight::from_covariance(&covariance).unwrap();
+        let weight = CoordinateWhitening::from_covariance(&covariance).unwrap();
         for angles in [
             Vector2::zeros(),
             Vector2::new(0.02, -0.015),

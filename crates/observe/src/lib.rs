@@ -26,7 +26,7 @@
 //!   d_angles)` of both, and its [`BlockJacobians::whiten`].
 //! - [`weights`]: the observation covariance `W` of paper eq. (5) from the
 //!   actuator, tool and radius repeatabilities, and its whitening
-//!   ([`RadiusWeight`], [`CoordinateWeight`]).
+//!   ([`RadiusWhitening`], [`CoordinateWhitening`]).
 //! - [`prior`]: paper eq. (7), [`KinematicPrior`] (paper or propagated form)
 //!   and [`DiagonalPrior`] for centres and angles.
 //!
@@ -41,7 +41,7 @@
 //! use nalgebra::{Translation3, Vector2};
 //! use parcal_kinematics::{ForwardOptions, Pose, Vec3, actuators, forward_from_home, paper, rotation_zyx};
 //! use parcal_observe::{
-//!     CoordinateBlock, CoordinateWeight, DirectionChart, Repeatability, Tip, WeightModel,
+//!     CoordinateBlock, CoordinateWhitening, DirectionChart, Repeatability, Tip, WeightModel,
 //!     coordinate_covariance,
 //! };
 //!
@@ -63,7 +63,7 @@
 //! // about 1000 times d c / d p.
 //! let repeatability = Repeatability { actuator: 1e-3, tool: 1e-3, radius: 1e-3 };
 //! let w = coordinate_covariance(WeightModel::Propagated, &repeatability, &tip.d_q(), &u0)?;
-//! let whitened = raw.whiten(&CoordinateWeight::from_covariance(&w)?);
+//! let whitened = raw.whiten(&CoordinateWhitening::from_covariance(&w)?);
 //! assert!(whitened.d_params(&tip).norm() > 100.0 * raw.d_params(&tip).norm());
 //! # Ok::<(), parcal_observe::ObserveError>(())
 //! ```
@@ -96,6 +96,6 @@ pub use prior::{AnglePrior, CentrePrior, DiagonalPrior, KinematicPrior};
 pub use radius::RadiusBlock;
 pub use tip::Tip;
 pub use weights::{
-    CoordinateWeight, RadiusWeight, Repeatability, WeightModel, Whitening, coordinate_covariance,
-    radius_variance, tip_covariance,
+    CoordinateWhitening, RadiusWhitening, Repeatability, WeightModel, Whitening,
+    coordinate_covariance, radius_variance, tip_covariance,
 };

@@ -122,18 +122,18 @@ pub trait Whitening<const R: usize> {
 
 /// The whitening of a radius row: `1/√w`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RadiusWeight {
+pub struct RadiusWhitening {
     inverse_sigma: f64,
 }
 
-impl Default for RadiusWeight {
+impl Default for RadiusWhitening {
     /// Unit weight (variance 1 mm²).
     fn default() -> Self {
         Self { inverse_sigma: 1.0 }
     }
 }
 
-impl RadiusWeight {
+impl RadiusWhitening {
     /// From the row's variance `w` (mm², [`radius_variance`]); refuses a
     /// variance that is not positive and finite.
     pub fn from_variance(variance: f64) -> Result<Self, ObserveError> {
@@ -154,7 +154,7 @@ impl RadiusWeight {
     }
 }
 
-impl Whitening<1> for RadiusWeight {
+impl Whitening<1> for RadiusWhitening {
     fn whiten<const C: usize>(&self, m: &SMatrix<f64, 1, C>) -> SMatrix<f64, 1, C> {
         m * self.inverse_sigma
     }
@@ -163,11 +163,11 @@ impl Whitening<1> for RadiusWeight {
 /// The whitening of three coordinate rows: the lower-triangular `L⁻¹`,
 /// packed by rows `[l00, l10, l11, l20, l21, l22]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CoordinateWeight {
+pub struct CoordinateWhitening {
     inverse_factor: [f64; 6],
 }
 
-impl Default for CoordinateWeight {
+impl Default for CoordinateWhitening {
     /// Unit weight (covariance `I` mm²).
     fn default() -> Self {
         Self {
@@ -176,7 +176,7 @@ impl Default for CoordinateWeight {
     }
 }
 
-impl CoordinateWeight {
+impl CoordinateWhitening {
     /// From the rows' covariance `W` (mm², [`coordinate_covariance`]; its
     /// lower triangle is read); refuses a `W` that is not symmetric positive
     /// definite.
@@ -210,7 +210,7 @@ impl CoordinateWeight {
     }
 }
 
-impl Whitening<3> for CoordinateWeight {
+impl Whitening<3> for CoordinateWhitening {
     fn whiten<const C: usize>(&self, m: &SMatrix<f64, 3, C>) -> SMatrix<f64, 3, C> {
         let [l00, l10, l11, l20, l21, l22] = self.inverse_factor;
         SMatrix::<f64, 3, C>::from_fn(|row, column| {
@@ -254,7 +254,7 @@ mod tests {
         let u0 = (tip.position - contact.centre()).normalize();
         for model in [WeightModel::Propagated, WeightModel::Diagonal] {
             let w = coordinate_covariance(model, &REPEATABILITY, &tip.d_q(), &u0).unwrap();
-            let inverse = CoordinateWeight::from_covariance(&w)
+            let inverse = CoordinateWhitening::from_covariance(&w)
                 .unwrap()
                 .inverse_factor();
             let identity = inverse * w * inverse.transpose();
@@ -269,11 +269,11 @@ mod tests {
 
             let variance = radius_variance(model, &REPEATABILITY, &tip.d_q(), &u0).unwrap();
             assert!((variance - u0.dot(&(w * u0))).abs() < 1e-18);
-            let radius = RadiusWeight::from_variance(variance).unwrap();
+            let radius = RadiusWhitening::from_variance(variance).unwrap();
             assert!((radius.sigma().powi(2) / variance - 1.0).abs() < 1e-15);
         }
         // Whitening a block applies L⁻¹ to every part.
-        let weight = CoordinateWeight::from_covariance(
+        let weight = CoordinateWhitening::from_covariance(
             &coordinate_covariance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q(), &u0)
                 .unwrap(),
         )
@@ -322,13 +322,13 @@ mod tests {
         };
         let w = coordinate_covariance(WeightModel::Propagated, &zero, &d_q, &Vector3::z()).unwrap();
         assert!(matches!(
-            CoordinateWeight::from_covariance(&w),
+            CoordinateWhitening::from_covariance(&w),
             Err(ObserveError::NotPositiveDefinite { .. })
         ));
-        assert!(RadiusWeight::from_variance(0.0).is_err());
-        assert!(RadiusWeight::from_variance(f64::NAN).is_err());
+        assert!(RadiusWhitening::from_variance(0.0).is_err());
+        assert!(RadiusWhitening::from_variance(f64::NAN).is_err());
         let nan = Matrix3::from_diagonal_element(f64::NAN);
-        assert!(CoordinateWeight::from_covariance(&nan).is_err());
+        assert!(CoordinateWhitening::from_covariance(&nan).is_err());
     }
 
     /// Simulated contacts: actuator noise through real forward kinematics,
@@ -345,12 +345,12 @@ mod tests {
         // The true ball: the exact tip on its surface in direction u0.
         let u0 = (tip.position - centre).normalize();
         let true_radius = (tip.position - centre).norm();
-        let coordinate_weight = CoordinateWeight::from_covariance(
+        let coordinate_weight = CoordinateWhitening::from_covariance(
             &coordinate_covariance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q(), &u0)
                 .unwrap(),
         )
         .unwrap();
-        let radius_weight = RadiusWeight::from_variance(
+        let radius_weight = RadiusWhitening::from_variance(
             radius_variance(WeightModel::Propagated, &REPEATABILITY, &tip.d_q(), &u0).unwrap(),
         )
         .unwrap();

@@ -6,8 +6,8 @@
 
 use nalgebra::{DVector, SVector};
 
+use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::{Chunk, ElimBuffers, run_chunks, split_by};
-use crate::context::Context;
 use crate::eliminate::{
     Failure, GroupRows, add_group_column_norms2, batches, factor_point,
     push_group_prior_and_damping, stepped_row,
@@ -59,7 +59,7 @@ impl StepSummary {
     }
 }
 
-impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'_, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
 {

@@ -7,8 +7,8 @@
 
 use nalgebra::{Const, DMatrix, Dim, Dyn, Matrix, OMatrix, SMatrix, SVector, StorageMut};
 
+use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks;
-use crate::context::Context;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
 use crate::iterate::status_of;
 use crate::problem::{Problem, State};
@@ -123,7 +123,7 @@ fn upper_solve<const C: usize, N: Dim, S>(
     }
 }
 
-impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'_, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
 {
@@ -172,7 +172,7 @@ pub fn group_sigmas<const C: usize, const P: usize, const R: usize, Pr: Problem<
     caches: &mut Vec<Pr::PointCache>,
     groups_per_chunk: usize,
 ) -> Result<Vec<SVector<f64, C>>, Status> {
-    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
+    let mut ctx = ChunkedProblem::new(problem, state, caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     ctx.group_sigmas(state, covariance)
         .map_err(|f| status_of(f, 0))

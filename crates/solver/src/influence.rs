@@ -24,8 +24,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::Chunk;
-use crate::context::Context;
 use crate::eliminate::eliminate_chunk;
 use crate::iterate::status_of;
 use crate::problem::{Problem, State};
@@ -76,7 +76,8 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
     // One chunk of every group (the context checks the groups' points): the
     // chosen groups are eliminated one at a time below, and a chunk per
     // group would cost 32 bytes a group.
-    let ctx = Context::new(problem, state, caches, problem.n_groups().max(1)).map_err(invalid)?;
+    let ctx =
+        ChunkedProblem::new(problem, state, caches, problem.n_groups().max(1)).map_err(invalid)?;
     let g = ctx.dims.g;
     let (_, factor) = covariance_factor(covariance, g)?;
     let observations = if rows
@@ -121,7 +122,7 @@ pub fn row_influence<const C: usize, const P: usize, const R: usize, Pr: Problem
     // Per chosen group: its points, their rows (r_j, |z_j|²) and the z_j
     // of their rows.
     let mut eliminated = Vec::with_capacity(groups.len());
-    let Context {
+    let ChunkedProblem {
         pool, caches, dims, ..
     } = ctx;
     for &(k, _) in &groups {

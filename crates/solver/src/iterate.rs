@@ -9,7 +9,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector};
 
 use crate::backsub::StepSummary;
-use crate::context::Context;
+use crate::chunked_problem::ChunkedProblem;
 use crate::diagnostics::SpectrumDiagnostics;
 use crate::eliminate::Failure;
 use crate::monitor::{Decision, Iterate, Monitor};
@@ -62,7 +62,7 @@ pub fn solve_with_caches<const C: usize, const P: usize, const R: usize, Pr: Pro
             format!("initial_lambda must be in (0, 1e32], got {initial_lambda}"),
         );
     }
-    let run = match Context::new(problem, &initial, caches, options.groups_per_chunk) {
+    let run = match ChunkedProblem::new(problem, &initial, caches, options.groups_per_chunk) {
         Ok(ctx) => Run {
             ctx,
             options,
@@ -138,7 +138,7 @@ impl Ending {
     }
 }
 
-impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'_, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
 {
@@ -194,7 +194,7 @@ pub fn linear_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C
     groups_per_chunk: usize,
 ) -> Result<LinearStep<C, P>, Status> {
     let failed = |f| status_of(f, 0);
-    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
+    let mut ctx = ChunkedProblem::new(problem, state, caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
     let mut delta = state.clone();
@@ -251,7 +251,7 @@ pub fn reduced_step<const C: usize, const P: usize, const R: usize, Pr: Problem<
     caches: &mut Vec<Pr::PointCache>,
     groups_per_chunk: usize,
 ) -> Result<ReducedStep, Status> {
-    let mut ctx = Context::new(problem, state, caches, groups_per_chunk)
+    let mut ctx = ChunkedProblem::new(problem, state, caches, groups_per_chunk)
         .map_err(|message| Status::InvalidProblem { message })?;
     let system = ctx.reduce(state, 0.0).map_err(|f| status_of(f, 0))?;
     let global = global_step(&system).ok_or_else(|| singular_at_start(&system))?;
@@ -273,7 +273,7 @@ struct Run<'o, 'a, const C: usize, const P: usize, const R: usize, Pr>
 where
     Pr: Problem<C, P, R>,
 {
-    ctx: Context<'a, C, P, R, Pr>,
+    ctx: ChunkedProblem<'a, C, P, R, Pr>,
     options: &'o SolverOptions,
     monitor: &'o mut dyn Monitor<C, P, Pr::PointCache>,
     history: Vec<IterationRecord>,

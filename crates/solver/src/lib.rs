@@ -266,8 +266,8 @@
 #![allow(clippy::needless_range_loop)]
 
 mod backsub;
+mod chunked_problem;
 mod chunks;
-mod context;
 mod covariance;
 pub mod dense_reference;
 mod diagnostics;

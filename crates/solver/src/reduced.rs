@@ -4,8 +4,8 @@
 
 use nalgebra::DVector;
 
+use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks;
-use crate::context::Context;
 use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk, find_non_finite};
 use crate::problem::{GlobalObservations, Problem, State, WeighedRows};
 use crate::qr::all_finite;
@@ -89,7 +89,7 @@ struct ChunkPart {
     global_norms2: Vec<f64>,
 }
 
-impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'_, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
 {

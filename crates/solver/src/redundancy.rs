@@ -98,8 +98,8 @@ use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, SMatrix, SVector};
 
+use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks_in_waves;
-use crate::context::Context;
 use crate::covariance::GroupSigmas;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
 use crate::iterate::status_of;
@@ -222,7 +222,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     visit: impl FnMut(&PointRows<R>),
 ) -> Result<Redundancy<C>, Status> {
     let invalid = |message: String| Status::InvalidProblem { message };
-    let mut ctx = Context::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
+    let mut ctx = ChunkedProblem::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
     let g = ctx.dims.g;
     let (symmetric, factor) = covariance_factor(covariance, g)?;
     let (observations, weighed) = ctx
@@ -284,7 +284,7 @@ pub(crate) fn covariance_factor(
     Ok((symmetric, factor.lower_factor()))
 }
 
-impl<const C: usize, const P: usize, const R: usize, Pr> Context<'_, C, P, R, Pr>
+impl<const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'_, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
 {

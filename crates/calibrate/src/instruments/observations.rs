@@ -38,7 +38,7 @@ pub(crate) fn model_and_rows<'a>(
         fixed_tool: canonical.tool,
     };
     let mut rows = InstrumentRows::new(tracker, start.point_poses, forward);
-    rows.weigh(&model, &model.values(initial), &machine.repeatability)?;
+    rows.whiten(&model, &model.values(initial), &machine.repeatability)?;
     Ok((model, rows))
 }
 

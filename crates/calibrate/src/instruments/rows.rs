@@ -18,7 +18,7 @@ use crate::instruments::InstrumentTable;
 use crate::instruments::model::{InstrumentModel, ModelValues};
 use crate::layout::ParameterGroup;
 
-/// The measured rows and their weights.
+/// The measured rows and their whitening.
 #[derive(Debug, Clone)]
 pub struct InstrumentRows<'a> {
     /// The measurements.
@@ -26,9 +26,9 @@ pub struct InstrumentRows<'a> {
     /// poses.csv's `M_j`.
     pub measured: Vec<Pose>,
     /// The whitening `L⁻¹` of each pose's six rows.
-    pub pose_weights: Vec<Matrix6<f64>>,
+    pub pose_whitening: Vec<Matrix6<f64>>,
     /// The whitening `L⁻¹` of each point's three rows.
-    pub point_weights: Vec<Matrix3<f64>>,
+    pub point_whitening: Vec<Matrix3<f64>>,
     /// The variance of every row (mm², the diagonal of each row's
     /// covariance): each pose's six, then each point's three.
     pub variances: Vec<f64>,
@@ -53,8 +53,8 @@ impl<'a> InstrumentRows<'a> {
         Self {
             tracker,
             measured: crate::instruments::start::measured_poses(tracker),
-            pose_weights: Vec::new(),
-            point_weights: Vec::new(),
+            pose_whitening: Vec::new(),
+            point_whitening: Vec::new(),
             variances: Vec::new(),
             point_starts,
             forward,
@@ -139,10 +139,10 @@ impl<'a> InstrumentRows<'a> {
         })
     }
 
-    /// Forms the rows' weights at `values` from the repeatabilities
+    /// Forms the rows' whitening at `values` from the repeatabilities
     /// (actuators in their unit, times the scale; the instrument's
     /// position and orientation sigmas).
-    pub fn weigh(
+    pub fn whiten(
         &mut self,
         model: &InstrumentModel,
         values: &ModelValues,
@@ -157,7 +157,7 @@ impl<'a> InstrumentRows<'a> {
             reason: "its covariance is not positive definite".into(),
         };
         let mut variances = Vec::with_capacity(self.len());
-        self.pose_weights = (0..self.tracker.poses.len())
+        self.pose_whitening = (0..self.tracker.poses.len())
             .map(|j| {
                 let block = self.pose(model, values, j)?;
                 let w = pose_covariance(&block.d_measurement, &actuator, position, orientation);
@@ -165,7 +165,7 @@ impl<'a> InstrumentRows<'a> {
                 inverse_factor(&w).ok_or_else(|| refuse(InstrumentTable::Poses, j))
             })
             .collect::<Result<_, _>>()?;
-        self.point_weights = (0..self.tracker.points.len())
+        self.point_whitening = (0..self.tracker.points.len())
             .map(|j| {
                 let row = self.point(model, values, j)?;
                 let d_lengths = row.block.d_tip * row.tip.d_q;
@@ -216,7 +216,7 @@ impl<'a> InstrumentRows<'a> {
             let mut raw = DMatrix::zeros(6, g);
             self.pose_columns(model, j, &block, &mut raw);
             let w = if whiten {
-                self.pose_weights[j]
+                self.pose_whitening[j]
             } else {
                 Matrix6::identity()
             };
@@ -230,7 +230,7 @@ impl<'a> InstrumentRows<'a> {
             let mut raw = DMatrix::zeros(3, g);
             self.point_columns(model, j, &row, &mut raw);
             let w = if whiten {
-                self.point_weights[j]
+                self.point_whitening[j]
             } else {
                 Matrix3::identity()
             };

@@ -512,8 +512,8 @@ pub fn validate_calibration(
             candidates.into_iter().next().expect("one candidate")
         } else {
             let values = model.values(&global);
-            reference_rows_model.weigh(&model, &values, &machine.repeatability)?;
-            predicted.weigh(&model, &values, &machine.repeatability)?;
+            reference_rows_model.whiten(&model, &values, &machine.repeatability)?;
+            predicted.whiten(&model, &values, &machine.repeatability)?;
             for candidate in &candidates {
                 let score = expected_prediction_error(
                     &model,
@@ -534,8 +534,8 @@ pub fn validate_calibration(
         }
     };
     let values = model.values(&global);
-    reference_rows_model.weigh(&model, &values, &machine.repeatability)?;
-    predicted.weigh(&model, &values, &machine.repeatability)?;
+    reference_rows_model.whiten(&model, &values, &machine.repeatability)?;
+    predicted.whiten(&model, &values, &machine.repeatability)?;
     let predict = |nuisance: &Nuisance| {
         Prediction::new(
             calibrated,

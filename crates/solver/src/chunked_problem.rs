@@ -7,8 +7,9 @@ use crate::problem::{Problem, State};
 /// The chunks, each with the caches of its points.
 pub(crate) type Jobs<'c, T> = Vec<(&'c Chunk, &'c mut [T])>;
 
-/// The solver's view of a problem during one run.
-pub(crate) struct Context<'a, const C: usize, const P: usize, const R: usize, Pr>
+/// A problem during one run, chunked: its chunks, their points' caches
+/// and the per-thread workspaces.
+pub(crate) struct ChunkedProblem<'a, const C: usize, const P: usize, const R: usize, Pr>
 where
     Pr: Problem<C, P, R>,
 {
@@ -19,7 +20,7 @@ where
     pub(crate) caches: &'a mut Vec<Pr::PointCache>,
 }
 
-impl<'a, const C: usize, const P: usize, const R: usize, Pr> Context<'a, C, P, R, Pr>
+impl<'a, const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'a, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
 {

@@ -392,7 +392,7 @@ mod avx2 {
         lockstep(geometry, q, options, starts, feasible, trial, &mut finish)
     }
 
-    /// `lanes` run on the contacts (a bit per lane) from `starts` padded
+    /// `forward_batch` run on the contacts (a bit per lane) from `starts` padded
     /// to [`LANES`] with the last (it returns the lanes it leaves, among
     /// them those with an infeasible actuator value), then `scalar` on
     /// each contact left, from its start: the first error in contact order.
