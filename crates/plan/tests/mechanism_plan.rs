@@ -8,6 +8,7 @@
 use nalgebra::DMatrix;
 use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
 use parcal_dataset::mechanism::{MechanismDataset, Noise, SampleRow};
+use parcal_kinematics::delta::probe_rings;
 use parcal_plan::mechanism::greedy::{dense_covariance, group_trace};
 use parcal_plan::mechanism::information::{Linearisation, whitened_rows};
 use parcal_plan::mechanism::workspace::grid_candidates;
@@ -228,6 +229,42 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
             p.after
         );
     }
+    // The rods' trace against the firmware's usual layout, 25 probes on
+    // three rings out to 100 mm (the calibration's, docs/delta.md), each
+    // probed once: the dense inverse of the same prior and rows.
+    let at = Linearisation {
+        params: &design,
+        configured: &data.configured,
+        trigger_height: data.trigger_height.mean,
+        unknowns: n + 1,
+    };
+    let noise = Noise {
+        probe: Some(0.01),
+        ..Noise::default()
+    };
+    let rings: Vec<DMatrix<f64>> = probe_rings(100.0, 3, 8)
+        .into_iter()
+        .map(|xy| whitened_rows(mechanism, &at, &noise, &Candidate::Probe(xy)).unwrap())
+        .collect();
+    let mut variances: Vec<f64> = data
+        .priors
+        .iter()
+        .map(|p| p.sigma.unwrap().powi(2))
+        .collect();
+    variances.push(data.trigger_height.sigma.unwrap().powi(2));
+    let prior = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(variances));
+    let after = dense_covariance(&prior, &rings.iter().collect::<Vec<_>>()).unwrap();
+    // The rods are their own canonical values (no gauge freedom moves
+    // them): their rows of the canonical frame's derivative are unit rows.
+    let rods = DMatrix::identity(n + 1, n + 1).rows(11, 3).clone_owned();
+    let ring_trace = group_trace(&after, &rods);
+    eprintln!(
+        "rods' RMS sigma (mm): prior {:.3}, 25 planned probes {:.3}, 25 probes on 3 rings {:.3}",
+        (plan.trace_before / 3.0).sqrt(),
+        (plan.trace_after() / 3.0).sqrt(),
+        (ring_trace / 3.0).sqrt()
+    );
+    assert!(plan.trace_after() < ring_trace);
     // Every pick is a probe within the print radius; the trace falls.
     assert!(plan.picks.iter().all(|(c, _)| {
         let [x, y, _] = c.position(0.0);
