@@ -113,8 +113,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 && args.tracker.is_none()
                 && args.workspace.is_none()
                 && args.tilt.is_none()
-                && args.sessions == 1,
-            "--contacts, --poses, --tracker, --sessions, --workspace and --tilt apply to a hexapod's plans, not a {mechanism}'s"
+                && args.sessions == 1
+                && args.per_ball.is_none()
+                && args.min_balls.is_none()
+                && args.radius.is_none(),
+            "--contacts, --poses, --tracker, --sessions, --workspace, --tilt, --per-ball, --min-balls and --radius apply to a hexapod's plans, not a {mechanism}'s"
         );
         return super::plan_mechanism::run(&super::plan_mechanism::Request {
             dir: &args.dir,
