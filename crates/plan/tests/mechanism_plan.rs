@@ -313,4 +313,19 @@ fn bad_requests_are_named() {
         error.contains("none of the 1 candidates is feasible"),
         "{error}"
     );
+    // A calibration of another mechanism, or without a covariance, is no
+    // start.
+    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let mut record = calibration.record();
+    let cable = parcal_kinematics::cable::CableRobot::typical();
+    let error = Start::from_record(&record, &cable).unwrap_err().to_string();
+    assert!(
+        error.contains("the dataset's mechanism is a cable robot"),
+        "{error}"
+    );
+    record.covariance = None;
+    let error = Start::from_record(&record, data.mechanism.as_ref())
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("no covariance"), "{error}");
 }
