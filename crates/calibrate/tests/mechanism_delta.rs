@@ -44,7 +44,7 @@ fn canonical_truth(dataset: &MechanismDataset) -> DVector<f64> {
     let delta = parcal_kinematics::delta::LinearDelta::typical();
     let canonical = delta.canonicalize(&truth.parameters).unwrap();
     let mut values: Vec<f64> = canonical.iter().copied().collect();
-    values.push(truth.trigger_height);
+    values.push(truth.trigger_height.expect("a delta's trigger height"));
     DVector::from_vec(values)
 }
 

@@ -27,7 +27,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Simulate a calibration campaign (the paper scenario by default) and write it as a dataset.
-    Simulate(commands::simulate::Args),
+    Simulate(Box<commands::simulate::Args>),
     /// Read and validate a dataset and print a summary.
     Inspect(commands::inspect::Args),
     /// Calibrate a dataset: identified parameters with sigmas, accuracy, calibration.json.

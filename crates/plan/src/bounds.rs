@@ -59,3 +59,20 @@ pub const SESSIONS: Count = Count::new(
     100,
     "each session adds a copy of the candidate pool and its nuisances to the problem",
 );
+
+/// A mechanism plan's measurements (probe heights, encoder samples):
+/// each pick evaluates every candidate once.
+pub const MEASUREMENTS: Count = Count::new(
+    1,
+    1000,
+    "each measurement planned evaluates every candidate once; a thousand exceed any calibration of a delta or a cable robot",
+);
+
+/// Points per axis of a mechanism plan's candidate grid (a square over a
+/// delta's bed, a cube over a cable robot's anchors: 64,000 at the bound).
+pub const GRID: Count = Count::new(2, 40, "a cube of 40 per axis is 64,000 candidates");
+
+/// The most candidate evaluations of a mechanism plan, measurements x
+/// feasible candidates: each is a rank-`r` update of a covariance of about
+/// 20 unknowns, some microseconds.
+pub const MAX_MECHANISM_EVALUATIONS: usize = 10_000_000;

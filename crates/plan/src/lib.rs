@@ -15,8 +15,9 @@
 //! - [`plan_file`]: plan.csv and plan.json;
 //! - [`tracker`]: the same for the poses of an instrument calibration
 //!   (laser tracker, motion capture);
-//! - [`samples`]: which poses a mechanism calibrated from readings at
-//!   unknown poses (a cable robot) should sample next.
+//! - [`mechanism`]: which measurements to make next on a mechanism
+//!   calibrated through the generic engine (a linear delta's probe
+//!   heights, a cable robot's encoder samples).
 //!
 //! [`plan`] puts them together for a machine and its artefacts.
 
@@ -24,9 +25,9 @@ pub mod bounds;
 pub mod criterion;
 mod error;
 pub mod information;
+pub mod mechanism;
 pub mod plan_file;
 pub mod pool;
-pub mod samples;
 pub mod select;
 pub mod tracker;
 

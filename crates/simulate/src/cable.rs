@@ -9,8 +9,14 @@
 //! position is one where every line is taut
 //! ([`Mechanism::check_feasible`]). Deterministic for a seed: the truth,
 //! the positions and the noise each draw from their own stream.
+//! [`simulate_cable_dataset`] writes the campaign of the typical robot (the
+//! one a dataset's `"cable robot"` names) as a mechanism dataset with its
+//! truth.
 
 use nalgebra::DVector;
+use parcal_dataset::mechanism::{
+    MechanismDataset, MechanismMachine, MechanismTruth, Noise, SampleRow,
+};
 use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::mechanism::{Mechanism, design};
 
@@ -176,6 +182,54 @@ pub fn simulate_cable(
     Ok(CableSimulation { truth, samples })
 }
 
+/// [`simulate_cable`] on [`CableRobot::typical`] as a mechanism dataset:
+/// machine.json with the design as configured and its tolerances stated,
+/// the readings' and positions' noise; points.csv; truth.json with the true
+/// parameters (no trigger height: a cable robot has no probe). A dataset
+/// holds one standard deviation for every measured coordinate, so the
+/// scenario's three must be equal; both noises must be positive, as the
+/// calibration weights by them.
+pub fn simulate_cable_dataset(
+    scenario: &CableScenario,
+    seed: u64,
+) -> Result<MechanismDataset, SimulateError> {
+    let [sx, sy, sz] = scenario.position_sigma;
+    if !(sx == sy && sy == sz && sx > 0.0 && scenario.reading_sigma > 0.0) {
+        return Err(SimulateError::Scenario(format!(
+            "cable robot: a dataset needs one positive position sigma (got {:?}) and a positive reading sigma (got {})",
+            scenario.position_sigma, scenario.reading_sigma
+        )));
+    }
+    let robot = CableRobot::typical();
+    let simulation = simulate_cable(&robot, scenario, seed)?;
+    let samples = simulation
+        .samples
+        .into_iter()
+        .map(|sample| SampleRow {
+            readings: sample.readings,
+            position: sample.known,
+        })
+        .collect();
+    let machine = MechanismMachine {
+        noise: Noise {
+            actuator: Some(scenario.reading_sigma),
+            position: Some(sx),
+            ..Noise::default()
+        },
+        ..MechanismMachine::stating_tolerances(&robot)
+    };
+    Ok(MechanismDataset {
+        machine,
+        probes: Vec::new(),
+        distances: Vec::new(),
+        samples,
+        truth: Some(MechanismTruth {
+            parameters: simulation.truth.iter().copied().collect(),
+            trigger_height: None,
+        }),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,6 +258,24 @@ mod tests {
         }
         // The encoder zero reads zero, up to the noise.
         assert!(a.samples[0].readings.iter().all(|q| q.abs() < 6.0));
+    }
+
+    #[test]
+    fn a_dataset_reads_back_with_its_truth() {
+        let scenario = CableScenario::hangprinter();
+        let dataset = simulate_cable_dataset(&scenario, 3).unwrap();
+        assert_eq!(dataset.samples.len(), 44);
+        assert!(dataset.truth.as_ref().unwrap().trigger_height.is_none());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cable");
+        dataset.write(&path).unwrap();
+        assert_eq!(MechanismDataset::read(&path).unwrap(), dataset);
+        let uneven = CableScenario {
+            position_sigma: [1.0, 1.0, 2.0],
+            ..scenario
+        };
+        let error = simulate_cable_dataset(&uneven, 3).unwrap_err().to_string();
+        assert!(error.contains("one positive position sigma"), "{error}");
     }
 
     #[test]

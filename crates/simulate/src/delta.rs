@@ -215,17 +215,7 @@ pub fn simulate_delta(
         })
         .collect::<Result<Vec<_>, SimulateError>>()?;
 
-    let tolerances = {
-        let mut groups: Vec<(String, Option<f64>)> = Vec::new();
-        for p in delta.parameters() {
-            if !groups.iter().any(|(g, _)| g == p.group) {
-                groups.push((p.group.to_string(), Some(p.prior_sigma)));
-            }
-        }
-        groups
-    };
     let machine = MechanismMachine {
-        tolerances,
         noise: Noise {
             probe: Some(scenario.probe_sigma),
             distance: (!distances.is_empty()).then_some(scenario.distance_sigma),
@@ -236,7 +226,7 @@ pub fn simulate_delta(
             value: scenario.trigger_height,
             sigma: Some(scenario.trigger_sigma),
         }),
-        ..MechanismMachine::of(&delta)
+        ..MechanismMachine::stating_tolerances(&delta)
     };
     Ok(MechanismDataset {
         machine,
@@ -245,7 +235,7 @@ pub fn simulate_delta(
         samples,
         truth: Some(MechanismTruth {
             parameters: truth,
-            trigger_height: trigger,
+            trigger_height: Some(trigger),
         }),
     })
 }

@@ -38,7 +38,9 @@ mod tracker;
 
 use parcal_dataset::bounds::{Count, check_product};
 
-pub use cable::{CableSample, CableScenario, CableSimulation, simulate_cable};
+pub use cable::{
+    CableSample, CableScenario, CableSimulation, simulate_cable, simulate_cable_dataset,
+};
 pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
 pub use execute::{MachineLimits, execute};
 pub use mixed::simulate_mixed;

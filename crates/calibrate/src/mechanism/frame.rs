@@ -27,7 +27,7 @@ use super::error::MechanismCalibrationError;
 const STEP: f64 = 1e-4;
 
 /// The estimate and its covariance in the canonical frame.
-pub(crate) struct Canonical {
+pub struct Canonical {
     /// The global block, its first `n` values canonical.
     pub values: DVector<f64>,
     /// `T = diag(J_c, I)`, the derivative of the canonical global block.
@@ -39,7 +39,7 @@ pub(crate) struct Canonical {
 /// `c(p)` of the first `n` values of `global`, the rest unchanged; the
 /// covariance propagated (module doc). `scale` holds each parameter's
 /// step scale.
-pub(crate) fn canonical(
+pub fn canonical(
     mechanism: &dyn Mechanism,
     global: &DVector<f64>,
     covariance: Option<&DMatrix<f64>>,

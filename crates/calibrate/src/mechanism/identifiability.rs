@@ -20,6 +20,9 @@
 //!   make it up (components in units of their prior sigma).
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use parcal_kinematics::mechanism::Mechanism;
+
+use super::error::MechanismCalibrationError;
 
 /// A component of a direction at least this large (of a unit vector in
 /// prior-sigma units) names its parameter in the statement.
@@ -55,7 +58,7 @@ pub struct Identifiability {
 }
 
 /// The inputs of [`identifiability`]: every matrix over the global block.
-pub(crate) struct Inputs<'a> {
+pub struct Inputs<'a> {
     /// The unknowns' names.
     pub names: &'a [String],
     /// The fit-frame covariance `Cov(g)`.
@@ -69,9 +72,35 @@ pub(crate) struct Inputs<'a> {
     pub gauge: &'a [(String, DVector<f64>)],
 }
 
+/// The gauge freedoms of `mechanism` at `params`, each direction padded
+/// with zeros to the `g` unknowns of the global block (the trigger height
+/// does not move with them).
+pub fn gauge_directions(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    g: usize,
+) -> Result<Vec<(String, DVector<f64>)>, MechanismCalibrationError> {
+    let freedoms = mechanism.gauge_freedoms(params).map_err(|source| {
+        MechanismCalibrationError::Kinematics {
+            mechanism: mechanism.name().to_string(),
+            source,
+        }
+    })?;
+    Ok(freedoms
+        .into_iter()
+        .map(|freedom| {
+            let mut direction = DVector::zeros(g);
+            direction
+                .rows_mut(0, params.len())
+                .copy_from(&freedom.direction);
+            (freedom.name.to_string(), direction)
+        })
+        .collect())
+}
+
 /// The identifiability of a fit (module doc); `None` when `Cov(g)` is not
 /// positive definite.
-pub(crate) fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
+pub fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
     let Inputs {
         names,
         covariance,

@@ -16,7 +16,7 @@ use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
 use super::fit::{Fit, ObservationCheck};
 use super::frame::canonical;
-use super::identifiability::{Identifiability, Inputs, identifiability};
+use super::identifiability::{Identifiability, Inputs, gauge_directions, identifiability};
 use super::observation::ObservationRef;
 use super::options::MechanismOptions;
 
@@ -153,19 +153,7 @@ pub(crate) fn assemble(
         })
         .collect();
     let g = fit.global.len();
-    let gauge: Vec<(String, DVector<f64>)> = mechanism
-        .gauge_freedoms(&fit.global.as_slice()[..n])
-        .map_err(|source| MechanismCalibrationError::Kinematics {
-            mechanism: mechanism.name().to_string(),
-            source,
-        })?
-        .into_iter()
-        .map(|freedom| {
-            let mut direction = DVector::zeros(g);
-            direction.rows_mut(0, n).copy_from(&freedom.direction);
-            (freedom.name.to_string(), direction)
-        })
-        .collect();
+    let gauge = gauge_directions(mechanism, &fit.global.as_slice()[..n], g)?;
     let names: Vec<String> = parameters.iter().map(|p| p.name.clone()).collect();
     let identifiability = fit.covariance.as_ref().and_then(|covariance| {
         identifiability(&Inputs {

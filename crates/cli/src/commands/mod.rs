@@ -10,6 +10,7 @@ pub mod inspect;
 pub mod mechanism;
 pub mod paper;
 pub mod plan;
+pub mod plan_mechanism;
 pub mod report;
 pub mod simulate;
 pub mod simulate_mechanism;

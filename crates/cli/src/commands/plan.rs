@@ -19,7 +19,9 @@ use crate::progress::Progress;
 #[derive(clap::Args)]
 pub struct Args {
     /// Directory holding machine.json (with its "stroke") and artefacts.json;
-    /// or machine.json alone: a pose plan for an instrument (--tracker).
+    /// or machine.json alone: a pose plan for an instrument (--tracker); or
+    /// a mechanism's machine.json (a linear delta, a cable robot): its
+    /// probe heights or encoder samples to measure next.
     dir: PathBuf,
     /// The budget: number of touches.
     #[arg(long, conflicts_with = "poses", value_parser = Bounded(bounds::CONTACTS))]
@@ -43,10 +45,12 @@ pub struct Args {
     /// `Z_MIN <= z <= Z_MAX`, design base frame, mm.
     #[arg(long, value_name = "HALF_WIDTH,Z_MIN,Z_MAX", value_parser = parse_workspace)]
     workspace: Option<Workspace>,
-    /// Largest |roll|, |pitch|, |yaw| of the platform, degrees.
+    /// Largest |roll|, |pitch|, |yaw| of the platform, degrees (a
+    /// hexapod's plans).
     #[arg(long)]
-    tilt: f64,
-    /// plan.csv to write (plan.json is written beside it).
+    tilt: Option<f64>,
+    /// plan.csv to write (plan.json is written beside it); for a
+    /// mechanism, the probes.csv or points.csv to fill in.
     #[arg(long)]
     out: PathBuf,
     /// What the plan minimises: the mean registered tip variance over the
@@ -87,6 +91,9 @@ pub struct Args {
     /// contact.
     #[arg(long, value_enum)]
     radius: Option<RadiusModel>,
+    /// The mechanism's plan (its options).
+    #[command(flatten)]
+    mechanism: super::plan_mechanism::MechanismArgs,
 }
 
 /// `--criterion`.
@@ -99,10 +106,34 @@ enum CriterionArg {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if let Some(mechanism) = super::mechanism::declared(&args.dir)? {
+        anyhow::ensure!(
+            args.contacts.is_none()
+                && args.poses.is_none()
+                && args.tracker.is_none()
+                && args.workspace.is_none()
+                && args.tilt.is_none()
+                && args.sessions == 1
+                && args.per_ball.is_none()
+                && args.min_balls.is_none()
+                && args.radius.is_none(),
+            "--contacts, --poses, --tracker, --sessions, --workspace, --tilt, --per-ball, --min-balls and --radius apply to a hexapod's plans, not a {mechanism}'s"
+        );
+        return super::plan_mechanism::run(&super::plan_mechanism::Request {
+            dir: &args.dir,
+            out: &args.out,
+            after: args.after.as_deref(),
+            mechanism: &mechanism,
+            options: &args.mechanism,
+        });
+    }
+    args.mechanism.refuse_for_hexapod()?;
+    let Some(tilt) = args.tilt else {
+        anyhow::bail!("--tilt is needed for a hexapod's plan");
+    };
     anyhow::ensure!(
-        args.tilt.is_finite() && (0.0..90.0).contains(&args.tilt),
-        "--tilt must be in [0, 90) degrees, got {}",
-        args.tilt
+        tilt.is_finite() && (0.0..90.0).contains(&tilt),
+        "--tilt must be in [0, 90) degrees, got {tilt}"
     );
     // plan.csv and plan.json are checked before the work, against every
     // file the plan reads.
@@ -115,7 +146,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .tracker
         .or_else(|| (!artefacts_file.exists()).then_some(super::simulate::Kind::Poses));
     if let Some(kind) = tracker {
-        return run_tracker(args, &machine, kind);
+        return run_tracker(args, &machine, kind, tilt);
     }
     anyhow::ensure!(
         args.sessions == 1,
@@ -125,7 +156,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         anyhow::bail!("--contacts is needed for a plan of ball touches");
     };
     let artefacts = Artefacts::read(&artefacts_file)?;
-    let defaults = PlanOptions::new(contacts, args.tilt);
+    let defaults = PlanOptions::new(contacts, tilt);
     let options = PlanOptions {
         criterion: criterion(args.criterion),
         pool: args.pool,
@@ -166,7 +197,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 }
 
 /// A pose plan (`--tracker`, or DIR without artefacts.json).
-fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> anyhow::Result<()> {
+fn run_tracker(
+    args: &Args,
+    machine: &Machine,
+    kind: super::simulate::Kind,
+    tilt: f64,
+) -> anyhow::Result<()> {
     let Some(poses) = args.poses else {
         anyhow::bail!(
             "--poses is needed for a pose plan (--tracker, or DIR without artefacts.json)"
@@ -186,7 +222,7 @@ fn run_tracker(args: &Args, machine: &Machine, kind: super::simulate::Kind) -> a
         poses,
         kind: kind.tracker_kind(),
         workspace,
-        tilt_degrees: args.tilt,
+        tilt_degrees: tilt,
         criterion: criterion(args.criterion),
         passes: PlanOptions::new(1, 0.0).passes,
         sessions: args.sessions,

@@ -120,36 +120,43 @@ pub struct Args {
     /// Run commands instead of simulating a campaign (--out is then a file).
     #[command(flatten)]
     execute: super::execute::RunArgs,
-    /// Simulate a printer of another mechanism than the hexapod: `linear
-    /// delta` (or `delta`), probe heights and part distances with its
-    /// truth (docs/delta.md).
+    /// Simulate a mechanism other than the hexapod: `linear delta` (or
+    /// `delta`): probe heights and part distances; `cable robot` (or
+    /// `cable`): the Hangprinter's encoder samples with a few measured
+    /// positions; with its truth (docs/delta.md, docs/cable-robots.md).
     #[arg(long, value_name = "NAME", conflicts_with_all = ["balls", "tracker", "plate", "plan", "design_drawn", "binary"])]
     mechanism: Option<String>,
-    /// Probe rings over the printable disc (and its centre).
-    #[arg(long, default_value_t = 3, requires = "mechanism", value_parser = Bounded(simulate_mechanism::RINGS))]
-    probe_rings: usize,
-    /// Probe points on each ring.
-    #[arg(long, default_value_t = 8, requires = "mechanism", value_parser = Bounded(simulate_mechanism::PER_RING))]
-    probes_per_ring: usize,
-    /// Distances measured across a printed disc on the first layer.
-    #[arg(long, default_value_t = 0, requires = "mechanism", value_parser = Bounded(simulate_mechanism::DISTANCES))]
-    part_distances: usize,
-    /// The probe's noise, 1 sigma, mm.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 0.01,
-        requires = "mechanism"
-    )]
-    probe_sigma: f64,
-    /// The part distances' noise, 1 sigma, mm.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 0.01,
-        requires = "mechanism"
-    )]
-    distance_sigma: f64,
+    /// Delta: probe rings over the printable disc and its centre (default 3).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::RINGS))]
+    probe_rings: Option<usize>,
+    /// Delta: probe points on each ring (default 8).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::PER_RING))]
+    probes_per_ring: Option<usize>,
+    /// Delta: distances measured across a printed disc on the first layer
+    /// (default 0).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::DISTANCES))]
+    part_distances: Option<usize>,
+    /// Delta: the probe's noise, 1 sigma, mm (default 0.01).
+    #[arg(long, value_name = "MM", requires = "mechanism")]
+    probe_sigma: Option<f64>,
+    /// Delta: the part distances' noise, 1 sigma, mm (default 0.01).
+    #[arg(long, value_name = "MM", requires = "mechanism")]
+    distance_sigma: Option<f64>,
+    /// Cable robot: samples (encoder readings), the encoder zero's included
+    /// (default 44, the Hangprinter data's).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::SAMPLES))]
+    samples: Option<usize>,
+    /// Cable robot: samples whose position is measured, the encoder zero
+    /// and the rest on the bed (default 9).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::SAMPLES))]
+    known_positions: Option<usize>,
+    /// Cable robot: the encoders' noise, 1 sigma, degrees (default 1).
+    #[arg(long, value_name = "DEG", requires = "mechanism")]
+    reading_sigma: Option<f64>,
+    /// Cable robot: a measured position's noise, 1 sigma per coordinate,
+    /// mm (default 1).
+    #[arg(long, value_name = "MM", requires = "mechanism")]
+    measured_sigma: Option<f64>,
 }
 
 /// `--tracker` (also `parcal plan`'s).
@@ -195,11 +202,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             seed: args.seed,
             out: args.out.clone(),
             force: args.force,
-            rings: args.probe_rings,
-            per_ring: args.probes_per_ring,
-            distances: args.part_distances,
-            probe_sigma: args.probe_sigma,
-            distance_sigma: args.distance_sigma,
+            delta: simulate_mechanism::DeltaFlags {
+                rings: args.probe_rings,
+                per_ring: args.probes_per_ring,
+                distances: args.part_distances,
+                probe_sigma: args.probe_sigma,
+                distance_sigma: args.distance_sigma,
+            },
+            cable: simulate_mechanism::CableFlags {
+                samples: args.samples,
+                known: args.known_positions,
+                reading_sigma: args.reading_sigma,
+                position_sigma: args.measured_sigma,
+            },
         });
     }
     anyhow::ensure!(

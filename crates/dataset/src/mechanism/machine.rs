@@ -196,6 +196,22 @@ impl MechanismMachine {
         }
     }
 
+    /// [`Self::of`] with every parameter group's tolerance stated (the
+    /// mechanism's prior sigma of its first parameter), so that the file
+    /// says the priors it was made with.
+    pub fn stating_tolerances(mechanism: &dyn Mechanism) -> Self {
+        let mut tolerances: Vec<(String, Option<f64>)> = Vec::new();
+        for p in mechanism.parameters() {
+            if !tolerances.iter().any(|(g, _)| g == p.group) {
+                tolerances.push((p.group.to_string(), Some(p.prior_sigma)));
+            }
+        }
+        Self {
+            tolerances,
+            ..Self::of(mechanism)
+        }
+    }
+
     /// The mechanism (its typical design from the one list; the dataset's
     /// own values are in [`Self::configured`] and [`Self::design`]).
     pub fn mechanism(&self) -> Option<Box<dyn Mechanism>> {

@@ -182,7 +182,8 @@ impl MechanismDataset {
 
     /// The checks that tie the files together: at least one observation,
     /// counts within [`OBSERVATIONS`], values finite and within the length
-    /// bound, the noise of each kind present given.
+    /// bound, the noise of each kind present given, the truth's trigger
+    /// height given for a machine with a probe.
     fn validate(&self, dir: &Path) -> Result<()> {
         let machine_path = dir.join(MACHINE_FILE);
         let check = Check::new(&machine_path);
@@ -226,6 +227,18 @@ impl MechanismDataset {
                     "required: the dataset holds measurements of this kind",
                 ));
             }
+        }
+        let probed = !self.probes.is_empty() || self.machine.trigger_height.is_some();
+        if probed
+            && self
+                .truth
+                .as_ref()
+                .is_some_and(|t| t.trigger_height.is_none())
+        {
+            return Err(Check::new(&dir.join(TRUTH_FILE)).error(
+                "trigger_height",
+                "required: the machine has a probe (probe heights or machine.json's trigger_height), whose trigger height is an unknown",
+            ));
         }
         let rows = |file: &str, rows: &mut dyn Iterator<Item = &[f64]>| -> Result<()> {
             let path = dir.join(file);

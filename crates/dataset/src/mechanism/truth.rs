@@ -1,5 +1,6 @@
 //! A simulated mechanism dataset's truth (`truth.json`): the true
-//! parameters by name and the true trigger height.
+//! parameters by name and, for a dataset whose probe heights make it an
+//! unknown, the true trigger height (a cable robot has none).
 //!
 //! ```json
 //! { "format": "parcal-mechanism-truth/1",
@@ -23,21 +24,23 @@ use super::machine::{Named, by_parameter, mechanism_named};
 pub struct MechanismTruth {
     /// The true parameters, in the mechanism's order.
     pub parameters: Vec<f64>,
-    /// The true trigger height (mm).
-    pub trigger_height: f64,
+    /// The true trigger height (mm), if the machine has a probe.
+    pub trigger_height: Option<f64>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TruthFile {
     parameters: BTreeMap<String, f64>,
-    trigger_height: f64,
+    #[serde(default)]
+    trigger_height: Option<f64>,
 }
 
 #[derive(Serialize)]
 struct TruthOut<'a> {
     parameters: Named<'a, f64>,
-    trigger_height: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    trigger_height: Option<f64>,
 }
 
 impl MechanismTruth {
@@ -49,7 +52,9 @@ impl MechanismTruth {
         let check = Check::new(path);
         let mechanism = mechanism_named(path, "mechanism", name)?;
         let parameters = by_parameter(check, mechanism.as_ref(), "parameters", &file.parameters)?;
-        check.length("trigger_height", file.trigger_height)?;
+        if let Some(height) = file.trigger_height {
+            check.length("trigger_height", height)?;
+        }
         Ok(Some(Self {
             parameters,
             trigger_height: file.trigger_height,
@@ -74,7 +79,9 @@ impl MechanismTruth {
         for (p, &value) in parameters.iter().zip(&self.parameters) {
             check.length(format!("parameters.{}", p.name), value)?;
         }
-        check.length("trigger_height", self.trigger_height)?;
+        if let Some(height) = self.trigger_height {
+            check.length("trigger_height", height)?;
+        }
         let out = TruthOut {
             parameters: Named(
                 parameters

@@ -1,0 +1,81 @@
+//! The candidates of a mechanism plan: a grid over the mechanism's
+//! workspace, of the kind of measurement its calibration takes there.
+//!
+//! - A linear delta: probe heights at commanded `(x, y)` on a square grid
+//!   over the bed, those within its print radius (`M665 B`).
+//! - A cable robot: encoder samples on a cubic grid over the box of its
+//!   anchors from the bed (`z = 0`) up, the position unknown or measured.
+//!
+//! Each candidate is then kept only where the mechanism can take it
+//! ([`Mechanism::check_feasible`]: a delta's arm angles and carriage
+//! travel, a cable robot's lines all taut), which the plan checks.
+
+use parcal_kinematics::cable::CableRobot;
+use parcal_kinematics::delta::LinearDelta;
+use parcal_kinematics::mechanism::Mechanism;
+
+use super::candidate::Candidate;
+use crate::DesignError;
+
+/// `count` values evenly from `low` to `high`.
+fn along(low: f64, high: f64, count: usize) -> impl Iterator<Item = f64> + Clone {
+    (0..count).map(move |i| low + (high - low) * i as f64 / (count - 1).max(1) as f64)
+}
+
+/// The candidates of `mechanism` at parameters `params` on a grid of
+/// `per_axis` points per axis (module doc); a cable robot's samples with
+/// their position measured if `measured`.
+pub fn grid_candidates(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    per_axis: usize,
+    measured: bool,
+) -> Result<Vec<Candidate>, DesignError> {
+    match mechanism.name() {
+        "linear delta" => {
+            let radius = LinearDelta::typical().limits().print_radius;
+            let xs = along(-radius, radius, per_axis);
+            Ok(xs
+                .clone()
+                .flat_map(|x| xs.clone().map(move |y| [x, y]))
+                .filter(|[x, y]| x.hypot(*y) <= radius)
+                .map(Candidate::Probe)
+                .collect())
+        }
+        "cable robot" => {
+            let robot = CableRobot::typical();
+            let anchors: Vec<_> = (0..mechanism.actuators().len())
+                .map(|j| robot.anchor(params, j))
+                .collect();
+            let bound = |k: usize, max: bool| {
+                anchors
+                    .iter()
+                    .map(|a| a[k])
+                    .fold(if max { f64::MIN } else { f64::MAX }, |b, v| {
+                        if max { b.max(v) } else { b.min(v) }
+                    })
+            };
+            let (xs, ys) = (
+                along(bound(0, false), bound(0, true), per_axis),
+                along(bound(1, false), bound(1, true), per_axis),
+            );
+            let zs = along(0.0, bound(2, true), per_axis);
+            let mut candidates = Vec::new();
+            for x in xs {
+                for y in ys.clone() {
+                    for z in zs.clone() {
+                        candidates.push(if measured {
+                            Candidate::MeasuredSample([x, y, z])
+                        } else {
+                            Candidate::Sample([x, y, z])
+                        });
+                    }
+                }
+            }
+            Ok(candidates)
+        }
+        other => Err(DesignError::Options(format!(
+            "no candidate grid for a {other}: a plan of a linear delta or a cable robot"
+        ))),
+    }
+}
