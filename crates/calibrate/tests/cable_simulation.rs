@@ -26,6 +26,7 @@ fn nees(robot: &CableRobot, scenario: &CableScenario, seed: u64) -> f64 {
             readings: sample.readings.clone(),
             sigma: scenario.reading_sigma,
             known_pose: sample.known.map(|p| (p, scenario.position_sigma)),
+            loads: None,
         })
         .collect();
     let observations = Observations {

@@ -57,6 +57,7 @@ fn errors_name_the_observation_or_the_parameter() {
         readings: vec![-100.0, -100.0],
         sigma: 0.005,
         known_pose: None,
+        loads: None,
     });
     let error = error_of(&data);
     assert!(

@@ -3,8 +3,8 @@
 //! - The **global block**: the mechanism's parameters `p`, then the
 //!   trigger height `h` when there are probe heights.
 //! - The **global observations**: every probe height (1 row), part
-//!   distance (1 row) and measured point (3 rows), in that order
-//!   ([`parcal_observe::mechanism`]).
+//!   distance (1 row), measured point (3 rows) and measured quantity
+//!   (1 row), in that order ([`parcal_observe::mechanism`]).
 //! - The **points**: one per point sample, its pose (3 unknowns) eliminated
 //!   by the Schur complement, `R` rows (one per actuator), with a Gaussian
 //!   prior when the pose was measured. They all belong to one group whose
@@ -76,6 +76,7 @@ impl<'a> MechanismProblem<'a> {
         refs(ObservationKind::Probe, o.probes.len(), 1)
             .chain(refs(ObservationKind::Distance, o.distances.len(), 1))
             .chain(refs(ObservationKind::Point, o.points.len(), 3))
+            .chain(refs(ObservationKind::Quantity, o.quantities.len(), 1))
             .collect()
     }
 
@@ -193,8 +194,8 @@ impl<const R: usize> Problem<1, 3, R> for MechanismProblem<'_> {
         Ok(())
     }
 
-    /// Every probe height's, part distance's and measured point's rows
-    /// (module doc).
+    /// Every probe height's, part distance's, measured point's and
+    /// measured quantity's rows (module doc).
     fn global_observations(
         &self,
         global: &DVector<f64>,
@@ -241,6 +242,13 @@ impl<const R: usize> Problem<1, 3, R> for MechanismProblem<'_> {
                 ObservationKind::Point,
                 k,
                 point.evaluate(mechanism, params, configured),
+            )?;
+        }
+        for (k, quantity) in o.quantities.iter().enumerate() {
+            put(
+                ObservationKind::Quantity,
+                k,
+                quantity.evaluate(mechanism, params),
             )?;
         }
         for (at, d_trigger_height) in trigger_rows {
@@ -343,6 +351,7 @@ mod tests {
             readings: delta.inverse(p, pose).unwrap().iter().copied().collect(),
             sigma: 0.005,
             known_pose: (k == 0).then_some((*pose, [0.01; 3])),
+            loads: None,
         })
         .collect();
         let observations = Observations {
@@ -350,6 +359,7 @@ mod tests {
             distances,
             points: Vec::new(),
             samples,
+            quantities: Vec::new(),
         };
         MechanismData::new(
             Arc::new(delta),

@@ -15,7 +15,7 @@ use super::options::MechanismOptions;
 use super::result::{MechanismCalibration, Removal, assemble, reasons};
 
 /// Where each remaining observation is in the data given, by kind.
-struct Remaining([Vec<usize>; 4]);
+struct Remaining([Vec<usize>; ObservationKind::ALL.len()]);
 
 impl Remaining {
     fn all(data: &MechanismData) -> Self {
