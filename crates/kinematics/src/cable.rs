@@ -33,7 +33,12 @@
 //! (degrees, positive when line is paid out). `Q`, `G`, `m_j` and `n_j`
 //! are constants of the design ([`SpoolConstants`]); the parameters are the
 //! anchors, the spool radii (one per spool or shared by a group of spools,
-//! [`CableDesign::radius_of_spool`]) and the encoder zero.
+//! [`CableDesign::radius_of_spool`]) and the encoder zero, then the lines'
+//! compliances when the lines are elastic ([`elasticity`],
+//! [`CableRobot::with_elasticity`]: the readings then depend on the lines'
+//! forces, [`Mechanism::loaded_readings`]). The line lengths at the encoder
+//! zero, `|a_j - z_0|`, are the robot's measurable quantities
+//! ([`Mechanism::quantities`]): a tape measures them.
 //!
 //! Forward kinematics finds the point whose line lengths
 //! `|a_j - p|` best match `|a_j - z_0| + dL_j(theta_j)` in the least-squares
