@@ -307,12 +307,12 @@ fn variants_table() {
         ..CHOSEN
     };
     let elastic = Variant {
-        name: "(+ elastic lines, one compliance per line, without the line lengths)",
+        name: "(elastic lines without the line lengths)",
         compliance_of_line: Some([0, 1, 2, 3]),
         ..ANCHORS
     };
     let shared = Variant {
-        name: "(+ elastic lines, one compliance, without the line lengths)",
+        name: "(one compliance, without the line lengths)",
         compliance_of_line: Some([0; 4]),
         ..ANCHORS
     };
