@@ -11,12 +11,13 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 use parcal_calibrate::mechanism::{
-    MechanismCalibration, MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+    MechanismCalibration, MechanismData, MechanismOptions, ObservationKind, Observations,
+    calibrate_mechanism,
 };
 use parcal_dataset::mechanism::{MechanismDataset, SampleRow};
-use parcal_kinematics::cable::{CableRobot, Tolerances};
-use parcal_kinematics::mechanism::{Mechanism, design};
-use parcal_observe::mechanism::PointSample;
+use parcal_kinematics::cable::{CableRobot, Elasticity, Tolerances};
+use parcal_kinematics::mechanism::{Mechanism, design, forward_under_loads};
+use parcal_observe::mechanism::{MeasuredQuantity, PointSample};
 
 fn fixture(file: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -69,6 +70,12 @@ struct Variant {
     spool_radius: f64,
     /// The encoder zero's prior about the origin (mm): the common offset.
     encoder_zero: f64,
+    /// The hand-measured line lengths at the origin (`quantities.csv`)
+    /// as observations with this sigma (mm); `None`: not used.
+    line_length: Option<f64>,
+    /// Elastic lines: the compliance of each line among the compliance
+    /// parameters; `None` for rigid lines.
+    compliance_of_line: Option<[usize; 4]>,
 }
 
 /// The author's model as the engine holds it: radii A = B = C and D, the
@@ -84,7 +91,13 @@ const AUTHOR: Variant = Variant {
     anchor: 1000.0,
     spool_radius: 1.0,
     encoder_zero: 0.5,
+    line_length: None,
+    compliance_of_line: None,
 };
+
+/// The compliance's prior (um/m/N): the source's stiffness per unit
+/// length, 20000 N (no datasheet), with a sigma as large as the value.
+const COMPLIANCE: f64 = 50.0;
 
 fn robot(variant: &Variant) -> CableRobot {
     let tolerances = Tolerances {
@@ -92,7 +105,33 @@ fn robot(variant: &Variant) -> CableRobot {
         spool_radius: variant.spool_radius,
         encoder_zero: variant.encoder_zero,
     };
-    CableRobot::hangprinter_v4(&variant.radius_of_spool, &tolerances).unwrap()
+    let robot = CableRobot::hangprinter_v4(&variant.radius_of_spool, &tolerances).unwrap();
+    match variant.compliance_of_line {
+        // The loads at the encoder zero: those of sample 0, taken there.
+        Some(lines) => robot
+            .with_elasticity(Elasticity {
+                compliance_of_line: lines.to_vec(),
+                zero_loads: samples()[0].loads.clone().unwrap(),
+                compliance: COMPLIANCE,
+                compliance_sigma: COMPLIANCE,
+            })
+            .unwrap(),
+        None => robot,
+    }
+}
+
+/// The hand-measured line lengths of `quantities.csv`, with `sigma`.
+fn line_lengths(robot: &CableRobot, sigma: f64) -> Vec<MeasuredQuantity> {
+    let names: Vec<&str> = robot.quantities().iter().map(|q| q.name.as_str()).collect();
+    dataset()
+        .quantities
+        .iter()
+        .map(|row| MeasuredQuantity {
+            quantity: names.iter().position(|n| *n == row.quantity).unwrap(),
+            value: row.value,
+            sigma,
+        })
+        .collect()
 }
 
 /// The calibration of `variant` on the samples `keep` says to keep.
@@ -118,10 +157,15 @@ fn calibrate(
                 };
                 (p, [variant.position_xy, variant.position_xy, z])
             }),
+            loads: sample.loads.clone(),
         })
         .collect();
+    let quantities = variant
+        .line_length
+        .map_or_else(Vec::new, |sigma| line_lengths(&robot, sigma));
     let observations = Observations {
         samples,
+        quantities,
         ..Default::default()
     };
     let data = MechanismData::new(Arc::new(robot), configured, observations);
@@ -135,18 +179,25 @@ fn calibrate(
     calibration
 }
 
-/// The position the calibration puts the encoders `readings` at.
+/// The position the calibration puts the encoders of `sample` at (under
+/// its loads, for elastic lines).
 fn predict(
     variant: &Variant,
     calibration: &MechanismCalibration,
-    readings: &[f64],
+    sample: &SampleRow,
 ) -> Vector3<f64> {
     let robot = robot(variant);
     let n = robot.parameters().len();
     let values = calibration.values();
-    let p = robot
-        .forward(&values.as_slice()[..n], readings, &[0.0, 0.0, 500.0])
-        .unwrap();
+    let params = &values.as_slice()[..n];
+    let start = [0.0, 0.0, 500.0];
+    let p = match (&sample.loads, variant.compliance_of_line) {
+        (Some(loads), Some(_)) => {
+            forward_under_loads(&robot, params, &sample.readings, loads, &start, 1e-9)
+        }
+        _ => robot.forward(params, &sample.readings, &start),
+    }
+    .unwrap();
     Vector3::from_column_slice(p.as_slice())
 }
 
@@ -162,7 +213,7 @@ fn figures(variant: &Variant) -> (f64, f64) {
         .map(|&k| {
             let calibration = calibrate(variant, &samples, |i| i != k);
             let known = Vector3::from(samples[k].position.unwrap());
-            let error = (predict(variant, &calibration, &samples[k].readings) - known).norm();
+            let error = (predict(variant, &calibration, &samples[k]) - known).norm();
             eprintln!("{}: sample {k} left out: {error:.2} mm", variant.name);
             error * error
         })
@@ -173,15 +224,15 @@ fn figures(variant: &Variant) -> (f64, f64) {
     let squares: f64 = untrusted
         .iter()
         .map(|(i, position)| {
-            (predict(variant, &calibration, &samples[*i].readings) - position).norm_squared()
+            (predict(variant, &calibration, &samples[*i]) - position).norm_squared()
         })
         .sum();
     (loo, (squares / untrusted.len() as f64).sqrt())
 }
 
-/// The model that reaches the evidence: each step of the table
-/// of docs/cable-robots.md from [`AUTHOR`] to here.
-const CHOSEN: Variant = Variant {
+/// The model with the hand-measured anchors as priors: each step of the
+/// table of docs/cable-robots.md from [`AUTHOR`] to here.
+const ANCHORS: Variant = Variant {
     name: "+ hand-measured anchors as priors (50 mm)",
     radius_of_spool: [0, 1, 2, 3],
     reading_sigma: 18.0,
@@ -191,6 +242,16 @@ const CHOSEN: Variant = Variant {
     anchor: 50.0,
     spool_radius: 1.0,
     encoder_zero: 5.0,
+    line_length: None,
+    compliance_of_line: None,
+};
+
+/// The chosen model, [`ANCHORS`] with the hand-measured line lengths at
+/// the origin to 10 mm (`quantities.csv`, docs/cable-robots.md).
+const CHOSEN: Variant = Variant {
+    name: "+ hand-measured line lengths (10 mm)",
+    line_length: Some(10.0),
+    ..ANCHORS
 };
 
 #[test]
@@ -223,20 +284,65 @@ fn variants_table() {
         position_xy: 1.0,
         bed_z: 1.0,
         high_z: 1.0,
-        ..CHOSEN
+        ..ANCHORS
     };
     let tight = Variant {
         name: "(the offset held to 0.2 mm instead)",
         encoder_zero: 0.2,
-        ..CHOSEN
+        ..ANCHORS
     };
     let tied = Variant {
         name: "(radii A = B = C, D instead)",
         radius_of_spool: [0, 0, 0, 1],
+        ..ANCHORS
+    };
+    let loose = Variant {
+        name: "(line lengths to 20 mm instead)",
+        line_length: Some(20.0),
+        ..CHOSEN
+    };
+    let close = Variant {
+        name: "(line lengths to 5 mm instead)",
+        line_length: Some(5.0),
+        ..CHOSEN
+    };
+    let elastic = Variant {
+        name: "(elastic lines without the line lengths)",
+        compliance_of_line: Some([0, 1, 2, 3]),
+        ..ANCHORS
+    };
+    let shared = Variant {
+        name: "(one compliance, without the line lengths)",
+        compliance_of_line: Some([0; 4]),
+        ..ANCHORS
+    };
+    let both = Variant {
+        name: "+ elastic lines (one compliance per line)",
+        compliance_of_line: Some([0, 1, 2, 3]),
+        ..CHOSEN
+    };
+    let both_shared = Variant {
+        name: "(one compliance for all lines instead)",
+        compliance_of_line: Some([0; 4]),
         ..CHOSEN
     };
     let variants = [
-        AUTHOR, readings, offset, spools, positions, CHOSEN, camera, tight, tied,
+        AUTHOR,
+        readings,
+        offset,
+        spools,
+        positions,
+        ANCHORS,
+        camera,
+        tight,
+        tied,
+        CHOSEN,
+        loose,
+        close,
+        both,
+        both_shared,
+        elastic,
+        shared,
     ];
     println!(
         "| model | leave-one-out RMS (mm) | discarded 32 RMS (mm) | variance factor | verdict |"
@@ -254,6 +360,34 @@ fn variants_table() {
                 "rejected"
             }
         );
+    }
+    for variant in [&CHOSEN, &both, &both_shared, &elastic, &shared] {
+        println!("{}:", variant.name);
+        let all = calibrate(variant, &samples(), |_| true);
+        for check in all
+            .observations
+            .iter()
+            .filter(|c| c.observation.kind == ObservationKind::Quantity)
+        {
+            println!(
+                "  {}: residual {:.1} sigma, w = {:.2}",
+                check.observation,
+                check.residuals[0],
+                check.normalised[0].unwrap_or(f64::NAN)
+            );
+        }
+        for parameter in all
+            .parameters
+            .iter()
+            .filter(|p| p.group == "line compliance")
+        {
+            println!(
+                "  {} = {:.1} +- {:.1} um/m/N",
+                parameter.name,
+                parameter.value,
+                parameter.sigma.unwrap()
+            );
+        }
     }
 }
 

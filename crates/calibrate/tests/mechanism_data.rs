@@ -57,6 +57,7 @@ fn errors_name_the_observation_or_the_parameter() {
         readings: vec![-100.0, -100.0],
         sigma: 0.005,
         known_pose: None,
+        loads: None,
     });
     let error = error_of(&data);
     assert!(
@@ -177,4 +178,61 @@ fn a_dataset_calibrates_from_its_files_and_its_record_reads_back() {
         error.ends_with("probes.csv: line 3, column y: expected a number, found \"five\""),
         "{error}"
     );
+}
+
+#[test]
+fn measured_quantities_and_loads_are_checked_naming_the_observation() {
+    use parcal_observe::mechanism::MeasuredQuantity;
+    // The delta has no measurable quantity and no load model.
+    let mut data = probed();
+    data.observations.quantities.push(MeasuredQuantity {
+        quantity: 0,
+        value: 1.0,
+        sigma: 1.0,
+    });
+    let error = error_of(&data);
+    assert!(
+        error.starts_with("measured quantity 0: ") && error.contains("0 measurable quantities"),
+        "{error}"
+    );
+    let mut data = probed();
+    let pose = [10.0, 20.0, 50.0];
+    let readings = data
+        .mechanism
+        .inverse(&data.configured, &pose)
+        .unwrap()
+        .iter()
+        .copied()
+        .collect();
+    data.observations.samples.push(PointSample {
+        readings,
+        sigma: 0.005,
+        known_pose: None,
+        loads: Some(vec![1.0; 2]),
+    });
+    let error = error_of(&data);
+    assert!(
+        error.starts_with("point sample 0: ") && error.contains("2 loads"),
+        "{error}"
+    );
+    data.observations.samples[0].loads = Some(vec![1.0; 3]);
+    let error = error_of(&data);
+    assert!(
+        error.contains("point sample 0: the linear delta has no load model"),
+        "{error}"
+    );
+    // A cable robot's line length with a sigma that is not positive.
+    let robot = parcal_kinematics::cable::CableRobot::typical();
+    let configured: Vec<f64> = design(&robot).iter().copied().collect();
+    let observations = Observations {
+        quantities: vec![MeasuredQuantity {
+            quantity: 3,
+            value: 2355.0,
+            sigma: 0.0,
+        }],
+        ..Observations::default()
+    };
+    let data = MechanismData::new(Arc::new(robot), configured, observations);
+    let error = error_of(&data);
+    assert!(error.starts_with("measured quantity 0: "), "{error}");
 }

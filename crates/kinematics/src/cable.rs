@@ -33,7 +33,12 @@
 //! (degrees, positive when line is paid out). `Q`, `G`, `m_j` and `n_j`
 //! are constants of the design ([`SpoolConstants`]); the parameters are the
 //! anchors, the spool radii (one per spool or shared by a group of spools,
-//! [`CableDesign::radius_of_spool`]) and the encoder zero.
+//! [`CableDesign::radius_of_spool`]) and the encoder zero, then the lines'
+//! compliances when the lines are elastic ([`elasticity`],
+//! [`CableRobot::with_elasticity`]: the readings then depend on the lines'
+//! forces, [`Mechanism::loaded_readings`]). The line lengths at the encoder
+//! zero, `|a_j - z_0|`, are the robot's measurable quantities
+//! ([`Mechanism::quantities`]): a tape measures them.
 //!
 //! Forward kinematics finds the point whose line lengths
 //! `|a_j - p|` best match `|a_j - z_0| + dL_j(theta_j)` in the least-squares
@@ -65,14 +70,17 @@
 //! at least `(3 N + R - 3) / (N - 3)` samples (11 for a Hangprinter with
 //! two radii, 13 with four) and many more for a well-conditioned fit.
 
+pub mod elasticity;
+
 use std::f64::consts::PI;
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::mechanism::{
-    Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians,
-    check_params, check_vector,
+    Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, Quantity,
+    QuantityValue, ReadingJacobians, check_params, check_vector,
 };
+pub use elasticity::{COMPLIANCE_SCALE, COMPLIANCE_UNIT, Elasticity};
 
 /// The fewest lines of a cable robot: three lines and gravity hold a
 /// point, but only four can hold it taut in every direction.
@@ -164,6 +172,9 @@ pub enum CableDesignError {
     /// uses.
     #[error("spool radii: {0}")]
     Radii(String),
+    /// An elasticity option that does not fit the design.
+    #[error("line elasticity: {0}")]
+    Elasticity(String),
     /// A constant or value out of its range.
     #[error("{what} = {value} must be {must}")]
     Range {
@@ -185,6 +196,8 @@ pub struct CableRobot {
     spools: SpoolConstants,
     radius_of_spool: Vec<usize>,
     radii: usize,
+    quantities: Vec<Quantity>,
+    elasticity: Option<Elasticity>,
 }
 
 /// The name of line `j` (`a`, `b`, ...).
@@ -312,13 +325,44 @@ impl CableRobot {
                 )
             })
             .collect();
+        let quantities = (0..cables)
+            .map(|j| Quantity {
+                name: format!("line_length_{}", cable_name(j)),
+                unit: "mm",
+            })
+            .collect();
         Ok(Self {
             parameters,
             actuators,
             spools: design.spools.clone(),
             radius_of_spool: design.radius_of_spool.clone(),
             radii,
+            quantities,
+            elasticity: None,
         })
+    }
+
+    /// This robot with elastic lines ([`elasticity`]): its compliance
+    /// parameters follow the encoder zero's, and its readings depend on
+    /// the lines' loads ([`Mechanism::loaded_readings`]). An error names
+    /// what does not fit.
+    pub fn with_elasticity(mut self, elasticity: Elasticity) -> Result<Self, CableDesignError> {
+        if self.elasticity.is_some() {
+            return Err(CableDesignError::Elasticity(
+                "the robot's lines are elastic already".into(),
+            ));
+        }
+        elasticity
+            .check(self.cables())
+            .map_err(CableDesignError::Elasticity)?;
+        self.parameters.extend(elasticity.parameters(cable_name));
+        self.elasticity = Some(elasticity);
+        Ok(self)
+    }
+
+    /// The elasticity option, if the lines are elastic.
+    pub fn elasticity(&self) -> Option<&Elasticity> {
+        self.elasticity.as_ref()
     }
 
     /// The Hangprinter v4 of `auto-calibration-simulation-for-hangprinter`
@@ -404,6 +448,13 @@ impl CableRobot {
     /// vector (y and z follow).
     pub fn zero_index(&self) -> usize {
         3 * self.cables() + self.radii
+    }
+
+    /// The index of line `j`'s compliance in the parameter vector, for a
+    /// robot with elastic lines.
+    pub fn compliance_index(&self, j: usize) -> Option<usize> {
+        let elasticity = self.elasticity.as_ref()?;
+        Some(self.zero_index() + 3 + elasticity.compliance_of_line[j])
     }
 
     /// Anchor `j` of a parameter vector.
@@ -534,6 +585,73 @@ impl CableRobot {
         Ok(changes)
     }
 
+    /// The readings at `pose` under `loads` (the loads at the encoder zero
+    /// without), with their derivatives. With `R_j = sqrt(r_j^2 + c_j dL_j)`
+    /// the wound radius after the change the encoder sees, `dL_j`
+    /// ([`elasticity`]; `s_j = 1 - c_j (F_j - F0_j)`, 1 for rigid lines or
+    /// no loads), `g_j = dtheta_j/d(dL_j) = k_j c_j / (2 R_j) =
+    /// G m_j (180/pi) / R_j`, `u_j = (p - a_j)/|p - a_j|` and
+    /// `u0_j = (z_0 - a_j)/|z_0 - a_j|`:
+    ///
+    /// ```text
+    /// theta_j = k_j (R_j - r_j)
+    /// dtheta_j/dp   = g_j s_j u_j
+    /// dtheta_j/da_j = g_j (u0_j - s_j u_j)
+    /// dtheta_j/dz_0 = -g_j u0_j
+    /// dtheta_j/dr_j = k_j (r_j / R_j - 1)
+    /// dtheta_j/dc_j = -g_j (F_j - F0_j) |a_j - p|
+    /// ```
+    fn readings_under(
+        &self,
+        params: &[f64],
+        pose: &[f64],
+        loads: Option<&[f64]>,
+    ) -> Result<(DVector<f64>, ReadingJacobians), MechanismError> {
+        self.checked(params)?;
+        check_vector(self, "pose coordinates", pose, 3)?;
+        let n = self.cables();
+        if let Some(loads) = loads {
+            check_vector(self, "loads", loads, n)?;
+        }
+        let mut q = DVector::zeros(n);
+        let mut d_params = DMatrix::zeros(n, self.parameters.len());
+        let mut d_pose = DMatrix::zeros(n, 3);
+        let zero = self.zero_index();
+        for j in 0..n {
+            let line = self.line(params, j, pose)?;
+            // The load beyond the encoder zero's, and the compliance.
+            let stretched = match (self.compliance_index(j), loads) {
+                (Some(index), Some(loads)) => {
+                    let load = loads[j] - self.elasticity.as_ref().map_or(0.0, |e| e.zero_loads[j]);
+                    Some((index, load))
+                }
+                _ => None,
+            };
+            let s = stretched.map_or(1.0, |(index, load)| {
+                1.0 - params[index] * COMPLIANCE_SCALE * load
+            });
+            let change = s * line.length - line.length_at_zero;
+            let wound = self.wound_radius(params, j, change)?;
+            let r = self.spool_radius(params, j);
+            let k = self.angle_scale(j);
+            // k (R - r) = k c dL / (R + r), without the cancellation.
+            q[j] = k * self.buildup(j) * change / (wound + r);
+            let g = k * self.buildup(j) / (2.0 * wound);
+            let anchor = self.anchor_index(j);
+            for axis in 0..3 {
+                d_pose[(j, axis)] = g * s * line.direction[axis];
+                d_params[(j, anchor + axis)] =
+                    g * (line.direction_at_zero[axis] - s * line.direction[axis]);
+                d_params[(j, zero + axis)] = -g * line.direction_at_zero[axis];
+            }
+            d_params[(j, self.radius_index(self.radius_of_spool[j]))] = k * (r / wound - 1.0);
+            if let Some((index, load)) = stretched {
+                d_params[(j, index)] = -g * load * COMPLIANCE_SCALE * line.length;
+            }
+        }
+        Ok((q, ReadingJacobians { d_params, d_pose }))
+    }
+
     /// The rigid motions of the room, which no reading sees (module
     /// documentation): a translation `e_k` moves every anchor and the
     /// encoder zero by `e_k`; a rotation `w` about the origin moves each
@@ -592,17 +710,9 @@ impl Mechanism for CableRobot {
     }
 
     /// `theta_j = k_j (sqrt(r_j^2 + c_j dL_j) - r_j)` (module
-    /// documentation).
+    /// documentation), the lines loaded as at the encoder zero.
     fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError> {
-        let changes = self.line_changes(params, pose)?;
-        let mut q = DVector::zeros(self.cables());
-        for j in 0..self.cables() {
-            // k (R - r) = k c dL / (R + r), without the cancellation.
-            let wound = self.wound_radius(params, j, changes[j])?;
-            let r = self.spool_radius(params, j);
-            q[j] = self.angle_scale(j) * self.buildup(j) * changes[j] / (wound + r);
-        }
-        Ok(q)
+        Ok(self.readings_under(params, pose, None)?.0)
     }
 
     /// Gauss-Newton on the line lengths: with
@@ -644,43 +754,55 @@ impl Mechanism for CableRobot {
         })
     }
 
-    /// With `R_j = sqrt(r_j^2 + c_j dL_j)` the wound radius,
-    /// `g_j = dtheta_j/d(dL_j) = k_j c_j / (2 R_j) = G m_j (180/pi) / R_j`,
-    /// `u_j = (p - a_j)/|p - a_j|` and `u0_j = (z_0 - a_j)/|z_0 - a_j|`:
-    ///
-    /// ```text
-    /// dtheta_j/dp   = g_j u_j
-    /// dtheta_j/da_j = g_j (u0_j - u_j)
-    /// dtheta_j/dz_0 = -g_j u0_j
-    /// dtheta_j/dr_j = k_j (r_j / R_j - 1)
-    /// ```
+    /// The derivatives of `CableRobot::readings_under` without loads.
     fn reading_jacobians(
         &self,
         params: &[f64],
         pose: &[f64],
     ) -> Result<ReadingJacobians, MechanismError> {
+        Ok(self.readings_under(params, pose, None)?.1)
+    }
+
+    /// `CableRobot::readings_under` the lines' forces `loads` (N): with
+    /// rigid lines the loads change nothing.
+    fn loaded_readings(
+        &self,
+        params: &[f64],
+        pose: &[f64],
+        loads: &[f64],
+    ) -> Result<(DVector<f64>, ReadingJacobians), MechanismError> {
+        self.readings_under(params, pose, Some(loads))
+    }
+
+    /// The line lengths at the encoder zero, `line_length_a`, ...
+    fn quantities(&self) -> &[Quantity] {
+        &self.quantities
+    }
+
+    /// `|a_j - z_0|`, with `d/da_j = -u0_j` and `d/dz_0 = u0_j`
+    /// (`u0_j = (z_0 - a_j)/|z_0 - a_j|`).
+    fn quantity(&self, index: usize, params: &[f64]) -> Result<QuantityValue, MechanismError> {
         self.checked(params)?;
-        check_vector(self, "pose coordinates", pose, 3)?;
-        let n = self.cables();
-        let mut d_params = DMatrix::zeros(n, self.parameters.len());
-        let mut d_pose = DMatrix::zeros(n, 3);
-        let zero = self.zero_index();
-        for j in 0..n {
-            let line = self.line(params, j, pose)?;
-            let wound = self.wound_radius(params, j, line.length - line.length_at_zero)?;
-            let k = self.angle_scale(j);
-            let g = k * self.buildup(j) / (2.0 * wound);
-            let anchor = self.anchor_index(j);
-            for axis in 0..3 {
-                d_pose[(j, axis)] = g * line.direction[axis];
-                d_params[(j, anchor + axis)] =
-                    g * (line.direction_at_zero[axis] - line.direction[axis]);
-                d_params[(j, zero + axis)] = -g * line.direction_at_zero[axis];
-            }
-            let r = self.spool_radius(params, j);
-            d_params[(j, self.radius_index(self.radius_of_spool[j]))] = k * (r / wound - 1.0);
+        if index >= self.cables() {
+            return Err(MechanismError::NoModel {
+                mechanism: self.name().to_string(),
+                what: format!("quantity {index} (it has {})", self.cables()),
+            });
         }
-        Ok(ReadingJacobians { d_params, d_pose })
+        let zero = self.encoder_zero(params);
+        let line = self.line(params, index, zero.as_slice())?;
+        let mut gradient = DVector::zeros(self.parameters.len());
+        let direction = line.direction_at_zero;
+        gradient
+            .rows_mut(self.anchor_index(index), 3)
+            .copy_from(&-direction);
+        gradient
+            .rows_mut(self.zero_index(), 3)
+            .copy_from(&direction);
+        Ok(QuantityValue {
+            value: line.length_at_zero,
+            gradient,
+        })
     }
 
     /// Every spool within its line ([`Mechanism::inverse`]) and the

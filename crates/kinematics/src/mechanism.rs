@@ -116,6 +116,26 @@ pub struct ReadingJacobians {
     pub d_pose: DMatrix<f64>,
 }
 
+/// A quantity of the machine that is a known function of its parameters
+/// and can be measured on it directly, such as a cable robot's line length
+/// at the encoder zero ([`Mechanism::quantities`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Quantity {
+    /// Short name, unique within the mechanism (`line_length_a`).
+    pub name: String,
+    /// Unit of the value (`mm`).
+    pub unit: &'static str,
+}
+
+/// A quantity's value at some parameters and its gradient.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuantityValue {
+    /// The value, in the quantity's unit.
+    pub value: f64,
+    /// Its derivative by each parameter.
+    pub gradient: DVector<f64>,
+}
+
 /// A parameter combination that no measurement can see.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GaugeFreedom {
@@ -166,6 +186,14 @@ pub enum MechanismError {
     /// `dq/dx` is singular at the pose (a singular configuration).
     #[error("dq/dx is singular at this pose (a singular configuration)")]
     Singular,
+    /// The mechanism has no such model or quantity.
+    #[error("the {mechanism} has no {what}")]
+    NoModel {
+        /// The mechanism.
+        mechanism: String,
+        /// What it lacks (`load model`, `quantity 4`).
+        what: String,
+    },
     /// An error of the hexapod's kinematics.
     #[error(transparent)]
     Hexapod(#[from] KinematicsError),
@@ -224,6 +252,41 @@ pub trait Mechanism: Send + Sync {
     /// the gauge freedoms are fixed (the identity by default).
     fn canonicalize(&self, params: &[f64]) -> Result<DVector<f64>, MechanismError> {
         Ok(DVector::from_column_slice(params))
+    }
+
+    /// The quantities of the machine that are functions of its parameters
+    /// ([`Quantity`]); none by default.
+    fn quantities(&self) -> &[Quantity] {
+        &[]
+    }
+
+    /// Quantity `index` of [`Mechanism::quantities`] at `params`, with its
+    /// analytic gradient; an error for an index beyond them.
+    fn quantity(&self, index: usize, params: &[f64]) -> Result<QuantityValue, MechanismError> {
+        check_params(self, params)?;
+        Err(MechanismError::NoModel {
+            mechanism: self.name().to_string(),
+            what: format!("quantity {index}"),
+        })
+    }
+
+    /// The readings at `pose` with the actuators holding `loads` (one per
+    /// actuator: a cable robot's line forces), and their analytic
+    /// derivatives: the model of a mechanism whose readings depend on the
+    /// load (lines that stretch). [`Mechanism::inverse`] is the same model
+    /// under the loads the actuators held when they were zeroed. By
+    /// default a mechanism has no load model: an error.
+    fn loaded_readings(
+        &self,
+        params: &[f64],
+        pose: &[f64],
+        loads: &[f64],
+    ) -> Result<(DVector<f64>, ReadingJacobians), MechanismError> {
+        let _ = (params, pose, loads);
+        Err(MechanismError::NoModel {
+            mechanism: self.name().to_string(),
+            what: "load model".to_string(),
+        })
     }
 
     /// Whether `pose` is within the mechanism's limits (stroke, joint
@@ -320,6 +383,43 @@ pub fn pose_jacobian_at_fixed_readings(
         .filter(|m| m.iter().all(|v| v.is_finite()))
         .ok_or(MechanismError::Singular)?;
     Ok(-solved)
+}
+
+/// The largest number of corrections [`forward_under_loads`] makes.
+const LOADED_FORWARD_ITERATIONS: usize = 50;
+
+/// Forward kinematics under loads: the pose at which
+/// [`Mechanism::loaded_readings`] are `readings`, found by correcting the
+/// readings by the load's effect at the last pose,
+/// `x_{k+1} = f(p, q - (q_F(p, x_k) - g(p, x_k)))`, until the pose moves
+/// less than `tolerance` (a contraction when the load's effect changes
+/// slowly with the pose, as a line's stretch does). An error if it does
+/// not settle.
+pub fn forward_under_loads(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    readings: &[f64],
+    loads: &[f64],
+    start: &[f64],
+    tolerance: f64,
+) -> Result<DVector<f64>, MechanismError> {
+    let q = DVector::from_column_slice(readings);
+    let mut pose = mechanism.forward(params, readings, start)?;
+    for _ in 0..LOADED_FORWARD_ITERATIONS {
+        let (loaded, _) = mechanism.loaded_readings(params, pose.as_slice(), loads)?;
+        let effect = loaded - mechanism.inverse(params, pose.as_slice())?;
+        let next = mechanism.forward(params, (&q - effect).as_slice(), pose.as_slice())?;
+        let moved = (&next - &pose).norm();
+        pose = next;
+        if moved < tolerance {
+            return Ok(pose);
+        }
+    }
+    Err(MechanismError::Unreachable {
+        reason: format!(
+            "the forward kinematics under loads {loads:?} did not settle in {LOADED_FORWARD_ITERATIONS} corrections"
+        ),
+    })
 }
 
 /// Central-difference derivatives of the readings, for checking

@@ -20,7 +20,7 @@ fn samples() -> Vec<Sample> {
     );
     let text = std::fs::read_to_string(path).expect(path);
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some("q1,q2,q3,q4,x,y,z"));
+    assert_eq!(lines.next(), Some("q1,q2,q3,q4,x,y,z,f1,f2,f3,f4"));
     lines
         .map(|line| {
             let fields: Vec<&str> = line.split(',').collect();

@@ -193,7 +193,11 @@ pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<Strin
     }
     counts
         .into_iter()
-        .map(|(kind, n)| format!("{n} {kind}{}", if n == 1 { "" } else { "s" }))
+        .map(|(kind, n)| match (n, kind.strip_suffix('y')) {
+            (1, _) => format!("1 {kind}"),
+            (_, Some(stem)) => format!("{n} {stem}ies"),
+            (_, None) => format!("{n} {kind}s"),
+        })
         .collect()
 }
 

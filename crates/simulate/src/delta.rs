@@ -211,7 +211,11 @@ pub fn simulate_delta(
                 .collect();
             let position = (k < scenario.known_samples)
                 .then(|| pose.map(|x| x + noise.normal(scenario.position_sigma)));
-            Ok(SampleRow { readings, position })
+            Ok(SampleRow {
+                readings,
+                position,
+                loads: None,
+            })
         })
         .collect::<Result<Vec<_>, SimulateError>>()?;
 
@@ -233,6 +237,7 @@ pub fn simulate_delta(
         probes,
         distances,
         samples,
+        quantities: Vec::new(),
         truth: Some(MechanismTruth {
             parameters: truth,
             trigger_height: Some(trigger),

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
-    CommandedPoint, POSE_COORDINATES, PartDistance, PointSample, ProbeHeight,
+    CommandedPoint, MeasuredQuantity, POSE_COORDINATES, PartDistance, PointSample, ProbeHeight,
 };
 
 use super::error::MechanismCalibrationError;
@@ -35,6 +35,8 @@ pub struct Observations {
     pub points: Vec<CommandedPoint>,
     /// Readings at unknown or measured poses.
     pub samples: Vec<PointSample>,
+    /// Quantities of the machine measured directly.
+    pub quantities: Vec<MeasuredQuantity>,
 }
 
 impl Observations {
@@ -45,6 +47,7 @@ impl Observations {
             ObservationKind::Distance => self.distances.len(),
             ObservationKind::Point => self.points.len(),
             ObservationKind::Sample => self.samples.len(),
+            ObservationKind::Quantity => self.quantities.len(),
         }
     }
 
@@ -67,6 +70,7 @@ impl Observations {
             ObservationKind::Distance => drop(rest.distances.remove(k)),
             ObservationKind::Point => drop(rest.points.remove(k)),
             ObservationKind::Sample => drop(rest.samples.remove(k)),
+            ObservationKind::Quantity => drop(rest.quantities.remove(k)),
         }
         rest
     }
@@ -322,6 +326,34 @@ impl MechanismData {
                     check_sigma(id, sigma)?;
                 }
             }
+            if let Some(loads) = &sample.loads {
+                if loads.len() != actuators {
+                    return Err(observation_error(
+                        id,
+                        format!(
+                            "{} loads for the {actuators} actuators of the {name}",
+                            loads.len()
+                        ),
+                    ));
+                }
+                check_values(id, "loads", loads)?;
+            }
+        }
+        let quantities = mechanism.quantities();
+        for (k, measured) in observations.quantities.iter().enumerate() {
+            let id = at(ObservationKind::Quantity, k);
+            if measured.quantity >= quantities.len() {
+                return Err(observation_error(
+                    id,
+                    format!(
+                        "the {name} has {} measurable quantities, not a quantity {}",
+                        quantities.len(),
+                        measured.quantity
+                    ),
+                ));
+            }
+            check_values(id, "value", &[measured.value])?;
+            check_sigma(id, measured.sigma)?;
         }
         Ok(())
     }

@@ -2,14 +2,15 @@
 //! ([`parcal_dataset::mechanism::MechanismDataset`]) as the data of a
 //! calibration: the mechanism from the one list, the configured
 //! parameters, the design as the priors' means with the mechanism's
-//! tolerances overridden per group, the trigger height's prior, and each
-//! observation with the noise of its kind.
+//! tolerances overridden per group, the trigger height's prior, each
+//! observation with the noise of its kind, the samples' loads, and the
+//! measured quantities with their own sigmas.
 
 use std::sync::Arc;
 
 use parcal_dataset::mechanism::MechanismDataset;
 use parcal_kinematics::mechanisms;
-use parcal_observe::mechanism::{PartDistance, PointSample, ProbeHeight};
+use parcal_observe::mechanism::{MeasuredQuantity, PartDistance, PointSample, ProbeHeight};
 
 use super::data::{MechanismData, Observations};
 use super::error::MechanismCalibrationError;
@@ -71,6 +72,31 @@ impl MechanismData {
                     readings: row.readings.clone(),
                     sigma: noise(n.actuator, "actuator")?,
                     known_pose,
+                    loads: row.loads.clone(),
+                })
+            })
+            .collect::<Result<_, MechanismCalibrationError>>()?;
+        let quantities = dataset
+            .quantities
+            .iter()
+            .enumerate()
+            .map(|(k, row)| {
+                let quantity = mechanism
+                    .quantities()
+                    .iter()
+                    .position(|q| q.name == row.quantity)
+                    .ok_or_else(|| MechanismCalibrationError::InvalidData {
+                        what: format!("measured quantity {k}"),
+                        reason: format!(
+                            "{:?} is not a quantity of the {}",
+                            row.quantity,
+                            mechanism.name()
+                        ),
+                    })?;
+                Ok(MeasuredQuantity {
+                    quantity,
+                    value: row.value,
+                    sigma: row.sigma,
                 })
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;
@@ -79,6 +105,7 @@ impl MechanismData {
             distances,
             points: Vec::new(),
             samples,
+            quantities,
         };
         let mut data = MechanismData::new(
             Arc::from(mechanism),

@@ -4,7 +4,9 @@
 use std::fmt;
 
 #[cfg(doc)]
-use parcal_observe::mechanism::{CommandedPoint, PartDistance, PointSample, ProbeHeight};
+use parcal_observe::mechanism::{
+    CommandedPoint, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+};
 
 /// The kinds of observation of a mechanism calibration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -17,11 +19,20 @@ pub enum ObservationKind {
     Point = 2,
     /// Readings at an unknown or measured pose ([`PointSample`]).
     Sample = 3,
+    /// A known function of the parameters measured directly
+    /// ([`MeasuredQuantity`]).
+    Quantity = 4,
 }
 
 impl ObservationKind {
     /// Every kind, in the order of the rows.
-    pub const ALL: [Self; 4] = [Self::Probe, Self::Distance, Self::Point, Self::Sample];
+    pub const ALL: [Self; 5] = [
+        Self::Probe,
+        Self::Distance,
+        Self::Point,
+        Self::Sample,
+        Self::Quantity,
+    ];
 
     /// Its place in [`Self::ALL`].
     pub fn index(self) -> usize {
@@ -29,13 +40,14 @@ impl ObservationKind {
     }
 
     /// Its name in messages and files: `probe height`, `part distance`,
-    /// `measured point`, `point sample`.
+    /// `measured point`, `point sample`, `measured quantity`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Probe => "probe height",
             Self::Distance => "part distance",
             Self::Point => "measured point",
             Self::Sample => "point sample",
+            Self::Quantity => "measured quantity",
         }
     }
 }

@@ -3,8 +3,8 @@
 //! - The **global block**: the mechanism's parameters `p`, then the
 //!   trigger height `h` when there are probe heights.
 //! - The **global observations**: every probe height (1 row), part
-//!   distance (1 row) and measured point (3 rows), in that order
-//!   ([`parcal_observe::mechanism`]).
+//!   distance (1 row), measured point (3 rows) and measured quantity
+//!   (1 row), in that order ([`parcal_observe::mechanism`]).
 //! - The **points**: one per point sample, its pose (3 unknowns) eliminated
 //!   by the Schur complement, `R` rows (one per actuator), with a Gaussian
 //!   prior when the pose was measured. They all belong to one group whose
@@ -76,6 +76,7 @@ impl<'a> MechanismProblem<'a> {
         refs(ObservationKind::Probe, o.probes.len(), 1)
             .chain(refs(ObservationKind::Distance, o.distances.len(), 1))
             .chain(refs(ObservationKind::Point, o.points.len(), 3))
+            .chain(refs(ObservationKind::Quantity, o.quantities.len(), 1))
             .collect()
     }
 
@@ -193,8 +194,8 @@ impl<const R: usize> Problem<1, 3, R> for MechanismProblem<'_> {
         Ok(())
     }
 
-    /// Every probe height's, part distance's and measured point's rows
-    /// (module doc).
+    /// Every probe height's, part distance's, measured point's and
+    /// measured quantity's rows (module doc).
     fn global_observations(
         &self,
         global: &DVector<f64>,
@@ -243,6 +244,13 @@ impl<const R: usize> Problem<1, 3, R> for MechanismProblem<'_> {
                 point.evaluate(mechanism, params, configured),
             )?;
         }
+        for (k, quantity) in o.quantities.iter().enumerate() {
+            put(
+                ObservationKind::Quantity,
+                k,
+                quantity.evaluate(mechanism, params),
+            )?;
+        }
         for (at, d_trigger_height) in trigger_rows {
             out.jacobian[(at, n)] = d_trigger_height;
         }
@@ -281,9 +289,10 @@ mod tests {
     use std::sync::Arc;
 
     use nalgebra::DVector;
+    use parcal_kinematics::cable::{CableRobot, Elasticity};
     use parcal_kinematics::delta::{DeltaParams, LinearDelta, probe_height};
     use parcal_kinematics::mechanism::{Mechanism, design};
-    use parcal_observe::mechanism::{PartDistance, PointSample, ProbeHeight};
+    use parcal_observe::mechanism::{MeasuredQuantity, PartDistance, PointSample, ProbeHeight};
     use parcal_solver::{SolverOptions, State, Status, dense_reference, linear_step, solve};
 
     use super::*;
@@ -343,6 +352,7 @@ mod tests {
             readings: delta.inverse(p, pose).unwrap().iter().copied().collect(),
             sigma: 0.005,
             known_pose: (k == 0).then_some((*pose, [0.01; 3])),
+            loads: None,
         })
         .collect();
         let observations = Observations {
@@ -350,6 +360,7 @@ mod tests {
             distances,
             points: Vec::new(),
             samples,
+            quantities: Vec::new(),
         };
         MechanismData::new(
             Arc::new(delta),
@@ -359,23 +370,71 @@ mod tests {
         .with_trigger_height(0.6, Some(0.05))
     }
 
-    #[test]
-    fn the_schur_step_and_covariance_match_the_dense_reference() {
-        let data = small_delta();
-        let problem = MechanismProblem::new(&data, Loss::Squared);
+    /// A Hangprinter with elastic lines (one compliance), truly a few mm
+    /// off its design: 14 samples under loads (3 at measured poses) and
+    /// the four line lengths measured 3 mm long.
+    fn small_cable() -> MechanismData {
+        let robot = CableRobot::typical()
+            .with_elasticity(Elasticity {
+                compliance_of_line: vec![0; 4],
+                zero_loads: vec![14.0; 4],
+                compliance: 50.0,
+                compliance_sigma: 50.0,
+            })
+            .unwrap();
+        let configured = design(&robot);
+        let truth = DVector::from_fn(configured.len(), |k, _| {
+            configured[k] + 4.0 * ((k * 7) as f64).sin()
+        });
+        let samples = (0..14)
+            .map(|k| {
+                let t = k as f64;
+                let pose = [300.0 * t.cos(), 250.0 * (1.3 * t).sin(), 80.0 * t];
+                let loads = [12.0 + t, 15.0 - 0.5 * t, 10.0 + 0.3 * t, 20.0 + t];
+                let (readings, _) = robot
+                    .loaded_readings(truth.as_slice(), &pose, &loads)
+                    .unwrap();
+                PointSample {
+                    readings: readings.iter().copied().collect(),
+                    sigma: 1.0,
+                    known_pose: (k % 5 == 0).then_some((pose, [0.1; 3])),
+                    loads: Some(loads.to_vec()),
+                }
+            })
+            .collect();
+        let quantities = (0..4)
+            .map(|quantity| MeasuredQuantity {
+                quantity,
+                value: robot.quantity(quantity, truth.as_slice()).unwrap().value + 3.0,
+                sigma: 10.0,
+            })
+            .collect();
+        let observations = Observations {
+            samples,
+            quantities,
+            ..Observations::default()
+        };
+        MechanismData::new(
+            Arc::new(robot),
+            configured.iter().copied().collect(),
+            observations,
+        )
+    }
+
+    /// The Schur complement's step and the solution's covariance against
+    /// the dense reference, from the start poses moved by `offset`.
+    fn check_against_dense<const R: usize>(data: &MechanismData, offset: Vector3<f64>) {
+        let problem = MechanismProblem::new(data, Loss::Squared);
         let start = problem.start();
         let n = problem.n_params();
         let poses = problem.start_poses(&start.as_slice()[..n]).unwrap();
         let state = State {
             global: start,
             groups: vec![SVector::zeros()],
-            points: poses
-                .iter()
-                .map(|p| p + Vector3::new(0.3, -0.2, 0.1))
-                .collect(),
+            points: poses.iter().map(|p| p + offset).collect(),
         };
-        let dense = dense_reference::solve::<1, 3, 3, _>(&problem, &state, 0.0).unwrap();
-        let schur = linear_step::<1, 3, 3, _>(&problem, &state, &mut Vec::new(), 0.0, 64).unwrap();
+        let dense = dense_reference::solve::<1, 3, R, _>(&problem, &state, 0.0).unwrap();
+        let schur = linear_step::<1, 3, R, _>(&problem, &state, &mut Vec::new(), 0.0, 64).unwrap();
         let global = (&schur.delta.global - &dense.step.global).amax();
         let points = schur
             .delta
@@ -392,12 +451,22 @@ mod tests {
             "{global:e} {points:e}"
         );
 
-        let solution = solve::<1, 3, 3, _>(&problem, state, &SolverOptions::default(), &mut |_| {});
+        let solution = solve::<1, 3, R, _>(&problem, state, &SolverOptions::default(), &mut |_| {});
         assert_eq!(solution.status, Status::Converged);
         let covariance = solution.covariance.unwrap();
-        let dense = dense_reference::solve::<1, 3, 3, _>(&problem, &solution.state, 0.0).unwrap();
+        let dense = dense_reference::solve::<1, 3, R, _>(&problem, &solution.state, 0.0).unwrap();
         let reference = dense.global_covariance().unwrap();
         let error = (&covariance - &reference).amax();
         assert!(error < 1e-7 * reference.amax(), "{error:e}");
+    }
+
+    #[test]
+    fn the_schur_step_and_covariance_match_the_dense_reference() {
+        check_against_dense::<3>(&small_delta(), Vector3::new(0.3, -0.2, 0.1));
+    }
+
+    #[test]
+    fn loads_and_measured_quantities_match_the_dense_reference() {
+        check_against_dense::<4>(&small_cable(), Vector3::new(3.0, -2.0, 1.0));
     }
 }

@@ -44,7 +44,7 @@ pub struct ParameterRecord {
 #[serde(deny_unknown_fields)]
 pub struct ObservationRecord {
     /// Its kind (`probe height`, `part distance`, `measured point`,
-    /// `point sample`).
+    /// `point sample`, `measured quantity`).
     pub kind: String,
     /// Its 0-based index among those of its kind in the dataset.
     pub index: usize,

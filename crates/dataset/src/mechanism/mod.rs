@@ -6,7 +6,8 @@
 //! | `machine.json` | the mechanism by name, configured and design parameters, tolerances, noise, trigger height | [`MechanismMachine`] |
 //! | `probes.csv` | probe heights (`x,y,z`) | [`MechanismDataset::probes`] |
 //! | `distances.csv` | part distances (`x1,y1,z1,x2,y2,z2,distance`) | [`MechanismDataset::distances`] |
-//! | `points.csv` | readings, with the position where known (`q1..qA,x,y,z`) | [`SampleRow`] |
+//! | `points.csv` | readings, with the position where known and optionally the loads (`q1..qA,x,y,z[,f1..fA]`) | [`SampleRow`] |
+//! | `quantities.csv` | quantities of the machine measured directly (`quantity,value,sigma`) | [`QuantityRow`] |
 //! | `truth.json` | simulated datasets only: the true machine | [`MechanismTruth`] |
 //!
 //! and its calibration writes `calibration.json`
@@ -43,6 +44,7 @@
 mod calibration;
 mod machine;
 mod observations;
+mod quantities;
 mod truth;
 
 use std::path::Path;
@@ -53,8 +55,10 @@ pub use calibration::{
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
 pub use observations::{
-    DISTANCE_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS, SampleRow,
+    DISTANCE_COLUMNS, LOAD_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS,
+    SampleRow,
 };
+pub use quantities::{QUANTITY_COLUMNS, QuantityRow};
 pub use truth::MechanismTruth;
 
 use crate::atomic;
@@ -65,6 +69,7 @@ use crate::input;
 
 use machine::mechanism_named;
 use observations::{read_rows, read_samples, write_rows, write_samples};
+use quantities::{read_quantities, write_quantities};
 
 /// The file of the machine.
 pub const MACHINE_FILE: &str = "machine.json";
@@ -74,6 +79,8 @@ pub const PROBES_FILE: &str = "probes.csv";
 pub const DISTANCES_FILE: &str = "distances.csv";
 /// The file of the readings at unknown or measured positions.
 pub const POINTS_FILE: &str = "points.csv";
+/// The file of the quantities measured directly.
+pub const QUANTITIES_FILE: &str = "quantities.csv";
 /// The file of a simulated dataset's truth.
 pub const TRUTH_FILE: &str = "truth.json";
 /// The file of a calibration.
@@ -92,6 +99,8 @@ pub struct MechanismDataset {
     pub distances: Vec<[f64; 7]>,
     /// Readings at unknown or measured positions.
     pub samples: Vec<SampleRow>,
+    /// Quantities of the machine measured directly.
+    pub quantities: Vec<QuantityRow>,
     /// The true machine of a simulated dataset.
     pub truth: Option<MechanismTruth>,
 }
@@ -104,6 +113,7 @@ impl Default for MechanismDataset {
             probes: Vec::new(),
             distances: Vec::new(),
             samples: Vec::new(),
+            quantities: Vec::new(),
             truth: None,
         }
     }
@@ -132,12 +142,20 @@ impl MechanismDataset {
             }
             None => Vec::new(),
         };
+        let quantities = match present(QUANTITIES_FILE)? {
+            Some(path) => {
+                let mechanism = mechanism_named(&path, "mechanism", &machine.mechanism)?;
+                read_quantities(&path, mechanism.as_ref())?
+            }
+            None => Vec::new(),
+        };
         let truth = MechanismTruth::read_if_present(&dir.join(TRUTH_FILE), &machine.mechanism)?;
         let dataset = Self {
             machine,
             probes,
             distances,
             samples,
+            quantities,
             truth,
         };
         dataset.validate(dir)?;
@@ -173,6 +191,9 @@ impl MechanismDataset {
                 let mechanism = mechanism_named(&path, "mechanism", name)?;
                 write_samples(&path, mechanism.actuators().len(), &self.samples)?;
             }
+            if !self.quantities.is_empty() {
+                write_quantities(&new.join(QUANTITIES_FILE), &self.quantities)?;
+            }
             if let Some(truth) = &self.truth {
                 truth.write(&new.join(TRUTH_FILE), name)?;
             }
@@ -182,7 +203,8 @@ impl MechanismDataset {
 
     /// The checks that tie the files together: at least one observation,
     /// counts within [`OBSERVATIONS`], values finite and within the length
-    /// bound, the noise of each kind present given, the truth's trigger
+    /// bound, the noise of each kind present given, each measured quantity
+    /// one of the mechanism's with a positive sigma, the truth's trigger
     /// height given for a machine with a probe.
     fn validate(&self, dir: &Path) -> Result<()> {
         let machine_path = dir.join(MACHINE_FILE);
@@ -192,12 +214,13 @@ impl MechanismDataset {
             (PROBES_FILE, self.probes.len()),
             (DISTANCES_FILE, self.distances.len()),
             (POINTS_FILE, self.samples.len()),
+            (QUANTITIES_FILE, self.quantities.len()),
         ];
         if counts.iter().all(|&(_, n)| n == 0) {
             return Err(DatasetError::Refused {
                 path: dir.to_path_buf(),
                 message: format!(
-                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}"
+                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}, {QUANTITIES_FILE}"
                 ),
             });
         }
@@ -259,6 +282,35 @@ impl MechanismDataset {
             check.values(format!("row {}", k + 1), &sample.readings)?;
             if let Some(position) = &sample.position {
                 check.lengths(format!("row {}", k + 1), position)?;
+            }
+            if let Some(loads) = &sample.loads {
+                check.values(format!("row {} loads", k + 1), loads)?;
+            }
+        }
+        if !self.quantities.is_empty() {
+            let path = dir.join(QUANTITIES_FILE);
+            let check = Check::new(&path);
+            let mechanism = mechanism_named(&path, "mechanism", &self.machine.mechanism)?;
+            let quantities = mechanism.quantities();
+            for (k, row) in self.quantities.iter().enumerate() {
+                let field = format!("row {}", k + 1);
+                if !quantities.iter().any(|q| q.name == row.quantity) {
+                    return Err(check.error(
+                        &field,
+                        format!(
+                            "{:?} is not a quantity of the {}",
+                            row.quantity,
+                            mechanism.name()
+                        ),
+                    ));
+                }
+                check.values(field.clone(), &[row.value])?;
+                if !(row.sigma.is_finite() && row.sigma > 0.0) {
+                    return Err(check.error(
+                        &field,
+                        format!("sigma {} is not finite and positive", row.sigma),
+                    ));
+                }
             }
         }
         Ok(())

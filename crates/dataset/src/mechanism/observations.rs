@@ -4,7 +4,7 @@
 //! |---|---|---|
 //! | `probes.csv` | `x,y,z` | probe: the commanded XY and the height at which it triggered (mm) |
 //! | `distances.csv` | `x1,y1,z1,x2,y2,z2,distance` | distance measured between two commanded positions (mm) |
-//! | `points.csv` | `q1..qA,x,y,z` | readings of the `A` actuators, and the position where known (`x,y,z` empty where not) |
+//! | `points.csv` | `q1..qA,x,y,z[,f1..fA]` | readings of the `A` actuators, the position where known (`x,y,z` empty where not), and optionally the actuators' loads (`f1..fA`, a cable robot's line forces; empty where not recorded) |
 //!
 //! Every file holds at most [`OBSERVATIONS`]`.max` rows, counted as they are
 //! read, so that a huge file is refused before it fills memory.
@@ -34,6 +34,9 @@ pub const DISTANCE_COLUMNS: [&str; 7] = ["x1", "y1", "z1", "x2", "y2", "z2", "di
 pub const READING_COLUMNS: [&str; 8] = ["q1", "q2", "q3", "q4", "q5", "q6", "q7", "q8"];
 /// The position columns of points.csv.
 pub const POSITION_COLUMNS: [&str; 3] = ["x", "y", "z"];
+/// The optional load columns of points.csv, of which a mechanism of `A`
+/// actuators uses the first `A`.
+pub const LOAD_COLUMNS: [&str; 8] = ["f1", "f2", "f3", "f4", "f5", "f6", "f7", "f8"];
 
 /// One row of points.csv: the readings, and the position if it was
 /// measured.
@@ -43,10 +46,13 @@ pub struct SampleRow {
     pub readings: Vec<f64>,
     /// The measured position (mm), if any.
     pub position: Option<[f64; 3]>,
+    /// The loads the actuators held (a cable robot's line forces, N), if
+    /// recorded.
+    pub loads: Option<Vec<f64>>,
 }
 
 /// The error of a file with more rows than [`OBSERVATIONS`] allows.
-fn too_many(row: &Row, what: &str) -> Failure {
+pub(crate) fn too_many(row: &Row, what: &str) -> Failure {
     row.error(
         None,
         OBSERVATIONS.refusal(&format!("the number of {what} rows"), "more"),
@@ -80,7 +86,7 @@ pub(crate) fn write_rows<const N: usize>(
 
 /// Reads points.csv at `path` for a mechanism of `actuators` actuators:
 /// `q1..qA` and `x,y,z`, the position's three fields all empty or all
-/// numbers.
+/// numbers, and `f1..fA` if the header names them, likewise.
 pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRow>> {
     let readings = &READING_COLUMNS[..actuators];
     let expected = readings
@@ -96,6 +102,21 @@ pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRo
             .map(|name| header.require(name, &expected))
             .collect::<std::result::Result<Vec<usize>, Failure>>()?;
         let at_position = header.require_all(&POSITION_COLUMNS, &expected)?;
+        let loads = &LOAD_COLUMNS[..actuators];
+        let at_loads = loads
+            .iter()
+            .map(|name| header.find(name))
+            .collect::<std::result::Result<Option<Vec<usize>>, Failure>>()?;
+        if at_loads.is_none()
+            && loads
+                .iter()
+                .any(|name| matches!(header.find(name), Ok(Some(_))))
+        {
+            return Err(header.error(format!(
+                "the header names some of the load columns {} but not all",
+                loads.join(",")
+            )));
+        }
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, "point", |row| {
             if rows.len() == OBSERVATIONS.max {
@@ -105,20 +126,16 @@ pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRo
             for (&column, &name) in at_readings.iter().zip(readings) {
                 values.push(row.numbers(&[column], &[name])?[0]);
             }
-            let empty = at_position.map(|column| row.field(column).is_empty());
-            let position = if empty.iter().all(|&e| e) {
-                None
-            } else if empty.iter().any(|&e| e) {
-                return Err(row.error(
-                    None,
-                    "the position x,y,z must be given whole or left empty whole".to_string(),
-                ));
-            } else {
-                Some(row.numbers(&at_position, &POSITION_COLUMNS)?)
+            let position = whole_or_empty(row, &at_position, &POSITION_COLUMNS, "position")?
+                .map(|xyz| [xyz[0], xyz[1], xyz[2]]);
+            let loads = match &at_loads {
+                Some(at_loads) => whole_or_empty(row, at_loads, loads, "loads")?,
+                None => None,
             };
             rows.push(SampleRow {
                 readings: values,
                 position,
+                loads,
             });
             Ok(())
         })?;
@@ -126,22 +143,62 @@ pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRo
     })
 }
 
-/// Writes points.csv at `path` for a mechanism of `actuators` actuators.
-/// Refuses a row of another number of readings, naming it (1-based).
+/// The numbers of `columns` (named `names`) of `row`: all empty, `None`;
+/// all numbers, `Some`; else an error naming `what`.
+fn whole_or_empty(
+    row: &Row,
+    columns: &[usize],
+    names: &[&'static str],
+    what: &str,
+) -> std::result::Result<Option<Vec<f64>>, Failure> {
+    let empty: Vec<bool> = columns.iter().map(|&c| row.field(c).is_empty()).collect();
+    if empty.iter().all(|&e| e) {
+        return Ok(None);
+    }
+    if empty.iter().any(|&e| e) {
+        return Err(row.error(
+            None,
+            format!(
+                "the {what} {} must be given whole or left empty whole",
+                names.join(",")
+            ),
+        ));
+    }
+    let mut values = Vec::with_capacity(columns.len());
+    for (&column, &name) in columns.iter().zip(names) {
+        values.push(row.numbers(&[column], &[name])?[0]);
+    }
+    Ok(Some(values))
+}
+
+/// Writes points.csv at `path` for a mechanism of `actuators` actuators,
+/// with the load columns if any row has loads. Refuses a row of another
+/// number of readings or loads, naming it (1-based).
 pub(crate) fn write_samples(path: &Path, actuators: usize, rows: &[SampleRow]) -> Result<()> {
-    if let Some(k) = rows.iter().position(|r| r.readings.len() != actuators) {
+    let miscounted = |r: &SampleRow| {
+        r.readings.len() != actuators || r.loads.as_ref().is_some_and(|f| f.len() != actuators)
+    };
+    if let Some(k) = rows.iter().position(miscounted) {
         return Err(DatasetError::Field {
             path: path.to_path_buf(),
             field: format!("row {}", k + 1),
             message: format!(
-                "{} readings for {actuators} actuators",
-                rows[k].readings.len()
+                "{} readings and {} loads for {actuators} actuators",
+                rows[k].readings.len(),
+                rows[k].loads.as_ref().map_or(0, Vec::len)
             ),
         });
     }
+    let with_loads = rows.iter().any(|r| r.loads.is_some());
+    let load_columns = if with_loads {
+        &LOAD_COLUMNS[..actuators]
+    } else {
+        &[]
+    };
     let header: Vec<&str> = READING_COLUMNS[..actuators]
         .iter()
         .chain(&POSITION_COLUMNS)
+        .chain(load_columns)
         .copied()
         .collect();
     table::write_file(path, &header, |w| {
@@ -151,6 +208,14 @@ pub(crate) fn write_samples(path: &Path, actuators: usize, rows: &[SampleRow]) -
                 Some(position) => w.numbers(position)?,
                 None => {
                     for _ in 0..3 {
+                        w.text("")?;
+                    }
+                }
+            }
+            match &row.loads {
+                Some(loads) => w.numbers(loads)?,
+                None => {
+                    for _ in load_columns {
                         w.text("")?;
                     }
                 }

@@ -10,8 +10,11 @@
 //!   measured on a printed or reference part (1 row; unknowns `p`);
 //! - [`CommandedPoint`]: the effector's position measured at a commanded
 //!   position (a tracker point; 3 rows; unknowns `p`);
-//! - [`PointSample`]: actuator readings at an unknown pose
-//!   (one row per actuator; unknowns `p` and the pose, a point block).
+//! - [`PointSample`]: actuator readings at an unknown pose, with the
+//!   actuators' loads when the mechanism models them
+//!   (one row per actuator; unknowns `p` and the pose, a point block);
+//! - [`MeasuredQuantity`]: a known function of the parameters measured
+//!   directly, `(f(p) − v) / σ` (1 row; unknowns `p`).
 //!
 //! # Commanded positions
 //!
@@ -29,12 +32,14 @@ mod commanded_point;
 mod part_distance;
 mod point_sample;
 mod probe;
+mod quantity;
 
 pub use commanded::{POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
 pub use point_sample::PointSample;
 pub use probe::ProbeHeight;
+pub use quantity::MeasuredQuantity;
 
 #[cfg(test)]
 pub(crate) mod test_support {

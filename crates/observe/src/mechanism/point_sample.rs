@@ -13,7 +13,9 @@
 //! ```
 //!
 //! one row per actuator; `x` steps by [`Mechanism::retract`] (addition for
-//! a 3-coordinate position).
+//! a 3-coordinate position). With the actuators' loads `F` recorded (a
+//! cable robot's line forces), `g` is the mechanism's model under them,
+//! [`Mechanism::loaded_readings`] (an error for a mechanism without one).
 
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, check_vector};
@@ -30,6 +32,9 @@ pub struct PointSample {
     /// The pose, when it was measured: its coordinates and the standard
     /// deviation of each.
     pub known_pose: Option<([f64; 3], [f64; 3])>,
+    /// The loads the actuators held, one per actuator, when they were
+    /// recorded; `None` for the loads at which they were zeroed.
+    pub loads: Option<Vec<f64>>,
 }
 
 /// A point sample's whitened rows.
@@ -54,8 +59,13 @@ impl PointSample {
         let actuators = mechanism.actuators().len();
         check_vector(mechanism, "readings", &self.readings, actuators)?;
         check_vector(mechanism, "pose coordinates", pose, POSE_COORDINATES)?;
-        let predicted = mechanism.inverse(params, pose)?;
-        let jacobians = mechanism.reading_jacobians(params, pose)?;
+        let (predicted, jacobians) = match &self.loads {
+            Some(loads) => mechanism.loaded_readings(params, pose, loads)?,
+            None => (
+                mechanism.inverse(params, pose)?,
+                mechanism.reading_jacobians(params, pose)?,
+            ),
+        };
         let residual = DVector::from_fn(actuators, |i, _| {
             (predicted[i] - self.readings[i]) / self.sigma
         });
@@ -83,6 +93,7 @@ mod tests {
             readings: readings.iter().copied().collect(),
             sigma: 0.005,
             known_pose: None,
+            loads: None,
         };
         let at = |p: &[f64], x: &[f64]| sample.evaluate(&delta, p, x).unwrap();
         let analytic = at(truth.as_slice(), &pose);
@@ -109,5 +120,14 @@ mod tests {
         };
         let error = short.evaluate(&delta, truth.as_slice(), &pose).unwrap_err();
         assert!(error.to_string().contains("readings"), "{error}");
+        let loaded = PointSample {
+            readings: vec![0.0; 3],
+            loads: Some(vec![1.0; 3]),
+            ..short
+        };
+        let error = loaded
+            .evaluate(&delta, truth.as_slice(), &pose)
+            .unwrap_err();
+        assert!(error.to_string().contains("no load model"), "{error}");
     }
 }
