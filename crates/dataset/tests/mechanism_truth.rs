@@ -62,6 +62,7 @@ fn a_cable_robot_s_truth_has_no_trigger_height() {
         samples: vec![SampleRow {
             readings: readings.iter().copied().collect(),
             position: None,
+            loads: None,
         }],
         truth: Some(MechanismTruth {
             parameters: p.iter().copied().collect(),

@@ -134,6 +134,7 @@ fn the_predicted_sigmas_are_the_calibration_s_with_the_planned_samples() {
         dataset.samples.push(SampleRow {
             readings: exact.iter().map(|q| q + rng.normal(sigma)).collect(),
             position: None,
+            loads: None,
         });
     }
     let data = MechanismData::from_dataset(&dataset).unwrap();

@@ -208,6 +208,7 @@ pub fn simulate_cable_dataset(
         .map(|sample| SampleRow {
             readings: sample.readings,
             position: sample.known,
+            loads: None,
         })
         .collect();
     let machine = MechanismMachine {
@@ -223,6 +224,7 @@ pub fn simulate_cable_dataset(
         probes: Vec::new(),
         distances: Vec::new(),
         samples,
+        quantities: Vec::new(),
         truth: Some(MechanismTruth {
             parameters: simulation.truth.iter().copied().collect(),
             trigger_height: None,

@@ -109,6 +109,7 @@ pub fn whitened_rows(
                 readings: readings.iter().copied().collect(),
                 sigma: sigma(noise.actuator, "actuator")?,
                 known_pose: None,
+                loads: None,
             };
             let rows = sample.evaluate(mechanism, at.params, &pose)?;
             let mut j = padded(&rows.rows.d_params);
