@@ -38,27 +38,22 @@ fn large(rows: usize) -> Dataset {
     d
 }
 
+/// A million contacts round-trip through a snapshot (the time it took is
+/// printed, not judged: speed lives in the benchmarks).
 #[test]
-fn a_million_contacts_load_from_a_snapshot_in_well_under_a_second() {
+fn a_million_contacts_round_trip_through_a_snapshot() {
     let d = large(1_000_000);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("large.parcal");
     d.write_snapshot(&path).unwrap();
-
-    // Best of three, so that a briefly busy machine does not fail the test.
-    let mut elapsed = std::time::Duration::MAX;
-    for _ in 0..3 {
-        let start = Instant::now();
-        let read = Dataset::read_snapshot(&path).unwrap();
-        elapsed = elapsed.min(start.elapsed());
-        assert!(read == d);
-    }
+    let start = Instant::now();
+    let read = Dataset::read_snapshot(&path).unwrap();
     eprintln!(
-        "snapshot: {} MB, 10^6 contacts (q, directions, truth) read in {elapsed:?}",
-        fs::metadata(&path).unwrap().len() / 1_000_000
+        "snapshot: {} MB, 10^6 contacts (q, directions, truth) read in {:?}",
+        fs::metadata(&path).unwrap().len() / 1_000_000,
+        start.elapsed()
     );
-    // About 0.25 s on a 2-core VM, half of it reading the 97 MB file.
-    assert!(elapsed.as_secs_f64() < 1.0, "took {elapsed:?}");
+    assert!(read == d);
 }
 
 #[test]
