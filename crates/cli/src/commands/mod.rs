@@ -8,6 +8,7 @@ pub mod export;
 pub mod import;
 pub mod inspect;
 pub mod mechanism;
+pub mod mechanism_apply;
 pub mod paper;
 pub mod plan;
 pub mod report;

@@ -10,7 +10,9 @@
 //! | `truth.json` | simulated datasets only: the true machine | [`MechanismTruth`] |
 //!
 //! and its calibration writes `calibration.json`
-//! ([`MechanismCalibrationRecord`]). The observation files are each
+//! ([`MechanismCalibrationRecord`]), its validation on held-out data
+//! `validation.json` ([`MechanismValidationRecord`]); `parcal compensate`
+//! reads target positions ([`read_targets`]). The observation files are each
 //! optional, but one must be there. `machine.json` names its mechanism
 //! (`"mechanism"`); a `machine.json` without one is a hexapod's, which
 //! [`crate::Dataset::read`] reads, and each reader refuses the other's
@@ -43,7 +45,9 @@
 mod calibration;
 mod machine;
 mod observations;
+mod targets;
 mod truth;
+mod validation;
 
 use std::path::Path;
 
@@ -55,7 +59,9 @@ pub use machine::{MechanismMachine, Noise, ValuePrior};
 pub use observations::{
     DISTANCE_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS, SampleRow,
 };
+pub use targets::{TARGET_COLUMNS, TARGETS, command_header, read_targets};
 pub use truth::MechanismTruth;
+pub use validation::{KindRecord, MechanismValidationRecord, RowRecord, ShiftRecord};
 
 use crate::atomic;
 use crate::check::Check;
