@@ -254,3 +254,79 @@ pub fn pose_of_readings(
         ),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parcal_kinematics::cable::CableRobot;
+    use parcal_kinematics::mechanism::{design, prior_sigma};
+
+    /// `G_i = dr/dθ` of a cable robot's samples (four lines: the
+    /// least-squares pose) against central differences of the predicted
+    /// residuals, for a measured position and an unknown one.
+    #[test]
+    fn sample_derivatives_match_central_differences() {
+        let robot = CableRobot::typical();
+        let mut params = design(&robot);
+        for (k, value) in params.iter_mut().enumerate() {
+            *value += 0.3 * ((k as f64) * 1.7).sin();
+        }
+        let pose = [120.0, -80.0, 400.0];
+        let readings: Vec<f64> = robot
+            .inverse(params.as_slice(), &pose)
+            .unwrap()
+            .iter()
+            .copied()
+            .collect();
+        let known = PointSample {
+            readings: readings.clone(),
+            sigma: 1.0,
+            known_pose: Some(([121.0, -79.5, 400.2], [0.1; 3])),
+        };
+        let unknown = PointSample {
+            readings,
+            sigma: 1.0,
+            known_pose: None,
+        };
+        let n = params.len();
+        let id = ObservationRef {
+            kind: ObservationKind::Sample,
+            index: 0,
+        };
+        let steps = prior_sigma(&robot) * 1e-4;
+        for sample in [&known, &unknown] {
+            let at = |p: &DVector<f64>| {
+                predict_sample(&robot, p.as_slice(), id, sample, n)
+                    .unwrap()
+                    .unwrap()
+            };
+            let analytic = at(&params).d_global;
+            for k in 0..n {
+                let (mut plus, mut minus) = (params.clone(), params.clone());
+                plus[k] += steps[k];
+                minus[k] -= steps[k];
+                let column = (at(&plus).residuals - at(&minus).residuals) / (2.0 * steps[k]);
+                let error = (&column - analytic.column(k)).amax();
+                assert!(
+                    error < 1e-6 * analytic.amax(),
+                    "column {k}: {error:e} against {:e}",
+                    analytic.amax()
+                );
+            }
+        }
+        // The unknown pose leaves one combination of the four readings.
+        assert_eq!(at_rows(&robot, &params, &unknown), 1);
+    }
+
+    fn at_rows(robot: &CableRobot, params: &DVector<f64>, sample: &PointSample) -> usize {
+        let id = ObservationRef {
+            kind: ObservationKind::Sample,
+            index: 0,
+        };
+        predict_sample(robot, params.as_slice(), id, sample, params.len())
+            .unwrap()
+            .unwrap()
+            .residuals
+            .len()
+    }
+}
