@@ -188,21 +188,19 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
     }
     if !validation.accepted() {
         if let Some(best) = record.shifts.first() {
-            let after = best.test.as_ref().map_or(String::new(), |t| {
-                let passes = if t.outcome == "too large" {
-                    "still too large"
-                } else {
-                    "within its interval"
-                };
-                format!(
-                    " ((T/n) / s₀² would be {:.3}, {passes} [{:.3}, {:.3}])",
-                    t.ratio, t.interval[0], t.interval[1]
-                )
-            });
-            reasons.push(format!(
-                "of the single changes of one unknown, {} by {:+.4} +- {:.4} {} explains the residuals best{after}: the machine may have changed since the calibration; re-calibrate on data of the machine as it is",
+            let change = format!(
+                "{} by {:+.4} +- {:.4} {}",
                 best.name, best.shift, best.sigma, best.unit
-            ));
+            );
+            reasons.push(match &best.test {
+                Some(t) if t.outcome != "too large" => format!(
+                    "a change of {change} alone explains the residuals ((T/n) / s₀² would be {:.3}, within [{:.3}, {:.3}]): the machine may have changed since the calibration; re-calibrate on data of the machine as it is",
+                    t.ratio, t.interval[0], t.interval[1]
+                ),
+                _ => format!(
+                    "no change of one unknown explains the residuals (the best, {change}, leaves them too large): the data or their stated noise are in question, or the machine changed in more than one way"
+                ),
+            });
         }
     }
     if record.untested > 0 {
