@@ -173,35 +173,31 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
             failing.len() - NAMED_ROWS
         ));
     }
-    if failing.is_empty() {
-        if let Some(worst) = record
-            .rows
-            .iter()
-            .max_by(|a, b| a.w.abs().total_cmp(&b.w.abs()))
-        {
-            reasons.push(format!(
-                "every w-test passes: the largest, {}, |w| = {:.2} <= {critical:.2} ({family})",
-                place(worst),
-                worst.w.abs()
-            ));
-        }
+    let worst = record
+        .rows
+        .iter()
+        .max_by(|a, b| a.w.abs().total_cmp(&b.w.abs()));
+    if let (true, Some(worst)) = (failing.is_empty(), worst) {
+        reasons.push(format!(
+            "every w-test passes: the largest, {}, |w| = {:.2} <= {critical:.2} ({family})",
+            place(worst),
+            worst.w.abs()
+        ));
     }
-    if !validation.accepted() {
-        if let Some(best) = record.shifts.first() {
-            let change = format!(
-                "{} by {:+.4} +- {:.4} {}",
-                best.name, best.shift, best.sigma, best.unit
-            );
-            reasons.push(match &best.test {
-                Some(t) if t.outcome != "too large" => format!(
-                    "a change of {change} alone explains the residuals ((T/n) / s₀² would be {:.3}, within [{:.3}, {:.3}]): the machine may have changed since the calibration; re-calibrate on data of the machine as it is",
-                    t.ratio, t.interval[0], t.interval[1]
-                ),
-                _ => format!(
-                    "no change of one unknown explains the residuals (the best, {change}, leaves them too large): the data or their stated noise are in question, or the machine changed in more than one way"
-                ),
-            });
-        }
+    if let (false, Some(best)) = (validation.accepted(), record.shifts.first()) {
+        let change = format!(
+            "{} by {:+.4} +- {:.4} {}",
+            best.name, best.shift, best.sigma, best.unit
+        );
+        reasons.push(match &best.test {
+            Some(t) if t.outcome != "too large" => format!(
+                "a change of {change} alone explains the residuals ((T/n) / s₀² would be {:.3}, within [{:.3}, {:.3}]): the machine may have changed since the calibration; re-calibrate on data of the machine as it is",
+                t.ratio, t.interval[0], t.interval[1]
+            ),
+            _ => format!(
+                "no change of one unknown explains the residuals (the best, {change}, leaves them too large): the data or their stated noise are in question, or the machine changed in more than one way"
+            ),
+        });
     }
     if record.untested > 0 {
         reasons.push(format!(

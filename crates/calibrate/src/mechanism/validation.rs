@@ -215,6 +215,9 @@ fn has_known_pose(data: &MechanismData, rows: &PredictedRows) -> bool {
         .is_some()
 }
 
+/// A global block's values, covariance and unknowns' names.
+type GlobalBlock = (DVector<f64>, DMatrix<f64>, Vec<String>);
+
 /// The global block the predictions take, its covariance and its
 /// unknowns' names: the calibration's, with the held-out data's trigger
 /// height prior appended when the data have probe heights and the
@@ -222,7 +225,7 @@ fn has_known_pose(data: &MechanismData, rows: &PredictedRows) -> bool {
 fn global_block(
     calibrated: &CalibratedMechanism,
     data: &MechanismData,
-) -> Result<(DVector<f64>, DMatrix<f64>, Vec<String>), MechanismCalibrationError> {
+) -> Result<GlobalBlock, MechanismCalibrationError> {
     let mut names: Vec<String> = calibrated
         .mechanism
         .parameters()
@@ -327,7 +330,8 @@ fn shifts(
         // A column the data do not see (or see only through the
         // calibration's uncertainty, relative to rounding) explains
         // nothing.
-        if !(aa > 1e-12 * a.norm_squared().max(f64::MIN_POSITIVE)) {
+        let seen = aa > 1e-12 * a.norm_squared().max(f64::MIN_POSITIVE);
+        if !seen {
             continue;
         }
         let left = (statistic - az * az / aa).max(0.0);
