@@ -53,7 +53,7 @@
 //! the lower one it is accepted and said (the predicted covariance is
 //! pessimistic).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 
@@ -62,12 +62,35 @@ use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Outcome};
 /// `T = rᵀ C⁻¹ r` from the whitened residuals `z = L⁻¹ r` and the whitened
 /// common errors `V = L⁻¹ U` (module doc).
 pub fn statistic(z: &DVector<f64>, v: &DMatrix<f64>) -> f64 {
-    let y = v.transpose() * z;
-    let capacitance = DMatrix::identity(v.ncols(), v.ncols()) + v.transpose() * v;
-    let correction = capacitance
-        .cholesky()
-        .map_or(0.0, |factor| y.dot(&factor.solve(&y)));
-    z.norm_squared() - correction
+    WhitenedCovariance::new(v).inner(z, z)
+}
+
+/// The predicted covariance of whitened rows, `I + V Vᵀ`, whose inverse
+/// is applied by the Woodbury identity (module doc):
+/// `xᵀ (I + V Vᵀ)⁻¹ y = xᵀ y − (Vᵀ x)ᵀ (I + VᵀV)⁻¹ (Vᵀ y)`.
+pub struct WhitenedCovariance<'a> {
+    v: &'a DMatrix<f64>,
+    capacitance: Option<Cholesky<f64, Dyn>>,
+}
+
+impl<'a> WhitenedCovariance<'a> {
+    /// The covariance `I + V Vᵀ` of the whitened common errors `v`.
+    pub fn new(v: &'a DMatrix<f64>) -> Self {
+        let capacitance = DMatrix::identity(v.ncols(), v.ncols()) + v.transpose() * v;
+        Self {
+            v,
+            capacitance: capacitance.cholesky(),
+        }
+    }
+
+    /// `xᵀ (I + V Vᵀ)⁻¹ y`.
+    pub fn inner(&self, x: &DVector<f64>, y: &DVector<f64>) -> f64 {
+        let correction = self.capacitance.as_ref().map_or(0.0, |factor| {
+            let (vx, vy) = (self.v.transpose() * x, self.v.transpose() * y);
+            vx.dot(&factor.solve(&vy))
+        });
+        x.dot(y) - correction
+    }
 }
 
 /// A square root `F` of the symmetric positive semi-definite `covariance`,

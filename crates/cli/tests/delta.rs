@@ -287,10 +287,10 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     }
     let summary = ok(&["calibrate", s(&sim)]);
     assert!(summary.contains("3 part distances"), "{summary}");
-    // A command of the hexapod's says which commands take this dataset.
+    // A hexapod's way of validating is refused, saying the mechanism's.
     let err = fails(&["validate", s(&sim), "--folds", "3"]);
     assert!(
-        err.contains("a linear delta's dataset: this command reads a hexapod's"),
+        err.contains("a linear delta's dataset is validated with --calibration alone"),
         "{err}"
     );
     let err = fails(&[

@@ -67,3 +67,88 @@ fn calibrate_export_reads_back_the_anchors_and_radii() {
     ]);
     assert!(error.contains("a cable robot calibration"), "{error}");
 }
+
+/// The discarded hp-mark positions as a held-out dataset: the fixture's
+/// machine.json, and points.csv with the readings of each sample of
+/// untrusted.csv and hp-mark's position.
+fn untrusted_dataset(dir: &std::path::Path) -> std::path::PathBuf {
+    let fixture = copy_fixture(
+        "hangprinter",
+        &dir.join("fixture"),
+        &["points.csv", "untrusted.csv"],
+    );
+    let held_out = copy_fixture("hangprinter", &dir.join("untrusted"), &["machine.json"]);
+    let points = fs::read_to_string(fixture.join("points.csv")).unwrap();
+    let readings: Vec<&str> = points
+        .lines()
+        .skip(1)
+        .map(|line| line.rsplitn(4, ',').last().unwrap())
+        .collect();
+    let untrusted = fs::read_to_string(fixture.join("untrusted.csv")).unwrap();
+    let mut rows = vec!["q1,q2,q3,q4,x,y,z".to_string()];
+    for line in untrusted.lines().skip(1) {
+        let (sample, position) = line.split_once(',').unwrap();
+        rows.push(format!(
+            "{},{position}",
+            readings[sample.parse::<usize>().unwrap()]
+        ));
+    }
+    fs::write(held_out.join("points.csv"), rows.join("\n") + "\n").unwrap();
+    held_out
+}
+
+#[test]
+fn validate_names_the_discarded_positions_and_compensate_reaches_targets() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = copy_fixture("hangprinter", dir.path(), &["machine.json", "points.csv"]);
+    ok(&["calibrate", s(&data)]);
+    let calibration = data.join("calibration.json");
+    let held_out = untrusted_dataset(dir.path());
+    let out = common::parcal(&["validate", s(&held_out), "--calibration", s(&calibration)]);
+    assert_eq!(out.status.code(), Some(3), "{}", common::text(&out.stderr));
+    let summary = common::text(&out.stdout);
+    assert!(summary.contains("verdict: rejected"), "{summary}");
+    assert!(
+        summary.contains("points.csv line 8 (point sample 6, row 2) fails its w-test"),
+        "{summary}"
+    );
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(held_out.join("validation.json")).unwrap())
+            .unwrap();
+    assert_eq!(record["format"], "parcal-mechanism-validation/1");
+    assert_eq!(record["rows"].as_array().unwrap().len(), 96);
+
+    let targets = dir.path().join("targets.csv");
+    fs::write(&targets, "x,y,z\n0,0,100\n-200,150,600\n0,0,5000\n").unwrap();
+    let commands = dir.path().join("commands.csv");
+    let error = fails(&[
+        "compensate",
+        "--calibration",
+        s(&calibration),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ]);
+    assert!(
+        error.contains("line 4:") && error.contains("1 of 3 targets"),
+        "{error}"
+    );
+    assert!(!commands.exists());
+    fs::write(&targets, "x,y,z\n0,0,100\n-200,150,600\n").unwrap();
+    ok(&[
+        "compensate",
+        "--calibration",
+        s(&calibration),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ]);
+    let written = fs::read_to_string(&commands).unwrap();
+    assert!(
+        written.starts_with("x,y,z,q1,q2,q3,q4,nominal_q1,nominal_q2,nominal_q3,nominal_q4\n"),
+        "{written}"
+    );
+    assert_eq!(written.lines().count(), 3);
+}

@@ -48,6 +48,10 @@ pub(crate) const MECHANISM_CALIBRATION: Kind = Kind {
     name: "parcal-mechanism-calibration",
     current: "parcal-mechanism-calibration/1",
 };
+pub(crate) const MECHANISM_VALIDATION: Kind = Kind {
+    name: "parcal-mechanism-validation",
+    current: "parcal-mechanism-validation/1",
+};
 pub(crate) const VALIDATION: Kind = Kind {
     name: "parcal-validation",
     current: "parcal-validation/1",

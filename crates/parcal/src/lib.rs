@@ -132,12 +132,16 @@ pub use parcal_calibrate::instruments::{
 pub use parcal_dataset::{Actuator, Points, Poses, SessionModel, Tracker, ValidationRecord};
 
 // Any mechanism with a 3-coordinate pose (a linear delta, a cable robot):
-// its dataset, calibration and record (docs/mechanisms.md).
+// its dataset, calibration and record (docs/mechanisms.md), its validation
+// on held-out data and its compensated commands (docs/delta.md).
 pub use parcal_calibrate::mechanism::{
-    MechanismCalibration, MechanismCalibrationError, MechanismData, MechanismOptions,
-    calibrate_mechanism,
+    CalibratedMechanism, Compensation, MechanismCalibration, MechanismCalibrationError,
+    MechanismData, MechanismOptions, MechanismValidation, calibrate_mechanism,
+    compensate_mechanism, validate_mechanism,
 };
-pub use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
+pub use parcal_dataset::mechanism::{
+    MechanismCalibrationRecord, MechanismDataset, MechanismValidationRecord,
+};
 
 // What a calibration buys: accuracy maps before and after.
 pub use parcal_accuracy::{AccuracyError, AccuracyMap, MapGrid, MapSummary};

@@ -159,16 +159,21 @@ pub fn validation_record(validation: &Validation, calibration: String) -> Valida
         predicted_rms_mm: validation.predicted_rms(),
         verdict: if accepted { "accepted" } else { "rejected" }.to_owned(),
         reasons,
-        test: test.map(|t| PredictionTestRecord {
-            statistic: t.statistic,
-            degrees_of_freedom: t.rows,
-            calibration_variance_factor: t.calibration.map(|(cost, r)| cost / r as f64),
-            calibration_redundancy: t.calibration.map(|(_, r)| r),
-            ratio: t.ratio,
-            level: t.level,
-            interval: [t.interval.0, t.interval.1],
-            outcome: t.outcome.name().to_owned(),
-        }),
+        test: test.as_ref().map(test_record),
+    }
+}
+
+/// validation.json's record of the prediction test `t`.
+pub(crate) fn test_record(t: &PredictionTest) -> PredictionTestRecord {
+    PredictionTestRecord {
+        statistic: t.statistic,
+        degrees_of_freedom: t.rows,
+        calibration_variance_factor: t.calibration.map(|(cost, r)| cost / r as f64),
+        calibration_redundancy: t.calibration.map(|(_, r)| r),
+        ratio: t.ratio,
+        level: t.level,
+        interval: [t.interval.0, t.interval.1],
+        outcome: t.outcome.name().to_owned(),
     }
 }
 
@@ -192,7 +197,7 @@ fn test_sentence(validation: &Validation, test: &PredictionTest) -> String {
 
 /// The numbers of `test`: `T`, `n`, the calibration's `s₀²` and the
 /// interval of `F`.
-fn test_statement(test: &PredictionTest) -> String {
+pub(crate) fn test_statement(test: &PredictionTest) -> String {
     let n = test.rows;
     let (reference, distribution) = match test.calibration {
         Some((cost, r)) => (

@@ -18,6 +18,7 @@ pub mod diagnostics;
 pub mod instruments;
 pub mod maps;
 pub mod mechanism;
+pub mod mechanism_validation;
 pub mod paper;
 pub mod places;
 pub mod plots;

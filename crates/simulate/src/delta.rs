@@ -150,15 +150,39 @@ pub fn simulate_delta(
 ) -> Result<MechanismDataset, SimulateError> {
     scenario.check()?;
     let delta = scenario.delta();
-    let configured: Vec<f64> = scenario.design.to_vector().iter().copied().collect();
-    let rng = |stream: Stream| Rng::new(seed, stream as u64);
-    let mut draw = rng(Stream::Truth);
-    let truth: Vec<f64> = delta
+    let mut draw = Rng::new(seed, Stream::Truth as u64);
+    let parameters: Vec<f64> = delta
         .parameters()
         .iter()
         .map(|p| p.design + draw.normal(p.prior_sigma))
         .collect();
-    let trigger = scenario.trigger_height + draw.normal(scenario.trigger_sigma);
+    let trigger_height = scenario.trigger_height + draw.normal(scenario.trigger_sigma);
+    let truth = MechanismTruth {
+        parameters,
+        trigger_height: Some(trigger_height),
+    };
+    measure_delta(scenario, &truth, seed)
+}
+
+/// The measurements of `scenario` made with seed `seed` on the printer
+/// `truth` (its true parameters and trigger height): held-out data of a
+/// machine already simulated, or of one changed on purpose.
+pub fn measure_delta(
+    scenario: &DeltaScenario,
+    truth: &MechanismTruth,
+    seed: u64,
+) -> Result<MechanismDataset, SimulateError> {
+    scenario.check()?;
+    let delta = scenario.delta();
+    let configured: Vec<f64> = scenario.design.to_vector().iter().copied().collect();
+    let rng = |stream: Stream| Rng::new(seed, stream as u64);
+    let truth_record = truth.clone();
+    let trigger = truth.trigger_height.ok_or_else(|| {
+        SimulateError::Mechanism("the true printer has no trigger height".to_string())
+    })?;
+    let truth = truth.parameters.clone();
+    parcal_kinematics::mechanism::check_params(&delta, &truth)
+        .map_err(|e| SimulateError::Mechanism(format!("the true printer: {e}")))?;
     let failed = |what: String| SimulateError::Mechanism(what);
 
     let mut noise = rng(Stream::Probes);
@@ -238,10 +262,7 @@ pub fn simulate_delta(
         distances,
         samples,
         quantities: Vec::new(),
-        truth: Some(MechanismTruth {
-            parameters: truth,
-            trigger_height: Some(trigger),
-        }),
+        truth: Some(truth_record),
     })
 }
 

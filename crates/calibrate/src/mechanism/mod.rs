@@ -24,7 +24,15 @@
 //!   verdict;
 //! - [`snooping`]: data snooping;
 //! - [`input`]: a dataset read from files as [`MechanismData`];
-//! - [`record`]: a result as its `calibration.json` record.
+//! - [`record`]: a result as its `calibration.json` record;
+//! - [`calibrated`]: a `calibration.json` record as the numbers that apply
+//!   it ([`CalibratedMechanism`]);
+//! - [`predicted`]: held-out observations predicted by a calibration, with
+//!   their derivatives;
+//! - [`validation`]: a calibration judged on held-out data
+//!   ([`validate_mechanism`]);
+//! - [`compensation`]: the actuator commands that reach target positions
+//!   ([`compensate_mechanism`]).
 //!
 //! ```
 //! use std::sync::Arc;
@@ -53,6 +61,8 @@
 //! # Ok::<(), parcal_calibrate::mechanism::MechanismCalibrationError>(())
 //! ```
 
+pub mod calibrated;
+pub mod compensation;
 pub mod data;
 pub mod error;
 pub mod fit;
@@ -61,11 +71,15 @@ pub mod identifiability;
 pub mod input;
 pub mod observation;
 pub mod options;
+pub mod predicted;
 pub mod problem;
 pub mod record;
 pub mod result;
 pub mod snooping;
+pub mod validation;
 
+pub use calibrated::CalibratedMechanism;
+pub use compensation::{Compensation, compensate_mechanism};
 pub use data::{MechanismData, Observations, ParameterPrior};
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
@@ -73,6 +87,7 @@ pub use identifiability::{Identifiability, Undetermined};
 pub use observation::{ObservationKind, ObservationRef};
 pub use options::MechanismOptions;
 pub use result::{EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
+pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 
 /// Calibrates `data` with `options`: validates both, refuses a gauge
 /// freedom that no prior holds, fits (with data snooping if asked) and

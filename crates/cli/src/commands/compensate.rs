@@ -1,6 +1,7 @@
 //! `parcal compensate`: targets to actuator commands with a calibration
 //! (docs/apply.md), corrected poses for controllers that use the nominal
-//! model, and correction tables.
+//! model, and correction tables; target positions to a mechanism's
+//! commands with `--targets` ([`super::mechanism_apply`]).
 
 use std::path::{Path, PathBuf};
 
@@ -21,8 +22,18 @@ pub struct Args {
     calibration: PathBuf,
     /// Targets: CSV with header x,y,z,roll,pitch,yaw (tool tip in mm and
     /// R = Rz(yaw) Ry(pitch) Rx(roll) in rad, design frame).
-    #[arg(long, required_unless_present = "table", conflicts_with = "table")]
+    #[arg(
+        long,
+        required_unless_present_any = ["table", "targets"],
+        conflicts_with_all = ["table", "targets"]
+    )]
     poses: Option<PathBuf>,
+    /// For a mechanism's calibration (a delta, a cable robot): target
+    /// effector positions, CSV with header x,y,z (mm); the commands are
+    /// written with the target and the nominal machine's beside them
+    /// (header x,y,z,q1..qA,nominal_q1..nominal_qA).
+    #[arg(long, conflicts_with_all = ["table", "corrected_poses", "nominal"])]
+    targets: Option<PathBuf>,
     /// Instead of targets: a correction table over the grid
     /// `x=MIN:MAX:N,y=...,z=...[,roll=...,pitch=...,yaw=...]` (absent axes
     /// at 0), written to --out with its interpolation error printed.
@@ -46,6 +57,14 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if let Some(targets) = &args.targets {
+        return super::mechanism_apply::compensate(
+            &args.calibration,
+            targets,
+            args.accept_rejected,
+            &args.out,
+        );
+    }
     let inputs: Vec<PathBuf> = std::iter::once(&args.calibration)
         .chain(&args.poses)
         .cloned()

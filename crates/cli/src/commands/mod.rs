@@ -8,6 +8,7 @@ pub mod export;
 pub mod import;
 pub mod inspect;
 pub mod mechanism;
+pub mod mechanism_apply;
 pub mod paper;
 pub mod plan;
 pub mod plan_mechanism;
@@ -31,7 +32,7 @@ pub const SNAPSHOT_FILE: &str = "dataset.bin";
 pub fn read_dataset(path: &Path) -> anyhow::Result<Dataset> {
     if let Some(mechanism) = mechanism::declared(path)? {
         anyhow::bail!(
-            "{}: a {mechanism}'s dataset: this command reads a hexapod's; a {mechanism}'s is calibrated (parcal calibrate), reported (parcal report) and exported (parcal export)",
+            "{}: a {mechanism}'s dataset: this command reads a hexapod's; a {mechanism}'s is calibrated (parcal calibrate), reported (parcal report), exported (parcal export), validated (parcal validate --calibration) and compensated (parcal compensate --targets)",
             path.display()
         );
     }

@@ -1,7 +1,9 @@
 //! `parcal validate`: apply a calibration of poses or points to
-//! measurements it was not fitted on, or cross-validate a dataset; exits
-//! with status 3 when the residuals are larger than the calibration
-//! predicts (validation.json is written either way).
+//! measurements it was not fitted on, or cross-validate a dataset; a
+//! mechanism's calibration to held-out data of its machine
+//! ([`super::mechanism_apply`]); exits with status 3 when the residuals
+//! are larger than the calibration predicts (validation.json is written
+//! either way).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -16,7 +18,8 @@ use crate::bounds::Bounded;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Dataset directory (ball touches, or poses.csv and/or points.csv), or a binary snapshot file.
+    /// Dataset directory (ball touches, or poses.csv and/or points.csv; or a
+    /// mechanism's held-out measurements), or a binary snapshot file.
     dataset: PathBuf,
     /// The calibration to apply (calibration.json of `parcal calibrate`).
     #[arg(long, required_unless_present = "folds", conflicts_with = "folds")]
@@ -41,7 +44,6 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let dataset = super::read_dataset(&args.dataset)?;
     let out = args.out.clone().unwrap_or_else(|| {
         let directory = if args.dataset.is_file() {
             args.dataset.parent().map(PathBuf::from).unwrap_or_default()
@@ -50,6 +52,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         };
         directory.join(VALIDATION_FILE)
     });
+    if let Some(mechanism) = super::mechanism::declared(&args.dataset)? {
+        let calibration = match (&args.calibration, args.reference, args.folds) {
+            (Some(calibration), None, None) => calibration,
+            _ => anyhow::bail!(
+                "{}: a {mechanism}'s dataset is validated with --calibration alone (no --reference or --folds)",
+                args.dataset.display()
+            ),
+        };
+        return super::mechanism_apply::validate(
+            &args.dataset,
+            calibration,
+            args.accept_rejected,
+            &out,
+        );
+    }
+    let dataset = super::read_dataset(&args.dataset)?;
     let mut inputs = crate::outputs::dataset_inputs(&args.dataset);
     inputs.extend(args.calibration.clone());
     crate::outputs::check(&inputs, std::slice::from_ref(&out))?;

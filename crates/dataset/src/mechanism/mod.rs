@@ -11,7 +11,9 @@
 //! | `truth.json` | simulated datasets only: the true machine | [`MechanismTruth`] |
 //!
 //! and its calibration writes `calibration.json`
-//! ([`MechanismCalibrationRecord`]). The observation files are each
+//! ([`MechanismCalibrationRecord`]), its validation on held-out data
+//! `validation.json` ([`MechanismValidationRecord`]); `parcal compensate`
+//! reads target positions ([`read_targets`]). The observation files are each
 //! optional, but one must be there. `machine.json` names its mechanism
 //! (`"mechanism"`); a `machine.json` without one is a hexapod's, which
 //! [`crate::Dataset::read`] reads, and each reader refuses the other's
@@ -45,7 +47,9 @@ mod calibration;
 mod machine;
 mod observations;
 mod quantities;
+mod targets;
 mod truth;
+mod validation;
 
 use std::path::Path;
 
@@ -59,7 +63,9 @@ pub use observations::{
     SampleRow,
 };
 pub use quantities::{QUANTITY_COLUMNS, QuantityRow};
+pub use targets::{TARGET_COLUMNS, TARGETS, command_header, read_targets};
 pub use truth::MechanismTruth;
+pub use validation::{KindRecord, MechanismValidationRecord, RowRecord, ShiftRecord};
 
 use crate::atomic;
 use crate::check::Check;

@@ -1,0 +1,353 @@
+//! A mechanism calibration judged on held-out data of the same machine
+//! (new probe heights, part distances, measured positions): every
+//! observation predicted with the calibrated global block `θ̂`
+//! ([`super::predicted`]), the calibration's covariance `Σ_θ` propagated,
+//! and the verdict of [`crate::prediction`], as the hexapod's validation.
+//!
+//! With `r` the predicted residuals, `D` their own noise (block-diagonal,
+//! `D_i = L_i L_iᵀ`) and `G = dr/dθ`, to first order
+//!
+//! ```text
+//! C = Cov(r) = D + G Σ_θ Gᵀ = L (I + V Vᵀ) Lᵀ,   V = L⁻¹ G Σ_θ^{1/2},
+//! ```
+//!
+//! and `T = rᵀ C⁻¹ r ~ χ²(n)` over the `n` rows, tested against the
+//! calibration's own variance factor ([`PredictionTest`]). Each row has its
+//! w-test, `w_j = r_j / √C_jj` (standard normal under the model), against
+//! the family-wise critical value over the `n` rows (Bonferroni, the
+//! calibration's convention, [`critical_value`]); the verdict rejects when
+//! either test does.
+//!
+//! The trigger height is the calibration's estimate when it made one; a
+//! calibration without probe heights validated on probe heights takes it
+//! from the held-out data's prior (its sigma a common error of every
+//! probe). A sample's unknown pose is fitted to its own readings
+//! ([`super::predicted`]).
+//!
+//! What changed, when the data reject: for each unknown `θ_k` alone, the
+//! change of the machine `δ_k` that best explains the residuals (the data
+//! measured at `θ̂ + δ_k e_k`, so `r ≈ −G e_k δ_k`), by generalised least
+//! squares, `δ_k = −⟨a_k, z⟩ / ⟨a_k, a_k⟩` with `z = L⁻¹ r`,
+//! `a_k = L⁻¹ G e_k` and `⟨x, y⟩ = xᵀ (I + V Vᵀ)⁻¹ y`, its sigma
+//! `⟨a_k, a_k⟩^{-1/2}`, and the statistic left,
+//! `T − ⟨a_k, z⟩² / ⟨a_k, a_k⟩` ([`ParameterShift`]).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::hypothesis::critical_value;
+use crate::prediction::{PredictionTest, WhitenedCovariance, square_root};
+
+use super::calibrated::CalibratedMechanism;
+use super::data::MechanismData;
+use super::error::MechanismCalibrationError;
+use super::observation::{ObservationKind, ObservationRef};
+use super::predicted::{PredictedRows, predict};
+use super::result::TRIGGER_HEIGHT;
+
+/// The shifts [`MechanismValidation::shifts`] lists.
+const SHIFTS: usize = 3;
+
+/// One predicted row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidatedRow {
+    /// Its observation, by its place in the held-out data.
+    pub observation: ObservationRef,
+    /// Its row within the observation.
+    pub row: usize,
+    /// Its unit (`mm`, or the actuators' for a sample's redundant
+    /// readings).
+    pub unit: String,
+    /// The residual `r_j` (prediction less measurement).
+    pub residual: f64,
+    /// Its predicted standard deviation `√C_jj`.
+    pub sigma: f64,
+    /// Its w-test statistic `r_j / √C_jj`.
+    pub w: f64,
+}
+
+/// A change of one unknown that would explain the residuals (module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterShift {
+    /// The unknown (a parameter, or the trigger height).
+    pub name: String,
+    /// Its unit.
+    pub unit: String,
+    /// `δ_k`.
+    pub shift: f64,
+    /// Its standard deviation.
+    pub sigma: f64,
+    /// The prediction test of the residuals with the shift applied
+    /// (`n − 1` degrees of freedom).
+    pub test: Option<PredictionTest>,
+}
+
+/// A validation of a mechanism calibration (module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MechanismValidation {
+    /// The mechanism.
+    pub mechanism: String,
+    /// Every predicted row, in the order of the observations.
+    pub rows: Vec<ValidatedRow>,
+    /// Point samples at an unknown pose that gave no row (as many
+    /// actuators as pose coordinates: nothing to predict).
+    pub untested: usize,
+    /// `T = rᵀ C⁻¹ r`.
+    pub statistic: f64,
+    /// The prediction test of `T`.
+    pub test: Option<PredictionTest>,
+    /// The w-tests' family-wise level `α`.
+    pub alpha: f64,
+    /// Their critical value.
+    pub critical_value: f64,
+    /// The single-unknown changes that best explain the residuals, the
+    /// best first.
+    pub shifts: Vec<ParameterShift>,
+}
+
+impl MechanismValidation {
+    /// Whether the global test passes.
+    pub fn global_test_passes(&self) -> bool {
+        self.test.is_none_or(|t| !t.rejects())
+    }
+
+    /// The rows whose w-test fails.
+    pub fn failing_rows(&self) -> impl Iterator<Item = &ValidatedRow> {
+        self.rows
+            .iter()
+            .filter(|row| row.w.abs() > self.critical_value)
+    }
+
+    /// Whether the calibration predicts these data: neither the global
+    /// test nor a w-test rejects.
+    pub fn accepted(&self) -> bool {
+        self.global_test_passes() && self.failing_rows().next().is_none()
+    }
+
+    /// The row of largest `|w|`.
+    pub fn worst(&self) -> Option<&ValidatedRow> {
+        self.rows
+            .iter()
+            .max_by(|a, b| a.w.abs().total_cmp(&b.w.abs()))
+    }
+}
+
+/// Validates `calibrated` on the held-out `data` (module doc); the
+/// w-tests at family-wise level `alpha`. Errors name the observation
+/// that cannot be predicted.
+pub fn validate_mechanism(
+    calibrated: &CalibratedMechanism,
+    data: &MechanismData,
+    alpha: f64,
+) -> Result<MechanismValidation, MechanismCalibrationError> {
+    data.validate()?;
+    let mechanism = calibrated.mechanism.as_ref();
+    if data.mechanism.name() != mechanism.name() {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "mechanism".to_string(),
+            reason: format!(
+                "the calibration is of a {}, the data of a {}",
+                mechanism.name(),
+                data.mechanism.name()
+            ),
+        });
+    }
+    if !(alpha > 0.0 && alpha < 1.0) {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "alpha".to_string(),
+            reason: format!("{alpha} is not a level in (0, 1)"),
+        });
+    }
+    let (global, covariance, names) = global_block(calibrated, data)?;
+    let predicted = predict(mechanism, &global, &data.configured, &data.observations)?;
+    let whitened = Whitened::of(&predicted, &covariance)?;
+    let metric = WhitenedCovariance::new(&whitened.v);
+    let statistic = metric.inner(&whitened.z, &whitened.z);
+    let n = whitened.z.len();
+    let test = PredictionTest::new(statistic, n, calibrated.global_test);
+    let reading_unit = mechanism.actuators()[0].unit;
+    let mut rows = Vec::with_capacity(n);
+    for (rows_of, first) in predicted.iter().zip(&whitened.first_rows) {
+        for j in 0..rows_of.residuals.len() {
+            let variance = whitened.variances[first + j];
+            let redundant_readings = rows_of.observation.kind == ObservationKind::Sample
+                && !has_known_pose(data, rows_of);
+            let unit = if redundant_readings {
+                reading_unit
+            } else {
+                "mm"
+            };
+            rows.push(ValidatedRow {
+                observation: rows_of.observation,
+                row: j,
+                unit: unit.to_string(),
+                residual: rows_of.residuals[j],
+                sigma: variance.sqrt(),
+                w: rows_of.residuals[j] / variance.sqrt(),
+            });
+        }
+    }
+    let units: Vec<&str> = mechanism
+        .parameters()
+        .iter()
+        .map(|p| p.unit)
+        .chain(std::iter::once("mm"))
+        .collect();
+    let shifts = shifts(&whitened, &metric, statistic, calibrated, &names, &units);
+    let samples_with_rows = predicted
+        .iter()
+        .filter(|p| p.observation.kind == ObservationKind::Sample)
+        .count();
+    Ok(MechanismValidation {
+        mechanism: mechanism.name().to_string(),
+        rows,
+        untested: data.observations.samples.len() - samples_with_rows,
+        statistic,
+        test,
+        alpha,
+        critical_value: critical_value(alpha, n),
+        shifts,
+    })
+}
+
+fn has_known_pose(data: &MechanismData, rows: &PredictedRows) -> bool {
+    data.observations.samples[rows.observation.index]
+        .known_pose
+        .is_some()
+}
+
+/// A global block's values, covariance and unknowns' names.
+type GlobalBlock = (DVector<f64>, DMatrix<f64>, Vec<String>);
+
+/// The global block the predictions take, its covariance and its
+/// unknowns' names: the calibration's, with the held-out data's trigger
+/// height prior appended when the data have probe heights and the
+/// calibration no trigger height.
+fn global_block(
+    calibrated: &CalibratedMechanism,
+    data: &MechanismData,
+) -> Result<GlobalBlock, MechanismCalibrationError> {
+    let mut names: Vec<String> = calibrated
+        .mechanism
+        .parameters()
+        .iter()
+        .map(|p| p.name.clone())
+        .collect();
+    names.push(TRIGGER_HEIGHT.to_string());
+    let (values, covariance) = (&calibrated.values, &calibrated.covariance);
+    if !data.has_trigger_height() || calibrated.trigger_height().is_some() {
+        names.truncate(values.len());
+        return Ok((values.clone(), covariance.clone(), names));
+    }
+    let prior = data.trigger_height;
+    let sigma = prior.sigma.ok_or_else(|| MechanismCalibrationError::InvalidData {
+        what: "trigger height".to_string(),
+        reason: "the calibration did not estimate one, and the data's prior has no sigma: give machine.json's trigger_height a sigma".to_string(),
+    })?;
+    let g = values.len() + 1;
+    let global = values.clone().resize_vertically(g, prior.mean);
+    let mut extended = DMatrix::zeros(g, g);
+    extended
+        .view_mut((0, 0), (g - 1, g - 1))
+        .copy_from(covariance);
+    extended[(g - 1, g - 1)] = sigma * sigma;
+    Ok((global, extended, names))
+}
+
+/// The predicted rows whitened by their own noise (module doc).
+struct Whitened {
+    /// `z = L⁻¹ r`.
+    z: DVector<f64>,
+    /// `W = L⁻¹ G`.
+    w: DMatrix<f64>,
+    /// `V = W Σ_θ^{1/2}`.
+    v: DMatrix<f64>,
+    /// `C_jj` of every row.
+    variances: Vec<f64>,
+    /// Each observation's first row.
+    first_rows: Vec<usize>,
+}
+
+impl Whitened {
+    /// An error names an observation whose noise covariance is not
+    /// positive definite (it always is for valid data: a sigma's square,
+    /// or a measured position's plus a positive semi-definite term).
+    fn of(
+        predicted: &[PredictedRows],
+        covariance: &DMatrix<f64>,
+    ) -> Result<Self, MechanismCalibrationError> {
+        let root = square_root(covariance);
+        let g = covariance.nrows();
+        let n: usize = predicted.iter().map(|p| p.residuals.len()).sum();
+        let (mut z, mut w) = (DVector::zeros(n), DMatrix::zeros(n, g));
+        let mut variances = Vec::with_capacity(n);
+        let mut first_rows = Vec::with_capacity(predicted.len());
+        let mut at = 0;
+        for rows in predicted {
+            let m = rows.residuals.len();
+            first_rows.push(at);
+            let not_definite = || MechanismCalibrationError::Observation {
+                observation: rows.observation,
+                reason: "its predicted noise covariance is not positive definite".to_string(),
+            };
+            let l = rows.noise.clone().cholesky().ok_or_else(not_definite)?.l();
+            let solve = |b: &DMatrix<f64>| l.solve_lower_triangular(b).ok_or_else(not_definite);
+            let residuals = DMatrix::from_column_slice(m, 1, rows.residuals.as_slice());
+            z.rows_mut(at, m).copy_from(&solve(&residuals)?);
+            w.view_mut((at, 0), (m, g))
+                .copy_from(&solve(&rows.d_global)?);
+            let common = &rows.d_global * &root;
+            for j in 0..m {
+                variances.push(rows.noise[(j, j)] + common.row(j).norm_squared());
+            }
+            at += m;
+        }
+        let v = &w * &root;
+        Ok(Self {
+            z,
+            w,
+            v,
+            variances,
+            first_rows,
+        })
+    }
+}
+
+/// The [`SHIFTS`] single-unknown shifts that leave the least statistic
+/// (module doc).
+fn shifts(
+    whitened: &Whitened,
+    metric: &WhitenedCovariance,
+    statistic: f64,
+    calibrated: &CalibratedMechanism,
+    names: &[String],
+    units: &[&str],
+) -> Vec<ParameterShift> {
+    let n = whitened.z.len();
+    let mut shifts: Vec<(f64, ParameterShift)> = Vec::new();
+    for k in 0..whitened.w.ncols() {
+        let a = whitened.w.column(k).into_owned();
+        let (aa, az) = (metric.inner(&a, &a), metric.inner(&a, &whitened.z));
+        // A column the data do not see (or see only through the
+        // calibration's uncertainty, relative to rounding) explains
+        // nothing.
+        let seen = aa > 1e-12 * a.norm_squared().max(f64::MIN_POSITIVE);
+        if !seen {
+            continue;
+        }
+        let left = (statistic - az * az / aa).max(0.0);
+        shifts.push((
+            left,
+            ParameterShift {
+                name: names[k].clone(),
+                unit: units[k].to_string(),
+                shift: -az / aa,
+                sigma: aa.sqrt().recip(),
+                test: n
+                    .checked_sub(1)
+                    .and_then(|m| PredictionTest::new(left, m, calibrated.global_test)),
+            },
+        ));
+    }
+    shifts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    shifts.into_iter().take(SHIFTS).map(|(_, s)| s).collect()
+}

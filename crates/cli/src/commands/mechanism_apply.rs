@@ -1,0 +1,181 @@
+//! `parcal validate` and `parcal compensate` for a mechanism's calibration
+//! (docs/delta.md, docs/cable-robots.md): the files read and written, the
+//! summary printed; the work is `parcal_calibrate::mechanism`'s and the
+//! words `parcal_report::mechanism_validation`'s.
+
+use std::io::Write;
+use std::path::Path;
+
+use parcal_calibrate::hypothesis::SNOOPING_LEVEL;
+use parcal_calibrate::mechanism::{
+    CalibratedMechanism, MechanismCalibrationError, MechanismData, compensate_mechanism,
+    validate_mechanism,
+};
+use parcal_dataset::mechanism::{
+    DISTANCES_FILE, MechanismCalibrationRecord, MechanismDataset, PROBES_FILE, command_header,
+    read_targets,
+};
+use parcal_dataset::write_numbers;
+use parcal_report::mechanism_validation::{observation_place, summary, validation_record};
+
+/// The unreachable targets named one by one (the others counted).
+const NAMED_TARGETS: usize = 10;
+
+/// Reads a mechanism's calibration.json, refusing a rejected one unless
+/// `accept_rejected`.
+pub fn read_calibration(
+    path: &Path,
+    accept_rejected: bool,
+) -> anyhow::Result<MechanismCalibrationRecord> {
+    let record = MechanismCalibrationRecord::read(path)?;
+    anyhow::ensure!(
+        record.accepted || accept_rejected,
+        "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
+        path.display(),
+        record.reasons.join("; ")
+    );
+    Ok(record)
+}
+
+/// The numbers of the calibration at `path`.
+fn calibrated(path: &Path, accept_rejected: bool) -> anyhow::Result<CalibratedMechanism> {
+    let record = read_calibration(path, accept_rejected)?;
+    CalibratedMechanism::from_record(&record)
+        .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))
+}
+
+/// An error of the data in `dataset`, an observation named by its file
+/// and line.
+fn data_error(dataset: &Path, error: MechanismCalibrationError) -> anyhow::Error {
+    match error {
+        MechanismCalibrationError::Observation {
+            observation,
+            reason,
+        } => anyhow::anyhow!(
+            "{}: {}: {reason}",
+            dataset.display(),
+            observation_place(observation)
+        ),
+        other => anyhow::anyhow!("{}: {other}", dataset.display()),
+    }
+}
+
+/// Validates the calibration at `calibration` on the mechanism dataset
+/// `dataset`: writes the validation to `out`, prints its summary, and
+/// turns a rejection into [`super::Rejected`].
+pub fn validate(
+    dataset: &Path,
+    calibration: &Path,
+    accept_rejected: bool,
+    out: &Path,
+) -> anyhow::Result<()> {
+    let mut inputs = crate::outputs::dataset_inputs(dataset);
+    inputs.extend(
+        [PROBES_FILE, DISTANCES_FILE]
+            .iter()
+            .map(|name| dataset.join(name))
+            .filter(|file| file.exists()),
+    );
+    inputs.push(calibration.to_path_buf());
+    crate::outputs::check(&inputs, &[out.to_path_buf()])?;
+    let calibrated = calibrated(calibration, accept_rejected)?;
+    let held_out = MechanismDataset::read(dataset)?;
+    let data = MechanismData::from_dataset(&held_out).map_err(|e| data_error(dataset, e))?;
+    let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL)
+        .map_err(|e| data_error(dataset, e))?;
+    let record = validation_record(&validation, calibration.display().to_string());
+    record.write(out)?;
+    let mut stdout = std::io::stdout().lock();
+    write!(stdout, "{}", summary(&record))?;
+    writeln!(stdout, "validation written to {}", out.display())?;
+    if record.is_rejected() {
+        return Err(super::Rejected(format!(
+            "{} (validation written to {})",
+            record.reasons.join("; "),
+            out.display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// The commands that reach the targets of `targets` with the calibration
+/// at `calibration`, written to `out` beside the nominal ones; nothing is
+/// written when a target cannot be reached, and every such target is
+/// named by its line.
+pub fn compensate(
+    calibration: &Path,
+    targets: &Path,
+    accept_rejected: bool,
+    out: &Path,
+) -> anyhow::Result<()> {
+    crate::outputs::check(
+        &[calibration.to_path_buf(), targets.to_path_buf()],
+        &[out.to_path_buf()],
+    )?;
+    let calibrated = calibrated(calibration, accept_rejected)?;
+    let positions = read_targets(targets)?;
+    let results = compensate_mechanism(&calibrated, &positions);
+    let unreachable: Vec<String> = results
+        .iter()
+        .enumerate()
+        .filter_map(|(k, result)| {
+            result
+                .as_ref()
+                .err()
+                .map(|error| format!("line {}: {error}", k + 2))
+        })
+        .collect();
+    if !unreachable.is_empty() {
+        let more = unreachable.len().saturating_sub(NAMED_TARGETS);
+        anyhow::bail!(
+            "{}: {} of {} targets cannot be reached by the calibrated {} (nothing written):\n  {}{}",
+            targets.display(),
+            unreachable.len(),
+            positions.len(),
+            calibrated.mechanism.name(),
+            unreachable[..unreachable.len().min(NAMED_TARGETS)].join("\n  "),
+            if more > 0 {
+                format!("\n  and {more} more")
+            } else {
+                String::new()
+            }
+        );
+    }
+    let compensations: Vec<_> = results.into_iter().flatten().collect();
+    let rows: Vec<Vec<f64>> = compensations
+        .iter()
+        .map(|c| {
+            c.target
+                .iter()
+                .chain(c.readings.iter())
+                .chain(c.nominal.iter())
+                .copied()
+                .collect()
+        })
+        .collect();
+    let header = command_header(calibrated.mechanism.actuators().len());
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    write_numbers(out, &header, &rows)?;
+    let sigmas: Vec<f64> = compensations
+        .iter()
+        .map(|c| c.sigmas().iter().map(|s| s * s).sum::<f64>().sqrt())
+        .collect();
+    let correction = compensations
+        .iter()
+        .map(|c| (&c.readings - &c.nominal).amax())
+        .fold(0.0, f64::max);
+    let unit = calibrated.mechanism.actuators()[0].unit;
+    println!(
+        "{} targets -> {} (readings q1..q{n} in {unit}, the nominal machine's beside them); largest correction {correction:.4} {unit}",
+        compensations.len(),
+        out.display(),
+        n = calibrated.mechanism.actuators().len()
+    );
+    println!(
+        "predicted position error from the calibration's covariance: RMS {:.4} mm, max {:.4} mm",
+        (sigmas.iter().map(|s| s * s).sum::<f64>() / sigmas.len() as f64).sqrt(),
+        sigmas.iter().copied().fold(0.0, f64::max)
+    );
+    Ok(())
+}

@@ -1,0 +1,258 @@
+//! A mechanism calibration's validation on held-out data in words:
+//! validation.json's record ([`validation_record`]), with the verdict's
+//! reasons naming each failing row by its file and line, and the summary
+//! `parcal validate` prints ([`summary`]).
+
+use std::fmt::Write;
+
+use parcal_calibrate::mechanism::{
+    MechanismValidation, ObservationKind, ObservationRef, ValidatedRow,
+};
+use parcal_calibrate::verdict::Outcome;
+use parcal_dataset::mechanism::{
+    DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE, RowRecord,
+    ShiftRecord,
+};
+
+use crate::instruments::{test_record, test_statement};
+
+/// The failing rows the reasons name one by one (the others counted).
+const NAMED_ROWS: usize = 10;
+
+/// validation.json's record of `validation`, a validation of the
+/// calibration file `calibration`.
+pub fn validation_record(
+    validation: &MechanismValidation,
+    calibration: String,
+) -> MechanismValidationRecord {
+    let rows: Vec<RowRecord> = validation.rows.iter().map(row_record).collect();
+    let accepted = validation.accepted();
+    let mut record = MechanismValidationRecord {
+        mechanism: validation.mechanism.clone(),
+        calibration,
+        verdict: if accepted { "accepted" } else { "rejected" }.to_string(),
+        reasons: Vec::new(),
+        test: validation.test.as_ref().map(test_record),
+        alpha: validation.alpha,
+        critical_value: validation.critical_value,
+        kinds: kinds(&rows),
+        untested: validation.untested,
+        shifts: validation
+            .shifts
+            .iter()
+            .map(|s| ShiftRecord {
+                name: s.name.clone(),
+                unit: s.unit.clone(),
+                shift: s.shift,
+                sigma: s.sigma,
+                test: s.test.as_ref().map(test_record),
+            })
+            .collect(),
+        rows,
+    };
+    record.reasons = reasons(validation, &record);
+    record
+}
+
+/// The file of an observation of `kind` in a dataset directory, if it is
+/// read from one.
+fn file_of(kind: ObservationKind) -> Option<&'static str> {
+    match kind {
+        ObservationKind::Probe => Some(PROBES_FILE),
+        ObservationKind::Distance => Some(DISTANCES_FILE),
+        ObservationKind::Sample => Some(POINTS_FILE),
+        ObservationKind::Point => None,
+    }
+}
+
+/// An observation by its file and line (the header is line 1), and its
+/// kind and index: `probes.csv line 5 (probe height 3)`.
+pub fn observation_place(observation: ObservationRef) -> String {
+    match file_of(observation.kind) {
+        Some(file) => format!("{file} line {} ({observation})", observation.index + 2),
+        None => observation.to_string(),
+    }
+}
+
+/// A row's record, its observation placed by its file and line.
+fn row_record(row: &ValidatedRow) -> RowRecord {
+    let file = file_of(row.observation.kind);
+    RowRecord {
+        file: file.map(str::to_string),
+        line: file.map(|_| row.observation.index + 2),
+        kind: row.observation.kind.name().to_string(),
+        index: row.observation.index,
+        row: row.row,
+        unit: row.unit.clone(),
+        residual: row.residual,
+        sigma: row.sigma,
+        w: row.w,
+    }
+}
+
+/// Each kind's (and unit's) residual RMS, predicted RMS and largest
+/// residual, in the order the kinds first appear.
+fn kinds(rows: &[RowRecord]) -> Vec<KindRecord> {
+    let mut kinds: Vec<(String, String, Vec<&RowRecord>)> = Vec::new();
+    for row in rows {
+        match kinds
+            .iter_mut()
+            .find(|(kind, unit, _)| *kind == row.kind && *unit == row.unit)
+        {
+            Some((_, _, members)) => members.push(row),
+            None => kinds.push((row.kind.clone(), row.unit.clone(), vec![row])),
+        }
+    }
+    let rms = |values: &mut dyn Iterator<Item = f64>, n: usize| {
+        (values.map(|v| v * v).sum::<f64>() / n as f64).sqrt()
+    };
+    kinds
+        .into_iter()
+        .map(|(kind, unit, members)| KindRecord {
+            kind,
+            unit,
+            rows: members.len(),
+            rms: rms(&mut members.iter().map(|r| r.residual), members.len()),
+            predicted_rms: rms(&mut members.iter().map(|r| r.sigma), members.len()),
+            max: members.iter().fold(0.0, |m, r| m.max(r.residual.abs())),
+        })
+        .collect()
+}
+
+/// A row by its file and line, else by its observation.
+fn place(row: &RowRecord) -> String {
+    let observation = format!("{} {}", row.kind, row.index);
+    match (&row.file, row.line) {
+        (Some(file), Some(line)) => format!("{file} line {line} ({observation}, row {})", row.row),
+        _ => format!("{observation}, row {}", row.row),
+    }
+}
+
+/// The verdict's reasons: the prediction test, the w-tests, what change
+/// would explain a rejection, the samples not tested, the verdict.
+fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord) -> Vec<String> {
+    let mut reasons = Vec::new();
+    if let Some(test) = &validation.test {
+        let statement = test_statement(test);
+        reasons.push(match test.outcome {
+            Outcome::Consistent => format!(
+                "prediction test passed: the residuals are as large as the calibration predicts: {statement}"
+            ),
+            Outcome::TooLarge => format!(
+                "prediction test failed: the residuals are larger than the calibration predicts: {statement}"
+            ),
+            Outcome::TooSmall => format!(
+                "prediction test: the residuals are smaller than predicted: {statement}: the calibration's covariance or the stated noise is pessimistic"
+            ),
+        });
+    }
+    let critical = record.critical_value;
+    let family = format!(
+        "family-wise level {} over {} rows",
+        record.alpha,
+        record.rows.len()
+    );
+    let failing: Vec<&RowRecord> = record
+        .rows
+        .iter()
+        .filter(|r| r.w.abs() > critical)
+        .collect();
+    for row in failing.iter().take(NAMED_ROWS) {
+        reasons.push(format!(
+            "{} fails its w-test: |w| = {:.2} > {critical:.2} ({family}): residual {:+.4} {} against a predicted sigma of {:.4}",
+            place(row),
+            row.w.abs(),
+            row.residual,
+            row.unit,
+            row.sigma
+        ));
+    }
+    if failing.len() > NAMED_ROWS {
+        reasons.push(format!(
+            "{} more rows fail their w-tests (validation.json lists every row)",
+            failing.len() - NAMED_ROWS
+        ));
+    }
+    let worst = record
+        .rows
+        .iter()
+        .max_by(|a, b| a.w.abs().total_cmp(&b.w.abs()));
+    if let (true, Some(worst)) = (failing.is_empty(), worst) {
+        reasons.push(format!(
+            "every w-test passes: the largest, {}, |w| = {:.2} <= {critical:.2} ({family})",
+            place(worst),
+            worst.w.abs()
+        ));
+    }
+    if let (false, Some(best)) = (validation.accepted(), record.shifts.first()) {
+        let change = format!(
+            "{} by {:+.4} +- {:.4} {}",
+            best.name, best.shift, best.sigma, best.unit
+        );
+        reasons.push(match &best.test {
+            Some(t) if t.outcome != "too large" => format!(
+                "a change of {change} alone explains the residuals ((T/n) / s₀² would be {:.3}, within [{:.3}, {:.3}]): the machine may have changed since the calibration; re-calibrate on data of the machine as it is",
+                t.ratio, t.interval[0], t.interval[1]
+            ),
+            _ => format!(
+                "no change of one unknown explains the residuals (the best, {change}, leaves them too large): the data or their stated noise are in question, or the machine changed in more than one way"
+            ),
+        });
+    }
+    if record.untested > 0 {
+        reasons.push(format!(
+            "{} point samples at unknown positions gave no row: the {}'s readings only locate their own pose",
+            record.untested, record.mechanism
+        ));
+    }
+    reasons.push(record.verdict.clone());
+    reasons
+}
+
+/// A validation in a few lines: its verdict and reasons, what was
+/// applied, each kind's residuals observed and predicted, the changes
+/// that best explain them.
+pub fn summary(record: &MechanismValidationRecord) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "verdict: {}", record.verdict);
+    for reason in &record.reasons {
+        let _ = writeln!(out, "  - {reason}");
+    }
+    let _ = writeln!(
+        out,
+        "applied: {} (a {})",
+        record.calibration, record.mechanism
+    );
+    for kind in &record.kinds {
+        let _ = writeln!(
+            out,
+            "predicted {} {} rows: residual RMS {:.4} {unit}, max {:.4} {unit}; the calibration predicts RMS {:.4} {unit}",
+            kind.rows,
+            kind.kind,
+            kind.rms,
+            kind.max,
+            kind.predicted_rms,
+            unit = kind.unit
+        );
+    }
+    let shifts = if record.is_rejected() {
+        record.shifts.as_slice()
+    } else {
+        &[]
+    };
+    for shift in shifts {
+        let _ = writeln!(
+            out,
+            "  change of {} alone: {:+.4} +- {:.4} {}{}",
+            shift.name,
+            shift.shift,
+            shift.sigma,
+            shift.unit,
+            shift.test.as_ref().map_or(String::new(), |t| format!(
+                ", then (T/n) / s₀² = {:.3}",
+                t.ratio
+            ))
+        );
+    }
+    out
+}
