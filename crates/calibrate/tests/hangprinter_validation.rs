@@ -30,6 +30,7 @@ fn held_out(dataset: &MechanismDataset, position_sigma: f64) -> MechanismDataset
             SampleRow {
                 readings: dataset.samples[f[0] as usize].readings.clone(),
                 position: Some([f[1], f[2], f[3]]),
+                loads: None,
             }
         })
         .collect();
@@ -40,6 +41,7 @@ fn held_out(dataset: &MechanismDataset, position_sigma: f64) -> MechanismDataset
         samples,
         probes: Vec::new(),
         distances: Vec::new(),
+        quantities: Vec::new(),
         truth: None,
     }
 }

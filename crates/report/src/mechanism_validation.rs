@@ -10,8 +10,8 @@ use parcal_calibrate::mechanism::{
 };
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
-    DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE, RowRecord,
-    ShiftRecord,
+    DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE,
+    QUANTITIES_FILE, RowRecord, ShiftRecord,
 };
 
 use crate::instruments::{test_record, test_statement};
@@ -61,6 +61,7 @@ fn file_of(kind: ObservationKind) -> Option<&'static str> {
         ObservationKind::Probe => Some(PROBES_FILE),
         ObservationKind::Distance => Some(DISTANCES_FILE),
         ObservationKind::Sample => Some(POINTS_FILE),
+        ObservationKind::Quantity => Some(QUANTITIES_FILE),
         ObservationKind::Point => None,
     }
 }

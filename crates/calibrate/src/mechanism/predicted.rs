@@ -106,6 +106,13 @@ pub fn predict(
             .map_err(|e| failed(id, e))?;
         predicted.push(unwhitened(id, &rows, &point.sigma, g));
     }
+    for (k, quantity) in observations.quantities.iter().enumerate() {
+        let id = at(ObservationKind::Quantity, k);
+        let rows = quantity
+            .evaluate(mechanism, params)
+            .map_err(|e| failed(id, e))?;
+        predicted.push(unwhitened(id, &rows, &[quantity.sigma], g));
+    }
     for (k, sample) in observations.samples.iter().enumerate() {
         let id = at(ObservationKind::Sample, k);
         if let Some(rows) =
@@ -282,11 +289,13 @@ mod tests {
             readings: readings.clone(),
             sigma: 1.0,
             known_pose: Some(([121.0, -79.5, 400.2], [0.1; 3])),
+            loads: None,
         };
         let unknown = PointSample {
             readings,
             sigma: 1.0,
             known_pose: None,
+            loads: None,
         };
         let n = params.len();
         let id = ObservationRef {
