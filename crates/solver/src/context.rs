@@ -82,6 +82,7 @@ where
             c: C,
             p: P,
             r: R,
+            effects: 0,
         };
         Ok(Self {
             problem,
@@ -90,6 +91,14 @@ where
             pool: WorkspacePool::new(dims),
             caches,
         })
+    }
+
+    /// The same, its passes carrying the problem's effects as extra
+    /// right-hand sides ([`Problem::effects`]).
+    pub(crate) fn carrying_effects(mut self) -> Self {
+        self.dims.effects = self.problem.effects();
+        self.pool = WorkspacePool::new(self.dims);
+        self
     }
 
     /// The workspace pool, and the chunks with their slices of the caches.
