@@ -44,6 +44,7 @@
 
 pub mod bounds;
 pub mod conflict;
+mod effect;
 mod error;
 pub mod external;
 pub mod fit;

@@ -18,7 +18,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector6};
+use nalgebra::{Const, DMatrix, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector6};
 use parcal_dataset::Dataset;
 use parcal_kinematics::forward_batch::{PivotOrder, forward_along_batch, forward_jacobian_batch};
 use parcal_kinematics::params::leg_index;
@@ -28,13 +28,14 @@ use parcal_kinematics::{
 };
 use parcal_observe::{
     BlockJacobians, CoordinateBlock, CoordinateWhitening, DirectionChart, DistanceBlock,
-    ObserveError, RadiusBlock, RadiusWhitening,
+    ObserveError, RadiusBlock, RadiusWhitening, Whitening,
 };
 use parcal_solver::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Loss, Problem,
 };
 
 use crate::CalibrateError;
+use crate::effect::Effect;
 use crate::layout::{ParameterGroup, ParameterLayout, kinematic_params};
 use crate::mixed::InstrumentObservations;
 use crate::observation::ObservationId;
@@ -81,6 +82,11 @@ pub trait ContactObservations<const R: usize, const P: usize>: Sync {
     /// Contact `i`'s angles for the contact direction of `direction` (from
     /// the ball centre to the tip; any non-zero length).
     fn angles_toward(&self, i: usize, direction: &Vec3) -> Result<SVector<f64, P>, ObserveError>;
+
+    /// `dc/dr` of contact `i`'s whitened block at its `angles`: how its
+    /// rows move with its ball's radius (the block's `d_radius`, which
+    /// needs neither the tip nor the centre).
+    fn d_radius(&self, i: usize, angles: &SVector<f64, P>) -> SVector<f64, R>;
 }
 
 impl ContactObservations<1, 0> for RadiusObservations {
@@ -100,6 +106,11 @@ impl ContactObservations<1, 0> for RadiusObservations {
     /// The radius observation has no angles.
     fn angles_toward(&self, _i: usize, _direction: &Vec3) -> Result<SVector<f64, 0>, ObserveError> {
         Ok(SVector::zeros())
+    }
+
+    /// `dc/dr = 1`, whitened.
+    fn d_radius(&self, i: usize, _angles: &SVector<f64, 0>) -> SVector<f64, 1> {
+        self.weights[i].whiten(&SVector::<f64, 1>::new(1.0))
     }
 }
 
@@ -131,6 +142,12 @@ impl ContactObservations<3, 2> for CoordinateObservations {
     /// ([`DirectionChart::angles_of`]).
     fn angles_toward(&self, i: usize, direction: &Vec3) -> Result<Vector2<f64>, ObserveError> {
         Ok(DirectionChart::about(&self.directions[i]).angles_of(direction))
+    }
+
+    /// `dc/dr = u(θ)`, whitened.
+    fn d_radius(&self, i: usize, angles: &Vector2<f64>) -> SVector<f64, 3> {
+        let direction = DirectionChart::about(&self.directions[i]).direction(angles);
+        self.weights[i].whiten(&direction)
     }
 }
 
@@ -501,6 +518,24 @@ impl<O, const G: usize> CalibrationProblem<'_, O, G> {
         Ok(())
     }
 
+    /// The common errors of the entered data that the problem's rows
+    /// carry, in the order of [`Problem::effects`]: the balls' radius (as
+    /// data, `G` = 3, or as the radius priors' mean, `G` = 4) and, with
+    /// distances, their scale.
+    pub fn tested_effects(&self) -> Vec<Effect> {
+        let radius = !Self::RADIUS_UNKNOWN || self.ball_priors.is_some();
+        let scale = !self.distances.is_empty();
+        [(radius, Effect::BallRadius), (scale, Effect::DistanceScale)]
+            .into_iter()
+            .filter_map(|(carried, effect)| carried.then_some(effect))
+            .collect()
+    }
+
+    /// The global column of the radius of each ball in the global block.
+    fn radius_columns(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.radii.len()).filter_map(|k| self.layout.ball(k).map(|r| r.start + G - 1))
+    }
+
     /// The ball of contact `i` (artefacts.json index).
     fn ball_of(&self, i: usize) -> usize {
         self.ball[self.row(i)] as usize
@@ -783,6 +818,55 @@ where
         self.observations.angle_prior(i)
     }
 
+    /// [`CalibrationProblem::tested_effects`].
+    fn effects(&self) -> usize {
+        self.tested_effects().len()
+    }
+
+    /// With the radius as data (`G` = 3), the balls' radius, the first
+    /// effect, moves every contact's rows by its block's `dc/dr`.
+    fn point_effects(
+        &self,
+        i: usize,
+        _lin: &Linearization<G, P, R, ContactJacobian<R, G>>,
+        angles: &SVector<f64, P>,
+        out: &mut [SVector<f64, R>],
+    ) {
+        if !Self::RADIUS_UNKNOWN {
+            out[0] = self.observations.d_radius(i, angles);
+        }
+    }
+
+    /// With a per-ball radius (`G` = 4) and priors, the balls' radius,
+    /// the first effect, moves each radius prior's mean by `t`.
+    fn group_prior_effects(&self, _k: usize, out: &mut [SVector<f64, G>]) {
+        if Self::RADIUS_UNKNOWN {
+            out[0][G - 1] = 1.0;
+        }
+    }
+
+    /// The radius priors' means of the balls in the global block (`G` =
+    /// 4) move by `t`; each distance `L` by `L t`, its whitened row by `L
+    /// / σ` per unit `t`.
+    fn global_effects(&self, prior_mean: &mut DMatrix<f64>, observations: &mut DMatrix<f64>) {
+        let effects = self.tested_effects();
+        for (k, effect) in effects.iter().enumerate() {
+            match effect {
+                Effect::BallRadius if Self::RADIUS_UNKNOWN && self.global_prior.is_some() => {
+                    for column in self.radius_columns() {
+                        prior_mean[(column, k)] = 1.0;
+                    }
+                }
+                Effect::BallRadius => {}
+                Effect::DistanceScale => {
+                    for (row, distance) in self.distances.iter().enumerate() {
+                        observations[(row, k)] = distance.block.length / distance.block.sigma;
+                    }
+                }
+            }
+        }
+    }
+
     fn loss(&self) -> Loss {
         self.loss
     }
@@ -833,5 +917,35 @@ impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
         self.instruments =
             InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Matrix3;
+
+    use super::*;
+
+    /// `d_radius` is the block's `dc/dr`, whatever the tip and centre.
+    #[test]
+    fn d_radius_is_the_blocks_radius_column() {
+        let (tip, centre) = (Vec3::new(3.0, -1.0, 402.0), Vec3::new(1.0, 2.0, 397.0));
+        let direction = UnitVector3::new_normalize(Vec3::new(0.3, -0.5, 0.8));
+        let covariance = Matrix3::new(2e-6, 1e-7, 0.0, 1e-7, 3e-6, 2e-7, 0.0, 2e-7, 4e-6);
+        let coordinates = CoordinateObservations {
+            directions: vec![direction],
+            weights: vec![CoordinateWhitening::from_covariance(&covariance).unwrap()],
+            angle_sigma: None,
+        };
+        let angles = Vector2::new(0.1, -0.2);
+        let block = coordinates.block(0, 12.7, &tip, &centre, &angles).unwrap();
+        assert_eq!(coordinates.d_radius(0, &angles), block.d_radius);
+        let radius = RadiusObservations {
+            weights: vec![RadiusWhitening::from_variance(4e-6).unwrap()],
+        };
+        let block = radius
+            .block(0, 12.7, &tip, &centre, &SVector::zeros())
+            .unwrap();
+        assert_eq!(radius.d_radius(0, &SVector::zeros()), block.d_radius);
     }
 }

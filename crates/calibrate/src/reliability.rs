@@ -42,7 +42,7 @@ use crate::external::{self, ExternalShift, external_shifts};
 use crate::hypothesis::{SNOOPING_LEVEL, critical_value, minimal_detectable_bias};
 use crate::observation::ObservationId;
 use crate::robust::{self, DownWeighted};
-use crate::systematic::SystematicTest;
+use crate::systematic::{Effect, SystematicTest, systematic_tests};
 
 /// Redundancy (per test, [`ObservationId::tests`]) below which an
 /// observation counts as uncontrolled.
@@ -300,9 +300,10 @@ impl Reliability {
     /// contact's rows are reduced to its numbers as the solver's pass
     /// hands them over (with a robust loss, a contact it down-weighted is
     /// listed then); the shifts of the least reliable follow
-    /// ([`crate::external`]). Also returns the groups' marginal sigmas,
-    /// which the same pass gives
-    /// ([`parcal_solver::Redundancy::group_sigmas`]).
+    /// ([`crate::external`]). The same pass gives the systematic tests of
+    /// `effects`, the problem's effects ([`Problem::effects`]) named in
+    /// order (none with a robust loss), and the groups' marginal sigmas
+    /// ([`parcal_solver::Redundancy::group_sigmas`]), which are returned.
     #[allow(clippy::too_many_arguments)]
     pub fn new<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
         problem: &Pr,
@@ -314,6 +315,7 @@ impl Reliability {
         global: &[ObservationId],
         prior_cost: f64,
         prior_rows: usize,
+        effects: &[Effect],
     ) -> Result<(Self, Vec<SVector<f64, C>>), CalibrateError> {
         let failed = |reason: String| CalibrateError::Calibration { reason };
         let tests = rows.len() + global.iter().map(|o| o.tests()).sum::<usize>();
@@ -438,7 +440,7 @@ impl Reliability {
             redundancy: summary.redundancy,
             external,
             down_weighted: robust.then_some(down_weighted),
-            systematic: Vec::new(),
+            systematic: systematic_tests(effects, &numbers.effects),
         };
         Ok((reliability, numbers.group_sigmas))
     }

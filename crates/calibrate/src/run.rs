@@ -27,7 +27,6 @@ use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations};
 use crate::reliability::Reliability;
 use crate::robust::START_TOLERANCE;
 use crate::setup::{MirrorStart, Observations, Setup, kinematic_prior};
-use crate::systematic::systematic_tests;
 use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, at_minimum, rows_and_unknowns};
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
 
@@ -772,8 +771,7 @@ impl SolverRun<'_> {
         // The checks' pass gives the balls' sigmas too; without it, a pass
         // of their own.
         let groups_per_chunk = self.solver.groups_per_chunk;
-        let (mut reliability, group_sigmas) = match (&solution.covariance, solution.history.last())
-        {
+        let (reliability, group_sigmas) = match (&solution.covariance, solution.history.last()) {
             (Some(covariance), Some(last)) if judged => {
                 let (reliability, sigmas) = Reliability::new(
                     &*problem,
@@ -785,6 +783,7 @@ impl SolverRun<'_> {
                     &problem.global_observation_ids(),
                     last.prior_cost,
                     prior_rows,
+                    &problem.tested_effects(),
                 )?;
                 (Some(reliability), Some(sigmas))
             }
@@ -818,20 +817,6 @@ impl SolverRun<'_> {
             .as_ref()
             .filter(|_| radius_unknown)
             .map(|sigmas| sigmas.iter().map(|s| s[G - 1]).collect());
-        // The common errors of the entered data at the minimum of least
-        // squares: which explains a misfit, and how large one must be to
-        // show (two elimination passes per effect, within the time budget).
-        let in_time = self
-            .solver
-            .time_limit
-            .is_none_or(|limit| started.elapsed() < limit);
-        if let (Some(reliability), Some(test)) = (&mut reliability, &global_test)
-            && problem.loss.is_squared()
-            && in_time
-        {
-            reliability.systematic =
-                systematic_tests(&mut *problem, state, &mut caches, groups_per_chunk, test)?;
-        }
         // The poses are not needed past the checks: their memory is the
         // room of what follows.
         drop(caches);

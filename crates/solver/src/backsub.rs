@@ -261,6 +261,7 @@ where
             let d_c = push_group_prior_and_damping(
                 &mut group,
                 prior.as_ref(),
+                &[],
                 raw_norms2,
                 lambda,
                 scratch,

@@ -83,6 +83,7 @@ where
             c: C,
             p: P,
             r: R,
+            effects: 0,
         };
         Ok(Self {
             problem,
@@ -91,6 +92,14 @@ where
             pool: WorkspacePool::new(dims),
             caches,
         })
+    }
+
+    /// The same, its passes carrying the problem's effects as extra
+    /// right-hand sides ([`Problem::effects`]).
+    pub(crate) fn carrying_effects(mut self) -> Self {
+        self.dims.effects = self.problem.effects();
+        self.pool = WorkspacePool::new(self.dims);
+        self
     }
 
     /// The workspace pool, and the chunks with their slices of the caches.

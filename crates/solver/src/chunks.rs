@@ -44,6 +44,9 @@ pub(crate) struct Dims {
     pub(crate) c: usize,
     pub(crate) p: usize,
     pub(crate) r: usize,
+    /// The effects carried as extra right-hand sides ([`crate::effects`];
+    /// the checks' pass only, 0 otherwise).
+    pub(crate) effects: usize,
 }
 
 impl Dims {
@@ -51,9 +54,10 @@ impl Dims {
     pub(crate) fn point_rows(self) -> usize {
         self.r + 2 * self.p
     }
-    /// Width of a group row in the reduced-system pass.
+    /// Width of a group row: group and global columns, the residual, the
+    /// effects.
     pub(crate) fn group_width(self) -> usize {
-        self.c + self.g + 1
+        self.c + self.g + 1 + self.effects
     }
     /// Width of a reduced row (global columns and the residual).
     pub(crate) fn reduced_width(self) -> usize {
@@ -283,6 +287,7 @@ mod tests {
             c: 1,
             p: 0,
             r: 1,
+            effects: 0,
         };
         let pool = WorkspacePool::new(dims);
         let mut seen = Vec::new();

@@ -69,15 +69,16 @@ impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R,
 }
 
 /// Marginal sigmas of a group from its triangular rows `[R_cc | R_cg | z]`
-/// (row-major, width `C + G + 1`) and the global covariance; `gain` is
-/// scratch for `K` (`C × G`).
+/// (row-major, `C` rows of width `C + G + 1` and any effects' columns,
+/// [`crate::effects`]) and the global covariance; `gain` is scratch for
+/// `K` (`C × G`).
 fn group_sigma<const C: usize>(
     top: &[f64],
     cov: &DMatrix<f64>,
     gain: &mut OMatrix<f64, Const<C>, Dyn>,
 ) -> SVector<f64, C> {
     let g = cov.nrows();
-    let w = C + g + 1;
+    let w = top.len() / C;
     let r_cc = SMatrix::<f64, C, C>::from_fn(|a, b| if b >= a { top[a * w + b] } else { 0.0 });
     let mut m = SMatrix::<f64, C, C>::identity();
     upper_solve(&r_cc, &mut m);

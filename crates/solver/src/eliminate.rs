@@ -357,6 +357,22 @@ pub(crate) fn residual_combination<const P: usize, const R: usize>(
     s
 }
 
+/// Row `e` of `Qᵀ c` for each effect's column `c` of the data rows
+/// ([`Problem::point_effects`]; the point priors do not move) into `out`
+/// (one value per effect).
+pub(crate) fn effect_row<const P: usize, const R: usize>(
+    effects: &[SVector<f64, R>],
+    q: &[f64],
+    m: usize,
+    e: usize,
+    out: &mut [f64],
+) {
+    let c = q_column::<R>(q, m, e);
+    for (o, t) in out.iter_mut().zip(effects) {
+        *o = residual_combination::<P, R>(&c, t, None, q, m, e);
+    }
+}
+
 /// Row `e` of `Qᵀ [d_group | t]` (prior rows contributing their residual)
 /// into `out` (`C + 1` values).
 pub(crate) fn stepped_row<const C: usize, const P: usize, const R: usize, J>(
@@ -456,13 +472,16 @@ impl<'w, const C: usize> GroupRows<'w, C> {
     }
 }
 
-/// Writes the prior rows `[U | 0 | e]` and (if damped) the damping rows of a
+/// Writes the prior rows `[U | 0 | e | −U ∂m/∂t …]` (`effects`: the
+/// prior mean's `∂m/∂t` of each effect carried, [`Problem::group_prior_effects`])
+/// and (if damped) the damping rows of a
 /// group into `group`; `raw_norms2` holds `Σ |d_group column|²` of the group's
 /// data rows (used for the damping diagonal). Returns the damping diagonal
 /// `D_c` (zero when undamped).
 pub(crate) fn push_group_prior_and_damping<const C: usize>(
     group: &mut GroupRows<'_, C>,
     prior: Option<&PriorRows<C>>,
+    effects: &[SVector<f64, C>],
     mut raw_norms2: [f64; C],
     lambda: f64,
     scratch: &mut Vec<f64>,
@@ -476,8 +495,8 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
                 dst[j] = prior.sqrt[(row, j)];
                 raw_norms2[j] += prior.sqrt[(row, j)] * prior.sqrt[(row, j)];
             }
-            let last = dst.len() - 1;
-            dst[last] = prior.residual[row];
+            let residual = dst.len() - 1 - effects.len();
+            prior_row_effects(prior, effects, row, &mut dst[residual..]);
         }
     }
     let mut diagonal = SVector::<f64, C>::zeros();
@@ -490,6 +509,20 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
         }
     }
     diagonal
+}
+
+/// The tail `[e_a | −(U ∂m/∂t)_a …]` of a group's prior row `a` (its
+/// residual, then each effect's column) into `out`.
+fn prior_row_effects<const C: usize>(
+    prior: &PriorRows<C>,
+    effects: &[SVector<f64, C>],
+    a: usize,
+    out: &mut [f64],
+) {
+    out[0] = prior.residual[a];
+    for (o, dm) in out[1..].iter_mut().zip(effects) {
+        *o = -(a..C).map(|j| prior.sqrt[(a, j)] * dm[j]).sum::<f64>();
+    }
 }
 
 /// Costs accumulated over a chunk.
@@ -511,7 +544,8 @@ pub(crate) struct Costs {
 /// `C` group and `P` point unknowns, `R` rows per point and global
 /// Jacobians `J`.
 pub(crate) trait EliminationSink<const C: usize, const P: usize, const R: usize, J> {
-    /// One reduced row `[A_g | a]` (`G + 1` values).
+    /// One reduced row `[A_g | a]` (`G + 1` values), and the effects'
+    /// columns if the pass carries them ([`crate::effects`]).
     fn reduced_row(&mut self, row: &[f64]);
     /// Point `i`'s rows were weighted by `weight` (a robust loss only,
     /// [`Linearization::weigh`]), before it is factorised. Default: nothing.
@@ -532,7 +566,8 @@ pub(crate) trait EliminationSink<const C: usize, const P: usize, const R: usize,
         let _ = (i, lin, prior, q, m);
     }
     /// Group `k` is done: its triangular rows `[R_cc | R_cg | z_c]`
-    /// (row-major, `C` rows of width `C + G + 1`; `None` for a fixed group,
+    /// (row-major, `C` rows of width `C + G + 1` and the effects' columns,
+    /// [`Dims::group_width`]; `None` for a fixed group,
     /// which has none), its prior rows, and its points' data cost
     /// `Σ |r_i|²`.
     fn group_done(
@@ -581,6 +616,11 @@ where
     let mut workspace = Pr::Workspace::default();
     let loss = problem.loss();
     let robust = !loss.is_squared();
+    // The effects' columns of a point's data rows and of a group's prior
+    // mean, and where they go in a group row.
+    let mut point_effects = vec![SVector::<f64, R>::zeros(); dims.effects];
+    let mut group_effects = vec![SVector::<f64, C>::zeros(); dims.effects];
+    let residual_end = C + dims.g + 1;
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         let fixed = problem.group_is_fixed(k);
@@ -628,13 +668,21 @@ where
                 let m = factor.rows;
                 let q = &point_buf[(R + 2 * P) * P..];
                 sink.point_factorised(i, lin, prior.as_ref(), q, m);
+                if dims.effects > 0 {
+                    point_effects.fill(SVector::zeros());
+                    problem.point_effects(i, lin, p, &mut point_effects);
+                }
                 for e in P..m {
-                    if fixed {
-                        eliminated_row(lin, prior.as_ref(), q, m, e, single);
-                        sink.reduced_row(&single[C..]);
+                    let row = if fixed {
+                        &mut *single
                     } else {
-                        let row = group.next_row(scratch, &mut |row| sink.reduced_row(row));
-                        eliminated_row(lin, prior.as_ref(), q, m, e, row);
+                        group.next_row(scratch, &mut |row| sink.reduced_row(row))
+                    };
+                    let (row, effects) = row.split_at_mut(residual_end);
+                    eliminated_row(lin, prior.as_ref(), q, m, e, row);
+                    effect_row::<P, R>(&point_effects, q, m, e, effects);
+                    if fixed {
+                        sink.reduced_row(&single[C..]);
                     }
                 }
             }
@@ -646,14 +694,34 @@ where
             if fixed {
                 costs.fixed_prior += cost;
             }
+            if dims.effects > 0 {
+                group_effects.fill(SVector::zeros());
+                problem.group_prior_effects(k, &mut group_effects);
+            }
         }
+        let group_effects = if prior.is_some() {
+            &group_effects[..]
+        } else {
+            &[]
+        };
         if fixed {
+            // A fixed group's prior rows touch no unknown: with effects,
+            // they are reduced rows as they are.
+            if let Some(prior) = prior.as_ref().filter(|_| dims.effects > 0) {
+                let row = &mut single[C..];
+                for a in 0..C {
+                    row.fill(0.0);
+                    prior_row_effects(prior, group_effects, a, &mut row[dims.g..]);
+                    sink.reduced_row(row);
+                }
+            }
             sink.group_done(k, None, prior.as_ref(), group_data);
             continue;
         }
         push_group_prior_and_damping(
             &mut group,
             prior.as_ref(),
+            group_effects,
             raw_norms2,
             lambda,
             scratch,

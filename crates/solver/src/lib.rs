@@ -106,7 +106,9 @@
 //!    `J Cov Jᵀ` over all unknowns, from one more pass: a point's rows
 //!    through its `Q`, its group's triangle and `Cov(g)`, never the full
 //!    matrix; and the normalised residuals `e_j / √r_j`
-//!    ([`normalised_residual`]).
+//!    ([`normalised_residual`]). The same pass carries the problem's
+//!    effects ([`Problem::effects`]) as extra right-hand sides and projects
+//!    them ([`effects`]).
 //!
 //! # Gauss–Newton and Levenberg–Marquardt
 //!
@@ -271,6 +273,7 @@ mod chunks;
 mod covariance;
 pub mod dense_reference;
 mod diagnostics;
+pub mod effects;
 mod eliminate;
 mod gram;
 mod influence;

@@ -488,6 +488,43 @@ pub trait Problem<const C: usize, const P: usize, const R: usize>: Sync {
         let _ = i;
         None
     }
+
+    /// The number `K` of effects ([`crate::effects`]): common changes `t`
+    /// of the entered data that move the whitened rows linearly,
+    /// `e(t) = e + t c`, whose projections [`crate::redundancy`] computes
+    /// with the rows' redundancy. Default: none.
+    fn effects(&self) -> usize {
+        0
+    }
+
+    /// `c = ∂r_i/∂t` of point `i`'s data rows for each effect, at its
+    /// point block `point` where it was linearised as `lin`, into `out`
+    /// (`K` vectors, zero on entry). Default: the effects leave the
+    /// points' rows alone.
+    fn point_effects(
+        &self,
+        i: usize,
+        lin: &Linearization<C, P, R, Self::Jacobian>,
+        point: &SVector<f64, P>,
+        out: &mut [SVector<f64, R>],
+    ) {
+        let _ = (i, lin, point, out);
+    }
+
+    /// `∂m/∂t` of the mean of group `k`'s prior for each effect, into
+    /// `out` (`K` vectors, zero on entry): its rows `U(c − m)` move by
+    /// `−U ∂m/∂t`. Default: the effects leave the group priors alone.
+    fn group_prior_effects(&self, k: usize, out: &mut [SVector<f64, C>]) {
+        let _ = (k, out);
+    }
+
+    /// `∂m_g/∂t` of the global prior's mean (`G × K`) and `c` of the
+    /// global observation rows (`m × K`) for each effect, into the two
+    /// matrices (zero on entry, of those shapes). Default: the effects
+    /// leave them alone.
+    fn global_effects(&self, prior_mean: &mut DMatrix<f64>, observations: &mut DMatrix<f64>) {
+        let _ = (prior_mean, observations);
+    }
 }
 
 /// Values of all unknowns (and of the fixed groups' blocks).

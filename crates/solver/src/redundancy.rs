@@ -101,6 +101,7 @@ use nalgebra::{DMatrix, SMatrix, SVector};
 use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks_in_waves;
 use crate::covariance::GroupSigmas;
+use crate::effects::{EffectProjection, EffectSums};
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
 use crate::iterate::status_of;
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
@@ -146,6 +147,9 @@ pub struct Redundancy<const C: usize> {
     /// `n`, the number of unknowns: `G`, `C` per group that is not fixed,
     /// `P` per point.
     pub unknowns: usize,
+    /// The problem's effects ([`Problem::effects`]) projected at the state
+    /// ([`crate::effects`]), in order; none with a robust loss.
+    pub effects: Vec<EffectProjection>,
 }
 
 /// Leverage of the prior rows, `Σ_b tr(Λ_b Cov(x_b))` over the blocks of
@@ -212,7 +216,9 @@ pub fn normalised_residual(residual: f64, redundancy: f64) -> Option<f64> {
 /// `caches` as [`linear_step`](crate::linear_step)
 /// takes them. Fails with the [`Status`] a solve would end with at this
 /// state, or [`Status::InvalidProblem`] if the covariance is not `G × G`
-/// and numerically positive definite.
+/// and numerically positive definite. With a least-squares loss the
+/// pass carries the problem's effects ([`Problem::effects`]) and projects
+/// them ([`Redundancy::effects`]).
 pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
     state: &State<C, P>,
@@ -223,14 +229,28 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
 ) -> Result<Redundancy<C>, Status> {
     let invalid = |message: String| Status::InvalidProblem { message };
     let mut ctx = ChunkedProblem::new(problem, state, caches, groups_per_chunk).map_err(invalid)?;
+    if problem.loss().is_squared() {
+        ctx = ctx.carrying_effects();
+    }
     let g = ctx.dims.g;
     let (symmetric, factor) = covariance_factor(covariance, g)?;
     let (observations, weighed) = ctx
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
-    let (mut prior_leverage, group_sigmas) = ctx
+    let (mut prior_leverage, group_sigmas, mut effect_sums) = ctx
         .point_redundancy(state, covariance, &factor, visit)
         .map_err(|f| status_of(f, 0))?;
+    let k = ctx.dims.effects;
+    let mut mean_effects = DMatrix::zeros(g, k);
+    let mut observation_effects = DMatrix::zeros(observations.residual.len(), k);
+    problem.global_effects(&mut mean_effects, &mut observation_effects);
+    effect_sums.add_global(
+        problem.global_prior(),
+        &state.global,
+        &mean_effects,
+        &observations,
+        &observation_effects,
+    );
     let mut z = vec![0.0; g];
     let global_observations = (0..observations.residual.len())
         .map(|o| {
@@ -260,6 +280,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
         global_observation_weights: weighed.map(|weighed| weighed.weights),
         prior_leverage,
         unknowns: g + C * free_groups + P * state.points.len(),
+        effects: effect_sums.projections(&symmetric),
     })
 }
 
@@ -289,19 +310,21 @@ where
     Pr: Problem<C, P, R>,
 {
     /// The redundancy of every point's rows, handed to `visit` in the
-    /// order of the points, the leverage of the point and group priors and
-    /// every group's marginal sigmas at `state`, given `Cov(g)` and `L`
-    /// with `Cov(g) = LLᵀ` (row-major, lower triangular).
+    /// order of the points, the leverage of the point and group priors,
+    /// every group's marginal sigmas and the effects' sums over the
+    /// reduced rows at `state`, given `Cov(g)` and `L` with `Cov(g) = LLᵀ`
+    /// (row-major, lower triangular).
     fn point_redundancy(
         &mut self,
         state: &State<C, P>,
         covariance: &DMatrix<f64>,
         factor: &[f64],
         mut visit: impl FnMut(&PointRows<R>),
-    ) -> Result<(PriorLeverage, Vec<SVector<f64, C>>), Failure> {
+    ) -> Result<(PriorLeverage, Vec<SVector<f64, C>>, EffectSums), Failure> {
         let problem = self.problem;
         let dims = self.dims;
         let mut prior_leverage = PriorLeverage::default();
+        let mut effects = EffectSums::new(dims.g, dims.effects);
         let mut group_sigmas = Vec::with_capacity(state.groups.len());
         let global = problem.prepare_global(&state.global);
         let global = &global;
@@ -320,19 +343,23 @@ where
                 let mut sink =
                     RedundancySink::new(factor, dims.g, rows, largest, chunk.points.len(), false);
                 sink.sigmas = Some(GroupSigmas::new(covariance, chunk.groups.len()));
+                sink.effects = Some(EffectSums::new(dims.g, dims.effects));
                 eliminate_chunk::<C, P, R, _, _>(
                     problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
                 )?;
                 let sigmas = sink.sigmas.map_or_else(Vec::new, |s| s.out);
-                Ok((sink.prior_leverage, sink.out, sigmas))
+                Ok((sink.prior_leverage, sink.out, sigmas, sink.effects))
             },
-            |(part, points, sigmas)| {
+            |(part, points, sigmas, part_effects)| {
                 prior_leverage.add(&part);
                 points.iter().for_each(&mut visit);
                 group_sigmas.extend(sigmas);
+                if let Some(part_effects) = &part_effects {
+                    effects.add(part_effects);
+                }
             },
         )?;
-        Ok((prior_leverage, group_sigmas))
+        Ok((prior_leverage, group_sigmas, effects))
     }
 }
 
@@ -377,6 +404,9 @@ pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: us
     /// If asked ([`redundancy`]), the marginal sigmas of the chunk's
     /// groups.
     pub(crate) sigmas: Option<GroupSigmas<'a, C>>,
+    /// If asked ([`redundancy`]), the effects' sums over the chunk's
+    /// reduced rows.
+    pub(crate) effects: Option<EffectSums>,
     prior_leverage: PriorLeverage,
 }
 
@@ -403,6 +433,7 @@ impl<'a, const C: usize, const P: usize, const R: usize> RedundancySink<'a, C, P
             out: Vec::with_capacity(points),
             global_z: global_z.then(|| Vec::with_capacity(points * R * g)),
             sigmas: None,
+            effects: None,
             prior_leverage: PriorLeverage::default(),
         }
     }
@@ -413,7 +444,11 @@ impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R,
 where
     J: GlobalJacobian<R>,
 {
-    fn reduced_row(&mut self, _row: &[f64]) {}
+    fn reduced_row(&mut self, row: &[f64]) {
+        if let Some(effects) = &mut self.effects {
+            effects.add_row(row);
+        }
+    }
 
     fn point_weighed(&mut self, i: usize, weight: f64) {
         self.weighed.push_back((i, weight));
@@ -555,7 +590,8 @@ fn row_redundancy<const K: usize, const R: usize>(
 }
 
 /// A row `[a_c | a_g]` at the group level of the triangle `top`
-/// (`[R_cc | R_cg | z_c]`, row-major, width `C + G + 1`): `y = R_cc⁻ᵀ a_c`
+/// (`[R_cc | R_cg | z_c]`, row-major, `C` rows of width `C + G + 1` and
+/// any effects' columns): `y = R_cc⁻ᵀ a_c`
 /// into `y`, and `u ← u − R_cgᵀ y` (`u` holds `a_g` on entry; the reduced
 /// row `a_g − Kᵀa_c` on return).
 fn eliminate_group<const C: usize>(
@@ -565,7 +601,7 @@ fn eliminate_group<const C: usize>(
     y: &mut [f64],
     u: &mut [f64],
 ) {
-    let w = C + g + 1;
+    let w = top.len() / C;
     for a in 0..C {
         let mut s = a_c[a];
         for l in 0..a {

@@ -176,6 +176,7 @@ pub fn calibrate_instruments(
                     &observations,
                     last.prior_cost,
                     n_rows - problem.rows.len(),
+                    &[],
                 )?
                 .0,
             )

@@ -159,6 +159,30 @@ pub struct Data {
     pub loss: Loss,
     /// The rows of each global observation (`None`: one each).
     pub observation_rows: Option<Vec<usize>>,
+    /// The effects ([`Problem::effects`]), if any.
+    pub shifts: Option<Shifts>,
+}
+
+/// Two effects of a [`Touches`] case: the radius (`∂r/∂ρ = d_group u(θ)`,
+/// the points' rows), and one that moves the group priors' means, the
+/// global prior's and the global observations by the vectors here.
+#[derive(Clone, Debug)]
+pub struct Shifts {
+    pub groups: Vec<Vector3<f64>>,
+    pub global: DVector<f64>,
+    pub observations: DVector<f64>,
+}
+
+impl Shifts {
+    /// Pseudo-random shifts for `data` as it is.
+    pub fn new(data: &Data, seed: u64) -> Self {
+        let mut rng = Rng::new(seed ^ 0xEFFEC7);
+        Self {
+            groups: (0..data.n_groups()).map(|_| rng.vector::<3>(1.0)).collect(),
+            global: DVector::from_fn(data.global_size(), |_, _| rng.normal()),
+            observations: DVector::from_fn(data.distances.len(), |_, _| rng.normal()),
+        }
+    }
 }
 
 /// How [`Problem::global_observations`] goes wrong.
@@ -324,6 +348,29 @@ impl Problem<3, 2, 3> for Touches {
     }
     fn global_observation_rows(&self) -> Option<Vec<usize>> {
         self.0.observation_rows.clone()
+    }
+    fn effects(&self) -> usize {
+        if self.0.shifts.is_some() { 2 } else { 0 }
+    }
+    fn point_effects(
+        &self,
+        _i: usize,
+        lin: &Linearization<3, 2, 3>,
+        point: &SVector<f64, 2>,
+        out: &mut [SVector<f64, 3>],
+    ) {
+        out[0] = lin.d_group * direction(point).0;
+    }
+    fn group_prior_effects(&self, k: usize, out: &mut [SVector<f64, 3>]) {
+        if let Some(shifts) = &self.0.shifts {
+            out[1] = shifts.groups[k];
+        }
+    }
+    fn global_effects(&self, prior_mean: &mut DMatrix<f64>, observations: &mut DMatrix<f64>) {
+        if let Some(shifts) = &self.0.shifts {
+            prior_mean.column_mut(1).copy_from(&shifts.global);
+            observations.column_mut(1).copy_from(&shifts.observations);
+        }
     }
 }
 
@@ -498,6 +545,7 @@ fn empty_data(spec: &Spec) -> Data {
         observation_fault: None,
         loss: Loss::Squared,
         observation_rows: None,
+        shifts: None,
     }
 }
 
