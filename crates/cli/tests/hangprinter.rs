@@ -79,10 +79,11 @@ fn untrusted_dataset(dir: &std::path::Path) -> std::path::PathBuf {
     );
     let held_out = copy_fixture("hangprinter", &dir.join("untrusted"), &["machine.json"]);
     let points = fs::read_to_string(fixture.join("points.csv")).unwrap();
-    let readings: Vec<&str> = points
+    // The first four columns: q1..q4 (then x,y,z and the loads).
+    let readings: Vec<String> = points
         .lines()
         .skip(1)
-        .map(|line| line.rsplitn(4, ',').last().unwrap())
+        .map(|line| line.split(',').take(4).collect::<Vec<_>>().join(","))
         .collect();
     let untrusted = fs::read_to_string(fixture.join("untrusted.csv")).unwrap();
     let mut rows = vec!["q1,q2,q3,q4,x,y,z".to_string()];
