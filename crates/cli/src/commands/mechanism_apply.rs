@@ -88,15 +88,7 @@ pub fn validate(
     let mut stdout = std::io::stdout().lock();
     write!(stdout, "{}", summary(&record))?;
     writeln!(stdout, "validation written to {}", out.display())?;
-    if record.is_rejected() {
-        return Err(super::Rejected(format!(
-            "{} (validation written to {})",
-            record.reasons.join("; "),
-            out.display()
-        ))
-        .into());
-    }
-    Ok(())
+    super::validation_outcome(record.is_rejected(), &record.reasons, out)
 }
 
 /// The commands that reach the targets of `targets` with the calibration

@@ -52,6 +52,20 @@ impl std::fmt::Display for Rejected {
 
 impl std::error::Error for Rejected {}
 
+/// A validation written to `out`: [`Rejected`] with its `reasons` when it
+/// rejects the calibration, `Ok` otherwise.
+fn validation_outcome(rejected: bool, reasons: &[String], out: &Path) -> anyhow::Result<()> {
+    if rejected {
+        return Err(Rejected(format!(
+            "{} (validation written to {})",
+            reasons.join("; "),
+            out.display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
 /// Where a calibration whose verdict is rejected goes instead of `out`:
 /// `NAME.rejected.EXT` beside it (`calibration.rejected.json`), so that a
 /// rejected run never replaces an accepted calibration.

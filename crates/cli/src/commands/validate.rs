@@ -103,13 +103,5 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         parcal_report::instruments::validation(&record)
     )?;
     writeln!(stdout, "validation written to {}", out.display())?;
-    if record.is_rejected() {
-        return Err(super::Rejected(format!(
-            "{} (validation written to {})",
-            record.reasons.join("; "),
-            out.display()
-        ))
-        .into());
-    }
-    Ok(())
+    super::validation_outcome(record.is_rejected(), &record.reasons, &out)
 }
