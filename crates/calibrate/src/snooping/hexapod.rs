@@ -88,37 +88,29 @@ fn tests(reliability: Option<&Reliability>) -> Option<Tests<ObservationId>> {
     })
 }
 
-impl Snoopable for CalibrationRun {
-    type Place = ObservationId;
+/// The hexapod's two runs hold their checks and global test alike.
+macro_rules! snoopable_run {
+    ($run:ty) => {
+        impl Snoopable for $run {
+            type Place = ObservationId;
 
-    fn tests(&self) -> Option<Tests<ObservationId>> {
-        tests(self.reliability.as_ref())
-    }
+            fn tests(&self) -> Option<Tests<ObservationId>> {
+                tests(self.reliability.as_ref())
+            }
 
-    fn variance_factor(&self) -> f64 {
-        self.global_test.map_or(f64::NAN, |t| t.variance_factor)
-    }
+            fn variance_factor(&self) -> f64 {
+                self.global_test.map_or(f64::NAN, |t| t.variance_factor)
+            }
 
-    fn converged(&self) -> bool {
-        CalibrationRun::converged(self)
-    }
+            fn converged(&self) -> bool {
+                <$run>::converged(self)
+            }
+        }
+    };
 }
 
-impl Snoopable for InstrumentRun {
-    type Place = ObservationId;
-
-    fn tests(&self) -> Option<Tests<ObservationId>> {
-        tests(self.reliability.as_ref())
-    }
-
-    fn variance_factor(&self) -> f64 {
-        self.global_test.map_or(f64::NAN, |t| t.variance_factor)
-    }
-
-    fn converged(&self) -> bool {
-        InstrumentRun::converged(self)
-    }
-}
+snoopable_run!(CalibrationRun);
+snoopable_run!(InstrumentRun);
 
 /// Calibrates the ball touches (and distances) of `dataset` with data
 /// snooping at family-wise `level`, removing at most `max_removals`
