@@ -7,7 +7,7 @@ use parcal_dataset::bounds::Count;
 
 /// The iteration limit (0: the initial state only): 50 times the default
 /// of Levenberg-Marquardt and of a robust loss
-/// ([`crate::options::LEVENBERG_MARQUARDT_ITERATIONS`]); each iteration
+/// (`LEVENBERG_MARQUARDT_ITERATIONS`); each iteration
 /// is a solve of the whole problem, and `--time-limit` bounds the time.
 pub const MAX_ITERATIONS: Count = Count::new(
     0,

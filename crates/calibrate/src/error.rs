@@ -27,6 +27,7 @@ use crate::sphere_fit::SphereFitError;
 
 /// Why [`calibrate`](crate::calibrate) failed before or while it solved.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub enum CalibrateError {
     /// The dataset fails
     /// [`Dataset::validate`](parcal_dataset::Dataset::validate): an array of the wrong

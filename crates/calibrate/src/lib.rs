@@ -5,7 +5,8 @@
 //!
 //! - [`setup`]: the initial estimates, weights and priors of a dataset;
 //! - [`problem`]: the observation blocks as the solver's problem;
-//! - [`run`]: one calibration and its calibration.json record;
+//! - [`calibrate`] ([`CalibrationRun`]): one calibration of ball touches
+//!   (with poses and points beside them, if any);
 //! - [`conflict`]: prior-data conflict tests;
 //! - [`fit`]: each ball's goodness of fit;
 //! - [`instruments`]: calibration from measured poses and points;
@@ -21,11 +22,24 @@
 //! - [`reliability`]: redundancy numbers, normalised residuals, variance
 //!   components;
 //! - [`snooping`]: data snooping, the blunders found and removed;
+//! - [`external`]: external reliability, the parameters' shift by an
+//!   undetected blunder;
+//! - [`systematic`]: tests of systematic errors (which common error
+//!   explains a rejection);
 //! - [`robust`]: a robust loss, the observations it down-weights;
 //! - [`sphere_fit`]: initial ball centres;
-//! - [`touch_validation`]: a ball-touch calibration applied to other touches;
+//! - [`validate_touches`]: a ball-touch calibration applied to other
+//!   touches;
 //! - [`prediction`]: the test of a validation's residuals against their
-//!   predicted covariance.
+//!   predicted covariance;
+//! - [`bounds`]: the bounds of the counts a user gives.
+//!
+//! The public modules hold what a caller builds, reads or tests: the
+//! stages a benchmark or another solver drives ([`setup`], [`problem`]),
+//! and the types of results and their tests, which `parcal_report`
+//! presents. The run's internals (its loop, the systematic effects'
+//! passes, the dataset's checks) are private. Result types are
+//! `#[non_exhaustive]`: they grow without breaking a caller.
 //!
 //! [`calibrate`] validates its dataset first ([`validate`]), so data built
 //! in memory fails with a [`CalibrateError`] rather than a panic. Errors
@@ -60,12 +74,12 @@ pub mod prediction;
 pub mod problem;
 pub mod reliability;
 pub mod robust;
-pub mod run;
+mod run;
 pub mod setup;
 pub mod snooping;
 pub mod sphere_fit;
 pub mod systematic;
-pub mod touch_validation;
+mod touch_validation;
 mod validate;
 pub mod verdict;
 
@@ -76,5 +90,6 @@ pub use options::{
 pub use parcal_kinematics::ParamCovariance;
 pub use parcal_observe::WeightModel;
 pub use parcal_solver::{CAUCHY_K, HUBER_K, IterationRecord, Loss, Method};
-pub use run::{CalibrationRun, calibrate};
+pub use run::{CalibrationRun, Mirrored, RunAway, calibrate};
+pub use touch_validation::validate_touches;
 pub use validate::{MIN_CONTACTS_PER_BALL, validate};

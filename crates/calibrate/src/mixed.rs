@@ -15,7 +15,7 @@
 //! gauge is therefore the canonical frames' as for touches alone, and the
 //! tool, which touches observe, is determined by the data even with poses.
 //! Each pose's six rows and each point's three are weighed once at the
-//! initial estimate ([`InstrumentRows::weigh`]), as the contacts are, and
+//! initial estimate ([`InstrumentRows::whiten`]), as the contacts are, and
 //! the instrument groups have the priors of an instrument calibration
 //! (`instruments::observations::group_priors`).
 //!

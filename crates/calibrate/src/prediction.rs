@@ -13,7 +13,7 @@
 //! `D` the rows' own noise (block-diagonal: a pose's six rows, a point's
 //! three, a touch's one) and `U` the common errors, one column per
 //! direction of their covariance (`U = G Σ_θ^{1/2}` for the parameters,
-//! [`crate::instruments::validate`] and [`crate::touch_validation`] give
+//! [`crate::instruments::validate`] and [`crate::validate_touches`] give
 //! `G`). Under the model and the stated covariances `T = rᵀ C⁻¹ r ~ χ²(n)`
 //! (Koch, "Parameter Estimation and Hypothesis Testing in Linear Models",
 //! 1999, section 2.4.1: the quadratic form of a normal vector in its

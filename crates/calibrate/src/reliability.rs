@@ -202,6 +202,7 @@ pub const NORMALISED_BINS: (f64, f64, usize) = (-6.0, 0.25, 48);
 /// The checks of a converged calibration
 /// ([`crate::verdict::at_minimum`]).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Reliability {
     /// The variance components of each kind of observation present (ball
     /// touches, distances, poses, points) and the priors (if any).

@@ -31,6 +31,7 @@ use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, at_minimum, rows_an
 use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
 
 /// The outcome of one calibration.
+#[non_exhaustive]
 pub struct CalibrationRun {
     /// What the run was asked to do.
     pub options: CalibrationOptions,
@@ -326,7 +327,7 @@ fn geometry_record(geometry: &Geometry) -> GeometryRecord {
 ///
 /// A Gauss-Newton run that runs away (it ends diverged, or failed after
 /// its first step, or at its iteration limit after a step raised the cost
-/// more than [`RUNAWAY_RISE`]-fold, or with a cost above its first, or
+/// more than `RUNAWAY_RISE`-fold, or with a cost above its first, or
 /// with a robust loss: a blunder or a start far from the solution, where
 /// full steps overshoot) is made again with Levenberg-Marquardt, whose
 /// steps never raise the cost; [`CalibrationRun::gauss_newton`] keeps how

@@ -45,6 +45,7 @@ impl Outcome {
 
 /// The global test of a run (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct GlobalTest {
     /// `Ω`, the weighted sum of squares, priors included.
     pub cost: f64,
@@ -144,6 +145,7 @@ pub fn at_minimum(status: &Status) -> bool {
 /// data snooping ([`crate::reliability::Reliability::fails_snooping`]: a
 /// blunder that `--snoop` would remove).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Verdict {
     /// Whether the result may be used.
     pub accepted: bool,

@@ -289,7 +289,7 @@ fn errors_name_the_row_and_the_session() {
 /// relative standard error of about 1 / sqrt(2 x 432) = 3.4 %).
 #[test]
 fn touch_calibration_predicts_other_touches() {
-    use parcal_calibrate::touch_validation::validate_touches;
+    use parcal_calibrate::validate_touches;
     use parcal_simulate::{Scenario, simulate};
     let fitted = simulate(&Scenario::paper(), 1).unwrap().dataset;
     let run =

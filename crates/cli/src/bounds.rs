@@ -1,12 +1,12 @@
-//! Every count flag parsed within its bounds ([`parcal_dataset::bounds`]):
-//! `#[arg(long, value_parser = Bounded(parcal_plan::POOL))]`. A value
+//! Every count flag parsed within its bounds ([`parcal::dataset::bounds`]):
+//! `#[arg(long, value_parser = Bounded(parcal::plan::POOL))]`. A value
 //! outside them is a usage error (exit status 2) naming the flag, the
 //! bounds and why, before anything is read or allocated.
 
 use std::ffi::OsStr;
 
 use clap::error::{Error, ErrorKind};
-use parcal_dataset::bounds::Count;
+use parcal::dataset::bounds::Count;
 
 /// A clap value parser of a count within `Count`'s bounds.
 #[derive(Clone, Copy)]

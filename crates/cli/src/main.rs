@@ -96,7 +96,7 @@ fn clean_up_when_interrupted() {
     };
     std::thread::spawn(move || {
         if let Some(signal) = signals.forever().next() {
-            parcal_dataset::atomic::remove_in_flight();
+            parcal::dataset::atomic::remove_in_flight();
             std::process::exit(128 + signal);
         }
     });

@@ -6,8 +6,8 @@
 
 use std::path::{Path, PathBuf};
 
-use parcal_dataset::atomic;
-use parcal_dataset::{
+use parcal::dataset::atomic;
+use parcal::dataset::{
     ARTEFACTS_FILE, MACHINE_FILE, MEASUREMENTS_FILE, POINTS_FILE, POSES_FILE, TRUTH_FILE,
 };
 

@@ -141,7 +141,7 @@ fn a_run_that_did_not_converge_quotes_no_posterior_accuracy() {
     let error = fails(&["calibrate", s(&data), "--max-iterations", "2"]);
     assert!(error.contains("iteration limit"), "{error}");
     let calibration = data.join("calibration.rejected.json");
-    let record = parcal_dataset::Calibration::read(&calibration).unwrap();
+    let record = parcal::dataset::Calibration::read(&calibration).unwrap();
     assert!(!record.converged && record.covariance.is_empty());
     assert!(record.parameters.sigma.iter().all(|&s| s == 0.0));
     let (targets, commands) = (

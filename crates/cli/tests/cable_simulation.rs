@@ -9,8 +9,8 @@ use std::fs;
 
 use common::{fails, ok, parcal, s};
 use nalgebra::{DMatrix, DVector};
-use parcal_calibrate::conflict::chi_square_quantile;
-use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
+use parcal::calibration::conflict::chi_square_quantile;
+use parcal::dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
 
 #[test]
 fn a_simulated_cable_robot_calibrates_to_its_truth_for_a_seed() {

@@ -218,7 +218,7 @@ fn simulate_writes_instrument_sessions() {
     );
     assert!(!stdout.contains("points "), "{stdout}");
     assert!(!temp.path().join("points.csv").exists());
-    let dataset = parcal_dataset::Dataset::read(temp.path()).unwrap();
+    let dataset = parcal::dataset::Dataset::read(temp.path()).unwrap();
     assert_eq!(dataset.tracker.sessions, ["1", "2"]);
     assert_eq!(dataset.tracker.poses.len(), 24);
     assert_eq!(dataset.machine.session_model.leg_offset_sigma, Some(0.5));
@@ -292,7 +292,7 @@ fn touches_and_tracker_data_are_simulated_inspected_and_calibrated_together() {
     );
     assert!(stdout.contains("| o_1 2 |"), "{stdout}");
     assert!(stdout.contains("verdict: accepted"), "{stdout}");
-    let record = parcal_dataset::Calibration::read(&temp.path().join("calibration.json")).unwrap();
+    let record = parcal::dataset::Calibration::read(&temp.path().join("calibration.json")).unwrap();
     assert_eq!(record.sessions.len(), 2);
     assert_eq!(record.ball_centres.len(), 27);
 
@@ -330,7 +330,7 @@ fn touches_in_revolutions_calibrate_their_scales() {
     assert!(output.status.success(), "{}{stdout}", text(&output.stderr));
     assert!(stdout.contains("verdict: accepted"), "{stdout}");
     let calibration = temp.path().join("calibration.json");
-    let record = parcal_dataset::Calibration::read(&calibration).unwrap();
+    let record = parcal::dataset::Calibration::read(&calibration).unwrap();
     assert_eq!(
         record.parameters.names[33..],
         ["s_1", "s_2", "s_3", "s_4", "s_5", "s_6"]
@@ -341,7 +341,7 @@ fn touches_in_revolutions_calibrate_their_scales() {
         .expect("calibrated actuators")
         .actuator;
     assert_eq!(actuator.unit, "rev");
-    let truth = parcal_dataset::Dataset::read(temp.path())
+    let truth = parcal::dataset::Dataset::read(temp.path())
         .unwrap()
         .truth
         .unwrap()
@@ -386,7 +386,7 @@ fn a_calibration_of_poses_alone_leaves_the_tool_out_and_accuracy_says_so() {
     let calibration = temp.path().join("calibration.json");
     let output = parcal(&["calibrate", s(&data), "--out", s(&calibration)]);
     assert!(output.status.success(), "{}", text(&output.stderr));
-    let record = parcal_dataset::Calibration::read(&calibration).unwrap();
+    let record = parcal::dataset::Calibration::read(&calibration).unwrap();
     let names = &record.parameters.names;
     assert_eq!(names.len(), 30 + 6 + 6 + 6, "{names:?}");
     assert!(!names.iter().any(|n| n.ends_with("_eT")), "{names:?}");
@@ -1086,7 +1086,7 @@ fn calibrate_with_a_robust_loss_lists_the_down_weighted_reading() {
     let json = parcal_dataset_calibration(&out);
     assert!(json.contains("\"loss\": \"cauchy:2.385\""), "{json}");
     assert!(json.contains("\"down_weighted_observations\""), "{json}");
-    let record = parcal_dataset::Calibration::read(&out).unwrap();
+    let record = parcal::dataset::Calibration::read(&out).unwrap();
     let listed = &record.down_weighted_observations;
     assert_eq!(listed.len(), 1);
     assert_eq!(
@@ -1113,10 +1113,12 @@ fn a_re_mounted_marker_body_fails_validation_with_status_3_naming_the_body_origi
     let data = copy_fixture("jugglebot", temp.path(), &["machine.json", "poses.csv"]);
     let calibration = temp.path().join("calibration.json");
     ok(&["calibrate", s(&data), "--out", s(&calibration)]);
-    let mut day2 = parcal_dataset::Dataset::read(&data).unwrap();
-    day2.tracker =
-        parcal_simulate::re_mounted(&day2.tracker, parcal_kinematics::Vec3::new(5.0, -3.0, 4.0));
-    day2.machine.session_model = parcal_dataset::SessionModel::default();
+    let mut day2 = parcal::dataset::Dataset::read(&data).unwrap();
+    day2.tracker = parcal::simulation::re_mounted(
+        &day2.tracker,
+        parcal::kinematics::Vec3::new(5.0, -3.0, 4.0),
+    );
+    day2.machine.session_model = parcal::dataset::SessionModel::default();
     let day2_dir = temp.path().join("day2");
     day2.write(&day2_dir).unwrap();
     let args = [
@@ -1139,7 +1141,8 @@ fn a_re_mounted_marker_body_fails_validation_with_status_3_naming_the_body_origi
             && stderr.contains("declare session_model.body_origin_sigma in machine.json"),
         "{stderr}"
     );
-    let record = parcal_dataset::ValidationRecord::read(&day2_dir.join("validation.json")).unwrap();
+    let record =
+        parcal::dataset::ValidationRecord::read(&day2_dir.join("validation.json")).unwrap();
     assert_eq!(record.verdict, "rejected");
     let test = record.test.expect("the test");
     assert_eq!(test.outcome, "too large");

@@ -9,9 +9,9 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use common::{fails, ok, s};
-use parcal_firmware::rrf::read_config;
-use parcal_kinematics::delta::{DeltaParams, LinearDelta, probe_height, probe_rings};
-use parcal_kinematics::mechanism::Mechanism;
+use parcal::firmware::rrf::read_config;
+use parcal::kinematics::delta::{DeltaParams, LinearDelta, probe_height, probe_rings};
+use parcal::kinematics::mechanism::Mechanism;
 
 /// The printer's configuration as its firmware holds it.
 const CONFIG: &str = "; config.g of a kit delta\n\
@@ -352,7 +352,7 @@ fn klipper_import_and_export_round_trip() {
     // Klipper holds no bed tilt: export says so and what it costs.
     assert!(said.contains("lost: the bed tilt"), "{said}");
     let block = fs::read_to_string(&out).unwrap();
-    let back = parcal_firmware::klipper::parse_printer_cfg(
+    let back = parcal::firmware::klipper::parse_printer_cfg(
         &format!("[printer]\nkinematics: delta\n{block}"),
         &out,
     )

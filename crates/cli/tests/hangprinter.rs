@@ -7,7 +7,7 @@ mod common;
 use std::fs;
 
 use common::{copy_fixture, fails, ok, s};
-use parcal_firmware::hangprinter::read_config;
+use parcal::firmware::hangprinter::read_config;
 
 #[test]
 fn calibrate_export_reads_back_the_anchors_and_radii() {

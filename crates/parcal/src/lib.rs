@@ -22,6 +22,11 @@
 //!   docs/apply.md);
 //! - [`report`]: presentation (calibration.json's records in words,
 //!   tables, maps);
+//! - [`plan`]: planning the next measurements (`parcal plan`);
+//! - [`firmware`]: printer firmware's configuration files, read and
+//!   written (RepRapFirmware, Klipper);
+//! - [`workflows`]: the workflows built on a calibration (evaluation
+//!   against a truth, the paper's reproduction);
 //! - [`command`]: a calibration as `parcal calibrate` makes it, with
 //!   calibration.json's record, for every front end;
 //! - [`maps`]: the accuracy maps as `parcal accuracy` makes them.
@@ -102,10 +107,12 @@ pub use parcal_accuracy as accuracy;
 pub use parcal_apply as apply;
 pub use parcal_calibrate as calibration;
 pub use parcal_dataset as dataset;
+pub use parcal_firmware as firmware;
 pub use parcal_kinematics as kinematics;
 pub use parcal_plan as plan;
 pub use parcal_report as report;
 pub use parcal_simulate as simulation;
+pub use parcal_workflows as workflows;
 
 pub mod command;
 pub mod maps;

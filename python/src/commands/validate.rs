@@ -2,7 +2,7 @@
 //! or a dataset's cross-validation, as `parcal validate` makes them.
 
 use parcal::calibration::bounds::{FOLDS, REFERENCE};
-use parcal::calibration::touch_validation::validate_touches;
+use parcal::calibration::validate_touches;
 use parcal::{Calibrated, CalibrationOptions, cross_validate, validate_calibration};
 use pyo3::prelude::*;
 

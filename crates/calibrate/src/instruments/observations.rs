@@ -1,9 +1,9 @@
 //! The poses and points on a global block: what an instrument calibration
 //! ([`crate::instruments::run`]) and a calibration of ball touches with
 //! poses and points ([`crate::mixed`]) share. The groups the data add to
-//! the global block ([`groups`]), its start ([`initial_block`]) and their
-//! priors ([`group_priors`]); the model of the rows and the rows weighed
-//! ([`model_and_rows`]) and their residuals ([`residuals`]).
+//! the global block (`groups`), its start (`initial_block`) and their
+//! priors (`group_priors`); the model of the rows and the rows whitened
+//! (`model_and_rows`) and their residuals (`residuals`).
 
 use nalgebra::{DMatrix, DVector};
 use parcal_dataset::Dataset;

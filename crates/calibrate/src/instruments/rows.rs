@@ -47,7 +47,7 @@ pub struct PointRow {
 }
 
 impl<'a> InstrumentRows<'a> {
-    /// The rows of `tracker`, not yet weighed ([`InstrumentRows::weigh`]),
+    /// The rows of `tracker`, not yet weighed ([`InstrumentRows::whiten`]),
     /// each point's forward kinematics starting at `point_starts`.
     pub fn new(tracker: &'a Tracker, point_starts: Vec<Pose>, forward: ForwardOptions) -> Self {
         Self {

@@ -28,6 +28,7 @@ use crate::{CalibrateError, CalibrationOptions, Method};
 
 /// The outcome of an instrument calibration.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct InstrumentRun {
     /// What the run was asked to do.
     pub options: CalibrationOptions,
@@ -72,7 +73,7 @@ pub struct InstrumentRun {
     pub data_information: DVector<f64>,
     /// The global test at the final state ([`crate::verdict`]).
     pub global_test: Option<GlobalTest>,
-    /// Every row's check at the final state of a run that converged or reached its iteration limit ([`crate::reliability::checked`]).
+    /// Every row's check at the final state of a run that converged or reached its iteration limit ([`crate::reliability`]).
     pub reliability: Option<Reliability>,
 }
 

@@ -171,12 +171,13 @@ fn isometry(record: &FrameRecord) -> Isometry3<f64> {
 
 /// The outcome of a validation.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Validation {
     /// Predicted poses.
     pub poses: usize,
     /// Predicted points.
     pub points: usize,
-    /// Predicted ball touches ([`crate::touch_validation`]).
+    /// Predicted ball touches ([`crate::validate_touches`]).
     pub contacts: usize,
     /// Rows per session used to re-fit its nuisance (0: the calibration's
     /// frames).
@@ -899,6 +900,7 @@ fn subset(tracker: &Tracker, poses: &[usize], points: &[usize]) -> Tracker {
 /// A k-fold cross-validation: every row predicted by a calibration fitted
 /// on the other folds.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CrossValidation {
     /// Number of folds.
     pub folds: usize,

@@ -22,6 +22,7 @@ use super::predicted::pose_derivative;
 
 /// The commands of one target (module doc).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Compensation {
     /// The target position `x` (mm).
     pub target: [f64; 3],

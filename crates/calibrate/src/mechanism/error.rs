@@ -8,6 +8,7 @@ use super::observation::ObservationRef;
 
 /// Why [`calibrate_mechanism`](super::calibrate_mechanism) failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum MechanismCalibrationError {
     /// The data in memory are not usable as given: a size that does not
     /// match the mechanism, a count beyond its bound, a value that is not

@@ -83,6 +83,7 @@ pub struct ParameterShift {
 
 /// A validation of a mechanism calibration (module doc).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct MechanismValidation {
     /// The mechanism.
     pub mechanism: String,

@@ -4,10 +4,10 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
+use parcal::dataset::atomic::write_set;
 use parcal::maps::{accuracy_maps, calibrated_params};
-use parcal_dataset::atomic::write_set;
-use parcal_report::maps::{map_files, write_maps};
-use parcal_report::tables;
+use parcal::report::maps::{map_files, write_maps};
+use parcal::report::tables;
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -6,18 +6,18 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use parcal::command::{
-    CalibrateFlags, FittedRun, RecordedRun, calibrate_recorded, calibrates_instruments,
-};
-use parcal_accuracy::MapGrid;
-use parcal_calibrate::instruments::InstrumentRun;
-use parcal_calibrate::{
+use parcal::accuracy::MapGrid;
+use parcal::calibration::instruments::InstrumentRun;
+use parcal::calibration::{
     CalibrateError, CalibrationRun, IterationRecord, Loss, Observation, PriorMode, RadiusModel,
     Simulation, WeightModel, bounds,
 };
-use parcal_dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE};
-use parcal_report::{instruments, tables};
-use parcal_workflows::evaluate::{TrueMachine, before_after};
+use parcal::command::{
+    CalibrateFlags, FittedRun, RecordedRun, calibrate_recorded, calibrates_instruments,
+};
+use parcal::dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE};
+use parcal::report::{instruments, tables};
+use parcal::workflows::evaluate::{TrueMachine, before_after};
 
 use super::{ReportRequest, report};
 use crate::bounds::Bounded;
@@ -199,7 +199,7 @@ fn step(progress: &Progress, record: &IterationRecord, started: Instant) {
 /// points on stdout.
 fn print_instruments(
     run: &InstrumentRun,
-    record: &parcal_dataset::Calibration,
+    record: &parcal::dataset::Calibration,
     calibration: &Path,
     report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
@@ -306,7 +306,7 @@ fn in_dataset(error: CalibrateError, dataset: &Path) -> anyhow::Error {
 fn print_results(
     truth: Option<&TrueMachine>,
     run: &CalibrationRun,
-    record: &parcal_dataset::Calibration,
+    record: &parcal::dataset::Calibration,
     calibration: &Path,
     report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {

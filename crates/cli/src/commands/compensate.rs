@@ -6,14 +6,14 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use parcal_apply::predicted::rms;
-use parcal_apply::{
+use parcal::apply::predicted::rms;
+use parcal::apply::{
     AppliedModel, ApplyError, CorrectionTable, TableGrid, Target, compensate, corrected_poses,
     predicted_registered,
 };
-use parcal_dataset::atomic::write_set;
-use parcal_dataset::bounds::{Count, check_product};
-use parcal_dataset::{read_numbers, write_numbers};
+use parcal::dataset::atomic::write_set;
+use parcal::dataset::bounds::{Count, check_product};
+use parcal::dataset::{read_numbers, write_numbers};
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -5,11 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use parcal_apply::Target;
-use parcal_apply::predicted::{registered_errors, rms};
-use parcal_dataset::{read_numbers, write_numbers};
-use parcal_kinematics::{Geometry, Vec3};
-use parcal_simulate::{MachineLimits, SimulateError};
+use parcal::apply::Target;
+use parcal::apply::predicted::{registered_errors, rms};
+use parcal::dataset::{read_numbers, write_numbers};
+use parcal::kinematics::{Geometry, Vec3};
+use parcal::simulation::{MachineLimits, SimulateError};
 
 /// The options of `parcal simulate` that run commands.
 #[derive(clap::Args)]
@@ -89,15 +89,15 @@ pub fn run(args: &RunArgs, out: &Path) -> anyhow::Result<()> {
         joint_limits: joint_limits.as_ref(),
     };
     let poses =
-        parcal_simulate::execute(&machine, &scale, limits, &commands).map_err(
-            |error| match error {
+        parcal::simulation::execute(&machine, &scale, limits, &commands).map_err(|error| {
+            match error {
                 // The file's line: the header is line 1.
                 SimulateError::Command { row, reason } => {
                     anyhow::anyhow!("{}: line {}: {reason}", commands_path.display(), row + 1)
                 }
                 other => anyhow::Error::new(other).context(commands_path.display().to_string()),
-            },
-        )?;
+            }
+        })?;
     let reached: Vec<Target> = poses
         .iter()
         .map(|p| Target::of_pose(p, &machine.tool))

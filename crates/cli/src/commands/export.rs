@@ -5,19 +5,19 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use parcal_apply::AppliedModel;
-use parcal_apply::genhexkins::hal_snippet;
-use parcal_apply::machine::calibrated_machine;
-use parcal_apply::summary::summary;
-use parcal_dataset::HEXAPOD;
-use parcal_dataset::atomic::write_file;
-use parcal_dataset::mechanism::MechanismCalibrationRecord;
-use parcal_firmware::accuracy::Workspace;
-use parcal_firmware::export::{Firmware, cost_sentence, export};
-use parcal_firmware::hangprinter::HangprinterConfig;
-use parcal_kinematics::cable::CableRobot;
-use parcal_kinematics::delta::{DeltaParams, N_PARAMS};
-use parcal_kinematics::mechanisms;
+use parcal::apply::AppliedModel;
+use parcal::apply::genhexkins::hal_snippet;
+use parcal::apply::machine::calibrated_machine;
+use parcal::apply::summary::summary;
+use parcal::dataset::HEXAPOD;
+use parcal::dataset::atomic::write_file;
+use parcal::dataset::mechanism::MechanismCalibrationRecord;
+use parcal::firmware::accuracy::Workspace;
+use parcal::firmware::export::{Firmware, cost_sentence, export};
+use parcal::firmware::hangprinter::HangprinterConfig;
+use parcal::kinematics::cable::CableRobot;
+use parcal::kinematics::delta::{DeltaParams, N_PARAMS};
+use parcal::kinematics::mechanisms;
 
 /// What to export.
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -113,7 +113,7 @@ fn mismatch(path: &Path, format: Format) -> Option<anyhow::Error> {
     let mechanism = match MechanismCalibrationRecord::read(path) {
         Ok(record) => record.mechanism,
         Err(_) => {
-            parcal_dataset::Calibration::read(path).ok()?;
+            parcal::dataset::Calibration::read(path).ok()?;
             HEXAPOD.to_string()
         }
     };

@@ -7,12 +7,12 @@
 
 use std::path::PathBuf;
 
-use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
-use parcal_firmware::klipper::read_printer_cfg;
-use parcal_firmware::probes::{ProbePoint, read_distances, read_probes};
-use parcal_firmware::rrf::read_config;
-use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances};
-use parcal_kinematics::mechanism::Mechanism;
+use parcal::dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
+use parcal::firmware::klipper::read_printer_cfg;
+use parcal::firmware::probes::{ProbePoint, read_distances, read_probes};
+use parcal::firmware::rrf::read_config;
+use parcal::kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances};
+use parcal::kinematics::mechanism::Mechanism;
 
 /// The largest tolerance or standard deviation accepted (mm, degrees or
 /// percent): beyond it a prior says nothing.

@@ -6,9 +6,9 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_calibrate::setup::design_geometry;
-use parcal_dataset::Dataset;
-use parcal_kinematics::{ForwardOptions, forward_from_home};
+use parcal::calibration::setup::design_geometry;
+use parcal::dataset::Dataset;
+use parcal::kinematics::{ForwardOptions, forward_from_home};
 use rayon::prelude::*;
 
 #[derive(clap::Args)]

@@ -5,12 +5,12 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use parcal_calibrate::Loss;
-use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
-use parcal_dataset::atomic::write_set;
-use parcal_dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
-use parcal_dataset::{HEXAPOD, declared_mechanism};
-use parcal_report::mechanism::{
+use parcal::calibration::Loss;
+use parcal::calibration::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+use parcal::dataset::atomic::write_set;
+use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
+use parcal::dataset::{HEXAPOD, declared_mechanism};
+use parcal::report::mechanism::{
     PARAMETER_HEADER, identifiability_statements, observation_counts, parameter_rows,
     removal_sentences, verdict_sentence,
 };

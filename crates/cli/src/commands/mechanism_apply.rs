@@ -1,22 +1,22 @@
 //! `parcal validate` and `parcal compensate` for a mechanism's calibration
 //! (docs/delta.md, docs/cable-robots.md): the files read and written, the
-//! summary printed; the work is `parcal_calibrate::mechanism`'s and the
-//! words `parcal_report::mechanism_validation`'s.
+//! summary printed; the work is `parcal::calibration::mechanism`'s and the
+//! words `parcal::report::mechanism_validation`'s.
 
 use std::io::Write;
 use std::path::Path;
 
-use parcal_calibrate::hypothesis::SNOOPING_LEVEL;
-use parcal_calibrate::mechanism::{
+use parcal::calibration::hypothesis::SNOOPING_LEVEL;
+use parcal::calibration::mechanism::{
     CalibratedMechanism, MechanismCalibrationError, MechanismData, compensate_mechanism,
     validate_mechanism,
 };
-use parcal_dataset::mechanism::{
+use parcal::dataset::mechanism::{
     DISTANCES_FILE, MechanismCalibrationRecord, MechanismDataset, PROBES_FILE, command_header,
     read_targets,
 };
-use parcal_dataset::write_numbers;
-use parcal_report::mechanism_validation::{observation_place, summary, validation_record};
+use parcal::dataset::write_numbers;
+use parcal::report::mechanism_validation::{observation_place, summary, validation_record};
 
 /// The unreachable targets named one by one (the others counted).
 const NAMED_TARGETS: usize = 10;

@@ -19,9 +19,9 @@ pub mod validate;
 
 use std::path::{Path, PathBuf};
 
-use parcal_dataset::Dataset;
-use parcal_report::calibration_report::{Subject, accuracy_with};
-use parcal_workflows::evaluate::TrueMachine;
+use parcal::dataset::Dataset;
+use parcal::report::calibration_report::{Subject, accuracy_with};
+use parcal::workflows::evaluate::TrueMachine;
 
 /// The binary snapshot `parcal simulate --binary` writes next to the text files.
 pub const SNAPSHOT_FILE: &str = "dataset.bin";
@@ -81,7 +81,7 @@ pub fn rejected_path(out: &Path) -> PathBuf {
 }
 
 /// Where `record` is written: `out`, or [`rejected_path`] if rejected.
-pub fn calibration_destination(record: &parcal_dataset::Calibration, out: &Path) -> PathBuf {
+pub fn calibration_destination(record: &parcal::dataset::Calibration, out: &Path) -> PathBuf {
     if record.is_rejected() {
         rejected_path(out)
     } else {
@@ -139,7 +139,7 @@ impl ReportRequest<'_> {
 /// verdict into [`Rejected`] (which says where it went and that `out` is
 /// kept).
 pub fn write_calibration(
-    mut record: parcal_dataset::Calibration,
+    mut record: parcal::dataset::Calibration,
     dataset: &Dataset,
     path: &Path,
     out: &Path,
@@ -151,7 +151,7 @@ pub fn write_calibration(
     ));
     let destination = calibration_destination(&record, out);
     // The calibration and its report: all new, or all as they were.
-    parcal_dataset::atomic::write_set(&[], || -> anyhow::Result<()> {
+    parcal::dataset::atomic::write_set(&[], || -> anyhow::Result<()> {
         record.write(&destination)?;
         if let Some(request) = report {
             let file = destination.display().to_string();
@@ -193,8 +193,8 @@ pub fn write_calibration(
 pub fn read_calibration(
     path: &Path,
     accept_rejected: bool,
-) -> anyhow::Result<parcal_dataset::Calibration> {
-    let record = parcal_dataset::Calibration::read(path)?;
+) -> anyhow::Result<parcal::dataset::Calibration> {
+    let record = parcal::dataset::Calibration::read(path)?;
     anyhow::ensure!(
         !record.is_rejected() || accept_rejected,
         "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",

@@ -17,6 +17,6 @@ pub struct Args {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let progress = Progress::spinner();
-    parcal_report::paper::reproduce(args.seed, &args.out, &mut |line| progress.line(line))?;
+    parcal::report::paper::reproduce(args.seed, &args.out, &mut |line| progress.line(line))?;
     Ok(())
 }

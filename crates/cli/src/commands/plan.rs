@@ -5,13 +5,13 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use parcal_calibrate::RadiusModel;
-use parcal_dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
-use parcal_plan::plan_file::{summary_path, write_plan};
-use parcal_plan::tracker::plan_file::write_pose_plan;
-use parcal_plan::tracker::{PosePlanOptions, plan_poses};
-use parcal_plan::{Criterion, CriterionValues, PlanOptions, bounds, plan, plan_next};
-use parcal_simulate::Workspace;
+use parcal::calibration::RadiusModel;
+use parcal::dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
+use parcal::plan::plan_file::{summary_path, write_plan};
+use parcal::plan::tracker::plan_file::write_pose_plan;
+use parcal::plan::tracker::{PosePlanOptions, plan_poses};
+use parcal::plan::{Criterion, CriterionValues, PlanOptions, bounds, plan, plan_next};
+use parcal::simulation::Workspace;
 
 use crate::bounds::Bounded;
 use crate::progress::Progress;
@@ -83,7 +83,7 @@ pub struct Args {
     after: Option<PathBuf>,
     /// Largest angle between the approach direction and the stylus axis,
     /// degrees: the shaft clears the ball within it.
-    #[arg(long, default_value_t = parcal_plan::pool::MAX_APPROACH_DEGREES)]
+    #[arg(long, default_value_t = parcal::plan::pool::MAX_APPROACH_DEGREES)]
     max_approach: f64,
     /// How the calibration will treat the balls' calibrated radii, as
     /// `parcal calibrate --radius`: each ball's radius an unknown with its
@@ -164,7 +164,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         per_ball: args.per_ball,
         min_balls: args
             .min_balls
-            .unwrap_or_else(|| parcal_plan::select::default_min_balls(contacts)),
+            .unwrap_or_else(|| parcal::plan::select::default_min_balls(contacts)),
         restarts: args.restarts,
         max_approach_degrees: args.max_approach,
         radius: args.radius.unwrap_or(defaults.radius),

@@ -1,21 +1,21 @@
 //! `parcal plan` on a mechanism dataset (machine.json naming a linear
 //! delta or a cable robot): the probe heights or encoder samples to
-//! measure next, by [`parcal_plan::mechanism`], written as the dataset's
+//! measure next, by [`parcal::plan::mechanism`], written as the dataset's
 //! own probes.csv or points.csv to fill in, with the predicted sigmas
 //! before and after (docs/delta.md, docs/cable-robots.md).
 
 use std::io::Write;
 use std::path::Path;
 
-use parcal_calibrate::mechanism::MechanismData;
-use parcal_dataset::mechanism::{
+use parcal::calibration::mechanism::MechanismData;
+use parcal::dataset::mechanism::{
     MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset, MechanismMachine,
 };
-use parcal_plan::bounds;
-use parcal_plan::mechanism::plan_file::write_mechanism_plan;
-use parcal_plan::mechanism::workspace::grid_candidates;
-use parcal_plan::mechanism::{MechanismPlan, PlanRequest, Start, plan_mechanism};
-use parcal_plan::plan_file::summary_path;
+use parcal::plan::bounds;
+use parcal::plan::mechanism::plan_file::write_mechanism_plan;
+use parcal::plan::mechanism::workspace::grid_candidates;
+use parcal::plan::mechanism::{MechanismPlan, PlanRequest, Start, plan_mechanism};
+use parcal::plan::plan_file::summary_path;
 
 use crate::bounds::Bounded;
 

@@ -6,9 +6,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use parcal_dataset::atomic::write_set;
-use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
-use parcal_report::calibration_report::{Format, Subject, predicted_accuracy, render};
+use parcal::dataset::atomic::write_set;
+use parcal::dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
+use parcal::report::calibration_report::{Format, Subject, predicted_accuracy, render};
 
 /// The report's two files in its directory: the HTML page and the Markdown.
 pub const REPORT_FILES: [(&str, Format); 2] = [
@@ -50,7 +50,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .with_context(|| format!("{}: cannot create the directory", directory.display()))?;
     }
     crate::outputs::check(&inputs, &report_paths(&directory))?;
-    let calibration = match parcal_dataset::Calibration::read(&args.calibration) {
+    let calibration = match parcal::dataset::Calibration::read(&args.calibration) {
         Ok(calibration) => calibration,
         Err(hexapod) => match MechanismCalibrationRecord::read(&args.calibration) {
             Ok(record) => return write_mechanism(&record, args, &directory),
@@ -121,7 +121,7 @@ fn write_mechanism(
     writeln!(
         std::io::stdout().lock(),
         "{}\nreport written to {}",
-        parcal_report::mechanism::verdict_sentence(record),
+        parcal::report::mechanism::verdict_sentence(record),
         listed(directory)
     )?;
     Ok(())
@@ -155,7 +155,7 @@ pub fn write(subject: &Subject, directory: &Path) -> anyhow::Result<()> {
     write_set(&[], || {
         texts
             .iter()
-            .try_for_each(|(path, text)| parcal_report::write_text(path, text))
+            .try_for_each(|(path, text)| parcal::report::write_text(path, text))
     })?;
     Ok(())
 }
@@ -170,9 +170,9 @@ pub fn write_mechanism_report(
     directory: &Path,
 ) -> anyhow::Result<()> {
     for (name, format) in REPORT_FILES {
-        let text = parcal_report::mechanism::render(record, file, probes, format)
+        let text = parcal::report::mechanism::render(record, file, probes, format)
             .map_err(|e| anyhow::anyhow!("{file}: cannot draw the report's figure: {e}"))?;
-        parcal_report::write_text(&directory.join(name), &text)?;
+        parcal::report::write_text(&directory.join(name), &text)?;
     }
     Ok(())
 }

@@ -7,11 +7,11 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_dataset::{Dataset, DatasetError, WriteOptions};
-use parcal_kinematics::rotation_zyx;
-use parcal_plan::plan_file::read_plan;
-use parcal_plan::tracker::plan_file::read_pose_plan;
-use parcal_simulate::{
+use parcal::dataset::{Dataset, DatasetError, WriteOptions};
+use parcal::kinematics::rotation_zyx;
+use parcal::plan::plan_file::read_plan;
+use parcal::plan::tracker::plan_file::read_pose_plan;
+use parcal::simulation::{
     COUNT, PlannedTouch, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind,
     TrackerScenario, ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,
 };

@@ -1,6 +1,6 @@
 //! `parcal simulate --mechanism`: a simulated mechanism as a mechanism
 //! dataset with its truth. A linear delta printer (docs/delta.md), by
-//! [`parcal_simulate::delta`]: the typical kit printer's design, its true
+//! [`parcal::simulation::delta`]: the typical kit printer's design, its true
 //! parameters and trigger height a draw of the prior machine.json states,
 //! probes on rings over the printable disc, part distances across it on
 //! the first layer. A cable robot (docs/cable-robots.md), by
@@ -11,11 +11,11 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_dataset::bounds::Count;
-use parcal_dataset::mechanism::MechanismDataset;
-use parcal_kinematics::mechanisms;
-use parcal_simulate::delta::{DeltaScenario, simulate_delta};
-use parcal_simulate::{CableScenario, simulate_cable_dataset};
+use parcal::dataset::bounds::Count;
+use parcal::dataset::mechanism::MechanismDataset;
+use parcal::kinematics::mechanisms;
+use parcal::simulation::delta::{DeltaScenario, simulate_delta};
+use parcal::simulation::{CableScenario, simulate_cable_dataset};
 
 /// The bounds of `--probe-rings`.
 pub const RINGS: Count = Count::new(1, 20, "a bed probed on more rings than 20 gains nothing");

@@ -9,10 +9,10 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal_calibrate::instruments::{Calibrated, cross_validate, validate_calibration};
-use parcal_calibrate::touch_validation::validate_touches;
-use parcal_calibrate::{CalibrationOptions, bounds};
-use parcal_dataset::VALIDATION_FILE;
+use parcal::calibration::instruments::{Calibrated, cross_validate, validate_calibration};
+use parcal::calibration::validate_touches;
+use parcal::calibration::{CalibrationOptions, bounds};
+use parcal::dataset::VALIDATION_FILE;
 
 use crate::bounds::Bounded;
 
@@ -94,13 +94,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         (None, None) => unreachable!("clap requires --calibration or --folds"),
     };
-    let record = parcal_report::instruments::validation_record(&validation, calibration);
+    let record = parcal::report::instruments::validation_record(&validation, calibration);
     record.write(&out)?;
     let mut stdout = std::io::stdout().lock();
     writeln!(
         stdout,
         "{}",
-        parcal_report::instruments::validation(&record)
+        parcal::report::instruments::validation(&record)
     )?;
     writeln!(stdout, "validation written to {}", out.display())?;
     super::validation_outcome(record.is_rejected(), &record.reasons, &out)

@@ -21,7 +21,7 @@ use nalgebra::{DVector, SVector};
 use parcal_calibrate::layout::ParameterGroup;
 use parcal_calibrate::problem::{CalibrationProblem, ContactJacobian, ContactObservations};
 use parcal_calibrate::setup::{Observations, Setup};
-use parcal_calibrate::touch_validation::validate_touches;
+use parcal_calibrate::validate_touches;
 use parcal_calibrate::{CalibrationOptions, PriorMode, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_kinematics::N_PARAMS;
