@@ -6,32 +6,33 @@
 //! priors, by the method of Sato et al. (2004) the hexapod's calibration
 //! follows.
 //!
-//! The stages, each importing only those above it:
+//! The stages, each importing only those above it (private but
+//! [`frame`] and [`identifiability`]; their results are re-exported here):
 //!
-//! - [`observation`]: the observations' names (kind and index);
-//! - [`error`]: what can go wrong, naming the observation or parameter;
-//! - [`data`]: the data in memory ([`MechanismData`]) and their validation;
-//! - [`options`]: loss, snooping, level, iteration limit
+//! - `observation`: the observations' names (kind and index);
+//! - `error`: what can go wrong, naming the observation or parameter;
+//! - `data`: the data in memory ([`MechanismData`]) and their validation;
+//! - `options`: loss, snooping, level, iteration limit
 //!   ([`MechanismOptions`]);
-//! - [`problem`]: the solver's problem (global block: parameters and the
+//! - `problem`: the solver's problem (global block: parameters and the
 //!   trigger height; points: the poses of point samples);
-//! - [`fit`]: one solve, redundancy numbers, normalised residuals;
+//! - `fit`: one solve, redundancy numbers, normalised residuals;
 //! - [`frame`]: the estimate and covariance in the canonical frame (the
 //!   gauge projected out);
 //! - [`identifiability`]: what the data determine and what only the priors
 //!   do;
-//! - [`result`]: the result ([`MechanismCalibration`]), its tests and
+//! - `result`: the result ([`MechanismCalibration`]), its tests and
 //!   verdict;
-//! - [`snooping`]: data snooping;
-//! - [`input`]: a dataset read from files as [`MechanismData`];
-//! - [`record`]: a result as its `calibration.json` record;
-//! - [`calibrated`]: a `calibration.json` record as the numbers that apply
+//! - `snooping`: data snooping;
+//! - `input`: a dataset read from files as [`MechanismData`];
+//! - `record`: a result as its `calibration.json` record;
+//! - `calibrated`: a `calibration.json` record as the numbers that apply
 //!   it ([`CalibratedMechanism`]);
-//! - [`predicted`]: held-out observations predicted by a calibration, with
+//! - `predicted`: held-out observations predicted by a calibration, with
 //!   their derivatives;
-//! - [`validation`]: a calibration judged on held-out data
+//! - `validation`: a calibration judged on held-out data
 //!   ([`validate_mechanism`]);
-//! - [`compensation`]: the actuator commands that reach target positions
+//! - `compensation`: the actuator commands that reach target positions
 //!   ([`compensate_mechanism`]).
 //!
 //! ```
@@ -61,31 +62,33 @@
 //! # Ok::<(), parcal_calibrate::mechanism::MechanismCalibrationError>(())
 //! ```
 
-pub mod calibrated;
-pub mod compensation;
-pub mod data;
-pub mod error;
-pub mod fit;
+mod calibrated;
+mod compensation;
+mod data;
+mod error;
+mod fit;
 pub mod frame;
 pub mod identifiability;
-pub mod input;
-pub mod observation;
-pub mod options;
-pub mod predicted;
-pub mod problem;
-pub mod record;
-pub mod result;
-pub mod snooping;
-pub mod validation;
+mod input;
+mod observation;
+mod options;
+mod predicted;
+mod problem;
+mod record;
+mod result;
+mod snooping;
+mod validation;
 
 pub use calibrated::CalibratedMechanism;
 pub use compensation::{Compensation, compensate_mechanism};
-pub use data::{MechanismData, Observations, ParameterPrior};
+pub use data::{
+    MAX_ACTUATORS, MAX_OBSERVATIONS, MIN_ACTUATORS, MechanismData, Observations, ParameterPrior,
+};
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
 pub use identifiability::{Identifiability, Undetermined};
 pub use observation::{ObservationKind, ObservationRef};
-pub use options::MechanismOptions;
+pub use options::{MAX_ITERATIONS, MechanismOptions};
 pub use result::{EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 
