@@ -74,3 +74,20 @@ pub fn wrong_side(
     };
     Ok((mirror.cost * MIRROR_GAIN < side.cost).then_some((side, mirror, tips)))
 }
+
+/// A ball re-seeded at the mirror image of its centre fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mirrored {
+    /// Its index (artefacts.json order).
+    pub ball: usize,
+    /// artefacts.json's id.
+    pub id: String,
+    /// Its new initial centre (the mirror fit of its design-FK contact
+    /// points).
+    pub initial_centre: Vec3,
+    /// The Gauss-Newton iterations before it was found (the first settled
+    /// iterate that showed it, [`SETTLED`]).
+    pub iteration: usize,
+    /// What that iterate showed.
+    pub side: WrongSide,
+}
