@@ -1,6 +1,6 @@
 //! Effects: common changes `t` of the entered data (every ball's radius
 //! off by `t`, every distance's scale) that move the whitened rows
-//! linearly, `e(t) = ê + t c` ([`Problem::effects`]), projected at a state
+//! linearly, `e(t) = ê + t c` ([`crate::Problem::effects`]), projected at a state
 //! in the checks' pass ([`crate::redundancy`]).
 //!
 //! With `J` the whitened Jacobian of every row (priors included), `N =

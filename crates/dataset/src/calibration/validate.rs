@@ -52,7 +52,7 @@ const SEMIDEFINITE: f64 = 1e-6;
 
 impl Calibration {
     /// Reads and checks a calibration file (extra fields are ignored);
-    /// what is checked is in the [module doc](self).
+    /// what is checked is in the module documentation.
     pub fn read(path: &Path) -> Result<Self> {
         let calibration: Self = json::read(path, json::CALIBRATION)?;
         calibration.validate(Check::result(path))?;
