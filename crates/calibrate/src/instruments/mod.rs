@@ -9,7 +9,8 @@
 //! - [`rows`]: every measured row as whitened residual rows;
 //! - [`problem`]: the solver's problem (a global block only);
 //! - [`run`]: one calibration and its calibration.json record;
-//! - [`validate`]: a calibration applied to data it was not fitted on.
+//! - [`validate`]: a calibration applied to data it was not fitted on;
+//! - [`cross_validation`]: k-fold cross-validation.
 //!
 //! The gauge: the kinematic parameters live in the canonical frames
 //! (`parcal_kinematics::frames`); an instrument sees the base frame only
@@ -20,6 +21,7 @@
 //! hold the design's tool, not calibrated). docs/formulation.md says which
 //! parameters each kind of data determines.
 
+pub mod cross_validation;
 pub mod model;
 pub mod observations;
 pub mod problem;
@@ -29,9 +31,9 @@ pub mod start;
 pub mod validate;
 
 pub use crate::error::InstrumentTable;
+pub use cross_validation::{CrossValidation, cross_validate};
 pub use model::{InstrumentModel, ModelValues};
 pub use run::{InstrumentRun, InstrumentSetup, calibrate_instruments, setup};
 pub use validate::{
-    Calibrated, CalibratedSession, CrossValidation, Explanation, SessionGroup, Validation,
-    cross_validate, validate_calibration,
+    Calibrated, CalibratedSession, Explanation, SessionGroup, Validation, validate_calibration,
 };

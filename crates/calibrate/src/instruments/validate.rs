@@ -333,148 +333,24 @@ pub fn validate_calibration(
 ) -> Result<Validation, CalibrateError> {
     crate::validate(dataset)?;
     let tracker = &dataset.tracker;
-    if tracker.is_empty() {
-        return Err(CalibrateError::Calibration {
-            reason: "the dataset has no measured poses or points to validate on".into(),
-        });
-    }
-    if !tracker.points.is_empty() && calibrated.value(PARAM_NAMES[TOOL_OFFSET]).is_none() {
-        return Err(CalibrateError::Calibration {
-            reason: "it did not calibrate the tool (x_eT, y_eT, z_eT: its data, poses alone, do not observe it), and measured points see the tool".into(),
-        });
-    }
-    let sessions = tracker.sessions.len();
-    // Which rows of each session are reference rows.
+    check_validatable(tracker, calibrated)?;
     let n_ref = reference.unwrap_or(0);
-    let mut reference_rows = (Vec::new(), Vec::new());
-    let mut predicted_rows = (Vec::new(), Vec::new());
-    let mut seen = vec![0usize; sessions];
-    for (j, &s) in tracker.poses.session.iter().enumerate() {
-        let k = s as usize;
-        let target = if seen[k] < n_ref {
-            &mut reference_rows.0
-        } else {
-            &mut predicted_rows.0
-        };
-        target.push(j);
-        seen[k] += 1;
-    }
-    for (j, &s) in tracker.points.session.iter().enumerate() {
-        let k = s as usize;
-        let target = if seen[k] < n_ref {
-            &mut reference_rows.1
-        } else {
-            &mut predicted_rows.1
-        };
-        target.push(j);
-        seen[k] += 1;
-    }
-    if let Some(k) = (0..sessions).find(|&k| reference.is_some() && seen[k] <= n_ref) {
-        return Err(CalibrateError::Calibration {
-            reason: format!(
-                "session {:?} has {} rows: none is left to predict after the {n_ref} reference rows",
-                tracker.sessions[k], seen[k]
-            ),
-        });
-    }
-    let known = |k: usize| {
-        calibrated
-            .sessions
-            .iter()
-            .find(|session| session.label == tracker.sessions[k])
-    };
-    if reference.is_none()
-        && let Some(k) = (0..sessions).find(|&k| known(k).is_none())
-    {
-        return Err(CalibrateError::Calibration {
-            reason: format!(
-                "session {:?} is not one of the calibration's; give a number of reference rows to fit its frames on",
-                tracker.sessions[k]
-            ),
-        });
+    let split = RowSplit::new(tracker, n_ref);
+    match reference {
+        Some(_) => split.check_left_to_predict(tracker, n_ref)?,
+        None => check_known_sessions(tracker, calibrated)?,
     }
     let geometry = params::from_params(&calibrated.params);
     let forward = ForwardOptions::default();
-    let reference_set = subset(tracker, &reference_rows.0, &reference_rows.1);
-    let predicted_set = subset(tracker, &predicted_rows.0, &predicted_rows.1);
-    // The calibration's own references, so that its covariance applies to
-    // its parameters as they are: B₀ = C_B⁻¹ ∘ B_first, F₀_k = F_k ∘ C_F,k⁻¹.
-    let body_correction = calibrated
-        .correction("body")
-        .unwrap_or(FrameCorrection::IDENTITY);
-    let body_reference = body_correction.isometry().inverse() * calibrated.sessions[0].body_frame;
-    // The frames' start: the calibration's for a known session without
-    // re-fit, the reference rows' hand-eye start otherwise.
-    let start = match reference {
-        Some(_) => Some(frame_start(
-            &reference_set,
-            &geometry,
-            &calibrated.scales,
-            &forward,
-        )?),
-        None => None,
-    };
-    let with_poses = |k: usize| tracker.poses.session.iter().any(|&s| s as usize == k);
-    let mut groups = vec![ParameterGroup::ActuatorScales];
-    if !tracker.poses.is_empty() {
-        groups.push(ParameterGroup::BodyFrame);
-    }
-    for session in 0..sessions {
-        groups.push(ParameterGroup::TrackerFrame { session });
-        if with_poses(session) {
-            groups.push(ParameterGroup::BodyOrigin { session });
-            groups.push(ParameterGroup::BodyRotation { session });
-        }
-        groups.push(ParameterGroup::LegOffsets { session });
-    }
-    let layout = ParameterLayout::with_groups(groups);
-    // Every parameter at the calibration's value, by name, but the
-    // re-fitted sessions' nuisance (zero, about the reference rows' frames).
-    let names = layout.names(&[], &tracker.sessions);
-    // The groups shared by the sessions come first.
-    let shared = layout
-        .range(ParameterGroup::TrackerFrame { session: 0 })
-        .map_or(layout.size(), |r| r.start);
-    // A kinematic parameter the calibration did not identify (the tool of
-    // poses alone) is its canonical geometry's.
-    let mut global = DVector::from_fn(layout.size(), |c, _| {
-        let copied = reference.is_none() || c < shared;
-        copied
-            .then(|| calibrated.value(&names[c]))
-            .flatten()
-            .or_else(|| (c < N_PARAMS).then(|| calibrated.params[c]))
-            .unwrap_or(0.0)
-    });
-    if layout.range(ParameterGroup::ActuatorScales).is_some() && calibrated.value("s_1").is_none() {
-        // A calibration with known scales: they are its machine's.
-        let r = layout
-            .range(ParameterGroup::ActuatorScales)
-            .expect("present");
-        global
-            .rows_mut(r.start, 6)
-            .copy_from_slice(&calibrated.scales);
-    }
-    let mut tracker_references = Vec::with_capacity(sessions);
-    for k in 0..sessions {
-        match (&start, known(k)) {
-            (Some(start), _) => tracker_references.push(start.trackers[k]),
-            (None, Some(session)) => {
-                let correction = calibrated
-                    .correction(&format!("frame {}", session.label))
-                    .unwrap_or(FrameCorrection::IDENTITY);
-                tracker_references.push(session.tracker_frame * correction.isometry().inverse());
-            }
-            (None, None) => unreachable!("checked above"),
-        }
-    }
-    let model = InstrumentModel {
-        layout,
-        sessions: tracker.sessions.clone(),
-        tracker_references,
-        body_reference,
-        fixed_scales: calibrated.scales,
-        fixed_tool: geometry.tool,
-    };
+    let reference_set = subset(tracker, &split.reference.0, &split.reference.1);
+    let predicted_set = subset(tracker, &split.predicted.0, &split.predicted.1);
+    let (model, global) = validation_model(
+        tracker,
+        calibrated,
+        reference.map(|_| &reference_set),
+        &geometry,
+        &forward,
+    )?;
     let machine = &dataset.machine;
     let home = |set: &Tracker| {
         forward_poses(
@@ -485,64 +361,29 @@ pub fn validate_calibration(
             &forward,
         )
     };
-    let mut reference_rows_model =
-        InstrumentRows::new(&reference_set, home(&reference_set)?, forward);
+    let mut reference_rows = InstrumentRows::new(&reference_set, home(&reference_set)?, forward);
     let mut predicted = InstrumentRows::new(&predicted_set, home(&predicted_set)?, forward);
-    // The nuisance model: the frame, and the optional groups machine.json
-    // allows, the one with the least expected prediction error. A body
-    // group exists only for sessions with poses.
-    let present: Vec<SessionGroup> = SessionGroup::ALL
-        .into_iter()
-        .filter(|group| {
-            (0..sessions).any(|session| model.layout.range(group.parameters(session)).is_some())
-        })
-        .collect();
-    let optional: Vec<(SessionGroup, f64)> = present
-        .iter()
-        .filter_map(|&group| Some((group, group.sigma(&machine.session_model)?)))
-        .collect();
-    let mut selection = Vec::new();
-    let nuisance = if reference.is_none() {
-        Nuisance::default()
-    } else {
-        let candidates: Vec<Nuisance> = subsets(&optional)
-            .iter()
-            .map(|chosen| Nuisance::new(&model, chosen))
-            .collect();
-        if candidates.len() == 1 {
-            candidates.into_iter().next().expect("one candidate")
-        } else {
-            let values = model.values(&global);
-            reference_rows_model.whiten(&model, &values, &machine.repeatability)?;
-            predicted.whiten(&model, &values, &machine.repeatability)?;
-            for candidate in &candidates {
-                let score = expected_prediction_error(
-                    &model,
-                    &global,
-                    &reference_rows_model,
-                    &predicted,
-                    candidate,
-                )?;
-                selection.push((
-                    candidate.names.join(" + "),
-                    score.map_or(f64::INFINITY, f64::sqrt),
-                ));
-            }
-            let best = (0..candidates.len())
-                .min_by(|&a, &b| selection[a].1.total_cmp(&selection[b].1))
-                .expect("candidates");
-            candidates.into_iter().nth(best).expect("in range")
-        }
-    };
+    let present = present_groups(&model, tracker.sessions.len());
     let values = model.values(&global);
-    reference_rows_model.whiten(&model, &values, &machine.repeatability)?;
+    reference_rows.whiten(&model, &values, &machine.repeatability)?;
     predicted.whiten(&model, &values, &machine.repeatability)?;
+    let (nuisance, selection) = match reference {
+        Some(_) => select_nuisance(
+            &model,
+            &global,
+            &reference_rows,
+            &predicted,
+            &present,
+            &machine.session_model,
+        )?,
+        None => (Nuisance::default(), Vec::new()),
+    };
     let predict = |nuisance: &Nuisance| {
         Prediction::new(
             calibrated,
             &model,
             &global,
-            &reference_rows_model,
+            &reference_rows,
             &predicted,
             nuisance,
         )
@@ -562,48 +403,299 @@ pub fn validate_calibration(
         explanations: Vec::new(),
     };
     if reference.is_some() && !validation.accepted() {
-        // Every other choice of the groups, an undeclared one free.
-        let all: Vec<(SessionGroup, f64)> = present
-            .iter()
-            .map(|&group| {
-                let sigma = group.sigma(&machine.session_model);
-                (group, sigma.unwrap_or(f64::INFINITY))
-            })
-            .collect();
-        for groups in subsets(&all) {
-            let candidate = Nuisance::new(&model, &groups);
-            if candidate.columns == nuisance.columns {
-                continue;
-            }
-            // A model the reference rows do not determine explains nothing.
-            let Ok(other) = predict(&candidate) else {
-                continue;
-            };
-            let test = PredictionTest::new(
-                other.statistic,
-                other.residuals.len(),
-                calibrated.global_test,
-            );
-            if let Some(test) = test.filter(|t| !t.rejects()) {
-                let groups: Vec<SessionGroup> = groups.iter().map(|(g, _)| *g).collect();
-                validation.explanations.push(Explanation {
-                    undeclared: groups
-                        .iter()
-                        .copied()
-                        .filter(|g| g.sigma(&machine.session_model).is_none())
-                        .collect(),
-                    groups,
-                    rms: rms(&other.residuals),
-                    predicted_rms: rms(&other.sigmas),
-                    test,
-                });
-            }
-        }
-        validation
-            .explanations
-            .sort_by(|a, b| a.predicted_rms.total_cmp(&b.predicted_rms));
+        validation.explanations = explanations(
+            &model,
+            &present,
+            &nuisance,
+            &machine.session_model,
+            calibrated,
+            predict,
+        );
     }
     Ok(validation)
+}
+
+/// Refuses data a calibration cannot be judged on: no poses or points, or
+/// points where the calibration did not identify the tool.
+fn check_validatable(tracker: &Tracker, calibrated: &Calibrated) -> Result<(), CalibrateError> {
+    if tracker.is_empty() {
+        return Err(CalibrateError::Calibration {
+            reason: "the dataset has no measured poses or points to validate on".into(),
+        });
+    }
+    if !tracker.points.is_empty() && calibrated.value(PARAM_NAMES[TOOL_OFFSET]).is_none() {
+        return Err(CalibrateError::Calibration {
+            reason: "it did not calibrate the tool (x_eT, y_eT, z_eT: its data, poses alone, do not observe it), and measured points see the tool".into(),
+        });
+    }
+    Ok(())
+}
+
+/// The session of `tracker` labelled as calibrated session `k`'s, if any.
+fn known_session<'c>(
+    calibrated: &'c Calibrated,
+    tracker: &Tracker,
+    k: usize,
+) -> Option<&'c CalibratedSession> {
+    calibrated
+        .sessions
+        .iter()
+        .find(|session| session.label == tracker.sessions[k])
+}
+
+/// Refuses a session the calibration did not see, where no reference rows
+/// re-fit its frames.
+fn check_known_sessions(tracker: &Tracker, calibrated: &Calibrated) -> Result<(), CalibrateError> {
+    match (0..tracker.sessions.len()).find(|&k| known_session(calibrated, tracker, k).is_none()) {
+        Some(k) => Err(CalibrateError::Calibration {
+            reason: format!(
+                "session {:?} is not one of the calibration's; give a number of reference rows to fit its frames on",
+                tracker.sessions[k]
+            ),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Each session's first `n_ref` rows (poses, then points) as reference
+/// rows, the others predicted: indices in file order, poses and points
+/// apart.
+struct RowSplit {
+    reference: (Vec<usize>, Vec<usize>),
+    predicted: (Vec<usize>, Vec<usize>),
+    /// The rows of each session.
+    rows: Vec<usize>,
+}
+
+impl RowSplit {
+    fn new(tracker: &Tracker, n_ref: usize) -> Self {
+        let mut split = Self {
+            reference: (Vec::new(), Vec::new()),
+            predicted: (Vec::new(), Vec::new()),
+            rows: vec![0; tracker.sessions.len()],
+        };
+        for (j, &s) in tracker.poses.session.iter().enumerate() {
+            let seen = &mut split.rows[s as usize];
+            let target = if *seen < n_ref {
+                &mut split.reference.0
+            } else {
+                &mut split.predicted.0
+            };
+            target.push(j);
+            *seen += 1;
+        }
+        for (j, &s) in tracker.points.session.iter().enumerate() {
+            let seen = &mut split.rows[s as usize];
+            let target = if *seen < n_ref {
+                &mut split.reference.1
+            } else {
+                &mut split.predicted.1
+            };
+            target.push(j);
+            *seen += 1;
+        }
+        split
+    }
+
+    /// Refuses a session with no row left to predict after its `n_ref`
+    /// reference rows.
+    fn check_left_to_predict(&self, tracker: &Tracker, n_ref: usize) -> Result<(), CalibrateError> {
+        match self.rows.iter().position(|&rows| rows <= n_ref) {
+            Some(k) => Err(CalibrateError::Calibration {
+                reason: format!(
+                    "session {:?} has {} rows: none is left to predict after the {n_ref} reference rows",
+                    tracker.sessions[k], self.rows[k]
+                ),
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The instrument model of a validation and its global block: every
+/// parameter at the calibration's value, by name, but the re-fitted
+/// sessions' nuisance (zero, about the frames the reference rows
+/// `reference_set` start from, when there are reference rows).
+fn validation_model(
+    tracker: &Tracker,
+    calibrated: &Calibrated,
+    reference_set: Option<&Tracker>,
+    geometry: &Geometry,
+    forward: &ForwardOptions,
+) -> Result<(InstrumentModel, DVector<f64>), CalibrateError> {
+    let sessions = tracker.sessions.len();
+    // The calibration's own references, so that its covariance applies to
+    // its parameters as they are: B₀ = C_B⁻¹ ∘ B_first, F₀_k = F_k ∘ C_F,k⁻¹.
+    let body_correction = calibrated
+        .correction("body")
+        .unwrap_or(FrameCorrection::IDENTITY);
+    let body_reference = body_correction.isometry().inverse() * calibrated.sessions[0].body_frame;
+    // The frames' start: the calibration's for a known session without
+    // re-fit, the reference rows' hand-eye start otherwise.
+    let start = reference_set
+        .map(|set| frame_start(set, geometry, &calibrated.scales, forward))
+        .transpose()?;
+    let with_poses = |k: usize| tracker.poses.session.iter().any(|&s| s as usize == k);
+    let mut groups = vec![ParameterGroup::ActuatorScales];
+    if !tracker.poses.is_empty() {
+        groups.push(ParameterGroup::BodyFrame);
+    }
+    for session in 0..sessions {
+        groups.push(ParameterGroup::TrackerFrame { session });
+        if with_poses(session) {
+            groups.push(ParameterGroup::BodyOrigin { session });
+            groups.push(ParameterGroup::BodyRotation { session });
+        }
+        groups.push(ParameterGroup::LegOffsets { session });
+    }
+    let layout = ParameterLayout::with_groups(groups);
+    let names = layout.names(&[], &tracker.sessions);
+    // The groups shared by the sessions come first.
+    let shared = layout
+        .range(ParameterGroup::TrackerFrame { session: 0 })
+        .map_or(layout.size(), |r| r.start);
+    // A kinematic parameter the calibration did not identify (the tool of
+    // poses alone) is its canonical geometry's.
+    let mut global = DVector::from_fn(layout.size(), |c, _| {
+        let copied = reference_set.is_none() || c < shared;
+        copied
+            .then(|| calibrated.value(&names[c]))
+            .flatten()
+            .or_else(|| (c < N_PARAMS).then(|| calibrated.params[c]))
+            .unwrap_or(0.0)
+    });
+    if let Some(r) = layout.range(ParameterGroup::ActuatorScales)
+        && calibrated.value("s_1").is_none()
+    {
+        // A calibration with known scales: they are its machine's.
+        global
+            .rows_mut(r.start, 6)
+            .copy_from_slice(&calibrated.scales);
+    }
+    let tracker_references = (0..sessions)
+        .map(|k| match (&start, known_session(calibrated, tracker, k)) {
+            (Some(start), _) => start.trackers[k],
+            (None, Some(session)) => {
+                let correction = calibrated
+                    .correction(&format!("frame {}", session.label))
+                    .unwrap_or(FrameCorrection::IDENTITY);
+                session.tracker_frame * correction.isometry().inverse()
+            }
+            (None, None) => unreachable!("checked by check_known_sessions"),
+        })
+        .collect();
+    let model = InstrumentModel {
+        layout,
+        sessions: tracker.sessions.clone(),
+        tracker_references,
+        body_reference,
+        fixed_scales: calibrated.scales,
+        fixed_tool: geometry.tool,
+    };
+    Ok((model, global))
+}
+
+/// The session groups present in `model`'s layout for some session (a
+/// body group exists only for sessions with poses).
+fn present_groups(model: &InstrumentModel, sessions: usize) -> Vec<SessionGroup> {
+    SessionGroup::ALL
+        .into_iter()
+        .filter(|group| {
+            (0..sessions).any(|session| model.layout.range(group.parameters(session)).is_some())
+        })
+        .collect()
+}
+
+/// The nuisance model re-fitted on the reference rows: the frame, and of
+/// the optional groups the session model allows (`present` with a sigma),
+/// the choice with the least expected prediction error; with every
+/// candidate's name and score (mm), when there was a choice.
+fn select_nuisance(
+    model: &InstrumentModel,
+    global: &DVector<f64>,
+    reference_rows: &InstrumentRows<'_>,
+    predicted: &InstrumentRows<'_>,
+    present: &[SessionGroup],
+    session_model: &SessionModel,
+) -> Result<(Nuisance, Vec<(String, f64)>), CalibrateError> {
+    let optional: Vec<(SessionGroup, f64)> = present
+        .iter()
+        .filter_map(|&group| Some((group, group.sigma(session_model)?)))
+        .collect();
+    let candidates: Vec<Nuisance> = subsets(&optional)
+        .iter()
+        .map(|chosen| Nuisance::new(model, chosen))
+        .collect();
+    if candidates.len() == 1 {
+        let only = candidates.into_iter().next().expect("one candidate");
+        return Ok((only, Vec::new()));
+    }
+    let mut selection = Vec::with_capacity(candidates.len());
+    for candidate in &candidates {
+        let score = expected_prediction_error(model, global, reference_rows, predicted, candidate)?;
+        selection.push((
+            candidate.names.join(" + "),
+            score.map_or(f64::INFINITY, f64::sqrt),
+        ));
+    }
+    let best = (0..candidates.len())
+        .min_by(|&a, &b| selection[a].1.total_cmp(&selection[b].1))
+        .expect("candidates");
+    let chosen = candidates.into_iter().nth(best).expect("in range");
+    Ok((chosen, selection))
+}
+
+/// What changed, for a rejected validation with reference rows: every
+/// other choice of the `present` groups re-fitted (a group the session
+/// model does not declare, free), those whose residuals pass the test,
+/// the best predicted first.
+fn explanations(
+    model: &InstrumentModel,
+    present: &[SessionGroup],
+    chosen: &Nuisance,
+    session_model: &SessionModel,
+    calibrated: &Calibrated,
+    predict: impl Fn(&Nuisance) -> Result<Prediction, CalibrateError>,
+) -> Vec<Explanation> {
+    let all: Vec<(SessionGroup, f64)> = present
+        .iter()
+        .map(|&group| {
+            let sigma = group.sigma(session_model);
+            (group, sigma.unwrap_or(f64::INFINITY))
+        })
+        .collect();
+    let mut explanations = Vec::new();
+    for groups in subsets(&all) {
+        let candidate = Nuisance::new(model, &groups);
+        if candidate.columns == chosen.columns {
+            continue;
+        }
+        // A model the reference rows do not determine explains nothing.
+        let Ok(other) = predict(&candidate) else {
+            continue;
+        };
+        let test = PredictionTest::new(
+            other.statistic,
+            other.residuals.len(),
+            calibrated.global_test,
+        );
+        if let Some(test) = test.filter(|t| !t.rejects()) {
+            let groups: Vec<SessionGroup> = groups.iter().map(|(g, _)| *g).collect();
+            explanations.push(Explanation {
+                undeclared: groups
+                    .iter()
+                    .copied()
+                    .filter(|g| g.sigma(session_model).is_none())
+                    .collect(),
+                groups,
+                rms: rms(&other.residuals),
+                predicted_rms: rms(&other.sigmas),
+                test,
+            });
+        }
+    }
+    explanations.sort_by(|a, b| a.predicted_rms.total_cmp(&b.predicted_rms));
+    explanations
 }
 
 /// Every subset of `groups`, in the order of a bit mask (the empty one
@@ -878,7 +970,7 @@ impl<'a> CommonErrors<'a> {
 
 /// The rows `poses` and `points` of `tracker` (indices in file order), the
 /// sessions kept.
-fn subset(tracker: &Tracker, poses: &[usize], points: &[usize]) -> Tracker {
+pub(crate) fn subset(tracker: &Tracker, poses: &[usize], points: &[usize]) -> Tracker {
     let p = &tracker.poses;
     let t = &tracker.points;
     Tracker {
@@ -895,109 +987,4 @@ fn subset(tracker: &Tracker, poses: &[usize], points: &[usize]) -> Tracker {
             position: points.iter().map(|&j| t.position[j]).collect(),
         },
     }
-}
-
-/// A k-fold cross-validation: every row predicted by a calibration fitted
-/// on the other folds.
-#[derive(Debug, Clone, PartialEq)]
-#[non_exhaustive]
-pub struct CrossValidation {
-    /// Number of folds.
-    pub folds: usize,
-    /// Each fold's validation (its rows predicted by the other folds'
-    /// calibration, through the calibration's own session frames).
-    pub validations: Vec<Validation>,
-}
-
-impl CrossValidation {
-    /// RMS of every held-out residual (mm).
-    pub fn rms(&self) -> f64 {
-        self.pooled().rms()
-    }
-
-    /// The RMS the folds' calibrations predict (mm).
-    pub fn predicted_rms(&self) -> f64 {
-        self.pooled().predicted_rms()
-    }
-
-    /// The folds as one validation: their rows in fold order, each fold's
-    /// residuals tested against its own calibration's predicted covariance,
-    /// the statistics and their degrees of freedom summed; the folds'
-    /// global tests pooled as one pass over the data (each row is in
-    /// `K − 1` of the folds' calibrations): `(Σ Ω_k, Σ r_k) / (K − 1)`.
-    pub fn pooled(&self) -> Validation {
-        let tests: Option<Vec<(f64, usize)>> = self
-            .validations
-            .iter()
-            .map(|v| v.calibration_test)
-            .collect();
-        let passes = self.folds.saturating_sub(1).max(1);
-        let all = |part: fn(&Validation) -> &Vec<f64>| -> Vec<f64> {
-            self.validations
-                .iter()
-                .flat_map(|v| part(v).iter().copied())
-                .collect()
-        };
-        Validation {
-            poses: self.validations.iter().map(|v| v.poses).sum(),
-            points: self.validations.iter().map(|v| v.points).sum(),
-            contacts: 0,
-            reference: 0,
-            refitted: Vec::new(),
-            selection: Vec::new(),
-            residuals: all(|v| &v.residuals),
-            predicted_sigmas: all(|v| &v.predicted_sigmas),
-            statistic: self.validations.iter().map(|v| v.statistic).sum(),
-            calibration_test: tests.map(|tests| {
-                let cost: f64 = tests.iter().map(|t| t.0).sum();
-                let redundancy: usize = tests.iter().map(|t| t.1).sum();
-                (cost / passes as f64, redundancy / passes)
-            }),
-            explanations: Vec::new(),
-        }
-    }
-}
-
-/// Cross-validates the instrument calibration of `dataset` with `folds`
-/// folds: row `j` of each file is in fold `j mod folds`; each fold is
-/// predicted ([`validate_calibration`], no re-fit) by the calibration of the others.
-pub fn cross_validate(
-    dataset: &Dataset,
-    options: &crate::CalibrationOptions,
-    folds: usize,
-) -> Result<CrossValidation, CalibrateError> {
-    let tracker = &dataset.tracker;
-    // Each fold holds at least one row of the longer file.
-    let rows = tracker.poses.len().max(tracker.points.len());
-    crate::bounds::FOLDS
-        .check("folds", folds)
-        .and_then(|folds| {
-            if folds <= rows {
-                Ok(folds)
-            } else {
-                Err(format!(
-                    "{folds} folds of {rows} rows (poses or points): a fold would hold none"
-                ))
-            }
-        })
-        .map_err(|reason| CalibrateError::Calibration { reason })?;
-    let mut validations = Vec::with_capacity(folds);
-    for fold in 0..folds {
-        let split = |n: usize, held: bool| -> Vec<usize> {
-            (0..n).filter(|j| (j % folds == fold) == held).collect()
-        };
-        let part = |held: bool| Dataset {
-            tracker: subset(
-                tracker,
-                &split(tracker.poses.len(), held),
-                &split(tracker.points.len(), held),
-            ),
-            ..dataset.clone()
-        };
-        let run = crate::instruments::calibrate_instruments(&part(false), options, &mut |_| {})?;
-        let mut calibrated = Calibrated::from_record(&run.record(String::new()))?;
-        calibrated.global_test = run.global_test.map(|t| (t.cost, t.redundancy));
-        validations.push(validate_calibration(&part(true), &calibrated, None)?);
-    }
-    Ok(CrossValidation { folds, validations })
 }
