@@ -469,32 +469,27 @@ struct RowSplit {
 
 impl RowSplit {
     fn new(tracker: &Tracker, n_ref: usize) -> Self {
-        let mut split = Self {
-            reference: (Vec::new(), Vec::new()),
-            predicted: (Vec::new(), Vec::new()),
-            rows: vec![0; tracker.sessions.len()],
+        let mut rows = vec![0; tracker.sessions.len()];
+        let mut assign = |sessions: &[u32]| {
+            let (mut reference, mut predicted) = (Vec::new(), Vec::new());
+            for (j, &s) in sessions.iter().enumerate() {
+                let seen = &mut rows[s as usize];
+                if *seen < n_ref {
+                    reference.push(j);
+                } else {
+                    predicted.push(j);
+                }
+                *seen += 1;
+            }
+            (reference, predicted)
         };
-        for (j, &s) in tracker.poses.session.iter().enumerate() {
-            let seen = &mut split.rows[s as usize];
-            let target = if *seen < n_ref {
-                &mut split.reference.0
-            } else {
-                &mut split.predicted.0
-            };
-            target.push(j);
-            *seen += 1;
+        let (pose_reference, pose_predicted) = assign(&tracker.poses.session);
+        let (point_reference, point_predicted) = assign(&tracker.points.session);
+        Self {
+            reference: (pose_reference, point_reference),
+            predicted: (pose_predicted, point_predicted),
+            rows,
         }
-        for (j, &s) in tracker.points.session.iter().enumerate() {
-            let seen = &mut split.rows[s as usize];
-            let target = if *seen < n_ref {
-                &mut split.reference.1
-            } else {
-                &mut split.predicted.1
-            };
-            target.push(j);
-            *seen += 1;
-        }
-        split
     }
 
     /// Refuses a session with no row left to predict after its `n_ref`
