@@ -72,3 +72,12 @@ pub fn array2<'py, const N: usize>(
         .reshape([rows.len(), N])
         .expect("n x N numbers reshape to n rows of N")
 }
+
+/// `flat`, `width` numbers a row (the actuators' readings of each row),
+/// as an `n x width` array.
+pub fn table(py: Python<'_>, flat: Vec<f64>, width: usize) -> Bound<'_, PyArray2<f64>> {
+    let rows = flat.len() / width.max(1);
+    PyArray1::from_vec(py, flat)
+        .reshape([rows, width])
+        .expect("whole rows of `width` numbers reshape to n rows")
+}

@@ -50,6 +50,18 @@ impl Dataset {
     }
 }
 
+impl Dataset {
+    /// Reads the dataset at `path`: a directory of files, or a binary
+    /// snapshot.
+    pub fn read_from(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let inner = py.detach(|| read_dataset(&path)).map_err(to_py)?;
+        Ok(Self {
+            inner,
+            given: path.display().to_string(),
+        })
+    }
+}
+
 #[pymethods]
 impl Dataset {
     #[new]
@@ -106,11 +118,7 @@ impl Dataset {
     /// snapshot (dataset.bin).
     #[staticmethod]
     fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let inner = py.detach(|| read_dataset(&path)).map_err(to_py)?;
-        Ok(Self {
-            inner,
-            given: path.display().to_string(),
-        })
+        Self::read_from(py, path)
     }
 
     /// Writes the dataset: a directory of files at `path` (which must not
