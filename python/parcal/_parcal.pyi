@@ -274,8 +274,21 @@ class MechanismTruth(TypedDict):
 class MechanismDataset:
     """A mechanism dataset (a linear delta, a cable robot): its machine and
     its probe heights, part distances, encoder samples and measured
-    quantities, as numpy arrays."""
+    quantities, as numpy arrays. Built in memory from what machine.json
+    holds and the observations' arrays (``samples``: ``readings`` n x A,
+    ``position`` n x 3 with NaN rows where not measured, ``loads`` n x A;
+    ``quantities``: ``quantity``, ``value``, ``sigma``), checked as the
+    files are."""
 
+    def __init__(
+        self,
+        machine: Mapping[str, Any],
+        *,
+        probes: Optional[npt.ArrayLike] = None,
+        distances: Optional[npt.ArrayLike] = None,
+        samples: Optional[Mapping[str, Any]] = None,
+        quantities: Optional[Mapping[str, Any]] = None,
+    ) -> None: ...
     @staticmethod
     def read(path: PathLike) -> "MechanismDataset":
         """Reads the directory ``path`` (machine.json naming its mechanism)."""

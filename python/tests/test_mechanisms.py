@@ -190,6 +190,8 @@ def test_plan_chooses_the_probes_of_the_cli(delta, cli, tmp_path):
     assert after["from_calibration"] and after["trace_before"] < plan["trace_before"]
     with pytest.raises(parcal.Error, match="measured_positions applies to a cable robot"):
         parcal.plan(parcal.read_dataset(delta), 4, measured_positions=True)
+    with pytest.raises(parcal.Error, match="measurements"):
+        parcal.plan(parcal.read_dataset(delta), 0)
 
 
 def test_bad_input_raises_parcal_error_naming_the_file_and_line(delta, hangprinter, tmp_path):
@@ -216,7 +218,35 @@ def test_bad_input_raises_parcal_error_naming_the_file_and_line(delta, hangprint
         parcal.calibrate(ds, sim="III")
     with pytest.raises(parcal.Error, match=r"targets: expected 3 columns, got 6"):
         parcal.compensate(parcal.calibrate(ds), np.zeros((2, 6)))
+    with pytest.raises(parcal.Error, match=r"targets"):
+        parcal.compensate(parcal.calibrate(ds), np.zeros((0, 3)))
     paper = parcal.calibrate(parcal.read_dataset(ROOT / "fixtures" / "paper-seed1"))
     paper.write(tmp_path / "hexapod.json")
     with pytest.raises(parcal.Error, match="hexapod.json"):
         parcal.validate(ds, calibration=str(tmp_path / "hexapod.json"))
+
+
+def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
+    machine = json.loads((hangprinter / "machine.json").read_text())
+    points = np.genfromtxt(hangprinter / "points.csv", delimiter=",", skip_header=1)
+    with open(hangprinter / "quantities.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    quantities = {"quantity": [r["quantity"] for r in rows], "value": [float(r["value"]) for r in rows],
+                  "sigma": [float(r["sigma"]) for r in rows]}
+    built = parcal.MechanismDataset(
+        machine, samples={"readings": points[:, :4], "position": points[:, 4:7], "loads": points[:, 7:]},
+        quantities=quantities)
+    from_files = parcal.read_dataset(hangprinter)
+    assert np.array_equal(built.samples["measured"], from_files.samples["measured"])
+    assert parcal.calibrate(built).to_json() == parcal.calibrate(from_files).to_json()
+    delta_machine = json.loads((delta / "machine.json").read_text())
+    probes = np.loadtxt(delta / "probes.csv", delimiter=",", skiprows=1)
+    probes[3, 2] = np.inf
+    with pytest.raises(parcal.Error, match=r"\(in memory\)/probes\.csv: field row 4\[2\]: value inf is not a finite number"):
+        parcal.MechanismDataset(delta_machine, probes=probes)
+    with pytest.raises(parcal.Error, match=r"noise\.distance: required"):
+        parcal.MechanismDataset({**delta_machine, "noise": {"probe": 0.01}}, distances=np.ones((2, 7)))
+    with pytest.raises(parcal.Error, match=r"samples\[\"readings\"\]: expected 4 columns, got 3"):
+        parcal.MechanismDataset(machine, samples={"readings": np.ones((2, 3))})
+    with pytest.raises(parcal.Error, match=r"machine\.json: .*unknown mechanism"):
+        parcal.MechanismDataset({**machine, "mechanism": "scara"}, probes=probes)

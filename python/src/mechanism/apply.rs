@@ -4,6 +4,7 @@
 //! and the actuator commands that reach target positions.
 
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
+use parcal::dataset::mechanism::TARGETS;
 use parcal::report::mechanism_validation::validation_record;
 use parcal::{CalibratedMechanism, MechanismCalibrationRecord, validate_mechanism as validate};
 use parcal::{Compensation, compensate_mechanism as compensate};
@@ -70,6 +71,7 @@ pub fn compensate_mechanism<'py>(
     let (record, name) = calibration_record(calibration, accept_rejected)?;
     let calibrated = calibrated(&record, &name)?;
     let targets = rows::<3>(targets, "targets")?;
+    TARGETS.check("targets", targets.len()).map_err(to_py)?;
     let results = py.detach(|| compensate(&calibrated, &targets));
     let unreachable: Vec<String> = results
         .iter()

@@ -9,13 +9,13 @@ use std::path::PathBuf;
 use numpy::{PyArray1, PyArray2};
 use parcal::MechanismData;
 use parcal::MechanismDataset as Inner;
-use parcal::dataset::mechanism::SampleRow;
+use parcal::dataset::mechanism::{MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow};
 use parcal::kinematics::mechanism::Mechanism;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use super::data_error;
-use crate::convert::{array2, table, to_python};
+use crate::convert::{array2, rows, table, table_rows, through_file, to_python};
 use crate::error::to_py;
 
 /// A mechanism dataset: its machine (the mechanism by name, the
@@ -26,6 +26,12 @@ use crate::error::to_py;
 ///
 /// `MechanismDataset.read(path)` reads a directory whose machine.json
 /// names its `"mechanism"`; `parcal.read_dataset(path)` reads either kind.
+/// `MechanismDataset(machine, probes=, distances=, samples=, quantities=)`
+/// builds one in memory: `machine` holds what machine.json holds, `probes`
+/// n x 3, `distances` n x 7, `samples` a dict of `readings` (n x A),
+/// `position` (n x 3, a row of NaN where not measured) and `loads`
+/// (n x A), `quantities` a dict of `quantity`, `value`, `sigma`; they are
+/// checked as the files are, and messages name the files they would be.
 #[pyclass(module = "parcal", frozen)]
 pub struct MechanismDataset {
     /// The dataset as read.
@@ -53,6 +59,52 @@ impl MechanismDataset {
 
 #[pymethods]
 impl MechanismDataset {
+    #[new]
+    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None))]
+    fn new(
+        machine: &Bound<'_, PyAny>,
+        probes: Option<&Bound<'_, PyAny>>,
+        distances: Option<&Bound<'_, PyAny>>,
+        samples: Option<&Bound<'_, PyDict>>,
+        quantities: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let machine = through_file(
+            machine,
+            "parcal-machine/1",
+            MACHINE_FILE,
+            MechanismMachine::read,
+        )?;
+        let actuators = machine
+            .mechanism()
+            .expect("machine.json's reader knows the mechanism")
+            .actuators()
+            .len();
+        let inner = Inner {
+            probes: probes
+                .map(|p| rows::<3>(p, "probes"))
+                .transpose()?
+                .unwrap_or_default(),
+            distances: distances
+                .map(|d| rows::<7>(d, "distances"))
+                .transpose()?
+                .unwrap_or_default(),
+            samples: samples
+                .map(|s| sample_rows(s, actuators))
+                .transpose()?
+                .unwrap_or_default(),
+            quantities: quantities
+                .map(quantity_rows)
+                .transpose()?
+                .unwrap_or_default(),
+            truth: None,
+            machine,
+        };
+        let path = PathBuf::from("(in memory)");
+        inner.validate(&path).map_err(to_py)?;
+        let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
+        Ok(Self { inner, data, path })
+    }
+
     /// Reads the mechanism dataset in directory `path` (machine.json
     /// naming its mechanism); the messages of a bad file name the file,
     /// the line and the column or field.
@@ -77,9 +129,7 @@ impl MechanismDataset {
     #[getter]
     fn machine<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let directory = tempfile::tempdir().map_err(to_py)?;
-        let path = directory
-            .path()
-            .join(parcal::dataset::mechanism::MACHINE_FILE);
+        let path = directory.path().join(MACHINE_FILE);
         self.inner.machine.write(&path).map_err(to_py)?;
         let text = std::fs::read_to_string(&path).map_err(to_py)?;
         py.import("json")?.call_method1("loads", (text,))
@@ -249,4 +299,79 @@ impl MechanismDataset {
             d.quantities.len()
         )
     }
+}
+
+/// The samples of a dict: `readings` (n x A), `position` (n x 3, a row of
+/// NaN where not measured) and `loads` (n x A, a row of NaN where not
+/// given), the last two optional.
+fn sample_rows(dict: &Bound<'_, PyDict>, actuators: usize) -> PyResult<Vec<SampleRow>> {
+    let column = |key: &str, width: usize| -> PyResult<Option<Vec<Vec<f64>>>> {
+        dict.get_item(key)?
+            .filter(|value| !value.is_none())
+            .map(|value| table_rows(&value, width, &format!("samples[{key:?}]")))
+            .transpose()
+    };
+    let readings =
+        column("readings", actuators)?.ok_or_else(|| to_py("samples: missing \"readings\""))?;
+    let positions = column("position", 3)?;
+    let loads = column("loads", actuators)?;
+    for (key, rows) in [("position", &positions), ("loads", &loads)] {
+        if let Some(rows) = rows
+            && rows.len() != readings.len()
+        {
+            return Err(to_py(format!(
+                "samples: {key} has {} rows and readings {}: one of each per sample",
+                rows.len(),
+                readings.len()
+            )));
+        }
+    }
+    let given = |rows: &Option<Vec<Vec<f64>>>, k: usize| {
+        rows.as_ref()
+            .map(|rows| rows[k].clone())
+            .filter(|row| !row.iter().all(|v| v.is_nan()))
+    };
+    Ok(readings
+        .into_iter()
+        .enumerate()
+        .map(|(k, readings)| SampleRow {
+            readings,
+            position: given(&positions, k).map(|p| [p[0], p[1], p[2]]),
+            loads: given(&loads, k),
+        })
+        .collect())
+}
+
+/// The quantities of a dict: `quantity` (names), `value` and `sigma`.
+fn quantity_rows(dict: &Bound<'_, PyDict>) -> PyResult<Vec<QuantityRow>> {
+    let entry = |key: &str| {
+        dict.get_item(key)?
+            .ok_or_else(|| to_py(format!("quantities: missing {key:?}")))
+    };
+    let names: Vec<String> = entry("quantity")?
+        .extract()
+        .map_err(|_| to_py("quantities[\"quantity\"]: expected a list of names"))?;
+    let numbers = |key: &str| -> PyResult<Vec<f64>> {
+        entry(key)?
+            .extract()
+            .map_err(|_| to_py(format!("quantities[{key:?}]: expected a list of numbers")))
+    };
+    let (values, sigmas) = (numbers("value")?, numbers("sigma")?);
+    if values.len() != names.len() || sigmas.len() != names.len() {
+        return Err(to_py(format!(
+            "quantities: quantity, value and sigma have {}, {} and {} rows: one of each per quantity",
+            names.len(),
+            values.len(),
+            sigmas.len()
+        )));
+    }
+    Ok(names
+        .into_iter()
+        .zip(values.into_iter().zip(sigmas))
+        .map(|(quantity, (value, sigma))| QuantityRow {
+            quantity,
+            value,
+            sigma,
+        })
+        .collect())
 }

@@ -64,7 +64,13 @@ pub fn plan_mechanism<'py>(
     }
     let start = match after {
         Some(after) => {
-            let (record, name) = calibration_record(after, false)?;
+            let (record, name) = calibration_record(after, true)?;
+            if !record.accepted {
+                return Err(to_py(format!(
+                    "{name}: the calibration was rejected ({}); plan after an accepted one",
+                    record.reasons.join("; ")
+                )));
+            }
             let start = Start::from_record(&record, mechanism)
                 .map_err(|e| to_py(format!("{name}: {e}")))?;
             Some(start)
