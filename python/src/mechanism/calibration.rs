@@ -234,7 +234,8 @@ impl MechanismCalibration {
         for observation in observations {
             let worst = worst_row(observation);
             w.push(worst.map_or(f64::NAN, |(_, w)| w));
-            e.push(worst.map_or(f64::NAN, |(row, _)| observation.residuals[row]));
+            let residual = worst.and_then(|(row, _)| observation.residuals.get(row).copied());
+            e.push(residual.unwrap_or(f64::NAN));
         }
         let dict = PyDict::new(py);
         let kinds: Vec<&str> = observations.iter().map(|o| o.kind.as_str()).collect();
