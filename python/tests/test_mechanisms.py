@@ -250,3 +250,28 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
         parcal.MechanismDataset(machine, samples={"readings": np.ones((2, 3))})
     with pytest.raises(parcal.Error, match=r"machine\.json: .*unknown mechanism"):
         parcal.MechanismDataset({**machine, "mechanism": "scara"}, probes=probes)
+
+
+def test_a_cable_robot_plans_measured_samples_as_the_cli(hangprinter, cli, tmp_path):
+    cli("plan", hangprinter, "--measurements", 3, "--measured-positions", "--grid", 6, "--out", tmp_path / "next.csv")
+    summary = json.loads((tmp_path / "next.json").read_text())
+    plan = parcal.plan(parcal.read_dataset(hangprinter), 3, measured_positions=True, grid=6)
+    assert plan["group"] == "anchors" and plan["kind"] == ["point sample"] * 3
+    assert np.array_equal(plan["position"], [m["target"] for m in summary["measurements"]])
+    assert np.array_equal(plan["trace"], [m["trace_after"] for m in summary["measurements"]])
+    assert plan["parameters"]["name"][:12] == parcal.read_dataset(hangprinter).parameters[:12]
+    assert np.all(plan["parameters"]["after"] <= plan["parameters"]["before"])
+
+
+def test_a_rejected_calibration_is_applied_only_when_accepted_anyway(hangprinter, tmp_path):
+    # The discarded positions, calibrated as if trusted: rejected.
+    held_out = held_out_hangprinter(hangprinter, tmp_path / "held-out")
+    (held_out / "quantities.csv").write_text((hangprinter / "quantities.csv").read_text())
+    run = parcal.calibrate(parcal.read_dataset(held_out))
+    assert run.verdict == "rejected", run.reasons
+    targets = [[0.0, 0.0, 300.0]]
+    with pytest.raises(parcal.Error, match=r"\(in memory\): the calibration was rejected .*accept_rejected=True"):
+        parcal.compensate(run, targets)
+    assert parcal.compensate(run, targets, accept_rejected=True)["q"].shape == (1, 4)
+    with pytest.raises(parcal.Error, match="plan after an accepted one"):
+        parcal.plan(parcal.read_dataset(hangprinter), 3, after=run)
