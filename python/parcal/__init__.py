@@ -1,40 +1,114 @@
-"""parcal: kinematic calibration of parallel mechanisms (hexapods) with a
-priori knowledge (Sato et al., Meas. Sci. Technol. 15 (2004) 1158), from
-Python, numpy in and out.
+"""parcal: kinematic calibration of parallel mechanisms (hexapods, linear
+deltas, cable robots) with a priori knowledge (Sato et al., Meas. Sci.
+Technol. 15 (2004) 1158), from Python, numpy in and out.
 
     import parcal
-    ds = parcal.Dataset.read("fixtures/paper-seed1")
-    run = parcal.calibrate(ds, prior="propagated", snoop=True)
+    ds = parcal.read_dataset("fixtures/hangprinter")   # or fixtures/paper-seed1
+    run = parcal.calibrate(ds, snoop=True)
     print(run.verdict, dict(zip(run.names, run.values)))
 
 Every function mirrors a command of the ``parcal`` binary, its keyword
-options the command's long flags with ``_`` for ``-``; every error is a
-``parcal.Error`` (a ``ValueError``) whose message names the row, ball,
-field or file. See docs/python.md.
+options the command's long flags with ``_`` for ``-``; like the command,
+it takes a hexapod's dataset (``Dataset``) or another mechanism's
+(``MechanismDataset``) and does what the command does with it. Every
+error is a ``parcal.Error`` (a ``ValueError``) whose message names the
+row, line, observation, field or file. See docs/python.md.
 """
 
+import json
+import os
+from typing import Any, Union, overload
+
+from . import _parcal
 from ._parcal import (
     Calibration,
     Dataset,
     Error,
+    MechanismCalibration,
+    MechanismDataset,
     __version__,
     accuracy,
-    calibrate,
-    compensate,
-    plan,
+    read_dataset,
     simulate,
-    validate,
 )
+
+
+def _mechanism_calibration(calibration):
+    """Whether `calibration` is a mechanism's: a MechanismCalibration, or
+    the path of a calibration.json whose format is a mechanism's (any other
+    path goes to the hexapod's reader, whose message names what is wrong)."""
+    if isinstance(calibration, MechanismCalibration):
+        return True
+    if not isinstance(calibration, (str, os.PathLike)):
+        return False
+    try:
+        with open(calibration, encoding="utf-8") as f:
+            fmt = json.load(f).get("format", "")
+    except (OSError, ValueError, AttributeError):
+        return False
+    return isinstance(fmt, str) and fmt.startswith("parcal-mechanism-calibration/")
+
+
+@overload
+def calibrate(dataset: MechanismDataset, **options: Any) -> MechanismCalibration: ...
+@overload
+def calibrate(dataset: Dataset, *, progress: Any = None, **options: Any) -> Calibration: ...
+def calibrate(dataset, *, progress=None, **options):
+    """Calibrates `dataset` as ``parcal calibrate`` does: a hexapod's
+    (``Dataset``, returns a ``Calibration``) or another mechanism's
+    (``MechanismDataset``, returns a ``MechanismCalibration``; its options
+    are ``snoop``, ``loss`` and ``max_iterations``, and it takes no
+    ``progress``)."""
+    if isinstance(dataset, MechanismDataset):
+        if progress is not None:
+            raise Error("progress: a mechanism's calibration reports no iterations")
+        return _parcal.calibrate_mechanism(dataset, **options)
+    return _parcal.calibrate(dataset, progress=progress, **options)
+
+
+def validate(dataset: Union[Dataset, MechanismDataset], **options: Any) -> "dict[str, Any]":
+    """Validates `dataset` as ``parcal validate`` does and returns what it
+    writes to validation.json (a dict): a mechanism's held-out data against
+    ``calibration`` (a ``MechanismCalibration`` or its calibration.json's
+    path; option ``accept_rejected``), or a hexapod's (options
+    ``calibration``, ``reference``, ``folds``, ``accept_rejected``)."""
+    if isinstance(dataset, MechanismDataset):
+        return _parcal.validate_mechanism(dataset, **options)
+    return _parcal.validate(dataset, **options)
+
+
+def compensate(calibration: Any, targets: Any, **options: Any) -> "dict[str, Any]":
+    """The actuator commands that reach `targets` with `calibration`, as
+    ``parcal compensate`` computes them: a mechanism's (targets n x 3;
+    returns ``target``, ``q``, ``nominal``, ``sigma``) or a hexapod's
+    (targets n x 6; returns ``q``, ``conditioning``, ``corrected_poses``)."""
+    if _mechanism_calibration(calibration):
+        return _parcal.compensate_mechanism(calibration, targets, **options)
+    return _parcal.compensate(calibration, targets, **options)
+
+
+def plan(dataset: Union[Dataset, MechanismDataset], *args: Any, **options: Any) -> "dict[str, Any]":
+    """The measurements to make next, as ``parcal plan`` chooses them: for
+    a mechanism ``plan(dataset, measurements, group=, grid=,
+    measured_positions=, after=)``, for a hexapod ``plan(dataset,
+    contacts, tilt, criterion=, ...)``."""
+    if isinstance(dataset, MechanismDataset):
+        return _parcal.plan_mechanism(dataset, *args, **options)
+    return _parcal.plan(dataset, *args, **options)
+
 
 __all__ = [
     "Calibration",
     "Dataset",
     "Error",
+    "MechanismCalibration",
+    "MechanismDataset",
     "__version__",
     "accuracy",
     "calibrate",
     "compensate",
     "plan",
+    "read_dataset",
     "simulate",
     "validate",
 ]

@@ -240,3 +240,227 @@ def plan(
     of ``ball`` (ids), ``direction`` (n x 3), ``angles`` (n x 3: roll,
     pitch, yaw), ``q`` (n x 6), and ``prior``, ``predicted``,
     ``pool_size``, ``stroke``."""
+
+def read_dataset(path: PathLike) -> Union[Dataset, "MechanismDataset"]:
+    """Reads the dataset at ``path`` as the kind its machine.json declares:
+    a ``MechanismDataset`` when it names a mechanism other than the
+    hexapod, else a ``Dataset`` (a snapshot file is a hexapod's)."""
+
+class MechanismSamples(TypedDict):
+    """points.csv's samples: readings (n x A), position (n x 3, NaN where
+    not measured), measured (n booleans), loads (n x A, NaN where not
+    given; None when no row gives them)."""
+
+    readings: FloatArray
+    position: FloatArray
+    measured: npt.NDArray[np.bool_]
+    loads: Optional[FloatArray]
+
+class MechanismQuantities(TypedDict):
+    """quantities.csv: each quantity's name, measured value and sigma."""
+
+    quantity: list[str]
+    value: FloatArray
+    sigma: FloatArray
+
+class MechanismTruth(TypedDict):
+    """A simulated dataset's truth.json: the parameters as written and in
+    the canonical frame of a calibration's values, and the trigger height."""
+
+    parameters: FloatArray
+    canonical: FloatArray
+    trigger_height: Optional[float]
+
+class MechanismDataset:
+    """A mechanism dataset (a linear delta, a cable robot): its machine and
+    its probe heights, part distances, encoder samples and measured
+    quantities, as numpy arrays. Built in memory from what machine.json
+    holds and the observations' arrays (``samples``: ``readings`` n x A,
+    ``position`` n x 3 with NaN rows where not measured, ``loads`` n x A;
+    ``quantities``: ``quantity``, ``value``, ``sigma``), checked as the
+    files are."""
+
+    def __init__(
+        self,
+        machine: Mapping[str, Any],
+        *,
+        probes: Optional[npt.ArrayLike] = None,
+        distances: Optional[npt.ArrayLike] = None,
+        samples: Optional[Mapping[str, Any]] = None,
+        quantities: Optional[Mapping[str, Any]] = None,
+    ) -> None: ...
+    @staticmethod
+    def read(path: PathLike) -> "MechanismDataset":
+        """Reads the directory ``path`` (machine.json naming its mechanism)."""
+    def write(self, path: PathLike) -> None:
+        """Writes the dataset as directory ``path`` (new or empty), as a set."""
+    @property
+    def mechanism(self) -> str:
+        """The mechanism's name ("linear delta", "cable robot")."""
+    @property
+    def machine(self) -> dict[str, Any]:
+        """machine.json's content."""
+    @property
+    def parameters(self) -> list[str]:
+        """The mechanism's parameters' names, in its order."""
+    @property
+    def units(self) -> list[str]:
+        """Their units."""
+    @property
+    def groups(self) -> list[str]:
+        """Their groups (which machine.json's tolerances name)."""
+    @property
+    def configured(self) -> FloatArray:
+        """The values the controller ran with."""
+    @property
+    def design(self) -> FloatArray:
+        """The design: the priors' means."""
+    @property
+    def prior_sigmas(self) -> FloatArray:
+        """The priors' sigmas (NaN: no prior)."""
+    @property
+    def noise(self) -> dict[str, float]:
+        """machine.json's noise of each kind of measurement given."""
+    @property
+    def trigger_height(self) -> Optional[dict[str, float]]:
+        """The probe's trigger height: value and prior sigma (mm)."""
+    @property
+    def probes(self) -> FloatArray:
+        """Probe heights (n x 3: x, y, z mm)."""
+    @property
+    def distances(self) -> FloatArray:
+        """Part distances (n x 7: x1, y1, z1, x2, y2, z2, distance mm)."""
+    @property
+    def samples(self) -> MechanismSamples:
+        """points.csv's samples."""
+    @property
+    def quantities(self) -> MechanismQuantities:
+        """quantities.csv's measured quantities."""
+    @property
+    def truth(self) -> Optional[MechanismTruth]:
+        """A simulated dataset's truth; None for measured data."""
+
+class MechanismObservationTests(TypedDict):
+    """Every observation's test, one entry each."""
+
+    kind: list[str]
+    index: npt.NDArray[np.int64]
+    place: list[str]
+    redundancy: FloatArray
+    normalised_residual: FloatArray
+    residual: FloatArray
+
+class MechanismCalibration:
+    """A mechanism's calibration: verdict, parameters with sigmas, priors
+    and covariance (canonical frame), the observations' tests, what the
+    data leave to the priors, and calibration.json as ``parcal calibrate``
+    writes it."""
+
+    @staticmethod
+    def read(path: PathLike) -> "MechanismCalibration":
+        """Reads a mechanism's calibration.json."""
+    @property
+    def mechanism(self) -> str:
+        """The mechanism's name."""
+    @property
+    def verdict(self) -> Literal["accepted", "rejected"]:
+        """The verdict."""
+    @property
+    def reasons(self) -> list[str]:
+        """Why, one sentence each."""
+    @property
+    def warnings(self) -> list[str]:
+        """Why data snooping stopped early, if it did."""
+    @property
+    def status(self) -> str:
+        """How the solver's run ended."""
+    @property
+    def iterations(self) -> int:
+        """The solver's linear solves."""
+    @property
+    def names(self) -> list[str]:
+        """The parameters: the mechanism's, then trigger_height if estimated."""
+    @property
+    def units(self) -> list[str]:
+        """Their units."""
+    @property
+    def groups(self) -> list[str]:
+        """Their groups."""
+    @property
+    def values(self) -> FloatArray:
+        """Their estimates (canonical frame)."""
+    @property
+    def sigmas(self) -> FloatArray:
+        """Their posterior sigmas (NaN: not computed)."""
+    @property
+    def prior_means(self) -> FloatArray:
+        """Their prior means."""
+    @property
+    def prior_sigmas(self) -> FloatArray:
+        """Their prior sigmas (NaN: no prior)."""
+    @property
+    def sigma_ratios(self) -> FloatArray:
+        """Posterior over prior sigma (NaN: no prior or not computed)."""
+    @property
+    def covariance(self) -> FloatArray:
+        """Their covariance (n x n; 0 x 0 when not computed)."""
+    @property
+    def global_test(self) -> Optional[dict[str, Any]]:
+        """The global test of the variance factor."""
+    @property
+    def observations(self) -> MechanismObservationTests:
+        """Every observation's test, named by its file and line."""
+    @property
+    def critical_value(self) -> float:
+        """The w-tests' critical value of |w|."""
+    @property
+    def removed(self) -> list[dict[str, Any]]:
+        """The observations data snooping removed."""
+    @property
+    def identifiability(self) -> Optional[dict[str, Any]]:
+        """gauge, undetermined (components, data_to_prior) and statements."""
+    def to_dict(self) -> dict[str, Any]:
+        """calibration.json's content as a dict."""
+    def to_json(self) -> str:
+        """calibration.json's text, as ``parcal calibrate`` writes it."""
+    def write(self, path: PathLike) -> None:
+        """Writes calibration.json to ``path`` (atomically)."""
+
+def calibrate_mechanism(
+    dataset: MechanismDataset,
+    *,
+    snoop: bool = False,
+    loss: str = "squared",
+    max_iterations: Optional[int] = None,
+) -> MechanismCalibration:
+    """``parcal.calibrate`` on a mechanism dataset."""
+
+def validate_mechanism(
+    dataset: MechanismDataset,
+    *,
+    calibration: Union[MechanismCalibration, PathLike],
+    accept_rejected: bool = False,
+) -> dict[str, Any]:
+    """``parcal.validate`` on a mechanism dataset: validation.json's content."""
+
+def compensate_mechanism(
+    calibration: Union[MechanismCalibration, PathLike],
+    targets: npt.ArrayLike,
+    *,
+    accept_rejected: bool = False,
+) -> dict[str, FloatArray]:
+    """``parcal.compensate`` with a mechanism's calibration (targets n x 3):
+    ``target`` (n x 3), ``q`` and ``nominal`` (n x A), ``sigma`` (n x 3)."""
+
+def plan_mechanism(
+    dataset: MechanismDataset,
+    measurements: int,
+    *,
+    group: Optional[str] = None,
+    grid: int = 12,
+    measured_positions: bool = False,
+    after: Union[MechanismCalibration, PathLike, None] = None,
+) -> dict[str, Any]:
+    """``parcal.plan`` on a mechanism dataset: ``kind``, ``position`` (n x 3),
+    ``trace``, ``trace_before``, ``group``, ``feasible``,
+    ``from_calibration``, ``parameters``, ``statements``."""

@@ -2,6 +2,8 @@
 //! hold), arrays of rows through numpy (float64, one row per
 //! observation).
 
+use std::path::Path;
+
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -10,7 +12,7 @@ use serde::Serialize;
 use crate::error::to_py;
 
 /// `object` (a dict, a list...) as JSON text, by Python's `json.dumps`.
-pub fn json_text(object: &Bound<'_, PyAny>, what: &str) -> PyResult<String> {
+fn json_text(object: &Bound<'_, PyAny>, what: &str) -> PyResult<String> {
     let json = object.py().import("json")?;
     json.call_method1("dumps", (object,))
         .and_then(|text| text.extract())
@@ -26,25 +28,57 @@ pub fn to_python<'py>(py: Python<'py>, value: &impl Serialize) -> PyResult<Bound
 /// `object` as float64 rows of `N` columns, named `what` in errors (with
 /// the row of a value that is not finite).
 pub fn rows<const N: usize>(object: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f64; N]>> {
+    Ok(table_rows(object, N, what)?
+        .into_iter()
+        .map(|row| std::array::from_fn(|k| row[k]))
+        .collect())
+}
+
+/// `object` as float64 rows of `width` columns (a mechanism's actuators),
+/// named `what` in errors.
+pub fn table_rows(object: &Bound<'_, PyAny>, width: usize, what: &str) -> PyResult<Vec<Vec<f64>>> {
     let array = float_array(object, what)?;
     let array: PyReadonlyArray2<f64> = array.extract().map_err(|_| {
         to_py(format!(
-            "{what}: expected a 2-D array of {N} columns, got {} dimension(s)",
+            "{what}: expected a 2-D array of {width} columns, got {} dimension(s)",
             array.ndim()
         ))
     })?;
     let view = array.as_array();
-    if view.ncols() != N {
+    if view.ncols() != width {
         return Err(to_py(format!(
-            "{what}: expected {N} columns, got {}",
+            "{what}: expected {width} columns, got {}",
             view.ncols()
         )));
     }
-    Ok(view
-        .rows()
-        .into_iter()
-        .map(|row| std::array::from_fn(|k| row[k]))
-        .collect())
+    Ok(view.rows().into_iter().map(|row| row.to_vec()).collect())
+}
+
+/// `content` (a dict) as the file `file` (its `format` field `format` if
+/// it has none), read by the file's own reader `read`, which checks it and
+/// names the field (`machine.json: noise.probe: ...`); the temporary
+/// directory it went through is not named.
+pub fn through_file<T>(
+    content: &Bound<'_, PyAny>,
+    format: &str,
+    file: &str,
+    read: impl FnOnce(&Path) -> Result<T, parcal::DatasetError>,
+) -> PyResult<T> {
+    let dict = content
+        .cast::<PyDict>()
+        .map_err(|_| to_py(format!("{file}: expected a dict of its content")))?
+        .copy()?;
+    if !dict.contains("format")? {
+        dict.set_item("format", format)?;
+    }
+    let text = json_text(dict.as_any(), file)?;
+    let directory = tempfile::tempdir().map_err(to_py)?;
+    let path = directory.path().join(file);
+    std::fs::write(&path, text).map_err(to_py)?;
+    read(&path).map_err(|error| {
+        let prefix = format!("{}/", directory.path().display());
+        to_py(error.to_string().replace(&prefix, ""))
+    })
 }
 
 /// `object` as a float64 numpy array (numpy's `asarray`).
@@ -71,4 +105,13 @@ pub fn array2<'py, const N: usize>(
     PyArray1::from_vec(py, flat)
         .reshape([rows.len(), N])
         .expect("n x N numbers reshape to n rows of N")
+}
+
+/// `flat`, `width` numbers a row (the actuators' readings of each row),
+/// as an `n x width` array.
+pub fn table(py: Python<'_>, flat: Vec<f64>, width: usize) -> Bound<'_, PyArray2<f64>> {
+    let rows = flat.len() / width.max(1);
+    PyArray1::from_vec(py, flat)
+        .reshape([rows, width])
+        .expect("whole rows of `width` numbers reshape to n rows")
 }

@@ -12,7 +12,7 @@ use parcal::{Artefacts, Machine, Measurements, Points, Poses, Tracker};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{array2, json_text, rows, to_python};
+use crate::convert::{array2, rows, through_file, to_python};
 use crate::error::to_py;
 
 /// What calibration.json's provenance names a dataset built in memory.
@@ -47,6 +47,18 @@ impl Dataset {
             inner,
             given: IN_MEMORY.to_string(),
         }
+    }
+}
+
+impl Dataset {
+    /// Reads the dataset at `path`: a directory of files, or a binary
+    /// snapshot.
+    pub fn read_from(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let inner = py.detach(|| read_dataset(&path)).map_err(to_py)?;
+        Ok(Self {
+            inner,
+            given: path.display().to_string(),
+        })
     }
 }
 
@@ -106,11 +118,7 @@ impl Dataset {
     /// snapshot (dataset.bin).
     #[staticmethod]
     fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let inner = py.detach(|| read_dataset(&path)).map_err(to_py)?;
-        Ok(Self {
-            inner,
-            given: path.display().to_string(),
-        })
+        Self::read_from(py, path)
     }
 
     /// Writes the dataset: a directory of files at `path` (which must not
@@ -231,44 +239,17 @@ fn read_json_files(
     machine: &Bound<'_, PyAny>,
     artefacts: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<(Machine, Artefacts)> {
-    let directory = tempfile::tempdir().map_err(to_py)?;
-    let in_directory = |error: parcal::DatasetError| {
-        let prefix = format!("{}/", directory.path().display());
-        to_py(error.to_string().replace(&prefix, ""))
-    };
-    let machine_path = directory.path().join(MACHINE_FILE);
-    std::fs::write(
-        &machine_path,
-        versioned(machine, "parcal-machine/1", MACHINE_FILE)?,
-    )
-    .map_err(to_py)?;
-    let machine = Machine::read(&machine_path).map_err(in_directory)?;
+    let machine = through_file(machine, "parcal-machine/1", MACHINE_FILE, Machine::read)?;
     let artefacts = match artefacts {
-        Some(artefacts) => {
-            let path = directory.path().join(ARTEFACTS_FILE);
-            std::fs::write(
-                &path,
-                versioned(artefacts, "parcal-artefacts/1", ARTEFACTS_FILE)?,
-            )
-            .map_err(to_py)?;
-            Artefacts::read(&path).map_err(in_directory)?
-        }
+        Some(artefacts) => through_file(
+            artefacts,
+            "parcal-artefacts/1",
+            ARTEFACTS_FILE,
+            Artefacts::read,
+        )?,
         None => Artefacts::default(),
     };
     Ok((machine, artefacts))
-}
-
-/// `content` (a dict) as its file's JSON text, with its `format` field
-/// (`format` if it has none).
-fn versioned(content: &Bound<'_, PyAny>, format: &str, file: &str) -> PyResult<String> {
-    let dict = content
-        .cast::<PyDict>()
-        .map_err(|_| to_py(format!("{file}: expected a dict of its content")))?
-        .copy()?;
-    if !dict.contains("format")? {
-        dict.set_item("format", format)?;
-    }
-    json_text(dict.as_any(), file)
 }
 
 /// The touches: each contact's ball (by id, resolved against

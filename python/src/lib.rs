@@ -2,7 +2,9 @@
 //! package `parcal` (python/parcal) re-exports. Datasets read from files
 //! or built from dicts and numpy arrays ([`dataset`]), their calibration as
 //! `parcal calibrate` makes it ([`calibrate`], [`run`]), and the other
-//! commands with numpy arrays where the command writes CSV ([`commands`]).
+//! commands with numpy arrays where the command writes CSV ([`commands`]);
+//! the same for a linear delta or a cable robot ([`mechanism`]), the
+//! dataset's kind read from its machine.json ([`read`]).
 //! Every error is `parcal.Error`, a `ValueError` ([`error`]).
 
 mod calibrate;
@@ -10,7 +12,9 @@ mod commands;
 mod convert;
 mod dataset;
 mod error;
+mod mechanism;
 mod options;
+mod read;
 mod run;
 
 use pyo3::prelude::*;
@@ -23,5 +27,7 @@ fn _parcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<dataset::Dataset>()?;
     m.add_class::<run::Calibration>()?;
     m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(read::read_dataset, m)?)?;
+    mechanism::register(m)?;
     commands::register(m)
 }

@@ -13,8 +13,8 @@ use parcal::dataset::mechanism::{
 };
 use parcal::plan::bounds;
 use parcal::plan::mechanism::plan_file::write_mechanism_plan;
-use parcal::plan::mechanism::workspace::grid_candidates;
-use parcal::plan::mechanism::{MechanismPlan, PlanRequest, Start, plan_mechanism};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, grid_candidates};
+use parcal::plan::mechanism::{MechanismPlan, PlanRequest, Start, default_group, plan_mechanism};
 use parcal::plan::plan_file::summary_path;
 
 use crate::bounds::Bounded;
@@ -54,9 +54,6 @@ impl MechanismArgs {
         Ok(())
     }
 }
-
-/// The default points per axis of the candidate grid.
-const GRID: usize = 12;
 
 /// What `parcal plan` asks of a mechanism.
 pub struct Request<'a> {
@@ -122,17 +119,13 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
     let candidates = grid_candidates(
         mechanism,
         &params,
-        options.grid.unwrap_or(GRID),
+        options.grid.unwrap_or(DEFAULT_GRID),
         options.measured_positions,
     )?;
-    let group = options.group.clone().unwrap_or_else(|| {
-        match mechanism.name() {
-            "linear delta" => "diagonal rods",
-            "cable robot" => "anchors",
-            _ => mechanism.parameters()[0].group,
-        }
-        .to_string()
-    });
+    let group = options
+        .group
+        .clone()
+        .unwrap_or_else(|| default_group(mechanism).to_string());
     let plan = plan_mechanism(&PlanRequest {
         data: &data,
         noise,

@@ -211,8 +211,9 @@ impl MechanismDataset {
     /// counts within [`OBSERVATIONS`], values finite and within the length
     /// bound, the noise of each kind present given, each measured quantity
     /// one of the mechanism's with a positive sigma, the truth's trigger
-    /// height given for a machine with a probe.
-    fn validate(&self, dir: &Path) -> Result<()> {
+    /// height given for a machine with a probe. Errors name the files in
+    /// `dir` (a dataset built in memory: `Path::new("")`, the files' names).
+    pub fn validate(&self, dir: &Path) -> Result<()> {
         let machine_path = dir.join(MACHINE_FILE);
         let check = Check::new(&machine_path);
         self.machine.validate(check)?;

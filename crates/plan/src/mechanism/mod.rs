@@ -27,4 +27,6 @@ pub mod workspace;
 
 pub use candidate::Candidate;
 pub use greedy::Pick;
-pub use predict::{MechanismPlan, PlanRequest, PlannedParameter, Start, plan_mechanism};
+pub use predict::{
+    MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, plan_mechanism,
+};

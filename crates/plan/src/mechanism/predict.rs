@@ -108,6 +108,17 @@ pub struct PlanRequest<'a> {
     pub count: usize,
 }
 
+/// The parameter group a plan minimises unless asked another: a linear
+/// delta's diagonal rods (what probe heights see least), a cable robot's
+/// anchors, another mechanism's first parameter's group.
+pub fn default_group(mechanism: &dyn Mechanism) -> &'static str {
+    match mechanism.name() {
+        "linear delta" => "diagonal rods",
+        "cable robot" => "anchors",
+        _ => mechanism.parameters()[0].group,
+    }
+}
+
 /// One parameter's predicted sigma.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct PlannedParameter {

@@ -17,6 +17,9 @@ use parcal_kinematics::mechanism::Mechanism;
 use super::candidate::Candidate;
 use crate::DesignError;
 
+/// The candidate grid's points per axis unless asked another.
+pub const DEFAULT_GRID: usize = 12;
+
 /// `count` values evenly from `low` to `high`.
 fn along(low: f64, high: f64, count: usize) -> impl Iterator<Item = f64> + Clone {
     (0..count).map(move |i| low + (high - low) * i as f64 / (count - 1).max(1) as f64)

@@ -1,0 +1,115 @@
+//! `parcal.validate` and `parcal.compensate` for a mechanism's calibration,
+//! as `parcal validate` and `parcal compensate` make them (docs/delta.md,
+//! docs/cable-robots.md): the held-out data judged against a calibration,
+//! and the actuator commands that reach target positions.
+
+use parcal::calibration::hypothesis::SNOOPING_LEVEL;
+use parcal::dataset::mechanism::TARGETS;
+use parcal::report::mechanism_validation::validation_record;
+use parcal::{CalibratedMechanism, MechanismCalibrationRecord, validate_mechanism as validate};
+use parcal::{Compensation, compensate_mechanism as compensate};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::dataset::MechanismDataset;
+use super::{calibration_record, data_error};
+use crate::convert::{array2, rows, table, to_python};
+use crate::error::to_py;
+
+/// The unreachable targets named one by one in an error (the others
+/// counted), as `parcal compensate` names them.
+const NAMED_TARGETS: usize = 10;
+
+/// The numbers that apply `record`, named `name` in messages.
+fn calibrated(record: &MechanismCalibrationRecord, name: &str) -> PyResult<CalibratedMechanism> {
+    CalibratedMechanism::from_record(record).map_err(|e| to_py(format!("{name}: {e}")))
+}
+
+/// Validates `calibration` (a `parcal.MechanismCalibration`, or the path
+/// of a mechanism's calibration.json) on the held-out mechanism dataset
+/// `dataset`, as `parcal validate` does, and returns what it writes to
+/// validation.json: a dict with its `verdict`, `reasons`, the `test` of
+/// the held-out residuals, each kind's RMS, the worst rows named by file
+/// and line. A rejected calibration only with `accept_rejected`.
+#[pyfunction]
+#[pyo3(signature = (dataset, *, calibration, accept_rejected=false))]
+pub fn validate_mechanism<'py>(
+    py: Python<'py>,
+    dataset: &Bound<'py, MechanismDataset>,
+    calibration: &Bound<'py, PyAny>,
+    accept_rejected: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (record, name) = calibration_record(calibration, accept_rejected)?;
+    let calibrated = calibrated(&record, &name)?;
+    let dataset = dataset.get();
+    let validation = py
+        .detach(|| validate(&calibrated, &dataset.data, SNOOPING_LEVEL))
+        .map_err(|e| data_error(&dataset.path, e))?;
+    to_python(py, &validation_record(&validation, name))
+}
+
+/// The actuator commands that put the calibrated machine's effector on
+/// each of `targets` (n x 3, mm, the controller's coordinates), as `parcal
+/// compensate` computes them with `calibration` (a
+/// `parcal.MechanismCalibration`, or a calibration.json's path).
+///
+/// Returns a dict: `target` (n x 3), `q` (n x A, the calibrated machine's
+/// readings, in the actuators' unit), `nominal` (n x A, what the design
+/// the calibration started from commands) and `sigma` (n x 3, the
+/// predicted standard deviation of each coordinate reached, from the
+/// calibration's covariance, mm). A target the machine cannot reach
+/// raises `parcal.Error` naming its row (0-based); a rejected calibration
+/// is used only with `accept_rejected`.
+#[pyfunction]
+#[pyo3(signature = (calibration, targets, *, accept_rejected=false))]
+pub fn compensate_mechanism<'py>(
+    py: Python<'py>,
+    calibration: &Bound<'py, PyAny>,
+    targets: &Bound<'py, PyAny>,
+    accept_rejected: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (record, name) = calibration_record(calibration, accept_rejected)?;
+    let calibrated = calibrated(&record, &name)?;
+    let targets = rows::<3>(targets, "targets")?;
+    TARGETS.check("targets", targets.len()).map_err(to_py)?;
+    let results = py.detach(|| compensate(&calibrated, &targets));
+    let unreachable: Vec<String> = results
+        .iter()
+        .enumerate()
+        .filter_map(|(k, result)| {
+            result
+                .as_ref()
+                .err()
+                .map(|error| format!("target row {k}: {error}"))
+        })
+        .collect();
+    if !unreachable.is_empty() {
+        let more = unreachable.len().saturating_sub(NAMED_TARGETS);
+        return Err(to_py(format!(
+            "{} of {} targets cannot be reached by the calibrated {}:\n  {}{}",
+            unreachable.len(),
+            targets.len(),
+            calibrated.mechanism.name(),
+            unreachable[..unreachable.len().min(NAMED_TARGETS)].join("\n  "),
+            if more > 0 {
+                format!("\n  and {more} more")
+            } else {
+                String::new()
+            }
+        )));
+    }
+    let compensations: Vec<Compensation> = results.into_iter().flatten().collect();
+    let actuators = calibrated.mechanism.actuators().len();
+    let table = |of: &dyn Fn(&Compensation) -> &[f64]| {
+        let flat: Vec<f64> = compensations.iter().flat_map(|c| of(c).to_vec()).collect();
+        table(py, flat, actuators)
+    };
+    let dict = PyDict::new(py);
+    let reached: Vec<[f64; 3]> = compensations.iter().map(|c| c.target).collect();
+    let sigmas: Vec<[f64; 3]> = compensations.iter().map(Compensation::sigmas).collect();
+    dict.set_item("target", array2(py, &reached))?;
+    dict.set_item("q", table(&|c| c.readings.as_slice()))?;
+    dict.set_item("nominal", table(&|c| c.nominal.as_slice()))?;
+    dict.set_item("sigma", array2(py, &sigmas))?;
+    Ok(dict)
+}

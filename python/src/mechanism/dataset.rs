@@ -1,0 +1,377 @@
+//! `parcal.MechanismDataset`: the dataset of a mechanism other than the
+//! hexapod (a linear delta, a cable robot), read from its directory
+//! (machine.json naming the mechanism, probes.csv, distances.csv,
+//! points.csv, quantities.csv, truth.json), its parameters and
+//! observations as numpy arrays.
+
+use std::path::PathBuf;
+
+use numpy::{PyArray1, PyArray2};
+use parcal::MechanismData;
+use parcal::MechanismDataset as Inner;
+use parcal::dataset::mechanism::{MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow};
+use parcal::kinematics::mechanism::Mechanism;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::data_error;
+use crate::convert::{array2, rows, table, table_rows, through_file, to_python};
+use crate::error::to_py;
+
+/// A mechanism dataset: its machine (the mechanism by name, the
+/// configured and design parameters, the tolerances as prior sigmas, the
+/// noise) and its observations: probe heights, part distances, encoder
+/// samples (readings, with the position where measured and the loads where
+/// given) and quantities measured directly.
+///
+/// `MechanismDataset.read(path)` reads a directory whose machine.json
+/// names its `"mechanism"`; `parcal.read_dataset(path)` reads either kind.
+/// `MechanismDataset(machine, probes=, distances=, samples=, quantities=)`
+/// builds one in memory: `machine` holds what machine.json holds, `probes`
+/// n x 3, `distances` n x 7, `samples` a dict of `readings` (n x A),
+/// `position` (n x 3, a row of NaN where not measured) and `loads`
+/// (n x A), `quantities` a dict of `quantity`, `value`, `sigma`; they are
+/// checked as the files are, and messages name the files they would be.
+#[pyclass(module = "parcal", frozen)]
+pub struct MechanismDataset {
+    /// The dataset as read.
+    pub inner: Inner,
+    /// Its data as the calibration takes them (mechanism, priors,
+    /// observations with their sigmas).
+    pub data: MechanismData,
+    /// The directory it was read from, for messages.
+    pub path: PathBuf,
+}
+
+impl MechanismDataset {
+    /// The mechanism of the dataset's data.
+    fn model(&self) -> &dyn Mechanism {
+        self.data.mechanism.as_ref()
+    }
+
+    /// Reads the dataset in directory `path`.
+    pub fn read_from(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let inner = py.detach(|| Inner::read(&path)).map_err(to_py)?;
+        let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
+        Ok(Self { inner, data, path })
+    }
+}
+
+#[pymethods]
+impl MechanismDataset {
+    #[new]
+    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None))]
+    fn new(
+        machine: &Bound<'_, PyAny>,
+        probes: Option<&Bound<'_, PyAny>>,
+        distances: Option<&Bound<'_, PyAny>>,
+        samples: Option<&Bound<'_, PyDict>>,
+        quantities: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let machine = through_file(
+            machine,
+            "parcal-machine/1",
+            MACHINE_FILE,
+            MechanismMachine::read,
+        )?;
+        let actuators = machine
+            .mechanism()
+            .expect("machine.json's reader knows the mechanism")
+            .actuators()
+            .len();
+        let inner = Inner {
+            probes: probes
+                .map(|p| rows::<3>(p, "probes"))
+                .transpose()?
+                .unwrap_or_default(),
+            distances: distances
+                .map(|d| rows::<7>(d, "distances"))
+                .transpose()?
+                .unwrap_or_default(),
+            samples: samples
+                .map(|s| sample_rows(s, actuators))
+                .transpose()?
+                .unwrap_or_default(),
+            quantities: quantities
+                .map(quantity_rows)
+                .transpose()?
+                .unwrap_or_default(),
+            truth: None,
+            machine,
+        };
+        let path = PathBuf::from("(in memory)");
+        inner.validate(&path).map_err(to_py)?;
+        let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
+        Ok(Self { inner, data, path })
+    }
+
+    /// Reads the mechanism dataset in directory `path` (machine.json
+    /// naming its mechanism); the messages of a bad file name the file,
+    /// the line and the column or field.
+    #[staticmethod]
+    fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        Self::read_from(py, path)
+    }
+
+    /// Writes the dataset as directory `path` (which must not exist, or be
+    /// empty), as a set: the whole directory, or nothing.
+    fn write(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.detach(|| self.inner.write(&path)).map_err(to_py)
+    }
+
+    /// The mechanism's name (`"linear delta"`, `"cable robot"`).
+    #[getter]
+    fn mechanism(&self) -> &str {
+        &self.inner.machine.mechanism
+    }
+
+    /// machine.json's content, as the dataset writes it.
+    #[getter]
+    fn machine<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let directory = tempfile::tempdir().map_err(to_py)?;
+        let path = directory.path().join(MACHINE_FILE);
+        self.inner.machine.write(&path).map_err(to_py)?;
+        let text = std::fs::read_to_string(&path).map_err(to_py)?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// The mechanism's parameters' names, in its order (the order of every
+    /// array of parameters).
+    #[getter]
+    fn parameters(&self) -> Vec<String> {
+        self.model()
+            .parameters()
+            .iter()
+            .map(|p| p.name.clone())
+            .collect()
+    }
+
+    /// Their units (`mm`, `rad`...).
+    #[getter]
+    fn units(&self) -> Vec<&'static str> {
+        self.model().parameters().iter().map(|p| p.unit).collect()
+    }
+
+    /// Their groups (`anchors`, `diagonal rods`...), which machine.json's
+    /// tolerances name.
+    #[getter]
+    fn groups(&self) -> Vec<&'static str> {
+        self.model().parameters().iter().map(|p| p.group).collect()
+    }
+
+    /// The values the controller ran with (machine.json's `configured`).
+    #[getter]
+    fn configured<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.machine.configured)
+    }
+
+    /// The design: the priors' means (machine.json's `design`, else
+    /// `configured`).
+    #[getter]
+    fn design<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.machine.design)
+    }
+
+    /// The priors' standard deviations: the mechanism's, overridden per
+    /// group by machine.json's tolerances (NaN: no prior).
+    #[getter]
+    fn prior_sigmas<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let sigmas: Vec<f64> = self
+            .data
+            .priors
+            .iter()
+            .map(|p| p.sigma.unwrap_or(f64::NAN))
+            .collect();
+        PyArray1::from_vec(py, sigmas)
+    }
+
+    /// machine.json's noise: `probe`, `actuator`, `position`, `distance`
+    /// (only those given).
+    #[getter]
+    fn noise<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.inner.machine.noise)
+    }
+
+    /// The probe's trigger height: `{"value": mm, "sigma": mm}` (no
+    /// `sigma`: no prior), or `None` for a machine without a probe.
+    #[getter]
+    fn trigger_height<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.inner.machine.trigger_height)
+    }
+
+    /// The probe heights (n x 3, probes.csv's `x, y, z`: the commanded
+    /// position and the height at which the probe triggered, mm).
+    #[getter]
+    fn probes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        array2(py, &self.inner.probes)
+    }
+
+    /// The part distances (n x 7, distances.csv's `x1, y1, z1, x2, y2,
+    /// z2, distance`, mm).
+    #[getter]
+    fn distances<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        array2(py, &self.inner.distances)
+    }
+
+    /// The samples of points.csv: `readings` (n x A, the actuators'
+    /// unit), `position` (n x 3 mm, NaN where not measured), `measured`
+    /// (n booleans: the position was measured) and `loads` (n x A, NaN
+    /// where not given; `None` when no row gives them).
+    #[getter]
+    fn samples<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let samples = &self.inner.samples;
+        let actuators = self.model().actuators().len();
+        let table = |row: &dyn Fn(&SampleRow) -> Option<&[f64]>, width: usize| {
+            let flat: Vec<f64> = samples
+                .iter()
+                .flat_map(|sample| match row(sample) {
+                    Some(values) => values.to_vec(),
+                    None => vec![f64::NAN; width],
+                })
+                .collect();
+            table(py, flat, width)
+        };
+        let dict = PyDict::new(py);
+        dict.set_item(
+            "readings",
+            table(&|s| Some(s.readings.as_slice()), actuators),
+        )?;
+        dict.set_item(
+            "position",
+            table(&|s| s.position.as_ref().map(|p| p.as_slice()), 3),
+        )?;
+        let measured: Vec<bool> = samples.iter().map(|s| s.position.is_some()).collect();
+        dict.set_item("measured", PyArray1::from_vec(py, measured))?;
+        let loads = if samples.iter().any(|s| s.loads.is_some()) {
+            Some(table(&|s| s.loads.as_deref(), actuators))
+        } else {
+            None
+        };
+        dict.set_item("loads", loads)?;
+        Ok(dict)
+    }
+
+    /// The quantities measured directly (quantities.csv): `quantity`
+    /// (names), `value` and `sigma` (arrays).
+    #[getter]
+    fn quantities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let rows = &self.inner.quantities;
+        let dict = PyDict::new(py);
+        let names: Vec<&str> = rows.iter().map(|r| r.quantity.as_str()).collect();
+        let values: Vec<f64> = rows.iter().map(|r| r.value).collect();
+        let sigmas: Vec<f64> = rows.iter().map(|r| r.sigma).collect();
+        dict.set_item("quantity", names)?;
+        dict.set_item("value", PyArray1::from_vec(py, values))?;
+        dict.set_item("sigma", PyArray1::from_vec(py, sigmas))?;
+        Ok(dict)
+    }
+
+    /// A simulated dataset's truth (truth.json): `parameters` (an array in
+    /// the order of `parameters`), `canonical` (the same machine in the
+    /// canonical frame a calibration's values are in, its gauge freedoms
+    /// fixed) and `trigger_height` (mm, or `None`); `None` for measured
+    /// data.
+    #[getter]
+    fn truth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(truth) = &self.inner.truth else {
+            return Ok(None);
+        };
+        let canonical = self
+            .model()
+            .canonicalize(&truth.parameters)
+            .map_err(|e| to_py(format!("{}: truth.json: {e}", self.path.display())))?;
+        let dict = PyDict::new(py);
+        dict.set_item("parameters", PyArray1::from_slice(py, &truth.parameters))?;
+        dict.set_item("canonical", PyArray1::from_slice(py, canonical.as_slice()))?;
+        dict.set_item("trigger_height", truth.trigger_height)?;
+        Ok(Some(dict))
+    }
+
+    fn __repr__(&self) -> String {
+        let d = &self.inner;
+        format!(
+            "parcal.MechanismDataset({}: a {}, {} probe heights, {} part distances, {} samples, {} quantities)",
+            self.path.display(),
+            d.machine.mechanism,
+            d.probes.len(),
+            d.distances.len(),
+            d.samples.len(),
+            d.quantities.len()
+        )
+    }
+}
+
+/// The samples of a dict: `readings` (n x A), `position` (n x 3, a row of
+/// NaN where not measured) and `loads` (n x A, a row of NaN where not
+/// given), the last two optional.
+fn sample_rows(dict: &Bound<'_, PyDict>, actuators: usize) -> PyResult<Vec<SampleRow>> {
+    let column = |key: &str, width: usize| -> PyResult<Option<Vec<Vec<f64>>>> {
+        dict.get_item(key)?
+            .filter(|value| !value.is_none())
+            .map(|value| table_rows(&value, width, &format!("samples[{key:?}]")))
+            .transpose()
+    };
+    let readings =
+        column("readings", actuators)?.ok_or_else(|| to_py("samples: missing \"readings\""))?;
+    let positions = column("position", 3)?;
+    let loads = column("loads", actuators)?;
+    for (key, rows) in [("position", &positions), ("loads", &loads)] {
+        if let Some(rows) = rows
+            && rows.len() != readings.len()
+        {
+            return Err(to_py(format!(
+                "samples: {key} has {} rows and readings {}: one of each per sample",
+                rows.len(),
+                readings.len()
+            )));
+        }
+    }
+    let given = |rows: &Option<Vec<Vec<f64>>>, k: usize| {
+        rows.as_ref()
+            .map(|rows| rows[k].clone())
+            .filter(|row| !row.iter().all(|v| v.is_nan()))
+    };
+    Ok(readings
+        .into_iter()
+        .enumerate()
+        .map(|(k, readings)| SampleRow {
+            readings,
+            position: given(&positions, k).map(|p| [p[0], p[1], p[2]]),
+            loads: given(&loads, k),
+        })
+        .collect())
+}
+
+/// The quantities of a dict: `quantity` (names), `value` and `sigma`.
+fn quantity_rows(dict: &Bound<'_, PyDict>) -> PyResult<Vec<QuantityRow>> {
+    let entry = |key: &str| {
+        dict.get_item(key)?
+            .ok_or_else(|| to_py(format!("quantities: missing {key:?}")))
+    };
+    let names: Vec<String> = entry("quantity")?
+        .extract()
+        .map_err(|_| to_py("quantities[\"quantity\"]: expected a list of names"))?;
+    let numbers = |key: &str| -> PyResult<Vec<f64>> {
+        entry(key)?
+            .extract()
+            .map_err(|_| to_py(format!("quantities[{key:?}]: expected a list of numbers")))
+    };
+    let (values, sigmas) = (numbers("value")?, numbers("sigma")?);
+    if values.len() != names.len() || sigmas.len() != names.len() {
+        return Err(to_py(format!(
+            "quantities: quantity, value and sigma have {}, {} and {} rows: one of each per quantity",
+            names.len(),
+            values.len(),
+            sigmas.len()
+        )));
+    }
+    Ok(names
+        .into_iter()
+        .zip(values.into_iter().zip(sigmas))
+        .map(|(quantity, (value, sigma))| QuantityRow {
+            quantity,
+            value,
+            sigma,
+        })
+        .collect())
+}

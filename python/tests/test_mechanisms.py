@@ -1,0 +1,277 @@
+"""parcal on a linear delta and a cable robot (MechanismDataset) against
+the parcal binary: reading, calibration, validation, compensation, plan."""
+
+import csv
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+import parcal
+from conftest import ROOT
+
+
+@pytest.fixture
+def hangprinter(tmp_path):
+    """A copy of fixtures/hangprinter: a real cable robot's 44 encoder samples and 4 line lengths."""
+    path = tmp_path / "hangprinter"
+    shutil.copytree(ROOT / "fixtures" / "hangprinter", path)
+    return path
+
+
+@pytest.fixture(scope="session")
+def delta(tmp_path_factory, cli):
+    """A simulated linear delta: 33 probe heights on 4 rings and 12 part distances, with its truth."""
+    path = tmp_path_factory.mktemp("delta") / "delta"
+    cli("simulate", "--mechanism", "delta", "--seed", 5, "--probe-rings", 4, "--part-distances", 12, "--out", path)
+    return path
+
+
+def test_read_dataset_reads_the_kind_machine_json_declares(hangprinter):
+    ds = parcal.read_dataset(hangprinter)
+    assert isinstance(ds, parcal.MechanismDataset)
+    assert isinstance(parcal.read_dataset(ROOT / "fixtures" / "paper-seed1"), parcal.Dataset)
+    assert ds.mechanism == "cable robot"
+    machine = json.loads((hangprinter / "machine.json").read_text())
+    assert ds.parameters == list(machine["configured"])
+    assert np.array_equal(ds.configured, list(machine["configured"].values()))
+    assert ds.units == ["mm"] * 19 and ds.groups[0] == "anchors" and ds.groups[-1] == "encoder zero"
+    assert np.array_equal(ds.prior_sigmas, [50.0] * 12 + [1.0] * 4 + [5.0] * 3)
+    with open(hangprinter / "points.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    samples = ds.samples
+    assert samples["readings"].shape == (len(rows), 4) and samples["loads"].shape == (len(rows), 4)
+    assert np.array_equal(samples["readings"][1], [float(rows[1][f"q{i}"]) for i in range(1, 5)])
+    assert np.array_equal(samples["measured"], [row["x"] != "" for row in rows])
+    assert np.all(np.isnan(samples["position"][~samples["measured"]]))
+    assert ds.quantities["quantity"] == [f"line_length_{c}" for c in "abcd"]
+    assert ds.probes.shape == (0, 3) and ds.distances.shape == (0, 7) and ds.truth is None
+    assert ds.machine == {"design": None, **machine}  # as written: no design, the configured values
+
+
+def test_a_mechanism_dataset_written_reads_back_the_same(delta, tmp_path):
+    original = parcal.MechanismDataset.read(delta)
+    original.write(tmp_path / "copy")
+    copy = parcal.MechanismDataset.read(tmp_path / "copy")
+    for name in ("probes", "distances", "configured", "design", "prior_sigmas"):
+        assert np.array_equal(getattr(copy, name), getattr(original, name)), name
+    assert copy.machine == original.machine and copy.trigger_height == {"value": 0.7, "sigma": 0.05}
+    assert np.array_equal(copy.truth["parameters"], original.truth["parameters"])
+    with pytest.raises(parcal.Error, match="copy"):
+        original.write(tmp_path / "copy")
+
+
+@pytest.mark.parametrize(
+    "options, flags", [({}, []), ({"snoop": True}, ["--snoop"]), ({"loss": "huber"}, ["--loss", "huber"])]
+)
+def test_the_hangprinter_gives_the_calibration_json_of_the_cli(hangprinter, cli, tmp_path, options, flags):
+    out = tmp_path / "cli.json"
+    status = cli("calibrate", hangprinter, "--out", out, *flags)
+    expected = (out if status == 0 else out.with_name("cli.rejected.json")).read_text()
+    run = parcal.calibrate(parcal.read_dataset(hangprinter), **options)
+    assert run.to_json() == expected
+    record = json.loads(expected)
+    assert run.to_dict() == record
+    assert run.verdict == ("accepted" if record["accepted"] else "rejected")
+    assert run.names == [p["name"] for p in record["parameters"]]
+    assert np.array_equal(run.values, [p["value"] for p in record["parameters"]])
+    assert np.array_equal(run.sigmas, [p["sigma"] for p in record["parameters"]])
+    assert np.array_equal(run.covariance, record["covariance"])
+    assert np.allclose(np.sqrt(np.diag(run.covariance)), run.sigmas, rtol=1e-12)
+    tests = run.observations
+    assert len(tests["kind"]) == len(record["tests"]["observations"]) == 48
+    assert {"points.csv line 2 (point sample 0)", "quantities.csv line 5 (measured quantity 3)"} <= set(tests["place"])
+    assert np.nanmax(np.abs(tests["normalised_residual"])) <= run.critical_value
+    assert run.identifiability["statements"][: len(record["identifiability"]["statements"])] == \
+        record["identifiability"]["statements"]
+    run.write(tmp_path / "python.json")
+    assert (tmp_path / "python.json").read_text() == expected
+
+
+def test_a_simulated_delta_recovers_its_truth_within_4_sigma(delta):
+    ds = parcal.read_dataset(delta)
+    run = parcal.calibrate(ds)
+    assert run.verdict == "accepted", run.reasons
+    truth = np.append(ds.truth["canonical"], ds.truth["trigger_height"])
+    assert run.names == ds.parameters + ["trigger_height"]
+    gauge = run.sigmas == 0.0
+    # The canonical frame fixes the same values in the truth and the estimate.
+    assert np.allclose(run.values[gauge], truth[gauge], atol=1e-9)
+    # Identifiable: the data, not the prior, set the sigma (posterior under
+    # half the prior). The truth is drawn from the prior and the probes'
+    # noise is Gaussian, so each error is N(0, sigma): 4 sigma fails with
+    # probability 6e-5 per parameter.
+    identifiable = ~gauge & (run.sigma_ratios < 0.5)
+    assert {"homed_height", "radius", "endstop_a", "angle_a"} <= {n for n, k in zip(run.names, identifiable) if k}
+    errors = (run.values - truth)[identifiable] / run.sigmas[identifiable]
+    assert np.all(np.abs(errors) < 4.0), dict(zip(np.array(run.names)[identifiable], errors))
+
+
+def held_out_hangprinter(hangprinter, path):
+    """The 32 positions the author discarded, as a dataset (docs/cable-robots-validation.md)."""
+    path.mkdir()
+    shutil.copy(hangprinter / "machine.json", path)
+    readings = np.loadtxt(hangprinter / "points.csv", delimiter=",", skiprows=1, usecols=range(4))
+    untrusted = np.loadtxt(hangprinter / "untrusted.csv", delimiter=",", skiprows=1)
+    rows = np.hstack([readings[untrusted[:, 0].astype(int)], untrusted[:, 1:]])
+    np.savetxt(path / "points.csv", rows, delimiter=",", header="q1,q2,q3,q4,x,y,z", comments="", fmt="%.17g")
+    return path
+
+
+def test_validate_the_hangprinter_on_its_held_out_positions_as_the_cli(hangprinter, cli, tmp_path):
+    held_out = held_out_hangprinter(hangprinter, tmp_path / "held-out")
+    calibration = tmp_path / "calibration.json"
+    cli("calibrate", hangprinter, "--out", calibration)
+    cli("validate", held_out, "--calibration", calibration, "--out", tmp_path / "v.json")
+    expected = json.loads((tmp_path / "v.json").read_text())
+    del expected["format"]
+    mine = parcal.validate(parcal.read_dataset(held_out), calibration=str(calibration))
+    assert mine == expected
+    # The author's judgement, in numbers (docs/cable-robots-validation.md).
+    assert mine["verdict"] == "rejected"
+    in_memory = parcal.calibrate(parcal.read_dataset(hangprinter))
+    again = parcal.validate(parcal.read_dataset(held_out), calibration=in_memory)
+    assert again == {**mine, "calibration": "(in memory)"}
+
+
+def split_probes(delta, path):
+    """`delta` as two datasets: its even probe heights and part distances, and its odd probe heights."""
+    fit, held_out = path / "fit", path / "held-out"
+    for directory in (fit, held_out):
+        directory.mkdir()
+        shutil.copy(delta / "machine.json", directory)
+    lines = (delta / "probes.csv").read_text().splitlines()
+    (fit / "probes.csv").write_text("\n".join([lines[0], *lines[1::2]]) + "\n")
+    (held_out / "probes.csv").write_text("\n".join([lines[0], *lines[2::2]]) + "\n")
+    shutil.copy(delta / "distances.csv", fit)
+    return fit, held_out
+
+
+def test_a_delta_validates_on_held_out_probes(delta, tmp_path):
+    fit, held_out = split_probes(delta, tmp_path)
+    run = parcal.calibrate(parcal.read_dataset(fit))
+    assert run.verdict == "accepted", run.reasons
+    validation = parcal.validate(parcal.read_dataset(held_out), calibration=run)
+    # The same machine measured again: the held-out residuals agree with
+    # the noise and the calibration's covariance (a 5 % test, this seed).
+    assert validation["verdict"] == "accepted", validation["reasons"]
+    assert validation["test"]["degrees_of_freedom"] == len(validation["rows"]) == 16
+
+
+def test_compensate_gives_the_commands_of_the_cli(delta, cli, tmp_path):
+    calibration = tmp_path / "calibration.json"
+    cli("calibrate", delta, "--out", calibration)
+    targets = np.array([[0.0, 0.0, 5.0], [30.0, -20.0, 10.0], [-60.0, 45.0, 120.0]])
+    np.savetxt(tmp_path / "t.csv", targets, delimiter=",", header="x,y,z", comments="", fmt="%.17g")
+    cli("compensate", "--calibration", calibration, "--targets", tmp_path / "t.csv", "--out", tmp_path / "q.csv")
+    theirs = np.loadtxt(tmp_path / "q.csv", delimiter=",", skiprows=1)
+    mine = parcal.compensate(str(calibration), targets)
+    assert np.array_equal(mine["target"], targets)
+    assert np.array_equal(np.hstack([mine["target"], mine["q"], mine["nominal"]]), theirs)
+    assert mine["sigma"].shape == (3, 3) and np.all(mine["sigma"] > 0)
+    in_memory = parcal.compensate(parcal.MechanismCalibration.read(calibration), targets)
+    assert np.array_equal(in_memory["q"], mine["q"])
+    with pytest.raises(parcal.Error, match=r"1 of 2 targets cannot be reached by the calibrated linear delta:\n  target row 1: "):
+        parcal.compensate(str(calibration), [[0.0, 0.0, 5.0], [0.0, 0.0, 5000.0]])
+
+
+def test_plan_chooses_the_probes_of_the_cli(delta, cli, tmp_path):
+    cli("plan", delta, "--measurements", 4, "--out", tmp_path / "next.csv")
+    summary = json.loads((tmp_path / "next.json").read_text())
+    plan = parcal.plan(parcal.read_dataset(delta), 4)
+    assert plan["group"] == summary["group"] == "diagonal rods"
+    assert plan["feasible"] == summary["feasible_candidates"]
+    assert plan["kind"] == [m["kind"] for m in summary["measurements"]]
+    assert np.array_equal(plan["position"], [m["target"] for m in summary["measurements"]])
+    assert np.array_equal(plan["trace"], [m["trace_after"] for m in summary["measurements"]])
+    assert np.all(np.diff(np.append(plan["trace_before"], plan["trace"])) <= 0)
+    after = parcal.plan(parcal.read_dataset(delta), 4, after=parcal.calibrate(parcal.read_dataset(delta)))
+    assert after["from_calibration"] and after["trace_before"] < plan["trace_before"]
+    with pytest.raises(parcal.Error, match="measured_positions applies to a cable robot"):
+        parcal.plan(parcal.read_dataset(delta), 4, measured_positions=True)
+    with pytest.raises(parcal.Error, match="measurements"):
+        parcal.plan(parcal.read_dataset(delta), 0)
+
+
+def test_bad_input_raises_parcal_error_naming_the_file_and_line(delta, hangprinter, tmp_path):
+    bad = tmp_path / "bad"
+    shutil.copytree(delta, bad)
+    lines = (bad / "probes.csv").read_text().splitlines()
+    lines[3] = "10,20,nan"
+    (bad / "probes.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(parcal.Error, match=r"probes\.csv.*line 4"):
+        parcal.read_dataset(bad)
+    with pytest.raises(parcal.Error, match=r"points\.csv"):
+        (hangprinter / "points.csv").write_text("q1,q2,q3\n1,2,3\n")
+        parcal.read_dataset(hangprinter)
+    ds = parcal.read_dataset(delta)
+    with pytest.raises(parcal.Error, match="progress: a mechanism's calibration reports no iterations"):
+        parcal.calibrate(ds, progress=print)
+    with pytest.raises(parcal.Error, match="loss: "):
+        parcal.calibrate(ds, loss="quartic")
+    with pytest.raises(parcal.Error, match="options.snoop: data snooping with a robust loss"):
+        parcal.calibrate(ds, snoop=True, loss="huber")
+    with pytest.raises(parcal.Error, match="max_iterations"):
+        parcal.calibrate(ds, max_iterations=0)
+    with pytest.raises(TypeError, match="sim"):
+        parcal.calibrate(ds, sim="III")
+    with pytest.raises(parcal.Error, match=r"targets: expected 3 columns, got 6"):
+        parcal.compensate(parcal.calibrate(ds), np.zeros((2, 6)))
+    with pytest.raises(parcal.Error, match=r"targets"):
+        parcal.compensate(parcal.calibrate(ds), np.zeros((0, 3)))
+    paper = parcal.calibrate(parcal.read_dataset(ROOT / "fixtures" / "paper-seed1"))
+    paper.write(tmp_path / "hexapod.json")
+    with pytest.raises(parcal.Error, match="hexapod.json"):
+        parcal.validate(ds, calibration=str(tmp_path / "hexapod.json"))
+
+
+def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
+    machine = json.loads((hangprinter / "machine.json").read_text())
+    points = np.genfromtxt(hangprinter / "points.csv", delimiter=",", skip_header=1)
+    with open(hangprinter / "quantities.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    quantities = {"quantity": [r["quantity"] for r in rows], "value": [float(r["value"]) for r in rows],
+                  "sigma": [float(r["sigma"]) for r in rows]}
+    built = parcal.MechanismDataset(
+        machine, samples={"readings": points[:, :4], "position": points[:, 4:7], "loads": points[:, 7:]},
+        quantities=quantities)
+    from_files = parcal.read_dataset(hangprinter)
+    assert np.array_equal(built.samples["measured"], from_files.samples["measured"])
+    assert parcal.calibrate(built).to_json() == parcal.calibrate(from_files).to_json()
+    delta_machine = json.loads((delta / "machine.json").read_text())
+    probes = np.loadtxt(delta / "probes.csv", delimiter=",", skiprows=1)
+    probes[3, 2] = np.inf
+    with pytest.raises(parcal.Error, match=r"\(in memory\)/probes\.csv: field row 4\[2\]: value inf is not a finite number"):
+        parcal.MechanismDataset(delta_machine, probes=probes)
+    with pytest.raises(parcal.Error, match=r"noise\.distance: required"):
+        parcal.MechanismDataset({**delta_machine, "noise": {"probe": 0.01}}, distances=np.ones((2, 7)))
+    with pytest.raises(parcal.Error, match=r"samples\[\"readings\"\]: expected 4 columns, got 3"):
+        parcal.MechanismDataset(machine, samples={"readings": np.ones((2, 3))})
+    with pytest.raises(parcal.Error, match=r"machine\.json: .*unknown mechanism"):
+        parcal.MechanismDataset({**machine, "mechanism": "scara"}, probes=probes)
+
+
+def test_a_cable_robot_plans_measured_samples_as_the_cli(hangprinter, cli, tmp_path):
+    cli("plan", hangprinter, "--measurements", 3, "--measured-positions", "--grid", 6, "--out", tmp_path / "next.csv")
+    summary = json.loads((tmp_path / "next.json").read_text())
+    plan = parcal.plan(parcal.read_dataset(hangprinter), 3, measured_positions=True, grid=6)
+    assert plan["group"] == "anchors" and plan["kind"] == ["point sample"] * 3
+    assert np.array_equal(plan["position"], [m["target"] for m in summary["measurements"]])
+    assert np.array_equal(plan["trace"], [m["trace_after"] for m in summary["measurements"]])
+    assert plan["parameters"]["name"][:12] == parcal.read_dataset(hangprinter).parameters[:12]
+    assert np.all(plan["parameters"]["after"] <= plan["parameters"]["before"])
+
+
+def test_a_rejected_calibration_is_applied_only_when_accepted_anyway(hangprinter, tmp_path):
+    # The discarded positions, calibrated as if trusted: rejected.
+    held_out = held_out_hangprinter(hangprinter, tmp_path / "held-out")
+    (held_out / "quantities.csv").write_text((hangprinter / "quantities.csv").read_text())
+    run = parcal.calibrate(parcal.read_dataset(held_out))
+    assert run.verdict == "rejected", run.reasons
+    targets = [[0.0, 0.0, 300.0]]
+    with pytest.raises(parcal.Error, match=r"\(in memory\): the calibration was rejected .*accept_rejected=True"):
+        parcal.compensate(run, targets)
+    assert parcal.compensate(run, targets, accept_rejected=True)["q"].shape == (1, 4)
+    with pytest.raises(parcal.Error, match="plan after an accepted one"):
+        parcal.plan(parcal.read_dataset(hangprinter), 3, after=run)
