@@ -43,7 +43,7 @@ pub use ball_touch::{BallTouch, TouchRow};
 pub use commanded::{POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
-pub use point_sample::PointSample;
+pub use point_sample::{PointSample, SampleRows};
 pub use probe::ProbeHeight;
 pub use quantity::MeasuredQuantity;
 
