@@ -444,8 +444,13 @@ fn probe_heights_and_three_balls_determine_the_rods_common_length() {
     assert_eq!(rod_scale_directions(&with_balls), 0);
     for name in ["diagonal_a", "diagonal_b", "diagonal_c", "radius"] {
         let (before, after) = (ratio(&probes_only, name), ratio(&with_balls, name));
-        eprintln!("{name}: posterior/prior sigma {before:.3} probes alone, {after:.3} with 3 balls");
-        assert!(after < before, "{name}: {after} with balls, {before} without");
+        eprintln!(
+            "{name}: posterior/prior sigma {before:.3} probes alone, {after:.3} with 3 balls"
+        );
+        assert!(
+            after < before,
+            "{name}: {after} with balls, {before} without"
+        );
     }
     eprintln!(
         "with 3 balls: {:#?}",
@@ -456,16 +461,14 @@ fn probe_heights_and_three_balls_determine_the_rods_common_length() {
 #[test]
 fn balls_touched_too_few_times_are_refused_by_name() {
     let data = MechanismData::from_dataset(&touched(4, 2)).unwrap();
-    let error_of = |observations: Observations| {
-        match calibrate_mechanism(
-            &data.with_observations(observations),
-            &MechanismOptions::default(),
-        ) {
-            Err(MechanismCalibrationError::InvalidData { what, reason }) => {
-                format!("{what}: {reason}")
-            }
-            other => panic!("{other:?}"),
+    let error_of = |observations: Observations| match calibrate_mechanism(
+        &data.with_observations(observations),
+        &MechanismOptions::default(),
+    ) {
+        Err(MechanismCalibrationError::InvalidData { what, reason }) => {
+            format!("{what}: {reason}")
         }
+        other => panic!("{other:?}"),
     };
     let mut three = data.observations.clone();
     three.touches.retain(|t| t.ball == 0);

@@ -11,7 +11,7 @@ use parcal_calibrate::mechanism::{
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
     DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE,
-    QUANTITIES_FILE, TOUCHES_FILE, RowRecord, ShiftRecord,
+    QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
 };
 
 use crate::instruments::{test_record, test_statement};

@@ -23,8 +23,8 @@
 //! reports `x_c = f(p_c, g(p, x))`. Deterministic for a seed: each kind
 //! draws from its own stream.
 
-use parcal_dataset::bounds::check_product;
 use parcal_dataset::bounds::Count;
+use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{
     BALLS, BallRow, MechanismDataset, MechanismMachine, MechanismTruth, Noise, OBSERVATIONS,
     SampleRow, TouchRow, ValuePrior,
@@ -176,7 +176,9 @@ impl DeltaScenario {
             self.touch_sigma,
         ];
         if sigmas.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-            return invalid("every standard deviation and the balls' radius must be finite and positive");
+            return invalid(
+                "every standard deviation and the balls' radius must be finite and positive",
+            );
         }
         if !(self.print_radius.is_finite() && self.print_radius > 0.0) {
             return invalid("the print radius must be finite and positive");
@@ -296,8 +298,13 @@ pub fn measure_delta(
         })
         .collect::<Result<Vec<_>, SimulateError>>()?;
 
-    let (balls, touches) =
-        touch_balls(scenario, &delta, &truth, &configured, &mut rng(Stream::Balls))?;
+    let (balls, touches) = touch_balls(
+        scenario,
+        &delta,
+        &truth,
+        &configured,
+        &mut rng(Stream::Balls),
+    )?;
 
     let machine = MechanismMachine {
         noise: Noise {
@@ -365,9 +372,7 @@ fn touch_balls(
             let commanded = delta
                 .inverse(truth, &point)
                 .and_then(|q| delta.forward(configured, q.as_slice(), &point))
-                .map_err(|e| {
-                    SimulateError::Mechanism(format!("touch {k} of ball {ball}: {e}"))
-                })?;
+                .map_err(|e| SimulateError::Mechanism(format!("touch {k} of ball {ball}: {e}")))?;
             touches.push(TouchRow {
                 ball,
                 commanded: [commanded[0], commanded[1], commanded[2]],

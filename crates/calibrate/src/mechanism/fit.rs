@@ -226,7 +226,10 @@ fn checks(
     }
     for (index, row) in by_touch.iter().enumerate() {
         let kind = ObservationKind::Touch;
-        checks.push(check(ObservationRef { kind, index }, std::slice::from_ref(row)));
+        checks.push(check(
+            ObservationRef { kind, index },
+            std::slice::from_ref(row),
+        ));
     }
     Ok(checks)
 }

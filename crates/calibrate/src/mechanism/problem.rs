@@ -244,8 +244,9 @@ impl<'a> MechanismProblem<'a> {
         let touch = &self.data.observations.touches[t];
         let n = self.n_params();
         let radius_at = self.radius_at[touch.ball];
-        let radius =
-            radius_at.map_or(self.data.observations.balls[touch.ball].radius, |k| global[k]);
+        let radius = radius_at.map_or(self.data.observations.balls[touch.ball].radius, |k| {
+            global[k]
+        });
         let row = touch
             .evaluate(
                 self.data.mechanism.as_ref(),

@@ -4,8 +4,8 @@
 
 use parcal_dataset::GlobalTestRecord;
 use parcal_dataset::mechanism::{
-    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord, ParameterRecord,
-    RemovalRecord, TestsRecord, UndeterminedRecord,
+    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
+    ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
 };
 
 use super::result::MechanismCalibration;

@@ -70,10 +70,7 @@ pub(crate) fn read_balls(path: &Path) -> Result<Vec<BallRow>> {
         let mut rows: Vec<BallRow> = Vec::new();
         table::for_each_row(reader, &header, "ball", |row| {
             if rows.len() == BALLS.max {
-                return Err(row.error(
-                    None,
-                    BALLS.refusal("the number of ball rows", "more"),
-                ));
+                return Err(row.error(None, BALLS.refusal("the number of ball rows", "more")));
             }
             let number = rows.len();
             let [value] = row.numbers(&[ball_at], &["ball"])?;
@@ -94,7 +91,9 @@ pub(crate) fn read_balls(path: &Path) -> Result<Vec<BallRow>> {
                 if sigma <= 0.0 {
                     return Err(row.error(
                         Some("radius_sigma"),
-                        format!("{sigma} is not a positive standard deviation (exact: leave it empty)"),
+                        format!(
+                            "{sigma} is not a positive standard deviation (exact: leave it empty)"
+                        ),
                     ));
                 }
                 Some(sigma)

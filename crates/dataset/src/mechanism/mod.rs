@@ -58,8 +58,8 @@ use std::path::Path;
 
 pub use balls::{BALL_COLUMNS, BALLS, BallRow, TOUCH_COLUMNS, TouchRow};
 pub use calibration::{
-    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord, ParameterRecord,
-    RemovalRecord, TestsRecord, UndeterminedRecord,
+    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
+    ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
 pub use observations::{
@@ -371,7 +371,10 @@ impl MechanismDataset {
             let (path, message) = if self.balls.is_empty() {
                 (&touches_path, format!("touches of balls need {BALLS_FILE}"))
             } else {
-                (&balls_path, format!("balls without {TOUCHES_FILE}: nothing touched them"))
+                (
+                    &balls_path,
+                    format!("balls without {TOUCHES_FILE}: nothing touched them"),
+                )
             };
             return Err(DatasetError::Refused {
                 path: path.clone(),

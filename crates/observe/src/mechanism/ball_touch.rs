@@ -130,7 +130,10 @@ mod tests {
             .evaluate(&delta, c, c, &Vector3::new(0.0, 0.0, 10.0), 4.9)
             .unwrap();
         assert!((row.rows.residual[0] - 10.0).abs() < 1e-8, "{:?}", row.rows);
-        let bad = BallTouch { sigma: 0.0, ..touch };
+        let bad = BallTouch {
+            sigma: 0.0,
+            ..touch
+        };
         let error = bad
             .evaluate(&delta, c, c, &Vector3::zeros(), 4.9)
             .unwrap_err();
