@@ -9,8 +9,8 @@
 
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_solver::{
-    GlobalObservations, Method, Problem, SolverOptions, State, Status, normalised_residual,
-    redundancy, solve,
+    BlockId, GlobalObservations, Method, Problem, SolverOptions, State, Status,
+    normalised_residual, redundancy, solve,
 };
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
@@ -100,7 +100,7 @@ pub(crate) fn fit(
         ..SolverOptions::default()
     };
     let solution = solve::<3, 0, 1, _>(&problem, state, &solver_options, &mut |_| {});
-    if let Some(error) = failure(&solution.status) {
+    if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
         return Err(error);
     }
     let refs = problem.global_observation_refs();
@@ -141,8 +141,9 @@ pub(crate) fn fit(
 /// The error of a run that could not fit at all: a failed evaluation (the
 /// observation it names), the unknowns not determined, an invalid start.
 /// A run that merely did not converge is a result (its verdict rejects
-/// it).
-fn failure(status: &Status) -> Option<MechanismCalibrationError> {
+/// it). The solver's groups are the `samples` point samples' poses, then
+/// the balls' centres.
+fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError> {
     match status {
         Status::ProblemFailed {
             iteration, message, ..
@@ -159,7 +160,16 @@ fn failure(status: &Status) -> Option<MechanismCalibrationError> {
             })
         }
         Status::SingularBlock { block, .. } => Some(MechanismCalibrationError::NotDetermined {
-            reason: format!("the pose of {block:?} is not determined by its readings"),
+            reason: match block {
+                BlockId::Group(k) if *k < samples => {
+                    format!("the pose of point sample {k} is not determined by its readings")
+                }
+                BlockId::Group(k) => format!(
+                    "the centre of ball {} is not determined by its touches (touch it at points not all on one circle)",
+                    k - samples
+                ),
+                BlockId::Point(i) => format!("the solver's point {i} is singular"),
+            },
         }),
         Status::InvalidProblem { .. } => Some(MechanismCalibrationError::Solver {
             status: status.clone(),

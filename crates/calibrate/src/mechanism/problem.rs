@@ -33,7 +33,7 @@ use super::observation::{ObservationKind, ObservationRef};
 
 /// The solver's problem: groups of three unknowns (a sample's pose, a
 /// ball's centre), no point unknowns, one row per point.
-pub(crate) type Local = Linearization<3, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
+type Local = Linearization<3, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
 
 /// The problem of [`MechanismData`] (module doc).
 pub(crate) struct MechanismProblem<'a> {
