@@ -261,7 +261,7 @@ impl<'a> MechanismProblem<'a> {
                         kind: ObservationKind::Touch,
                         index: t,
                     },
-                    e,
+                    format!("on ball {}: {e}", touch.ball),
                 )
             })?;
         out.residual[0] = row.rows.residual[0];
