@@ -277,8 +277,9 @@ class MechanismDataset:
     quantities, as numpy arrays. Built in memory from what machine.json
     holds and the observations' arrays (``samples``: ``readings`` n x A,
     ``position`` n x 3 with NaN rows where not measured, ``loads`` n x A;
-    ``quantities``: ``quantity``, ``value``, ``sigma``), checked as the
-    files are."""
+    ``quantities``: ``quantity``, ``value``, ``sigma``; ``balls`` n x 2:
+    radius and its sigma, 0 for an exact radius; ``touches`` n x 4: the
+    ball's number and the commanded x, y, z), checked as the files are."""
 
     def __init__(
         self,
@@ -288,6 +289,8 @@ class MechanismDataset:
         distances: Optional[npt.ArrayLike] = None,
         samples: Optional[Mapping[str, Any]] = None,
         quantities: Optional[Mapping[str, Any]] = None,
+        balls: Optional[npt.ArrayLike] = None,
+        touches: Optional[npt.ArrayLike] = None,
     ) -> None: ...
     @staticmethod
     def read(path: PathLike) -> "MechanismDataset":
@@ -327,6 +330,12 @@ class MechanismDataset:
     @property
     def probes(self) -> FloatArray:
         """Probe heights (n x 3: x, y, z mm)."""
+    @property
+    def balls(self) -> FloatArray:
+        """Calibrated balls (n x 2: radius, its sigma, 0 if exact; mm)."""
+    @property
+    def touches(self) -> FloatArray:
+        """Touches of the balls (n x 4: ball number, commanded x, y, z mm)."""
     @property
     def distances(self) -> FloatArray:
         """Part distances (n x 7: x1, y1, z1, x2, y2, z2, distance mm)."""

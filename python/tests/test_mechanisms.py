@@ -275,3 +275,18 @@ def test_a_rejected_calibration_is_applied_only_when_accepted_anyway(hangprinter
     assert parcal.compensate(run, targets, accept_rejected=True)["q"].shape == (1, 4)
     with pytest.raises(parcal.Error, match="plan after an accepted one"):
         parcal.plan(parcal.read_dataset(hangprinter), 3, after=run)
+
+
+def test_a_delta_touching_balls_built_in_memory_calibrates_as_its_files(cli, tmp_path):
+    cli("simulate", "--mechanism", "delta", "--seed", 3, "--balls", 3, "--points-per-ball", 7, "--out", tmp_path / "sim")
+    from_files = parcal.read_dataset(tmp_path / "sim")
+    assert from_files.balls.shape == (3, 2) and from_files.touches.shape == (21, 4)
+    machine = json.loads((tmp_path / "sim" / "machine.json").read_text())
+    built = parcal.MechanismDataset(machine, probes=from_files.probes, distances=from_files.distances,
+                                    balls=from_files.balls, touches=from_files.touches)
+    assert np.array_equal(built.balls, from_files.balls) and np.array_equal(built.touches, from_files.touches)
+    assert parcal.calibrate(built).to_json() == parcal.calibrate(from_files).to_json()
+    touches = from_files.touches.copy()
+    touches[2, 0] = 0.5
+    with pytest.raises(parcal.Error, match=r"touches row 2: ball 0\.5 is not a ball's number"):
+        parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls, touches=touches)

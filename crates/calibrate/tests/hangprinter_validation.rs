@@ -42,6 +42,8 @@ fn held_out(dataset: &MechanismDataset, position_sigma: f64) -> MechanismDataset
         probes: Vec::new(),
         distances: Vec::new(),
         quantities: Vec::new(),
+        balls: Vec::new(),
+        touches: Vec::new(),
         truth: None,
     }
 }

@@ -2,13 +2,14 @@
 //! (`parcal_calibrate::mechanism`), on printers simulated by
 //! `parcal_simulate::delta`: the estimate's consistency with its
 //! covariance (NEES), a probe blunder found by snooping, what probe
-//! heights alone cannot determine and what a part distance adds, and
-//! readings at unknown poses.
+//! heights alone cannot determine and what a part distance or calibrated
+//! balls add, readings at unknown poses, and touches of calibrated balls
+//! at unknown centres.
 
 use nalgebra::{DMatrix, DVector};
 use parcal_calibrate::mechanism::{
-    MechanismCalibration, MechanismData, MechanismOptions, ObservationKind, ObservationRef,
-    Observations, TRIGGER_HEIGHT, calibrate_mechanism,
+    Ball, MechanismCalibration, MechanismCalibrationError, MechanismData, MechanismOptions,
+    ObservationKind, ObservationRef, Observations, TRIGGER_HEIGHT, calibrate_mechanism,
 };
 use parcal_dataset::mechanism::MechanismDataset;
 use parcal_kinematics::delta::DeltaParams;
@@ -301,4 +302,190 @@ fn commanded_points_nees(seed: u64) -> f64 {
     let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
     assert_eq!(rank, 11, "seed {seed}");
     value
+}
+
+/// `scenario(seed, 0)` with `balls` calibrated balls touched 7 times each.
+fn touched(seed: u64, balls: usize) -> MechanismDataset {
+    let scenario = DeltaScenario {
+        balls,
+        ..scenario(seed, 0)
+    };
+    simulate_delta(&scenario, seed).unwrap()
+}
+
+/// The NEES of a calibration of `dataset` over the parameters and the
+/// trigger height (canonical frame), and its rank.
+fn nees_of(dataset: &MechanismDataset, run: &MechanismCalibration) -> (f64, usize) {
+    let error = run.values() - canonical_truth(dataset);
+    nees(&error, run.covariance.as_ref().unwrap())
+}
+
+#[test]
+fn probes_and_ball_touches_calibrate_a_delta_within_its_sigmas() {
+    // 25 probes and 3 balls of 7 touches: the parameters and the trigger
+    // height (12 identifiable unknowns, as with probes alone) consistent
+    // with their covariance, the NEES below the chi-square's 99.9 %
+    // quantile of 12 degrees (32.91); every ball located, its radius
+    // estimated with its calibration's prior (the true radius drawn from
+    // it: within 4 of its sigmas of the calibrated value).
+    let dataset = touched(21, 3);
+    assert_eq!((dataset.balls.len(), dataset.touches.len()), (3, 21));
+    let run = calibrate(&dataset, &MechanismOptions::default());
+    assert!(run.verdict.accepted, "{:?}", run.reasons);
+    let (value, rank) = nees_of(&dataset, &run);
+    eprintln!("probes and 3 balls: NEES {value:.2} over {rank}");
+    assert_eq!(rank, 12);
+    assert!(value < 32.91, "NEES {value:.2}");
+    assert_eq!(run.balls.len(), 3);
+    for ball in &run.balls {
+        let sigma = ball.centre_sigma.expect("centre sigmas");
+        assert!(sigma.iter().all(|&s| s.is_finite() && s > 0.0), "{ball:?}");
+        assert!(ball.radius_sigma.is_some_and(|s| s > 0.0 && s <= 0.001));
+        assert!((ball.radius - 12.7).abs() < 4.0 * 0.001, "{ball:?}");
+    }
+    let touches = run
+        .observations
+        .iter()
+        .filter(|c| c.observation.kind == ObservationKind::Touch)
+        .count();
+    assert_eq!(touches, 21);
+    // The record carries the balls, and the dataset's files read back.
+    assert_eq!(run.record().balls.len(), 3);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("delta");
+    dataset.write(&path).unwrap();
+    assert_eq!(MechanismDataset::read(&path).unwrap(), dataset);
+}
+
+#[test]
+#[ignore = "30 calibrations; run with --ignored (docs/delta.md)"]
+fn nees_over_printers_with_ball_touches_matches_the_identifiable_count() {
+    // Probes and 3 balls of 7 touches on 30 printers drawn from their
+    // priors (the balls' radii from their calibration's): 12 identifiable
+    // unknowns, the mean NEES within 4 standard errors of 12.
+    let mut values = Vec::new();
+    for seed in 0..30 {
+        let dataset = touched(seed, 3);
+        let run = calibrate(&dataset, &MechanismOptions::default());
+        assert!(run.converged(), "seed {seed}: {:?}", run.reasons);
+        let (value, rank) = nees_of(&dataset, &run);
+        assert_eq!(rank, 12, "seed {seed}");
+        values.push(value);
+    }
+    let (mean, standard_error) = mean_and_standard_error(&values);
+    eprintln!("NEES over 30 printers with ball touches: {mean:.3} +- {standard_error:.3}");
+    assert!(
+        (mean - 12.0).abs() < 4.0 * standard_error,
+        "mean NEES {mean:.3} +- {standard_error:.3}, expected 12"
+    );
+}
+
+#[test]
+fn a_touch_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
+    let mut dataset = touched(5, 3);
+    let blunder = 9;
+    dataset.touches[blunder].commanded[2] += 0.3;
+    let touch = ObservationRef {
+        kind: ObservationKind::Touch,
+        index: blunder,
+    };
+    let plain = calibrate(&dataset, &MechanismOptions::default());
+    assert!(!plain.verdict.accepted);
+    assert_eq!(plain.worst().map(|w| w.observation), Some(touch));
+    assert!(
+        plain.reasons.iter().any(|r| r.contains("ball touch 9")),
+        "{:?}",
+        plain.reasons
+    );
+    let snooped = calibrate(&dataset, &MechanismOptions::default().with_snooping(true));
+    eprintln!("{:#?}", snooped.reasons);
+    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
+    assert_eq!(snooped.removals[0].observation, touch);
+    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+}
+
+#[test]
+fn probe_heights_and_three_balls_determine_the_rods_common_length() {
+    // Probe heights alone leave the rods' common length (the XY scale)
+    // to its prior; three balls of known radius measure lengths and
+    // determine it.
+    let ratio = |run: &MechanismCalibration, name: &str| {
+        let k = run.parameters.iter().position(|p| p.name == name).unwrap();
+        run.identifiability.as_ref().unwrap().sigma_ratio[k].unwrap()
+    };
+    // The rods' common length, their mean: its posterior sigma over its
+    // prior's (σ/√3 for three rods of prior σ).
+    let common = |run: &MechanismCalibration| {
+        let at: Vec<usize> = ["diagonal_a", "diagonal_b", "diagonal_c"]
+            .iter()
+            .map(|name| run.parameters.iter().position(|p| p.name == *name).unwrap())
+            .collect();
+        let covariance = run.covariance.as_ref().unwrap();
+        let variance: f64 = at
+            .iter()
+            .flat_map(|&i| at.iter().map(move |&j| covariance[(i, j)] / 9.0))
+            .sum();
+        let prior = run.parameters[at[0]].prior.sigma.unwrap() / 3f64.sqrt();
+        variance.sqrt() / prior
+    };
+    let probes_only = calibrate(&touched(3, 0), &MechanismOptions::default());
+    let with_balls = calibrate(&touched(3, 3), &MechanismOptions::default());
+    let (before, after) = (common(&probes_only), common(&with_balls));
+    eprintln!(
+        "the rods' common length: posterior/prior sigma {before:.3} probes alone, {after:.3} with 3 balls"
+    );
+    assert!(after < before, "{after} with balls, {before} without");
+    assert!(with_balls.verdict.accepted, "{:?}", with_balls.reasons);
+    assert_eq!(rod_scale_directions(&probes_only), 1);
+    eprintln!(
+        "probes alone: {:#?}",
+        probes_only.identifiability.as_ref().unwrap().statements
+    );
+    assert_eq!(rod_scale_directions(&with_balls), 0);
+    for name in ["diagonal_a", "diagonal_b", "diagonal_c", "radius"] {
+        let (before, after) = (ratio(&probes_only, name), ratio(&with_balls, name));
+        eprintln!(
+            "{name}: posterior/prior sigma {before:.3} probes alone, {after:.3} with 3 balls"
+        );
+        assert!(
+            after < before,
+            "{name}: {after} with balls, {before} without"
+        );
+    }
+    eprintln!(
+        "with 3 balls: {:#?}",
+        with_balls.identifiability.as_ref().unwrap().statements
+    );
+}
+
+#[test]
+fn balls_touched_too_few_times_are_refused_by_name() {
+    let data = MechanismData::from_dataset(&touched(4, 2)).unwrap();
+    let error_of = |observations: Observations| match calibrate_mechanism(
+        &data.with_observations(observations),
+        &MechanismOptions::default(),
+    ) {
+        Err(MechanismCalibrationError::InvalidData { what, reason }) => {
+            format!("{what}: {reason}")
+        }
+        other => panic!("{other:?}"),
+    };
+    let mut three = data.observations.clone();
+    three.touches.retain(|t| t.ball == 0);
+    three.touches.extend(
+        data.observations
+            .touches
+            .iter()
+            .filter(|t| t.ball == 1)
+            .take(3),
+    );
+    let error = error_of(three);
+    assert!(error.starts_with("ball 1: it has 3 touches"), "{error}");
+    let mut untouched = data.observations.clone();
+    untouched.balls.push(Ball {
+        radius: 5.0,
+        radius_sigma: None,
+    });
+    let error = error_of(untouched);
+    assert!(error.starts_with("ball 2: it has 0 touches"), "{error}");
 }

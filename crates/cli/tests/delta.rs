@@ -314,6 +314,35 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
 }
 
 #[test]
+fn a_simulated_printer_touches_calibrated_balls() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let simulate = ["simulate", "--mechanism", "delta", "--points-per-ball", "5"];
+    ok(&[&simulate[..], &["--balls", "3", "--out", s(&sim)]].concat());
+    for file in ["balls.csv", "touches.csv"] {
+        assert!(sim.join(file).exists(), "{file}");
+    }
+    let summary = ok(&["calibrate", s(&sim)]);
+    assert!(summary.contains("15 ball touches"), "{summary}");
+    let many = dir.path().join("many");
+    let err = fails(&[&simulate[..], &["--balls", "1001", "--out", s(&many)]].concat());
+    assert!(err.contains("balls 1001"), "{err}");
+    let err = fails(&[
+        "simulate",
+        "--mechanism",
+        "cable",
+        "--balls",
+        "3",
+        "--out",
+        s(&dir.path().join("cable")),
+    ]);
+    assert!(
+        err.contains("--balls do not apply to a cable robot"),
+        "{err}"
+    );
+}
+
+#[test]
 fn klipper_import_and_export_round_trip() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

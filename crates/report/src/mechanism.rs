@@ -196,6 +196,7 @@ pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<Strin
         .map(|(kind, n)| match (n, kind.strip_suffix('y')) {
             (1, _) => format!("1 {kind}"),
             (_, Some(stem)) => format!("{n} {stem}ies"),
+            (_, None) if kind.ends_with("ch") => format!("{n} {kind}es"),
             (_, None) => format!("{n} {kind}s"),
         })
         .collect()
@@ -235,6 +236,40 @@ pub const PARAMETER_HEADER: [&str; 7] = [
     "sigma / prior sigma",
 ];
 
+/// The calibrated balls' table: centre and its sigmas (the frame of the
+/// commanded positions), radius and its sigma (`exact` without one).
+pub fn ball_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
+    calibration
+        .balls
+        .iter()
+        .enumerate()
+        .map(|(b, ball)| {
+            let [x, y, z] = ball.centre;
+            let sigmas = ball.centre_sigma.map_or_else(
+                || "-".to_string(),
+                |[sx, sy, sz]| format!("{sx:.4}, {sy:.4}, {sz:.4}"),
+            );
+            vec![
+                b.to_string(),
+                format!("{x:.4}, {y:.4}, {z:.4}"),
+                sigmas,
+                format!("{:.4}", ball.radius),
+                ball.radius_sigma
+                    .map_or_else(|| "exact".to_string(), |s| format!("{s:.4}")),
+            ]
+        })
+        .collect()
+}
+
+/// The header of [`ball_rows`].
+pub const BALL_HEADER: [&str; 5] = [
+    "ball",
+    "centre (mm)",
+    "centre sigmas (mm)",
+    "radius (mm)",
+    "radius sigma (mm)",
+];
+
 /// One sentence per observation removed by data snooping.
 pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
     let factor = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3}"));
@@ -269,14 +304,18 @@ pub fn identifiability_statements(calibration: &MechanismCalibrationRecord) -> V
         .undetermined
         .iter()
         .any(|u| u.components.iter().any(|(name, _)| scale(name)));
-    let has_distances = calibration
+    let lengths = [
+        ObservationKind::Distance.name(),
+        ObservationKind::Touch.name(),
+    ];
+    let has_lengths = calibration
         .tests
         .observations
         .iter()
-        .any(|o| o.kind == ObservationKind::Distance.name());
-    if calibration.mechanism == "linear delta" && scale_undetermined && !has_distances {
+        .any(|o| lengths.contains(&o.kind.as_str()));
+    if calibration.mechanism == "linear delta" && scale_undetermined && !has_lengths {
         lines.push(
-            "Probe heights see Z, hardly the XY scale: distances measured on a printed part (distances.csv) determine the diagonal rods and the radius.".to_string(),
+            "Probe heights see Z, hardly the XY scale: distances measured on a printed part (distances.csv) or touches of calibrated balls (balls.csv, touches.csv) determine the diagonal rods and the radius.".to_string(),
         );
     }
     lines
@@ -337,6 +376,16 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
         Tone::Note,
         "A ratio sigma / prior sigma near 1 (flagged from 0.9) marks a parameter the data hardly inform: its value is its prior's.".into(),
     ));
+    if !calibration.balls.is_empty() {
+        blocks.push(Block::Heading(2, "Calibrated balls".into()));
+        blocks.push(Block::Table {
+            header: BALL_HEADER.iter().map(|s| s.to_string()).collect(),
+            rows: ball_rows(calibration)
+                .into_iter()
+                .map(|row| row.into_iter().map(Cell::text).collect())
+                .collect(),
+        });
+    }
     blocks.push(Block::Heading(2, "What the data determine".into()));
     blocks.push(Block::List(
         Tone::Plain,
@@ -408,5 +457,19 @@ mod tests {
         // A record's probe that the probes given do not hold is named.
         let err = probe_residual_svg(&record, &probes[..3]).unwrap_err();
         assert!(err.contains("is not among the 3 probes"), "{err}");
+        assert!(!markdown.contains("Calibrated balls"), "{markdown}");
+        // A record with a ball: its table.
+        let mut record = record;
+        record.balls.push(parcal_dataset::mechanism::BallRecord {
+            centre: [60.0, 0.0, 12.7],
+            centre_sigma: Some([0.5, 0.6, 0.05]),
+            radius: 12.7,
+            radius_sigma: None,
+        });
+        let markdown =
+            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        assert!(markdown.contains("## Calibrated balls"), "{markdown}");
+        assert!(markdown.contains("60.0000, 0.0000, 12.7000"), "{markdown}");
+        assert!(markdown.contains("exact"), "{markdown}");
     }
 }

@@ -11,7 +11,7 @@ use parcal_calibrate::mechanism::{
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
     DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE,
-    QUANTITIES_FILE, RowRecord, ShiftRecord,
+    QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
 };
 
 use crate::instruments::{test_record, test_statement};
@@ -62,6 +62,7 @@ fn file_of(kind: ObservationKind) -> Option<&'static str> {
         ObservationKind::Distance => Some(DISTANCES_FILE),
         ObservationKind::Sample => Some(POINTS_FILE),
         ObservationKind::Quantity => Some(QUANTITIES_FILE),
+        ObservationKind::Touch => Some(TOUCHES_FILE),
         ObservationKind::Point => None,
     }
 }

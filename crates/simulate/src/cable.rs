@@ -225,6 +225,8 @@ pub fn simulate_cable_dataset(
         distances: Vec::new(),
         samples,
         quantities: Vec::new(),
+        balls: Vec::new(),
+        touches: Vec::new(),
         truth: Some(MechanismTruth {
             parameters: simulation.truth.iter().copied().collect(),
             trigger_height: None,

@@ -15,12 +15,19 @@
 //! height of a first layer (0.2 mm), with noise `N(0, σ_d²)`. A point
 //! sample's readings are `g(p, x) + N(0, σ_q²)` at a pose `x` drawn in the
 //! print volume, its position measured with noise `N(0, σ_x²)` for the
-//! first ones. Deterministic for a seed: each kind draws from its own
-//! stream.
+//! first ones. Calibrated balls rest on the bed on a ring at 0.6 of the
+//! print radius, their true radii `ρ + N(0, σ_ρ²)` (exactly `ρ` for an
+//! exact calibration); each is touched on its upper cap at directions `u`
+//! of a golden-angle spiral (polar angles up to 70°), the true tool point
+//! `x = c + (ρ + N(0, σ_t²)) u` and the commanded position the controller
+//! reports `x_c = f(p_c, g(p, x))`. Deterministic for a seed: each kind
+//! draws from its own stream.
 
+use parcal_dataset::bounds::Count;
 use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{
-    MechanismDataset, MechanismMachine, MechanismTruth, Noise, OBSERVATIONS, SampleRow, ValuePrior,
+    BALLS, BallRow, MechanismDataset, MechanismMachine, MechanismTruth, Noise, OBSERVATIONS,
+    SampleRow, TouchRow, ValuePrior,
 };
 use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances, probe_rings};
 use parcal_kinematics::mechanism::Mechanism;
@@ -29,6 +36,16 @@ use crate::{Rng, SimulateError};
 
 /// The height of a first layer, where part distances are measured (mm).
 const FIRST_LAYER: f64 = 0.2;
+
+/// The bounds of the touches of each ball: a centre takes three, a fourth
+/// is the first that checks them.
+pub const TOUCHES_PER_BALL: Count = Count::new(
+    4,
+    1_000_000,
+    "each touch costs a forward kinematics per iteration",
+);
+/// The largest polar angle of a touch from the top of its ball (degrees).
+const CAP_ANGLE: f64 = 70.0;
 
 /// What to simulate.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,12 +79,24 @@ pub struct DeltaScenario {
     pub actuator_sigma: f64,
     /// A measured position's coordinate's standard deviation (mm).
     pub position_sigma: f64,
+    /// Calibrated balls on the bed.
+    pub balls: usize,
+    /// Touches of each ball.
+    pub touches_per_ball: usize,
+    /// The balls' calibrated radius (mm).
+    pub ball_radius: f64,
+    /// Its calibration's standard deviation (mm); `None`: exact.
+    pub ball_radius_sigma: Option<f64>,
+    /// A touch's standard deviation along the ball's normal (mm).
+    pub touch_sigma: f64,
 }
 
 impl DeltaScenario {
     /// A kit printer ([`LinearDelta::typical`]'s design and tolerances)
     /// probed on 3 rings of 8 points (25 probes) within 100 mm at 10 µm,
-    /// trigger height 0.7 ± 0.05 mm, no distance and no point sample.
+    /// trigger height 0.7 ± 0.05 mm, no distance, no point sample and no
+    /// ball (balls of 12.7 mm radius calibrated to 1 µm, touched 7 times
+    /// each at 10 µm when asked for).
     pub fn typical() -> Self {
         Self {
             design: DeltaParams::symmetric(270.0, 135.0, 300.0),
@@ -84,6 +113,11 @@ impl DeltaScenario {
             known_samples: 0,
             actuator_sigma: 0.005,
             position_sigma: 0.01,
+            balls: 0,
+            touches_per_ball: 7,
+            ball_radius: 12.7,
+            ball_radius_sigma: Some(0.001),
+            touch_sigma: 0.01,
         }
     }
 
@@ -116,15 +150,35 @@ impl DeltaScenario {
                 OBSERVATIONS.check(name, count).map_err(refused)?;
             }
         }
+        if self.balls > 0 {
+            BALLS.check("balls", self.balls).map_err(refused)?;
+            TOUCHES_PER_BALL
+                .check("touches per ball", self.touches_per_ball)
+                .map_err(refused)?;
+            check_product(
+                &[
+                    ("balls", self.balls),
+                    ("touches per ball", self.touches_per_ball),
+                ],
+                OBSERVATIONS.max,
+                "touches, the most a mechanism dataset holds",
+            )
+            .map_err(SimulateError::TooLarge)?;
+        }
         let sigmas = [
             self.probe_sigma,
             self.trigger_sigma,
             self.distance_sigma,
             self.actuator_sigma,
             self.position_sigma,
+            self.ball_radius,
+            self.ball_radius_sigma.unwrap_or(1.0),
+            self.touch_sigma,
         ];
         if sigmas.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-            return invalid("every standard deviation must be finite and positive");
+            return invalid(
+                "every standard deviation and the balls' radius must be finite and positive",
+            );
         }
         if !(self.print_radius.is_finite() && self.print_radius > 0.0) {
             return invalid("the print radius must be finite and positive");
@@ -141,6 +195,7 @@ enum Stream {
     Probes = 1,
     Distances = 2,
     Samples = 3,
+    Balls = 4,
 }
 
 /// Simulates `scenario` with `seed` (module doc).
@@ -243,12 +298,21 @@ pub fn measure_delta(
         })
         .collect::<Result<Vec<_>, SimulateError>>()?;
 
+    let (balls, touches) = touch_balls(
+        scenario,
+        &delta,
+        &truth,
+        &configured,
+        &mut rng(Stream::Balls),
+    )?;
+
     let machine = MechanismMachine {
         noise: Noise {
             probe: Some(scenario.probe_sigma),
             distance: (!distances.is_empty()).then_some(scenario.distance_sigma),
             actuator: (!samples.is_empty()).then_some(scenario.actuator_sigma),
             position: (scenario.known_samples > 0).then_some(scenario.position_sigma),
+            touch: (!touches.is_empty()).then_some(scenario.touch_sigma),
         },
         trigger_height: Some(ValuePrior {
             value: scenario.trigger_height,
@@ -262,8 +326,60 @@ pub fn measure_delta(
         distances,
         samples,
         quantities: Vec::new(),
+        balls,
+        touches,
         truth: Some(truth_record),
     })
+}
+
+/// The balls of `scenario` and their touches by the printer of true
+/// parameters `truth` run with `configured`, drawing from `noise` (module
+/// doc).
+fn touch_balls(
+    scenario: &DeltaScenario,
+    delta: &LinearDelta,
+    truth: &[f64],
+    configured: &[f64],
+    noise: &mut Rng,
+) -> Result<(Vec<BallRow>, Vec<TouchRow>), SimulateError> {
+    let (b_count, k_count) = (scenario.balls, scenario.touches_per_ball);
+    let mut balls = Vec::with_capacity(b_count);
+    let mut touches = Vec::with_capacity(b_count * k_count);
+    let golden = std::f64::consts::PI * (3.0 - 5.0f64.sqrt());
+    let lowest = CAP_ANGLE.to_radians().cos();
+    for ball in 0..b_count {
+        let angle = 2.0 * std::f64::consts::PI * ball as f64 / b_count as f64;
+        let ring = 0.6 * scenario.print_radius;
+        let radius = scenario.ball_radius
+            + scenario
+                .ball_radius_sigma
+                .map_or(0.0, |sigma| noise.normal(sigma));
+        let centre = [ring * angle.cos(), ring * angle.sin(), radius];
+        balls.push(BallRow {
+            radius: scenario.ball_radius,
+            radius_sigma: scenario.ball_radius_sigma,
+        });
+        for k in 0..k_count {
+            let polar = (1.0 - (1.0 - lowest) * (k as f64 + 0.5) / k_count as f64).acos();
+            let azimuth = golden * k as f64;
+            let u = [
+                polar.sin() * azimuth.cos(),
+                polar.sin() * azimuth.sin(),
+                polar.cos(),
+            ];
+            let distance = radius + noise.normal(scenario.touch_sigma);
+            let point: [f64; 3] = std::array::from_fn(|i| centre[i] + distance * u[i]);
+            let commanded = delta
+                .inverse(truth, &point)
+                .and_then(|q| delta.forward(configured, q.as_slice(), &point))
+                .map_err(|e| SimulateError::Mechanism(format!("touch {k} of ball {ball}: {e}")))?;
+            touches.push(TouchRow {
+                ball,
+                commanded: [commanded[0], commanded[1], commanded[2]],
+            });
+        }
+    }
+    Ok((balls, touches))
 }
 
 /// The commanded height at `(x, y)` at which the machine of true

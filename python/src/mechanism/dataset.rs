@@ -9,7 +9,9 @@ use std::path::PathBuf;
 use numpy::{PyArray1, PyArray2};
 use parcal::MechanismData;
 use parcal::MechanismDataset as Inner;
-use parcal::dataset::mechanism::{MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow};
+use parcal::dataset::mechanism::{
+    BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TouchRow,
+};
 use parcal::kinematics::mechanism::Mechanism;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -30,8 +32,10 @@ use crate::error::to_py;
 /// builds one in memory: `machine` holds what machine.json holds, `probes`
 /// n x 3, `distances` n x 7, `samples` a dict of `readings` (n x A),
 /// `position` (n x 3, a row of NaN where not measured) and `loads`
-/// (n x A), `quantities` a dict of `quantity`, `value`, `sigma`; they are
-/// checked as the files are, and messages name the files they would be.
+/// (n x A), `quantities` a dict of `quantity`, `value`, `sigma`, `balls`
+/// n x 2 (`radius`, `radius_sigma`, 0 for an exact radius), `touches`
+/// n x 4 (`ball`, the commanded `x, y, z`); they are checked as the files
+/// are, and messages name the files they would be.
 #[pyclass(module = "parcal", frozen)]
 pub struct MechanismDataset {
     /// The dataset as read.
@@ -60,13 +64,15 @@ impl MechanismDataset {
 #[pymethods]
 impl MechanismDataset {
     #[new]
-    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None))]
+    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None, balls=None, touches=None))]
     fn new(
         machine: &Bound<'_, PyAny>,
         probes: Option<&Bound<'_, PyAny>>,
         distances: Option<&Bound<'_, PyAny>>,
         samples: Option<&Bound<'_, PyDict>>,
         quantities: Option<&Bound<'_, PyDict>>,
+        balls: Option<&Bound<'_, PyAny>>,
+        touches: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let machine = through_file(
             machine,
@@ -96,6 +102,8 @@ impl MechanismDataset {
                 .map(quantity_rows)
                 .transpose()?
                 .unwrap_or_default(),
+            balls: balls.map(ball_rows).transpose()?.unwrap_or_default(),
+            touches: touches.map(touch_rows).transpose()?.unwrap_or_default(),
             truth: None,
             machine,
         };
@@ -266,6 +274,39 @@ impl MechanismDataset {
         Ok(dict)
     }
 
+    /// The calibrated balls (n x 2, balls.csv's `radius, radius_sigma`,
+    /// mm; a sigma of 0: an exact radius).
+    #[getter]
+    fn balls<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let rows: Vec<[f64; 2]> = self
+            .inner
+            .balls
+            .iter()
+            .map(|b| [b.radius, b.radius_sigma.unwrap_or(0.0)])
+            .collect();
+        array2(py, &rows)
+    }
+
+    /// The touches of the balls (n x 4, touches.csv's `ball, x, y, z`: the
+    /// ball's number and the commanded position, mm).
+    #[getter]
+    fn touches<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let rows: Vec<[f64; 4]> = self
+            .inner
+            .touches
+            .iter()
+            .map(|t| {
+                [
+                    t.ball as f64,
+                    t.commanded[0],
+                    t.commanded[1],
+                    t.commanded[2],
+                ]
+            })
+            .collect();
+        array2(py, &rows)
+    }
+
     /// A simulated dataset's truth (truth.json): `parameters` (an array in
     /// the order of `parameters`), `canonical` (the same machine in the
     /// canonical frame a calibration's values are in, its gauge freedoms
@@ -343,6 +384,38 @@ fn sample_rows(dict: &Bound<'_, PyDict>, actuators: usize) -> PyResult<Vec<Sampl
 }
 
 /// The quantities of a dict: `quantity` (names), `value` and `sigma`.
+/// `balls` (n x 2: radius, radius sigma, 0 for an exact radius) as
+/// balls.csv's rows.
+fn ball_rows(balls: &Bound<'_, PyAny>) -> PyResult<Vec<BallRow>> {
+    Ok(rows::<2>(balls, "balls")?
+        .into_iter()
+        .map(|[radius, sigma]| BallRow {
+            radius,
+            radius_sigma: (sigma != 0.0).then_some(sigma),
+        })
+        .collect())
+}
+
+/// `touches` (n x 4: ball number, commanded x, y, z) as touches.csv's
+/// rows; a ball number must be a whole number, at least 0.
+fn touch_rows(touches: &Bound<'_, PyAny>) -> PyResult<Vec<TouchRow>> {
+    rows::<4>(touches, "touches")?
+        .into_iter()
+        .enumerate()
+        .map(|(row, [ball, x, y, z])| {
+            if ball < 0.0 || ball.fract() != 0.0 || ball > u32::MAX as f64 {
+                return Err(to_py(format!(
+                    "touches row {row}: ball {ball} is not a ball's number (0, 1, 2, ...)"
+                )));
+            }
+            Ok(TouchRow {
+                ball: ball as usize,
+                commanded: [x, y, z],
+            })
+        })
+        .collect()
+}
+
 fn quantity_rows(dict: &Bound<'_, PyDict>) -> PyResult<Vec<QuantityRow>> {
     let entry = |key: &str| {
         dict.get_item(key)?

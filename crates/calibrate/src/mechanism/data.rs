@@ -8,7 +8,8 @@ use std::sync::Arc;
 
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
-    CommandedPoint, MeasuredQuantity, POSE_COORDINATES, PartDistance, PointSample, ProbeHeight,
+    BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES, PartDistance, PointSample,
+    ProbeHeight,
 };
 
 use super::error::MechanismCalibrationError;
@@ -18,6 +19,12 @@ use super::observation::{ObservationKind, ObservationRef};
 /// (a probed bed holds tens to hundreds), and small enough that the
 /// dense checks over the rows stay within memory.
 pub const MAX_OBSERVATIONS: usize = 1_000_000;
+/// The most calibrated balls: each with a calibration sigma on its radius
+/// adds an unknown to the dense global block.
+pub const MAX_BALLS: usize = 1_000;
+/// The fewest touches of a ball: its centre takes three, and a fourth
+/// is the first that checks them.
+pub const MIN_TOUCHES_PER_BALL: usize = 4;
 /// The fewest actuators a mechanism calibrated here may have (one per
 /// pose coordinate).
 pub const MIN_ACTUATORS: usize = 3;
@@ -37,6 +44,21 @@ pub struct Observations {
     pub samples: Vec<PointSample>,
     /// Quantities of the machine measured directly.
     pub quantities: Vec<MeasuredQuantity>,
+    /// The calibrated balls the touches touch (not observations: their
+    /// centres are unknowns).
+    pub balls: Vec<Ball>,
+    /// Touches of the balls.
+    pub touches: Vec<BallTouch>,
+}
+
+/// A calibrated sphere placed at an unknown centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ball {
+    /// Its calibrated radius `ρ` (mm).
+    pub radius: f64,
+    /// The standard deviation of its calibration (mm); `None`: exact. With
+    /// one, the radius is an unknown of the fit with that prior.
+    pub radius_sigma: Option<f64>,
 }
 
 impl Observations {
@@ -48,6 +70,7 @@ impl Observations {
             ObservationKind::Point => self.points.len(),
             ObservationKind::Sample => self.samples.len(),
             ObservationKind::Quantity => self.quantities.len(),
+            ObservationKind::Touch => self.touches.len(),
         }
     }
 
@@ -71,6 +94,7 @@ impl Observations {
             ObservationKind::Point => drop(rest.points.remove(k)),
             ObservationKind::Sample => drop(rest.samples.remove(k)),
             ObservationKind::Quantity => drop(rest.quantities.remove(k)),
+            ObservationKind::Touch => drop(rest.touches.remove(k)),
         }
         rest
     }
@@ -217,8 +241,10 @@ impl MechanismData {
     /// Checks the data before any work: a mechanism with a 3-coordinate
     /// pose and [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators; sizes
     /// matching it; finite values; positive sigmas; counts within
-    /// [`MAX_OBSERVATIONS`] and at least one observation. The first
-    /// problem names the parameter or the observation.
+    /// [`MAX_OBSERVATIONS`] (balls within [`MAX_BALLS`]) and at least one
+    /// observation; every ball touched at least [`MIN_TOUCHES_PER_BALL`]
+    /// times. The first problem names the parameter, the observation or
+    /// the ball.
     pub fn validate(&self) -> Result<(), MechanismCalibrationError> {
         let mechanism = self.mechanism.as_ref();
         let invalid = |what: String, reason: String| {
@@ -276,6 +302,15 @@ impl MechanismData {
                     format!("{count} is more than the {MAX_OBSERVATIONS} accepted"),
                 );
             }
+        }
+        if observations.balls.len() > MAX_BALLS {
+            return invalid(
+                "balls".to_string(),
+                format!(
+                    "{} is more than the {MAX_BALLS} accepted",
+                    observations.balls.len()
+                ),
+            );
         }
         if observations.is_empty() {
             return invalid(
@@ -339,6 +374,7 @@ impl MechanismData {
                 check_values(id, "loads", loads)?;
             }
         }
+        check_balls(observations)?;
         let quantities = mechanism.quantities();
         for (k, measured) in observations.quantities.iter().enumerate() {
             let id = at(ObservationKind::Quantity, k);
@@ -356,6 +392,67 @@ impl MechanismData {
             check_sigma(id, measured.sigma)?;
         }
         Ok(())
+    }
+}
+
+/// Every ball's radius finite and positive and its sigma, if any, finite
+/// and positive; every touch on a ball that exists, with finite values and
+/// a positive sigma; every ball touched at least [`MIN_TOUCHES_PER_BALL`]
+/// times.
+fn check_balls(observations: &Observations) -> Result<(), MechanismCalibrationError> {
+    let balls = &observations.balls;
+    let ball_error = |b: usize, reason: String| MechanismCalibrationError::InvalidData {
+        what: format!("ball {b}"),
+        reason,
+    };
+    for (b, ball) in balls.iter().enumerate() {
+        if !(ball.radius.is_finite() && ball.radius > 0.0) {
+            return Err(ball_error(
+                b,
+                format!("its radius {} is not finite and positive", ball.radius),
+            ));
+        }
+        if let Some(sigma) = ball.radius_sigma
+            && !(sigma.is_finite() && sigma > 0.0)
+        {
+            return Err(ball_error(
+                b,
+                format!("its radius sigma {sigma} is not finite and positive (exact: none)"),
+            ));
+        }
+    }
+    let mut touches_of = vec![0usize; balls.len()];
+    for (k, touch) in observations.touches.iter().enumerate() {
+        let id = ObservationRef {
+            kind: ObservationKind::Touch,
+            index: k,
+        };
+        if touch.ball >= balls.len() {
+            return Err(observation_error(
+                id,
+                format!(
+                    "it touches ball {}, and there are {} balls",
+                    touch.ball,
+                    balls.len()
+                ),
+            ));
+        }
+        check_values(id, "commanded position", &touch.commanded)?;
+        check_sigma(id, touch.sigma)?;
+        touches_of[touch.ball] += 1;
+    }
+    match touches_of
+        .iter()
+        .position(|&count| count < MIN_TOUCHES_PER_BALL)
+    {
+        Some(b) => Err(ball_error(
+            b,
+            format!(
+                "it has {} touches; its centre needs at least {MIN_TOUCHES_PER_BALL} (give it more, or remove it)",
+                touches_of[b]
+            ),
+        )),
+        None => Ok(()),
     }
 }
 

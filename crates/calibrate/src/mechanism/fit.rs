@@ -3,18 +3,19 @@
 //! normalised residual ([`parcal_solver::redundancy`]) and the global
 //! test's numbers ([`crate::verdict::rows_and_unknowns`]).
 //!
-//! The solver dispatches on the number `R` of actuators (a point sample's
-//! rows) at compile time: [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`].
+//! The solver's points are rows ([`super::problem`]): a point sample's
+//! rows and a touch's row are gathered back into their observation's
+//! check.
 
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_solver::{
-    GlobalObservations, Method, Problem, SolverOptions, State, Status, normalised_residual,
-    redundancy, solve,
+    BlockId, GlobalObservations, Method, Problem, SolverOptions, State, Status,
+    normalised_residual, redundancy, solve,
 };
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
 
-use super::data::{MAX_ACTUATORS, MIN_ACTUATORS, MechanismData};
+use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
@@ -52,6 +53,10 @@ pub(crate) struct Fit {
     pub global: DVector<f64>,
     /// The point samples' poses at the end.
     pub poses: Vec<[f64; 3]>,
+    /// The balls' centres at the end.
+    pub centres: Vec<[f64; 3]>,
+    /// Their marginal standard deviations, when the solver gave them.
+    pub centre_sigmas: Option<Vec<[f64; 3]>>,
     /// How the solver ended.
     pub status: Status,
     /// Its linear solves.
@@ -75,55 +80,34 @@ pub(crate) fn fit(
     data: &MechanismData,
     options: &MechanismOptions,
 ) -> Result<Fit, MechanismCalibrationError> {
-    match data.mechanism.actuators().len() {
-        3 => fit_with::<3>(data, options),
-        4 => fit_with::<4>(data, options),
-        5 => fit_with::<5>(data, options),
-        6 => fit_with::<6>(data, options),
-        7 => fit_with::<7>(data, options),
-        8 => fit_with::<8>(data, options),
-        n => Err(MechanismCalibrationError::InvalidData {
-            what: format!("the {}", data.mechanism.name()),
-            reason: format!(
-                "it has {n} actuators; this calibration takes {MIN_ACTUATORS} to {MAX_ACTUATORS}"
-            ),
-        }),
-    }
-}
-
-fn fit_with<const R: usize>(
-    data: &MechanismData,
-    options: &MechanismOptions,
-) -> Result<Fit, MechanismCalibrationError> {
     let problem = MechanismProblem::new(data, options.loss);
     let start = problem.start();
     let n = problem.n_params();
-    let poses = problem.start_poses(&start.as_slice()[..n])?;
+    let blocks = problem.start_blocks(&start.as_slice()[..n])?;
     // Every global observation evaluated once at the start, so that a
     // commanded position the machine cannot reach is named as such.
     let mut rows = GlobalObservations::zeros(0, start.len());
-    <MechanismProblem as Problem<1, 3, R>>::global_observations(&problem, &start, &mut rows)?;
-    let groups = <MechanismProblem as Problem<1, 3, R>>::n_groups(&problem);
+    problem.global_observations(&start, &mut rows)?;
+    let points = problem.n_points();
     let state = State {
         global: start,
-        groups: vec![SVector::zeros(); groups],
-        points: poses,
+        groups: blocks,
+        points: vec![SVector::zeros(); points],
     };
     let solver_options = SolverOptions {
         method: Method::GaussNewton,
         max_iterations: options.max_iterations,
         ..SolverOptions::default()
     };
-    let solution = solve::<1, 3, R, _>(&problem, state, &solver_options, &mut |_| {});
-    if let Some(error) = failure(&solution.status) {
+    let solution = solve::<3, 0, 1, _>(&problem, state, &solver_options, &mut |_| {});
+    if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
         return Err(error);
     }
     let refs = problem.global_observation_refs();
     let global_rows: usize = refs.iter().map(|(_, rows)| rows).sum();
-    let samples = data.observations.samples.len();
-    let (rows, unknowns) = rows_and_unknowns::<1, 3, R, _>(&problem, samples, global_rows);
+    let (rows, unknowns) = rows_and_unknowns::<3, 0, 1, _>(&problem, points, global_rows);
     let checks = match &solution.covariance {
-        Some(covariance) if at_minimum(&solution.status) => Some(checks::<R>(
+        Some(covariance) if at_minimum(&solution.status) => Some(checks(
             &problem,
             &solution.state,
             covariance,
@@ -132,13 +116,16 @@ fn fit_with<const R: usize>(
         )?),
         _ => None,
     };
+    let samples = data.observations.samples.len();
+    let xyz = |v: &SVector<f64, 3>| [v[0], v[1], v[2]];
+    let (poses, centres) = solution.state.groups.split_at(samples);
     Ok(Fit {
-        poses: solution
-            .state
-            .points
-            .iter()
-            .map(|p| [p[0], p[1], p[2]])
-            .collect(),
+        poses: poses.iter().map(xyz).collect(),
+        centres: centres.iter().map(xyz).collect(),
+        centre_sigmas: solution
+            .group_sigmas
+            .as_ref()
+            .map(|sigmas| sigmas[samples..].iter().map(xyz).collect()),
         global: solution.state.global,
         iterations: solution.history.len(),
         cost: solution.history.last().map(|record| record.cost),
@@ -147,15 +134,16 @@ fn fit_with<const R: usize>(
         prior_information: problem.prior_information(),
         redundancy: rows.saturating_sub(unknowns),
         checks,
-        data_rows: global_rows + R * samples,
+        data_rows: global_rows + points,
     })
 }
 
 /// The error of a run that could not fit at all: a failed evaluation (the
 /// observation it names), the unknowns not determined, an invalid start.
 /// A run that merely did not converge is a result (its verdict rejects
-/// it).
-fn failure(status: &Status) -> Option<MechanismCalibrationError> {
+/// it). The solver's groups are the `samples` point samples' poses, then
+/// the balls' centres.
+fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError> {
     match status {
         Status::ProblemFailed {
             iteration, message, ..
@@ -172,7 +160,16 @@ fn failure(status: &Status) -> Option<MechanismCalibrationError> {
             })
         }
         Status::SingularBlock { block, .. } => Some(MechanismCalibrationError::NotDetermined {
-            reason: format!("the pose of {block:?} is not determined by its readings"),
+            reason: match block {
+                BlockId::Group(k) if *k < samples => {
+                    format!("the pose of point sample {k} is not determined by its readings")
+                }
+                BlockId::Group(k) => format!(
+                    "the centre of ball {} is not determined by its touches (touch it at points not all on one circle)",
+                    k - samples
+                ),
+                BlockId::Point(i) => format!("the solver's point {i} is singular"),
+            },
         }),
         Status::InvalidProblem { .. } => Some(MechanismCalibrationError::Solver {
             status: status.clone(),
@@ -182,29 +179,31 @@ fn failure(status: &Status) -> Option<MechanismCalibrationError> {
 }
 
 /// Every observation's residuals, redundancy numbers and normalised
-/// residuals at `state`, through the solver's redundancy pass.
-fn checks<const R: usize>(
+/// residuals at `state`, through the solver's redundancy pass: the global
+/// observations, then each point sample (its rows), then each touch, in
+/// the order of the data.
+fn checks(
     problem: &MechanismProblem,
-    state: &State<1, 3>,
+    state: &State<3, 0>,
     covariance: &DMatrix<f64>,
     refs: &[(ObservationRef, usize)],
     groups_per_chunk: usize,
 ) -> Result<Vec<ObservationCheck>, MechanismCalibrationError> {
-    let mut samples = Vec::new();
-    let global = redundancy::<1, 3, R, _>(
+    let mut points = Vec::with_capacity(problem.n_points());
+    let global = redundancy::<3, 0, 1, _>(
         problem,
         state,
         covariance,
         &mut Vec::new(),
         groups_per_chunk,
-        |rows| samples.push((rows.residual, rows.redundancy)),
+        |rows| points.push((rows.residual[0], rows.redundancy[0])),
     )
     .map_err(|status| MechanismCalibrationError::Solver { status })?;
-    let check = |observation, residuals: Vec<f64>, redundancy: Vec<f64>| {
-        let normalised = residuals
+    let check = |observation, rows: &[(f64, f64)]| {
+        let (residuals, redundancy): (Vec<f64>, Vec<f64>) = rows.iter().copied().unzip();
+        let normalised = rows
             .iter()
-            .zip(&redundancy)
-            .map(|(&e, &r)| normalised_residual(e, r))
+            .map(|&(e, r)| normalised_residual(e, r))
             .collect();
         ObservationCheck {
             observation,
@@ -213,26 +212,33 @@ fn checks<const R: usize>(
             normalised,
         }
     };
-    let mut checks = Vec::with_capacity(refs.len() + samples.len());
+    let global_rows: Vec<(f64, f64)> = global
+        .global_observation_residuals
+        .iter()
+        .copied()
+        .zip(global.global_observations.iter().copied())
+        .collect();
+    let mut checks = Vec::with_capacity(refs.len() + points.len());
     let mut row = 0;
     for &(observation, rows) in refs {
-        let span = row..row + rows;
-        checks.push(check(
-            observation,
-            global.global_observation_residuals[span.clone()].to_vec(),
-            global.global_observations[span].to_vec(),
-        ));
+        checks.push(check(observation, &global_rows[row..row + rows]));
         row += rows;
     }
-    for (index, (residual, redundancy)) in samples.into_iter().enumerate() {
-        let observation = ObservationRef {
-            kind: ObservationKind::Sample,
-            index,
-        };
+    let order = problem.touch_order();
+    let (samples, touches) = points.split_at(points.len() - order.len());
+    for (index, rows) in samples.chunks(problem.actuators()).enumerate() {
+        let kind = ObservationKind::Sample;
+        checks.push(check(ObservationRef { kind, index }, rows));
+    }
+    let mut by_touch = vec![(0.0, 0.0); order.len()];
+    for (&t, &row) in order.iter().zip(touches) {
+        by_touch[t] = row;
+    }
+    for (index, row) in by_touch.iter().enumerate() {
+        let kind = ObservationKind::Touch;
         checks.push(check(
-            observation,
-            residual.iter().copied().collect(),
-            redundancy.iter().copied().collect(),
+            ObservationRef { kind, index },
+            std::slice::from_ref(row),
         ));
     }
     Ok(checks)

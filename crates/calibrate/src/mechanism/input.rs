@@ -3,16 +3,19 @@
 //! calibration: the mechanism from the one list, the configured
 //! parameters, the design as the priors' means with the mechanism's
 //! tolerances overridden per group, the trigger height's prior, each
-//! observation with the noise of its kind, the samples' loads, and the
-//! measured quantities with their own sigmas.
+//! observation with the noise of its kind, the samples' loads, the
+//! measured quantities with their own sigmas, and the calibrated balls
+//! with their touches.
 
 use std::sync::Arc;
 
 use parcal_dataset::mechanism::MechanismDataset;
 use parcal_kinematics::mechanisms;
-use parcal_observe::mechanism::{MeasuredQuantity, PartDistance, PointSample, ProbeHeight};
+use parcal_observe::mechanism::{
+    BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+};
 
-use super::data::{MechanismData, Observations};
+use super::data::{Ball, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 
 impl MechanismData {
@@ -100,12 +103,33 @@ impl MechanismData {
                 })
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;
+        let balls = dataset
+            .balls
+            .iter()
+            .map(|row| Ball {
+                radius: row.radius,
+                radius_sigma: row.radius_sigma,
+            })
+            .collect();
+        let touches = dataset
+            .touches
+            .iter()
+            .map(|row| {
+                Ok(BallTouch {
+                    ball: row.ball,
+                    commanded: row.commanded,
+                    sigma: noise(n.touch, "touch")?,
+                })
+            })
+            .collect::<Result<_, MechanismCalibrationError>>()?;
         let observations = Observations {
             probes,
             distances,
             points: Vec::new(),
             samples,
             quantities,
+            balls,
+            touches,
         };
         let mut data = MechanismData::new(
             Arc::from(mechanism),

@@ -1,7 +1,8 @@
 //! One calibration for any mechanism whose pose is a position `(x, y, z)`
 //! (a linear delta, a cable robot), through the
 //! [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: probe
-//! heights, part distances, measured points and readings at unknown poses
+//! heights, part distances, measured points, readings at unknown poses and
+//! touches of calibrated balls at unknown centres
 //! ([`parcal_observe::mechanism`]), with the builder's tolerances as
 //! priors, by the method of Sato et al. (2004) the hexapod's calibration
 //! follows.
@@ -14,8 +15,9 @@
 //! - `data`: the data in memory ([`MechanismData`]) and their validation;
 //! - `options`: loss, snooping, level, iteration limit
 //!   ([`MechanismOptions`]);
-//! - `problem`: the solver's problem (global block: parameters and the
-//!   trigger height; points: the poses of point samples);
+//! - `problem`: the solver's problem (global block: parameters, the
+//!   trigger height, uncertain ball radii; local blocks: the poses of
+//!   point samples and the centres of balls);
 //! - `fit`: one solve, redundancy numbers, normalised residuals;
 //! - [`frame`]: the estimate and covariance in the canonical frame (the
 //!   gauge projected out);
@@ -82,14 +84,15 @@ mod validation;
 pub use calibrated::CalibratedMechanism;
 pub use compensation::{Compensation, compensate_mechanism};
 pub use data::{
-    MAX_ACTUATORS, MAX_OBSERVATIONS, MIN_ACTUATORS, MechanismData, Observations, ParameterPrior,
+    Ball, MAX_ACTUATORS, MAX_OBSERVATIONS, MIN_ACTUATORS, MechanismData, Observations,
+    ParameterPrior,
 };
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
 pub use identifiability::{Identifiability, Undetermined};
 pub use observation::{ObservationKind, ObservationRef};
 pub use options::{MAX_ITERATIONS, MechanismOptions};
-pub use result::{EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
+pub use result::{EstimatedBall, EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 
 /// Calibrates `data` with `options`: validates both, refuses a gauge

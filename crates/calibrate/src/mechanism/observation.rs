@@ -5,7 +5,7 @@ use std::fmt;
 
 #[cfg(doc)]
 use parcal_observe::mechanism::{
-    CommandedPoint, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+    BallTouch, CommandedPoint, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
 };
 
 /// The kinds of observation of a mechanism calibration.
@@ -22,16 +22,19 @@ pub enum ObservationKind {
     /// A known function of the parameters measured directly
     /// ([`MeasuredQuantity`]).
     Quantity = 4,
+    /// The tool point touching a calibrated ball ([`BallTouch`]).
+    Touch = 5,
 }
 
 impl ObservationKind {
     /// Every kind, in the order of the rows.
-    pub const ALL: [Self; 5] = [
+    pub const ALL: [Self; 6] = [
         Self::Probe,
         Self::Distance,
         Self::Point,
         Self::Sample,
         Self::Quantity,
+        Self::Touch,
     ];
 
     /// Its place in [`Self::ALL`].
@@ -40,7 +43,7 @@ impl ObservationKind {
     }
 
     /// Its name in messages and files: `probe height`, `part distance`,
-    /// `measured point`, `point sample`, `measured quantity`.
+    /// `measured point`, `point sample`, `measured quantity`, `ball touch`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Probe => "probe height",
@@ -48,6 +51,7 @@ impl ObservationKind {
             Self::Point => "measured point",
             Self::Sample => "point sample",
             Self::Quantity => "measured quantity",
+            Self::Touch => "ball touch",
         }
     }
 }

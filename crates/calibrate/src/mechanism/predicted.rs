@@ -25,6 +25,8 @@
 //!   the left nullspace of `G_x` (what no pose change can absorb):
 //!   `G = N_⊥ᵀ G_p`, `D = σ_q² I`. A delta's (`A = 3`) has no row: its
 //!   readings only locate its own pose.
+//! - A touch of a ball is refused: its ball's centre is an unknown of its
+//!   own, which held-out touches would have to locate first.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
@@ -57,7 +59,7 @@ pub struct PredictedRows {
 /// `global` (`p̂` then, with probes, `ĥ`) with the controller's
 /// `configured` parameters (module doc), in the order of the kinds, each
 /// kind's in its order; samples at an unknown pose of a mechanism of 3
-/// actuators give none.
+/// actuators give none; touches of balls are refused (module doc).
 pub fn predict(
     mechanism: &dyn Mechanism,
     global: &DVector<f64>,
@@ -72,6 +74,12 @@ pub fn predict(
         observation,
         reason: error.to_string(),
     };
+    if !observations.touches.is_empty() {
+        return Err(MechanismCalibrationError::Observation {
+            observation: at(ObservationKind::Touch, 0),
+            reason: "held-out touches of balls are not predicted (each ball's centre is an unknown of its own): validate on probe heights, part distances, measured positions or samples".to_string(),
+        });
+    }
     let mut predicted = Vec::new();
     for (k, probe) in observations.probes.iter().enumerate() {
         let id = at(ObservationKind::Probe, k);

@@ -4,8 +4,8 @@
 
 use parcal_dataset::GlobalTestRecord;
 use parcal_dataset::mechanism::{
-    IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord, ParameterRecord,
-    RemovalRecord, TestsRecord, UndeterminedRecord,
+    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
+    ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
 };
 
 use super::result::MechanismCalibration;
@@ -100,6 +100,16 @@ impl MechanismCalibration {
                         .collect(),
                     statements: i.statements.clone(),
                 }),
+            balls: self
+                .balls
+                .iter()
+                .map(|b| BallRecord {
+                    centre: b.centre,
+                    centre_sigma: b.centre_sigma,
+                    radius: b.radius,
+                    radius_sigma: b.radius_sigma,
+                })
+                .collect(),
         }
     }
 }

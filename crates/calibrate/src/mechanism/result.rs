@@ -41,6 +41,21 @@ pub struct EstimatedParameter {
     pub prior: ParameterPrior,
 }
 
+/// A calibrated ball as the calibration located it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatedBall {
+    /// Its centre (mm, the fit's frame: that of the commanded positions).
+    pub centre: [f64; 3],
+    /// Its coordinates' standard deviations, when the solver gave them.
+    pub centre_sigma: Option<[f64; 3]>,
+    /// Its radius: the estimate when it had a calibration sigma, else its
+    /// calibrated value.
+    pub radius: f64,
+    /// The radius's standard deviation (`None`: exact, or the fit gave no
+    /// covariance).
+    pub radius_sigma: Option<f64>,
+}
+
 /// The calibration of a mechanism.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
@@ -56,6 +71,8 @@ pub struct MechanismCalibration {
     /// The poses of the point samples (the fit's frame), in the order of
     /// the remaining samples.
     pub poses: Vec<[f64; 3]>,
+    /// The calibrated balls, in the data's order.
+    pub balls: Vec<EstimatedBall>,
     /// How the solver ended.
     pub status: Status,
     /// Its linear solves.
@@ -140,6 +157,7 @@ pub(crate) fn assemble(
             data.trigger_height,
         ));
     }
+    let estimated = described.len();
     let parameters: Vec<EstimatedParameter> = described
         .into_iter()
         .enumerate()
@@ -154,7 +172,36 @@ pub(crate) fn assemble(
         .collect();
     let g = fit.global.len();
     let gauge = gauge_directions(mechanism, &fit.global.as_slice()[..n], g)?;
-    let names: Vec<String> = parameters.iter().map(|p| p.name.clone()).collect();
+    let balls = &data.observations.balls;
+    let mut names: Vec<String> = parameters.iter().map(|p| p.name.clone()).collect();
+    names.extend(
+        (0..balls.len())
+            .filter(|&b| balls[b].radius_sigma.is_some())
+            .map(|b| format!("radius of ball {b}")),
+    );
+    let mut next_radius = estimated;
+    let estimated_balls = balls
+        .iter()
+        .zip(&fit.centres)
+        .enumerate()
+        .map(|(b, (ball, centre))| {
+            let (radius, radius_sigma) = match ball.radius_sigma {
+                Some(_) => {
+                    let k = next_radius;
+                    next_radius += 1;
+                    let sigma = frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt());
+                    (frame.values[k], sigma)
+                }
+                None => (ball.radius, None),
+            };
+            EstimatedBall {
+                centre: *centre,
+                centre_sigma: fit.centre_sigmas.as_ref().map(|s| s[b]),
+                radius,
+                radius_sigma,
+            }
+        })
+        .collect();
     let identifiability = fit.covariance.as_ref().and_then(|covariance| {
         identifiability(&Inputs {
             names: &names,
@@ -174,8 +221,12 @@ pub(crate) fn assemble(
     let mut calibration = MechanismCalibration {
         mechanism: mechanism.name().to_string(),
         parameters,
-        covariance: frame.covariance,
+        covariance: frame
+            .covariance
+            .as_ref()
+            .map(|c| c.view((0, 0), (estimated, estimated)).into_owned()),
         poses: fit.poses,
+        balls: estimated_balls,
         global_test: verdict.global_test,
         verdict,
         status: fit.status,

@@ -34,9 +34,12 @@ pub struct Args {
     force: bool,
     /// Number of balls on a regular grid filling x, y in [-80, 80], z in [340, 460]
     /// (default: the paper's 27 balls at x, y in {-60, 0, 60}, z in {360, 400, 440}).
+    /// With --mechanism delta: calibrated balls (12.7 mm radius, calibrated
+    /// to 1 µm) on a ring on the bed, touched by the probe (default none).
     #[arg(long, conflicts_with = "tracker", value_parser = Bounded(COUNT))]
     balls: Option<usize>,
-    /// Contacts per ball.
+    /// Contacts per ball (with --mechanism delta: touches per ball, on its
+    /// upper cap).
     #[arg(long, default_value_t = 7, conflicts_with = "tracker", value_parser = Bounded(COUNT))]
     points_per_ball: usize,
     /// What the touches' actuators read: mm (scale 1, known), or motor
@@ -124,7 +127,7 @@ pub struct Args {
     /// `delta`): probe heights and part distances; `cable robot` (or
     /// `cable`): the Hangprinter's encoder samples with a few measured
     /// positions; with its truth (docs/delta.md, docs/cable-robots.md).
-    #[arg(long, value_name = "NAME", conflicts_with_all = ["balls", "tracker", "plate", "plan", "design_drawn", "binary"])]
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["tracker", "plate", "plan", "design_drawn", "binary"])]
     mechanism: Option<String>,
     /// Delta: probe rings over the printable disc and its centre (default 3).
     #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::RINGS))]
@@ -208,6 +211,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 distances: args.part_distances,
                 probe_sigma: args.probe_sigma,
                 distance_sigma: args.distance_sigma,
+                balls: args.balls,
+                touches_per_ball: args.points_per_ball,
             },
             cable: simulate_mechanism::CableFlags {
                 samples: args.samples,

@@ -3,7 +3,8 @@
 //! [`parcal::simulation::delta`]: the typical kit printer's design, its true
 //! parameters and trigger height a draw of the prior machine.json states,
 //! probes on rings over the printable disc, part distances across it on
-//! the first layer. A cable robot (docs/cable-robots.md), by
+//! the first layer, calibrated balls on the bed touched by the probe
+//! (`--balls`, `--points-per-ball`). A cable robot (docs/cable-robots.md), by
 //! [`simulate_cable_dataset`]: the Hangprinter's shape, its true anchors,
 //! radii and encoder zero a draw of the prior, encoder samples where every
 //! line is taut, the encoder zero's and a few bed positions measured.
@@ -42,6 +43,10 @@ pub struct DeltaFlags {
     pub probe_sigma: Option<f64>,
     /// Distance noise (mm).
     pub distance_sigma: Option<f64>,
+    /// Calibrated balls on the bed (`--balls`).
+    pub balls: Option<usize>,
+    /// Touches of each (`--points-per-ball`).
+    pub touches_per_ball: usize,
 }
 
 /// The cable robot's options, each `None` for its default.
@@ -137,6 +142,8 @@ fn delta(request: &Request) -> anyhow::Result<MechanismDataset> {
         distances: flags.distances.unwrap_or(typical.distances),
         probe_sigma: sigma("--probe-sigma", flags.probe_sigma, 0.01, 1.0)?,
         distance_sigma: sigma("--distance-sigma", flags.distance_sigma, 0.01, 1.0)?,
+        balls: flags.balls.unwrap_or(typical.balls),
+        touches_per_ball: flags.touches_per_ball,
         ..typical
     };
     Ok(simulate_delta(&scenario, request.seed)?)
@@ -153,6 +160,7 @@ fn cable(request: &Request) -> anyhow::Result<MechanismDataset> {
             ("--part-distances", delta.distances.is_some()),
             ("--probe-sigma", delta.probe_sigma.is_some()),
             ("--distance-sigma", delta.distance_sigma.is_some()),
+            ("--balls", delta.balls.is_some()),
         ],
     )?;
     let flags = &request.cable;
@@ -193,11 +201,13 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         .filter(|s| s.position.is_some())
         .count();
     println!(
-        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), seed {} (truth.json: the true machine)",
+        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls, seed {} (truth.json: the true machine)",
         request.out.display(),
         dataset.probes.len(),
         dataset.distances.len(),
         dataset.samples.len(),
+        dataset.touches.len(),
+        dataset.balls.len(),
         request.seed
     );
     Ok(())

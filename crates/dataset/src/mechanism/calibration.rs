@@ -44,7 +44,7 @@ pub struct ParameterRecord {
 #[serde(deny_unknown_fields)]
 pub struct ObservationRecord {
     /// Its kind (`probe height`, `part distance`, `measured point`,
-    /// `point sample`, `measured quantity`).
+    /// `point sample`, `measured quantity`, `ball touch`).
     pub kind: String,
     /// Its 0-based index among those of its kind in the dataset.
     pub index: usize,
@@ -114,6 +114,21 @@ pub struct IdentifiabilityRecord {
     pub statements: Vec<String>,
 }
 
+/// A calibrated ball's estimated centre and radius.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BallRecord {
+    /// Its centre (mm, the fit's frame: the frame of the commanded
+    /// positions).
+    pub centre: [f64; 3],
+    /// Its coordinates' standard deviations (mm).
+    pub centre_sigma: Option<[f64; 3]>,
+    /// Its radius: the estimate, or its calibrated value when exact (mm).
+    pub radius: f64,
+    /// The radius's standard deviation (`None`: exact).
+    pub radius_sigma: Option<f64>,
+}
+
 /// A mechanism calibration's record (module doc).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -138,6 +153,10 @@ pub struct MechanismCalibrationRecord {
     pub tests: TestsRecord,
     /// What the data determine.
     pub identifiability: Option<IdentifiabilityRecord>,
+    /// The calibrated balls' centres and radii, numbered as in the
+    /// dataset (none without touches).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub balls: Vec<BallRecord>,
 }
 
 impl MechanismCalibrationRecord {
@@ -160,7 +179,8 @@ impl MechanismCalibrationRecord {
     }
 
     /// A known mechanism; unique parameter names; finite values, sigmas
-    /// and covariance of the parameters' size.
+    /// and covariance of the parameters' size; finite ball centres and
+    /// radii.
     fn validate(&self, check: Check) -> Result<()> {
         mechanism_named(check.path(), "mechanism", &self.mechanism)?;
         let mut names = BTreeSet::new();
@@ -191,6 +211,16 @@ impl MechanismCalibrationRecord {
             }
             for (i, row) in covariance.iter().enumerate() {
                 check.values(format!("covariance[{i}]"), row)?;
+            }
+        }
+        for (b, ball) in self.balls.iter().enumerate() {
+            check.values(format!("balls[{b}].centre"), &ball.centre)?;
+            if let Some(sigma) = &ball.centre_sigma {
+                check.values(format!("balls[{b}].centre_sigma"), sigma)?;
+            }
+            check.finite(format!("balls[{b}].radius"), ball.radius)?;
+            if let Some(sigma) = ball.radius_sigma {
+                check.non_negative(format!("balls[{b}].radius_sigma"), sigma)?;
             }
         }
         Ok(())

@@ -52,6 +52,9 @@ pub struct Noise {
     /// A measured distance (mm).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub distance: Option<f64>,
+    /// A touch of a calibrated ball, along its normal (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub touch: Option<f64>,
 }
 
 /// A value with an optional standard deviation (a prior; without one,

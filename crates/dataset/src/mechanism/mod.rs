@@ -8,6 +8,8 @@
 //! | `distances.csv` | part distances (`x1,y1,z1,x2,y2,z2,distance`) | [`MechanismDataset::distances`] |
 //! | `points.csv` | readings, with the position where known and optionally the loads (`q1..qA,x,y,z[,f1..fA]`) | [`SampleRow`] |
 //! | `quantities.csv` | quantities of the machine measured directly (`quantity,value,sigma`) | [`QuantityRow`] |
+//! | `balls.csv` | calibrated balls (`ball,radius,radius_sigma`), with `touches.csv` | [`BallRow`] |
+//! | `touches.csv` | touches of the balls at commanded positions (`ball,x,y,z`) | [`TouchRow`] |
 //! | `truth.json` | simulated datasets only: the true machine | [`MechanismTruth`] |
 //!
 //! and its calibration writes `calibration.json`
@@ -43,6 +45,7 @@
 //! # Ok(()) }
 //! ```
 
+mod balls;
 mod calibration;
 mod machine;
 mod observations;
@@ -53,9 +56,10 @@ mod validation;
 
 use std::path::Path;
 
+pub use balls::{BALL_COLUMNS, BALLS, BallRow, TOUCH_COLUMNS, TouchRow};
 pub use calibration::{
-    IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord, ParameterRecord,
-    RemovalRecord, TestsRecord, UndeterminedRecord,
+    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
+    ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
 pub use observations::{
@@ -73,6 +77,7 @@ use crate::dataset::Dataset;
 use crate::error::{DatasetError, Result};
 use crate::input;
 
+use balls::{read_balls, read_touches, write_balls, write_touches};
 use machine::mechanism_named;
 use observations::{read_rows, read_samples, write_rows, write_samples};
 use quantities::{read_quantities, write_quantities};
@@ -87,6 +92,10 @@ pub const DISTANCES_FILE: &str = "distances.csv";
 pub const POINTS_FILE: &str = "points.csv";
 /// The file of the quantities measured directly.
 pub const QUANTITIES_FILE: &str = "quantities.csv";
+/// The file of the calibrated balls.
+pub const BALLS_FILE: &str = "balls.csv";
+/// The file of the touches of the balls.
+pub const TOUCHES_FILE: &str = "touches.csv";
 /// The file of a simulated dataset's truth.
 pub const TRUTH_FILE: &str = "truth.json";
 /// The file of a calibration.
@@ -107,6 +116,10 @@ pub struct MechanismDataset {
     pub samples: Vec<SampleRow>,
     /// Quantities of the machine measured directly.
     pub quantities: Vec<QuantityRow>,
+    /// Calibrated balls, numbered by their place.
+    pub balls: Vec<BallRow>,
+    /// Touches of the balls.
+    pub touches: Vec<TouchRow>,
     /// The true machine of a simulated dataset.
     pub truth: Option<MechanismTruth>,
 }
@@ -120,6 +133,8 @@ impl Default for MechanismDataset {
             distances: Vec::new(),
             samples: Vec::new(),
             quantities: Vec::new(),
+            balls: Vec::new(),
+            touches: Vec::new(),
             truth: None,
         }
     }
@@ -155,6 +170,20 @@ impl MechanismDataset {
             }
             None => Vec::new(),
         };
+        let balls = match present(BALLS_FILE)? {
+            Some(path) => read_balls(&path)?,
+            None => Vec::new(),
+        };
+        let touches = match present(TOUCHES_FILE)? {
+            Some(path) if balls.is_empty() => {
+                return Err(DatasetError::Refused {
+                    path,
+                    message: format!("touches of balls need {BALLS_FILE}, which is not there"),
+                });
+            }
+            Some(path) => read_touches(&path, balls.len())?,
+            None => Vec::new(),
+        };
         let truth = MechanismTruth::read_if_present(&dir.join(TRUTH_FILE), &machine.mechanism)?;
         let dataset = Self {
             machine,
@@ -162,6 +191,8 @@ impl MechanismDataset {
             distances,
             samples,
             quantities,
+            balls,
+            touches,
             truth,
         };
         dataset.validate(dir)?;
@@ -200,6 +231,10 @@ impl MechanismDataset {
             if !self.quantities.is_empty() {
                 write_quantities(&new.join(QUANTITIES_FILE), &self.quantities)?;
             }
+            if !self.balls.is_empty() {
+                write_balls(&new.join(BALLS_FILE), &self.balls)?;
+                write_touches(&new.join(TOUCHES_FILE), &self.touches)?;
+            }
             if let Some(truth) = &self.truth {
                 truth.write(&new.join(TRUTH_FILE), name)?;
             }
@@ -222,15 +257,17 @@ impl MechanismDataset {
             (DISTANCES_FILE, self.distances.len()),
             (POINTS_FILE, self.samples.len()),
             (QUANTITIES_FILE, self.quantities.len()),
+            (TOUCHES_FILE, self.touches.len()),
         ];
         if counts.iter().all(|&(_, n)| n == 0) {
             return Err(DatasetError::Refused {
                 path: dir.to_path_buf(),
                 message: format!(
-                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}, {QUANTITIES_FILE}"
+                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}, {QUANTITIES_FILE}, {TOUCHES_FILE}"
                 ),
             });
         }
+        self.validate_balls(dir)?;
         for (file, count) in counts {
             if count > OBSERVATIONS.max {
                 let path = dir.join(file);
@@ -244,6 +281,7 @@ impl MechanismDataset {
         for (needed, sigma, field) in [
             (!self.probes.is_empty(), noise.probe, "noise.probe"),
             (!self.distances.is_empty(), noise.distance, "noise.distance"),
+            (!self.touches.is_empty(), noise.touch, "noise.touch"),
             (!self.samples.is_empty(), noise.actuator, "noise.actuator"),
             (
                 self.samples.iter().any(|s| s.position.is_some()),
@@ -319,6 +357,63 @@ impl MechanismDataset {
                     ));
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// The balls and touches: both or neither, balls within [`BALLS`],
+    /// radii positive and finite, sigmas positive and finite where given,
+    /// every touch on a ball that exists with its position within the
+    /// length bound.
+    fn validate_balls(&self, dir: &Path) -> Result<()> {
+        let balls_path = dir.join(BALLS_FILE);
+        let touches_path = dir.join(TOUCHES_FILE);
+        if self.balls.is_empty() != self.touches.is_empty() {
+            let (path, message) = if self.balls.is_empty() {
+                (&touches_path, format!("touches of balls need {BALLS_FILE}"))
+            } else {
+                (
+                    &balls_path,
+                    format!("balls without {TOUCHES_FILE}: nothing touched them"),
+                )
+            };
+            return Err(DatasetError::Refused {
+                path: path.clone(),
+                message,
+            });
+        }
+        let check = Check::new(&balls_path);
+        if self.balls.len() > BALLS.max {
+            let count = self.balls.len().to_string();
+            return Err(check.error("rows", BALLS.refusal("the number of rows", &count)));
+        }
+        for (k, ball) in self.balls.iter().enumerate() {
+            let field = format!("row {}", k + 1);
+            let positive = |v: f64| v.is_finite() && v > 0.0;
+            if !positive(ball.radius) || !ball.radius_sigma.is_none_or(positive) {
+                return Err(check.error(
+                    &field,
+                    format!(
+                        "radius {} and its sigma {:?} must be finite and positive",
+                        ball.radius, ball.radius_sigma
+                    ),
+                ));
+            }
+        }
+        let check = Check::new(&touches_path);
+        for (k, touch) in self.touches.iter().enumerate() {
+            let field = format!("row {}", k + 1);
+            if touch.ball >= self.balls.len() {
+                return Err(check.error(
+                    &field,
+                    format!(
+                        "ball {} is not one of the {} of {BALLS_FILE}",
+                        touch.ball,
+                        self.balls.len()
+                    ),
+                ));
+            }
+            check.lengths(field, &touch.commanded)?;
         }
         Ok(())
     }

@@ -14,7 +14,11 @@
 //!   actuators' loads when the mechanism models them
 //!   (one row per actuator; unknowns `p` and the pose, a point block);
 //! - [`MeasuredQuantity`]: a known function of the parameters measured
-//!   directly, `(f(p) − v) / σ` (1 row; unknowns `p`).
+//!   directly, `(f(p) − v) / σ` (1 row; unknowns `p`);
+//! - [`BallTouch`]: the tool point touching a calibrated sphere at an
+//!   unknown centre, `(|x − c| − ρ) / σ` (1 row; unknowns `p`, the ball's
+//!   centre `c`, a block of its own, and its radius `ρ` when it has a
+//!   calibration sigma).
 //!
 //! # Commanded positions
 //!
@@ -27,6 +31,7 @@
 //! [`reached`] evaluates. `p_c` is known and fixed: only the true `p` is
 //! an unknown.
 
+mod ball_touch;
 mod commanded;
 mod commanded_point;
 mod part_distance;
@@ -34,10 +39,11 @@ mod point_sample;
 mod probe;
 mod quantity;
 
+pub use ball_touch::{BallTouch, TouchRow};
 pub use commanded::{POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
-pub use point_sample::PointSample;
+pub use point_sample::{PointSample, SampleRows};
 pub use probe::ProbeHeight;
 pub use quantity::MeasuredQuantity;
 

@@ -1,0 +1,158 @@
+//! A mechanism dataset's calibrated balls and their touches, both files
+//! optional but each needing the other:
+//!
+//! | file | header | one row per |
+//! |---|---|---|
+//! | `balls.csv` | `ball,radius,radius_sigma` | ball: its number (0 for the first row, 1 for the next, …), its calibrated radius (mm) and the standard deviation of that calibration (mm; empty: exact) |
+//! | `touches.csv` | `ball,x,y,z` | touch: the ball's number and the commanded position at which the tool point touched it (mm, the controller's coordinates) |
+//!
+//! The touch's noise is `machine.json`'s `noise.touch`. Each file holds at
+//! most [`BALLS`]`.max` and [`OBSERVATIONS`]`.max` rows, counted as they
+//! are read; errors name the line and column.
+
+use std::path::Path;
+
+use crate::bounds::Count;
+use crate::error::Result;
+use crate::table::{self, Failure, Header, Row};
+
+use super::observations::{OBSERVATIONS, too_many};
+
+/// The bounds of the rows of balls.csv.
+pub const BALLS: Count = Count::new(
+    1,
+    1_000,
+    "a ball with a radius sigma adds an unknown to the dense global block",
+);
+
+/// The columns of balls.csv.
+pub const BALL_COLUMNS: [&str; 3] = ["ball", "radius", "radius_sigma"];
+/// The columns of touches.csv.
+pub const TOUCH_COLUMNS: [&str; 4] = ["ball", "x", "y", "z"];
+
+/// One row of balls.csv.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BallRow {
+    /// The calibrated radius (mm, positive).
+    pub radius: f64,
+    /// The standard deviation of its calibration (mm, positive); `None`:
+    /// exact.
+    pub radius_sigma: Option<f64>,
+}
+
+/// One row of touches.csv.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TouchRow {
+    /// The ball's number (its row in balls.csv, from 0).
+    pub ball: usize,
+    /// The commanded position at the touch (mm).
+    pub commanded: [f64; 3],
+}
+
+/// The ball number in column `ball` of `row`: a whole number below
+/// `count` (the balls so far, or all of them).
+fn ball_number(row: &Row, column: usize, count: usize, of: &str) -> Result<usize, Failure> {
+    let [value] = row.numbers(&[column], &["ball"])?;
+    if value.fract() != 0.0 || value < 0.0 || value >= count as f64 {
+        return Err(row.error(Some("ball"), format!("{value} {of}")));
+    }
+    Ok(value as usize)
+}
+
+/// Reads balls.csv at `path`: each row's `ball` its 0-based row number,
+/// each radius positive, each sigma empty or positive, at most
+/// [`BALLS`]`.max` rows.
+pub(crate) fn read_balls(path: &Path) -> Result<Vec<BallRow>> {
+    let expected = BALL_COLUMNS.join(",");
+    table::read_file(path, |reader| {
+        let header = Header::read(reader, &expected)?;
+        let [ball_at, radius_at, sigma_at] = header.require_all(&BALL_COLUMNS, &expected)?;
+        let mut rows: Vec<BallRow> = Vec::new();
+        table::for_each_row(reader, &header, "ball", |row| {
+            if rows.len() == BALLS.max {
+                return Err(row.error(None, BALLS.refusal("the number of ball rows", "more")));
+            }
+            let number = rows.len();
+            let [value] = row.numbers(&[ball_at], &["ball"])?;
+            if value != number as f64 {
+                return Err(row.error(
+                    Some("ball"),
+                    format!("{value} is not this row's number, {number} (the balls are numbered from 0 in order)"),
+                ));
+            }
+            let [radius] = row.numbers(&[radius_at], &["radius"])?;
+            if radius <= 0.0 {
+                return Err(row.error(Some("radius"), format!("{radius} is not positive")));
+            }
+            let radius_sigma = if row.field(sigma_at).is_empty() {
+                None
+            } else {
+                let [sigma] = row.numbers(&[sigma_at], &["radius_sigma"])?;
+                if sigma <= 0.0 {
+                    return Err(row.error(
+                        Some("radius_sigma"),
+                        format!(
+                            "{sigma} is not a positive standard deviation (exact: leave it empty)"
+                        ),
+                    ));
+                }
+                Some(sigma)
+            };
+            rows.push(BallRow {
+                radius,
+                radius_sigma,
+            });
+            Ok(())
+        })?;
+        Ok(rows)
+    })
+}
+
+/// Reads touches.csv at `path` for `balls` balls: each `ball` one of
+/// them, each position finite, at most [`OBSERVATIONS`]`.max` rows.
+pub(crate) fn read_touches(path: &Path, balls: usize) -> Result<Vec<TouchRow>> {
+    let expected = TOUCH_COLUMNS.join(",");
+    table::read_file(path, |reader| {
+        let header = Header::read(reader, &expected)?;
+        let [ball_at, x_at, y_at, z_at] = header.require_all(&TOUCH_COLUMNS, &expected)?;
+        let mut rows = Vec::new();
+        let of = format!("is not the number of a ball of balls.csv, which has {balls}");
+        table::for_each_row(reader, &header, "touch", |row| {
+            if rows.len() == OBSERVATIONS.max {
+                return Err(too_many(row, "touch"));
+            }
+            let ball = ball_number(row, ball_at, balls, &of)?;
+            let commanded = row.numbers(&[x_at, y_at, z_at], &["x", "y", "z"])?;
+            rows.push(TouchRow { ball, commanded });
+            Ok(())
+        })?;
+        Ok(rows)
+    })
+}
+
+/// Writes balls.csv at `path` atomically.
+pub(crate) fn write_balls(path: &Path, rows: &[BallRow]) -> Result<()> {
+    table::write_file(path, &BALL_COLUMNS, |w| {
+        for (number, row) in rows.iter().enumerate() {
+            w.numbers(&[number as f64, row.radius])?;
+            match row.radius_sigma {
+                Some(sigma) => w.numbers(&[sigma])?,
+                None => w.text("")?,
+            }
+            w.end_row()?;
+        }
+        Ok(())
+    })
+}
+
+/// Writes touches.csv at `path` atomically.
+pub(crate) fn write_touches(path: &Path, rows: &[TouchRow]) -> Result<()> {
+    table::write_file(path, &TOUCH_COLUMNS, |w| {
+        for row in rows {
+            w.numbers(&[row.ball as f64])?;
+            w.numbers(&row.commanded)?;
+            w.end_row()?;
+        }
+        Ok(())
+    })
+}

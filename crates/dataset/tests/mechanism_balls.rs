@@ -1,0 +1,151 @@
+//! A mechanism dataset's calibrated balls (`balls.csv`) and their touches
+//! (`touches.csv`): written and read back, a dataset without them read as
+//! before, and bad files refused naming the file, the line and the column.
+
+use std::fs;
+
+use parcal_dataset::mechanism::{BallRow, MechanismDataset, MechanismMachine, Noise, TouchRow};
+use parcal_kinematics::delta::LinearDelta;
+
+/// A delta's dataset: two probes, two balls (the second exact), five
+/// touches.
+fn touched() -> MechanismDataset {
+    let mut machine = MechanismMachine::of(&LinearDelta::typical());
+    machine.noise = Noise {
+        probe: Some(0.01),
+        touch: Some(0.005),
+        ..Noise::default()
+    };
+    let touch = |ball, x: f64| TouchRow {
+        ball,
+        commanded: [x, -20.0, 12.5],
+    };
+    MechanismDataset {
+        machine,
+        probes: vec![[0.0, 0.0, 0.71], [50.0, 20.0, 0.69]],
+        balls: vec![
+            BallRow {
+                radius: 12.7,
+                radius_sigma: Some(0.001),
+            },
+            BallRow {
+                radius: 6.35,
+                radius_sigma: None,
+            },
+        ],
+        touches: vec![
+            touch(0, 1.0),
+            touch(1, 2.0),
+            touch(0, 3.0),
+            touch(1, 4.0),
+            touch(0, 5.5),
+        ],
+        ..MechanismDataset::default()
+    }
+}
+
+#[test]
+fn balls_and_touches_are_written_and_read_back() {
+    let dataset = touched();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("delta");
+    dataset.write(&path).unwrap();
+    assert_eq!(MechanismDataset::read(&path).unwrap(), dataset);
+    let balls = fs::read_to_string(path.join("balls.csv")).unwrap();
+    assert!(
+        balls.starts_with("ball,radius,radius_sigma\n0,12.7,0.001\n1,6.35,\n"),
+        "{balls}"
+    );
+    // Without them, no file, and the dataset reads as before.
+    let plain = MechanismDataset {
+        balls: Vec::new(),
+        touches: Vec::new(),
+        ..dataset
+    };
+    let path = dir.path().join("plain");
+    plain.write(&path).unwrap();
+    assert!(!path.join("balls.csv").exists() && !path.join("touches.csv").exists());
+    assert_eq!(MechanismDataset::read(&path).unwrap(), plain);
+}
+
+#[test]
+fn bad_balls_and_touches_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("delta");
+    touched().write(&path).unwrap();
+    let (balls, touches) = (path.join("balls.csv"), path.join("touches.csv"));
+    let good_balls = fs::read_to_string(&balls).unwrap();
+    let good_touches = fs::read_to_string(&touches).unwrap();
+    let ball_cases = [
+        (
+            "ball,radius,radius_sigma\n0,12.7,\n2,5,\n",
+            &["balls.csv", "line 3", "ball", "this row's number, 1"][..],
+        ),
+        (
+            "ball,radius,radius_sigma\n0,-1,\n",
+            &["balls.csv", "line 2", "radius", "not positive"][..],
+        ),
+        (
+            "ball,radius,radius_sigma\n0,12.7,0\n",
+            &[
+                "balls.csv",
+                "line 2",
+                "radius_sigma",
+                "exact: leave it empty",
+            ][..],
+        ),
+        ("ball,radius\n0,12.7\n", &["balls.csv", "radius_sigma"][..]),
+    ];
+    for (text, expected) in ball_cases {
+        fs::write(&balls, text).unwrap();
+        let error = MechanismDataset::read(&path).unwrap_err().to_string();
+        for part in expected {
+            assert!(error.contains(part), "{part:?} not in {error}");
+        }
+    }
+    fs::write(&balls, &good_balls).unwrap();
+    let touch_cases = [
+        (
+            "ball,x,y,z\n0,1,2,3\n2,1,2,3\n",
+            &["touches.csv", "line 3", "ball", "which has 2"][..],
+        ),
+        (
+            "ball,x,y,z\n0.5,1,2,3\n",
+            &["touches.csv", "line 2", "ball"][..],
+        ),
+        (
+            "ball,x,y,z\n0,1,two,3\n",
+            &["touches.csv", "line 2", "y"][..],
+        ),
+    ];
+    for (text, expected) in touch_cases {
+        fs::write(&touches, text).unwrap();
+        let error = MechanismDataset::read(&path).unwrap_err().to_string();
+        for part in expected {
+            assert!(error.contains(part), "{part:?} not in {error}");
+        }
+    }
+    // Touches without balls, balls without touches.
+    fs::remove_file(&balls).unwrap();
+    fs::write(&touches, &good_touches).unwrap();
+    let error = MechanismDataset::read(&path).unwrap_err().to_string();
+    assert!(
+        error.contains("touches.csv") && error.contains("balls.csv"),
+        "{error}"
+    );
+    fs::write(&balls, &good_balls).unwrap();
+    fs::remove_file(&touches).unwrap();
+    let error = MechanismDataset::read(&path).unwrap_err().to_string();
+    assert!(
+        error.contains("balls.csv") && error.contains("touches.csv"),
+        "{error}"
+    );
+    // The touches' noise is required.
+    let mut silent = touched();
+    silent.machine.noise.touch = None;
+    let error = silent
+        .write(&dir.path().join("silent"))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("noise.touch"), "{error}");
+}

@@ -1,0 +1,142 @@
+//! A touch of a calibrated sphere: the machine's probe (its tool point)
+//! touches a ball of known radius placed at an unknown centre.
+//!
+//! The controller commands `x_c` in its own coordinates, readings `q =
+//! g(p_c, x_c)` from the configured parameters `p_c`; the tool point truly
+//! is at `x = f(p, q)` ([`reached`]) and lies on the sphere of centre `c`
+//! (3 unknowns of the ball, eliminated like a point sample's pose) and
+//! radius `ρ` (the ball's calibrated radius: known, or an unknown with its
+//! calibration's prior). With `σ` the touch's noise along the normal:
+//!
+//! ```text
+//! e = |x − c| − ρ,     r = e / σ,     u = (x − c) / |x − c|,
+//! dr/dp = uᵀ (dx/dp|_q) / σ,     dr/dc = −uᵀ / σ,     dr/dρ = −1 / σ.
+//! ```
+//!
+//! A sphere of known radius fixes lengths: the touches of one ball
+//! measure the machine's scale, which probe heights on a plane leave to
+//! the prior.
+
+use nalgebra::{DMatrix, DVector, RowVector3, Vector3};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError};
+
+use super::commanded::{Rows, check_sigma, reached};
+
+/// One touch of a ball (module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BallTouch {
+    /// The index of the ball touched.
+    pub ball: usize,
+    /// The commanded position `x_c` at the touch (mm, the controller's
+    /// coordinates).
+    pub commanded: [f64; 3],
+    /// The touch's standard deviation `σ` along the sphere's normal (mm).
+    pub sigma: f64,
+}
+
+/// A touch's whitened row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TouchRow {
+    /// The row `r` and `dr/dp`.
+    pub rows: Rows,
+    /// `dr/dc`, the derivative with respect to the ball's centre.
+    pub d_centre: RowVector3<f64>,
+    /// `dr/dρ`, the derivative with respect to the ball's radius.
+    pub d_radius: f64,
+}
+
+impl BallTouch {
+    /// The whitened row at true parameters `params`, configured parameters
+    /// `configured`, the ball's centre `centre` and radius `radius`
+    /// (module doc). An error if the tool point is at the centre (no
+    /// normal).
+    pub fn evaluate(
+        &self,
+        mechanism: &dyn Mechanism,
+        params: &[f64],
+        configured: &[f64],
+        centre: &Vector3<f64>,
+        radius: f64,
+    ) -> Result<TouchRow, MechanismError> {
+        check_sigma("touch sigma", self.sigma)?;
+        let (pose, jacobian) = reached(mechanism, params, configured, &self.commanded)?;
+        let offset = Vector3::new(pose[0], pose[1], pose[2]) - centre;
+        let distance = offset.norm();
+        if distance == 0.0 || !distance.is_finite() {
+            return Err(MechanismError::Unreachable {
+                reason: "a touch's tool point is at its ball's centre".to_string(),
+            });
+        }
+        let u = offset / distance;
+        let d_params = (u.transpose() * jacobian) / self.sigma;
+        Ok(TouchRow {
+            rows: Rows {
+                residual: DVector::from_element(1, (distance - radius) / self.sigma),
+                d_params: DMatrix::from_row_slice(1, d_params.len(), d_params.as_slice()),
+            },
+            d_centre: -u.transpose() / self.sigma,
+            d_radius: -1.0 / self.sigma,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanism::test_support::{delta, differences};
+
+    #[test]
+    fn derivatives_match_central_differences() {
+        let (delta, configured, truth) = delta();
+        let touch = BallTouch {
+            ball: 0,
+            commanded: [40.0, -30.0, 18.0],
+            sigma: 0.005,
+        };
+        let centre = Vector3::new(35.0, -33.0, 6.0);
+        let c = configured.as_slice();
+        let at = |p: &[f64], centre: &Vector3<f64>, radius: f64| {
+            touch.evaluate(&delta, p, c, centre, radius).unwrap()
+        };
+        let analytic = at(truth.as_slice(), &centre, 12.7);
+        let numeric = differences(&delta, &truth, 1e-4, |p| at(p, &centre, 12.7).rows.residual);
+        let error = (&analytic.rows.d_params - &numeric).amax();
+        assert!(error < 1e-6 * numeric.amax(), "{error:e}");
+        let h = 1e-4;
+        for k in 0..3 {
+            let step = Vector3::from_fn(|i, _| if i == k { h } else { 0.0 });
+            let column = (at(truth.as_slice(), &(centre + step), 12.7).rows.residual[0]
+                - at(truth.as_slice(), &(centre - step), 12.7).rows.residual[0])
+                / (2.0 * h);
+            assert!((column - analytic.d_centre[k]).abs() < 1e-6, "{column}");
+        }
+        let d_radius = (at(truth.as_slice(), &centre, 12.7 + h).rows.residual[0]
+            - at(truth.as_slice(), &centre, 12.7 - h).rows.residual[0])
+            / (2.0 * h);
+        assert!((d_radius - analytic.d_radius).abs() < 1e-6, "{d_radius}");
+    }
+
+    #[test]
+    fn a_correct_controller_touches_at_the_radius() {
+        // Configured = true: the tool point is where it was commanded.
+        let (delta, configured, _) = delta();
+        let c = configured.as_slice();
+        let touch = BallTouch {
+            ball: 0,
+            commanded: [3.0, 4.0, 10.0],
+            sigma: 0.01,
+        };
+        let row = touch
+            .evaluate(&delta, c, c, &Vector3::new(0.0, 0.0, 10.0), 4.9)
+            .unwrap();
+        assert!((row.rows.residual[0] - 10.0).abs() < 1e-8, "{:?}", row.rows);
+        let bad = BallTouch {
+            sigma: 0.0,
+            ..touch
+        };
+        let error = bad
+            .evaluate(&delta, c, c, &Vector3::zeros(), 4.9)
+            .unwrap_err();
+        assert!(error.to_string().contains("touch sigma"), "{error}");
+    }
+}
