@@ -22,13 +22,12 @@ use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{
     MechanismDataset, MechanismMachine, MechanismTruth, Noise, OBSERVATIONS, SampleRow, ValuePrior,
 };
-use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances, probe_rings};
+use parcal_kinematics::delta::{
+    DeltaParams, FIRST_LAYER, Limits, LinearDelta, Tolerances, probe_rings,
+};
 use parcal_kinematics::mechanism::Mechanism;
 
 use crate::{Rng, SimulateError};
-
-/// The height of a first layer, where part distances are measured (mm).
-const FIRST_LAYER: f64 = 0.2;
 
 /// What to simulate.
 #[derive(Debug, Clone, PartialEq)]
