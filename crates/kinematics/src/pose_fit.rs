@@ -84,3 +84,50 @@ pub fn least_squares_pose(
         reason: format!("Gauss-Newton did not settle in {ITERATIONS} steps"),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cable::CableRobot;
+    use crate::mechanism::design;
+
+    /// With readings no pose matches (each off by a few degrees), the fit
+    /// is the least-squares pose: its gradient `G_xᵀ (g(p, x̂) − q)`
+    /// vanishes and every small move of the pose raises `|g(p, x) − q|²`.
+    #[test]
+    fn the_fit_minimises_the_readings_misfit() {
+        let robot = CableRobot::typical();
+        let p = design(&robot);
+        let exact = robot.inverse(p.as_slice(), &[150.0, -90.0, 700.0]).unwrap();
+        let readings: Vec<f64> = exact
+            .iter()
+            .zip([3.0, -2.0, 4.0, -5.0])
+            .map(|(q, e)| q + e)
+            .collect();
+        let pose = pose_of_readings(&robot, p.as_slice(), &readings, &[0.0; 3]).unwrap();
+        let q = DVector::from_column_slice(&readings);
+        let misfit = |x: &[f64]| (robot.inverse(p.as_slice(), x).unwrap() - &q).norm_squared();
+        let g_x = robot
+            .reading_jacobians(p.as_slice(), pose.as_slice())
+            .unwrap()
+            .d_pose;
+        let residual = robot.inverse(p.as_slice(), pose.as_slice()).unwrap() - &q;
+        let gradient = g_x.transpose() * &residual;
+        assert!(
+            gradient.amax() < 1e-9 * g_x.amax() * residual.amax(),
+            "{gradient}"
+        );
+        let least = misfit(pose.as_slice());
+        // No pose matches them: a combination of the errors stays.
+        assert!(least > 1e-3, "{least}");
+        for k in 0..3 {
+            for step in [-0.01, 0.01] {
+                let mut moved = pose.clone();
+                moved[k] += step;
+                assert!(misfit(moved.as_slice()) > least, "axis {k}, step {step}");
+            }
+        }
+        let error = pose_of_readings(&robot, p.as_slice(), &readings[..3], &[0.0; 3]).unwrap_err();
+        assert!(error.to_string().contains("readings"), "{error}");
+    }
+}
