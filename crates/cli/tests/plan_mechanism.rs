@@ -74,6 +74,45 @@ fn a_delta_s_plan_is_a_probes_csv_to_fill_in() {
         s(&out),
     ]);
     assert!(err.contains("no parameter group \"legs\""), "{err}");
+    // Part distances after the probes: a distances.csv to fill in beside,
+    // each pick with the rods' RMS sigma it leaves.
+    let next = dir.path().join("next.csv");
+    let plan = |extra: &[&str]| {
+        let mut args = vec!["plan", s(&sim), "--measurements", "10", "--distances", "2"];
+        args.extend(extra);
+        args.extend(["--out", s(&next)]);
+        args.into_iter().map(String::from).collect::<Vec<String>>()
+    };
+    let run = |args: Vec<String>, succeeds: bool| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        if succeeds { ok(&args) } else { fails(&args) }
+    };
+    let err = run(plan(&[]), false);
+    assert!(err.contains("noise.distance"), "{err}");
+    let summary = run(plan(&["--distance-sigma", "0.02"]), true);
+    assert!(summary.contains("next-distances.csv"), "{summary}");
+    let distances: Vec<&str> = summary
+        .lines()
+        .filter(|l| l.contains("part distance at"))
+        .collect();
+    assert_eq!(distances.len(), 2, "{summary}");
+    assert!(
+        distances[0].contains("diagonal rods RMS sigma"),
+        "{summary}"
+    );
+    let text = fs::read_to_string(dir.path().join("next-distances.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "x1,y1,z1,x2,y2,z2,distance");
+    assert_eq!(lines.len(), 3);
+    assert!(lines[1..].iter().all(|l| {
+        let fields: Vec<&str> = l.split(',').collect();
+        fields.len() == 7 && fields[6].is_empty() && fields[2] == "0.2" && fields[5] == "0.2"
+    }));
+    assert_eq!(fs::read_to_string(&next).unwrap().lines().count(), 11);
+    let json: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(dir.path().join("next.json")).unwrap()).unwrap();
+    assert!(json["distances_csv_checksum"].is_string());
+    assert_eq!(json["measurements"][10]["kind"], "part distance");
 }
 
 #[test]

@@ -40,11 +40,14 @@
 //! zero, `|a_j - z_0|`, are the robot's measurable quantities
 //! ([`Mechanism::quantities`]): a tape measures them.
 //!
-//! Forward kinematics finds the point whose line lengths
-//! `|a_j - p|` best match `|a_j - z_0| + dL_j(theta_j)` in the least-squares
-//! sense (Gauss-Newton from a start pose): with more lines than pose
-//! coordinates the readings are overdetermined, and the line lengths in mm
-//! are the metric of the model's error.
+//! Forward kinematics finds the point whose readings best match the
+//! encoder angles in the least-squares sense ([`crate::pose_fit`],
+//! Gauss-Newton from a start pose): with more lines than pose coordinates
+//! the readings are overdetermined. Every reading weighs alike, as in the
+//! calibration (one encoder sigma), so the pose is the readings'
+//! maximum-likelihood one; a fit of the line lengths instead would weight
+//! each spool by its `(d theta / dL)^2`, which its radius and mechanical
+//! advantage set.
 //!
 //! # Gauge
 //!
@@ -74,7 +77,7 @@ pub mod elasticity;
 
 use std::f64::consts::PI;
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::mechanism::{
     Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, Quantity,
@@ -82,16 +85,13 @@ use crate::mechanism::{
 };
 pub use elasticity::{COMPLIANCE_SCALE, COMPLIANCE_UNIT, Elasticity};
 
+use crate::pose_fit::pose_of_readings;
+
 /// The fewest lines of a cable robot: three lines and gravity hold a
 /// point, but only four can hold it taut in every direction.
 pub const MIN_CABLES: usize = 4;
 /// The most lines (one letter each, `a` to `z`).
 pub const MAX_CABLES: usize = 26;
-
-/// The largest number of Gauss-Newton steps of the forward kinematics.
-const FORWARD_ITERATIONS: usize = 100;
-/// The forward kinematics' convergence: a step shorter than this (mm).
-const FORWARD_TOLERANCE: f64 = 1e-10;
 
 const POSE: [PoseCoordinate; 3] = [
     PoseCoordinate {
@@ -715,43 +715,17 @@ impl Mechanism for CableRobot {
         Ok(self.readings_under(params, pose, None)?.0)
     }
 
-    /// Gauss-Newton on the line lengths: with
-    /// `l_j = |a_j - z_0| + dL_j(theta_j)` and `u_j = (p - a_j)/|p - a_j|`,
-    /// the step `dp` solves `(U^T U) dp = -U^T (|a_j - p| - l_j)_j`, from
-    /// `start` until it is shorter than 1e-10 mm.
+    /// The least-squares pose of the readings from `start`
+    /// ([`pose_of_readings`], module doc).
     fn forward(
         &self,
         params: &[f64],
         readings: &[f64],
         start: &[f64],
     ) -> Result<DVector<f64>, MechanismError> {
-        let paid_out = self.paid_out(params, readings)?;
-        check_vector(self, "start pose coordinates", start, 3)?;
-        let mut pose = Vector3::from_column_slice(start);
-        for _ in 0..FORWARD_ITERATIONS {
-            let mut normal = Matrix3::zeros();
-            let mut gradient = Vector3::zeros();
-            for j in 0..self.cables() {
-                let line = self.line(params, j, pose.as_slice())?;
-                let residual = line.length - line.length_at_zero - paid_out[j];
-                normal += line.direction * line.direction.transpose();
-                gradient += line.direction * residual;
-            }
-            let step = normal
-                .try_inverse()
-                .map(|inverse| -(inverse * gradient))
-                .filter(|step| step.iter().all(|v| v.is_finite()))
-                .ok_or(MechanismError::Singular)?;
-            pose += step;
-            if step.norm() < FORWARD_TOLERANCE {
-                return Ok(DVector::from_column_slice(pose.as_slice()));
-            }
-        }
-        Err(MechanismError::Unreachable {
-            reason: format!(
-                "the lines of readings {readings:?} do not meet: the forward kinematics did not converge in {FORWARD_ITERATIONS} steps"
-            ),
-        })
+        // Readings that unwind a spool past its core have no pose.
+        self.paid_out(params, readings)?;
+        pose_of_readings(self, params, readings, start)
     }
 
     /// The derivatives of `CableRobot::readings_under` without loads.

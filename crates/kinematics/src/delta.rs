@@ -701,6 +701,10 @@ pub fn probe_height_jacobian(
     Ok(jacobian)
 }
 
+/// The height of a first layer (mm): where part distances are measured
+/// on a printed part (the simulator's, the planner's candidates).
+pub const FIRST_LAYER: f64 = 0.2;
+
 /// Probe points on rings over the bed: the centre, then `per_ring` points
 /// on each of `rings` circles out to `radius`, the first point of each
 /// ring towards tower A (as RepRapFirmware's calibration wizards place

@@ -19,7 +19,9 @@
 //! Every parallel mechanism implements one interface,
 //! [`mechanism::Mechanism`]: the hexapod ([`hexapod`], an adapter over the
 //! modules above), the linear delta ([`delta`]) and the cable robot
-//! ([`cable`]); [`mechanisms`] is the list of them.
+//! ([`cable`]); [`mechanisms`] is the list of them. [`pose_fit`] is the
+//! forward kinematics of a mechanism with redundant actuators: the
+//! least-squares pose of its readings.
 //!
 //! Lengths in mm, angles in rad (the delta's tower angles in degrees, as
 //! its firmware gives them).
@@ -62,6 +64,7 @@ pub mod lu6;
 pub mod mechanism;
 pub mod mechanisms;
 pub mod params;
+pub mod pose_fit;
 mod simd;
 
 pub use derivatives::{

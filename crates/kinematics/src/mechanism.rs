@@ -220,7 +220,9 @@ pub trait Mechanism: Send + Sync {
 
     /// Forward kinematics: the pose `x = f(p, q)` at `readings`, in the
     /// mechanism's working assembly mode; `start` is a nearby pose for an
-    /// iterative solution (closed forms ignore it).
+    /// iterative solution (closed forms ignore it). With more actuators
+    /// than pose coordinates, the least-squares pose of the readings
+    /// ([`crate::pose_fit`]).
     fn forward(
         &self,
         params: &[f64],

@@ -88,11 +88,29 @@ const CSV_CHECKSUM: &str = "plan_csv_checksum";
 pub(crate) fn write_pair(
     csv: &Path,
     text: &str,
+    summary: serde_json::Value,
+) -> Result<(), DesignError> {
+    write_pair_with(csv, text, &[], summary)
+}
+
+/// [`write_pair`] with more files beside: each `(path, text, field)`
+/// written in the same set, its checksum recorded in the summary's
+/// `field`.
+pub(crate) fn write_pair_with(
+    csv: &Path,
+    text: &str,
+    beside: &[(&Path, &str, &str)],
     mut summary: serde_json::Value,
 ) -> Result<(), DesignError> {
     summary[CSV_CHECKSUM] = checksum::of_bytes(text.as_bytes()).into();
+    for (_, text, field) in beside {
+        summary[*field] = checksum::of_bytes(text.as_bytes()).into();
+    }
     let json = serde_json::to_string_pretty(&summary).expect("plain numbers and strings");
     write_set(&[], || {
+        for (path, text, _) in beside {
+            write_file(path, text.as_bytes())?;
+        }
         write_file(csv, text.as_bytes())?;
         write_file(&summary_path(csv), format!("{json}\n").as_bytes())
     })?;

@@ -45,6 +45,7 @@ fn plan_samples(
         candidates: &candidates,
         group: "anchors",
         count,
+        distances: 0,
     })
     .unwrap();
     (candidates, plan)
@@ -89,7 +90,7 @@ fn planned_samples_beat_random_ones_and_the_dense_inverse_agrees() {
         .iter()
         .filter(|c| {
             mechanism
-                .check_feasible(&start.values[..n], &c.position(0.0))
+                .check_feasible(&start.values[..n], &c.positions(0.0)[0])
                 .is_ok()
         })
         .collect();
@@ -130,7 +131,9 @@ fn the_predicted_sigmas_are_the_calibration_s_with_the_planned_samples() {
     let mechanism = data.mechanism.as_ref();
     let mut rng = Rng::new(5, 9);
     for (candidate, _) in &plan.picks {
-        let exact = mechanism.inverse(&truth, &candidate.position(0.0)).unwrap();
+        let exact = mechanism
+            .inverse(&truth, &candidate.positions(0.0)[0])
+            .unwrap();
         dataset.samples.push(SampleRow {
             readings: exact.iter().map(|q| q + rng.normal(sigma)).collect(),
             position: None,
@@ -181,13 +184,14 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
         candidates: &candidates,
         group: "diagonal rods",
         count: 25,
+        distances: 0,
     })
     .unwrap();
     let picked: Vec<String> = plan
         .picks
         .iter()
         .map(|(c, _)| {
-            let [x, y, _] = c.position(0.0);
+            let [x, y, _] = c.positions(0.0)[0];
             format!("({x:.0}, {y:.0})")
         })
         .collect();
@@ -268,7 +272,7 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
     assert!(plan.trace_after() < ring_trace);
     // Every pick is a probe within the print radius; the trace falls.
     assert!(plan.picks.iter().all(|(c, _)| {
-        let [x, y, _] = c.position(0.0);
+        let [x, y, _] = c.positions(0.0)[0];
         matches!(c, Candidate::Probe(_)) && x.hypot(y) <= 110.0
     }));
     assert!(plan.trace_after() < plan.trace_before);
@@ -280,6 +284,7 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
         candidates: &candidates,
         group: "diagonal rods",
         count: 5,
+        distances: 0,
     })
     .unwrap_err()
     .to_string();
@@ -298,6 +303,7 @@ fn bad_requests_are_named() {
             candidates,
             group,
             count,
+            distances: 0,
         })
         .unwrap_err()
         .to_string()
@@ -311,7 +317,7 @@ fn bad_requests_are_named() {
     assert!(error.contains("0 candidates"), "{error}");
     let error = request("endstops", 1, &[Candidate::Probe([900.0, 0.0])]);
     assert!(
-        error.contains("none of the 1 candidates is feasible"),
+        error.contains("none of the 1 candidate measurements is feasible"),
         "{error}"
     );
     // A calibration of another mechanism, or without a covariance, is no

@@ -11,7 +11,8 @@
 //! the positions and the noise each draw from their own stream.
 //! [`simulate_cable_dataset`] writes the campaign of the typical robot (the
 //! one a dataset's `"cable robot"` names) as a mechanism dataset with its
-//! truth.
+//! truth; [`measure_cable_dataset`] measures a given true machine (held-out
+//! data).
 
 use nalgebra::DVector;
 use parcal_dataset::mechanism::{
@@ -125,7 +126,7 @@ const NOISE: u64 = 2;
 
 /// Simulates `scenario` on `robot` for `seed`: the truth drawn from the
 /// priors (each parameter its design plus a normal deviate of its prior
-/// sigma), the positions, the readings with their noise.
+/// sigma), then measured by [`measure_cable`].
 pub fn simulate_cable(
     robot: &CableRobot,
     scenario: &CableScenario,
@@ -137,6 +138,22 @@ pub fn simulate_cable(
     for (value, parameter) in truth.iter_mut().zip(robot.parameters()) {
         *value += rng.normal(parameter.prior_sigma);
     }
+    measure_cable(robot, scenario, truth, seed)
+}
+
+/// The campaign of `scenario` measured with seed `seed` on the machine of
+/// true parameters `truth`: the positions, the readings with their noise.
+/// Held-out data of a machine already simulated (another seed), or of one
+/// changed on purpose.
+pub fn measure_cable(
+    robot: &CableRobot,
+    scenario: &CableScenario,
+    truth: DVector<f64>,
+    seed: u64,
+) -> Result<CableSimulation, SimulateError> {
+    scenario.check()?;
+    parcal_kinematics::mechanism::check_params(robot, truth.as_slice())
+        .map_err(|e| SimulateError::Scenario(format!("cable robot: the true machine: {e}")))?;
     let params = truth.as_slice();
     let zero = robot.encoder_zero(params);
     let mut rng = Rng::new(seed, POSITIONS);
@@ -193,6 +210,34 @@ pub fn simulate_cable_dataset(
     scenario: &CableScenario,
     seed: u64,
 ) -> Result<MechanismDataset, SimulateError> {
+    check_dataset_noise(scenario)?;
+    let robot = CableRobot::typical();
+    Ok(cable_dataset(
+        scenario,
+        simulate_cable(&robot, scenario, seed)?,
+    ))
+}
+
+/// [`measure_cable`] of the true machine `truth` of [`CableRobot::typical`]
+/// as a mechanism dataset, as [`simulate_cable_dataset`] writes it: the
+/// held-out data of a simulated robot.
+pub fn measure_cable_dataset(
+    scenario: &CableScenario,
+    truth: &MechanismTruth,
+    seed: u64,
+) -> Result<MechanismDataset, SimulateError> {
+    check_dataset_noise(scenario)?;
+    let robot = CableRobot::typical();
+    let truth = DVector::from_column_slice(&truth.parameters);
+    Ok(cable_dataset(
+        scenario,
+        measure_cable(&robot, scenario, truth, seed)?,
+    ))
+}
+
+/// Refuses a scenario a dataset cannot state (one positive position sigma,
+/// a positive reading sigma).
+fn check_dataset_noise(scenario: &CableScenario) -> Result<(), SimulateError> {
     let [sx, sy, sz] = scenario.position_sigma;
     if !(sx == sy && sy == sz && sx > 0.0 && scenario.reading_sigma > 0.0) {
         return Err(SimulateError::Scenario(format!(
@@ -200,8 +245,13 @@ pub fn simulate_cable_dataset(
             scenario.position_sigma, scenario.reading_sigma
         )));
     }
+    Ok(())
+}
+
+/// The dataset of `simulation`, a campaign of `scenario` on
+/// [`CableRobot::typical`].
+fn cable_dataset(scenario: &CableScenario, simulation: CableSimulation) -> MechanismDataset {
     let robot = CableRobot::typical();
-    let simulation = simulate_cable(&robot, scenario, seed)?;
     let samples = simulation
         .samples
         .into_iter()
@@ -214,12 +264,12 @@ pub fn simulate_cable_dataset(
     let machine = MechanismMachine {
         noise: Noise {
             actuator: Some(scenario.reading_sigma),
-            position: Some(sx),
+            position: Some(scenario.position_sigma[0]),
             ..Noise::default()
         },
         ..MechanismMachine::stating_tolerances(&robot)
     };
-    Ok(MechanismDataset {
+    MechanismDataset {
         machine,
         probes: Vec::new(),
         distances: Vec::new(),
@@ -231,7 +281,7 @@ pub fn simulate_cable_dataset(
             parameters: simulation.truth.iter().copied().collect(),
             trigger_height: None,
         }),
-    })
+    }
 }
 
 #[cfg(test)]

@@ -29,13 +29,12 @@ use parcal_dataset::mechanism::{
     BALLS, BallRow, MechanismDataset, MechanismMachine, MechanismTruth, Noise, OBSERVATIONS,
     SampleRow, TouchRow, ValuePrior,
 };
-use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances, probe_rings};
+use parcal_kinematics::delta::{
+    DeltaParams, FIRST_LAYER, Limits, LinearDelta, Tolerances, probe_rings,
+};
 use parcal_kinematics::mechanism::Mechanism;
 
 use crate::{Rng, SimulateError};
-
-/// The height of a first layer, where part distances are measured (mm).
-const FIRST_LAYER: f64 = 0.2;
 
 /// The bounds of the touches of each ball: a centre takes three, a fourth
 /// is the first that checks them.

@@ -39,7 +39,8 @@ mod tracker;
 use parcal_dataset::bounds::{Count, check_product};
 
 pub use cable::{
-    CableSample, CableScenario, CableSimulation, simulate_cable, simulate_cable_dataset,
+    CableSample, CableScenario, CableSimulation, measure_cable, measure_cable_dataset,
+    simulate_cable, simulate_cable_dataset,
 };
 pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};
 pub use execute::{MachineLimits, execute};

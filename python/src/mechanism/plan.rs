@@ -93,15 +93,17 @@ pub fn plan_mechanism<'py>(
                 candidates: &candidates,
                 group: &group,
                 count,
+                distances: 0,
             })
         })
         .map_err(|e| to_py(format!("{}: {e}", dataset.path.display())))?;
     let dict = PyDict::new(py);
     let kind: Vec<&str> = planned.picks.iter().map(|(c, _)| c.kind()).collect();
+    // Probes and samples: one position each.
     let position: Vec<[f64; 3]> = planned
         .picks
         .iter()
-        .map(|(c, _)| c.position(planned.trigger_height))
+        .flat_map(|(c, _)| c.positions(planned.trigger_height))
         .collect();
     let trace: Vec<f64> = planned.picks.iter().map(|(_, t)| *t).collect();
     dict.set_item("kind", kind)?;

@@ -15,10 +15,11 @@
 //!   r = x̂ − m,   G = dx/dp|_q = −G_x⁺ G_p,   D = Σ_m + σ_q² (G_xᵀ G_x)⁻¹,
 //!   ```
 //!
-//!   `x̂` the maximum-likelihood pose of readings of equal noise `σ_q`
-//!   (least squares in the readings, [`pose_of_readings`]), `G_x⁺ =
-//!   (G_xᵀ G_x)⁻¹ G_xᵀ`; for as many actuators as coordinates, the forward
-//!   kinematics and `−G_x⁻¹ G_p`.
+//!   `x̂` the forward kinematics: for more actuators than coordinates the
+//!   maximum-likelihood pose of readings of equal noise `σ_q` (least
+//!   squares in the readings, `parcal_kinematics::pose_fit`), `G_x⁺ =
+//!   (G_xᵀ G_x)⁻¹ G_xᵀ`; for as many actuators as coordinates, the exact
+//!   pose and `−G_x⁻¹ G_p`.
 //! - A point sample at an unknown pose: its pose is its own unknown, fitted
 //!   to its readings; with `A` actuators, `A − 3` combinations of the
 //!   readings remain, `N_⊥ᵀ (g(p̂, x̂) − q)`, `N_⊥` an orthonormal basis of
@@ -28,19 +29,13 @@
 //! - A touch of a ball is refused: its ball's centre is an unknown of its
 //!   own, which held-out touches would have to locate first.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 use parcal_observe::mechanism::{PointSample, Rows};
 
 use super::data::Observations;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
-
-/// Gauss–Newton steps of [`pose_of_readings`] after the forward
-/// kinematics (which starts it within rounding for a consistent set).
-const POSE_ITERATIONS: usize = 20;
-/// Its convergence: a step below this (mm).
-const POSE_TOLERANCE: f64 = 1e-10;
 
 /// The predicted rows of one held-out observation (module doc).
 #[derive(Debug, Clone, PartialEq)]
@@ -165,7 +160,7 @@ fn predict_sample(
         return Ok(None);
     }
     let start = sample.known_pose.map_or([0.0; 3], |(pose, _)| pose);
-    let pose = pose_of_readings(mechanism, params, &sample.readings, &start)?;
+    let pose = mechanism.forward(params, &sample.readings, &start)?;
     let jacobians = mechanism.reading_jacobians(params, pose.as_slice())?;
     let (g_x, g_p) = (&jacobians.d_pose, &jacobians.d_params);
     let (d_params, normal_inverse) = pose_derivative(g_x, g_p)?;
@@ -229,45 +224,6 @@ fn left_nullspace(g_x: &DMatrix<f64>, normal_inverse: &DMatrix<f64>) -> DMatrix<
     let eigen = ((&projector + projector.transpose()) * 0.5).symmetric_eigen();
     let kept: Vec<usize> = (0..a).filter(|&k| eigen.eigenvalues[k] > 0.5).collect();
     DMatrix::from_fn(a, kept.len(), |i, j| eigen.eigenvectors[(i, kept[j])])
-}
-
-/// The pose whose readings at `params` best match `readings` in the least
-/// squares of the readings (the maximum-likelihood pose of readings of
-/// equal noise): the forward kinematics from `start`, then Gauss–Newton
-/// on `g(p, x) − q` (nothing to do when there are as many actuators as
-/// coordinates).
-pub fn pose_of_readings(
-    mechanism: &dyn Mechanism,
-    params: &[f64],
-    readings: &[f64],
-    start: &[f64; 3],
-) -> Result<Vector3<f64>, MechanismError> {
-    let forward = mechanism.forward(params, readings, start)?;
-    let mut pose = Vector3::new(forward[0], forward[1], forward[2]);
-    if mechanism.actuators().len() == 3 {
-        return Ok(pose);
-    }
-    let q = DVector::from_column_slice(readings);
-    for _ in 0..POSE_ITERATIONS {
-        let misfit = mechanism.inverse(params, pose.as_slice())? - &q;
-        let g_x = mechanism.reading_jacobians(params, pose.as_slice())?.d_pose;
-        let normal: Matrix3<f64> = (g_x.transpose() * &g_x).fixed_view::<3, 3>(0, 0).into();
-        let gradient: Vector3<f64> = (g_x.transpose() * misfit).fixed_rows::<3>(0).into();
-        let step = normal
-            .try_inverse()
-            .map(|inverse| -(inverse * gradient))
-            .filter(|step| step.iter().all(|v| v.is_finite()))
-            .ok_or(MechanismError::Singular)?;
-        pose += step;
-        if step.norm() < POSE_TOLERANCE {
-            return Ok(pose);
-        }
-    }
-    Err(MechanismError::Unreachable {
-        reason: format!(
-            "the readings' least-squares pose did not converge in {POSE_ITERATIONS} steps"
-        ),
-    })
 }
 
 #[cfg(test)]

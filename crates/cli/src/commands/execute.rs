@@ -21,8 +21,9 @@ pub struct RunArgs {
     #[arg(long, value_name = "COMMANDS_CSV", requires = "truth")]
     run: Option<PathBuf>,
     /// The simulated dataset (directory or snapshot) whose truth.json runs
-    /// the commands.
-    #[arg(long, value_name = "DATASET", requires = "run")]
+    /// the commands; with --mechanism, the simulated mechanism dataset
+    /// whose true machine is measured again (held-out data).
+    #[arg(long, value_name = "DATASET")]
     truth: Option<PathBuf>,
     /// The targets the commands were made for: print the tip errors after
     /// the best rigid registration of the reached tips onto them.
@@ -34,6 +35,11 @@ impl RunArgs {
     /// Whether commands are to be run.
     pub fn requested(&self) -> bool {
         self.run.is_some()
+    }
+
+    /// The simulated dataset of `--truth`.
+    pub fn truth(&self) -> Option<&Path> {
+        self.truth.as_deref()
     }
 }
 

@@ -1,7 +1,8 @@
 //! `parcal plan` on a mechanism dataset (machine.json naming a linear
 //! delta or a cable robot): the probe heights or encoder samples to
-//! measure next, by [`parcal::plan::mechanism`], written as the dataset's
-//! own probes.csv or points.csv to fill in, with the predicted sigmas
+//! measure next, and a delta's part distances, by
+//! [`parcal::plan::mechanism`], written as the dataset's own probes.csv,
+//! points.csv or distances.csv to fill in, with the predicted sigmas
 //! before and after (docs/delta.md, docs/cable-robots.md).
 
 use std::io::Write;
@@ -12,9 +13,11 @@ use parcal::dataset::mechanism::{
     MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset, MechanismMachine,
 };
 use parcal::plan::bounds;
-use parcal::plan::mechanism::plan_file::write_mechanism_plan;
-use parcal::plan::mechanism::workspace::{DEFAULT_GRID, grid_candidates};
-use parcal::plan::mechanism::{MechanismPlan, PlanRequest, Start, default_group, plan_mechanism};
+use parcal::plan::mechanism::plan_file::{distances_path, write_mechanism_plan};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, distance_candidates, grid_candidates};
+use parcal::plan::mechanism::{
+    MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, plan_mechanism,
+};
 use parcal::plan::plan_file::summary_path;
 
 use crate::bounds::Bounded;
@@ -26,6 +29,17 @@ pub struct MechanismArgs {
     /// samples) to plan.
     #[arg(long, value_parser = Bounded(bounds::MEASUREMENTS))]
     measurements: Option<usize>,
+    /// A delta's plan: how many part distances (between two points of the
+    /// grid on the first layer, measured on a printed part) to plan after
+    /// the measurements; written to OUT itself without --measurements,
+    /// else beside it (next.csv -> next-distances.csv).
+    #[arg(long, value_parser = Bounded(bounds::MEASUREMENTS))]
+    distances: Option<usize>,
+    /// A delta's plan: the part distances' noise, 1 sigma, mm (default:
+    /// machine.json's noise.distance; needed when the dataset has no part
+    /// distances yet).
+    #[arg(long, value_name = "MM", requires = "distances")]
+    distance_sigma: Option<f64>,
     /// A mechanism's plan: the parameter group whose predicted covariance's
     /// trace is minimised (default: a delta's "diagonal rods", a cable
     /// robot's "anchors").
@@ -46,10 +60,12 @@ impl MechanismArgs {
     pub fn refuse_for_hexapod(&self) -> anyhow::Result<()> {
         anyhow::ensure!(
             self.measurements.is_none()
+                && self.distances.is_none()
+                && self.distance_sigma.is_none()
                 && self.group.is_none()
                 && self.grid.is_none()
                 && !self.measured_positions,
-            "--measurements, --group, --grid and --measured-positions apply to a mechanism's plan (a delta, a cable robot), not a hexapod's"
+            "--measurements, --distances, --distance-sigma, --group, --grid and --measured-positions apply to a mechanism's plan (a delta, a cable robot), not a hexapod's"
         );
         Ok(())
     }
@@ -72,19 +88,33 @@ pub struct Request<'a> {
 /// Plans, writes the files and prints the summary.
 pub fn run(request: &Request) -> anyhow::Result<()> {
     let options = request.options;
-    let Some(count) = options.measurements else {
-        anyhow::bail!(
-            "--measurements is needed for a {}'s plan",
-            request.mechanism
-        );
-    };
+    let (count, distances) = (
+        options.measurements.unwrap_or(0),
+        options.distances.unwrap_or(0),
+    );
+    anyhow::ensure!(
+        count + distances > 0,
+        "--measurements is needed for a {}'s plan (or a delta's --distances)",
+        request.mechanism
+    );
     let mut inputs = crate::outputs::dataset_inputs(request.dir);
     inputs.extend(request.after.map(Path::to_path_buf));
     let out = request.out.to_path_buf();
-    crate::outputs::check(&inputs, &[out.clone(), summary_path(&out)])?;
+    let mut outputs = vec![out.clone(), summary_path(&out)];
+    if count > 0 && distances > 0 {
+        outputs.push(distances_path(&out));
+    }
+    crate::outputs::check(&inputs, &outputs)?;
     let machine_file = request.dir.join(MACHINE_FILE);
     let machine = MechanismMachine::read(&machine_file)?;
-    let noise = machine.noise;
+    let mut noise = machine.noise;
+    if let Some(sigma) = options.distance_sigma {
+        anyhow::ensure!(
+            sigma.is_finite() && sigma > 0.0 && sigma <= 1.0,
+            "--distance-sigma must be in (0, 1] mm, got {sigma}"
+        );
+        noise.distance = Some(sigma);
+    }
     let dataset = MechanismDataset {
         machine,
         ..MechanismDataset::default()
@@ -116,12 +146,14 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         !options.measured_positions || mechanism.name() == "cable robot",
         "--measured-positions applies to a cable robot's samples"
     );
-    let candidates = grid_candidates(
-        mechanism,
-        &params,
-        options.grid.unwrap_or(DEFAULT_GRID),
-        options.measured_positions,
-    )?;
+    let grid = options.grid.unwrap_or(DEFAULT_GRID);
+    let mut candidates = Vec::new();
+    if count > 0 {
+        candidates = grid_candidates(mechanism, &params, grid, options.measured_positions)?;
+    }
+    if distances > 0 {
+        candidates.extend(distance_candidates(mechanism, grid)?);
+    }
     let group = options
         .group
         .clone()
@@ -133,19 +165,33 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         candidates: &candidates,
         group: &group,
         count,
+        distances,
     })
     .map_err(|error| anyhow::anyhow!("{}: {error}", request.dir.display()))?;
     write_mechanism_plan(&out, &plan, mechanism.actuators().len())?;
-    print_summary(&plan, &out, &mut std::io::stdout().lock())?;
+    let beside = (count > 0 && distances > 0).then(|| distances_path(&out));
+    print_summary(
+        &plan,
+        &out,
+        beside.as_deref(),
+        &mut std::io::stdout().lock(),
+    )?;
     Ok(())
 }
 
-/// The plan on stdout: where it went, the measurements, each unknown's
-/// sigma before and after, and what stays at the prior.
-fn print_summary(plan: &MechanismPlan, out: &Path, to: &mut impl Write) -> std::io::Result<()> {
+/// The plan on stdout: where it went (`distances`: the part distances'
+/// file beside), the measurements with the group's RMS sigma after each,
+/// each unknown's sigma before and after, and what stays at the prior.
+fn print_summary(
+    plan: &MechanismPlan,
+    out: &Path,
+    distances: Option<&Path>,
+    to: &mut impl Write,
+) -> std::io::Result<()> {
+    let beside = distances.map_or(String::new(), |path| format!(", {}", path.display()));
     writeln!(
         to,
-        "plan written to {} and {}",
+        "plan written to {}{beside} and {}",
         out.display(),
         summary_path(out).display()
     )?;
@@ -163,14 +209,31 @@ fn print_summary(plan: &MechanismPlan, out: &Path, to: &mut impl Write) -> std::
         plan.trace_before,
         plan.trace_after()
     )?;
+    let group: Vec<&PlannedParameter> = plan
+        .parameters
+        .iter()
+        .filter(|p| p.group == plan.group)
+        .collect();
+    let unit = group.first().map_or("", |p| p.unit.as_str());
+    let rms = |trace: f64| (trace.max(0.0) / group.len().max(1) as f64).sqrt();
+    let mut before = plan.trace_before;
     for (k, (candidate, trace)) in plan.picks.iter().enumerate() {
-        let [x, y, z] = candidate.position(plan.trigger_height);
+        let at: Vec<String> = candidate
+            .positions(plan.trigger_height)
+            .iter()
+            .map(|[x, y, z]| format!("({x:.1}, {y:.1}, {z:.1})"))
+            .collect();
         writeln!(
             to,
-            "  {:>3}  {:<13} at ({x:.1}, {y:.1}, {z:.1})  trace after {trace:.6e}",
+            "  {:>3}  {:<13} at {:<30} trace after {trace:.6e}; {} RMS sigma {:.4} -> {:.4} {unit}",
             k + 1,
-            candidate.kind()
+            candidate.kind(),
+            at.join(" to "),
+            plan.group,
+            rms(before),
+            rms(*trace)
         )?;
+        before = *trace;
     }
     writeln!(
         to,

@@ -127,6 +127,8 @@ pub struct Args {
     /// `delta`): probe heights and part distances; `cable robot` (or
     /// `cable`): the Hangprinter's encoder samples with a few measured
     /// positions; with its truth (docs/delta.md, docs/cable-robots.md).
+    /// With --truth DATASET, the true machine of that simulated dataset is
+    /// measured again (held-out data for `parcal validate`).
     #[arg(long, value_name = "NAME", conflicts_with_all = ["tracker", "plate", "plan", "design_drawn", "binary"])]
     mechanism: Option<String>,
     /// Delta: probe rings over the printable disc and its centre (default 3).
@@ -205,6 +207,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             seed: args.seed,
             out: args.out.clone(),
             force: args.force,
+            truth: args.execute.truth().map(PathBuf::from),
             delta: simulate_mechanism::DeltaFlags {
                 rings: args.probe_rings,
                 per_ring: args.probes_per_ring,
@@ -222,6 +225,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             },
         });
     }
+    anyhow::ensure!(
+        args.execute.truth().is_none(),
+        "--truth needs --run (commands run on a hexapod's truth) or --mechanism (a mechanism's truth measured again)"
+    );
     anyhow::ensure!(
         args.tilt.is_finite() && (0.0..90.0).contains(&args.tilt),
         "--tilt must be in [0, 90) degrees, got {}",

@@ -8,15 +8,18 @@
 //! [`simulate_cable_dataset`]: the Hangprinter's shape, its true anchors,
 //! radii and encoder zero a draw of the prior, encoder samples where every
 //! line is taut, the encoder zero's and a few bed positions measured.
+//! With `--truth DATASET`, the true machine of a dataset simulated so is
+//! measured again instead of drawn: held-out data for `parcal validate`
+//! (new noise with another seed, or another pattern with other flags).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use parcal::dataset::bounds::Count;
-use parcal::dataset::mechanism::MechanismDataset;
+use parcal::dataset::mechanism::{MACHINE_FILE, MechanismDataset, MechanismTruth};
 use parcal::kinematics::mechanisms;
-use parcal::simulation::delta::{DeltaScenario, simulate_delta};
-use parcal::simulation::{CableScenario, simulate_cable_dataset};
+use parcal::simulation::delta::{DeltaScenario, measure_delta, simulate_delta};
+use parcal::simulation::{CableScenario, measure_cable_dataset, simulate_cable_dataset};
 
 /// The bounds of `--probe-rings`.
 pub const RINGS: Count = Count::new(1, 20, "a bed probed on more rings than 20 gains nothing");
@@ -71,6 +74,9 @@ pub struct Request {
     pub out: PathBuf,
     /// Replace an existing dataset.
     pub force: bool,
+    /// A simulated dataset whose true machine is measured (held-out data)
+    /// instead of a drawn one.
+    pub truth: Option<PathBuf>,
     /// A delta's options.
     pub delta: DeltaFlags,
     /// A cable robot's options.
@@ -122,8 +128,8 @@ fn sigma(flag: &str, given: Option<f64>, default: f64, max: f64) -> anyhow::Resu
     Ok(sigma)
 }
 
-/// The delta's dataset of `request`.
-fn delta(request: &Request) -> anyhow::Result<MechanismDataset> {
+/// The delta's dataset of `request`, of the true printer `truth` if given.
+fn delta(request: &Request, truth: Option<&MechanismTruth>) -> anyhow::Result<MechanismDataset> {
     let cable = &request.cable;
     refuse_others(
         "linear delta",
@@ -146,11 +152,15 @@ fn delta(request: &Request) -> anyhow::Result<MechanismDataset> {
         touches_per_ball: flags.touches_per_ball,
         ..typical
     };
-    Ok(simulate_delta(&scenario, request.seed)?)
+    Ok(match truth {
+        Some(truth) => measure_delta(&scenario, truth, request.seed)?,
+        None => simulate_delta(&scenario, request.seed)?,
+    })
 }
 
-/// The cable robot's dataset of `request`.
-fn cable(request: &Request) -> anyhow::Result<MechanismDataset> {
+/// The cable robot's dataset of `request`, of the true machine `truth` if
+/// given.
+fn cable(request: &Request, truth: Option<&MechanismTruth>) -> anyhow::Result<MechanismDataset> {
     let delta = &request.delta;
     refuse_others(
         "cable robot",
@@ -179,19 +189,84 @@ fn cable(request: &Request) -> anyhow::Result<MechanismDataset> {
         position_sigma: [position; 3],
         ..hangprinter
     };
-    Ok(simulate_cable_dataset(&scenario, request.seed)?)
+    Ok(match truth {
+        Some(truth) => measure_cable_dataset(&scenario, truth, request.seed)?,
+        None => simulate_cable_dataset(&scenario, request.seed)?,
+    })
+}
+
+/// The simulated dataset of `--truth` at `path`: a dataset of the
+/// mechanism `name` with its truth.json, not the one written at `out`.
+fn read_truth(path: &Path, name: &str, out: &Path) -> anyhow::Result<MechanismDataset> {
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    anyhow::ensure!(
+        !same(path, out),
+        "--out {} is the dataset of --truth, which this run reads; write the held-out data elsewhere",
+        out.display()
+    );
+    let dataset =
+        MechanismDataset::read(path).with_context(|| format!("--truth {}", path.display()))?;
+    anyhow::ensure!(
+        dataset.machine.mechanism == name,
+        "--truth {}: a dataset of a {}, not of a {name}",
+        path.display(),
+        dataset.machine.mechanism
+    );
+    anyhow::ensure!(
+        dataset.truth.is_some(),
+        "--truth {}: the dataset has no truth.json (only a simulated dataset has a true machine to measure)",
+        path.display()
+    );
+    Ok(dataset)
+}
+
+/// Refuses held-out data `measured` of the dataset `truth` (at `path`)
+/// that the calibration could not be judged on: data of a controller
+/// configured otherwise than the simulator's, or the very measurements
+/// of `truth` (the same seed and flags).
+fn check_held_out(
+    measured: &MechanismDataset,
+    truth: &MechanismDataset,
+    path: &Path,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        measured.machine.configured == truth.machine.configured,
+        "--truth {}: {MACHINE_FILE} configures the controller otherwise than parcal simulate does; its true machine cannot be measured with the simulator's configuration",
+        path.display()
+    );
+    let same = measured.probes == truth.probes
+        && measured.distances == truth.distances
+        && measured.samples == truth.samples;
+    anyhow::ensure!(
+        !same,
+        "--truth {}: these are its own measurements (the same --seed and pattern); give another --seed for held-out data",
+        path.display()
+    );
+    Ok(())
 }
 
 /// Simulates the dataset of `request` and writes it.
 pub fn run(request: &Request) -> anyhow::Result<()> {
     let name = mechanism_name(&request.mechanism)?;
+    let source = request
+        .truth
+        .as_deref()
+        .map(|path| read_truth(path, name, &request.out))
+        .transpose()?;
+    let truth = source.as_ref().and_then(|dataset| dataset.truth.as_ref());
     let dataset = match name {
-        "linear delta" => delta(request)?,
-        "cable robot" => cable(request)?,
+        "linear delta" => delta(request, truth)?,
+        "cable robot" => cable(request, truth)?,
         other => {
             anyhow::bail!("--mechanism {other}: parcal simulates a linear delta or a cable robot")
         }
     };
+    if let (Some(source), Some(path)) = (&source, &request.truth) {
+        check_held_out(&dataset, source, path)?;
+    }
     dataset
         .write_with(&request.out, request.force)
         .with_context(|| format!("{}", request.out.display()))?;
@@ -200,8 +275,12 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         .iter()
         .filter(|s| s.position.is_some())
         .count();
+    let machine = match &request.truth {
+        Some(path) => format!("the true machine of {}", path.display()),
+        None => "the true machine".to_string(),
+    };
     println!(
-        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls, seed {} (truth.json: the true machine)",
+        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls, seed {} (truth.json: {machine})",
         request.out.display(),
         dataset.probes.len(),
         dataset.distances.len(),

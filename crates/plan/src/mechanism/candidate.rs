@@ -3,7 +3,8 @@
 //! each is matters to its information ([`crate::mechanism::information`]):
 //! a probe height and a measured point are taken at a commanded position
 //! (the pose is a function of the parameters, with the shared trigger
-//! height for a probe), a sample at an unknown pose has a pose of its
+//! height for a probe; a part distance is between two commanded
+//! positions), a sample at an unknown pose has a pose of its
 //! own that absorbs part of its readings, and a sample whose position is
 //! measured has that pose held by the measurement.
 
@@ -20,6 +21,9 @@ pub enum Candidate {
     MeasuredSample([f64; 3]),
     /// The effector's position measured at the commanded `position`.
     Point([f64; 3]),
+    /// The distance between two commanded positions measured on a
+    /// printed part: a distances.csv row's `x1,y1,z1` and `x2,y2,z2`.
+    Distance([[f64; 3]; 2]),
 }
 
 impl Candidate {
@@ -29,15 +33,28 @@ impl Candidate {
             Candidate::Probe(_) => "probe height",
             Candidate::Sample(_) | Candidate::MeasuredSample(_) => "point sample",
             Candidate::Point(_) => "measured point",
+            Candidate::Distance(_) => "part distance",
         }
     }
 
     /// Where the effector goes: the commanded or target position (mm), a
-    /// probe at the trigger height `trigger_height` above the bed.
-    pub fn position(&self, trigger_height: f64) -> [f64; 3] {
+    /// probe at the trigger height `trigger_height` above the bed, a part
+    /// distance's two ends.
+    pub fn positions(&self, trigger_height: f64) -> Vec<[f64; 3]> {
         match *self {
-            Candidate::Probe([x, y]) => [x, y, trigger_height],
-            Candidate::Sample(p) | Candidate::MeasuredSample(p) | Candidate::Point(p) => p,
+            Candidate::Probe([x, y]) => vec![[x, y, trigger_height]],
+            Candidate::Sample(p) | Candidate::MeasuredSample(p) | Candidate::Point(p) => vec![p],
+            Candidate::Distance(ends) => ends.to_vec(),
         }
+    }
+
+    /// Whether it is taken at commanded positions (the controller's
+    /// parameters put the effector there), rather than at a pose the
+    /// machine's true parameters give.
+    pub fn is_commanded(&self) -> bool {
+        matches!(
+            self,
+            Candidate::Probe(_) | Candidate::Point(_) | Candidate::Distance(_)
+        )
     }
 }

@@ -16,14 +16,14 @@
 //! the part of the rows the pose cannot absorb (rank `A − 3` for `A`
 //! actuators: one for a cable robot of four lines). A measured position
 //! adds rows `(x − m)/σ_x`, `J` zero and `K = I/σ_x` there, before the
-//! reduction. A probe height or a measured point is taken at a commanded
-//! position: no pose of its own, `M = J` (a probe's last column the
-//! trigger height's `−1/σ`).
+//! reduction. A probe height, a measured point or a part distance is taken
+//! at commanded positions: no pose of its own, `M = J` (a probe's last
+//! column the trigger height's `−1/σ`).
 
 use nalgebra::DMatrix;
 use parcal_dataset::mechanism::Noise;
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
-use parcal_observe::mechanism::{CommandedPoint, PointSample, ProbeHeight};
+use parcal_observe::mechanism::{CommandedPoint, PartDistance, PointSample, ProbeHeight};
 
 use super::candidate::Candidate;
 
@@ -93,6 +93,20 @@ pub fn whitened_rows(
             };
             Ok(padded(
                 &point
+                    .evaluate(mechanism, at.params, at.configured)?
+                    .d_params,
+            ))
+        }
+        Candidate::Distance([first, second]) => {
+            // The measured value enters the residual only, not the rows.
+            let distance = PartDistance {
+                first,
+                second,
+                distance: 0.0,
+                sigma: sigma(noise.distance, "distance")?,
+            };
+            Ok(padded(
+                &distance
                     .evaluate(mechanism, at.params, at.configured)?
                     .d_params,
             ))

@@ -2,7 +2,9 @@
 //! calibration's, or the design's prior alone), the candidates' rows
 //! ([`super::information`]) and the greedy selection ([`super::greedy`]),
 //! the measurements to make and the predicted sigma of every parameter
-//! before and after them.
+//! before and after them. Part distances, when asked, are picked after the
+//! other measurements, from the covariance those leave: each then gains
+//! what the probe heights could not give.
 //!
 //! Everything is linearised at one point: the calibration's estimate, or
 //! the design (the priors' means), with the controller running its
@@ -104,8 +106,12 @@ pub struct PlanRequest<'a> {
     pub candidates: &'a [Candidate],
     /// The parameter group whose covariance's trace is minimised.
     pub group: &'a str,
-    /// How many measurements to plan.
+    /// How many measurements to plan among the candidates other than part
+    /// distances.
     pub count: usize,
+    /// How many part distances to plan among the candidates that are
+    /// ([`Candidate::Distance`]), after the others.
+    pub distances: usize,
 }
 
 /// The parameter group a plan minimises unless asked another: a linear
@@ -227,11 +233,26 @@ fn starting_point(
 fn check(request: &PlanRequest) -> Result<(), DesignError> {
     let options = |reason: String| Err(DesignError::Options(reason));
     MEASUREMENTS
-        .check("measurements", request.count)
+        .check(
+            "measurements and part distances",
+            request.count + request.distances,
+        )
         .map_err(DesignError::Options)?;
     let candidates = request.candidates.len();
     if candidates == 0 || candidates > MAX_CANDIDATES {
         return options(format!("{candidates} candidates: 1 to {MAX_CANDIDATES}"));
+    }
+    for (count, distance, what) in [
+        (request.count, false, "measurements"),
+        (request.distances, true, "part distances"),
+    ] {
+        let offered = request
+            .candidates
+            .iter()
+            .any(|c| matches!(c, Candidate::Distance(_)) == distance);
+        if count > 0 && !offered {
+            return options(format!("{count} {what} asked, and no candidate of them"));
+        }
     }
     let mechanism = request.data.mechanism.as_ref();
     if !mechanism
@@ -290,14 +311,16 @@ pub fn plan_mechanism(request: &PlanRequest) -> Result<MechanismPlan, DesignErro
         .candidates
         .iter()
         .map(|candidate| {
-            let position = candidate.position(trigger_height);
-            let commanded = matches!(candidate, Candidate::Probe(_) | Candidate::Point(_));
-            let reach = if commanded {
+            let reach = if candidate.is_commanded() {
                 &data.configured[..]
             } else {
                 params
             };
-            if mechanism.check_feasible(reach, &position).is_err() {
+            let feasible = candidate
+                .positions(trigger_height)
+                .iter()
+                .all(|position| mechanism.check_feasible(reach, position).is_ok());
+            if !feasible {
                 return Ok(None);
             }
             match whitened_rows(mechanism, &at, &request.noise, candidate) {
@@ -310,20 +333,44 @@ pub fn plan_mechanism(request: &PlanRequest) -> Result<MechanismPlan, DesignErro
     let feasible = rows.iter().flatten().count();
     check_product(
         &[
-            ("measurements", request.count),
+            ("measurements", request.count + request.distances),
             ("feasible candidates", feasible),
         ],
         MAX_MECHANISM_EVALUATIONS,
         "candidate evaluations",
     )
     .map_err(DesignError::Options)?;
-    let (picks, after) = select(&covariance, &rows, &objective, request.count).ok_or_else(|| {
-        DesignError::Options(format!(
-            "none of the {} candidates is feasible for the {} (outside its limits, or singular)",
-            request.candidates.len(),
-            mechanism.name()
-        ))
-    })?;
+    // The other measurements first, then the part distances from what
+    // they leave.
+    let mut after = covariance.clone();
+    let mut picks = Vec::with_capacity(request.count + request.distances);
+    for (count, distance) in [(request.count, false), (request.distances, true)] {
+        if count == 0 {
+            continue;
+        }
+        let of_kind: Vec<Option<DMatrix<f64>>> = rows
+            .iter()
+            .zip(request.candidates)
+            .map(|(m, c)| {
+                m.clone()
+                    .filter(|_| matches!(c, Candidate::Distance(_)) == distance)
+            })
+            .collect();
+        let offered = request
+            .candidates
+            .iter()
+            .filter(|c| matches!(c, Candidate::Distance(_)) == distance)
+            .count();
+        let (chosen, left) = select(&after, &of_kind, &objective, count).ok_or_else(|| {
+            DesignError::Options(format!(
+                "none of the {offered} candidate {} is feasible for the {} (outside its limits, or singular)",
+                if distance { "part distances" } else { "measurements" },
+                mechanism.name()
+            ))
+        })?;
+        picks.extend(chosen);
+        after = left;
+    }
     let sigmas = |c: &DMatrix<f64>| -> Vec<f64> {
         let canonical = &transform * c * transform.transpose();
         (0..g).map(|k| canonical[(k, k)].max(0.0).sqrt()).collect()

@@ -2,7 +2,9 @@
 //! workspace, of the kind of measurement its calibration takes there.
 //!
 //! - A linear delta: probe heights at commanded `(x, y)` on a square grid
-//!   over the bed, those within its print radius (`M665 B`).
+//!   over the bed, those within its print radius (`M665 B`); part
+//!   distances between every two points of that grid at the first
+//!   layer's height ([`distance_candidates`]).
 //! - A cable robot: encoder samples on a cubic grid over the box of its
 //!   anchors from the bed (`z = 0`) up, the position unknown or measured.
 //!
@@ -11,7 +13,7 @@
 //! travel, a cable robot's lines all taut), which the plan checks.
 
 use parcal_kinematics::cable::CableRobot;
-use parcal_kinematics::delta::LinearDelta;
+use parcal_kinematics::delta::{FIRST_LAYER, LinearDelta};
 use parcal_kinematics::mechanism::Mechanism;
 
 use super::candidate::Candidate;
@@ -25,6 +27,43 @@ fn along(low: f64, high: f64, count: usize) -> impl Iterator<Item = f64> + Clone
     (0..count).map(move |i| low + (high - low) * i as f64 / (count - 1).max(1) as f64)
 }
 
+/// The points of a square grid of `per_axis` per axis over a delta's bed
+/// within its print radius.
+fn bed_grid(per_axis: usize) -> impl Iterator<Item = [f64; 2]> + Clone {
+    let radius = LinearDelta::typical().limits().print_radius;
+    let xs = along(-radius, radius, per_axis);
+    xs.clone()
+        .flat_map(move |x| xs.clone().map(move |y| [x, y]))
+        .filter(move |[x, y]| x.hypot(*y) <= radius)
+}
+
+/// A delta's part distances: between every two points of the bed's grid
+/// of `per_axis` per axis, at the first layer's height (where a printed
+/// part's features are measured); an error for another mechanism.
+pub fn distance_candidates(
+    mechanism: &dyn Mechanism,
+    per_axis: usize,
+) -> Result<Vec<Candidate>, DesignError> {
+    if mechanism.name() != "linear delta" {
+        return Err(DesignError::Options(format!(
+            "part distances are planned on a linear delta's printed part, not a {}'s",
+            mechanism.name()
+        )));
+    }
+    let points: Vec<[f64; 3]> = bed_grid(per_axis)
+        .map(|[x, y]| [x, y, FIRST_LAYER])
+        .collect();
+    Ok(points
+        .iter()
+        .enumerate()
+        .flat_map(|(i, first)| {
+            points[i + 1..]
+                .iter()
+                .map(|second| Candidate::Distance([*first, *second]))
+        })
+        .collect())
+}
+
 /// The candidates of `mechanism` at parameters `params` on a grid of
 /// `per_axis` points per axis (module doc); a cable robot's samples with
 /// their position measured if `measured`.
@@ -35,16 +74,7 @@ pub fn grid_candidates(
     measured: bool,
 ) -> Result<Vec<Candidate>, DesignError> {
     match mechanism.name() {
-        "linear delta" => {
-            let radius = LinearDelta::typical().limits().print_radius;
-            let xs = along(-radius, radius, per_axis);
-            Ok(xs
-                .clone()
-                .flat_map(|x| xs.clone().map(move |y| [x, y]))
-                .filter(|[x, y]| x.hypot(*y) <= radius)
-                .map(Candidate::Probe)
-                .collect())
-        }
+        "linear delta" => Ok(bed_grid(per_axis).map(Candidate::Probe).collect()),
         "cable robot" => {
             let robot = CableRobot::typical();
             let anchors: Vec<_> = (0..mechanism.actuators().len())
