@@ -270,8 +270,7 @@ impl SolverRun<'_> {
             .map_or_else(Vec::new, |costs| self.misfits(costs));
         let layout = &setup.layout;
         let state = &solution.state;
-        let (rows, unknowns) =
-            rows_and_unknowns(&*problem, setup.order.len(), problem.global_rows());
+        let (rows, unknowns) = rows_and_unknowns(problem, setup.order.len(), problem.global_rows());
         let global_test = solution.history.last().and_then(|record| {
             GlobalTest::new(
                 record.cost,
@@ -286,7 +285,7 @@ impl SolverRun<'_> {
         let (reliability, group_sigmas) = match (&solution.covariance, solution.history.last()) {
             (Some(covariance), Some(last)) if judged => {
                 let (reliability, sigmas) = Reliability::new(
-                    &*problem,
+                    problem,
                     state,
                     covariance,
                     &mut caches,
@@ -301,7 +300,7 @@ impl SolverRun<'_> {
             }
             (Some(covariance), _) => {
                 let sigmas =
-                    group_sigmas(&*problem, state, covariance, &mut caches, groups_per_chunk);
+                    group_sigmas(problem, state, covariance, &mut caches, groups_per_chunk);
                 (None, sigmas.ok())
             }
             _ => (None, None),
