@@ -358,7 +358,7 @@ fn probes_and_ball_touches_calibrate_a_delta_within_its_sigmas() {
 }
 
 #[test]
-#[ignore = "30 calibrations; run with --ignored (docs/delta.md)"]
+#[ignore = "30 calibrations; run with --ignored (docs/delta-measurements.md)"]
 fn nees_over_printers_with_ball_touches_matches_the_identifiable_count() {
     // Probes and 3 balls of 7 touches on 30 printers drawn from their
     // priors (the balls' radii from their calibration's): 12 identifiable

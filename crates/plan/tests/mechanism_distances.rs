@@ -3,7 +3,7 @@
 //! dense inverse of the same rows, against random distances across the
 //! printable disc and against the simulator's diameters. `cargo test -p
 //! parcal-plan --test mechanism_distances -- --nocapture` prints the
-//! figures docs/delta.md quotes.
+//! figures docs/delta-measurements.md quotes.
 
 use nalgebra::{DMatrix, DVector};
 use parcal_calibrate::mechanism::MechanismData;

@@ -3,7 +3,7 @@
 //! ones, and the predicted sigmas against those of a calibration with the
 //! planned samples simulated; on a delta, what probe heights leave to the
 //! prior. `cargo test -p parcal-plan --test mechanism_plan -- --nocapture`
-//! prints the figures docs/cable-robots.md and docs/delta.md quote.
+//! prints the figures docs/cable-robots.md and docs/delta-measurements.md quote.
 
 use nalgebra::DMatrix;
 use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
@@ -220,7 +220,7 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
         .filter(|s| s.contains("do not determine") && s.contains("diagonal_"))
         .count();
     assert!(rods >= 1, "{:?}", plan.statements);
-    // The rods stay far from what a part distance gives (docs/delta.md):
+    // The rods stay far from what a part distance gives (docs/delta-measurements.md):
     // above half their prior sigma.
     for p in plan
         .parameters
@@ -235,7 +235,7 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
         );
     }
     // The rods' trace against the firmware's usual layout, 25 probes on
-    // three rings out to 100 mm (the calibration's, docs/delta.md), each
+    // three rings out to 100 mm (the calibration's, docs/delta-measurements.md), each
     // probed once: the dense inverse of the same prior and rows.
     let at = Linearisation {
         params: &design,

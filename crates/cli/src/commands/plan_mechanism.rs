@@ -3,7 +3,7 @@
 //! measure next, and a delta's part distances, by
 //! [`parcal::plan::mechanism`], written as the dataset's own probes.csv,
 //! points.csv or distances.csv to fill in, with the predicted sigmas
-//! before and after (docs/delta.md, docs/cable-robots.md).
+//! before and after (docs/delta-measurements.md, docs/cable-robots.md).
 
 use std::io::Write;
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! cable robot): greedily, the candidate whose measurement most reduces
 //! the trace of the predicted covariance of a chosen group of parameters
 //! (A-optimality), from a calibration's covariance or the design's prior
-//! alone, linearised there. docs/cable-robots.md and docs/delta.md give
+//! alone, linearised there. docs/cable-robots.md and docs/delta-measurements.md give
 //! the figures.
 //!
 //! - [`candidate`]: a measurement a plan may choose, in the engine's
