@@ -84,8 +84,8 @@ mod validation;
 pub use calibrated::CalibratedMechanism;
 pub use compensation::{Compensation, compensate_mechanism};
 pub use data::{
-    Ball, MAX_ACTUATORS, MAX_OBSERVATIONS, MIN_ACTUATORS, MechanismData, Observations,
-    ParameterPrior,
+    Ball, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MIN_ACTUATORS, MIN_TOUCHES_PER_BALL,
+    MechanismData, Observations, ParameterPrior,
 };
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
