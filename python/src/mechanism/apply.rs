@@ -3,11 +3,12 @@
 //! docs/cable-robots.md): the held-out data judged against a calibration,
 //! and the actuator commands that reach target positions.
 
+use parcal::Compensation;
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
+use parcal::calibration::mechanism::compensate_targets;
 use parcal::dataset::mechanism::TARGETS;
 use parcal::report::mechanism_validation::validation_record;
 use parcal::{CalibratedMechanism, MechanismCalibrationRecord, validate_mechanism as validate};
-use parcal::{Compensation, compensate_mechanism as compensate};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -15,10 +16,6 @@ use super::dataset::MechanismDataset;
 use super::{calibration_record, data_error};
 use crate::convert::{array2, rows, table, to_python};
 use crate::error::to_py;
-
-/// The unreachable targets named one by one in an error (the others
-/// counted), as `parcal compensate` names them.
-const NAMED_TARGETS: usize = 10;
 
 /// The numbers that apply `record`, named `name` in messages.
 fn calibrated(record: &MechanismCalibrationRecord, name: &str) -> PyResult<CalibratedMechanism> {
@@ -72,33 +69,9 @@ pub fn compensate_mechanism<'py>(
     let calibrated = calibrated(&record, &name)?;
     let targets = rows::<3>(targets, "targets")?;
     TARGETS.check("targets", targets.len()).map_err(to_py)?;
-    let results = py.detach(|| compensate(&calibrated, &targets));
-    let unreachable: Vec<String> = results
-        .iter()
-        .enumerate()
-        .filter_map(|(k, result)| {
-            result
-                .as_ref()
-                .err()
-                .map(|error| format!("target row {k}: {error}"))
-        })
-        .collect();
-    if !unreachable.is_empty() {
-        let more = unreachable.len().saturating_sub(NAMED_TARGETS);
-        return Err(to_py(format!(
-            "{} of {} targets cannot be reached by the calibrated {}:\n  {}{}",
-            unreachable.len(),
-            targets.len(),
-            calibrated.mechanism.name(),
-            unreachable[..unreachable.len().min(NAMED_TARGETS)].join("\n  "),
-            if more > 0 {
-                format!("\n  and {more} more")
-            } else {
-                String::new()
-            }
-        )));
-    }
-    let compensations: Vec<Compensation> = results.into_iter().flatten().collect();
+    let compensations = py
+        .detach(|| compensate_targets(&calibrated, &targets))
+        .map_err(|unreachable| to_py(unreachable.message(|k| format!("target row {k}"))))?;
     let actuators = calibrated.mechanism.actuators().len();
     let table = |of: &dyn Fn(&Compensation) -> &[f64]| {
         let flat: Vec<f64> = compensations.iter().flat_map(|c| of(c).to_vec()).collect();

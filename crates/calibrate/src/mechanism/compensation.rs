@@ -80,3 +80,69 @@ fn compensate_one(
         covariance: covariance.fixed_view::<3, 3>(0, 0).into_owned(),
     })
 }
+
+/// The most unreachable targets [`UnreachableTargets::message`] names one
+/// by one.
+pub const NAMED_TARGETS: usize = 10;
+
+/// The targets a calibrated machine cannot reach, each with why.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct UnreachableTargets {
+    /// The mechanism's name.
+    pub mechanism: String,
+    /// How many targets were given.
+    pub targets: usize,
+    /// Each unreachable target's index (in the order given) and why.
+    pub unreachable: Vec<(usize, MechanismError)>,
+}
+
+impl UnreachableTargets {
+    /// How many of how many targets the machine cannot reach, then the
+    /// first [`NAMED_TARGETS`] of them, each named by `name(index)` (a
+    /// file's line, an array's row), with why, and how many more.
+    pub fn message(&self, name: impl Fn(usize) -> String) -> String {
+        let named: Vec<String> = self
+            .unreachable
+            .iter()
+            .take(NAMED_TARGETS)
+            .map(|(k, error)| format!("{}: {error}", name(*k)))
+            .collect();
+        let more = self.unreachable.len().saturating_sub(NAMED_TARGETS);
+        let more = if more > 0 {
+            format!("\n  and {more} more")
+        } else {
+            String::new()
+        };
+        format!(
+            "{} of {} targets cannot be reached by the calibrated {}:\n  {}{more}",
+            self.unreachable.len(),
+            self.targets,
+            self.mechanism,
+            named.join("\n  ")
+        )
+    }
+}
+
+/// Every target's commands with `calibrated` ([`compensate_mechanism`]),
+/// or every target it cannot reach.
+pub fn compensate_targets(
+    calibrated: &CalibratedMechanism,
+    targets: &[[f64; 3]],
+) -> Result<Vec<Compensation>, UnreachableTargets> {
+    let results = compensate_mechanism(calibrated, targets);
+    let unreachable: Vec<(usize, MechanismError)> = results
+        .iter()
+        .enumerate()
+        .filter_map(|(k, result)| result.as_ref().err().map(|e| (k, e.clone())))
+        .collect();
+    if unreachable.is_empty() {
+        Ok(results.into_iter().flatten().collect())
+    } else {
+        Err(UnreachableTargets {
+            mechanism: calibrated.mechanism.name().to_string(),
+            targets: targets.len(),
+            unreachable,
+        })
+    }
+}

@@ -82,7 +82,9 @@ mod snooping;
 mod validation;
 
 pub use calibrated::CalibratedMechanism;
-pub use compensation::{Compensation, compensate_mechanism};
+pub use compensation::{
+    Compensation, NAMED_TARGETS, UnreachableTargets, compensate_mechanism, compensate_targets,
+};
 pub use data::{
     Ball, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MIN_ACTUATORS, MIN_TOUCHES_PER_BALL,
     MechanismData, Observations, ParameterPrior,

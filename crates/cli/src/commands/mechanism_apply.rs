@@ -8,7 +8,7 @@ use std::path::Path;
 
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
 use parcal::calibration::mechanism::{
-    CalibratedMechanism, MechanismCalibrationError, MechanismData, compensate_mechanism,
+    CalibratedMechanism, MechanismCalibrationError, MechanismData, compensate_targets,
     validate_mechanism,
 };
 use parcal::dataset::mechanism::{
@@ -17,9 +17,6 @@ use parcal::dataset::mechanism::{
 };
 use parcal::dataset::write_numbers;
 use parcal::report::mechanism_validation::{observation_place, summary, validation_record};
-
-/// The unreachable targets named one by one (the others counted).
-const NAMED_TARGETS: usize = 10;
 
 /// Reads a mechanism's calibration.json, refusing a rejected one unless
 /// `accept_rejected`.
@@ -107,34 +104,13 @@ pub fn compensate(
     )?;
     let calibrated = calibrated(calibration, accept_rejected)?;
     let positions = read_targets(targets)?;
-    let results = compensate_mechanism(&calibrated, &positions);
-    let unreachable: Vec<String> = results
-        .iter()
-        .enumerate()
-        .filter_map(|(k, result)| {
-            result
-                .as_ref()
-                .err()
-                .map(|error| format!("line {}: {error}", k + 2))
-        })
-        .collect();
-    if !unreachable.is_empty() {
-        let more = unreachable.len().saturating_sub(NAMED_TARGETS);
-        anyhow::bail!(
-            "{}: {} of {} targets cannot be reached by the calibrated {} (nothing written):\n  {}{}",
+    let compensations = compensate_targets(&calibrated, &positions).map_err(|unreachable| {
+        anyhow::anyhow!(
+            "{}: {} (nothing written)",
             targets.display(),
-            unreachable.len(),
-            positions.len(),
-            calibrated.mechanism.name(),
-            unreachable[..unreachable.len().min(NAMED_TARGETS)].join("\n  "),
-            if more > 0 {
-                format!("\n  and {more} more")
-            } else {
-                String::new()
-            }
-        );
-    }
-    let compensations: Vec<_> = results.into_iter().flatten().collect();
+            unreachable.message(|k| format!("line {}", k + 2))
+        )
+    })?;
     let rows: Vec<Vec<f64>> = compensations
         .iter()
         .map(|c| {
