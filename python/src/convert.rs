@@ -81,6 +81,19 @@ pub fn through_file<T>(
     })
 }
 
+/// The text a file writer `write` puts in the file `file`: the same bytes
+/// as the file it writes for a command (written to a temporary directory,
+/// then read back).
+pub fn written_text<E: std::fmt::Display>(
+    file: &str,
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> PyResult<String> {
+    let directory = tempfile::tempdir().map_err(to_py)?;
+    let path = directory.path().join(file);
+    write(&path).map_err(to_py)?;
+    std::fs::read_to_string(&path).map_err(to_py)
+}
+
 /// `object` as a float64 numpy array (numpy's `asarray`).
 fn float_array<'py>(
     object: &Bound<'py, PyAny>,

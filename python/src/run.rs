@@ -274,10 +274,9 @@ impl Calibration {
     /// calibration.json's text: the bytes `parcal calibrate` writes for
     /// the same data (given by the same path) and options.
     fn to_json(&self) -> PyResult<String> {
-        let directory = tempfile::tempdir().map_err(to_py)?;
-        let path = directory.path().join(parcal::dataset::CALIBRATION_FILE);
-        self.record.write(&path).map_err(to_py)?;
-        std::fs::read_to_string(&path).map_err(to_py)
+        crate::convert::written_text(parcal::dataset::CALIBRATION_FILE, |path| {
+            self.record.write(path)
+        })
     }
 
     /// Writes calibration.json to `path` (atomically: the whole file, or

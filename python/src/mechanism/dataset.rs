@@ -17,7 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use super::data_error;
-use crate::convert::{array2, rows, table, table_rows, through_file, to_python};
+use crate::convert::{array2, rows, table, table_rows, through_file, to_python, written_text};
 use crate::error::to_py;
 
 /// A mechanism dataset: its machine (the mechanism by name, the
@@ -136,10 +136,7 @@ impl MechanismDataset {
     /// machine.json's content, as the dataset writes it.
     #[getter]
     fn machine<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let directory = tempfile::tempdir().map_err(to_py)?;
-        let path = directory.path().join(MACHINE_FILE);
-        self.inner.machine.write(&path).map_err(to_py)?;
-        let text = std::fs::read_to_string(&path).map_err(to_py)?;
+        let text = written_text(MACHINE_FILE, |path| self.inner.machine.write(path))?;
         py.import("json")?.call_method1("loads", (text,))
     }
 
