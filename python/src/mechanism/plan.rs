@@ -6,7 +6,9 @@
 use numpy::PyArray1;
 use parcal::plan::bounds::{GRID, MEASUREMENTS};
 use parcal::plan::mechanism::workspace::{DEFAULT_GRID, grid_candidates};
-use parcal::plan::mechanism::{PlanRequest, Start, default_group, plan_mechanism as plan};
+use parcal::plan::mechanism::{
+    PlanRequest, Start, default_group, linearisation_point, plan_mechanism as plan,
+};
 use parcal::{MechanismData, MechanismDataset as Inner};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -77,11 +79,7 @@ pub fn plan_mechanism<'py>(
         }
         None => None,
     };
-    let n = mechanism.parameters().len();
-    let params: Vec<f64> = match &start {
-        Some(start) => start.values[..n].to_vec(),
-        None => data.priors.iter().map(|p| p.mean).collect(),
-    };
+    let params = linearisation_point(&data, start.as_ref());
     let group = group.unwrap_or_else(|| default_group(mechanism).to_string());
     let planned = py
         .detach(|| {

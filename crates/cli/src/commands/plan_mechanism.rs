@@ -16,7 +16,8 @@ use parcal::plan::bounds;
 use parcal::plan::mechanism::plan_file::{distances_path, write_mechanism_plan};
 use parcal::plan::mechanism::workspace::{DEFAULT_GRID, distance_candidates, grid_candidates};
 use parcal::plan::mechanism::{
-    MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, plan_mechanism,
+    MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, linearisation_point,
+    plan_mechanism,
 };
 use parcal::plan::plan_file::summary_path;
 
@@ -137,11 +138,7 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let n = mechanism.parameters().len();
-    let params: Vec<f64> = match &start {
-        Some(start) => start.values[..n].to_vec(),
-        None => data.priors.iter().map(|p| p.mean).collect(),
-    };
+    let params = linearisation_point(&data, start.as_ref());
     anyhow::ensure!(
         !options.measured_positions || mechanism.name() == "cable robot",
         "--measured-positions applies to a cable robot's samples"

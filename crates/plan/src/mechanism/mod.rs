@@ -28,5 +28,6 @@ pub mod workspace;
 pub use candidate::Candidate;
 pub use greedy::Pick;
 pub use predict::{
-    MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, plan_mechanism,
+    MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, linearisation_point,
+    plan_mechanism,
 };

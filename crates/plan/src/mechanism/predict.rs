@@ -52,6 +52,15 @@ pub struct Start {
     pub covariance: DMatrix<f64>,
 }
 
+/// The parameters a plan is linearised at: a calibration's estimate
+/// (`start`) if it starts from one, the priors' means of `data` otherwise.
+pub fn linearisation_point(data: &MechanismData, start: Option<&Start>) -> Vec<f64> {
+    match start {
+        Some(start) => start.values[..data.mechanism.parameters().len()].to_vec(),
+        None => data.priors.iter().map(|p| p.mean).collect(),
+    }
+}
+
 impl Start {
     /// The start of a calibration record of `mechanism`: its parameters in
     /// the mechanism's order, then optionally the trigger height, with
