@@ -5,7 +5,10 @@
 //! parcal-plan --test mechanism_distances -- --nocapture` prints the
 //! figures docs/delta-measurements.md quotes.
 
-use nalgebra::{DMatrix, DVector};
+mod common;
+
+use common::dense_prior;
+use nalgebra::DMatrix;
 use parcal_calibrate::mechanism::MechanismData;
 use parcal_dataset::mechanism::Noise;
 use parcal_kinematics::delta::{FIRST_LAYER, LinearDelta};
@@ -115,13 +118,7 @@ fn planned_part_distances_fix_the_rods_better_than_random_ones() {
         unknowns: n + 1,
     };
     let rows = |c: &Candidate| whitened_rows(mechanism, &at, &NOISE, c).unwrap();
-    let mut variances: Vec<f64> = data
-        .priors
-        .iter()
-        .map(|p| p.sigma.unwrap().powi(2))
-        .collect();
-    variances.push(data.trigger_height.sigma.unwrap().powi(2));
-    let prior = DMatrix::from_diagonal(&DVector::from_vec(variances));
+    let prior = dense_prior(&data);
     let rods = DMatrix::identity(n + 1, n + 1).rows(RODS, 3).clone_owned();
     let probe_rows: Vec<DMatrix<f64>> = plan.picks[..probes].iter().map(|(c, _)| rows(c)).collect();
     let trace_with = |extra: &[DMatrix<f64>]| {

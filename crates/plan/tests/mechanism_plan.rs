@@ -5,6 +5,9 @@
 //! prior. `cargo test -p parcal-plan --test mechanism_plan -- --nocapture`
 //! prints the figures docs/cable-robots.md and docs/delta-measurements.md quote.
 
+mod common;
+
+use common::dense_prior;
 use nalgebra::DMatrix;
 use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
 use parcal_dataset::mechanism::{MechanismDataset, Noise, SampleRow};
@@ -251,13 +254,7 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
         .into_iter()
         .map(|xy| whitened_rows(mechanism, &at, &noise, &Candidate::Probe(xy)).unwrap())
         .collect();
-    let mut variances: Vec<f64> = data
-        .priors
-        .iter()
-        .map(|p| p.sigma.unwrap().powi(2))
-        .collect();
-    variances.push(data.trigger_height.sigma.unwrap().powi(2));
-    let prior = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(variances));
+    let prior = dense_prior(&data);
     let after = dense_covariance(&prior, &rings.iter().collect::<Vec<_>>()).unwrap();
     // The rods are their own canonical values (no gauge freedom moves
     // them): their rows of the canonical frame's derivative are unit rows.
