@@ -394,6 +394,8 @@ pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: us
     coordinates: Vec<f64>,
     /// Scratch for a reduced row `u` (`G` values).
     reduced: Vec<f64>,
+    /// Scratch for the `z_j` of one point's data rows (`R × G` values).
+    z: Vec<f64>,
     /// The rows of the chunk's points so far: a point's residuals and
     /// weight from its factorisation, its redundancy and global leverage
     /// once its group is done.
@@ -430,6 +432,7 @@ impl<'a, const C: usize, const P: usize, const R: usize> RedundancySink<'a, C, P
             weighed: VecDeque::with_capacity(BATCH),
             coordinates: vec![0.0; R * (C + g)],
             reduced: vec![0.0; g],
+            z: vec![0.0; R * g],
             out: Vec::with_capacity(points),
             global_z: global_z.then(|| Vec::with_capacity(points * R * g)),
             sigmas: None,
@@ -507,52 +510,28 @@ where
         if let Some(sigmas) = &mut self.sigmas {
             sigmas.push(top);
         }
-        let (g, w, cw) = (self.g, C + self.g + 1, C + self.g);
-        let mut first_row = 0;
         let done = self.out.len() - self.points.len();
-        for (point, out) in self.points.iter().zip(&mut self.out[done..]) {
-            let n = point.eliminated;
-            for e in 0..n {
-                let row = &self.rows[(first_row + e) * w..(first_row + e + 1) * w];
-                let v = &mut self.coordinates[e * cw..(e + 1) * cw];
-                self.reduced.copy_from_slice(&row[C..C + g]);
-                let (y, z) = v.split_at_mut(C);
-                match top {
-                    Some(top) => eliminate_group::<C>(top, g, &row[..C], y, &mut self.reduced),
-                    None => y.fill(0.0),
-                }
-                times_factor(self.factor, &self.reduced, z);
-            }
-            first_row += n;
-            // M = V Vᵀ.
-            let mut m = SMatrix::<f64, R, R>::zeros();
-            for e in 0..n {
-                for f in 0..=e {
-                    let ve = &self.coordinates[e * cw..(e + 1) * cw];
-                    let vf = &self.coordinates[f * cw..(f + 1) * cw];
-                    let d = dot(ve, vf);
-                    m[(e, f)] = d;
-                    m[(f, e)] = d;
-                }
-            }
-            out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
-            // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
-            let z = |r: usize, a: usize| -> f64 {
-                (0..n)
-                    .map(|e| point.data[(r, e)] * self.coordinates[e * cw + C + a])
-                    .sum()
-            };
-            out.global_leverage = SVector::from_fn(|r, _| (0..g).map(|a| z(r, a).powi(2)).sum());
-            if let Some(zs) = self.global_z.as_mut() {
-                zs.extend((0..R * g).map(|k| z(k / g, k % g)));
-            }
-            if let Some(q) = &point.prior {
-                for a in 0..P {
-                    self.prior_leverage.points += 1.0 - row_redundancy(q, a, &m, n);
-                }
-            }
-        }
+        let level = GroupLevel {
+            top,
+            factor: self.factor,
+            g: self.g,
+        };
+        let scratch = Scratch {
+            coordinates: &mut self.coordinates,
+            reduced: &mut self.reduced,
+            z: &mut self.z,
+        };
+        point_leverages::<C, P, R>(
+            &level,
+            self.rows,
+            &self.points,
+            &mut self.out[done..],
+            self.global_z.as_mut(),
+            scratch,
+            &mut self.prior_leverage.points,
+        );
         if let (Some(top), Some(prior)) = (top, prior) {
+            let (g, cw) = (self.g, C + self.g);
             // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0.
             let (y, z) = self.coordinates[..cw].split_at_mut(C);
             for a in 0..C {
@@ -565,6 +544,145 @@ where
         }
         self.points.clear();
         self.rows.clear();
+    }
+}
+
+/// The group and global levels of a group's points: its triangle `top`
+/// (`[R_cc | R_cg | z_c]`, none for a fixed group) and `L` (`G × G`,
+/// row-major) with `Cov(g) = LLᵀ`.
+struct GroupLevel<'a> {
+    top: Option<&'a [f64]>,
+    factor: &'a [f64],
+    g: usize,
+}
+
+/// The scratch of [`point_leverages`]: `V` of a point (`R` rows of
+/// `C + G`), a reduced row (`G`), the `z_j` of its data rows (`R × G`).
+struct Scratch<'a> {
+    coordinates: &'a mut [f64],
+    reduced: &'a mut [f64],
+    z: &'a mut [f64],
+}
+
+/// Each point of a group done, from its eliminated `rows` (`[E_c | E_g |
+/// ·]`, width `C + G + 1`, the points' in order): `V` (a row `[R_cc⁻ᵀ
+/// E_c[e,·]ᵀ | LᵀŨ[e,·]ᵀ]` per eliminated row), `M = VVᵀ`, each data
+/// row's `r_j = |q_j|² − q_jᵀ M q_j` and global leverage `|z_j|²`,
+/// `z_j = Σ_e q_j[e] V[e, C..]` (module doc) into `out`; each `z_j` onto
+/// `global_z` if kept; the leverage `1 − r` of the points' prior rows
+/// added to `prior_leverage`.
+///
+/// Compiled twice: for AVX2, chosen at run time where the machine has it
+/// (the products with `L` four wide instead of two), and for any x86-64.
+/// Both multiply and add in the same order, so they give the same bits.
+#[allow(unsafe_code, reason = "the AVX2 build, called after the feature check")]
+fn point_leverages<const C: usize, const P: usize, const R: usize>(
+    level: &GroupLevel<'_>,
+    rows: &[f64],
+    points: &[PendingPoint<P, R>],
+    out: &mut [PointRows<R>],
+    global_z: Option<&mut Vec<f64>>,
+    scratch: Scratch<'_>,
+    prior_leverage: &mut f64,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the machine runs AVX2.
+        return unsafe {
+            point_leverages_avx2::<C, P, R>(
+                level,
+                rows,
+                points,
+                out,
+                global_z,
+                scratch,
+                prior_leverage,
+            )
+        };
+    }
+    point_leverages_in::<C, P, R>(level, rows, points, out, global_z, scratch, prior_leverage);
+}
+
+/// [`point_leverages`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn point_leverages_avx2<const C: usize, const P: usize, const R: usize>(
+    level: &GroupLevel<'_>,
+    rows: &[f64],
+    points: &[PendingPoint<P, R>],
+    out: &mut [PointRows<R>],
+    global_z: Option<&mut Vec<f64>>,
+    scratch: Scratch<'_>,
+    prior_leverage: &mut f64,
+) {
+    point_leverages_in::<C, P, R>(level, rows, points, out, global_z, scratch, prior_leverage);
+}
+
+/// The body of [`point_leverages`], inlined into each of its builds.
+#[inline(always)]
+fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
+    level: &GroupLevel<'_>,
+    rows: &[f64],
+    points: &[PendingPoint<P, R>],
+    out: &mut [PointRows<R>],
+    mut global_z: Option<&mut Vec<f64>>,
+    scratch: Scratch<'_>,
+    prior_leverage: &mut f64,
+) {
+    let g = level.g;
+    let (w, cw) = (C + g + 1, C + g);
+    let Scratch {
+        coordinates,
+        reduced,
+        z,
+    } = scratch;
+    let mut first_row = 0;
+    for (point, out) in points.iter().zip(out) {
+        let n = point.eliminated;
+        for e in 0..n {
+            let row = &rows[(first_row + e) * w..(first_row + e + 1) * w];
+            let v = &mut coordinates[e * cw..(e + 1) * cw];
+            reduced.copy_from_slice(&row[C..C + g]);
+            let (y, v_global) = v.split_at_mut(C);
+            match level.top {
+                Some(top) => eliminate_group::<C>(top, g, &row[..C], y, reduced),
+                None => y.fill(0.0),
+            }
+            times_factor(level.factor, reduced, v_global);
+        }
+        first_row += n;
+        // M = V Vᵀ.
+        let mut m = SMatrix::<f64, R, R>::zeros();
+        for e in 0..n {
+            for f in 0..=e {
+                let ve = &coordinates[e * cw..(e + 1) * cw];
+                let vf = &coordinates[f * cw..(f + 1) * cw];
+                let d = dot(ve, vf);
+                m[(e, f)] = d;
+                m[(f, e)] = d;
+            }
+        }
+        out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
+        // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
+        for (r, z_r) in z.chunks_exact_mut(g).enumerate() {
+            z_r.fill(0.0);
+            for e in 0..n {
+                let q = point.data[(r, e)];
+                let v = &coordinates[e * cw + C..(e + 1) * cw];
+                for (z, v) in z_r.iter_mut().zip(v) {
+                    *z += q * v;
+                }
+            }
+            out.global_leverage[r] = norm2(z_r);
+        }
+        if let Some(zs) = global_z.as_mut() {
+            zs.extend_from_slice(z);
+        }
+        if let Some(q) = &point.prior {
+            for a in 0..P {
+                *prior_leverage += 1.0 - row_redundancy(q, a, &m, n);
+            }
+        }
     }
 }
 
@@ -620,6 +738,7 @@ fn eliminate_group<const C: usize>(
 /// `z = Lᵀu` for the lower-triangular `L` (`G × G`, row-major) with
 /// `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by rows of `L`
 /// (`z[..=i] += L[i, ..=i] u_i`), whose lanes are independent.
+#[inline]
 pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     let g = u.len();
     z.fill(0.0);
@@ -631,10 +750,12 @@ pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     }
 }
 
+#[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+#[inline]
 fn norm2(a: &[f64]) -> f64 {
     dot(a, a)
 }
