@@ -3,7 +3,8 @@
 
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
+use serde::de::IgnoredAny;
+use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::Point3;
 use crate::artefacts::{Ball, ball_index};
@@ -27,7 +28,9 @@ pub struct Truth {
     pub ball_centres: Vec<Point3>,
     /// True ball radii, in [`Artefacts::balls`](crate::Artefacts::balls) order.
     pub ball_radii: Vec<f64>,
-    /// True contact point of each measurement row, in row order.
+    /// True contact point of each measurement row, in row order; empty
+    /// if the dataset was read without them
+    /// ([`ReadOptions::true_contacts`](crate::ReadOptions::true_contacts)).
     pub contacts: Vec<Point3>,
     /// True actuator scales (mm per unit), when the machine has
     /// `actuator`.
@@ -37,32 +40,67 @@ pub struct Truth {
     pub sessions: Vec<SessionRecord>,
 }
 
-/// The fields of `truth.json` after the geometry: balls keyed by id.
+/// The fields of `truth.json` after the geometry: balls keyed by id; the
+/// contact points as `C` (written from a `Vec`, read as [`TrueContacts`],
+/// or skipped unparsed as [`IgnoredAny`]).
 #[derive(Serialize, Deserialize)]
-struct Balls {
+struct Balls<C> {
     ball_centres: IdMap<P3>,
     ball_radii: IdMap<f64>,
-    #[serde(deserialize_with = "shape::points")]
-    contacts: Vec<Point3>,
+    contacts: C,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     actuator_scale: Option<[f64; 6]>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     sessions: Vec<SessionRecord>,
 }
 
+/// `truth.json`'s contact points, parsed.
+struct TrueContacts(Vec<Point3>);
+
+impl<'de> Deserialize<'de> for TrueContacts {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        shape::points(d).map(Self)
+    }
+}
+
 impl Truth {
     /// Reads and checks `truth.json` if it exists, against the balls and the
-    /// number of measurement rows.
+    /// number of measurement rows; without its contact points (skipped
+    /// unparsed, [`Truth::contacts`] left empty) unless `contacts`.
     pub(crate) fn read_if_present(
         path: &Path,
         balls: &[Ball],
         rows: usize,
+        contacts: bool,
     ) -> Result<Option<Self>> {
-        let Some(file) =
-            json::read_if_present::<WithGeometry<GeometryRecord, Balls>>(path, json::TRUTH)?
-        else {
-            return Ok(None);
+        let contact_rows = contacts.then_some(rows);
+        let read = |file: Option<WithGeometry<GeometryRecord, Balls<Vec<Point3>>>>| {
+            file.map(|file| Self::checked(path, file, balls, contact_rows))
+                .transpose()
         };
+        if contacts {
+            let file = json::read_if_present::<WithGeometry<GeometryRecord, Balls<TrueContacts>>>(
+                path,
+                json::TRUTH,
+            )?;
+            read(file.map(|f| with_contacts(f, |c| c.0)))
+        } else {
+            let file = json::read_if_present::<WithGeometry<GeometryRecord, Balls<IgnoredAny>>>(
+                path,
+                json::TRUTH,
+            )?;
+            read(file.map(|f| with_contacts(f, |_| Vec::new())))
+        }
+    }
+
+    /// The truth of `file` (`truth.json` at `path`), checked as
+    /// [`Truth::validate`] checks it.
+    fn checked(
+        path: &Path,
+        file: WithGeometry<GeometryRecord, Balls<Vec<Point3>>>,
+        balls: &[Ball],
+        contact_rows: Option<usize>,
+    ) -> Result<Self> {
         let check = Check::new(path);
         let truth = Self {
             geometry: file.geometry,
@@ -75,8 +113,8 @@ impl Truth {
             actuator_scale: file.rest.actuator_scale,
             sessions: file.rest.sessions,
         };
-        truth.validate(check, balls.len(), rows)?;
-        Ok(Some(truth))
+        truth.validate(check, balls.len(), contact_rows)?;
+        Ok(truth)
     }
 
     /// Writes `truth.json` (the caller has validated).
@@ -96,8 +134,14 @@ impl Truth {
 
     /// The geometry a machine's ([`GeometryRecord::validate_machine`]),
     /// lengths within bounds, radii positive, one centre and radius per
-    /// ball, one contact per measurement row.
-    pub(crate) fn validate(&self, check: Check, ball_count: usize, rows: usize) -> Result<()> {
+    /// ball, one contact per measurement row (`contact_rows` rows; `None`:
+    /// the contacts were not read).
+    pub(crate) fn validate(
+        &self,
+        check: Check,
+        ball_count: usize,
+        contact_rows: Option<usize>,
+    ) -> Result<()> {
         self.geometry.validate_machine(check, "")?;
         for (field, len) in [
             ("ball_centres", self.ball_centres.len()),
@@ -114,7 +158,9 @@ impl Truth {
         for (i, &r) in self.ball_radii.iter().enumerate() {
             check.positive_length(format_args!("ball_radii[{i}]"), r)?;
         }
-        if self.contacts.len() != rows {
+        if let Some(rows) = contact_rows
+            && self.contacts.len() != rows
+        {
             return Err(check.error(
                 "contacts",
                 format!(
@@ -131,6 +177,30 @@ impl Truth {
             session.validate(check, &format!("sessions[{k}]"))?;
         }
         Ok(())
+    }
+}
+
+/// `file` with its contact points mapped by `f`.
+fn with_contacts<C, D>(
+    file: WithGeometry<GeometryRecord, Balls<C>>,
+    f: impl FnOnce(C) -> D,
+) -> WithGeometry<GeometryRecord, Balls<D>> {
+    let Balls {
+        ball_centres,
+        ball_radii,
+        contacts,
+        actuator_scale,
+        sessions,
+    } = file.rest;
+    WithGeometry {
+        geometry: file.geometry,
+        rest: Balls {
+            ball_centres,
+            ball_radii,
+            contacts: f(contacts),
+            actuator_scale,
+            sessions,
+        },
     }
 }
 

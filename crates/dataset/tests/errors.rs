@@ -767,6 +767,7 @@ fn ball_with_too_few_contacts() {
     // A lower minimum accepts it; a higher one names every short ball.
     let lenient = ReadOptions {
         min_contacts_per_ball: 3,
+        ..ReadOptions::default()
     };
     assert_eq!(
         Dataset::read_with(dir.path(), &lenient)
@@ -776,6 +777,7 @@ fn ball_with_too_few_contacts() {
     );
     let strict = ReadOptions {
         min_contacts_per_ball: 5,
+        ..ReadOptions::default()
     };
     assert_error(
         &read_error_with(dir.path(), &strict),
@@ -802,6 +804,7 @@ fn ball_listed_in_artefacts_with_no_contact() {
     );
     let none = ReadOptions {
         min_contacts_per_ball: 0,
+        ..ReadOptions::default()
     };
     assert_eq!(
         Dataset::read_with(dir.path(), &none)

@@ -223,6 +223,7 @@ fn read_with_csv(csv: &str) -> Dataset {
         dir.path(),
         &ReadOptions {
             min_contacts_per_ball: 1,
+            ..ReadOptions::default()
         },
     )
     .unwrap()
@@ -512,4 +513,34 @@ fn a_key_given_twice_in_calibration_json_is_refused() {
         CALIBRATION_FILE,
         "field ball_centres: key \"b01\" is given twice",
     );
+}
+
+#[test]
+fn the_truth_reads_without_its_contact_points() {
+    let original = dataset(ALL);
+    let dir = tempfile::tempdir().unwrap();
+    original.write(dir.path()).unwrap();
+    let options = ReadOptions {
+        true_contacts: false,
+        ..ReadOptions::default()
+    };
+    let read = Dataset::read_with(dir.path(), &options).unwrap();
+    let (truth, expected) = (
+        read.truth.as_ref().unwrap(),
+        original.truth.as_ref().unwrap(),
+    );
+    assert!(truth.contacts.is_empty() && !expected.contacts.is_empty());
+    let mut without = expected.clone();
+    without.contacts.clear();
+    assert_eq!(truth, &without);
+    assert_bitwise_eq(
+        &Dataset {
+            truth: original.truth.clone(),
+            ..read.clone()
+        },
+        &original,
+    );
+    // Such a truth is not written as a dataset's.
+    let error = read.write(tempfile::tempdir().unwrap().path()).unwrap_err();
+    assert!(error.to_string().contains("contact points"), "{error}");
 }

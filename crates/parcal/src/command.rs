@@ -19,17 +19,23 @@ use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
     PriorMode, RadiusModel, Simulation, WeightModel, calibrate,
 };
-use parcal_dataset::{Calibration, Dataset, DatasetError, Provenance};
+use parcal_dataset::{Calibration, Dataset, DatasetError, Provenance, ReadOptions};
 use parcal_report::record;
 
 /// Reads a dataset as the commands do: a directory of text files, or a
 /// binary snapshot file (`dataset.bin`). A directory holding a snapshot is
 /// read from the text files.
 pub fn read_dataset(path: &Path) -> Result<Dataset, DatasetError> {
+    read_dataset_with(path, &ReadOptions::default())
+}
+
+/// [`read_dataset`] with `options` for a directory of text files (a
+/// snapshot is read whole).
+pub fn read_dataset_with(path: &Path, options: &ReadOptions) -> Result<Dataset, DatasetError> {
     if path.is_file() {
         Dataset::read_snapshot(path)
     } else {
-        Dataset::read(path)
+        Dataset::read_with(path, options)
     }
 }
 

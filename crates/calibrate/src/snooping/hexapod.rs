@@ -157,7 +157,10 @@ fn remove(dataset: &mut Dataset, observation: ObservationId) {
             if let Some(directions) = &mut m.direction {
                 directions.remove(row);
             }
-            if let Some(truth) = &mut dataset.truth {
+            // A truth read without its contact points has none to remove.
+            if let Some(truth) = &mut dataset.truth
+                && !truth.contacts.is_empty()
+            {
                 truth.contacts.remove(row);
             }
         }

@@ -15,7 +15,7 @@ use parcal::calibration::{
 use parcal::command::{
     CalibrateFlags, FittedRun, RecordedRun, calibrate_recorded, calibrates_instruments,
 };
-use parcal::dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE};
+use parcal::dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE, ReadOptions};
 use parcal::report::{instruments, tables};
 use parcal::workflows::evaluate::{TrueMachine, before_after};
 
@@ -109,7 +109,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let options = flags.options();
     let progress = Progress::bar("iteration", options.max_iterations as u64);
     let read = Instant::now();
-    let mut dataset = super::read_dataset(&args.dataset)?;
+    // A simulation's true contact points serve no calibration: skipped.
+    let without_true_contacts = ReadOptions {
+        true_contacts: false,
+        ..ReadOptions::default()
+    };
+    let mut dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
     let out = args.out_path();
     super::check_calibration_outputs(&args.dataset, &out)?;
     args.report_request(&out, None)

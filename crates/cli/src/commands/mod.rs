@@ -19,7 +19,7 @@ pub mod validate;
 
 use std::path::{Path, PathBuf};
 
-use parcal::dataset::Dataset;
+use parcal::dataset::{Dataset, ReadOptions};
 use parcal::report::calibration_report::{Subject, accuracy_with};
 use parcal::workflows::evaluate::TrueMachine;
 
@@ -30,13 +30,18 @@ pub const SNAPSHOT_FILE: &str = "dataset.bin";
 /// (`*.bin`, [`parcal::command::read_dataset`]). A dataset of another
 /// mechanism than the hexapod is refused, saying which commands take it.
 pub fn read_dataset(path: &Path) -> anyhow::Result<Dataset> {
+    read_dataset_with(path, &ReadOptions::default())
+}
+
+/// [`read_dataset`] with `options` (for a directory of text files).
+pub fn read_dataset_with(path: &Path, options: &ReadOptions) -> anyhow::Result<Dataset> {
     if let Some(mechanism) = mechanism::declared(path)? {
         anyhow::bail!(
             "{}: a {mechanism}'s dataset: this command reads a hexapod's; a {mechanism}'s is calibrated (parcal calibrate), reported (parcal report), exported (parcal export), validated (parcal validate --calibration) and compensated (parcal compensate --targets)",
             path.display()
         );
     }
-    Ok(parcal::command::read_dataset(path)?)
+    Ok(parcal::command::read_dataset_with(path, options)?)
 }
 
 /// A calibration that was computed and written, but whose verdict is
