@@ -404,3 +404,155 @@ fn check_held_out(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The request of `mechanism` with `options`, spelled `spelling`.
+    fn request<'a>(
+        mechanism: &'a str,
+        seed: u64,
+        options: &'a MechanismOptions,
+        spelling: Spelling,
+    ) -> MechanismRequest<'a> {
+        MechanismRequest {
+            mechanism,
+            seed,
+            options,
+            truth: None,
+            spelling,
+        }
+    }
+
+    /// The message of the refusal of `request`.
+    fn refusal(request: &MechanismRequest) -> String {
+        match simulate_mechanism(request) {
+            Err(SimulateError::Options(message)) => message,
+            other => panic!("not refused: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn options_are_named_as_each_front_end_spells_them() {
+        assert_eq!(Spelling::Flags.name("probes_per_ring"), "--probes-per-ring");
+        assert_eq!(
+            Spelling::Keywords.name("probes_per_ring"),
+            "probes_per_ring"
+        );
+        let options = MechanismOptions {
+            samples: Some(20),
+            measured_sigma: Some(2.0),
+            ..Default::default()
+        };
+        assert_eq!(
+            refusal(&request("delta", 1, &options, Spelling::Flags)),
+            "--samples, --measured-sigma do not apply to a linear delta"
+        );
+        assert_eq!(
+            refusal(&request("delta", 1, &options, Spelling::Keywords)),
+            "samples, measured_sigma do not apply to a linear delta"
+        );
+        let options = MechanismOptions {
+            points_per_ball: Some(5),
+            ..Default::default()
+        };
+        assert_eq!(
+            refusal(&request("cable", 1, &options, Spelling::Keywords)),
+            "points_per_ball do not apply to a cable robot"
+        );
+    }
+
+    #[test]
+    fn counts_and_sigmas_out_of_their_bounds_are_refused() {
+        let cases = [
+            (
+                "delta",
+                MechanismOptions {
+                    probe_rings: Some(21),
+                    ..Default::default()
+                },
+                "probe_rings 21: must be a whole number from 1 to 20",
+            ),
+            (
+                "delta",
+                MechanismOptions {
+                    balls: Some(0),
+                    ..Default::default()
+                },
+                "balls 0: must be a whole number from 1",
+            ),
+            (
+                "delta",
+                MechanismOptions {
+                    probe_sigma: Some(f64::NAN),
+                    ..Default::default()
+                },
+                "probe_sigma must be in (0, 1], got NaN",
+            ),
+            (
+                "cable",
+                MechanismOptions {
+                    samples: Some(20),
+                    known_positions: Some(21),
+                    ..Default::default()
+                },
+                "known_positions 21 is more than the 20 samples",
+            ),
+        ];
+        for (mechanism, options, message) in cases {
+            let found = refusal(&request(mechanism, 1, &options, Spelling::Keywords));
+            assert!(found.starts_with(message), "{found}");
+        }
+        let options = MechanismOptions::default();
+        let found = refusal(&request("hexapod", 1, &options, Spelling::Keywords));
+        assert!(found.starts_with("mechanism hexapod:"), "{found}");
+    }
+
+    #[test]
+    fn held_out_data_measure_the_truth_again_and_not_its_own_measurements() {
+        let options = MechanismOptions::default();
+        let simulated =
+            simulate_mechanism(&request("delta", 5, &options, Spelling::Keywords)).unwrap();
+        let truth = TrueMachine {
+            dataset: &simulated,
+            name: "truth",
+        };
+        let held_out = simulate_mechanism(&MechanismRequest {
+            truth: Some(truth),
+            ..request("linear delta", 6, &options, Spelling::Keywords)
+        })
+        .unwrap();
+        assert_eq!(held_out.truth, simulated.truth);
+        assert_eq!(held_out.machine, simulated.machine);
+        assert_ne!(held_out.probes, simulated.probes);
+        let own = refusal(&MechanismRequest {
+            truth: Some(truth),
+            ..request("delta", 5, &options, Spelling::Keywords)
+        });
+        assert!(
+            own.starts_with("truth: these are its own measurements (the same seed"),
+            "{own}"
+        );
+        let other = refusal(&MechanismRequest {
+            truth: Some(truth),
+            ..request("cable", 6, &options, Spelling::Flags)
+        });
+        assert_eq!(
+            other,
+            "truth: a dataset of a linear delta, not of a cable robot"
+        );
+        let without = MechanismDataset {
+            truth: None,
+            ..simulated.clone()
+        };
+        let untrue = refusal(&MechanismRequest {
+            truth: Some(TrueMachine {
+                dataset: &without,
+                name: "truth",
+            }),
+            ..request("delta", 6, &options, Spelling::Keywords)
+        });
+        assert!(untrue.contains("no truth.json"), "{untrue}");
+    }
+}
