@@ -79,6 +79,10 @@ def test_held_out_data_that_cannot_be_judged_on_are_refused():
     cable = parcal.simulate(5, mechanism="cable")
     with pytest.raises(parcal.Error, match="truth .*: a dataset of a cable robot, not of a linear delta"):
         parcal.simulate(6, mechanism="delta", truth=cable)
+    with pytest.raises(parcal.Error, match="^truth: a dataset of a hexapod, not of a linear delta"):
+        parcal.simulate(6, mechanism="delta", truth=parcal.simulate(1))
+    with pytest.raises(parcal.Error, match="^truth: expected a simulated parcal.MechanismDataset"):
+        parcal.simulate(6, mechanism="delta", truth=str(ROOT / "fixtures" / "hangprinter"))
     hangprinter = parcal.MechanismDataset.read(ROOT / "fixtures" / "hangprinter")
     with pytest.raises(parcal.Error, match="hangprinter: the dataset has no truth.json"):
         parcal.simulate(6, mechanism="cable", truth=hangprinter)

@@ -76,7 +76,7 @@ pub fn simulate(
     known_positions: Option<usize>,
     reading_sigma: Option<f64>,
     measured_sigma: Option<f64>,
-    truth: Option<&Bound<'_, MechanismDataset>>,
+    truth: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
     let options = MechanismOptions {
         probe_rings,
@@ -105,7 +105,10 @@ pub fn simulate(
                 &format!("do not apply to a {name}"),
                 &[("tilt", tilt.is_some()), ("design_drawn", design_drawn)],
             )?;
-            let truth = truth.map(|dataset| dataset.get());
+            let truth = truth
+                .map(|truth| mechanism_dataset(truth, name))
+                .transpose()?;
+            let truth = truth.as_ref().map(|dataset| dataset.get());
             let truth_name = truth.map(|dataset| format!("truth {}", dataset.path.display()));
             let request = MechanismRequest {
                 mechanism: name,
@@ -138,6 +141,22 @@ fn refuse(what: &str, given: &[(&str, bool)]) -> PyResult<()> {
     } else {
         Err(to_py(format!("{} {what}", names.join(", "))))
     }
+}
+
+/// `truth` as a mechanism dataset, a hexapod's refused as the dataset of
+/// another mechanism than `name`.
+fn mechanism_dataset<'py>(
+    truth: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<Bound<'py, MechanismDataset>> {
+    if let Ok(dataset) = truth.cast::<MechanismDataset>() {
+        return Ok(dataset.clone());
+    }
+    Err(to_py(if truth.cast::<Dataset>().is_ok() {
+        format!("truth: a dataset of a hexapod, not of a {name}")
+    } else {
+        format!("truth: expected a simulated parcal.MechanismDataset, got {truth}")
+    }))
 }
 
 /// The options only a delta or a cable robot takes (`balls` and
