@@ -98,6 +98,15 @@ pub struct MechanismOptions {
 }
 
 impl MechanismOptions {
+    /// The names of the options given.
+    pub fn given(&self) -> Vec<&'static str> {
+        let options = self.delta_given().into_iter().chain(self.cable_given());
+        options
+            .filter(|(_, given)| *given)
+            .map(|(name, _)| name)
+            .collect()
+    }
+
     /// A delta's options, each with whether it is given.
     fn delta_given(&self) -> [(&'static str, bool); 7] {
         [
@@ -445,6 +454,7 @@ mod tests {
             measured_sigma: Some(2.0),
             ..Default::default()
         };
+        assert_eq!(options.given(), ["samples", "measured_sigma"]);
         assert_eq!(
             refusal(&request("delta", 1, &options, Spelling::Flags)),
             "--samples, --measured-sigma do not apply to a linear delta"

@@ -93,18 +93,27 @@ pub fn simulate(
     };
     match mechanism.filter(|name| *name != HEXAPOD) {
         None => {
+            let mut others: Vec<&str> = options
+                .given()
+                .into_iter()
+                .filter(|name| !HEXAPOD_TOO.contains(name))
+                .collect();
+            others.extend(truth.map(|_| "truth"));
             refuse(
+                &others,
                 "apply to a mechanism other than the hexapod (give mechanism=\"delta\" or \"cable\")",
-                &mechanism_only(&options, truth.is_some()),
             )?;
             hexapod(py, seed, &options, tilt, design_drawn)?.into_py_any(py)
         }
         Some(name) => {
             let name = mechanism_name(name, Spelling::Keywords).map_err(to_py)?;
-            refuse(
-                &format!("do not apply to a {name}"),
-                &[("tilt", tilt.is_some()), ("design_drawn", design_drawn)],
-            )?;
+            let hexapod_only = [("tilt", tilt.is_some()), ("design_drawn", design_drawn)];
+            let others: Vec<&str> = hexapod_only
+                .iter()
+                .filter(|(_, given)| *given)
+                .map(|(name, _)| *name)
+                .collect();
+            refuse(&others, &format!("do not apply to a {name}"))?;
             let truth = truth
                 .map(|truth| mechanism_dataset(truth, name))
                 .transpose()?;
@@ -128,18 +137,16 @@ pub fn simulate(
     }
 }
 
-/// Refuses the options given among `given` (name, whether given): they
-/// `what` (`"do not apply to a cable robot"`).
-fn refuse(what: &str, given: &[(&str, bool)]) -> PyResult<()> {
-    let names: Vec<&str> = given
-        .iter()
-        .filter(|(_, given)| *given)
-        .map(|(name, _)| *name)
-        .collect();
-    if names.is_empty() {
+/// The mechanism options a hexapod's campaign takes too.
+const HEXAPOD_TOO: [&str; 2] = ["balls", "points_per_ball"];
+
+/// Refuses the options `others`, if any: they `what` (`"do not apply to a
+/// cable robot"`).
+fn refuse(others: &[&str], what: &str) -> PyResult<()> {
+    if others.is_empty() {
         Ok(())
     } else {
-        Err(to_py(format!("{} {what}", names.join(", "))))
+        Err(to_py(format!("{} {what}", others.join(", "))))
     }
 }
 
@@ -157,24 +164,6 @@ fn mechanism_dataset<'py>(
     } else {
         format!("truth: expected a simulated parcal.MechanismDataset, got {truth}")
     }))
-}
-
-/// The options only a delta or a cable robot takes (`balls` and
-/// `points_per_ball` are the hexapod's too), each with whether it is
-/// given.
-fn mechanism_only(options: &MechanismOptions, truth: bool) -> [(&'static str, bool); 10] {
-    [
-        ("probe_rings", options.probe_rings.is_some()),
-        ("probes_per_ring", options.probes_per_ring.is_some()),
-        ("part_distances", options.part_distances.is_some()),
-        ("probe_sigma", options.probe_sigma.is_some()),
-        ("distance_sigma", options.distance_sigma.is_some()),
-        ("samples", options.samples.is_some()),
-        ("known_positions", options.known_positions.is_some()),
-        ("reading_sigma", options.reading_sigma.is_some()),
-        ("measured_sigma", options.measured_sigma.is_some()),
-        ("truth", truth),
-    ]
 }
 
 /// The hexapod's campaign of ball touches (the paper's scenario, or
