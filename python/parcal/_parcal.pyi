@@ -1,7 +1,7 @@
 """Type stubs of parcal's extension module (re-exported by ``parcal``)."""
 
 import os
-from typing import Any, Callable, Literal, Mapping, Optional, Sequence, TypedDict, Union
+from typing import Any, Callable, Literal, Mapping, Optional, Sequence, TypedDict, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -176,15 +176,43 @@ def calibrate(
     raises stops the calibration. Raises ``Error`` for an invalid dataset
     or option."""
 
+@overload
 def simulate(
     seed: int = 1,
     *,
+    mechanism: Optional[Literal["hexapod"]] = None,
     balls: Optional[int] = None,
-    points_per_ball: int = 7,
-    tilt: float = 10.0,
+    points_per_ball: Optional[int] = None,
+    tilt: Optional[float] = None,
     design_drawn: bool = False,
 ) -> Dataset:
-    """A simulated campaign of ball touches, as ``parcal simulate`` makes it."""
+    """A simulated campaign of ball touches, as ``parcal simulate`` makes
+    it (``points_per_ball`` default 7, ``tilt`` default 10 degrees)."""
+
+@overload
+def simulate(
+    seed: int = 1,
+    *,
+    mechanism: Literal["delta", "linear delta", "cable", "cable robot"],
+    balls: Optional[int] = None,
+    points_per_ball: Optional[int] = None,
+    probe_rings: Optional[int] = None,
+    probes_per_ring: Optional[int] = None,
+    part_distances: Optional[int] = None,
+    probe_sigma: Optional[float] = None,
+    distance_sigma: Optional[float] = None,
+    samples: Optional[int] = None,
+    known_positions: Optional[int] = None,
+    reading_sigma: Optional[float] = None,
+    measured_sigma: Optional[float] = None,
+    truth: Optional["MechanismDataset"] = None,
+) -> "MechanismDataset":
+    """A simulated linear delta (``balls``, ``points_per_ball`` and the
+    ``probe_*``, ``part_distances``, ``distance_sigma`` options) or cable
+    robot (``samples``, ``known_positions``, ``reading_sigma``,
+    ``measured_sigma``) with its truth, as ``parcal simulate --mechanism``
+    makes it; ``truth`` (a simulated dataset) measures its true machine
+    again: held-out data. An option of another mechanism is refused."""
 
 def validate(
     dataset: Dataset,

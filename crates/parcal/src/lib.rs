@@ -15,7 +15,9 @@
 //! - [`calibration`]: the calibration and its parts (set-up, problem,
 //!   prior-data conflict tests, evaluation against a truth);
 //! - [`accuracy`]: accuracy maps, predicted and true;
-//! - [`simulation`]: simulated campaigns (the paper's scenario and others);
+//! - [`simulation`]: simulated campaigns (the paper's scenario and others;
+//!   a linear delta or a cable robot from a front end's options,
+//!   [`simulation::mechanism`]);
 //! - [`kinematics`]: geometry, inverse and forward kinematics, the 33
 //!   canonical parameters;
 //! - [`apply`]: applying a calibration (commands, corrected poses, exports;

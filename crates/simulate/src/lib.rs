@@ -5,7 +5,8 @@
 //! motion capture, in sessions: [`simulate_tracker`]), and both of one true
 //! machine in one dataset ([`simulate_mixed`]); linear delta printers as
 //! mechanism datasets ([`delta`]); cable robots' encoder readings with a
-//! few measured positions ([`simulate_cable`]).
+//! few measured positions ([`simulate_cable`]); either from a front end's
+//! options, held-out data of a simulated one included ([`mechanism`]).
 //!
 //! ```
 //! use parcal_simulate::{Scenario, simulate};
@@ -30,6 +31,7 @@ mod cable;
 mod campaign;
 pub mod delta;
 mod execute;
+pub mod mechanism;
 mod mixed;
 mod plate;
 mod rng;
@@ -104,6 +106,12 @@ pub enum SimulateError {
     /// the machine cannot reach).
     #[error("mechanism simulation: {0}")]
     Mechanism(String),
+    /// A front end's options of a simulated mechanism are refused (a
+    /// count out of its bounds, a sigma out of its range, an option of
+    /// another mechanism, held-out data that cannot be made): the message
+    /// names the option ([`mechanism`]).
+    #[error("{0}")]
+    Options(String),
     /// An instrument scenario's counts, ranges or sigmas make no sense.
     #[error("instrument scenario: {0}")]
     Scenario(String),

@@ -1,41 +1,198 @@
-//! `parcal.simulate`: a simulated campaign of ball touches, as `parcal
-//! simulate` makes it (the paper's scenario, or a scaled one).
+//! `parcal.simulate`: a simulated dataset with its truth, as `parcal
+//! simulate` makes it: the hexapod's campaign of ball touches (the paper's
+//! scenario, or a scaled one), or with `mechanism` a linear delta's or a
+//! cable robot's dataset ([`parcal::simulation::mechanism`]), held-out
+//! data of a simulated one's true machine included.
 
+use parcal::dataset::HEXAPOD;
 use parcal::simulation::COUNT;
+use parcal::simulation::mechanism::{
+    MechanismOptions, MechanismRequest, Spelling, TrueMachine, mechanism_name, simulate_mechanism,
+};
 use parcal::{Scenario, simulate as simulate_campaign};
 use pyo3::prelude::*;
+use pyo3::{IntoPyObjectExt, Py, PyAny};
 
 use crate::dataset::Dataset;
 use crate::error::to_py;
+use crate::mechanism::dataset::MechanismDataset;
 
-/// A simulated campaign of ball touches, as `parcal simulate` makes it for
-/// the same options: the paper's 27 balls (or `balls` on a regular grid)
-/// touched `points_per_ball` times each, the platform tilted by up to
-/// `tilt` degrees; `design_drawn` draws the design about the truth by its
-/// tolerance. The same seed gives the same dataset (with its truth).
+/// A simulated dataset with its truth, as `parcal simulate` makes it for
+/// the same options (snake_case for its flags). The same seed gives the
+/// same dataset.
+///
+/// Without `mechanism` (or with `"hexapod"`), a `parcal.Dataset` of ball
+/// touches: the paper's 27 balls (or `balls` on a regular grid) touched
+/// `points_per_ball` times each (default 7), the platform tilted by up to
+/// `tilt` degrees (default 10); `design_drawn` draws the design about the
+/// truth by its tolerance.
+///
+/// With `mechanism` `"delta"` (`"linear delta"`) or `"cable"` (`"cable
+/// robot"`), a `parcal.MechanismDataset`: a delta's `probe_rings`,
+/// `probes_per_ring`, `part_distances`, `probe_sigma`, `distance_sigma`,
+/// `balls` and `points_per_ball`, or a cable robot's `samples`,
+/// `known_positions`, `reading_sigma` and `measured_sigma`; `truth` (a
+/// simulated `parcal.MechanismDataset`, with its truth) measures that true
+/// machine again instead of drawing one: held-out data, refused if it is
+/// the dataset's own measurements (the same seed and options).
+///
+/// An option of another mechanism than the one simulated is refused,
+/// naming it; every count is bounded as the command bounds it.
 #[pyfunction]
-#[pyo3(signature = (seed=1, *, balls=None, points_per_ball=7, tilt=10.0, design_drawn=false))]
+#[pyo3(signature = (
+    seed=1,
+    *,
+    mechanism=None,
+    balls=None,
+    points_per_ball=None,
+    tilt=None,
+    design_drawn=false,
+    probe_rings=None,
+    probes_per_ring=None,
+    part_distances=None,
+    probe_sigma=None,
+    distance_sigma=None,
+    samples=None,
+    known_positions=None,
+    reading_sigma=None,
+    measured_sigma=None,
+    truth=None,
+))]
+#[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,
     seed: u64,
+    mechanism: Option<&str>,
     balls: Option<usize>,
-    points_per_ball: usize,
-    tilt: f64,
+    points_per_ball: Option<usize>,
+    tilt: Option<f64>,
+    design_drawn: bool,
+    probe_rings: Option<usize>,
+    probes_per_ring: Option<usize>,
+    part_distances: Option<usize>,
+    probe_sigma: Option<f64>,
+    distance_sigma: Option<f64>,
+    samples: Option<usize>,
+    known_positions: Option<usize>,
+    reading_sigma: Option<f64>,
+    measured_sigma: Option<f64>,
+    truth: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Py<PyAny>> {
+    let options = MechanismOptions {
+        probe_rings,
+        probes_per_ring,
+        part_distances,
+        probe_sigma,
+        distance_sigma,
+        balls,
+        points_per_ball,
+        samples,
+        known_positions,
+        reading_sigma,
+        measured_sigma,
+    };
+    match mechanism.filter(|name| *name != HEXAPOD) {
+        None => {
+            let mut others: Vec<&str> = options
+                .given()
+                .into_iter()
+                .filter(|name| !HEXAPOD_TOO.contains(name))
+                .collect();
+            others.extend(truth.map(|_| "truth"));
+            refuse(
+                &others,
+                "apply to a mechanism other than the hexapod (give mechanism=\"delta\" or \"cable\")",
+            )?;
+            hexapod(py, seed, &options, tilt, design_drawn)?.into_py_any(py)
+        }
+        Some(name) => {
+            let name = mechanism_name(name, Spelling::Keywords).map_err(to_py)?;
+            let hexapod_only = [("tilt", tilt.is_some()), ("design_drawn", design_drawn)];
+            let others: Vec<&str> = hexapod_only
+                .iter()
+                .filter(|(_, given)| *given)
+                .map(|(name, _)| *name)
+                .collect();
+            refuse(&others, &format!("do not apply to a {name}"))?;
+            let truth = truth
+                .map(|truth| mechanism_dataset(truth, name))
+                .transpose()?;
+            let truth = truth.as_ref().map(|dataset| dataset.get());
+            let truth_name = truth.map(|dataset| format!("truth {}", dataset.path.display()));
+            let request = MechanismRequest {
+                mechanism: name,
+                seed,
+                options: &options,
+                truth: truth
+                    .zip(truth_name.as_deref())
+                    .map(|(dataset, name)| TrueMachine {
+                        dataset: &dataset.inner,
+                        name,
+                    }),
+                spelling: Spelling::Keywords,
+            };
+            let dataset = py.detach(|| simulate_mechanism(&request)).map_err(to_py)?;
+            MechanismDataset::in_memory(dataset)?.into_py_any(py)
+        }
+    }
+}
+
+/// The mechanism options a hexapod's campaign takes too.
+const HEXAPOD_TOO: [&str; 2] = ["balls", "points_per_ball"];
+
+/// Refuses the options `others`, if any: they `what` (`"do not apply to a
+/// cable robot"`).
+fn refuse(others: &[&str], what: &str) -> PyResult<()> {
+    if others.is_empty() {
+        Ok(())
+    } else {
+        Err(to_py(format!("{} {what}", others.join(", "))))
+    }
+}
+
+/// `truth` as a mechanism dataset, a hexapod's refused as the dataset of
+/// another mechanism than `name`.
+fn mechanism_dataset<'py>(
+    truth: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<Bound<'py, MechanismDataset>> {
+    if let Ok(dataset) = truth.cast::<MechanismDataset>() {
+        return Ok(dataset.clone());
+    }
+    Err(to_py(if truth.cast::<Dataset>().is_ok() {
+        format!("truth: a dataset of a hexapod, not of a {name}")
+    } else {
+        format!("truth: expected a simulated parcal.MechanismDataset, got {truth}")
+    }))
+}
+
+/// The hexapod's campaign of ball touches (the paper's scenario, or
+/// `balls` on a grid), as `parcal simulate` makes it.
+fn hexapod(
+    py: Python<'_>,
+    seed: u64,
+    options: &MechanismOptions,
+    tilt: Option<f64>,
     design_drawn: bool,
 ) -> PyResult<Dataset> {
+    let tilt = tilt.unwrap_or(10.0);
     if !(tilt.is_finite() && (0.0..90.0).contains(&tilt)) {
         return Err(to_py(format!(
             "tilt must be in [0, 90) degrees, got {tilt}"
         )));
     }
-    COUNT
-        .check("points_per_ball", points_per_ball)
+    let paper = Scenario::paper();
+    let points_per_ball = COUNT
+        .check(
+            "points_per_ball",
+            options.points_per_ball.unwrap_or(paper.points_per_ball),
+        )
         .map_err(to_py)?;
-    let mut scenario = match balls {
+    let mut scenario = match options.balls {
         None => Scenario {
             points_per_ball,
             max_tilt: tilt.to_radians(),
-            ..Scenario::paper()
+            ..paper
         },
         Some(balls) => {
             COUNT.check("balls", balls).map_err(to_py)?;

@@ -59,6 +59,15 @@ impl MechanismDataset {
         let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
         Ok(Self { inner, data, path })
     }
+
+    /// The dataset `inner`, made in memory (built or simulated), checked
+    /// as its files would be.
+    pub fn in_memory(inner: Inner) -> PyResult<Self> {
+        let path = PathBuf::from("(in memory)");
+        inner.validate(&path).map_err(to_py)?;
+        let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
+        Ok(Self { inner, data, path })
+    }
 }
 
 #[pymethods]
@@ -107,10 +116,7 @@ impl MechanismDataset {
             truth: None,
             machine,
         };
-        let path = PathBuf::from("(in memory)");
-        inner.validate(&path).map_err(to_py)?;
-        let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
-        Ok(Self { inner, data, path })
+        Self::in_memory(inner)
     }
 
     /// Reads the mechanism dataset in directory `path` (machine.json

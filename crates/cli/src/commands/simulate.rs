@@ -11,6 +11,7 @@ use parcal::dataset::{Dataset, DatasetError, WriteOptions};
 use parcal::kinematics::rotation_zyx;
 use parcal::plan::plan_file::read_plan;
 use parcal::plan::tracker::plan_file::read_pose_plan;
+use parcal::simulation::mechanism::{self, MechanismOptions};
 use parcal::simulation::{
     COUNT, PlannedTouch, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind,
     TrackerScenario, ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,
@@ -38,10 +39,10 @@ pub struct Args {
     /// to 1 µm) on a ring on the bed, touched by the probe (default none).
     #[arg(long, conflicts_with = "tracker", value_parser = Bounded(COUNT))]
     balls: Option<usize>,
-    /// Contacts per ball (with --mechanism delta: touches per ball, on its
-    /// upper cap).
-    #[arg(long, default_value_t = 7, conflicts_with = "tracker", value_parser = Bounded(COUNT))]
-    points_per_ball: usize,
+    /// Contacts per ball (default 7; with --mechanism delta: touches per
+    /// ball, on its upper cap).
+    #[arg(long, conflicts_with = "tracker", value_parser = Bounded(COUNT))]
+    points_per_ball: Option<usize>,
     /// What the touches' actuators read: mm (scale 1, known), or motor
     /// revolutions at the scales of --machine jugglebot's instrument
     /// campaign (design about 71 mm/rev, true scales 1 % off, unknown with
@@ -132,14 +133,14 @@ pub struct Args {
     #[arg(long, value_name = "NAME", conflicts_with_all = ["tracker", "plate", "plan", "design_drawn", "binary"])]
     mechanism: Option<String>,
     /// Delta: probe rings over the printable disc and its centre (default 3).
-    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::RINGS))]
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::RINGS))]
     probe_rings: Option<usize>,
     /// Delta: probe points on each ring (default 8).
-    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::PER_RING))]
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::PER_RING))]
     probes_per_ring: Option<usize>,
     /// Delta: distances measured across a printed disc on the first layer
     /// (default 0).
-    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::DISTANCES))]
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::DISTANCES))]
     part_distances: Option<usize>,
     /// Delta: the probe's noise, 1 sigma, mm (default 0.01).
     #[arg(long, value_name = "MM", requires = "mechanism")]
@@ -149,11 +150,11 @@ pub struct Args {
     distance_sigma: Option<f64>,
     /// Cable robot: samples (encoder readings), the encoder zero's included
     /// (default 44, the Hangprinter data's).
-    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::SAMPLES))]
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::SAMPLES))]
     samples: Option<usize>,
     /// Cable robot: samples whose position is measured, the encoder zero
     /// and the rest on the bed (default 9).
-    #[arg(long, requires = "mechanism", value_parser = Bounded(simulate_mechanism::SAMPLES))]
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::SAMPLES))]
     known_positions: Option<usize>,
     /// Cable robot: the encoders' noise, 1 sigma, degrees (default 1).
     #[arg(long, value_name = "DEG", requires = "mechanism")]
@@ -208,20 +209,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             out: args.out.clone(),
             force: args.force,
             truth: args.execute.truth().map(PathBuf::from),
-            delta: simulate_mechanism::DeltaFlags {
-                rings: args.probe_rings,
-                per_ring: args.probes_per_ring,
-                distances: args.part_distances,
+            options: MechanismOptions {
+                probe_rings: args.probe_rings,
+                probes_per_ring: args.probes_per_ring,
+                part_distances: args.part_distances,
                 probe_sigma: args.probe_sigma,
                 distance_sigma: args.distance_sigma,
                 balls: args.balls,
-                touches_per_ball: args.points_per_ball,
-            },
-            cable: simulate_mechanism::CableFlags {
+                points_per_ball: args.points_per_ball,
                 samples: args.samples,
-                known: args.known_positions,
+                known_positions: args.known_positions,
                 reading_sigma: args.reading_sigma,
-                position_sigma: args.measured_sigma,
+                measured_sigma: args.measured_sigma,
             },
         });
     }
@@ -257,18 +256,17 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
         "--plate-sigma must be positive, got {}",
         args.plate_sigma
     );
-    let balls = args.balls.unwrap_or(Scenario::paper().centres.len());
-    check_rows(&[
-        ("--balls", balls),
-        ("--points-per-ball", args.points_per_ball),
-    ])?;
+    let paper = Scenario::paper();
+    let balls = args.balls.unwrap_or(paper.centres.len());
+    let points_per_ball = args.points_per_ball.unwrap_or(paper.points_per_ball);
+    check_rows(&[("--balls", balls), ("--points-per-ball", points_per_ball)])?;
     let mut scenario = match args.balls {
         None => Scenario {
-            points_per_ball: args.points_per_ball,
+            points_per_ball,
             max_tilt: args.tilt.to_radians(),
-            ..Scenario::paper()
+            ..paper
         },
-        Some(balls) => Scenario::scaled(balls, args.points_per_ball, args.tilt.to_radians()),
+        Some(balls) => Scenario::scaled(balls, points_per_ball, args.tilt.to_radians()),
     };
     scenario.plate = args.plate.map(|pairs| Plate {
         pairs,
