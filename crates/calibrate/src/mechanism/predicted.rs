@@ -640,6 +640,7 @@ mod tests {
         }
         let ratio = statistic / rows as f64;
         let bound = 4.0 * (2.0 / rows as f64).sqrt();
+        eprintln!("a ball's rows: T/n = {ratio:.4} over {rows} rows (1 ± {bound:.4})");
         assert!(
             (ratio - 1.0).abs() < bound,
             "T/n = {ratio:.4}, bound {bound:.4}"
