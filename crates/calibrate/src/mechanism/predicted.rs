@@ -170,15 +170,8 @@ pub fn predict(
     }
     for (b, touches) in balls.into_iter().enumerate() {
         if !touches.is_empty() {
-            let ball = (b, touches);
-            predicted.push(predict_ball(
-                mechanism,
-                params,
-                configured,
-                observations,
-                ball,
-                g,
-            )?);
+            let rows = predict_ball(mechanism, params, configured, observations, b, touches, g)?;
+            predicted.push(rows);
         }
     }
     Ok(predicted)
@@ -215,7 +208,7 @@ fn touches_by_ball(
         Some(b) => Err(MechanismCalibrationError::InvalidData {
             what: format!("ball {b}"),
             reason: format!(
-                "its {} held-out touches are more than the {MAX_HELD_OUT_TOUCHES_PER_BALL} predicted together: split them between balls",
+                "its {} held-out touches are more than the {MAX_HELD_OUT_TOUCHES_PER_BALL} predicted together: validate on fewer",
                 balls[b].len()
             ),
         }),
@@ -294,19 +287,13 @@ fn predict_ball(
     params: &[f64],
     configured: &[f64],
     observations: &Observations,
-    (b, touches): (usize, Vec<usize>),
+    b: usize,
+    touches: Vec<usize>,
     g: usize,
 ) -> Result<PredictedRows, MechanismCalibrationError> {
     let ball = observations.balls[b];
     let all = &observations.touches;
-    let centre = ball_centre(
-        mechanism,
-        params,
-        configured,
-        all,
-        &touches,
-        (b, ball.radius),
-    )?;
+    let centre = ball_centre(mechanism, params, configured, all, &touches, b, ball.radius)?;
     let (k, n) = (touches.len(), params.len());
     let (mut residuals, mut d_local) = (DVector::zeros(k), DMatrix::zeros(k, 3));
     let mut d_params = DMatrix::zeros(k, n);
@@ -368,7 +355,9 @@ fn project_out(
     let j = local.d_local;
     let (m, u) = (j.nrows(), j.ncols());
     let spread = (j.transpose() * j).symmetric_eigenvalues();
-    if m < u || !(spread.min() > 1e-12 * spread.max()) {
+    // False for a rank below 3, and for a value that is not a number.
+    let located = spread.min() > 1e-12 * spread.max();
+    if m < u || !located {
         return Err(MechanismError::Singular);
     }
     let mut q_t = DMatrix::identity(m, m);
@@ -376,9 +365,9 @@ fn project_out(
     let basis_t = q_t.rows(u, m - u);
     Ok(PredictedRows {
         observation,
-        residuals: &basis_t * &local.residuals,
-        noise: &basis_t * &local.noise * basis_t.transpose(),
-        d_global: widened(&(&basis_t * local.d_params), g),
+        residuals: basis_t * &local.residuals,
+        noise: basis_t * &local.noise * basis_t.transpose(),
+        d_global: widened(&(basis_t * local.d_params), g),
     })
 }
 
@@ -547,7 +536,8 @@ mod tests {
             params,
             configured,
             observations,
-            (0, touches),
+            0,
+            touches,
             params.len(),
         )
         .unwrap()
@@ -644,6 +634,33 @@ mod tests {
         assert!(
             (ratio - 1.0).abs() < bound,
             "T/n = {ratio:.4}, bound {bound:.4}"
+        );
+    }
+
+    /// A held-out ball of more touches than its bound is named before any
+    /// touch is evaluated.
+    #[test]
+    fn a_ball_of_too_many_touches_is_named() {
+        let (delta, configured, truth) = delta();
+        let touch = BallTouch {
+            ball: 1,
+            commanded: [0.0; 3],
+            sigma: 0.01,
+        };
+        let ball = Ball {
+            radius: 12.7,
+            radius_sigma: None,
+        };
+        let observations = Observations {
+            balls: vec![ball; 2],
+            touches: vec![touch; MAX_HELD_OUT_TOUCHES_PER_BALL + 1],
+            ..Default::default()
+        };
+        let error = predict(&delta, &truth, configured.as_slice(), &observations).unwrap_err();
+        let said = error.to_string();
+        assert!(
+            said.starts_with("ball 1: its 1001 held-out touches"),
+            "{said}"
         );
     }
 }

@@ -182,7 +182,8 @@ impl<'a> MechanismProblem<'a> {
                 configured,
                 &o.touches,
                 &touches,
-                (b, ball.radius),
+                b,
+                ball.radius,
             )?);
         }
         Ok(blocks)
@@ -322,7 +323,8 @@ pub(crate) fn ball_centre(
     configured: &[f64],
     all: &[BallTouch],
     touches: &[usize],
-    (b, radius): (usize, f64),
+    b: usize,
+    radius: f64,
 ) -> Result<Vector3<f64>, MechanismCalibrationError> {
     let points = touches
         .iter()

@@ -1,9 +1,9 @@
 //! A mechanism calibration judged on held-out data of the same machine
 //! (new probe heights, part distances, measured positions, touches of
-//! balls): every
-//! observation predicted with the calibrated global block `θ̂`
-//! ([`super::predicted`]), the calibration's covariance `Σ_θ` propagated,
-//! and the verdict of [`crate::prediction`], as the hexapod's validation.
+//! balls): every observation predicted with the calibrated global block
+//! `θ̂` ([`super::predicted`]), the calibration's covariance `Σ_θ`
+//! propagated, and the verdict of [`crate::prediction`], as the hexapod's
+//! validation.
 //!
 //! With `r` the predicted residuals, `D` their own noise (block-diagonal,
 //! `D_i = L_i L_iᵀ`) and `G = dr/dθ`, to first order
@@ -198,7 +198,10 @@ pub fn validate_mechanism(
     let shifts = shifts(&whitened, &metric, statistic, calibrated, &names, &units);
     let samples_with_rows = predicted
         .iter()
-        .filter(|p| matches!(&p.observation, HeldOut::Observation(o) if o.kind == ObservationKind::Sample))
+        .filter(|p| match &p.observation {
+            HeldOut::Observation(observation) => observation.kind == ObservationKind::Sample,
+            HeldOut::Ball { .. } => false,
+        })
         .count();
     Ok(MechanismValidation {
         mechanism: mechanism.name().to_string(),
