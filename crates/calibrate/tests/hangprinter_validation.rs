@@ -71,11 +71,11 @@ fn the_discarded_positions_are_five_millimetres_off_and_rejected() {
     let rms = distance_rms(&stated);
     let worst = stated.worst().unwrap();
     eprintln!(
-        "32 discarded positions at 0.1 mm: 3D RMS {rms:.3} mm, T/n {:.1}, accepted {}, {} rows fail their w-test, the worst sample {} row {} w = {:.1}",
+        "32 discarded positions at 0.1 mm: 3D RMS {rms:.3} mm, T/n {:.1}, accepted {}, {} rows fail their w-test, the worst {} row {} w = {:.1}",
         stated.statistic / stated.rows.len() as f64,
         stated.accepted(),
         stated.failing_rows().count(),
-        worst.observation.index,
+        worst.observation,
         worst.row,
         worst.w
     );

@@ -1,8 +1,9 @@
 //! Held-out data of a simulated mechanism from the command line:
 //! `parcal simulate --mechanism ... --truth DATASET` measures the true
 //! machine of a simulated dataset again; `parcal validate` judges the
-//! dataset's calibration on them, accepted for the same machine and
-//! rejected, the change named, for a machine changed on purpose.
+//! dataset's calibration on them (probe heights, part distances, samples,
+//! touches of balls), accepted for the same machine and rejected, the
+//! change named, for a machine changed on purpose.
 
 mod common;
 
@@ -11,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use common::{fails, ok, parcal, s};
 use parcal::dataset::mechanism::MechanismDataset;
-use parcal::kinematics::delta::DIAGONAL;
+use parcal::kinematics::delta::{DIAGONAL, RADIUS};
 
 /// `parcal simulate --mechanism NAME --seed SEED` of `flags` into `out`,
 /// measuring the truth of `truth` if given.
@@ -144,6 +145,77 @@ fn a_delta_s_held_out_data_accept_its_printer_and_name_a_longer_rod() {
     assert!(error.contains("not of a cable robot"), "{error}");
     let error = fails(&["simulate", "--truth", s(&sim), "--out", s(&d.join("x"))]);
     assert!(error.contains("--truth needs --run"), "{error}");
+}
+
+/// The held-out touches of `--balls` balls of `--points-per-ball` touches
+/// each, of the true machine of `truth`, without the probe heights the
+/// simulator always makes: a dataset of touches alone.
+fn touches_only(truth: &Path, balls: &str, touches: &str, out: &Path) -> PathBuf {
+    let pattern = ["--balls", balls, "--points-per-ball", touches];
+    let said = simulate("delta", "5", Some(truth), &pattern, out);
+    assert!(
+        said.contains(&format!("touches of {balls} balls")),
+        "{said}"
+    );
+    fs::remove_file(out.join("probes.csv")).unwrap();
+    out.to_path_buf()
+}
+
+#[test]
+fn a_delta_s_held_out_touches_accept_its_printer_and_name_a_larger_radius() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = d.join("sim");
+    simulate("delta", "3", None, &["--part-distances", "4"], &sim);
+    let summary = ok(&["calibrate", s(&sim)]);
+    assert!(summary.contains("accepted"), "{summary}");
+    let calibration = sim.join("calibration.json");
+
+    // Four balls touched ten times each: 4 × (10 − 3) rows, each ball's
+    // centre fitted to its own touches.
+    let held_out = touches_only(&sim, "4", "10", &d.join("held-out"));
+    let (status, said) = validate(&held_out, &calibration);
+    eprintln!("{said}");
+    assert_eq!(status, Some(0), "{said}");
+    assert!(said.contains("predicted 28 ball rows"), "{said}");
+
+    // The delta radius 0.5 mm larger (the printer's scale): rejected, the
+    // balls' rows failing, by the ball's line and its touches', and the
+    // radius named.
+    let larger = changed(&sim, &d.join("larger"), RADIUS, 0.5);
+    let held_out = touches_only(&larger, "4", "10", &d.join("held-out-larger"));
+    let (status, said) = validate(&held_out, &calibration);
+    eprintln!("{said}");
+    assert_eq!(status, Some(3), "{said}");
+    assert!(said.contains("prediction test failed"), "{said}");
+    let named = |line: &str| {
+        line.contains("balls.csv line")
+            && line.contains("touched at touches.csv lines")
+            && line.contains("fails its w-test")
+    };
+    assert!(said.lines().any(named), "{said}");
+    assert!(said.contains("a change of radius by"), "{said}");
+
+    // A ball touched 4 times gives one row; one touched 3 times is named.
+    let four = touches_only(&sim, "2", "4", &d.join("four"));
+    let (status, said) = validate(&four, &calibration);
+    assert_eq!(status, Some(0), "{said}");
+    assert!(said.contains("predicted 2 ball rows"), "{said}");
+    let touches = four.join("touches.csv");
+    let text = fs::read_to_string(&touches).unwrap();
+    let without_first: Vec<&str> = text
+        .lines()
+        .enumerate()
+        .filter(|&(k, _)| k != 1)
+        .map(|(_, line)| line)
+        .collect();
+    fs::write(&touches, without_first.join("\n") + "\n").unwrap();
+    let (status, said) = validate(&four, &calibration);
+    assert_eq!(status, Some(1), "{said}");
+    assert!(
+        said.contains("ball 0: it has 3 touches; its centre needs at least 4"),
+        "{said}"
+    );
 }
 
 #[test]

@@ -1,16 +1,17 @@
 //! A mechanism calibration's validation on held-out data in words:
 //! validation.json's record ([`validation_record`]), with the verdict's
-//! reasons naming each failing row by its file and line, and the summary
-//! `parcal validate` prints ([`summary`]).
+//! reasons naming each failing row by its file and line (a ball's rows by
+//! the ball's line in balls.csv and its touches' lines in touches.csv),
+//! and the summary `parcal validate` prints ([`summary`]).
 
 use std::fmt::Write;
 
 use parcal_calibrate::mechanism::{
-    MechanismValidation, ObservationKind, ObservationRef, ValidatedRow,
+    HeldOut, MechanismValidation, ObservationKind, ObservationRef, ValidatedRow, number_ranges,
 };
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
-    DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE,
+    BALLS_FILE, DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE,
     QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
 };
 
@@ -76,14 +77,18 @@ pub fn observation_place(observation: ObservationRef) -> String {
     }
 }
 
-/// A row's record, its observation placed by its file and line.
+/// A row's record, its observation placed by its file and line (a
+/// ball's rows by the ball's).
 fn row_record(row: &ValidatedRow) -> RowRecord {
-    let file = file_of(row.observation.kind);
+    let (file, index) = match &row.observation {
+        HeldOut::Observation(observation) => (file_of(observation.kind), observation.index),
+        HeldOut::Ball { ball, .. } => (Some(BALLS_FILE), *ball),
+    };
     RowRecord {
         file: file.map(str::to_string),
-        line: file.map(|_| row.observation.index + 2),
-        kind: row.observation.kind.name().to_string(),
-        index: row.observation.index,
+        line: file.map(|_| index + 2),
+        kind: row.observation.name().to_string(),
+        index,
         row: row.row,
         unit: row.unit.clone(),
         residual: row.residual,
@@ -121,12 +126,25 @@ fn kinds(rows: &[RowRecord]) -> Vec<KindRecord> {
         .collect()
 }
 
-/// A row by its file and line, else by its observation.
-fn place(row: &RowRecord) -> String {
-    let observation = format!("{} {}", row.kind, row.index);
-    match (&row.file, row.line) {
-        (Some(file), Some(line)) => format!("{file} line {line} ({observation}, row {})", row.row),
-        _ => format!("{observation}, row {}", row.row),
+/// A row by its file and line, else by its observation; a ball's by its
+/// line and its touches' lines: `balls.csv line 3 (ball 1, touched at
+/// touches.csv lines 9-15, row 0)`.
+fn place(row: &ValidatedRow) -> String {
+    match &row.observation {
+        HeldOut::Observation(observation) => match file_of(observation.kind) {
+            Some(file) => format!(
+                "{file} line {} ({observation}, row {})",
+                observation.index + 2,
+                row.row
+            ),
+            None => format!("{observation}, row {}", row.row),
+        },
+        HeldOut::Ball { ball, touches } => format!(
+            "{BALLS_FILE} line {} (ball {ball}, touched at {TOUCHES_FILE} lines {}, row {})",
+            ball + 2,
+            number_ranges(touches.iter().map(|t| t + 2)),
+            row.row
+        ),
     }
 }
 
@@ -154,11 +172,7 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
         record.alpha,
         record.rows.len()
     );
-    let failing: Vec<&RowRecord> = record
-        .rows
-        .iter()
-        .filter(|r| r.w.abs() > critical)
-        .collect();
+    let failing: Vec<&ValidatedRow> = validation.failing_rows().collect();
     for row in failing.iter().take(NAMED_ROWS) {
         reasons.push(format!(
             "{} fails its w-test: |w| = {:.2} > {critical:.2} ({family}): residual {:+.4} {} against a predicted sigma of {:.4}",
@@ -175,11 +189,7 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
             failing.len() - NAMED_ROWS
         ));
     }
-    let worst = record
-        .rows
-        .iter()
-        .max_by(|a, b| a.w.abs().total_cmp(&b.w.abs()));
-    if let (true, Some(worst)) = (failing.is_empty(), worst) {
+    if let (true, Some(worst)) = (failing.is_empty(), validation.worst()) {
         reasons.push(format!(
             "every w-test passes: the largest, {}, |w| = {:.2} <= {critical:.2} ({family})",
             place(worst),

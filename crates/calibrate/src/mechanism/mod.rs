@@ -31,7 +31,8 @@
 //! - `calibrated`: a `calibration.json` record as the numbers that apply
 //!   it ([`CalibratedMechanism`]);
 //! - `predicted`: held-out observations predicted by a calibration, with
-//!   their derivatives;
+//!   their derivatives (a ball's touches together, its centre projected
+//!   out);
 //! - `validation`: a calibration judged on held-out data
 //!   ([`validate_mechanism`]);
 //! - `compensation`: the actuator commands that reach target positions
@@ -92,8 +93,9 @@ pub use data::{
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
 pub use identifiability::{Identifiability, Undetermined};
-pub use observation::{ObservationKind, ObservationRef};
+pub use observation::{HeldOut, ObservationKind, ObservationRef, number_ranges};
 pub use options::{MAX_ITERATIONS, MechanismOptions};
+pub use predicted::MAX_HELD_OUT_TOUCHES_PER_BALL;
 pub use result::{EstimatedBall, EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 

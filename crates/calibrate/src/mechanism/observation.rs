@@ -71,3 +71,85 @@ impl fmt::Display for ObservationRef {
         write!(f, "{} {}", self.kind.name(), self.index)
     }
 }
+
+/// What held-out rows are of ([`validate_mechanism`](super::validate_mechanism)):
+/// one observation, or every touch of one ball together (they share the
+/// ball's unknown centre, fitted to them, so that no touch has rows of its
+/// own).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub enum HeldOut {
+    /// One observation.
+    Observation(ObservationRef),
+    /// A ball's touches.
+    Ball {
+        /// The ball's 0-based index.
+        ball: usize,
+        /// Its touches' 0-based indices, increasing.
+        touches: Vec<usize>,
+    },
+}
+
+impl HeldOut {
+    /// Its kind's name: the observation's ([`ObservationKind::name`]), or
+    /// `ball`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Observation(observation) => observation.kind.name(),
+            Self::Ball { .. } => "ball",
+        }
+    }
+}
+
+impl fmt::Display for HeldOut {
+    /// `probe height 3`, `ball 1 (ball touches 7-13)`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Observation(observation) => observation.fmt(f),
+            Self::Ball { ball, touches } => write!(
+                f,
+                "ball {ball} (ball touches {})",
+                number_ranges(touches.iter().copied())
+            ),
+        }
+    }
+}
+
+/// Increasing numbers as runs: `4-10, 12`.
+pub fn number_ranges(numbers: impl IntoIterator<Item = usize>) -> String {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for n in numbers {
+        match runs.last_mut() {
+            Some((_, last)) if n == *last + 1 => *last = n,
+            _ => runs.push((n, n)),
+        }
+    }
+    let run = |&(first, last): &(usize, usize)| {
+        if first == last {
+            first.to_string()
+        } else {
+            format!("{first}-{last}")
+        }
+    };
+    runs.iter().map(run).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_ball_is_named_with_its_touches_as_runs() {
+        let ball = HeldOut::Ball {
+            ball: 1,
+            touches: vec![4, 5, 6, 9, 11, 12],
+        };
+        assert_eq!(ball.to_string(), "ball 1 (ball touches 4-6, 9, 11-12)");
+        assert_eq!(ball.name(), "ball");
+        let probe = HeldOut::Observation(ObservationRef {
+            kind: ObservationKind::Probe,
+            index: 3,
+        });
+        assert_eq!(probe.to_string(), "probe height 3");
+        assert_eq!(number_ranges([]), "");
+    }
+}

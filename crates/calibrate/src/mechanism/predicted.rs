@@ -22,26 +22,73 @@
 //!   pose and `−G_x⁻¹ G_p`.
 //! - A point sample at an unknown pose: its pose is its own unknown, fitted
 //!   to its readings; with `A` actuators, `A − 3` combinations of the
-//!   readings remain, `N_⊥ᵀ (g(p̂, x̂) − q)`, `N_⊥` an orthonormal basis of
-//!   the left nullspace of `G_x` (what no pose change can absorb):
-//!   `G = N_⊥ᵀ G_p`, `D = σ_q² I`. A delta's (`A = 3`) has no row: its
-//!   readings only locate its own pose.
-//! - A touch of a ball is refused: its ball's centre is an unknown of its
-//!   own, which held-out touches would have to locate first.
+//!   readings remain, what no pose change can absorb (the local unknown
+//!   projected out, below): `r = g(p̂, x̂) − q`, `dr/dx = G_x`,
+//!   `dr/dp = G_p`, `Σ = σ_q² I`, so `D = σ_q² I`. A delta's (`A = 3`)
+//!   has no row: its readings only locate their own pose.
+//! - The touches of a ball: its centre `c` is its own unknown, fitted to
+//!   its `K` touches, which give `K − 3` rows together, one observation
+//!   named by the ball ([`HeldOut::Ball`]; a ball touched 4 times gives
+//!   one row). The tool points the touches reach,
+//!   `x_k = f(p̂, g(p_c, x_c,k))` ([`BallTouch`]), locate its centre `ĉ`,
+//!   the best fit of the sphere of its calibrated radius `ρ` through them
+//!   (as the calibration starts it, [`ball_centre`]), and
+//!
+//!   ```text
+//!   r_k = |x_k − ĉ| − ρ,   dr_k/dc = −u_kᵀ,   dr_k/dp = u_kᵀ dx_k/dp|_q,
+//!   u_k = (x_k − ĉ) / |x_k − ĉ|.
+//!   ```
+//!
+//!   To first order `r = J_c δc + G_p δθ + e + δρ 1`, with `δc` the
+//!   centre's error, `e` the touches' errors along their normals
+//!   (`Cov(e) = diag(σ_k²)`) and `δρ` the error of the ball's calibrated
+//!   radius (`σ_ρ` in `balls.csv`, common to all its touches), so that
+//!
+//!   ```text
+//!   Σ = diag(σ_k²) + σ_ρ² 1 1ᵀ,
+//!   D = N_⊥ᵀ Σ N_⊥ = σ_t² I + σ_ρ² (N_⊥ᵀ 1)(N_⊥ᵀ 1)ᵀ   (every σ_k = σ_t):
+//!   ```
+//!
+//!   an uncertain radius adds an error common to the ball's rows, nearly
+//!   none when a change of radius is nearly a shift of the centre
+//!   (touches on a small cap: `1` nearly in the span of `J_c`).
+//!
+//! Projecting out a local unknown `u` of three coordinates (a pose, a
+//! centre) from `m` residuals `r` with `dr/du = J` (rank 3), `dr/dp = G_p`
+//! and noise covariance `Σ`: `N_⊥` is an orthonormal basis of the left
+//! nullspace of `J` (`N_⊥ᵀ J = 0`), the last `m − 3` columns of `Q` of
+//! `J = QR` (Householder: smooth in `J`), and
+//!
+//! ```text
+//! r' = N_⊥ᵀ r,   G = N_⊥ᵀ G_p,   D = N_⊥ᵀ Σ N_⊥:
+//! ```
+//!
+//! no error of `u` moves `r'` to first order, so that `r'` does not
+//! depend on how `u` was fitted, nor `G` on how the fit moves with `θ`
+//! (`dr'/dθ = N_⊥ᵀ (G_p + J du/dθ) = N_⊥ᵀ G_p`).
 
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 use parcal_observe::mechanism::{PointSample, Rows};
 
+#[cfg(doc)]
+use parcal_observe::mechanism::BallTouch;
+
 use super::data::Observations;
 use super::error::MechanismCalibrationError;
-use super::observation::{ObservationKind, ObservationRef};
+use super::observation::{HeldOut, ObservationKind, ObservationRef};
+use super::problem::ball_centre;
 
-/// The predicted rows of one held-out observation (module doc).
+/// The most touches of one held-out ball: its rows' noise covariance is
+/// dense, `(K − 3)²` numbers factored in `O(K³)`.
+pub const MAX_HELD_OUT_TOUCHES_PER_BALL: usize = 1_000;
+
+/// The predicted rows of one held-out observation, or of one ball's
+/// touches (module doc).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PredictedRows {
-    /// The observation.
-    pub observation: ObservationRef,
+    /// What they are of.
+    pub observation: HeldOut,
     /// `r`, its residual rows in the observation's units.
     pub residuals: DVector<f64>,
     /// `D_i`, their own noise covariance.
@@ -50,11 +97,13 @@ pub struct PredictedRows {
     pub d_global: DMatrix<f64>,
 }
 
-/// Every observation of `observations` predicted at the global block
-/// `global` (`p̂` then, with probes, `ĥ`) with the controller's
-/// `configured` parameters (module doc), in the order of the kinds, each
-/// kind's in its order; samples at an unknown pose of a mechanism of 3
-/// actuators give none; touches of balls are refused (module doc).
+/// Every observation of `observations` (validated) predicted at the
+/// global block `global` (`p̂` then, with probes, `ĥ`) with the
+/// controller's `configured` parameters (module doc), in the order of the
+/// kinds, each kind's in its order, the touches ball by ball; samples at
+/// an unknown pose of a mechanism of 3 actuators give none. An error
+/// names a ball of more than [`MAX_HELD_OUT_TOUCHES_PER_BALL`] touches
+/// before any work.
 pub fn predict(
     mechanism: &dyn Mechanism,
     global: &DVector<f64>,
@@ -69,12 +118,7 @@ pub fn predict(
         observation,
         reason: error.to_string(),
     };
-    if !observations.touches.is_empty() {
-        return Err(MechanismCalibrationError::Observation {
-            observation: at(ObservationKind::Touch, 0),
-            reason: "held-out touches of balls are not predicted (each ball's centre is an unknown of its own): validate on probe heights, part distances, measured positions or samples".to_string(),
-        });
-    }
+    let balls = touches_by_ball(observations)?;
     let mut predicted = Vec::new();
     for (k, probe) in observations.probes.iter().enumerate() {
         let id = at(ObservationKind::Probe, k);
@@ -124,7 +168,52 @@ pub fn predict(
             predicted.push(rows);
         }
     }
+    for (b, touches) in balls.into_iter().enumerate() {
+        if !touches.is_empty() {
+            let rows = predict_ball(mechanism, params, configured, observations, b, touches, g)?;
+            predicted.push(rows);
+        }
+    }
     Ok(predicted)
+}
+
+/// The touches of each ball (indices, increasing); an error names a touch
+/// of a ball that does not exist, or a ball of more than
+/// [`MAX_HELD_OUT_TOUCHES_PER_BALL`] touches.
+fn touches_by_ball(
+    observations: &Observations,
+) -> Result<Vec<Vec<usize>>, MechanismCalibrationError> {
+    let count = observations.balls.len();
+    let mut balls = vec![Vec::new(); count];
+    for (t, touch) in observations.touches.iter().enumerate() {
+        let touches =
+            balls
+                .get_mut(touch.ball)
+                .ok_or_else(|| MechanismCalibrationError::Observation {
+                    observation: ObservationRef {
+                        kind: ObservationKind::Touch,
+                        index: t,
+                    },
+                    reason: format!(
+                        "it touches ball {}, and there are {count} balls",
+                        touch.ball
+                    ),
+                })?;
+        touches.push(t);
+    }
+    match balls
+        .iter()
+        .position(|t| t.len() > MAX_HELD_OUT_TOUCHES_PER_BALL)
+    {
+        Some(b) => Err(MechanismCalibrationError::InvalidData {
+            what: format!("ball {b}"),
+            reason: format!(
+                "its {} held-out touches are more than the {MAX_HELD_OUT_TOUCHES_PER_BALL} predicted together: validate on fewer",
+                balls[b].len()
+            ),
+        }),
+        None => Ok(balls),
+    }
 }
 
 /// An observation kind's whitened `rows` back in its units (`σ` per row),
@@ -139,7 +228,7 @@ fn unwhitened(observation: ObservationRef, rows: &Rows, sigma: &[f64], g: usize)
         }
     }
     PredictedRows {
-        observation,
+        observation: HeldOut::Observation(observation),
         residuals: DVector::from_fn(m, |i, _| rows.residual[i] * sigma[i]),
         noise: DMatrix::from_fn(m, m, |i, j| if i == j { sigma[i] * sigma[i] } else { 0.0 }),
         d_global,
@@ -163,35 +252,123 @@ fn predict_sample(
     let pose = mechanism.forward(params, &sample.readings, &start)?;
     let jacobians = mechanism.reading_jacobians(params, pose.as_slice())?;
     let (g_x, g_p) = (&jacobians.d_pose, &jacobians.d_params);
-    let (d_params, normal_inverse) = pose_derivative(g_x, g_p)?;
     let variance = sample.sigma * sample.sigma;
     let rows = match sample.known_pose {
         Some((measured, sigma)) => {
+            let (d_params, normal_inverse) = pose_derivative(g_x, g_p)?;
             let mut noise = &normal_inverse * variance;
             for k in 0..3 {
                 noise[(k, k)] += sigma[k] * sigma[k];
             }
             PredictedRows {
-                observation,
+                observation: HeldOut::Observation(observation),
                 residuals: DVector::from_fn(3, |k, _| pose[k] - measured[k]),
                 noise,
                 d_global: widened(&d_params, g),
             }
         }
         None => {
-            let basis = left_nullspace(g_x, &normal_inverse);
             let predicted = mechanism.inverse(params, pose.as_slice())?;
-            let misfit = predicted - DVector::from_column_slice(&sample.readings);
-            let m = basis.ncols();
-            PredictedRows {
-                observation,
-                residuals: basis.transpose() * misfit,
-                noise: DMatrix::identity(m, m) * variance,
-                d_global: widened(&(basis.transpose() * g_p), g),
-            }
+            let local = LocalRows {
+                residuals: predicted - DVector::from_column_slice(&sample.readings),
+                d_local: g_x,
+                d_params: g_p,
+                noise: DMatrix::identity(actuators, actuators) * variance,
+            };
+            project_out(HeldOut::Observation(observation), &local, g)?
         }
     };
     Ok(Some(rows))
+}
+
+/// The rows of ball `b`'s held-out `touches` (module doc).
+fn predict_ball(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
+    observations: &Observations,
+    b: usize,
+    touches: Vec<usize>,
+    g: usize,
+) -> Result<PredictedRows, MechanismCalibrationError> {
+    let ball = observations.balls[b];
+    let all = &observations.touches;
+    let centre = ball_centre(mechanism, params, configured, all, &touches, b, ball.radius)?;
+    let (k, n) = (touches.len(), params.len());
+    let (mut residuals, mut d_local) = (DVector::zeros(k), DMatrix::zeros(k, 3));
+    let mut d_params = DMatrix::zeros(k, n);
+    let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
+    let mut noise = DMatrix::from_element(k, k, radius_variance);
+    for (i, &t) in touches.iter().enumerate() {
+        let touch = &all[t];
+        let row = touch
+            .evaluate(mechanism, params, configured, &centre, ball.radius)
+            .map_err(|e| MechanismCalibrationError::Observation {
+                observation: ObservationRef {
+                    kind: ObservationKind::Touch,
+                    index: t,
+                },
+                reason: format!("on ball {b}: {e}"),
+            })?;
+        let sigma = touch.sigma;
+        residuals[i] = row.rows.residual[0] * sigma;
+        d_local.row_mut(i).copy_from(&(row.d_centre * sigma));
+        d_params
+            .row_mut(i)
+            .copy_from(&(row.rows.d_params.row(0) * sigma));
+        noise[(i, i)] += sigma * sigma;
+    }
+    let local = LocalRows {
+        residuals,
+        d_local: &d_local,
+        d_params: &d_params,
+        noise,
+    };
+    project_out(HeldOut::Ball { ball: b, touches }, &local, g).map_err(|e| {
+        MechanismCalibrationError::InvalidData {
+            what: format!("ball {b}"),
+            reason: format!("its held-out touches do not locate its centre: {e}"),
+        }
+    })
+}
+
+/// Residuals with a local unknown `u` of three coordinates (module doc).
+struct LocalRows<'a> {
+    /// `r` (`m`).
+    residuals: DVector<f64>,
+    /// `J = dr/du` (`m × 3`).
+    d_local: &'a DMatrix<f64>,
+    /// `G_p = dr/dp` (`m × n`).
+    d_params: &'a DMatrix<f64>,
+    /// `Σ = Cov(r)` (`m × m`).
+    noise: DMatrix<f64>,
+}
+
+/// `local`'s rows with its local unknown projected out (module doc), the
+/// derivative widened to `g` columns; an error when `J` is not of rank 3
+/// (the unknown not located).
+fn project_out(
+    observation: HeldOut,
+    local: &LocalRows,
+    g: usize,
+) -> Result<PredictedRows, MechanismError> {
+    let j = local.d_local;
+    let (m, u) = (j.nrows(), j.ncols());
+    let spread = (j.transpose() * j).symmetric_eigenvalues();
+    // False for a rank below 3, and for a value that is not a number.
+    let located = spread.min() > 1e-12 * spread.max();
+    if m < u || !located {
+        return Err(MechanismError::Singular);
+    }
+    let mut q_t = DMatrix::identity(m, m);
+    j.clone().qr().q_tr_mul(&mut q_t);
+    let basis_t = q_t.rows(u, m - u);
+    Ok(PredictedRows {
+        observation,
+        residuals: basis_t * &local.residuals,
+        noise: basis_t * &local.noise * basis_t.transpose(),
+        d_global: widened(&(basis_t * local.d_params), g),
+    })
 }
 
 /// `dx/dp|_q = −G_x⁺ G_p` of the readings' least-squares pose (module
@@ -215,22 +392,16 @@ fn widened(d_params: &DMatrix<f64>, g: usize) -> DMatrix<f64> {
     wide
 }
 
-/// An orthonormal basis of the left nullspace of `g_x` (`A × 3`): the
-/// eigenvectors of eigenvalue 1 of the residual projector
-/// `I − G_x (G_xᵀ G_x)⁻¹ G_xᵀ` (its others are 0).
-fn left_nullspace(g_x: &DMatrix<f64>, normal_inverse: &DMatrix<f64>) -> DMatrix<f64> {
-    let a = g_x.nrows();
-    let projector = DMatrix::identity(a, a) - g_x * normal_inverse * g_x.transpose();
-    let eigen = ((&projector + projector.transpose()) * 0.5).symmetric_eigen();
-    let kept: Vec<usize> = (0..a).filter(|&k| eigen.eigenvalues[k] > 0.5).collect();
-    DMatrix::from_fn(a, kept.len(), |i, j| eigen.eigenvectors[(i, kept[j])])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mechanism::data::Ball;
+    use nalgebra::Vector3;
     use parcal_kinematics::cable::CableRobot;
+    use parcal_kinematics::delta::LinearDelta;
     use parcal_kinematics::mechanism::{design, prior_sigma};
+    use parcal_observe::mechanism::BallTouch;
+    use parcal_simulate::Rng;
 
     /// `G_i = dr/dθ` of a cable robot's samples (four lines: the
     /// least-squares pose) against central differences of the predicted
@@ -301,5 +472,195 @@ mod tests {
             .unwrap()
             .residuals
             .len()
+    }
+
+    /// A typical delta, its configured (design) parameters and a true
+    /// machine a few tenths away.
+    fn delta() -> (LinearDelta, DVector<f64>, DVector<f64>) {
+        let delta = LinearDelta::typical();
+        let configured = design(&delta);
+        let mut truth = configured.clone();
+        for (k, value) in truth.iter_mut().enumerate() {
+            *value += 0.3 * ((k as f64) * 1.3).sin();
+        }
+        (delta, configured, truth)
+    }
+
+    /// `K` touches of a ball of centre `centre` by the delta of true
+    /// parameters `truth` whose controller runs `configured`: the tool
+    /// point at `centre + (radius + ε_k) u_k`, `u_k` on the upper cap
+    /// (polar angles up to 70°, a golden-angle spiral), `ε_k` from
+    /// `error`, the commanded position the controller reports for it.
+    fn touches(
+        (delta, configured, truth): &(LinearDelta, DVector<f64>, DVector<f64>),
+        centre: Vector3<f64>,
+        radius: f64,
+        k: usize,
+        mut error: impl FnMut() -> f64,
+    ) -> Vec<BallTouch> {
+        let lowest = 70f64.to_radians().cos();
+        (0..k)
+            .map(|i| {
+                let polar = (1.0 - (1.0 - lowest) * (i as f64 + 0.5) / k as f64).acos();
+                let azimuth = 2.399_963 * i as f64;
+                let u = Vector3::new(
+                    polar.sin() * azimuth.cos(),
+                    polar.sin() * azimuth.sin(),
+                    polar.cos(),
+                );
+                let x = centre + (radius + error()) * u;
+                let readings = delta.inverse(truth.as_slice(), x.as_slice()).unwrap();
+                let commanded = delta
+                    .forward(configured.as_slice(), readings.as_slice(), x.as_slice())
+                    .unwrap();
+                BallTouch {
+                    ball: 0,
+                    commanded: [commanded[0], commanded[1], commanded[2]],
+                    sigma: 0.01,
+                }
+            })
+            .collect()
+    }
+
+    /// The rows of ball 0 of `observations` at `params`.
+    fn ball_rows(
+        machine: &(LinearDelta, DVector<f64>, DVector<f64>),
+        params: &DVector<f64>,
+        observations: &Observations,
+    ) -> PredictedRows {
+        let touches = (0..observations.touches.len()).collect();
+        let (delta, configured, _) = machine;
+        let (params, configured) = (params.as_slice(), configured.as_slice());
+        predict_ball(
+            delta,
+            params,
+            configured,
+            observations,
+            0,
+            touches,
+            params.len(),
+        )
+        .unwrap()
+    }
+
+    /// `G = N_⊥ᵀ G_p` of a ball's eight exact touches against central
+    /// differences of its predicted rows over the parameters, and its
+    /// noise's radius term `σ_ρ² (N_⊥ᵀ 1)(N_⊥ᵀ 1)ᵀ` against central
+    /// differences over the ball's radius (`dr'/dρ = −N_⊥ᵀ 1`).
+    #[test]
+    fn ball_derivatives_match_central_differences() {
+        let machine = delta();
+        let (radius, radius_sigma, k) = (12.7, 0.002, 8);
+        let centre = Vector3::new(40.0, -25.0, 6.0);
+        let mut observations = Observations {
+            balls: vec![Ball {
+                radius,
+                radius_sigma: Some(radius_sigma),
+            }],
+            touches: touches(&machine, centre, radius, k, || 0.0),
+            ..Default::default()
+        };
+        let truth = &machine.2;
+        let at = ball_rows(&machine, truth, &observations);
+        assert_eq!(at.residuals.len(), k - 3);
+        assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
+        assert_eq!(
+            at.observation,
+            HeldOut::Ball {
+                ball: 0,
+                touches: (0..k).collect()
+            }
+        );
+        let steps = prior_sigma(&machine.0) * 1e-4;
+        for j in 0..truth.len() {
+            let (mut plus, mut minus) = (truth.clone(), truth.clone());
+            plus[j] += steps[j];
+            minus[j] -= steps[j];
+            let column = (ball_rows(&machine, &plus, &observations).residuals
+                - ball_rows(&machine, &minus, &observations).residuals)
+                / (2.0 * steps[j]);
+            let error = (&column - at.d_global.column(j)).amax();
+            assert!(
+                error < 1e-6 * at.d_global.amax(),
+                "column {j}: {error:e} against {:e}",
+                at.d_global.amax()
+            );
+        }
+        let h = 1e-4;
+        observations.balls[0].radius = radius + h;
+        let plus = ball_rows(&machine, truth, &observations).residuals;
+        observations.balls[0].radius = radius - h;
+        let minus = ball_rows(&machine, truth, &observations).residuals;
+        let d_radius = (plus - minus) / (2.0 * h);
+        let common = &at.noise - DMatrix::identity(k - 3, k - 3) * (0.01 * 0.01);
+        let expected = &d_radius * d_radius.transpose() * (radius_sigma * radius_sigma);
+        let error = (&common - &expected).amax();
+        assert!(
+            error < 1e-6 * expected.amax(),
+            "{error:e}: {common} {expected}"
+        );
+    }
+
+    /// A ball's rows of noisy touches of the true machine: `T = r'ᵀ D⁻¹ r'`
+    /// over 400 balls of 8 touches (2000 rows), the radius's error three
+    /// times the touches' noise (so that a `D` without its radius's term
+    /// fails), has the mean of its `χ²(2000)` within 4 standard errors
+    /// (`4 √(2/2000)` of `T/n`).
+    #[test]
+    fn a_ball_s_rows_have_their_stated_noise() {
+        let machine = delta();
+        let (radius, radius_sigma, sigma, k) = (12.7, 0.03, 0.01, 8);
+        let mut noise = Rng::new(36, 0);
+        let (mut statistic, mut rows) = (0.0, 0);
+        for draw in 0..400 {
+            let centre = Vector3::new(60.0 * (draw as f64).cos(), 60.0 * (draw as f64).sin(), 6.0);
+            let true_radius = radius + noise.normal(radius_sigma);
+            let observations = Observations {
+                balls: vec![Ball {
+                    radius,
+                    radius_sigma: Some(radius_sigma),
+                }],
+                touches: touches(&machine, centre, true_radius, k, || noise.normal(sigma)),
+                ..Default::default()
+            };
+            let predicted = ball_rows(&machine, &machine.2, &observations);
+            let noise = predicted.noise.clone().cholesky().unwrap();
+            statistic += predicted.residuals.dot(&noise.solve(&predicted.residuals));
+            rows += predicted.residuals.len();
+        }
+        let ratio = statistic / rows as f64;
+        let bound = 4.0 * (2.0 / rows as f64).sqrt();
+        eprintln!("a ball's rows: T/n = {ratio:.4} over {rows} rows (1 ± {bound:.4})");
+        assert!(
+            (ratio - 1.0).abs() < bound,
+            "T/n = {ratio:.4}, bound {bound:.4}"
+        );
+    }
+
+    /// A held-out ball of more touches than its bound is named before any
+    /// touch is evaluated.
+    #[test]
+    fn a_ball_of_too_many_touches_is_named() {
+        let (delta, configured, truth) = delta();
+        let touch = BallTouch {
+            ball: 1,
+            commanded: [0.0; 3],
+            sigma: 0.01,
+        };
+        let ball = Ball {
+            radius: 12.7,
+            radius_sigma: None,
+        };
+        let observations = Observations {
+            balls: vec![ball; 2],
+            touches: vec![touch; MAX_HELD_OUT_TOUCHES_PER_BALL + 1],
+            ..Default::default()
+        };
+        let error = predict(&delta, &truth, configured.as_slice(), &observations).unwrap_err();
+        let said = error.to_string();
+        assert!(
+            said.starts_with("ball 1: its 1001 held-out touches"),
+            "{said}"
+        );
     }
 }

@@ -21,8 +21,8 @@
 use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SVector, Vector3};
-use parcal_kinematics::mechanism::MechanismError;
-use parcal_observe::mechanism::{Rows, SampleRows};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError};
+use parcal_observe::mechanism::{BallTouch, Rows, SampleRows};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem};
 
 use crate::sphere_fit::{SphereFitError, best_fit};
@@ -146,9 +146,7 @@ impl<'a> MechanismProblem<'a> {
 
     /// The start of every local block: each point sample's pose (its
     /// measured pose, else the forward kinematics of its readings at
-    /// `params`), then each ball's centre (the best fit, with its radius,
-    /// of its touches' tool points at `params`,
-    /// [`crate::sphere_fit::best_fit`]).
+    /// `params`), then each ball's centre ([`ball_centre`]).
     pub(crate) fn start_blocks(
         &self,
         params: &[f64],
@@ -174,34 +172,19 @@ impl<'a> MechanismProblem<'a> {
         }
         let configured = self.data.configured.as_slice();
         for (b, ball) in o.balls.iter().enumerate() {
-            let points = self.ball_points[b]
+            let touches: Vec<usize> = self.ball_points[b]
                 .clone()
-                .map(|i| {
-                    let t = self.touch_order[i - self.sample_points()];
-                    let commanded = &o.touches[t].commanded;
-                    let at = ObservationRef {
-                        kind: ObservationKind::Touch,
-                        index: t,
-                    };
-                    let readings = mechanism
-                        .inverse(configured, commanded)
-                        .map_err(|e| failed(at, e))?;
-                    let x = mechanism
-                        .forward(params, readings.as_slice(), commanded)
-                        .map_err(|e| failed(at, e))?;
-                    Ok(Vector3::new(x[0], x[1], x[2]))
-                })
-                .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
-            let centre = match best_fit(&points, ball.radius) {
-                Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => fit.centre,
-                Err(e) => {
-                    return Err(MechanismCalibrationError::InvalidData {
-                        what: format!("ball {b}"),
-                        reason: format!("its touches give no start for its centre: {e}"),
-                    });
-                }
-            };
-            blocks.push(centre);
+                .map(|i| self.touch_order[i - self.sample_points()])
+                .collect();
+            blocks.push(ball_centre(
+                mechanism,
+                params,
+                configured,
+                &o.touches,
+                &touches,
+                b,
+                ball.radius,
+            )?);
         }
         Ok(blocks)
     }
@@ -327,6 +310,46 @@ fn global_prior_of(data: &MechanismData) -> (DVector<f64>, DVector<f64>) {
         priors.iter().map(|p| p.sigma.unwrap_or(f64::INFINITY)),
     );
     (mean, sigma)
+}
+
+/// The centre of ball `b` of calibrated radius `radius` from its
+/// `touches` (indices into `all`): the best fit, with its radius, of the
+/// tool points `x = f(p, g(p_c, x_c))` the touches reach with parameters
+/// `params` and the controller's `configured` ([`best_fit`]; the last
+/// iterate of a fit that did not converge).
+pub(crate) fn ball_centre(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
+    all: &[BallTouch],
+    touches: &[usize],
+    b: usize,
+    radius: f64,
+) -> Result<Vector3<f64>, MechanismCalibrationError> {
+    let points = touches
+        .iter()
+        .map(|&t| {
+            let at = ObservationRef {
+                kind: ObservationKind::Touch,
+                index: t,
+            };
+            let commanded = &all[t].commanded;
+            let readings = mechanism
+                .inverse(configured, commanded)
+                .map_err(|e| failed(at, e))?;
+            let x = mechanism
+                .forward(params, readings.as_slice(), commanded)
+                .map_err(|e| failed(at, e))?;
+            Ok(Vector3::new(x[0], x[1], x[2]))
+        })
+        .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
+    match best_fit(&points, radius) {
+        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(fit.centre),
+        Err(e) => Err(MechanismCalibrationError::InvalidData {
+            what: format!("ball {b}"),
+            reason: format!("its touches do not locate its centre: {e}"),
+        }),
+    }
 }
 
 fn failed(observation: ObservationRef, error: impl std::fmt::Display) -> MechanismCalibrationError {

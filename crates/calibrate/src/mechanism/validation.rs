@@ -1,8 +1,9 @@
 //! A mechanism calibration judged on held-out data of the same machine
-//! (new probe heights, part distances, measured positions): every
-//! observation predicted with the calibrated global block `θ̂`
-//! ([`super::predicted`]), the calibration's covariance `Σ_θ` propagated,
-//! and the verdict of [`crate::prediction`], as the hexapod's validation.
+//! (new probe heights, part distances, measured positions, touches of
+//! balls): every observation predicted with the calibrated global block
+//! `θ̂` ([`super::predicted`]), the calibration's covariance `Σ_θ`
+//! propagated, and the verdict of [`crate::prediction`], as the hexapod's
+//! validation.
 //!
 //! With `r` the predicted residuals, `D` their own noise (block-diagonal,
 //! `D_i = L_i L_iᵀ`) and `G = dr/dθ`, to first order
@@ -21,7 +22,8 @@
 //! The trigger height is the calibration's estimate when it made one; a
 //! calibration without probe heights validated on probe heights takes it
 //! from the held-out data's prior (its sigma a common error of every
-//! probe). A sample's unknown pose is fitted to its own readings
+//! probe). A sample's unknown pose is fitted to its own readings, a
+//! ball's unknown centre to its touches, whose rows are the ball's
 //! ([`super::predicted`]).
 //!
 //! What changed, when the data reject: for each unknown `θ_k` alone, the
@@ -40,7 +42,7 @@ use crate::prediction::{PredictionTest, WhitenedCovariance, square_root};
 use super::calibrated::CalibratedMechanism;
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
-use super::observation::{ObservationKind, ObservationRef};
+use super::observation::{HeldOut, ObservationKind, ObservationRef};
 use super::predicted::{PredictedRows, predict};
 use super::result::TRIGGER_HEIGHT;
 
@@ -50,8 +52,9 @@ const SHIFTS: usize = 3;
 /// One predicted row.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ValidatedRow {
-    /// Its observation, by its place in the held-out data.
-    pub observation: ObservationRef,
+    /// Its observation by its place in the held-out data, or the ball
+    /// whose touches it combines.
+    pub observation: HeldOut,
     /// Its row within the observation.
     pub row: usize,
     /// Its unit (`mm`, or the actuators' for a sample's redundant
@@ -170,15 +173,14 @@ pub fn validate_mechanism(
     for (rows_of, first) in predicted.iter().zip(&whitened.first_rows) {
         for j in 0..rows_of.residuals.len() {
             let variance = whitened.variances[first + j];
-            let redundant_readings = rows_of.observation.kind == ObservationKind::Sample
-                && !has_known_pose(data, rows_of);
-            let unit = if redundant_readings {
-                reading_unit
-            } else {
-                "mm"
+            let unit = match &rows_of.observation {
+                HeldOut::Observation(observation) if redundant_readings(data, observation) => {
+                    reading_unit
+                }
+                _ => "mm",
             };
             rows.push(ValidatedRow {
-                observation: rows_of.observation,
+                observation: rows_of.observation.clone(),
                 row: j,
                 unit: unit.to_string(),
                 residual: rows_of.residuals[j],
@@ -196,7 +198,10 @@ pub fn validate_mechanism(
     let shifts = shifts(&whitened, &metric, statistic, calibrated, &names, &units);
     let samples_with_rows = predicted
         .iter()
-        .filter(|p| p.observation.kind == ObservationKind::Sample)
+        .filter(|p| match &p.observation {
+            HeldOut::Observation(observation) => observation.kind == ObservationKind::Sample,
+            HeldOut::Ball { .. } => false,
+        })
         .count();
     Ok(MechanismValidation {
         mechanism: mechanism.name().to_string(),
@@ -210,10 +215,13 @@ pub fn validate_mechanism(
     })
 }
 
-fn has_known_pose(data: &MechanismData, rows: &PredictedRows) -> bool {
-    data.observations.samples[rows.observation.index]
-        .known_pose
-        .is_some()
+/// Whether `observation`'s rows are a point sample's redundant readings
+/// (its pose unknown).
+fn redundant_readings(data: &MechanismData, observation: &ObservationRef) -> bool {
+    observation.kind == ObservationKind::Sample
+        && data.observations.samples[observation.index]
+            .known_pose
+            .is_none()
 }
 
 /// A global block's values, covariance and unknowns' names.
@@ -286,9 +294,16 @@ impl Whitened {
         for rows in predicted {
             let m = rows.residuals.len();
             first_rows.push(at);
-            let not_definite = || MechanismCalibrationError::Observation {
-                observation: rows.observation,
-                reason: "its predicted noise covariance is not positive definite".to_string(),
+            let reason = "its predicted noise covariance is not positive definite".to_string();
+            let not_definite = || match &rows.observation {
+                HeldOut::Observation(observation) => MechanismCalibrationError::Observation {
+                    observation: *observation,
+                    reason: reason.clone(),
+                },
+                ball => MechanismCalibrationError::InvalidData {
+                    what: ball.to_string(),
+                    reason: reason.clone(),
+                },
             };
             let l = rows.noise.clone().cholesky().ok_or_else(not_definite)?.l();
             let solve = |b: &DMatrix<f64>| l.solve_lower_triangular(b).ok_or_else(not_definite);
