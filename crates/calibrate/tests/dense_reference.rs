@@ -257,12 +257,14 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
     let cost_diff = (schur.cost - dense.cost).abs() / dense.cost;
 
     // The first update of a real run: one Gauss-Newton iteration, state
-    // after minus state before.
+    // after minus state before (the step alone: no group refined after
+    // it, parcal_solver::refine).
     let one = solve(
         problem,
         state.clone(),
         &SolverOptions {
             max_iterations: 1,
+            refine_groups: false,
             ..SolverOptions::default()
         },
         &mut |_| {},

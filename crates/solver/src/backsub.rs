@@ -2,7 +2,11 @@
 //! ([`Problem::linearize_along`]: only `d_global δg` of the global Jacobian
 //! is needed), its block reduced to `[d_point | d_group | r + d_global δg]`
 //! and eliminated again; the group's triangle gives `δc`, each point's
-//! triangle `δp`.
+//! triangle `δp`. Each group's share of the step's `−bᵀδ`, `−(b_cᵀδc +
+//! Σ b_pᵀδp)` over its own unknowns and its points', goes to
+//! [`ChunkedProblem::group_shares`]: for an undamped step, what the
+//! group's unknowns contribute to `δᵀHδ` (up to their coupling with the
+//! global block), which [`crate::refine`] reads.
 
 use nalgebra::{DVector, SVector};
 
@@ -82,28 +86,42 @@ where
             &mut delta.points,
             self.chunks.iter().map(|c| c.points.len()),
         );
+        let mut shares = std::mem::take(&mut self.group_shares);
+        let share_slices = split_by(&mut shares, self.chunks.iter().map(|c| c.groups.len()));
         let (pool, jobs) = self.jobs();
         let jobs: Vec<_> = jobs
             .into_iter()
             .zip(group_slices)
             .zip(point_slices)
-            .map(|(((chunk, caches), groups), points)| (chunk, caches, groups, points))
+            .zip(share_slices)
+            .map(|((((chunk, caches), groups), points), shares)| {
+                (
+                    chunk,
+                    caches,
+                    ChunkOut {
+                        groups,
+                        points,
+                        shares,
+                    },
+                )
+            })
             .collect();
         let mut total = StepSummary::default();
         let global = problem.prepare_global(&state.global);
         let global = &global;
-        run_chunks(
+        let passed = run_chunks(
             pool,
             jobs,
-            |ws, (chunk, caches, groups, points)| {
+            |ws, (chunk, caches, out)| {
                 let (bufs, _, point_data) = ws.split();
-                let out = ChunkOut { groups, points };
                 back_substitute_chunk::<C, P, R, Pr>(
                     problem, chunk, state, global, caches, dg, lambda, bufs, point_data, out,
                 )
             },
             |part| total.add(&part),
-        )?;
+        );
+        self.group_shares = shares;
+        passed?;
         // The global block.
         let g = dg.len();
         let mut global = StepSummary {
@@ -136,14 +154,15 @@ where
     }
 }
 
-/// Where a chunk writes its `δ`.
-struct ChunkOut<'a, const C: usize, const P: usize> {
-    groups: &'a mut [SVector<f64, C>],
-    points: &'a mut [SVector<f64, P>],
+/// Where a chunk writes its `δ` and its groups' shares of `−bᵀδ`.
+pub(crate) struct ChunkOut<'a, const C: usize, const P: usize> {
+    pub(crate) groups: &'a mut [SVector<f64, C>],
+    pub(crate) points: &'a mut [SVector<f64, P>],
+    pub(crate) shares: &'a mut [f64],
 }
 
 #[allow(clippy::too_many_arguments)]
-fn back_substitute_chunk<const C: usize, const P: usize, const R: usize, Pr>(
+pub(crate) fn back_substitute_chunk<const C: usize, const P: usize, const R: usize, Pr>(
     problem: &Pr,
     chunk: &Chunk,
     state: &State<C, P>,
@@ -251,6 +270,8 @@ where
                 }
             }
         }
+        // `b_cᵀδc + Σ b_pᵀδp`, the group's own part of `bᵀδ`.
+        let mut local_dot = 0.0;
         let dc = if fixed {
             SVector::<f64, C>::zeros()
         } else {
@@ -278,7 +299,9 @@ where
             let dc = SVector::<f64, C>::from_fn(|a, _| -z[a]);
             sum.delta_norm2 += dc.norm_squared();
             sum.state_norm2 += c.norm_squared();
-            sum.gradient_dot += b_c.dot(&dc);
+            let group_dot = b_c.dot(&dc);
+            sum.gradient_dot += group_dot;
+            local_dot += group_dot;
             sum.damping_quad += lambda * d_c.component_mul(&dc).dot(&dc);
             dc
         };
@@ -299,9 +322,12 @@ where
             out.points[i - chunk.points.start] = dp;
             sum.delta_norm2 += dp.norm_squared();
             sum.state_norm2 += p.norm_squared();
-            sum.gradient_dot += b_p.dot(&dp);
+            let point_dot = b_p.dot(&dp);
+            sum.gradient_dot += point_dot;
+            local_dot += point_dot;
             sum.damping_quad += lambda * d_p.component_mul(&dp).dot(&dp);
         }
+        out.shares[k - chunk.groups.start] = -local_dot;
     }
     Ok(sum)
 }

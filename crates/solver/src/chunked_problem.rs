@@ -18,6 +18,10 @@ where
     pub(crate) dims: Dims,
     pub(crate) pool: WorkspacePool,
     pub(crate) caches: &'a mut Vec<Pr::PointCache>,
+    /// Each group's share of the last back-substituted step
+    /// ([`StepShares`](crate::backsub)): `−(b_cᵀδc + Σ b_pᵀδp)` over its
+    /// own unknowns and its points'.
+    pub(crate) group_shares: Vec<f64>,
 }
 
 impl<'a, const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'a, C, P, R, Pr>
@@ -91,6 +95,7 @@ where
             dims,
             pool: WorkspacePool::new(dims),
             caches,
+            group_shares: vec![0.0; n_groups],
         })
     }
 

@@ -418,6 +418,14 @@ where
                         // tolerance).
                         return self.finish(x, system, step, Status::Converged);
                     } else {
+                        if options.refine_groups {
+                            self.ctx.refine_groups(
+                                &mut trial,
+                                system.cost(),
+                                step.sigmas * step.sigmas,
+                                options.sigma_tolerance,
+                            );
+                        }
                         match self.ctx.reduce(&trial, policy.trial_lambda()) {
                             Ok(next) => {
                                 let response = policy.judge(&Trial {

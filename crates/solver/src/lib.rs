@@ -286,6 +286,7 @@ mod problem;
 mod qr;
 mod reduced;
 mod redundancy;
+pub mod refine;
 mod solution;
 
 pub use chunks::split_by;

@@ -71,6 +71,11 @@ pub struct SolverOptions {
     /// [`group_sigmas`](crate::group_sigmas()) when it needs them, turns it
     /// off.
     pub group_sigmas: bool,
+    /// Whether the groups that dominate a step are refined before its
+    /// trial point is evaluated: local Gauss–Newton steps of their own
+    /// unknowns, the global block fixed ([`crate::refine`]). Least squares
+    /// with the sigma tolerance on only.
+    pub refine_groups: bool,
     /// Groups per unit of parallel work. The partial reduced systems are
     /// summed in chunk order, so results depend on this number but not on the
     /// number of threads.
@@ -88,6 +93,7 @@ impl Default for SolverOptions {
             step_divergence_ratio: 1e5,
             time_limit: None,
             group_sigmas: true,
+            refine_groups: true,
             groups_per_chunk: 64,
         }
     }
