@@ -735,15 +735,16 @@ fn eliminate_group<const C: usize>(
     }
 }
 
-/// `z = Lᵀu` for the lower-triangular `L` (`G × G`, row-major) with
-/// `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by rows of `L`
-/// (`z[..=i] += L[i, ..=i] u_i`), whose lanes are independent.
+/// `z = Lᵀu` for the lower-triangular `L` (`G × G`, row-major, zeros above
+/// the diagonal) with `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by
+/// whole rows of `L` (`z += L[i, ..] u_i`, lanes independent, every row of
+/// one length), whose zeros add `±0` to sums that are never `−0`: the
+/// bits of the lower triangle's products alone.
 #[inline]
 pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     let g = u.len();
     z.fill(0.0);
-    for (i, &ui) in u.iter().enumerate() {
-        let row = &factor[i * g..i * g + i + 1];
+    for (row, &ui) in factor.chunks_exact(g).zip(u) {
         for (z, l) in z.iter_mut().zip(row) {
             *z += l * ui;
         }
