@@ -565,6 +565,12 @@ pub(crate) trait EliminationSink<const C: usize, const P: usize, const R: usize,
     ) {
         let _ = (i, lin, prior, q, m);
     }
+    /// One of the point's eliminated rows `[E_c | E_g | r]` (`C + G + 1`
+    /// values, [`eliminated_row`]), in order, after
+    /// [`EliminationSink::point_factorised`]. Default: nothing.
+    fn point_row(&mut self, row: &[f64]) {
+        let _ = row;
+    }
     /// Group `k` is done: its triangular rows `[R_cc | R_cg | z_c]`
     /// (row-major, `C` rows of width `C + G + 1` and the effects' columns,
     /// [`Dims::group_width`]; `None` for a fixed group,
@@ -680,6 +686,7 @@ where
                     };
                     let (row, effects) = row.split_at_mut(residual_end);
                     eliminated_row(lin, prior.as_ref(), q, m, e, row);
+                    sink.point_row(row);
                     effect_row::<P, R>(&point_effects, q, m, e, effects);
                     if fixed {
                         sink.reduced_row(&single[C..]);

@@ -102,7 +102,7 @@ use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks_in_waves;
 use crate::covariance::GroupSigmas;
 use crate::effects::{EffectProjection, EffectSums};
-use crate::eliminate::{EliminationSink, Failure, eliminate_chunk, eliminated_row};
+use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
 use crate::iterate::status_of;
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::PriorRows;
@@ -492,12 +492,10 @@ where
             data: SMatrix::from_fn(column),
             prior: prior.map(|_| SMatrix::from_fn(|a, e| column(R + a, e))),
         });
-        let w = C + self.g + 1;
-        let start = self.rows.len();
-        self.rows.resize(start + eliminated * w, 0.0);
-        for (e, row) in self.rows[start..].chunks_exact_mut(w).enumerate() {
-            eliminated_row(lin, prior, q, m, P + e, row);
-        }
+    }
+
+    fn point_row(&mut self, row: &[f64]) {
+        self.rows.extend_from_slice(row);
     }
 
     fn group_done(
