@@ -509,25 +509,23 @@ where
             sigmas.push(top);
         }
         let done = self.out.len() - self.points.len();
-        let level = GroupLevel {
-            top,
-            factor: self.factor,
-            g: self.g,
-        };
-        let scratch = Scratch {
-            coordinates: &mut self.coordinates,
-            reduced: &mut self.reduced,
-            z: &mut self.z,
-        };
-        point_leverages::<C, P, R>(
-            &level,
-            self.rows,
-            &self.points,
-            &mut self.out[done..],
-            self.global_z.as_mut(),
-            scratch,
-            &mut self.prior_leverage.points,
-        );
+        point_leverages::<C, P, R>(GroupPoints {
+            level: GroupLevel {
+                top,
+                factor: self.factor,
+                g: self.g,
+            },
+            rows: self.rows,
+            points: &self.points,
+            out: &mut self.out[done..],
+            global_z: self.global_z.as_mut(),
+            scratch: Scratch {
+                coordinates: &mut self.coordinates,
+                reduced: &mut self.reduced,
+                z: &mut self.z,
+            },
+            prior_leverage: &mut self.prior_leverage.points,
+        });
         if let (Some(top), Some(prior)) = (top, prior) {
             let (g, cw) = (self.g, C + self.g);
             // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0.
@@ -562,8 +560,21 @@ struct Scratch<'a> {
     z: &'a mut [f64],
 }
 
-/// Each point of a group done, from its eliminated `rows` (`[E_c | E_g |
-/// ·]`, width `C + G + 1`, the points' in order): `V` (a row `[R_cc⁻ᵀ
+/// A group's points done, as [`point_leverages`] takes them: their
+/// levels, their eliminated `rows` (`[E_c | E_g | ·]`, width `C + G + 1`,
+/// the points' in order), the points, where their numbers go, the `z_j`
+/// kept if asked, the scratch, and the sum of the prior rows' leverage.
+struct GroupPoints<'a, const P: usize, const R: usize> {
+    level: GroupLevel<'a>,
+    rows: &'a [f64],
+    points: &'a [PendingPoint<P, R>],
+    out: &'a mut [PointRows<R>],
+    global_z: Option<&'a mut Vec<f64>>,
+    scratch: Scratch<'a>,
+    prior_leverage: &'a mut f64,
+}
+
+/// Each point of a group done ([`GroupPoints`]): `V` (a row `[R_cc⁻ᵀ
 /// E_c[e,·]ᵀ | LᵀŨ[e,·]ᵀ]` per eliminated row), `M = VVᵀ`, each data
 /// row's `r_j = |q_j|² − q_jᵀ M q_j` and global leverage `|z_j|²`,
 /// `z_j = Σ_e q_j[e] V[e, C..]` (module doc) into `out`; each `z_j` onto
@@ -574,59 +585,36 @@ struct Scratch<'a> {
 /// (the products with `L` four wide instead of two), and for any x86-64.
 /// Both multiply and add in the same order, so they give the same bits.
 #[allow(unsafe_code, reason = "the AVX2 build, called after the feature check")]
-fn point_leverages<const C: usize, const P: usize, const R: usize>(
-    level: &GroupLevel<'_>,
-    rows: &[f64],
-    points: &[PendingPoint<P, R>],
-    out: &mut [PointRows<R>],
-    global_z: Option<&mut Vec<f64>>,
-    scratch: Scratch<'_>,
-    prior_leverage: &mut f64,
-) {
+fn point_leverages<const C: usize, const P: usize, const R: usize>(work: GroupPoints<'_, P, R>) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the machine runs AVX2.
-        return unsafe {
-            point_leverages_avx2::<C, P, R>(
-                level,
-                rows,
-                points,
-                out,
-                global_z,
-                scratch,
-                prior_leverage,
-            )
-        };
+        return unsafe { point_leverages_avx2::<C, P, R>(work) };
     }
-    point_leverages_in::<C, P, R>(level, rows, points, out, global_z, scratch, prior_leverage);
+    point_leverages_in::<C, P, R>(work);
 }
 
 /// [`point_leverages`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn point_leverages_avx2<const C: usize, const P: usize, const R: usize>(
-    level: &GroupLevel<'_>,
-    rows: &[f64],
-    points: &[PendingPoint<P, R>],
-    out: &mut [PointRows<R>],
-    global_z: Option<&mut Vec<f64>>,
-    scratch: Scratch<'_>,
-    prior_leverage: &mut f64,
+    work: GroupPoints<'_, P, R>,
 ) {
-    point_leverages_in::<C, P, R>(level, rows, points, out, global_z, scratch, prior_leverage);
+    point_leverages_in::<C, P, R>(work);
 }
 
 /// The body of [`point_leverages`], inlined into each of its builds.
 #[inline(always)]
-fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
-    level: &GroupLevel<'_>,
-    rows: &[f64],
-    points: &[PendingPoint<P, R>],
-    out: &mut [PointRows<R>],
-    mut global_z: Option<&mut Vec<f64>>,
-    scratch: Scratch<'_>,
-    prior_leverage: &mut f64,
-) {
+fn point_leverages_in<const C: usize, const P: usize, const R: usize>(work: GroupPoints<'_, P, R>) {
+    let GroupPoints {
+        level,
+        rows,
+        points,
+        out,
+        mut global_z,
+        scratch,
+        prior_leverage,
+    } = work;
     let g = level.g;
     let (w, cw) = (C + g + 1, C + g);
     let Scratch {
