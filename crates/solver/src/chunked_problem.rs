@@ -19,8 +19,8 @@ where
     pub(crate) pool: WorkspacePool,
     pub(crate) caches: &'a mut Vec<Pr::PointCache>,
     /// Each group's share of the last back-substituted step
-    /// ([`StepShares`](crate::backsub)): `−(b_cᵀδc + Σ b_pᵀδp)` over its
-    /// own unknowns and its points'.
+    /// ([`crate::backsub`]): `−(b_cᵀδc + Σ b_pᵀδp)` over its own unknowns
+    /// and its points'.
     pub(crate) group_shares: Vec<f64>,
 }
 

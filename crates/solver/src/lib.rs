@@ -92,7 +92,9 @@
 //!    (its [`Problem::PointCache`] makes this cheap), folds the now known
 //!    `δg` into the residual column and repeats the small QRs; then
 //!    `R_cc δc = −(z_c + R_cg δg)` and `R_pp δp = −(z_p + R_pc δc + R_pg δg)`
-//!    (`δc = 0` for a fixed group).
+//!    (`δc = 0` for a fixed group). Once the iteration has settled, the few
+//!    groups that carry a large share of the step then take steps of their
+//!    own with `δg = 0` before the trial point is evaluated ([`refine`]).
 //!
 //! 5. **Covariance** (after the last iterate, undamped): `Cov(g) = S⁻¹`, and
 //!    the full marginal covariance of each group,

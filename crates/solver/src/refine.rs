@@ -20,7 +20,7 @@
 //!
 //! Which groups: those whose share of the step's `δᵀHδ`, `s_k = −(b_cᵀδc +
 //! Σ_p b_pᵀδp)` over their own unknowns and their points'
-//! ([`crate::backsub`]), is above both [`DOMINANT_SHARE`] of the step's and
+//! (from the back-substitution), is above both [`DOMINANT_SHARE`] of the step's and
 //! `sigma_tolerance²`, the largest of them, at most one group in
 //! [`GROUPS_PER_REFINED`]. Each takes up to
 //! [`LOCAL_STEPS`] steps: the back-substitution of its block with `δg = 0`
