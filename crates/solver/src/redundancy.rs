@@ -392,7 +392,7 @@ pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: us
     /// `V` of one point: a row `[y | Lᵀu]` (`C + G` values) per eliminated
     /// row.
     coordinates: Vec<f64>,
-    /// Scratch for a reduced row `u` (`G` values).
+    /// Scratch for the reduced rows `u` of a point (`R × G` values).
     reduced: Vec<f64>,
     /// Scratch for the `z_j` of one point's data rows (`R × G` values).
     z: Vec<f64>,
@@ -431,7 +431,7 @@ impl<'a, const C: usize, const P: usize, const R: usize> RedundancySink<'a, C, P
             points: Vec::with_capacity(largest),
             weighed: VecDeque::with_capacity(BATCH),
             coordinates: vec![0.0; R * (C + g)],
-            reduced: vec![0.0; g],
+            reduced: vec![0.0; R * g],
             z: vec![0.0; R * g],
             out: Vec::with_capacity(points),
             global_z: global_z.then(|| Vec::with_capacity(points * R * g)),
@@ -532,9 +532,10 @@ where
             let (y, z) = self.coordinates[..cw].split_at_mut(C);
             for a in 0..C {
                 let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(a, b)]);
-                self.reduced.fill(0.0);
-                eliminate_group::<C>(top, g, &u_row, y, &mut self.reduced);
-                times_factor(self.factor, &self.reduced, z);
+                let u = &mut self.reduced[..g];
+                u.fill(0.0);
+                eliminate_group::<C>(top, g, &u_row, y, u);
+                times_factor(self.factor, u, z);
                 self.prior_leverage.groups += norm2(y) + norm2(z);
             }
         }
@@ -553,7 +554,7 @@ struct GroupLevel<'a> {
 }
 
 /// The scratch of [`point_leverages`]: `V` of a point (`R` rows of
-/// `C + G`), a reduced row (`G`), the `z_j` of its data rows (`R × G`).
+/// `C + G`), its reduced rows (`R × G`), the `z_j` of its data rows (`R × G`).
 struct Scratch<'a> {
     coordinates: &'a mut [f64],
     reduced: &'a mut [f64],
@@ -625,17 +626,18 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(work: Grou
     let mut first_row = 0;
     for (point, out) in points.iter().zip(out) {
         let n = point.eliminated;
-        for e in 0..n {
+        // The reduced rows `u_e` (rows `n..R` zero), then `Lᵀu_e` of all.
+        reduced.fill(0.0);
+        for (e, u) in reduced.chunks_exact_mut(g).take(n).enumerate() {
             let row = &rows[(first_row + e) * w..(first_row + e + 1) * w];
-            let v = &mut coordinates[e * cw..(e + 1) * cw];
-            reduced.copy_from_slice(&row[C..C + g]);
-            let (y, v_global) = v.split_at_mut(C);
+            u.copy_from_slice(&row[C..C + g]);
+            let y = &mut coordinates[e * cw..e * cw + C];
             match level.top {
-                Some(top) => eliminate_group::<C>(top, g, &row[..C], y, reduced),
+                Some(top) => eliminate_group::<C>(top, g, &row[..C], y, u),
                 None => y.fill(0.0),
             }
-            times_factor(level.factor, reduced, v_global);
         }
+        times_factor_rows::<R>(level.factor, reduced, coordinates, C);
         first_row += n;
         // M = V Vᵀ.
         let mut m = SMatrix::<f64, R, R>::zeros();
@@ -718,6 +720,60 @@ fn eliminate_group<const C: usize>(
         for (u, r) in u.iter_mut().zip(r_cg) {
             *u -= r * y[a];
         }
+    }
+}
+
+/// Columns of `Lᵀu` at a time: as many as an AVX2 build keeps in two
+/// registers per row.
+const FACTOR_BLOCK: usize = 8;
+
+/// `z_e = Lᵀu_e` ([`times_factor`], the same sums in the same order) for
+/// the `R` rows `u_e` of `reduced` (`R × G`), into columns `offset..offset
+/// + G` of the rows of `out` (`R` rows of `offset + G`): a block of
+/// [`FACTOR_BLOCK`] columns of every row at a time, so that each row of
+/// `L` is read once for all of them and the sums stay in registers.
+#[inline(always)]
+fn times_factor_rows<const R: usize>(
+    factor: &[f64],
+    reduced: &[f64],
+    out: &mut [f64],
+    offset: usize,
+) {
+    let g = reduced.len() / R;
+    let mut j = 0;
+    while j + FACTOR_BLOCK <= g {
+        factor_block::<R, FACTOR_BLOCK>(factor, reduced, out, offset, j);
+        j += FACTOR_BLOCK;
+    }
+    while j < g {
+        factor_block::<R, 1>(factor, reduced, out, offset, j);
+        j += 1;
+    }
+}
+
+/// Columns `j..j + B` of [`times_factor_rows`].
+#[inline(always)]
+fn factor_block<const R: usize, const B: usize>(
+    factor: &[f64],
+    reduced: &[f64],
+    out: &mut [f64],
+    offset: usize,
+    j: usize,
+) {
+    let g = reduced.len() / R;
+    let mut sums = [[0.0; B]; R];
+    for (i, row) in factor.chunks_exact(g).enumerate() {
+        let l: &[f64; B] = row[j..j + B].try_into().expect("B columns");
+        for (e, sum) in sums.iter_mut().enumerate() {
+            let u = reduced[e * g + i];
+            for (s, l) in sum.iter_mut().zip(l) {
+                *s += l * u;
+            }
+        }
+    }
+    let width = offset + g;
+    for (e, sum) in sums.iter().enumerate() {
+        out[e * width + offset + j..e * width + offset + j + B].copy_from_slice(sum);
     }
 }
 
