@@ -5,7 +5,7 @@
 
 use numpy::PyArray1;
 use parcal::plan::bounds::{GRID, MEASUREMENTS};
-use parcal::plan::mechanism::workspace::{DEFAULT_GRID, grid_candidates};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, plan_candidates};
 use parcal::plan::mechanism::{
     PlanRequest, Start, default_group, linearisation_point, plan_mechanism as plan,
 };
@@ -83,7 +83,8 @@ pub fn plan_mechanism<'py>(
     let group = group.unwrap_or_else(|| default_group(mechanism).to_string());
     let planned = py
         .detach(|| {
-            let candidates = grid_candidates(mechanism, &params, grid, measured_positions)?;
+            let candidates =
+                plan_candidates(mechanism, &params, grid, measured_positions, count, 0)?;
             plan(&PlanRequest {
                 data: &data,
                 noise,

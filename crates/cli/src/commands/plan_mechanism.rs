@@ -14,7 +14,7 @@ use parcal::dataset::mechanism::{
 };
 use parcal::plan::bounds;
 use parcal::plan::mechanism::plan_file::{distances_path, write_mechanism_plan};
-use parcal::plan::mechanism::workspace::{DEFAULT_GRID, distance_candidates, grid_candidates};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, plan_candidates};
 use parcal::plan::mechanism::{
     MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, linearisation_point,
     plan_mechanism,
@@ -144,13 +144,14 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         "--measured-positions applies to a cable robot's samples"
     );
     let grid = options.grid.unwrap_or(DEFAULT_GRID);
-    let mut candidates = Vec::new();
-    if count > 0 {
-        candidates = grid_candidates(mechanism, &params, grid, options.measured_positions)?;
-    }
-    if distances > 0 {
-        candidates.extend(distance_candidates(mechanism, grid)?);
-    }
+    let candidates = plan_candidates(
+        mechanism,
+        &params,
+        grid,
+        options.measured_positions,
+        count,
+        distances,
+    )?;
     let group = options
         .group
         .clone()

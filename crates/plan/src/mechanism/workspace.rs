@@ -64,6 +64,28 @@ pub fn distance_candidates(
         .collect())
 }
 
+/// The candidates of a plan of `count` measurements and `distances` part
+/// distances on a grid of `per_axis` points per axis: the grid's
+/// ([`grid_candidates`], with `measured`) if `count > 0`, then a delta's
+/// part distances ([`distance_candidates`]) if `distances > 0`.
+pub fn plan_candidates(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    per_axis: usize,
+    measured: bool,
+    count: usize,
+    distances: usize,
+) -> Result<Vec<Candidate>, DesignError> {
+    let mut candidates = Vec::new();
+    if count > 0 {
+        candidates = grid_candidates(mechanism, params, per_axis, measured)?;
+    }
+    if distances > 0 {
+        candidates.extend(distance_candidates(mechanism, per_axis)?);
+    }
+    Ok(candidates)
+}
+
 /// The candidates of `mechanism` at parameters `params` on a grid of
 /// `per_axis` points per axis (module doc); a cable robot's samples with
 /// their position measured if `measured`.
