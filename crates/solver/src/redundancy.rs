@@ -731,7 +731,10 @@ const FACTOR_BLOCK: usize = 8;
 /// the `R` rows `u_e` of `reduced` (`R × G`), into columns `offset..offset
 /// + G` of the rows of `out` (`R` rows of `offset + G`): a block of
 /// [`FACTOR_BLOCK`] columns of every row at a time, so that each row of
-/// `L` is read once for all of them and the sums stay in registers.
+/// `L` is read once for all of them and the sums stay in registers. The
+/// block of columns `j..` starts at row `j` of `L`: the rows above are
+/// zero there, and their `±0` products leave the sums' bits as they are
+/// ([`times_factor`]).
 #[inline(always)]
 fn times_factor_rows<const R: usize>(
     factor: &[f64],
@@ -762,7 +765,7 @@ fn factor_block<const R: usize, const B: usize>(
 ) {
     let g = reduced.len() / R;
     let mut sums = [[0.0; B]; R];
-    for (i, row) in factor.chunks_exact(g).enumerate() {
+    for (i, row) in factor.chunks_exact(g).enumerate().skip(j) {
         let l: &[f64; B] = row[j..j + B].try_into().expect("B columns");
         for (e, sum) in sums.iter_mut().enumerate() {
             let u = reduced[e * g + i];
@@ -813,5 +816,41 @@ mod tests {
         assert_eq!(normalised_residual(-2.0, 1.0), Some(-2.0));
         assert_eq!(normalised_residual(1e-9, 1e-11), None);
         assert_eq!(normalised_residual(0.0, -1e-16), None);
+    }
+
+    /// The blocked product, which skips the zero rows of each column
+    /// block, gives the bits of the row-by-row reference, for sizes with
+    /// and without a partial block, and with zeros and `−0` in `u`.
+    #[test]
+    fn blocked_factor_product_gives_the_reference_bits() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for g in [1, 7, 8, 9, 33, 40] {
+            let mut factor = vec![0.0; g * g];
+            for i in 0..g {
+                for k in 0..=i {
+                    factor[i * g + k] = next();
+                }
+            }
+            let mut reduced: Vec<f64> = (0..3 * g).map(|_| next()).collect();
+            reduced[0] = 0.0;
+            reduced[g - 1] = -0.0;
+            let offset = 2;
+            let mut out = vec![f64::NAN; 3 * (offset + g)];
+            times_factor_rows::<3>(&factor, &reduced, &mut out, offset);
+            for e in 0..3 {
+                let mut z = vec![0.0; g];
+                times_factor(&factor, &reduced[e * g..(e + 1) * g], &mut z);
+                let row = &out[e * (offset + g) + offset..(e + 1) * (offset + g)];
+                for (a, b) in row.iter().zip(&z) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "G = {g}, row {e}");
+                }
+            }
+        }
     }
 }
