@@ -17,19 +17,24 @@ use crate::solution::Status;
 
 /// Each group's marginal sigmas from its triangular rows, in the order the
 /// groups are eliminated.
-pub(crate) struct GroupSigmas<'a, const C: usize> {
-    cov: &'a DMatrix<f64>,
+pub(crate) struct GroupSigmas<const C: usize> {
+    /// `Cov(g)` transposed: column `l` holds row `l` of `Cov(g)`, so that
+    /// `K Cov(g)` is formed a row of `Cov(g)` at a time.
+    cov_rows: DMatrix<f64>,
     /// `K = R_cc⁻¹R_cg` of the current group (`C × G`).
     gain: OMatrix<f64, Const<C>, Dyn>,
+    /// One row of `K Cov(g)` (`G`).
+    gain_cov: Vec<f64>,
     pub(crate) out: Vec<SVector<f64, C>>,
 }
 
-impl<'a, const C: usize> GroupSigmas<'a, C> {
+impl<const C: usize> GroupSigmas<C> {
     /// For `groups` groups, given `Cov(g)`.
-    pub(crate) fn new(cov: &'a DMatrix<f64>, groups: usize) -> Self {
+    pub(crate) fn new(cov: &DMatrix<f64>, groups: usize) -> Self {
         Self {
-            cov,
+            cov_rows: cov.transpose(),
             gain: OMatrix::zeros_generic(Const::<C>, Dyn(cov.nrows())),
+            gain_cov: vec![0.0; cov.nrows()],
             out: Vec::with_capacity(groups),
         }
     }
@@ -38,21 +43,62 @@ impl<'a, const C: usize> GroupSigmas<'a, C> {
     /// fixed group, whose sigmas are zero).
     pub(crate) fn push(&mut self, top: Option<&[f64]>) {
         let sigma = match top {
-            Some(top) => group_sigma(top, self.cov, &mut self.gain),
+            Some(top) => self.group_sigma(top),
             None => SVector::zeros(),
         };
         self.out.push(sigma);
     }
+
+    /// Marginal sigmas of a group from its triangular rows `[R_cc | R_cg |
+    /// z]` (row-major, `C` rows of width `C + G + 1` and any effects'
+    /// columns, [`crate::effects`]): the roots of the diagonal of
+    /// `R_cc⁻¹R_cc⁻ᵀ + K Cov(g) Kᵀ`.
+    fn group_sigma(&mut self, top: &[f64]) -> SVector<f64, C> {
+        let g = self.cov_rows.nrows();
+        let w = top.len() / C;
+        let r_cc = SMatrix::<f64, C, C>::from_fn(|a, b| if b >= a { top[a * w + b] } else { 0.0 });
+        let mut m = SMatrix::<f64, C, C>::identity();
+        upper_solve(&r_cc, &mut m);
+        let gain = &mut self.gain;
+        for a in 0..C {
+            for j in 0..g {
+                gain[(a, j)] = top[a * w + C + j];
+            }
+        }
+        upper_solve(&r_cc, gain);
+        let (rows, kc) = (&self.cov_rows, &mut self.gain_cov);
+        SVector::<f64, C>::from_fn(|a, _| {
+            // `(K Cov(g))_aj = Σ_l K_al Cov(g)_lj`, summed over `l` in order
+            // for every `j` at once (independent sums, which vectorise),
+            // then `(K Cov(g) Kᵀ)_aa = Σ_j (K Cov(g))_aj K_aj`.
+            let (first, rest) = rows.as_slice().split_at(g);
+            let k0 = gain[(a, 0)];
+            for (kc, &c) in kc.iter_mut().zip(first) {
+                *kc = k0 * c;
+            }
+            for (l, row) in rest.chunks_exact(g).enumerate() {
+                let kl = gain[(a, l + 1)];
+                for (kc, &c) in kc.iter_mut().zip(row) {
+                    *kc += kl * c;
+                }
+            }
+            let mut spread = 0.0;
+            for (j, &kc) in kc.iter().enumerate() {
+                spread += kc * gain[(a, j)];
+            }
+            (m.row(a).norm_squared() + spread).sqrt()
+        })
+    }
 }
 
 /// Turns each group's triangular rows into its marginal sigmas.
-struct SigmaSink<'a, const C: usize> {
+struct SigmaSink<const C: usize> {
     first_group: usize,
-    sigmas: GroupSigmas<'a, C>,
+    sigmas: GroupSigmas<C>,
 }
 
 impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R, J>
-    for SigmaSink<'_, C>
+    for SigmaSink<C>
 {
     fn reduced_row(&mut self, _row: &[f64]) {}
 
@@ -66,40 +112,6 @@ impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R,
         debug_assert_eq!(k, self.first_group + self.sigmas.out.len());
         self.sigmas.push(top);
     }
-}
-
-/// Marginal sigmas of a group from its triangular rows `[R_cc | R_cg | z]`
-/// (row-major, `C` rows of width `C + G + 1` and any effects' columns,
-/// [`crate::effects`]) and the global covariance; `gain` is scratch for
-/// `K` (`C × G`).
-fn group_sigma<const C: usize>(
-    top: &[f64],
-    cov: &DMatrix<f64>,
-    gain: &mut OMatrix<f64, Const<C>, Dyn>,
-) -> SVector<f64, C> {
-    let g = cov.nrows();
-    let w = top.len() / C;
-    let r_cc = SMatrix::<f64, C, C>::from_fn(|a, b| if b >= a { top[a * w + b] } else { 0.0 });
-    let mut m = SMatrix::<f64, C, C>::identity();
-    upper_solve(&r_cc, &mut m);
-    for a in 0..C {
-        for j in 0..g {
-            gain[(a, j)] = top[a * w + C + j];
-        }
-    }
-    upper_solve(&r_cc, gain);
-    SVector::<f64, C>::from_fn(|a, _| {
-        // `(K Cov(g) Kᵀ)_aa`, with `(K Cov(g))_aj` summed over `l` in order.
-        let mut spread = 0.0;
-        for j in 0..g {
-            let mut kc = gain[(a, 0)] * cov[(0, j)];
-            for l in 1..g {
-                kc += gain[(a, l)] * cov[(l, j)];
-            }
-            spread += kc * gain[(a, j)];
-        }
-        (m.row(a).norm_squared() + spread).sqrt()
-    })
 }
 
 /// `B ← U⁻¹ B` for upper-triangular `U`.

@@ -405,7 +405,7 @@ pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: us
     pub(crate) global_z: Option<Vec<f64>>,
     /// If asked ([`redundancy`]), the marginal sigmas of the chunk's
     /// groups.
-    pub(crate) sigmas: Option<GroupSigmas<'a, C>>,
+    pub(crate) sigmas: Option<GroupSigmas<C>>,
     /// If asked ([`redundancy`]), the effects' sums over the chunk's
     /// reduced rows.
     pub(crate) effects: Option<EffectSums>,
