@@ -639,17 +639,7 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(work: Grou
         }
         times_factor_rows::<R>(level.factor, reduced, coordinates, C);
         first_row += n;
-        // M = V Vᵀ.
-        let mut m = SMatrix::<f64, R, R>::zeros();
-        for e in 0..n {
-            for f in 0..=e {
-                let ve = &coordinates[e * cw..(e + 1) * cw];
-                let vf = &coordinates[f * cw..(f + 1) * cw];
-                let d = dot(ve, vf);
-                m[(e, f)] = d;
-                m[(f, e)] = d;
-            }
-        }
+        let m = gram_rows::<R>(coordinates, n, cw);
         out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
         // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
         for (r, z_r) in z.chunks_exact_mut(g).enumerate() {
@@ -661,8 +651,8 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(work: Grou
                     *z += q * v;
                 }
             }
-            out.global_leverage[r] = norm2(z_r);
         }
+        out.global_leverage = norms2_rows::<R>(z, g);
         if let Some(zs) = global_z.as_mut() {
             zs.extend_from_slice(z);
         }
@@ -796,6 +786,44 @@ pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     }
 }
 
+/// `M = V Vᵀ` of the first `n` rows of `v` (rows of `width`; `M` zero
+/// beyond them): each entry [`dot`]'s sum in the same order, the entries'
+/// sums side by side (independent chains rather than one after another).
+#[inline(always)]
+fn gram_rows<const R: usize>(v: &[f64], n: usize, width: usize) -> SMatrix<f64, R, R> {
+    let mut sums = [[-0.0; R]; R];
+    for k in 0..width {
+        for e in 0..n {
+            let ve = v[e * width + k];
+            for f in 0..=e {
+                sums[e][f] += ve * v[f * width + k];
+            }
+        }
+    }
+    let mut m = SMatrix::<f64, R, R>::zeros();
+    for e in 0..n {
+        for f in 0..=e {
+            m[(e, f)] = sums[e][f];
+            m[(f, e)] = sums[e][f];
+        }
+    }
+    m
+}
+
+/// [`norm2`] of each of the `R` rows of `z` (rows of `width`), each sum in
+/// the same order, side by side.
+#[inline(always)]
+fn norms2_rows<const R: usize>(z: &[f64], width: usize) -> SVector<f64, R> {
+    let mut sums = [-0.0; R];
+    for k in 0..width {
+        for (r, sum) in sums.iter_mut().enumerate() {
+            let x = z[r * width + k];
+            *sum += x * x;
+        }
+    }
+    SVector::from(sums)
+}
+
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -816,6 +844,41 @@ mod tests {
         assert_eq!(normalised_residual(-2.0, 1.0), Some(-2.0));
         assert_eq!(normalised_residual(1e-9, 1e-11), None);
         assert_eq!(normalised_residual(0.0, -1e-16), None);
+    }
+
+    /// The sums side by side give the bits of [`dot`] and [`norm2`], one
+    /// after another.
+    #[test]
+    fn side_by_side_sums_give_the_bits_of_one_at_a_time() {
+        let width = 37;
+        let v: Vec<f64> = (0..3 * width)
+            .map(|i| ((i * 7919 % 1013) as f64 - 506.0) * 1.37e-3)
+            .collect();
+        for n in 0..=3 {
+            let m = gram_rows::<3>(&v, n, width);
+            for e in 0..3 {
+                for f in 0..3 {
+                    let expected = if e < n && f < n {
+                        dot(
+                            &v[e * width..(e + 1) * width],
+                            &v[f * width..(f + 1) * width],
+                        )
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(
+                        m[(e, f)].to_bits(),
+                        expected.to_bits(),
+                        "n = {n}, ({e}, {f})"
+                    );
+                }
+            }
+        }
+        let norms = norms2_rows::<3>(&v, width);
+        for r in 0..3 {
+            let expected = norm2(&v[r * width..(r + 1) * width]);
+            assert_eq!(norms[r].to_bits(), expected.to_bits(), "row {r}");
+        }
     }
 
     /// The blocked product, which skips the zero rows of each column
