@@ -786,17 +786,20 @@ pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     }
 }
 
-/// `M = V Vᵀ` of the first `n` rows of `v` (rows of `width`; `M` zero
-/// beyond them): each entry [`dot`]'s sum in the same order, the entries'
-/// sums side by side (independent chains rather than one after another).
+/// `M = V Vᵀ` of the first `n` rows of `v` (`R` rows of `width`; `M`
+/// zero beyond the first `n`): each entry [`dot`]'s sum in the same order,
+/// the entries' sums side by side (independent chains rather than one
+/// after another), over all `R` rows so that the loops unroll (the sums of
+/// rows from `n` on are dropped).
 #[inline(always)]
 fn gram_rows<const R: usize>(v: &[f64], n: usize, width: usize) -> SMatrix<f64, R, R> {
+    let rows: [&[f64]; R] = std::array::from_fn(|e| &v[e * width..(e + 1) * width]);
     let mut sums = [[-0.0; R]; R];
     for k in 0..width {
-        for e in 0..n {
-            let ve = v[e * width + k];
+        for e in 0..R {
+            let ve = rows[e][k];
             for f in 0..=e {
-                sums[e][f] += ve * v[f * width + k];
+                sums[e][f] += ve * rows[f][k];
             }
         }
     }
@@ -814,11 +817,11 @@ fn gram_rows<const R: usize>(v: &[f64], n: usize, width: usize) -> SMatrix<f64, 
 /// the same order, side by side.
 #[inline(always)]
 fn norms2_rows<const R: usize>(z: &[f64], width: usize) -> SVector<f64, R> {
+    let rows: [&[f64]; R] = std::array::from_fn(|r| &z[r * width..(r + 1) * width]);
     let mut sums = [-0.0; R];
     for k in 0..width {
-        for (r, sum) in sums.iter_mut().enumerate() {
-            let x = z[r * width + k];
-            *sum += x * x;
+        for (sum, row) in sums.iter_mut().zip(rows) {
+            *sum += row[k] * row[k];
         }
     }
     SVector::from(sums)
