@@ -17,7 +17,7 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "parcal",
     version,
-    about = "Artefact calibration of hexapods with a priori knowledge"
+    about = "Artefact calibration of parallel mechanisms (hexapods, linear deltas, cable robots) with a priori knowledge"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -26,15 +26,15 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a calibration campaign (the paper scenario by default) and write it as a dataset.
+    /// Simulate a calibration campaign (the paper's hexapod by default; --mechanism delta or cable) and write it as a dataset.
     Simulate(Box<commands::simulate::Args>),
     /// Read and validate a dataset and print a summary.
     Inspect(commands::inspect::Args),
     /// Calibrate a dataset: identified parameters with sigmas, accuracy, calibration.json.
     Calibrate(commands::calibrate::Args),
-    /// Apply a calibration of poses or points to data it was not fitted on (or cross-validate).
+    /// Judge a calibration on data it was not fitted on (held-out touches, poses, points, probes, samples; or cross-validate).
     Validate(commands::validate::Args),
-    /// Accuracy maps (absolute and registered, predicted and true) as CSV and SVG.
+    /// A hexapod's accuracy maps (absolute and registered, predicted and true) as CSV and SVG.
     Accuracy(commands::accuracy::Args),
     /// Reproduce the paper's simulations I-IV on one simulated dataset, with a report.
     Paper(commands::paper::Args),
@@ -44,7 +44,7 @@ enum Command {
     Export(commands::export::Args),
     /// A delta printer's firmware configuration and probe log as a dataset (RepRapFirmware, Klipper).
     Import(commands::import::Args),
-    /// Plan the touches to measure: the most accurate calibration for a budget.
+    /// Plan the measurements: the most accurate calibration for a budget.
     Plan(commands::plan::Args),
     /// The report of one calibration: a self-contained HTML page and its Markdown, verdict and tests first.
     Report(commands::report::Args),
