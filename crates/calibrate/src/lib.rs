@@ -58,6 +58,7 @@
 
 pub mod bounds;
 pub mod conflict;
+pub mod cross_validation;
 mod effect;
 mod error;
 pub mod external;
