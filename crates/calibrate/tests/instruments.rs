@@ -10,7 +10,7 @@ use parcal_calibrate::instruments::{
 };
 use parcal_calibrate::{CalibrateError, CalibrationOptions, CalibrationRun, InstrumentTable};
 use parcal_dataset::{Dataset, SessionModel};
-use parcal_kinematics::{ForwardOptions, PARAM_NAMES};
+use parcal_kinematics::{ForwardOptions, N_PARAMS, PARAM_NAMES};
 use parcal_simulate::{TrackerKind, TrackerScenario, simulate_tracker};
 use parcal_solver::{SolverOptions, State, dense_reference, solve};
 
@@ -154,6 +154,57 @@ fn solve_matches_the_dense_reference() {
     let tolerance = (10.0 * condition * f64::EPSILON).max(1e-9);
     assert!(step_diff < tolerance, "step differs by {step_diff:.2e}");
     assert!(cov_diff < tolerance, "covariance differs by {cov_diff:.2e}");
+}
+
+/// `calibrate` on poses and points alone runs the instrument stage: the
+/// set-up ([`setup`]) solved from its initial block with the options'
+/// method and stopping gives the run's global block, covariance and
+/// history bit for bit; the run's covariance of the 33 is the block's
+/// leading one (points observe the tool), and its touch parts are empty.
+#[test]
+fn calibrate_runs_the_instrument_stage_on_poses_and_points() {
+    let dataset = mixed();
+    let options = CalibrationOptions::default();
+    let run = parcal_calibrate::calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert!(run.converged(), "{:?}", run.status);
+    let InstrumentSetup {
+        problem, initial, ..
+    } = setup(&dataset, &options).unwrap();
+    let solver = SolverOptions {
+        method: options.method,
+        max_iterations: options.max_iterations,
+        step_tolerance: options.step_tolerance,
+        sigma_tolerance: options.sigma_tolerance,
+        ..SolverOptions::default()
+    };
+    let state = State {
+        global: initial,
+        groups: Vec::new(),
+        points: Vec::new(),
+    };
+    let direct = solve(&problem, state, &solver, &mut |_| {});
+    assert_eq!(run.global, direct.state.global);
+    assert_eq!(run.global_covariance, direct.covariance);
+    let costs = |h: &[parcal_solver::IterationRecord]| h.iter().map(|r| r.cost).collect::<Vec<_>>();
+    assert_eq!(costs(&run.history), costs(&direct.history));
+    let global = direct.covariance.expect("a covariance");
+    assert_eq!(
+        run.covariance.expect("a covariance"),
+        global.fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
+    );
+    assert!(!run.has_touches());
+    assert!(run.ball_ids.is_empty() && run.centres.is_empty() && run.conflicts.is_empty());
+    let tracker = &dataset.tracker;
+    assert_eq!(
+        run.residual_rows,
+        6 * tracker.poses.len() + 3 * tracker.points.len()
+    );
+    assert_eq!(instruments(&run).leg_residuals.len(), tracker.poses.len());
+    assert_eq!(
+        instruments(&run).point_residuals.len(),
+        tracker.points.len()
+    );
+    assert!(instruments(&run).information.is_some());
 }
 
 /// The real hexapod: in sample, the leg-length residual as small as the
