@@ -47,13 +47,19 @@ pub(crate) struct Solved {
     pub(crate) params: Params,
     /// Their covariance ([`kinematic_covariance`]).
     pub(crate) covariance: Option<ParamCovariance>,
+    /// How the solver's run ended.
     pub(crate) status: Status,
+    /// One record per iteration.
     pub(crate) history: Vec<IterationRecord>,
     /// Whitened residual rows (6 per pose, 3 per point).
     pub(crate) residual_rows: usize,
+    /// Spectrum of the normal matrix at the end.
     pub(crate) spectrum: Option<SpectrumDiagnostics>,
+    /// The global test at the final state.
     pub(crate) global_test: Option<GlobalTest>,
+    /// Every row's check at a least-squares minimum.
     pub(crate) reliability: Option<Reliability>,
+    /// The poses' and points' own results.
     pub(crate) instruments: InstrumentResult,
 }
 
