@@ -181,10 +181,10 @@ impl CalibrationRun {
             .map(|c| c.diagonal().map(f64::sqrt))
     }
 
-    /// The parameters of the poses and points (from the actuator scales
-    /// on: [`ParameterLayout::recorded`] after the kinematic parameters and
-    /// the tied balls) with their values and sigmas (zero without a
-    /// covariance); none without poses and points.
+    /// The global block's parameters after the kinematic ones and the tied
+    /// balls' (the actuator scales, the frames, the sessions' nuisances),
+    /// named, with their values and sigmas (zero without a covariance);
+    /// none without poses and points.
     pub fn instrument_parameters(&self) -> Vec<(String, f64, f64)> {
         if self.instruments.is_none() {
             return Vec::new();
