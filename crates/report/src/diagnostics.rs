@@ -124,14 +124,18 @@ pub fn of_run(
     dataset: &Dataset,
     original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> Diagnostics {
-    let names = run.names();
     let (prior_sigma, determined_by) = attribution(run);
-    let checks = Checks {
-        reliability: run.reliability.as_ref(),
-        spectrum: run.spectrum.as_ref(),
-        names: &names,
+    let reliability = run.reliability.as_ref();
+    let mut diagnostics = Diagnostics {
+        variance_components: components(reliability.map_or(&[][..], |r| &r.components)),
+        observations: reliability.map(|reliability| tests(reliability, dataset, original)),
+        prior_sigma,
+        determined_by,
+        weak_directions: weak_directions(run.spectrum.as_ref(), &run.names()),
+        external_reliability: Vec::new(),
+        systematic_tests: Vec::new(),
+        systematic_sensitivity: Vec::new(),
     };
-    let mut diagnostics = checks.diagnostics(dataset, original, prior_sigma, determined_by);
     // The shifts and common errors of the touches' kinematic parameters,
     // mapped on the accuracy grid; poses and points alone name their
     // least reliable observations in the warnings.
@@ -282,39 +286,6 @@ fn external_reliability(
             })
         })
         .collect()
-}
-
-/// What a run checked: its observations and its weakest directions, the
-/// global block's parameters named by `names`.
-struct Checks<'a> {
-    reliability: Option<&'a Reliability>,
-    spectrum: Option<&'a SpectrumDiagnostics>,
-    names: &'a [String],
-}
-
-impl Checks<'_> {
-    /// calibration.json's `diagnostics` with the parameters' attributions;
-    /// observations placed by `original` in `dataset`.
-    fn diagnostics(
-        &self,
-        dataset: &Dataset,
-        original: &dyn Fn(ObservationId) -> ObservationId,
-        prior_sigma: Vec<Option<f64>>,
-        determined_by: Vec<String>,
-    ) -> Diagnostics {
-        Diagnostics {
-            variance_components: components(self.reliability.map_or(&[][..], |r| &r.components)),
-            observations: self
-                .reliability
-                .map(|reliability| tests(reliability, dataset, original)),
-            prior_sigma,
-            determined_by,
-            weak_directions: weak_directions(self.spectrum, self.names),
-            external_reliability: Vec::new(),
-            systematic_tests: Vec::new(),
-            systematic_sensitivity: Vec::new(),
-        }
-    }
 }
 
 fn components(components: &[VarianceComponent]) -> Vec<VarianceComponentRecord> {
