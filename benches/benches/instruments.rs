@@ -6,7 +6,6 @@
 //! in 3 sessions in one calibration.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use parcal_calibrate::instruments::calibrate_instruments;
 use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::Dataset;
 use parcal_simulate::{Scenario, TrackerScenario, simulate_mixed, simulate_tracker};
@@ -50,7 +49,7 @@ fn instruments(c: &mut Criterion) {
     ] {
         group.bench_with_input(BenchmarkId::new("calibrate", name), &dataset, |b, d| {
             b.iter(|| {
-                let run = calibrate_instruments(d, &options, &mut |_| {}).expect("calibration");
+                let run = calibrate(d, &options, &mut |_| {}).expect("calibration");
                 assert!(run.converged(), "{name}: {:?}", run.status);
                 run
             })

@@ -61,7 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         report(&format!("iteration {iteration}"), contacts);
     })?;
     report("calibrated", contacts);
-    drop(parcal_report::record::of_ball_run(&run, &dataset));
+    drop(parcal_report::record::of_run(&run, &dataset));
     report("recorded", contacts);
     Ok(())
 }

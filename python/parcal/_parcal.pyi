@@ -144,10 +144,10 @@ class Calibration:
         """The normalised residual of every observation."""
     @property
     def leg_residuals(self) -> Optional[FloatArray]:
-        """Poses and points alone: each pose's leg-length residuals (n x 6, mm)."""
+        """Each pose's leg-length residuals (n x 6, mm); None without poses or points."""
     @property
     def point_residuals(self) -> Optional[FloatArray]:
-        """Poses and points alone: each point's residual (n x 3, mm)."""
+        """Each point's residual (n x 3, mm); None without poses or points."""
     def to_dict(self) -> dict[str, Any]:
         """calibration.json's content as a dict."""
     def to_json(self) -> str:

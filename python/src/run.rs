@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use numpy::{PyArray1, PyArray2};
 use parcal::calibration::observation::ObservationId;
-use parcal::command::{FittedRun, RecordedRun};
+use parcal::command::RecordedRun;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -37,7 +37,7 @@ impl ObservationTests {
     /// dataset given; empty when the run has none (it did not converge).
     fn of(recorded: &RecordedRun) -> Self {
         let mut tests = Self::default();
-        let Some(reliability) = recorded.run.reliability() else {
+        let Some(reliability) = &recorded.run.reliability else {
             return tests;
         };
         for check in reliability.observations() {
@@ -74,11 +74,11 @@ pub struct Calibration {
     record: parcal::Calibration,
     /// Every observation's test.
     tests: ObservationTests,
-    /// A calibration of poses and points alone: its residuals.
+    /// A calibration with poses or points: their residuals.
     instrument_residuals: Option<InstrumentResiduals>,
 }
 
-/// The residuals of a calibration of poses and points alone at the
+/// The residuals of the poses and points of a calibration at the
 /// identified state (mm).
 struct InstrumentResiduals {
     /// Each pose's leg-length residuals.
@@ -95,17 +95,14 @@ impl Calibration {
             run, mut record, ..
         } = recorded;
         record.provenance = Some(provenance);
-        let instrument_residuals = match run {
-            FittedRun::Instruments(run) => Some(InstrumentResiduals {
-                legs: run.leg_residuals,
-                points: run
-                    .point_residuals
-                    .iter()
-                    .map(|r| [r.x, r.y, r.z])
-                    .collect(),
-            }),
-            FittedRun::Touches(_) => None,
-        };
+        let instrument_residuals = run.instruments.map(|instruments| InstrumentResiduals {
+            legs: instruments.leg_residuals,
+            points: instruments
+                .point_residuals
+                .iter()
+                .map(|r| [r.x, r.y, r.z])
+                .collect(),
+        });
         Self {
             record,
             tests,
@@ -247,9 +244,9 @@ impl Calibration {
         PyArray1::from_slice(py, &self.tests.normalised)
     }
 
-    /// A calibration of poses and points alone: each pose's leg-length
-    /// residuals `|T E_i - B_i| - L_i` at the identified state (n x 6, mm);
-    /// `None` for a calibration of ball touches.
+    /// Each pose's leg-length residuals `|T E_i - B_i| - L_i` at the
+    /// identified state (n x 6, mm); `None` for a calibration without
+    /// poses or points.
     #[getter]
     fn leg_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.instrument_residuals
@@ -257,8 +254,8 @@ impl Calibration {
             .map(|r| array2(py, &r.legs))
     }
 
-    /// A calibration of poses and points alone: each point's residual
-    /// (n x 3, mm); `None` for a calibration of ball touches.
+    /// Each point's residual (n x 3, mm); `None` for a calibration
+    /// without poses or points.
     #[getter]
     fn point_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.instrument_residuals

@@ -164,6 +164,21 @@ def test_jugglebot_poses_give_the_calibration_json_of_the_cli(tmp_path, cli):
     assert set(run.observations["kind"]) == {"pose"}
 
 
+def test_touches_poses_and_points_give_one_calibration_with_every_residual(tmp_path, cli, paper):
+    path = tmp_path / "mixed"
+    cli("simulate", "--seed", "6", "--tracker", "both", "--touches", "--out", path)
+    cli("calibrate", path, "--out", tmp_path / "cli.json")
+    run = parcal.calibrate(parcal.Dataset.read(str(path)))
+    touches = parcal.calibrate(parcal.Dataset.read(str(paper)))
+    assert type(run) is type(touches) is parcal.Calibration
+    assert run.to_json() == (tmp_path / "cli.json").read_text()
+    rows = {name: sum(1 for _ in open(path / f"{name}.csv")) - 1 for name in ("poses", "points")}
+    assert run.leg_residuals.shape == (rows["poses"], 6)
+    assert run.point_residuals.shape == (rows["points"], 3)
+    assert set(run.observations["kind"]) == {"contact", "pose", "point"}
+    assert touches.leg_residuals is None and touches.point_residuals is None
+
+
 def test_poses_built_in_memory_give_the_values_of_the_files(tmp_path):
     from conftest import ROOT
 

@@ -302,12 +302,8 @@ fn an_instrument_calibration_applies_its_calibrated_scales() {
         parcal_simulate::simulate_tracker(&parcal_simulate::TrackerScenario::paper_like(), 1)
             .unwrap();
     let dataset = simulation.dataset;
-    let run = parcal_calibrate::instruments::calibrate_instruments(
-        &dataset,
-        &CalibrationOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
+    let run =
+        parcal_calibrate::calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
     assert!(run.converged());
     let record = run.record(String::new());
     let model = AppliedModel::from_record(&record).unwrap();

@@ -1,7 +1,7 @@
 //! The bounds of the counts a calibration or a validation is asked for
 //! ([`parcal_dataset::bounds`]), checked by `parcal calibrate` and
 //! `parcal validate` as they parse their flags, and the folds by
-//! [`crate::instruments::cross_validate`] too.
+//! [`crate::cross_validation::cross_validate`] too.
 
 use parcal_dataset::bounds::Count;
 

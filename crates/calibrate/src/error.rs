@@ -112,8 +112,9 @@ pub enum CalibrateError {
         /// Why.
         reason: String,
     },
-    /// An instrument calibration was asked of a dataset with ball touches
-    /// ([`crate::calibrate`] calibrates them with its poses and points).
+    /// The instrument stage ([`crate::instruments::setup`]) was given a
+    /// dataset with ball touches ([`crate::calibrate`] calibrates them
+    /// with its poses and points).
     HasTouches,
     /// A robust loss where it does not apply ([`crate::robust`]): with
     /// data snooping, which it replaces, or in a calibration of poses and
@@ -272,8 +273,8 @@ impl fmt::Display for CalibrateError {
                 write!(f, "the calibration cannot be applied: {reason}")
             }
             Self::HasTouches => f.write_str(
-                "the dataset has ball touches: a calibration of poses and \
-                 points alone leaves them out; calibrate the touches with them",
+                "the dataset has ball touches: the set-up of poses and points \
+                 alone leaves them out; calibrate the touches with them",
             ),
             Self::RobustLoss { loss, reason } => {
                 write!(f, "the {loss} loss does not apply {reason}")

@@ -5,11 +5,14 @@
 //!
 //! - [`setup`]: the initial estimates, weights and priors of a dataset;
 //! - [`problem`]: the observation blocks as the solver's problem;
-//! - [`calibrate`] ([`CalibrationRun`]): one calibration of ball touches
-//!   (with poses and points beside them, if any);
+//! - [`calibrate`] ([`CalibrationRun`]): one calibration of any hexapod
+//!   dataset: ball touches (with poses and points beside them, if any), or
+//!   poses and points alone;
 //! - [`conflict`]: prior-data conflict tests;
 //! - [`fit`]: each ball's goodness of fit;
-//! - [`instruments`]: calibration from measured poses and points;
+//! - [`instruments`]: measured poses and points: the instrument stage,
+//!   their result ([`instruments::InstrumentResult`]), validation;
+//! - [`cross_validation`]: k-fold cross-validation of poses and points;
 //! - [`layout`]: the global block, named groups of parameters;
 //! - [`mechanism`]: the calibration of any mechanism with a 3-coordinate
 //!   pose (a linear delta, a cable robot) through the `Mechanism` trait;
@@ -58,6 +61,7 @@
 
 pub mod bounds;
 pub mod conflict;
+pub mod cross_validation;
 mod effect;
 mod error;
 pub mod external;

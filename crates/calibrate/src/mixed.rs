@@ -25,12 +25,13 @@
 
 use nalgebra::{DMatrix, DVector};
 use parcal_dataset::Dataset;
-use parcal_kinematics::{Geometry, Vec3};
+use parcal_kinematics::Geometry;
 use parcal_solver::GlobalObservations;
 
 use crate::CalibrateError;
 use crate::instruments::model::InstrumentModel;
-use crate::instruments::observations::{model_and_rows, residuals, rms};
+use crate::instruments::observations::{model_and_rows, residuals};
+use crate::instruments::result::InstrumentResult;
 use crate::instruments::rows::InstrumentRows;
 use crate::layout::ParameterLayout;
 
@@ -41,6 +42,8 @@ pub struct InstrumentObservations<'a> {
     pub model: InstrumentModel,
     /// The measured rows and their weights.
     pub rows: InstrumentRows<'a>,
+    /// The initial global block, at which the rows are weighed.
+    pub initial: DVector<f64>,
 }
 
 impl<'a> InstrumentObservations<'a> {
@@ -57,7 +60,11 @@ impl<'a> InstrumentObservations<'a> {
             return Ok(None);
         }
         let (model, rows) = model_and_rows(dataset, canonical, layout.clone(), initial)?;
-        Ok(Some(Self { model, rows }))
+        Ok(Some(Self {
+            model,
+            rows,
+            initial: initial.clone(),
+        }))
     }
 
     /// The whitened rows at the global block `global` appended to `out`
@@ -86,88 +93,16 @@ impl<'a> InstrumentObservations<'a> {
         Ok(())
     }
 
-    /// The instrument part of a solution at the global block `global`, with
-    /// the global covariance `covariance` of a converged run.
-    pub fn result(
-        &self,
-        global: &DVector<f64>,
-        covariance: Option<&DMatrix<f64>>,
-    ) -> Result<InstrumentResult, CalibrateError> {
+    /// The poses and points of a solution at the global block `global`.
+    pub fn result(&self, global: &DVector<f64>) -> Result<InstrumentResult, CalibrateError> {
         let values = self.model.values(global);
         let (leg_residuals, point_residuals) = residuals(&self.rows, &self.model, &values)?;
         Ok(InstrumentResult {
             model: self.model.clone(),
-            global: global.clone(),
-            covariance: covariance.cloned(),
+            initial: self.initial.clone(),
             leg_residuals,
             point_residuals,
+            information: None,
         })
-    }
-}
-
-/// The instrument part of a calibration with ball touches.
-#[derive(Debug, Clone)]
-pub struct InstrumentResult {
-    /// The global block's meaning.
-    pub model: InstrumentModel,
-    /// The identified global block (kinematic parameters, tied centres,
-    /// instrument groups).
-    pub global: DVector<f64>,
-    /// Its covariance, when the run converged.
-    pub covariance: Option<DMatrix<f64>>,
-    /// Each pose's leg-length residuals `|T E_i − B_i| − L_i` (mm).
-    pub leg_residuals: Vec<[f64; 6]>,
-    /// Each point's residual `F(T) − P` (mm).
-    pub point_residuals: Vec<Vec3>,
-}
-
-impl InstrumentResult {
-    /// RMS of the poses' leg-length residuals (mm), or `None` without
-    /// poses.
-    pub fn leg_rms(&self) -> Option<f64> {
-        rms(self.leg_residuals.iter().flatten().copied())
-    }
-
-    /// RMS of the points' residual coordinates (mm), or `None` without
-    /// points.
-    pub fn point_rms(&self) -> Option<f64> {
-        rms(self.point_residuals.iter().flat_map(|p| p.iter().copied()))
-    }
-
-    /// Marginal sigmas of the global block (zero without a covariance).
-    pub fn sigmas(&self) -> DVector<f64> {
-        self.covariance.as_ref().map_or_else(
-            || DVector::zeros(self.global.len()),
-            |c| c.diagonal().map(f64::sqrt),
-        )
-    }
-
-    /// The instrument parameters with their values and sigmas, named by
-    /// `names` (the whole global block's,
-    /// [`crate::CalibrationRun::names`]); the kinematic parameters and the
-    /// ball centres are reported with the touches'.
-    pub fn parameters(&self, names: &[String]) -> Vec<(String, f64, f64)> {
-        let sigmas = self.sigmas();
-        (self.first_instrument_column()..self.global.len())
-            .map(|k| (names[k].clone(), self.global[k], sigmas[k]))
-            .collect()
-    }
-
-    /// The first column after the kinematic parameters and the tied
-    /// centres.
-    fn first_instrument_column(&self) -> usize {
-        self.model
-            .layout
-            .groups()
-            .iter()
-            .find(|(group, _)| {
-                !matches!(
-                    group,
-                    crate::layout::ParameterGroup::Kinematic
-                        | crate::layout::ParameterGroup::BallCentre { .. }
-                        | crate::layout::ParameterGroup::BallRadius { .. }
-                )
-            })
-            .map_or(self.global.len(), |(_, range)| range.start)
     }
 }

@@ -1,12 +1,15 @@
-//! One calibration run: set up, solve, judge the priors, and the record of
-//! the result (calibration.json).
+//! One calibration run of any hexapod dataset: ball touches (with poses
+//! and points beside them, if any) set up, solved and their priors judged,
+//! or poses and points alone through the instrument stage
+//! ([`crate::instruments::run`]); the one result type and its record
+//! (calibration.json).
 
 use std::collections::BTreeMap;
 use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector};
 use parcal_dataset::{
-    Actuator, CalibratedMachine, CentreEstimate, Dataset, GeometryRecord, Machine, ParameterTable,
+    Actuator, CalibratedMachine, CentreEstimate, Dataset, Machine, ParameterTable,
 };
 use parcal_kinematics::{Geometry, PARAM_NAMES, ParamCovariance, Params, Vec3, params};
 use parcal_observe::KinematicPrior;
@@ -14,9 +17,11 @@ use parcal_solver::{IterationRecord, SolverOptions, SpectrumDiagnostics, Status}
 
 use crate::conflict::{ConflictTest, PaperPriorInconsistency, paper_prior_consistency};
 use crate::fit::BallMisfit;
+use crate::instruments::InstrumentResult;
+use crate::instruments::run::geometry_record;
+use crate::instruments::validate::Calibrated;
 use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::mirror::Mirrored;
-use crate::mixed::InstrumentResult;
 use crate::problem::CalibrationProblem;
 use crate::reliability::Reliability;
 use crate::setup::{Observations, Setup, kinematic_prior};
@@ -27,7 +32,12 @@ mod solve;
 
 use solve::SolverRun;
 
-/// The outcome of one calibration.
+/// The outcome of one calibration. What every run has (the options, the
+/// design, the status and history, the global block and its covariance,
+/// its layout and spectrum, the global test, the checks, the verdict) is
+/// here; the touches' parts (balls, contacts, conflicts) are empty or
+/// `None` for poses and points alone, and the poses' and points' parts
+/// are in [`CalibrationRun::instruments`].
 #[non_exhaustive]
 pub struct CalibrationRun {
     /// What the run was asked to do.
@@ -41,11 +51,14 @@ pub struct CalibrationRun {
     pub initial_params: Params,
     /// The a priori knowledge on the parameters, if any.
     pub prior: Option<KinematicPrior>,
-    /// Identified parameters (canonical frames).
+    /// Identified parameters (canonical frames; poses alone hold the
+    /// design's tool).
     pub params: Params,
     /// Posterior covariance of the 33 (inverse of the undamped reduced
-    /// matrix at the final state); `None` when the run did not converge or
-    /// the matrix is not positive definite.
+    /// matrix at the final state; poses alone: the tool's rows from the
+    /// prior conditional on the rest, which the data do not change);
+    /// `None` when the run did not converge or the matrix is not positive
+    /// definite.
     pub covariance: Option<ParamCovariance>,
     /// The identified global block ([`CalibrationRun::layout`]): the 33,
     /// the tied balls' unknowns, the scales and the instrument groups.
@@ -77,7 +90,8 @@ pub struct CalibrationRun {
     /// One record per iterate at which a step was computed, then the final
     /// iterate's ([`CalibrationRun::iterations`]).
     pub history: Vec<IterationRecord>,
-    /// Whitened residual rows (contacts x rows per contact).
+    /// Whitened residual rows: contacts x rows per contact; without
+    /// touches, 6 per pose and 3 per point.
     pub residual_rows: usize,
     /// measurements.csv row of each contact in the solver's (by-ball) order.
     pub rows: Vec<u32>,
@@ -92,8 +106,8 @@ pub struct CalibrationRun {
     pub layout: ParameterLayout,
     /// The calibrated distances (artefacts.json) used as observations.
     pub distances_used: usize,
-    /// The poses and points calibrated with the touches, if the dataset
-    /// has any ([`crate::mixed`]).
+    /// The poses and points, if the dataset has any (with touches:
+    /// [`crate::mixed`]).
     pub instruments: Option<InstrumentResult>,
     /// Paper mode: the check of the diagonal prior against the propagated
     /// design tolerances ([`crate::conflict::paper_prior_consistency`]).
@@ -112,6 +126,12 @@ impl CalibrationRun {
     /// Whether the solver converged.
     pub fn converged(&self) -> bool {
         matches!(self.status, Status::Converged)
+    }
+
+    /// Whether the run calibrated ball touches (else poses and points
+    /// alone).
+    pub fn has_touches(&self) -> bool {
+        !self.rows.is_empty()
     }
 
     /// The run's verdict ([`crate::verdict`]).
@@ -154,6 +174,43 @@ impl CalibrationRun {
         self.covariance.map(|c| c.diagonal().map(f64::sqrt))
     }
 
+    /// Marginal sigmas of the global block.
+    pub fn global_sigmas(&self) -> Option<DVector<f64>> {
+        self.global_covariance
+            .as_ref()
+            .map(|c| c.diagonal().map(f64::sqrt))
+    }
+
+    /// The global block's parameters after the kinematic ones and the tied
+    /// balls' (the actuator scales, the frames, the sessions' nuisances),
+    /// named, with their values and sigmas (zero without a covariance);
+    /// none without poses and points.
+    pub fn instrument_parameters(&self) -> Vec<(String, f64, f64)> {
+        if self.instruments.is_none() {
+            return Vec::new();
+        }
+        let names = self.names();
+        let sigmas = self
+            .global_sigmas()
+            .unwrap_or_else(|| DVector::zeros(self.global.len()));
+        let first = self
+            .layout
+            .groups()
+            .iter()
+            .find(|(group, _)| {
+                !matches!(
+                    group,
+                    ParameterGroup::Kinematic
+                        | ParameterGroup::BallCentre { .. }
+                        | ParameterGroup::BallRadius { .. }
+                )
+            })
+            .map_or(self.global.len(), |(_, range)| range.start);
+        (first..self.global.len())
+            .map(|k| (names[k].clone(), self.global[k], sigmas[k]))
+            .collect()
+    }
+
     /// Condition number of the posterior covariance (ratio of the extreme
     /// eigenvalues of the reduced matrix); infinite when the data and prior
     /// leave a direction undetermined.
@@ -165,9 +222,20 @@ impl CalibrationRun {
     /// RMS of the whitened residuals at the final iterate (1 at the noise
     /// level).
     pub fn residual_rms(&self) -> f64 {
-        self.history.last().map_or(f64::NAN, |r| {
-            (r.data_cost / self.residual_rows as f64).sqrt()
-        })
+        self.history.last().map_or(f64::NAN, |r| self.rms_of(r))
+    }
+
+    /// The RMS of the whitened residuals of `record` over the
+    /// [`CalibrationRun::residual_rows`]: the touches' with touches (the
+    /// poses and points beside them are global observations), else the
+    /// poses' and points'.
+    fn rms_of(&self, record: &IterationRecord) -> f64 {
+        let cost = if self.has_touches() {
+            record.data_cost
+        } else {
+            record.global_observation_cost
+        };
+        (cost / self.residual_rows as f64).sqrt()
     }
 
     /// The global block's covariance as calibration.json records it: none
@@ -208,15 +276,13 @@ impl CalibrationRun {
     /// touches alone and unknown scales, the canonical geometry with the
     /// calibrated scales; else none (the design's actuators hold).
     fn calibrated_machine(&self) -> Option<CalibratedMachine> {
+        let sigma = |k: usize| self.posterior().map_or(0.0, |c| c[(k, k)].sqrt());
         if let Some(i) = &self.instruments {
-            let values = i.model.values(&i.global);
-            return Some(
-                i.model
-                    .calibrated_machine(&values, &i.sigmas(), &self.machine),
-            );
+            let values = i.model.values(&self.global);
+            let sigmas = DVector::from_fn(self.global.len(), |k, _| sigma(k));
+            return Some(i.model.calibrated_machine(&values, &sigmas, &self.machine));
         }
         let range = self.layout.range(ParameterGroup::ActuatorScales)?;
-        let sigma = |k: usize| self.posterior().map_or(0.0, |c| c[(k, k)].sqrt());
         Some(CalibratedMachine {
             geometry: geometry_record(&params::from_params(&self.params)),
             actuator: Actuator {
@@ -254,34 +320,37 @@ impl CalibrationRun {
                 )
             })
             .collect();
-        let rows = self.residual_rows as f64;
         let iterations = self
             .history
             .iter()
             .map(|r| parcal_dataset::IterationSummary {
                 cost: r.cost,
                 step_norm: r.step_norm,
-                residual_rms: (r.data_cost / rows).sqrt(),
+                residual_rms: self.rms_of(r),
             })
             .collect();
-        let mut options = BTreeMap::new();
-        options.insert(
-            "observation".to_string(),
-            self.options.observation.to_string().into(),
-        );
-        options.insert(
-            "weights".to_string(),
-            format!("{:?}", self.options.weighting)
-                .to_lowercase()
-                .into(),
-        );
+        // With touches, the observation equation, the weights, the radius
+        // model and the loss; poses and points alone have their one
+        // observation and weighting.
         let method = match self.options.method {
             Method::GaussNewton => "gauss-newton",
             Method::LevenbergMarquardt { .. } => "levenberg-marquardt",
         };
-        options.insert("method".to_string(), method.into());
-        options.insert("radius".to_string(), self.options.radius.to_string().into());
-        options.insert("loss".to_string(), self.options.loss.to_string().into());
+        let mut options = BTreeMap::from([("method".to_string(), method.into())]);
+        if self.has_touches() {
+            let given = &self.options;
+            let weights = format!("{:?}", given.weighting).to_lowercase();
+            for (name, value) in [
+                ("observation", given.observation.to_string()),
+                ("weights", weights),
+                ("radius", given.radius.to_string()),
+                ("loss", given.loss.to_string()),
+            ] {
+                options.insert(name.to_string(), value.into());
+            }
+        } else {
+            options.insert("observation".to_string(), "instruments".into());
+        }
         parcal_dataset::Calibration {
             canonical: geometry_record(&geometry),
             parameters,
@@ -294,7 +363,7 @@ impl CalibrationRun {
             options,
             machine: self.calibrated_machine(),
             sessions: self.instruments.as_ref().map_or_else(Vec::new, |i| {
-                i.model.session_records(&i.model.values(&i.global))
+                i.model.session_records(&i.model.values(&self.global))
             }),
             verdict: String::new(),
             reasons: Vec::new(),
@@ -309,18 +378,22 @@ impl CalibrationRun {
     }
 }
 
-/// A geometry as calibration.json holds it.
-fn geometry_record(geometry: &Geometry) -> GeometryRecord {
-    GeometryRecord {
-        base_joints: geometry.base.map(Into::into),
-        platform_joints: geometry.platform.map(Into::into),
-        tool: geometry.tool.into(),
-        leg_lengths: geometry.legs,
+impl Calibrated {
+    /// From a calibration of poses and points in memory (with or without
+    /// ball touches): its numbers ([`CalibrationRun::record`]) as
+    /// [`Calibrated::from_record`] reads them, with its global test.
+    pub fn of_run(run: &CalibrationRun) -> Result<Self, CalibrateError> {
+        let mut calibrated = Self::from_record(&run.record(String::new()))?;
+        calibrated.global_test = run.global_test.map(|t| (t.cost, t.redundancy));
+        Ok(calibrated)
     }
 }
 
-/// Calibrates `dataset` (docs/paper-scenario.md section 4). `observer` sees each iteration.
-/// The dataset is validated first ([`crate::validate`]).
+/// Calibrates `dataset` (docs/paper-scenario.md section 4): its ball
+/// touches with the poses and points beside them, if any; or, without
+/// touches, its poses and points alone (the instrument stage,
+/// [`crate::instruments::run`], least squares only). `observer` sees each
+/// iteration. The dataset is validated first ([`crate::validate`]).
 ///
 /// A Gauss-Newton run that runs away (it ends diverged, or failed after
 /// its first step, or at its iteration limit after a step raised the cost
@@ -334,6 +407,9 @@ pub fn calibrate(
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<CalibrationRun, CalibrateError> {
+    if !dataset.has_touches() && !dataset.tracker.is_empty() {
+        return instruments_alone(dataset, options, observer);
+    }
     let started = Instant::now();
     let run = calibrate_once(dataset, options, observer)?;
     let costs = run.history.first().zip(run.history.last());
@@ -392,6 +468,48 @@ pub struct RunAway {
     pub final_cost: f64,
     /// Its iterations.
     pub iterations: usize,
+}
+
+/// The calibration of the poses and points of `dataset`, which has no
+/// ball touches: the instrument stage's solution as a run whose touch
+/// parts are empty.
+fn instruments_alone(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<CalibrationRun, CalibrateError> {
+    let solved = crate::instruments::run::solve(dataset, options, observer)?;
+    Ok(CalibrationRun {
+        options: options.clone(),
+        design: solved.design,
+        machine: dataset.machine.clone(),
+        initial_params: solved.initial_params,
+        prior: solved.kinematic_prior,
+        params: solved.params,
+        covariance: solved.covariance,
+        global: solved.global,
+        global_covariance: solved.global_covariance,
+        ball_ids: Vec::new(),
+        centres: Vec::new(),
+        centre_sigmas: None,
+        radii: None,
+        radius_sigmas: None,
+        ball_misfits: Vec::new(),
+        mirrored: Vec::new(),
+        status: solved.status,
+        history: solved.history,
+        residual_rows: solved.residual_rows,
+        rows: Vec::new(),
+        spectrum: solved.spectrum,
+        conflicts: Vec::new(),
+        layout: solved.layout,
+        distances_used: 0,
+        instruments: Some(solved.instruments),
+        prior_consistency: None,
+        global_test: solved.global_test,
+        reliability: solved.reliability,
+        gauss_newton: None,
+    })
 }
 
 /// The touch problem of `observations` with `G` unknowns per ball, the

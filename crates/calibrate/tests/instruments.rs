@@ -4,12 +4,13 @@
 //! cross-validated.
 
 use nalgebra::DVector;
+use parcal_calibrate::cross_validation::cross_validate;
 use parcal_calibrate::instruments::{
-    Calibrated, InstrumentRun, InstrumentSetup, cross_validate, setup, validate_calibration,
+    Calibrated, InstrumentResult, InstrumentSetup, setup, validate_calibration,
 };
-use parcal_calibrate::{CalibrateError, CalibrationOptions, InstrumentTable};
+use parcal_calibrate::{CalibrateError, CalibrationOptions, CalibrationRun, InstrumentTable};
 use parcal_dataset::{Dataset, SessionModel};
-use parcal_kinematics::{ForwardOptions, PARAM_NAMES};
+use parcal_kinematics::{ForwardOptions, N_PARAMS, PARAM_NAMES};
 use parcal_simulate::{TrackerKind, TrackerScenario, simulate_tracker};
 use parcal_solver::{SolverOptions, State, dense_reference, solve};
 
@@ -37,13 +38,13 @@ fn jugglebot() -> Dataset {
 }
 
 /// The fixture's calibration with the default options.
-fn calibrated_jugglebot(dataset: &Dataset) -> InstrumentRun {
-    parcal_calibrate::instruments::calibrate_instruments(
-        dataset,
-        &CalibrationOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap()
+fn calibrated_jugglebot(dataset: &Dataset) -> CalibrationRun {
+    parcal_calibrate::calibrate(dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap()
+}
+
+/// The poses and points of a run.
+fn instruments(run: &CalibrationRun) -> &InstrumentResult {
+    run.instruments.as_ref().expect("poses or points")
 }
 
 /// Every column of the raw (unwhitened) Jacobian of every row against
@@ -155,6 +156,57 @@ fn solve_matches_the_dense_reference() {
     assert!(cov_diff < tolerance, "covariance differs by {cov_diff:.2e}");
 }
 
+/// `calibrate` on poses and points alone runs the instrument stage: the
+/// set-up ([`setup`]) solved from its initial block with the options'
+/// method and stopping gives the run's global block, covariance and
+/// history bit for bit; the run's covariance of the 33 is the block's
+/// leading one (points observe the tool), and its touch parts are empty.
+#[test]
+fn calibrate_runs_the_instrument_stage_on_poses_and_points() {
+    let dataset = mixed();
+    let options = CalibrationOptions::default();
+    let run = parcal_calibrate::calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert!(run.converged(), "{:?}", run.status);
+    let InstrumentSetup {
+        problem, initial, ..
+    } = setup(&dataset, &options).unwrap();
+    let solver = SolverOptions {
+        method: options.method,
+        max_iterations: options.max_iterations,
+        step_tolerance: options.step_tolerance,
+        sigma_tolerance: options.sigma_tolerance,
+        ..SolverOptions::default()
+    };
+    let state = State {
+        global: initial,
+        groups: Vec::new(),
+        points: Vec::new(),
+    };
+    let direct = solve(&problem, state, &solver, &mut |_| {});
+    assert_eq!(run.global, direct.state.global);
+    assert_eq!(run.global_covariance, direct.covariance);
+    let costs = |h: &[parcal_solver::IterationRecord]| h.iter().map(|r| r.cost).collect::<Vec<_>>();
+    assert_eq!(costs(&run.history), costs(&direct.history));
+    let global = direct.covariance.expect("a covariance");
+    assert_eq!(
+        run.covariance.expect("a covariance"),
+        global.fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
+    );
+    assert!(!run.has_touches());
+    assert!(run.ball_ids.is_empty() && run.centres.is_empty() && run.conflicts.is_empty());
+    let tracker = &dataset.tracker;
+    assert_eq!(
+        run.residual_rows,
+        6 * tracker.poses.len() + 3 * tracker.points.len()
+    );
+    assert_eq!(instruments(&run).leg_residuals.len(), tracker.poses.len());
+    assert_eq!(
+        instruments(&run).point_residuals.len(),
+        tracker.points.len()
+    );
+    assert!(instruments(&run).information.is_some());
+}
+
 /// The real hexapod: in sample, the leg-length residual as small as the
 /// source's own 48-parameter fit (about 0.41 mm); cross-validated (6
 /// folds), at most 10% above in-sample, and the RMS the folds' covariances
@@ -163,10 +215,9 @@ fn solve_matches_the_dense_reference() {
 fn jugglebot_fits_and_predicts_held_out_poses() {
     let dataset = jugglebot();
     let options = CalibrationOptions::default();
-    let run = parcal_calibrate::instruments::calibrate_instruments(&dataset, &options, &mut |_| {})
-        .unwrap();
+    let run = parcal_calibrate::calibrate(&dataset, &options, &mut |_| {}).unwrap();
     assert!(run.converged(), "{:?}", run.status);
-    let in_sample = run.leg_rms().unwrap();
+    let in_sample = instruments(&run).leg_rms().unwrap();
     let cross = cross_validate(&dataset, &options, 6).unwrap();
     println!(
         "in sample {in_sample:.4} mm, whitened RMS {:.3}; 6-fold {:.4} mm, predicted {:.4} mm",
@@ -194,7 +245,7 @@ fn jugglebot_fits_and_predicts_held_out_poses() {
     let record = run.record(String::new());
     // Poses alone do not observe the tool: it is not calibrated, and the
     // record holds the design's (canonical frames) and no tool parameter.
-    assert!(!run.model.layout.has_tool());
+    assert!(!instruments(&run).model.layout.has_tool());
     let names = &record.parameters.names;
     assert!(names.iter().all(|n| !n.ends_with("_eT")), "{names:?}");
     assert_eq!(names[..30], PARAM_NAMES[..30]);
@@ -209,13 +260,13 @@ fn jugglebot_fits_and_predicts_held_out_poses() {
     // of the layout: its sigmas were 8.2470, 8.2386, 10.1035 mm
     // (docs/real-machine.md before the tool left the layout), and the 30's
     // are the run's own.
-    let kinematic = run.kinematic_covariance().expect("a covariance");
+    let kinematic = run.covariance.expect("a covariance");
     let tool: Vec<f64> = (30..33).map(|k| kinematic[(k, k)].sqrt()).collect();
     println!("tool sigmas from the conditional prior: {tool:?}");
     for (sigma, before) in tool.iter().zip([8.2470, 8.2386, 10.1035]) {
         assert!((sigma - before).abs() < 1e-3, "{sigma} against {before}");
     }
-    let global = run.covariance.as_ref().unwrap();
+    let global = run.global_covariance.as_ref().unwrap();
     assert_eq!(
         kinematic.view((0, 0), (30, 30)),
         global.view((0, 0), (30, 30))
@@ -233,9 +284,9 @@ fn jugglebot_fits_and_predicts_held_out_poses() {
             let length = g.leg_lengths[i] + machine.actuator.scale[i] * poses.q[j][i];
             let residual = (r * p + t - b).norm() - length;
             assert!(
-                (residual - run.leg_residuals[j][i]).abs() < 1e-6,
+                (residual - instruments(&run).leg_residuals[j][i]).abs() < 1e-6,
                 "pose {j} leg {i}: {residual} against {}",
-                run.leg_residuals[j][i]
+                instruments(&run).leg_residuals[j][i]
             );
         }
     }

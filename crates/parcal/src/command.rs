@@ -1,20 +1,16 @@
 //! A dataset's calibration as `parcal calibrate` makes it, for every front
 //! end (the binary, the Python package): the options from the command's
-//! flags ([`CalibrateFlags`]), the calibration of ball touches (with poses
-//! and points beside them) or of poses and points alone, with or without
-//! data snooping, and calibration.json's record of it ([`calibrate_recorded`]);
+//! flags ([`CalibrateFlags`]), the calibration of any hexapod dataset
+//! (ball touches, poses, points), with or without data snooping, and
+//! calibration.json's record of it ([`calibrate_recorded`]);
 //! a dataset read from a directory or a snapshot ([`read_dataset`]).
 
 use std::path::Path;
 use std::time::Duration;
 
 use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
-use parcal_calibrate::instruments::{InstrumentRun, calibrate_instruments};
 use parcal_calibrate::observation::ObservationId;
-use parcal_calibrate::reliability::Reliability;
-use parcal_calibrate::snooping::{
-    Remaining, calibrate_instruments_with_snooping, calibrate_with_snooping,
-};
+use parcal_calibrate::snooping::{Remaining, calibrate_with_snooping};
 use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
     PriorMode, RadiusModel, Simulation, WeightModel, calibrate,
@@ -115,30 +111,11 @@ impl CalibrateFlags {
     }
 }
 
-/// The run behind a record: of ball touches (poses and points beside them,
-/// if any), or of poses and points alone.
-pub enum FittedRun {
-    /// Ball touches ([`calibrate`]).
-    Touches(Box<CalibrationRun>),
-    /// Poses and points alone ([`calibrate_instruments`]).
-    Instruments(Box<InstrumentRun>),
-}
-
-impl FittedRun {
-    /// Every observation's check at the final state, if the run has them.
-    pub fn reliability(&self) -> Option<&Reliability> {
-        match self {
-            Self::Touches(run) => run.reliability.as_ref(),
-            Self::Instruments(run) => run.reliability.as_ref(),
-        }
-    }
-}
-
 /// A calibration and its record.
 pub struct RecordedRun {
     /// The run (of the observations data snooping left, if it removed
     /// any).
-    pub run: FittedRun,
+    pub run: Box<CalibrationRun>,
     /// Where the run's observations are in the dataset given.
     pub remaining: Remaining<ObservationId>,
     /// calibration.json's content, without its provenance ([`provenance`]).
@@ -152,12 +129,6 @@ impl RecordedRun {
     }
 }
 
-/// Whether `dataset` is calibrated from its poses and points alone: it has
-/// no ball touches, and instrument data.
-pub fn calibrates_instruments(dataset: &Dataset) -> bool {
-    !dataset.has_touches() && !dataset.tracker.is_empty()
-}
-
 /// Calibrates `dataset` as `parcal calibrate` with `flags` does, calling
 /// `observer` at each iteration, and makes calibration.json's record of it
 /// (with a warning naming the first reading outside machine.json's stroke,
@@ -168,56 +139,21 @@ pub fn calibrate_recorded(
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<RecordedRun, CalibrateError> {
     let options = flags.options();
-    let (run, remaining, mut record) = match (calibrates_instruments(dataset), flags.snoop) {
-        (false, true) => {
-            let snooped =
-                calibrate_with_snooping(dataset, &options, SNOOPING_LEVEL, MAX_REMOVALS, observer)?;
-            let record = record::of_snooped_ball_run(&snooped, dataset);
-            (
-                FittedRun::Touches(Box::new(snooped.run)),
-                snooped.remaining,
-                record,
-            )
-        }
-        (false, false) => {
-            let run = calibrate(dataset, &options, observer)?;
-            let record = record::of_ball_run(&run, dataset);
-            (
-                FittedRun::Touches(Box::new(run)),
-                Remaining::all(dataset),
-                record,
-            )
-        }
-        (true, true) => {
-            let snooped = calibrate_instruments_with_snooping(
-                dataset,
-                &options,
-                SNOOPING_LEVEL,
-                MAX_REMOVALS,
-                observer,
-            )?;
-            let record = record::of_snooped_instrument_run(&snooped, dataset);
-            (
-                FittedRun::Instruments(Box::new(snooped.run)),
-                snooped.remaining,
-                record,
-            )
-        }
-        (true, false) => {
-            let run = calibrate_instruments(dataset, &options, observer)?;
-            let record = record::of_instrument_run(&run, dataset);
-            (
-                FittedRun::Instruments(Box::new(run)),
-                Remaining::all(dataset),
-                record,
-            )
-        }
+    let (run, remaining, mut record) = if flags.snoop {
+        let snooped =
+            calibrate_with_snooping(dataset, &options, SNOOPING_LEVEL, MAX_REMOVALS, observer)?;
+        let record = record::of_snooped_run(&snooped, dataset);
+        (snooped.run, snooped.remaining, record)
+    } else {
+        let run = calibrate(dataset, &options, observer)?;
+        let record = record::of_run(&run, dataset);
+        (run, Remaining::all(dataset), record)
     };
     record
         .warnings
         .extend(dataset.reading_outside_stroke().map(|o| o.to_string()));
     Ok(RecordedRun {
-        run,
+        run: Box::new(run),
         remaining,
         record,
     })

@@ -1,7 +1,7 @@
 //! parcal as a library: calibrate a hexapod (a 6-6 Stewart platform) from
-//! touches of calibration balls, or from poses and points measured by an
-//! instrument ([`calibrate_instruments`], [`validate_calibration`]), with a
-//! priori knowledge of its design
+//! touches of calibration balls, poses and points measured by an
+//! instrument, or both ([`calibrate`], one [`CalibrationRun`];
+//! [`validate_calibration`]), with a priori knowledge of its design
 //! tolerances (Sato et al., "Artefact calibration of parallel mechanism",
 //! Meas. Sci. Technol. 15 (2004) 1158), and see what the calibration buys.
 //!
@@ -132,11 +132,12 @@ pub use parcal_calibrate::{
 };
 pub use parcal_kinematics::{KinematicsError, N_PARAMS, PARAM_NAMES, Params};
 
-// Instrument measurements (poses, points, in sessions): calibration, and a
-// calibration applied to data it was not fitted on.
+// Instrument measurements (poses, points, in sessions): what a
+// calibration gives of them, and a calibration applied to data it was not
+// fitted on.
+pub use parcal_calibrate::cross_validation::{CrossValidation, cross_validate};
 pub use parcal_calibrate::instruments::{
-    Calibrated, CrossValidation, InstrumentRun, Validation, calibrate_instruments, cross_validate,
-    validate_calibration,
+    Calibrated, InstrumentResult, Validation, validate_calibration,
 };
 pub use parcal_dataset::{Actuator, Points, Poses, SessionModel, Tracker, ValidationRecord};
 

@@ -6,7 +6,7 @@
 
 use parcal_accuracy::{MapGrid, true_error};
 use parcal_calibrate::CalibrationOptions;
-use parcal_calibrate::instruments::calibrate_instruments;
+use parcal_calibrate::calibrate;
 use parcal_dataset::{Dataset, SessionModel};
 use parcal_kinematics::Geometry;
 use parcal_plan::Criterion;
@@ -19,15 +19,14 @@ const POSES: usize = 30;
 /// The true and the calibration's predicted registered RMS over the
 /// paper's map after calibrating `dataset` (um).
 fn registered(dataset: &Dataset) -> (f64, f64) {
-    let run = calibrate_instruments(dataset, &CalibrationOptions::default(), &mut |_| {})
-        .expect("calibration");
+    let run = calibrate(dataset, &CalibrationOptions::default(), &mut |_| {}).expect("calibration");
     assert!(run.converged(), "the calibration did not converge");
     let g = &dataset.truth.as_ref().unwrap().geometry;
     let truth = Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths)
         .canonicalize()
         .unwrap()
         .geometry;
-    let estimate = run.values().params;
+    let estimate = run.params;
     let grid = MapGrid::paper();
     let true_rms = true_error(&run.design, &estimate, &truth, &grid)
         .unwrap()
@@ -35,7 +34,7 @@ fn registered(dataset: &Dataset) -> (f64, f64) {
         .rms;
     // Poses alone leave the tool out of the layout: the 33's covariance
     // takes its rows from the prior.
-    let covariance = run.kinematic_covariance().expect("a covariance");
+    let covariance = run.covariance.expect("a covariance");
     let predicted = parcal_accuracy::predicted(&run.design, &estimate, &covariance, &grid)
         .unwrap()
         .registered_summary()

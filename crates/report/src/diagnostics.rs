@@ -7,7 +7,6 @@ use parcal_accuracy::{MapGrid, parameter_error};
 use parcal_calibrate::CalibrationRun;
 use parcal_calibrate::hypothesis::SNOOPING_LEVEL;
 use parcal_calibrate::hypothesis::{POWER, critical_value, minimal_detectable_bias};
-use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::reliability::{
     ObservationCheck as Check, Reliability, UNCONTROLLED, VarianceComponent,
@@ -117,19 +116,65 @@ fn tested(
     }
 }
 
-/// The diagnostics of a ball-touch run: `dataset` the dataset given,
-/// `original_row(i)` its row of the run's measurements.csv row `i` (the
-/// identity without data snooping).
-pub fn of_ball_run(
+/// The diagnostics of a run: `dataset` the dataset given, `original(o)`
+/// the place in it of the run's observation `o` (the identity without
+/// data snooping).
+pub fn of_run(
     run: &CalibrationRun,
     dataset: &Dataset,
     original: &dyn Fn(ObservationId) -> ObservationId,
 ) -> Diagnostics {
-    let names = run.names();
-    // calibration.json's parameters are the kinematic ones, followed by the
-    // instrument groups' (the scales' too, with touches alone), whose
-    // priors are attributed only by an instrument run: then none is.
-    let (prior_sigma, determined_by) = match (run.sigmas(), &run.prior) {
+    let (prior_sigma, determined_by) = attribution(run);
+    let reliability = run.reliability.as_ref();
+    let mut diagnostics = Diagnostics {
+        variance_components: components(reliability.map_or(&[][..], |r| &r.components)),
+        observations: reliability.map(|reliability| tests(reliability, dataset, original)),
+        prior_sigma,
+        determined_by,
+        weak_directions: weak_directions(run.spectrum.as_ref(), &run.names()),
+        external_reliability: Vec::new(),
+        systematic_tests: Vec::new(),
+        systematic_sensitivity: Vec::new(),
+    };
+    // The shifts and common errors of the touches' kinematic parameters,
+    // mapped on the accuracy grid; poses and points alone name their
+    // least reliable observations in the warnings.
+    if let (Some(reliability), true) = (&run.reliability, run.has_touches()) {
+        diagnostics.external_reliability =
+            external_reliability(run, reliability, dataset, original);
+        if let Some(global) = &run.global_test {
+            diagnostics.systematic_tests = systematic_tests(&reliability.systematic, global);
+        }
+        diagnostics.systematic_sensitivity = systematic_sensitivity(run, &reliability.systematic);
+    }
+    diagnostics
+}
+
+/// calibration.json's `prior_sigma` and `determined_by` of a converged
+/// run's recorded parameters: with poses and points alone, every global
+/// parameter's from its prior sigma and the data's information on it
+/// ([`parcal_calibrate::instruments::ParameterInformation`]); with touches,
+/// the kinematic parameters' from their prior (the data inform a
+/// parameter whose posterior variance is below its prior's), none when
+/// calibration.json's parameters go beyond them (the instrument groups'
+/// and the scales' priors are attributed only without touches).
+fn attribution(run: &CalibrationRun) -> (Vec<Option<f64>>, Vec<String>) {
+    let information = run
+        .instruments
+        .as_ref()
+        .and_then(|i| i.information.as_ref());
+    if let Some(information) = information {
+        let Some(sigmas) = run.global_sigmas() else {
+            return (Vec::new(), Vec::new());
+        };
+        let prior = &information.prior_sigmas;
+        let determined_by = (0..sigmas.len())
+            .map(|k| determined_by(information.data[k], sigmas[k], prior[k]).to_string())
+            .collect();
+        let prior_sigma = prior.iter().map(|s| s.is_finite().then_some(*s)).collect();
+        return (prior_sigma, determined_by);
+    }
+    match (run.sigmas(), &run.prior) {
         _ if run.layout.recorded().len() > run.params.len() => (Vec::new(), Vec::new()),
         (Some(sigmas), Some(prior)) => sigmas
             .iter()
@@ -145,22 +190,7 @@ pub fn of_ball_run(
             vec!["data".to_string(); sigmas.len()],
         ),
         _ => (Vec::new(), Vec::new()),
-    };
-    let checks = Checks {
-        reliability: run.reliability.as_ref(),
-        spectrum: run.spectrum.as_ref(),
-        names: &names,
-    };
-    let mut diagnostics = checks.diagnostics(dataset, original, prior_sigma, determined_by);
-    if let Some(reliability) = &run.reliability {
-        diagnostics.external_reliability =
-            external_reliability(run, reliability, dataset, original);
-        if let Some(global) = &run.global_test {
-            diagnostics.systematic_tests = systematic_tests(&reliability.systematic, global);
-        }
-        diagnostics.systematic_sensitivity = systematic_sensitivity(run, &reliability.systematic);
     }
-    diagnostics
 }
 
 /// calibration.json's `systematic_tests` of a run whose global test is
@@ -256,68 +286,6 @@ fn external_reliability(
             })
         })
         .collect()
-}
-
-/// The diagnostics of an instrument run (poses, points) of `dataset`,
-/// `original(o)` the place in the dataset given of the run's observation
-/// `o`.
-pub fn of_instrument_run(
-    run: &InstrumentRun,
-    dataset: &Dataset,
-    original: &dyn Fn(ObservationId) -> ObservationId,
-) -> Diagnostics {
-    let names = run.names();
-    let prior = run.prior_sigmas();
-    let sigmas = run.sigmas();
-    let determined_by = sigmas.as_ref().map_or(Vec::new(), |s| {
-        (0..names.len())
-            .map(|k| determined_by(run.data_information[k], s[k], prior[k]).to_string())
-            .collect()
-    });
-    let prior_sigma = if determined_by.is_empty() {
-        Vec::new()
-    } else {
-        prior.iter().map(|s| s.is_finite().then_some(*s)).collect()
-    };
-    let checks = Checks {
-        reliability: run.reliability.as_ref(),
-        spectrum: run.spectrum.as_ref(),
-        names: &names,
-    };
-    checks.diagnostics(dataset, original, prior_sigma, determined_by)
-}
-
-/// What a run of either kind checked: its observations and its weakest
-/// directions, the global block's parameters named by `names`.
-struct Checks<'a> {
-    reliability: Option<&'a Reliability>,
-    spectrum: Option<&'a SpectrumDiagnostics>,
-    names: &'a [String],
-}
-
-impl Checks<'_> {
-    /// calibration.json's `diagnostics` with the parameters' attributions;
-    /// observations placed by `original` in `dataset`.
-    fn diagnostics(
-        &self,
-        dataset: &Dataset,
-        original: &dyn Fn(ObservationId) -> ObservationId,
-        prior_sigma: Vec<Option<f64>>,
-        determined_by: Vec<String>,
-    ) -> Diagnostics {
-        Diagnostics {
-            variance_components: components(self.reliability.map_or(&[][..], |r| &r.components)),
-            observations: self
-                .reliability
-                .map(|reliability| tests(reliability, dataset, original)),
-            prior_sigma,
-            determined_by,
-            weak_directions: weak_directions(self.spectrum, self.names),
-            external_reliability: Vec::new(),
-            systematic_tests: Vec::new(),
-            systematic_sensitivity: Vec::new(),
-        }
-    }
 }
 
 fn components(components: &[VarianceComponent]) -> Vec<VarianceComponentRecord> {

@@ -1,37 +1,33 @@
-//! An instrument calibration (measured poses and points) in sentences and
-//! tables.
+//! The measured poses and points of a calibration in sentences and
+//! tables, and their validation.
 
 use std::fmt::Write;
 
-use parcal_calibrate::instruments::{InstrumentRun, SessionGroup, Validation};
-use parcal_calibrate::mixed::InstrumentResult;
+use parcal_calibrate::CalibrationRun;
+use parcal_calibrate::instruments::{SessionGroup, Validation};
 use parcal_calibrate::prediction::PredictionTest;
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::{Calibration, NuisanceCandidate, PredictionTestRecord, ValidationRecord};
 
 use crate::diagnostics::determined_by;
-use crate::verdict::solver_status;
+use crate::sentences::status;
 
-/// The status in one sentence.
-pub fn status(run: &InstrumentRun) -> String {
-    // An instrument calibration has no group and no point block.
-    let none = |_: usize| String::new();
-    solver_status(&run.status, &run.names(), none, none)
-}
-
-/// The run's summary: rows, residuals, iterations, status, and the verdict
-/// of its calibration.json `record`.
-pub fn summary(run: &InstrumentRun, record: &Calibration) -> String {
-    let tracker_rows = run.leg_residuals.len();
-    let points = run.point_residuals.len();
+/// The summary of a run of poses and points alone: rows, residuals,
+/// iterations, status, and the verdict of its calibration.json `record`.
+pub fn summary(run: &CalibrationRun, record: &Calibration) -> String {
     let mut out = String::new();
+    let Some(instruments) = &run.instruments else {
+        return out;
+    };
     let _ = writeln!(
         out,
-        "{} sessions, {tracker_rows} poses, {points} points; {} unknowns",
-        run.model.sessions.len(),
+        "{} sessions, {} poses, {} points; {} unknowns",
+        instruments.model.sessions.len(),
+        instruments.leg_residuals.len(),
+        instruments.point_residuals.len(),
         run.global.len()
     );
-    residuals(&mut out, "", run.leg_rms(), run.point_rms());
+    residuals(&mut out, "", instruments.leg_rms(), instruments.point_rms());
     let _ = writeln!(
         out,
         "whitened residual RMS {:.3} (1 when the repeatabilities of machine.json are right)",
@@ -51,10 +47,13 @@ pub fn summary(run: &InstrumentRun, record: &Calibration) -> String {
 }
 
 /// The poses and points calibrated with ball touches: their residuals
-/// and the instrument parameters, named by `names` (the kinematic ones are
-/// in the touch calibration's table).
-pub fn mixed_summary(instruments: &InstrumentResult, names: &[String]) -> String {
+/// and the instrument parameters (the kinematic ones are in the touch
+/// calibration's table); empty without poses and points.
+pub fn mixed_summary(run: &CalibrationRun) -> String {
     let mut out = String::new();
+    let Some(instruments) = &run.instruments else {
+        return out;
+    };
     let _ = writeln!(
         out,
         "with {} sessions, {} poses, {} points:",
@@ -69,7 +68,7 @@ pub fn mixed_summary(instruments: &InstrumentResult, names: &[String]) -> String
         instruments.point_rms(),
     );
     out.push_str("\n| parameter | identified | sigma |\n|---|---:|---:|\n");
-    for (name, value, sigma) in instruments.parameters(names) {
+    for (name, value, sigma) in run.instrument_parameters() {
         let _ = writeln!(out, "| {name} | {value:.4} | {sigma:.4} |");
     }
     out
@@ -90,22 +89,29 @@ fn residuals(out: &mut String, indent: &str, legs: Option<f64>, points: Option<f
 }
 
 /// Parameter, initial and identified value, posterior and prior sigma, and
-/// what determined it ([`determined_by`]). Frame parameters are the
-/// corrections of the frames (rad, mm); calibration.json's `sessions` has
-/// the frames themselves.
-pub fn parameters(run: &InstrumentRun) -> String {
-    let sigmas = run.sigmas();
-    let prior = run.prior_sigmas();
+/// what determined it ([`determined_by`]), of a run of poses and points
+/// alone (empty otherwise). Frame parameters are the corrections of the
+/// frames (rad, mm); calibration.json's `sessions` has the frames
+/// themselves.
+pub fn parameters(run: &CalibrationRun) -> String {
+    let Some((instruments, information)) = run
+        .instruments
+        .as_ref()
+        .and_then(|i| Some((i, i.information.as_ref()?)))
+    else {
+        return String::new();
+    };
+    let sigmas = run.global_sigmas();
     let mut out = String::from(
         "| parameter | initial | identified | sigma | prior sigma | determined by |\n|---|---:|---:|---:|---:|---|\n",
     );
     for (k, name) in run.names().iter().enumerate() {
         let sigma = sigmas.as_ref().map(|s| s[k]);
-        let prior_sigma = prior[k];
+        let prior_sigma = information.prior_sigmas[k];
         let _ = writeln!(
             out,
             "| {name} | {:.4} | {:.4} | {} | {} | {} |",
-            run.initial[k],
+            instruments.initial[k],
             run.global[k],
             sigma.map_or("-".to_string(), |s| format!("{s:.4}")),
             if prior_sigma.is_finite() {
@@ -113,11 +119,7 @@ pub fn parameters(run: &InstrumentRun) -> String {
             } else {
                 "none".to_string()
             },
-            sigma.map_or("-", |s| determined_by(
-                run.data_information[k],
-                s,
-                prior_sigma
-            ))
+            sigma.map_or("-", |s| determined_by(information.data[k], s, prior_sigma))
         );
     }
     out

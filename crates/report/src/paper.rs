@@ -62,7 +62,7 @@ pub fn reproduce(seed: u64, out: &Path, progress: &mut dyn FnMut(&str)) -> Resul
             case.name(),
             crate::sentences::status(&case.run)
         ));
-        crate::record::of_ball_run(&case.run, &study.dataset)
+        crate::record::of_run(&case.run, &study.dataset)
             .write(&out.join(format!("calibration-{}.json", file_stem(&case))))?;
         Ok(case)
     };

@@ -1,11 +1,9 @@
-//! calibration.json, built in one place: the record of a ball-touch run
-//! and of an instrument run, with or without data snooping. Each record
-//! holds the run's numbers ([`CalibrationRun::record`],
-//! [`InstrumentRun::record`]), its status, verdict, reasons and warnings in
-//! words, and its diagnostics.
+//! calibration.json, built in one place: the record of a run, with or
+//! without data snooping. Each record holds the run's numbers
+//! ([`CalibrationRun::record`]), its status, verdict, reasons and warnings
+//! in words, and its diagnostics.
 
 use parcal_calibrate::CalibrationRun;
-use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::snooping::Snooped;
 use parcal_calibrate::verdict::Outcome;
@@ -13,48 +11,29 @@ use parcal_dataset::{Calibration, Dataset};
 
 use crate::checks::{checks, down_weighted_records};
 use crate::diagnostics;
-use crate::instruments;
 use crate::sentences::{self, sensitivity_sentence, systematic_sentence};
 use crate::verdict::{with_removals, with_verdict};
 
-/// The calibration.json record of the ball-touch `run` of `dataset`.
-pub fn of_ball_run(run: &CalibrationRun, dataset: &Dataset) -> Calibration {
-    ball_run(run, dataset, &|observation| observation)
+/// The calibration.json record of the `run` of `dataset`.
+pub fn of_run(run: &CalibrationRun, dataset: &Dataset) -> Calibration {
+    recorded(run, dataset, &|observation| observation)
 }
 
-/// The calibration.json record of a ball-touch calibration with data
-/// snooping: the remaining observations' run, and every removal with its
-/// place and what it did to the variance factor; `dataset` is the dataset
-/// given.
-pub fn of_snooped_ball_run(
+/// The calibration.json record of a calibration with data snooping: the
+/// remaining observations' run, and every removal with its place and what
+/// it did to the variance factor; `dataset` is the dataset given.
+pub fn of_snooped_run(
     snooped: &Snooped<CalibrationRun, ObservationId>,
     dataset: &Dataset,
 ) -> Calibration {
-    let mut record = ball_run(&snooped.run, dataset, &|o| snooped.remaining.original(o));
+    let mut record = recorded(&snooped.run, dataset, &|o| snooped.remaining.original(o));
     with_removals(&mut record, &snooped.removals, snooped.stopped.as_deref());
     record
 }
 
-/// The calibration.json record of the instrument `run` (measured poses and
-/// points) of `dataset`.
-pub fn of_instrument_run(run: &InstrumentRun, dataset: &Dataset) -> Calibration {
-    instrument_run(run, dataset, &|observation| observation)
-}
-
-/// The calibration.json record of an instrument calibration with data
-/// snooping ([`of_snooped_ball_run`]).
-pub fn of_snooped_instrument_run(
-    snooped: &Snooped<InstrumentRun, ObservationId>,
-    dataset: &Dataset,
-) -> Calibration {
-    let mut record = instrument_run(&snooped.run, dataset, &|o| snooped.remaining.original(o));
-    with_removals(&mut record, &snooped.removals, snooped.stopped.as_deref());
-    record
-}
-
-/// [`of_ball_run`] of a run whose observation `o` is `original(o)` in the
+/// [`of_run`] of a run whose observation `o` is `original(o)` in the
 /// dataset given.
-fn ball_run(
+fn recorded(
     run: &CalibrationRun,
     dataset: &Dataset,
     original: &dyn Fn(ObservationId) -> ObservationId,
@@ -63,7 +42,7 @@ fn ball_run(
     let mut record = run.record(status.clone());
     let mut warnings = sentences::warnings(run);
     let mut reasons = Vec::new();
-    let diagnostics = diagnostics::of_ball_run(run, dataset, original);
+    let diagnostics = diagnostics::of_run(run, dataset, original);
     if let Some(reliability) = &run.reliability {
         checks(reliability, original, &mut reasons, &mut warnings);
         record.down_weighted_observations = down_weighted_records(reliability, original);
@@ -85,24 +64,5 @@ fn ball_run(
     with_verdict(&mut record, &run.verdict(), &status, warnings);
     record.reasons.extend(reasons);
     record.diagnostics = Some(diagnostics);
-    record
-}
-
-/// [`of_instrument_run`] of a run whose observation `o` is `original(o)` in
-/// the dataset given.
-fn instrument_run(
-    run: &InstrumentRun,
-    dataset: &Dataset,
-    original: &dyn Fn(ObservationId) -> ObservationId,
-) -> Calibration {
-    let status = instruments::status(run);
-    let mut record = run.record(status.clone());
-    let (mut reasons, mut warnings) = (Vec::new(), Vec::new());
-    if let Some(reliability) = &run.reliability {
-        checks(reliability, original, &mut reasons, &mut warnings);
-    }
-    with_verdict(&mut record, &run.verdict(), &status, warnings);
-    record.reasons.extend(reasons);
-    record.diagnostics = Some(diagnostics::of_instrument_run(run, dataset, original));
     record
 }

@@ -20,7 +20,7 @@ fn paper_seed1() -> Dataset {
 fn the_diagnostics_summarise_every_observation_s_test() {
     let dataset = paper_seed1();
     let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
-    let record = parcal_report::record::of_ball_run(&run, &dataset);
+    let record = parcal_report::record::of_run(&run, &dataset);
     let reliability = run.reliability.as_ref().unwrap();
     let d = record.diagnostics.as_ref().unwrap();
     let t = d.observations.as_ref().unwrap();
@@ -111,7 +111,7 @@ fn a_common_radius_error_is_named_in_the_record_and_on_the_page() {
         ball.radius -= 0.02;
     }
     let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).unwrap();
-    let record = parcal_report::record::of_ball_run(&run, &dataset);
+    let record = parcal_report::record::of_run(&run, &dataset);
     assert_eq!(record.verdict, "rejected");
     let test = &run.reliability.as_ref().unwrap().systematic[0];
     let kept = &record.diagnostics.as_ref().unwrap().systematic_tests;
@@ -162,7 +162,7 @@ fn the_page_lists_the_down_weighted_observations() {
         ..CalibrationOptions::default()
     };
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
-    let record = parcal_report::record::of_ball_run(&run, &dataset);
+    let record = parcal_report::record::of_run(&run, &dataset);
     let listed = &record.down_weighted_observations;
     let blunder = listed
         .iter()

@@ -56,7 +56,7 @@ fn an_mdb_added_to_the_least_reliable_reading_moves_parameters_and_map_as_predic
     };
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     assert!(run.converged());
-    let record = parcal_report::record::of_ball_run(&run, &dataset);
+    let record = parcal_report::record::of_run(&run, &dataset);
     let stored = &record.diagnostics.as_ref().unwrap().external_reliability;
     let external = &run.reliability.as_ref().unwrap().external;
     assert_eq!(stored.len(), 5, "the five least reliable observations");
@@ -143,7 +143,7 @@ fn an_undetected_common_radius_error_moves_the_map_as_predicted() {
     let options = CalibrationOptions::default();
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     assert!(run.converged());
-    let record = parcal_report::record::of_ball_run(&run, &dataset);
+    let record = parcal_report::record::of_run(&run, &dataset);
     let stored = &record.diagnostics.as_ref().unwrap().systematic_sensitivity;
     assert_eq!(stored.len(), 1, "the radius alone without distances");
     let radius = &stored[0];

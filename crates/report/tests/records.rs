@@ -25,7 +25,7 @@ fn the_record_of_a_run_that_did_not_converge_blames_nothing() {
     ] {
         let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
         assert!(!run.converged(), "{:?}", run.status);
-        let record = parcal_report::record::of_ball_run(&run, &dataset);
+        let record = parcal_report::record::of_run(&run, &dataset);
         assert_eq!(record.verdict, "rejected");
         assert!(
             record.reasons[0].contains("not a least-squares minimum"),
@@ -62,7 +62,7 @@ fn a_common_radius_error_below_its_mdb_passes_and_its_sensitivity_is_stated() {
     }
     let options = CalibrationOptions::default();
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
-    let record = parcal_report::record::of_ball_run(&run, &dataset);
+    let record = parcal_report::record::of_run(&run, &dataset);
     let test = run.global_test.unwrap();
     let sensitivity = &record.diagnostics.as_ref().unwrap().systematic_sensitivity;
     let radius = sensitivity

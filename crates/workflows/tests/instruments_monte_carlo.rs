@@ -26,8 +26,8 @@ mod common;
 use std::time::Instant;
 
 use common::{mean_and_standard_error, nees, true_block};
-use parcal_calibrate::CalibrationOptions;
-use parcal_calibrate::instruments::{Calibrated, calibrate_instruments, validate_calibration};
+use parcal_calibrate::instruments::{Calibrated, validate_calibration};
+use parcal_calibrate::{CalibrationOptions, calibrate};
 use parcal_dataset::{Dataset, PriorSigma, SessionModel, Tracker};
 use parcal_kinematics::{Geometry, Vec3};
 use parcal_simulate::{Rng, TrackerKind, TrackerScenario, simulate_tracker};
@@ -158,11 +158,15 @@ fn a_low_noise_calibration_finds_the_true_block() {
             ..with_truth_from_prior(&noisy, TOLERANCE, 1)
         };
         let dataset = simulate_tracker(&scenario, 1).expect("simulation").dataset;
-        let run = calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
-            .expect("calibration");
+        let run =
+            calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {}).expect("calibration");
         assert!(run.converged(), "{kind:?}: {:?}", run.status);
-        let error = &run.global - true_block(&dataset, &run.model);
-        let z = error.component_div(&run.sigmas().expect("sigmas"));
+        let error = &run.global
+            - true_block(
+                &dataset,
+                &run.instruments.as_ref().expect("poses or points").model,
+            );
+        let z = error.component_div(&run.global_sigmas().expect("sigmas"));
         let names = run.names();
         let worst = z.iamax();
         println!(
@@ -192,13 +196,18 @@ fn mean_nees_of_the_global_block_is_its_size() {
             let dataset = simulate_tracker(&scenario, seed)
                 .expect("simulation")
                 .dataset;
-            let run = calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
+            let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {})
                 .expect("calibration");
-            let Some(covariance) = run.covariance.as_ref().filter(|_| run.converged()) else {
+            let Some(covariance) = run.global_covariance.as_ref().filter(|_| run.converged())
+            else {
                 failures.push(format!("{kind:?} seed {seed}: {:?}", run.status));
                 continue;
             };
-            let error = &run.global - true_block(&dataset, &run.model);
+            let error = &run.global
+                - true_block(
+                    &dataset,
+                    &run.instruments.as_ref().expect("poses or points").model,
+                );
             size = error.len();
             match nees(&error, covariance) {
                 Some(v) => values.push(v),
@@ -235,7 +244,7 @@ fn hold_out_rms_is_predicted_within_20_percent() {
             let dataset = simulate_tracker(&scenario, seed)
                 .expect("simulation")
                 .dataset;
-            let run = calibrate_instruments(
+            let run = calibrate(
                 &sessions_of(&dataset, &[0, 1]),
                 &CalibrationOptions::default(),
                 &mut |_| {},
@@ -306,14 +315,15 @@ fn at_the_paper_like_tolerance_the_kinematic_block_stays_honest() {
     for kind in [TrackerKind::Poses, TrackerKind::Points] {
         let design = with_truth_from_prior(&campaign(kind), PAPER_LIKE, 0);
         let first = simulate_tracker(&design, 0).expect("simulation").dataset;
-        let run = calibrate_instruments(&first, &CalibrationOptions::default(), &mut |_| {})
-            .expect("calibration");
+        let run =
+            calibrate(&first, &CalibrationOptions::default(), &mut |_| {}).expect("calibration");
         let prior = run.prior.as_ref().expect("a prior");
-        let mean = prior.mean.rows(0, N_PARAMS).into_owned();
-        let information = prior
-            .information
-            .view((0, 0), (N_PARAMS, N_PARAMS))
-            .into_owned();
+        let mean = DVector::from_column_slice(prior.mean().as_slice());
+        let information = nalgebra::DMatrix::from_column_slice(
+            N_PARAMS,
+            N_PARAMS,
+            prior.information().as_slice(),
+        );
         let factor = information
             .try_inverse()
             .and_then(|c| c.cholesky())
@@ -332,11 +342,14 @@ fn at_the_paper_like_tolerance_the_kinematic_block_stays_honest() {
                 let dataset = simulate_tracker(&scenario, seed)
                     .expect("simulation")
                     .dataset;
-                let run =
-                    calibrate_instruments(&dataset, &CalibrationOptions::default(), &mut |_| {})
-                        .expect("calibration");
-                let covariance = run.covariance.as_ref().expect("a covariance");
-                let error = &run.global - true_block(&dataset, &run.model);
+                let run = calibrate(&dataset, &CalibrationOptions::default(), &mut |_| {})
+                    .expect("calibration");
+                let covariance = run.global_covariance.as_ref().expect("a covariance");
+                let error = &run.global
+                    - true_block(
+                        &dataset,
+                        &run.instruments.as_ref().expect("poses or points").model,
+                    );
                 size = error.len();
                 whole.push(nees(&error, covariance).expect("positive definite"));
                 let block = covariance.view((0, 0), (N_PARAMS, N_PARAMS)).into_owned();
@@ -378,7 +391,7 @@ fn prediction_tests(seeds: std::ops::RangeInclusive<u64>) -> (usize, usize, Vec<
             .expect("simulation")
             .dataset;
         let calibration = sessions_of(&dataset, &[0, 1]);
-        let run = calibrate_instruments(&calibration, &CalibrationOptions::default(), &mut |_| {})
+        let run = calibrate(&calibration, &CalibrationOptions::default(), &mut |_| {})
             .expect("calibration");
         assert!(run.converged(), "seed {seed}: {:?}", run.status);
         let calibrated = Calibrated::of_run(&run).expect("a converged calibration");

@@ -19,7 +19,7 @@ mod common;
 use common::{mean_and_standard_error, nees, rms, true_block};
 use nalgebra::DVector;
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::instruments::{Calibrated, calibrate_instruments, validate_calibration};
+use parcal_calibrate::instruments::{Calibrated, setup, validate_calibration};
 use parcal_calibrate::layout::ParameterGroup;
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_calibrate::{CalibrateError, CalibrationOptions, ParamCovariance, calibrate};
@@ -151,8 +151,8 @@ fn mean_nees_of_the_mixed_global_block_is_its_size() {
         let run = calibrate(&dataset, &options, &mut |_| {}).expect("calibration");
         assert!(run.converged(), "seed {seed}: {:?}", run.status);
         let instruments = run.instruments.expect("poses and points were calibrated");
-        let covariance = instruments.covariance.as_ref().expect("a covariance");
-        let error = &instruments.global - true_block(&dataset, &instruments.model);
+        let covariance = run.global_covariance.as_ref().expect("a covariance");
+        let error = &run.global - true_block(&dataset, &instruments.model);
         size = error.len();
         values.push(nees(&error, covariance).expect("positive definite"));
     }
@@ -210,14 +210,12 @@ fn mixed_data_beat_either_kind_alone() {
             truth: None,
             ..dataset.clone()
         };
-        let run = calibrate_instruments(&tracker_only, &options, &mut |_| {}).expect("tracker");
-        let params = Params::from_iterator(run.global.iter().take(N_PARAMS).copied());
-        let covariance = run
-            .covariance
-            .expect("tracker covariance")
-            .fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
-            .into_owned();
-        instruments.push(registered(&dataset, &params, &covariance));
+        let run = calibrate(&tracker_only, &options, &mut |_| {}).expect("tracker");
+        instruments.push(registered(
+            &dataset,
+            &run.params,
+            &run.covariance.expect("tracker covariance"),
+        ));
     }
     let (both, touches, instruments) = (rms(&both), rms(&touches), rms(&instruments));
     println!(
@@ -236,7 +234,7 @@ fn mixed_data_beat_either_kind_alone() {
 /// Touches with instrument data and unknown actuator scales (the paper
 /// tracker's, true scales about 1e-3 off, prior 2e-3): one scale group,
 /// seen by the touches and the instrument rows, the NEES of the scales
-/// within chi-square(6)'s 0.999 quantile; an instrument calibration still
+/// within chi-square(6)'s 0.999 quantile; the instrument stage's set-up
 /// refuses touches.
 #[test]
 fn actuator_scales_are_calibrated_with_touches_and_instruments() {
@@ -269,8 +267,9 @@ fn actuator_scales_are_calibrated_with_touches_and_instruments() {
     );
     // chi-square(6) exceeds 22.46 with probability 1e-3.
     assert!(scales_nees < 22.46, "NEES of the scales {scales_nees:.2}");
-    let error = calibrate_instruments(&mixed(1), &CalibrationOptions::default(), &mut |_| {})
-        .expect_err("refused");
+    let error = setup(&mixed(1), &CalibrationOptions::default())
+        .err()
+        .expect("refused");
     assert!(matches!(error, CalibrateError::HasTouches), "{error}");
 }
 

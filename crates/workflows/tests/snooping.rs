@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{removed, snoop, snoop_instruments};
+use common::{removed, snoop};
 use parcal_calibrate::CalibrationOptions;
 use parcal_calibrate::observation::ObservationId;
 use parcal_dataset::Dataset;
@@ -65,11 +65,20 @@ fn a_blunder_in_a_pose_row_is_removed() {
     let mut dataset = instruments();
     let row = 11;
     dataset.tracker.poses.position[row][0] += 0.5;
-    let snooped = snoop_instruments(&dataset);
+    let snooped = snoop(&dataset, &CalibrationOptions::default());
     let removed = removed(&snooped);
     assert_eq!(removed, [ObservationId::Pose(row)]);
     assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
-    assert_eq!(snooped.run.leg_residuals.len(), 39);
+    assert_eq!(
+        snooped
+            .run
+            .instruments
+            .as_ref()
+            .unwrap()
+            .leg_residuals
+            .len(),
+        39
+    );
 }
 
 /// A point 0.5 mm (50 sigma) off in y: removed, the rest accepted.
@@ -78,18 +87,27 @@ fn a_blunder_in_a_point_row_is_removed() {
     let mut dataset = instruments();
     let row = 23;
     dataset.tracker.points.position[row][1] -= 0.5;
-    let snooped = snoop_instruments(&dataset);
+    let snooped = snoop(&dataset, &CalibrationOptions::default());
     let removed = removed(&snooped);
     assert_eq!(removed, [ObservationId::Point(row)]);
     assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
-    assert_eq!(snooped.run.point_residuals.len(), 39);
+    assert_eq!(
+        snooped
+            .run
+            .instruments
+            .as_ref()
+            .unwrap()
+            .point_residuals
+            .len(),
+        39
+    );
 }
 
 /// Clean data: nothing is removed and the run is accepted.
 #[test]
 fn clean_instrument_rows_are_kept() {
     let dataset = instruments();
-    let snooped = snoop_instruments(&dataset);
+    let snooped = snoop(&dataset, &CalibrationOptions::default());
     assert!(snooped.removals.is_empty());
     assert!(snooped.run.verdict().accepted);
 }

@@ -8,9 +8,12 @@
 //! - [`start`]: the initial frames (hand–eye for poses, Kabsch for points);
 //! - [`rows`]: every measured row as whitened residual rows;
 //! - [`problem`]: the solver's problem (a global block only);
-//! - [`run`]: one calibration and its calibration.json record;
-//! - [`validate`]: a calibration applied to data it was not fitted on;
-//! - [`cross_validation`]: k-fold cross-validation.
+//! - [`run`]: the instrument stage of [`crate::calibrate`] (poses and
+//!   points alone), calibration.json's machine and sessions;
+//! - [`result`]: what a calibration's poses and points give besides the
+//!   global block, with or without ball touches;
+//! - [`validate`]: a calibration applied to data it was not fitted on
+//!   (k-fold cross-validation: [`crate::cross_validation`]).
 //!
 //! The gauge: the kinematic parameters live in the canonical frames
 //! (`parcal_kinematics::frames`); an instrument sees the base frame only
@@ -21,19 +24,19 @@
 //! hold the design's tool, not calibrated). docs/formulation.md says which
 //! parameters each kind of data determines.
 
-pub mod cross_validation;
 pub mod model;
 pub mod observations;
 pub mod problem;
+pub mod result;
 pub mod rows;
 pub mod run;
 pub mod start;
 pub mod validate;
 
 pub use crate::error::InstrumentTable;
-pub use cross_validation::{CrossValidation, cross_validate};
 pub use model::{InstrumentModel, ModelValues};
-pub use run::{InstrumentRun, InstrumentSetup, calibrate_instruments, setup};
+pub use result::{InstrumentResult, ParameterInformation};
+pub use run::{InstrumentSetup, setup};
 pub use validate::{
     Calibrated, CalibratedSession, Explanation, SessionGroup, Validation, validate_calibration,
 };

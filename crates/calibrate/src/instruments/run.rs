@@ -1,80 +1,66 @@
-//! One instrument calibration: set up, solve, and the record of the result
-//! (calibration.json with the calibrated machine and every session).
-
-use std::collections::BTreeMap;
+//! The instrument stage of a calibration: the poses and points of a
+//! dataset without ball touches set up ([`setup`]) and solved
+//! ([`solve`]); [`crate::calibrate`] makes its
+//! [`crate::CalibrationRun`] of them. Also calibration.json's records of
+//! the calibrated machine and of every session.
 
 use nalgebra::{DMatrix, DVector, Dyn, Isometry3};
 use parcal_dataset::{
-    Actuator, CalibratedMachine, Calibration, Dataset, FrameRecord, GeometryRecord,
-    IterationSummary, Machine, ParameterTable, SessionRecord,
+    Actuator, CalibratedMachine, Dataset, FrameRecord, GeometryRecord, Machine, SessionRecord,
 };
-use parcal_kinematics::{Geometry, N_PARAMS, ParamCovariance, Vec3, params};
+use parcal_kinematics::{Geometry, N_PARAMS, ParamCovariance, Params, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status, solve,
+    GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status,
+    solve as solve_problem,
 };
 
 use crate::instruments::model::{InstrumentModel, ModelValues};
 use crate::instruments::observations::{
-    group_priors, groups, initial_block, model_and_rows, residuals, rms,
+    group_priors, groups, initial_block, model_and_rows, residuals,
 };
 use crate::instruments::problem::InstrumentProblem;
+use crate::instruments::result::{InstrumentResult, ParameterInformation};
 use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::observation::ObservationId;
 use crate::reliability::Reliability;
 use crate::setup::{design_geometry, kinematic_prior};
-use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Verdict, at_minimum, rows_and_unknowns};
-use crate::{CalibrateError, CalibrationOptions, Method};
+use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, at_minimum, rows_and_unknowns};
+use crate::{CalibrateError, CalibrationOptions};
 
-/// The outcome of an instrument calibration.
-#[derive(Debug, Clone)]
-#[non_exhaustive]
-pub struct InstrumentRun {
-    /// What the run was asked to do.
-    pub options: CalibrationOptions,
+/// A calibration of poses and points alone, solved: the shared parts of a
+/// [`crate::CalibrationRun`] and its [`InstrumentResult`].
+pub(crate) struct Solved {
     /// The design geometry as given (machine.json's frames).
-    pub design: Geometry,
-    /// The global block's meaning.
-    pub model: InstrumentModel,
-    /// The initial global block.
-    pub initial: DVector<f64>,
+    pub(crate) design: Geometry,
+    /// The design's canonical parameters.
+    pub(crate) initial_params: Params,
+    /// The kinematic prior on the 33 (the options' mode), if any.
+    pub(crate) kinematic_prior: Option<KinematicPrior>,
+    /// The global block.
+    pub(crate) layout: ParameterLayout,
     /// The identified global block.
-    pub global: DVector<f64>,
-    /// The prior on the global block, if any.
-    pub prior: Option<GaussianPrior<Dyn>>,
-    /// The posterior covariance of the global block (inverse of the
-    /// undamped normal matrix at the final state); `None` when the run did
-    /// not converge or the matrix is not positive definite.
-    pub covariance: Option<DMatrix<f64>>,
+    pub(crate) global: DVector<f64>,
+    /// Its posterior covariance.
+    pub(crate) global_covariance: Option<DMatrix<f64>>,
+    /// The identified kinematic parameters (the held tool without points).
+    pub(crate) params: Params,
+    /// Their covariance ([`kinematic_covariance`]).
+    pub(crate) covariance: Option<ParamCovariance>,
     /// How the solver's run ended.
-    pub status: Status,
+    pub(crate) status: Status,
     /// One record per iteration.
-    pub history: Vec<IterationRecord>,
+    pub(crate) history: Vec<IterationRecord>,
     /// Whitened residual rows (6 per pose, 3 per point).
-    pub residual_rows: usize,
+    pub(crate) residual_rows: usize,
     /// Spectrum of the normal matrix at the end.
-    pub spectrum: Option<SpectrumDiagnostics>,
-    /// Each pose's leg-length residuals `|T E_i − B_i| − L_i` at the
-    /// identified state (mm).
-    pub leg_residuals: Vec<[f64; 6]>,
-    /// Each point's residual `F(T) − P` at the identified state (mm).
-    pub point_residuals: Vec<Vec3>,
-    /// machine.json as given (the design machine, recorded in
-    /// calibration.json's `design`).
-    pub machine: Machine,
-    /// The kinematic prior on the 33 (the options' mode), if any: the
-    /// tool's when the layout leaves it out
-    /// ([`InstrumentRun::kinematic_covariance`]).
-    pub kinematic_prior: Option<KinematicPrior>,
-    /// The information the data alone give each parameter at the
-    /// identified state, `diag(JᵀJ)` of the whitened rows (zero: the data
-    /// do not observe it; the tool, which poses alone do not observe, is
-    /// not in their layout at all).
-    pub data_information: DVector<f64>,
-    /// The global test at the final state ([`crate::verdict`]).
-    pub global_test: Option<GlobalTest>,
-    /// Every row's check at the final state of a run that converged or reached its iteration limit ([`crate::reliability`]).
-    pub reliability: Option<Reliability>,
+    pub(crate) spectrum: Option<SpectrumDiagnostics>,
+    /// The global test at the final state.
+    pub(crate) global_test: Option<GlobalTest>,
+    /// Every row's check at a least-squares minimum.
+    pub(crate) reliability: Option<Reliability>,
+    /// The poses' and points' own results.
+    pub(crate) instruments: InstrumentResult,
 }
 
 /// An instrument calibration ready to solve: the problem at its initial
@@ -124,14 +110,15 @@ pub fn setup<'a>(
 }
 
 /// Calibrates the poses and points of `dataset` (it must have no ball
-/// touches): [`setup`], then the solver from the initial estimate.
-/// `observer` sees each iteration. Least squares only: a robust loss
-/// ([`crate::robust`]) applies to ball-touch calibrations.
-pub fn calibrate_instruments(
+/// touches): [`setup`], then the solver from the initial estimate, then
+/// the checks of a run at a least-squares minimum. `observer` sees each
+/// iteration. Least squares only: a robust loss ([`crate::robust`])
+/// applies to ball touches.
+pub(crate) fn solve(
     dataset: &Dataset,
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<InstrumentRun, CalibrateError> {
+) -> Result<Solved, CalibrateError> {
     if !options.loss.is_squared() {
         return Err(CalibrateError::RobustLoss {
             loss: options.loss,
@@ -157,7 +144,7 @@ pub fn calibrate_instruments(
         groups: Vec::new(),
         points: Vec::new(),
     };
-    let solution = solve(&problem, state, &solver_options, observer);
+    let solution = solve_problem(&problem, state, &solver_options, observer);
     let (n_rows, unknowns) = rows_and_unknowns(&problem, 0, problem.rows.len());
     let reliability = match (&solution.covariance, solution.history.last()) {
         (Some(covariance), Some(last)) if at_minimum(&solution.status) => {
@@ -192,43 +179,57 @@ pub fn calibrate_instruments(
         )
     });
     let InstrumentProblem { model, rows, prior } = problem;
-    let canonical = params::to_params(
+    let initial_params = params::to_params(
         &design
             .canonicalize()
             .map_err(CalibrateError::Design)?
             .geometry,
     );
-    let kinematic_prior = kinematic_prior(dataset, &design, &canonical, options.prior)?;
+    let kinematic_prior = kinematic_prior(dataset, &design, &initial_params, options.prior)?;
     let global = solution.state.global;
     let values = model.values(&global);
     let (leg_residuals, point_residuals) = residuals(&rows, &model, &values)?;
     let mut whitened = parcal_solver::GlobalObservations::zeros(0, 0);
     rows.evaluate(&model, &values, &mut whitened)?;
-    let data_information = whitened
+    let data = whitened
         .jacobian
         .row_iter()
         .fold(DVector::zeros(global.len()), |sum, row| {
             sum + row.transpose().component_mul(&row.transpose())
         });
-    Ok(InstrumentRun {
-        reliability,
-        global_test,
-        data_information,
-        options: options.clone(),
+    let covariance = solution.covariance.as_ref().and_then(|covariance| {
+        kinematic_covariance(
+            model.layout.kinematic().len(),
+            covariance,
+            kinematic_prior.as_ref(),
+        )
+    });
+    let information = ParameterInformation {
+        prior_sigmas: prior_sigmas(prior.as_ref(), model.layout.kinematic().len(), global.len()),
+        data,
+    };
+    Ok(Solved {
         design,
-        residual_rows: rows.len(),
-        model,
-        initial,
+        initial_params,
+        kinematic_prior,
+        layout: model.layout.clone(),
+        params: values.params,
+        covariance,
         global,
-        prior,
-        covariance: solution.covariance,
+        global_covariance: solution.covariance,
         status: solution.status,
         history: solution.history,
+        residual_rows: rows.len(),
         spectrum: solution.spectrum,
-        leg_residuals,
-        point_residuals,
-        machine: dataset.machine.clone(),
-        kinematic_prior,
+        global_test,
+        reliability,
+        instruments: InstrumentResult {
+            model,
+            initial,
+            leg_residuals,
+            point_residuals,
+            information: Some(information),
+        },
     })
 }
 
@@ -275,196 +276,72 @@ fn prior(
     Ok(Some(GaussianPrior::new(mean, information)))
 }
 
-impl InstrumentRun {
-    /// Whether the solver converged.
-    pub fn converged(&self) -> bool {
-        matches!(self.status, Status::Converged)
-    }
-
-    /// The run's verdict ([`crate::verdict`]).
-    pub fn verdict(&self) -> Verdict {
-        let outlier = self
-            .reliability
-            .as_ref()
-            .is_some_and(|r| r.fails_snooping(crate::hypothesis::SNOOPING_LEVEL));
-        Verdict::new(&self.status, self.global_test, outlier)
-    }
-
-    /// The model at the identified state.
-    pub fn values(&self) -> ModelValues {
-        self.model.values(&self.global)
-    }
-
-    /// The names of the global block's parameters.
-    pub fn names(&self) -> Vec<String> {
-        self.model.layout.names(&[], &self.model.sessions)
-    }
-
-    /// The posterior covariance of the 33 kinematic parameters: the
-    /// global covariance's leading block; without the tool in the layout
-    /// (poses alone), the 30's block with the tool's rows from the
-    /// kinematic prior conditional on the 30, which the data do not
-    /// change: `C_ta = K P`, `C_tt = Σ_tt − K Σ_at + K P Kᵀ`,
-    /// `K = Σ_ta Σ_aa⁻¹` (`P` the 30's posterior covariance, `Σ` the
-    /// prior's). That is the covariance of the tool's conditional prior
-    /// mean `μ_t + K (â − μ_a)`; the held design tool differs from it by
-    /// `K (â − μ_a)`. `None` without a covariance, or with the tool left
-    /// out and no prior.
-    pub fn kinematic_covariance(&self) -> Option<ParamCovariance> {
-        let covariance = self.covariance.as_ref()?;
-        let a = self.model.layout.kinematic().len();
-        if a == N_PARAMS {
-            return Some(
-                covariance
-                    .fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
-                    .into_owned(),
-            );
-        }
-        let sigma = self.kinematic_prior.as_ref()?.covariance();
-        let t = N_PARAMS - a;
-        let sigma_aa = sigma.view((0, 0), (a, a)).into_owned();
-        let sigma_ta = sigma.view((a, 0), (t, a)).into_owned();
-        let gain = sigma_aa
-            .cholesky()?
-            .solve(&sigma_ta.transpose())
-            .transpose();
-        let p = covariance.view((0, 0), (a, a)).into_owned();
-        let c_ta = &gain * &p;
-        let c_tt =
-            sigma.view((a, a), (t, t)) - &gain * sigma_ta.transpose() + &c_ta * gain.transpose();
-        let mut out = ParamCovariance::zeros();
-        out.view_mut((0, 0), (a, a)).copy_from(&p);
-        out.view_mut((a, 0), (t, a)).copy_from(&c_ta);
-        out.view_mut((0, a), (a, t)).copy_from(&c_ta.transpose());
-        out.view_mut((a, a), (t, t)).copy_from(&c_tt);
-        Some(out)
-    }
-
-    /// Marginal posterior sigmas of the global block.
-    pub fn sigmas(&self) -> Option<DVector<f64>> {
-        self.covariance
-            .as_ref()
-            .map(|c| c.diagonal().map(f64::sqrt))
-    }
-
-    /// Each parameter's prior sigma (infinite without a prior on it).
-    pub fn prior_sigmas(&self) -> DVector<f64> {
-        let n = self.global.len();
-        match &self.prior {
-            // The prior's information is block-diagonal by group; the
-            // kinematic block is full: its marginal sigmas are those of
-            // its inverse.
-            Some(prior) => {
-                let mut sigmas = DVector::from_element(n, f64::INFINITY);
-                let kinematic = self.model.layout.kinematic().len();
-                let block = prior
-                    .information
-                    .view((0, 0), (kinematic, kinematic))
-                    .into_owned();
-                if let Some(covariance) = block.try_inverse() {
-                    for k in 0..kinematic {
-                        sigmas[k] = covariance[(k, k)].sqrt();
-                    }
-                }
-                for k in kinematic..n {
-                    let information = prior.information[(k, k)];
-                    if information > 0.0 {
-                        sigmas[k] = information.sqrt().recip();
-                    }
-                }
-                sigmas
-            }
-            None => DVector::from_element(n, f64::INFINITY),
-        }
-    }
-
-    /// RMS of the whitened residuals at the final iterate (1 at the noise
-    /// level).
-    pub fn residual_rms(&self) -> f64 {
-        self.history.last().map_or(f64::NAN, |r| {
-            (r.global_observation_cost / self.residual_rows as f64).sqrt()
-        })
-    }
-
-    /// RMS of the poses' leg-length residuals (mm), or `None` without
-    /// poses.
-    pub fn leg_rms(&self) -> Option<f64> {
-        rms(self.leg_residuals.iter().flatten().copied())
-    }
-
-    /// RMS of the points' residual coordinates (mm), or `None` without
-    /// points.
-    pub fn point_rms(&self) -> Option<f64> {
-        rms(self.point_residuals.iter().flat_map(|p| p.iter().copied()))
-    }
-
-    /// The calibration.json record of this run, with `status`, the
-    /// sentence of its status.
-    /// A run that did not converge records no covariance and no sigma (0):
-    /// its covariance at the last iterate is no posterior accuracy.
-    pub fn record(&self, status: String) -> Calibration {
-        let values = self.values();
-        let posterior = self.covariance.as_ref().filter(|_| self.converged());
-        let sigma = posterior.map_or_else(
-            || DVector::zeros(self.global.len()),
-            |c| c.diagonal().map(f64::sqrt),
+/// The posterior covariance of the 33 kinematic parameters from the
+/// global block's `covariance`, whose first `a` columns are the kinematic
+/// parameters: its leading block; without the tool in the layout (poses
+/// alone, `a` = 30), the 30's block with the tool's rows from the
+/// kinematic prior `prior` conditional on the 30, which the data do not
+/// change: `C_ta = K P`, `C_tt = Σ_tt − K Σ_at + K P Kᵀ`,
+/// `K = Σ_ta Σ_aa⁻¹` (`P` the 30's posterior covariance, `Σ` the
+/// prior's). That is the covariance of the tool's conditional prior
+/// mean `μ_t + K (â − μ_a)`; the held design tool differs from it by
+/// `K (â − μ_a)`. `None` with the tool left out and no prior.
+fn kinematic_covariance(
+    a: usize,
+    covariance: &DMatrix<f64>,
+    prior: Option<&KinematicPrior>,
+) -> Option<ParamCovariance> {
+    if a == N_PARAMS {
+        return Some(
+            covariance
+                .fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
+                .into_owned(),
         );
-        let covariance = posterior
-            .map(|c| c.row_iter().map(|r| r.iter().copied().collect()).collect())
-            .unwrap_or_default();
-        let iterations = self
-            .history
-            .iter()
-            .map(|r| IterationSummary {
-                cost: r.cost,
-                step_norm: r.step_norm,
-                residual_rms: (r.global_observation_cost / self.residual_rows as f64).sqrt(),
-            })
-            .collect();
-        let method = match self.options.method {
-            Method::GaussNewton => "gauss-newton",
-            Method::LevenbergMarquardt { .. } => "levenberg-marquardt",
-        };
-        let options = BTreeMap::from([
-            ("observation".to_string(), "instruments".into()),
-            ("method".to_string(), method.into()),
-        ]);
-        Calibration {
-            canonical: record(&values.geometry),
-            parameters: ParameterTable {
-                names: self.names(),
-                values: self.global.iter().copied().collect(),
-                sigma: sigma.iter().copied().collect(),
-            },
-            covariance,
-            ball_centres: BTreeMap::new(),
-            prior: self.options.prior.to_string(),
-            iterations,
-            converged: self.converged(),
-            status,
-            options,
-            machine: Some(
-                self.model
-                    .calibrated_machine(&values, &sigma, &self.machine),
-            ),
-            sessions: self.model.session_records(&values),
-            verdict: String::new(),
-            reasons: Vec::new(),
-            warnings: Vec::new(),
-            global_test: None,
-            provenance: None,
-            removed_observations: Vec::new(),
-            down_weighted_observations: Vec::new(),
-            design: Some(self.machine.clone()),
-            diagnostics: None,
+    }
+    let sigma = prior?.covariance();
+    let t = N_PARAMS - a;
+    let sigma_aa = sigma.view((0, 0), (a, a)).into_owned();
+    let sigma_ta = sigma.view((a, 0), (t, a)).into_owned();
+    let gain = sigma_aa
+        .cholesky()?
+        .solve(&sigma_ta.transpose())
+        .transpose();
+    let p = covariance.view((0, 0), (a, a)).into_owned();
+    let c_ta = &gain * &p;
+    let c_tt = sigma.view((a, a), (t, t)) - &gain * sigma_ta.transpose() + &c_ta * gain.transpose();
+    let mut out = ParamCovariance::zeros();
+    out.view_mut((0, 0), (a, a)).copy_from(&p);
+    out.view_mut((a, 0), (t, a)).copy_from(&c_ta);
+    out.view_mut((0, a), (a, t)).copy_from(&c_ta.transpose());
+    out.view_mut((a, a), (t, t)).copy_from(&c_tt);
+    Some(out)
+}
+
+/// Each of the `n` parameters' prior sigma under `prior`, whose first
+/// `kinematic` are the kinematic parameters (infinite without a prior on
+/// it). The prior's information is block-diagonal by group; the kinematic
+/// block is full: its marginal sigmas are those of its inverse.
+fn prior_sigmas(prior: Option<&GaussianPrior<Dyn>>, kinematic: usize, n: usize) -> DVector<f64> {
+    let mut sigmas = DVector::from_element(n, f64::INFINITY);
+    let Some(prior) = prior else {
+        return sigmas;
+    };
+    let block = prior
+        .information
+        .view((0, 0), (kinematic, kinematic))
+        .into_owned();
+    if let Some(covariance) = block.try_inverse() {
+        for k in 0..kinematic {
+            sigmas[k] = covariance[(k, k)].sqrt();
         }
     }
-
-    /// The identified geometry in the first session's frames
-    /// ([`InstrumentModel::machine_in_first_session`]).
-    pub fn machine_in_first_session(&self, values: &ModelValues) -> Geometry {
-        self.model.machine_in_first_session(values)
+    for k in kinematic..n {
+        let information = prior.information[(k, k)];
+        if information > 0.0 {
+            sigmas[k] = information.sqrt().recip();
+        }
     }
+    sigmas
 }
 
 impl InstrumentModel {
@@ -498,7 +375,7 @@ impl InstrumentModel {
             .range(ParameterGroup::ActuatorScales)
             .map(|r| std::array::from_fn(|i| sigma[r.start + i]));
         CalibratedMachine {
-            geometry: record(&self.machine_in_first_session(values)),
+            geometry: geometry_record(&self.machine_in_first_session(values)),
             actuator: Actuator {
                 unit: design.actuator.unit.clone(),
                 scale: values.scales,
@@ -521,7 +398,8 @@ impl InstrumentModel {
     }
 }
 
-fn record(g: &Geometry) -> GeometryRecord {
+/// A geometry as calibration.json holds it.
+pub(crate) fn geometry_record(g: &Geometry) -> GeometryRecord {
     GeometryRecord {
         base_joints: g.base.map(Into::into),
         platform_joints: g.platform.map(Into::into),

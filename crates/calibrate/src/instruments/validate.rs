@@ -45,7 +45,6 @@ use crate::CalibrateError;
 use crate::instruments::InstrumentTable;
 use crate::instruments::model::InstrumentModel;
 use crate::instruments::rows::InstrumentRows;
-use crate::instruments::run::InstrumentRun;
 use crate::instruments::start::{forward_poses, frame_start};
 use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::prediction::{self, PredictionTest};
@@ -77,15 +76,6 @@ pub struct Calibrated {
 }
 
 impl Calibrated {
-    /// From an instrument calibration in memory: its numbers
-    /// ([`InstrumentRun::record`]) as [`Calibrated::from_record`] reads
-    /// them, with its global test.
-    pub fn of_run(run: &InstrumentRun) -> Result<Self, CalibrateError> {
-        let mut calibrated = Self::from_record(&run.record(String::new()))?;
-        calibrated.global_test = run.global_test.map(|t| (t.cost, t.redundancy));
-        Ok(calibrated)
-    }
-
     /// From a calibration of instrument measurements; refuses one without
     /// sessions (a ball-touch calibration) or without a covariance.
     pub fn from_record(calibration: &Calibration) -> Result<Self, CalibrateError> {

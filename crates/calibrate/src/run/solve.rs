@@ -14,9 +14,9 @@ use parcal_solver::{
 };
 
 use crate::fit::{BallMisfit, misfit_balls};
+use crate::instruments::InstrumentResult;
 use crate::layout::kinematic_params;
 use crate::mirror::{Mirrored, SETTLED, WrongSide, wrong_side};
-use crate::mixed::InstrumentResult;
 use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations};
 use crate::reliability::Reliability;
 use crate::robust::START_TOLERANCE;
@@ -334,7 +334,7 @@ impl SolverRun<'_> {
         let instruments = problem
             .instruments
             .as_ref()
-            .map(|i| i.result(&state.global, solution.covariance.as_ref()))
+            .map(|i| i.result(&state.global))
             .transpose()?;
         Ok(Estimate {
             instruments,

@@ -1,13 +1,12 @@
-//! Data snooping of the hexapod's calibrations ([`super`]): the ball
-//! touches and distances ([`calibrate_with_snooping`]; a robust loss
-//! replaces it, and snooping refuses one: [`crate::robust`]), and the
-//! measured poses and points ([`calibrate_instruments_with_snooping`]).
+//! Data snooping of the hexapod's calibration ([`super`]): its ball
+//! touches, distances, measured poses and points, whatever the dataset
+//! holds ([`calibrate_with_snooping`]; a robust loss replaces it, and
+//! snooping refuses one: [`crate::robust`]).
 
 use parcal_dataset::Dataset;
 use parcal_solver::IterationRecord;
 
 use super::{Place, Removable, Snoopable, Snooped, Tests, Worst, snoop};
-use crate::instruments::{InstrumentRun, calibrate_instruments};
 use crate::observation::ObservationId;
 use crate::reliability::Reliability;
 use crate::{CalibrateError, CalibrationOptions, CalibrationRun, MIN_CONTACTS_PER_BALL, calibrate};
@@ -88,32 +87,24 @@ fn tests(reliability: Option<&Reliability>) -> Option<Tests<ObservationId>> {
     })
 }
 
-/// The hexapod's two runs hold their checks and global test alike.
-macro_rules! snoopable_run {
-    ($run:ty) => {
-        impl Snoopable for $run {
-            type Place = ObservationId;
+impl Snoopable for CalibrationRun {
+    type Place = ObservationId;
 
-            fn tests(&self) -> Option<Tests<ObservationId>> {
-                tests(self.reliability.as_ref())
-            }
+    fn tests(&self) -> Option<Tests<ObservationId>> {
+        tests(self.reliability.as_ref())
+    }
 
-            fn variance_factor(&self) -> f64 {
-                self.global_test.map_or(f64::NAN, |t| t.variance_factor)
-            }
+    fn variance_factor(&self) -> f64 {
+        self.global_test.map_or(f64::NAN, |t| t.variance_factor)
+    }
 
-            fn converged(&self) -> bool {
-                <$run>::converged(self)
-            }
-        }
-    };
+    fn converged(&self) -> bool {
+        CalibrationRun::converged(self)
+    }
 }
 
-snoopable_run!(CalibrationRun);
-snoopable_run!(InstrumentRun);
-
-/// Calibrates the ball touches (and distances) of `dataset` with data
-/// snooping at family-wise `level`, removing at most `max_removals`
+/// Calibrates `dataset` ([`calibrate`]) with data snooping at
+/// family-wise `level`, removing at most `max_removals`
 /// observations (module doc).
 pub fn calibrate_with_snooping(
     dataset: &Dataset,
@@ -130,20 +121,6 @@ pub fn calibrate_with_snooping(
     }
     snoop(dataset, level, max_removals, |d| {
         calibrate(d, options, &mut *observer)
-    })
-}
-
-/// Calibrates the measured poses and points of `dataset` with data
-/// snooping, as [`calibrate_with_snooping`] does the ball touches.
-pub fn calibrate_instruments_with_snooping(
-    dataset: &Dataset,
-    options: &CalibrationOptions,
-    level: f64,
-    max_removals: usize,
-    observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<Snooped<InstrumentRun, ObservationId>, CalibrateError> {
-    snoop(dataset, level, max_removals, |d| {
-        calibrate_instruments(d, options, &mut *observer)
     })
 }
 

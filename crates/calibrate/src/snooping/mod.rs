@@ -24,7 +24,7 @@ use std::marker::PhantomData;
 
 use crate::hypothesis::critical_value;
 
-pub use hexapod::{calibrate_instruments_with_snooping, calibrate_with_snooping};
+pub use hexapod::calibrate_with_snooping;
 
 /// An observation named by its kind and its 0-based index among those of
 /// its kind.

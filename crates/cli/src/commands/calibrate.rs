@@ -7,14 +7,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use parcal::accuracy::MapGrid;
-use parcal::calibration::instruments::InstrumentRun;
 use parcal::calibration::{
     CalibrateError, CalibrationRun, IterationRecord, Loss, Observation, PriorMode, RadiusModel,
     Simulation, WeightModel, bounds,
 };
-use parcal::command::{
-    CalibrateFlags, FittedRun, RecordedRun, calibrate_recorded, calibrates_instruments,
-};
+use parcal::command::{CalibrateFlags, RecordedRun, calibrate_recorded};
 use parcal::dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE, ReadOptions};
 use parcal::report::{instruments, tables};
 use parcal::workflows::evaluate::{TrueMachine, before_after};
@@ -124,7 +121,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // A simulation's true machine serves the evaluation, not the
     // calibration: keep it, and free the dataset's truth.json with its true
     // contact points (24 bytes per contact).
-    let truth = if calibrates_instruments(&dataset) {
+    let truth = if !dataset.has_touches() {
         progress.line(&format!(
             "calibrating {} poses and {} points in {} sessions, {} prior",
             tracker.poses.len(),
@@ -170,13 +167,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // calibration.
     let report = args.report_request(&out, truth.as_ref());
     let destination = super::calibration_destination(&record, &out);
-    let printed = match &run {
-        FittedRun::Touches(run) => {
-            print_results(truth.as_ref(), run, &record, &destination, report.as_ref())
-        }
-        FittedRun::Instruments(run) => {
-            print_instruments(run, &record, &destination, report.as_ref())
-        }
+    let printed = if run.has_touches() {
+        print_results(truth.as_ref(), &run, &record, &destination, report.as_ref())
+    } else {
+        print_instruments(&run, &record, &destination, report.as_ref())
     };
     super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
     printed
@@ -201,9 +195,9 @@ fn step(progress: &Progress, record: &IterationRecord, started: Instant) {
 }
 
 /// The summary and parameter table of a calibration of measured poses and
-/// points on stdout.
+/// points alone on stdout.
 fn print_instruments(
-    run: &InstrumentRun,
+    run: &CalibrationRun,
     record: &parcal::dataset::Calibration,
     calibration: &Path,
     report: Option<&ReportRequest>,
@@ -319,12 +313,8 @@ fn print_results(
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "{}", tables::run_summary(run, truth))?;
     writeln!(stdout, "{}", tables::parameters(run, truth))?;
-    if let Some(instruments) = &run.instruments {
-        writeln!(
-            stdout,
-            "{}",
-            instruments::mixed_summary(instruments, &run.names())
-        )?;
+    if run.instruments.is_some() {
+        writeln!(stdout, "{}", instruments::mixed_summary(run))?;
     }
     writeln!(
         stdout,

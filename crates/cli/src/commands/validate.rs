@@ -9,7 +9,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use parcal::calibration::instruments::{Calibrated, cross_validate, validate_calibration};
+use parcal::calibration::cross_validation::cross_validate;
+use parcal::calibration::instruments::{Calibrated, validate_calibration};
 use parcal::calibration::validate_touches;
 use parcal::calibration::{CalibrationOptions, bounds};
 use parcal::dataset::VALIDATION_FILE;

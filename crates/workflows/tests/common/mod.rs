@@ -8,12 +8,9 @@ use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuater
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
 use parcal_calibrate::instruments::InstrumentModel;
-use parcal_calibrate::instruments::InstrumentRun;
 use parcal_calibrate::layout::ParameterGroup;
 use parcal_calibrate::observation::ObservationId;
-use parcal_calibrate::snooping::{
-    Snooped, calibrate_instruments_with_snooping, calibrate_with_snooping,
-};
+use parcal_calibrate::snooping::{Snooped, calibrate_with_snooping};
 use parcal_calibrate::{CalibrationOptions, CalibrationRun, PriorMode, Simulation};
 use parcal_dataset::{Dataset, FrameRecord};
 use parcal_kinematics::{Geometry, Vec3, params};
@@ -182,8 +179,8 @@ pub fn cost_bits(run: &CalibrationRun) -> Vec<u64> {
     run.history.iter().map(|h| h.cost.to_bits()).collect()
 }
 
-/// Data snooping of a touch (or mixed) calibration at the project's level
-/// and removal limit.
+/// Data snooping of a calibration (touches, poses, points) at the
+/// project's level and removal limit.
 pub fn snoop(
     dataset: &Dataset,
     options: &CalibrationOptions,
@@ -191,19 +188,7 @@ pub fn snoop(
     calibrate_with_snooping(dataset, options, SNOOPING_LEVEL, MAX_REMOVALS, &mut |_| {}).unwrap()
 }
 
-/// Data snooping of an instrument calibration, as [`snoop`].
-pub fn snoop_instruments(dataset: &Dataset) -> Snooped<InstrumentRun, ObservationId> {
-    calibrate_instruments_with_snooping(
-        dataset,
-        &CalibrationOptions::default(),
-        SNOOPING_LEVEL,
-        MAX_REMOVALS,
-        &mut |_| {},
-    )
-    .unwrap()
-}
-
 /// The observations snooping removed, in order.
-pub fn removed<Run>(snooped: &Snooped<Run, ObservationId>) -> Vec<ObservationId> {
+pub fn removed(snooped: &Snooped<CalibrationRun, ObservationId>) -> Vec<ObservationId> {
     snooped.removals.iter().map(|r| r.observation).collect()
 }

@@ -1,12 +1,11 @@
-//! k-fold cross-validation of an instrument calibration: every row
-//! predicted ([`validate_calibration`]) by a calibration fitted on the
-//! other folds.
+//! k-fold cross-validation of a calibration of poses and points: every
+//! row predicted ([`validate_calibration`]) by a calibration
+//! ([`crate::calibrate`]) fitted on the other folds.
 
 use parcal_dataset::Dataset;
 
-use crate::instruments::run::calibrate_instruments;
 use crate::instruments::validate::{Calibrated, Validation, subset, validate_calibration};
-use crate::{CalibrateError, CalibrationOptions};
+use crate::{CalibrateError, CalibrationOptions, calibrate};
 
 /// A k-fold cross-validation: every row predicted by a calibration fitted
 /// on the other folds.
@@ -105,9 +104,8 @@ pub fn cross_validate(
             ),
             ..dataset.clone()
         };
-        let run = calibrate_instruments(&part(false), options, &mut |_| {})?;
-        let mut calibrated = Calibrated::from_record(&run.record(String::new()))?;
-        calibrated.global_test = run.global_test.map(|t| (t.cost, t.redundancy));
+        let run = calibrate(&part(false), options, &mut |_| {})?;
+        let calibrated = Calibrated::of_run(&run)?;
         validations.push(validate_calibration(&part(true), &calibrated, None)?);
     }
     Ok(CrossValidation { folds, validations })
