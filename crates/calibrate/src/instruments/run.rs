@@ -1,6 +1,6 @@
 //! The instrument stage of a calibration: the poses and points of a
 //! dataset without ball touches set up ([`setup`]) and solved
-//! ([`solve`]); [`crate::calibrate`] makes its
+//! (`solve`); [`crate::calibrate`] makes its
 //! [`crate::CalibrationRun`] of them. Also calibration.json's records of
 //! the calibrated machine and of every session.
 
