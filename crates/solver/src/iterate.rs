@@ -166,6 +166,27 @@ fn global_step(system: &ReducedSystem) -> Option<DVector<f64>> {
     Some(DVector::from_vec(factor.solve(&neg_b)))
 }
 
+/// The Gauss–Newton step of `system` (least squares, undamped) when the
+/// reduced system alone certifies it below `tolerance` standard
+/// deviations, so that its back-substitution is not needed: with `δg =
+/// −S⁻¹b`, the decrease of the linearised cost is `δᵀHδ = (cost − ρ) −
+/// bᵀδg`, `ρ` the cost left once the points and groups are eliminated (the
+/// decrease their own steps give) and `−bᵀδg = bᵀS⁻¹b` the global block's;
+/// both are sums of squares, so rounding leaves them within about `ε` of
+/// the cost. Its size is `|δg|`, the step's global part: the local parts are
+/// not computed ([`IterationRecord::step_norm`]).
+fn certified_step(system: &ReducedSystem, dg: &DVector<f64>, tolerance: f64) -> Option<StepSize> {
+    if system.lambda != 0.0 || system.loss_cost.is_some() {
+        return None;
+    }
+    let quadratic = system.cost() - system.linear_minimum(dg.as_slice());
+    let sigmas = quadratic.max(0.0).sqrt();
+    (sigmas < tolerance).then(|| StepSize {
+        norm: dg.norm(),
+        sigmas,
+    })
+}
+
 /// One linear step of the Schur solver, as [`linear_step`] returns it.
 #[derive(Clone, Debug)]
 pub struct LinearStep<const C: usize, const P: usize> {
@@ -388,9 +409,23 @@ where
                     return self.end(x, Status::Stopped { iteration: solves });
                 }
             }
+            let global = global_step(&system);
+            if let Some(step) = global
+                .as_ref()
+                .and_then(|dg| certified_step(&system, dg, options.sigma_tolerance))
+            {
+                return self.finish(x, system, step, Status::Converged);
+            }
             // The step into `trial` and the policy's response; the trial
             // point's system if it was built.
-            let (step, response, next) = match self.ctx.step(&x, &system, &mut trial) {
+            let stepped = match &global {
+                Some(dg) => self
+                    .ctx
+                    .back_substitute(&x, &system, dg, &mut trial)
+                    .map(Some),
+                None => Ok(None),
+            };
+            let (step, response, next) = match stepped {
                 Err(f) => return self.fail(x, solves, f),
                 Ok(None) => (
                     StepSize::NONE,

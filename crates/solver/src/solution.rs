@@ -23,8 +23,10 @@ pub struct IterationRecord {
     pub prior_cost: f64,
     /// `|δ|` over all unknowns of the step computed at this iterate. For the
     /// final iterate of a converged run, the step below the tolerance that
-    /// certified convergence and was not applied; 0 when no step was
-    /// computed there.
+    /// certified convergence and was not applied; when the reduced system
+    /// alone certified it (a Gauss–Newton step of least squares below the
+    /// sigma tolerance, whose back-substitution is then not made), the
+    /// norm of its global part `|δg|`; 0 when no step was computed there.
     pub step_norm: f64,
     /// The same step in standard deviations, `√(δᵀHδ)` (`H` the undamped
     /// normal matrix, priors included): no unknown, nor any linear function

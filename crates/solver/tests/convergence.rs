@@ -5,7 +5,7 @@ mod common;
 use common::{Spec, couple, direction, distances, flatten, perturb, rel_diff, touches};
 use parcal_solver::{
     IterationRecord, Method, Problem, SIGMA_TOLERANCE, Solution, SolverOptions, State, Status,
-    solve,
+    linear_step, solve,
 };
 
 fn options(method: Method) -> SolverOptions {
@@ -151,6 +151,53 @@ fn gauss_newton_converges_to_truth_within_sigmas() {
 /// sigmas of the minimum (solved to a step tolerance of 1e-14 without the
 /// rule): the step left is the bound of what the run leaves undone, the
 /// steps after it being smaller still.
+/// A Gauss–Newton run of least squares certifies its last step from the
+/// reduced system, without back-substituting it: the record's `√(δᵀHδ)`
+/// is the back-substitution's at that iterate, to within the rounding of
+/// the cost (`√(ε · cost)` in sigmas), and its norm is the step's global
+/// part.
+#[test]
+fn the_reduced_system_certifies_the_last_step_as_the_back_substitution_would() {
+    for priors in [false, true] {
+        let (problem, truth) = touches(Spec {
+            priors,
+            seed: 11,
+            ..Spec::default()
+        });
+        let start = perturb(&truth, 2, 0.01, 0.02, 0.1);
+        let options = SolverOptions {
+            step_tolerance: 0.0,
+            ..options(Method::GaussNewton)
+        };
+        let ended = solve(&problem, start, &options, &mut |_| {});
+        assert_eq!(ended.status, Status::Converged);
+        let last = ended.history.last().unwrap();
+        let full = linear_step(
+            &problem,
+            &ended.state,
+            &mut Vec::new(),
+            0.0,
+            options.groups_per_chunk,
+        )
+        .expect("step at the final iterate");
+        let sigmas = full.predicted_decrease.max(0.0).sqrt();
+        let rounding = (f64::EPSILON * full.cost).sqrt();
+        println!(
+            "priors {priors}: certified {:.3e} sigma, back-substituted {sigmas:.3e} (rounding {rounding:.1e}); |δg| {:.3e} vs {:.3e}",
+            last.step_sigmas,
+            last.step_norm,
+            full.delta.global.norm()
+        );
+        assert!(last.step_sigmas < SIGMA_TOLERANCE && sigmas < SIGMA_TOLERANCE);
+        assert!(
+            (last.step_sigmas - sigmas).abs() <= rounding,
+            "{} against {sigmas}",
+            last.step_sigmas
+        );
+        assert_eq!(last.step_norm, full.delta.global.norm());
+    }
+}
+
 #[test]
 fn the_sigma_rule_ends_within_its_tolerance_of_the_minimum() {
     let spec = Spec {
