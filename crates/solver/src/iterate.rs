@@ -171,10 +171,12 @@ fn global_step(system: &ReducedSystem) -> Option<DVector<f64>> {
 /// deviations, so that its back-substitution is not needed: with `δg =
 /// −S⁻¹b`, the decrease of the linearised cost is `δᵀHδ = (cost − ρ) −
 /// bᵀδg`, `ρ` the cost left once the points and groups are eliminated (the
-/// decrease their own steps give) and `−bᵀδg = bᵀS⁻¹b` the global block's;
-/// both are sums of squares, so rounding leaves them within about `ε` of
-/// the cost. Its size is `|δg|`, the step's global part: the local parts are
-/// not computed ([`IterationRecord::step_norm`]).
+/// decrease their own steps give) and `−bᵀδg = bᵀS⁻¹b` the global block's.
+/// Both are non-negative in exact arithmetic; rounding leaves their sum
+/// within a few `ε · cost` of the back-substitution's `−bᵀδ`, far below
+/// `tolerance²` for whitened rows. Its size is `|δg|`, the step's global
+/// part: the local parts are not computed
+/// ([`IterationRecord::step_norm`]).
 fn certified_step(system: &ReducedSystem, dg: &DVector<f64>, tolerance: f64) -> Option<StepSize> {
     if system.lambda != 0.0 || system.loss_cost.is_some() {
         return None;
