@@ -4,7 +4,7 @@ use std::fmt;
 use std::time::Duration;
 
 use parcal_observe::WeightModel;
-use parcal_solver::{Loss, Method};
+use parcal_solver::{Loss, Method, SolverOptions};
 
 /// The observation equation of every contact.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -192,6 +192,20 @@ pub const LEVENBERG_MARQUARDT_ITERATIONS: usize = 200;
 pub const ROBUST_ITERATIONS: usize = 200;
 
 impl CalibrationOptions {
+    /// The solver's options these ask for: the method, the iteration and
+    /// time limits and the two stopping tolerances; the rest the solver's
+    /// defaults.
+    pub fn solver_options(&self) -> SolverOptions {
+        SolverOptions {
+            method: self.method,
+            max_iterations: self.max_iterations,
+            step_tolerance: self.step_tolerance,
+            sigma_tolerance: self.sigma_tolerance,
+            time_limit: self.time_limit,
+            ..SolverOptions::default()
+        }
+    }
+
     /// These options with the loss `loss`, and for a robust one an
     /// iteration limit of at least [`ROBUST_ITERATIONS`].
     pub fn with_loss(self, loss: Loss) -> Self {

@@ -161,14 +161,9 @@ fn calibrate_once(
     let (mut setup, observations) = Setup::new(dataset, options)?;
     let poses = std::mem::take(&mut setup.poses);
     let solver_options = SolverOptions {
-        method: options.method,
-        max_iterations: options.max_iterations,
-        step_tolerance: options.step_tolerance,
-        sigma_tolerance: options.sigma_tolerance,
-        time_limit: options.time_limit,
         // The checks' pass gives them ([`SolverRun::solve`]).
         group_sigmas: false,
-        ..SolverOptions::default()
+        ..options.solver_options()
     };
     let solver = SolverRun {
         setup: &setup,

@@ -170,13 +170,7 @@ fn calibrate_runs_the_instrument_stage_on_poses_and_points() {
     let InstrumentSetup {
         problem, initial, ..
     } = setup(&dataset, &options).unwrap();
-    let solver = SolverOptions {
-        method: options.method,
-        max_iterations: options.max_iterations,
-        step_tolerance: options.step_tolerance,
-        sigma_tolerance: options.sigma_tolerance,
-        ..SolverOptions::default()
-    };
+    let solver = options.solver_options();
     let state = State {
         global: initial,
         groups: Vec::new(),

@@ -7,6 +7,7 @@ mod common;
 
 use common::{removed, snoop};
 use parcal_calibrate::CalibrationOptions;
+use parcal_calibrate::instruments::InstrumentResult;
 use parcal_calibrate::observation::ObservationId;
 use parcal_dataset::Dataset;
 use parcal_simulate::{
@@ -58,6 +59,20 @@ fn a_blunder_in_a_distance_is_removed() {
     assert_eq!(snooped.run.distances_used, 59);
 }
 
+/// Snooping `dataset` removes `blunder` alone and accepts the rest; the
+/// run's poses and points, as `kept` counts them, are those left.
+fn removes_alone(
+    dataset: &Dataset,
+    blunder: ObservationId,
+    kept: impl Fn(&InstrumentResult) -> usize,
+    expected: usize,
+) {
+    let snooped = snoop(dataset, &CalibrationOptions::default());
+    assert_eq!(removed(&snooped), [blunder]);
+    assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
+    assert_eq!(kept(snooped.run.instruments.as_ref().unwrap()), expected);
+}
+
 /// A pose's position 0.5 mm (50 sigma) off in x: that pose's six rows are
 /// removed together, the rest accepted.
 #[test]
@@ -65,19 +80,11 @@ fn a_blunder_in_a_pose_row_is_removed() {
     let mut dataset = instruments();
     let row = 11;
     dataset.tracker.poses.position[row][0] += 0.5;
-    let snooped = snoop(&dataset, &CalibrationOptions::default());
-    let removed = removed(&snooped);
-    assert_eq!(removed, [ObservationId::Pose(row)]);
-    assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
-    assert_eq!(
-        snooped
-            .run
-            .instruments
-            .as_ref()
-            .unwrap()
-            .leg_residuals
-            .len(),
-        39
+    removes_alone(
+        &dataset,
+        ObservationId::Pose(row),
+        |i| i.leg_residuals.len(),
+        39,
     );
 }
 
@@ -87,19 +94,11 @@ fn a_blunder_in_a_point_row_is_removed() {
     let mut dataset = instruments();
     let row = 23;
     dataset.tracker.points.position[row][1] -= 0.5;
-    let snooped = snoop(&dataset, &CalibrationOptions::default());
-    let removed = removed(&snooped);
-    assert_eq!(removed, [ObservationId::Point(row)]);
-    assert!(snooped.run.verdict().accepted, "{:?}", snooped.stopped);
-    assert_eq!(
-        snooped
-            .run
-            .instruments
-            .as_ref()
-            .unwrap()
-            .point_residuals
-            .len(),
-        39
+    removes_alone(
+        &dataset,
+        ObservationId::Point(row),
+        |i| i.point_residuals.len(),
+        39,
     );
 }
 

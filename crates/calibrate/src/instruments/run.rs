@@ -11,8 +11,7 @@ use parcal_dataset::{
 use parcal_kinematics::{Geometry, N_PARAMS, ParamCovariance, Params, Vec3, params};
 use parcal_observe::KinematicPrior;
 use parcal_solver::{
-    GaussianPrior, IterationRecord, SolverOptions, SpectrumDiagnostics, State, Status,
-    solve as solve_problem,
+    GaussianPrior, IterationRecord, SpectrumDiagnostics, State, Status, solve as solve_problem,
 };
 
 use crate::instruments::model::{InstrumentModel, ModelValues};
@@ -131,14 +130,7 @@ pub(crate) fn solve(
         problem,
         initial,
     } = setup(dataset, options)?;
-    let solver_options = SolverOptions {
-        method: options.method,
-        max_iterations: options.max_iterations,
-        step_tolerance: options.step_tolerance,
-        sigma_tolerance: options.sigma_tolerance,
-        time_limit: options.time_limit,
-        ..SolverOptions::default()
-    };
+    let solver_options = options.solver_options();
     let state = State {
         global: initial.clone(),
         groups: Vec::new(),
