@@ -261,7 +261,7 @@ fn micrometres(mm: f64) -> String {
         .to_string()
 }
 
-/// The paper's reported figures (section 4 of the spec) next to ours, and
+/// The paper's reported figures (docs/paper-scenario.md, section 4) next to ours, and
 /// where and why they differ.
 fn comparison(cases: &[PaperCase; 6]) -> String {
     let [i, ii, iii, iv, _, iv_propagated] = cases.each_ref();

@@ -203,7 +203,7 @@ impl Findings {
         }
         if !converged.is_empty() {
             out.push_str(&format!(
-                " The iteration of {} then settles, because parcal starts every ball centre at the best fit of its design-FK contact points and the {N_PARAMS} canonical parameters are identifiable in principle. The paper does not give its initial centres or its stopping rule, so its divergence cannot be reproduced exactly; the spec leaves it open.",
+                " The iteration of {} then settles, because parcal starts every ball centre at the best fit of its design-FK contact points and the {N_PARAMS} canonical parameters are identifiable in principle. The paper does not give its initial centres or its stopping rule, so its divergence cannot be reproduced exactly.",
                 labels(&converged)
             ));
         }
