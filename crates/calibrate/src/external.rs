@@ -103,15 +103,16 @@ pub fn external_shifts<const C: usize, const P: usize, const R: usize, Pr: Probl
         .filter_map(|(&(observation, _), own)| {
             let rows: Vec<_> = influences.by_ref().take(own.len()).enumerate().collect();
             // The row of largest λ, among those another row checks.
-            let row = rows
+            let candidates: Vec<_> = rows
                 .into_iter()
                 .filter(|(_, i)| normalised_residual(0.0, i.redundancy).is_some())
                 .map(|(row, i)| {
                     let lambda = delta0 * (i.global_leverage.max(0.0) / i.redundancy).sqrt();
                     (row, i, lambda)
                 })
-                .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)))?;
-            let (row, influence, bias_to_noise) = row;
+                .collect();
+            let first = first_largest(candidates.iter().map(|c| c.2))?;
+            let (row, influence, bias_to_noise) = candidates.into_iter().nth(first)?;
             let mdb = delta0 / influence.redundancy.sqrt();
             Some(ExternalShift {
                 observation,
@@ -123,4 +124,34 @@ pub fn external_shifts<const C: usize, const P: usize, const R: usize, Pr: Probl
             })
         })
         .collect())
+}
+
+/// Relative difference below which two rows' `λ` tie: rounding, not the
+/// data, tells them apart (a contact's rows share their redundancy, and
+/// their `λ` differ in the last digits when the statistic is the same).
+const TIE: f64 = 1e-9;
+
+/// The index of the first of `values` within [`TIE`] of their largest, so
+/// that a tie goes to the first row whatever the rounding; `None` when
+/// there is none.
+fn first_largest(values: impl Iterator<Item = f64> + Clone) -> Option<usize> {
+    let largest = values.clone().fold(f64::NEG_INFINITY, f64::max);
+    values
+        .into_iter()
+        .position(|v| v >= largest - TIE * largest.abs())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::first_largest;
+
+    #[test]
+    fn a_tie_within_rounding_goes_to_the_first_row() {
+        let near = 2.0 * (1.0 + 1e-13);
+        assert_eq!(first_largest([1.0, near, 2.0].into_iter()), Some(1));
+        assert_eq!(first_largest([1.0, 2.0, near].into_iter()), Some(1));
+        assert_eq!(first_largest([3.0, 2.0, 2.0].into_iter()), Some(0));
+        assert_eq!(first_largest([1.0, 2.0, 2.0 + 1e-6].into_iter()), Some(2));
+        assert_eq!(first_largest(std::iter::empty()), None);
+    }
 }
