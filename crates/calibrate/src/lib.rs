@@ -94,6 +94,6 @@ pub use options::{
 pub use parcal_kinematics::ParamCovariance;
 pub use parcal_observe::WeightModel;
 pub use parcal_solver::{CAUCHY_K, HUBER_K, IterationRecord, Loss, Method};
-pub use run::{CalibrationRun, RunAway, calibrate};
+pub use run::{CalibratedBalls, CalibrationRun, RunAway, calibrate};
 pub use touch_validation::validate_touches;
 pub use validate::{MIN_CONTACTS_PER_BALL, validate};

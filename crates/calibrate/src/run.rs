@@ -20,7 +20,7 @@ mod record;
 mod result;
 mod solve;
 
-pub use result::{CalibrationRun, RunAway};
+pub use result::{CalibratedBalls, CalibrationRun, RunAway};
 use solve::SolverRun;
 
 /// Calibrates `dataset` (docs/paper-scenario.md section 4): its ball
@@ -110,13 +110,7 @@ fn instruments_alone(
         covariance: solved.covariance,
         global: solved.global,
         global_covariance: solved.global_covariance,
-        ball_ids: Vec::new(),
-        centres: Vec::new(),
-        centre_sigmas: None,
-        radii: None,
-        radius_sigmas: None,
-        ball_misfits: Vec::new(),
-        mirrored: Vec::new(),
+        balls: CalibratedBalls::default(),
         status: solved.status,
         history: solved.history,
         residual_rows: solved.residual_rows,
@@ -250,13 +244,15 @@ fn calibrate_once(
         covariance: solved.covariance,
         global: solved.global,
         global_covariance: solved.global_covariance,
-        ball_ids,
-        centres: solved.centres,
-        centre_sigmas: solved.centre_sigmas,
-        radii: solved.radii,
-        radius_sigmas: solved.radius_sigmas,
-        ball_misfits: solved.ball_misfits,
-        mirrored: solved.mirrored,
+        balls: CalibratedBalls {
+            ids: ball_ids,
+            centres: solved.centres,
+            centre_sigmas: solved.centre_sigmas,
+            radii: solved.radii,
+            radius_sigmas: solved.radius_sigmas,
+            misfits: solved.ball_misfits,
+            mirrored: solved.mirrored,
+        },
         status: solved.status,
         history: solved.history,
         residual_rows: solved.residual_rows,

@@ -187,7 +187,7 @@ fn calibrate_runs_the_instrument_stage_on_poses_and_points() {
         global.fixed_view::<N_PARAMS, N_PARAMS>(0, 0)
     );
     assert!(!run.has_touches());
-    assert!(run.ball_ids.is_empty() && run.centres.is_empty() && run.conflicts.is_empty());
+    assert!(run.balls.ids.is_empty() && run.balls.centres.is_empty() && run.conflicts.is_empty());
     let tracker = &dataset.tracker;
     assert_eq!(
         run.residual_rows,

@@ -13,7 +13,7 @@ fn a_blunder_flags_its_ball_and_only_it() {
     let mut dataset = simulate(&Scenario::paper(), 1).unwrap().dataset;
     let sound = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     assert!(sound.converged());
-    assert!(sound.ball_misfits.is_empty(), "{:?}", sound.ball_misfits);
+    assert!(sound.balls.misfits.is_empty(), "{:?}", sound.balls.misfits);
 
     // 50 um on one actuator reading of ball 5 (its repeatability is 1 um).
     let ball = 5;
@@ -26,9 +26,9 @@ fn a_blunder_flags_its_ball_and_only_it() {
     dataset.measurements.q[row][0] += 0.05;
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
     assert!(run.converged());
-    let flagged: Vec<&str> = run.ball_misfits.iter().map(|m| m.id.as_str()).collect();
+    let flagged: Vec<&str> = run.balls.misfits.iter().map(|m| m.id.as_str()).collect();
     assert_eq!(flagged, [dataset.artefacts.balls[ball].id.as_str()]);
-    let misfit = &run.ball_misfits[0];
+    let misfit = &run.balls.misfits[0];
     assert_eq!(misfit.degrees_of_freedom, 7 - 3);
     // Ten times the mean of chi-square(4) and more.
     assert!(misfit.chi_square > 40.0, "{misfit:?}");

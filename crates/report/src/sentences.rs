@@ -22,7 +22,7 @@ pub fn status(run: &CalibrationRun) -> String {
         |k| {
             format!(
                 "the centre of ball {} is not determined by its contacts",
-                run.ball_ids[k]
+                run.balls.ids[k]
             )
         },
         |i| {
@@ -125,7 +125,7 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
     });
     run_away
         .into_iter()
-        .chain(run.mirrored.iter().map(|m| {
+        .chain(run.balls.mirrored.iter().map(|m| {
             format!(
                 "ball {} was on the wrong side of its contacts at iteration {} (chi-square {:.1}; its contact points at that iterate's geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
                 m.id,
@@ -144,7 +144,7 @@ pub fn warnings(run: &CalibrationRun) -> Vec<String> {
         .iter()
         .map(paper_prior_warning)
         .chain(conflicts)
-        .chain(misfit_warning(&run.ball_misfits))
+        .chain(misfit_warning(&run.balls.misfits))
         .collect()
 }
 

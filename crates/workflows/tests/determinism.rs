@@ -27,7 +27,7 @@ fn one_and_two_threads_give_identical_bits() {
     assert!(one.converged());
     assert_eq!(one.params, two.params);
     assert_eq!(one.covariance, two.covariance);
-    assert_eq!(one.centres, two.centres);
+    assert_eq!(one.balls.centres, two.balls.centres);
     assert_eq!(cost_bits(&one), cost_bits(&two));
     // The checks of every observation too.
     assert!(one.reliability.is_some());

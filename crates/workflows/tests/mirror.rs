@@ -64,17 +64,17 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
 
     let run = calibrate(&dataset, &options(), &mut |_| {}).unwrap();
     assert!(run.converged(), "{:?}", run.status);
-    let mirrored: Vec<usize> = run.mirrored.iter().map(|m| m.ball).collect();
+    let mirrored: Vec<usize> = run.balls.mirrored.iter().map(|m| m.ball).collect();
     assert_eq!(mirrored, [ball]);
-    let side = &run.mirrored[0].side;
+    let side = &run.balls.mirrored[0].side;
     // Ten times the mean of chi-square(4) and more; the mirror image fits
     // the calibrated contact points ten times better and more.
     assert!(side.chi_square > 40.0, "{side:?}");
     assert!(side.mirror.cost * 10.0 < side.side.cost, "{side:?}");
-    assert!(run.ball_misfits.is_empty(), "{:?}", run.ball_misfits);
+    assert!(run.balls.misfits.is_empty(), "{:?}", run.balls.misfits);
     // Found at the first settled iterate, long before the run converged:
     // the iterate before it still moved the cost by more than SETTLED.
-    let at = run.mirrored[0].iteration;
+    let at = run.balls.mirrored[0].iteration;
     let (before, last) = (&run.history[at - 2], &run.history[at - 1]);
     assert!(
         (before.cost - last.cost).abs() > SETTLED * last.cost,
@@ -85,8 +85,8 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
     // Its centre (canonical frames) within 4 sigma of the truth, on the
     // right side: the initial centre was about 1.1 mm below it.
     let truth = TrueMachine::of(&dataset).unwrap().unwrap();
-    let sigmas = run.centre_sigmas.as_ref().unwrap()[ball];
-    let error = run.centres[ball] - truth.centres[ball];
+    let sigmas = run.balls.centre_sigmas.as_ref().unwrap()[ball];
+    let error = run.balls.centres[ball] - truth.centres[ball];
     for axis in 0..3 {
         assert!(
             error[axis].abs() < 4.0 * sigmas[axis],
@@ -94,7 +94,10 @@ fn a_ball_started_on_the_wrong_side_is_re_seeded_and_ends_right() {
         );
     }
     // The re-seeded initial centre is the one recorded.
-    assert_ne!(run.mirrored[0].initial_centre, setup.initial_centres[ball]);
+    assert_ne!(
+        run.balls.mirrored[0].initial_centre,
+        setup.initial_centres[ball]
+    );
 }
 
 #[test]
@@ -106,8 +109,8 @@ fn the_two_solves_share_the_iteration_limit() {
         ..options()
     };
     let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
-    assert_eq!(run.mirrored.len(), 1);
-    assert!(run.mirrored[0].iteration < 5);
+    assert_eq!(run.balls.mirrored.len(), 1);
+    assert!(run.balls.mirrored[0].iteration < 5);
     assert_eq!(run.status, parcal_solver::Status::IterationLimit);
     assert_eq!(run.iterations(), 5);
 }

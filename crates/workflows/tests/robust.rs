@@ -133,7 +133,7 @@ fn one_and_two_threads_give_identical_bits() {
     assert!(one.converged(), "{:?}", one.status);
     assert_eq!(one.params, two.params);
     assert_eq!(one.covariance, two.covariance);
-    assert_eq!(one.centres, two.centres);
+    assert_eq!(one.balls.centres, two.balls.centres);
     assert_eq!(cost_bits(&one), cost_bits(&two));
     let listed = |r: &CalibrationRun| r.reliability.as_ref().unwrap().down_weighted.clone();
     assert_eq!(listed(&one), listed(&two));

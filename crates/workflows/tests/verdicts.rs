@@ -522,7 +522,7 @@ fn a_run_that_did_not_converge_names_no_blunder() {
         let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
         assert!(!run.converged(), "{:?}", run.status);
         assert!(run.reliability.is_none());
-        assert!(run.ball_misfits.is_empty(), "{:?}", run.ball_misfits);
+        assert!(run.balls.misfits.is_empty(), "{:?}", run.balls.misfits);
         assert!(run.conflicts.is_empty());
         let verdict = run.verdict();
         assert!(!verdict.accepted);

@@ -76,19 +76,20 @@ impl CalibrationRun {
         let geometry = params::from_params(&self.params);
         let (parameters, covariance) = self.parameter_table();
         let converged = self.converged();
-        let centre_sigmas = self.centre_sigmas.as_ref().filter(|_| converged);
-        let radius_sigmas = self.radius_sigmas.as_ref().filter(|_| converged);
-        let ball_centres = self
-            .ball_ids
+        let balls = &self.balls;
+        let centre_sigmas = balls.centre_sigmas.as_ref().filter(|_| converged);
+        let radius_sigmas = balls.radius_sigmas.as_ref().filter(|_| converged);
+        let ball_centres = balls
+            .ids
             .iter()
             .enumerate()
             .map(|(k, id)| {
                 let sigma = centre_sigmas.map_or(Vec3::zeros(), |s| s[k]);
-                let radius = self.radii.as_ref().map(|r| r[k]);
+                let radius = balls.radii.as_ref().map(|r| r[k]);
                 (
                     id.clone(),
                     CentreEstimate {
-                        centre: self.centres[k].into(),
+                        centre: balls.centres[k].into(),
                         sigma: sigma.into(),
                         radius,
                         radius_sigma: radius.map(|_| radius_sigmas.map_or(0.0, |s| s[k])),

@@ -49,26 +49,8 @@ pub struct CalibrationRun {
     pub global: DVector<f64>,
     /// Its posterior covariance (the 33's is its leading block).
     pub global_covariance: Option<DMatrix<f64>>,
-    /// artefacts.json's ball ids, in its order.
-    pub ball_ids: Vec<String>,
-    /// Identified ball centres (canonical base frame).
-    pub centres: Vec<Vec3>,
-    /// Marginal sigmas of the centres (with the parameters' uncertainty).
-    pub centre_sigmas: Option<Vec<Vec3>>,
-    /// Identified ball radii, when each ball's radius was an unknown
-    /// ([`crate::RadiusModel::PerBall`]).
-    pub radii: Option<Vec<f64>>,
-    /// Their marginal sigmas.
-    pub radius_sigmas: Option<Vec<f64>>,
-    /// Balls whose contacts fit far worse than the noise allows
-    /// ([`crate::fit`]) at the final iterate of a converged run
-    /// ([`crate::verdict::at_minimum`]); empty when none is, or when the
-    /// run did not converge.
-    pub ball_misfits: Vec<BallMisfit>,
-    /// Balls that a settled iterate showed on the wrong side of their
-    /// contacts, re-seeded at the mirror image of their centre fit before
-    /// the calibration resumed ([`crate::mirror`]).
-    pub mirrored: Vec<Mirrored>,
+    /// The calibrated balls of the touches (empty without touches).
+    pub balls: CalibratedBalls,
     /// How the solver's run ended.
     pub status: Status,
     /// One record per iterate at which a step was computed, then the final
@@ -104,6 +86,33 @@ pub struct CalibrationRun {
     /// When this is the Levenberg-Marquardt run made after a Gauss-Newton
     /// run ran away: how that run ended ([`calibrate`](crate::calibrate)).
     pub gauss_newton: Option<RunAway>,
+}
+
+/// The balls a calibration of touches identified, in artefacts.json's
+/// order.
+#[derive(Debug, Clone, Default)]
+#[non_exhaustive]
+pub struct CalibratedBalls {
+    /// artefacts.json's ball ids.
+    pub ids: Vec<String>,
+    /// Identified centres (canonical base frame).
+    pub centres: Vec<Vec3>,
+    /// Marginal sigmas of the centres (with the parameters' uncertainty).
+    pub centre_sigmas: Option<Vec<Vec3>>,
+    /// Identified radii, when each ball's radius was an unknown
+    /// ([`crate::RadiusModel::PerBall`]).
+    pub radii: Option<Vec<f64>>,
+    /// Their marginal sigmas.
+    pub radius_sigmas: Option<Vec<f64>>,
+    /// Balls whose contacts fit far worse than the noise allows
+    /// ([`crate::fit`]) at the final iterate of a converged run
+    /// ([`crate::verdict::at_minimum`]); empty when none is, or when the
+    /// run did not converge.
+    pub misfits: Vec<BallMisfit>,
+    /// Balls that a settled iterate showed on the wrong side of their
+    /// contacts, re-seeded at the mirror image of their centre fit before
+    /// the calibration resumed ([`crate::mirror`]).
+    pub mirrored: Vec<Mirrored>,
 }
 
 impl CalibrationRun {
@@ -150,7 +159,7 @@ impl CalibrationRun {
             .instruments
             .as_ref()
             .map_or(&[][..], |i| &i.model.sessions[..]);
-        self.layout.names(&self.ball_ids, sessions)
+        self.layout.names(&self.balls.ids, sessions)
     }
 
     /// Marginal sigmas of the parameters.
