@@ -143,18 +143,20 @@ where
     Pr: Problem<C, P, R>,
 {
     /// The step `δ` of `system` (built at `state`) into `delta`, laid out
-    /// like the state; `None` if the reduced matrix is not numerically
-    /// positive definite.
+    /// like the state, from its global part `global` ([`global_step`]);
+    /// `None` if there is none (the reduced matrix is not numerically
+    /// positive definite).
     fn step(
         &mut self,
         state: &State<C, P>,
         system: &ReducedSystem,
+        global: Option<&DVector<f64>>,
         delta: &mut State<C, P>,
     ) -> Result<Option<StepSummary>, Failure> {
-        let Some(dg) = global_step(system) else {
-            return Ok(None);
-        };
-        self.back_substitute(state, system, &dg, delta).map(Some)
+        match global {
+            Some(dg) => self.back_substitute(state, system, dg, delta).map(Some),
+            None => Ok(None),
+        }
     }
 }
 
@@ -222,7 +224,7 @@ pub fn linear_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
     let mut delta = state.clone();
     let summary = ctx
-        .step(state, &system, &mut delta)
+        .step(state, &system, global_step(&system).as_ref(), &mut delta)
         .map_err(failed)?
         .ok_or_else(|| singular_at_start(&system))?;
     Ok(LinearStep {
@@ -420,13 +422,7 @@ where
             }
             // The step into `trial` and the policy's response; the trial
             // point's system if it was built.
-            let stepped = match &global {
-                Some(dg) => self
-                    .ctx
-                    .back_substitute(&x, &system, dg, &mut trial)
-                    .map(Some),
-                None => Ok(None),
-            };
+            let stepped = self.ctx.step(&x, &system, global.as_ref(), &mut trial);
             let (step, response, next) = match stepped {
                 Err(f) => return self.fail(x, solves, f),
                 Ok(None) => (
