@@ -477,7 +477,8 @@ fn balls_touched_too_few_times_are_refused_by_name() {
             .touches
             .iter()
             .filter(|t| t.ball == 1)
-            .take(3),
+            .take(3)
+            .cloned(),
     );
     let error = error_of(three);
     assert!(error.starts_with("ball 1: it has 3 touches"), "{error}");

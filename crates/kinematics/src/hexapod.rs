@@ -11,14 +11,17 @@
 //! - `dq/dx` are the closure rows `[n_i^T, (R E_i x n_i)^T]`
 //!   ([`crate::closure`]); `dq_i/dp` is `-n_i` at the base joint
 //!   `B_i`, `R^T n_i` at the platform joint `E_i`, `-1` at `l_i`.
+//! - The tool point is the tool tip `T = t + R E_T` (paper eq. 2), with
+//!   `dT/dx = [I, -[R E_T]x]` and `dT/dE_T = R`; forward kinematics
+//!   starts from [`Geometry::home_pose`].
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 
 use crate::closure::Legs;
 use crate::forward::step;
 use crate::mechanism::{
-    Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians, check_params,
-    check_vector,
+    Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians, ToolPoint,
+    check_params, check_vector,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -190,6 +193,34 @@ impl Mechanism for Hexapod {
         Ok(ReadingJacobians { d_params, d_pose })
     }
 
+    fn tool_point(&self, params: &[f64], pose: &[f64]) -> Result<ToolPoint, MechanismError> {
+        let geometry = self.geometry(params)?;
+        let pose = self.pose(pose)?;
+        let rotation = pose.rotation.to_rotation_matrix();
+        let arm = rotation * geometry.tool;
+        let mut d_pose = DMatrix::zeros(3, 6);
+        d_pose.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+        d_pose
+            .fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&(-arm.cross_matrix()));
+        let mut d_params = DMatrix::zeros(3, N_PARAMS);
+        d_params
+            .fixed_view_mut::<3, 3>(0, TOOL_OFFSET)
+            .copy_from(rotation.matrix());
+        Ok(ToolPoint {
+            point: geometry.tool_tip(&pose),
+            d_params,
+            d_pose,
+        })
+    }
+
+    fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
+        let geometry = self.geometry(params)?;
+        check_vector(self, "readings", readings, 6)?;
+        let q: [f64; 6] = std::array::from_fn(|i| readings[i]);
+        Ok(pose_vector(&geometry.home_pose(&q)))
+    }
+
     fn retract(&self, pose: &[f64], increment: &[f64]) -> DVector<f64> {
         pose_vector(&step(
             &pose_of(pose),
@@ -202,9 +233,7 @@ impl Mechanism for Hexapod {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::{
-        design, pose_jacobian_at_fixed_readings, reading_jacobians_by_differences,
-    };
+    use crate::mechanism::{design, reading_jacobians_by_differences, tool_point_at_readings};
     use crate::{paper, rotation_zyx, tip_jacobians_at};
     use nalgebra::Translation3;
 
@@ -268,33 +297,63 @@ mod tests {
     }
 
     #[test]
-    fn implicit_pose_derivative_reproduces_the_tool_tip_jacobian() {
-        // dT/dp = [I, -[R E_T]x] dx/dp + R dE_T/dp: the generic implicit
-        // differentiation through the trait against the crate's own J_f.
+    fn tool_point_derivatives_match_central_differences() {
+        let hexapod = hexapod();
+        let p = design(&hexapod);
+        let x = pose_vector(&sample_pose());
+        let tool = hexapod.tool_point(p.as_slice(), x.as_slice()).unwrap();
+        let geometry = from_params(&Params::from_column_slice(p.as_slice()));
+        assert_eq!(tool.point, geometry.tool_tip(&sample_pose()));
+        let at = |p: &[f64], x: &[f64]| hexapod.tool_point(p, x).unwrap().point;
+        let h = 1e-5;
+        for k in 0..N_PARAMS {
+            let (mut plus, mut minus) = (p.clone(), p.clone());
+            plus[k] += h;
+            minus[k] -= h;
+            let column = (at(plus.as_slice(), x.as_slice()) - at(minus.as_slice(), x.as_slice()))
+                / (2.0 * h);
+            // Linear in E_T, constant elsewhere: only rounding,
+            // ~1e-16 * 400 mm / 1e-5.
+            assert!(
+                (column - tool.d_params.column(k)).amax() < 1e-8,
+                "parameter {k}"
+            );
+        }
+        for k in 0..6 {
+            let step = DVector::from_fn(6, |i, _| if i == k { h } else { 0.0 });
+            let plus = hexapod.retract(x.as_slice(), step.as_slice());
+            let minus = hexapod.retract(x.as_slice(), (-step).as_slice());
+            let column = (at(p.as_slice(), plus.as_slice()) - at(p.as_slice(), minus.as_slice()))
+                / (2.0 * h);
+            // Truncation ~h^2 |E_T| ~1e-8, rounding ~1e-16 * 400 / 1e-5.
+            assert!(
+                (column - tool.d_pose.column(k)).amax() < 1e-7,
+                "pose increment {k}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_tool_point_at_readings_is_the_crates_tool_tip_and_its_jacobian() {
+        // dT/dp = [I, -[R E_T]x] dx/dp + R dE_T/dp by the generic implicit
+        // differentiation, from the readings and the home pose, through
+        // the trait alone, against the crate's own J_f.
         let hexapod = hexapod();
         let p = design(&hexapod);
         let geometry = from_params(&Params::from_column_slice(p.as_slice()));
         let pose = sample_pose();
-        let x = pose_vector(&pose);
-        let dx = pose_jacobian_at_fixed_readings(&hexapod, p.as_slice(), x.as_slice()).unwrap();
-        let tool = pose.rotation * geometry.tool;
-        let rotation = pose.rotation.to_rotation_matrix();
-        let mut tip = DMatrix::zeros(3, N_PARAMS);
-        for k in 0..N_PARAMS {
-            let (dt, w) = (
-                Vector3::new(dx[(0, k)], dx[(1, k)], dx[(2, k)]),
-                Vector3::new(dx[(3, k)], dx[(4, k)], dx[(5, k)]),
-            );
-            let mut column = dt + w.cross(&tool);
-            if k >= TOOL_OFFSET {
-                column += rotation.matrix().column(k - TOOL_OFFSET);
-            }
-            tip.set_column(k, &column);
-        }
+        let q = hexapod
+            .inverse(p.as_slice(), pose_vector(&pose).as_slice())
+            .unwrap();
+        let start = hexapod.start_pose(p.as_slice(), q.as_slice()).unwrap();
+        let (point, d_params) =
+            tool_point_at_readings(&hexapod, p.as_slice(), q.as_slice(), start.as_slice()).unwrap();
+        // The forward kinematics' tolerance, 1e-9 mm in the tip.
+        assert!((point - geometry.tool_tip(&pose)).amax() < 1e-9);
         let reference = tip_jacobians_at(&geometry, &pose).unwrap().d_params;
         let difference =
-            (tip - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice())).amax();
-        assert!(difference < 1e-10, "{difference:e}");
+            (d_params - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice())).amax();
+        assert!(difference < 1e-9, "{difference:e}");
     }
 
     #[test]

@@ -33,6 +33,19 @@
 //! translation), the left rotation increment for a pose with an
 //! orientation (the hexapod). Finite-difference checks step with `retract`.
 //!
+//! # The tool point
+//!
+//! What a probe, a tracker or a touched ball sees is one point of the
+//! moving body, the tool point `T(p, x)` ([`Mechanism::tool_point`]): the
+//! pose itself for a mechanism whose pose is a position (a delta's
+//! effector, a cable robot's), `T = t + R E_T` for the hexapod (its tool
+//! offset `E_T` among the parameters). At fixed readings its derivative
+//! with respect to the parameters is
+//!
+//! ```text
+//! dT/dp |_q = dT/dp |_x + dT/dx dx/dp |_q        (tool_point_at_readings)
+//! ```
+//!
 //! # Gauge
 //!
 //! Some parameter combinations change no measurement: a rigid motion of the
@@ -43,7 +56,7 @@
 //! mechanism's canonical frame. A parametrisation that is canonical by
 //! construction (the hexapod's 33) has none left.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::KinematicsError;
 
@@ -113,6 +126,17 @@ pub struct ReadingJacobians {
     pub d_params: DMatrix<f64>,
     /// `G_x = dq/dx` (actuators x pose increment), `x` stepped by
     /// [`Mechanism::retract`].
+    pub d_pose: DMatrix<f64>,
+}
+
+/// The tool point at a pose and its derivatives (module documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolPoint {
+    /// `T(p, x)` (mm).
+    pub point: Vector3<f64>,
+    /// `dT/dp` at fixed pose (3 x parameters).
+    pub d_params: DMatrix<f64>,
+    /// `dT/dx` (3 x pose increment), `x` stepped by [`Mechanism::retract`].
     pub d_pose: DMatrix<f64>,
 }
 
@@ -241,6 +265,30 @@ pub trait Mechanism: Send + Sync {
     /// by default `x + dx`.
     fn retract(&self, pose: &[f64], increment: &[f64]) -> DVector<f64> {
         DVector::from_column_slice(pose) + DVector::from_column_slice(increment)
+    }
+
+    /// The tool point `T(p, x)` at `pose`, with its analytic derivatives
+    /// (module documentation). By default the pose is the point, for a
+    /// mechanism whose pose is a position `(x, y, z)`: `dT/dp = 0`,
+    /// `dT/dx = I`; a mechanism with another pose must say where its tool
+    /// is (an error otherwise).
+    fn tool_point(&self, params: &[f64], pose: &[f64]) -> Result<ToolPoint, MechanismError> {
+        check_params(self, params)?;
+        check_vector(self, "pose coordinates", pose, 3)?;
+        Ok(ToolPoint {
+            point: Vector3::new(pose[0], pose[1], pose[2]),
+            d_params: DMatrix::zeros(3, params.len()),
+            d_pose: DMatrix::identity(3, 3),
+        })
+    }
+
+    /// A pose near the one `readings` reach, for an iterative
+    /// [`Mechanism::forward`] to start from when no nearer pose is known
+    /// (the origin by default: closed forms ignore it).
+    fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
+        check_params(self, params)?;
+        check_vector(self, "readings", readings, self.actuators().len())?;
+        Ok(DVector::zeros(self.pose_coordinates().len()))
     }
 
     /// The combinations of the parameters no measurement can see, at
@@ -385,6 +433,22 @@ pub fn pose_jacobian_at_fixed_readings(
         .filter(|m| m.iter().all(|v| v.is_finite()))
         .ok_or(MechanismError::Singular)?;
     Ok(-solved)
+}
+
+/// The tool point the machine of parameters `params` reaches at
+/// `readings`, `T(p, f(p, q))`, and its derivative at fixed readings,
+/// `dT/dp |_q = dT/dp |_x + dT/dx (-G_x^-1 G_p)` (3 x parameters; module
+/// documentation); the forward kinematics starts from `start`.
+pub fn tool_point_at_readings(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    readings: &[f64],
+    start: &[f64],
+) -> Result<(Vector3<f64>, DMatrix<f64>), MechanismError> {
+    let pose = mechanism.forward(params, readings, start)?;
+    let d_pose = pose_jacobian_at_fixed_readings(mechanism, params, pose.as_slice())?;
+    let tool = mechanism.tool_point(params, pose.as_slice())?;
+    Ok((tool.point, tool.d_pose * d_pose + tool.d_params))
 }
 
 /// The largest number of corrections [`forward_under_loads`] makes.

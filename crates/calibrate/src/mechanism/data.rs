@@ -8,8 +8,8 @@ use std::sync::Arc;
 
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
-    BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES, PartDistance, PointSample,
-    ProbeHeight,
+    Actuation, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES, PartDistance,
+    PointSample, ProbeHeight,
 };
 
 use super::error::MechanismCalibrationError;
@@ -238,9 +238,10 @@ impl MechanismData {
         }
     }
 
-    /// Checks the data before any work: a mechanism with a 3-coordinate
-    /// pose and [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators; sizes
-    /// matching it; finite values; positive sigmas; counts within
+    /// Checks the data before any work: a mechanism with
+    /// [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators; for one whose pose
+    /// is not a position `(x, y, z)` (the hexapod), touches at readings
+    /// and measured quantities alone; sizes matching it; finite values; positive sigmas; counts within
     /// [`MAX_OBSERVATIONS`] (balls within [`MAX_BALLS`]) and at least one
     /// observation; every ball touched at least [`MIN_TOUCHES_PER_BALL`]
     /// times. The first problem names the parameter, the observation or
@@ -252,14 +253,20 @@ impl MechanismData {
         };
         let name = mechanism.name();
         let coordinates = mechanism.pose_coordinates().len();
-        if coordinates != POSE_COORDINATES {
-            return invalid(
-                format!("the {name}"),
-                format!(
-                    "its pose has {coordinates} coordinates; this calibration takes a position (x, y, z)"
-                ),
-            );
-        }
+        // Every kind but a touch at readings puts the machine at a position
+        // (x, y, z), or makes its pose a block of three unknowns.
+        let needs_position = |id: ObservationRef| {
+            if coordinates == POSE_COORDINATES {
+                Ok(())
+            } else {
+                Err(observation_error(
+                    id,
+                    format!(
+                        "the {name}'s pose has {coordinates} coordinates, not a position (x, y, z): of its observations this calibration takes touches at the actuators' readings"
+                    ),
+                ))
+            }
+        };
         let actuators = mechanism.actuators().len();
         if !(MIN_ACTUATORS..=MAX_ACTUATORS).contains(&actuators) {
             return invalid(
@@ -321,11 +328,13 @@ impl MechanismData {
         let at = |kind, index| ObservationRef { kind, index };
         for (k, probe) in observations.probes.iter().enumerate() {
             let id = at(ObservationKind::Probe, k);
+            needs_position(id)?;
             check_values(id, "commanded position", &probe.commanded)?;
             check_sigma(id, probe.sigma)?;
         }
         for (k, distance) in observations.distances.iter().enumerate() {
             let id = at(ObservationKind::Distance, k);
+            needs_position(id)?;
             check_values(id, "first position", &distance.first)?;
             check_values(id, "second position", &distance.second)?;
             check_values(id, "distance", &[distance.distance])?;
@@ -336,6 +345,7 @@ impl MechanismData {
         }
         for (k, point) in observations.points.iter().enumerate() {
             let id = at(ObservationKind::Point, k);
+            needs_position(id)?;
             check_values(id, "commanded position", &point.commanded)?;
             check_values(id, "measured position", &point.measured)?;
             for sigma in point.sigma {
@@ -344,6 +354,7 @@ impl MechanismData {
         }
         for (k, sample) in observations.samples.iter().enumerate() {
             let id = at(ObservationKind::Sample, k);
+            needs_position(id)?;
             if sample.readings.len() != actuators {
                 return Err(observation_error(
                     id,
@@ -374,7 +385,20 @@ impl MechanismData {
                 check_values(id, "loads", loads)?;
             }
         }
-        check_balls(observations)?;
+        check_balls(observations, |id, at| match at {
+            Actuation::Commanded(commanded) => {
+                needs_position(id)?;
+                check_values(id, "commanded position", commanded)
+            }
+            Actuation::Readings(readings) if readings.len() != actuators => Err(observation_error(
+                id,
+                format!(
+                    "{} readings for the {actuators} actuators of the {name}",
+                    readings.len()
+                ),
+            )),
+            Actuation::Readings(readings) => check_values(id, "readings", readings),
+        })?;
         let quantities = mechanism.quantities();
         for (k, measured) in observations.quantities.iter().enumerate() {
             let id = at(ObservationKind::Quantity, k);
@@ -396,10 +420,13 @@ impl MechanismData {
 }
 
 /// Every ball's radius finite and positive and its sigma, if any, finite
-/// and positive; every touch on a ball that exists, with finite values and
-/// a positive sigma; every ball touched at least [`MIN_TOUCHES_PER_BALL`]
-/// times.
-fn check_balls(observations: &Observations) -> Result<(), MechanismCalibrationError> {
+/// and positive; every touch on a ball that exists, where the machine was
+/// put as `check_at` accepts, with a positive sigma; every ball touched at
+/// least [`MIN_TOUCHES_PER_BALL`] times.
+fn check_balls(
+    observations: &Observations,
+    check_at: impl Fn(ObservationRef, &Actuation) -> Result<(), MechanismCalibrationError>,
+) -> Result<(), MechanismCalibrationError> {
     let balls = &observations.balls;
     let ball_error = |b: usize, reason: String| MechanismCalibrationError::InvalidData {
         what: format!("ball {b}"),
@@ -437,7 +464,7 @@ fn check_balls(observations: &Observations) -> Result<(), MechanismCalibrationEr
                 ),
             ));
         }
-        check_values(id, "commanded position", &touch.commanded)?;
+        check_at(id, &touch.at)?;
         check_sigma(id, touch.sigma)?;
         touches_of[touch.ball] += 1;
     }

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use parcal_dataset::mechanism::MechanismDataset;
 use parcal_kinematics::mechanisms;
 use parcal_observe::mechanism::{
-    BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+    Actuation, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
 };
 
 use super::data::{Ball, MechanismData, Observations};
@@ -117,7 +117,7 @@ impl MechanismData {
             .map(|row| {
                 Ok(BallTouch {
                     ball: row.ball,
-                    commanded: row.commanded,
+                    at: Actuation::Commanded(row.commanded),
                     sigma: noise(n.touch, "touch")?,
                 })
             })

@@ -1,11 +1,11 @@
-//! One calibration for any mechanism whose pose is a position `(x, y, z)`
-//! (a linear delta, a cable robot), through the
-//! [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: probe
-//! heights, part distances, measured points, readings at unknown poses and
-//! touches of calibrated balls at unknown centres
-//! ([`parcal_observe::mechanism`]), with the builder's tolerances as
-//! priors, by the method of Sato et al. (2004) the hexapod's calibration
-//! follows.
+//! One calibration for any mechanism through the
+//! [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: for one
+//! whose pose is a position `(x, y, z)` (a linear delta, a cable robot),
+//! probe heights, part distances, measured points, readings at unknown
+//! poses and touches of calibrated balls at unknown centres
+//! ([`parcal_observe::mechanism`]); for any other (the hexapod), touches at
+//! the actuators' readings. The builder's tolerances are the priors, by
+//! the method of Sato et al. (2004) the hexapod's own calibration follows.
 //!
 //! The stages, each importing only those above it (private but
 //! [`frame`] and [`identifiability`]; their results are re-exported here):
@@ -27,6 +27,8 @@
 //!   verdict;
 //! - `snooping`: data snooping;
 //! - `input`: a dataset read from files as [`MechanismData`];
+//! - `hexapod_input`: a hexapod's ball touches as [`MechanismData`]
+//!   ([`MechanismData::from_hexapod_touches`]);
 //! - `record`: a result as its `calibration.json` record;
 //! - `calibrated`: a `calibration.json` record as the numbers that apply
 //!   it ([`CalibratedMechanism`]);
@@ -71,6 +73,7 @@ mod data;
 mod error;
 mod fit;
 pub mod frame;
+mod hexapod_input;
 pub mod identifiability;
 mod input;
 mod observation;

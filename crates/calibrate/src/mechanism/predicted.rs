@@ -400,6 +400,7 @@ mod tests {
     use parcal_kinematics::cable::CableRobot;
     use parcal_kinematics::delta::LinearDelta;
     use parcal_kinematics::mechanism::{design, prior_sigma};
+    use parcal_observe::mechanism::Actuation;
     use parcal_observe::mechanism::BallTouch;
     use parcal_simulate::Rng;
 
@@ -515,7 +516,7 @@ mod tests {
                     .unwrap();
                 BallTouch {
                     ball: 0,
-                    commanded: [commanded[0], commanded[1], commanded[2]],
+                    at: Actuation::Commanded([commanded[0], commanded[1], commanded[2]]),
                     sigma: 0.01,
                 }
             })
@@ -644,7 +645,7 @@ mod tests {
         let (delta, configured, truth) = delta();
         let touch = BallTouch {
             ball: 1,
-            commanded: [0.0; 3],
+            at: Actuation::Commanded([0.0; 3]),
             sigma: 0.01,
         };
         let ball = Ball {

@@ -160,7 +160,8 @@ impl<'a> MechanismProblem<'a> {
                 continue;
             }
             let pose = mechanism
-                .forward(params, &sample.readings, &[0.0; 3])
+                .start_pose(params, &sample.readings)
+                .and_then(|start| mechanism.forward(params, &sample.readings, start.as_slice()))
                 .map_err(|e| MechanismCalibrationError::Observation {
                     observation: ObservationRef {
                         kind: ObservationKind::Sample,
@@ -314,8 +315,8 @@ fn global_prior_of(data: &MechanismData) -> (DVector<f64>, DVector<f64>) {
 
 /// The centre of ball `b` of calibrated radius `radius` from its
 /// `touches` (indices into `all`): the best fit, with its radius, of the
-/// tool points `x = f(p, g(p_c, x_c))` the touches reach with parameters
-/// `params` and the controller's `configured` ([`best_fit`]; the last
+/// tool points the touches reach with parameters `params` and the
+/// controller's `configured` ([`best_fit`]; the last
 /// iterate of a fit that did not converge).
 pub(crate) fn ball_centre(
     mechanism: &dyn Mechanism,
@@ -329,17 +330,16 @@ pub(crate) fn ball_centre(
     let points = touches
         .iter()
         .map(|&t| {
-            let at = ObservationRef {
-                kind: ObservationKind::Touch,
-                index: t,
-            };
-            let commanded = &all[t].commanded;
-            let readings = mechanism
-                .inverse(configured, commanded)
-                .map_err(|e| failed(at, e))?;
-            let x = mechanism
-                .forward(params, readings.as_slice(), commanded)
-                .map_err(|e| failed(at, e))?;
+            let (x, _) = all[t]
+                .at
+                .tool_point(mechanism, params, configured)
+                .map_err(|e| {
+                    let at = ObservationRef {
+                        kind: ObservationKind::Touch,
+                        index: t,
+                    };
+                    failed(at, e)
+                })?;
             Ok(Vector3::new(x[0], x[1], x[2]))
         })
         .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
@@ -531,6 +531,7 @@ impl Problem<3, 0, 1> for MechanismProblem<'_> {
 
 #[cfg(test)]
 mod tests {
+    use parcal_observe::mechanism::Actuation;
     use std::sync::Arc;
 
     use nalgebra::DVector;
@@ -629,7 +630,7 @@ mod tests {
                 let commanded = delta.forward(c, readings.as_slice(), &true_point).unwrap();
                 BallTouch {
                     ball,
-                    commanded: [commanded[0], commanded[1], commanded[2]],
+                    at: Actuation::Commanded([commanded[0], commanded[1], commanded[2]]),
                     sigma: 0.005,
                 }
             })

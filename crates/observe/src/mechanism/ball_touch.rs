@@ -2,8 +2,9 @@
 //! touches a ball of known radius placed at an unknown centre.
 //!
 //! The controller commands `x_c` in its own coordinates, readings `q =
-//! g(p_c, x_c)` from the configured parameters `p_c`; the tool point truly
-//! is at `x = f(p, q)` ([`reached`]) and lies on the sphere of centre `c`
+//! g(p_c, x_c)` from the configured parameters `p_c`, or the actuators'
+//! readings `q` are recorded at the touch ([`Actuation`]); the tool point
+//! truly is at `x = T(p, f(p, q))` and lies on the sphere of centre `c`
 //! (3 unknowns of the ball, eliminated like a point sample's pose) and
 //! radius `ρ` (the ball's calibrated radius: known, or an unknown with its
 //! calibration's prior). With `σ` the touch's noise along the normal:
@@ -15,21 +16,21 @@
 //!
 //! A sphere of known radius fixes lengths: the touches of one ball
 //! measure the machine's scale, which probe heights on a plane leave to
-//! the prior.
+//! the prior. This is the paper's radius observation (eq. 9), which the
+//! hexapod's own calibration also offers.
 
 use nalgebra::{DMatrix, DVector, RowVector3, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 
-use super::commanded::{Rows, check_sigma, reached};
+use super::commanded::{Actuation, Rows, check_sigma};
 
 /// One touch of a ball (module doc).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct BallTouch {
     /// The index of the ball touched.
     pub ball: usize,
-    /// The commanded position `x_c` at the touch (mm, the controller's
-    /// coordinates).
-    pub commanded: [f64; 3],
+    /// Where the machine was put at the touch.
+    pub at: Actuation,
     /// The touch's standard deviation `σ` along the sphere's normal (mm).
     pub sigma: f64,
 }
@@ -59,8 +60,8 @@ impl BallTouch {
         radius: f64,
     ) -> Result<TouchRow, MechanismError> {
         check_sigma("touch sigma", self.sigma)?;
-        let (pose, jacobian) = reached(mechanism, params, configured, &self.commanded)?;
-        let offset = Vector3::new(pose[0], pose[1], pose[2]) - centre;
+        let (point, jacobian) = self.at.tool_point(mechanism, params, configured)?;
+        let offset = Vector3::new(point[0], point[1], point[2]) - centre;
         let distance = offset.norm();
         if distance == 0.0 || !distance.is_finite() {
             return Err(MechanismError::Unreachable {
@@ -84,13 +85,15 @@ impl BallTouch {
 mod tests {
     use super::*;
     use crate::mechanism::test_support::{delta, differences};
+    use parcal_kinematics::mechanism::design;
+    use parcal_kinematics::mechanisms::by_name;
 
     #[test]
     fn derivatives_match_central_differences() {
         let (delta, configured, truth) = delta();
         let touch = BallTouch {
             ball: 0,
-            commanded: [40.0, -30.0, 18.0],
+            at: Actuation::Commanded([40.0, -30.0, 18.0]),
             sigma: 0.005,
         };
         let centre = Vector3::new(35.0, -33.0, 6.0);
@@ -117,13 +120,44 @@ mod tests {
     }
 
     #[test]
+    fn a_hexapods_touch_at_its_readings_matches_central_differences() {
+        // The tool tip of a hexapod whose legs read q, from its home pose.
+        let hexapod = by_name("hexapod").unwrap();
+        let hexapod = hexapod.as_ref();
+        let p = design(hexapod);
+        let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
+        let q = hexapod.inverse(p.as_slice(), &pose).unwrap();
+        let touch = BallTouch {
+            ball: 0,
+            at: Actuation::Readings(q.iter().copied().collect()),
+            sigma: 0.002,
+        };
+        let tip = hexapod.tool_point(p.as_slice(), &pose).unwrap().point;
+        let centre = tip + Vector3::new(2.0, -3.0, 4.0);
+        let at = |params: &[f64]| touch.evaluate(hexapod, params, &[], &centre, 5.0).unwrap();
+        let analytic = at(p.as_slice());
+        // |tip - c| = √29: the residual is (√29 - 5) / σ.
+        let expected = (29f64.sqrt() - 5.0) / 0.002;
+        assert!(
+            (analytic.rows.residual[0] - expected).abs() < 1e-5,
+            "{:?}",
+            analytic.rows
+        );
+        // Steps of 1e-4 mm through forward kinematics converged far below
+        // its 1e-9 mm tolerance (Newton's quadratic convergence).
+        let numeric = differences(hexapod, &p, 1e-4, |params| at(params).rows.residual);
+        let error = (&analytic.rows.d_params - &numeric).amax();
+        assert!(error < 1e-6 * numeric.amax(), "{error:e}");
+    }
+
+    #[test]
     fn a_correct_controller_touches_at_the_radius() {
         // Configured = true: the tool point is where it was commanded.
         let (delta, configured, _) = delta();
         let c = configured.as_slice();
         let touch = BallTouch {
             ball: 0,
-            commanded: [3.0, 4.0, 10.0],
+            at: Actuation::Commanded([3.0, 4.0, 10.0]),
             sigma: 0.01,
         };
         let row = touch
@@ -132,7 +166,7 @@ mod tests {
         assert!((row.rows.residual[0] - 10.0).abs() < 1e-8, "{:?}", row.rows);
         let bad = BallTouch {
             sigma: 0.0,
-            ..touch
+            ..touch.clone()
         };
         let error = bad
             .evaluate(&delta, c, c, &Vector3::zeros(), 4.9)

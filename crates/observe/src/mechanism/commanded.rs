@@ -1,8 +1,9 @@
-//! What the machine reaches when its controller commands a position, and
-//! the whitened rows every observation kind returns.
+//! What the machine reaches when its controller commands a position or its
+//! actuators read given values, and the whitened rows every observation
+//! kind returns.
 
 use nalgebra::{DMatrix, DVector};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, pose_jacobian_at_fixed_readings};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_at_readings};
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
 pub const POSE_COORDINATES: usize = 3;
@@ -18,8 +19,9 @@ pub struct Rows {
 }
 
 /// Where the machine with true parameters `params` is when its controller,
-/// configured with `configured`, commands `commanded`: the pose
-/// `x = f(p, g(p_c, x_c))` and `dx/dp` at fixed readings (module doc).
+/// configured with `configured`, commands `commanded`: the tool point
+/// `T(p, f(p, g(p_c, x_c)))` and its `dT/dp` at fixed readings (3 x
+/// parameters; module doc), the forward kinematics started at `x_c`.
 pub fn reached(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -27,9 +29,52 @@ pub fn reached(
     commanded: &[f64; 3],
 ) -> Result<(DVector<f64>, DMatrix<f64>), MechanismError> {
     let readings = mechanism.inverse(configured, commanded)?;
-    let pose = mechanism.forward(params, readings.as_slice(), commanded)?;
-    let jacobian = pose_jacobian_at_fixed_readings(mechanism, params, pose.as_slice())?;
-    Ok((pose, jacobian))
+    let (point, jacobian) =
+        tool_point_at_readings(mechanism, params, readings.as_slice(), commanded)?;
+    Ok((DVector::from_column_slice(point.as_slice()), jacobian))
+}
+
+/// How the machine was put where it observed: a position `x_c` its
+/// controller commanded (the readings `g(p_c, x_c)` follow from the
+/// configured parameters), or the readings `q` its actuators gave (a
+/// hexapod's legs at a touch).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Actuation {
+    /// A commanded position `x_c` (mm, the controller's coordinates).
+    Commanded([f64; 3]),
+    /// The actuators' readings `q`, one per actuator.
+    Readings(Vec<f64>),
+}
+
+impl Actuation {
+    /// The tool point the machine of true parameters `params` reaches and
+    /// its `dT/dp` at fixed readings: [`reached`] for a commanded position;
+    /// for readings, the forward kinematics from the mechanism's
+    /// [`Mechanism::start_pose`].
+    pub fn tool_point(
+        &self,
+        mechanism: &dyn Mechanism,
+        params: &[f64],
+        configured: &[f64],
+    ) -> Result<(DVector<f64>, DMatrix<f64>), MechanismError> {
+        match self {
+            Self::Commanded(commanded) => reached(mechanism, params, configured, commanded),
+            Self::Readings(readings) => {
+                let start = mechanism.start_pose(params, readings)?;
+                let (point, jacobian) =
+                    tool_point_at_readings(mechanism, params, readings, start.as_slice())?;
+                Ok((DVector::from_column_slice(point.as_slice()), jacobian))
+            }
+        }
+    }
+
+    /// The values it holds: the commanded coordinates or the readings.
+    pub fn values(&self) -> &[f64] {
+        match self {
+            Self::Commanded(commanded) => commanded,
+            Self::Readings(readings) => readings,
+        }
+    }
 }
 
 /// Refuses a standard deviation that is not finite and positive.

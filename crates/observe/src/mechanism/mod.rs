@@ -1,5 +1,5 @@
-//! Observation kinds of any mechanism with a 3-coordinate pose (a linear
-//! delta, a cable robot) through the
+//! Observation kinds of any mechanism (a linear delta, a cable robot, the
+//! hexapod) through the
 //! [`Mechanism`](parcal_kinematics::mechanism::Mechanism) trait: each gives
 //! its whitened residual rows and their analytic Jacobians with respect to
 //! the true parameters `p` (and its own other unknowns).
@@ -18,7 +18,9 @@
 //! - [`BallTouch`]: the tool point touching a calibrated sphere at an
 //!   unknown centre, `(|x − c| − ρ) / σ` (1 row; unknowns `p`, the ball's
 //!   centre `c`, a block of its own, and its radius `ρ` when it has a
-//!   calibration sigma).
+//!   calibration sigma), at a commanded position or at the actuators'
+//!   readings ([`Actuation`]): the one kind a mechanism of any pose (the
+//!   hexapod's six coordinates) takes, through its tool point.
 //!
 //! # Commanded positions
 //!
@@ -27,9 +29,12 @@
 //! `q = g(p_c, x_c)`. The machine, whose true parameters are `p`, is then
 //! at `x = f(p, q)`; at fixed readings its derivative is
 //! `dx/dp = −G_x⁻¹ G_p`
-//! ([`pose_jacobian_at_fixed_readings`](parcal_kinematics::mechanism::pose_jacobian_at_fixed_readings)), which
-//! [`reached`] evaluates. `p_c` is known and fixed: only the true `p` is
-//! an unknown.
+//! ([`pose_jacobian_at_fixed_readings`](parcal_kinematics::mechanism::pose_jacobian_at_fixed_readings)),
+//! and its tool point's
+//! ([`tool_point_at_readings`](parcal_kinematics::mechanism::tool_point_at_readings)),
+//! which [`reached`] evaluates. `p_c` is known and fixed: only the true
+//! `p` is an unknown. Commanded positions need a mechanism whose pose is a
+//! position; every kind but the touch takes them.
 
 mod ball_touch;
 mod commanded;
@@ -40,7 +45,7 @@ mod probe;
 mod quantity;
 
 pub use ball_touch::{BallTouch, TouchRow};
-pub use commanded::{POSE_COORDINATES, Rows, reached};
+pub use commanded::{Actuation, POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
 pub use point_sample::{PointSample, SampleRows};

@@ -1,0 +1,139 @@
+//! The hexapod through the common interface: the ball touches of
+//! fixtures/paper-seed1 calibrated as a [`Mechanism`] plug-in by the path
+//! of every mechanism (`calibrate_mechanism`), against the hexapod's own
+//! calibration with the same model (the radius observation, eq. 9; the
+//! diagonal weights; each ball's radius an unknown with its calibration
+//! prior; no prior on the parameters). Both minimise the same cost, so
+//! they must reach the same estimate and the same covariance.
+//!
+//! [`Mechanism`]: parcal_kinematics::mechanism::Mechanism
+
+use std::path::{Path, PathBuf};
+
+use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+use parcal_calibrate::observation::ObservationId;
+use parcal_calibrate::{CalibrationOptions, RadiusModel, Simulation, calibrate};
+use parcal_dataset::Dataset;
+use parcal_observe::WeightModel;
+use parcal_observe::mechanism::Actuation;
+use parcal_solver::SIGMA_TOLERANCE;
+
+fn fixture() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/paper-seed1")
+}
+
+#[test]
+fn the_common_calibration_of_a_hexapod_is_its_own() {
+    let dataset = Dataset::read(&fixture()).unwrap();
+    let options = CalibrationOptions {
+        weighting: WeightModel::Diagonal,
+        radius: RadiusModel::PerBall,
+        ..CalibrationOptions::simulation(Simulation::I)
+    };
+    let own = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert!(own.converged());
+    let sigmas = own.sigmas().unwrap();
+    let data = MechanismData::from_hexapod_touches(&dataset)
+        .unwrap()
+        .without_priors();
+    let common = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    assert_eq!(common.parameters.len(), 33);
+    let (mut worst_value, mut worst_sigma) = (0.0f64, 0.0f64);
+    for (k, parameter) in common.parameters.iter().enumerate() {
+        let sigma = parameter.sigma.unwrap();
+        worst_value = worst_value.max(((parameter.value - own.params[k]) / sigmas[k]).abs());
+        worst_sigma = worst_sigma.max((sigma / sigmas[k] - 1.0).abs());
+    }
+    println!(
+        "{} and {} iterations; worst |difference| {worst_value:.2e} sigma, worst sigma ratio - 1 {worst_sigma:.2e}",
+        own.iterations(),
+        common.iterations
+    );
+    // Each run stops within SIGMA_TOLERANCE of its sigmas from the minimum.
+    assert!(worst_value < 2.0 * SIGMA_TOLERANCE, "{worst_value:e}");
+    // The covariances are taken at estimates at most 2e-3 sigma apart:
+    // the Jacobians differ by that times sigma / (the lengths, ~100 mm),
+    // ~1e-8 relative.
+    assert!(worst_sigma < 1e-6, "{worst_sigma:e}");
+    // The balls: centres (the same canonical frame) and radii.
+    let centre_sigmas = own.balls.centre_sigmas.as_ref().unwrap();
+    let radius_sigmas = own.balls.radius_sigmas.as_ref().unwrap();
+    let radii = own.balls.radii.as_ref().unwrap();
+    assert_eq!(common.balls.len(), own.balls.centres.len());
+    let mut worst_ball = 0.0f64;
+    for (b, ball) in common.balls.iter().enumerate() {
+        for ((estimate, own_estimate), sigma) in ball
+            .centre
+            .iter()
+            .zip(&own.balls.centres[b])
+            .zip(&centre_sigmas[b])
+        {
+            worst_ball = worst_ball.max(((estimate - own_estimate) / sigma).abs());
+        }
+        let difference = (ball.radius - radii[b]) / radius_sigmas[b];
+        worst_ball = worst_ball.max(difference.abs());
+    }
+    println!("balls: worst |difference| {worst_ball:.2e} sigma");
+    assert!(worst_ball < 2.0 * SIGMA_TOLERANCE, "{worst_ball:e}");
+    // The checks: one row per contact; the same global test (the
+    // diagonal weights understate this simulation's noise, so both
+    // reject it) and the same largest normalised residual, of the same
+    // contact.
+    assert_eq!(common.data_rows, dataset.measurements.len());
+    let (own_test, common_test) = (own.global_test.unwrap(), common.global_test.unwrap());
+    assert_eq!(own_test.redundancy, common_test.redundancy);
+    let factors = common_test.variance_factor / own_test.variance_factor - 1.0;
+    // The cost is flat at the minimum: second order in 2e-3 sigma.
+    assert!(factors.abs() < 1e-6, "{factors:e}");
+    let own_worst = own.reliability.as_ref().unwrap().worst().unwrap();
+    let (touch, (_, w)) = common
+        .observations
+        .iter()
+        .filter_map(|check| Some((check.observation.index, check.worst()?)))
+        .max_by(|a, b| a.1.1.abs().total_cmp(&b.1.1.abs()))
+        .unwrap();
+    println!(
+        "variance factor {:.4}; largest |w| {:.4} at contact {touch}",
+        common_test.variance_factor,
+        w.abs()
+    );
+    assert_eq!(own_worst.observation(), ObservationId::Contact(touch));
+    let ratio = w.abs() / own_worst.normalised().unwrap().abs() - 1.0;
+    assert!(ratio.abs() < 1e-6, "{ratio:e}");
+}
+
+#[test]
+fn what_the_common_calibration_does_not_model_is_refused_by_name() {
+    // Motion-capture poses of a machine whose legs read motor
+    // revolutions: the scales first, then the instrument frames.
+    let jugglebot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/jugglebot");
+    let mut dataset = Dataset::read(&jugglebot).unwrap();
+    let error = MechanismData::from_hexapod_touches(&dataset).unwrap_err();
+    assert!(
+        error.to_string().contains("the actuators' scales"),
+        "{error}"
+    );
+    dataset.machine.actuator.scale = [1.0; 6];
+    dataset.machine.actuator.scale_sigma = None;
+    let error = MechanismData::from_hexapod_touches(&dataset).unwrap_err();
+    assert!(
+        error.to_string().contains("tracker poses and points"),
+        "{error}"
+    );
+    // A hexapod touch at a commanded position (x, y, z): its pose has six
+    // coordinates.
+    let dataset = Dataset::read(&fixture()).unwrap();
+    let mut data = MechanismData::from_hexapod_touches(&dataset).unwrap();
+    data.observations.touches[7].at = Actuation::Commanded([0.0, 0.0, 400.0]);
+    let error = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap_err();
+    let message = error.to_string();
+    assert!(message.contains("touch 7"), "{message}");
+    assert!(message.contains("6 coordinates"), "{message}");
+    // Readings of the wrong length.
+    data.observations.touches[7].at = Actuation::Readings(vec![0.0; 5]);
+    let error = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap_err();
+    assert!(
+        error.to_string().contains("5 readings for the 6 actuators"),
+        "{error}"
+    );
+}
