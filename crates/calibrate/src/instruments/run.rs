@@ -29,7 +29,7 @@ use crate::{CalibrateError, CalibrationOptions};
 
 /// A calibration of poses and points alone, solved: the shared parts of a
 /// [`crate::CalibrationRun`] and its [`InstrumentResult`].
-pub(crate) struct Solved {
+pub(crate) struct InstrumentEstimate {
     /// The design geometry as given (machine.json's frames).
     pub(crate) design: Geometry,
     /// The design's canonical parameters.
@@ -117,7 +117,7 @@ pub(crate) fn solve(
     dataset: &Dataset,
     options: &CalibrationOptions,
     observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<Solved, CalibrateError> {
+) -> Result<InstrumentEstimate, CalibrateError> {
     if !options.loss.is_squared() {
         return Err(CalibrateError::RobustLoss {
             loss: options.loss,
@@ -200,7 +200,7 @@ pub(crate) fn solve(
         prior_sigmas: prior_sigmas(prior.as_ref(), model.layout.kinematic().len(), global.len()),
         data,
     };
-    Ok(Solved {
+    Ok(InstrumentEstimate {
         design,
         initial_params,
         kinematic_prior,
