@@ -1,7 +1,8 @@
 //! The hexapod through the common interface against its own path: one
 //! calibration of the same ball touches (the radius observation, eq. 9;
-//! the diagonal weights; each ball's radius an unknown with its prior; no
-//! prior on the parameters; every check of a converged run) by
+//! the propagated weights; each ball's radius an unknown with its prior,
+//! or exact with its sigma in the weights; no prior on the parameters;
+//! every check of a converged run) by
 //! `calibrate` and by `calibrate_mechanism` of `MechanismData::from_hexapod_touches`,
 //! at 10^3 contacts and at 7000, the common calibration's limit of 1000
 //! balls (each ball's radius is an unknown of its global block). The two reach the same estimate
@@ -16,37 +17,41 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use parcal_benches::campaign;
 use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
 use parcal_calibrate::{CalibrationOptions, RadiusModel, Simulation, calibrate};
-use parcal_observe::WeightModel;
 
 fn interface(c: &mut Criterion) {
     let mut group = c.benchmark_group("hexapod");
     group.sample_size(10);
-    let options = CalibrationOptions {
-        weighting: WeightModel::Diagonal,
-        radius: RadiusModel::PerBall,
-        ..CalibrationOptions::simulation(Simulation::I)
-    };
-    for contacts in [1_000, 7_000] {
-        let mut dataset = campaign(contacts);
-        dataset.truth = None;
-        group.bench_with_input(BenchmarkId::new("own", contacts), &dataset, |b, d| {
-            b.iter(|| {
-                let run = calibrate(d, &options, &mut |_| {}).expect("calibration");
-                assert!(run.converged(), "{:?}", run.status);
-                run
-            })
-        });
-        let data = MechanismData::from_hexapod_touches(&dataset)
-            .expect("hexapod touches")
-            .without_priors();
-        group.bench_with_input(BenchmarkId::new("interface", contacts), &data, |b, d| {
-            b.iter(|| {
-                let run =
-                    calibrate_mechanism(d, &MechanismOptions::default()).expect("calibration");
-                assert!(run.converged(), "{:?}", run.status);
-                run
-            })
-        });
+    for (radii, radius) in [
+        ("ball", RadiusModel::PerBall),
+        ("contact", RadiusModel::PerContact),
+    ] {
+        let options = CalibrationOptions {
+            radius,
+            ..CalibrationOptions::simulation(Simulation::I)
+        };
+        for contacts in [1_000, 7_000] {
+            let mut dataset = campaign(contacts);
+            dataset.truth = None;
+            let own = BenchmarkId::new(format!("own-{radii}"), contacts);
+            group.bench_with_input(own, &dataset, |b, d| {
+                b.iter(|| {
+                    let run = calibrate(d, &options, &mut |_| {}).expect("calibration");
+                    assert!(run.converged(), "{:?}", run.status);
+                    run
+                })
+            });
+            let data =
+                MechanismData::from_hexapod_touches(&dataset, &options).expect("hexapod touches");
+            let common = BenchmarkId::new(format!("interface-{radii}"), contacts);
+            group.bench_with_input(common, &data, |b, d| {
+                b.iter(|| {
+                    let run =
+                        calibrate_mechanism(d, &MechanismOptions::default()).expect("calibration");
+                    assert!(run.converged(), "{:?}", run.status);
+                    run
+                })
+            });
+        }
     }
     group.finish();
 }

@@ -233,7 +233,10 @@ impl Mechanism for Hexapod {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::{design, reading_jacobians_by_differences, tool_point_at_readings};
+    use crate::mechanism::{
+        design, reading_jacobians_by_differences, tool_point_at_readings,
+        tool_point_reading_jacobian,
+    };
     use crate::{paper, rotation_zyx, tip_jacobians_at};
     use nalgebra::Translation3;
 
@@ -354,6 +357,23 @@ mod tests {
         let difference =
             (d_params - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice())).amax();
         assert!(difference < 1e-9, "{difference:e}");
+    }
+
+    #[test]
+    fn the_tool_points_reading_jacobian_is_the_crates() {
+        // dT/dq = dT/dx G_x^-1 through the trait against the crate's own,
+        // K = P A^-1 from the forward kinematics' factorisation.
+        let hexapod = hexapod();
+        let p = design(&hexapod);
+        let geometry = from_params(&Params::from_column_slice(p.as_slice()));
+        let pose = sample_pose();
+        let d_q =
+            tool_point_reading_jacobian(&hexapod, p.as_slice(), pose_vector(&pose).as_slice())
+                .unwrap();
+        let reference = tip_jacobians_at(&geometry, &pose).unwrap().d_q;
+        let difference = (d_q - DMatrix::from_column_slice(3, 6, reference.as_slice())).amax();
+        // Two solves of one well-conditioned 6 x 6 system: rounding.
+        assert!(difference < 1e-12, "{difference:e}");
     }
 
     #[test]

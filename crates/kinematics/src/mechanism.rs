@@ -451,6 +451,35 @@ pub fn tool_point_at_readings(
     Ok((tool.point, tool.d_pose * d_pose + tool.d_params))
 }
 
+/// `dT/dq` at fixed parameters, `dT/dx G_x^-1` (3 x actuators): how the
+/// readings' errors move the tool point at `pose`, for a mechanism with as
+/// many actuators as pose coordinates. An error at a singular
+/// configuration.
+pub fn tool_point_reading_jacobian(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    pose: &[f64],
+) -> Result<DMatrix<f64>, MechanismError> {
+    let g_x = mechanism.reading_jacobians(params, pose)?.d_pose;
+    let tool = mechanism.tool_point(params, pose)?;
+    let (actuators, coordinates) = g_x.shape();
+    if actuators != coordinates {
+        return Err(MechanismError::Dimension {
+            mechanism: mechanism.name().to_string(),
+            what: "actuators (one per pose coordinate)",
+            expected: coordinates,
+            found: actuators,
+        });
+    }
+    // (dT/dx G_x^-1)^T = G_x^-T (dT/dx)^T.
+    g_x.transpose()
+        .lu()
+        .solve(&tool.d_pose.transpose())
+        .filter(|m| m.iter().all(|v| v.is_finite()))
+        .map(|m| m.transpose())
+        .ok_or(MechanismError::Singular)
+}
+
 /// The largest number of corrections [`forward_under_loads`] makes.
 const LOADED_FORWARD_ITERATIONS: usize = 50;
 

@@ -1,93 +1,85 @@
 //! A hexapod's ball touches ([`parcal_dataset::Dataset`]) as the data of
 //! the common calibration: the 6-6 Stewart platform through the
 //! [`Mechanism`](parcal_kinematics::mechanism::Mechanism) interface, by the
-//! same path as a linear delta or a cable robot.
+//! same path as a linear delta or a cable robot, under the model of the
+//! hexapod calibration's options ([`CalibrationOptions`]).
 //!
-//! - The mechanism: [`Hexapod`] at the design of the machine, its 33
-//!   canonical parameters' priors the design tolerances of their groups
-//!   (the paper's a priori knowledge of the parameters, eq. 7).
+//! - The mechanism: [`Hexapod`] at the design of the machine; with the
+//!   paper's prior, each of its 33 canonical parameters has the design
+//!   tolerance of its group (eq. 7, without the balls' centres), without
+//!   a prior, none.
 //! - Each ball: its calibrated radius, an unknown with the prior of its
-//!   calibration sigma (the hexapod calibration's per-ball radius), its
-//!   centre an unknown of its own (no prior on it).
+//!   calibration sigma ([`RadiusModel::PerBall`]) or exact, its sigma then
+//!   an error of every touch ([`RadiusModel::PerContact`]); its centre an
+//!   unknown of its own.
 //! - Each contact: a [`BallTouch`] at the legs' readings, the radius
-//!   observation (paper eq. 9), with the diagonal weight of the
-//!   repeatabilities, `σ² = σ_a² + σ_t²`.
+//!   observation (eq. 9), weighted as the hexapod calibration weighs it at
+//!   the design, and held fixed ([`radius_variance`]): the tool tip `T` and
+//!   `dT/dq` by the design's forward kinematics, the ball's centre the
+//!   best fit of its tips, the direction `n0` from it to the tip (or the
+//!   commanded approach direction), `σ² = n0ᵀ Σ_tip n0 (+ σ_r²)`.
 //!
-//! With the hexapod calibration's options of the same model (eq. 9, the
-//! diagonal weights, per-ball radii, the same prior or none) both reach
-//! the same minimum: the common door's estimate is the dedicated path's.
-//! What the hexapod's own calibration adds is refused here, by name: the
-//! actuators' scales, tracker poses and points, calibrated distances
-//! between balls.
+//! Both calibrations then minimise the same cost from the same start: the
+//! common door's estimate is the dedicated path's. What only the hexapod's
+//! own calibration models is refused by name: the coordinate observation
+//! (eq. 10) and its contact angles, the propagated prior, the actuators'
+//! scales, tracker poses and points, calibrated distances between balls.
 
 use std::sync::Arc;
 
-use parcal_dataset::Dataset;
+use nalgebra::Matrix3x6;
+use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::hexapod::Hexapod;
-use parcal_kinematics::mechanism::design;
+use parcal_kinematics::mechanism::{Mechanism, design, tool_point_reading_jacobian};
+use parcal_kinematics::{Geometry, Vec3};
 use parcal_observe::mechanism::{Actuation, BallTouch};
+use parcal_observe::unit_direction;
+use parcal_observe::weights::{Repeatability, radius_variance};
 
 use super::data::{Ball, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
+use crate::CalibrationOptions;
+use crate::options::{Observation, PriorMode, RadiusModel};
 use crate::setup::design_geometry;
+use crate::sphere_fit::{SphereFitError, best_fit};
 
 impl MechanismData {
-    /// The data of a hexapod's ball touches (module doc), each touch of
-    /// the ball of its index in the artefacts (as the dataset's reader
-    /// checked; [`MechanismData::validate`] checks it again). An error
-    /// names what the dataset holds that the common calibration does not
-    /// model.
-    pub fn from_hexapod_touches(dataset: &Dataset) -> Result<Self, MechanismCalibrationError> {
+    /// The data of a hexapod's ball touches under `options`' model
+    /// (module doc), each touch of the ball of its index in the artefacts
+    /// (as the dataset's reader checked; [`MechanismData::validate`]
+    /// checks it again). An error names what the dataset or the options
+    /// hold that the common calibration does not model, or the ball or
+    /// contact whose weight cannot be formed.
+    pub fn from_hexapod_touches(
+        dataset: &Dataset,
+        options: &CalibrationOptions,
+    ) -> Result<Self, MechanismCalibrationError> {
+        check_representable(dataset, options)?;
         let machine = &dataset.machine;
-        let refuse = |what: &str, reason: &str| {
-            Err(MechanismCalibrationError::InvalidData {
-                what: what.to_string(),
-                reason: format!("{reason}; the hexapod's own calibration takes it"),
-            })
-        };
-        if machine.actuator.scale != [1.0; 6] || machine.actuator.scale_sigma.is_some() {
-            return refuse(
-                "the actuators' scales",
-                "the hexapod through the common interface reads its legs in mm, scale 1",
-            );
-        }
-        if !dataset.tracker.is_empty() {
-            return refuse(
-                "tracker poses and points",
-                "an instrument's frames are not modelled by the common calibration",
-            );
-        }
-        if !dataset.artefacts.distances.is_empty() {
-            return refuse(
-                "calibrated distances between balls",
-                "the common calibration's balls are independent",
-            );
-        }
-        let hexapod =
-            Hexapod::new(&design_geometry(dataset), &machine.prior_sigma).map_err(|e| {
-                MechanismCalibrationError::InvalidData {
-                    what: "the design geometry".to_string(),
-                    reason: e.to_string(),
-                }
-            })?;
-        let configured = design(&hexapod).iter().copied().collect();
+        let input = design_geometry(dataset);
+        let invalid =
+            |what: String, reason: String| MechanismCalibrationError::InvalidData { what, reason };
+        let hexapod = Hexapod::new(&input, &machine.prior_sigma)
+            .map_err(|e| invalid("the design geometry".to_string(), e.to_string()))?;
+        let configured: Vec<f64> = design(&hexapod).iter().copied().collect();
+        let weights = touch_weights(&hexapod, &configured, &input, dataset, options)?;
+        let per_ball = options.radius == RadiusModel::PerBall;
         let balls = dataset
             .artefacts
             .balls
             .iter()
             .map(|ball| Ball {
                 radius: ball.radius,
-                radius_sigma: Some(ball.radius_sigma),
+                radius_sigma: per_ball.then_some(ball.radius_sigma),
             })
             .collect();
-        let r = &machine.repeatability;
-        let sigma = (r.actuator * r.actuator + r.tool * r.tool).sqrt();
         let m = &dataset.measurements;
         let touches = m
             .ball
             .iter()
             .zip(&m.q)
-            .map(|(&ball, q)| BallTouch {
+            .zip(weights)
+            .map(|((&ball, q), sigma)| BallTouch {
                 ball: ball as usize,
                 at: Actuation::Readings(q.to_vec()),
                 sigma,
@@ -98,6 +90,135 @@ impl MechanismData {
             touches,
             ..Observations::default()
         };
-        Ok(Self::new(Arc::new(hexapod), configured, observations))
+        let data = Self::new(Arc::new(hexapod), configured, observations);
+        Ok(match options.prior {
+            PriorMode::None => data.without_priors(),
+            _ => data,
+        })
     }
+}
+
+/// Refuses what only the hexapod's own calibration models (module doc).
+fn check_representable(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+) -> Result<(), MechanismCalibrationError> {
+    let machine = &dataset.machine;
+    let refusals = [
+        (
+            options.observation != Observation::Radius,
+            "the coordinate observation (eq. 10)",
+            "its contact angles are not unknowns of the common calibration, whose touch is the radius observation (eq. 9)",
+        ),
+        (
+            options.prior == PriorMode::Propagated,
+            "the propagated prior",
+            "it couples the parameters; the common calibration's priors are one per parameter",
+        ),
+        (
+            machine.actuator.scale != [1.0; 6] || machine.actuator.scale_sigma.is_some(),
+            "the actuators' scales",
+            "the hexapod through the common interface reads its legs in mm, scale 1",
+        ),
+        (
+            !dataset.tracker.is_empty(),
+            "tracker poses and points",
+            "an instrument's frames are not modelled by the common calibration",
+        ),
+        (
+            !dataset.artefacts.distances.is_empty(),
+            "calibrated distances between balls",
+            "the common calibration's balls are independent",
+        ),
+    ];
+    match refusals.into_iter().find(|(refused, _, _)| *refused) {
+        Some((_, what, reason)) => Err(MechanismCalibrationError::InvalidData {
+            what: what.to_string(),
+            reason: format!("{reason}; the hexapod's own calibration takes it"),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The standard deviation of every contact's radius row, in the order of
+/// the measurements, as the hexapod calibration forms it at the design
+/// (module doc).
+fn touch_weights(
+    hexapod: &Hexapod,
+    configured: &[f64],
+    input: &Geometry,
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+) -> Result<Vec<f64>, MechanismCalibrationError> {
+    let m = &dataset.measurements;
+    let contact_error = |row: usize, reason: String| MechanismCalibrationError::InvalidData {
+        what: format!("contact {row}"),
+        reason,
+    };
+    // The design's tool tips and dT/dq.
+    let mut tips = Vec::with_capacity(m.len());
+    let mut d_q = Vec::with_capacity(m.len());
+    for (row, q) in m.q.iter().enumerate() {
+        let start = hexapod
+            .start_pose(configured, q)
+            .map_err(|e| contact_error(row, e.to_string()))?;
+        let pose = hexapod
+            .forward(configured, q, start.as_slice())
+            .map_err(|e| contact_error(row, format!("the design's forward kinematics: {e}")))?;
+        let tip = hexapod
+            .tool_point(configured, pose.as_slice())
+            .map_err(|e| contact_error(row, e.to_string()))?
+            .point;
+        let jacobian = tool_point_reading_jacobian(hexapod, configured, pose.as_slice())
+            .map_err(|e| contact_error(row, e.to_string()))?;
+        tips.push(tip);
+        d_q.push(Matrix3x6::from_column_slice(jacobian.as_slice()));
+    }
+    let rotation = match dataset.artefacts.frame {
+        ArtefactFrame::Design => {
+            let canonical =
+                input
+                    .canonicalize()
+                    .map_err(|e| MechanismCalibrationError::InvalidData {
+                        what: "the design geometry".to_string(),
+                        reason: e.to_string(),
+                    })?;
+            canonical.base_from_input.rotation
+        }
+        ArtefactFrame::Canonical => Default::default(),
+    };
+    let r = &dataset.machine.repeatability;
+    let mut weights = vec![0.0; m.len()];
+    for (b, ball) in dataset.artefacts.balls.iter().enumerate() {
+        let rows: Vec<usize> = (0..m.len()).filter(|&k| m.ball[k] as usize == b).collect();
+        let points: Vec<Vec3> = rows.iter().map(|&k| tips[k]).collect();
+        let centre = match best_fit(&points, ball.radius) {
+            Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => fit.centre,
+            Err(e) => {
+                return Err(MechanismCalibrationError::InvalidData {
+                    what: format!("ball {}", ball.id),
+                    reason: format!("its design tool tips do not locate its centre: {e}"),
+                });
+            }
+        };
+        let repeatability = Repeatability {
+            actuator: r.actuator,
+            tool: r.tool,
+            radius: match options.radius {
+                RadiusModel::PerContact => ball.radius_sigma,
+                RadiusModel::PerBall => 0.0,
+            },
+        };
+        for &k in &rows {
+            let direction = match &m.direction {
+                Some(commanded) => rotation * Vec3::from(commanded[k]),
+                None => tips[k] - centre,
+            };
+            let n0 = unit_direction(&direction).map_err(|e| contact_error(k, e.to_string()))?;
+            let variance = radius_variance(options.weighting, &repeatability, &d_q[k], &n0)
+                .map_err(|e| contact_error(k, e.to_string()))?;
+            weights[k] = variance.sqrt();
+        }
+    }
+    Ok(weights)
 }
