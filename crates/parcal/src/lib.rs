@@ -1,9 +1,11 @@
 //! parcal as a library: calibrate a hexapod (a 6-6 Stewart platform) from
 //! touches of calibration balls, poses and points measured by an
 //! instrument, or both ([`calibrate`], one [`CalibrationRun`];
-//! [`validate_calibration`]), with a priori knowledge of its design
-//! tolerances (Sato et al., "Artefact calibration of parallel mechanism",
-//! Meas. Sci. Technol. 15 (2004) 1158), and see what the calibration buys.
+//! [`validate_calibration`]), or any parallel mechanism through the common
+//! interface (a linear delta, a cable robot; [`calibrate_mechanism`]), with
+//! a priori knowledge of its design tolerances (Sato et al., "Artefact
+//! calibration of parallel mechanism", Meas. Sci. Technol. 15 (2004)
+//! 1158), and see what the calibration buys.
 //!
 //! This crate is the front door: it re-exports what a user needs from the
 //! workspace's crates, so that one dependency builds a dataset in memory or
@@ -141,9 +143,11 @@ pub use parcal_calibrate::instruments::{
 };
 pub use parcal_dataset::{Actuator, Points, Poses, SessionModel, Tracker, ValidationRecord};
 
-// Any mechanism with a 3-coordinate pose (a linear delta, a cable robot):
-// its dataset, calibration and record (docs/mechanisms.md), its validation
-// on held-out data and its compensated commands (docs/delta.md).
+// Any mechanism through the common interface (docs/mechanisms.md): its
+// dataset, calibration and record, its validation on held-out data and
+// its compensated commands (docs/delta.md); every kind for a linear delta
+// or a cable robot, ball touches for a hexapod
+// (`MechanismData::from_hexapod_touches`).
 pub use parcal_calibrate::mechanism::{
     CalibratedMechanism, Compensation, MechanismCalibration, MechanismCalibrationError,
     MechanismData, MechanismOptions, MechanismValidation, calibrate_mechanism,
