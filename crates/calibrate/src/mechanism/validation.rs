@@ -250,7 +250,7 @@ fn global_block(
     let prior = data.trigger_height;
     let sigma = prior.sigma.ok_or_else(|| MechanismCalibrationError::InvalidData {
         what: "trigger height".to_string(),
-        reason: "the calibration did not estimate one, and the data's prior has no sigma: give machine.json's trigger_height a sigma".to_string(),
+        reason: "the calibration did not estimate one, and the data's prior has no sigma: give the data's trigger height a prior sigma".to_string(),
     })?;
     let g = values.len() + 1;
     let global = values.clone().resize_vertically(g, prior.mean);
