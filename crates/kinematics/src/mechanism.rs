@@ -409,6 +409,24 @@ pub fn check_vector<M: Mechanism + ?Sized>(
     }
 }
 
+/// Refuses a `G_x` of a mechanism with other than one actuator per pose
+/// coordinate (one that `G_x^-1` does not exist for).
+fn check_square<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    g_x: &DMatrix<f64>,
+) -> Result<(), MechanismError> {
+    let (actuators, coordinates) = g_x.shape();
+    if actuators == coordinates {
+        return Ok(());
+    }
+    Err(MechanismError::Dimension {
+        mechanism: mechanism.name().to_string(),
+        what: "actuators (one per pose coordinate)",
+        expected: coordinates,
+        found: actuators,
+    })
+}
+
 /// `dx/dp` at fixed readings, `-G_x^-1 G_p` (module documentation), for a
 /// mechanism with as many actuators as pose coordinates. An error at a
 /// singular configuration (`G_x` not invertible).
@@ -418,15 +436,7 @@ pub fn pose_jacobian_at_fixed_readings(
     pose: &[f64],
 ) -> Result<DMatrix<f64>, MechanismError> {
     let jacobians = mechanism.reading_jacobians(params, pose)?;
-    let (actuators, coordinates) = jacobians.d_pose.shape();
-    if actuators != coordinates {
-        return Err(MechanismError::Dimension {
-            mechanism: mechanism.name().to_string(),
-            what: "actuators (one per pose coordinate)",
-            expected: coordinates,
-            found: actuators,
-        });
-    }
+    check_square(mechanism, &jacobians.d_pose)?;
     let lu = jacobians.d_pose.lu();
     let solved = lu
         .solve(&jacobians.d_params)
@@ -462,15 +472,7 @@ pub fn tool_point_reading_jacobian(
 ) -> Result<DMatrix<f64>, MechanismError> {
     let g_x = mechanism.reading_jacobians(params, pose)?.d_pose;
     let tool = mechanism.tool_point(params, pose)?;
-    let (actuators, coordinates) = g_x.shape();
-    if actuators != coordinates {
-        return Err(MechanismError::Dimension {
-            mechanism: mechanism.name().to_string(),
-            what: "actuators (one per pose coordinate)",
-            expected: coordinates,
-            found: actuators,
-        });
-    }
+    check_square(mechanism, &g_x)?;
     // (dT/dx G_x^-1)^T = G_x^-T (dT/dx)^T.
     g_x.transpose()
         .lu()
