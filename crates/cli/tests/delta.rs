@@ -325,8 +325,10 @@ fn a_simulated_printer_touches_calibrated_balls() {
     let summary = ok(&["calibrate", s(&sim)]);
     assert!(summary.contains("15 ball touches"), "{summary}");
     let many = dir.path().join("many");
-    let err = fails(&[&simulate[..], &["--balls", "1001", "--out", s(&many)]].concat());
-    assert!(err.contains("balls 1001"), "{err}");
+    // touches.csv holds at most 10^6 rows, a ball takes at least 4.
+    let too_many = (1_000_000 / 4 + 1).to_string();
+    let err = fails(&[&simulate[..], &["--balls", &too_many, "--out", s(&many)]].concat());
+    assert!(err.contains(&format!("balls {too_many}")), "{err}");
     let err = fails(&[
         "simulate",
         "--mechanism",

@@ -19,9 +19,10 @@ use super::observation::{ObservationKind, ObservationRef};
 /// (a probed bed holds tens to hundreds), and small enough that the
 /// dense checks over the rows stay within memory.
 pub const MAX_OBSERVATIONS: usize = 1_000_000;
-/// The most calibrated balls: each with a calibration sigma on its radius
-/// adds an unknown to the dense global block.
-pub const MAX_BALLS: usize = 1_000;
+/// The most calibrated balls: as many as the most touches allow, each
+/// ball taking at least [`MIN_TOUCHES_PER_BALL`] (every ball is a block
+/// of its own, its radius too, which the solver eliminates).
+pub const MAX_BALLS: usize = MAX_OBSERVATIONS / MIN_TOUCHES_PER_BALL;
 /// The fewest touches of a ball: its centre takes three, and a fourth
 /// is the first that checks them.
 pub const MIN_TOUCHES_PER_BALL: usize = 4;

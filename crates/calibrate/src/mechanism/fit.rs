@@ -19,7 +19,7 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::problem::MechanismProblem;
+use super::problem::{MechanismProblem, group_size};
 
 /// The numbers of one observation at the solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,6 +57,12 @@ pub(crate) struct Fit {
     pub centres: Vec<[f64; 3]>,
     /// Their marginal standard deviations, when the solver gave them.
     pub centre_sigmas: Option<Vec<[f64; 3]>>,
+    /// The balls' radii: estimated where calibrated with a sigma, else
+    /// as given.
+    pub radii: Vec<f64>,
+    /// The estimated radii's marginal standard deviations (`None` for an
+    /// exact radius), when the solver gave them.
+    pub radius_sigmas: Option<Vec<Option<f64>>>,
     /// How the solver ended.
     pub status: Status,
     /// Its linear solves.
@@ -75,12 +81,24 @@ pub(crate) struct Fit {
     pub data_rows: usize,
 }
 
-/// One fit of `data` (validated) with `options` (module doc).
+/// One fit of `data` (validated) with `options` (module doc), its local
+/// blocks of [`group_size`] unknowns.
 pub(crate) fn fit(
     data: &MechanismData,
     options: &MechanismOptions,
 ) -> Result<Fit, MechanismCalibrationError> {
-    let problem = MechanismProblem::new(data, options.loss);
+    match group_size(data) {
+        3 => fit_blocks::<3>(data, options),
+        _ => fit_blocks::<4>(data, options),
+    }
+}
+
+/// [`fit`] with local blocks of `C` unknowns.
+fn fit_blocks<const C: usize>(
+    data: &MechanismData,
+    options: &MechanismOptions,
+) -> Result<Fit, MechanismCalibrationError> {
+    let problem = MechanismProblem::<C>::new(data, options.loss);
     let start = problem.start();
     let n = problem.n_params();
     let blocks = problem.start_blocks(&start.as_slice()[..n])?;
@@ -99,13 +117,13 @@ pub(crate) fn fit(
         max_iterations: options.max_iterations,
         ..SolverOptions::default()
     };
-    let solution = solve::<3, 0, 1, _>(&problem, state, &solver_options, &mut |_| {});
+    let solution = solve::<C, 0, 1, _>(&problem, state, &solver_options, &mut |_| {});
     if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
         return Err(error);
     }
     let refs = problem.global_observation_refs();
     let global_rows: usize = refs.iter().map(|(_, rows)| rows).sum();
-    let (rows, unknowns) = rows_and_unknowns::<3, 0, 1, _>(&problem, points, global_rows);
+    let (rows, unknowns) = rows_and_unknowns::<C, 0, 1, _>(&problem, points, global_rows);
     let checks = match &solution.covariance {
         Some(covariance) if at_minimum(&solution.status) => Some(checks(
             &problem,
@@ -117,8 +135,21 @@ pub(crate) fn fit(
         _ => None,
     };
     let samples = data.observations.samples.len();
-    let xyz = |v: &SVector<f64, 3>| [v[0], v[1], v[2]];
+    let xyz = |v: &SVector<f64, C>| [v[0], v[1], v[2]];
     let (poses, centres) = solution.state.groups.split_at(samples);
+    let balls = &data.observations.balls;
+    let uncertain = |b: usize| balls[b].radius_sigma.is_some();
+    let radii = (0..balls.len())
+        .map(|b| match uncertain(b) {
+            true => centres[b][3],
+            false => balls[b].radius,
+        })
+        .collect();
+    let radius_sigmas = solution.group_sigmas.as_ref().map(|sigmas| {
+        (0..balls.len())
+            .map(|b| uncertain(b).then(|| sigmas[samples + b][3]))
+            .collect()
+    });
     Ok(Fit {
         poses: poses.iter().map(xyz).collect(),
         centres: centres.iter().map(xyz).collect(),
@@ -126,6 +157,8 @@ pub(crate) fn fit(
             .group_sigmas
             .as_ref()
             .map(|sigmas| sigmas[samples..].iter().map(xyz).collect()),
+        radii,
+        radius_sigmas,
         global: solution.state.global,
         iterations: solution.history.len(),
         cost: solution.history.last().map(|record| record.cost),
@@ -182,15 +215,15 @@ fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError>
 /// residuals at `state`, through the solver's redundancy pass: the global
 /// observations, then each point sample (its rows), then each touch, in
 /// the order of the data.
-fn checks(
-    problem: &MechanismProblem,
-    state: &State<3, 0>,
+fn checks<const C: usize>(
+    problem: &MechanismProblem<C>,
+    state: &State<C, 0>,
     covariance: &DMatrix<f64>,
     refs: &[(ObservationRef, usize)],
     groups_per_chunk: usize,
 ) -> Result<Vec<ObservationCheck>, MechanismCalibrationError> {
     let mut points = Vec::with_capacity(problem.n_points());
-    let global = redundancy::<3, 0, 1, _>(
+    let global = redundancy::<C, 0, 1, _>(
         problem,
         state,
         covariance,

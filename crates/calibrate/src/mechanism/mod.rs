@@ -16,8 +16,8 @@
 //! - `options`: loss, snooping, level, iteration limit
 //!   ([`MechanismOptions`]);
 //! - `problem`: the solver's problem (global block: parameters, the
-//!   trigger height, uncertain ball radii; local blocks: the poses of
-//!   point samples and the centres of balls);
+//!   trigger height; local blocks: the poses of point samples, the
+//!   centres of balls and their uncertain radii);
 //! - `fit`: one solve, redundancy numbers, normalised residuals;
 //! - [`frame`]: the estimate and covariance in the canonical frame (the
 //!   gauge projected out);

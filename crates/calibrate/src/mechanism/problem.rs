@@ -1,22 +1,28 @@
 //! A mechanism calibration as the solver's problem.
 //!
 //! - The **global block**: the mechanism's parameters `p`, then the
-//!   trigger height `h` when there are probe heights, then the radius of
-//!   every ball with a calibration sigma.
+//!   trigger height `h` when there are probe heights.
 //! - The **global observations**: every probe height (1 row), part
 //!   distance (1 row), measured point (3 rows) and measured quantity
 //!   (1 row), in that order ([`parcal_observe::mechanism`]).
-//! - The **local blocks**, the solver's groups, each three unknowns
-//!   eliminated by the Schur complement: first the pose of every point
-//!   sample (with a Gaussian prior when it was measured), then the centre
-//!   of every ball. A group's rows are its points, one row each (the
-//!   solver's point blocks are empty): a sample's one row per actuator,
-//!   a ball's one row per touch (the touches taken in the order of their
-//!   balls, [`MechanismProblem::touch_order`]). A robust loss weighs each
-//!   row on its own.
+//! - The **local blocks**, the solver's groups, eliminated by the Schur
+//!   complement: first the pose of every point sample (with a Gaussian
+//!   prior when it was measured), then the centre of every ball. A group's
+//!   rows are its points, one row each (the solver's point blocks are
+//!   empty): a sample's one row per actuator, a ball's one row per touch
+//!   (the touches taken in the order of their balls,
+//!   [`MechanismProblem::touch_order`]). A robust loss weighs each row on
+//!   its own.
+//! - **Uncertain radii**: when some ball's radius has a calibration sigma,
+//!   every block has a fourth unknown ([`group_size`] 4), a ball's radius
+//!   with that sigma as its prior, so that the radii stay in their balls'
+//!   blocks and the reduced system keeps the size of the global block. A
+//!   block that has no radius (a sample's, an exact ball's) holds its
+//!   fourth unknown, which no row sees, by a unit prior: one row for one
+//!   unknown, so the redundancy is that of three.
 //! - The **prior** on the global block: each parameter's
-//!   [`ParameterPrior`](super::data::ParameterPrior) with a sigma, the
-//!   trigger height's, and each ball radius's calibration sigma.
+//!   [`ParameterPrior`](super::data::ParameterPrior) with a sigma and the
+//!   trigger height's.
 
 use std::ops::Range;
 
@@ -27,16 +33,33 @@ use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Prob
 
 use crate::sphere_fit::{SphereFitError, best_fit};
 
-use super::data::{MechanismData, ParameterPrior};
+use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 
-/// The solver's problem: groups of three unknowns (a sample's pose, a
-/// ball's centre), no point unknowns, one row per point.
-type Local = Linearization<3, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
+/// The solver's problem: groups of `C` unknowns (a sample's pose, a
+/// ball's centre, and with [`group_size`] 4 a ball's radius), no point
+/// unknowns, one row per point.
+type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
 
-/// The problem of [`MechanismData`] (module doc).
-pub(crate) struct MechanismProblem<'a> {
+/// The unknowns of each local block of `data` (module doc): 4 when some
+/// ball's radius has a calibration sigma, else 3.
+pub(crate) fn group_size(data: &MechanismData) -> usize {
+    let uncertain = data.observations.balls.iter();
+    if uncertain.clone().any(|ball| ball.radius_sigma.is_some()) {
+        4
+    } else {
+        3
+    }
+}
+
+/// The sigma of the unit prior that holds a block's unused fourth unknown
+/// (module doc).
+const UNUSED: f64 = 1.0;
+
+/// The problem of [`MechanismData`] (module doc), its local blocks of `C`
+/// unknowns ([`group_size`]).
+pub(crate) struct MechanismProblem<'a, const C: usize> {
     data: &'a MechanismData,
     prior: Option<GaussianPrior<Dyn>>,
     loss: Loss,
@@ -44,11 +67,9 @@ pub(crate) struct MechanismProblem<'a> {
     touch_order: Vec<usize>,
     /// The points of each ball, after the samples' rows.
     ball_points: Vec<Range<usize>>,
-    /// Where each ball's radius is in the global block (`None`: exact).
-    radius_at: Vec<Option<usize>>,
 }
 
-impl<'a> MechanismProblem<'a> {
+impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The problem of `data` (validated) with `loss` on its observations.
     pub(crate) fn new(data: &'a MechanismData, loss: Loss) -> Self {
         let (mean, sigma) = global_prior_of(data);
@@ -66,24 +87,13 @@ impl<'a> MechanismProblem<'a> {
             ball_points.push(first..first + count);
             first += count;
         }
-        let mut next = data.configured.len() + usize::from(data.has_trigger_height());
-        let radius_at = o
-            .balls
-            .iter()
-            .map(|ball| {
-                ball.radius_sigma.map(|_| {
-                    next += 1;
-                    next - 1
-                })
-            })
-            .collect();
+        debug_assert_eq!(C, group_size(data), "the blocks' size is the data's");
         Self {
             data,
             prior,
             loss,
             touch_order,
             ball_points,
-            radius_at,
         }
     }
 
@@ -146,17 +156,18 @@ impl<'a> MechanismProblem<'a> {
 
     /// The start of every local block: each point sample's pose (its
     /// measured pose, else the forward kinematics of its readings at
-    /// `params`), then each ball's centre ([`ball_centre`]).
+    /// `params`), then each ball's centre ([`ball_centre`]) and, with
+    /// [`group_size`] 4, its calibrated radius.
     pub(crate) fn start_blocks(
         &self,
         params: &[f64],
-    ) -> Result<Vec<Vector3<f64>>, MechanismCalibrationError> {
+    ) -> Result<Vec<SVector<f64, C>>, MechanismCalibrationError> {
         let mechanism = self.data.mechanism.as_ref();
         let o = &self.data.observations;
         let mut blocks = Vec::with_capacity(o.samples.len() + o.balls.len());
         for (index, sample) in o.samples.iter().enumerate() {
             if let Some((pose, _)) = sample.known_pose {
-                blocks.push(Vector3::from(pose));
+                blocks.push(block(&Vector3::from(pose), 0.0));
                 continue;
             }
             let pose = mechanism
@@ -169,7 +180,7 @@ impl<'a> MechanismProblem<'a> {
                     },
                     reason: format!("no start pose from its readings: {e}"),
                 })?;
-            blocks.push(Vector3::new(pose[0], pose[1], pose[2]));
+            blocks.push(block(&Vector3::new(pose[0], pose[1], pose[2]), 0.0));
         }
         let configured = self.data.configured.as_slice();
         for (b, ball) in o.balls.iter().enumerate() {
@@ -177,7 +188,7 @@ impl<'a> MechanismProblem<'a> {
                 .clone()
                 .map(|i| self.touch_order[i - self.sample_points()])
                 .collect();
-            blocks.push(ball_centre(
+            let centre = ball_centre(
                 mechanism,
                 params,
                 configured,
@@ -185,7 +196,8 @@ impl<'a> MechanismProblem<'a> {
                 &touches,
                 b,
                 ball.radius,
-            )?);
+            )?;
+            blocks.push(block(&centre, ball.radius));
         }
         Ok(blocks)
     }
@@ -195,14 +207,14 @@ impl<'a> MechanismProblem<'a> {
         &self,
         s: usize,
         global: &DVector<f64>,
-        pose: &SVector<f64, 3>,
+        block: &SVector<f64, C>,
     ) -> Result<SampleRows, MechanismCalibrationError> {
         let n = self.n_params();
         self.data.observations.samples[s]
             .evaluate(
                 self.data.mechanism.as_ref(),
                 &global.as_slice()[..n],
-                pose.as_slice(),
+                &block.as_slice()[..3],
             )
             .map_err(|e| {
                 failed(
@@ -221,22 +233,22 @@ impl<'a> MechanismProblem<'a> {
         &self,
         i: usize,
         global: &DVector<f64>,
-        centre: &SVector<f64, 3>,
-        out: &mut Local,
+        block: &SVector<f64, C>,
+        out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let t = self.touch_order[i - self.sample_points()];
         let touch = &self.data.observations.touches[t];
         let n = self.n_params();
-        let radius_at = self.radius_at[touch.ball];
-        let radius = radius_at.map_or(self.data.observations.balls[touch.ball].radius, |k| {
-            global[k]
-        });
+        let ball = &self.data.observations.balls[touch.ball];
+        let uncertain = ball.radius_sigma.is_some();
+        let radius = if uncertain { block[3] } else { ball.radius };
+        let centre = Vector3::new(block[0], block[1], block[2]);
         let row = touch
             .evaluate(
                 self.data.mechanism.as_ref(),
                 &global.as_slice()[..n],
                 self.data.configured.as_slice(),
-                centre,
+                &centre,
                 radius,
             )
             .map_err(|e| {
@@ -251,10 +263,11 @@ impl<'a> MechanismProblem<'a> {
         out.residual[0] = row.rows.residual[0];
         out.d_global.fill(0.0);
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
-        if let Some(k) = radius_at {
-            out.d_global[(0, k)] = row.d_radius;
+        out.d_group.fill(0.0);
+        out.d_group.columns_mut(0, 3).copy_from(&row.d_centre);
+        if uncertain {
+            out.d_group[3] = row.d_radius;
         }
-        out.d_group.copy_from(&row.d_centre);
         Ok(())
     }
 
@@ -264,8 +277,8 @@ impl<'a> MechanismProblem<'a> {
         &self,
         first: usize,
         global: &DVector<f64>,
-        group: &SVector<f64, 3>,
-        out: &mut [Local],
+        group: &SVector<f64, C>,
+        out: &mut [Local<C>],
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         if first >= self.sample_points() {
             for (j, out) in out.iter_mut().enumerate() {
@@ -286,10 +299,18 @@ impl<'a> MechanismProblem<'a> {
             out.d_global
                 .columns_mut(0, n)
                 .copy_from(&rows.rows.d_params.row(row));
-            out.d_group.copy_from(&rows.d_pose.row(row));
+            out.d_group.fill(0.0);
+            out.d_group
+                .columns_mut(0, 3)
+                .copy_from(&rows.d_pose.row(row));
         }
         Ok(())
     }
+}
+
+/// A local block of `C` unknowns: `xyz`, then (with `C` 4) `fourth`.
+fn block<const C: usize>(xyz: &Vector3<f64>, fourth: f64) -> SVector<f64, C> {
+    SVector::from_fn(|k, _| if k < 3 { xyz[k] } else { fourth })
 }
 
 /// The global block's prior: means, and sigmas (infinite where there is
@@ -299,12 +320,6 @@ fn global_prior_of(data: &MechanismData) -> (DVector<f64>, DVector<f64>) {
     if data.has_trigger_height() {
         priors.push(data.trigger_height);
     }
-    priors.extend(data.observations.balls.iter().filter_map(|ball| {
-        ball.radius_sigma.map(|sigma| ParameterPrior {
-            mean: ball.radius,
-            sigma: Some(sigma),
-        })
-    }));
     let mean = DVector::from_iterator(priors.len(), priors.iter().map(|p| p.mean));
     let sigma = DVector::from_iterator(
         priors.len(),
@@ -359,8 +374,8 @@ fn failed(observation: ObservationRef, error: impl std::fmt::Display) -> Mechani
     }
 }
 
-/// Groups of three unknowns, points of one row (module doc).
-impl Problem<3, 0, 1> for MechanismProblem<'_> {
+/// Groups of `C` unknowns, points of one row (module doc).
+impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
     type PointCache = ();
     type Workspace = ();
     type Error = MechanismCalibrationError;
@@ -396,10 +411,10 @@ impl Problem<3, 0, 1> for MechanismProblem<'_> {
         &self,
         i: usize,
         global: &DVector<f64>,
-        group: &SVector<f64, 3>,
+        group: &SVector<f64, C>,
         _point: &SVector<f64, 0>,
         _cache: &mut (),
-        out: &mut Local,
+        out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         self.fill(i, global, group, std::slice::from_mut(out))
             .map_err(|(_, e)| e)
@@ -410,10 +425,10 @@ impl Problem<3, 0, 1> for MechanismProblem<'_> {
         &self,
         first: usize,
         global: &DVector<f64>,
-        group: &SVector<f64, 3>,
+        group: &SVector<f64, C>,
         _points: &[SVector<f64, 0>],
         _caches: &mut [()],
-        out: &mut [Local],
+        out: &mut [Local<C>],
         _workspace: &mut (),
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         self.fill(first, global, group, out)
@@ -424,11 +439,11 @@ impl Problem<3, 0, 1> for MechanismProblem<'_> {
         &self,
         first: usize,
         global: &DVector<f64>,
-        group: &SVector<f64, 3>,
+        group: &SVector<f64, C>,
         _points: &[SVector<f64, 0>],
         _caches: &mut [()],
         dg: &DVector<f64>,
-        out: &mut [Local],
+        out: &mut [Local<C>],
         steps: &mut [SVector<f64, 1>],
         _workspace: &mut (),
     ) -> Result<(), (usize, MechanismCalibrationError)> {
@@ -519,13 +534,34 @@ impl Problem<3, 0, 1> for MechanismProblem<'_> {
         self.prior.as_ref()
     }
 
-    /// A measured pose's coordinates with their sigmas.
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<Const<3>>> {
-        let (pose, sigma) = self.data.observations.samples.get(k)?.known_pose?;
-        Some(GaussianPrior::from_sigmas(
-            Vector3::from(pose),
-            Vector3::from(sigma),
-        ))
+    /// A measured pose's coordinates with their sigmas; with `C` 4, an
+    /// uncertain ball's radius with its calibration sigma, and the unit
+    /// prior of every unused fourth unknown (module doc).
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<Const<C>>> {
+        let o = &self.data.observations;
+        let (mean, sigma) = match o.samples.get(k) {
+            Some(sample) => match sample.known_pose {
+                Some((pose, sigma)) => (
+                    block(&Vector3::from(pose), 0.0),
+                    block(&Vector3::from(sigma), UNUSED),
+                ),
+                None if C == 4 => (
+                    SVector::zeros(),
+                    block(&Vector3::repeat(f64::INFINITY), UNUSED),
+                ),
+                None => return None,
+            },
+            None if C == 4 => {
+                let ball = &o.balls[k - o.samples.len()];
+                let free = Vector3::repeat(f64::INFINITY);
+                (
+                    block(&Vector3::zeros(), ball.radius),
+                    block(&free, ball.radius_sigma.unwrap_or(UNUSED)),
+                )
+            }
+            None => return None,
+        };
+        Some(GaussianPrior::from_sigmas(mean, sigma))
     }
 }
 
@@ -705,18 +741,21 @@ mod tests {
 
     /// The Schur complement's step and the solution's covariance against
     /// the dense reference, from the start blocks moved by `offset`.
-    fn check_against_dense(data: &MechanismData, offset: Vector3<f64>) {
-        let problem = MechanismProblem::new(data, Loss::Squared);
+    fn check_against_dense<const C: usize>(data: &MechanismData, offset: Vector3<f64>) {
+        let problem = MechanismProblem::<C>::new(data, Loss::Squared);
         let start = problem.start();
         let n = problem.n_params();
         let blocks = problem.start_blocks(&start.as_slice()[..n]).unwrap();
         let state = State {
             global: start,
-            groups: blocks.iter().map(|p| p + offset).collect(),
+            groups: blocks
+                .iter()
+                .map(|p| p + block::<C>(&offset, 0.0))
+                .collect(),
             points: vec![SVector::zeros(); problem.n_points()],
         };
-        let dense = dense_reference::solve::<3, 0, 1, _>(&problem, &state, 0.0).unwrap();
-        let schur = linear_step::<3, 0, 1, _>(&problem, &state, &mut Vec::new(), 0.0, 64).unwrap();
+        let dense = dense_reference::solve::<C, 0, 1, _>(&problem, &state, 0.0).unwrap();
+        let schur = linear_step::<C, 0, 1, _>(&problem, &state, &mut Vec::new(), 0.0, 64).unwrap();
         let global = (&schur.delta.global - &dense.step.global).amax();
         let points = schur
             .delta
@@ -733,10 +772,10 @@ mod tests {
             "{global:e} {points:e}"
         );
 
-        let solution = solve::<3, 0, 1, _>(&problem, state, &SolverOptions::default(), &mut |_| {});
+        let solution = solve::<C, 0, 1, _>(&problem, state, &SolverOptions::default(), &mut |_| {});
         assert_eq!(solution.status, Status::Converged);
         let covariance = solution.covariance.unwrap();
-        let dense = dense_reference::solve::<3, 0, 1, _>(&problem, &solution.state, 0.0).unwrap();
+        let dense = dense_reference::solve::<C, 0, 1, _>(&problem, &solution.state, 0.0).unwrap();
         let reference = dense.global_covariance().unwrap();
         let error = (&covariance - &reference).amax();
         assert!(error < 1e-7 * reference.amax(), "{error:e}");
@@ -744,11 +783,20 @@ mod tests {
 
     #[test]
     fn the_schur_step_and_covariance_match_the_dense_reference_with_samples_and_touches() {
-        check_against_dense(&small_delta(), Vector3::new(0.3, -0.2, 0.1));
+        // An uncertain radius: blocks of four, samples and the exact ball
+        // holding their fourth unknown by its unit prior.
+        let data = small_delta();
+        assert_eq!(group_size(&data), 4);
+        check_against_dense::<4>(&data, Vector3::new(0.3, -0.2, 0.1));
+        // Both radii exact: blocks of three.
+        let mut exact = data.clone();
+        exact.observations.balls[1].radius_sigma = None;
+        assert_eq!(group_size(&exact), 3);
+        check_against_dense::<3>(&exact, Vector3::new(0.3, -0.2, 0.1));
     }
 
     #[test]
     fn loads_and_measured_quantities_match_the_dense_reference() {
-        check_against_dense(&small_cable(), Vector3::new(3.0, -2.0, 1.0));
+        check_against_dense::<3>(&small_cable(), Vector3::new(3.0, -2.0, 1.0));
     }
 }

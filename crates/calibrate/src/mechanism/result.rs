@@ -172,34 +172,16 @@ pub(crate) fn assemble(
         .collect();
     let g = fit.global.len();
     let gauge = gauge_directions(mechanism, &fit.global.as_slice()[..n], g)?;
-    let balls = &data.observations.balls;
-    let mut names: Vec<String> = parameters.iter().map(|p| p.name.clone()).collect();
-    names.extend(
-        (0..balls.len())
-            .filter(|&b| balls[b].radius_sigma.is_some())
-            .map(|b| format!("radius of ball {b}")),
-    );
-    let mut next_radius = estimated;
-    let estimated_balls = balls
+    let names: Vec<String> = parameters.iter().map(|p| p.name.clone()).collect();
+    let estimated_balls = fit
+        .centres
         .iter()
-        .zip(&fit.centres)
         .enumerate()
-        .map(|(b, (ball, centre))| {
-            let (radius, radius_sigma) = match ball.radius_sigma {
-                Some(_) => {
-                    let k = next_radius;
-                    next_radius += 1;
-                    let sigma = frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt());
-                    (frame.values[k], sigma)
-                }
-                None => (ball.radius, None),
-            };
-            EstimatedBall {
-                centre: *centre,
-                centre_sigma: fit.centre_sigmas.as_ref().map(|s| s[b]),
-                radius,
-                radius_sigma,
-            }
+        .map(|(b, centre)| EstimatedBall {
+            centre: *centre,
+            centre_sigma: fit.centre_sigmas.as_ref().map(|s| s[b]),
+            radius: fit.radii[b],
+            radius_sigma: fit.radius_sigmas.as_ref().and_then(|s| s[b]),
         })
         .collect();
     let identifiability = fit.covariance.as_ref().and_then(|covariance| {

@@ -21,8 +21,8 @@ use super::observations::{OBSERVATIONS, too_many};
 /// The bounds of the rows of balls.csv.
 pub const BALLS: Count = Count::new(
     1,
-    1_000,
-    "a ball with a radius sigma adds an unknown to the dense global block",
+    OBSERVATIONS.max / 4,
+    "each ball takes at least 4 of touches.csv's rows",
 );
 
 /// The columns of balls.csv.
