@@ -45,8 +45,8 @@ type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>
 /// The unknowns of each local block of `data` (module doc): 4 when some
 /// ball's radius has a calibration sigma, else 3.
 pub(crate) fn group_size(data: &MechanismData) -> usize {
-    let uncertain = data.observations.balls.iter();
-    if uncertain.clone().any(|ball| ball.radius_sigma.is_some()) {
+    let balls = &data.observations.balls;
+    if balls.iter().any(|ball| ball.radius_sigma.is_some()) {
         4
     } else {
         3
