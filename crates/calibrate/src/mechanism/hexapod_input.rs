@@ -159,11 +159,8 @@ fn touch_weights(
     let mut tips = Vec::with_capacity(m.len());
     let mut d_q = Vec::with_capacity(m.len());
     for (row, q) in m.q.iter().enumerate() {
-        let start = hexapod
-            .start_pose(configured, q)
-            .map_err(|e| contact_error(row, e.to_string()))?;
-        let pose = hexapod
-            .forward(configured, q, start.as_slice())
+        let pose = Actuation::Readings(q.to_vec())
+            .pose(hexapod, configured, configured)
             .map_err(|e| contact_error(row, format!("the design's forward kinematics: {e}")))?;
         let tip = hexapod
             .tool_point(configured, pose.as_slice())

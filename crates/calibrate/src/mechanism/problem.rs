@@ -345,17 +345,13 @@ pub(crate) fn ball_centre(
     let points = touches
         .iter()
         .map(|&t| {
-            let (x, _) = all[t]
-                .at
-                .tool_point(mechanism, params, configured)
-                .map_err(|e| {
-                    let at = ObservationRef {
-                        kind: ObservationKind::Touch,
-                        index: t,
-                    };
-                    failed(at, e)
-                })?;
-            Ok(Vector3::new(x[0], x[1], x[2]))
+            all[t].at.point(mechanism, params, configured).map_err(|e| {
+                let at = ObservationRef {
+                    kind: ObservationKind::Touch,
+                    index: t,
+                };
+                failed(at, e)
+            })
         })
         .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
     match best_fit(&points, radius) {

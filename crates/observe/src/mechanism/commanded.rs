@@ -2,7 +2,7 @@
 //! actuators read given values, and the whitened rows every observation
 //! kind returns.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_at_readings};
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
@@ -68,12 +68,36 @@ impl Actuation {
         }
     }
 
-    /// The values it holds: the commanded coordinates or the readings.
-    pub fn values(&self) -> &[f64] {
+    /// The pose the machine of true parameters `params` reaches, `f(p, q)`,
+    /// without derivatives: from the commanded position (the readings
+    /// `g(p_c, x_c)`) or from the mechanism's [`Mechanism::start_pose`].
+    pub fn pose(
+        &self,
+        mechanism: &dyn Mechanism,
+        params: &[f64],
+        configured: &[f64],
+    ) -> Result<DVector<f64>, MechanismError> {
         match self {
-            Self::Commanded(commanded) => commanded,
-            Self::Readings(readings) => readings,
+            Self::Commanded(commanded) => {
+                let readings = mechanism.inverse(configured, commanded)?;
+                mechanism.forward(params, readings.as_slice(), commanded)
+            }
+            Self::Readings(readings) => {
+                let start = mechanism.start_pose(params, readings)?;
+                mechanism.forward(params, readings, start.as_slice())
+            }
         }
+    }
+
+    /// The tool point at [`Actuation::pose`], without derivatives.
+    pub fn point(
+        &self,
+        mechanism: &dyn Mechanism,
+        params: &[f64],
+        configured: &[f64],
+    ) -> Result<Vector3<f64>, MechanismError> {
+        let pose = self.pose(mechanism, params, configured)?;
+        Ok(mechanism.tool_point(params, pose.as_slice())?.point)
     }
 }
 
