@@ -349,13 +349,16 @@ mod tests {
             .inverse(p.as_slice(), pose_vector(&pose).as_slice())
             .unwrap();
         let start = hexapod.start_pose(p.as_slice(), q.as_slice()).unwrap();
-        let (point, d_params) =
+        let reached =
             tool_point_at_readings(&hexapod, p.as_slice(), q.as_slice(), start.as_slice()).unwrap();
         // The forward kinematics' tolerance, 1e-9 mm in the tip.
-        assert!((point - geometry.tool_tip(&pose)).amax() < 1e-9);
+        assert!((reached.point - geometry.tool_tip(&pose)).amax() < 1e-9);
+        let turned = pose_of(reached.pose.as_slice()).inverse() * pose;
+        assert!(turned.translation.vector.amax() < 1e-9 && turned.rotation.angle() < 1e-9);
         let reference = tip_jacobians_at(&geometry, &pose).unwrap().d_params;
-        let difference =
-            (d_params - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice())).amax();
+        let difference = (reached.d_params
+            - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice()))
+        .amax();
         assert!(difference < 1e-9, "{difference:e}");
     }
 

@@ -43,8 +43,13 @@
 //! with respect to the parameters is
 //!
 //! ```text
-//! dT/dp |_q = dT/dp |_x + dT/dx dx/dp |_q        (tool_point_at_readings)
+//! dT/dp |_q = dT/dp |_x + dT/dx dx/dp |_q
+//!           = dT/dp |_x - (dT/dx G_x^-1) G_p       (tool_point_at_readings)
 //! ```
+//!
+//! where `dT/dq = dT/dx G_x^-1` ([`tool_point_reading_jacobian`]) is how
+//! the readings move the tool point: three transposed solves instead of
+//! one per parameter.
 //!
 //! # Gauge
 //!
@@ -445,20 +450,43 @@ pub fn pose_jacobian_at_fixed_readings(
     Ok(-solved)
 }
 
-/// The tool point the machine of parameters `params` reaches at
-/// `readings`, `T(p, f(p, q))`, and its derivative at fixed readings,
-/// `dT/dp |_q = dT/dp |_x + dT/dx (-G_x^-1 G_p)` (3 x parameters; module
-/// documentation); the forward kinematics starts from `start`.
+/// Where the machine is at given readings: its pose, its tool point and
+/// the tool point's derivative at fixed readings
+/// ([`tool_point_at_readings`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reached {
+    /// The pose `x = f(p, q)`.
+    pub pose: DVector<f64>,
+    /// The tool point `T(p, x)` (mm).
+    pub point: Vector3<f64>,
+    /// `dT/dp |_q` (3 x parameters).
+    pub d_params: DMatrix<f64>,
+}
+
+/// The pose and tool point the machine of parameters `params` reaches at
+/// `readings`, `T(p, f(p, q))`, and the tool point's derivative at fixed
+/// readings, `dT/dp |_q = dT/dp |_x + dT/dx (-G_x^-1 G_p) = dT/dp |_x -
+/// (dT/dq) G_p` (3 x parameters; module documentation), with `dT/dq =
+/// dT/dx G_x^-1` ([`tool_point_reading_jacobian`]) taken by three
+/// transposed solves rather than one per parameter; the forward kinematics
+/// starts from `start`.
 pub fn tool_point_at_readings(
     mechanism: &dyn Mechanism,
     params: &[f64],
     readings: &[f64],
     start: &[f64],
-) -> Result<(Vector3<f64>, DMatrix<f64>), MechanismError> {
+) -> Result<Reached, MechanismError> {
     let pose = mechanism.forward(params, readings, start)?;
-    let d_pose = pose_jacobian_at_fixed_readings(mechanism, params, pose.as_slice())?;
+    let jacobians = mechanism.reading_jacobians(params, pose.as_slice())?;
     let tool = mechanism.tool_point(params, pose.as_slice())?;
-    Ok((tool.point, tool.d_pose * d_pose + tool.d_params))
+    let d_readings = reading_to_tool(mechanism, &jacobians.d_pose, &tool.d_pose)?;
+    let mut d_params = tool.d_params;
+    d_params.gemm(-1.0, &d_readings, &jacobians.d_params, 1.0);
+    Ok(Reached {
+        pose,
+        point: tool.point,
+        d_params,
+    })
 }
 
 /// `dT/dq` at fixed parameters, `dT/dx G_x^-1` (3 x actuators): how the
@@ -472,11 +500,21 @@ pub fn tool_point_reading_jacobian(
 ) -> Result<DMatrix<f64>, MechanismError> {
     let g_x = mechanism.reading_jacobians(params, pose)?.d_pose;
     let tool = mechanism.tool_point(params, pose)?;
-    check_square(mechanism, &g_x)?;
-    // (dT/dx G_x^-1)^T = G_x^-T (dT/dx)^T.
+    reading_to_tool(mechanism, &g_x, &tool.d_pose)
+}
+
+/// `dT/dq = dT/dx G_x^-1` from `G_x` and `dT/dx`, by the transposed solves
+/// `G_x^T (dT/dq)^T = (dT/dx)^T` (one per tool coordinate). An error for a
+/// `G_x` that is not square or is singular.
+fn reading_to_tool<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    g_x: &DMatrix<f64>,
+    tool_d_pose: &DMatrix<f64>,
+) -> Result<DMatrix<f64>, MechanismError> {
+    check_square(mechanism, g_x)?;
     g_x.transpose()
         .lu()
-        .solve(&tool.d_pose.transpose())
+        .solve(&tool_d_pose.transpose())
         .filter(|m| m.iter().all(|v| v.is_finite()))
         .map(|m| m.transpose())
         .ok_or(MechanismError::Singular)

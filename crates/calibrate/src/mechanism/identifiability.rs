@@ -17,7 +17,9 @@
 //!   (`D⁻¹ z`, which no data see) are removed first, and every other
 //!   direction with `λ < 1`, whose data-only sigma exceeds its prior
 //!   sigma, is reported as set by the prior, named by the parameters that
-//!   make it up (components in units of their prior sigma).
+//!   make it up (components in units of their prior sigma). A `λ` within
+//!   the difference's rounding error (`g ε λ_max`) is reported as not seen
+//!   at all: its `1/√λ` would be a figure of the rounding, not of the data.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use parcal_kinematics::mechanism::Mechanism;
@@ -126,6 +128,7 @@ pub fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
     let basis = complement(gauge, &scale);
     let reduced = basis.transpose() * &scaled * &basis;
     let eigen = SymmetricEigen::new(reduced);
+    let floor = rounding_floor(&eigen.eigenvalues);
     let mut order: Vec<usize> = (0..eigen.eigenvalues.len()).collect();
     order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
     let undetermined: Vec<Undetermined> = order
@@ -147,7 +150,7 @@ pub fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
             }
             Undetermined {
                 components,
-                data_to_prior: if lambda > 0.0 {
+                data_to_prior: if lambda > floor {
                     1.0 / lambda.sqrt()
                 } else {
                     f64::INFINITY
@@ -162,6 +165,15 @@ pub fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
         undetermined,
         statements,
     })
+}
+
+/// The eigenvalue below which `M` cannot tell the data's information
+/// from none: `I_d` is a difference, `Cov(g)⁻¹ − Λ_g`, whose rounding
+/// error is about `g ε` times its largest eigenvalue (`ε` the machine
+/// epsilon), so a smaller `λ` is that error, not the data (module doc).
+fn rounding_floor(eigenvalues: &DVector<f64>) -> f64 {
+    let largest = eigenvalues.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    eigenvalues.len() as f64 * f64::EPSILON * largest
 }
 
 /// Posterior over prior sigma of each canonical value (module doc).
@@ -260,4 +272,49 @@ fn statements(
         ));
     }
     statements
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The identifiability of two unknowns with unit priors whose data
+    /// give them the information `data`.
+    fn of(data: [f64; 2]) -> Identifiability {
+        let names = ["a".to_string(), "b".to_string()];
+        let prior = DMatrix::identity(2, 2);
+        let posterior = DMatrix::from_diagonal(&DVector::from_fn(2, |k, _| 1.0 + data[k]));
+        let covariance = posterior.try_inverse().unwrap();
+        identifiability(&Inputs {
+            names: &names,
+            covariance: &covariance,
+            prior_information: &prior,
+            canonical: &DMatrix::identity(2, 2),
+            gauge: &[],
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn a_weak_direction_has_its_ratio_and_an_unseen_one_none() {
+        // Data information 1/4 on b: alone it would give b two prior sigmas.
+        let weak = of([1e8, 0.25]);
+        assert_eq!(weak.undetermined.len(), 1);
+        assert_eq!(
+            weak.undetermined[0].components,
+            vec![("b".to_string(), 1.0)]
+        );
+        assert!((weak.undetermined[0].data_to_prior - 2.0).abs() < 1e-6);
+        // None on b: 1/(1 + 0) - 1 is exact here, but a rounding of 1e-13
+        // (far below 2 ε 1e8) must not be read as data seeing it.
+        for data in [0.0, 1e-13] {
+            let unseen = of([1e8, data]);
+            assert_eq!(unseen.undetermined[0].data_to_prior, f64::INFINITY);
+            assert!(
+                unseen.statements[0].contains("do not see it at all"),
+                "{:?}",
+                unseen.statements
+            );
+        }
+    }
 }

@@ -302,7 +302,7 @@ fn predict_ball(
     for (i, &t) in touches.iter().enumerate() {
         let touch = &all[t];
         let row = touch
-            .evaluate(mechanism, params, configured, &centre, ball.radius)
+            .evaluate(mechanism, params, configured, &centre, ball.radius, None)
             .map_err(|e| MechanismCalibrationError::Observation {
                 observation: ObservationRef {
                     kind: ObservationKind::Touch,

@@ -53,6 +53,11 @@ pub(crate) fn group_size(data: &MechanismData) -> usize {
     }
 }
 
+/// A point's cache: the pose its touch at readings last reached (empty
+/// before its first evaluation and for every other point), where its next
+/// forward kinematics starts.
+type LastPose = Vec<f64>;
+
 /// The sigma of the unit prior that holds a block's unused fourth unknown
 /// (module doc).
 const UNUSED: f64 = 1.0;
@@ -228,12 +233,15 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     }
 
     /// The row of the touch at point `i` (after the samples' rows) at its
-    /// ball's centre, into `out`.
+    /// ball's centre, into `out`; a touch at readings starts its forward
+    /// kinematics from the pose in `cache` (the one it last reached) and
+    /// leaves there the pose it reaches.
     fn touch_row(
         &self,
         i: usize,
         global: &DVector<f64>,
         block: &SVector<f64, C>,
+        cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let t = self.touch_order[i - self.sample_points()];
@@ -250,6 +258,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 self.data.configured.as_slice(),
                 &centre,
                 radius,
+                (!cache.is_empty()).then_some(cache.as_slice()),
             )
             .map_err(|e| {
                 failed(
@@ -260,6 +269,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     format!("on ball {}: {e}", touch.ball),
                 )
             })?;
+        cache.clear();
+        cache.extend_from_slice(row.pose.as_slice());
         out.residual[0] = row.rows.residual[0];
         out.d_global.fill(0.0);
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
@@ -272,17 +283,19 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     }
 
     /// The points `first..first + out.len()` (one group's) at its block
-    /// `group`: a sample's rows from one evaluation, or touches.
+    /// `group`, with their caches: a sample's rows from one evaluation, or
+    /// touches.
     fn fill(
         &self,
         first: usize,
         global: &DVector<f64>,
         group: &SVector<f64, C>,
+        caches: &mut [LastPose],
         out: &mut [Local<C>],
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         if first >= self.sample_points() {
-            for (j, out) in out.iter_mut().enumerate() {
-                self.touch_row(first + j, global, group, out)
+            for (j, (out, cache)) in out.iter_mut().zip(caches).enumerate() {
+                self.touch_row(first + j, global, group, cache, out)
                     .map_err(|e| (first + j, e))?;
             }
             return Ok(());
@@ -372,7 +385,7 @@ fn failed(observation: ObservationRef, error: impl std::fmt::Display) -> Mechani
 
 /// Groups of `C` unknowns, points of one row (module doc).
 impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
-    type PointCache = ();
+    type PointCache = LastPose;
     type Workspace = ();
     type Error = MechanismCalibrationError;
     type Jacobian = OMatrix<f64, Const<1>, Dyn>;
@@ -400,7 +413,11 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         }
     }
 
-    fn initial_cache(&self, _i: usize) {}
+    /// No pose yet: a touch at readings first starts from the
+    /// mechanism's [`Mechanism::start_pose`].
+    fn initial_cache(&self, _i: usize) -> LastPose {
+        Vec::new()
+    }
 
     /// The row of point `i` at its group's block (module doc).
     fn linearize(
@@ -409,10 +426,11 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         _point: &SVector<f64, 0>,
-        _cache: &mut (),
+        cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
-        self.fill(i, global, group, std::slice::from_mut(out))
+        let caches = std::slice::from_mut(cache);
+        self.fill(i, global, group, caches, std::slice::from_mut(out))
             .map_err(|(_, e)| e)
     }
 
@@ -423,11 +441,11 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         _points: &[SVector<f64, 0>],
-        _caches: &mut [()],
+        caches: &mut [LastPose],
         out: &mut [Local<C>],
         _workspace: &mut (),
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, out)
+        self.fill(first, global, group, caches, out)
     }
 
     /// [`Problem::linearize_batch`], then each row's `d_global · dg`.
@@ -437,13 +455,13 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         _points: &[SVector<f64, 0>],
-        _caches: &mut [()],
+        caches: &mut [LastPose],
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 1>],
         _workspace: &mut (),
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, out)?;
+        self.fill(first, global, group, caches, out)?;
         for (step, out) in steps.iter_mut().zip(out.iter()) {
             *step = &out.d_global * dg;
         }

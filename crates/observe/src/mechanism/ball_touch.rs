@@ -40,6 +40,9 @@ pub struct BallTouch {
 pub struct TouchRow {
     /// The row `r` and `dr/dp`.
     pub rows: Rows,
+    /// The pose the machine reached at the touch: a start for the next
+    /// evaluation's forward kinematics.
+    pub pose: DVector<f64>,
     /// `dr/dc`, the derivative with respect to the ball's centre.
     pub d_centre: RowVector3<f64>,
     /// `dr/dρ`, the derivative with respect to the ball's radius.
@@ -49,8 +52,9 @@ pub struct TouchRow {
 impl BallTouch {
     /// The whitened row at true parameters `params`, configured parameters
     /// `configured`, the ball's centre `centre` and radius `radius`
-    /// (module doc). An error if the tool point is at the centre (no
-    /// normal).
+    /// (module doc), the forward kinematics of a touch at readings started
+    /// from `start` if given ([`Actuation::tool_point`]). An error if the
+    /// tool point is at the centre (no normal).
     pub fn evaluate(
         &self,
         mechanism: &dyn Mechanism,
@@ -58,10 +62,11 @@ impl BallTouch {
         configured: &[f64],
         centre: &Vector3<f64>,
         radius: f64,
+        start: Option<&[f64]>,
     ) -> Result<TouchRow, MechanismError> {
         check_sigma("touch sigma", self.sigma)?;
-        let (point, jacobian) = self.at.tool_point(mechanism, params, configured)?;
-        let offset = Vector3::new(point[0], point[1], point[2]) - centre;
+        let reached = self.at.tool_point(mechanism, params, configured, start)?;
+        let offset = reached.point - centre;
         let distance = offset.norm();
         if distance == 0.0 || !distance.is_finite() {
             return Err(MechanismError::Unreachable {
@@ -69,12 +74,13 @@ impl BallTouch {
             });
         }
         let u = offset / distance;
-        let d_params = (u.transpose() * jacobian) / self.sigma;
+        let d_params = (u.transpose() * reached.d_params) / self.sigma;
         Ok(TouchRow {
             rows: Rows {
                 residual: DVector::from_element(1, (distance - radius) / self.sigma),
                 d_params: DMatrix::from_row_slice(1, d_params.len(), d_params.as_slice()),
             },
+            pose: reached.pose,
             d_centre: -u.transpose() / self.sigma,
             d_radius: -1.0 / self.sigma,
         })
@@ -99,7 +105,7 @@ mod tests {
         let centre = Vector3::new(35.0, -33.0, 6.0);
         let c = configured.as_slice();
         let at = |p: &[f64], centre: &Vector3<f64>, radius: f64| {
-            touch.evaluate(&delta, p, c, centre, radius).unwrap()
+            touch.evaluate(&delta, p, c, centre, radius, None).unwrap()
         };
         let analytic = at(truth.as_slice(), &centre, 12.7);
         let numeric = differences(&delta, &truth, 1e-4, |p| at(p, &centre, 12.7).rows.residual);
@@ -134,7 +140,11 @@ mod tests {
         };
         let tip = hexapod.tool_point(p.as_slice(), &pose).unwrap().point;
         let centre = tip + Vector3::new(2.0, -3.0, 4.0);
-        let at = |params: &[f64]| touch.evaluate(hexapod, params, &[], &centre, 5.0).unwrap();
+        let at = |params: &[f64]| {
+            touch
+                .evaluate(hexapod, params, &[], &centre, 5.0, None)
+                .unwrap()
+        };
         let analytic = at(p.as_slice());
         // |tip - c| = √29: the residual is (√29 - 5) / σ.
         let expected = (29f64.sqrt() - 5.0) / 0.002;
@@ -148,6 +158,21 @@ mod tests {
         let numeric = differences(hexapod, &p, 1e-4, |params| at(params).rows.residual);
         let error = (&analytic.rows.d_params - &numeric).amax();
         assert!(error < 1e-6 * numeric.amax(), "{error:e}");
+        // Started from the pose it reached, the same row to the forward
+        // kinematics' tolerance (1e-9 mm, over σ).
+        let warm = touch
+            .evaluate(
+                hexapod,
+                p.as_slice(),
+                &[],
+                &centre,
+                5.0,
+                Some(analytic.pose.as_slice()),
+            )
+            .unwrap();
+        let moved = (warm.rows.residual[0] - analytic.rows.residual[0]).abs();
+        assert!(moved < 1e-9 / 0.002, "{moved:e}");
+        assert!((&warm.rows.d_params - &analytic.rows.d_params).amax() < 1e-9 * numeric.amax());
     }
 
     #[test]
@@ -161,7 +186,7 @@ mod tests {
             sigma: 0.01,
         };
         let row = touch
-            .evaluate(&delta, c, c, &Vector3::new(0.0, 0.0, 10.0), 4.9)
+            .evaluate(&delta, c, c, &Vector3::new(0.0, 0.0, 10.0), 4.9, None)
             .unwrap();
         assert!((row.rows.residual[0] - 10.0).abs() < 1e-8, "{:?}", row.rows);
         let bad = BallTouch {
@@ -169,7 +194,7 @@ mod tests {
             ..touch.clone()
         };
         let error = bad
-            .evaluate(&delta, c, c, &Vector3::zeros(), 4.9)
+            .evaluate(&delta, c, c, &Vector3::zeros(), 4.9, None)
             .unwrap_err();
         assert!(error.to_string().contains("touch sigma"), "{error}");
     }

@@ -3,7 +3,7 @@
 //! kind returns.
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_at_readings};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, tool_point_at_readings};
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
 pub const POSE_COORDINATES: usize = 3;
@@ -28,10 +28,23 @@ pub fn reached(
     configured: &[f64],
     commanded: &[f64; 3],
 ) -> Result<(DVector<f64>, DMatrix<f64>), MechanismError> {
+    let reached = reached_at_command(mechanism, params, configured, commanded)?;
+    Ok((
+        DVector::from_column_slice(reached.point.as_slice()),
+        reached.d_params,
+    ))
+}
+
+/// [`reached`] with the pose: the readings `g(p_c, x_c)` through
+/// [`tool_point_at_readings`] from `x_c`.
+fn reached_at_command(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
+    commanded: &[f64; 3],
+) -> Result<Reached, MechanismError> {
     let readings = mechanism.inverse(configured, commanded)?;
-    let (point, jacobian) =
-        tool_point_at_readings(mechanism, params, readings.as_slice(), commanded)?;
-    Ok((DVector::from_column_slice(point.as_slice()), jacobian))
+    tool_point_at_readings(mechanism, params, readings.as_slice(), commanded)
 }
 
 /// How the machine was put where it observed: a position `x_c` its
@@ -47,24 +60,30 @@ pub enum Actuation {
 }
 
 impl Actuation {
-    /// The tool point the machine of true parameters `params` reaches and
-    /// its `dT/dp` at fixed readings: [`reached`] for a commanded position;
-    /// for readings, the forward kinematics from the mechanism's
+    /// The pose and tool point the machine of true parameters `params`
+    /// reaches and the tool point's `dT/dp` at fixed readings: [`reached`]
+    /// for a commanded position; for readings, the forward kinematics from
+    /// `start` (a pose near the one reached, such as the one a previous
+    /// evaluation found), else from the mechanism's
     /// [`Mechanism::start_pose`].
     pub fn tool_point(
         &self,
         mechanism: &dyn Mechanism,
         params: &[f64],
         configured: &[f64],
-    ) -> Result<(DVector<f64>, DMatrix<f64>), MechanismError> {
+        start: Option<&[f64]>,
+    ) -> Result<Reached, MechanismError> {
         match self {
-            Self::Commanded(commanded) => reached(mechanism, params, configured, commanded),
-            Self::Readings(readings) => {
-                let start = mechanism.start_pose(params, readings)?;
-                let (point, jacobian) =
-                    tool_point_at_readings(mechanism, params, readings, start.as_slice())?;
-                Ok((DVector::from_column_slice(point.as_slice()), jacobian))
+            Self::Commanded(commanded) => {
+                reached_at_command(mechanism, params, configured, commanded)
             }
+            Self::Readings(readings) => match start {
+                Some(start) => tool_point_at_readings(mechanism, params, readings, start),
+                None => {
+                    let start = mechanism.start_pose(params, readings)?;
+                    tool_point_at_readings(mechanism, params, readings, start.as_slice())
+                }
+            },
         }
     }
 
