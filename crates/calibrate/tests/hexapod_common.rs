@@ -2,7 +2,8 @@
 //! fixtures/paper-seed1 calibrated as a [`Mechanism`] plug-in by the path
 //! of every mechanism (`calibrate_mechanism`), against the hexapod's own
 //! calibration under the same model (the radius observation, eq. 9, with
-//! each of its weight and radius models, no prior on the parameters).
+//! each of its weight and radius models, no prior on the parameters or the
+//! propagated one).
 //! Both minimise the same cost, so they must reach the same estimate and
 //! the same covariance.
 //!
@@ -15,7 +16,7 @@ use parcal_calibrate::mechanism::{
     validate_mechanism,
 };
 use parcal_calibrate::observation::ObservationId;
-use parcal_calibrate::{CalibrationOptions, RadiusModel, Simulation, calibrate};
+use parcal_calibrate::{CalibrationOptions, PriorMode, RadiusModel, Simulation, calibrate};
 use parcal_dataset::Dataset;
 use parcal_observe::WeightModel;
 use parcal_observe::mechanism::Actuation;
@@ -37,6 +38,32 @@ fn the_common_calibration_of_a_hexapod_is_its_own() {
             };
             compare(&options);
         }
+    }
+}
+
+#[test]
+fn the_propagated_prior_through_the_interface_is_the_own_paths() {
+    // The input coordinates' tolerances propagated through the canonical
+    // frame: 33 correlated priors (the balls of fixtures/paper-seed1 are
+    // in the design's frame, so their centres have none).
+    for radius in [RadiusModel::PerBall, RadiusModel::PerContact] {
+        println!("propagated prior, {radius:?} radius:");
+        let options = CalibrationOptions {
+            prior: PriorMode::Propagated,
+            radius,
+            ..CalibrationOptions::simulation(Simulation::I)
+        };
+        compare(&options);
+        // The common data hold the own path's prior: its correlation is
+        // far from the identity.
+        let dataset = Dataset::read(&fixture()).unwrap();
+        let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
+        let correlation = data.prior_correlation.as_ref().unwrap();
+        let largest = (0..33)
+            .flat_map(|j| (0..33).filter(move |&k| k != j).map(move |k| (j, k)))
+            .map(|(j, k)| correlation[(j, k)].abs())
+            .fold(0.0, f64::max);
+        assert!(largest > 0.5, "{largest}");
     }
 }
 

@@ -6,6 +6,7 @@
 use std::fmt;
 use std::sync::Arc;
 
+use nalgebra::DMatrix;
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
     Actuation, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES, PartDistance,
@@ -14,6 +15,7 @@ use parcal_observe::mechanism::{
 
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
+use super::prior::check_correlation;
 
 /// The most observations of each kind: far beyond a calibration's needs
 /// (a probed bed holds tens to hundreds), and small enough that the
@@ -124,6 +126,9 @@ pub struct MechanismData {
     /// Each parameter's prior (the builder's knowledge of the true
     /// machine), in the mechanism's parameter order.
     pub priors: Vec<ParameterPrior>,
+    /// The correlation of the parameters' priors (`n × n`, unit
+    /// diagonal; [`super::prior`]); `None`: independent.
+    pub prior_correlation: Option<DMatrix<f64>>,
     /// The probe's trigger height `h` above the bed (mm): an unknown when
     /// there are probe heights.
     pub trigger_height: ParameterPrior,
@@ -137,6 +142,7 @@ impl fmt::Debug for MechanismData {
             .field("mechanism", &self.mechanism.name())
             .field("configured", &self.configured)
             .field("priors", &self.priors)
+            .field("prior_correlation", &self.prior_correlation)
             .field("trigger_height", &self.trigger_height)
             .field("observations", &self.observations)
             .finish()
@@ -165,6 +171,7 @@ impl MechanismData {
             mechanism,
             configured,
             priors,
+            prior_correlation: None,
             trigger_height: ParameterPrior {
                 mean: 0.0,
                 sigma: None,
@@ -208,6 +215,15 @@ impl MechanismData {
         for (prior, &mean) in self.priors.iter_mut().zip(means) {
             prior.mean = mean;
         }
+        self
+    }
+
+    /// These data with the parameters' priors correlated by `correlation`
+    /// (`n × n` for the `n` parameters, symmetric, unit diagonal, positive
+    /// definite over the parameters with a prior; [`super::prior`]), their
+    /// sigmas kept. [`MechanismData::validate`] checks it.
+    pub fn with_prior_correlation(mut self, correlation: DMatrix<f64>) -> Self {
+        self.prior_correlation = Some(correlation);
         self
     }
 
@@ -301,6 +317,9 @@ impl MechanismData {
             check_prior(&self.priors[k], what)?;
         }
         check_prior(&self.trigger_height, || "trigger height".to_string())?;
+        if let Some(correlation) = &self.prior_correlation {
+            check_correlation(self, correlation)?;
+        }
         let observations = &self.observations;
         for kind in ObservationKind::ALL {
             let count = observations.count(kind);

@@ -6,8 +6,12 @@
 //!
 //! - The mechanism: [`Hexapod`] at the design of the machine; with the
 //!   paper's prior, each of its 33 canonical parameters has the design
-//!   tolerance of its group (eq. 7, without the balls' centres), without
-//!   a prior, none.
+//!   tolerance of its group (eq. 7, without the balls' centres); with the
+//!   propagated prior, the input coordinates' tolerances propagated
+//!   through the canonical frame ([`KinematicPrior::propagated`]: the
+//!   marginal sigmas and their correlation, [`super::prior`]; balls
+//!   located in the canonical frame, which that prior also holds, are
+//!   refused); without a prior, none.
 //! - Each ball: its calibrated radius, an unknown with the prior of its
 //!   calibration sigma ([`RadiusModel::PerBall`]) or exact, its sigma then
 //!   an error of every touch ([`RadiusModel::PerContact`]); its centre an
@@ -22,16 +26,18 @@
 //! Both calibrations then minimise the same cost from the same start: the
 //! common door's estimate is the dedicated path's. What only the hexapod's
 //! own calibration models is refused by name: the coordinate observation
-//! (eq. 10) and its contact angles, the propagated prior, the actuators'
-//! scales, tracker poses and points, calibrated distances between balls.
+//! (eq. 10) and its contact angles, the balls' centre priors, the
+//! actuators' scales, tracker poses and points, calibrated distances
+//! between balls.
 
 use std::sync::Arc;
 
-use nalgebra::Matrix3x6;
+use nalgebra::{DMatrix, Matrix3x6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::hexapod::Hexapod;
 use parcal_kinematics::mechanism::{Mechanism, design, tool_point_reading_jacobian};
-use parcal_kinematics::{Geometry, Vec3};
+use parcal_kinematics::{Geometry, N_PARAMS, Vec3};
+use parcal_observe::KinematicPrior;
 use parcal_observe::mechanism::{Actuation, BallTouch};
 use parcal_observe::unit_direction;
 use parcal_observe::weights::{Repeatability, radius_variance};
@@ -93,9 +99,33 @@ impl MechanismData {
         let data = Self::new(Arc::new(hexapod), configured, observations);
         Ok(match options.prior {
             PriorMode::None => data.without_priors(),
-            _ => data,
+            PriorMode::Paper => data,
+            PriorMode::Propagated => {
+                let prior = KinematicPrior::propagated(&input, &machine.prior_sigma)
+                    .map_err(|e| invalid("the propagated prior".to_string(), e.to_string()))?;
+                with_prior(data, &prior)
+            }
         })
     }
+}
+
+/// `data` with `prior`'s means, marginal sigmas and correlation (the
+/// propagated prior, paper eq. 7 with the input coordinates' tolerances).
+fn with_prior(mut data: MechanismData, prior: &KinematicPrior) -> MechanismData {
+    let sigma = prior.sigma();
+    for (k, parameter) in data.priors.iter_mut().enumerate() {
+        parameter.mean = prior.mean()[k];
+        parameter.sigma = Some(sigma[k]);
+    }
+    let covariance = prior.covariance();
+    let correlation = DMatrix::from_fn(N_PARAMS, N_PARAMS, |j, k| {
+        if j == k {
+            1.0
+        } else {
+            covariance[(j, k)] / (sigma[j] * sigma[k])
+        }
+    });
+    data.with_prior_correlation(correlation)
 }
 
 /// Refuses what only the hexapod's own calibration models (module doc).
@@ -111,9 +141,10 @@ fn check_representable(
             "its contact angles are not unknowns of the common calibration, whose touch is the radius observation (eq. 9)",
         ),
         (
-            options.prior == PriorMode::Propagated,
-            "the propagated prior",
-            "it couples the parameters; the common calibration's priors are one per parameter",
+            options.prior == PriorMode::Propagated
+                && dataset.artefacts.frame == ArtefactFrame::Canonical,
+            "the propagated prior on balls located in the canonical frame",
+            "the balls' centres have no prior in the common calibration",
         ),
         (
             machine.actuator.scale != [1.0; 6] || machine.actuator.scale_sigma.is_some(),

@@ -2,7 +2,8 @@
 //!
 //! - **Per parameter**: the ratio of its posterior sigma to its prior
 //!   sigma, both in the canonical frame ([`super::frame`]: the prior
-//!   covariance `diag(σ²)` propagated like the posterior's, `J_c diag(σ²)
+//!   covariance `Σ_prior` (`diag(σ²)` when the priors are independent,
+//!   [`super::prior`]) propagated like the posterior's, `J_c Σ_prior
 //!   J_cᵀ`). Near 1, the data taught nothing about it: it is determined
 //!   by its prior. A value the canonical frame fixes (prior sigma 0 there)
 //!   and a value whose canonical form involves a parameter without a prior
@@ -65,8 +66,11 @@ pub struct Inputs<'a> {
     pub names: &'a [String],
     /// The fit-frame covariance `Cov(g)`.
     pub covariance: &'a DMatrix<f64>,
-    /// The prior information `Λ_g` (diagonal).
+    /// The prior information `Λ_g` (zero where no prior).
     pub prior_information: &'a DMatrix<f64>,
+    /// The prior covariance `Σ_prior` (zero where no prior), whose
+    /// diagonal gives the prior sigmas.
+    pub prior_covariance: &'a DMatrix<f64>,
     /// The canonical frame's derivative (`T`, identity beyond the
     /// mechanism's parameters).
     pub canonical: &'a DMatrix<f64>,
@@ -107,17 +111,18 @@ pub fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
         names,
         covariance,
         prior_information,
+        prior_covariance,
         canonical,
         gauge,
     } = *inputs;
     let g = names.len();
     let prior_sigma: Vec<Option<f64>> = (0..g)
         .map(|k| {
-            let information = prior_information[(k, k)];
-            (information > 0.0).then(|| 1.0 / information.sqrt())
+            let variance = prior_covariance[(k, k)];
+            (variance > 0.0).then(|| variance.sqrt())
         })
         .collect();
-    let sigma_ratio = sigma_ratios(covariance, canonical, &prior_sigma);
+    let sigma_ratio = sigma_ratios(covariance, canonical, prior_covariance, &prior_sigma);
     let information = covariance.clone().cholesky()?.inverse() - prior_information;
     let scale = DVector::from_fn(g, |k, _| {
         prior_sigma[k].unwrap_or_else(|| covariance[(k, k)].sqrt())
@@ -180,12 +185,10 @@ fn rounding_floor(eigenvalues: &DVector<f64>) -> f64 {
 fn sigma_ratios(
     covariance: &DMatrix<f64>,
     canonical: &DMatrix<f64>,
+    prior: &DMatrix<f64>,
     prior_sigma: &[Option<f64>],
 ) -> Vec<Option<f64>> {
     let g = prior_sigma.len();
-    let prior = DMatrix::from_diagonal(&DVector::from_fn(g, |k, _| {
-        prior_sigma[k].map_or(0.0, |s| s * s)
-    }));
     let posterior = canonical * covariance * canonical.transpose();
     let prior = canonical * prior * canonical.transpose();
     (0..g)
@@ -289,6 +292,7 @@ mod tests {
             names: &names,
             covariance: &covariance,
             prior_information: &prior,
+            prior_covariance: &prior,
             canonical: &DMatrix::identity(2, 2),
             gauge: &[],
         })

@@ -21,8 +21,8 @@
 //!   fourth unknown, which no row sees, by a unit prior: one row for one
 //!   unknown, so the redundancy is that of three.
 //! - The **prior** on the global block: each parameter's
-//!   [`ParameterPrior`](super::data::ParameterPrior) with a sigma and the
-//!   trigger height's.
+//!   [`ParameterPrior`](super::data::ParameterPrior) with a sigma, with
+//!   their correlation if any, and the trigger height's ([`super::prior`]).
 
 use std::ops::Range;
 
@@ -36,6 +36,7 @@ use crate::sphere_fit::{SphereFitError, best_fit};
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
+use super::prior::{global_priors, prior_information};
 
 /// The solver's problem: groups of `C` unknowns (a sample's pose, a
 /// ball's centre, and with [`group_size`] 4 a ball's radius), no point
@@ -77,11 +78,8 @@ pub(crate) struct MechanismProblem<'a, const C: usize> {
 impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The problem of `data` (validated) with `loss` on its observations.
     pub(crate) fn new(data: &'a MechanismData, loss: Loss) -> Self {
-        let (mean, sigma) = global_prior_of(data);
-        let prior = sigma
-            .iter()
-            .any(|s| s.is_finite())
-            .then(|| GaussianPrior::from_sigmas(mean, sigma));
+        let prior = prior_information(data)
+            .map(|information| GaussianPrior::new(prior_means(data), information));
         let o = &data.observations;
         let mut touch_order: Vec<usize> = (0..o.touches.len()).collect();
         touch_order.sort_by_key(|&t| o.touches[t].ball);
@@ -110,12 +108,12 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// The size of the global block (module doc).
     pub(crate) fn global_len(&self) -> usize {
-        global_prior_of(self.data).0.len()
+        global_priors(self.data).len()
     }
 
     /// The global block's start: the priors' means.
     pub(crate) fn start(&self) -> DVector<f64> {
-        global_prior_of(self.data).0
+        prior_means(self.data)
     }
 
     /// The prior information on the global block (zero where none).
@@ -326,19 +324,10 @@ fn block<const C: usize>(xyz: &Vector3<f64>, fourth: f64) -> SVector<f64, C> {
     SVector::from_fn(|k, _| if k < 3 { xyz[k] } else { fourth })
 }
 
-/// The global block's prior: means, and sigmas (infinite where there is
-/// no prior).
-fn global_prior_of(data: &MechanismData) -> (DVector<f64>, DVector<f64>) {
-    let mut priors = data.priors.clone();
-    if data.has_trigger_height() {
-        priors.push(data.trigger_height);
-    }
-    let mean = DVector::from_iterator(priors.len(), priors.iter().map(|p| p.mean));
-    let sigma = DVector::from_iterator(
-        priors.len(),
-        priors.iter().map(|p| p.sigma.unwrap_or(f64::INFINITY)),
-    );
-    (mean, sigma)
+/// The global block's priors' means.
+fn prior_means(data: &MechanismData) -> DVector<f64> {
+    let priors = global_priors(data);
+    DVector::from_iterator(priors.len(), priors.iter().map(|p| p.mean))
 }
 
 /// The centre of ball `b` of calibrated radius `radius` from its

@@ -19,6 +19,7 @@ use super::frame::canonical;
 use super::identifiability::{Identifiability, Inputs, gauge_directions, identifiability};
 use super::observation::ObservationRef;
 use super::options::MechanismOptions;
+use super::prior::prior_covariance;
 
 /// The name of the trigger height among the estimated unknowns.
 pub const TRIGGER_HEIGHT: &str = "trigger_height";
@@ -189,6 +190,7 @@ pub(crate) fn assemble(
             names: &names,
             covariance,
             prior_information: &fit.prior_information,
+            prior_covariance: &prior_covariance(data),
             canonical: &frame.transform,
             gauge: &gauge,
         })

@@ -22,7 +22,7 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_calibrate::mechanism::frame::canonical;
 use parcal_calibrate::mechanism::identifiability::{Inputs, gauge_directions, identifiability};
-use parcal_calibrate::mechanism::{MechanismData, TRIGGER_HEIGHT};
+use parcal_calibrate::mechanism::{MechanismData, TRIGGER_HEIGHT, prior_covariance};
 use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, Noise};
 use parcal_kinematics::mechanism::Mechanism;
@@ -217,23 +217,26 @@ fn starting_point(
         None => {
             let g = n + usize::from(trigger);
             let mut values = DVector::from_element(g, data.trigger_height.mean);
-            let mut variances = DVector::zeros(g);
             for (k, (prior, parameter)) in
                 data.priors.iter().zip(mechanism.parameters()).enumerate()
             {
-                let sigma = prior.sigma.ok_or_else(|| {
-                    DesignError::Options(format!(
+                if prior.sigma.is_none() {
+                    return Err(DesignError::Options(format!(
                         "parameter {} has no prior (machine.json's tolerances): plan after a calibration (--after)",
                         parameter.name
-                    ))
-                })?;
+                    )));
+                }
                 values[k] = prior.mean;
-                variances[k] = sigma * sigma;
             }
+            // The parameters' prior, correlated if the data say so.
+            let mut covariance = DMatrix::zeros(g, g);
+            covariance
+                .view_mut((0, 0), (n, n))
+                .copy_from(&prior_covariance(data).view((0, 0), (n, n)));
             if trigger {
-                variances[n] = trigger_variance()?;
+                covariance[(n, n)] = trigger_variance()?;
             }
-            Ok((values, DMatrix::from_diagonal(&variances)))
+            Ok((values, covariance))
         }
     }
 }
@@ -408,12 +411,19 @@ pub fn plan_mechanism(request: &PlanRequest) -> Result<MechanismPlan, DesignErro
         .collect();
     let statements = if request.start.is_none() {
         let names: Vec<String> = planned.iter().map(|p| p.name.clone()).collect();
-        let prior_information = DMatrix::from_diagonal(&covariance.diagonal().map(|v| 1.0 / v));
+        // Every unknown has a prior here (`starting_point`), validated
+        // positive definite.
+        let prior_information = covariance
+            .clone()
+            .cholesky()
+            .ok_or_else(|| failed(&"the prior covariance is not positive definite"))?
+            .inverse();
         let gauge = gauge_directions(mechanism, params, g).map_err(|e| failed(&e))?;
         identifiability(&Inputs {
             names: &names,
             covariance: &after,
             prior_information: &prior_information,
+            prior_covariance: &covariance,
             canonical: &transform,
             gauge: &gauge,
         })

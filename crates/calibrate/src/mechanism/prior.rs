@@ -1,0 +1,244 @@
+//! The prior on the global block (paper eq. 7): each parameter's mean and
+//! sigma ([`ParameterPrior`]), correlated when the data give a correlation
+//! matrix `R` ([`MechanismData::prior_correlation`]), and the trigger
+//! height's, independent of them:
+//!
+//! ```text
+//! Σ_prior = D R D,     D = diag(σ_k),     Λ = Σ_prior⁻¹,
+//! ```
+//!
+//! over the unknowns that have a prior; an unknown without one has no row
+//! or column in `Σ_prior` (zero there) and no information. A correlated
+//! prior states what tolerances on the parts imply for parameters that
+//! share them: the hexapod's joint coordinates after its canonical frame
+//! is fixed (the propagated prior), a delta's rods cut as a matched set
+//! (their lengths uncertain together, their differences far less).
+
+use nalgebra::DMatrix;
+
+use super::data::{MechanismData, ParameterPrior};
+use super::error::MechanismCalibrationError;
+
+/// How far a correlation matrix may be from symmetric, or its diagonal
+/// from 1: rounding of a matrix computed in floating point.
+const CORRELATION_ROUNDING: f64 = 1e-12;
+
+/// The global block's priors: the parameters', then the trigger height's
+/// when it is an unknown (there are probe heights).
+pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
+    let mut priors = data.priors.clone();
+    if data.has_trigger_height() {
+        priors.push(data.trigger_height);
+    }
+    priors
+}
+
+/// `Σ_prior` over the global block (module doc): `σ_j σ_k R_jk` where both
+/// have a prior (`R` the identity without a correlation), zero elsewhere.
+pub fn prior_covariance(data: &MechanismData) -> DMatrix<f64> {
+    let priors = global_priors(data);
+    let n = data.priors.len();
+    let correlation = |j: usize, k: usize| match &data.prior_correlation {
+        Some(r) if j < n && k < n => r[(j, k)],
+        _ => f64::from(u8::from(j == k)),
+    };
+    DMatrix::from_fn(priors.len(), priors.len(), |j, k| {
+        match (priors[j].sigma, priors[k].sigma) {
+            (Some(a), Some(b)) => a * b * correlation(j, k),
+            _ => 0.0,
+        }
+    })
+}
+
+/// `Λ = Σ_prior⁻¹` over the unknowns with a prior, zero elsewhere (module
+/// doc); `None` when no unknown has one or `Σ_prior` is not positive
+/// definite there (refused by [`check_correlation`] beforehand).
+pub(crate) fn prior_information(data: &MechanismData) -> Option<DMatrix<f64>> {
+    let covariance = prior_covariance(data);
+    let with: Vec<usize> = global_priors(data)
+        .iter()
+        .enumerate()
+        .filter_map(|(k, p)| p.sigma.map(|_| k))
+        .collect();
+    if with.is_empty() {
+        return None;
+    }
+    let inverse = covariance
+        .select_rows(&with)
+        .select_columns(&with)
+        .cholesky()?
+        .inverse();
+    let g = covariance.nrows();
+    let mut information = DMatrix::zeros(g, g);
+    for (a, &j) in with.iter().enumerate() {
+        for (b, &k) in with.iter().enumerate() {
+            information[(j, k)] = inverse[(a, b)];
+        }
+    }
+    Some(information)
+}
+
+/// Refuses a correlation matrix that is not `n × n` for the `n`
+/// parameters, not finite, not symmetric, without a unit diagonal, with an
+/// entry beyond ±1, or not positive definite over the parameters with a
+/// prior; the first fault names the parameters.
+pub(crate) fn check_correlation(
+    data: &MechanismData,
+    correlation: &DMatrix<f64>,
+) -> Result<(), MechanismCalibrationError> {
+    let parameters = data.mechanism.parameters();
+    let n = parameters.len();
+    let invalid = |reason: String| {
+        Err(MechanismCalibrationError::InvalidData {
+            what: "prior correlation".to_string(),
+            reason,
+        })
+    };
+    if correlation.shape() != (n, n) {
+        let (rows, columns) = correlation.shape();
+        return invalid(format!(
+            "{rows} x {columns} for the {n} parameters of the {}",
+            data.mechanism.name()
+        ));
+    }
+    let name = |k: usize| parameters[k].name.as_str();
+    for j in 0..n {
+        for k in 0..n {
+            let c = correlation[(j, k)];
+            let fault = if !c.is_finite() {
+                Some("is not finite")
+            } else if (c - correlation[(k, j)]).abs() > CORRELATION_ROUNDING {
+                Some("differs from its transpose's")
+            } else if j == k && (c - 1.0).abs() > CORRELATION_ROUNDING {
+                Some("is not 1 on the diagonal")
+            } else if c.abs() > 1.0 + CORRELATION_ROUNDING {
+                Some("is beyond ±1")
+            } else {
+                None
+            };
+            if let Some(fault) = fault {
+                return invalid(format!(
+                    "its entry {c} of {} and {} {fault}",
+                    name(j),
+                    name(k)
+                ));
+            }
+        }
+    }
+    let with: Vec<usize> = (0..n).filter(|&k| data.priors[k].sigma.is_some()).collect();
+    let sub = correlation.select_rows(&with).select_columns(&with);
+    if sub.cholesky().is_none() {
+        return invalid(
+            "it is not positive definite over the parameters with a prior (some combination of them would have no uncertainty)"
+                .to_string(),
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use nalgebra::DMatrix;
+    use parcal_kinematics::delta::LinearDelta;
+    use parcal_kinematics::mechanism::{Mechanism, design};
+
+    use super::*;
+    use crate::mechanism::data::Observations;
+    use parcal_observe::mechanism::ProbeHeight;
+
+    /// A typical delta probed once, its three diagonal rods a matched set:
+    /// correlation `rho` between each pair.
+    fn matched_rods(rho: f64) -> MechanismData {
+        let delta = LinearDelta::typical();
+        let n = delta.parameters().len();
+        let rods: Vec<usize> = (0..n)
+            .filter(|&k| delta.parameters()[k].group == "diagonal rods")
+            .collect();
+        assert_eq!(rods.len(), 3);
+        let correlation = DMatrix::from_fn(n, n, |j, k| match () {
+            _ if j == k => 1.0,
+            _ if rods.contains(&j) && rods.contains(&k) => rho,
+            _ => 0.0,
+        });
+        let configured: Vec<f64> = design(&delta).iter().copied().collect();
+        let observations = Observations {
+            probes: vec![ProbeHeight {
+                commanded: [0.0, 0.0, 0.1],
+                sigma: 0.01,
+            }],
+            ..Observations::default()
+        };
+        MechanismData::new(Arc::new(delta), configured, observations)
+            .with_trigger_height(0.0, Some(0.5))
+            .with_prior_correlation(correlation)
+    }
+
+    #[test]
+    fn the_information_is_the_inverse_of_the_correlated_covariance() {
+        let data = matched_rods(0.9);
+        data.validate().unwrap();
+        let covariance = prior_covariance(&data);
+        let n = data.priors.len();
+        // Parameters, then the trigger height, independent of them.
+        assert_eq!(covariance.shape(), (n + 1, n + 1));
+        let sigma = |k: usize| data.priors[k].sigma.unwrap();
+        let rods: Vec<usize> = (0..n)
+            .filter(|&k| data.mechanism.parameters()[k].group == "diagonal rods")
+            .collect();
+        let (a, b) = (rods[0], rods[2]);
+        assert!((covariance[(a, b)] - 0.9 * sigma(a) * sigma(b)).abs() < 1e-15);
+        assert_eq!(covariance[(n, n)], 0.25);
+        assert_eq!(covariance[(a, n)], 0.0);
+        // Against a dense inverse.
+        let information = prior_information(&data).unwrap();
+        let identity = &information * &covariance;
+        let error = (identity - DMatrix::identity(n + 1, n + 1)).amax();
+        assert!(error < 1e-10, "{error:e}");
+    }
+
+    #[test]
+    fn a_parameter_without_a_prior_has_no_row() {
+        let data = matched_rods(0.9)
+            .with_group_sigma("diagonal rods", None)
+            .unwrap();
+        data.validate().unwrap();
+        let covariance = prior_covariance(&data);
+        let information = prior_information(&data).unwrap();
+        for k in 0..data.priors.len() {
+            if data.priors[k].sigma.is_none() {
+                assert!(covariance.row(k).iter().all(|&v| v == 0.0));
+                assert!(information.row(k).iter().all(|&v| v == 0.0));
+            }
+        }
+    }
+
+    #[test]
+    fn a_correlation_that_is_no_correlation_is_refused_by_name() {
+        let refused = |data: MechanismData| data.validate().unwrap_err().to_string();
+        // Three rods all correlated -0.6: not positive definite.
+        let error = refused(matched_rods(-0.6));
+        assert!(error.contains("prior correlation"), "{error}");
+        assert!(error.contains("not positive definite"), "{error}");
+        // Not symmetric, named by its two parameters.
+        let mut data = matched_rods(0.5);
+        let mut correlation = data.prior_correlation.take().unwrap();
+        correlation[(0, 1)] = 0.3;
+        let names: Vec<String> = data
+            .mechanism
+            .parameters()
+            .iter()
+            .map(|p| p.name.clone())
+            .collect();
+        let error = refused(data.with_prior_correlation(correlation));
+        assert!(
+            error.contains(&names[0]) && error.contains(&names[1]),
+            "{error}"
+        );
+        assert!(error.contains("transpose"), "{error}");
+        // The wrong size.
+        let error = refused(matched_rods(0.5).with_prior_correlation(DMatrix::identity(3, 3)));
+        assert!(error.contains("3 x 3"), "{error}");
+    }
+}
