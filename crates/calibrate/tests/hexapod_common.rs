@@ -2,8 +2,7 @@
 //! fixtures/paper-seed1 calibrated as a [`Mechanism`] plug-in by the path
 //! of every mechanism (`calibrate_mechanism`), against the hexapod's own
 //! calibration under the same model (the radius observation, eq. 9, with
-//! each of its weight and radius models, no prior on the parameters or the
-//! propagated one).
+//! each of its weight and radius models, and each of its priors).
 //! Both minimise the same cost, so they must reach the same estimate and
 //! the same covariance.
 //!
@@ -42,28 +41,48 @@ fn the_common_calibration_of_a_hexapod_is_its_own() {
 }
 
 #[test]
-fn the_propagated_prior_through_the_interface_is_the_own_paths() {
-    // The input coordinates' tolerances propagated through the canonical
-    // frame: 33 correlated priors (the balls of fixtures/paper-seed1 are
-    // in the design's frame, so their centres have none).
-    for radius in [RadiusModel::PerBall, RadiusModel::PerContact] {
-        println!("propagated prior, {radius:?} radius:");
-        let options = CalibrationOptions {
-            prior: PriorMode::Propagated,
-            radius,
-            ..CalibrationOptions::simulation(Simulation::I)
-        };
-        compare(&options);
-        // The common data hold the own path's prior: its correlation is
-        // far from the identity.
-        let dataset = Dataset::read(&fixture()).unwrap();
-        let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
-        let correlation = data.prior_correlation.as_ref().unwrap();
-        let largest = (0..33)
-            .flat_map(|j| (0..33).filter(move |&k| k != j).map(move |k| (j, k)))
-            .map(|(j, k)| correlation[(j, k)].abs())
-            .fold(0.0, f64::max);
-        assert!(largest > 0.5, "{largest}");
+fn the_priors_through_the_interface_are_the_own_paths() {
+    // The paper's prior: each parameter about its design with its
+    // group's tolerance, each ball's centre about its centre at the design
+    // with its centre_sigma. The propagated prior: the input coordinates'
+    // tolerances propagated through the canonical frame, 33 correlated
+    // priors (the balls of fixtures/paper-seed1 are in the design's frame,
+    // so their centres have none).
+    let dataset = Dataset::read(&fixture()).unwrap();
+    for prior in [PriorMode::Paper, PriorMode::Propagated] {
+        for radius in [RadiusModel::PerBall, RadiusModel::PerContact] {
+            println!("{prior:?} prior, {radius:?} radius:");
+            let options = CalibrationOptions {
+                prior,
+                radius,
+                ..CalibrationOptions::simulation(Simulation::I)
+            };
+            compare(&options);
+            let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
+            let centre_priors = data
+                .observations
+                .balls
+                .iter()
+                .filter(|ball| ball.centre_prior.is_some())
+                .count();
+            let correlation = data.prior_correlation.as_ref();
+            match prior {
+                PriorMode::Paper => {
+                    assert_eq!(centre_priors, 27);
+                    assert!(correlation.is_none());
+                }
+                _ => {
+                    assert_eq!(centre_priors, 0);
+                    // Far from independent.
+                    let correlation = correlation.unwrap();
+                    let largest = (0..33)
+                        .flat_map(|j| (0..33).filter(move |&k| k != j).map(move |k| (j, k)))
+                        .map(|(j, k)| correlation[(j, k)].abs())
+                        .fold(0.0, f64::max);
+                    assert!(largest > 0.5, "{largest}");
+                }
+            }
+        }
     }
 }
 

@@ -483,10 +483,7 @@ fn balls_touched_too_few_times_are_refused_by_name() {
     let error = error_of(three);
     assert!(error.starts_with("ball 1: it has 3 touches"), "{error}");
     let mut untouched = data.observations.clone();
-    untouched.balls.push(Ball {
-        radius: 5.0,
-        radius_sigma: None,
-    });
+    untouched.balls.push(Ball::new(5.0, None));
     let error = error_of(untouched);
     assert!(error.starts_with("ball 2: it has 0 touches"), "{error}");
 }

@@ -62,6 +62,31 @@ pub struct Ball {
     /// The standard deviation of its calibration (mm); `None`: exact. With
     /// one, the radius is an unknown of the fit with that prior.
     pub radius_sigma: Option<f64>,
+    /// What is known of its centre before the touches (where it was
+    /// placed); `None`: the touches alone locate it.
+    pub centre_prior: Option<CentrePrior>,
+}
+
+/// A Gaussian prior on a ball's centre: `c ~ N(centre, σ² I)` (paper eq.
+/// 7's artefact terms).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CentrePrior {
+    /// The centre's prior mean (mm, the mechanism's frame).
+    pub centre: [f64; 3],
+    /// Its standard deviation on each axis (mm).
+    pub sigma: f64,
+}
+
+impl Ball {
+    /// A ball of calibrated radius `radius` (mm), with its calibration's
+    /// sigma or exact, and no prior on its centre.
+    pub fn new(radius: f64, radius_sigma: Option<f64>) -> Self {
+        Self {
+            radius,
+            radius_sigma,
+            centre_prior: None,
+        }
+    }
 }
 
 impl Observations {
@@ -466,6 +491,23 @@ fn check_balls(
                 b,
                 format!("its radius sigma {sigma} is not finite and positive (exact: none)"),
             ));
+        }
+        if let Some(prior) = ball.centre_prior {
+            if prior.centre.iter().any(|c| !c.is_finite()) {
+                return Err(ball_error(
+                    b,
+                    format!("its centre prior {:?} is not finite", prior.centre),
+                ));
+            }
+            if !(prior.sigma.is_finite() && prior.sigma > 0.0) {
+                return Err(ball_error(
+                    b,
+                    format!(
+                        "its centre prior's sigma {} is not finite and positive (no prior: none)",
+                        prior.sigma
+                    ),
+                ));
+            }
         }
     }
     let mut touches_of = vec![0usize; balls.len()];

@@ -6,16 +6,17 @@
 //!
 //! - The mechanism: [`Hexapod`] at the design of the machine; with the
 //!   paper's prior, each of its 33 canonical parameters has the design
-//!   tolerance of its group (eq. 7, without the balls' centres); with the
-//!   propagated prior, the input coordinates' tolerances propagated
-//!   through the canonical frame ([`KinematicPrior::propagated`]: the
-//!   marginal sigmas and their correlation, [`super::prior`]; balls
-//!   located in the canonical frame, which that prior also holds, are
-//!   refused); without a prior, none.
+//!   tolerance of its group (eq. 7); with the propagated prior, the input
+//!   coordinates' tolerances propagated through the canonical frame
+//!   ([`KinematicPrior::propagated`]: the marginal sigmas and their
+//!   correlation, [`super::prior`]); without a prior, none.
 //! - Each ball: its calibrated radius, an unknown with the prior of its
 //!   calibration sigma ([`RadiusModel::PerBall`]) or exact, its sigma then
 //!   an error of every touch ([`RadiusModel::PerContact`]); its centre an
-//!   unknown of its own.
+//!   unknown of its own, with the ball's `centre_sigma` about its centre
+//!   at the design under the paper's prior, about its stated location
+//!   under the propagated prior when the balls are located in the
+//!   canonical frame ([`CentrePrior`]).
 //! - Each contact: a [`BallTouch`] at the legs' readings, the radius
 //!   observation (eq. 9), weighted as the hexapod calibration weighs it at
 //!   the design, and held fixed ([`radius_variance`]): the tool tip `T` and
@@ -26,9 +27,8 @@
 //! Both calibrations then minimise the same cost from the same start: the
 //! common door's estimate is the dedicated path's. What only the hexapod's
 //! own calibration models is refused by name: the coordinate observation
-//! (eq. 10) and its contact angles, the balls' centre priors, the
-//! actuators' scales, tracker poses and points, calibrated distances
-//! between balls.
+//! (eq. 10) and its contact angles, the actuators' scales, tracker poses
+//! and points, calibrated distances between balls.
 
 use std::sync::Arc;
 
@@ -42,7 +42,7 @@ use parcal_observe::mechanism::{Actuation, BallTouch};
 use parcal_observe::unit_direction;
 use parcal_observe::weights::{Repeatability, radius_variance};
 
-use super::data::{Ball, MechanismData, Observations};
+use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 use crate::CalibrationOptions;
 use crate::options::{Observation, PriorMode, RadiusModel};
@@ -68,15 +68,17 @@ impl MechanismData {
         let hexapod = Hexapod::new(&input, &machine.prior_sigma)
             .map_err(|e| invalid("the design geometry".to_string(), e.to_string()))?;
         let configured: Vec<f64> = design(&hexapod).iter().copied().collect();
-        let weights = touch_weights(&hexapod, &configured, &input, dataset, options)?;
+        let start = design_start(&hexapod, &configured, &input, dataset, options)?;
         let per_ball = options.radius == RadiusModel::PerBall;
         let balls = dataset
             .artefacts
             .balls
             .iter()
-            .map(|ball| Ball {
+            .zip(&start.centres)
+            .map(|(ball, start)| Ball {
                 radius: ball.radius,
                 radius_sigma: per_ball.then_some(ball.radius_sigma),
+                centre_prior: centre_prior(dataset, options, ball, start),
             })
             .collect();
         let m = &dataset.measurements;
@@ -84,7 +86,7 @@ impl MechanismData {
             .ball
             .iter()
             .zip(&m.q)
-            .zip(weights)
+            .zip(start.weights)
             .map(|((&ball, q), sigma)| BallTouch {
                 ball: ball as usize,
                 at: Actuation::Readings(q.to_vec()),
@@ -141,12 +143,6 @@ fn check_representable(
             "its contact angles are not unknowns of the common calibration, whose touch is the radius observation (eq. 9)",
         ),
         (
-            options.prior == PriorMode::Propagated
-                && dataset.artefacts.frame == ArtefactFrame::Canonical,
-            "the propagated prior on balls located in the canonical frame",
-            "the balls' centres have no prior in the common calibration",
-        ),
-        (
             machine.actuator.scale != [1.0; 6] || machine.actuator.scale_sigma.is_some(),
             "the actuators' scales",
             "the hexapod through the common interface reads its legs in mm, scale 1",
@@ -171,16 +167,46 @@ fn check_representable(
     }
 }
 
-/// The standard deviation of every contact's radius row, in the order of
-/// the measurements, as the hexapod calibration forms it at the design
-/// (module doc).
-fn touch_weights(
+/// Each ball's centre's prior as the hexapod calibration states it: with
+/// the paper's prior, about its centre at the design (`start`) with the
+/// ball's `centre_sigma`; with the propagated prior and balls located in
+/// the canonical frame, about that location; otherwise none.
+fn centre_prior(
+    dataset: &Dataset,
+    options: &CalibrationOptions,
+    ball: &parcal_dataset::Ball,
+    start: &Vec3,
+) -> Option<CentrePrior> {
+    let centre = match (options.prior, dataset.artefacts.frame) {
+        (PriorMode::Paper, _) => (*start).into(),
+        (PriorMode::Propagated, ArtefactFrame::Canonical) => ball.centre,
+        _ => return None,
+    };
+    Some(CentrePrior {
+        centre,
+        sigma: ball.centre_sigma,
+    })
+}
+
+/// What the hexapod calibration computes at the design before its first
+/// iteration (module doc).
+struct DesignStart {
+    /// The standard deviation of every contact's radius row, in the order
+    /// of the measurements.
+    weights: Vec<f64>,
+    /// Each ball's centre: the best fit of its design tool tips.
+    centres: Vec<Vec3>,
+}
+
+/// The weights and the balls' centres the hexapod calibration forms at
+/// the design (module doc).
+fn design_start(
     hexapod: &Hexapod,
     configured: &[f64],
     input: &Geometry,
     dataset: &Dataset,
     options: &CalibrationOptions,
-) -> Result<Vec<f64>, MechanismCalibrationError> {
+) -> Result<DesignStart, MechanismCalibrationError> {
     let m = &dataset.measurements;
     let contact_error = |row: usize, reason: String| MechanismCalibrationError::InvalidData {
         what: format!("contact {row}"),
@@ -217,6 +243,7 @@ fn touch_weights(
     };
     let r = &dataset.machine.repeatability;
     let mut weights = vec![0.0; m.len()];
+    let mut centres = Vec::with_capacity(dataset.artefacts.balls.len());
     for (b, ball) in dataset.artefacts.balls.iter().enumerate() {
         let rows: Vec<usize> = (0..m.len()).filter(|&k| m.ball[k] as usize == b).collect();
         let points: Vec<Vec3> = rows.iter().map(|&k| tips[k]).collect();
@@ -247,6 +274,7 @@ fn touch_weights(
                 .map_err(|e| contact_error(k, e.to_string()))?;
             weights[k] = variance.sqrt();
         }
+        centres.push(centre);
     }
-    Ok(weights)
+    Ok(DesignStart { weights, centres })
 }

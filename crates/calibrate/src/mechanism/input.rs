@@ -106,10 +106,7 @@ impl MechanismData {
         let balls = dataset
             .balls
             .iter()
-            .map(|row| Ball {
-                radius: row.radius,
-                radius_sigma: row.radius_sigma,
-            })
+            .map(|row| Ball::new(row.radius, row.radius_sigma))
             .collect();
         let touches = dataset
             .touches

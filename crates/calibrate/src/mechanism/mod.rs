@@ -91,8 +91,8 @@ pub use compensation::{
     Compensation, NAMED_TARGETS, UnreachableTargets, compensate_mechanism, compensate_targets,
 };
 pub use data::{
-    Ball, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MIN_ACTUATORS, MIN_TOUCHES_PER_BALL,
-    MechanismData, Observations, ParameterPrior,
+    Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MIN_ACTUATORS,
+    MIN_TOUCHES_PER_BALL, MechanismData, Observations, ParameterPrior,
 };
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;

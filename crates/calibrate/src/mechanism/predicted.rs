@@ -554,10 +554,7 @@ mod tests {
         let (radius, radius_sigma, k) = (12.7, 0.002, 8);
         let centre = Vector3::new(40.0, -25.0, 6.0);
         let mut observations = Observations {
-            balls: vec![Ball {
-                radius,
-                radius_sigma: Some(radius_sigma),
-            }],
+            balls: vec![Ball::new(radius, Some(radius_sigma))],
             touches: touches(&machine, centre, radius, k, || 0.0),
             ..Default::default()
         };
@@ -617,10 +614,7 @@ mod tests {
             let centre = Vector3::new(60.0 * (draw as f64).cos(), 60.0 * (draw as f64).sin(), 6.0);
             let true_radius = radius + noise.normal(radius_sigma);
             let observations = Observations {
-                balls: vec![Ball {
-                    radius,
-                    radius_sigma: Some(radius_sigma),
-                }],
+                balls: vec![Ball::new(radius, Some(radius_sigma))],
                 touches: touches(&machine, centre, true_radius, k, || noise.normal(sigma)),
                 ..Default::default()
             };
@@ -648,10 +642,7 @@ mod tests {
             at: Actuation::Commanded([0.0; 3]),
             sigma: 0.01,
         };
-        let ball = Ball {
-            radius: 12.7,
-            radius_sigma: None,
-        };
+        let ball = Ball::new(12.7, None);
         let observations = Observations {
             balls: vec![ball; 2],
             touches: vec![touch; MAX_HELD_OUT_TOUCHES_PER_BALL + 1],

@@ -20,6 +20,8 @@
 //!   block that has no radius (a sample's, an exact ball's) holds its
 //!   fourth unknown, which no row sees, by a unit prior: one row for one
 //!   unknown, so the redundancy is that of three.
+//! - A ball's **centre prior**, when it has one, is its group's prior on
+//!   its centre.
 //! - The **prior** on the global block: each parameter's
 //!   [`ParameterPrior`](super::data::ParameterPrior) with a sigma, with
 //!   their correlation if any, and the trigger height's ([`super::prior`]).
@@ -537,9 +539,10 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         self.prior.as_ref()
     }
 
-    /// A measured pose's coordinates with their sigmas; with `C` 4, an
-    /// uncertain ball's radius with its calibration sigma, and the unit
-    /// prior of every unused fourth unknown (module doc).
+    /// A measured pose's coordinates with their sigmas; a ball's centre
+    /// prior; with `C` 4, an uncertain ball's radius with its calibration
+    /// sigma, and the unit prior of every unused fourth unknown (module
+    /// doc).
     fn group_prior(&self, k: usize) -> Option<GaussianPrior<Const<C>>> {
         let o = &self.data.observations;
         let (mean, sigma) = match o.samples.get(k) {
@@ -554,15 +557,21 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
                 ),
                 None => return None,
             },
-            None if C == 4 => {
+            None => {
                 let ball = &o.balls[k - o.samples.len()];
-                let free = Vector3::repeat(f64::INFINITY);
+                if ball.centre_prior.is_none() && C == 3 {
+                    return None;
+                }
+                let (centre, sigma) = ball
+                    .centre_prior
+                    .map_or((Vector3::zeros(), f64::INFINITY), |prior| {
+                        (Vector3::from(prior.centre), prior.sigma)
+                    });
                 (
-                    block(&Vector3::zeros(), ball.radius),
-                    block(&free, ball.radius_sigma.unwrap_or(UNUSED)),
+                    block(&centre, ball.radius),
+                    block(&Vector3::repeat(sigma), ball.radius_sigma.unwrap_or(UNUSED)),
                 )
             }
-            None => return None,
         };
         Some(GaussianPrior::from_sigmas(mean, sigma))
     }
@@ -583,7 +592,7 @@ mod tests {
     use parcal_solver::{SolverOptions, State, Status, dense_reference, linear_step, solve};
 
     use super::*;
-    use crate::mechanism::data::{Ball, Observations};
+    use crate::mechanism::data::{Ball, CentrePrior, Observations};
 
     /// A delta configured as designed, truly a few tenths off: 7 probe
     /// heights, 2 part distances, 3 point samples (the first at a measured
@@ -643,15 +652,17 @@ mod tests {
             loads: None,
         })
         .collect();
+        // The first ball placed within 0.05 mm of where it is.
+        let placed = CentrePrior {
+            centre: [30.02, -20.01, 12.7],
+            sigma: 0.05,
+        };
         let balls = vec![
             Ball {
-                radius: 12.7,
-                radius_sigma: None,
+                centre_prior: Some(placed),
+                ..Ball::new(12.7, None)
             },
-            Ball {
-                radius: 6.35,
-                radius_sigma: Some(0.002),
-            },
+            Ball::new(6.35, Some(0.002)),
         ];
         let centres = [[30.0, -20.0, 12.7], [-40.0, 35.0, 6.35]];
         let touches = (0..10)
@@ -787,7 +798,8 @@ mod tests {
     #[test]
     fn the_schur_step_and_covariance_match_the_dense_reference_with_samples_and_touches() {
         // An uncertain radius: blocks of four, samples and the exact ball
-        // holding their fourth unknown by its unit prior.
+        // holding their fourth unknown by its unit prior; the exact ball's
+        // centre with a prior.
         let data = small_delta();
         assert_eq!(group_size(&data), 4);
         check_against_dense::<4>(&data, Vector3::new(0.3, -0.2, 0.1));
@@ -796,6 +808,21 @@ mod tests {
         exact.observations.balls[1].radius_sigma = None;
         assert_eq!(group_size(&exact), 3);
         check_against_dense::<3>(&exact, Vector3::new(0.3, -0.2, 0.1));
+        // The first ball's centre prior is its group's, in both; the
+        // second ball has none (and with blocks of three, no prior).
+        let samples = data.observations.samples.len();
+        let placed = data.observations.balls[0].centre_prior.unwrap();
+        let four = MechanismProblem::<4>::new(&data, Loss::Squared);
+        let three = MechanismProblem::<3>::new(&exact, Loss::Squared);
+        let prior = four.group_prior(samples).unwrap();
+        let mean = three.group_prior(samples).unwrap().mean;
+        for k in 0..3 {
+            assert_eq!(prior.mean[k], placed.centre[k]);
+            assert_eq!(mean[k], placed.centre[k]);
+            let information = prior.information[(k, k)] * placed.sigma.powi(2);
+            assert!((information - 1.0).abs() < 1e-12, "{information}");
+        }
+        assert!(three.group_prior(samples + 1).is_none());
     }
 
     #[test]
