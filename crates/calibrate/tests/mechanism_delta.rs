@@ -487,3 +487,51 @@ fn balls_touched_too_few_times_are_refused_by_name() {
     let error = error_of(untouched);
     assert!(error.starts_with("ball 2: it has 0 touches"), "{error}");
 }
+
+#[test]
+fn rods_cut_as_a_matched_set_keep_their_differences_within_the_set() {
+    // Probe heights see the rods' differences poorly; rods cut as a set,
+    // each within 0.02 mm of the set's length (machine.json's "matched"),
+    // bound each difference to √2 × 0.02 mm a priori, and the posterior
+    // can only be tighter. The set's common length keeps its tolerance.
+    let mut dataset = simulate_delta(&scenario(5, 0), 5).unwrap();
+    let free = calibrate(&dataset, &MechanismOptions::default());
+    dataset.machine.matched = vec![("diagonal rods".to_string(), 0.02)];
+    let matched = calibrate(&dataset, &MechanismOptions::default());
+    let at = |run: &MechanismCalibration, name: &str| {
+        run.parameters.iter().position(|p| p.name == name).unwrap()
+    };
+    let difference_sigma = |run: &MechanismCalibration, a: &str, b: &str| {
+        let c = run.covariance.as_ref().unwrap();
+        let (a, b) = (at(run, a), at(run, b));
+        (c[(a, a)] + c[(b, b)] - 2.0 * c[(a, b)]).sqrt()
+    };
+    let bound = 2f64.sqrt() * 0.02;
+    for (a, b) in [("diagonal_a", "diagonal_b"), ("diagonal_b", "diagonal_c")] {
+        let (before, after) = (
+            difference_sigma(&free, a, b),
+            difference_sigma(&matched, a, b),
+        );
+        eprintln!("{a} - {b}: sigma {before:.4} mm free, {after:.4} mm matched");
+        assert!(after <= bound * (1.0 + 1e-9), "{after}");
+        assert!(
+            before > 2.0 * bound,
+            "{before}: the probes alone see it well"
+        );
+    }
+    // Each rod's own prior sigma is unchanged.
+    let k = at(&matched, "diagonal_a");
+    assert_eq!(
+        matched.parameters[k].prior.sigma,
+        free.parameters[k].prior.sigma
+    );
+    // A set matched more loosely than its tolerance is refused by name.
+    dataset.machine.matched = vec![("diagonal rods".to_string(), 5.0)];
+    let error = MechanismData::from_dataset(&dataset)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("diagonal rods") && error.contains("exceeds"),
+        "{error}"
+    );
+}

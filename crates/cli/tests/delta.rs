@@ -417,3 +417,37 @@ fn klipper_import_and_export_round_trip() {
         );
     }
 }
+
+#[test]
+fn rods_cut_as_a_matched_set_are_imported_as_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    let (config, probes) = (d.join("config.g"), d.join("probes.csv"));
+    let import = |out: &Path, matched: &str| {
+        vec![
+            "import".to_string(),
+            "reprapfirmware".to_string(),
+            "--config".to_string(),
+            s(&config).to_string(),
+            "--probes".to_string(),
+            s(&probes).to_string(),
+            "--matched-rods".to_string(),
+            matched.to_string(),
+            "--out".to_string(),
+            s(out).to_string(),
+        ]
+    };
+    let args = import(&d.join("data"), "0.02");
+    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let machine: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(d.join("data/machine.json")).unwrap()).unwrap();
+    assert_eq!(machine["matched"]["diagonal rods"], 0.02);
+    let summary = ok(&["calibrate", s(&d.join("data"))]);
+    assert!(summary.contains("diagonal_a"), "{summary}");
+    // Looser than the rods' tolerance (0.5 mm by default): refused, named.
+    let args = import(&d.join("loose"), "0.9");
+    let error = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(error.contains("matched.diagonal rods"), "{error}");
+    assert!(!d.join("loose").exists(), "nothing is left half-written");
+}

@@ -62,6 +62,9 @@ pub const TOWER_RADIUS: usize = 5;
 pub const ANGLE: usize = 8;
 /// Index of the diagonal rod length of tower A (then B, C).
 pub const DIAGONAL: usize = 11;
+/// The group of the diagonal rods' lengths (a set the builder may have
+/// cut together).
+pub const RODS: &str = "diagonal rods";
 /// Index of the bed tilt along x (then y).
 pub const TILT: usize = 14;
 
@@ -347,7 +350,7 @@ impl LinearDelta {
         for (i, tower) in TOWERS.iter().enumerate() {
             let name = format!("diagonal_{tower}");
             let sigma = tolerances.diagonal;
-            parameters.push(parameter(DIAGONAL + i, name, "mm", "diagonal rods", sigma));
+            parameters.push(parameter(DIAGONAL + i, name, "mm", RODS, sigma));
         }
         for (k, axis) in ["x", "y"].iter().enumerate() {
             let name = format!("tilt_{axis}");

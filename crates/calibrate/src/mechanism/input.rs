@@ -2,7 +2,8 @@
 //! ([`parcal_dataset::mechanism::MechanismDataset`]) as the data of a
 //! calibration: the mechanism from the one list, the configured
 //! parameters, the design as the priors' means with the mechanism's
-//! tolerances overridden per group, the trigger height's prior, each
+//! tolerances overridden per group and the matched groups' correlation,
+//! the trigger height's prior, each
 //! observation with the noise of its kind, the samples' loads, the
 //! measured quantities with their own sigmas, and the calibrated balls
 //! with their touches.
@@ -136,6 +137,9 @@ impl MechanismData {
         .with_prior_means(&machine.design);
         for (group, sigma) in &machine.tolerances {
             data = data.with_group_sigma(group, *sigma)?;
+        }
+        for (group, sigma) in &machine.matched {
+            data = data.with_matched_group(group, *sigma)?;
         }
         if let Some(trigger) = machine.trigger_height {
             data = data.with_trigger_height(trigger.value, trigger.sigma);

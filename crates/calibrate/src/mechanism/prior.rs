@@ -12,7 +12,8 @@
 //! prior states what tolerances on the parts imply for parameters that
 //! share them: the hexapod's joint coordinates after its canonical frame
 //! is fixed (the propagated prior), a delta's rods cut as a matched set
-//! (their lengths uncertain together, their differences far less).
+//! (their lengths uncertain together, their differences far less;
+//! [`MechanismData::with_matched_group`]).
 
 use nalgebra::DMatrix;
 
@@ -76,6 +77,64 @@ pub(crate) fn prior_information(data: &MechanismData) -> Option<DMatrix<f64>> {
         }
     }
     Some(information)
+}
+
+impl MechanismData {
+    /// These data with the parts of `group` made as a matched set: each
+    /// part `l_i = L + d_i`, the set's common value `L` as uncertain as the
+    /// parts' priors say and each part within `sigma` of it (`d_i ~ N(0,
+    /// sigma²)`), so that two parts' priors have the covariance `σ_i σ_j −
+    /// sigma²`, the correlation `1 − sigma² / (σ_i σ_j)`, and their
+    /// difference the sigma `√2 sigma`. An error names a group the
+    /// mechanism does not have, a part without a prior, or a `sigma` that
+    /// is not positive or exceeds a part's prior sigma.
+    pub fn with_matched_group(
+        mut self,
+        group: &str,
+        sigma: f64,
+    ) -> Result<Self, MechanismCalibrationError> {
+        let invalid = |reason: String| {
+            Err(MechanismCalibrationError::InvalidData {
+                what: format!("matched group {group:?}"),
+                reason,
+            })
+        };
+        let parts: Vec<usize> = (0..self.priors.len())
+            .filter(|&k| self.mechanism.parameters()[k].group == group)
+            .collect();
+        if parts.is_empty() {
+            return invalid(format!("the {} has no such group", self.mechanism.name()));
+        }
+        if !(sigma.is_finite() && sigma > 0.0) {
+            return invalid(format!("its sigma {sigma} is not finite and positive"));
+        }
+        let mut part_sigmas = Vec::with_capacity(parts.len());
+        for &k in &parts {
+            let name = &self.mechanism.parameters()[k].name;
+            match self.priors[k].sigma {
+                None => return invalid(format!("parameter {name} has no prior")),
+                Some(s) if sigma > s => {
+                    return invalid(format!(
+                        "its sigma {sigma} exceeds the prior sigma {s} of parameter {name}"
+                    ));
+                }
+                Some(s) => part_sigmas.push(s),
+            }
+        }
+        let n = self.priors.len();
+        let mut correlation = self
+            .prior_correlation
+            .take()
+            .unwrap_or_else(|| DMatrix::identity(n, n));
+        for (a, &j) in parts.iter().enumerate() {
+            for (b, &k) in parts.iter().enumerate() {
+                if j != k {
+                    correlation[(j, k)] = 1.0 - sigma * sigma / (part_sigmas[a] * part_sigmas[b]);
+                }
+            }
+        }
+        Ok(self.with_prior_correlation(correlation))
+    }
 }
 
 /// Refuses a correlation matrix that is not `n × n` for the `n`

@@ -11,7 +11,7 @@ use parcal::dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, Valu
 use parcal::firmware::klipper::read_printer_cfg;
 use parcal::firmware::probes::{ProbePoint, read_distances, read_probes};
 use parcal::firmware::rrf::read_config;
-use parcal::kinematics::delta::{DeltaParams, Limits, LinearDelta, Tolerances};
+use parcal::kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
 use parcal::kinematics::mechanism::Mechanism;
 
 /// The largest tolerance or standard deviation accepted (mm, degrees or
@@ -66,6 +66,11 @@ pub struct ToleranceArgs {
     /// Diagonal rods, mm.
     #[arg(long, value_name = "MM", default_value_t = Tolerances::default().diagonal, value_parser = sigma)]
     diagonal_tolerance: f64,
+    /// The rods were cut as a matched set: each within MM of the set's
+    /// length (at most the rods' tolerance), so that their differences
+    /// are known far better than their length.
+    #[arg(long, value_name = "MM", value_parser = sigma)]
+    matched_rods: Option<f64>,
     /// Delta radius, mm.
     #[arg(long, value_name = "MM", default_value_t = Tolerances::default().radius, value_parser = sigma)]
     radius_tolerance: f64,
@@ -156,6 +161,9 @@ fn dataset(
                 .tolerances
                 .push((parameter.group.to_string(), Some(parameter.prior_sigma)));
         }
+    }
+    if let Some(sigma) = tolerances.matched_rods {
+        machine.matched.push((RODS.to_string(), sigma));
     }
     machine.noise = Noise {
         probe: Some(tolerances.probe_sigma),

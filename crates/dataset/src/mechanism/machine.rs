@@ -10,6 +10,7 @@
 //!  "configured": { "endstop_a": 0.0, "radius": 135.0, "...": 0.0 },
 //!  "design": { "...": 0.0 },
 //!  "tolerances": { "diagonal rods": 0.5, "tower radii": null },
+//!  "matched": { "diagonal rods": 0.02 },
 //!  "noise": { "probe": 0.01, "actuator": 0.005, "position": 0.01, "distance": 0.02 },
 //!  "trigger_height": { "value": 0.7, "sigma": 0.05 }
 //! }
@@ -19,8 +20,13 @@
 //! (`parcal_kinematics::mechanisms`); `design`, the prior means, is
 //! optional (the configured values then) and names all of them when
 //! given; `tolerances` overrides the mechanism's default prior sigma of a
-//! group (`null`: no prior). Every noise is optional, but the one of each
-//! kind of measurement the dataset holds is required.
+//! group (`null`: no prior). `matched` names groups whose parts were made
+//! as a matched set (a delta's rods cut together): each part within the
+//! given sigma of the set's common value, which is as uncertain as the
+//! group's tolerance says, so that the parts' priors are correlated; the
+//! sigma is positive and at most the group's tolerance. Every noise is
+//! optional, but the one of each kind of measurement the dataset holds is
+//! required.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -81,6 +87,9 @@ pub struct MechanismMachine {
     /// Prior sigmas overriding the mechanism's, by group (`None`: no
     /// prior), in the order of first appearance of the groups.
     pub tolerances: Vec<(String, Option<f64>)>,
+    /// Groups made as matched sets, each with the sigma of a part about
+    /// the set's common value (module doc), in the order of the groups.
+    pub matched: Vec<(String, f64)>,
     /// The measurements' noise.
     pub noise: Noise,
     /// The probe's trigger height (mm; G31 Z for RepRapFirmware) and its
@@ -99,6 +108,8 @@ struct MachineFile {
     #[serde(default)]
     tolerances: BTreeMap<String, Option<f64>>,
     #[serde(default)]
+    matched: BTreeMap<String, f64>,
+    #[serde(default)]
     noise: Noise,
     #[serde(default)]
     trigger_height: Option<ValuePrior>,
@@ -112,6 +123,8 @@ struct MachineOut<'a> {
     design: Option<Named<'a, f64>>,
     #[serde(skip_serializing_if = "Named::is_empty")]
     tolerances: Named<'a, Option<f64>>,
+    #[serde(skip_serializing_if = "Named::is_empty")]
+    matched: Named<'a, f64>,
     noise: Noise,
     #[serde(skip_serializing_if = "Option::is_none")]
     trigger_height: Option<ValuePrior>,
@@ -194,6 +207,7 @@ impl MechanismMachine {
             configured: design.clone(),
             design,
             tolerances: Vec::new(),
+            matched: Vec::new(),
             noise: Noise::default(),
             trigger_height: None,
         }
@@ -253,11 +267,14 @@ impl MechanismMachine {
                 .unwrap_or(usize::MAX)
         };
         tolerances.sort_by_key(|(group, _)| order(group));
+        let mut matched: Vec<(String, f64)> = file.matched.into_iter().collect();
+        matched.sort_by_key(|(group, _)| order(group));
         let machine = Self {
             mechanism: name,
             configured,
             design,
             tolerances,
+            matched,
             noise: file.noise,
             trigger_height: file.trigger_height,
         };
@@ -287,6 +304,12 @@ impl MechanismMachine {
                     .map(|(group, sigma)| (group.as_str(), *sigma))
                     .collect(),
             ),
+            matched: Named(
+                self.matched
+                    .iter()
+                    .map(|(group, sigma)| (group.as_str(), *sigma))
+                    .collect(),
+            ),
             noise: self.noise,
             trigger_height: self.trigger_height,
         };
@@ -295,7 +318,8 @@ impl MechanismMachine {
 
     /// The checks of [`Self::read`] and [`Self::write`]: a known mechanism,
     /// one value per parameter, finite and within the length bound; known
-    /// groups; sigmas within their bounds.
+    /// groups; sigmas within their bounds; a matched group's sigma at most
+    /// its tolerance.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
         let mechanism = mechanism_named(check.path(), "mechanism", &self.mechanism)?;
         let parameters = mechanism.parameters();
@@ -315,21 +339,54 @@ impl MechanismMachine {
                 check.length(format!("{field}.{}", p.name), value)?;
             }
         }
-        for (group, sigma) in &self.tolerances {
-            if !parameters.iter().any(|p| p.group == group) {
-                let mut groups: Vec<&str> = parameters.iter().map(|p| p.group).collect();
-                groups.dedup();
-                return Err(check.error(
-                    format!("tolerances.{group}"),
-                    format!(
-                        "the {} has no such group (its groups: {})",
-                        self.mechanism,
-                        groups.join(", ")
-                    ),
-                ));
+        let known_group = |field: String, group: &str| {
+            if parameters.iter().any(|p| p.group == group) {
+                return Ok(());
             }
+            let mut groups: Vec<&str> = parameters.iter().map(|p| p.group).collect();
+            groups.dedup();
+            Err(check.error(
+                field,
+                format!(
+                    "the {} has no such group (its groups: {})",
+                    self.mechanism,
+                    groups.join(", ")
+                ),
+            ))
+        };
+        for (group, sigma) in &self.tolerances {
+            known_group(format!("tolerances.{group}"), group)?;
             if let Some(sigma) = sigma {
                 check.sigma(format!("tolerances.{group}"), *sigma)?;
+            }
+        }
+        for (group, sigma) in &self.matched {
+            let field = format!("matched.{group}");
+            known_group(field.clone(), group)?;
+            check.sigma(field.clone(), *sigma)?;
+            let tolerance = match self.tolerances.iter().find(|(g, _)| g == group) {
+                Some((_, tolerance)) => *tolerance,
+                None => parameters
+                    .iter()
+                    .find(|p| p.group == group)
+                    .map(|p| p.prior_sigma),
+            };
+            match tolerance {
+                None => {
+                    return Err(check.error(
+                        field,
+                        "the group has no prior (tolerances: null): a matched set needs its tolerance",
+                    ));
+                }
+                Some(tolerance) if *sigma > tolerance => {
+                    return Err(check.error(
+                        field,
+                        format!(
+                            "{sigma} is more than the group's tolerance {tolerance}: a part of a matched set is closer to the set's value than the tolerance"
+                        ),
+                    ));
+                }
+                Some(_) => {}
             }
         }
         let noise = &self.noise;

@@ -1,0 +1,66 @@
+//! A mechanism dataset's machine.json: a group made as a matched set
+//! (`"matched"`) written and read back, and refused, naming the field,
+//! when it has no tolerance or is looser than it.
+
+use std::fs;
+
+use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise};
+use parcal_kinematics::delta::LinearDelta;
+
+/// A delta probed twice, its rods cut as a set within `matched` mm, its
+/// rods' tolerance `tolerance`.
+fn with_rods(matched: f64, tolerance: Option<f64>) -> MechanismDataset {
+    let mut machine = MechanismMachine::of(&LinearDelta::typical());
+    machine.noise = Noise {
+        probe: Some(0.01),
+        ..Noise::default()
+    };
+    machine.tolerances = vec![("diagonal rods".to_string(), tolerance)];
+    machine.matched = vec![("diagonal rods".to_string(), matched)];
+    MechanismDataset {
+        machine,
+        probes: vec![[0.0, 0.0, 0.71], [50.0, 20.0, 0.69]],
+        ..MechanismDataset::default()
+    }
+}
+
+#[test]
+fn a_matched_group_is_written_and_read_back() {
+    let dataset = with_rods(0.02, Some(0.5));
+    let dir = tempfile::tempdir().unwrap();
+    dataset.write(dir.path()).unwrap();
+    let text = fs::read_to_string(dir.path().join("machine.json")).unwrap();
+    assert!(text.contains("\"matched\""), "{text}");
+    let read = MechanismDataset::read(dir.path()).unwrap();
+    assert_eq!(read.machine.matched, dataset.machine.matched);
+    // Without one, the file has no "matched" field.
+    let mut plain = dataset.clone();
+    plain.machine.matched.clear();
+    let dir = tempfile::tempdir().unwrap();
+    plain.write(dir.path()).unwrap();
+    let text = fs::read_to_string(dir.path().join("machine.json")).unwrap();
+    assert!(!text.contains("matched"), "{text}");
+}
+
+#[test]
+fn a_matched_group_without_a_tolerance_or_looser_than_it_is_refused() {
+    for (dataset, expected) in [
+        (with_rods(0.02, None), "has no prior"),
+        (with_rods(0.6, Some(0.5)), "more than the group's tolerance"),
+        (with_rods(-0.1, Some(0.5)), "matched.diagonal rods"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let error = dataset.write(dir.path()).unwrap_err().to_string();
+        assert!(error.contains("matched.diagonal rods"), "{error}");
+        assert!(error.contains(expected), "{error}");
+    }
+    // And on reading a file written by hand.
+    let dir = tempfile::tempdir().unwrap();
+    with_rods(0.02, Some(0.5)).write(dir.path()).unwrap();
+    let path = dir.path().join("machine.json");
+    let text = fs::read_to_string(&path).unwrap().replace("0.02", "0.9");
+    fs::write(&path, text).unwrap();
+    let error = MechanismDataset::read(dir.path()).unwrap_err().to_string();
+    assert!(error.contains("machine.json"), "{error}");
+    assert!(error.contains("matched.diagonal rods"), "{error}");
+}
