@@ -444,7 +444,21 @@ fn rods_cut_as_a_matched_set_are_imported_as_one() {
         serde_json::from_str(&fs::read_to_string(d.join("data/machine.json")).unwrap()).unwrap();
     assert_eq!(machine["matched"]["diagonal rods"], 0.02);
     let summary = ok(&["calibrate", s(&d.join("data"))]);
-    assert!(summary.contains("diagonal_a"), "{summary}");
+    // 1 - 0.02² / 0.5² between two rods of the default 0.5 mm tolerance.
+    assert!(
+        summary.contains(
+            "The priors of 3 of the 16 parameters are correlated (diagonal_a, diagonal_b, diagonal_c); the strongest, diagonal_a and diagonal_b, by 0.9984."
+        ),
+        "{summary}"
+    );
+    let record: serde_json::Value = serde_json::from_str(
+        &fs::read_to_string(d.join("data/calibration.json")).unwrap(),
+    )
+    .unwrap();
+    let correlation = &record["prior_correlation"];
+    assert_eq!(correlation.as_array().unwrap().len(), 16);
+    let rho = correlation[11][12].as_f64().unwrap();
+    assert!((rho - (1.0 - 0.0004 / 0.25)).abs() < 1e-12, "{rho}");
     // Looser than the rods' tolerance (0.5 mm by default): refused, named.
     let args = import(&d.join("loose"), "0.9");
     let error = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());

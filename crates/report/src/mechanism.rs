@@ -291,6 +291,44 @@ pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String
         .collect()
 }
 
+/// Which parameters' priors are correlated and the strongest pair, when
+/// the record has a prior correlation (matched sets, propagated
+/// tolerances); `None` for independent priors.
+pub fn prior_correlation_sentence(calibration: &MechanismCalibrationRecord) -> Option<String> {
+    let correlation = calibration.prior_correlation.as_ref()?;
+    let name = |k: usize| {
+        calibration
+            .parameters
+            .get(k)
+            .map_or("?", |p| p.name.as_str())
+    };
+    let mut correlated = Vec::new();
+    let mut strongest: Option<(usize, usize, f64)> = None;
+    for (j, row) in correlation.iter().enumerate() {
+        for (k, &c) in row.iter().enumerate() {
+            if j == k || c == 0.0 {
+                continue;
+            }
+            if !correlated.contains(&j) {
+                correlated.push(j);
+            }
+            if j < k && strongest.is_none_or(|(_, _, s)| c.abs() > s.abs()) {
+                strongest = Some((j, k, c));
+            }
+        }
+    }
+    let (a, b, c) = strongest?;
+    let names: Vec<&str> = correlated.iter().map(|&k| name(k)).collect();
+    Some(format!(
+        "The priors of {} of the {} parameters are correlated ({}); the strongest, {} and {}, by {c:.4}.",
+        names.len(),
+        correlation.len(),
+        names.join(", "),
+        name(a),
+        name(b)
+    ))
+}
+
 /// The identifiability statements, or why there are none; for a linear
 /// delta calibrated without part distances whose undetermined directions
 /// involve the rods or the radius, what would determine them.
@@ -376,6 +414,9 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
         Tone::Note,
         "A ratio sigma / prior sigma near 1 (flagged from 0.9) marks a parameter the data hardly inform: its value is its prior's.".into(),
     ));
+    if let Some(sentence) = prior_correlation_sentence(calibration) {
+        blocks.push(Block::Paragraph(Tone::Note, sentence));
+    }
     if !calibration.balls.is_empty() {
         blocks.push(Block::Heading(2, "Calibrated balls".into()));
         blocks.push(Block::Table {

@@ -2,6 +2,7 @@
 //! ([`parcal_dataset::mechanism::MechanismCalibrationRecord`]), built in
 //! this one place.
 
+use nalgebra::DMatrix;
 use parcal_dataset::GlobalTestRecord;
 use parcal_dataset::mechanism::{
     BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
@@ -64,11 +65,8 @@ impl MechanismCalibration {
             accepted: self.verdict.accepted,
             reasons: self.reasons.clone(),
             parameters,
-            covariance: self.covariance.as_ref().map(|c| {
-                c.row_iter()
-                    .map(|row| row.iter().copied().collect())
-                    .collect()
-            }),
+            covariance: self.covariance.as_ref().map(rows),
+            prior_correlation: self.prior_correlation.as_ref().map(rows),
             global_test: self.global_test.map(|t| GlobalTestRecord {
                 cost: t.cost,
                 redundancy: t.redundancy,
@@ -112,4 +110,12 @@ impl MechanismCalibration {
                 .collect(),
         }
     }
+}
+
+/// A matrix row by row.
+fn rows(matrix: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    matrix
+        .row_iter()
+        .map(|row| row.iter().copied().collect())
+        .collect()
 }

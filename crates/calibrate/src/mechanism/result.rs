@@ -69,6 +69,9 @@ pub struct MechanismCalibration {
     /// Their covariance in the canonical frame (rank: unknowns less gauge
     /// freedoms), when the fit gave one.
     pub covariance: Option<DMatrix<f64>>,
+    /// The correlation of the mechanism's parameters' priors (`None`:
+    /// independent; [`super::prior`]).
+    pub prior_correlation: Option<DMatrix<f64>>,
     /// The poses of the point samples (the fit's frame), in the order of
     /// the remaining samples.
     pub poses: Vec<[f64; 3]>,
@@ -209,6 +212,7 @@ pub(crate) fn assemble(
             .covariance
             .as_ref()
             .map(|c| c.view((0, 0), (estimated, estimated)).into_owned()),
+        prior_correlation: data.prior_correlation.clone(),
         poses: fit.poses,
         balls: estimated_balls,
         global_test: verdict.global_test,

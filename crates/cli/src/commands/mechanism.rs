@@ -12,7 +12,7 @@ use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, Mecha
 use parcal::dataset::{HEXAPOD, declared_mechanism};
 use parcal::report::mechanism::{
     PARAMETER_HEADER, identifiability_statements, observation_counts, parameter_rows,
-    removal_sentences, verdict_sentence,
+    prior_correlation_sentence, removal_sentences, verdict_sentence,
 };
 
 /// The mechanism a dataset directory's machine.json names, `None` for a
@@ -159,6 +159,9 @@ pub fn print_summary(
     for row in &rows {
         let cells: Vec<&str> = row.iter().map(String::as_str).collect();
         writeln!(out, "{}", line(&cells))?;
+    }
+    if let Some(sentence) = prior_correlation_sentence(calibration) {
+        writeln!(out, "{sentence}")?;
     }
     for statement in identifiability_statements(calibration) {
         writeln!(out, "{statement}")?;

@@ -147,6 +147,10 @@ pub struct MechanismCalibrationRecord {
     pub parameters: Vec<ParameterRecord>,
     /// Their covariance (canonical frame), row by row.
     pub covariance: Option<Vec<Vec<f64>>>,
+    /// The correlation of the mechanism's parameters' priors, row by row
+    /// (absent: independent priors), in the mechanism's parameter order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_correlation: Option<Vec<Vec<f64>>>,
     /// The global test.
     pub global_test: Option<GlobalTestRecord>,
     /// The w-tests and snooping.
@@ -179,10 +183,11 @@ impl MechanismCalibrationRecord {
     }
 
     /// A known mechanism; unique parameter names; finite values, sigmas
-    /// and covariance of the parameters' size; finite ball centres and
-    /// radii.
+    /// and covariance of the parameters' size; a prior correlation of the
+    /// mechanism's parameters' size, unit diagonal, entries within ±1;
+    /// finite ball centres and radii.
     fn validate(&self, check: Check) -> Result<()> {
-        mechanism_named(check.path(), "mechanism", &self.mechanism)?;
+        let mechanism = mechanism_named(check.path(), "mechanism", &self.mechanism)?;
         let mut names = BTreeSet::new();
         for (k, p) in self.parameters.iter().enumerate() {
             let field = |name: &str| format!("parameters[{k}].{name}");
@@ -211,6 +216,28 @@ impl MechanismCalibrationRecord {
             }
             for (i, row) in covariance.iter().enumerate() {
                 check.values(format!("covariance[{i}]"), row)?;
+            }
+        }
+        if let Some(correlation) = &self.prior_correlation {
+            let n = mechanism.parameters().len();
+            if correlation.len() != n || correlation.iter().any(|row| row.len() != n) {
+                return Err(check.error(
+                    "prior_correlation",
+                    format!(
+                        "must be {n} x {n}, one row and column per parameter of the {}",
+                        self.mechanism
+                    ),
+                ));
+            }
+            for (i, row) in correlation.iter().enumerate() {
+                let field = format!("prior_correlation[{i}]");
+                check.values(field.clone(), row)?;
+                if row[i] != 1.0 || row.iter().any(|c| c.abs() > 1.0) {
+                    return Err(check.error(
+                        field,
+                        "a correlation is 1 on the diagonal and within ±1 elsewhere",
+                    ));
+                }
             }
         }
         for (b, ball) in self.balls.iter().enumerate() {
