@@ -442,6 +442,9 @@ class MechanismCalibration:
     def covariance(self) -> FloatArray:
         """Their covariance (n x n; 0 x 0 when not computed)."""
     @property
+    def prior_correlation(self) -> Optional[FloatArray]:
+        """The correlation of the parameters' priors (None: independent)."""
+    @property
     def global_test(self) -> Optional[dict[str, Any]]:
         """The global test of the variance factor."""
     @property

@@ -108,6 +108,32 @@ def test_a_simulated_delta_recovers_its_truth_within_4_sigma(delta):
     assert np.all(np.abs(errors) < 4.0), dict(zip(np.array(run.names)[identifiable], errors))
 
 
+def test_rods_cut_as_a_matched_set_correlate_their_priors_as_the_cli(delta, cli, tmp_path):
+    matched = tmp_path / "matched"
+    shutil.copytree(delta, matched)
+    machine = json.loads((matched / "machine.json").read_text())
+    machine["matched"] = {"diagonal rods": 0.02}
+    (matched / "machine.json").write_text(json.dumps(machine))
+    run = parcal.calibrate(parcal.read_dataset(matched))
+    free = parcal.calibrate(parcal.read_dataset(delta))
+    assert free.prior_correlation is None
+    rods = [run.names.index(f"diagonal_{t}") for t in "abc"]
+    sigma = machine["tolerances"]["diagonal rods"]
+    for a in rods:
+        for b in rods:
+            expected = 1.0 if a == b else 1.0 - 0.02**2 / sigma**2
+            assert abs(run.prior_correlation[a, b] - expected) < 1e-12
+    # The rods' difference: at most sqrt(2) x 0.02 mm, far tighter than free.
+    def spread(r):
+        c = r.covariance
+        return np.sqrt(c[rods[0], rods[0]] + c[rods[1], rods[1]] - 2 * c[rods[0], rods[1]])
+    assert spread(run) <= np.sqrt(2) * 0.02 * (1 + 1e-9) < spread(free)
+    out = tmp_path / "calibration.json"
+    cli("calibrate", matched, "--out", out)
+    recorded = json.loads(out.read_text())["prior_correlation"]
+    assert np.array_equal(np.array(recorded), run.prior_correlation)
+
+
 def held_out_hangprinter(hangprinter, path):
     """The 32 positions the author discarded, as a dataset (docs/cable-robots-validation.md)."""
     path.mkdir()

@@ -212,6 +212,21 @@ impl MechanismCalibration {
         }
     }
 
+    /// The correlation of the mechanism's parameters' priors (n x n over
+    /// its parameters, machine.json's `matched` sets), or `None` when the
+    /// priors were independent.
+    #[getter]
+    fn prior_correlation<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+        self.record
+            .prior_correlation
+            .as_ref()
+            .map(|rows| PyArray2::from_vec2(py, rows).map_err(to_py))
+            .transpose()
+    }
+
     /// The global test of the variance factor (a dict as calibration.json
     /// holds it), or `None` when it was not made.
     #[getter]
