@@ -8,10 +8,11 @@
 
 use nalgebra::{DMatrix, DVector};
 use parcal_calibrate::mechanism::{
-    Ball, MechanismCalibration, MechanismCalibrationError, MechanismData, MechanismOptions,
-    ObservationKind, ObservationRef, Observations, TRIGGER_HEIGHT, calibrate_mechanism,
+    Ball, CentrePrior, MechanismCalibration, MechanismCalibrationError, MechanismData,
+    MechanismOptions, ObservationKind, ObservationRef, Observations, TRIGGER_HEIGHT,
+    calibrate_mechanism,
 };
-use parcal_dataset::mechanism::MechanismDataset;
+use parcal_dataset::mechanism::{BallPlacement, MechanismDataset};
 use parcal_kinematics::delta::DeltaParams;
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::CommandedPoint;
@@ -534,4 +535,51 @@ fn rods_cut_as_a_matched_set_keep_their_differences_within_the_set() {
         error.contains("diagonal rods") && error.contains("exceeds"),
         "{error}"
     );
+}
+
+#[test]
+fn a_ball_placed_where_known_has_its_centre_held_by_the_placement() {
+    // balls.csv's x,y,z,centre_sigma: where the first ball was placed,
+    // within 0.01 mm (here, where a calibration without it put it). Its
+    // centre's posterior sigmas can only shrink, and stay within the
+    // placement's (a block's marginal variance is at most the inverse of
+    // its information, which holds the prior's).
+    let mut dataset = touched(3, 3);
+    let free = calibrate(&dataset, &MechanismOptions::default());
+    let centre = free.balls[0].centre;
+    dataset.balls[0].placement = Some(BallPlacement {
+        centre,
+        sigma: 0.01,
+    });
+    let data = MechanismData::from_dataset(&dataset).unwrap();
+    let expected = CentrePrior {
+        centre,
+        sigma: 0.01,
+    };
+    assert_eq!(data.observations.balls[0].centre_prior, Some(expected));
+    assert_eq!(data.observations.balls[1].centre_prior, None);
+    let placed = calibrate(&dataset, &MechanismOptions::default());
+    let (before, after) = (
+        free.balls[0].centre_sigma.unwrap(),
+        placed.balls[0].centre_sigma.unwrap(),
+    );
+    eprintln!("ball 0's centre sigmas: {before:?} free, {after:?} placed within 0.01 mm");
+    for k in 0..3 {
+        assert!(
+            after[k] < before[k] && after[k] <= 0.01 * (1.0 + 1e-9),
+            "{k}"
+        );
+    }
+    // More information shrinks every marginal variance; the estimate is
+    // the same minimum (the placement's mean is the free estimate), to
+    // the stopping rule's 1e-6 relative.
+    for b in 1..3 {
+        let (free, placed) = (
+            free.balls[b].centre_sigma.unwrap(),
+            placed.balls[b].centre_sigma.unwrap(),
+        );
+        for k in 0..3 {
+            assert!(placed[k] <= free[k] * (1.0 + 1e-6), "ball {b}, {k}");
+        }
+    }
 }

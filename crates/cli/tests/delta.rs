@@ -451,10 +451,9 @@ fn rods_cut_as_a_matched_set_are_imported_as_one() {
         ),
         "{summary}"
     );
-    let record: serde_json::Value = serde_json::from_str(
-        &fs::read_to_string(d.join("data/calibration.json")).unwrap(),
-    )
-    .unwrap();
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(d.join("data/calibration.json")).unwrap())
+            .unwrap();
     let correlation = &record["prior_correlation"];
     assert_eq!(correlation.as_array().unwrap().len(), 16);
     let rho = correlation[11][12].as_f64().unwrap();

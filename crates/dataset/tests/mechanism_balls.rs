@@ -4,7 +4,9 @@
 
 use std::fs;
 
-use parcal_dataset::mechanism::{BallRow, MechanismDataset, MechanismMachine, Noise, TouchRow};
+use parcal_dataset::mechanism::{
+    BallPlacement, BallRow, MechanismDataset, MechanismMachine, Noise, TouchRow,
+};
 use parcal_kinematics::delta::LinearDelta;
 
 /// A delta's dataset: two probes, two balls (the second exact), five
@@ -27,10 +29,12 @@ fn touched() -> MechanismDataset {
             BallRow {
                 radius: 12.7,
                 radius_sigma: Some(0.001),
+                placement: None,
             },
             BallRow {
                 radius: 6.35,
                 radius_sigma: None,
+                placement: None,
             },
         ],
         touches: vec![
@@ -54,6 +58,23 @@ fn balls_and_touches_are_written_and_read_back() {
     let balls = fs::read_to_string(path.join("balls.csv")).unwrap();
     assert!(
         balls.starts_with("ball,radius,radius_sigma\n0,12.7,0.001\n1,6.35,\n"),
+        "{balls}"
+    );
+    // The second ball placed within 0.5 mm: the placement columns, empty
+    // for the first.
+    let mut placed = dataset.clone();
+    placed.balls[1].placement = Some(BallPlacement {
+        centre: [30.0, -20.0, 6.35],
+        sigma: 0.5,
+    });
+    let path = dir.path().join("placed");
+    placed.write(&path).unwrap();
+    assert_eq!(MechanismDataset::read(&path).unwrap(), placed);
+    let balls = fs::read_to_string(path.join("balls.csv")).unwrap();
+    assert!(
+        balls.starts_with(
+            "ball,radius,radius_sigma,x,y,z,centre_sigma\n0,12.7,0.001,,,,\n1,6.35,,30,-20,6.35,0.5\n"
+        ),
         "{balls}"
     );
     // Without them, no file, and the dataset reads as before.
@@ -95,6 +116,18 @@ fn bad_balls_and_touches_are_named() {
             ][..],
         ),
         ("ball,radius\n0,12.7\n", &["balls.csv", "radius_sigma"][..]),
+        (
+            "ball,radius,radius_sigma,x,y,z\n0,12.7,,1,2,3\n",
+            &["balls.csv", "placement columns x,y,z,centre_sigma"][..],
+        ),
+        (
+            "ball,radius,radius_sigma,x,y,z,centre_sigma\n0,12.7,,1,,3,0.5\n",
+            &["balls.csv", "line 2", "placement", "whole"][..],
+        ),
+        (
+            "ball,radius,radius_sigma,x,y,z,centre_sigma\n0,12.7,,1,2,3,0\n",
+            &["balls.csv", "line 2", "centre_sigma", "positive"][..],
+        ),
     ];
     for (text, expected) in ball_cases {
         fs::write(&balls, text).unwrap();

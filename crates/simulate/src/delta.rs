@@ -357,6 +357,7 @@ fn touch_balls(
         balls.push(BallRow {
             radius: scenario.ball_radius,
             radius_sigma: scenario.ball_radius_sigma,
+            placement: None,
         });
         for k in 0..k_count {
             let polar = (1.0 - (1.0 - lowest) * (k as f64 + 0.5) / k_count as f64).acos();

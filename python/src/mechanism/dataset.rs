@@ -395,6 +395,7 @@ fn ball_rows(balls: &Bound<'_, PyAny>) -> PyResult<Vec<BallRow>> {
         .map(|[radius, sigma]| BallRow {
             radius,
             radius_sigma: (sigma != 0.0).then_some(sigma),
+            placement: None,
         })
         .collect())
 }

@@ -6,7 +6,7 @@
 //! the trigger height's prior, each
 //! observation with the noise of its kind, the samples' loads, the
 //! measured quantities with their own sigmas, and the calibrated balls
-//! with their touches.
+//! (where placed, a prior on the centre) with their touches.
 
 use std::sync::Arc;
 
@@ -16,7 +16,7 @@ use parcal_observe::mechanism::{
     Actuation, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
 };
 
-use super::data::{Ball, MechanismData, Observations};
+use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 
 impl MechanismData {
@@ -107,7 +107,13 @@ impl MechanismData {
         let balls = dataset
             .balls
             .iter()
-            .map(|row| Ball::new(row.radius, row.radius_sigma))
+            .map(|row| Ball {
+                centre_prior: row.placement.map(|p| CentrePrior {
+                    centre: p.centre,
+                    sigma: p.sigma,
+                }),
+                ..Ball::new(row.radius, row.radius_sigma)
+            })
             .collect();
         let touches = dataset
             .touches

@@ -3,7 +3,7 @@
 //!
 //! | file | header | one row per |
 //! |---|---|---|
-//! | `balls.csv` | `ball,radius,radius_sigma` | ball: its number (0 for the first row, 1 for the next, …), its calibrated radius (mm) and the standard deviation of that calibration (mm; empty: exact) |
+//! | `balls.csv` | `ball,radius,radius_sigma` and optionally `x,y,z,centre_sigma` | ball: its number (0 for the first row, 1 for the next, …), its calibrated radius (mm) and the standard deviation of that calibration (mm; empty: exact); where it was placed and how well (mm, the controller's coordinates; all four empty: not known) |
 //! | `touches.csv` | `ball,x,y,z` | touch: the ball's number and the commanded position at which the tool point touched it (mm, the controller's coordinates) |
 //!
 //! The touch's noise is `machine.json`'s `noise.touch`. Each file holds at
@@ -16,7 +16,7 @@ use crate::bounds::Count;
 use crate::error::Result;
 use crate::table::{self, Failure, Header, Row};
 
-use super::observations::{OBSERVATIONS, too_many};
+use super::observations::{OBSERVATIONS, optional_group, too_many, whole_or_empty};
 
 /// The bounds of the rows of balls.csv.
 pub const BALLS: Count = Count::new(
@@ -27,6 +27,9 @@ pub const BALLS: Count = Count::new(
 
 /// The columns of balls.csv.
 pub const BALL_COLUMNS: [&str; 3] = ["ball", "radius", "radius_sigma"];
+/// The optional columns of balls.csv: where a ball was placed and the
+/// standard deviation of each coordinate ([`BallPlacement`]).
+pub const PLACEMENT_COLUMNS: [&str; 4] = ["x", "y", "z", "centre_sigma"];
 /// The columns of touches.csv.
 pub const TOUCH_COLUMNS: [&str; 4] = ["ball", "x", "y", "z"];
 
@@ -38,6 +41,18 @@ pub struct BallRow {
     /// The standard deviation of its calibration (mm, positive); `None`:
     /// exact.
     pub radius_sigma: Option<f64>,
+    /// Where it was placed, if known: a prior on its centre.
+    pub placement: Option<BallPlacement>,
+}
+
+/// Where a ball was placed: its centre (mm, the controller's coordinates)
+/// and the standard deviation of each coordinate (mm, positive).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BallPlacement {
+    /// The centre.
+    pub centre: [f64; 3],
+    /// Each coordinate's standard deviation.
+    pub sigma: f64,
 }
 
 /// One row of touches.csv.
@@ -60,13 +75,15 @@ fn ball_number(row: &Row, column: usize, count: usize, of: &str) -> Result<usize
 }
 
 /// Reads balls.csv at `path`: each row's `ball` its 0-based row number,
-/// each radius positive, each sigma empty or positive, at most
-/// [`BALLS`]`.max` rows.
+/// each radius positive, each sigma empty or positive, each placement
+/// given whole (its sigma positive) or left empty, at most [`BALLS`]`.max`
+/// rows.
 pub(crate) fn read_balls(path: &Path) -> Result<Vec<BallRow>> {
     let expected = BALL_COLUMNS.join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
         let [ball_at, radius_at, sigma_at] = header.require_all(&BALL_COLUMNS, &expected)?;
+        let at_placement = optional_group(&header, "placement", &PLACEMENT_COLUMNS)?;
         let mut rows: Vec<BallRow> = Vec::new();
         table::for_each_row(reader, &header, "ball", |row| {
             if rows.len() == BALLS.max {
@@ -98,9 +115,14 @@ pub(crate) fn read_balls(path: &Path) -> Result<Vec<BallRow>> {
                 }
                 Some(sigma)
             };
+            let placement = match &at_placement {
+                Some(at) => placement(row, at)?,
+                None => None,
+            };
             rows.push(BallRow {
                 radius,
                 radius_sigma,
+                placement,
             });
             Ok(())
         })?;
@@ -130,14 +152,52 @@ pub(crate) fn read_touches(path: &Path, balls: usize) -> Result<Vec<TouchRow>> {
     })
 }
 
-/// Writes balls.csv at `path` atomically.
+/// The placement of a row of balls.csv from its columns `at`
+/// ([`PLACEMENT_COLUMNS`]): all empty, `None`; all numbers with a
+/// positive sigma, `Some`.
+fn placement(row: &Row, at: &[usize]) -> std::result::Result<Option<BallPlacement>, Failure> {
+    let Some(values) = whole_or_empty(row, at, &PLACEMENT_COLUMNS, "placement")? else {
+        return Ok(None);
+    };
+    if values[3] <= 0.0 {
+        return Err(row.error(
+            Some("centre_sigma"),
+            format!(
+                "{} is not a positive standard deviation (not known: leave x,y,z,centre_sigma empty)",
+                values[3]
+            ),
+        ));
+    }
+    Ok(Some(BallPlacement {
+        centre: [values[0], values[1], values[2]],
+        sigma: values[3],
+    }))
+}
+
+/// Writes balls.csv at `path` atomically, with the placement columns if
+/// any ball has a placement.
 pub(crate) fn write_balls(path: &Path, rows: &[BallRow]) -> Result<()> {
-    table::write_file(path, &BALL_COLUMNS, |w| {
+    let placed = rows.iter().any(|row| row.placement.is_some());
+    let columns: Vec<&str> = if placed {
+        BALL_COLUMNS
+            .iter()
+            .chain(&PLACEMENT_COLUMNS)
+            .copied()
+            .collect()
+    } else {
+        BALL_COLUMNS.to_vec()
+    };
+    table::write_file(path, &columns, |w| {
         for (number, row) in rows.iter().enumerate() {
             w.numbers(&[number as f64, row.radius])?;
             match row.radius_sigma {
                 Some(sigma) => w.numbers(&[sigma])?,
                 None => w.text("")?,
+            }
+            match (placed, row.placement) {
+                (true, Some(p)) => w.numbers(&[p.centre[0], p.centre[1], p.centre[2], p.sigma])?,
+                (true, None) => (0..PLACEMENT_COLUMNS.len()).try_for_each(|_| w.text(""))?,
+                (false, _) => {}
             }
             w.end_row()?;
         }

@@ -56,7 +56,9 @@ mod validation;
 
 use std::path::Path;
 
-pub use balls::{BALL_COLUMNS, BALLS, BallRow, TOUCH_COLUMNS, TouchRow};
+pub use balls::{
+    BALL_COLUMNS, BALLS, BallPlacement, BallRow, PLACEMENT_COLUMNS, TOUCH_COLUMNS, TouchRow,
+};
 pub use calibration::{
     BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
     ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,

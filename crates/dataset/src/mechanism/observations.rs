@@ -103,20 +103,7 @@ pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRo
             .collect::<std::result::Result<Vec<usize>, Failure>>()?;
         let at_position = header.require_all(&POSITION_COLUMNS, &expected)?;
         let loads = &LOAD_COLUMNS[..actuators];
-        let at_loads = loads
-            .iter()
-            .map(|name| header.find(name))
-            .collect::<std::result::Result<Option<Vec<usize>>, Failure>>()?;
-        if at_loads.is_none()
-            && loads
-                .iter()
-                .any(|name| matches!(header.find(name), Ok(Some(_))))
-        {
-            return Err(header.error(format!(
-                "the header names some of the load columns {} but not all",
-                loads.join(",")
-            )));
-        }
+        let at_loads = optional_group(&header, "load", loads)?;
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, "point", |row| {
             if rows.len() == OBSERVATIONS.max {
@@ -143,9 +130,34 @@ pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRo
     })
 }
 
+/// The places of the optional `what` columns `names`, which a header
+/// names all or none of: `None` when none; an error naming them when only
+/// some.
+pub(super) fn optional_group(
+    header: &Header,
+    what: &str,
+    names: &[&str],
+) -> std::result::Result<Option<Vec<usize>>, Failure> {
+    let at = names
+        .iter()
+        .map(|name| header.find(name))
+        .collect::<std::result::Result<Option<Vec<usize>>, Failure>>()?;
+    if at.is_none()
+        && names
+            .iter()
+            .any(|name| matches!(header.find(name), Ok(Some(_))))
+    {
+        return Err(header.error(format!(
+            "the header names some of the {what} columns {} but not all",
+            names.join(",")
+        )));
+    }
+    Ok(at)
+}
+
 /// The numbers of `columns` (named `names`) of `row`: all empty, `None`;
 /// all numbers, `Some`; else an error naming `what`.
-fn whole_or_empty(
+pub(super) fn whole_or_empty(
     row: &Row,
     columns: &[usize],
     names: &[&'static str],
