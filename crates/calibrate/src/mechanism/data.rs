@@ -13,9 +13,9 @@ use parcal_observe::mechanism::{
     PointSample, ProbeHeight,
 };
 
+use super::correlation::check_correlation;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
-use super::prior::check_correlation;
 
 /// The most observations of each kind: far beyond a calibration's needs
 /// (a probed bed holds tens to hundreds), and small enough that the
@@ -343,7 +343,8 @@ impl MechanismData {
         }
         check_prior(&self.trigger_height, || "trigger height".to_string())?;
         if let Some(correlation) = &self.prior_correlation {
-            check_correlation(self, correlation)?;
+            let has_prior: Vec<bool> = self.priors.iter().map(|p| p.sigma.is_some()).collect();
+            check_correlation(mechanism, &has_prior, correlation)?;
         }
         let observations = &self.observations;
         for kind in ObservationKind::ALL {

@@ -69,6 +69,7 @@
 
 mod calibrated;
 mod compensation;
+mod correlation;
 mod data;
 mod error;
 mod fit;
@@ -79,7 +80,7 @@ mod input;
 mod observation;
 mod options;
 mod predicted;
-mod prior;
+pub mod prior;
 mod problem;
 mod record;
 mod result;
@@ -100,7 +101,6 @@ pub use identifiability::{Identifiability, Undetermined};
 pub use observation::{HeldOut, ObservationKind, ObservationRef, number_ranges};
 pub use options::{MAX_ITERATIONS, MechanismOptions};
 pub use predicted::MAX_HELD_OUT_TOUCHES_PER_BALL;
-pub use prior::prior_covariance;
 pub use result::{EstimatedBall, EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 

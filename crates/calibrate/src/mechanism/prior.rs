@@ -20,10 +20,6 @@ use nalgebra::DMatrix;
 use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
 
-/// How far a correlation matrix may be from symmetric, or its diagonal
-/// from 1: rounding of a matrix computed in floating point.
-const CORRELATION_ROUNDING: f64 = 1e-12;
-
 /// The global block's priors: the parameters', then the trigger height's
 /// when it is an unknown (there are probe heights).
 pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
@@ -53,7 +49,9 @@ pub fn prior_covariance(data: &MechanismData) -> DMatrix<f64> {
 
 /// `Λ = Σ_prior⁻¹` over the unknowns with a prior, zero elsewhere (module
 /// doc); `None` when no unknown has one or `Σ_prior` is not positive
-/// definite there (refused by [`check_correlation`] beforehand).
+/// definite there (refused by
+/// [`check_correlation`](super::correlation::check_correlation)
+/// beforehand).
 pub(crate) fn prior_information(data: &MechanismData) -> Option<DMatrix<f64>> {
     let covariance = prior_covariance(data);
     let with: Vec<usize> = global_priors(data)
@@ -135,64 +133,6 @@ impl MechanismData {
         }
         Ok(self.with_prior_correlation(correlation))
     }
-}
-
-/// Refuses a correlation matrix that is not `n × n` for the `n`
-/// parameters, not finite, not symmetric, without a unit diagonal, with an
-/// entry beyond ±1, or not positive definite over the parameters with a
-/// prior; the first fault names the parameters.
-pub(crate) fn check_correlation(
-    data: &MechanismData,
-    correlation: &DMatrix<f64>,
-) -> Result<(), MechanismCalibrationError> {
-    let parameters = data.mechanism.parameters();
-    let n = parameters.len();
-    let invalid = |reason: String| {
-        Err(MechanismCalibrationError::InvalidData {
-            what: "prior correlation".to_string(),
-            reason,
-        })
-    };
-    if correlation.shape() != (n, n) {
-        let (rows, columns) = correlation.shape();
-        return invalid(format!(
-            "{rows} x {columns} for the {n} parameters of the {}",
-            data.mechanism.name()
-        ));
-    }
-    let name = |k: usize| parameters[k].name.as_str();
-    for j in 0..n {
-        for k in 0..n {
-            let c = correlation[(j, k)];
-            let fault = if !c.is_finite() {
-                Some("is not finite")
-            } else if (c - correlation[(k, j)]).abs() > CORRELATION_ROUNDING {
-                Some("differs from its transpose's")
-            } else if j == k && (c - 1.0).abs() > CORRELATION_ROUNDING {
-                Some("is not 1 on the diagonal")
-            } else if c.abs() > 1.0 + CORRELATION_ROUNDING {
-                Some("is beyond ±1")
-            } else {
-                None
-            };
-            if let Some(fault) = fault {
-                return invalid(format!(
-                    "its entry {c} of {} and {} {fault}",
-                    name(j),
-                    name(k)
-                ));
-            }
-        }
-    }
-    let with: Vec<usize> = (0..n).filter(|&k| data.priors[k].sigma.is_some()).collect();
-    let sub = correlation.select_rows(&with).select_columns(&with);
-    if sub.cholesky().is_none() {
-        return invalid(
-            "it is not positive definite over the parameters with a prior (some combination of them would have no uncertainty)"
-                .to_string(),
-        );
-    }
-    Ok(())
 }
 
 #[cfg(test)]

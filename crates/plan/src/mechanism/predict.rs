@@ -22,7 +22,8 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_calibrate::mechanism::frame::canonical;
 use parcal_calibrate::mechanism::identifiability::{Inputs, gauge_directions, identifiability};
-use parcal_calibrate::mechanism::{MechanismData, TRIGGER_HEIGHT, prior_covariance};
+use parcal_calibrate::mechanism::prior::prior_covariance;
+use parcal_calibrate::mechanism::{MechanismData, TRIGGER_HEIGHT};
 use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, Noise};
 use parcal_kinematics::mechanism::Mechanism;
