@@ -37,7 +37,8 @@ pub fn prior_covariance(data: &MechanismData) -> DMatrix<f64> {
     let n = data.priors.len();
     let correlation = |j: usize, k: usize| match &data.prior_correlation {
         Some(r) if j < n && k < n => r[(j, k)],
-        _ => f64::from(u8::from(j == k)),
+        _ if j == k => 1.0,
+        _ => 0.0,
     };
     DMatrix::from_fn(priors.len(), priors.len(), |j, k| {
         match (priors[j].sigma, priors[k].sigma) {
