@@ -16,7 +16,7 @@ use parcal_calibrate::mechanism::{
 };
 use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::{CalibrationOptions, PriorMode, RadiusModel, Simulation, calibrate};
-use parcal_dataset::Dataset;
+use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_observe::WeightModel;
 use parcal_observe::mechanism::Actuation;
 use parcal_solver::SIGMA_TOLERANCE;
@@ -88,11 +88,15 @@ fn the_priors_through_the_interface_are_the_own_paths() {
 
 /// Calibrates fixtures/paper-seed1 both ways under `options` and compares.
 fn compare(options: &CalibrationOptions) {
-    let dataset = Dataset::read(&fixture()).unwrap();
-    let own = calibrate(&dataset, options, &mut |_| {}).unwrap();
+    compare_on(&Dataset::read(&fixture()).unwrap(), options);
+}
+
+/// Calibrates `dataset` both ways under `options` and compares.
+fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
+    let own = calibrate(dataset, options, &mut |_| {}).unwrap();
     assert!(own.converged());
     let sigmas = own.sigmas().unwrap();
-    let data = MechanismData::from_hexapod_touches(&dataset, options).unwrap();
+    let data = MechanismData::from_hexapod_touches(dataset, options).unwrap();
     let common = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
     assert_eq!(common.parameters.len(), 33);
     let (mut worst_value, mut worst_sigma) = (0.0f64, 0.0f64);
@@ -156,6 +160,39 @@ fn compare(options: &CalibrationOptions) {
     assert_eq!(own_worst.observation(), ObservationId::Contact(touch));
     let ratio = w.abs() / own_worst.normalised().unwrap().abs() - 1.0;
     assert!(ratio.abs() < 1e-6, "{ratio:e}");
+}
+
+#[test]
+fn balls_located_in_the_canonical_frame_are_held_there_by_both_paths() {
+    // artefacts.json locating the balls in the canonical base frame (here
+    // where a calibration without priors puts them): under the propagated
+    // prior each centre has that location as its prior, in both paths.
+    let mut dataset = Dataset::read(&fixture()).unwrap();
+    let free = calibrate(
+        &dataset,
+        &CalibrationOptions::simulation(Simulation::I),
+        &mut |_| {},
+    )
+    .unwrap();
+    dataset.artefacts.frame = ArtefactFrame::Canonical;
+    for (ball, centre) in dataset.artefacts.balls.iter_mut().zip(&free.balls.centres) {
+        ball.centre = (*centre).into();
+    }
+    let options = CalibrationOptions {
+        prior: PriorMode::Propagated,
+        ..CalibrationOptions::simulation(Simulation::I)
+    };
+    let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
+    let placed = data.observations.balls.iter().zip(&dataset.artefacts.balls);
+    for (ball, stated) in placed {
+        let prior = ball.centre_prior.unwrap();
+        assert_eq!(
+            (prior.centre, prior.sigma),
+            (stated.centre, stated.centre_sigma)
+        );
+    }
+    println!("propagated prior, balls in the canonical frame:");
+    compare_on(&dataset, &options);
 }
 
 #[test]
