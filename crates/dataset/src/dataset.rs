@@ -88,8 +88,9 @@ impl Dataset {
     }
 
     /// Reads the dataset in directory `dir`: `machine.json`,
-    /// `artefacts.json`, `measurements.csv` (streamed) and, if present,
-    /// `truth.json`, checking each and their consistency.
+    /// `artefacts.json`, `measurements.csv` (read in blocks, each parsed
+    /// in pieces side by side) and, if present, `truth.json`, checking each
+    /// and their consistency.
     ///
     /// `artefacts.json` and `measurements.csv` may be absent together when
     /// `poses.csv` or `points.csv` is there.

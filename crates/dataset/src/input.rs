@@ -57,22 +57,28 @@ pub(crate) fn read_json(path: &Path) -> Result<Option<Vec<u8>>> {
     read_at_most(path, JSON_CAP)
 }
 
-/// The whole of file `path`, at most `cap` bytes (read through `take`, so
-/// that a file growing while it is read is stopped too); `None` if it does
-/// not exist.
+/// The whole of file `path`, at most `cap` bytes (refused by its length
+/// before it is read, and read through `take`, so that a file growing
+/// while it is read is stopped too); `None` if it does not exist.
 fn read_at_most(path: &Path, cap: u64) -> Result<Option<Vec<u8>>> {
+    let too_large = || {
+        DatasetError::refused(
+            path,
+            format!("is larger than {cap} bytes, the most a JSON file may have"),
+        )
+    };
     let Some(Input { file, len }) = open(path)? else {
         return Ok(None);
     };
-    let mut bytes = Vec::with_capacity(len.min(cap) as usize);
+    if len > cap {
+        return Err(too_large());
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
     file.take(cap + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| DatasetError::io(path, "read", e))?;
     if bytes.len() as u64 > cap {
-        return Err(DatasetError::refused(
-            path,
-            format!("is larger than {cap} bytes, the most a JSON file may have"),
-        ));
+        return Err(too_large());
     }
     Ok(Some(bytes))
 }
@@ -153,9 +159,10 @@ mod tests {
         assert!(open(&dir.path().join("absent")).unwrap().is_none());
     }
 
-    /// The cap is checked on what was read, whatever the file's length said.
+    /// A file over the cap is refused before it is read (its length) and,
+    /// should it grow meanwhile, on what was read.
     #[test]
-    fn a_json_file_over_the_cap_is_refused() {
+    fn a_file_over_the_cap_is_refused() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.json");
         fs::write(&path, b"0123456789").unwrap();

@@ -1,15 +1,15 @@
-//! `measurements.csv`: one row per contact, streamed.
+//! `measurements.csv`: one row per contact, read whole and parsed in pieces
+//! side by side ([`table::read_file_in_pieces`]).
 //!
 //! Columns are found by header name, in any order; other columns are
 //! ignored, fields are trimmed of surrounding (ASCII) whitespace and blank
-//! lines are skipped. Reading goes through one reused `csv::ByteRecord`,
+//! lines are skipped. Each piece is read through one reused `csv::ByteRecord`,
 //! trims each field as it is used and parses numbers from the bytes, so it
 //! allocates nothing per row (except to report an error) and scales to
 //! millions of rows. Writing uses Rust's shortest round-trip form of each
 //! `f64` (`{}`), so values read back bit for bit.
 
 use std::collections::HashMap;
-use std::io::Read;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -19,7 +19,7 @@ use crate::artefacts::{Ball, ball_index};
 use crate::check::{self, Check, not_finite};
 use crate::error::{DatasetError, Result};
 use crate::quote::quoted_bytes;
-use crate::table::{self, Failure, Header};
+use crate::table::{self, Failure, Header, Row};
 
 const BALL: &str = "ball";
 const Q: [&str; 6] = ["q1", "q2", "q3", "q4", "q5", "q6"];
@@ -52,14 +52,6 @@ impl Measurements {
     /// Reads `measurements.csv`, resolving ball ids against `balls` (whose
     /// ids are unique); `scale` is the actuators' (mm per unit).
     pub(crate) fn read(path: &Path, balls: &[Ball], scale: &[f64; 6]) -> Result<Self> {
-        table::read_file(path, |reader| Self::parse_records(reader, balls, scale))
-    }
-
-    fn parse_records<R: Read>(
-        reader: &mut csv::Reader<R>,
-        balls: &[Ball],
-        scale: &[f64; 6],
-    ) -> Result<Self, Failure> {
         let index: HashMap<&[u8], u32> = ball_index(balls)
             .expect("ball ids are unique")
             .into_iter()
@@ -71,40 +63,58 @@ impl Measurements {
             })
             .collect();
         let expected = format!("{BALL},{}", Q.join(","));
-        let header = Header::read(reader, &expected)?;
-        let columns = Columns::locate(&header, &expected)?;
-
-        let mut out = Self {
-            direction: columns.dir.map(|_| Vec::new()),
-            ..Self::default()
-        };
-        table::for_each_row(reader, &header, "measurement", |row| {
-            let id = row.field(columns.ball);
-            let ball = *index.get(id).ok_or_else(|| {
-                row.error(
-                    Some(BALL),
-                    format!(
-                        "unknown ball id {} (not in artefacts.json)",
-                        quoted_bytes(id)
-                    ),
-                )
-            })?;
-            let q = row.numbers(&columns.q, &Q)?;
-            let direction = match &columns.dir {
-                Some(dir) => Some(row.numbers(dir, &DIR)?),
-                None => None,
-            };
-            if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
-                return Err(row.error(column, message));
-            }
-            out.ball.push(ball);
-            out.q.push(q);
-            if let (Some(d), Some(directions)) = (direction, &mut out.direction) {
-                directions.push(d);
-            }
-            Ok(())
-        })?;
+        let mut out = Self::default();
+        table::read_file_in_pieces(
+            path,
+            &expected,
+            "measurement",
+            |header| Columns::locate(header, &expected),
+            |columns, row, piece: &mut Self| Self::push_row(piece, row, columns, &index, scale),
+            |piece| {
+                out.ball.append(&mut piece.ball);
+                out.q.append(&mut piece.q);
+                // A piece without rows has no directions to add.
+                if let Some(more) = &mut piece.direction {
+                    out.direction.get_or_insert_with(Vec::new).append(more);
+                }
+            },
+        )?;
         Ok(out)
+    }
+
+    /// Appends the contact of `row` (its `columns`; ball ids resolved by
+    /// `index`, `scale` the actuators') to `out`.
+    fn push_row(
+        out: &mut Self,
+        row: &Row,
+        columns: &Columns,
+        index: &HashMap<&[u8], u32>,
+        scale: &[f64; 6],
+    ) -> Result<(), Failure> {
+        let id = row.field(columns.ball);
+        let ball = *index.get(id).ok_or_else(|| {
+            row.error(
+                Some(BALL),
+                format!(
+                    "unknown ball id {} (not in artefacts.json)",
+                    quoted_bytes(id)
+                ),
+            )
+        })?;
+        let q = row.numbers(&columns.q, &Q)?;
+        let direction = match &columns.dir {
+            Some(dir) => Some(row.numbers(dir, &DIR)?),
+            None => None,
+        };
+        if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
+            return Err(row.error(column, message));
+        }
+        out.ball.push(ball);
+        out.q.push(q);
+        if let Some(d) = direction {
+            out.direction.get_or_insert_with(Vec::new).push(d);
+        }
+        Ok(())
     }
 
     /// Writes `measurements.csv` (the caller has validated): floats in Rust's

@@ -8,6 +8,7 @@ use std::io::{self, BufWriter, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use csv::{ByteRecord, ReaderBuilder};
+use rayon::prelude::*;
 
 use crate::atomic::{write_atomic, write_error};
 use crate::check::not_finite;
@@ -159,19 +160,24 @@ pub(crate) fn parse<R: Read + Seek, T>(
         Ok(value) => return Ok(value),
         Err(failure) => failure,
     };
-    let input = reader.into_inner().inner;
+    Err(located(path, reader.into_inner().inner, skipped, failure))
+}
+
+/// The error of `failure` in CSV file `path` (`input`, `skipped` bytes of
+/// byte order mark), with its line found by rescanning `input`.
+fn located<R: Read + Seek>(path: &Path, input: R, skipped: u64, failure: Failure) -> DatasetError {
     match failure {
         Failure::Csv(e) => match line_too_long(&e) {
             Some(&LineTooLong { offset, cap }) => {
                 let line = line_of(input, offset + 1, 0).unwrap_or(0);
-                Err(DatasetError::csv(
+                DatasetError::csv(
                     path,
                     line,
                     None,
                     format!("the line is longer than {cap} bytes, the most a CSV line may have"),
-                ))
+                )
             }
-            None => Err(csv_error(path, e)),
+            None => csv_error(path, e),
         },
         Failure::At {
             end,
@@ -181,9 +187,158 @@ pub(crate) fn parse<R: Read + Seek, T>(
             message,
         } => {
             let line = line_of(input, end + skipped, inner_newlines).unwrap_or(estimate);
-            Err(DatasetError::csv(path, line, column, message))
+            DatasetError::csv(path, line, column, message)
         }
     }
+}
+
+/// Parses the CSV file `path` as [`read_file`] would: its header
+/// (`expected`) and what `columns` finds in it, then its data rows
+/// (`what`), each checked to have the header's width and passed to `each`
+/// with the accumulator of its piece. The rows are read in blocks of
+/// [`PIECE_LEN`] bytes per thread of rayon's pool, cut at line ends, and
+/// each block into one piece per thread, parsed side by side; `gather`
+/// empties the accumulators in file order, so that what they held does not
+/// depend on the number of threads. From a block with a quote character
+/// on (whose quoted fields may hold line ends), the rest of the file is
+/// one piece. Of several errors, the one earliest in the file.
+pub(crate) fn read_file_in_pieces<C: Sync, A: Default + Send>(
+    path: &Path,
+    expected: &str,
+    what: &str,
+    columns: impl FnOnce(&Header) -> Result<C, Failure>,
+    each: impl Fn(&C, &Row, &mut A) -> Result<(), Failure> + Sync,
+    mut gather: impl FnMut(&mut A),
+) -> Result<(), DatasetError> {
+    let mut file = input::open_required(path)?.file;
+    let (header, columns) = parse(path, &mut file, |reader| {
+        let header = Header::read(reader, expected)?;
+        let columns = columns(&header)?;
+        Ok((header, columns))
+    })?;
+    let io_error = |e| DatasetError::io(path, "read", e);
+    file.rewind().map_err(io_error)?;
+    let skipped = skip_bom(&mut file).map_err(io_error)?;
+    // The offset in the file of the block's first byte.
+    let mut offset = skipped + header.end;
+    file.seek(SeekFrom::Start(offset)).map_err(io_error)?;
+    let threads = rayon::current_num_threads().max(1);
+    let block_len = PIECE_LEN * threads;
+    let mut block = Vec::with_capacity(block_len);
+    // One accumulator per piece, emptied by `gather` and reused from block
+    // to block: the pieces allocate once, not once per block.
+    let mut accumulators: Vec<A> = (0..threads).map(|_| A::default()).collect();
+    let mut rows = 0;
+    loop {
+        let kept = block.len();
+        block.resize(block_len, 0);
+        let read = read_full(&mut file, &mut block[kept..]).map_err(io_error)?;
+        let end_of_file = kept + read < block_len;
+        block.truncate(kept + read);
+        if block.is_empty() {
+            break;
+        }
+        let quoted = block.contains(&b'"');
+        let parsed: Vec<Result<usize, Failure>> = if quoted {
+            let rest = io::Cursor::new(std::mem::take(&mut block)).chain(&mut file);
+            let accumulator = &mut accumulators[0];
+            let rows = parse_piece(rest, offset, skipped, &header, |row| {
+                each(&columns, row, accumulator)
+            });
+            vec![rows]
+        } else {
+            // A block without a line end holds part of a line longer
+            // than the cap, which its piece refuses.
+            let end = match (end_of_file, block.iter().rposition(|&b| b == b'\n')) {
+                (false, Some(last)) => last + 1,
+                _ => block.len(),
+            };
+            let parsed = pieces(&block[..end], threads)
+                .par_windows(2)
+                .zip(accumulators.par_iter_mut())
+                .map(|(bounds, accumulator)| {
+                    let (start, stop) = (bounds[0], bounds[1]);
+                    let bytes = &block[start..stop];
+                    parse_piece(bytes, offset + start as u64, skipped, &header, |row| {
+                        each(&columns, row, accumulator)
+                    })
+                })
+                .collect();
+            block.drain(..end);
+            offset += end as u64;
+            parsed
+        };
+        for (piece, accumulator) in parsed.into_iter().zip(&mut accumulators) {
+            rows += piece.map_err(|f| located(path, &mut file, skipped, f))?;
+            gather(accumulator);
+        }
+        if quoted {
+            break;
+        }
+    }
+    if rows == 0 {
+        let failure = header.error(format!("the header is followed by no {what} row"));
+        return Err(located(path, &mut file, skipped, failure));
+    }
+    Ok(())
+}
+
+/// Parses the rows of `input`, the bytes of the file from offset `start`
+/// (the beginning of a line; `skipped` bytes of byte order mark), with
+/// `each`; the number of rows.
+fn parse_piece(
+    input: impl Read,
+    start: u64,
+    skipped: u64,
+    header: &Header,
+    each: impl FnMut(&Row) -> Result<(), Failure>,
+) -> Result<usize, Failure> {
+    let mut reader = ReaderBuilder::new()
+        .flexible(true)
+        .has_headers(false)
+        .from_reader(LineLimited {
+            inner: input,
+            offset: start,
+            line_length: 0,
+            cap: CSV_LINE_CAP,
+        });
+    each_row(&mut reader, header, start - skipped, each)
+}
+
+/// The bounds of `count` pieces of `rows` of about equal length, each
+/// ending just after a line end (or at the end).
+fn pieces(rows: &[u8], count: usize) -> Vec<usize> {
+    let mut bounds = vec![0];
+    for k in 1..count {
+        let from = (rows.len() * k / count).max(*bounds.last().expect("starts with 0"));
+        let cut = rows[from..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(rows.len(), |at| from + at + 1);
+        bounds.push(cut);
+    }
+    bounds.push(rows.len());
+    bounds
+}
+
+/// The bytes of rows one thread parses at a time (4 MiB, more than a
+/// line may have, [`CSV_LINE_CAP`]): the memory of reading a file of any
+/// length in pieces.
+const PIECE_LEN: usize = 4 << 20;
+
+/// Fills `buffer` from `input` as far as it goes; the bytes read (fewer
+/// than the buffer's length only at the end of the input).
+fn read_full(input: &mut impl Read, buffer: &mut [u8]) -> io::Result<usize> {
+    let mut filled = 0;
+    while filled < buffer.len() {
+        match input.read(&mut buffer[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(filled)
 }
 
 /// Positions `input` after its UTF-8 byte order mark, if it has one, and
@@ -357,14 +512,28 @@ pub(crate) fn for_each_row<R: Read>(
     reader: &mut csv::Reader<R>,
     header: &Header,
     what: &str,
-    mut each: impl FnMut(&Row) -> Result<(), Failure>,
+    each: impl FnMut(&Row) -> Result<(), Failure>,
 ) -> Result<(), Failure> {
+    if each_row(reader, header, 0, each)? == 0 {
+        return Err(header.error(format!("the header is followed by no {what} row")));
+    }
+    Ok(())
+}
+
+/// Calls `each` on every row of `reader`, checked to have the header's
+/// width; the rows' offsets count from `base`. Returns the number of rows.
+fn each_row<R: Read>(
+    reader: &mut csv::Reader<R>,
+    header: &Header,
+    base: u64,
+    mut each: impl FnMut(&Row) -> Result<(), Failure>,
+) -> Result<usize, Failure> {
     let mut record = ByteRecord::new();
     let mut rows = 0usize;
     while reader.read_byte_record(&mut record)? {
         let row = Row {
             record: &record,
-            end: reader.position().byte(),
+            end: base + reader.position().byte(),
         };
         if record.len() != header.width() {
             return Err(row.error(
@@ -375,10 +544,7 @@ pub(crate) fn for_each_row<R: Read>(
         each(&row)?;
         rows += 1;
     }
-    if rows == 0 {
-        return Err(header.error(format!("the header is followed by no {what} row")));
-    }
-    Ok(())
+    Ok(rows)
 }
 
 /// Writes `path` atomically as CSV: the `header`, then the rows `fill`

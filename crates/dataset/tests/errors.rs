@@ -749,6 +749,86 @@ fn csv_header_but_no_rows() {
     );
 }
 
+/// A measurements.csv over a block of pieces (8 MiB on two threads):
+/// `rows` rows, row `i` touching ball `i mod 3` with `q1 = i`; the rows
+/// `bad` (0-based) with a word for `q4`, the rows `quoted` with their ball
+/// id in quotes; lines ending in `end`, after a byte order mark if `bom`.
+fn large_csv(rows: usize, bad: &[usize], quoted: &[usize], end: &str, bom: bool) -> String {
+    let mut text = String::from(if bom { "\u{feff}" } else { "" });
+    text.push_str(HEADER);
+    text.push_str(end);
+    let ids = ["b01", "b02", "plate-3"];
+    for i in 0..rows {
+        let q4 = if bad.contains(&i) { "four" } else { "4.0625" };
+        let id = ids[i % 3];
+        let id = if quoted.contains(&i) {
+            format!("\"{id}\"")
+        } else {
+            id.to_owned()
+        };
+        text.push_str(&format!("{id},{i},2.5,3.75,{q4},5,6.125{end}"));
+    }
+    text
+}
+
+/// Reads `dir` on a pool of `threads` threads.
+fn read_on(threads: usize, dir: &std::path::Path) -> Result<Dataset, DatasetError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(|| Dataset::read(dir))
+}
+
+#[test]
+fn a_large_file_reads_the_same_on_any_number_of_threads() {
+    let rows = 300_000;
+    let dir = written(NONE);
+    for quoted in [vec![], vec![250_000]] {
+        write_csv(dir.path(), &large_csv(rows, &[], &quoted, "\n", false));
+        let len = fs::metadata(dir.path().join(MEASUREMENTS_FILE))
+            .unwrap()
+            .len();
+        assert!(len > 8 << 20, "{len} bytes");
+        let one = read_on(1, dir.path()).unwrap().measurements;
+        for threads in [2, 3, 7] {
+            assert_eq!(read_on(threads, dir.path()).unwrap().measurements, one);
+        }
+        assert_eq!(one.len(), rows);
+        for (i, (q, &ball)) in one.q.iter().zip(&one.ball).enumerate() {
+            assert_eq!((q[0], ball), (i as f64, (i % 3) as u32), "row {i}");
+        }
+    }
+}
+
+/// An error in any piece and block names its line, with a byte order mark
+/// and CRLF line ends too, and after a quoted field; of two, the earlier.
+#[test]
+fn a_large_file_names_the_line_of_its_first_error() {
+    for (end, bom) in [("\n", false), ("\r\n", true)] {
+        let dir = written(NONE);
+        let cases = [
+            (vec![280_000], vec![]),
+            (vec![3, 280_000], vec![]),
+            (vec![149_999, 150_000], vec![]),
+            (vec![280_000], vec![250_000]),
+        ];
+        for (bad, quoted) in cases {
+            write_csv(dir.path(), &large_csv(300_000, &bad, &quoted, end, bom));
+            let line = bad[0] + 2;
+            for threads in [1, 2] {
+                let err = read_on(threads, dir.path()).err().unwrap().to_string();
+                assert!(
+                    err.ends_with(&format!(
+                        "line {line}, column q4: expected a number, found \"four\""
+                    )),
+                    "{end:?}, {threads} threads: {err}"
+                );
+            }
+        }
+    }
+}
+
 // ---- contacts per ball ----
 
 #[test]
