@@ -306,8 +306,10 @@ class MechanismDataset:
     holds and the observations' arrays (``samples``: ``readings`` n x A,
     ``position`` n x 3 with NaN rows where not measured, ``loads`` n x A;
     ``quantities``: ``quantity``, ``value``, ``sigma``; ``balls`` n x 2:
-    radius and its sigma, 0 for an exact radius; ``touches`` n x 4: the
-    ball's number and the commanded x, y, z), checked as the files are."""
+    radius and its sigma, 0 for an exact radius, or n x 6 with where each
+    ball was placed, ``x, y, z, centre_sigma`` (all four NaN for a ball not
+    placed); ``touches`` n x 4: the ball's number and the commanded x, y,
+    z), checked as the files are."""
 
     def __init__(
         self,
@@ -360,7 +362,8 @@ class MechanismDataset:
         """Probe heights (n x 3: x, y, z mm)."""
     @property
     def balls(self) -> FloatArray:
-        """Calibrated balls (n x 2: radius, its sigma, 0 if exact; mm)."""
+        """Calibrated balls (n x 2: radius, its sigma, 0 if exact; mm); n x 6
+        if a ball was placed: then also x, y, z, centre_sigma (NaN if not)."""
     @property
     def touches(self) -> FloatArray:
         """Touches of the balls (n x 4: ball number, commanded x, y, z mm)."""

@@ -37,17 +37,29 @@ pub fn rows<const N: usize>(object: &Bound<'_, PyAny>, what: &str) -> PyResult<V
 /// `object` as float64 rows of `width` columns (a mechanism's actuators),
 /// named `what` in errors.
 pub fn table_rows(object: &Bound<'_, PyAny>, width: usize, what: &str) -> PyResult<Vec<Vec<f64>>> {
+    table_rows_of(object, &[width], what)
+}
+
+/// `object` as float64 rows of one of `widths` columns, named `what` in
+/// errors.
+pub fn table_rows_of(
+    object: &Bound<'_, PyAny>,
+    widths: &[usize],
+    what: &str,
+) -> PyResult<Vec<Vec<f64>>> {
+    let names: Vec<String> = widths.iter().map(usize::to_string).collect();
+    let expected = names.join(" or ");
     let array = float_array(object, what)?;
     let array: PyReadonlyArray2<f64> = array.extract().map_err(|_| {
         to_py(format!(
-            "{what}: expected a 2-D array of {width} columns, got {} dimension(s)",
+            "{what}: expected a 2-D array of {expected} columns, got {} dimension(s)",
             array.ndim()
         ))
     })?;
     let view = array.as_array();
-    if view.ncols() != width {
+    if !widths.contains(&view.ncols()) {
         return Err(to_py(format!(
-            "{what}: expected {width} columns, got {}",
+            "{what}: expected {expected} columns, got {}",
             view.ncols()
         )));
     }

@@ -316,3 +316,32 @@ def test_a_delta_touching_balls_built_in_memory_calibrates_as_its_files(cli, tmp
     touches[2, 0] = 0.5
     with pytest.raises(parcal.Error, match=r"touches row 2: ball 0\.5 is not a ball's number"):
         parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls, touches=touches)
+
+
+def test_balls_placed_in_memory_are_the_placements_of_balls_csv(cli, tmp_path):
+    cli("simulate", "--mechanism", "delta", "--seed", 3, "--balls", 3, "--points-per-ball", 7, "--out", tmp_path / "sim")
+    ds = parcal.read_dataset(tmp_path / "sim")
+    machine = json.loads((tmp_path / "sim" / "machine.json").read_text())
+    # Ball 0 placed within 0.01 mm of where the fit without placements puts it;
+    # the others not placed.
+    free = parcal.calibrate(ds).to_dict()
+    balls = np.full((3, 6), np.nan)
+    balls[:, :2] = ds.balls
+    balls[0, 2:] = [*free["balls"][0]["centre"], 0.01]
+    placed = parcal.MechanismDataset(machine, probes=ds.probes, distances=ds.distances, balls=balls, touches=ds.touches)
+    assert np.array_equal(placed.balls, balls, equal_nan=True)
+    placed.write(tmp_path / "placed")
+    header = (tmp_path / "placed" / "balls.csv").read_text().splitlines()[0]
+    assert header.endswith("x,y,z,centre_sigma"), header
+    from_files = parcal.read_dataset(tmp_path / "placed")
+    assert np.array_equal(from_files.balls, balls, equal_nan=True)
+    run = parcal.calibrate(placed)
+    assert run.to_json() == parcal.calibrate(from_files).to_json()
+    held, loose = run.to_dict()["balls"][0]["centre_sigma"], free["balls"][0]["centre_sigma"]
+    assert max(held) <= 0.01 < 0.1 < max(loose), (held, loose)
+    half = balls.copy()
+    half[1, 2:] = [0.0, 0.0, np.nan, 0.01]
+    with pytest.raises(parcal.Error, match=r"balls row 1: a placement gives all of x, y, z and centre_sigma, or none"):
+        parcal.MechanismDataset(machine, probes=ds.probes, balls=half, touches=ds.touches)
+    with pytest.raises(parcal.Error, match=r"balls: expected 2 or 6 columns, got 3"):
+        parcal.MechanismDataset(machine, probes=ds.probes, balls=balls[:, :3], touches=ds.touches)

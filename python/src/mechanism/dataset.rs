@@ -10,14 +10,16 @@ use numpy::{PyArray1, PyArray2};
 use parcal::MechanismData;
 use parcal::MechanismDataset as Inner;
 use parcal::dataset::mechanism::{
-    BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TouchRow,
+    BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TouchRow,
 };
 use parcal::kinematics::mechanism::Mechanism;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use super::data_error;
-use crate::convert::{array2, rows, table, table_rows, through_file, to_python, written_text};
+use crate::convert::{
+    array2, rows, table, table_rows, table_rows_of, through_file, to_python, written_text,
+};
 use crate::error::to_py;
 
 /// A mechanism dataset: its machine (the mechanism by name, the
@@ -278,14 +280,28 @@ impl MechanismDataset {
     }
 
     /// The calibrated balls (n x 2, balls.csv's `radius, radius_sigma`,
-    /// mm; a sigma of 0: an exact radius).
+    /// mm; a sigma of 0: an exact radius); n x 6 if a ball has a placement,
+    /// with its `x, y, z, centre_sigma` (NaN for a ball without).
     #[getter]
     fn balls<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let rows: Vec<[f64; 2]> = self
-            .inner
-            .balls
+        let balls = &self.inner.balls;
+        let radius = |b: &BallRow| [b.radius, b.radius_sigma.unwrap_or(0.0)];
+        if balls.iter().all(|b| b.placement.is_none()) {
+            let rows: Vec<[f64; 2]> = balls.iter().map(radius).collect();
+            return array2(py, &rows);
+        }
+        let rows: Vec<[f64; BALL_COLUMNS]> = balls
             .iter()
-            .map(|b| [b.radius, b.radius_sigma.unwrap_or(0.0)])
+            .map(|b| {
+                let [r, s] = radius(b);
+                match b.placement {
+                    Some(BallPlacement {
+                        centre: [x, y, z],
+                        sigma,
+                    }) => [r, s, x, y, z, sigma],
+                    None => [r, s, f64::NAN, f64::NAN, f64::NAN, f64::NAN],
+                }
+            })
             .collect();
         array2(py, &rows)
     }
@@ -386,18 +402,38 @@ fn sample_rows(dict: &Bound<'_, PyDict>, actuators: usize) -> PyResult<Vec<Sampl
         .collect())
 }
 
-/// The quantities of a dict: `quantity` (names), `value` and `sigma`.
-/// `balls` (n x 2: radius, radius sigma, 0 for an exact radius) as
-/// balls.csv's rows.
+/// The columns of `balls` with placements: radius, its sigma, x, y, z,
+/// centre_sigma.
+const BALL_COLUMNS: usize = 6;
+
+/// `balls` (n x 2: radius, radius sigma, 0 for an exact radius; or n x 6
+/// with where each ball was placed: x, y, z and each coordinate's sigma,
+/// all four NaN for a ball not placed) as balls.csv's rows.
 fn ball_rows(balls: &Bound<'_, PyAny>) -> PyResult<Vec<BallRow>> {
-    Ok(rows::<2>(balls, "balls")?
+    table_rows_of(balls, &[2, BALL_COLUMNS], "balls")?
         .into_iter()
-        .map(|[radius, sigma]| BallRow {
-            radius,
-            radius_sigma: (sigma != 0.0).then_some(sigma),
-            placement: None,
+        .enumerate()
+        .map(|(row, values)| {
+            let placed = &values[2..];
+            let placement = if placed.iter().all(|v| v.is_nan()) {
+                None
+            } else if placed.iter().any(|v| v.is_nan()) {
+                return Err(to_py(format!(
+                    "balls row {row}: a placement gives all of x, y, z and centre_sigma, or none (NaN)"
+                )));
+            } else {
+                Some(BallPlacement {
+                    centre: [placed[0], placed[1], placed[2]],
+                    sigma: placed[3],
+                })
+            };
+            Ok(BallRow {
+                radius: values[0],
+                radius_sigma: (values[1] != 0.0).then_some(values[1]),
+                placement,
+            })
         })
-        .collect())
+        .collect()
 }
 
 /// `touches` (n x 4: ball number, commanded x, y, z) as touches.csv's
@@ -420,6 +456,7 @@ fn touch_rows(touches: &Bound<'_, PyAny>) -> PyResult<Vec<TouchRow>> {
         .collect()
 }
 
+/// The quantities of a dict: `quantity` (names), `value` and `sigma`.
 fn quantity_rows(dict: &Bound<'_, PyDict>) -> PyResult<Vec<QuantityRow>> {
     let entry = |key: &str| {
         dict.get_item(key)?
