@@ -14,14 +14,18 @@
 //! - The tool point is the tool tip `T = t + R E_T` (paper eq. 2), with
 //!   `dT/dx = [I, -[R E_T]x]` and `dT/dE_T = R`; forward kinematics
 //!   starts from [`Geometry::home_pose`].
+//! - At readings, the tool point's `dT/dp |_q` is the crate's `J_f`
+//!   ([`TipDerivatives::jacobians`]) from the LU the forward kinematics
+//!   ends with, where the generic path factors `G_x` again.
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 
 use crate::closure::Legs;
+use crate::derivatives::TipDerivatives;
 use crate::forward::step;
 use crate::mechanism::{
-    Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians, ToolPoint,
-    check_params, check_vector,
+    Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, Reached, ReadingJacobians,
+    ToolPoint, check_params, check_vector,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -108,6 +112,12 @@ impl Hexapod {
         Ok(from_params(&Params::from_column_slice(params)))
     }
 
+    /// The actuator values of a reading vector (checked).
+    fn readings(&self, readings: &[f64]) -> Result<[f64; 6], MechanismError> {
+        check_vector(self, "readings", readings, 6)?;
+        Ok(std::array::from_fn(|i| readings[i]))
+    }
+
     /// The pose of a pose vector (checked).
     fn pose(&self, pose: &[f64]) -> Result<Pose, MechanismError> {
         check_vector(self, "pose coordinates", pose, 6)?;
@@ -161,8 +171,7 @@ impl Mechanism for Hexapod {
         start: &[f64],
     ) -> Result<DVector<f64>, MechanismError> {
         let geometry = self.geometry(params)?;
-        check_vector(self, "readings", readings, 6)?;
-        let q: [f64; 6] = std::array::from_fn(|i| readings[i]);
+        let q = self.readings(readings)?;
         let solution = crate::forward(&geometry, &q, &self.pose(start)?, &self.options)?;
         Ok(pose_vector(&solution.pose))
     }
@@ -214,11 +223,32 @@ impl Mechanism for Hexapod {
         })
     }
 
+    /// The forward kinematics in place and `J_f` from its factored
+    /// closure ([`TipDerivatives::jacobians`]: three transposed solves of
+    /// the LU the forward kinematics ends with), what the generic implicit
+    /// differentiation forms anew.
+    fn tool_point_at_readings(
+        &self,
+        params: &[f64],
+        readings: &[f64],
+        start: &[f64],
+    ) -> Result<Reached, MechanismError> {
+        let geometry = self.geometry(params)?;
+        let q = self.readings(readings)?;
+        let mut derivatives = TipDerivatives::default();
+        derivatives.forward(&geometry, &q, &self.pose(start)?, &self.options)?;
+        let pose = derivatives.solution().pose;
+        let d_params = derivatives.jacobians().d_params;
+        Ok(Reached {
+            pose: pose_vector(&pose),
+            point: geometry.tool_tip(&pose),
+            d_params: DMatrix::from_column_slice(3, N_PARAMS, d_params.as_slice()),
+        })
+    }
+
     fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
         let geometry = self.geometry(params)?;
-        check_vector(self, "readings", readings, 6)?;
-        let q: [f64; 6] = std::array::from_fn(|i| readings[i]);
-        Ok(pose_vector(&geometry.home_pose(&q)))
+        Ok(pose_vector(&geometry.home_pose(&self.readings(readings)?)))
     }
 
     fn retract(&self, pose: &[f64], increment: &[f64]) -> DVector<f64> {
@@ -234,7 +264,7 @@ impl Mechanism for Hexapod {
 mod tests {
     use super::*;
     use crate::mechanism::{
-        design, reading_jacobians_by_differences, tool_point_at_readings,
+        design, implicit_tool_point_at_readings, reading_jacobians_by_differences,
         tool_point_reading_jacobian,
     };
     use crate::{paper, rotation_zyx, tip_jacobians_at};
@@ -338,9 +368,10 @@ mod tests {
 
     #[test]
     fn the_tool_point_at_readings_is_the_crates_tool_tip_and_its_jacobian() {
-        // dT/dp = [I, -[R E_T]x] dx/dp + R dE_T/dp by the generic implicit
-        // differentiation, from the readings and the home pose, through
-        // the trait alone, against the crate's own J_f.
+        // The hexapod's own `J_f` and the generic implicit differentiation,
+        // dT/dp = [I, -[R E_T]x] dx/dp + R dE_T/dp, from the readings and
+        // the home pose, against the crate's tool tip and `J_f` at the
+        // pose.
         let hexapod = hexapod();
         let p = design(&hexapod);
         let geometry = from_params(&Params::from_column_slice(p.as_slice()));
@@ -349,17 +380,19 @@ mod tests {
             .inverse(p.as_slice(), pose_vector(&pose).as_slice())
             .unwrap();
         let start = hexapod.start_pose(p.as_slice(), q.as_slice()).unwrap();
-        let reached =
-            tool_point_at_readings(&hexapod, p.as_slice(), q.as_slice(), start.as_slice()).unwrap();
-        // The forward kinematics' tolerance, 1e-9 mm in the tip.
-        assert!((reached.point - geometry.tool_tip(&pose)).amax() < 1e-9);
-        let turned = pose_of(reached.pose.as_slice()).inverse() * pose;
-        assert!(turned.translation.vector.amax() < 1e-9 && turned.rotation.angle() < 1e-9);
         let reference = tip_jacobians_at(&geometry, &pose).unwrap().d_params;
-        let difference = (reached.d_params
-            - DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice()))
-        .amax();
-        assert!(difference < 1e-9, "{difference:e}");
+        let reference = DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice());
+        let own = hexapod.tool_point_at_readings(p.as_slice(), q.as_slice(), start.as_slice());
+        let implicit =
+            implicit_tool_point_at_readings(&hexapod, p.as_slice(), q.as_slice(), start.as_slice());
+        for reached in [own.unwrap(), implicit.unwrap()] {
+            // The forward kinematics' tolerance, 1e-9 mm in the tip.
+            assert!((reached.point - geometry.tool_tip(&pose)).amax() < 1e-9);
+            let turned = pose_of(reached.pose.as_slice()).inverse() * pose;
+            assert!(turned.translation.vector.amax() < 1e-9 && turned.rotation.angle() < 1e-9);
+            let difference = (reached.d_params - &reference).amax();
+            assert!(difference < 1e-9, "{difference:e}");
+        }
     }
 
     #[test]

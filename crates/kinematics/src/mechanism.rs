@@ -44,7 +44,7 @@
 //!
 //! ```text
 //! dT/dp |_q = dT/dp |_x + dT/dx dx/dp |_q
-//!           = dT/dp |_x - (dT/dx G_x^-1) G_p       (tool_point_at_readings)
+//!           = dT/dp |_x - (dT/dx G_x^-1) G_p       (implicit_tool_point_at_readings)
 //! ```
 //!
 //! where `dT/dq = dT/dx G_x^-1` ([`tool_point_reading_jacobian`]) is how
@@ -287,6 +287,20 @@ pub trait Mechanism: Send + Sync {
         })
     }
 
+    /// Where the machine is at `readings` ([`Reached`]): its forward
+    /// kinematics from `start`, its tool point and `dT/dp |_q`. By default
+    /// by implicit differentiation ([`implicit_tool_point_at_readings`]); a
+    /// mechanism that has these from its own factorisation of the closure
+    /// overrides it with the same values (the hexapod: its `J_f`).
+    fn tool_point_at_readings(
+        &self,
+        params: &[f64],
+        readings: &[f64],
+        start: &[f64],
+    ) -> Result<Reached, MechanismError> {
+        implicit_tool_point_at_readings(self, params, readings, start)
+    }
+
     /// A pose near the one `readings` reach, for an iterative
     /// [`Mechanism::forward`] to start from when no nearer pose is known
     /// (the origin by default: closed forms ignore it).
@@ -452,7 +466,7 @@ pub fn pose_jacobian_at_fixed_readings(
 
 /// Where the machine is at given readings: its pose, its tool point and
 /// the tool point's derivative at fixed readings
-/// ([`tool_point_at_readings`]).
+/// ([`Mechanism::tool_point_at_readings`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Reached {
     /// The pose `x = f(p, q)`.
@@ -469,9 +483,10 @@ pub struct Reached {
 /// (dT/dq) G_p` (3 x parameters; module documentation), with `dT/dq =
 /// dT/dx G_x^-1` ([`tool_point_reading_jacobian`]) taken by three
 /// transposed solves rather than one per parameter; the forward kinematics
-/// starts from `start`.
-pub fn tool_point_at_readings(
-    mechanism: &dyn Mechanism,
+/// starts from `start`. Any mechanism's
+/// [`Mechanism::tool_point_at_readings`], unless it has its own.
+pub fn implicit_tool_point_at_readings<M: Mechanism + ?Sized>(
+    mechanism: &M,
     params: &[f64],
     readings: &[f64],
     start: &[f64],

@@ -3,7 +3,7 @@
 //! kind returns.
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, tool_point_at_readings};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
 pub const POSE_COORDINATES: usize = 3;
@@ -36,7 +36,7 @@ pub fn reached(
 }
 
 /// [`reached`] with the pose: the readings `g(p_c, x_c)` through
-/// [`tool_point_at_readings`] from `x_c`.
+/// [`Mechanism::tool_point_at_readings`] from `x_c`.
 fn reached_at_command(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -44,7 +44,7 @@ fn reached_at_command(
     commanded: &[f64; 3],
 ) -> Result<Reached, MechanismError> {
     let readings = mechanism.inverse(configured, commanded)?;
-    tool_point_at_readings(mechanism, params, readings.as_slice(), commanded)
+    mechanism.tool_point_at_readings(params, readings.as_slice(), commanded)
 }
 
 /// How the machine was put where it observed: a position `x_c` its
@@ -78,10 +78,10 @@ impl Actuation {
                 reached_at_command(mechanism, params, configured, commanded)
             }
             Self::Readings(readings) => match start {
-                Some(start) => tool_point_at_readings(mechanism, params, readings, start),
+                Some(start) => mechanism.tool_point_at_readings(params, readings, start),
                 None => {
                     let start = mechanism.start_pose(params, readings)?;
-                    tool_point_at_readings(mechanism, params, readings, start.as_slice())
+                    mechanism.tool_point_at_readings(params, readings, start.as_slice())
                 }
             },
         }
