@@ -1,12 +1,12 @@
-//! `measurements.csv`: one row per contact, read whole and parsed in pieces
-//! side by side ([`table::read_file_in_pieces`]).
+//! `measurements.csv`: one row per contact, read in blocks, each parsed in
+//! pieces side by side ([`table::read_file_in_pieces`]).
 //!
 //! Columns are found by header name, in any order; other columns are
 //! ignored, fields are trimmed of surrounding (ASCII) whitespace and blank
-//! lines are skipped. Each piece is read through one reused `csv::ByteRecord`,
-//! trims each field as it is used and parses numbers from the bytes, so it
-//! allocates nothing per row (except to report an error) and scales to
-//! millions of rows. Writing uses Rust's shortest round-trip form of each
+//! lines are skipped. Each piece goes through one reused `csv::ByteRecord`,
+//! trims each field as it is used and parses numbers from the bytes, so
+//! reading allocates nothing per row (except to report an error) and scales
+//! to millions of rows. Writing uses Rust's shortest round-trip form of each
 //! `f64` (`{}`), so values read back bit for bit.
 
 use std::collections::HashMap;
