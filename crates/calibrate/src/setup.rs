@@ -10,8 +10,10 @@ use std::ops::Range;
 
 use nalgebra::{DMatrix, DVector, Dyn, Matrix3x6, Matrix6, SMatrix, SVector, UnitVector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
+use parcal_kinematics::forward_batch::{LANES, forward_batch};
 use parcal_kinematics::{
-    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
+    Canonical, ForwardOptions, ForwardSolution, Geometry, N_PARAMS, Params, Pose, TipDerivatives,
+    Vec3, params,
 };
 use parcal_observe::{
     CoordinateWhitening, DistanceBlock, KinematicPrior, ObserveError, RadiusWhitening,
@@ -374,27 +376,56 @@ impl DesignStart<'_> {
         let (mut directions, mut weights) = (vec![Vec3::z_axis(); n], vec![T::default(); n]);
         let mut poses = vec![Pose::identity(); n];
         let lengths = || self.groups.iter().map(|g| g.len());
-        let centres = self
+        let (mut ball_directions, mut ball_weights, mut ball_poses) = (
+            split_by(&mut directions, lengths()),
+            split_by(&mut weights, lengths()),
+            split_by(&mut poses, lengths()),
+        );
+        // Balls in chunks of the kinematics' lanes, each ball in a lane; a
+        // fixed array per chunk, so that the outcomes take no more memory
+        // than one per ball.
+        let centres: Vec<[Option<BallOutcome>; LANES]> = self
             .groups
-            .par_iter()
+            .par_chunks(LANES)
+            .zip(ball_directions.par_chunks_mut(LANES))
+            .zip(ball_weights.par_chunks_mut(LANES))
+            .zip(ball_poses.par_chunks_mut(LANES))
             .enumerate()
-            .zip(split_by(&mut directions, lengths()))
-            .zip(split_by(&mut weights, lengths()))
-            .zip(split_by(&mut poses, lengths()))
-            .map(|((((ball, group), directions), weights), poses)| {
-                let rows = &self.order[group.clone()];
-                let contacts = ContactSlots {
-                    directions,
-                    weights,
-                    poses,
-                };
-                // Boxed: a failure is rare, and the outcomes of all balls
-                // are kept until the first failing one is known.
-                self.ball(ball, rows, contacts, CentreStart::BestFit)
-                    .map_err(Box::new)
+            .map(|(chunk, (((groups, directions), weights), poses))| {
+                let rows: Vec<&[u32]> = groups.iter().map(|g| &self.order[g.clone()]).collect();
+                let mut slots: Vec<ContactSlots<'_, T>> = directions
+                    .iter_mut()
+                    .zip(weights.iter_mut())
+                    .zip(poses.iter_mut())
+                    .map(|((directions, weights), poses)| ContactSlots {
+                        directions,
+                        weights,
+                        poses,
+                    })
+                    .collect();
+                let mut outcomes = [const { None }; LANES];
+                let kinematics = self.kinematics(&rows, &mut slots);
+                for (b, (kinematics, contacts)) in
+                    kinematics.into_iter().zip(&mut slots).enumerate()
+                {
+                    let start = CentreStart::BestFit;
+                    let ball = chunk * LANES + b;
+                    // Boxed: a failure is rare, and the outcomes of all
+                    // balls are kept until the first failing one is known.
+                    outcomes[b] = Some(
+                        kinematics
+                            .and_then(|k| self.settle(ball, rows[b], contacts, k, start))
+                            .map_err(Box::new),
+                    );
+                }
+                outcomes
             })
-            .collect::<Vec<_>>()
+            .collect();
+        drop((ball_directions, ball_weights, ball_poses));
+        let centres = centres
             .into_iter()
+            .flatten()
+            .flatten()
             // The first failing ball in artefacts.json order, whatever the
             // threads' timing (a parallel collect into a `Result` returns
             // whichever error came first).
@@ -480,9 +511,31 @@ impl DesignStart<'_> {
         &self,
         ball: usize,
         rows: &[u32],
-        contacts: ContactSlots<'_, T>,
+        mut contacts: ContactSlots<'_, T>,
         start: CentreStart,
     ) -> Result<Vec3, CalibrateError> {
+        let kinematics = self
+            .kinematics(&[rows], std::slice::from_mut(&mut contacts))
+            .pop()
+            .expect("one ball, one outcome")?;
+        self.settle(ball, rows, &mut contacts, kinematics, start)
+    }
+
+    /// The design's forward kinematics of the contacts of up to [`LANES`]
+    /// balls (`rows[b]`, ball `b` in lane `b`), contact after contact, the
+    /// lanes in lockstep ([`forward_batch`]); writes each contact's pose
+    /// into its ball's `slots` and gives each ball's tips and `dT/dq` per
+    /// unit of the reading, or its first error. A ball's first contact
+    /// starts from the home pose, each next one from the pose predicted by
+    /// the previous solution (3.1 Newton steps per contact instead of 4.0
+    /// on the simulated campaigns), and from the home pose again if that
+    /// fails.
+    fn kinematics<T>(
+        &self,
+        rows: &[&[u32]],
+        slots: &mut [ContactSlots<'_, T>],
+    ) -> Vec<Result<BallKinematics, CalibrateError>> {
+        debug_assert!(rows.len() <= LANES, "one ball per lane");
         let (dataset, geometry) = (self.dataset, &self.canonical.geometry);
         let fk = ForwardOptions::default();
         // The design scales: leg `i` extends by `s_i q_i`.
@@ -490,48 +543,76 @@ impl DesignStart<'_> {
             values: dataset.machine.actuator.scale,
             column: None,
         };
-        // Forward kinematics in place into one set of derivatives (no copy
-        // of the solution per contact); kept per contact: the tip (the
-        // points of the centre fit) and `J_q = dT/dq` (the weights). A
-        // ball's first contact starts from the home pose, each next one
-        // from the pose predicted by the previous solution (3.1 Newton steps
-        // per contact instead of 4.0 on the simulated campaigns), and from
-        // the home pose again if that fails.
-        let mut derivatives = TipDerivatives::default();
-        let mut previous: Option<[f64; 6]> = None;
-        let (points, d_q): (Vec<Vec3>, Vec<Matrix3x6<f64>>) = rows
+        let per_reading = Matrix6::from_diagonal(&scales.values.into());
+        let mut out: Vec<Result<BallKinematics, CalibrateError>> = rows
             .iter()
-            .zip(contacts.poses.iter_mut())
-            .map(|(&row, pose)| {
-                let row = row as usize;
-                let q = &scales.extensions(&dataset.measurements.q[row]);
-                let predicted = previous.map(|before| {
-                    derivatives.predicted_pose(&Vector6::from_fn(|i, _| q[i] - before[i]))
+            .map(|rows| Ok(BallKinematics::with_capacity(rows.len())))
+            .collect();
+        // Per lane, on the stack: no allocation per contact.
+        let mut derivatives: [TipDerivatives; LANES] = Default::default();
+        let mut previous: [Option<[f64; 6]>; LANES] = [None; LANES];
+        let longest = rows.iter().map(|r| r.len()).max().unwrap_or(0);
+        for j in 0..longest {
+            let mut lanes = [0; LANES];
+            let mut q = [[0.0; 6]; LANES];
+            let mut predicted: [Option<Pose>; LANES] = [None; LANES];
+            let mut solutions: [ForwardSolution; LANES] = Default::default();
+            let mut n = 0;
+            for b in (0..rows.len()).filter(|&b| j < rows[b].len() && out[b].is_ok()) {
+                let reading = scales.extensions(&dataset.measurements.q[rows[b][j] as usize]);
+                predicted[n] = previous[b].map(|before| {
+                    derivatives[b].predicted_pose(&Vector6::from_fn(|i, _| reading[i] - before[i]))
                 });
-                previous = Some(*q);
-                // Newton's method from a first-order prediction far off
-                // (contacts of one ball at orientations tens of degrees
-                // apart) can converge to another assembly of the machine:
-                // its tip must land near the predicted one, or the contact
-                // starts from the home pose.
-                let from_prediction = predicted.is_some_and(|start| {
-                    derivatives.forward(geometry, q, &start, &fk).is_ok()
-                        && (geometry.tool_tip(&derivatives.solution().pose)
-                            - geometry.tool_tip(&start))
-                        .norm()
-                            <= PREDICTION_TOLERANCE_MM
-                });
-                if !from_prediction {
-                    derivatives
-                        .forward(geometry, q, &geometry.home_pose(q), &fk)
-                        .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+                previous[b] = Some(reading);
+                solutions[n].pose = predicted[n].unwrap_or_else(|| geometry.home_pose(&reading));
+                (lanes[n], q[n]) = (b, reading);
+                n += 1;
+            }
+            let q_refs: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
+            let solved =
+                forward_batch(geometry, &q_refs[..n], &fk, &mut solutions[..n], |s| s).is_ok();
+            for (l, &b) in lanes[..n].iter().enumerate() {
+                let row = rows[b][j] as usize;
+                let lane = solved
+                    .then_some(&solutions[l])
+                    .filter(|s| predicted[l].is_none_or(|start| landed(geometry, &s.pose, &start)));
+                let reached = match lane {
+                    Some(solution) => {
+                        derivatives[b] = TipDerivatives::new(geometry, solution);
+                        Ok(())
+                    }
+                    None => one_contact(geometry, &mut derivatives[b], &q[l], predicted[l], row),
+                };
+                match (reached, &mut out[b]) {
+                    (Err(error), slot) => *slot = Err(error),
+                    (Ok(()), Ok(kinematics)) => {
+                        let pose = derivatives[b].solution().pose;
+                        slots[b].poses[j] = pose;
+                        kinematics.points.push(geometry.tool_tip(&pose));
+                        // dT/dq per unit of the reading: J_q diag(s).
+                        kinematics.d_q.push(derivatives[b].d_q() * per_reading);
+                    }
+                    // Not a lane: a ball that failed has none.
+                    (Ok(()), Err(_)) => {}
                 }
-                *pose = derivatives.solution().pose;
-                // dT/dq per unit of the reading: J_q diag(s).
-                let d_reading = derivatives.d_q() * Matrix6::from_diagonal(&scales.values.into());
-                Ok((geometry.tool_tip(pose), d_reading))
-            })
-            .collect::<Result<_, CalibrateError>>()?;
+            }
+        }
+        out
+    }
+
+    /// The initial centre of ball `ball` from the design-FK `kinematics`
+    /// of its contacts (`rows`): the best fit of their tips or its mirror
+    /// image (`start`); writes their `u0` and weights into `contacts`.
+    fn settle<T: StartWhitening>(
+        &self,
+        ball: usize,
+        rows: &[u32],
+        contacts: &mut ContactSlots<'_, T>,
+        kinematics: BallKinematics,
+        start: CentreStart,
+    ) -> Result<Vec3, CalibrateError> {
+        let dataset = self.dataset;
+        let BallKinematics { points, d_q } = kinematics;
         let artefact = &dataset.artefacts.balls[ball];
         let fit_error = |source| CalibrateError::CentreFit {
             ball: artefact.id.clone(),
@@ -590,6 +671,58 @@ impl DesignStart<'_> {
 /// change (contacts of one ball tens of degrees apart); another assembly
 /// of the machine lies tens of mm away.
 const PREDICTION_TOLERANCE_MM: f64 = 5.0;
+
+/// Whether a solution from a predicted start landed near it: Newton's
+/// method from a first-order prediction far off (contacts of one ball at
+/// orientations tens of degrees apart) can converge to another assembly of
+/// the machine, and its tip must land within [`PREDICTION_TOLERANCE_MM`]
+/// of the predicted one.
+fn landed(geometry: &Geometry, pose: &Pose, start: &Pose) -> bool {
+    (geometry.tool_tip(pose) - geometry.tool_tip(start)).norm() <= PREDICTION_TOLERANCE_MM
+}
+
+/// The design's forward kinematics of one contact (measurements.csv row
+/// `row`, leg extensions `q`) into `derivatives`, one by one: from the
+/// `predicted` pose if it lands near it, else from the home pose; an error
+/// naming the row.
+fn one_contact(
+    geometry: &Geometry,
+    derivatives: &mut TipDerivatives,
+    q: &[f64; 6],
+    predicted: Option<Pose>,
+    row: usize,
+) -> Result<(), CalibrateError> {
+    let fk = ForwardOptions::default();
+    let from_prediction = predicted.is_some_and(|start| {
+        derivatives.forward(geometry, q, &start, &fk).is_ok()
+            && landed(geometry, &derivatives.solution().pose, &start)
+    });
+    if from_prediction {
+        return Ok(());
+    }
+    derivatives
+        .forward(geometry, q, &geometry.home_pose(q), &fk)
+        .map_err(|source| CalibrateError::ForwardKinematics { row, source })
+}
+
+/// A ball's initial centre, or why it has none (boxed: a failure is rare).
+type BallOutcome = Result<Vec3, Box<CalibrateError>>;
+
+/// The design-FK tips of one ball's contacts and their `dT/dq` per unit of
+/// the reading (sorted order).
+struct BallKinematics {
+    points: Vec<Vec3>,
+    d_q: Vec<Matrix3x6<f64>>,
+}
+
+impl BallKinematics {
+    fn with_capacity(contacts: usize) -> Self {
+        Self {
+            points: Vec::with_capacity(contacts),
+            d_q: Vec::with_capacity(contacts),
+        }
+    }
+}
 
 /// One ball's slots of the per-contact outputs.
 struct ContactSlots<'s, T> {
