@@ -363,18 +363,22 @@ impl TipDerivatives {
     }
 
     /// The full `J_f` (3 x 33) and `dT/dq` (3 x 6): one row per base-frame
-    /// axis.
+    /// axis `h`, both from its closure weights `y = K^T h` (one transposed
+    /// solve per axis: [`TipDerivatives::params_row`] and
+    /// [`TipDerivatives::d_q`] share it).
     pub fn jacobians(&self) -> TipJacobians {
+        let legs = &self.solution.legs;
         let mut d_params = SMatrix::<f64, 3, N_PARAMS>::zeros();
+        let mut d_q = Matrix3x6::zeros();
         let mut row = [0.0; N_PARAMS];
         for axis in 0..3 {
-            self.params_row(&Vector3::ith(axis, 1.0), &mut row);
+            let h = Vector3::ith(axis, 1.0);
+            let y = self.closure_weights(&h);
+            leg_rows(&y, &legs.rotation, &legs.direction, &h, &mut row);
             d_params.row_mut(axis).copy_from_slice(&row);
+            d_q.row_mut(axis).copy_from(&y.transpose());
         }
-        TipJacobians {
-            d_params,
-            d_q: self.d_q(),
-        }
+        TipJacobians { d_params, d_q }
     }
 }
 
