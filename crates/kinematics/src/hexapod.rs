@@ -21,8 +21,9 @@
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 
 use crate::closure::Legs;
-use crate::derivatives::TipDerivatives;
+use crate::derivatives::{SolutionJacobian, TipDerivatives};
 use crate::forward::step;
+use crate::forward_batch::{LANES, PivotOrder, forward_jacobian_batch};
 use crate::mechanism::{
     Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, Reached, ReadingJacobians,
     ToolPoint, check_params, check_vector,
@@ -122,6 +123,25 @@ impl Hexapod {
     fn pose(&self, pose: &[f64]) -> Result<Pose, MechanismError> {
         check_vector(self, "pose coordinates", pose, 6)?;
         Ok(pose_of(pose))
+    }
+}
+
+/// Where a forward-kinematics `solution` reached, `dT/dp |_q` a row per
+/// base-frame axis `h`, `h^T J_f`
+/// ([`FactoredTipJacobian::params_row`](crate::derivatives::FactoredTipJacobian::params_row)).
+fn reached_at(solution: &SolutionJacobian) -> Reached {
+    let mut d_params = DMatrix::zeros(3, N_PARAMS);
+    let mut row = [0.0; N_PARAMS];
+    for axis in 0..3 {
+        solution
+            .jacobian
+            .params_row(&Vector3::ith(axis, 1.0), &mut row);
+        d_params.row_mut(axis).copy_from_slice(&row);
+    }
+    Reached {
+        pose: pose_vector(&solution.pose),
+        point: solution.tool_tip,
+        d_params,
     }
 }
 
@@ -244,6 +264,65 @@ impl Mechanism for Hexapod {
             point: geometry.tool_tip(&pose),
             d_params: DMatrix::from_column_slice(3, N_PARAMS, d_params.as_slice()),
         })
+    }
+
+    /// Four contacts at a time in SIMD lanes ([`forward_jacobian_batch`],
+    /// `J_f` in factored form, its rows those of
+    /// [`TipDerivatives::jacobians`]); the contacts of a batch whose lanes
+    /// fail, or whose readings or starts are refused, one at a time, each
+    /// with its own outcome.
+    fn tool_points_at_readings(
+        &self,
+        params: &[f64],
+        readings: &[&[f64]],
+        starts: &[&[f64]],
+    ) -> Vec<Result<Reached, MechanismError>> {
+        assert_eq!(readings.len(), starts.len(), "a start for each contact");
+        let one_by_one = |readings: &[&[f64]], starts: &[&[f64]]| {
+            readings
+                .iter()
+                .zip(starts)
+                .map(|(readings, start)| self.tool_point_at_readings(params, readings, start))
+                .collect::<Vec<_>>()
+        };
+        let Ok(geometry) = self.geometry(params) else {
+            return one_by_one(readings, starts);
+        };
+        // The row order the lanes try first, carried from batch to batch.
+        let mut order = PivotOrder::default();
+        let mut reached = Vec::with_capacity(readings.len());
+        // The lanes' inputs and outputs, on the stack.
+        let mut q = [[0.0; 6]; LANES];
+        let mut poses = [Pose::identity(); LANES];
+        let mut solutions: [SolutionJacobian; LANES] = Default::default();
+        for (readings, starts) in readings.chunks(LANES).zip(starts.chunks(LANES)) {
+            let n = readings.len();
+            let checked = (0..n).try_for_each(|l| {
+                q[l] = self.readings(readings[l])?;
+                poses[l] = self.pose(starts[l])?;
+                Ok::<_, MechanismError>(())
+            });
+            if checked.is_err() {
+                reached.extend(one_by_one(readings, starts));
+                continue;
+            }
+            let q: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
+            let solutions = &mut solutions[..n];
+            let solved = forward_jacobian_batch(
+                &geometry,
+                &q[..n],
+                &poses[..n],
+                &self.options,
+                &mut order,
+                solutions,
+                |s| s,
+            );
+            match solved {
+                Ok(()) => reached.extend(solutions.iter().map(|s| Ok(reached_at(s)))),
+                Err(_) => reached.extend(one_by_one(readings, starts)),
+            }
+        }
+        reached
     }
 
     fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
@@ -392,6 +471,55 @@ mod tests {
             assert!(turned.translation.vector.amax() < 1e-9 && turned.rotation.angle() < 1e-9);
             let difference = (reached.d_params - &reference).amax();
             assert!(difference < 1e-9, "{difference:e}");
+        }
+    }
+
+    #[test]
+    fn the_lanes_reach_what_one_contact_at_a_time_reaches() {
+        // Seven contacts (a batch of four lanes and one of three), each
+        // from its home pose; then the same with a short reading vector
+        // among them, which is refused alone.
+        let hexapod = hexapod();
+        let p = design(&hexapod);
+        let p = p.as_slice();
+        let readings: Vec<DVector<f64>> = (0..7)
+            .map(|k| {
+                let k = f64::from(k);
+                let pose = Pose::from_parts(
+                    Translation3::new(-30.0 + 9.0 * k, 20.0 - 4.0 * k, 230.0 + 3.0 * k),
+                    rotation_zyx(0.1 - 0.02 * k, -0.05, 0.01 * k),
+                );
+                hexapod.inverse(p, pose_vector(&pose).as_slice()).unwrap()
+            })
+            .collect();
+        let starts: Vec<DVector<f64>> = readings
+            .iter()
+            .map(|q| hexapod.start_pose(p, q.as_slice()).unwrap())
+            .collect();
+        let mut q: Vec<&[f64]> = readings.iter().map(|q| q.as_slice()).collect();
+        let x: Vec<&[f64]> = starts.iter().map(|x| x.as_slice()).collect();
+        let batch = hexapod.tool_points_at_readings(p, &q, &x);
+        assert_eq!(batch.len(), 7);
+        for ((q, x), reached) in q.iter().zip(&x).zip(batch) {
+            let one = hexapod.tool_point_at_readings(p, q, x).unwrap();
+            let reached = reached.unwrap();
+            // The lanes' LU may pivot otherwise: rounding of the forward
+            // kinematics' 1e-9 mm.
+            assert!((reached.point - one.point).amax() < 1e-9);
+            assert!((&reached.pose - &one.pose).amax() < 1e-9);
+            let difference = (&reached.d_params - &one.d_params).amax();
+            assert!(difference < 1e-9, "{difference:e}");
+        }
+        q[5] = &q[5][..5];
+        let batch = hexapod.tool_points_at_readings(p, &q, &x);
+        for (k, reached) in batch.iter().enumerate() {
+            match k {
+                5 => assert_eq!(
+                    reached.as_ref().unwrap_err().to_string(),
+                    "hexapod needs 6 readings, got 5"
+                ),
+                _ => assert!(reached.is_ok(), "{k}: {reached:?}"),
+            }
         }
     }
 

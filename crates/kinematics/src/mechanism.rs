@@ -301,6 +301,28 @@ pub trait Mechanism: Send + Sync {
         implicit_tool_point_at_readings(self, params, readings, start)
     }
 
+    /// [`Mechanism::tool_point_at_readings`] of several contacts, contact
+    /// `l` at `readings[l]` from `starts[l]`, each result in order: one
+    /// after another by default; a mechanism whose forward kinematics runs
+    /// several contacts at once overrides it with the same values, to
+    /// rounding (the hexapod: four in SIMD lanes).
+    ///
+    /// # Panics
+    /// If `readings` and `starts` differ in length.
+    fn tool_points_at_readings(
+        &self,
+        params: &[f64],
+        readings: &[&[f64]],
+        starts: &[&[f64]],
+    ) -> Vec<Result<Reached, MechanismError>> {
+        assert_eq!(readings.len(), starts.len(), "a start for each contact");
+        readings
+            .iter()
+            .zip(starts)
+            .map(|(readings, start)| self.tool_point_at_readings(params, readings, start))
+            .collect()
+    }
+
     /// A pose near the one `readings` reach, for an iterative
     /// [`Mechanism::forward`] to start from when no nearer pose is known
     /// (the origin by default: closed forms ignore it).

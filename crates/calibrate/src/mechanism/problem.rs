@@ -29,8 +29,8 @@
 use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SVector, Vector3};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError};
-use parcal_observe::mechanism::{BallTouch, Rows, SampleRows};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
+use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem};
 
 use crate::sphere_fit::{SphereFitError, best_fit};
@@ -232,15 +232,14 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             })
     }
 
-    /// The row of the touch at point `i` (after the samples' rows) at its
-    /// ball's centre, into `out`; a touch at readings starts its forward
-    /// kinematics from the pose in `cache` (the one it last reached) and
-    /// leaves there the pose it reaches.
+    /// The row of touch point `i` that reached `reached` on its ball of
+    /// the group block `block` into `out`, the pose it reached left in
+    /// `cache` (the start of its next evaluation).
     fn touch_row(
         &self,
         i: usize,
-        global: &DVector<f64>,
         block: &SVector<f64, C>,
+        reached: Result<Reached, MechanismError>,
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
@@ -251,15 +250,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let uncertain = ball.radius_sigma.is_some();
         let radius = if uncertain { block[3] } else { ball.radius };
         let centre = Vector3::new(block[0], block[1], block[2]);
-        let row = touch
-            .evaluate(
-                self.data.mechanism.as_ref(),
-                &global.as_slice()[..n],
-                self.data.configured.as_slice(),
-                &centre,
-                radius,
-                (!cache.is_empty()).then_some(cache.as_slice()),
-            )
+        let row = reached
+            .and_then(|reached| touch.row(reached, &centre, radius))
             .map_err(|e| {
                 failed(
                     ObservationRef {
@@ -294,8 +286,27 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         out: &mut [Local<C>],
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         if first >= self.sample_points() {
-            for (j, (out, cache)) in out.iter_mut().zip(caches).enumerate() {
-                self.touch_row(first + j, global, group, cache, out)
+            // The touches together: each from the pose it last reached.
+            let reached = {
+                let touches = &self.data.observations.touches;
+                let actuations: Vec<&Actuation> = (first..first + out.len())
+                    .map(|i| &touches[self.touch_order[i - self.sample_points()]].at)
+                    .collect();
+                let starts: Vec<Option<&[f64]>> = caches
+                    .iter()
+                    .map(|cache| (!cache.is_empty()).then_some(cache.as_slice()))
+                    .collect();
+                Actuation::tool_points(
+                    self.data.mechanism.as_ref(),
+                    &global.as_slice()[..self.n_params()],
+                    self.data.configured.as_slice(),
+                    &actuations,
+                    &starts,
+                )
+            };
+            for (j, ((reached, out), cache)) in reached.into_iter().zip(out).zip(caches).enumerate()
+            {
+                self.touch_row(first + j, group, reached, cache, out)
                     .map_err(|e| (first + j, e))?;
             }
             return Ok(());

@@ -20,7 +20,7 @@
 //! hexapod's own calibration also offers.
 
 use nalgebra::{DMatrix, DVector, RowVector3, Vector3};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 
 use super::commanded::{Actuation, Rows, check_sigma};
 
@@ -64,8 +64,21 @@ impl BallTouch {
         radius: f64,
         start: Option<&[f64]>,
     ) -> Result<TouchRow, MechanismError> {
-        check_sigma("touch sigma", self.sigma)?;
         let reached = self.at.tool_point(mechanism, params, configured, start)?;
+        self.row(reached, centre, radius)
+    }
+
+    /// The whitened row of the touch that reached `reached`
+    /// ([`Actuation::tool_point`], [`Actuation::tool_points`]) on the ball
+    /// of centre `centre` and radius `radius` (module doc); an error if
+    /// the tool point is at the centre (no normal).
+    pub fn row(
+        &self,
+        reached: Reached,
+        centre: &Vector3<f64>,
+        radius: f64,
+    ) -> Result<TouchRow, MechanismError> {
+        check_sigma("touch sigma", self.sigma)?;
         let offset = reached.point - centre;
         let distance = offset.norm();
         if distance == 0.0 || !distance.is_finite() {

@@ -2,6 +2,8 @@
 //! actuators read given values, and the whitened rows every observation
 //! kind returns.
 
+use std::borrow::Cow;
+
 use nalgebra::{DMatrix, DVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 
@@ -47,6 +49,11 @@ fn reached_at_command(
     mechanism.tool_point_at_readings(params, readings.as_slice(), commanded)
 }
 
+/// An actuation at readings among others ([`Actuation::tool_points`]):
+/// its index, its readings and the pose its forward kinematics starts
+/// from.
+type AtReadings<'a> = (usize, &'a [f64], Cow<'a, [f64]>);
+
 /// How the machine was put where it observed: a position `x_c` its
 /// controller commanded (the readings `g(p_c, x_c)` follow from the
 /// configured parameters), or the readings `q` its actuators gave (a
@@ -85,6 +92,57 @@ impl Actuation {
                 }
             },
         }
+    }
+
+    /// [`Actuation::tool_point`] of each of `actuations`, from its start in
+    /// `starts` if given: those at readings together
+    /// ([`Mechanism::tool_points_at_readings`], the hexapod's SIMD lanes),
+    /// the others one at a time; each outcome in order.
+    ///
+    /// # Panics
+    /// If `actuations` and `starts` differ in length.
+    pub fn tool_points(
+        mechanism: &dyn Mechanism,
+        params: &[f64],
+        configured: &[f64],
+        actuations: &[&Actuation],
+        starts: &[Option<&[f64]>],
+    ) -> Vec<Result<Reached, MechanismError>> {
+        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
+        let mut outcomes: Vec<Option<Result<Reached, MechanismError>>> =
+            Vec::with_capacity(actuations.len());
+        // The actuations at readings, by index, each with its start: the
+        // one given, or the mechanism's.
+        let mut at_readings: Vec<AtReadings<'_>> = Vec::new();
+        for (k, (actuation, start)) in actuations.iter().zip(starts).enumerate() {
+            let outcome = match (actuation, start) {
+                (Self::Commanded(commanded), _) => {
+                    Some(reached_at_command(mechanism, params, configured, commanded))
+                }
+                (Self::Readings(readings), Some(start)) => {
+                    at_readings.push((k, readings, Cow::Borrowed(*start)));
+                    None
+                }
+                (Self::Readings(readings), None) => match mechanism.start_pose(params, readings) {
+                    Ok(start) => {
+                        at_readings.push((k, readings, Cow::Owned(start.as_slice().to_vec())));
+                        None
+                    }
+                    Err(e) => Some(Err(e)),
+                },
+            };
+            outcomes.push(outcome);
+        }
+        let readings: Vec<&[f64]> = at_readings.iter().map(|(_, q, _)| *q).collect();
+        let starts: Vec<&[f64]> = at_readings.iter().map(|(_, _, x)| x.as_ref()).collect();
+        let reached = mechanism.tool_points_at_readings(params, &readings, &starts);
+        for ((k, _, _), reached) in at_readings.iter().zip(reached) {
+            outcomes[*k] = Some(reached);
+        }
+        outcomes
+            .into_iter()
+            .map(|outcome| outcome.expect("every actuation reached"))
+            .collect()
     }
 
     /// The pose the machine of true parameters `params` reaches, `f(p, q)`,
@@ -128,5 +186,65 @@ pub(crate) fn check_sigma(what: &'static str, sigma: f64) -> Result<(), Mechanis
         Err(MechanismError::NonFinite {
             what: format!("{what} {sigma} (a standard deviation must be finite and positive)"),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanism::test_support::delta;
+    use parcal_kinematics::mechanism::design;
+    use parcal_kinematics::mechanisms::by_name;
+
+    #[test]
+    fn actuations_together_reach_what_each_reaches_alone() {
+        // A delta commanded twice and read twice (from a start and from
+        // its own), the one at commanded positions and the other at
+        // readings interleaved: the same outcomes as one at a time, to the
+        // bit (the delta has no batched forward kinematics).
+        let (delta, configured, truth) = delta();
+        let (c, p) = (configured.as_slice(), truth.as_slice());
+        let read = |x: [f64; 3]| delta.inverse(p, &x).unwrap().as_slice().to_vec();
+        let actuations = [
+            Actuation::Commanded([40.0, -30.0, 18.0]),
+            Actuation::Readings(read([10.0, 5.0, 30.0])),
+            Actuation::Readings(read([-20.0, 15.0, 12.0])),
+            Actuation::Commanded([0.0, 60.0, 5.0]),
+        ];
+        let start = [9.0, 5.5, 29.0];
+        let starts = [None, Some(&start[..]), None, None];
+        let refs: Vec<&Actuation> = actuations.iter().collect();
+        let together = Actuation::tool_points(&delta, p, c, &refs, &starts);
+        for ((actuation, start), reached) in actuations.iter().zip(starts).zip(together) {
+            let alone = actuation.tool_point(&delta, p, c, start).unwrap();
+            assert_eq!(reached.unwrap(), alone);
+        }
+        // The hexapod's legs read at three poses, one reading short: the
+        // other two reached (its lanes, to rounding), that one refused.
+        let hexapod = by_name("hexapod").unwrap();
+        let hexapod = hexapod.as_ref();
+        let p = design(hexapod);
+        let p = p.as_slice();
+        let legs = |x: [f64; 6]| hexapod.inverse(p, &x).unwrap().as_slice().to_vec();
+        let mut short = legs([5.0, 0.0, 235.0, 0.0, 0.02, 0.0]);
+        short.pop();
+        let actuations = [
+            Actuation::Readings(legs([-30.0, 20.0, 240.0, 0.08, -0.05, 0.1])),
+            Actuation::Readings(short),
+            Actuation::Readings(legs([12.0, -8.0, 250.0, -0.03, 0.0, 0.05])),
+        ];
+        let refs: Vec<&Actuation> = actuations.iter().collect();
+        let together = Actuation::tool_points(hexapod, p, &[], &refs, &[None; 3]);
+        assert_eq!(
+            together[1].as_ref().unwrap_err().to_string(),
+            "hexapod needs 6 readings, got 5"
+        );
+        for k in [0, 2] {
+            let alone = actuations[k].tool_point(hexapod, p, &[], None).unwrap();
+            let reached = together[k].as_ref().unwrap();
+            // The forward kinematics' 1e-9 mm.
+            assert!((reached.point - alone.point).amax() < 1e-9);
+            assert!((&reached.d_params - &alone.d_params).amax() < 1e-9);
+        }
     }
 }
