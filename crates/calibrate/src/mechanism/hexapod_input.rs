@@ -17,22 +17,24 @@
 //!   at the design under the paper's prior, about its stated location
 //!   under the propagated prior when the balls are located in the
 //!   canonical frame ([`CentrePrior`]).
-//! - Each contact: a [`BallTouch`] at the legs' readings, the radius
+//! - Each contact: a [`BallTouch`] at the legs' extensions (the readings
+//!   times the machine's known scales), the radius
 //!   observation (eq. 9), weighted as the hexapod calibration weighs it at
 //!   the design, and held fixed ([`radius_variance`]): the tool tip `T` and
-//!   `dT/dq` by the design's forward kinematics, the ball's centre the
+//!   `dT/dq` (per unit of the readings, whose repeatability is in it) by
+//!   the design's forward kinematics, the ball's centre the
 //!   best fit of its tips, the direction `n0` from it to the tip (or the
 //!   commanded approach direction), `σ² = n0ᵀ Σ_tip n0 (+ σ_r²)`.
 //!
 //! Both calibrations then minimise the same cost from the same start: the
 //! common door's estimate is the dedicated path's. What only the hexapod's
 //! own calibration models is refused by name: the coordinate observation
-//! (eq. 10) and its contact angles, the actuators' scales, tracker poses
-//! and points, calibrated distances between balls.
+//! (eq. 10) and its contact angles, the actuators' scales as unknowns,
+//! tracker poses and points, calibrated distances between balls.
 
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, Matrix3x6};
+use nalgebra::{DMatrix, Matrix3x6, Matrix6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::hexapod::Hexapod;
 use parcal_kinematics::mechanism::{Mechanism, design, tool_point_reading_jacobian};
@@ -89,7 +91,7 @@ impl MechanismData {
             .zip(start.weights)
             .map(|((&ball, q), sigma)| BallTouch {
                 ball: ball as usize,
-                at: Actuation::Readings(q.to_vec()),
+                at: Actuation::Readings(extensions(dataset, q).to_vec()),
                 sigma,
             })
             .collect();
@@ -130,6 +132,14 @@ fn with_prior(mut data: MechanismData, prior: &KinematicPrior) -> MechanismData 
     data.with_prior_correlation(correlation)
 }
 
+/// The legs' extensions `s_i q_i` (mm) of a contact's readings `q`, the
+/// machine's known scales `s_i` applied as the hexapod calibration applies
+/// them: what its forward kinematics takes.
+fn extensions(dataset: &Dataset, q: &[f64; 6]) -> [f64; 6] {
+    let scale = &dataset.machine.actuator.scale;
+    std::array::from_fn(|i| scale[i] * q[i])
+}
+
 /// Refuses what only the hexapod's own calibration models (module doc).
 fn check_representable(
     dataset: &Dataset,
@@ -143,9 +153,9 @@ fn check_representable(
             "its contact angles are not unknowns of the common calibration, whose touch is the radius observation (eq. 9)",
         ),
         (
-            machine.actuator.scale != [1.0; 6] || machine.actuator.scale_sigma.is_some(),
-            "the actuators' scales",
-            "the hexapod through the common interface reads its legs in mm, scale 1",
+            machine.actuator.scale_sigma.is_some(),
+            "the actuators' scales as unknowns",
+            "the hexapod through the common interface reads its legs with the machine's scales, known",
         ),
         (
             !dataset.tracker.is_empty(),
@@ -213,10 +223,11 @@ fn design_start(
         reason,
     };
     // The design's tool tips and dT/dq.
+    let per_reading = Matrix6::from_diagonal(&dataset.machine.actuator.scale.into());
     let mut tips = Vec::with_capacity(m.len());
     let mut d_q = Vec::with_capacity(m.len());
     for (row, q) in m.q.iter().enumerate() {
-        let pose = Actuation::Readings(q.to_vec())
+        let pose = Actuation::Readings(extensions(dataset, q).to_vec())
             .pose(hexapod, configured, configured)
             .map_err(|e| contact_error(row, format!("the design's forward kinematics: {e}")))?;
         let tip = hexapod
@@ -226,7 +237,8 @@ fn design_start(
         let jacobian = tool_point_reading_jacobian(hexapod, configured, pose.as_slice())
             .map_err(|e| contact_error(row, e.to_string()))?;
         tips.push(tip);
-        d_q.push(Matrix3x6::from_column_slice(jacobian.as_slice()));
+        // Per unit of the readings, whose repeatability is in it.
+        d_q.push(Matrix3x6::from_column_slice(jacobian.as_slice()) * per_reading);
     }
     let rotation = match dataset.artefacts.frame {
         ArtefactFrame::Design => {
