@@ -10,11 +10,13 @@
 //!   have no ratio.
 //! - **Directions**: the data-only information of the global block,
 //!   `I_d = Cov(g)⁻¹ − Λ_g` (the Schur complement less the prior; the
-//!   poses of point samples eliminated), scaled by the prior sigmas,
-//!   `M = D I_d D` (`D = diag(σ)`, the posterior sigma for an unknown
-//!   without a prior), so that an eigenvalue `λ` compares the data's
+//!   poses of point samples eliminated), on the unknowns with a prior
+//!   (`A`; the others, `B`, which only the data determine, eliminated:
+//!   `I_AA − I_AB I_BB⁻¹ I_BA`), scaled by their prior sigmas, `M = D I D`
+//!   (`D = diag(σ)`), so that an eigenvalue `λ` compares the data's
 //!   information along a direction with the prior's: the data alone
-//!   would give it a sigma `1/√λ` prior sigmas. The gauge directions
+//!   would give it a sigma `1/√λ` prior sigmas. Without a prior there is
+//!   nothing to compare, and nothing is reported. The gauge directions
 //!   (`D⁻¹ z`, which no data see) are removed first, and every other
 //!   direction with `λ < 1`, whose data-only sigma exceeds its prior
 //!   sigma, is reported as set by the prior, named by the parameters that
@@ -124,29 +126,74 @@ pub fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
         .collect();
     let sigma_ratio = sigma_ratios(covariance, canonical, prior_covariance, &prior_sigma);
     let information = covariance.clone().cholesky()?.inverse() - prior_information;
-    let scale = DVector::from_fn(g, |k, _| {
-        prior_sigma[k].unwrap_or_else(|| covariance[(k, k)].sqrt())
+    // The unknowns with a prior, and the data-only information about them
+    // with the others (which only the data determine) eliminated.
+    let with: Vec<usize> = (0..g).filter(|&k| prior_sigma[k].is_some()).collect();
+    let without: Vec<usize> = (0..g).filter(|&k| prior_sigma[k].is_none()).collect();
+    let block = |rows: &[usize], columns: &[usize]| {
+        DMatrix::from_fn(rows.len(), columns.len(), |i, j| {
+            0.5 * (information[(rows[i], columns[j])] + information[(columns[j], rows[i])])
+        })
+    };
+    let mut data = block(&with, &with);
+    if !without.is_empty() {
+        let across = block(&without, &with);
+        data -= across.transpose() * block(&without, &without).cholesky()?.solve(&across);
+    }
+    let scale = DVector::from_iterator(with.len(), prior_sigma.iter().flatten().copied());
+    let scaled = DMatrix::from_fn(with.len(), with.len(), |i, j| {
+        scale[i] * scale[j] * 0.5 * (data[(i, j)] + data[(j, i)])
     });
-    let scaled = DMatrix::from_fn(g, g, |i, j| {
-        scale[i] * scale[j] * 0.5 * (information[(i, j)] + information[(j, i)])
-    });
-    let basis = complement(gauge, &scale);
+    let gauge: Vec<(String, DVector<f64>)> = gauge
+        .iter()
+        .map(|(name, z)| {
+            (
+                name.clone(),
+                DVector::from_fn(with.len(), |i, _| z[with[i]]),
+            )
+        })
+        .collect();
+    let basis = complement(&gauge, &scale);
     let reduced = basis.transpose() * &scaled * &basis;
+    // No unknown with a prior (or only gauge directions): nothing to weigh.
+    let undetermined = if reduced.is_empty() {
+        Vec::new()
+    } else {
+        undetermined_directions(reduced, &basis, names, &with)
+    };
+    let statements = statements(names, &sigma_ratio, &undetermined, &gauge);
+    Some(Identifiability {
+        gauge: gauge.iter().map(|(name, _)| name.clone()).collect(),
+        sigma_ratio,
+        undetermined,
+        statements,
+    })
+}
+
+/// The directions of the unknowns with a prior (`with`, of `names`) whose
+/// data-only information `reduced` (in prior sigmas, on the columns of
+/// `basis`) is below the prior's, weakest first (module doc).
+fn undetermined_directions(
+    reduced: DMatrix<f64>,
+    basis: &DMatrix<f64>,
+    names: &[String],
+    with: &[usize],
+) -> Vec<Undetermined> {
     let eigen = SymmetricEigen::new(reduced);
     let floor = rounding_floor(&eigen.eigenvalues);
     let mut order: Vec<usize> = (0..eigen.eigenvalues.len()).collect();
     order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
-    let undetermined: Vec<Undetermined> = order
+    order
         .into_iter()
         .filter(|&a| eigen.eigenvalues[a] < 1.0)
         .map(|a| {
             let lambda = eigen.eigenvalues[a];
-            let direction = &basis * eigen.eigenvectors.column(a);
+            let direction = basis * eigen.eigenvectors.column(a);
             let mut components: Vec<(String, f64)> = direction
                 .iter()
                 .enumerate()
                 .filter(|(_, v)| v.abs() >= NAMED_COMPONENT)
-                .map(|(k, &v)| (names[k].clone(), v))
+                .map(|(i, &v)| (names[with[i]].clone(), v))
                 .collect();
             components.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
             // One sign convention: the largest component positive.
@@ -162,14 +209,7 @@ pub fn identifiability(inputs: &Inputs) -> Option<Identifiability> {
                 },
             }
         })
-        .collect();
-    let statements = statements(names, &sigma_ratio, &undetermined, gauge);
-    Some(Identifiability {
-        gauge: gauge.iter().map(|(name, _)| name.clone()).collect(),
-        sigma_ratio,
-        undetermined,
-        statements,
-    })
+        .collect()
 }
 
 /// The eigenvalue below which `M` cannot tell the data's information
@@ -309,6 +349,43 @@ mod tests {
             vec![("b".to_string(), 1.0)]
         );
         assert!((weak.undetermined[0].data_to_prior - 2.0).abs() < 1e-6);
+        // The same without b's prior: b's data are all there is, and a
+        // direction of a and b correlated by the data is a's alone.
+        let (names, information) = (
+            ["a".to_string(), "b".to_string()],
+            DMatrix::from_row_slice(2, 2, &[2.0, 1.5, 1.5, 2.0]),
+        );
+        let prior = DMatrix::from_diagonal(&DVector::from_column_slice(&[1.0, 0.0]));
+        let alone = identifiability(&Inputs {
+            names: &names,
+            covariance: &(&information + &prior).try_inverse().unwrap(),
+            prior_information: &prior,
+            prior_covariance: &prior,
+            canonical: &DMatrix::identity(2, 2),
+            gauge: &[],
+        })
+        .unwrap();
+        // a's data-only information, b eliminated: 2 − 1.5²/2 = 7/8.
+        assert_eq!(alone.undetermined.len(), 1);
+        assert_eq!(
+            alone.undetermined[0].components,
+            vec![("a".to_string(), 1.0)]
+        );
+        let expected = 1.0 / (7.0f64 / 8.0).sqrt();
+        assert!((alone.undetermined[0].data_to_prior - expected).abs() < 1e-9);
+        // No prior at all: nothing is set by one.
+        let none = DMatrix::zeros(2, 2);
+        let free = identifiability(&Inputs {
+            names: &names,
+            covariance: &information.clone().try_inverse().unwrap(),
+            prior_information: &none,
+            prior_covariance: &none,
+            canonical: &DMatrix::identity(2, 2),
+            gauge: &[],
+        })
+        .unwrap();
+        assert!(free.undetermined.is_empty(), "{:?}", free.statements);
+        assert!(free.statements.is_empty(), "{:?}", free.statements);
         // None on b: 1/(1 + 0) - 1 is exact here, but a rounding of 1e-13
         // (far below 2 ε 1e8) must not be read as data seeing it.
         for data in [0.0, 1e-13] {
