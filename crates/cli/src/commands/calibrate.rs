@@ -7,12 +7,13 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use parcal::accuracy::MapGrid;
+use parcal::calibration::mechanism::MechanismData;
 use parcal::calibration::{
     CalibrateError, CalibrationRun, IterationRecord, Loss, Observation, PriorMode, RadiusModel,
     Simulation, WeightModel, bounds,
 };
 use parcal::command::{CalibrateFlags, RecordedRun, calibrate_recorded};
-use parcal::dataset::{CALIBRATION_FILE, MEASUREMENTS_FILE, ReadOptions};
+use parcal::dataset::{CALIBRATION_FILE, HEXAPOD, MEASUREMENTS_FILE, ReadOptions};
 use parcal::report::{instruments, tables};
 use parcal::workflows::evaluate::{TrueMachine, before_after};
 
@@ -78,6 +79,12 @@ pub struct Args {
     /// rejected calibration's too.
     #[arg(long)]
     report: bool,
+    /// Calibrate a hexapod's ball touches by the common calibration of
+    /// every mechanism, through its interface (docs/mechanisms.md), rather
+    /// than by its own: the radius observation (--sim I or II, or
+    /// --observation radius), written as a mechanism's calibration.json.
+    #[arg(long)]
+    common: bool,
 }
 
 impl Args {
@@ -100,7 +107,16 @@ impl Args {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(mechanism) = super::mechanism::declared(&args.dataset)? {
+        if args.common {
+            anyhow::bail!(
+                "{}: --common calibrates a hexapod's touches by the {mechanism}'s calibration, which this dataset has already",
+                args.dataset.display()
+            );
+        }
         return super::mechanism::calibrate(&mechanism, args.mechanism_options()?);
+    }
+    if args.common {
+        return calibrate_common(args);
     }
     let flags = args.flags();
     let options = flags.options();
@@ -176,6 +192,32 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     printed
 }
 
+/// `parcal calibrate --common`: the hexapod's ball touches by the common
+/// calibration ([`MechanismData::from_hexapod_touches`] under the options
+/// the flags give), what it does not model refused by name.
+fn calibrate_common(args: &Args) -> anyhow::Result<()> {
+    let own_only = [
+        ("--lm", args.lm),
+        ("--time-limit", args.time_limit.is_some()),
+    ];
+    if let Some((flag, _)) = own_only.iter().find(|(_, given)| *given) {
+        anyhow::bail!(
+            "{}: {flag} applies to the hexapod's own calibration, not to the common one (its options: --sim, --observation, --prior, --weights, --radius, --snoop, --loss, --max-iterations, --out, --report)",
+            args.dataset.display()
+        );
+    }
+    let request = args.common_request();
+    request.check_outputs()?;
+    let without_true_contacts = ReadOptions {
+        true_contacts: false,
+        ..ReadOptions::default()
+    };
+    let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
+    let data = MechanismData::from_hexapod_touches(&dataset, &args.flags().options())
+        .map_err(|error| anyhow::anyhow!("{}: {error}", args.dataset.display()))?;
+    super::mechanism::calibrate_data(HEXAPOD, &data, None, request)
+}
+
 /// A number of seconds, finite and not negative.
 fn seconds(text: &str) -> Result<Duration, String> {
     let seconds: f64 = text.parse().map_err(|e| format!("{e}"))?;
@@ -235,14 +277,19 @@ impl Args {
                 self.dataset.display()
             );
         }
-        Ok(super::mechanism::CalibrateRequest {
+        Ok(self.common_request())
+    }
+
+    /// What the common calibration takes of the flags.
+    fn common_request(&self) -> super::mechanism::CalibrateRequest {
+        super::mechanism::CalibrateRequest {
             dataset: self.dataset.clone(),
             out: self.out_path(),
             report: self.report,
             snoop: self.snoop,
             loss: self.loss,
             max_iterations: self.max_iterations,
-        })
+        }
     }
 
     fn out_path(&self) -> PathBuf {

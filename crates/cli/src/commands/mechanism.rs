@@ -1,6 +1,8 @@
 //! The commands on a mechanism dataset (machine.json naming a mechanism
-//! other than the hexapod, docs/delta.md): its calibration, written as
-//! calibration.json with its report if asked, and the summary printed.
+//! other than the hexapod, docs/delta.md), or on a hexapod's ball touches
+//! by the same calibration (`parcal calibrate --common`): its
+//! calibration, written as calibration.json with its report if asked, and
+//! the summary printed.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -48,6 +50,38 @@ pub struct CalibrateRequest {
 /// writes calibration.json (and its report) atomically, and turns a
 /// rejected verdict into [`super::Rejected`].
 pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<()> {
+    request.check_outputs()?;
+    let path = &request.dataset;
+    let dataset = MechanismDataset::read(path)?;
+    let data = MechanismData::from_dataset(&dataset)
+        .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
+    calibrate_data(mechanism, &data, Some(&dataset.probes), request)
+}
+
+impl CalibrateRequest {
+    /// Refuses outputs that would overwrite an input (calibration.json,
+    /// the report's files).
+    pub fn check_outputs(&self) -> anyhow::Result<()> {
+        super::check_calibration_outputs(&self.dataset, &self.out)?;
+        if self.report {
+            crate::outputs::check(
+                &crate::outputs::dataset_inputs(&self.dataset),
+                &super::report::report_paths(super::report::directory_of(&self.out)),
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The common calibration of `data`, read from the dataset of `request`
+/// (its probe points, if any, drawn in the report): as [`calibrate`], once
+/// the outputs are checked ([`CalibrateRequest::check_outputs`]).
+pub fn calibrate_data(
+    mechanism: &str,
+    data: &MechanismData,
+    probes: Option<&[[f64; 3]]>,
+    request: CalibrateRequest,
+) -> anyhow::Result<()> {
     let CalibrateRequest {
         dataset: path,
         out,
@@ -56,24 +90,14 @@ pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<(
         loss,
         max_iterations,
     } = request;
-    super::check_calibration_outputs(&path, &out)?;
     let report_directory = report.then(|| super::report::directory_of(&out).to_path_buf());
-    if let Some(directory) = &report_directory {
-        crate::outputs::check(
-            &crate::outputs::dataset_inputs(&path),
-            &super::report::report_paths(directory),
-        )?;
-    }
-    let dataset = MechanismDataset::read(&path)?;
-    let data = MechanismData::from_dataset(&dataset)
-        .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
     let mut options = MechanismOptions::default()
         .with_snooping(snoop)
         .with_loss(loss);
     if let Some(limit) = max_iterations {
         options.max_iterations = limit;
     }
-    let calibration = calibrate_mechanism(&data, &options)
+    let calibration = calibrate_mechanism(data, &options)
         .map_err(|error| anyhow::anyhow!("{}: the {mechanism}: {error}", path.display()))?;
     let record = calibration.record();
     let destination = if record.accepted {
@@ -85,12 +109,9 @@ pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<(
     write_set(&[], || -> anyhow::Result<()> {
         record.write(&destination)?;
         match &report_directory {
-            Some(directory) => super::report::write_mechanism_report(
-                &record,
-                &file,
-                Some(&dataset.probes),
-                directory,
-            ),
+            Some(directory) => {
+                super::report::write_mechanism_report(&record, &file, probes, directory)
+            }
             None => Ok(()),
         }
     })?;

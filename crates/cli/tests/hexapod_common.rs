@@ -1,0 +1,80 @@
+//! `parcal calibrate --common`: a hexapod's ball touches by the common
+//! calibration of every mechanism, from the command line: the same
+//! estimate as its own calibration, written as a mechanism's record with
+//! its report; what the common calibration does not model, and the flags
+//! only the own calibration has, refused by name.
+
+mod common;
+
+use common::{PAPER_FILES, copy_fixture, fails, ok, s};
+use serde_json::Value;
+
+fn read(path: &std::path::Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn a_hexapod_through_the_common_calibration_is_its_own() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let (own, shared) = (temp.path().join("own.json"), temp.path().join("shared"));
+    std::fs::create_dir(&shared).unwrap();
+    let common = shared.join("calibration.json");
+    ok(&["calibrate", s(&data), "--sim", "III", "--out", s(&own)]);
+    let printed = ok(&[
+        "calibrate",
+        s(&data),
+        "--common",
+        "--sim",
+        "III",
+        "--report",
+        "--out",
+        s(&common),
+    ]);
+    assert!(
+        printed.contains("observations: 189 ball touches"),
+        "{printed}"
+    );
+    assert!(shared.join("report.html").exists() && shared.join("report.md").exists());
+    let (own, common) = (read(&own), read(&common));
+    assert_eq!(common["mechanism"], "hexapod");
+    let names = own["parameters"]["names"].as_array().unwrap();
+    let values = own["parameters"]["values"].as_array().unwrap();
+    let parameters = common["parameters"].as_array().unwrap();
+    assert_eq!(parameters.len(), 33);
+    for ((name, value), parameter) in names.iter().zip(values).zip(parameters) {
+        assert_eq!(parameter["name"], *name);
+        let (a, b) = (
+            value.as_f64().unwrap(),
+            parameter["value"].as_f64().unwrap(),
+        );
+        // Each run stops within 1e-3 of its sigmas from the same minimum.
+        let sigma = parameter["sigma"].as_f64().unwrap();
+        assert!((a - b).abs() < 2e-3 * sigma, "{name}: {a} against {b}");
+    }
+}
+
+#[test]
+fn what_the_common_calibration_does_not_take_is_refused_by_name() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let out = temp.path().join("calibration.json");
+    // The default observation is the coordinates' (eq. 10).
+    let error = fails(&["calibrate", s(&data), "--common", "--out", s(&out)]);
+    assert!(
+        error.contains("the coordinate observation (eq. 10)"),
+        "{error}"
+    );
+    for flag in ["--lm", "--time-limit"] {
+        let mut args = vec!["calibrate", s(&data), "--common", "--sim", "I", flag];
+        if flag == "--time-limit" {
+            args.push("10");
+        }
+        let error = fails(&args);
+        assert!(
+            error.contains(&format!("{flag} applies to the hexapod's own")),
+            "{error}"
+        );
+    }
+    assert!(!out.exists());
+}
