@@ -17,7 +17,7 @@ row, line, observation, field or file. See docs/python.md.
 
 import json
 import os
-from typing import Any, Union, overload
+from typing import Any, Literal, Union, overload
 
 from . import _parcal
 from ._parcal import (
@@ -52,17 +52,26 @@ def _mechanism_calibration(calibration):
 @overload
 def calibrate(dataset: MechanismDataset, **options: Any) -> MechanismCalibration: ...
 @overload
+def calibrate(dataset: Dataset, *, common: Literal[True], **options: Any) -> MechanismCalibration: ...
+@overload
 def calibrate(dataset: Dataset, *, progress: Any = None, **options: Any) -> Calibration: ...
-def calibrate(dataset, *, progress=None, **options):
+def calibrate(dataset, *, progress=None, common=False, **options):
     """Calibrates `dataset` as ``parcal calibrate`` does: a hexapod's
     (``Dataset``, returns a ``Calibration``) or another mechanism's
     (``MechanismDataset``, returns a ``MechanismCalibration``; its options
     are ``snoop``, ``loss`` and ``max_iterations``, and it takes no
-    ``progress``)."""
-    if isinstance(dataset, MechanismDataset):
+    ``progress``). ``common=True`` takes a hexapod's ball touches through
+    the common calibration of every mechanism, as ``parcal calibrate
+    --common`` does (a ``MechanismCalibration``; no ``lm``,
+    ``time_limit`` or ``progress``)."""
+    if isinstance(dataset, MechanismDataset) or common:
         if progress is not None:
             raise Error("progress: a mechanism's calibration reports no iterations")
-        return _parcal.calibrate_mechanism(dataset, **options)
+        if isinstance(dataset, MechanismDataset):
+            if common:
+                raise Error("common: a mechanism dataset has the common calibration already")
+            return _parcal.calibrate_mechanism(dataset, **options)
+        return _parcal.calibrate_common(dataset, **options)
     return _parcal.calibrate(dataset, progress=progress, **options)
 
 

@@ -478,6 +478,21 @@ def calibrate_mechanism(
 ) -> MechanismCalibration:
     """``parcal.calibrate`` on a mechanism dataset."""
 
+def calibrate_common(
+    dataset: Dataset,
+    *,
+    sim: Optional[Literal["I", "II", "III", "IV"]] = None,
+    observation: Optional[Literal["radius", "coordinates"]] = None,
+    prior: Optional[Literal["paper", "propagated", "none"]] = None,
+    weights: Optional[Literal["propagated", "diagonal"]] = None,
+    radius: Optional[Literal["ball", "contact"]] = None,
+    max_iterations: Optional[int] = None,
+    snoop: bool = False,
+    loss: str = "squared",
+) -> MechanismCalibration:
+    """``parcal.calibrate(dataset, common=True)``: a hexapod's ball touches
+    through the common calibration, as ``parcal calibrate --common``."""
+
 def validate_mechanism(
     dataset: MechanismDataset,
     *,

@@ -345,3 +345,20 @@ def test_balls_placed_in_memory_are_the_placements_of_balls_csv(cli, tmp_path):
         parcal.MechanismDataset(machine, probes=ds.probes, balls=half, touches=ds.touches)
     with pytest.raises(parcal.Error, match=r"balls: expected 2 or 6 columns, got 3"):
         parcal.MechanismDataset(machine, probes=ds.probes, balls=balls[:, :3], touches=ds.touches)
+
+
+def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_the_cli(paper, cli, tmp_path):
+    out = tmp_path / "cli.json"
+    status = cli("calibrate", paper, "--common", "--sim", "III", "--out", out)
+    expected = (out if status == 0 else out.with_name("cli.rejected.json")).read_text()
+    run = parcal.calibrate(parcal.read_dataset(paper), common=True, sim="III")
+    assert isinstance(run, parcal.MechanismCalibration)
+    assert run.mechanism == "hexapod"
+    assert run.to_json() == expected
+    own = parcal.calibrate(parcal.read_dataset(paper), sim="III")
+    # Each run stops within 1e-3 of its sigmas from the same minimum.
+    assert np.all(np.abs(run.values - own.values) < 2e-3 * run.sigmas)
+    with pytest.raises(parcal.Error, match="lm: applies to the hexapod's own"):
+        parcal.calibrate(parcal.read_dataset(paper), common=True, sim="I", lm=True)
+    with pytest.raises(parcal.Error, match=r"the coordinate observation \(eq. 10\)"):
+        parcal.calibrate(parcal.read_dataset(paper), common=True)

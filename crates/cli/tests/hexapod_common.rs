@@ -71,10 +71,8 @@ fn what_the_common_calibration_does_not_take_is_refused_by_name() {
             args.push("10");
         }
         let error = fails(&args);
-        assert!(
-            error.contains(&format!("{flag} applies to the hexapod's own")),
-            "{error}"
-        );
+        let expected = format!("--common: {flag} applies to the hexapod's own");
+        assert!(error.contains(&expected), "{error}");
     }
     assert!(!out.exists());
 }

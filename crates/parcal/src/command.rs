@@ -2,13 +2,15 @@
 //! end (the binary, the Python package): the options from the command's
 //! flags ([`CalibrateFlags`]), the calibration of any hexapod dataset
 //! (ball touches, poses, points), with or without data snooping, and
-//! calibration.json's record of it ([`calibrate_recorded`]);
+//! calibration.json's record of it ([`calibrate_recorded`]); a hexapod's
+//! ball touches as the common calibration's data ([`common_calibration`]);
 //! a dataset read from a directory or a snapshot ([`read_dataset`]).
 
 use std::path::Path;
 use std::time::Duration;
 
 use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
+use parcal_calibrate::mechanism::{MechanismCalibrationError, MechanismData, MechanismOptions};
 use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::snooping::{Remaining, calibrate_with_snooping};
 use parcal_calibrate::{
@@ -110,6 +112,60 @@ impl CalibrateFlags {
         options
     }
 }
+
+/// What `parcal calibrate --common` calibrates: a hexapod's ball touches
+/// as the common calibration's data under the options `flags` give
+/// ([`MechanismData::from_hexapod_touches`]), and that calibration's
+/// options (`snoop`, `loss`, `max_iterations`).
+pub fn common_calibration(
+    dataset: &Dataset,
+    flags: &CalibrateFlags,
+) -> Result<(MechanismData, MechanismOptions), CommonRefusal> {
+    let own_only = [
+        ("--lm", flags.lm),
+        ("--time-limit", flags.time_limit.is_some()),
+    ];
+    if let Some((flag, _)) = own_only.into_iter().find(|(_, given)| *given) {
+        return Err(CommonRefusal::OwnOnly { flag });
+    }
+    let data = MechanismData::from_hexapod_touches(dataset, &flags.options())
+        .map_err(CommonRefusal::Data)?;
+    let mut options = MechanismOptions::default()
+        .with_snooping(flags.snoop)
+        .with_loss(flags.loss);
+    if let Some(limit) = flags.max_iterations {
+        options.max_iterations = limit;
+    }
+    Ok((data, options))
+}
+
+/// Why a hexapod's dataset cannot go through the common calibration
+/// ([`common_calibration`]).
+#[derive(Debug)]
+pub enum CommonRefusal {
+    /// A flag (the command's spelling) only the hexapod's own calibration
+    /// has.
+    OwnOnly {
+        /// The flag, `--lm` or `--time-limit`.
+        flag: &'static str,
+    },
+    /// What the common calibration does not model, or bad data.
+    Data(MechanismCalibrationError),
+}
+
+impl std::fmt::Display for CommonRefusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::OwnOnly { flag } => write!(
+                f,
+                "{flag} applies to the hexapod's own calibration, not to the common one"
+            ),
+            Self::Data(error) => error.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for CommonRefusal {}
 
 /// A calibration and its record.
 pub struct RecordedRun {

@@ -3,12 +3,13 @@
 //! result as `parcal.MechanismCalibration` with its numbers as numpy
 //! arrays and its calibration.json byte for byte.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use numpy::{PyArray1, PyArray2};
 use parcal::calibration::Loss;
 use parcal::calibration::bounds::MAX_ITERATIONS;
 use parcal::calibration::mechanism::{ObservationKind, ObservationRef};
+use parcal::command::{CommonRefusal, common_calibration};
 use parcal::dataset::mechanism::ObservationRecord;
 use parcal::report::mechanism::identifiability_statements;
 use parcal::report::mechanism_validation::observation_place;
@@ -19,7 +20,9 @@ use pyo3::types::PyDict;
 use super::data_error;
 use super::dataset::MechanismDataset;
 use crate::convert::to_python;
+use crate::dataset::Dataset;
 use crate::error::to_py;
+use crate::options::flags;
 
 /// Calibrates the mechanism dataset `dataset` as `parcal calibrate` does
 /// with the same options: `snoop` (data snooping), `loss` ("squared",
@@ -51,6 +54,40 @@ pub fn calibrate_mechanism(
     let calibration = py
         .detach(|| calibrate(&dataset.data, &options))
         .map_err(|error| data_error(&dataset.path, error))?;
+    Ok(MechanismCalibration {
+        record: calibration.record(),
+    })
+}
+
+/// Calibrates a hexapod's ball touches (`dataset`, a `Dataset`) by the
+/// common calibration of every mechanism, as `parcal calibrate --common`
+/// does with the same options: those of `parcal.calibrate` but `lm` and
+/// `time_limit`, which only the hexapod's own calibration has (the radius
+/// observation: `sim="I"` or `"III"`, or `observation="radius"`). The GIL
+/// is released while it runs.
+///
+/// Returns a `MechanismCalibration` of the mechanism `"hexapod"`; raises
+/// `parcal.Error` naming what the common calibration does not model.
+#[pyfunction]
+#[pyo3(signature = (dataset, **options))]
+pub fn calibrate_common(
+    py: Python<'_>,
+    dataset: &Bound<'_, Dataset>,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<MechanismCalibration> {
+    let flags = flags(options)?;
+    let dataset = dataset.get();
+    let (data, options) =
+        common_calibration(&dataset.inner, &flags).map_err(|refusal| match refusal {
+            CommonRefusal::OwnOnly { flag } => to_py(format!(
+                "{}: applies to the hexapod's own calibration, not to the common one",
+                flag.trim_start_matches("--").replace('-', "_")
+            )),
+            CommonRefusal::Data(error) => data_error(Path::new(&dataset.given), error),
+        })?;
+    let calibration = py
+        .detach(|| calibrate(&data, &options))
+        .map_err(|error| data_error(Path::new(&dataset.given), error))?;
     Ok(MechanismCalibration {
         record: calibration.record(),
     })

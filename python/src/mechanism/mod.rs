@@ -24,6 +24,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<dataset::MechanismDataset>()?;
     m.add_class::<MechanismCalibration>()?;
     m.add_function(wrap_pyfunction!(calibration::calibrate_mechanism, m)?)?;
+    m.add_function(wrap_pyfunction!(calibration::calibrate_common, m)?)?;
     m.add_function(wrap_pyfunction!(apply::validate_mechanism, m)?)?;
     m.add_function(wrap_pyfunction!(apply::compensate_mechanism, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan_mechanism, m)?)?;

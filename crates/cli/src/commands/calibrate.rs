@@ -7,12 +7,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use parcal::accuracy::MapGrid;
-use parcal::calibration::mechanism::MechanismData;
 use parcal::calibration::{
     CalibrateError, CalibrationRun, IterationRecord, Loss, Observation, PriorMode, RadiusModel,
     Simulation, WeightModel, bounds,
 };
-use parcal::command::{CalibrateFlags, RecordedRun, calibrate_recorded};
+use parcal::command::{CalibrateFlags, RecordedRun, calibrate_recorded, common_calibration};
 use parcal::dataset::{CALIBRATION_FILE, HEXAPOD, MEASUREMENTS_FILE, ReadOptions};
 use parcal::report::{instruments, tables};
 use parcal::workflows::evaluate::{TrueMachine, before_after};
@@ -196,16 +195,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 /// calibration ([`MechanismData::from_hexapod_touches`] under the options
 /// the flags give), what it does not model refused by name.
 fn calibrate_common(args: &Args) -> anyhow::Result<()> {
-    let own_only = [
-        ("--lm", args.lm),
-        ("--time-limit", args.time_limit.is_some()),
-    ];
-    if let Some((flag, _)) = own_only.iter().find(|(_, given)| *given) {
-        anyhow::bail!(
-            "{}: {flag} applies to the hexapod's own calibration, not to the common one (its options: --sim, --observation, --prior, --weights, --radius, --snoop, --loss, --max-iterations, --out, --report)",
-            args.dataset.display()
-        );
-    }
     let request = args.common_request();
     request.check_outputs()?;
     let without_true_contacts = ReadOptions {
@@ -213,9 +202,9 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         ..ReadOptions::default()
     };
     let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
-    let data = MechanismData::from_hexapod_touches(&dataset, &args.flags().options())
-        .map_err(|error| anyhow::anyhow!("{}: {error}", args.dataset.display()))?;
-    super::mechanism::calibrate_data(HEXAPOD, &data, None, request)
+    let (data, options) = common_calibration(&dataset, &args.flags())
+        .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
+    super::mechanism::calibrate_with(HEXAPOD, &data, &options, None, request)
 }
 
 /// A number of seconds, finite and not negative.

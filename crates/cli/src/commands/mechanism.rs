@@ -82,22 +82,31 @@ pub fn calibrate_data(
     probes: Option<&[[f64; 3]]>,
     request: CalibrateRequest,
 ) -> anyhow::Result<()> {
+    let mut options = MechanismOptions::default()
+        .with_snooping(request.snoop)
+        .with_loss(request.loss);
+    if let Some(limit) = request.max_iterations {
+        options.max_iterations = limit;
+    }
+    calibrate_with(mechanism, data, &options, probes, request)
+}
+
+/// [`calibrate_data`] under `options`.
+pub fn calibrate_with(
+    mechanism: &str,
+    data: &MechanismData,
+    options: &MechanismOptions,
+    probes: Option<&[[f64; 3]]>,
+    request: CalibrateRequest,
+) -> anyhow::Result<()> {
     let CalibrateRequest {
         dataset: path,
         out,
         report,
-        snoop,
-        loss,
-        max_iterations,
+        ..
     } = request;
     let report_directory = report.then(|| super::report::directory_of(&out).to_path_buf());
-    let mut options = MechanismOptions::default()
-        .with_snooping(snoop)
-        .with_loss(loss);
-    if let Some(limit) = max_iterations {
-        options.max_iterations = limit;
-    }
-    let calibration = calibrate_mechanism(data, &options)
+    let calibration = calibrate_mechanism(data, options)
         .map_err(|error| anyhow::anyhow!("{}: the {mechanism}: {error}", path.display()))?;
     let record = calibration.record();
     let destination = if record.accepted {
