@@ -26,7 +26,7 @@ use crate::forward::step;
 use crate::forward_batch::{LANES, PivotOrder, forward_jacobian_batch};
 use crate::mechanism::{
     Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, Reached, ReadingJacobians,
-    ToolPoint, check_params, check_vector,
+    ToolPoint, check_params, check_vector, tool_points_one_by_one,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -279,11 +279,7 @@ impl Mechanism for Hexapod {
     ) -> Vec<Result<Reached, MechanismError>> {
         assert_eq!(readings.len(), starts.len(), "a start for each contact");
         let one_by_one = |readings: &[&[f64]], starts: &[&[f64]]| {
-            readings
-                .iter()
-                .zip(starts)
-                .map(|(readings, start)| self.tool_point_at_readings(params, readings, start))
-                .collect::<Vec<_>>()
+            tool_points_one_by_one(self, params, readings, starts)
         };
         let Ok(geometry) = self.geometry(params) else {
             return one_by_one(readings, starts);

@@ -315,12 +315,7 @@ pub trait Mechanism: Send + Sync {
         readings: &[&[f64]],
         starts: &[&[f64]],
     ) -> Vec<Result<Reached, MechanismError>> {
-        assert_eq!(readings.len(), starts.len(), "a start for each contact");
-        readings
-            .iter()
-            .zip(starts)
-            .map(|(readings, start)| self.tool_point_at_readings(params, readings, start))
-            .collect()
+        tool_points_one_by_one(self, params, readings, starts)
     }
 
     /// A pose near the one `readings` reach, for an iterative
@@ -497,6 +492,26 @@ pub struct Reached {
     pub point: Vector3<f64>,
     /// `dT/dp |_q` (3 x parameters).
     pub d_params: DMatrix<f64>,
+}
+
+/// [`Mechanism::tool_points_at_readings`] one contact after another
+/// ([`Mechanism::tool_point_at_readings`]): the trait's default, and the
+/// fallback of a mechanism whose batch cannot run.
+///
+/// # Panics
+/// If `readings` and `starts` differ in length.
+pub fn tool_points_one_by_one<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    params: &[f64],
+    readings: &[&[f64]],
+    starts: &[&[f64]],
+) -> Vec<Result<Reached, MechanismError>> {
+    assert_eq!(readings.len(), starts.len(), "a start for each contact");
+    readings
+        .iter()
+        .zip(starts)
+        .map(|(readings, start)| mechanism.tool_point_at_readings(params, readings, start))
+        .collect()
 }
 
 /// The pose and tool point the machine of parameters `params` reaches at
