@@ -35,9 +35,10 @@ pub struct BallTouch {
     pub sigma: f64,
 }
 
-/// A touch's whitened row.
+/// A touch's whitened rows (one: along the sphere's normal), as a point
+/// sample's are [`SampleRows`](super::SampleRows).
 #[derive(Debug, Clone, PartialEq)]
-pub struct TouchRow {
+pub struct TouchRows {
     /// The row `r` and `dr/dp`.
     pub rows: Rows,
     /// The pose the machine reached at the touch: a start for the next
@@ -63,7 +64,7 @@ impl BallTouch {
         centre: &Vector3<f64>,
         radius: f64,
         start: Option<&[f64]>,
-    ) -> Result<TouchRow, MechanismError> {
+    ) -> Result<TouchRows, MechanismError> {
         let reached = self.at.tool_point(mechanism, params, configured, start)?;
         self.row(reached, centre, radius)
     }
@@ -77,7 +78,7 @@ impl BallTouch {
         reached: Reached,
         centre: &Vector3<f64>,
         radius: f64,
-    ) -> Result<TouchRow, MechanismError> {
+    ) -> Result<TouchRows, MechanismError> {
         check_sigma("touch sigma", self.sigma)?;
         let offset = reached.point - centre;
         let distance = offset.norm();
@@ -88,7 +89,7 @@ impl BallTouch {
         }
         let u = offset / distance;
         let d_params = (u.transpose() * reached.d_params) / self.sigma;
-        Ok(TouchRow {
+        Ok(TouchRows {
             rows: Rows {
                 residual: DVector::from_element(1, (distance - radius) / self.sigma),
                 d_params: DMatrix::from_row_slice(1, d_params.len(), d_params.as_slice()),

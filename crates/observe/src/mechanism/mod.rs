@@ -44,7 +44,7 @@ mod point_sample;
 mod probe;
 mod quantity;
 
-pub use ball_touch::{BallTouch, TouchRow};
+pub use ball_touch::{BallTouch, TouchRows};
 pub use commanded::{Actuation, POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
