@@ -31,7 +31,7 @@
 //! `dx/dp = −G_x⁻¹ G_p`
 //! ([`pose_jacobian_at_fixed_readings`](parcal_kinematics::mechanism::pose_jacobian_at_fixed_readings)),
 //! and its tool point's
-//! ([`tool_point_at_readings`](parcal_kinematics::mechanism::tool_point_at_readings)),
+//! ([`Mechanism::tool_point_at_readings`](parcal_kinematics::mechanism::Mechanism::tool_point_at_readings)),
 //! which [`reached`] evaluates. `p_c` is known and fixed: only the true
 //! `p` is an unknown. Commanded positions need a mechanism whose pose is a
 //! position; every kind but the touch takes them.
