@@ -19,7 +19,7 @@
 //! the prior. This is the paper's radius observation (eq. 9), which the
 //! hexapod's own calibration also offers.
 
-use nalgebra::{DMatrix, DVector, RowVector3, Vector3};
+use nalgebra::{DVector, Dyn, RowVector3, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 
 use super::commanded::{Actuation, Rows, check_sigma};
@@ -88,11 +88,14 @@ impl BallTouch {
             });
         }
         let u = offset / distance;
-        let d_params = (u.transpose() * reached.d_params) / self.sigma;
+        // uᵀ dT/dp |_q over σ, formed in place and kept as its row.
+        let mut d_params = reached.d_params.tr_mul(&u);
+        d_params /= self.sigma;
+        let n = d_params.len();
         Ok(TouchRows {
             rows: Rows {
                 residual: DVector::from_element(1, (distance - radius) / self.sigma),
-                d_params: DMatrix::from_row_slice(1, d_params.len(), d_params.as_slice()),
+                d_params: d_params.reshape_generic(Dyn(1), Dyn(n)),
             },
             pose: reached.pose,
             d_centre: -u.transpose() / self.sigma,
