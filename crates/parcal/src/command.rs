@@ -130,12 +130,10 @@ pub fn common_calibration(
     }
     let data = MechanismData::from_hexapod_touches(dataset, &flags.options())
         .map_err(CommonRefusal::Data)?;
-    let mut options = MechanismOptions::default()
+    let options = MechanismOptions::default()
         .with_snooping(flags.snoop)
-        .with_loss(flags.loss);
-    if let Some(limit) = flags.max_iterations {
-        options.max_iterations = limit;
-    }
+        .with_loss(flags.loss)
+        .with_max_iterations(flags.max_iterations);
     Ok((data, options))
 }
 

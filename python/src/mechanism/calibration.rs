@@ -42,14 +42,14 @@ pub fn calibrate_mechanism(
     max_iterations: Option<usize>,
 ) -> PyResult<MechanismCalibration> {
     let loss: Loss = loss.parse().map_err(|e| to_py(format!("loss: {e}")))?;
-    let mut options = MechanismOptions::default()
+    let max_iterations = max_iterations
+        .map(|limit| MAX_ITERATIONS.check("max_iterations", limit))
+        .transpose()
+        .map_err(to_py)?;
+    let options = MechanismOptions::default()
         .with_snooping(snoop)
-        .with_loss(loss);
-    if let Some(limit) = max_iterations {
-        options.max_iterations = MAX_ITERATIONS
-            .check("max_iterations", limit)
-            .map_err(to_py)?;
-    }
+        .with_loss(loss)
+        .with_max_iterations(max_iterations);
     let dataset = dataset.get();
     let calibration = py
         .detach(|| calibrate(&dataset.data, &options))

@@ -58,6 +58,15 @@ impl MechanismOptions {
         self
     }
 
+    /// These options with the iteration limit `limit`, if one is given
+    /// (the default's otherwise).
+    pub fn with_max_iterations(mut self, limit: Option<usize>) -> Self {
+        if let Some(limit) = limit {
+            self.max_iterations = limit;
+        }
+        self
+    }
+
     /// These options with the level `alpha`.
     pub fn with_alpha(mut self, alpha: f64) -> Self {
         self.alpha = alpha;

@@ -195,7 +195,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 /// calibration ([`MechanismData::from_hexapod_touches`] under the options
 /// the flags give), what it does not model refused by name.
 fn calibrate_common(args: &Args) -> anyhow::Result<()> {
-    let request = args.common_request();
+    let request = args.mechanism_request();
     request.check_outputs()?;
     let without_true_contacts = ReadOptions {
         true_contacts: false,
@@ -266,11 +266,12 @@ impl Args {
                 self.dataset.display()
             );
         }
-        Ok(self.common_request())
+        Ok(self.mechanism_request())
     }
 
-    /// What the common calibration takes of the flags.
-    fn common_request(&self) -> super::mechanism::CalibrateRequest {
+    /// What a mechanism's calibration (and a hexapod's through the common
+    /// one) takes of the flags.
+    fn mechanism_request(&self) -> super::mechanism::CalibrateRequest {
         super::mechanism::CalibrateRequest {
             dataset: self.dataset.clone(),
             out: self.out_path(),

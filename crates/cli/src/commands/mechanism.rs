@@ -55,7 +55,11 @@ pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<(
     let dataset = MechanismDataset::read(path)?;
     let data = MechanismData::from_dataset(&dataset)
         .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
-    calibrate_data(mechanism, &data, Some(&dataset.probes), request)
+    let options = MechanismOptions::default()
+        .with_snooping(request.snoop)
+        .with_loss(request.loss)
+        .with_max_iterations(request.max_iterations);
+    calibrate_with(mechanism, &data, &options, Some(&dataset.probes), request)
 }
 
 impl CalibrateRequest {
@@ -73,25 +77,10 @@ impl CalibrateRequest {
     }
 }
 
-/// The common calibration of `data`, read from the dataset of `request`
-/// (its probe points, if any, drawn in the report): as [`calibrate`], once
-/// the outputs are checked ([`CalibrateRequest::check_outputs`]).
-pub fn calibrate_data(
-    mechanism: &str,
-    data: &MechanismData,
-    probes: Option<&[[f64; 3]]>,
-    request: CalibrateRequest,
-) -> anyhow::Result<()> {
-    let mut options = MechanismOptions::default()
-        .with_snooping(request.snoop)
-        .with_loss(request.loss);
-    if let Some(limit) = request.max_iterations {
-        options.max_iterations = limit;
-    }
-    calibrate_with(mechanism, data, &options, probes, request)
-}
-
-/// [`calibrate_data`] under `options`.
+/// The common calibration of `data` under `options`, read from the
+/// dataset of `request` (its probe points, if any, drawn in the report):
+/// as [`calibrate`], once the outputs are checked
+/// ([`CalibrateRequest::check_outputs`]).
 pub fn calibrate_with(
     mechanism: &str,
     data: &MechanismData,
