@@ -57,6 +57,38 @@ fn legs_read_with_known_scales_are_the_own_paths() {
 }
 
 #[test]
+fn unknown_scales_are_the_own_paths() {
+    // The legs read in another unit with the scales unknowns of 1 %
+    // sigma about the stated ones: six parameters s_1..s_6 after the 33 in
+    // both paths (the own layout's actuator scales), with no prior, the
+    // paper's and the propagated one.
+    let mut dataset = Dataset::read(&fixture()).unwrap();
+    let scale = [1.25, 0.8, 2.0, 0.5, 1.6, 0.625];
+    dataset.machine.actuator.scale = scale;
+    dataset.machine.actuator.scale_sigma = Some(scale.map(|s| 0.01 * s));
+    for q in &mut dataset.measurements.q {
+        for (q, s) in q.iter_mut().zip(scale) {
+            *q /= s;
+        }
+    }
+    for prior in [PriorMode::None, PriorMode::Paper, PriorMode::Propagated] {
+        println!("{prior:?} prior, unknown scales:");
+        let options = CalibrationOptions {
+            prior,
+            ..CalibrationOptions::simulation(Simulation::I)
+        };
+        compare_on(&dataset, &options);
+        let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
+        let scales = &data.priors[33..];
+        for (prior_of, (s, sigma)) in scales.iter().zip(scale.iter().zip(scale.map(|s| 0.01 * s))) {
+            assert_eq!(prior_of.mean, *s);
+            let expected = (prior != PriorMode::None).then_some(sigma);
+            assert_eq!(prior_of.sigma, expected);
+        }
+    }
+}
+
+#[test]
 fn the_priors_through_the_interface_are_the_own_paths() {
     // The paper's prior: each parameter about its design with its
     // group's tolerance, each ball's centre about its centre at the design
@@ -111,14 +143,17 @@ fn compare(options: &CalibrationOptions) {
 fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     let own = calibrate(dataset, options, &mut |_| {}).unwrap();
     assert!(own.converged());
-    let sigmas = own.sigmas().unwrap();
+    // The 33, then the actuators' scales when they are unknowns.
+    let sigmas = own.global_sigmas().unwrap();
     let data = MechanismData::from_hexapod_touches(dataset, options).unwrap();
     let common = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
-    assert_eq!(common.parameters.len(), 33);
+    assert_eq!(common.parameters.len(), own.global.len());
+    let names = own.names();
     let (mut worst_value, mut worst_sigma) = (0.0f64, 0.0f64);
     for (k, parameter) in common.parameters.iter().enumerate() {
+        assert_eq!(parameter.name, names[k]);
         let sigma = parameter.sigma.unwrap();
-        worst_value = worst_value.max(((parameter.value - own.params[k]) / sigmas[k]).abs());
+        worst_value = worst_value.max(((parameter.value - own.global[k]) / sigmas[k]).abs());
         worst_sigma = worst_sigma.max((sigma / sigmas[k] - 1.0).abs());
     }
     println!(
@@ -213,22 +248,15 @@ fn balls_located_in_the_canonical_frame_are_held_there_by_both_paths() {
 
 #[test]
 fn what_the_common_calibration_does_not_model_is_refused_by_name() {
-    // Motion-capture poses of a machine whose legs read motor
-    // revolutions: the scales first, then the instrument frames.
+    // Motion-capture poses: the instrument frames.
     let jugglebot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/jugglebot");
-    let mut dataset = Dataset::read(&jugglebot).unwrap();
+    let dataset = Dataset::read(&jugglebot).unwrap();
     let eq9 = CalibrationOptions::simulation(Simulation::I);
     let refusal = |dataset: &Dataset, options: &CalibrationOptions| {
         MechanismData::from_hexapod_touches(dataset, options)
             .unwrap_err()
             .to_string()
     };
-    let error = refusal(&dataset, &eq9);
-    assert!(
-        error.contains("the actuators' scales as unknowns"),
-        "{error}"
-    );
-    dataset.machine.actuator.scale_sigma = None;
     let error = refusal(&dataset, &eq9);
     assert!(error.contains("tracker poses and points"), "{error}");
     // The default options: the coordinate observation's contact angles.

@@ -55,6 +55,51 @@ fn a_hexapod_through_the_common_calibration_is_its_own() {
 }
 
 #[test]
+fn unknown_scales_through_the_common_calibration_are_its_own() {
+    // Touches read in motor revolutions, the scales unknowns with a 2 %
+    // prior: the record holds them after the 33 (their prior's
+    // correlation 39 x 39), within 2e-3 of their sigma of the own
+    // calibration's calibrated scales.
+    let temp = tempfile::tempdir().unwrap();
+    let data = temp.path().join("rev");
+    ok(&[
+        "simulate",
+        "--seed",
+        "3",
+        "--readings",
+        "rev",
+        "--out",
+        s(&data),
+    ]);
+    let (own, common) = (
+        temp.path().join("own.json"),
+        temp.path().join("common.json"),
+    );
+    let flags = ["--sim", "III", "--prior", "propagated"];
+    ok(&[&["calibrate", s(&data), "--out", s(&own)], &flags[..]].concat());
+    let common_args = [
+        &["calibrate", s(&data), "--common", "--out", s(&common)],
+        &flags[..],
+    ];
+    ok(&common_args.concat());
+    let (own, common) = (read(&own), read(&common));
+    let parameters = common["parameters"].as_array().unwrap();
+    assert_eq!(parameters.len(), 39);
+    assert_eq!(common["prior_correlation"].as_array().unwrap().len(), 39);
+    let scales = own["machine"]["actuator"]["scale"].as_array().unwrap();
+    for (i, (parameter, own_scale)) in parameters[33..].iter().zip(scales).enumerate() {
+        assert_eq!(parameter["name"], format!("s_{}", i + 1));
+        assert_eq!(parameter["unit"], "mm/rev");
+        let (a, b) = (
+            own_scale.as_f64().unwrap(),
+            parameter["value"].as_f64().unwrap(),
+        );
+        let sigma = parameter["sigma"].as_f64().unwrap();
+        assert!((a - b).abs() < 2e-3 * sigma, "s_{}: {a} against {b}", i + 1);
+    }
+}
+
+#[test]
 fn what_the_common_calibration_does_not_take_is_refused_by_name() {
     let temp = tempfile::tempdir().unwrap();
     let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);

@@ -288,7 +288,7 @@ impl CableRobot {
             for (axis, value) in ["x", "y", "z"].iter().zip(anchor) {
                 parameters.push(Parameter {
                     name: format!("anchor_{}_{axis}", cable_name(j)),
-                    unit: "mm",
+                    unit: "mm".into(),
                     group: "anchors",
                     design: *value,
                     prior_sigma: tolerances.anchor,
@@ -302,7 +302,7 @@ impl CableRobot {
                 .collect();
             parameters.push(Parameter {
                 name: format!("radius_{spools}"),
-                unit: "mm",
+                unit: "mm".into(),
                 group: "spool radii",
                 design: value,
                 prior_sigma: tolerances.spool_radius,
@@ -311,7 +311,7 @@ impl CableRobot {
         for (axis, value) in ["x", "y", "z"].iter().zip(design.encoder_zero) {
             parameters.push(Parameter {
                 name: format!("zero_{axis}"),
-                unit: "mm",
+                unit: "mm".into(),
                 group: "encoder zero",
                 design: value,
                 prior_sigma: tolerances.encoder_zero,

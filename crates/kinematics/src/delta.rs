@@ -294,13 +294,14 @@ impl LinearDelta {
     /// A delta of the given design, tolerances and limits.
     pub fn new(design: &DeltaParams, tolerances: &Tolerances, limits: Limits) -> Self {
         let values = design.to_vector();
-        let parameter = |k: usize, name: String, unit, group, prior_sigma| Parameter {
-            name,
-            unit,
-            group,
-            design: values[k],
-            prior_sigma,
-        };
+        let parameter =
+            |k: usize, name: String, unit: &'static str, group, prior_sigma| Parameter {
+                name,
+                unit: unit.into(),
+                group,
+                design: values[k],
+                prior_sigma,
+            };
         let mut parameters = Vec::with_capacity(N_PARAMS);
         for (i, tower) in TOWERS.iter().enumerate() {
             let name = format!("endstop_{tower}");

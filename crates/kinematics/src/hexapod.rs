@@ -7,7 +7,13 @@
 //! - Pose: `(t_x, t_y, t_z, r_x, r_y, r_z)`, the platform's translation
 //!   (mm) and rotation vector (rad, `R = exp([r]x)`); increments are
 //!   `(dt, w)` with `R <- rot(w) R` ([`crate::forward::step`]).
-//! - Readings: the actuator values `q_i = L_i - l_i` (mm).
+//! - Readings: the actuator values `q_i = L_i - l_i` (mm); or, with the
+//!   actuators' scales as unknowns ([`Hexapod::with_unknown_scales`]),
+//!   readings `q_i` in the actuators' own unit with leg `i` `l_i + s_i q_i`
+//!   long, the scales `s_i` (mm per unit) six parameters after the 33.
+//!   Then `g_i = (L_i - l_i) / s_i`, the rows below divided by `s_i`,
+//!   `dq_i/ds_i = -q_i / s_i`, and at readings `dT/ds_i = q_i dT/dl_i |_q`
+//!   (the leg's extension and its length enter the closure as their sum).
 //! - `dq/dx` are the closure rows `[n_i^T, (R E_i x n_i)^T]`
 //!   ([`crate::closure`]); `dq_i/dp` is `-n_i` at the base joint
 //!   `B_i`, `R^T n_i` at the platform joint `E_i`, `-1` at `l_i`.
@@ -17,6 +23,8 @@
 //! - At readings, the tool point's `dT/dp |_q` is the crate's `J_f`
 //!   ([`TipDerivatives::jacobians`]) from the LU the forward kinematics
 //!   ends with, where the generic path factors `G_x` again.
+
+use std::borrow::Cow;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 
@@ -67,6 +75,10 @@ const POSE: [PoseCoordinate; 6] = [
 pub struct Hexapod {
     parameters: Vec<Parameter>,
     actuators: Vec<Actuator>,
+    /// Whether the readings are in the actuators' own unit, their scales
+    /// the parameters after the 33 (module doc); else the legs' extensions
+    /// (mm).
+    scaled: bool,
     options: ForwardOptions,
 }
 
@@ -90,7 +102,7 @@ impl Hexapod {
                 };
                 Parameter {
                     name: (*name).to_string(),
-                    unit: "mm",
+                    unit: "mm".into(),
                     group,
                     design: values[k],
                     prior_sigma,
@@ -103,45 +115,100 @@ impl Hexapod {
         Ok(Self {
             parameters,
             actuators,
+            scaled: false,
             options: ForwardOptions::default(),
         })
+    }
+
+    /// This hexapod read in the actuators' own `unit`, each leg's scale
+    /// `s_i` (mm per `unit`) a parameter `s_1..s_6` after the 33, about
+    /// `design` with the prior `prior_sigma` (module doc).
+    pub fn with_unknown_scales(
+        mut self,
+        unit: &str,
+        design: [f64; 6],
+        prior_sigma: [f64; 6],
+    ) -> Self {
+        self.parameters.truncate(N_PARAMS);
+        let per_unit: Cow<'static, str> = format!("mm/{unit}").into();
+        self.parameters.extend((0..6).map(|i| Parameter {
+            name: format!("s_{}", i + 1),
+            unit: per_unit.clone(),
+            group: "actuator scales",
+            design: design[i],
+            prior_sigma: prior_sigma[i],
+        }));
+        for actuator in &mut self.actuators {
+            actuator.unit = unit.to_string().into();
+        }
+        self.scaled = true;
+        self
     }
 
     /// The canonical geometry of a parameter vector (checked).
     fn geometry(&self, params: &[f64]) -> Result<Geometry, MechanismError> {
         check_params(self, params)?;
-        Ok(from_params(&Params::from_column_slice(params)))
+        Ok(from_params(&Params::from_column_slice(&params[..N_PARAMS])))
     }
 
-    /// The actuator values of a reading vector (checked).
-    fn readings(&self, readings: &[f64]) -> Result<[f64; 6], MechanismError> {
+    /// Leg `i`'s scale `s_i` in `params` (checked ones), 1 for a hexapod
+    /// read in mm.
+    fn scale(&self, params: &[f64], i: usize) -> f64 {
+        if self.scaled {
+            params[N_PARAMS + i]
+        } else {
+            1.0
+        }
+    }
+
+    /// The legs' extensions `s_i q_i` (mm) of a reading vector at checked
+    /// parameters `params` (the readings checked).
+    fn extensions(&self, params: &[f64], readings: &[f64]) -> Result<[f64; 6], MechanismError> {
         check_vector(self, "readings", readings, 6)?;
-        Ok(std::array::from_fn(|i| readings[i]))
+        Ok(std::array::from_fn(|i| self.scale(params, i) * readings[i]))
+    }
+
+    /// `dT/dp |_q` (3 x parameters) of a contact at `readings` from the
+    /// crate's `J_f` over the 33, `J_f` a function writing the row `h^T
+    /// J_f` of a base-frame axis `h`: with scales, `dT/ds_i = q_i dT/dl_i`
+    /// after them (module doc).
+    fn reached_rows(
+        &self,
+        readings: &[f64],
+        params_row: impl Fn(&Vector3<f64>, &mut [f64]),
+    ) -> DMatrix<f64> {
+        let mut d_params = DMatrix::zeros(3, self.parameters.len());
+        let mut row = [0.0; N_PARAMS];
+        for axis in 0..3 {
+            params_row(&Vector3::ith(axis, 1.0), &mut row);
+            let mut d = d_params.row_mut(axis);
+            d.columns_mut(0, N_PARAMS).copy_from_slice(&row);
+            if self.scaled {
+                for i in 0..6 {
+                    d[N_PARAMS + i] = readings[i] * row[leg_index(i)];
+                }
+            }
+        }
+        d_params
+    }
+
+    /// Where a forward-kinematics `solution` at `readings` reached, its
+    /// rows from `J_f` in factored form
+    /// ([`FactoredTipJacobian::params_row`](crate::derivatives::FactoredTipJacobian::params_row)).
+    fn reached_at(&self, readings: &[f64], solution: &SolutionJacobian) -> Reached {
+        Reached {
+            pose: pose_vector(&solution.pose),
+            point: solution.tool_tip,
+            d_params: self.reached_rows(readings, |h, row| {
+                solution.jacobian.params_row(h, row);
+            }),
+        }
     }
 
     /// The pose of a pose vector (checked).
     fn pose(&self, pose: &[f64]) -> Result<Pose, MechanismError> {
         check_vector(self, "pose coordinates", pose, 6)?;
         Ok(pose_of(pose))
-    }
-}
-
-/// Where a forward-kinematics `solution` reached, `dT/dp |_q` a row per
-/// base-frame axis `h`, `h^T J_f`
-/// ([`FactoredTipJacobian::params_row`](crate::derivatives::FactoredTipJacobian::params_row)).
-fn reached_at(solution: &SolutionJacobian) -> Reached {
-    let mut d_params = DMatrix::zeros(3, N_PARAMS);
-    let mut row = [0.0; N_PARAMS];
-    for axis in 0..3 {
-        solution
-            .jacobian
-            .params_row(&Vector3::ith(axis, 1.0), &mut row);
-        d_params.row_mut(axis).copy_from_slice(&row);
-    }
-    Reached {
-        pose: pose_vector(&solution.pose),
-        point: solution.tool_tip,
-        d_params,
     }
 }
 
@@ -178,10 +245,10 @@ impl Mechanism for Hexapod {
 
     fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError> {
         let geometry = self.geometry(params)?;
-        Ok(DVector::from_column_slice(&actuators(
-            &geometry,
-            &self.pose(pose)?,
-        )))
+        let extensions = actuators(&geometry, &self.pose(pose)?);
+        Ok(DVector::from_fn(6, |i, _| {
+            extensions[i] / self.scale(params, i)
+        }))
     }
 
     fn forward(
@@ -191,7 +258,7 @@ impl Mechanism for Hexapod {
         start: &[f64],
     ) -> Result<DVector<f64>, MechanismError> {
         let geometry = self.geometry(params)?;
-        let q = self.readings(readings)?;
+        let q = self.extensions(params, readings)?;
         let solution = crate::forward(&geometry, &q, &self.pose(start)?, &self.options)?;
         Ok(pose_vector(&solution.pose))
     }
@@ -202,10 +269,11 @@ impl Mechanism for Hexapod {
         pose: &[f64],
     ) -> Result<ReadingJacobians, MechanismError> {
         let geometry = self.geometry(params)?;
-        let legs = Legs::at(&geometry, &self.pose(pose)?);
+        let pose = self.pose(pose)?;
+        let legs = Legs::at(&geometry, &pose);
         let rows = legs.closure_rows();
-        let d_pose = DMatrix::from_fn(6, 6, |i, c| rows[i][c]);
-        let mut d_params = DMatrix::zeros(6, N_PARAMS);
+        let mut d_pose = DMatrix::from_fn(6, 6, |i, c| rows[i][c]);
+        let mut d_params = DMatrix::zeros(6, self.parameters.len());
         for i in 0..6 {
             let n = legs.direction[i];
             let n_platform = legs.rotation.tr_mul(&n);
@@ -218,6 +286,15 @@ impl Mechanism for Hexapod {
                 }
             }
             d_params[(i, leg_index(i))] = -1.0;
+        }
+        if self.scaled {
+            let extensions = actuators(&geometry, &pose);
+            for i in 0..6 {
+                let s = params[N_PARAMS + i];
+                d_params.row_mut(i).scale_mut(1.0 / s);
+                d_pose.row_mut(i).scale_mut(1.0 / s);
+                d_params[(i, N_PARAMS + i)] = -extensions[i] / (s * s);
+            }
         }
         Ok(ReadingJacobians { d_params, d_pose })
     }
@@ -232,7 +309,7 @@ impl Mechanism for Hexapod {
         d_pose
             .fixed_view_mut::<3, 3>(0, 3)
             .copy_from(&(-arm.cross_matrix()));
-        let mut d_params = DMatrix::zeros(3, N_PARAMS);
+        let mut d_params = DMatrix::zeros(3, self.parameters.len());
         d_params
             .fixed_view_mut::<3, 3>(0, TOOL_OFFSET)
             .copy_from(rotation.matrix());
@@ -254,15 +331,14 @@ impl Mechanism for Hexapod {
         start: &[f64],
     ) -> Result<Reached, MechanismError> {
         let geometry = self.geometry(params)?;
-        let q = self.readings(readings)?;
+        let q = self.extensions(params, readings)?;
         let mut derivatives = TipDerivatives::default();
         derivatives.forward(&geometry, &q, &self.pose(start)?, &self.options)?;
         let pose = derivatives.solution().pose;
-        let d_params = derivatives.jacobians().d_params;
         Ok(Reached {
             pose: pose_vector(&pose),
             point: geometry.tool_tip(&pose),
-            d_params: DMatrix::from_column_slice(3, N_PARAMS, d_params.as_slice()),
+            d_params: self.reached_rows(readings, |h, row| derivatives.params_row(h, row)),
         })
     }
 
@@ -294,7 +370,7 @@ impl Mechanism for Hexapod {
         for (readings, starts) in readings.chunks(LANES).zip(starts.chunks(LANES)) {
             let n = readings.len();
             let checked = (0..n).try_for_each(|l| {
-                q[l] = self.readings(readings[l])?;
+                q[l] = self.extensions(params, readings[l])?;
                 poses[l] = self.pose(starts[l])?;
                 Ok::<_, MechanismError>(())
             });
@@ -314,7 +390,12 @@ impl Mechanism for Hexapod {
                 |s| s,
             );
             match solved {
-                Ok(()) => reached.extend(solutions.iter().map(|s| Ok(reached_at(s)))),
+                Ok(()) => reached.extend(
+                    readings
+                        .iter()
+                        .zip(solutions.iter())
+                        .map(|(q, s)| Ok(self.reached_at(q, s))),
+                ),
                 Err(_) => reached.extend(one_by_one(readings, starts)),
             }
         }
@@ -323,7 +404,9 @@ impl Mechanism for Hexapod {
 
     fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
         let geometry = self.geometry(params)?;
-        Ok(pose_vector(&geometry.home_pose(&self.readings(readings)?)))
+        Ok(pose_vector(
+            &geometry.home_pose(&self.extensions(params, readings)?),
+        ))
     }
 
     fn retract(&self, pose: &[f64], increment: &[f64]) -> DVector<f64> {
@@ -355,6 +438,11 @@ mod tests {
         Hexapod::new(&paper::design(), &prior).unwrap()
     }
 
+    /// The same hexapod read in revolutions of scales 0.5 to 4 mm/rev.
+    fn scaled() -> Hexapod {
+        hexapod().with_unknown_scales("rev", [0.5, 0.8, 1.0, 1.25, 2.0, 4.0], [0.01; 6])
+    }
+
     fn sample_pose() -> Pose {
         Pose::from_parts(
             Translation3::new(-30.0, 20.0, 240.0),
@@ -384,24 +472,74 @@ mod tests {
 
     #[test]
     fn reading_derivatives_match_central_differences() {
-        let hexapod = hexapod();
-        let p = design(&hexapod);
-        let x = pose_vector(&sample_pose());
-        let analytic = hexapod
-            .reading_jacobians(p.as_slice(), x.as_slice())
+        for hexapod in [hexapod(), scaled()] {
+            let p = design(&hexapod);
+            let x = pose_vector(&sample_pose());
+            let steps: Vec<f64> = (0..p.len())
+                .map(|k| if k < N_PARAMS { 1e-4 } else { 1e-6 })
+                .collect();
+            let analytic = hexapod
+                .reading_jacobians(p.as_slice(), x.as_slice())
+                .unwrap();
+            let numeric = reading_jacobians_by_differences(
+                &hexapod,
+                p.as_slice(),
+                x.as_slice(),
+                &steps,
+                1e-5,
+            )
             .unwrap();
-        let numeric = reading_jacobians_by_differences(
-            &hexapod,
-            p.as_slice(),
-            x.as_slice(),
-            &[1e-4; N_PARAMS],
-            1e-5,
-        )
-        .unwrap();
-        // Central differences of O(1) derivatives with steps 1e-4 / 1e-5:
-        // truncation ~h^2 |q'''| ~1e-9, rounding ~1e-16 * 250 / 1e-5.
-        assert!((&analytic.d_params - &numeric.d_params).amax() < 1e-7);
-        assert!((&analytic.d_pose - &numeric.d_pose).amax() < 1e-6);
+            // Central differences with steps h = 1e-4 (joints, legs, tool),
+            // 1e-6 (scales) and 1e-5 (pose): truncation h^2 |q'''| / 6, at
+            // most 1e-8 for the geometry and 6e-10 for a scale (q =
+            // e / s, |q'''| = 6 e / s^4 < 3000 with e < 45 mm, s >=
+            // 0.5); rounding ~1e-16 |q| / h < 1e-8.
+            assert!((&analytic.d_params - &numeric.d_params).amax() < 1e-7);
+            assert!((&analytic.d_pose - &numeric.d_pose).amax() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn scaled_readings_are_the_extensions_over_the_scales() {
+        // The same pose read in mm and in revolutions; forward kinematics
+        // from the revolutions; dT/dp |_q, the scales' columns included,
+        // against central differences of the tool point reached at fixed
+        // readings, and against the generic implicit differentiation.
+        let (mm, rev) = (hexapod(), scaled());
+        let p = design(&rev);
+        let p = p.as_slice();
+        let x = pose_vector(&sample_pose());
+        let extensions = mm.inverse(&p[..N_PARAMS], x.as_slice()).unwrap();
+        let q = rev.inverse(p, x.as_slice()).unwrap();
+        for i in 0..6 {
+            assert_eq!(q[i], extensions[i] / p[N_PARAMS + i]);
+        }
+        let start = rev.start_pose(p, q.as_slice()).unwrap();
+        let back = rev.forward(p, q.as_slice(), start.as_slice()).unwrap();
+        assert!((&back - &x).amax() < 1e-10, "forward kinematics");
+        let own = rev
+            .tool_point_at_readings(p, q.as_slice(), start.as_slice())
+            .unwrap();
+        let implicit = implicit_tool_point_at_readings(&rev, p, q.as_slice(), start.as_slice());
+        // Two differentiations of one closure: rounding.
+        assert!((&own.d_params - implicit.unwrap().d_params).amax() < 1e-9);
+        let at = |p: &[f64]| {
+            rev.tool_point_at_readings(p, q.as_slice(), start.as_slice())
+                .unwrap()
+                .point
+        };
+        let h = 1e-4;
+        for k in N_PARAMS - 9..p.len() {
+            let (mut plus, mut minus) = (p.to_vec(), p.to_vec());
+            plus[k] += h;
+            minus[k] -= h;
+            let column = (at(&plus) - at(&minus)) / (2.0 * h);
+            // The forward kinematics' closure tolerance, 1e-10 mm, over
+            // 2h: 5e-7; truncation h^2 q^3 |T'''| / 6 with q below 100
+            // rev: as small.
+            let difference = (column - own.d_params.column(k)).amax();
+            assert!(difference < 1e-6, "parameter {k}: {difference:e}");
+        }
     }
 
     #[test]
@@ -475,8 +613,13 @@ mod tests {
         // Seven contacts (a batch of four lanes and one of three), each
         // from its home pose; then the same with a short reading vector
         // among them, which is refused alone.
-        let hexapod = hexapod();
-        let p = design(&hexapod);
+        for hexapod in [hexapod(), scaled()] {
+            lanes_reach_one_by_one(&hexapod);
+        }
+    }
+
+    fn lanes_reach_one_by_one(hexapod: &Hexapod) {
+        let p = design(hexapod);
         let p = p.as_slice();
         let readings: Vec<DVector<f64>> = (0..7)
             .map(|k| {

@@ -61,6 +61,8 @@
 //! mechanism's canonical frame. A parametrisation that is canonical by
 //! construction (the hexapod's 33) has none left.
 
+use std::borrow::Cow;
+
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::KinematicsError;
@@ -71,8 +73,8 @@ pub struct Parameter {
     /// Short name, unique within the mechanism (`diagonal_a`, `y_b2`).
     pub name: String,
     /// Unit of the value, its prior and its derivatives' denominator
-    /// (`mm`, `deg`, `%`).
-    pub unit: &'static str,
+    /// (`mm`, `deg`, `%`, `mm/rev`).
+    pub unit: Cow<'static, str>,
     /// The group it belongs to (`endstops`, `leg lengths`): one tolerance
     /// per group in a design's file, one block per group in a report.
     pub group: &'static str,
@@ -99,8 +101,8 @@ pub struct PoseCoordinate {
 pub struct Actuator {
     /// Name (`carriage A`, `leg 3`).
     pub name: String,
-    /// Unit of `q` (`mm`).
-    pub unit: &'static str,
+    /// Unit of `q` (`mm`, `rev`).
+    pub unit: Cow<'static, str>,
     /// `q` per unit of `raw`.
     pub scale: f64,
     /// `q` at `raw = 0`.
@@ -109,10 +111,10 @@ pub struct Actuator {
 
 impl Actuator {
     /// An actuator that reports `q` directly (scale 1, offset 0).
-    pub fn direct(name: String, unit: &'static str) -> Self {
+    pub fn direct(name: String, unit: impl Into<Cow<'static, str>>) -> Self {
         Self {
             name,
-            unit,
+            unit: unit.into(),
             scale: 1.0,
             offset: 0.0,
         }

@@ -161,8 +161,12 @@ impl MechanismDataset {
 
     /// Their units (`mm`, `rad`...).
     #[getter]
-    fn units(&self) -> Vec<&'static str> {
-        self.model().parameters().iter().map(|p| p.unit).collect()
+    fn units(&self) -> Vec<String> {
+        self.model()
+            .parameters()
+            .iter()
+            .map(|p| p.unit.to_string())
+            .collect()
     }
 
     /// Their groups (`anchors`, `diagonal rods`...), which machine.json's

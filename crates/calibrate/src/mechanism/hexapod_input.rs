@@ -17,8 +17,12 @@
 //!   at the design under the paper's prior, about its stated location
 //!   under the propagated prior when the balls are located in the
 //!   canonical frame ([`CentrePrior`]).
-//! - Each contact: a [`BallTouch`] at the legs' extensions (the readings
-//!   times the machine's known scales), the radius
+//! - The actuators' scales: known, each contact's readings times them are
+//!   the legs' extensions the mechanism reads; or, when machine.json gives
+//!   their sigmas, unknowns `s_1..s_6` of the mechanism about their design
+//!   values ([`Hexapod::with_unknown_scales`]), the hexapod then reading
+//!   the readings themselves.
+//! - Each contact: a [`BallTouch`] at its readings (as above), the radius
 //!   observation (eq. 9), weighted as the hexapod calibration weighs it at
 //!   the design, and held fixed ([`radius_variance`]): the tool tip `T` and
 //!   `dT/dq` (per unit of the readings, whose repeatability is in it) by
@@ -29,8 +33,8 @@
 //! Both calibrations then minimise the same cost from the same start: the
 //! common door's estimate is the dedicated path's. What only the hexapod's
 //! own calibration models is refused by name: the coordinate observation
-//! (eq. 10) and its contact angles, the actuators' scales as unknowns,
-//! tracker poses and points, calibrated distances between balls.
+//! (eq. 10) and its contact angles, tracker poses and points, calibrated
+//! distances between balls.
 
 use std::sync::Arc;
 
@@ -69,8 +73,15 @@ impl MechanismData {
             |what: String, reason: String| MechanismCalibrationError::InvalidData { what, reason };
         let hexapod = Hexapod::new(&input, &machine.prior_sigma)
             .map_err(|e| invalid("the design geometry".to_string(), e.to_string()))?;
+        let legs = LegReadings::of(dataset);
+        let hexapod = match machine.actuator.scale_sigma {
+            Some(sigma) => {
+                hexapod.with_unknown_scales(&machine.actuator.unit, machine.actuator.scale, sigma)
+            }
+            None => hexapod,
+        };
         let configured: Vec<f64> = design(&hexapod).iter().copied().collect();
-        let start = design_start(&hexapod, &configured, &input, dataset, options)?;
+        let start = design_start(&hexapod, &configured, &legs, &input, dataset, options)?;
         let per_ball = options.radius == RadiusModel::PerBall;
         let balls = dataset
             .artefacts
@@ -91,7 +102,7 @@ impl MechanismData {
             .zip(start.weights)
             .map(|((&ball, q), sigma)| BallTouch {
                 ball: ball as usize,
-                at: Actuation::Readings(extensions(dataset, q).to_vec()),
+                at: Actuation::Readings(legs.actuation(q)),
                 sigma,
             })
             .collect();
@@ -113,31 +124,59 @@ impl MechanismData {
     }
 }
 
-/// `data` with `prior`'s means, marginal sigmas and correlation (the
-/// propagated prior, paper eq. 7 with the input coordinates' tolerances).
+/// `data` with `prior`'s means, marginal sigmas and correlation over the
+/// 33 (the propagated prior, paper eq. 7 with the input coordinates'
+/// tolerances); the scales' priors, when they are unknowns, independent.
 fn with_prior(mut data: MechanismData, prior: &KinematicPrior) -> MechanismData {
     let sigma = prior.sigma();
-    for (k, parameter) in data.priors.iter_mut().enumerate() {
+    for (k, parameter) in data.priors.iter_mut().take(N_PARAMS).enumerate() {
         parameter.mean = prior.mean()[k];
         parameter.sigma = Some(sigma[k]);
     }
     let covariance = prior.covariance();
-    let correlation = DMatrix::from_fn(N_PARAMS, N_PARAMS, |j, k| {
-        if j == k {
-            1.0
-        } else {
-            covariance[(j, k)] / (sigma[j] * sigma[k])
-        }
+    let n = data.priors.len();
+    let correlation = DMatrix::from_fn(n, n, |j, k| match (j, k) {
+        _ if j == k => 1.0,
+        _ if j < N_PARAMS && k < N_PARAMS => covariance[(j, k)] / (sigma[j] * sigma[k]),
+        _ => 0.0,
     });
     data.with_prior_correlation(correlation)
 }
 
-/// The legs' extensions `s_i q_i` (mm) of a contact's readings `q`, the
-/// machine's known scales `s_i` applied as the hexapod calibration applies
-/// them: what its forward kinematics takes.
-fn extensions(dataset: &Dataset, q: &[f64; 6]) -> [f64; 6] {
-    let scale = &dataset.machine.actuator.scale;
-    std::array::from_fn(|i| scale[i] * q[i])
+/// What the common calibration's hexapod reads of a contact's readings
+/// `q` (module doc).
+enum LegReadings {
+    /// The legs' extensions `s_i q_i` (mm) at the machine's known scales
+    /// `s_i`, as the hexapod calibration applies them.
+    KnownScales([f64; 6]),
+    /// The readings themselves: the scales are the mechanism's unknowns.
+    UnknownScales,
+}
+
+impl LegReadings {
+    fn of(dataset: &Dataset) -> Self {
+        let actuator = &dataset.machine.actuator;
+        match actuator.scale_sigma {
+            Some(_) => Self::UnknownScales,
+            None => Self::KnownScales(actuator.scale),
+        }
+    }
+
+    /// The mechanism's readings of a contact's readings `q`.
+    fn actuation(&self, q: &[f64; 6]) -> Vec<f64> {
+        match self {
+            Self::KnownScales(scale) => (0..6).map(|i| scale[i] * q[i]).collect(),
+            Self::UnknownScales => q.to_vec(),
+        }
+    }
+
+    /// `d(mechanism's reading)/dq`: the scales, or the identity.
+    fn per_reading(&self) -> Matrix6<f64> {
+        match self {
+            Self::KnownScales(scale) => Matrix6::from_diagonal(&(*scale).into()),
+            Self::UnknownScales => Matrix6::identity(),
+        }
+    }
 }
 
 /// Refuses what only the hexapod's own calibration models (module doc).
@@ -145,17 +184,11 @@ fn check_representable(
     dataset: &Dataset,
     options: &CalibrationOptions,
 ) -> Result<(), MechanismCalibrationError> {
-    let machine = &dataset.machine;
     let refusals = [
         (
             options.observation != Observation::Radius,
             "the coordinate observation (eq. 10)",
             "its contact angles are not unknowns of the common calibration, whose touch is the radius observation (eq. 9)",
-        ),
-        (
-            machine.actuator.scale_sigma.is_some(),
-            "the actuators' scales as unknowns",
-            "the hexapod through the common interface reads its legs with the machine's scales, known",
         ),
         (
             !dataset.tracker.is_empty(),
@@ -213,6 +246,7 @@ struct DesignStart {
 fn design_start(
     hexapod: &Hexapod,
     configured: &[f64],
+    legs: &LegReadings,
     input: &Geometry,
     dataset: &Dataset,
     options: &CalibrationOptions,
@@ -223,11 +257,11 @@ fn design_start(
         reason,
     };
     // The design's tool tips and dT/dq.
-    let per_reading = Matrix6::from_diagonal(&dataset.machine.actuator.scale.into());
+    let per_reading = legs.per_reading();
     let mut tips = Vec::with_capacity(m.len());
     let mut d_q = Vec::with_capacity(m.len());
     for (row, q) in m.q.iter().enumerate() {
-        let pose = Actuation::Readings(extensions(dataset, q).to_vec())
+        let pose = Actuation::Readings(legs.actuation(q))
             .pose(hexapod, configured, configured)
             .map_err(|e| contact_error(row, format!("the design's forward kinematics: {e}")))?;
         let tip = hexapod

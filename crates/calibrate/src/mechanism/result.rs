@@ -21,8 +21,7 @@ use super::observation::ObservationRef;
 use super::options::MechanismOptions;
 use super::prior::prior_covariance;
 
-/// The name of the trigger height among the estimated unknowns.
-pub const TRIGGER_HEIGHT: &str = "trigger_height";
+pub use parcal_dataset::mechanism::TRIGGER_HEIGHT;
 
 /// One estimated unknown: a parameter of the mechanism, or the trigger
 /// height.
@@ -151,7 +150,7 @@ pub(crate) fn assemble(
         .parameters()
         .iter()
         .zip(&data.priors)
-        .map(|(p, prior)| (p.name.clone(), p.unit, p.group, *prior))
+        .map(|(p, prior)| (p.name.clone(), &*p.unit, p.group, *prior))
         .collect();
     if data.has_trigger_height() {
         described.push((

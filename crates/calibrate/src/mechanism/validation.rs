@@ -168,7 +168,7 @@ pub fn validate_mechanism(
     let statistic = metric.inner(&whitened.z, &whitened.z);
     let n = whitened.z.len();
     let test = PredictionTest::new(statistic, n, calibrated.global_test);
-    let reading_unit = mechanism.actuators()[0].unit;
+    let reading_unit = &*mechanism.actuators()[0].unit;
     let mut rows = Vec::with_capacity(n);
     for (rows_of, first) in predicted.iter().zip(&whitened.first_rows) {
         for j in 0..rows_of.residuals.len() {
@@ -192,7 +192,7 @@ pub fn validate_mechanism(
     let units: Vec<&str> = mechanism
         .parameters()
         .iter()
-        .map(|p| p.unit)
+        .map(|p| &*p.unit)
         .chain(std::iter::once("mm"))
         .collect();
     let shifts = shifts(&whitened, &metric, statistic, calibrated, &names, &units);

@@ -80,7 +80,7 @@ pub struct Args {
     report: bool,
     /// Calibrate a hexapod's ball touches by the common calibration of
     /// every mechanism, through its interface (docs/mechanisms.md), rather
-    /// than by its own: the radius observation (--sim I or II, or
+    /// than by its own: the radius observation (--sim I or III, or
     /// --observation radius), written as a mechanism's calibration.json.
     #[arg(long)]
     common: bool,

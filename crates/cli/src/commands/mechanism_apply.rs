@@ -133,7 +133,7 @@ pub fn compensate(
         .iter()
         .map(|c| (&c.readings - &c.nominal).amax())
         .fold(0.0, f64::max);
-    let unit = calibrated.mechanism.actuators()[0].unit;
+    let unit = &calibrated.mechanism.actuators()[0].unit;
     println!(
         "{} targets -> {} (readings q1..q{n} in {unit}, the nominal machine's beside them); largest correction {correction:.4} {unit}",
         compensations.len(),

@@ -17,11 +17,15 @@ use crate::json;
 
 use super::machine::mechanism_named;
 
+/// The name of the probe's trigger height among the estimated unknowns,
+/// after the mechanism's parameters.
+pub const TRIGGER_HEIGHT: &str = "trigger_height";
+
 /// One estimated unknown.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ParameterRecord {
-    /// Its name (the mechanism's, or `trigger_height`).
+    /// Its name (the mechanism's, or [`TRIGGER_HEIGHT`]).
     pub name: String,
     /// Its unit.
     pub unit: String,
@@ -184,10 +188,10 @@ impl MechanismCalibrationRecord {
 
     /// A known mechanism; unique parameter names; finite values, sigmas
     /// and covariance of the parameters' size; a prior correlation of the
-    /// mechanism's parameters' size, unit diagonal, entries within ±1;
+    /// size of the parameters but the trigger height, unit diagonal, entries within ±1;
     /// finite ball centres and radii.
     fn validate(&self, check: Check) -> Result<()> {
-        let mechanism = mechanism_named(check.path(), "mechanism", &self.mechanism)?;
+        mechanism_named(check.path(), "mechanism", &self.mechanism)?;
         let mut names = BTreeSet::new();
         for (k, p) in self.parameters.iter().enumerate() {
             let field = |name: &str| format!("parameters[{k}].{name}");
@@ -219,7 +223,11 @@ impl MechanismCalibrationRecord {
             }
         }
         if let Some(correlation) = &self.prior_correlation {
-            let n = mechanism.parameters().len();
+            let n = self
+                .parameters
+                .iter()
+                .filter(|p| p.name != TRIGGER_HEIGHT)
+                .count();
             if correlation.len() != n || correlation.iter().any(|row| row.len() != n) {
                 return Err(check.error(
                     "prior_correlation",

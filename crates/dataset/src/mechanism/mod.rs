@@ -61,7 +61,7 @@ pub use balls::{
 };
 pub use calibration::{
     BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
-    ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
+    ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, UndeterminedRecord,
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
 pub use observations::{

@@ -90,7 +90,7 @@ impl Elasticity {
                     .collect();
                 Parameter {
                     name: format!("compliance_{lines}"),
-                    unit: COMPLIANCE_UNIT,
+                    unit: COMPLIANCE_UNIT.into(),
                     group: "line compliance",
                     design: self.compliance,
                     prior_sigma: self.compliance_sigma,

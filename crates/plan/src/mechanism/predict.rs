@@ -392,7 +392,7 @@ pub fn plan_mechanism(request: &PlanRequest) -> Result<MechanismPlan, DesignErro
     let planned: Vec<PlannedParameter> = (0..g)
         .map(|k| {
             let (name, unit, group, prior_sigma) = match parameters.get(k) {
-                Some(p) => (p.name.clone(), p.unit, p.group, data.priors[k].sigma),
+                Some(p) => (p.name.clone(), &*p.unit, p.group, data.priors[k].sigma),
                 None => (
                     TRIGGER_HEIGHT.to_string(),
                     "mm",
