@@ -290,8 +290,11 @@ fn design_start(
     let r = &dataset.machine.repeatability;
     let mut weights = vec![0.0; m.len()];
     let mut centres = Vec::with_capacity(dataset.artefacts.balls.len());
-    for (b, ball) in dataset.artefacts.balls.iter().enumerate() {
-        let rows: Vec<usize> = (0..m.len()).filter(|&k| m.ball[k] as usize == b).collect();
+    let mut rows_of = vec![Vec::new(); dataset.artefacts.balls.len()];
+    for (k, &b) in m.ball.iter().enumerate() {
+        rows_of[b as usize].push(k);
+    }
+    for (ball, rows) in dataset.artefacts.balls.iter().zip(rows_of) {
         let points: Vec<Vec3> = rows.iter().map(|&k| tips[k]).collect();
         let centre = match best_fit(&points, ball.radius) {
             Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => fit.centre,

@@ -85,10 +85,13 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let o = &data.observations;
         let mut touch_order: Vec<usize> = (0..o.touches.len()).collect();
         touch_order.sort_by_key(|&t| o.touches[t].ball);
+        let mut counts = vec![0; o.balls.len()];
+        for touch in &o.touches {
+            counts[touch.ball] += 1;
+        }
         let mut ball_points = Vec::with_capacity(o.balls.len());
         let mut first = o.samples.len() * data.mechanism.actuators().len();
-        for b in 0..o.balls.len() {
-            let count = o.touches.iter().filter(|t| t.ball == b).count();
+        for count in counts {
             ball_points.push(first..first + count);
             first += count;
         }
