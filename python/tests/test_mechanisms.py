@@ -362,3 +362,19 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
         parcal.calibrate(parcal.read_dataset(paper), common=True, sim="I", lm=True)
     with pytest.raises(parcal.Error, match=r"the coordinate observation \(eq. 10\)"):
         parcal.calibrate(parcal.read_dataset(paper), common=True)
+
+
+def test_unknown_scales_through_the_common_calibration(cli, tmp_path):
+    # Touches read in motor revolutions with the scales unknowns (2 % prior):
+    # the common calibration estimates them after the 33, in mm/rev, where the
+    # own calibration does, within 2e-3 of their sigma.
+    data = tmp_path / "rev"
+    cli("simulate", "--seed", 3, "--readings", "rev", "--out", data)
+    ds = parcal.read_dataset(data)
+    run = parcal.calibrate(ds, common=True, sim="III", prior="propagated")
+    assert run.names[33:] == [f"s_{i}" for i in range(1, 7)]
+    assert run.units[33:] == ["mm/rev"] * 6
+    own = parcal.calibrate(ds, sim="III", prior="propagated").to_dict()
+    scales = np.array(own["machine"]["actuator"]["scale"])
+    assert np.all(np.abs(run.values[33:] - scales) < 2e-3 * run.sigmas[33:])
+
