@@ -145,9 +145,21 @@ impl Hexapod {
         self
     }
 
-    /// The canonical geometry of a parameter vector (checked).
+    /// The canonical geometry of a parameter vector (checked: with scales,
+    /// each positive).
     fn geometry(&self, params: &[f64]) -> Result<Geometry, MechanismError> {
         check_params(self, params)?;
+        if let Some(i) = (0..6).find(|&i| self.scale(params, i) <= 0.0) {
+            let scale = &self.parameters[N_PARAMS + i];
+            return Err(MechanismError::Unreachable {
+                reason: format!(
+                    "scale {} is {} {}, not positive",
+                    scale.name,
+                    params[N_PARAMS + i],
+                    scale.unit
+                ),
+            });
+        }
         Ok(from_params(&Params::from_column_slice(&params[..N_PARAMS])))
     }
 
@@ -691,5 +703,15 @@ mod tests {
         assert_eq!(err.to_string(), "parameter l_2 is not a finite number");
         let err = hexapod.inverse(p.as_slice(), &[0.0; 5]).unwrap_err();
         assert_eq!(err.to_string(), "hexapod needs 6 pose coordinates, got 5");
+        let scaled = scaled();
+        let mut p = design(&scaled);
+        p[N_PARAMS + 2] = 0.0;
+        let err = scaled
+            .forward(p.as_slice(), &[1.0; 6], &[0.0; 6])
+            .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "unreachable: scale s_3 is 0 mm/rev, not positive"
+        );
     }
 }
