@@ -88,9 +88,11 @@ def validate(dataset: Union[Dataset, MechanismDataset], **options: Any) -> "dict
 
 def compensate(calibration: Any, targets: Any, **options: Any) -> "dict[str, Any]":
     """The actuator commands that reach `targets` with `calibration`, as
-    ``parcal compensate`` computes them: a mechanism's (targets n x 3;
-    returns ``target``, ``q``, ``nominal``, ``sigma``) or a hexapod's
-    (targets n x 6; returns ``q``, ``conditioning``, ``corrected_poses``)."""
+    ``parcal compensate`` computes them: a mechanism's (targets n x P, its
+    pose coordinates: 3 for a delta or a cable robot, 6 for a hexapod
+    calibrated with ``common=True``; returns ``target``, ``q``,
+    ``nominal``, ``sigma``) or a hexapod's own (targets n x 6; returns
+    ``q``, ``conditioning``, ``corrected_poses``)."""
     if _mechanism_calibration(calibration):
         return _parcal.compensate_mechanism(calibration, targets, **options)
     return _parcal.compensate(calibration, targets, **options)

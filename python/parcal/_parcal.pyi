@@ -507,8 +507,9 @@ def compensate_mechanism(
     *,
     accept_rejected: bool = False,
 ) -> dict[str, FloatArray]:
-    """``parcal.compensate`` with a mechanism's calibration (targets n x 3):
-    ``target`` (n x 3), ``q`` and ``nominal`` (n x A), ``sigma`` (n x 3)."""
+    """``parcal.compensate`` with a mechanism's calibration (targets n x P,
+    its pose coordinates): ``target`` (n x P), ``q`` and ``nominal`` (n x
+    A), ``sigma`` (n x P, of the pose increment reached)."""
 
 def plan_mechanism(
     dataset: MechanismDataset,

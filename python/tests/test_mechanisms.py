@@ -358,6 +358,12 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
     own = parcal.calibrate(parcal.read_dataset(paper), sim="III")
     # Each run stops within 1e-3 of its sigmas from the same minimum.
     assert np.all(np.abs(run.values - own.values) < 2e-3 * run.sigmas)
+    # Applied as any mechanism's: targets in its six pose coordinates.
+    out = parcal.compensate(run, [[-80.0, -30.0, 330.0, 0.05, 0.0, 0.0]])
+    assert out["target"].shape == (1, 6) and out["sigma"].shape == (1, 6)
+    assert out["q"].shape == (1, 6) and np.all(out["q"] != out["nominal"])
+    with pytest.raises(parcal.Error, match="targets: expected 6 columns"):
+        parcal.compensate(run, [[0.0, 0.0, 400.0]])
     with pytest.raises(parcal.Error, match="lm: applies to the hexapod's own"):
         parcal.calibrate(parcal.read_dataset(paper), common=True, sim="I", lm=True)
     with pytest.raises(parcal.Error, match=r"the coordinate observation \(eq. 10\)"):

@@ -55,6 +55,47 @@ fn a_hexapod_through_the_common_calibration_is_its_own() {
 }
 
 #[test]
+fn a_hexapod_record_is_compensated_on_target_poses() {
+    // Targets in the hexapod's pose coordinates; commands for six legs with
+    // the nominal ones beside them.
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let calibration = temp.path().join("calibration.json");
+    let args = ["calibrate", s(&data), "--common", "--sim", "III"];
+    ok(&[
+        &args[..],
+        &["--prior", "propagated", "--out", s(&calibration)],
+    ]
+    .concat());
+    let targets = temp.path().join("targets.csv");
+    let out = temp.path().join("commands.csv");
+    std::fs::write(&targets, "t_x,t_y,t_z,r_x,r_y,r_z\n-80,-30,330,0.05,0,0\n").unwrap();
+    let compensate = ["compensate", "--calibration", s(&calibration)];
+    let printed = ok(&[
+        &compensate[..],
+        &["--targets", s(&targets), "--out", s(&out)],
+    ]
+    .concat());
+    assert!(printed.contains("1 targets"), "{printed}");
+    let written = std::fs::read_to_string(&out).unwrap();
+    let header = written.lines().next().unwrap();
+    assert!(
+        header.starts_with("t_x,t_y,t_z,r_x,r_y,r_z,q1,q2,q3,q4,q5,q6,nominal_q1"),
+        "{header}"
+    );
+    // Positions alone are refused, naming the hexapod's columns.
+    std::fs::write(&targets, "x,y,z\n0,0,400\n").unwrap();
+    let error = fails(
+        &[
+            &compensate[..],
+            &["--targets", s(&targets), "--out", s(&out)],
+        ]
+        .concat(),
+    );
+    assert!(error.contains("t_x,t_y,t_z,r_x,r_y,r_z"), "{error}");
+}
+
+#[test]
 fn unknown_scales_through_the_common_calibration_are_its_own() {
     // Touches read in motor revolutions, the scales unknowns with a 2 %
     // prior: the record holds them after the 33 (their prior's

@@ -14,7 +14,7 @@ use pyo3::types::PyDict;
 
 use super::dataset::MechanismDataset;
 use super::{calibration_record, data_error};
-use crate::convert::{array2, rows, table, to_python};
+use crate::convert::{table, table_rows, to_python};
 use crate::error::to_py;
 
 /// The numbers that apply `record`, named `name` in messages.
@@ -45,16 +45,18 @@ pub fn validate_mechanism<'py>(
     to_python(py, &validation_record(&validation, name))
 }
 
-/// The actuator commands that put the calibrated machine's effector on
-/// each of `targets` (n x 3, mm, the controller's coordinates), as `parcal
+/// The actuator commands that put the calibrated machine on each of
+/// `targets` (n x P, P its pose coordinates: a delta's or a cable robot's
+/// effector position in mm, the controller's coordinates; a hexapod's
+/// t_x, t_y, t_z in mm and rotation vector in rad), as `parcal
 /// compensate` computes them with `calibration` (a
 /// `parcal.MechanismCalibration`, or a calibration.json's path).
 ///
-/// Returns a dict: `target` (n x 3), `q` (n x A, the calibrated machine's
+/// Returns a dict: `target` (n x P), `q` (n x A, the calibrated machine's
 /// readings, in the actuators' unit), `nominal` (n x A, what the design
-/// the calibration started from commands) and `sigma` (n x 3, the
-/// predicted standard deviation of each coordinate reached, from the
-/// calibration's covariance, mm). A target the machine cannot reach
+/// the calibration started from commands) and `sigma` (n x P, the
+/// predicted standard deviation of each coordinate of the pose increment
+/// reached, from the calibration's covariance, mm and rad). A target the machine cannot reach
 /// raises `parcal.Error` naming its row (0-based); a rejected calibration
 /// is used only with `accept_rejected`.
 #[pyfunction]
@@ -67,7 +69,8 @@ pub fn compensate_mechanism<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let (record, name) = calibration_record(calibration, accept_rejected)?;
     let calibrated = calibrated(&record, &name)?;
-    let targets = rows::<3>(targets, "targets")?;
+    let pose = calibrated.mechanism.pose_coordinates().len();
+    let targets = table_rows(targets, pose, "targets")?;
     TARGETS.check("targets", targets.len()).map_err(to_py)?;
     let compensations = py
         .detach(|| compensate_targets(&calibrated, &targets))
@@ -78,11 +81,13 @@ pub fn compensate_mechanism<'py>(
         table(py, flat, actuators)
     };
     let dict = PyDict::new(py);
-    let reached: Vec<[f64; 3]> = compensations.iter().map(|c| c.target).collect();
-    let sigmas: Vec<[f64; 3]> = compensations.iter().map(Compensation::sigmas).collect();
-    dict.set_item("target", array2(py, &reached))?;
+    let of_pose = |of: &dyn Fn(&Compensation) -> Vec<f64>| {
+        let flat: Vec<f64> = compensations.iter().flat_map(of).collect();
+        crate::convert::table(py, flat, pose)
+    };
+    dict.set_item("target", of_pose(&|c| c.target.as_slice().to_vec()))?;
     dict.set_item("q", table(&|c| c.readings.as_slice()))?;
     dict.set_item("nominal", table(&|c| c.nominal.as_slice()))?;
-    dict.set_item("sigma", array2(py, &sigmas))?;
+    dict.set_item("sigma", of_pose(&Compensation::sigmas))?;
     Ok(dict)
 }

@@ -1,11 +1,14 @@
-//! The actuator commands that put the calibrated machine's effector on
-//! target positions: `q = g(p̂, x)` (the inverse kinematics at the
-//! calibrated parameters, after [`Mechanism::check_feasible`]), beside
-//! the nominal `q_0 = g(p_0, x)` of the design the calibration started
-//! from (what a controller configured from the design commands).
+//! The actuator commands that put the calibrated machine on target poses
+//! `x` (in the mechanism's pose coordinates: a delta's or a cable robot's
+//! effector position, a hexapod's platform translation and rotation
+//! vector): `q = g(p̂, x)` (the inverse kinematics at the calibrated
+//! parameters, after [`Mechanism::check_feasible`]), beside the nominal
+//! `q_0 = g(p_0, x)` of the design the calibration started from (what a
+//! controller configured from the design commands).
 //!
 //! Where the machine truly is at `q` differs from `x` by the calibration's
-//! error: to first order `δx = (dx/dp|_q) δp`, so its covariance is
+//! error: to first order `δx = (dx/dp|_q) δp` (`δx` the pose increment
+//! [`Mechanism::retract`] takes), so its covariance is
 //!
 //! ```text
 //! Cov(x) = J Σ_p Jᵀ,   J = dx/dp|_q = −G_x⁺ G_p,
@@ -14,7 +17,7 @@
 //! `Σ_p` the calibration's covariance of the parameters
 //! ([`super::predicted::pose_derivative`]).
 
-use nalgebra::{DMatrix, DVector, Matrix3};
+use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 
 use super::calibrated::CalibratedMechanism;
@@ -24,35 +27,41 @@ use super::predicted::pose_derivative;
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct Compensation {
-    /// The target position `x` (mm).
-    pub target: [f64; 3],
+    /// The target pose `x` (the mechanism's pose coordinates).
+    pub target: DVector<f64>,
     /// `q = g(p̂, x)`, the calibrated machine's readings there.
     pub readings: DVector<f64>,
     /// `q_0 = g(p_0, x)`, the nominal machine's.
     pub nominal: DVector<f64>,
-    /// `Cov(x)` of the position the machine reaches at `q` (mm²).
-    pub covariance: Matrix3<f64>,
+    /// `Cov(x)` of the pose the machine reaches at `q`, over the pose
+    /// increment's coordinates (mm², rad²).
+    pub covariance: DMatrix<f64>,
 }
 
 impl Compensation {
-    /// The predicted standard deviation of each coordinate reached (mm).
-    pub fn sigmas(&self) -> [f64; 3] {
-        std::array::from_fn(|k| self.covariance[(k, k)].max(0.0).sqrt())
+    /// The predicted standard deviation of each coordinate of the pose
+    /// increment reached (mm, rad).
+    pub fn sigmas(&self) -> Vec<f64> {
+        self.covariance
+            .diagonal()
+            .iter()
+            .map(|v| v.max(0.0).sqrt())
+            .collect()
     }
 }
 
-/// Each target's commands with `calibrated`, or why the calibrated (or
-/// the nominal) machine cannot reach it, in the order of `targets`.
-pub fn compensate_mechanism(
+/// Each target pose's commands with `calibrated`, or why the calibrated
+/// (or the nominal) machine cannot reach it, in the order of `targets`.
+pub fn compensate_mechanism<T: AsRef<[f64]>>(
     calibrated: &CalibratedMechanism,
-    targets: &[[f64; 3]],
+    targets: &[T],
 ) -> Vec<Result<Compensation, MechanismError>> {
     let mechanism = calibrated.mechanism.as_ref();
     let n = calibrated.n_params();
     let sigma_p = calibrated.covariance.view((0, 0), (n, n)).into_owned();
     targets
         .iter()
-        .map(|target| compensate_one(mechanism, calibrated, &sigma_p, target))
+        .map(|target| compensate_one(mechanism, calibrated, &sigma_p, target.as_ref()))
         .collect()
 }
 
@@ -60,7 +69,7 @@ fn compensate_one(
     mechanism: &dyn Mechanism,
     calibrated: &CalibratedMechanism,
     sigma_p: &DMatrix<f64>,
-    target: &[f64; 3],
+    target: &[f64],
 ) -> Result<Compensation, MechanismError> {
     let params = calibrated.params();
     mechanism.check_feasible(params, target)?;
@@ -72,12 +81,11 @@ fn compensate_one(
         })?;
     let jacobians = mechanism.reading_jacobians(params, target)?;
     let (j, _) = pose_derivative(&jacobians.d_pose, &jacobians.d_params)?;
-    let covariance = &j * sigma_p * j.transpose();
     Ok(Compensation {
-        target: *target,
+        target: DVector::from_column_slice(target),
         readings,
         nominal,
-        covariance: covariance.fixed_view::<3, 3>(0, 0).into_owned(),
+        covariance: &j * sigma_p * j.transpose(),
     })
 }
 
@@ -126,9 +134,9 @@ impl UnreachableTargets {
 
 /// Every target's commands with `calibrated` ([`compensate_mechanism`]),
 /// or every target it cannot reach.
-pub fn compensate_targets(
+pub fn compensate_targets<T: AsRef<[f64]>>(
     calibrated: &CalibratedMechanism,
-    targets: &[[f64; 3]],
+    targets: &[T],
 ) -> Result<Vec<Compensation>, UnreachableTargets> {
     let results = compensate_mechanism(calibrated, targets);
     let unreachable: Vec<(usize, MechanismError)> = results

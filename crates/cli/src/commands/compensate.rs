@@ -1,6 +1,6 @@
 //! `parcal compensate`: targets to actuator commands with a calibration
 //! (docs/apply.md), corrected poses for controllers that use the nominal
-//! model, and correction tables; target positions to a mechanism's
+//! model, and correction tables; target poses to a mechanism's
 //! commands with `--targets` ([`super::mechanism_apply`]).
 
 use std::path::{Path, PathBuf};
@@ -28,10 +28,12 @@ pub struct Args {
         conflicts_with_all = ["table", "targets"]
     )]
     poses: Option<PathBuf>,
-    /// For a mechanism's calibration (a delta, a cable robot): target
-    /// effector positions, CSV with header x,y,z (mm); the commands are
-    /// written with the target and the nominal machine's beside them
-    /// (header x,y,z,q1..qA,nominal_q1..nominal_qA).
+    /// For a mechanism's calibration (a delta, a cable robot, a hexapod
+    /// calibrated with --common): target poses, CSV with a column per pose
+    /// coordinate (x,y,z, mm, for an effector position; a hexapod's
+    /// t_x,t_y,t_z in mm and rotation vector r_x,r_y,r_z in rad); the
+    /// commands are written with the target and the nominal machine's
+    /// beside them (header: the pose's, q1..qA, nominal_q1..nominal_qA).
     #[arg(long, conflicts_with_all = ["table", "corrected_poses", "nominal"])]
     targets: Option<PathBuf>,
     /// Instead of targets: a correction table over the grid

@@ -88,7 +88,8 @@ pub fn validate(
     super::validation_outcome(record.is_rejected(), &record.reasons, out)
 }
 
-/// The commands that reach the targets of `targets` with the calibration
+/// The commands that reach the target poses of `targets` (a column per
+/// pose coordinate of the mechanism) with the calibration
 /// at `calibration`, written to `out` beside the nominal ones; nothing is
 /// written when a target cannot be reached, and every such target is
 /// named by its line.
@@ -103,8 +104,14 @@ pub fn compensate(
         &[out.to_path_buf()],
     )?;
     let calibrated = calibrated(calibration, accept_rejected)?;
-    let positions = read_targets(targets)?;
-    let compensations = compensate_targets(&calibrated, &positions).map_err(|unreachable| {
+    let pose: Vec<&'static str> = calibrated
+        .mechanism
+        .pose_coordinates()
+        .iter()
+        .map(|c| c.name)
+        .collect();
+    let poses = read_targets(targets, &pose)?;
+    let compensations = compensate_targets(&calibrated, &poses).map_err(|unreachable| {
         anyhow::anyhow!(
             "{}: {} (nothing written)",
             targets.display(),
@@ -122,12 +129,14 @@ pub fn compensate(
                 .collect()
         })
         .collect();
-    let header = command_header(calibrated.mechanism.actuators().len());
+    let header = command_header(&pose, calibrated.mechanism.actuators().len());
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
     write_numbers(out, &header, &rows)?;
+    // The position's: the first three pose coordinates (a hexapod's
+    // platform origin).
     let sigmas: Vec<f64> = compensations
         .iter()
-        .map(|c| c.sigmas().iter().map(|s| s * s).sum::<f64>().sqrt())
+        .map(|c| c.sigmas()[..3].iter().map(|s| s * s).sum::<f64>().sqrt())
         .collect();
     let correction = compensations
         .iter()

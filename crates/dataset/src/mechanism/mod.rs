@@ -69,7 +69,7 @@ pub use observations::{
     SampleRow,
 };
 pub use quantities::{QUANTITY_COLUMNS, QuantityRow};
-pub use targets::{TARGET_COLUMNS, TARGETS, command_header, read_targets};
+pub use targets::{TARGETS, command_header, read_targets};
 pub use truth::MechanismTruth;
 pub use validation::{KindRecord, MechanismValidationRecord, RowRecord, ShiftRecord};
 

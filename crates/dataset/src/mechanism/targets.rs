@@ -1,14 +1,13 @@
-//! The target positions of `parcal compensate` for a mechanism
-//! (`x,y,z`, mm) and the header of the commands written for them.
+//! The target poses of `parcal compensate` for a mechanism, a column per
+//! pose coordinate (`x,y,z` for a delta's or a cable robot's effector
+//! position, mm; `t_x,t_y,t_z,r_x,r_y,r_z` for a hexapod's platform), and
+//! the header of the commands written for them.
 
 use std::path::Path;
 
 use crate::bounds::Count;
-use crate::error::Result;
+use crate::error::{DatasetError, Result};
 use crate::numbers::read_numbers_within;
-
-/// The columns of a targets file.
-pub const TARGET_COLUMNS: [&str; 3] = ["x", "y", "z"];
 
 /// The bounds of a targets file's rows: each costs an inverse kinematics
 /// and its derivatives, and a row of the commands held in memory.
@@ -18,18 +17,42 @@ pub const TARGETS: Count = Count::new(
     "each costs an inverse kinematics and a row of commands held in memory",
 );
 
-/// Reads the targets file `path` (header `x,y,z`, at most [`TARGETS`]
-/// rows); errors name the file, the line and the column.
-pub fn read_targets(path: &Path) -> Result<Vec<[f64; 3]>> {
-    read_numbers_within(path, &TARGET_COLUMNS, "target", Some(&TARGETS))
+/// Reads the targets file `path`, its header the pose coordinates
+/// `columns` (3 or 6 of them), at most [`TARGETS`] rows; errors name the
+/// file, the line and the column.
+pub fn read_targets(path: &Path, columns: &[&'static str]) -> Result<Vec<Vec<f64>>> {
+    let limit = Some(&TARGETS);
+    Ok(match *columns {
+        [x, y, z] => rows(read_numbers_within(path, &[x, y, z], "target", limit)?),
+        [a, b, c, d, e, f] => rows(read_numbers_within(
+            path,
+            &[a, b, c, d, e, f],
+            "target",
+            limit,
+        )?),
+        _ => {
+            return Err(DatasetError::Refused {
+                path: path.to_path_buf(),
+                message: format!(
+                    "targets of {} pose coordinates ({}): a target has 3 or 6",
+                    columns.len(),
+                    columns.join(",")
+                ),
+            });
+        }
+    })
 }
 
-/// The header of the commands of a mechanism of `actuators` actuators:
-/// the target, the calibrated readings `q1..qA`, then the nominal ones
-/// `nominal_q1..nominal_qA`.
-pub fn command_header(actuators: usize) -> Vec<String> {
-    TARGET_COLUMNS
-        .iter()
+/// Fixed-size rows as vectors.
+fn rows<const N: usize>(rows: Vec<[f64; N]>) -> Vec<Vec<f64>> {
+    rows.into_iter().map(Vec::from).collect()
+}
+
+/// The header of the commands of a mechanism of pose coordinates `pose`
+/// and `actuators` actuators: the target, the calibrated readings
+/// `q1..qA`, then the nominal ones `nominal_q1..nominal_qA`.
+pub fn command_header(pose: &[&str], actuators: usize) -> Vec<String> {
+    pose.iter()
         .map(|c| c.to_string())
         .chain((1..=actuators).map(|k| format!("q{k}")))
         .chain((1..=actuators).map(|k| format!("nominal_q{k}")))
