@@ -138,6 +138,20 @@ fn unknown_scales_through_the_common_calibration_are_its_own() {
         let sigma = parameter["sigma"].as_f64().unwrap();
         assert!((a - b).abs() < 2e-3 * sigma, "s_{}: {a} against {b}", i + 1);
     }
+    // Applied with its scales: commands in revolutions.
+    let targets = temp.path().join("targets.csv");
+    std::fs::write(&targets, "t_x,t_y,t_z,r_x,r_y,r_z\n-80,-30,330,0.05,0,0\n").unwrap();
+    let out = temp.path().join("commands.csv");
+    let record = temp.path().join("common.json");
+    let compensate = [
+        "compensate",
+        "--calibration",
+        s(&record),
+        "--targets",
+        s(&targets),
+    ];
+    let printed = ok(&[&compensate[..], &["--out", s(&out)]].concat());
+    assert!(printed.contains("readings q1..q6 in rev"), "{printed}");
 }
 
 #[test]

@@ -17,20 +17,53 @@ pub const NAMES: [&str; 3] = ["hexapod", "linear delta", "cable robot"];
 /// name.
 pub fn by_name(name: &str) -> Option<Box<dyn Mechanism>> {
     match name {
-        "hexapod" => {
-            let prior = PriorSigma {
-                base: 0.1,
-                platform: 0.1,
-                tool: 0.1,
-                leg: 0.1,
-            };
-            let hexapod = Hexapod::new(&paper::design(), &prior).ok()?;
-            Some(Box::new(hexapod))
-        }
+        "hexapod" => Some(Box::new(typical_hexapod()?)),
         "linear delta" => Some(Box::new(LinearDelta::typical())),
         "cable robot" => Some(Box::new(CableRobot::typical())),
         _ => None,
     }
+}
+
+/// The mechanism named `name` with the parameters `parameters` (name and
+/// unit of each, in order) of a calibration's record: the typical design
+/// ([`by_name`]) when they are its own, else its variant that has them (a
+/// hexapod read in its actuators' unit `U`: the scales `s_1..s_6`, in
+/// `mm/U`, after the 33; [`Hexapod::with_unknown_scales`]); `None` for an
+/// unknown name or parameters no variant has. Its design values are the
+/// typical design's: a record's values replace them.
+pub fn with_parameters(name: &str, parameters: &[(&str, &str)]) -> Option<Box<dyn Mechanism>> {
+    let has_them = |mechanism: &dyn Mechanism| {
+        let own = mechanism.parameters();
+        own.len() == parameters.len()
+            && own
+                .iter()
+                .zip(parameters)
+                .all(|(p, (name, unit))| p.name == *name && p.unit == *unit)
+    };
+    let typical = by_name(name)?;
+    if has_them(typical.as_ref()) {
+        return Some(typical);
+    }
+    let variant: Box<dyn Mechanism> = match name {
+        "hexapod" => {
+            let (_, unit) = parameters.get(crate::N_PARAMS)?;
+            let unit = unit.strip_prefix("mm/")?;
+            Box::new(typical_hexapod()?.with_unknown_scales(unit, [1.0; 6], [1.0; 6]))
+        }
+        _ => return None,
+    };
+    has_them(variant.as_ref()).then_some(variant)
+}
+
+/// The paper's hexapod with 0.1 mm tolerances.
+fn typical_hexapod() -> Option<Hexapod> {
+    let prior = PriorSigma {
+        base: 0.1,
+        platform: 0.1,
+        tool: 0.1,
+        leg: 0.1,
+    };
+    Hexapod::new(&paper::design(), &prior).ok()
 }
 
 #[cfg(test)]
@@ -46,5 +79,33 @@ mod tests {
             crate::mechanism::check_params(mechanism.as_ref(), design.as_slice()).unwrap();
         }
         assert!(by_name("scara").is_none());
+    }
+
+    #[test]
+    fn a_record_names_its_variant() {
+        fn view(parameters: &[(String, String)]) -> Vec<(&str, &str)> {
+            parameters
+                .iter()
+                .map(|(name, unit)| (name.as_str(), unit.as_str()))
+                .collect()
+        }
+        let typical = by_name("hexapod").unwrap();
+        let mut parameters: Vec<(String, String)> = typical
+            .parameters()
+            .iter()
+            .map(|p| (p.name.clone(), p.unit.to_string()))
+            .collect();
+        let found = with_parameters("hexapod", &view(&parameters)).unwrap();
+        assert_eq!(found.parameters().len(), 33);
+        parameters.extend((1..=6).map(|i| (format!("s_{i}"), "mm/rev".to_string())));
+        let found = with_parameters("hexapod", &view(&parameters)).unwrap();
+        assert_eq!(found.parameters().len(), 39);
+        assert_eq!(found.actuators()[0].unit, "rev");
+        // Scales in another unit than per mm, or a parameter of no variant.
+        parameters[33].1 = "in/rev".to_string();
+        assert!(with_parameters("hexapod", &view(&parameters)).is_none());
+        parameters.truncate(34);
+        assert!(with_parameters("hexapod", &view(&parameters)).is_none());
+        assert!(with_parameters("linear delta", &view(&parameters)).is_none());
     }
 }

@@ -33,8 +33,9 @@ pub struct CalibratedMechanism {
 }
 
 impl CalibratedMechanism {
-    /// From a calibration's record: a known mechanism, its parameters in
-    /// its order (then `trigger_height`, if any), and a covariance (a
+    /// From a calibration's record: a known mechanism (the variant of its
+    /// parameters, [`mechanisms::with_parameters`]), its parameters in its
+    /// order (then `trigger_height`, if any), and a covariance (a
     /// calibration that did not converge has none and is refused).
     pub fn from_record(
         record: &MechanismCalibrationRecord,
@@ -43,18 +44,26 @@ impl CalibratedMechanism {
             what: what.to_string(),
             reason,
         };
-        let mechanism: Arc<dyn Mechanism> = mechanisms::by_name(&record.mechanism)
-            .ok_or_else(|| {
-                invalid(
-                    "mechanism",
-                    format!(
-                        "unknown mechanism {:?} (known: {})",
-                        record.mechanism,
-                        mechanisms::NAMES.join(", ")
-                    ),
-                )
-            })?
-            .into();
+        let recorded: Vec<(&str, &str)> = record
+            .parameters
+            .iter()
+            .filter(|p| p.name != TRIGGER_HEIGHT)
+            .map(|p| (p.name.as_str(), p.unit.as_str()))
+            .collect();
+        let mechanism: Arc<dyn Mechanism> =
+            mechanisms::with_parameters(&record.mechanism, &recorded)
+                .or_else(|| mechanisms::by_name(&record.mechanism))
+                .ok_or_else(|| {
+                    invalid(
+                        "mechanism",
+                        format!(
+                            "unknown mechanism {:?} (known: {})",
+                            record.mechanism,
+                            mechanisms::NAMES.join(", ")
+                        ),
+                    )
+                })?
+                .into();
         let names: Vec<String> = mechanism
             .parameters()
             .iter()
