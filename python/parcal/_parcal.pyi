@@ -501,6 +501,15 @@ def validate_mechanism(
 ) -> dict[str, Any]:
     """``parcal.validate`` on a mechanism dataset: validation.json's content."""
 
+def validate_common(
+    dataset: Dataset,
+    *,
+    calibration: Union[MechanismCalibration, PathLike],
+    accept_rejected: bool = False,
+) -> dict[str, Any]:
+    """``parcal.validate`` of a hexapod's ball touches against a hexapod's
+    calibration through the common path: validation.json's content."""
+
 def compensate_mechanism(
     calibration: Union[MechanismCalibration, PathLike],
     targets: npt.ArrayLike,

@@ -358,6 +358,15 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
     own = parcal.calibrate(parcal.read_dataset(paper), sim="III")
     # Each run stops within 1e-3 of its sigmas from the same minimum.
     assert np.all(np.abs(run.values - own.values) < 2e-3 * run.sigmas)
+    # Its touches are placed in the hexapod dataset's measurements.csv.
+    assert run.observations["place"][0] == "measurements.csv line 2 (ball touch 0)"
+    # Judged on another campaign of the same machine (other noise).
+    cli("simulate", "--seed", 7, "--out", tmp_path / "seed7")
+    validation = parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, accept_rejected=True)
+    assert validation["mechanism"] == "hexapod"
+    assert len(validation["rows"]) == 27 * 4 and validation["rows"][0]["file"] == "artefacts.json"
+    with pytest.raises(parcal.Error, match="reference: a calibration through the common path"):
+        parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, reference=4)
     # Applied as any mechanism's: targets in its six pose coordinates.
     out = parcal.compensate(run, [[-80.0, -30.0, 330.0, 0.05, 0.0, 0.0]])
     assert out["target"].shape == (1, 6) and out["sigma"].shape == (1, 6)

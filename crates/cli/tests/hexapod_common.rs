@@ -96,6 +96,53 @@ fn a_hexapod_record_is_compensated_on_target_poses() {
 }
 
 #[test]
+fn a_hexapod_record_is_validated_on_held_out_touches() {
+    // Fitted on fixtures/paper-seed1 (propagated prior), judged on another
+    // campaign of the same machine (seed 7: other noise): accepted; with
+    // leg 1 reading 0.1 mm long there, rejected, l_1 the change that best
+    // explains it; each row placed in the hexapod dataset's files.
+    let temp = tempfile::tempdir().unwrap();
+    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
+    let calibration = temp.path().join("calibration.json");
+    let args = ["calibrate", s(&data), "--common", "--sim", "III"];
+    ok(&[
+        &args[..],
+        &["--prior", "propagated", "--out", s(&calibration)],
+    ]
+    .concat());
+    let held_out = temp.path().join("seed7");
+    ok(&["simulate", "--seed", "7", "--out", s(&held_out)]);
+    let out = temp.path().join("validation.json");
+    let validate = ["validate", s(&held_out), "--calibration", s(&calibration)];
+    let printed = ok(&[&validate[..], &["--out", s(&out)]].concat());
+    assert!(printed.contains("verdict: accepted"), "{printed}");
+    let record = read(&out);
+    assert_eq!(record["mechanism"], "hexapod");
+    let rows = record["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 27 * 4);
+    assert!(rows.iter().all(|row| row["file"] == "artefacts.json"));
+    // Leg 1 0.1 mm long: every q1 + 0.1 (the scale is 1).
+    let measurements = held_out.join("measurements.csv");
+    let text = std::fs::read_to_string(&measurements).unwrap();
+    let mut lines = text.lines();
+    let mut shifted = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let mut fields: Vec<String> = line.split(',').map(str::to_string).collect();
+        fields[1] = (fields[1].parse::<f64>().unwrap() + 0.1).to_string();
+        shifted += &format!("{}\n", fields.join(","));
+    }
+    std::fs::write(&measurements, shifted).unwrap();
+    let error = fails(&[&validate[..], &["--out", s(&out)]].concat());
+    assert!(error.contains("rejected"), "{error}");
+    let record = read(&out);
+    assert_eq!(record["verdict"], "rejected");
+    assert_eq!(record["shifts"][0]["name"], "l_1");
+    // --reference is the own validation's.
+    let error = fails(&[&validate[..], &["--reference", "4", "--out", s(&out)]].concat());
+    assert!(error.contains("without --reference"), "{error}");
+}
+
+#[test]
 fn unknown_scales_through_the_common_calibration_are_its_own() {
     // Touches read in motor revolutions, the scales unknowns with a 2 %
     // prior: the record holds them after the 33 (their prior's

@@ -1,8 +1,10 @@
 //! A mechanism calibration's validation on held-out data in words:
 //! validation.json's record ([`validation_record`]), with the verdict's
 //! reasons naming each failing row by its file and line (a ball's rows by
-//! the ball's line in balls.csv and its touches' lines in touches.csv),
-//! and the summary `parcal validate` prints ([`summary`]).
+//! the ball's line in balls.csv and its touches' lines in touches.csv; a
+//! hexapod's, whose data are a hexapod dataset, by the ball's index in
+//! artefacts.json and its touches' lines in measurements.csv), and the
+//! summary `parcal validate` prints ([`summary`]).
 
 use std::fmt::Write;
 
@@ -14,6 +16,7 @@ use parcal_dataset::mechanism::{
     BALLS_FILE, DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE,
     QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
 };
+use parcal_dataset::{ARTEFACTS_FILE, HEXAPOD, MEASUREMENTS_FILE};
 
 use crate::instruments::{test_record, test_statement};
 
@@ -26,7 +29,12 @@ pub fn validation_record(
     validation: &MechanismValidation,
     calibration: String,
 ) -> MechanismValidationRecord {
-    let rows: Vec<RowRecord> = validation.rows.iter().map(row_record).collect();
+    let files = Files::of(&validation.mechanism);
+    let rows: Vec<RowRecord> = validation
+        .rows
+        .iter()
+        .map(|row| row_record(files, row))
+        .collect();
     let accepted = validation.accepted();
     let mut record = MechanismValidationRecord {
         mechanism: validation.mechanism.clone(),
@@ -55,38 +63,83 @@ pub fn validation_record(
     record
 }
 
-/// The file of an observation of `kind` in a dataset directory, if it is
-/// read from one.
-fn file_of(kind: ObservationKind) -> Option<&'static str> {
-    match kind {
-        ObservationKind::Probe => Some(PROBES_FILE),
-        ObservationKind::Distance => Some(DISTANCES_FILE),
-        ObservationKind::Sample => Some(POINTS_FILE),
-        ObservationKind::Quantity => Some(QUANTITIES_FILE),
-        ObservationKind::Touch => Some(TOUCHES_FILE),
-        ObservationKind::Point => None,
+/// The files a mechanism's observations are read from: a mechanism
+/// dataset's, or a hexapod dataset's (a hexapod's only door to the common
+/// calibration: its ball touches in measurements.csv, its balls in
+/// artefacts.json).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Files {
+    Mechanism,
+    Hexapod,
+}
+
+impl Files {
+    /// Those of the mechanism named `mechanism`.
+    fn of(mechanism: &str) -> Self {
+        if mechanism == HEXAPOD {
+            Self::Hexapod
+        } else {
+            Self::Mechanism
+        }
+    }
+
+    /// The file of an observation of `kind`, if it is read from one.
+    fn of_kind(self, kind: ObservationKind) -> Option<&'static str> {
+        match (self, kind) {
+            (Self::Hexapod, ObservationKind::Touch) => Some(MEASUREMENTS_FILE),
+            (_, ObservationKind::Probe) => Some(PROBES_FILE),
+            (_, ObservationKind::Distance) => Some(DISTANCES_FILE),
+            (_, ObservationKind::Sample) => Some(POINTS_FILE),
+            (_, ObservationKind::Quantity) => Some(QUANTITIES_FILE),
+            (_, ObservationKind::Touch) => Some(TOUCHES_FILE),
+            (_, ObservationKind::Point) => None,
+        }
+    }
+
+    /// The balls' file, and whether a ball is its line there (a CSV row,
+    /// after the header) rather than its index (in JSON).
+    fn balls(self) -> (&'static str, bool) {
+        match self {
+            Self::Mechanism => (BALLS_FILE, true),
+            Self::Hexapod => (ARTEFACTS_FILE, false),
+        }
+    }
+
+    /// The touches' file.
+    fn touches(self) -> &'static str {
+        self.of_kind(ObservationKind::Touch)
+            .expect("touches are read from a file")
     }
 }
 
-/// An observation by its file and line (the header is line 1), and its
-/// kind and index: `probes.csv line 5 (probe height 3)`.
-pub fn observation_place(observation: ObservationRef) -> String {
-    match file_of(observation.kind) {
+/// An observation of the mechanism named `mechanism` by its file and line
+/// (the header is line 1), and its kind and index: `probes.csv line 5
+/// (probe height 3)`, a hexapod's `measurements.csv line 9 (ball touch
+/// 7)`.
+pub fn observation_place(mechanism: &str, observation: ObservationRef) -> String {
+    match Files::of(mechanism).of_kind(observation.kind) {
         Some(file) => format!("{file} line {} ({observation})", observation.index + 2),
         None => observation.to_string(),
     }
 }
 
 /// A row's record, its observation placed by its file and line (a
-/// ball's rows by the ball's).
-fn row_record(row: &ValidatedRow) -> RowRecord {
-    let (file, index) = match &row.observation {
-        HeldOut::Observation(observation) => (file_of(observation.kind), observation.index),
-        HeldOut::Ball { ball, .. } => (Some(BALLS_FILE), *ball),
+/// ball's rows by the ball's: its line in balls.csv, or its index in a
+/// hexapod's artefacts.json).
+fn row_record(files: Files, row: &ValidatedRow) -> RowRecord {
+    let (file, line, index) = match &row.observation {
+        HeldOut::Observation(observation) => {
+            let file = files.of_kind(observation.kind);
+            (file, file.map(|_| observation.index + 2), observation.index)
+        }
+        HeldOut::Ball { ball, .. } => {
+            let (file, by_line) = files.balls();
+            (Some(file), by_line.then_some(ball + 2), *ball)
+        }
     };
     RowRecord {
         file: file.map(str::to_string),
-        line: file.map(|_| index + 2),
+        line,
         kind: row.observation.name().to_string(),
         index,
         row: row.row,
@@ -127,11 +180,11 @@ fn kinds(rows: &[RowRecord]) -> Vec<KindRecord> {
 }
 
 /// A row by its file and line, else by its observation; a ball's by its
-/// line and its touches' lines: `balls.csv line 3 (ball 1, touched at
-/// touches.csv lines 9-15, row 0)`.
-fn place(row: &ValidatedRow) -> String {
+/// line (or index) and its touches' lines: `balls.csv line 3 (ball 1,
+/// touched at touches.csv lines 9-15, row 0)`.
+fn place(files: Files, row: &ValidatedRow) -> String {
     match &row.observation {
-        HeldOut::Observation(observation) => match file_of(observation.kind) {
+        HeldOut::Observation(observation) => match files.of_kind(observation.kind) {
             Some(file) => format!(
                 "{file} line {} ({observation}, row {})",
                 observation.index + 2,
@@ -139,18 +192,27 @@ fn place(row: &ValidatedRow) -> String {
             ),
             None => format!("{observation}, row {}", row.row),
         },
-        HeldOut::Ball { ball, touches } => format!(
-            "{BALLS_FILE} line {} (ball {ball}, touched at {TOUCHES_FILE} lines {}, row {})",
-            ball + 2,
-            number_ranges(touches.iter().map(|t| t + 2)),
-            row.row
-        ),
+        HeldOut::Ball { ball, touches } => {
+            let (file, by_line) = files.balls();
+            let at = if by_line {
+                format!("{file} line {}", ball + 2)
+            } else {
+                format!("{file} ball {ball}")
+            };
+            format!(
+                "{at} (ball {ball}, touched at {} lines {}, row {})",
+                files.touches(),
+                number_ranges(touches.iter().map(|t| t + 2)),
+                row.row
+            )
+        }
     }
 }
 
 /// The verdict's reasons: the prediction test, the w-tests, what change
 /// would explain a rejection, the samples not tested, the verdict.
 fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord) -> Vec<String> {
+    let files = Files::of(&validation.mechanism);
     let mut reasons = Vec::new();
     if let Some(test) = &validation.test {
         let statement = test_statement(test);
@@ -176,7 +238,7 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
     for row in failing.iter().take(NAMED_ROWS) {
         reasons.push(format!(
             "{} fails its w-test: |w| = {:.2} > {critical:.2} ({family}): residual {:+.4} {} against a predicted sigma of {:.4}",
-            place(row),
+            place(files, row),
             row.w.abs(),
             row.residual,
             row.unit,
@@ -192,7 +254,7 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
     if let (true, Some(worst)) = (failing.is_empty(), validation.worst()) {
         reasons.push(format!(
             "every w-test passes: the largest, {}, |w| = {:.2} <= {critical:.2} ({family})",
-            place(worst),
+            place(files, worst),
             worst.w.abs()
         ));
     }

@@ -3,18 +3,24 @@
 //! docs/cable-robots.md): the held-out data judged against a calibration,
 //! and the actuator commands that reach target positions.
 
-use parcal::Compensation;
+use std::path::Path;
+
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
 use parcal::calibration::mechanism::compensate_targets;
+use parcal::dataset::HEXAPOD;
 use parcal::dataset::mechanism::TARGETS;
 use parcal::report::mechanism_validation::validation_record;
-use parcal::{CalibratedMechanism, MechanismCalibrationRecord, validate_mechanism as validate};
+use parcal::{
+    CalibratedMechanism, Compensation, MechanismCalibrationRecord, MechanismData,
+    validate_mechanism as validate,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use super::dataset::MechanismDataset;
 use super::{calibration_record, data_error};
 use crate::convert::{table, table_rows, to_python};
+use crate::dataset::Dataset;
 use crate::error::to_py;
 
 /// The numbers that apply `record`, named `name` in messages.
@@ -41,7 +47,34 @@ pub fn validate_mechanism<'py>(
     let dataset = dataset.get();
     let validation = py
         .detach(|| validate(&calibrated, &dataset.data, SNOOPING_LEVEL))
-        .map_err(|e| data_error(&dataset.path, e))?;
+        .map_err(|e| data_error(&dataset.path, calibrated.mechanism.name(), e))?;
+    to_python(py, &validation_record(&validation, name))
+}
+
+/// Validates `calibration` (a `parcal.MechanismCalibration` of a hexapod
+/// through the common path, or its calibration.json's path) on the ball
+/// touches of the hexapod `dataset` (a `Dataset`), as `parcal validate`
+/// does (each held-out ball's centre fitted on all its touches; no
+/// `reference`), and returns what it writes to validation.json. A rejected
+/// calibration only with `accept_rejected`.
+#[pyfunction]
+#[pyo3(signature = (dataset, *, calibration, accept_rejected=false))]
+pub fn validate_common<'py>(
+    py: Python<'py>,
+    dataset: &Bound<'py, Dataset>,
+    calibration: &Bound<'py, PyAny>,
+    accept_rejected: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (record, name) = calibration_record(calibration, accept_rejected)?;
+    let calibrated = calibrated(&record, &name)?;
+    let dataset = dataset.get();
+    let given = Path::new(&dataset.given);
+    let validation = py
+        .detach(|| {
+            let data = MechanismData::hexapod_held_out(&dataset.inner)?;
+            validate(&calibrated, &data, SNOOPING_LEVEL)
+        })
+        .map_err(|e| data_error(given, HEXAPOD, e))?;
     to_python(py, &validation_record(&validation, name))
 }
 

@@ -10,6 +10,7 @@ use parcal::calibration::Loss;
 use parcal::calibration::bounds::MAX_ITERATIONS;
 use parcal::calibration::mechanism::{ObservationKind, ObservationRef};
 use parcal::command::{CommonRefusal, common_calibration};
+use parcal::dataset::HEXAPOD;
 use parcal::dataset::mechanism::ObservationRecord;
 use parcal::report::mechanism::identifiability_statements;
 use parcal::report::mechanism_validation::observation_place;
@@ -53,7 +54,7 @@ pub fn calibrate_mechanism(
     let dataset = dataset.get();
     let calibration = py
         .detach(|| calibrate(&dataset.data, &options))
-        .map_err(|error| data_error(&dataset.path, error))?;
+        .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
     Ok(MechanismCalibration {
         record: calibration.record(),
     })
@@ -83,11 +84,11 @@ pub fn calibrate_common(
                 "{}: applies to the hexapod's own calibration, not to the common one",
                 flag.trim_start_matches("--").replace('-', "_")
             )),
-            CommonRefusal::Data(error) => data_error(Path::new(&dataset.given), error),
+            CommonRefusal::Data(error) => data_error(Path::new(&dataset.given), HEXAPOD, error),
         })?;
     let calibration = py
         .detach(|| calibrate(&data, &options))
-        .map_err(|error| data_error(Path::new(&dataset.given), error))?;
+        .map_err(|error| data_error(Path::new(&dataset.given), HEXAPOD, error))?;
     Ok(MechanismCalibration {
         record: calibration.record(),
     })
@@ -294,7 +295,12 @@ impl MechanismCalibration {
         let index: Vec<i64> = observations.iter().map(|o| o.index as i64).collect();
         let place: Vec<String> = observations
             .iter()
-            .map(|o| observation_ref(o).map_or_else(|| o.kind.clone(), observation_place))
+            .map(|o| {
+                observation_ref(o).map_or_else(
+                    || o.kind.clone(),
+                    |observation| observation_place(&self.record.mechanism, observation),
+                )
+            })
             .collect();
         let redundancy: Vec<f64> = observations
             .iter()

@@ -58,7 +58,8 @@ impl MechanismDataset {
     /// Reads the dataset in directory `path`.
     pub fn read_from(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let inner = py.detach(|| Inner::read(&path)).map_err(to_py)?;
-        let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
+        let data = MechanismData::from_dataset(&inner)
+            .map_err(|e| data_error(&path, &inner.machine.mechanism, e))?;
         Ok(Self { inner, data, path })
     }
 
@@ -67,7 +68,8 @@ impl MechanismDataset {
     pub fn in_memory(inner: Inner) -> PyResult<Self> {
         let path = PathBuf::from("(in memory)");
         inner.validate(&path).map_err(to_py)?;
-        let data = MechanismData::from_dataset(&inner).map_err(|e| data_error(&path, e))?;
+        let data = MechanismData::from_dataset(&inner)
+            .map_err(|e| data_error(&path, &inner.machine.mechanism, e))?;
         Ok(Self { inner, data, path })
     }
 }

@@ -26,6 +26,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibration::calibrate_mechanism, m)?)?;
     m.add_function(wrap_pyfunction!(calibration::calibrate_common, m)?)?;
     m.add_function(wrap_pyfunction!(apply::validate_mechanism, m)?)?;
+    m.add_function(wrap_pyfunction!(apply::validate_common, m)?)?;
     m.add_function(wrap_pyfunction!(apply::compensate_mechanism, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan_mechanism, m)?)?;
     Ok(())
@@ -34,7 +35,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// An error of the data of the dataset at `dataset`, an observation named
 /// by its file and line (`probes.csv line 5 (probe height 3)`), as the
 /// commands name it.
-pub fn data_error(dataset: &Path, error: MechanismCalibrationError) -> PyErr {
+pub fn data_error(dataset: &Path, mechanism: &str, error: MechanismCalibrationError) -> PyErr {
     match error {
         MechanismCalibrationError::Observation {
             observation,
@@ -42,7 +43,7 @@ pub fn data_error(dataset: &Path, error: MechanismCalibrationError) -> PyErr {
         } => to_py(format!(
             "{}: {}: {reason}",
             dataset.display(),
-            observation_place(observation)
+            observation_place(mechanism, observation)
         )),
         other => to_py(format!("{}: {other}", dataset.display())),
     }

@@ -57,7 +57,7 @@ pub fn plan_mechanism<'py>(
         ..Inner::default()
     };
     let data = MechanismData::from_dataset(&machine_only)
-        .map_err(|e| super::data_error(&dataset.path, e))?;
+        .map_err(|e| super::data_error(&dataset.path, &machine_only.machine.mechanism, e))?;
     let mechanism = data.mechanism.as_ref();
     if measured_positions && mechanism.name() != "cable robot" {
         return Err(to_py(

@@ -51,7 +51,7 @@ use parcal_observe::weights::{Repeatability, radius_variance};
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 use crate::CalibrationOptions;
-use crate::options::{Observation, PriorMode, RadiusModel};
+use crate::options::{Observation, PriorMode, RadiusModel, Simulation};
 use crate::setup::design_geometry;
 use crate::sphere_fit::{SphereFitError, best_fit};
 
@@ -121,6 +121,20 @@ impl MechanismData {
                 with_prior(data, &prior)
             }
         })
+    }
+}
+
+impl MechanismData {
+    /// The ball touches of a hexapod's `dataset` held out from a
+    /// calibration through the common path, as it is judged on them
+    /// ([`super::validate_mechanism`]): weighted as the hexapod's own
+    /// validation weighs touches, whatever the calibration's options (the
+    /// radius observation, the propagated weights, each ball's calibrated
+    /// radius exact with its sigma in the touches' weights: simulation I's
+    /// model), the scales unknowns when machine.json gives their sigmas (as
+    /// the calibration's were).
+    pub fn hexapod_held_out(dataset: &Dataset) -> Result<Self, MechanismCalibrationError> {
+        Self::from_hexapod_touches(dataset, &CalibrationOptions::simulation(Simulation::I))
     }
 }
 

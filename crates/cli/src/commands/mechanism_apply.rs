@@ -8,14 +8,15 @@ use std::path::Path;
 
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
 use parcal::calibration::mechanism::{
-    CalibratedMechanism, MechanismCalibrationError, MechanismData, compensate_targets,
-    validate_mechanism,
+    CalibratedMechanism, MechanismCalibrationError, MechanismData, MechanismValidation,
+    compensate_targets, validate_mechanism,
 };
 use parcal::dataset::mechanism::{
     DISTANCES_FILE, MechanismCalibrationRecord, MechanismDataset, PROBES_FILE, command_header,
     read_targets,
 };
 use parcal::dataset::write_numbers;
+use parcal::dataset::{Dataset, HEXAPOD};
 use parcal::report::mechanism_validation::{observation_place, summary, validation_record};
 
 /// Reads a mechanism's calibration.json, refusing a rejected one unless
@@ -24,7 +25,20 @@ pub fn read_calibration(
     path: &Path,
     accept_rejected: bool,
 ) -> anyhow::Result<MechanismCalibrationRecord> {
-    let record = MechanismCalibrationRecord::read(path)?;
+    accepted(
+        MechanismCalibrationRecord::read(path)?,
+        path,
+        accept_rejected,
+    )
+}
+
+/// `record`, read from `path`, refused when rejected unless
+/// `accept_rejected`.
+pub fn accepted(
+    record: MechanismCalibrationRecord,
+    path: &Path,
+    accept_rejected: bool,
+) -> anyhow::Result<MechanismCalibrationRecord> {
     anyhow::ensure!(
         record.accepted || accept_rejected,
         "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
@@ -41,9 +55,9 @@ fn calibrated(path: &Path, accept_rejected: bool) -> anyhow::Result<CalibratedMe
         .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))
 }
 
-/// An error of the data in `dataset`, an observation named by its file
-/// and line.
-fn data_error(dataset: &Path, error: MechanismCalibrationError) -> anyhow::Error {
+/// An error of the data in `dataset` of the mechanism named `mechanism`,
+/// an observation named by its file and line.
+fn data_error(dataset: &Path, mechanism: &str, error: MechanismCalibrationError) -> anyhow::Error {
     match error {
         MechanismCalibrationError::Observation {
             observation,
@@ -51,7 +65,7 @@ fn data_error(dataset: &Path, error: MechanismCalibrationError) -> anyhow::Error
         } => anyhow::anyhow!(
             "{}: {}: {reason}",
             dataset.display(),
-            observation_place(observation)
+            observation_place(mechanism, observation)
         ),
         other => anyhow::anyhow!("{}: {other}", dataset.display()),
     }
@@ -77,10 +91,41 @@ pub fn validate(
     crate::outputs::check(&inputs, &[out.to_path_buf()])?;
     let calibrated = calibrated(calibration, accept_rejected)?;
     let held_out = MechanismDataset::read(dataset)?;
-    let data = MechanismData::from_dataset(&held_out).map_err(|e| data_error(dataset, e))?;
+    let mechanism = held_out.machine.mechanism.as_str();
+    let data =
+        MechanismData::from_dataset(&held_out).map_err(|e| data_error(dataset, mechanism, e))?;
     let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL)
-        .map_err(|e| data_error(dataset, e))?;
-    let record = validation_record(&validation, calibration.display().to_string());
+        .map_err(|e| data_error(dataset, mechanism, e))?;
+    judged(&validation, calibration, out)
+}
+
+/// Validates `record`, a hexapod's calibration through the common path
+/// (read from `calibration`), on the ball touches of the hexapod dataset
+/// `dataset` (read from `path`), weighted as
+/// [`MechanismData::hexapod_held_out`]
+/// says: writes the validation to `out`, prints its summary, and turns a
+/// rejection into [`super::Rejected`]. The files were checked by the
+/// caller.
+pub fn validate_hexapod(
+    dataset: &Dataset,
+    path: &Path,
+    record: &MechanismCalibrationRecord,
+    calibration: &Path,
+    out: &Path,
+) -> anyhow::Result<()> {
+    let calibrated = CalibratedMechanism::from_record(record)
+        .map_err(|error| anyhow::anyhow!("{}: {error}", calibration.display()))?;
+    let data =
+        MechanismData::hexapod_held_out(dataset).map_err(|e| data_error(path, HEXAPOD, e))?;
+    let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL)
+        .map_err(|e| data_error(path, HEXAPOD, e))?;
+    judged(&validation, calibration, out)
+}
+
+/// Writes `validation` of the calibration at `calibration` to `out`,
+/// prints its summary, and turns a rejection into [`super::Rejected`].
+fn judged(validation: &MechanismValidation, calibration: &Path, out: &Path) -> anyhow::Result<()> {
+    let record = validation_record(validation, calibration.display().to_string());
     record.write(out)?;
     let mut stdout = std::io::stdout().lock();
     write!(stdout, "{}", summary(&record))?;

@@ -199,7 +199,20 @@ pub fn read_calibration(
     path: &Path,
     accept_rejected: bool,
 ) -> anyhow::Result<parcal::dataset::Calibration> {
-    let record = parcal::dataset::Calibration::read(path)?;
+    accepted_calibration(
+        parcal::dataset::Calibration::read(path)?,
+        path,
+        accept_rejected,
+    )
+}
+
+/// `record`, read from `path`, refused when rejected unless
+/// `accept_rejected`.
+pub fn accepted_calibration(
+    record: parcal::dataset::Calibration,
+    path: &Path,
+    accept_rejected: bool,
+) -> anyhow::Result<parcal::dataset::Calibration> {
     anyhow::ensure!(
         !record.is_rejected() || accept_rejected,
         "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",

@@ -14,8 +14,11 @@ use parcal::calibration::instruments::{Calibrated, validate_calibration};
 use parcal::calibration::validate_touches;
 use parcal::calibration::{CalibrationOptions, bounds};
 use parcal::dataset::VALIDATION_FILE;
+use parcal::dataset::mechanism::MechanismCalibrationRecord;
 
 use crate::bounds::Bounded;
+
+use super::mechanism_apply::{accepted, validate_hexapod};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -74,7 +77,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     crate::outputs::check(&inputs, std::slice::from_ref(&out))?;
     let (validation, calibration) = match (&args.calibration, args.folds) {
         (Some(path), _) if dataset.tracker.is_empty() => {
-            let record = super::read_calibration(path, args.accept_rejected)?;
+            let record = match parcal::dataset::Calibration::read(path) {
+                Ok(record) => super::accepted_calibration(record, path, args.accept_rejected)?,
+                Err(own) => match MechanismCalibrationRecord::read(path) {
+                    // A hexapod's calibration through the common path.
+                    Ok(record) => {
+                        anyhow::ensure!(
+                            args.reference.is_none(),
+                            "{}: a calibration through the common path is validated without --reference (each held-out ball's centre is fitted on all its touches)",
+                            path.display()
+                        );
+                        let record = accepted(record, path, args.accept_rejected)?;
+                        return validate_hexapod(&dataset, &args.dataset, &record, path, &out);
+                    }
+                    Err(_) => return Err(own.into()),
+                },
+            };
             let validation = validate_touches(&dataset, &record, args.reference)
                 .with_context(|| path.display().to_string())?;
             (validation, path.display().to_string())
