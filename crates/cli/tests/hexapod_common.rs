@@ -83,6 +83,11 @@ fn a_hexapod_record_is_compensated_on_target_poses() {
         header.starts_with("t_x,t_y,t_z,r_x,r_y,r_z,q1,q2,q3,q4,q5,q6,nominal_q1"),
         "{header}"
     );
+    // The hexapod's own export formats need its design's frames.
+    let hal = temp.path().join("hal");
+    let export = ["export", "--calibration", s(&calibration), "--format"];
+    let error = fails(&[&export[..], &["genhexkins", "--out", s(&hal)]].concat());
+    assert!(error.contains("through the common path"), "{error}");
     // Positions alone are refused, naming the hexapod's columns.
     std::fs::write(&targets, "x,y,z\n0,0,400\n").unwrap();
     let error = fails(

@@ -108,9 +108,18 @@ fn export_hexapod(args: &Args) -> anyhow::Result<()> {
 }
 
 /// The error of a calibration at `path` that is of another mechanism than
-/// `format` exports, if it is one (read as either kind of calibration).
+/// `format` exports, or a hexapod's through the common path (whose record
+/// has neither the design nor its frames) for a hexapod's format, if it
+/// is one (read as either kind of calibration).
 fn mismatch(path: &Path, format: Format) -> Option<anyhow::Error> {
     let mechanism = match MechanismCalibrationRecord::read(path) {
+        Ok(record) if record.mechanism == HEXAPOD && format.mechanism() == HEXAPOD => {
+            return Some(anyhow::anyhow!(
+                "{}: a hexapod's calibration through the common path, a mechanism's record (its parameters in the canonical frames, without the design it started from); --format {} exports the hexapod's own calibration (parcal calibrate without --common)",
+                path.display(),
+                format.name()
+            ));
+        }
         Ok(record) => record.mechanism,
         Err(_) => {
             parcal::dataset::Calibration::read(path).ok()?;
