@@ -20,7 +20,8 @@ use crate::validation::PredictionTestRecord;
 pub struct RowRecord {
     /// The file of its observation (`probes.csv`), if it came from one.
     pub file: Option<String>,
-    /// Its line there (the header is line 1).
+    /// Its line there (the header is line 1); none in a JSON file (a
+    /// hexapod's ball in artefacts.json, by [`RowRecord::index`]).
     pub line: Option<usize>,
     /// Its observation's kind (`probe height`).
     pub kind: String,
