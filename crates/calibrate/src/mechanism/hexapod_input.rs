@@ -74,12 +74,7 @@ impl MechanismData {
         let hexapod = Hexapod::new(&input, &machine.prior_sigma)
             .map_err(|e| invalid("the design geometry".to_string(), e.to_string()))?;
         let legs = LegReadings::of(dataset);
-        let hexapod = match machine.actuator.scale_sigma {
-            Some(sigma) => {
-                hexapod.with_unknown_scales(&machine.actuator.unit, machine.actuator.scale, sigma)
-            }
-            None => hexapod,
-        };
+        let hexapod = legs.reader(hexapod, &machine.actuator);
         let configured: Vec<f64> = design(&hexapod).iter().copied().collect();
         let start = design_start(&hexapod, &configured, &legs, &input, dataset, options)?;
         let per_ball = options.radius == RadiusModel::PerBall;
@@ -122,9 +117,7 @@ impl MechanismData {
             }
         })
     }
-}
 
-impl MechanismData {
     /// The ball touches of a hexapod's `dataset` held out from a
     /// calibration through the common path, as it is judged on them
     /// ([`super::validate_mechanism`]): weighted as the hexapod's own
@@ -163,16 +156,28 @@ enum LegReadings {
     /// The legs' extensions `s_i q_i` (mm) at the machine's known scales
     /// `s_i`, as the hexapod calibration applies them.
     KnownScales([f64; 6]),
-    /// The readings themselves: the scales are the mechanism's unknowns.
-    UnknownScales,
+    /// The readings themselves: the scales are the mechanism's unknowns,
+    /// with these prior sigmas.
+    UnknownScales([f64; 6]),
 }
 
 impl LegReadings {
     fn of(dataset: &Dataset) -> Self {
         let actuator = &dataset.machine.actuator;
         match actuator.scale_sigma {
-            Some(_) => Self::UnknownScales,
+            Some(sigma) => Self::UnknownScales(sigma),
             None => Self::KnownScales(actuator.scale),
+        }
+    }
+
+    /// The hexapod that reads them: `hexapod`, with the scales of
+    /// `actuator` as its unknowns when they are.
+    fn reader(&self, hexapod: Hexapod, actuator: &parcal_dataset::Actuator) -> Hexapod {
+        match self {
+            Self::KnownScales(_) => hexapod,
+            Self::UnknownScales(sigma) => {
+                hexapod.with_unknown_scales(&actuator.unit, actuator.scale, *sigma)
+            }
         }
     }
 
@@ -180,7 +185,7 @@ impl LegReadings {
     fn actuation(&self, q: &[f64; 6]) -> Vec<f64> {
         match self {
             Self::KnownScales(scale) => (0..6).map(|i| scale[i] * q[i]).collect(),
-            Self::UnknownScales => q.to_vec(),
+            Self::UnknownScales(_) => q.to_vec(),
         }
     }
 
@@ -188,7 +193,7 @@ impl LegReadings {
     fn per_reading(&self) -> Matrix6<f64> {
         match self {
             Self::KnownScales(scale) => Matrix6::from_diagonal(&(*scale).into()),
-            Self::UnknownScales => Matrix6::identity(),
+            Self::UnknownScales(_) => Matrix6::identity(),
         }
     }
 }
