@@ -54,19 +54,26 @@ fn a_hexapod_through_the_common_calibration_is_its_own() {
     }
 }
 
-#[test]
-fn a_hexapod_record_is_compensated_on_target_poses() {
-    // Targets in the hexapod's pose coordinates; commands for six legs with
-    // the nominal ones beside them.
-    let temp = tempfile::tempdir().unwrap();
-    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
-    let calibration = temp.path().join("calibration.json");
+/// fixtures/paper-seed1 calibrated through the common path, `--sim III`
+/// with the propagated prior, its record in `directory`.
+fn propagated_record(directory: &std::path::Path) -> std::path::PathBuf {
+    let data = copy_fixture("paper-seed1", directory, &PAPER_FILES);
+    let calibration = directory.join("calibration.json");
     let args = ["calibrate", s(&data), "--common", "--sim", "III"];
     ok(&[
         &args[..],
         &["--prior", "propagated", "--out", s(&calibration)],
     ]
     .concat());
+    calibration
+}
+
+#[test]
+fn a_hexapod_record_is_compensated_on_target_poses() {
+    // Targets in the hexapod's pose coordinates; commands for six legs with
+    // the nominal ones beside them.
+    let temp = tempfile::tempdir().unwrap();
+    let calibration = propagated_record(temp.path());
     let targets = temp.path().join("targets.csv");
     let out = temp.path().join("commands.csv");
     std::fs::write(&targets, "t_x,t_y,t_z,r_x,r_y,r_z\n-80,-30,330,0.05,0,0\n").unwrap();
@@ -107,14 +114,7 @@ fn a_hexapod_record_is_validated_on_held_out_touches() {
     // leg 1 reading 0.1 mm long there, rejected, l_1 the change that best
     // explains it; each row placed in the hexapod dataset's files.
     let temp = tempfile::tempdir().unwrap();
-    let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
-    let calibration = temp.path().join("calibration.json");
-    let args = ["calibrate", s(&data), "--common", "--sim", "III"];
-    ok(&[
-        &args[..],
-        &["--prior", "propagated", "--out", s(&calibration)],
-    ]
-    .concat());
+    let calibration = propagated_record(temp.path());
     let held_out = temp.path().join("seed7");
     ok(&["simulate", "--seed", "7", "--out", s(&held_out)]);
     let out = temp.path().join("validation.json");

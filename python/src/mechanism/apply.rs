@@ -7,7 +7,7 @@ use std::path::Path;
 
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
 use parcal::calibration::mechanism::compensate_targets;
-use parcal::dataset::HEXAPOD;
+use parcal::calibration::mechanism::{MechanismCalibrationError, MechanismValidation};
 use parcal::dataset::mechanism::TARGETS;
 use parcal::report::mechanism_validation::validation_record;
 use parcal::{
@@ -42,13 +42,14 @@ pub fn validate_mechanism<'py>(
     calibration: &Bound<'py, PyAny>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (record, name) = calibration_record(calibration, accept_rejected)?;
-    let calibrated = calibrated(&record, &name)?;
     let dataset = dataset.get();
-    let validation = py
-        .detach(|| validate(&calibrated, &dataset.data, SNOOPING_LEVEL))
-        .map_err(|e| data_error(&dataset.path, calibrated.mechanism.name(), e))?;
-    to_python(py, &validation_record(&validation, name))
+    judged(
+        py,
+        calibration,
+        accept_rejected,
+        &dataset.path,
+        |calibrated| validate(calibrated, &dataset.data, SNOOPING_LEVEL),
+    )
 }
 
 /// Validates `calibration` (a `parcal.MechanismCalibration` of a hexapod
@@ -65,16 +66,32 @@ pub fn validate_common<'py>(
     calibration: &Bound<'py, PyAny>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (record, name) = calibration_record(calibration, accept_rejected)?;
-    let calibrated = calibrated(&record, &name)?;
     let dataset = dataset.get();
     let given = Path::new(&dataset.given);
+    judged(py, calibration, accept_rejected, given, |calibrated| {
+        let data = MechanismData::hexapod_held_out(&dataset.inner)?;
+        validate(calibrated, &data, SNOOPING_LEVEL)
+    })
+}
+
+/// `calibration` (accepted, or `accept_rejected`) judged by `validate_on`
+/// with the GIL released, as validation.json holds it; an observation of
+/// the held-out data named in the files of `dataset`.
+fn judged<'py>(
+    py: Python<'py>,
+    calibration: &Bound<'py, PyAny>,
+    accept_rejected: bool,
+    dataset: &Path,
+    validate_on: impl FnOnce(
+        &CalibratedMechanism,
+    ) -> Result<MechanismValidation, MechanismCalibrationError>
+    + Send,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (record, name) = calibration_record(calibration, accept_rejected)?;
+    let calibrated = calibrated(&record, &name)?;
     let validation = py
-        .detach(|| {
-            let data = MechanismData::hexapod_held_out(&dataset.inner)?;
-            validate(&calibrated, &data, SNOOPING_LEVEL)
-        })
-        .map_err(|e| data_error(given, HEXAPOD, e))?;
+        .detach(|| validate_on(&calibrated))
+        .map_err(|e| data_error(dataset, calibrated.mechanism.name(), e))?;
     to_python(py, &validation_record(&validation, name))
 }
 
