@@ -25,27 +25,11 @@ pub fn read_calibration(
     path: &Path,
     accept_rejected: bool,
 ) -> anyhow::Result<MechanismCalibrationRecord> {
-    accepted(
+    super::accepted(
         MechanismCalibrationRecord::read(path)?,
         path,
         accept_rejected,
     )
-}
-
-/// `record`, read from `path`, refused when rejected unless
-/// `accept_rejected`.
-pub fn accepted(
-    record: MechanismCalibrationRecord,
-    path: &Path,
-    accept_rejected: bool,
-) -> anyhow::Result<MechanismCalibrationRecord> {
-    anyhow::ensure!(
-        record.accepted || accept_rejected,
-        "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
-        path.display(),
-        record.reasons.join("; ")
-    );
-    Ok(record)
 }
 
 /// The numbers of the calibration at `path`.

@@ -19,6 +19,7 @@ pub mod validate;
 
 use std::path::{Path, PathBuf};
 
+use parcal::dataset::mechanism::MechanismCalibrationRecord;
 use parcal::dataset::{Dataset, ReadOptions};
 use parcal::report::calibration_report::{Subject, accuracy_with};
 use parcal::workflows::evaluate::TrueMachine;
@@ -199,27 +200,70 @@ pub fn read_calibration(
     path: &Path,
     accept_rejected: bool,
 ) -> anyhow::Result<parcal::dataset::Calibration> {
-    accepted_calibration(
+    accepted(
         parcal::dataset::Calibration::read(path)?,
         path,
         accept_rejected,
     )
 }
 
+/// A calibration's record with a verdict: the hexapod's own, or a
+/// mechanism's.
+pub trait Judged {
+    /// Whether its verdict is "rejected".
+    fn rejected(&self) -> bool;
+    /// Why, in words.
+    fn reasons(&self) -> &[String];
+}
+
+impl Judged for parcal::dataset::Calibration {
+    fn rejected(&self) -> bool {
+        self.is_rejected()
+    }
+    fn reasons(&self) -> &[String] {
+        &self.reasons
+    }
+}
+
+impl Judged for MechanismCalibrationRecord {
+    fn rejected(&self) -> bool {
+        !self.accepted
+    }
+    fn reasons(&self) -> &[String] {
+        &self.reasons
+    }
+}
+
 /// `record`, read from `path`, refused when rejected unless
 /// `accept_rejected`.
-pub fn accepted_calibration(
-    record: parcal::dataset::Calibration,
-    path: &Path,
-    accept_rejected: bool,
-) -> anyhow::Result<parcal::dataset::Calibration> {
+pub fn accepted<R: Judged>(record: R, path: &Path, accept_rejected: bool) -> anyhow::Result<R> {
     anyhow::ensure!(
-        !record.is_rejected() || accept_rejected,
+        !record.rejected() || accept_rejected,
         "{}: the calibration was rejected ({}); give --accept-rejected to use it anyway",
         path.display(),
-        record.reasons.join("; ")
+        record.reasons().join("; ")
     );
     Ok(record)
+}
+
+/// A calibration.json of either kind.
+pub enum Recorded {
+    /// The hexapod's own calibration.
+    Own(Box<parcal::dataset::Calibration>),
+    /// A mechanism's (a hexapod's too, through the common path).
+    Mechanism(Box<MechanismCalibrationRecord>),
+}
+
+/// Reads the calibration.json at `path` as the hexapod's own, else as a
+/// mechanism's; the own reader's error when it is neither.
+pub fn read_either(path: &Path) -> anyhow::Result<Recorded> {
+    match parcal::dataset::Calibration::read(path) {
+        Ok(own) => Ok(Recorded::Own(Box::new(own))),
+        Err(own) => match MechanismCalibrationRecord::read(path) {
+            Ok(record) => Ok(Recorded::Mechanism(Box::new(record))),
+            Err(_) => Err(own.into()),
+        },
+    }
 }
 
 #[cfg(test)]

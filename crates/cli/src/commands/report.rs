@@ -50,12 +50,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .with_context(|| format!("{}: cannot create the directory", directory.display()))?;
     }
     crate::outputs::check(&inputs, &report_paths(&directory))?;
-    let calibration = match parcal::dataset::Calibration::read(&args.calibration) {
-        Ok(calibration) => calibration,
-        Err(hexapod) => match MechanismCalibrationRecord::read(&args.calibration) {
-            Ok(record) => return write_mechanism(&record, args, &directory),
-            Err(_) => return Err(hexapod.into()),
-        },
+    let calibration = match super::read_either(&args.calibration)? {
+        super::Recorded::Own(calibration) => *calibration,
+        super::Recorded::Mechanism(record) => return write_mechanism(&record, args, &directory),
     };
     let dataset = args
         .dataset

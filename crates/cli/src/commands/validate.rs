@@ -14,11 +14,11 @@ use parcal::calibration::instruments::{Calibrated, validate_calibration};
 use parcal::calibration::validate_touches;
 use parcal::calibration::{CalibrationOptions, bounds};
 use parcal::dataset::VALIDATION_FILE;
-use parcal::dataset::mechanism::MechanismCalibrationRecord;
 
 use crate::bounds::Bounded;
 
-use super::mechanism_apply::{accepted, validate_hexapod};
+use super::Recorded;
+use super::mechanism_apply::validate_hexapod;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -77,21 +77,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     crate::outputs::check(&inputs, std::slice::from_ref(&out))?;
     let (validation, calibration) = match (&args.calibration, args.folds) {
         (Some(path), _) if dataset.tracker.is_empty() => {
-            let record = match parcal::dataset::Calibration::read(path) {
-                Ok(record) => super::accepted_calibration(record, path, args.accept_rejected)?,
-                Err(own) => match MechanismCalibrationRecord::read(path) {
-                    // A hexapod's calibration through the common path.
-                    Ok(record) => {
-                        anyhow::ensure!(
-                            args.reference.is_none(),
-                            "{}: a calibration through the common path is validated without --reference (each held-out ball's centre is fitted on all its touches)",
-                            path.display()
-                        );
-                        let record = accepted(record, path, args.accept_rejected)?;
-                        return validate_hexapod(&dataset, &args.dataset, &record, path, &out);
-                    }
-                    Err(_) => return Err(own.into()),
-                },
+            let record = match super::read_either(path)? {
+                Recorded::Own(record) => super::accepted(*record, path, args.accept_rejected)?,
+                // A hexapod's calibration through the common path.
+                Recorded::Mechanism(record) => {
+                    anyhow::ensure!(
+                        args.reference.is_none(),
+                        "{}: a calibration through the common path is validated without --reference (each held-out ball's centre is fitted on all its touches)",
+                        path.display()
+                    );
+                    let record = super::accepted(*record, path, args.accept_rejected)?;
+                    return validate_hexapod(&dataset, &args.dataset, &record, path, &out);
+                }
             };
             let validation = validate_touches(&dataset, &record, args.reference)
                 .with_context(|| path.display().to_string())?;
