@@ -19,6 +19,8 @@ use parcal::kinematics::cable::CableRobot;
 use parcal::kinematics::delta::{DeltaParams, N_PARAMS};
 use parcal::kinematics::mechanisms;
 
+use super::Recorded;
+
 /// What to export.
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Format {
@@ -112,19 +114,18 @@ fn export_hexapod(args: &Args) -> anyhow::Result<()> {
 /// has neither the design nor its frames) for a hexapod's format, if it
 /// is one (read as either kind of calibration).
 fn mismatch(path: &Path, format: Format) -> Option<anyhow::Error> {
-    let mechanism = match MechanismCalibrationRecord::read(path) {
-        Ok(record) if record.mechanism == HEXAPOD && format.mechanism() == HEXAPOD => {
+    let mechanism = match super::read_either(path).ok()? {
+        Recorded::Mechanism(record)
+            if record.mechanism == HEXAPOD && format.mechanism() == HEXAPOD =>
+        {
             return Some(anyhow::anyhow!(
                 "{}: a hexapod's calibration through the common path, a mechanism's record (its parameters in the canonical frames, without the design it started from); --format {} exports the hexapod's own calibration (parcal calibrate without --common)",
                 path.display(),
                 format.name()
             ));
         }
-        Ok(record) => record.mechanism,
-        Err(_) => {
-            parcal::dataset::Calibration::read(path).ok()?;
-            HEXAPOD.to_string()
-        }
+        Recorded::Mechanism(record) => record.mechanism,
+        Recorded::Own(_) => HEXAPOD.to_string(),
     };
     mismatch_of(path, &mechanism, format)
 }
