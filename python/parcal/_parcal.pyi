@@ -185,9 +185,13 @@ def simulate(
     points_per_ball: Optional[int] = None,
     tilt: Optional[float] = None,
     design_drawn: bool = False,
+    plate: Union[Literal["all"], int, None] = None,
+    plate_sigma: Optional[float] = None,
 ) -> Dataset:
     """A simulated campaign of ball touches, as ``parcal simulate`` makes
-    it (``points_per_ball`` default 7, ``tilt`` default 10 degrees)."""
+    it (``points_per_ball`` default 7, ``tilt`` default 10 degrees;
+    ``plate``: a ball plate's distances, ``"all"`` pairs or a number drawn,
+    each to ``plate_sigma`` micrometres, default 1)."""
 
 @overload
 def simulate(
@@ -205,10 +209,13 @@ def simulate(
     known_positions: Optional[int] = None,
     reading_sigma: Optional[float] = None,
     measured_sigma: Optional[float] = None,
+    plate: Union[Literal["all"], int, None] = None,
+    plate_sigma: Optional[float] = None,
     truth: Optional["MechanismDataset"] = None,
 ) -> "MechanismDataset":
-    """A simulated linear delta (``balls``, ``points_per_ball`` and the
-    ``probe_*``, ``part_distances``, ``distance_sigma`` options) or cable
+    """A simulated linear delta (``balls``, ``points_per_ball``,
+    ``plate``, ``plate_sigma`` and the ``probe_*``, ``part_distances``,
+    ``distance_sigma`` options) or cable
     robot (``samples``, ``known_positions``, ``reading_sigma``,
     ``measured_sigma``) with its truth, as ``parcal simulate --mechanism``
     makes it; ``truth`` (a simulated dataset) measures its true machine
@@ -309,7 +316,9 @@ class MechanismDataset:
     radius and its sigma, 0 for an exact radius, or n x 6 with where each
     ball was placed, ``x, y, z, centre_sigma`` (all four NaN for a ball not
     placed); ``touches`` n x 4: the ball's number and the commanded x, y,
-    z), checked as the files are."""
+    z; ``ball_distances`` n x 4: two balls' numbers, the calibrated
+    distance between their centres and its sigma), checked as the files
+    are."""
 
     def __init__(
         self,
@@ -321,6 +330,7 @@ class MechanismDataset:
         quantities: Optional[Mapping[str, Any]] = None,
         balls: Optional[npt.ArrayLike] = None,
         touches: Optional[npt.ArrayLike] = None,
+        ball_distances: Optional[npt.ArrayLike] = None,
     ) -> None: ...
     @staticmethod
     def read(path: PathLike) -> "MechanismDataset":
@@ -367,6 +377,10 @@ class MechanismDataset:
     @property
     def touches(self) -> FloatArray:
         """Touches of the balls (n x 4: ball number, commanded x, y, z mm)."""
+    @property
+    def ball_distances(self) -> FloatArray:
+        """Calibrated distances between the balls (n x 4: first, second,
+        distance, sigma mm)."""
     @property
     def distances(self) -> FloatArray:
         """Part distances (n x 7: x1, y1, z1, x2, y2, z2, distance mm)."""

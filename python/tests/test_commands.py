@@ -18,6 +18,13 @@ def test_simulate_makes_the_dataset_of_the_cli(tmp_path, cli):
     assert mine.contacts == 200 and np.array_equal(mine.q, theirs.q)
     with pytest.raises(parcal.Error, match=r"tilt must be in \[0, 90\) degrees, got 90"):
         parcal.simulate(1, tilt=90)
+    # A ball plate: five pairs drawn, 2 um; the contacts those without it.
+    cli("simulate", "--seed", 3, "--balls", 8, "--plate", 5, "--plate-sigma", 2, "--out", tmp_path / "plate")
+    plated = parcal.simulate(3, balls=8, plate=5, plate_sigma=2)
+    assert plated.checksum == parcal.Dataset.read(tmp_path / "plate").checksum
+    assert np.array_equal(plated.q, parcal.simulate(3, balls=8).q)
+    with pytest.raises(parcal.Error, match=r"plate: a plate needs at least 1 pair"):
+        parcal.simulate(3, balls=8, plate=0)
 
 
 def validation_json(path):

@@ -318,6 +318,38 @@ def test_a_delta_touching_balls_built_in_memory_calibrates_as_its_files(cli, tmp
         parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls, touches=touches)
 
 
+def test_a_ball_plate_ties_a_deltas_balls_in_memory_as_in_its_files(cli, tmp_path):
+    cli("simulate", "--mechanism", "delta", "--seed", 3, "--balls", 3, "--points-per-ball", 7,
+        "--plate", "all", "--plate-sigma", 2, "--out", tmp_path / "sim")
+    from_files = parcal.read_dataset(tmp_path / "sim")
+    mine = parcal.simulate(3, mechanism="delta", balls=3, points_per_ball=7, plate="all", plate_sigma=2)
+    assert np.array_equal(mine.ball_distances, from_files.ball_distances)
+    assert from_files.ball_distances.shape == (3, 4)
+    assert np.array_equal(from_files.ball_distances[:, :2], [[0, 1], [0, 2], [1, 2]])
+    assert np.all(from_files.ball_distances[:, 3] == 0.002)
+    machine = json.loads((tmp_path / "sim" / "machine.json").read_text())
+    built = parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls,
+                                    touches=from_files.touches, ball_distances=from_files.ball_distances)
+    run = parcal.calibrate(built)
+    assert run.to_json() == parcal.calibrate(from_files).to_json()
+    assert run.verdict == "accepted", run.reasons
+    places = [p for p, kind in zip(run.observations["place"], run.observations["kind"]) if kind == "ball distance"]
+    assert places == [f"ball_distances.csv line {k + 2} (ball distance {k})" for k in range(3)]
+    # The same balls measured again, held out: judged together with their distances.
+    held_out = parcal.simulate(7, mechanism="delta", balls=3, points_per_ball=7, plate="all", plate_sigma=2,
+                               probe_rings=1, truth=from_files)
+    validation = parcal.validate(held_out, calibration=run)
+    tied = [row for row in validation["rows"] if row["kind"] == "tied balls"]
+    assert len(tied) == 3 * 7 + 3 - 9, validation["rows"]
+    distances = from_files.ball_distances.copy()
+    distances[1, 1] = 0
+    with pytest.raises(parcal.Error, match=r"ball_distances\.csv: field row 2: balls 0 and 0 are not two distinct balls"):
+        parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls,
+                                touches=from_files.touches, ball_distances=distances)
+    with pytest.raises(parcal.Error, match="plate_sigma needs plate"):
+        parcal.simulate(3, mechanism="delta", balls=3, plate_sigma=2)
+
+
 def test_balls_placed_in_memory_are_the_placements_of_balls_csv(cli, tmp_path):
     cli("simulate", "--mechanism", "delta", "--seed", 3, "--balls", 3, "--points-per-ball", 7, "--out", tmp_path / "sim")
     ds = parcal.read_dataset(tmp_path / "sim")

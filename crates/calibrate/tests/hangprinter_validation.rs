@@ -39,12 +39,7 @@ fn held_out(dataset: &MechanismDataset, position_sigma: f64) -> MechanismDataset
     MechanismDataset {
         machine,
         samples,
-        probes: Vec::new(),
-        distances: Vec::new(),
-        quantities: Vec::new(),
-        balls: Vec::new(),
-        touches: Vec::new(),
-        truth: None,
+        ..MechanismDataset::default()
     }
 }
 

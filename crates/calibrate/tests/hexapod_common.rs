@@ -11,12 +11,12 @@
 use std::path::{Path, PathBuf};
 
 use parcal_calibrate::mechanism::{
-    CalibratedMechanism, MechanismData, MechanismOptions, Observations, calibrate_mechanism,
-    compensate_mechanism, validate_mechanism,
+    CalibratedMechanism, MechanismData, MechanismOptions, ObservationKind, Observations,
+    calibrate_mechanism, compensate_mechanism, validate_mechanism,
 };
 use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::{CalibrationOptions, PriorMode, RadiusModel, Simulation, calibrate};
-use parcal_dataset::{ArtefactFrame, Dataset};
+use parcal_dataset::{ArtefactFrame, Dataset, Distance};
 use parcal_kinematics::Geometry;
 use parcal_kinematics::params::to_params;
 use parcal_observe::WeightModel;
@@ -145,11 +145,20 @@ fn compare(options: &CalibrationOptions) {
 fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     let own = calibrate(dataset, options, &mut |_| {}).unwrap();
     assert!(own.converged());
-    // The 33, then the actuators' scales when they are unknowns.
+    // The 33, then the actuators' scales when they are unknowns (the own
+    // global block then holds the tied balls' centres, which the common
+    // result gives with the balls).
     let sigmas = own.global_sigmas().unwrap();
     let data = MechanismData::from_hexapod_touches(dataset, options).unwrap();
     let common = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
-    assert_eq!(common.parameters.len(), own.global.len());
+    let tied = own
+        .names()
+        .iter()
+        .filter(|name| name.starts_with("centre "))
+        .count();
+    let per_ball_radius = usize::from(options.radius == RadiusModel::PerBall);
+    let tied_unknowns = tied / 3 * (3 + per_ball_radius);
+    assert_eq!(common.parameters.len() + tied_unknowns, own.global.len());
     let names = own.names();
     let (mut worst_value, mut worst_sigma) = (0.0f64, 0.0f64);
     for (k, parameter) in common.parameters.iter().enumerate() {
@@ -192,7 +201,8 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     assert!(worst_ball < 2.0 * SIGMA_TOLERANCE, "{worst_ball:e}");
     // The checks: one row per contact; the same global test and the same
     // largest normalised residual, of the same contact.
-    assert_eq!(common.data_rows, dataset.measurements.len());
+    let distances = dataset.artefacts.distances.len();
+    assert_eq!(common.data_rows, dataset.measurements.len() + distances);
     let (own_test, common_test) = (own.global_test.unwrap(), common.global_test.unwrap());
     assert_eq!(own_test.redundancy, common_test.redundancy);
     let factors = common_test.variance_factor / own_test.variance_factor - 1.0;
@@ -202,6 +212,7 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     let (touch, (_, w)) = common
         .observations
         .iter()
+        .filter(|check| check.observation.kind == ObservationKind::Touch)
         .filter_map(|check| Some((check.observation.index, check.worst()?)))
         .max_by(|a, b| a.1.1.abs().total_cmp(&b.1.1.abs()))
         .unwrap();
@@ -246,6 +257,46 @@ fn balls_located_in_the_canonical_frame_are_held_there_by_both_paths() {
     }
     println!("propagated prior, balls in the canonical frame:");
     compare_on(&dataset, &options);
+}
+
+#[test]
+fn balls_tied_by_calibrated_distances_are_the_own_paths() {
+    // A ball plate's certificate over fixtures/paper-seed1's balls: 17
+    // pairs (a, a + 1) tying 26 of the 27 balls in chains of three, at
+    // their true distances to within a few tenths of their 1 um sigma.
+    // Both paths put the tied balls' centres (and uncertain radii) in the
+    // global block.
+    let mut dataset = Dataset::read(&fixture()).unwrap();
+    let truth = dataset.truth.clone().unwrap();
+    let centre = |b: usize| {
+        let c = &truth.ball_centres[b];
+        nalgebra::Vector3::from(*c)
+    };
+    dataset.artefacts.distances = (0..27)
+        .filter(|b| b % 3 != 2)
+        .map(|a| (a, a + 1))
+        .take(17)
+        .enumerate()
+        .map(|(k, (a, b))| Distance {
+            a,
+            b,
+            length: (centre(a) - centre(b)).norm() + 3e-4 * (k as f64).sin(),
+            sigma: 1e-3,
+        })
+        .collect();
+    for prior in [PriorMode::Paper, PriorMode::Propagated] {
+        for radius in [RadiusModel::PerBall, RadiusModel::PerContact] {
+            println!("{prior:?} prior, {radius:?} radius, 17 ball distances:");
+            let options = CalibrationOptions {
+                prior,
+                radius,
+                ..CalibrationOptions::simulation(Simulation::I)
+            };
+            compare_on(&dataset, &options);
+        }
+    }
+    let data = MechanismData::from_hexapod_touches(&dataset, &CalibrationOptions::default());
+    assert!(data.is_err(), "the coordinate observation is still refused");
 }
 
 #[test]

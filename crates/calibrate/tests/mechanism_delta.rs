@@ -16,8 +16,8 @@ use parcal_dataset::mechanism::{BallPlacement, MechanismDataset};
 use parcal_kinematics::delta::DeltaParams;
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::CommandedPoint;
-use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
+use parcal_simulate::{Plate, PlatePairs, Rng};
 
 /// A printer of the range: rods 250-300 mm, radius 120-150 mm,
 /// drawn from stream `seed`.
@@ -359,14 +359,26 @@ fn probes_and_ball_touches_calibrate_a_delta_within_its_sigmas() {
 }
 
 #[test]
-#[ignore = "30 calibrations; run with --ignored (docs/delta-measurements.md)"]
 fn nees_over_printers_with_ball_touches_matches_the_identifiable_count() {
     // Probes and 3 balls of 7 touches on 30 printers drawn from their
     // priors (the balls' radii from their calibration's): 12 identifiable
     // unknowns, the mean NEES within 4 standard errors of 12.
+    nees_over_touched_printers("ball touches", |seed| touched(seed, 3));
+}
+
+#[test]
+fn nees_over_printers_with_a_ball_plate_matches_the_identifiable_count() {
+    // The same with the three balls' distances calibrated to 2 um: the
+    // balls tied in the global block, still 12 identifiable unknowns.
+    nees_over_touched_printers("a ball plate", |seed| plated(seed, 3, 0.002));
+}
+
+/// The mean NEES over the 30 printers `dataset` simulates (seeds 0..30)
+/// within 4 standard errors of the 12 identifiable unknowns.
+fn nees_over_touched_printers(what: &str, dataset: impl Fn(u64) -> MechanismDataset) {
     let mut values = Vec::new();
     for seed in 0..30 {
-        let dataset = touched(seed, 3);
+        let dataset = dataset(seed);
         let run = calibrate(&dataset, &MechanismOptions::default());
         assert!(run.converged(), "seed {seed}: {:?}", run.reasons);
         let (value, rank) = nees_of(&dataset, &run);
@@ -374,7 +386,7 @@ fn nees_over_printers_with_ball_touches_matches_the_identifiable_count() {
         values.push(value);
     }
     let (mean, standard_error) = mean_and_standard_error(&values);
-    eprintln!("NEES over 30 printers with ball touches: {mean:.3} +- {standard_error:.3}");
+    eprintln!("NEES over 30 printers with {what}: {mean:.3} +- {standard_error:.3}");
     assert!(
         (mean - 12.0).abs() < 4.0 * standard_error,
         "mean NEES {mean:.3} +- {standard_error:.3}, expected 12"
@@ -405,6 +417,103 @@ fn a_touch_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
     assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
 }
 
+/// The rods' common length, their mean: its posterior sigma over its
+/// prior's (σ/√3 for three rods of prior σ).
+fn common_rod_length_ratio(run: &MechanismCalibration) -> f64 {
+    let at: Vec<usize> = ["diagonal_a", "diagonal_b", "diagonal_c"]
+        .iter()
+        .map(|name| run.parameters.iter().position(|p| p.name == *name).unwrap())
+        .collect();
+    let covariance = run.covariance.as_ref().unwrap();
+    let variance: f64 = at
+        .iter()
+        .flat_map(|&i| at.iter().map(move |&j| covariance[(i, j)] / 9.0))
+        .sum();
+    let prior = run.parameters[at[0]].prior.sigma.unwrap() / 3f64.sqrt();
+    variance.sqrt() / prior
+}
+
+/// `touched(seed, balls)` with a ball plate's certificate: the distance
+/// between every pair of balls, each to `sigma` mm.
+fn plated(seed: u64, balls: usize, sigma: f64) -> MechanismDataset {
+    let scenario = DeltaScenario {
+        balls,
+        plate: Some(Plate {
+            pairs: PlatePairs::All,
+            sigma,
+        }),
+        ..scenario(seed, 0)
+    };
+    simulate_delta(&scenario, seed).unwrap()
+}
+
+#[test]
+fn a_ball_plate_ties_the_balls_and_measures_the_rods_common_length() {
+    // Three balls and their three distances, calibrated to 2 um: the
+    // same touches as the balls alone, the balls' centres now global
+    // unknowns tied by the distances, which measure lengths of about
+    // 140 mm where a ball's radius measures 12.7 mm. The estimate stays
+    // consistent with its covariance (NEES below the 99.9 % quantile of
+    // chi-square(12), 32.91), and the rods' common length is known better.
+    let (seed, balls) = (3, 3);
+    let alone = touched(seed, balls);
+    let dataset = plated(seed, balls, 0.002);
+    assert_eq!(dataset.touches, alone.touches);
+    assert_eq!(dataset.ball_distances.len(), 3);
+    let run = calibrate(&dataset, &MechanismOptions::default());
+    assert!(run.verdict.accepted, "{:?}", run.reasons);
+    let (value, rank) = nees_of(&dataset, &run);
+    eprintln!("probes, 3 balls and their plate: NEES {value:.2} over {rank}");
+    assert_eq!(rank, 12);
+    assert!(value < 32.91, "NEES {value:.2}");
+    let checked = |kind| {
+        run.observations
+            .iter()
+            .filter(|c| c.observation.kind == kind)
+            .count()
+    };
+    assert_eq!(checked(ObservationKind::BallDistance), 3);
+    assert_eq!(checked(ObservationKind::Touch), 21);
+    for ball in &run.balls {
+        let sigma = ball.centre_sigma.expect("centre sigmas");
+        assert!(sigma.iter().all(|&s| s.is_finite() && s > 0.0), "{ball:?}");
+        assert!(ball.radius_sigma.is_some_and(|s| s > 0.0 && s <= 0.001));
+    }
+    let without = calibrate(&alone, &MechanismOptions::default());
+    let (before, after) = (
+        common_rod_length_ratio(&without),
+        common_rod_length_ratio(&run),
+    );
+    eprintln!(
+        "the rods' common length: posterior/prior sigma {before:.4} with 3 balls, {after:.4} with their plate"
+    );
+    assert!(after < before, "{after} with the plate, {before} without");
+}
+
+#[test]
+fn a_ball_distance_blunder_of_0_1_mm_is_named_and_removed_by_snooping() {
+    // Four balls, six distances of 2 um: the third distance 0.1 mm long.
+    let mut dataset = plated(5, 4, 0.002);
+    let blunder = 2;
+    dataset.ball_distances[blunder].length += 0.1;
+    let distance = ObservationRef {
+        kind: ObservationKind::BallDistance,
+        index: blunder,
+    };
+    let plain = calibrate(&dataset, &MechanismOptions::default());
+    assert!(!plain.verdict.accepted);
+    assert_eq!(plain.worst().map(|w| w.observation), Some(distance));
+    assert!(
+        plain.reasons.iter().any(|r| r.contains("ball distance 2")),
+        "{:?}",
+        plain.reasons
+    );
+    let snooped = calibrate(&dataset, &MechanismOptions::default().with_snooping(true));
+    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
+    assert_eq!(snooped.removals[0].observation, distance);
+    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+}
+
 #[test]
 fn probe_heights_and_three_balls_determine_the_rods_common_length() {
     // Probe heights alone leave the rods' common length (the XY scale)
@@ -414,21 +523,7 @@ fn probe_heights_and_three_balls_determine_the_rods_common_length() {
         let k = run.parameters.iter().position(|p| p.name == name).unwrap();
         run.identifiability.as_ref().unwrap().sigma_ratio[k].unwrap()
     };
-    // The rods' common length, their mean: its posterior sigma over its
-    // prior's (σ/√3 for three rods of prior σ).
-    let common = |run: &MechanismCalibration| {
-        let at: Vec<usize> = ["diagonal_a", "diagonal_b", "diagonal_c"]
-            .iter()
-            .map(|name| run.parameters.iter().position(|p| p.name == *name).unwrap())
-            .collect();
-        let covariance = run.covariance.as_ref().unwrap();
-        let variance: f64 = at
-            .iter()
-            .flat_map(|&i| at.iter().map(move |&j| covariance[(i, j)] / 9.0))
-            .sum();
-        let prior = run.parameters[at[0]].prior.sigma.unwrap() / 3f64.sqrt();
-        variance.sqrt() / prior
-    };
+    let common = common_rod_length_ratio;
     let probes_only = calibrate(&touched(3, 0), &MechanismOptions::default());
     let with_balls = calibrate(&touched(3, 3), &MechanismOptions::default());
     let (before, after) = (common(&probes_only), common(&with_balls));

@@ -345,6 +345,91 @@ fn a_simulated_printer_touches_calibrated_balls() {
 }
 
 #[test]
+fn a_simulated_printers_balls_come_with_a_ball_plate() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, plated) = (dir.path().join("plain"), dir.path().join("plated"));
+    let simulate = ["simulate", "--mechanism", "delta", "--seed", "7"];
+    let balls = ["--balls", "4", "--points-per-ball", "5"];
+    ok(&[&simulate[..], &balls, &["--out", s(&plain)]].concat());
+    let said = ok(&[
+        &simulate[..],
+        &balls,
+        &["--plate", "all", "--plate-sigma", "2", "--out", s(&plated)],
+    ]
+    .concat());
+    assert!(
+        said.contains("20 touches of 4 balls (6 distances between them)"),
+        "{said}"
+    );
+    // The plate draws from its own stream: every other file is the same.
+    assert!(!plain.join("ball_distances.csv").exists());
+    let mut files: Vec<_> = fs::read_dir(&plain)
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name())
+        .collect();
+    files.sort();
+    assert_eq!(
+        files,
+        [
+            "balls.csv",
+            "machine.json",
+            "probes.csv",
+            "touches.csv",
+            "truth.json"
+        ]
+    );
+    for file in &files {
+        assert_eq!(
+            fs::read(plain.join(file)).unwrap(),
+            fs::read(plated.join(file)).unwrap(),
+            "{file:?}"
+        );
+    }
+    // All 6 pairs of the 4 balls, whose true centres are on a ring of
+    // 0.6 of the 100 mm print radius, 90 degrees apart, at the height of
+    // their radii (equal within micrometres, which change a distance by
+    // far less than its sigma): each distance within 5 sigmas of 2 mm.
+    let text = fs::read_to_string(plated.join("ball_distances.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("first,second,distance,sigma"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|line| line.split(',').map(|f| f.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 4 * 3 / 2);
+    for row in &rows {
+        let [a, b, distance, sigma] = row[..] else {
+            panic!("{row:?}")
+        };
+        assert_eq!(sigma, 0.002);
+        let apart = (b - a) * std::f64::consts::FRAC_PI_2;
+        let chord = 2.0 * 60.0 * (apart / 2.0).sin();
+        assert!((distance - chord).abs() < 5.0 * sigma, "{row:?}: {chord}");
+    }
+    // Without balls, or of a cable robot, there is nothing to measure.
+    let err = fails(
+        &[
+            &simulate[..],
+            &["--plate", "all", "--out", s(&dir.path().join("none"))],
+        ]
+        .concat(),
+    );
+    assert!(err.contains("--plate needs --balls"), "{err}");
+    let err = fails(&[
+        "simulate",
+        "--mechanism",
+        "cable",
+        "--plate",
+        "all",
+        "--out",
+        s(&dir.path().join("cable")),
+    ]);
+    assert!(
+        err.contains("--plate do not apply to a cable robot"),
+        "{err}"
+    );
+}
+
+#[test]
 fn klipper_import_and_export_round_trip() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

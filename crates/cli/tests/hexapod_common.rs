@@ -54,6 +54,64 @@ fn a_hexapod_through_the_common_calibration_is_its_own() {
     }
 }
 
+#[test]
+fn balls_tied_by_a_plate_through_the_common_calibration_are_its_own() {
+    // The paper's campaign with a ball plate of 12 pairs: the tied balls'
+    // centres are global unknowns in both paths.
+    let temp = tempfile::tempdir().unwrap();
+    let data = temp.path().join("plate");
+    let simulated = [
+        "simulate",
+        "--seed",
+        "3",
+        "--plate",
+        "12",
+        "--out",
+        s(&data),
+    ];
+    ok(&simulated);
+    let (own, common) = (
+        temp.path().join("own.json"),
+        temp.path().join("common.json"),
+    );
+    let sim = ["--sim", "III", "--prior", "propagated"];
+    ok(&[&["calibrate", s(&data)][..], &sim, &["--out", s(&own)]].concat());
+    let printed = ok(&[
+        &["calibrate", s(&data), "--common"][..],
+        &sim,
+        &["--out", s(&common)],
+    ]
+    .concat());
+    assert!(
+        printed.contains("observations: 12 ball distances, 189 ball touches"),
+        "{printed}"
+    );
+    let (own, common) = (read(&own), read(&common));
+    let values = own["parameters"]["values"].as_array().unwrap();
+    let parameters = common["parameters"].as_array().unwrap();
+    assert_eq!(parameters.len(), 33);
+    for (value, parameter) in values.iter().zip(parameters) {
+        let (a, b) = (
+            value.as_f64().unwrap(),
+            parameter["value"].as_f64().unwrap(),
+        );
+        let sigma = parameter["sigma"].as_f64().unwrap();
+        assert!(
+            (a - b).abs() < 2e-3 * sigma,
+            "{}: {a} against {b}",
+            parameter["name"]
+        );
+    }
+    let tested: Vec<u64> = common["tests"]["observations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|o| o["kind"] == "ball distance")
+        .map(|o| o["index"].as_u64().unwrap())
+        .collect();
+    assert_eq!(tested, (0..12).collect::<Vec<u64>>());
+}
+
 /// fixtures/paper-seed1 calibrated through the common path, `--sim III`
 /// with the propagated prior, its record in `directory`.
 fn propagated_record(directory: &std::path::Path) -> std::path::PathBuf {

@@ -20,21 +20,40 @@ use crate::quote::{quoted_bytes, sanitized};
 pub(crate) enum Failure {
     /// From the CSV reader itself (I/O).
     Csv(csv::Error),
-    /// About the record that ended at byte `end` of the input.
+    /// About the record at `place`.
     At {
-        end: u64,
-        /// Newlines inside the record's (quoted) fields.
-        inner_newlines: u64,
-        /// The reader's line number, used if the input cannot be rescanned.
-        estimate: u64,
+        place: RowPlace,
         column: Option<&'static str>,
         message: String,
+        /// An earlier record the message refers to, whose line is named
+        /// after it (`, first on line N`).
+        earlier: Option<RowPlace>,
     },
 }
 
 impl From<csv::Error> for Failure {
     fn from(e: csv::Error) -> Self {
         Self::Csv(e)
+    }
+}
+
+/// Where a record is in its input, for naming its line once an error
+/// rescans the input ([`line_of`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RowPlace {
+    /// Input offset just past the record.
+    end: u64,
+    /// Newlines inside the record's (quoted) fields.
+    inner_newlines: u64,
+    /// The reader's line number, used if the input cannot be rescanned.
+    estimate: u64,
+}
+
+impl RowPlace {
+    /// The 1-based line of the record in `input` (`skipped` bytes of byte
+    /// order mark before the offsets).
+    fn line<R: Read + Seek>(&self, input: R, skipped: u64) -> u64 {
+        line_of(input, self.end + skipped, self.inner_newlines).unwrap_or(self.estimate)
     }
 }
 
@@ -52,8 +71,10 @@ impl Row<'_> {
         self.record[column].trim_ascii()
     }
 
-    pub(crate) fn error(&self, column: Option<&'static str>, message: String) -> Failure {
-        Failure::At {
+    /// Where this record is, to name its line in an error about a later
+    /// one ([`Self::error_after`]).
+    pub(crate) fn place(&self) -> RowPlace {
+        RowPlace {
             end: self.end,
             inner_newlines: self
                 .record
@@ -62,8 +83,26 @@ impl Row<'_> {
                 .filter(|&&b| b == b'\n')
                 .count() as u64,
             estimate: self.record.position().map_or(1, csv::Position::line),
+        }
+    }
+
+    pub(crate) fn error(&self, column: Option<&'static str>, message: String) -> Failure {
+        Failure::At {
+            place: self.place(),
             column,
             message,
+            earlier: None,
+        }
+    }
+
+    /// An error about this record, a repeat of the `earlier` one, that
+    /// names both lines: `message`, then `, first on line N`.
+    pub(crate) fn error_after(&self, earlier: RowPlace, message: String) -> Failure {
+        Failure::At {
+            place: self.place(),
+            column: None,
+            message,
+            earlier: Some(earlier),
         }
     }
 
@@ -165,7 +204,12 @@ pub(crate) fn parse<R: Read + Seek, T>(
 
 /// The error of `failure` in CSV file `path` (`input`, `skipped` bytes of
 /// byte order mark), with its line found by rescanning `input`.
-fn located<R: Read + Seek>(path: &Path, input: R, skipped: u64, failure: Failure) -> DatasetError {
+fn located<R: Read + Seek>(
+    path: &Path,
+    mut input: R,
+    skipped: u64,
+    failure: Failure,
+) -> DatasetError {
     match failure {
         Failure::Csv(e) => match line_too_long(&e) {
             Some(&LineTooLong { offset, cap }) => {
@@ -180,14 +224,19 @@ fn located<R: Read + Seek>(path: &Path, input: R, skipped: u64, failure: Failure
             None => csv_error(path, e),
         },
         Failure::At {
-            end,
-            inner_newlines,
-            estimate,
+            place,
             column,
             message,
+            earlier,
         } => {
-            let line = line_of(input, end + skipped, inner_newlines).unwrap_or(estimate);
-            DatasetError::csv(path, line, column, message)
+            let message = match earlier {
+                Some(earlier) => {
+                    let first = earlier.line(&mut input, skipped);
+                    format!("{message}, first on line {first}")
+                }
+                None => message,
+            };
+            DatasetError::csv(path, place.line(input, skipped), column, message)
         }
     }
 }

@@ -1,11 +1,15 @@
-//! A mechanism dataset's calibrated balls (`balls.csv`) and their touches
-//! (`touches.csv`): written and read back, a dataset without them read as
-//! before, and bad files refused naming the file, the line and the column.
+//! A mechanism dataset's calibrated balls (`balls.csv`), their touches
+//! (`touches.csv`) and the calibrated distances between them
+//! (`ball_distances.csv`): written and read back, a dataset without them
+//! read as before, and bad files refused naming the file, the line and the
+//! column.
 
 use std::fs;
 
+use parcal_dataset::Distance;
 use parcal_dataset::mechanism::{
-    BallPlacement, BallRow, MechanismDataset, MechanismMachine, Noise, TouchRow,
+    BALL_DISTANCES_FILE, BallPlacement, BallRow, MechanismDataset, MechanismMachine, Noise,
+    TouchRow,
 };
 use parcal_kinematics::delta::LinearDelta;
 
@@ -181,4 +185,142 @@ fn bad_balls_and_touches_are_named() {
         .unwrap_err()
         .to_string();
     assert!(error.contains("noise.touch"), "{error}");
+}
+
+/// [`touched`] with a third ball and a ball plate's distances between
+/// the three.
+fn plated() -> MechanismDataset {
+    let mut dataset = touched();
+    dataset.balls.push(dataset.balls[0]);
+    dataset.touches.push(TouchRow {
+        ball: 2,
+        commanded: [7.0, 20.0, 12.5],
+    });
+    let distance = |a, b, length| Distance {
+        a,
+        b,
+        length,
+        sigma: 0.0015,
+    };
+    dataset.ball_distances = vec![
+        distance(0, 1, 60.25),
+        distance(2, 0, 104.5),
+        distance(1, 2, 60.125),
+    ];
+    dataset
+}
+
+#[test]
+fn ball_distances_are_written_and_read_back() {
+    let dataset = plated();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plated");
+    dataset.write(&path).unwrap();
+    assert_eq!(MechanismDataset::read(&path).unwrap(), dataset);
+    let text = fs::read_to_string(path.join(BALL_DISTANCES_FILE)).unwrap();
+    assert_eq!(
+        text,
+        "first,second,distance,sigma\n0,1,60.25,0.0015\n2,0,104.5,0.0015\n1,2,60.125,0.0015\n"
+    );
+    // Without them, no file.
+    let path = dir.path().join("touched");
+    touched().write(&path).unwrap();
+    assert!(!path.join(BALL_DISTANCES_FILE).exists());
+}
+
+#[test]
+fn bad_ball_distances_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plated");
+    plated().write(&path).unwrap();
+    let file = path.join(BALL_DISTANCES_FILE);
+    let header = "first,second,distance,sigma\n";
+    let cases = [
+        (
+            "0,3,60,0.001\n",
+            &["line 2", "column second", "which has 3"][..],
+        ),
+        (
+            "0.5,1,60,0.001\n",
+            &["line 2", "column first", "is not the number"][..],
+        ),
+        (
+            "1,1,60,0.001\n",
+            &["line 2", "column second", "two balls"][..],
+        ),
+        (
+            "0,1,0,0.001\n",
+            &["line 2", "column distance", "not positive"][..],
+        ),
+        (
+            "0,1,60,-1\n",
+            &["line 2", "column sigma", "not positive"][..],
+        ),
+        ("0,1,60,\n", &["line 2", "column sigma", "empty field"][..]),
+        (
+            "0,1,60,0.001\n0,2,90,0.001\n\n1,0,60,0.001\n",
+            &["line 5", "balls 1 and 0 is given twice, first on line 2"][..],
+        ),
+    ];
+    for (rows, expected) in cases {
+        fs::write(&file, format!("{header}{rows}")).unwrap();
+        let error = MechanismDataset::read(&path).unwrap_err().to_string();
+        assert!(error.contains(BALL_DISTANCES_FILE), "{error}");
+        for part in expected {
+            assert!(error.contains(part), "{part:?} not in {error}");
+        }
+    }
+    for (text, expected) in [
+        ("first,second,distance\n0,1,60\n", "no column sigma"),
+        (header, "no ball distance row"),
+        ("", "empty"),
+    ] {
+        fs::write(&file, text).unwrap();
+        let error = MechanismDataset::read(&path).unwrap_err().to_string();
+        assert!(
+            error.contains(BALL_DISTANCES_FILE)
+                && error.contains("line 1")
+                && error.contains(expected),
+            "{error}"
+        );
+    }
+    // Distances without balls: on file and in memory.
+    fs::write(&file, format!("{header}0,1,60,0.001\n")).unwrap();
+    fs::remove_file(path.join("balls.csv")).unwrap();
+    fs::remove_file(path.join("touches.csv")).unwrap();
+    let error = MechanismDataset::read(&path).unwrap_err().to_string();
+    assert!(
+        error.contains(BALL_DISTANCES_FILE) && error.contains("need balls.csv"),
+        "{error}"
+    );
+    let unballed = MechanismDataset {
+        balls: Vec::new(),
+        touches: Vec::new(),
+        ..plated()
+    };
+    let error = unballed
+        .write(&dir.path().join("unballed"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains(BALL_DISTANCES_FILE) && error.contains("need balls.csv"),
+        "{error}"
+    );
+    // In memory, the same checks name the row.
+    let mut twice = plated();
+    twice.ball_distances[2] = Distance {
+        a: 1,
+        b: 0,
+        ..twice.ball_distances[2]
+    };
+    let error = twice
+        .write(&dir.path().join("twice"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains(BALL_DISTANCES_FILE)
+            && error.contains("row 3")
+            && error.contains("first in row 1"),
+        "{error}"
+    );
 }

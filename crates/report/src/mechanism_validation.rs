@@ -13,8 +13,8 @@ use parcal_calibrate::mechanism::{
 };
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
-    BALLS_FILE, DISTANCES_FILE, KindRecord, MechanismValidationRecord, POINTS_FILE, PROBES_FILE,
-    QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
+    BALL_DISTANCES_FILE, BALLS_FILE, DISTANCES_FILE, KindRecord, MechanismValidationRecord,
+    POINTS_FILE, PROBES_FILE, QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
 };
 use parcal_dataset::{ARTEFACTS_FILE, HEXAPOD, MEASUREMENTS_FILE};
 
@@ -83,17 +83,22 @@ impl Files {
         }
     }
 
-    /// The file of an observation of `kind`, if it is read from one.
-    fn of_kind(self, kind: ObservationKind) -> Option<&'static str> {
-        match (self, kind) {
-            (Self::Hexapod, ObservationKind::Touch) => Some(MEASUREMENTS_FILE),
-            (_, ObservationKind::Probe) => Some(PROBES_FILE),
-            (_, ObservationKind::Distance) => Some(DISTANCES_FILE),
-            (_, ObservationKind::Sample) => Some(POINTS_FILE),
-            (_, ObservationKind::Quantity) => Some(QUANTITIES_FILE),
-            (_, ObservationKind::Touch) => Some(TOUCHES_FILE),
-            (_, ObservationKind::Point) => None,
-        }
+    /// The file of an observation of `kind`, if it is read from one, and
+    /// whether an observation is its line there (a CSV row, after the
+    /// header) rather than its index (in JSON).
+    fn of_kind(self, kind: ObservationKind) -> Option<(&'static str, bool)> {
+        let file = match (self, kind) {
+            (Self::Hexapod, ObservationKind::Touch) => MEASUREMENTS_FILE,
+            (Self::Hexapod, ObservationKind::BallDistance) => return Some((ARTEFACTS_FILE, false)),
+            (_, ObservationKind::Probe) => PROBES_FILE,
+            (_, ObservationKind::Distance) => DISTANCES_FILE,
+            (_, ObservationKind::Sample) => POINTS_FILE,
+            (_, ObservationKind::Quantity) => QUANTITIES_FILE,
+            (_, ObservationKind::Touch) => TOUCHES_FILE,
+            (_, ObservationKind::BallDistance) => BALL_DISTANCES_FILE,
+            (_, ObservationKind::Point) => return None,
+        };
+        Some((file, true))
     }
 
     /// The balls' file, and whether a ball is its line there (a CSV row,
@@ -107,18 +112,22 @@ impl Files {
 
     /// The touches' file.
     fn touches(self) -> &'static str {
-        self.of_kind(ObservationKind::Touch)
-            .expect("touches are read from a file")
+        match self {
+            Self::Mechanism => TOUCHES_FILE,
+            Self::Hexapod => MEASUREMENTS_FILE,
+        }
     }
 }
 
 /// An observation of the mechanism named `mechanism` by its file and line
 /// (the header is line 1), and its kind and index: `probes.csv line 5
 /// (probe height 3)`, a hexapod's `measurements.csv line 9 (ball touch
-/// 7)`.
+/// 7)`; in a JSON file, by its file alone: a hexapod's `artefacts.json
+/// (ball distance 2)`.
 pub fn observation_place(mechanism: &str, observation: ObservationRef) -> String {
     match Files::of(mechanism).of_kind(observation.kind) {
-        Some(file) => format!("{file} line {} ({observation})", observation.index + 2),
+        Some((file, true)) => format!("{file} line {} ({observation})", observation.index + 2),
+        Some((file, false)) => format!("{file} ({observation})"),
         None => observation.to_string(),
     }
 }
@@ -129,13 +138,16 @@ pub fn observation_place(mechanism: &str, observation: ObservationRef) -> String
 fn row_record(files: Files, row: &ValidatedRow) -> RowRecord {
     let (file, line, index) = match &row.observation {
         HeldOut::Observation(observation) => {
-            let file = files.of_kind(observation.kind);
-            (file, file.map(|_| observation.index + 2), observation.index)
+            let source = files.of_kind(observation.kind);
+            let line = source.and_then(|(_, by_line)| by_line.then_some(observation.index + 2));
+            (source.map(|(file, _)| file), line, observation.index)
         }
         HeldOut::Ball { ball, .. } => {
             let (file, by_line) = files.balls();
             (Some(file), by_line.then_some(ball + 2), *ball)
         }
+        // Rows of several balls together: by the first ball, no one line.
+        HeldOut::TiedBalls { balls, .. } => (Some(files.balls().0), None, balls[0]),
     };
     RowRecord {
         file: file.map(str::to_string),
@@ -185,11 +197,12 @@ fn kinds(rows: &[RowRecord]) -> Vec<KindRecord> {
 fn place(files: Files, row: &ValidatedRow) -> String {
     match &row.observation {
         HeldOut::Observation(observation) => match files.of_kind(observation.kind) {
-            Some(file) => format!(
+            Some((file, true)) => format!(
                 "{file} line {} ({observation}, row {})",
                 observation.index + 2,
                 row.row
             ),
+            Some((file, false)) => format!("{file} ({observation}, row {})", row.row),
             None => format!("{observation}, row {}", row.row),
         },
         HeldOut::Ball { ball, touches } => {
@@ -203,6 +216,31 @@ fn place(files: Files, row: &ValidatedRow) -> String {
                 "{at} (ball {ball}, touched at {} lines {}, row {})",
                 files.touches(),
                 number_ranges(touches.iter().map(|t| t + 2)),
+                row.row
+            )
+        }
+        HeldOut::TiedBalls {
+            balls,
+            touches,
+            distances,
+        } => {
+            // CSV rows by their lines, JSON entries by their indices.
+            let listed = |(file, by_line): (&str, bool), what: &str, indices: &[usize]| {
+                let offset = if by_line { 2 } else { 0 };
+                let numbers = number_ranges(indices.iter().map(|i| i + offset));
+                match by_line {
+                    true => format!("{file} lines {numbers}"),
+                    false => format!("{file} {what} {numbers}"),
+                }
+            };
+            let tied_by = files
+                .of_kind(ObservationKind::BallDistance)
+                .unwrap_or(files.balls());
+            format!(
+                "{} (touched at {}, tied by {}, row {})",
+                listed(files.balls(), "balls", balls),
+                listed((files.touches(), true), "touches", touches),
+                listed(tied_by, "distances", distances),
                 row.row
             )
         }

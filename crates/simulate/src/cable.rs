@@ -277,6 +277,7 @@ fn cable_dataset(scenario: &CableScenario, simulation: CableSimulation) -> Mecha
         quantities: Vec::new(),
         balls: Vec::new(),
         touches: Vec::new(),
+        ball_distances: Vec::new(),
         truth: Some(MechanismTruth {
             parameters: simulation.truth.iter().copied().collect(),
             trigger_height: None,

@@ -20,21 +20,26 @@
 //! exact calibration); each is touched on its upper cap at directions `u`
 //! of a golden-angle spiral (polar angles up to 70°), the true tool point
 //! `x = c + (ρ + N(0, σ_t²)) u` and the commanded position the controller
-//! reports `x_c = f(p_c, g(p, x))`. Deterministic for a seed: each kind
-//! draws from its own stream.
+//! reports `x_c = f(p_c, g(p, x))`. A ball plate over the balls gives the
+//! calibrated distances between their true centres, `|c_a − c_b| +
+//! N(0, σ²)` ([`Plate`]). Deterministic for a seed: each kind draws from
+//! its own stream, the plate from its own too, so that a dataset without
+//! it is the same as with it but for ball_distances.csv.
 
 use parcal_dataset::bounds::Count;
 use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{
-    BALLS, BallRow, MechanismDataset, MechanismMachine, MechanismTruth, Noise, OBSERVATIONS,
-    SampleRow, TouchRow, ValuePrior,
+    BALL_DISTANCES, BALLS, BallRow, MechanismDataset, MechanismMachine, MechanismTruth, Noise,
+    OBSERVATIONS, SampleRow, TouchRow, ValuePrior,
 };
+use parcal_kinematics::Vec3;
 use parcal_kinematics::delta::{
     DeltaParams, FIRST_LAYER, Limits, LinearDelta, Tolerances, probe_rings,
 };
 use parcal_kinematics::mechanism::Mechanism;
 
-use crate::{Rng, SimulateError};
+use crate::plate::{self, PLATE_DISTANCES};
+use crate::{Plate, Rng, SimulateError};
 
 /// The bounds of the touches of each ball: a centre takes three, a fourth
 /// is the first that checks them.
@@ -88,6 +93,9 @@ pub struct DeltaScenario {
     pub ball_radius_sigma: Option<f64>,
     /// A touch's standard deviation along the ball's normal (mm).
     pub touch_sigma: f64,
+    /// A ball plate over the balls (which pairs, each distance's
+    /// standard deviation in mm); `None`: no distance between them.
+    pub plate: Option<Plate>,
 }
 
 impl DeltaScenario {
@@ -95,7 +103,7 @@ impl DeltaScenario {
     /// probed on 3 rings of 8 points (25 probes) within 100 mm at 10 µm,
     /// trigger height 0.7 ± 0.05 mm, no distance, no point sample and no
     /// ball (balls of 12.7 mm radius calibrated to 1 µm, touched 7 times
-    /// each at 10 µm when asked for).
+    /// each at 10 µm when asked for), no ball plate.
     pub fn typical() -> Self {
         Self {
             design: DeltaParams::symmetric(270.0, 135.0, 300.0),
@@ -117,6 +125,7 @@ impl DeltaScenario {
             ball_radius: 12.7,
             ball_radius_sigma: Some(0.001),
             touch_sigma: 0.01,
+            plate: None,
         }
     }
 
@@ -163,6 +172,14 @@ impl DeltaScenario {
                 "touches, the most a mechanism dataset holds",
             )
             .map_err(SimulateError::TooLarge)?;
+        }
+        if let Some(plate) = &self.plate {
+            if self.balls == 0 {
+                return invalid("a ball plate needs balls: its distances are between them");
+            }
+            BALL_DISTANCES
+                .check(PLATE_DISTANCES, plate::size(plate, self.balls))
+                .map_err(SimulateError::TooLarge)?;
         }
         let sigmas = [
             self.probe_sigma,
@@ -297,13 +314,21 @@ pub fn measure_delta(
         })
         .collect::<Result<Vec<_>, SimulateError>>()?;
 
-    let (balls, touches) = touch_balls(
+    let TouchedBalls {
+        balls,
+        touches,
+        centres,
+    } = touch_balls(
         scenario,
         &delta,
         &truth,
         &configured,
         &mut rng(Stream::Balls),
     )?;
+    let ball_distances = match &scenario.plate {
+        Some(plate) => plate::distances(plate, &centres, seed)?,
+        None => Vec::new(),
+    };
 
     let machine = MechanismMachine {
         noise: Noise {
@@ -327,8 +352,19 @@ pub fn measure_delta(
         quantities: Vec::new(),
         balls,
         touches,
+        ball_distances,
         truth: Some(truth_record),
     })
+}
+
+/// Calibrated balls on the bed, touched.
+struct TouchedBalls {
+    /// The balls as calibrated.
+    balls: Vec<BallRow>,
+    /// Their touches.
+    touches: Vec<TouchRow>,
+    /// Their true centres (mm, the bed's frame).
+    centres: Vec<Vec3>,
 }
 
 /// The balls of `scenario` and their touches by the printer of true
@@ -340,10 +376,11 @@ fn touch_balls(
     truth: &[f64],
     configured: &[f64],
     noise: &mut Rng,
-) -> Result<(Vec<BallRow>, Vec<TouchRow>), SimulateError> {
+) -> Result<TouchedBalls, SimulateError> {
     let (b_count, k_count) = (scenario.balls, scenario.touches_per_ball);
     let mut balls = Vec::with_capacity(b_count);
     let mut touches = Vec::with_capacity(b_count * k_count);
+    let mut centres = Vec::with_capacity(b_count);
     let golden = std::f64::consts::PI * (3.0 - 5.0f64.sqrt());
     let lowest = CAP_ANGLE.to_radians().cos();
     for ball in 0..b_count {
@@ -354,6 +391,7 @@ fn touch_balls(
                 .ball_radius_sigma
                 .map_or(0.0, |sigma| noise.normal(sigma));
         let centre = [ring * angle.cos(), ring * angle.sin(), radius];
+        centres.push(Vec3::from(centre));
         balls.push(BallRow {
             radius: scenario.ball_radius,
             radius_sigma: scenario.ball_radius_sigma,
@@ -379,7 +417,11 @@ fn touch_balls(
             });
         }
     }
-    Ok((balls, touches))
+    Ok(TouchedBalls {
+        balls,
+        touches,
+        centres,
+    })
 }
 
 /// The commanded height at `(x, y)` at which the machine of true
@@ -439,5 +481,54 @@ mod tests {
         };
         let error = simulate_delta(&bad, 1).unwrap_err().to_string();
         assert!(error.contains("rings"), "{error}");
+    }
+
+    #[test]
+    fn a_ball_plate_measures_the_true_centres_and_changes_nothing_else() {
+        let plain = DeltaScenario {
+            balls: 5,
+            ..DeltaScenario::typical()
+        };
+        let plated = DeltaScenario {
+            plate: Some(Plate {
+                pairs: crate::PlatePairs::All,
+                sigma: 0.001,
+            }),
+            ..plain.clone()
+        };
+        let without = simulate_delta(&plain, 3).unwrap();
+        let with = simulate_delta(&plated, 3).unwrap();
+        assert!(without.ball_distances.is_empty());
+        assert_eq!(
+            MechanismDataset {
+                ball_distances: Vec::new(),
+                ..with.clone()
+            },
+            without
+        );
+        // The true centres, drawn again from the balls' stream.
+        let truth = &with.truth.as_ref().unwrap().parameters;
+        let configured: Vec<f64> = plain.design.to_vector().iter().copied().collect();
+        let mut noise = Rng::new(3, Stream::Balls as u64);
+        let centres = touch_balls(&plain, &plain.delta(), truth, &configured, &mut noise)
+            .unwrap()
+            .centres;
+        let pairs: Vec<_> = with.ball_distances.iter().map(|d| (d.a, d.b)).collect();
+        let all: Vec<_> = (0..5)
+            .flat_map(|a| (a + 1..5).map(move |b| (a, b)))
+            .collect();
+        assert_eq!(pairs, all);
+        for d in &with.ball_distances {
+            let error = d.length - (centres[d.a] - centres[d.b]).norm();
+            assert!(error.abs() < 5.0 * d.sigma, "{d:?}: {error}");
+            assert_eq!(d.sigma, 0.001);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plated");
+        with.write(&path).unwrap();
+        assert_eq!(MechanismDataset::read(&path).unwrap(), with);
+        let unballed = DeltaScenario { balls: 0, ..plated };
+        let error = simulate_delta(&unballed, 3).unwrap_err().to_string();
+        assert!(error.contains("a ball plate needs balls"), "{error}");
     }
 }

@@ -4,7 +4,8 @@
 //! [`simulate_delta`]: the typical kit printer's design, its true
 //! parameters and trigger height a draw of the prior machine.json states,
 //! probes on rings over the printable disc, part distances across it on
-//! the first layer, calibrated balls on the bed touched by the probe. A
+//! the first layer, calibrated balls on the bed touched by the probe and a
+//! ball plate's distances between them. A
 //! cable robot (docs/cable-robots.md) by [`simulate_cable_dataset`]: the
 //! Hangprinter's shape, its true anchors, radii and encoder zero a draw of
 //! the prior, encoder samples where every line is taut, the encoder zero's
@@ -24,7 +25,9 @@ use parcal_dataset::mechanism::{MACHINE_FILE, MechanismDataset, MechanismTruth};
 use parcal_kinematics::mechanisms;
 
 use crate::delta::{DeltaScenario, measure_delta, simulate_delta};
-use crate::{COUNT, CableScenario, SimulateError, measure_cable_dataset, simulate_cable_dataset};
+use crate::{
+    COUNT, CableScenario, Plate, SimulateError, measure_cable_dataset, simulate_cable_dataset,
+};
 
 /// The bounds of `probe_rings`.
 pub const RINGS: Count = Count::new(1, 20, "a bed probed on more rings than 20 gains nothing");
@@ -82,6 +85,10 @@ pub struct MechanismOptions {
     /// Delta: touches of each ball, on its upper cap (default 7;
     /// [`COUNT`]).
     pub points_per_ball: Option<usize>,
+    /// Delta: a ball plate over the balls, the calibrated distances
+    /// between their centres (which pairs, each distance's standard
+    /// deviation in mm; default none; needs `balls`).
+    pub plate: Option<Plate>,
     /// Cable robot: samples (encoder readings), the encoder zero's
     /// included (default 44, the Hangprinter data's; [`SAMPLES`]).
     pub samples: Option<usize>,
@@ -108,7 +115,7 @@ impl MechanismOptions {
     }
 
     /// A delta's options, each with whether it is given.
-    fn delta_given(&self) -> [(&'static str, bool); 7] {
+    fn delta_given(&self) -> [(&'static str, bool); 8] {
         [
             ("probe_rings", self.probe_rings.is_some()),
             ("probes_per_ring", self.probes_per_ring.is_some()),
@@ -117,6 +124,7 @@ impl MechanismOptions {
             ("distance_sigma", self.distance_sigma.is_some()),
             ("balls", self.balls.is_some()),
             ("points_per_ball", self.points_per_ball.is_some()),
+            ("plate", self.plate.is_some()),
         ]
     }
 
@@ -289,6 +297,13 @@ fn delta(
 ) -> Result<MechanismDataset, SimulateError> {
     let (options, spelling) = (request.options, request.spelling);
     refuse_others("linear delta", &options.cable_given(), spelling)?;
+    if options.plate.is_some() && options.balls.is_none() {
+        return Err(SimulateError::Options(format!(
+            "{} needs {}: a ball plate's distances are between the balls, and there are none without it",
+            spelling.name("plate"),
+            spelling.name("balls")
+        )));
+    }
     let typical = DeltaScenario::typical();
     let scenario = DeltaScenario {
         rings: count(
@@ -328,6 +343,7 @@ fn delta(
             COUNT,
             spelling,
         )?,
+        plate: options.plate,
         ..typical
     };
     match truth {
@@ -471,6 +487,33 @@ mod tests {
             refusal(&request("cable", 1, &options, Spelling::Keywords)),
             "points_per_ball do not apply to a cable robot"
         );
+    }
+
+    #[test]
+    fn a_ball_plate_needs_a_deltas_balls() {
+        let plate = Some(Plate {
+            pairs: crate::PlatePairs::Random(2),
+            sigma: 0.001,
+        });
+        let unballed = MechanismOptions {
+            plate,
+            ..Default::default()
+        };
+        assert!(
+            refusal(&request("delta", 1, &unballed, Spelling::Flags)).starts_with(
+                "--plate needs --balls: a ball plate's distances are between the balls"
+            )
+        );
+        assert_eq!(
+            refusal(&request("cable", 1, &unballed, Spelling::Keywords)),
+            "plate do not apply to a cable robot"
+        );
+        let balled = MechanismOptions {
+            balls: Some(3),
+            ..unballed
+        };
+        let dataset = simulate_mechanism(&request("delta", 1, &balled, Spelling::Flags)).unwrap();
+        assert_eq!(dataset.ball_distances.len(), 2);
     }
 
     #[test]

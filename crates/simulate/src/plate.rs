@@ -18,6 +18,24 @@ pub enum PlatePairs {
     Random(u64),
 }
 
+impl std::str::FromStr for PlatePairs {
+    type Err = String;
+
+    /// `all`, or a number of pairs (at least 1).
+    fn from_str(value: &str) -> Result<Self, String> {
+        if value == "all" {
+            return Ok(Self::All);
+        }
+        match value.parse::<u64>() {
+            Ok(0) => Err("a plate needs at least 1 pair".into()),
+            Ok(count) => Ok(Self::Random(count)),
+            Err(_) => Err(format!(
+                "expected `all` or a number of pairs, got {value:?}"
+            )),
+        }
+    }
+}
+
 /// A ball plate calibrated over the campaign's balls.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plate {
@@ -27,13 +45,17 @@ pub struct Plate {
     pub sigma: f64,
 }
 
-/// The plate's random stream. The balls use streams `0..n`, so the contacts
-/// of a seed are the same with or without a plate.
+/// The plate's random stream. The hexapod's balls use streams `0..n`, a
+/// delta's kinds of measurement streams `0..5`, so that the rest of a
+/// seed's dataset is the same with or without a plate.
 const PLATE_STREAM: u64 = u64::MAX;
 
-/// The number of distances of `plate` over `balls` balls, checked against
-/// [`MAX_ROWS`](crate::MAX_ROWS) before anything is drawn.
-pub(crate) fn check_size(plate: &Plate, balls: usize) -> Result<usize, SimulateError> {
+/// The name of the plate's distances in messages about their number.
+pub(crate) const PLATE_DISTANCES: &str = "distances of the ball plate";
+
+/// The number of distances of `plate` over `balls` balls; `usize::MAX`
+/// beyond it.
+pub(crate) fn size(plate: &Plate, balls: usize) -> usize {
     let pairs = match plate.pairs {
         // n (n - 1) / 2 without overflow: halve the even factor first.
         PlatePairs::All if balls.is_multiple_of(2) => {
@@ -42,7 +64,13 @@ pub(crate) fn check_size(plate: &Plate, balls: usize) -> Result<usize, SimulateE
         PlatePairs::All => balls.checked_mul(balls.saturating_sub(1) / 2),
         PlatePairs::Random(count) => usize::try_from(count).ok(),
     };
-    crate::check_rows(&[("distances of the ball plate", pairs.unwrap_or(usize::MAX))])
+    pairs.unwrap_or(usize::MAX)
+}
+
+/// The number of distances of `plate` over `balls` balls, checked against
+/// [`MAX_ROWS`](crate::MAX_ROWS) before anything is drawn.
+pub(crate) fn check_size(plate: &Plate, balls: usize) -> Result<usize, SimulateError> {
+    crate::check_rows(&[(PLATE_DISTANCES, size(plate, balls))])
 }
 
 /// The calibrated distances of `plate` over the true centres, pairs

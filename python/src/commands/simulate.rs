@@ -5,10 +5,10 @@
 //! data of a simulated one's true machine included.
 
 use parcal::dataset::HEXAPOD;
-use parcal::simulation::COUNT;
 use parcal::simulation::mechanism::{
     MechanismOptions, MechanismRequest, Spelling, TrueMachine, mechanism_name, simulate_mechanism,
 };
+use parcal::simulation::{COUNT, Plate, PlatePairs};
 use parcal::{Scenario, simulate as simulate_campaign};
 use pyo3::prelude::*;
 use pyo3::{IntoPyObjectExt, Py, PyAny};
@@ -30,11 +30,17 @@ use crate::mechanism::dataset::MechanismDataset;
 /// With `mechanism` `"delta"` (`"linear delta"`) or `"cable"` (`"cable
 /// robot"`), a `parcal.MechanismDataset`: a delta's `probe_rings`,
 /// `probes_per_ring`, `part_distances`, `probe_sigma`, `distance_sigma`,
-/// `balls` and `points_per_ball`, or a cable robot's `samples`,
+/// `balls`, `points_per_ball` and `plate`, or a cable robot's `samples`,
 /// `known_positions`, `reading_sigma` and `measured_sigma`; `truth` (a
 /// simulated `parcal.MechanismDataset`, with its truth) measures that true
 /// machine again instead of drawing one: held-out data, refused if it is
 /// the dataset's own measurements (the same seed and options).
+///
+/// `plate` (`"all"`, or a number of pairs) adds a calibrated ball plate
+/// over the balls, for the hexapod (artefacts.json's distances) and the
+/// delta (ball_distances.csv): each distance the true one plus an error
+/// of `plate_sigma` micrometres (default 1); the touches are those of the
+/// same seed without it.
 ///
 /// An option of another mechanism than the one simulated is refused,
 /// naming it; every count is bounded as the command bounds it.
@@ -56,6 +62,8 @@ use crate::mechanism::dataset::MechanismDataset;
     known_positions=None,
     reading_sigma=None,
     measured_sigma=None,
+    plate=None,
+    plate_sigma=None,
     truth=None,
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -76,8 +84,11 @@ pub fn simulate(
     known_positions: Option<usize>,
     reading_sigma: Option<f64>,
     measured_sigma: Option<f64>,
+    plate: Option<&Bound<'_, PyAny>>,
+    plate_sigma: Option<f64>,
     truth: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
+    let plate = ball_plate(plate, plate_sigma)?;
     let options = MechanismOptions {
         probe_rings,
         probes_per_ring,
@@ -90,6 +101,7 @@ pub fn simulate(
         known_positions,
         reading_sigma,
         measured_sigma,
+        plate,
     };
     match mechanism.filter(|name| *name != HEXAPOD) {
         None => {
@@ -138,7 +150,32 @@ pub fn simulate(
 }
 
 /// The mechanism options a hexapod's campaign takes too.
-const HEXAPOD_TOO: [&str; 2] = ["balls", "points_per_ball"];
+const HEXAPOD_TOO: [&str; 3] = ["balls", "points_per_ball", "plate"];
+
+/// The ball plate of `plate` (`"all"` or a number of pairs) and
+/// `plate_sigma` (micrometres, default 1), as `--plate` and
+/// `--plate-sigma` give it; `plate_sigma` alone is refused.
+fn ball_plate(plate: Option<&Bound<'_, PyAny>>, sigma: Option<f64>) -> PyResult<Option<Plate>> {
+    let Some(plate) = plate else {
+        return match sigma {
+            Some(_) => Err(to_py("plate_sigma needs plate")),
+            None => Ok(None),
+        };
+    };
+    let pairs: PlatePairs = plate
+        .str()?
+        .to_string()
+        .parse()
+        .map_err(|e: String| to_py(format!("plate: {e}")))?;
+    let sigma = sigma.unwrap_or(1.0);
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return Err(to_py(format!("plate_sigma must be positive, got {sigma}")));
+    }
+    Ok(Some(Plate {
+        pairs,
+        sigma: sigma * 1e-3,
+    }))
+}
 
 /// Refuses the options `others`, if any: they `what` (`"do not apply to a
 /// cable robot"`).
@@ -202,6 +239,7 @@ fn hexapod(
     if design_drawn {
         scenario = scenario.design_drawn(seed);
     }
+    scenario.plate = options.plate;
     let simulation = py
         .detach(|| simulate_campaign(&scenario, seed))
         .map_err(to_py)?;

@@ -1,14 +1,16 @@
 //! `parcal.MechanismDataset`: the dataset of a mechanism other than the
 //! hexapod (a linear delta, a cable robot), read from its directory
 //! (machine.json naming the mechanism, probes.csv, distances.csv,
-//! points.csv, quantities.csv, truth.json), its parameters and
-//! observations as numpy arrays.
+//! points.csv, quantities.csv, balls.csv, touches.csv,
+//! ball_distances.csv, truth.json), its parameters and observations as
+//! numpy arrays.
 
 use std::path::PathBuf;
 
 use numpy::{PyArray1, PyArray2};
 use parcal::MechanismData;
 use parcal::MechanismDataset as Inner;
+use parcal::dataset::Distance;
 use parcal::dataset::mechanism::{
     BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TouchRow,
 };
@@ -36,8 +38,10 @@ use crate::error::to_py;
 /// `position` (n x 3, a row of NaN where not measured) and `loads`
 /// (n x A), `quantities` a dict of `quantity`, `value`, `sigma`, `balls`
 /// n x 2 (`radius`, `radius_sigma`, 0 for an exact radius), `touches`
-/// n x 4 (`ball`, the commanded `x, y, z`); they are checked as the files
-/// are, and messages name the files they would be.
+/// n x 4 (`ball`, the commanded `x, y, z`), `ball_distances` n x 4
+/// (`first, second, distance, sigma`: two balls' numbers and the
+/// calibrated distance between their centres, mm); they are checked as
+/// the files are, and messages name the files they would be.
 #[pyclass(module = "parcal", frozen)]
 pub struct MechanismDataset {
     /// The dataset as read.
@@ -77,7 +81,8 @@ impl MechanismDataset {
 #[pymethods]
 impl MechanismDataset {
     #[new]
-    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None, balls=None, touches=None))]
+    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None, balls=None, touches=None, ball_distances=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         machine: &Bound<'_, PyAny>,
         probes: Option<&Bound<'_, PyAny>>,
@@ -86,6 +91,7 @@ impl MechanismDataset {
         quantities: Option<&Bound<'_, PyDict>>,
         balls: Option<&Bound<'_, PyAny>>,
         touches: Option<&Bound<'_, PyAny>>,
+        ball_distances: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let machine = through_file(
             machine,
@@ -117,6 +123,10 @@ impl MechanismDataset {
                 .unwrap_or_default(),
             balls: balls.map(ball_rows).transpose()?.unwrap_or_default(),
             touches: touches.map(touch_rows).transpose()?.unwrap_or_default(),
+            ball_distances: ball_distances
+                .map(ball_distance_rows)
+                .transpose()?
+                .unwrap_or_default(),
             truth: None,
             machine,
         };
@@ -332,6 +342,21 @@ impl MechanismDataset {
         array2(py, &rows)
     }
 
+    /// The calibrated distances between the balls (n x 4,
+    /// ball_distances.csv's `first, second, distance, sigma`: the two
+    /// balls' numbers, the distance between their centres and its sigma,
+    /// mm).
+    #[getter]
+    fn ball_distances<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let rows: Vec<[f64; 4]> = self
+            .inner
+            .ball_distances
+            .iter()
+            .map(|d| [d.a as f64, d.b as f64, d.length, d.sigma])
+            .collect();
+        array2(py, &rows)
+    }
+
     /// A simulated dataset's truth (truth.json): `parameters` (an array in
     /// the order of `parameters`), `canonical` (the same machine in the
     /// canonical frame a calibration's values are in, its gauge freedoms
@@ -449,17 +474,41 @@ fn touch_rows(touches: &Bound<'_, PyAny>) -> PyResult<Vec<TouchRow>> {
         .into_iter()
         .enumerate()
         .map(|(row, [ball, x, y, z])| {
-            if ball < 0.0 || ball.fract() != 0.0 || ball > u32::MAX as f64 {
-                return Err(to_py(format!(
-                    "touches row {row}: ball {ball} is not a ball's number (0, 1, 2, ...)"
-                )));
-            }
             Ok(TouchRow {
-                ball: ball as usize,
+                ball: ball_number(ball, || format!("touches row {row}"))?,
                 commanded: [x, y, z],
             })
         })
         .collect()
+}
+
+/// `ball_distances` (n x 4: the two balls' numbers, the distance and its
+/// sigma) as ball_distances.csv's rows.
+fn ball_distance_rows(distances: &Bound<'_, PyAny>) -> PyResult<Vec<Distance>> {
+    rows::<4>(distances, "ball_distances")?
+        .into_iter()
+        .enumerate()
+        .map(|(row, [a, b, length, sigma])| {
+            let at = || format!("ball_distances row {row}");
+            Ok(Distance {
+                a: ball_number(a, at)?,
+                b: ball_number(b, at)?,
+                length,
+                sigma,
+            })
+        })
+        .collect()
+}
+
+/// `value` as a ball's number (0, 1, 2, ...), else an error at `at`.
+fn ball_number(value: f64, at: impl Fn() -> String) -> PyResult<usize> {
+    if value < 0.0 || value.fract() != 0.0 || value > u32::MAX as f64 {
+        return Err(to_py(format!(
+            "{}: ball {value} is not a ball's number (0, 1, 2, ...)",
+            at()
+        )));
+    }
+    Ok(value as usize)
 }
 
 /// The quantities of a dict: `quantity` (names), `value` and `sigma`.

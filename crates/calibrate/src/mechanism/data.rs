@@ -9,13 +9,14 @@ use std::sync::Arc;
 use nalgebra::DMatrix;
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
-    Actuation, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES, PartDistance,
-    PointSample, ProbeHeight,
+    Actuation, BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES,
+    PartDistance, PointSample, ProbeHeight,
 };
 
 use super::correlation::check_correlation;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
+use super::tied::TiedBalls;
 
 /// The most observations of each kind: far beyond a calibration's needs
 /// (a probed bed holds tens to hundreds), and small enough that the
@@ -28,6 +29,10 @@ pub const MAX_BALLS: usize = MAX_OBSERVATIONS / MIN_TOUCHES_PER_BALL;
 /// The fewest touches of a ball: its centre takes three, and a fourth
 /// is the first that checks them.
 pub const MIN_TOUCHES_PER_BALL: usize = 4;
+/// The most balls that calibrated distances tie together (a ball plate
+/// holds tens): each adds its centre (and an uncertain radius) to the
+/// dense global block, whose work per row grows with its square.
+pub const MAX_TIED_BALLS: usize = 100;
 /// The fewest actuators a mechanism calibrated here may have (one per
 /// pose coordinate).
 pub const MIN_ACTUATORS: usize = 3;
@@ -52,6 +57,8 @@ pub struct Observations {
     pub balls: Vec<Ball>,
     /// Touches of the balls.
     pub touches: Vec<BallTouch>,
+    /// Calibrated distances between the balls' centres.
+    pub ball_distances: Vec<BallDistance>,
 }
 
 /// A calibrated sphere placed at an unknown centre.
@@ -99,6 +106,7 @@ impl Observations {
             ObservationKind::Sample => self.samples.len(),
             ObservationKind::Quantity => self.quantities.len(),
             ObservationKind::Touch => self.touches.len(),
+            ObservationKind::BallDistance => self.ball_distances.len(),
         }
     }
 
@@ -112,6 +120,17 @@ impl Observations {
         self.len() == 0
     }
 
+    /// The balls the ball distances tie, their unknowns from global column
+    /// `first` on ([`super::tied`]).
+    pub(crate) fn tied_balls(&self, first: usize) -> TiedBalls {
+        let radius_unknown: Vec<bool> = self
+            .balls
+            .iter()
+            .map(|ball| ball.radius_sigma.is_some())
+            .collect();
+        TiedBalls::new(&self.ball_distances, &radius_unknown, first)
+    }
+
     /// These observations without `observation`.
     pub fn without(&self, observation: ObservationRef) -> Self {
         let mut rest = self.clone();
@@ -123,6 +142,7 @@ impl Observations {
             ObservationKind::Sample => drop(rest.samples.remove(k)),
             ObservationKind::Quantity => drop(rest.quantities.remove(k)),
             ObservationKind::Touch => drop(rest.touches.remove(k)),
+            ObservationKind::BallDistance => drop(rest.ball_distances.remove(k)),
         }
         rest
     }
@@ -286,8 +306,9 @@ impl MechanismData {
     /// and measured quantities alone; sizes matching it; finite values; positive sigmas; counts within
     /// [`MAX_OBSERVATIONS`] (balls within [`MAX_BALLS`]) and at least one
     /// observation; every ball touched at least [`MIN_TOUCHES_PER_BALL`]
-    /// times. The first problem names the parameter, the observation or
-    /// the ball.
+    /// times; every ball distance between two balls that exist, each
+    /// pair at most once, tying at most [`MAX_TIED_BALLS`] balls. The first
+    /// problem names the parameter, the observation or the ball.
     pub fn validate(&self) -> Result<(), MechanismCalibrationError> {
         let mechanism = self.mechanism.as_ref();
         let invalid = |what: String, reason: String| {
@@ -445,6 +466,7 @@ impl MechanismData {
             )),
             Actuation::Readings(readings) => check_values(id, "readings", readings),
         })?;
+        check_ball_distances(observations)?;
         let quantities = mechanism.quantities();
         for (k, measured) in observations.quantities.iter().enumerate() {
             let id = at(ObservationKind::Quantity, k);
@@ -544,6 +566,59 @@ fn check_balls(
         )),
         None => Ok(()),
     }
+}
+
+/// Every ball distance between two distinct balls that exist, of a finite
+/// and positive distance and sigma, each pair of balls at most once, the
+/// balls they tie at most [`MAX_TIED_BALLS`].
+fn check_ball_distances(observations: &Observations) -> Result<(), MechanismCalibrationError> {
+    let balls = observations.balls.len();
+    let mut pairs = std::collections::HashMap::new();
+    for (k, d) in observations.ball_distances.iter().enumerate() {
+        let id = ObservationRef {
+            kind: ObservationKind::BallDistance,
+            index: k,
+        };
+        if let Some(b) = [d.first, d.second].into_iter().find(|&b| b >= balls) {
+            return Err(observation_error(
+                id,
+                format!("it ties ball {b}, and there are {balls} balls"),
+            ));
+        }
+        if d.first == d.second {
+            return Err(observation_error(
+                id,
+                format!("it ties ball {} to itself", d.first),
+            ));
+        }
+        if !(d.distance.is_finite() && d.distance > 0.0) {
+            return Err(observation_error(
+                id,
+                format!("its distance {} is not finite and positive", d.distance),
+            ));
+        }
+        check_sigma(id, d.sigma)?;
+        let pair = (d.first.min(d.second), d.first.max(d.second));
+        if let Some(earlier) = pairs.insert(pair, k) {
+            return Err(observation_error(
+                id,
+                format!(
+                    "balls {} and {} already have ball distance {earlier}",
+                    pair.0, pair.1
+                ),
+            ));
+        }
+    }
+    let tied = observations.tied_balls(0).len();
+    if tied > MAX_TIED_BALLS {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "ball distances".to_string(),
+            reason: format!(
+                "they tie {tied} balls together, more than the {MAX_TIED_BALLS} accepted (each tied ball's centre is an unknown of the dense global block)"
+            ),
+        });
+    }
+    Ok(())
 }
 
 fn observation_error(observation: ObservationRef, reason: String) -> MechanismCalibrationError {

@@ -99,19 +99,12 @@ fn fit_blocks<const C: usize>(
     options: &MechanismOptions,
 ) -> Result<Fit, MechanismCalibrationError> {
     let problem = MechanismProblem::<C>::new(data, options.loss);
-    let start = problem.start();
-    let n = problem.n_params();
-    let blocks = problem.start_blocks(&start.as_slice()[..n])?;
+    let state = problem.start_state()?;
     // Every global observation evaluated once at the start, so that a
     // commanded position the machine cannot reach is named as such.
-    let mut rows = GlobalObservations::zeros(0, start.len());
-    problem.global_observations(&start, &mut rows)?;
+    let mut rows = GlobalObservations::zeros(0, state.global.len());
+    problem.global_observations(&state.global, &mut rows)?;
     let points = problem.n_points();
-    let state = State {
-        global: start,
-        groups: blocks,
-        points: vec![SVector::zeros(); points],
-    };
     let solver_options = SolverOptions {
         method: Method::GaussNewton,
         max_iterations: options.max_iterations,
@@ -135,40 +128,76 @@ fn fit_blocks<const C: usize>(
         _ => None,
     };
     let samples = data.observations.samples.len();
-    let xyz = |v: &SVector<f64, C>| [v[0], v[1], v[2]];
-    let (poses, centres) = solution.state.groups.split_at(samples);
     let balls = &data.observations.balls;
-    let uncertain = |b: usize| balls[b].radius_sigma.is_some();
-    let radii = (0..balls.len())
-        .map(|b| match uncertain(b) {
-            true => centres[b][3],
-            false => balls[b].radius,
+    let ball_values = |global: &DVector<f64>, blocks: &[SVector<f64, C>]| {
+        ball_unknowns(&problem, global, &blocks[samples..])
+    };
+    let (centres, radii) = ball_values(&solution.state.global, &solution.state.groups);
+    let (centre_sigmas, radius_sigmas) = solution
+        .group_sigmas
+        .as_ref()
+        .zip(solution.covariance.as_ref())
+        .map(|(sigmas, covariance)| {
+            let global = covariance.diagonal().map(f64::sqrt);
+            let (centres, radii) = ball_values(&global, sigmas);
+            let uncertain = (0..balls.len()).map(|b| balls[b].radius_sigma.is_some());
+            let radii = radii
+                .into_iter()
+                .zip(uncertain)
+                .map(|(s, u)| u.then_some(s));
+            (centres, radii.collect())
         })
-        .collect();
-    let radius_sigmas = solution.group_sigmas.as_ref().map(|sigmas| {
-        (0..balls.len())
-            .map(|b| uncertain(b).then(|| sigmas[samples + b][3]))
-            .collect()
-    });
+        .unzip();
+    // The mechanism's part of the global block: the tied balls' unknowns
+    // are reported with the balls.
+    let m = problem.mechanism_len();
+    let mechanism_block = |matrix: &DMatrix<f64>| matrix.view((0, 0), (m, m)).into_owned();
     Ok(Fit {
-        poses: poses.iter().map(xyz).collect(),
-        centres: centres.iter().map(xyz).collect(),
-        centre_sigmas: solution
-            .group_sigmas
-            .as_ref()
-            .map(|sigmas| sigmas[samples..].iter().map(xyz).collect()),
+        poses: solution.state.groups[..samples]
+            .iter()
+            .map(|v| [v[0], v[1], v[2]])
+            .collect(),
+        centres,
+        centre_sigmas,
         radii,
         radius_sigmas,
-        global: solution.state.global,
+        global: solution.state.global.rows(0, m).into_owned(),
         iterations: solution.history.len(),
         cost: solution.history.last().map(|record| record.cost),
         status: solution.status,
-        covariance: solution.covariance,
-        prior_information: problem.prior_information(),
+        covariance: solution.covariance.as_ref().map(mechanism_block),
+        prior_information: mechanism_block(&problem.prior_information()),
         redundancy: rows.saturating_sub(unknowns),
         checks,
         data_rows: global_rows + points,
     })
+}
+
+/// Each ball's centre and radius (its calibrated radius when exact) from
+/// the global block `global` for a tied ball ([`super::tied`]), from its
+/// local block in `blocks` (the balls' blocks) for any other: the values,
+/// or, given the global and local sigmas, their sigmas.
+fn ball_unknowns<const C: usize>(
+    problem: &MechanismProblem<C>,
+    global: &DVector<f64>,
+    blocks: &[SVector<f64, C>],
+) -> (Vec<[f64; 3]>, Vec<f64>) {
+    let balls = &problem.data().observations.balls;
+    blocks
+        .iter()
+        .enumerate()
+        .map(|(b, block)| {
+            let unknowns = match problem.tied().column(b) {
+                Some(column) => &global.as_slice()[column..],
+                None => block.as_slice(),
+            };
+            let radius = match balls[b].radius_sigma {
+                Some(_) => unknowns[3],
+                None => balls[b].radius,
+            };
+            ([unknowns[0], unknowns[1], unknowns[2]], radius)
+        })
+        .unzip()
 }
 
 /// The error of a run that could not fit at all: a failed evaluation (the

@@ -30,11 +30,15 @@
 //!   best fit of its tips, the direction `n0` from it to the tip (or the
 //!   commanded approach direction), `σ² = n0ᵀ Σ_tip n0 (+ σ_r²)`.
 //!
+//! - Each calibrated distance between two balls: a
+//!   [`BallDistance`](parcal_observe::mechanism::BallDistance), the
+//!   two balls' centres then unknowns of the global block, as the
+//!   hexapod's own calibration ties them.
+//!
 //! Both calibrations then minimise the same cost from the same start: the
 //! common door's estimate is the dedicated path's. What only the hexapod's
 //! own calibration models is refused by name: the coordinate observation
-//! (eq. 10) and its contact angles, tracker poses and points, calibrated
-//! distances between balls.
+//! (eq. 10) and its contact angles, tracker poses and points.
 
 use std::sync::Arc;
 
@@ -50,6 +54,7 @@ use parcal_observe::weights::{Repeatability, radius_variance};
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
+use super::input::ball_distances;
 use crate::CalibrationOptions;
 use crate::options::{Observation, PriorMode, RadiusModel, Simulation};
 use crate::setup::design_geometry;
@@ -104,6 +109,7 @@ impl MechanismData {
         let observations = Observations {
             balls,
             touches,
+            ball_distances: ball_distances(&dataset.artefacts.distances),
             ..Observations::default()
         };
         let data = Self::new(Arc::new(hexapod), configured, observations);
@@ -213,11 +219,6 @@ fn check_representable(
             !dataset.tracker.is_empty(),
             "tracker poses and points",
             "an instrument's frames are not modelled by the common calibration",
-        ),
-        (
-            !dataset.artefacts.distances.is_empty(),
-            "calibrated distances between balls",
-            "the common calibration's balls are independent",
         ),
     ];
     match refusals.into_iter().find(|(refused, _, _)| *refused) {

@@ -6,18 +6,34 @@
 //! the trigger height's prior, each
 //! observation with the noise of its kind, the samples' loads, the
 //! measured quantities with their own sigmas, and the calibrated balls
-//! (where placed, a prior on the centre) with their touches.
+//! (where placed, a prior on the centre) with their touches and the
+//! calibrated distances between them.
 
 use std::sync::Arc;
 
+use parcal_dataset::Distance;
 use parcal_dataset::mechanism::MechanismDataset;
 use parcal_kinematics::mechanisms;
 use parcal_observe::mechanism::{
-    Actuation, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+    Actuation, BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
 };
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
+
+/// Calibrated distances between balls as read (a hexapod's
+/// artefacts.json, a mechanism's ball_distances.csv), as observations.
+pub(super) fn ball_distances(distances: &[Distance]) -> Vec<BallDistance> {
+    distances
+        .iter()
+        .map(|d| BallDistance {
+            first: d.a,
+            second: d.b,
+            distance: d.length,
+            sigma: d.sigma,
+        })
+        .collect()
+}
 
 impl MechanismData {
     /// The data of `dataset` (module doc). The dataset's reader has
@@ -134,6 +150,7 @@ impl MechanismData {
             quantities,
             balls,
             touches,
+            ball_distances: ball_distances(&dataset.ball_distances),
         };
         let mut data = MechanismData::new(
             Arc::from(mechanism),

@@ -4,7 +4,8 @@
 //! probe heights, part distances, measured points, readings at unknown
 //! poses and touches of calibrated balls at unknown centres
 //! ([`parcal_observe::mechanism`]); for any other (the hexapod), touches at
-//! the actuators' readings. The builder's tolerances are the priors, by
+//! the actuators' readings; for both, calibrated distances between the
+//! balls. The builder's tolerances are the priors, by
 //! the method of Sato et al. (2004) the hexapod's own calibration follows.
 //!
 //! The stages, each importing only those above it (private but
@@ -12,12 +13,15 @@
 //!
 //! - `observation`: the observations' names (kind and index);
 //! - `error`: what can go wrong, naming the observation or parameter;
+//! - `tied`: where the balls that calibrated distances tie together have
+//!   their unknowns in the global block;
 //! - `data`: the data in memory ([`MechanismData`]) and their validation;
 //! - `options`: loss, snooping, level, iteration limit
 //!   ([`MechanismOptions`]);
 //! - `problem`: the solver's problem (global block: parameters, the
-//!   trigger height; local blocks: the poses of point samples, the
-//!   centres of balls and their uncertain radii);
+//!   trigger height, the tied balls' centres and uncertain radii; local
+//!   blocks: the poses of point samples, the centres of the other balls
+//!   and their uncertain radii);
 //! - `fit`: one solve, redundancy numbers, normalised residuals;
 //! - [`frame`]: the estimate and covariance in the canonical frame (the
 //!   gauge projected out);
@@ -85,6 +89,7 @@ mod problem;
 mod record;
 mod result;
 mod snooping;
+mod tied;
 mod validation;
 
 pub use calibrated::CalibratedMechanism;
@@ -92,7 +97,7 @@ pub use compensation::{
     Compensation, NAMED_TARGETS, UnreachableTargets, compensate_mechanism, compensate_targets,
 };
 pub use data::{
-    Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MIN_ACTUATORS,
+    Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_TIED_BALLS, MIN_ACTUATORS,
     MIN_TOUCHES_PER_BALL, MechanismData, Observations, ParameterPrior,
 };
 pub use error::MechanismCalibrationError;

@@ -5,7 +5,8 @@ use std::fmt;
 
 #[cfg(doc)]
 use parcal_observe::mechanism::{
-    BallTouch, CommandedPoint, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+    BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, PartDistance, PointSample,
+    ProbeHeight,
 };
 
 /// The kinds of observation of a mechanism calibration.
@@ -24,17 +25,21 @@ pub enum ObservationKind {
     Quantity = 4,
     /// The tool point touching a calibrated ball ([`BallTouch`]).
     Touch = 5,
+    /// A calibrated distance between two balls' centres
+    /// ([`BallDistance`]).
+    BallDistance = 6,
 }
 
 impl ObservationKind {
-    /// Every kind, in the order of the rows.
-    pub const ALL: [Self; 6] = [
+    /// Every kind, in the order of [`Self::index`].
+    pub const ALL: [Self; 7] = [
         Self::Probe,
         Self::Distance,
         Self::Point,
         Self::Sample,
         Self::Quantity,
         Self::Touch,
+        Self::BallDistance,
     ];
 
     /// Its place in [`Self::ALL`].
@@ -52,6 +57,7 @@ impl ObservationKind {
             Self::Sample => "point sample",
             Self::Quantity => "measured quantity",
             Self::Touch => "ball touch",
+            Self::BallDistance => "ball distance",
         }
     }
 }
@@ -87,21 +93,33 @@ pub enum HeldOut {
         /// Its touches' 0-based indices, increasing.
         touches: Vec<usize>,
     },
+    /// Balls that ball distances tie together, their touches and those
+    /// distances: the balls' centres are fitted to them together.
+    TiedBalls {
+        /// The balls' 0-based indices, increasing.
+        balls: Vec<usize>,
+        /// Their touches' 0-based indices, increasing.
+        touches: Vec<usize>,
+        /// The ball distances' 0-based indices, increasing.
+        distances: Vec<usize>,
+    },
 }
 
 impl HeldOut {
-    /// Its kind's name: the observation's ([`ObservationKind::name`]), or
-    /// `ball`.
+    /// Its kind's name: the observation's ([`ObservationKind::name`]),
+    /// `ball` or `tied balls`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Observation(observation) => observation.kind.name(),
             Self::Ball { .. } => "ball",
+            Self::TiedBalls { .. } => "tied balls",
         }
     }
 }
 
 impl fmt::Display for HeldOut {
-    /// `probe height 3`, `ball 1 (ball touches 7-13)`.
+    /// `probe height 3`, `ball 1 (ball touches 7-13)`, `balls 0-2 (ball
+    /// touches 0-20, ball distances 0-1)`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Observation(observation) => observation.fmt(f),
@@ -109,6 +127,17 @@ impl fmt::Display for HeldOut {
                 f,
                 "ball {ball} (ball touches {})",
                 number_ranges(touches.iter().copied())
+            ),
+            Self::TiedBalls {
+                balls,
+                touches,
+                distances,
+            } => write!(
+                f,
+                "balls {} (ball touches {}, ball distances {})",
+                number_ranges(balls.iter().copied()),
+                number_ranges(touches.iter().copied()),
+                number_ranges(distances.iter().copied())
             ),
         }
     }
@@ -145,6 +174,16 @@ mod tests {
         };
         assert_eq!(ball.to_string(), "ball 1 (ball touches 4-6, 9, 11-12)");
         assert_eq!(ball.name(), "ball");
+        let tied = HeldOut::TiedBalls {
+            balls: vec![0, 1, 2, 5],
+            touches: (0..20).collect(),
+            distances: vec![0, 1, 2],
+        };
+        assert_eq!(
+            tied.to_string(),
+            "balls 0-2, 5 (ball touches 0-19, ball distances 0-2)"
+        );
+        assert_eq!(tied.name(), "tied balls");
         let probe = HeldOut::Observation(ObservationRef {
             kind: ObservationKind::Probe,
             index: 3,

@@ -168,13 +168,107 @@ pub fn predict(
             predicted.push(rows);
         }
     }
-    for (b, touches) in balls.into_iter().enumerate() {
-        if !touches.is_empty() {
-            let rows = predict_ball(mechanism, params, configured, observations, b, touches, g)?;
-            predicted.push(rows);
-        }
+    for set in tied_sets(observations, balls)? {
+        predicted.push(predict_balls(
+            mechanism,
+            params,
+            configured,
+            observations,
+            set,
+            g,
+        )?);
     }
     Ok(predicted)
+}
+
+/// Balls predicted together: one ball and its touches, or the balls
+/// held-out ball distances tie together (connected through them), with
+/// their touches and those distances.
+struct BallSet {
+    /// The balls, increasing.
+    balls: Vec<usize>,
+    /// Each ball's touches (indices, increasing).
+    touches: Vec<Vec<usize>>,
+    /// The ball distances between them (indices, increasing).
+    distances: Vec<usize>,
+}
+
+impl BallSet {
+    /// What its rows are of: a ball, or balls tied by distances.
+    fn held_out(&self) -> HeldOut {
+        match (&self.balls[..], self.distances.is_empty()) {
+            (&[ball], true) => HeldOut::Ball {
+                ball,
+                touches: self.touches[0].clone(),
+            },
+            _ => {
+                let mut touches: Vec<usize> = self.touches.concat();
+                touches.sort_unstable();
+                HeldOut::TiedBalls {
+                    balls: self.balls.clone(),
+                    touches,
+                    distances: self.distances.clone(),
+                }
+            }
+        }
+    }
+}
+
+/// The sets of balls predicted together ([`BallSet`]), from each ball's
+/// `touches`: every ball touched or tied, the sets in the order of their
+/// first ball. An error names a set of more than
+/// [`MAX_HELD_OUT_TOUCHES_PER_BALL`] rows.
+fn tied_sets(
+    observations: &Observations,
+    touches: Vec<Vec<usize>>,
+) -> Result<Vec<BallSet>, MechanismCalibrationError> {
+    // Each ball's set: the smallest ball it is tied to, by union of the
+    // distances' two balls (the set's first ball its representative).
+    let mut first: Vec<usize> = (0..touches.len()).collect();
+    fn root(first: &mut [usize], mut b: usize) -> usize {
+        while first[b] != b {
+            first[b] = first[first[b]];
+            b = first[b];
+        }
+        b
+    }
+    for d in &observations.ball_distances {
+        let (a, b) = (root(&mut first, d.first), root(&mut first, d.second));
+        let (low, high) = (a.min(b), a.max(b));
+        first[high] = low;
+    }
+    let mut sets: Vec<BallSet> = Vec::new();
+    let mut set_of = vec![usize::MAX; touches.len()];
+    for (b, own) in touches.into_iter().enumerate() {
+        let r = root(&mut first, b);
+        if r == b {
+            set_of[b] = sets.len();
+            sets.push(BallSet {
+                balls: Vec::new(),
+                touches: Vec::new(),
+                distances: Vec::new(),
+            });
+        }
+        let set = &mut sets[set_of[r]];
+        set.balls.push(b);
+        set.touches.push(own);
+    }
+    for (k, d) in observations.ball_distances.iter().enumerate() {
+        sets[set_of[root(&mut first, d.first)]].distances.push(k);
+    }
+    sets.retain(|set| !set.distances.is_empty() || !set.touches[0].is_empty());
+    for set in &sets {
+        let rows = set.touches.iter().map(Vec::len).sum::<usize>() + set.distances.len();
+        if rows > MAX_HELD_OUT_TOUCHES_PER_BALL && set.balls.len() > 1 {
+            return Err(MechanismCalibrationError::InvalidData {
+                what: set.held_out().to_string(),
+                reason: format!(
+                    "their {rows} held-out touches and distances are more than the {MAX_HELD_OUT_TOUCHES_PER_BALL} predicted together: validate on fewer"
+                ),
+            });
+        }
+    }
+    Ok(sets)
 }
 
 /// The touches of each ball (indices, increasing); an error names a touch
@@ -281,62 +375,100 @@ fn predict_sample(
     Ok(Some(rows))
 }
 
-/// The rows of ball `b`'s held-out `touches` (module doc).
-fn predict_ball(
+/// The rows of a set of held-out balls (module doc): each ball's touches,
+/// its centre `c` located by them alone, and the distances between the
+/// set's balls, `r = |ĉ_a − ĉ_b| − L` (`dr/dc_a = uᵀ`, `dr/dc_b = −uᵀ`,
+/// noise `σ_L²`), every centre then projected out together.
+fn predict_balls(
     mechanism: &dyn Mechanism,
     params: &[f64],
     configured: &[f64],
     observations: &Observations,
-    b: usize,
-    touches: Vec<usize>,
+    set: BallSet,
     g: usize,
 ) -> Result<PredictedRows, MechanismCalibrationError> {
-    let ball = observations.balls[b];
     let all = &observations.touches;
-    let centre = ball_centre(mechanism, params, configured, all, &touches, b, ball.radius)?;
-    let (k, n) = (touches.len(), params.len());
-    let (mut residuals, mut d_local) = (DVector::zeros(k), DMatrix::zeros(k, 3));
-    let mut d_params = DMatrix::zeros(k, n);
-    let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
-    let mut noise = DMatrix::from_element(k, k, radius_variance);
-    for (i, &t) in touches.iter().enumerate() {
-        let touch = &all[t];
-        let row = touch
-            .evaluate(mechanism, params, configured, &centre, ball.radius, None)
-            .map_err(|e| MechanismCalibrationError::Observation {
-                observation: ObservationRef {
-                    kind: ObservationKind::Touch,
-                    index: t,
-                },
-                reason: format!("on ball {b}: {e}"),
-            })?;
-        let sigma = touch.sigma;
-        residuals[i] = row.rows.residual[0] * sigma;
-        d_local.row_mut(i).copy_from(&(row.d_centre * sigma));
-        d_params
-            .row_mut(i)
-            .copy_from(&(row.rows.d_params.row(0) * sigma));
-        noise[(i, i)] += sigma * sigma;
+    let n = params.len();
+    let m = set.touches.iter().map(Vec::len).sum::<usize>() + set.distances.len();
+    let u = 3 * set.balls.len();
+    let (mut residuals, mut d_local) = (DVector::zeros(m), DMatrix::zeros(m, u));
+    let mut d_params = DMatrix::zeros(m, n);
+    let mut noise = DMatrix::zeros(m, m);
+    let mut centres = Vec::with_capacity(set.balls.len());
+    let mut row = 0;
+    for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
+        let ball = observations.balls[b];
+        let centre = ball_centre(mechanism, params, configured, all, touches, b, ball.radius)?;
+        let k = touches.len();
+        let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
+        noise.view_mut((row, row), (k, k)).fill(radius_variance);
+        for &t in touches {
+            let touch = &all[t];
+            let evaluated = touch
+                .evaluate(mechanism, params, configured, &centre, ball.radius, None)
+                .map_err(|e| MechanismCalibrationError::Observation {
+                    observation: ObservationRef {
+                        kind: ObservationKind::Touch,
+                        index: t,
+                    },
+                    reason: format!("on ball {b}: {e}"),
+                })?;
+            let sigma = touch.sigma;
+            residuals[row] = evaluated.rows.residual[0] * sigma;
+            d_local
+                .view_mut((row, 3 * s), (1, 3))
+                .copy_from(&(evaluated.d_centre * sigma));
+            d_params
+                .row_mut(row)
+                .copy_from(&(evaluated.rows.d_params.row(0) * sigma));
+            noise[(row, row)] += sigma * sigma;
+            row += 1;
+        }
+        centres.push(centre);
     }
+    let slot = |b: usize| set.balls.binary_search(&b).unwrap_or_default();
+    for &k in &set.distances {
+        let distance = &observations.ball_distances[k];
+        let (a, b) = (slot(distance.first), slot(distance.second));
+        let evaluated = distance.evaluate(&centres[a], &centres[b]).map_err(|e| {
+            MechanismCalibrationError::Observation {
+                observation: ObservationRef {
+                    kind: ObservationKind::BallDistance,
+                    index: k,
+                },
+                reason: e.to_string(),
+            }
+        })?;
+        let sigma = distance.sigma;
+        residuals[row] = evaluated.residual * sigma;
+        d_local
+            .view_mut((row, 3 * a), (1, 3))
+            .copy_from(&(evaluated.d_first * sigma));
+        d_local
+            .view_mut((row, 3 * b), (1, 3))
+            .copy_from(&(evaluated.d_second * sigma));
+        noise[(row, row)] = sigma * sigma;
+        row += 1;
+    }
+    let held_out = set.held_out();
     let local = LocalRows {
         residuals,
         d_local: &d_local,
         d_params: &d_params,
         noise,
     };
-    project_out(HeldOut::Ball { ball: b, touches }, &local, g).map_err(|e| {
-        MechanismCalibrationError::InvalidData {
-            what: format!("ball {b}"),
-            reason: format!("its held-out touches do not locate its centre: {e}"),
-        }
+    project_out(held_out.clone(), &local, g).map_err(|e| MechanismCalibrationError::InvalidData {
+        what: held_out.to_string(),
+        reason: format!("the held-out touches do not locate the centres: {e}"),
     })
 }
 
-/// Residuals with a local unknown `u` of three coordinates (module doc).
+/// Residuals with local unknowns `u` (a pose, a centre, or the centres
+/// of tied balls; module doc).
 struct LocalRows<'a> {
     /// `r` (`m`).
     residuals: DVector<f64>,
-    /// `J = dr/du` (`m × 3`).
+    /// `J = dr/du` (`m × 3`, or 3 columns a ball).
     d_local: &'a DMatrix<f64>,
     /// `G_p = dr/dp` (`m × n`).
     d_params: &'a DMatrix<f64>,
@@ -344,9 +476,9 @@ struct LocalRows<'a> {
     noise: DMatrix<f64>,
 }
 
-/// `local`'s rows with its local unknown projected out (module doc), the
-/// derivative widened to `g` columns; an error when `J` is not of rank 3
-/// (the unknown not located).
+/// `local`'s rows with its local unknowns projected out (module doc), the
+/// derivative widened to `g` columns; an error when `J` is not of full
+/// column rank (the unknowns not located).
 fn project_out(
     observation: HeldOut,
     local: &LocalRows,
@@ -355,7 +487,7 @@ fn project_out(
     let j = local.d_local;
     let (m, u) = (j.nrows(), j.ncols());
     let spread = (j.transpose() * j).symmetric_eigenvalues();
-    // False for a rank below 3, and for a value that is not a number.
+    // False for a rank below u, and for a value that is not a number.
     let located = spread.min() > 1e-12 * spread.max();
     if m < u || !located {
         return Err(MechanismError::Singular);
@@ -400,8 +532,7 @@ mod tests {
     use parcal_kinematics::cable::CableRobot;
     use parcal_kinematics::delta::LinearDelta;
     use parcal_kinematics::mechanism::{design, prior_sigma};
-    use parcal_observe::mechanism::Actuation;
-    use parcal_observe::mechanism::BallTouch;
+    use parcal_observe::mechanism::{Actuation, BallDistance, BallTouch};
     use parcal_simulate::Rng;
 
     /// `G_i = dr/dθ` of a cable robot's samples (four lines: the
@@ -529,19 +660,134 @@ mod tests {
         params: &DVector<f64>,
         observations: &Observations,
     ) -> PredictedRows {
-        let touches = (0..observations.touches.len()).collect();
         let (delta, configured, _) = machine;
-        let (params, configured) = (params.as_slice(), configured.as_slice());
-        predict_ball(
-            delta,
-            params,
-            configured,
-            observations,
-            0,
-            touches,
-            params.len(),
-        )
-        .unwrap()
+        let mut predicted = predict(delta, params, configured.as_slice(), observations).unwrap();
+        assert_eq!(predicted.len(), 1);
+        predicted.remove(0)
+    }
+
+    /// `G = dr'/dθ` of the rows `at` the true parameters against central
+    /// differences of the rows of `observations` over the parameters,
+    /// steps of 1e-4 of their prior sigmas, to 1e-6 of `G`'s largest.
+    fn assert_derivatives_match_differences(
+        machine: &(LinearDelta, DVector<f64>, DVector<f64>),
+        observations: &Observations,
+        at: &PredictedRows,
+    ) {
+        let truth = &machine.2;
+        let steps = prior_sigma(&machine.0) * 1e-4;
+        for j in 0..truth.len() {
+            let (mut plus, mut minus) = (truth.clone(), truth.clone());
+            plus[j] += steps[j];
+            minus[j] -= steps[j];
+            let column = (ball_rows(machine, &plus, observations).residuals
+                - ball_rows(machine, &minus, observations).residuals)
+                / (2.0 * steps[j]);
+            let error = (&column - at.d_global.column(j)).amax();
+            assert!(
+                error < 1e-6 * at.d_global.amax(),
+                "column {j}: {error:e} against {:e}",
+                at.d_global.amax()
+            );
+        }
+    }
+
+    /// Three balls of `radius` (a calibration sigma `radius_sigma`) on a
+    /// ring, each touched `k` times with errors from `error`, and the
+    /// distances of balls 0-1 and 1-2, `L = true + error()`, of sigma
+    /// `distance_sigma`.
+    fn tied_balls(
+        machine: &(LinearDelta, DVector<f64>, DVector<f64>),
+        radius: (f64, f64),
+        k: usize,
+        distance_sigma: f64,
+        mut error: impl FnMut(f64) -> f64,
+        turn: f64,
+    ) -> Observations {
+        let (radius, radius_sigma) = radius;
+        let centres: Vec<Vector3<f64>> = (0..3)
+            .map(|b| {
+                let angle = turn + 2.1 * b as f64;
+                Vector3::new(70.0 * angle.cos(), 70.0 * angle.sin(), 6.0)
+            })
+            .collect();
+        let mut observations = Observations {
+            balls: vec![Ball::new(radius, Some(radius_sigma)); 3],
+            ..Default::default()
+        };
+        for (b, centre) in centres.iter().enumerate() {
+            let true_radius = radius + error(radius_sigma);
+            let mut own = touches(machine, *centre, true_radius, k, || error(0.01));
+            for touch in &mut own {
+                touch.ball = b;
+            }
+            observations.touches.extend(own);
+        }
+        observations.ball_distances = [(0, 1), (1, 2)]
+            .into_iter()
+            .map(|(a, b)| BallDistance {
+                first: a,
+                second: b,
+                distance: (centres[a] - centres[b]).norm() + error(distance_sigma),
+                sigma: distance_sigma,
+            })
+            .collect();
+        observations
+    }
+
+    /// Three balls tied by two distances are predicted together: `3k + 2`
+    /// rows less the 9 coordinates of their centres, their derivative
+    /// `G = N_⊥ᵀ G_p` against central differences over the parameters.
+    #[test]
+    fn tied_balls_are_predicted_together_with_their_derivatives() {
+        let machine = delta();
+        let k = 6;
+        let observations = tied_balls(&machine, (12.7, 0.002), k, 0.002, |_| 0.0, 0.4);
+        let at = ball_rows(&machine, &machine.2, &observations);
+        assert_eq!(at.residuals.len(), 3 * k + 2 - 9);
+        assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
+        assert_eq!(
+            at.observation,
+            HeldOut::TiedBalls {
+                balls: vec![0, 1, 2],
+                touches: (0..3 * k).collect(),
+                distances: vec![0, 1],
+            }
+        );
+        assert_derivatives_match_differences(&machine, &observations, &at);
+    }
+
+    /// Tied balls' rows of noisy touches and distances of the true machine:
+    /// `T = r'ᵀ D⁻¹ r'` over 150 sets of three balls of 6 touches and two
+    /// distances (1650 rows), the distances' sigma that of the touches, the
+    /// radii's three times, has the mean of its `χ²` within 4 standard
+    /// errors (`4 √(2/1650)` of `T/n`).
+    #[test]
+    fn tied_balls_rows_have_their_stated_noise() {
+        let machine = delta();
+        let mut noise = Rng::new(37, 0);
+        let (mut statistic, mut rows) = (0.0, 0);
+        for draw in 0..150 {
+            let observations = tied_balls(
+                &machine,
+                (12.7, 0.03),
+                6,
+                0.01,
+                |sigma| noise.normal(sigma),
+                draw as f64,
+            );
+            let predicted = ball_rows(&machine, &machine.2, &observations);
+            let noise = predicted.noise.clone().cholesky().unwrap();
+            statistic += predicted.residuals.dot(&noise.solve(&predicted.residuals));
+            rows += predicted.residuals.len();
+        }
+        let ratio = statistic / rows as f64;
+        let bound = 4.0 * (2.0 / rows as f64).sqrt();
+        eprintln!("tied balls' rows: T/n = {ratio:.4} over {rows} rows (1 ± {bound:.4})");
+        assert!(
+            (ratio - 1.0).abs() < bound,
+            "T/n = {ratio:.4}, bound {bound:.4}"
+        );
     }
 
     /// `G = N_⊥ᵀ G_p` of a ball's eight exact touches against central
@@ -569,21 +815,7 @@ mod tests {
                 touches: (0..k).collect()
             }
         );
-        let steps = prior_sigma(&machine.0) * 1e-4;
-        for j in 0..truth.len() {
-            let (mut plus, mut minus) = (truth.clone(), truth.clone());
-            plus[j] += steps[j];
-            minus[j] -= steps[j];
-            let column = (ball_rows(&machine, &plus, &observations).residuals
-                - ball_rows(&machine, &minus, &observations).residuals)
-                / (2.0 * steps[j]);
-            let error = (&column - at.d_global.column(j)).amax();
-            assert!(
-                error < 1e-6 * at.d_global.amax(),
-                "column {j}: {error:e} against {:e}",
-                at.d_global.amax()
-            );
-        }
+        assert_derivatives_match_differences(&machine, &observations, &at);
         let h = 1e-4;
         observations.balls[0].radius = radius + h;
         let plus = ball_rows(&machine, truth, &observations).residuals;

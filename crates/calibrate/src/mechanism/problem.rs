@@ -1,13 +1,17 @@
 //! A mechanism calibration as the solver's problem.
 //!
 //! - The **global block**: the mechanism's parameters `p`, then the
-//!   trigger height `h` when there are probe heights.
+//!   trigger height `h` when there are probe heights, then the centre (and
+//!   uncertain radius) of every ball a ball distance ties
+//!   ([`super::tied`]).
 //! - The **global observations**: every probe height (1 row), part
-//!   distance (1 row), measured point (3 rows) and measured quantity
-//!   (1 row), in that order ([`parcal_observe::mechanism`]).
+//!   distance (1 row), measured point (3 rows), measured quantity (1 row)
+//!   and ball distance (1 row), in that order
+//!   ([`parcal_observe::mechanism`]).
 //! - The **local blocks**, the solver's groups, eliminated by the Schur
 //!   complement: first the pose of every point sample (with a Gaussian
-//!   prior when it was measured), then the centre of every ball. A group's
+//!   prior when it was measured), then the centre of every ball (held
+//!   fixed for a tied ball, whose unknowns are global). A group's
 //!   rows are its points, one row each (the solver's point blocks are
 //!   empty): a sample's one row per actuator, a ball's one row per touch
 //!   (the touches taken in the order of their balls,
@@ -24,14 +28,15 @@
 //!   its centre.
 //! - The **prior** on the global block: each parameter's
 //!   [`ParameterPrior`](super::data::ParameterPrior) with a sigma, with
-//!   their correlation if any, and the trigger height's ([`super::prior`]).
+//!   their correlation if any, and the trigger height's ([`super::prior`]);
+//!   a tied ball's centre prior and its radius's calibration sigma.
 
 use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows};
-use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem};
+use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 
 use crate::sphere_fit::{SphereFitError, best_fit};
 
@@ -39,6 +44,7 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::prior::{global_priors, prior_information};
+use super::tied::TiedBalls;
 
 /// The solver's problem: groups of `C` unknowns (a sample's pose, a
 /// ball's centre, and with [`group_size`] 4 a ball's radius), no point
@@ -75,14 +81,16 @@ pub(crate) struct MechanismProblem<'a, const C: usize> {
     touch_order: Vec<usize>,
     /// The points of each ball, after the samples' rows.
     ball_points: Vec<Range<usize>>,
+    /// The tied balls' places in the global block.
+    tied: TiedBalls,
 }
 
 impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The problem of `data` (validated) with `loss` on its observations.
     pub(crate) fn new(data: &'a MechanismData, loss: Loss) -> Self {
-        let prior = prior_information(data)
-            .map(|information| GaussianPrior::new(prior_means(data), information));
         let o = &data.observations;
+        let tied = o.tied_balls(global_priors(data).len());
+        let prior = global_prior(data, &tied);
         let mut touch_order: Vec<usize> = (0..o.touches.len()).collect();
         touch_order.sort_by_key(|&t| o.touches[t].ball);
         let mut counts = vec![0; o.balls.len()];
@@ -102,6 +110,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             loss,
             touch_order,
             ball_points,
+            tied,
         }
     }
 
@@ -113,12 +122,51 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// The size of the global block (module doc).
     pub(crate) fn global_len(&self) -> usize {
+        self.mechanism_len() + self.tied.unknowns()
+    }
+
+    /// The size of the global block's first part, the mechanism's: its
+    /// parameters, and the trigger height when there are probe heights.
+    pub(crate) fn mechanism_len(&self) -> usize {
         global_priors(self.data).len()
     }
 
-    /// The global block's start: the priors' means.
-    pub(crate) fn start(&self) -> DVector<f64> {
-        prior_means(self.data)
+    /// The data.
+    pub(crate) fn data(&self) -> &MechanismData {
+        self.data
+    }
+
+    /// The tied balls' places in the global block.
+    pub(crate) fn tied(&self) -> &TiedBalls {
+        &self.tied
+    }
+
+    /// The solver's start: the mechanism's part of the global block at its
+    /// priors' means, every local block as [`Self::start_blocks`] starts
+    /// it, a tied ball's centre and radius at that start in the global
+    /// block.
+    pub(crate) fn start_state(&self) -> Result<State<C, 0>, MechanismCalibrationError> {
+        let mut global = prior_means(self.data).resize_vertically(self.global_len(), 0.0);
+        let n = self.n_params();
+        let groups = self.start_blocks(&global.as_slice()[..n])?;
+        let samples = self.data.observations.samples.len();
+        for (b, column) in self.tied.iter() {
+            let unknowns = self.tied_unknowns(b);
+            global
+                .rows_mut(column, unknowns)
+                .copy_from(&groups[samples + b].rows(0, unknowns));
+        }
+        Ok(State {
+            global,
+            groups,
+            points: vec![SVector::zeros(); self.n_points()],
+        })
+    }
+
+    /// The global unknowns of tied ball `b`: its centre, and its radius
+    /// when uncertain.
+    fn tied_unknowns(&self, b: usize) -> usize {
+        3 + usize::from(self.data.observations.balls[b].radius_sigma.is_some())
     }
 
     /// The prior information on the global block (zero where none).
@@ -159,6 +207,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             .chain(refs(ObservationKind::Distance, o.distances.len(), 1))
             .chain(refs(ObservationKind::Point, o.points.len(), 3))
             .chain(refs(ObservationKind::Quantity, o.quantities.len(), 1))
+            .chain(refs(
+                ObservationKind::BallDistance,
+                o.ball_distances.len(),
+                1,
+            ))
             .collect()
     }
 
@@ -236,11 +289,13 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     }
 
     /// The row of touch point `i` that reached `reached` on its ball of
-    /// the group block `block` into `out`, the pose it reached left in
+    /// the group block `block` (or, for a tied ball, its unknowns in the
+    /// global block `global`) into `out`, the pose it reached left in
     /// `cache` (the start of its next evaluation).
     fn touch_row(
         &self,
         i: usize,
+        global: &DVector<f64>,
         block: &SVector<f64, C>,
         reached: Result<Reached, MechanismError>,
         cache: &mut LastPose,
@@ -251,8 +306,14 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let n = self.n_params();
         let ball = &self.data.observations.balls[touch.ball];
         let uncertain = ball.radius_sigma.is_some();
-        let radius = if uncertain { block[3] } else { ball.radius };
-        let centre = Vector3::new(block[0], block[1], block[2]);
+        let tied = self.tied.column(touch.ball);
+        // The ball's centre, then its radius when uncertain.
+        let unknowns = match tied {
+            Some(column) => &global.as_slice()[column..],
+            None => block.as_slice(),
+        };
+        let radius = if uncertain { unknowns[3] } else { ball.radius };
+        let centre = Vector3::new(unknowns[0], unknowns[1], unknowns[2]);
         let row = reached
             .and_then(|reached| touch.row(reached, &centre, radius))
             .map_err(|e| {
@@ -270,9 +331,19 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         out.d_global.fill(0.0);
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
         out.d_group.fill(0.0);
-        out.d_group.columns_mut(0, 3).copy_from(&row.d_centre);
-        if uncertain {
-            out.d_group[3] = row.d_radius;
+        match tied {
+            Some(column) => {
+                out.d_global.columns_mut(column, 3).copy_from(&row.d_centre);
+                if uncertain {
+                    out.d_global[column + 3] = row.d_radius;
+                }
+            }
+            None => {
+                out.d_group.columns_mut(0, 3).copy_from(&row.d_centre);
+                if uncertain {
+                    out.d_group[3] = row.d_radius;
+                }
+            }
         }
         Ok(())
     }
@@ -309,7 +380,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             };
             for (j, ((reached, out), cache)) in reached.into_iter().zip(out).zip(caches).enumerate()
             {
-                self.touch_row(first + j, group, reached, cache, out)
+                self.touch_row(first + j, global, group, reached, cache, out)
                     .map_err(|e| (first + j, e))?;
             }
             return Ok(());
@@ -340,10 +411,42 @@ fn block<const C: usize>(xyz: &Vector3<f64>, fourth: f64) -> SVector<f64, C> {
     SVector::from_fn(|k, _| if k < 3 { xyz[k] } else { fourth })
 }
 
-/// The global block's priors' means.
+/// The mechanism's part of the global block's priors' means.
 fn prior_means(data: &MechanismData) -> DVector<f64> {
     let priors = global_priors(data);
     DVector::from_iterator(priors.len(), priors.iter().map(|p| p.mean))
+}
+
+/// The prior on the global block (module doc): the mechanism's part's
+/// ([`prior_information`]), and each tied ball's centre prior and its
+/// radius's calibration sigma, independent of it and of each other;
+/// `None` when no unknown has one.
+fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<Dyn>> {
+    let m = global_priors(data).len();
+    let g = m + tied.unknowns();
+    let mut mean = prior_means(data).resize_vertically(g, 0.0);
+    let mut information = DMatrix::zeros(g, g);
+    let mechanism = prior_information(data);
+    if let Some(mechanism) = &mechanism {
+        information.view_mut((0, 0), (m, m)).copy_from(mechanism);
+    }
+    let mut any = mechanism.is_some();
+    for (b, column) in tied.iter() {
+        let ball = &data.observations.balls[b];
+        if let Some(prior) = ball.centre_prior {
+            for k in 0..3 {
+                mean[column + k] = prior.centre[k];
+                information[(column + k, column + k)] = prior.sigma.powi(-2);
+            }
+            any = true;
+        }
+        if let Some(sigma) = ball.radius_sigma {
+            mean[column + 3] = ball.radius;
+            information[(column + 3, column + 3)] = sigma.powi(-2);
+            any = true;
+        }
+    }
+    any.then(|| GaussianPrior::new(mean, information))
 }
 
 /// The centre of ball `b` of calibrated radius `radius` from its
@@ -406,6 +509,12 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
 
     fn n_groups(&self) -> usize {
         self.data.observations.samples.len() + self.ball_points.len()
+    }
+
+    /// A tied ball's block: its unknowns are global (module doc).
+    fn group_is_fixed(&self, k: usize) -> bool {
+        k.checked_sub(self.data.observations.samples.len())
+            .is_some_and(|b| self.tied.column(b).is_some())
     }
 
     fn group_points(&self, k: usize) -> Range<usize> {
@@ -473,8 +582,8 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         Ok(())
     }
 
-    /// Every probe height's, part distance's, measured point's and
-    /// measured quantity's rows (module doc).
+    /// Every probe height's, part distance's, measured point's, measured
+    /// quantity's and ball distance's rows (module doc).
     fn global_observations(
         &self,
         global: &DVector<f64>,
@@ -533,6 +642,27 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         for (at, d_trigger_height) in trigger_rows {
             out.jacobian[(at, n)] = d_trigger_height;
         }
+        for (k, distance) in o.ball_distances.iter().enumerate() {
+            let id = ObservationRef {
+                kind: ObservationKind::BallDistance,
+                index: k,
+            };
+            let (Some(a), Some(b)) = (
+                self.tied.column(distance.first),
+                self.tied.column(distance.second),
+            ) else {
+                return Err(failed(id, "its balls' centres are not global unknowns"));
+            };
+            let centre = |c: usize| Vector3::from_column_slice(&global.as_slice()[c..c + 3]);
+            let evaluated = distance
+                .evaluate(&centre(a), &centre(b))
+                .map_err(|e| failed(id, e))?;
+            out.residual[row] = evaluated.residual;
+            let mut jacobian = out.jacobian.row_mut(row);
+            jacobian.columns_mut(a, 3).copy_from(&evaluated.d_first);
+            jacobian.columns_mut(b, 3).copy_from(&evaluated.d_second);
+            row += 1;
+        }
         Ok(())
     }
 
@@ -572,8 +702,10 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
                 None => return None,
             },
             None => {
-                let ball = &o.balls[k - o.samples.len()];
-                if ball.centre_prior.is_none() && C == 3 {
+                let b = k - o.samples.len();
+                let ball = &o.balls[b];
+                // A tied ball's priors are on its global unknowns.
+                if self.tied.column(b).is_some() || (ball.centre_prior.is_none() && C == 3) {
                     return None;
                 }
                 let (centre, sigma) = ball
@@ -601,9 +733,9 @@ mod tests {
     use parcal_kinematics::delta::{DeltaParams, LinearDelta, probe_height};
     use parcal_kinematics::mechanism::{Mechanism, design};
     use parcal_observe::mechanism::{
-        BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+        BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
     };
-    use parcal_solver::{SolverOptions, State, Status, dense_reference, linear_step, solve};
+    use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
 
     use super::*;
     use crate::mechanism::data::{Ball, CentrePrior, Observations};
@@ -707,6 +839,7 @@ mod tests {
             quantities: Vec::new(),
             balls,
             touches,
+            ball_distances: Vec::new(),
         };
         MechanismData::new(
             Arc::new(delta),
@@ -771,17 +904,15 @@ mod tests {
     /// the dense reference, from the start blocks moved by `offset`.
     fn check_against_dense<const C: usize>(data: &MechanismData, offset: Vector3<f64>) {
         let problem = MechanismProblem::<C>::new(data, Loss::Squared);
-        let start = problem.start();
-        let n = problem.n_params();
-        let blocks = problem.start_blocks(&start.as_slice()[..n]).unwrap();
-        let state = State {
-            global: start,
-            groups: blocks
-                .iter()
-                .map(|p| p + block::<C>(&offset, 0.0))
-                .collect(),
-            points: vec![SVector::zeros(); problem.n_points()],
-        };
+        let mut state = problem.start_state().unwrap();
+        for group in &mut state.groups {
+            *group += block::<C>(&offset, 0.0);
+        }
+        for (_, column) in problem.tied().iter() {
+            for k in 0..3 {
+                state.global[column + k] += offset[k];
+            }
+        }
         let dense = dense_reference::solve::<C, 0, 1, _>(&problem, &state, 0.0).unwrap();
         let schur = linear_step::<C, 0, 1, _>(&problem, &state, &mut Vec::new(), 0.0, 64).unwrap();
         let global = (&schur.delta.global - &dense.step.global).amax();
@@ -842,5 +973,107 @@ mod tests {
     #[test]
     fn loads_and_measured_quantities_match_the_dense_reference() {
         check_against_dense::<3>(&small_cable(), Vector3::new(3.0, -2.0, 1.0));
+    }
+
+    /// [`small_delta`] with its two balls tied by a calibrated distance
+    /// 0.02 mm longer than the true one: both balls' unknowns global, the
+    /// first's centre prior and the second's radius prior with them.
+    fn tied_delta() -> MechanismData {
+        let mut data = small_delta();
+        let true_distance = Vector3::new(70.0, -55.0, 6.35).norm();
+        data.observations.ball_distances = vec![BallDistance {
+            first: 0,
+            second: 1,
+            distance: true_distance + 0.02,
+            sigma: 0.005,
+        }];
+        data
+    }
+
+    #[test]
+    fn tied_balls_match_the_dense_reference() {
+        let data = tied_delta();
+        let four = MechanismProblem::<4>::new(&data, Loss::Squared);
+        // Probes add the trigger height; both balls are tied, the second
+        // with its uncertain radius.
+        let m = four.mechanism_len();
+        assert_eq!(m, four.n_params() + 1);
+        assert_eq!(four.global_len(), m + 7);
+        let samples = data.observations.samples.len();
+        assert!(!four.group_is_fixed(samples - 1));
+        assert!(four.group_is_fixed(samples) && four.group_is_fixed(samples + 1));
+        assert!(four.group_prior(samples).is_none());
+        let prior = four.global_prior().unwrap();
+        let placed = data.observations.balls[0].centre_prior.unwrap();
+        assert_eq!(prior.mean[m], placed.centre[0]);
+        assert!((prior.information[(m + 2, m + 2)] * placed.sigma.powi(2) - 1.0).abs() < 1e-12);
+        assert!((prior.information[(m + 6, m + 6)] * 0.002_f64.powi(2) - 1.0).abs() < 1e-12);
+        check_against_dense::<4>(&data, Vector3::new(0.3, -0.2, 0.1));
+        let mut exact = data.clone();
+        exact.observations.balls[1].radius_sigma = None;
+        check_against_dense::<3>(&exact, Vector3::new(0.3, -0.2, 0.1));
+    }
+
+    /// Every row of the tied balls' touches and every global observation,
+    /// as the problem linearises them, against central differences over
+    /// the whole global block (the tied balls' unknowns among it).
+    #[test]
+    fn tied_balls_rows_match_central_differences_over_the_global_block() {
+        let data = tied_delta();
+        let problem = MechanismProblem::<4>::new(&data, Loss::Squared);
+        let state = problem.start_state().unwrap();
+        let samples = data.observations.samples.len();
+        let rows = |global: &DVector<f64>| {
+            let mut residuals = Vec::new();
+            let mut jacobian = Vec::new();
+            for k in samples..problem.n_groups() {
+                for i in problem.group_points(k) {
+                    let mut out = Local::<4>::zeros(global.len());
+                    let group = &state.groups[k];
+                    let point = SVector::zeros();
+                    problem
+                        .linearize(i, global, group, &point, &mut Vec::new(), &mut out)
+                        .unwrap();
+                    residuals.push(out.residual[0]);
+                    jacobian.push(out.d_global.clone());
+                }
+            }
+            let mut global_rows = GlobalObservations::zeros(0, global.len());
+            problem
+                .global_observations(global, &mut global_rows)
+                .unwrap();
+            residuals.extend(global_rows.residual.iter());
+            let mut jacobian = DMatrix::from_rows(&jacobian);
+            let touches = jacobian.nrows();
+            jacobian = jacobian.resize_vertically(residuals.len(), 0.0);
+            jacobian
+                .rows_mut(touches, global_rows.jacobian.nrows())
+                .copy_from(&global_rows.jacobian);
+            (DVector::from_vec(residuals), jacobian)
+        };
+        let (_, analytic) = rows(&state.global);
+        let h = 1e-6;
+        for j in 0..state.global.len() {
+            let (mut plus, mut minus) = (state.global.clone(), state.global.clone());
+            plus[j] += h;
+            minus[j] -= h;
+            let column = (rows(&plus).0 - rows(&minus).0) / (2.0 * h);
+            let error = (&column - analytic.column(j)).amax();
+            // Whitened rows of sigmas down to 2 um: derivatives up to
+            // ~1e3 per mm, central differences of step 1e-6 mm exact to
+            // ~1e-6 relative.
+            assert!(
+                error < 1e-6 * column.amax().max(1.0),
+                "column {j}: {error:e}"
+            );
+        }
+        // The distance's row sees the two centres, and nothing else.
+        let distance = analytic.row(analytic.nrows() - 1);
+        let tied: Vec<usize> = problem.tied().iter().map(|(_, c)| c).collect();
+        let seen: Vec<usize> = (0..distance.len())
+            .filter(|&j| distance[j] != 0.0)
+            .collect();
+        let expected: Vec<usize> = tied.iter().flat_map(|&c| c..c + 3).collect();
+        assert_eq!(seen, expected);
     }
 }

@@ -5,6 +5,7 @@
 
 use std::io::Write;
 use std::path::PathBuf;
+use std::str::FromStr;
 
 use anyhow::Context;
 use parcal::dataset::{Dataset, DatasetError, WriteOptions};
@@ -88,12 +89,13 @@ pub struct Args {
     /// 1e-4 for the paper's machine, 1e-3 for Jugglebot's).
     #[arg(long, value_name = "RAD", requires = "tracker")]
     orientation_sigma: Option<f64>,
-    /// Also write a calibrated ball plate as the distances of artefacts.json:
+    /// Also write a calibrated ball plate as the distances of artefacts.json
+    /// (with --mechanism delta and --balls: as ball_distances.csv):
     /// `all` pairs of balls (n (n - 1) / 2 distances for n balls), or a number
     /// of distinct pairs drawn at random.
     /// Each distance is the true one plus an error of --plate-sigma; the
-    /// contacts are the same as without a plate.
-    #[arg(long, value_name = "all|PAIRS", value_parser = parse_pairs, conflicts_with = "tracker")]
+    /// contacts (the delta's other files) are the same as without a plate.
+    #[arg(long, value_name = "all|PAIRS", value_parser = PlatePairs::from_str, conflicts_with = "tracker")]
     plate: Option<PlatePairs>,
     /// Error of each calibrated distance of the plate (1 sigma), micrometres.
     #[arg(long, value_name = "UM", default_value_t = 1.0, requires = "plate")]
@@ -130,7 +132,7 @@ pub struct Args {
     /// positions; with its truth (docs/delta.md, docs/cable-robots.md).
     /// With --truth DATASET, the true machine of that simulated dataset is
     /// measured again (held-out data for `parcal validate`).
-    #[arg(long, value_name = "NAME", conflicts_with_all = ["tracker", "plate", "plan", "design_drawn", "binary"])]
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["tracker", "plan", "design_drawn", "binary"])]
     mechanism: Option<String>,
     /// Delta: probe rings over the printable disc and its centre (default 3).
     #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::RINGS))]
@@ -217,6 +219,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 distance_sigma: args.distance_sigma,
                 balls: args.balls,
                 points_per_ball: args.points_per_ball,
+                plate: plate(args)?,
                 samples: args.samples,
                 known_positions: args.known_positions,
                 reading_sigma: args.reading_sigma,
@@ -249,13 +252,23 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
 }
 
-/// A campaign of ball touches.
-fn run_touches(args: &Args) -> anyhow::Result<()> {
+/// The ball plate of `--plate` and `--plate-sigma` (micrometres), if
+/// asked for.
+fn plate(args: &Args) -> anyhow::Result<Option<Plate>> {
     anyhow::ensure!(
         args.plate_sigma.is_finite() && args.plate_sigma > 0.0,
         "--plate-sigma must be positive, got {}",
         args.plate_sigma
     );
+    Ok(args.plate.map(|pairs| Plate {
+        pairs,
+        sigma: args.plate_sigma * 1e-3,
+    }))
+}
+
+/// A campaign of ball touches.
+fn run_touches(args: &Args) -> anyhow::Result<()> {
+    let plate = plate(args)?;
     let paper = Scenario::paper();
     let balls = args.balls.unwrap_or(paper.centres.len());
     let points_per_ball = args.points_per_ball.unwrap_or(paper.points_per_ball);
@@ -268,10 +281,7 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
         },
         Some(balls) => Scenario::scaled(balls, points_per_ball, args.tilt.to_radians()),
     };
-    scenario.plate = args.plate.map(|pairs| Plate {
-        pairs,
-        sigma: args.plate_sigma * 1e-3,
-    });
+    scenario.plate = plate;
     if let Some(path) = &args.plan {
         scenario.plan = Some(planned_touches(path, scenario.centres.len())?);
     }
@@ -542,18 +552,4 @@ fn write_ranges(stdout: &mut impl Write, simulation: &Simulation) -> anyhow::Res
         s.tilt_range.1.to_degrees()
     )?;
     Ok(())
-}
-
-/// `--plate`: `all`, or a number of pairs (at least 1).
-fn parse_pairs(value: &str) -> Result<PlatePairs, String> {
-    if value == "all" {
-        return Ok(PlatePairs::All);
-    }
-    match value.parse::<u64>() {
-        Ok(0) => Err("a plate needs at least 1 pair".into()),
-        Ok(count) => Ok(PlatePairs::Random(count)),
-        Err(_) => Err(format!(
-            "expected `all` or a number of pairs, got {value:?}"
-        )),
-    }
 }

@@ -1,7 +1,8 @@
 //! `parcal simulate --mechanism`: a simulated mechanism as a mechanism
 //! dataset with its truth, by [`parcal::simulation::mechanism`] (a linear
-//! delta printer, docs/delta.md; a cable robot, docs/cable-robots.md),
-//! written to `--out`. With `--truth DATASET`, the true machine of a
+//! delta printer, docs/delta.md, its balls with a ball plate's distances
+//! given `--plate`; a cable robot, docs/cable-robots.md), written to
+//! `--out`. With `--truth DATASET`, the true machine of a
 //! dataset simulated so is measured again instead of drawn: held-out data
 //! for `parcal validate` (new noise with another seed, or another pattern
 //! with other flags).
@@ -79,8 +80,12 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         Some(path) => format!("the true machine of {}", path.display()),
         None => "the true machine".to_string(),
     };
+    let plate = match dataset.ball_distances.len() {
+        0 => String::new(),
+        n => format!(" ({n} distances between them)"),
+    };
     println!(
-        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls, seed {} (truth.json: {machine})",
+        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls{plate}, seed {} (truth.json: {machine})",
         request.out.display(),
         dataset.probes.len(),
         dataset.distances.len(),

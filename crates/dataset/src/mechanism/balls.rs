@@ -64,14 +64,36 @@ pub struct TouchRow {
     pub commanded: [f64; 3],
 }
 
-/// The ball number in column `ball` of `row`: a whole number below
-/// `count` (the balls so far, or all of them).
-fn ball_number(row: &Row, column: usize, count: usize, of: &str) -> Result<usize, Failure> {
-    let [value] = row.numbers(&[column], &["ball"])?;
+/// The ball number in column `column` (named `name`) of `row`: a whole
+/// number below `count` (the balls so far, or all of them), else an error
+/// saying the value `of`.
+pub(super) fn ball_number(
+    row: &Row,
+    column: usize,
+    name: &'static str,
+    count: usize,
+    of: &str,
+) -> Result<usize, Failure> {
+    let [value] = row.numbers(&[column], &[name])?;
     if value.fract() != 0.0 || value < 0.0 || value >= count as f64 {
-        return Err(row.error(Some("ball"), format!("{value} {of}")));
+        return Err(row.error(Some(name), format!("{value} {of}")));
     }
     Ok(value as usize)
+}
+
+/// The positive number in column `column` (named `name`) of `row`.
+pub(super) fn positive(row: &Row, column: usize, name: &'static str) -> Result<f64, Failure> {
+    let [value] = row.numbers(&[column], &[name])?;
+    if value <= 0.0 {
+        return Err(row.error(Some(name), format!("{value} is not positive")));
+    }
+    Ok(value)
+}
+
+/// The message of a ball number in a file that refers to the `balls`
+/// balls of balls.csv, after the number.
+pub(super) fn not_a_ball(balls: usize) -> String {
+    format!("is not the number of a ball of balls.csv, which has {balls}")
 }
 
 /// Reads balls.csv at `path`: each row's `ball` its 0-based row number,
@@ -97,10 +119,7 @@ pub(crate) fn read_balls(path: &Path) -> Result<Vec<BallRow>> {
                     format!("{value} is not this row's number, {number} (the balls are numbered from 0 in order)"),
                 ));
             }
-            let [radius] = row.numbers(&[radius_at], &["radius"])?;
-            if radius <= 0.0 {
-                return Err(row.error(Some("radius"), format!("{radius} is not positive")));
-            }
+            let radius = positive(row, radius_at, "radius")?;
             let radius_sigma = if row.field(sigma_at).is_empty() {
                 None
             } else {
@@ -138,12 +157,12 @@ pub(crate) fn read_touches(path: &Path, balls: usize) -> Result<Vec<TouchRow>> {
         let header = Header::read(reader, &expected)?;
         let [ball_at, x_at, y_at, z_at] = header.require_all(&TOUCH_COLUMNS, &expected)?;
         let mut rows = Vec::new();
-        let of = format!("is not the number of a ball of balls.csv, which has {balls}");
+        let of = not_a_ball(balls);
         table::for_each_row(reader, &header, "touch", |row| {
             if rows.len() == OBSERVATIONS.max {
                 return Err(too_many(row, "touch"));
             }
-            let ball = ball_number(row, ball_at, balls, &of)?;
+            let ball = ball_number(row, ball_at, "ball", balls, &of)?;
             let commanded = row.numbers(&[x_at, y_at, z_at], &["x", "y", "z"])?;
             rows.push(TouchRow { ball, commanded });
             Ok(())

@@ -10,6 +10,7 @@
 //! | `quantities.csv` | quantities of the machine measured directly (`quantity,value,sigma`) | [`QuantityRow`] |
 //! | `balls.csv` | calibrated balls (`ball,radius,radius_sigma`), with `touches.csv` | [`BallRow`] |
 //! | `touches.csv` | touches of the balls at commanded positions (`ball,x,y,z`) | [`TouchRow`] |
+//! | `ball_distances.csv` | calibrated distances between the balls' centres, a ball plate's or a ball bar's (`first,second,distance,sigma`), with `balls.csv` | [`crate::Distance`] |
 //! | `truth.json` | simulated datasets only: the true machine | [`MechanismTruth`] |
 //!
 //! and its calibration writes `calibration.json`
@@ -45,6 +46,7 @@
 //! # Ok(()) }
 //! ```
 
+mod ball_distances;
 mod balls;
 mod calibration;
 mod machine;
@@ -56,6 +58,7 @@ mod validation;
 
 use std::path::Path;
 
+pub use ball_distances::{BALL_DISTANCE_COLUMNS, BALL_DISTANCES};
 pub use balls::{
     BALL_COLUMNS, BALLS, BallPlacement, BallRow, PLACEMENT_COLUMNS, TOUCH_COLUMNS, TouchRow,
 };
@@ -73,12 +76,14 @@ pub use targets::{TARGETS, command_header, read_targets};
 pub use truth::MechanismTruth;
 pub use validation::{KindRecord, MechanismValidationRecord, RowRecord, ShiftRecord};
 
+use crate::Distance;
 use crate::atomic;
 use crate::check::Check;
 use crate::dataset::Dataset;
 use crate::error::{DatasetError, Result};
 use crate::input;
 
+use ball_distances::{read_ball_distances, validate_ball_distances, write_ball_distances};
 use balls::{read_balls, read_touches, write_balls, write_touches};
 use machine::mechanism_named;
 use observations::{read_rows, read_samples, write_rows, write_samples};
@@ -98,6 +103,8 @@ pub const QUANTITIES_FILE: &str = "quantities.csv";
 pub const BALLS_FILE: &str = "balls.csv";
 /// The file of the touches of the balls.
 pub const TOUCHES_FILE: &str = "touches.csv";
+/// The file of the calibrated distances between the balls' centres.
+pub const BALL_DISTANCES_FILE: &str = "ball_distances.csv";
 /// The file of a simulated dataset's truth.
 pub const TRUTH_FILE: &str = "truth.json";
 /// The file of a calibration.
@@ -122,6 +129,10 @@ pub struct MechanismDataset {
     pub balls: Vec<BallRow>,
     /// Touches of the balls.
     pub touches: Vec<TouchRow>,
+    /// Calibrated distances between the balls' centres (mm), a ball
+    /// plate's or a ball bar's: each joins two distinct balls (their
+    /// numbers, [`Self::balls`]' indices), each pair at most once.
+    pub ball_distances: Vec<Distance>,
     /// The true machine of a simulated dataset.
     pub truth: Option<MechanismTruth>,
 }
@@ -137,6 +148,7 @@ impl Default for MechanismDataset {
             quantities: Vec::new(),
             balls: Vec::new(),
             touches: Vec::new(),
+            ball_distances: Vec::new(),
             truth: None,
         }
     }
@@ -177,13 +189,15 @@ impl MechanismDataset {
             None => Vec::new(),
         };
         let touches = match present(TOUCHES_FILE)? {
-            Some(path) if balls.is_empty() => {
-                return Err(DatasetError::Refused {
-                    path,
-                    message: format!("touches of balls need {BALLS_FILE}, which is not there"),
-                });
-            }
+            Some(path) if balls.is_empty() => return Err(without_balls(path, "touches of balls")),
             Some(path) => read_touches(&path, balls.len())?,
+            None => Vec::new(),
+        };
+        let ball_distances = match present(BALL_DISTANCES_FILE)? {
+            Some(path) if balls.is_empty() => {
+                return Err(without_balls(path, "distances between balls"));
+            }
+            Some(path) => read_ball_distances(&path, balls.len())?,
             None => Vec::new(),
         };
         let truth = MechanismTruth::read_if_present(&dir.join(TRUTH_FILE), &machine.mechanism)?;
@@ -195,6 +209,7 @@ impl MechanismDataset {
             quantities,
             balls,
             touches,
+            ball_distances,
             truth,
         };
         dataset.validate(dir)?;
@@ -236,6 +251,9 @@ impl MechanismDataset {
             if !self.balls.is_empty() {
                 write_balls(&new.join(BALLS_FILE), &self.balls)?;
                 write_touches(&new.join(TOUCHES_FILE), &self.touches)?;
+            }
+            if !self.ball_distances.is_empty() {
+                write_ball_distances(&new.join(BALL_DISTANCES_FILE), &self.ball_distances)?;
             }
             if let Some(truth) = &self.truth {
                 truth.write(&new.join(TRUTH_FILE), name)?;
@@ -363,25 +381,27 @@ impl MechanismDataset {
         Ok(())
     }
 
-    /// The balls and touches: both or neither, balls within [`BALLS`],
-    /// radii positive and finite, sigmas positive and finite where given,
-    /// every touch on a ball that exists with its position within the
-    /// length bound.
+    /// The balls, their touches and the distances between them: balls
+    /// and touches both or neither, distances only with balls; balls
+    /// within [`BALLS`], radii positive and finite, sigmas positive and
+    /// finite where given, every touch on a ball that exists with its
+    /// position within the length bound, every distance between two
+    /// balls that exist ([`BALL_DISTANCES`]).
     fn validate_balls(&self, dir: &Path) -> Result<()> {
         let balls_path = dir.join(BALLS_FILE);
         let touches_path = dir.join(TOUCHES_FILE);
-        if self.balls.is_empty() != self.touches.is_empty() {
-            let (path, message) = if self.balls.is_empty() {
-                (&touches_path, format!("touches of balls need {BALLS_FILE}"))
-            } else {
-                (
-                    &balls_path,
-                    format!("balls without {TOUCHES_FILE}: nothing touched them"),
-                )
-            };
+        let distances_path = dir.join(BALL_DISTANCES_FILE);
+        if self.balls.is_empty() {
+            if !self.touches.is_empty() {
+                return Err(without_balls(touches_path, "touches of balls"));
+            }
+            if !self.ball_distances.is_empty() {
+                return Err(without_balls(distances_path, "distances between balls"));
+            }
+        } else if self.touches.is_empty() {
             return Err(DatasetError::Refused {
-                path: path.clone(),
-                message,
+                path: balls_path,
+                message: format!("balls without {TOUCHES_FILE}: nothing touched them"),
             });
         }
         let check = Check::new(&balls_path);
@@ -417,6 +437,15 @@ impl MechanismDataset {
             }
             check.lengths(field, &touch.commanded)?;
         }
-        Ok(())
+        validate_ball_distances(&distances_path, &self.ball_distances, self.balls.len())
+    }
+}
+
+/// The refusal of the file `path`, which holds `what` (`"touches of
+/// balls"`), in a dataset without balls.
+fn without_balls(path: std::path::PathBuf, what: &str) -> DatasetError {
+    DatasetError::Refused {
+        path,
+        message: format!("{what} need {BALLS_FILE}, which is not there"),
     }
 }

@@ -20,7 +20,9 @@
 //!   centre `c`, a block of its own, and its radius `ρ` when it has a
 //!   calibration sigma), at a commanded position or at the actuators'
 //!   readings ([`Actuation`]): the one kind a mechanism of any pose (the
-//!   hexapod's six coordinates) takes, through its tool point.
+//!   hexapod's six coordinates) takes, through its tool point;
+//! - [`BallDistance`]: a calibrated distance between two touched balls'
+//!   centres, `(|c_a − c_b| − L) / σ` (1 row; unknowns the two centres).
 //!
 //! # Commanded positions
 //!
@@ -36,6 +38,7 @@
 //! `p` is an unknown. Commanded positions need a mechanism whose pose is a
 //! position; every kind but the touch takes them.
 
+mod ball_distance;
 mod ball_touch;
 mod commanded;
 mod commanded_point;
@@ -44,6 +47,7 @@ mod point_sample;
 mod probe;
 mod quantity;
 
+pub use ball_distance::{BallDistance, BallDistanceRow};
 pub use ball_touch::{BallTouch, TouchRows};
 pub use commanded::{Actuation, POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
