@@ -766,24 +766,31 @@ mod tests {
     fn tied_balls_rows_have_their_stated_noise() {
         let machine = delta();
         let mut noise = Rng::new(37, 0);
+        let sets = (0..150).map(|draw| {
+            let error = |sigma| noise.normal(sigma);
+            tied_balls(&machine, (12.7, 0.03), 6, 0.01, error, draw as f64)
+        });
+        assert_rows_have_their_stated_noise("tied balls' rows", &machine, sets);
+    }
+
+    /// `T/n = Σ r'ᵀ D⁻¹ r' / n` over the predicted rows of each of `sets`
+    /// (`n` rows in all) at the true machine: within 4 standard errors
+    /// (`4 √(2/n)`) of 1, the mean of `χ²(n) / n`.
+    fn assert_rows_have_their_stated_noise(
+        what: &str,
+        machine: &(LinearDelta, DVector<f64>, DVector<f64>),
+        sets: impl Iterator<Item = Observations>,
+    ) {
         let (mut statistic, mut rows) = (0.0, 0);
-        for draw in 0..150 {
-            let observations = tied_balls(
-                &machine,
-                (12.7, 0.03),
-                6,
-                0.01,
-                |sigma| noise.normal(sigma),
-                draw as f64,
-            );
-            let predicted = ball_rows(&machine, &machine.2, &observations);
+        for observations in sets {
+            let predicted = ball_rows(machine, &machine.2, &observations);
             let noise = predicted.noise.clone().cholesky().unwrap();
             statistic += predicted.residuals.dot(&noise.solve(&predicted.residuals));
             rows += predicted.residuals.len();
         }
         let ratio = statistic / rows as f64;
         let bound = 4.0 * (2.0 / rows as f64).sqrt();
-        eprintln!("tied balls' rows: T/n = {ratio:.4} over {rows} rows (1 ± {bound:.4})");
+        eprintln!("{what}: T/n = {ratio:.4} over {rows} rows (1 ± {bound:.4})");
         assert!(
             (ratio - 1.0).abs() < bound,
             "T/n = {ratio:.4}, bound {bound:.4}"
@@ -841,27 +848,16 @@ mod tests {
         let machine = delta();
         let (radius, radius_sigma, sigma, k) = (12.7, 0.03, 0.01, 8);
         let mut noise = Rng::new(36, 0);
-        let (mut statistic, mut rows) = (0.0, 0);
-        for draw in 0..400 {
+        let sets = (0..400).map(|draw| {
             let centre = Vector3::new(60.0 * (draw as f64).cos(), 60.0 * (draw as f64).sin(), 6.0);
             let true_radius = radius + noise.normal(radius_sigma);
-            let observations = Observations {
+            Observations {
                 balls: vec![Ball::new(radius, Some(radius_sigma))],
                 touches: touches(&machine, centre, true_radius, k, || noise.normal(sigma)),
                 ..Default::default()
-            };
-            let predicted = ball_rows(&machine, &machine.2, &observations);
-            let noise = predicted.noise.clone().cholesky().unwrap();
-            statistic += predicted.residuals.dot(&noise.solve(&predicted.residuals));
-            rows += predicted.residuals.len();
-        }
-        let ratio = statistic / rows as f64;
-        let bound = 4.0 * (2.0 / rows as f64).sqrt();
-        eprintln!("a ball's rows: T/n = {ratio:.4} over {rows} rows (1 ± {bound:.4})");
-        assert!(
-            (ratio - 1.0).abs() < bound,
-            "T/n = {ratio:.4}, bound {bound:.4}"
-        );
+            }
+        });
+        assert_rows_have_their_stated_noise("a ball's rows", &machine, sets);
     }
 
     /// A held-out ball of more touches than its bound is named before any
