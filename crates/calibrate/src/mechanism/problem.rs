@@ -150,10 +150,10 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let n = self.n_params();
         let groups = self.start_blocks(&global.as_slice()[..n])?;
         let samples = self.data.observations.samples.len();
-        for (b, column) in self.tied.iter() {
-            let unknowns = self.tied_unknowns(b);
+        for (b, columns) in self.tied.iter() {
+            let unknowns = columns.len();
             global
-                .rows_mut(column, unknowns)
+                .rows_mut(columns.start, unknowns)
                 .copy_from(&groups[samples + b].rows(0, unknowns));
         }
         Ok(State {
@@ -161,12 +161,6 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             groups,
             points: vec![SVector::zeros(); self.n_points()],
         })
-    }
-
-    /// The global unknowns of tied ball `b`: its centre, and its radius
-    /// when uncertain.
-    fn tied_unknowns(&self, b: usize) -> usize {
-        3 + usize::from(self.data.observations.balls[b].radius_sigma.is_some())
     }
 
     /// The prior information on the global block (zero where none).
@@ -431,7 +425,8 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
         information.view_mut((0, 0), (m, m)).copy_from(mechanism);
     }
     let mut any = mechanism.is_some();
-    for (b, column) in tied.iter() {
+    for (b, columns) in tied.iter() {
+        let column = columns.start;
         let ball = &data.observations.balls[b];
         if let Some(prior) = ball.centre_prior {
             for k in 0..3 {
@@ -908,9 +903,9 @@ mod tests {
         for group in &mut state.groups {
             *group += block::<C>(&offset, 0.0);
         }
-        for (_, column) in problem.tied().iter() {
+        for (_, columns) in problem.tied().iter() {
             for k in 0..3 {
-                state.global[column + k] += offset[k];
+                state.global[columns.start + k] += offset[k];
             }
         }
         let dense = dense_reference::solve::<C, 0, 1, _>(&problem, &state, 0.0).unwrap();
@@ -1069,11 +1064,14 @@ mod tests {
         }
         // The distance's row sees the two centres, and nothing else.
         let distance = analytic.row(analytic.nrows() - 1);
-        let tied: Vec<usize> = problem.tied().iter().map(|(_, c)| c).collect();
         let seen: Vec<usize> = (0..distance.len())
             .filter(|&j| distance[j] != 0.0)
             .collect();
-        let expected: Vec<usize> = tied.iter().flat_map(|&c| c..c + 3).collect();
+        let expected: Vec<usize> = problem
+            .tied()
+            .iter()
+            .flat_map(|(_, columns)| columns.start..columns.start + 3)
+            .collect();
         assert_eq!(seen, expected);
     }
 }

@@ -17,13 +17,16 @@
 //! centre in its local block, eliminated with its touches. The hexapod's
 //! own calibration ties its balls in the same way.
 
+use std::ops::Range;
+
 use parcal_observe::mechanism::BallDistance;
 
 /// Where each tied ball's unknowns are in the global block (module doc).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TiedBalls {
-    /// For each ball, the global column of its centre's `x` if it is tied.
-    columns: Vec<Option<usize>>,
+    /// For each ball, if it is tied, the global columns of its unknowns:
+    /// its centre, then an uncertain radius.
+    columns: Vec<Option<Range<usize>>>,
     /// The balls tied.
     count: usize,
     /// The global unknowns they add.
@@ -50,10 +53,10 @@ impl TiedBalls {
             .zip(radius_unknown)
             .map(|(&tied, &radius)| {
                 tied.then(|| {
-                    let column = next;
+                    let first = next;
                     next += 3 + usize::from(radius);
                     count += 1;
-                    column
+                    first..next
                 })
             })
             .collect();
@@ -67,7 +70,7 @@ impl TiedBalls {
     /// The global column of ball `b`'s centre's `x` (its `y`, `z` and an
     /// uncertain radius follow), `None` if it is not tied.
     pub(crate) fn column(&self, b: usize) -> Option<usize> {
-        self.columns.get(b).copied().flatten()
+        self.columns.get(b)?.as_ref().map(|columns| columns.start)
     }
 
     /// The number of balls tied.
@@ -80,12 +83,13 @@ impl TiedBalls {
         self.unknowns
     }
 
-    /// Each tied ball and the column of its centre's `x`, in ball order.
-    pub(crate) fn iter(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+    /// Each tied ball and the global columns of its unknowns, in ball
+    /// order.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (usize, Range<usize>)> + '_ {
         self.columns
             .iter()
             .enumerate()
-            .filter_map(|(b, column)| column.map(|c| (b, c)))
+            .filter_map(|(b, columns)| Some((b, columns.clone()?)))
     }
 }
 
@@ -109,6 +113,6 @@ mod tests {
         assert_eq!(tied.column(3), Some(14));
         assert_eq!(tied.column(7), None);
         assert_eq!((tied.len(), tied.unknowns()), (2, 7));
-        assert_eq!(tied.iter().collect::<Vec<_>>(), [(1, 10), (3, 14)]);
+        assert_eq!(tied.iter().collect::<Vec<_>>(), [(1, 10..14), (3, 14..17)]);
     }
 }
