@@ -51,6 +51,7 @@ use parcal_observe::KinematicPrior;
 use parcal_observe::mechanism::{Actuation, BallTouch};
 use parcal_observe::unit_direction;
 use parcal_observe::weights::{Repeatability, radius_variance};
+use rayon::prelude::*;
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
@@ -276,11 +277,10 @@ fn design_start(
         what: format!("contact {row}"),
         reason,
     };
-    // The design's tool tips and dT/dq.
+    // The design's tool tips and dT/dq, contact by contact on the
+    // threads, the first failing contact named.
     let per_reading = legs.per_reading();
-    let mut tips = Vec::with_capacity(m.len());
-    let mut d_q = Vec::with_capacity(m.len());
-    for (row, q) in m.q.iter().enumerate() {
+    let design_tip = |row: usize, q: &[f64; 6]| {
         let pose = Actuation::Readings(legs.actuation(q))
             .pose(hexapod, configured, configured)
             .map_err(|e| contact_error(row, format!("the design's forward kinematics: {e}")))?;
@@ -290,10 +290,22 @@ fn design_start(
             .point;
         let jacobian = tool_point_reading_jacobian(hexapod, configured, pose.as_slice())
             .map_err(|e| contact_error(row, e.to_string()))?;
-        tips.push(tip);
         // Per unit of the readings, whose repeatability is in it.
-        d_q.push(Matrix3x6::from_column_slice(jacobian.as_slice()) * per_reading);
-    }
+        Ok((
+            tip,
+            Matrix3x6::from_column_slice(jacobian.as_slice()) * per_reading,
+        ))
+    };
+    let designed: Vec<Result<(Vec3, Matrix3x6<f64>), MechanismCalibrationError>> =
+        m.q.par_iter()
+            .enumerate()
+            .map(|(row, q)| design_tip(row, q))
+            .collect();
+    let (tips, d_q): (Vec<Vec3>, Vec<Matrix3x6<f64>>) = designed
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()?
+        .into_iter()
+        .unzip();
     let rotation = match dataset.artefacts.frame {
         ArtefactFrame::Design => {
             let canonical =

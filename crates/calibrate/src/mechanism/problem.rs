@@ -37,6 +37,7 @@ use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
+use rayon::prelude::*;
 
 use crate::sphere_fit::{SphereFitError, best_fit};
 
@@ -237,22 +238,31 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 })?;
             blocks.push(block(&Vector3::new(pose[0], pose[1], pose[2]), 0.0));
         }
+        // Each ball on the threads, the first failing ball named.
         let configured = self.data.configured.as_slice();
-        for (b, ball) in o.balls.iter().enumerate() {
-            let touches: Vec<usize> = self.ball_points[b]
-                .clone()
-                .map(|i| self.touch_order[i - self.sample_points()])
-                .collect();
-            let centre = ball_centre(
-                mechanism,
-                params,
-                configured,
-                &o.touches,
-                &touches,
-                b,
-                ball.radius,
-            )?;
-            blocks.push(block(&centre, ball.radius));
+        let centres: Vec<Result<SVector<f64, C>, MechanismCalibrationError>> = o
+            .balls
+            .par_iter()
+            .enumerate()
+            .map(|(b, ball)| {
+                let touches: Vec<usize> = self.ball_points[b]
+                    .clone()
+                    .map(|i| self.touch_order[i - self.sample_points()])
+                    .collect();
+                let centre = ball_centre(
+                    mechanism,
+                    params,
+                    configured,
+                    &o.touches,
+                    &touches,
+                    b,
+                    ball.radius,
+                )?;
+                Ok(block(&centre, ball.radius))
+            })
+            .collect();
+        for centre in centres {
+            blocks.push(centre?);
         }
         Ok(blocks)
     }
