@@ -319,6 +319,14 @@ fn what_the_common_calibration_does_not_model_is_refused_by_name() {
         error.contains("the coordinate observation (eq. 10)"),
         "{error}"
     );
+    // Readings no pose reaches (legs 0 and 1000 mm out in turn), at two
+    // contacts: the first in the file is named, whichever thread met it.
+    let mut unreachable = dataset.clone();
+    for row in [150, 20] {
+        unreachable.measurements.q[row] = [0.0, 1000.0, 0.0, 1000.0, 0.0, 1000.0];
+    }
+    let error = refusal(&unreachable, &eq9);
+    assert!(error.starts_with("contact 20: "), "{error}");
     // A hexapod touch at a commanded position (x, y, z): its pose has six
     // coordinates.
     let mut data = MechanismData::from_hexapod_touches(&dataset, &eq9).unwrap();
