@@ -5,14 +5,15 @@
 use std::sync::Arc;
 
 use parcal_calibrate::mechanism::{
-    MechanismCalibrationError, MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+    Ball, MAX_TIED_BALLS, MechanismCalibrationError, MechanismData, MechanismOptions, Observations,
+    calibrate_mechanism,
 };
 use parcal_calibrate::{HUBER_K, Loss};
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
 use parcal_dataset::{Calibration, Dataset};
 use parcal_kinematics::delta::{LinearDelta, probe_rings};
 use parcal_kinematics::mechanism::design;
-use parcal_observe::mechanism::{PointSample, ProbeHeight};
+use parcal_observe::mechanism::{Actuation, BallDistance, BallTouch, PointSample, ProbeHeight};
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 
 /// A typical delta probed on two rings, as configured.
@@ -235,4 +236,81 @@ fn measured_quantities_and_loads_are_checked_naming_the_observation() {
     let data = MechanismData::new(Arc::new(robot), configured, observations);
     let error = error_of(&data);
     assert!(error.starts_with("measured quantity 0: "), "{error}");
+}
+
+#[test]
+fn ball_distances_are_checked_naming_the_distance() {
+    // Balls touched four times each (validation looks at the distances
+    // before any ball is located).
+    let with_balls = |count: usize| {
+        let mut data = probed();
+        data.observations.balls = vec![Ball::new(12.7, None); count];
+        data.observations.touches = (0..4 * count)
+            .map(|k| BallTouch {
+                ball: k / 4,
+                at: Actuation::Commanded([0.0, 0.0, 20.0]),
+                sigma: 0.005,
+            })
+            .collect();
+        data
+    };
+    let data = with_balls(3);
+    let distance = |first, second| BallDistance {
+        first,
+        second,
+        distance: 100.0,
+        sigma: 0.002,
+    };
+    let refused = |data: &MechanismData, distances: Vec<BallDistance>| {
+        let mut tied = data.clone();
+        tied.observations.ball_distances = distances;
+        tied.validate().unwrap_err().to_string()
+    };
+    let error = refused(&data, vec![distance(0, 1), distance(1, 3)]);
+    assert!(
+        error.starts_with("ball distance 1: it ties ball 3, and there are 3 balls"),
+        "{error}"
+    );
+    let error = refused(&data, vec![distance(2, 2)]);
+    assert!(
+        error.starts_with("ball distance 0: it ties ball 2 to itself"),
+        "{error}"
+    );
+    let error = refused(
+        &data,
+        vec![BallDistance {
+            distance: -1.0,
+            ..distance(0, 1)
+        }],
+    );
+    assert!(
+        error.contains("its distance -1 is not finite and positive"),
+        "{error}"
+    );
+    let error = refused(
+        &data,
+        vec![BallDistance {
+            sigma: 0.0,
+            ..distance(0, 1)
+        }],
+    );
+    assert!(
+        error.starts_with("ball distance 0: its standard deviation 0"),
+        "{error}"
+    );
+    let error = refused(&data, vec![distance(0, 1), distance(2, 0), distance(1, 0)]);
+    assert!(
+        error.starts_with("ball distance 2: balls 0 and 1 already have ball distance 0"),
+        "{error}"
+    );
+    // More balls tied than the dense global block takes.
+    let balls = MAX_TIED_BALLS + 1;
+    let chain = (1..balls).map(|b| distance(b - 1, b)).collect();
+    let error = refused(&with_balls(balls), chain);
+    assert!(
+        error.contains(&format!(
+            "they tie {balls} balls together, more than the {MAX_TIED_BALLS} accepted"
+        )),
+        "{error}"
+    );
 }
