@@ -87,16 +87,14 @@ impl Files {
     /// whether an observation is its line there (a CSV row, after the
     /// header) rather than its index (in JSON).
     fn of_kind(self, kind: ObservationKind) -> Option<(&'static str, bool)> {
-        let file = match (self, kind) {
-            (Self::Hexapod, ObservationKind::Touch) => MEASUREMENTS_FILE,
-            (Self::Hexapod, ObservationKind::BallDistance) => return Some((ARTEFACTS_FILE, false)),
-            (_, ObservationKind::Probe) => PROBES_FILE,
-            (_, ObservationKind::Distance) => DISTANCES_FILE,
-            (_, ObservationKind::Sample) => POINTS_FILE,
-            (_, ObservationKind::Quantity) => QUANTITIES_FILE,
-            (_, ObservationKind::Touch) => TOUCHES_FILE,
-            (_, ObservationKind::BallDistance) => BALL_DISTANCES_FILE,
-            (_, ObservationKind::Point) => return None,
+        let file = match kind {
+            ObservationKind::Probe => PROBES_FILE,
+            ObservationKind::Distance => DISTANCES_FILE,
+            ObservationKind::Sample => POINTS_FILE,
+            ObservationKind::Quantity => QUANTITIES_FILE,
+            ObservationKind::Touch => self.touches(),
+            ObservationKind::BallDistance => return Some(self.ball_distances()),
+            ObservationKind::Point => return None,
         };
         Some((file, true))
     }
@@ -106,6 +104,15 @@ impl Files {
     fn balls(self) -> (&'static str, bool) {
         match self {
             Self::Mechanism => (BALLS_FILE, true),
+            Self::Hexapod => (ARTEFACTS_FILE, false),
+        }
+    }
+
+    /// The ball distances' file, and whether a distance is its line
+    /// there rather than its index.
+    fn ball_distances(self) -> (&'static str, bool) {
+        match self {
+            Self::Mechanism => (BALL_DISTANCES_FILE, true),
             Self::Hexapod => (ARTEFACTS_FILE, false),
         }
     }
@@ -233,14 +240,11 @@ fn place(files: Files, row: &ValidatedRow) -> String {
                     false => format!("{file} {what} {numbers}"),
                 }
             };
-            let tied_by = files
-                .of_kind(ObservationKind::BallDistance)
-                .unwrap_or(files.balls());
             format!(
                 "{} (touched at {}, tied by {}, row {})",
                 listed(files.balls(), "balls", balls),
                 listed((files.touches(), true), "touches", touches),
-                listed(tied_by, "distances", distances),
+                listed(files.ball_distances(), "distances", distances),
                 row.row
             )
         }
