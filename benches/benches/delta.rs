@@ -97,7 +97,10 @@ fn delta(c: &mut Criterion) {
     )
     .with_trigger_height(0.0, Some(0.05));
     c.bench_function("parcal delta calibration, 25 probes", |b| {
-        b.iter(|| calibrate_mechanism(black_box(&data), &MechanismOptions::default()).unwrap())
+        b.iter(|| {
+            calibrate_mechanism(black_box(&data), &MechanismOptions::default(), &mut |_| {})
+                .unwrap()
+        })
     });
 }
 

@@ -45,7 +45,7 @@ fn interface(c: &mut Criterion) {
                 b.iter(|| {
                     let data =
                         MechanismData::from_hexapod_touches(d, &options).expect("hexapod touches");
-                    let run = calibrate_mechanism(&data, &MechanismOptions::default())
+                    let run = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {})
                         .expect("calibration");
                     assert!(run.converged(), "{:?}", run.status);
                     run

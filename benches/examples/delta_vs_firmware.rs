@@ -221,7 +221,7 @@ fn parcal(printer: &Printer, with_distances: bool) -> DeltaParams {
     )
     .with_trigger_height(TRIGGER_HEIGHT.0, Some(TRIGGER_HEIGHT.1));
     let calibration =
-        calibrate_mechanism(&data, &MechanismOptions::default()).expect("calibration");
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).expect("calibration");
     DeltaParams::from_slice(&calibration.values().as_slice()[..N_PARAMS])
 }
 

@@ -50,28 +50,29 @@ def _mechanism_calibration(calibration):
 
 
 @overload
-def calibrate(dataset: MechanismDataset, **options: Any) -> MechanismCalibration: ...
+def calibrate(dataset: MechanismDataset, *, progress: Any = None, **options: Any) -> MechanismCalibration: ...
 @overload
-def calibrate(dataset: Dataset, *, common: Literal[True], **options: Any) -> MechanismCalibration: ...
+def calibrate(dataset: Dataset, *, common: Literal[True], progress: Any = None,
+              **options: Any) -> MechanismCalibration: ...
 @overload
 def calibrate(dataset: Dataset, *, progress: Any = None, **options: Any) -> Calibration: ...
 def calibrate(dataset, *, progress=None, common=False, **options):
     """Calibrates `dataset` as ``parcal calibrate`` does: a hexapod's
     (``Dataset``, returns a ``Calibration``) or another mechanism's
     (``MechanismDataset``, returns a ``MechanismCalibration``; its options
-    are ``snoop``, ``loss`` and ``max_iterations``, and it takes no
-    ``progress``). ``common=True`` takes a hexapod's ball touches through
+    are ``snoop``, ``loss``, ``lm``, ``max_iterations`` and
+    ``time_limit``). ``common=True`` takes a hexapod's ball touches through
     the common calibration of every mechanism, as ``parcal calibrate
-    --common`` does (a ``MechanismCalibration``; no ``lm``,
-    ``time_limit`` or ``progress``)."""
-    if isinstance(dataset, MechanismDataset) or common:
-        if progress is not None:
-            raise Error("progress: a mechanism's calibration reports no iterations")
-        if isinstance(dataset, MechanismDataset):
-            if common:
-                raise Error("common: a mechanism dataset has the common calibration already")
-            return _parcal.calibrate_mechanism(dataset, **options)
-        return _parcal.calibrate_common(dataset, **options)
+    --common`` does (a ``MechanismCalibration``). ``progress``, if given,
+    is called after each iteration of any of them with a dict
+    (``iteration``, ``cost``, ``step_norm``, ``lambda``, ``accepted``); an
+    exception it raises stops the calibration and is raised here."""
+    if isinstance(dataset, MechanismDataset):
+        if common:
+            raise Error("common: a mechanism dataset has the common calibration already")
+        return _parcal.calibrate_mechanism(dataset, progress=progress, **options)
+    if common:
+        return _parcal.calibrate_common(dataset, progress=progress, **options)
     return _parcal.calibrate(dataset, progress=progress, **options)
 
 

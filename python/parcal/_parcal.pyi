@@ -486,21 +486,27 @@ class MechanismCalibration:
 def calibrate_mechanism(
     dataset: MechanismDataset,
     *,
+    progress: Optional[Callable[[Progress], object]] = None,
     snoop: bool = False,
     loss: str = "squared",
+    lm: bool = False,
     max_iterations: Optional[int] = None,
+    time_limit: Optional[float] = None,
 ) -> MechanismCalibration:
     """``parcal.calibrate`` on a mechanism dataset."""
 
 def calibrate_common(
     dataset: Dataset,
     *,
+    progress: Optional[Callable[[Progress], object]] = None,
     sim: Optional[Literal["I", "II", "III", "IV"]] = None,
     observation: Optional[Literal["radius", "coordinates"]] = None,
     prior: Optional[Literal["paper", "propagated", "none"]] = None,
     weights: Optional[Literal["propagated", "diagonal"]] = None,
     radius: Optional[Literal["ball", "contact"]] = None,
+    lm: bool = False,
     max_iterations: Optional[int] = None,
+    time_limit: Optional[float] = None,
     snoop: bool = False,
     loss: str = "squared",
 ) -> MechanismCalibration:

@@ -45,13 +45,36 @@ pub fn calibrate(
 ) -> PyResult<Calibration> {
     let flags = flags(options)?;
     let dataset = dataset.get();
+    let recorded = observed(py, progress.as_ref(), |observer| {
+        calibrate_recorded(&dataset.inner, &flags, observer)
+    })?
+    .map_err(to_py)?;
+    Ok(Calibration::new(
+        recorded,
+        provenance(&dataset.inner, &dataset.given),
+    ))
+}
+
+/// Runs `work` with the GIL released, handing it an observer that calls
+/// `progress` (if any) after each iteration with the GIL held again: an
+/// exception the callback raises, or a signal (Ctrl-C), stops the work
+/// and is returned here; otherwise `work`'s own result.
+pub(crate) fn observed<T, E>(
+    py: Python<'_>,
+    progress: Option<&Py<PyAny>>,
+    work: impl FnOnce(&mut dyn FnMut(&IterationRecord)) -> Result<T, E> + Send,
+) -> PyResult<Result<T, E>>
+where
+    T: Send,
+    E: Send,
+{
     let mut raised: Option<PyErr> = None;
     let mut iteration = 0usize;
     let mut observer = |record: &IterationRecord| {
         iteration += 1;
         let outcome = Python::attach(|py| {
             py.check_signals()?;
-            match &progress {
+            match progress {
                 Some(callback) => report(py, callback, iteration, record),
                 None => Ok(()),
             }
@@ -61,17 +84,9 @@ pub fn calibrate(
             resume_unwind(Box::new(Stopped));
         }
     };
-    let outcome = py.detach(|| {
-        catch_unwind(AssertUnwindSafe(|| {
-            calibrate_recorded(&dataset.inner, &flags, &mut observer)
-        }))
-    });
+    let outcome = py.detach(|| catch_unwind(AssertUnwindSafe(|| work(&mut observer))));
     match outcome {
-        Ok(Ok(recorded)) => Ok(Calibration::new(
-            recorded,
-            provenance(&dataset.inner, &dataset.given),
-        )),
-        Ok(Err(error)) => Err(to_py(error)),
+        Ok(result) => Ok(result),
         Err(payload) if payload.is::<Stopped>() => {
             Err(raised.expect("the observer stops the run after an exception only"))
         }

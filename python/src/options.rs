@@ -48,13 +48,7 @@ pub fn flags(options: Option<&Bound<'_, PyDict>>) -> PyResult<CalibrateFlags> {
                 flags.max_iterations = Some(MAX_ITERATIONS.check(&name, n).map_err(to_py)?);
             }
             "time_limit" => {
-                let seconds: f64 = typed(&name, &value, "a number of seconds")?;
-                let limit = Duration::try_from_secs_f64(seconds).map_err(|_| {
-                    to_py(format!(
-                        "time_limit: {seconds} is not a finite, non-negative number of seconds"
-                    ))
-                })?;
-                flags.time_limit = Some(limit);
+                flags.time_limit = Some(seconds(typed(&name, &value, "a number of seconds")?)?);
             }
             "loss" => {
                 let text: String = typed(&name, &value, "a string")?;
@@ -94,6 +88,16 @@ pub fn choice<T: ValueEnum>(name: &str, value: &Bound<'_, PyAny>) -> PyResult<T>
         to_py(format!(
             "{name}: {text:?} is not one of {}",
             names.join(", ")
+        ))
+    })
+}
+
+/// The time limit of `seconds` seconds (`time_limit`), refused unless
+/// finite and not negative.
+pub(crate) fn seconds(seconds: f64) -> PyResult<Duration> {
+    Duration::try_from_secs_f64(seconds).map_err(|_| {
+        to_py(format!(
+            "time_limit: {seconds} is not a finite, non-negative number of seconds"
         ))
     })
 }

@@ -63,7 +63,13 @@ def test_a_mechanism_dataset_written_reads_back_the_same(delta, tmp_path):
 
 
 @pytest.mark.parametrize(
-    "options, flags", [({}, []), ({"snoop": True}, ["--snoop"]), ({"loss": "huber"}, ["--loss", "huber"])]
+    "options, flags",
+    [
+        ({}, []),
+        ({"snoop": True}, ["--snoop"]),
+        ({"loss": "huber"}, ["--loss", "huber"]),
+        ({"lm": True}, ["--lm"]),
+    ],
 )
 def test_the_hangprinter_gives_the_calibration_json_of_the_cli(hangprinter, cli, tmp_path, options, flags):
     out = tmp_path / "cli.json"
@@ -87,6 +93,29 @@ def test_the_hangprinter_gives_the_calibration_json_of_the_cli(hangprinter, cli,
         record["identifiability"]["statements"]
     run.write(tmp_path / "python.json")
     assert (tmp_path / "python.json").read_text() == expected
+
+
+def test_a_mechanisms_progress_is_called_and_its_exception_stops_the_run(delta, paper):
+    for dataset, options in [(parcal.read_dataset(delta), {}),
+                             (parcal.read_dataset(paper), {"common": True, "sim": "III"})]:
+        seen = []
+        run = parcal.calibrate(dataset, progress=seen.append, **options)
+        assert [s["iteration"] for s in seen] == list(range(1, len(seen) + 1))
+        assert len(seen) == run.iterations > 1
+        assert seen[-1]["cost"] == run.to_dict()["global_test"]["cost"]
+
+        def stop(record):
+            seen.append(record)
+            if record["iteration"] == 2:
+                raise KeyError("enough")
+
+        seen.clear()
+        with pytest.raises(KeyError, match="enough"):
+            parcal.calibrate(dataset, progress=stop, **options)
+        assert len(seen) == 2
+        run = parcal.calibrate(dataset, time_limit=0, **options)
+        assert run.verdict == "rejected" and run.status == "TimeLimit"
+        assert "it reached the time limit" in run.reasons[0]
 
 
 def test_a_simulated_delta_recovers_its_truth_within_4_sigma(delta):
@@ -232,8 +261,8 @@ def test_bad_input_raises_parcal_error_naming_the_file_and_line(delta, hangprint
         (hangprinter / "points.csv").write_text("q1,q2,q3\n1,2,3\n")
         parcal.read_dataset(hangprinter)
     ds = parcal.read_dataset(delta)
-    with pytest.raises(parcal.Error, match="progress: a mechanism's calibration reports no iterations"):
-        parcal.calibrate(ds, progress=print)
+    with pytest.raises(parcal.Error, match="time_limit: -1"):
+        parcal.calibrate(ds, time_limit=-1)
     with pytest.raises(parcal.Error, match="loss: "):
         parcal.calibrate(ds, loss="quartic")
     with pytest.raises(parcal.Error, match="options.snoop: data snooping with a robust loss"):
@@ -405,8 +434,6 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
     assert out["q"].shape == (1, 6) and np.all(out["q"] != out["nominal"])
     with pytest.raises(parcal.Error, match="targets: expected 6 columns"):
         parcal.compensate(run, [[0.0, 0.0, 400.0]])
-    with pytest.raises(parcal.Error, match="lm: applies to the hexapod's own"):
-        parcal.calibrate(parcal.read_dataset(paper), common=True, sim="I", lm=True)
     with pytest.raises(parcal.Error, match=r"the coordinate observation \(eq. 10\)"):
         parcal.calibrate(parcal.read_dataset(paper), common=True)
 

@@ -65,7 +65,8 @@ fn nees(
     };
     let configured: Vec<f64> = design(robot).iter().copied().collect();
     let data = MechanismData::new(Arc::new(robot.clone()), configured, observations);
-    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(
         calibration.converged(),
         "seed {seed}: {:?}",

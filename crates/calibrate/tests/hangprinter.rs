@@ -169,7 +169,8 @@ fn calibrate(
         ..Default::default()
     };
     let data = MechanismData::new(Arc::new(robot), configured, observations);
-    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(
         calibration.converged(),
         "{}: {:?}",
@@ -438,7 +439,7 @@ fn the_fixture_holds_the_chosen_model() {
         9
     );
     let data = MechanismData::from_dataset(&dataset).unwrap();
-    let from_files = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let from_files = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     let chosen = calibrate(&CHOSEN, &dataset.samples, |_| true);
     let difference = (from_files.values() - chosen.values()).amax();
     assert!(difference < 1e-9, "{difference:e}");

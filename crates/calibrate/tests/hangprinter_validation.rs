@@ -58,7 +58,7 @@ fn distance_rms(validation: &MechanismValidation) -> f64 {
 fn the_discarded_positions_are_five_millimetres_off_and_rejected() {
     let dataset = MechanismDataset::read(&fixture("")).unwrap();
     let data = MechanismData::from_dataset(&dataset).unwrap();
-    let run = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let run = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(run.verdict.accepted, "{:?}", run.reasons);
     let calibrated = CalibratedMechanism::of_calibration(&run).unwrap();
     // hp-mark's positions at the fixture's 0.1 mm.

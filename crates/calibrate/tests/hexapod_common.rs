@@ -150,7 +150,7 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     // result gives with the balls).
     let sigmas = own.global_sigmas().unwrap();
     let data = MechanismData::from_hexapod_touches(dataset, options).unwrap();
-    let common = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let common = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     let tied = own
         .names()
         .iter()
@@ -331,13 +331,13 @@ fn what_the_common_calibration_does_not_model_is_refused_by_name() {
     // coordinates.
     let mut data = MechanismData::from_hexapod_touches(&dataset, &eq9).unwrap();
     data.observations.touches[7].at = Actuation::Commanded([0.0, 0.0, 400.0]);
-    let error = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap_err();
+    let error = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap_err();
     let message = error.to_string();
     assert!(message.contains("touch 7"), "{message}");
     assert!(message.contains("6 coordinates"), "{message}");
     // Readings of the wrong length.
     data.observations.touches[7].at = Actuation::Readings(vec![0.0; 5]);
-    let error = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap_err();
+    let error = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap_err();
     let message = error.to_string();
     assert!(
         message.contains("5 readings for the 6 actuators"),
@@ -374,7 +374,7 @@ fn a_hexapod_calibrated_through_the_interface_is_judged_on_held_out_balls() {
     let options = CalibrationOptions::simulation(Simulation::III);
     let all = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
     let fit = all.with_observations(balls(&all.observations, 0..20));
-    let calibration = calibrate_mechanism(&fit, &MechanismOptions::default()).unwrap();
+    let calibration = calibrate_mechanism(&fit, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(calibration.converged());
     let calibrated = CalibratedMechanism::of_calibration(&calibration).unwrap();
     let mut held_out = all.with_observations(balls(&all.observations, 20..27));
@@ -425,7 +425,7 @@ fn a_hexapod_calibrated_through_the_interface_is_compensated_on_target_poses() {
         ..CalibrationOptions::simulation(Simulation::III)
     };
     let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
-    let run = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let run = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     let calibrated = CalibratedMechanism::of_calibration(&run).unwrap();
     let hexapod = calibrated.mechanism.as_ref();
     let g = &dataset.truth.as_ref().unwrap().geometry;

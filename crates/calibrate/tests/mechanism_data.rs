@@ -8,7 +8,7 @@ use parcal_calibrate::mechanism::{
     Ball, MAX_TIED_BALLS, MechanismCalibrationError, MechanismData, MechanismOptions, Observations,
     calibrate_mechanism,
 };
-use parcal_calibrate::{HUBER_K, Loss};
+use parcal_calibrate::{HUBER_K, Loss, Method};
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
 use parcal_dataset::{Calibration, Dataset};
 use parcal_kinematics::delta::{LinearDelta, probe_rings};
@@ -36,7 +36,7 @@ fn probed() -> MechanismData {
 }
 
 fn error_of(data: &MechanismData) -> String {
-    calibrate_mechanism(data, &MechanismOptions::default())
+    calibrate_mechanism(data, &MechanismOptions::default(), &mut |_| {})
         .unwrap_err()
         .to_string()
 }
@@ -99,12 +99,17 @@ fn errors_name_the_observation_or_the_parameter() {
 fn options_are_checked_and_a_robust_loss_calibrates() {
     let data = probed();
     let refuse = |options: MechanismOptions| {
-        calibrate_mechanism(&data, &options)
+        calibrate_mechanism(&data, &options, &mut |_| {})
             .unwrap_err()
             .to_string()
     };
     let huber = Loss::Huber { k: HUBER_K };
     assert!(refuse(MechanismOptions::default().with_alpha(0.0)).contains("options.alpha"));
+    let mut damped = MechanismOptions::default();
+    damped.method = Method::LevenbergMarquardt {
+        initial_lambda: f64::NAN,
+    };
+    assert!(refuse(damped).contains("options.method: a Levenberg-Marquardt lambda of NaN"));
     assert!(
         refuse(
             MechanismOptions::default()
@@ -113,10 +118,19 @@ fn options_are_checked_and_a_robust_loss_calibrates() {
         )
         .contains("the loss replaces it")
     );
-    let run = calibrate_mechanism(&data, &MechanismOptions::default().with_loss(huber)).unwrap();
+    let run = calibrate_mechanism(
+        &data,
+        &MechanismOptions::default().with_loss(huber),
+        &mut |_| {},
+    )
+    .unwrap();
     assert!(run.converged(), "{:?}", run.reasons);
     assert!(matches!(
-        calibrate_mechanism(&data.clone().without_priors(), &MechanismOptions::default()),
+        calibrate_mechanism(
+            &data.clone().without_priors(),
+            &MechanismOptions::default(),
+            &mut |_| {}
+        ),
         Err(MechanismCalibrationError::NotDetermined { .. })
     ));
 }
@@ -144,7 +158,7 @@ fn a_dataset_calibrates_from_its_files_and_its_record_reads_back() {
         ),
         (25, 2, 4)
     );
-    let run = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let run = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(run.converged(), "{:?}", run.reasons);
     let record = run.record();
     let file = path.join("calibration.json");

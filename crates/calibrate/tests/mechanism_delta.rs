@@ -18,6 +18,7 @@ use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::CommandedPoint;
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 use parcal_simulate::{Plate, PlatePairs, Rng};
+use parcal_solver::Status;
 
 /// A printer of the range: rods 250-300 mm, radius 120-150 mm,
 /// drawn from stream `seed`.
@@ -36,7 +37,7 @@ fn scenario(seed: u64, distances: usize) -> DeltaScenario {
 
 fn calibrate(dataset: &MechanismDataset, options: &MechanismOptions) -> MechanismCalibration {
     let data = MechanismData::from_dataset(dataset).expect("a simulated dataset converts");
-    calibrate_mechanism(&data, options).expect("a simulated printer calibrates")
+    calibrate_mechanism(&data, options, &mut |_| {}).expect("a simulated printer calibrates")
 }
 
 /// The true unknowns in the canonical frame: the parameters
@@ -197,12 +198,30 @@ fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
         "{:?}",
         plain.reasons
     );
-    let snooped = calibrate(&dataset, &MechanismOptions::default().with_snooping(true));
+    let data = MechanismData::from_dataset(&dataset).unwrap();
+    let snooping = MechanismOptions::default().with_snooping(true);
+    // The observer sees both fits' iterations: the first, the plain one,
+    // then the fit without the blunder.
+    let mut seen = 0;
+    let snooped = calibrate_mechanism(&data, &snooping, &mut |_| seen += 1).unwrap();
+    assert_eq!(seen, plain.iterations + snooped.iterations);
     eprintln!("{:#?}", snooped.reasons);
     assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
     assert_eq!(snooped.removals[0].observation, probe);
     assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
     assert!(snooped.snooping_stopped.is_none());
+    // A spent time budget stops the first fit at its start: nothing is
+    // tested, so snooping stops there, and the verdict says why.
+    let spent = snooping.with_time_limit(Some(std::time::Duration::ZERO));
+    let stopped = calibrate_mechanism(&data, &spent, &mut |_| {}).unwrap();
+    assert_eq!(stopped.status, Status::TimeLimit);
+    assert!(!stopped.verdict.accepted && stopped.removals.is_empty());
+    assert!(stopped.snooping_stopped.is_some());
+    assert!(
+        stopped.reasons[0].contains("(it reached the time limit)"),
+        "{:?}",
+        stopped.reasons
+    );
     // The remaining observations keep their places in the data given.
     assert!(snooped.observations.iter().all(|c| c.observation != probe));
     assert!(snooped.observations.iter().any(
@@ -296,7 +315,7 @@ fn commanded_points_nees(seed: u64) -> f64 {
         points,
         ..Observations::default()
     });
-    let run = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let run = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(run.converged(), "seed {seed}: {:?}", run.reasons);
     let n = delta.parameters().len();
     let error = run.values() - canonical_truth(&dataset).rows(0, n);
@@ -560,6 +579,7 @@ fn balls_touched_too_few_times_are_refused_by_name() {
     let error_of = |observations: Observations| match calibrate_mechanism(
         &data.with_observations(observations),
         &MechanismOptions::default(),
+        &mut |_| {},
     ) {
         Err(MechanismCalibrationError::InvalidData { what, reason }) => {
             format!("{what}: {reason}")

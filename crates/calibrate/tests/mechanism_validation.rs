@@ -45,7 +45,8 @@ fn data(dataset: &MechanismDataset) -> MechanismData {
 fn calibrated(seed: u64) -> (DeltaScenario, CalibratedMechanism, MechanismTruth) {
     let scenario = scenario(seed);
     let dataset = simulate_delta(&scenario, seed).unwrap();
-    let run = calibrate_mechanism(&data(&dataset), &MechanismOptions::default()).unwrap();
+    let run =
+        calibrate_mechanism(&data(&dataset), &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(run.converged(), "seed {seed}: {:?}", run.reasons);
     let calibrated = CalibratedMechanism::of_calibration(&run).unwrap();
     (scenario, calibrated, dataset.truth.unwrap())

@@ -9,9 +9,10 @@
 //! ```
 
 use std::io::{IsTerminal, Write};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
+use parcal::calibration::IterationRecord;
 
 /// A bar or spinner on a terminal, plain lines elsewhere.
 pub struct Progress {
@@ -65,6 +66,19 @@ impl Progress {
             }
             None => stderr_line(&format!("  {}: {message}", self.label)),
         }
+    }
+
+    /// One iteration of a calibration that began at `started`: its cost,
+    /// its step's length and that length in standard deviations, the
+    /// time so far.
+    pub fn iteration(&self, record: &IterationRecord, started: Instant) {
+        self.step(&format!(
+            "cost {:.6e}, step {:.3e} ({:.2e} sigma) ({:.2} s)",
+            record.cost,
+            record.step_norm,
+            record.step_sigmas,
+            started.elapsed().as_secs_f64()
+        ))
     }
 
     /// A line of text, above the bar on a terminal.

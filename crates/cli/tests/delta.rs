@@ -8,7 +8,7 @@ mod common;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use common::{fails, ok, s};
+use common::{fails, ok, parcal, s, text};
 use parcal::firmware::rrf::read_config;
 use parcal::kinematics::delta::{DeltaParams, LinearDelta, probe_height, probe_rings};
 use parcal::kinematics::mechanism::Mechanism;
@@ -260,11 +260,64 @@ fn a_blunder_is_named_and_removed_by_snooping() {
     );
     assert!(summary.contains("Verdict: accepted"), "{summary}");
     // An option of the hexapod's calibration is refused by name.
-    let err = fails(&["calibrate", s(&data), "--lm"]);
+    let err = fails(&["calibrate", s(&data), "--sim", "III"]);
     assert!(
-        err.contains("--lm applies to a hexapod's calibration"),
+        err.contains("--sim applies to a hexapod's calibration"),
         "{err}"
     );
+}
+
+#[test]
+fn a_printers_calibration_shows_its_iterations_and_takes_the_run_controls() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let simulate = ["simulate", "--mechanism", "delta", "--seed", "3"];
+    ok(&[&simulate[..], &["--balls", "3", "--out", s(&sim)]].concat());
+    let calibrate = |flags: &[&str], name: &str| {
+        let out = dir.path().join(name);
+        let output = parcal(&[&["calibrate", s(&sim), "--out", s(&out)], flags].concat());
+        let file = if output.status.success() {
+            out
+        } else {
+            out.with_extension("rejected.json")
+        };
+        let record: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(file).unwrap()).unwrap();
+        (text(&output.stderr), record)
+    };
+    // Gauss-Newton: a line per iteration on stderr.
+    let (progress, gauss_newton) = calibrate(&[], "gn.json");
+    assert!(progress.contains("read 46 observations in "), "{progress}");
+    assert!(
+        progress.contains("calibrating the linear delta: Gauss-Newton, squared loss\n"),
+        "{progress}"
+    );
+    let iterations = progress.matches("  iteration: cost ").count();
+    assert_eq!(
+        iterations as u64,
+        gauss_newton["iterations"].as_u64().unwrap()
+    );
+    // Levenberg-Marquardt reaches the same minimum: each run stops within
+    // 1e-3 of its sigmas of it (the canonical frame's zeros exactly).
+    let (progress, levenberg) = calibrate(&["--lm"], "lm.json");
+    assert!(progress.contains("Levenberg-Marquardt"), "{progress}");
+    assert_eq!(levenberg["accepted"], true);
+    let parameters = |record: &serde_json::Value| record["parameters"].as_array().unwrap().clone();
+    for (a, b) in parameters(&gauss_newton).iter().zip(parameters(&levenberg)) {
+        let (value, sigma) = (a["value"].as_f64().unwrap(), a["sigma"].as_f64().unwrap());
+        let shift = (value - b["value"].as_f64().unwrap()).abs();
+        assert!(
+            shift <= 2e-3 * sigma,
+            "{}: {shift} for a sigma of {sigma}",
+            a["name"]
+        );
+    }
+    // A spent time budget stops the first iterate: rejected, and said.
+    let (_, stopped) = calibrate(&["--time-limit", "0"], "stopped.json");
+    assert_eq!(stopped["status"], "TimeLimit");
+    assert_eq!(stopped["accepted"], false);
+    let reason = stopped["reasons"][0].as_str().unwrap();
+    assert!(reason.contains("(it reached the time limit)"), "{reason}");
 }
 
 #[test]

@@ -111,59 +111,37 @@ impl CalibrateFlags {
         options.time_limit = self.time_limit;
         options
     }
+
+    /// The options of the common calibration of every mechanism these
+    /// flags ask for: the method, the loss, data snooping and the limits
+    /// (the other flags shape a hexapod's data,
+    /// [`MechanismData::from_hexapod_touches`]).
+    pub fn mechanism_options(&self) -> MechanismOptions {
+        let options = if self.lm {
+            MechanismOptions::default().levenberg_marquardt()
+        } else {
+            MechanismOptions::default()
+        };
+        options
+            .with_snooping(self.snoop)
+            .with_loss(self.loss)
+            .with_max_iterations(self.max_iterations)
+            .with_time_limit(self.time_limit)
+    }
 }
 
 /// What `parcal calibrate --common` calibrates: a hexapod's ball touches
 /// as the common calibration's data under the options `flags` give
-/// ([`MechanismData::from_hexapod_touches`]), and that calibration's
-/// options (`snoop`, `loss`, `max_iterations`).
+/// ([`MechanismData::from_hexapod_touches`]: what it does not model is
+/// refused by name), and that calibration's options
+/// ([`CalibrateFlags::mechanism_options`]).
 pub fn common_calibration(
     dataset: &Dataset,
     flags: &CalibrateFlags,
-) -> Result<(MechanismData, MechanismOptions), CommonRefusal> {
-    let own_only = [
-        ("--lm", flags.lm),
-        ("--time-limit", flags.time_limit.is_some()),
-    ];
-    if let Some((flag, _)) = own_only.into_iter().find(|(_, given)| *given) {
-        return Err(CommonRefusal::OwnOnly { flag });
-    }
-    let data = MechanismData::from_hexapod_touches(dataset, &flags.options())
-        .map_err(CommonRefusal::Data)?;
-    let options = MechanismOptions::default()
-        .with_snooping(flags.snoop)
-        .with_loss(flags.loss)
-        .with_max_iterations(flags.max_iterations);
-    Ok((data, options))
+) -> Result<(MechanismData, MechanismOptions), MechanismCalibrationError> {
+    let data = MechanismData::from_hexapod_touches(dataset, &flags.options())?;
+    Ok((data, flags.mechanism_options()))
 }
-
-/// Why a hexapod's dataset cannot go through the common calibration
-/// ([`common_calibration`]).
-#[derive(Debug)]
-pub enum CommonRefusal {
-    /// A flag (the command's spelling) only the hexapod's own calibration
-    /// has.
-    OwnOnly {
-        /// The flag, `--lm` or `--time-limit`.
-        flag: &'static str,
-    },
-    /// What the common calibration does not model, or bad data.
-    Data(MechanismCalibrationError),
-}
-
-impl std::fmt::Display for CommonRefusal {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::OwnOnly { flag } => write!(
-                f,
-                "{flag} applies to the hexapod's own calibration, not to the common one"
-            ),
-            Self::Data(error) => error.fmt(f),
-        }
-    }
-}
-
-impl std::error::Error for CommonRefusal {}
 
 /// A calibration and its record.
 pub struct RecordedRun {

@@ -23,7 +23,8 @@ use parcal_simulate::{CableScenario, Rng, simulate_cable_dataset};
 fn calibrated_cable(seed: u64) -> (MechanismDataset, MechanismData, Start) {
     let dataset = simulate_cable_dataset(&CableScenario::hangprinter(), seed).unwrap();
     let data = MechanismData::from_dataset(&dataset).unwrap();
-    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(calibration.converged());
     let record = calibration.record();
     let start = Start::from_record(&record, data.mechanism.as_ref()).unwrap();
@@ -144,7 +145,8 @@ fn the_predicted_sigmas_are_the_calibration_s_with_the_planned_samples() {
         });
     }
     let data = MechanismData::from_dataset(&dataset).unwrap();
-    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     let (before, predicted) = anchor_sigmas(&plan);
     let reported: Vec<f64> = calibration.parameters[..12]
         .iter()
@@ -319,7 +321,8 @@ fn bad_requests_are_named() {
     );
     // A calibration of another mechanism, or without a covariance, is no
     // start.
-    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     let mut record = calibration.record();
     let cable = parcal_kinematics::cable::CableRobot::typical();
     let error = Start::from_record(&record, &cable).unwrap_err().to_string();

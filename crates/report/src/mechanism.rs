@@ -468,7 +468,9 @@ mod tests {
         let data = MechanismData::from_dataset(&dataset).unwrap();
         let options = MechanismOptions::default().with_snooping(true);
         (
-            calibrate_mechanism(&data, &options).unwrap().record(),
+            calibrate_mechanism(&data, &options, &mut |_| {})
+                .unwrap()
+                .record(),
             probes,
         )
     }

@@ -16,7 +16,8 @@ fn a_hexapods_common_calibration_is_reported_as_any_mechanisms() {
     let dataset = Dataset::read(&fixture).unwrap();
     let options = CalibrationOptions::simulation(Simulation::III);
     let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
-    let calibration = calibrate_mechanism(&data, &MechanismOptions::default()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     let record = calibration.record();
     assert_eq!(record.mechanism, "hexapod");
     for format in [Format::Html, Format::Markdown] {

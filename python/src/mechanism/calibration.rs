@@ -6,55 +6,72 @@
 use std::path::{Path, PathBuf};
 
 use numpy::{PyArray1, PyArray2};
-use parcal::calibration::Loss;
 use parcal::calibration::bounds::MAX_ITERATIONS;
 use parcal::calibration::mechanism::{ObservationKind, ObservationRef};
-use parcal::command::{CommonRefusal, common_calibration};
+use parcal::command::{CalibrateFlags, common_calibration};
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::mechanism::ObservationRecord;
 use parcal::report::mechanism::identifiability_statements;
 use parcal::report::mechanism_validation::observation_place;
-use parcal::{MechanismCalibrationRecord, MechanismOptions, calibrate_mechanism as calibrate};
+use parcal::{MechanismCalibrationRecord, calibrate_mechanism as calibrate};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use super::data_error;
 use super::dataset::MechanismDataset;
+use crate::calibrate::observed;
 use crate::convert::to_python;
 use crate::dataset::Dataset;
 use crate::error::to_py;
-use crate::options::flags;
+use crate::options::{flags, seconds};
 
 /// Calibrates the mechanism dataset `dataset` as `parcal calibrate` does
 /// with the same options: `snoop` (data snooping), `loss` ("squared",
-/// "huber[:K]", "cauchy[:K]") and `max_iterations`. The GIL is released
-/// while it runs.
+/// "huber[:K]", "cauchy[:K]"), `lm` (Levenberg-Marquardt),
+/// `max_iterations` and `time_limit` (seconds). `progress`, if given, is
+/// called after each iteration as `parcal.calibrate`'s is, and an
+/// exception it raises stops the calibration and is raised here. The GIL
+/// is released while it runs.
 ///
 /// Returns a `MechanismCalibration`, accepted or rejected (its
 /// `verdict`); raises `parcal.Error` when the data or an option is
 /// invalid, naming the observation by its file and line.
 #[pyfunction]
-#[pyo3(signature = (dataset, *, snoop=false, loss="squared", max_iterations=None))]
+#[pyo3(signature = (
+    dataset, *, progress=None, snoop=false, loss="squared", lm=false, max_iterations=None,
+    time_limit=None
+))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the command's flags, each a keyword"
+)]
 pub fn calibrate_mechanism(
     py: Python<'_>,
     dataset: &Bound<'_, MechanismDataset>,
+    progress: Option<Py<PyAny>>,
     snoop: bool,
     loss: &str,
+    lm: bool,
     max_iterations: Option<usize>,
+    time_limit: Option<f64>,
 ) -> PyResult<MechanismCalibration> {
-    let loss: Loss = loss.parse().map_err(|e| to_py(format!("loss: {e}")))?;
-    let max_iterations = max_iterations
-        .map(|limit| MAX_ITERATIONS.check("max_iterations", limit))
-        .transpose()
-        .map_err(to_py)?;
-    let options = MechanismOptions::default()
-        .with_snooping(snoop)
-        .with_loss(loss)
-        .with_max_iterations(max_iterations);
+    let flags = CalibrateFlags {
+        snoop,
+        loss: loss.parse().map_err(|e| to_py(format!("loss: {e}")))?,
+        lm,
+        max_iterations: max_iterations
+            .map(|limit| MAX_ITERATIONS.check("max_iterations", limit))
+            .transpose()
+            .map_err(to_py)?,
+        time_limit: time_limit.map(seconds).transpose()?,
+        ..CalibrateFlags::default()
+    };
+    let options = flags.mechanism_options();
     let dataset = dataset.get();
-    let calibration = py
-        .detach(|| calibrate(&dataset.data, &options))
-        .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
+    let calibration = observed(py, progress.as_ref(), |observer| {
+        calibrate(&dataset.data, &options, observer)
+    })?
+    .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
     Ok(MechanismCalibration {
         record: calibration.record(),
     })
@@ -62,33 +79,30 @@ pub fn calibrate_mechanism(
 
 /// Calibrates a hexapod's ball touches (`dataset`, a `Dataset`) by the
 /// common calibration of every mechanism, as `parcal calibrate --common`
-/// does with the same options: those of `parcal.calibrate` but `lm` and
-/// `time_limit`, which only the hexapod's own calibration has (the radius
-/// observation: `sim="I"` or `"III"`, or `observation="radius"`). The GIL
-/// is released while it runs.
+/// does with the same options: those of `parcal.calibrate`, of which
+/// the observation must be the radius's (`sim="I"` or `"III"`, or
+/// `observation="radius"`), and `progress` as there. The GIL is released
+/// while it runs.
 ///
 /// Returns a `MechanismCalibration` of the mechanism `"hexapod"`; raises
 /// `parcal.Error` naming what the common calibration does not model.
 #[pyfunction]
-#[pyo3(signature = (dataset, **options))]
+#[pyo3(signature = (dataset, *, progress=None, **options))]
 pub fn calibrate_common(
     py: Python<'_>,
     dataset: &Bound<'_, Dataset>,
+    progress: Option<Py<PyAny>>,
     options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<MechanismCalibration> {
     let flags = flags(options)?;
     let dataset = dataset.get();
-    let (data, options) =
-        common_calibration(&dataset.inner, &flags).map_err(|refusal| match refusal {
-            CommonRefusal::OwnOnly { flag } => to_py(format!(
-                "{}: applies to the hexapod's own calibration, not to the common one",
-                flag.trim_start_matches("--").replace('-', "_")
-            )),
-            CommonRefusal::Data(error) => data_error(Path::new(&dataset.given), HEXAPOD, error),
-        })?;
-    let calibration = py
-        .detach(|| calibrate(&data, &options))
-        .map_err(|error| data_error(Path::new(&dataset.given), HEXAPOD, error))?;
+    let given = Path::new(&dataset.given);
+    let (data, options) = common_calibration(&dataset.inner, &flags)
+        .map_err(|error| data_error(given, HEXAPOD, error))?;
+    let calibration = observed(py, progress.as_ref(), |observer| {
+        calibrate(&data, &options, observer)
+    })?
+    .map_err(|error| data_error(given, HEXAPOD, error))?;
     Ok(MechanismCalibration {
         record: calibration.record(),
     })

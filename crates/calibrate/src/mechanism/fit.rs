@@ -7,10 +7,12 @@
 //! rows and a touch's row are gathered back into their observation's
 //! check.
 
+use std::time::Instant;
+
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_solver::{
-    BlockId, GlobalObservations, Method, Problem, SolverOptions, State, Status,
-    normalised_residual, redundancy, solve,
+    BlockId, GlobalObservations, IterationRecord, Problem, State, Status, normalised_residual,
+    redundancy, solve,
 };
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
@@ -82,14 +84,18 @@ pub(crate) struct Fit {
 }
 
 /// One fit of `data` (validated) with `options` (module doc), its local
-/// blocks of [`group_size`] unknowns.
+/// blocks of [`group_size`] unknowns, within what is left of the time
+/// budget of the calibration that began at `started`; `observer` sees
+/// each iteration.
 pub(crate) fn fit(
     data: &MechanismData,
     options: &MechanismOptions,
+    started: Instant,
+    observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Fit, MechanismCalibrationError> {
     match group_size(data) {
-        3 => fit_blocks::<3>(data, options),
-        _ => fit_blocks::<4>(data, options),
+        3 => fit_blocks::<3>(data, options, started, observer),
+        _ => fit_blocks::<4>(data, options, started, observer),
     }
 }
 
@@ -97,6 +103,8 @@ pub(crate) fn fit(
 fn fit_blocks<const C: usize>(
     data: &MechanismData,
     options: &MechanismOptions,
+    started: Instant,
+    observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Fit, MechanismCalibrationError> {
     let problem = MechanismProblem::<C>::new(data, options.loss);
     let state = problem.start_state()?;
@@ -105,12 +113,8 @@ fn fit_blocks<const C: usize>(
     let mut rows = GlobalObservations::zeros(0, state.global.len());
     problem.global_observations(&state.global, &mut rows)?;
     let points = problem.n_points();
-    let solver_options = SolverOptions {
-        method: Method::GaussNewton,
-        max_iterations: options.max_iterations,
-        ..SolverOptions::default()
-    };
-    let solution = solve::<C, 0, 1, _>(&problem, state, &solver_options, &mut |_| {});
+    let solver_options = options.solver_options(started);
+    let solution = solve::<C, 0, 1, _>(&problem, state, &solver_options, observer);
     if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
         return Err(error);
     }

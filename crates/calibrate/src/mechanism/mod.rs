@@ -64,12 +64,16 @@
 //! let observations = Observations { probes, ..Default::default() };
 //! let data = MechanismData::new(Arc::new(delta), configured, observations)
 //!     .with_trigger_height(0.7, Some(0.05));
-//! let calibration = calibrate_mechanism(&data, &MechanismOptions::default())?;
+//! let calibration = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {})?;
 //! assert!(calibration.verdict.accepted, "{:?}", calibration.reasons);
 //! let radius = calibration.parameter("radius").unwrap();
 //! assert!((radius.value - 135.0).abs() < 1e-6);
 //! # Ok::<(), parcal_calibrate::mechanism::MechanismCalibrationError>(())
 //! ```
+
+use std::time::Instant;
+
+use parcal_solver::IterationRecord;
 
 mod calibrated;
 mod compensation;
@@ -112,18 +116,21 @@ pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate
 /// Calibrates `data` with `options`: validates both, refuses a gauge
 /// freedom that no prior holds, fits (with data snooping if asked) and
 /// returns the estimate in the canonical frame with its tests, verdict and
-/// identifiability.
+/// identifiability. `observer` sees each iteration of each fit, as the
+/// hexapod's own [`calibrate`](crate::calibrate) shows them.
 pub fn calibrate_mechanism(
     data: &MechanismData,
     options: &MechanismOptions,
+    observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<MechanismCalibration, MechanismCalibrationError> {
+    let started = Instant::now();
     options.validate()?;
     data.validate()?;
     check_gauge_priors(data)?;
     if options.snoop {
-        snooping::snoop(data, options)
+        snooping::snoop(data, options, started, observer)
     } else {
-        snooping::calibrate_once(data, options)
+        snooping::calibrate_once(data, options, started, observer)
     }
 }
 

@@ -1,7 +1,11 @@
 //! How a mechanism calibration runs: the loss, the tests' level, data
-//! snooping, the iteration limit.
+//! snooping, the solver's method, its iteration limit and the time budget.
 
-use parcal_solver::Loss;
+use std::time::{Duration, Instant};
+
+use parcal_solver::{Loss, Method, SolverOptions};
+
+use crate::options::LEVENBERG_MARQUARDT_ITERATIONS;
 
 use crate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
 
@@ -27,13 +31,22 @@ pub struct MechanismOptions {
     pub alpha: f64,
     /// The most observations snooping removes.
     pub max_removals: usize,
-    /// The solver's iteration limit.
+    /// The solver's iteration limit (of each fit, when snooping fits
+    /// again).
     pub max_iterations: usize,
+    /// The solver's method: Gauss-Newton (the paper's eq. 5), or
+    /// Levenberg-Marquardt, whose damped steps never raise the cost.
+    pub method: Method,
+    /// The wall-clock budget of the whole calibration, every fit of data
+    /// snooping included: once it has passed, the fit stops at its
+    /// current iterate ([`Status::TimeLimit`](parcal_solver::Status),
+    /// rejected); `None`, no budget.
+    pub time_limit: Option<Duration>,
 }
 
 impl Default for MechanismOptions {
-    /// Least squares, no snooping, `α` = 0.05, at most 10 removals and 50
-    /// iterations.
+    /// Least squares, no snooping, `α` = 0.05, at most 10 removals,
+    /// Gauss-Newton with at most 50 iterations, no time budget.
     fn default() -> Self {
         Self {
             loss: Loss::Squared,
@@ -41,6 +54,8 @@ impl Default for MechanismOptions {
             alpha: SNOOPING_LEVEL,
             max_removals: MAX_REMOVALS,
             max_iterations: 50,
+            method: Method::GaussNewton,
+            time_limit: None,
         }
     }
 }
@@ -67,6 +82,37 @@ impl MechanismOptions {
         self
     }
 
+    /// These options with Levenberg-Marquardt (initial `λ` 1e-3, as the
+    /// hexapod's own calibration) and its iteration limit, 200, the
+    /// hexapod's too; a later [`with_max_iterations`](Self::with_max_iterations) sets
+    /// another.
+    pub fn levenberg_marquardt(mut self) -> Self {
+        self.method = Method::LevenbergMarquardt {
+            initial_lambda: 1e-3,
+        };
+        self.max_iterations = LEVENBERG_MARQUARDT_ITERATIONS;
+        self
+    }
+
+    /// These options with the time budget `limit` (none if `None`).
+    pub fn with_time_limit(mut self, limit: Option<Duration>) -> Self {
+        self.time_limit = limit;
+        self
+    }
+
+    /// The solver's options of a fit that starts when the calibration
+    /// that began at `started` has used part of its time budget.
+    pub(crate) fn solver_options(&self, started: Instant) -> SolverOptions {
+        SolverOptions {
+            method: self.method,
+            max_iterations: self.max_iterations,
+            time_limit: self
+                .time_limit
+                .map(|limit| limit.saturating_sub(started.elapsed())),
+            ..SolverOptions::default()
+        }
+    }
+
     /// These options with the level `alpha`.
     pub fn with_alpha(mut self, alpha: f64) -> Self {
         self.alpha = alpha;
@@ -75,8 +121,9 @@ impl MechanismOptions {
 
     /// Refuses a level outside (0, 1), an iteration limit outside
     /// 1..=[`MAX_ITERATIONS`], more removals than observations could
-    /// need ([`super::data::MAX_OBSERVATIONS`]), and snooping with a
-    /// robust loss.
+    /// need ([`super::data::MAX_OBSERVATIONS`]), snooping with a robust
+    /// loss, and a Levenberg-Marquardt `λ` that is not positive and
+    /// finite.
     pub fn validate(&self) -> Result<(), MechanismCalibrationError> {
         let invalid = |what: &str, reason: String| {
             Err(MechanismCalibrationError::InvalidData {
@@ -100,6 +147,16 @@ impl MechanismOptions {
                     "{} is more than the most observations a calibration holds ({})",
                     self.max_removals,
                     super::data::MAX_OBSERVATIONS
+                ),
+            );
+        }
+        if let Method::LevenbergMarquardt { initial_lambda } = self.method
+            && !(initial_lambda > 0.0 && initial_lambda.is_finite())
+        {
+            return invalid(
+                "method",
+                format!(
+                    "a Levenberg-Marquardt lambda of {initial_lambda}, not positive and finite"
                 ),
             );
         }

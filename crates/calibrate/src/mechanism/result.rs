@@ -247,14 +247,27 @@ fn worst(observations: &[ObservationCheck]) -> Option<Worst<ObservationRef>> {
         .max_by(|a, b| a.normalised.abs().total_cmp(&b.normalised.abs()))
 }
 
+/// How a fit that is a result ([`super::fit`]: the others are errors)
+/// ended without converging, in words.
+fn not_converged(status: &Status) -> String {
+    match status {
+        Status::IterationLimit => "it reached its iteration limit".to_string(),
+        Status::TimeLimit => "it reached the time limit".to_string(),
+        Status::Diverged { iteration, reason } => {
+            format!("it diverged at iteration {iteration}: {reason}")
+        }
+        other => format!("{other:?}"),
+    }
+}
+
 /// The verdict's reasons, in words.
 pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
     let (data_rows, alpha) = (calibration.data_rows, calibration.alpha);
     let mut reasons = Vec::new();
     if !calibration.converged() {
         reasons.push(format!(
-            "the solver did not converge ({:?}): the residuals are not those of a least-squares minimum, so nothing is tested",
-            calibration.status
+            "the solver did not converge ({}): the residuals are not those of a least-squares minimum, so nothing is tested",
+            not_converged(&calibration.status)
         ));
     }
     if let Some(test) = calibration.global_test {

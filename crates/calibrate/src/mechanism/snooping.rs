@@ -2,6 +2,10 @@
 //! takes ([`crate::snooping`]): every observation of the result is named
 //! by its place in the data given.
 
+use std::time::Instant;
+
+use parcal_solver::IterationRecord;
+
 use crate::snooping::{Place, Removable, Snoopable, Tests, snoop as snoop_data};
 
 use super::data::MechanismData;
@@ -68,22 +72,30 @@ impl Snoopable for MechanismCalibration {
     }
 }
 
-/// One calibration of `data`, its observations named as in `data`.
+/// One calibration of `data`, its observations named as in `data`, within
+/// what is left of the time budget of the calibration that began at
+/// `started`; `observer` sees each iteration.
 pub(crate) fn calibrate_once(
     data: &MechanismData,
     options: &MechanismOptions,
+    started: Instant,
+    observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<MechanismCalibration, MechanismCalibrationError> {
-    assemble(data, fit(data, options)?, options)
+    assemble(data, fit(data, options, started, observer)?, options)
 }
 
 /// Calibrates `data` with data snooping at the options' level, the
-/// result's observations named by their place in `data`.
+/// result's observations named by their place in `data`; every fit within
+/// the time budget of the calibration that began at `started`, `observer`
+/// seeing each fit's iterations in turn.
 pub(crate) fn snoop(
     data: &MechanismData,
     options: &MechanismOptions,
+    started: Instant,
+    observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<MechanismCalibration, MechanismCalibrationError> {
     let snooped = snoop_data(data, options.alpha, options.max_removals, |data| {
-        calibrate_once(data, options)
+        calibrate_once(data, options, started, &mut *observer)
     })?;
     let mut run = snooped.run;
     for check in &mut run.observations {

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use parcal::accuracy::MapGrid;
+use parcal::calibration::mechanism::MechanismOptions;
 use parcal::calibration::{
     CalibrateError, CalibrationRun, IterationRecord, Loss, Observation, PriorMode, RadiusModel,
     Simulation, WeightModel, bounds,
@@ -112,7 +113,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 args.dataset.display()
             );
         }
-        return super::mechanism::calibrate(&mechanism, args.mechanism_options()?);
+        let (request, options) = args.mechanism_options()?;
+        return super::mechanism::calibrate(&mechanism, request, &options);
     }
     if args.common {
         return calibrate_common(args);
@@ -174,7 +176,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         truth
     };
     let started = Instant::now();
-    let observer = &mut |record: &IterationRecord| step(&progress, record, started);
+    let observer = &mut |record: &IterationRecord| progress.iteration(record, started);
     let RecordedRun { run, record, .. } = calibrate_recorded(&dataset, &flags, observer)
         .map_err(|error| in_dataset(error, &args.dataset))?;
     progress.finish();
@@ -197,6 +199,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let request = args.mechanism_request();
     request.check_outputs()?;
+    let read = Instant::now();
     let without_true_contacts = ReadOptions {
         true_contacts: false,
         ..ReadOptions::default()
@@ -204,7 +207,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
     let (data, options) = common_calibration(&dataset, &args.flags())
         .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
-    super::mechanism::calibrate_with(HEXAPOD, &data, &options, None, request)
+    super::mechanism::calibrate_with(HEXAPOD, &data, &options, None, request, read.elapsed())
 }
 
 /// A number of seconds, finite and not negative.
@@ -212,17 +215,6 @@ fn seconds(text: &str) -> Result<Duration, String> {
     let seconds: f64 = text.parse().map_err(|e| format!("{e}"))?;
     Duration::try_from_secs_f64(seconds)
         .map_err(|_| format!("{text} is not a finite, non-negative number of seconds"))
-}
-
-/// One iteration on the progress bar.
-fn step(progress: &Progress, record: &IterationRecord, started: Instant) {
-    progress.step(&format!(
-        "cost {:.6e}, step {:.3e} ({:.2e} sigma) ({:.2} s)",
-        record.cost,
-        record.step_norm,
-        record.step_sigmas,
-        started.elapsed().as_secs_f64()
-    ))
 }
 
 /// The summary and parameter table of a calibration of measured poses and
@@ -250,23 +242,23 @@ impl Args {
     /// dataset's directory (next to a snapshot file).
     /// The options of a mechanism dataset's calibration; an error naming
     /// an option given that only the hexapod's calibration has.
-    fn mechanism_options(&self) -> anyhow::Result<super::mechanism::CalibrateRequest> {
+    fn mechanism_options(
+        &self,
+    ) -> anyhow::Result<(super::mechanism::CalibrateRequest, MechanismOptions)> {
         let hexapod_only = [
             ("--sim", self.sim.is_some()),
             ("--observation", self.observation.is_some()),
             ("--prior", self.prior.is_some()),
             ("--weights", self.weights != WeightModel::default()),
             ("--radius", self.radius.is_some()),
-            ("--lm", self.lm),
-            ("--time-limit", self.time_limit.is_some()),
         ];
         if let Some((flag, _)) = hexapod_only.iter().find(|(_, given)| *given) {
             anyhow::bail!(
-                "{}: {flag} applies to a hexapod's calibration, not to this mechanism's (its options: --snoop, --loss, --max-iterations, --out, --report)",
+                "{}: {flag} applies to a hexapod's calibration, not to this mechanism's (its options: --snoop, --loss, --lm, --max-iterations, --time-limit, --out, --report)",
                 self.dataset.display()
             );
         }
-        Ok(self.mechanism_request())
+        Ok((self.mechanism_request(), self.flags().mechanism_options()))
     }
 
     /// What a mechanism's calibration (and a hexapod's through the common
@@ -276,9 +268,6 @@ impl Args {
             dataset: self.dataset.clone(),
             out: self.out_path(),
             report: self.report,
-            snoop: self.snoop,
-            loss: self.loss,
-            max_iterations: self.max_iterations,
         }
     }
 

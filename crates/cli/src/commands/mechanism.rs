@@ -6,9 +6,10 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
-use parcal::calibration::Loss;
 use parcal::calibration::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+use parcal::calibration::{IterationRecord, Method};
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
 use parcal::dataset::{HEXAPOD, declared_mechanism};
@@ -16,6 +17,8 @@ use parcal::report::mechanism::{
     PARAMETER_HEADER, identifiability_statements, observation_counts, parameter_rows,
     prior_correlation_sentence, removal_sentences, verdict_sentence,
 };
+
+use crate::progress::Progress;
 
 /// The mechanism a dataset directory's machine.json names, `None` for a
 /// hexapod's dataset (or a snapshot file, always a hexapod's).
@@ -38,28 +41,25 @@ pub struct CalibrateRequest {
     pub out: PathBuf,
     /// Also write report.html and report.md beside it.
     pub report: bool,
-    /// Data snooping.
-    pub snoop: bool,
-    /// The loss.
-    pub loss: Loss,
-    /// The iteration limit, if not the default.
-    pub max_iterations: Option<usize>,
 }
 
-/// Calibrates the mechanism dataset of `request`: prints the summary,
-/// writes calibration.json (and its report) atomically, and turns a
-/// rejected verdict into [`super::Rejected`].
-pub fn calibrate(mechanism: &str, request: CalibrateRequest) -> anyhow::Result<()> {
+/// Calibrates the mechanism dataset of `request` with `options`: shows
+/// the iterations on stderr, prints the summary, writes calibration.json
+/// (and its report) atomically, and turns a rejected verdict into
+/// [`super::Rejected`].
+pub fn calibrate(
+    mechanism: &str,
+    request: CalibrateRequest,
+    options: &MechanismOptions,
+) -> anyhow::Result<()> {
     request.check_outputs()?;
+    let read = Instant::now();
     let path = &request.dataset;
     let dataset = MechanismDataset::read(path)?;
     let data = MechanismData::from_dataset(&dataset)
         .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
-    let options = MechanismOptions::default()
-        .with_snooping(request.snoop)
-        .with_loss(request.loss)
-        .with_max_iterations(request.max_iterations);
-    calibrate_with(mechanism, &data, &options, Some(&dataset.probes), request)
+    let probes = Some(dataset.probes.as_slice());
+    calibrate_with(mechanism, &data, options, probes, request, read.elapsed())
 }
 
 impl CalibrateRequest {
@@ -78,8 +78,8 @@ impl CalibrateRequest {
 }
 
 /// The common calibration of `data` under `options`, read from the
-/// dataset of `request` (its probe points, if any, drawn in the report):
-/// as [`calibrate`], once the outputs are checked
+/// dataset of `request` in `read` (its probe points, if any, drawn in the
+/// report): as [`calibrate`], once the outputs are checked
 /// ([`CalibrateRequest::check_outputs`]).
 pub fn calibrate_with(
     mechanism: &str,
@@ -87,16 +87,34 @@ pub fn calibrate_with(
     options: &MechanismOptions,
     probes: Option<&[[f64; 3]]>,
     request: CalibrateRequest,
+    read: Duration,
 ) -> anyhow::Result<()> {
     let CalibrateRequest {
         dataset: path,
         out,
         report,
-        ..
     } = request;
     let report_directory = report.then(|| super::report::directory_of(&out).to_path_buf());
-    let calibration = calibrate_mechanism(data, options)
+    let progress = Progress::bar("iteration", options.max_iterations as u64);
+    progress.line(&format!(
+        "read {} observations in {:.2} s",
+        data.observations.len(),
+        read.as_secs_f64()
+    ));
+    progress.line(&format!(
+        "calibrating the {mechanism}: {}, {} loss{}",
+        match options.method {
+            Method::GaussNewton => "Gauss-Newton",
+            Method::LevenbergMarquardt { .. } => "Levenberg-Marquardt",
+        },
+        options.loss,
+        if options.snoop { ", data snooping" } else { "" }
+    ));
+    let started = Instant::now();
+    let observer = &mut |record: &IterationRecord| progress.iteration(record, started);
+    let calibration = calibrate_mechanism(data, options, observer)
         .map_err(|error| anyhow::anyhow!("{}: the {mechanism}: {error}", path.display()))?;
+    progress.finish();
     let record = calibration.record();
     let destination = if record.accepted {
         out.clone()
@@ -144,11 +162,10 @@ pub fn print_summary(
     for removal in removal_sentences(calibration) {
         writeln!(out, "removed by data snooping: {removal}")?;
     }
-    writeln!(
-        out,
-        "observations: {}",
-        observation_counts(calibration).join(", ")
-    )?;
+    let counts = observation_counts(calibration);
+    if !counts.is_empty() {
+        writeln!(out, "observations: {}", counts.join(", "))?;
+    }
     let rows = parameter_rows(calibration);
     let widths: Vec<usize> = (0..PARAMETER_HEADER.len())
         .map(|k| {
