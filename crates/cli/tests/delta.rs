@@ -268,6 +268,41 @@ fn a_blunder_is_named_and_removed_by_snooping() {
 }
 
 #[test]
+fn a_printers_dataset_is_inspected_and_an_unreachable_probe_named_by_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let simulate = ["simulate", "--mechanism", "delta", "--seed", "3"];
+    ok(&[
+        &simulate[..],
+        &["--balls", "3", "--plate", "all", "--out", s(&sim)],
+    ]
+    .concat());
+    let summary = ok(&["inspect", s(&sim)]);
+    for line in [
+        "  mechanism          linear delta: 3 actuators, 16 parameters (16 with a prior)\n",
+        "  observations       25 probe heights, 21 ball touches, 3 ball distances\n",
+        "  balls              3 (7 .. 7 touches a ball; 3 tied by distances)\n",
+        "  trigger height     0.7 mm (prior sigma 0.05 mm)\n",
+        "  truth              yes\n",
+    ] {
+        assert!(summary.contains(line), "{line:?} in {summary}");
+    }
+    // A probe point no tower's rod reaches: named by its line, by
+    // inspect as by calibrate, before any step.
+    let probes = fs::read_to_string(sim.join("probes.csv")).unwrap();
+    let mut lines: Vec<&str> = probes.lines().collect();
+    lines[4] = "900,0,0.7";
+    fs::write(sim.join("probes.csv"), lines.join("\n") + "\n").unwrap();
+    for command in ["inspect", "calibrate"] {
+        let err = fails(&[command, s(&sim)]);
+        assert!(
+            err.contains("the linear delta: probes.csv line 5 (probe height 3): unreachable"),
+            "{command}: {err}"
+        );
+    }
+}
+
+#[test]
 fn a_printers_calibration_shows_its_iterations_and_takes_the_run_controls() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");

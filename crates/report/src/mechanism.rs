@@ -191,9 +191,15 @@ pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<Strin
             None => counts.push((&observation.kind, 1)),
         }
     }
+    counted(&counts)
+}
+
+/// Each `(kind, n)` as "n kinds" ("1 probe height", "3 measured
+/// quantities", "2 ball touches").
+pub fn counted(counts: &[(&str, usize)]) -> Vec<String> {
     counts
-        .into_iter()
-        .map(|(kind, n)| match (n, kind.strip_suffix('y')) {
+        .iter()
+        .map(|&(kind, n)| match (n, kind.strip_suffix('y')) {
             (1, _) => format!("1 {kind}"),
             (_, Some(stem)) => format!("{n} {stem}ies"),
             (_, None) if kind.ends_with("ch") => format!("{n} {kind}es"),

@@ -9,7 +9,8 @@
 use std::fmt::Write;
 
 use parcal_calibrate::mechanism::{
-    HeldOut, MechanismValidation, ObservationKind, ObservationRef, ValidatedRow, number_ranges,
+    HeldOut, MechanismCalibrationError, MechanismValidation, ObservationKind, ObservationRef,
+    ValidatedRow, number_ranges,
 };
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
@@ -136,6 +137,20 @@ pub fn observation_place(mechanism: &str, observation: ObservationRef) -> String
         Some((file, true)) => format!("{file} line {} ({observation})", observation.index + 2),
         Some((file, false)) => format!("{file} ({observation})"),
         None => observation.to_string(),
+    }
+}
+
+/// What went wrong with a calibration of the mechanism named `mechanism`,
+/// an observation's failure placed by its file and line
+/// ([`observation_place`]): `probes.csv line 5 (probe height 3):
+/// unreachable: ...`.
+pub fn placed_error(mechanism: &str, error: &MechanismCalibrationError) -> String {
+    match error {
+        MechanismCalibrationError::Observation {
+            observation,
+            reason,
+        } => format!("{}: {reason}", observation_place(mechanism, *observation)),
+        other => other.to_string(),
     }
 }
 

@@ -11,7 +11,7 @@ pub mod plan;
 
 use std::path::{Path, PathBuf};
 
-use parcal::report::mechanism_validation::observation_place;
+use parcal::report::mechanism_validation::placed_error;
 use parcal::{MechanismCalibrationError, MechanismCalibrationRecord};
 use pyo3::prelude::*;
 use pyo3::types::PyModule;
@@ -36,17 +36,11 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// by its file and line (`probes.csv line 5 (probe height 3)`), as the
 /// commands name it.
 pub fn data_error(dataset: &Path, mechanism: &str, error: MechanismCalibrationError) -> PyErr {
-    match error {
-        MechanismCalibrationError::Observation {
-            observation,
-            reason,
-        } => to_py(format!(
-            "{}: {}: {reason}",
-            dataset.display(),
-            observation_place(mechanism, observation)
-        )),
-        other => to_py(format!("{}: {other}", dataset.display())),
-    }
+    to_py(format!(
+        "{}: {}",
+        dataset.display(),
+        placed_error(mechanism, &error)
+    ))
 }
 
 /// The calibration to apply, given as a `parcal.MechanismCalibration` or

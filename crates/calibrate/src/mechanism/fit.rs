@@ -11,8 +11,8 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_solver::{
-    BlockId, GlobalObservations, IterationRecord, Problem, State, Status, normalised_residual,
-    redundancy, solve,
+    BlockId, GlobalObservations, IterationRecord, Loss, Problem, State, Status,
+    normalised_residual, redundancy, solve,
 };
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
@@ -107,11 +107,7 @@ fn fit_blocks<const C: usize>(
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Fit, MechanismCalibrationError> {
     let problem = MechanismProblem::<C>::new(data, options.loss);
-    let state = problem.start_state()?;
-    // Every global observation evaluated once at the start, so that a
-    // commanded position the machine cannot reach is named as such.
-    let mut rows = GlobalObservations::zeros(0, state.global.len());
-    problem.global_observations(&state.global, &mut rows)?;
+    let state = start(&problem)?;
     let points = problem.n_points();
     let solver_options = options.solver_options(started);
     let solution = solve::<C, 0, 1, _>(&problem, state, &solver_options, observer);
@@ -175,6 +171,28 @@ fn fit_blocks<const C: usize>(
         checks,
         data_rows: global_rows + points,
     })
+}
+
+/// The start of `problem` ([`MechanismProblem::start_state`]: every point
+/// sample's pose and every ball's centre from its readings or touches),
+/// with every global observation evaluated once there, so that a
+/// commanded position the machine cannot reach is named as such.
+fn start<const C: usize>(
+    problem: &MechanismProblem<C>,
+) -> Result<State<C, 0>, MechanismCalibrationError> {
+    let state = problem.start_state()?;
+    let mut rows = GlobalObservations::zeros(0, state.global.len());
+    problem.global_observations(&state.global, &mut rows)?;
+    Ok(state)
+}
+
+/// Checks that every observation of `data` (validated) can be evaluated
+/// at the start a fit would take ([`start`]).
+pub(crate) fn check_start(data: &MechanismData) -> Result<(), MechanismCalibrationError> {
+    match group_size(data) {
+        3 => start(&MechanismProblem::<3>::new(data, Loss::Squared)).map(drop),
+        _ => start(&MechanismProblem::<4>::new(data, Loss::Squared)).map(drop),
+    }
 }
 
 /// Each ball's centre and radius (its calibrated radius when exact) from

@@ -134,6 +134,18 @@ pub fn calibrate_mechanism(
     }
 }
 
+/// Checks `data` as [`calibrate_mechanism`] does before its first step:
+/// valid, every gauge freedom held by a prior, and every observation
+/// evaluated at the start (the priors' means; each point sample's pose
+/// from its readings, each ball's centre from its touches), so that a
+/// commanded position the machine cannot reach, readings no pose
+/// explains or touches that fit no sphere are named.
+pub fn check_mechanism_data(data: &MechanismData) -> Result<(), MechanismCalibrationError> {
+    data.validate()?;
+    check_gauge_priors(data)?;
+    fit::check_start(data)
+}
+
 /// Refuses data where some gauge freedom moves only parameters without a
 /// prior: nothing would determine it.
 fn check_gauge_priors(data: &MechanismData) -> Result<(), MechanismCalibrationError> {

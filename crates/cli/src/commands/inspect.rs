@@ -1,5 +1,6 @@
 //! `parcal inspect`: read and validate a dataset and summarise it, with a
-//! warning naming the first reading outside machine.json's stroke.
+//! warning naming the first reading outside machine.json's stroke (another
+//! mechanism's dataset: [`super::mechanism::inspect`]).
 
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -22,6 +23,9 @@ pub struct Args {
 const LISTED_FAILURES: usize = 5;
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if let Some(mechanism) = super::mechanism::declared(&args.dataset)? {
+        return super::mechanism::inspect(&args.dataset, &mechanism);
+    }
     let dataset = super::read_dataset(&args.dataset)?;
     let design = design_geometry(&dataset);
     design

@@ -4,19 +4,24 @@
 //! calibration, written as calibration.json with its report if asked, and
 //! the summary printed.
 
+use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use parcal::calibration::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+use parcal::calibration::mechanism::{
+    MechanismCalibrationError, MechanismData, MechanismOptions, ObservationKind,
+    calibrate_mechanism, check_mechanism_data,
+};
 use parcal::calibration::{IterationRecord, Method};
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
 use parcal::dataset::{HEXAPOD, declared_mechanism};
 use parcal::report::mechanism::{
-    PARAMETER_HEADER, identifiability_statements, observation_counts, parameter_rows,
+    PARAMETER_HEADER, counted, identifiability_statements, observation_counts, parameter_rows,
     prior_correlation_sentence, removal_sentences, verdict_sentence,
 };
+use parcal::report::mechanism_validation::placed_error;
 
 use crate::progress::Progress;
 
@@ -56,10 +61,87 @@ pub fn calibrate(
     let read = Instant::now();
     let path = &request.dataset;
     let dataset = MechanismDataset::read(path)?;
-    let data = MechanismData::from_dataset(&dataset)
-        .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
+    let data =
+        MechanismData::from_dataset(&dataset).map_err(|error| placed(path, mechanism, &error))?;
     let probes = Some(dataset.probes.as_slice());
     calibrate_with(mechanism, &data, options, probes, request, read.elapsed())
+}
+
+/// `parcal inspect` on the mechanism dataset `path`: read, converted and
+/// every observation evaluated at the start a calibration takes
+/// ([`check_mechanism_data`], the first failure named), then summarised:
+/// the mechanism, the observations of each kind, the balls, the trigger
+/// height, whether a truth is given.
+pub fn inspect(path: &Path, mechanism: &str) -> anyhow::Result<()> {
+    let dataset = MechanismDataset::read(path)?;
+    let data = MechanismData::from_dataset(&dataset)
+        .and_then(|data| check_mechanism_data(&data).map(|()| data))
+        .map_err(|error| placed(path, mechanism, &error))?;
+    let o = &data.observations;
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "dataset {}", path.display())?;
+    let held = data.priors.iter().filter(|p| p.sigma.is_some()).count();
+    writeln!(
+        stdout,
+        "  mechanism          {mechanism}: {} actuators, {} parameters ({held} with a prior)",
+        data.mechanism.actuators().len(),
+        data.priors.len()
+    )?;
+    let counts: Vec<(&str, usize)> = ObservationKind::ALL
+        .iter()
+        .map(|&kind| (kind.name(), o.count(kind)))
+        .filter(|&(_, n)| n > 0)
+        .collect();
+    writeln!(
+        stdout,
+        "  observations       {}",
+        counted(&counts).join(", ")
+    )?;
+    if !o.balls.is_empty() {
+        let mut per_ball = vec![0usize; o.balls.len()];
+        for touch in &o.touches {
+            per_ball[touch.ball] += 1;
+        }
+        let least = per_ball.iter().min().unwrap_or(&0);
+        let most = per_ball.iter().max().unwrap_or(&0);
+        let tied: BTreeSet<usize> = o
+            .ball_distances
+            .iter()
+            .flat_map(|d| [d.first, d.second])
+            .collect();
+        let tied = tied.len();
+        writeln!(
+            stdout,
+            "  balls              {} ({least} .. {most} touches a ball; {tied} tied by distances)",
+            o.balls.len()
+        )?;
+    }
+    if !o.probes.is_empty() {
+        let h = &data.trigger_height;
+        let sigma = h.sigma.map_or("none".to_string(), |s| format!("{s} mm"));
+        writeln!(
+            stdout,
+            "  trigger height     {} mm (prior sigma {sigma})",
+            h.mean
+        )?;
+    }
+    let truth = if dataset.truth.is_some() { "yes" } else { "no" };
+    writeln!(stdout, "  truth              {truth}")?;
+    writeln!(
+        stdout,
+        "  start              every observation evaluates at the design (the priors' means)"
+    )?;
+    Ok(())
+}
+
+/// `error` of a calibration of the `mechanism`'s dataset at `path`, an
+/// observation's placed by its file and line ([`placed_error`]).
+fn placed(path: &Path, mechanism: &str, error: &MechanismCalibrationError) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{}: the {mechanism}: {}",
+        path.display(),
+        placed_error(mechanism, error)
+    )
 }
 
 impl CalibrateRequest {
@@ -113,7 +195,7 @@ pub fn calibrate_with(
     let started = Instant::now();
     let observer = &mut |record: &IterationRecord| progress.iteration(record, started);
     let calibration = calibrate_mechanism(data, options, observer)
-        .map_err(|error| anyhow::anyhow!("{}: the {mechanism}: {error}", path.display()))?;
+        .map_err(|error| placed(&path, mechanism, &error))?;
     progress.finish();
     let record = calibration.record();
     let destination = if record.accepted {

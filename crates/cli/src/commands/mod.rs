@@ -38,7 +38,7 @@ pub fn read_dataset(path: &Path) -> anyhow::Result<Dataset> {
 pub fn read_dataset_with(path: &Path, options: &ReadOptions) -> anyhow::Result<Dataset> {
     if let Some(mechanism) = mechanism::declared(path)? {
         anyhow::bail!(
-            "{}: a {mechanism}'s dataset: this command reads a hexapod's; a {mechanism}'s is calibrated (parcal calibrate), reported (parcal report), exported (parcal export), validated (parcal validate --calibration) and compensated (parcal compensate --targets)",
+            "{}: a {mechanism}'s dataset: this command reads a hexapod's; a {mechanism}'s is inspected (parcal inspect), calibrated (parcal calibrate), reported (parcal report), exported (parcal export), validated (parcal validate --calibration) and compensated (parcal compensate --targets)",
             path.display()
         );
     }
