@@ -326,7 +326,10 @@ fn what_the_common_calibration_does_not_model_is_refused_by_name() {
         unreachable.measurements.q[row] = [0.0, 1000.0, 0.0, 1000.0, 0.0, 1000.0];
     }
     let error = refusal(&unreachable, &eq9);
-    assert!(error.starts_with("contact 20: "), "{error}");
+    assert!(
+        error.starts_with("the design's start: measurement row 20: "),
+        "{error}"
+    );
     // A hexapod touch at a commanded position (x, y, z): its pose has six
     // coordinates.
     let mut data = MechanismData::from_hexapod_touches(&dataset, &eq9).unwrap();

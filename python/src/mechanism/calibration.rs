@@ -73,7 +73,7 @@ pub fn calibrate_mechanism(
     })?
     .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
     Ok(MechanismCalibration {
-        record: calibration.record(),
+        record: calibration.into_record(),
     })
 }
 
@@ -104,7 +104,7 @@ pub fn calibrate_common(
     })?
     .map_err(|error| data_error(given, HEXAPOD, error))?;
     Ok(MechanismCalibration {
-        record: calibration.record(),
+        record: calibration.into_record(),
     })
 }
 

@@ -38,6 +38,8 @@ pub const MAX_TIED_BALLS: usize = 100;
 pub const MIN_ACTUATORS: usize = 3;
 /// The most actuators (a cable robot of eight cables).
 pub const MAX_ACTUATORS: usize = 8;
+/// The most coordinates of a mechanism's pose (a rigid body's six).
+pub const MAX_POSE_COORDINATES: usize = 6;
 
 /// The observations, by kind.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -301,7 +303,8 @@ impl MechanismData {
     }
 
     /// Checks the data before any work: a mechanism with
-    /// [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators; for one whose pose
+    /// [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators and at most
+    /// [`MAX_POSE_COORDINATES`] pose coordinates; for one whose pose
     /// is not a position `(x, y, z)` (the hexapod), touches at readings
     /// and measured quantities alone; sizes matching it; finite values; positive sigmas; counts within
     /// [`MAX_OBSERVATIONS`] (balls within [`MAX_BALLS`]) and at least one
@@ -330,6 +333,14 @@ impl MechanismData {
                 ))
             }
         };
+        if coordinates > MAX_POSE_COORDINATES {
+            return invalid(
+                format!("the {name}"),
+                format!(
+                    "its pose has {coordinates} coordinates; this calibration takes at most {MAX_POSE_COORDINATES}"
+                ),
+            );
+        }
         let actuators = mechanism.actuators().len();
         if !(MIN_ACTUATORS..=MAX_ACTUATORS).contains(&actuators) {
             return invalid(

@@ -12,7 +12,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_solver::{
     BlockId, GlobalObservations, IterationRecord, Loss, Problem, State, Status,
-    normalised_residual, redundancy, solve,
+    normalised_residual, redundancy, solve_with_caches,
 };
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
@@ -21,7 +21,7 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::problem::{MechanismProblem, group_size};
+use super::problem::{LastPose, MechanismProblem, group_size};
 
 /// The numbers of one observation at the solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,13 +104,19 @@ fn fit_blocks<const C: usize>(
     data: &MechanismData,
     options: &MechanismOptions,
     started: Instant,
-    observer: &mut dyn FnMut(&IterationRecord),
+    mut observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Fit, MechanismCalibrationError> {
     let problem = MechanismProblem::<C>::new(data, options.loss);
-    let state = start(&problem)?;
+    let (state, mut caches) = start(&problem)?;
     let points = problem.n_points();
     let solver_options = options.solver_options(started);
-    let solution = solve::<C, 0, 1, _>(&problem, state, &solver_options, observer);
+    let solution = solve_with_caches::<C, 0, 1, _>(
+        &problem,
+        state,
+        &mut caches,
+        &solver_options,
+        &mut observer,
+    );
     if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
         return Err(error);
     }
@@ -124,6 +130,7 @@ fn fit_blocks<const C: usize>(
             covariance,
             &refs,
             solver_options.groups_per_chunk,
+            caches,
         )?),
         _ => None,
     };
@@ -174,16 +181,17 @@ fn fit_blocks<const C: usize>(
 }
 
 /// The start of `problem` ([`MechanismProblem::start_state`]: every point
-/// sample's pose and every ball's centre from its readings or touches),
-/// with every global observation evaluated once there, so that a
-/// commanded position the machine cannot reach is named as such.
+/// sample's pose and every ball's centre from its readings or touches,
+/// with the points' caches there), with every global observation
+/// evaluated once there, so that a commanded position the machine cannot
+/// reach is named as such.
 fn start<const C: usize>(
     problem: &MechanismProblem<C>,
-) -> Result<State<C, 0>, MechanismCalibrationError> {
-    let state = problem.start_state()?;
+) -> Result<(State<C, 0>, Vec<LastPose>), MechanismCalibrationError> {
+    let (state, caches) = problem.start_state()?;
     let mut rows = GlobalObservations::zeros(0, state.global.len());
     problem.global_observations(&state.global, &mut rows)?;
-    Ok(state)
+    Ok((state, caches))
 }
 
 /// Checks that every observation of `data` (validated) can be evaluated
@@ -263,26 +271,30 @@ fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError>
 }
 
 /// Every observation's residuals, redundancy numbers and normalised
-/// residuals at `state`, through the solver's redundancy pass: the global
-/// observations, then each point sample (its rows), then each touch, in
-/// the order of the data.
+/// residuals at `state`, through the solver's redundancy pass (its points
+/// started from `caches`, the solve's last pass's, freed after it): the
+/// global observations, then each point sample (its rows), then each
+/// touch, in the order of the data.
 fn checks<const C: usize>(
     problem: &MechanismProblem<C>,
     state: &State<C, 0>,
     covariance: &DMatrix<f64>,
     refs: &[(ObservationRef, usize)],
     groups_per_chunk: usize,
+    mut caches: Vec<LastPose>,
 ) -> Result<Vec<ObservationCheck>, MechanismCalibrationError> {
     let mut points = Vec::with_capacity(problem.n_points());
     let global = redundancy::<C, 0, 1, _>(
         problem,
         state,
         covariance,
-        &mut Vec::new(),
+        &mut caches,
         groups_per_chunk,
         |rows| points.push((rows.residual[0], rows.redundancy[0])),
     )
     .map_err(|status| MechanismCalibrationError::Solver { status })?;
+    // The checks below take their room.
+    drop(caches);
     let check = |observation, rows: &[(f64, f64)]| {
         let (residuals, redundancy): (Vec<f64>, Vec<f64>) = rows.iter().copied().unzip();
         let normalised = rows

@@ -24,11 +24,11 @@
 //!   the readings themselves.
 //! - Each contact: a [`BallTouch`] at its readings (as above), the radius
 //!   observation (eq. 9), weighted as the hexapod calibration weighs it at
-//!   the design, and held fixed ([`radius_variance`]): the tool tip `T` and
-//!   `dT/dq` (per unit of the readings, whose repeatability is in it) by
-//!   the design's forward kinematics, the ball's centre the
-//!   best fit of its tips, the direction `n0` from it to the tip (or the
-//!   commanded approach direction), `σ² = n0ᵀ Σ_tip n0 (+ σ_r²)`.
+//!   the design, and held fixed: the weight the hexapod's own set-up forms
+//!   ([`Setup::new`]: the tool tip `T` and `dT/dq` by the design's forward
+//!   kinematics, the ball's centre the best fit of its tips or its mirror
+//!   image, the direction `n0` from it to the tip or the commanded approach
+//!   direction, `σ² = n0ᵀ Σ_tip n0 (+ σ_r²)`, [`radius_variance`]).
 //!
 //! - Each calibrated distance between two balls: a
 //!   [`BallDistance`](parcal_observe::mechanism::BallDistance), the
@@ -42,24 +42,20 @@
 
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, Matrix3x6, Matrix6};
+use nalgebra::DMatrix;
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::hexapod::Hexapod;
-use parcal_kinematics::mechanism::{Mechanism, design, tool_point_reading_jacobian};
-use parcal_kinematics::{Geometry, N_PARAMS, Vec3};
+use parcal_kinematics::mechanism::design;
+use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::KinematicPrior;
 use parcal_observe::mechanism::{Actuation, BallTouch};
-use parcal_observe::unit_direction;
-use parcal_observe::weights::{Repeatability, radius_variance};
-use rayon::prelude::*;
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 use super::input::ball_distances;
 use crate::CalibrationOptions;
 use crate::options::{Observation, PriorMode, RadiusModel, Simulation};
-use crate::setup::design_geometry;
-use crate::sphere_fit::{SphereFitError, best_fit};
+use crate::setup::{Observations as SetupObservations, Setup, design_geometry};
 
 impl MechanismData {
     /// The data of a hexapod's ball touches under `options`' model
@@ -82,7 +78,7 @@ impl MechanismData {
         let legs = LegReadings::of(dataset);
         let hexapod = legs.reader(hexapod, &machine.actuator);
         let configured: Vec<f64> = design(&hexapod).iter().copied().collect();
-        let start = design_start(&hexapod, &configured, &legs, &input, dataset, options)?;
+        let start = design_start(dataset, options)?;
         let per_ball = options.radius == RadiusModel::PerBall;
         let balls = dataset
             .artefacts
@@ -195,14 +191,6 @@ impl LegReadings {
             Self::UnknownScales(_) => q.to_vec(),
         }
     }
-
-    /// `d(mechanism's reading)/dq`: the scales, or the identity.
-    fn per_reading(&self) -> Matrix6<f64> {
-        match self {
-            Self::KnownScales(scale) => Matrix6::from_diagonal(&(*scale).into()),
-            Self::UnknownScales(_) => Matrix6::identity(),
-        }
-    }
 }
 
 /// Refuses what only the hexapod's own calibration models (module doc).
@@ -258,104 +246,35 @@ struct DesignStart {
     /// The standard deviation of every contact's radius row, in the order
     /// of the measurements.
     weights: Vec<f64>,
-    /// Each ball's centre: the best fit of its design tool tips.
+    /// Each ball's centre: the best fit of its design tool tips, or its
+    /// mirror image.
     centres: Vec<Vec3>,
 }
 
 /// The weights and the balls' centres the hexapod calibration forms at
-/// the design (module doc).
+/// the design, by its own set-up ([`Setup::new`]) under `options` (the
+/// radius observation, [`check_representable`]).
 fn design_start(
-    hexapod: &Hexapod,
-    configured: &[f64],
-    legs: &LegReadings,
-    input: &Geometry,
     dataset: &Dataset,
     options: &CalibrationOptions,
 ) -> Result<DesignStart, MechanismCalibrationError> {
-    let m = &dataset.measurements;
-    let contact_error = |row: usize, reason: String| MechanismCalibrationError::InvalidData {
-        what: format!("contact {row}"),
+    let invalid = |reason: String| MechanismCalibrationError::InvalidData {
+        what: "the design's start".to_string(),
         reason,
     };
-    // The design's tool tips and dT/dq, contact by contact on the
-    // threads, the first failing contact named.
-    let per_reading = legs.per_reading();
-    let design_tip = |row: usize, q: &[f64; 6]| {
-        let pose = Actuation::Readings(legs.actuation(q))
-            .pose(hexapod, configured, configured)
-            .map_err(|e| contact_error(row, format!("the design's forward kinematics: {e}")))?;
-        let tip = hexapod
-            .tool_point(configured, pose.as_slice())
-            .map_err(|e| contact_error(row, e.to_string()))?
-            .point;
-        let jacobian = tool_point_reading_jacobian(hexapod, configured, pose.as_slice())
-            .map_err(|e| contact_error(row, e.to_string()))?;
-        // Per unit of the readings, whose repeatability is in it.
-        Ok((
-            tip,
-            Matrix3x6::from_column_slice(jacobian.as_slice()) * per_reading,
-        ))
+    let (setup, observations) =
+        Setup::new(dataset, options).map_err(|error| invalid(error.to_string()))?;
+    let SetupObservations::Radius(radius) = observations else {
+        return Err(invalid(
+            "the coordinate observation (eq. 10) is not the common calibration's".to_string(),
+        ));
     };
-    let designed: Vec<Result<(Vec3, Matrix3x6<f64>), MechanismCalibrationError>> =
-        m.q.par_iter()
-            .enumerate()
-            .map(|(row, q)| design_tip(row, q))
-            .collect();
-    let (tips, d_q): (Vec<Vec3>, Vec<Matrix3x6<f64>>) = designed
-        .into_iter()
-        .collect::<Result<Vec<_>, _>>()?
-        .into_iter()
-        .unzip();
-    let rotation = match dataset.artefacts.frame {
-        ArtefactFrame::Design => {
-            let canonical =
-                input
-                    .canonicalize()
-                    .map_err(|e| MechanismCalibrationError::InvalidData {
-                        what: "the design geometry".to_string(),
-                        reason: e.to_string(),
-                    })?;
-            canonical.base_from_input.rotation
-        }
-        ArtefactFrame::Canonical => Default::default(),
-    };
-    let r = &dataset.machine.repeatability;
-    let mut weights = vec![0.0; m.len()];
-    let mut centres = Vec::with_capacity(dataset.artefacts.balls.len());
-    let mut rows_of = vec![Vec::new(); dataset.artefacts.balls.len()];
-    for (k, &b) in m.ball.iter().enumerate() {
-        rows_of[b as usize].push(k);
+    let mut weights = vec![0.0; setup.order.len()];
+    for (&row, whitening) in setup.order.iter().zip(&radius.weights) {
+        weights[row as usize] = whitening.sigma();
     }
-    for (ball, rows) in dataset.artefacts.balls.iter().zip(rows_of) {
-        let points: Vec<Vec3> = rows.iter().map(|&k| tips[k]).collect();
-        let centre = match best_fit(&points, ball.radius) {
-            Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => fit.centre,
-            Err(e) => {
-                return Err(MechanismCalibrationError::InvalidData {
-                    what: format!("ball {}", ball.id),
-                    reason: format!("its design tool tips do not locate its centre: {e}"),
-                });
-            }
-        };
-        let repeatability = Repeatability {
-            actuator: r.actuator,
-            tool: r.tool,
-            radius: match options.radius {
-                RadiusModel::PerContact => ball.radius_sigma,
-                RadiusModel::PerBall => 0.0,
-            },
-        };
-        for &k in &rows {
-            let direction = match &m.direction {
-                Some(commanded) => rotation * Vec3::from(commanded[k]),
-                None => tips[k] - centre,
-            };
-            let n0 = unit_direction(&direction).map_err(|e| contact_error(k, e.to_string()))?;
-            let variance = radius_variance(options.weighting, &repeatability, &d_q[k], &n0)
-                .map_err(|e| contact_error(k, e.to_string()))?;
-            weights[k] = variance.sqrt();
-        }
-        centres.push(centre);
-    }
-    Ok(DesignStart { weights, centres })
+    Ok(DesignStart {
+        weights,
+        centres: setup.initial_centres,
+    })
 }

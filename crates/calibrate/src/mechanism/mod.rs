@@ -101,8 +101,9 @@ pub use compensation::{
     Compensation, NAMED_TARGETS, UnreachableTargets, compensate_mechanism, compensate_targets,
 };
 pub use data::{
-    Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_TIED_BALLS, MIN_ACTUATORS,
-    MIN_TOUCHES_PER_BALL, MechanismData, Observations, ParameterPrior,
+    Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_POSE_COORDINATES,
+    MAX_TIED_BALLS, MIN_ACTUATORS, MIN_TOUCHES_PER_BALL, MechanismData, Observations,
+    ParameterPrior,
 };
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;

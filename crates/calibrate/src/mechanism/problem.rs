@@ -41,7 +41,7 @@ use rayon::prelude::*;
 
 use crate::sphere_fit::{SphereFitError, best_fit};
 
-use super::data::MechanismData;
+use super::data::{MAX_POSE_COORDINATES, MechanismData};
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::prior::{global_priors, prior_information};
@@ -63,10 +63,34 @@ pub(crate) fn group_size(data: &MechanismData) -> usize {
     }
 }
 
-/// A point's cache: the pose its touch at readings last reached (empty
-/// before its first evaluation and for every other point), where its next
-/// forward kinematics starts.
-type LastPose = Vec<f64>;
+/// A point's cache: the pose its touch last reached (none before its
+/// first evaluation and for every other point), where its next forward
+/// kinematics starts; held inline, so that a million touches' caches make
+/// no allocation.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct LastPose {
+    coordinates: [f64; MAX_POSE_COORDINATES],
+    len: usize,
+}
+
+impl LastPose {
+    /// The cache of `pose`; none for a pose of more coordinates than it
+    /// holds (which [`MechanismData::validate`] refuses), whose next
+    /// evaluation then starts from the mechanism's start pose.
+    pub(crate) fn of(pose: &[f64]) -> Self {
+        let mut last = Self::default();
+        if let Some(room) = last.coordinates.get_mut(..pose.len()) {
+            room.copy_from_slice(pose);
+            last.len = pose.len();
+        }
+        last
+    }
+
+    /// The pose, if any.
+    fn pose(&self) -> Option<&[f64]> {
+        (self.len > 0).then(|| &self.coordinates[..self.len])
+    }
+}
 
 /// The sigma of the unit prior that holds a block's unused fourth unknown
 /// (module doc).
@@ -145,11 +169,14 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The solver's start: the mechanism's part of the global block at its
     /// priors' means, every local block as [`Self::start_blocks`] starts
     /// it, a tied ball's centre and radius at that start in the global
-    /// block.
-    pub(crate) fn start_state(&self) -> Result<State<C, 0>, MechanismCalibrationError> {
+    /// block; and every point's cache there (the pose each touch reached,
+    /// the first pass's warm start).
+    pub(crate) fn start_state(
+        &self,
+    ) -> Result<(State<C, 0>, Vec<LastPose>), MechanismCalibrationError> {
         let mut global = prior_means(self.data).resize_vertically(self.global_len(), 0.0);
         let n = self.n_params();
-        let groups = self.start_blocks(&global.as_slice()[..n])?;
+        let (groups, caches) = self.start_blocks(&global.as_slice()[..n])?;
         let samples = self.data.observations.samples.len();
         for (b, columns) in self.tied.iter() {
             let unknowns = columns.len();
@@ -157,11 +184,12 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 .rows_mut(columns.start, unknowns)
                 .copy_from(&groups[samples + b].rows(0, unknowns));
         }
-        Ok(State {
+        let state = State {
             global,
             groups,
             points: vec![SVector::zeros(); self.n_points()],
-        })
+        };
+        Ok((state, caches))
     }
 
     /// The prior information on the global block (zero where none).
@@ -213,11 +241,12 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The start of every local block: each point sample's pose (its
     /// measured pose, else the forward kinematics of its readings at
     /// `params`), then each ball's centre ([`ball_centre`]) and, with
-    /// [`group_size`] 4, its calibrated radius.
+    /// [`group_size`] 4, its calibrated radius; with every point's cache
+    /// (empty for a sample's, the pose reached for a touch's).
     pub(crate) fn start_blocks(
         &self,
         params: &[f64],
-    ) -> Result<Vec<SVector<f64, C>>, MechanismCalibrationError> {
+    ) -> Result<(Vec<SVector<f64, C>>, Vec<LastPose>), MechanismCalibrationError> {
         let mechanism = self.data.mechanism.as_ref();
         let o = &self.data.observations;
         let mut blocks = Vec::with_capacity(o.samples.len() + o.balls.len());
@@ -240,7 +269,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         }
         // Each ball on the threads, the first failing ball named.
         let configured = self.data.configured.as_slice();
-        let centres: Vec<Result<SVector<f64, C>, MechanismCalibrationError>> = o
+        type Start<const C: usize> = (SVector<f64, C>, Vec<LastPose>);
+        let centres: Vec<Result<Start<C>, MechanismCalibrationError>> = o
             .balls
             .par_iter()
             .enumerate()
@@ -249,7 +279,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     .clone()
                     .map(|i| self.touch_order[i - self.sample_points()])
                     .collect();
-                let centre = ball_centre(
+                let (centre, poses) = ball_centre(
                     mechanism,
                     params,
                     configured,
@@ -258,13 +288,17 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     b,
                     ball.radius,
                 )?;
-                Ok(block(&centre, ball.radius))
+                Ok((block(&centre, ball.radius), poses))
             })
             .collect();
+        let mut caches = vec![LastPose::default(); self.sample_points()];
+        caches.reserve(self.touch_order.len());
         for centre in centres {
-            blocks.push(centre?);
+            let (block, poses) = centre?;
+            blocks.push(block);
+            caches.extend(poses);
         }
-        Ok(blocks)
+        Ok((blocks, caches))
     }
 
     /// The rows of point sample `s` at its pose.
@@ -329,8 +363,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     format!("on ball {}: {e}", touch.ball),
                 )
             })?;
-        cache.clear();
-        cache.extend_from_slice(row.pose.as_slice());
+        *cache = LastPose::of(row.pose.as_slice());
         out.residual[0] = row.rows.residual[0];
         out.d_global.fill(0.0);
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
@@ -370,10 +403,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 let actuations: Vec<&Actuation> = (first..first + out.len())
                     .map(|i| &touches[self.touch_order[i - self.sample_points()]].at)
                     .collect();
-                let starts: Vec<Option<&[f64]>> = caches
-                    .iter()
-                    .map(|cache| (!cache.is_empty()).then_some(cache.as_slice()))
-                    .collect();
+                let starts: Vec<Option<&[f64]>> = caches.iter().map(LastPose::pose).collect();
                 Actuation::tool_points(
                     self.data.mechanism.as_ref(),
                     &global.as_slice()[..self.n_params()],
@@ -458,7 +488,8 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// `touches` (indices into `all`): the best fit, with its radius, of the
 /// tool points the touches reach with parameters `params` and the
 /// controller's `configured` ([`best_fit`]; the last
-/// iterate of a fit that did not converge).
+/// iterate of a fit that did not converge); with the pose each touch
+/// reached, in the order of `touches`.
 pub(crate) fn ball_centre(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -467,21 +498,29 @@ pub(crate) fn ball_centre(
     touches: &[usize],
     b: usize,
     radius: f64,
-) -> Result<Vector3<f64>, MechanismCalibrationError> {
-    let points = touches
+) -> Result<(Vector3<f64>, Vec<LastPose>), MechanismCalibrationError> {
+    let (points, poses): (Vec<Vector3<f64>>, Vec<LastPose>) = touches
         .iter()
         .map(|&t| {
-            all[t].at.point(mechanism, params, configured).map_err(|e| {
-                let at = ObservationRef {
-                    kind: ObservationKind::Touch,
-                    index: t,
-                };
-                failed(at, e)
-            })
+            let at = &all[t].at;
+            at.pose(mechanism, params, configured)
+                .and_then(|pose| {
+                    let point = mechanism.tool_point(params, pose.as_slice())?.point;
+                    Ok((point, LastPose::of(pose.as_slice())))
+                })
+                .map_err(|e| {
+                    let at = ObservationRef {
+                        kind: ObservationKind::Touch,
+                        index: t,
+                    };
+                    failed(at, e)
+                })
         })
-        .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
+        .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
+        .into_iter()
+        .unzip();
     match best_fit(&points, radius) {
-        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(fit.centre),
+        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok((fit.centre, poses)),
         Err(e) => Err(MechanismCalibrationError::InvalidData {
             what: format!("ball {b}"),
             reason: format!("its touches do not locate its centre: {e}"),
@@ -535,7 +574,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
     /// No pose yet: a touch at readings first starts from the
     /// mechanism's [`Mechanism::start_pose`].
     fn initial_cache(&self, _i: usize) -> LastPose {
-        Vec::new()
+        LastPose::default()
     }
 
     /// The row of point `i` at its group's block (module doc).
@@ -909,7 +948,7 @@ mod tests {
     /// the dense reference, from the start blocks moved by `offset`.
     fn check_against_dense<const C: usize>(data: &MechanismData, offset: Vector3<f64>) {
         let problem = MechanismProblem::<C>::new(data, Loss::Squared);
-        let mut state = problem.start_state().unwrap();
+        let (mut state, _) = problem.start_state().unwrap();
         for group in &mut state.groups {
             *group += block::<C>(&offset, 0.0);
         }
@@ -1026,7 +1065,7 @@ mod tests {
     fn tied_balls_rows_match_central_differences_over_the_global_block() {
         let data = tied_delta();
         let problem = MechanismProblem::<4>::new(&data, Loss::Squared);
-        let state = problem.start_state().unwrap();
+        let (state, _) = problem.start_state().unwrap();
         let samples = data.observations.samples.len();
         let rows = |global: &DVector<f64>| {
             let mut residuals = Vec::new();

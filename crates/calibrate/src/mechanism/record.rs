@@ -12,8 +12,16 @@ use parcal_dataset::mechanism::{
 use super::result::MechanismCalibration;
 
 impl MechanismCalibration {
-    /// The record of this calibration.
+    /// The record of this calibration ([`MechanismCalibration::into_record`]
+    /// of a copy).
     pub fn record(&self) -> MechanismCalibrationRecord {
+        self.clone().into_record()
+    }
+
+    /// This calibration as its record, each observation's rows moved into
+    /// it rather than copied (at 10^6 observations, the copy would be
+    /// most of the memory).
+    pub fn into_record(self) -> MechanismCalibrationRecord {
         let ratio = |k: usize| {
             self.identifiability
                 .as_ref()
@@ -37,13 +45,13 @@ impl MechanismCalibration {
             .collect();
         let observations = self
             .observations
-            .iter()
+            .into_iter()
             .map(|c| ObservationRecord {
                 kind: c.observation.kind.name().to_string(),
                 index: c.observation.index,
-                residuals: c.residuals.clone(),
-                redundancy: c.redundancy.clone(),
-                normalised: c.normalised.clone(),
+                residuals: c.residuals,
+                redundancy: c.redundancy,
+                normalised: c.normalised,
             })
             .collect();
         let removed = self
@@ -59,11 +67,11 @@ impl MechanismCalibration {
             })
             .collect();
         MechanismCalibrationRecord {
-            mechanism: self.mechanism.clone(),
+            mechanism: self.mechanism,
             status: format!("{:?}", self.status),
             iterations: self.iterations,
             accepted: self.verdict.accepted,
-            reasons: self.reasons.clone(),
+            reasons: self.reasons,
             parameters,
             covariance: self.covariance.as_ref().map(rows),
             prior_correlation: self.prior_correlation.as_ref().map(rows),
@@ -81,7 +89,7 @@ impl MechanismCalibration {
                 critical_value: self.critical_value,
                 observations,
                 removed,
-                snooping_stopped: self.snooping_stopped.clone(),
+                snooping_stopped: self.snooping_stopped,
             },
             identifiability: self
                 .identifiability

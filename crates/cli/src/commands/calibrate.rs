@@ -207,7 +207,10 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
     let (data, options) = common_calibration(&dataset, &args.flags())
         .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
-    super::mechanism::calibrate_with(HEXAPOD, &data, &options, None, request, read.elapsed())
+    // The touches are in `data`: the dataset's memory is the room of the
+    // calibration's.
+    drop(dataset);
+    super::mechanism::calibrate_with(HEXAPOD, data, &options, None, request, read.elapsed())
 }
 
 /// A number of seconds, finite and not negative.

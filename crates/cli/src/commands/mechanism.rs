@@ -64,7 +64,7 @@ pub fn calibrate(
     let data =
         MechanismData::from_dataset(&dataset).map_err(|error| placed(path, mechanism, &error))?;
     let probes = Some(dataset.probes.as_slice());
-    calibrate_with(mechanism, &data, options, probes, request, read.elapsed())
+    calibrate_with(mechanism, data, options, probes, request, read.elapsed())
 }
 
 /// `parcal inspect` on the mechanism dataset `path`: read, converted and
@@ -165,7 +165,7 @@ impl CalibrateRequest {
 /// ([`CalibrateRequest::check_outputs`]).
 pub fn calibrate_with(
     mechanism: &str,
-    data: &MechanismData,
+    data: MechanismData,
     options: &MechanismOptions,
     probes: Option<&[[f64; 3]]>,
     request: CalibrateRequest,
@@ -194,10 +194,12 @@ pub fn calibrate_with(
     ));
     let started = Instant::now();
     let observer = &mut |record: &IterationRecord| progress.iteration(record, started);
-    let calibration = calibrate_mechanism(data, options, observer)
+    let calibration = calibrate_mechanism(&data, options, observer)
         .map_err(|error| placed(&path, mechanism, &error))?;
     progress.finish();
-    let record = calibration.record();
+    // Its memory is the room of the record's.
+    drop(data);
+    let record = calibration.into_record();
     let destination = if record.accepted {
         out.clone()
     } else {
