@@ -499,15 +499,17 @@ pub(crate) fn ball_centre(
     b: usize,
     radius: f64,
 ) -> Result<(Vector3<f64>, Vec<LastPose>), MechanismCalibrationError> {
-    let (points, poses): (Vec<Vector3<f64>>, Vec<LastPose>) = touches
-        .iter()
-        .map(|&t| {
-            let at = &all[t].at;
-            at.pose(mechanism, params, configured)
-                .and_then(|pose| {
-                    let point = mechanism.tool_point(params, pose.as_slice())?.point;
-                    Ok((point, LastPose::of(pose.as_slice())))
-                })
+    // Together: a mechanism may reach several at once (the hexapod's
+    // lanes), each from its start pose.
+    let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
+    let starts = vec![None; touches.len()];
+    let reached = Actuation::tool_points(mechanism, params, configured, &actuations, &starts);
+    let (points, poses): (Vec<Vector3<f64>>, Vec<LastPose>) = reached
+        .into_iter()
+        .zip(touches)
+        .map(|(reached, &t)| {
+            reached
+                .map(|reached| (reached.point, LastPose::of(reached.pose.as_slice())))
                 .map_err(|e| {
                     let at = ObservationRef {
                         kind: ObservationKind::Touch,
