@@ -2,7 +2,7 @@
 //! serde errors mapped to file + field, pretty deterministic output.
 
 use std::fmt;
-use std::io::Write;
+use std::io::{self, Write};
 use std::path::Path;
 
 use serde::Serialize;
@@ -22,39 +22,50 @@ pub(crate) struct Kind {
     name: &'static str,
     /// What this crate writes, e.g. `parcal-machine/1`.
     current: &'static str,
+    /// The nesting depth (the document is depth 1) from which arrays and
+    /// objects are written on one line ([`Layout`]); `usize::MAX`: none.
+    one_line_from: usize,
 }
 
 pub(crate) const MACHINE: Kind = Kind {
     name: "parcal-machine",
     current: "parcal-machine/1",
+    one_line_from: usize::MAX,
 };
 pub(crate) const ARTEFACTS: Kind = Kind {
     name: "parcal-artefacts",
     current: "parcal-artefacts/1",
+    one_line_from: usize::MAX,
 };
 pub(crate) const TRUTH: Kind = Kind {
     name: "parcal-truth",
     current: "parcal-truth/1",
+    one_line_from: usize::MAX,
 };
 pub(crate) const CALIBRATION: Kind = Kind {
     name: "parcal-calibration",
     current: "parcal-calibration/1",
+    one_line_from: usize::MAX,
 };
 pub(crate) const MECHANISM_TRUTH: Kind = Kind {
     name: "parcal-mechanism-truth",
     current: "parcal-mechanism-truth/1",
+    one_line_from: usize::MAX,
 };
 pub(crate) const MECHANISM_CALIBRATION: Kind = Kind {
     name: "parcal-mechanism-calibration",
     current: "parcal-mechanism-calibration/1",
+    one_line_from: 4,
 };
 pub(crate) const MECHANISM_VALIDATION: Kind = Kind {
     name: "parcal-mechanism-validation",
     current: "parcal-mechanism-validation/1",
+    one_line_from: usize::MAX,
 };
 pub(crate) const VALIDATION: Kind = Kind {
     name: "parcal-validation",
     current: "parcal-validation/1",
+    one_line_from: usize::MAX,
 };
 
 /// The major version this crate reads.
@@ -293,9 +304,9 @@ fn missing_field(message: &str) -> Option<&str> {
     message.strip_prefix("missing field `")?.strip_suffix('`')
 }
 
-/// Writes `body` to `path` atomically as pretty JSON (indent 1), preceded by
-/// the `format` field of `kind`. Field order is the order of declaration, so
-/// the same data always gives the same bytes.
+/// Writes `body` to `path` atomically as pretty JSON (indent 1, [`Layout`]),
+/// preceded by the `format` field of `kind`. Field order is the order of
+/// declaration, so the same data always gives the same bytes.
 pub(crate) fn write<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<()> {
     #[derive(Serialize)]
     struct Versioned<'a, T> {
@@ -308,7 +319,7 @@ pub(crate) fn write<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<(
         body,
     };
     write_atomic(path, |w| {
-        let formatter = serde_json::ser::PrettyFormatter::with_indent(b" ");
+        let formatter = Layout::new(kind.one_line_from);
         let mut serializer = serde_json::Serializer::with_formatter(&mut *w, formatter);
         document
             .serialize(&mut serializer)
@@ -317,10 +328,161 @@ pub(crate) fn write<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<(
     })
 }
 
+/// serde_json's pretty layout (indent 1, a value per line) down to the
+/// depth `one_line_from`, and from there each array or object on one line,
+/// as compact JSON: a calibration's million observation records one per
+/// line, at half the bytes of a value per line.
+struct Layout {
+    /// The depth from which containers go on one line.
+    one_line_from: usize,
+    /// The containers open.
+    depth: usize,
+    /// The indentation of the pretty part.
+    indent: usize,
+    /// Whether the innermost pretty container has a value yet.
+    has_value: bool,
+}
+
+impl Layout {
+    fn new(one_line_from: usize) -> Self {
+        Self {
+            one_line_from,
+            depth: 0,
+            indent: 0,
+            has_value: false,
+        }
+    }
+
+    /// Whether the innermost open container is on one line.
+    fn one_line(&self) -> bool {
+        self.depth >= self.one_line_from
+    }
+
+    /// Opens a container with `bracket`.
+    fn open<W: ?Sized + io::Write>(&mut self, w: &mut W, bracket: &[u8]) -> io::Result<()> {
+        self.depth += 1;
+        if !self.one_line() {
+            self.indent += 1;
+            self.has_value = false;
+        }
+        w.write_all(bracket)
+    }
+
+    /// Closes the innermost container with `bracket`.
+    fn close<W: ?Sized + io::Write>(&mut self, w: &mut W, bracket: &[u8]) -> io::Result<()> {
+        if !self.one_line() {
+            self.indent -= 1;
+            if self.has_value {
+                w.write_all(b"\n")?;
+                self.write_indent(w)?;
+            }
+        }
+        self.depth -= 1;
+        w.write_all(bracket)
+    }
+
+    /// Starts a value of an array, or a key of an object.
+    fn item<W: ?Sized + io::Write>(&mut self, w: &mut W, first: bool) -> io::Result<()> {
+        if self.one_line() {
+            return if first { Ok(()) } else { w.write_all(b",") };
+        }
+        w.write_all(if first { b"\n" } else { b",\n" })?;
+        self.write_indent(w)
+    }
+
+    /// Ends a value of the innermost container.
+    fn item_done(&mut self) {
+        if !self.one_line() {
+            self.has_value = true;
+        }
+    }
+
+    fn write_indent<W: ?Sized + io::Write>(&self, w: &mut W) -> io::Result<()> {
+        for _ in 0..self.indent {
+            w.write_all(b" ")?;
+        }
+        Ok(())
+    }
+}
+
+impl serde_json::ser::Formatter for Layout {
+    fn begin_array<W: ?Sized + io::Write>(&mut self, w: &mut W) -> io::Result<()> {
+        self.open(w, b"[")
+    }
+
+    fn end_array<W: ?Sized + io::Write>(&mut self, w: &mut W) -> io::Result<()> {
+        self.close(w, b"]")
+    }
+
+    fn begin_array_value<W: ?Sized + io::Write>(
+        &mut self,
+        w: &mut W,
+        first: bool,
+    ) -> io::Result<()> {
+        self.item(w, first)
+    }
+
+    fn end_array_value<W: ?Sized + io::Write>(&mut self, _w: &mut W) -> io::Result<()> {
+        self.item_done();
+        Ok(())
+    }
+
+    fn begin_object<W: ?Sized + io::Write>(&mut self, w: &mut W) -> io::Result<()> {
+        self.open(w, b"{")
+    }
+
+    fn end_object<W: ?Sized + io::Write>(&mut self, w: &mut W) -> io::Result<()> {
+        self.close(w, b"}")
+    }
+
+    fn begin_object_key<W: ?Sized + io::Write>(
+        &mut self,
+        w: &mut W,
+        first: bool,
+    ) -> io::Result<()> {
+        self.item(w, first)
+    }
+
+    fn begin_object_value<W: ?Sized + io::Write>(&mut self, w: &mut W) -> io::Result<()> {
+        w.write_all(if self.one_line() { b":" } else { b": " })
+    }
+
+    fn end_object_value<W: ?Sized + io::Write>(&mut self, _w: &mut W) -> io::Result<()> {
+        self.item_done();
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use serde::Deserialize;
+
+    /// `value` written with `formatter`.
+    fn written<F: serde_json::ser::Formatter>(value: &serde_json::Value, formatter: F) -> String {
+        let mut bytes = Vec::new();
+        let mut serializer = serde_json::Serializer::with_formatter(&mut bytes, formatter);
+        value.serialize(&mut serializer).unwrap();
+        String::from_utf8(bytes).unwrap()
+    }
+
+    #[test]
+    fn the_layout_is_serde_jsons_pretty_one_down_to_its_depth_then_one_line() {
+        let value = serde_json::json!({
+            "a": [1.5, [], {}, {"b": [2, 3], "c": {"d": null}}],
+            "e": {"f": [[4, 5], [6]], "g": "h"},
+            "i": []
+        });
+        let pretty = written(&value, serde_json::ser::PrettyFormatter::with_indent(b" "));
+        assert_eq!(written(&value, Layout::new(usize::MAX)), pretty);
+        let layout = written(&value, Layout::new(3));
+        assert_eq!(
+            layout,
+            "{\n \"a\": [\n  1.5,\n  [],\n  {},\n  {\"b\":[2,3],\"c\":{\"d\":null}}\n ],\n \"e\": {\n  \"f\": [[4,5],[6]],\n  \"g\": \"h\"\n },\n \"i\": []\n}"
+        );
+        let read: serde_json::Value = serde_json::from_str(&layout).unwrap();
+        assert_eq!(read, value);
+    }
 
     fn check(format: &str) -> Result<()> {
         MACHINE.check(Path::new("machine.json"), format)
