@@ -1078,7 +1078,7 @@ mod tests {
                     let group = &state.groups[k];
                     let point = SVector::zeros();
                     problem
-                        .linearize(i, global, group, &point, &mut Vec::new(), &mut out)
+                        .linearize(i, global, group, &point, &mut LastPose::default(), &mut out)
                         .unwrap();
                     residuals.push(out.residual[0]);
                     jacobian.push(out.d_global.clone());
