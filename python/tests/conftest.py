@@ -39,3 +39,31 @@ def medium(tmp_path_factory, cli):
     path = tmp_path_factory.mktemp("medium") / "data"
     cli("simulate", "--seed", 2, "--balls", 300, "--out", path)
     return path
+
+
+@pytest.fixture(scope="session")
+def progress_check():
+    """Checks that `calibrate(progress=...)` calls its callback once per
+    iteration, numbered from 1, `iterations(run)` times, and that an
+    exception the callback raises at the second stops the run and is
+    raised; returns the run and the records seen."""
+
+    def check(calibrate, iterations):
+        seen = []
+        run = calibrate(progress=seen.append)
+        assert [s["iteration"] for s in seen] == list(range(1, len(seen) + 1))
+        assert len(seen) == iterations(run) > 1
+        records = list(seen)
+
+        def stop(record):
+            seen.append(record)
+            if record["iteration"] == 2:
+                raise KeyError("enough")
+
+        seen.clear()
+        with pytest.raises(KeyError, match="enough"):
+            calibrate(progress=stop)
+        assert len(seen) == 2
+        return run, records
+
+    return check

@@ -103,22 +103,10 @@ def test_options_are_the_cli_flags_and_an_unknown_one_is_named(paper):
     assert run.verdict == "rejected" and not run.converged
 
 
-def test_the_progress_callback_is_called_and_its_exception_stops_the_run(paper):
+def test_the_progress_callback_is_called_and_its_exception_stops_the_run(paper, progress_check):
     dataset = parcal.Dataset.read(paper)
-    seen = []
-    run = parcal.calibrate(dataset, progress=seen.append)
-    assert [s["iteration"] for s in seen] == list(range(1, len(seen) + 1))
-    assert len(seen) == len(json.loads(run.to_json())["iterations"])
-
-    def stop(record):
-        seen.append(record)
-        if record["iteration"] == 2:
-            raise KeyError("enough")
-
-    seen.clear()
-    with pytest.raises(KeyError, match="enough"):
-        parcal.calibrate(dataset, progress=stop)
-    assert len(seen) == 2
+    progress_check(lambda **progress: parcal.calibrate(dataset, **progress),
+                   lambda run: len(json.loads(run.to_json())["iterations"]))
 
 
 def test_a_python_thread_runs_while_a_calibration_runs(medium):

@@ -267,16 +267,27 @@ fn a_blunder_is_named_and_removed_by_snooping() {
     );
 }
 
+/// `parcal simulate --mechanism delta --seed 3 --balls 3` and `flags`,
+/// written into `dir/sim`.
+fn printer_touching_balls(dir: &Path, flags: &[&str]) -> PathBuf {
+    let sim = dir.join("sim");
+    let simulate = [
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--seed",
+        "3",
+        "--balls",
+        "3",
+    ];
+    ok(&[&simulate[..], flags, &["--out", s(&sim)]].concat());
+    sim
+}
+
 #[test]
 fn a_printers_dataset_is_inspected_and_an_unreachable_probe_named_by_its_line() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    let simulate = ["simulate", "--mechanism", "delta", "--seed", "3"];
-    ok(&[
-        &simulate[..],
-        &["--balls", "3", "--plate", "all", "--out", s(&sim)],
-    ]
-    .concat());
+    let sim = printer_touching_balls(dir.path(), &["--plate", "all"]);
     let summary = ok(&["inspect", s(&sim)]);
     for line in [
         "  mechanism          linear delta: 3 actuators, 16 parameters (16 with a prior)\n",
@@ -305,9 +316,7 @@ fn a_printers_dataset_is_inspected_and_an_unreachable_probe_named_by_its_line() 
 #[test]
 fn a_printers_calibration_shows_its_iterations_and_takes_the_run_controls() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    let simulate = ["simulate", "--mechanism", "delta", "--seed", "3"];
-    ok(&[&simulate[..], &["--balls", "3", "--out", s(&sim)]].concat());
+    let sim = printer_touching_balls(dir.path(), &[]);
     let calibrate = |flags: &[&str], name: &str| {
         let out = dir.path().join(name);
         let output = parcal(&[&["calibrate", s(&sim), "--out", s(&out)], flags].concat());
