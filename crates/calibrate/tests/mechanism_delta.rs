@@ -434,6 +434,18 @@ fn a_touch_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
     assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
     assert_eq!(snooped.removals[0].observation, touch);
     assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+    // A run stopped at its iteration limit is not judged (no checks'
+    // pass): its balls' sigmas come from a pass of their own.
+    let stopped = calibrate(
+        &dataset,
+        &MechanismOptions::default().with_max_iterations(Some(1)),
+    );
+    assert_eq!(stopped.status, Status::IterationLimit);
+    assert!(stopped.observations.is_empty());
+    for ball in &stopped.balls {
+        let sigma = ball.centre_sigma.expect("a centre sigma");
+        assert!(sigma.iter().all(|s| s.is_finite() && *s > 0.0), "{sigma:?}");
+    }
 }
 
 /// The rods' common length, their mean: its posterior sigma over its

@@ -11,8 +11,8 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_solver::{
-    BlockId, GlobalObservations, IterationRecord, Loss, Problem, State, Status,
-    normalised_residual, redundancy, solve_with_caches,
+    BlockId, GlobalObservations, IterationRecord, Loss, Problem, SolverOptions, State, Status,
+    group_sigmas, normalised_residual, redundancy, solve_with_caches,
 };
 
 use crate::verdict::{at_minimum, rows_and_unknowns};
@@ -109,7 +109,11 @@ fn fit_blocks<const C: usize>(
     let problem = MechanismProblem::<C>::new(data, options.loss);
     let (state, mut caches) = start(&problem)?;
     let points = problem.n_points();
-    let solver_options = options.solver_options(started);
+    let solver_options = SolverOptions {
+        // The checks' pass gives them (below).
+        group_sigmas: false,
+        ..options.solver_options(started)
+    };
     let solution = solve_with_caches::<C, 0, 1, _>(
         &problem,
         state,
@@ -123,16 +127,27 @@ fn fit_blocks<const C: usize>(
     let refs = problem.global_observation_refs();
     let global_rows: usize = refs.iter().map(|(_, rows)| rows).sum();
     let (rows, unknowns) = rows_and_unknowns::<C, 0, 1, _>(&problem, points, global_rows);
-    let checks = match &solution.covariance {
-        Some(covariance) if at_minimum(&solution.status) => Some(checks(
-            &problem,
-            &solution.state,
-            covariance,
-            &refs,
-            solver_options.groups_per_chunk,
-            caches,
-        )?),
-        _ => None,
+    // The checks' pass gives the local blocks' sigmas too; a run that is
+    // not judged makes a pass of the sigmas alone.
+    let groups_per_chunk = solver_options.groups_per_chunk;
+    let (checks, group_sigmas) = match &solution.covariance {
+        Some(covariance) if at_minimum(&solution.status) => {
+            let (checks, sigmas) = checks(
+                &problem,
+                &solution.state,
+                covariance,
+                &refs,
+                groups_per_chunk,
+                caches,
+            )?;
+            (Some(checks), Some(sigmas))
+        }
+        Some(covariance) => {
+            let state = &solution.state;
+            let sigmas = group_sigmas(&problem, state, covariance, &mut caches, groups_per_chunk);
+            (None, sigmas.ok())
+        }
+        None => (None, None),
     };
     let samples = data.observations.samples.len();
     let balls = &data.observations.balls;
@@ -140,8 +155,7 @@ fn fit_blocks<const C: usize>(
         ball_unknowns(&problem, global, &blocks[samples..])
     };
     let (centres, radii) = ball_values(&solution.state.global, &solution.state.groups);
-    let (centre_sigmas, radius_sigmas) = solution
-        .group_sigmas
+    let (centre_sigmas, radius_sigmas) = group_sigmas
         .as_ref()
         .zip(solution.covariance.as_ref())
         .map(|(sigmas, covariance)| {
@@ -270,11 +284,17 @@ fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError>
     }
 }
 
+/// Every observation's check, and the local blocks' marginal sigmas
+/// ([`checks`]).
+type CheckedBlocks<const C: usize> =
+    Result<(Vec<ObservationCheck>, Vec<SVector<f64, C>>), MechanismCalibrationError>;
+
 /// Every observation's residuals, redundancy numbers and normalised
 /// residuals at `state`, through the solver's redundancy pass (its points
 /// started from `caches`, the solve's last pass's, freed after it): the
 /// global observations, then each point sample (its rows), then each
-/// touch, in the order of the data.
+/// touch, in the order of the data; with the local blocks' marginal
+/// sigmas, which the pass gives as well.
 fn checks<const C: usize>(
     problem: &MechanismProblem<C>,
     state: &State<C, 0>,
@@ -282,7 +302,7 @@ fn checks<const C: usize>(
     refs: &[(ObservationRef, usize)],
     groups_per_chunk: usize,
     mut caches: Vec<LastPose>,
-) -> Result<Vec<ObservationCheck>, MechanismCalibrationError> {
+) -> CheckedBlocks<C> {
     let mut points = Vec::with_capacity(problem.n_points());
     let global = redundancy::<C, 0, 1, _>(
         problem,
@@ -337,5 +357,5 @@ fn checks<const C: usize>(
             std::slice::from_ref(row),
         ));
     }
-    Ok(checks)
+    Ok((checks, global.group_sigmas))
 }
