@@ -130,7 +130,7 @@ fn fit_blocks<const C: usize>(
     // The checks' pass gives the local blocks' sigmas too; a run that is
     // not judged makes a pass of the sigmas alone.
     let groups_per_chunk = solver_options.groups_per_chunk;
-    let (checks, group_sigmas) = match &solution.covariance {
+    let (checks, block_sigmas) = match &solution.covariance {
         Some(covariance) if at_minimum(&solution.status) => {
             let (checks, sigmas) = checks(
                 &problem,
@@ -155,7 +155,7 @@ fn fit_blocks<const C: usize>(
         ball_unknowns(&problem, global, &blocks[samples..])
     };
     let (centres, radii) = ball_values(&solution.state.global, &solution.state.groups);
-    let (centre_sigmas, radius_sigmas) = group_sigmas
+    let (centre_sigmas, radius_sigmas) = block_sigmas
         .as_ref()
         .zip(solution.covariance.as_ref())
         .map(|(sigmas, covariance)| {
