@@ -18,7 +18,7 @@ use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::CommandedPoint;
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 use parcal_simulate::{Plate, PlatePairs, Rng};
-use parcal_solver::Status;
+use parcal_solver::{IterationRecord, Status};
 
 /// A printer of the range: rods 250-300 mm, radius 120-150 mm,
 /// drawn from stream `seed`.
@@ -181,6 +181,36 @@ fn probe_heights_leave_the_xy_scale_to_the_prior_and_a_part_distance_sets_it() {
     }
 }
 
+/// The calibrations of `dataset`, whose `blunder` is off, without and with
+/// data snooping (`observer` seeing the latter's iterations): the plain
+/// one rejected with the blunder the worst observation, named in its
+/// reasons; snooping removing it, and only it, and accepting the rest.
+fn blunder_is_named_and_removed(
+    dataset: &MechanismDataset,
+    blunder: ObservationRef,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> (MechanismCalibration, MechanismCalibration) {
+    let plain = calibrate(dataset, &MechanismOptions::default());
+    assert!(!plain.verdict.accepted);
+    assert_eq!(plain.worst().map(|w| w.observation), Some(blunder));
+    assert!(
+        plain
+            .reasons
+            .iter()
+            .any(|r| r.contains(&blunder.to_string())),
+        "{:?}",
+        plain.reasons
+    );
+    let data = MechanismData::from_dataset(dataset).unwrap();
+    let snooping = MechanismOptions::default().with_snooping(true);
+    let snooped = calibrate_mechanism(&data, &snooping, observer).unwrap();
+    eprintln!("{:#?}", snooped.reasons);
+    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
+    assert_eq!(snooped.removals[0].observation, blunder);
+    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+    (plain, snooped)
+}
+
 #[test]
 fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
     let mut dataset = simulate_delta(&scenario(5, 4), 5).unwrap();
@@ -190,29 +220,18 @@ fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
         kind: ObservationKind::Probe,
         index: blunder,
     };
-    let plain = calibrate(&dataset, &MechanismOptions::default());
-    assert!(!plain.verdict.accepted);
-    assert_eq!(plain.worst().map(|w| w.observation), Some(probe));
-    assert!(
-        plain.reasons.iter().any(|r| r.contains("probe height 11")),
-        "{:?}",
-        plain.reasons
-    );
-    let data = MechanismData::from_dataset(&dataset).unwrap();
-    let snooping = MechanismOptions::default().with_snooping(true);
     // The observer sees both fits' iterations: the first, the plain one,
     // then the fit without the blunder.
     let mut seen = 0;
-    let snooped = calibrate_mechanism(&data, &snooping, &mut |_| seen += 1).unwrap();
+    let (plain, snooped) = blunder_is_named_and_removed(&dataset, probe, &mut |_| seen += 1);
     assert_eq!(seen, plain.iterations + snooped.iterations);
-    eprintln!("{:#?}", snooped.reasons);
-    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
-    assert_eq!(snooped.removals[0].observation, probe);
-    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
     assert!(snooped.snooping_stopped.is_none());
     // A spent time budget stops the first fit at its start: nothing is
     // tested, so snooping stops there, and the verdict says why.
-    let spent = snooping.with_time_limit(Some(std::time::Duration::ZERO));
+    let data = MechanismData::from_dataset(&dataset).unwrap();
+    let spent = MechanismOptions::default()
+        .with_snooping(true)
+        .with_time_limit(Some(std::time::Duration::ZERO));
     let stopped = calibrate_mechanism(&data, &spent, &mut |_| {}).unwrap();
     assert_eq!(stopped.status, Status::TimeLimit);
     assert!(!stopped.verdict.accepted && stopped.removals.is_empty());
@@ -421,19 +440,7 @@ fn a_touch_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
         kind: ObservationKind::Touch,
         index: blunder,
     };
-    let plain = calibrate(&dataset, &MechanismOptions::default());
-    assert!(!plain.verdict.accepted);
-    assert_eq!(plain.worst().map(|w| w.observation), Some(touch));
-    assert!(
-        plain.reasons.iter().any(|r| r.contains("ball touch 9")),
-        "{:?}",
-        plain.reasons
-    );
-    let snooped = calibrate(&dataset, &MechanismOptions::default().with_snooping(true));
-    eprintln!("{:#?}", snooped.reasons);
-    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
-    assert_eq!(snooped.removals[0].observation, touch);
-    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+    blunder_is_named_and_removed(&dataset, touch, &mut |_| {});
     // A run stopped at its iteration limit is not judged (no checks'
     // pass): its balls' sigmas come from a pass of their own.
     let stopped = calibrate(
@@ -531,18 +538,7 @@ fn a_ball_distance_blunder_of_0_1_mm_is_named_and_removed_by_snooping() {
         kind: ObservationKind::BallDistance,
         index: blunder,
     };
-    let plain = calibrate(&dataset, &MechanismOptions::default());
-    assert!(!plain.verdict.accepted);
-    assert_eq!(plain.worst().map(|w| w.observation), Some(distance));
-    assert!(
-        plain.reasons.iter().any(|r| r.contains("ball distance 2")),
-        "{:?}",
-        plain.reasons
-    );
-    let snooped = calibrate(&dataset, &MechanismOptions::default().with_snooping(true));
-    assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
-    assert_eq!(snooped.removals[0].observation, distance);
-    assert!(snooped.verdict.accepted, "{:?}", snooped.reasons);
+    blunder_is_named_and_removed(&dataset, distance, &mut |_| {});
 }
 
 #[test]

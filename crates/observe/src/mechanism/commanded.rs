@@ -4,7 +4,7 @@
 
 use std::borrow::Cow;
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
@@ -143,38 +143,6 @@ impl Actuation {
             .into_iter()
             .map(|outcome| outcome.expect("every actuation reached"))
             .collect()
-    }
-
-    /// The pose the machine of true parameters `params` reaches, `f(p, q)`,
-    /// without derivatives: from the commanded position (the readings
-    /// `g(p_c, x_c)`) or from the mechanism's [`Mechanism::start_pose`].
-    pub fn pose(
-        &self,
-        mechanism: &dyn Mechanism,
-        params: &[f64],
-        configured: &[f64],
-    ) -> Result<DVector<f64>, MechanismError> {
-        match self {
-            Self::Commanded(commanded) => {
-                let readings = mechanism.inverse(configured, commanded)?;
-                mechanism.forward(params, readings.as_slice(), commanded)
-            }
-            Self::Readings(readings) => {
-                let start = mechanism.start_pose(params, readings)?;
-                mechanism.forward(params, readings, start.as_slice())
-            }
-        }
-    }
-
-    /// The tool point at [`Actuation::pose`], without derivatives.
-    pub fn point(
-        &self,
-        mechanism: &dyn Mechanism,
-        params: &[f64],
-        configured: &[f64],
-    ) -> Result<Vector3<f64>, MechanismError> {
-        let pose = self.pose(mechanism, params, configured)?;
-        Ok(mechanism.tool_point(params, pose.as_slice())?.point)
     }
 }
 
