@@ -221,6 +221,8 @@ pub struct Reliability {
     /// The sum of the observations' redundancy, added up in the solver's
     /// order of the contacts, then the global observations'.
     redundancy: f64,
+    /// [`Reliability::worst`]'s index in [`Reliability::observations`].
+    worst: Option<usize>,
     /// The global shift of the least reliable observations' minimal
     /// detectable biases, largest `λ` first ([`crate::external`]).
     pub external: Vec<ExternalShift>,
@@ -432,17 +434,19 @@ impl Reliability {
                 redundancy: prior_rows as f64 - numbers.prior_leverage.total(),
             });
         }
-        let reliability = Self {
+        let mut reliability = Self {
             components,
             row_normalised: summary.row_normalised,
             contacts,
             global: global_checks,
             least_reliable: summary.least_reliable,
             redundancy: summary.redundancy,
+            worst: None,
             external,
             down_weighted: robust.then_some(down_weighted),
             systematic: systematic_tests(effects, &numbers.effects),
         };
+        reliability.worst = reliability.largest_normalised();
         Ok((reliability, numbers.group_sigmas))
     }
 
@@ -505,16 +509,24 @@ impl Reliability {
     /// The observation of largest normalised residual (the first of
     /// [`Reliability::observations`] among equals).
     pub fn worst(&self) -> Option<ObservationCheck> {
+        self.worst.map(|k| self.observation(k))
+    }
+
+    /// The index in [`Reliability::observations`] of [`Reliability::worst`],
+    /// found once, when the checks are made.
+    fn largest_normalised(&self) -> Option<usize> {
         let w = |c: &ObservationCheck| c.normalised().map_or(0.0, f64::abs);
         self.observations()
-            .filter(|c| c.normalised().is_some())
+            .enumerate()
+            .filter(|(_, c)| c.normalised().is_some())
             .reduce(|a, b| {
-                if w(&b).total_cmp(&w(&a)).is_gt() {
+                if w(&b.1).total_cmp(&w(&a.1)).is_gt() {
                     b
                 } else {
                     a
                 }
             })
+            .map(|(k, _)| k)
     }
 
     /// At most `n` (and [`LEAST_RELIABLE`]) observations of largest

@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use std::collections::hash_map::Entry;
 use std::path::Path;
 
+use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
@@ -86,12 +87,13 @@ struct DistanceFile {
     sigma: f64,
 }
 
+/// The index of each ball id in a list of balls.
+pub(crate) type BallIndex<'a> = FxHashMap<&'a str, usize>;
+
 /// Index of each ball id in `balls`; the error is the first duplicated id, as
 /// (index of its first use, index of its second use).
-pub(crate) fn ball_index(
-    balls: &[Ball],
-) -> std::result::Result<HashMap<&str, usize>, (usize, usize)> {
-    let mut index = HashMap::with_capacity(balls.len());
+pub(crate) fn ball_index(balls: &[Ball]) -> std::result::Result<BallIndex<'_>, (usize, usize)> {
+    let mut index = BallIndex::with_capacity_and_hasher(balls.len(), Default::default());
     for (i, ball) in balls.iter().enumerate() {
         match index.entry(ball.id.as_str()) {
             Entry::Vacant(slot) => {
@@ -109,8 +111,7 @@ impl Artefacts {
         let file: ArtefactsFile = json::read(path, json::ARTEFACTS)?;
         let check = Check::new(path);
         // The ids must be unique to be resolved; `validate` checks the rest.
-        validate_balls(check, &file.balls)?;
-        let index = ball_index(&file.balls).expect("ids checked unique");
+        let index = validate_balls(check, &file.balls)?;
         let resolve = |i: usize, end: &str, id: &str| {
             index.get(id).copied().ok_or_else(|| {
                 check.error(
@@ -205,7 +206,8 @@ impl Artefacts {
     }
 }
 
-fn validate_balls(check: Check, balls: &[Ball]) -> Result<()> {
+/// Checks `balls`: well-formed, their ids unique; their index.
+fn validate_balls<'a>(check: Check, balls: &'a [Ball]) -> Result<BallIndex<'a>> {
     if balls.is_empty() {
         return Err(check.error("balls", "lists no ball"));
     }
@@ -230,14 +232,13 @@ fn validate_balls(check: Check, balls: &[Ball]) -> Result<()> {
         check.positive_length(format_args!("balls[{i}].radius"), ball.radius)?;
         check.sigma(format_args!("balls[{i}].radius_sigma"), ball.radius_sigma)?;
     }
-    if let Err((first, i)) = ball_index(balls) {
-        return Err(check.error(
+    ball_index(balls).map_err(|(first, i)| {
+        check.error(
             format!("balls[{i}].id"),
             format!(
                 "ball id {} is used twice (also by balls[{first}])",
                 quoted(&balls[i].id)
             ),
-        ));
-    }
-    Ok(())
+        )
+    })
 }

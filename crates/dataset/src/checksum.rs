@@ -3,7 +3,7 @@
 //! another (plan.json of plan.csv), so that a reader tells a mismatched
 //! pair (a run killed between the renames) from a whole one.
 
-use std::io::Read;
+use std::io::{self, Write};
 use std::path::Path;
 
 use crate::error::{DatasetError, Result};
@@ -12,24 +12,40 @@ use crate::input::{open_required, read_json};
 /// The checksum of `bytes`: `crc32:` and its CRC-32 in hex, as
 /// [`crate::Dataset::checksum`] writes it.
 pub fn of_bytes(bytes: &[u8]) -> String {
-    format!("crc32:{:08x}", crc32fast::hash(bytes))
+    let mut crc = Crc32::default();
+    crc.0.update(bytes);
+    crc.checksum()
 }
 
 /// The checksum ([`of_bytes`]) of the regular file `path`, streamed.
 pub fn of_file(path: &Path) -> Result<String> {
     let mut file = open_required(path)?.file;
-    let mut hasher = crc32fast::Hasher::new();
-    let mut buffer = vec![0u8; 1 << 16];
-    loop {
-        let n = file
-            .read(&mut buffer)
-            .map_err(|e| DatasetError::io(path, "read", e))?;
-        if n == 0 {
-            break;
-        }
-        hasher.update(&buffer[..n]);
+    let mut crc = Crc32::default();
+    io::copy(&mut file, &mut crc).map_err(|e| DatasetError::io(path, "read", e))?;
+    Ok(crc.checksum())
+}
+
+/// A writer that keeps only the CRC-32 of what is written to it: the
+/// checksum of a stream of any length in constant memory.
+#[derive(Default)]
+pub(crate) struct Crc32(crc32fast::Hasher);
+
+impl Crc32 {
+    /// [`of_bytes`] of everything written.
+    pub(crate) fn checksum(self) -> String {
+        format!("crc32:{:08x}", self.0.finalize())
     }
-    Ok(format!("crc32:{:08x}", hasher.finalize()))
+}
+
+impl Write for Crc32 {
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        self.0.update(bytes);
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
 }
 
 /// The string `field` of the JSON object in `path` (read within

@@ -1,13 +1,14 @@
 //! A whole dataset: one directory, or one binary snapshot.
 
 use std::fs;
-use std::io;
+use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use crate::atomic;
 use crate::check::Check;
+use crate::checksum::Crc32;
 use crate::error::{DatasetError, Result};
 use crate::{
     ARTEFACTS_FILE, Artefacts, MACHINE_FILE, MEASUREMENTS_FILE, Machine, Measurements, POINTS_FILE,
@@ -139,8 +140,12 @@ impl Dataset {
             &self.measurements,
             &self.tracker,
         );
-        let payload = postcard::to_stdvec(&measured).unwrap_or_default();
-        crate::checksum::of_bytes(&payload)
+        // Encoded into the CRC through a buffer, never held whole; the
+        // buffer, dropped, flushes into the CRC, which takes any bytes.
+        let mut crc = Crc32::default();
+        let encoded = postcard::to_io(&measured, BufWriter::with_capacity(1 << 16, &mut crc));
+        drop(encoded.expect("data in memory has a snapshot encoding"));
+        crc.checksum()
     }
 
     /// Whether the dataset has ball touches.

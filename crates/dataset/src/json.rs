@@ -308,6 +308,42 @@ fn missing_field(message: &str) -> Option<&str> {
 /// preceded by the `format` field of `kind`. Field order is the order of
 /// declaration, so the same data always gives the same bytes.
 pub(crate) fn write<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<()> {
+    write_atomic(path, |w| serialize_document(path, w, kind, body))
+}
+
+/// [`write`], with `check` run beside the writing: if it fails, its error
+/// is returned (before any error of the writing) and nothing is written.
+pub(crate) fn write_checked<T: Serialize>(
+    path: &Path,
+    kind: Kind,
+    body: &T,
+    check: impl FnOnce() -> Result<()> + Send,
+) -> Result<()> {
+    let mut check = Some(check);
+    let written = write_atomic(path, |w| {
+        let mut checked = Ok(());
+        let serialized = rayon::in_place_scope(|scope| {
+            if let Some(check) = check.take() {
+                scope.spawn(|_| checked = check());
+            }
+            serialize_document(path, w, kind, body)
+        });
+        checked.and(serialized)
+    });
+    // A file that could not be staged was not checked yet.
+    match check {
+        Some(check) => check().and(written),
+        None => written,
+    }
+}
+
+/// Serializes `body` into `w`: its document as [`write`] describes it.
+fn serialize_document<T: Serialize>(
+    path: &Path,
+    mut w: impl Write,
+    kind: Kind,
+    body: &T,
+) -> Result<()> {
     #[derive(Serialize)]
     struct Versioned<'a, T> {
         format: &'static str,
@@ -318,14 +354,12 @@ pub(crate) fn write<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<(
         format: kind.current,
         body,
     };
-    write_atomic(path, |w| {
-        let formatter = Layout::new(kind.one_line_from);
-        let mut serializer = serde_json::Serializer::with_formatter(&mut *w, formatter);
-        document
-            .serialize(&mut serializer)
-            .map_err(|e| DatasetError::io(path, "write", e.into()))?;
-        w.write_all(b"\n").map_err(write_error(path))
-    })
+    let formatter = Layout::new(kind.one_line_from);
+    let mut serializer = serde_json::Serializer::with_formatter(&mut w, formatter);
+    document
+        .serialize(&mut serializer)
+        .map_err(|e| DatasetError::io(path, "write", e.into()))?;
+    w.write_all(b"\n").map_err(write_error(path))
 }
 
 /// serde_json's pretty layout (indent 1, a value per line) down to the

@@ -9,13 +9,13 @@
 //! to millions of rows. Writing uses Rust's shortest round-trip form of each
 //! `f64` (`{}`), so values read back bit for bit.
 
-use std::collections::HashMap;
 use std::path::Path;
 
+use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
-use crate::artefacts::{Ball, ball_index};
+use crate::artefacts::Ball;
 use crate::check::{self, Check, not_finite};
 use crate::error::{DatasetError, Result};
 use crate::quote::quoted_bytes;
@@ -52,15 +52,11 @@ impl Measurements {
     /// Reads `measurements.csv`, resolving ball ids against `balls` (whose
     /// ids are unique); `scale` is the actuators' (mm per unit).
     pub(crate) fn read(path: &Path, balls: &[Ball], scale: &[f64; 6]) -> Result<Self> {
-        let index: HashMap<&[u8], u32> = ball_index(balls)
-            .expect("ball ids are unique")
-            .into_iter()
-            .map(|(id, i)| {
-                (
-                    id.as_bytes(),
-                    u32::try_from(i).expect("fewer than 2^32 balls"),
-                )
-            })
+        // The ids are unique (the caller's premise): each is its ball's.
+        let index: FxHashMap<&[u8], u32> = balls
+            .iter()
+            .zip(0..)
+            .map(|(ball, i)| (ball.id.as_bytes(), i))
             .collect();
         let expected = format!("{BALL},{}", Q.join(","));
         let mut out = Self::default();
@@ -88,7 +84,7 @@ impl Measurements {
         out: &mut Self,
         row: &Row,
         columns: &Columns,
-        index: &HashMap<&[u8], u32>,
+        index: &FxHashMap<&[u8], u32>,
         scale: &[f64; 6],
     ) -> Result<(), Failure> {
         let id = row.field(columns.ball);

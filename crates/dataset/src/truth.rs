@@ -7,7 +7,7 @@ use serde::de::IgnoredAny;
 use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::Point3;
-use crate::artefacts::{Ball, ball_index};
+use crate::artefacts::{Ball, BallIndex, ball_index};
 use crate::check::Check;
 use crate::error::Result;
 use crate::geometry::{GeometryRecord, WithGeometry};
@@ -102,13 +102,14 @@ impl Truth {
         contact_rows: Option<usize>,
     ) -> Result<Self> {
         let check = Check::new(path);
+        let index = ball_index(balls).expect("ball ids are unique");
         let truth = Self {
             geometry: file.geometry,
-            ball_centres: by_ball(check, "ball_centres", file.rest.ball_centres, balls)?
+            ball_centres: by_ball(check, "ball_centres", file.rest.ball_centres, balls, &index)?
                 .into_iter()
                 .map(|p| p.0)
                 .collect(),
-            ball_radii: by_ball(check, "ball_radii", file.rest.ball_radii, balls)?,
+            ball_radii: by_ball(check, "ball_radii", file.rest.ball_radii, balls, &index)?,
             contacts: file.rest.contacts,
             actuator_scale: file.rest.actuator_scale,
             sessions: file.rest.sessions,
@@ -206,24 +207,31 @@ fn with_contacts<C, D>(
 
 /// `values` keyed by the ids of `balls`, in order.
 fn keyed<T>(balls: &[Ball], values: impl IntoIterator<Item = T>) -> IdMap<T> {
-    IdMap(balls.iter().map(|b| b.id.clone()).zip(values).collect())
+    balls.iter().map(|b| b.id.as_str()).zip(values).collect()
 }
 
-/// The values of an id-keyed object in `balls` order: every ball exactly once.
-fn by_ball<T>(check: Check, field: &str, map: IdMap<T>, balls: &[Ball]) -> Result<Vec<T>> {
-    let index = ball_index(balls).expect("ball ids are unique");
+/// The values of an id-keyed object in `balls` order (`index` theirs):
+/// every ball exactly once.
+fn by_ball<T>(
+    check: Check,
+    field: &str,
+    map: IdMap<T>,
+    balls: &[Ball],
+    index: &BallIndex,
+) -> Result<Vec<T>> {
     let mut slots: Vec<Option<T>> = balls.iter().map(|_| None).collect();
-    for (id, value) in map.0 {
-        let &i = index.get(id.as_str()).ok_or_else(|| {
+    map.try_for_each(|id, value| {
+        let &i = index.get(id).ok_or_else(|| {
             check.error(
                 field,
-                format!("unknown ball id {} (not in artefacts.json)", quoted(&id)),
+                format!("unknown ball id {} (not in artefacts.json)", quoted(id)),
             )
         })?;
         if slots[i].replace(value).is_some() {
-            return Err(check.error(field, format!("ball id {} appears twice", quoted(&id))));
+            return Err(check.error(field, format!("ball id {} appears twice", quoted(id))));
         }
-    }
+        Ok(())
+    })?;
     slots
         .into_iter()
         .zip(balls)

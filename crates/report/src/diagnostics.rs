@@ -445,11 +445,16 @@ fn first_listed(
     indices: impl Iterator<Item = usize>,
     by: impl Fn(&usize, &usize) -> std::cmp::Ordering,
 ) -> Vec<usize> {
-    let mut indices: Vec<usize> = indices.collect();
-    if indices.len() > LISTED {
-        indices.select_nth_unstable_by(LISTED - 1, &by);
-        indices.truncate(LISTED);
+    // The first LISTED in order so far, kept sorted: one comparison with
+    // the last of them for most indices.
+    let mut listed: Vec<usize> = Vec::with_capacity(LISTED + 1);
+    for k in indices {
+        if listed.len() == LISTED && by(&k, &listed[LISTED - 1]).is_ge() {
+            continue;
+        }
+        let at = listed.partition_point(|kept| by(kept, &k).is_le());
+        listed.insert(at, k);
+        listed.truncate(LISTED);
     }
-    indices.sort_by(by);
-    indices
+    listed
 }

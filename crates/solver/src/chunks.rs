@@ -9,10 +9,9 @@ use rayon::prelude::*;
 
 /// Chunks processed in parallel between two in-order reductions; bounds the
 /// memory held by per-chunk results (a chunk's part of the reduced system,
-/// about 10 KB: 2.6 MB a wave). Each wave ends with the threads waiting for
-/// its last chunk: at 10^6 contacts in chunks of 64 balls, waves of 256
-/// instead of 64 (9 instead of 35 per pass) made an iteration with 2
-/// threads 7 % faster (docs/performance.md).
+/// about 10 KB: 2.6 MB a wave). Each wave ends with the
+/// threads waiting for its last chunk: fewer, larger waves wait less
+/// (docs/performance.md).
 const CHUNKS_PER_WAVE: usize = 256;
 
 /// Rows of the per-thread group buffer (the group QR runs on at most this many
@@ -201,11 +200,23 @@ pub fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) ->
     out
 }
 
+/// When a pass's results are folded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Absorb {
+    /// After each wave, the threads waiting: for a light fold (a chunk's
+    /// part of the reduced system added in).
+    AfterWave,
+    /// On the calling thread while the next wave runs, two waves' results
+    /// held at once: for a fold as heavy as a share of the work (every
+    /// contact's checks).
+    BesideNextWave,
+}
+
 /// One pass over the chunks: runs `work` on every job (a chunk and what it
 /// reads or writes) with a workspace of `pool`, in parallel waves of
-/// `CHUNKS_PER_WAVE`, and feeds the results to `absorb` in job order. The
-/// first error in job order ends the pass, after its wave. What `absorb`
-/// folds does not depend on the number of threads.
+/// `CHUNKS_PER_WAVE`, and feeds the results to `absorb` in job order after
+/// each wave. The first error in job order ends the pass, after its wave.
+/// What `absorb` folds does not depend on the number of threads.
 pub(crate) fn run_chunks<J, O, E, W, A>(
     pool: &WorkspacePool,
     jobs: Vec<J>,
@@ -219,15 +230,17 @@ where
     W: Fn(&mut Workspace, J) -> Result<O, E> + Sync,
     A: FnMut(O),
 {
-    run_chunks_in_waves(pool, jobs, CHUNKS_PER_WAVE, work, absorb)
+    run_chunks_in_waves(pool, jobs, CHUNKS_PER_WAVE, Absorb::AfterWave, work, absorb)
 }
 
-/// [`run_chunks`] in waves of `chunks_per_wave` chunks (at least one): for
-/// a pass whose per-chunk results are large, fewer at a time.
+/// [`run_chunks`] in waves of `chunks_per_wave` chunks (at least one), for
+/// a pass whose per-chunk results are large (fewer at a time), their fold
+/// as `when` says. No wave after the first error's is started.
 pub(crate) fn run_chunks_in_waves<J, O, E, W, A>(
     pool: &WorkspacePool,
     jobs: Vec<J>,
     chunks_per_wave: usize,
+    when: Absorb,
     work: W,
     mut absorb: A,
 ) -> Result<(), E>
@@ -239,23 +252,47 @@ where
     A: FnMut(O),
 {
     let mut jobs = jobs.into_iter();
-    loop {
-        let wave: Vec<J> = jobs.by_ref().take(chunks_per_wave.max(1)).collect();
-        if wave.is_empty() {
-            return Ok(());
-        }
-        let results: Vec<Result<O, E>> = wave
-            .into_par_iter()
+    let mut next_wave = || -> Vec<J> { jobs.by_ref().take(chunks_per_wave.max(1)).collect() };
+    let compute = |wave: Vec<J>| -> Vec<Result<O, E>> {
+        wave.into_par_iter()
             .map(|job| pool.with(|ws| work(ws, job)))
-            .collect();
-        for result in results {
-            absorb(result?);
+            .collect()
+    };
+    let mut fold = |results: Vec<Result<O, E>>| {
+        results
+            .into_iter()
+            .try_for_each(|result| result.map(&mut absorb))
+    };
+    let mut results = compute(next_wave());
+    while !results.is_empty() {
+        if results.iter().any(Result::is_err) {
+            return fold(results);
         }
+        let wave = next_wave();
+        results = match when {
+            Absorb::AfterWave => {
+                fold(results)?;
+                compute(wave)
+            }
+            Absorb::BesideNextWave => {
+                let mut next = Vec::new();
+                rayon::in_place_scope(|scope| {
+                    if !wave.is_empty() {
+                        scope.spawn(|_| next = compute(wave));
+                    }
+                    fold(results)
+                })?;
+                next
+            }
+        };
     }
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
     use super::*;
 
     #[test]
@@ -299,8 +336,25 @@ mod tests {
         let first = run_chunks(&pool, (0..600).collect(), fail, |o| seen.push(o));
         assert_eq!(first, Err(7));
         assert_eq!(seen, (0..7).collect::<Vec<_>>());
-        let mut seen = Vec::new();
-        run_chunks_in_waves(&pool, (0..600).collect(), 7, double, |o| seen.push(o)).unwrap();
-        assert_eq!(seen, (0..600).map(|j| j * 2).collect::<Vec<_>>());
+        for when in [Absorb::AfterWave, Absorb::BesideNextWave] {
+            let mut seen = Vec::new();
+            run_chunks_in_waves(&pool, (0..600).collect(), 7, when, double, |o| seen.push(o))
+                .unwrap();
+            assert_eq!(seen, (0..600).map(|j| j * 2).collect::<Vec<_>>());
+            // The first error is in the second wave, which started (beside
+            // the first's fold, or after it); none after it did.
+            let started = AtomicUsize::new(0);
+            let counted = |ws: &mut Workspace, j: usize| {
+                started.fetch_add(1, Ordering::Relaxed);
+                fail(ws, j)
+            };
+            let mut seen = Vec::new();
+            let first = run_chunks_in_waves(&pool, (0..600).collect(), 7, when, counted, |o| {
+                seen.push(o)
+            });
+            assert_eq!(first, Err(7));
+            assert_eq!(seen, (0..7).collect::<Vec<_>>());
+            assert_eq!(started.into_inner(), 14);
+        }
     }
 }

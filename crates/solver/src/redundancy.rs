@@ -99,7 +99,7 @@ use std::collections::VecDeque;
 use nalgebra::{DMatrix, SMatrix, SVector};
 
 use crate::chunked_problem::ChunkedProblem;
-use crate::chunks::run_chunks_in_waves;
+use crate::chunks::{Absorb, run_chunks_in_waves};
 use crate::covariance::GroupSigmas;
 use crate::effects::{EffectProjection, EffectSums};
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
@@ -178,11 +178,12 @@ impl PriorLeverage {
     }
 }
 
-/// Chunks of the pass run in parallel between two hand-overs to the
-/// caller: each chunk's points' rows (`3 R + 1` values a point) wait for the
-/// wave's end, so that fewer chunks a wave than the other passes' keep
-/// them small (about 1 MB at 64 groups of 7 points a chunk, `R = 3`).
-const CHUNKS_PER_WAVE: usize = 32;
+/// Chunks of the pass run in parallel while the caller is handed the
+/// wave before: each chunk's points' rows (`3 R + 1` values a point) wait
+/// for it, so that fewer chunks a wave than the other passes' keep them
+/// small (about 0.5 MB a wave, two waves held, at 64 groups of 7 points a
+/// chunk, `R = 3`).
+const CHUNKS_PER_WAVE: usize = 16;
 
 /// Redundancy at or below which a row counts as determined by the unknowns
 /// it touches: its residual and its redundancy are both rounding noise.
@@ -333,6 +334,7 @@ where
             pool,
             jobs,
             CHUNKS_PER_WAVE,
+            Absorb::BesideNextWave,
             |ws, (chunk, caches)| {
                 let (bufs, _, rows) = ws.split();
                 // Room for the largest group: nothing grows per point.
