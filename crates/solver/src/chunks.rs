@@ -9,9 +9,8 @@ use rayon::prelude::*;
 
 /// Chunks processed in parallel between two in-order reductions; bounds the
 /// memory held by per-chunk results (a chunk's part of the reduced system,
-/// about 10 KB: 2.6 MB a wave). Each wave ends with the
-/// threads waiting for its last chunk: fewer, larger waves wait less
-/// (docs/performance.md).
+/// about 10 KB: 2.6 MB a wave). Each wave ends with the threads waiting for
+/// its last chunk: fewer, larger waves wait less (docs/performance.md).
 const CHUNKS_PER_WAVE: usize = 256;
 
 /// Rows of the per-thread group buffer (the group QR runs on at most this many
