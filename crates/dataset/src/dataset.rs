@@ -6,10 +6,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::artefacts::{BallIndex, ball_index};
 use crate::atomic;
 use crate::check::Check;
 use crate::checksum::Crc32;
 use crate::error::{DatasetError, Result};
+use crate::truth::BallValues;
 use crate::{
     ARTEFACTS_FILE, Artefacts, MACHINE_FILE, MEASUREMENTS_FILE, Machine, Measurements, POINTS_FILE,
     POSES_FILE, TRUTH_FILE, Tracker, Truth, snapshot,
@@ -103,20 +105,40 @@ impl Dataset {
             (dir.join(ARTEFACTS_FILE), dir.join(MEASUREMENTS_FILE));
         let touches =
             !tracker.is_empty() && !artefacts_path.exists() && !measurements_path.exists();
-        let (artefacts, measurements) = if touches {
-            (Artefacts::default(), Measurements::default())
+        let truth_path = dir.join(TRUTH_FILE);
+        let (artefacts, measurements, truth, values) = if touches {
+            let values = BallValues::new(0);
+            let truth = Truth::parse_if_present(
+                &truth_path,
+                &[],
+                &BallIndex::default(),
+                &values,
+                options.true_contacts,
+            )?;
+            (Artefacts::default(), Measurements::default(), truth, values)
         } else {
             let artefacts = Artefacts::read(&artefacts_path)?;
-            let measurements = Measurements::read(&measurements_path, &artefacts.balls, scale)?;
-            (artefacts, measurements)
+            let balls = &artefacts.balls;
+            let index = ball_index(balls).expect("ball ids are unique");
+            // truth.json is parsed on a thread of its own while the
+            // measurements are read, into room allocated here: what that
+            // thread frees is all it allocated, none of it left resident.
+            let values = BallValues::new(balls.len());
+            let (measurements, truth) = std::thread::scope(|scope| {
+                let truth = scope.spawn(|| {
+                    let contacts = options.true_contacts;
+                    Truth::parse_if_present(&truth_path, balls, &index, &values, contacts)
+                });
+                let measurements = Measurements::read(&measurements_path, balls, scale);
+                (measurements, truth.join())
+            });
+            let truth = truth.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            (artefacts, measurements?, truth?, values)
         };
         let dataset = Self {
-            truth: Truth::read_if_present(
-                &dir.join(TRUTH_FILE),
-                &artefacts.balls,
-                measurements.len(),
-                options.true_contacts,
-            )?,
+            truth: truth
+                .map(|file| file.checked(&truth_path, &artefacts.balls, values, measurements.len()))
+                .transpose()?,
             machine,
             artefacts,
             measurements,

@@ -9,7 +9,7 @@
 use std::fmt;
 use std::marker::PhantomData;
 
-use serde::de::{self, Deserializer, MapAccess, Visitor};
+use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, Visitor};
 use serde::{Deserialize, Serialize};
 
 use parcal_kinematics::{Geometry, KinematicsError};
@@ -96,14 +96,24 @@ pub(crate) struct WithGeometry<G, T> {
 
 impl<'de, T: Deserialize<'de>> Deserialize<'de> for WithGeometry<GeometryRecord, T> {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        d.deserialize_map(WithGeometryVisitor(PhantomData))
+        GeometryAnd(PhantomData::<T>).deserialize(d)
     }
 }
 
-struct WithGeometryVisitor<T>(PhantomData<T>);
+/// Reads a [`WithGeometry`] whose `rest` is the value of the seed it holds.
+#[derive(Clone)]
+pub(crate) struct GeometryAnd<S>(pub S);
 
-impl<'de, T: Deserialize<'de>> Visitor<'de> for WithGeometryVisitor<T> {
-    type Value = WithGeometry<GeometryRecord, T>;
+impl<'de, S: DeserializeSeed<'de>> DeserializeSeed<'de> for GeometryAnd<S> {
+    type Value = WithGeometry<GeometryRecord, S::Value>;
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de, S: DeserializeSeed<'de>> Visitor<'de> for GeometryAnd<S> {
+    type Value = WithGeometry<GeometryRecord, S::Value>;
 
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
         f.write_str("a JSON object")
@@ -112,7 +122,7 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for WithGeometryVisitor<T> {
     fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
         let mut geometry = PartialGeometry::default();
         let take = |key: &str, map: &mut A| geometry.read(key, map);
-        let rest = T::deserialize(&mut TakeFields { map, take })?;
+        let rest = self.0.deserialize(&mut TakeFields { map, take })?;
         Ok(WithGeometry {
             geometry: geometry.finish()?,
             rest,

@@ -3,10 +3,13 @@
 
 use std::fmt;
 use std::io::{self, Write};
+use std::marker::PhantomData;
 use std::path::Path;
 
 use serde::Serialize;
-use serde::de::{self, DeserializeOwned, Deserializer, IgnoredAny, MapAccess, Visitor};
+use serde::de::{
+    self, DeserializeOwned, DeserializeSeed, Deserializer, IgnoredAny, MapAccess, Visitor,
+};
 use serde_json::error::Category;
 
 use crate::atomic::{write_atomic, write_error};
@@ -119,20 +122,32 @@ pub(crate) fn read<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<T> {
 
 /// Reads an optional JSON file of the given kind: `None` if it does not exist.
 pub(crate) fn read_if_present<T: DeserializeOwned>(path: &Path, kind: Kind) -> Result<Option<T>> {
+    read_if_present_with(path, kind, PhantomData::<T>)
+}
+
+/// [`read_if_present`] of the value `seed` reads (what it needs beside the
+/// file, such as the balls' index).
+pub(crate) fn read_if_present_with<S, V>(path: &Path, kind: Kind, seed: S) -> Result<Option<V>>
+where
+    S: for<'de> DeserializeSeed<'de, Value = V> + Clone,
+{
     match input::read_json(path)? {
-        Some(bytes) => parse(path, kind, &bytes).map(Some),
+        Some(bytes) => parse(path, kind, &bytes, seed).map(Some),
         None => Ok(None),
     }
 }
 
-/// Parses the bytes of a JSON file of the given kind: the `format` first (so
-/// that a file of another version is refused as such), then the body. A
-/// leading UTF-8 byte order mark is skipped.
-pub(crate) fn parse<T: DeserializeOwned>(path: &Path, kind: Kind, bytes: &[u8]) -> Result<T> {
+/// Parses the bytes of a JSON file of the given kind into the value `seed`
+/// reads: the `format` first (so that a file of another version is refused
+/// as such), then the body. A leading UTF-8 byte order mark is skipped.
+fn parse<S, V>(path: &Path, kind: Kind, bytes: &[u8], seed: S) -> Result<V>
+where
+    S: for<'de> DeserializeSeed<'de, Value = V> + Clone,
+{
     let bytes = bytes.strip_prefix(input::BOM).unwrap_or(bytes);
     let format = format_field(path, bytes)?;
     kind.check(path, &format)?;
-    deserialize(path, bytes)
+    deserialize(path, bytes, seed)
 }
 
 /// The `format` field of a JSON document that must be an object, read only
@@ -188,9 +203,12 @@ fn format_field(path: &Path, bytes: &[u8]) -> Result<String> {
 /// path, which costs on every element of a large file (a tenth of reading
 /// a 10^6-contact campaign's JSON); a document that fails is parsed again
 /// with it, so that the error names the field.
-fn deserialize<T: DeserializeOwned>(path: &Path, bytes: &[u8]) -> Result<T> {
+fn deserialize<S, V>(path: &Path, bytes: &[u8], seed: S) -> Result<V>
+where
+    S: for<'de> DeserializeSeed<'de, Value = V> + Clone,
+{
     let mut de = serde_json::Deserializer::from_slice(bytes);
-    if let Ok(value) = T::deserialize(WithoutFormat(&mut de))
+    if let Ok(value) = seed.clone().deserialize(WithoutFormat(&mut de))
         && de.end().is_ok()
     {
         return Ok(value);
@@ -198,7 +216,7 @@ fn deserialize<T: DeserializeOwned>(path: &Path, bytes: &[u8]) -> Result<T> {
     let mut de = serde_json::Deserializer::from_slice(bytes);
     let mut track = serde_path_to_error::Track::new();
     let tracked = serde_path_to_error::Deserializer::new(&mut de, &mut track);
-    let value = T::deserialize(WithoutFormat(tracked)).map_err(|e| {
+    let value = seed.deserialize(WithoutFormat(tracked)).map_err(|e| {
         let at = track.path();
         let field = at.iter().next().map(|_| at.to_string());
         map_error(path, field, e)
@@ -575,15 +593,27 @@ mod tests {
     }
 
     fn parse_err(json: &str) -> String {
-        parse::<Body>(Path::new("x.json"), MACHINE, json.as_bytes())
-            .unwrap_err()
-            .to_string()
+        parse(
+            Path::new("x.json"),
+            MACHINE,
+            json.as_bytes(),
+            PhantomData::<Body>,
+        )
+        .unwrap_err()
+        .to_string()
     }
 
     #[test]
     fn the_format_is_found_wherever_it_is_and_judged_before_the_body() {
         let body = r#""a": 1, "inner": {"b": [2]}"#;
-        let parse_ok = |json: &str| parse::<Body>(Path::new("x.json"), MACHINE, json.as_bytes());
+        let parse_ok = |json: &str| {
+            parse(
+                Path::new("x.json"),
+                MACHINE,
+                json.as_bytes(),
+                PhantomData::<Body>,
+            )
+        };
         for json in [
             format!(r#"{{"format": "parcal-machine/1", {body}}}"#),
             format!(r#"{{{body}, "format": "parcal-machine/1.3"}}"#),

@@ -1,6 +1,5 @@
 //! Serde helpers for the shapes of the format: fixed-size arrays that say what
-//! they expected ("expected 6 joints, found 5"), and JSON objects keyed by ball
-//! id that keep their order.
+//! they expected ("expected 6 joints, found 5").
 //!
 //! The fixed-size helpers go through `deserialize_tuple`, exactly as serde's
 //! own `[T; N]` does, so the same types also read back from postcard
@@ -11,7 +10,6 @@ use std::fmt;
 use std::marker::PhantomData;
 
 use serde::de::{self, Deserializer, IgnoredAny, MapAccess, SeqAccess, Visitor};
-use serde::ser::{SerializeMap, Serializer};
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
@@ -216,117 +214,6 @@ where
     d.deserialize_map(UniqueVisitor(PhantomData))
 }
 
-/// A JSON object keyed by ball id, in file order, duplicates kept (the
-/// caller resolves ids against the artefacts and reports duplicates). The
-/// ids are held end to end in one string: a few allocations for any
-/// number of balls.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct IdMap<T> {
-    /// The ids, end to end.
-    ids: String,
-    /// Where each id ends in `ids`.
-    ends: Vec<usize>,
-    values: Vec<T>,
-}
-
-impl<T> IdMap<T> {
-    fn new() -> Self {
-        Self {
-            ids: String::new(),
-            ends: Vec::new(),
-            values: Vec::new(),
-        }
-    }
-
-    /// Appends `value` under `id`.
-    fn push(&mut self, id: &str, value: T) {
-        self.ids.push_str(id);
-        self.ends.push(self.ids.len());
-        self.values.push(value);
-    }
-
-    /// The entries, in order.
-    pub(crate) fn iter(&self) -> impl Iterator<Item = (&str, &T)> {
-        let starts = std::iter::once(0).chain(self.ends.iter().copied());
-        starts
-            .zip(&self.ends)
-            .map(|(start, &end)| &self.ids[start..end])
-            .zip(&self.values)
-    }
-
-    /// Hands each entry to `f` in order, its value moved, until `f` fails.
-    pub(crate) fn try_for_each<E>(
-        self,
-        mut f: impl FnMut(&str, T) -> Result<(), E>,
-    ) -> Result<(), E> {
-        let mut start = 0;
-        for (end, value) in self.ends.into_iter().zip(self.values) {
-            f(&self.ids[start..end], value)?;
-            start = end;
-        }
-        Ok(())
-    }
-}
-
-impl<'a, T> FromIterator<(&'a str, T)> for IdMap<T> {
-    fn from_iter<I: IntoIterator<Item = (&'a str, T)>>(entries: I) -> Self {
-        let mut map = Self::new();
-        for (id, value) in entries {
-            map.push(id, value);
-        }
-        map
-    }
-}
-
-impl<T: Serialize> Serialize for IdMap<T> {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let mut map = s.serialize_map(Some(self.values.len()))?;
-        for (id, value) in self.iter() {
-            map.serialize_entry(id, value)?;
-        }
-        map.end()
-    }
-}
-
-impl<'de, T: Deserialize<'de>> Deserialize<'de> for IdMap<T> {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        /// Appends a key to the map's ids without a string of its own.
-        struct Key<'a, T>(&'a mut IdMap<T>);
-        impl<'de, T> de::DeserializeSeed<'de> for Key<'_, T> {
-            type Value = ();
-            fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
-                d.deserialize_str(self)
-            }
-        }
-        impl<'de, T> Visitor<'de> for Key<'_, T> {
-            type Value = ();
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a ball id")
-            }
-            fn visit_str<E: de::Error>(self, id: &str) -> Result<(), E> {
-                self.0.ids.push_str(id);
-                self.0.ends.push(self.0.ids.len());
-                Ok(())
-            }
-        }
-        struct IdMapVisitor<T>(PhantomData<T>);
-        impl<'de, T: Deserialize<'de>> Visitor<'de> for IdMapVisitor<T> {
-            type Value = IdMap<T>;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("an object keyed by ball id")
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
-                let mut out = IdMap::new();
-                while map.next_key_seed(Key(&mut out))?.is_some() {
-                    out.values.push(map.next_value()?);
-                }
-                Ok(out)
-            }
-        }
-        d.deserialize_map(IdMapVisitor(PhantomData))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -377,16 +264,5 @@ mod tests {
         };
         let bytes = postcard::to_stdvec(&p).unwrap();
         assert_eq!(postcard::from_bytes::<Probe>(&bytes).unwrap(), p);
-    }
-
-    #[test]
-    fn id_map_keeps_order_and_duplicates() {
-        let m: IdMap<f64> = serde_json::from_str(r#"{"b2": 1, "b1": 2, "b2": 3}"#).unwrap();
-        let ids: Vec<&str> = m.iter().map(|(k, _)| k).collect();
-        assert_eq!(ids, ["b2", "b1", "b2"]);
-        assert_eq!(
-            serde_json::to_string(&m).unwrap(),
-            r#"{"b2":1.0,"b1":2.0,"b2":3.0}"#
-        );
     }
 }

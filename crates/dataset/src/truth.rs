@@ -1,19 +1,21 @@
 //! `truth.json` (simulated datasets only): the true geometry, balls and
 //! contact points.
 
+use std::fmt;
 use std::path::Path;
+use std::sync::{Mutex, PoisonError};
 
-use serde::de::IgnoredAny;
-use serde::{Deserialize, Deserializer, Serialize};
+use serde::de::{self, DeserializeSeed, Deserializer, IgnoredAny, MapAccess, Visitor};
+use serde::{Deserialize, Serialize, Serializer};
 
 use crate::Point3;
-use crate::artefacts::{Ball, BallIndex, ball_index};
+use crate::artefacts::{Ball, BallIndex};
 use crate::check::Check;
 use crate::error::Result;
-use crate::geometry::{GeometryRecord, WithGeometry};
+use crate::geometry::{GeometryAnd, GeometryRecord, WithGeometry};
 use crate::quote::quoted;
 use crate::session::SessionRecord;
-use crate::shape::{self, IdMap, P3};
+use crate::shape::{self, P3};
 use crate::{MEASUREMENTS_FILE, json};
 
 /// The truth behind a simulated dataset, in the frames of `machine.json`.
@@ -40,82 +42,307 @@ pub struct Truth {
     pub sessions: Vec<SessionRecord>,
 }
 
-/// The fields of `truth.json` after the geometry: balls keyed by id; the
-/// contact points as `C` (written from a `Vec`, read as [`TrueContacts`],
-/// or skipped unparsed as [`IgnoredAny`]).
-#[derive(Serialize, Deserialize)]
-struct Balls<C> {
-    ball_centres: IdMap<P3>,
-    ball_radii: IdMap<f64>,
-    contacts: C,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+/// The fields of `truth.json` after the geometry, as written: balls keyed
+/// by id ([`BallsSeed`] reads them).
+#[derive(Serialize)]
+struct Balls<'a> {
+    ball_centres: Keyed<'a, Point3>,
+    ball_radii: Keyed<'a, f64>,
+    contacts: &'a [Point3],
+    #[serde(skip_serializing_if = "Option::is_none")]
     actuator_scale: Option<[f64; 6]>,
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(skip_serializing_if = "<[SessionRecord]>::is_empty")]
+    sessions: &'a [SessionRecord],
+}
+
+/// `truth.json` parsed, its balls' values in ball order, not yet checked
+/// against the measurements ([`Truth::parse_if_present`]).
+pub(crate) struct TruthFile {
+    geometry: GeometryRecord,
+    rest: ReadBalls,
+    /// Whether the contact points were parsed.
+    contacts: bool,
+}
+
+/// The fields of `truth.json` after the geometry, as [`BallsSeed`] reads
+/// them, but the balls' values ([`BallValues`]).
+struct ReadBalls {
+    contacts: Vec<Point3>,
+    actuator_scale: Option<[f64; 6]>,
     sessions: Vec<SessionRecord>,
 }
 
-/// `truth.json`'s contact points, parsed.
-struct TrueContacts(Vec<Point3>);
+/// Values keyed by ball id, put in ball order as they are read.
+struct ByBall<T> {
+    values: Vec<T>,
+    /// Which balls were given.
+    given: Vec<bool>,
+}
 
-impl<'de> Deserialize<'de> for TrueContacts {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        shape::points(d).map(Self)
+impl<T: Clone + Default> ByBall<T> {
+    /// Room for `n` balls' values.
+    fn new(n: usize) -> Self {
+        Self {
+            values: vec![T::default(); n],
+            given: vec![false; n],
+        }
+    }
+}
+
+/// Where the parse puts the balls' values, allocated by its caller: a
+/// parse on another thread allocates nothing it keeps, so that what it
+/// frees is all it used.
+pub(crate) struct BallValues {
+    centres: Mutex<ByBall<P3>>,
+    radii: Mutex<ByBall<f64>>,
+}
+
+impl BallValues {
+    /// Room for `n` balls.
+    pub(crate) fn new(n: usize) -> Self {
+        Self {
+            centres: Mutex::new(ByBall::new(n)),
+            radii: Mutex::new(ByBall::new(n)),
+        }
+    }
+}
+
+/// Reads the fields after the geometry (`balls` the artefacts', `index`
+/// theirs, their values into `values`; the contact points parsed if
+/// `contacts`, skipped unparsed otherwise).
+#[derive(Clone, Copy)]
+struct BallsSeed<'a> {
+    balls: &'a [Ball],
+    index: &'a BallIndex<'a>,
+    values: &'a BallValues,
+    contacts: bool,
+}
+
+impl<'a> BallsSeed<'a> {
+    /// Reads an object keyed by ball id into `into`.
+    fn by_ball<T>(&self, into: &'a Mutex<ByBall<T>>) -> ByBallSeed<'a, T> {
+        ByBallSeed {
+            balls: self.balls,
+            index: self.index,
+            into,
+        }
+    }
+}
+
+/// The fields of [`ReadBalls`], any other ignored.
+#[derive(Deserialize)]
+#[serde(field_identifier, rename_all = "snake_case")]
+enum Field {
+    BallCentres,
+    BallRadii,
+    Contacts,
+    ActuatorScale,
+    Sessions,
+    #[serde(other)]
+    Other,
+}
+
+impl<'de> DeserializeSeed<'de> for BallsSeed<'_> {
+    type Value = ReadBalls;
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> std::result::Result<ReadBalls, D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de> Visitor<'de> for BallsSeed<'_> {
+    type Value = ReadBalls;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("the fields of truth.json")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> std::result::Result<ReadBalls, A::Error> {
+        let (mut centres, mut radii, mut contacts, mut scale, mut sessions) =
+            (None, None, None, None, None);
+        while let Some(field) = map.next_key()? {
+            match field {
+                Field::BallCentres => once(&mut centres, "ball_centres", || {
+                    map.next_value_seed(self.by_ball(&self.values.centres))
+                })?,
+                Field::BallRadii => once(&mut radii, "ball_radii", || {
+                    map.next_value_seed(self.by_ball(&self.values.radii))
+                })?,
+                Field::Contacts => once(&mut contacts, "contacts", || {
+                    if self.contacts {
+                        map.next_value_seed(PointsSeed)
+                    } else {
+                        map.next_value::<IgnoredAny>().map(|_| Vec::new())
+                    }
+                })?,
+                Field::ActuatorScale => once(&mut scale, "actuator_scale", || map.next_value())?,
+                Field::Sessions => once(&mut sessions, "sessions", || map.next_value())?,
+                Field::Other => {
+                    map.next_value::<IgnoredAny>()?;
+                }
+            }
+        }
+        centres.ok_or_else(|| de::Error::missing_field("ball_centres"))?;
+        radii.ok_or_else(|| de::Error::missing_field("ball_radii"))?;
+        Ok(ReadBalls {
+            contacts: contacts.ok_or_else(|| de::Error::missing_field("contacts"))?,
+            actuator_scale: scale.flatten(),
+            sessions: sessions.unwrap_or_default(),
+        })
+    }
+}
+
+/// Fills `slot` by `read` (a field given twice is an error, as in serde's
+/// derived structs).
+fn once<T, E: de::Error>(
+    slot: &mut Option<T>,
+    field: &'static str,
+    read: impl FnOnce() -> std::result::Result<T, E>,
+) -> std::result::Result<(), E> {
+    if slot.is_some() {
+        return Err(E::duplicate_field(field));
+    }
+    *slot = Some(read()?);
+    Ok(())
+}
+
+/// `truth.json`'s contact points, parsed.
+struct PointsSeed;
+
+impl<'de> DeserializeSeed<'de> for PointsSeed {
+    type Value = Vec<Point3>;
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> std::result::Result<Vec<Point3>, D::Error> {
+        shape::points(d)
+    }
+}
+
+/// Reads an object keyed by ball id into a [`ByBall`]: an id not among the
+/// balls, or given twice, is an error.
+struct ByBallSeed<'a, T> {
+    balls: &'a [Ball],
+    index: &'a BallIndex<'a>,
+    into: &'a Mutex<ByBall<T>>,
+}
+
+impl<'de, T: Deserialize<'de>> DeserializeSeed<'de> for ByBallSeed<'_, T> {
+    type Value = ();
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> std::result::Result<(), D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de, T: Deserialize<'de>> Visitor<'de> for ByBallSeed<'_, T> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("an object keyed by ball id")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> std::result::Result<(), A::Error> {
+        let mut out = self.into.lock().unwrap_or_else(PoisonError::into_inner);
+        // A parse again (to name the field of an error) starts afresh.
+        out.given.fill(false);
+        while let Some(i) = map.next_key_seed(BallId(self.index))? {
+            if std::mem::replace(&mut out.given[i], true) {
+                return Err(de::Error::custom(format!(
+                    "ball id {} appears twice",
+                    quoted(&self.balls[i].id)
+                )));
+            }
+            out.values[i] = map.next_value()?;
+        }
+        Ok(())
+    }
+}
+
+/// A ball id, read as its index among the balls.
+struct BallId<'a>(&'a BallIndex<'a>);
+
+impl<'de> DeserializeSeed<'de> for BallId<'_> {
+    type Value = usize;
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> std::result::Result<usize, D::Error> {
+        d.deserialize_str(self)
+    }
+}
+
+impl<'de> Visitor<'de> for BallId<'_> {
+    type Value = usize;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a ball id")
+    }
+
+    fn visit_str<E: de::Error>(self, id: &str) -> std::result::Result<usize, E> {
+        self.0.get(id).copied().ok_or_else(|| {
+            E::custom(format!(
+                "unknown ball id {} (not in artefacts.json)",
+                quoted(id)
+            ))
+        })
+    }
+}
+
+impl TruthFile {
+    /// The truth, checked as [`Truth::validate`] checks it, every ball
+    /// given (`balls` and `values` those the file was parsed with), against
+    /// `rows` measurement rows (`truth.json` at `path`).
+    pub(crate) fn checked(
+        self,
+        path: &Path,
+        balls: &[Ball],
+        values: BallValues,
+        rows: usize,
+    ) -> Result<Truth> {
+        let check = Check::new(path);
+        let ReadBalls {
+            contacts,
+            actuator_scale,
+            sessions,
+        } = self.rest;
+        let truth = Truth {
+            geometry: self.geometry,
+            ball_centres: every_ball(check, "ball_centres", values.centres, balls)?
+                .into_iter()
+                .map(|p| p.0)
+                .collect(),
+            ball_radii: every_ball(check, "ball_radii", values.radii, balls)?,
+            contacts,
+            actuator_scale,
+            sessions,
+        };
+        truth.validate(check, balls.len(), self.contacts.then_some(rows))?;
+        Ok(truth)
     }
 }
 
 impl Truth {
-    /// Reads and checks `truth.json` if it exists, against the balls and the
-    /// number of measurement rows; without its contact points (skipped
-    /// unparsed, [`Truth::contacts`] left empty) unless `contacts`.
-    pub(crate) fn read_if_present(
+    /// Parses `truth.json` if it exists, its balls' values put into
+    /// `values` in the order of `balls` (`index` theirs) as they are read; without its contact
+    /// points (skipped unparsed, [`Truth::contacts`] left empty) unless
+    /// `contacts`. [`TruthFile::checked`] checks it against the
+    /// measurements.
+    pub(crate) fn parse_if_present(
         path: &Path,
         balls: &[Ball],
-        rows: usize,
+        index: &BallIndex,
+        values: &BallValues,
         contacts: bool,
-    ) -> Result<Option<Self>> {
-        let contact_rows = contacts.then_some(rows);
-        let read = |file: Option<WithGeometry<GeometryRecord, Balls<Vec<Point3>>>>| {
-            file.map(|file| Self::checked(path, file, balls, contact_rows))
-                .transpose()
-        };
-        if contacts {
-            let file = json::read_if_present::<WithGeometry<GeometryRecord, Balls<TrueContacts>>>(
-                path,
-                json::TRUTH,
-            )?;
-            read(file.map(|f| with_contacts(f, |c| c.0)))
-        } else {
-            let file = json::read_if_present::<WithGeometry<GeometryRecord, Balls<IgnoredAny>>>(
-                path,
-                json::TRUTH,
-            )?;
-            read(file.map(|f| with_contacts(f, |_| Vec::new())))
-        }
-    }
-
-    /// The truth of `file` (`truth.json` at `path`), checked as
-    /// [`Truth::validate`] checks it.
-    fn checked(
-        path: &Path,
-        file: WithGeometry<GeometryRecord, Balls<Vec<Point3>>>,
-        balls: &[Ball],
-        contact_rows: Option<usize>,
-    ) -> Result<Self> {
-        let check = Check::new(path);
-        let index = ball_index(balls).expect("ball ids are unique");
-        let truth = Self {
+    ) -> Result<Option<TruthFile>> {
+        let seed = GeometryAnd(BallsSeed {
+            balls,
+            index,
+            values,
+            contacts,
+        });
+        let file = json::read_if_present_with(path, json::TRUTH, seed)?;
+        Ok(file.map(|file| TruthFile {
             geometry: file.geometry,
-            ball_centres: by_ball(check, "ball_centres", file.rest.ball_centres, balls, &index)?
-                .into_iter()
-                .map(|p| p.0)
-                .collect(),
-            ball_radii: by_ball(check, "ball_radii", file.rest.ball_radii, balls, &index)?,
-            contacts: file.rest.contacts,
-            actuator_scale: file.rest.actuator_scale,
-            sessions: file.rest.sessions,
-        };
-        truth.validate(check, balls.len(), contact_rows)?;
-        Ok(truth)
+            rest: file.rest,
+            contacts,
+        }))
     }
 
     /// Writes `truth.json` (the caller has validated).
@@ -123,11 +350,11 @@ impl Truth {
         let file = WithGeometry {
             geometry: &self.geometry,
             rest: Balls {
-                ball_centres: keyed(balls, self.ball_centres.iter().copied().map(P3)),
-                ball_radii: keyed(balls, self.ball_radii.iter().copied()),
-                contacts: self.contacts.clone(),
+                ball_centres: Keyed(balls, &self.ball_centres),
+                ball_radii: Keyed(balls, &self.ball_radii),
+                contacts: &self.contacts,
                 actuator_scale: self.actuator_scale,
-                sessions: self.sessions.clone(),
+                sessions: &self.sessions,
             },
         };
         json::write(path, json::TRUTH, &file)
@@ -181,67 +408,29 @@ impl Truth {
     }
 }
 
-/// `file` with its contact points mapped by `f`.
-fn with_contacts<C, D>(
-    file: WithGeometry<GeometryRecord, Balls<C>>,
-    f: impl FnOnce(C) -> D,
-) -> WithGeometry<GeometryRecord, Balls<D>> {
-    let Balls {
-        ball_centres,
-        ball_radii,
-        contacts,
-        actuator_scale,
-        sessions,
-    } = file.rest;
-    WithGeometry {
-        geometry: file.geometry,
-        rest: Balls {
-            ball_centres,
-            ball_radii,
-            contacts: f(contacts),
-            actuator_scale,
-            sessions,
-        },
+/// Values keyed by the ids of the balls, in order: a JSON object.
+struct Keyed<'a, T>(&'a [Ball], &'a [T]);
+
+impl<T: Serialize> Serialize for Keyed<'_, T> {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.collect_map(self.0.iter().map(|ball| &ball.id).zip(self.1))
     }
 }
 
-/// `values` keyed by the ids of `balls`, in order.
-fn keyed<T>(balls: &[Ball], values: impl IntoIterator<Item = T>) -> IdMap<T> {
-    balls.iter().map(|b| b.id.as_str()).zip(values).collect()
-}
-
-/// The values of an id-keyed object in `balls` order (`index` theirs):
-/// every ball exactly once.
-fn by_ball<T>(
+/// The values read into `by_ball` (the object `field`), every ball of
+/// `balls` given.
+fn every_ball<T>(
     check: Check,
     field: &str,
-    map: IdMap<T>,
+    by_ball: Mutex<ByBall<T>>,
     balls: &[Ball],
-    index: &BallIndex,
 ) -> Result<Vec<T>> {
-    let mut slots: Vec<Option<T>> = balls.iter().map(|_| None).collect();
-    map.try_for_each(|id, value| {
-        let &i = index.get(id).ok_or_else(|| {
-            check.error(
-                field,
-                format!("unknown ball id {} (not in artefacts.json)", quoted(id)),
-            )
-        })?;
-        if slots[i].replace(value).is_some() {
-            return Err(check.error(field, format!("ball id {} appears twice", quoted(id))));
-        }
-        Ok(())
-    })?;
-    slots
-        .into_iter()
-        .zip(balls)
-        .map(|(slot, ball)| {
-            slot.ok_or_else(|| {
-                check.error(
-                    field,
-                    format!("ball {} of artefacts.json is missing", quoted(&ball.id)),
-                )
-            })
-        })
-        .collect()
+    let by_ball = by_ball.into_inner().unwrap_or_else(PoisonError::into_inner);
+    match by_ball.given.iter().position(|&given| !given) {
+        Some(i) => Err(check.error(
+            field,
+            format!("ball {} of artefacts.json is missing", quoted(&balls[i].id)),
+        )),
+        None => Ok(by_ball.values),
+    }
 }

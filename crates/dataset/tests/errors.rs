@@ -930,7 +930,7 @@ fn truth_ball_centres_must_have_exactly_the_artefact_ids() {
             })
         },
         TRUTH_FILE,
-        "field ball_centres: unknown ball id \"b99\" (not in artefacts.json)",
+        "field ball_centres.b99: unknown ball id \"b99\" (not in artefacts.json) (line 13,",
     );
 }
 
@@ -950,7 +950,7 @@ fn truth_ball_radii_must_have_exactly_the_artefact_ids() {
         ALL,
         |dir| edit_json(dir, TRUTH_FILE, |v| v["ball_radii"]["B01"] = json!(5)),
         TRUTH_FILE,
-        "field ball_radii: unknown ball id \"B01\" (not in artefacts.json)",
+        "field ball_radii.B01: unknown ball id \"B01\" (not in artefacts.json) (line 20,",
     );
 }
 
