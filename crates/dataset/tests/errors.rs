@@ -911,6 +911,39 @@ fn truth_contacts_count_must_match_the_rows() {
 }
 
 #[test]
+fn truth_fields_missing_or_given_twice_are_named_and_others_ignored() {
+    for field in ["ball_centres", "ball_radii", "contacts"] {
+        expect_error(
+            ALL,
+            |dir| {
+                edit_json(dir, TRUTH_FILE, |v| {
+                    v.as_object_mut().unwrap().remove(field);
+                })
+            },
+            TRUTH_FILE,
+            &format!("field {field}: required field is missing"),
+        );
+    }
+    expect_error(
+        ALL,
+        |dir| {
+            let path = dir.join(TRUTH_FILE);
+            let text = fs::read_to_string(&path).unwrap();
+            let text = text.replacen("\"contacts\": [", "\"contacts\": [],\n\"contacts\": [", 1);
+            fs::write(&path, text).unwrap();
+        },
+        TRUTH_FILE,
+        "duplicate field `contacts`",
+    );
+    let dir = written(ALL);
+    let truth = Dataset::read(dir.path()).unwrap().truth;
+    edit_json(dir.path(), TRUTH_FILE, |v| {
+        v["note"] = json!({"any": [1, "thing"]})
+    });
+    assert_eq!(Dataset::read(dir.path()).unwrap().truth, truth);
+}
+
+#[test]
 fn truth_ball_centres_must_have_exactly_the_artefact_ids() {
     expect_error(
         ALL,
