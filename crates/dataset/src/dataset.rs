@@ -92,8 +92,8 @@ impl Dataset {
 
     /// Reads the dataset in directory `dir`: `machine.json`,
     /// `artefacts.json`, `measurements.csv` (read in blocks, each parsed
-    /// in pieces side by side) and, if present, `truth.json`, checking each
-    /// and their consistency.
+    /// in pieces side by side) and, if present, `truth.json` (parsed
+    /// meanwhile), checking each and their consistency.
     ///
     /// `artefacts.json` and `measurements.csv` may be absent together when
     /// `poses.csv` or `points.csv` is there.
