@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::artefacts::{BallIndex, ball_index};
+use crate::artefacts::ball_index;
 use crate::atomic;
 use crate::check::Check;
 use crate::checksum::Crc32;
@@ -103,38 +103,34 @@ impl Dataset {
         let tracker = Tracker::read(&dir.join(POSES_FILE), &dir.join(POINTS_FILE), scale)?;
         let (artefacts_path, measurements_path) =
             (dir.join(ARTEFACTS_FILE), dir.join(MEASUREMENTS_FILE));
-        let touches =
+        let tracker_only =
             !tracker.is_empty() && !artefacts_path.exists() && !measurements_path.exists();
         let truth_path = dir.join(TRUTH_FILE);
-        let (artefacts, measurements, truth, values) = if touches {
-            let values = BallValues::new(0);
-            let truth = Truth::parse_if_present(
-                &truth_path,
-                &[],
-                &BallIndex::default(),
-                &values,
-                options.true_contacts,
-            )?;
-            (Artefacts::default(), Measurements::default(), truth, values)
+        let artefacts = if tracker_only {
+            Artefacts::default()
         } else {
-            let artefacts = Artefacts::read(&artefacts_path)?;
-            let balls = &artefacts.balls;
-            let index = ball_index(balls).expect("ball ids are unique");
-            // truth.json is parsed on a thread of its own while the
-            // measurements are read, into room allocated here: what that
-            // thread frees is all it allocated, none of it left resident.
-            let values = BallValues::new(balls.len());
-            let (measurements, truth) = std::thread::scope(|scope| {
-                let truth = scope.spawn(|| {
-                    let contacts = options.true_contacts;
-                    Truth::parse_if_present(&truth_path, balls, &index, &values, contacts)
-                });
-                let measurements = Measurements::read(&measurements_path, balls, scale);
-                (measurements, truth.join())
-            });
-            let truth = truth.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-            (artefacts, measurements?, truth?, values)
+            Artefacts::read(&artefacts_path)?
         };
+        let balls = &artefacts.balls;
+        let index = ball_index(balls).expect("ball ids are unique");
+        // truth.json is parsed on a thread of its own while the
+        // measurements are read, into room allocated here: what that
+        // thread frees is all it allocated, none of it left resident.
+        let values = BallValues::new(balls.len());
+        let (measurements, truth) = std::thread::scope(|scope| {
+            let truth = scope.spawn(|| {
+                let contacts = options.true_contacts;
+                Truth::parse_if_present(&truth_path, balls, &index, &values, contacts)
+            });
+            let measurements = if tracker_only {
+                Ok(Measurements::default())
+            } else {
+                Measurements::read(&measurements_path, balls, scale)
+            };
+            (measurements, truth.join())
+        });
+        let truth = truth.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        let (measurements, truth) = (measurements?, truth?);
         let dataset = Self {
             truth: truth
                 .map(|file| file.checked(&truth_path, &artefacts.balls, values, measurements.len()))

@@ -927,10 +927,12 @@ fn truth_fields_missing_or_given_twice_are_named_and_others_ignored() {
     expect_error(
         ALL,
         |dir| {
-            let path = dir.join(TRUTH_FILE);
-            let text = fs::read_to_string(&path).unwrap();
-            let text = text.replacen("\"contacts\": [", "\"contacts\": [],\n\"contacts\": [", 1);
-            fs::write(&path, text).unwrap();
+            edit_text(
+                dir,
+                TRUTH_FILE,
+                "\"contacts\": [",
+                "\"contacts\": [],\n\"contacts\": [",
+            )
         },
         TRUTH_FILE,
         "duplicate field `contacts`",
@@ -992,10 +994,12 @@ fn truth_ball_id_given_twice() {
     expect_error(
         ALL,
         |dir| {
-            let path = dir.join(TRUTH_FILE);
-            let text = fs::read_to_string(&path).unwrap();
-            let text = text.replacen("\"ball_radii\": {", "\"ball_radii\": {\n  \"b01\": 5.0,", 1);
-            fs::write(&path, text).unwrap();
+            edit_text(
+                dir,
+                TRUTH_FILE,
+                "\"ball_radii\": {",
+                "\"ball_radii\": {\n  \"b01\": 5.0,",
+            )
         },
         TRUTH_FILE,
         "field ball_radii: ball id \"b01\" appears twice",

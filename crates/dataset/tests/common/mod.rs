@@ -159,6 +159,14 @@ pub fn edit_json(dir: &Path, file: &str, edit: impl FnOnce(&mut Value)) {
     fs::write(&path, serde_json::to_vec_pretty(&value).unwrap()).unwrap();
 }
 
+/// Edits `file` of `dir` as text: the first `from` becomes `to` (for what
+/// a JSON value cannot hold, such as a key given twice).
+pub fn edit_text(dir: &Path, file: &str, from: &str, to: &str) {
+    let path = dir.join(file);
+    let text = fs::read_to_string(&path).unwrap();
+    fs::write(&path, text.replacen(from, to, 1)).unwrap();
+}
+
 /// Replaces `measurements.csv` of `dir` by `text`.
 pub fn write_csv(dir: &Path, text: &str) {
     fs::write(dir.join(MEASUREMENTS_FILE), text).unwrap();
