@@ -60,8 +60,8 @@ def calibrate(dataset, *, progress=None, common=False, **options):
     """Calibrates `dataset` as ``parcal calibrate`` does: a hexapod's
     (``Dataset``, returns a ``Calibration``) or another mechanism's
     (``MechanismDataset``, returns a ``MechanismCalibration``; its options
-    are ``snoop``, ``loss``, ``lm``, ``max_iterations`` and
-    ``time_limit``). ``common=True`` takes a hexapod's ball touches through
+    are ``observation``, ``snoop``, ``loss``, ``lm``, ``max_iterations``
+    and ``time_limit``). ``common=True`` takes a hexapod's ball touches through
     the common calibration of every mechanism, as ``parcal calibrate
     --common`` does (a ``MechanismCalibration``). ``progress``, if given,
     is called after each iteration of any of them with a dict

@@ -487,6 +487,7 @@ def calibrate_mechanism(
     dataset: MechanismDataset,
     *,
     progress: Optional[Callable[[Progress], object]] = None,
+    observation: Optional[Literal["radius", "coordinates"]] = None,
     snoop: bool = False,
     loss: str = "squared",
     lm: bool = False,

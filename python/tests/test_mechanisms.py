@@ -329,6 +329,16 @@ def test_a_delta_touching_balls_built_in_memory_calibrates_as_its_files(cli, tmp
                                     balls=from_files.balls, touches=from_files.touches)
     assert np.array_equal(built.balls, from_files.balls) and np.array_equal(built.touches, from_files.touches)
     assert parcal.calibrate(built).to_json() == parcal.calibrate(from_files).to_json()
+    # The touches by their coordinates (eq. 10), weighted 1/sigma without an
+    # angle prior: the same minimum as by their radius rows, each within
+    # 1e-3 of its sigma of it, three rows a touch.
+    by_radius = parcal.calibrate(built)
+    by_coordinates = parcal.calibrate(built, observation="coordinates")
+    assert np.all(np.abs(by_coordinates.values - by_radius.values) <= 2e-3 * by_radius.sigmas)
+    rows = lambda run: run.to_dict()["tests"]["data_rows"]
+    assert rows(by_coordinates) == rows(by_radius) + 2 * 21
+    with pytest.raises(parcal.Error, match=r'observation: "angles" is not one of radius, coordinates'):
+        parcal.calibrate(built, observation="angles")
     touches = from_files.touches.copy()
     touches[2, 0] = 0.5
     with pytest.raises(parcal.Error, match=r"touches row 2: ball 0\.5 is not a ball's number"):
@@ -422,8 +432,13 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
     assert out["q"].shape == (1, 6) and np.all(out["q"] != out["nominal"])
     with pytest.raises(parcal.Error, match="targets: expected 6 columns"):
         parcal.compensate(run, [[0.0, 0.0, 400.0]])
-    with pytest.raises(parcal.Error, match=r"the coordinate observation \(eq. 10\)"):
-        parcal.calibrate(parcal.read_dataset(paper), common=True)
+    # The default options: the coordinate observation (eq. 10), three rows
+    # and two contact angles a touch, through the interface as in the own
+    # calibration.
+    run = parcal.calibrate(parcal.read_dataset(paper), common=True)
+    own = parcal.calibrate(parcal.read_dataset(paper))
+    assert np.all(np.abs(run.values - own.values) < 2e-3 * run.sigmas)
+    assert run.to_dict()["tests"]["data_rows"] == 3 * 189
 
 
 def test_unknown_scales_through_the_common_calibration(cli, tmp_path):

@@ -1,8 +1,9 @@
 //! The hexapod through the common interface: the ball touches of
 //! fixtures/paper-seed1 calibrated as a [`Mechanism`] plug-in by the path
 //! of every mechanism (`calibrate_mechanism`), against the hexapod's own
-//! calibration under the same model (the radius observation, eq. 9, with
-//! each of its weight and radius models, and each of its priors).
+//! calibration under the same model (the radius observation, eq. 9, and
+//! the coordinate observation, eq. 10, with each of its weight and radius
+//! models, and each of its priors).
 //! Both minimise the same cost, so they must reach the same estimate and
 //! the same covariance.
 //!
@@ -15,7 +16,9 @@ use parcal_calibrate::mechanism::{
     calibrate_mechanism, compensate_mechanism, validate_mechanism,
 };
 use parcal_calibrate::observation::ObservationId;
-use parcal_calibrate::{CalibrationOptions, PriorMode, RadiusModel, Simulation, calibrate};
+use parcal_calibrate::{
+    CalibrationOptions, Observation, PriorMode, RadiusModel, Simulation, calibrate,
+};
 use parcal_dataset::{ArtefactFrame, Dataset, Distance};
 use parcal_kinematics::Geometry;
 use parcal_kinematics::params::to_params;
@@ -40,6 +43,35 @@ fn the_common_calibration_of_a_hexapod_is_its_own() {
             compare(&options);
         }
     }
+}
+
+#[test]
+fn the_coordinate_observation_through_the_interface_is_the_own_paths() {
+    // Eq. 10: three rows and two contact angles a touch, the own set-up's
+    // weights W and, under the paper's prior, every contact's angles about
+    // its direction at the design.
+    for prior in [PriorMode::None, PriorMode::Paper, PriorMode::Propagated] {
+        for radius in [RadiusModel::PerBall, RadiusModel::PerContact] {
+            println!("coordinates, {prior:?} prior, {radius:?} radius:");
+            let options = CalibrationOptions {
+                prior,
+                radius,
+                ..CalibrationOptions::simulation(Simulation::IV)
+            };
+            compare(&options);
+        }
+    }
+    let dataset = Dataset::read(&fixture()).unwrap();
+    let paper = CalibrationOptions::simulation(Simulation::IV);
+    let data = MechanismData::from_hexapod_touches(&dataset, &paper).unwrap();
+    let approaches = data.observations.touches.iter().filter_map(|t| t.approach);
+    assert_eq!(approaches.count(), dataset.measurements.len());
+    let diagonal = CalibrationOptions {
+        weighting: WeightModel::Diagonal,
+        ..CalibrationOptions::simulation(Simulation::II)
+    };
+    println!("coordinates, diagonal weights:");
+    compare(&diagonal);
 }
 
 #[test]
@@ -150,7 +182,8 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     // result gives with the balls).
     let sigmas = own.global_sigmas().unwrap();
     let data = MechanismData::from_hexapod_touches(dataset, options).unwrap();
-    let common = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
+    let common_options = MechanismOptions::default().with_observation(options.observation);
+    let common = calibrate_mechanism(&data, &common_options, &mut |_| {}).unwrap();
     let tied = own
         .names()
         .iter()
@@ -199,16 +232,28 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     }
     println!("balls: worst |difference| {worst_ball:.2e} sigma");
     assert!(worst_ball < 2.0 * SIGMA_TOLERANCE, "{worst_ball:e}");
-    // The checks: one row per contact; the same global test and the same
-    // largest normalised residual, of the same contact.
+    // The checks: one row per contact (three under eq. 10); the same
+    // global test and the same largest normalised residual, of the same
+    // contact.
     let distances = dataset.artefacts.distances.len();
-    assert_eq!(common.data_rows, dataset.measurements.len() + distances);
+    let rows = match options.observation {
+        Observation::Radius => 1,
+        Observation::Coordinates => 3,
+    };
+    assert_eq!(
+        common.data_rows,
+        rows * dataset.measurements.len() + distances
+    );
+    // One w-test a contact, under either observation, as the own path
+    // counts them: the same critical value.
+    let own_reliability = own.reliability.as_ref().unwrap();
+    assert_eq!(common.tests, own_reliability.tests());
     let (own_test, common_test) = (own.global_test.unwrap(), common.global_test.unwrap());
     assert_eq!(own_test.redundancy, common_test.redundancy);
     let factors = common_test.variance_factor / own_test.variance_factor - 1.0;
     // The cost is flat at the minimum: second order in 2e-3 sigma.
     assert!(factors.abs() < 1e-6, "{factors:e}");
-    let own_worst = own.reliability.as_ref().unwrap().worst().unwrap();
+    let own_worst = own_reliability.worst().unwrap();
     let (touch, (_, w)) = common
         .observations
         .iter()
@@ -295,8 +340,8 @@ fn balls_tied_by_calibrated_distances_are_the_own_paths() {
             compare_on(&dataset, &options);
         }
     }
-    let data = MechanismData::from_hexapod_touches(&dataset, &CalibrationOptions::default());
-    assert!(data.is_err(), "the coordinate observation is still refused");
+    println!("the default options (coordinates), 17 ball distances:");
+    compare_on(&dataset, &CalibrationOptions::default());
 }
 
 #[test]
@@ -312,13 +357,7 @@ fn what_the_common_calibration_does_not_model_is_refused_by_name() {
     };
     let error = refusal(&dataset, &eq9);
     assert!(error.contains("tracker poses and points"), "{error}");
-    // The default options: the coordinate observation's contact angles.
     let dataset = Dataset::read(&fixture()).unwrap();
-    let error = refusal(&dataset, &CalibrationOptions::default());
-    assert!(
-        error.contains("the coordinate observation (eq. 10)"),
-        "{error}"
-    );
     // Readings no pose reaches (legs 0 and 1000 mm out in turn), at two
     // contacts: the first in the file is named, whichever thread met it.
     let mut unreachable = dataset.clone();

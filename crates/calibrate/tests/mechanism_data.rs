@@ -260,11 +260,7 @@ fn ball_distances_are_checked_naming_the_distance() {
         let mut data = probed();
         data.observations.balls = vec![Ball::new(12.7, None); count];
         data.observations.touches = (0..4 * count)
-            .map(|k| BallTouch {
-                ball: k / 4,
-                at: Actuation::Commanded([0.0, 0.0, 20.0]),
-                sigma: 0.005,
-            })
+            .map(|k| BallTouch::new(k / 4, Actuation::Commanded([0.0, 0.0, 20.0]), 0.005))
             .collect();
         data
     };

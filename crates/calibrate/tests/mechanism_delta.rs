@@ -7,6 +7,7 @@
 //! at unknown centres.
 
 use nalgebra::{DMatrix, DVector};
+use parcal_calibrate::Observation;
 use parcal_calibrate::mechanism::{
     Ball, CentrePrior, MechanismCalibration, MechanismCalibrationError, MechanismData,
     MechanismOptions, ObservationKind, ObservationRef, Observations, TRIGGER_HEIGHT,
@@ -181,16 +182,18 @@ fn probe_heights_leave_the_xy_scale_to_the_prior_and_a_part_distance_sets_it() {
     }
 }
 
-/// The calibrations of `dataset`, whose `blunder` is off, without and with
-/// data snooping (`observer` seeing the latter's iterations): the plain
-/// one rejected with the blunder the worst observation, named in its
-/// reasons; snooping removing it, and only it, and accepting the rest.
+/// The calibrations of `dataset`, whose `blunder` is off, under `options`
+/// without and with data snooping (`observer` seeing the latter's
+/// iterations): the plain one rejected with the blunder the worst
+/// observation, named in its reasons; snooping removing it, and only it,
+/// and accepting the rest.
 fn blunder_is_named_and_removed(
     dataset: &MechanismDataset,
     blunder: ObservationRef,
+    options: &MechanismOptions,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> (MechanismCalibration, MechanismCalibration) {
-    let plain = calibrate(dataset, &MechanismOptions::default());
+    let plain = calibrate(dataset, options);
     assert!(!plain.verdict.accepted);
     assert_eq!(plain.worst().map(|w| w.observation), Some(blunder));
     assert!(
@@ -202,7 +205,7 @@ fn blunder_is_named_and_removed(
         plain.reasons
     );
     let data = MechanismData::from_dataset(dataset).unwrap();
-    let snooping = MechanismOptions::default().with_snooping(true);
+    let snooping = options.clone().with_snooping(true);
     let snooped = calibrate_mechanism(&data, &snooping, observer).unwrap();
     eprintln!("{:#?}", snooped.reasons);
     assert_eq!(snooped.removals.len(), 1, "{:?}", snooped.removals);
@@ -223,7 +226,9 @@ fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
     // The observer sees both fits' iterations: the first, the plain one,
     // then the fit without the blunder.
     let mut seen = 0;
-    let (plain, snooped) = blunder_is_named_and_removed(&dataset, probe, &mut |_| seen += 1);
+    let default = MechanismOptions::default();
+    let (plain, snooped) =
+        blunder_is_named_and_removed(&dataset, probe, &default, &mut |_| seen += 1);
     assert_eq!(seen, plain.iterations + snooped.iterations);
     assert!(snooped.snooping_stopped.is_none());
     // A spent time budget stops the first fit at its start: nothing is
@@ -440,7 +445,11 @@ fn a_touch_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
         kind: ObservationKind::Touch,
         index: blunder,
     };
-    blunder_is_named_and_removed(&dataset, touch, &mut |_| {});
+    // By its radius row and by its coordinates (eq. 10): named alike.
+    for observation in [Observation::Radius, Observation::Coordinates] {
+        let options = MechanismOptions::default().with_observation(observation);
+        blunder_is_named_and_removed(&dataset, touch, &options, &mut |_| {});
+    }
     // A run stopped at its iteration limit is not judged (no checks'
     // pass): its balls' sigmas come from a pass of their own.
     let stopped = calibrate(
@@ -538,7 +547,8 @@ fn a_ball_distance_blunder_of_0_1_mm_is_named_and_removed_by_snooping() {
         kind: ObservationKind::BallDistance,
         index: blunder,
     };
-    blunder_is_named_and_removed(&dataset, distance, &mut |_| {});
+    let default = MechanismOptions::default();
+    blunder_is_named_and_removed(&dataset, distance, &default, &mut |_| {});
 }
 
 #[test]

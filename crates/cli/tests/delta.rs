@@ -333,7 +333,9 @@ fn a_printers_calibration_shows_its_iterations_and_takes_the_run_controls() {
     let (progress, gauss_newton) = calibrate(&[], "gn.json");
     assert!(progress.contains("read 46 observations in "), "{progress}");
     assert!(
-        progress.contains("calibrating the linear delta: Gauss-Newton, squared loss\n"),
+        progress.contains(
+            "calibrating the linear delta: Gauss-Newton, squared loss, ball touches by their radius (eq. 9)\n"
+        ),
         "{progress}"
     );
     let iterations = progress.matches("  iteration: cost ").count();
@@ -356,6 +358,20 @@ fn a_printers_calibration_shows_its_iterations_and_takes_the_run_controls() {
             a["name"]
         );
     }
+    // The touches by their coordinates (eq. 10), weighted σ⁻¹ I without
+    // an angle prior: the angles take up the tangential rows, so the same
+    // minimum as by their radius rows (eq. 9), the default.
+    let (_, coordinates) = calibrate(&["--observation", "coordinates"], "eq10.json");
+    for (a, b) in parameters(&gauss_newton)
+        .iter()
+        .zip(parameters(&coordinates))
+    {
+        let (value, sigma) = (a["value"].as_f64().unwrap(), a["sigma"].as_f64().unwrap());
+        let shift = (value - b["value"].as_f64().unwrap()).abs();
+        assert!(shift <= 2e-3 * sigma, "{}: {shift} for {sigma}", a["name"]);
+    }
+    let rows = |record: &serde_json::Value| record["tests"]["data_rows"].as_u64().unwrap();
+    assert_eq!(rows(&coordinates), rows(&gauss_newton) + 2 * 21);
     // A spent time budget stops the first iterate: rejected, and said.
     let (_, stopped) = calibrate(&["--time-limit", "0"], "stopped.json");
     assert_eq!(stopped["status"], "TimeLimit");

@@ -271,15 +271,51 @@ fn unknown_scales_through_the_common_calibration_are_its_own() {
 }
 
 #[test]
-fn what_the_common_calibration_does_not_take_is_refused_by_name() {
+fn the_default_options_through_the_common_calibration_are_the_own() {
+    // The default observation is the coordinates' (eq. 10): three rows and
+    // two contact angles a touch, through the interface as in the own
+    // calibration.
     let temp = tempfile::tempdir().unwrap();
     let data = copy_fixture("paper-seed1", temp.path(), &PAPER_FILES);
-    let out = temp.path().join("calibration.json");
-    // The default observation is the coordinates' (eq. 10).
-    let error = fails(&["calibrate", s(&data), "--common", "--out", s(&out)]);
-    assert!(
-        error.contains("the coordinate observation (eq. 10)"),
-        "{error}"
+    let (own, common) = (
+        temp.path().join("own.json"),
+        temp.path().join("common.json"),
     );
+    ok(&["calibrate", s(&data), "--out", s(&own)]);
+    ok(&["calibrate", s(&data), "--common", "--out", s(&common)]);
+    let (own, common) = (read(&own), read(&common));
+    let values = own["parameters"]["values"].as_array().unwrap();
+    let parameters = common["parameters"].as_array().unwrap();
+    assert_eq!(parameters.len(), values.len());
+    for (value, parameter) in values.iter().zip(parameters) {
+        let (a, b) = (
+            value.as_f64().unwrap(),
+            parameter["value"].as_f64().unwrap(),
+        );
+        let sigma = parameter["sigma"].as_f64().unwrap();
+        assert!(
+            (a - b).abs() < 2e-3 * sigma,
+            "{}: {a} against {b}",
+            parameter["name"]
+        );
+    }
+    let touch = common["tests"]["observations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["kind"] == "ball touch")
+        .unwrap();
+    assert_eq!(touch["residuals"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn what_the_common_calibration_does_not_take_is_refused_by_name() {
+    // Motion-capture poses: an instrument's frames.
+    let temp = tempfile::tempdir().unwrap();
+    let files = ["machine.json", "poses.csv"];
+    let data = copy_fixture("jugglebot", temp.path(), &files);
+    let out = temp.path().join("calibration.json");
+    let error = fails(&["calibrate", s(&data), "--common", "--out", s(&out)]);
+    assert!(error.contains("tracker poses and points"), "{error}");
     assert!(!out.exists());
 }

@@ -203,6 +203,26 @@ impl CoordinateWhitening {
         })
     }
 
+    /// Of the covariance `σ² I` (mm²): `L⁻¹ = I / σ`, for a `σ` that is
+    /// finite and positive (not checked).
+    pub fn isotropic(sigma: f64) -> Self {
+        let inverse = sigma.recip();
+        Self {
+            inverse_factor: [inverse, 0.0, inverse, 0.0, 0.0, inverse],
+        }
+    }
+
+    /// The variance `uᵀ W u = |Lᵀ u|²` (mm²) of the rows along the unit
+    /// vector `u`: a radius row's of the same contact (eq. 9's `w` of
+    /// eq. 10's `W`).
+    pub fn variance_along(&self, u: &Vec3) -> f64 {
+        // Lᵀ u = (L⁻¹)⁻ᵀ u, the solution x of (L⁻¹)ᵀ x = u.
+        self.inverse_factor()
+            .transpose()
+            .solve_upper_triangular(u)
+            .map_or(f64::INFINITY, |x| x.norm_squared())
+    }
+
     /// `L⁻¹` as a matrix (1/mm).
     pub fn inverse_factor(&self) -> Matrix3<f64> {
         let [l00, l10, l11, l20, l21, l22] = self.inverse_factor;
@@ -258,6 +278,10 @@ mod tests {
                 .unwrap()
                 .inverse_factor();
             let identity = inverse * w * inverse.transpose();
+            let whitening = CoordinateWhitening::from_covariance(&w).unwrap();
+            let along = whitening.variance_along(&u0);
+            let radius = radius_variance(model, &REPEATABILITY, &tip.d_q(), &u0).unwrap();
+            assert!((along - radius).abs() < 1e-12 * radius, "{along} {radius}");
             assert!(
                 (identity - Matrix3::identity()).amax() < 1e-12,
                 "{identity}"

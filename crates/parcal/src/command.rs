@@ -134,13 +134,20 @@ impl CalibrateFlags {
 /// as the common calibration's data under the options `flags` give
 /// ([`MechanismData::from_hexapod_touches`]: what it does not model is
 /// refused by name), and that calibration's options
-/// ([`CalibrateFlags::mechanism_options`]).
+/// ([`CalibrateFlags::mechanism_options`], with the touches' observation
+/// equation of the hexapod's options).
 pub fn common_calibration(
     dataset: &Dataset,
     flags: &CalibrateFlags,
 ) -> Result<(MechanismData, MechanismOptions), MechanismCalibrationError> {
-    let data = MechanismData::from_hexapod_touches(dataset, &flags.options())?;
-    Ok((data, flags.mechanism_options()))
+    let options = flags.options();
+    let data = MechanismData::from_hexapod_touches(dataset, &options)?;
+    Ok((
+        data,
+        flags
+            .mechanism_options()
+            .with_observation(options.observation),
+    ))
 }
 
 /// A calibration and its record.

@@ -150,9 +150,13 @@ pub fn global_test_sentence(calibration: &MechanismCalibrationRecord) -> String 
 /// normalised residual.
 pub fn w_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
     let tests = &calibration.tests;
+    let family = match tests.tests {
+        Some(family) => format!("{family} tests of {} data rows", tests.data_rows),
+        None => format!("{} data rows", tests.data_rows),
+    };
     let limit = format!(
-        "w-tests: critical value {:.2} (family-wise level {} over {} data rows)",
-        tests.critical_value, tests.alpha, tests.data_rows
+        "w-tests: critical value {:.2} (family-wise level {} over {family})",
+        tests.critical_value, tests.alpha
     );
     let worst = tests
         .observations

@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use numpy::{PyArray1, PyArray2};
+use parcal::calibration::Observation;
 use parcal::calibration::bounds::MAX_ITERATIONS;
 use parcal::calibration::mechanism::{ObservationKind, ObservationRef};
 use parcal::command::{CalibrateFlags, common_calibration};
@@ -23,10 +24,12 @@ use crate::calibrate::observed;
 use crate::convert::to_python;
 use crate::dataset::Dataset;
 use crate::error::to_py;
-use crate::options::{flags, seconds};
+use crate::options::{choice, flags, seconds};
 
 /// Calibrates the mechanism dataset `dataset` as `parcal calibrate` does
-/// with the same options: `snoop` (data snooping), `loss` ("squared",
+/// with the same options: `observation` (the ball touches' equation,
+/// "radius" or "coordinates"; default "radius"), `snoop` (data
+/// snooping), `loss` ("squared",
 /// "huber[:K]", "cauchy[:K]"), `lm` (Levenberg-Marquardt),
 /// `max_iterations` and `time_limit` (seconds). `progress`, if given, is
 /// called after each iteration as `parcal.calibrate`'s is, and an
@@ -38,8 +41,8 @@ use crate::options::{flags, seconds};
 /// invalid, naming the observation by its file and line.
 #[pyfunction]
 #[pyo3(signature = (
-    dataset, *, progress=None, snoop=false, loss="squared", lm=false, max_iterations=None,
-    time_limit=None
+    dataset, *, progress=None, observation=None, snoop=false, loss="squared", lm=false,
+    max_iterations=None, time_limit=None
 ))]
 #[allow(
     clippy::too_many_arguments,
@@ -49,6 +52,7 @@ pub fn calibrate_mechanism(
     py: Python<'_>,
     dataset: &Bound<'_, MechanismDataset>,
     progress: Option<Py<PyAny>>,
+    observation: Option<Bound<'_, PyAny>>,
     snoop: bool,
     loss: &str,
     lm: bool,
@@ -66,7 +70,11 @@ pub fn calibrate_mechanism(
         time_limit: time_limit.map(seconds).transpose()?,
         ..CalibrateFlags::default()
     };
-    let options = flags.mechanism_options();
+    let observation = match observation {
+        Some(value) => choice("observation", &value)?,
+        None => Observation::Radius,
+    };
+    let options = flags.mechanism_options().with_observation(observation);
     let dataset = dataset.get();
     let calibration = observed(py, progress.as_ref(), |observer| {
         calibrate(&dataset.data, &options, observer)
@@ -79,10 +87,8 @@ pub fn calibrate_mechanism(
 
 /// Calibrates a hexapod's ball touches (`dataset`, a `Dataset`) by the
 /// common calibration of every mechanism, as `parcal calibrate --common`
-/// does with the same options: those of `parcal.calibrate`, of which
-/// the observation must be the radius's (`sim="I"` or `"III"`, or
-/// `observation="radius"`), and `progress` as there. The GIL is released
-/// while it runs.
+/// does with the same options: those of `parcal.calibrate`, and
+/// `progress` as there. The GIL is released while it runs.
 ///
 /// Returns a `MechanismCalibration` of the mechanism `"hexapod"`; raises
 /// `parcal.Error` naming what the common calibration does not model.

@@ -3,9 +3,11 @@
 //! normalised residual ([`parcal_solver::redundancy`]) and the global
 //! test's numbers ([`crate::verdict::rows_and_unknowns`]).
 //!
-//! The solver's points are rows ([`super::problem`]): a point sample's
-//! rows and a touch's row are gathered back into their observation's
-//! check.
+//! The touches are observed as the options say: by their radius rows
+//! ([`super::problem`], whose points are rows: a point sample's rows and a
+//! touch's row are gathered back into their observation's check) or by
+//! their coordinates ([`super::coordinate_problem`], a touch's point its
+//! three rows).
 
 use std::time::Instant;
 
@@ -15,13 +17,15 @@ use parcal_solver::{
     group_sigmas, normalised_residual, redundancy, solve_with_caches,
 };
 
+use crate::options::Observation;
 use crate::verdict::{at_minimum, rows_and_unknowns};
 
+use super::coordinate_problem::CoordinateProblem;
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::problem::{LastPose, MechanismProblem, group_size};
+use super::problem::{LastPose, MechanismProblem, Start, group_size};
 
 /// The numbers of one observation at the solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,8 +83,12 @@ pub(crate) struct Fit {
     pub redundancy: usize,
     /// Every observation's numbers, at a least-squares minimum.
     pub checks: Option<Vec<ObservationCheck>>,
-    /// The number of data rows (the w-tests' family).
+    /// The number of data rows.
     pub data_rows: usize,
+    /// The w-tests' family: one per global row and per point (a point's
+    /// rows are one test: a sample's and a radius row are one row each,
+    /// a touch's three coordinate rows one observation).
+    pub tests: usize,
 }
 
 /// One fit of `data` (validated) with `options` (module doc), its local
@@ -104,18 +112,49 @@ fn fit_blocks<const C: usize>(
     data: &MechanismData,
     options: &MechanismOptions,
     started: Instant,
-    mut observer: &mut dyn FnMut(&IterationRecord),
+    observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Fit, MechanismCalibrationError> {
-    let problem = MechanismProblem::<C>::new(data, options.loss);
-    let (state, mut caches) = start(&problem)?;
-    let points = problem.n_points();
+    match options.observation {
+        Observation::Radius => {
+            let problem = MechanismProblem::<C>::new(data, options.loss);
+            let (state, caches) = start(&problem)?;
+            solve_and_check::<C, 0, 1, _>(
+                &problem, &problem, state, caches, options, started, observer,
+            )
+        }
+        Observation::Coordinates => {
+            let (problem, state, caches) = CoordinateProblem::<C>::start(data, options.loss)?;
+            check_global_rows(problem.base(), &state.global)?;
+            let base = problem.base();
+            solve_and_check::<C, 2, 3, _>(&problem, base, state, caches, options, started, observer)
+        }
+    }
+}
+
+/// [`fit`] of `problem` from `state` and its points' `caches`, with `base`
+/// the radius observation's problem of the same data (whose blocks and
+/// global rows `problem`'s are): `R` rows and `P` unknowns a point.
+fn solve_and_check<const C: usize, const P: usize, const R: usize, Q>(
+    problem: &Q,
+    base: &MechanismProblem<C>,
+    state: State<C, P>,
+    mut caches: Vec<LastPose>,
+    options: &MechanismOptions,
+    started: Instant,
+    mut observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<Fit, MechanismCalibrationError>
+where
+    Q: Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>,
+{
+    let data = base.data();
+    let points = base.n_points();
     let solver_options = SolverOptions {
         // The checks' pass gives them (below).
         group_sigmas: false,
         ..options.solver_options(started)
     };
-    let solution = solve_with_caches::<C, 0, 1, _>(
-        &problem,
+    let solution = solve_with_caches::<C, P, R, _>(
+        problem,
         state,
         &mut caches,
         &solver_options,
@@ -124,16 +163,17 @@ fn fit_blocks<const C: usize>(
     if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
         return Err(error);
     }
-    let refs = problem.global_observation_refs();
+    let refs = base.global_observation_refs();
     let global_rows: usize = refs.iter().map(|(_, rows)| rows).sum();
-    let (rows, unknowns) = rows_and_unknowns::<C, 0, 1, _>(&problem, points, global_rows);
+    let (rows, unknowns) = rows_and_unknowns::<C, P, R, _>(problem, points, global_rows);
     // The checks' pass gives the local blocks' sigmas too; a run that is
     // not judged makes a pass of the sigmas alone.
     let groups_per_chunk = solver_options.groups_per_chunk;
     let (checks, block_sigmas) = match &solution.covariance {
         Some(covariance) if at_minimum(&solution.status) => {
-            let (checks, sigmas) = checks(
-                &problem,
+            let (checks, sigmas) = checks::<C, P, R, _>(
+                problem,
+                base,
                 &solution.state,
                 covariance,
                 &refs,
@@ -144,7 +184,7 @@ fn fit_blocks<const C: usize>(
         }
         Some(covariance) => {
             let state = &solution.state;
-            let sigmas = group_sigmas(&problem, state, covariance, &mut caches, groups_per_chunk);
+            let sigmas = group_sigmas(problem, state, covariance, &mut caches, groups_per_chunk);
             (None, sigmas.ok())
         }
         None => (None, None),
@@ -152,7 +192,7 @@ fn fit_blocks<const C: usize>(
     let samples = data.observations.samples.len();
     let balls = &data.observations.balls;
     let ball_values = |global: &DVector<f64>, blocks: &[SVector<f64, C>]| {
-        ball_unknowns(&problem, global, &blocks[samples..])
+        ball_unknowns(base, global, &blocks[samples..])
     };
     let (centres, radii) = ball_values(&solution.state.global, &solution.state.groups);
     let (centre_sigmas, radius_sigmas) = block_sigmas
@@ -171,7 +211,7 @@ fn fit_blocks<const C: usize>(
         .unzip();
     // The mechanism's part of the global block: the tied balls' unknowns
     // are reported with the balls.
-    let m = problem.mechanism_len();
+    let m = base.mechanism_len();
     let mechanism_block = |matrix: &DMatrix<f64>| matrix.view((0, 0), (m, m)).into_owned();
     Ok(Fit {
         poses: solution.state.groups[..samples]
@@ -187,10 +227,11 @@ fn fit_blocks<const C: usize>(
         cost: solution.history.last().map(|record| record.cost),
         status: solution.status,
         covariance: solution.covariance.as_ref().map(mechanism_block),
-        prior_information: mechanism_block(&problem.prior_information()),
+        prior_information: mechanism_block(&base.prior_information()),
         redundancy: rows.saturating_sub(unknowns),
         checks,
-        data_rows: global_rows + points,
+        data_rows: global_rows + R * points,
+        tests: global_rows + points,
     })
 }
 
@@ -202,10 +243,18 @@ fn fit_blocks<const C: usize>(
 fn start<const C: usize>(
     problem: &MechanismProblem<C>,
 ) -> Result<(State<C, 0>, Vec<LastPose>), MechanismCalibrationError> {
-    let (state, caches) = problem.start_state()?;
-    let mut rows = GlobalObservations::zeros(0, state.global.len());
-    problem.global_observations(&state.global, &mut rows)?;
+    let Start { state, caches, .. } = problem.start_state()?;
+    check_global_rows(problem, &state.global)?;
     Ok((state, caches))
+}
+
+/// Evaluates every global observation of `problem` at `global` once.
+fn check_global_rows<const C: usize>(
+    problem: &MechanismProblem<C>,
+    global: &DVector<f64>,
+) -> Result<(), MechanismCalibrationError> {
+    let mut rows = GlobalObservations::zeros(0, global.len());
+    problem.global_observations(global, &mut rows)
 }
 
 /// Checks that every observation of `data` (validated) can be evaluated
@@ -290,27 +339,32 @@ type CheckedBlocks<const C: usize> =
     Result<(Vec<ObservationCheck>, Vec<SVector<f64, C>>), MechanismCalibrationError>;
 
 /// Every observation's residuals, redundancy numbers and normalised
-/// residuals at `state`, through the solver's redundancy pass (its points
-/// started from `caches`, the solve's last pass's, freed after it): the
-/// global observations, then each point sample (its rows), then each
-/// touch, in the order of the data; with the local blocks' marginal
+/// residuals at `state`, through the solver's redundancy pass of `problem`
+/// (its points started from `caches`, the solve's last pass's, freed after
+/// it; `base` its radius problem, [`solve_and_check`]): the global
+/// observations, then each point sample (its rows), then each touch (its
+/// `R` rows), in the order of the data; with the local blocks' marginal
 /// sigmas, which the pass gives as well.
-fn checks<const C: usize>(
-    problem: &MechanismProblem<C>,
-    state: &State<C, 0>,
+fn checks<const C: usize, const P: usize, const R: usize, Q>(
+    problem: &Q,
+    base: &MechanismProblem<C>,
+    state: &State<C, P>,
     covariance: &DMatrix<f64>,
     refs: &[(ObservationRef, usize)],
     groups_per_chunk: usize,
     mut caches: Vec<LastPose>,
-) -> CheckedBlocks<C> {
-    let mut points = Vec::with_capacity(problem.n_points());
-    let global = redundancy::<C, 0, 1, _>(
+) -> CheckedBlocks<C>
+where
+    Q: Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>,
+{
+    let mut points = Vec::with_capacity(R * base.n_points());
+    let global = redundancy::<C, P, R, _>(
         problem,
         state,
         covariance,
         &mut caches,
         groups_per_chunk,
-        |rows| points.push((rows.residual[0], rows.redundancy[0])),
+        |rows| points.extend((0..R).map(|j| (rows.residual[j], rows.redundancy[j]))),
     )
     .map_err(|status| MechanismCalibrationError::Solver { status })?;
     // The checks below take their room.
@@ -340,22 +394,19 @@ fn checks<const C: usize>(
         checks.push(check(observation, &global_rows[row..row + rows]));
         row += rows;
     }
-    let order = problem.touch_order();
-    let (samples, touches) = points.split_at(points.len() - order.len());
-    for (index, rows) in samples.chunks(problem.actuators()).enumerate() {
+    let order = base.touch_order();
+    let (samples, touches) = points.split_at(points.len() - R * order.len());
+    for (index, rows) in samples.chunks(base.actuators()).enumerate() {
         let kind = ObservationKind::Sample;
         checks.push(check(ObservationRef { kind, index }, rows));
     }
-    let mut by_touch = vec![(0.0, 0.0); order.len()];
-    for (&t, &row) in order.iter().zip(touches) {
-        by_touch[t] = row;
+    let mut by_touch = vec![[(0.0, 0.0); R]; order.len()];
+    for (&t, rows) in order.iter().zip(touches.chunks_exact(R)) {
+        by_touch[t].copy_from_slice(rows);
     }
-    for (index, row) in by_touch.iter().enumerate() {
+    for (index, rows) in by_touch.iter().enumerate() {
         let kind = ObservationKind::Touch;
-        checks.push(check(
-            ObservationRef { kind, index },
-            std::slice::from_ref(row),
-        ));
+        checks.push(check(ObservationRef { kind, index }, rows));
     }
     Ok((checks, global.group_sigmas))
 }

@@ -22,13 +22,19 @@
 //!   their sigmas, unknowns `s_1..s_6` of the mechanism about their design
 //!   values ([`Hexapod::with_unknown_scales`]), the hexapod then reading
 //!   the readings themselves.
-//! - Each contact: a [`BallTouch`] at its readings (as above), the radius
-//!   observation (eq. 9), weighted as the hexapod calibration weighs it at
-//!   the design, and held fixed: the weight the hexapod's own set-up forms
-//!   ([`Setup::new`]: the tool tip `T` and `dT/dq` by the design's forward
-//!   kinematics, the ball's centre the best fit of its tips or its mirror
-//!   image, the direction `n0` from it to the tip or the commanded approach
-//!   direction, `σ² = n0ᵀ Σ_tip n0 (+ σ_r²)`, [`radius_variance`]).
+//! - Each contact: a [`BallTouch`] at its readings (as above), weighted as
+//!   the hexapod calibration weighs it at the design, and held fixed: the
+//!   weight the hexapod's own set-up forms ([`Setup::new`]: the tool tip
+//!   `T` and `dT/dq` by the design's forward kinematics, the ball's centre
+//!   the best fit of its tips or its mirror image, the direction `n0` from
+//!   it to the tip or the commanded approach direction). Under the radius
+//!   observation (eq. 9), `σ² = n0ᵀ Σ_tip n0 (+ σ_r²)`
+//!   ([`radius_variance`]); under the coordinate observation (eq. 10),
+//!   `W = Σ_tip (+ σ_r² n0 n0ᵀ)` ([`coordinate_covariance`]), `σ² = n0ᵀ W
+//!   n0` along the normal, and its contact angles' prior about `n0` where
+//!   the hexapod calibration states one ([`Approach`]: every contact's under
+//!   the paper's prior, those with a commanded direction under the
+//!   propagated prior).
 //!
 //! - Each calibrated distance between two balls: a
 //!   [`BallDistance`](parcal_observe::mechanism::BallDistance), the
@@ -36,9 +42,13 @@
 //!   hexapod's own calibration ties them.
 //!
 //! Both calibrations then minimise the same cost from the same start: the
-//! common door's estimate is the dedicated path's. What only the hexapod's
-//! own calibration models is refused by name: the coordinate observation
-//! (eq. 10) and its contact angles, tracker poses and points.
+//! common door's estimate is the dedicated path's (the common calibration
+//! runs the observation of the options' [`MechanismOptions::observation`]).
+//! What only the hexapod's own calibration models is refused by name:
+//! tracker poses and points.
+//!
+//! [`coordinate_covariance`]: parcal_observe::coordinate_covariance
+//! [`MechanismOptions::observation`]: super::MechanismOptions
 
 use std::sync::Arc;
 
@@ -47,14 +57,15 @@ use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::hexapod::Hexapod;
 use parcal_kinematics::mechanism::design;
 use parcal_kinematics::{N_PARAMS, Vec3};
+use parcal_observe::CoordinateWhitening;
 use parcal_observe::KinematicPrior;
-use parcal_observe::mechanism::{Actuation, BallTouch};
+use parcal_observe::mechanism::{Actuation, Approach, BallTouch};
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 use super::input::ball_distances;
 use crate::CalibrationOptions;
-use crate::options::{Observation, PriorMode, RadiusModel, Simulation};
+use crate::options::{PriorMode, RadiusModel, Simulation};
 use crate::setup::{Observations as SetupObservations, Setup, design_geometry};
 
 impl MechanismData {
@@ -68,7 +79,7 @@ impl MechanismData {
         dataset: &Dataset,
         options: &CalibrationOptions,
     ) -> Result<Self, MechanismCalibrationError> {
-        check_representable(dataset, options)?;
+        check_representable(dataset)?;
         let machine = &dataset.machine;
         let input = design_geometry(dataset);
         let invalid =
@@ -97,10 +108,11 @@ impl MechanismData {
             .iter()
             .zip(&m.q)
             .zip(start.weights)
-            .map(|((&ball, q), sigma)| BallTouch {
-                ball: ball as usize,
-                at: Actuation::Readings(legs.actuation(q)),
-                sigma,
+            .map(|((&ball, q), weight)| BallTouch {
+                sigma: weight.sigma,
+                weight: weight.coordinates,
+                approach: weight.approach,
+                ..BallTouch::new(ball as usize, Actuation::Readings(legs.actuation(q)), 0.0)
             })
             .collect();
         let observations = Observations {
@@ -194,29 +206,14 @@ impl LegReadings {
 }
 
 /// Refuses what only the hexapod's own calibration models (module doc).
-fn check_representable(
-    dataset: &Dataset,
-    options: &CalibrationOptions,
-) -> Result<(), MechanismCalibrationError> {
-    let refusals = [
-        (
-            options.observation != Observation::Radius,
-            "the coordinate observation (eq. 10)",
-            "its contact angles are not unknowns of the common calibration, whose touch is the radius observation (eq. 9)",
-        ),
-        (
-            !dataset.tracker.is_empty(),
-            "tracker poses and points",
-            "an instrument's frames are not modelled by the common calibration",
-        ),
-    ];
-    match refusals.into_iter().find(|(refused, _, _)| *refused) {
-        Some((_, what, reason)) => Err(MechanismCalibrationError::InvalidData {
-            what: what.to_string(),
-            reason: format!("{reason}; the hexapod's own calibration takes it"),
-        }),
-        None => Ok(()),
+fn check_representable(dataset: &Dataset) -> Result<(), MechanismCalibrationError> {
+    if dataset.tracker.is_empty() {
+        return Ok(());
     }
+    Err(MechanismCalibrationError::InvalidData {
+        what: "tracker poses and points".to_string(),
+        reason: "an instrument's frames are not modelled by the common calibration; the hexapod's own calibration takes them".to_string(),
+    })
 }
 
 /// Each ball's centre's prior as the hexapod calibration states it: with
@@ -240,20 +237,30 @@ fn centre_prior(
     })
 }
 
+/// A contact's weight as the hexapod calibration forms it (module doc).
+#[derive(Clone, Copy, Default)]
+struct ContactWeight {
+    /// Its standard deviation along the normal.
+    sigma: f64,
+    /// Its coordinates' whitening, under the coordinate observation.
+    coordinates: Option<CoordinateWhitening>,
+    /// Its contact direction's prior, where the coordinate observation
+    /// has one.
+    approach: Option<Approach>,
+}
+
 /// What the hexapod calibration computes at the design before its first
 /// iteration (module doc).
 struct DesignStart {
-    /// The standard deviation of every contact's radius row, in the order
-    /// of the measurements.
-    weights: Vec<f64>,
+    /// Every contact's weight, in the order of the measurements.
+    weights: Vec<ContactWeight>,
     /// Each ball's centre: the best fit of its design tool tips, or its
     /// mirror image.
     centres: Vec<Vec3>,
 }
 
 /// The weights and the balls' centres the hexapod calibration forms at
-/// the design, by its own set-up ([`Setup::new`]) under `options` (the
-/// radius observation, [`check_representable`]).
+/// the design, by its own set-up ([`Setup::new`]) under `options`.
 fn design_start(
     dataset: &Dataset,
     options: &CalibrationOptions,
@@ -264,14 +271,29 @@ fn design_start(
     };
     let (setup, observations) =
         Setup::new(dataset, options).map_err(|error| invalid(error.to_string()))?;
-    let SetupObservations::Radius(radius) = observations else {
-        return Err(invalid(
-            "the coordinate observation (eq. 10) is not the common calibration's".to_string(),
-        ));
+    // Each contact's weight in the sorted order of the set-up.
+    let sorted: Vec<ContactWeight> = match observations {
+        SetupObservations::Radius(radius) => (radius.weights.iter())
+            .map(|whitening| ContactWeight {
+                sigma: whitening.sigma(),
+                ..ContactWeight::default()
+            })
+            .collect(),
+        SetupObservations::Coordinates(coordinates) => (coordinates.weights.iter())
+            .zip(&coordinates.directions)
+            .map(|(whitening, u0)| ContactWeight {
+                sigma: whitening.variance_along(u0).sqrt(),
+                coordinates: Some(*whitening),
+                approach: coordinates.angle_sigma.map(|sigma| Approach {
+                    direction: u0.into_inner().into(),
+                    sigma,
+                }),
+            })
+            .collect(),
     };
-    let mut weights = vec![0.0; setup.order.len()];
-    for (&row, whitening) in setup.order.iter().zip(&radius.weights) {
-        weights[row as usize] = whitening.sigma();
+    let mut weights = vec![ContactWeight::default(); setup.order.len()];
+    for (&row, weight) in setup.order.iter().zip(sorted) {
+        weights[row as usize] = weight;
     }
     Ok(DesignStart {
         weights,

@@ -135,11 +135,11 @@ impl MechanismData {
             .touches
             .iter()
             .map(|row| {
-                Ok(BallTouch {
-                    ball: row.ball,
-                    at: Actuation::Commanded(row.commanded),
-                    sigma: noise(n.touch, "touch")?,
-                })
+                Ok(BallTouch::new(
+                    row.ball,
+                    Actuation::Commanded(row.commanded),
+                    noise(n.touch, "touch")?,
+                ))
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;
         let observations = Observations {

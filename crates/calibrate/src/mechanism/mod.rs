@@ -77,6 +77,7 @@ use parcal_solver::IterationRecord;
 
 mod calibrated;
 mod compensation;
+mod coordinate_problem;
 mod correlation;
 mod data;
 mod error;
@@ -127,6 +128,7 @@ pub fn calibrate_mechanism(
     let started = Instant::now();
     options.validate()?;
     data.validate()?;
+    coordinate_problem::check_observation(data, options)?;
     check_gauge_priors(data)?;
     if options.snoop {
         snooping::snoop(data, options, started, observer)

@@ -1,11 +1,12 @@
-//! How a mechanism calibration runs: the loss, the tests' level, data
-//! snooping, the solver's method, its iteration limit and the time budget.
+//! How a mechanism calibration runs: the touches' observation equation,
+//! the loss, the tests' level, data snooping, the solver's method, its
+//! iteration limit and the time budget.
 
 use std::time::{Duration, Instant};
 
 use parcal_solver::{Loss, Method, SolverOptions};
 
-use crate::options::LEVENBERG_MARQUARDT_ITERATIONS;
+use crate::options::{LEVENBERG_MARQUARDT_ITERATIONS, Observation};
 
 use crate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
 
@@ -19,6 +20,14 @@ pub const MAX_ITERATIONS: usize = 1000;
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct MechanismOptions {
+    /// How each ball touch is observed: its radius row (paper eq. 9,
+    /// [`BallTouch::row`]) or its three coordinates with its two contact
+    /// angles (eq. 10, [`BallTouch::coordinate_rows`]; point samples are
+    /// then refused).
+    ///
+    /// [`BallTouch::row`]: parcal_observe::mechanism::BallTouch::row
+    /// [`BallTouch::coordinate_rows`]: parcal_observe::mechanism::BallTouch::coordinate_rows
+    pub observation: Observation,
     /// The loss on the observations ([`Loss::Squared`], or a robust one,
     /// which replaces data snooping).
     pub loss: Loss,
@@ -45,10 +54,12 @@ pub struct MechanismOptions {
 }
 
 impl Default for MechanismOptions {
-    /// Least squares, no snooping, `α` = 0.05, at most 10 removals,
-    /// Gauss-Newton with at most 50 iterations, no time budget.
+    /// The radius observation, least squares, no snooping, `α` = 0.05, at
+    /// most 10 removals, Gauss-Newton with at most 50 iterations, no time
+    /// budget.
     fn default() -> Self {
         Self {
+            observation: Observation::Radius,
             loss: Loss::Squared,
             snoop: false,
             alpha: SNOOPING_LEVEL,
@@ -61,6 +72,12 @@ impl Default for MechanismOptions {
 }
 
 impl MechanismOptions {
+    /// These options with the touches observed by `observation`.
+    pub fn with_observation(mut self, observation: Observation) -> Self {
+        self.observation = observation;
+        self
+    }
+
     /// These options with data snooping on or off.
     pub fn with_snooping(mut self, snoop: bool) -> Self {
         self.snoop = snoop;

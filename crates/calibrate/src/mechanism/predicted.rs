@@ -398,7 +398,8 @@ fn predict_balls(
     let mut row = 0;
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
-        let (centre, _) = ball_centre(mechanism, params, configured, all, touches, b, ball.radius)?;
+        let centre =
+            ball_centre(mechanism, params, configured, all, touches, b, ball.radius)?.centre;
         let k = touches.len();
         let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
         noise.view_mut((row, row), (k, k)).fill(radius_variance);
@@ -645,11 +646,11 @@ mod tests {
                 let commanded = delta
                     .forward(configured.as_slice(), readings.as_slice(), x.as_slice())
                     .unwrap();
-                BallTouch {
-                    ball: 0,
-                    at: Actuation::Commanded([commanded[0], commanded[1], commanded[2]]),
-                    sigma: 0.01,
-                }
+                BallTouch::new(
+                    0,
+                    Actuation::Commanded([commanded[0], commanded[1], commanded[2]]),
+                    0.01,
+                )
             })
             .collect()
     }
@@ -865,11 +866,7 @@ mod tests {
     #[test]
     fn a_ball_of_too_many_touches_is_named() {
         let (delta, configured, truth) = delta();
-        let touch = BallTouch {
-            ball: 1,
-            at: Actuation::Commanded([0.0; 3]),
-            sigma: 0.01,
-        };
+        let touch = BallTouch::new(1, Actuation::Commanded([0.0; 3]), 0.01);
         let ball = Ball::new(12.7, None);
         let observations = Observations {
             balls: vec![ball; 2],

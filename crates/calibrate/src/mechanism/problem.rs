@@ -171,12 +171,10 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// it, a tied ball's centre and radius at that start in the global
     /// block; and every point's cache there (the pose each touch reached,
     /// the first pass's warm start).
-    pub(crate) fn start_state(
-        &self,
-    ) -> Result<(State<C, 0>, Vec<LastPose>), MechanismCalibrationError> {
+    pub(crate) fn start_state(&self) -> Result<Start<C>, MechanismCalibrationError> {
         let mut global = prior_means(self.data).resize_vertically(self.global_len(), 0.0);
         let n = self.n_params();
-        let (groups, caches) = self.start_blocks(&global.as_slice()[..n])?;
+        let (groups, caches, tips) = self.start_blocks(&global.as_slice()[..n])?;
         let samples = self.data.observations.samples.len();
         for (b, columns) in self.tied.iter() {
             let unknowns = columns.len();
@@ -189,7 +187,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             groups,
             points: vec![SVector::zeros(); self.n_points()],
         };
-        Ok((state, caches))
+        Ok(Start {
+            state,
+            caches,
+            tips,
+        })
     }
 
     /// The prior information on the global block (zero where none).
@@ -242,11 +244,9 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// measured pose, else the forward kinematics of its readings at
     /// `params`), then each ball's centre ([`ball_centre`]) and, with
     /// [`group_size`] 4, its calibrated radius; with every point's cache
-    /// (empty for a sample's, the pose reached for a touch's).
-    pub(crate) fn start_blocks(
-        &self,
-        params: &[f64],
-    ) -> Result<(Vec<SVector<f64, C>>, Vec<LastPose>), MechanismCalibrationError> {
+    /// (empty for a sample's, the pose reached for a touch's) and every
+    /// touch's tool point there, in the order of the points.
+    pub(crate) fn start_blocks(&self, params: &[f64]) -> StartBlocks<C> {
         let mechanism = self.data.mechanism.as_ref();
         let o = &self.data.observations;
         let mut blocks = Vec::with_capacity(o.samples.len() + o.balls.len());
@@ -269,8 +269,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         }
         // Each ball on the threads, the first failing ball named.
         let configured = self.data.configured.as_slice();
-        type Start<const C: usize> = (SVector<f64, C>, Vec<LastPose>);
-        let centres: Vec<Result<Start<C>, MechanismCalibrationError>> = o
+        let centres: Vec<Result<BallStart<C>, MechanismCalibrationError>> = o
             .balls
             .par_iter()
             .enumerate()
@@ -279,7 +278,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     .clone()
                     .map(|i| self.touch_order[i - self.sample_points()])
                     .collect();
-                let (centre, poses) = ball_centre(
+                let fit = ball_centre(
                     mechanism,
                     params,
                     configured,
@@ -288,17 +287,19 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     b,
                     ball.radius,
                 )?;
-                Ok((block(&centre, ball.radius), poses))
+                Ok((block(&fit.centre, ball.radius), fit))
             })
             .collect();
         let mut caches = vec![LastPose::default(); self.sample_points()];
         caches.reserve(self.touch_order.len());
+        let mut all_tips = Vec::with_capacity(self.touch_order.len());
         for centre in centres {
-            let (block, poses) = centre?;
+            let (block, fit) = centre?;
             blocks.push(block);
-            caches.extend(poses);
+            caches.extend(fit.poses);
+            all_tips.extend(fit.tips);
         }
-        Ok((blocks, caches))
+        Ok((blocks, caches, all_tips))
     }
 
     /// The rows of point sample `s` at its pose.
@@ -339,30 +340,18 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
-        let t = self.touch_order[i - self.sample_points()];
+        let t = self.touch_at(i);
         let touch = &self.data.observations.touches[t];
         let n = self.n_params();
-        let ball = &self.data.observations.balls[touch.ball];
-        let uncertain = ball.radius_sigma.is_some();
-        let tied = self.tied.column(touch.ball);
-        // The ball's centre, then its radius when uncertain.
-        let unknowns = match tied {
-            Some(column) => &global.as_slice()[column..],
-            None => block.as_slice(),
-        };
-        let radius = if uncertain { unknowns[3] } else { ball.radius };
-        let centre = Vector3::new(unknowns[0], unknowns[1], unknowns[2]);
+        let TouchedBall {
+            centre,
+            radius,
+            tied,
+            uncertain,
+        } = self.touched_ball(touch.ball, global, block);
         let row = reached
             .and_then(|reached| touch.row(reached, &centre, radius))
-            .map_err(|e| {
-                failed(
-                    ObservationRef {
-                        kind: ObservationKind::Touch,
-                        index: t,
-                    },
-                    format!("on ball {}: {e}", touch.ball),
-                )
-            })?;
+            .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(row.pose.as_slice());
         out.residual[0] = row.rows.residual[0];
         out.d_global.fill(0.0);
@@ -385,6 +374,57 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         Ok(())
     }
 
+    /// The touch of touch point `i`.
+    pub(crate) fn touch_at(&self, i: usize) -> usize {
+        self.touch_order[i - self.sample_points()]
+    }
+
+    /// Ball `b`'s centre and radius (its calibrated radius when exact):
+    /// from the global block `global` for a tied ball, from its group's
+    /// block `block` for any other.
+    pub(crate) fn touched_ball(
+        &self,
+        b: usize,
+        global: &DVector<f64>,
+        block: &SVector<f64, C>,
+    ) -> TouchedBall {
+        let ball = &self.data.observations.balls[b];
+        let uncertain = ball.radius_sigma.is_some();
+        let tied = self.tied.column(b);
+        // The ball's centre, then its radius when uncertain.
+        let unknowns = match tied {
+            Some(column) => &global.as_slice()[column..],
+            None => block.as_slice(),
+        };
+        TouchedBall {
+            centre: Vector3::new(unknowns[0], unknowns[1], unknowns[2]),
+            radius: if uncertain { unknowns[3] } else { ball.radius },
+            tied,
+            uncertain,
+        }
+    }
+
+    /// Where the machine is at the touch points `points` (one group's, of
+    /// touches), each from the pose in its cache: together, so that a
+    /// mechanism may reach them at once ([`Actuation::tool_points`]).
+    pub(crate) fn reach(
+        &self,
+        points: Range<usize>,
+        global: &DVector<f64>,
+        caches: &[LastPose],
+    ) -> Vec<Result<Reached, MechanismError>> {
+        let touches = &self.data.observations.touches;
+        let actuations: Vec<&Actuation> = points.map(|i| &touches[self.touch_at(i)].at).collect();
+        let starts: Vec<Option<&[f64]>> = caches.iter().map(LastPose::pose).collect();
+        Actuation::tool_points(
+            self.data.mechanism.as_ref(),
+            &global.as_slice()[..self.n_params()],
+            self.data.configured.as_slice(),
+            &actuations,
+            &starts,
+        )
+    }
+
     /// The points `first..first + out.len()` (one group's) at its block
     /// `group`, with their caches: a sample's rows from one evaluation, or
     /// touches.
@@ -398,20 +438,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         if first >= self.sample_points() {
             // The touches together: each from the pose it last reached.
-            let reached = {
-                let touches = &self.data.observations.touches;
-                let actuations: Vec<&Actuation> = (first..first + out.len())
-                    .map(|i| &touches[self.touch_order[i - self.sample_points()]].at)
-                    .collect();
-                let starts: Vec<Option<&[f64]>> = caches.iter().map(LastPose::pose).collect();
-                Actuation::tool_points(
-                    self.data.mechanism.as_ref(),
-                    &global.as_slice()[..self.n_params()],
-                    self.data.configured.as_slice(),
-                    &actuations,
-                    &starts,
-                )
-            };
+            let reached = self.reach(first..first + out.len(), global, caches);
             for (j, ((reached, out), cache)) in reached.into_iter().zip(out).zip(caches).enumerate()
             {
                 self.touch_row(first + j, global, group, reached, cache, out)
@@ -438,6 +465,62 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         }
         Ok(())
     }
+}
+
+/// The start of a problem ([`MechanismProblem::start_state`]).
+pub(crate) struct Start<const C: usize> {
+    /// The solver's start.
+    pub state: State<C, 0>,
+    /// Every point's cache there.
+    pub caches: Vec<LastPose>,
+    /// Every touch's tool point there, in the order of the points.
+    pub tips: Vec<Vector3<f64>>,
+}
+
+/// The local blocks' start, the points' caches and the touches' tool
+/// points ([`MechanismProblem::start_blocks`]).
+type StartBlocks<const C: usize> =
+    Result<(Vec<SVector<f64, C>>, Vec<LastPose>, Vec<Vector3<f64>>), MechanismCalibrationError>;
+
+/// A ball's start: its block, and the fit of its touches.
+type BallStart<const C: usize> = (SVector<f64, C>, BallFit);
+
+/// A ball located by its touches ([`ball_centre`]).
+pub(crate) struct BallFit {
+    /// Its centre.
+    pub centre: Vector3<f64>,
+    /// The pose each touch reached.
+    pub poses: Vec<LastPose>,
+    /// The tool point each touch reached.
+    pub tips: Vec<Vector3<f64>>,
+}
+
+/// A touched ball's unknowns' values and where they are
+/// ([`MechanismProblem::touched_ball`]).
+pub(crate) struct TouchedBall {
+    /// Its centre.
+    pub centre: Vector3<f64>,
+    /// Its radius.
+    pub radius: f64,
+    /// Its first column in the global block when it is tied.
+    pub tied: Option<usize>,
+    /// Whether its radius is an unknown.
+    pub uncertain: bool,
+}
+
+/// The error of touch `t` on ball `ball`.
+pub(crate) fn touch_failed(
+    t: usize,
+    ball: usize,
+    error: impl std::fmt::Display,
+) -> MechanismCalibrationError {
+    failed(
+        ObservationRef {
+            kind: ObservationKind::Touch,
+            index: t,
+        },
+        format!("on ball {ball}: {error}"),
+    )
 }
 
 /// A local block of `C` unknowns: `xyz`, then (with `C` 4) `fourth`.
@@ -488,8 +571,8 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// `touches` (indices into `all`): the best fit, with its radius, of the
 /// tool points the touches reach with parameters `params` and the
 /// controller's `configured` ([`best_fit`]; the last
-/// iterate of a fit that did not converge); with the pose each touch
-/// reached, in the order of `touches`.
+/// iterate of a fit that did not converge); with the pose and the tool
+/// point each touch reached, in the order of `touches`.
 pub(crate) fn ball_centre(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -498,7 +581,7 @@ pub(crate) fn ball_centre(
     touches: &[usize],
     b: usize,
     radius: f64,
-) -> Result<(Vector3<f64>, Vec<LastPose>), MechanismCalibrationError> {
+) -> Result<BallFit, MechanismCalibrationError> {
     // Together: a mechanism may reach several at once (the hexapod's
     // lanes), each from its start pose.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
@@ -522,7 +605,11 @@ pub(crate) fn ball_centre(
         .into_iter()
         .unzip();
     match best_fit(&points, radius) {
-        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok((fit.centre, poses)),
+        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(BallFit {
+            centre: fit.centre,
+            poses,
+            tips: points,
+        }),
         Err(e) => Err(MechanismCalibrationError::InvalidData {
             what: format!("ball {b}"),
             reason: format!("its touches do not locate its centre: {e}"),
@@ -770,7 +857,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use parcal_observe::mechanism::Actuation;
     use std::sync::Arc;
 
@@ -790,7 +877,7 @@ mod tests {
     /// heights, 2 part distances, 3 point samples (the first at a measured
     /// pose), two balls touched 5 times each (the second's radius with a
     /// calibration sigma), the touches interleaved.
-    fn small_delta() -> MechanismData {
+    pub(crate) fn small_delta() -> MechanismData {
         let delta = LinearDelta::typical();
         let configured = design(&delta);
         let mut truth = DeltaParams::from_slice(configured.as_slice());
@@ -870,11 +957,11 @@ mod tests {
                 ];
                 let readings = delta.inverse(p, &true_point).unwrap();
                 let commanded = delta.forward(c, readings.as_slice(), &true_point).unwrap();
-                BallTouch {
+                BallTouch::new(
                     ball,
-                    at: Actuation::Commanded([commanded[0], commanded[1], commanded[2]]),
-                    sigma: 0.005,
-                }
+                    Actuation::Commanded([commanded[0], commanded[1], commanded[2]]),
+                    0.005,
+                )
             })
             .collect();
         let observations = Observations {
@@ -950,7 +1037,7 @@ mod tests {
     /// the dense reference, from the start blocks moved by `offset`.
     fn check_against_dense<const C: usize>(data: &MechanismData, offset: Vector3<f64>) {
         let problem = MechanismProblem::<C>::new(data, Loss::Squared);
-        let (mut state, _) = problem.start_state().unwrap();
+        let mut state = problem.start_state().unwrap().state;
         for group in &mut state.groups {
             *group += block::<C>(&offset, 0.0);
         }
@@ -1024,7 +1111,7 @@ mod tests {
     /// [`small_delta`] with its two balls tied by a calibrated distance
     /// 0.02 mm longer than the true one: both balls' unknowns global, the
     /// first's centre prior and the second's radius prior with them.
-    fn tied_delta() -> MechanismData {
+    pub(crate) fn tied_delta() -> MechanismData {
         let mut data = small_delta();
         let true_distance = Vector3::new(70.0, -55.0, 6.35).norm();
         data.observations.ball_distances = vec![BallDistance {
@@ -1067,7 +1154,7 @@ mod tests {
     fn tied_balls_rows_match_central_differences_over_the_global_block() {
         let data = tied_delta();
         let problem = MechanismProblem::<4>::new(&data, Loss::Squared);
-        let (state, _) = problem.start_state().unwrap();
+        let state = problem.start_state().unwrap().state;
         let samples = data.observations.samples.len();
         let rows = |global: &DVector<f64>| {
             let mut residuals = Vec::new();

@@ -86,6 +86,7 @@ impl MechanismCalibration {
             tests: TestsRecord {
                 alpha: self.alpha,
                 data_rows: self.data_rows,
+                tests: (self.tests != self.data_rows).then_some(self.tests),
                 critical_value: self.critical_value,
                 observations,
                 removed,

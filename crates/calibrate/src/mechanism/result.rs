@@ -86,11 +86,15 @@ pub struct MechanismCalibration {
     pub observations: Vec<ObservationCheck>,
     /// The global test, at a least-squares minimum with redundancy.
     pub global_test: Option<GlobalTest>,
-    /// The critical value of the w-tests (family-wise `α` over the data
-    /// rows, Bonferroni).
+    /// The critical value of the w-tests (family-wise `α` over
+    /// [`Self::tests`], Bonferroni).
     pub critical_value: f64,
-    /// The number of data rows: the w-tests' family.
+    /// The number of data rows.
     pub data_rows: usize,
+    /// The w-tests' family: one test per data row, a ball touch's three
+    /// coordinate rows one test (their `|w|` are equal but for the angle
+    /// prior's share, as the hexapod's own calibration counts them).
+    pub tests: usize,
     /// The level `α` of the tests.
     pub alpha: f64,
     /// The verdict.
@@ -200,7 +204,7 @@ pub(crate) fn assemble(
     let global_test = fit
         .cost
         .and_then(|cost| GlobalTest::new(cost, fit.redundancy, options.alpha));
-    let critical = critical_value(options.alpha, fit.data_rows);
+    let critical = critical_value(options.alpha, fit.tests);
     let observations = fit.checks.unwrap_or_default();
     let outlier = worst(&observations).is_some_and(|w| w.normalised.abs() > critical);
     let verdict = Verdict::new(&fit.status, global_test, outlier);
@@ -221,6 +225,7 @@ pub(crate) fn assemble(
         observations,
         critical_value: critical,
         data_rows: fit.data_rows,
+        tests: fit.tests,
         alpha: options.alpha,
         reasons: Vec::new(),
         removals: Vec::new(),
@@ -260,9 +265,19 @@ fn not_converged(status: &Status) -> String {
     }
 }
 
+/// The w-tests' family in words: `567 rows`, or `189 tests of 567 rows`.
+fn family(calibration: &MechanismCalibration) -> String {
+    let (tests, rows) = (calibration.tests, calibration.data_rows);
+    if tests == rows {
+        format!("{rows} rows")
+    } else {
+        format!("{tests} tests of {rows} rows")
+    }
+}
+
 /// The verdict's reasons, in words.
 pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
-    let (data_rows, alpha) = (calibration.data_rows, calibration.alpha);
+    let alpha = calibration.alpha;
     let mut reasons = Vec::new();
     if !calibration.converged() {
         reasons.push(format!(
@@ -294,7 +309,7 @@ pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
     }) = calibration.worst()
     {
         let critical = calibration.critical_value;
-        let family = format!("family-wise level {alpha} over {data_rows} rows");
+        let family = format!("family-wise level {alpha} over {}", family(calibration));
         reasons.push(if w.abs() > critical {
             format!(
                 "{observation} (row {row}) fails its w-test: |w| = {:.2} > {critical:.2} ({family}): a blunder that snooping would remove",

@@ -58,7 +58,7 @@ impl Snoopable for MechanismCalibration {
             return None;
         }
         Some(Tests {
-            size: self.data_rows,
+            size: self.tests,
             worst: self.worst(),
         })
     }

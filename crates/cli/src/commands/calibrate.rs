@@ -29,7 +29,9 @@ pub struct Args {
     /// --observation and --prior override its parts.
     #[arg(long, value_enum, ignore_case = true)]
     sim: Option<Simulation>,
-    /// Observation equation: radius (paper eq. 9) or transformed coordinates (eq. 10).
+    /// Observation equation of the ball touches: radius (paper eq. 9) or
+    /// transformed coordinates (eq. 10); another mechanism's default is
+    /// radius.
     #[arg(long, value_enum)]
     observation: Option<Observation>,
     /// A priori knowledge (paper eq. 7): the paper's diagonal form, the design
@@ -81,8 +83,8 @@ pub struct Args {
     report: bool,
     /// Calibrate a hexapod's ball touches by the common calibration of
     /// every mechanism, through its interface (docs/mechanisms.md), rather
-    /// than by its own: the radius observation (--sim I or III, or
-    /// --observation radius), written as a mechanism's calibration.json.
+    /// than by its own, under the same options, written as a mechanism's
+    /// calibration.json.
     #[arg(long)]
     common: bool,
 }
@@ -241,8 +243,6 @@ fn print_instruments(
 }
 
 impl Args {
-    /// calibration.json's path: --out, or calibration.json in the
-    /// dataset's directory (next to a snapshot file).
     /// The options of a mechanism dataset's calibration; an error naming
     /// an option given that only the hexapod's calibration has.
     fn mechanism_options(
@@ -250,18 +250,22 @@ impl Args {
     ) -> anyhow::Result<(super::mechanism::CalibrateRequest, MechanismOptions)> {
         let hexapod_only = [
             ("--sim", self.sim.is_some()),
-            ("--observation", self.observation.is_some()),
             ("--prior", self.prior.is_some()),
             ("--weights", self.weights != WeightModel::default()),
             ("--radius", self.radius.is_some()),
         ];
         if let Some((flag, _)) = hexapod_only.iter().find(|(_, given)| *given) {
             anyhow::bail!(
-                "{}: {flag} applies to a hexapod's calibration, not to this mechanism's (its options: --snoop, --loss, --lm, --max-iterations, --time-limit, --out, --report)",
+                "{}: {flag} applies to a hexapod's calibration, not to this mechanism's (its options: --observation, --snoop, --loss, --lm, --max-iterations, --time-limit, --out, --report)",
                 self.dataset.display()
             );
         }
-        Ok((self.mechanism_request(), self.flags().mechanism_options()))
+        let observation = self.observation.unwrap_or(Observation::Radius);
+        let options = self.flags().mechanism_options();
+        Ok((
+            self.mechanism_request(),
+            options.with_observation(observation),
+        ))
     }
 
     /// What a mechanism's calibration (and a hexapod's through the common
@@ -274,6 +278,8 @@ impl Args {
         }
     }
 
+    /// calibration.json's path: --out, or calibration.json in the
+    /// dataset's directory (next to a snapshot file).
     fn out_path(&self) -> PathBuf {
         let directory = if self.dataset.is_file() {
             self.dataset.parent().unwrap_or(Path::new("."))

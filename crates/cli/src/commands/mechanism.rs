@@ -13,7 +13,7 @@ use parcal::calibration::mechanism::{
     MechanismCalibrationError, MechanismData, MechanismOptions, ObservationKind,
     calibrate_mechanism, check_mechanism_data,
 };
-use parcal::calibration::{IterationRecord, Method};
+use parcal::calibration::{IterationRecord, Method, Observation};
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
 use parcal::dataset::{HEXAPOD, declared_mechanism};
@@ -183,8 +183,13 @@ pub fn calibrate_with(
         data.observations.len(),
         read.as_secs_f64()
     ));
+    let touches = match options.observation {
+        _ if data.observations.touches.is_empty() => "",
+        Observation::Radius => ", ball touches by their radius (eq. 9)",
+        Observation::Coordinates => ", ball touches by their coordinates (eq. 10)",
+    };
     progress.line(&format!(
-        "calibrating the {mechanism}: {}, {} loss{}",
+        "calibrating the {mechanism}: {}, {} loss{}{touches}",
         match options.method {
             Method::GaussNewton => "Gauss-Newton",
             Method::LevenbergMarquardt { .. } => "Levenberg-Marquardt",

@@ -84,8 +84,12 @@ pub struct RemovalRecord {
 pub struct TestsRecord {
     /// The level `α`.
     pub alpha: f64,
-    /// The data rows (the w-tests' family).
+    /// The data rows.
     pub data_rows: usize,
+    /// The w-tests' family when it is not one test per data row (a ball
+    /// touch's three coordinate rows are one test); absent: one per row.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tests: Option<usize>,
     /// The critical value of `|w|`.
     pub critical_value: f64,
     /// Every observation's numbers.

@@ -17,12 +17,15 @@
 //! A sphere of known radius fixes lengths: the touches of one ball
 //! measure the machine's scale, which probe heights on a plane leave to
 //! the prior. This is the paper's radius observation (eq. 9), which the
-//! hexapod's own calibration also offers.
+//! hexapod's own calibration also offers. A touch may instead be observed
+//! by its three coordinates (eq. 10, [`super::touch_coordinates`]), whose
+//! weight and contact direction's prior it then carries too.
 
 use nalgebra::{DVector, Dyn, RowVector3, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 
 use super::commanded::{Actuation, Rows, check_sigma};
+use crate::CoordinateWhitening;
 
 /// One touch of a ball (module doc).
 #[derive(Debug, Clone, PartialEq)]
@@ -33,6 +36,41 @@ pub struct BallTouch {
     pub at: Actuation,
     /// The touch's standard deviation `σ` along the sphere's normal (mm).
     pub sigma: f64,
+    /// The whitening of its three coordinate rows (eq. 10): `L⁻¹` of
+    /// their covariance `W = L Lᵀ` (mm²); `None`: `W = σ² I`.
+    pub weight: Option<CoordinateWhitening>,
+    /// What is known of its contact direction before the fit (eq. 10's
+    /// angles); `None`: nothing.
+    pub approach: Option<Approach>,
+}
+
+/// A touch's contact direction as known before the fit: the coordinate
+/// observation's two contact angles `θ` are charted about `direction`
+/// ([`DirectionChart`](crate::DirectionChart)) and have the prior
+/// `θ ~ N(0, σ_θ² I)` (paper eq. 7's angle terms).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Approach {
+    /// The direction `u0` from the ball's centre to the touched point (any
+    /// non-zero length): the commanded approach, or the direction at the
+    /// design.
+    pub direction: [f64; 3],
+    /// `σ_θ`, each angle's standard deviation (rad).
+    pub sigma: f64,
+}
+
+impl BallTouch {
+    /// A touch of ball `ball`, the machine put there by `at`, of standard
+    /// deviation `sigma` along the normal (mm); its coordinates' weight
+    /// `σ⁻¹ I`, nothing known of its contact direction.
+    pub fn new(ball: usize, at: Actuation, sigma: f64) -> Self {
+        Self {
+            ball,
+            at,
+            sigma,
+            weight: None,
+            approach: None,
+        }
+    }
 }
 
 /// A touch's whitened rows (one: along the sphere's normal), as a point
@@ -114,11 +152,7 @@ mod tests {
     #[test]
     fn derivatives_match_central_differences() {
         let (delta, configured, truth) = delta();
-        let touch = BallTouch {
-            ball: 0,
-            at: Actuation::Commanded([40.0, -30.0, 18.0]),
-            sigma: 0.005,
-        };
+        let touch = BallTouch::new(0, Actuation::Commanded([40.0, -30.0, 18.0]), 0.005);
         let centre = Vector3::new(35.0, -33.0, 6.0);
         let c = configured.as_slice();
         let at = |p: &[f64], centre: &Vector3<f64>, radius: f64| {
@@ -150,11 +184,7 @@ mod tests {
         let p = design(hexapod);
         let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
         let q = hexapod.inverse(p.as_slice(), &pose).unwrap();
-        let touch = BallTouch {
-            ball: 0,
-            at: Actuation::Readings(q.iter().copied().collect()),
-            sigma: 0.002,
-        };
+        let touch = BallTouch::new(0, Actuation::Readings(q.iter().copied().collect()), 0.002);
         let tip = hexapod.tool_point(p.as_slice(), &pose).unwrap().point;
         let centre = tip + Vector3::new(2.0, -3.0, 4.0);
         let at = |params: &[f64]| {
@@ -197,11 +227,7 @@ mod tests {
         // Configured = true: the tool point is where it was commanded.
         let (delta, configured, _) = delta();
         let c = configured.as_slice();
-        let touch = BallTouch {
-            ball: 0,
-            at: Actuation::Commanded([3.0, 4.0, 10.0]),
-            sigma: 0.01,
-        };
+        let touch = BallTouch::new(0, Actuation::Commanded([3.0, 4.0, 10.0]), 0.01);
         let row = touch
             .evaluate(&delta, c, c, &Vector3::new(0.0, 0.0, 10.0), 4.9, None)
             .unwrap();

@@ -20,7 +20,10 @@
 //!   centre `c`, a block of its own, and its radius `ρ` when it has a
 //!   calibration sigma), at a commanded position or at the actuators'
 //!   readings ([`Actuation`]): the one kind a mechanism of any pose (the
-//!   hexapod's six coordinates) takes, through its tool point;
+//!   hexapod's six coordinates) takes, through its tool point; or by its
+//!   three coordinates, `L⁻¹ (c + ρ u(θ) − x)` (paper eq. 10, 3 rows; the
+//!   contact's two angles `θ` unknowns of its own,
+//!   [`BallTouch::coordinate_rows`]);
 //! - [`BallDistance`]: a calibrated distance between two touched balls'
 //!   centres, `(|c_a − c_b| − L) / σ` (1 row; unknowns the two centres).
 //!
@@ -46,15 +49,17 @@ mod part_distance;
 mod point_sample;
 mod probe;
 mod quantity;
+mod touch_coordinates;
 
 pub use ball_distance::{BallDistance, BallDistanceRow};
-pub use ball_touch::{BallTouch, TouchRows};
+pub use ball_touch::{Approach, BallTouch, TouchRows};
 pub use commanded::{Actuation, POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
 pub use point_sample::{PointSample, SampleRows};
 pub use probe::ProbeHeight;
 pub use quantity::MeasuredQuantity;
+pub use touch_coordinates::CoordinateRows;
 
 #[cfg(test)]
 pub(crate) mod test_support {

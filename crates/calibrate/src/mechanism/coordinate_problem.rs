@@ -1,0 +1,475 @@
+//! A mechanism calibration whose ball touches are observed by their
+//! coordinates (paper eq. 10) as the solver's problem.
+//!
+//! The global block, the global observations, the balls' blocks and every
+//! prior are those of the radius observation's problem
+//! ([`super::problem`]). Each touch is a point of three rows,
+//! `L⁻¹ (C + ρ u(θ) − T)` ([`BallTouch::coordinate_rows`]), with two
+//! unknowns of its own, its contact angles `θ`, eliminated with its ball's
+//! block by the Schur complement. Its chart is fixed at the start: about
+//! its approach's direction when it has one, else about the direction of
+//! its tool point from its ball's start centre ([`BallTouch::chart`]); its
+//! angles start at zero, with the prior `N(0, σ_θ² I)` of its approach.
+//!
+//! Point samples have no place here (their rows are one per actuator):
+//! [`check_observation`] refuses them.
+
+use std::ops::Range;
+
+use nalgebra::{Const, DVector, Dyn, OMatrix, SVector, U2, UnitVector3, Vector2};
+use parcal_kinematics::mechanism::{MechanismError, Reached};
+use parcal_observe::DirectionChart;
+use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
+
+use super::data::MechanismData;
+use super::error::MechanismCalibrationError;
+use super::options::MechanismOptions;
+use super::problem::{LastPose, MechanismProblem, Start, TouchedBall, touch_failed};
+use crate::options::Observation;
+
+/// A touch point's linearisation: groups of `C` unknowns, two angles,
+/// three rows.
+type Local<const C: usize> = Linearization<C, 2, 3, OMatrix<f64, Const<3>, Dyn>>;
+
+/// Refuses point samples under the coordinate observation (module doc).
+pub(crate) fn check_observation(
+    data: &MechanismData,
+    options: &MechanismOptions,
+) -> Result<(), MechanismCalibrationError> {
+    if options.observation == Observation::Coordinates && !data.observations.samples.is_empty() {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "point samples".to_string(),
+            reason: "the coordinate observation (eq. 10) takes ball touches; calibrate point samples with the radius observation (eq. 9)".to_string(),
+        });
+    }
+    Ok(())
+}
+
+/// The problem of [`MechanismData`] under the coordinate observation
+/// (module doc), its local blocks of `C` unknowns.
+pub(crate) struct CoordinateProblem<'a, const C: usize> {
+    base: MechanismProblem<'a, C>,
+    /// Each touch point's chart's direction `u0`, in the order of the
+    /// points.
+    directions: Vec<UnitVector3<f64>>,
+}
+
+impl<'a, const C: usize> CoordinateProblem<'a, C> {
+    /// The problem of `data` (validated, without point samples) with `loss`
+    /// on its observations, and the solver's start (the radius problem's,
+    /// every angle zero) with every point's cache there. An error names a
+    /// touch whose chart cannot be formed (its tool point at its ball's
+    /// start centre, or an approach direction of zero length).
+    pub(crate) fn start(
+        data: &'a MechanismData,
+        loss: Loss,
+    ) -> Result<(Self, State<C, 2>, Vec<LastPose>), MechanismCalibrationError> {
+        let base = MechanismProblem::new(data, loss);
+        let Start {
+            state,
+            caches,
+            tips,
+        } = base.start_state()?;
+        let touches = &data.observations.touches;
+        let directions = tips
+            .iter()
+            .enumerate()
+            .map(|(i, tip)| {
+                let t = base.touch_at(i);
+                let touch = &touches[t];
+                let b = data.observations.samples.len() + touch.ball;
+                let ball = base.touched_ball(touch.ball, &state.global, &state.groups[b]);
+                let chart = touch
+                    .chart(&(tip - ball.centre))
+                    .map_err(|e| touch_failed(t, touch.ball, e))?;
+                Ok(UnitVector3::new_unchecked(chart.reference()))
+            })
+            .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
+        let state = State {
+            points: vec![SVector::zeros(); directions.len()],
+            global: state.global,
+            groups: state.groups,
+        };
+        Ok((Self { base, directions }, state, caches))
+    }
+
+    /// The radius observation's problem, whose blocks and global rows
+    /// this one shares.
+    pub(crate) fn base(&self) -> &MechanismProblem<'a, C> {
+        &self.base
+    }
+
+    /// The rows of touch point `i` that reached `reached` at its angles
+    /// `angles` on its ball (of the group block `block`, or the global
+    /// block for a tied ball) into `out`, the pose it reached left in
+    /// `cache`.
+    #[allow(clippy::too_many_arguments)]
+    fn touch_rows(
+        &self,
+        i: usize,
+        global: &DVector<f64>,
+        block: &SVector<f64, C>,
+        angles: &Vector2<f64>,
+        reached: Result<Reached, MechanismError>,
+        cache: &mut LastPose,
+        out: &mut Local<C>,
+    ) -> Result<(), MechanismCalibrationError> {
+        let t = self.base.touch_at(i);
+        let touch = &self.base.data().observations.touches[t];
+        let TouchedBall {
+            centre,
+            radius,
+            tied,
+            uncertain,
+        } = self.base.touched_ball(touch.ball, global, block);
+        let chart = DirectionChart::about(&self.directions[i]);
+        let rows = reached
+            .and_then(|reached| touch.coordinate_rows(reached, &chart, &centre, radius, angles))
+            .map_err(|e| touch_failed(t, touch.ball, e))?;
+        *cache = LastPose::of(rows.pose.as_slice());
+        let n = self.base.n_params();
+        out.residual = rows.residual;
+        out.d_global.fill(0.0);
+        out.d_global.columns_mut(0, n).copy_from(&rows.d_params);
+        out.d_group.fill(0.0);
+        out.d_point = rows.d_angles;
+        match tied {
+            Some(column) => {
+                out.d_global
+                    .columns_mut(column, 3)
+                    .copy_from(&rows.d_centre);
+                if uncertain {
+                    out.d_global
+                        .column_mut(column + 3)
+                        .copy_from(&rows.d_radius);
+                }
+            }
+            None => {
+                out.d_group.columns_mut(0, 3).copy_from(&rows.d_centre);
+                if uncertain {
+                    out.d_group.column_mut(3).copy_from(&rows.d_radius);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The touch points `first..first + out.len()` (one ball's) at its
+    /// block `group` and their angles `points`, with their caches.
+    fn fill(
+        &self,
+        first: usize,
+        global: &DVector<f64>,
+        group: &SVector<f64, C>,
+        points: &[SVector<f64, 2>],
+        caches: &mut [LastPose],
+        out: &mut [Local<C>],
+    ) -> Result<(), (usize, MechanismCalibrationError)> {
+        let reached = self.base.reach(first..first + out.len(), global, caches);
+        let each = reached.into_iter().zip(points).zip(caches).zip(out);
+        for (j, (((reached, angles), cache), out)) in each.enumerate() {
+            self.touch_rows(first + j, global, group, angles, reached, cache, out)
+                .map_err(|e| (first + j, e))?;
+        }
+        Ok(())
+    }
+}
+
+/// Groups of `C` unknowns, points of two angles and three rows (module
+/// doc).
+impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
+    type PointCache = LastPose;
+    type Workspace = ();
+    type Error = MechanismCalibrationError;
+    type Jacobian = OMatrix<f64, Const<3>, Dyn>;
+    type Global = DVector<f64>;
+
+    fn global_size(&self) -> usize {
+        self.base.global_len()
+    }
+
+    fn prepare_global(&self, global: &DVector<f64>) -> DVector<f64> {
+        global.clone()
+    }
+
+    fn n_groups(&self) -> usize {
+        Problem::<C, 0, 1>::n_groups(&self.base)
+    }
+
+    fn group_is_fixed(&self, k: usize) -> bool {
+        Problem::<C, 0, 1>::group_is_fixed(&self.base, k)
+    }
+
+    fn group_points(&self, k: usize) -> Range<usize> {
+        Problem::<C, 0, 1>::group_points(&self.base, k)
+    }
+
+    fn initial_cache(&self, i: usize) -> LastPose {
+        Problem::<C, 0, 1>::initial_cache(&self.base, i)
+    }
+
+    fn linearize(
+        &self,
+        i: usize,
+        global: &DVector<f64>,
+        group: &SVector<f64, C>,
+        point: &SVector<f64, 2>,
+        cache: &mut LastPose,
+        out: &mut Local<C>,
+    ) -> Result<(), MechanismCalibrationError> {
+        self.fill(
+            i,
+            global,
+            group,
+            std::slice::from_ref(point),
+            std::slice::from_mut(cache),
+            std::slice::from_mut(out),
+        )
+        .map_err(|(_, e)| e)
+    }
+
+    /// A ball's touches together ([`MechanismProblem::reach`]).
+    fn linearize_batch(
+        &self,
+        first: usize,
+        global: &DVector<f64>,
+        group: &SVector<f64, C>,
+        points: &[SVector<f64, 2>],
+        caches: &mut [LastPose],
+        out: &mut [Local<C>],
+        _workspace: &mut (),
+    ) -> Result<(), (usize, MechanismCalibrationError)> {
+        self.fill(first, global, group, points, caches, out)
+    }
+
+    /// [`Problem::linearize_batch`], then each point's `d_global · dg`.
+    fn linearize_along_batch(
+        &self,
+        first: usize,
+        global: &DVector<f64>,
+        group: &SVector<f64, C>,
+        points: &[SVector<f64, 2>],
+        caches: &mut [LastPose],
+        dg: &DVector<f64>,
+        out: &mut [Local<C>],
+        steps: &mut [SVector<f64, 3>],
+        _workspace: &mut (),
+    ) -> Result<(), (usize, MechanismCalibrationError)> {
+        self.fill(first, global, group, points, caches, out)?;
+        for (step, out) in steps.iter_mut().zip(out.iter()) {
+            *step = &out.d_global * dg;
+        }
+        Ok(())
+    }
+
+    fn global_observations(
+        &self,
+        global: &DVector<f64>,
+        out: &mut GlobalObservations,
+    ) -> Result<(), MechanismCalibrationError> {
+        Problem::<C, 0, 1>::global_observations(&self.base, global, out)
+    }
+
+    fn loss(&self) -> Loss {
+        Problem::<C, 0, 1>::loss(&self.base)
+    }
+
+    fn global_observation_rows(&self) -> Option<Vec<usize>> {
+        Problem::<C, 0, 1>::global_observation_rows(&self.base)
+    }
+
+    fn global_prior(&self) -> Option<&GaussianPrior<Dyn>> {
+        Problem::<C, 0, 1>::global_prior(&self.base)
+    }
+
+    fn group_prior(&self, k: usize) -> Option<GaussianPrior<Const<C>>> {
+        Problem::<C, 0, 1>::group_prior(&self.base, k)
+    }
+
+    /// Its approach's `N(0, σ_θ² I)` (module doc).
+    fn point_prior(&self, i: usize) -> Option<GaussianPrior<U2>> {
+        let touch = &self.base.data().observations.touches[self.base.touch_at(i)];
+        let sigma = touch.approach?.sigma;
+        Some(GaussianPrior::from_sigmas(
+            Vector2::zeros(),
+            Vector2::repeat(sigma),
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, Vector3};
+    use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
+
+    use super::*;
+    use crate::mechanism::problem::tests::{small_delta, tied_delta};
+
+    /// `data` without its point samples.
+    fn touches_only(mut data: MechanismData) -> MechanismData {
+        data.observations.samples.clear();
+        data
+    }
+
+    /// The Schur complement's step and the solution's covariance against
+    /// the dense reference, from the start moved by `offset` (the balls'
+    /// blocks, a tied ball's global unknowns and every touch's angles).
+    fn check_against_dense<const C: usize>(data: &MechanismData, offset: Vector3<f64>) {
+        let (problem, mut state, _) = CoordinateProblem::<C>::start(data, Loss::Squared).unwrap();
+        for group in &mut state.groups {
+            for k in 0..3 {
+                group[k] += offset[k];
+            }
+        }
+        for (_, columns) in problem.base().tied().iter() {
+            for k in 0..3 {
+                state.global[columns.start + k] += offset[k];
+            }
+        }
+        for (i, angles) in state.points.iter_mut().enumerate() {
+            *angles = Vector2::new(0.01, -0.02) * (i as f64).sin();
+        }
+        let dense = dense_reference::solve::<C, 2, 3, _>(&problem, &state, 0.0).unwrap();
+        let schur = linear_step::<C, 2, 3, _>(&problem, &state, &mut Vec::new(), 0.0, 64).unwrap();
+        let scale = dense.step.global.amax();
+        let global = (&schur.delta.global - &dense.step.global).amax();
+        let groups = (schur.delta.groups.iter().zip(&dense.step.groups))
+            .map(|(a, b)| (a - b).amax())
+            .fold(0.0, f64::max);
+        let points = (schur.delta.points.iter().zip(&dense.step.points))
+            .map(|(a, b)| (a - b).amax())
+            .fold(0.0, f64::max);
+        // Steps of O(1) from two factorisations of a system of condition
+        // ~1e8: agreement to ~1e-8 relative.
+        assert!(
+            global < 1e-7 * scale && groups < 1e-7 * scale && points < 1e-7 * scale,
+            "{global:e} {groups:e} {points:e}"
+        );
+        let solution = solve::<C, 2, 3, _>(&problem, state, &SolverOptions::default(), &mut |_| {});
+        assert_eq!(solution.status, Status::Converged);
+        let covariance = solution.covariance.unwrap();
+        let dense = dense_reference::solve::<C, 2, 3, _>(&problem, &solution.state, 0.0).unwrap();
+        let reference = dense.global_covariance().unwrap();
+        let error = (&covariance - &reference).amax();
+        assert!(error < 1e-7 * reference.amax(), "{error:e}");
+    }
+
+    #[test]
+    fn the_schur_step_and_covariance_match_the_dense_reference() {
+        // Probes, part distances and two balls (the first with a centre
+        // prior, the second with an uncertain radius: blocks of four).
+        let data = touches_only(small_delta());
+        check_against_dense::<4>(&data, Vector3::new(0.3, -0.2, 0.1));
+        let mut exact = data.clone();
+        exact.observations.balls[1].radius_sigma = None;
+        check_against_dense::<3>(&exact, Vector3::new(0.3, -0.2, 0.1));
+        // Both balls tied by a distance: their unknowns global.
+        let tied = touches_only(tied_delta());
+        check_against_dense::<4>(&tied, Vector3::new(0.3, -0.2, 0.1));
+        // Every touch's angles with a prior about a direction of its own.
+        let mut approached = exact;
+        for (k, touch) in approached.observations.touches.iter_mut().enumerate() {
+            let t = k as f64;
+            touch.approach = Some(parcal_observe::mechanism::Approach {
+                direction: [t.sin(), t.cos(), 2.0],
+                sigma: 0.05,
+            });
+        }
+        check_against_dense::<3>(&approached, Vector3::new(0.3, -0.2, 0.1));
+    }
+
+    /// Every touch's rows, as the problem linearises them, against central
+    /// differences over the whole global block, its ball's block and its
+    /// angles, for balls in their blocks and tied in the global block.
+    #[test]
+    fn the_touches_rows_match_central_differences() {
+        for data in [touches_only(small_delta()), touches_only(tied_delta())] {
+            let (problem, state, _) = CoordinateProblem::<4>::start(&data, Loss::Squared).unwrap();
+            let (g, h) = (state.global.len(), 1e-6);
+            for k in 0..problem.n_groups() {
+                for i in problem.group_points(k) {
+                    let angles = Vector2::new(0.02, -0.01);
+                    let at = |global: &DVector<f64>, group: &SVector<f64, 4>, angles| {
+                        let mut out = Local::<4>::zeros(g);
+                        let mut cache = LastPose::default();
+                        problem
+                            .linearize(i, global, group, &angles, &mut cache, &mut out)
+                            .unwrap();
+                        out
+                    };
+                    let analytic = at(&state.global, &state.groups[k], angles);
+                    let mut numeric = DMatrix::zeros(3, g + 4 + 2);
+                    for j in 0..g + 6 {
+                        let (mut gp, mut gm) = (state.global.clone(), state.global.clone());
+                        let (mut bp, mut bm) = (state.groups[k], state.groups[k]);
+                        let (mut ap, mut am) = (angles, angles);
+                        match j {
+                            _ if j < g => (gp[j], gm[j]) = (gp[j] + h, gm[j] - h),
+                            _ if j < g + 4 => {
+                                (bp[j - g], bm[j - g]) = (bp[j - g] + h, bm[j - g] - h)
+                            }
+                            _ => {
+                                (ap[j - g - 4], am[j - g - 4]) =
+                                    (ap[j - g - 4] + h, am[j - g - 4] - h)
+                            }
+                        }
+                        let column =
+                            (at(&gp, &bp, ap).residual - at(&gm, &bm, am).residual) / (2.0 * h);
+                        numeric.set_column(j, &column);
+                    }
+                    let mut expected = DMatrix::zeros(3, g + 6);
+                    expected.columns_mut(0, g).copy_from(&analytic.d_global);
+                    expected
+                        .view_mut((0, g), (3, 4))
+                        .copy_from(&analytic.d_group);
+                    expected
+                        .view_mut((0, g + 4), (3, 2))
+                        .copy_from(&analytic.d_point);
+                    let error = (&numeric - &expected).amax();
+                    // Steps of 1e-6 over residuals of ~1e3 (whitened by a
+                    // 5 um sigma): rounding ~1e-13 / 1e-6 relative.
+                    assert!(error < 1e-5 * expected.amax(), "point {i}: {error:e}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn isotropic_coordinates_fit_as_the_radius_rows() {
+        // Without angle priors and with W = σ² I, the angles take up the
+        // tangential rows: the same minimum as the radius observation's.
+        let data = touches_only(tied_delta());
+        let radius = MechanismProblem::<4>::new(&data, Loss::Squared);
+        let start = radius.start_state().unwrap().state;
+        let options = SolverOptions::default();
+        let by_radius = solve::<4, 0, 1, _>(&radius, start, &options, &mut |_| {});
+        let (coordinates, start, _) = CoordinateProblem::<4>::start(&data, Loss::Squared).unwrap();
+        let by_coordinates = solve::<4, 2, 3, _>(&coordinates, start, &options, &mut |_| {});
+        assert_eq!(by_radius.status, Status::Converged);
+        assert_eq!(by_coordinates.status, Status::Converged);
+        let sigma = by_radius.covariance.unwrap().diagonal().map(f64::sqrt);
+        let difference = (&by_radius.state.global - &by_coordinates.state.global)
+            .component_div(&sigma)
+            .amax();
+        // Both stop within the solver's tolerance of their sigmas.
+        assert!(
+            difference < 2.0 * parcal_solver::SIGMA_TOLERANCE,
+            "{difference:e}"
+        );
+        let sigma_ratio = (by_coordinates.covariance.unwrap().diagonal().map(f64::sqrt))
+            .component_div(&sigma)
+            .map(|r| (r - 1.0).abs())
+            .amax();
+        assert!(sigma_ratio < 1e-6, "{sigma_ratio:e}");
+    }
+
+    #[test]
+    fn point_samples_are_refused_under_the_coordinate_observation() {
+        let data = small_delta();
+        let options = MechanismOptions::default().with_observation(Observation::Coordinates);
+        let error = check_observation(&data, &options).unwrap_err().to_string();
+        assert!(error.contains("point samples"), "{error}");
+        assert!(check_observation(&data, &MechanismOptions::default()).is_ok());
+        assert!(check_observation(&touches_only(data), &options).is_ok());
+    }
+}
