@@ -31,23 +31,24 @@ pub struct BallMisfit {
     pub degrees_of_freedom: usize,
 }
 
-/// The balls (ids, their whitened data costs and contact counts, in the
-/// same order) whose cost is beyond the `1 − FAMILY_TAIL / B` quantile of
-/// chi-square(`n − 3`); balls with fewer than 4 contacts have no degrees of
-/// freedom and are not tested.
-pub fn misfit_balls<'a>(
-    ids: impl ExactSizeIterator<Item = &'a str>,
+/// The balls (their whitened data costs and contact counts, in the same
+/// order; `id` names ball `b`) whose cost is beyond the `1 − FAMILY_TAIL /
+/// B` quantile of chi-square(`n − 3`); balls with fewer than 4 contacts
+/// have no degrees of freedom and are not tested.
+pub fn misfit_balls(
+    id: impl Fn(usize) -> String,
     costs: &[f64],
     contacts: impl IntoIterator<Item = usize>,
 ) -> Vec<BallMisfit> {
-    let p = 1.0 - FAMILY_TAIL / ids.len().max(1) as f64;
+    let p = 1.0 - FAMILY_TAIL / costs.len().max(1) as f64;
     // The quantile of each number of degrees of freedom, computed once
     // (limits[d]; index 0 is never read).
     let mut limits = vec![f64::NAN];
-    ids.zip(costs)
+    costs
+        .iter()
         .zip(contacts)
         .enumerate()
-        .filter_map(|(ball, ((id, &cost), n))| {
+        .filter_map(|(ball, (&cost, n))| {
             let degrees_of_freedom = n.checked_sub(3).filter(|&d| d > 0)?;
             while limits.len() <= degrees_of_freedom {
                 limits.push(chi_square_quantile(limits.len(), p));
@@ -56,7 +57,7 @@ pub fn misfit_balls<'a>(
             let passes = cost <= limits[degrees_of_freedom];
             (!passes).then(|| BallMisfit {
                 ball,
-                id: id.to_string(),
+                id: id(ball),
                 chi_square: cost,
                 degrees_of_freedom,
             })
@@ -79,7 +80,7 @@ mod tests {
         let mut contacts = vec![7; 1000];
         contacts[3] = 3; // no degrees of freedom: not tested
         costs[3] = 1e9;
-        let misfits = misfit_balls(ids.iter().map(String::as_str), &costs, contacts);
+        let misfits = misfit_balls(|b| ids[b].clone(), &costs, contacts);
         let flagged: Vec<&str> = misfits.iter().map(|m| m.id.as_str()).collect();
         assert_eq!(flagged, ["b500", "b900"]);
         assert_eq!(misfits[0].degrees_of_freedom, 4);

@@ -17,7 +17,10 @@
 //! On the 10^6-contact campaign of docs/performance.md, one ball of 142857
 //! is in this case (chi-square 14053 for 4 at the first settled iterate).
 
+use std::time::Instant;
+
 use parcal_kinematics::{ForwardOptions, Geometry, KinematicsError, Pose, Vec3, forward};
+use parcal_solver::SolverOptions;
 
 use crate::sphere_fit::{SphereFit, mirror_fit, refine_centre};
 
@@ -66,13 +69,28 @@ pub fn wrong_side(
         .zip(poses)
         .map(|(q, start)| forward(geometry, &q, start, &fk).map(|s| geometry.tool_tip(&s.pose)))
         .collect::<Result<Vec<_>, _>>()?;
-    let Ok(side) = refine_centre(&tips, radius, centre) else {
-        return Ok(None);
-    };
-    let Ok(mirror) = mirror_fit(&tips, radius, &side) else {
-        return Ok(None);
-    };
-    Ok((mirror.cost * MIRROR_GAIN < side.cost).then_some((side, mirror, tips)))
+    Ok(mirror_side(&tips, radius, centre).map(|(side, mirror)| (side, mirror, tips)))
+}
+
+/// The fits of a ball's contact points `tips` (radius `radius`) on the
+/// side of `centre` and at its mirror image, when the mirror image fits
+/// them [`MIRROR_GAIN`] times better: the ball is then on the wrong side.
+pub fn mirror_side(tips: &[Vec3], radius: f64, centre: &Vec3) -> Option<(SphereFit, SphereFit)> {
+    let side = refine_centre(tips, radius, centre).ok()?;
+    let mirror = mirror_fit(tips, radius, &side).ok()?;
+    (mirror.cost * MIRROR_GAIN < side.cost).then_some((side, mirror))
+}
+
+/// `options` for what is left of the iteration and time limits after
+/// `used` iterations since `started`: a solve resumed after re-seeding.
+pub(crate) fn remaining(options: &SolverOptions, used: usize, started: Instant) -> SolverOptions {
+    SolverOptions {
+        max_iterations: options.max_iterations.saturating_sub(used),
+        time_limit: options
+            .time_limit
+            .map(|limit| limit.saturating_sub(started.elapsed())),
+        ..options.clone()
+    }
 }
 
 /// A ball re-seeded at the mirror image of its centre fit.

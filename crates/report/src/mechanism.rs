@@ -280,6 +280,21 @@ pub const BALL_HEADER: [&str; 5] = [
     "radius sigma (mm)",
 ];
 
+/// One sentence per ball found on the wrong side of its touches and
+/// re-seeded.
+pub fn mirrored_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    calibration
+        .mirrored
+        .iter()
+        .map(|m| {
+            format!(
+                "ball {} was on the wrong side of its touches after {} linear solves (chi-square {:.1}; its touches' tool points there fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
+                m.ball, m.iteration, m.chi_square, m.gain
+            )
+        })
+        .collect()
+}
+
 /// One sentence per observation removed by data snooping.
 pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
     let factor = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3}"));
@@ -390,6 +405,10 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
             ),
         ),
     ];
+    if !calibration.mirrored.is_empty() {
+        blocks.push(Block::Heading(3, "Balls re-seeded".into()));
+        blocks.push(Block::List(Tone::Warning, mirrored_sentences(calibration)));
+    }
     if !calibration.tests.removed.is_empty() {
         blocks.push(Block::Heading(3, "Removed by data snooping".into()));
         blocks.push(Block::List(Tone::Warning, removal_sentences(calibration)));

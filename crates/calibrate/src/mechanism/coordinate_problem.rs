@@ -16,15 +16,15 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DVector, Dyn, OMatrix, SVector, U2, UnitVector3, Vector2};
+use nalgebra::{Const, DVector, Dyn, OMatrix, SVector, U2, UnitVector3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached};
-use parcal_observe::DirectionChart;
+use parcal_observe::{DirectionChart, unit_direction};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
-use super::problem::{LastPose, MechanismProblem, Start, TouchedBall, touch_failed};
+use super::problem::{FitProblem, LastPose, MechanismProblem, Start, TouchedBall, touch_failed};
 use crate::options::Observation;
 
 /// A touch point's linearisation: groups of `C` unknowns, two angles,
@@ -91,12 +91,6 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             groups: state.groups,
         };
         Ok((Self { base, directions }, state, caches))
-    }
-
-    /// The radius observation's problem, whose blocks and global rows
-    /// this one shares.
-    pub(crate) fn base(&self) -> &MechanismProblem<'a, C> {
-        &self.base
     }
 
     /// The rows of touch point `i` that reached `reached` at its angles
@@ -172,6 +166,43 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
                 .map_err(|e| (first + j, e))?;
         }
         Ok(())
+    }
+}
+
+/// A re-seeded ball's touches are charted again (module doc): about the
+/// direction of their tool point from its new centre, their angles zero;
+/// a touch with an approach keeps its chart, its angles those of that
+/// direction.
+impl<const C: usize> FitProblem<C, 2, 3> for CoordinateProblem<'_, C> {
+    fn base(&self) -> &MechanismProblem<'_, C> {
+        &self.base
+    }
+
+    fn reseed(
+        &mut self,
+        state: &mut State<C, 2>,
+        b: usize,
+        centre: &Vector3<f64>,
+        tips: &[Vector3<f64>],
+    ) {
+        self.base
+            .place_ball(b, centre, &mut state.global, &mut state.groups);
+        let k = self.base.data().observations.samples.len() + b;
+        let points = Problem::<C, 0, 1>::group_points(&self.base, k);
+        for (i, tip) in points.zip(tips) {
+            let touch = &self.base.data().observations.touches[self.base.touch_at(i)];
+            let direction = tip - centre;
+            match (touch.approach, unit_direction(&direction)) {
+                (None, Ok(u0)) => {
+                    self.directions[i] = u0;
+                    state.points[i] = Vector2::zeros();
+                }
+                (Some(_), _) | (None, Err(_)) => {
+                    let chart = DirectionChart::about(&self.directions[i]);
+                    state.points[i] = chart.angles_of(&direction);
+                }
+            }
+        }
     }
 }
 

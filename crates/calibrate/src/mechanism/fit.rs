@@ -11,21 +11,23 @@
 
 use std::time::Instant;
 
-use nalgebra::{DMatrix, DVector, SVector};
+use nalgebra::{DMatrix, DVector, SVector, Vector3};
 use parcal_solver::{
-    BlockId, GlobalObservations, IterationRecord, Loss, Problem, SolverOptions, State, Status,
-    group_sigmas, normalised_residual, redundancy, solve_with_caches,
+    BlockId, GlobalObservations, IterationRecord, Loss, Problem, Solution, SolverOptions, State,
+    Status, group_sigmas, normalised_residual, redundancy, solve_with_caches,
 };
 
+use crate::mirror::remaining;
 use crate::options::Observation;
 use crate::verdict::{at_minimum, rows_and_unknowns};
 
 use super::coordinate_problem::CoordinateProblem;
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
+use super::mirror::{MirroredBall, WrongSideWatch};
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::problem::{LastPose, MechanismProblem, Start, group_size};
+use super::problem::{FitProblem, LastPose, MechanismProblem, Start, group_size};
 
 /// The numbers of one observation at the solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,6 +85,8 @@ pub(crate) struct Fit {
     pub redundancy: usize,
     /// Every observation's numbers, at a least-squares minimum.
     pub checks: Option<Vec<ObservationCheck>>,
+    /// The balls found on the wrong side of their touches and re-seeded.
+    pub mirrored: Vec<MirroredBall>,
     /// The number of data rows.
     pub data_rows: usize,
     /// The w-tests' family: one per global row and per point (a point's
@@ -116,50 +120,45 @@ fn fit_blocks<const C: usize>(
 ) -> Result<Fit, MechanismCalibrationError> {
     match options.observation {
         Observation::Radius => {
-            let problem = MechanismProblem::<C>::new(data, options.loss);
+            let mut problem = MechanismProblem::<C>::new(data, options.loss);
             let (state, caches) = start(&problem)?;
-            solve_and_check::<C, 0, 1, _>(
-                &problem, &problem, state, caches, options, started, observer,
-            )
+            solve_and_check::<C, 0, 1, _>(&mut problem, state, caches, options, started, observer)
         }
         Observation::Coordinates => {
-            let (problem, state, caches) = CoordinateProblem::<C>::start(data, options.loss)?;
+            let (mut problem, state, caches) = CoordinateProblem::<C>::start(data, options.loss)?;
             check_global_rows(problem.base(), &state.global)?;
-            let base = problem.base();
-            solve_and_check::<C, 2, 3, _>(&problem, base, state, caches, options, started, observer)
+            solve_and_check::<C, 2, 3, _>(&mut problem, state, caches, options, started, observer)
         }
     }
 }
 
-/// [`fit`] of `problem` from `state` and its points' `caches`, with `base`
-/// the radius observation's problem of the same data (whose blocks and
-/// global rows `problem`'s are): `R` rows and `P` unknowns a point.
-fn solve_and_check<const C: usize, const P: usize, const R: usize, Q>(
-    problem: &Q,
-    base: &MechanismProblem<C>,
+/// [`fit`] of `problem` from `state` and its points' `caches`: `R` rows and
+/// `P` unknowns a point.
+fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem<C, P, R>>(
+    problem: &mut Q,
     state: State<C, P>,
     mut caches: Vec<LastPose>,
     options: &MechanismOptions,
     started: Instant,
-    mut observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<Fit, MechanismCalibrationError>
-where
-    Q: Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>,
-{
-    let data = base.data();
-    let points = base.n_points();
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<Fit, MechanismCalibrationError> {
     let solver_options = SolverOptions {
         // The checks' pass gives them (below).
         group_sigmas: false,
         ..options.solver_options(started)
     };
-    let solution = solve_with_caches::<C, P, R, _>(
+    let (solution, mirrored) = solve_reseeding(
         problem,
         state,
         &mut caches,
         &solver_options,
-        &mut observer,
+        started,
+        observer,
     );
+    let problem = &*problem;
+    let base = problem.base();
+    let data = base.data();
+    let points = base.n_points();
     if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
         return Err(error);
     }
@@ -230,9 +229,43 @@ where
         prior_information: mechanism_block(&base.prior_information()),
         redundancy: rows.saturating_sub(unknowns),
         checks,
+        mirrored,
         data_rows: global_rows + R * points,
         tests: global_rows + points,
     })
+}
+
+/// The solve of `problem` from `state` (its points' caches `caches`) with
+/// `options`, watched for balls on the wrong side of their touches: any
+/// found at a settled iterate are re-seeded there and the solve resumes,
+/// once, within what is left of the limits ([`super::mirror`]); with the
+/// balls re-seeded.
+fn solve_reseeding<const C: usize, const P: usize, const R: usize, Q: FitProblem<C, P, R>>(
+    problem: &mut Q,
+    state: State<C, P>,
+    caches: &mut Vec<LastPose>,
+    options: &SolverOptions,
+    started: Instant,
+    mut observer: &mut dyn FnMut(&IterationRecord),
+) -> (Solution<C, P>, Vec<MirroredBall>) {
+    let mut watch = WrongSideWatch::new(problem.base(), &mut *observer);
+    let first = solve_with_caches::<C, P, R, _>(&*problem, state, caches, options, &mut watch);
+    let mirrored = watch.found;
+    let Status::Stopped { iteration } = first.status else {
+        return (first, mirrored);
+    };
+    let Solution {
+        mut state, history, ..
+    } = first;
+    for ball in &mirrored {
+        let centre = Vector3::from(ball.centre);
+        problem.reseed(&mut state, ball.ball, &centre, &ball.tips);
+    }
+    let rest = remaining(options, iteration, started);
+    let mut solution =
+        solve_with_caches::<C, P, R, _>(&*problem, state, caches, &rest, &mut observer);
+    solution.history.splice(0..0, history);
+    (solution, mirrored)
 }
 
 /// The start of `problem` ([`MechanismProblem::start_state`]: every point
@@ -409,4 +442,107 @@ where
         checks.push(check(ObservationRef { kind, index }, rows));
     }
     Ok((checks, global.group_sigmas))
+}
+
+#[cfg(test)]
+mod tests {
+    use parcal_simulate::{Scenario, simulate};
+
+    use super::*;
+    use crate::CalibrationOptions;
+    use crate::options::{PriorMode, RadiusModel, Simulation};
+    use crate::sphere_fit::{best_fit, mirror_fit};
+
+    /// A simulated campaign of 1428 balls touched 7 times each (tilts up
+    /// to 10 degrees), under simulation `simulation`'s model with the
+    /// propagated prior (the balls' centres without one), each ball's
+    /// radius exact (blocks of three): a ball's misfit moves the machine
+    /// little.
+    fn campaign(simulation: Simulation) -> MechanismData {
+        let scenario = Scenario::scaled(1428, 7, 10f64.to_radians());
+        let dataset = simulate(&scenario, 1).unwrap().dataset;
+        let options = CalibrationOptions {
+            radius: RadiusModel::PerContact,
+            prior: PriorMode::Propagated,
+            ..CalibrationOptions::simulation(simulation)
+        };
+        MechanismData::from_hexapod_touches(&dataset, &options).unwrap()
+    }
+
+    /// `problem` solved from its start, then again from that minimum with
+    /// the first ball whose touches fit a mirror image more than 1 mm away
+    /// moved there: the second solve (damped: Gauss-Newton's first step at
+    /// a ball misfit by millimetres throws the machine far off) finds the
+    /// ball on the wrong side once it has settled, re-seeds it and returns
+    /// to the first's minimum.
+    fn check_reseeding<const P: usize, const R: usize, Q: FitProblem<3, P, R>>(
+        problem: &mut Q,
+        state: State<3, P>,
+        mut caches: Vec<LastPose>,
+    ) {
+        let options = SolverOptions::default();
+        let started = Instant::now();
+        let mut observer = |_: &IterationRecord| {};
+        let (right, found) = solve_reseeding(
+            problem,
+            state,
+            &mut caches,
+            &options,
+            started,
+            &mut observer,
+        );
+        assert_eq!(right.status, Status::Converged);
+        assert!(found.is_empty(), "{found:?}");
+        let base = problem.base();
+        let radius = base.data().observations.balls[0].radius;
+        let mirrored = |b: usize| {
+            let points = Problem::<3, 0, 1>::group_points(base, b);
+            let reached = base.reach(points.clone(), &right.state.global, &caches[points]);
+            let tips: Vec<Vector3<f64>> = reached.into_iter().map(|r| r.unwrap().point).collect();
+            let fit = best_fit(&tips, radius).unwrap();
+            let mirror = mirror_fit(&tips, radius, &fit).unwrap();
+            ((mirror.centre - fit.centre).norm() > 1.0).then_some((b, mirror.centre, tips))
+        };
+        let balls = base.data().observations.balls.len();
+        let (b, mirror, tips) = (0..balls).find_map(mirrored).expect("a mirror image");
+        let mut wrong = right.state.clone();
+        problem.reseed(&mut wrong, b, &mirror, &tips);
+        let damped = SolverOptions {
+            method: parcal_solver::Method::LevenbergMarquardt {
+                initial_lambda: 1e-3,
+            },
+            max_iterations: 200,
+            ..options
+        };
+        let (reseeded, found) =
+            solve_reseeding(problem, wrong, &mut caches, &damped, started, &mut observer);
+        assert_eq!(reseeded.status, Status::Converged);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].ball, b);
+        let gain = found[0].gain;
+        assert!(gain >= crate::mirror::MIRROR_GAIN, "{gain}");
+        let sigmas = right.covariance.unwrap().diagonal().map(f64::sqrt);
+        let difference = (&reseeded.state.global - &right.state.global)
+            .component_div(&sigmas)
+            .amax();
+        // Both stop within the solver's tolerance of their sigmas.
+        assert!(
+            difference < 2.0 * parcal_solver::SIGMA_TOLERANCE,
+            "{difference:e}"
+        );
+    }
+
+    #[test]
+    fn a_ball_on_the_wrong_side_is_reseeded_and_the_fit_resumes() {
+        // By its radius rows, and by its coordinates (its touches charted
+        // again about their directions from the re-seeded centre).
+        let data = campaign(Simulation::I);
+        let mut radius = MechanismProblem::<3>::new(&data, Loss::Squared);
+        let (state, caches) = start(&radius).unwrap();
+        check_reseeding::<0, 1, _>(&mut radius, state, caches);
+        let data = campaign(Simulation::II);
+        let (mut coordinates, state, caches) =
+            CoordinateProblem::<3>::start(&data, Loss::Squared).unwrap();
+        check_reseeding::<2, 3, _>(&mut coordinates, state, caches);
+    }
 }

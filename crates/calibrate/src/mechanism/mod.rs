@@ -86,6 +86,7 @@ pub mod frame;
 mod hexapod_input;
 pub mod identifiability;
 mod input;
+mod mirror;
 mod observation;
 mod options;
 mod predicted;
@@ -109,6 +110,7 @@ pub use data::{
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
 pub use identifiability::{Identifiability, Undetermined};
+pub use mirror::MirroredBall;
 pub use observation::{HeldOut, ObservationKind, ObservationRef, number_ranges};
 pub use options::{MAX_ITERATIONS, MechanismOptions};
 pub use predicted::MAX_HELD_OUT_TOUCHES_PER_BALL;

@@ -374,6 +374,24 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         Ok(())
     }
 
+    /// Ball `b`'s centre set to `centre` in the global block `global` when
+    /// it is tied, else in its group's block among `groups`.
+    pub(crate) fn place_ball(
+        &self,
+        b: usize,
+        centre: &Vector3<f64>,
+        global: &mut DVector<f64>,
+        groups: &mut [SVector<f64, C>],
+    ) {
+        match self.tied.column(b) {
+            Some(column) => global.rows_mut(column, 3).copy_from(centre),
+            None => {
+                let k = self.data.observations.samples.len() + b;
+                groups[k].fixed_rows_mut::<3>(0).copy_from(centre);
+            }
+        }
+    }
+
     /// The touch of touch point `i`.
     pub(crate) fn touch_at(&self, i: usize) -> usize {
         self.touch_order[i - self.sample_points()]
@@ -464,6 +482,46 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 .copy_from(&rows.d_pose.row(row));
         }
         Ok(())
+    }
+}
+
+/// What a fit needs of its problem beyond the solver's
+/// (`super::fit`): the radius observation's problem of the same data,
+/// whose blocks and global rows it shares, and how a ball found on the
+/// wrong side of its touches is moved (`super::mirror`).
+pub(crate) trait FitProblem<const C: usize, const P: usize, const R: usize>:
+    Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>
+{
+    /// The radius observation's problem of the same data.
+    fn base(&self) -> &MechanismProblem<'_, C>;
+
+    /// Ball `b` moved to `centre` in `state` (its block, or its global
+    /// unknowns when tied), its touches' own unknowns made to agree with
+    /// their tool points `tips` there (in the order of its points).
+    fn reseed(
+        &mut self,
+        state: &mut State<C, P>,
+        b: usize,
+        centre: &Vector3<f64>,
+        tips: &[Vector3<f64>],
+    );
+}
+
+/// The touches are rows of their own: nothing of theirs moves with a
+/// ball.
+impl<const C: usize> FitProblem<C, 0, 1> for MechanismProblem<'_, C> {
+    fn base(&self) -> &MechanismProblem<'_, C> {
+        self
+    }
+
+    fn reseed(
+        &mut self,
+        state: &mut State<C, 0>,
+        b: usize,
+        centre: &Vector3<f64>,
+        _: &[Vector3<f64>],
+    ) {
+        self.place_ball(b, centre, &mut state.global, &mut state.groups);
     }
 }
 
@@ -873,11 +931,9 @@ pub(crate) mod tests {
     use super::*;
     use crate::mechanism::data::{Ball, CentrePrior, Observations};
 
-    /// A delta configured as designed, truly a few tenths off: 7 probe
-    /// heights, 2 part distances, 3 point samples (the first at a measured
-    /// pose), two balls touched 5 times each (the second's radius with a
-    /// calibration sigma), the touches interleaved.
-    pub(crate) fn small_delta() -> MechanismData {
+    /// A typical delta, its configured (design) parameters, and its true
+    /// ones a few tenths off.
+    pub(crate) fn delta_off_design() -> (LinearDelta, DVector<f64>, DVector<f64>) {
         let delta = LinearDelta::typical();
         let configured = design(&delta);
         let mut truth = DeltaParams::from_slice(configured.as_slice());
@@ -886,7 +942,15 @@ pub(crate) mod tests {
         truth.angle = [0.2, -0.3, 0.1];
         truth.diagonal = [270.3, 269.8, 270.1];
         truth.tilt = [0.1, -0.15];
-        let truth = truth.to_vector();
+        (delta, configured, truth.to_vector())
+    }
+
+    /// A delta configured as designed, truly a few tenths off: 7 probe
+    /// heights, 2 part distances, 3 point samples (the first at a measured
+    /// pose), two balls touched 5 times each (the second's radius with a
+    /// calibration sigma), the touches interleaved.
+    pub(crate) fn small_delta() -> MechanismData {
+        let (delta, configured, truth) = delta_off_design();
         let (p, c) = (truth.as_slice(), configured.as_slice());
         let probes = [
             [0.0, 0.0],

@@ -5,8 +5,8 @@
 use nalgebra::DMatrix;
 use parcal_dataset::GlobalTestRecord;
 use parcal_dataset::mechanism::{
-    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
-    ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
+    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
+    ObservationRecord, ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
 };
 
 use super::result::MechanismCalibration;
@@ -115,6 +115,17 @@ impl MechanismCalibration {
                     centre_sigma: b.centre_sigma,
                     radius: b.radius,
                     radius_sigma: b.radius_sigma,
+                })
+                .collect(),
+            mirrored: self
+                .mirrored
+                .iter()
+                .map(|m| MirroredRecord {
+                    ball: m.ball,
+                    iteration: m.iteration,
+                    chi_square: m.chi_square,
+                    gain: m.gain,
+                    centre: m.centre,
                 })
                 .collect(),
         }

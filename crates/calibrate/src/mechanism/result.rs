@@ -17,6 +17,7 @@ use super::error::MechanismCalibrationError;
 use super::fit::{Fit, ObservationCheck};
 use super::frame::canonical;
 use super::identifiability::{Identifiability, Inputs, gauge_directions, identifiability};
+use super::mirror::MirroredBall;
 use super::observation::ObservationRef;
 use super::options::MechanismOptions;
 use super::prior::prior_covariance;
@@ -101,6 +102,9 @@ pub struct MechanismCalibration {
     pub verdict: Verdict,
     /// Why, in words.
     pub reasons: Vec<String>,
+    /// The balls found on the wrong side of their touches and re-seeded
+    /// ([`super::mirror`]).
+    pub mirrored: Vec<MirroredBall>,
     /// The observations data snooping removed, in order.
     pub removals: Vec<Removal<ObservationRef>>,
     /// Why snooping stopped before every observation passed, if it did.
@@ -226,6 +230,7 @@ pub(crate) fn assemble(
         critical_value: critical,
         data_rows: fit.data_rows,
         tests: fit.tests,
+        mirrored: fit.mirrored,
         alpha: options.alpha,
         reasons: Vec::new(),
         removals: Vec::new(),

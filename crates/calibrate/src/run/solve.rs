@@ -16,7 +16,7 @@ use parcal_solver::{
 use crate::fit::{BallMisfit, misfit_balls};
 use crate::instruments::InstrumentResult;
 use crate::layout::kinematic_params;
-use crate::mirror::{Mirrored, SETTLED, WrongSide, wrong_side};
+use crate::mirror::{Mirrored, SETTLED, WrongSide, remaining, wrong_side};
 use crate::problem::{ActuatorScales, CalibrationProblem, ContactObservations};
 use crate::reliability::Reliability;
 use crate::robust::START_TOLERANCE;
@@ -363,8 +363,9 @@ impl SolverRun<'_> {
     /// The balls whose data costs (`costs`, one per ball) are far worse
     /// than the noise allows ([`crate::fit`]).
     fn misfits(&self, costs: &[f64]) -> Vec<BallMisfit> {
+        let balls = &self.dataset.artefacts.balls;
         misfit_balls(
-            self.dataset.artefacts.balls.iter().map(|b| b.id.as_str()),
+            |b| balls[b].id.clone(),
             costs,
             self.setup.groups.iter().map(|g| g.len()),
         )
@@ -461,17 +462,5 @@ impl<const G: usize, const P: usize> Monitor<G, P, Pose> for WrongSideWatch<'_, 
             Ok(wrong) if wrong.is_empty() => parcal_solver::Decision::Continue,
             _ => parcal_solver::Decision::Stop,
         }
-    }
-}
-
-/// `options` for what is left of the iteration and time limits after
-/// `used` iterations since `started`.
-fn remaining(options: &SolverOptions, used: usize, started: Instant) -> SolverOptions {
-    SolverOptions {
-        max_iterations: options.max_iterations.saturating_sub(used),
-        time_limit: options
-            .time_limit
-            .map(|limit| limit.saturating_sub(started.elapsed())),
-        ..options.clone()
     }
 }

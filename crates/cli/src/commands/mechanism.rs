@@ -18,8 +18,8 @@ use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
 use parcal::dataset::{HEXAPOD, declared_mechanism};
 use parcal::report::mechanism::{
-    PARAMETER_HEADER, counted, identifiability_statements, observation_counts, parameter_rows,
-    prior_correlation_sentence, removal_sentences, verdict_sentence,
+    PARAMETER_HEADER, counted, identifiability_statements, mirrored_sentences, observation_counts,
+    parameter_rows, prior_correlation_sentence, removal_sentences, verdict_sentence,
 };
 use parcal::report::mechanism_validation::placed_error;
 
@@ -248,6 +248,9 @@ pub fn print_summary(
     out: &mut impl Write,
 ) -> std::io::Result<()> {
     writeln!(out, "{}", verdict_sentence(calibration))?;
+    for mirrored in mirrored_sentences(calibration) {
+        writeln!(out, "{mirrored}")?;
+    }
     for removal in removal_sentences(calibration) {
         writeln!(out, "removed by data snooping: {removal}")?;
     }

@@ -137,6 +137,24 @@ pub struct BallRecord {
     pub radius_sigma: Option<f64>,
 }
 
+/// A ball found on the wrong side of its touches and re-seeded at the
+/// mirror image of its centre fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MirroredRecord {
+    /// Its 0-based index.
+    pub ball: usize,
+    /// The linear solves before the iterate that showed it.
+    pub iteration: usize,
+    /// Its whitened data cost there.
+    pub chi_square: f64,
+    /// How many times better its touches' tool points there fit the
+    /// mirror image.
+    pub gain: f64,
+    /// Its re-seeded centre (mm, the fit's frame).
+    pub centre: [f64; 3],
+}
+
 /// A mechanism calibration's record (module doc).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -169,6 +187,10 @@ pub struct MechanismCalibrationRecord {
     /// dataset (none without touches).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub balls: Vec<BallRecord>,
+    /// The balls found on the wrong side of their touches and re-seeded
+    /// (none: absent).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mirrored: Vec<MirroredRecord>,
 }
 
 impl MechanismCalibrationRecord {

@@ -63,8 +63,9 @@ pub use balls::{
     BALL_COLUMNS, BALLS, BallPlacement, BallRow, PLACEMENT_COLUMNS, TOUCH_COLUMNS, TouchRow,
 };
 pub use calibration::{
-    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, ObservationRecord,
-    ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, UndeterminedRecord,
+    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
+    ObservationRecord, ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord,
+    UndeterminedRecord,
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
 pub use observations::{
