@@ -123,7 +123,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         *cache = LastPose::of(rows.pose.as_slice());
         let n = self.base.n_params();
         out.residual = rows.residual;
-        out.d_global.fill(0.0);
+        out.d_global.as_mut_slice().fill(0.0);
         out.d_global.columns_mut(0, n).copy_from(&rows.d_params);
         out.d_group.fill(0.0);
         out.d_point = rows.d_angles;

@@ -354,7 +354,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(row.pose.as_slice());
         out.residual[0] = row.rows.residual[0];
-        out.d_global.fill(0.0);
+        out.d_global.as_mut_slice().fill(0.0);
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
         out.d_group.fill(0.0);
         match tied {
@@ -472,7 +472,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         for (j, out) in out.iter_mut().enumerate() {
             let row = (first + j) % a;
             out.residual[0] = rows.rows.residual[row];
-            out.d_global.fill(0.0);
+            out.d_global.as_mut_slice().fill(0.0);
             out.d_global
                 .columns_mut(0, n)
                 .copy_from(&rows.rows.d_params.row(row));

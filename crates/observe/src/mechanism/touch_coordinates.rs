@@ -22,7 +22,7 @@ use parcal_kinematics::mechanism::{MechanismError, Reached};
 
 use super::ball_touch::BallTouch;
 use super::commanded::check_sigma;
-use crate::{CoordinateBlock, CoordinateWhitening, DirectionChart, ObserveError};
+use crate::{CoordinateBlock, CoordinateWhitening, DirectionChart, ObserveError, Whitening};
 
 /// A touch's three whitened coordinate rows (module doc) and their
 /// derivatives.
@@ -83,15 +83,23 @@ impl BallTouch {
             chart: *chart,
         };
         let whitened = block.evaluate_whitened(&reached.point, centre, angles, &weight);
-        // dc/dp = dc/dT dT/dp with the whitened dc/dT = −L⁻¹.
-        let d_params = whitened.d_tip * &reached.d_params;
+        // dc/dp = dc/dT dT/dp with the whitened dc/dT = −L⁻¹, formed in
+        // place of dT/dp, a column at a time.
+        let Reached {
+            pose, mut d_params, ..
+        } = reached;
+        let n = d_params.ncols();
+        for mut column in d_params.column_iter_mut() {
+            let tip = Vector3::new(column[0], column[1], column[2]);
+            column.copy_from(&-weight.whiten(&tip));
+        }
         Ok(CoordinateRows {
             residual: whitened.residual,
-            d_params: d_params.reshape_generic(U3, Dyn(reached.d_params.ncols())),
+            d_params: d_params.reshape_generic(U3, Dyn(n)),
             d_centre: whitened.d_centre,
             d_radius: whitened.d_radius,
             d_angles: whitened.d_angles,
-            pose: reached.pose,
+            pose,
         })
     }
 }
