@@ -82,7 +82,7 @@ impl BallTouch {
             radius,
             chart: *chart,
         };
-        let whitened = block.evaluate_whitened(&reached.point, centre, angles, &weight);
+        let whitened = block.evaluate(&reached.point, centre, angles).whiten(&weight);
         // dc/dp = dc/dT dT/dp with the whitened dc/dT = −L⁻¹, formed in
         // place of dT/dp, a column at a time.
         let Reached {
