@@ -13,6 +13,28 @@ fn read(path: &std::path::Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// The own record's 33 parameters and the common record's, by name: each
+/// run stops within 1e-3 of its sigmas from the same minimum.
+fn assert_same_minimum(own: &Value, common: &Value) {
+    let names = own["parameters"]["names"].as_array().unwrap();
+    let values = own["parameters"]["values"].as_array().unwrap();
+    let parameters = common["parameters"].as_array().unwrap();
+    assert_eq!(parameters.len(), 33);
+    for ((name, value), parameter) in names.iter().zip(values).zip(parameters) {
+        assert_eq!(parameter["name"], *name);
+        let (a, b) = (
+            value.as_f64().unwrap(),
+            parameter["value"].as_f64().unwrap(),
+        );
+        let sigma = parameter["sigma"].as_f64().unwrap();
+        assert!(
+            (a - b).abs() < 2e-3 * sigma,
+            "{}: {a} against {b}",
+            parameter["name"]
+        );
+    }
+}
+
 #[test]
 fn a_hexapod_through_the_common_calibration_is_its_own() {
     let temp = tempfile::tempdir().unwrap();
@@ -40,23 +62,9 @@ fn a_hexapod_through_the_common_calibration_is_its_own() {
     let command = ["calibrate", s(&data), "--common", "--sim", "III", "--lm"];
     ok(&[&command[..], &["--out", s(&levenberg)]].concat());
     let own = read(&own);
-    let names = own["parameters"]["names"].as_array().unwrap();
-    let values = own["parameters"]["values"].as_array().unwrap();
     for common in [read(&common), read(&levenberg)] {
         assert_eq!(common["mechanism"], "hexapod");
-        let parameters = common["parameters"].as_array().unwrap();
-        assert_eq!(parameters.len(), 33);
-        for ((name, value), parameter) in names.iter().zip(values).zip(parameters) {
-            assert_eq!(parameter["name"], *name);
-            let (a, b) = (
-                value.as_f64().unwrap(),
-                parameter["value"].as_f64().unwrap(),
-            );
-            // Each run stops within 1e-3 of its sigmas from the same
-            // minimum.
-            let sigma = parameter["sigma"].as_f64().unwrap();
-            assert!((a - b).abs() < 2e-3 * sigma, "{name}: {a} against {b}");
-        }
+        assert_same_minimum(&own, &common);
     }
 }
 
@@ -93,21 +101,7 @@ fn balls_tied_by_a_plate_through_the_common_calibration_are_its_own() {
         "{printed}"
     );
     let (own, common) = (read(&own), read(&common));
-    let values = own["parameters"]["values"].as_array().unwrap();
-    let parameters = common["parameters"].as_array().unwrap();
-    assert_eq!(parameters.len(), 33);
-    for (value, parameter) in values.iter().zip(parameters) {
-        let (a, b) = (
-            value.as_f64().unwrap(),
-            parameter["value"].as_f64().unwrap(),
-        );
-        let sigma = parameter["sigma"].as_f64().unwrap();
-        assert!(
-            (a - b).abs() < 2e-3 * sigma,
-            "{}: {a} against {b}",
-            parameter["name"]
-        );
-    }
+    assert_same_minimum(&own, &common);
     let tested: Vec<u64> = common["tests"]["observations"]
         .as_array()
         .unwrap()
@@ -284,21 +278,7 @@ fn the_default_options_through_the_common_calibration_are_the_own() {
     ok(&["calibrate", s(&data), "--out", s(&own)]);
     ok(&["calibrate", s(&data), "--common", "--out", s(&common)]);
     let (own, common) = (read(&own), read(&common));
-    let values = own["parameters"]["values"].as_array().unwrap();
-    let parameters = common["parameters"].as_array().unwrap();
-    assert_eq!(parameters.len(), values.len());
-    for (value, parameter) in values.iter().zip(parameters) {
-        let (a, b) = (
-            value.as_f64().unwrap(),
-            parameter["value"].as_f64().unwrap(),
-        );
-        let sigma = parameter["sigma"].as_f64().unwrap();
-        assert!(
-            (a - b).abs() < 2e-3 * sigma,
-            "{}: {a} against {b}",
-            parameter["name"]
-        );
-    }
+    assert_same_minimum(&own, &common);
     let touch = common["tests"]["observations"]
         .as_array()
         .unwrap()

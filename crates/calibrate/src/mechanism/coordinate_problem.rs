@@ -24,7 +24,9 @@ use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Prob
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
-use super::problem::{FitProblem, LastPose, MechanismProblem, Start, TouchedBall, touch_failed};
+use super::problem::{
+    FitProblem, LastPose, MechanismProblem, Start, put_ball_columns, touch_failed,
+};
 use crate::options::Observation;
 
 /// A touch point's linearisation: groups of `C` unknowns, two angles,
@@ -110,15 +112,12 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     ) -> Result<(), MechanismCalibrationError> {
         let t = self.base.touch_at(i);
         let touch = &self.base.data().observations.touches[t];
-        let TouchedBall {
-            centre,
-            radius,
-            tied,
-            uncertain,
-        } = self.base.touched_ball(touch.ball, global, block);
+        let ball = self.base.touched_ball(touch.ball, global, block);
         let chart = DirectionChart::about(&self.directions[i]);
         let rows = reached
-            .and_then(|reached| touch.coordinate_rows(reached, &chart, &centre, radius, angles))
+            .and_then(|reached| {
+                touch.coordinate_rows(reached, &chart, &ball.centre, ball.radius, angles)
+            })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(rows.pose.as_slice());
         let n = self.base.n_params();
@@ -127,24 +126,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         out.d_global.columns_mut(0, n).copy_from(&rows.d_params);
         out.d_group.fill(0.0);
         out.d_point = rows.d_angles;
-        match tied {
-            Some(column) => {
-                out.d_global
-                    .columns_mut(column, 3)
-                    .copy_from(&rows.d_centre);
-                if uncertain {
-                    out.d_global
-                        .column_mut(column + 3)
-                        .copy_from(&rows.d_radius);
-                }
-            }
-            None => {
-                out.d_group.columns_mut(0, 3).copy_from(&rows.d_centre);
-                if uncertain {
-                    out.d_group.column_mut(3).copy_from(&rows.d_radius);
-                }
-            }
-        }
+        put_ball_columns(out, &ball, &rows.d_centre, &rows.d_radius);
         Ok(())
     }
 

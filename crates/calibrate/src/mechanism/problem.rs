@@ -33,7 +33,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SVector, Vector3};
+use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
 use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
@@ -343,34 +343,17 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let t = self.touch_at(i);
         let touch = &self.data.observations.touches[t];
         let n = self.n_params();
-        let TouchedBall {
-            centre,
-            radius,
-            tied,
-            uncertain,
-        } = self.touched_ball(touch.ball, global, block);
+        let ball = self.touched_ball(touch.ball, global, block);
         let row = reached
-            .and_then(|reached| touch.row(reached, &centre, radius))
+            .and_then(|reached| touch.row(reached, &ball.centre, ball.radius))
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(row.pose.as_slice());
         out.residual[0] = row.rows.residual[0];
         out.d_global.as_mut_slice().fill(0.0);
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
         out.d_group.fill(0.0);
-        match tied {
-            Some(column) => {
-                out.d_global.columns_mut(column, 3).copy_from(&row.d_centre);
-                if uncertain {
-                    out.d_global[column + 3] = row.d_radius;
-                }
-            }
-            None => {
-                out.d_group.columns_mut(0, 3).copy_from(&row.d_centre);
-                if uncertain {
-                    out.d_group[3] = row.d_radius;
-                }
-            }
-        }
+        let d_radius = SVector::<f64, 1>::new(row.d_radius);
+        put_ball_columns(out, &ball, &row.d_centre, &d_radius);
         Ok(())
     }
 
@@ -564,6 +547,32 @@ pub(crate) struct TouchedBall {
     pub tied: Option<usize>,
     /// Whether its radius is an unknown.
     pub uncertain: bool,
+}
+
+/// A touch's rows' derivatives with respect to its ball's centre
+/// `d_centre` and radius `d_radius` written into `out` where the ball's
+/// unknowns are ([`TouchedBall`]): the global block's columns when it is
+/// tied, else its group's; the radius's only when it is an unknown.
+pub(crate) fn put_ball_columns<const C: usize, const P: usize, const R: usize>(
+    out: &mut Linearization<C, P, R, OMatrix<f64, Const<R>, Dyn>>,
+    ball: &TouchedBall,
+    d_centre: &SMatrix<f64, R, 3>,
+    d_radius: &SVector<f64, R>,
+) {
+    match ball.tied {
+        Some(column) => {
+            out.d_global.columns_mut(column, 3).copy_from(d_centre);
+            if ball.uncertain {
+                out.d_global.column_mut(column + 3).copy_from(d_radius);
+            }
+        }
+        None => {
+            out.d_group.fixed_columns_mut::<3>(0).copy_from(d_centre);
+            if ball.uncertain {
+                out.d_group.column_mut(3).copy_from(d_radius);
+            }
+        }
+    }
 }
 
 /// The error of touch `t` on ball `ball`.

@@ -145,9 +145,7 @@ impl BallTouch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::test_support::{delta, differences};
-    use parcal_kinematics::mechanism::design;
-    use parcal_kinematics::mechanisms::by_name;
+    use crate::mechanism::test_support::{HexapodTouch, delta, differences, hexapod_touch};
 
     #[test]
     fn derivatives_match_central_differences() {
@@ -179,14 +177,14 @@ mod tests {
     #[test]
     fn a_hexapods_touch_at_its_readings_matches_central_differences() {
         // The tool tip of a hexapod whose legs read q, from its home pose.
-        let hexapod = by_name("hexapod").unwrap();
+        let HexapodTouch {
+            hexapod,
+            params: p,
+            touch,
+            centre,
+            ..
+        } = hexapod_touch();
         let hexapod = hexapod.as_ref();
-        let p = design(hexapod);
-        let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
-        let q = hexapod.inverse(p.as_slice(), &pose).unwrap();
-        let touch = BallTouch::new(0, Actuation::Readings(q.iter().copied().collect()), 0.002);
-        let tip = hexapod.tool_point(p.as_slice(), &pose).unwrap().point;
-        let centre = tip + Vector3::new(2.0, -3.0, 4.0);
         let at = |params: &[f64]| {
             touch
                 .evaluate(hexapod, params, &[], &centre, 5.0, None)

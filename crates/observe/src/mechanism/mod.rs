@@ -64,9 +64,12 @@ pub use touch_coordinates::CoordinateRows;
 #[cfg(test)]
 pub(crate) mod test_support {
     //! A perturbed delta and central differences over its parameters.
-    use nalgebra::{DMatrix, DVector};
+    use nalgebra::{DMatrix, DVector, Vector3};
     use parcal_kinematics::delta::{DeltaParams, LinearDelta};
     use parcal_kinematics::mechanism::{Mechanism, design};
+    use parcal_kinematics::mechanisms::by_name;
+
+    use super::{Actuation, BallTouch};
 
     /// A typical delta, its configured (design) parameters and a true
     /// machine a few tenths away.
@@ -81,6 +84,35 @@ pub(crate) mod test_support {
         truth.diagonal = [270.3, 269.8, 270.1];
         truth.tilt = [0.1, -0.15];
         (delta, configured, truth.to_vector())
+    }
+
+    /// The hexapod at its design, a touch of 2 um sigma at the legs'
+    /// readings of a tilted pose, the tool point it reaches and a ball
+    /// centre √29 mm from it.
+    pub struct HexapodTouch {
+        pub hexapod: Box<dyn Mechanism>,
+        pub params: DVector<f64>,
+        pub touch: BallTouch,
+        pub tip: Vector3<f64>,
+        pub centre: Vector3<f64>,
+    }
+
+    /// [`HexapodTouch`].
+    pub fn hexapod_touch() -> HexapodTouch {
+        let hexapod = by_name("hexapod").unwrap();
+        let params = design(hexapod.as_ref());
+        let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
+        let q = hexapod.inverse(params.as_slice(), &pose).unwrap();
+        let touch = BallTouch::new(0, Actuation::Readings(q.iter().copied().collect()), 0.002);
+        let tip = hexapod.tool_point(params.as_slice(), &pose).unwrap().point;
+        let centre = tip + Vector3::new(2.0, -3.0, 4.0);
+        HexapodTouch {
+            hexapod,
+            params,
+            touch,
+            tip,
+            centre,
+        }
     }
 
     /// Central differences of `f` over the parameters, step `h`.

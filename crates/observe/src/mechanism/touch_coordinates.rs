@@ -82,7 +82,9 @@ impl BallTouch {
             radius,
             chart: *chart,
         };
-        let whitened = block.evaluate(&reached.point, centre, angles).whiten(&weight);
+        let whitened = block
+            .evaluate(&reached.point, centre, angles)
+            .whiten(&weight);
         // dc/dp = dc/dT dT/dp with the whitened dc/dT = −L⁻¹, formed in
         // place of dT/dp, a column at a time.
         let Reached {
@@ -107,11 +109,9 @@ impl BallTouch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::test_support::{delta, differences};
+    use crate::mechanism::test_support::{HexapodTouch, delta, differences, hexapod_touch};
     use crate::mechanism::{Actuation, Approach};
     use nalgebra::DMatrix;
-    use parcal_kinematics::mechanism::design;
-    use parcal_kinematics::mechanisms::by_name;
 
     /// Central differences of a touch's rows `at` (its ball's centre,
     /// radius and contact angles) over those, against the analytic columns
@@ -191,14 +191,14 @@ mod tests {
 
     #[test]
     fn a_hexapods_coordinates_at_its_readings_match_central_differences() {
-        let hexapod = by_name("hexapod").unwrap();
+        let HexapodTouch {
+            hexapod,
+            params: p,
+            touch,
+            tip,
+            centre,
+        } = hexapod_touch();
         let hexapod = hexapod.as_ref();
-        let p = design(hexapod);
-        let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
-        let q = hexapod.inverse(p.as_slice(), &pose).unwrap();
-        let touch = BallTouch::new(0, Actuation::Readings(q.iter().copied().collect()), 0.002);
-        let tip = hexapod.tool_point(p.as_slice(), &pose).unwrap().point;
-        let centre = tip + Vector3::new(2.0, -3.0, 4.0);
         let chart = touch.chart(&(tip - centre)).unwrap();
         let angles = Vector2::new(-0.01, 0.04);
         let at = |params: &[f64]| {
