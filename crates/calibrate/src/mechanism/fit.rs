@@ -142,19 +142,15 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
     started: Instant,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Fit, MechanismCalibrationError> {
+    // The time limit is what is left of the budget now.
+    let now = Instant::now();
     let solver_options = SolverOptions {
         // The checks' pass gives them (below).
         group_sigmas: false,
         ..options.solver_options(started)
     };
-    let (solution, mirrored) = solve_reseeding(
-        problem,
-        state,
-        &mut caches,
-        &solver_options,
-        started,
-        observer,
-    );
+    let (solution, mirrored) =
+        solve_reseeding(problem, state, &mut caches, &solver_options, now, observer);
     let problem = &*problem;
     let base = problem.base();
     let data = base.data();
@@ -236,16 +232,16 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
 }
 
 /// The solve of `problem` from `state` (its points' caches `caches`) with
-/// `options`, watched for balls on the wrong side of their touches: any
-/// found at a settled iterate are re-seeded there and the solve resumes,
-/// once, within what is left of the limits ([`super::mirror`]); with the
-/// balls re-seeded.
+/// `options` (their time limit counted from `begun`), watched for balls on
+/// the wrong side of their touches: any found at a settled iterate are
+/// re-seeded there and the solve resumes, once, within what is left of
+/// the limits ([`super::mirror`]); with the balls re-seeded.
 fn solve_reseeding<const C: usize, const P: usize, const R: usize, Q: FitProblem<C, P, R>>(
     problem: &mut Q,
     state: State<C, P>,
     caches: &mut Vec<LastPose>,
     options: &SolverOptions,
-    started: Instant,
+    begun: Instant,
     mut observer: &mut dyn FnMut(&IterationRecord),
 ) -> (Solution<C, P>, Vec<MirroredBall>) {
     let mut watch = WrongSideWatch::new(problem.base(), &mut *observer);
@@ -261,7 +257,7 @@ fn solve_reseeding<const C: usize, const P: usize, const R: usize, Q: FitProblem
         let centre = Vector3::from(ball.centre);
         problem.reseed(&mut state, ball.ball, &centre, &ball.tips);
     }
-    let rest = remaining(options, iteration, started);
+    let rest = remaining(options, iteration, begun);
     let mut solution =
         solve_with_caches::<C, P, R, _>(&*problem, state, caches, &rest, &mut observer);
     solution.history.splice(0..0, history);

@@ -102,8 +102,9 @@ pub struct MechanismCalibration {
     pub verdict: Verdict,
     /// Why, in words.
     pub reasons: Vec<String>,
-    /// The balls found on the wrong side of their touches and re-seeded
-    /// ([`super::mirror`]).
+    /// The balls found on the wrong side of their touches once the fit had
+    /// settled, re-seeded at the mirror image of their centre fit before
+    /// it resumed.
     pub mirrored: Vec<MirroredBall>,
     /// The observations data snooping removed, in order.
     pub removals: Vec<Removal<ObservationRef>>,
