@@ -316,7 +316,7 @@ mod tests {
     use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
 
     use super::*;
-    use crate::mechanism::problem::tests::{small_delta, tied_delta};
+    use crate::mechanism::problem::tests::{sigmas_apart, small_delta, tied_delta};
 
     /// `data` without its point samples.
     fn touches_only(mut data: MechanismData) -> MechanismData {
@@ -460,15 +460,18 @@ mod tests {
         let by_coordinates = solve::<4, 2, 3, _>(&coordinates, start, &options, &mut |_| {});
         assert_eq!(by_radius.status, Status::Converged);
         assert_eq!(by_coordinates.status, Status::Converged);
-        let sigma = by_radius.covariance.unwrap().diagonal().map(f64::sqrt);
-        let difference = (&by_radius.state.global - &by_coordinates.state.global)
-            .component_div(&sigma)
-            .amax();
+        let covariance = by_radius.covariance.unwrap();
+        let difference = sigmas_apart(
+            &by_radius.state.global,
+            &by_coordinates.state.global,
+            &covariance,
+        );
         // Both stop within the solver's tolerance of their sigmas.
         assert!(
             difference < 2.0 * parcal_solver::SIGMA_TOLERANCE,
             "{difference:e}"
         );
+        let sigma = covariance.diagonal().map(f64::sqrt);
         let sigma_ratio = (by_coordinates.covariance.unwrap().diagonal().map(f64::sqrt))
             .component_div(&sigma)
             .map(|r| (r - 1.0).abs())

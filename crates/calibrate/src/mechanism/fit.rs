@@ -246,16 +246,19 @@ fn solve_reseeding<const C: usize, const P: usize, const R: usize, Q: FitProblem
 ) -> (Solution<C, P>, Vec<MirroredBall>) {
     let mut watch = WrongSideWatch::new(problem.base(), &mut *observer);
     let first = solve_with_caches::<C, P, R, _>(&*problem, state, caches, options, &mut watch);
-    let mirrored = watch.found;
+    let found = watch.found;
+    // The watch stops the solve at the iterate where it finds any.
     let Status::Stopped { iteration } = first.status else {
-        return (first, mirrored);
+        return (first, Vec::new());
     };
     let Solution {
         mut state, history, ..
     } = first;
-    for ball in &mirrored {
+    let mut mirrored = Vec::with_capacity(found.len());
+    for (ball, tips) in found {
         let centre = Vector3::from(ball.centre);
-        problem.reseed(&mut state, ball.ball, &centre, &ball.tips);
+        problem.reseed(&mut state, ball.ball, &centre, &tips);
+        mirrored.push(ball);
     }
     let rest = remaining(options, iteration, begun);
     let mut solution =
@@ -446,6 +449,7 @@ mod tests {
 
     use super::*;
     use crate::CalibrationOptions;
+    use crate::mechanism::problem::tests::sigmas_apart;
     use crate::options::{PriorMode, RadiusModel, Simulation};
     use crate::sphere_fit::{best_fit, mirror_fit};
 
@@ -517,10 +521,8 @@ mod tests {
         assert_eq!(found[0].ball, b);
         let gain = found[0].gain;
         assert!(gain >= crate::mirror::MIRROR_GAIN, "{gain}");
-        let sigmas = right.covariance.unwrap().diagonal().map(f64::sqrt);
-        let difference = (&reseeded.state.global - &right.state.global)
-            .component_div(&sigmas)
-            .amax();
+        let covariance = right.covariance.unwrap();
+        let difference = sigmas_apart(&reseeded.state.global, &right.state.global, &covariance);
         // Both stop within the solver's tolerance of their sigmas.
         assert!(
             difference < 2.0 * parcal_solver::SIGMA_TOLERANCE,

@@ -32,9 +32,12 @@ pub struct MirroredBall {
     pub gain: f64,
     /// Its re-seeded centre: the mirror fit of those tool points.
     pub centre: [f64; 3],
-    /// Those tool points, in the order of its touches' points.
-    pub(crate) tips: Vec<Vector3<f64>>,
 }
+
+/// A ball found on the wrong side, with the tool points its touches
+/// reached there (in the order of its touches' points), which its
+/// re-seeding needs.
+pub(crate) type Found = (MirroredBall, Vec<Vector3<f64>>);
 
 /// Watches the first solve of a fit for balls on the wrong side of their
 /// touches (module doc), passing each iteration's record to `observer`.
@@ -42,7 +45,7 @@ pub(crate) struct WrongSideWatch<'w, 'p, const C: usize> {
     base: &'w MechanismProblem<'p, C>,
     observer: &'w mut dyn FnMut(&IterationRecord),
     /// The balls found at the iterate the solve stopped at.
-    pub found: Vec<MirroredBall>,
+    pub found: Vec<Found>,
 }
 
 impl<'w, 'p, const C: usize> WrongSideWatch<'w, 'p, C> {
@@ -101,14 +104,14 @@ impl<const C: usize, const P: usize> Monitor<C, P, LastPose> for WrongSideWatch<
             let (b, k) = (misfit.ball, samples + misfit.ball);
             let found = self.test(b, k, &state.global, &state.groups[k], iterate.caches);
             if let Some((gain, centre, tips)) = found {
-                self.found.push(MirroredBall {
+                let ball = MirroredBall {
                     ball: b,
                     iteration: iterate.solves,
                     chi_square: misfit.chi_square,
                     gain,
                     centre,
-                    tips,
-                });
+                };
+                self.found.push((ball, tips));
             }
         }
         if self.found.is_empty() {

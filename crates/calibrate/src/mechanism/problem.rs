@@ -940,6 +940,17 @@ pub(crate) mod tests {
     use super::*;
     use crate::mechanism::data::{Ball, CentrePrior, Observations};
 
+    /// The largest difference between the global blocks `a` and `b`, in
+    /// the marginal sigmas of `covariance`.
+    pub(crate) fn sigmas_apart(
+        a: &DVector<f64>,
+        b: &DVector<f64>,
+        covariance: &DMatrix<f64>,
+    ) -> f64 {
+        let sigma = covariance.diagonal().map(f64::sqrt);
+        (a - b).component_div(&sigma).amax()
+    }
+
     /// A typical delta, its configured (design) parameters, and its true
     /// ones a few tenths off.
     pub(crate) fn delta_off_design() -> (LinearDelta, DVector<f64>, DVector<f64>) {
