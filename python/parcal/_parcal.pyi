@@ -205,6 +205,9 @@ def simulate(
     part_distances: Optional[int] = None,
     probe_sigma: Optional[float] = None,
     distance_sigma: Optional[float] = None,
+    trackers: Optional[int] = None,
+    points_per_tracker: Optional[int] = None,
+    tracker_sigma: Optional[float] = None,
     samples: Optional[int] = None,
     known_positions: Optional[int] = None,
     reading_sigma: Optional[float] = None,
@@ -214,7 +217,8 @@ def simulate(
     truth: Optional["MechanismDataset"] = None,
 ) -> "MechanismDataset":
     """A simulated linear delta (``balls``, ``points_per_ball``,
-    ``plate``, ``plate_sigma`` and the ``probe_*``, ``part_distances``,
+    ``plate``, ``plate_sigma``, ``trackers``, ``points_per_tracker``,
+    ``tracker_sigma`` and the ``probe_*``, ``part_distances``,
     ``distance_sigma`` options) or cable
     robot (``samples``, ``known_positions``, ``reading_sigma``,
     ``measured_sigma``) with its truth, as ``parcal simulate --mechanism``
@@ -317,8 +321,9 @@ class MechanismDataset:
     ball was placed, ``x, y, z, centre_sigma`` (all four NaN for a ball not
     placed); ``touches`` n x 4: the ball's number and the commanded x, y,
     z; ``ball_distances`` n x 4: two balls' numbers, the calibrated
-    distance between their centres and its sigma), checked as the files
-    are."""
+    distance between their centres and its sigma; ``tracker_points``:
+    ``tracker`` a label per row, ``commanded`` n x 3, ``measured`` n x 3 in
+    the tracker's frame), checked as the files are."""
 
     def __init__(
         self,
@@ -331,6 +336,7 @@ class MechanismDataset:
         balls: Optional[npt.ArrayLike] = None,
         touches: Optional[npt.ArrayLike] = None,
         ball_distances: Optional[npt.ArrayLike] = None,
+        tracker_points: Optional[Mapping[str, Any]] = None,
     ) -> None: ...
     @staticmethod
     def read(path: PathLike) -> "MechanismDataset":
@@ -381,6 +387,10 @@ class MechanismDataset:
     def ball_distances(self) -> FloatArray:
         """Calibrated distances between the balls (n x 4: first, second,
         distance, sigma mm)."""
+    @property
+    def tracker_points(self) -> dict[str, Any]:
+        """Trackers' points: ``tracker`` (labels), ``commanded`` and
+        ``measured`` (n x 3 mm, the latter in the tracker's frame)."""
     @property
     def distances(self) -> FloatArray:
         """Part distances (n x 7: x1, y1, z1, x2, y2, z2, distance mm)."""
@@ -476,6 +486,10 @@ class MechanismCalibration:
     @property
     def identifiability(self) -> Optional[dict[str, Any]]:
         """gauge, undetermined (components, data_to_prior) and statements."""
+    @property
+    def trackers(self) -> list[dict[str, Any]]:
+        """The trackers' frames: label, frame (translation mm, rotation
+        quaternion x, y, z, w) and sigma (rad, then mm)."""
     def to_dict(self) -> dict[str, Any]:
         """calibration.json's content as a dict."""
     def to_json(self) -> str:

@@ -345,6 +345,24 @@ def test_a_delta_touching_balls_built_in_memory_calibrates_as_its_files(cli, tmp
         parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls, touches=touches)
 
 
+def test_a_delta_measured_by_trackers_in_memory_calibrates_as_its_files(cli, tmp_path):
+    cli("simulate", "--mechanism", "delta", "--seed", 3, "--trackers", 2, "--points-per-tracker", 10,
+        "--out", tmp_path / "sim")
+    from_files = parcal.read_dataset(tmp_path / "sim")
+    points = from_files.tracker_points
+    assert points["tracker"][:2] == ["T1", "T1"] and points["measured"].shape == (20, 3)
+    machine = json.loads((tmp_path / "sim" / "machine.json").read_text())
+    built = parcal.MechanismDataset(machine, probes=from_files.probes, tracker_points=points)
+    run = parcal.calibrate(built)
+    assert run.to_json() == parcal.calibrate(from_files).to_json()
+    cli("calibrate", tmp_path / "sim", "--out", tmp_path / "calibration.json")
+    assert run.to_json() == (tmp_path / "calibration.json").read_text()
+    assert [t["label"] for t in run.trackers] == ["T1", "T2"] and len(run.trackers[0]["sigma"]) == 6
+    with pytest.raises(parcal.Error, match=r"tracker_points: tracker, commanded and measured have 2, 20 and 20 rows"):
+        parcal.MechanismDataset(machine, probes=from_files.probes,
+                                tracker_points={**points, "tracker": ["T1", "T2"]})
+
+
 def test_a_ball_plate_ties_a_deltas_balls_in_memory_as_in_its_files(cli, tmp_path):
     cli("simulate", "--mechanism", "delta", "--seed", 3, "--balls", 3, "--points-per-ball", 7,
         "--plate", "all", "--plate-sigma", 2, "--out", tmp_path / "sim")

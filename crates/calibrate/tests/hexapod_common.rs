@@ -19,11 +19,12 @@ use parcal_calibrate::observation::ObservationId;
 use parcal_calibrate::{
     CalibrationOptions, Observation, PriorMode, RadiusModel, Simulation, calibrate,
 };
-use parcal_dataset::{ArtefactFrame, Dataset, Distance};
+use parcal_dataset::{ArtefactFrame, Dataset, Distance, SessionModel};
 use parcal_kinematics::Geometry;
 use parcal_kinematics::params::to_params;
 use parcal_observe::WeightModel;
 use parcal_observe::mechanism::Actuation;
+use parcal_simulate::{Scenario, TrackerKind, TrackerScenario, simulate_mixed};
 use parcal_solver::SIGMA_TOLERANCE;
 
 fn fixture() -> PathBuf {
@@ -168,6 +169,52 @@ fn the_priors_through_the_interface_are_the_own_paths() {
     }
 }
 
+#[test]
+fn tracker_points_through_the_interface_are_the_own_paths() {
+    // The paper's touches with a tracker's points in two sessions (two
+    // placements of the instrument, no leg offsets): each session a
+    // tracker of the common calibration, its frame six unknowns; its
+    // points weighted as the own path weighs them.
+    let tracker = TrackerScenario {
+        kind: TrackerKind::Points,
+        true_scale: [1.0; 6],
+        scale_sigma: None,
+        sessions: 2,
+        rows_per_session: 15,
+        session_model: SessionModel::default(),
+        ..TrackerScenario::paper_like()
+    };
+    let dataset = simulate_mixed(&Scenario::paper(), &tracker, 3)
+        .unwrap()
+        .dataset;
+    assert_eq!(dataset.tracker.points.len(), 30);
+    for simulation in [Simulation::I, Simulation::IV] {
+        println!("{simulation:?} with tracker points:");
+        compare_on(&dataset, &CalibrationOptions::simulation(simulation));
+    }
+    // Poses and later sessions' leg offsets are refused by name.
+    let both = TrackerScenario {
+        kind: TrackerKind::Both,
+        ..tracker.clone()
+    };
+    let with_poses = simulate_mixed(&Scenario::paper(), &both, 3)
+        .unwrap()
+        .dataset;
+    let error = MechanismData::from_hexapod_touches(&with_poses, &CalibrationOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(error.starts_with("tracker poses: "), "{error}");
+    let mut offsets = dataset.clone();
+    offsets.machine.session_model.leg_offset_sigma = Some(0.5);
+    let error = MechanismData::from_hexapod_touches(&offsets, &CalibrationOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with("the session model's leg offsets: "),
+        "{error}"
+    );
+}
+
 /// Calibrates fixtures/paper-seed1 both ways under `options` and compares.
 fn compare(options: &CalibrationOptions) {
     compare_on(&Dataset::read(&fixture()).unwrap(), options);
@@ -191,7 +238,11 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
         .count();
     let per_ball_radius = usize::from(options.radius == RadiusModel::PerBall);
     let tied_unknowns = tied / 3 * (3 + per_ball_radius);
-    assert_eq!(common.parameters.len() + tied_unknowns, own.global.len());
+    let frames = 6 * common.trackers.len();
+    assert_eq!(
+        common.parameters.len() + tied_unknowns + frames,
+        own.global.len()
+    );
     let names = own.names();
     let (mut worst_value, mut worst_sigma) = (0.0f64, 0.0f64);
     for (k, parameter) in common.parameters.iter().enumerate() {
@@ -232,6 +283,28 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     }
     println!("balls: worst |difference| {worst_ball:.2e} sigma");
     assert!(worst_ball < 2.0 * SIGMA_TOLERANCE, "{worst_ball:e}");
+    // The trackers' frames: F_own⁻¹ ∘ F in units of the common sigmas.
+    if let Some(instruments) = &own.instruments {
+        let values = instruments.model.values(&own.global);
+        let mut worst_frame = 0.0f64;
+        for (session, tracker) in common.trackers.iter().enumerate() {
+            let own_frame = instruments.model.tracker_frame(&values, session);
+            let error = own_frame.inverse() * tracker.frame;
+            let sigma = tracker.sigma().unwrap();
+            let components = error
+                .rotation
+                .scaled_axis()
+                .iter()
+                .chain(error.translation.vector.iter())
+                .copied()
+                .collect::<Vec<f64>>();
+            for (e, s) in components.iter().zip(sigma) {
+                worst_frame = worst_frame.max((e / s).abs());
+            }
+        }
+        println!("trackers' frames: worst |difference| {worst_frame:.2e} sigma");
+        assert!(worst_frame < 2.0 * SIGMA_TOLERANCE, "{worst_frame:e}");
+    }
     // The checks: one row per contact (three under eq. 10); the same
     // global test and the same largest normalised residual, of the same
     // contact.
@@ -242,7 +315,7 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     };
     assert_eq!(
         common.data_rows,
-        rows * dataset.measurements.len() + distances
+        rows * dataset.measurements.len() + distances + 3 * dataset.tracker.points.len()
     );
     // One w-test a contact, under either observation, as the own path
     // counts them: the same critical value.
@@ -254,19 +327,21 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     // The cost is flat at the minimum: second order in 2e-3 sigma.
     assert!(factors.abs() < 1e-6, "{factors:e}");
     let own_worst = own_reliability.worst().unwrap();
-    let (touch, (_, w)) = common
-        .observations
-        .iter()
-        .filter(|check| check.observation.kind == ObservationKind::Touch)
-        .filter_map(|check| Some((check.observation.index, check.worst()?)))
-        .max_by(|a, b| a.1.1.abs().total_cmp(&b.1.1.abs()))
-        .unwrap();
+    let worst = common.worst().unwrap();
+    let (observation, w) = (worst.observation, worst.normalised);
     println!(
-        "variance factor {:.4}; largest |w| {:.4} at contact {touch}",
+        "variance factor {:.4}; largest |w| {:.4} at {observation}",
         common_test.variance_factor,
         w.abs()
     );
-    assert_eq!(own_worst.observation(), ObservationId::Contact(touch));
+    let index = observation.index;
+    let expected = match observation.kind {
+        ObservationKind::Touch => ObservationId::Contact(index),
+        ObservationKind::BallDistance => ObservationId::Distance(index),
+        ObservationKind::TrackerPoint => ObservationId::Point(index),
+        other => panic!("a hexapod has no {}", other.name()),
+    };
+    assert_eq!(own_worst.observation(), expected);
     let ratio = w.abs() / own_worst.normalised().unwrap().abs() - 1.0;
     assert!(ratio.abs() < 1e-6, "{ratio:e}");
 }
@@ -346,7 +421,7 @@ fn balls_tied_by_calibrated_distances_are_the_own_paths() {
 
 #[test]
 fn what_the_common_calibration_does_not_model_is_refused_by_name() {
-    // Motion-capture poses: the instrument frames.
+    // Motion-capture poses: the body frame.
     let jugglebot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/jugglebot");
     let dataset = Dataset::read(&jugglebot).unwrap();
     let eq9 = CalibrationOptions::simulation(Simulation::I);
@@ -356,7 +431,7 @@ fn what_the_common_calibration_does_not_model_is_refused_by_name() {
             .to_string()
     };
     let error = refusal(&dataset, &eq9);
-    assert!(error.contains("tracker poses and points"), "{error}");
+    assert!(error.starts_with("tracker poses: "), "{error}");
     let dataset = Dataset::read(&fixture()).unwrap();
     // Readings no pose reaches (legs 0 and 1000 mm out in turn), at two
     // contacts: the first in the file is named, whichever thread met it.

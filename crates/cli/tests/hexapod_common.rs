@@ -290,12 +290,12 @@ fn the_default_options_through_the_common_calibration_are_the_own() {
 
 #[test]
 fn what_the_common_calibration_does_not_take_is_refused_by_name() {
-    // Motion-capture poses: an instrument's frames.
+    // Motion-capture poses: the body frame.
     let temp = tempfile::tempdir().unwrap();
     let files = ["machine.json", "poses.csv"];
     let data = copy_fixture("jugglebot", temp.path(), &files);
     let out = temp.path().join("calibration.json");
     let error = fails(&["calibrate", s(&data), "--common", "--out", s(&out)]);
-    assert!(error.contains("tracker poses and points"), "{error}");
+    assert!(error.contains("tracker poses: "), "{error}");
     assert!(!out.exists());
 }

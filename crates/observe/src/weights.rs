@@ -191,6 +191,17 @@ impl CoordinateWhitening {
         let inverse = factor
             .solve_lower_triangular(&Matrix3::identity())
             .ok_or(refuse)?;
+        Self::from_inverse_factor(&inverse)
+    }
+
+    /// From `L⁻¹` itself (its lower triangle is read); refuses one that is
+    /// not finite with a positive diagonal.
+    pub fn from_inverse_factor(inverse: &Matrix3<f64>) -> Result<Self, ObserveError> {
+        if !(inverse.iter().all(|v| v.is_finite()) && inverse.diagonal().min() > 0.0) {
+            return Err(ObserveError::NotPositiveDefinite {
+                what: "coordinate observation whitening",
+            });
+        }
         Ok(Self {
             inverse_factor: [
                 inverse[(0, 0)],

@@ -26,6 +26,7 @@ const NOISE: Noise = Noise {
     actuator: None,
     position: None,
     touch: None,
+    tracker: None,
 };
 
 /// The index of `diagonal_a`, the first rod.

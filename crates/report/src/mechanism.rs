@@ -280,6 +280,57 @@ pub const BALL_HEADER: [&str; 5] = [
     "radius sigma (mm)",
 ];
 
+/// The trackers' table: each frame's translation and rotation (as a
+/// rotation vector, degrees) from the mechanism's canonical frame, and
+/// their sigmas.
+pub fn tracker_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
+    calibration
+        .trackers
+        .iter()
+        .map(|tracker| {
+            let [x, y, z] = tracker.frame.translation;
+            let [qx, qy, qz, qw] = tracker.frame.rotation;
+            let rotation = rotation_vector_degrees([qx, qy, qz, qw]);
+            let (rotation_sigmas, translation_sigmas) = tracker.sigma.map_or_else(
+                || ("-".to_string(), "-".to_string()),
+                |s| {
+                    let degrees = s.map(f64::to_degrees);
+                    (
+                        format!("{:.4}, {:.4}, {:.4}", degrees[0], degrees[1], degrees[2]),
+                        format!("{:.4}, {:.4}, {:.4}", s[3], s[4], s[5]),
+                    )
+                },
+            );
+            vec![
+                tracker.label.clone(),
+                format!("{x:.3}, {y:.3}, {z:.3}"),
+                translation_sigmas,
+                format!("{:.4}, {:.4}, {:.4}", rotation[0], rotation[1], rotation[2]),
+                rotation_sigmas,
+            ]
+        })
+        .collect()
+}
+
+/// The header of [`tracker_rows`].
+pub const TRACKER_HEADER: [&str; 5] = [
+    "tracker",
+    "translation (mm)",
+    "translation sigmas (mm)",
+    "rotation vector (degrees)",
+    "rotation sigmas (degrees)",
+];
+
+/// The rotation vector of the unit quaternion `[x, y, z, w]`, in degrees.
+fn rotation_vector_degrees([x, y, z, w]: [f64; 4]) -> [f64; 3] {
+    let sine = (x * x + y * y + z * z).sqrt();
+    if sine == 0.0 {
+        return [0.0; 3];
+    }
+    let angle = 2.0 * sine.atan2(w);
+    [x, y, z].map(|c| (c / sine * angle).to_degrees())
+}
+
 /// One sentence per ball found on the wrong side of its touches and
 /// re-seeded.
 pub fn mirrored_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
@@ -456,6 +507,20 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
                 .collect(),
         });
     }
+    if !calibration.trackers.is_empty() {
+        blocks.push(Block::Heading(2, "Trackers".into()));
+        blocks.push(Block::Table {
+            header: TRACKER_HEADER.iter().map(|s| s.to_string()).collect(),
+            rows: tracker_rows(calibration)
+                .into_iter()
+                .map(|row| row.into_iter().map(Cell::text).collect())
+                .collect(),
+        });
+        blocks.push(Block::Paragraph(
+            Tone::Note,
+            "Each tracker's frame maps the mechanism's canonical frame to the tracker's (x_tracker = R x + t); its sigmas are of rotations about the mechanism's axes and of translations along them.".into(),
+        ));
+    }
     blocks.push(Block::Heading(2, "What the data determine".into()));
     blocks.push(Block::List(
         Tone::Plain,
@@ -543,5 +608,22 @@ mod tests {
         assert!(markdown.contains("## Calibrated balls"), "{markdown}");
         assert!(markdown.contains("60.0000, 0.0000, 12.7000"), "{markdown}");
         assert!(markdown.contains("exact"), "{markdown}");
+        assert!(!markdown.contains("## Trackers"), "{markdown}");
+        // A record with a tracker turned a quarter turn about z.
+        let half = std::f64::consts::FRAC_PI_4;
+        record
+            .trackers
+            .push(parcal_dataset::mechanism::TrackerRecord {
+                label: "left".to_string(),
+                frame: parcal_dataset::FrameRecord {
+                    translation: [1200.0, -300.0, 150.0],
+                    rotation: [0.0, 0.0, half.sin(), half.cos()],
+                },
+                sigma: Some([1e-4, 2e-4, 3e-4, 0.01, 0.02, 0.03]),
+            });
+        let markdown =
+            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        assert!(markdown.contains("## Trackers"), "{markdown}");
+        assert!(markdown.contains("| left | 1200.000, -300.000, 150.000 | 0.0100, 0.0200, 0.0300 | 0.0000, 0.0000, 90.0000 | 0.0057, 0.0115, 0.0172 |"), "{markdown}");
     }
 }

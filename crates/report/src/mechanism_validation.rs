@@ -17,7 +17,9 @@ use parcal_dataset::mechanism::{
     BALL_DISTANCES_FILE, BALLS_FILE, DISTANCES_FILE, KindRecord, MechanismValidationRecord,
     POINTS_FILE, PROBES_FILE, QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
 };
-use parcal_dataset::{ARTEFACTS_FILE, HEXAPOD, MEASUREMENTS_FILE};
+use parcal_dataset::{
+    ARTEFACTS_FILE, HEXAPOD, MEASUREMENTS_FILE, POINTS_FILE as HEXAPOD_POINTS_FILE,
+};
 
 use crate::instruments::{test_record, test_statement};
 
@@ -95,6 +97,10 @@ impl Files {
             ObservationKind::Quantity => QUANTITIES_FILE,
             ObservationKind::Touch => self.touches(),
             ObservationKind::BallDistance => return Some(self.ball_distances()),
+            ObservationKind::TrackerPoint => match self {
+                Self::Hexapod => HEXAPOD_POINTS_FILE,
+                Self::Mechanism => return None,
+            },
             ObservationKind::Point => return None,
         };
         Some((file, true))

@@ -271,17 +271,12 @@ fn cable_dataset(scenario: &CableScenario, simulation: CableSimulation) -> Mecha
     };
     MechanismDataset {
         machine,
-        probes: Vec::new(),
-        distances: Vec::new(),
         samples,
-        quantities: Vec::new(),
-        balls: Vec::new(),
-        touches: Vec::new(),
-        ball_distances: Vec::new(),
         truth: Some(MechanismTruth {
             parameters: simulation.truth.iter().copied().collect(),
             trigger_height: None,
         }),
+        ..MechanismDataset::default()
     }
 }
 

@@ -22,15 +22,20 @@
 //! `x = c + (ρ + N(0, σ_t²)) u` and the commanded position the controller
 //! reports `x_c = f(p_c, g(p, x))`. A ball plate over the balls gives the
 //! calibrated distances between their true centres, `|c_a − c_b| +
-//! N(0, σ²)` ([`Plate`]). Deterministic for a seed: each kind draws from
+//! N(0, σ²)` ([`Plate`]). Each tracker stands at a frame drawn about the
+//! printer (1.5 to 2.5 m from its axis, turned about the vertical
+//! anywhere, tilted by up to 0.1 rad) and measures the true tool point at
+//! commanded positions drawn in the print volume, each coordinate with
+//! noise `N(0, σ_k²)`; truth.json does not hold the trackers' frames. Deterministic for a seed: each kind draws from
 //! its own stream, the plate from its own too, so that a dataset without
 //! it is the same as with it but for ball_distances.csv.
 
+use nalgebra::{Isometry3, Point3, Vector3};
 use parcal_dataset::bounds::Count;
 use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{
     BALL_DISTANCES, BALLS, BallRow, MechanismDataset, MechanismMachine, MechanismTruth, Noise,
-    OBSERVATIONS, SampleRow, TouchRow, ValuePrior,
+    OBSERVATIONS, SampleRow, TRACKERS, TouchRow, TrackerPointRow, ValuePrior,
 };
 use parcal_kinematics::Vec3;
 use parcal_kinematics::delta::{
@@ -96,6 +101,12 @@ pub struct DeltaScenario {
     /// A ball plate over the balls (which pairs, each distance's
     /// standard deviation in mm); `None`: no distance between them.
     pub plate: Option<Plate>,
+    /// Trackers, each placed anew (module doc).
+    pub trackers: usize,
+    /// Points each tracker measures.
+    pub points_per_tracker: usize,
+    /// A tracker's coordinate's standard deviation (mm).
+    pub tracker_sigma: f64,
 }
 
 impl DeltaScenario {
@@ -103,7 +114,8 @@ impl DeltaScenario {
     /// probed on 3 rings of 8 points (25 probes) within 100 mm at 10 µm,
     /// trigger height 0.7 ± 0.05 mm, no distance, no point sample and no
     /// ball (balls of 12.7 mm radius calibrated to 1 µm, touched 7 times
-    /// each at 10 µm when asked for), no ball plate.
+    /// each at 10 µm when asked for), no ball plate, no tracker (12
+    /// points each at 10 µm when asked for).
     pub fn typical() -> Self {
         Self {
             design: DeltaParams::symmetric(270.0, 135.0, 300.0),
@@ -126,6 +138,9 @@ impl DeltaScenario {
             ball_radius_sigma: Some(0.001),
             touch_sigma: 0.01,
             plate: None,
+            trackers: 0,
+            points_per_tracker: 12,
+            tracker_sigma: 0.01,
         }
     }
 
@@ -173,6 +188,21 @@ impl DeltaScenario {
             )
             .map_err(SimulateError::TooLarge)?;
         }
+        if self.trackers > 0 {
+            TRACKERS.check("trackers", self.trackers).map_err(refused)?;
+            check_product(
+                &[
+                    ("trackers", self.trackers),
+                    ("points per tracker", self.points_per_tracker),
+                ],
+                OBSERVATIONS.max,
+                "tracker points, the most a mechanism dataset holds",
+            )
+            .map_err(SimulateError::TooLarge)?;
+            if self.points_per_tracker < 3 {
+                return invalid("a tracker needs at least 3 points to locate its frame");
+            }
+        }
         if let Some(plate) = &self.plate {
             if self.balls == 0 {
                 return invalid("a ball plate needs balls: its distances are between them");
@@ -190,6 +220,7 @@ impl DeltaScenario {
             self.ball_radius,
             self.ball_radius_sigma.unwrap_or(1.0),
             self.touch_sigma,
+            self.tracker_sigma,
         ];
         if sigmas.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
             return invalid(
@@ -212,6 +243,7 @@ enum Stream {
     Distances = 2,
     Samples = 3,
     Balls = 4,
+    Trackers = 5,
 }
 
 /// Simulates `scenario` with `seed` (module doc).
@@ -329,6 +361,13 @@ pub fn measure_delta(
         Some(plate) => plate::distances(plate, &centres, seed)?,
         None => Vec::new(),
     };
+    let tracker_points = track(
+        scenario,
+        &delta,
+        &truth,
+        &configured,
+        &mut rng(Stream::Trackers),
+    )?;
 
     let machine = MechanismMachine {
         noise: Noise {
@@ -337,6 +376,7 @@ pub fn measure_delta(
             actuator: (!samples.is_empty()).then_some(scenario.actuator_sigma),
             position: (scenario.known_samples > 0).then_some(scenario.position_sigma),
             touch: (!touches.is_empty()).then_some(scenario.touch_sigma),
+            tracker: (!tracker_points.is_empty()).then_some(scenario.tracker_sigma),
         },
         trigger_height: Some(ValuePrior {
             value: scenario.trigger_height,
@@ -353,8 +393,55 @@ pub fn measure_delta(
         balls,
         touches,
         ball_distances,
+        tracker_points,
         truth: Some(truth_record),
     })
+}
+
+/// The trackers of `scenario` measuring the printer of true parameters
+/// `truth` run with `configured`, drawing from `draw` (module doc).
+fn track(
+    scenario: &DeltaScenario,
+    delta: &LinearDelta,
+    truth: &[f64],
+    configured: &[f64],
+    draw: &mut Rng,
+) -> Result<Vec<TrackerPointRow>, SimulateError> {
+    let tau = 2.0 * std::f64::consts::PI;
+    let mut rows = Vec::with_capacity(scenario.trackers * scenario.points_per_tracker);
+    for tracker in 0..scenario.trackers {
+        let (bearing, distance) = (draw.uniform(0.0, tau), draw.uniform(1500.0, 2500.0));
+        let frame = Isometry3::new(
+            Vector3::new(
+                distance * bearing.cos(),
+                distance * bearing.sin(),
+                draw.uniform(-300.0, 300.0),
+            ),
+            Vector3::new(
+                draw.uniform(-0.1, 0.1),
+                draw.uniform(-0.1, 0.1),
+                draw.uniform(0.0, tau),
+            ),
+        );
+        for k in 0..scenario.points_per_tracker {
+            let r = scenario.print_radius * draw.unit().sqrt();
+            let angle = draw.uniform(0.0, tau);
+            let commanded = [r * angle.cos(), r * angle.sin(), draw.uniform(0.0, 150.0)];
+            let reached = delta
+                .inverse(configured, &commanded)
+                .and_then(|q| delta.forward(truth, q.as_slice(), &commanded))
+                .map_err(|e| {
+                    SimulateError::Mechanism(format!("point {k} of tracker {tracker}: {e}"))
+                })?;
+            let seen = frame.transform_point(&Point3::new(reached[0], reached[1], reached[2]));
+            rows.push(TrackerPointRow {
+                tracker: format!("T{}", tracker + 1),
+                commanded,
+                measured: std::array::from_fn(|i| seen[i] + draw.normal(scenario.tracker_sigma)),
+            });
+        }
+    }
+    Ok(rows)
 }
 
 /// Calibrated balls on the bed, touched.

@@ -35,6 +35,14 @@ pub const RINGS: Count = Count::new(1, 20, "a bed probed on more rings than 20 g
 pub const PER_RING: Count = Count::new(3, 360, "a point every degree at most");
 /// The bounds of `part_distances`.
 pub const DISTANCES: Count = Count::new(0, 180, "one distance per degree at most");
+/// The bounds of `trackers`.
+pub const TRACKERS: Count = parcal_dataset::mechanism::TRACKERS;
+/// The bounds of `points_per_tracker`: three locate a tracker's frame.
+pub const POINTS_PER_TRACKER: Count = Count::new(
+    3,
+    10_000,
+    "a tracker's frame is six unknowns: ten thousand points locate it far past its noise",
+);
 /// The bounds of `samples` and `known_positions`.
 pub const SAMPLES: Count = Count::new(
     1,
@@ -89,6 +97,15 @@ pub struct MechanismOptions {
     /// between their centres (which pairs, each distance's standard
     /// deviation in mm; default none; needs `balls`).
     pub plate: Option<Plate>,
+    /// Delta: trackers placed about the printer, each measuring the tool
+    /// point in its own frame (default none; [`TRACKERS`]).
+    pub trackers: Option<usize>,
+    /// Delta: points each tracker measures (default 12;
+    /// [`POINTS_PER_TRACKER`]).
+    pub points_per_tracker: Option<usize>,
+    /// Delta: a tracker's noise, 1 sigma per coordinate, mm (default
+    /// 0.01, at most 1).
+    pub tracker_sigma: Option<f64>,
     /// Cable robot: samples (encoder readings), the encoder zero's
     /// included (default 44, the Hangprinter data's; [`SAMPLES`]).
     pub samples: Option<usize>,
@@ -115,7 +132,7 @@ impl MechanismOptions {
     }
 
     /// A delta's options, each with whether it is given.
-    fn delta_given(&self) -> [(&'static str, bool); 8] {
+    fn delta_given(&self) -> [(&'static str, bool); 11] {
         [
             ("probe_rings", self.probe_rings.is_some()),
             ("probes_per_ring", self.probes_per_ring.is_some()),
@@ -125,6 +142,9 @@ impl MechanismOptions {
             ("balls", self.balls.is_some()),
             ("points_per_ball", self.points_per_ball.is_some()),
             ("plate", self.plate.is_some()),
+            ("trackers", self.trackers.is_some()),
+            ("points_per_tracker", self.points_per_tracker.is_some()),
+            ("tracker_sigma", self.tracker_sigma.is_some()),
         ]
     }
 
@@ -344,6 +364,20 @@ fn delta(
             spelling,
         )?,
         plate: options.plate,
+        trackers: match options.trackers {
+            Some(trackers) => TRACKERS
+                .check(&spelling.name("trackers"), trackers)
+                .map_err(SimulateError::Options)?,
+            None => 0,
+        },
+        points_per_tracker: count(
+            "points_per_tracker",
+            options.points_per_tracker,
+            typical.points_per_tracker,
+            POINTS_PER_TRACKER,
+            spelling,
+        )?,
+        tracker_sigma: sigma("tracker_sigma", options.tracker_sigma, 0.01, 1.0, spelling)?,
         ..typical
     };
     match truth {

@@ -30,7 +30,8 @@ use crate::mechanism::dataset::MechanismDataset;
 /// With `mechanism` `"delta"` (`"linear delta"`) or `"cable"` (`"cable
 /// robot"`), a `parcal.MechanismDataset`: a delta's `probe_rings`,
 /// `probes_per_ring`, `part_distances`, `probe_sigma`, `distance_sigma`,
-/// `balls`, `points_per_ball` and `plate`, or a cable robot's `samples`,
+/// `balls`, `points_per_ball`, `plate`, `trackers`, `points_per_tracker`
+/// and `tracker_sigma`, or a cable robot's `samples`,
 /// `known_positions`, `reading_sigma` and `measured_sigma`; `truth` (a
 /// simulated `parcal.MechanismDataset`, with its truth) measures that true
 /// machine again instead of drawing one: held-out data, refused if it is
@@ -58,6 +59,9 @@ use crate::mechanism::dataset::MechanismDataset;
     part_distances=None,
     probe_sigma=None,
     distance_sigma=None,
+    trackers=None,
+    points_per_tracker=None,
+    tracker_sigma=None,
     samples=None,
     known_positions=None,
     reading_sigma=None,
@@ -80,6 +84,9 @@ pub fn simulate(
     part_distances: Option<usize>,
     probe_sigma: Option<f64>,
     distance_sigma: Option<f64>,
+    trackers: Option<usize>,
+    points_per_tracker: Option<usize>,
+    tracker_sigma: Option<f64>,
     samples: Option<usize>,
     known_positions: Option<usize>,
     reading_sigma: Option<f64>,
@@ -97,6 +104,9 @@ pub fn simulate(
         distance_sigma,
         balls,
         points_per_ball,
+        trackers,
+        points_per_tracker,
+        tracker_sigma,
         samples,
         known_positions,
         reading_sigma,

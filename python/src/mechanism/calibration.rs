@@ -349,6 +349,16 @@ impl MechanismCalibration {
         to_python(py, &self.record.tests.removed)
     }
 
+    /// The trackers' frames (dicts as calibration.json holds them:
+    /// `label`, `frame` with its `translation` (mm) and `rotation` (a unit
+    /// quaternion `[x, y, z, w]`), mapping the mechanism's canonical frame
+    /// to the tracker's, and `sigma`: rotations about the mechanism's axes
+    /// (rad), then translations (mm)); empty without tracker points.
+    #[getter]
+    fn trackers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.record.trackers)
+    }
+
     /// What the data determine: `gauge` (the freedoms the canonical frame
     /// fixes), `undetermined` (each combination of parameters the data
     /// leave to the priors: its `components` as (name, weight) pairs in

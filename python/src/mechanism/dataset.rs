@@ -2,8 +2,8 @@
 //! hexapod (a linear delta, a cable robot), read from its directory
 //! (machine.json naming the mechanism, probes.csv, distances.csv,
 //! points.csv, quantities.csv, balls.csv, touches.csv,
-//! ball_distances.csv, truth.json), its parameters and observations as
-//! numpy arrays.
+//! ball_distances.csv, tracker_points.csv, truth.json), its parameters and
+//! observations as numpy arrays.
 
 use std::path::PathBuf;
 
@@ -13,6 +13,7 @@ use parcal::MechanismDataset as Inner;
 use parcal::dataset::Distance;
 use parcal::dataset::mechanism::{
     BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TouchRow,
+    TrackerPointRow,
 };
 use parcal::kinematics::mechanism::Mechanism;
 use pyo3::prelude::*;
@@ -40,8 +41,10 @@ use crate::error::to_py;
 /// n x 2 (`radius`, `radius_sigma`, 0 for an exact radius), `touches`
 /// n x 4 (`ball`, the commanded `x, y, z`), `ball_distances` n x 4
 /// (`first, second, distance, sigma`: two balls' numbers and the
-/// calibrated distance between their centres, mm); they are checked as
-/// the files are, and messages name the files they would be.
+/// calibrated distance between their centres, mm), `tracker_points` a dict
+/// of `tracker` (a label per row), `commanded` (n x 3) and `measured`
+/// (n x 3, in the tracker's frame); they are checked as the files are, and
+/// messages name the files they would be.
 #[pyclass(module = "parcal", frozen)]
 pub struct MechanismDataset {
     /// The dataset as read.
@@ -81,7 +84,7 @@ impl MechanismDataset {
 #[pymethods]
 impl MechanismDataset {
     #[new]
-    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None, balls=None, touches=None, ball_distances=None))]
+    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None, balls=None, touches=None, ball_distances=None, tracker_points=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         machine: &Bound<'_, PyAny>,
@@ -92,6 +95,7 @@ impl MechanismDataset {
         balls: Option<&Bound<'_, PyAny>>,
         touches: Option<&Bound<'_, PyAny>>,
         ball_distances: Option<&Bound<'_, PyAny>>,
+        tracker_points: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         let machine = through_file(
             machine,
@@ -125,6 +129,10 @@ impl MechanismDataset {
             touches: touches.map(touch_rows).transpose()?.unwrap_or_default(),
             ball_distances: ball_distances
                 .map(ball_distance_rows)
+                .transpose()?
+                .unwrap_or_default(),
+            tracker_points: tracker_points
+                .map(tracker_point_rows)
                 .transpose()?
                 .unwrap_or_default(),
             truth: None,
@@ -342,6 +350,22 @@ impl MechanismDataset {
         array2(py, &rows)
     }
 
+    /// The trackers' points (tracker_points.csv): a dict of `tracker` (a
+    /// label per row), `commanded` (n x 3, mm) and `measured` (n x 3, mm,
+    /// the tracker's frame).
+    #[getter]
+    fn tracker_points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let rows = &self.inner.tracker_points;
+        let dict = PyDict::new(py);
+        let labels: Vec<&str> = rows.iter().map(|r| r.tracker.as_str()).collect();
+        let commanded: Vec<[f64; 3]> = rows.iter().map(|r| r.commanded).collect();
+        let measured: Vec<[f64; 3]> = rows.iter().map(|r| r.measured).collect();
+        dict.set_item("tracker", labels)?;
+        dict.set_item("commanded", array2(py, &commanded))?;
+        dict.set_item("measured", array2(py, &measured))?;
+        Ok(dict)
+    }
+
     /// The calibrated distances between the balls (n x 4,
     /// ball_distances.csv's `first, second, distance, sigma`: the two
     /// balls' numbers, the distance between their centres and its sigma,
@@ -480,6 +504,37 @@ fn touch_rows(touches: &Bound<'_, PyAny>) -> PyResult<Vec<TouchRow>> {
             })
         })
         .collect()
+}
+
+/// `tracker_points` (a dict of `tracker`, `commanded`, `measured`) as
+/// tracker_points.csv's rows.
+fn tracker_point_rows(dict: &Bound<'_, PyDict>) -> PyResult<Vec<TrackerPointRow>> {
+    let entry = |key: &str| {
+        dict.get_item(key)?
+            .ok_or_else(|| to_py(format!("tracker_points: missing {key:?}")))
+    };
+    let labels: Vec<String> = entry("tracker")?
+        .extract()
+        .map_err(|_| to_py("tracker_points[\"tracker\"]: expected a list of labels"))?;
+    let commanded = rows::<3>(&entry("commanded")?, "tracker_points[\"commanded\"]")?;
+    let measured = rows::<3>(&entry("measured")?, "tracker_points[\"measured\"]")?;
+    if commanded.len() != labels.len() || measured.len() != labels.len() {
+        return Err(to_py(format!(
+            "tracker_points: tracker, commanded and measured have {}, {} and {} rows: one of each per point",
+            labels.len(),
+            commanded.len(),
+            measured.len()
+        )));
+    }
+    Ok(labels
+        .into_iter()
+        .zip(commanded.into_iter().zip(measured))
+        .map(|(tracker, (commanded, measured))| TrackerPointRow {
+            tracker,
+            commanded,
+            measured,
+        })
+        .collect())
 }
 
 /// `ball_distances` (n x 4: the two balls' numbers, the distance and its

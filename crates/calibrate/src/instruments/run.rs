@@ -400,7 +400,8 @@ pub(crate) fn geometry_record(g: &Geometry) -> GeometryRecord {
     }
 }
 
-fn frame(isometry: &Isometry3<f64>) -> FrameRecord {
+/// `isometry` as its record.
+pub(crate) fn frame(isometry: &Isometry3<f64>) -> FrameRecord {
     let q = isometry.rotation.coords;
     FrameRecord {
         translation: isometry.translation.vector.into(),

@@ -66,7 +66,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         data: &'a MechanismData,
         loss: Loss,
     ) -> Result<(Self, State<C, 2>, Vec<LastPose>), MechanismCalibrationError> {
-        let base = MechanismProblem::new(data, loss);
+        let base = MechanismProblem::new(data, loss)?;
         let Start {
             state,
             caches,
@@ -452,7 +452,7 @@ mod tests {
         // Without angle priors and with W = σ² I, the angles take up the
         // tangential rows: the same minimum as the radius observation's.
         let data = touches_only(tied_delta());
-        let radius = MechanismProblem::<4>::new(&data, Loss::Squared);
+        let radius = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
         let start = radius.start_state().unwrap().state;
         let options = SolverOptions::default();
         let by_radius = solve::<4, 0, 1, _>(&radius, start, &options, &mut |_| {});

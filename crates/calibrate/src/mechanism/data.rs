@@ -10,7 +10,7 @@ use nalgebra::DMatrix;
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
     Actuation, BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES,
-    PartDistance, PointSample, ProbeHeight,
+    PartDistance, PointSample, ProbeHeight, TrackerPoint,
 };
 
 use super::correlation::check_correlation;
@@ -40,6 +40,12 @@ pub const MIN_ACTUATORS: usize = 3;
 pub const MAX_ACTUATORS: usize = 8;
 /// The most coordinates of a mechanism's pose (a rigid body's six).
 pub const MAX_POSE_COORDINATES: usize = 6;
+/// The most trackers: each adds its frame's six unknowns to the dense
+/// global block (a calibration uses one per placement of the instrument,
+/// a handful).
+pub const MAX_TRACKERS: usize = 16;
+/// The fewest points of a tracker: three not on a line locate its frame.
+pub const MIN_POINTS_PER_TRACKER: usize = 3;
 
 /// The observations, by kind.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -61,6 +67,11 @@ pub struct Observations {
     pub touches: Vec<BallTouch>,
     /// Calibrated distances between the balls' centres.
     pub ball_distances: Vec<BallDistance>,
+    /// The trackers' labels, one per tracker (not observations: each
+    /// tracker's frame is six unknowns of the global block).
+    pub trackers: Vec<String>,
+    /// Points the trackers measured.
+    pub tracker_points: Vec<TrackerPoint>,
 }
 
 /// A calibrated sphere placed at an unknown centre.
@@ -109,6 +120,7 @@ impl Observations {
             ObservationKind::Quantity => self.quantities.len(),
             ObservationKind::Touch => self.touches.len(),
             ObservationKind::BallDistance => self.ball_distances.len(),
+            ObservationKind::TrackerPoint => self.tracker_points.len(),
         }
     }
 
@@ -145,6 +157,7 @@ impl Observations {
             ObservationKind::Quantity => drop(rest.quantities.remove(k)),
             ObservationKind::Touch => drop(rest.touches.remove(k)),
             ObservationKind::BallDistance => drop(rest.ball_distances.remove(k)),
+            ObservationKind::TrackerPoint => drop(rest.tracker_points.remove(k)),
         }
         rest
     }
@@ -463,7 +476,7 @@ impl MechanismData {
                 check_values(id, "loads", loads)?;
             }
         }
-        check_balls(observations, |id, at| match at {
+        let check_at = |id, at: &Actuation| match at {
             Actuation::Commanded(commanded) => {
                 needs_position(id)?;
                 check_values(id, "commanded position", commanded)
@@ -476,8 +489,10 @@ impl MechanismData {
                 ),
             )),
             Actuation::Readings(readings) => check_values(id, "readings", readings),
-        })?;
+        };
+        check_balls(observations, check_at)?;
         check_ball_distances(observations)?;
+        check_tracker_points(observations, check_at)?;
         let quantities = mechanism.quantities();
         for (k, measured) in observations.quantities.iter().enumerate() {
             let id = at(ObservationKind::Quantity, k);
@@ -575,6 +590,63 @@ fn check_balls(
                 touches_of[b]
             ),
         )),
+        None => Ok(()),
+    }
+}
+
+/// At most [`MAX_TRACKERS`] trackers, each with at least
+/// [`MIN_POINTS_PER_TRACKER`] points; every tracker point of a tracker
+/// that exists, where the machine was put as `check_at` accepts, its
+/// measured point finite and its weight's `L⁻¹` finite with a positive
+/// diagonal.
+fn check_tracker_points(
+    observations: &Observations,
+    check_at: impl Fn(ObservationRef, &Actuation) -> Result<(), MechanismCalibrationError>,
+) -> Result<(), MechanismCalibrationError> {
+    let trackers = observations.trackers.len();
+    if trackers > MAX_TRACKERS {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "trackers".to_string(),
+            reason: format!("{trackers} is more than the {MAX_TRACKERS} accepted"),
+        });
+    }
+    let mut points_of = vec![0usize; trackers];
+    for (k, point) in observations.tracker_points.iter().enumerate() {
+        let id = ObservationRef {
+            kind: ObservationKind::TrackerPoint,
+            index: k,
+        };
+        if point.tracker >= trackers {
+            return Err(observation_error(
+                id,
+                format!(
+                    "it is of tracker {}, and there are {trackers} trackers",
+                    point.tracker
+                ),
+            ));
+        }
+        check_at(id, &point.at)?;
+        check_values(id, "measured point", &point.measured)?;
+        let whitening = point.weight.inverse_factor();
+        if !(whitening.iter().all(|v| v.is_finite()) && whitening.diagonal().min() > 0.0) {
+            return Err(observation_error(
+                id,
+                "its weight is not that of a positive definite covariance".to_string(),
+            ));
+        }
+        points_of[point.tracker] += 1;
+    }
+    match points_of
+        .iter()
+        .position(|&count| count < MIN_POINTS_PER_TRACKER)
+    {
+        Some(t) => Err(MechanismCalibrationError::InvalidData {
+            what: format!("tracker {:?}", observations.trackers[t]),
+            reason: format!(
+                "it has {} points; its frame needs at least {MIN_POINTS_PER_TRACKER} not on a line",
+                points_of[t]
+            ),
+        }),
         None => Ok(()),
     }
 }

@@ -28,6 +28,7 @@ use super::mirror::{MirroredBall, WrongSideWatch};
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::problem::{FitProblem, LastPose, MechanismProblem, Start, group_size};
+use super::trackers::Trackers;
 
 /// The numbers of one observation at the solution.
 #[derive(Debug, Clone, PartialEq)]
@@ -93,6 +94,8 @@ pub(crate) struct Fit {
     /// rows are one test: a sample's and a radius row are one row each,
     /// a touch's three coordinate rows one observation).
     pub tests: usize,
+    /// The trackers' references and places in the global block.
+    pub trackers: Trackers,
 }
 
 /// One fit of `data` (validated) with `options` (module doc), its local
@@ -120,7 +123,7 @@ fn fit_blocks<const C: usize>(
 ) -> Result<Fit, MechanismCalibrationError> {
     match options.observation {
         Observation::Radius => {
-            let mut problem = MechanismProblem::<C>::new(data, options.loss);
+            let mut problem = MechanismProblem::<C>::new(data, options.loss)?;
             let (state, caches) = start(&problem)?;
             solve_and_check::<C, 0, 1, _>(&mut problem, state, caches, options, started, observer)
         }
@@ -228,6 +231,7 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
         mirrored,
         data_rows: global_rows + R * points,
         tests: global_rows + points,
+        trackers: base.trackers().clone(),
     })
 }
 
@@ -293,8 +297,8 @@ fn check_global_rows<const C: usize>(
 /// at the start a fit would take ([`start`]).
 pub(crate) fn check_start(data: &MechanismData) -> Result<(), MechanismCalibrationError> {
     match group_size(data) {
-        3 => start(&MechanismProblem::<3>::new(data, Loss::Squared)).map(drop),
-        _ => start(&MechanismProblem::<4>::new(data, Loss::Squared)).map(drop),
+        3 => start(&MechanismProblem::<3>::new(data, Loss::Squared)?).map(drop),
+        _ => start(&MechanismProblem::<4>::new(data, Loss::Squared)?).map(drop),
     }
 }
 
@@ -535,7 +539,7 @@ mod tests {
         // By its radius rows, and by its coordinates (its touches charted
         // again about their directions from the re-seeded centre).
         let data = campaign(Simulation::I);
-        let mut radius = MechanismProblem::<3>::new(&data, Loss::Squared);
+        let mut radius = MechanismProblem::<3>::new(&data, Loss::Squared).unwrap();
         let (state, caches) = start(&radius).unwrap();
         check_reseeding::<0, 1, _>(&mut radius, state, caches);
         let data = campaign(Simulation::II);

@@ -12,8 +12,10 @@
 //! J_cᵀ`, with `J_c = dc/dp` by central differences (the trait has no
 //! analytic derivative of its canonical frame); `J_c` maps every gauge
 //! direction to zero, so this projects the gauge out of the covariance,
-//! which is of rank `n − (number of gauge freedoms)`. Unknowns other than
-//! the mechanism's parameters (the trigger height) pass unchanged.
+//! which is of rank `n − (number of gauge freedoms)`. The trigger height
+//! passes unchanged; a tracker's frame follows the mechanism's frame
+//! ([`super::trackers::Trackers::follow`]), and its correction is then
+//! among the differentiated unknowns.
 
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::Mechanism;
@@ -21,14 +23,14 @@ use parcal_kinematics::mechanism::Mechanism;
 use super::error::MechanismCalibrationError;
 
 /// Relative step of the central differences of the canonical frame, in
-/// units of each parameter's scale (its prior sigma, else 1): the
+/// units of each unknown's scale (its prior sigma, else 1): the
 /// truncation error is of order its square, the rounding error of order
 /// `ε |c| / step`, both far below the sigmas.
 const STEP: f64 = 1e-4;
 
 /// The estimate and its covariance in the canonical frame.
 pub struct Canonical {
-    /// The global block, its first `n` values canonical.
+    /// The global block in the canonical frame.
     pub values: DVector<f64>,
     /// `T = diag(J_c, I)`, the derivative of the canonical global block.
     pub transform: DMatrix<f64>,
@@ -46,16 +48,45 @@ pub fn canonical(
     scale: &[f64],
 ) -> Result<Canonical, MechanismCalibrationError> {
     let n = scale.len();
-    let kinematics = |source| MechanismCalibrationError::Kinematics {
-        mechanism: mechanism.name().to_string(),
-        source,
+    let map = |global: &[f64]| canonical_params(mechanism, global, n);
+    canonical_by(&map, global, covariance, scale)
+}
+
+/// `global` with its first `n` values, the mechanism's parameters, in the
+/// canonical frame.
+pub(crate) fn canonical_params(
+    mechanism: &dyn Mechanism,
+    global: &[f64],
+    n: usize,
+) -> Result<DVector<f64>, MechanismCalibrationError> {
+    let mut values = DVector::from_column_slice(global);
+    let params = mechanism.canonicalize(&global[..n]).map_err(|source| {
+        MechanismCalibrationError::Kinematics {
+            mechanism: mechanism.name().to_string(),
+            source,
+        }
+    })?;
+    values.rows_mut(0, n).copy_from(&params);
+    Ok(values)
+}
+
+/// The global block `global` in the canonical frame, `map(global)`, and
+/// its covariance propagated (module doc): `map` changes the first
+/// `scale.len()` unknowns at most, `scale` holding each one's step scale.
+pub(crate) fn canonical_by(
+    map: &impl Fn(&[f64]) -> Result<DVector<f64>, MechanismCalibrationError>,
+    global: &DVector<f64>,
+    covariance: Option<&DMatrix<f64>>,
+    scale: &[f64],
+) -> Result<Canonical, MechanismCalibrationError> {
+    let n = scale.len();
+    let values = map(global.as_slice())?;
+    let leading = |p: &[f64]| {
+        let mut moved = global.clone();
+        moved.rows_mut(0, n).copy_from_slice(p);
+        map(moved.as_slice()).map(|values| values.rows(0, n).into_owned())
     };
-    let canonicalize = |p: &[f64]| mechanism.canonicalize(p).map_err(kinematics);
-    let mut values = global.clone();
-    values
-        .rows_mut(0, n)
-        .copy_from(&canonicalize(&global.as_slice()[..n])?);
-    let jacobian = canonical_jacobian(&canonicalize, &global.as_slice()[..n], scale)?;
+    let jacobian = canonical_jacobian(&leading, &global.as_slice()[..n], scale)?;
     let g = global.len();
     let mut transform = DMatrix::identity(g, g);
     transform.view_mut((0, 0), (n, n)).copy_from(&jacobian);

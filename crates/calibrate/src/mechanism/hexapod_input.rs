@@ -40,12 +40,19 @@
 //!   [`BallDistance`](parcal_observe::mechanism::BallDistance), the
 //!   two balls' centres then unknowns of the global block, as the
 //!   hexapod's own calibration ties them.
+//! - Each session of points.csv: a tracker, its frame six unknowns
+//!   ([`super::trackers`]); each point a [`TrackerPoint`] at its readings
+//!   (as above), weighted as the hexapod calibration weighs it at its
+//!   initial estimate (the instrument's position sigma and the
+//!   actuators' repeatability through `dT/dq`, in the instrument's frame,
+//!   [`InstrumentRows::whiten`]).
 //!
 //! Both calibrations then minimise the same cost from the same start: the
 //! common door's estimate is the dedicated path's (the common calibration
 //! runs the observation of the options' [`MechanismOptions::observation`]).
 //! What only the hexapod's own calibration models is refused by name:
-//! tracker poses and points.
+//! tracker poses (and the body frame they see), and later sessions' leg
+//! offsets.
 //!
 //! [`coordinate_covariance`]: parcal_observe::coordinate_covariance
 //! [`MechanismOptions::observation`]: super::MechanismOptions
@@ -59,12 +66,15 @@ use parcal_kinematics::mechanism::design;
 use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::CoordinateWhitening;
 use parcal_observe::KinematicPrior;
-use parcal_observe::mechanism::{Actuation, Approach, BallTouch};
+use parcal_observe::mechanism::{Actuation, Approach, BallTouch, TrackerPoint};
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 use super::input::ball_distances;
 use crate::CalibrationOptions;
+use crate::instruments::observations::{groups, initial_block, model_and_rows};
+use crate::instruments::rows::InstrumentRows;
+use crate::layout::ParameterLayout;
 use crate::options::{PriorMode, RadiusModel, Simulation};
 use crate::setup::{Observations as SetupObservations, Setup, design_geometry};
 
@@ -115,10 +125,13 @@ impl MechanismData {
                 ..BallTouch::new(ball as usize, Actuation::Readings(legs.actuation(q)), 0.0)
             })
             .collect();
+        let tracker_points = tracker_points(dataset, &legs)?;
         let observations = Observations {
             balls,
             touches,
             ball_distances: ball_distances(&dataset.artefacts.distances),
+            trackers: dataset.tracker.sessions.clone(),
+            tracker_points,
             ..Observations::default()
         };
         let data = Self::new(Arc::new(hexapod), configured, observations);
@@ -207,13 +220,64 @@ impl LegReadings {
 
 /// Refuses what only the hexapod's own calibration models (module doc).
 fn check_representable(dataset: &Dataset) -> Result<(), MechanismCalibrationError> {
-    if dataset.tracker.is_empty() {
-        return Ok(());
+    let tracker = &dataset.tracker;
+    let refuse = |what: &str, reason: &str| {
+        Err(MechanismCalibrationError::InvalidData {
+            what: what.to_string(),
+            reason: reason.to_string(),
+        })
+    };
+    if !tracker.poses.is_empty() {
+        return refuse(
+            "tracker poses",
+            "a pose's body frame is not modelled by the common calibration, which takes tracker points; the hexapod's own calibration takes poses",
+        );
     }
-    Err(MechanismCalibrationError::InvalidData {
-        what: "tracker poses and points".to_string(),
-        reason: "an instrument's frames are not modelled by the common calibration; the hexapod's own calibration takes them".to_string(),
-    })
+    if tracker.sessions.len() > 1 && dataset.machine.session_model.leg_offset_sigma.is_some() {
+        return refuse(
+            "the session model's leg offsets",
+            "later sessions' leg offsets are not modelled by the common calibration; the hexapod's own calibration takes them",
+        );
+    }
+    Ok(())
+}
+
+/// Each row of points.csv as a [`TrackerPoint`] of the tracker of its
+/// session at its readings as `legs` reads them, weighted as the hexapod
+/// calibration weighs it at its initial estimate (module doc).
+fn tracker_points(
+    dataset: &Dataset,
+    legs: &LegReadings,
+) -> Result<Vec<TrackerPoint>, MechanismCalibrationError> {
+    let points = &dataset.tracker.points;
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let invalid = |reason: String| MechanismCalibrationError::InvalidData {
+        what: "the tracker points' weights".to_string(),
+        reason,
+    };
+    let canonical = design_geometry(dataset)
+        .canonicalize()
+        .map_err(|e| invalid(e.to_string()))?
+        .geometry;
+    let layout = ParameterLayout::with_groups(groups(dataset));
+    let design = parcal_kinematics::params::to_params(&canonical);
+    let initial = initial_block(&layout, &design, &dataset.machine.actuator.scale);
+    let (_, rows): (_, InstrumentRows<'_>) = model_and_rows(dataset, &canonical, layout, &initial)
+        .map_err(|e| invalid(e.to_string()))?;
+    (0..points.len())
+        .map(|j| {
+            let weight = CoordinateWhitening::from_inverse_factor(&rows.point_whitening[j])
+                .map_err(|e| invalid(format!("point {j}: {e}")))?;
+            Ok(TrackerPoint {
+                tracker: points.session[j] as usize,
+                at: Actuation::Readings(legs.actuation(&points.q[j])),
+                measured: points.position[j],
+                weight,
+            })
+        })
+        .collect()
 }
 
 /// Each ball's centre's prior as the hexapod calibration states it: with

@@ -7,15 +7,18 @@
 //! observation with the noise of its kind, the samples' loads, the
 //! measured quantities with their own sigmas, and the calibrated balls
 //! (where placed, a prior on the centre) with their touches and the
-//! calibrated distances between them.
+//! calibrated distances between them, and the trackers (in order of first
+//! appearance) with their points.
 
 use std::sync::Arc;
 
 use parcal_dataset::Distance;
-use parcal_dataset::mechanism::MechanismDataset;
+use parcal_dataset::mechanism::{MechanismDataset, tracker_labels};
 use parcal_kinematics::mechanisms;
+use parcal_observe::CoordinateWhitening;
 use parcal_observe::mechanism::{
     Actuation, BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+    TrackerPoint,
 };
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations};
@@ -142,15 +145,33 @@ impl MechanismData {
                 ))
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;
+        let trackers = tracker_labels(&dataset.tracker_points);
+        let tracker_points = dataset
+            .tracker_points
+            .iter()
+            .map(|row| {
+                Ok(TrackerPoint {
+                    tracker: trackers
+                        .iter()
+                        .position(|label| *label == row.tracker)
+                        .expect("every row's label is among the labels"),
+                    at: Actuation::Commanded(row.commanded),
+                    measured: row.measured,
+                    weight: CoordinateWhitening::isotropic(noise(n.tracker, "tracker")?),
+                })
+            })
+            .collect::<Result<_, MechanismCalibrationError>>()?;
         let observations = Observations {
             probes,
             distances,
-            points: Vec::new(),
             samples,
             quantities,
             balls,
             touches,
             ball_distances: ball_distances(&dataset.ball_distances),
+            trackers,
+            tracker_points,
+            ..Observations::default()
         };
         let mut data = MechanismData::new(
             Arc::from(mechanism),

@@ -96,6 +96,7 @@ mod record;
 mod result;
 mod snooping;
 mod tied;
+mod trackers;
 mod validation;
 
 pub use calibrated::CalibratedMechanism;
@@ -104,8 +105,8 @@ pub use compensation::{
 };
 pub use data::{
     Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_POSE_COORDINATES,
-    MAX_TIED_BALLS, MIN_ACTUATORS, MIN_TOUCHES_PER_BALL, MechanismData, Observations,
-    ParameterPrior,
+    MAX_TIED_BALLS, MAX_TRACKERS, MIN_ACTUATORS, MIN_POINTS_PER_TRACKER, MIN_TOUCHES_PER_BALL,
+    MechanismData, Observations, ParameterPrior,
 };
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;
@@ -114,7 +115,9 @@ pub use mirror::MirroredBall;
 pub use observation::{HeldOut, ObservationKind, ObservationRef, number_ranges};
 pub use options::{MAX_ITERATIONS, MechanismOptions};
 pub use predicted::MAX_HELD_OUT_TOUCHES_PER_BALL;
-pub use result::{EstimatedBall, EstimatedParameter, MechanismCalibration, TRIGGER_HEIGHT};
+pub use result::{
+    EstimatedBall, EstimatedParameter, EstimatedTracker, MechanismCalibration, TRIGGER_HEIGHT,
+};
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 
 /// Calibrates `data` with `options`: validates both, refuses a gauge

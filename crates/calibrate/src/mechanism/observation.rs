@@ -6,7 +6,7 @@ use std::fmt;
 #[cfg(doc)]
 use parcal_observe::mechanism::{
     BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, PartDistance, PointSample,
-    ProbeHeight,
+    ProbeHeight, TrackerPoint,
 };
 
 /// The kinds of observation of a mechanism calibration.
@@ -28,11 +28,14 @@ pub enum ObservationKind {
     /// A calibrated distance between two balls' centres
     /// ([`BallDistance`]).
     BallDistance = 6,
+    /// The tool point measured by a tracker in its own frame
+    /// ([`TrackerPoint`]).
+    TrackerPoint = 7,
 }
 
 impl ObservationKind {
     /// Every kind, in the order of [`Self::index`].
-    pub const ALL: [Self; 7] = [
+    pub const ALL: [Self; 8] = [
         Self::Probe,
         Self::Distance,
         Self::Point,
@@ -40,6 +43,7 @@ impl ObservationKind {
         Self::Quantity,
         Self::Touch,
         Self::BallDistance,
+        Self::TrackerPoint,
     ];
 
     /// Its place in [`Self::ALL`].
@@ -58,6 +62,7 @@ impl ObservationKind {
             Self::Quantity => "measured quantity",
             Self::Touch => "ball touch",
             Self::BallDistance => "ball distance",
+            Self::TrackerPoint => "tracker point",
         }
     }
 }

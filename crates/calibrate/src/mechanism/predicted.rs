@@ -103,7 +103,7 @@ pub struct PredictedRows {
 /// kinds, each kind's in its order, the touches ball by ball; samples at
 /// an unknown pose of a mechanism of 3 actuators give none. An error
 /// names a ball of more than [`MAX_HELD_OUT_TOUCHES_PER_BALL`] touches
-/// before any work.
+/// before any work, and refuses tracker points.
 pub fn predict(
     mechanism: &dyn Mechanism,
     global: &DVector<f64>,
@@ -118,6 +118,12 @@ pub fn predict(
         observation,
         reason: error.to_string(),
     };
+    if !observations.tracker_points.is_empty() {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "tracker points".to_string(),
+            reason: "held-out tracker points are not predicted: a tracker placed anew has a frame of its own, which this validation does not fit".to_string(),
+        });
+    }
     let balls = touches_by_ball(observations)?;
     let mut predicted = Vec::new();
     for (k, probe) in observations.probes.iter().enumerate() {

@@ -7,7 +7,8 @@
 //! Σ_prior = D R D,     D = diag(σ_k),     Λ = Σ_prior⁻¹,
 //! ```
 //!
-//! over the unknowns that have a prior; an unknown without one has no row
+//! over the unknowns that have a prior (the trackers' frames, which follow
+//! the trigger height, have none); an unknown without one has no row
 //! or column in `Σ_prior` (zero there) and no information. A correlated
 //! prior states what tolerances on the parts imply for parameters that
 //! share them: the hexapod's joint coordinates after its canonical frame
@@ -21,14 +22,26 @@ use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
 
 /// The global block's priors: the parameters', then the trigger height's
-/// when it is an unknown (there are probe heights).
+/// when it is an unknown (there are probe heights), then each tracker's
+/// frame correction's six, none, about the correction's start 0.
 pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
     let mut priors = data.priors.clone();
     if data.has_trigger_height() {
         priors.push(data.trigger_height);
     }
+    let frames = FRAME_UNKNOWNS * data.observations.trackers.len();
+    priors.extend(std::iter::repeat_n(
+        ParameterPrior {
+            mean: 0.0,
+            sigma: None,
+        },
+        frames,
+    ));
     priors
 }
+
+/// The unknowns of a tracker's frame correction: `ω` and `τ`.
+pub(crate) const FRAME_UNKNOWNS: usize = 6;
 
 /// `Σ_prior` over the global block (module doc): `σ_j σ_k R_jk` where both
 /// have a prior (`R` the identity without a correlation), zero elsewhere.

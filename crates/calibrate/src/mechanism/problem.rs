@@ -1,12 +1,13 @@
 //! A mechanism calibration as the solver's problem.
 //!
 //! - The **global block**: the mechanism's parameters `p`, then the
-//!   trigger height `h` when there are probe heights, then the centre (and
+//!   trigger height `h` when there are probe heights, then each tracker's
+//!   frame correction ([`super::trackers`]), then the centre (and
 //!   uncertain radius) of every ball a ball distance ties
 //!   ([`super::tied`]).
 //! - The **global observations**: every probe height (1 row), part
-//!   distance (1 row), measured point (3 rows), measured quantity (1 row)
-//!   and ball distance (1 row), in that order
+//!   distance (1 row), measured point (3 rows), measured quantity (1 row),
+//!   ball distance (1 row) and tracker point (3 rows), in that order
 //!   ([`parcal_observe::mechanism`]).
 //! - The **local blocks**, the solver's groups, eliminated by the Schur
 //!   complement: first the pose of every point sample (with a Gaussian
@@ -46,6 +47,7 @@ use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::prior::{global_priors, prior_information};
 use super::tied::TiedBalls;
+use super::trackers::Trackers;
 
 /// The solver's problem: groups of `C` unknowns (a sample's pose, a
 /// ball's centre, and with [`group_size`] 4 a ball's radius), no point
@@ -108,13 +110,24 @@ pub(crate) struct MechanismProblem<'a, const C: usize> {
     ball_points: Vec<Range<usize>>,
     /// The tied balls' places in the global block.
     tied: TiedBalls,
+    /// The trackers' references and places in the global block.
+    trackers: Trackers,
 }
 
 impl<'a, const C: usize> MechanismProblem<'a, C> {
-    /// The problem of `data` (validated) with `loss` on its observations.
-    pub(crate) fn new(data: &'a MechanismData, loss: Loss) -> Self {
+    /// The problem of `data` (validated) with `loss` on its observations,
+    /// its trackers located at the priors' means ([`Trackers::locate`],
+    /// whose error it returns).
+    pub(crate) fn new(
+        data: &'a MechanismData,
+        loss: Loss,
+    ) -> Result<Self, MechanismCalibrationError> {
         let o = &data.observations;
-        let tied = o.tied_balls(global_priors(data).len());
+        let m = global_priors(data).len();
+        let n = data.configured.len();
+        let frames = m - o.trackers.len() * super::prior::FRAME_UNKNOWNS;
+        let trackers = Trackers::locate(data, &prior_means(data).as_slice()[..n], frames)?;
+        let tied = o.tied_balls(m);
         let prior = global_prior(data, &tied);
         let mut touch_order: Vec<usize> = (0..o.touches.len()).collect();
         touch_order.sort_by_key(|&t| o.touches[t].ball);
@@ -129,14 +142,15 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             first += count;
         }
         debug_assert_eq!(C, group_size(data), "the blocks' size is the data's");
-        Self {
+        Ok(Self {
             data,
             prior,
             loss,
             touch_order,
             ball_points,
             tied,
-        }
+            trackers,
+        })
     }
 
     /// The number of the mechanism's parameters (the first values of the
@@ -151,7 +165,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     }
 
     /// The size of the global block's first part, the mechanism's: its
-    /// parameters, and the trigger height when there are probe heights.
+    /// parameters, the trigger height when there are probe heights, and
+    /// the trackers' frames.
     pub(crate) fn mechanism_len(&self) -> usize {
         global_priors(self.data).len()
     }
@@ -164,6 +179,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The tied balls' places in the global block.
     pub(crate) fn tied(&self) -> &TiedBalls {
         &self.tied
+    }
+
+    /// The trackers' references and places in the global block.
+    pub(crate) fn trackers(&self) -> &Trackers {
+        &self.trackers
     }
 
     /// The solver's start: the mechanism's part of the global block at its
@@ -236,6 +256,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 ObservationKind::BallDistance,
                 o.ball_distances.len(),
                 1,
+            ))
+            .chain(refs(
+                ObservationKind::TrackerPoint,
+                o.tracker_points.len(),
+                3,
             ))
             .collect()
     }
@@ -783,7 +808,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
     }
 
     /// Every probe height's, part distance's, measured point's, measured
-    /// quantity's and ball distance's rows (module doc).
+    /// quantity's, ball distance's and tracker point's rows (module doc).
     fn global_observations(
         &self,
         global: &DVector<f64>,
@@ -863,6 +888,27 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
             jacobian.columns_mut(b, 3).copy_from(&evaluated.d_second);
             row += 1;
         }
+        for (k, point) in o.tracker_points.iter().enumerate() {
+            let id = ObservationRef {
+                kind: ObservationKind::TrackerPoint,
+                index: k,
+            };
+            let frame = self.trackers.frame(point.tracker, global);
+            let evaluated = point
+                .evaluate(mechanism, params, configured, &frame, None)
+                .map_err(|e| failed(id, e))?;
+            out.residual
+                .rows_mut(row, 3)
+                .copy_from(&evaluated.rows.residual);
+            out.jacobian
+                .view_mut((row, 0), (3, n))
+                .copy_from(&evaluated.rows.d_params);
+            let columns = self.trackers.columns(point.tracker);
+            out.jacobian
+                .view_mut((row, columns.start), (3, columns.len()))
+                .copy_from(&evaluated.d_frame);
+            row += 3;
+        }
         Ok(())
     }
 
@@ -929,11 +975,14 @@ pub(crate) mod tests {
     use std::sync::Arc;
 
     use nalgebra::DVector;
+    use nalgebra::Isometry3;
     use parcal_kinematics::cable::{CableRobot, Elasticity};
     use parcal_kinematics::delta::{DeltaParams, LinearDelta, probe_height};
     use parcal_kinematics::mechanism::{Mechanism, design};
+    use parcal_observe::CoordinateWhitening;
     use parcal_observe::mechanism::{
         BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
+        TrackerPoint,
     };
     use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
 
@@ -1056,7 +1105,7 @@ pub(crate) mod tests {
             quantities: Vec::new(),
             balls,
             touches,
-            ball_distances: Vec::new(),
+            ..Observations::default()
         };
         MechanismData::new(
             Arc::new(delta),
@@ -1120,7 +1169,7 @@ pub(crate) mod tests {
     /// The Schur complement's step and the solution's covariance against
     /// the dense reference, from the start blocks moved by `offset`.
     fn check_against_dense<const C: usize>(data: &MechanismData, offset: Vector3<f64>) {
-        let problem = MechanismProblem::<C>::new(data, Loss::Squared);
+        let problem = MechanismProblem::<C>::new(data, Loss::Squared).unwrap();
         let mut state = problem.start_state().unwrap().state;
         for group in &mut state.groups {
             *group += block::<C>(&offset, 0.0);
@@ -1174,8 +1223,8 @@ pub(crate) mod tests {
         // second ball has none (and with blocks of three, no prior).
         let samples = data.observations.samples.len();
         let placed = data.observations.balls[0].centre_prior.unwrap();
-        let four = MechanismProblem::<4>::new(&data, Loss::Squared);
-        let three = MechanismProblem::<3>::new(&exact, Loss::Squared);
+        let four = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
+        let three = MechanismProblem::<3>::new(&exact, Loss::Squared).unwrap();
         let prior = four.group_prior(samples).unwrap();
         let mean = three.group_prior(samples).unwrap().mean;
         for k in 0..3 {
@@ -1210,7 +1259,7 @@ pub(crate) mod tests {
     #[test]
     fn tied_balls_match_the_dense_reference() {
         let data = tied_delta();
-        let four = MechanismProblem::<4>::new(&data, Loss::Squared);
+        let four = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
         // Probes add the trigger height; both balls are tied, the second
         // with its uncertain radius.
         let m = four.mechanism_len();
@@ -1231,13 +1280,64 @@ pub(crate) mod tests {
         check_against_dense::<3>(&exact, Vector3::new(0.3, -0.2, 0.1));
     }
 
-    /// Every row of the tied balls' touches and every global observation,
-    /// as the problem linearises them, against central differences over
-    /// the whole global block (the tied balls' unknowns among it).
+    /// [`small_delta`] measured by two trackers, 5 points each at
+    /// commanded positions, in frames turned and shifted from the
+    /// delta's, each coordinate off by up to 0.01 mm.
+    pub(crate) fn tracked_delta() -> MechanismData {
+        let mut data = small_delta();
+        let (delta, configured, truth) = delta_off_design();
+        let frames = [
+            Isometry3::new(
+                Vector3::new(1200.0, -300.0, 150.0),
+                Vector3::new(0.1, -0.2, 2.5),
+            ),
+            Isometry3::new(
+                Vector3::new(-800.0, 900.0, -40.0),
+                Vector3::new(-0.05, 0.3, -1.0),
+            ),
+        ];
+        let o = &mut data.observations;
+        o.trackers = vec!["T1".to_string(), "T2".to_string()];
+        o.tracker_points = (0..10)
+            .map(|j| {
+                let t = j as f64;
+                let commanded = [
+                    60.0 * (1.7 * t).cos(),
+                    55.0 * (1.1 * t).sin(),
+                    20.0 + 9.0 * t,
+                ];
+                let at = Actuation::Commanded(commanded);
+                let reached = at
+                    .tool_point(&delta, truth.as_slice(), configured.as_slice(), None)
+                    .unwrap();
+                let seen = frames[j % 2].transform_point(&reached.point.into());
+                let off = Vector3::new((2.0 * t).sin(), (3.0 * t).cos(), (5.0 * t).sin()) * 0.01;
+                TrackerPoint {
+                    tracker: j % 2,
+                    at,
+                    measured: (seen.coords + off).into(),
+                    weight: CoordinateWhitening::isotropic(0.01),
+                }
+            })
+            .collect();
+        data
+    }
+
     #[test]
-    fn tied_balls_rows_match_central_differences_over_the_global_block() {
-        let data = tied_delta();
-        let problem = MechanismProblem::<4>::new(&data, Loss::Squared);
+    fn trackers_match_the_dense_reference() {
+        let data = tracked_delta();
+        let four = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
+        // The trigger height, then the two trackers' frames.
+        assert_eq!(four.mechanism_len(), four.n_params() + 1 + 12);
+        check_against_dense::<4>(&data, Vector3::new(0.3, -0.2, 0.1));
+    }
+
+    /// Every row of the groups' points after the samples (the touches)
+    /// and every global observation of `data`, as the problem linearises
+    /// them, against central differences over the whole global block;
+    /// the analytic Jacobian.
+    fn rows_match_central_differences_over_the_global_block(data: &MechanismData) -> DMatrix<f64> {
+        let problem = MechanismProblem::<4>::new(data, Loss::Squared).unwrap();
         let state = problem.start_state().unwrap().state;
         let samples = data.observations.samples.len();
         let rows = |global: &DVector<f64>| {
@@ -1284,6 +1384,34 @@ pub(crate) mod tests {
                 "column {j}: {error:e}"
             );
         }
+        analytic
+    }
+
+    /// The tracker points' rows see the parameters and their own
+    /// tracker's frame, and nothing else.
+    #[test]
+    fn tracker_rows_match_central_differences_over_the_global_block() {
+        let data = tracked_delta();
+        let analytic = rows_match_central_differences_over_the_global_block(&data);
+        let problem = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
+        let points = &data.observations.tracker_points;
+        let first = analytic.nrows() - 3 * points.len();
+        for (j, point) in points.iter().enumerate() {
+            let frame = problem.trackers().columns(point.tracker);
+            for c in 0..analytic.ncols() {
+                let seen = (0..3).any(|r| analytic[(first + 3 * j + r, c)] != 0.0);
+                let expected = c < problem.n_params() || frame.contains(&c);
+                assert_eq!(seen, expected, "tracker point {j}, column {c}");
+            }
+        }
+    }
+
+    /// The tied balls' touches and the distance among the rows.
+    #[test]
+    fn tied_balls_rows_match_central_differences_over_the_global_block() {
+        let data = tied_delta();
+        let problem = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
+        let analytic = rows_match_central_differences_over_the_global_block(&data);
         // The distance's row sees the two centres, and nothing else.
         let distance = analytic.row(analytic.nrows() - 1);
         let seen: Vec<usize> = (0..distance.len())

@@ -6,10 +6,12 @@ use nalgebra::DMatrix;
 use parcal_dataset::GlobalTestRecord;
 use parcal_dataset::mechanism::{
     BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
-    ObservationRecord, ParameterRecord, RemovalRecord, TestsRecord, UndeterminedRecord,
+    ObservationRecord, ParameterRecord, RemovalRecord, TestsRecord, TrackerRecord,
+    UndeterminedRecord,
 };
 
 use super::result::MechanismCalibration;
+use crate::instruments::run::frame;
 
 impl MechanismCalibration {
     /// The record of this calibration ([`MechanismCalibration::into_record`]
@@ -126,6 +128,15 @@ impl MechanismCalibration {
                     chi_square: m.chi_square,
                     gain: m.gain,
                     centre: m.centre,
+                })
+                .collect(),
+            trackers: self
+                .trackers
+                .iter()
+                .map(|t| TrackerRecord {
+                    label: t.label.clone(),
+                    frame: frame(&t.frame),
+                    sigma: t.sigma(),
                 })
                 .collect(),
         }

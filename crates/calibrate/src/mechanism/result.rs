@@ -5,7 +5,7 @@
 //! critical value), and what the data determine
 //! ([`super::identifiability`]).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
 use parcal_solver::Status;
 
 use crate::hypothesis::critical_value;
@@ -15,7 +15,7 @@ use crate::verdict::{GlobalTest, Outcome, Verdict};
 use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
 use super::fit::{Fit, ObservationCheck};
-use super::frame::canonical;
+use super::frame::{canonical_by, canonical_params};
 use super::identifiability::{Identifiability, Inputs, gauge_directions, identifiability};
 use super::mirror::MirroredBall;
 use super::observation::ObservationRef;
@@ -57,6 +57,29 @@ pub struct EstimatedBall {
     pub radius_sigma: Option<f64>,
 }
 
+/// A tracker's frame as the calibration located it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatedTracker {
+    /// Its label.
+    pub label: String,
+    /// `F`, from the mechanism's canonical frame to the tracker's (mm).
+    pub frame: Isometry3<f64>,
+    /// The covariance of its correction `C = (Exp(ω), τ)`, `F = F₀ ∘ C`
+    /// ([`parcal_observe::mechanism::TrackerPoint`]): of `ω_x, ω_y, ω_z`
+    /// (rad, about the mechanism's axes) and `τ_x, τ_y, τ_z` (mm), when
+    /// the fit gave one. To first order, the error `F_true⁻¹ ∘ F` as a
+    /// rotation vector and a translation has this covariance.
+    pub covariance: Option<Matrix6<f64>>,
+}
+
+impl EstimatedTracker {
+    /// The standard deviations of its correction's six values (rad, mm).
+    pub fn sigma(&self) -> Option<[f64; 6]> {
+        self.covariance
+            .map(|c| std::array::from_fn(|k| c[(k, k)].max(0.0).sqrt()))
+    }
+}
+
 /// The calibration of a mechanism.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
@@ -77,6 +100,8 @@ pub struct MechanismCalibration {
     pub poses: Vec<[f64; 3]>,
     /// The calibrated balls, in the data's order.
     pub balls: Vec<EstimatedBall>,
+    /// The trackers' frames, in the data's order.
+    pub trackers: Vec<EstimatedTracker>,
     /// How the solver ended.
     pub status: Status,
     /// Its linear solves.
@@ -153,8 +178,28 @@ pub(crate) fn assemble(
 ) -> Result<MechanismCalibration, MechanismCalibrationError> {
     let mechanism = data.mechanism.as_ref();
     let n = data.configured.len();
-    let scale: Vec<f64> = data.priors.iter().map(|p| p.sigma.unwrap_or(1.0)).collect();
-    let frame = canonical(mechanism, &fit.global, fit.covariance.as_ref(), &scale)?;
+    let kinematics = |source| MechanismCalibrationError::Kinematics {
+        mechanism: mechanism.name().to_string(),
+        source,
+    };
+    // The mechanism's parameters, and the trackers' frames when they
+    // follow a gauge's motion, differentiated.
+    let map = |global: &[f64]| {
+        let mut values = canonical_params(mechanism, global, n)?;
+        let moved = values.rows(0, n).into_owned();
+        (fit.trackers).follow(data, &global[..n], moved.as_slice(), &mut values)?;
+        Ok(values)
+    };
+    let gauge_moves_frames = !data.observations.trackers.is_empty()
+        && !mechanism
+            .gauge_freedoms(&fit.global.as_slice()[..n])
+            .map_err(kinematics)?
+            .is_empty();
+    let mut scale: Vec<f64> = data.priors.iter().map(|p| p.sigma.unwrap_or(1.0)).collect();
+    if gauge_moves_frames {
+        scale.resize(fit.global.len(), 1.0);
+    }
+    let frame = canonical_by(&map, &fit.global, fit.covariance.as_ref(), &scale)?;
     let mut described: Vec<(String, &str, &str, ParameterPrior)> = mechanism
         .parameters()
         .iter()
@@ -170,6 +215,8 @@ pub(crate) fn assemble(
         ));
     }
     let estimated = described.len();
+    let sigma = |k: usize| frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt());
+    let trackers = tracker_estimates(data, &fit, &frame.values, frame.covariance.as_ref());
     let parameters: Vec<EstimatedParameter> = described
         .into_iter()
         .enumerate()
@@ -178,13 +225,20 @@ pub(crate) fn assemble(
             unit: unit.to_string(),
             group: group.to_string(),
             value: frame.values[k],
-            sigma: frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt()),
+            sigma: sigma(k),
             prior,
         })
         .collect();
     let g = fit.global.len();
     let gauge = gauge_directions(mechanism, &fit.global.as_slice()[..n], g)?;
-    let names: Vec<String> = parameters.iter().map(|p| p.name.clone()).collect();
+    let names: Vec<String> = (parameters.iter().map(|p| p.name.clone()))
+        .chain(
+            data.observations
+                .trackers
+                .iter()
+                .flat_map(|label| FRAME_AXES.map(|axis| format!("tracker {label} {axis}"))),
+        )
+        .collect();
     let estimated_balls = fit
         .centres
         .iter()
@@ -197,14 +251,17 @@ pub(crate) fn assemble(
         })
         .collect();
     let identifiability = fit.covariance.as_ref().and_then(|covariance| {
-        identifiability(&Inputs {
+        let mut identifiability = identifiability(&Inputs {
             names: &names,
             covariance,
             prior_information: &fit.prior_information,
             prior_covariance: &prior_covariance(data),
             canonical: &frame.transform,
             gauge: &gauge,
-        })
+        })?;
+        // The trackers' frames have no prior, hence no ratio.
+        identifiability.sigma_ratio.truncate(estimated);
+        Some(identifiability)
     });
     let global_test = fit
         .cost
@@ -223,6 +280,7 @@ pub(crate) fn assemble(
         prior_correlation: data.prior_correlation.clone(),
         poses: fit.poses,
         balls: estimated_balls,
+        trackers,
         global_test: verdict.global_test,
         verdict,
         status: fit.status,
@@ -240,6 +298,30 @@ pub(crate) fn assemble(
     };
     calibration.reasons = reasons(&calibration);
     Ok(calibration)
+}
+
+/// The names of a tracker frame correction's unknowns, in their order.
+const FRAME_AXES: [&str; 6] = ["ω_x", "ω_y", "ω_z", "τ_x", "τ_y", "τ_z"];
+
+/// Each tracker's frame `F₀ ∘ C` from the corrections in the canonical
+/// global block `values`, with their covariance from the canonical
+/// `covariance`.
+fn tracker_estimates(
+    data: &MechanismData,
+    fit: &Fit,
+    values: &DVector<f64>,
+    covariance: Option<&DMatrix<f64>>,
+) -> Vec<EstimatedTracker> {
+    (data.observations.trackers.iter().enumerate())
+        .map(|(k, label)| {
+            let start = fit.trackers.columns(k).start;
+            EstimatedTracker {
+                label: label.clone(),
+                frame: fit.trackers.frame(k, values).isometry(),
+                covariance: covariance.map(|c| c.fixed_view::<6, 6>(start, start).into_owned()),
+            }
+        })
+        .collect()
 }
 
 /// The observation of largest `|w|` among `observations`.

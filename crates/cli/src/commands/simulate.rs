@@ -150,6 +150,16 @@ pub struct Args {
     /// Delta: the part distances' noise, 1 sigma, mm (default 0.01).
     #[arg(long, value_name = "MM", requires = "mechanism")]
     distance_sigma: Option<f64>,
+    /// Delta: trackers placed about the printer, each measuring the tool
+    /// point in its own frame (tracker_points.csv; default none).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::TRACKERS))]
+    trackers: Option<usize>,
+    /// Delta: points each tracker measures (default 12).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::POINTS_PER_TRACKER))]
+    points_per_tracker: Option<usize>,
+    /// Delta: a tracker's noise, 1 sigma per coordinate, mm (default 0.01).
+    #[arg(long, value_name = "MM", requires = "mechanism")]
+    tracker_sigma: Option<f64>,
     /// Cable robot: samples (encoder readings), the encoder zero's included
     /// (default 44, the Hangprinter data's).
     #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::SAMPLES))]
@@ -220,6 +230,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 balls: args.balls,
                 points_per_ball: args.points_per_ball,
                 plate: plate(args)?,
+                trackers: args.trackers,
+                points_per_tracker: args.points_per_tracker,
+                tracker_sigma: args.tracker_sigma,
                 samples: args.samples,
                 known_positions: args.known_positions,
                 reading_sigma: args.reading_sigma,

@@ -10,10 +10,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::GlobalTestRecord;
 use crate::check::Check;
 use crate::error::Result;
 use crate::json;
+use crate::{FrameRecord, GlobalTestRecord};
 
 use super::machine::mechanism_named;
 
@@ -155,6 +155,20 @@ pub struct MirroredRecord {
     pub centre: [f64; 3],
 }
 
+/// A tracker's frame as the calibration located it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackerRecord {
+    /// Its label.
+    pub label: String,
+    /// `F`, from the mechanism's canonical frame to the tracker's
+    /// (`x_tracker = R x + t`).
+    pub frame: FrameRecord,
+    /// The standard deviations of its correction: rotations about the
+    /// mechanism's axes `x, y, z` (rad), then translations (mm).
+    pub sigma: Option<[f64; 6]>,
+}
+
 /// A mechanism calibration's record (module doc).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -191,6 +205,9 @@ pub struct MechanismCalibrationRecord {
     /// (none: absent).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mirrored: Vec<MirroredRecord>,
+    /// The trackers' frames, in the dataset's order (none: absent).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub trackers: Vec<TrackerRecord>,
 }
 
 impl MechanismCalibrationRecord {

@@ -61,6 +61,9 @@ pub struct Noise {
     /// A touch of a calibrated ball, along its normal (mm).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub touch: Option<f64>,
+    /// A tracker's measured coordinate (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracker: Option<f64>,
 }
 
 /// A value with an optional standard deviation (a prior; without one,
@@ -395,6 +398,8 @@ impl MechanismMachine {
             ("actuator", noise.actuator),
             ("position", noise.position),
             ("distance", noise.distance),
+            ("touch", noise.touch),
+            ("tracker", noise.tracker),
         ] {
             if let Some(sigma) = sigma {
                 check.sigma(format!("noise.{name}"), sigma)?;

@@ -11,6 +11,7 @@
 //! | `balls.csv` | calibrated balls (`ball,radius,radius_sigma`), with `touches.csv` | [`BallRow`] |
 //! | `touches.csv` | touches of the balls at commanded positions (`ball,x,y,z`) | [`TouchRow`] |
 //! | `ball_distances.csv` | calibrated distances between the balls' centres, a ball plate's or a ball bar's (`first,second,distance,sigma`), with `balls.csv` | [`crate::Distance`] |
+//! | `tracker_points.csv` | tool points measured by trackers in their own frames at commanded positions (`tracker,x_c,y_c,z_c,x,y,z`) | [`TrackerPointRow`] |
 //! | `truth.json` | simulated datasets only: the true machine | [`MechanismTruth`] |
 //!
 //! and its calibration writes `calibration.json`
@@ -53,6 +54,7 @@ mod machine;
 mod observations;
 mod quantities;
 mod targets;
+mod tracker_points;
 mod truth;
 mod validation;
 
@@ -64,7 +66,7 @@ pub use balls::{
 };
 pub use calibration::{
     BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
-    ObservationRecord, ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord,
+    ObservationRecord, ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord,
     UndeterminedRecord,
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
@@ -74,6 +76,7 @@ pub use observations::{
 };
 pub use quantities::{QUANTITY_COLUMNS, QuantityRow};
 pub use targets::{TARGETS, command_header, read_targets};
+pub use tracker_points::{TRACKER_POINT_COLUMNS, TRACKERS, TrackerPointRow, tracker_labels};
 pub use truth::MechanismTruth;
 pub use validation::{KindRecord, MechanismValidationRecord, RowRecord, ShiftRecord};
 
@@ -89,6 +92,7 @@ use balls::{read_balls, read_touches, write_balls, write_touches};
 use machine::mechanism_named;
 use observations::{read_rows, read_samples, write_rows, write_samples};
 use quantities::{read_quantities, write_quantities};
+use tracker_points::{read_tracker_points, write_tracker_points};
 
 /// The file of the machine.
 pub const MACHINE_FILE: &str = "machine.json";
@@ -104,6 +108,8 @@ pub const QUANTITIES_FILE: &str = "quantities.csv";
 pub const BALLS_FILE: &str = "balls.csv";
 /// The file of the touches of the balls.
 pub const TOUCHES_FILE: &str = "touches.csv";
+/// The file of the trackers' points.
+pub const TRACKER_POINTS_FILE: &str = "tracker_points.csv";
 /// The file of the calibrated distances between the balls' centres.
 pub const BALL_DISTANCES_FILE: &str = "ball_distances.csv";
 /// The file of a simulated dataset's truth.
@@ -134,6 +140,8 @@ pub struct MechanismDataset {
     /// plate's or a ball bar's: each joins two distinct balls (their
     /// numbers, [`Self::balls`]' indices), each pair at most once.
     pub ball_distances: Vec<Distance>,
+    /// Tool points measured by trackers in their own frames.
+    pub tracker_points: Vec<TrackerPointRow>,
     /// The true machine of a simulated dataset.
     pub truth: Option<MechanismTruth>,
 }
@@ -150,6 +158,7 @@ impl Default for MechanismDataset {
             balls: Vec::new(),
             touches: Vec::new(),
             ball_distances: Vec::new(),
+            tracker_points: Vec::new(),
             truth: None,
         }
     }
@@ -201,6 +210,10 @@ impl MechanismDataset {
             Some(path) => read_ball_distances(&path, balls.len())?,
             None => Vec::new(),
         };
+        let tracker_points = match present(TRACKER_POINTS_FILE)? {
+            Some(path) => read_tracker_points(&path)?,
+            None => Vec::new(),
+        };
         let truth = MechanismTruth::read_if_present(&dir.join(TRUTH_FILE), &machine.mechanism)?;
         let dataset = Self {
             machine,
@@ -211,6 +224,7 @@ impl MechanismDataset {
             balls,
             touches,
             ball_distances,
+            tracker_points,
             truth,
         };
         dataset.validate(dir)?;
@@ -256,6 +270,9 @@ impl MechanismDataset {
             if !self.ball_distances.is_empty() {
                 write_ball_distances(&new.join(BALL_DISTANCES_FILE), &self.ball_distances)?;
             }
+            if !self.tracker_points.is_empty() {
+                write_tracker_points(&new.join(TRACKER_POINTS_FILE), &self.tracker_points)?;
+            }
             if let Some(truth) = &self.truth {
                 truth.write(&new.join(TRUTH_FILE), name)?;
             }
@@ -279,12 +296,13 @@ impl MechanismDataset {
             (POINTS_FILE, self.samples.len()),
             (QUANTITIES_FILE, self.quantities.len()),
             (TOUCHES_FILE, self.touches.len()),
+            (TRACKER_POINTS_FILE, self.tracker_points.len()),
         ];
         if counts.iter().all(|&(_, n)| n == 0) {
             return Err(DatasetError::Refused {
                 path: dir.to_path_buf(),
                 message: format!(
-                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}, {QUANTITIES_FILE}, {TOUCHES_FILE}"
+                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}, {QUANTITIES_FILE}, {TOUCHES_FILE}, {TRACKER_POINTS_FILE}"
                 ),
             });
         }
@@ -303,6 +321,11 @@ impl MechanismDataset {
             (!self.probes.is_empty(), noise.probe, "noise.probe"),
             (!self.distances.is_empty(), noise.distance, "noise.distance"),
             (!self.touches.is_empty(), noise.touch, "noise.touch"),
+            (
+                !self.tracker_points.is_empty(),
+                noise.tracker,
+                "noise.tracker",
+            ),
             (!self.samples.is_empty(), noise.actuator, "noise.actuator"),
             (
                 self.samples.iter().any(|s| s.position.is_some()),
@@ -342,6 +365,7 @@ impl MechanismDataset {
             DISTANCES_FILE,
             &mut self.distances.iter().map(|r| r.as_slice()),
         )?;
+        self.validate_tracker_points(dir)?;
         let path = dir.join(POINTS_FILE);
         let check = Check::new(&path);
         for (k, sample) in self.samples.iter().enumerate() {
@@ -378,6 +402,30 @@ impl MechanismDataset {
                     ));
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// The trackers' points: labels not empty, at most [`TRACKERS`]`.max`
+    /// of them, positions within the length bound.
+    fn validate_tracker_points(&self, dir: &Path) -> Result<()> {
+        let path = dir.join(TRACKER_POINTS_FILE);
+        let check = Check::new(&path);
+        let labels = tracker_labels(&self.tracker_points);
+        if labels.len() > TRACKERS.max {
+            let count = labels.len().to_string();
+            return Err(check.error(
+                "tracker",
+                TRACKERS.refusal("the number of trackers", &count),
+            ));
+        }
+        for (k, row) in self.tracker_points.iter().enumerate() {
+            let field = format!("row {}", k + 1);
+            if row.tracker.is_empty() {
+                return Err(check.error(&field, "empty tracker label"));
+            }
+            check.lengths(field.clone(), &row.commanded)?;
+            check.lengths(field, &row.measured)?;
         }
         Ok(())
     }

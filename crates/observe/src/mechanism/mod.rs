@@ -25,7 +25,11 @@
 //!   contact's two angles `θ` unknowns of its own,
 //!   [`BallTouch::coordinate_rows`]);
 //! - [`BallDistance`]: a calibrated distance between two touched balls'
-//!   centres, `(|c_a − c_b| − L) / σ` (1 row; unknowns the two centres).
+//!   centres, `(|c_a − c_b| − L) / σ` (1 row; unknowns the two centres);
+//! - [`TrackerPoint`]: the tool point measured by a tracker in its own
+//!   frame, `L⁻¹ (F_k(x) − P)` (3 rows; unknowns `p` and the tracker's
+//!   frame `F_k`, six of the global block), at a commanded position or at
+//!   the actuators' readings.
 //!
 //! # Commanded positions
 //!
@@ -50,6 +54,7 @@ mod point_sample;
 mod probe;
 mod quantity;
 mod touch_coordinates;
+mod tracker_point;
 
 pub use ball_distance::{BallDistance, BallDistanceRow};
 pub use ball_touch::{Approach, BallTouch, TouchRows};
@@ -60,6 +65,7 @@ pub use point_sample::{PointSample, SampleRows};
 pub use probe::ProbeHeight;
 pub use quantity::MeasuredQuantity;
 pub use touch_coordinates::CoordinateRows;
+pub use tracker_point::{TrackerFrame, TrackerPoint, TrackerPointRows};
 
 #[cfg(test)]
 pub(crate) mod test_support {
