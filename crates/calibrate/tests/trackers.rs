@@ -2,12 +2,15 @@
 //! the bed and measured by two trackers placed anywhere (their frames
 //! unknown), the estimate's consistency with its covariance (NEES) for
 //! the parameters and for the trackers' frames, which follow the delta's
-//! canonical frame; and errors that name the tracker or its point.
+//! canonical frame; held-out points of trackers placed anew judged against
+//! their predicted covariance; and errors that name the tracker or its
+//! point.
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 use parcal_accuracy::kabsch;
 use parcal_calibrate::mechanism::{
-    MechanismCalibration, MechanismData, MechanismOptions, calibrate_mechanism,
+    CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions,
+    calibrate_mechanism, validate_mechanism,
 };
 use parcal_dataset::mechanism::MechanismDataset;
 use parcal_kinematics::Vec3;
@@ -16,7 +19,7 @@ use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::CoordinateWhitening;
 use parcal_observe::mechanism::{Actuation, TrackerPoint};
 use parcal_simulate::Rng;
-use parcal_simulate::delta::{DeltaScenario, simulate_delta};
+use parcal_simulate::delta::{DeltaScenario, measure_delta, simulate_delta};
 
 /// The trackers' true frames (the true printer's frame → each tracker's).
 fn true_frames() -> [Isometry3<f64>; 2] {
@@ -183,6 +186,52 @@ fn parameters_and_tracker_frames_are_within_their_covariance() {
     let (mean, error) = mean_and_error(&frames);
     println!("NEES of the frames: mean {mean:.2}, standard error {error:.2}, 12 unknowns");
     assert!((mean - 12.0).abs() < 4.0 * error);
+}
+
+#[test]
+fn held_out_trackers_placed_anew_fit_their_predicted_covariance() {
+    // 30 printers probed and tracked (two trackers of 12 points),
+    // calibrated, then measured again with the trackers placed anew: each
+    // tracker's frame fitted to its held-out points (3K - 6 rows), T = rᵀ
+    // C⁻¹ r over all rows is χ²(n), E[T / n] = 1. The same printer with a
+    // rod 0.2 mm longer is rejected.
+    let scenario = DeltaScenario {
+        trackers: 2,
+        ..DeltaScenario::typical()
+    };
+    let mut ratios = Vec::new();
+    for seed in 0..30 {
+        let dataset = simulate_delta(&scenario, seed).unwrap();
+        let data = MechanismData::from_dataset(&dataset).unwrap();
+        let run = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
+        let calibrated = CalibratedMechanism::of_calibration(&run).unwrap();
+        let truth = dataset.truth.unwrap();
+        let held_out = measure_delta(&scenario, &truth, seed + 10_000).unwrap();
+        let held_out = MechanismData::from_dataset(&held_out).unwrap();
+        let validation = validate_mechanism(&calibrated, &held_out, 0.05).unwrap();
+        let tracker_rows = validation
+            .rows
+            .iter()
+            .filter(|r| r.observation.name() == "tracker");
+        assert_eq!(tracker_rows.count(), 2 * (3 * 12 - 6));
+        ratios.push(validation.statistic / validation.rows.len() as f64);
+        if seed == 0 {
+            let mut changed = truth.clone();
+            changed.parameters[11] += 0.2;
+            let measured = measure_delta(&scenario, &changed, seed + 10_000).unwrap();
+            let measured = MechanismData::from_dataset(&measured).unwrap();
+            let validation = validate_mechanism(&calibrated, &measured, 0.05).unwrap();
+            println!(
+                "a rod 0.2 mm longer: T/n {:.2} over {} rows",
+                validation.statistic / validation.rows.len() as f64,
+                validation.rows.len()
+            );
+            assert!(!validation.global_test_passes());
+        }
+    }
+    let (mean, error) = mean_and_error(&ratios);
+    println!("held-out T/n over 30 printers: mean {mean:.4}, standard error {error:.4}");
+    assert!((mean - 1.0).abs() < 4.0 * error);
 }
 
 #[test]

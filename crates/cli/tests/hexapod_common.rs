@@ -276,9 +276,15 @@ fn the_default_options_through_the_common_calibration_are_the_own() {
         temp.path().join("common.json"),
     );
     ok(&["calibrate", s(&data), "--out", s(&own)]);
-    ok(&["calibrate", s(&data), "--common", "--out", s(&common)]);
+    let printed = ok(&["calibrate", s(&data), "--common", "--out", s(&common)]);
+    assert!(
+        printed.contains("189 ball touches by their coordinates (eq. 10)"),
+        "{printed}"
+    );
     let (own, common) = (read(&own), read(&common));
     assert_same_minimum(&own, &common);
+    // The record names the touches' observation equation.
+    assert_eq!(common["observation"], "coordinates");
     let touch = common["tests"]["observations"]
         .as_array()
         .unwrap()

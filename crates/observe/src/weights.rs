@@ -234,6 +234,16 @@ impl CoordinateWhitening {
             .map_or(f64::INFINITY, |x| x.norm_squared())
     }
 
+    /// The rows' covariance `W = L Lᵀ` (mm²).
+    pub fn covariance(&self) -> Matrix3<f64> {
+        // `L⁻¹` is lower triangular with a positive diagonal: invertible.
+        let factor = self
+            .inverse_factor()
+            .solve_lower_triangular(&Matrix3::identity())
+            .unwrap_or_else(|| Matrix3::from_element(f64::NAN));
+        factor * factor.transpose()
+    }
+
     /// `L⁻¹` as a matrix (1/mm).
     pub fn inverse_factor(&self) -> Matrix3<f64> {
         let [l00, l10, l11, l20, l21, l22] = self.inverse_factor;

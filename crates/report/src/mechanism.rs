@@ -183,7 +183,8 @@ pub fn w_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
     }
 }
 
-/// The observations tested, one line per kind present.
+/// The observations tested, one line per kind present; the ball touches'
+/// with their observation equation when the record names it.
 pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<String> {
     let mut counts: Vec<(&str, usize)> = Vec::new();
     for observation in &calibration.tests.observations {
@@ -195,7 +196,29 @@ pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<Strin
             None => counts.push((&observation.kind, 1)),
         }
     }
+    let equation = calibration
+        .observation
+        .as_deref()
+        .map_or("", touch_equation);
     counted(&counts)
+        .into_iter()
+        .zip(&counts)
+        .map(|(line, &(kind, _))| match kind {
+            "ball touch" => format!("{line}{equation}"),
+            _ => line,
+        })
+        .collect()
+}
+
+/// How ball touches are observed, from the observation equation's name
+/// (`radius`, `coordinates`): " by their radius (eq. 9)", " by their
+/// coordinates (eq. 10)"; empty for another name.
+pub fn touch_equation(observation: &str) -> &'static str {
+    match observation {
+        "radius" => " by their radius (eq. 9)",
+        "coordinates" => " by their coordinates (eq. 10)",
+        _ => "",
+    }
 }
 
 /// Each `(kind, n)` as "n kinds" ("1 probe height", "3 measured

@@ -16,6 +16,7 @@ use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
     BALL_DISTANCES_FILE, BALLS_FILE, DISTANCES_FILE, KindRecord, MechanismValidationRecord,
     POINTS_FILE, PROBES_FILE, QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
+    TRACKER_POINTS_FILE,
 };
 use parcal_dataset::{
     ARTEFACTS_FILE, HEXAPOD, MEASUREMENTS_FILE, POINTS_FILE as HEXAPOD_POINTS_FILE,
@@ -97,10 +98,7 @@ impl Files {
             ObservationKind::Quantity => QUANTITIES_FILE,
             ObservationKind::Touch => self.touches(),
             ObservationKind::BallDistance => return Some(self.ball_distances()),
-            ObservationKind::TrackerPoint => match self {
-                Self::Hexapod => HEXAPOD_POINTS_FILE,
-                Self::Mechanism => return None,
-            },
+            ObservationKind::TrackerPoint => self.tracker_points(),
             ObservationKind::Point => return None,
         };
         Some((file, true))
@@ -112,6 +110,14 @@ impl Files {
         match self {
             Self::Mechanism => (BALLS_FILE, true),
             Self::Hexapod => (ARTEFACTS_FILE, false),
+        }
+    }
+
+    /// The trackers' points' file (a CSV: a point is its line there).
+    fn tracker_points(self) -> &'static str {
+        match self {
+            Self::Mechanism => TRACKER_POINTS_FILE,
+            Self::Hexapod => HEXAPOD_POINTS_FILE,
         }
     }
 
@@ -174,7 +180,8 @@ fn row_record(files: Files, row: &ValidatedRow) -> RowRecord {
             let (file, by_line) = files.balls();
             (Some(file), by_line.then_some(ball + 2), *ball)
         }
-        // Rows of several balls together: by the first ball, no one line.
+        // Rows of several points or balls together: no one line.
+        HeldOut::Tracker { tracker, .. } => (Some(files.tracker_points()), None, *tracker),
         HeldOut::TiedBalls { balls, .. } => (Some(files.balls().0), None, balls[0]),
     };
     RowRecord {
@@ -247,6 +254,12 @@ fn place(files: Files, row: &ValidatedRow) -> String {
                 row.row
             )
         }
+        HeldOut::Tracker { tracker, points } => format!(
+            "{} lines {} (tracker {tracker}, row {})",
+            files.tracker_points(),
+            number_ranges(points.iter().map(|j| j + 2)),
+            row.row
+        ),
         HeldOut::TiedBalls {
             balls,
             touches,

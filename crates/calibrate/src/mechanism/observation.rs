@@ -98,6 +98,14 @@ pub enum HeldOut {
         /// Its touches' 0-based indices, increasing.
         touches: Vec<usize>,
     },
+    /// A tracker's points: its frame is fitted to them (a tracker placed
+    /// anew is a frame of its own).
+    Tracker {
+        /// The tracker's 0-based index.
+        tracker: usize,
+        /// Its points' 0-based indices, increasing.
+        points: Vec<usize>,
+    },
     /// Balls that ball distances tie together, their touches and those
     /// distances: the balls' centres are fitted to them together.
     TiedBalls {
@@ -112,19 +120,21 @@ pub enum HeldOut {
 
 impl HeldOut {
     /// Its kind's name: the observation's ([`ObservationKind::name`]),
-    /// `ball` or `tied balls`.
+    /// `ball`, `tracker` or `tied balls`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Observation(observation) => observation.kind.name(),
             Self::Ball { .. } => "ball",
+            Self::Tracker { .. } => "tracker",
             Self::TiedBalls { .. } => "tied balls",
         }
     }
 }
 
 impl fmt::Display for HeldOut {
-    /// `probe height 3`, `ball 1 (ball touches 7-13)`, `balls 0-2 (ball
-    /// touches 0-20, ball distances 0-1)`.
+    /// `probe height 3`, `ball 1 (ball touches 7-13)`, `tracker 0
+    /// (tracker points 0-11)`, `balls 0-2 (ball touches 0-20, ball
+    /// distances 0-1)`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Observation(observation) => observation.fmt(f),
@@ -132,6 +142,11 @@ impl fmt::Display for HeldOut {
                 f,
                 "ball {ball} (ball touches {})",
                 number_ranges(touches.iter().copied())
+            ),
+            Self::Tracker { tracker, points } => write!(
+                f,
+                "tracker {tracker} (tracker points {})",
+                number_ranges(points.iter().copied())
             ),
             Self::TiedBalls {
                 balls,

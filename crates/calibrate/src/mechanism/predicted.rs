@@ -26,6 +26,10 @@
 //!   projected out, below): `r = g(p̂, x̂) − q`, `dr/dx = G_x`,
 //!   `dr/dp = G_p`, `Σ = σ_q² I`, so `D = σ_q² I`. A delta's (`A = 3`)
 //!   has no row: its readings only locate their own pose.
+//! - A tracker's points: its frame is its own unknown (placed anew),
+//!   fitted to its `K` points, which give `3K − 6` rows together, one
+//!   observation named by the tracker ([`HeldOut::Tracker`]):
+//!   `c = F̂(x_k) − P_k` ([`TrackerPoint`]), noise its covariance `W_k`.
 //! - The touches of a ball: its centre `c` is its own unknown, fitted to
 //!   its `K` touches, which give `K − 3` rows together, one observation
 //!   named by the ball ([`HeldOut::Ball`]; a ball touched 4 times gives
@@ -67,9 +71,11 @@
 //! depend on how `u` was fitted, nor `G` on how the fit moves with `θ`
 //! (`dr'/dθ = N_⊥ᵀ (G_p + J du/dθ) = N_⊥ᵀ G_p`).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Isometry3, UnitQuaternion, Vector3};
+use parcal_accuracy::kabsch;
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
-use parcal_observe::mechanism::{PointSample, Rows};
+use parcal_observe::mechanism::{Actuation, PointSample, Rows, TrackerFrame, TrackerPoint};
+use parcal_observe::{FrameCorrection, PointBlock};
 
 #[cfg(doc)]
 use parcal_observe::mechanism::BallTouch;
@@ -103,7 +109,7 @@ pub struct PredictedRows {
 /// kinds, each kind's in its order, the touches ball by ball; samples at
 /// an unknown pose of a mechanism of 3 actuators give none. An error
 /// names a ball of more than [`MAX_HELD_OUT_TOUCHES_PER_BALL`] touches
-/// before any work, and refuses tracker points.
+/// before any work.
 pub fn predict(
     mechanism: &dyn Mechanism,
     global: &DVector<f64>,
@@ -118,12 +124,6 @@ pub fn predict(
         observation,
         reason: error.to_string(),
     };
-    if !observations.tracker_points.is_empty() {
-        return Err(MechanismCalibrationError::InvalidData {
-            what: "tracker points".to_string(),
-            reason: "held-out tracker points are not predicted: a tracker placed anew has a frame of its own, which this validation does not fit".to_string(),
-        });
-    }
     let balls = touches_by_ball(observations)?;
     let mut predicted = Vec::new();
     for (k, probe) in observations.probes.iter().enumerate() {
@@ -173,6 +173,16 @@ pub fn predict(
         {
             predicted.push(rows);
         }
+    }
+    for tracker in 0..observations.trackers.len() {
+        predicted.push(predict_tracker(
+            mechanism,
+            params,
+            configured,
+            observations,
+            tracker,
+            g,
+        )?);
     }
     for set in tied_sets(observations, balls)? {
         predicted.push(predict_balls(
@@ -470,6 +480,92 @@ fn predict_balls(
     })
 }
 
+/// The rows of tracker `tracker`'s points (module doc): its frame `F`
+/// located by them alone (the best rigid motion of the tool points they
+/// reach onto the points measured, Kabsch), each point's `c = F(T) − P`,
+/// `dc/dp = R_F dT/dp|_q`, `dc/dC = [R_F d(Exp(ω) T)/dω | R_F]` on the
+/// frame's correction `C` at zero, noise its covariance `W = L Lᵀ`, and
+/// the frame's six unknowns projected out.
+fn predict_tracker(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
+    observations: &Observations,
+    tracker: usize,
+    g: usize,
+) -> Result<PredictedRows, MechanismCalibrationError> {
+    let indices: Vec<usize> = (observations.tracker_points.iter().enumerate())
+        .filter(|(_, point)| point.tracker == tracker)
+        .map(|(j, _)| j)
+        .collect();
+    let held_out = HeldOut::Tracker {
+        tracker,
+        points: indices.clone(),
+    };
+    let points: Vec<&TrackerPoint> = indices
+        .iter()
+        .map(|&j| &observations.tracker_points[j])
+        .collect();
+    let actuations: Vec<&Actuation> = points.iter().map(|p| &p.at).collect();
+    let starts = vec![None; points.len()];
+    let reached = Actuation::tool_points(mechanism, params, configured, &actuations, &starts)
+        .into_iter()
+        .zip(&indices)
+        .map(|(reached, &j)| {
+            reached.map_err(|e| MechanismCalibrationError::Observation {
+                observation: ObservationRef {
+                    kind: ObservationKind::TrackerPoint,
+                    index: j,
+                },
+                reason: e.to_string(),
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let not_located = |reason: String| MechanismCalibrationError::InvalidData {
+        what: held_out.to_string(),
+        reason: format!("the held-out points do not locate its frame: {reason}"),
+    };
+    let tips: Vec<Vector3<f64>> = reached.iter().map(|r| r.point).collect();
+    let measured: Vec<Vector3<f64>> = points.iter().map(|p| p.measured.into()).collect();
+    let motion = kabsch(&tips, &measured).map_err(|e| not_located(e.to_string()))?;
+    let frame = TrackerFrame {
+        reference: Isometry3::from_parts(
+            motion.translation.into(),
+            UnitQuaternion::from_rotation_matrix(&motion.rotation),
+        ),
+        correction: FrameCorrection::IDENTITY,
+    };
+    let (n, m) = (params.len(), 3 * points.len());
+    let (mut residuals, mut d_local) = (DVector::zeros(m), DMatrix::zeros(m, 6));
+    let (mut d_params, mut noise) = (DMatrix::zeros(m, n), DMatrix::zeros(m, m));
+    for (k, (point, reached)) in points.iter().zip(&reached).enumerate() {
+        let block = PointBlock {
+            measured: &measured[k],
+            tracker_reference: &frame.reference,
+            tracker: frame.correction,
+        }
+        .evaluate(&reached.point);
+        let rows = 3 * k;
+        residuals.rows_mut(rows, 3).copy_from(&block.residual);
+        d_local
+            .view_mut((rows, 0), (3, 6))
+            .copy_from(&block.d_tracker);
+        d_params
+            .view_mut((rows, 0), (3, n))
+            .copy_from(&(block.d_tip * &reached.d_params));
+        noise
+            .view_mut((rows, rows), (3, 3))
+            .copy_from(&point.weight.covariance());
+    }
+    let local = LocalRows {
+        residuals,
+        d_local: &d_local,
+        d_params: &d_params,
+        noise,
+    };
+    project_out(held_out.clone(), &local, g).map_err(|e| not_located(e.to_string()))
+}
+
 /// Residuals with local unknowns `u` (a pose, a centre, or the centres
 /// of tied balls; module doc).
 struct LocalRows<'a> {
@@ -535,11 +631,12 @@ fn widened(d_params: &DMatrix<f64>, g: usize) -> DMatrix<f64> {
 mod tests {
     use super::*;
     use crate::mechanism::data::Ball;
+    use nalgebra::Isometry3;
     use nalgebra::Vector3;
     use parcal_kinematics::cable::CableRobot;
     use parcal_kinematics::delta::LinearDelta;
     use parcal_kinematics::mechanism::{design, prior_sigma};
-    use parcal_observe::mechanism::{Actuation, BallDistance, BallTouch};
+    use parcal_observe::mechanism::{BallDistance, BallTouch};
     use parcal_simulate::Rng;
 
     /// `G_i = dr/dθ` of a cable robot's samples (four lines: the
@@ -802,6 +899,90 @@ mod tests {
             (ratio - 1.0).abs() < bound,
             "T/n = {ratio:.4}, bound {bound:.4}"
         );
+    }
+
+    /// One tracker's `k` points at commanded positions, measured by the
+    /// delta of true parameters `truth` through the frame `frame`, each
+    /// coordinate off by `error()`, of the correlated weight below.
+    fn tracked(
+        (delta, configured, truth): &(LinearDelta, DVector<f64>, DVector<f64>),
+        frame: &Isometry3<f64>,
+        k: usize,
+        mut error: impl FnMut() -> f64,
+    ) -> Observations {
+        let covariance =
+            nalgebra::Matrix3::new(1e-4, 2e-5, 0.0, 2e-5, 1.5e-4, -3e-5, 0.0, -3e-5, 4e-4);
+        let weight = parcal_observe::CoordinateWhitening::from_covariance(&covariance).unwrap();
+        let factor = covariance.cholesky().unwrap().l();
+        let tracker_points = (0..k)
+            .map(|j| {
+                let t = j as f64;
+                let at = Actuation::Commanded([
+                    70.0 * (1.9 * t).cos(),
+                    60.0 * (1.3 * t).sin(),
+                    15.0 + 11.0 * t,
+                ]);
+                let reached = at
+                    .tool_point(delta, truth.as_slice(), configured.as_slice(), None)
+                    .unwrap();
+                let noise = factor * Vector3::new(error(), error(), error());
+                let seen = frame.transform_point(&reached.point.into()).coords + noise;
+                TrackerPoint {
+                    tracker: 0,
+                    at,
+                    measured: seen.into(),
+                    weight,
+                }
+            })
+            .collect();
+        Observations {
+            trackers: vec!["T".to_string()],
+            tracker_points,
+            ..Default::default()
+        }
+    }
+
+    /// A held-out tracker's exact points: `3k − 6` rows, zero at the
+    /// truth, `G = N_⊥ᵀ G_p` against central differences over the
+    /// parameters.
+    #[test]
+    fn tracker_derivatives_match_central_differences() {
+        let machine = delta();
+        let frame = Isometry3::new(
+            Vector3::new(900.0, -400.0, 120.0),
+            Vector3::new(0.1, -0.05, 2.0),
+        );
+        let observations = tracked(&machine, &frame, 7, || 0.0);
+        let at = ball_rows(&machine, &machine.2, &observations);
+        assert_eq!(at.residuals.len(), 3 * 7 - 6);
+        assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
+        assert_eq!(
+            at.observation,
+            HeldOut::Tracker {
+                tracker: 0,
+                points: (0..7).collect()
+            }
+        );
+        assert_derivatives_match_differences(&machine, &observations, &at);
+    }
+
+    /// A held-out tracker's rows of noisy points: `T = r'ᵀ D⁻¹ r'` over
+    /// 200 placements of 8 points (3600 rows), the noise correlated as
+    /// each point's weight states, has the mean of its `χ²` within 4
+    /// standard errors.
+    #[test]
+    fn a_tracker_s_rows_have_their_stated_noise() {
+        let machine = delta();
+        let mut noise = Rng::new(37, 0);
+        let sets = (0..200).map(|draw| {
+            let turn = draw as f64;
+            let frame = Isometry3::new(
+                Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
+                Vector3::new(0.0, 0.1, turn),
+            );
+            tracked(&machine, &frame, 8, || noise.normal(1.0))
+        });
+        assert_rows_have_their_stated_noise("a tracker's rows", &machine, sets);
     }
 
     /// `G = N_⊥ᵀ G_p` of a ball's eight exact touches against central

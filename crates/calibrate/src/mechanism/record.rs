@@ -139,6 +139,7 @@ impl MechanismCalibration {
                     sigma: t.sigma(),
                 })
                 .collect(),
+            observation: self.observation.map(|o| o.to_string()),
         }
     }
 }

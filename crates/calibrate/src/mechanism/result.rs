@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
 use parcal_solver::Status;
 
 use crate::hypothesis::critical_value;
+use crate::options::Observation;
 use crate::snooping::{Removal, Worst};
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
@@ -102,6 +103,9 @@ pub struct MechanismCalibration {
     pub balls: Vec<EstimatedBall>,
     /// The trackers' frames, in the data's order.
     pub trackers: Vec<EstimatedTracker>,
+    /// The observation equation of the ball touches (paper eq. 9 or 10);
+    /// `None` without touches.
+    pub observation: Option<Observation>,
     /// How the solver ended.
     pub status: Status,
     /// Its linear solves.
@@ -281,6 +285,7 @@ pub(crate) fn assemble(
         poses: fit.poses,
         balls: estimated_balls,
         trackers,
+        observation: (!data.observations.touches.is_empty()).then_some(options.observation),
         global_test: verdict.global_test,
         verdict,
         status: fit.status,

@@ -200,7 +200,7 @@ pub fn validate_mechanism(
         .iter()
         .filter(|p| match &p.observation {
             HeldOut::Observation(observation) => observation.kind == ObservationKind::Sample,
-            HeldOut::Ball { .. } | HeldOut::TiedBalls { .. } => false,
+            HeldOut::Ball { .. } | HeldOut::Tracker { .. } | HeldOut::TiedBalls { .. } => false,
         })
         .count();
     Ok(MechanismValidation {

@@ -13,13 +13,14 @@ use parcal::calibration::mechanism::{
     MechanismCalibrationError, MechanismData, MechanismOptions, ObservationKind,
     calibrate_mechanism, check_mechanism_data,
 };
-use parcal::calibration::{IterationRecord, Method, Observation};
+use parcal::calibration::{IterationRecord, Method};
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
 use parcal::dataset::{HEXAPOD, declared_mechanism};
 use parcal::report::mechanism::{
     PARAMETER_HEADER, counted, identifiability_statements, mirrored_sentences, observation_counts,
-    parameter_rows, prior_correlation_sentence, removal_sentences, verdict_sentence,
+    parameter_rows, prior_correlation_sentence, removal_sentences, touch_equation,
+    verdict_sentence,
 };
 use parcal::report::mechanism_validation::placed_error;
 
@@ -183,10 +184,12 @@ pub fn calibrate_with(
         data.observations.len(),
         read.as_secs_f64()
     ));
-    let touches = match options.observation {
-        _ if data.observations.touches.is_empty() => "",
-        Observation::Radius => ", ball touches by their radius (eq. 9)",
-        Observation::Coordinates => ", ball touches by their coordinates (eq. 10)",
+    let touches = match data.observations.touches.is_empty() {
+        true => String::new(),
+        false => format!(
+            ", ball touches{}",
+            touch_equation(&options.observation.to_string())
+        ),
     };
     progress.line(&format!(
         "calibrating the {mechanism}: {}, {} loss{}{touches}",

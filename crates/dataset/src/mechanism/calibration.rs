@@ -208,6 +208,11 @@ pub struct MechanismCalibrationRecord {
     /// The trackers' frames, in the dataset's order (none: absent).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub trackers: Vec<TrackerRecord>,
+    /// The ball touches' observation equation: `radius` (paper eq. 9, a
+    /// row a touch) or `coordinates` (eq. 10, three rows and two contact
+    /// angles a touch); absent without touches.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observation: Option<String>,
 }
 
 impl MechanismCalibrationRecord {
