@@ -25,6 +25,8 @@ pub(crate) struct GroupSigmas<const C: usize> {
     gain: OMatrix<f64, Const<C>, Dyn>,
     /// One row of `K Cov(g)` (`G`).
     gain_cov: Vec<f64>,
+    /// One row of `K` (`G`), contiguous.
+    gain_row: Vec<f64>,
     pub(crate) out: Vec<SVector<f64, C>>,
 }
 
@@ -35,6 +37,7 @@ impl<const C: usize> GroupSigmas<C> {
             cov_rows: cov.transpose(),
             gain: OMatrix::zeros_generic(Const::<C>, Dyn(cov.nrows())),
             gain_cov: vec![0.0; cov.nrows()],
+            gain_row: vec![0.0; cov.nrows()],
             out: Vec::with_capacity(groups),
         }
     }
@@ -66,29 +69,63 @@ impl<const C: usize> GroupSigmas<C> {
             }
         }
         upper_solve(&r_cc, gain);
-        let (rows, kc) = (&self.cov_rows, &mut self.gain_cov);
+        let (rows, kc, k) = (&self.cov_rows, &mut self.gain_cov, &mut self.gain_row);
         SVector::<f64, C>::from_fn(|a, _| {
-            // `(K Cov(g))_aj = Σ_l K_al Cov(g)_lj`, summed over `l` in order
-            // for every `j` at once (independent sums, which vectorise),
-            // then `(K Cov(g) Kᵀ)_aa = Σ_j (K Cov(g))_aj K_aj`.
-            let (first, rest) = rows.as_slice().split_at(g);
-            let k0 = gain[(a, 0)];
-            for (kc, &c) in kc.iter_mut().zip(first) {
-                *kc = k0 * c;
+            for (j, k) in k.iter_mut().enumerate() {
+                *k = gain[(a, j)];
             }
-            for (l, row) in rest.chunks_exact(g).enumerate() {
-                let kl = gain[(a, l + 1)];
-                for (kc, &c) in kc.iter_mut().zip(row) {
-                    *kc += kl * c;
-                }
-            }
-            let mut spread = 0.0;
-            for (j, &kc) in kc.iter().enumerate() {
-                spread += kc * gain[(a, j)];
-            }
-            (m.row(a).norm_squared() + spread).sqrt()
+            (m.row(a).norm_squared() + spread(rows.as_slice(), k, kc)).sqrt()
         })
     }
+}
+
+/// `kᵀ Cov(g) k` for a row `k` of `K`, `cov_rows` holding `Cov(g)` row by
+/// row (`G × G`) and `kc` room for one row of `K Cov(g)`: `(k Cov(g))_j =
+/// Σ_l k_l Cov(g)_lj`, summed over `l` in order for every `j` at once
+/// (independent sums, which vectorise), then `Σ_j (k Cov(g))_j k_j`.
+///
+/// Compiled twice: for AVX2, chosen at run time where the machine has it
+/// (four sums at a time instead of two), and for any x86-64. Both multiply
+/// and add in the same order, without fused multiply-adds, so they give
+/// the same bits.
+#[allow(unsafe_code, reason = "the AVX2 build, called after the feature check")]
+fn spread(cov_rows: &[f64], k: &[f64], kc: &mut [f64]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the machine runs AVX2.
+        return unsafe { spread_avx2(cov_rows, k, kc) };
+    }
+    spread_in(cov_rows, k, kc)
+}
+
+/// [`spread`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn spread_avx2(cov_rows: &[f64], k: &[f64], kc: &mut [f64]) -> f64 {
+    spread_in(cov_rows, k, kc)
+}
+
+/// The body of [`spread`], inlined into each of its builds.
+#[inline(always)]
+fn spread_in(cov_rows: &[f64], k: &[f64], kc: &mut [f64]) -> f64 {
+    let g = k.len();
+    let Some(&k0) = k.first() else {
+        return 0.0;
+    };
+    let (first, rest) = cov_rows.split_at(g);
+    for (kc, &c) in kc.iter_mut().zip(first) {
+        *kc = k0 * c;
+    }
+    for (row, &kl) in rest.chunks_exact(g).zip(&k[1..]) {
+        for (kc, &c) in kc.iter_mut().zip(row) {
+            *kc += kl * c;
+        }
+    }
+    let mut spread = 0.0;
+    for (&kc, &k) in kc.iter().zip(k) {
+        spread += kc * k;
+    }
+    spread
 }
 
 /// Turns each group's triangular rows into its marginal sigmas.
