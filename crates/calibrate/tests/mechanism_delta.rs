@@ -6,7 +6,7 @@
 //! balls add, readings at unknown poses, and touches of calibrated balls
 //! at unknown centres.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 use parcal_calibrate::Observation;
 use parcal_calibrate::mechanism::{
     Ball, CentrePrior, MechanismCalibration, MechanismCalibrationError, MechanismData,
@@ -20,6 +20,14 @@ use parcal_observe::mechanism::CommandedPoint;
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 use parcal_simulate::{Plate, PlatePairs, Rng};
 use parcal_solver::{IterationRecord, Status};
+
+#[path = "support/mean.rs"]
+mod mean;
+#[path = "support/nees.rs"]
+mod nees;
+
+use mean::mean_and_standard_error;
+use nees::nees;
 
 /// A printer of the range: rods 250-300 mm, radius 120-150 mm,
 /// drawn from stream `seed`.
@@ -52,22 +60,6 @@ fn canonical_truth(dataset: &MechanismDataset) -> DVector<f64> {
     DVector::from_vec(values)
 }
 
-/// `eᵀ Cov⁺ e` over the covariance's range, and its rank (eigenvalues
-/// above 1e-9 of the largest: the gauge directions' are rounding noise).
-fn nees(error: &DVector<f64>, covariance: &DMatrix<f64>) -> (f64, usize) {
-    let eigen = covariance.clone().symmetric_eigen();
-    let largest = eigen.eigenvalues.max();
-    let mut nees = 0.0;
-    let mut rank = 0;
-    for (k, &lambda) in eigen.eigenvalues.iter().enumerate() {
-        if lambda > 1e-9 * largest {
-            rank += 1;
-            nees += eigen.eigenvectors.column(k).dot(error).powi(2) / lambda;
-        }
-    }
-    (nees, rank)
-}
-
 /// NEES over `draws` printers, with `distances` part distances each: the
 /// mean, its standard error from the draws, and the identifiable count.
 fn nees_over(draws: u64, distances: usize) -> (f64, f64, usize) {
@@ -86,14 +78,6 @@ fn nees_over(draws: u64, distances: usize) -> (f64, f64, usize) {
     assert_eq!(ranks.len(), 1, "the identifiable count varies: {ranks:?}");
     let (mean, standard_error) = mean_and_standard_error(&values);
     (mean, standard_error, ranks[0])
-}
-
-/// The mean of `values` and its standard error from their spread.
-fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (variance / n).sqrt())
 }
 
 #[test]

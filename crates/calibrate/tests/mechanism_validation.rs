@@ -17,6 +17,11 @@ use parcal_kinematics::mechanism::Mechanism;
 use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, measure_delta, simulate_delta};
 
+#[path = "support/mean.rs"]
+mod mean;
+
+use mean::mean_and_standard_error;
+
 /// The w-tests' level, the calibration's.
 const ALPHA: f64 = 0.05;
 /// The seed offset of the held-out measurements.
@@ -61,14 +66,6 @@ fn validated(
 ) -> MechanismValidation {
     let held_out = measure_delta(scenario, truth, seed + HELD_OUT).unwrap();
     validate_mechanism(calibrated, &data(&held_out), ALPHA).unwrap()
-}
-
-/// The mean of `values` and its standard error from their spread.
-fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (variance / n).sqrt())
 }
 
 /// Over `draws` printers, each calibrated and validated on held-out data

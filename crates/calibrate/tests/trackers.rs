@@ -21,6 +21,14 @@ use parcal_observe::mechanism::{Actuation, TrackerPoint};
 use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, measure_delta, simulate_delta};
 
+#[path = "support/mean.rs"]
+mod mean;
+#[path = "support/nees.rs"]
+mod nees;
+
+use mean::mean_and_standard_error;
+use nees::nees;
+
 /// The trackers' true frames (the true printer's frame → each tracker's).
 fn true_frames() -> [Isometry3<f64>; 2] {
     [
@@ -99,30 +107,6 @@ fn to_canonical(data: &MechanismData, params: &[f64]) -> Isometry3<f64> {
     )
 }
 
-/// `eᵀ Cov⁺ e` over the covariance's range and its rank (eigenvalues
-/// above 1e-9 of the largest).
-fn nees(error: &DVector<f64>, covariance: &DMatrix<f64>) -> (f64, usize) {
-    let eigen = covariance.clone().symmetric_eigen();
-    let largest = eigen.eigenvalues.max();
-    let mut nees = 0.0;
-    let mut rank = 0;
-    for (k, &lambda) in eigen.eigenvalues.iter().enumerate() {
-        if lambda > 1e-9 * largest {
-            rank += 1;
-            nees += eigen.eigenvectors.column(k).dot(error).powi(2) / lambda;
-        }
-    }
-    (nees, rank)
-}
-
-/// The mean of `values` and its standard error.
-fn mean_and_error(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (variance / n).sqrt())
-}
-
 /// Each tracker's error `F_true⁻¹ ∘ F` (rotation vector, translation)
 /// against its covariance, the true frame taken to the canonical frame of
 /// the truth: the sum over the trackers.
@@ -180,10 +164,10 @@ fn parameters_and_tracker_frames_are_within_their_covariance() {
     }
     assert!(ranks.iter().all(|&r| r == ranks[0]), "{ranks:?}");
     let rank = ranks[0] as f64;
-    let (mean, error) = mean_and_error(&parameters);
+    let (mean, error) = mean_and_standard_error(&parameters);
     println!("NEES of the parameters: mean {mean:.2}, standard error {error:.2}, rank {rank}");
     assert!((mean - rank).abs() < 4.0 * error);
-    let (mean, error) = mean_and_error(&frames);
+    let (mean, error) = mean_and_standard_error(&frames);
     println!("NEES of the frames: mean {mean:.2}, standard error {error:.2}, 12 unknowns");
     assert!((mean - 12.0).abs() < 4.0 * error);
 }
@@ -229,7 +213,7 @@ fn held_out_trackers_placed_anew_fit_their_predicted_covariance() {
             assert!(!validation.global_test_passes());
         }
     }
-    let (mean, error) = mean_and_error(&ratios);
+    let (mean, error) = mean_and_standard_error(&ratios);
     println!("held-out T/n over 30 printers: mean {mean:.4}, standard error {error:.4}");
     assert!((mean - 1.0).abs() < 4.0 * error);
 }

@@ -71,10 +71,9 @@
 //! depend on how `u` was fitted, nor `G` on how the fit moves with `θ`
 //! (`dr'/dθ = N_⊥ᵀ (G_p + J du/dθ) = N_⊥ᵀ G_p`).
 
-use nalgebra::{DMatrix, DVector, Isometry3, UnitQuaternion, Vector3};
-use parcal_accuracy::kabsch;
+use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
-use parcal_observe::mechanism::{Actuation, PointSample, Rows, TrackerFrame, TrackerPoint};
+use parcal_observe::mechanism::{PointSample, Rows, TrackerPoint};
 use parcal_observe::{FrameCorrection, PointBlock};
 
 #[cfg(doc)]
@@ -84,6 +83,7 @@ use super::data::Observations;
 use super::error::MechanismCalibrationError;
 use super::observation::{HeldOut, ObservationKind, ObservationRef};
 use super::problem::ball_centre;
+use super::trackers::{locate_frame, points_of};
 
 /// The most touches of one held-out ball: its rows' noise covariance is
 /// dense, `(K − 3)²` numbers factored in `O(K³)`.
@@ -494,55 +494,24 @@ fn predict_tracker(
     tracker: usize,
     g: usize,
 ) -> Result<PredictedRows, MechanismCalibrationError> {
-    let indices: Vec<usize> = (observations.tracker_points.iter().enumerate())
-        .filter(|(_, point)| point.tracker == tracker)
-        .map(|(j, _)| j)
-        .collect();
+    let all = &observations.tracker_points;
+    let indices = points_of(all, tracker);
     let held_out = HeldOut::Tracker {
         tracker,
         points: indices.clone(),
     };
-    let points: Vec<&TrackerPoint> = indices
-        .iter()
-        .map(|&j| &observations.tracker_points[j])
-        .collect();
-    let actuations: Vec<&Actuation> = points.iter().map(|p| &p.at).collect();
-    let starts = vec![None; points.len()];
-    let reached = Actuation::tool_points(mechanism, params, configured, &actuations, &starts)
-        .into_iter()
-        .zip(&indices)
-        .map(|(reached, &j)| {
-            reached.map_err(|e| MechanismCalibrationError::Observation {
-                observation: ObservationRef {
-                    kind: ObservationKind::TrackerPoint,
-                    index: j,
-                },
-                reason: e.to_string(),
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let not_located = |reason: String| MechanismCalibrationError::InvalidData {
-        what: held_out.to_string(),
-        reason: format!("the held-out points do not locate its frame: {reason}"),
-    };
-    let tips: Vec<Vector3<f64>> = reached.iter().map(|r| r.point).collect();
-    let measured: Vec<Vector3<f64>> = points.iter().map(|p| p.measured.into()).collect();
-    let motion = kabsch(&tips, &measured).map_err(|e| not_located(e.to_string()))?;
-    let frame = TrackerFrame {
-        reference: Isometry3::from_parts(
-            motion.translation.into(),
-            UnitQuaternion::from_rotation_matrix(&motion.rotation),
-        ),
-        correction: FrameCorrection::IDENTITY,
-    };
+    let what = held_out.to_string();
+    let (reference, reached) = locate_frame((mechanism, configured), params, all, &indices, &what)?;
+    let points: Vec<&TrackerPoint> = indices.iter().map(|&j| &all[j]).collect();
     let (n, m) = (params.len(), 3 * points.len());
     let (mut residuals, mut d_local) = (DVector::zeros(m), DMatrix::zeros(m, 6));
     let (mut d_params, mut noise) = (DMatrix::zeros(m, n), DMatrix::zeros(m, m));
     for (k, (point, reached)) in points.iter().zip(&reached).enumerate() {
+        let measured = point.measured.into();
         let block = PointBlock {
-            measured: &measured[k],
-            tracker_reference: &frame.reference,
-            tracker: frame.correction,
+            measured: &measured,
+            tracker_reference: &reference,
+            tracker: FrameCorrection::IDENTITY,
         }
         .evaluate(&reached.point);
         let rows = 3 * k;
@@ -563,7 +532,10 @@ fn predict_tracker(
         d_params: &d_params,
         noise,
     };
-    project_out(held_out.clone(), &local, g).map_err(|e| not_located(e.to_string()))
+    project_out(held_out, &local, g).map_err(|e| MechanismCalibrationError::InvalidData {
+        what,
+        reason: format!("the held-out points do not locate its frame: {e}"),
+    })
 }
 
 /// Residuals with local unknowns `u` (a pose, a centre, or the centres
@@ -636,7 +608,7 @@ mod tests {
     use parcal_kinematics::cable::CableRobot;
     use parcal_kinematics::delta::LinearDelta;
     use parcal_kinematics::mechanism::{design, prior_sigma};
-    use parcal_observe::mechanism::{BallDistance, BallTouch};
+    use parcal_observe::mechanism::{Actuation, BallDistance, BallTouch};
     use parcal_simulate::Rng;
 
     /// `G_i = dr/dθ` of a cable robot's samples (four lines: the

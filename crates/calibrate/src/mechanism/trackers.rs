@@ -12,8 +12,9 @@
 use nalgebra::{DVector, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector6};
 use parcal_accuracy::kabsch;
 use parcal_kinematics::Vec3;
+use parcal_kinematics::mechanism::{Mechanism, Reached};
 use parcal_observe::FrameCorrection;
-use parcal_observe::mechanism::{Actuation, TrackerFrame};
+use parcal_observe::mechanism::{Actuation, TrackerFrame, TrackerPoint};
 
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
@@ -38,53 +39,22 @@ pub(crate) struct Trackers {
 impl Trackers {
     /// The trackers of `data` (validated), their corrections from global
     /// column `first` on, their references located at the parameters
-    /// `params` (module doc). An error names the tracker point whose tool
-    /// point cannot be reached, or the tracker whose points lie on a line.
+    /// `params` (module doc, [`locate_frame`]). An error names the tracker
+    /// point whose tool point cannot be reached, or the tracker whose
+    /// points do not locate its frame.
     pub(crate) fn locate(
         data: &MechanismData,
         params: &[f64],
         first: usize,
     ) -> Result<Self, MechanismCalibrationError> {
         let o = &data.observations;
-        let mechanism = data.mechanism.as_ref();
-        let configured = data.configured.as_slice();
         let references = (0..o.trackers.len())
             .map(|k| {
-                let (indices, targets): (Vec<usize>, Vec<Vec3>) = (o.tracker_points.iter())
-                    .enumerate()
-                    .filter(|(_, point)| point.tracker == k)
-                    .map(|(j, point)| (j, Vec3::from(point.measured)))
-                    .unzip();
-                let actuations: Vec<&Actuation> =
-                    indices.iter().map(|&j| &o.tracker_points[j].at).collect();
-                let starts = vec![None; actuations.len()];
-                let reached =
-                    Actuation::tool_points(mechanism, params, configured, &actuations, &starts);
-                let tips = reached
-                    .into_iter()
-                    .zip(&indices)
-                    .map(|(reached, &j)| {
-                        reached.map(|r| r.point).map_err(|e| {
-                            let observation = ObservationRef {
-                                kind: ObservationKind::TrackerPoint,
-                                index: j,
-                            };
-                            MechanismCalibrationError::Observation {
-                                observation,
-                                reason: format!("its tool point at the priors' means: {e}"),
-                            }
-                        })
-                    })
-                    .collect::<Result<Vec<Vec3>, _>>()?;
-                let not_located = |reason: String| MechanismCalibrationError::InvalidData {
-                    what: format!("tracker {:?}", o.trackers[k]),
-                    reason: format!("its points do not locate its frame: {reason}"),
-                };
-                if spread(&targets) < MIN_SPREAD {
-                    return Err(not_located("they lie on a line".to_string()));
-                }
-                let motion = kabsch(&tips, &targets).map_err(|e| not_located(e.to_string()))?;
-                Ok(isometry(motion.rotation, motion.translation))
+                let indices = points_of(&o.tracker_points, k);
+                let what = format!("tracker {:?}", o.trackers[k]);
+                let machine = (data.mechanism.as_ref(), data.configured.as_slice());
+                locate_frame(machine, params, &o.tracker_points, &indices, &what)
+                    .map(|(frame, _)| frame)
             })
             .collect::<Result<_, _>>()?;
         Ok(Self { references, first })
@@ -108,28 +78,12 @@ impl Trackers {
         if self.references.is_empty() || params == moved {
             return Ok(());
         }
-        let o = &data.observations;
-        let mechanism = data.mechanism.as_ref();
-        let configured = data.configured.as_slice();
-        let actuations: Vec<&Actuation> = o.tracker_points.iter().map(|p| &p.at).collect();
-        let starts = vec![None; actuations.len()];
-        let tips = |params: &[f64]| {
-            Actuation::tool_points(mechanism, params, configured, &actuations, &starts)
-                .into_iter()
-                .enumerate()
-                .map(|(j, reached)| {
-                    reached.map(|r| r.point).map_err(|e| {
-                        let observation = ObservationRef {
-                            kind: ObservationKind::TrackerPoint,
-                            index: j,
-                        };
-                        MechanismCalibrationError::Observation {
-                            observation,
-                            reason: format!("its tool point in the canonical frame: {e}"),
-                        }
-                    })
-                })
-                .collect::<Result<Vec<Vec3>, _>>()
+        let points = &data.observations.tracker_points;
+        let all: Vec<usize> = (0..points.len()).collect();
+        let machine = (data.mechanism.as_ref(), data.configured.as_slice());
+        let tips = |params: &[f64]| -> Result<Vec<Vec3>, MechanismCalibrationError> {
+            let reached = reach(machine, params, points, &all)?;
+            Ok(reached.iter().map(|r| r.point).collect())
         };
         let motion = kabsch(&tips(params)?, &tips(moved)?).map_err(|e| {
             MechanismCalibrationError::InvalidData {
@@ -165,6 +119,71 @@ impl Trackers {
             correction: FrameCorrection::from_params(&correction),
         }
     }
+}
+
+/// The indices of tracker `tracker`'s points among `points`, increasing.
+pub(crate) fn points_of(points: &[TrackerPoint], tracker: usize) -> Vec<usize> {
+    (points.iter().enumerate())
+        .filter(|(_, point)| point.tracker == tracker)
+        .map(|(j, _)| j)
+        .collect()
+}
+
+/// A mechanism and the parameters its controller runs with.
+pub(crate) type Machine<'a> = (&'a dyn Mechanism, &'a [f64]);
+
+/// Where the machine `(mechanism, configured)` of true parameters `params`
+/// is at the tracker points `indices` of `points`
+/// ([`Actuation::tool_points`]); an error names the point whose tool point
+/// cannot be reached.
+fn reach(
+    (mechanism, configured): Machine<'_>,
+    params: &[f64],
+    points: &[TrackerPoint],
+    indices: &[usize],
+) -> Result<Vec<Reached>, MechanismCalibrationError> {
+    let actuations: Vec<&Actuation> = indices.iter().map(|&j| &points[j].at).collect();
+    let starts = vec![None; actuations.len()];
+    Actuation::tool_points(mechanism, params, configured, &actuations, &starts)
+        .into_iter()
+        .zip(indices)
+        .map(|(reached, &j)| {
+            reached.map_err(|e| MechanismCalibrationError::Observation {
+                observation: ObservationRef {
+                    kind: ObservationKind::TrackerPoint,
+                    index: j,
+                },
+                reason: format!("its tool point: {e}"),
+            })
+        })
+        .collect()
+}
+
+/// The frame `F` (the mechanism's frame → a tracker's) that best maps the
+/// tool points the tracker points `indices` of `points` reach on `machine`
+/// at `params` onto the points measured (Kabsch), with where the machine
+/// is at each. An error names the point whose tool point cannot be
+/// reached, or says why the points do not locate `what`'s frame (fewer
+/// than three, or on a line).
+pub(crate) fn locate_frame(
+    machine: Machine<'_>,
+    params: &[f64],
+    points: &[TrackerPoint],
+    indices: &[usize],
+    what: &str,
+) -> Result<(Isometry3<f64>, Vec<Reached>), MechanismCalibrationError> {
+    let measured: Vec<Vec3> = indices.iter().map(|&j| points[j].measured.into()).collect();
+    let not_located = |reason: String| MechanismCalibrationError::InvalidData {
+        what: what.to_string(),
+        reason: format!("its points do not locate its frame: {reason}"),
+    };
+    if measured.len() >= 3 && spread(&measured) < MIN_SPREAD {
+        return Err(not_located("they lie on a line".to_string()));
+    }
+    let reached = reach(machine, params, points, indices)?;
+    let tips: Vec<Vec3> = reached.iter().map(|r| r.point).collect();
+    let motion = kabsch(&tips, &measured).map_err(|e| not_located(e.to_string()))?;
+    Ok((isometry(motion.rotation, motion.translation), reached))
 }
 
 /// `R x + t` as an isometry.
