@@ -172,9 +172,11 @@ fn the_priors_through_the_interface_are_the_own_paths() {
 #[test]
 fn tracker_points_through_the_interface_are_the_own_paths() {
     // The paper's touches with a tracker's points in two sessions (two
-    // placements of the instrument, no leg offsets): each session a
-    // tracker of the common calibration, its frame six unknowns; its
-    // points weighted as the own path weighs them.
+    // placements of the instrument): each session a tracker of the common
+    // calibration, its frame six unknowns; its points weighted as the own
+    // path weighs them. Then the legs re-homed between the sessions: the
+    // second tracker's six leg offsets, with the session model's prior.
+    // Poses, and leg offsets with the scales unknowns, are refused.
     let tracker = TrackerScenario {
         kind: TrackerKind::Points,
         true_scale: [1.0; 6],
@@ -192,6 +194,21 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
         println!("{simulation:?} with tracker points:");
         compare_on(&dataset, &CalibrationOptions::simulation(simulation));
     }
+    let rehomed = TrackerScenario {
+        session_model: SessionModel {
+            leg_offset_sigma: Some(0.5),
+            body_origin_sigma: None,
+            body_rotation_sigma: None,
+        },
+        ..tracker.clone()
+    };
+    let rehomed = simulate_mixed(&Scenario::paper(), &rehomed, 3)
+        .unwrap()
+        .dataset;
+    for simulation in [Simulation::I, Simulation::IV] {
+        println!("{simulation:?} with tracker points, the legs re-homed:");
+        compare_on(&rehomed, &CalibrationOptions::simulation(simulation));
+    }
     // Poses and later sessions' leg offsets are refused by name.
     let both = TrackerScenario {
         kind: TrackerKind::Both,
@@ -204,8 +221,8 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
         .unwrap_err()
         .to_string();
     assert!(error.starts_with("tracker poses: "), "{error}");
-    let mut offsets = dataset.clone();
-    offsets.machine.session_model.leg_offset_sigma = Some(0.5);
+    let mut offsets = rehomed.clone();
+    offsets.machine.actuator.scale_sigma = Some([0.01; 6]);
     let error = MechanismData::from_hexapod_touches(&offsets, &CalibrationOptions::default())
         .unwrap_err()
         .to_string();
@@ -239,8 +256,9 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     let per_ball_radius = usize::from(options.radius == RadiusModel::PerBall);
     let tied_unknowns = tied / 3 * (3 + per_ball_radius);
     let frames = 6 * common.trackers.len();
+    let offsets: usize = common.trackers.iter().map(|t| t.offsets.len()).sum();
     assert_eq!(
-        common.parameters.len() + tied_unknowns + frames,
+        common.parameters.len() + tied_unknowns + frames + offsets,
         own.global.len()
     );
     let names = own.names();
@@ -300,6 +318,9 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
                 .collect::<Vec<f64>>();
             for (e, s) in components.iter().zip(sigma) {
                 worst_frame = worst_frame.max((e / s).abs());
+            }
+            for (&(offset, sigma), own) in tracker.offsets.iter().zip(values.offsets[session]) {
+                worst_frame = worst_frame.max(((offset - own) / sigma.unwrap()).abs());
             }
         }
         println!("trackers' frames: worst |difference| {worst_frame:.2e} sigma");

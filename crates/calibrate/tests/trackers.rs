@@ -9,7 +9,7 @@
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 use parcal_accuracy::kabsch;
 use parcal_calibrate::mechanism::{
-    CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions,
+    CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, Tracker,
     calibrate_mechanism, validate_mechanism,
 };
 use parcal_dataset::mechanism::MechanismDataset;
@@ -66,7 +66,7 @@ fn tracked(dataset: &MechanismDataset, seed: u64) -> MechanismData {
     let mut noise = Rng::new(seed, 7007);
     let frames = true_frames();
     let o = &mut data.observations;
-    o.trackers = vec!["left".to_string(), "right".to_string()];
+    o.trackers = vec![Tracker::new("left"), Tracker::new("right")];
     o.tracker_points = (0..24)
         .map(|j| {
             let at = Actuation::Commanded(commanded(j));
@@ -269,6 +269,18 @@ fn errors_name_the_tracker_or_its_point() {
     assert!(
         error.contains("tracker \"right\"") && error.contains("they lie on a line"),
         "{error}"
+    );
+    // Offsets' sigmas: only for a re-homed tracker, positive.
+    let mut data = tracked(&dataset, 1);
+    data.observations.trackers[1].offset_sigma = Some(0.1);
+    assert_eq!(
+        error_of(&data),
+        "tracker \"right\": it has an offsets' sigma but was not re-homed: it has no offsets"
+    );
+    data.observations.trackers[1] = Tracker::rehomed("right", Some(-0.1));
+    assert_eq!(
+        error_of(&data),
+        "tracker \"right\": its offsets' sigma -0.1 is not finite and positive"
     );
     // A point the machine cannot reach.
     let mut data = tracked(&dataset, 1);

@@ -335,6 +335,27 @@ pub fn tracker_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>
         .collect()
 }
 
+/// One sentence per re-homed tracker: its actuators' zero offsets.
+pub fn tracker_offset_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
+    (calibration.trackers.iter())
+        .filter(|tracker| !tracker.offsets.is_empty())
+        .map(|tracker| {
+            let sigmas = tracker.offset_sigmas.as_deref().unwrap_or_default();
+            let offsets: Vec<String> = (tracker.offsets.iter().enumerate())
+                .map(|(i, offset)| match sigmas.get(i) {
+                    Some(sigma) => format!("{offset:.4} ± {sigma:.4}"),
+                    None => format!("{offset:.4}"),
+                })
+                .collect();
+            format!(
+                "tracker {}: the machine re-homed before it measured; its actuators' zero offsets {}",
+                tracker.label,
+                offsets.join(", ")
+            )
+        })
+        .collect()
+}
+
 /// The header of [`tracker_rows`].
 pub const TRACKER_HEADER: [&str; 5] = [
     "tracker",
@@ -543,6 +564,10 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
             Tone::Note,
             "Each tracker's frame maps the mechanism's canonical frame to the tracker's (x_tracker = R x + t); its sigmas are of rotations about the mechanism's axes and of translations along them.".into(),
         ));
+        let offsets = tracker_offset_sentences(calibration);
+        if !offsets.is_empty() {
+            blocks.push(Block::List(Tone::Plain, offsets));
+        }
     }
     blocks.push(Block::Heading(2, "What the data determine".into()));
     blocks.push(Block::List(
@@ -643,10 +668,18 @@ mod tests {
                     rotation: [0.0, 0.0, half.sin(), half.cos()],
                 },
                 sigma: Some([1e-4, 2e-4, 3e-4, 0.01, 0.02, 0.03]),
+                offsets: Vec::new(),
+                offset_sigmas: None,
             });
         let markdown =
             render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
         assert!(markdown.contains("## Trackers"), "{markdown}");
+        assert!(!markdown.contains("re-homed"), "{markdown}");
+        record.trackers[0].offsets = vec![0.25, -0.125, 0.5];
+        record.trackers[0].offset_sigmas = Some(vec![0.0625; 3]);
+        let markdown =
+            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        assert!(markdown.contains("tracker left: the machine re-homed before it measured; its actuators' zero offsets 0.2500 ± 0.0625, -0.1250 ± 0.0625, 0.5000 ± 0.0625"), "{markdown}");
         assert!(markdown.contains("| left | 1200.000, -300.000, 150.000 | 0.0100, 0.0200, 0.0300 | 0.0000, 0.0000, 90.0000 | 0.0057, 0.0115, 0.0172 |"), "{markdown}");
     }
 }

@@ -67,11 +67,50 @@ pub struct Observations {
     pub touches: Vec<BallTouch>,
     /// Calibrated distances between the balls' centres.
     pub ball_distances: Vec<BallDistance>,
-    /// The trackers' labels, one per tracker (not observations: each
-    /// tracker's frame is six unknowns of the global block).
-    pub trackers: Vec<String>,
+    /// The trackers, one per placement of an instrument (not
+    /// observations: each tracker's frame is six unknowns of the global
+    /// block).
+    pub trackers: Vec<Tracker>,
     /// Points the trackers measured.
     pub tracker_points: Vec<TrackerPoint>,
+}
+
+/// An instrument at one placement, measuring tool points in its own frame
+/// ([`TrackerPoint`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tracker {
+    /// Its label.
+    pub label: String,
+    /// Whether the machine was re-homed before it measured: each
+    /// actuator's zero offset is then an unknown of the global block;
+    /// otherwise the actuators read as for the other observations.
+    pub rehomed: bool,
+    /// The standard deviation of each offset's prior about zero (the
+    /// actuators' unit), when re-homed; `None`: no prior.
+    pub offset_sigma: Option<f64>,
+}
+
+impl Tracker {
+    /// A tracker labelled `label`, the actuators read as for the other
+    /// observations.
+    pub fn new(label: impl Into<String>) -> Self {
+        Self {
+            label: label.into(),
+            rehomed: false,
+            offset_sigma: None,
+        }
+    }
+
+    /// A tracker labelled `label` that measured after the machine was
+    /// re-homed, each actuator's offset with the prior `N(0, sigma²)`
+    /// (`None`: no prior).
+    pub fn rehomed(label: impl Into<String>, offset_sigma: Option<f64>) -> Self {
+        Self {
+            label: label.into(),
+            rehomed: true,
+            offset_sigma,
+        }
+    }
 }
 
 /// A calibrated sphere placed at an unknown centre.
@@ -293,11 +332,14 @@ impl MechanismData {
         self
     }
 
-    /// These data with no prior on any parameter (the means kept as the
-    /// solver's start).
+    /// These data with no prior on any parameter nor on any tracker's
+    /// offsets (the means kept as the solver's start).
     pub fn without_priors(mut self) -> Self {
         for prior in &mut self.priors {
             prior.sigma = None;
+        }
+        for tracker in &mut self.observations.trackers {
+            tracker.offset_sigma = None;
         }
         self
     }
@@ -492,7 +534,7 @@ impl MechanismData {
         };
         check_balls(observations, check_at)?;
         check_ball_distances(observations)?;
-        check_tracker_points(observations, check_at)?;
+        check_tracker_points(observations, actuators == coordinates, check_at)?;
         let quantities = mechanism.quantities();
         for (k, measured) in observations.quantities.iter().enumerate() {
             let id = at(ObservationKind::Quantity, k);
@@ -595,12 +637,15 @@ fn check_balls(
 }
 
 /// At most [`MAX_TRACKERS`] trackers, each with at least
-/// [`MIN_POINTS_PER_TRACKER`] points; every tracker point of a tracker
+/// [`MIN_POINTS_PER_TRACKER`] points, offsets (with a finite and positive
+/// sigma) only for a mechanism of as many actuators as pose coordinates
+/// (`square`); every tracker point of a tracker
 /// that exists, where the machine was put as `check_at` accepts, its
 /// measured point finite and its weight's `L⁻¹` finite with a positive
 /// diagonal.
 fn check_tracker_points(
     observations: &Observations,
+    square: bool,
     check_at: impl Fn(ObservationRef, &Actuation) -> Result<(), MechanismCalibrationError>,
 ) -> Result<(), MechanismCalibrationError> {
     let trackers = observations.trackers.len();
@@ -609,6 +654,31 @@ fn check_tracker_points(
             what: "trackers".to_string(),
             reason: format!("{trackers} is more than the {MAX_TRACKERS} accepted"),
         });
+    }
+    for tracker in &observations.trackers {
+        let refuse = |reason: String| MechanismCalibrationError::InvalidData {
+            what: format!("tracker {:?}", tracker.label),
+            reason,
+        };
+        match (tracker.rehomed, tracker.offset_sigma) {
+            (false, None) => continue,
+            (false, Some(_)) => {
+                return Err(refuse(
+                    "it has an offsets' sigma but was not re-homed: it has no offsets".to_string(),
+                ));
+            }
+            (true, Some(sigma)) if !(sigma.is_finite() && sigma > 0.0) => {
+                return Err(refuse(format!(
+                    "its offsets' sigma {sigma} is not finite and positive"
+                )));
+            }
+            (true, _) => {}
+        }
+        if !square {
+            return Err(refuse(
+                "its actuators' offsets need as many actuators as pose coordinates".to_string(),
+            ));
+        }
     }
     let mut points_of = vec![0usize; trackers];
     for (k, point) in observations.tracker_points.iter().enumerate() {
@@ -641,7 +711,7 @@ fn check_tracker_points(
         .position(|&count| count < MIN_POINTS_PER_TRACKER)
     {
         Some(t) => Err(MechanismCalibrationError::InvalidData {
-            what: format!("tracker {:?}", observations.trackers[t]),
+            what: format!("tracker {:?}", observations.trackers[t].label),
             reason: format!(
                 "it has {} points; its frame needs at least {MIN_POINTS_PER_TRACKER} not on a line",
                 points_of[t]

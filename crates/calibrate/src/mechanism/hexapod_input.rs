@@ -41,18 +41,21 @@
 //!   two balls' centres then unknowns of the global block, as the
 //!   hexapod's own calibration ties them.
 //! - Each session of points.csv: a tracker, its frame six unknowns
-//!   ([`super::trackers`]); each point a [`TrackerPoint`] at its readings
-//!   (as above), weighted as the hexapod calibration weighs it at its
-//!   initial estimate (the instrument's position sigma and the
-//!   actuators' repeatability through `dT/dq`, in the instrument's frame,
-//!   [`InstrumentRows::whiten`]).
+//!   ([`super::trackers`]), and for a later session, when machine.json's
+//!   session model re-homes the legs, their zero offsets (six unknowns
+//!   with its `leg_offset_sigma`: at known scales the legs' extensions are
+//!   the readings, so that `l_i + o_i + s_i q_i` is the own model's); each
+//!   point a [`TrackerPoint`] at its readings (as above), weighted as the
+//!   hexapod calibration weighs it at its initial estimate (the
+//!   instrument's position sigma and the actuators' repeatability through
+//!   `dT/dq`, in the instrument's frame, [`InstrumentRows::whiten`]).
 //!
 //! Both calibrations then minimise the same cost from the same start: the
 //! common door's estimate is the dedicated path's (the common calibration
 //! runs the observation of the options' [`MechanismOptions::observation`]).
 //! What only the hexapod's own calibration models is refused by name:
 //! tracker poses (and the body frame they see), and later sessions' leg
-//! offsets.
+//! offsets with the scales unknowns.
 //!
 //! [`coordinate_covariance`]: parcal_observe::coordinate_covariance
 //! [`MechanismOptions::observation`]: super::MechanismOptions
@@ -68,7 +71,7 @@ use parcal_observe::CoordinateWhitening;
 use parcal_observe::KinematicPrior;
 use parcal_observe::mechanism::{Actuation, Approach, BallTouch, TrackerPoint};
 
-use super::data::{Ball, CentrePrior, MechanismData, Observations};
+use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
 use super::error::MechanismCalibrationError;
 use super::input::ball_distances;
 use crate::CalibrationOptions;
@@ -130,7 +133,7 @@ impl MechanismData {
             balls,
             touches,
             ball_distances: ball_distances(&dataset.artefacts.distances),
-            trackers: dataset.tracker.sessions.clone(),
+            trackers: trackers(dataset),
             tracker_points,
             ..Observations::default()
         };
@@ -233,13 +236,28 @@ fn check_representable(dataset: &Dataset) -> Result<(), MechanismCalibrationErro
             "a pose's body frame is not modelled by the common calibration, which takes tracker points; the hexapod's own calibration takes poses",
         );
     }
-    if tracker.sessions.len() > 1 && dataset.machine.session_model.leg_offset_sigma.is_some() {
+    let machine = &dataset.machine;
+    let offsets = tracker.sessions.len() > 1 && machine.session_model.leg_offset_sigma.is_some();
+    if offsets && machine.actuator.scale_sigma.is_some() {
         return refuse(
             "the session model's leg offsets",
-            "later sessions' leg offsets are not modelled by the common calibration; the hexapod's own calibration takes them",
+            "with the scales unknowns, later sessions' leg offsets are not modelled by the common calibration (its offsets are in the readings' unit); the hexapod's own calibration takes them",
         );
     }
     Ok(())
+}
+
+/// Each session of points.csv as a tracker: the first as the touches read
+/// the legs, each later one with its legs' zero offsets when the session
+/// model re-homes them (module doc).
+fn trackers(dataset: &Dataset) -> Vec<Tracker> {
+    let offset_sigma = dataset.machine.session_model.leg_offset_sigma;
+    (dataset.tracker.sessions.iter().enumerate())
+        .map(|(session, label)| match offset_sigma {
+            Some(sigma) if session > 0 => Tracker::rehomed(label.clone(), Some(sigma)),
+            _ => Tracker::new(label.clone()),
+        })
+        .collect()
 }
 
 /// Each row of points.csv as a [`TrackerPoint`] of the tracker of its

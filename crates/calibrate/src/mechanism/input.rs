@@ -21,7 +21,7 @@ use parcal_observe::mechanism::{
     TrackerPoint,
 };
 
-use super::data::{Ball, CentrePrior, MechanismData, Observations};
+use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
 use super::error::MechanismCalibrationError;
 
 /// Calibrated distances between balls as read (a hexapod's
@@ -145,13 +145,13 @@ impl MechanismData {
                 ))
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;
-        let trackers = tracker_labels(&dataset.tracker_points);
+        let labels = tracker_labels(&dataset.tracker_points);
         let tracker_points = dataset
             .tracker_points
             .iter()
             .map(|row| {
                 Ok(TrackerPoint {
-                    tracker: trackers
+                    tracker: labels
                         .iter()
                         .position(|label| *label == row.tracker)
                         .expect("every row's label is among the labels"),
@@ -161,6 +161,7 @@ impl MechanismData {
                 })
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;
+        let trackers = labels.into_iter().map(Tracker::new).collect();
         let observations = Observations {
             probes,
             distances,

@@ -106,7 +106,7 @@ pub use compensation::{
 pub use data::{
     Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_POSE_COORDINATES,
     MAX_TIED_BALLS, MAX_TRACKERS, MIN_ACTUATORS, MIN_POINTS_PER_TRACKER, MIN_TOUCHES_PER_BALL,
-    MechanismData, Observations, ParameterPrior,
+    MechanismData, Observations, ParameterPrior, Tracker,
 };
 pub use error::MechanismCalibrationError;
 pub use fit::ObservationCheck;

@@ -27,7 +27,8 @@
 //!   `dr/dp = G_p`, `Σ = σ_q² I`, so `D = σ_q² I`. A delta's (`A = 3`)
 //!   has no row: its readings only locate their own pose.
 //! - A tracker's points: its frame is its own unknown (placed anew),
-//!   fitted to its `K` points, which give `3K − 6` rows together, one
+//!   fitted to its `K` points, which give `3K − 6` rows together (less
+//!   its actuators' offsets when re-homed, its unknowns too), one
 //!   observation named by the tracker ([`HeldOut::Tracker`]):
 //!   `c = F̂(x_k) − P_k` ([`TrackerPoint`]), noise its covariance `W_k`.
 //! - The touches of a ball: its centre `c` is its own unknown, fitted to
@@ -72,7 +73,7 @@
 //! (`dr'/dθ = N_⊥ᵀ (G_p + J du/dθ) = N_⊥ᵀ G_p`).
 
 use nalgebra::{DMatrix, DVector};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_reading_jacobian};
 use parcal_observe::mechanism::{PointSample, Rows, TrackerPoint};
 use parcal_observe::{FrameCorrection, PointBlock};
 
@@ -485,7 +486,8 @@ fn predict_balls(
 /// reach onto the points measured, Kabsch), each point's `c = F(T) − P`,
 /// `dc/dp = R_F dT/dp|_q`, `dc/dC = [R_F d(Exp(ω) T)/dω | R_F]` on the
 /// frame's correction `C` at zero, noise its covariance `W = L Lᵀ`, and
-/// the frame's six unknowns projected out.
+/// the frame's six unknowns projected out; for a re-homed tracker its
+/// actuators' offsets too, `dc/do = R_F dT/dq`.
 fn predict_tracker(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -503,8 +505,15 @@ fn predict_tracker(
     let what = held_out.to_string();
     let (reference, reached) = locate_frame((mechanism, configured), params, all, &indices, &what)?;
     let points: Vec<&TrackerPoint> = indices.iter().map(|&j| &all[j]).collect();
+    // A re-homed tracker's offsets are its own unknowns too.
+    let rehomed = observations.trackers[tracker].rehomed;
+    let u = 6 + if rehomed {
+        mechanism.actuators().len()
+    } else {
+        0
+    };
     let (n, m) = (params.len(), 3 * points.len());
-    let (mut residuals, mut d_local) = (DVector::zeros(m), DMatrix::zeros(m, 6));
+    let (mut residuals, mut d_local) = (DVector::zeros(m), DMatrix::zeros(m, u));
     let (mut d_params, mut noise) = (DMatrix::zeros(m, n), DMatrix::zeros(m, m));
     for (k, (point, reached)) in points.iter().zip(&reached).enumerate() {
         let measured = point.measured.into();
@@ -519,6 +528,19 @@ fn predict_tracker(
         d_local
             .view_mut((rows, 0), (3, 6))
             .copy_from(&block.d_tracker);
+        if rehomed {
+            let d_tip = tool_point_reading_jacobian(mechanism, params, reached.pose.as_slice())
+                .map_err(|e| MechanismCalibrationError::Observation {
+                    observation: ObservationRef {
+                        kind: ObservationKind::TrackerPoint,
+                        index: indices[k],
+                    },
+                    reason: e.to_string(),
+                })?;
+            d_local
+                .view_mut((rows, 6), (3, u - 6))
+                .copy_from(&(block.d_tip * d_tip));
+        }
         d_params
             .view_mut((rows, 0), (3, n))
             .copy_from(&(block.d_tip * &reached.d_params));
@@ -532,9 +554,14 @@ fn predict_tracker(
         d_params: &d_params,
         noise,
     };
-    project_out(held_out, &local, g).map_err(|e| MechanismCalibrationError::InvalidData {
+    let located = if rehomed {
+        "its frame and offsets"
+    } else {
+        "its frame"
+    };
+    project_out(held_out, &local, g).map_err(|_| MechanismCalibrationError::InvalidData {
         what,
-        reason: format!("the held-out points do not locate its frame: {e}"),
+        reason: format!("the held-out points do not locate {located}"),
     })
 }
 
@@ -908,7 +935,7 @@ mod tests {
             })
             .collect();
         Observations {
-            trackers: vec!["T".to_string()],
+            trackers: vec![crate::mechanism::data::Tracker::new("T")],
             tracker_points,
             ..Default::default()
         }
@@ -936,6 +963,19 @@ mod tests {
             }
         );
         assert_derivatives_match_differences(&machine, &observations, &at);
+        // Re-homed, a delta's offsets are its own unknowns too: their
+        // common part lifts the effector as the frame's z translation
+        // does, so that its points cannot locate both, and it is refused.
+        let mut rehomed = observations;
+        rehomed.trackers[0] = crate::mechanism::data::Tracker::rehomed("T", Some(0.1));
+        let (delta, configured, truth) = &machine;
+        let error = predict(delta, truth, configured.as_slice(), &rehomed).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .starts_with("tracker 0 (tracker points 0-6): the held-out points do not locate its frame and offsets"),
+            "{error}"
+        );
     }
 
     /// A held-out tracker's rows of noisy points: `T = r'ᵀ D⁻¹ r'` over

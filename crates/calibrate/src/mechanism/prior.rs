@@ -8,7 +8,7 @@
 //! ```
 //!
 //! over the unknowns that have a prior (the trackers' frames, which follow
-//! the trigger height, have none); an unknown without one has no row
+//! the trigger height, have none; their actuators' offsets do); an unknown without one has no row
 //! or column in `Σ_prior` (zero there) and no information. A correlated
 //! prior states what tolerances on the parts imply for parameters that
 //! share them: the hexapod's joint coordinates after its canonical frame
@@ -23,20 +23,25 @@ use super::error::MechanismCalibrationError;
 
 /// The global block's priors: the parameters', then the trigger height's
 /// when it is an unknown (there are probe heights), then each tracker's
-/// frame correction's six, none, about the correction's start 0.
+/// frame correction's six, none, about the correction's start 0, then
+/// each re-homed tracker's actuator offsets', about zero with its
+/// `offset_sigma` if any.
 pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
     let mut priors = data.priors.clone();
     if data.has_trigger_height() {
         priors.push(data.trigger_height);
     }
-    let frames = FRAME_UNKNOWNS * data.observations.trackers.len();
-    priors.extend(std::iter::repeat_n(
-        ParameterPrior {
-            mean: 0.0,
-            sigma: None,
-        },
-        frames,
-    ));
+    let trackers = &data.observations.trackers;
+    let frames = FRAME_UNKNOWNS * trackers.len();
+    let about_zero = |sigma| ParameterPrior { mean: 0.0, sigma };
+    priors.extend(std::iter::repeat_n(about_zero(None), frames));
+    let actuators = data.mechanism.actuators().len();
+    for tracker in trackers.iter().filter(|tracker| tracker.rehomed) {
+        priors.extend(std::iter::repeat_n(
+            about_zero(tracker.offset_sigma),
+            actuators,
+        ));
+    }
     priors
 }
 

@@ -2,7 +2,8 @@
 //!
 //! - The **global block**: the mechanism's parameters `p`, then the
 //!   trigger height `h` when there are probe heights, then each tracker's
-//!   frame correction ([`super::trackers`]), then the centre (and
+//!   frame correction and each re-homed tracker's actuator offsets
+//!   ([`super::trackers`]), then the centre (and
 //!   uncertain radius) of every ball a ball distance ties
 //!   ([`super::tied`]).
 //! - The **global observations**: every probe height (1 row), part
@@ -125,7 +126,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let o = &data.observations;
         let m = global_priors(data).len();
         let n = data.configured.len();
-        let frames = m - o.trackers.len() * super::prior::FRAME_UNKNOWNS;
+        let frames = n + usize::from(data.has_trigger_height());
         let trackers = Trackers::locate(data, &prior_means(data).as_slice()[..n], frames)?;
         let tied = o.tied_balls(m);
         let prior = global_prior(data, &tied);
@@ -894,8 +895,9 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
                 index: k,
             };
             let frame = self.trackers.frame(point.tracker, global);
+            let offsets = self.trackers.offsets(point.tracker, global);
             let evaluated = point
-                .evaluate(mechanism, params, configured, &frame, None)
+                .evaluate(mechanism, params, configured, &frame, offsets, None)
                 .map_err(|e| failed(id, e))?;
             out.residual
                 .rows_mut(row, 3)
@@ -907,6 +909,14 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
             out.jacobian
                 .view_mut((row, columns.start), (3, columns.len()))
                 .copy_from(&evaluated.d_frame);
+            if let (Some(columns), Some(d_offsets)) = (
+                self.trackers.offset_columns(point.tracker),
+                &evaluated.d_offsets,
+            ) {
+                out.jacobian
+                    .view_mut((row, columns.start), (3, columns.len()))
+                    .copy_from(d_offsets);
+            }
             row += 3;
         }
         Ok(())
@@ -987,7 +997,7 @@ pub(crate) mod tests {
     use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
 
     use super::*;
-    use crate::mechanism::data::{Ball, CentrePrior, Observations};
+    use crate::mechanism::data::{Ball, CentrePrior, Observations, Tracker};
 
     /// The largest difference between the global blocks `a` and `b`, in
     /// the marginal sigmas of `covariance`.
@@ -1297,7 +1307,7 @@ pub(crate) mod tests {
             ),
         ];
         let o = &mut data.observations;
-        o.trackers = vec!["T1".to_string(), "T2".to_string()];
+        o.trackers = vec![Tracker::new("T1"), Tracker::rehomed("T2", Some(0.3))];
         o.tracker_points = (0..10)
             .map(|j| {
                 let t = j as f64;
@@ -1327,8 +1337,9 @@ pub(crate) mod tests {
     fn trackers_match_the_dense_reference() {
         let data = tracked_delta();
         let four = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
-        // The trigger height, then the two trackers' frames.
-        assert_eq!(four.mechanism_len(), four.n_params() + 1 + 12);
+        // The trigger height, the two trackers' frames, the second's
+        // offsets.
+        assert_eq!(four.mechanism_len(), four.n_params() + 1 + 12 + 3);
         check_against_dense::<4>(&data, Vector3::new(0.3, -0.2, 0.1));
     }
 
@@ -1387,8 +1398,8 @@ pub(crate) mod tests {
         analytic
     }
 
-    /// The tracker points' rows see the parameters and their own
-    /// tracker's frame, and nothing else.
+    /// The tracker points' rows see the parameters, their own tracker's
+    /// frame and its offsets, and nothing else.
     #[test]
     fn tracker_rows_match_central_differences_over_the_global_block() {
         let data = tracked_delta();
@@ -1398,9 +1409,12 @@ pub(crate) mod tests {
         let first = analytic.nrows() - 3 * points.len();
         for (j, point) in points.iter().enumerate() {
             let frame = problem.trackers().columns(point.tracker);
+            let offsets = problem.trackers().offset_columns(point.tracker);
             for c in 0..analytic.ncols() {
                 let seen = (0..3).any(|r| analytic[(first + 3 * j + r, c)] != 0.0);
-                let expected = c < problem.n_params() || frame.contains(&c);
+                let expected = c < problem.n_params()
+                    || frame.contains(&c)
+                    || offsets.as_ref().is_some_and(|o| o.contains(&c));
                 assert_eq!(seen, expected, "tracker point {j}, column {c}");
             }
         }

@@ -137,6 +137,10 @@ impl MechanismCalibration {
                     label: t.label.clone(),
                     frame: frame(&t.frame),
                     sigma: t.sigma(),
+                    offsets: t.offsets.iter().map(|&(value, _)| value).collect(),
+                    offset_sigmas: (!t.offsets.is_empty())
+                        .then(|| t.offsets.iter().map(|&(_, sigma)| sigma).collect())
+                        .flatten(),
                 })
                 .collect(),
             observation: self.observation.map(|o| o.to_string()),

@@ -71,6 +71,10 @@ pub struct EstimatedTracker {
     /// the fit gave one. To first order, the error `F_true⁻¹ ∘ F` as a
     /// rotation vector and a translation has this covariance.
     pub covariance: Option<Matrix6<f64>>,
+    /// The actuators' zero offsets while it measured, with their standard
+    /// deviations when the fit gave them (the actuators' unit); empty for
+    /// a tracker without offsets.
+    pub offsets: Vec<(f64, Option<f64>)>,
 }
 
 impl EstimatedTracker {
@@ -236,12 +240,18 @@ pub(crate) fn assemble(
     let g = fit.global.len();
     let gauge = gauge_directions(mechanism, &fit.global.as_slice()[..n], g)?;
     let names: Vec<String> = (parameters.iter().map(|p| p.name.clone()))
-        .chain(
-            data.observations
-                .trackers
-                .iter()
-                .flat_map(|label| FRAME_AXES.map(|axis| format!("tracker {label} {axis}"))),
-        )
+        .chain(data.observations.trackers.iter().flat_map(|tracker| {
+            let label = &tracker.label;
+            FRAME_AXES.map(|axis| format!("tracker {label} {axis}"))
+        }))
+        .chain(data.observations.trackers.iter().flat_map(|tracker| {
+            let offsets = if tracker.rehomed {
+                mechanism.actuators().len()
+            } else {
+                0
+            };
+            (1..=offsets).map(move |i| format!("tracker {} offset q{i}", tracker.label))
+        }))
         .collect();
     let estimated_balls = fit
         .centres
@@ -310,7 +320,7 @@ const FRAME_AXES: [&str; 6] = ["ω_x", "ω_y", "ω_z", "τ_x", "τ_y", "τ_z"];
 
 /// Each tracker's frame `F₀ ∘ C` from the corrections in the canonical
 /// global block `values`, with their covariance from the canonical
-/// `covariance`.
+/// `covariance`, and its offsets with their sigmas.
 fn tracker_estimates(
     data: &MechanismData,
     fit: &Fit,
@@ -318,12 +328,16 @@ fn tracker_estimates(
     covariance: Option<&DMatrix<f64>>,
 ) -> Vec<EstimatedTracker> {
     (data.observations.trackers.iter().enumerate())
-        .map(|(k, label)| {
+        .map(|(k, tracker)| {
             let start = fit.trackers.columns(k).start;
+            let offsets = fit.trackers.offset_columns(k).unwrap_or_default();
             EstimatedTracker {
-                label: label.clone(),
+                label: tracker.label.clone(),
                 frame: fit.trackers.frame(k, values).isometry(),
                 covariance: covariance.map(|c| c.fixed_view::<6, 6>(start, start).into_owned()),
+                offsets: offsets
+                    .map(|j| (values[j], covariance.map(|c| c[(j, j)].max(0.0).sqrt())))
+                    .collect(),
             }
         })
         .collect()

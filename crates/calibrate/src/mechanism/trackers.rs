@@ -2,14 +2,15 @@
 //! mechanism's frame through `F_k = F₀_k ∘ C_k`
 //! ([`TrackerFrame`]), `C_k = (Exp(ω), τ)` six unknowns of the global
 //! block (after the mechanism's parameters and the trigger height,
-//! [`super::prior::global_priors`]), without a prior.
+//! [`super::prior::global_priors`]), without a prior; a re-homed
+//! tracker's actuator offsets follow every frame, one per actuator.
 //!
 //! `F₀_k` is fixed before the fit: the rigid motion that best maps the
 //! tool points its points reach at the priors' means onto the points it
 //! measured (Kabsch), as the hexapod's own calibration starts a session of
 //! points alone. `C_k` starts at zero; what is reported is `F_k`.
 
-use nalgebra::{DVector, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector6};
+use nalgebra::{DVector, Isometry3, Matrix3, Vector6};
 use parcal_accuracy::kabsch;
 use parcal_kinematics::Vec3;
 use parcal_kinematics::mechanism::{Mechanism, Reached};
@@ -20,6 +21,7 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::prior::FRAME_UNKNOWNS;
+use crate::instruments::model::isometry;
 
 /// A tracker's points spread less than this fraction of their largest
 /// spread across their line (the second singular value of their centred
@@ -34,14 +36,19 @@ pub(crate) struct Trackers {
     references: Vec<Isometry3<f64>>,
     /// The global column of the first tracker's first unknown.
     first: usize,
+    /// The global column of each tracker's first actuator offset, if it
+    /// has offsets.
+    offsets: Vec<Option<usize>>,
+    /// The number of a tracker's offsets: the mechanism's actuators.
+    actuators: usize,
 }
 
 impl Trackers {
     /// The trackers of `data` (validated), their corrections from global
-    /// column `first` on, their references located at the parameters
-    /// `params` (module doc, [`locate_frame`]). An error names the tracker
-    /// point whose tool point cannot be reached, or the tracker whose
-    /// points do not locate its frame.
+    /// column `first` on, then their offsets, their references located at
+    /// the parameters `params` (module doc, [`locate_frame`]). An error
+    /// names the tracker point whose tool point cannot be reached, or the
+    /// tracker whose points do not locate its frame.
     pub(crate) fn locate(
         data: &MechanismData,
         params: &[f64],
@@ -51,13 +58,41 @@ impl Trackers {
         let references = (0..o.trackers.len())
             .map(|k| {
                 let indices = points_of(&o.tracker_points, k);
-                let what = format!("tracker {:?}", o.trackers[k]);
+                let what = format!("tracker {:?}", o.trackers[k].label);
                 let machine = (data.mechanism.as_ref(), data.configured.as_slice());
                 locate_frame(machine, params, &o.tracker_points, &indices, &what)
                     .map(|(frame, _)| frame)
             })
             .collect::<Result<_, _>>()?;
-        Ok(Self { references, first })
+        let actuators = data.mechanism.actuators().len();
+        let mut next = first + FRAME_UNKNOWNS * o.trackers.len();
+        let offsets = (o.trackers.iter())
+            .map(|tracker| {
+                tracker.rehomed.then(|| {
+                    next += actuators;
+                    next - actuators
+                })
+            })
+            .collect();
+        Ok(Self {
+            references,
+            first,
+            offsets,
+            actuators,
+        })
+    }
+
+    /// The global columns of tracker `k`'s actuator offsets, if it has
+    /// offsets.
+    pub(crate) fn offset_columns(&self, k: usize) -> Option<std::ops::Range<usize>> {
+        self.offsets[k].map(|start| start..start + self.actuators)
+    }
+
+    /// Tracker `k`'s actuator offsets at the global block `global`, if it
+    /// has offsets.
+    pub(crate) fn offsets<'a>(&self, k: usize, global: &'a DVector<f64>) -> Option<&'a [f64]> {
+        self.offset_columns(k)
+            .map(|columns| &global.as_slice()[columns])
     }
 
     /// The trackers' corrections in `values` (a global block at the
@@ -184,14 +219,6 @@ pub(crate) fn locate_frame(
     let tips: Vec<Vec3> = reached.iter().map(|r| r.point).collect();
     let motion = kabsch(&tips, &measured).map_err(|e| not_located(e.to_string()))?;
     Ok((isometry(motion.rotation, motion.translation), reached))
-}
-
-/// `R x + t` as an isometry.
-fn isometry(rotation: Rotation3<f64>, translation: Vec3) -> Isometry3<f64> {
-    Isometry3::from_parts(
-        Translation3::from(translation),
-        UnitQuaternion::from_rotation_matrix(&rotation),
-    )
 }
 
 /// The second singular value of the centred `points` over the first (0

@@ -167,6 +167,13 @@ pub struct TrackerRecord {
     /// The standard deviations of its correction: rotations about the
     /// mechanism's axes `x, y, z` (rad), then translations (mm).
     pub sigma: Option<[f64; 6]>,
+    /// The actuators' zero offsets while it measured, when the machine was
+    /// re-homed before (the actuators' unit; absent: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub offsets: Vec<f64>,
+    /// Their standard deviations.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_sigmas: Option<Vec<f64>>,
 }
 
 /// A mechanism calibration's record (module doc).

@@ -17,9 +17,23 @@
 //!
 //! `R_F = R_F₀ Exp(ω)` ([`PointBlock`]). The hexapod's own calibration
 //! observes its tracker points by the same block.
+//!
+//! When the machine was re-homed before the tracker measured, its
+//! actuators read with zero offsets `o` of their own (unknowns of the
+//! global block): the machine is at the readings `q + o` (`q` those given,
+//! or those the controller computes for the commanded position), and
+//!
+//! ```text
+//! dr/do = L⁻¹ R_F dT/dq,     dT/dq = dT/dx G_x⁻¹
+//! ```
+//!
+//! ([`tool_point_reading_jacobian`]: a mechanism with as many actuators
+//! as pose coordinates).
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3x6};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
+use parcal_kinematics::mechanism::{
+    Mechanism, MechanismError, Reached, check_vector, tool_point_reading_jacobian,
+};
 
 use super::commanded::{Actuation, Rows};
 use crate::{CoordinateWhitening, FrameCorrection, PointBlock};
@@ -62,6 +76,9 @@ pub struct TrackerPointRows {
     /// `dr/d(ω, τ)`, the derivative with respect to the tracker's
     /// correction.
     pub d_frame: Matrix3x6<f64>,
+    /// `dr/do`, the derivative with respect to the actuators' offsets
+    /// (3 x actuators), when the point was evaluated with offsets.
+    pub d_offsets: Option<DMatrix<f64>>,
     /// The pose the machine reached: a start for the next evaluation's
     /// forward kinematics.
     pub pose: DVector<f64>,
@@ -71,17 +88,42 @@ impl TrackerPoint {
     /// The whitened rows at true parameters `params`, configured
     /// parameters `configured` and the tracker's frame `frame` (module
     /// doc), the forward kinematics of readings started from `start` if
-    /// given ([`Actuation::tool_point`]).
+    /// given ([`Actuation::tool_point`]); with the actuators' zero
+    /// `offsets`, at the readings `q + o` and with `dr/do`.
     pub fn evaluate(
         &self,
         mechanism: &dyn Mechanism,
         params: &[f64],
         configured: &[f64],
         frame: &TrackerFrame,
+        offsets: Option<&[f64]>,
         start: Option<&[f64]>,
     ) -> Result<TrackerPointRows, MechanismError> {
-        let reached = self.at.tool_point(mechanism, params, configured, start)?;
-        Ok(self.rows(reached, frame))
+        let Some(offsets) = offsets else {
+            let reached = self.at.tool_point(mechanism, params, configured, start)?;
+            return Ok(self.rows(reached, frame));
+        };
+        check_vector(mechanism, "offsets", offsets, mechanism.actuators().len())?;
+        let (readings, commanded) = match &self.at {
+            Actuation::Readings(q) => (DVector::from_column_slice(q), None),
+            Actuation::Commanded(x) => (mechanism.inverse(configured, x)?, Some(&x[..])),
+        };
+        let shifted: Vec<f64> = readings.iter().zip(offsets).map(|(q, o)| q + o).collect();
+        let reached = Actuation::Readings(shifted).tool_point(
+            mechanism,
+            params,
+            configured,
+            start.or(commanded),
+        )?;
+        let d_tip = tool_point_reading_jacobian(mechanism, params, reached.pose.as_slice())?;
+        let mut rows = self.rows(reached, frame);
+        let d_offsets = self.weight.inverse_factor() * frame_rotation(frame) * d_tip;
+        rows.d_offsets = Some(DMatrix::from_column_slice(
+            3,
+            d_offsets.ncols(),
+            d_offsets.as_slice(),
+        ));
+        Ok(rows)
     }
 
     /// The whitened rows of the point where the machine reached `reached`,
@@ -103,14 +145,20 @@ impl TrackerPoint {
                 d_params,
             },
             d_frame: whitening * block.d_tracker,
+            d_offsets: None,
             pose: reached.pose,
         }
     }
 }
 
+/// `R_F = R_F₀ Exp(ω)`, the rotation of `frame`.
+fn frame_rotation(frame: &TrackerFrame) -> nalgebra::Matrix3<f64> {
+    frame.reference.rotation.to_rotation_matrix().into_inner() * frame.correction.rotation_matrix()
+}
+
 #[cfg(test)]
 mod tests {
-    use nalgebra::{Matrix3, Translation3, UnitQuaternion, Vector3, Vector6};
+    use nalgebra::{DMatrix, Matrix3, Translation3, UnitQuaternion, Vector3, Vector6};
 
     use super::*;
     use crate::mechanism::test_support::{delta, differences, hexapod_touch};
@@ -135,42 +183,52 @@ mod tests {
         CoordinateWhitening::from_covariance(&w).unwrap()
     }
 
-    /// `dr/dp` and `dr/d(ω, τ)` against central differences, at `point`.
+    /// `dr/dp`, `dr/d(ω, τ)` and, with `offsets`, `dr/do` against central
+    /// differences, at `point`.
     fn check(
         mechanism: &dyn Mechanism,
         params: &DVector<f64>,
         configured: &[f64],
         point: &TrackerPoint,
+        offsets: Option<&[f64]>,
     ) {
         let frame = frame();
-        let rows = point
-            .evaluate(mechanism, params.as_slice(), configured, &frame, None)
-            .unwrap();
-        let expected = frame.isometry().transform_point(
-            &point
-                .at
-                .tool_point(mechanism, params.as_slice(), configured, None)
-                .unwrap()
-                .point
-                .into(),
-        );
-        let c = expected.coords - Vector3::from(point.measured);
-        assert!((point.weight.inverse_factor() * c - &rows.rows.residual).amax() < 1e-9);
-        let d_params = differences(mechanism, params, 1e-6, |p| {
+        let residual = |p: &[f64], frame: &TrackerFrame, offsets: Option<&[f64]>| {
             point
-                .evaluate(mechanism, p, configured, &frame, None)
+                .evaluate(mechanism, p, configured, frame, offsets, None)
                 .unwrap()
                 .rows
                 .residual
-        });
-        let scale = d_params.amax().max(1.0);
-        assert!(
-            (&rows.rows.d_params - &d_params).amax() < 1e-6 * scale,
-            "dr/dp"
-        );
-        let correction = Vector6::new(0.01, -0.02, 0.03, 0.4, 0.1, -0.3);
+        };
+        let rows = point
+            .evaluate(
+                mechanism,
+                params.as_slice(),
+                configured,
+                &frame,
+                offsets,
+                None,
+            )
+            .unwrap();
+        if offsets.is_none() {
+            let reached = point
+                .at
+                .tool_point(mechanism, params.as_slice(), configured, None);
+            let seen = frame
+                .isometry()
+                .transform_point(&reached.unwrap().point.into());
+            let c = seen.coords - Vector3::from(point.measured);
+            assert!((point.weight.inverse_factor() * c - &rows.rows.residual).amax() < 1e-9);
+        }
+        let d_params = differences(mechanism, params, 1e-6, |p| residual(p, &frame, offsets));
+        let close = |analytic: &DMatrix<f64>, numeric: &DMatrix<f64>, what: &str| {
+            let scale = numeric.amax().max(1.0);
+            assert!((analytic - numeric).amax() < 1e-6 * scale, "{what}");
+        };
+        close(&rows.rows.d_params, &d_params, "dr/dp");
         let h = 1e-6;
-        for k in 0..6 {
+        let correction = Vector6::new(0.01, -0.02, 0.03, 0.4, 0.1, -0.3);
+        let d_frame = DMatrix::from_fn(3, 6, |r, k| {
             let at = |step: f64| {
                 let mut moved = correction;
                 moved[k] += step;
@@ -178,24 +236,32 @@ mod tests {
                     correction: FrameCorrection::from_params(&moved),
                     ..frame
                 };
-                point
-                    .evaluate(mechanism, params.as_slice(), configured, &frame, None)
-                    .unwrap()
-                    .rows
-                    .residual
+                residual(params.as_slice(), &frame, offsets)[r]
             };
-            let column = (at(h) - at(-h)) / (2.0 * h);
-            let scale = column.amax().max(1.0);
-            assert!(
-                (rows.d_frame.column(k) - column).amax() < 1e-6 * scale,
-                "dr/dC column {k}"
-            );
+            (at(h) - at(-h)) / (2.0 * h)
+        });
+        close(
+            &DMatrix::from_column_slice(3, 6, rows.d_frame.as_slice()),
+            &d_frame,
+            "dr/dC",
+        );
+        if let Some(offsets) = offsets {
+            let d_offsets = DMatrix::from_fn(3, offsets.len(), |r, k| {
+                let at = |step: f64| {
+                    let mut moved = offsets.to_vec();
+                    moved[k] += step;
+                    residual(params.as_slice(), &frame, Some(&moved))[r]
+                };
+                (at(h) - at(-h)) / (2.0 * h)
+            });
+            close(rows.d_offsets.as_ref().unwrap(), &d_offsets, "dr/do");
         }
     }
 
     #[test]
     fn derivatives_match_central_differences() {
-        // A delta commanded, and the hexapod read at its legs.
+        // A delta commanded, and the hexapod read at its legs; each without
+        // and with its actuators' zero offsets.
         let (delta, configured, truth) = delta();
         let point = TrackerPoint {
             tracker: 0,
@@ -203,12 +269,22 @@ mod tests {
             measured: [1400.0, -150.0, 700.0],
             weight: weight(),
         };
-        check(&delta, &truth, configured.as_slice(), &point);
+        check(&delta, &truth, configured.as_slice(), &point, None);
+        check(
+            &delta,
+            &truth,
+            configured.as_slice(),
+            &point,
+            Some(&[0.3, -0.2, 0.1]),
+        );
         let hexapod = hexapod_touch();
         let point = TrackerPoint {
             at: hexapod.touch.at.clone(),
             ..point
         };
-        check(hexapod.hexapod.as_ref(), &hexapod.params, &[], &point);
+        let (mechanism, params) = (hexapod.hexapod.as_ref(), &hexapod.params);
+        check(mechanism, params, &[], &point, None);
+        let offsets = [0.4, -0.3, 0.2, -0.1, 0.5, -0.6];
+        check(mechanism, params, &[], &point, Some(&offsets));
     }
 }
