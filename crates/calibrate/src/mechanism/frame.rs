@@ -13,9 +13,9 @@
 //! analytic derivative of its canonical frame); `J_c` maps every gauge
 //! direction to zero, so this projects the gauge out of the covariance,
 //! which is of rank `n − (number of gauge freedoms)`. The trigger height
-//! passes unchanged; a tracker's frame follows the mechanism's frame
-//! ([`super::trackers::Trackers::follow`]), and its correction is then
-//! among the differentiated unknowns.
+//! passes unchanged; a tracker's frame follows the mechanism's frame (the
+//! rigid motion of its tool points, `C ∘ A⁻¹`, docs/trackers.md), and its
+//! correction is then among the differentiated unknowns.
 
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::Mechanism;

@@ -1298,12 +1298,12 @@ pub(crate) mod tests {
         let (delta, configured, truth) = delta_off_design();
         let frames = [
             Isometry3::new(
-                Vector3::new(1200.0, -300.0, 150.0),
-                Vector3::new(0.1, -0.2, 2.5),
+                Vector3::new(-1500.0, 400.0, 90.0),
+                Vector3::new(-0.15, 0.05, 0.7),
             ),
             Isometry3::new(
-                Vector3::new(-800.0, 900.0, -40.0),
-                Vector3::new(-0.05, 0.3, -1.0),
+                Vector3::new(600.0, 1800.0, 220.0),
+                Vector3::new(0.02, -0.25, -2.2),
             ),
         ];
         let o = &mut data.observations;
