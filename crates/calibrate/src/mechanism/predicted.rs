@@ -386,7 +386,9 @@ fn predict_sample(
                 d_params: g_p,
                 noise: DMatrix::identity(actuators, actuators) * variance,
             };
-            project_out(HeldOut::Observation(observation), &local, g)?
+            // J = G_x: a pose its readings do not locate is a singular one.
+            project_out(HeldOut::Observation(observation), &local, g)
+                .ok_or(MechanismError::Singular)?
         }
     };
     Ok(Some(rows))
@@ -475,9 +477,9 @@ fn predict_balls(
         d_params: &d_params,
         noise,
     };
-    project_out(held_out.clone(), &local, g).map_err(|e| MechanismCalibrationError::InvalidData {
+    project_out(held_out.clone(), &local, g).ok_or_else(|| MechanismCalibrationError::InvalidData {
         what: held_out.to_string(),
-        reason: format!("the held-out touches do not locate the centres: {e}"),
+        reason: "the held-out touches do not locate the centres".to_string(),
     })
 }
 
@@ -559,7 +561,7 @@ fn predict_tracker(
     } else {
         "its frame"
     };
-    project_out(held_out, &local, g).map_err(|_| MechanismCalibrationError::InvalidData {
+    project_out(held_out, &local, g).ok_or_else(|| MechanismCalibrationError::InvalidData {
         what,
         reason: format!("the held-out points do not locate {located}"),
     })
@@ -579,25 +581,21 @@ struct LocalRows<'a> {
 }
 
 /// `local`'s rows with its local unknowns projected out (module doc), the
-/// derivative widened to `g` columns; an error when `J` is not of full
-/// column rank (the unknowns not located).
-fn project_out(
-    observation: HeldOut,
-    local: &LocalRows,
-    g: usize,
-) -> Result<PredictedRows, MechanismError> {
+/// derivative widened to `g` columns; `None` when `J` is not of full
+/// column rank (the rows do not locate the unknowns).
+fn project_out(observation: HeldOut, local: &LocalRows, g: usize) -> Option<PredictedRows> {
     let j = local.d_local;
     let (m, u) = (j.nrows(), j.ncols());
     let spread = (j.transpose() * j).symmetric_eigenvalues();
     // False for a rank below u, and for a value that is not a number.
     let located = spread.min() > 1e-12 * spread.max();
     if m < u || !located {
-        return Err(MechanismError::Singular);
+        return None;
     }
     let mut q_t = DMatrix::identity(m, m);
     j.clone().qr().q_tr_mul(&mut q_t);
     let basis_t = q_t.rows(u, m - u);
-    Ok(PredictedRows {
+    Some(PredictedRows {
         observation,
         residuals: basis_t * &local.residuals,
         noise: basis_t * &local.noise * basis_t.transpose(),
