@@ -223,7 +223,7 @@ pub(crate) fn assemble(
         ));
     }
     let estimated = described.len();
-    let sigma = |k: usize| frame.covariance.as_ref().map(|c| c[(k, k)].max(0.0).sqrt());
+    let sigma = |k: usize| marginal_sigma(frame.covariance.as_ref(), k);
     let trackers = tracker_estimates(data, &fit, &frame.values, frame.covariance.as_ref());
     let parameters: Vec<EstimatedParameter> = described
         .into_iter()
@@ -315,6 +315,12 @@ pub(crate) fn assemble(
     Ok(calibration)
 }
 
+/// The standard deviation of unknown `k` of `covariance`, if given (a
+/// rounding-negative variance as zero).
+fn marginal_sigma(covariance: Option<&DMatrix<f64>>, k: usize) -> Option<f64> {
+    covariance.map(|c| c[(k, k)].max(0.0).sqrt())
+}
+
 /// The names of a tracker frame correction's unknowns, in their order.
 const FRAME_AXES: [&str; 6] = ["ω_x", "ω_y", "ω_z", "τ_x", "τ_y", "τ_z"];
 
@@ -336,7 +342,7 @@ fn tracker_estimates(
                 frame: fit.trackers.frame(k, values).isometry(),
                 covariance: covariance.map(|c| c.fixed_view::<6, 6>(start, start).into_owned()),
                 offsets: offsets
-                    .map(|j| (values[j], covariance.map(|c| c[(j, j)].max(0.0).sqrt())))
+                    .map(|j| (values[j], marginal_sigma(covariance, j)))
                     .collect(),
             }
         })
