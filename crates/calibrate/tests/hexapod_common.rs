@@ -11,6 +11,7 @@
 
 use std::path::{Path, PathBuf};
 
+use nalgebra::Isometry3;
 use parcal_calibrate::mechanism::{
     CalibratedMechanism, MechanismData, MechanismOptions, ObservationKind, Observations,
     calibrate_mechanism, compensate_mechanism, validate_mechanism,
@@ -176,7 +177,8 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
     // calibration, its frame six unknowns; its points weighted as the own
     // path weighs them. Then the legs re-homed between the sessions: the
     // second tracker's six leg offsets, with the session model's prior.
-    // Poses, and leg offsets with the scales unknowns, are refused.
+    // Then poses beside the points (the body frame). Leg offsets with the
+    // scales unknowns, and a body re-mounted between sessions, are refused.
     let tracker = TrackerScenario {
         kind: TrackerKind::Points,
         true_scale: [1.0; 6],
@@ -194,7 +196,7 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
         println!("{simulation:?} with tracker points:");
         compare_on(&dataset, &CalibrationOptions::simulation(simulation));
     }
-    let rehomed = TrackerScenario {
+    let rehomed_scenario = TrackerScenario {
         session_model: SessionModel {
             leg_offset_sigma: Some(0.5),
             body_origin_sigma: None,
@@ -202,25 +204,34 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
         },
         ..tracker.clone()
     };
-    let rehomed = simulate_mixed(&Scenario::paper(), &rehomed, 3)
+    let rehomed = simulate_mixed(&Scenario::paper(), &rehomed_scenario, 3)
         .unwrap()
         .dataset;
     for simulation in [Simulation::I, Simulation::IV] {
         println!("{simulation:?} with tracker points, the legs re-homed:");
         compare_on(&rehomed, &CalibrationOptions::simulation(simulation));
     }
-    // Poses and later sessions' leg offsets are refused by name.
-    let both = TrackerScenario {
-        kind: TrackerKind::Both,
-        ..tracker.clone()
-    };
-    let with_poses = simulate_mixed(&Scenario::paper(), &both, 3)
-        .unwrap()
-        .dataset;
-    let error = MechanismData::from_hexapod_touches(&with_poses, &CalibrationOptions::default())
-        .unwrap_err()
-        .to_string();
-    assert!(error.starts_with("tracker poses: "), "{error}");
+    // Tracker poses beside the points: the body frame six unknowns of the
+    // global block, one row per leg; with the legs re-homed too.
+    for scenario in [&tracker, &rehomed_scenario] {
+        let both = TrackerScenario {
+            kind: TrackerKind::Both,
+            ..scenario.clone()
+        };
+        let with_poses = simulate_mixed(&Scenario::paper(), &both, 3)
+            .unwrap()
+            .dataset;
+        assert_eq!(with_poses.tracker.poses.len(), 30);
+        for simulation in [Simulation::I, Simulation::IV] {
+            println!(
+                "{simulation:?} with tracker poses and points, leg offsets {:?}:",
+                scenario.session_model.leg_offset_sigma
+            );
+            compare_on(&with_poses, &CalibrationOptions::simulation(simulation));
+        }
+    }
+    // Later sessions' leg offsets with the scales unknown, and a body
+    // re-mounted between sessions, are refused by name.
     let mut offsets = rehomed.clone();
     offsets.machine.actuator.scale_sigma = Some([0.01; 6]);
     let error = MechanismData::from_hexapod_touches(&offsets, &CalibrationOptions::default())
@@ -230,6 +241,84 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
         error.starts_with("the session model's leg offsets: "),
         "{error}"
     );
+    let remounted = TrackerScenario {
+        kind: TrackerKind::Both,
+        session_model: SessionModel {
+            body_origin_sigma: Some(1.0),
+            ..rehomed_scenario.session_model
+        },
+        ..tracker.clone()
+    };
+    let remounted = simulate_mixed(&Scenario::paper(), &remounted, 3)
+        .unwrap()
+        .dataset;
+    let error = MechanismData::from_hexapod_touches(&remounted, &CalibrationOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with("the session model's body origins and rotations: "),
+        "{error}"
+    );
+}
+
+#[test]
+fn motion_capture_poses_through_the_interface_are_near_the_own_paths() {
+    // fixtures/jugglebot: 108 poses by motion capture, the actuators'
+    // scales unknown. The common calibration's rows are in revolutions,
+    // whitened at the design's scales `s0`; the own path's in leg length,
+    // also whitened at `s0`, so that each leg's row weighs `s / s0` times
+    // the common one's at the estimate `s`. Reweighting rows by factors
+    // within `1 ± δ` moves a least-squares estimate by at most about `δ
+    // √cost` of its sigmas (the weighted residuals' change, `δ |r|`, seen
+    // through the sigma-scaled normal equations): the bound asserted.
+    let jugglebot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/jugglebot");
+    let dataset = Dataset::read(&jugglebot).unwrap();
+    let options = CalibrationOptions::default();
+    let own = calibrate(&dataset, &options, &mut |_| {}).unwrap();
+    assert!(own.converged());
+    let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
+    let common = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
+    assert!(common.converged());
+    let names = own.names();
+    let sigmas = own.global_sigmas().unwrap();
+    let design = dataset.machine.actuator.scale;
+    let mut delta = 0.0f64;
+    let mut worst = 0.0f64;
+    for parameter in &common.parameters {
+        // The tool is not in the own path's layout: no pose sees it.
+        let Some(k) = names.iter().position(|name| *name == parameter.name) else {
+            assert!(parameter.name.ends_with("_eT"), "{}", parameter.name);
+            continue;
+        };
+        worst = worst.max(((parameter.value - own.global[k]) / sigmas[k]).abs());
+        if let Some(leg) = parameter.name.strip_prefix("s_") {
+            let i: usize = leg.parse::<usize>().unwrap() - 1;
+            delta = delta.max((own.global[k] / design[i] - 1.0).abs());
+        }
+    }
+    let body = common.body.as_ref().unwrap();
+    let instruments = own.instruments.as_ref().unwrap();
+    let values = instruments.model.values(&own.global);
+    let own_body = instruments.model.body_frame(&values, 0);
+    let own_frame = instruments.model.tracker_frame(&values, 0);
+    worst = worst.max(frame_difference(&own_body, &body.frame, body.sigma()));
+    let tracker = &common.trackers[0];
+    worst = worst.max(frame_difference(
+        &own_frame,
+        &tracker.frame,
+        tracker.sigma(),
+    ));
+    let test = common.global_test.unwrap();
+    let cost = test.variance_factor * test.redundancy as f64;
+    let bound = delta * cost.sqrt();
+    println!(
+        "{} and {} iterations; worst |difference| {worst:.3} sigma; scales within {delta:.4} of the design, bound {bound:.2} sigma; variance factors {:.4} (own) and {:.4}",
+        own.iterations(),
+        common.iterations,
+        own.global_test.unwrap().variance_factor,
+        test.variance_factor
+    );
+    assert!(worst < bound, "{worst} against {bound}");
 }
 
 /// Calibrates fixtures/paper-seed1 both ways under `options` and compares.
@@ -255,7 +344,7 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
         .count();
     let per_ball_radius = usize::from(options.radius == RadiusModel::PerBall);
     let tied_unknowns = tied / 3 * (3 + per_ball_radius);
-    let frames = 6 * common.trackers.len();
+    let frames = 6 * (common.trackers.len() + usize::from(common.body.is_some()));
     let offsets: usize = common.trackers.iter().map(|t| t.offsets.len()).sum();
     assert_eq!(
         common.parameters.len() + tied_unknowns + frames + offsets,
@@ -307,23 +396,20 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
         let mut worst_frame = 0.0f64;
         for (session, tracker) in common.trackers.iter().enumerate() {
             let own_frame = instruments.model.tracker_frame(&values, session);
-            let error = own_frame.inverse() * tracker.frame;
-            let sigma = tracker.sigma().unwrap();
-            let components = error
-                .rotation
-                .scaled_axis()
-                .iter()
-                .chain(error.translation.vector.iter())
-                .copied()
-                .collect::<Vec<f64>>();
-            for (e, s) in components.iter().zip(sigma) {
-                worst_frame = worst_frame.max((e / s).abs());
-            }
+            worst_frame = worst_frame.max(frame_difference(
+                &own_frame,
+                &tracker.frame,
+                tracker.sigma(),
+            ));
             for (&(offset, sigma), own) in tracker.offsets.iter().zip(values.offsets[session]) {
                 worst_frame = worst_frame.max(((offset - own) / sigma.unwrap()).abs());
             }
         }
-        println!("trackers' frames: worst |difference| {worst_frame:.2e} sigma");
+        if let Some(body) = &common.body {
+            let own_body = instruments.model.body_frame(&values, 0);
+            worst_frame = worst_frame.max(frame_difference(&own_body, &body.frame, body.sigma()));
+        }
+        println!("trackers' and body frames: worst |difference| {worst_frame:.2e} sigma");
         assert!(worst_frame < 2.0 * SIGMA_TOLERANCE, "{worst_frame:e}");
     }
     // The checks: one row per contact (three under eq. 10); the same
@@ -336,7 +422,10 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     };
     assert_eq!(
         common.data_rows,
-        rows * dataset.measurements.len() + distances + 3 * dataset.tracker.points.len()
+        rows * dataset.measurements.len()
+            + distances
+            + 3 * dataset.tracker.points.len()
+            + 6 * dataset.tracker.poses.len()
     );
     // One w-test a contact, under either observation, as the own path
     // counts them: the same critical value.
@@ -360,6 +449,7 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
         ObservationKind::Touch => ObservationId::Contact(index),
         ObservationKind::BallDistance => ObservationId::Distance(index),
         ObservationKind::TrackerPoint => ObservationId::Point(index),
+        ObservationKind::TrackerPose => ObservationId::Pose(index),
         other => panic!("a hexapod has no {}", other.name()),
     };
     assert_eq!(own_worst.observation(), expected);
@@ -440,9 +530,21 @@ fn balls_tied_by_calibrated_distances_are_the_own_paths() {
     compare_on(&dataset, &CalibrationOptions::default());
 }
 
+/// The largest component of `own⁻¹ ∘ common` (rotation vector, then
+/// translation) in units of `sigma`.
+fn frame_difference(own: &Isometry3<f64>, common: &Isometry3<f64>, sigma: Option<[f64; 6]>) -> f64 {
+    let error = own.inverse() * common;
+    let sigma = sigma.unwrap();
+    (error.rotation.scaled_axis().iter())
+        .chain(error.translation.vector.iter())
+        .zip(sigma)
+        .map(|(e, s)| (e / s).abs())
+        .fold(0.0, f64::max)
+}
+
 #[test]
 fn what_the_common_calibration_does_not_model_is_refused_by_name() {
-    // Motion-capture poses: the body frame.
+    // Motion-capture poses alone, without a prior: the tool.
     let jugglebot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/jugglebot");
     let dataset = Dataset::read(&jugglebot).unwrap();
     let eq9 = CalibrationOptions::simulation(Simulation::I);
@@ -451,8 +553,26 @@ fn what_the_common_calibration_does_not_model_is_refused_by_name() {
             .unwrap_err()
             .to_string()
     };
-    let error = refusal(&dataset, &eq9);
-    assert!(error.starts_with("tracker poses: "), "{error}");
+    let no_prior = CalibrationOptions {
+        prior: PriorMode::None,
+        ..eq9.clone()
+    };
+    let error = refusal(&dataset, &no_prior);
+    assert!(error.starts_with("the tool offset: "), "{error}");
+    // Held out, poses are not judged: the body frame on new data.
+    let held_out = MechanismData::hexapod_held_out(&dataset).unwrap();
+    let data =
+        MechanismData::from_hexapod_touches(&dataset, &CalibrationOptions::default()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
+    let calibrated = CalibratedMechanism::of_calibration(&calibration).unwrap();
+    let error = validate_mechanism(&calibrated, &held_out, 0.05)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with("tracker pose 0: held-out tracker poses are not judged"),
+        "{error}"
+    );
     let dataset = Dataset::read(&fixture()).unwrap();
     // Readings no pose reaches (legs 0 and 1000 mm out in turn), at two
     // contacts: the first in the file is named, whichever thread met it.

@@ -295,13 +295,30 @@ fn the_default_options_through_the_common_calibration_are_the_own() {
 }
 
 #[test]
-fn what_the_common_calibration_does_not_take_is_refused_by_name() {
-    // Motion-capture poses: the body frame.
+fn motion_capture_poses_go_through_the_common_calibration() {
+    // Jugglebot's poses: one tracker and the body frame, each located
+    // with its sigmas (the library's test compares the estimate with the
+    // own path's). Without a prior the tool, which no pose sees, is
+    // refused by name, and nothing is written.
     let temp = tempfile::tempdir().unwrap();
     let files = ["machine.json", "poses.csv"];
     let data = copy_fixture("jugglebot", temp.path(), &files);
-    let out = temp.path().join("calibration.json");
-    let error = fails(&["calibrate", s(&data), "--common", "--out", s(&out)]);
-    assert!(error.contains("tracker poses: "), "{error}");
-    assert!(!out.exists());
+    let out = temp.path().join("common.json");
+    ok(&["calibrate", s(&data), "--common", "--out", s(&out)]);
+    let common = read(&out);
+    assert_eq!(common["trackers"].as_array().unwrap().len(), 1);
+    let sigma = common["body"]["sigma"].as_array().unwrap();
+    assert!(sigma.iter().all(|s| s.as_f64().unwrap() > 0.0));
+    let refused = temp.path().join("refused.json");
+    let error = fails(&[
+        "calibrate",
+        s(&data),
+        "--common",
+        "--sim",
+        "I",
+        "--out",
+        s(&refused),
+    ]);
+    assert!(error.contains("the tool offset: "), "{error}");
+    assert!(!refused.exists());
 }

@@ -33,8 +33,8 @@ use crate::derivatives::{SolutionJacobian, TipDerivatives};
 use crate::forward::step;
 use crate::forward_batch::{LANES, PivotOrder, forward_jacobian_batch};
 use crate::mechanism::{
-    Actuator, Mechanism, MechanismError, Parameter, PoseCoordinate, Reached, ReadingJacobians,
-    ToolPoint, check_params, check_vector, tool_points_one_by_one,
+    Actuator, Mechanism, MechanismError, Parameter, PlatformPose, PoseCoordinate, Reached,
+    ReadingJacobians, ToolPoint, check_params, check_vector, tool_points_one_by_one,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -421,6 +421,20 @@ impl Mechanism for Hexapod {
         ))
     }
 
+    /// The platform's pose itself: `T = (R, t)`.
+    fn platform_frame(&self, pose: &[f64]) -> Result<Isometry3<f64>, MechanismError> {
+        self.pose(pose)
+    }
+
+    /// `x = (t, r)` of the frame; `dx/dε = I`, the pose's increments being
+    /// `ε` ([`Mechanism::retract`]).
+    fn pose_at_platform(&self, frame: &Isometry3<f64>) -> Result<PlatformPose, MechanismError> {
+        Ok(PlatformPose {
+            pose: pose_vector(frame),
+            d_frame: DMatrix::identity(6, 6),
+        })
+    }
+
     fn retract(&self, pose: &[f64], increment: &[f64]) -> DVector<f64> {
         pose_vector(&step(
             &pose_of(pose),
@@ -589,6 +603,47 @@ mod tests {
                 "pose increment {k}"
             );
         }
+    }
+
+    /// The pose at a platform frame is the frame's, and `G_x dx/dε` is
+    /// the derivative of the readings by a change `ε = (δt, δω)` of the
+    /// frame, against central differences.
+    #[test]
+    fn the_pose_at_a_platform_frame_moves_with_the_frame() {
+        let hexapod = hexapod();
+        let p = design(&hexapod);
+        let frame = sample_pose();
+        let at = hexapod.pose_at_platform(&frame).unwrap();
+        let back = hexapod.platform_frame(at.pose.as_slice()).unwrap();
+        assert!((back.to_homogeneous() - frame.to_homogeneous()).amax() < 1e-12);
+        let readings = |e: &Vector6<f64>| {
+            let moved = Isometry3::from_parts(
+                (frame.translation.vector + e.fixed_rows::<3>(0)).into(),
+                nalgebra::UnitQuaternion::from_scaled_axis(e.fixed_rows::<3>(3).into_owned())
+                    * frame.rotation,
+            );
+            let x = hexapod.pose_at_platform(&moved).unwrap().pose;
+            hexapod.inverse(p.as_slice(), x.as_slice()).unwrap()
+        };
+        let jacobians = hexapod
+            .reading_jacobians(p.as_slice(), at.pose.as_slice())
+            .unwrap();
+        let analytic = &jacobians.d_pose * &at.d_frame;
+        let h = 1e-6;
+        for k in 0..6 {
+            let step = Vector6::ith(k, h);
+            let column = (readings(&step) - readings(&-step)) / (2.0 * h);
+            // Truncation ~h^2 * 400 mm, rounding ~1e-16 * 700 mm / 1e-6.
+            assert!(
+                (column - analytic.column(k)).amax() < 1e-7,
+                "frame change {k}"
+            );
+        }
+        let delta = crate::delta::LinearDelta::typical();
+        assert!(matches!(
+            delta.pose_at_platform(&frame),
+            Err(MechanismError::NoModel { .. })
+        ));
     }
 
     #[test]

@@ -51,6 +51,17 @@
 //! the readings move the tool point: three transposed solves instead of
 //! one per parameter.
 //!
+//! # The platform frame
+//!
+//! A tracker that measures a rigid body on the moving platform (a 6-dof
+//! probe, a motion-capture body) sees the platform's frame, not one point:
+//! [`Mechanism::platform_frame`] is the rigid motion (platform → base) at
+//! a pose, and [`Mechanism::pose_at_platform`] its inverse with `dx/dε`,
+//! `ε = (δt, δω)` a change of the frame (`t → t + δt`, `R → Exp(δω) R`).
+//! Only a mechanism whose pose fixes an orientation has them (the
+//! hexapod); a delta's or a cable robot's effector is a point to its
+//! model.
+//!
 //! # Gauge
 //!
 //! Some parameter combinations change no measurement: a rigid motion of the
@@ -63,7 +74,7 @@
 
 use std::borrow::Cow;
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use crate::KinematicsError;
 
@@ -145,6 +156,15 @@ pub struct ToolPoint {
     pub d_params: DMatrix<f64>,
     /// `dT/dx` (3 x pose increment), `x` stepped by [`Mechanism::retract`].
     pub d_pose: DMatrix<f64>,
+}
+
+/// The pose at a platform frame ([`Mechanism::pose_at_platform`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlatformPose {
+    /// `x`.
+    pub pose: DVector<f64>,
+    /// `dx/dε` (pose increment × 6), `ε = (δt, δω)`.
+    pub d_frame: DMatrix<f64>,
 }
 
 /// A quantity of the machine that is a known function of its parameters
@@ -377,11 +397,35 @@ pub trait Mechanism: Send + Sync {
         })
     }
 
+    /// The platform's frame (platform → base) at `pose` (module doc). By
+    /// default a mechanism's pose fixes no orientation: an error.
+    fn platform_frame(&self, pose: &[f64]) -> Result<Isometry3<f64>, MechanismError> {
+        let _ = pose;
+        Err(no_platform_frame(self))
+    }
+
+    /// The pose `x` at which the platform's frame is `frame`, and `dx/dε`
+    /// (pose increment × 6), `ε = (δt, δω)` with `t → t + δt`, `R → Exp(δω)
+    /// R` (module doc). By default an error, as for
+    /// [`Mechanism::platform_frame`].
+    fn pose_at_platform(&self, frame: &Isometry3<f64>) -> Result<PlatformPose, MechanismError> {
+        let _ = frame;
+        Err(no_platform_frame(self))
+    }
+
     /// Whether `pose` is within the mechanism's limits (stroke, joint
     /// angles, workspace); the first limit violated otherwise. Every pose
     /// the inverse kinematics accepts by default.
     fn check_feasible(&self, params: &[f64], pose: &[f64]) -> Result<(), MechanismError> {
         self.inverse(params, pose).map(|_| ())
+    }
+}
+
+/// The error of a mechanism without a platform frame.
+fn no_platform_frame<M: Mechanism + ?Sized>(mechanism: &M) -> MechanismError {
+    MechanismError::NoModel {
+        mechanism: mechanism.name().to_string(),
+        what: "platform orientation (its pose is a point)".to_string(),
     }
 }
 

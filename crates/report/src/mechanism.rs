@@ -7,6 +7,7 @@
 //! the record's or computed from it.
 
 use parcal_calibrate::mechanism::ObservationKind;
+use parcal_dataset::FrameRecord;
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use plotters::prelude::*;
 
@@ -305,34 +306,39 @@ pub const BALL_HEADER: [&str; 5] = [
 
 /// The trackers' table: each frame's translation and rotation (as a
 /// rotation vector, degrees) from the mechanism's canonical frame, and
-/// their sigmas.
+/// their sigmas; then the body frame the tracker poses saw, if any, from
+/// the body's frame to the platform's.
 pub fn tracker_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
-    calibration
-        .trackers
-        .iter()
-        .map(|tracker| {
-            let [x, y, z] = tracker.frame.translation;
-            let [qx, qy, qz, qw] = tracker.frame.rotation;
-            let rotation = rotation_vector_degrees([qx, qy, qz, qw]);
-            let (rotation_sigmas, translation_sigmas) = tracker.sigma.map_or_else(
-                || ("-".to_string(), "-".to_string()),
-                |s| {
-                    let degrees = s.map(f64::to_degrees);
-                    (
-                        format!("{:.4}, {:.4}, {:.4}", degrees[0], degrees[1], degrees[2]),
-                        format!("{:.4}, {:.4}, {:.4}", s[3], s[4], s[5]),
-                    )
-                },
-            );
-            vec![
-                tracker.label.clone(),
-                format!("{x:.3}, {y:.3}, {z:.3}"),
-                translation_sigmas,
-                format!("{:.4}, {:.4}, {:.4}", rotation[0], rotation[1], rotation[2]),
-                rotation_sigmas,
-            ]
-        })
+    (calibration.trackers.iter())
+        .map(|tracker| frame_row(&tracker.label, &tracker.frame, tracker.sigma))
+        .chain((calibration.body.iter()).map(|body| frame_row(BODY_LABEL, &body.frame, body.sigma)))
         .collect()
+}
+
+/// The label of the body frame's row in [`tracker_rows`].
+pub const BODY_LABEL: &str = "body (on the platform)";
+
+/// A frame's row of [`tracker_rows`].
+fn frame_row(label: &str, frame: &FrameRecord, sigma: Option<[f64; 6]>) -> Vec<String> {
+    let [x, y, z] = frame.translation;
+    let rotation = rotation_vector_degrees(frame.rotation);
+    let (rotation_sigmas, translation_sigmas) = sigma.map_or_else(
+        || ("-".to_string(), "-".to_string()),
+        |s| {
+            let degrees = s.map(f64::to_degrees);
+            (
+                format!("{:.4}, {:.4}, {:.4}", degrees[0], degrees[1], degrees[2]),
+                format!("{:.4}, {:.4}, {:.4}", s[3], s[4], s[5]),
+            )
+        },
+    );
+    vec![
+        label.to_string(),
+        format!("{x:.3}, {y:.3}, {z:.3}"),
+        translation_sigmas,
+        format!("{:.4}, {:.4}, {:.4}", rotation[0], rotation[1], rotation[2]),
+        rotation_sigmas,
+    ]
 }
 
 /// One sentence per re-homed tracker: its actuators' zero offsets.
@@ -564,6 +570,12 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
             Tone::Note,
             "Each tracker's frame maps the mechanism's canonical frame to the tracker's (x_tracker = R x + t); its sigmas are of rotations about the mechanism's axes and of translations along them.".into(),
         ));
+        if calibration.body.is_some() {
+            blocks.push(Block::Paragraph(
+                Tone::Note,
+                format!("The {BODY_LABEL}'s frame, which the tracker poses measured, maps the body's frame to the platform's (x_platform = R x + t)."),
+            ));
+        }
         let offsets = tracker_offset_sentences(calibration);
         if !offsets.is_empty() {
             blocks.push(Block::List(Tone::Plain, offsets));

@@ -20,6 +20,7 @@ use parcal_dataset::mechanism::{
 };
 use parcal_dataset::{
     ARTEFACTS_FILE, HEXAPOD, MEASUREMENTS_FILE, POINTS_FILE as HEXAPOD_POINTS_FILE,
+    POSES_FILE as HEXAPOD_POSES_FILE,
 };
 
 use crate::instruments::{test_record, test_statement};
@@ -99,6 +100,10 @@ impl Files {
             ObservationKind::Touch => self.touches(),
             ObservationKind::BallDistance => return Some(self.ball_distances()),
             ObservationKind::TrackerPoint => self.tracker_points(),
+            ObservationKind::TrackerPose => match self {
+                Self::Hexapod => HEXAPOD_POSES_FILE,
+                Self::Mechanism => return None,
+            },
             ObservationKind::Point => return None,
         };
         Some((file, true))

@@ -6,11 +6,11 @@
 use std::fmt;
 use std::sync::Arc;
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, Isometry3};
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
     Actuation, BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES,
-    PartDistance, PointSample, ProbeHeight, TrackerPoint,
+    PartDistance, PointSample, ProbeHeight, TrackerPoint, TrackerPose,
 };
 
 use super::correlation::check_correlation;
@@ -44,7 +44,8 @@ pub const MAX_POSE_COORDINATES: usize = 6;
 /// global block (a calibration uses one per placement of the instrument,
 /// a handful).
 pub const MAX_TRACKERS: usize = 16;
-/// The fewest points of a tracker: three not on a line locate its frame.
+/// The fewest points of a tracker (its poses' body origins counted as
+/// points): three not on a line locate its frame.
 pub const MIN_POINTS_PER_TRACKER: usize = 3;
 
 /// The observations, by kind.
@@ -73,6 +74,13 @@ pub struct Observations {
     pub trackers: Vec<Tracker>,
     /// Points the trackers measured.
     pub tracker_points: Vec<TrackerPoint>,
+    /// Poses of a body on the platform the trackers measured.
+    pub tracker_poses: Vec<TrackerPose>,
+    /// `B₀`, the reference of the body frame the tracker poses see (body →
+    /// platform; [`parcal_observe::mechanism::BodyFrame`]): the fit's start,
+    /// the body frame's correction six unknowns of the global block when
+    /// there are tracker poses. The identity by default.
+    pub body_reference: Isometry3<f64>,
 }
 
 /// An instrument at one placement, measuring tool points in its own frame
@@ -160,6 +168,7 @@ impl Observations {
             ObservationKind::Touch => self.touches.len(),
             ObservationKind::BallDistance => self.ball_distances.len(),
             ObservationKind::TrackerPoint => self.tracker_points.len(),
+            ObservationKind::TrackerPose => self.tracker_poses.len(),
         }
     }
 
@@ -197,6 +206,7 @@ impl Observations {
             ObservationKind::Touch => drop(rest.touches.remove(k)),
             ObservationKind::BallDistance => drop(rest.ball_distances.remove(k)),
             ObservationKind::TrackerPoint => drop(rest.tracker_points.remove(k)),
+            ObservationKind::TrackerPose => drop(rest.tracker_poses.remove(k)),
         }
         rest
     }
@@ -534,7 +544,7 @@ impl MechanismData {
         };
         check_balls(observations, check_at)?;
         check_ball_distances(observations)?;
-        check_tracker_points(observations, actuators == coordinates, check_at)?;
+        check_tracker_points(observations, mechanism, actuators == coordinates, check_at)?;
         let quantities = mechanism.quantities();
         for (k, measured) in observations.quantities.iter().enumerate() {
             let id = at(ObservationKind::Quantity, k);
@@ -637,14 +647,16 @@ fn check_balls(
 }
 
 /// At most [`MAX_TRACKERS`] trackers, each with at least
-/// [`MIN_POINTS_PER_TRACKER`] points, offsets (with a finite and positive
+/// [`MIN_POINTS_PER_TRACKER`] points and poses, offsets (with a finite and positive
 /// sigma) only for a mechanism of as many actuators as pose coordinates
 /// (`square`); every tracker point of a tracker
 /// that exists, where the machine was put as `check_at` accepts, its
 /// measured point finite and its weight's `L⁻¹` finite with a positive
-/// diagonal.
+/// diagonal; every tracker pose the same, at readings, on a mechanism
+/// with a platform frame.
 fn check_tracker_points(
     observations: &Observations,
+    mechanism: &dyn Mechanism,
     square: bool,
     check_at: impl Fn(ObservationRef, &Actuation) -> Result<(), MechanismCalibrationError>,
 ) -> Result<(), MechanismCalibrationError> {
@@ -706,19 +718,101 @@ fn check_tracker_points(
         }
         points_of[point.tracker] += 1;
     }
-    match points_of
-        .iter()
-        .position(|&count| count < MIN_POINTS_PER_TRACKER)
-    {
+    let mut poses_of = vec![0usize; trackers];
+    check_tracker_poses(observations, mechanism, &mut poses_of)?;
+    match (0..trackers).find(|&t| points_of[t] + poses_of[t] < MIN_POINTS_PER_TRACKER) {
         Some(t) => Err(MechanismCalibrationError::InvalidData {
             what: format!("tracker {:?}", observations.trackers[t].label),
-            reason: format!(
-                "it has {} points; its frame needs at least {MIN_POINTS_PER_TRACKER} not on a line",
-                points_of[t]
-            ),
+            reason: match poses_of[t] {
+                0 => format!(
+                    "it has {} points; its frame needs at least {MIN_POINTS_PER_TRACKER} not on a line",
+                    points_of[t]
+                ),
+                poses => format!(
+                    "it has {} points and {poses} poses; its frame needs at least {MIN_POINTS_PER_TRACKER} of them (the poses by their body's origin) not on a line",
+                    points_of[t]
+                ),
+            },
         }),
         None => Ok(()),
     }
+}
+
+/// Every tracker pose of a tracker that exists, at as many finite readings
+/// as `mechanism` has actuators, on a mechanism with a platform frame, its
+/// measured frame finite and its weight's `L⁻¹` square of that size, finite
+/// with a positive diagonal; each counted in its tracker's `poses_of`.
+fn check_tracker_poses(
+    observations: &Observations,
+    mechanism: &dyn Mechanism,
+    poses_of: &mut [usize],
+) -> Result<(), MechanismCalibrationError> {
+    let actuators = mechanism.actuators().len();
+    let name = mechanism.name();
+    let trackers = poses_of.len();
+    let frame = match observations.tracker_poses.first() {
+        Some(_) => {
+            let pose = vec![0.0; mechanism.pose_coordinates().len()];
+            mechanism.platform_frame(&pose).map(|_| ())
+        }
+        None => Ok(()),
+    };
+    let body = observations.body_reference.to_homogeneous();
+    if !body.iter().all(|v| v.is_finite()) {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "the body frame's reference".to_string(),
+            reason: "it has a value that is not finite".to_string(),
+        });
+    }
+    for (k, pose) in observations.tracker_poses.iter().enumerate() {
+        let id = ObservationRef {
+            kind: ObservationKind::TrackerPose,
+            index: k,
+        };
+        if let Err(e) = &frame {
+            return Err(observation_error(
+                id,
+                format!("the {name} has no platform frame a pose could see: {e}"),
+            ));
+        }
+        if pose.tracker >= trackers {
+            return Err(observation_error(
+                id,
+                format!(
+                    "it is of tracker {}, and there are {trackers} trackers",
+                    pose.tracker
+                ),
+            ));
+        }
+        if pose.readings.len() != actuators {
+            return Err(observation_error(
+                id,
+                format!(
+                    "{} readings for the {actuators} actuators of the {name}",
+                    pose.readings.len()
+                ),
+            ));
+        }
+        check_values(id, "readings", &pose.readings)?;
+        check_values(
+            id,
+            "measured frame",
+            pose.measured.to_homogeneous().as_slice(),
+        )?;
+        let w = &pose.weight;
+        if w.shape() != (actuators, actuators)
+            || !(w.iter().all(|v| v.is_finite()) && w.diagonal().min() > 0.0)
+        {
+            return Err(observation_error(
+                id,
+                format!(
+                    "its weight is not the {actuators} x {actuators} whitening of a positive definite covariance"
+                ),
+            ));
+        }
+        poses_of[pose.tracker] += 1;
+    }
+    Ok(())
 }
 
 /// Every ball distance between two distinct balls that exist, of a finite

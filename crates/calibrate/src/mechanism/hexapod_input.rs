@@ -49,27 +49,39 @@
 //!   hexapod calibration weighs it at its initial estimate (the
 //!   instrument's position sigma and the actuators' repeatability through
 //!   `dT/dq`, in the instrument's frame, [`InstrumentRows::whiten`]).
+//! - Each row of poses.csv: a [`TrackerPose`] of its session's tracker at
+//!   its readings (as above), the body frame six unknowns from the
+//!   hexapod calibration's start `B₀`; weighted as the hexapod calibration
+//!   weighs it at its initial estimate (its rows in leg length, `L⁻¹`),
+//!   at unknown scales in the readings' unit (`L⁻¹ diag(s_i)` at the
+//!   design's scales: the own rows are `s_i` times these, so that the two
+//!   weigh a leg's row alike at the design's scales and in the ratio
+//!   `s_i / s_i,design` at others).
 //!
-//! Both calibrations then minimise the same cost from the same start: the
-//! common door's estimate is the dedicated path's (the common calibration
-//! runs the observation of the options' [`MechanismOptions::observation`]).
+//! Both calibrations then minimise the same cost (with poses at unknown
+//! scales, a cost weighted as above) from the same start (but for a
+//! tracker with poses, whose frame the common calibration locates by the
+//! body's origins, [`super::trackers`]): the common door's estimate is the
+//! dedicated path's (the common calibration runs
+//! the observation of the options' [`MechanismOptions::observation`]).
 //! What only the hexapod's own calibration models is refused by name:
-//! tracker poses (and the body frame they see), and later sessions' leg
-//! offsets with the scales unknowns.
+//! later sessions' leg offsets with the scales unknowns, a body re-mounted
+//! between sessions of poses, and poses alone without a prior (the common
+//! hexapod always has the tool, which no pose sees).
 //!
 //! [`coordinate_covariance`]: parcal_observe::coordinate_covariance
 //! [`MechanismOptions::observation`]: super::MechanismOptions
 
 use std::sync::Arc;
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::hexapod::Hexapod;
 use parcal_kinematics::mechanism::design;
 use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::CoordinateWhitening;
 use parcal_observe::KinematicPrior;
-use parcal_observe::mechanism::{Actuation, Approach, BallTouch, TrackerPoint};
+use parcal_observe::mechanism::{Actuation, Approach, BallTouch, TrackerPoint, TrackerPose};
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
 use super::error::MechanismCalibrationError;
@@ -77,6 +89,7 @@ use super::input::ball_distances;
 use crate::CalibrationOptions;
 use crate::instruments::observations::{groups, initial_block, model_and_rows};
 use crate::instruments::rows::InstrumentRows;
+use crate::instruments::start::measured_poses;
 use crate::layout::ParameterLayout;
 use crate::options::{PriorMode, RadiusModel, Simulation};
 use crate::setup::{Observations as SetupObservations, Setup, design_geometry};
@@ -89,6 +102,23 @@ impl MechanismData {
     /// hold that the common calibration does not model, or the ball or
     /// contact whose weight cannot be formed.
     pub fn from_hexapod_touches(
+        dataset: &Dataset,
+        options: &CalibrationOptions,
+    ) -> Result<Self, MechanismCalibrationError> {
+        let tracker = &dataset.tracker;
+        let sees_tool = !dataset.measurements.ball.is_empty() || !tracker.points.is_empty();
+        if !sees_tool && options.prior == PriorMode::None {
+            return Err(MechanismCalibrationError::InvalidData {
+                what: "the tool offset".to_string(),
+                reason: "poses alone see the body frame, not the tool, and without a prior the common calibration cannot hold it (its hexapod always has the tool); the hexapod's own calibration leaves it out".to_string(),
+            });
+        }
+        Self::of_hexapod(dataset, options)
+    }
+
+    /// The data of a hexapod's `dataset` under `options`' model (module
+    /// doc), what the common calibration does not model refused.
+    fn of_hexapod(
         dataset: &Dataset,
         options: &CalibrationOptions,
     ) -> Result<Self, MechanismCalibrationError> {
@@ -128,13 +158,15 @@ impl MechanismData {
                 ..BallTouch::new(ball as usize, Actuation::Readings(legs.actuation(q)), 0.0)
             })
             .collect();
-        let tracker_points = tracker_points(dataset, &legs)?;
+        let instruments = instrument_observations(dataset, &legs)?;
         let observations = Observations {
             balls,
             touches,
             ball_distances: ball_distances(&dataset.artefacts.distances),
             trackers: trackers(dataset),
-            tracker_points,
+            tracker_points: instruments.points,
+            tracker_poses: instruments.poses,
+            body_reference: instruments.body_reference,
             ..Observations::default()
         };
         let data = Self::new(Arc::new(hexapod), configured, observations);
@@ -158,7 +190,7 @@ impl MechanismData {
     /// model), the scales unknowns when machine.json gives their sigmas (as
     /// the calibration's were).
     pub fn hexapod_held_out(dataset: &Dataset) -> Result<Self, MechanismCalibrationError> {
-        Self::from_hexapod_touches(dataset, &CalibrationOptions::simulation(Simulation::I))
+        Self::of_hexapod(dataset, &CalibrationOptions::simulation(Simulation::I))
     }
 }
 
@@ -188,15 +220,18 @@ enum LegReadings {
     /// `s_i`, as the hexapod calibration applies them.
     KnownScales([f64; 6]),
     /// The readings themselves: the scales are the mechanism's unknowns,
-    /// with these prior sigmas.
-    UnknownScales([f64; 6]),
+    /// about their design values `scale` with the prior sigmas `sigma`.
+    UnknownScales { scale: [f64; 6], sigma: [f64; 6] },
 }
 
 impl LegReadings {
     fn of(dataset: &Dataset) -> Self {
         let actuator = &dataset.machine.actuator;
         match actuator.scale_sigma {
-            Some(sigma) => Self::UnknownScales(sigma),
+            Some(sigma) => Self::UnknownScales {
+                scale: actuator.scale,
+                sigma,
+            },
             None => Self::KnownScales(actuator.scale),
         }
     }
@@ -206,8 +241,23 @@ impl LegReadings {
     fn reader(&self, hexapod: Hexapod, actuator: &parcal_dataset::Actuator) -> Hexapod {
         match self {
             Self::KnownScales(_) => hexapod,
-            Self::UnknownScales(sigma) => {
-                hexapod.with_unknown_scales(&actuator.unit, actuator.scale, *sigma)
+            Self::UnknownScales { scale, sigma } => {
+                hexapod.with_unknown_scales(&actuator.unit, *scale, *sigma)
+            }
+        }
+    }
+
+    /// The whitening of a pose's rows in the mechanism's readings, from
+    /// the hexapod calibration's `whitening` of its rows in leg length
+    /// (mm): the same at known scales, where the readings are the legs'
+    /// extensions; at unknown scales `L⁻¹ diag(s_i)` at the design's scales
+    /// `s_i` (a row in the readings' unit is the leg's row over its scale).
+    fn pose_weight(&self, whitening: &Matrix6<f64>) -> DMatrix<f64> {
+        let w = DMatrix::from_column_slice(6, 6, whitening.as_slice());
+        match self {
+            Self::KnownScales(_) => w,
+            Self::UnknownScales { scale, .. } => {
+                w * DMatrix::from_diagonal(&DVector::from_column_slice(scale))
             }
         }
     }
@@ -216,7 +266,7 @@ impl LegReadings {
     fn actuation(&self, q: &[f64; 6]) -> Vec<f64> {
         match self {
             Self::KnownScales(scale) => (0..6).map(|i| scale[i] * q[i]).collect(),
-            Self::UnknownScales(_) => q.to_vec(),
+            Self::UnknownScales { .. } => q.to_vec(),
         }
     }
 }
@@ -230,13 +280,15 @@ fn check_representable(dataset: &Dataset) -> Result<(), MechanismCalibrationErro
             reason: reason.to_string(),
         })
     };
-    if !tracker.poses.is_empty() {
+    let machine = &dataset.machine;
+    let model = &machine.session_model;
+    let remounted = model.body_origin_sigma.is_some() || model.body_rotation_sigma.is_some();
+    if remounted && tracker.poses.session.iter().any(|&s| s > 0) {
         return refuse(
-            "tracker poses",
-            "a pose's body frame is not modelled by the common calibration, which takes tracker points; the hexapod's own calibration takes poses",
+            "the session model's body origins and rotations",
+            "a later session's poses with the body re-mounted are not modelled by the common calibration (one body frame for every pose); the hexapod's own calibration takes them",
         );
     }
-    let machine = &dataset.machine;
     let offsets = tracker.sessions.len() > 1 && machine.session_model.leg_offset_sigma.is_some();
     if offsets && machine.actuator.scale_sigma.is_some() {
         return refuse(
@@ -260,19 +312,33 @@ fn trackers(dataset: &Dataset) -> Vec<Tracker> {
         .collect()
 }
 
-/// Each row of points.csv as a [`TrackerPoint`] of the tracker of its
-/// session at its readings as `legs` reads them, weighted as the hexapod
-/// calibration weighs it at its initial estimate (module doc).
-fn tracker_points(
+/// The tracker points and poses of a hexapod's dataset, and the body
+/// frame's reference the poses start from.
+struct InstrumentObservations {
+    points: Vec<TrackerPoint>,
+    poses: Vec<TrackerPose>,
+    body_reference: Isometry3<f64>,
+}
+
+/// Each row of points.csv as a [`TrackerPoint`] and each row of poses.csv
+/// as a [`TrackerPose`] of the tracker of its session at its readings as
+/// `legs` reads them, weighted as the hexapod calibration weighs it at its
+/// initial estimate (module doc); the body frame's reference the hexapod
+/// calibration starts from.
+fn instrument_observations(
     dataset: &Dataset,
     legs: &LegReadings,
-) -> Result<Vec<TrackerPoint>, MechanismCalibrationError> {
-    let points = &dataset.tracker.points;
-    if points.is_empty() {
-        return Ok(Vec::new());
+) -> Result<InstrumentObservations, MechanismCalibrationError> {
+    let tracker = &dataset.tracker;
+    if tracker.is_empty() {
+        return Ok(InstrumentObservations {
+            points: Vec::new(),
+            poses: Vec::new(),
+            body_reference: Isometry3::identity(),
+        });
     }
     let invalid = |reason: String| MechanismCalibrationError::InvalidData {
-        what: "the tracker points' weights".to_string(),
+        what: "the tracker's weights".to_string(),
         reason,
     };
     let canonical = design_geometry(dataset)
@@ -282,9 +348,11 @@ fn tracker_points(
     let layout = ParameterLayout::with_groups(groups(dataset));
     let design = parcal_kinematics::params::to_params(&canonical);
     let initial = initial_block(&layout, &design, &dataset.machine.actuator.scale);
-    let (_, rows): (_, InstrumentRows<'_>) = model_and_rows(dataset, &canonical, layout, &initial)
-        .map_err(|e| invalid(e.to_string()))?;
-    (0..points.len())
+    let (model, rows): (_, InstrumentRows<'_>) =
+        model_and_rows(dataset, &canonical, layout, &initial)
+            .map_err(|e| invalid(e.to_string()))?;
+    let points = &tracker.points;
+    let points = (0..points.len())
         .map(|j| {
             let weight = CoordinateWhitening::from_inverse_factor(&rows.point_whitening[j])
                 .map_err(|e| invalid(format!("point {j}: {e}")))?;
@@ -295,7 +363,21 @@ fn tracker_points(
                 weight,
             })
         })
-        .collect()
+        .collect::<Result<_, MechanismCalibrationError>>()?;
+    let measured = measured_poses(tracker);
+    let poses = (0..tracker.poses.len())
+        .map(|j| TrackerPose {
+            tracker: tracker.poses.session[j] as usize,
+            readings: legs.actuation(&tracker.poses.q[j]),
+            measured: measured[j],
+            weight: legs.pose_weight(&rows.pose_whitening[j]),
+        })
+        .collect();
+    Ok(InstrumentObservations {
+        points,
+        poses,
+        body_reference: model.body_reference,
+    })
 }
 
 /// Each ball's centre's prior as the hexapod calibration states it: with

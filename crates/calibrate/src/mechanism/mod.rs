@@ -116,7 +116,8 @@ pub use observation::{HeldOut, ObservationKind, ObservationRef, number_ranges};
 pub use options::{MAX_ITERATIONS, MechanismOptions};
 pub use predicted::MAX_HELD_OUT_TOUCHES_PER_BALL;
 pub use result::{
-    EstimatedBall, EstimatedParameter, EstimatedTracker, MechanismCalibration, TRIGGER_HEIGHT,
+    EstimatedBall, EstimatedBody, EstimatedParameter, EstimatedTracker, MechanismCalibration,
+    TRIGGER_HEIGHT,
 };
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 

@@ -6,7 +6,7 @@ use std::fmt;
 #[cfg(doc)]
 use parcal_observe::mechanism::{
     BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, PartDistance, PointSample,
-    ProbeHeight, TrackerPoint,
+    ProbeHeight, TrackerPoint, TrackerPose,
 };
 
 /// The kinds of observation of a mechanism calibration.
@@ -31,11 +31,14 @@ pub enum ObservationKind {
     /// The tool point measured by a tracker in its own frame
     /// ([`TrackerPoint`]).
     TrackerPoint = 7,
+    /// A body on the platform measured by a tracker in its own frame
+    /// ([`TrackerPose`]).
+    TrackerPose = 8,
 }
 
 impl ObservationKind {
     /// Every kind, in the order of [`Self::index`].
-    pub const ALL: [Self; 8] = [
+    pub const ALL: [Self; 9] = [
         Self::Probe,
         Self::Distance,
         Self::Point,
@@ -44,6 +47,7 @@ impl ObservationKind {
         Self::Touch,
         Self::BallDistance,
         Self::TrackerPoint,
+        Self::TrackerPose,
     ];
 
     /// Its place in [`Self::ALL`].
@@ -63,6 +67,7 @@ impl ObservationKind {
             Self::Touch => "ball touch",
             Self::BallDistance => "ball distance",
             Self::TrackerPoint => "tracker point",
+            Self::TrackerPose => "tracker pose",
         }
     }
 }

@@ -72,7 +72,7 @@
 //! depend on how `u` was fitted, nor `G` on how the fit moves with `θ`
 //! (`dr'/dθ = N_⊥ᵀ (G_p + J du/dθ) = N_⊥ᵀ G_p`).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Isometry3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_reading_jacobian};
 use parcal_observe::mechanism::{PointSample, Rows, TrackerPoint};
 use parcal_observe::{FrameCorrection, PointBlock};
@@ -84,7 +84,7 @@ use super::data::Observations;
 use super::error::MechanismCalibrationError;
 use super::observation::{HeldOut, ObservationKind, ObservationRef};
 use super::problem::ball_centre;
-use super::trackers::{locate_frame, points_of};
+use super::trackers::{Seen, locate_frame, points_of};
 
 /// The most touches of one held-out ball: its rows' noise covariance is
 /// dense, `(K − 3)²` numbers factored in `O(K³)`.
@@ -109,8 +109,8 @@ pub struct PredictedRows {
 /// controller's `configured` parameters (module doc), in the order of the
 /// kinds, each kind's in its order, the touches ball by ball; samples at
 /// an unknown pose of a mechanism of 3 actuators give none. An error
-/// names a ball of more than [`MAX_HELD_OUT_TOUCHES_PER_BALL`] touches
-/// before any work.
+/// names a ball of more than [`MAX_HELD_OUT_TOUCHES_PER_BALL`] touches,
+/// or the first tracker pose (not judged on new data), before any work.
 pub fn predict(
     mechanism: &dyn Mechanism,
     global: &DVector<f64>,
@@ -125,6 +125,12 @@ pub fn predict(
         observation,
         reason: error.to_string(),
     };
+    if !observations.tracker_poses.is_empty() {
+        return Err(MechanismCalibrationError::Observation {
+            observation: at(ObservationKind::TrackerPose, 0),
+            reason: "held-out tracker poses are not judged: the body frame they see is not modelled on new data".to_string(),
+        });
+    }
     let balls = touches_by_ball(observations)?;
     let mut predicted = Vec::new();
     for (k, probe) in observations.probes.iter().enumerate() {
@@ -505,7 +511,14 @@ fn predict_tracker(
         points: indices.clone(),
     };
     let what = held_out.to_string();
-    let (reference, reached) = locate_frame((mechanism, configured), params, all, &indices, &what)?;
+    let seen = Seen {
+        points: all,
+        point_indices: &indices,
+        poses: &[],
+        pose_indices: &[],
+        body: &Isometry3::identity(),
+    };
+    let (reference, reached) = locate_frame((mechanism, configured), params, &seen, &what)?;
     let points: Vec<&TrackerPoint> = indices.iter().map(|&j| &all[j]).collect();
     // A re-homed tracker's offsets are its own unknowns too.
     let rehomed = observations.trackers[tracker].rehomed;

@@ -8,7 +8,8 @@
 //! ```
 //!
 //! over the unknowns that have a prior (the trackers' frames, which follow
-//! the trigger height, have none; their actuators' offsets do); an unknown without one has no row
+//! the trigger height, and the body frame have none; the trackers'
+//! actuators' offsets do); an unknown without one has no row
 //! or column in `Σ_prior` (zero there) and no information. A correlated
 //! prior states what tolerances on the parts imply for parameters that
 //! share them: the hexapod's joint coordinates after its canonical frame
@@ -25,7 +26,8 @@ use super::error::MechanismCalibrationError;
 /// when it is an unknown (there are probe heights), then each tracker's
 /// frame correction's six, none, about the correction's start 0, then
 /// each re-homed tracker's actuator offsets', about zero with its
-/// `offset_sigma` if any.
+/// `offset_sigma` if any, then with tracker poses the body frame's
+/// correction's six, none.
 pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
     let mut priors = data.priors.clone();
     if data.has_trigger_height() {
@@ -42,10 +44,14 @@ pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
             actuators,
         ));
     }
+    if !data.observations.tracker_poses.is_empty() {
+        priors.extend(std::iter::repeat_n(about_zero(None), FRAME_UNKNOWNS));
+    }
     priors
 }
 
-/// The unknowns of a tracker's frame correction: `ω` and `τ`.
+/// The unknowns of a frame correction (a tracker's, the body's): `ω` and
+/// `τ`.
 pub(crate) const FRAME_UNKNOWNS: usize = 6;
 
 /// `Σ_prior` over the global block (module doc): `σ_j σ_k R_jk` where both

@@ -2,13 +2,15 @@
 //!
 //! - The **global block**: the mechanism's parameters `p`, then the
 //!   trigger height `h` when there are probe heights, then each tracker's
-//!   frame correction and each re-homed tracker's actuator offsets
+//!   frame correction and each re-homed tracker's actuator offsets, and
+//!   with tracker poses the body frame's correction
 //!   ([`super::trackers`]), then the centre (and
 //!   uncertain radius) of every ball a ball distance ties
 //!   ([`super::tied`]).
 //! - The **global observations**: every probe height (1 row), part
 //!   distance (1 row), measured point (3 rows), measured quantity (1 row),
-//!   ball distance (1 row) and tracker point (3 rows), in that order
+//!   ball distance (1 row), tracker point (3 rows) and tracker pose (one
+//!   row per actuator), in that order
 //!   ([`parcal_observe::mechanism`]).
 //! - The **local blocks**, the solver's groups, eliminated by the Schur
 //!   complement: first the pose of every point sample (with a Gaussian
@@ -262,6 +264,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 ObservationKind::TrackerPoint,
                 o.tracker_points.len(),
                 3,
+            ))
+            .chain(refs(
+                ObservationKind::TrackerPose,
+                o.tracker_poses.len(),
+                self.data.mechanism.actuators().len(),
             ))
             .collect()
     }
@@ -919,6 +926,41 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
             }
             row += 3;
         }
+        for (k, pose) in o.tracker_poses.iter().enumerate() {
+            let id = ObservationRef {
+                kind: ObservationKind::TrackerPose,
+                index: k,
+            };
+            let (Some(body), Some(body_columns)) =
+                (self.trackers.body(global), self.trackers.body_columns())
+            else {
+                return Err(failed(id, "the body frame is not an unknown"));
+            };
+            let frame = self.trackers.frame(pose.tracker, global);
+            let offsets = self.trackers.offsets(pose.tracker, global);
+            let evaluated = pose
+                .evaluate(mechanism, params, &frame, &body, offsets)
+                .map_err(|e| failed(id, e))?;
+            let m = evaluated.rows.residual.len();
+            out.residual
+                .rows_mut(row, m)
+                .copy_from(&evaluated.rows.residual);
+            let mut put = |columns: Range<usize>, d: &DMatrix<f64>| {
+                out.jacobian
+                    .view_mut((row, columns.start), (m, columns.len()))
+                    .copy_from(d);
+            };
+            put(0..n, &evaluated.rows.d_params);
+            put(self.trackers.columns(pose.tracker), &evaluated.d_frame);
+            put(body_columns, &evaluated.d_body);
+            if let (Some(columns), Some(d_offsets)) = (
+                self.trackers.offset_columns(pose.tracker),
+                &evaluated.d_offsets,
+            ) {
+                put(columns, d_offsets);
+            }
+            row += m;
+        }
         Ok(())
     }
 
@@ -988,11 +1030,14 @@ pub(crate) mod tests {
     use nalgebra::Isometry3;
     use parcal_kinematics::cable::{CableRobot, Elasticity};
     use parcal_kinematics::delta::{DeltaParams, LinearDelta, probe_height};
+    use parcal_kinematics::hexapod::Hexapod;
     use parcal_kinematics::mechanism::{Mechanism, design};
+    use parcal_kinematics::params::TOOL_OFFSET;
+    use parcal_kinematics::{PriorSigma, paper};
     use parcal_observe::CoordinateWhitening;
     use parcal_observe::mechanism::{
         BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
-        TrackerPoint,
+        TrackerPoint, TrackerPose,
     };
     use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
 
@@ -1347,8 +1392,10 @@ pub(crate) mod tests {
     /// and every global observation of `data`, as the problem linearises
     /// them, against central differences over the whole global block;
     /// the analytic Jacobian.
-    fn rows_match_central_differences_over_the_global_block(data: &MechanismData) -> DMatrix<f64> {
-        let problem = MechanismProblem::<4>::new(data, Loss::Squared).unwrap();
+    fn rows_match_central_differences_over_the_global_block<const C: usize>(
+        data: &MechanismData,
+    ) -> DMatrix<f64> {
+        let problem = MechanismProblem::<C>::new(data, Loss::Squared).unwrap();
         let state = problem.start_state().unwrap().state;
         let samples = data.observations.samples.len();
         let rows = |global: &DVector<f64>| {
@@ -1356,7 +1403,7 @@ pub(crate) mod tests {
             let mut jacobian = Vec::new();
             for k in samples..problem.n_groups() {
                 for i in problem.group_points(k) {
-                    let mut out = Local::<4>::zeros(global.len());
+                    let mut out = Local::<C>::zeros(global.len());
                     let group = &state.groups[k];
                     let point = SVector::zeros();
                     problem
@@ -1371,7 +1418,11 @@ pub(crate) mod tests {
                 .global_observations(global, &mut global_rows)
                 .unwrap();
             residuals.extend(global_rows.residual.iter());
-            let mut jacobian = DMatrix::from_rows(&jacobian);
+            let mut jacobian = if jacobian.is_empty() {
+                DMatrix::zeros(0, global.len())
+            } else {
+                DMatrix::from_rows(&jacobian)
+            };
             let touches = jacobian.nrows();
             jacobian = jacobian.resize_vertically(residuals.len(), 0.0);
             jacobian
@@ -1403,7 +1454,7 @@ pub(crate) mod tests {
     #[test]
     fn tracker_rows_match_central_differences_over_the_global_block() {
         let data = tracked_delta();
-        let analytic = rows_match_central_differences_over_the_global_block(&data);
+        let analytic = rows_match_central_differences_over_the_global_block::<4>(&data);
         let problem = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
         let points = &data.observations.tracker_points;
         let first = analytic.nrows() - 3 * points.len();
@@ -1420,12 +1471,117 @@ pub(crate) mod tests {
         }
     }
 
+    /// The paper's hexapod at its design seen by two trackers (the second
+    /// after the legs were re-homed), each measuring 4 poses of a body on
+    /// the platform and 3 tool points, the readings off by up to 0.01 mm;
+    /// the body's reference a little off the true body frame.
+    fn tracked_hexapod() -> MechanismData {
+        let prior = PriorSigma {
+            base: 0.1,
+            platform: 0.1,
+            tool: 0.1,
+            leg: 0.1,
+        };
+        let hexapod = Hexapod::new(&paper::design(), &prior).unwrap();
+        let params = design(&hexapod);
+        let frames = [
+            Isometry3::new(
+                Vector3::new(-900.0, 300.0, 60.0),
+                Vector3::new(-0.1, 0.05, 0.6),
+            ),
+            Isometry3::new(
+                Vector3::new(500.0, 1200.0, 120.0),
+                Vector3::new(0.02, -0.2, -2.0),
+            ),
+        ];
+        let body = Isometry3::new(
+            Vector3::new(4.0, -6.0, 35.0),
+            Vector3::new(0.03, -0.02, 0.5),
+        );
+        let at = |j: usize| {
+            let t = j as f64;
+            let x = [
+                30.0 * (1.3 * t).cos(),
+                25.0 * (0.9 * t).sin(),
+                230.0 + 4.0 * t,
+                0.05 * (2.1 * t).sin(),
+                -0.04 * (1.7 * t).cos(),
+                0.06 * (0.7 * t).sin(),
+            ];
+            let q = hexapod.inverse(params.as_slice(), &x).unwrap();
+            let off = |i: usize| 0.01 * ((3 * i + j) as f64).sin();
+            let readings: Vec<f64> = q.iter().enumerate().map(|(i, q)| q + off(i)).collect();
+            (x, readings)
+        };
+        let mut observations = Observations {
+            trackers: vec![Tracker::new("T1"), Tracker::rehomed("T2", Some(0.3))],
+            body_reference: Isometry3::new(
+                Vector3::new(4.5, -6.2, 34.0),
+                Vector3::new(0.02, -0.01, 0.52),
+            ),
+            ..Observations::default()
+        };
+        for j in 0..8 {
+            let (x, readings) = at(j);
+            let platform = hexapod.platform_frame(&x).unwrap();
+            observations.tracker_poses.push(TrackerPose {
+                tracker: j % 2,
+                readings,
+                measured: frames[j % 2] * platform * body,
+                weight: DMatrix::identity(6, 6) * 100.0,
+            });
+        }
+        for j in 8..14 {
+            let (x, readings) = at(j);
+            let tip = hexapod.tool_point(params.as_slice(), &x).unwrap().point;
+            observations.tracker_points.push(TrackerPoint {
+                tracker: j % 2,
+                at: Actuation::Readings(readings),
+                measured: frames[j % 2].transform_point(&tip.into()).coords.into(),
+                weight: CoordinateWhitening::isotropic(0.01),
+            });
+        }
+        MechanismData::new(Arc::new(hexapod), params.as_slice().to_vec(), observations)
+    }
+
+    /// The tracker poses' rows see the parameters but the tool, their own
+    /// tracker's frame and offsets, and the body frame, and nothing else; the step
+    /// and covariance are the dense reference's.
+    #[test]
+    fn tracker_pose_rows_match_central_differences_over_the_global_block() {
+        let data = tracked_hexapod();
+        let problem = MechanismProblem::<3>::new(&data, Loss::Squared).unwrap();
+        // The two trackers' frames, the second's offsets, the body frame.
+        assert_eq!(problem.mechanism_len(), problem.n_params() + 12 + 6 + 6);
+        let analytic = rows_match_central_differences_over_the_global_block::<3>(&data);
+        let poses = &data.observations.tracker_poses;
+        let first = analytic.nrows() - 6 * poses.len();
+        let body = problem.trackers().body_columns().unwrap();
+        for (j, pose) in poses.iter().enumerate() {
+            let frame = problem.trackers().columns(pose.tracker);
+            let offsets = problem.trackers().offset_columns(pose.tracker);
+            for c in 0..analytic.ncols() {
+                let seen = (0..6).any(|r| analytic[(first + 6 * j + r, c)] != 0.0);
+                if c < problem.n_params() {
+                    // Every parameter but the tool, which no pose sees.
+                    assert_eq!(seen, c < TOOL_OFFSET, "tracker pose {j}, column {c}");
+                    continue;
+                }
+                let expected = frame.contains(&c)
+                    || body.contains(&c)
+                    || offsets.as_ref().is_some_and(|o| o.contains(&c));
+                assert_eq!(seen, expected, "tracker pose {j}, column {c}");
+            }
+        }
+        check_against_dense::<3>(&data, Vector3::zeros());
+    }
+
     /// The tied balls' touches and the distance among the rows.
     #[test]
     fn tied_balls_rows_match_central_differences_over_the_global_block() {
         let data = tied_delta();
         let problem = MechanismProblem::<4>::new(&data, Loss::Squared).unwrap();
-        let analytic = rows_match_central_differences_over_the_global_block(&data);
+        let analytic = rows_match_central_differences_over_the_global_block::<4>(&data);
         // The distance's row sees the two centres, and nothing else.
         let distance = analytic.row(analytic.nrows() - 1);
         let seen: Vec<usize> = (0..distance.len())

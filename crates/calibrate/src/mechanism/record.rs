@@ -5,7 +5,7 @@
 use nalgebra::DMatrix;
 use parcal_dataset::GlobalTestRecord;
 use parcal_dataset::mechanism::{
-    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
+    BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
     ObservationRecord, ParameterRecord, RemovalRecord, TestsRecord, TrackerRecord,
     UndeterminedRecord,
 };
@@ -143,6 +143,10 @@ impl MechanismCalibration {
                         .flatten(),
                 })
                 .collect(),
+            body: self.body.as_ref().map(|b| BodyRecord {
+                frame: frame(&b.frame),
+                sigma: b.sigma(),
+            }),
             observation: self.observation.map(|o| o.to_string()),
         }
     }

@@ -80,9 +80,32 @@ pub struct EstimatedTracker {
 impl EstimatedTracker {
     /// The standard deviations of its correction's six values (rad, mm).
     pub fn sigma(&self) -> Option<[f64; 6]> {
-        self.covariance
-            .map(|c| std::array::from_fn(|k| c[(k, k)].max(0.0).sqrt()))
+        correction_sigma(self.covariance.as_ref())
     }
+}
+
+/// The body frame the tracker poses saw, as the calibration located it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatedBody {
+    /// `B`, from the body's frame to the platform's (mm).
+    pub frame: Isometry3<f64>,
+    /// The covariance of its correction `C = (Exp(ω), τ)`, `B = C ∘ B₀`
+    /// ([`parcal_observe::mechanism::BodyFrame`]): of `ω_x, ω_y, ω_z` (rad)
+    /// and `τ_x, τ_y, τ_z` (mm), when the fit gave one.
+    pub covariance: Option<Matrix6<f64>>,
+}
+
+impl EstimatedBody {
+    /// The standard deviations of its correction's six values (rad, mm).
+    pub fn sigma(&self) -> Option<[f64; 6]> {
+        correction_sigma(self.covariance.as_ref())
+    }
+}
+
+/// The standard deviations of a frame correction's six values from their
+/// covariance, if given (a rounding-negative variance as zero).
+fn correction_sigma(covariance: Option<&Matrix6<f64>>) -> Option<[f64; 6]> {
+    covariance.map(|c| std::array::from_fn(|k| c[(k, k)].max(0.0).sqrt()))
 }
 
 /// The calibration of a mechanism.
@@ -107,6 +130,8 @@ pub struct MechanismCalibration {
     pub balls: Vec<EstimatedBall>,
     /// The trackers' frames, in the data's order.
     pub trackers: Vec<EstimatedTracker>,
+    /// The body frame, when there were tracker poses.
+    pub body: Option<EstimatedBody>,
     /// The observation equation of the ball touches (paper eq. 9 or 10);
     /// `None` without touches.
     pub observation: Option<Observation>,
@@ -225,6 +250,7 @@ pub(crate) fn assemble(
     let estimated = described.len();
     let sigma = |k: usize| marginal_sigma(frame.covariance.as_ref(), k);
     let trackers = tracker_estimates(data, &fit, &frame.values, frame.covariance.as_ref());
+    let body = body_estimate(&fit, &frame.values, frame.covariance.as_ref());
     let parameters: Vec<EstimatedParameter> = described
         .into_iter()
         .enumerate()
@@ -252,6 +278,10 @@ pub(crate) fn assemble(
             };
             (1..=offsets).map(move |i| format!("tracker {} offset q{i}", tracker.label))
         }))
+        .chain(
+            (fit.trackers.body_columns().iter())
+                .flat_map(|_| FRAME_AXES.map(|axis| format!("body {axis}"))),
+        )
         .collect();
     let estimated_balls = fit
         .centres
@@ -295,6 +325,7 @@ pub(crate) fn assemble(
         poses: fit.poses,
         balls: estimated_balls,
         trackers,
+        body,
         observation: (!data.observations.touches.is_empty()).then_some(options.observation),
         global_test: verdict.global_test,
         verdict,
@@ -347,6 +378,21 @@ fn tracker_estimates(
             }
         })
         .collect()
+}
+
+/// The body frame `C ∘ B₀` from its correction in the canonical global
+/// block `values`, with its covariance from the canonical `covariance`,
+/// when there were tracker poses.
+fn body_estimate(
+    fit: &Fit,
+    values: &DVector<f64>,
+    covariance: Option<&DMatrix<f64>>,
+) -> Option<EstimatedBody> {
+    let start = fit.trackers.body_columns()?.start;
+    Some(EstimatedBody {
+        frame: fit.trackers.body(values)?.isometry(),
+        covariance: covariance.map(|c| c.fixed_view::<6, 6>(start, start).into_owned()),
+    })
 }
 
 /// The observation of largest `|w|` among `observations`.

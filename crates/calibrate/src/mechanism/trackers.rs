@@ -3,19 +3,23 @@
 //! ([`TrackerFrame`]), `C_k = (Exp(ω), τ)` six unknowns of the global
 //! block (after the mechanism's parameters and the trigger height,
 //! [`super::prior::global_priors`]), without a prior; a re-homed
-//! tracker's actuator offsets follow every frame, one per actuator.
+//! tracker's actuator offsets follow every frame, one per actuator; with
+//! tracker poses, the body frame's correction `C_B` follows them
+//! ([`BodyFrame`], `B = C_B ∘ B₀`, six unknowns without a prior).
 //!
 //! `F₀_k` is fixed before the fit: the rigid motion that best maps the
-//! tool points its points reach at the priors' means onto the points it
-//! measured (Kabsch), as the hexapod's own calibration starts a session of
-//! points alone. `C_k` starts at zero; what is reported is `F_k`.
+//! tool points its points reach at the priors' means, and the platform
+//! origins its poses reach there, onto the points it measured and the
+//! origins its poses put the platform at through `B₀` (`M B₀⁻¹`; Kabsch),
+//! as the hexapod's own calibration starts a session of points alone.
+//! `C_k` and `C_B` start at zero; what is reported is `F_k` and `B`.
 
 use nalgebra::{DVector, Isometry3, Matrix3, Vector6};
 use parcal_accuracy::kabsch;
 use parcal_kinematics::Vec3;
 use parcal_kinematics::mechanism::{Mechanism, Reached};
 use parcal_observe::FrameCorrection;
-use parcal_observe::mechanism::{Actuation, TrackerFrame, TrackerPoint};
+use parcal_observe::mechanism::{Actuation, BodyFrame, TrackerFrame, TrackerPoint, TrackerPose};
 
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
@@ -41,6 +45,9 @@ pub(crate) struct Trackers {
     offsets: Vec<Option<usize>>,
     /// The number of a tracker's offsets: the mechanism's actuators.
     actuators: usize,
+    /// `B₀` and the global column of the body frame's correction, when
+    /// there are tracker poses.
+    body: Option<(Isometry3<f64>, usize)>,
 }
 
 impl Trackers {
@@ -55,13 +62,18 @@ impl Trackers {
         first: usize,
     ) -> Result<Self, MechanismCalibrationError> {
         let o = &data.observations;
+        let machine = (data.mechanism.as_ref(), data.configured.as_slice());
         let references = (0..o.trackers.len())
             .map(|k| {
-                let indices = points_of(&o.tracker_points, k);
+                let seen = Seen {
+                    points: &o.tracker_points,
+                    point_indices: &points_of(&o.tracker_points, k),
+                    poses: &o.tracker_poses,
+                    pose_indices: &poses_of(&o.tracker_poses, k),
+                    body: &o.body_reference,
+                };
                 let what = format!("tracker {:?}", o.trackers[k].label);
-                let machine = (data.mechanism.as_ref(), data.configured.as_slice());
-                locate_frame(machine, params, &o.tracker_points, &indices, &what)
-                    .map(|(frame, _)| frame)
+                locate_frame(machine, params, &seen, &what).map(|(frame, _)| frame)
             })
             .collect::<Result<_, _>>()?;
         let actuators = data.mechanism.actuators().len();
@@ -74,11 +86,31 @@ impl Trackers {
                 })
             })
             .collect();
+        let body = (!o.tracker_poses.is_empty()).then_some((o.body_reference, next));
         Ok(Self {
             references,
             first,
             offsets,
             actuators,
+            body,
+        })
+    }
+
+    /// The global columns of the body frame's correction, when there are
+    /// tracker poses.
+    pub(crate) fn body_columns(&self) -> Option<std::ops::Range<usize>> {
+        self.body.map(|(_, start)| start..start + FRAME_UNKNOWNS)
+    }
+
+    /// The body frame at the global block `global`, when there are tracker
+    /// poses.
+    pub(crate) fn body(&self, global: &DVector<f64>) -> Option<BodyFrame> {
+        let (reference, start) = self.body?;
+        let correction =
+            Vector6::from_column_slice(&global.as_slice()[start..start + FRAME_UNKNOWNS]);
+        Some(BodyFrame {
+            reference,
+            correction: FrameCorrection::from_params(&correction),
         })
     }
 
@@ -112,6 +144,15 @@ impl Trackers {
     ) -> Result<(), MechanismCalibrationError> {
         if self.references.is_empty() || params == moved {
             return Ok(());
+        }
+        if self.body.is_some() {
+            return Err(MechanismCalibrationError::InvalidData {
+                what: "the tracker poses".to_string(),
+                reason: format!(
+                    "the {} has gauge freedoms, and a body frame that follows its canonical frame is not modelled",
+                    data.mechanism.name()
+                ),
+            });
         }
         let points = &data.observations.tracker_points;
         let all: Vec<usize> = (0..points.len()).collect();
@@ -194,20 +235,38 @@ fn reach(
         .collect()
 }
 
+/// What one tracker measured: its points `point_indices` of `points` and
+/// its poses `pose_indices` of `poses`, the latter through the body frame's
+/// reference `body`.
+pub(crate) struct Seen<'a> {
+    pub(crate) points: &'a [TrackerPoint],
+    pub(crate) point_indices: &'a [usize],
+    pub(crate) poses: &'a [TrackerPose],
+    pub(crate) pose_indices: &'a [usize],
+    pub(crate) body: &'a Isometry3<f64>,
+}
+
 /// The frame `F` (the mechanism's frame → a tracker's) that best maps the
-/// tool points the tracker points `indices` of `points` reach on `machine`
-/// at `params` onto the points measured (Kabsch), with where the machine
-/// is at each. An error names the point whose tool point cannot be
-/// reached, or says why the points do not locate `what`'s frame (fewer
-/// than three, or on a line).
+/// tool points the tracker's points reach on `machine` at `params`, and
+/// the platform origins its poses reach there, onto the points measured
+/// and the origins of `M B₀⁻¹` (Kabsch), with where the machine is at each
+/// point. An error names the point or pose whose place cannot be reached,
+/// or says why they do not locate `what`'s frame (fewer than three, or on
+/// a line).
 pub(crate) fn locate_frame(
     machine: Machine<'_>,
     params: &[f64],
-    points: &[TrackerPoint],
-    indices: &[usize],
+    seen: &Seen<'_>,
     what: &str,
 ) -> Result<(Isometry3<f64>, Vec<Reached>), MechanismCalibrationError> {
-    let measured: Vec<Vec3> = indices.iter().map(|&j| points[j].measured.into()).collect();
+    let body_inverse = seen.body.inverse();
+    let measured: Vec<Vec3> = (seen.point_indices.iter())
+        .map(|&j| seen.points[j].measured.into())
+        .chain(
+            (seen.pose_indices.iter())
+                .map(|&j| (seen.poses[j].measured * body_inverse).translation.vector),
+        )
+        .collect();
     let not_located = |reason: String| MechanismCalibrationError::InvalidData {
         what: what.to_string(),
         reason: format!("its points do not locate its frame: {reason}"),
@@ -215,10 +274,47 @@ pub(crate) fn locate_frame(
     if measured.len() >= 3 && spread(&measured) < MIN_SPREAD {
         return Err(not_located("they lie on a line".to_string()));
     }
-    let reached = reach(machine, params, points, indices)?;
-    let tips: Vec<Vec3> = reached.iter().map(|r| r.point).collect();
-    let motion = kabsch(&tips, &measured).map_err(|e| not_located(e.to_string()))?;
+    let reached = reach(machine, params, seen.points, seen.point_indices)?;
+    let origins = platform_origins(machine.0, params, seen.poses, seen.pose_indices)?;
+    let model: Vec<Vec3> = reached.iter().map(|r| r.point).chain(origins).collect();
+    let motion = kabsch(&model, &measured).map_err(|e| not_located(e.to_string()))?;
     Ok((isometry(motion.rotation, motion.translation), reached))
+}
+
+/// The indices of tracker `tracker`'s poses among `poses`, increasing.
+pub(crate) fn poses_of(poses: &[TrackerPose], tracker: usize) -> Vec<usize> {
+    (poses.iter().enumerate())
+        .filter(|(_, pose)| pose.tracker == tracker)
+        .map(|(j, _)| j)
+        .collect()
+}
+
+/// The origin of the platform frame at each of the tracker poses `indices`
+/// of `poses`, by the forward kinematics of its readings at `params`; an
+/// error names the pose whose platform cannot be reached.
+fn platform_origins(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    poses: &[TrackerPose],
+    indices: &[usize],
+) -> Result<Vec<Vec3>, MechanismCalibrationError> {
+    (indices.iter())
+        .map(|&j| {
+            let readings = &poses[j].readings;
+            mechanism
+                .start_pose(params, readings)
+                .and_then(|start| mechanism.forward(params, readings, start.as_slice()))
+                .and_then(|x| mechanism.platform_frame(x.as_slice()))
+                .map(|frame| frame.translation.vector)
+                .map_err(|e| MechanismCalibrationError::Observation {
+                    observation: ObservationRef {
+                        kind: ObservationKind::TrackerPose,
+                        index: j,
+                    },
+                    reason: format!("its platform: {e}"),
+                })
+        })
+        .collect()
 }
 
 /// The second singular value of the centred `points` over the first (0

@@ -155,6 +155,18 @@ pub struct MirroredRecord {
     pub centre: [f64; 3],
 }
 
+/// The body frame the tracker poses saw, as the calibration located it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyRecord {
+    /// `B`, from the body's frame to the platform's (`x_platform = R x +
+    /// t`).
+    pub frame: FrameRecord,
+    /// The standard deviations of its correction: rotations about the
+    /// platform's axes `x, y, z` (rad), then translations (mm).
+    pub sigma: Option<[f64; 6]>,
+}
+
 /// A tracker's frame as the calibration located it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -215,6 +227,9 @@ pub struct MechanismCalibrationRecord {
     /// The trackers' frames, in the dataset's order (none: absent).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub trackers: Vec<TrackerRecord>,
+    /// The body frame the tracker poses saw (none: absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<BodyRecord>,
     /// The ball touches' observation equation: `radius` (paper eq. 9, a
     /// row a touch) or `coordinates` (eq. 10, three rows and two contact
     /// angles a touch); absent without touches.

@@ -65,7 +65,7 @@ pub use balls::{
     BALL_COLUMNS, BALLS, BallPlacement, BallRow, PLACEMENT_COLUMNS, TOUCH_COLUMNS, TouchRow,
 };
 pub use calibration::{
-    BallRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
+    BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
     ObservationRecord, ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord,
     UndeterminedRecord,
 };

@@ -29,7 +29,12 @@
 //! - [`TrackerPoint`]: the tool point measured by a tracker in its own
 //!   frame, `L⁻¹ (F_k(x) − P)` (3 rows; unknowns `p` and the tracker's
 //!   frame `F_k`, six of the global block), at a commanded position or at
-//!   the actuators' readings.
+//!   the actuators' readings;
+//! - [`TrackerPose`]: a body on the platform measured by a tracker in its
+//!   own frame, `L⁻¹ (g(p, x(F_k⁻¹ M B⁻¹)) − q)` (one row per actuator;
+//!   unknowns `p`, the tracker's frame and the body frame `B`, six each of
+//!   the global block), at the actuators' readings, for a mechanism whose
+//!   pose fixes an orientation.
 //!
 //! # Commanded positions
 //!
@@ -55,6 +60,7 @@ mod probe;
 mod quantity;
 mod touch_coordinates;
 mod tracker_point;
+mod tracker_pose;
 
 pub use ball_distance::{BallDistance, BallDistanceRow};
 pub use ball_touch::{Approach, BallTouch, TouchRows};
@@ -66,6 +72,7 @@ pub use probe::ProbeHeight;
 pub use quantity::MeasuredQuantity;
 pub use touch_coordinates::CoordinateRows;
 pub use tracker_point::{TrackerFrame, TrackerPoint, TrackerPointRows};
+pub use tracker_pose::{BodyFrame, TrackerPose, TrackerPoseRows};
 
 #[cfg(test)]
 pub(crate) mod test_support {
