@@ -120,6 +120,19 @@ impl Hexapod {
         })
     }
 
+    /// The paper's hexapod with 0.1 mm tolerances on every input
+    /// coordinate.
+    pub fn typical() -> Self {
+        let prior = PriorSigma {
+            base: 0.1,
+            platform: 0.1,
+            tool: 0.1,
+            leg: 0.1,
+        };
+        Self::new(&crate::paper::design(), &prior)
+            .expect("the paper's design is a hexapod of six legs of non-zero length")
+    }
+
     /// This hexapod read in the actuators' own `unit`, each leg's scale
     /// `s_i` (mm per `unit`) a parameter `s_1..s_6` after the 33, about
     /// `design` with the prior `prior_sigma` (module doc).
@@ -455,13 +468,7 @@ mod tests {
     use nalgebra::Translation3;
 
     fn hexapod() -> Hexapod {
-        let prior = PriorSigma {
-            base: 0.1,
-            platform: 0.1,
-            tool: 0.1,
-            leg: 0.1,
-        };
-        Hexapod::new(&paper::design(), &prior).unwrap()
+        Hexapod::typical()
     }
 
     /// The same hexapod read in revolutions of scales 0.5 to 4 mm/rev.

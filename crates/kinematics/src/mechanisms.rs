@@ -6,7 +6,6 @@ use crate::cable::CableRobot;
 use crate::delta::LinearDelta;
 use crate::hexapod::Hexapod;
 use crate::mechanism::Mechanism;
-use crate::{PriorSigma, paper};
 
 /// The names of the known mechanisms, as files give them.
 pub const NAMES: [&str; 3] = ["hexapod", "linear delta", "cable robot"];
@@ -17,7 +16,7 @@ pub const NAMES: [&str; 3] = ["hexapod", "linear delta", "cable robot"];
 /// name.
 pub fn by_name(name: &str) -> Option<Box<dyn Mechanism>> {
     match name {
-        "hexapod" => Some(Box::new(typical_hexapod()?)),
+        "hexapod" => Some(Box::new(Hexapod::typical())),
         "linear delta" => Some(Box::new(LinearDelta::typical())),
         "cable robot" => Some(Box::new(CableRobot::typical())),
         _ => None,
@@ -48,22 +47,11 @@ pub fn with_parameters(name: &str, parameters: &[(&str, &str)]) -> Option<Box<dy
         "hexapod" => {
             let (_, unit) = parameters.get(crate::N_PARAMS)?;
             let unit = unit.strip_prefix("mm/")?;
-            Box::new(typical_hexapod()?.with_unknown_scales(unit, [1.0; 6], [1.0; 6]))
+            Box::new(Hexapod::typical().with_unknown_scales(unit, [1.0; 6], [1.0; 6]))
         }
         _ => return None,
     };
     has_them(variant.as_ref()).then_some(variant)
-}
-
-/// The paper's hexapod with 0.1 mm tolerances.
-fn typical_hexapod() -> Option<Hexapod> {
-    let prior = PriorSigma {
-        base: 0.1,
-        platform: 0.1,
-        tool: 0.1,
-        leg: 0.1,
-    };
-    Hexapod::new(&paper::design(), &prior).ok()
 }
 
 #[cfg(test)]

@@ -1033,7 +1033,6 @@ pub(crate) mod tests {
     use parcal_kinematics::hexapod::Hexapod;
     use parcal_kinematics::mechanism::{Mechanism, design};
     use parcal_kinematics::params::TOOL_OFFSET;
-    use parcal_kinematics::{PriorSigma, paper};
     use parcal_observe::CoordinateWhitening;
     use parcal_observe::mechanism::{
         BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
@@ -1476,13 +1475,7 @@ pub(crate) mod tests {
     /// the platform and 3 tool points, the readings off by up to 0.01 mm;
     /// the body's reference a little off the true body frame.
     fn tracked_hexapod() -> MechanismData {
-        let prior = PriorSigma {
-            base: 0.1,
-            platform: 0.1,
-            tool: 0.1,
-            leg: 0.1,
-        };
-        let hexapod = Hexapod::new(&paper::design(), &prior).unwrap();
+        let hexapod = Hexapod::typical();
         let params = design(&hexapod);
         let frames = [
             Isometry3::new(

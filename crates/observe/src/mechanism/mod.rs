@@ -128,6 +128,21 @@ pub(crate) mod test_support {
         }
     }
 
+    /// A tracker's frame turned and shifted from the mechanism's, with a
+    /// correction of a few hundredths.
+    pub fn tracker_frame() -> super::TrackerFrame {
+        super::TrackerFrame {
+            reference: nalgebra::Isometry3::from_parts(
+                nalgebra::Translation3::new(1500.0, -200.0, 300.0),
+                nalgebra::UnitQuaternion::from_euler_angles(0.1, -0.2, 2.5),
+            ),
+            correction: crate::FrameCorrection {
+                rotation: Vector3::new(0.01, -0.02, 0.03),
+                translation: Vector3::new(0.4, 0.1, -0.3),
+            },
+        }
+    }
+
     /// Central differences of `f` over the parameters, step `h`.
     pub fn differences(
         mechanism: &dyn Mechanism,

@@ -158,23 +158,12 @@ fn frame_rotation(frame: &TrackerFrame) -> nalgebra::Matrix3<f64> {
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{DMatrix, Matrix3, Translation3, UnitQuaternion, Vector3, Vector6};
+    use nalgebra::{DMatrix, Matrix3, Vector3, Vector6};
 
     use super::*;
-    use crate::mechanism::test_support::{delta, differences, hexapod_touch};
-
-    fn frame() -> TrackerFrame {
-        TrackerFrame {
-            reference: Isometry3::from_parts(
-                Translation3::new(1500.0, -200.0, 300.0),
-                UnitQuaternion::from_euler_angles(0.1, -0.2, 2.5),
-            ),
-            correction: FrameCorrection {
-                rotation: Vector3::new(0.01, -0.02, 0.03),
-                translation: Vector3::new(0.4, 0.1, -0.3),
-            },
-        }
-    }
+    use crate::mechanism::test_support::{
+        delta, differences, hexapod_touch, tracker_frame as frame,
+    };
 
     /// A correlated weight, so that the whitening's off-diagonal terms
     /// are checked too.

@@ -190,23 +190,9 @@ mod tests {
     use nalgebra::{Translation3, UnitQuaternion, Vector3, Vector6};
     use parcal_kinematics::hexapod::Hexapod;
     use parcal_kinematics::mechanism::design;
-    use parcal_kinematics::{PriorSigma, paper};
 
     use super::*;
-    use crate::mechanism::test_support::{delta, differences};
-
-    fn frame() -> TrackerFrame {
-        TrackerFrame {
-            reference: Isometry3::from_parts(
-                Translation3::new(1500.0, -200.0, 300.0),
-                UnitQuaternion::from_euler_angles(0.1, -0.2, 2.5),
-            ),
-            correction: FrameCorrection {
-                rotation: Vector3::new(0.01, -0.02, 0.03),
-                translation: Vector3::new(0.4, 0.1, -0.3),
-            },
-        }
-    }
+    use crate::mechanism::test_support::{delta, differences, tracker_frame as frame};
 
     fn body() -> BodyFrame {
         BodyFrame {
@@ -222,13 +208,7 @@ mod tests {
     }
 
     fn hexapod(scaled: bool) -> Hexapod {
-        let prior = PriorSigma {
-            base: 0.1,
-            platform: 0.1,
-            tool: 0.1,
-            leg: 0.1,
-        };
-        let hexapod = Hexapod::new(&paper::design(), &prior).unwrap();
+        let hexapod = Hexapod::typical();
         if scaled {
             hexapod.with_unknown_scales("rev", [0.5, 0.8, 1.0, 1.25, 2.0, 4.0], [0.01; 6])
         } else {
