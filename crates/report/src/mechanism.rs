@@ -307,10 +307,16 @@ pub const BALL_HEADER: [&str; 5] = [
 /// The trackers' table: each frame's translation and rotation (as a
 /// rotation vector, degrees) from the mechanism's canonical frame, and
 /// their sigmas; then the body frame the tracker poses saw, if any, from
-/// the body's frame to the platform's.
+/// the body's frame to the platform's, as each tracker after which the body
+/// was re-mounted saw it and as the others did.
 pub fn tracker_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
     (calibration.trackers.iter())
         .map(|tracker| frame_row(&tracker.label, &tracker.frame, tracker.sigma))
+        .chain(calibration.trackers.iter().filter_map(|tracker| {
+            let body = tracker.body.as_ref()?;
+            let label = format!("body seen by {}", tracker.label);
+            Some(frame_row(&label, &body.frame, body.sigma))
+        }))
         .chain((calibration.body.iter()).map(|body| frame_row(BODY_LABEL, &body.frame, body.sigma)))
         .collect()
 }
@@ -682,6 +688,7 @@ mod tests {
                 sigma: Some([1e-4, 2e-4, 3e-4, 0.01, 0.02, 0.03]),
                 offsets: Vec::new(),
                 offset_sigmas: None,
+                body: None,
             });
         let markdown =
             render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
@@ -693,5 +700,21 @@ mod tests {
             render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
         assert!(markdown.contains("tracker left: the machine re-homed before it measured; its actuators' zero offsets 0.2500 ± 0.0625, -0.1250 ± 0.0625, 0.5000 ± 0.0625"), "{markdown}");
         assert!(markdown.contains("| left | 1200.000, -300.000, 150.000 | 0.0100, 0.0200, 0.0300 | 0.0000, 0.0000, 90.0000 | 0.0057, 0.0115, 0.0172 |"), "{markdown}");
+        // The body as a tracker saw it after it was moved, without sigmas.
+        record.trackers[0].body = Some(parcal_dataset::mechanism::BodyRecord {
+            frame: parcal_dataset::FrameRecord {
+                translation: [1.0, 2.0, 3.0],
+                rotation: [0.0, 0.0, 0.0, 1.0],
+            },
+            sigma: None,
+        });
+        let markdown =
+            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        assert!(
+            markdown.contains(
+                "| body seen by left | 1.000, 2.000, 3.000 | - | 0.0000, 0.0000, 0.0000 | - |"
+            ),
+            "{markdown}"
+        );
     }
 }

@@ -96,6 +96,20 @@ pub struct Tracker {
     /// The standard deviation of each offset's prior about zero (the
     /// actuators' unit), when re-homed; `None`: no prior.
     pub offset_sigma: Option<f64>,
+    /// Whether the body its poses see was turned on the platform before it
+    /// measured: the rotation `φ` about the body frame the other trackers
+    /// see is then three unknowns of the global block (`C_B,k = (Exp(ω_B +
+    /// φ), τ_B + ρ)`).
+    pub body_turned: bool,
+    /// The standard deviation of `φ`'s prior about zero (rad), when
+    /// turned; `None`: no prior.
+    pub body_rotation_sigma: Option<f64>,
+    /// Whether the body was moved on the platform before it measured: the
+    /// origin shift `ρ` is then three unknowns of the global block.
+    pub body_moved: bool,
+    /// The standard deviation of `ρ`'s prior about zero (mm), when moved;
+    /// `None`: no prior.
+    pub body_origin_sigma: Option<f64>,
 }
 
 impl Tracker {
@@ -106,6 +120,10 @@ impl Tracker {
             label: label.into(),
             rehomed: false,
             offset_sigma: None,
+            body_turned: false,
+            body_rotation_sigma: None,
+            body_moved: false,
+            body_origin_sigma: None,
         }
     }
 
@@ -114,10 +132,26 @@ impl Tracker {
     /// (`None`: no prior).
     pub fn rehomed(label: impl Into<String>, offset_sigma: Option<f64>) -> Self {
         Self {
-            label: label.into(),
             rehomed: true,
             offset_sigma,
+            ..Self::new(label)
         }
+    }
+
+    /// This tracker after the body on the platform was turned, the
+    /// rotation's prior `N(0, sigma² I)` (`None`: no prior).
+    pub fn with_body_turned(mut self, sigma: Option<f64>) -> Self {
+        self.body_turned = true;
+        self.body_rotation_sigma = sigma;
+        self
+    }
+
+    /// This tracker after the body on the platform was moved, the origin
+    /// shift's prior `N(0, sigma² I)` (`None`: no prior).
+    pub fn with_body_moved(mut self, sigma: Option<f64>) -> Self {
+        self.body_moved = true;
+        self.body_origin_sigma = sigma;
+        self
     }
 }
 
@@ -343,13 +377,15 @@ impl MechanismData {
     }
 
     /// These data with no prior on any parameter nor on any tracker's
-    /// offsets (the means kept as the solver's start).
+    /// offsets or body shifts (the means kept as the solver's start).
     pub fn without_priors(mut self) -> Self {
         for prior in &mut self.priors {
             prior.sigma = None;
         }
         for tracker in &mut self.observations.trackers {
             tracker.offset_sigma = None;
+            tracker.body_rotation_sigma = None;
+            tracker.body_origin_sigma = None;
         }
         self
     }
@@ -672,6 +708,28 @@ fn check_tracker_points(
             what: format!("tracker {:?}", tracker.label),
             reason,
         };
+        for (what, unknown, sigma) in [
+            (
+                "body rotation",
+                tracker.body_turned,
+                tracker.body_rotation_sigma,
+            ),
+            ("body origin", tracker.body_moved, tracker.body_origin_sigma),
+        ] {
+            match (unknown, sigma) {
+                (false, Some(_)) => {
+                    return Err(refuse(format!(
+                        "it has a {what}'s sigma, but its {what} is not an unknown"
+                    )));
+                }
+                (true, Some(sigma)) if !(sigma.is_finite() && sigma > 0.0) => {
+                    return Err(refuse(format!(
+                        "its {what}'s sigma {sigma} is not finite and positive"
+                    )));
+                }
+                _ => {}
+            }
+        }
         match (tracker.rehomed, tracker.offset_sigma) {
             (false, None) => continue,
             (false, Some(_)) => {
@@ -720,6 +778,16 @@ fn check_tracker_points(
     }
     let mut poses_of = vec![0usize; trackers];
     check_tracker_poses(observations, mechanism, &mut poses_of)?;
+    let remounted = |t: &Tracker| t.body_turned || t.body_moved;
+    if let Some(t) =
+        (0..trackers).find(|&t| poses_of[t] == 0 && remounted(&observations.trackers[t]))
+    {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: format!("tracker {:?}", observations.trackers[t].label),
+            reason: "its body was re-mounted, and it measured no pose that sees the body"
+                .to_string(),
+        });
+    }
     match (0..trackers).find(|&t| points_of[t] + poses_of[t] < MIN_POINTS_PER_TRACKER) {
         Some(t) => Err(MechanismCalibrationError::InvalidData {
             what: format!("tracker {:?}", observations.trackers[t].label),

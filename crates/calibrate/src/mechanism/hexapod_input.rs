@@ -64,10 +64,13 @@
 //! body's origins, [`super::trackers`]): the common door's estimate is the
 //! dedicated path's (the common calibration runs
 //! the observation of the options' [`MechanismOptions::observation`]).
+//! A later session with poses, when the session model re-mounts the body,
+//! has the body's rotation and origin shift as its tracker's
+//! ([`Tracker::with_body_turned`], [`Tracker::with_body_moved`]).
 //! What only the hexapod's own calibration models is refused by name:
-//! later sessions' leg offsets with the scales unknowns, a body re-mounted
-//! between sessions of poses, and poses alone without a prior (the common
-//! hexapod always has the tool, which no pose sees).
+//! later sessions' leg offsets with the scales unknowns, and poses alone
+//! without a prior (the common hexapod always has the tool, which no pose
+//! sees).
 //!
 //! [`coordinate_covariance`]: parcal_observe::coordinate_covariance
 //! [`MechanismOptions::observation`]: super::MechanismOptions
@@ -281,14 +284,6 @@ fn check_representable(dataset: &Dataset) -> Result<(), MechanismCalibrationErro
         })
     };
     let machine = &dataset.machine;
-    let model = &machine.session_model;
-    let remounted = model.body_origin_sigma.is_some() || model.body_rotation_sigma.is_some();
-    if remounted && tracker.poses.session.iter().any(|&s| s > 0) {
-        return refuse(
-            "the session model's body origins and rotations",
-            "a later session's poses with the body re-mounted are not modelled by the common calibration (one body frame for every pose); the hexapod's own calibration takes them",
-        );
-    }
     let offsets = tracker.sessions.len() > 1 && machine.session_model.leg_offset_sigma.is_some();
     if offsets && machine.actuator.scale_sigma.is_some() {
         return refuse(
@@ -299,15 +294,29 @@ fn check_representable(dataset: &Dataset) -> Result<(), MechanismCalibrationErro
     Ok(())
 }
 
-/// Each session of points.csv as a tracker: the first as the touches read
-/// the legs, each later one with its legs' zero offsets when the session
-/// model re-homes them (module doc).
+/// Each session of points.csv and poses.csv as a tracker: the first as the
+/// touches read the legs, each later one with its legs' zero offsets when
+/// the session model re-homes them, and with poses its body's rotation and
+/// origin shift when the session model re-mounts it (module doc).
 fn trackers(dataset: &Dataset) -> Vec<Tracker> {
-    let offset_sigma = dataset.machine.session_model.leg_offset_sigma;
+    let model = &dataset.machine.session_model;
+    let poses = &dataset.tracker.poses;
     (dataset.tracker.sessions.iter().enumerate())
-        .map(|(session, label)| match offset_sigma {
-            Some(sigma) if session > 0 => Tracker::rehomed(label.clone(), Some(sigma)),
-            _ => Tracker::new(label.clone()),
+        .map(|(session, label)| {
+            let mut tracker = match model.leg_offset_sigma {
+                Some(sigma) if session > 0 => Tracker::rehomed(label.clone(), Some(sigma)),
+                _ => Tracker::new(label.clone()),
+            };
+            let with_poses = poses.session.iter().any(|&s| s as usize == session);
+            if session > 0 && with_poses {
+                if let Some(sigma) = model.body_rotation_sigma {
+                    tracker = tracker.with_body_turned(Some(sigma));
+                }
+                if let Some(sigma) = model.body_origin_sigma {
+                    tracker = tracker.with_body_moved(Some(sigma));
+                }
+            }
+            tracker
         })
         .collect()
 }

@@ -27,7 +27,9 @@ use super::error::MechanismCalibrationError;
 /// frame correction's six, none, about the correction's start 0, then
 /// each re-homed tracker's actuator offsets', about zero with its
 /// `offset_sigma` if any, then with tracker poses the body frame's
-/// correction's six, none.
+/// correction's six, none, then each tracker's body rotation (three) and
+/// origin shift (three), where the body was turned or moved, about zero
+/// with its sigma if any.
 pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
     let mut priors = data.priors.clone();
     if data.has_trigger_height() {
@@ -46,6 +48,14 @@ pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
     }
     if !data.observations.tracker_poses.is_empty() {
         priors.extend(std::iter::repeat_n(about_zero(None), FRAME_UNKNOWNS));
+    }
+    for tracker in trackers {
+        if tracker.body_turned {
+            priors.extend([about_zero(tracker.body_rotation_sigma); 3]);
+        }
+        if tracker.body_moved {
+            priors.extend([about_zero(tracker.body_origin_sigma); 3]);
+        }
     }
     priors
 }

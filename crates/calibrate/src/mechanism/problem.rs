@@ -931,9 +931,10 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
                 kind: ObservationKind::TrackerPose,
                 index: k,
             };
-            let (Some(body), Some(body_columns)) =
-                (self.trackers.body(global), self.trackers.body_columns())
-            else {
+            let (Some(body), Some(body_columns)) = (
+                self.trackers.body_of(pose.tracker, global),
+                self.trackers.body_columns(),
+            ) else {
                 return Err(failed(id, "the body frame is not an unknown"));
             };
             let frame = self.trackers.frame(pose.tracker, global);
@@ -953,6 +954,20 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
             put(0..n, &evaluated.rows.d_params);
             put(self.trackers.columns(pose.tracker), &evaluated.d_frame);
             put(body_columns, &evaluated.d_body);
+            // A body shift adds to the body's correction: the same columns.
+            let shift = self.trackers.body_shift(pose.tracker);
+            if let Some(start) = shift.rotation {
+                put(
+                    start..start + 3,
+                    &evaluated.d_body.columns(0, 3).into_owned(),
+                );
+            }
+            if let Some(start) = shift.origin {
+                put(
+                    start..start + 3,
+                    &evaluated.d_body.columns(3, 3).into_owned(),
+                );
+            }
             if let (Some(columns), Some(d_offsets)) = (
                 self.trackers.offset_columns(pose.tracker),
                 &evaluated.d_offsets,
@@ -1471,7 +1486,8 @@ pub(crate) mod tests {
     }
 
     /// The paper's hexapod at its design seen by two trackers (the second
-    /// after the legs were re-homed), each measuring 4 poses of a body on
+    /// after the legs were re-homed and the body re-mounted; it was not
+    /// moved), each measuring 4 poses of a body on
     /// the platform and 3 tool points, the readings off by up to 0.01 mm;
     /// the body's reference a little off the true body frame.
     fn tracked_hexapod() -> MechanismData {
@@ -1507,7 +1523,12 @@ pub(crate) mod tests {
             (x, readings)
         };
         let mut observations = Observations {
-            trackers: vec![Tracker::new("T1"), Tracker::rehomed("T2", Some(0.3))],
+            trackers: vec![
+                Tracker::new("T1"),
+                Tracker::rehomed("T2", Some(0.3))
+                    .with_body_turned(Some(0.02))
+                    .with_body_moved(Some(0.5)),
+            ],
             body_reference: Isometry3::new(
                 Vector3::new(4.5, -6.2, 34.0),
                 Vector3::new(0.02, -0.01, 0.52),
@@ -1538,14 +1559,16 @@ pub(crate) mod tests {
     }
 
     /// The tracker poses' rows see the parameters but the tool, their own
-    /// tracker's frame and offsets, and the body frame, and nothing else; the step
+    /// tracker's frame, offsets and body shift, and the body frame, and
+    /// nothing else; the step
     /// and covariance are the dense reference's.
     #[test]
     fn tracker_pose_rows_match_central_differences_over_the_global_block() {
         let data = tracked_hexapod();
         let problem = MechanismProblem::<3>::new(&data, Loss::Squared).unwrap();
-        // The two trackers' frames, the second's offsets, the body frame.
-        assert_eq!(problem.mechanism_len(), problem.n_params() + 12 + 6 + 6);
+        // The two trackers' frames, the second's offsets, the body frame,
+        // the second's body rotation and origin shift.
+        assert_eq!(problem.mechanism_len(), problem.n_params() + 12 + 6 + 6 + 6);
         let analytic = rows_match_central_differences_over_the_global_block::<3>(&data);
         let poses = &data.observations.tracker_poses;
         let first = analytic.nrows() - 6 * poses.len();
@@ -1553,6 +1576,13 @@ pub(crate) mod tests {
         for (j, pose) in poses.iter().enumerate() {
             let frame = problem.trackers().columns(pose.tracker);
             let offsets = problem.trackers().offset_columns(pose.tracker);
+            let shift = problem.trackers().body_shift(pose.tracker);
+            let shifted = |c: usize| {
+                [shift.rotation, shift.origin]
+                    .iter()
+                    .flatten()
+                    .any(|&start| (start..start + 3).contains(&c))
+            };
             for c in 0..analytic.ncols() {
                 let seen = (0..6).any(|r| analytic[(first + 6 * j + r, c)] != 0.0);
                 if c < problem.n_params() {
@@ -1562,6 +1592,7 @@ pub(crate) mod tests {
                 }
                 let expected = frame.contains(&c)
                     || body.contains(&c)
+                    || shifted(c)
                     || offsets.as_ref().is_some_and(|o| o.contains(&c));
                 assert_eq!(seen, expected, "tracker pose {j}, column {c}");
             }

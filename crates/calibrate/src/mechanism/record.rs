@@ -10,7 +10,7 @@ use parcal_dataset::mechanism::{
     UndeterminedRecord,
 };
 
-use super::result::MechanismCalibration;
+use super::result::{EstimatedBody, MechanismCalibration};
 use crate::instruments::run::frame;
 
 impl MechanismCalibration {
@@ -141,14 +141,20 @@ impl MechanismCalibration {
                     offset_sigmas: (!t.offsets.is_empty())
                         .then(|| t.offsets.iter().map(|&(_, sigma)| sigma).collect())
                         .flatten(),
+                    body: t.body.as_ref().map(body_record),
                 })
                 .collect(),
-            body: self.body.as_ref().map(|b| BodyRecord {
-                frame: frame(&b.frame),
-                sigma: b.sigma(),
-            }),
+            body: self.body.as_ref().map(body_record),
             observation: self.observation.map(|o| o.to_string()),
         }
+    }
+}
+
+/// A body frame's record.
+fn body_record(body: &EstimatedBody) -> BodyRecord {
+    BodyRecord {
+        frame: frame(&body.frame),
+        sigma: body.sigma(),
     }
 }
 

@@ -75,6 +75,9 @@ pub struct EstimatedTracker {
     /// deviations when the fit gave them (the actuators' unit); empty for
     /// a tracker without offsets.
     pub offsets: Vec<(f64, Option<f64>)>,
+    /// The body frame its poses saw, where the body was turned or moved
+    /// before it measured (`C_B,k = (Exp(ω_B + φ), τ_B + ρ)`).
+    pub body: Option<EstimatedBody>,
 }
 
 impl EstimatedTracker {
@@ -282,6 +285,13 @@ pub(crate) fn assemble(
             (fit.trackers.body_columns().iter())
                 .flat_map(|_| FRAME_AXES.map(|axis| format!("body {axis}"))),
         )
+        .chain(data.observations.trackers.iter().flat_map(|tracker| {
+            let label = &tracker.label;
+            let (rotation, origin) = FRAME_AXES.split_at(3);
+            let turned = rotation.iter().filter(|_| tracker.body_turned);
+            let moved = origin.iter().filter(|_| tracker.body_moved);
+            (turned.chain(moved)).map(move |axis| format!("tracker {label} body {axis}"))
+        }))
         .collect();
     let estimated_balls = fit
         .centres
@@ -368,6 +378,8 @@ fn tracker_estimates(
         .map(|(k, tracker)| {
             let start = fit.trackers.columns(k).start;
             let offsets = fit.trackers.offset_columns(k).unwrap_or_default();
+            let shift = fit.trackers.body_shift(k);
+            let shifted = shift.rotation.is_some() || shift.origin.is_some();
             EstimatedTracker {
                 label: tracker.label.clone(),
                 frame: fit.trackers.frame(k, values).isometry(),
@@ -375,6 +387,9 @@ fn tracker_estimates(
                 offsets: offsets
                     .map(|j| (values[j], marginal_sigma(covariance, j)))
                     .collect(),
+                body: shifted
+                    .then(|| shifted_body_estimate(fit, k, values, covariance))
+                    .flatten(),
             }
         })
         .collect()
@@ -392,6 +407,38 @@ fn body_estimate(
     Some(EstimatedBody {
         frame: fit.trackers.body(values)?.isometry(),
         covariance: covariance.map(|c| c.fixed_view::<6, 6>(start, start).into_owned()),
+    })
+}
+
+/// The body frame tracker `k`'s poses saw, `C_B,k ∘ B₀`, from the
+/// canonical global block `values`, with the covariance of `C_B,k = C_B +
+/// (φ, ρ)`, `A Cov Aᵀ` for `A` the sum of the body's and the shift's
+/// columns.
+fn shifted_body_estimate(
+    fit: &Fit,
+    k: usize,
+    values: &DVector<f64>,
+    covariance: Option<&DMatrix<f64>>,
+) -> Option<EstimatedBody> {
+    let body = fit.trackers.body_columns()?;
+    let shift = fit.trackers.body_shift(k);
+    let mut a = DMatrix::zeros(6, values.len());
+    for i in 0..6 {
+        a[(i, body.start + i)] = 1.0;
+    }
+    for (first, start) in [(0, shift.rotation), (3, shift.origin)] {
+        if let Some(start) = start {
+            for i in 0..3 {
+                a[(first + i, start + i)] = 1.0;
+            }
+        }
+    }
+    Some(EstimatedBody {
+        frame: fit.trackers.body_of(k, values)?.isometry(),
+        covariance: covariance.map(|c| {
+            let projected = &a * c * a.transpose();
+            Matrix6::from_column_slice(projected.as_slice())
+        }),
     })
 }
 

@@ -5,7 +5,10 @@
 //! [`super::prior::global_priors`]), without a prior; a re-homed
 //! tracker's actuator offsets follow every frame, one per actuator; with
 //! tracker poses, the body frame's correction `C_B` follows them
-//! ([`BodyFrame`], `B = C_B ∘ B₀`, six unknowns without a prior).
+//! ([`BodyFrame`], `B = C_B ∘ B₀`, six unknowns without a prior), then
+//! each tracker's body rotation `φ_k` and origin shift `ρ_k` where the body
+//! was turned or moved before it measured (`C_B,k = (Exp(ω_B + φ_k), τ_B
+//! + ρ_k)`, three unknowns each).
 //!
 //! `F₀_k` is fixed before the fit: the rigid motion that best maps the
 //! tool points its points reach at the priors' means, and the platform
@@ -48,6 +51,18 @@ pub(crate) struct Trackers {
     /// `B₀` and the global column of the body frame's correction, when
     /// there are tracker poses.
     body: Option<(Isometry3<f64>, usize)>,
+    /// The global columns of each tracker's body rotation and origin
+    /// shift, where its body was turned or moved.
+    shifts: Vec<BodyShift>,
+}
+
+/// Where a tracker's body shift is in the global block: the first column
+/// of its rotation `φ` and of its origin shift `ρ`, where they are
+/// unknowns.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct BodyShift {
+    pub(crate) rotation: Option<usize>,
+    pub(crate) origin: Option<usize>,
 }
 
 impl Trackers {
@@ -86,13 +101,29 @@ impl Trackers {
                 })
             })
             .collect();
-        let body = (!o.tracker_poses.is_empty()).then_some((o.body_reference, next));
+        let body = (!o.tracker_poses.is_empty()).then(|| {
+            next += FRAME_UNKNOWNS;
+            (o.body_reference, next - FRAME_UNKNOWNS)
+        });
+        let mut three = |unknown: bool| {
+            unknown.then(|| {
+                next += 3;
+                next - 3
+            })
+        };
+        let shifts = (o.trackers.iter())
+            .map(|tracker| BodyShift {
+                rotation: three(tracker.body_turned),
+                origin: three(tracker.body_moved),
+            })
+            .collect();
         Ok(Self {
             references,
             first,
             offsets,
             actuators,
             body,
+            shifts,
         })
     }
 
@@ -112,6 +143,27 @@ impl Trackers {
             reference,
             correction: FrameCorrection::from_params(&correction),
         })
+    }
+
+    /// The global columns of tracker `k`'s body rotation and origin shift.
+    pub(crate) fn body_shift(&self, k: usize) -> BodyShift {
+        self.shifts[k]
+    }
+
+    /// The body frame tracker `k`'s poses see at the global block
+    /// `global`: the body frame, turned and moved by the tracker's shift
+    /// (`C_B,k = (Exp(ω_B + φ), τ_B + ρ)`), when there are tracker poses.
+    pub(crate) fn body_of(&self, k: usize, global: &DVector<f64>) -> Option<BodyFrame> {
+        let mut body = self.body(global)?;
+        let shift = self.shifts[k];
+        let at = |start: usize| Vec3::from_column_slice(&global.as_slice()[start..start + 3]);
+        if let Some(start) = shift.rotation {
+            body.correction.rotation += at(start);
+        }
+        if let Some(start) = shift.origin {
+            body.correction.translation += at(start);
+        }
+        Some(body)
     }
 
     /// The global columns of tracker `k`'s actuator offsets, if it has

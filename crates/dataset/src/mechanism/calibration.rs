@@ -186,6 +186,10 @@ pub struct TrackerRecord {
     /// Their standard deviations.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset_sigmas: Option<Vec<f64>>,
+    /// The body frame its poses saw, when the body was turned or moved
+    /// before it measured (absent: the record's `body`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<BodyRecord>,
 }
 
 /// A mechanism calibration's record (module doc).
