@@ -71,8 +71,32 @@ impl EffectSums {
         }
     }
 
-    /// Adds one reduced row `[B | β | γ_1 … γ_K]`.
+    /// Adds one reduced row `[B | β | γ_1 … γ_K]`: `b_e += β B`, `b_ck +=
+    /// γ_k B`, `βᵀγ_k += β γ_k`, `|γ_k|² += γ_k²`.
+    ///
+    /// Compiled twice: for AVX2, chosen at run time where the machine has
+    /// it (the gradients four wide instead of two), and for any x86-64.
+    /// Both multiply and add in the same order, so they give the same bits.
+    #[allow(unsafe_code, reason = "the AVX2 build, called after the feature check")]
     pub(crate) fn add_row(&mut self, row: &[f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the machine runs AVX2.
+            return unsafe { self.add_row_avx2(row) };
+        }
+        self.add_row_in(row);
+    }
+
+    /// [`EffectSums::add_row`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn add_row_avx2(&mut self, row: &[f64]) {
+        self.add_row_in(row);
+    }
+
+    /// The body of [`EffectSums::add_row`], inlined into each of its builds.
+    #[inline(always)]
+    fn add_row_in(&mut self, row: &[f64]) {
         let g = self.g;
         let (b, tail) = row.split_at(g);
         let (beta, gamma) = (tail[0], &tail[1..]);

@@ -519,6 +519,7 @@ where
             },
             rows: self.rows,
             points: &self.points,
+            prior,
             out: &mut self.out[done..],
             global_z: self.global_z.as_mut(),
             scratch: Scratch {
@@ -526,21 +527,8 @@ where
                 reduced: &mut self.reduced,
                 z: &mut self.z,
             },
-            prior_leverage: &mut self.prior_leverage.points,
+            prior_leverage: &mut self.prior_leverage,
         });
-        if let (Some(top), Some(prior)) = (top, prior) {
-            let (g, cw) = (self.g, C + self.g);
-            // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0.
-            let (y, z) = self.coordinates[..cw].split_at_mut(C);
-            for a in 0..C {
-                let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(a, b)]);
-                let u = &mut self.reduced[..g];
-                u.fill(0.0);
-                eliminate_group::<C>(top, g, &u_row, y, u);
-                times_factor(self.factor, u, z);
-                self.prior_leverage.groups += norm2(y) + norm2(z);
-            }
-        }
         self.points.clear();
         self.rows.clear();
     }
@@ -565,16 +553,18 @@ struct Scratch<'a> {
 
 /// A group's points done, as [`point_leverages`] takes them: their
 /// levels, their eliminated `rows` (`[E_c | E_g | ·]`, width `C + G + 1`,
-/// the points' in order), the points, where their numbers go, the `z_j`
-/// kept if asked, the scratch, and the sum of the prior rows' leverage.
-struct GroupPoints<'a, const P: usize, const R: usize> {
+/// the points' in order), the points, the group's prior rows (if any),
+/// where the points' numbers go, the `z_j` kept if asked, the scratch, and
+/// the sums of the prior rows' leverage.
+struct GroupPoints<'a, const C: usize, const P: usize, const R: usize> {
     level: GroupLevel<'a>,
     rows: &'a [f64],
     points: &'a [PendingPoint<P, R>],
+    prior: Option<&'a PriorRows<C>>,
     out: &'a mut [PointRows<R>],
     global_z: Option<&'a mut Vec<f64>>,
     scratch: Scratch<'a>,
-    prior_leverage: &'a mut f64,
+    prior_leverage: &'a mut PriorLeverage,
 }
 
 /// Each point of a group done ([`GroupPoints`]): `V` (a row `[R_cc⁻ᵀ
@@ -582,13 +572,15 @@ struct GroupPoints<'a, const P: usize, const R: usize> {
 /// row's `r_j = |q_j|² − q_jᵀ M q_j` and global leverage `|z_j|²`,
 /// `z_j = Σ_e q_j[e] V[e, C..]` (module doc) into `out`; each `z_j` onto
 /// `global_z` if kept; the leverage `1 − r` of the points' prior rows
-/// added to `prior_leverage`.
+/// added to `prior_leverage.points`, then that of the group's prior rows
+/// `[U_c | 0]` (`|R_cc⁻ᵀ U_cᵀ|² + |LᵀŨ|²` a row) to `prior_leverage.groups`.
 ///
 /// Compiled twice: for AVX2, chosen at run time where the machine has it
-/// (the products with `L` four wide instead of two), and for any x86-64.
-/// Both multiply and add in the same order, so they give the same bits.
+/// (the products with `L` and `R_cg` four wide instead of two), and for
+/// any x86-64. Both multiply and add in the same order, so they give the
+/// same bits.
 #[allow(unsafe_code, reason = "the AVX2 build, called after the feature check")]
-fn point_leverages<const C: usize, const P: usize, const R: usize>(work: GroupPoints<'_, P, R>) {
+fn point_leverages<const C: usize, const P: usize, const R: usize>(work: GroupPoints<'_, C, P, R>) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the machine runs AVX2.
@@ -601,18 +593,21 @@ fn point_leverages<const C: usize, const P: usize, const R: usize>(work: GroupPo
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn point_leverages_avx2<const C: usize, const P: usize, const R: usize>(
-    work: GroupPoints<'_, P, R>,
+    work: GroupPoints<'_, C, P, R>,
 ) {
     point_leverages_in::<C, P, R>(work);
 }
 
 /// The body of [`point_leverages`], inlined into each of its builds.
 #[inline(always)]
-fn point_leverages_in<const C: usize, const P: usize, const R: usize>(work: GroupPoints<'_, P, R>) {
+fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
+    work: GroupPoints<'_, C, P, R>,
+) {
     let GroupPoints {
         level,
         rows,
         points,
+        prior,
         out,
         mut global_z,
         scratch,
@@ -660,8 +655,20 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(work: Grou
         }
         if let Some(q) = &point.prior {
             for a in 0..P {
-                *prior_leverage += 1.0 - row_redundancy(q, a, &m, n);
+                prior_leverage.points += 1.0 - row_redundancy(q, a, &m, n);
             }
+        }
+    }
+    if let (Some(top), Some(prior)) = (level.top, prior) {
+        // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0.
+        let (y, z) = coordinates[..cw].split_at_mut(C);
+        for a in 0..C {
+            let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(a, b)]);
+            let u = &mut reduced[..g];
+            u.fill(0.0);
+            eliminate_group::<C>(top, g, &u_row, y, u);
+            times_factor(level.factor, u, z);
+            prior_leverage.groups += norm2(y) + norm2(z);
         }
     }
 }
@@ -691,7 +698,9 @@ fn row_redundancy<const K: usize, const R: usize>(
 /// (`[R_cc | R_cg | z_c]`, row-major, `C` rows of width `C + G + 1` and
 /// any effects' columns): `y = R_cc⁻ᵀ a_c`
 /// into `y`, and `u ← u − R_cgᵀ y` (`u` holds `a_g` on entry; the reduced
-/// row `a_g − Kᵀa_c` on return).
+/// row `a_g − Kᵀa_c` on return). Inlined, so that [`point_leverages`]'
+/// AVX2 build has its own.
+#[inline(always)]
 fn eliminate_group<const C: usize>(
     top: &[f64],
     g: usize,
@@ -776,8 +785,9 @@ fn factor_block<const R: usize, const B: usize>(
 /// the diagonal) with `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by
 /// whole rows of `L` (`z += L[i, ..] u_i`, lanes independent, every row of
 /// one length), whose zeros add `±0` to sums that are never `−0`: the
-/// bits of the lower triangle's products alone.
-#[inline]
+/// bits of the lower triangle's products alone. Inlined, so that
+/// [`point_leverages`]' AVX2 build has its own.
+#[inline(always)]
 pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
     let g = u.len();
     z.fill(0.0);
