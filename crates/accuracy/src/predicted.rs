@@ -112,22 +112,26 @@ fn target_jacobians(
         .collect()
 }
 
-/// `sqrt(trace(J_k Σ J_kᵀ))` per point (mm).
+/// `sqrt(trace(J_k Σ J_kᵀ))` per point (mm). A negative trace is measured
+/// against `trace(|J_k| |Σ| |J_k|ᵀ)`, the size of its terms: within
+/// [`ROUNDING`] of it, it is rounding.
 fn tip_sigmas(
     jacobians: &[SMatrix<f64, 3, N_PARAMS>],
     covariance: &ParamCovariance,
     points: &[Vec3],
 ) -> Result<Vec<f64>, AccuracyError> {
-    let magnitude = covariance.abs();
+    // Column `l` of `Σᵀ` is row `l` of `Σ`.
+    let rows = covariance.transpose();
     jacobians
         .iter()
         .zip(points)
         .map(|(j, point)| {
-            let variance = (j * covariance).component_mul(j).sum();
-            let scale = (j.abs() * magnitude).component_mul(&j.abs()).sum();
+            let variance = tip_variance(j, &rows);
             if variance >= 0.0 {
-                Ok(variance.sqrt())
-            } else if variance >= -ROUNDING * scale {
+                return Ok(variance.sqrt());
+            }
+            let scale = (j.abs() * covariance.abs()).component_mul(&j.abs()).sum();
+            if variance >= -ROUNDING * scale {
                 Ok(0.0)
             } else {
                 Err(AccuracyError::NotPositiveSemidefinite {
@@ -138,6 +142,36 @@ fn tip_sigmas(
             }
         })
         .collect()
+}
+
+/// `trace(J Σ Jᵀ) = Σ_c Σ_r (J Σ)[r, c] J[r, c]` from `rows = Σᵀ`, with
+/// the sums of `(J * Σ).component_mul(J).sum()`: `(J Σ)[r, c] = Σ_l J[r,
+/// l] Σ[l, c]` over `l` in order, then the terms column by column from 0.
+/// Each row `r` of `J Σ` is built a row of `Σ` at a time, its columns side
+/// by side.
+fn tip_variance(j: &SMatrix<f64, 3, N_PARAMS>, rows: &ParamCovariance) -> f64 {
+    let mut j_sigma = [[0.0; N_PARAMS]; 3];
+    for (r, out) in j_sigma.iter_mut().enumerate() {
+        let mut sigma_rows = rows.as_slice().chunks_exact(N_PARAMS).enumerate();
+        if let Some((_, first)) = sigma_rows.next() {
+            for (o, s) in out.iter_mut().zip(first) {
+                *o = j[(r, 0)] * s;
+            }
+        }
+        for (l, row) in sigma_rows {
+            let a = j[(r, l)];
+            for (o, s) in out.iter_mut().zip(row) {
+                *o += a * s;
+            }
+        }
+    }
+    let mut variance = 0.0;
+    for c in 0..N_PARAMS {
+        for (r, row) in j_sigma.iter().enumerate() {
+            variance += row[c] * j[(r, c)];
+        }
+    }
+    variance
 }
 
 /// Replaces each 3 x C block `J_k` of the stacked Jacobian `J` (3N x C) by
@@ -238,6 +272,20 @@ mod tests {
         for (a, b) in twice.iter().zip(&projected) {
             assert!((a - b).amax() < 1e-12);
         }
+    }
+
+    #[test]
+    fn the_tip_variance_has_the_bits_of_the_matrix_products() {
+        // An asymmetric Σ and a J of mixed signs and magnitudes.
+        let j = SMatrix::<f64, 3, N_PARAMS>::from_fn(|r, c| {
+            ((7 * r + 3 * c) as f64 * 0.37).sin() * 10f64.powi(c as i32 % 5 - 2)
+        });
+        let sigma = ParamCovariance::from_fn(|r, c| ((r * 31 + c * 17) as f64 * 0.11).cos() * 1e-3);
+        let expected = (j * sigma).component_mul(&j).sum();
+        assert_eq!(
+            tip_variance(&j, &sigma.transpose()).to_bits(),
+            expected.to_bits()
+        );
     }
 
     #[test]
