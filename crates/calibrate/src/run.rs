@@ -278,9 +278,9 @@ fn centre_conflict(
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut chi_square = 0.0;
     for (k, ball) in dataset.artefacts.balls.iter().enumerate() {
-        for (c, axis) in ["x", "y", "z"].iter().enumerate() {
+        for (c, axis) in ["x", "y", "z"].into_iter().enumerate() {
             let difference = centres[k][c] - setup.initial_centres[k][c];
-            names.push(format!("centre {}.{axis}", ids[k]));
+            names.push(["centre ", ids[k].as_str(), ".", axis].concat());
             d.push(difference);
             prior.push(ball.centre_sigma.powi(2));
             posterior.push(sigmas[k][c].powi(2));

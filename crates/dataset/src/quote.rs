@@ -56,6 +56,16 @@ pub(crate) fn sanitized(text: &str) -> String {
     )
 }
 
+/// [`sanitized`] `text` when it is formatted: a field path of a check
+/// that is only written out if the check fails.
+pub(crate) struct Sanitized<'a>(pub(crate) &'a str);
+
+impl std::fmt::Display for Sanitized<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&sanitized(self.0))
+    }
+}
+
 /// Whether `text` has a control character (which a label or an id must
 /// not have: it would act on the terminal that shows it).
 pub(crate) fn has_control(text: &str) -> bool {

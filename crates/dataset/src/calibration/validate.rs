@@ -36,7 +36,7 @@ use super::{Calibration, Diagnostics};
 use crate::check::{Check, shown};
 use crate::error::Result;
 use crate::json;
-use crate::quote::{quoted, sanitized};
+use crate::quote::{Sanitized, quoted, sanitized};
 
 /// Relative agreement of two copies of one number (a parameter and its
 /// canonical coordinate, a sigma and its variance), relative to the larger
@@ -104,7 +104,7 @@ impl Calibration {
             check.non_negative(format_args!("parameters.sigma[{k}]"), sigma)?;
         }
         for (id, estimate) in &self.ball_centres {
-            let id = sanitized(id);
+            let id = Sanitized(id);
             check.point(format_args!("ball_centres.{id}.centre"), &estimate.centre)?;
             for (j, &sigma) in estimate.sigma.iter().enumerate() {
                 check.non_negative(format_args!("ball_centres.{id}.sigma[{j}]"), sigma)?;
@@ -380,7 +380,7 @@ impl Calibration {
             check.text(format_args!("parameters.names[{k}]"), name)?;
         }
         for id in self.ball_centres.keys() {
-            check.text(format_args!("ball_centres.{}", sanitized(id)), id)?;
+            check.text(format_args!("ball_centres.{}", Sanitized(id)), id)?;
         }
         for (field, text) in [
             ("prior", &self.prior),
