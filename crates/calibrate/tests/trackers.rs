@@ -272,7 +272,7 @@ fn errors_name_the_tracker_or_its_point() {
     );
     // Offsets' sigmas: only for a re-homed tracker, positive.
     let mut data = tracked(&dataset, 1);
-    data.observations.trackers[1].offset_sigma = Some(0.1);
+    data.observations.trackers[1].offset_sigmas = Some(vec![0.1]);
     assert_eq!(
         error_of(&data),
         "tracker \"right\": it has an offsets' sigma but was not re-homed: it has no offsets"
@@ -281,6 +281,11 @@ fn errors_name_the_tracker_or_its_point() {
     assert_eq!(
         error_of(&data),
         "tracker \"right\": its offsets' sigma -0.1 is not finite and positive"
+    );
+    data.observations.trackers[1] = Tracker::rehomed_each("right", vec![0.1, 0.2]);
+    assert_eq!(
+        error_of(&data),
+        "tracker \"right\": it has 2 offsets' sigmas: one for every actuator, or one for each of the 3"
     );
     // A point the machine cannot reach.
     let mut data = tracked(&dataset, 1);

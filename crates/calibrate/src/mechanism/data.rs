@@ -93,9 +93,10 @@ pub struct Tracker {
     /// actuator's zero offset is then an unknown of the global block;
     /// otherwise the actuators read as for the other observations.
     pub rehomed: bool,
-    /// The standard deviation of each offset's prior about zero (the
-    /// actuators' unit), when re-homed; `None`: no prior.
-    pub offset_sigma: Option<f64>,
+    /// The standard deviations of the offsets' priors about zero (the
+    /// actuators' unit), when re-homed: one for every actuator, or one per
+    /// actuator; `None`: no prior.
+    pub offset_sigmas: Option<Vec<f64>>,
     /// Whether the body its poses see was turned on the platform before it
     /// measured: the rotation `φ` about the body frame the other trackers
     /// see is then three unknowns of the global block (`C_B,k = (Exp(ω_B +
@@ -119,7 +120,7 @@ impl Tracker {
         Self {
             label: label.into(),
             rehomed: false,
-            offset_sigma: None,
+            offset_sigmas: None,
             body_turned: false,
             body_rotation_sigma: None,
             body_moved: false,
@@ -133,9 +134,26 @@ impl Tracker {
     pub fn rehomed(label: impl Into<String>, offset_sigma: Option<f64>) -> Self {
         Self {
             rehomed: true,
-            offset_sigma,
+            offset_sigmas: offset_sigma.map(|sigma| vec![sigma]),
             ..Self::new(label)
         }
+    }
+
+    /// A tracker labelled `label` that measured after the machine was
+    /// re-homed, actuator `i`'s offset with the prior `N(0, sigmas[i]²)`
+    /// (actuators of different units or scales).
+    pub fn rehomed_each(label: impl Into<String>, sigmas: Vec<f64>) -> Self {
+        Self {
+            rehomed: true,
+            offset_sigmas: Some(sigmas),
+            ..Self::new(label)
+        }
+    }
+
+    /// The prior sigma of actuator `i`'s offset, if any.
+    pub(crate) fn offset_sigma(&self, i: usize) -> Option<f64> {
+        let sigmas = self.offset_sigmas.as_ref()?;
+        sigmas.get(i).or(sigmas.first()).copied()
     }
 
     /// This tracker after the body on the platform was turned, the
@@ -383,7 +401,7 @@ impl MechanismData {
             prior.sigma = None;
         }
         for tracker in &mut self.observations.trackers {
-            tracker.offset_sigma = None;
+            tracker.offset_sigmas = None;
             tracker.body_rotation_sigma = None;
             tracker.body_origin_sigma = None;
         }
@@ -697,6 +715,7 @@ fn check_tracker_points(
     check_at: impl Fn(ObservationRef, &Actuation) -> Result<(), MechanismCalibrationError>,
 ) -> Result<(), MechanismCalibrationError> {
     let trackers = observations.trackers.len();
+    let actuators = mechanism.actuators().len();
     if trackers > MAX_TRACKERS {
         return Err(MechanismCalibrationError::InvalidData {
             what: "trackers".to_string(),
@@ -730,19 +749,27 @@ fn check_tracker_points(
                 _ => {}
             }
         }
-        match (tracker.rehomed, tracker.offset_sigma) {
+        match (tracker.rehomed, &tracker.offset_sigmas) {
             (false, None) => continue,
             (false, Some(_)) => {
                 return Err(refuse(
                     "it has an offsets' sigma but was not re-homed: it has no offsets".to_string(),
                 ));
             }
-            (true, Some(sigma)) if !(sigma.is_finite() && sigma > 0.0) => {
+            (true, Some(sigmas)) if sigmas.len() != 1 && sigmas.len() != actuators => {
                 return Err(refuse(format!(
-                    "its offsets' sigma {sigma} is not finite and positive"
+                    "it has {} offsets' sigmas: one for every actuator, or one for each of the {actuators}",
+                    sigmas.len()
                 )));
             }
-            (true, _) => {}
+            (true, Some(sigmas)) => {
+                if let Some(sigma) = sigmas.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+                    return Err(refuse(format!(
+                        "its offsets' sigma {sigma} is not finite and positive"
+                    )));
+                }
+            }
+            (true, None) => {}
         }
         if !square {
             return Err(refuse(

@@ -44,7 +44,10 @@
 //!   ([`super::trackers`]), and for a later session, when machine.json's
 //!   session model re-homes the legs, their zero offsets (six unknowns
 //!   with its `leg_offset_sigma`: at known scales the legs' extensions are
-//!   the readings, so that `l_i + o_i + s_i q_i` is the own model's); each
+//!   the readings, so that `l_i + o_i + s_i q_i` is the own model's; at
+//!   unknown scales the offsets are in the readings' unit, `o_i / s_i`,
+//!   their prior sigmas `leg_offset_sigma / s_i` at the design's scales,
+//!   the own prior to first order in the scales' change); each
 //!   point a [`TrackerPoint`] at its readings (as above), weighted as the
 //!   hexapod calibration weighs it at its initial estimate (the
 //!   instrument's position sigma and the actuators' repeatability through
@@ -67,10 +70,9 @@
 //! A later session with poses, when the session model re-mounts the body,
 //! has the body's rotation and origin shift as its tracker's
 //! ([`Tracker::with_body_turned`], [`Tracker::with_body_moved`]).
-//! What only the hexapod's own calibration models is refused by name:
-//! later sessions' leg offsets with the scales unknowns, and poses alone
-//! without a prior (the common hexapod always has the tool, which no pose
-//! sees).
+//! Poses alone without a prior are refused by name: the common hexapod
+//! always has the tool, which no pose sees, where the hexapod's own
+//! calibration leaves it out.
 //!
 //! [`coordinate_covariance`]: parcal_observe::coordinate_covariance
 //! [`MechanismOptions::observation`]: super::MechanismOptions
@@ -125,7 +127,6 @@ impl MechanismData {
         dataset: &Dataset,
         options: &CalibrationOptions,
     ) -> Result<Self, MechanismCalibrationError> {
-        check_representable(dataset)?;
         let machine = &dataset.machine;
         let input = design_geometry(dataset);
         let invalid =
@@ -166,7 +167,7 @@ impl MechanismData {
             balls,
             touches,
             ball_distances: ball_distances(&dataset.artefacts.distances),
-            trackers: trackers(dataset),
+            trackers: trackers(dataset, &legs),
             tracker_points: instruments.points,
             tracker_poses: instruments.poses,
             body_reference: instruments.body_reference,
@@ -265,6 +266,20 @@ impl LegReadings {
         }
     }
 
+    /// A tracker labelled `label` after the legs were re-homed, each leg's
+    /// zero offset `o_i` with the prior sigma `sigma` (mm): in the
+    /// readings, as the legs' extensions at known scales; at unknown scales
+    /// in the actuators' unit, the machine at `q + o_i / s_i`, with the
+    /// sigma `sigma / s_i` at the design's scales `s_i` (module doc).
+    fn rehomed(&self, label: String, sigma: f64) -> Tracker {
+        match self {
+            Self::KnownScales(_) => Tracker::rehomed(label, Some(sigma)),
+            Self::UnknownScales { scale, .. } => {
+                Tracker::rehomed_each(label, scale.iter().map(|s| sigma / s).collect())
+            }
+        }
+    }
+
     /// The mechanism's readings of a contact's readings `q`.
     fn actuation(&self, q: &[f64; 6]) -> Vec<f64> {
         match self {
@@ -274,37 +289,17 @@ impl LegReadings {
     }
 }
 
-/// Refuses what only the hexapod's own calibration models (module doc).
-fn check_representable(dataset: &Dataset) -> Result<(), MechanismCalibrationError> {
-    let tracker = &dataset.tracker;
-    let refuse = |what: &str, reason: &str| {
-        Err(MechanismCalibrationError::InvalidData {
-            what: what.to_string(),
-            reason: reason.to_string(),
-        })
-    };
-    let machine = &dataset.machine;
-    let offsets = tracker.sessions.len() > 1 && machine.session_model.leg_offset_sigma.is_some();
-    if offsets && machine.actuator.scale_sigma.is_some() {
-        return refuse(
-            "the session model's leg offsets",
-            "with the scales unknowns, later sessions' leg offsets are not modelled by the common calibration (its offsets are in the readings' unit); the hexapod's own calibration takes them",
-        );
-    }
-    Ok(())
-}
-
 /// Each session of points.csv and poses.csv as a tracker: the first as the
 /// touches read the legs, each later one with its legs' zero offsets when
 /// the session model re-homes them, and with poses its body's rotation and
 /// origin shift when the session model re-mounts it (module doc).
-fn trackers(dataset: &Dataset) -> Vec<Tracker> {
+fn trackers(dataset: &Dataset, legs: &LegReadings) -> Vec<Tracker> {
     let model = &dataset.machine.session_model;
     let poses = &dataset.tracker.poses;
     (dataset.tracker.sessions.iter().enumerate())
         .map(|(session, label)| {
             let mut tracker = match model.leg_offset_sigma {
-                Some(sigma) if session > 0 => Tracker::rehomed(label.clone(), Some(sigma)),
+                Some(sigma) if session > 0 => legs.rehomed(label.clone(), sigma),
                 _ => Tracker::new(label.clone()),
             };
             let with_poses = poses.session.iter().any(|&s| s as usize == session);

@@ -26,7 +26,7 @@ use super::error::MechanismCalibrationError;
 /// when it is an unknown (there are probe heights), then each tracker's
 /// frame correction's six, none, about the correction's start 0, then
 /// each re-homed tracker's actuator offsets', about zero with its
-/// `offset_sigma` if any, then with tracker poses the body frame's
+/// offsets' sigmas if any, then with tracker poses the body frame's
 /// correction's six, none, then each tracker's body rotation (three) and
 /// origin shift (three), where the body was turned or moved, about zero
 /// with its sigma if any.
@@ -41,10 +41,7 @@ pub(crate) fn global_priors(data: &MechanismData) -> Vec<ParameterPrior> {
     priors.extend(std::iter::repeat_n(about_zero(None), frames));
     let actuators = data.mechanism.actuators().len();
     for tracker in trackers.iter().filter(|tracker| tracker.rehomed) {
-        priors.extend(std::iter::repeat_n(
-            about_zero(tracker.offset_sigma),
-            actuators,
-        ));
+        priors.extend((0..actuators).map(|i| about_zero(tracker.offset_sigma(i))));
     }
     if !data.observations.tracker_poses.is_empty() {
         priors.extend(std::iter::repeat_n(about_zero(None), FRAME_UNKNOWNS));
