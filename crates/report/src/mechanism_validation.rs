@@ -259,12 +259,31 @@ fn place(files: Files, row: &ValidatedRow) -> String {
                 row.row
             )
         }
-        HeldOut::Tracker { tracker, points } => format!(
-            "{} lines {} (tracker {tracker}, row {})",
-            files.tracker_points(),
-            number_ranges(points.iter().map(|j| j + 2)),
-            row.row
-        ),
+        HeldOut::Tracker {
+            tracker,
+            points,
+            poses,
+        } => {
+            let poses_file = files
+                .of_kind(ObservationKind::TrackerPose)
+                .map(|(file, _)| file);
+            let listed = [(Some(files.tracker_points()), points), (poses_file, poses)]
+                .into_iter()
+                .filter(|(_, indices)| !indices.is_empty())
+                .map(|(file, indices)| {
+                    let lines = number_ranges(indices.iter().map(|j| j + 2));
+                    match file {
+                        Some(file) => format!("{file} lines {lines}"),
+                        None => format!("tracker poses {}", number_ranges(indices.iter().copied())),
+                    }
+                })
+                .collect::<Vec<_>>();
+            format!(
+                "{} (tracker {tracker}, row {})",
+                listed.join(" and "),
+                row.row
+            )
+        }
         HeldOut::TiedBalls {
             balls,
             touches,

@@ -103,13 +103,16 @@ pub enum HeldOut {
         /// Its touches' 0-based indices, increasing.
         touches: Vec<usize>,
     },
-    /// A tracker's points: its frame is fitted to them (a tracker placed
-    /// anew is a frame of its own).
+    /// A tracker's points and poses: its frame is fitted to them (a
+    /// tracker placed anew is a frame of its own), and with poses the body
+    /// frame they see.
     Tracker {
         /// The tracker's 0-based index.
         tracker: usize,
         /// Its points' 0-based indices, increasing.
         points: Vec<usize>,
+        /// Its poses' 0-based indices, increasing.
+        poses: Vec<usize>,
     },
     /// Balls that ball distances tie together, their touches and those
     /// distances: the balls' centres are fitted to them together.
@@ -138,8 +141,8 @@ impl HeldOut {
 
 impl fmt::Display for HeldOut {
     /// `probe height 3`, `ball 1 (ball touches 7-13)`, `tracker 0
-    /// (tracker points 0-11)`, `balls 0-2 (ball touches 0-20, ball
-    /// distances 0-1)`.
+    /// (tracker points 0-11, tracker poses 0-5)`, `balls 0-2 (ball touches
+    /// 0-20, ball distances 0-1)`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Observation(observation) => observation.fmt(f),
@@ -148,11 +151,20 @@ impl fmt::Display for HeldOut {
                 "ball {ball} (ball touches {})",
                 number_ranges(touches.iter().copied())
             ),
-            Self::Tracker { tracker, points } => write!(
-                f,
-                "tracker {tracker} (tracker points {})",
-                number_ranges(points.iter().copied())
-            ),
+            Self::Tracker {
+                tracker,
+                points,
+                poses,
+            } => {
+                let listed = [("tracker points", points), ("tracker poses", poses)]
+                    .into_iter()
+                    .filter(|(_, indices)| !indices.is_empty())
+                    .map(|(what, indices)| {
+                        format!("{what} {}", number_ranges(indices.iter().copied()))
+                    })
+                    .collect::<Vec<_>>();
+                write!(f, "tracker {tracker} ({})", listed.join(", "))
+            }
             Self::TiedBalls {
                 balls,
                 touches,
