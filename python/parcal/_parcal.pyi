@@ -489,7 +489,12 @@ class MechanismCalibration:
     @property
     def trackers(self) -> list[dict[str, Any]]:
         """The trackers' frames: label, frame (translation mm, rotation
-        quaternion x, y, z, w) and sigma (rad, then mm)."""
+        quaternion x, y, z, w) and sigma (rad, then mm); a re-homed
+        tracker's offsets, a re-mounted body's frame as it saw it."""
+    @property
+    def body(self) -> Optional[dict[str, Any]]:
+        """The body frame the tracker poses saw: frame (body to platform)
+        and sigma (rad, then mm); None without tracker poses."""
     def to_dict(self) -> dict[str, Any]:
         """calibration.json's content as a dict."""
     def to_json(self) -> str:

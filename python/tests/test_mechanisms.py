@@ -473,3 +473,18 @@ def test_unknown_scales_through_the_common_calibration(cli, tmp_path):
     scales = np.array(own["machine"]["actuator"]["scale"])
     assert np.all(np.abs(run.values[33:] - scales) < 2e-3 * run.sigmas[33:])
 
+
+
+def test_motion_capture_poses_through_the_common_calibration(tmp_path, cli):
+    # fixtures/jugglebot's poses: one tracker and the body frame, as the CLI
+    # writes them; the tool, which no pose sees, is refused without a prior.
+    path = tmp_path / "jugglebot"
+    shutil.copytree(ROOT / "fixtures" / "jugglebot", path)
+    out = tmp_path / "cli.json"
+    assert cli("calibrate", path, "--common", "--out", out) == 0
+    run = parcal.calibrate(parcal.read_dataset(path), common=True)
+    assert run.to_json() == out.read_text()
+    assert len(run.trackers) == 1 and "body" not in run.trackers[0]
+    assert set(run.body) == {"frame", "sigma"} and all(s > 0 for s in run.body["sigma"])
+    with pytest.raises(parcal.Error, match="the tool offset: poses alone see the body frame"):
+        parcal.calibrate(parcal.read_dataset(path), common=True, sim="I")

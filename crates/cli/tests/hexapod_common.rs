@@ -322,3 +322,63 @@ fn motion_capture_poses_go_through_the_common_calibration() {
     assert!(error.contains("the tool offset: "), "{error}");
     assert!(!refused.exists());
 }
+
+#[test]
+fn a_campaign_of_poses_through_the_common_calibration_is_validated_on_another() {
+    // Two Jugglebot-like campaigns (three sessions of poses each, the legs
+    // re-homed between them, the scales unknown): the first calibrated
+    // through the common path, the second judged by it, each of its
+    // trackers placed anew with the body (12 unknowns and 6 offsets of a
+    // re-homed one projected out).
+    let temp = tempfile::tempdir().unwrap();
+    let campaign = |seed: &str| {
+        let data = temp.path().join(format!("seed{seed}"));
+        let args = [
+            "--tracker",
+            "poses",
+            "--machine",
+            "jugglebot",
+            "--rehome",
+            "2",
+        ];
+        let mut all = vec!["simulate", "--seed", seed];
+        all.extend(args);
+        all.extend(["--out", s(&data)]);
+        ok(&all);
+        data
+    };
+    let (first, second) = (campaign("1"), campaign("2"));
+    let calibration = temp.path().join("common.json");
+    ok(&["calibrate", s(&first), "--common", "--out", s(&calibration)]);
+    let out = temp.path().join("validation.json");
+    let validation_args = ["validate", s(&second), "--calibration", s(&calibration)];
+    let mut args = validation_args.to_vec();
+    args.extend(["--out", s(&out)]);
+    ok(&args);
+    let validation = read(&out);
+    let rows = validation["rows"].as_array().unwrap();
+    let poses = read_poses(&second);
+    assert_eq!(rows.len(), 6 * poses - 3 * 12 - 2 * 6);
+    assert_eq!(rows[0]["unit"], "rev");
+    assert_eq!(rows[0]["file"], "poses.csv");
+    let error = fails(&[
+        "validate",
+        s(&second),
+        "--calibration",
+        s(&calibration),
+        "--reference",
+        "4",
+        "--out",
+        s(&out),
+    ]);
+    assert!(error.contains("validated without --reference"), "{error}");
+}
+
+/// The number of rows of a dataset's poses.csv.
+fn read_poses(data: &std::path::Path) -> usize {
+    std::fs::read_to_string(data.join("poses.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1
+}

@@ -185,8 +185,20 @@ fn row_record(files: Files, row: &ValidatedRow) -> RowRecord {
             let (file, by_line) = files.balls();
             (Some(file), by_line.then_some(ball + 2), *ball)
         }
-        // Rows of several points or balls together: no one line.
-        HeldOut::Tracker { tracker, .. } => (Some(files.tracker_points()), None, *tracker),
+        // Rows of several points or balls together: no one line; a
+        // tracker's in its points' file, or its poses' without points.
+        HeldOut::Tracker {
+            tracker, points, ..
+        } => {
+            let poses = files
+                .of_kind(ObservationKind::TrackerPose)
+                .map(|(file, _)| file);
+            let file = match points.is_empty() {
+                true => poses,
+                false => Some(files.tracker_points()),
+            };
+            (file, None, *tracker)
+        }
         HeldOut::TiedBalls { balls, .. } => (Some(files.balls().0), None, balls[0]),
     };
     RowRecord {

@@ -359,6 +359,15 @@ impl MechanismCalibration {
         to_python(py, &self.record.trackers)
     }
 
+    /// The body frame the tracker poses saw (a dict as calibration.json
+    /// holds it: `frame`, mapping the body's frame to the platform's, and
+    /// `sigma`, rad then mm); `None` without tracker poses. A tracker after
+    /// which the body was re-mounted has its own in `trackers`.
+    #[getter]
+    fn body<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.record.body)
+    }
+
     /// What the data determine: `gauge` (the freedoms the canonical frame
     /// fixes), `undetermined` (each combination of parameters the data
     /// leave to the priors: its `components` as (name, weight) pairs in

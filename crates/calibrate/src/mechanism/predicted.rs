@@ -579,6 +579,25 @@ fn predict_tracker(
     })
 }
 
+/// The unit of rows in noise standard deviations: a held-out tracker's
+/// whose points (mm) and poses (the readings' unit) are projected together
+/// ([`tracker_unit`]).
+pub(crate) const NOISE_SIGMAS: &str = "noise sigmas";
+
+/// The unit of a held-out tracker's projected rows: its points' (mm)
+/// without poses, its poses' (the readings') without points, and with both
+/// mm when the readings are, else [`NOISE_SIGMAS`] (the rows whitened: a
+/// projection mixes them).
+pub(crate) fn tracker_unit(mechanism: &dyn Mechanism, points: bool, poses: bool) -> &str {
+    let readings = &*mechanism.actuators()[0].unit;
+    match (points, poses) {
+        (_, false) => "mm",
+        (false, true) => readings,
+        (true, true) if readings == "mm" => "mm",
+        (true, true) => NOISE_SIGMAS,
+    }
+}
+
 /// The most Gauss-Newton steps that locate a held-out tracker's frame and
 /// the body frame its poses see.
 const NUISANCE_ITERATIONS: usize = 50;
@@ -594,8 +613,9 @@ const NUISANCE_TOLERANCE: f64 = 1e-12;
 /// through the data's body reference, Gauss-Newton on their whitened rows
 /// ([`TrackerPose`](parcal_observe::mechanism::TrackerPose),
 /// [`TrackerPoint`]) to the least-squares frames. There the rows are
-/// un-whitened (`r = L r_w`, `D = L Lᵀ` for each observation's `L⁻¹`), and
-/// the unknowns projected out.
+/// un-whitened (`r = L r_w`, `D = L Lᵀ` for each observation's `L⁻¹`;
+/// kept whitened when they are of two units, [`tracker_unit`]), and the
+/// unknowns projected out.
 fn predict_posed_tracker(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -658,7 +678,13 @@ fn predict_posed_tracker(
             " within {NUISANCE_ITERATIONS} Gauss-Newton steps"
         )));
     }
-    let factor = &stacked.factor;
+    // Rows of two units stay whitened (`L = I`).
+    let unit = tracker_unit(mechanism, !points.is_empty(), true);
+    let factor = match unit {
+        NOISE_SIGMAS => DMatrix::identity(stacked.factor.nrows(), stacked.factor.ncols()),
+        _ => stacked.factor.clone(),
+    };
+    let factor = &factor;
     let local = LocalRows {
         residuals: factor * &stacked.residuals,
         d_local: &(factor * &stacked.d_local),

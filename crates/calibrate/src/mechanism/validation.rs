@@ -43,7 +43,7 @@ use super::calibrated::CalibratedMechanism;
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::observation::{HeldOut, ObservationKind, ObservationRef};
-use super::predicted::{PredictedRows, predict};
+use super::predicted::{PredictedRows, predict, tracker_unit};
 use super::result::TRIGGER_HEIGHT;
 
 /// The shifts [`MechanismValidation::shifts`] lists.
@@ -176,6 +176,9 @@ pub fn validate_mechanism(
             let unit = match &rows_of.observation {
                 HeldOut::Observation(observation) if redundant_readings(data, observation) => {
                     reading_unit
+                }
+                HeldOut::Tracker { points, poses, .. } => {
+                    tracker_unit(mechanism, !points.is_empty(), !poses.is_empty())
                 }
                 _ => "mm",
             };

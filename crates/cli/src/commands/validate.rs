@@ -76,32 +76,29 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     inputs.extend(args.calibration.clone());
     crate::outputs::check(&inputs, std::slice::from_ref(&out))?;
     let (validation, calibration) = match (&args.calibration, args.folds) {
-        (Some(path), _) if dataset.tracker.is_empty() => {
+        (Some(path), _) => {
             let record = match super::read_either(path)? {
                 Recorded::Own(record) => super::accepted(*record, path, args.accept_rejected)?,
                 // A hexapod's calibration through the common path.
                 Recorded::Mechanism(record) => {
                     anyhow::ensure!(
                         args.reference.is_none(),
-                        "{}: a calibration through the common path is validated without --reference (each held-out ball's centre is fitted on all its touches)",
+                        "{}: a calibration through the common path is validated without --reference (each held-out ball's centre is fitted on all its touches, each tracker's frame and body on all its points and poses)",
                         path.display()
                     );
                     let record = super::accepted(*record, path, args.accept_rejected)?;
                     return validate_hexapod(&dataset, &args.dataset, &record, path, &out);
                 }
             };
-            let validation = validate_touches(&dataset, &record, args.reference)
-                .with_context(|| path.display().to_string())?;
+            let validation = if dataset.tracker.is_empty() {
+                validate_touches(&dataset, &record, args.reference)
+                    .with_context(|| path.display().to_string())?
+            } else {
+                let calibrated =
+                    Calibrated::from_record(&record).with_context(|| path.display().to_string())?;
+                validate_calibration(&dataset, &calibrated, args.reference)?
+            };
             (validation, path.display().to_string())
-        }
-        (Some(path), _) => {
-            let record = super::read_calibration(path, args.accept_rejected)?;
-            let calibrated =
-                Calibrated::from_record(&record).with_context(|| path.display().to_string())?;
-            (
-                validate_calibration(&dataset, &calibrated, args.reference)?,
-                path.display().to_string(),
-            )
         }
         (None, Some(folds)) => {
             let options = CalibrationOptions::default();
