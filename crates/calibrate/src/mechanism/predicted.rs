@@ -1279,17 +1279,7 @@ mod tests {
         mut error: impl FnMut() -> f64,
     ) -> Observations {
         let sigma = 0.01;
-        let at = |j: usize| {
-            let t = j as f64;
-            [
-                30.0 * (1.3 * t).cos(),
-                25.0 * (0.9 * t).sin(),
-                230.0 + 4.0 * t,
-                0.06 * (2.1 * t).sin(),
-                -0.05 * (1.7 * t).cos(),
-                0.08 * (0.7 * t).sin(),
-            ]
-        };
+        let at = crate::mechanism::problem::tests::hexapod_pose;
         let tracker_poses = (0..k)
             .map(|j| {
                 let x = at(j);

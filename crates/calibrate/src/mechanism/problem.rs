@@ -1485,6 +1485,20 @@ pub(crate) mod tests {
         }
     }
 
+    /// The `j`-th of a spread of the paper's hexapod's poses: within 30 mm
+    /// of its axis, 230 mm high and up, tilted and turned up to 0.08 rad.
+    pub(crate) fn hexapod_pose(j: usize) -> [f64; 6] {
+        let t = j as f64;
+        [
+            30.0 * (1.3 * t).cos(),
+            25.0 * (0.9 * t).sin(),
+            230.0 + 4.0 * t,
+            0.06 * (2.1 * t).sin(),
+            -0.05 * (1.7 * t).cos(),
+            0.08 * (0.7 * t).sin(),
+        ]
+    }
+
     /// The paper's hexapod at its design seen by two trackers (the second
     /// after the legs were re-homed and the body re-mounted; it was not
     /// moved), each measuring 4 poses of a body on
@@ -1508,15 +1522,7 @@ pub(crate) mod tests {
             Vector3::new(0.03, -0.02, 0.5),
         );
         let at = |j: usize| {
-            let t = j as f64;
-            let x = [
-                30.0 * (1.3 * t).cos(),
-                25.0 * (0.9 * t).sin(),
-                230.0 + 4.0 * t,
-                0.05 * (2.1 * t).sin(),
-                -0.04 * (1.7 * t).cos(),
-                0.06 * (0.7 * t).sin(),
-            ];
+            let x = hexapod_pose(j);
             let q = hexapod.inverse(params.as_slice(), &x).unwrap();
             let off = |i: usize| 0.01 * ((3 * i + j) as f64).sin();
             let readings: Vec<f64> = q.iter().enumerate().map(|(i, q)| q + off(i)).collect();
