@@ -31,6 +31,10 @@
 //!   its actuators' offsets when re-homed, its unknowns too), one
 //!   observation named by the tracker ([`HeldOut::Tracker`]):
 //!   `c = F̂(x_k) − P_k` ([`TrackerPoint`]), noise its covariance `W_k`.
+//!   With poses, the body frame they see is its unknown too (mounted
+//!   anew): `K` points and `J` poses of `A` actuators give `3K + AJ − 12`
+//!   rows, located by Gauss-Newton on the whitened rows before the
+//!   projection ([`tracker_unit`] for their unit).
 //! - The touches of a ball: its centre `c` is its own unknown, fitted to
 //!   its `K` touches, which give `K − 3` rows together, one observation
 //!   named by the ball ([`HeldOut::Ball`]; a ball touched 4 times gives
@@ -507,7 +511,8 @@ fn predict_tracker(
         poses: poses.clone(),
     };
     if !poses.is_empty() {
-        return predict_posed_tracker(mechanism, params, configured, observations, held_out, g);
+        let seen = (tracker, &indices[..], &poses[..]);
+        return predict_posed_tracker(mechanism, params, configured, observations, seen, g);
     }
     let what = held_out.to_string();
     let seen = Seen {
@@ -606,7 +611,8 @@ const NUISANCE_ITERATIONS: usize = 50;
 /// whitened rows by less than this (`|J δ|²`, in noise units squared).
 const NUISANCE_TOLERANCE: f64 = 1e-12;
 
-/// The rows of a tracker with poses (module doc): its frame `F`, the body
+/// The rows of tracker `tracker` with its points `points` and poses
+/// `poses` (module doc): its frame `F`, the body
 /// frame `B` its poses see and a re-homed tracker's offsets are its own
 /// unknowns (the tracker placed anew, the body mounted anew), located by
 /// its points and poses together: from the frame [`locate_frame`] gives
@@ -621,16 +627,13 @@ fn predict_posed_tracker(
     params: &[f64],
     configured: &[f64],
     observations: &Observations,
-    held_out: HeldOut,
+    (tracker, points, poses): (usize, &[usize], &[usize]),
     g: usize,
 ) -> Result<PredictedRows, MechanismCalibrationError> {
-    let HeldOut::Tracker {
+    let held_out = HeldOut::Tracker {
         tracker,
-        points,
-        poses,
-    } = &held_out
-    else {
-        unreachable!("a tracker's rows")
+        points: points.to_vec(),
+        poses: poses.to_vec(),
     };
     let what = held_out.to_string();
     let seen = Seen {
@@ -649,7 +652,7 @@ fn predict_posed_tracker(
         reference,
         points,
         poses,
-        offsets: observations.trackers[*tracker].rehomed,
+        offsets: observations.trackers[tracker].rehomed,
     };
     let not_located = |reason: &str| MechanismCalibrationError::InvalidData {
         what: what.clone(),
@@ -691,7 +694,7 @@ fn predict_posed_tracker(
         d_params: &(factor * &stacked.d_params),
         noise: factor * factor.transpose(),
     };
-    project_out(held_out.clone(), &local, g).ok_or_else(|| not_located(""))
+    project_out(held_out, &local, g).ok_or_else(|| not_located(""))
 }
 
 /// A held-out tracker's whitened rows as functions of its nuisance: its
