@@ -309,6 +309,19 @@ fn motion_capture_poses_go_through_the_common_calibration() {
     assert_eq!(common["trackers"].as_array().unwrap().len(), 1);
     let sigma = common["body"]["sigma"].as_array().unwrap();
     assert!(sigma.iter().all(|s| s.as_f64().unwrap() > 0.0));
+    // Its report, which a hexapod's dataset adds nothing to.
+    let report = temp.path().join("report");
+    ok(&["report", s(&out), "--out", s(&report)]);
+    assert!(report.join("report.md").exists());
+    let error = fails(&[
+        "report",
+        s(&out),
+        "--dataset",
+        s(&data),
+        "--out",
+        s(&report),
+    ]);
+    assert!(error.contains("is reported without a dataset"), "{error}");
     let refused = temp.path().join("refused.json");
     let error = fails(&[
         "calibrate",

@@ -6,6 +6,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use parcal::dataset::HEXAPOD;
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
 use parcal::report::calibration_report::{Format, Subject, predicted_accuracy, render};
@@ -99,12 +100,21 @@ pub fn directory_of(file: &Path) -> &Path {
 
 /// Writes the report of a mechanism's calibration `record` (read from
 /// `args.calibration`; with `args.dataset`, its probe residuals over the
-/// bed) into `directory` (report.html and report.md, as a set).
+/// bed) into `directory` (report.html and report.md, as a set). A
+/// hexapod's, through the common path, has no probes: `--dataset` is
+/// refused for it by name.
 fn write_mechanism(
     record: &MechanismCalibrationRecord,
     args: &Args,
     directory: &Path,
 ) -> anyhow::Result<()> {
+    if let (Some(dataset), true) = (&args.dataset, record.mechanism == HEXAPOD) {
+        anyhow::bail!(
+            "{}: --dataset {}: a hexapod's calibration through the common path is reported without a dataset (a mechanism's dataset only adds its probe heights, which a hexapod has none of)",
+            args.calibration.display(),
+            dataset.display()
+        );
+    }
     let dataset = args
         .dataset
         .as_deref()
