@@ -193,10 +193,7 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
         .unwrap()
         .dataset;
     assert_eq!(dataset.tracker.points.len(), 30);
-    for simulation in [Simulation::I, Simulation::IV] {
-        println!("{simulation:?} with tracker points:");
-        compare_on(&dataset, &CalibrationOptions::simulation(simulation));
-    }
+    compare_under_both("with tracker points", &dataset);
     let rehomed_scenario = TrackerScenario {
         session_model: SessionModel {
             leg_offset_sigma: Some(0.5),
@@ -208,10 +205,7 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
     let rehomed = simulate_mixed(&Scenario::paper(), &rehomed_scenario, 3)
         .unwrap()
         .dataset;
-    for simulation in [Simulation::I, Simulation::IV] {
-        println!("{simulation:?} with tracker points, the legs re-homed:");
-        compare_on(&rehomed, &CalibrationOptions::simulation(simulation));
-    }
+    compare_under_both("with tracker points, the legs re-homed", &rehomed);
     // Tracker poses beside the points: the body frame six unknowns of the
     // global block, one row per leg; with the legs re-homed too.
     for scenario in [&tracker, &rehomed_scenario] {
@@ -223,22 +217,20 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
             .unwrap()
             .dataset;
         assert_eq!(with_poses.tracker.poses.len(), 30);
-        for simulation in [Simulation::I, Simulation::IV] {
-            println!(
-                "{simulation:?} with tracker poses and points, leg offsets {:?}:",
-                scenario.session_model.leg_offset_sigma
-            );
-            compare_on(&with_poses, &CalibrationOptions::simulation(simulation));
-        }
+        let with = format!(
+            "with tracker poses and points, leg offsets {:?}",
+            scenario.session_model.leg_offset_sigma
+        );
+        compare_under_both(&with, &with_poses);
     }
     // The legs re-homed with the scales unknown: the offsets in the
     // readings' unit, their prior sigmas over the design's scales.
     let mut offsets = rehomed.clone();
     offsets.machine.actuator.scale_sigma = Some([0.01; 6]);
-    for simulation in [Simulation::I, Simulation::IV] {
-        println!("{simulation:?} with tracker points, the legs re-homed, the scales unknown:");
-        compare_on(&offsets, &CalibrationOptions::simulation(simulation));
-    }
+    compare_under_both(
+        "with tracker points, the legs re-homed, the scales unknown",
+        &offsets,
+    );
     // The body re-mounted between the sessions of poses: the second
     // session's body rotation and origin shift, with the session model's
     // priors, and the legs re-homed.
@@ -254,10 +246,10 @@ fn tracker_points_through_the_interface_are_the_own_paths() {
     let remounted = simulate_mixed(&Scenario::paper(), &remounted, 3)
         .unwrap()
         .dataset;
-    for simulation in [Simulation::I, Simulation::IV] {
-        println!("{simulation:?} with tracker poses and points, the body re-mounted:");
-        compare_on(&remounted, &CalibrationOptions::simulation(simulation));
-    }
+    compare_under_both(
+        "with tracker poses and points, the body re-mounted",
+        &remounted,
+    );
 }
 
 #[test]
@@ -380,6 +372,16 @@ fn motion_capture_poses_held_out_are_judged() {
         (squares / rows as f64).sqrt(),
         (predicted / rows as f64).sqrt()
     );
+}
+
+/// Calibrates `dataset` both ways under simulations I and IV (the radius
+/// and the coordinate observation) and compares, each run announced as
+/// `with`.
+fn compare_under_both(with: &str, dataset: &Dataset) {
+    for simulation in [Simulation::I, Simulation::IV] {
+        println!("{simulation:?} {with}:");
+        compare_on(dataset, &CalibrationOptions::simulation(simulation));
+    }
 }
 
 /// Calibrates fixtures/paper-seed1 both ways under `options` and compares.

@@ -253,7 +253,7 @@ pub(crate) fn assemble(
     let estimated = described.len();
     let sigma = |k: usize| marginal_sigma(frame.covariance.as_ref(), k);
     let trackers = tracker_estimates(data, &fit, &frame.values, frame.covariance.as_ref());
-    let body = body_estimate(&fit, &frame.values, frame.covariance.as_ref());
+    let body = body_estimate(&fit, None, &frame.values, frame.covariance.as_ref());
     let parameters: Vec<EstimatedParameter> = described
         .into_iter()
         .enumerate()
@@ -388,40 +388,30 @@ fn tracker_estimates(
                     .map(|j| (values[j], marginal_sigma(covariance, j)))
                     .collect(),
                 body: shifted
-                    .then(|| shifted_body_estimate(fit, k, values, covariance))
+                    .then(|| body_estimate(fit, Some(k), values, covariance))
                     .flatten(),
             }
         })
         .collect()
 }
 
-/// The body frame `C ∘ B₀` from its correction in the canonical global
-/// block `values`, with its covariance from the canonical `covariance`,
-/// when there were tracker poses.
+/// The body frame the poses of tracker `k` saw, `C_B,k ∘ B₀` (`C_B,k = C_B +
+/// (φ, ρ)` where its body was turned or moved), or with `k` `None` the body
+/// frame `C_B ∘ B₀`, from the canonical global block `values`, with the
+/// covariance `A Cov Aᵀ` of its correction, `A` the sum of the body's and
+/// the shift's columns; `None` without tracker poses.
 fn body_estimate(
     fit: &Fit,
-    values: &DVector<f64>,
-    covariance: Option<&DMatrix<f64>>,
-) -> Option<EstimatedBody> {
-    let start = fit.trackers.body_columns()?.start;
-    Some(EstimatedBody {
-        frame: fit.trackers.body(values)?.isometry(),
-        covariance: covariance.map(|c| c.fixed_view::<6, 6>(start, start).into_owned()),
-    })
-}
-
-/// The body frame tracker `k`'s poses saw, `C_B,k ∘ B₀`, from the
-/// canonical global block `values`, with the covariance of `C_B,k = C_B +
-/// (φ, ρ)`, `A Cov Aᵀ` for `A` the sum of the body's and the shift's
-/// columns.
-fn shifted_body_estimate(
-    fit: &Fit,
-    k: usize,
+    k: Option<usize>,
     values: &DVector<f64>,
     covariance: Option<&DMatrix<f64>>,
 ) -> Option<EstimatedBody> {
     let body = fit.trackers.body_columns()?;
-    let shift = fit.trackers.body_shift(k);
+    let shift = k.map(|k| fit.trackers.body_shift(k)).unwrap_or_default();
+    let frame = match k {
+        Some(k) => fit.trackers.body_of(k, values)?,
+        None => fit.trackers.body(values)?,
+    };
     let mut a = DMatrix::zeros(6, values.len());
     for i in 0..6 {
         a[(i, body.start + i)] = 1.0;
@@ -434,7 +424,7 @@ fn shifted_body_estimate(
         }
     }
     Some(EstimatedBody {
-        frame: fit.trackers.body_of(k, values)?.isometry(),
+        frame: frame.isometry(),
         covariance: covariance.map(|c| {
             let projected = &a * c * a.transpose();
             Matrix6::from_column_slice(projected.as_slice())
