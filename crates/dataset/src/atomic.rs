@@ -273,10 +273,8 @@ pub fn write_dir(dir: &Path, replace: bool, fill: impl FnOnce(&Path) -> Result<(
     // as one `fs::create_dir` makes (0o777 less the umask).
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o777));
-    let new = builder
-        .tempdir_in(parent)
+    let (new, _in_flight) = InFlight::create(|| builder.tempdir_in(parent), TempDir::path)
         .map_err(|e| DatasetError::io(dir, "create a temporary directory beside it", e))?;
-    let _in_flight = InFlight::register(new.path());
     if let Some((replaced, _)) = &existing {
         fs::set_permissions(new.path(), replaced.permissions()).map_err(|e| {
             DatasetError::io(dir, "keep the permissions of the directory it replaces", e)
@@ -304,13 +302,17 @@ fn swap(new: TempDir, target: &Path, dir: &Path, prefix: &std::ffi::OsStr) -> Re
     let parent = parent(target);
     // A fresh name for the old directory: reserve it, then rename over it
     // (a directory may replace an empty one).
-    let aside = tempfile::Builder::new()
-        .prefix(prefix)
-        .suffix(temp::ASIDE_SUFFIX)
-        .tempdir_in(parent)
-        .map_err(|e| DatasetError::io(dir, "create a temporary directory beside it", e))?
-        .keep();
-    let aside_in_flight = InFlight::register(&aside);
+    let (aside, aside_in_flight) = InFlight::create(
+        || {
+            tempfile::Builder::new()
+                .prefix(prefix)
+                .suffix(temp::ASIDE_SUFFIX)
+                .tempdir_in(parent)
+                .map(TempDir::keep)
+        },
+        PathBuf::as_path,
+    )
+    .map_err(|e| DatasetError::io(dir, "create a temporary directory beside it", e))?;
     temp::renaming(|| -> Result<()> {
         fs::rename(target, &aside)
             .map_err(|e| DatasetError::io(dir, "rename the old directory aside", e))?;
@@ -483,11 +485,8 @@ fn create_temp(target: &Path, path: &Path) -> Result<(NamedTempFile, InFlight)> 
     // any file the user writes (0o666 less the umask).
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let file = builder
-        .tempfile_in(dir)
-        .map_err(|e| DatasetError::io(path, "create a temporary file beside it", e))?;
-    let in_flight = InFlight::register(file.path());
-    Ok((file, in_flight))
+    InFlight::create(|| builder.tempfile_in(dir), NamedTempFile::path)
+        .map_err(|e| DatasetError::io(path, "create a temporary file beside it", e))
 }
 
 /// Makes a rename into `path`'s directory durable (best effort: not every

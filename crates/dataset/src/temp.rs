@@ -9,7 +9,9 @@
 use std::collections::BTreeSet;
 use std::ffi::{OsStr, OsString};
 use std::fs;
+use std::io;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, MutexGuard};
 
 /// Marks the names of parcal's temporaries, before the writer's PID.
@@ -23,10 +25,12 @@ pub(crate) const ASIDE_SUFFIX: &str = ".old";
 
 /// The temporaries of this process that exist now.
 static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-/// Held while a temporary is renamed into place (and an old dataset aside),
-/// so that an interruption removes temporaries before or after, never
-/// between two renames.
-static RENAMING: Mutex<()> = Mutex::new(());
+/// Held while a temporary is created and registered, or renamed into place
+/// (and an old dataset aside), so that an interruption removes temporaries
+/// before or after, never between the two steps.
+static CHANGING: Mutex<()> = Mutex::new(());
+/// Set by [`remove_in_flight`]: no temporary is created after it.
+static HALTED: AtomicBool = AtomicBool::new(false);
 /// Directories already swept of stale temporaries by this process.
 static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 
@@ -51,10 +55,26 @@ pub(crate) fn prefix(name: &OsStr) -> OsString {
 pub(crate) struct InFlight(PathBuf);
 
 impl InFlight {
-    /// Registers `path`.
-    pub(crate) fn register(path: &Path) -> Self {
-        lock(&IN_FLIGHT).push(path.to_path_buf());
-        Self(path.to_path_buf())
+    /// Runs `create` (creates a temporary) and registers the path that
+    /// `path` names in what it made, so that [`remove_in_flight`] finds the
+    /// temporary registered or not yet created, never unregistered. Once
+    /// the program is interrupted it creates nothing: an `Interrupted`
+    /// error.
+    pub(crate) fn create<T>(
+        create: impl FnOnce() -> io::Result<T>,
+        path: impl FnOnce(&T) -> &Path,
+    ) -> io::Result<(T, Self)> {
+        let _guard = lock(&CHANGING);
+        if HALTED.load(Ordering::SeqCst) {
+            return Err(io::Error::new(
+                io::ErrorKind::Interrupted,
+                "the program is interrupted",
+            ));
+        }
+        let made = create()?;
+        let path = path(&made).to_path_buf();
+        lock(&IN_FLIGHT).push(path.clone());
+        Ok((made, Self(path)))
     }
 }
 
@@ -70,17 +90,19 @@ impl Drop for InFlight {
 /// Runs `rename` (renames into place) so that [`remove_in_flight`] waits
 /// for it to finish.
 pub(crate) fn renaming<T>(rename: impl FnOnce() -> T) -> T {
-    let _guard = lock(&RENAMING);
+    let _guard = lock(&CHANGING);
     rename()
 }
 
 /// Removes every temporary file and directory of this process that is in
 /// flight: what an interrupted program calls before it exits (`parcal`
-/// does on SIGINT and SIGTERM). A rename into place under way finishes
-/// first, so each target is left whole, old or new. Errors are ignored:
-/// there is nobody left to tell.
+/// does on SIGINT and SIGTERM). A creation or a rename into place under
+/// way finishes first, so each target is left whole, old or new, and no
+/// temporary is left unregistered; none is created after it. Errors are
+/// ignored: there is nobody left to tell.
 pub fn remove_in_flight() {
-    let _renaming = lock(&RENAMING);
+    let _changing = lock(&CHANGING);
+    HALTED.store(true, Ordering::SeqCst);
     for path in lock(&IN_FLIGHT).drain(..) {
         match fs::symlink_metadata(&path) {
             Ok(meta) if meta.is_dir() => {
