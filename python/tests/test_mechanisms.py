@@ -477,7 +477,7 @@ def test_unknown_scales_through_the_common_calibration(cli, tmp_path):
 
 def test_motion_capture_poses_through_the_common_calibration(tmp_path, cli):
     # fixtures/jugglebot's poses: one tracker and the body frame, as the CLI
-    # writes them; the tool, which no pose sees, is refused without a prior.
+    # writes them.
     path = tmp_path / "jugglebot"
     shutil.copytree(ROOT / "fixtures" / "jugglebot", path)
     out = tmp_path / "cli.json"
@@ -486,5 +486,11 @@ def test_motion_capture_poses_through_the_common_calibration(tmp_path, cli):
     assert run.to_json() == out.read_text()
     assert len(run.trackers) == 1 and "body" not in run.trackers[0]
     assert set(run.body) == {"frame", "sigma"} and all(s > 0 for s in run.body["sigma"])
-    with pytest.raises(parcal.Error, match="the tool offset: poses alone see the body frame"):
-        parcal.calibrate(parcal.read_dataset(path), common=True, sim="I")
+    # Without a prior the tool keeps its tolerance, which holds it at the
+    # design: no pose sees it.
+    bare = parcal.calibrate(parcal.read_dataset(path), common=True, sim="I")
+    design = json.loads(bare.to_json())["parameters"]
+    for k, name in enumerate(bare.names):
+        if name.endswith("_eT"):
+            assert bare.values[k] == design[k]["prior_mean"]
+            assert bare.sigmas[k] == pytest.approx(design[k]["prior_sigma"], rel=1e-9)

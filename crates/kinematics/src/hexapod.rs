@@ -70,6 +70,9 @@ const POSE: [PoseCoordinate; 6] = [
     },
 ];
 
+/// The group of the tool's parameters `x_eT, y_eT, z_eT`.
+pub const TOOL_GROUP: &str = "tool";
+
 /// A hexapod design with its tolerances.
 #[derive(Debug, Clone)]
 pub struct Hexapod {
@@ -98,7 +101,7 @@ impl Hexapod {
                     _ if k < LEG_OFFSET => ("base joints", prior.base),
                     _ if k < LEG_OFFSET + 6 => ("leg lengths", prior.leg),
                     _ if k < TOOL_OFFSET => ("platform joints", prior.platform),
-                    _ => ("tool", prior.tool),
+                    _ => (TOOL_GROUP, prior.tool),
                 };
                 Parameter {
                     name: (*name).to_string(),

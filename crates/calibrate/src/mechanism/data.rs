@@ -408,6 +408,21 @@ impl MechanismData {
         self
     }
 
+    /// [`MechanismData::without_priors`], but for the parameters of the
+    /// mechanism's `group`, whose priors stay: what holds parameters that
+    /// no observation sees.
+    pub fn without_priors_but(self, group: &str) -> Self {
+        let kept: Vec<ParameterPrior> = self.priors.clone();
+        let mut data = self.without_priors();
+        let parameters = data.mechanism.parameters();
+        for ((prior, kept), parameter) in data.priors.iter_mut().zip(kept).zip(parameters) {
+            if parameter.group == group {
+                *prior = kept;
+            }
+        }
+        data
+    }
+
     /// Whether the trigger height is an unknown: there are probe heights.
     pub fn has_trigger_height(&self) -> bool {
         !self.observations.probes.is_empty()

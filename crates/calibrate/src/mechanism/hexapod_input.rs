@@ -70,9 +70,13 @@
 //! A later session with poses, when the session model re-mounts the body,
 //! has the body's rotation and origin shift as its tracker's
 //! ([`Tracker::with_body_turned`], [`Tracker::with_body_moved`]).
-//! Poses alone without a prior are refused by name: the common hexapod
-//! always has the tool, which no pose sees, where the hexapod's own
-//! calibration leaves it out.
+//! Poses alone see the body frame, not the tool: the hexapod's own
+//! calibration leaves the tool out, while the common hexapod always has
+//! it. Without a prior ([`PriorMode::None`]) the tool then keeps its
+//! tolerance as its prior: its columns are zero in every pose's rows, so
+//! that the prior holds it at the design, with the tolerance as its sigma,
+//! and moves nothing else: the other unknowns, the cost and the redundancy
+//! (three rows more, three unknowns more) are the own path's.
 //!
 //! [`coordinate_covariance`]: parcal_observe::coordinate_covariance
 //! [`MechanismOptions::observation`]: super::MechanismOptions
@@ -81,7 +85,7 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
 use parcal_dataset::{ArtefactFrame, Dataset};
-use parcal_kinematics::hexapod::Hexapod;
+use parcal_kinematics::hexapod::{Hexapod, TOOL_GROUP};
 use parcal_kinematics::mechanism::design;
 use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::CoordinateWhitening;
@@ -107,23 +111,6 @@ impl MechanismData {
     /// hold that the common calibration does not model, or the ball or
     /// contact whose weight cannot be formed.
     pub fn from_hexapod_touches(
-        dataset: &Dataset,
-        options: &CalibrationOptions,
-    ) -> Result<Self, MechanismCalibrationError> {
-        let tracker = &dataset.tracker;
-        let sees_tool = !dataset.measurements.ball.is_empty() || !tracker.points.is_empty();
-        if !sees_tool && options.prior == PriorMode::None {
-            return Err(MechanismCalibrationError::InvalidData {
-                what: "the tool offset".to_string(),
-                reason: "poses alone see the body frame, not the tool, and without a prior the common calibration cannot hold it (its hexapod always has the tool); the hexapod's own calibration leaves it out".to_string(),
-            });
-        }
-        Self::of_hexapod(dataset, options)
-    }
-
-    /// The data of a hexapod's `dataset` under `options`' model (module
-    /// doc), what the common calibration does not model refused.
-    fn of_hexapod(
         dataset: &Dataset,
         options: &CalibrationOptions,
     ) -> Result<Self, MechanismCalibrationError> {
@@ -174,7 +161,10 @@ impl MechanismData {
             ..Observations::default()
         };
         let data = Self::new(Arc::new(hexapod), configured, observations);
+        let tracker = &dataset.tracker;
+        let sees_tool = !dataset.measurements.ball.is_empty() || !tracker.points.is_empty();
         Ok(match options.prior {
+            PriorMode::None if !sees_tool => data.without_priors_but(TOOL_GROUP),
             PriorMode::None => data.without_priors(),
             PriorMode::Paper => data,
             PriorMode::Propagated => {
@@ -194,7 +184,7 @@ impl MechanismData {
     /// model), the scales unknowns when machine.json gives their sigmas (as
     /// the calibration's were).
     pub fn hexapod_held_out(dataset: &Dataset) -> Result<Self, MechanismCalibrationError> {
-        Self::of_hexapod(dataset, &CalibrationOptions::simulation(Simulation::I))
+        Self::from_hexapod_touches(dataset, &CalibrationOptions::simulation(Simulation::I))
     }
 }
 
