@@ -145,6 +145,14 @@ pub(crate) fn factor_point<const C: usize, const P: usize, const R: usize, J>(
         // code with a length known at compile time, so that its loops
         // unroll.
         householder_q(&mut panel[..R], &mut q[..R * R], first_column);
+    } else if m == R + P {
+        // Data and prior rows, undamped (the paper prior's angles): the
+        // same, unrolled.
+        householder_q(
+            &mut panel[..R + P],
+            &mut q[..(R + P) * (R + P)],
+            first_column,
+        );
     } else {
         householder_q(panel, &mut q[..m * m], first_column);
     }
