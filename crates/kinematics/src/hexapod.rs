@@ -34,7 +34,8 @@ use crate::forward::step;
 use crate::forward_batch::{LANES, PivotOrder, forward_jacobian_batch};
 use crate::mechanism::{
     Actuator, Mechanism, MechanismError, Parameter, PlatformPose, PoseCoordinate, Reached,
-    ReadingJacobians, ToolPoint, check_params, check_vector, tool_points_one_by_one,
+    ReadingJacobians, ToolPoint, check_params, check_vector, put_reached, tool_points_one_by_one,
+    write_reached,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -206,6 +207,18 @@ impl Hexapod {
         params_row: impl Fn(&Vector3<f64>, &mut [f64]),
     ) -> DMatrix<f64> {
         let mut d_params = DMatrix::zeros(3, self.parameters.len());
+        self.write_reached_rows(readings, params_row, &mut d_params);
+        d_params
+    }
+
+    /// [`Hexapod::reached_rows`] into `d_params` (3 x parameters), every
+    /// entry written.
+    fn write_reached_rows(
+        &self,
+        readings: &[f64],
+        params_row: impl Fn(&Vector3<f64>, &mut [f64]),
+        d_params: &mut DMatrix<f64>,
+    ) {
         let mut row = [0.0; N_PARAMS];
         for axis in 0..3 {
             params_row(&Vector3::ith(axis, 1.0), &mut row);
@@ -217,20 +230,19 @@ impl Hexapod {
                 }
             }
         }
-        d_params
     }
 
-    /// Where a forward-kinematics `solution` at `readings` reached, its
-    /// rows from `J_f` in factored form
+    /// Where a forward-kinematics `solution` at `readings` reached, into
+    /// `room` (every value written), its rows from `J_f` in factored form
     /// ([`FactoredTipJacobian::params_row`](crate::derivatives::FactoredTipJacobian::params_row)).
-    fn reached_at(&self, readings: &[f64], solution: &SolutionJacobian) -> Reached {
-        Reached {
-            pose: pose_vector(&solution.pose),
-            point: solution.tool_tip,
-            d_params: self.reached_rows(readings, |h, row| {
-                solution.jacobian.params_row(h, row);
-            }),
-        }
+    fn write_solution(&self, readings: &[f64], solution: &SolutionJacobian, room: &mut Reached) {
+        room.pose.copy_from_slice(&pose_coordinates(&solution.pose));
+        room.point = solution.tool_tip;
+        self.write_reached_rows(
+            readings,
+            |h, row| solution.jacobian.params_row(h, row),
+            &mut room.d_params,
+        );
     }
 
     /// The pose of a pose vector (checked).
@@ -250,8 +262,13 @@ pub fn pose_of(x: &[f64]) -> Pose {
 
 /// The pose vector `(t, r)` of an isometry.
 pub fn pose_vector(pose: &Pose) -> DVector<f64> {
+    DVector::from_column_slice(&pose_coordinates(pose))
+}
+
+/// The coordinates `(t, r)` of an isometry.
+fn pose_coordinates(pose: &Pose) -> [f64; 6] {
     let (t, r) = (pose.translation.vector, pose.rotation.scaled_axis());
-    DVector::from_column_slice(&[t.x, t.y, t.z, r.x, r.y, r.z])
+    [t.x, t.y, t.z, r.x, r.y, r.z]
 }
 
 impl Mechanism for Hexapod {
@@ -380,30 +397,34 @@ impl Mechanism for Hexapod {
         params: &[f64],
         readings: &[&[f64]],
         starts: &[&[f64]],
-    ) -> Vec<Result<Reached, MechanismError>> {
+        reached: &mut Vec<Result<Reached, MechanismError>>,
+    ) {
         assert_eq!(readings.len(), starts.len(), "a start for each contact");
-        let one_by_one = |readings: &[&[f64]], starts: &[&[f64]]| {
-            tool_points_one_by_one(self, params, readings, starts)
-        };
         let Ok(geometry) = self.geometry(params) else {
-            return one_by_one(readings, starts);
+            return tool_points_one_by_one(self, params, readings, starts, reached);
+        };
+        reached.truncate(readings.len());
+        let one_by_one = |reached: &mut Vec<_>, first: usize, n: usize| {
+            for l in first..first + n {
+                let outcome = self.tool_point_at_readings(params, readings[l], starts[l]);
+                put_reached(reached, l, outcome);
+            }
         };
         // The row order the lanes try first, carried from batch to batch.
         let mut order = PivotOrder::default();
-        let mut reached = Vec::with_capacity(readings.len());
         // The lanes' inputs and outputs, on the stack.
         let mut q = [[0.0; 6]; LANES];
         let mut poses = [Pose::identity(); LANES];
         let mut solutions: [SolutionJacobian; LANES] = Default::default();
-        for (readings, starts) in readings.chunks(LANES).zip(starts.chunks(LANES)) {
-            let n = readings.len();
+        for first in (0..readings.len()).step_by(LANES) {
+            let n = LANES.min(readings.len() - first);
             let checked = (0..n).try_for_each(|l| {
-                q[l] = self.extensions(params, readings[l])?;
-                poses[l] = self.pose(starts[l])?;
+                q[l] = self.extensions(params, readings[first + l])?;
+                poses[l] = self.pose(starts[first + l])?;
                 Ok::<_, MechanismError>(())
             });
             if checked.is_err() {
-                reached.extend(one_by_one(readings, starts));
+                one_by_one(reached, first, n);
                 continue;
             }
             let q: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
@@ -418,16 +439,17 @@ impl Mechanism for Hexapod {
                 |s| s,
             );
             match solved {
-                Ok(()) => reached.extend(
-                    readings
-                        .iter()
-                        .zip(solutions.iter())
-                        .map(|(q, s)| Ok(self.reached_at(q, s))),
-                ),
-                Err(_) => reached.extend(one_by_one(readings, starts)),
+                Ok(()) => {
+                    for (l, solution) in solutions.iter().enumerate() {
+                        let params = self.parameters.len();
+                        write_reached(reached, first + l, 6, params, |room| {
+                            self.write_solution(readings[first + l], solution, room);
+                        });
+                    }
+                }
+                Err(_) => one_by_one(reached, first, n),
             }
         }
-        reached
     }
 
     fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
@@ -714,20 +736,27 @@ mod tests {
             .collect();
         let mut q: Vec<&[f64]> = readings.iter().map(|q| q.as_slice()).collect();
         let x: Vec<&[f64]> = starts.iter().map(|x| x.as_slice()).collect();
-        let batch = hexapod.tool_points_at_readings(p, &q, &x);
-        assert_eq!(batch.len(), 7);
-        for ((q, x), reached) in q.iter().zip(&x).zip(batch) {
-            let one = hexapod.tool_point_at_readings(p, q, x).unwrap();
-            let reached = reached.unwrap();
-            // The lanes' LU may pivot otherwise: rounding of the forward
-            // kinematics' 1e-9 mm.
-            assert!((reached.point - one.point).amax() < 1e-9);
-            assert!((&reached.pose - &one.pose).amax() < 1e-9);
-            let difference = (&reached.d_params - &one.d_params).amax();
-            assert!(difference < 1e-9, "{difference:e}");
-        }
+        let same_as_one_by_one =
+            |q: &[&[f64]], x: &[&[f64]], batch: &[Result<Reached, MechanismError>]| {
+                assert_eq!(batch.len(), q.len());
+                for ((q, x), reached) in q.iter().zip(x).zip(batch) {
+                    let one = hexapod.tool_point_at_readings(p, q, x).unwrap();
+                    let reached = reached.as_ref().unwrap();
+                    // The lanes' LU may pivot otherwise: rounding of the
+                    // forward kinematics' 1e-9 mm.
+                    assert!((reached.point - one.point).amax() < 1e-9);
+                    assert!((&reached.pose - &one.pose).amax() < 1e-9);
+                    let difference = (&reached.d_params - &one.d_params).amax();
+                    assert!(difference < 1e-9, "{difference:e}");
+                }
+            };
+        let mut batch = Vec::new();
+        hexapod.tool_points_at_readings(p, &q, &x, &mut batch);
+        same_as_one_by_one(&q, &x, &batch);
+        // Into the room of the first batch, one contact's readings refused.
+        let full = q.clone();
         q[5] = &q[5][..5];
-        let batch = hexapod.tool_points_at_readings(p, &q, &x);
+        hexapod.tool_points_at_readings(p, &q, &x, &mut batch);
         for (k, reached) in batch.iter().enumerate() {
             match k {
                 5 => assert_eq!(
@@ -737,6 +766,14 @@ mod tests {
                 _ => assert!(reached.is_ok(), "{k}: {reached:?}"),
             }
         }
+        // The contacts in another order into that room, then fewer.
+        let (mut q, mut x) = (full, x.clone());
+        q.reverse();
+        x.reverse();
+        hexapod.tool_points_at_readings(p, &q, &x, &mut batch);
+        same_as_one_by_one(&q, &x, &batch);
+        hexapod.tool_points_at_readings(p, &q[..3], &x[..3], &mut batch);
+        same_as_one_by_one(&q[..3], &x[..3], &batch);
     }
 
     #[test]

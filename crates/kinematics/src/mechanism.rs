@@ -324,10 +324,13 @@ pub trait Mechanism: Send + Sync {
     }
 
     /// [`Mechanism::tool_point_at_readings`] of several contacts, contact
-    /// `l` at `readings[l]` from `starts[l]`, each result in order: one
-    /// after another by default; a mechanism whose forward kinematics runs
-    /// several contacts at once overrides it with the same values, to
-    /// rounding (the hexapod: four in SIMD lanes).
+    /// `l` at `readings[l]` from `starts[l]`, each outcome in order into
+    /// `reached` (as many as the contacts): one after another by default;
+    /// a mechanism whose forward kinematics runs several contacts at once
+    /// overrides it with the same values, to rounding (the hexapod: four
+    /// in SIMD lanes), and may write them into the room of the `Ok`
+    /// entries `reached` holds ([`write_reached`]), so that a caller who
+    /// keeps `reached` from batch to batch allocates nothing.
     ///
     /// # Panics
     /// If `readings` and `starts` differ in length.
@@ -336,8 +339,9 @@ pub trait Mechanism: Send + Sync {
         params: &[f64],
         readings: &[&[f64]],
         starts: &[&[f64]],
-    ) -> Vec<Result<Reached, MechanismError>> {
-        tool_points_one_by_one(self, params, readings, starts)
+        reached: &mut Vec<Result<Reached, MechanismError>>,
+    ) {
+        tool_points_one_by_one(self, params, readings, starts, reached);
     }
 
     /// A pose near the one `readings` reach, for an iterative
@@ -529,8 +533,9 @@ pub fn pose_jacobian_at_fixed_readings(
 
 /// Where the machine is at given readings: its pose, its tool point and
 /// the tool point's derivative at fixed readings
-/// ([`Mechanism::tool_point_at_readings`]).
-#[derive(Debug, Clone, PartialEq)]
+/// ([`Mechanism::tool_point_at_readings`]). The default is empty (no
+/// storage): what a caller leaves in place of one it takes.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Reached {
     /// The pose `x = f(p, q)`.
     pub pose: DVector<f64>,
@@ -541,8 +546,8 @@ pub struct Reached {
 }
 
 /// [`Mechanism::tool_points_at_readings`] one contact after another
-/// ([`Mechanism::tool_point_at_readings`]): the trait's default, and the
-/// fallback of a mechanism whose batch cannot run.
+/// ([`Mechanism::tool_point_at_readings`]) into `reached`: the trait's
+/// default, and the fallback of a mechanism whose batch cannot run.
 ///
 /// # Panics
 /// If `readings` and `starts` differ in length.
@@ -551,13 +556,56 @@ pub fn tool_points_one_by_one<M: Mechanism + ?Sized>(
     params: &[f64],
     readings: &[&[f64]],
     starts: &[&[f64]],
-) -> Vec<Result<Reached, MechanismError>> {
+    reached: &mut Vec<Result<Reached, MechanismError>>,
+) {
     assert_eq!(readings.len(), starts.len(), "a start for each contact");
-    readings
-        .iter()
-        .zip(starts)
-        .map(|(readings, start)| mechanism.tool_point_at_readings(params, readings, start))
-        .collect()
+    reached.clear();
+    reached.extend(
+        readings
+            .iter()
+            .zip(starts)
+            .map(|(readings, start)| mechanism.tool_point_at_readings(params, readings, start)),
+    );
+}
+
+/// Entry `index` of `reached` (at most its length: an entry is added at
+/// the end) set to where a contact is, as `write` writes it into room for
+/// a pose of `pose` coordinates and `dT/dp` of 3 x `params`: the room of
+/// the `Ok` entry there when it has those sizes, else new zero room.
+pub fn write_reached(
+    reached: &mut Vec<Result<Reached, MechanismError>>,
+    index: usize,
+    pose: usize,
+    params: usize,
+    write: impl FnOnce(&mut Reached),
+) {
+    let old = match reached.get_mut(index) {
+        Some(entry) => std::mem::replace(entry, Ok(Reached::default())),
+        None => Ok(Reached::default()),
+    };
+    let mut room = match old {
+        Ok(room) if room.pose.len() == pose && room.d_params.shape() == (3, params) => room,
+        _ => Reached {
+            pose: DVector::zeros(pose),
+            point: Vector3::zeros(),
+            d_params: DMatrix::zeros(3, params),
+        },
+    };
+    write(&mut room);
+    put_reached(reached, index, Ok(room));
+}
+
+/// Entry `index` of `reached` (at most its length) set to `outcome`.
+pub fn put_reached(
+    reached: &mut Vec<Result<Reached, MechanismError>>,
+    index: usize,
+    outcome: Result<Reached, MechanismError>,
+) {
+    if index == reached.len() {
+        reached.push(outcome);
+    } else {
+        reached[index] = outcome;
+    }
 }
 
 /// The pose and tool point the machine of parameters `params` reaches at

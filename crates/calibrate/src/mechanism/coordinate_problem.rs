@@ -25,7 +25,7 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
 use super::problem::{
-    FitProblem, LastPose, MechanismProblem, Start, put_ball_columns, touch_failed,
+    FitProblem, LastPose, MechanismProblem, Reaches, Start, put_ball_columns, touch_failed,
 };
 use crate::options::Observation;
 
@@ -106,7 +106,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         global: &DVector<f64>,
         block: &SVector<f64, C>,
         angles: &Vector2<f64>,
-        reached: Result<Reached, MechanismError>,
+        reached: &mut Result<Reached, MechanismError>,
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
@@ -114,7 +114,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         let touch = &self.base.data().observations.touches[t];
         let ball = self.base.touched_ball(touch.ball, global, block);
         let chart = DirectionChart::about(&self.directions[i]);
-        let rows = reached
+        let rows = std::mem::replace(reached, Ok(Reached::default()))
             .and_then(|reached| {
                 touch.coordinate_rows(reached, &chart, &ball.centre, ball.radius, angles)
             })
@@ -127,11 +127,20 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         out.d_group.fill(0.0);
         out.d_point = rows.d_angles;
         put_ball_columns(out, &ball, &rows.d_centre, &rows.d_radius);
+        // The pose and `dT/dp`'s room back where it came from, for the
+        // next batch.
+        *reached = Ok(Reached {
+            pose: rows.pose,
+            point: Vector3::zeros(),
+            d_params: rows.d_params.reshape_generic(Dyn(3), Dyn(n)),
+        });
         Ok(())
     }
 
     /// The touch points `first..first + out.len()` (one ball's) at its
-    /// block `group` and their angles `points`, with their caches.
+    /// block `group` and their angles `points`, with their caches and the
+    /// worker's `reaches`.
+    #[allow(clippy::too_many_arguments, reason = "Problem::linearize_batch's")]
     fn fill(
         &self,
         first: usize,
@@ -140,9 +149,11 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         points: &[SVector<f64, 2>],
         caches: &mut [LastPose],
         out: &mut [Local<C>],
+        reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        let reached = self.base.reach(first..first + out.len(), global, caches);
-        let each = reached.into_iter().zip(points).zip(caches).zip(out);
+        self.base
+            .reach(first..first + out.len(), global, caches, reaches);
+        let each = reaches.iter_mut().zip(points).zip(caches).zip(out);
         for (j, (((reached, angles), cache), out)) in each.enumerate() {
             self.touch_rows(first + j, global, group, angles, reached, cache, out)
                 .map_err(|e| (first + j, e))?;
@@ -192,7 +203,7 @@ impl<const C: usize> FitProblem<C, 2, 3> for CoordinateProblem<'_, C> {
 /// doc).
 impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
     type PointCache = LastPose;
-    type Workspace = ();
+    type Workspace = Reaches;
     type Error = MechanismCalibrationError;
     type Jacobian = OMatrix<f64, Const<3>, Dyn>;
     type Global = DVector<f64>;
@@ -237,6 +248,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
             std::slice::from_ref(point),
             std::slice::from_mut(cache),
             std::slice::from_mut(out),
+            &mut Vec::new(),
         )
         .map_err(|(_, e)| e)
     }
@@ -250,9 +262,9 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         points: &[SVector<f64, 2>],
         caches: &mut [LastPose],
         out: &mut [Local<C>],
-        _workspace: &mut (),
+        reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, points, caches, out)
+        self.fill(first, global, group, points, caches, out, reaches)
     }
 
     /// [`Problem::linearize_batch`], then each point's `d_global · dg`.
@@ -266,9 +278,9 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 3>],
-        _workspace: &mut (),
+        reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, points, caches, out)?;
+        self.fill(first, global, group, points, caches, out, reaches)?;
         for (step, out) in steps.iter_mut().zip(out.iter()) {
             *step = &out.d_global * dg;
         }

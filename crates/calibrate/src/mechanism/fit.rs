@@ -501,7 +501,13 @@ mod tests {
         let radius = base.data().observations.balls[0].radius;
         let mirrored = |b: usize| {
             let points = Problem::<3, 0, 1>::group_points(base, b);
-            let reached = base.reach(points.clone(), &right.state.global, &caches[points]);
+            let mut reached = Vec::new();
+            base.reach(
+                points.clone(),
+                &right.state.global,
+                &caches[points],
+                &mut reached,
+            );
             let tips: Vec<Vector3<f64>> = reached.into_iter().map(|r| r.unwrap().point).collect();
             let fit = best_fit(&tips, radius).unwrap();
             let mirror = mirror_fit(&tips, radius, &fit).unwrap();

@@ -74,12 +74,11 @@ impl<'w, 'p, const C: usize> WrongSideWatch<'w, 'p, C> {
         caches: &[LastPose],
     ) -> Option<(f64, [f64; 3], Vec<Vector3<f64>>)> {
         let points = Problem::<C, 0, 1>::group_points(self.base, k);
-        let tips = (self
-            .base
-            .reach(points.clone(), global, &caches[points])
-            .into_iter())
-        .map(|reached| reached.ok().map(|reached| reached.point))
-        .collect::<Option<Vec<_>>>()?;
+        let mut reaches = Vec::with_capacity(points.len());
+        (self.base).reach(points.clone(), global, &caches[points], &mut reaches);
+        let tips = (reaches.iter())
+            .map(|reached| reached.as_ref().ok().map(|reached| reached.point))
+            .collect::<Option<Vec<_>>>()?;
         let ball = self.base.touched_ball(b, global, block);
         let (side, mirror) = mirror_side(&tips, ball.radius, &ball.centre)?;
         Some((side.cost / mirror.cost, mirror.centre.into(), tips))

@@ -57,6 +57,11 @@ use super::trackers::Trackers;
 /// unknowns, one row per point.
 type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
 
+/// Where the touches of a batch are ([`MechanismProblem::reach`]): a
+/// worker's, kept from batch to batch (the solver's workspace), so that
+/// the mechanism writes into the room the last batch left.
+pub(crate) type Reaches = Vec<Result<Reached, MechanismError>>;
+
 /// The unknowns of each local block of `data` (module doc): 4 when some
 /// ball's radius has a calibration sigma, else 3.
 pub(crate) fn group_size(data: &MechanismData) -> usize {
@@ -440,13 +445,15 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// Where the machine is at the touch points `points` (one group's, of
     /// touches), each from the pose in its cache: together, so that a
-    /// mechanism may reach them at once ([`Actuation::tool_points`]).
+    /// mechanism may reach them at once ([`Actuation::tool_points`]), into
+    /// `reaches`.
     pub(crate) fn reach(
         &self,
         points: Range<usize>,
         global: &DVector<f64>,
         caches: &[LastPose],
-    ) -> Vec<Result<Reached, MechanismError>> {
+        reaches: &mut Reaches,
+    ) {
         let touches = &self.data.observations.touches;
         let actuations: Vec<&Actuation> = points.map(|i| &touches[self.touch_at(i)].at).collect();
         let starts: Vec<Option<&[f64]>> = caches.iter().map(LastPose::pose).collect();
@@ -456,7 +463,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             self.data.configured.as_slice(),
             &actuations,
             &starts,
-        )
+            reaches,
+        );
     }
 
     /// The points `first..first + out.len()` (one group's) at its block
@@ -469,12 +477,12 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         group: &SVector<f64, C>,
         caches: &mut [LastPose],
         out: &mut [Local<C>],
+        reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         if first >= self.sample_points() {
             // The touches together: each from the pose it last reached.
-            let reached = self.reach(first..first + out.len(), global, caches);
-            for (j, ((reached, out), cache)) in reached.into_iter().zip(out).zip(caches).enumerate()
-            {
+            self.reach(first..first + out.len(), global, caches, reaches);
+            for (j, ((reached, out), cache)) in reaches.drain(..).zip(out).zip(caches).enumerate() {
                 self.touch_row(first + j, global, group, reached, cache, out)
                     .map_err(|e| (first + j, e))?;
             }
@@ -686,7 +694,15 @@ pub(crate) fn ball_centre(
     // lanes), each from its start pose.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
     let starts = vec![None; touches.len()];
-    let reached = Actuation::tool_points(mechanism, params, configured, &actuations, &starts);
+    let mut reached = Vec::with_capacity(touches.len());
+    Actuation::tool_points(
+        mechanism,
+        params,
+        configured,
+        &actuations,
+        &starts,
+        &mut reached,
+    );
     let (points, poses): (Vec<Vector3<f64>>, Vec<LastPose>) = reached
         .into_iter()
         .zip(touches)
@@ -727,7 +743,7 @@ fn failed(observation: ObservationRef, error: impl std::fmt::Display) -> Mechani
 /// Groups of `C` unknowns, points of one row (module doc).
 impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
     type PointCache = LastPose;
-    type Workspace = ();
+    type Workspace = Reaches;
     type Error = MechanismCalibrationError;
     type Jacobian = OMatrix<f64, Const<1>, Dyn>;
     type Global = DVector<f64>;
@@ -777,7 +793,8 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let caches = std::slice::from_mut(cache);
-        self.fill(i, global, group, caches, std::slice::from_mut(out))
+        let out = std::slice::from_mut(out);
+        self.fill(i, global, group, caches, out, &mut Vec::new())
             .map_err(|(_, e)| e)
     }
 
@@ -790,9 +807,9 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         _points: &[SVector<f64, 0>],
         caches: &mut [LastPose],
         out: &mut [Local<C>],
-        _workspace: &mut (),
+        reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, caches, out)
+        self.fill(first, global, group, caches, out, reaches)
     }
 
     /// [`Problem::linearize_batch`], then each row's `d_global · dg`.
@@ -806,9 +823,9 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 1>],
-        _workspace: &mut (),
+        reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, caches, out)?;
+        self.fill(first, global, group, caches, out, reaches)?;
         for (step, out) in steps.iter_mut().zip(out.iter()) {
             *step = &out.d_global * dg;
         }

@@ -272,7 +272,16 @@ fn reach(
 ) -> Result<Vec<Reached>, MechanismCalibrationError> {
     let actuations: Vec<&Actuation> = indices.iter().map(|&j| &points[j].at).collect();
     let starts = vec![None; actuations.len()];
-    Actuation::tool_points(mechanism, params, configured, &actuations, &starts)
+    let mut reached = Vec::with_capacity(actuations.len());
+    Actuation::tool_points(
+        mechanism,
+        params,
+        configured,
+        &actuations,
+        &starts,
+        &mut reached,
+    );
+    reached
         .into_iter()
         .zip(indices)
         .map(|(reached, &j)| {

@@ -95,9 +95,11 @@ impl Actuation {
     }
 
     /// [`Actuation::tool_point`] of each of `actuations`, from its start in
-    /// `starts` if given: those at readings together
-    /// ([`Mechanism::tool_points_at_readings`], the hexapod's SIMD lanes),
-    /// the others one at a time; each outcome in order.
+    /// `starts` if given, each outcome in order into `reached`: those at
+    /// readings together ([`Mechanism::tool_points_at_readings`], the
+    /// hexapod's SIMD lanes), the others one at a time. When every one is
+    /// at readings from a start given (a calibration's iterations), the
+    /// mechanism writes into the room `reached` holds.
     ///
     /// # Panics
     /// If `actuations` and `starts` differ in length.
@@ -107,8 +109,22 @@ impl Actuation {
         configured: &[f64],
         actuations: &[&Actuation],
         starts: &[Option<&[f64]>],
-    ) -> Vec<Result<Reached, MechanismError>> {
+        reached: &mut Vec<Result<Reached, MechanismError>>,
+    ) {
         assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
+        let from_starts = (actuations.iter().zip(starts))
+            .all(|pair| matches!(pair, (Self::Readings(_), Some(_))));
+        if from_starts {
+            let readings: Vec<&[f64]> = (actuations.iter())
+                .filter_map(|actuation| match actuation {
+                    Self::Readings(readings) => Some(readings.as_slice()),
+                    Self::Commanded(_) => None,
+                })
+                .collect();
+            let starts: Vec<&[f64]> = starts.iter().flatten().copied().collect();
+            mechanism.tool_points_at_readings(params, &readings, &starts, reached);
+            return;
+        }
         let mut outcomes: Vec<Option<Result<Reached, MechanismError>>> =
             Vec::with_capacity(actuations.len());
         // The actuations at readings, by index, each with its start: the
@@ -135,14 +151,15 @@ impl Actuation {
         }
         let readings: Vec<&[f64]> = at_readings.iter().map(|(_, q, _)| *q).collect();
         let starts: Vec<&[f64]> = at_readings.iter().map(|(_, _, x)| x.as_ref()).collect();
-        let reached = mechanism.tool_points_at_readings(params, &readings, &starts);
-        for ((k, _, _), reached) in at_readings.iter().zip(reached) {
-            outcomes[*k] = Some(reached);
+        mechanism.tool_points_at_readings(params, &readings, &starts, reached);
+        for ((k, _, _), outcome) in at_readings.iter().zip(reached.drain(..)) {
+            outcomes[*k] = Some(outcome);
         }
-        outcomes
-            .into_iter()
-            .map(|outcome| outcome.expect("every actuation reached"))
-            .collect()
+        reached.extend(
+            outcomes
+                .into_iter()
+                .map(|outcome| outcome.expect("every actuation reached")),
+        );
     }
 }
 
@@ -182,7 +199,8 @@ mod tests {
         let start = [9.0, 5.5, 29.0];
         let starts = [None, Some(&start[..]), None, None];
         let refs: Vec<&Actuation> = actuations.iter().collect();
-        let together = Actuation::tool_points(&delta, p, c, &refs, &starts);
+        let mut together = Vec::new();
+        Actuation::tool_points(&delta, p, c, &refs, &starts, &mut together);
         for ((actuation, start), reached) in actuations.iter().zip(starts).zip(together) {
             let alone = actuation.tool_point(&delta, p, c, start).unwrap();
             assert_eq!(reached.unwrap(), alone);
@@ -202,17 +220,26 @@ mod tests {
             Actuation::Readings(legs([12.0, -8.0, 250.0, -0.03, 0.0, 0.05])),
         ];
         let refs: Vec<&Actuation> = actuations.iter().collect();
-        let together = Actuation::tool_points(hexapod, p, &[], &refs, &[None; 3]);
-        assert_eq!(
-            together[1].as_ref().unwrap_err().to_string(),
-            "hexapod needs 6 readings, got 5"
-        );
-        for k in [0, 2] {
-            let alone = actuations[k].tool_point(hexapod, p, &[], None).unwrap();
-            let reached = together[k].as_ref().unwrap();
-            // The forward kinematics' 1e-9 mm.
-            assert!((reached.point - alone.point).amax() < 1e-9);
-            assert!((&reached.d_params - &alone.d_params).amax() < 1e-9);
+        // From the mechanism's starts, then from starts given (straight
+        // into the room of the first outcomes).
+        let home = hexapod
+            .start_pose(p, &legs([0.0, 0.0, 240.0, 0.0, 0.0, 0.0]))
+            .unwrap();
+        let mut together = Vec::new();
+        for starts in [[None; 3], [Some(home.as_slice()); 3]] {
+            Actuation::tool_points(hexapod, p, &[], &refs, &starts, &mut together);
+            assert_eq!(together.len(), 3);
+            assert_eq!(
+                together[1].as_ref().unwrap_err().to_string(),
+                "hexapod needs 6 readings, got 5"
+            );
+            for k in [0, 2] {
+                let alone = actuations[k].tool_point(hexapod, p, &[], None).unwrap();
+                let reached = together[k].as_ref().unwrap();
+                // The forward kinematics' 1e-9 mm.
+                assert!((reached.point - alone.point).amax() < 1e-9);
+                assert!((&reached.d_params - &alone.d_params).amax() < 1e-9);
+            }
         }
     }
 }
