@@ -693,16 +693,7 @@ pub(crate) fn ball_centre(
     // Together: a mechanism may reach several at once (the hexapod's
     // lanes), each from its start pose.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
-    let starts = vec![None; touches.len()];
-    let mut reached = Vec::with_capacity(touches.len());
-    Actuation::tool_points(
-        mechanism,
-        params,
-        configured,
-        &actuations,
-        &starts,
-        &mut reached,
-    );
+    let reached = Actuation::tool_points_from_scratch(mechanism, params, configured, &actuations);
     let (points, poses): (Vec<Vector3<f64>>, Vec<LastPose>) = reached
         .into_iter()
         .zip(touches)

@@ -271,17 +271,7 @@ fn reach(
     indices: &[usize],
 ) -> Result<Vec<Reached>, MechanismCalibrationError> {
     let actuations: Vec<&Actuation> = indices.iter().map(|&j| &points[j].at).collect();
-    let starts = vec![None; actuations.len()];
-    let mut reached = Vec::with_capacity(actuations.len());
-    Actuation::tool_points(
-        mechanism,
-        params,
-        configured,
-        &actuations,
-        &starts,
-        &mut reached,
-    );
-    reached
+    Actuation::tool_points_from_scratch(mechanism, params, configured, &actuations)
         .into_iter()
         .zip(indices)
         .map(|(reached, &j)| {

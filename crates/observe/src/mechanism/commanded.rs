@@ -161,6 +161,28 @@ impl Actuation {
                 .map(|outcome| outcome.expect("every actuation reached")),
         );
     }
+
+    /// [`Actuation::tool_points`] of `actuations`, each from the
+    /// mechanism's [`Mechanism::start_pose`] (or its commanded position),
+    /// into a new vector.
+    pub fn tool_points_from_scratch(
+        mechanism: &dyn Mechanism,
+        params: &[f64],
+        configured: &[f64],
+        actuations: &[&Actuation],
+    ) -> Vec<Result<Reached, MechanismError>> {
+        let starts = vec![None; actuations.len()];
+        let mut reached = Vec::with_capacity(actuations.len());
+        Self::tool_points(
+            mechanism,
+            params,
+            configured,
+            actuations,
+            &starts,
+            &mut reached,
+        );
+        reached
+    }
 }
 
 /// Refuses a standard deviation that is not finite and positive.
