@@ -400,6 +400,44 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     }
     let summary = ok(&["calibrate", s(&sim)]);
     assert!(summary.contains("3 part distances"), "{summary}");
+    // The truth beside each estimate: a rod's length (no frame moves
+    // it) as truth.json has it, and the error in the estimate's sigmas.
+    assert!(summary.contains("true  error / sigma"), "{summary}");
+    let read = |path: PathBuf| -> serde_json::Value {
+        serde_json::from_str(&fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let (calibration, truth) = (
+        read(sim.join("calibration.json")),
+        read(sim.join("truth.json")),
+    );
+    let rod = (calibration["parameters"].as_array().unwrap().iter())
+        .find(|p| p["name"] == "diagonal_a")
+        .unwrap();
+    let true_rod = truth["parameters"]["diagonal_a"].as_f64().unwrap();
+    let error = (rod["value"].as_f64().unwrap() - true_rod) / rod["sigma"].as_f64().unwrap();
+    let line = summary
+        .lines()
+        .find(|l| l.starts_with("diagonal_a "))
+        .unwrap();
+    let cells: Vec<&str> = line.split_whitespace().collect();
+    assert_eq!(
+        cells[7..],
+        [format!("{true_rod:.4}"), format!("{error:.2}")],
+        "{line}"
+    );
+    // And in the report, from the dataset given.
+    let report = dir.path().join("report");
+    let calibration = sim.join("calibration.json");
+    ok(&[
+        "report",
+        s(&calibration),
+        "--dataset",
+        s(&sim),
+        "--out",
+        s(&report),
+    ]);
+    let markdown = fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(markdown.contains("| true | error / sigma |"), "{markdown}");
     // A hexapod's way of validating is refused, saying the mechanism's.
     let err = fails(&["validate", s(&sim), "--folds", "3"]);
     assert!(

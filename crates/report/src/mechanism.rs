@@ -15,18 +15,29 @@ use crate::calibration_report::Format;
 use crate::calibration_report::document::{Block, Cell, Tone};
 use crate::calibration_report::{html, markdown};
 
-/// The report of `calibration`, read from `file`, as `format`; with the
-/// dataset's `probes` (its probes.csv rows), the plot of their residuals
-/// over the bed.
+/// What a mechanism's dataset adds to the report of its calibration.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FromDataset<'a> {
+    /// Its probe heights (probes.csv's rows): the plot of their residuals
+    /// over the bed.
+    pub probes: Option<&'a [[f64; 3]]>,
+    /// The true values of a simulated machine, one per parameter of the
+    /// calibration, in its order and frame: the parameter table's "true"
+    /// and "error / sigma" columns.
+    pub truth: Option<&'a [f64]>,
+}
+
+/// The report of `calibration`, read from `file`, as `format`, with what
+/// its dataset adds (`dataset`).
 pub fn render(
     calibration: &MechanismCalibrationRecord,
     file: &str,
-    probes: Option<&[[f64; 3]]>,
+    dataset: FromDataset<'_>,
     format: Format,
 ) -> Result<String, String> {
     let title = format!("Calibration of a {} ({file})", calibration.mechanism);
-    let mut blocks = blocks(calibration, &title);
-    if let Some(probes) = probes.filter(|p| !p.is_empty()) {
+    let mut blocks = blocks(calibration, dataset.truth, &title);
+    if let Some(probes) = dataset.probes.filter(|p| !p.is_empty()) {
         blocks.push(Block::Heading(2, "Probe residuals over the bed".into()));
         blocks.push(Block::Figure {
             svg: probe_residual_svg(calibration, probes)?,
@@ -238,15 +249,24 @@ pub fn counted(counts: &[(&str, usize)]) -> Vec<String> {
 
 /// The parameter table: value, sigma, prior mean and sigma, and their
 /// ratio (how much the data narrowed the prior).
-pub fn parameter_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
+///
+/// With the `truth` of a simulated machine (one value per parameter, the
+/// estimate's frame), two more: the true value and the error of the
+/// estimate in its sigmas, `(value - true) / sigma` (`-` for a value the
+/// canonical frame fixes).
+pub fn parameter_rows(
+    calibration: &MechanismCalibrationRecord,
+    truth: Option<&[f64]>,
+) -> Vec<Vec<String>> {
     calibration
         .parameters
         .iter()
-        .map(|p| {
+        .enumerate()
+        .map(|(k, p)| {
             let or_dash = |v: Option<f64>, digits: usize| {
                 v.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
             };
-            vec![
+            let mut row = vec![
                 p.name.clone(),
                 p.unit.clone(),
                 format!("{:.4}", p.value),
@@ -254,21 +274,34 @@ pub fn parameter_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<Strin
                 format!("{:.4}", p.prior_mean),
                 or_dash(p.prior_sigma, 4),
                 or_dash(p.sigma_ratio, 3),
-            ]
+            ];
+            if let Some(&value) = truth.and_then(|truth| truth.get(k)) {
+                row.push(format!("{value:.4}"));
+                // None for a value the canonical frame fixes (sigma 0).
+                let sigma = p.sigma.filter(|&sigma| sigma > 0.0);
+                row.push(or_dash(sigma.map(|sigma| (p.value - value) / sigma), 2));
+            }
+            row
         })
         .collect()
 }
 
-/// The header of [`parameter_rows`].
-pub const PARAMETER_HEADER: [&str; 7] = [
-    "parameter",
-    "unit",
-    "value",
-    "sigma",
-    "prior mean",
-    "prior sigma",
-    "sigma / prior sigma",
-];
+/// The header of [`parameter_rows`], with the truth's columns if `truth`.
+pub fn parameter_header(truth: bool) -> Vec<&'static str> {
+    let mut header = vec![
+        "parameter",
+        "unit",
+        "value",
+        "sigma",
+        "prior mean",
+        "prior sigma",
+        "sigma / prior sigma",
+    ];
+    if truth {
+        header.extend(["true", "error / sigma"]);
+    }
+    header
+}
 
 /// The calibrated balls' table: centre and its sigmas (the frame of the
 /// commanded positions), radius and its sigma (`exact` without one).
@@ -492,7 +525,11 @@ pub fn identifiability_statements(calibration: &MechanismCalibrationRecord) -> V
 }
 
 /// The report's blocks.
-fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
+fn blocks(
+    calibration: &MechanismCalibrationRecord,
+    truth: Option<&[f64]>,
+    title: &str,
+) -> Vec<Block> {
     let tone = if calibration.accepted {
         Tone::Accepted
     } else {
@@ -528,8 +565,10 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
     blocks.push(Block::Heading(2, "Parameters (canonical frame)".into()));
     let ratios_flag = |row: &[String]| row[6].parse::<f64>().is_ok_and(|r| r >= 0.9);
     blocks.push(Block::Table {
-        header: PARAMETER_HEADER.iter().map(|s| s.to_string()).collect(),
-        rows: parameter_rows(calibration)
+        header: (parameter_header(truth.is_some()).iter())
+            .map(|s| s.to_string())
+            .collect(),
+        rows: parameter_rows(calibration, truth)
             .into_iter()
             .map(|row| {
                 let prior_only = ratios_flag(&row);
@@ -599,12 +638,27 @@ fn blocks(calibration: &MechanismCalibrationRecord, title: &str) -> Vec<Block> {
 mod tests {
     use super::*;
     use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
-    use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
+    use parcal_dataset::mechanism::{
+        MechanismDataset, MechanismMachine, MechanismTruth, Noise, ValuePrior,
+    };
     use parcal_kinematics::delta::{LinearDelta, probe_rings};
 
     /// A printer exactly as configured, probed on 3 rings of 8 (25
     /// probes), one probe 0.3 mm off, calibrated with snooping.
     fn calibrated() -> (MechanismCalibrationRecord, Vec<[f64; 3]>) {
+        let dataset = printer();
+        let data = MechanismData::from_dataset(&dataset).unwrap();
+        let options = MechanismOptions::default().with_snooping(true);
+        (
+            calibrate_mechanism(&data, &options, &mut |_| {})
+                .unwrap()
+                .record(),
+            dataset.probes,
+        )
+    }
+
+    /// The dataset of [`calibrated`].
+    fn printer() -> MechanismDataset {
         let delta = LinearDelta::typical();
         let mut machine = MechanismMachine::of(&delta);
         machine.noise = Noise {
@@ -620,26 +674,78 @@ mod tests {
             .map(|[x, y]| [x, y, 0.7])
             .collect();
         probes[5][2] += 0.3;
-        let dataset = MechanismDataset {
+        MechanismDataset {
             machine,
-            probes: probes.clone(),
-            ..MechanismDataset::default()
-        };
-        let data = MechanismData::from_dataset(&dataset).unwrap();
-        let options = MechanismOptions::default().with_snooping(true);
-        (
-            calibrate_mechanism(&data, &options, &mut |_| {})
-                .unwrap()
-                .record(),
             probes,
-        )
+            ..MechanismDataset::default()
+        }
+    }
+
+    /// What the dataset of `probes` adds: the probes alone.
+    fn with_probes(probes: &[[f64; 3]]) -> FromDataset<'_> {
+        FromDataset {
+            probes: Some(probes),
+            truth: None,
+        }
+    }
+
+    #[test]
+    fn a_simulated_machines_truth_is_set_beside_each_parameter() {
+        // The printer is the configured one, its trigger 0.7 mm: the
+        // truth's columns give it and each estimate's error in its sigmas.
+        let (record, probes) = calibrated();
+        let delta = LinearDelta::typical();
+        let truth = MechanismTruth {
+            parameters: parcal_kinematics::mechanism::design(&delta)
+                .as_slice()
+                .to_vec(),
+            trigger_height: Some(0.7),
+        };
+        let data = MechanismData::from_dataset(&printer()).unwrap();
+        let truth = data.true_values(&truth).unwrap();
+        assert_eq!(truth.len(), record.parameters.len());
+        let rows = parameter_rows(&record, Some(&truth));
+        let header = parameter_header(true);
+        for ((row, parameter), value) in rows.iter().zip(&record.parameters).zip(&truth) {
+            assert_eq!(row.len(), header.len());
+            assert_eq!(row[7], format!("{value:.4}"));
+            match parameter.sigma.unwrap() {
+                // Fixed by the canonical frame, at the truth's value there.
+                0.0 => {
+                    assert_eq!(row[8], "-");
+                    assert!((parameter.value - value).abs() < 1e-9, "{}", parameter.name);
+                }
+                sigma => {
+                    let error = (parameter.value - value) / sigma;
+                    assert_eq!(row[8], format!("{error:.2}"));
+                }
+            }
+        }
+        let dataset = FromDataset {
+            probes: Some(&probes),
+            truth: Some(&truth),
+        };
+        let markdown = render(&record, "calibration.json", dataset, Format::Markdown).unwrap();
+        assert!(markdown.contains("| true | error / sigma |"), "{markdown}");
+        let without = render(
+            &record,
+            "calibration.json",
+            with_probes(&probes),
+            Format::Markdown,
+        );
+        assert!(!without.unwrap().contains("error / sigma"));
     }
 
     #[test]
     fn the_report_states_the_tests_parameters_and_what_determines_them() {
         let (record, probes) = calibrated();
-        let markdown =
-            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        let markdown = render(
+            &record,
+            "calibration.json",
+            with_probes(&probes),
+            Format::Markdown,
+        )
+        .unwrap();
         assert!(
             markdown.contains("# Calibration of a linear delta"),
             "{markdown}"
@@ -654,7 +760,13 @@ mod tests {
             markdown.contains("distances measured on a printed part"),
             "{markdown}"
         );
-        let html = render(&record, "calibration.json", Some(&probes), Format::Html).unwrap();
+        let html = render(
+            &record,
+            "calibration.json",
+            with_probes(&probes),
+            Format::Html,
+        )
+        .unwrap();
         // One circle per probe tested, a cross for the one removed.
         assert_eq!(html.matches("<circle").count(), 24, "circles");
         // A record's probe that the probes given do not hold is named.
@@ -669,8 +781,13 @@ mod tests {
             radius: 12.7,
             radius_sigma: None,
         });
-        let markdown =
-            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        let markdown = render(
+            &record,
+            "calibration.json",
+            with_probes(&probes),
+            Format::Markdown,
+        )
+        .unwrap();
         assert!(markdown.contains("## Calibrated balls"), "{markdown}");
         assert!(markdown.contains("60.0000, 0.0000, 12.7000"), "{markdown}");
         assert!(markdown.contains("exact"), "{markdown}");
@@ -690,14 +807,24 @@ mod tests {
                 offset_sigmas: None,
                 body: None,
             });
-        let markdown =
-            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        let markdown = render(
+            &record,
+            "calibration.json",
+            with_probes(&probes),
+            Format::Markdown,
+        )
+        .unwrap();
         assert!(markdown.contains("## Trackers"), "{markdown}");
         assert!(!markdown.contains("re-homed"), "{markdown}");
         record.trackers[0].offsets = vec![0.25, -0.125, 0.5];
         record.trackers[0].offset_sigmas = Some(vec![0.0625; 3]);
-        let markdown =
-            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        let markdown = render(
+            &record,
+            "calibration.json",
+            with_probes(&probes),
+            Format::Markdown,
+        )
+        .unwrap();
         assert!(markdown.contains("tracker left: the machine re-homed before it measured; its actuators' zero offsets 0.2500 ± 0.0625, -0.1250 ± 0.0625, 0.5000 ± 0.0625"), "{markdown}");
         assert!(markdown.contains("| left | 1200.000, -300.000, 150.000 | 0.0100, 0.0200, 0.0300 | 0.0000, 0.0000, 90.0000 | 0.0057, 0.0115, 0.0172 |"), "{markdown}");
         // The body as a tracker saw it after it was moved, without sigmas.
@@ -708,8 +835,13 @@ mod tests {
             },
             sigma: None,
         });
-        let markdown =
-            render(&record, "calibration.json", Some(&probes), Format::Markdown).unwrap();
+        let markdown = render(
+            &record,
+            "calibration.json",
+            with_probes(&probes),
+            Format::Markdown,
+        )
+        .unwrap();
         assert!(
             markdown.contains(
                 "| body seen by left | 1.000, 2.000, 3.000 | - | 0.0000, 0.0000, 0.0000 | - |"

@@ -21,7 +21,7 @@ fn a_hexapods_common_calibration_is_reported_as_any_mechanisms() {
     let record = calibration.record();
     assert_eq!(record.mechanism, "hexapod");
     for format in [Format::Html, Format::Markdown] {
-        let text = render(&record, "calibration.json", None, format).unwrap();
+        let text = render(&record, "calibration.json", Default::default(), format).unwrap();
         assert!(text.contains("Calibration of a hexapod"), "{format:?}");
         // The parameters, by the mechanism's names (Markdown escapes `_`).
         for name in ["y_b2", "l_1", "z_e6", "z_eT"] {

@@ -13,7 +13,7 @@
 use std::sync::Arc;
 
 use parcal_dataset::Distance;
-use parcal_dataset::mechanism::{MechanismDataset, tracker_labels};
+use parcal_dataset::mechanism::{MechanismDataset, MechanismTruth, tracker_labels};
 use parcal_kinematics::mechanisms;
 use parcal_observe::CoordinateWhitening;
 use parcal_observe::mechanism::{
@@ -190,5 +190,38 @@ impl MechanismData {
             data = data.with_trigger_height(trigger.value, trigger.sigma);
         }
         Ok(data)
+    }
+
+    /// The true values of a simulated machine (`truth`, truth.json's) in
+    /// the terms of these data's calibration
+    /// ([`MechanismCalibration::parameters`](super::MechanismCalibration)):
+    /// its parameters carried to their canonical frame, where the estimate
+    /// is, then the probe's trigger height when there are probe heights.
+    /// An error when the truth is not of this mechanism.
+    pub fn true_values(
+        &self,
+        truth: &MechanismTruth,
+    ) -> Result<Vec<f64>, MechanismCalibrationError> {
+        let mechanism = self.mechanism.as_ref();
+        let kinematics = |source| MechanismCalibrationError::Kinematics {
+            mechanism: mechanism.name().to_string(),
+            source,
+        };
+        let canonical = mechanism
+            .canonicalize(&truth.parameters)
+            .map_err(kinematics)?;
+        let mut values: Vec<f64> = canonical.iter().copied().collect();
+        if self.has_trigger_height() {
+            let height =
+                truth
+                    .trigger_height
+                    .ok_or_else(|| MechanismCalibrationError::InvalidData {
+                        what: "the truth".to_string(),
+                        reason: "it has no trigger height, and the data have probe heights"
+                            .to_string(),
+                    })?;
+            values.push(height);
+        }
+        Ok(values)
     }
 }

@@ -212,7 +212,15 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     // The touches are in `data`: the dataset's memory is the room of the
     // calibration's.
     drop(dataset);
-    super::mechanism::calibrate_with(HEXAPOD, data, &options, None, request, read.elapsed())
+    let from_dataset = parcal::report::mechanism::FromDataset::default();
+    super::mechanism::calibrate_with(
+        HEXAPOD,
+        data,
+        &options,
+        from_dataset,
+        request,
+        read.elapsed(),
+    )
 }
 
 /// A number of seconds, finite and not negative.

@@ -18,9 +18,9 @@ use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset};
 use parcal::dataset::{HEXAPOD, declared_mechanism};
 use parcal::report::mechanism::{
-    PARAMETER_HEADER, counted, identifiability_statements, mirrored_sentences, observation_counts,
-    parameter_rows, prior_correlation_sentence, removal_sentences, touch_equation,
-    verdict_sentence,
+    FromDataset, counted, identifiability_statements, mirrored_sentences, observation_counts,
+    parameter_header, parameter_rows, prior_correlation_sentence, removal_sentences,
+    touch_equation, verdict_sentence,
 };
 use parcal::report::mechanism_validation::placed_error;
 
@@ -64,8 +64,36 @@ pub fn calibrate(
     let dataset = MechanismDataset::read(path)?;
     let data =
         MechanismData::from_dataset(&dataset).map_err(|error| placed(path, mechanism, &error))?;
-    let probes = Some(dataset.probes.as_slice());
-    calibrate_with(mechanism, data, options, probes, request, read.elapsed())
+    let truth = true_values(path, &dataset, &data)?;
+    let from_dataset = FromDataset {
+        probes: Some(dataset.probes.as_slice()),
+        truth: truth.as_deref(),
+    };
+    calibrate_with(
+        mechanism,
+        data,
+        options,
+        from_dataset,
+        request,
+        read.elapsed(),
+    )
+}
+
+/// The true values of the simulated machine of `dataset` (read from
+/// `path`, its data `data`) in the terms of its calibration
+/// ([`MechanismData::true_values`]), when it has a truth.json.
+pub fn true_values(
+    path: &Path,
+    dataset: &MechanismDataset,
+    data: &MechanismData,
+) -> anyhow::Result<Option<Vec<f64>>> {
+    let Some(truth) = &dataset.truth else {
+        return Ok(None);
+    };
+    let values = data
+        .true_values(truth)
+        .map_err(|error| anyhow::anyhow!("{}: truth.json: {error}", path.display()))?;
+    Ok(Some(values))
 }
 
 /// `parcal inspect` on the mechanism dataset `path`: read, converted and
@@ -168,7 +196,7 @@ pub fn calibrate_with(
     mechanism: &str,
     data: MechanismData,
     options: &MechanismOptions,
-    probes: Option<&[[f64; 3]]>,
+    from_dataset: FromDataset<'_>,
     request: CalibrateRequest,
     read: Duration,
 ) -> anyhow::Result<()> {
@@ -218,13 +246,13 @@ pub fn calibrate_with(
         record.write(&destination)?;
         match &report_directory {
             Some(directory) => {
-                super::report::write_mechanism_report(&record, &file, probes, directory)
+                super::report::write_mechanism_report(&record, &file, from_dataset, directory)
             }
             None => Ok(()),
         }
     })?;
     let mut stdout = std::io::stdout().lock();
-    print_summary(&record, &mut stdout)?;
+    print_summary(&record, from_dataset.truth, &mut stdout)?;
     writeln!(stdout, "calibration written to {file}")?;
     if let Some(directory) = &report_directory {
         writeln!(
@@ -248,6 +276,7 @@ pub fn calibrate_with(
 /// and what the data determine.
 pub fn print_summary(
     calibration: &MechanismCalibrationRecord,
+    truth: Option<&[f64]>,
     out: &mut impl Write,
 ) -> std::io::Result<()> {
     writeln!(out, "{}", verdict_sentence(calibration))?;
@@ -261,12 +290,13 @@ pub fn print_summary(
     if !counts.is_empty() {
         writeln!(out, "observations: {}", counts.join(", "))?;
     }
-    let rows = parameter_rows(calibration);
-    let widths: Vec<usize> = (0..PARAMETER_HEADER.len())
+    let rows = parameter_rows(calibration, truth);
+    let header = parameter_header(truth.is_some());
+    let widths: Vec<usize> = (0..header.len())
         .map(|k| {
             rows.iter()
                 .map(|row| row[k].len())
-                .chain([PARAMETER_HEADER[k].len()])
+                .chain([header[k].len()])
                 .max()
                 .unwrap_or(0)
         })
@@ -286,7 +316,7 @@ pub fn print_summary(
             .collect::<Vec<_>>()
             .join("  ")
     };
-    writeln!(out, "{}", line(&PARAMETER_HEADER))?;
+    writeln!(out, "{}", line(&header))?;
     for row in &rows {
         let cells: Vec<&str> = row.iter().map(String::as_str).collect();
         writeln!(out, "{}", line(&cells))?;

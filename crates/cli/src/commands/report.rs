@@ -6,10 +6,12 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use parcal::calibration::mechanism::MechanismData;
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
 use parcal::report::calibration_report::{Format, Subject, predicted_accuracy, render};
+use parcal::report::mechanism::FromDataset;
 
 /// The report's two files in its directory: the HTML page and the Markdown.
 pub const REPORT_FILES: [(&str, Format); 2] = [
@@ -120,10 +122,21 @@ fn write_mechanism(
         .as_deref()
         .map(MechanismDataset::read)
         .transpose()?;
-    let probes = dataset.as_ref().map(|d| d.probes.as_slice());
+    let truth = match (&dataset, &args.dataset) {
+        (Some(dataset), Some(path)) => {
+            let data = MechanismData::from_dataset(dataset)
+                .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
+            super::mechanism::true_values(path, dataset, &data)?
+        }
+        _ => None,
+    };
+    let from_dataset = FromDataset {
+        probes: dataset.as_ref().map(|d| d.probes.as_slice()),
+        truth: truth.as_deref(),
+    };
     let file = args.calibration.display().to_string();
     write_set(&[], || {
-        write_mechanism_report(record, &file, probes, directory)
+        write_mechanism_report(record, &file, from_dataset, directory)
     })?;
     writeln!(
         std::io::stdout().lock(),
@@ -173,11 +186,11 @@ pub fn write(subject: &Subject, directory: &Path) -> anyhow::Result<()> {
 pub fn write_mechanism_report(
     record: &MechanismCalibrationRecord,
     file: &str,
-    probes: Option<&[[f64; 3]]>,
+    from_dataset: FromDataset<'_>,
     directory: &Path,
 ) -> anyhow::Result<()> {
     for (name, format) in REPORT_FILES {
-        let text = parcal::report::mechanism::render(record, file, probes, format)
+        let text = parcal::report::mechanism::render(record, file, from_dataset, format)
             .map_err(|e| anyhow::anyhow!("{file}: cannot draw the report's figure: {e}"))?;
         parcal::report::write_text(&directory.join(name), &text)?;
     }
