@@ -7,6 +7,8 @@
 mod common;
 
 use common::{PAPER_FILES, copy_fixture, fails, ok, parcal, s, text};
+use parcal::kinematics::params::PARAM_NAMES;
+use parcal::workflows::evaluate::TrueMachine;
 use serde_json::Value;
 
 fn read(path: &std::path::Path) -> Value {
@@ -58,6 +60,15 @@ fn a_hexapod_through_the_common_calibration_is_its_own() {
         "{printed}"
     );
     assert!(shared.join("report.html").exists() && shared.join("report.md").exists());
+    // The simulation's truth beside each estimate: the true machine's
+    // canonical parameters.
+    let dataset = parcal::dataset::Dataset::read(&data).unwrap();
+    let truth = TrueMachine::of(&dataset).unwrap().unwrap();
+    for (name, value) in PARAM_NAMES.iter().zip(truth.params.iter()) {
+        let line = printed.lines().find(|l| l.starts_with(&format!("{name} ")));
+        let cells: Vec<&str> = line.unwrap().split_whitespace().collect();
+        assert_eq!(cells[7], format!("{value:.4}"), "{name}");
+    }
     let levenberg = temp.path().join("levenberg.json");
     let command = ["calibrate", s(&data), "--common", "--sim", "III", "--lm"];
     ok(&[&command[..], &["--out", s(&levenberg)]].concat());

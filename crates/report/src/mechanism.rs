@@ -253,7 +253,7 @@ pub fn counted(counts: &[(&str, usize)]) -> Vec<String> {
 /// With the `truth` of a simulated machine (one value per parameter, the
 /// estimate's frame), two more: the true value and the error of the
 /// estimate in its sigmas, `(value - true) / sigma` (`-` for a value the
-/// canonical frame fixes).
+/// canonical frame fixes, and for a parameter the truth does not hold).
 pub fn parameter_rows(
     calibration: &MechanismCalibrationRecord,
     truth: Option<&[f64]>,
@@ -275,11 +275,15 @@ pub fn parameter_rows(
                 or_dash(p.prior_sigma, 4),
                 or_dash(p.sigma_ratio, 3),
             ];
-            if let Some(&value) = truth.and_then(|truth| truth.get(k)) {
-                row.push(format!("{value:.4}"));
+            if let Some(truth) = truth {
+                let value = truth.get(k).copied();
+                row.push(or_dash(value, 4));
                 // None for a value the canonical frame fixes (sigma 0).
                 let sigma = p.sigma.filter(|&sigma| sigma > 0.0);
-                row.push(or_dash(sigma.map(|sigma| (p.value - value) / sigma), 2));
+                let error = value
+                    .zip(sigma)
+                    .map(|(value, sigma)| (p.value - value) / sigma);
+                row.push(or_dash(error, 2));
             }
             row
         })

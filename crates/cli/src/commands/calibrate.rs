@@ -14,6 +14,7 @@ use parcal::calibration::{
 };
 use parcal::command::{CalibrateFlags, RecordedRun, calibrate_recorded, common_calibration};
 use parcal::dataset::{CALIBRATION_FILE, HEXAPOD, MEASUREMENTS_FILE, ReadOptions};
+use parcal::kinematics::N_PARAMS;
 use parcal::report::{instruments, tables};
 use parcal::workflows::evaluate::{TrueMachine, before_after};
 
@@ -209,10 +210,26 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
     let (data, options) = common_calibration(&dataset, &args.flags())
         .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
+    // A simulation's truth as the common record's parameters: the 33 in
+    // their canonical frame, then the scales when they are unknowns.
+    let truth = TrueMachine::of(&dataset)
+        .transpose()
+        .context("truth.json: the true geometry is degenerate")?
+        .map(|truth| {
+            let scales = dataset.truth.as_ref().and_then(|t| t.actuator_scale);
+            let scales = scales.filter(|_| data.mechanism.parameters().len() > N_PARAMS);
+            let values = truth.params.iter().copied();
+            values
+                .chain(scales.into_iter().flatten())
+                .collect::<Vec<f64>>()
+        });
     // The touches are in `data`: the dataset's memory is the room of the
     // calibration's.
     drop(dataset);
-    let from_dataset = parcal::report::mechanism::FromDataset::default();
+    let from_dataset = parcal::report::mechanism::FromDataset {
+        probes: None,
+        truth: truth.as_deref(),
+    };
     super::mechanism::calibrate_with(
         HEXAPOD,
         data,
