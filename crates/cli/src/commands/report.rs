@@ -101,37 +101,34 @@ pub fn directory_of(file: &Path) -> &Path {
 }
 
 /// Writes the report of a mechanism's calibration `record` (read from
-/// `args.calibration`; with `args.dataset`, its probe residuals over the
-/// bed) into `directory` (report.html and report.md, as a set). A
-/// hexapod's, through the common path, has no probes: `--dataset` is
-/// refused for it by name.
+/// `args.calibration`) into `directory` (report.html and report.md, as a
+/// set); with `args.dataset`, what it adds: a mechanism's probe residuals
+/// over the bed, a simulated machine's truth (a hexapod's, through the
+/// common path, has no probes).
 fn write_mechanism(
     record: &MechanismCalibrationRecord,
     args: &Args,
     directory: &Path,
 ) -> anyhow::Result<()> {
-    if let (Some(dataset), true) = (&args.dataset, record.mechanism == HEXAPOD) {
-        anyhow::bail!(
-            "{}: --dataset {}: a hexapod's calibration through the common path is reported without a dataset (a mechanism's dataset only adds its probe heights, which a hexapod has none of)",
-            args.calibration.display(),
-            dataset.display()
-        );
-    }
-    let dataset = args
-        .dataset
-        .as_deref()
-        .map(MechanismDataset::read)
-        .transpose()?;
-    let truth = match (&dataset, &args.dataset) {
-        (Some(dataset), Some(path)) => {
-            let data = MechanismData::from_dataset(dataset)
-                .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
-            super::mechanism::true_values(path, dataset, &data)?
+    let (mut probes, mut truth) = (None, None);
+    let mechanism_dataset;
+    match &args.dataset {
+        Some(path) if record.mechanism == HEXAPOD => {
+            let dataset = super::read_dataset(path)?;
+            truth = super::calibrate::hexapod_true_values(&dataset, record.parameters.len())
+                .map_err(|error| anyhow::anyhow!("{}: {error:#}", path.display()))?;
         }
-        _ => None,
-    };
+        Some(path) => {
+            mechanism_dataset = MechanismDataset::read(path)?;
+            let data = MechanismData::from_dataset(&mechanism_dataset)
+                .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
+            truth = super::mechanism::true_values(path, &mechanism_dataset, &data)?;
+            probes = Some(mechanism_dataset.probes.as_slice());
+        }
+        None => {}
+    }
     let from_dataset = FromDataset {
-        probes: dataset.as_ref().map(|d| d.probes.as_slice()),
+        probes,
         truth: truth.as_deref(),
     };
     let file = args.calibration.display().to_string();
