@@ -13,8 +13,7 @@ use parcal::calibration::{
     Simulation, WeightModel, bounds,
 };
 use parcal::command::{CalibrateFlags, RecordedRun, calibrate_recorded, common_calibration};
-use parcal::dataset::{CALIBRATION_FILE, Dataset, HEXAPOD, MEASUREMENTS_FILE, ReadOptions};
-use parcal::kinematics::N_PARAMS;
+use parcal::dataset::{CALIBRATION_FILE, HEXAPOD, MEASUREMENTS_FILE, ReadOptions};
 use parcal::report::{instruments, tables};
 use parcal::workflows::evaluate::{TrueMachine, before_after};
 
@@ -210,7 +209,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
     let (data, options) = common_calibration(&dataset, &args.flags())
         .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
-    let truth = hexapod_true_values(&dataset, data.mechanism.parameters().len())?;
+    let truth = super::truth::hexapod(&dataset, data.mechanism.parameters().len())?;
     // The touches are in `data`: the dataset's memory is the room of the
     // calibration's.
     drop(dataset);
@@ -226,24 +225,6 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         request,
         read.elapsed(),
     )
-}
-
-/// The truth of a simulated hexapod `dataset` (none for a real one) as the
-/// `parameters` of a calibration through the common path: the true
-/// machine's 33 canonical parameters, then its actuators' scales when
-/// there are more than 33 (the scales unknown).
-pub fn hexapod_true_values(
-    dataset: &Dataset,
-    parameters: usize,
-) -> anyhow::Result<Option<Vec<f64>>> {
-    let Some(truth) = TrueMachine::of(dataset) else {
-        return Ok(None);
-    };
-    let truth = truth.context("truth.json: the true geometry is degenerate")?;
-    let scales = dataset.truth.as_ref().and_then(|t| t.actuator_scale);
-    let scales = scales.filter(|_| parameters > N_PARAMS);
-    let values = truth.params.iter().copied();
-    Ok(Some(values.chain(scales.into_iter().flatten()).collect()))
 }
 
 /// A number of seconds, finite and not negative.

@@ -64,7 +64,7 @@ pub fn calibrate(
     let dataset = MechanismDataset::read(path)?;
     let data =
         MechanismData::from_dataset(&dataset).map_err(|error| placed(path, mechanism, &error))?;
-    let truth = true_values(path, &dataset, &data)?;
+    let truth = super::truth::mechanism(path, &dataset, &data)?;
     let from_dataset = FromDataset {
         probes: Some(dataset.probes.as_slice()),
         truth: truth.as_deref(),
@@ -77,23 +77,6 @@ pub fn calibrate(
         request,
         read.elapsed(),
     )
-}
-
-/// The true values of the simulated machine of `dataset` (read from
-/// `path`, its data `data`) in the terms of its calibration
-/// ([`MechanismData::true_values`]), when it has a truth.json.
-pub fn true_values(
-    path: &Path,
-    dataset: &MechanismDataset,
-    data: &MechanismData,
-) -> anyhow::Result<Option<Vec<f64>>> {
-    let Some(truth) = &dataset.truth else {
-        return Ok(None);
-    };
-    let values = data
-        .true_values(truth)
-        .map_err(|error| anyhow::anyhow!("{}: truth.json: {error}", path.display()))?;
-    Ok(Some(values))
 }
 
 /// `parcal inspect` on the mechanism dataset `path`: read, converted and

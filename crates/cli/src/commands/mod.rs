@@ -15,6 +15,7 @@ pub mod plan_mechanism;
 pub mod report;
 pub mod simulate;
 pub mod simulate_mechanism;
+pub mod truth;
 pub mod validate;
 
 use std::path::{Path, PathBuf};

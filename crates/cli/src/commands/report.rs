@@ -115,14 +115,14 @@ fn write_mechanism(
     match &args.dataset {
         Some(path) if record.mechanism == HEXAPOD => {
             let dataset = super::read_dataset(path)?;
-            truth = super::calibrate::hexapod_true_values(&dataset, record.parameters.len())
+            truth = super::truth::hexapod(&dataset, record.parameters.len())
                 .map_err(|error| anyhow::anyhow!("{}: {error:#}", path.display()))?;
         }
         Some(path) => {
             mechanism_dataset = MechanismDataset::read(path)?;
             let data = MechanismData::from_dataset(&mechanism_dataset)
                 .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
-            truth = super::mechanism::true_values(path, &mechanism_dataset, &data)?;
+            truth = super::truth::mechanism(path, &mechanism_dataset, &data)?;
             probes = Some(mechanism_dataset.probes.as_slice());
         }
         None => {}
