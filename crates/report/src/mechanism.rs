@@ -693,6 +693,15 @@ mod tests {
         }
     }
 
+    /// The report of `record` with the dataset's `probes`, as `format`.
+    fn rendered(
+        record: &MechanismCalibrationRecord,
+        probes: &[[f64; 3]],
+        format: Format,
+    ) -> String {
+        render(record, "calibration.json", with_probes(probes), format).unwrap()
+    }
+
     #[test]
     fn a_simulated_machines_truth_is_set_beside_each_parameter() {
         // The printer is the configured one, its trigger 0.7 mm: the
@@ -731,25 +740,14 @@ mod tests {
         };
         let markdown = render(&record, "calibration.json", dataset, Format::Markdown).unwrap();
         assert!(markdown.contains("| true | error / sigma |"), "{markdown}");
-        let without = render(
-            &record,
-            "calibration.json",
-            with_probes(&probes),
-            Format::Markdown,
-        );
-        assert!(!without.unwrap().contains("error / sigma"));
+        let without = rendered(&record, &probes, Format::Markdown);
+        assert!(!without.contains("error / sigma"));
     }
 
     #[test]
     fn the_report_states_the_tests_parameters_and_what_determines_them() {
         let (record, probes) = calibrated();
-        let markdown = render(
-            &record,
-            "calibration.json",
-            with_probes(&probes),
-            Format::Markdown,
-        )
-        .unwrap();
+        let markdown = rendered(&record, &probes, Format::Markdown);
         assert!(
             markdown.contains("# Calibration of a linear delta"),
             "{markdown}"
@@ -764,13 +762,7 @@ mod tests {
             markdown.contains("distances measured on a printed part"),
             "{markdown}"
         );
-        let html = render(
-            &record,
-            "calibration.json",
-            with_probes(&probes),
-            Format::Html,
-        )
-        .unwrap();
+        let html = rendered(&record, &probes, Format::Html);
         // One circle per probe tested, a cross for the one removed.
         assert_eq!(html.matches("<circle").count(), 24, "circles");
         // A record's probe that the probes given do not hold is named.
@@ -785,13 +777,7 @@ mod tests {
             radius: 12.7,
             radius_sigma: None,
         });
-        let markdown = render(
-            &record,
-            "calibration.json",
-            with_probes(&probes),
-            Format::Markdown,
-        )
-        .unwrap();
+        let markdown = rendered(&record, &probes, Format::Markdown);
         assert!(markdown.contains("## Calibrated balls"), "{markdown}");
         assert!(markdown.contains("60.0000, 0.0000, 12.7000"), "{markdown}");
         assert!(markdown.contains("exact"), "{markdown}");
@@ -811,24 +797,12 @@ mod tests {
                 offset_sigmas: None,
                 body: None,
             });
-        let markdown = render(
-            &record,
-            "calibration.json",
-            with_probes(&probes),
-            Format::Markdown,
-        )
-        .unwrap();
+        let markdown = rendered(&record, &probes, Format::Markdown);
         assert!(markdown.contains("## Trackers"), "{markdown}");
         assert!(!markdown.contains("re-homed"), "{markdown}");
         record.trackers[0].offsets = vec![0.25, -0.125, 0.5];
         record.trackers[0].offset_sigmas = Some(vec![0.0625; 3]);
-        let markdown = render(
-            &record,
-            "calibration.json",
-            with_probes(&probes),
-            Format::Markdown,
-        )
-        .unwrap();
+        let markdown = rendered(&record, &probes, Format::Markdown);
         assert!(markdown.contains("tracker left: the machine re-homed before it measured; its actuators' zero offsets 0.2500 ± 0.0625, -0.1250 ± 0.0625, 0.5000 ± 0.0625"), "{markdown}");
         assert!(markdown.contains("| left | 1200.000, -300.000, 150.000 | 0.0100, 0.0200, 0.0300 | 0.0000, 0.0000, 90.0000 | 0.0057, 0.0115, 0.0172 |"), "{markdown}");
         // The body as a tracker saw it after it was moved, without sigmas.
@@ -839,13 +813,7 @@ mod tests {
             },
             sigma: None,
         });
-        let markdown = render(
-            &record,
-            "calibration.json",
-            with_probes(&probes),
-            Format::Markdown,
-        )
-        .unwrap();
+        let markdown = rendered(&record, &probes, Format::Markdown);
         assert!(
             markdown.contains(
                 "| body seen by left | 1.000, 2.000, 3.000 | - | 0.0000, 0.0000, 0.0000 | - |"
