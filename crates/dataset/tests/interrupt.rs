@@ -1,5 +1,6 @@
 //! An interruption mid-write (what `parcal`'s SIGINT/SIGTERM handler does):
-//! `remove_in_flight` removes the temporaries of the writes under way.
+//! `remove_in_flight` removes the temporaries of the writes under way, and
+//! no write starts after it.
 //! Alone in its test binary: it empties the process-wide registry.
 
 use std::fs;
@@ -23,6 +24,9 @@ fn an_interruption_removes_the_writes_under_way_and_keeps_the_old_set() {
         write_file(&new.join("measurements.csv"), b"rows")
     });
     assert!(result.is_err(), "its directory is gone: the write fails");
+    // Nor does any write start after it: no temporary is created.
+    let error = write_file(&root.path().join("later.json"), b"late").unwrap_err();
+    assert!(error.to_string().contains("interrupted"), "{error}");
     let names: Vec<_> = fs::read_dir(root.path())
         .unwrap()
         .map(|e| e.unwrap().file_name())
