@@ -59,7 +59,10 @@ type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>
 
 /// Where the touches of a batch are ([`MechanismProblem::reach`]): a
 /// worker's, kept from batch to batch (the solver's workspace), so that
-/// the mechanism writes into the room the last batch left.
+/// the mechanism writes into the room the last batch left. The coordinate
+/// rows hand each touch's room back; the radius row (eq. 9) consumes it
+/// (`BallTouch::row` takes its `Reached`), so that only the vector's
+/// capacity is kept there.
 pub(crate) type Reaches = Vec<Result<Reached, MechanismError>>;
 
 /// The unknowns of each local block of `data` (module doc): 4 when some
