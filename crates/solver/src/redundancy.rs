@@ -660,15 +660,22 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
         }
     }
     if let (Some(top), Some(prior)) = (level.top, prior) {
-        // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0.
-        let (y, z) = coordinates[..cw].split_at_mut(C);
-        for a in 0..C {
-            let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(a, b)]);
-            let u = &mut reduced[..g];
-            u.fill(0.0);
-            eliminate_group::<C>(top, g, &u_row, y, u);
-            times_factor(level.factor, u, z);
-            prior_leverage.groups += norm2(y) + norm2(z);
+        // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0; `R` of them at a
+        // time through `Lᵀ`, as a point's rows (the rows past the `C`th
+        // zero, their sums dropped).
+        for first in (0..C).step_by(R) {
+            let rows = R.min(C - first);
+            reduced.fill(0.0);
+            for (e, u) in reduced.chunks_exact_mut(g).take(rows).enumerate() {
+                let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(first + e, b)]);
+                let y = &mut coordinates[e * cw..e * cw + C];
+                eliminate_group::<C>(top, g, &u_row, y, u);
+            }
+            times_factor_rows::<R>(level.factor, reduced, coordinates, C);
+            for row in coordinates.chunks_exact(cw).take(rows) {
+                let (y, z) = row.split_at(C);
+                prior_leverage.groups += norm2(y) + norm2(z);
+            }
         }
     }
 }
