@@ -660,9 +660,9 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
         }
     }
     if let (Some(top), Some(prior)) = (level.top, prior) {
-        // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0; `R` of them at a
-        // time through `Lᵀ`, as a point's rows (the rows past the `C`th
-        // zero, their sums dropped).
+        // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0; through `Lᵀ` `R`
+        // at a time, as a point's rows (in the last batch the rows beyond
+        // the `C`th are zero and their sums unused).
         for first in (0..C).step_by(R) {
             let rows = R.min(C - first);
             reduced.fill(0.0);
