@@ -15,9 +15,15 @@ python3 -m venv "$venv"
 "$venv/bin/pip" install --quiet --disable-pip-version-check pytest numpy
 if [[ "${PARCAL_PROFILE:-release}" == dev ]]; then
     export MATURIN_PEP517_ARGS="--profile dev"
+    # The binary of the test build: nothing to do after `cargo test
+    # --workspace`, where `cargo build -p parcal-cli` would compile every
+    # crate again without the dev-dependencies' features.
+    build_cli=(cargo test --quiet --workspace --no-run)
+else
+    build_cli=(cargo build --quiet -p parcal-cli)
 fi
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}" \
     "$venv/bin/pip" install --quiet --disable-pip-version-check "$root/python"
-cargo build --quiet -p parcal-cli
+"${build_cli[@]}"
 cd "$root"
 PARCAL_CLI="$root/target/debug/parcal" "$venv/bin/python" -m pytest -q python/tests
