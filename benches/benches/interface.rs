@@ -7,7 +7,7 @@
 //! `calibrate` and by `calibrate_mechanism` of `MechanismData::from_hexapod_touches`,
 //! at 10^3 and 10^4 contacts, each with its set-up (the design's forward
 //! kinematics, the balls' centre fits, the weights). The two reach the same estimate
-//! (`cargo test -p parcal-calibrate --test hexapod_common`); the ratio of
+//! (`cargo test -p parcal-calibrate --test integration hexapod_common::`); the ratio of
 //! their times is what the dedicated path saves (docs/mechanisms.md).
 //!
 //! ```sh

@@ -113,7 +113,7 @@ fn the_truth_is_recovered_within_the_reported_sigmas() {
 }
 
 #[test]
-#[ignore = "400 draws: cargo test -p parcal-calibrate --test cable_simulation -- --ignored --nocapture"]
+#[ignore = "400 draws: cargo test -p parcal-calibrate --test integration cable_simulation:: -- --ignored --nocapture"]
 fn the_truth_is_recovered_within_the_reported_sigmas_over_400_draws() {
     let (mean, standard_error, parameters) = mean_nees(400, None);
     eprintln!("mean NEES {mean:.2} +- {standard_error:.2} over 400 draws, {parameters} parameters");
@@ -134,7 +134,7 @@ fn measured_line_lengths_are_honoured() {
 }
 
 #[test]
-#[ignore = "400 draws: cargo test -p parcal-calibrate --test cable_simulation -- --ignored --nocapture"]
+#[ignore = "400 draws: cargo test -p parcal-calibrate --test integration cable_simulation:: -- --ignored --nocapture"]
 fn measured_line_lengths_are_honoured_over_400_draws() {
     let (mean, standard_error, parameters) = mean_nees(400, Some(10.0));
     eprintln!(

@@ -3,7 +3,7 @@
 //! encoders by a calibration fitted without that sample (leave-one-out),
 //! and the 32 positions the author discarded predicted by the calibration
 //! on all the data. The variants and their figures are in
-//! docs/cable-robots.md; `cargo test -p parcal-calibrate --test hangprinter
+//! docs/cable-robots.md; `cargo test -p parcal-calibrate --test integration hangprinter::
 //! -- --ignored --nocapture` prints the table.
 
 use std::path::{Path, PathBuf};

@@ -21,10 +21,8 @@ use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 use parcal_simulate::{Plate, PlatePairs, Rng};
 use parcal_solver::{IterationRecord, Status};
 
-#[path = "support/mean.rs"]
-mod mean;
-#[path = "support/nees.rs"]
-mod nees;
+use crate::mean;
+use crate::nees;
 
 use mean::mean_and_standard_error;
 use nees::nees;

@@ -17,8 +17,7 @@ use parcal_kinematics::mechanism::Mechanism;
 use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, measure_delta, simulate_delta};
 
-#[path = "support/mean.rs"]
-mod mean;
+use crate::mean;
 
 use mean::mean_and_standard_error;
 
@@ -102,7 +101,7 @@ fn held_out_data_of_the_same_printer_fit_their_predicted_covariance() {
 }
 
 #[test]
-#[ignore = "400 printers: cargo test -p parcal-calibrate --test mechanism_validation -- --ignored --nocapture"]
+#[ignore = "400 printers: cargo test -p parcal-calibrate --test integration mechanism_validation:: -- --ignored --nocapture"]
 fn false_alarm_rates_over_400_printers() {
     let (mean, standard_error, global, w) = false_alarms(400);
     let se = |p: f64| (p * (1.0 - p) / 400.0).sqrt();

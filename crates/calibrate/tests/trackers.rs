@@ -21,10 +21,8 @@ use parcal_observe::mechanism::{Actuation, TrackerPoint};
 use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, measure_delta, simulate_delta};
 
-#[path = "support/mean.rs"]
-mod mean;
-#[path = "support/nees.rs"]
-mod nees;
+use crate::mean;
+use crate::nees;
 
 use mean::mean_and_standard_error;
 use nees::nees;

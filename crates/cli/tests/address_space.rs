@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-mod common;
+use crate::common;
 use common::{PAPER_FILES, copy_fixture, s, text};
 
 /// The limit of the test, KiB: 512 MiB.

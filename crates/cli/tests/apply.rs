@@ -4,7 +4,7 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 use common::{PAPER_FILES, copy_fixture, fails, ok, s};
 
 /// fixtures/paper-seed1 calibrated in `dir`; returns the dataset directory.

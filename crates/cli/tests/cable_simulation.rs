@@ -3,7 +3,7 @@
 //! calibrate` recovers the truth within the sigmas it reports, and both
 //! are functions of the seed.
 
-mod common;
+use crate::common;
 
 use std::fs;
 

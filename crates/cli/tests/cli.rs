@@ -3,7 +3,7 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-mod common;
+use crate::common;
 use common::{copy_fixture, ok, parcal, s, text};
 
 fn simulate(dir: &Path, extra: &[&str]) -> Output {

@@ -3,7 +3,7 @@
 //! files named with their line; a calibration exported in a format of
 //! another mechanism refused.
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! calibrated, exported as the firmware's `M669`/`M666 R` lines and read
 //! back; a cable robot's calibration refused by a delta's format.
 
-mod common;
+use crate::common;
 
 use std::fs;
 

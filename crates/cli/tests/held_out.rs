@@ -5,7 +5,7 @@
 //! touches of balls), accepted for the same machine and rejected, the
 //! change named, for a machine changed on purpose.
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::path::{Path, PathBuf};

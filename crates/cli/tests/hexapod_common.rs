@@ -4,7 +4,7 @@
 //! its report, by Gauss-Newton or Levenberg-Marquardt; what the common
 //! calibration does not model refused by name.
 
-mod common;
+use crate::common;
 
 use common::{PAPER_FILES, copy_fixture, fails, ok, parcal, s, text};
 use parcal::kinematics::params::PARAM_NAMES;

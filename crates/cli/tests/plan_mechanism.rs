@@ -3,7 +3,7 @@
 //! written as the dataset's own file to fill in with the predicted sigmas
 //! beside it; the hexapod's options refused.
 
-mod common;
+use crate::common;
 
 use std::fs;
 

@@ -6,7 +6,7 @@
 use std::fs;
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{PAPER_FILES, copy_fixture, fails, ok, s};
 
 /// The JSON file `from` edited by `edit`, written to `to`.

@@ -4,7 +4,7 @@
 use std::fs;
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{PAPER_FILES, copy_fixture, ok, parcal, s};
 
 /// The text of the element with `id="verdict"`.

@@ -2,7 +2,7 @@
 //! covariance, numbers, texts or lists cannot be a calibration's is
 //! refused with the file and the field, and parcal's own records read back.
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! Every malformed input is an error value that names the file and the
 //! field or line: one test per case.
 
-mod common;
+use crate::common;
 
 use std::fs;
 

@@ -8,7 +8,7 @@
 //! seed (default 1: the suite's run is the same every time;
 //! docs/reliability.md).
 
-mod common;
+use crate::common;
 
 use std::cell::Cell;
 use std::fs;

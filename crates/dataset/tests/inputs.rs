@@ -2,7 +2,7 @@
 //! over-long content, a snapshot header that lies about its length, a byte
 //! order mark. Huge cases are checked by their bound, never by making them.
 
-mod common;
+use crate::common;
 
 use std::fs;
 

@@ -1,7 +1,7 @@
 //! machine.json's optional `joint_limits`: read and written back, absent in
 //! v1 files, and bad values refused naming the field.
 
-mod common;
+use crate::common;
 
 use common::*;
 use parcal_dataset::*;

@@ -4,7 +4,7 @@
 //! tool 1 km away, a sigma whose weight overflows) is refused at reading,
 //! naming the file and the field or line, and is not written.
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::path::Path;

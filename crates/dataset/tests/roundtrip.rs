@@ -1,7 +1,7 @@
 //! Writing then reading gives back the same values, bit for bit; the
 //! reference dataset of an independent tool reads.
 
-mod common;
+use crate::common;
 
 use std::fs;
 

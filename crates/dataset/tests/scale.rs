@@ -1,7 +1,7 @@
 //! Scale: a million contacts load from a snapshot in well under a second;
 //! the CSV reader streams.
 
-mod common;
+use crate::common;
 
 use std::fs;
 use std::time::Instant;
@@ -70,7 +70,7 @@ fn a_hundred_thousand_rows_stream_from_csv() {
     assert_bitwise_eq(&read, &d);
 }
 
-/// Run by hand (`cargo test -p parcal-dataset --test scale -- --ignored
+/// Run by hand (`cargo test -p parcal-dataset --test integration scale:: -- --ignored
 /// --nocapture`): the time to read 10^6 rows from the text files.
 #[test]
 #[ignore = "slow (writes ~200 MB); run by hand to time the text reader"]

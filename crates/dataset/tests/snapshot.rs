@@ -1,6 +1,6 @@
 //! Binary snapshots: exact round trip, refusal of anything damaged, speed.
 
-mod common;
+use crate::common;
 
 use std::fs;
 

@@ -1,7 +1,7 @@
 //! Readings outside machine.json's stroke: found with their file, line
 //! and leg, within the actuator's noise of an end left alone.
 
-mod common;
+use crate::common;
 
 use common::*;
 use parcal_dataset::*;

@@ -2,10 +2,10 @@
 //! after planned probe heights, the distances the plan picks against the
 //! dense inverse of the same rows, against random distances across the
 //! printable disc and against the simulator's diameters. `cargo test -p
-//! parcal-plan --test mechanism_distances -- --nocapture` prints the
+//! parcal-plan --test integration mechanism_distances:: -- --nocapture` prints the
 //! figures docs/delta-measurements.md quotes.
 
-mod common;
+use crate::common;
 
 use common::dense_prior;
 use nalgebra::DMatrix;

@@ -2,10 +2,10 @@
 //! predict: on a simulated cable robot, planned samples against random
 //! ones, and the predicted sigmas against those of a calibration with the
 //! planned samples simulated; on a delta, what probe heights leave to the
-//! prior. `cargo test -p parcal-plan --test mechanism_plan -- --nocapture`
+//! prior. `cargo test -p parcal-plan --test integration mechanism_plan:: -- --nocapture`
 //! prints the figures docs/cable-robots.md and docs/delta-measurements.md quote.
 
-mod common;
+use crate::common;
 
 use common::dense_prior;
 use nalgebra::DMatrix;

@@ -157,7 +157,7 @@ fn evidence_table() {
 /// Two sessions with re-homed legs (0.5 mm) and a re-mounted marker body
 /// (0.2 mm, 1 mrad): the plan of 30 poses, 15 per session, against 15
 /// random poses per session; docs/plan-poses.md's two-session table
-/// (`cargo test -p parcal-plan --test plan_tracker_poses two_sessions --
+/// (`cargo test -p parcal-plan --test integration plan_tracker_poses::two_sessions --
 /// --ignored --nocapture`).
 #[test]
 #[ignore = "the documented run: a few minutes"]

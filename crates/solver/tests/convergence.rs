@@ -1,6 +1,6 @@
 //! Gauss–Newton and Levenberg–Marquardt on noisy synthetic problems.
 
-mod common;
+use crate::common;
 
 use common::{Spec, couple, direction, distances, flatten, perturb, rel_diff, touches};
 use parcal_solver::{

@@ -3,7 +3,7 @@
 //! `−(N⁻¹Jᵀc)_g`, with priors on every level, fixed groups and global
 //! observations; and their independence of the chunking.
 
-mod common;
+use crate::common;
 
 use common::{Shifts, Spec, couple, perturb, touches};
 use nalgebra::{DMatrix, DVector, SVector};

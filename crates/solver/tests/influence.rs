@@ -2,7 +2,7 @@
 //! `−N⁻¹ a_jᵀ`, the full redundancy pass, and a re-solve with an error
 //! added to the observation.
 
-mod common;
+use crate::common;
 
 use common::{Spec, couple, perturb, touches};
 use nalgebra::{DMatrix, DVector};

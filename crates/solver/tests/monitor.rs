@@ -2,7 +2,7 @@
 //! stop the run there; a run resumed from the stopped iterate ends where
 //! the uninterrupted run does.
 
-mod common;
+use crate::common;
 
 use common::{Spec, flatten, perturb, touches};
 use parcal_solver::{

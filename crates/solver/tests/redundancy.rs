@@ -2,7 +2,7 @@
 //! `J N⁻¹ Jᵀ`, their sum identity, the statistics of the normalised
 //! residuals, and their independence of the number of threads.
 
-mod common;
+use crate::common;
 
 use std::time::Instant;
 
@@ -423,7 +423,7 @@ fn a_covariance_of_the_wrong_shape_or_not_definite_is_refused() {
 /// (elimination and back-substitution) and against the final evaluation
 /// of a solve (elimination, covariance, group sigmas' pass) at 10^5
 /// points, `G` = 35. Run with
-/// `cargo test --release -p parcal-solver --test redundancy -- --ignored
+/// `cargo test --release -p parcal-solver --test integration redundancy:: -- --ignored
 /// --nocapture`.
 #[test]
 #[ignore]

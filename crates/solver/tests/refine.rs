@@ -3,7 +3,7 @@
 //! block, and the run reaches the minimum without refinement reaches, in
 //! fewer steps.
 
-mod common;
+use crate::common;
 
 use common::{Rng, Spec, perturb, touches};
 use nalgebra::Vector3;

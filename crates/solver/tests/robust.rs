@@ -2,7 +2,7 @@
 //! with either method, down-weights a planted outlier alone, and keeps the
 //! global block near the truth where least squares is pulled away.
 
-mod common;
+use crate::common;
 
 use common::{Spec, distances, perturb};
 use parcal_solver::{CAUCHY_K, HUBER_K, Loss, Method, SolverOptions, Status, redundancy, solve};

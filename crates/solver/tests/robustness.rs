@@ -2,7 +2,7 @@
 //! end badly: failed or non-finite linearisations, divergence, singular
 //! reduced matrices and blocks, invalid input.
 
-mod common;
+use crate::common;
 
 use std::ops::Range;
 

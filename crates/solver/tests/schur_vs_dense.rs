@@ -1,7 +1,7 @@
 //! The Schur solver's step and covariance against a plain dense solve of the
 //! full normal equations.
 
-mod common;
+use crate::common;
 
 use common::{G, Spec, couple, distances, flatten, perturb, rel_diff, touches};
 use parcal_solver::{

@@ -3,7 +3,7 @@
 //! lanes on a machine with AVX2). A batch gives what one contact at a time
 //! gives, to rounding, and names the same failing contact.
 
-mod common;
+use crate::common;
 
 use common::options;
 use nalgebra::{DVector, SVector, Vector2};

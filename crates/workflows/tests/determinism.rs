@@ -1,7 +1,7 @@
 //! Results do not depend on the number of threads (bit for bit) nor on the
 //! order of the rows of measurements.csv (to rounding).
 
-mod common;
+use crate::common;
 
 use common::{cost_bits, options, permutation, relative_differences, shuffled};
 use parcal_calibrate::{CalibrationRun, calibrate};

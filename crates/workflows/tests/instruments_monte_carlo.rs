@@ -21,7 +21,7 @@
 //!   RMS it predicts must be within 20 % of the observed one (the issue's
 //!   requirement).
 
-mod common;
+use crate::common;
 
 use std::time::Instant;
 
@@ -306,7 +306,7 @@ const PAPER_LIKE_SEEDS: u64 = 60;
 /// linearisation of the prior's propagation out of the question); the
 /// whole block's is printed (docs/formulation.md, section 7).
 #[test]
-#[ignore = "a diagnosis: cargo test -p parcal-workflows --test instruments_monte_carlo -- --ignored --nocapture"]
+#[ignore = "a diagnosis: cargo test -p parcal-workflows --test integration instruments_monte_carlo:: -- --ignored --nocapture"]
 fn at_the_paper_like_tolerance_the_kinematic_block_stays_honest() {
     use nalgebra::DVector;
     use parcal_kinematics::{N_PARAMS, Params, params};
@@ -442,7 +442,7 @@ const FALSE_ALARM_SEEDS: u64 = 400;
 /// [`STANDARD_ERRORS`] binomial standard errors; the too-small outcomes
 /// likewise (docs/validation-verdicts.md).
 #[test]
-#[ignore = "400 calibrations: cargo test -p parcal-workflows --test instruments_monte_carlo prediction_test_false -- --ignored --nocapture"]
+#[ignore = "400 calibrations: cargo test -p parcal-workflows --test integration instruments_monte_carlo::prediction_test_false -- --ignored --nocapture"]
 fn prediction_test_false_alarms_at_the_nominal_rate() {
     let start = Instant::now();
     let (rejected, too_small, factors) = prediction_tests(1..=FALSE_ALARM_SEEDS);

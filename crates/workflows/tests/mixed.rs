@@ -14,7 +14,7 @@
 //! - calibration.json: the instrument parameters after the 33, applied
 //!   back to the poses and points by `parcal validate`.
 
-mod common;
+use crate::common;
 
 use common::{mean_and_standard_error, nees, rms, true_block};
 use nalgebra::DVector;

@@ -11,7 +11,7 @@
 //! NEES of the 33 is printed: at this noise it is above 33 whatever the
 //! radius model (`monte_carlo.rs` tests it where the problem is linear).
 
-mod common;
+use crate::common;
 
 use common::{mean_and_standard_error, rms};
 use parcal_accuracy::MapGrid;

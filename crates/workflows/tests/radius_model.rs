@@ -22,7 +22,7 @@
 //!   for a ball tied by a distance, in the global block) match central
 //!   differences of the whitened residual.
 
-mod common;
+use crate::common;
 
 use common::mean_and_standard_error;
 use nalgebra::{DVector, SVector, Vector2, Vector3, Vector4};

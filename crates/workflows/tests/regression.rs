@@ -7,7 +7,7 @@
 //! the ignored test of this file:
 //!
 //! ```text
-//! cargo test -p parcal-workflows --test regression -- --ignored
+//! cargo test -p parcal-workflows --test integration regression:: -- --ignored
 //! ```
 //!
 //! Tolerances (see fixtures/README.md): the computation is deterministic
@@ -237,7 +237,7 @@ fn to_json(runs: &[RunSummary]) -> String {
     }
     let file = SummaryFile {
         about: "parcal's calibrations of fixtures/paper-seed1 (parcal simulate --seed 1); \
-                regenerate with: cargo test -p parcal-workflows --test regression -- --ignored"
+                regenerate with: cargo test -p parcal-workflows --test integration regression:: -- --ignored"
             .into(),
         units: "values, sigmas, true_registered_rms_mm in mm; final_cost dimensionless (whitened)"
             .into(),

@@ -4,7 +4,7 @@
 //! registered error where the clean run has it; results do not depend on
 //! the number of threads; it refuses data snooping, which it replaces.
 
-mod common;
+use crate::common;
 
 use common::{cost_bits, true_registered_rms};
 use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};

@@ -4,7 +4,7 @@
 //! of the measurement rows, and recovers each of the 33 true canonical
 //! parameters within 3 sigma of its reported uncertainty.
 
-mod common;
+use crate::common;
 
 use std::sync::OnceLock;
 use std::time::Instant;

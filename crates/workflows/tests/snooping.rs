@@ -3,7 +3,7 @@
 //! as a whole observation (named by its place in the dataset given), and
 //! the rest accepted.
 
-mod common;
+use crate::common;
 
 use common::{removed, snoop};
 use parcal_calibrate::CalibrationOptions;

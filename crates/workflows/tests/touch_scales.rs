@@ -14,7 +14,7 @@
 //! - calibration.json: the scales after the 33, the calibrated actuator
 //!   block, and `parcal validate`'s prediction of new touches.
 
-mod common;
+use crate::common;
 
 use common::{mean_and_standard_error, nees};
 use nalgebra::{DVector, SVector};

@@ -2,7 +2,7 @@
 //! removed by data snooping, and clean data raise false alarms at the
 //! tests' nominal rates only.
 
-mod common;
+use crate::common;
 
 use common::{removed, rms, snoop, true_registered_rms};
 use parcal_calibrate::hypothesis::SNOOPING_LEVEL;

@@ -1,8 +1,6 @@
 //! Helpers shared by the end-to-end tests of the `parcal` binary: running
 //! it, its outcome, and copies of the fixtures.
 
-#![allow(dead_code)] // each test binary uses a different subset
-
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,8 +1,6 @@
 //! Helpers shared by the integration tests: a small valid dataset with
 //! awkward values, and ways to damage its files.
 
-#![allow(dead_code)] // each test binary uses a different subset
-
 use std::fs;
 use std::path::{Path, PathBuf};
 

@@ -11,7 +11,6 @@
 //! block instead, after the 8 parameters (those groups are fixed), measured
 //! against each other by distances (the global observations); and some
 //! other groups are held at their values (fixed too).
-#![allow(dead_code)]
 
 use std::fmt;
 use std::ops::Range;
@@ -33,9 +32,6 @@ pub struct Rng(StdRng);
 impl Rng {
     pub fn new(seed: u64) -> Self {
         Self(StdRng::seed_from_u64(seed))
-    }
-    pub fn next_u64(&mut self) -> u64 {
-        self.0.random()
     }
     /// Uniform in [0, 1).
     pub fn uniform(&mut self) -> f64 {
@@ -197,9 +193,6 @@ pub enum ObservationFault {
 impl Data {
     pub fn n_groups(&self) -> usize {
         self.starts.len() - 1
-    }
-    pub fn n_points(&self) -> usize {
-        self.measurements.len()
     }
     fn range(&self, k: usize) -> Range<usize> {
         self.starts[k]..self.starts[k + 1]

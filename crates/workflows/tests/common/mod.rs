@@ -2,8 +2,6 @@
 //! a dataset with its measurement rows shuffled, and a simulation's true
 //! global block with the NEES of an error.
 
-#![allow(dead_code)] // each test binary uses a different subset
-
 use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion};
 use parcal_accuracy::MapGrid;
 use parcal_calibrate::hypothesis::{MAX_REMOVALS, SNOOPING_LEVEL};
