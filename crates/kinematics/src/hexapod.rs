@@ -29,13 +29,13 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 
 use crate::closure::Legs;
-use crate::derivatives::{SolutionJacobian, TipDerivatives};
+use crate::derivatives::{SolutionAlong, SolutionJacobian, TipDerivatives};
 use crate::forward::step;
-use crate::forward_batch::{LANES, PivotOrder, forward_jacobian_batch};
+use crate::forward_batch::{LANES, PivotOrder, forward_along_batch, forward_jacobian_batch};
 use crate::mechanism::{
     Actuator, Mechanism, MechanismError, Parameter, PlatformPose, PoseCoordinate, Reached,
-    ReadingJacobians, ToolPoint, check_params, check_vector, put_reached, tool_points_one_by_one,
-    write_reached,
+    ReachedAlong, ReadingJacobians, ToolPoint, along_of_reached, check_params, check_vector,
+    put_entry, tool_points_along_by_rows, tool_points_one_by_one, write_entry, write_reached,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -245,6 +245,66 @@ impl Hexapod {
         );
     }
 
+    /// The step of the 33 geometric parameters that moves a contact at
+    /// `readings` as the step `dp` of this hexapod's parameters does: with
+    /// scales, leg `i`'s `dl_i + q_i ds_i` (the extension `s_i q_i` and the
+    /// length `l_i` enter the closure as their sum; module doc).
+    fn kinematic_step(&self, dp: &[f64], readings: &[f64]) -> Params {
+        let mut step = Params::from_column_slice(&dp[..N_PARAMS]);
+        if self.scaled {
+            for i in 0..6 {
+                step[leg_index(i)] += readings[i] * dp[N_PARAMS + i];
+            }
+        }
+        step
+    }
+
+    /// The contacts at `readings` (at checked parameters `params`) from
+    /// `starts`, in batches of up to
+    /// `batch` (at most [`LANES`]), each outcome in order into `out`:
+    /// `lanes(out, first, q, poses)` solves the batch from `first` (its
+    /// legs' extensions `q` and start poses, checked) and writes its
+    /// outcomes, or returns `false` when its lanes fail; such a batch, and
+    /// one whose readings or starts are refused, goes one contact at a
+    /// time through `alone(l)`, each with its own outcome.
+    ///
+    /// # Panics
+    /// If `readings` and `starts` differ in length.
+    #[allow(
+        clippy::type_complexity,
+        reason = "the lanes' closure, used once per kind"
+    )]
+    fn in_batches<T>(
+        &self,
+        params: &[f64],
+        readings: &[&[f64]],
+        starts: &[&[f64]],
+        batch: usize,
+        out: &mut Vec<Result<T, MechanismError>>,
+        mut lanes: impl FnMut(&mut Vec<Result<T, MechanismError>>, usize, &[&[f64; 6]], &[Pose]) -> bool,
+        alone: impl Fn(usize) -> Result<T, MechanismError>,
+    ) {
+        assert_eq!(readings.len(), starts.len(), "a start for each contact");
+        out.truncate(readings.len());
+        // The lanes' inputs, on the stack.
+        let mut q = [[0.0; 6]; LANES];
+        let mut poses = [Pose::identity(); LANES];
+        for first in (0..readings.len()).step_by(batch) {
+            let n = batch.min(readings.len() - first);
+            let checked = (0..n).try_for_each(|l| {
+                q[l] = self.extensions(params, readings[first + l])?;
+                poses[l] = self.pose(starts[first + l])?;
+                Ok::<_, MechanismError>(())
+            });
+            let legs: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
+            if checked.is_err() || !lanes(out, first, &legs[..n], &poses[..n]) {
+                for l in first..first + n {
+                    put_entry(out, l, alone(l));
+                }
+            }
+        }
+    }
+
     /// The pose of a pose vector (checked).
     fn pose(&self, pose: &[f64]) -> Result<Pose, MechanismError> {
         check_vector(self, "pose coordinates", pose, 6)?;
@@ -269,6 +329,44 @@ pub fn pose_vector(pose: &Pose) -> DVector<f64> {
 fn pose_coordinates(pose: &Pose) -> [f64; 6] {
     let (t, r) = (pose.translation.vector, pose.rotation.scaled_axis());
     [t.x, t.y, t.z, r.x, r.y, r.z]
+}
+
+/// Entry `index` of `along` set to where a contact's forward kinematics
+/// along a step `solution` reached ([`Mechanism::tool_points_along`]), in
+/// the room of the entry there when it has its sizes.
+fn write_along(
+    along: &mut Vec<Result<ReachedAlong, MechanismError>>,
+    index: usize,
+    solution: &SolutionAlong,
+) {
+    write_entry(
+        along,
+        index,
+        |room| {
+            room.reached.pose.len() == 6
+                && room.reached.d_params.shape() == (3, 1)
+                && room.predicted.len() == 6
+        },
+        || ReachedAlong {
+            reached: Reached {
+                pose: DVector::zeros(6),
+                point: Vector3::zeros(),
+                d_params: DMatrix::zeros(3, 1),
+            },
+            predicted: DVector::zeros(6),
+        },
+        |room| {
+            room.reached
+                .pose
+                .copy_from_slice(&pose_coordinates(&solution.pose));
+            room.reached.point = solution.tool_tip;
+            room.reached
+                .d_params
+                .copy_from_slice(solution.tip.as_slice());
+            room.predicted
+                .copy_from_slice(&pose_coordinates(&solution.predicted));
+        },
+    );
 }
 
 impl Mechanism for Hexapod {
@@ -389,9 +487,8 @@ impl Mechanism for Hexapod {
 
     /// Four contacts at a time in SIMD lanes ([`forward_jacobian_batch`],
     /// `J_f` in factored form, its rows those of
-    /// [`TipDerivatives::jacobians`]); the contacts of a batch whose lanes
-    /// fail, or whose readings or starts are refused, one at a time, each
-    /// with its own outcome.
+    /// [`TipDerivatives::jacobians`]), as [`Hexapod::in_batches`] runs
+    /// them.
     fn tool_points_at_readings(
         &self,
         params: &[f64],
@@ -399,57 +496,93 @@ impl Mechanism for Hexapod {
         starts: &[&[f64]],
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
-        assert_eq!(readings.len(), starts.len(), "a start for each contact");
         let Ok(geometry) = self.geometry(params) else {
             return tool_points_one_by_one(self, params, readings, starts, reached);
         };
-        reached.truncate(readings.len());
-        let one_by_one = |reached: &mut Vec<_>, first: usize, n: usize| {
-            for l in first..first + n {
-                let outcome = self.tool_point_at_readings(params, readings[l], starts[l]);
-                put_reached(reached, l, outcome);
-            }
-        };
-        // The row order the lanes try first, carried from batch to batch.
         let mut order = PivotOrder::default();
-        // The lanes' inputs and outputs, on the stack.
-        let mut q = [[0.0; 6]; LANES];
-        let mut poses = [Pose::identity(); LANES];
         let mut solutions: [SolutionJacobian; LANES] = Default::default();
-        for first in (0..readings.len()).step_by(LANES) {
-            let n = LANES.min(readings.len() - first);
-            let checked = (0..n).try_for_each(|l| {
-                q[l] = self.extensions(params, readings[first + l])?;
-                poses[l] = self.pose(starts[first + l])?;
-                Ok::<_, MechanismError>(())
-            });
-            if checked.is_err() {
-                one_by_one(reached, first, n);
-                continue;
-            }
-            let q: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
-            let solutions = &mut solutions[..n];
-            let solved = forward_jacobian_batch(
-                &geometry,
-                &q[..n],
-                &poses[..n],
-                &self.options,
-                &mut order,
-                solutions,
-                |s| s,
-            );
-            match solved {
-                Ok(()) => {
+        let n_params = self.parameters.len();
+        self.in_batches(
+            params,
+            readings,
+            starts,
+            LANES,
+            reached,
+            |reached, first, q, poses| {
+                let solutions = &mut solutions[..q.len()];
+                let solved = forward_jacobian_batch(
+                    &geometry,
+                    q,
+                    poses,
+                    &self.options,
+                    &mut order,
+                    solutions,
+                    |s| s,
+                );
+                solved.is_ok_and(|()| {
                     for (l, solution) in solutions.iter().enumerate() {
-                        let params = self.parameters.len();
-                        write_reached(reached, first + l, 6, params, |room| {
+                        write_reached(reached, first + l, 6, n_params, |room| {
                             self.write_solution(readings[first + l], solution, room);
                         });
                     }
-                }
-                Err(_) => one_by_one(reached, first, n),
-            }
-        }
+                    true
+                })
+            },
+            |l| self.tool_point_at_readings(params, readings[l], starts[l]),
+        );
+    }
+
+    /// Four contacts at a time in SIMD lanes ([`forward_along_batch`]:
+    /// `J_f dp` and the pose predicted at `p + dp`, without `J_f`), as
+    /// [`Hexapod::in_batches`] runs them; with unknown scales one at a
+    /// time, each contact's step of its legs its own
+    /// ([`Hexapod::kinematic_step`]).
+    fn tool_points_along(
+        &self,
+        params: &[f64],
+        readings: &[&[f64]],
+        starts: &[&[f64]],
+        dp: &[f64],
+        along: &mut Vec<Result<ReachedAlong, MechanismError>>,
+    ) {
+        let step_refused = check_vector(self, "parameter step values", dp, self.parameters.len());
+        let geometry = match (self.geometry(params), step_refused) {
+            (Ok(geometry), Ok(())) => geometry,
+            _ => return tool_points_along_by_rows(self, params, readings, starts, dp, along),
+        };
+        let mut order = PivotOrder::default();
+        let mut solutions = [SolutionAlong::default(); LANES];
+        let batch = if self.scaled { 1 } else { LANES };
+        self.in_batches(
+            params,
+            readings,
+            starts,
+            batch,
+            along,
+            |along, first, q, poses| {
+                let solutions = &mut solutions[..q.len()];
+                let step = self.kinematic_step(dp, readings[first]);
+                let solved = forward_along_batch(
+                    &geometry,
+                    q,
+                    poses,
+                    &step,
+                    &self.options,
+                    &mut order,
+                    solutions,
+                );
+                solved.is_ok_and(|()| {
+                    for (l, solution) in solutions.iter().enumerate() {
+                        write_along(along, first + l, solution);
+                    }
+                    true
+                })
+            },
+            |l| {
+                self.tool_point_at_readings(params, readings[l], starts[l])
+                    .and_then(|reached| along_of_reached(self, reached, dp))
+            },
+        );
     }
 
     fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
@@ -487,7 +620,7 @@ mod tests {
     use super::*;
     use crate::mechanism::{
         design, implicit_tool_point_at_readings, reading_jacobians_by_differences,
-        tool_point_reading_jacobian,
+        tool_point_reading_jacobian, tool_points_along_by_rows,
     };
     use crate::{paper, rotation_zyx, tip_jacobians_at};
     use nalgebra::Translation3;
@@ -717,9 +850,9 @@ mod tests {
         }
     }
 
-    fn lanes_reach_one_by_one(hexapod: &Hexapod) {
-        let p = design(hexapod);
-        let p = p.as_slice();
+    /// Seven contacts' readings at the design `p` of `hexapod` (a batch of
+    /// four lanes and one of three), and each one's home pose.
+    fn seven_contacts(hexapod: &Hexapod, p: &[f64]) -> (Vec<DVector<f64>>, Vec<DVector<f64>>) {
         let readings: Vec<DVector<f64>> = (0..7)
             .map(|k| {
                 let k = f64::from(k);
@@ -730,10 +863,17 @@ mod tests {
                 hexapod.inverse(p, pose_vector(&pose).as_slice()).unwrap()
             })
             .collect();
-        let starts: Vec<DVector<f64>> = readings
+        let starts = readings
             .iter()
             .map(|q| hexapod.start_pose(p, q.as_slice()).unwrap())
             .collect();
+        (readings, starts)
+    }
+
+    fn lanes_reach_one_by_one(hexapod: &Hexapod) {
+        let p = design(hexapod);
+        let p = p.as_slice();
+        let (readings, starts) = seven_contacts(hexapod, p);
         let mut q: Vec<&[f64]> = readings.iter().map(|q| q.as_slice()).collect();
         let x: Vec<&[f64]> = starts.iter().map(|x| x.as_slice()).collect();
         let same_as_one_by_one =
@@ -774,6 +914,60 @@ mod tests {
         same_as_one_by_one(&q, &x, &batch);
         hexapod.tool_points_at_readings(p, &q[..3], &x[..3], &mut batch);
         same_as_one_by_one(&q[..3], &x[..3], &batch);
+    }
+
+    #[test]
+    fn the_lanes_along_a_step_give_its_product_and_predict_the_pose() {
+        for hexapod in [hexapod(), scaled()] {
+            lanes_along_a_step(&hexapod);
+        }
+    }
+
+    /// Seven contacts along a step `dp` of every parameter (tenths of a
+    /// micrometre, parts in 1e6 of a scale): the lanes give `dT/dp |_q dp`
+    /// of the rows one contact at a time, and a pose predicted to first
+    /// order, its error against the forward kinematics at `p + dp` of the
+    /// second order; a step of the wrong length refuses every contact.
+    fn lanes_along_a_step(hexapod: &Hexapod) {
+        let p = design(hexapod);
+        let (readings, starts) = seven_contacts(hexapod, p.as_slice());
+        let q: Vec<&[f64]> = readings.iter().map(|q| q.as_slice()).collect();
+        let x: Vec<&[f64]> = starts.iter().map(|x| x.as_slice()).collect();
+        let dp = DVector::from_fn(p.len(), |k, _| {
+            let size = if k < N_PARAMS { 1e-4 } else { 1e-6 * p[k] };
+            size * (1.0 + k as f64).sin()
+        });
+        let mut along = Vec::new();
+        hexapod.tool_points_along(p.as_slice(), &q, &x, dp.as_slice(), &mut along);
+        let mut by_rows = Vec::new();
+        tool_points_along_by_rows(hexapod, p.as_slice(), &q, &x, dp.as_slice(), &mut by_rows);
+        let moved = &p + &dp;
+        for (k, (lanes, rows)) in along.iter().zip(&by_rows).enumerate() {
+            let (lanes, rows) = (lanes.as_ref().unwrap(), rows.as_ref().unwrap());
+            // Rounding of the forward kinematics' 1e-9 mm, as above.
+            assert!((lanes.reached.point - rows.reached.point).amax() < 1e-9);
+            assert!((&lanes.reached.pose - &rows.reached.pose).amax() < 1e-9);
+            assert_eq!(lanes.reached.d_params.shape(), (3, 1));
+            let product = &rows.reached.d_params;
+            let difference = (&lanes.reached.d_params - product).amax();
+            assert!(difference < 1e-9 * product.amax(), "{k}: {difference:e}");
+            // The pose moves by ~1e-4 (mm and rad) along the step; the
+            // prediction's error is of its square over the machine's
+            // ~100 mm: 1e-10 and below.
+            let exact = hexapod.forward(moved.as_slice(), q[k], x[k]).unwrap();
+            let shift = (&exact - &lanes.reached.pose).amax();
+            let error = (&exact - &lanes.predicted).amax();
+            assert!(
+                shift > 1e-6 && error < 1e-3 * shift,
+                "{k}: {shift:e} {error:e}"
+            );
+        }
+        hexapod.tool_points_along(p.as_slice(), &q, &x, &dp.as_slice()[1..], &mut along);
+        assert_eq!(along.len(), q.len());
+        for outcome in &along {
+            let error = outcome.as_ref().unwrap_err().to_string();
+            assert!(error.contains("parameter step values"), "{error}");
+        }
     }
 
     #[test]

@@ -344,6 +344,30 @@ pub trait Mechanism: Send + Sync {
         tool_points_one_by_one(self, params, readings, starts, reached);
     }
 
+    /// [`Mechanism::tool_points_at_readings`] for a back-substitution,
+    /// which needs of `dT/dp |_q` only its product with a step `dp` of the
+    /// parameters: each entry as [`ReachedAlong`] (`dT/dp |_q · dp` in
+    /// place of `dT/dp |_q`, and the pose predicted at `p + dp`, where the
+    /// contact's next forward kinematics starts). By default from
+    /// [`Mechanism::tool_points_at_readings`], each pose its own
+    /// prediction ([`along_of_reached`]); a mechanism that can form the
+    /// product without `dT/dp` and predict the pose overrides it (the
+    /// hexapod: four in SIMD lanes), writing into the room of the `Ok`
+    /// entries `along` holds ([`write_entry`]).
+    ///
+    /// # Panics
+    /// If `readings` and `starts` differ in length.
+    fn tool_points_along(
+        &self,
+        params: &[f64],
+        readings: &[&[f64]],
+        starts: &[&[f64]],
+        dp: &[f64],
+        along: &mut Vec<Result<ReachedAlong, MechanismError>>,
+    ) {
+        tool_points_along_by_rows(self, params, readings, starts, dp, along);
+    }
+
     /// A pose near the one `readings` reach, for an iterative
     /// [`Mechanism::forward`] to start from when no nearer pose is known
     /// (the origin by default: closed forms ignore it).
@@ -541,8 +565,25 @@ pub struct Reached {
     pub pose: DVector<f64>,
     /// The tool point `T(p, x)` (mm).
     pub point: Vector3<f64>,
-    /// `dT/dp |_q` (3 x parameters).
+    /// `dT/dp |_q` (3 x parameters); in a [`ReachedAlong`], the derivative
+    /// along its step, `dT/dp |_q · dp` (3 x 1: the derivative by `t` of
+    /// `T` at `p + t dp`), so that what takes a `Reached` gives its rows'
+    /// derivative along the step alike.
     pub d_params: DMatrix<f64>,
+}
+
+/// Where the machine is at given readings and how its tool point moves
+/// along a step `dp` of the parameters
+/// ([`Mechanism::tool_points_along`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ReachedAlong {
+    /// The pose, the tool point and `dT/dp |_q · dp` (3 x 1, its
+    /// `d_params`).
+    pub reached: Reached,
+    /// The pose at `p + dp` to first order, `x` moved by `dx/dp |_q · dp`
+    /// ([`Mechanism::retract`]); `x` itself for a mechanism that does not
+    /// predict it.
+    pub predicted: DVector<f64>,
 }
 
 /// [`Mechanism::tool_points_at_readings`] one contact after another
@@ -568,6 +609,53 @@ pub fn tool_points_one_by_one<M: Mechanism + ?Sized>(
     );
 }
 
+/// [`Mechanism::tool_points_along`] from
+/// [`Mechanism::tool_points_at_readings`] ([`along_of_reached`]): the
+/// trait's default.
+///
+/// # Panics
+/// If `readings` and `starts` differ in length.
+pub fn tool_points_along_by_rows<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    params: &[f64],
+    readings: &[&[f64]],
+    starts: &[&[f64]],
+    dp: &[f64],
+    along: &mut Vec<Result<ReachedAlong, MechanismError>>,
+) {
+    let mut reached = Vec::with_capacity(readings.len());
+    mechanism.tool_points_at_readings(params, readings, starts, &mut reached);
+    along.clear();
+    along.extend(
+        (reached.into_iter())
+            .map(|outcome| outcome.and_then(|r| along_of_reached(mechanism, r, dp))),
+    );
+}
+
+/// Where a contact `reached` (of `mechanism`) is, along the parameter
+/// step `dp`: `dT/dp |_q · dp`, its pose its own prediction. An error for
+/// a step of other than one finite value per parameter.
+pub fn along_of_reached<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    reached: Reached,
+    dp: &[f64],
+) -> Result<ReachedAlong, MechanismError> {
+    check_vector(
+        mechanism,
+        "parameter step values",
+        dp,
+        reached.d_params.ncols(),
+    )?;
+    let d_step = &reached.d_params * DVector::from_column_slice(dp);
+    Ok(ReachedAlong {
+        predicted: reached.pose.clone(),
+        reached: Reached {
+            d_params: DMatrix::from_column_slice(3, 1, d_step.as_slice()),
+            ..reached
+        },
+    })
+}
+
 /// Entry `index` of `reached` (at most its length: an entry is added at
 /// the end) set to where a contact is, as `write` writes it into room for
 /// a pose of `pose` coordinates and `dT/dp` of 3 x `params`: the room of
@@ -579,32 +667,51 @@ pub fn write_reached(
     params: usize,
     write: impl FnOnce(&mut Reached),
 ) {
-    let old = match reached.get_mut(index) {
-        Some(entry) => std::mem::replace(entry, Ok(Reached::default())),
-        None => Ok(Reached::default()),
-    };
-    let mut room = match old {
-        Ok(room) if room.pose.len() == pose && room.d_params.shape() == (3, params) => room,
-        _ => Reached {
+    write_entry(
+        reached,
+        index,
+        |room| room.pose.len() == pose && room.d_params.shape() == (3, params),
+        || Reached {
             pose: DVector::zeros(pose),
             point: Vector3::zeros(),
             d_params: DMatrix::zeros(3, params),
         },
-    };
-    write(&mut room);
-    put_reached(reached, index, Ok(room));
+        write,
+    );
 }
 
-/// Entry `index` of `reached` (at most its length) set to `outcome`.
-pub fn put_reached(
-    reached: &mut Vec<Result<Reached, MechanismError>>,
+/// Entry `index` of `entries` (at most its length: an entry is added at
+/// the end) set to `Ok`, as `write` writes it into room: the room of the
+/// `Ok` entry there when it `fits`, else `fresh` room.
+pub fn write_entry<T: Default>(
+    entries: &mut Vec<Result<T, MechanismError>>,
     index: usize,
-    outcome: Result<Reached, MechanismError>,
+    fits: impl FnOnce(&T) -> bool,
+    fresh: impl FnOnce() -> T,
+    write: impl FnOnce(&mut T),
 ) {
-    if index == reached.len() {
-        reached.push(outcome);
+    let old = match entries.get_mut(index) {
+        Some(entry) => std::mem::replace(entry, Ok(T::default())),
+        None => Ok(T::default()),
+    };
+    let mut room = match old {
+        Ok(room) if fits(&room) => room,
+        _ => fresh(),
+    };
+    write(&mut room);
+    put_entry(entries, index, Ok(room));
+}
+
+/// Entry `index` of `entries` (at most its length) set to `outcome`.
+pub fn put_entry<T>(
+    entries: &mut Vec<Result<T, MechanismError>>,
+    index: usize,
+    outcome: Result<T, MechanismError>,
+) {
+    if index == entries.len() {
+        entries.push(outcome);
     } else {
-        reached[index] = outcome;
+        entries[index] = outcome;
     }
 }
 

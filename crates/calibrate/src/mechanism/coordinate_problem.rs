@@ -17,7 +17,7 @@
 use std::ops::Range;
 
 use nalgebra::{Const, DVector, Dyn, OMatrix, SVector, U2, UnitVector3, Vector2, Vector3};
-use parcal_kinematics::mechanism::{MechanismError, Reached};
+use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
 use parcal_observe::{DirectionChart, unit_direction};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 
@@ -137,6 +137,57 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         Ok(())
     }
 
+    /// [`CoordinateProblem::touch_rows`] of a touch reached along the
+    /// global step `dg` (`along`, [`MechanismProblem::reach_along`]): its
+    /// rows but `d_global` into `out`, the pose predicted after the step
+    /// left in `cache`, and `d_global · dg` returned.
+    #[allow(clippy::too_many_arguments)]
+    fn touch_rows_along(
+        &self,
+        i: usize,
+        global: &DVector<f64>,
+        block: &SVector<f64, C>,
+        angles: &Vector2<f64>,
+        along: &mut Result<ReachedAlong, MechanismError>,
+        dg: &DVector<f64>,
+        cache: &mut LastPose,
+        out: &mut Local<C>,
+    ) -> Result<SVector<f64, 3>, MechanismCalibrationError> {
+        let t = self.base.touch_at(i);
+        let touch = &self.base.data().observations.touches[t];
+        let ball = self.base.touched_ball(touch.ball, global, block);
+        let chart = DirectionChart::about(&self.directions[i]);
+        let (rows, predicted) = std::mem::replace(along, Ok(ReachedAlong::default()))
+            .and_then(|along| {
+                let rows = touch.coordinate_rows(
+                    along.reached,
+                    &chart,
+                    &ball.centre,
+                    ball.radius,
+                    angles,
+                )?;
+                Ok((rows, along.predicted))
+            })
+            .map_err(|e| touch_failed(t, touch.ball, e))?;
+        *cache = LastPose::of(predicted.as_slice());
+        out.residual = rows.residual;
+        out.d_group.fill(0.0);
+        out.d_point = rows.d_angles;
+        put_ball_columns(out, &ball, &rows.d_centre, &rows.d_radius);
+        let params_step = Vector3::from_column_slice(rows.d_params.as_slice());
+        let step = params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
+        // The room back where it came from, for the next batch.
+        *along = Ok(ReachedAlong {
+            reached: Reached {
+                pose: rows.pose,
+                point: Vector3::zeros(),
+                d_params: rows.d_params.reshape_generic(Dyn(3), Dyn(1)),
+            },
+            predicted,
+        });
+        Ok(step)
+    }
+
     /// The touch points `first..first + out.len()` (one ball's) at its
     /// block `group` and their angles `points`, with their caches and the
     /// worker's `reaches`.
@@ -153,7 +204,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         self.base
             .reach(first..first + out.len(), global, caches, reaches);
-        let each = reaches.iter_mut().zip(points).zip(caches).zip(out);
+        let each = reaches.at.iter_mut().zip(points).zip(caches).zip(out);
         for (j, (((reached, angles), cache), out)) in each.enumerate() {
             self.touch_rows(first + j, global, group, angles, reached, cache, out)
                 .map_err(|e| (first + j, e))?;
@@ -248,7 +299,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
             std::slice::from_ref(point),
             std::slice::from_mut(cache),
             std::slice::from_mut(out),
-            &mut Vec::new(),
+            &mut Reaches::default(),
         )
         .map_err(|(_, e)| e)
     }
@@ -267,7 +318,9 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         self.fill(first, global, group, points, caches, out, reaches)
     }
 
-    /// [`Problem::linearize_batch`], then each point's `d_global · dg`.
+    /// A ball's touches along the step
+    /// ([`CoordinateProblem::touch_rows_along`]): their `d_global` not
+    /// written, each touch's cache at the pose predicted after the step.
     fn linearize_along_batch(
         &self,
         first: usize,
@@ -280,9 +333,15 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         steps: &mut [SVector<f64, 3>],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, points, caches, out, reaches)?;
-        for (step, out) in steps.iter_mut().zip(out.iter()) {
-            *step = &out.d_global * dg;
+        let batch = first..first + out.len();
+        self.base.reach_along(batch, global, dg, caches, reaches);
+        let each = (reaches.along.iter_mut().zip(points))
+            .zip(caches.iter_mut().zip(out))
+            .zip(steps);
+        for (j, (((along, angles), (cache, out)), step)) in each.enumerate() {
+            *step = self
+                .touch_rows_along(first + j, global, group, angles, along, dg, cache, out)
+                .map_err(|e| (first + j, e))?;
         }
         Ok(())
     }

@@ -453,6 +453,7 @@ mod tests {
 
     use super::*;
     use crate::CalibrationOptions;
+    use crate::mechanism::problem::Reaches;
     use crate::mechanism::problem::tests::sigmas_apart;
     use crate::options::{PriorMode, RadiusModel, Simulation};
     use crate::sphere_fit::{best_fit, mirror_fit};
@@ -501,14 +502,15 @@ mod tests {
         let radius = base.data().observations.balls[0].radius;
         let mirrored = |b: usize| {
             let points = Problem::<3, 0, 1>::group_points(base, b);
-            let mut reached = Vec::new();
+            let mut reaches = Reaches::default();
             base.reach(
                 points.clone(),
                 &right.state.global,
                 &caches[points],
-                &mut reached,
+                &mut reaches,
             );
-            let tips: Vec<Vector3<f64>> = reached.into_iter().map(|r| r.unwrap().point).collect();
+            let tips: Vec<Vector3<f64>> =
+                (reaches.at.into_iter()).map(|r| r.unwrap().point).collect();
             let fit = best_fit(&tips, radius).unwrap();
             let mirror = mirror_fit(&tips, radius, &fit).unwrap();
             ((mirror.centre - fit.centre).norm() > 1.0).then_some((b, mirror.centre, tips))

@@ -16,7 +16,7 @@ use parcal_solver::{Decision, Iterate, IterationRecord, Monitor, Problem};
 use crate::fit::misfit_balls;
 use crate::mirror::{SETTLED, mirror_side};
 
-use super::problem::{LastPose, MechanismProblem};
+use super::problem::{LastPose, MechanismProblem, Reaches};
 
 /// A ball found on the wrong side of its touches.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,9 +74,9 @@ impl<'w, 'p, const C: usize> WrongSideWatch<'w, 'p, C> {
         caches: &[LastPose],
     ) -> Option<(f64, [f64; 3], Vec<Vector3<f64>>)> {
         let points = Problem::<C, 0, 1>::group_points(self.base, k);
-        let mut reaches = Vec::with_capacity(points.len());
+        let mut reaches = Reaches::default();
         (self.base).reach(points.clone(), global, &caches[points], &mut reaches);
-        let tips = (reaches.iter())
+        let tips = (reaches.at.iter())
             .map(|reached| reached.as_ref().ok().map(|reached| reached.point))
             .collect::<Option<Vec<_>>>()?;
         let ball = self.base.touched_ball(b, global, block);

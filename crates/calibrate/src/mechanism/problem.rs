@@ -38,7 +38,7 @@
 use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAlong};
 use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 use rayon::prelude::*;
@@ -57,13 +57,19 @@ use super::trackers::Trackers;
 /// unknowns, one row per point.
 type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
 
-/// Where the touches of a batch are ([`MechanismProblem::reach`]): a
-/// worker's, kept from batch to batch (the solver's workspace), so that
-/// the mechanism writes into the room the last batch left. The coordinate
-/// rows hand each touch's room back; the radius row (eq. 9) consumes it
-/// (`BallTouch::row` takes its `Reached`), so that only the vector's
-/// capacity is kept there.
-pub(crate) type Reaches = Vec<Result<Reached, MechanismError>>;
+/// Where the touches of a batch are: a worker's, kept from batch to batch
+/// (the solver's workspace), so that the mechanism writes into the room
+/// the last batch left. The coordinate rows hand each touch's room back;
+/// the radius row (eq. 9) consumes it (`BallTouch::row` takes its
+/// `Reached`), so that only the vectors' capacity is kept there.
+#[derive(Debug, Default)]
+pub(crate) struct Reaches {
+    /// Where they are, with `dT/dp |_q` ([`MechanismProblem::reach`]).
+    pub(crate) at: Vec<Result<Reached, MechanismError>>,
+    /// Where they are along a step, for a back-substitution
+    /// ([`MechanismProblem::reach_along`]).
+    pub(crate) along: Vec<Result<ReachedAlong, MechanismError>>,
+}
 
 /// The unknowns of each local block of `data` (module doc): 4 when some
 /// ball's radius has a calibration sigma, else 3.
@@ -398,6 +404,40 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         Ok(())
     }
 
+    /// [`MechanismProblem::touch_row`] of a touch reached along the global
+    /// step `dg` (`along`, [`MechanismProblem::reach_along`]): its row but
+    /// `d_global` into `out`, the pose predicted after the step left in
+    /// `cache`, and `d_global · dg` returned (the parameters' share from
+    /// `dT/dp |_q · dp`, a tied ball's from its columns).
+    #[allow(clippy::too_many_arguments)]
+    fn touch_row_along(
+        &self,
+        i: usize,
+        global: &DVector<f64>,
+        block: &SVector<f64, C>,
+        along: Result<ReachedAlong, MechanismError>,
+        dg: &DVector<f64>,
+        cache: &mut LastPose,
+        out: &mut Local<C>,
+    ) -> Result<SVector<f64, 1>, MechanismCalibrationError> {
+        let t = self.touch_at(i);
+        let touch = &self.data.observations.touches[t];
+        let ball = self.touched_ball(touch.ball, global, block);
+        let (row, predicted) = along
+            .and_then(|along| {
+                let row = touch.row(along.reached, &ball.centre, ball.radius)?;
+                Ok((row, along.predicted))
+            })
+            .map_err(|e| touch_failed(t, touch.ball, e))?;
+        *cache = LastPose::of(predicted.as_slice());
+        out.residual[0] = row.rows.residual[0];
+        out.d_group.fill(0.0);
+        let d_radius = SVector::<f64, 1>::new(row.d_radius);
+        put_ball_columns(out, &ball, &row.d_centre, &d_radius);
+        let params_step = SVector::<f64, 1>::new(row.rows.d_params[0]);
+        Ok(params_step + ball.tied_step(&row.d_centre, &d_radius, dg))
+    }
+
     /// Ball `b`'s centre set to `centre` in the global block `global` when
     /// it is tied, else in its group's block among `groups`.
     pub(crate) fn place_ball(
@@ -449,7 +489,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// Where the machine is at the touch points `points` (one group's, of
     /// touches), each from the pose in its cache: together, so that a
     /// mechanism may reach them at once ([`Actuation::tool_points`]), into
-    /// `reaches`.
+    /// `reaches.at`.
     pub(crate) fn reach(
         &self,
         points: Range<usize>,
@@ -466,8 +506,71 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             self.data.configured.as_slice(),
             &actuations,
             &starts,
-            reaches,
+            &mut reaches.at,
         );
+    }
+
+    /// [`MechanismProblem::reach`] along the global step `dg`, into
+    /// `reaches.along` ([`Actuation::tool_points_along`]: each touch's
+    /// `dT/dp |_q` only as its product with the parameters' step, and the
+    /// pose predicted after the step).
+    pub(crate) fn reach_along(
+        &self,
+        points: Range<usize>,
+        global: &DVector<f64>,
+        dg: &DVector<f64>,
+        caches: &[LastPose],
+        reaches: &mut Reaches,
+    ) {
+        let touches = &self.data.observations.touches;
+        let actuations: Vec<&Actuation> = points.map(|i| &touches[self.touch_at(i)].at).collect();
+        let starts: Vec<Option<&[f64]>> = caches.iter().map(LastPose::pose).collect();
+        let n = self.n_params();
+        Actuation::tool_points_along(
+            self.data.mechanism.as_ref(),
+            &global.as_slice()[..n],
+            self.data.configured.as_slice(),
+            &actuations,
+            &starts,
+            &dg.as_slice()[..n],
+            &mut reaches.along,
+        );
+    }
+
+    /// [`MechanismProblem::fill`] for a back-substitution along the global
+    /// step `dg`, each point's `d_global · dg` into `steps`: a group of
+    /// touches along the step ([`MechanismProblem::touch_row_along`]), a
+    /// sample's rows in full.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "Problem::linearize_along_batch's"
+    )]
+    fn fill_along(
+        &self,
+        first: usize,
+        global: &DVector<f64>,
+        group: &SVector<f64, C>,
+        caches: &mut [LastPose],
+        dg: &DVector<f64>,
+        out: &mut [Local<C>],
+        steps: &mut [SVector<f64, 1>],
+        reaches: &mut Reaches,
+    ) -> Result<(), (usize, MechanismCalibrationError)> {
+        if first < self.sample_points() {
+            self.fill(first, global, group, caches, out, reaches)?;
+            for (step, out) in steps.iter_mut().zip(out.iter()) {
+                *step = &out.d_global * dg;
+            }
+            return Ok(());
+        }
+        self.reach_along(first..first + out.len(), global, dg, caches, reaches);
+        let each = reaches.along.drain(..).zip(caches).zip(out).zip(steps);
+        for (j, (((along, cache), out), step)) in each.enumerate() {
+            *step = self
+                .touch_row_along(first + j, global, group, along, dg, cache, out)
+                .map_err(|e| (first + j, e))?;
+        }
+        Ok(())
     }
 
     /// The points `first..first + out.len()` (one group's) at its block
@@ -485,7 +588,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         if first >= self.sample_points() {
             // The touches together: each from the pose it last reached.
             self.reach(first..first + out.len(), global, caches, reaches);
-            for (j, ((reached, out), cache)) in reaches.drain(..).zip(out).zip(caches).enumerate() {
+            let each = reaches.at.drain(..).zip(out).zip(caches);
+            for (j, ((reached, out), cache)) in each.enumerate() {
                 self.touch_row(first + j, global, group, reached, cache, out)
                     .map_err(|e| (first + j, e))?;
             }
@@ -591,6 +695,28 @@ pub(crate) struct TouchedBall {
     pub tied: Option<usize>,
     /// Whether its radius is an unknown.
     pub uncertain: bool,
+}
+
+impl TouchedBall {
+    /// The product of a touch's rows' derivatives with respect to the
+    /// ball's centre `d_centre` and radius `d_radius` with the global step
+    /// `dg`: their share of `d_global · dg` when the ball is tied (its
+    /// radius's only when it is an unknown), else none.
+    pub(crate) fn tied_step<const R: usize>(
+        &self,
+        d_centre: &SMatrix<f64, R, 3>,
+        d_radius: &SVector<f64, R>,
+        dg: &DVector<f64>,
+    ) -> SVector<f64, R> {
+        let Some(column) = self.tied else {
+            return SVector::zeros();
+        };
+        let mut step = d_centre * dg.fixed_rows::<3>(column);
+        if self.uncertain {
+            step += d_radius * dg[column + 3];
+        }
+        step
+    }
 }
 
 /// A touch's rows' derivatives with respect to its ball's centre
@@ -788,7 +914,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
     ) -> Result<(), MechanismCalibrationError> {
         let caches = std::slice::from_mut(cache);
         let out = std::slice::from_mut(out);
-        self.fill(i, global, group, caches, out, &mut Vec::new())
+        self.fill(i, global, group, caches, out, &mut Reaches::default())
             .map_err(|(_, e)| e)
     }
 
@@ -806,7 +932,9 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         self.fill(first, global, group, caches, out, reaches)
     }
 
-    /// [`Problem::linearize_batch`], then each row's `d_global · dg`.
+    /// A group's rows along the step ([`MechanismProblem::fill_along`]):
+    /// its touches' `d_global` not written, each touch's cache at the pose
+    /// predicted after the step.
     fn linearize_along_batch(
         &self,
         first: usize,
@@ -819,11 +947,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         steps: &mut [SVector<f64, 1>],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, caches, out, reaches)?;
-        for (step, out) in steps.iter_mut().zip(out.iter()) {
-            *step = &out.d_global * dg;
-        }
-        Ok(())
+        self.fill_along(first, global, group, caches, dg, out, steps, reaches)
     }
 
     /// Every probe height's, part distance's, measured point's, measured

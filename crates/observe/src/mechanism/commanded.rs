@@ -5,7 +5,9 @@
 use std::borrow::Cow;
 
 use nalgebra::{DMatrix, DVector};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
+use parcal_kinematics::mechanism::{
+    Mechanism, MechanismError, Reached, ReachedAlong, along_of_reached,
+};
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
 pub const POSE_COORDINATES: usize = 3;
@@ -162,6 +164,53 @@ impl Actuation {
         );
     }
 
+    /// [`Actuation::tool_points`] for a back-substitution along the step
+    /// `dp` of the parameters, each outcome in order into `along`
+    /// ([`ReachedAlong`]: `dT/dp |_q · dp` in place of `dT/dp |_q`, and the
+    /// pose predicted at `p + dp`): when every one is at readings from a
+    /// start given (a calibration's iterations), the mechanism's
+    /// [`Mechanism::tool_points_along`], into the room `along` holds; else
+    /// from [`Actuation::tool_points`], each pose its own prediction.
+    ///
+    /// # Panics
+    /// If `actuations` and `starts` differ in length.
+    #[allow(clippy::too_many_arguments)]
+    pub fn tool_points_along(
+        mechanism: &dyn Mechanism,
+        params: &[f64],
+        configured: &[f64],
+        actuations: &[&Actuation],
+        starts: &[Option<&[f64]>],
+        dp: &[f64],
+        along: &mut Vec<Result<ReachedAlong, MechanismError>>,
+    ) {
+        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
+        let at_readings: Option<(Vec<&[f64]>, Vec<&[f64]>)> = (actuations.iter().zip(starts))
+            .map(|(actuation, start)| match (actuation, start) {
+                (Self::Readings(readings), Some(start)) => Some((readings.as_slice(), *start)),
+                _ => None,
+            })
+            .collect();
+        if let Some((readings, starts)) = at_readings {
+            mechanism.tool_points_along(params, &readings, &starts, dp, along);
+            return;
+        }
+        let mut reached = Vec::with_capacity(actuations.len());
+        Self::tool_points(
+            mechanism,
+            params,
+            configured,
+            actuations,
+            starts,
+            &mut reached,
+        );
+        along.clear();
+        along.extend(
+            (reached.into_iter())
+                .map(|outcome| outcome.and_then(|r| along_of_reached(mechanism, r, dp))),
+        );
+    }
+
     /// [`Actuation::tool_points`] of `actuations`, each from the
     /// mechanism's [`Mechanism::start_pose`] (or its commanded position),
     /// into a new vector.
@@ -263,5 +312,51 @@ mod tests {
                 assert!((&reached.d_params - &alone.d_params).amax() < 1e-9);
             }
         }
+    }
+
+    #[test]
+    fn actuations_along_a_step_are_their_rows_times_the_step() {
+        // The delta's mix of commanded and read actuations: each one's
+        // product with the step from its own rows, to the bit, its pose
+        // its prediction; a step of the wrong length refuses each.
+        let (delta, configured, truth) = delta();
+        let (c, p) = (configured.as_slice(), truth.as_slice());
+        let read = |x: [f64; 3]| delta.inverse(p, &x).unwrap().as_slice().to_vec();
+        let actuations = [
+            Actuation::Commanded([40.0, -30.0, 18.0]),
+            Actuation::Readings(read([10.0, 5.0, 30.0])),
+        ];
+        let start = [9.0, 5.5, 29.0];
+        let starts = [None, Some(&start[..])];
+        let refs: Vec<&Actuation> = actuations.iter().collect();
+        let dp: Vec<f64> = (0..p.len()).map(|k| 1e-3 * (k as f64).cos()).collect();
+        let mut along = Vec::new();
+        Actuation::tool_points_along(&delta, p, c, &refs, &starts, &dp, &mut along);
+        for ((actuation, start), along) in actuations.iter().zip(starts).zip(&along) {
+            let alone = actuation.tool_point(&delta, p, c, start).unwrap();
+            let expected = along_of_reached(&delta, alone, &dp).unwrap();
+            assert_eq!(along.as_ref().unwrap(), &expected);
+            assert_eq!(expected.predicted, expected.reached.pose);
+        }
+        Actuation::tool_points_along(&delta, p, c, &refs, &starts, &dp[1..], &mut along);
+        for outcome in &along {
+            let error = outcome.as_ref().unwrap_err().to_string();
+            assert!(error.contains("parameter step values"), "{error}");
+        }
+        // The hexapod's legs read from starts given: its own lanes.
+        let hexapod = by_name("hexapod").unwrap();
+        let hexapod = hexapod.as_ref();
+        let p = design(hexapod);
+        let p = p.as_slice();
+        let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
+        let readings = hexapod.inverse(p, &pose).unwrap().as_slice().to_vec();
+        let home = hexapod.start_pose(p, &readings).unwrap();
+        let dp = vec![1e-4; p.len()];
+        let read = Actuation::Readings(readings.clone());
+        let starts = [Some(home.as_slice())];
+        Actuation::tool_points_along(hexapod, p, &[], &[&read], &starts, &dp, &mut along);
+        let mut own = Vec::new();
+        hexapod.tool_points_along(p, &[&readings], &[home.as_slice()], &dp, &mut own);
+        assert_eq!(along, own);
     }
 }
