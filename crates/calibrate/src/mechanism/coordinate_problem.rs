@@ -122,8 +122,9 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         *cache = LastPose::of(rows.pose.as_slice());
         let n = self.base.n_params();
         out.residual = rows.residual;
-        out.d_global.as_mut_slice().fill(0.0);
+        let others = out.d_global.ncols() - n;
         out.d_global.columns_mut(0, n).copy_from(&rows.d_params);
+        out.d_global.columns_mut(n, others).fill(0.0);
         out.d_group.fill(0.0);
         out.d_point = rows.d_angles;
         put_ball_columns(out, &ball, &rows.d_centre, &rows.d_radius);

@@ -396,8 +396,9 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(row.pose.as_slice());
         out.residual[0] = row.rows.residual[0];
-        out.d_global.as_mut_slice().fill(0.0);
+        let others = out.d_global.ncols() - n;
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
+        out.d_global.columns_mut(n, others).fill(0.0);
         out.d_group.fill(0.0);
         let d_radius = SVector::<f64, 1>::new(row.d_radius);
         put_ball_columns(out, &ball, &row.d_centre, &d_radius);
