@@ -7,13 +7,12 @@
 //! point.
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
-use parcal_accuracy::kabsch;
 use parcal_calibrate::mechanism::{
     CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, Tracker,
     calibrate_mechanism, validate_mechanism,
 };
-use parcal_dataset::mechanism::MechanismDataset;
-use parcal_kinematics::Vec3;
+use parcal_dataset::FrameRecord;
+use parcal_dataset::mechanism::{MechanismDataset, MechanismTruth};
 use parcal_kinematics::delta::LinearDelta;
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::CoordinateWhitening;
@@ -83,38 +82,22 @@ fn tracked(dataset: &MechanismDataset, seed: u64) -> MechanismData {
     data
 }
 
-/// The rigid motion from the frame of `params` to their canonical frame:
-/// the best fit of the tool points reached at the 24 commanded positions.
-fn to_canonical(data: &MechanismData, params: &[f64]) -> Isometry3<f64> {
-    let delta = data.mechanism.as_ref();
-    let canonical = delta.canonicalize(params).unwrap();
-    let tips = |p: &[f64]| -> Vec<Vec3> {
-        (0..24)
-            .map(|j| {
-                Actuation::Commanded(commanded(j))
-                    .tool_point(delta, p, &data.configured, None)
-                    .unwrap()
-                    .point
-            })
-            .collect()
-    };
-    let motion = kabsch(&tips(params), &tips(canonical.as_slice())).unwrap();
-    Isometry3::from_parts(
-        motion.translation.into(),
-        nalgebra::UnitQuaternion::from_rotation_matrix(&motion.rotation),
-    )
-}
-
 /// Each tracker's error `F_true⁻¹ ∘ F` (rotation vector, translation)
-/// against its covariance, the true frame taken to the canonical frame of
-/// the truth: the sum over the trackers.
-fn frames_nees(run: &MechanismCalibration, data: &MechanismData, truth: &[f64]) -> f64 {
-    let to_truth_canonical = to_canonical(data, truth).inverse();
+/// against its covariance, the true frame carried to the canonical frame
+/// of the truth as a report sets it beside the estimate
+/// ([`MechanismData::true_tracker_frames`]): the sum over the trackers.
+fn frames_nees(run: &MechanismCalibration, data: &MechanismData, truth: &MechanismTruth) -> f64 {
+    let mut truth = truth.clone();
+    truth.trackers = (data.observations.trackers.iter())
+        .zip(true_frames())
+        .map(|(tracker, frame)| (tracker.label.clone(), FrameRecord::of(&frame)))
+        .collect();
+    let frames = data.true_tracker_frames(&truth).unwrap();
     run.trackers
         .iter()
-        .zip(true_frames())
+        .zip(frames)
         .map(|(tracker, frame)| {
-            let error = (frame * to_truth_canonical).inverse() * tracker.frame;
+            let error = frame.expect("every tracker's truth").inverse() * tracker.frame;
             let e = Vector6::from_iterator(
                 error
                     .rotation
@@ -158,7 +141,7 @@ fn parameters_and_tracker_frames_are_within_their_covariance() {
         let (value, rank) = nees(&error, run.covariance.as_ref().unwrap());
         parameters.push(value);
         ranks.push(rank);
-        frames.push(frames_nees(&run, &data, &truth.parameters));
+        frames.push(frames_nees(&run, &data, truth));
     }
     assert!(ranks.iter().all(|&r| r == ranks[0]), "{ranks:?}");
     let rank = ranks[0] as f64;

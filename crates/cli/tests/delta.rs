@@ -465,6 +465,61 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
 }
 
 #[test]
+fn a_simulated_printers_trackers_are_judged_against_their_truth() {
+    // Two trackers of 12 points: truth.json holds their frames, and the
+    // report (of the calibration, and `parcal report --dataset`) gives
+    // each one's error in its sigmas, every one of the 12 within 5.
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let said = ok(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--seed",
+        "3",
+        "--trackers",
+        "2",
+        "--points-per-tracker",
+        "12",
+        "--out",
+        s(&sim),
+    ]);
+    assert!(
+        said.contains("24 points of 2 trackers") && said.contains("and the trackers' frames"),
+        "{said}"
+    );
+    ok(&["calibrate", s(&sim), "--report"]);
+    let report = dir.path().join("report");
+    let calibration = sim.join("calibration.json");
+    ok(&[
+        "report",
+        s(&calibration),
+        "--dataset",
+        s(&sim),
+        "--out",
+        s(&report),
+    ]);
+    for markdown in [sim.join("report.md"), report.join("report.md")] {
+        let markdown = fs::read_to_string(markdown).unwrap();
+        assert!(
+            markdown.contains("| error / sigma (rotations; translations) |"),
+            "{markdown}"
+        );
+        for label in ["T1", "T2"] {
+            let row = (markdown.lines())
+                .find(|l| l.starts_with(&format!("| {label} |")))
+                .unwrap();
+            let last = row.trim_end_matches(" |").rsplit(" | ").next().unwrap();
+            let errors: Vec<f64> = (last.split([',', ';']))
+                .map(|e| e.trim().parse().unwrap())
+                .collect();
+            assert_eq!(errors.len(), 6, "{row}");
+            assert!(errors.iter().all(|e| e.abs() < 5.0), "{row}");
+        }
+    }
+}
+
+#[test]
 fn a_simulated_printer_touches_calibrated_balls() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");

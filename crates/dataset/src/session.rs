@@ -2,6 +2,7 @@
 //! `calibration.json`): the instrument's frame, the platform body frame and
 //! the legs' zero offsets.
 
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
@@ -25,6 +26,24 @@ impl FrameRecord {
         translation: [0.0; 3],
         rotation: [0.0, 0.0, 0.0, 1.0],
     };
+
+    /// The record of `isometry` (its quaternion as it is).
+    pub fn of(isometry: &Isometry3<f64>) -> Self {
+        let q = isometry.rotation.coords;
+        Self {
+            translation: isometry.translation.vector.into(),
+            rotation: [q.x, q.y, q.z, q.w],
+        }
+    }
+
+    /// The rigid motion it records (its quaternion normalised).
+    pub fn isometry(&self) -> Isometry3<f64> {
+        let [x, y, z, w] = self.rotation;
+        Isometry3::from_parts(
+            Translation3::from(Vector3::from(self.translation)),
+            UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+        )
+    }
 
     pub(crate) fn validate(&self, check: Check, field: &str) -> Result<()> {
         check.point(format_args!("{field}.translation"), &self.translation)?;

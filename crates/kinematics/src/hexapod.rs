@@ -272,7 +272,8 @@ impl Hexapod {
     /// If `readings` and `starts` differ in length.
     #[allow(
         clippy::type_complexity,
-        reason = "the lanes' closure, used once per kind"
+        clippy::too_many_arguments,
+        reason = "the contacts, their batch and the two ways to solve them"
     )]
     fn in_batches<T>(
         &self,

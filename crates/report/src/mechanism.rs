@@ -8,7 +8,7 @@
 
 use parcal_calibrate::mechanism::ObservationKind;
 use parcal_dataset::FrameRecord;
-use parcal_dataset::mechanism::MechanismCalibrationRecord;
+use parcal_dataset::mechanism::{MechanismCalibrationRecord, TrackerRecord};
 use plotters::prelude::*;
 
 use crate::calibration_report::Format;
@@ -25,6 +25,10 @@ pub struct FromDataset<'a> {
     /// calibration, in its order and frame: the parameter table's "true"
     /// and "error / sigma" columns.
     pub truth: Option<&'a [f64]>,
+    /// The true frames of its trackers, one per tracker of the
+    /// calibration in its order (`None`: not known), from its canonical
+    /// frame: the trackers' table's "error / sigma" column.
+    pub true_frames: Option<&'a [Option<FrameRecord>]>,
 }
 
 /// The report of `calibration`, read from `file`, as `format`, with what
@@ -36,7 +40,7 @@ pub fn render(
     format: Format,
 ) -> Result<String, String> {
     let title = format!("Calibration of a {} ({file})", calibration.mechanism);
-    let mut blocks = blocks(calibration, dataset.truth, &title);
+    let mut blocks = blocks(calibration, &dataset, &title);
     if let Some(probes) = dataset.probes.filter(|p| !p.is_empty()) {
         blocks.push(Block::Heading(2, "Probe residuals over the bed".into()));
         blocks.push(Block::Figure {
@@ -345,17 +349,77 @@ pub const BALL_HEADER: [&str; 5] = [
 /// rotation vector, degrees) from the mechanism's canonical frame, and
 /// their sigmas; then the body frame the tracker poses saw, if any, from
 /// the body's frame to the platform's, as each tracker after which the body
-/// was re-mounted saw it and as the others did.
-pub fn tracker_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
-    (calibration.trackers.iter())
-        .map(|tracker| frame_row(&tracker.label, &tracker.frame, tracker.sigma))
+/// was re-mounted saw it and as the others did. With the trackers' true
+/// frames (`true_frames`, one per tracker), a last column: each
+/// tracker's error in its sigmas ([`frame_error_in_sigmas`]).
+pub fn tracker_rows(
+    calibration: &MechanismCalibrationRecord,
+    true_frames: Option<&[Option<FrameRecord>]>,
+) -> Vec<Vec<String>> {
+    let error = |k: usize, tracker: &TrackerRecord| {
+        let truth = true_frames?;
+        let errors = truth
+            .get(k)
+            .copied()
+            .flatten()
+            .zip(tracker.sigma)
+            .map(|(truth, sigma)| frame_error_in_sigmas(&truth, &tracker.frame, &sigma));
+        Some(errors.map_or_else(
+            || "-".to_string(),
+            |e| {
+                format!(
+                    "{:.2}, {:.2}, {:.2}; {:.2}, {:.2}, {:.2}",
+                    e[0], e[1], e[2], e[3], e[4], e[5]
+                )
+            },
+        ))
+    };
+    let none = || true_frames.map(|_| "-".to_string());
+    let row = |label: &str, frame: &FrameRecord, sigma, error: Option<String>| {
+        let mut row = frame_row(label, frame, sigma);
+        row.extend(error);
+        row
+    };
+    (calibration.trackers.iter().enumerate())
+        .map(|(k, tracker)| {
+            row(
+                &tracker.label,
+                &tracker.frame,
+                tracker.sigma,
+                error(k, tracker),
+            )
+        })
         .chain(calibration.trackers.iter().filter_map(|tracker| {
             let body = tracker.body.as_ref()?;
             let label = format!("body seen by {}", tracker.label);
-            Some(frame_row(&label, &body.frame, body.sigma))
+            Some(row(&label, &body.frame, body.sigma, none()))
         }))
-        .chain((calibration.body.iter()).map(|body| frame_row(BODY_LABEL, &body.frame, body.sigma)))
+        .chain(
+            (calibration.body.iter()).map(|body| row(BODY_LABEL, &body.frame, body.sigma, none())),
+        )
         .collect()
+}
+
+/// A frame's error against its truth in its sigmas: `E = F_true⁻¹ ∘ F`,
+/// a rigid motion of the mechanism's canonical frame, its rotation
+/// vector's components (rad) and its translation's (mm) each over the
+/// sigma of the same correction (`sigma`: rotations about the axes, then
+/// translations).
+pub fn frame_error_in_sigmas(
+    truth: &FrameRecord,
+    estimate: &FrameRecord,
+    sigma: &[f64; 6],
+) -> [f64; 6] {
+    let error = truth.isometry().inverse() * estimate.isometry();
+    let (rotation, translation) = (error.rotation.scaled_axis(), error.translation.vector);
+    std::array::from_fn(|k| {
+        let e = if k < 3 {
+            rotation[k]
+        } else {
+            translation[k - 3]
+        };
+        e / sigma[k]
+    })
 }
 
 /// The label of the body frame's row in [`tracker_rows`].
@@ -405,14 +469,20 @@ pub fn tracker_offset_sentences(calibration: &MechanismCalibrationRecord) -> Vec
         .collect()
 }
 
-/// The header of [`tracker_rows`].
-pub const TRACKER_HEADER: [&str; 5] = [
-    "tracker",
-    "translation (mm)",
-    "translation sigmas (mm)",
-    "rotation vector (degrees)",
-    "rotation sigmas (degrees)",
-];
+/// The header of [`tracker_rows`], with the truth's column if `truth`.
+pub fn tracker_header(truth: bool) -> Vec<&'static str> {
+    let mut header = vec![
+        "tracker",
+        "translation (mm)",
+        "translation sigmas (mm)",
+        "rotation vector (degrees)",
+        "rotation sigmas (degrees)",
+    ];
+    if truth {
+        header.push("error / sigma (rotations; translations)");
+    }
+    header
+}
 
 /// The rotation vector of the unit quaternion `[x, y, z, w]`, in degrees.
 fn rotation_vector_degrees([x, y, z, w]: [f64; 4]) -> [f64; 3] {
@@ -531,9 +601,10 @@ pub fn identifiability_statements(calibration: &MechanismCalibrationRecord) -> V
 /// The report's blocks.
 fn blocks(
     calibration: &MechanismCalibrationRecord,
-    truth: Option<&[f64]>,
+    dataset: &FromDataset<'_>,
     title: &str,
 ) -> Vec<Block> {
+    let truth = dataset.truth;
     let tone = if calibration.accepted {
         Tone::Accepted
     } else {
@@ -609,8 +680,10 @@ fn blocks(
     if !calibration.trackers.is_empty() {
         blocks.push(Block::Heading(2, "Trackers".into()));
         blocks.push(Block::Table {
-            header: TRACKER_HEADER.iter().map(|s| s.to_string()).collect(),
-            rows: tracker_rows(calibration)
+            header: (tracker_header(dataset.true_frames.is_some()).iter())
+                .map(|s| s.to_string())
+                .collect(),
+            rows: tracker_rows(calibration, dataset.true_frames)
                 .into_iter()
                 .map(|row| row.into_iter().map(Cell::text).collect())
                 .collect(),
@@ -619,6 +692,12 @@ fn blocks(
             Tone::Note,
             "Each tracker's frame maps the mechanism's canonical frame to the tracker's (x_tracker = R x + t); its sigmas are of rotations about the mechanism's axes and of translations along them.".into(),
         ));
+        if dataset.true_frames.is_some() {
+            blocks.push(Block::Paragraph(
+                Tone::Note,
+                "A simulated tracker's error is the rotation vector (rad) and translation (mm) of F_true⁻¹ ∘ F, a motion of the canonical frame, each over its sigma.".into(),
+            ));
+        }
         if calibration.body.is_some() {
             blocks.push(Block::Paragraph(
                 Tone::Note,
@@ -690,6 +769,7 @@ mod tests {
         FromDataset {
             probes: Some(probes),
             truth: None,
+            true_frames: None,
         }
     }
 
@@ -713,6 +793,7 @@ mod tests {
                 .as_slice()
                 .to_vec(),
             trigger_height: Some(0.7),
+            trackers: std::collections::BTreeMap::new(),
         };
         let data = MechanismData::from_dataset(&printer()).unwrap();
         let truth = data.true_values(&truth).unwrap();
@@ -737,6 +818,7 @@ mod tests {
         let dataset = FromDataset {
             probes: Some(&probes),
             truth: Some(&truth),
+            true_frames: None,
         };
         let markdown = render(&record, "calibration.json", dataset, Format::Markdown).unwrap();
         assert!(markdown.contains("| true | error / sigma |"), "{markdown}");
@@ -818,6 +900,52 @@ mod tests {
             markdown.contains(
                 "| body seen by left | 1.000, 2.000, 3.000 | - | 0.0000, 0.0000, 0.0000 | - |"
             ),
+            "{markdown}"
+        );
+    }
+
+    #[test]
+    fn a_simulated_trackers_error_is_given_in_its_sigmas() {
+        // Tracker "left" estimated at F_true ∘ E, E turning the canonical
+        // frame by 2 sigmas about z and moving it by 3 sigmas along x and
+        // -1.5 along z; "right" without a truth: its error unknown, as the
+        // body's rows always are.
+        use nalgebra::{Isometry3, Vector3};
+        let truth = Isometry3::new(
+            Vector3::new(1200.0, -300.0, 150.0),
+            Vector3::new(0.1, -0.2, 2.5),
+        );
+        let sigma = [1e-4, 1e-4, 1e-4, 0.01, 0.01, 0.02];
+        let error = Isometry3::new(Vector3::new(0.03, 0.0, -0.03), Vector3::new(0.0, 0.0, 2e-4));
+        let tracker = |label: &str, frame: &Isometry3<f64>| TrackerRecord {
+            label: label.to_string(),
+            frame: FrameRecord::of(frame),
+            sigma: Some(sigma),
+            offsets: Vec::new(),
+            offset_sigmas: None,
+            body: None,
+        };
+        let (mut record, probes) = calibrated();
+        record.trackers = vec![tracker("left", &(truth * error)), tracker("right", &truth)];
+        record.body = Some(parcal_dataset::mechanism::BodyRecord {
+            frame: FrameRecord::IDENTITY,
+            sigma: None,
+        });
+        let true_frames = [Some(FrameRecord::of(&truth)), None];
+        let rows = tracker_rows(&record, Some(&true_frames));
+        assert_eq!(rows.len(), 3);
+        assert_eq!(rows[0][5], "0.00, 0.00, 2.00; 3.00, 0.00, -1.50");
+        assert_eq!((rows[1][5].as_str(), rows[2][5].as_str()), ("-", "-"));
+        assert!(tracker_rows(&record, None).iter().all(|row| row.len() == 5));
+        let dataset = FromDataset {
+            probes: Some(&probes),
+            truth: None,
+            true_frames: Some(&true_frames),
+        };
+        let markdown = render(&record, "calibration.json", dataset, Format::Markdown).unwrap();
+        assert!(
+            markdown.contains("| error / sigma (rotations; translations) |")
+                && markdown.contains("A simulated tracker's error is"),
             "{markdown}"
         );
     }

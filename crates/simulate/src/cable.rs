@@ -275,6 +275,7 @@ fn cable_dataset(scenario: &CableScenario, simulation: CableSimulation) -> Mecha
         truth: Some(MechanismTruth {
             parameters: simulation.truth.iter().copied().collect(),
             trigger_height: None,
+            trackers: std::collections::BTreeMap::new(),
         }),
         ..MechanismDataset::default()
     }

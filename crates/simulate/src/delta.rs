@@ -26,11 +26,15 @@
 //! printer (1.5 to 2.5 m from its axis, turned about the vertical
 //! anywhere, tilted by up to 0.1 rad) and measures the true tool point at
 //! commanded positions drawn in the print volume, each coordinate with
-//! noise `N(0, σ_k²)`; truth.json does not hold the trackers' frames. Deterministic for a seed: each kind draws from
-//! its own stream, the plate from its own too, so that a dataset without
-//! it is the same as with it but for ball_distances.csv.
+//! noise `N(0, σ_k²)`; truth.json holds their frames. Deterministic for a
+//! seed: each kind draws from its own stream, the plate from its own too,
+//! so that a dataset without it is the same as with it but for
+//! ball_distances.csv.
+
+use std::collections::BTreeMap;
 
 use nalgebra::{Isometry3, Point3, Vector3};
+use parcal_dataset::FrameRecord;
 use parcal_dataset::bounds::Count;
 use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{
@@ -44,6 +48,7 @@ use parcal_kinematics::delta::{
 use parcal_kinematics::mechanism::Mechanism;
 
 use crate::plate::{self, PLATE_DISTANCES};
+use crate::tracker::frame_record;
 use crate::{Plate, Rng, SimulateError};
 
 /// The bounds of the touches of each ball: a centre takes three, a fourth
@@ -263,6 +268,7 @@ pub fn simulate_delta(
     let truth = MechanismTruth {
         parameters,
         trigger_height: Some(trigger_height),
+        trackers: BTreeMap::new(),
     };
     measure_delta(scenario, &truth, seed)
 }
@@ -279,7 +285,7 @@ pub fn measure_delta(
     let delta = scenario.delta();
     let configured: Vec<f64> = scenario.design.to_vector().iter().copied().collect();
     let rng = |stream: Stream| Rng::new(seed, stream as u64);
-    let truth_record = truth.clone();
+    let mut truth_record = truth.clone();
     let trigger = truth.trigger_height.ok_or_else(|| {
         SimulateError::Mechanism("the true printer has no trigger height".to_string())
     })?;
@@ -361,13 +367,14 @@ pub fn measure_delta(
         Some(plate) => plate::distances(plate, &centres, seed)?,
         None => Vec::new(),
     };
-    let tracker_points = track(
+    let (tracker_points, tracker_frames) = track(
         scenario,
         &delta,
         &truth,
         &configured,
         &mut rng(Stream::Trackers),
     )?;
+    truth_record.trackers = tracker_frames;
 
     let machine = MechanismMachine {
         noise: Noise {
@@ -399,17 +406,20 @@ pub fn measure_delta(
 }
 
 /// The trackers of `scenario` measuring the printer of true parameters
-/// `truth` run with `configured`, drawing from `draw` (module doc).
+/// `truth` run with `configured`, drawing from `draw` (module doc): their
+/// points, and each one's true frame by its label.
 fn track(
     scenario: &DeltaScenario,
     delta: &LinearDelta,
     truth: &[f64],
     configured: &[f64],
     draw: &mut Rng,
-) -> Result<Vec<TrackerPointRow>, SimulateError> {
+) -> Result<(Vec<TrackerPointRow>, BTreeMap<String, FrameRecord>), SimulateError> {
     let tau = 2.0 * std::f64::consts::PI;
     let mut rows = Vec::with_capacity(scenario.trackers * scenario.points_per_tracker);
+    let mut frames = BTreeMap::new();
     for tracker in 0..scenario.trackers {
+        let label = format!("T{}", tracker + 1);
         let (bearing, distance) = (draw.uniform(0.0, tau), draw.uniform(1500.0, 2500.0));
         let frame = Isometry3::new(
             Vector3::new(
@@ -435,13 +445,14 @@ fn track(
                 })?;
             let seen = frame.transform_point(&Point3::new(reached[0], reached[1], reached[2]));
             rows.push(TrackerPointRow {
-                tracker: format!("T{}", tracker + 1),
+                tracker: label.clone(),
                 commanded,
                 measured: std::array::from_fn(|i| seen[i] + draw.normal(scenario.tracker_sigma)),
             });
         }
+        frames.insert(label, frame_record(&frame));
     }
-    Ok(rows)
+    Ok((rows, frames))
 }
 
 /// Calibrated balls on the bed, touched.
@@ -568,6 +579,44 @@ mod tests {
         };
         let error = simulate_delta(&bad, 1).unwrap_err().to_string();
         assert!(error.contains("rings"), "{error}");
+    }
+
+    #[test]
+    fn the_truth_holds_each_trackers_frame() {
+        // Two trackers of 12 points at 10 um: truth.json gives each one's
+        // frame, which takes the true tool point at each commanded
+        // position to the point measured within 6 sigma a coordinate;
+        // written and read back.
+        let scenario = DeltaScenario {
+            trackers: 2,
+            ..DeltaScenario::typical()
+        };
+        let dataset = simulate_delta(&scenario, 5).unwrap();
+        let truth = dataset.truth.as_ref().unwrap();
+        let labels: Vec<&String> = truth.trackers.keys().collect();
+        assert_eq!(labels, ["T1", "T2"]);
+        let delta = scenario.delta();
+        let configured: Vec<f64> = scenario.design.to_vector().iter().copied().collect();
+        for row in &dataset.tracker_points {
+            let frame = truth.trackers[&row.tracker].isometry();
+            let q = delta.inverse(&configured, &row.commanded).unwrap();
+            let x = delta
+                .forward(&truth.parameters, q.as_slice(), &row.commanded)
+                .unwrap();
+            let seen = frame.transform_point(&Point3::new(x[0], x[1], x[2]));
+            for k in 0..3 {
+                let miss = (seen[k] - row.measured[k]).abs();
+                assert!(
+                    miss < 6.0 * scenario.tracker_sigma,
+                    "{}: {miss}",
+                    row.tracker
+                );
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("tracked");
+        dataset.write(&path).unwrap();
+        assert_eq!(MechanismDataset::read(&path).unwrap(), dataset);
     }
 
     #[test]

@@ -517,7 +517,7 @@ fn quaternion(rotation: &UnitQuaternion<f64>) -> [f64; 4] {
 }
 
 /// A rigid transformation as the dataset files hold it.
-fn frame_record(frame: &Pose) -> FrameRecord {
+pub(crate) fn frame_record(frame: &Pose) -> FrameRecord {
     FrameRecord {
         translation: frame.translation.vector.into(),
         rotation: quaternion(&frame.rotation),

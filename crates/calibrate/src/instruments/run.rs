@@ -382,8 +382,8 @@ impl InstrumentModel {
         (0..self.sessions.len())
             .map(|k| SessionRecord {
                 label: self.sessions[k].clone(),
-                tracker_frame: frame(&self.tracker_frame(values, k)),
-                body_frame: frame(&self.body_frame(values, k)),
+                tracker_frame: FrameRecord::of(&self.tracker_frame(values, k)),
+                body_frame: FrameRecord::of(&self.body_frame(values, k)),
                 leg_offsets: values.offsets[k],
             })
             .collect()
@@ -397,14 +397,5 @@ pub(crate) fn geometry_record(g: &Geometry) -> GeometryRecord {
         platform_joints: g.platform.map(Into::into),
         tool: g.tool.into(),
         leg_lengths: g.legs,
-    }
-}
-
-/// `isometry` as its record.
-pub(crate) fn frame(isometry: &Isometry3<f64>) -> FrameRecord {
-    let q = isometry.rotation.coords;
-    FrameRecord {
-        translation: isometry.translation.vector.into(),
-        rotation: [q.x, q.y, q.z, q.w],
     }
 }

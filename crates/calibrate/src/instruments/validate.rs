@@ -34,10 +34,10 @@
 //! declare re-fitted without prior) is re-fitted, and those whose
 //! residuals pass the test are its [`Explanation`]s.
 
-use nalgebra::{DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector6};
-use parcal_dataset::{Calibration, Dataset, FrameRecord, Points, Poses, SessionModel, Tracker};
+use nalgebra::{DMatrix, DVector, Isometry3, Vector6};
+use parcal_dataset::{Calibration, Dataset, Points, Poses, SessionModel, Tracker};
 use parcal_kinematics::params::TOOL_OFFSET;
-use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Params, Vec3, params};
+use parcal_kinematics::{ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Params, params};
 use parcal_observe::FrameCorrection;
 use parcal_solver::GlobalObservations;
 
@@ -107,8 +107,8 @@ impl Calibrated {
                 .iter()
                 .map(|s| CalibratedSession {
                     label: s.label.clone(),
-                    tracker_frame: isometry(&s.tracker_frame),
-                    body_frame: isometry(&s.body_frame),
+                    tracker_frame: s.tracker_frame.isometry(),
+                    body_frame: s.body_frame.isometry(),
                 })
                 .collect(),
             names: calibration.parameters.names.clone(),
@@ -149,14 +149,6 @@ impl Calibrated {
         }
         Some(FrameCorrection::from_params(&p))
     }
-}
-
-fn isometry(record: &FrameRecord) -> Isometry3<f64> {
-    let [x, y, z, w] = record.rotation;
-    Isometry3::from_parts(
-        Translation3::from(Vec3::from(record.translation)),
-        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
-    )
 }
 
 /// The outcome of a validation.

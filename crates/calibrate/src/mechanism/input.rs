@@ -12,6 +12,7 @@
 
 use std::sync::Arc;
 
+use nalgebra::Isometry3;
 use parcal_dataset::Distance;
 use parcal_dataset::mechanism::{MechanismDataset, MechanismTruth, tracker_labels};
 use parcal_kinematics::mechanisms;
@@ -23,6 +24,7 @@ use parcal_observe::mechanism::{
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
 use super::error::MechanismCalibrationError;
+use super::trackers::frame_motion;
 
 /// Calibrated distances between balls as read (a hexapod's
 /// artefacts.json, a mechanism's ball_distances.csv), as observations.
@@ -223,5 +225,38 @@ impl MechanismData {
             values.push(height);
         }
         Ok(values)
+    }
+
+    /// The true frames of these data's trackers (`truth`'s, by label) where
+    /// the calibration reports theirs
+    /// ([`MechanismCalibration::trackers`](super::MechanismCalibration)):
+    /// from the truth's canonical frame, `F ∘ A⁻¹` with `A` the rigid
+    /// motion from the true machine's frame to it ([`frame_motion`]); in
+    /// the order of the trackers, `None` for one the truth does not hold.
+    /// An error when the truth is not of this mechanism or its tool points
+    /// cannot be reached.
+    pub fn true_tracker_frames(
+        &self,
+        truth: &MechanismTruth,
+    ) -> Result<Vec<Option<Isometry3<f64>>>, MechanismCalibrationError> {
+        let trackers = &self.observations.trackers;
+        if trackers
+            .iter()
+            .all(|t| !truth.trackers.contains_key(&t.label))
+        {
+            return Ok(vec![None; trackers.len()]);
+        }
+        let canonical = self
+            .mechanism
+            .canonicalize(&truth.parameters)
+            .map_err(|source| MechanismCalibrationError::Kinematics {
+                mechanism: self.mechanism.name().to_string(),
+                source,
+            })?;
+        let to_canonical = frame_motion(self, &truth.parameters, canonical.as_slice())?;
+        let from_canonical = to_canonical.inverse();
+        Ok((trackers.iter())
+            .map(|t| Some(truth.trackers.get(&t.label)?.isometry() * from_canonical))
+            .collect())
     }
 }

@@ -3,15 +3,14 @@
 //! this one place.
 
 use nalgebra::DMatrix;
-use parcal_dataset::GlobalTestRecord;
 use parcal_dataset::mechanism::{
     BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
     ObservationRecord, ParameterRecord, RemovalRecord, TestsRecord, TrackerRecord,
     UndeterminedRecord,
 };
+use parcal_dataset::{FrameRecord, GlobalTestRecord};
 
 use super::result::{EstimatedBody, MechanismCalibration};
-use crate::instruments::run::frame;
 
 impl MechanismCalibration {
     /// The record of this calibration ([`MechanismCalibration::into_record`]
@@ -135,7 +134,7 @@ impl MechanismCalibration {
                 .iter()
                 .map(|t| TrackerRecord {
                     label: t.label.clone(),
-                    frame: frame(&t.frame),
+                    frame: FrameRecord::of(&t.frame),
                     sigma: t.sigma(),
                     offsets: t.offsets.iter().map(|&(value, _)| value).collect(),
                     offset_sigmas: (!t.offsets.is_empty())
@@ -153,7 +152,7 @@ impl MechanismCalibration {
 /// A body frame's record.
 fn body_record(body: &EstimatedBody) -> BodyRecord {
     BodyRecord {
-        frame: frame(&body.frame),
+        frame: FrameRecord::of(&body.frame),
         sigma: body.sigma(),
     }
 }

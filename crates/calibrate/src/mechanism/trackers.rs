@@ -206,20 +206,7 @@ impl Trackers {
                 ),
             });
         }
-        let points = &data.observations.tracker_points;
-        let all: Vec<usize> = (0..points.len()).collect();
-        let machine = (data.mechanism.as_ref(), data.configured.as_slice());
-        let tips = |params: &[f64]| -> Result<Vec<Vec3>, MechanismCalibrationError> {
-            let reached = reach(machine, params, points, &all)?;
-            Ok(reached.iter().map(|r| r.point).collect())
-        };
-        let motion = kabsch(&tips(params)?, &tips(moved)?).map_err(|e| {
-            MechanismCalibrationError::InvalidData {
-                what: "the trackers' points".to_string(),
-                reason: format!("they do not locate the canonical frame: {e}"),
-            }
-        })?;
-        let inverse = isometry(motion.rotation, motion.translation).inverse();
+        let inverse = frame_motion(data, params, moved)?.inverse();
         for k in 0..self.references.len() {
             let followed = self.frame(k, values).correction.isometry() * inverse;
             let columns = self.columns(k);
@@ -247,6 +234,36 @@ impl Trackers {
             correction: FrameCorrection::from_params(&correction),
         }
     }
+}
+
+/// The rigid motion `A` that carries the machine of `data` at the
+/// parameters `params` to where the parameters `moved` put it (its
+/// canonical frame): the best fit of the tool points its tracker points
+/// reach at `params` onto those at `moved` (Kabsch); the identity when
+/// `moved` is `params`. An error names a point not reached, or says that
+/// the points do not locate the frame (fewer than three, or on a line).
+pub(crate) fn frame_motion(
+    data: &MechanismData,
+    params: &[f64],
+    moved: &[f64],
+) -> Result<Isometry3<f64>, MechanismCalibrationError> {
+    if params == moved {
+        return Ok(Isometry3::identity());
+    }
+    let points = &data.observations.tracker_points;
+    let all: Vec<usize> = (0..points.len()).collect();
+    let machine = (data.mechanism.as_ref(), data.configured.as_slice());
+    let tips = |params: &[f64]| -> Result<Vec<Vec3>, MechanismCalibrationError> {
+        let reached = reach(machine, params, points, &all)?;
+        Ok(reached.iter().map(|r| r.point).collect())
+    };
+    let motion = kabsch(&tips(params)?, &tips(moved)?).map_err(|e| {
+        MechanismCalibrationError::InvalidData {
+            what: "the trackers' points".to_string(),
+            reason: format!("they do not locate the canonical frame: {e}"),
+        }
+    })?;
+    Ok(isometry(motion.rotation, motion.translation))
 }
 
 /// The indices of tracker `tracker`'s points among `points`, increasing.

@@ -216,6 +216,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let from_dataset = parcal::report::mechanism::FromDataset {
         probes: None,
         truth: truth.as_deref(),
+        true_frames: None,
     };
     super::mechanism::calibrate_with(
         HEXAPOD,

@@ -67,7 +67,8 @@ pub fn calibrate(
     let truth = super::truth::mechanism(path, &dataset, &data)?;
     let from_dataset = FromDataset {
         probes: Some(dataset.probes.as_slice()),
-        truth: truth.as_deref(),
+        truth: truth.as_ref().map(|t| t.values.as_slice()),
+        true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
     };
     calibrate_with(
         mechanism,

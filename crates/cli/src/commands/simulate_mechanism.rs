@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use parcal::dataset::mechanism::MechanismDataset;
+use parcal::dataset::mechanism::{MechanismDataset, tracker_labels};
 use parcal::simulation::mechanism::{
     MechanismOptions, MechanismRequest, Spelling, TrueMachine, mechanism_name, simulate_mechanism,
 };
@@ -76,7 +76,7 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         .iter()
         .filter(|s| s.position.is_some())
         .count();
-    let machine = match &request.truth {
+    let mut machine = match &request.truth {
         Some(path) => format!("the true machine of {}", path.display()),
         None => "the true machine".to_string(),
     };
@@ -84,8 +84,15 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         0 => String::new(),
         n => format!(" ({n} distances between them)"),
     };
+    let trackers = match tracker_labels(&dataset.tracker_points).len() {
+        0 => String::new(),
+        k => {
+            machine.push_str(" and the trackers' frames");
+            format!(", {} points of {k} trackers", dataset.tracker_points.len())
+        }
+    };
     println!(
-        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls{plate}, seed {} (truth.json: {machine})",
+        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls{plate}{trackers}, seed {} (truth.json: {machine})",
         request.out.display(),
         dataset.probes.len(),
         dataset.distances.len(),

@@ -6,8 +6,8 @@ use std::path::Path;
 
 use anyhow::Context;
 use parcal::calibration::mechanism::MechanismData;
-use parcal::dataset::Dataset;
 use parcal::dataset::mechanism::MechanismDataset;
+use parcal::dataset::{Dataset, FrameRecord};
 use parcal::kinematics::N_PARAMS;
 use parcal::workflows::evaluate::TrueMachine;
 
@@ -26,19 +26,34 @@ pub fn hexapod(dataset: &Dataset, parameters: usize) -> anyhow::Result<Option<Ve
     Ok(Some(values.chain(scales.into_iter().flatten()).collect()))
 }
 
-/// The true values of the simulated machine of `dataset` (read from
-/// `path`, its data `data`) in the terms of its calibration
-/// ([`MechanismData::true_values`]), when it has a truth.json.
+/// A simulated mechanism's truth in the terms of its calibration.
+pub struct MechanismTrue {
+    /// One value per unknown of the global block the record reports
+    /// ([`MechanismData::true_values`]).
+    pub values: Vec<f64>,
+    /// Each tracker's true frame from the canonical frame, as the record's
+    /// ([`MechanismData::true_tracker_frames`]).
+    pub frames: Vec<Option<FrameRecord>>,
+}
+
+/// The truth of the simulated machine of `dataset` (read from `path`, its
+/// data `data`) in the terms of its calibration, when it has a
+/// truth.json.
 pub fn mechanism(
     path: &Path,
     dataset: &MechanismDataset,
     data: &MechanismData,
-) -> anyhow::Result<Option<Vec<f64>>> {
+) -> anyhow::Result<Option<MechanismTrue>> {
     let Some(truth) = &dataset.truth else {
         return Ok(None);
     };
-    let values = data
-        .true_values(truth)
-        .map_err(|error| anyhow::anyhow!("{}: truth.json: {error}", path.display()))?;
-    Ok(Some(values))
+    let failed = |error| anyhow::anyhow!("{}: truth.json: {error}", path.display());
+    let values = data.true_values(truth).map_err(failed)?;
+    let frames = data.true_tracker_frames(truth).map_err(failed)?;
+    Ok(Some(MechanismTrue {
+        values,
+        frames: (frames.iter())
+            .map(|frame| frame.as_ref().map(FrameRecord::of))
+            .collect(),
+    }))
 }

@@ -284,7 +284,8 @@ impl MechanismDataset {
     /// counts within [`OBSERVATIONS`], values finite and within the length
     /// bound, the noise of each kind present given, each measured quantity
     /// one of the mechanism's with a positive sigma, the truth's trigger
-    /// height given for a machine with a probe. Errors name the files in
+    /// height given for a machine with a probe and its trackers among
+    /// those measured. Errors name the files in
     /// `dir` (a dataset built in memory: `Path::new("")`, the files' names).
     pub fn validate(&self, dir: &Path) -> Result<()> {
         let machine_path = dir.join(MACHINE_FILE);
@@ -350,6 +351,14 @@ impl MechanismDataset {
             return Err(Check::new(&dir.join(TRUTH_FILE)).error(
                 "trigger_height",
                 "required: the machine has a probe (probe heights or machine.json's trigger_height), whose trigger height is an unknown",
+            ));
+        }
+        let labels = tracker_labels(&self.tracker_points);
+        let trackers = self.truth.iter().flat_map(|t| t.trackers.keys());
+        if let Some(label) = trackers.into_iter().find(|l| !labels.contains(l)) {
+            return Err(Check::new(&dir.join(TRUTH_FILE)).error(
+                format!("trackers.{label}"),
+                format!("no tracker of this label measured in {TRACKER_POINTS_FILE}"),
             ));
         }
         let rows = |file: &str, rows: &mut dyn Iterator<Item = &[f64]>| -> Result<()> {

@@ -1,11 +1,16 @@
 //! A simulated mechanism dataset's truth (`truth.json`): the true
-//! parameters by name and, for a dataset whose probe heights make it an
-//! unknown, the true trigger height (a cable robot has none).
+//! parameters by name; for a dataset whose probe heights make it an
+//! unknown, the true trigger height (a cable robot has none); and each
+//! tracker's true frame by its label, from the true machine's frame to
+//! the tracker's (`x_tracker = R x + t`, `R` a unit quaternion `[x, y, z,
+//! w]`).
 //!
 //! ```json
 //! { "format": "parcal-mechanism-truth/1",
 //!   "parameters": { "endstop_a": 0.12, "...": 0.0 },
-//!   "trigger_height": 0.71 }
+//!   "trigger_height": 0.71,
+//!   "trackers": { "T1": { "translation": [1500.0, -20.0, 80.0],
+//!                         "rotation": [0.0, 0.0, 0.6, 0.8] } } }
 //! ```
 
 use std::collections::BTreeMap;
@@ -13,6 +18,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::FrameRecord;
 use crate::check::Check;
 use crate::error::Result;
 use crate::json;
@@ -26,6 +32,10 @@ pub struct MechanismTruth {
     pub parameters: Vec<f64>,
     /// The true trigger height (mm), if the machine has a probe.
     pub trigger_height: Option<f64>,
+    /// Each tracker's true frame by its label (tracker_points.csv's), from
+    /// the true machine's frame to the tracker's; none for a dataset
+    /// without trackers.
+    pub trackers: BTreeMap<String, FrameRecord>,
 }
 
 #[derive(Deserialize)]
@@ -34,6 +44,8 @@ struct TruthFile {
     parameters: BTreeMap<String, f64>,
     #[serde(default)]
     trigger_height: Option<f64>,
+    #[serde(default)]
+    trackers: BTreeMap<String, FrameRecord>,
 }
 
 #[derive(Serialize)]
@@ -41,6 +53,8 @@ struct TruthOut<'a> {
     parameters: Named<'a, f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     trigger_height: Option<f64>,
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    trackers: &'a BTreeMap<String, FrameRecord>,
 }
 
 impl MechanismTruth {
@@ -52,13 +66,26 @@ impl MechanismTruth {
         let check = Check::new(path);
         let mechanism = mechanism_named(path, "mechanism", name)?;
         let parameters = by_parameter(check, mechanism.as_ref(), "parameters", &file.parameters)?;
-        if let Some(height) = file.trigger_height {
-            check.length("trigger_height", height)?;
-        }
-        Ok(Some(Self {
+        let truth = Self {
             parameters,
             trigger_height: file.trigger_height,
-        }))
+            trackers: file.trackers,
+        };
+        truth.check_values(check)?;
+        Ok(Some(truth))
+    }
+
+    /// Refuses a trigger height or a tracker's frame that is not finite
+    /// or out of bounds (a rotation that is not a unit quaternion), naming
+    /// it.
+    fn check_values(&self, check: Check) -> Result<()> {
+        if let Some(height) = self.trigger_height {
+            check.length("trigger_height", height)?;
+        }
+        for (label, frame) in &self.trackers {
+            frame.validate(check, &format!("trackers.{label}"))?;
+        }
+        Ok(())
     }
 
     /// Writes `truth.json` at `path` atomically, for the mechanism `name`.
@@ -79,9 +106,7 @@ impl MechanismTruth {
         for (p, &value) in parameters.iter().zip(&self.parameters) {
             check.length(format!("parameters.{}", p.name), value)?;
         }
-        if let Some(height) = self.trigger_height {
-            check.length("trigger_height", height)?;
-        }
+        self.check_values(check)?;
         let out = TruthOut {
             parameters: Named(
                 parameters
@@ -91,6 +116,7 @@ impl MechanismTruth {
                     .collect(),
             ),
             trigger_height: self.trigger_height,
+            trackers: &self.trackers,
         };
         json::write(path, json::MECHANISM_TRUTH, &out)
     }

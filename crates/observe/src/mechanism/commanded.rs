@@ -185,13 +185,14 @@ impl Actuation {
         along: &mut Vec<Result<ReachedAlong, MechanismError>>,
     ) {
         assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
-        let at_readings: Option<(Vec<&[f64]>, Vec<&[f64]>)> = (actuations.iter().zip(starts))
+        let at_readings: Option<Vec<(&[f64], &[f64])>> = (actuations.iter().zip(starts))
             .map(|(actuation, start)| match (actuation, start) {
                 (Self::Readings(readings), Some(start)) => Some((readings.as_slice(), *start)),
                 _ => None,
             })
             .collect();
-        if let Some((readings, starts)) = at_readings {
+        if let Some(pairs) = at_readings {
+            let (readings, starts): (Vec<&[f64]>, Vec<&[f64]>) = pairs.into_iter().unzip();
             mechanism.tool_points_along(params, &readings, &starts, dp, along);
             return;
         }
