@@ -426,17 +426,7 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
         "{line}"
     );
     // And in the report, from the dataset given.
-    let report = dir.path().join("report");
-    let calibration = sim.join("calibration.json");
-    ok(&[
-        "report",
-        s(&calibration),
-        "--dataset",
-        s(&sim),
-        "--out",
-        s(&report),
-    ]);
-    let markdown = fs::read_to_string(report.join("report.md")).unwrap();
+    let markdown = reported(&sim, dir.path());
     assert!(markdown.contains("| true | error / sigma |"), "{markdown}");
     // A hexapod's way of validating is refused, saying the mechanism's.
     let err = fails(&["validate", s(&sim), "--folds", "3"]);
@@ -464,6 +454,21 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     assert!(err.contains("--probe-rings"), "{err}");
 }
 
+/// `parcal report` of `sim`'s calibration.json with the dataset `sim`,
+/// into `dir/report`: its report.md.
+fn reported(sim: &Path, dir: &Path) -> String {
+    let report = dir.join("report");
+    ok(&[
+        "report",
+        s(&sim.join("calibration.json")),
+        "--dataset",
+        s(sim),
+        "--out",
+        s(&report),
+    ]);
+    fs::read_to_string(report.join("report.md")).unwrap()
+}
+
 #[test]
 fn a_simulated_printers_trackers_are_judged_against_their_truth() {
     // Two trackers of 12 points: truth.json holds their frames, and the
@@ -489,18 +494,8 @@ fn a_simulated_printers_trackers_are_judged_against_their_truth() {
         "{said}"
     );
     ok(&["calibrate", s(&sim), "--report"]);
-    let report = dir.path().join("report");
-    let calibration = sim.join("calibration.json");
-    ok(&[
-        "report",
-        s(&calibration),
-        "--dataset",
-        s(&sim),
-        "--out",
-        s(&report),
-    ]);
-    for markdown in [sim.join("report.md"), report.join("report.md")] {
-        let markdown = fs::read_to_string(markdown).unwrap();
+    let calibrated = fs::read_to_string(sim.join("report.md")).unwrap();
+    for markdown in [calibrated, reported(&sim, dir.path())] {
         assert!(
             markdown.contains("| error / sigma (rotations; translations) |"),
             "{markdown}"

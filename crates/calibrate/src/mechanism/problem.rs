@@ -498,9 +498,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         caches: &[LastPose],
         reaches: &mut Reaches,
     ) {
-        let touches = &self.data.observations.touches;
-        let actuations: Vec<&Actuation> = points.map(|i| &touches[self.touch_at(i)].at).collect();
-        let starts: Vec<Option<&[f64]>> = caches.iter().map(LastPose::pose).collect();
+        let (actuations, starts) = self.actuations(points, caches);
         Actuation::tool_points(
             self.data.mechanism.as_ref(),
             &global.as_slice()[..self.n_params()],
@@ -509,6 +507,18 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             &starts,
             &mut reaches.at,
         );
+    }
+
+    /// How the machine was put at the touch points `points`, and the pose
+    /// each one's forward kinematics starts from (its cache's, if any).
+    fn actuations<'s>(
+        &'s self,
+        points: Range<usize>,
+        caches: &'s [LastPose],
+    ) -> (Vec<&'s Actuation>, Vec<Option<&'s [f64]>>) {
+        let touches = &self.data.observations.touches;
+        let actuations = points.map(|i| &touches[self.touch_at(i)].at).collect();
+        (actuations, caches.iter().map(LastPose::pose).collect())
     }
 
     /// [`MechanismProblem::reach`] along the global step `dg`, into
@@ -523,9 +533,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         caches: &[LastPose],
         reaches: &mut Reaches,
     ) {
-        let touches = &self.data.observations.touches;
-        let actuations: Vec<&Actuation> = points.map(|i| &touches[self.touch_at(i)].at).collect();
-        let starts: Vec<Option<&[f64]>> = caches.iter().map(LastPose::pose).collect();
+        let (actuations, starts) = self.actuations(points, caches);
         let n = self.n_params();
         Actuation::tool_points_along(
             self.data.mechanism.as_ref(),

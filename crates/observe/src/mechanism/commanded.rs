@@ -250,25 +250,43 @@ pub(crate) fn check_sigma(what: &'static str, sigma: f64) -> Result<(), Mechanis
 mod tests {
     use super::*;
     use crate::mechanism::test_support::delta;
+    use parcal_kinematics::delta::LinearDelta;
     use parcal_kinematics::mechanism::design;
     use parcal_kinematics::mechanisms::by_name;
 
-    #[test]
-    fn actuations_together_reach_what_each_reaches_alone() {
-        // A delta commanded twice and read twice (from a start and from
-        // its own), the one at commanded positions and the other at
-        // readings interleaved: the same outcomes as one at a time, to the
-        // bit (the delta has no batched forward kinematics).
+    /// The true delta of [`delta`] commanded twice and read twice, the
+    /// one at commanded positions and the other at readings interleaved,
+    /// and a start for the first read (the second starts from its own).
+    fn mixed_actuations() -> (
+        LinearDelta,
+        DVector<f64>,
+        DVector<f64>,
+        [Actuation; 4],
+        [f64; 3],
+    ) {
         let (delta, configured, truth) = delta();
-        let (c, p) = (configured.as_slice(), truth.as_slice());
-        let read = |x: [f64; 3]| delta.inverse(p, &x).unwrap().as_slice().to_vec();
+        let read = |x: [f64; 3]| {
+            delta
+                .inverse(truth.as_slice(), &x)
+                .unwrap()
+                .as_slice()
+                .to_vec()
+        };
         let actuations = [
             Actuation::Commanded([40.0, -30.0, 18.0]),
             Actuation::Readings(read([10.0, 5.0, 30.0])),
             Actuation::Readings(read([-20.0, 15.0, 12.0])),
             Actuation::Commanded([0.0, 60.0, 5.0]),
         ];
-        let start = [9.0, 5.5, 29.0];
+        (delta, configured, truth, actuations, [9.0, 5.5, 29.0])
+    }
+
+    #[test]
+    fn actuations_together_reach_what_each_reaches_alone() {
+        // The delta's mixed actuations: the same outcomes as one at a
+        // time, to the bit (the delta has no batched forward kinematics).
+        let (delta, configured, truth, actuations, start) = mixed_actuations();
+        let (c, p) = (configured.as_slice(), truth.as_slice());
         let starts = [None, Some(&start[..]), None, None];
         let refs: Vec<&Actuation> = actuations.iter().collect();
         let mut together = Vec::new();
@@ -317,18 +335,12 @@ mod tests {
 
     #[test]
     fn actuations_along_a_step_are_their_rows_times_the_step() {
-        // The delta's mix of commanded and read actuations: each one's
-        // product with the step from its own rows, to the bit, its pose
-        // its prediction; a step of the wrong length refuses each.
-        let (delta, configured, truth) = delta();
+        // The delta's mixed actuations: each one's product with the step
+        // from its own rows, to the bit, its pose its prediction; a step
+        // of the wrong length refuses each.
+        let (delta, configured, truth, actuations, start) = mixed_actuations();
         let (c, p) = (configured.as_slice(), truth.as_slice());
-        let read = |x: [f64; 3]| delta.inverse(p, &x).unwrap().as_slice().to_vec();
-        let actuations = [
-            Actuation::Commanded([40.0, -30.0, 18.0]),
-            Actuation::Readings(read([10.0, 5.0, 30.0])),
-        ];
-        let start = [9.0, 5.5, 29.0];
-        let starts = [None, Some(&start[..])];
+        let starts = [None, Some(&start[..]), None, None];
         let refs: Vec<&Actuation> = actuations.iter().collect();
         let dp: Vec<f64> = (0..p.len()).map(|k| 1e-3 * (k as f64).cos()).collect();
         let mut along = Vec::new();
