@@ -488,8 +488,9 @@ impl Mechanism for Hexapod {
 
     /// Four contacts at a time in SIMD lanes ([`forward_jacobian_batch`],
     /// `J_f` in factored form, its rows those of
-    /// [`TipDerivatives::jacobians`]), as [`Hexapod::in_batches`] runs
-    /// them.
+    /// [`TipDerivatives::jacobians`]); the contacts of a batch whose lanes
+    /// fail, or whose readings or starts are refused, one at a time, each
+    /// with its own outcome.
     fn tool_points_at_readings(
         &self,
         params: &[f64],
@@ -535,9 +536,9 @@ impl Mechanism for Hexapod {
 
     /// Four contacts at a time in SIMD lanes ([`forward_along_batch`]:
     /// `J_f dp` and the pose predicted at `p + dp`, without `J_f`), as
-    /// [`Hexapod::in_batches`] runs them; with unknown scales one at a
-    /// time, each contact's step of its legs its own
-    /// ([`Hexapod::kinematic_step`]).
+    /// [`Mechanism::tool_points_at_readings`] runs them; with unknown
+    /// scales one at a time, each contact's step of its legs its own
+    /// (`dl_i + q_i ds_i`, module doc).
     fn tool_points_along(
         &self,
         params: &[f64],

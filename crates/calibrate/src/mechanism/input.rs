@@ -231,8 +231,10 @@ impl MechanismData {
     /// the calibration reports theirs
     /// ([`MechanismCalibration::trackers`](super::MechanismCalibration)):
     /// from the truth's canonical frame, `F ∘ A⁻¹` with `A` the rigid
-    /// motion from the true machine's frame to it ([`frame_motion`]); in
-    /// the order of the trackers, `None` for one the truth does not hold.
+    /// motion from the true machine's frame to it (the best fit of the
+    /// tool points the trackers' points reach under each, as the fit's
+    /// frames follow the canonical frame); in the order of the trackers,
+    /// `None` for one the truth does not hold.
     /// An error when the truth is not of this mechanism or its tool points
     /// cannot be reached.
     pub fn true_tracker_frames(
