@@ -6,7 +6,7 @@
 
 use crate::common;
 
-use common::{PAPER_FILES, copy_fixture, fails, ok, parcal, s, text};
+use common::{PAPER_FILES, copy_fixture, fails, ok, parcal, s, text, tracker_errors};
 use parcal::kinematics::params::PARAM_NAMES;
 use parcal::workflows::evaluate::TrueMachine;
 use serde_json::Value;
@@ -311,6 +311,39 @@ fn the_default_options_through_the_common_calibration_are_the_own() {
         .find(|o| o["kind"] == "ball touch")
         .unwrap();
     assert_eq!(touch["residuals"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn a_simulated_hexapods_trackers_are_judged_against_their_truth() {
+    // Three sessions of tool points by a laser tracker: the report of the
+    // common calibration gives each session's frame error in its sigmas
+    // (its true frame from truth.json, carried to the canonical frame),
+    // every one of the 18 within 5.
+    let temp = tempfile::tempdir().unwrap();
+    let data = temp.path().join("points");
+    ok(&[
+        "simulate",
+        "--tracker",
+        "points",
+        "--seed",
+        "2",
+        "--out",
+        s(&data),
+    ]);
+    let out = temp.path().join("common.json");
+    ok(&[
+        "calibrate",
+        s(&data),
+        "--common",
+        "--out",
+        s(&out),
+        "--report",
+    ]);
+    let markdown = std::fs::read_to_string(temp.path().join("report.md")).unwrap();
+    for label in ["1", "2", "3"] {
+        let errors = tracker_errors(&markdown, label);
+        assert!(errors.iter().all(|e| e.abs() < 5.0), "{label}: {errors:?}");
+    }
 }
 
 #[test]

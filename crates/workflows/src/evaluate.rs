@@ -7,7 +7,7 @@ use parcal_accuracy::{
     AccuracyError, AccuracyMap, CanonicalTargets, MapGrid, predicted, true_error_at,
 };
 use parcal_dataset::Dataset;
-use parcal_kinematics::{Geometry, Params, Vec3, params};
+use parcal_kinematics::{Geometry, Params, Pose, Vec3, params};
 
 use parcal_calibrate::{CalibrationRun, ParamCovariance};
 
@@ -22,6 +22,8 @@ pub struct TrueMachine {
     pub params: Params,
     /// True ball centres in the true canonical base frame.
     pub centres: Vec<Vec3>,
+    /// Maps machine.json's base frame to the true canonical base frame.
+    pub base_from_input: Pose,
 }
 
 impl TrueMachine {
@@ -47,6 +49,7 @@ impl TrueMachine {
                 canonical: canonical.geometry,
                 input,
                 centres,
+                base_from_input: canonical.base_from_input,
             }
         }))
     }

@@ -209,14 +209,17 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
     let (data, options) = common_calibration(&dataset, &args.flags())
         .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
-    let truth = super::truth::hexapod(&dataset, data.mechanism.parameters().len())?;
+    let trackers: Vec<&str> = (data.observations.trackers.iter())
+        .map(|t| t.label.as_str())
+        .collect();
+    let truth = super::truth::hexapod(&dataset, data.mechanism.parameters().len(), &trackers)?;
     // The touches are in `data`: the dataset's memory is the room of the
     // calibration's.
     drop(dataset);
     let from_dataset = parcal::report::mechanism::FromDataset {
         probes: None,
-        truth: truth.as_deref(),
-        true_frames: None,
+        truth: truth.as_ref().map(|t| t.values.as_slice()),
+        true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
     };
     super::mechanism::calibrate_with(
         HEXAPOD,

@@ -110,29 +110,28 @@ fn write_mechanism(
     args: &Args,
     directory: &Path,
 ) -> anyhow::Result<()> {
-    let (mut probes, mut truth, mut mechanism_truth) = (None, None, None);
+    let (mut probes, mut truth) = (None, None);
     let mechanism_dataset;
     match &args.dataset {
         Some(path) if record.mechanism == HEXAPOD => {
             let dataset = super::read_dataset(path)?;
-            truth = super::truth::hexapod(&dataset, record.parameters.len())
+            let trackers: Vec<&str> = record.trackers.iter().map(|t| t.label.as_str()).collect();
+            truth = super::truth::hexapod(&dataset, record.parameters.len(), &trackers)
                 .map_err(|error| anyhow::anyhow!("{}: {error:#}", path.display()))?;
         }
         Some(path) => {
             mechanism_dataset = MechanismDataset::read(path)?;
             let data = MechanismData::from_dataset(&mechanism_dataset)
                 .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
-            mechanism_truth = super::truth::mechanism(path, &mechanism_dataset, &data)?;
+            truth = super::truth::mechanism(path, &mechanism_dataset, &data)?;
             probes = Some(mechanism_dataset.probes.as_slice());
         }
         None => {}
     }
     let from_dataset = FromDataset {
         probes,
-        truth: truth
-            .as_deref()
-            .or(mechanism_truth.as_ref().map(|t| t.values.as_slice())),
-        true_frames: mechanism_truth.as_ref().map(|t| t.frames.as_slice()),
+        truth: truth.as_ref().map(|t| t.values.as_slice()),
+        true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
     };
     let file = args.calibration.display().to_string();
     write_set(&[], || {

@@ -11,19 +11,37 @@ use parcal::dataset::{Dataset, FrameRecord};
 use parcal::kinematics::N_PARAMS;
 use parcal::workflows::evaluate::TrueMachine;
 
-/// The truth of a simulated hexapod `dataset` (none for a real one) as the
-/// `parameters` of a calibration through the common path: the true
-/// machine's 33 canonical parameters, then its actuators' scales when
-/// there are more than 33 (the scales unknown).
-pub fn hexapod(dataset: &Dataset, parameters: usize) -> anyhow::Result<Option<Vec<f64>>> {
-    let Some(truth) = TrueMachine::of(dataset) else {
+/// The truth of a simulated hexapod `dataset` (none for a real one) in the
+/// terms of a calibration through the common path of `parameters`
+/// parameters and the trackers `trackers` (by label): the true machine's
+/// 33 canonical parameters, then its actuators' scales when there are
+/// more than 33 (the scales unknown); each tracker's true frame from the
+/// true canonical base frame, its session's `tracker_frame` (from
+/// machine.json's base frame) composed with the canonical frame's map.
+pub fn hexapod(
+    dataset: &Dataset,
+    parameters: usize,
+    trackers: &[&str],
+) -> anyhow::Result<Option<MechanismTrue>> {
+    let (Some(truth), Some(record)) = (TrueMachine::of(dataset), dataset.truth.as_ref()) else {
         return Ok(None);
     };
     let truth = truth.context("truth.json: the true geometry is degenerate")?;
-    let scales = dataset.truth.as_ref().and_then(|t| t.actuator_scale);
-    let scales = scales.filter(|_| parameters > N_PARAMS);
+    let scales = record.actuator_scale.filter(|_| parameters > N_PARAMS);
     let values = truth.params.iter().copied();
-    Ok(Some(values.chain(scales.into_iter().flatten()).collect()))
+    let to_input = truth.base_from_input.inverse();
+    let frames = (trackers.iter())
+        .map(|label| {
+            let session = record.sessions.iter().find(|s| s.label == *label)?;
+            Some(FrameRecord::of(
+                &(session.tracker_frame.isometry() * to_input),
+            ))
+        })
+        .collect();
+    Ok(Some(MechanismTrue {
+        values: values.chain(scales.into_iter().flatten()).collect(),
+        frames,
+    }))
 }
 
 /// A simulated mechanism's truth in the terms of its calibration.

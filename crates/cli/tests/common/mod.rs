@@ -61,3 +61,17 @@ pub fn copy_fixture(name: &str, dir: &Path, files: &[&str]) -> PathBuf {
     }
     data
 }
+
+/// The last cell of tracker `label`'s row in a report's trackers table:
+/// its error in its sigmas, six numbers (`r_x, r_y, r_z; t_x, t_y, t_z`).
+pub fn tracker_errors(markdown: &str, label: &str) -> Vec<f64> {
+    let row = (markdown.lines())
+        .find(|l| l.starts_with(&format!("| {label} |")))
+        .unwrap_or_else(|| panic!("no row of tracker {label}:\n{markdown}"));
+    let last = row.trim_end_matches(" |").rsplit(" | ").next().unwrap();
+    let errors: Vec<f64> = (last.split([',', ';']))
+        .map(|e| e.trim().parse().unwrap())
+        .collect();
+    assert_eq!(errors.len(), 6, "{row}");
+    errors
+}
