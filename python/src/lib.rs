@@ -1,11 +1,11 @@
 //! parcal in Python: the extension module `parcal._parcal`, which the
 //! package `parcal` (python/parcal) re-exports. Datasets read from files
-//! or built from dicts and numpy arrays ([`dataset`]), their calibration as
-//! `parcal calibrate` makes it ([`calibrate`], [`run`]), and the other
-//! commands with numpy arrays where the command writes CSV ([`commands`]);
-//! the same for a linear delta or a cable robot ([`mechanism`]), the
-//! dataset's kind read from its machine.json ([`read`]).
-//! Every error is `parcal.Error`, a `ValueError` ([`error`]).
+//! or built from dicts and numpy arrays (`dataset`), their calibration as
+//! `parcal calibrate` makes it (`calibrate`, `run`), and the other
+//! commands with numpy arrays where the command writes CSV (`commands`);
+//! the same for a linear delta or a cable robot (`mechanism`), the
+//! dataset's kind read from its machine.json (`read`).
+//! Every error is `parcal.Error`, a `ValueError` (`error`).
 
 mod calibrate;
 mod commands;

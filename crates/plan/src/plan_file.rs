@@ -7,8 +7,8 @@
 //! design frame) and the nominal actuator commands (mm) that put the
 //! design's tool tip on `C + r u`. plan.json: the predicted figures, the
 //! prior's, the options, and plan.csv's checksum. Written as a set
-//! ([`write_pair`]); read back only as a pair that matches
-//! ([`check_pair`]).
+//! (`write_pair`); read back only as a pair that matches
+//! (`check_pair`).
 
 use std::path::{Path, PathBuf};
 
@@ -93,7 +93,7 @@ pub(crate) fn write_pair(
     write_pair_with(csv, text, &[], summary)
 }
 
-/// [`write_pair`] with more files beside: each `(path, text, field)`
+/// `write_pair` with more files beside: each `(path, text, field)`
 /// written in the same set, its checksum recorded in the summary's
 /// `field`.
 pub(crate) fn write_pair_with(
@@ -142,7 +142,7 @@ pub(crate) fn check_pair(csv: &Path) -> Result<(), DesignError> {
 /// Reads plan.csv (the dataset's CSV rules: columns by name, bounded
 /// lines, errors naming the file, line and column): finite numbers with
 /// unit directions; refused if plan.json beside it is of another plan
-/// ([`check_pair`]).
+/// (`check_pair`).
 pub fn read_plan(path: &Path) -> Result<Vec<PlanRow>, DesignError> {
     check_pair(path)?;
     let rows = read_labelled_numbers(path, "ball", &COLUMNS, "touch", |v| {

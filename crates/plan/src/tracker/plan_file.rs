@@ -52,7 +52,7 @@ impl PosePlanRow {
 
 /// Writes `plan` to `csv` and its summary to
 /// [`crate::plan_file::summary_path`] as a set
-/// ([`write_pair`]).
+/// (`write_pair`).
 pub fn write_pose_plan(
     csv: &Path,
     plan: &PosePlan,
@@ -102,7 +102,7 @@ pub fn write_pose_plan(
 
 /// Reads a pose plan.csv (the dataset's CSV rules: columns by name,
 /// bounded lines, errors naming the file, line and column); refused if
-/// plan.json beside it is of another plan ([`check_pair`]).
+/// plan.json beside it is of another plan (`check_pair`).
 pub fn read_pose_plan(path: &Path) -> Result<Vec<PosePlanRow>, DesignError> {
     check_pair(path)?;
     Ok(
