@@ -18,6 +18,7 @@ use std::ops::Range;
 
 use nalgebra::{Const, DVector, Dyn, OMatrix, SVector, U2, UnitVector3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
+use parcal_observe::mechanism::CoordinateRows;
 use parcal_observe::{DirectionChart, unit_direction};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 
@@ -25,7 +26,8 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
 use super::problem::{
-    FitProblem, LastPose, MechanismProblem, Reaches, Start, put_ball_columns, touch_failed,
+    FitProblem, LastPose, MechanismProblem, Reaches, Start, TouchedBall, put_ball_columns,
+    touch_failed,
 };
 use crate::options::Observation;
 
@@ -110,9 +112,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
-        let t = self.base.touch_at(i);
-        let touch = &self.base.data().observations.touches[t];
-        let ball = self.base.touched_ball(touch.ball, global, block);
+        let (t, touch, ball) = self.base.touch_and_ball(i, global, block);
         let chart = DirectionChart::about(&self.directions[i]);
         let rows = std::mem::replace(reached, Ok(Reached::default()))
             .and_then(|reached| {
@@ -121,13 +121,10 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(rows.pose.as_slice());
         let n = self.base.n_params();
-        out.residual = rows.residual;
         let others = out.d_global.ncols() - n;
         out.d_global.columns_mut(0, n).copy_from(&rows.d_params);
         out.d_global.columns_mut(n, others).fill(0.0);
-        out.d_group.fill(0.0);
-        out.d_point = rows.d_angles;
-        put_ball_columns(out, &ball, &rows.d_centre, &rows.d_radius);
+        put_local(out, &rows, &ball);
         // The pose and `dT/dp`'s room back where it came from, for the
         // next batch.
         *reached = Ok(Reached {
@@ -154,9 +151,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 3>, MechanismCalibrationError> {
-        let t = self.base.touch_at(i);
-        let touch = &self.base.data().observations.touches[t];
-        let ball = self.base.touched_ball(touch.ball, global, block);
+        let (t, touch, ball) = self.base.touch_and_ball(i, global, block);
         let chart = DirectionChart::about(&self.directions[i]);
         let (rows, predicted) = std::mem::replace(along, Ok(ReachedAlong::default()))
             .and_then(|along| {
@@ -171,10 +166,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(predicted.as_slice());
-        out.residual = rows.residual;
-        out.d_group.fill(0.0);
-        out.d_point = rows.d_angles;
-        put_ball_columns(out, &ball, &rows.d_centre, &rows.d_radius);
+        put_local(out, &rows, &ball);
         let params_step = Vector3::from_column_slice(rows.d_params.as_slice());
         let step = params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
         // The room back where it came from, for the next batch.
@@ -212,6 +204,16 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         }
         Ok(())
     }
+}
+
+/// A touch's rows but `d_global` into `out`: its residual, its angles'
+/// columns and its ball's ([`put_ball_columns`]), the group's other
+/// columns zero.
+fn put_local<const C: usize>(out: &mut Local<C>, rows: &CoordinateRows, ball: &TouchedBall) {
+    out.residual = rows.residual;
+    out.d_group.fill(0.0);
+    out.d_point = rows.d_angles;
+    put_ball_columns(out, ball, &rows.d_centre, &rows.d_radius);
 }
 
 /// A re-seeded ball's touches are charted again (module doc): about the

@@ -39,7 +39,7 @@ use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAlong};
-use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows};
+use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows, TouchRows};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 use rayon::prelude::*;
 
@@ -387,21 +387,16 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
-        let t = self.touch_at(i);
-        let touch = &self.data.observations.touches[t];
+        let (t, touch, ball) = self.touch_and_ball(i, global, block);
         let n = self.n_params();
-        let ball = self.touched_ball(touch.ball, global, block);
         let row = reached
             .and_then(|reached| touch.row(reached, &ball.centre, ball.radius))
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(row.pose.as_slice());
-        out.residual[0] = row.rows.residual[0];
         let others = out.d_global.ncols() - n;
         out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
         out.d_global.columns_mut(n, others).fill(0.0);
-        out.d_group.fill(0.0);
-        let d_radius = SVector::<f64, 1>::new(row.d_radius);
-        put_ball_columns(out, &ball, &row.d_centre, &d_radius);
+        put_touch_local(out, &row, &ball);
         Ok(())
     }
 
@@ -421,9 +416,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 1>, MechanismCalibrationError> {
-        let t = self.touch_at(i);
-        let touch = &self.data.observations.touches[t];
-        let ball = self.touched_ball(touch.ball, global, block);
+        let (t, touch, ball) = self.touch_and_ball(i, global, block);
         let (row, predicted) = along
             .and_then(|along| {
                 let row = touch.row(along.reached, &ball.centre, ball.radius)?;
@@ -431,12 +424,24 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(predicted.as_slice());
-        out.residual[0] = row.rows.residual[0];
-        out.d_group.fill(0.0);
-        let d_radius = SVector::<f64, 1>::new(row.d_radius);
-        put_ball_columns(out, &ball, &row.d_centre, &d_radius);
+        put_touch_local(out, &row, &ball);
         let params_step = SVector::<f64, 1>::new(row.rows.d_params[0]);
+        let d_radius = SVector::<f64, 1>::new(row.d_radius);
         Ok(params_step + ball.tied_step(&row.d_centre, &d_radius, dg))
+    }
+
+    /// Touch point `i`'s touch (its index and itself) and its ball's
+    /// unknowns at the global block `global` and its group's block `block`
+    /// ([`MechanismProblem::touched_ball`]).
+    pub(crate) fn touch_and_ball(
+        &self,
+        i: usize,
+        global: &DVector<f64>,
+        block: &SVector<f64, C>,
+    ) -> (usize, &BallTouch, TouchedBall) {
+        let t = self.touch_at(i);
+        let touch = &self.data.observations.touches[t];
+        (t, touch, self.touched_ball(touch.ball, global, block))
     }
 
     /// Ball `b`'s centre set to `centre` in the global block `global` when
@@ -752,6 +757,15 @@ pub(crate) fn put_ball_columns<const C: usize, const P: usize, const R: usize>(
             }
         }
     }
+}
+
+/// A touch's radius row but `d_global` into `out`: its residual and its
+/// ball's columns ([`put_ball_columns`]), the group's other columns zero.
+fn put_touch_local<const C: usize>(out: &mut Local<C>, row: &TouchRows, ball: &TouchedBall) {
+    out.residual[0] = row.rows.residual[0];
+    out.d_group.fill(0.0);
+    let d_radius = SVector::<f64, 1>::new(row.d_radius);
+    put_ball_columns(out, ball, &row.d_centre, &d_radius);
 }
 
 /// The error of touch `t` on ball `ball`.
