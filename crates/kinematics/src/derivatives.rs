@@ -141,6 +141,36 @@ impl FactoredTipJacobian {
         );
     }
 
+    /// `J_f` itself (3 x 33) into `out`, column-major (entry `(a, k)` at
+    /// `a + 3 k`): row `a` is [`FactoredTipJacobian::params_row`] of the
+    /// base-frame axis `a`, each leg's `R^T n_i` formed once for the three.
+    pub fn write_columns(&self, out: &mut [f64]) {
+        let out: &mut [f64; 3 * N_PARAMS] = out
+            .first_chunk_mut()
+            .expect("the 3 x 33 entries of the parameters' columns");
+        for (i, n) in self.directions.iter().enumerate() {
+            let n_platform = self.rotation.tr_mul(n);
+            let y = self.weights.row(i);
+            for a in 0..3 {
+                for c in 0..3 {
+                    if let Some(k) = BASE_INDEX[i][c] {
+                        out[a + 3 * k] = y[a] * n[c];
+                    }
+                    if let Some(k) = PLATFORM_INDEX[i][c] {
+                        out[a + 3 * k] = -y[a] * n_platform[c];
+                    }
+                }
+                out[a + 3 * leg_index(i)] = y[a];
+            }
+        }
+        // The tool columns: `h^T R` of the axis `h = e_a` is row `a` of `R`.
+        for c in 0..3 {
+            for a in 0..3 {
+                out[a + 3 * (TOOL_OFFSET + c)] = self.rotation[(a, c)];
+            }
+        }
+    }
+
     /// `J_f dp` (mm).
     pub fn along(&self, dp: &Params) -> Vec3 {
         let v = closure_change(&self.rotation, &self.directions, dp);

@@ -29,7 +29,7 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 
 use crate::closure::Legs;
-use crate::derivatives::{SolutionAlong, SolutionJacobian, TipDerivatives};
+use crate::derivatives::{FactoredTipJacobian, SolutionAlong, SolutionJacobian, TipDerivatives};
 use crate::forward::step;
 use crate::forward_batch::{LANES, PivotOrder, forward_along_batch, forward_jacobian_batch};
 use crate::mechanism::{
@@ -198,16 +198,11 @@ impl Hexapod {
     }
 
     /// `dT/dp |_q` (3 x parameters) of a contact at `readings` from the
-    /// crate's `J_f` over the 33, `J_f` a function writing the row `h^T
-    /// J_f` of a base-frame axis `h`: with scales, `dT/ds_i = q_i dT/dl_i`
-    /// after them (module doc).
-    fn reached_rows(
-        &self,
-        readings: &[f64],
-        params_row: impl Fn(&Vector3<f64>, &mut [f64]),
-    ) -> DMatrix<f64> {
+    /// crate's `J_f` over the 33 in factored form: with scales, `dT/ds_i =
+    /// q_i dT/dl_i` after them (module doc).
+    fn reached_rows(&self, readings: &[f64], jacobian: &FactoredTipJacobian) -> DMatrix<f64> {
         let mut d_params = DMatrix::zeros(3, self.parameters.len());
-        self.write_reached_rows(readings, params_row, &mut d_params);
+        self.write_reached_rows(readings, jacobian, &mut d_params);
         d_params
     }
 
@@ -216,33 +211,28 @@ impl Hexapod {
     fn write_reached_rows(
         &self,
         readings: &[f64],
-        params_row: impl Fn(&Vector3<f64>, &mut [f64]),
+        jacobian: &FactoredTipJacobian,
         d_params: &mut DMatrix<f64>,
     ) {
-        let mut row = [0.0; N_PARAMS];
-        for axis in 0..3 {
-            params_row(&Vector3::ith(axis, 1.0), &mut row);
-            let mut d = d_params.row_mut(axis);
-            d.columns_mut(0, N_PARAMS).copy_from_slice(&row);
-            if self.scaled {
-                for i in 0..6 {
-                    d[N_PARAMS + i] = readings[i] * row[leg_index(i)];
+        // Column-major, three rows: entry `(a, k)` at `a + 3 k`.
+        let entries = d_params.as_mut_slice();
+        jacobian.write_columns(entries);
+        if self.scaled {
+            for i in 0..6 {
+                for a in 0..3 {
+                    entries[a + 3 * (N_PARAMS + i)] = readings[i] * entries[a + 3 * leg_index(i)];
                 }
             }
         }
     }
 
     /// Where a forward-kinematics `solution` at `readings` reached, into
-    /// `room` (every value written), its rows from `J_f` in factored form
-    /// ([`FactoredTipJacobian::params_row`](crate::derivatives::FactoredTipJacobian::params_row)).
+    /// `room` (every value written), `dT/dp` from `J_f` in factored form
+    /// ([`FactoredTipJacobian::write_columns`]).
     fn write_solution(&self, readings: &[f64], solution: &SolutionJacobian, room: &mut Reached) {
         room.pose.copy_from_slice(&pose_coordinates(&solution.pose));
         room.point = solution.tool_tip;
-        self.write_reached_rows(
-            readings,
-            |h, row| solution.jacobian.params_row(h, row),
-            &mut room.d_params,
-        );
+        self.write_reached_rows(readings, &solution.jacobian, &mut room.d_params);
     }
 
     /// The step of the 33 geometric parameters that moves a contact at
@@ -482,7 +472,7 @@ impl Mechanism for Hexapod {
         Ok(Reached {
             pose: pose_vector(&pose),
             point: geometry.tool_tip(&pose),
-            d_params: self.reached_rows(readings, |h, row| derivatives.params_row(h, row)),
+            d_params: self.reached_rows(readings, &derivatives.factored()),
         })
     }
 

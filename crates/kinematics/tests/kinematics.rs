@@ -591,6 +591,15 @@ fn factored_tip_jacobian_is_the_tip_derivatives() {
         factored.params_row(&h, &mut a);
         derivatives.params_row(&h, &mut b);
         assert_close(&a, &b, 1e-12, "h^T J_f");
+        // The whole `J_f`, column-major: its rows are those of the axes,
+        // to the bit.
+        let mut columns = [0.0; 3 * N_PARAMS];
+        factored.write_columns(&mut columns);
+        for axis in 0..3 {
+            factored.params_row(&Vec3::ith(axis, 1.0), &mut a);
+            let row: Vec<f64> = (0..N_PARAMS).map(|k| columns[axis + 3 * k]).collect();
+            assert_eq!(row, a, "row {axis} of J_f");
+        }
         let dp = Params::from_fn(|_, _| rng.random_range(-1.0..1.0));
         let along = derivatives.along(&dp).tip;
         assert_close(

@@ -121,9 +121,10 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(rows.pose.as_slice());
         let n = self.base.n_params();
-        let others = out.d_global.ncols() - n;
-        out.d_global.columns_mut(0, n).copy_from(&rows.d_params);
-        out.d_global.columns_mut(n, others).fill(0.0);
+        // Column-major, three rows: the parameters' columns come first.
+        let (params, others) = out.d_global.as_mut_slice().split_at_mut(3 * n);
+        params.copy_from_slice(rows.d_params.as_slice());
+        others.fill(0.0);
         put_local(out, &rows, &ball);
         // The pose and `dT/dp`'s room back where it came from, for the
         // next batch.

@@ -91,9 +91,9 @@ impl BallTouch {
             pose, mut d_params, ..
         } = reached;
         let n = d_params.ncols();
-        for mut column in d_params.column_iter_mut() {
-            let tip = Vector3::new(column[0], column[1], column[2]);
-            column.copy_from(&-weight.whiten(&tip));
+        for column in d_params.as_mut_slice().chunks_exact_mut(3) {
+            let tip = -weight.whiten(&Vector3::new(column[0], column[1], column[2]));
+            column.copy_from_slice(tip.as_slice());
         }
         Ok(CoordinateRows {
             residual: whitened.residual,
