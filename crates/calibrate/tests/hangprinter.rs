@@ -373,8 +373,8 @@ fn variants_table() {
             println!(
                 "  {}: residual {:.1} sigma, w = {:.2}",
                 check.observation,
-                check.residuals[0],
-                check.normalised[0].unwrap_or(f64::NAN)
+                check.rows[0].residual,
+                check.rows[0].normalised.unwrap_or(f64::NAN)
             );
         }
         for parameter in all

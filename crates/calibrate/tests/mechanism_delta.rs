@@ -259,15 +259,15 @@ fn readings_at_unknown_and_measured_poses_calibrate_a_delta() {
         .iter()
         .find(|c| c.observation.kind == ObservationKind::Sample && c.observation.index == 20)
         .unwrap();
-    assert!(unknown.redundancy.iter().all(|&r| r < 1e-8), "{unknown:?}");
+    assert!(
+        unknown.rows.iter().all(|r| r.redundancy < 1e-8),
+        "{unknown:?}"
+    );
     // Its pose absorbs its readings whole: no residual is left but what
     // the stopping rule leaves (its pose's own step, which would remove
     // it, is below SIGMA_TOLERANCE in sigmas, the residual whitened).
     assert!(
-        unknown
-            .residuals
-            .iter()
-            .all(|e| e.abs() < parcal_solver::SIGMA_TOLERANCE),
+        (unknown.rows.iter()).all(|r| r.residual.abs() < parcal_solver::SIGMA_TOLERANCE),
         "{unknown:?}"
     );
     let n = 16;

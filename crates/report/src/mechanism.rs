@@ -73,7 +73,7 @@ pub fn probe_residual_svg(
         .observations
         .iter()
         .filter(|o| o.kind == probe)
-        .map(|o| Ok((at(o.index)?, o.residuals.first().copied().unwrap_or(0.0))))
+        .map(|o| Ok((at(o.index)?, o.rows.first().map_or(0.0, |r| r.residual))))
         .collect::<Result<Vec<_>, String>>()?;
     let removed = calibration
         .tests
@@ -177,12 +177,7 @@ pub fn w_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
     let worst = tests
         .observations
         .iter()
-        .flat_map(|o| {
-            o.normalised
-                .iter()
-                .enumerate()
-                .filter_map(move |(row, w)| w.map(|w| (o, row, w)))
-        })
+        .filter_map(|o| o.worst().map(|(row, w)| (o, row, w)))
         .max_by(|a, b| a.2.abs().total_cmp(&b.2.abs()));
     match worst {
         Some((observation, row, w)) => format!(
@@ -203,13 +198,13 @@ pub fn w_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
 /// with their observation equation when the record names it.
 pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<String> {
     let mut counts: Vec<(&str, usize)> = Vec::new();
-    for observation in &calibration.tests.observations {
+    for observation in calibration.tests.observations.iter() {
         match counts
             .iter_mut()
             .find(|(kind, _)| *kind == observation.kind)
         {
             Some((_, n)) => *n += 1,
-            None => counts.push((&observation.kind, 1)),
+            None => counts.push((observation.kind, 1)),
         }
     }
     let equation = calibration
@@ -589,7 +584,7 @@ pub fn identifiability_statements(calibration: &MechanismCalibrationRecord) -> V
         .tests
         .observations
         .iter()
-        .any(|o| lengths.contains(&o.kind.as_str()));
+        .any(|o| lengths.contains(&o.kind));
     if calibration.mechanism == "linear delta" && scale_undetermined && !has_lengths {
         lines.push(
             "Probe heights see Z, hardly the XY scale: distances measured on a printed part (distances.csv) or touches of calibrated balls (balls.csv, touches.csv) determine the diagonal rods and the radius.".to_string(),

@@ -127,7 +127,7 @@ pub struct MechanismCalibration {
 }
 
 /// The observation of `observation`'s kind and index.
-fn observation_ref(observation: &ObservationRecord) -> Option<ObservationRef> {
+fn observation_ref(observation: ObservationRecord) -> Option<ObservationRef> {
     ObservationKind::ALL
         .into_iter()
         .find(|kind| kind.name() == observation.kind)
@@ -135,17 +135,6 @@ fn observation_ref(observation: &ObservationRecord) -> Option<ObservationRef> {
             kind,
             index: observation.index,
         })
-}
-
-/// The row of `observation` whose normalised residual is largest in
-/// magnitude, with that `w` (`None` when no row is checked).
-fn worst_row(observation: &ObservationRecord) -> Option<(usize, f64)> {
-    observation
-        .normalised
-        .iter()
-        .enumerate()
-        .filter_map(|(row, w)| w.map(|w| (row, w)))
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
 }
 
 #[pymethods]
@@ -304,27 +293,26 @@ impl MechanismCalibration {
     fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let observations = &self.record.tests.observations;
         let (mut w, mut e) = (Vec::new(), Vec::new());
-        for observation in observations {
-            let worst = worst_row(observation);
+        for observation in observations.iter() {
+            let worst = observation.worst();
             w.push(worst.map_or(f64::NAN, |(_, w)| w));
-            let residual = worst.and_then(|(row, _)| observation.residuals.get(row).copied());
-            e.push(residual.unwrap_or(f64::NAN));
+            e.push(worst.map_or(f64::NAN, |(row, _)| observation.rows[row].residual));
         }
         let dict = PyDict::new(py);
-        let kinds: Vec<&str> = observations.iter().map(|o| o.kind.as_str()).collect();
+        let kinds: Vec<&str> = observations.iter().map(|o| o.kind).collect();
         let index: Vec<i64> = observations.iter().map(|o| o.index as i64).collect();
         let place: Vec<String> = observations
             .iter()
             .map(|o| {
                 observation_ref(o).map_or_else(
-                    || o.kind.clone(),
+                    || o.kind.to_string(),
                     |observation| observation_place(&self.record.mechanism, observation),
                 )
             })
             .collect();
         let redundancy: Vec<f64> = observations
             .iter()
-            .map(|o| o.redundancy.iter().sum())
+            .map(|o| o.rows.iter().map(|r| r.redundancy).sum())
             .collect();
         dict.set_item("kind", kinds)?;
         dict.set_item("index", PyArray1::from_vec(py, index))?;

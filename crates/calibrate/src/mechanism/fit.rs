@@ -12,6 +12,7 @@
 use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, SVector, Vector3};
+use parcal_dataset::mechanism::RowCheck;
 use parcal_solver::{
     BlockId, GlobalObservations, IterationRecord, Loss, Problem, Solution, SolverOptions, State,
     Status, group_sigmas, normalised_residual, redundancy, solve_with_caches,
@@ -21,6 +22,7 @@ use crate::mirror::remaining;
 use crate::options::Observation;
 use crate::verdict::{at_minimum, rows_and_unknowns};
 
+use super::checks::ObservationChecks;
 use super::coordinate_problem::CoordinateProblem;
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
@@ -29,32 +31,6 @@ use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::problem::{FitProblem, LastPose, MechanismProblem, Start, group_size};
 use super::trackers::Trackers;
-
-/// The numbers of one observation at the solution.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ObservationCheck {
-    /// The observation.
-    pub observation: ObservationRef,
-    /// Its rows' whitened residuals `e_j / σ_j` (weighted by a robust
-    /// loss's `√w` when there is one).
-    pub residuals: Vec<f64>,
-    /// Its rows' redundancy numbers `r_j`.
-    pub redundancy: Vec<f64>,
-    /// Its rows' normalised residuals `w_j = e_j / √r_j` (`None` for a row
-    /// no other row checks).
-    pub normalised: Vec<Option<f64>>,
-}
-
-impl ObservationCheck {
-    /// Its row of largest `|w_j|` and that `w_j`.
-    pub fn worst(&self) -> Option<(usize, f64)> {
-        self.normalised
-            .iter()
-            .enumerate()
-            .filter_map(|(j, w)| w.map(|w| (j, w)))
-            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-    }
-}
 
 /// What one fit gives (module doc).
 pub(crate) struct Fit {
@@ -85,7 +61,7 @@ pub(crate) struct Fit {
     /// Rows (data, priors) less unknowns.
     pub redundancy: usize,
     /// Every observation's numbers, at a least-squares minimum.
-    pub checks: Option<Vec<ObservationCheck>>,
+    pub checks: Option<ObservationChecks>,
     /// The balls found on the wrong side of their touches and re-seeded.
     pub mirrored: Vec<MirroredBall>,
     /// The number of data rows.
@@ -372,7 +348,7 @@ fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError>
 /// Every observation's check, and the local blocks' marginal sigmas
 /// ([`checks`]).
 type CheckedBlocks<const C: usize> =
-    Result<(Vec<ObservationCheck>, Vec<SVector<f64, C>>), MechanismCalibrationError>;
+    Result<(ObservationChecks, Vec<SVector<f64, C>>), MechanismCalibrationError>;
 
 /// Every observation's residuals, redundancy numbers and normalised
 /// residuals at `state`, through the solver's redundancy pass of `problem`
@@ -393,6 +369,11 @@ fn checks<const C: usize, const P: usize, const R: usize, Q>(
 where
     Q: Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>,
 {
+    let row = |residual: f64, redundancy: f64| RowCheck {
+        residual,
+        redundancy,
+        normalised: normalised_residual(residual, redundancy),
+    };
     let mut points = Vec::with_capacity(R * base.n_points());
     let global = redundancy::<C, P, R, _>(
         problem,
@@ -400,49 +381,38 @@ where
         covariance,
         &mut caches,
         groups_per_chunk,
-        |rows| points.extend((0..R).map(|j| (rows.residual[j], rows.redundancy[j]))),
+        |rows| points.extend((0..R).map(|j| row(rows.residual[j], rows.redundancy[j]))),
     )
     .map_err(|status| MechanismCalibrationError::Solver { status })?;
     // The checks below take their room.
     drop(caches);
-    let check = |observation, rows: &[(f64, f64)]| {
-        let (residuals, redundancy): (Vec<f64>, Vec<f64>) = rows.iter().copied().unzip();
-        let normalised = rows
-            .iter()
-            .map(|&(e, r)| normalised_residual(e, r))
-            .collect();
-        ObservationCheck {
-            observation,
-            residuals,
-            redundancy,
-            normalised,
-        }
-    };
-    let global_rows: Vec<(f64, f64)> = global
-        .global_observation_residuals
-        .iter()
-        .copied()
-        .zip(global.global_observations.iter().copied())
+    let global_rows: Vec<RowCheck> = (global.global_observation_residuals.iter())
+        .zip(global.global_observations.iter())
+        .map(|(&e, &r)| row(e, r))
         .collect();
-    let mut checks = Vec::with_capacity(refs.len() + points.len());
-    let mut row = 0;
-    for &(observation, rows) in refs {
-        checks.push(check(observation, &global_rows[row..row + rows]));
-        row += rows;
-    }
     let order = base.touch_order();
+    let mut checks = ObservationChecks::with_capacity(
+        refs.len() + points.len(),
+        global_rows.len() + points.len(),
+    );
+    let mut start = 0;
+    for &(observation, rows) in refs {
+        checks.push(observation, &global_rows[start..start + rows]);
+        start += rows;
+    }
     let (samples, touches) = points.split_at(points.len() - R * order.len());
     for (index, rows) in samples.chunks(base.actuators()).enumerate() {
         let kind = ObservationKind::Sample;
-        checks.push(check(ObservationRef { kind, index }, rows));
+        checks.push(ObservationRef { kind, index }, rows);
     }
-    let mut by_touch = vec![[(0.0, 0.0); R]; order.len()];
-    for (&t, rows) in order.iter().zip(touches.chunks_exact(R)) {
-        by_touch[t].copy_from_slice(rows);
+    // The touches in the order of the data, from the solver's.
+    let mut by_touch = vec![0; order.len()];
+    for (k, &t) in order.iter().enumerate() {
+        by_touch[t] = k;
     }
-    for (index, rows) in by_touch.iter().enumerate() {
+    for (index, &k) in by_touch.iter().enumerate() {
         let kind = ObservationKind::Touch;
-        checks.push(check(ObservationRef { kind, index }, rows));
+        checks.push(ObservationRef { kind, index }, &touches[R * k..R * (k + 1)]);
     }
     Ok((checks, global.group_sigmas))
 }

@@ -76,6 +76,7 @@ use std::time::Instant;
 use parcal_solver::IterationRecord;
 
 mod calibrated;
+mod checks;
 mod compensation;
 mod coordinate_problem;
 mod correlation;
@@ -100,6 +101,7 @@ mod trackers;
 mod validation;
 
 pub use calibrated::CalibratedMechanism;
+pub use checks::{ObservationCheck, ObservationChecks};
 pub use compensation::{
     Compensation, NAMED_TARGETS, UnreachableTargets, compensate_mechanism, compensate_targets,
 };
@@ -109,7 +111,6 @@ pub use data::{
     MechanismData, Observations, ParameterPrior, Tracker,
 };
 pub use error::MechanismCalibrationError;
-pub use fit::ObservationCheck;
 pub use identifiability::{Identifiability, Undetermined};
 pub use mirror::MirroredBall;
 pub use observation::{HeldOut, ObservationKind, ObservationRef, number_ranges};

@@ -5,8 +5,7 @@
 use nalgebra::DMatrix;
 use parcal_dataset::mechanism::{
     BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
-    ObservationRecord, ParameterRecord, RemovalRecord, TestsRecord, TrackerRecord,
-    UndeterminedRecord,
+    ParameterRecord, RemovalRecord, TestsRecord, TrackerRecord, UndeterminedRecord,
 };
 use parcal_dataset::{FrameRecord, GlobalTestRecord};
 
@@ -44,17 +43,7 @@ impl MechanismCalibration {
                 sigma_ratio: ratio(k),
             })
             .collect();
-        let observations = self
-            .observations
-            .into_iter()
-            .map(|c| ObservationRecord {
-                kind: c.observation.kind.name().to_string(),
-                index: c.observation.index,
-                residuals: c.residuals,
-                redundancy: c.redundancy,
-                normalised: c.normalised,
-            })
-            .collect();
+        let observations = self.observations.into_records();
         let removed = self
             .removals
             .iter()

@@ -13,9 +13,10 @@ use crate::options::Observation;
 use crate::snooping::{Removal, Worst};
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
+use super::checks::ObservationChecks;
 use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
-use super::fit::{Fit, ObservationCheck};
+use super::fit::Fit;
 use super::frame::{canonical_by, canonical_params};
 use super::identifiability::{Identifiability, Inputs, gauge_directions, identifiability};
 use super::mirror::MirroredBall;
@@ -145,7 +146,7 @@ pub struct MechanismCalibration {
     /// Every remaining observation's residuals, redundancy numbers and
     /// normalised residuals (named by their place in the data given), at
     /// a least-squares minimum; empty elsewhere.
-    pub observations: Vec<ObservationCheck>,
+    pub observations: ObservationChecks,
     /// The global test, at a least-squares minimum with redundancy.
     pub global_test: Option<GlobalTest>,
     /// The critical value of the w-tests (family-wise `α` over
@@ -433,7 +434,7 @@ fn body_estimate(
 }
 
 /// The observation of largest `|w|` among `observations`.
-fn worst(observations: &[ObservationCheck]) -> Option<Worst<ObservationRef>> {
+fn worst(observations: &ObservationChecks) -> Option<Worst<ObservationRef>> {
     observations
         .iter()
         .filter_map(|c| {
@@ -442,7 +443,7 @@ fn worst(observations: &[ObservationCheck]) -> Option<Worst<ObservationRef>> {
                 observation: c.observation,
                 row,
                 normalised,
-                gross_error: c.residuals[row] / c.redundancy[row],
+                gross_error: c.rows[row].residual / c.rows[row].redundancy,
             })
         })
         .max_by(|a, b| a.normalised.abs().total_cmp(&b.normalised.abs()))

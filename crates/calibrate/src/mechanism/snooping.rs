@@ -98,9 +98,7 @@ pub(crate) fn snoop(
         calibrate_once(data, options, started, &mut *observer)
     })?;
     let mut run = snooped.run;
-    for check in &mut run.observations {
-        check.observation = snooped.remaining.original(check.observation);
-    }
+    (run.observations).rename(|observation| snooped.remaining.original(observation));
     run.removals = snooped.removals;
     run.snooping_stopped = snooped.stopped;
     run.reasons = reasons(&run);

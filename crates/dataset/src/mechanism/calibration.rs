@@ -16,6 +16,7 @@ use crate::json;
 use crate::{FrameRecord, GlobalTestRecord};
 
 use super::machine::mechanism_named;
+use super::observation_records::ObservationRecords;
 
 /// The name of the probe's trigger height among the estimated unknowns,
 /// after the mechanism's parameters.
@@ -41,23 +42,6 @@ pub struct ParameterRecord {
     pub prior_sigma: Option<f64>,
     /// Its posterior over its prior sigma (canonical frame).
     pub sigma_ratio: Option<f64>,
-}
-
-/// One observation's residuals and tests.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ObservationRecord {
-    /// Its kind (`probe height`, `part distance`, `measured point`,
-    /// `point sample`, `measured quantity`, `ball touch`).
-    pub kind: String,
-    /// Its 0-based index among those of its kind in the dataset.
-    pub index: usize,
-    /// Its rows' whitened residuals.
-    pub residuals: Vec<f64>,
-    /// Its rows' redundancy numbers.
-    pub redundancy: Vec<f64>,
-    /// Its rows' normalised residuals (`None`: not checked).
-    pub normalised: Vec<Option<f64>>,
 }
 
 /// An observation removed by snooping.
@@ -93,7 +77,7 @@ pub struct TestsRecord {
     /// The critical value of `|w|`.
     pub critical_value: f64,
     /// Every observation's numbers.
-    pub observations: Vec<ObservationRecord>,
+    pub observations: ObservationRecords,
     /// The observations snooping removed.
     pub removed: Vec<RemovalRecord>,
     /// Why snooping stopped early, if it did.
@@ -263,7 +247,8 @@ impl MechanismCalibrationRecord {
     /// A known mechanism; unique parameter names; finite values, sigmas
     /// and covariance of the parameters' size; a prior correlation of the
     /// size of the parameters but the trigger height, unit diagonal, entries within ±1;
-    /// finite ball centres and radii.
+    /// finite ball centres and radii; every observation row held by an
+    /// observation.
     fn validate(&self, check: Check) -> Result<()> {
         mechanism_named(check.path(), "mechanism", &self.mechanism)?;
         let mut names = BTreeSet::new();
@@ -331,6 +316,13 @@ impl MechanismCalibrationRecord {
             if let Some(sigma) = ball.radius_sigma {
                 check.non_negative(format!("balls[{b}].radius_sigma"), sigma)?;
             }
+        }
+        let unclaimed = self.tests.observations.unclaimed_rows();
+        if unclaimed > 0 {
+            return Err(check.error(
+                "tests.observations",
+                format!("{unclaimed} rows belong to no observation"),
+            ));
         }
         Ok(())
     }

@@ -51,6 +51,7 @@ mod ball_distances;
 mod balls;
 mod calibration;
 mod machine;
+mod observation_records;
 mod observations;
 mod quantities;
 mod targets;
@@ -66,10 +67,10 @@ pub use balls::{
 };
 pub use calibration::{
     BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
-    ObservationRecord, ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord,
-    UndeterminedRecord,
+    ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord, UndeterminedRecord,
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
+pub use observation_records::{ObservationRecord, ObservationRecords, RowCheck, worst_row};
 pub use observations::{
     DISTANCE_COLUMNS, LOAD_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS,
     SampleRow,

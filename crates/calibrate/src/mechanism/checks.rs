@@ -1,0 +1,166 @@
+//! Every observation's numbers at the solution: its rows' whitened
+//! residuals `e_j / σ_j` (weighted by a robust loss's `√w` when there is
+//! one), redundancy numbers `r_j` and normalised residuals
+//! `w_j = e_j / √r_j` (Baarda's w-test), held as two columns, the
+//! observations and their rows, with no allocation per observation, and
+//! moved as they are into calibration.json's record.
+
+use std::borrow::Cow;
+
+use parcal_dataset::mechanism::{ObservationRecords, RowCheck, worst_row};
+
+use super::observation::ObservationRef;
+
+/// One observation's numbers at the solution, borrowed from
+/// [`ObservationChecks`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObservationCheck<'a> {
+    /// The observation.
+    pub observation: ObservationRef,
+    /// Its rows' residuals, redundancy numbers and normalised residuals
+    /// (`None` for a row no other row checks).
+    pub rows: &'a [RowCheck],
+}
+
+impl ObservationCheck<'_> {
+    /// Its row of largest `|w_j|` and that `w_j`.
+    pub fn worst(&self) -> Option<(usize, f64)> {
+        worst_row(self.rows)
+    }
+}
+
+/// Every observation's numbers at the solution, in the order of the data
+/// (module doc).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ObservationChecks {
+    /// Each observation, with the end of its rows in `rows`.
+    observations: Vec<(ObservationRef, usize)>,
+    /// The rows of every observation, in turn.
+    rows: Vec<RowCheck>,
+}
+
+impl ObservationChecks {
+    /// Room for `observations` observations of `rows` rows in all.
+    pub(crate) fn with_capacity(observations: usize, rows: usize) -> Self {
+        Self {
+            observations: Vec::with_capacity(observations),
+            rows: Vec::with_capacity(rows),
+        }
+    }
+
+    /// The next observation and its rows.
+    pub(crate) fn push(&mut self, observation: ObservationRef, rows: &[RowCheck]) {
+        self.rows.extend_from_slice(rows);
+        self.observations.push((observation, self.rows.len()));
+    }
+
+    /// The number of observations.
+    pub fn len(&self) -> usize {
+        self.observations.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.observations.is_empty()
+    }
+
+    /// Observation `k`'s.
+    pub fn get(&self, k: usize) -> Option<ObservationCheck<'_>> {
+        let &(observation, end) = self.observations.get(k)?;
+        let start = k.checked_sub(1).map_or(0, |j| self.observations[j].1);
+        Some(ObservationCheck {
+            observation,
+            rows: &self.rows[start..end],
+        })
+    }
+
+    /// Every observation's, in order.
+    pub fn iter(&self) -> impl Iterator<Item = ObservationCheck<'_>> + '_ {
+        let starts = std::iter::once(0).chain(self.observations.iter().map(|&(_, end)| end));
+        (self.observations.iter().zip(starts)).map(|(&(observation, end), start)| {
+            ObservationCheck {
+                observation,
+                rows: &self.rows[start..end],
+            }
+        })
+    }
+
+    /// Each observation named anew by `rename` (snooping's data back to
+    /// the original's places).
+    pub(crate) fn rename(&mut self, rename: impl Fn(ObservationRef) -> ObservationRef) {
+        for (observation, _) in &mut self.observations {
+            *observation = rename(*observation);
+        }
+    }
+
+    /// As calibration.json records them, the rows moved, not copied.
+    pub(crate) fn into_records(self) -> ObservationRecords {
+        let mut records = ObservationRecords::of_rows(self.rows);
+        let mut start = 0;
+        for (observation, end) in self.observations {
+            let kind = Cow::Borrowed(observation.kind.name());
+            let pushed = records.push(kind, observation.index, end - start);
+            debug_assert!(pushed, "the rows end where the observations' do");
+            start = end;
+        }
+        records
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanism::ObservationKind;
+
+    fn row(residual: f64, normalised: Option<f64>) -> RowCheck {
+        RowCheck {
+            residual,
+            redundancy: 0.5,
+            normalised,
+        }
+    }
+
+    /// Each observation keeps its rows, in order, into the record too.
+    #[test]
+    fn each_observation_keeps_its_rows() {
+        let touch = ObservationRef {
+            kind: ObservationKind::Touch,
+            index: 4,
+        };
+        let probe = ObservationRef {
+            kind: ObservationKind::Probe,
+            index: 1,
+        };
+        let mut checks = ObservationChecks::with_capacity(2, 4);
+        checks.push(probe, &[row(0.3, Some(0.42))]);
+        checks.push(
+            touch,
+            &[row(1.0, None), row(-2.0, Some(-2.8)), row(0.5, Some(0.7))],
+        );
+        assert_eq!(checks.len(), 2);
+        let second = checks.get(1).unwrap();
+        assert_eq!((second.observation, second.rows.len()), (touch, 3));
+        assert_eq!(second.worst(), Some((1, -2.8)));
+        assert!(checks.get(2).is_none());
+        let residuals: Vec<Vec<f64>> = (checks.iter())
+            .map(|c| c.rows.iter().map(|r| r.residual).collect())
+            .collect();
+        assert_eq!(residuals, [vec![0.3], vec![1.0, -2.0, 0.5]]);
+        checks.rename(|o| ObservationRef {
+            index: o.index + 10,
+            ..o
+        });
+        let records = checks.into_records();
+        assert_eq!(records.unclaimed_rows(), 0);
+        let kinds: Vec<(&str, usize, usize)> = (records.iter())
+            .map(|r| (r.kind, r.index, r.rows.len()))
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                (ObservationKind::Probe.name(), 11, 1),
+                (ObservationKind::Touch.name(), 14, 3)
+            ]
+        );
+    }
+}
