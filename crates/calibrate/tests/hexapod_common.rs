@@ -47,6 +47,44 @@ fn the_common_calibration_of_a_hexapod_is_its_own() {
     }
 }
 
+/// The common calibration starts where the own one does (the own
+/// set-up's ball centres and design poses, `TouchStart`): the same cost at
+/// the start, to rounding; the same number of iterations; the same cost at
+/// the end, to the stopping rule's level. A start of the wrong size is
+/// refused by name.
+#[test]
+fn the_common_hexapod_starts_where_the_own_does() {
+    let dataset = Dataset::read(&fixture()).unwrap();
+    for simulation in [Simulation::I, Simulation::IV] {
+        let options = CalibrationOptions::simulation(simulation);
+        let mut own_costs = Vec::new();
+        calibrate(&dataset, &options, &mut |r| own_costs.push(r.cost)).unwrap();
+        let data = MechanismData::from_hexapod_touches(&dataset, &options).unwrap();
+        let common_options = MechanismOptions::default().with_observation(options.observation);
+        let mut costs = Vec::new();
+        calibrate_mechanism(&data, &common_options, &mut |r| costs.push(r.cost)).unwrap();
+        println!("{simulation:?}: own {own_costs:?}\n  common {costs:?}");
+        // The same start, to rounding; the same iterations; and ends each
+        // within SIGMA_TOLERANCE of its sigmas from the minimum, so within
+        // about that squared of its cost.
+        assert!((costs[0] / own_costs[0] - 1.0).abs() < 1e-12);
+        assert_eq!(costs.len(), own_costs.len());
+        let last = (costs.last().unwrap() - own_costs.last().unwrap()).abs();
+        assert!(last < 2.0 * SIGMA_TOLERANCE.powi(2), "{last:e}");
+        let mut wrong = data.clone();
+        let mut start = data.touch_start.clone().unwrap();
+        start.poses.pop();
+        wrong.touch_start = Some(start);
+        let error = calibrate_mechanism(&wrong, &common_options, &mut |_| {})
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("touches' start") && error.contains("189 touches of 6 each"),
+            "{error}"
+        );
+    }
+}
+
 #[test]
 fn the_coordinate_observation_through_the_interface_is_the_own_paths() {
     // Eq. 10: three rows and two contact angles a touch, the own set-up's

@@ -17,6 +17,7 @@ use super::correlation::check_correlation;
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::tied::TiedBalls;
+use super::touch_start::TouchStart;
 
 /// The most observations of each kind: far beyond a calibration's needs
 /// (a probed bed holds tens to hundreds), and small enough that the
@@ -295,6 +296,10 @@ pub struct MechanismData {
     pub trigger_height: ParameterPrior,
     /// The observations.
     pub observations: Observations,
+    /// Where a fit starts the balls and touches, when another set-up has
+    /// located them ([`TouchStart`]); `None`: from the mechanism's start
+    /// poses.
+    pub touch_start: Option<TouchStart>,
 }
 
 impl fmt::Debug for MechanismData {
@@ -306,6 +311,7 @@ impl fmt::Debug for MechanismData {
             .field("prior_correlation", &self.prior_correlation)
             .field("trigger_height", &self.trigger_height)
             .field("observations", &self.observations)
+            .field("touch_start", &self.touch_start.as_ref().map(|_| "given"))
             .finish()
     }
 }
@@ -338,7 +344,15 @@ impl MechanismData {
                 sigma: None,
             },
             observations,
+            touch_start: None,
         }
+    }
+
+    /// These data with their balls and touches started at `start`
+    /// (checked by [`MechanismData::validate`]).
+    pub fn with_touch_start(mut self, start: TouchStart) -> Self {
+        self.touch_start = Some(start);
+        self
     }
 
     /// These data with the prior sigma of every parameter of `group` set
@@ -428,10 +442,13 @@ impl MechanismData {
         !self.observations.probes.is_empty()
     }
 
-    /// These data with other observations.
+    /// These data with other observations, started from the mechanism's
+    /// start poses.
     pub fn with_observations(&self, observations: Observations) -> Self {
         Self {
             observations,
+            // Its places are the old observations'.
+            touch_start: None,
             ..self.clone()
         }
     }
@@ -444,8 +461,9 @@ impl MechanismData {
     /// [`MAX_OBSERVATIONS`] (balls within [`MAX_BALLS`]) and at least one
     /// observation; every ball touched at least [`MIN_TOUCHES_PER_BALL`]
     /// times; every ball distance between two balls that exist, each
-    /// pair at most once, tying at most [`MAX_TIED_BALLS`] balls. The first
-    /// problem names the parameter, the observation or the ball.
+    /// pair at most once, tying at most [`MAX_TIED_BALLS`] balls; a touch
+    /// start of their sizes. The first problem names the parameter, the
+    /// observation or the ball.
     pub fn validate(&self) -> Result<(), MechanismCalibrationError> {
         let mechanism = self.mechanism.as_ref();
         let invalid = |what: String, reason: String| {
@@ -630,7 +648,10 @@ impl MechanismData {
             check_values(id, "value", &[measured.value])?;
             check_sigma(id, measured.sigma)?;
         }
-        Ok(())
+        match &self.touch_start {
+            Some(start) => start.validate(self),
+            None => Ok(()),
+        }
     }
 }
 

@@ -61,6 +61,10 @@
 //!   weigh a leg's row alike at the design's scales and in the ratio
 //!   `s_i / s_i,design` at others).
 //!
+//! - The start: the own set-up's ([`TouchStart`]): each ball's centre (the
+//!   best fit of its design tool tips, or its mirror image) and each
+//!   contact's pose by the design's forward kinematics.
+//!
 //! Both calibrations then minimise the same cost (with poses at unknown
 //! scales, a cost weighted as above) from the same start (but for a
 //! tracker with poses, whose frame the common calibration locates by the
@@ -85,7 +89,7 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
 use parcal_dataset::{ArtefactFrame, Dataset};
-use parcal_kinematics::hexapod::{Hexapod, TOOL_GROUP};
+use parcal_kinematics::hexapod::{Hexapod, TOOL_GROUP, pose_vector};
 use parcal_kinematics::mechanism::design;
 use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::CoordinateWhitening;
@@ -95,6 +99,7 @@ use parcal_observe::mechanism::{Actuation, Approach, BallTouch, TrackerPoint, Tr
 use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
 use super::error::MechanismCalibrationError;
 use super::input::ball_distances;
+use super::touch_start::TouchStart;
 use crate::CalibrationOptions;
 use crate::instruments::observations::{groups, initial_block, model_and_rows};
 use crate::instruments::rows::InstrumentRows;
@@ -160,7 +165,13 @@ impl MechanismData {
             body_reference: instruments.body_reference,
             ..Observations::default()
         };
-        let data = Self::new(Arc::new(hexapod), configured, observations);
+        // The common calibration starts where the own one does.
+        let touch_start = TouchStart {
+            centres: start.centres.iter().map(|c| [c.x, c.y, c.z]).collect(),
+            poses: start.poses,
+        };
+        let data =
+            Self::new(Arc::new(hexapod), configured, observations).with_touch_start(touch_start);
         let tracker = &dataset.tracker;
         let sees_tool = !dataset.measurements.ball.is_empty() || !tracker.points.is_empty();
         Ok(match options.prior {
@@ -415,6 +426,9 @@ struct DesignStart {
     /// Each ball's centre: the best fit of its design tool tips, or its
     /// mirror image.
     centres: Vec<Vec3>,
+    /// Every contact's pose by the design's forward kinematics (the
+    /// hexapod's pose coordinates), in the order of the measurements.
+    poses: Vec<f64>,
 }
 
 /// The weights and the balls' centres the hexapod calibration forms at
@@ -450,11 +464,15 @@ fn design_start(
             .collect(),
     };
     let mut weights = vec![ContactWeight::default(); setup.order.len()];
-    for (&row, weight) in setup.order.iter().zip(sorted) {
-        weights[row as usize] = weight;
+    let mut poses = vec![0.0; 6 * setup.order.len()];
+    for ((&row, weight), pose) in setup.order.iter().zip(sorted).zip(&setup.poses) {
+        let row = row as usize;
+        weights[row] = weight;
+        poses[6 * row..6 * (row + 1)].copy_from_slice(pose_vector(pose).as_slice());
     }
     Ok(DesignStart {
         weights,
         centres: setup.initial_centres,
+        poses,
     })
 }

@@ -97,6 +97,7 @@ mod record;
 mod result;
 mod snooping;
 mod tied;
+mod touch_start;
 mod trackers;
 mod validation;
 
@@ -120,6 +121,7 @@ pub use result::{
     EstimatedBall, EstimatedBody, EstimatedParameter, EstimatedTracker, MechanismCalibration,
     TRIGGER_HEIGHT,
 };
+pub use touch_start::TouchStart;
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
 
 /// Calibrates `data` with `options`: validates both, refuses a gauge

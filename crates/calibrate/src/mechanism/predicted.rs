@@ -421,8 +421,17 @@ fn predict_balls(
     let mut row = 0;
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
-        let centre =
-            ball_centre(mechanism, params, configured, all, touches, b, ball.radius)?.centre;
+        let centre = ball_centre(
+            mechanism,
+            params,
+            configured,
+            all,
+            touches,
+            b,
+            ball.radius,
+            None,
+        )?
+        .centre;
         let k = touches.len();
         let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
         noise.view_mut((row, row), (k, k)).fill(radius_variance);

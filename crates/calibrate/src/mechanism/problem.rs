@@ -50,6 +50,7 @@ use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::prior::{global_priors, prior_information};
 use super::tied::TiedBalls;
+use super::touch_start::TouchStart;
 use super::trackers::Trackers;
 
 /// The solver's problem: groups of `C` unknowns (a sample's pose, a
@@ -289,7 +290,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// The start of every local block: each point sample's pose (its
     /// measured pose, else the forward kinematics of its readings at
-    /// `params`), then each ball's centre ([`ball_centre`]) and, with
+    /// `params`), then each ball's centre ([`ball_centre`], from the
+    /// data's touch start if they have one) and, with
     /// [`group_size`] 4, its calibrated radius; with every point's cache
     /// (empty for a sample's, the pose reached for a touch's) and every
     /// touch's tool point there, in the order of the points.
@@ -333,6 +335,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     &touches,
                     b,
                     ball.radius,
+                    self.data.touch_start.as_ref(),
                 )?;
                 Ok((block(&fit.centre, ball.radius), fit))
             })
@@ -832,7 +835,12 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// tool points the touches reach with parameters `params` and the
 /// controller's `configured` ([`best_fit`]; the last
 /// iterate of a fit that did not converge); with the pose and the tool
-/// point each touch reached, in the order of `touches`.
+/// point each touch reached, in the order of `touches`. With a `start`,
+/// each touch is reached from its pose there and the centre is its.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "a ball, its touches and where they start"
+)]
 pub(crate) fn ball_centre(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -841,11 +849,30 @@ pub(crate) fn ball_centre(
     touches: &[usize],
     b: usize,
     radius: f64,
+    start: Option<&TouchStart>,
 ) -> Result<BallFit, MechanismCalibrationError> {
     // Together: a mechanism may reach several at once (the hexapod's
     // lanes), each from its start pose.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
-    let reached = Actuation::tool_points_from_scratch(mechanism, params, configured, &actuations);
+    let reached = match start {
+        Some(start) => {
+            let coordinates = mechanism.pose_coordinates().len();
+            let starts: Vec<Option<&[f64]>> = (touches.iter())
+                .map(|&t| Some(start.pose(t, coordinates)))
+                .collect();
+            let mut reached = Vec::with_capacity(touches.len());
+            Actuation::tool_points(
+                mechanism,
+                params,
+                configured,
+                &actuations,
+                &starts,
+                &mut reached,
+            );
+            reached
+        }
+        None => Actuation::tool_points_from_scratch(mechanism, params, configured, &actuations),
+    };
     let (points, poses): (Vec<Vector3<f64>>, Vec<LastPose>) = reached
         .into_iter()
         .zip(touches)
@@ -863,6 +890,13 @@ pub(crate) fn ball_centre(
         .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
         .into_iter()
         .unzip();
+    if let Some(start) = start {
+        return Ok(BallFit {
+            centre: Vector3::from(start.centres[b]),
+            poses,
+            tips: points,
+        });
+    }
     match best_fit(&points, radius) {
         Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(BallFit {
             centre: fit.centre,
