@@ -62,7 +62,9 @@ type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>
 /// (the solver's workspace), so that the mechanism writes into the room
 /// the last batch left. The coordinate rows hand each touch's room back;
 /// the radius row (eq. 9) consumes it (`BallTouch::row` takes its
-/// `Reached`), so that only the vectors' capacity is kept there.
+/// `Reached`), so that only the vectors' capacity is kept there. A batch
+/// shorter than the one before leaves its extra rooms aside for the next
+/// longer one (a ball's 7 touches go in batches of 4 and 3).
 #[derive(Debug, Default)]
 pub(crate) struct Reaches {
     /// Where they are, with `dT/dp |_q` ([`MechanismProblem::reach`]).
@@ -70,6 +72,24 @@ pub(crate) struct Reaches {
     /// Where they are along a step, for a back-substitution
     /// ([`MechanismProblem::reach_along`]).
     pub(crate) along: Vec<Result<ReachedAlong, MechanismError>>,
+    /// The rooms of `at` beyond the last batch.
+    spare_at: Vec<Result<Reached, MechanismError>>,
+    /// The rooms of `along` beyond the last batch.
+    spare_along: Vec<Result<ReachedAlong, MechanismError>>,
+}
+
+/// `entries` cut or grown to `n` entries from and into `spare` (as far as
+/// it holds them), so that what is written into them finds its room.
+fn batch_rooms<T>(entries: &mut Vec<T>, spare: &mut Vec<T>, n: usize) {
+    if entries.len() > n {
+        spare.extend(entries.drain(n..));
+    }
+    while entries.len() < n {
+        match spare.pop() {
+            Some(room) => entries.push(room),
+            None => break,
+        }
+    }
 }
 
 /// The unknowns of each local block of `data` (module doc): 4 when some
@@ -507,6 +527,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         reaches: &mut Reaches,
     ) {
         let (actuations, starts) = self.actuations(points, caches);
+        batch_rooms(&mut reaches.at, &mut reaches.spare_at, actuations.len());
         Actuation::tool_points(
             self.data.mechanism.as_ref(),
             &global.as_slice()[..self.n_params()],
@@ -542,6 +563,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         reaches: &mut Reaches,
     ) {
         let (actuations, starts) = self.actuations(points, caches);
+        batch_rooms(
+            &mut reaches.along,
+            &mut reaches.spare_along,
+            actuations.len(),
+        );
         let n = self.n_params();
         Actuation::tool_points_along(
             self.data.mechanism.as_ref(),
@@ -1465,6 +1491,25 @@ pub(crate) mod tests {
         let reference = dense.global_covariance().unwrap();
         let error = (&covariance - &reference).amax();
         assert!(error < 1e-7 * reference.amax(), "{error:e}");
+    }
+
+    /// Batches of 4, 3 and 4 keep the rooms: the fourth set aside and
+    /// taken back, the vector never shorter than a batch it can fill.
+    #[test]
+    fn batch_rooms_set_aside_and_take_back() {
+        let (mut entries, mut spare) = (vec![10, 11, 12, 13], Vec::new());
+        batch_rooms(&mut entries, &mut spare, 3);
+        assert_eq!(
+            (entries.as_slice(), spare.as_slice()),
+            (&[10, 11, 12][..], &[13][..])
+        );
+        batch_rooms(&mut entries, &mut spare, 4);
+        assert_eq!(
+            (entries.as_slice(), spare.len()),
+            (&[10, 11, 12, 13][..], 0)
+        );
+        batch_rooms(&mut entries, &mut spare, 6);
+        assert_eq!(entries.len(), 4, "only what is set aside is taken back");
     }
 
     #[test]
