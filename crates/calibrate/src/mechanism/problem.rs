@@ -39,7 +39,7 @@ use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAlong};
-use parcal_observe::mechanism::{Actuation, BallTouch, Rows, SampleRows, TouchRows};
+use parcal_observe::mechanism::{Actuation, BallTouch, RadiusRow, Rows, SampleRows};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 use rayon::prelude::*;
 
@@ -60,9 +60,8 @@ type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>
 
 /// Where the touches of a batch are: a worker's, kept from batch to batch
 /// (the solver's workspace), so that the mechanism writes into the room
-/// the last batch left. The coordinate rows hand each touch's room back;
-/// the radius row (eq. 9) consumes it (`BallTouch::row` takes its
-/// `Reached`), so that only the vectors' capacity is kept there. A batch
+/// the last batch left: the coordinate rows hand each touch's room back,
+/// the radius rows (eq. 9, `BallTouch::radius_row`) borrow it. A batch
 /// shorter than the one before leaves its extra rooms aside for the next
 /// longer one (a ball's 7 touches go in batches of 4 and 3).
 #[derive(Debug, Default)]
@@ -406,19 +405,24 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         i: usize,
         global: &DVector<f64>,
         block: &SVector<f64, C>,
-        reached: Result<Reached, MechanismError>,
+        reached: &Result<Reached, MechanismError>,
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let (t, touch, ball) = self.touch_and_ball(i, global, block);
+        let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
+        let reached = reached.as_ref().map_err(failed)?;
+        let row = (touch.radius_row(&reached.point, &ball.centre, ball.radius))
+            .map_err(|e| failed(&e))?;
+        *cache = LastPose::of(reached.pose.as_slice());
+        // uᵀ dT/dp |_q over σ a column at a time, the other columns zero.
         let n = self.n_params();
-        let row = reached
-            .and_then(|reached| touch.row(reached, &ball.centre, ball.radius))
-            .map_err(|e| touch_failed(t, touch.ball, e))?;
-        *cache = LastPose::of(row.pose.as_slice());
-        let others = out.d_global.ncols() - n;
-        out.d_global.columns_mut(0, n).copy_from(&row.rows.d_params);
-        out.d_global.columns_mut(n, others).fill(0.0);
+        let (params, others) = out.d_global.as_mut_slice().split_at_mut(n);
+        let columns = reached.d_params.as_slice().chunks_exact(3);
+        for (d, column) in params.iter_mut().zip(columns) {
+            *d = row.d_column(column);
+        }
+        others.fill(0.0);
         put_touch_local(out, &row, &ball);
         Ok(())
     }
@@ -434,23 +438,22 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         i: usize,
         global: &DVector<f64>,
         block: &SVector<f64, C>,
-        along: Result<ReachedAlong, MechanismError>,
+        along: &Result<ReachedAlong, MechanismError>,
         dg: &DVector<f64>,
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 1>, MechanismCalibrationError> {
         let (t, touch, ball) = self.touch_and_ball(i, global, block);
-        let (row, predicted) = along
-            .and_then(|along| {
-                let row = touch.row(along.reached, &ball.centre, ball.radius)?;
-                Ok((row, along.predicted))
-            })
-            .map_err(|e| touch_failed(t, touch.ball, e))?;
-        *cache = LastPose::of(predicted.as_slice());
+        let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
+        let along = along.as_ref().map_err(failed)?;
+        let reached = &along.reached;
+        let row = (touch.radius_row(&reached.point, &ball.centre, ball.radius))
+            .map_err(|e| failed(&e))?;
+        *cache = LastPose::of(along.predicted.as_slice());
         put_touch_local(out, &row, &ball);
-        let params_step = SVector::<f64, 1>::new(row.rows.d_params[0]);
-        let d_radius = SVector::<f64, 1>::new(row.d_radius);
-        Ok(params_step + ball.tied_step(&row.d_centre, &d_radius, dg))
+        let params_step = SVector::<f64, 1>::new(row.d_column(reached.d_params.as_slice()));
+        let d_radius = SVector::<f64, 1>::new(row.d_radius());
+        Ok(params_step + ball.tied_step(&row.d_centre(), &d_radius, dg))
     }
 
     /// Touch point `i`'s touch (its index and itself) and its ball's
@@ -607,7 +610,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             return Ok(());
         }
         self.reach_along(first..first + out.len(), global, dg, caches, reaches);
-        let each = reaches.along.drain(..).zip(caches).zip(out).zip(steps);
+        let each = reaches.along.iter().zip(caches).zip(out).zip(steps);
         for (j, (((along, cache), out), step)) in each.enumerate() {
             *step = self
                 .touch_row_along(first + j, global, group, along, dg, cache, out)
@@ -631,7 +634,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         if first >= self.sample_points() {
             // The touches together: each from the pose it last reached.
             self.reach(first..first + out.len(), global, caches, reaches);
-            let each = reaches.at.drain(..).zip(out).zip(caches);
+            let each = reaches.at.iter().zip(out).zip(caches);
             for (j, ((reached, out), cache)) in each.enumerate() {
                 self.touch_row(first + j, global, group, reached, cache, out)
                     .map_err(|e| (first + j, e))?;
@@ -790,11 +793,11 @@ pub(crate) fn put_ball_columns<const C: usize, const P: usize, const R: usize>(
 
 /// A touch's radius row but `d_global` into `out`: its residual and its
 /// ball's columns ([`put_ball_columns`]), the group's other columns zero.
-fn put_touch_local<const C: usize>(out: &mut Local<C>, row: &TouchRows, ball: &TouchedBall) {
-    out.residual[0] = row.rows.residual[0];
+fn put_touch_local<const C: usize>(out: &mut Local<C>, row: &RadiusRow, ball: &TouchedBall) {
+    out.residual[0] = row.residual;
     out.d_group.fill(0.0);
-    let d_radius = SVector::<f64, 1>::new(row.d_radius);
-    put_ball_columns(out, ball, &row.d_centre, &d_radius);
+    let d_radius = SVector::<f64, 1>::new(row.d_radius());
+    put_ball_columns(out, ball, &row.d_centre(), &d_radius);
 }
 
 /// The error of touch `t` on ball `ball`.

@@ -117,28 +117,77 @@ impl BallTouch {
         centre: &Vector3<f64>,
         radius: f64,
     ) -> Result<TouchRows, MechanismError> {
+        let row = self.radius_row(&reached.point, centre, radius)?;
+        // uᵀ dT/dp |_q over σ, a column at a time.
+        let d_params = DVector::from_iterator(
+            reached.d_params.ncols(),
+            (reached.d_params.as_slice().chunks_exact(3)).map(|column| row.d_column(column)),
+        );
+        let n = d_params.len();
+        Ok(TouchRows {
+            rows: Rows {
+                residual: DVector::from_element(1, row.residual),
+                d_params: d_params.reshape_generic(Dyn(1), Dyn(n)),
+            },
+            pose: reached.pose,
+            d_centre: row.d_centre(),
+            d_radius: row.d_radius(),
+        })
+    }
+
+    /// [`BallTouch::row`] at the tool point `point`, without `dr/dp`: what
+    /// forms it from `dT/dp |_q` a column at a time
+    /// ([`RadiusRow::d_column`]), into room of the caller's.
+    pub fn radius_row(
+        &self,
+        point: &Vector3<f64>,
+        centre: &Vector3<f64>,
+        radius: f64,
+    ) -> Result<RadiusRow, MechanismError> {
         check_sigma("touch sigma", self.sigma)?;
-        let offset = reached.point - centre;
+        let offset = point - centre;
         let distance = offset.norm();
         if distance == 0.0 || !distance.is_finite() {
             return Err(MechanismError::Unreachable {
                 reason: "a touch's tool point is at its ball's centre".to_string(),
             });
         }
-        let u = offset / distance;
-        // uᵀ dT/dp |_q over σ, formed in place and kept as its row.
-        let mut d_params = reached.d_params.tr_mul(&u);
-        d_params /= self.sigma;
-        let n = d_params.len();
-        Ok(TouchRows {
-            rows: Rows {
-                residual: DVector::from_element(1, (distance - radius) / self.sigma),
-                d_params: d_params.reshape_generic(Dyn(1), Dyn(n)),
-            },
-            pose: reached.pose,
-            d_centre: -u.transpose() / self.sigma,
-            d_radius: -1.0 / self.sigma,
+        Ok(RadiusRow {
+            residual: (distance - radius) / self.sigma,
+            normal: offset / distance,
+            sigma: self.sigma,
         })
+    }
+}
+
+/// A touch's radius row (eq. 9) but `dr/dp` ([`BallTouch::radius_row`]):
+/// `r = (|T − c| − ρ) / σ` and the sphere's normal `u = (T − c) / |T − c|`,
+/// so that `dr/dp = uᵀ dT/dp |_q / σ`, `dr/dc = −uᵀ / σ`, `dr/dρ = −1 / σ`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadiusRow {
+    /// `r`.
+    pub residual: f64,
+    /// `u`.
+    pub normal: Vector3<f64>,
+    /// `σ`.
+    pub sigma: f64,
+}
+
+impl RadiusRow {
+    /// `dr/dp_k` from column `k` of `dT/dp |_q` (its three entries).
+    pub fn d_column(&self, column: &[f64]) -> f64 {
+        let u = &self.normal;
+        (column[0] * u.x + column[1] * u.y + column[2] * u.z) / self.sigma
+    }
+
+    /// `dr/dc`.
+    pub fn d_centre(&self) -> RowVector3<f64> {
+        -self.normal.transpose() / self.sigma
+    }
+
+    /// `dr/dρ`.
+    pub fn d_radius(&self) -> f64 {
+        -1.0 / self.sigma
     }
 }
 

@@ -63,7 +63,7 @@ mod tracker_point;
 mod tracker_pose;
 
 pub use ball_distance::{BallDistance, BallDistanceRow};
-pub use ball_touch::{Approach, BallTouch, TouchRows};
+pub use ball_touch::{Approach, BallTouch, RadiusRow, TouchRows};
 pub use commanded::{Actuation, POSE_COORDINATES, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use part_distance::PartDistance;
