@@ -649,7 +649,11 @@ impl MechanismData {
             check_sigma(id, measured.sigma)?;
         }
         match &self.touch_start {
-            Some(start) => start.validate(self),
+            Some(start) => start.validate(
+                observations.balls.len(),
+                observations.touches.len(),
+                coordinates,
+            ),
             None => Ok(()),
         }
     }

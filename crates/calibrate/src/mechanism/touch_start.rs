@@ -3,12 +3,11 @@
 //! one, each ball's touches are reached from the mechanism's start poses
 //! ([`Mechanism::start_pose`](parcal_kinematics::mechanism::Mechanism::start_pose))
 //! and its centre is the best fit of their tool points. A hexapod's data
-//! carry the own set-up's ([`MechanismData::from_hexapod_touches`]: the
+//! carry the own set-up's ([`super::MechanismData::from_hexapod_touches`]: the
 //! design's forward kinematics of every contact and each ball's centre, or
 //! its mirror image), so that the common calibration starts where the
 //! hexapod's own does, its touches' forward kinematics each a step or none.
 
-use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 
 /// Each ball's centre and each touch's pose, where a fit starts them
@@ -29,14 +28,14 @@ impl TouchStart {
         &self.poses[t * coordinates..(t + 1) * coordinates]
     }
 
-    /// A centre for each of `data`'s balls and a pose of its mechanism's
-    /// coordinates for each of its touches, every value finite.
-    pub(crate) fn validate(&self, data: &MechanismData) -> Result<(), MechanismCalibrationError> {
-        let coordinates = data.mechanism.pose_coordinates().len();
-        let (balls, touches) = (
-            data.observations.balls.len(),
-            data.observations.touches.len(),
-        );
+    /// A centre for each of `balls` balls and a pose of `coordinates`
+    /// coordinates for each of `touches` touches, every value finite.
+    pub(crate) fn validate(
+        &self,
+        balls: usize,
+        touches: usize,
+        coordinates: usize,
+    ) -> Result<(), MechanismCalibrationError> {
         let invalid = |reason: String| MechanismCalibrationError::InvalidData {
             what: "the touches' start".to_string(),
             reason,
@@ -69,42 +68,37 @@ impl TouchStart {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::problem::tests::small_delta;
 
     /// A start of the data's sizes, finite, is taken; another is refused,
     /// naming what is wrong.
     #[test]
     fn a_start_must_fit_the_data() {
-        let data = small_delta();
-        let (balls, touches) = (
-            data.observations.balls.len(),
-            data.observations.touches.len(),
-        );
+        let (balls, touches) = (2, 9);
         let start = TouchStart {
             centres: vec![[0.0, 0.0, 10.0]; balls],
             poses: vec![1.0; 3 * touches],
         };
-        assert!(start.validate(&data).is_ok());
-        let refused = |start: TouchStart| {
-            let data = data.clone().with_touch_start(start);
-            data.validate().unwrap_err().to_string()
+        assert!(start.validate(balls, touches, 3).is_ok());
+        let refused = |start: &TouchStart, coordinates| {
+            (start.validate(balls, touches, coordinates))
+                .unwrap_err()
+                .to_string()
         };
+        let error = refused(&start, 6);
+        assert!(
+            error.contains("27 pose coordinates for 9 touches of 6 each"),
+            "{error}"
+        );
         let mut short = start.clone();
         short.centres.pop();
-        let error = refused(short);
-        assert!(
-            error.contains(&format!("{} ball centres for {balls} balls", balls - 1)),
-            "{error}"
-        );
+        let error = refused(&short, 3);
+        assert!(error.contains("1 ball centres for 2 balls"), "{error}");
         let mut infinite = start.clone();
-        infinite.poses[3 * (touches - 1) + 2] = f64::INFINITY;
-        let error = refused(infinite);
-        assert!(
-            error.contains(&format!("touch {}'s pose", touches - 1)),
-            "{error}"
-        );
+        infinite.poses[3 * 8 + 2] = f64::INFINITY;
+        let error = refused(&infinite, 3);
+        assert!(error.contains("touch 8's pose"), "{error}");
         let mut centre = start;
         centre.centres[0][1] = f64::NAN;
-        assert!(refused(centre).contains("ball 0's centre"));
+        assert!(refused(&centre, 3).contains("ball 0's centre"));
     }
 }
