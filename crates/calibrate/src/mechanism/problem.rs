@@ -409,11 +409,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
-        let (t, touch, ball) = self.touch_and_ball(i, global, block);
-        let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
-        let reached = reached.as_ref().map_err(failed)?;
-        let row = (touch.radius_row(&reached.point, &ball.centre, ball.radius))
-            .map_err(|e| failed(&e))?;
+        let (reached, row, ball) = self.radius_row(i, global, block, reached, |r| r)?;
         *cache = LastPose::of(reached.pose.as_slice());
         // uᵀ dT/dp |_q over σ a column at a time, the other columns zero.
         let n = self.n_params();
@@ -443,17 +439,33 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         cache: &mut LastPose,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 1>, MechanismCalibrationError> {
-        let (t, touch, ball) = self.touch_and_ball(i, global, block);
-        let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
-        let along = along.as_ref().map_err(failed)?;
+        let (along, row, ball) = self.radius_row(i, global, block, along, |a| &a.reached)?;
         let reached = &along.reached;
-        let row = (touch.radius_row(&reached.point, &ball.centre, ball.radius))
-            .map_err(|e| failed(&e))?;
         *cache = LastPose::of(along.predicted.as_slice());
         put_touch_local(out, &row, &ball);
         let params_step = SVector::<f64, 1>::new(row.d_column(reached.d_params.as_slice()));
         let d_radius = SVector::<f64, 1>::new(row.d_radius());
         Ok(params_step + ball.tied_step(&row.d_centre(), &d_radius, dg))
+    }
+
+    /// Touch point `i`'s radius row ([`BallTouch::radius_row`]) where
+    /// `outcome` reached (`reached` of it), with that outcome and its
+    /// ball's unknowns at `global` and `block`; the touch named in an
+    /// error.
+    fn radius_row<'r, T>(
+        &self,
+        i: usize,
+        global: &DVector<f64>,
+        block: &SVector<f64, C>,
+        outcome: &'r Result<T, MechanismError>,
+        reached: impl Fn(&T) -> &Reached,
+    ) -> Result<(&'r T, RadiusRow, TouchedBall), MechanismCalibrationError> {
+        let (t, touch, ball) = self.touch_and_ball(i, global, block);
+        let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
+        let outcome = outcome.as_ref().map_err(failed)?;
+        let point = &reached(outcome).point;
+        let row = (touch.radius_row(point, &ball.centre, ball.radius)).map_err(|e| failed(&e))?;
+        Ok((outcome, row, ball))
     }
 
     /// Touch point `i`'s touch (its index and itself) and its ball's
