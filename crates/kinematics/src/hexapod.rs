@@ -377,6 +377,10 @@ impl Mechanism for Hexapod {
         &self.actuators
     }
 
+    fn scale_parameters(&self) -> Option<std::ops::Range<usize>> {
+        self.scaled.then_some(N_PARAMS..N_PARAMS + 6)
+    }
+
     fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError> {
         let geometry = self.geometry(params)?;
         let extensions = actuators(&geometry, &self.pose(pose)?);

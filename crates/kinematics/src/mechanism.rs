@@ -265,6 +265,14 @@ pub trait Mechanism: Send + Sync {
     /// The actuators, in the order of every reading vector.
     fn actuators(&self) -> &[Actuator];
 
+    /// The parameters that are the actuators' scales when they are
+    /// unknowns: actuator `i`'s scale `s_i` (its extension per unit of its
+    /// reading) is parameter `start + i`. `None` (the default) when the
+    /// readings are the extensions, or their scales are known.
+    fn scale_parameters(&self) -> Option<std::ops::Range<usize>> {
+        None
+    }
+
     /// Inverse kinematics: the readings `q = g(p, x)` that put the
     /// mechanism at `pose`. An error when the pose cannot be assembled.
     fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError>;

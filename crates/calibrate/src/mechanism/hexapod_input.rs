@@ -55,18 +55,18 @@
 //! - Each row of poses.csv: a [`TrackerPose`] of its session's tracker at
 //!   its readings (as above), the body frame six unknowns from the
 //!   hexapod calibration's start `B₀`; weighted as the hexapod calibration
-//!   weighs it at its initial estimate (its rows in leg length, `L⁻¹`),
-//!   at unknown scales in the readings' unit (`L⁻¹ diag(s_i)` at the
-//!   design's scales: the own rows are `s_i` times these, so that the two
-//!   weigh a leg's row alike at the design's scales and in the ratio
-//!   `s_i / s_i,design` at others).
+//!   weighs it at its initial estimate (its rows in leg length, `L⁻¹`,
+//!   at unknown scales too: the rows are the readings' times the scales'
+//!   estimates, [`TrackerPose`]'s `S`, so that both paths minimise the
+//!   same cost).
 //!
 //! - The start: the own set-up's ([`TouchStart`]): each ball's centre (the
 //!   best fit of its design tool tips, or its mirror image) and each
 //!   contact's pose by the design's forward kinematics.
 //!
-//! Both calibrations then minimise the same cost (with poses at unknown
-//! scales, a cost weighted as above) from the same start (but for a
+//! Both calibrations then minimise the same cost (but for a re-homed
+//! tracker's offsets at unknown scales, whose prior sigma is over the
+//! design's scales) from the same start (but for a
 //! tracker with poses, whose frame the common calibration locates by the
 //! body's origins, [`super::trackers`]): the common door's estimate is the
 //! dedicated path's (the common calibration runs
@@ -87,7 +87,7 @@
 
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
+use nalgebra::{DMatrix, Isometry3};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::hexapod::{Hexapod, TOOL_GROUP, pose_vector};
 use parcal_kinematics::mechanism::design;
@@ -252,21 +252,6 @@ impl LegReadings {
         }
     }
 
-    /// The whitening of a pose's rows in the mechanism's readings, from
-    /// the hexapod calibration's `whitening` of its rows in leg length
-    /// (mm): the same at known scales, where the readings are the legs'
-    /// extensions; at unknown scales `L⁻¹ diag(s_i)` at the design's scales
-    /// `s_i` (a row in the readings' unit is the leg's row over its scale).
-    fn pose_weight(&self, whitening: &Matrix6<f64>) -> DMatrix<f64> {
-        let w = DMatrix::from_column_slice(6, 6, whitening.as_slice());
-        match self {
-            Self::KnownScales(_) => w,
-            Self::UnknownScales { scale, .. } => {
-                w * DMatrix::from_diagonal(&DVector::from_column_slice(scale))
-            }
-        }
-    }
-
     /// A tracker labelled `label` after the legs were re-homed, each leg's
     /// zero offset `o_i` with the prior sigma `sigma` (mm): in the
     /// readings, as the legs' extensions at known scales; at unknown scales
@@ -375,7 +360,9 @@ fn instrument_observations(
             tracker: tracker.poses.session[j] as usize,
             readings: legs.actuation(&tracker.poses.q[j]),
             measured: measured[j],
-            weight: legs.pose_weight(&rows.pose_whitening[j]),
+            // In leg length (mm), as the hexapod calibration whitens them:
+            // at unknown scales the rows are too (`TrackerPose`'s `S`).
+            weight: DMatrix::from_column_slice(6, 6, rows.pose_whitening[j].as_slice()),
         })
         .collect();
     Ok(InstrumentObservations {

@@ -803,7 +803,7 @@ impl NuisanceRows<'_> {
                 .evaluate(self.mechanism, self.params, &frame, &body, offsets)
                 .map_err(|e| failed(ObservationKind::TrackerPose, j, e))?;
             let unwhiten = pose
-                .weight
+                .row_whitening(self.mechanism, self.params)
                 .solve_lower_triangular(&DMatrix::identity(actuators, actuators))
                 .ok_or_else(|| failed(ObservationKind::TrackerPose, j, MechanismError::Singular))?;
             let locals = [(0, &evaluated.d_frame), (6, &evaluated.d_body)];

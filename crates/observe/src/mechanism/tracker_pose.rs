@@ -12,19 +12,22 @@
 //!
 //! ```text
 //! T = F_k⁻¹ M B⁻¹,     x = x(T)   (Mechanism::pose_at_platform)
-//! e = g(p, x) − (q + o),     r = L⁻¹ e,     one row per actuator,
+//! e = g(p, x) − (q + o),     r = L⁻¹ S e,     one row per actuator,
 //! ```
 //!
 //! `o` the actuators' zero offsets of a re-homed tracker (zero
 //! otherwise), `L⁻¹` the whitening of the rows' covariance (the actuators'
-//! repeatability and the tracker's, propagated through `dg/dM`). This is
+//! repeatability and the tracker's, propagated through `dg/dM`) and `S =
+//! diag(s_i)` the actuators' scales where they are parameters
+//! ([`Mechanism::scale_parameters`]; else `S = I`): each row is then in the
+//! actuator's extension (mm), whatever the estimate of its scale. This is
 //! the implicit form of `M = F T(q) B` the hexapod's own calibration
 //! observes its poses by ([`crate::PoseBlock`]: the same rows in leg
-//! length when the readings are the legs' extensions). With `ε = (δt, δω)`
-//! a change of `T` (`t → t + δt`, `R → Exp(δω) R`):
+//! length). With `ε = (δt, δω)` a change of `T` (`t → t + δt`, `R →
+//! Exp(δω) R`), `G_p` and `G_x` the derivatives of `g`:
 //!
 //! ```text
-//! dr/dp = L⁻¹ G_p,     dr/dε = L⁻¹ G_x dx/dε,     dr/do = −L⁻¹,
+//! dr/dp = L⁻¹ (S G_p + diag(e) dS/dp),   dr/dε = L⁻¹ S G_x dx/dε,   dr/do = −L⁻¹ S,
 //! T = C_F⁻¹ A,  A = F₀⁻¹ M B⁻¹:   dt/dτ_F = −R_Cᵀ,   dt/dω_F = d(Exp(ω_F)ᵀ (t_A − τ_F))/dω_F,
 //!                                  dω/dω_F = −J_r(ω_F),
 //! T = G C_B⁻¹,  G = F⁻¹ M B₀⁻¹:   dt/dτ_B = −R_T,    dt/dω_B = −R_G d(Exp(ω_B)ᵀ τ_B)/dω_B,
@@ -53,8 +56,10 @@ pub struct TrackerPose {
     /// `M`, the body frame measured (body → tracker; mm).
     pub measured: Isometry3<f64>,
     /// `L⁻¹`, the whitening of its rows (actuators × actuators, lower
-    /// triangular): the inverse of the Cholesky factor of their covariance
-    /// (the actuators' unit squared).
+    /// triangular): the inverse of the Cholesky factor of their covariance,
+    /// in the actuators' extensions squared (mm²) when their scales are
+    /// the mechanism's parameters, else in the readings' unit squared
+    /// (module doc).
     pub weight: DMatrix<f64>,
 }
 
@@ -96,6 +101,18 @@ impl TrackerPose {
         factor.solve_lower_triangular(&DMatrix::identity(covariance.nrows(), covariance.nrows()))
     }
 
+    /// `L⁻¹ S`, the whitening of its rows in the readings at parameters
+    /// `params` (module doc).
+    pub fn row_whitening(&self, mechanism: &dyn Mechanism, params: &[f64]) -> DMatrix<f64> {
+        let mut w = self.weight.clone();
+        if let Some(scales) = mechanism.scale_parameters() {
+            for (mut column, k) in w.column_iter_mut().zip(scales) {
+                column *= params[k];
+            }
+        }
+        w
+    }
+
     /// The platform frame `T = F⁻¹ M B⁻¹` the measurement says, at the
     /// tracker's frame `frame` and the body frame `body`.
     pub fn platform(&self, frame: &TrackerFrame, body: &BodyFrame) -> Isometry3<f64> {
@@ -134,12 +151,21 @@ impl TrackerPose {
         if let Some(offsets) = offsets {
             e -= DVector::from_column_slice(offsets);
         }
-        let w = &self.weight;
+        let w = &self.row_whitening(mechanism, params);
         let d_change = w * &jacobians.d_pose * &at.d_frame;
+        let mut d_params = w * &jacobians.d_params;
+        if let Some(scales) = mechanism.scale_parameters() {
+            // dS/dp: the column of each scale gains `L⁻¹[·, i] e_i`.
+            for (i, k) in scales.enumerate() {
+                d_params
+                    .column_mut(k)
+                    .axpy(e[i], &self.weight.column(i), 1.0);
+            }
+        }
         Ok(TrackerPoseRows {
             rows: Rows {
                 residual: w * e,
-                d_params: w * &jacobians.d_params,
+                d_params,
             },
             d_frame: &d_change * to_dmatrix(&tracker_change(self, frame, body)),
             d_body: &d_change * to_dmatrix(&body_change(self, frame, body)),
@@ -357,6 +383,7 @@ mod tests {
         check(false, None);
         check(false, Some(&[0.1, -0.2, 0.05, 0.3, 0.0, -0.1]));
         check(true, None);
+        check(true, Some(&[0.1, -0.2, 0.05, 0.3, 0.0, -0.1]));
     }
 
     /// At the platform the readings reach, through the frames the
