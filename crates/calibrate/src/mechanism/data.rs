@@ -95,7 +95,8 @@ pub struct Tracker {
     /// otherwise the actuators read as for the other observations.
     pub rehomed: bool,
     /// The standard deviations of the offsets' priors about zero (the
-    /// actuators' unit), when re-homed: one for every actuator, or one per
+    /// actuators' extension, mm, where their scales are the mechanism's
+    /// parameters, else the readings' unit), when re-homed: one for every actuator, or one per
     /// actuator; `None`: no prior.
     pub offset_sigmas: Option<Vec<f64>>,
     /// Whether the body its poses see was turned on the platform before it

@@ -43,11 +43,8 @@
 //! - Each session of points.csv: a tracker, its frame six unknowns
 //!   ([`super::trackers`]), and for a later session, when machine.json's
 //!   session model re-homes the legs, their zero offsets (six unknowns
-//!   with its `leg_offset_sigma`: at known scales the legs' extensions are
-//!   the readings, so that `l_i + o_i + s_i q_i` is the own model's; at
-//!   unknown scales the offsets are in the readings' unit, `o_i / s_i`,
-//!   their prior sigmas `leg_offset_sigma / s_i` at the design's scales,
-//!   the own prior to first order in the scales' change); each
+//!   with its `leg_offset_sigma`, in mm: the legs' extensions, at unknown
+//!   scales too, so that `l_i + o_i + s_i q_i` is the own model's); each
 //!   point a [`TrackerPoint`] at its readings (as above), weighted as the
 //!   hexapod calibration weighs it at its initial estimate (the
 //!   instrument's position sigma and the actuators' repeatability through
@@ -64,9 +61,7 @@
 //!   best fit of its design tool tips, or its mirror image) and each
 //!   contact's pose by the design's forward kinematics.
 //!
-//! Both calibrations then minimise the same cost (but for a re-homed
-//! tracker's offsets at unknown scales, whose prior sigma is over the
-//! design's scales) from the same start (but for a
+//! Both calibrations then minimise the same cost from the same start (but for a
 //! tracker with poses, whose frame the common calibration locates by the
 //! body's origins, [`super::trackers`]): the common door's estimate is the
 //! dedicated path's (the common calibration runs
@@ -159,7 +154,7 @@ impl MechanismData {
             balls,
             touches,
             ball_distances: ball_distances(&dataset.artefacts.distances),
-            trackers: trackers(dataset, &legs),
+            trackers: trackers(dataset),
             tracker_points: instruments.points,
             tracker_poses: instruments.poses,
             body_reference: instruments.body_reference,
@@ -252,20 +247,6 @@ impl LegReadings {
         }
     }
 
-    /// A tracker labelled `label` after the legs were re-homed, each leg's
-    /// zero offset `o_i` with the prior sigma `sigma` (mm): in the
-    /// readings, as the legs' extensions at known scales; at unknown scales
-    /// in the actuators' unit, the machine at `q + o_i / s_i`, with the
-    /// sigma `sigma / s_i` at the design's scales `s_i` (module doc).
-    fn rehomed(&self, label: String, sigma: f64) -> Tracker {
-        match self {
-            Self::KnownScales(_) => Tracker::rehomed(label, Some(sigma)),
-            Self::UnknownScales { scale, .. } => {
-                Tracker::rehomed_each(label, scale.iter().map(|s| sigma / s).collect())
-            }
-        }
-    }
-
     /// The mechanism's readings of a contact's readings `q`.
     fn actuation(&self, q: &[f64; 6]) -> Vec<f64> {
         match self {
@@ -279,13 +260,13 @@ impl LegReadings {
 /// touches read the legs, each later one with its legs' zero offsets when
 /// the session model re-homes them, and with poses its body's rotation and
 /// origin shift when the session model re-mounts it (module doc).
-fn trackers(dataset: &Dataset, legs: &LegReadings) -> Vec<Tracker> {
+fn trackers(dataset: &Dataset) -> Vec<Tracker> {
     let model = &dataset.machine.session_model;
     let poses = &dataset.tracker.poses;
     (dataset.tracker.sessions.iter().enumerate())
         .map(|(session, label)| {
             let mut tracker = match model.leg_offset_sigma {
-                Some(sigma) if session > 0 => legs.rehomed(label.clone(), sigma),
+                Some(sigma) if session > 0 => Tracker::rehomed(label.clone(), Some(sigma)),
                 _ => Tracker::new(label.clone()),
             };
             let with_poses = poses.session.iter().any(|&s| s as usize == session);

@@ -164,7 +164,8 @@ pub struct TrackerRecord {
     /// mechanism's axes `x, y, z` (rad), then translations (mm).
     pub sigma: Option<[f64; 6]>,
     /// The actuators' zero offsets while it measured, when the machine was
-    /// re-homed before (the actuators' unit; absent: none).
+    /// re-homed before (their extension, mm, where their scales are the
+    /// mechanism's parameters, else the readings' unit; absent: none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub offsets: Vec<f64>,
     /// Their standard deviations.

@@ -20,11 +20,14 @@
 //!
 //! When the machine was re-homed before the tracker measured, its
 //! actuators read with zero offsets `o` of their own (unknowns of the
-//! global block): the machine is at the readings `q + o` (`q` those given,
-//! or those the controller computes for the commanded position), and
+//! global block), in their extension (mm) when their scales `s_i` are the
+//! mechanism's parameters ([`Mechanism::scale_parameters`], `S =
+//! diag(s_i)`), else in the readings' unit (`S = I`): the machine is at
+//! the readings `q + S⁻¹o` (`q` those given, or those the controller
+//! computes for the commanded position), and
 //!
 //! ```text
-//! dr/do = L⁻¹ R_F dT/dq,     dT/dq = dT/dx G_x⁻¹
+//! dr/do = L⁻¹ R_F dT/dq S⁻¹,     dr/ds_i += −(o_i / s_i²) L⁻¹ R_F dT/dq_i,     dT/dq = dT/dx G_x⁻¹
 //! ```
 //!
 //! ([`tool_point_reading_jacobian`]: a mechanism with as many actuators
@@ -89,7 +92,8 @@ impl TrackerPoint {
     /// parameters `configured` and the tracker's frame `frame` (module
     /// doc), the forward kinematics of readings started from `start` if
     /// given ([`Actuation::tool_point`]); with the actuators' zero
-    /// `offsets`, at the readings `q + o` and with `dr/do`.
+    /// `offsets`, at the readings `q + S⁻¹o` and with `dr/do` (module
+    /// doc).
     pub fn evaluate(
         &self,
         mechanism: &dyn Mechanism,
@@ -108,7 +112,16 @@ impl TrackerPoint {
             Actuation::Readings(q) => (DVector::from_column_slice(q), None),
             Actuation::Commanded(x) => (mechanism.inverse(configured, x)?, Some(&x[..])),
         };
-        let shifted: Vec<f64> = readings.iter().zip(offsets).map(|(q, o)| q + o).collect();
+        // `s_i`, where the scales are parameters.
+        let scales = mechanism.scale_parameters();
+        let scale = |i: usize| {
+            scales
+                .as_ref()
+                .map_or(1.0, |scales| params[scales.start + i])
+        };
+        let shifted: Vec<f64> = (readings.iter().zip(offsets).enumerate())
+            .map(|(i, (q, o))| q + o / scale(i))
+            .collect();
         let reached = Actuation::Readings(shifted).tool_point(
             mechanism,
             params,
@@ -117,12 +130,19 @@ impl TrackerPoint {
         )?;
         let d_tip = tool_point_reading_jacobian(mechanism, params, reached.pose.as_slice())?;
         let mut rows = self.rows(reached, frame);
-        let d_offsets = self.weight.inverse_factor() * frame_rotation(frame) * d_tip;
-        rows.d_offsets = Some(DMatrix::from_column_slice(
-            3,
-            d_offsets.ncols(),
-            d_offsets.as_slice(),
-        ));
+        // `L⁻¹ R_F dT/dq`, then over the scales.
+        let d_readings = self.weight.inverse_factor() * frame_rotation(frame) * d_tip;
+        let mut d_offsets =
+            DMatrix::from_column_slice(3, d_readings.ncols(), d_readings.as_slice());
+        if let Some(scales) = scales {
+            for (i, k) in scales.enumerate() {
+                let s = params[k];
+                let mut d_scale = rows.rows.d_params.column_mut(k);
+                d_scale.axpy(-offsets[i] / (s * s), &d_offsets.column(i), 1.0);
+                d_offsets.column_mut(i).unscale_mut(s);
+            }
+        }
+        rows.d_offsets = Some(d_offsets);
         Ok(rows)
     }
 
@@ -275,5 +295,19 @@ mod tests {
         check(mechanism, params, &[], &point, None);
         let offsets = [0.4, -0.3, 0.2, -0.1, 0.5, -0.6];
         check(mechanism, params, &[], &point, Some(&offsets));
+        // Read in revolutions of unknown scales: the offsets in mm.
+        let scaled = parcal_kinematics::hexapod::Hexapod::typical().with_unknown_scales(
+            "rev",
+            [0.5, 0.8, 1.0, 1.25, 2.0, 4.0],
+            [0.01; 6],
+        );
+        let params = parcal_kinematics::mechanism::design(&scaled);
+        let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
+        let readings = scaled.inverse(params.as_slice(), &pose).unwrap();
+        let point = TrackerPoint {
+            at: Actuation::Readings(readings.iter().copied().collect()),
+            ..point
+        };
+        check(&scaled, &params, &[], &point, Some(&offsets));
     }
 }

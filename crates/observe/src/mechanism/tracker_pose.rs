@@ -12,22 +12,23 @@
 //!
 //! ```text
 //! T = F_k⁻¹ M B⁻¹,     x = x(T)   (Mechanism::pose_at_platform)
-//! e = g(p, x) − (q + o),     r = L⁻¹ S e,     one row per actuator,
+//! e = g(p, x) − q,     r = L⁻¹ (S e − o),     one row per actuator,
 //! ```
 //!
-//! `o` the actuators' zero offsets of a re-homed tracker (zero
-//! otherwise), `L⁻¹` the whitening of the rows' covariance (the actuators'
-//! repeatability and the tracker's, propagated through `dg/dM`) and `S =
-//! diag(s_i)` the actuators' scales where they are parameters
-//! ([`Mechanism::scale_parameters`]; else `S = I`): each row is then in the
-//! actuator's extension (mm), whatever the estimate of its scale. This is
+//! `S = diag(s_i)` the actuators' scales where they are parameters
+//! ([`Mechanism::scale_parameters`]; else `S = I`), so that each row is in
+//! the actuator's extension (mm) whatever the estimate of its scale, `o`
+//! the actuators' zero offsets of a re-homed tracker in that unit (zero
+//! otherwise; [`super::TrackerPoint`]'s), `L⁻¹` the whitening of the
+//! rows' covariance (the actuators' repeatability and the tracker's,
+//! propagated through `dg/dM`). This is
 //! the implicit form of `M = F T(q) B` the hexapod's own calibration
 //! observes its poses by ([`crate::PoseBlock`]: the same rows in leg
 //! length). With `ε = (δt, δω)` a change of `T` (`t → t + δt`, `R →
 //! Exp(δω) R`), `G_p` and `G_x` the derivatives of `g`:
 //!
 //! ```text
-//! dr/dp = L⁻¹ (S G_p + diag(e) dS/dp),   dr/dε = L⁻¹ S G_x dx/dε,   dr/do = −L⁻¹ S,
+//! dr/dp = L⁻¹ (S G_p + diag(e) dS/dp),   dr/dε = L⁻¹ S G_x dx/dε,   dr/do = −L⁻¹,
 //! T = C_F⁻¹ A,  A = F₀⁻¹ M B⁻¹:   dt/dτ_F = −R_Cᵀ,   dt/dω_F = d(Exp(ω_F)ᵀ (t_A − τ_F))/dω_F,
 //!                                  dω/dω_F = −J_r(ω_F),
 //! T = G C_B⁻¹,  G = F⁻¹ M B₀⁻¹:   dt/dτ_B = −R_T,    dt/dω_B = −R_G d(Exp(ω_B)ᵀ τ_B)/dω_B,
@@ -121,7 +122,7 @@ impl TrackerPose {
 
     /// The whitened rows at parameters `params`, the tracker's frame
     /// `frame` and the body frame `body` (module doc); with the actuators'
-    /// zero `offsets`, at the readings `q + o` and with `dr/do`.
+    /// zero `offsets`, and `dr/do`.
     pub fn evaluate(
         &self,
         mechanism: &dyn Mechanism,
@@ -147,11 +148,12 @@ impl TrackerPose {
         let at = mechanism.pose_at_platform(&platform)?;
         let predicted = mechanism.inverse(params, at.pose.as_slice())?;
         let jacobians = mechanism.reading_jacobians(params, at.pose.as_slice())?;
-        let mut e = predicted - DVector::from_column_slice(&self.readings);
-        if let Some(offsets) = offsets {
-            e -= DVector::from_column_slice(offsets);
-        }
+        let e = predicted - DVector::from_column_slice(&self.readings);
         let w = &self.row_whitening(mechanism, params);
+        let mut residual = w * &e;
+        if let Some(offsets) = offsets {
+            residual -= &self.weight * DVector::from_column_slice(offsets);
+        }
         let d_change = w * &jacobians.d_pose * &at.d_frame;
         let mut d_params = w * &jacobians.d_params;
         if let Some(scales) = mechanism.scale_parameters() {
@@ -163,13 +165,10 @@ impl TrackerPose {
             }
         }
         Ok(TrackerPoseRows {
-            rows: Rows {
-                residual: w * e,
-                d_params,
-            },
+            rows: Rows { residual, d_params },
             d_frame: &d_change * to_dmatrix(&tracker_change(self, frame, body)),
             d_body: &d_change * to_dmatrix(&body_change(self, frame, body)),
-            d_offsets: offsets.map(|_| -w),
+            d_offsets: offsets.map(|_| -&self.weight),
         })
     }
 }
