@@ -114,6 +114,19 @@ fn the_coordinate_observation_through_the_interface_is_the_own_paths() {
     };
     println!("coordinates, diagonal weights:");
     compare(&diagonal);
+    // Two touches whose contact directions cannot be charted (an approach
+    // of zero length): the first of them is named.
+    let mut broken = data.clone();
+    for t in [150, 40] {
+        let approach = broken.observations.touches[t].approach.as_mut().unwrap();
+        approach.direction = [0.0; 3];
+    }
+    let common_options = MechanismOptions::default().with_observation(paper.observation);
+    let error = calibrate_mechanism(&broken, &common_options, &mut |_| {}).unwrap_err();
+    assert!(
+        error.to_string().starts_with("ball touch 40: on ball 5:"),
+        "{error}"
+    );
 }
 
 #[test]

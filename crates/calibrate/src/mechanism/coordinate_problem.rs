@@ -21,6 +21,7 @@ use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
 use parcal_observe::mechanism::CoordinateRows;
 use parcal_observe::{DirectionChart, unit_direction};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
+use rayon::prelude::*;
 
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
@@ -75,19 +76,24 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             tips,
         } = base.start_state()?;
         let touches = &data.observations.touches;
-        let directions = tips
-            .iter()
-            .enumerate()
-            .map(|(i, tip)| {
-                let t = base.touch_at(i);
-                let touch = &touches[t];
-                let b = data.observations.samples.len() + touch.ball;
-                let ball = base.touched_ball(touch.ball, &state.global, &state.groups[b]);
-                let chart = touch
-                    .chart(&(tip - ball.centre))
-                    .map_err(|e| touch_failed(t, touch.ball, e))?;
-                Ok(UnitVector3::new_unchecked(chart.reference()))
-            })
+        let direction = |i: usize| {
+            let t = base.touch_at(i);
+            let touch = &touches[t];
+            let b = data.observations.samples.len() + touch.ball;
+            let ball = base.touched_ball(touch.ball, &state.global, &state.groups[b]);
+            let chart = touch
+                .chart(&(tips[i] - ball.centre))
+                .map_err(|e| touch_failed(t, touch.ball, e))?;
+            Ok(UnitVector3::new_unchecked(chart.reference()))
+        };
+        // On the threads, then in order: the first touch whose chart fails
+        // named (its error formed again).
+        let charted: Vec<Option<UnitVector3<f64>>> = (0..tips.len())
+            .into_par_iter()
+            .map(|i| direction(i).ok())
+            .collect();
+        let directions = (charted.into_iter().enumerate())
+            .map(|(i, charted)| charted.map_or_else(|| direction(i), Ok))
             .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
         let state = State {
             points: vec![SVector::zeros(); directions.len()],

@@ -90,6 +90,7 @@ use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::CoordinateWhitening;
 use parcal_observe::KinematicPrior;
 use parcal_observe::mechanism::{Actuation, Approach, BallTouch, TrackerPoint, TrackerPose};
+use rayon::prelude::*;
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
 use super::error::MechanismCalibrationError;
@@ -139,7 +140,7 @@ impl MechanismData {
         let m = &dataset.measurements;
         let touches = m
             .ball
-            .iter()
+            .par_iter()
             .zip(&m.q)
             .zip(start.weights)
             .map(|((&ball, q), weight)| BallTouch {
@@ -411,33 +412,34 @@ fn design_start(
     };
     let (setup, observations) =
         Setup::new(dataset, options).map_err(|error| invalid(error.to_string()))?;
-    // Each contact's weight in the sorted order of the set-up.
-    let sorted: Vec<ContactWeight> = match observations {
-        SetupObservations::Radius(radius) => (radius.weights.iter())
-            .map(|whitening| ContactWeight {
-                sigma: whitening.sigma(),
-                ..ContactWeight::default()
-            })
-            .collect(),
-        SetupObservations::Coordinates(coordinates) => (coordinates.weights.iter())
-            .zip(&coordinates.directions)
-            .map(|(whitening, u0)| ContactWeight {
+    // The set-up's sorted slot of each contact, then each contact's weight
+    // and pose from its slot, contacts on the threads.
+    let mut slot = vec![0u32; setup.order.len()];
+    for (k, &row) in setup.order.iter().enumerate() {
+        slot[row as usize] = k as u32;
+    }
+    let weight = |k: usize| match &observations {
+        SetupObservations::Radius(radius) => ContactWeight {
+            sigma: radius.weights[k].sigma(),
+            ..ContactWeight::default()
+        },
+        SetupObservations::Coordinates(coordinates) => {
+            let (whitening, u0) = (&coordinates.weights[k], &coordinates.directions[k]);
+            ContactWeight {
                 sigma: whitening.variance_along(u0).sqrt(),
                 coordinates: Some(*whitening),
                 approach: coordinates.angle_sigma.map(|sigma| Approach {
                     direction: u0.into_inner().into(),
                     sigma,
                 }),
-            })
-            .collect(),
+            }
+        }
     };
-    let mut weights = vec![ContactWeight::default(); setup.order.len()];
-    let mut poses = vec![0.0; 6 * setup.order.len()];
-    for ((&row, weight), pose) in setup.order.iter().zip(sorted).zip(&setup.poses) {
-        let row = row as usize;
-        weights[row] = weight;
-        poses[6 * row..6 * (row + 1)].copy_from_slice(pose_vector(pose).as_slice());
-    }
+    let weights = slot.par_iter().map(|&k| weight(k as usize)).collect();
+    let mut poses = vec![0.0; 6 * slot.len()];
+    poses.par_chunks_mut(6).zip(&slot).for_each(|(pose, &k)| {
+        pose.copy_from_slice(pose_vector(&setup.poses[k as usize]).as_slice())
+    });
     Ok(DesignStart {
         weights,
         centres: setup.initial_centres,
