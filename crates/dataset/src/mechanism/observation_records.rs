@@ -14,6 +14,8 @@ use serde::de::{self, SeqAccess, Visitor};
 use serde::ser::SerializeStruct;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
+use crate::json;
+
 /// One row's test: its whitened residual, its redundancy number and its
 /// normalised residual.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -109,13 +111,18 @@ impl ObservationRecords {
 
     /// Observation `k`.
     pub fn get(&self, k: usize) -> Option<ObservationRecord<'_>> {
-        let entry = self.entries.get(k)?;
+        (k < self.len()).then(|| self.record(k))
+    }
+
+    /// Observation `k`, one of them.
+    fn record(&self, k: usize) -> ObservationRecord<'_> {
+        let entry = &self.entries[k];
         let start = k.checked_sub(1).map_or(0, |j| self.entries[j].end);
-        Some(ObservationRecord {
+        ObservationRecord {
             kind: &entry.kind,
             index: entry.index,
             rows: &self.rows[start..entry.end],
-        })
+        }
     }
 
     /// The observations in order.
@@ -150,9 +157,11 @@ impl Serialize for ObservationRecord<'_> {
     }
 }
 
+/// The observations formatted on the threads: JSON only (the record's
+/// format).
 impl Serialize for ObservationRecords {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.collect_seq(self.iter())
+        json::serialize_seq_on_threads(serializer, self.len(), |k| self.record(k))
     }
 }
 
