@@ -76,25 +76,27 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             tips,
         } = base.start_state()?;
         let touches = &data.observations.touches;
-        let direction = |i: usize| {
-            let t = base.touch_at(i);
-            let touch = &touches[t];
-            let b = data.observations.samples.len() + touch.ball;
-            let ball = base.touched_ball(touch.ball, &state.global, &state.groups[b]);
-            let chart = touch
-                .chart(&(tips[i] - ball.centre))
-                .map_err(|e| touch_failed(t, touch.ball, e))?;
-            Ok(UnitVector3::new_unchecked(chart.reference()))
-        };
-        // On the threads, then in order: the first touch whose chart fails
-        // named (its error formed again).
-        let charted: Vec<Option<UnitVector3<f64>>> = (0..tips.len())
-            .into_par_iter()
-            .map(|i| direction(i).ok())
-            .collect();
-        let directions = (charted.into_iter().enumerate())
-            .map(|(i, charted)| charted.map_or_else(|| direction(i), Ok))
-            .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
+        // Each touch's chart on the threads, into its place; of the touches
+        // whose chart fails, the first named.
+        let mut directions = vec![UnitVector3::new_unchecked(Vector3::z()); tips.len()];
+        let failed = (directions.par_iter_mut().enumerate())
+            .filter_map(|(i, direction)| {
+                let t = base.touch_at(i);
+                let touch = &touches[t];
+                let b = data.observations.samples.len() + touch.ball;
+                let ball = base.touched_ball(touch.ball, &state.global, &state.groups[b]);
+                match touch.chart(&(tips[i] - ball.centre)) {
+                    Ok(chart) => {
+                        *direction = UnitVector3::new_unchecked(chart.reference());
+                        None
+                    }
+                    Err(e) => Some((i, touch_failed(t, touch.ball, e))),
+                }
+            })
+            .min_by_key(|&(i, _)| i);
+        if let Some((_, error)) = failed {
+            return Err(error);
+        }
         let state = State {
             points: vec![SVector::zeros(); directions.len()],
             global: state.global,
