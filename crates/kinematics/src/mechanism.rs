@@ -273,6 +273,13 @@ pub trait Mechanism: Send + Sync {
         None
     }
 
+    /// The scales' values at `params` (the parameters
+    /// [`Mechanism::scale_parameters`] names), one per actuator; `None`
+    /// when they are not parameters.
+    fn scales<'p>(&self, params: &'p [f64]) -> Option<&'p [f64]> {
+        self.scale_parameters().map(|range| &params[range])
+    }
+
     /// Inverse kinematics: the readings `q = g(p, x)` that put the
     /// mechanism at `pose`. An error when the pose cannot be assembled.
     fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError>;

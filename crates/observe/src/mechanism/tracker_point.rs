@@ -113,14 +113,9 @@ impl TrackerPoint {
             Actuation::Commanded(x) => (mechanism.inverse(configured, x)?, Some(&x[..])),
         };
         // `s_i`, where the scales are parameters.
-        let scales = mechanism.scale_parameters();
-        let scale = |i: usize| {
-            scales
-                .as_ref()
-                .map_or(1.0, |scales| params[scales.start + i])
-        };
+        let scales = mechanism.scales(params);
         let shifted: Vec<f64> = (readings.iter().zip(offsets).enumerate())
-            .map(|(i, (q, o))| q + o / scale(i))
+            .map(|(i, (q, o))| q + o / scales.map_or(1.0, |s| s[i]))
             .collect();
         let reached = Actuation::Readings(shifted).tool_point(
             mechanism,
@@ -134,9 +129,8 @@ impl TrackerPoint {
         let d_readings = self.weight.inverse_factor() * frame_rotation(frame) * d_tip;
         let mut d_offsets =
             DMatrix::from_column_slice(3, d_readings.ncols(), d_readings.as_slice());
-        if let Some(scales) = scales {
-            for (i, k) in scales.enumerate() {
-                let s = params[k];
+        if let (Some(columns), Some(scales)) = (mechanism.scale_parameters(), scales) {
+            for (i, (k, &s)) in columns.zip(scales).enumerate() {
                 let mut d_scale = rows.rows.d_params.column_mut(k);
                 d_scale.axpy(-offsets[i] / (s * s), &d_offsets.column(i), 1.0);
                 d_offsets.column_mut(i).unscale_mut(s);

@@ -106,9 +106,9 @@ impl TrackerPose {
     /// `params` (module doc).
     pub fn row_whitening(&self, mechanism: &dyn Mechanism, params: &[f64]) -> DMatrix<f64> {
         let mut w = self.weight.clone();
-        if let Some(scales) = mechanism.scale_parameters() {
-            for (mut column, k) in w.column_iter_mut().zip(scales) {
-                column *= params[k];
+        if let Some(scales) = mechanism.scales(params) {
+            for (mut column, s) in w.column_iter_mut().zip(scales) {
+                column *= *s;
             }
         }
         w
