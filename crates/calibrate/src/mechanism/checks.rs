@@ -40,18 +40,24 @@ pub struct ObservationChecks {
 }
 
 impl ObservationChecks {
-    /// Room for `observations` observations of `rows` rows in all.
-    pub(crate) fn with_capacity(observations: usize, rows: usize) -> Self {
+    /// The checks of the observations whose rows, in order, are `rows`:
+    /// none yet ([`ObservationChecks::push`] takes them in turn).
+    pub(crate) fn of_rows(rows: Vec<RowCheck>) -> Self {
         Self {
-            observations: Vec::with_capacity(observations),
-            rows: Vec::with_capacity(rows),
+            observations: Vec::new(),
+            rows,
         }
     }
 
-    /// The next observation and its rows.
-    pub(crate) fn push(&mut self, observation: ObservationRef, rows: &[RowCheck]) {
-        self.rows.extend_from_slice(rows);
-        self.observations.push((observation, self.rows.len()));
+    /// The next observation, holding the next `rows` rows; `false`
+    /// (nothing added) when fewer are left.
+    pub(crate) fn push(&mut self, observation: ObservationRef, rows: usize) -> bool {
+        let end = self.observations.last().map_or(0, |&(_, end)| end) + rows;
+        if end > self.rows.len() {
+            return false;
+        }
+        self.observations.push((observation, end));
+        true
     }
 
     /// The number of observations.
@@ -131,12 +137,15 @@ mod tests {
             kind: ObservationKind::Probe,
             index: 1,
         };
-        let mut checks = ObservationChecks::with_capacity(2, 4);
-        checks.push(probe, &[row(0.3, Some(0.42))]);
-        checks.push(
-            touch,
-            &[row(1.0, None), row(-2.0, Some(-2.8)), row(0.5, Some(0.7))],
-        );
+        let mut checks = ObservationChecks::of_rows(vec![
+            row(0.3, Some(0.42)),
+            row(1.0, None),
+            row(-2.0, Some(-2.8)),
+            row(0.5, Some(0.7)),
+        ]);
+        assert!(checks.push(probe, 1));
+        assert!(checks.push(touch, 3));
+        assert!(!checks.push(probe, 1), "no row is left");
         assert_eq!(checks.len(), 2);
         let second = checks.get(1).unwrap();
         assert_eq!((second.observation, second.rows.len()), (touch, 3));

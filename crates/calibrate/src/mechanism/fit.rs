@@ -374,45 +374,55 @@ where
         redundancy,
         normalised: normalised_residual(residual, redundancy),
     };
-    let mut points = Vec::with_capacity(R * base.n_points());
+    // Every row in the order of the data, each written in its place: the
+    // global observations' once the pass has given them, then each point
+    // sample's and each touch's as the pass gives them, a touch at its
+    // place in the data (the pass's points are in the solver's order).
+    let global_rows: usize = refs.iter().map(|&(_, rows)| rows).sum();
+    let order = base.touch_order();
+    let samples = base.n_points() - order.len();
+    let touches = global_rows + R * samples;
+    let mut rows = vec![RowCheck::default(); touches + R * order.len()];
+    let mut point = 0usize;
     let global = redundancy::<C, P, R, _>(
         problem,
         state,
         covariance,
         &mut caches,
         groups_per_chunk,
-        |rows| points.extend((0..R).map(|j| row(rows.residual[j], rows.redundancy[j]))),
+        |checked| {
+            let at = match point.checked_sub(samples) {
+                None => global_rows + R * point,
+                Some(k) => touches + R * order[k],
+            };
+            for (j, room) in rows[at..at + R].iter_mut().enumerate() {
+                *room = row(checked.residual[j], checked.redundancy[j]);
+            }
+            point += 1;
+        },
     )
     .map_err(|status| MechanismCalibrationError::Solver { status })?;
     // The checks below take their room.
     drop(caches);
-    let global_rows: Vec<RowCheck> = (global.global_observation_residuals.iter())
+    let global_checks = (global.global_observation_residuals.iter())
         .zip(global.global_observations.iter())
-        .map(|(&e, &r)| row(e, r))
-        .collect();
-    let order = base.touch_order();
-    let mut checks = ObservationChecks::with_capacity(
-        refs.len() + points.len(),
-        global_rows.len() + points.len(),
-    );
-    let mut start = 0;
-    for &(observation, rows) in refs {
-        checks.push(observation, &global_rows[start..start + rows]);
-        start += rows;
+        .map(|(&e, &r)| row(e, r));
+    for (room, check) in rows[..global_rows].iter_mut().zip(global_checks) {
+        *room = check;
     }
-    let (samples, touches) = points.split_at(points.len() - R * order.len());
-    for (index, rows) in samples.chunks(base.actuators()).enumerate() {
-        let kind = ObservationKind::Sample;
-        checks.push(ObservationRef { kind, index }, rows);
-    }
-    // The touches in the order of the data, from the solver's.
-    let mut by_touch = vec![0; order.len()];
-    for (k, &t) in order.iter().enumerate() {
-        by_touch[t] = k;
-    }
-    for (index, &k) in by_touch.iter().enumerate() {
-        let kind = ObservationKind::Touch;
-        checks.push(ObservationRef { kind, index }, &touches[R * k..R * (k + 1)]);
+    let mut checks = ObservationChecks::of_rows(rows);
+    let observations = (refs.iter().copied())
+        .chain((0..R * samples / base.actuators()).map(|index| {
+            let kind = ObservationKind::Sample;
+            (ObservationRef { kind, index }, base.actuators())
+        }))
+        .chain((0..order.len()).map(|index| {
+            let kind = ObservationKind::Touch;
+            (ObservationRef { kind, index }, R)
+        }));
+    for (observation, rows) in observations {
+        let pushed = checks.push(observation, rows);
+        debug_assert!(pushed, "the rows end where the observations' do");
     }
     Ok((checks, global.group_sigmas))
 }
