@@ -267,7 +267,7 @@ fn readings_at_unknown_and_measured_poses_calibrate_a_delta() {
     // the stopping rule leaves (its pose's own step, which would remove
     // it, is below SIGMA_TOLERANCE in sigmas, the residual whitened).
     assert!(
-        (unknown.rows.iter()).all(|r| r.residual.abs() < parcal_solver::SIGMA_TOLERANCE),
+        (unknown.rows.iter()).all(|r| f64::from(r.residual).abs() < parcal_solver::SIGMA_TOLERANCE),
         "{unknown:?}"
     );
     let n = 16;

@@ -73,7 +73,12 @@ pub fn probe_residual_svg(
         .observations
         .iter()
         .filter(|o| o.kind == probe)
-        .map(|o| Ok((at(o.index)?, o.rows.first().map_or(0.0, |r| r.residual))))
+        .map(|o| {
+            Ok((
+                at(o.index)?,
+                o.rows.first().map_or(0.0, |r| f64::from(r.residual)),
+            ))
+        })
         .collect::<Result<Vec<_>, String>>()?;
     let removed = calibration
         .tests

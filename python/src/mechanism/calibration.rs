@@ -296,7 +296,9 @@ impl MechanismCalibration {
         for observation in observations.iter() {
             let worst = observation.worst();
             w.push(worst.map_or(f64::NAN, |(_, w)| w));
-            e.push(worst.map_or(f64::NAN, |(row, _)| observation.rows[row].residual));
+            e.push(worst.map_or(f64::NAN, |(row, _)| {
+                f64::from(observation.rows[row].residual)
+            }));
         }
         let dict = PyDict::new(py);
         let kinds: Vec<&str> = observations.iter().map(|o| o.kind).collect();
@@ -312,7 +314,7 @@ impl MechanismCalibration {
             .collect();
         let redundancy: Vec<f64> = observations
             .iter()
-            .map(|o| o.rows.iter().map(|r| r.redundancy).sum())
+            .map(|o| o.rows.iter().map(|r| f64::from(r.redundancy)).sum())
             .collect();
         dict.set_item("kind", kinds)?;
         dict.set_item("index", PyArray1::from_vec(py, index))?;

@@ -118,7 +118,7 @@ mod tests {
     use super::*;
     use crate::mechanism::ObservationKind;
 
-    fn row(residual: f64, normalised: Option<f64>) -> RowCheck {
+    fn row(residual: f32, normalised: Option<f32>) -> RowCheck {
         RowCheck {
             residual,
             redundancy: 0.5,
@@ -140,7 +140,7 @@ mod tests {
         let mut checks = ObservationChecks::of_rows(vec![
             row(0.3, Some(0.42)),
             row(1.0, None),
-            row(-2.0, Some(-2.8)),
+            row(-2.0, Some(-2.75)),
             row(0.5, Some(0.7)),
         ]);
         assert!(checks.push(probe, 1));
@@ -149,9 +149,9 @@ mod tests {
         assert_eq!(checks.len(), 2);
         let second = checks.get(1).unwrap();
         assert_eq!((second.observation, second.rows.len()), (touch, 3));
-        assert_eq!(second.worst(), Some((1, -2.8)));
+        assert_eq!(second.worst(), Some((1, -2.75)));
         assert!(checks.get(2).is_none());
-        let residuals: Vec<Vec<f64>> = (checks.iter())
+        let residuals: Vec<Vec<f32>> = (checks.iter())
             .map(|c| c.rows.iter().map(|r| r.residual).collect())
             .collect();
         assert_eq!(residuals, [vec![0.3], vec![1.0, -2.0, 0.5]]);

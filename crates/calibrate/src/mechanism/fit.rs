@@ -370,9 +370,9 @@ where
     Q: Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>,
 {
     let row = |residual: f64, redundancy: f64| RowCheck {
-        residual,
-        redundancy,
-        normalised: normalised_residual(residual, redundancy),
+        residual: residual as f32,
+        redundancy: redundancy as f32,
+        normalised: normalised_residual(residual, redundancy).map(|w| w as f32),
     };
     // Every row in the order of the data, each written in its place: the
     // global observations' once the pass has given them, then each point

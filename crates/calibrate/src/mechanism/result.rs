@@ -443,7 +443,7 @@ fn worst(observations: &ObservationChecks) -> Option<Worst<ObservationRef>> {
                 observation: c.observation,
                 row,
                 normalised,
-                gross_error: c.rows[row].residual / c.rows[row].redundancy,
+                gross_error: f64::from(c.rows[row].residual) / f64::from(c.rows[row].redundancy),
             })
         })
         .max_by(|a, b| a.normalised.abs().total_cmp(&b.normalised.abs()))
