@@ -80,18 +80,14 @@ def validate(dataset: Union[Dataset, MechanismDataset], **options: Any) -> "dict
     """Validates `dataset` as ``parcal validate`` does and returns what it
     writes to validation.json (a dict): a mechanism's held-out data against
     ``calibration`` (a ``MechanismCalibration`` or its calibration.json's
-    path; option ``accept_rejected``), a hexapod's ball touches against a
-    hexapod's ``MechanismCalibration`` (``common=True``; each held-out
-    ball's centre fitted on all its touches), or a hexapod's against its
-    own calibration (options ``calibration``, ``reference``, ``folds``,
-    ``accept_rejected``)."""
+    path; options ``reference``, each held-out ball's centre located by
+    its first touches, and ``accept_rejected``), a hexapod's ball touches
+    against a hexapod's ``MechanismCalibration`` (the same options), or a
+    hexapod's against its own calibration (options ``calibration``,
+    ``reference``, ``folds``, ``accept_rejected``)."""
     if isinstance(dataset, MechanismDataset):
         return _parcal.validate_mechanism(dataset, **options)
     if _mechanism_calibration(options.get("calibration")):
-        if options.get("reference") is not None:
-            raise Error("reference: a calibration through the common path is validated without it "
-                        "(each held-out ball's centre is fitted on all its touches)")
-        options.pop("reference", None)
         return _parcal.validate_common(dataset, **options)
     return _parcal.validate(dataset, **options)
 

@@ -537,6 +537,7 @@ def validate_mechanism(
     dataset: MechanismDataset,
     *,
     calibration: Union[MechanismCalibration, PathLike],
+    reference: Optional[int] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
     """``parcal.validate`` on a mechanism dataset: validation.json's content."""
@@ -545,6 +546,7 @@ def validate_common(
     dataset: Dataset,
     *,
     calibration: Union[MechanismCalibration, PathLike],
+    reference: Optional[int] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
     """``parcal.validate`` of a hexapod's ball touches against a hexapod's

@@ -442,8 +442,12 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
     validation = parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, accept_rejected=True)
     assert validation["mechanism"] == "hexapod"
     assert len(validation["rows"]) == 27 * 4 and validation["rows"][0]["file"] == "artefacts.json"
-    with pytest.raises(parcal.Error, match="reference: a calibration through the common path"):
-        parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, reference=4)
+    # Each ball's centre located by its first 4 touches, its other 3 predicted.
+    referenced = parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, reference=4,
+                                 accept_rejected=True)
+    assert referenced["reference"] == 4 and len(referenced["rows"]) == 27 * 3
+    with pytest.raises(parcal.Error, match="reference 0: must be a whole number from 1"):
+        parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, reference=0)
     # Applied as any mechanism's: targets in its six pose coordinates.
     out = parcal.compensate(run, [[-80.0, -30.0, 330.0, 0.05, 0.0, 0.0]])
     assert out["target"].shape == (1, 6) and out["sigma"].shape == (1, 6)

@@ -45,7 +45,7 @@ fn held_out(dataset: &MechanismDataset, position_sigma: f64) -> MechanismDataset
 
 fn validated(calibrated: &CalibratedMechanism, held_out: &MechanismDataset) -> MechanismValidation {
     let data = MechanismData::from_dataset(held_out).unwrap();
-    validate_mechanism(calibrated, &data, 0.05).unwrap()
+    validate_mechanism(calibrated, &data, 0.05, None).unwrap()
 }
 
 /// The RMS of the 3D distances between predicted and measured positions.

@@ -419,7 +419,7 @@ fn motion_capture_poses_held_out_are_judged() {
         assert!(calibration.converged());
         let calibrated = CalibratedMechanism::of_calibration(&calibration).unwrap();
         let judged = held_out.with_observations(fold(&held_out.observations, r, true));
-        let validation = validate_mechanism(&calibrated, &judged, 0.05).unwrap();
+        let validation = validate_mechanism(&calibrated, &judged, 0.05, None).unwrap();
         assert_eq!(validation.rows.len(), 18 * 6 - 12);
         assert!(
             (validation.rows.iter())
@@ -844,7 +844,7 @@ fn a_hexapod_calibrated_through_the_interface_is_judged_on_held_out_balls() {
     assert!(calibration.converged());
     let calibrated = CalibratedMechanism::of_calibration(&calibration).unwrap();
     let mut held_out = all.with_observations(balls(&all.observations, 20..27));
-    let validation = validate_mechanism(&calibrated, &held_out, 0.05).unwrap();
+    let validation = validate_mechanism(&calibrated, &held_out, 0.05, None).unwrap();
     let test = validation.test.as_ref().unwrap();
     println!(
         "held out: {} rows, ratio {:.3} within [{:.3}, {:.3}]",
@@ -864,7 +864,7 @@ fn a_hexapod_calibrated_through_the_interface_is_judged_on_held_out_balls() {
             q[0] += 0.1;
         }
     }
-    let validation = validate_mechanism(&calibrated, &held_out, 0.05).unwrap();
+    let validation = validate_mechanism(&calibrated, &held_out, 0.05, None).unwrap();
     let test = validation.test.as_ref().unwrap();
     let best = &validation.shifts[0];
     println!(

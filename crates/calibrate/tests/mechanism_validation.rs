@@ -64,7 +64,7 @@ fn validated(
     seed: u64,
 ) -> MechanismValidation {
     let held_out = measure_delta(scenario, truth, seed + HELD_OUT).unwrap();
-    validate_mechanism(calibrated, &data(&held_out), ALPHA).unwrap()
+    validate_mechanism(calibrated, &data(&held_out), ALPHA, None).unwrap()
 }
 
 /// Over `draws` printers, each calibrated and validated on held-out data

@@ -173,7 +173,7 @@ fn held_out_trackers_placed_anew_fit_their_predicted_covariance() {
         let truth = dataset.truth.unwrap();
         let held_out = measure_delta(&scenario, &truth, seed + 10_000).unwrap();
         let held_out = MechanismData::from_dataset(&held_out).unwrap();
-        let validation = validate_mechanism(&calibrated, &held_out, 0.05).unwrap();
+        let validation = validate_mechanism(&calibrated, &held_out, 0.05, None).unwrap();
         let tracker_rows = validation
             .rows
             .iter()
@@ -185,7 +185,7 @@ fn held_out_trackers_placed_anew_fit_their_predicted_covariance() {
             changed.parameters[11] += 0.2;
             let measured = measure_delta(&scenario, &changed, seed + 10_000).unwrap();
             let measured = MechanismData::from_dataset(&measured).unwrap();
-            let validation = validate_mechanism(&calibrated, &measured, 0.05).unwrap();
+            let validation = validate_mechanism(&calibrated, &measured, 0.05, None).unwrap();
             println!(
                 "a rod 0.2 mm longer: T/n {:.2} over {} rows",
                 validation.statistic / validation.rows.len() as f64,

@@ -431,7 +431,7 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     // A hexapod's way of validating is refused, saying the mechanism's.
     let err = fails(&["validate", s(&sim), "--folds", "3"]);
     assert!(
-        err.contains("a linear delta's dataset is validated with --calibration alone"),
+        err.contains("a linear delta's dataset is validated with --calibration"),
         "{err}"
     );
     let err = fails(&[

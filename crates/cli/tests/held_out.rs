@@ -29,7 +29,17 @@ fn simulate(name: &str, seed: &str, truth: Option<&Path>, flags: &[&str], out: &
 /// `parcal validate DATA --calibration CALIBRATION`: its exit status and
 /// what it printed.
 fn validate(data: &Path, calibration: &Path) -> (Option<i32>, String) {
-    let output = parcal(&["validate", s(data), "--calibration", s(calibration)]);
+    validate_with(data, calibration, &[])
+}
+
+/// [`validate`] with the options `options` too.
+fn validate_with(data: &Path, calibration: &Path, options: &[&str]) -> (Option<i32>, String) {
+    let args = [
+        &["validate", s(data), "--calibration", s(calibration)],
+        options,
+    ]
+    .concat();
+    let output = parcal(&args);
     let said = format!(
         "{}{}",
         common::text(&output.stdout),
@@ -178,23 +188,32 @@ fn a_delta_s_held_out_touches_accept_its_printer_and_name_a_larger_radius() {
     eprintln!("{said}");
     assert_eq!(status, Some(0), "{said}");
     assert!(said.contains("predicted 28 ball rows"), "{said}");
+    // Each ball's centre located by its first 5 touches, its other 5
+    // predicted: 4 × 5 rows.
+    let reference = ["--reference", "5"];
+    let (status, said) = validate_with(&held_out, &calibration, &reference);
+    eprintln!("{said}");
+    assert_eq!(status, Some(0), "{said}");
+    assert!(said.contains("predicted 20 ball rows"), "{said}");
 
     // The delta radius 0.5 mm larger (the printer's scale): rejected, the
     // balls' rows failing, by the ball's line and its touches', and the
-    // radius named.
+    // radius named; from reference touches too.
     let larger = changed(&sim, &d.join("larger"), RADIUS, 0.5);
     let held_out = touches_only(&larger, "4", "10", &d.join("held-out-larger"));
-    let (status, said) = validate(&held_out, &calibration);
-    eprintln!("{said}");
-    assert_eq!(status, Some(3), "{said}");
-    assert!(said.contains("prediction test failed"), "{said}");
     let named = |line: &str| {
         line.contains("balls.csv line")
             && line.contains("touched at touches.csv lines")
             && line.contains("fails its w-test")
     };
-    assert!(said.lines().any(named), "{said}");
-    assert!(said.contains("a change of radius by"), "{said}");
+    for options in [&[][..], &reference] {
+        let (status, said) = validate_with(&held_out, &calibration, options);
+        eprintln!("{said}");
+        assert_eq!(status, Some(3), "{said}");
+        assert!(said.contains("prediction test failed"), "{said}");
+        assert!(said.lines().any(named), "{said}");
+        assert!(said.contains("a change of radius by"), "{said}");
+    }
 
     // A ball touched 4 times gives one row; one touched 3 times is named.
     let four = touches_only(&sim, "2", "4", &d.join("four"));

@@ -187,9 +187,11 @@ fn a_hexapod_record_is_compensated_on_target_poses() {
 #[test]
 fn a_hexapod_record_is_validated_on_held_out_touches() {
     // Fitted on fixtures/paper-seed1 (propagated prior), judged on another
-    // campaign of the same machine (seed 7: other noise): accepted; with
-    // leg 1 reading 0.1 mm long there, rejected, l_1 the change that best
-    // explains it; each row placed in the hexapod dataset's files.
+    // campaign of the same machine (seed 7: other noise), each ball's
+    // centre projected out of its touches or located by its first 4:
+    // accepted; with leg 1 reading 0.1 mm long there, rejected, l_1 the
+    // change that best explains it; each row placed in the hexapod
+    // dataset's files.
     let temp = tempfile::tempdir().unwrap();
     let calibration = propagated_record(temp.path());
     let held_out = temp.path().join("seed7");
@@ -203,6 +205,21 @@ fn a_hexapod_record_is_validated_on_held_out_touches() {
     let rows = record["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 27 * 4);
     assert!(rows.iter().all(|row| row["file"] == "artefacts.json"));
+    // Each ball's centre located by its first 4 touches, its other 3
+    // predicted: accepted too.
+    let referenced = temp.path().join("referenced.json");
+    let with_reference = [
+        &validate[..],
+        &["--reference", "4", "--out", s(&referenced)],
+    ]
+    .concat();
+    let printed = ok(&with_reference);
+    assert!(printed.contains("verdict: accepted"), "{printed}");
+    let record = read(&referenced);
+    assert_eq!(record["reference"], 4);
+    assert_eq!(record["rows"].as_array().unwrap().len(), 27 * 3);
+    let said = record["reasons"].to_string();
+    assert!(said.contains("its first 4 touches"), "{said}");
     // Leg 1 0.1 mm long: every q1 + 0.1 (the scale is 1).
     let measurements = held_out.join("measurements.csv");
     let text = std::fs::read_to_string(&measurements).unwrap();
@@ -219,9 +236,9 @@ fn a_hexapod_record_is_validated_on_held_out_touches() {
     let record = read(&out);
     assert_eq!(record["verdict"], "rejected");
     assert_eq!(record["shifts"][0]["name"], "l_1");
-    // --reference is the own validation's.
-    let error = fails(&[&validate[..], &["--reference", "4", "--out", s(&out)]].concat());
-    assert!(error.contains("without --reference"), "{error}");
+    let error = fails(&with_reference);
+    assert!(error.contains("rejected"), "{error}");
+    assert_eq!(read(&referenced)["shifts"][0]["name"], "l_1");
 }
 
 #[test]
@@ -448,7 +465,10 @@ fn a_campaign_of_poses_through_the_common_calibration_is_validated_on_another() 
         "--out",
         s(&out),
     ]);
-    assert!(error.contains("validated without --reference"), "{error}");
+    assert!(
+        error.contains("reference touches") && error.contains("a tracker's frame"),
+        "{error}"
+    );
 }
 
 /// The number of rows of a dataset's poses.csv.

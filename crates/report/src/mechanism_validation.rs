@@ -51,6 +51,7 @@ pub fn validation_record(
         critical_value: validation.critical_value,
         kinds: kinds(&rows),
         untested: validation.untested,
+        reference: validation.reference,
         shifts: validation
             .shifts
             .iter()
@@ -384,6 +385,11 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
                 "no change of one unknown explains the residuals (the best, {change}, leaves them too large): the data or their stated noise are in question, or the machine changed in more than one way"
             ),
         });
+    }
+    if let Some(n) = record.reference {
+        reasons.push(format!(
+            "each ball's centre located by its first {n} touches, its other touches predicted"
+        ));
     }
     if record.untested > 0 {
         reasons.push(format!(

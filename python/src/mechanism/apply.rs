@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use parcal::calibration::bounds::REFERENCE;
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
 use parcal::calibration::mechanism::compensate_targets;
 use parcal::calibration::mechanism::{MechanismCalibrationError, MechanismValidation};
@@ -30,48 +31,62 @@ fn calibrated(record: &MechanismCalibrationRecord, name: &str) -> PyResult<Calib
 
 /// Validates `calibration` (a `parcal.MechanismCalibration`, or the path
 /// of a mechanism's calibration.json) on the held-out mechanism dataset
-/// `dataset`, as `parcal validate` does, and returns what it writes to
-/// validation.json: a dict with its `verdict`, `reasons`, the `test` of
-/// the held-out residuals, each kind's RMS, the worst rows named by file
-/// and line. A rejected calibration only with `accept_rejected`.
+/// `dataset`, as `parcal validate` does (each held-out ball's centre
+/// located by its first `reference` touches if given), and returns what
+/// it writes to validation.json: a dict with its `verdict`, `reasons`, the
+/// `test` of the held-out residuals, each kind's RMS, the worst rows named
+/// by file and line. A rejected calibration only with `accept_rejected`.
 #[pyfunction]
-#[pyo3(signature = (dataset, *, calibration, accept_rejected=false))]
+#[pyo3(signature = (dataset, *, calibration, reference=None, accept_rejected=false))]
 pub fn validate_mechanism<'py>(
     py: Python<'py>,
     dataset: &Bound<'py, MechanismDataset>,
     calibration: &Bound<'py, PyAny>,
+    reference: Option<usize>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let dataset = dataset.get();
+    checked_reference(reference)?;
     judged(
         py,
         calibration,
         accept_rejected,
         &dataset.path,
-        |calibrated| validate(calibrated, &dataset.data, SNOOPING_LEVEL),
+        |calibrated| validate(calibrated, &dataset.data, SNOOPING_LEVEL, reference),
     )
 }
 
 /// Validates `calibration` (a `parcal.MechanismCalibration` of a hexapod
 /// through the common path, or its calibration.json's path) on the ball
 /// touches of the hexapod `dataset` (a `Dataset`), as `parcal validate`
-/// does (each held-out ball's centre fitted on all its touches; no
-/// `reference`), and returns what it writes to validation.json. A rejected
-/// calibration only with `accept_rejected`.
+/// does (each held-out ball's centre located by its first `reference`
+/// touches if given, else projected out of all of them), and returns what
+/// it writes to validation.json. A rejected calibration only with
+/// `accept_rejected`.
 #[pyfunction]
-#[pyo3(signature = (dataset, *, calibration, accept_rejected=false))]
+#[pyo3(signature = (dataset, *, calibration, reference=None, accept_rejected=false))]
 pub fn validate_common<'py>(
     py: Python<'py>,
     dataset: &Bound<'py, Dataset>,
     calibration: &Bound<'py, PyAny>,
+    reference: Option<usize>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let dataset = dataset.get();
+    checked_reference(reference)?;
     let given = Path::new(&dataset.given);
     judged(py, calibration, accept_rejected, given, |calibrated| {
         let data = MechanismData::hexapod_held_out(&dataset.inner)?;
-        validate(calibrated, &data, SNOOPING_LEVEL)
+        validate(calibrated, &data, SNOOPING_LEVEL, reference)
     })
+}
+
+/// `reference` within its bounds ([`REFERENCE`]), if given.
+fn checked_reference(reference: Option<usize>) -> PyResult<()> {
+    if let Some(n) = reference {
+        REFERENCE.check("reference", n).map_err(to_py)?;
+    }
+    Ok(())
 }
 
 /// `calibration` (accepted, or `accept_rejected`) judged by `validate_on`

@@ -75,6 +75,14 @@
 //! no error of `u` moves `r'` to first order, so that `r'` does not
 //! depend on how `u` was fitted, nor `G` on how the fit moves with `θ`
 //! (`dr'/dθ = N_⊥ᵀ (G_p + J du/dθ) = N_⊥ᵀ G_p`).
+//!
+//! With reference touches `N` (`parcal validate --reference N`), each
+//! ball's centre is located by its first `N` touches alone and its other
+//! touches are predicted from them: `r' = r_o − J_o K r_r`, `K` the
+//! centre's weighted fit on the reference rows, one row per predicted
+//! touch (and distance), the fit's error in their noise
+//! ([`predict_from_reference`]). Tracker frames and sample poses are
+//! located by all their rows: reference touches are refused beside them.
 
 use nalgebra::{DMatrix, DVector, Isometry3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_reading_jacobian};
@@ -120,7 +128,15 @@ pub fn predict(
     global: &DVector<f64>,
     configured: &[f64],
     observations: &Observations,
+    reference: Option<usize>,
 ) -> Result<Vec<PredictedRows>, MechanismCalibrationError> {
+    if reference.is_some() && !(observations.trackers.is_empty() && observations.samples.is_empty())
+    {
+        return Err(MechanismCalibrationError::InvalidData {
+            what: "the reference touches".to_string(),
+            reason: "they locate each held-out ball's centre; a tracker's frame and a point sample's pose are located by all their rows: validate those without reference touches".to_string(),
+        });
+    }
     let n = mechanism.parameters().len();
     let g = global.len();
     let params = &global.as_slice()[..n];
@@ -191,11 +207,10 @@ pub fn predict(
     }
     for set in tied_sets(observations, balls)? {
         predicted.push(predict_balls(
-            mechanism,
-            params,
-            configured,
+            (mechanism, params, configured),
             observations,
             set,
+            reference,
             g,
         )?);
     }
@@ -401,16 +416,19 @@ fn predict_sample(
 /// The rows of a set of held-out balls (module doc): each ball's touches,
 /// its centre `c` located by them alone, and the distances between the
 /// set's balls, `r = |ĉ_a − ĉ_b| − L` (`dr/dc_a = uᵀ`, `dr/dc_b = −uᵀ`,
-/// noise `σ_L²`), every centre then projected out together.
+/// noise `σ_L²`), every centre then projected out together; with
+/// `reference` touches `N`, each centre located by its ball's first `N`
+/// touches and the set's other rows predicted from them
+/// ([`predict_from_reference`]).
 fn predict_balls(
-    mechanism: &dyn Mechanism,
-    params: &[f64],
-    configured: &[f64],
+    (mechanism, params, configured): (&dyn Mechanism, &[f64], &[f64]),
     observations: &Observations,
     set: BallSet,
+    reference: Option<usize>,
     g: usize,
 ) -> Result<PredictedRows, MechanismCalibrationError> {
     let all = &observations.touches;
+    let mut reference_rows = Vec::new();
     let n = params.len();
     let m = set.touches.iter().map(Vec::len).sum::<usize>() + set.distances.len();
     let u = 3 * set.balls.len();
@@ -421,18 +439,33 @@ fn predict_balls(
     let mut row = 0;
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
+        let k = touches.len();
+        let locating = match reference {
+            None => touches.as_slice(),
+            Some(n) if n < k => {
+                reference_rows.extend(row..row + n);
+                &touches[..n]
+            }
+            Some(n) => {
+                return Err(MechanismCalibrationError::InvalidData {
+                    what: format!("ball {b}"),
+                    reason: format!(
+                        "it has {k} held-out touches: none is left to predict after the {n} reference touches"
+                    ),
+                });
+            }
+        };
         let centre = ball_centre(
             mechanism,
             params,
             configured,
             all,
-            touches,
+            locating,
             b,
             ball.radius,
             None,
         )?
         .centre;
-        let k = touches.len();
         let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
         noise.view_mut((row, row), (k, k)).fill(radius_variance);
         for &t in touches {
@@ -490,9 +523,16 @@ fn predict_balls(
         d_params: &d_params,
         noise,
     };
-    project_out(held_out.clone(), &local, g).ok_or_else(|| MechanismCalibrationError::InvalidData {
+    let (predicted, locating) = match reference {
+        None => (project_out(held_out.clone(), &local, g), "held-out"),
+        Some(_) => (
+            predict_from_reference(held_out.clone(), &local, &reference_rows, g),
+            "reference",
+        ),
+    };
+    predicted.ok_or_else(|| MechanismCalibrationError::InvalidData {
         what: held_out.to_string(),
-        reason: "the held-out touches do not locate the centres".to_string(),
+        reason: format!("the {locating} touches do not locate the centres"),
     })
 }
 
@@ -883,6 +923,61 @@ fn project_out(observation: HeldOut, local: &LocalRows, g: usize) -> Option<Pred
     })
 }
 
+/// `local`'s rows but its `reference` rows (increasing), predicted from
+/// these (module doc): with the rows split into the reference's (`J_r`,
+/// noise `Σ_rr`) and the others' (`J_o`), the local unknowns' weighted
+/// fit on the reference rows `K = (J_rᵀ Σ_rr⁻¹ J_r)⁻¹ J_rᵀ Σ_rr⁻¹`, and
+/// `A = [−J_o K | I]` on them,
+///
+/// ```text
+/// r' = A r = r_o − J_o K r_r,   G = A G_p,   D = A Σ Aᵀ:
+/// ```
+///
+/// `A J = J_o − J_o K J_r = 0`, so that no error of the unknowns moves
+/// `r'` to first order (nor `G`), as in [`project_out`], and `D` carries
+/// the fit's error and the noise common to reference and other rows (a
+/// ball's radius). `None` when the reference rows do not locate the
+/// unknowns.
+fn predict_from_reference(
+    observation: HeldOut,
+    local: &LocalRows,
+    reference: &[usize],
+    g: usize,
+) -> Option<PredictedRows> {
+    let m = local.residuals.len();
+    let others: Vec<usize> = (0..m)
+        .filter(|i| reference.binary_search(i).is_err())
+        .collect();
+    let j_r = local.d_local.select_rows(reference);
+    let weight = (local.noise.select_rows(reference))
+        .select_columns(reference)
+        .cholesky()?
+        .inverse();
+    let normal = j_r.transpose() * &weight * &j_r;
+    let spread = normal.symmetric_eigenvalues();
+    // False for a rank below the unknowns', and for a value that is not a
+    // number.
+    let located = spread.min() > 1e-12 * spread.max();
+    if !located {
+        return None;
+    }
+    let gain = normal.try_inverse()? * j_r.transpose() * weight;
+    let fitted = -(local.d_local.select_rows(&others) * gain);
+    let mut a = DMatrix::zeros(others.len(), m);
+    for (column, &r) in fitted.column_iter().zip(reference) {
+        a.set_column(r, &column);
+    }
+    for (i, &o) in others.iter().enumerate() {
+        a[(i, o)] = 1.0;
+    }
+    Some(PredictedRows {
+        observation,
+        residuals: &a * &local.residuals,
+        noise: &a * &local.noise * a.transpose(),
+        d_global: widened(&(&a * local.d_params), g),
+    })
+}
+
 /// `dx/dp|_q = −G_x⁺ G_p` of the readings' least-squares pose (module
 /// doc), and `(G_xᵀ G_x)⁻¹`; an error at a singular configuration.
 pub fn pose_derivative(
@@ -1042,9 +1137,17 @@ mod tests {
         machine: &(LinearDelta, DVector<f64>, DVector<f64>),
         params: &DVector<f64>,
         observations: &Observations,
+        reference: Option<usize>,
     ) -> PredictedRows {
         let (delta, configured, _) = machine;
-        let mut predicted = predict(delta, params, configured.as_slice(), observations).unwrap();
+        let mut predicted = predict(
+            delta,
+            params,
+            configured.as_slice(),
+            observations,
+            reference,
+        )
+        .unwrap();
         assert_eq!(predicted.len(), 1);
         predicted.remove(0)
     }
@@ -1055,6 +1158,7 @@ mod tests {
     fn assert_derivatives_match_differences(
         machine: &(LinearDelta, DVector<f64>, DVector<f64>),
         observations: &Observations,
+        reference: Option<usize>,
         at: &PredictedRows,
     ) {
         let truth = &machine.2;
@@ -1063,8 +1167,8 @@ mod tests {
             let (mut plus, mut minus) = (truth.clone(), truth.clone());
             plus[j] += steps[j];
             minus[j] -= steps[j];
-            let column = (ball_rows(machine, &plus, observations).residuals
-                - ball_rows(machine, &minus, observations).residuals)
+            let column = (ball_rows(machine, &plus, observations, reference).residuals
+                - ball_rows(machine, &minus, observations, reference).residuals)
                 / (2.0 * steps[j]);
             let error = (&column - at.d_global.column(j)).amax();
             assert!(
@@ -1126,7 +1230,7 @@ mod tests {
         let machine = delta();
         let k = 6;
         let observations = tied_balls(&machine, (12.7, 0.002), k, 0.002, |_| 0.0, 0.4);
-        let at = ball_rows(&machine, &machine.2, &observations);
+        let at = ball_rows(&machine, &machine.2, &observations, None);
         assert_eq!(at.residuals.len(), 3 * k + 2 - 9);
         assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
         assert_eq!(
@@ -1137,7 +1241,7 @@ mod tests {
                 distances: vec![0, 1],
             }
         );
-        assert_derivatives_match_differences(&machine, &observations, &at);
+        assert_derivatives_match_differences(&machine, &observations, None, &at);
     }
 
     /// Tied balls' rows of noisy touches and distances of the true machine:
@@ -1153,7 +1257,7 @@ mod tests {
             let error = |sigma| noise.normal(sigma);
             tied_balls(&machine, (12.7, 0.03), 6, 0.01, error, draw as f64)
         });
-        assert_rows_have_their_stated_noise("tied balls' rows", &machine, sets);
+        assert_rows_have_their_stated_noise("tied balls' rows", &machine, None, sets);
     }
 
     /// `T/n = Σ r'ᵀ D⁻¹ r' / n` over the predicted rows of each of `sets`
@@ -1162,11 +1266,12 @@ mod tests {
     fn assert_rows_have_their_stated_noise(
         what: &str,
         machine: &(LinearDelta, DVector<f64>, DVector<f64>),
+        reference: Option<usize>,
         sets: impl Iterator<Item = Observations>,
     ) {
         let (mut statistic, mut rows) = (0.0, 0);
         for observations in sets {
-            let predicted = ball_rows(machine, &machine.2, &observations);
+            let predicted = ball_rows(machine, &machine.2, &observations, reference);
             let noise = predicted.noise.clone().cholesky().unwrap();
             statistic += predicted.residuals.dot(&noise.solve(&predicted.residuals));
             rows += predicted.residuals.len();
@@ -1232,7 +1337,7 @@ mod tests {
             Vector3::new(0.1, -0.05, 2.0),
         );
         let observations = tracked(&machine, &frame, 7, || 0.0);
-        let at = ball_rows(&machine, &machine.2, &observations);
+        let at = ball_rows(&machine, &machine.2, &observations, None);
         assert_eq!(at.residuals.len(), 3 * 7 - 6);
         assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
         assert_eq!(
@@ -1243,14 +1348,14 @@ mod tests {
                 poses: Vec::new(),
             }
         );
-        assert_derivatives_match_differences(&machine, &observations, &at);
+        assert_derivatives_match_differences(&machine, &observations, None, &at);
         // Re-homed, a delta's offsets are its own unknowns too: their
         // common part lifts the effector as the frame's z translation
         // does, so that its points cannot locate both, and it is refused.
         let mut rehomed = observations;
         rehomed.trackers[0] = crate::mechanism::data::Tracker::rehomed("T", Some(0.1));
         let (delta, configured, truth) = &machine;
-        let error = predict(delta, truth, configured.as_slice(), &rehomed).unwrap_err();
+        let error = predict(delta, truth, configured.as_slice(), &rehomed, None).unwrap_err();
         assert!(
             error
                 .to_string()
@@ -1275,7 +1380,7 @@ mod tests {
             );
             tracked(&machine, &frame, 8, || noise.normal(1.0))
         });
-        assert_rows_have_their_stated_noise("a tracker's rows", &machine, sets);
+        assert_rows_have_their_stated_noise("a tracker's rows", &machine, None, sets);
     }
 
     /// A hexapod measured by a tracker at `frame`, a body mounted at `body`
@@ -1352,7 +1457,7 @@ mod tests {
         let body = Isometry3::new(Vector3::new(5.0, 8.0, 30.0), Vector3::new(0.03, 0.02, 2.6));
         let rows = |params: &DVector<f64>, observations: &Observations| {
             let mut predicted =
-                predict(&hexapod, params, configured.as_slice(), observations).unwrap();
+                predict(&hexapod, params, configured.as_slice(), observations, None).unwrap();
             assert_eq!(predicted.len(), 1);
             predicted.remove(0)
         };
@@ -1411,7 +1516,7 @@ mod tests {
             ..Default::default()
         };
         let truth = &machine.2;
-        let at = ball_rows(&machine, truth, &observations);
+        let at = ball_rows(&machine, truth, &observations, None);
         assert_eq!(at.residuals.len(), k - 3);
         assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
         assert_eq!(
@@ -1421,12 +1526,12 @@ mod tests {
                 touches: (0..k).collect()
             }
         );
-        assert_derivatives_match_differences(&machine, &observations, &at);
+        assert_derivatives_match_differences(&machine, &observations, None, &at);
         let h = 1e-4;
         observations.balls[0].radius = radius + h;
-        let plus = ball_rows(&machine, truth, &observations).residuals;
+        let plus = ball_rows(&machine, truth, &observations, None).residuals;
         observations.balls[0].radius = radius - h;
-        let minus = ball_rows(&machine, truth, &observations).residuals;
+        let minus = ball_rows(&machine, truth, &observations, None).residuals;
         let d_radius = (plus - minus) / (2.0 * h);
         let common = &at.noise - DMatrix::identity(k - 3, k - 3) * (0.01 * 0.01);
         let expected = &d_radius * d_radius.transpose() * (radius_sigma * radius_sigma);
@@ -1456,7 +1561,106 @@ mod tests {
                 ..Default::default()
             }
         });
-        assert_rows_have_their_stated_noise("a ball's rows", &machine, sets);
+        assert_rows_have_their_stated_noise("a ball's rows", &machine, None, sets);
+    }
+
+    /// Each ball's centre located by its first 4 touches: a ball of 8
+    /// touches gives its other 4 rows, three balls of 6 tied by two
+    /// distances their other 2 each and the distances; `G = A G_p`
+    /// against central differences over the parameters.
+    #[test]
+    fn rows_predicted_from_reference_touches_have_their_derivatives() {
+        let machine = delta();
+        let centre = Vector3::new(40.0, -25.0, 6.0);
+        let ball = Observations {
+            balls: vec![Ball::new(12.7, Some(0.002))],
+            touches: touches(&machine, centre, 12.7, 8, || 0.0),
+            ..Default::default()
+        };
+        let tied = tied_balls(&machine, (12.7, 0.002), 6, 0.002, |_| 0.0, 0.4);
+        for (observations, rows) in [(ball, 4), (tied, 3 * 2 + 2)] {
+            let at = ball_rows(&machine, &machine.2, &observations, Some(4));
+            assert_eq!(at.residuals.len(), rows);
+            assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
+            assert_derivatives_match_differences(&machine, &observations, Some(4), &at);
+        }
+    }
+
+    /// Rows predicted from reference touches (each centre located by its
+    /// ball's first 4) of noisy touches of the true machine: `T = r'ᵀ D⁻¹
+    /// r'` has the mean of its `χ²` within 4 standard errors, over 400
+    /// balls of 8 touches (1600 rows; the radius's error three times the
+    /// touches' noise, common to the reference and the predicted touches)
+    /// and over 150 sets of three tied balls of 6 touches (1200 rows).
+    #[test]
+    fn rows_predicted_from_reference_touches_have_their_stated_noise() {
+        let machine = delta();
+        let (radius, radius_sigma, sigma) = (12.7, 0.03, 0.01);
+        let mut noise = Rng::new(38, 0);
+        let balls = (0..400).map(|draw| {
+            let centre = Vector3::new(60.0 * (draw as f64).cos(), 60.0 * (draw as f64).sin(), 6.0);
+            let true_radius = radius + noise.normal(radius_sigma);
+            Observations {
+                balls: vec![Ball::new(radius, Some(radius_sigma))],
+                touches: touches(&machine, centre, true_radius, 8, || noise.normal(sigma)),
+                ..Default::default()
+            }
+        });
+        assert_rows_have_their_stated_noise("a ball's rows from 4", &machine, Some(4), balls);
+        let mut noise = Rng::new(39, 0);
+        let sets = (0..150).map(|draw| {
+            let error = |sigma| noise.normal(sigma);
+            tied_balls(
+                &machine,
+                (radius, radius_sigma),
+                6,
+                sigma,
+                error,
+                draw as f64,
+            )
+        });
+        assert_rows_have_their_stated_noise("tied balls' rows from 4", &machine, Some(4), sets);
+    }
+
+    /// Reference touches must leave a touch of each ball to predict and
+    /// locate its centre (a sphere's fit needs 4), and are refused beside
+    /// a tracker (whose frame all its rows locate), each error naming what
+    /// fails.
+    #[test]
+    fn reference_touches_are_refused_where_they_cannot_serve() {
+        let machine = delta();
+        let (delta, configured, truth) = &machine;
+        let centre = Vector3::new(40.0, -25.0, 6.0);
+        let ball = Observations {
+            balls: vec![Ball::new(12.7, None)],
+            touches: touches(&machine, centre, 12.7, 8, || 0.0),
+            ..Default::default()
+        };
+        let said = |observations: &Observations, reference| {
+            (predict(
+                delta,
+                truth,
+                configured.as_slice(),
+                observations,
+                Some(reference),
+            ))
+            .unwrap_err()
+            .to_string()
+        };
+        let all = said(&ball, 8);
+        assert!(
+            all.contains("ball 0")
+                && all.contains("none is left to predict after the 8 reference touches"),
+            "{all}"
+        );
+        let two = said(&ball, 2);
+        assert!(
+            two.starts_with("ball 0: its touches do not locate its centre"),
+            "{two}"
+        );
+        let tracker = tracked(&machine, &Isometry3::identity(), 8, || 0.0);
+        let beside = said(&tracker, 4);
+        assert!(beside.contains("a tracker's frame"), "{beside}");
     }
 
     /// A held-out ball of more touches than its bound is named before any
@@ -1471,7 +1675,8 @@ mod tests {
             touches: vec![touch; MAX_HELD_OUT_TOUCHES_PER_BALL + 1],
             ..Default::default()
         };
-        let error = predict(&delta, &truth, configured.as_slice(), &observations).unwrap_err();
+        let error =
+            predict(&delta, &truth, configured.as_slice(), &observations, None).unwrap_err();
         let said = error.to_string();
         assert!(
             said.starts_with("ball 1: its 1001 held-out touches"),

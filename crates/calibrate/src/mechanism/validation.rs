@@ -95,6 +95,10 @@ pub struct MechanismValidation {
     /// Point samples at an unknown pose that gave no row (as many
     /// actuators as pose coordinates: nothing to predict).
     pub untested: usize,
+    /// The reference touches `N`: each held-out ball's centre located by
+    /// its first `N` touches, its other touches predicted; `None`: each
+    /// centre projected out of all its touches.
+    pub reference: Option<usize>,
     /// `T = rᵀ C⁻¹ r`.
     pub statistic: f64,
     /// The prediction test of `T`.
@@ -136,12 +140,16 @@ impl MechanismValidation {
 }
 
 /// Validates `calibrated` on the held-out `data` (module doc); the
-/// w-tests at family-wise level `alpha`. Errors name the observation
-/// that cannot be predicted.
+/// w-tests at family-wise level `alpha`; with `reference` touches `N`,
+/// each held-out ball's centre located by its first `N` touches and its
+/// other touches predicted (refused beside tracker frames and sample
+/// poses, which all their rows locate). Errors name the observation that
+/// cannot be predicted.
 pub fn validate_mechanism(
     calibrated: &CalibratedMechanism,
     data: &MechanismData,
     alpha: f64,
+    reference: Option<usize>,
 ) -> Result<MechanismValidation, MechanismCalibrationError> {
     data.validate()?;
     let mechanism = calibrated.mechanism.as_ref();
@@ -162,7 +170,13 @@ pub fn validate_mechanism(
         });
     }
     let (global, covariance, names) = global_block(calibrated, data)?;
-    let predicted = predict(mechanism, &global, &data.configured, &data.observations)?;
+    let predicted = predict(
+        mechanism,
+        &global,
+        &data.configured,
+        &data.observations,
+        reference,
+    )?;
     let whitened = Whitened::of(&predicted, &covariance)?;
     let metric = WhitenedCovariance::new(&whitened.v);
     let statistic = metric.inner(&whitened.z, &whitened.z);
@@ -210,6 +224,7 @@ pub fn validate_mechanism(
         mechanism: mechanism.name().to_string(),
         rows,
         untested: data.observations.samples.len() - samples_with_rows,
+        reference,
         statistic,
         test,
         alpha,

@@ -56,11 +56,13 @@ fn data_error(dataset: &Path, mechanism: &str, error: MechanismCalibrationError)
 }
 
 /// Validates the calibration at `calibration` on the mechanism dataset
-/// `dataset`: writes the validation to `out`, prints its summary, and
-/// turns a rejection into [`super::Rejected`].
+/// `dataset` (each held-out ball's centre located by its first
+/// `reference` touches if given): writes the validation to `out`, prints
+/// its summary, and turns a rejection into [`super::Rejected`].
 pub fn validate(
     dataset: &Path,
     calibration: &Path,
+    reference: Option<usize>,
     accept_rejected: bool,
     out: &Path,
 ) -> anyhow::Result<()> {
@@ -78,7 +80,7 @@ pub fn validate(
     let mechanism = held_out.machine.mechanism.as_str();
     let data =
         MechanismData::from_dataset(&held_out).map_err(|e| data_error(dataset, mechanism, e))?;
-    let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL)
+    let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL, reference)
         .map_err(|e| data_error(dataset, mechanism, e))?;
     judged(&validation, calibration, out)
 }
@@ -87,21 +89,23 @@ pub fn validate(
 /// (read from `calibration`), on the ball touches of the hexapod dataset
 /// `dataset` (read from `path`), weighted as
 /// [`MechanismData::hexapod_held_out`]
-/// says: writes the validation to `out`, prints its summary, and turns a
-/// rejection into [`super::Rejected`]. The files were checked by the
+/// says (each ball's centre located by its first `reference` touches if
+/// given): writes the validation to `out`, prints its summary, and turns
+/// a rejection into [`super::Rejected`]. The files were checked by the
 /// caller.
 pub fn validate_hexapod(
     dataset: &Dataset,
     path: &Path,
     record: &MechanismCalibrationRecord,
     calibration: &Path,
+    reference: Option<usize>,
     out: &Path,
 ) -> anyhow::Result<()> {
     let calibrated = CalibratedMechanism::from_record(record)
         .map_err(|error| anyhow::anyhow!("{}: {error}", calibration.display()))?;
     let data =
         MechanismData::hexapod_held_out(dataset).map_err(|e| data_error(path, HEXAPOD, e))?;
-    let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL)
+    let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL, reference)
         .map_err(|e| data_error(path, HEXAPOD, e))?;
     judged(&validation, calibration, out)
 }

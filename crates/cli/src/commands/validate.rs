@@ -32,7 +32,9 @@ pub struct Args {
     /// rotation and leg offsets when machine.json's session_model has their
     /// sigmas) on its first N rows, or each ball's centre on its first N
     /// touches, and predict the others. Without it, every session (ball) must
-    /// be one of the calibration's (same label, id).
+    /// be one of the calibration's (same label, id); for a mechanism's
+    /// calibration (or a hexapod's through the common path), each held-out
+    /// ball's centre is projected out of all its touches.
     #[arg(long, value_name = "N", value_parser = Bounded(bounds::REFERENCE))]
     reference: Option<usize>,
     /// Instead of applying a calibration: K-fold cross-validation of the
@@ -57,16 +59,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         directory.join(VALIDATION_FILE)
     });
     if let Some(mechanism) = super::mechanism::declared(&args.dataset)? {
-        let calibration = match (&args.calibration, args.reference, args.folds) {
-            (Some(calibration), None, None) => calibration,
+        let calibration = match (&args.calibration, args.folds) {
+            (Some(calibration), None) => calibration,
             _ => anyhow::bail!(
-                "{}: a {mechanism}'s dataset is validated with --calibration alone (no --reference or --folds)",
+                "{}: a {mechanism}'s dataset is validated with --calibration (and --reference for its ball touches), not --folds",
                 args.dataset.display()
             ),
         };
         return super::mechanism_apply::validate(
             &args.dataset,
             calibration,
+            args.reference,
             args.accept_rejected,
             &out,
         );
@@ -81,13 +84,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 Recorded::Own(record) => super::accepted(*record, path, args.accept_rejected)?,
                 // A hexapod's calibration through the common path.
                 Recorded::Mechanism(record) => {
-                    anyhow::ensure!(
-                        args.reference.is_none(),
-                        "{}: a calibration through the common path is validated without --reference (each held-out ball's centre is fitted on all its touches, each tracker's frame and body on all its points and poses)",
-                        path.display()
-                    );
                     let record = super::accepted(*record, path, args.accept_rejected)?;
-                    return validate_hexapod(&dataset, &args.dataset, &record, path, &out);
+                    return validate_hexapod(
+                        &dataset,
+                        &args.dataset,
+                        &record,
+                        path,
+                        args.reference,
+                        &out,
+                    );
                 }
             };
             let validation = if dataset.tracker.is_empty() {

@@ -97,6 +97,11 @@ pub struct MechanismValidationRecord {
     /// Point samples that gave no row (as many actuators as pose
     /// coordinates and no measured position).
     pub untested: usize,
+    /// The reference touches `N`: each ball's centre located by its first
+    /// `N` touches, its other touches predicted (absent: each centre
+    /// projected out of all its touches).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<usize>,
     /// The single changes that best explain the residuals, the best
     /// first.
     pub shifts: Vec<ShiftRecord>,
