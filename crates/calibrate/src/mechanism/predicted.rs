@@ -1550,18 +1550,28 @@ mod tests {
     #[test]
     fn a_ball_s_rows_have_their_stated_noise() {
         let machine = delta();
-        let (radius, radius_sigma, sigma, k) = (12.7, 0.03, 0.01, 8);
-        let mut noise = Rng::new(36, 0);
-        let sets = (0..400).map(|draw| {
+        let sets = noisy_balls(&machine, 36);
+        assert_rows_have_their_stated_noise("a ball's rows", &machine, None, sets);
+    }
+
+    /// 400 balls of radius 12.7 mm (a calibration sigma of 0.03 mm, their
+    /// true radii drawn so), each touched 8 times with a noise of 0.01 mm
+    /// by the true machine, from the random stream `seed`.
+    fn noisy_balls(
+        machine: &(LinearDelta, DVector<f64>, DVector<f64>),
+        seed: u64,
+    ) -> impl Iterator<Item = Observations> + '_ {
+        let (radius, radius_sigma, sigma) = (12.7, 0.03, 0.01);
+        let mut noise = Rng::new(seed, 0);
+        (0..400).map(move |draw| {
             let centre = Vector3::new(60.0 * (draw as f64).cos(), 60.0 * (draw as f64).sin(), 6.0);
             let true_radius = radius + noise.normal(radius_sigma);
             Observations {
                 balls: vec![Ball::new(radius, Some(radius_sigma))],
-                touches: touches(&machine, centre, true_radius, k, || noise.normal(sigma)),
+                touches: touches(machine, centre, true_radius, 8, || noise.normal(sigma)),
                 ..Default::default()
             }
-        });
-        assert_rows_have_their_stated_noise("a ball's rows", &machine, None, sets);
+        })
     }
 
     /// Each ball's centre located by its first 4 touches: a ball of 8
@@ -1595,29 +1605,12 @@ mod tests {
     #[test]
     fn rows_predicted_from_reference_touches_have_their_stated_noise() {
         let machine = delta();
-        let (radius, radius_sigma, sigma) = (12.7, 0.03, 0.01);
-        let mut noise = Rng::new(38, 0);
-        let balls = (0..400).map(|draw| {
-            let centre = Vector3::new(60.0 * (draw as f64).cos(), 60.0 * (draw as f64).sin(), 6.0);
-            let true_radius = radius + noise.normal(radius_sigma);
-            Observations {
-                balls: vec![Ball::new(radius, Some(radius_sigma))],
-                touches: touches(&machine, centre, true_radius, 8, || noise.normal(sigma)),
-                ..Default::default()
-            }
-        });
+        let balls = noisy_balls(&machine, 38);
         assert_rows_have_their_stated_noise("a ball's rows from 4", &machine, Some(4), balls);
         let mut noise = Rng::new(39, 0);
         let sets = (0..150).map(|draw| {
             let error = |sigma| noise.normal(sigma);
-            tied_balls(
-                &machine,
-                (radius, radius_sigma),
-                6,
-                sigma,
-                error,
-                draw as f64,
-            )
+            tied_balls(&machine, (12.7, 0.03), 6, 0.01, error, draw as f64)
         });
         assert_rows_have_their_stated_noise("tied balls' rows from 4", &machine, Some(4), sets);
     }
