@@ -380,8 +380,8 @@ where
     // place in the data (the pass's points are in the solver's order).
     let global_rows: usize = refs.iter().map(|&(_, rows)| rows).sum();
     let order = base.touch_order();
-    let samples = base.n_points() - order.len();
-    let touches = global_rows + R * samples;
+    let sample_points = base.n_points() - order.len();
+    let touches = global_rows + R * sample_points;
     let mut rows = vec![RowCheck::default(); touches + R * order.len()];
     let mut point = 0usize;
     let global = redundancy::<C, P, R, _>(
@@ -391,7 +391,7 @@ where
         &mut caches,
         groups_per_chunk,
         |checked| {
-            let at = match point.checked_sub(samples) {
+            let at = match point.checked_sub(sample_points) {
                 None => global_rows + R * point,
                 Some(k) => touches + R * order[k],
             };
@@ -412,7 +412,7 @@ where
     }
     let mut checks = ObservationChecks::of_rows(rows);
     let observations = (refs.iter().copied())
-        .chain((0..R * samples / base.actuators()).map(|index| {
+        .chain((0..R * sample_points / base.actuators()).map(|index| {
             let kind = ObservationKind::Sample;
             (ObservationRef { kind, index }, base.actuators())
         }))

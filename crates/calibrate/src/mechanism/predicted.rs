@@ -207,7 +207,9 @@ pub fn predict(
     }
     for set in tied_sets(observations, balls)? {
         predicted.push(predict_balls(
-            (mechanism, params, configured),
+            mechanism,
+            params,
+            configured,
             observations,
             set,
             reference,
@@ -421,7 +423,9 @@ fn predict_sample(
 /// touches and the set's other rows predicted from them
 /// ([`predict_from_reference`]).
 fn predict_balls(
-    (mechanism, params, configured): (&dyn Mechanism, &[f64], &[f64]),
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
     observations: &Observations,
     set: BallSet,
     reference: Option<usize>,
