@@ -42,6 +42,7 @@
 
 use crate::derivatives::{SolutionAlong, SolutionJacobian};
 use crate::forward::forward_in_place;
+use crate::lu6::Lu6;
 use crate::{ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose};
 
 /// Contacts per call of the functions of this module.
@@ -90,6 +91,14 @@ pub struct PivotOrder([u8; 6]);
 impl Default for PivotOrder {
     fn default() -> Self {
         Self([0, 1, 2, 3, 4, 5])
+    }
+}
+
+impl PivotOrder {
+    /// The row order of `factor`: where lanes whose matrices are near its
+    /// matrix first try to factorise theirs.
+    pub fn of(factor: &Lu6) -> Self {
+        Self(factor.permutation())
     }
 }
 

@@ -30,7 +30,7 @@ use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
 
 use crate::closure::Legs;
 use crate::derivatives::{FactoredTipJacobian, SolutionAlong, SolutionJacobian, TipDerivatives};
-use crate::forward::step;
+use crate::forward::{forward, step};
 use crate::forward_batch::{LANES, PivotOrder, forward_along_batch, forward_jacobian_batch};
 use crate::mechanism::{
     Actuator, Mechanism, MechanismError, Parameter, PlatformPose, PoseCoordinate, Reached,
@@ -84,6 +84,9 @@ pub struct Hexapod {
     /// (mm).
     scaled: bool,
     options: ForwardOptions,
+    /// Where a batch of contacts first tries to factorise its closure
+    /// Jacobians ([`design_pivot_order`]).
+    pivot_order: PivotOrder,
 }
 
 impl Hexapod {
@@ -116,11 +119,13 @@ impl Hexapod {
         let actuators = (1..=6)
             .map(|leg| Actuator::direct(format!("leg {leg}"), "mm"))
             .collect();
+        let options = ForwardOptions::default();
         Ok(Self {
             parameters,
             actuators,
             scaled: false,
-            options: ForwardOptions::default(),
+            pivot_order: design_pivot_order(&canonical, &options),
+            options,
         })
     }
 
@@ -301,6 +306,17 @@ impl Hexapod {
         check_vector(self, "pose coordinates", pose, 6)?;
         Ok(pose_of(pose))
     }
+}
+
+/// The row order of the closure Jacobian of `design` at its home pose
+/// (the identity if its forward kinematics fails there). The closure
+/// Jacobians over a hexapod's workspace differ little, so the lanes keep
+/// that order nearly always, and a batch of contacts need not start with a
+/// refused trial and partial pivoting.
+fn design_pivot_order(design: &Geometry, options: &ForwardOptions) -> PivotOrder {
+    let q = [0.0; 6];
+    forward(design, &q, &design.home_pose(&q), options)
+        .map_or_else(|_| PivotOrder::default(), |at| PivotOrder::of(&at.factor))
 }
 
 /// The isometry of a pose vector `(t, r)`.
@@ -495,7 +511,7 @@ impl Mechanism for Hexapod {
         let Ok(geometry) = self.geometry(params) else {
             return tool_points_one_by_one(self, params, readings, starts, reached);
         };
-        let mut order = PivotOrder::default();
+        let mut order = self.pivot_order;
         let mut solutions: [SolutionJacobian; LANES] = Default::default();
         let n_params = self.parameters.len();
         self.in_batches(
@@ -546,7 +562,7 @@ impl Mechanism for Hexapod {
             (Ok(geometry), Ok(())) => geometry,
             _ => return tool_points_along_by_rows(self, params, readings, starts, dp, along),
         };
-        let mut order = PivotOrder::default();
+        let mut order = self.pivot_order;
         let mut solutions = [SolutionAlong::default(); LANES];
         let batch = if self.scaled { 1 } else { LANES };
         self.in_batches(
