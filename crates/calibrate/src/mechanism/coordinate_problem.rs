@@ -16,7 +16,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DVector, Dyn, OMatrix, SVector, U2, UnitVector3, Vector2, Vector3};
+use nalgebra::{Const, DVector, Dyn, SVector, U2, UnitVector3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
 use parcal_observe::mechanism::CoordinateRows;
 use parcal_observe::{DirectionChart, unit_direction};
@@ -27,14 +27,15 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
 use super::problem::{
-    FitProblem, LastPose, MechanismProblem, Reaches, Start, TouchedBall, put_ball_columns,
+    FitProblem, LastPose, MechanismProblem, Reaches, Start, TouchedBall, put_group_columns,
     touch_failed,
 };
+use super::touch_jacobian::TouchJacobian;
 use crate::options::Observation;
 
 /// A touch point's linearisation: groups of `C` unknowns, two angles,
-/// three rows.
-type Local<const C: usize> = Linearization<C, 2, 3, OMatrix<f64, Const<3>, Dyn>>;
+/// three rows, its global columns in factored form.
+type Local<const C: usize> = Linearization<C, 2, 3, TouchJacobian>;
 
 /// Refuses point samples under the coordinate observation (module doc).
 pub(crate) fn check_observation(
@@ -122,24 +123,21 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     ) -> Result<(), MechanismCalibrationError> {
         let (t, touch, ball) = self.base.touch_and_ball(i, global, block);
         let chart = DirectionChart::about(&self.directions[i]);
-        let rows = std::mem::replace(reached, Ok(Reached::default()))
+        let mut rows = std::mem::replace(reached, Ok(Reached::default()))
             .and_then(|reached| {
                 touch.coordinate_rows(reached, &chart, &ball.centre, ball.radius, angles)
             })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(rows.pose.as_slice());
-        let n = self.base.n_params();
-        // Column-major, three rows: the parameters' columns come first.
-        let (params, others) = out.d_global.as_mut_slice().split_at_mut(3 * n);
-        params.copy_from_slice(rows.d_params.as_slice());
-        others.fill(0.0);
         put_local(out, &rows, &ball);
-        // The pose and `dT/dp`'s room back where it came from, for the
-        // next batch.
+        let tied = ball.tied.map(|column| (column, ball.uncertain));
+        let room = out.d_global.set(&mut rows, tied);
+        // The pose and the room of `dT/dp` back where they came from, for
+        // the next batch.
         *reached = Ok(Reached {
             pose: rows.pose,
             point: Vector3::zeros(),
-            d_params: rows.d_params.reshape_generic(Dyn(3), Dyn(n)),
+            d_params: room,
         });
         Ok(())
     }
@@ -176,14 +174,14 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = LastPose::of(predicted.as_slice());
         put_local(out, &rows, &ball);
-        let params_step = Vector3::from_column_slice(rows.d_params.as_slice());
+        let params_step = rows.d_tip * Vector3::from_column_slice(rows.d_tip_params.as_slice());
         let step = params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
         // The room back where it came from, for the next batch.
         *along = Ok(ReachedAlong {
             reached: Reached {
                 pose: rows.pose,
                 point: Vector3::zeros(),
-                d_params: rows.d_params.reshape_generic(Dyn(3), Dyn(1)),
+                d_params: rows.d_tip_params,
             },
             predicted,
         });
@@ -216,13 +214,15 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
 }
 
 /// A touch's rows but `d_global` into `out`: its residual, its angles'
-/// columns and its ball's ([`put_ball_columns`]), the group's other
-/// columns zero.
+/// columns and, when its ball is in its group, its ball's
+/// ([`put_group_columns`]), the group's other columns zero.
 fn put_local<const C: usize>(out: &mut Local<C>, rows: &CoordinateRows, ball: &TouchedBall) {
     out.residual = rows.residual;
     out.d_group.fill(0.0);
     out.d_point = rows.d_angles;
-    put_ball_columns(out, ball, &rows.d_centre, &rows.d_radius);
+    if ball.tied.is_none() {
+        put_group_columns(&mut out.d_group, ball, &rows.d_centre, &rows.d_radius);
+    }
 }
 
 /// A re-seeded ball's touches are charted again (module doc): about the
@@ -268,7 +268,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
     type PointCache = LastPose;
     type Workspace = Reaches;
     type Error = MechanismCalibrationError;
-    type Jacobian = OMatrix<f64, Const<3>, Dyn>;
+    type Jacobian = TouchJacobian;
     type Global = DVector<f64>;
 
     fn global_size(&self) -> usize {
@@ -396,7 +396,9 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
 #[cfg(test)]
 mod tests {
     use nalgebra::{DMatrix, Vector3};
-    use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
+    use parcal_solver::{
+        GlobalJacobian, SolverOptions, Status, dense_reference, linear_step, solve,
+    };
 
     use super::*;
     use crate::mechanism::problem::tests::{sigmas_apart, small_delta, tied_delta};
@@ -514,7 +516,11 @@ mod tests {
                         numeric.set_column(j, &column);
                     }
                     let mut expected = DMatrix::zeros(3, g + 6);
-                    expected.columns_mut(0, g).copy_from(&analytic.d_global);
+                    let mut row = vec![0.0; g];
+                    for r in 0..3 {
+                        analytic.d_global.row(r, &mut row);
+                        expected.view_mut((r, 0), (1, g)).copy_from_slice(&row);
+                    }
                     expected
                         .view_mut((0, g), (3, 4))
                         .copy_from(&analytic.d_group);

@@ -97,6 +97,7 @@ mod record;
 mod result;
 mod snooping;
 mod tied;
+mod touch_jacobian;
 mod touch_start;
 mod trackers;
 mod validation;

@@ -794,12 +794,21 @@ pub(crate) fn put_ball_columns<const C: usize, const P: usize, const R: usize>(
                 out.d_global.column_mut(column + 3).copy_from(d_radius);
             }
         }
-        None => {
-            out.d_group.fixed_columns_mut::<3>(0).copy_from(d_centre);
-            if ball.uncertain {
-                out.d_group.column_mut(3).copy_from(d_radius);
-            }
-        }
+        None => put_group_columns(&mut out.d_group, ball, d_centre, d_radius),
+    }
+}
+
+/// [`put_ball_columns`] of a ball in its group: `d_centre` and, when its
+/// radius is an unknown, `d_radius` into the group's columns `d_group`.
+pub(crate) fn put_group_columns<const C: usize, const R: usize>(
+    d_group: &mut SMatrix<f64, R, C>,
+    ball: &TouchedBall,
+    d_centre: &SMatrix<f64, R, 3>,
+    d_radius: &SVector<f64, R>,
+) {
+    d_group.fixed_columns_mut::<3>(0).copy_from(d_centre);
+    if ball.uncertain {
+        d_group.column_mut(3).copy_from(d_radius);
     }
 }
 

@@ -7,7 +7,8 @@
 //! ```
 //!
 //! whitened by the touch's weight `L⁻¹` ([`BallTouch::weight`], `σ⁻¹ I`
-//! when none is given), with the contact's two angles `θ` unknowns of its
+//! when none is given; `L⁻¹ dc/dp = −L⁻¹ dT/dp |_q` kept as its two
+//! factors, [`CoordinateRows::d_tip`]), with the contact's two angles `θ` unknowns of its
 //! own, charted about its approach's direction when one is known, else
 //! about the direction of its tool point from its ball's centre where the
 //! fit starts ([`DirectionChart`]). With its approach's `σ_θ`, the angles
@@ -17,12 +18,12 @@
 //! with `W = σ² I`, the fit of a touch's coordinates is that of its
 //! radius row (eq. 9, [`BallTouch::row`]).
 
-use nalgebra::{DVector, Dyn, Matrix3, Matrix3x2, OMatrix, U3, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Matrix3x2, OMatrix, U3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached};
 
 use super::ball_touch::BallTouch;
 use super::commanded::check_sigma;
-use crate::{CoordinateBlock, CoordinateWhitening, DirectionChart, ObserveError, Whitening};
+use crate::{CoordinateBlock, CoordinateWhitening, DirectionChart, ObserveError};
 
 /// A touch's three whitened coordinate rows (module doc) and their
 /// derivatives.
@@ -30,8 +31,13 @@ use crate::{CoordinateBlock, CoordinateWhitening, DirectionChart, ObserveError, 
 pub struct CoordinateRows {
     /// `L⁻¹ c`.
     pub residual: Vector3<f64>,
-    /// `L⁻¹ dc/dp` (3 × parameters).
-    pub d_params: OMatrix<f64, U3, Dyn>,
+    /// `L⁻¹ dc/dT = −L⁻¹`: the rows' `L⁻¹ dc/dp` is `d_tip · d_tip_params`,
+    /// kept as its two factors, so that a combination of the rows
+    /// `aᵀ L⁻¹ dc/dp = (d_tipᵀ a)ᵀ dT/dp` costs what one of the whitened
+    /// rows would, and no column of `dT/dp` is whitened.
+    pub d_tip: Matrix3<f64>,
+    /// `dT/dp |_q` (3 × parameters), the mechanism's.
+    pub d_tip_params: DMatrix<f64>,
     /// `L⁻¹ dc/dC`.
     pub d_centre: Matrix3<f64>,
     /// `L⁻¹ dc/dρ`.
@@ -40,6 +46,14 @@ pub struct CoordinateRows {
     pub d_angles: Matrix3x2<f64>,
     /// The pose the machine reached at the touch.
     pub pose: DVector<f64>,
+}
+
+impl CoordinateRows {
+    /// `L⁻¹ dc/dp` (3 × parameters): [`CoordinateRows::d_tip`]'s two
+    /// factors multiplied.
+    pub fn d_params(&self) -> OMatrix<f64, U3, Dyn> {
+        self.d_tip * &self.d_tip_params
+    }
 }
 
 impl BallTouch {
@@ -85,23 +99,14 @@ impl BallTouch {
         let whitened = block
             .evaluate(&reached.point, centre, angles)
             .whiten(&weight);
-        // dc/dp = dc/dT dT/dp with the whitened dc/dT = −L⁻¹, formed in
-        // place of dT/dp, a column at a time.
-        let Reached {
-            pose, mut d_params, ..
-        } = reached;
-        let n = d_params.ncols();
-        for column in d_params.as_mut_slice().chunks_exact_mut(3) {
-            let tip = -weight.whiten(&Vector3::new(column[0], column[1], column[2]));
-            column.copy_from_slice(tip.as_slice());
-        }
         Ok(CoordinateRows {
             residual: whitened.residual,
-            d_params: d_params.reshape_generic(U3, Dyn(n)),
+            d_tip: -weight.inverse_factor(),
+            d_tip_params: reached.d_params,
             d_centre: whitened.d_centre,
             d_radius: whitened.d_radius,
             d_angles: whitened.d_angles,
-            pose,
+            pose: reached.pose,
         })
     }
 }
@@ -111,7 +116,6 @@ mod tests {
     use super::*;
     use crate::mechanism::test_support::{HexapodTouch, delta, differences, hexapod_touch};
     use crate::mechanism::{Actuation, Approach};
-    use nalgebra::DMatrix;
 
     /// Central differences of a touch's rows `at` (its ball's centre,
     /// radius and contact angles) over those, against the analytic columns
@@ -177,7 +181,7 @@ mod tests {
         let numeric = differences(&delta, &truth, 1e-4, |p| {
             DVector::from_column_slice(at(p).residual.as_slice())
         });
-        let error = (&analytic.d_params - &numeric).amax();
+        let error = (analytic.d_params() - &numeric).amax();
         assert!(error < 1e-6 * numeric.amax(), "{error:e}");
         let local = |centre: &Vector3<f64>, radius, angles: &Vector2<f64>| {
             let reached = touch
@@ -211,7 +215,7 @@ mod tests {
         let numeric = differences(hexapod, &p, 1e-4, |params| {
             DVector::from_column_slice(at(params).residual.as_slice())
         });
-        let error = (&analytic.d_params - &numeric).amax();
+        let error = (analytic.d_params() - &numeric).amax();
         assert!(error < 1e-6 * numeric.amax(), "{error:e}");
         let local = |centre: &Vector3<f64>, radius, angles: &Vector2<f64>| {
             let reached = touch
