@@ -446,6 +446,9 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
     referenced = parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, reference=4,
                                  accept_rejected=True)
     assert referenced["reference"] == 4 and len(referenced["rows"]) == 27 * 3
+    # Each row a touch's, by its line: ball 0's fifth touch is line 6.
+    first = referenced["rows"][0]
+    assert (first["file"], first["kind"], first["line"]) == ("measurements.csv", "ball touch", 6)
     with pytest.raises(parcal.Error, match="reference 0: must be a whole number from 1"):
         parcal.validate(parcal.read_dataset(tmp_path / "seed7"), calibration=run, reference=0)
     # Applied as any mechanism's: targets in its six pose coordinates.

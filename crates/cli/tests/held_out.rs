@@ -189,24 +189,33 @@ fn a_delta_s_held_out_touches_accept_its_printer_and_name_a_larger_radius() {
     assert_eq!(status, Some(0), "{said}");
     assert!(said.contains("predicted 28 ball rows"), "{said}");
     // Each ball's centre located by its first 5 touches, its other 5
-    // predicted: 4 × 5 rows.
+    // predicted: 4 × 5 rows, each a touch's, named by its line.
     let reference = ["--reference", "5"];
     let (status, said) = validate_with(&held_out, &calibration, &reference);
     eprintln!("{said}");
     assert_eq!(status, Some(0), "{said}");
-    assert!(said.contains("predicted 20 ball rows"), "{said}");
+    assert!(said.contains("predicted 20 ball touch rows"), "{said}");
+    assert!(said.contains("the largest, touches.csv line "), "{said}");
 
     // The delta radius 0.5 mm larger (the printer's scale): rejected, the
-    // balls' rows failing, by the ball's line and its touches', and the
-    // radius named; from reference touches too.
+    // balls' rows failing, by the ball's line and its touches' (from
+    // reference touches, each touch by its line), and the radius named.
     let larger = changed(&sim, &d.join("larger"), RADIUS, 0.5);
     let held_out = touches_only(&larger, "4", "10", &d.join("held-out-larger"));
-    let named = |line: &str| {
+    let by_ball = |line: &str| {
         line.contains("balls.csv line")
             && line.contains("touched at touches.csv lines")
             && line.contains("fails its w-test")
     };
-    for options in [&[][..], &reference] {
+    let by_touch = |line: &str| {
+        line.contains("touches.csv line")
+            && line.contains("(ball touch ")
+            && line.contains("fails its w-test")
+    };
+    for (options, named) in [
+        (&[][..], &by_ball as &dyn Fn(&str) -> bool),
+        (&reference, &by_touch),
+    ] {
         let (status, said) = validate_with(&held_out, &calibration, options);
         eprintln!("{said}");
         assert_eq!(status, Some(3), "{said}");

@@ -217,7 +217,15 @@ fn a_hexapod_record_is_validated_on_held_out_touches() {
     assert!(printed.contains("verdict: accepted"), "{printed}");
     let record = read(&referenced);
     assert_eq!(record["reference"], 4);
-    assert_eq!(record["rows"].as_array().unwrap().len(), 27 * 3);
+    let rows = record["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 27 * 3);
+    // Each row a touch's, by its line in measurements.csv: ball 0's
+    // touches are its first 7 rows, so its fifth is line 6.
+    assert!(rows.iter().all(|row| row["file"] == "measurements.csv"));
+    assert_eq!(
+        (&rows[0]["kind"], &rows[0]["line"]),
+        (&"ball touch".into(), &6.into())
+    );
     let said = record["reasons"].to_string();
     assert!(said.contains("its first 4 touches"), "{said}");
     // Leg 1 0.1 mm long: every q1 + 0.1 (the scale is 1).

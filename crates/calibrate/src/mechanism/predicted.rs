@@ -114,6 +114,11 @@ pub struct PredictedRows {
     pub noise: DMatrix<f64>,
     /// `G_i = dr/dθ` (rows × the global block).
     pub d_global: DMatrix<f64>,
+    /// The one observation each row predicts, when each row predicts one
+    /// (a ball's touches and distances predicted from its reference
+    /// touches, [`predict_from_reference`]); empty when a row combines
+    /// several (a projection) or is one of an observation's rows.
+    pub row_observations: Vec<ObservationRef>,
 }
 
 /// Every observation of `observations` (validated) predicted at the
@@ -364,6 +369,7 @@ fn unwhitened(observation: ObservationRef, rows: &Rows, sigma: &[f64], g: usize)
         residuals: DVector::from_fn(m, |i, _| rows.residual[i] * sigma[i]),
         noise: DMatrix::from_fn(m, m, |i, j| if i == j { sigma[i] * sigma[i] } else { 0.0 }),
         d_global,
+        row_observations: Vec::new(),
     }
 }
 
@@ -397,6 +403,7 @@ fn predict_sample(
                 residuals: DVector::from_fn(3, |k, _| pose[k] - measured[k]),
                 noise,
                 d_global: widened(&d_params, g),
+                row_observations: Vec::new(),
             }
         }
         None => {
@@ -440,6 +447,7 @@ fn predict_balls(
     let mut d_params = DMatrix::zeros(m, n);
     let mut noise = DMatrix::zeros(m, m);
     let mut centres = Vec::with_capacity(set.balls.len());
+    let mut sources = Vec::with_capacity(m);
     let mut row = 0;
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
@@ -474,15 +482,17 @@ fn predict_balls(
         noise.view_mut((row, row), (k, k)).fill(radius_variance);
         for &t in touches {
             let touch = &all[t];
+            let observation = ObservationRef {
+                kind: ObservationKind::Touch,
+                index: t,
+            };
             let evaluated = touch
                 .evaluate(mechanism, params, configured, &centre, ball.radius, None)
                 .map_err(|e| MechanismCalibrationError::Observation {
-                    observation: ObservationRef {
-                        kind: ObservationKind::Touch,
-                        index: t,
-                    },
+                    observation,
                     reason: format!("on ball {b}: {e}"),
                 })?;
+            sources.push(observation);
             let sigma = touch.sigma;
             residuals[row] = evaluated.rows.residual[0] * sigma;
             d_local
@@ -500,15 +510,17 @@ fn predict_balls(
     for &k in &set.distances {
         let distance = &observations.ball_distances[k];
         let (a, b) = (slot(distance.first), slot(distance.second));
+        let observation = ObservationRef {
+            kind: ObservationKind::BallDistance,
+            index: k,
+        };
         let evaluated = distance.evaluate(&centres[a], &centres[b]).map_err(|e| {
             MechanismCalibrationError::Observation {
-                observation: ObservationRef {
-                    kind: ObservationKind::BallDistance,
-                    index: k,
-                },
+                observation,
                 reason: e.to_string(),
             }
         })?;
+        sources.push(observation);
         let sigma = distance.sigma;
         residuals[row] = evaluated.residual * sigma;
         d_local
@@ -530,7 +542,7 @@ fn predict_balls(
     let (predicted, locating) = match reference {
         None => (project_out(held_out.clone(), &local, g), "held-out"),
         Some(_) => (
-            predict_from_reference(held_out.clone(), &local, &reference_rows, g),
+            predict_from_reference(held_out.clone(), &local, &reference_rows, &sources, g),
             "reference",
         ),
     };
@@ -924,11 +936,13 @@ fn project_out(observation: HeldOut, local: &LocalRows, g: usize) -> Option<Pred
         residuals: basis_t * &local.residuals,
         noise: basis_t * &local.noise * basis_t.transpose(),
         d_global: widened(&(basis_t * local.d_params), g),
+        row_observations: Vec::new(),
     })
 }
 
 /// `local`'s rows but its `reference` rows (increasing), predicted from
-/// these (module doc): with the rows split into the reference's (`J_r`,
+/// these (module doc), each named by its observation in `sources` (one
+/// for each of `local`'s rows): with the rows split into the reference's (`J_r`,
 /// noise `Σ_rr`) and the others' (`J_o`), the local unknowns' weighted
 /// fit on the reference rows `K = (J_rᵀ Σ_rr⁻¹ J_r)⁻¹ J_rᵀ Σ_rr⁻¹`, and
 /// `A = [−J_o K | I]` on them,
@@ -946,6 +960,7 @@ fn predict_from_reference(
     observation: HeldOut,
     local: &LocalRows,
     reference: &[usize],
+    sources: &[ObservationRef],
     g: usize,
 ) -> Option<PredictedRows> {
     let m = local.residuals.len();
@@ -979,6 +994,7 @@ fn predict_from_reference(
         residuals: &a * &local.residuals,
         noise: &a * &local.noise * a.transpose(),
         d_global: widened(&(&a * local.d_params), g),
+        row_observations: others.iter().map(|&o| sources[o]).collect(),
     })
 }
 

@@ -52,8 +52,9 @@ const SHIFTS: usize = 3;
 /// One predicted row.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ValidatedRow {
-    /// Its observation by its place in the held-out data, or the ball
-    /// whose touches it combines.
+    /// Its observation by its place in the held-out data (with reference
+    /// touches, each other touch and tied ball distance its own), or the
+    /// ball whose touches it combines.
     pub observation: HeldOut,
     /// Its row within the observation.
     pub row: usize,
@@ -187,7 +188,12 @@ pub fn validate_mechanism(
     for (rows_of, first) in predicted.iter().zip(&whitened.first_rows) {
         for j in 0..rows_of.residuals.len() {
             let variance = whitened.variances[first + j];
-            let unit = match &rows_of.observation {
+            // A row that predicts one observation by itself is named by it.
+            let (observation, row) = match rows_of.row_observations.get(j) {
+                Some(&observation) => (HeldOut::Observation(observation), 0),
+                None => (rows_of.observation.clone(), j),
+            };
+            let unit = match &observation {
                 HeldOut::Observation(observation) if redundant_readings(data, observation) => {
                     reading_unit
                 }
@@ -197,8 +203,8 @@ pub fn validate_mechanism(
                 _ => "mm",
             };
             rows.push(ValidatedRow {
-                observation: rows_of.observation.clone(),
-                row: j,
+                observation,
+                row,
                 unit: unit.to_string(),
                 residual: rows_of.residuals[j],
                 sigma: variance.sqrt(),
