@@ -80,8 +80,9 @@ def validate(dataset: Union[Dataset, MechanismDataset], **options: Any) -> "dict
     """Validates `dataset` as ``parcal validate`` does and returns what it
     writes to validation.json (a dict): a mechanism's held-out data against
     ``calibration`` (a ``MechanismCalibration`` or its calibration.json's
-    path; options ``reference``, each held-out ball's centre located by
-    its first touches, and ``accept_rejected``), a hexapod's ball touches
+    path; options ``reference``, each held-out ball's centre and tracker's
+    frame located by its first touches, points and poses, and
+    ``accept_rejected``), a hexapod's ball touches
     against a hexapod's ``MechanismCalibration`` (the same options), or a
     hexapod's against its own calibration (options ``calibration``,
     ``reference``, ``folds``, ``accept_rejected``)."""

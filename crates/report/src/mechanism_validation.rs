@@ -387,9 +387,19 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
         });
     }
     if let Some(n) = record.reference {
-        reasons.push(format!(
-            "each ball's centre located by its first {n} touches, its other touches predicted"
-        ));
+        let rows_of = |kinds: [ObservationKind; 2]| {
+            validation.rows.iter().any(|row| {
+                matches!(&row.observation, HeldOut::Observation(o) if kinds.contains(&o.kind))
+            })
+        };
+        let balls = rows_of([ObservationKind::Touch, ObservationKind::BallDistance])
+            .then(|| format!("each ball's centre located by its first {n} touches"));
+        let trackers = rows_of([ObservationKind::TrackerPoint, ObservationKind::TrackerPose])
+            .then(|| format!("each tracker's frame by its first {n} points and poses"));
+        let located: Vec<String> = balls.into_iter().chain(trackers).collect();
+        if !located.is_empty() {
+            reasons.push(format!("{}, the others predicted", located.join(" and ")));
+        }
     }
     if record.untested > 0 {
         reasons.push(format!(

@@ -76,13 +76,14 @@
 //! depend on how `u` was fitted, nor `G` on how the fit moves with `θ`
 //! (`dr'/dθ = N_⊥ᵀ (G_p + J du/dθ) = N_⊥ᵀ G_p`).
 //!
-//! With reference touches `N` (`parcal validate --reference N`), each
-//! ball's centre is located by its first `N` touches alone and its other
-//! touches are predicted from them: `r' = r_o − J_o K r_r`, `K` the
-//! centre's weighted fit on the reference rows, one row per predicted
-//! touch (and distance), the fit's error in their noise
-//! ([`predict_from_reference`]). Tracker frames and sample poses are
-//! located by all their rows: reference touches are refused beside them.
+//! With reference observations `N` (`parcal validate --reference N`),
+//! each ball's centre is located by its first `N` touches alone, each
+//! tracker's frame (and the body its poses see) by its first `N` points
+//! and poses, and the others are predicted from them: `r' = r_o − J_o K
+//! r_r`, `K` the local unknowns' weighted fit on the reference rows, each
+//! row named by the observation it predicts, the fit's error in their
+//! noise ([`predict_from_reference`]). A sample's pose is located by its
+//! own readings: reference observations are refused beside samples.
 
 use nalgebra::{DMatrix, DVector, Isometry3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_reading_jacobian};
@@ -96,7 +97,7 @@ use super::data::Observations;
 use super::error::MechanismCalibrationError;
 use super::observation::{HeldOut, ObservationKind, ObservationRef};
 use super::problem::ball_centre;
-use super::trackers::{Seen, locate_frame, points_of, poses_of};
+use super::trackers::{Seen, locate_frame, points_of, poses_of, reach};
 
 /// The most touches of one held-out ball: its rows' noise covariance is
 /// dense, `(K − 3)²` numbers factored in `O(K³)`.
@@ -114,11 +115,11 @@ pub struct PredictedRows {
     pub noise: DMatrix<f64>,
     /// `G_i = dr/dθ` (rows × the global block).
     pub d_global: DMatrix<f64>,
-    /// The one observation each row predicts, when each row predicts one
-    /// (a ball's touches and distances predicted from its reference
-    /// touches, [`predict_from_reference`]); empty when a row combines
-    /// several (a projection) or is one of an observation's rows.
-    pub row_observations: Vec<ObservationRef>,
+    /// The observation each row predicts alone and its row there, when
+    /// each row does (rows predicted from reference observations,
+    /// [`predict_from_reference`]); empty when a row combines several (a
+    /// projection) or is one of an observation's own rows.
+    pub row_observations: Vec<(ObservationRef, usize)>,
 }
 
 /// Every observation of `observations` (validated) predicted at the
@@ -135,11 +136,10 @@ pub fn predict(
     observations: &Observations,
     reference: Option<usize>,
 ) -> Result<Vec<PredictedRows>, MechanismCalibrationError> {
-    if reference.is_some() && !(observations.trackers.is_empty() && observations.samples.is_empty())
-    {
+    if reference.is_some() && !observations.samples.is_empty() {
         return Err(MechanismCalibrationError::InvalidData {
-            what: "the reference touches".to_string(),
-            reason: "they locate each held-out ball's centre; a tracker's frame and a point sample's pose are located by all their rows: validate those without reference touches".to_string(),
+            what: "the reference observations".to_string(),
+            reason: "they locate each held-out ball's centre and tracker's frame; a point sample's pose is located by its own readings: validate samples without reference observations".to_string(),
         });
     }
     let n = mechanism.parameters().len();
@@ -206,7 +206,7 @@ pub fn predict(
             params,
             configured,
             observations,
-            tracker,
+            (tracker, reference),
             g,
         )?);
     }
@@ -492,7 +492,7 @@ fn predict_balls(
                     observation,
                     reason: format!("on ball {b}: {e}"),
                 })?;
-            sources.push(observation);
+            sources.push((observation, 0));
             let sigma = touch.sigma;
             residuals[row] = evaluated.rows.residual[0] * sigma;
             d_local
@@ -520,7 +520,7 @@ fn predict_balls(
                 reason: e.to_string(),
             }
         })?;
-        sources.push(observation);
+        sources.push((observation, 0));
         let sigma = distance.sigma;
         residuals[row] = evaluated.residual * sigma;
         d_local
@@ -558,13 +558,15 @@ fn predict_balls(
 /// `dc/dp = R_F dT/dp|_q`, `dc/dC = [R_F d(Exp(ω) T)/dω | R_F]` on the
 /// frame's correction `C` at zero, noise its covariance `W = L Lᵀ`, and
 /// the frame's six unknowns projected out; for a re-homed tracker its
-/// actuators' offsets too, `dc/do = R_F dT/dq`.
+/// actuators' offsets too, `dc/do = R_F dT/dq`. With `reference`
+/// observations `N`, `F` is located by its first `N` points and the other
+/// points' rows are predicted from theirs ([`predict_from_reference`]).
 fn predict_tracker(
     mechanism: &dyn Mechanism,
     params: &[f64],
     configured: &[f64],
     observations: &Observations,
-    tracker: usize,
+    (tracker, reference): (usize, Option<usize>),
     g: usize,
 ) -> Result<PredictedRows, MechanismCalibrationError> {
     let all = &observations.tracker_points;
@@ -575,19 +577,31 @@ fn predict_tracker(
         points: indices.clone(),
         poses: poses.clone(),
     };
+    let what = held_out.to_string();
+    let locating = TrackerReference::of(&what, &indices, &poses, reference)?;
     if !poses.is_empty() {
         let seen = (tracker, &indices[..], &poses[..]);
-        return predict_posed_tracker(mechanism, params, configured, observations, seen, g);
+        return predict_posed_tracker(
+            mechanism,
+            params,
+            configured,
+            observations,
+            (seen, &locating),
+            g,
+        );
     }
-    let what = held_out.to_string();
     let seen = Seen {
         points: all,
-        point_indices: &indices,
+        point_indices: locating.points,
         poses: &[],
         pose_indices: &[],
         body: &Isometry3::identity(),
     };
-    let (reference, reached) = locate_frame((mechanism, configured), params, &seen, &what)?;
+    let machine = (mechanism, configured);
+    let (frame, mut reached) = locate_frame(machine, params, &seen, &what)?;
+    // The locating points are the first: the others reached after them.
+    let others = &indices[locating.points.len()..];
+    reached.extend(reach(machine, params, all, others)?);
     let points: Vec<&TrackerPoint> = indices.iter().map(|&j| &all[j]).collect();
     // A re-homed tracker's offsets are its own unknowns too.
     let rehomed = observations.trackers[tracker].rehomed;
@@ -603,7 +617,7 @@ fn predict_tracker(
         let measured = point.measured.into();
         let block = PointBlock {
             measured: &measured,
-            tracker_reference: &reference,
+            tracker_reference: &frame,
             tracker: FrameCorrection::IDENTITY,
         }
         .evaluate(&reached.point);
@@ -643,10 +657,93 @@ fn predict_tracker(
     } else {
         "its frame"
     };
-    project_out(held_out, &local, g).ok_or_else(|| MechanismCalibrationError::InvalidData {
-        what,
-        reason: format!("the held-out points do not locate {located}"),
-    })
+    locating
+        .predict(held_out, &local, (&indices, &[], 0), g)
+        .ok_or_else(|| MechanismCalibrationError::InvalidData {
+            what,
+            reason: format!("the {} points do not locate {located}", locating.name),
+        })
+}
+
+/// The observations that locate a held-out tracker's frame (and the body
+/// its poses see): all of its points and poses, or with reference
+/// observations `N` its first `N` points and first `N` poses, the others'
+/// rows predicted from theirs.
+struct TrackerReference<'a> {
+    /// The locating points' indices.
+    points: &'a [usize],
+    /// The locating poses' indices.
+    poses: &'a [usize],
+    /// Whether they are the reference observations' (else all).
+    reference: bool,
+    /// What they are called in an error: `held-out` or `reference`.
+    name: &'static str,
+}
+
+impl<'a> TrackerReference<'a> {
+    /// Of a tracker (`what`) of `points` and `poses`, with `reference`
+    /// observations if any; an error when they leave none to predict.
+    fn of(
+        what: &str,
+        points: &'a [usize],
+        poses: &'a [usize],
+        reference: Option<usize>,
+    ) -> Result<Self, MechanismCalibrationError> {
+        let Some(n) = reference else {
+            return Ok(Self {
+                points,
+                poses,
+                reference: false,
+                name: "held-out",
+            });
+        };
+        let (p, q) = (n.min(points.len()), n.min(poses.len()));
+        if p == points.len() && q == poses.len() {
+            return Err(MechanismCalibrationError::InvalidData {
+                what: what.to_string(),
+                reason: format!(
+                    "it has {} held-out points and {} poses: none is left to predict after the first {n} of each, which locate its frame",
+                    points.len(),
+                    poses.len()
+                ),
+            });
+        }
+        Ok(Self {
+            points: &points[..p],
+            poses: &poses[..q],
+            reference: true,
+            name: "reference",
+        })
+    }
+
+    /// `local`'s rows (the tracker's `points`' 3 each, then its `poses`'
+    /// `actuators` each) with the local unknowns projected out, or, with
+    /// reference observations, predicted from the locating ones' rows;
+    /// `None` when these do not locate the unknowns.
+    fn predict(
+        &self,
+        held_out: HeldOut,
+        local: &LocalRows,
+        (points, poses, actuators): (&[usize], &[usize], usize),
+        g: usize,
+    ) -> Option<PredictedRows> {
+        if !self.reference {
+            return project_out(held_out, local, g);
+        }
+        let pose_rows = 3 * points.len();
+        let reference: Vec<usize> = (0..3 * self.points.len())
+            .chain(pose_rows..pose_rows + actuators * self.poses.len())
+            .collect();
+        let of = |kind, indices: &[usize], rows| {
+            let sources = indices.iter().flat_map(move |&index| {
+                (0..rows).map(move |row| (ObservationRef { kind, index }, row))
+            });
+            sources.collect::<Vec<_>>()
+        };
+        let mut sources = of(ObservationKind::TrackerPoint, points, 3);
+        sources.extend(of(ObservationKind::TrackerPose, poses, actuators));
+        predict_from_reference(held_out, local, &reference, &sources, g)
+    }
 }
 
 /// The unit of rows in noise standard deviations: a held-out tracker's
@@ -686,13 +783,15 @@ const NUISANCE_TOLERANCE: f64 = 1e-12;
 /// [`TrackerPoint`]) to the least-squares frames. There the rows are
 /// un-whitened (`r = L r_w`, `D = L Lᵀ` for each observation's `L⁻¹`;
 /// kept whitened when they are of two units, [`tracker_unit`]), and the
-/// unknowns projected out.
+/// unknowns projected out. With reference observations (`locating`), the
+/// frames are located by those alone and the other rows predicted from
+/// theirs ([`TrackerReference::predict`]).
 fn predict_posed_tracker(
     mechanism: &dyn Mechanism,
     params: &[f64],
     configured: &[f64],
     observations: &Observations,
-    (tracker, points, poses): (usize, &[usize], &[usize]),
+    ((tracker, points, poses), locating): ((usize, &[usize], &[usize]), &TrackerReference),
     g: usize,
 ) -> Result<PredictedRows, MechanismCalibrationError> {
     let held_out = HeldOut::Tracker {
@@ -703,13 +802,13 @@ fn predict_posed_tracker(
     let what = held_out.to_string();
     let seen = Seen {
         points: &observations.tracker_points,
-        point_indices: points,
+        point_indices: locating.points,
         poses: &observations.tracker_poses,
-        pose_indices: poses,
+        pose_indices: locating.poses,
         body: &observations.body_reference,
     };
     let (reference, _) = locate_frame((mechanism, configured), params, &seen, &what)?;
-    let rows = NuisanceRows {
+    let rows = |points, poses| NuisanceRows {
         mechanism,
         params,
         configured,
@@ -721,10 +820,14 @@ fn predict_posed_tracker(
     };
     let not_located = |reason: &str| MechanismCalibrationError::InvalidData {
         what: what.clone(),
-        reason: format!("the held-out points and poses do not locate its frame and body{reason}"),
+        reason: format!(
+            "the {} points and poses do not locate its frame and body{reason}",
+            locating.name
+        ),
     };
-    let mut nuisance = DVector::zeros(rows.unknowns());
-    let mut stacked = rows.at(&nuisance)?;
+    let fitted = rows(locating.points, locating.poses);
+    let mut nuisance = DVector::zeros(fitted.unknowns());
+    let mut stacked = fitted.at(&nuisance)?;
     let mut converged = false;
     for _ in 0..NUISANCE_ITERATIONS {
         let normal = stacked.d_local.tr_mul(&stacked.d_local);
@@ -735,7 +838,7 @@ fn predict_posed_tracker(
             .solve(&gradient);
         let change = (&stacked.d_local * &step).norm_squared();
         nuisance += step;
-        stacked = rows.at(&nuisance)?;
+        stacked = fitted.at(&nuisance)?;
         if change < NUISANCE_TOLERANCE {
             converged = true;
             break;
@@ -745,6 +848,9 @@ fn predict_posed_tracker(
         return Err(not_located(&format!(
             " within {NUISANCE_ITERATIONS} Gauss-Newton steps"
         )));
+    }
+    if locating.reference {
+        stacked = rows(points, poses).at(&nuisance)?;
     }
     // Rows of two units stay whitened (`L = I`).
     let unit = tracker_unit(mechanism, !points.is_empty(), true);
@@ -759,7 +865,10 @@ fn predict_posed_tracker(
         d_params: &(factor * &stacked.d_params),
         noise: factor * factor.transpose(),
     };
-    project_out(held_out, &local, g).ok_or_else(|| not_located(""))
+    let actuators = mechanism.actuators().len();
+    locating
+        .predict(held_out, &local, (points, poses, actuators), g)
+        .ok_or_else(|| not_located(""))
 }
 
 /// A held-out tracker's whitened rows as functions of its nuisance: its
@@ -942,8 +1051,8 @@ fn project_out(observation: HeldOut, local: &LocalRows, g: usize) -> Option<Pred
 
 /// `local`'s rows but its `reference` rows (increasing), predicted from
 /// these (module doc), each named by its observation in `sources` (one
-/// for each of `local`'s rows): with the rows split into the reference's (`J_r`,
-/// noise `Σ_rr`) and the others' (`J_o`), the local unknowns' weighted
+/// for each of `local`'s rows): with the rows split into the reference's
+/// (`J_r`, noise `Σ_rr`) and the others' (`J_o`), the local unknowns' weighted
 /// fit on the reference rows `K = (J_rᵀ Σ_rr⁻¹ J_r)⁻¹ J_rᵀ Σ_rr⁻¹`, and
 /// `A = [−J_o K | I]` on them,
 ///
@@ -960,7 +1069,7 @@ fn predict_from_reference(
     observation: HeldOut,
     local: &LocalRows,
     reference: &[usize],
-    sources: &[ObservationRef],
+    sources: &[(ObservationRef, usize)],
     g: usize,
 ) -> Option<PredictedRows> {
     let m = local.residuals.len();
@@ -1029,8 +1138,8 @@ mod tests {
     use parcal_kinematics::delta::LinearDelta;
     use parcal_kinematics::hexapod::Hexapod;
     use parcal_kinematics::mechanism::{design, prior_sigma};
-    use parcal_observe::mechanism::TrackerPose;
     use parcal_observe::mechanism::{Actuation, BallDistance, BallTouch};
+    use parcal_observe::mechanism::{PointSample, TrackerPose};
     use parcal_simulate::Rng;
 
     /// `G_i = dr/dθ` of a cable robot's samples (four lines: the
@@ -1521,6 +1630,78 @@ mod tests {
         assert!((mean - 1.0).abs() < 4.0 * standard_error, "{mean}");
     }
 
+    /// A tracker's frame and the body located by its first 3 poses and
+    /// first 3 points (both of its 2): its other 5 poses' rows, each named
+    /// by its pose and reading, zero at the truth when exact, `G` against
+    /// central differences; of noisy poses, `T = r'ᵀ D⁻¹ r'` over 100
+    /// placements (3000 rows) has the mean of its `χ²` within 4 standard
+    /// errors.
+    #[test]
+    fn a_tracker_s_reference_poses_locate_its_frame_and_body() {
+        let hexapod = Hexapod::typical();
+        let mut truth = design(&hexapod);
+        for (k, value) in truth.iter_mut().enumerate() {
+            *value += 0.05 * ((k as f64) * 1.7).sin();
+        }
+        let configured = design(&hexapod);
+        let body = Isometry3::new(Vector3::new(5.0, 8.0, 30.0), Vector3::new(0.03, 0.02, 2.6));
+        let rows = |params: &DVector<f64>, observations: &Observations| {
+            let mut predicted = predict(
+                &hexapod,
+                params,
+                configured.as_slice(),
+                observations,
+                Some(3),
+            )
+            .unwrap();
+            assert_eq!(predicted.len(), 1);
+            predicted.remove(0)
+        };
+        let placed = |turn: f64| {
+            Isometry3::new(
+                Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
+                Vector3::new(0.0, 0.1, turn),
+            )
+        };
+        let exact = posed(&hexapod, &truth, (&placed(0.3), &body), 8, || 0.0);
+        let at = rows(&truth, &exact);
+        assert_eq!(at.residuals.len(), 6 * 5);
+        assert!(at.residuals.amax() < 1e-8, "{}", at.residuals);
+        let pose = ObservationRef {
+            kind: ObservationKind::TrackerPose,
+            index: 3,
+        };
+        assert_eq!(
+            (at.row_observations[0], at.row_observations[5]),
+            ((pose, 0), (pose, 5))
+        );
+        let steps = prior_sigma(&hexapod) * 1e-3;
+        for j in 0..truth.len() {
+            let (mut plus, mut minus) = (truth.clone(), truth.clone());
+            plus[j] += steps[j];
+            minus[j] -= steps[j];
+            let column =
+                (rows(&plus, &exact).residuals - rows(&minus, &exact).residuals) / (2.0 * steps[j]);
+            // As for the frames located by all the rows above.
+            let error = (&column - at.d_global.column(j)).amax();
+            assert!(error < 1e-5 * at.d_global.amax(), "column {j}: {error:e}");
+        }
+        let mut noise = Rng::new(47, 0);
+        let (mut total, mut n) = (0.0, 0);
+        for draw in 0..100 {
+            let frame = placed(draw as f64);
+            let observations = posed(&hexapod, &truth, (&frame, &body), 8, || noise.normal(1.0));
+            let at = rows(&truth, &observations);
+            let d = at.noise.clone().cholesky().unwrap();
+            total += at.residuals.dot(&d.solve(&at.residuals));
+            n += at.residuals.len();
+        }
+        let mean = total / n as f64;
+        let standard_error = (2.0 / n as f64).sqrt();
+        println!("T/n {mean:.4} over {n} rows, standard error {standard_error:.4}");
+        assert!((mean - 1.0).abs() < 4.0 * standard_error, "{mean}");
+    }
+
     /// `G = N_⊥ᵀ G_p` of a ball's eight exact touches against central
     /// differences of its predicted rows over the parameters, and its
     /// noise's radius term `σ_ρ² (N_⊥ᵀ 1)(N_⊥ᵀ 1)ᵀ` against central
@@ -1635,10 +1816,10 @@ mod tests {
         assert_rows_have_their_stated_noise("tied balls' rows from 4", &machine, Some(4), sets);
     }
 
-    /// Reference touches must leave a touch of each ball to predict and
-    /// locate its centre (a sphere's fit needs 4), and are refused beside
-    /// a tracker (whose frame all its rows locate), each error naming what
-    /// fails.
+    /// Reference observations must leave a touch of each ball (a point or
+    /// pose of each tracker) to predict and locate its centre (a sphere's
+    /// fit needs 4), and are refused beside point samples (whose pose their
+    /// own readings locate), each error naming what fails.
     #[test]
     fn reference_touches_are_refused_where_they_cannot_serve() {
         let machine = delta();
@@ -1671,9 +1852,59 @@ mod tests {
             two.starts_with("ball 0: its touches do not locate its centre"),
             "{two}"
         );
-        let tracker = tracked(&machine, &Isometry3::identity(), 8, || 0.0);
-        let beside = said(&tracker, 4);
-        assert!(beside.contains("a tracker's frame"), "{beside}");
+        let tracker = tracked(&machine, &Isometry3::identity(), 4, || 0.0);
+        let none = said(&tracker, 4);
+        assert!(
+            none.starts_with("tracker 0 (tracker points 0-3): it has 4 held-out points and 0 poses: none is left to predict"),
+            "{none}"
+        );
+        let sample = PointSample {
+            readings: vec![0.0; 3],
+            sigma: 0.01,
+            known_pose: Some(([0.0, 0.0, 20.0], [0.01; 3])),
+            loads: None,
+        };
+        let sampled = Observations {
+            samples: vec![sample],
+            ..ball
+        };
+        let beside = said(&sampled, 4);
+        assert!(beside.contains("a point sample's pose"), "{beside}");
+    }
+
+    /// A tracker's frame located by its first 4 points: its other points'
+    /// rows, each named by its point and coordinate, zero at the truth
+    /// when exact, `G` against central differences; of noisy points, `T =
+    /// r'ᵀ D⁻¹ r'` over 200 placements of 8 points (2400 rows) has the
+    /// mean of its `χ²` within 4 standard errors.
+    #[test]
+    fn a_tracker_located_by_reference_points_predicts_the_others() {
+        let machine = delta();
+        let frame = Isometry3::new(
+            Vector3::new(900.0, -400.0, 120.0),
+            Vector3::new(0.1, -0.05, 2.0),
+        );
+        let observations = tracked(&machine, &frame, 7, || 0.0);
+        let at = ball_rows(&machine, &machine.2, &observations, Some(4));
+        assert_eq!(at.residuals.len(), 3 * 3);
+        assert!(at.residuals.amax() < 1e-9, "{}", at.residuals);
+        let point = |index| ObservationRef {
+            kind: ObservationKind::TrackerPoint,
+            index,
+        };
+        assert_eq!(at.row_observations[0], (point(4), 0));
+        assert_eq!(at.row_observations[8], (point(6), 2));
+        assert_derivatives_match_differences(&machine, &observations, Some(4), &at);
+        let mut noise = Rng::new(43, 0);
+        let sets = (0..200).map(|draw| {
+            let turn = draw as f64;
+            let frame = Isometry3::new(
+                Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
+                Vector3::new(0.0, 0.1, turn),
+            );
+            tracked(&machine, &frame, 8, || noise.normal(1.0))
+        });
+        assert_rows_have_their_stated_noise("a tracker's rows from 4", &machine, Some(4), sets);
     }
 
     /// A held-out ball of more touches than its bound is named before any

@@ -281,7 +281,7 @@ pub(crate) type Machine<'a> = (&'a dyn Mechanism, &'a [f64]);
 /// is at the tracker points `indices` of `points`
 /// ([`Actuation::tool_points`]); an error names the point whose tool point
 /// cannot be reached.
-fn reach(
+pub(crate) fn reach(
     (mechanism, configured): Machine<'_>,
     params: &[f64],
     points: &[TrackerPoint],

@@ -96,9 +96,10 @@ pub struct MechanismValidation {
     /// Point samples at an unknown pose that gave no row (as many
     /// actuators as pose coordinates: nothing to predict).
     pub untested: usize,
-    /// The reference touches `N`: each held-out ball's centre located by
-    /// its first `N` touches, its other touches predicted; `None`: each
-    /// centre projected out of all its touches.
+    /// The reference observations `N`: each held-out ball's centre located
+    /// by its first `N` touches and each tracker's frame (and body) by its
+    /// first `N` points and poses, the others predicted; `None`: each
+    /// projected out of all its rows.
     pub reference: Option<usize>,
     /// `T = rᵀ C⁻¹ r`.
     pub statistic: f64,
@@ -141,11 +142,11 @@ impl MechanismValidation {
 }
 
 /// Validates `calibrated` on the held-out `data` (module doc); the
-/// w-tests at family-wise level `alpha`; with `reference` touches `N`,
-/// each held-out ball's centre located by its first `N` touches and its
-/// other touches predicted (refused beside tracker frames and sample
-/// poses, which all their rows locate). Errors name the observation that
-/// cannot be predicted.
+/// w-tests at family-wise level `alpha`; with `reference` observations
+/// `N`, each held-out ball's centre located by its first `N` touches and
+/// each tracker's frame (and body) by its first `N` points and poses, the
+/// others predicted (refused beside sample poses, which their own readings
+/// locate). Errors name the observation that cannot be predicted.
 pub fn validate_mechanism(
     calibrated: &CalibratedMechanism,
     data: &MechanismData,
@@ -186,21 +187,21 @@ pub fn validate_mechanism(
     let reading_unit = &*mechanism.actuators()[0].unit;
     let mut rows = Vec::with_capacity(n);
     for (rows_of, first) in predicted.iter().zip(&whitened.first_rows) {
+        let unit = match &rows_of.observation {
+            HeldOut::Observation(observation) if redundant_readings(data, observation) => {
+                reading_unit
+            }
+            HeldOut::Tracker { points, poses, .. } => {
+                tracker_unit(mechanism, !points.is_empty(), !poses.is_empty())
+            }
+            _ => "mm",
+        };
         for j in 0..rows_of.residuals.len() {
             let variance = whitened.variances[first + j];
             // A row that predicts one observation by itself is named by it.
             let (observation, row) = match rows_of.row_observations.get(j) {
-                Some(&observation) => (HeldOut::Observation(observation), 0),
+                Some(&(observation, row)) => (HeldOut::Observation(observation), row),
                 None => (rows_of.observation.clone(), j),
-            };
-            let unit = match &observation {
-                HeldOut::Observation(observation) if redundant_readings(data, observation) => {
-                    reading_unit
-                }
-                HeldOut::Tracker { points, poses, .. } => {
-                    tracker_unit(mechanism, !points.is_empty(), !poses.is_empty())
-                }
-                _ => "mm",
             };
             rows.push(ValidatedRow {
                 observation,

@@ -56,8 +56,8 @@ fn data_error(dataset: &Path, mechanism: &str, error: MechanismCalibrationError)
 }
 
 /// Validates the calibration at `calibration` on the mechanism dataset
-/// `dataset` (each held-out ball's centre located by its first
-/// `reference` touches if given): writes the validation to `out`, prints
+/// `dataset` (each held-out ball's centre and tracker's frame located by
+/// its first `reference` touches, points and poses if given): writes the validation to `out`, prints
 /// its summary, and turns a rejection into [`super::Rejected`].
 pub fn validate(
     dataset: &Path,
@@ -89,8 +89,8 @@ pub fn validate(
 /// (read from `calibration`), on the ball touches of the hexapod dataset
 /// `dataset` (read from `path`), weighted as
 /// [`MechanismData::hexapod_held_out`]
-/// says (each ball's centre located by its first `reference` touches if
-/// given): writes the validation to `out`, prints its summary, and turns
+/// says (each ball's centre and tracker's frame located by its first
+/// `reference` touches, points and poses if given): writes the validation to `out`, prints its summary, and turns
 /// a rejection into [`super::Rejected`]. The files were checked by the
 /// caller.
 pub fn validate_hexapod(

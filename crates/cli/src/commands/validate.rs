@@ -34,7 +34,8 @@ pub struct Args {
     /// touches, and predict the others. Without it, every session (ball) must
     /// be one of the calibration's (same label, id); for a mechanism's
     /// calibration (or a hexapod's through the common path), each held-out
-    /// ball's centre is projected out of all its touches.
+    /// ball's centre (tracker's frame) is projected out of all its touches
+    /// (points and poses); with it, located by its first N of each.
     #[arg(long, value_name = "N", value_parser = Bounded(bounds::REFERENCE))]
     reference: Option<usize>,
     /// Instead of applying a calibration: K-fold cross-validation of the
@@ -62,7 +63,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let calibration = match (&args.calibration, args.folds) {
             (Some(calibration), None) => calibration,
             _ => anyhow::bail!(
-                "{}: a {mechanism}'s dataset is validated with --calibration (and --reference for its ball touches), not --folds",
+                "{}: a {mechanism}'s dataset is validated with --calibration (and --reference for its balls and trackers), not --folds",
                 args.dataset.display()
             ),
         };

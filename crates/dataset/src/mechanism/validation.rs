@@ -97,9 +97,10 @@ pub struct MechanismValidationRecord {
     /// Point samples that gave no row (as many actuators as pose
     /// coordinates and no measured position).
     pub untested: usize,
-    /// The reference touches `N`: each ball's centre located by its first
-    /// `N` touches, its other touches predicted (absent: each centre
-    /// projected out of all its touches).
+    /// The reference observations `N`: each ball's centre located by its
+    /// first `N` touches and each tracker's frame by its first `N` points
+    /// and poses, the others predicted (absent: each projected out of all
+    /// its rows).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<usize>,
     /// The single changes that best explain the residuals, the best
