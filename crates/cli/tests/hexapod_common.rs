@@ -394,6 +394,19 @@ fn motion_capture_poses_go_through_the_common_calibration() {
     ok(&[&command[..], &["--out", s(&with_data)]].concat());
     let markdown = std::fs::read_to_string(with_data.join("report.md")).unwrap();
     assert!(!markdown.contains("error / sigma"), "{markdown}");
+    // Judged as another day's session: the frame and the body located by
+    // the first 12 poses, the other 96 poses' readings predicted.
+    let validation = temp.path().join("validation.json");
+    let validate = ["validate", s(&data), "--calibration", s(&out)];
+    ok(&[
+        &validate[..],
+        &["--reference", "12", "--out", s(&validation)],
+    ]
+    .concat());
+    let record = read(&validation);
+    assert_eq!(record["verdict"], "accepted");
+    assert_eq!(record["kinds"][0]["rows"], 6 * 96);
+    assert_eq!(record["kinds"][0]["unit"], "rev");
     // Without a prior the tool keeps its tolerance, which holds it at the
     // design: the data do not see it, and the record and the printout say
     // so. (These real data fail the global test under simulation I's
@@ -469,7 +482,7 @@ fn a_campaign_of_poses_through_the_common_calibration_is_validated_on_another() 
     args.extend(["--reference", "4"]);
     let printed = ok(&args);
     assert!(
-        printed.contains("each tracker's frame by its first 4 points and poses"),
+        printed.contains("each tracker's frame located by its first 4 points and poses"),
         "{printed}"
     );
     let validation = read(&out);

@@ -395,7 +395,7 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
         let balls = rows_of([ObservationKind::Touch, ObservationKind::BallDistance])
             .then(|| format!("each ball's centre located by its first {n} touches"));
         let trackers = rows_of([ObservationKind::TrackerPoint, ObservationKind::TrackerPose])
-            .then(|| format!("each tracker's frame by its first {n} points and poses"));
+            .then(|| format!("each tracker's frame located by its first {n} points and poses"));
         let located: Vec<String> = balls.into_iter().chain(trackers).collect();
         if !located.is_empty() {
             reasons.push(format!("{}, the others predicted", located.join(" and ")));
