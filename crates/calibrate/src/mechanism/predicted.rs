@@ -1414,6 +1414,24 @@ mod tests {
         );
     }
 
+    /// A tracker's frame far from the mechanism's, turned about all axes.
+    fn far_frame() -> Isometry3<f64> {
+        Isometry3::new(
+            Vector3::new(900.0, -400.0, 120.0),
+            Vector3::new(0.1, -0.05, 2.0),
+        )
+    }
+
+    /// The frame of a tracker's placement `draw` of a simulation: on a
+    /// circle of 1 km about the mechanism, turned by `draw` radians.
+    fn placement(draw: usize) -> Isometry3<f64> {
+        let turn = draw as f64;
+        Isometry3::new(
+            Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
+            Vector3::new(0.0, 0.1, turn),
+        )
+    }
+
     /// One tracker's `k` points at commanded positions, measured by the
     /// delta of true parameters `truth` through the frame `frame`, each
     /// coordinate off by `error()`, of the correlated weight below.
@@ -1461,10 +1479,7 @@ mod tests {
     #[test]
     fn tracker_derivatives_match_central_differences() {
         let machine = delta();
-        let frame = Isometry3::new(
-            Vector3::new(900.0, -400.0, 120.0),
-            Vector3::new(0.1, -0.05, 2.0),
-        );
+        let frame = far_frame();
         let observations = tracked(&machine, &frame, 7, || 0.0);
         let at = ball_rows(&machine, &machine.2, &observations, None);
         assert_eq!(at.residuals.len(), 3 * 7 - 6);
@@ -1502,11 +1517,7 @@ mod tests {
         let machine = delta();
         let mut noise = Rng::new(37, 0);
         let sets = (0..200).map(|draw| {
-            let turn = draw as f64;
-            let frame = Isometry3::new(
-                Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
-                Vector3::new(0.0, 0.1, turn),
-            );
+            let frame = placement(draw);
             tracked(&machine, &frame, 8, || noise.normal(1.0))
         });
         assert_rows_have_their_stated_noise("a tracker's rows", &machine, None, sets);
@@ -1566,38 +1577,36 @@ mod tests {
         }
     }
 
-    /// A held-out tracker's poses locate its frame and the body anew:
-    /// exact, `6k + 3·2 − 12` rows, zero at the truth, `G = N_⊥ᵀ G_p`
-    /// against central differences over the parameters; noisy, `T = r'ᵀ
-    /// D⁻¹ r'` over 100 placements of 6 poses has the mean of its `χ²`
-    /// within 4 standard errors.
-    #[test]
-    fn a_tracker_s_poses_locate_its_frame_and_body() {
+    /// A hexapod tracker's rows of `k` poses and 2 points (`posed`),
+    /// predicted with `reference` observations: exact, zero at the truth
+    /// and `G` against central differences over the parameters (returned
+    /// for the caller's checks); noisy (seed `seed`), `T = r'ᵀ D⁻¹ r'`
+    /// over 100 placements has the mean of its `χ²` within 4 standard
+    /// errors.
+    fn check_posed_rows(reference: Option<usize>, k: usize, seed: u64) -> PredictedRows {
         let hexapod = Hexapod::typical();
         let mut truth = design(&hexapod);
         for (k, value) in truth.iter_mut().enumerate() {
             *value += 0.05 * ((k as f64) * 1.7).sin();
         }
         let configured = design(&hexapod);
-        let frame = Isometry3::new(
-            Vector3::new(900.0, -400.0, 120.0),
-            Vector3::new(0.1, -0.05, 2.0),
-        );
+        let frame = far_frame();
         let body = Isometry3::new(Vector3::new(5.0, 8.0, 30.0), Vector3::new(0.03, 0.02, 2.6));
         let rows = |params: &DVector<f64>, observations: &Observations| {
-            let mut predicted =
-                predict(&hexapod, params, configured.as_slice(), observations, None).unwrap();
+            let mut predicted = predict(
+                &hexapod,
+                params,
+                configured.as_slice(),
+                observations,
+                reference,
+            )
+            .unwrap();
             assert_eq!(predicted.len(), 1);
             predicted.remove(0)
         };
-        let exact = posed(&hexapod, &truth, (&frame, &body), 6, || 0.0);
+        let exact = posed(&hexapod, &truth, (&frame, &body), k, || 0.0);
         let at = rows(&truth, &exact);
-        assert_eq!(at.residuals.len(), 6 * 6 + 3 * 2 - 12);
         assert!(at.residuals.amax() < 1e-8, "{}", at.residuals);
-        assert_eq!(
-            at.observation.to_string(),
-            "tracker 0 (tracker points 0-1, tracker poses 0-5)"
-        );
         let steps = prior_sigma(&hexapod) * 1e-3;
         for j in 0..truth.len() {
             let (mut plus, mut minus) = (truth.clone(), truth.clone());
@@ -1610,15 +1619,11 @@ mod tests {
             let error = (&column - at.d_global.column(j)).amax();
             assert!(error < 1e-5 * at.d_global.amax(), "column {j}: {error:e}");
         }
-        let mut noise = Rng::new(41, 0);
+        let mut noise = Rng::new(seed, 0);
         let (mut total, mut n) = (0.0, 0);
         for draw in 0..100 {
-            let turn = draw as f64;
-            let frame = Isometry3::new(
-                Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
-                Vector3::new(0.0, 0.1, turn),
-            );
-            let observations = posed(&hexapod, &truth, (&frame, &body), 6, || noise.normal(1.0));
+            let frame = placement(draw);
+            let observations = posed(&hexapod, &truth, (&frame, &body), k, || noise.normal(1.0));
             let at = rows(&truth, &observations);
             let d = at.noise.clone().cholesky().unwrap();
             total += at.residuals.dot(&d.solve(&at.residuals));
@@ -1628,45 +1633,28 @@ mod tests {
         let standard_error = (2.0 / n as f64).sqrt();
         println!("T/n {mean:.4} over {n} rows, standard error {standard_error:.4}");
         assert!((mean - 1.0).abs() < 4.0 * standard_error, "{mean}");
+        at
+    }
+
+    /// A held-out tracker's poses locate its frame and the body anew:
+    /// `6k + 3·2 − 12` rows of 6 poses ([`check_posed_rows`]).
+    #[test]
+    fn a_tracker_s_poses_locate_its_frame_and_body() {
+        let at = check_posed_rows(None, 6, 41);
+        assert_eq!(at.residuals.len(), 6 * 6 + 3 * 2 - 12);
+        assert_eq!(
+            at.observation.to_string(),
+            "tracker 0 (tracker points 0-1, tracker poses 0-5)"
+        );
     }
 
     /// A tracker's frame and the body located by its first 3 poses and
     /// first 3 points (both of its 2): its other 5 poses' rows, each named
-    /// by its pose and reading, zero at the truth when exact, `G` against
-    /// central differences; of noisy poses, `T = r'ᵀ D⁻¹ r'` over 100
-    /// placements (3000 rows) has the mean of its `χ²` within 4 standard
-    /// errors.
+    /// by its pose and reading ([`check_posed_rows`]).
     #[test]
     fn a_tracker_s_reference_poses_locate_its_frame_and_body() {
-        let hexapod = Hexapod::typical();
-        let mut truth = design(&hexapod);
-        for (k, value) in truth.iter_mut().enumerate() {
-            *value += 0.05 * ((k as f64) * 1.7).sin();
-        }
-        let configured = design(&hexapod);
-        let body = Isometry3::new(Vector3::new(5.0, 8.0, 30.0), Vector3::new(0.03, 0.02, 2.6));
-        let rows = |params: &DVector<f64>, observations: &Observations| {
-            let mut predicted = predict(
-                &hexapod,
-                params,
-                configured.as_slice(),
-                observations,
-                Some(3),
-            )
-            .unwrap();
-            assert_eq!(predicted.len(), 1);
-            predicted.remove(0)
-        };
-        let placed = |turn: f64| {
-            Isometry3::new(
-                Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
-                Vector3::new(0.0, 0.1, turn),
-            )
-        };
-        let exact = posed(&hexapod, &truth, (&placed(0.3), &body), 8, || 0.0);
-        let at = rows(&truth, &exact);
+        let at = check_posed_rows(Some(3), 8, 47);
         assert_eq!(at.residuals.len(), 6 * 5);
-        assert!(at.residuals.amax() < 1e-8, "{}", at.residuals);
         let pose = ObservationRef {
             kind: ObservationKind::TrackerPose,
             index: 3,
@@ -1675,31 +1663,6 @@ mod tests {
             (at.row_observations[0], at.row_observations[5]),
             ((pose, 0), (pose, 5))
         );
-        let steps = prior_sigma(&hexapod) * 1e-3;
-        for j in 0..truth.len() {
-            let (mut plus, mut minus) = (truth.clone(), truth.clone());
-            plus[j] += steps[j];
-            minus[j] -= steps[j];
-            let column =
-                (rows(&plus, &exact).residuals - rows(&minus, &exact).residuals) / (2.0 * steps[j]);
-            // As for the frames located by all the rows above.
-            let error = (&column - at.d_global.column(j)).amax();
-            assert!(error < 1e-5 * at.d_global.amax(), "column {j}: {error:e}");
-        }
-        let mut noise = Rng::new(47, 0);
-        let (mut total, mut n) = (0.0, 0);
-        for draw in 0..100 {
-            let frame = placed(draw as f64);
-            let observations = posed(&hexapod, &truth, (&frame, &body), 8, || noise.normal(1.0));
-            let at = rows(&truth, &observations);
-            let d = at.noise.clone().cholesky().unwrap();
-            total += at.residuals.dot(&d.solve(&at.residuals));
-            n += at.residuals.len();
-        }
-        let mean = total / n as f64;
-        let standard_error = (2.0 / n as f64).sqrt();
-        println!("T/n {mean:.4} over {n} rows, standard error {standard_error:.4}");
-        assert!((mean - 1.0).abs() < 4.0 * standard_error, "{mean}");
     }
 
     /// `G = N_⊥ᵀ G_p` of a ball's eight exact touches against central
@@ -1880,10 +1843,7 @@ mod tests {
     #[test]
     fn a_tracker_located_by_reference_points_predicts_the_others() {
         let machine = delta();
-        let frame = Isometry3::new(
-            Vector3::new(900.0, -400.0, 120.0),
-            Vector3::new(0.1, -0.05, 2.0),
-        );
+        let frame = far_frame();
         let observations = tracked(&machine, &frame, 7, || 0.0);
         let at = ball_rows(&machine, &machine.2, &observations, Some(4));
         assert_eq!(at.residuals.len(), 3 * 3);
@@ -1897,11 +1857,7 @@ mod tests {
         assert_derivatives_match_differences(&machine, &observations, Some(4), &at);
         let mut noise = Rng::new(43, 0);
         let sets = (0..200).map(|draw| {
-            let turn = draw as f64;
-            let frame = Isometry3::new(
-                Vector3::new(1000.0 * turn.cos(), 1000.0 * turn.sin(), 50.0),
-                Vector3::new(0.0, 0.1, turn),
-            );
+            let frame = placement(draw);
             tracked(&machine, &frame, 8, || noise.normal(1.0))
         });
         assert_rows_have_their_stated_noise("a tracker's rows from 4", &machine, Some(4), sets);
