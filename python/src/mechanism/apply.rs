@@ -31,8 +31,9 @@ fn calibrated(record: &MechanismCalibrationRecord, name: &str) -> PyResult<Calib
 
 /// Validates `calibration` (a `parcal.MechanismCalibration`, or the path
 /// of a mechanism's calibration.json) on the held-out mechanism dataset
-/// `dataset`, as `parcal validate` does (each held-out ball's centre
-/// located by its first `reference` touches if given), and returns what
+/// `dataset`, as `parcal validate` does (each held-out ball's centre and
+/// tracker's frame located by its first `reference` touches, points and
+/// poses if given), and returns what
 /// it writes to validation.json: a dict with its `verdict`, `reasons`, the
 /// `test` of the held-out residuals, each kind's RMS, the worst rows named
 /// by file and line. A rejected calibration only with `accept_rejected`.
@@ -59,8 +60,9 @@ pub fn validate_mechanism<'py>(
 /// Validates `calibration` (a `parcal.MechanismCalibration` of a hexapod
 /// through the common path, or its calibration.json's path) on the ball
 /// touches of the hexapod `dataset` (a `Dataset`), as `parcal validate`
-/// does (each held-out ball's centre located by its first `reference`
-/// touches if given, else projected out of all of them), and returns what
+/// does (each held-out ball's centre and tracker's frame located by its
+/// first `reference` touches, points and poses if given, else projected
+/// out of all of them), and returns what
 /// it writes to validation.json. A rejected calibration only with
 /// `accept_rejected`.
 #[pyfunction]

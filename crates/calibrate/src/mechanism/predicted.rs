@@ -661,7 +661,7 @@ fn predict_tracker(
         .predict(held_out, &local, (&indices, &[], 0), g)
         .ok_or_else(|| MechanismCalibrationError::InvalidData {
             what,
-            reason: format!("the {} points do not locate {located}", locating.name),
+            reason: format!("the {} points do not locate {located}", locating.name()),
         })
 }
 
@@ -676,8 +676,6 @@ struct TrackerReference<'a> {
     poses: &'a [usize],
     /// Whether they are the reference observations' (else all).
     reference: bool,
-    /// What they are called in an error: `held-out` or `reference`.
-    name: &'static str,
 }
 
 impl<'a> TrackerReference<'a> {
@@ -694,7 +692,6 @@ impl<'a> TrackerReference<'a> {
                 points,
                 poses,
                 reference: false,
-                name: "held-out",
             });
         };
         let (p, q) = (n.min(points.len()), n.min(poses.len()));
@@ -712,8 +709,17 @@ impl<'a> TrackerReference<'a> {
             points: &points[..p],
             poses: &poses[..q],
             reference: true,
-            name: "reference",
         })
+    }
+
+    /// What the locating observations are called in an error: `held-out`
+    /// or `reference`.
+    fn name(&self) -> &'static str {
+        if self.reference {
+            "reference"
+        } else {
+            "held-out"
+        }
     }
 
     /// `local`'s rows (the tracker's `points`' 3 each, then its `poses`'
@@ -822,7 +828,7 @@ fn predict_posed_tracker(
         what: what.clone(),
         reason: format!(
             "the {} points and poses do not locate its frame and body{reason}",
-            locating.name
+            locating.name()
         ),
     };
     let fitted = rows(locating.points, locating.poses);

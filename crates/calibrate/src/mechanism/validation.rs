@@ -53,8 +53,8 @@ const SHIFTS: usize = 3;
 #[derive(Debug, Clone, PartialEq)]
 pub struct ValidatedRow {
     /// Its observation by its place in the held-out data (with reference
-    /// touches, each other touch and tied ball distance its own), or the
-    /// ball whose touches it combines.
+    /// observations, the touch, ball distance, tracker point or pose it
+    /// predicts), or the ball or tracker whose rows it combines.
     pub observation: HeldOut,
     /// Its row within the observation.
     pub row: usize,

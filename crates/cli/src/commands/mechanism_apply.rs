@@ -57,8 +57,9 @@ fn data_error(dataset: &Path, mechanism: &str, error: MechanismCalibrationError)
 
 /// Validates the calibration at `calibration` on the mechanism dataset
 /// `dataset` (each held-out ball's centre and tracker's frame located by
-/// its first `reference` touches, points and poses if given): writes the validation to `out`, prints
-/// its summary, and turns a rejection into [`super::Rejected`].
+/// its first `reference` touches, points and poses if given): writes the
+/// validation to `out`, prints its summary, and turns a rejection into
+/// [`super::Rejected`].
 pub fn validate(
     dataset: &Path,
     calibration: &Path,
@@ -90,9 +91,9 @@ pub fn validate(
 /// `dataset` (read from `path`), weighted as
 /// [`MechanismData::hexapod_held_out`]
 /// says (each ball's centre and tracker's frame located by its first
-/// `reference` touches, points and poses if given): writes the validation to `out`, prints its summary, and turns
-/// a rejection into [`super::Rejected`]. The files were checked by the
-/// caller.
+/// `reference` touches, points and poses if given): writes the validation
+/// to `out`, prints its summary, and turns a rejection into
+/// [`super::Rejected`]. The files were checked by the caller.
 pub fn validate_hexapod(
     dataset: &Dataset,
     path: &Path,
