@@ -7,6 +7,10 @@
 //! - Pose: `(t_x, t_y, t_z, r_x, r_y, r_z)`, the platform's translation
 //!   (mm) and rotation vector (rad, `R = exp([r]x)`); increments are
 //!   `(dt, w)` with `R <- rot(w) R` ([`crate::forward::step`]).
+//! - Warm start: `(t, q)`, the translation and the unit quaternion `q =
+//!   (q_i, q_j, q_k, q_w)` of the rotation, what the forward kinematics
+//!   starts from and ends with; the rotation vector costs a sine and a
+//!   cosine to start from and an arc tangent to end with.
 //! - Readings: the actuator values `q_i = L_i - l_i` (mm); or, with the
 //!   actuators' scales as unknowns ([`Hexapod::with_unknown_scales`]),
 //!   readings `q_i` in the actuators' own unit with leg `i` `l_i + s_i q_i`
@@ -26,7 +30,9 @@
 
 use std::borrow::Cow;
 
-use nalgebra::{DMatrix, DVector, Isometry3, Vector3, Vector6};
+use nalgebra::{
+    DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3, Vector6,
+};
 
 use crate::closure::Legs;
 use crate::derivatives::{FactoredTipJacobian, SolutionAlong, SolutionJacobian, TipDerivatives};
@@ -235,7 +241,8 @@ impl Hexapod {
     /// `room` (every value written), `dT/dp` from `J_f` in factored form
     /// ([`FactoredTipJacobian::write_columns`]).
     fn write_solution(&self, readings: &[f64], solution: &SolutionJacobian, room: &mut Reached) {
-        room.pose.copy_from_slice(&pose_coordinates(&solution.pose));
+        room.warm_start
+            .copy_from_slice(&warm_start_values(&solution.pose));
         room.point = solution.tool_tip;
         self.write_reached_rows(readings, &solution.jacobian, &mut room.d_params);
     }
@@ -255,7 +262,7 @@ impl Hexapod {
     }
 
     /// The contacts at `readings` (at checked parameters `params`) from
-    /// `starts`, in batches of up to `batch` (at most [`LANES`]), each
+    /// the warm starts `starts`, in batches of up to `batch` (at most [`LANES`]), each
     /// outcome in order into `out`:
     /// `lanes(out, first, q, poses)` solves the batch from `first` (its
     /// legs' extensions `q` and start poses, checked) and writes its
@@ -289,7 +296,7 @@ impl Hexapod {
             let n = batch.min(readings.len() - first);
             let checked = (0..n).try_for_each(|l| {
                 q[l] = self.extensions(params, readings[first + l])?;
-                poses[l] = self.pose(starts[first + l])?;
+                poses[l] = self.start(starts[first + l])?;
                 Ok::<_, MechanismError>(())
             });
             let legs: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
@@ -306,6 +313,31 @@ impl Hexapod {
         check_vector(self, "pose coordinates", pose, 6)?;
         Ok(pose_of(pose))
     }
+
+    /// The pose of a warm start `(t, q)` (checked), its quaternion
+    /// normalised; an error for a zero quaternion, which holds no
+    /// rotation.
+    fn start(&self, start: &[f64]) -> Result<Pose, MechanismError> {
+        check_vector(self, "warm start values", start, WARM_START_LEN)?;
+        let q = Quaternion::new(start[6], start[3], start[4], start[5]);
+        let rotation =
+            UnitQuaternion::try_new(q, 0.0).ok_or_else(|| MechanismError::Unreachable {
+                reason: "the warm start's quaternion is zero: it holds no rotation".to_string(),
+            })?;
+        Ok(Isometry3::from_parts(
+            Translation3::new(start[0], start[1], start[2]),
+            rotation,
+        ))
+    }
+}
+
+/// The number of values of a hexapod's warm start `(t, q)` (module doc).
+const WARM_START_LEN: usize = 7;
+
+/// The warm start `(t, q)` of an isometry (module doc).
+fn warm_start_values(pose: &Pose) -> [f64; WARM_START_LEN] {
+    let (t, q) = (pose.translation.vector, pose.rotation.coords);
+    [t.x, t.y, t.z, q.x, q.y, q.z, q.w]
 }
 
 /// The row order of the closure Jacobian of `design` at its home pose
@@ -350,28 +382,28 @@ fn write_along(
         along,
         index,
         |room| {
-            room.reached.pose.len() == 6
+            room.reached.warm_start.len() == WARM_START_LEN
                 && room.reached.d_params.shape() == (3, 1)
-                && room.predicted.len() == 6
+                && room.predicted.len() == WARM_START_LEN
         },
         || ReachedAlong {
             reached: Reached {
-                pose: DVector::zeros(6),
+                warm_start: DVector::zeros(WARM_START_LEN),
                 point: Vector3::zeros(),
                 d_params: DMatrix::zeros(3, 1),
             },
-            predicted: DVector::zeros(6),
+            predicted: DVector::zeros(WARM_START_LEN),
         },
         |room| {
             room.reached
-                .pose
-                .copy_from_slice(&pose_coordinates(&solution.pose));
+                .warm_start
+                .copy_from_slice(&warm_start_values(&solution.pose));
             room.reached.point = solution.tool_tip;
             room.reached
                 .d_params
                 .copy_from_slice(solution.tip.as_slice());
             room.predicted
-                .copy_from_slice(&pose_coordinates(&solution.predicted));
+                .copy_from_slice(&warm_start_values(&solution.predicted));
         },
     );
 }
@@ -487,10 +519,10 @@ impl Mechanism for Hexapod {
         let geometry = self.geometry(params)?;
         let q = self.extensions(params, readings)?;
         let mut derivatives = TipDerivatives::default();
-        derivatives.forward(&geometry, &q, &self.pose(start)?, &self.options)?;
+        derivatives.forward(&geometry, &q, &self.start(start)?, &self.options)?;
         let pose = derivatives.solution().pose;
         Ok(Reached {
-            pose: pose_vector(&pose),
+            warm_start: DVector::from_column_slice(&warm_start_values(&pose)),
             point: geometry.tool_tip(&pose),
             d_params: self.reached_rows(readings, &derivatives.factored()),
         })
@@ -533,7 +565,7 @@ impl Mechanism for Hexapod {
                 );
                 solved.is_ok_and(|()| {
                     for (l, solution) in solutions.iter().enumerate() {
-                        write_reached(reached, first + l, 6, n_params, |room| {
+                        write_reached(reached, first + l, WARM_START_LEN, n_params, |room| {
                             self.write_solution(readings[first + l], solution, room);
                         });
                     }
@@ -595,6 +627,22 @@ impl Mechanism for Hexapod {
                     .and_then(|reached| along_of_reached(self, reached, dp))
             },
         );
+    }
+
+    fn warm_start_len(&self) -> usize {
+        WARM_START_LEN
+    }
+
+    /// `(t, q)` of the pose `(t, r)` (module doc).
+    fn warm_start(&self, pose: &[f64]) -> Result<DVector<f64>, MechanismError> {
+        Ok(DVector::from_column_slice(&warm_start_values(
+            &self.pose(pose)?,
+        )))
+    }
+
+    /// `(t, r)` of the warm start `(t, q)` (module doc).
+    fn pose_of_warm_start(&self, start: &[f64]) -> Result<DVector<f64>, MechanismError> {
+        Ok(pose_vector(&self.start(start)?))
     }
 
     fn start_pose(&self, params: &[f64], readings: &[f64]) -> Result<DVector<f64>, MechanismError> {
@@ -720,6 +768,7 @@ mod tests {
         let start = rev.start_pose(p, q.as_slice()).unwrap();
         let back = rev.forward(p, q.as_slice(), start.as_slice()).unwrap();
         assert!((&back - &x).amax() < 1e-10, "forward kinematics");
+        let start = rev.warm_start(start.as_slice()).unwrap();
         let own = rev
             .tool_point_at_readings(p, q.as_slice(), start.as_slice())
             .unwrap();
@@ -837,6 +886,7 @@ mod tests {
             .inverse(p.as_slice(), pose_vector(&pose).as_slice())
             .unwrap();
         let start = hexapod.start_pose(p.as_slice(), q.as_slice()).unwrap();
+        let start = hexapod.warm_start(start.as_slice()).unwrap();
         let reference = tip_jacobians_at(&geometry, &pose).unwrap().d_params;
         let reference = DMatrix::from_column_slice(3, N_PARAMS, reference.as_slice());
         let own = hexapod.tool_point_at_readings(p.as_slice(), q.as_slice(), start.as_slice());
@@ -845,11 +895,47 @@ mod tests {
         for reached in [own.unwrap(), implicit.unwrap()] {
             // The forward kinematics' tolerance, 1e-9 mm in the tip.
             assert!((reached.point - geometry.tool_tip(&pose)).amax() < 1e-9);
-            let turned = pose_of(reached.pose.as_slice()).inverse() * pose;
+            let reached_pose = hexapod.pose_of_warm_start(reached.warm_start.as_slice());
+            let turned = pose_of(reached_pose.unwrap().as_slice()).inverse() * pose;
             assert!(turned.translation.vector.amax() < 1e-9 && turned.rotation.angle() < 1e-9);
             let difference = (reached.d_params - &reference).amax();
             assert!(difference < 1e-9, "{difference:e}");
         }
+    }
+
+    #[test]
+    fn a_warm_start_is_the_pose_s_translation_and_quaternion() {
+        // (t, r) -> (t, q) -> (t, r) to rounding; any nonzero quaternion
+        // is normalised; a zero one, a short start or a NaN refused.
+        let hexapod = hexapod();
+        let pose = pose_vector(&sample_pose());
+        let start = hexapod.warm_start(pose.as_slice()).unwrap();
+        assert_eq!(start.len(), hexapod.warm_start_len());
+        let rotation = sample_pose().rotation.coords;
+        let quaternion = start.rows(3, 4);
+        assert!(
+            (quaternion - rotation).amax() < 1e-15,
+            "{quaternion} {rotation}"
+        );
+        let back = hexapod.pose_of_warm_start(start.as_slice()).unwrap();
+        assert!((&back - &pose).amax() < 1e-15, "{back} {pose}");
+        let mut scaled = start.clone();
+        scaled.as_mut_slice()[3..]
+            .iter_mut()
+            .for_each(|v| *v *= -3.0);
+        let back = hexapod.pose_of_warm_start(scaled.as_slice()).unwrap();
+        assert!((&back - &pose).amax() < 1e-15, "{back} {pose}");
+        let refused = |start: &[f64]| hexapod.pose_of_warm_start(start).unwrap_err().to_string();
+        let mut zero = start.clone();
+        zero.as_mut_slice()[3..].fill(0.0);
+        assert!(refused(zero.as_slice()).contains("quaternion is zero"));
+        assert_eq!(
+            refused(&start.as_slice()[..6]),
+            "hexapod needs 7 warm start values, got 6"
+        );
+        let mut nan = start;
+        nan[4] = f64::NAN;
+        assert!(refused(nan.as_slice()).contains("warm start values 5"));
     }
 
     #[test]
@@ -863,7 +949,8 @@ mod tests {
     }
 
     /// Seven contacts' readings at the design `p` of `hexapod` (a batch of
-    /// four lanes and one of three), and each one's home pose.
+    /// four lanes and one of three), and each one's home pose as a warm
+    /// start.
     fn seven_contacts(hexapod: &Hexapod, p: &[f64]) -> (Vec<DVector<f64>>, Vec<DVector<f64>>) {
         let readings: Vec<DVector<f64>> = (0..7)
             .map(|k| {
@@ -877,7 +964,10 @@ mod tests {
             .collect();
         let starts = readings
             .iter()
-            .map(|q| hexapod.start_pose(p, q.as_slice()).unwrap())
+            .map(|q| {
+                let home = hexapod.start_pose(p, q.as_slice()).unwrap();
+                hexapod.warm_start(home.as_slice()).unwrap()
+            })
             .collect();
         (readings, starts)
     }
@@ -897,7 +987,7 @@ mod tests {
                     // The lanes' LU may pivot otherwise: rounding of the
                     // forward kinematics' 1e-9 mm.
                     assert!((reached.point - one.point).amax() < 1e-9);
-                    assert!((&reached.pose - &one.pose).amax() < 1e-9);
+                    assert!((&reached.warm_start - &one.warm_start).amax() < 1e-9);
                     let difference = (&reached.d_params - &one.d_params).amax();
                     assert!(difference < 1e-9, "{difference:e}");
                 }
@@ -958,7 +1048,7 @@ mod tests {
             let (lanes, rows) = (lanes.as_ref().unwrap(), rows.as_ref().unwrap());
             // Rounding of the forward kinematics' 1e-9 mm, as above.
             assert!((lanes.reached.point - rows.reached.point).amax() < 1e-9);
-            assert!((&lanes.reached.pose - &rows.reached.pose).amax() < 1e-9);
+            assert!((&lanes.reached.warm_start - &rows.reached.warm_start).amax() < 1e-9);
             assert_eq!(lanes.reached.d_params.shape(), (3, 1));
             let product = &rows.reached.d_params;
             let difference = (&lanes.reached.d_params - product).amax();
@@ -966,9 +1056,11 @@ mod tests {
             // The pose moves by ~1e-4 (mm and rad) along the step; the
             // prediction's error is of its square over the machine's
             // ~100 mm: 1e-10 and below.
-            let exact = hexapod.forward(moved.as_slice(), q[k], x[k]).unwrap();
-            let shift = (&exact - &lanes.reached.pose).amax();
-            let error = (&exact - &lanes.predicted).amax();
+            let pose = |start: &DVector<f64>| hexapod.pose_of_warm_start(start.as_slice()).unwrap();
+            let exact = hexapod.forward(moved.as_slice(), q[k], pose(&starts[k]).as_slice());
+            let exact = exact.unwrap();
+            let shift = (&exact - pose(&lanes.reached.warm_start)).amax();
+            let error = (&exact - pose(&lanes.predicted)).amax();
             assert!(
                 shift > 1e-6 && error < 1e-3 * shift,
                 "{k}: {shift:e} {error:e}"

@@ -62,6 +62,19 @@
 //! hexapod); a delta's or a cable robot's effector is a point to its
 //! model.
 //!
+//! # Warm starts
+//!
+//! A calibration reaches each contact at its readings again and again, each
+//! time from where the last evaluation left it. What it keeps is the
+//! contact's warm start ([`Mechanism::warm_start`]): the pose coordinates
+//! by default, or what the mechanism's forward kinematics starts from
+//! without a conversion (the hexapod: its translation and unit
+//! quaternion, where its pose coordinates' rotation vector would cost a
+//! sine and an arc tangent each way). [`Mechanism::tool_point_at_readings`]
+//! and its batches start from warm starts and leave one in what they
+//! return ([`Reached::warm_start`]); [`Mechanism::pose_of_warm_start`]
+//! gives the pose back.
+//!
 //! # Gauge
 //!
 //! Some parameter combinations change no measurement: a rigid motion of the
@@ -324,8 +337,36 @@ pub trait Mechanism: Send + Sync {
         })
     }
 
+    /// The number of values of a warm start (module doc): the pose
+    /// coordinates' by default.
+    fn warm_start_len(&self) -> usize {
+        self.pose_coordinates().len()
+    }
+
+    /// The warm start at the pose `pose` (module doc): the pose itself by
+    /// default. An error for other than one finite value per pose
+    /// coordinate.
+    fn warm_start(&self, pose: &[f64]) -> Result<DVector<f64>, MechanismError> {
+        check_vector(
+            self,
+            "pose coordinates",
+            pose,
+            self.pose_coordinates().len(),
+        )?;
+        Ok(DVector::from_column_slice(pose))
+    }
+
+    /// The pose of the warm start `start` ([`Mechanism::warm_start`]'s
+    /// inverse): the start itself by default. An error for other than
+    /// [`Mechanism::warm_start_len`] finite values.
+    fn pose_of_warm_start(&self, start: &[f64]) -> Result<DVector<f64>, MechanismError> {
+        check_vector(self, "warm start values", start, self.warm_start_len())?;
+        Ok(DVector::from_column_slice(start))
+    }
+
     /// Where the machine is at `readings` ([`Reached`]): its forward
-    /// kinematics from `start`, its tool point and `dT/dp |_q`. By default
+    /// kinematics from the warm start `start` (module doc), its tool point
+    /// and `dT/dp |_q`. By default
     /// by implicit differentiation ([`implicit_tool_point_at_readings`]); a
     /// mechanism that has these from its own factorisation of the closure
     /// overrides it with the same values (the hexapod: its `J_f`).
@@ -339,7 +380,7 @@ pub trait Mechanism: Send + Sync {
     }
 
     /// [`Mechanism::tool_point_at_readings`] of several contacts, contact
-    /// `l` at `readings[l]` from `starts[l]`, each outcome in order into
+    /// `l` at `readings[l]` from the warm start `starts[l]`, each outcome in order into
     /// `reached` (as many as the contacts): one after another by default;
     /// a mechanism whose forward kinematics runs several contacts at once
     /// overrides it with the same values, to rounding (the hexapod: four
@@ -362,9 +403,9 @@ pub trait Mechanism: Send + Sync {
     /// [`Mechanism::tool_points_at_readings`] for a back-substitution,
     /// which needs of `dT/dp |_q` only its product with a step `dp` of the
     /// parameters: each entry as [`ReachedAlong`] (`dT/dp |_q · dp` in
-    /// place of `dT/dp |_q`, and the pose predicted at `p + dp`, where the
-    /// contact's next forward kinematics starts). By default from
-    /// [`Mechanism::tool_points_at_readings`], each pose its own
+    /// place of `dT/dp |_q`, and the warm start predicted at `p + dp`,
+    /// where the contact's next forward kinematics starts). By default
+    /// from [`Mechanism::tool_points_at_readings`], each warm start its own
     /// prediction ([`along_of_reached`]); a mechanism that can form the
     /// product without `dT/dp` and predict the pose overrides it (the
     /// hexapod: four in SIMD lanes), writing into the room of the `Ok`
@@ -570,14 +611,15 @@ pub fn pose_jacobian_at_fixed_readings(
     Ok(-solved)
 }
 
-/// Where the machine is at given readings: its pose, its tool point and
-/// the tool point's derivative at fixed readings
+/// Where the machine is at given readings: its pose as a warm start, its
+/// tool point and the tool point's derivative at fixed readings
 /// ([`Mechanism::tool_point_at_readings`]). The default is empty (no
 /// storage): what a caller leaves in place of one it takes.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Reached {
-    /// The pose `x = f(p, q)`.
-    pub pose: DVector<f64>,
+    /// The pose `x = f(p, q)` as a warm start (module doc;
+    /// [`Mechanism::pose_of_warm_start`] gives `x`).
+    pub warm_start: DVector<f64>,
     /// The tool point `T(p, x)` (mm).
     pub point: Vector3<f64>,
     /// `dT/dp |_q` (3 x parameters); in a [`ReachedAlong`], the derivative
@@ -592,12 +634,12 @@ pub struct Reached {
 /// ([`Mechanism::tool_points_along`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ReachedAlong {
-    /// The pose, the tool point and `dT/dp |_q · dp` (3 x 1, its
+    /// The warm start, the tool point and `dT/dp |_q · dp` (3 x 1, its
     /// `d_params`).
     pub reached: Reached,
-    /// The pose at `p + dp` to first order, `x` moved by `dx/dp |_q · dp`
-    /// ([`Mechanism::retract`]); `x` itself for a mechanism that does not
-    /// predict it.
+    /// The warm start at `p + dp` to first order, of `x` moved by `dx/dp
+    /// |_q · dp` ([`Mechanism::retract`]); `x`'s own for a mechanism that
+    /// does not predict it.
     pub predicted: DVector<f64>,
 }
 
@@ -648,7 +690,7 @@ pub fn tool_points_along_by_rows<M: Mechanism + ?Sized>(
 }
 
 /// Where a contact `reached` (of `mechanism`) is, along the parameter
-/// step `dp`: `dT/dp |_q · dp`, its pose its own prediction. An error for
+/// step `dp`: `dT/dp |_q · dp`, its warm start its own prediction. An error for
 /// a step of other than one finite value per parameter.
 pub fn along_of_reached<M: Mechanism + ?Sized>(
     mechanism: &M,
@@ -663,7 +705,7 @@ pub fn along_of_reached<M: Mechanism + ?Sized>(
     )?;
     let d_step = &reached.d_params * DVector::from_column_slice(dp);
     Ok(ReachedAlong {
-        predicted: reached.pose.clone(),
+        predicted: reached.warm_start.clone(),
         reached: Reached {
             d_params: DMatrix::from_column_slice(3, 1, d_step.as_slice()),
             ..reached
@@ -671,23 +713,35 @@ pub fn along_of_reached<M: Mechanism + ?Sized>(
     })
 }
 
+/// The warm start of the mechanism's [`Mechanism::start_pose`] at
+/// `readings`: where a contact's forward kinematics starts when no nearer
+/// pose is known.
+pub fn warm_start_at_readings<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    params: &[f64],
+    readings: &[f64],
+) -> Result<DVector<f64>, MechanismError> {
+    mechanism.warm_start(mechanism.start_pose(params, readings)?.as_slice())
+}
+
 /// Entry `index` of `reached` (at most its length: an entry is added at
 /// the end) set to where a contact is, as `write` writes it into room for
-/// a pose of `pose` coordinates and `dT/dp` of 3 x `params`: the room of
-/// the `Ok` entry there when it has those sizes, else new zero room.
+/// a warm start of `warm_start` values and `dT/dp` of 3 x `params`: the
+/// room of the `Ok` entry there when it has those sizes, else new zero
+/// room.
 pub fn write_reached(
     reached: &mut Vec<Result<Reached, MechanismError>>,
     index: usize,
-    pose: usize,
+    warm_start: usize,
     params: usize,
     write: impl FnOnce(&mut Reached),
 ) {
     write_entry(
         reached,
         index,
-        |room| room.pose.len() == pose && room.d_params.shape() == (3, params),
+        |room| room.warm_start.len() == warm_start && room.d_params.shape() == (3, params),
         || Reached {
-            pose: DVector::zeros(pose),
+            warm_start: DVector::zeros(warm_start),
             point: Vector3::zeros(),
             d_params: DMatrix::zeros(3, params),
         },
@@ -736,7 +790,7 @@ pub fn put_entry<T>(
 /// (dT/dq) G_p` (3 x parameters; module documentation), with `dT/dq =
 /// dT/dx G_x^-1` ([`tool_point_reading_jacobian`]) taken by three
 /// transposed solves rather than one per parameter; the forward kinematics
-/// starts from `start`. Any mechanism's
+/// starts from the warm start `start`. Any mechanism's
 /// [`Mechanism::tool_point_at_readings`], unless it has its own.
 pub fn implicit_tool_point_at_readings<M: Mechanism + ?Sized>(
     mechanism: &M,
@@ -744,14 +798,15 @@ pub fn implicit_tool_point_at_readings<M: Mechanism + ?Sized>(
     readings: &[f64],
     start: &[f64],
 ) -> Result<Reached, MechanismError> {
-    let pose = mechanism.forward(params, readings, start)?;
+    let start = mechanism.pose_of_warm_start(start)?;
+    let pose = mechanism.forward(params, readings, start.as_slice())?;
     let jacobians = mechanism.reading_jacobians(params, pose.as_slice())?;
     let tool = mechanism.tool_point(params, pose.as_slice())?;
     let d_readings = reading_to_tool(mechanism, &jacobians.d_pose, &tool.d_pose)?;
     let mut d_params = tool.d_params;
     d_params.gemm(-1.0, &d_readings, &jacobians.d_params, 1.0);
     Ok(Reached {
-        pose,
+        warm_start: mechanism.warm_start(pose.as_slice())?,
         point: tool.point,
         d_params,
     })

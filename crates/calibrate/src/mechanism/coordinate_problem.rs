@@ -27,7 +27,7 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
 use super::problem::{
-    FitProblem, LastPose, MechanismProblem, Reaches, Start, TouchedBall, put_group_columns,
+    FitProblem, MechanismProblem, Reaches, Start, TouchedBall, WarmStart, put_group_columns,
     touch_failed,
 };
 use super::touch_jacobian::TouchJacobian;
@@ -69,7 +69,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     pub(crate) fn start(
         data: &'a MechanismData,
         loss: Loss,
-    ) -> Result<(Self, State<C, 2>, Vec<LastPose>), MechanismCalibrationError> {
+    ) -> Result<(Self, State<C, 2>, Vec<WarmStart>), MechanismCalibrationError> {
         let base = MechanismProblem::new(data, loss)?;
         let Start {
             state,
@@ -108,8 +108,8 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
 
     /// The rows of touch point `i` that reached `reached` at its angles
     /// `angles` on its ball (of the group block `block`, or the global
-    /// block for a tied ball) into `out`, the pose it reached left in
-    /// `cache`.
+    /// block for a tied ball) into `out`, the warm start of the pose it
+    /// reached left in `cache`.
     #[allow(clippy::too_many_arguments)]
     fn touch_rows(
         &self,
@@ -118,7 +118,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         block: &SVector<f64, C>,
         angles: &Vector2<f64>,
         reached: &mut Result<Reached, MechanismError>,
-        cache: &mut LastPose,
+        cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let (t, touch, ball) = self.base.touch_and_ball(i, global, block);
@@ -128,14 +128,14 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
                 touch.coordinate_rows(reached, &chart, &ball.centre, ball.radius, angles)
             })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
-        *cache = LastPose::of(rows.pose.as_slice());
+        *cache = WarmStart::of(rows.warm_start.as_slice());
         put_local(out, &rows, &ball);
         let tied = ball.tied.map(|column| (column, ball.uncertain));
         let room = out.d_global.set(&mut rows, tied);
-        // The pose and the room of `dT/dp` back where they came from, for
-        // the next batch.
+        // The warm start and the room of `dT/dp` back where they came
+        // from, for the next batch.
         *reached = Ok(Reached {
-            pose: rows.pose,
+            warm_start: rows.warm_start,
             point: Vector3::zeros(),
             d_params: room,
         });
@@ -144,8 +144,8 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
 
     /// [`CoordinateProblem::touch_rows`] of a touch reached along the
     /// global step `dg` (`along`, [`MechanismProblem::reach_along`]): its
-    /// rows but `d_global` into `out`, the pose predicted after the step
-    /// left in `cache`, and `d_global · dg` returned.
+    /// rows but `d_global` into `out`, the warm start predicted after the
+    /// step left in `cache`, and `d_global · dg` returned.
     #[allow(clippy::too_many_arguments)]
     fn touch_rows_along(
         &self,
@@ -155,7 +155,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         angles: &Vector2<f64>,
         along: &mut Result<ReachedAlong, MechanismError>,
         dg: &DVector<f64>,
-        cache: &mut LastPose,
+        cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 3>, MechanismCalibrationError> {
         let (t, touch, ball) = self.base.touch_and_ball(i, global, block);
@@ -172,14 +172,14 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
                 Ok((rows, along.predicted))
             })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
-        *cache = LastPose::of(predicted.as_slice());
+        *cache = WarmStart::of(predicted.as_slice());
         put_local(out, &rows, &ball);
         let params_step = rows.d_tip * Vector3::from_column_slice(rows.d_tip_params.as_slice());
         let step = params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
         // The room back where it came from, for the next batch.
         *along = Ok(ReachedAlong {
             reached: Reached {
-                pose: rows.pose,
+                warm_start: rows.warm_start,
                 point: Vector3::zeros(),
                 d_params: rows.d_tip_params,
             },
@@ -198,7 +198,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         points: &[SVector<f64, 2>],
-        caches: &mut [LastPose],
+        caches: &mut [WarmStart],
         out: &mut [Local<C>],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
@@ -265,7 +265,7 @@ impl<const C: usize> FitProblem<C, 2, 3> for CoordinateProblem<'_, C> {
 /// Groups of `C` unknowns, points of two angles and three rows (module
 /// doc).
 impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
-    type PointCache = LastPose;
+    type PointCache = WarmStart;
     type Workspace = Reaches;
     type Error = MechanismCalibrationError;
     type Jacobian = TouchJacobian;
@@ -291,7 +291,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         Problem::<C, 0, 1>::group_points(&self.base, k)
     }
 
-    fn initial_cache(&self, i: usize) -> LastPose {
+    fn initial_cache(&self, i: usize) -> WarmStart {
         Problem::<C, 0, 1>::initial_cache(&self.base, i)
     }
 
@@ -301,7 +301,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         point: &SVector<f64, 2>,
-        cache: &mut LastPose,
+        cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         self.fill(
@@ -323,7 +323,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         points: &[SVector<f64, 2>],
-        caches: &mut [LastPose],
+        caches: &mut [WarmStart],
         out: &mut [Local<C>],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
@@ -332,14 +332,15 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
 
     /// A ball's touches along the step
     /// ([`CoordinateProblem::touch_rows_along`]): their `d_global` not
-    /// written, each touch's cache at the pose predicted after the step.
+    /// written, each touch's cache at the warm start predicted after the
+    /// step.
     fn linearize_along_batch(
         &self,
         first: usize,
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         points: &[SVector<f64, 2>],
-        caches: &mut [LastPose],
+        caches: &mut [WarmStart],
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 3>],
@@ -489,7 +490,7 @@ mod tests {
                     let angles = Vector2::new(0.02, -0.01);
                     let at = |global: &DVector<f64>, group: &SVector<f64, 4>, angles| {
                         let mut out = Local::<4>::zeros(g);
-                        let mut cache = LastPose::default();
+                        let mut cache = WarmStart::default();
                         problem
                             .linearize(i, global, group, &angles, &mut cache, &mut out)
                             .unwrap();

@@ -41,6 +41,10 @@ pub const MIN_ACTUATORS: usize = 3;
 pub const MAX_ACTUATORS: usize = 8;
 /// The most coordinates of a mechanism's pose (a rigid body's six).
 pub const MAX_POSE_COORDINATES: usize = 6;
+/// The most values of a mechanism's warm start
+/// ([`Mechanism::warm_start`](parcal_kinematics::mechanism::Mechanism::warm_start):
+/// a rigid body's translation and unit quaternion).
+pub const MAX_WARM_START: usize = 7;
 /// The most trackers: each adds its frame's six unknowns to the dense
 /// global block (a calibration uses one per placement of the instrument,
 /// a handful).
@@ -455,8 +459,9 @@ impl MechanismData {
     }
 
     /// Checks the data before any work: a mechanism with
-    /// [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators and at most
-    /// [`MAX_POSE_COORDINATES`] pose coordinates; for one whose pose
+    /// [`MIN_ACTUATORS`]..=[`MAX_ACTUATORS`] actuators, at most
+    /// [`MAX_POSE_COORDINATES`] pose coordinates and a warm start of at
+    /// most [`MAX_WARM_START`] values; for one whose pose
     /// is not a position `(x, y, z)` (the hexapod), touches at readings
     /// and measured quantities alone; sizes matching it; finite values; positive sigmas; counts within
     /// [`MAX_OBSERVATIONS`] (balls within [`MAX_BALLS`]) and at least one
@@ -491,6 +496,15 @@ impl MechanismData {
                 format!("the {name}"),
                 format!(
                     "its pose has {coordinates} coordinates; this calibration takes at most {MAX_POSE_COORDINATES}"
+                ),
+            );
+        }
+        let warm_start = mechanism.warm_start_len();
+        if warm_start > MAX_WARM_START {
+            return invalid(
+                format!("the {name}"),
+                format!(
+                    "its warm start has {warm_start} values; this calibration keeps at most {MAX_WARM_START}"
                 ),
             );
         }

@@ -29,7 +29,7 @@ use super::error::MechanismCalibrationError;
 use super::mirror::{MirroredBall, WrongSideWatch};
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::problem::{FitProblem, LastPose, MechanismProblem, Start, group_size};
+use super::problem::{FitProblem, MechanismProblem, Start, WarmStart, group_size};
 use super::trackers::Trackers;
 
 /// What one fit gives (module doc).
@@ -116,7 +116,7 @@ fn fit_blocks<const C: usize>(
 fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem<C, P, R>>(
     problem: &mut Q,
     state: State<C, P>,
-    mut caches: Vec<LastPose>,
+    mut caches: Vec<WarmStart>,
     options: &MechanismOptions,
     started: Instant,
     observer: &mut dyn FnMut(&IterationRecord),
@@ -219,7 +219,7 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
 fn solve_reseeding<const C: usize, const P: usize, const R: usize, Q: FitProblem<C, P, R>>(
     problem: &mut Q,
     state: State<C, P>,
-    caches: &mut Vec<LastPose>,
+    caches: &mut Vec<WarmStart>,
     options: &SolverOptions,
     begun: Instant,
     mut observer: &mut dyn FnMut(&IterationRecord),
@@ -254,7 +254,7 @@ fn solve_reseeding<const C: usize, const P: usize, const R: usize, Q: FitProblem
 /// reach is named as such.
 fn start<const C: usize>(
     problem: &MechanismProblem<C>,
-) -> Result<(State<C, 0>, Vec<LastPose>), MechanismCalibrationError> {
+) -> Result<(State<C, 0>, Vec<WarmStart>), MechanismCalibrationError> {
     let Start { state, caches, .. } = problem.start_state()?;
     check_global_rows(problem, &state.global)?;
     Ok((state, caches))
@@ -364,10 +364,10 @@ fn checks<const C: usize, const P: usize, const R: usize, Q>(
     covariance: &DMatrix<f64>,
     refs: &[(ObservationRef, usize)],
     groups_per_chunk: usize,
-    mut caches: Vec<LastPose>,
+    mut caches: Vec<WarmStart>,
 ) -> CheckedBlocks<C>
 where
-    Q: Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>,
+    Q: Problem<C, P, R, PointCache = WarmStart, Error = MechanismCalibrationError>,
 {
     let row = |residual: f64, redundancy: f64| RowCheck {
         residual: residual as f32,
@@ -463,7 +463,7 @@ mod tests {
     fn check_reseeding<const P: usize, const R: usize, Q: FitProblem<3, P, R>>(
         problem: &mut Q,
         state: State<3, P>,
-        mut caches: Vec<LastPose>,
+        mut caches: Vec<WarmStart>,
     ) {
         let options = SolverOptions::default();
         let started = Instant::now();

@@ -16,7 +16,7 @@ use parcal_solver::{Decision, Iterate, IterationRecord, Monitor, Problem};
 use crate::fit::misfit_balls;
 use crate::mirror::{SETTLED, mirror_side};
 
-use super::problem::{LastPose, MechanismProblem, Reaches};
+use super::problem::{MechanismProblem, Reaches, WarmStart};
 
 /// A ball found on the wrong side of its touches.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,7 +71,7 @@ impl<'w, 'p, const C: usize> WrongSideWatch<'w, 'p, C> {
         k: usize,
         global: &DVector<f64>,
         block: &SVector<f64, C>,
-        caches: &[LastPose],
+        caches: &[WarmStart],
     ) -> Option<(f64, [f64; 3], Vec<Vector3<f64>>)> {
         let points = Problem::<C, 0, 1>::group_points(self.base, k);
         let mut reaches = Reaches::default();
@@ -85,12 +85,12 @@ impl<'w, 'p, const C: usize> WrongSideWatch<'w, 'p, C> {
     }
 }
 
-impl<const C: usize, const P: usize> Monitor<C, P, LastPose> for WrongSideWatch<'_, '_, C> {
+impl<const C: usize, const P: usize> Monitor<C, P, WarmStart> for WrongSideWatch<'_, '_, C> {
     fn record(&mut self, record: &IterationRecord) {
         (self.observer)(record);
     }
 
-    fn inspect(&mut self, iterate: &Iterate<'_, C, P, LastPose>) -> Decision {
+    fn inspect(&mut self, iterate: &Iterate<'_, C, P, WarmStart>) -> Decision {
         if iterate.relative_change() > SETTLED {
             return Decision::Continue;
         }

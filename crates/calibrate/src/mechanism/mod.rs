@@ -109,8 +109,8 @@ pub use compensation::{
 };
 pub use data::{
     Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_POSE_COORDINATES,
-    MAX_TIED_BALLS, MAX_TRACKERS, MIN_ACTUATORS, MIN_POINTS_PER_TRACKER, MIN_TOUCHES_PER_BALL,
-    MechanismData, Observations, ParameterPrior, Tracker,
+    MAX_TIED_BALLS, MAX_TRACKERS, MAX_WARM_START, MIN_ACTUATORS, MIN_POINTS_PER_TRACKER,
+    MIN_TOUCHES_PER_BALL, MechanismData, Observations, ParameterPrior, Tracker,
 };
 pub use error::MechanismCalibrationError;
 pub use identifiability::{Identifiability, Undetermined};

@@ -627,7 +627,9 @@ fn predict_tracker(
             .view_mut((rows, 0), (3, 6))
             .copy_from(&block.d_tracker);
         if rehomed {
-            let d_tip = tool_point_reading_jacobian(mechanism, params, reached.pose.as_slice())
+            let d_tip = mechanism
+                .pose_of_warm_start(reached.warm_start.as_slice())
+                .and_then(|pose| tool_point_reading_jacobian(mechanism, params, pose.as_slice()))
                 .map_err(|e| MechanismCalibrationError::Observation {
                     observation: ObservationRef {
                         kind: ObservationKind::TrackerPoint,

@@ -45,7 +45,7 @@ use rayon::prelude::*;
 
 use crate::sphere_fit::{SphereFitError, best_fit};
 
-use super::data::{MAX_POSE_COORDINATES, MechanismData};
+use super::data::{MAX_WARM_START, MechanismData};
 use super::error::MechanismCalibrationError;
 use super::observation::{ObservationKind, ObservationRef};
 use super::prior::{global_priors, prior_information};
@@ -102,32 +102,33 @@ pub(crate) fn group_size(data: &MechanismData) -> usize {
     }
 }
 
-/// A point's cache: the pose its touch last reached (none before its
-/// first evaluation and for every other point), where its next forward
-/// kinematics starts; held inline, so that a million touches' caches make
-/// no allocation.
+/// A point's cache: the warm start of the pose its touch last reached
+/// (none before its first evaluation and for every other point), where
+/// its next forward kinematics starts
+/// ([`Mechanism::warm_start`](parcal_kinematics::mechanism::Mechanism::warm_start));
+/// held inline, so that a million touches' caches make no allocation.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct LastPose {
-    coordinates: [f64; MAX_POSE_COORDINATES],
+pub(crate) struct WarmStart {
+    values: [f64; MAX_WARM_START],
     len: usize,
 }
 
-impl LastPose {
-    /// The cache of `pose`; none for a pose of more coordinates than it
-    /// holds (which [`MechanismData::validate`] refuses), whose next
-    /// evaluation then starts from the mechanism's start pose.
-    pub(crate) fn of(pose: &[f64]) -> Self {
+impl WarmStart {
+    /// The cache of the warm start `start`; none for one of more values
+    /// than it holds (which [`MechanismData::validate`] refuses), whose
+    /// next evaluation then starts from the mechanism's start pose.
+    pub(crate) fn of(start: &[f64]) -> Self {
         let mut last = Self::default();
-        if let Some(room) = last.coordinates.get_mut(..pose.len()) {
-            room.copy_from_slice(pose);
-            last.len = pose.len();
+        if let Some(room) = last.values.get_mut(..start.len()) {
+            room.copy_from_slice(start);
+            last.len = start.len();
         }
         last
     }
 
-    /// The pose, if any.
-    fn pose(&self) -> Option<&[f64]> {
-        (self.len > 0).then(|| &self.coordinates[..self.len])
+    /// The warm start, if any.
+    fn start(&self) -> Option<&[f64]> {
+        (self.len > 0).then(|| &self.values[..self.len])
     }
 }
 
@@ -312,7 +313,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// `params`), then each ball's centre ([`ball_centre`], from the
     /// data's touch start if they have one) and, with
     /// [`group_size`] 4, its calibrated radius; with every point's cache
-    /// (empty for a sample's, the pose reached for a touch's) and every
+    /// (empty for a sample's, the warm start of the pose reached for a
+    /// touch's) and every
     /// touch's tool point there, in the order of the points.
     pub(crate) fn start_blocks(&self, params: &[f64]) -> StartBlocks<C> {
         let mechanism = self.data.mechanism.as_ref();
@@ -359,13 +361,13 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 Ok((block(&fit.centre, ball.radius), fit))
             })
             .collect();
-        let mut caches = vec![LastPose::default(); self.sample_points()];
+        let mut caches = vec![WarmStart::default(); self.sample_points()];
         caches.reserve(self.touch_order.len());
         let mut all_tips = Vec::with_capacity(self.touch_order.len());
         for centre in centres {
             let (block, fit) = centre?;
             blocks.push(block);
-            caches.extend(fit.poses);
+            caches.extend(fit.warm_starts);
             all_tips.extend(fit.tips);
         }
         Ok((blocks, caches, all_tips))
@@ -398,7 +400,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// The row of touch point `i` that reached `reached` on its ball of
     /// the group block `block` (or, for a tied ball, its unknowns in the
-    /// global block `global`) into `out`, the pose it reached left in
+    /// global block `global`) into `out`, the warm start of the pose it
+    /// reached left in
     /// `cache` (the start of its next evaluation).
     fn touch_row(
         &self,
@@ -406,11 +409,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         global: &DVector<f64>,
         block: &SVector<f64, C>,
         reached: &Result<Reached, MechanismError>,
-        cache: &mut LastPose,
+        cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let (reached, row, ball) = self.radius_row(i, global, block, reached, |r| r)?;
-        *cache = LastPose::of(reached.pose.as_slice());
+        *cache = WarmStart::of(reached.warm_start.as_slice());
         // uᵀ dT/dp |_q over σ a column at a time, the other columns zero.
         let n = self.n_params();
         let (params, others) = out.d_global.as_mut_slice().split_at_mut(n);
@@ -425,7 +428,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// [`MechanismProblem::touch_row`] of a touch reached along the global
     /// step `dg` (`along`, [`MechanismProblem::reach_along`]): its row but
-    /// `d_global` into `out`, the pose predicted after the step left in
+    /// `d_global` into `out`, the warm start predicted after the step left in
     /// `cache`, and `d_global · dg` returned (the parameters' share from
     /// `dT/dp |_q · dp`, a tied ball's from its columns).
     #[allow(clippy::too_many_arguments)]
@@ -436,12 +439,12 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         block: &SVector<f64, C>,
         along: &Result<ReachedAlong, MechanismError>,
         dg: &DVector<f64>,
-        cache: &mut LastPose,
+        cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 1>, MechanismCalibrationError> {
         let (along, row, ball) = self.radius_row(i, global, block, along, |a| &a.reached)?;
         let reached = &along.reached;
-        *cache = LastPose::of(along.predicted.as_slice());
+        *cache = WarmStart::of(along.predicted.as_slice());
         put_touch_local(out, &row, &ball);
         let params_step = SVector::<f64, 1>::new(row.d_column(reached.d_params.as_slice()));
         let d_radius = SVector::<f64, 1>::new(row.d_radius());
@@ -538,7 +541,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         &self,
         points: Range<usize>,
         global: &DVector<f64>,
-        caches: &[LastPose],
+        caches: &[WarmStart],
         reaches: &mut Reaches,
     ) {
         let (actuations, starts) = self.actuations(points, caches);
@@ -558,23 +561,23 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     fn actuations<'s>(
         &'s self,
         points: Range<usize>,
-        caches: &'s [LastPose],
+        caches: &'s [WarmStart],
     ) -> (Vec<&'s Actuation>, Vec<Option<&'s [f64]>>) {
         let touches = &self.data.observations.touches;
         let actuations = points.map(|i| &touches[self.touch_at(i)].at).collect();
-        (actuations, caches.iter().map(LastPose::pose).collect())
+        (actuations, caches.iter().map(WarmStart::start).collect())
     }
 
     /// [`MechanismProblem::reach`] along the global step `dg`, into
     /// `reaches.along` ([`Actuation::tool_points_along`]: each touch's
     /// `dT/dp |_q` only as its product with the parameters' step, and the
-    /// pose predicted after the step).
+    /// warm start predicted after the step).
     pub(crate) fn reach_along(
         &self,
         points: Range<usize>,
         global: &DVector<f64>,
         dg: &DVector<f64>,
-        caches: &[LastPose],
+        caches: &[WarmStart],
         reaches: &mut Reaches,
     ) {
         let (actuations, starts) = self.actuations(points, caches);
@@ -608,7 +611,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         first: usize,
         global: &DVector<f64>,
         group: &SVector<f64, C>,
-        caches: &mut [LastPose],
+        caches: &mut [WarmStart],
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 1>],
@@ -639,12 +642,12 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         first: usize,
         global: &DVector<f64>,
         group: &SVector<f64, C>,
-        caches: &mut [LastPose],
+        caches: &mut [WarmStart],
         out: &mut [Local<C>],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         if first >= self.sample_points() {
-            // The touches together: each from the pose it last reached.
+            // The touches together: each from the warm start it last left.
             self.reach(first..first + out.len(), global, caches, reaches);
             let each = reaches.at.iter().zip(out).zip(caches);
             for (j, ((reached, out), cache)) in each.enumerate() {
@@ -679,7 +682,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 /// whose blocks and global rows it shares, and how a ball found on the
 /// wrong side of its touches is moved (`super::mirror`).
 pub(crate) trait FitProblem<const C: usize, const P: usize, const R: usize>:
-    Problem<C, P, R, PointCache = LastPose, Error = MechanismCalibrationError>
+    Problem<C, P, R, PointCache = WarmStart, Error = MechanismCalibrationError>
 {
     /// The radius observation's problem of the same data.
     fn base(&self) -> &MechanismProblem<'_, C>;
@@ -719,7 +722,7 @@ pub(crate) struct Start<const C: usize> {
     /// The solver's start.
     pub state: State<C, 0>,
     /// Every point's cache there.
-    pub caches: Vec<LastPose>,
+    pub caches: Vec<WarmStart>,
     /// Every touch's tool point there, in the order of the points.
     pub tips: Vec<Vector3<f64>>,
 }
@@ -727,7 +730,7 @@ pub(crate) struct Start<const C: usize> {
 /// The local blocks' start, the points' caches and the touches' tool
 /// points ([`MechanismProblem::start_blocks`]).
 type StartBlocks<const C: usize> =
-    Result<(Vec<SVector<f64, C>>, Vec<LastPose>, Vec<Vector3<f64>>), MechanismCalibrationError>;
+    Result<(Vec<SVector<f64, C>>, Vec<WarmStart>, Vec<Vector3<f64>>), MechanismCalibrationError>;
 
 /// A ball's start: its block, and the fit of its touches.
 type BallStart<const C: usize> = (SVector<f64, C>, BallFit);
@@ -736,8 +739,8 @@ type BallStart<const C: usize> = (SVector<f64, C>, BallFit);
 pub(crate) struct BallFit {
     /// Its centre.
     pub centre: Vector3<f64>,
-    /// The pose each touch reached.
-    pub poses: Vec<LastPose>,
+    /// The warm start of the pose each touch reached.
+    pub warm_starts: Vec<WarmStart>,
     /// The tool point each touch reached.
     pub tips: Vec<Vector3<f64>>,
 }
@@ -902,14 +905,23 @@ pub(crate) fn ball_centre(
     start: Option<&TouchStart>,
 ) -> Result<BallFit, MechanismCalibrationError> {
     // Together: a mechanism may reach several at once (the hexapod's
-    // lanes), each from its start pose.
+    // lanes), each from its start pose's warm start.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
+    let touch = |t| ObservationRef {
+        kind: ObservationKind::Touch,
+        index: t,
+    };
     let reached = match start {
         Some(start) => {
             let coordinates = mechanism.pose_coordinates().len();
-            let starts: Vec<Option<&[f64]>> = (touches.iter())
-                .map(|&t| Some(start.pose(t, coordinates)))
-                .collect();
+            let warm_starts = (touches.iter())
+                .map(|&t| {
+                    (mechanism.warm_start(start.pose(t, coordinates)))
+                        .map_err(|e| failed(touch(t), e))
+                })
+                .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
+            let starts: Vec<Option<&[f64]>> =
+                warm_starts.iter().map(|s| Some(s.as_slice())).collect();
             let mut reached = Vec::with_capacity(touches.len());
             Actuation::tool_points(
                 mechanism,
@@ -923,19 +935,13 @@ pub(crate) fn ball_centre(
         }
         None => Actuation::tool_points_from_scratch(mechanism, params, configured, &actuations),
     };
-    let (points, poses): (Vec<Vector3<f64>>, Vec<LastPose>) = reached
+    let (points, warm_starts): (Vec<Vector3<f64>>, Vec<WarmStart>) = reached
         .into_iter()
         .zip(touches)
         .map(|(reached, &t)| {
             reached
-                .map(|reached| (reached.point, LastPose::of(reached.pose.as_slice())))
-                .map_err(|e| {
-                    let at = ObservationRef {
-                        kind: ObservationKind::Touch,
-                        index: t,
-                    };
-                    failed(at, e)
-                })
+                .map(|reached| (reached.point, WarmStart::of(reached.warm_start.as_slice())))
+                .map_err(|e| failed(touch(t), e))
         })
         .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
         .into_iter()
@@ -943,14 +949,14 @@ pub(crate) fn ball_centre(
     if let Some(start) = start {
         return Ok(BallFit {
             centre: Vector3::from(start.centres[b]),
-            poses,
+            warm_starts,
             tips: points,
         });
     }
     match best_fit(&points, radius) {
         Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(BallFit {
             centre: fit.centre,
-            poses,
+            warm_starts,
             tips: points,
         }),
         Err(e) => Err(MechanismCalibrationError::InvalidData {
@@ -969,7 +975,7 @@ fn failed(observation: ObservationRef, error: impl std::fmt::Display) -> Mechani
 
 /// Groups of `C` unknowns, points of one row (module doc).
 impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
-    type PointCache = LastPose;
+    type PointCache = WarmStart;
     type Workspace = Reaches;
     type Error = MechanismCalibrationError;
     type Jacobian = OMatrix<f64, Const<1>, Dyn>;
@@ -1005,8 +1011,8 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
 
     /// No pose yet: a touch at readings first starts from the
     /// mechanism's [`Mechanism::start_pose`].
-    fn initial_cache(&self, _i: usize) -> LastPose {
-        LastPose::default()
+    fn initial_cache(&self, _i: usize) -> WarmStart {
+        WarmStart::default()
     }
 
     /// The row of point `i` at its group's block (module doc).
@@ -1016,7 +1022,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         _point: &SVector<f64, 0>,
-        cache: &mut LastPose,
+        cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let caches = std::slice::from_mut(cache);
@@ -1032,7 +1038,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         _points: &[SVector<f64, 0>],
-        caches: &mut [LastPose],
+        caches: &mut [WarmStart],
         out: &mut [Local<C>],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
@@ -1048,7 +1054,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         global: &DVector<f64>,
         group: &SVector<f64, C>,
         _points: &[SVector<f64, 0>],
-        caches: &mut [LastPose],
+        caches: &mut [WarmStart],
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 1>],
@@ -1682,7 +1688,14 @@ pub(crate) mod tests {
                     let group = &state.groups[k];
                     let point = SVector::zeros();
                     problem
-                        .linearize(i, global, group, &point, &mut LastPose::default(), &mut out)
+                        .linearize(
+                            i,
+                            global,
+                            group,
+                            &point,
+                            &mut WarmStart::default(),
+                            &mut out,
+                        )
                         .unwrap();
                     residuals.push(out.residual[0]);
                     jacobian.push(out.d_global.clone());

@@ -137,7 +137,7 @@ mod tests {
             d_centre: Matrix3::from_fn(|i, j| f(200 + 3 * j + i)),
             d_radius: Vector3::from_fn(|i, _| f(300 + i)),
             d_angles: Matrix3x2::zeros(),
-            pose: DVector::zeros(6),
+            warm_start: DVector::zeros(7),
         }
     }
 

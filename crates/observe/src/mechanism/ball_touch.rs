@@ -79,9 +79,9 @@ impl BallTouch {
 pub struct TouchRows {
     /// The row `r` and `dr/dp`.
     pub rows: Rows,
-    /// The pose the machine reached at the touch: a start for the next
-    /// evaluation's forward kinematics.
-    pub pose: DVector<f64>,
+    /// The warm start of the pose the machine reached at the touch: a
+    /// start for the next evaluation's forward kinematics.
+    pub warm_start: DVector<f64>,
     /// `dr/dc`, the derivative with respect to the ball's centre.
     pub d_centre: RowVector3<f64>,
     /// `dr/dρ`, the derivative with respect to the ball's radius.
@@ -129,7 +129,7 @@ impl BallTouch {
                 residual: DVector::from_element(1, row.residual),
                 d_params: d_params.reshape_generic(Dyn(1), Dyn(n)),
             },
-            pose: reached.pose,
+            warm_start: reached.warm_start,
             d_centre: row.d_centre(),
             d_radius: row.d_radius(),
         })
@@ -261,7 +261,7 @@ mod tests {
                 &[],
                 &centre,
                 5.0,
-                Some(analytic.pose.as_slice()),
+                Some(analytic.warm_start.as_slice()),
             )
             .unwrap();
         let moved = (warm.rows.residual[0] - analytic.rows.residual[0]).abs();

@@ -6,7 +6,7 @@ use std::borrow::Cow;
 
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{
-    Mechanism, MechanismError, Reached, ReachedAlong, along_of_reached,
+    Mechanism, MechanismError, Reached, ReachedAlong, along_of_reached, warm_start_at_readings,
 };
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
@@ -39,8 +39,8 @@ pub fn reached(
     ))
 }
 
-/// [`reached`] with the pose: the readings `g(p_c, x_c)` through
-/// [`Mechanism::tool_point_at_readings`] from `x_c`.
+/// [`reached`] with the warm start: the readings `g(p_c, x_c)` through
+/// [`Mechanism::tool_point_at_readings`] from `x_c`'s warm start.
 fn reached_at_command(
     mechanism: &dyn Mechanism,
     params: &[f64],
@@ -48,12 +48,13 @@ fn reached_at_command(
     commanded: &[f64; 3],
 ) -> Result<Reached, MechanismError> {
     let readings = mechanism.inverse(configured, commanded)?;
-    mechanism.tool_point_at_readings(params, readings.as_slice(), commanded)
+    let start = mechanism.warm_start(commanded)?;
+    mechanism.tool_point_at_readings(params, readings.as_slice(), start.as_slice())
 }
 
 /// An actuation at readings among others ([`Actuation::tool_points`]):
-/// its index, its readings and the pose its forward kinematics starts
-/// from.
+/// its index, its readings and the warm start its forward kinematics
+/// starts from.
 type AtReadings<'a> = (usize, &'a [f64], Cow<'a, [f64]>);
 
 /// How the machine was put where it observed: a position `x_c` its
@@ -69,12 +70,12 @@ pub enum Actuation {
 }
 
 impl Actuation {
-    /// The pose and tool point the machine of true parameters `params`
-    /// reaches and the tool point's `dT/dp` at fixed readings: [`reached`]
-    /// for a commanded position; for readings, the forward kinematics from
-    /// `start` (a pose near the one reached, such as the one a previous
-    /// evaluation found), else from the mechanism's
-    /// [`Mechanism::start_pose`].
+    /// The pose (as a warm start) and tool point the machine of true
+    /// parameters `params` reaches and the tool point's `dT/dp` at fixed
+    /// readings: [`reached`] for a commanded position; for readings, the
+    /// forward kinematics from the warm start `start` (of a pose near the
+    /// one reached, such as the one a previous evaluation left), else from
+    /// the mechanism's [`Mechanism::start_pose`].
     pub fn tool_point(
         &self,
         mechanism: &dyn Mechanism,
@@ -89,7 +90,7 @@ impl Actuation {
             Self::Readings(readings) => match start {
                 Some(start) => mechanism.tool_point_at_readings(params, readings, start),
                 None => {
-                    let start = mechanism.start_pose(params, readings)?;
+                    let start = warm_start_at_readings(mechanism, params, readings)?;
                     mechanism.tool_point_at_readings(params, readings, start.as_slice())
                 }
             },
@@ -141,13 +142,15 @@ impl Actuation {
                     at_readings.push((k, readings, Cow::Borrowed(*start)));
                     None
                 }
-                (Self::Readings(readings), None) => match mechanism.start_pose(params, readings) {
-                    Ok(start) => {
-                        at_readings.push((k, readings, Cow::Owned(start.as_slice().to_vec())));
-                        None
+                (Self::Readings(readings), None) => {
+                    match warm_start_at_readings(mechanism, params, readings) {
+                        Ok(start) => {
+                            at_readings.push((k, readings, Cow::Owned(start.as_slice().to_vec())));
+                            None
+                        }
+                        Err(e) => Some(Err(e)),
                     }
-                    Err(e) => Some(Err(e)),
-                },
+                }
             };
             outcomes.push(outcome);
         }
@@ -167,10 +170,10 @@ impl Actuation {
     /// [`Actuation::tool_points`] for a back-substitution along the step
     /// `dp` of the parameters, each outcome in order into `along`
     /// ([`ReachedAlong`]: `dT/dp |_q · dp` in place of `dT/dp |_q`, and the
-    /// pose predicted at `p + dp`): when every one is at readings from a
+    /// warm start predicted at `p + dp`): when every one is at readings from a
     /// start given (a calibration's iterations), the mechanism's
     /// [`Mechanism::tool_points_along`], into the room `along` holds; else
-    /// from [`Actuation::tool_points`], each pose its own prediction.
+    /// from [`Actuation::tool_points`], each warm start its own prediction.
     ///
     /// # Panics
     /// If `actuations` and `starts` differ in length.
@@ -315,6 +318,7 @@ mod tests {
         let home = hexapod
             .start_pose(p, &legs([0.0, 0.0, 240.0, 0.0, 0.0, 0.0]))
             .unwrap();
+        let home = hexapod.warm_start(home.as_slice()).unwrap();
         let mut together = Vec::new();
         for starts in [[None; 3], [Some(home.as_slice()); 3]] {
             Actuation::tool_points(hexapod, p, &[], &refs, &starts, &mut together);
@@ -336,7 +340,7 @@ mod tests {
     #[test]
     fn actuations_along_a_step_are_their_rows_times_the_step() {
         // The delta's mixed actuations: each one's product with the step
-        // from its own rows, to the bit, its pose its prediction; a step
+        // from its own rows, to the bit, its warm start its prediction; a step
         // of the wrong length refuses each.
         let (delta, configured, truth, actuations, start) = mixed_actuations();
         let (c, p) = (configured.as_slice(), truth.as_slice());
@@ -349,7 +353,7 @@ mod tests {
             let alone = actuation.tool_point(&delta, p, c, start).unwrap();
             let expected = along_of_reached(&delta, alone, &dp).unwrap();
             assert_eq!(along.as_ref().unwrap(), &expected);
-            assert_eq!(expected.predicted, expected.reached.pose);
+            assert_eq!(expected.predicted, expected.reached.warm_start);
         }
         Actuation::tool_points_along(&delta, p, c, &refs, &starts, &dp[1..], &mut along);
         for outcome in &along {
@@ -363,7 +367,7 @@ mod tests {
         let p = p.as_slice();
         let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
         let readings = hexapod.inverse(p, &pose).unwrap().as_slice().to_vec();
-        let home = hexapod.start_pose(p, &readings).unwrap();
+        let home = warm_start_at_readings(hexapod, p, &readings).unwrap();
         let dp = vec![1e-4; p.len()];
         let read = Actuation::Readings(readings.clone());
         let starts = [Some(home.as_slice())];

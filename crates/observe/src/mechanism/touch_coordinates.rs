@@ -44,8 +44,8 @@ pub struct CoordinateRows {
     pub d_radius: Vector3<f64>,
     /// `L⁻¹ dc/dθ` (per rad).
     pub d_angles: Matrix3x2<f64>,
-    /// The pose the machine reached at the touch.
-    pub pose: DVector<f64>,
+    /// The warm start of the pose the machine reached at the touch.
+    pub warm_start: DVector<f64>,
 }
 
 impl CoordinateRows {
@@ -106,7 +106,7 @@ impl BallTouch {
             d_centre: whitened.d_centre,
             d_radius: whitened.d_radius,
             d_angles: whitened.d_angles,
-            pose: reached.pose,
+            warm_start: reached.warm_start,
         })
     }
 }

@@ -82,9 +82,9 @@ pub struct TrackerPointRows {
     /// `dr/do`, the derivative with respect to the actuators' offsets
     /// (3 x actuators), when the point was evaluated with offsets.
     pub d_offsets: Option<DMatrix<f64>>,
-    /// The pose the machine reached: a start for the next evaluation's
-    /// forward kinematics.
-    pub pose: DVector<f64>,
+    /// The warm start of the pose the machine reached: a start for the
+    /// next evaluation's forward kinematics.
+    pub warm_start: DVector<f64>,
 }
 
 impl TrackerPoint {
@@ -110,7 +110,10 @@ impl TrackerPoint {
         check_vector(mechanism, "offsets", offsets, mechanism.actuators().len())?;
         let (readings, commanded) = match &self.at {
             Actuation::Readings(q) => (DVector::from_column_slice(q), None),
-            Actuation::Commanded(x) => (mechanism.inverse(configured, x)?, Some(&x[..])),
+            Actuation::Commanded(x) => (
+                mechanism.inverse(configured, x)?,
+                Some(mechanism.warm_start(x)?),
+            ),
         };
         // `s_i`, where the scales are parameters.
         let scales = mechanism.scales(params);
@@ -121,9 +124,10 @@ impl TrackerPoint {
             mechanism,
             params,
             configured,
-            start.or(commanded),
+            start.or(commanded.as_ref().map(DVector::as_slice)),
         )?;
-        let d_tip = tool_point_reading_jacobian(mechanism, params, reached.pose.as_slice())?;
+        let pose = mechanism.pose_of_warm_start(reached.warm_start.as_slice())?;
+        let d_tip = tool_point_reading_jacobian(mechanism, params, pose.as_slice())?;
         let mut rows = self.rows(reached, frame);
         // `L⁻¹ R_F dT/dq`, then over the scales.
         let d_readings = self.weight.inverse_factor() * frame_rotation(frame) * d_tip;
@@ -160,7 +164,7 @@ impl TrackerPoint {
             },
             d_frame: whitening * block.d_tracker,
             d_offsets: None,
-            pose: reached.pose,
+            warm_start: reached.warm_start,
         }
     }
 }
