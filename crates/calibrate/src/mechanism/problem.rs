@@ -39,7 +39,7 @@ use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAlong};
-use parcal_observe::mechanism::{Actuation, BallTouch, RadiusRow, Rows, SampleRows};
+use parcal_observe::mechanism::{Actuation, BallTouch, RadiusRow, Rows, SampleRows, gathered};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 use rayon::prelude::*;
 
@@ -544,28 +544,39 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         caches: &[WarmStart],
         reaches: &mut Reaches,
     ) {
-        let (actuations, starts) = self.actuations(points, caches);
-        batch_rooms(&mut reaches.at, &mut reaches.spare_at, actuations.len());
-        Actuation::tool_points(
-            self.data.mechanism.as_ref(),
-            &global.as_slice()[..self.n_params()],
-            self.data.configured.as_slice(),
-            &actuations,
-            &starts,
-            &mut reaches.at,
-        );
+        batch_rooms(&mut reaches.at, &mut reaches.spare_at, points.len());
+        self.actuations(points, caches, |actuations, starts| {
+            Actuation::tool_points(
+                self.data.mechanism.as_ref(),
+                &global.as_slice()[..self.n_params()],
+                self.data.configured.as_slice(),
+                actuations,
+                starts,
+                &mut reaches.at,
+            );
+        });
     }
 
-    /// How the machine was put at the touch points `points`, and the pose
-    /// each one's forward kinematics starts from (its cache's, if any).
-    fn actuations<'s>(
-        &'s self,
+    /// `f` of how the machine was put at the touch points `points` and the
+    /// warm start each one's forward kinematics starts from (its cache's,
+    /// if any), [`gathered`] (a batch of them on the stack).
+    fn actuations(
+        &self,
         points: Range<usize>,
-        caches: &'s [WarmStart],
-    ) -> (Vec<&'s Actuation>, Vec<Option<&'s [f64]>>) {
+        caches: &[WarmStart],
+        f: impl FnOnce(&[&Actuation], &[Option<&[f64]>]),
+    ) {
         let touches = &self.data.observations.touches;
-        let actuations = points.map(|i| &touches[self.touch_at(i)].at).collect();
-        (actuations, caches.iter().map(WarmStart::start).collect())
+        let at = |k: usize| &touches[self.touch_at(points.start + k)].at;
+        gathered(points.len(), at, |actuations| {
+            gathered(
+                caches.len(),
+                |k| caches[k].start(),
+                |starts| {
+                    f(actuations, starts);
+                },
+            );
+        });
     }
 
     /// [`MechanismProblem::reach`] along the global step `dg`, into
@@ -580,22 +591,19 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         caches: &[WarmStart],
         reaches: &mut Reaches,
     ) {
-        let (actuations, starts) = self.actuations(points, caches);
-        batch_rooms(
-            &mut reaches.along,
-            &mut reaches.spare_along,
-            actuations.len(),
-        );
+        batch_rooms(&mut reaches.along, &mut reaches.spare_along, points.len());
         let n = self.n_params();
-        Actuation::tool_points_along(
-            self.data.mechanism.as_ref(),
-            &global.as_slice()[..n],
-            self.data.configured.as_slice(),
-            &actuations,
-            &starts,
-            &dg.as_slice()[..n],
-            &mut reaches.along,
-        );
+        self.actuations(points, caches, |actuations, starts| {
+            Actuation::tool_points_along(
+                self.data.mechanism.as_ref(),
+                &global.as_slice()[..n],
+                self.data.configured.as_slice(),
+                actuations,
+                starts,
+                &dg.as_slice()[..n],
+                &mut reaches.along,
+            );
+        });
     }
 
     /// [`MechanismProblem::fill`] for a back-substitution along the global
@@ -905,42 +913,51 @@ pub(crate) fn ball_centre(
     start: Option<&TouchStart>,
 ) -> Result<BallFit, MechanismCalibrationError> {
     // Together: a mechanism may reach several at once (the hexapod's
-    // lanes), each from its start pose's warm start.
+    // lanes), each from its start pose's warm start. Of each only its
+    // tool point and warm start are wanted, not `dT/dp |_q`: the touches
+    // along a zero step, which a mechanism's batches give without forming
+    // `dT/dp |_q`.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
     let touch = |t| ObservationRef {
         kind: ObservationKind::Touch,
         index: t,
     };
-    let reached = match start {
+    let warm_starts = match start {
         Some(start) => {
             let coordinates = mechanism.pose_coordinates().len();
-            let warm_starts = (touches.iter())
+            (touches.iter())
                 .map(|&t| {
                     (mechanism.warm_start(start.pose(t, coordinates)))
+                        .map(Some)
                         .map_err(|e| failed(touch(t), e))
                 })
-                .collect::<Result<Vec<_>, MechanismCalibrationError>>()?;
-            let starts: Vec<Option<&[f64]>> =
-                warm_starts.iter().map(|s| Some(s.as_slice())).collect();
-            let mut reached = Vec::with_capacity(touches.len());
-            Actuation::tool_points(
-                mechanism,
-                params,
-                configured,
-                &actuations,
-                &starts,
-                &mut reached,
-            );
-            reached
+                .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
         }
-        None => Actuation::tool_points_from_scratch(mechanism, params, configured, &actuations),
+        None => vec![None; touches.len()],
     };
+    let starts: Vec<Option<&[f64]>> = (warm_starts.iter())
+        .map(|s| s.as_ref().map(DVector::as_slice))
+        .collect();
+    let mut reached = Vec::with_capacity(touches.len());
+    let zero_step = vec![0.0; params.len()];
+    Actuation::tool_points_along(
+        mechanism,
+        params,
+        configured,
+        &actuations,
+        &starts,
+        &zero_step,
+        &mut reached,
+    );
     let (points, warm_starts): (Vec<Vector3<f64>>, Vec<WarmStart>) = reached
         .into_iter()
         .zip(touches)
-        .map(|(reached, &t)| {
-            reached
-                .map(|reached| (reached.point, WarmStart::of(reached.warm_start.as_slice())))
+        .map(|(along, &t)| {
+            along
+                .map(|along| {
+                    let reached = along.reached;
+                    (reached.point, WarmStart::of(reached.warm_start.as_slice()))
+                })
                 .map_err(|e| failed(touch(t), e))
         })
         .collect::<Result<Vec<_>, MechanismCalibrationError>>()?

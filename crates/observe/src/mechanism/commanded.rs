@@ -9,6 +9,8 @@ use parcal_kinematics::mechanism::{
     Mechanism, MechanismError, Reached, ReachedAlong, along_of_reached, warm_start_at_readings,
 };
 
+use super::gathered::gathered;
+
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
 pub const POSE_COORDINATES: usize = 3;
 
@@ -70,6 +72,15 @@ pub enum Actuation {
 }
 
 impl Actuation {
+    /// The readings of an actuation at readings; none (an empty slice) for
+    /// a commanded position.
+    fn readings(&self) -> &[f64] {
+        match self {
+            Self::Readings(readings) => readings,
+            Self::Commanded(_) => &[],
+        }
+    }
+
     /// The pose (as a warm start) and tool point the machine of true
     /// parameters `params` reaches and the tool point's `dT/dp` at fixed
     /// readings: [`reached`] for a commanded position; for readings, the
@@ -118,14 +129,20 @@ impl Actuation {
         let from_starts = (actuations.iter().zip(starts))
             .all(|pair| matches!(pair, (Self::Readings(_), Some(_))));
         if from_starts {
-            let readings: Vec<&[f64]> = (actuations.iter())
-                .filter_map(|actuation| match actuation {
-                    Self::Readings(readings) => Some(readings.as_slice()),
-                    Self::Commanded(_) => None,
-                })
-                .collect();
-            let starts: Vec<&[f64]> = starts.iter().flatten().copied().collect();
-            mechanism.tool_points_at_readings(params, &readings, &starts, reached);
+            let n = actuations.len();
+            gathered(
+                n,
+                |k| actuations[k].readings(),
+                |readings| {
+                    gathered(
+                        n,
+                        |k| starts[k].unwrap_or_default(),
+                        |starts| {
+                            mechanism.tool_points_at_readings(params, readings, starts, reached);
+                        },
+                    );
+                },
+            );
             return;
         }
         let mut outcomes: Vec<Option<Result<Reached, MechanismError>>> =
@@ -188,15 +205,23 @@ impl Actuation {
         along: &mut Vec<Result<ReachedAlong, MechanismError>>,
     ) {
         assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
-        let at_readings: Option<Vec<(&[f64], &[f64])>> = (actuations.iter().zip(starts))
-            .map(|(actuation, start)| match (actuation, start) {
-                (Self::Readings(readings), Some(start)) => Some((readings.as_slice(), *start)),
-                _ => None,
-            })
-            .collect();
-        if let Some(pairs) = at_readings {
-            let (readings, starts): (Vec<&[f64]>, Vec<&[f64]>) = pairs.into_iter().unzip();
-            mechanism.tool_points_along(params, &readings, &starts, dp, along);
+        let from_starts = (actuations.iter().zip(starts))
+            .all(|pair| matches!(pair, (Self::Readings(_), Some(_))));
+        if from_starts {
+            let n = actuations.len();
+            gathered(
+                n,
+                |k| actuations[k].readings(),
+                |readings| {
+                    gathered(
+                        n,
+                        |k| starts[k].unwrap_or_default(),
+                        |starts| {
+                            mechanism.tool_points_along(params, readings, starts, dp, along);
+                        },
+                    );
+                },
+            );
             return;
         }
         let mut reached = Vec::with_capacity(actuations.len());
