@@ -72,6 +72,37 @@ pub enum Actuation {
 }
 
 impl Actuation {
+    /// `batch` of the readings and warm starts of `actuations` (gathered,
+    /// [`gathered`]) when every one is at readings from a warm start given
+    /// in `starts` (a calibration's iterations); `None`, `batch` not
+    /// called, otherwise.
+    ///
+    /// # Panics
+    /// If `actuations` and `starts` differ in length.
+    fn from_warm_starts<R>(
+        actuations: &[&Actuation],
+        starts: &[Option<&[f64]>],
+        batch: impl FnOnce(&[&[f64]], &[&[f64]]) -> R,
+    ) -> Option<R> {
+        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
+        let from_starts = (actuations.iter().zip(starts))
+            .all(|pair| matches!(pair, (Self::Readings(_), Some(_))));
+        from_starts.then(|| {
+            let n = actuations.len();
+            gathered(
+                n,
+                |k| actuations[k].readings(),
+                |readings| {
+                    gathered(
+                        n,
+                        |k| starts[k].unwrap_or_default(),
+                        |starts| batch(readings, starts),
+                    )
+                },
+            )
+        })
+    }
+
     /// The readings of an actuation at readings; none (an empty slice) for
     /// a commanded position.
     fn readings(&self) -> &[f64] {
@@ -108,12 +139,12 @@ impl Actuation {
         }
     }
 
-    /// [`Actuation::tool_point`] of each of `actuations`, from its start in
-    /// `starts` if given, each outcome in order into `reached`: those at
-    /// readings together ([`Mechanism::tool_points_at_readings`], the
-    /// hexapod's SIMD lanes), the others one at a time. When every one is
-    /// at readings from a start given (a calibration's iterations), the
-    /// mechanism writes into the room `reached` holds.
+    /// [`Actuation::tool_point`] of each of `actuations`, from its warm
+    /// start in `starts` if given, each outcome in order into `reached`:
+    /// those at readings together ([`Mechanism::tool_points_at_readings`],
+    /// the hexapod's SIMD lanes), the others one at a time. When every one
+    /// is at readings from a warm start given (a calibration's iterations),
+    /// the mechanism writes into the room `reached` holds.
     ///
     /// # Panics
     /// If `actuations` and `starts` differ in length.
@@ -125,24 +156,10 @@ impl Actuation {
         starts: &[Option<&[f64]>],
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
-        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
-        let from_starts = (actuations.iter().zip(starts))
-            .all(|pair| matches!(pair, (Self::Readings(_), Some(_))));
-        if from_starts {
-            let n = actuations.len();
-            gathered(
-                n,
-                |k| actuations[k].readings(),
-                |readings| {
-                    gathered(
-                        n,
-                        |k| starts[k].unwrap_or_default(),
-                        |starts| {
-                            mechanism.tool_points_at_readings(params, readings, starts, reached);
-                        },
-                    );
-                },
-            );
+        let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
+            mechanism.tool_points_at_readings(params, readings, starts, reached);
+        };
+        if Self::from_warm_starts(actuations, starts, batch).is_some() {
             return;
         }
         let mut outcomes: Vec<Option<Result<Reached, MechanismError>>> =
@@ -187,8 +204,8 @@ impl Actuation {
     /// [`Actuation::tool_points`] for a back-substitution along the step
     /// `dp` of the parameters, each outcome in order into `along`
     /// ([`ReachedAlong`]: `dT/dp |_q · dp` in place of `dT/dp |_q`, and the
-    /// warm start predicted at `p + dp`): when every one is at readings from a
-    /// start given (a calibration's iterations), the mechanism's
+    /// warm start predicted at `p + dp`): when every one is at readings from
+    /// a warm start given (a calibration's iterations), the mechanism's
     /// [`Mechanism::tool_points_along`], into the room `along` holds; else
     /// from [`Actuation::tool_points`], each warm start its own prediction.
     ///
@@ -204,24 +221,10 @@ impl Actuation {
         dp: &[f64],
         along: &mut Vec<Result<ReachedAlong, MechanismError>>,
     ) {
-        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
-        let from_starts = (actuations.iter().zip(starts))
-            .all(|pair| matches!(pair, (Self::Readings(_), Some(_))));
-        if from_starts {
-            let n = actuations.len();
-            gathered(
-                n,
-                |k| actuations[k].readings(),
-                |readings| {
-                    gathered(
-                        n,
-                        |k| starts[k].unwrap_or_default(),
-                        |starts| {
-                            mechanism.tool_points_along(params, readings, starts, dp, along);
-                        },
-                    );
-                },
-            );
+        let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
+            mechanism.tool_points_along(params, readings, starts, dp, along);
+        };
+        if Self::from_warm_starts(actuations, starts, batch).is_some() {
             return;
         }
         let mut reached = Vec::with_capacity(actuations.len());
