@@ -106,29 +106,44 @@ pub(crate) fn group_size(data: &MechanismData) -> usize {
 /// (none before its first evaluation and for every other point), where
 /// its next forward kinematics starts
 /// ([`Mechanism::warm_start`](parcal_kinematics::mechanism::Mechanism::warm_start));
-/// held inline, so that a million touches' caches make no allocation.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+/// held inline, so that a million touches' caches make no allocation,
+/// its length the mechanism's and none a NaN first value, so that it
+/// holds nothing else.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct WarmStart {
     values: [f64; MAX_WARM_START],
-    len: usize,
+}
+
+impl Default for WarmStart {
+    /// None.
+    fn default() -> Self {
+        Self {
+            values: [f64::NAN; MAX_WARM_START],
+        }
+    }
 }
 
 impl WarmStart {
     /// The cache of the warm start `start`; none for one of more values
-    /// than it holds (which [`MechanismData::validate`] refuses), whose
-    /// next evaluation then starts from the mechanism's start pose.
+    /// than it holds (which [`MechanismData::validate`] refuses), or that
+    /// is not finite, whose next evaluation then starts from the
+    /// mechanism's start pose.
     pub(crate) fn of(start: &[f64]) -> Self {
         let mut last = Self::default();
-        if let Some(room) = last.values.get_mut(..start.len()) {
+        if let Some(room) = last.values.get_mut(..start.len())
+            && start.iter().all(|v| v.is_finite())
+        {
             room.copy_from_slice(start);
-            last.len = start.len();
         }
         last
     }
 
-    /// The warm start, if any.
-    fn start(&self) -> Option<&[f64]> {
-        (self.len > 0).then(|| &self.values[..self.len])
+    /// The warm start of a mechanism whose warm starts have `len` values,
+    /// if any.
+    fn start(&self, len: usize) -> Option<&[f64]> {
+        (!self.values[0].is_nan())
+            .then(|| self.values.get(..len))
+            .flatten()
     }
 }
 
@@ -568,10 +583,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     ) {
         let touches = &self.data.observations.touches;
         let at = |k: usize| &touches[self.touch_at(points.start + k)].at;
+        let len = self.data.mechanism.warm_start_len();
         gathered(points.len(), at, |actuations| {
             gathered(
                 caches.len(),
-                |k| caches[k].start(),
+                |k| caches[k].start(len),
                 |starts| {
                     f(actuations, starts);
                 },
@@ -1542,6 +1558,23 @@ pub(crate) mod tests {
 
     /// Batches of 4, 3 and 4 keep the rooms: the fourth set aside and
     /// taken back, the vector never shorter than a batch it can fill.
+    #[test]
+    fn a_warm_start_cache_holds_a_finite_start_that_fits() {
+        // A delta's three values and a hexapod's seven come back at their
+        // mechanism's length; a start too long, not finite or never set
+        // is none.
+        let start = [1.0, -2.0, 3.5, 0.1, 0.2, 0.3, 0.9];
+        for len in [3, 7] {
+            let cache = WarmStart::of(&start[..len]);
+            assert_eq!(cache.start(len), Some(&start[..len]));
+        }
+        assert_eq!(WarmStart::default().start(3), None);
+        assert_eq!(WarmStart::of(&[0.0; MAX_WARM_START + 1]).start(3), None);
+        assert_eq!(WarmStart::of(&[1.0, f64::NAN, 2.0]).start(3), None);
+        assert_eq!(WarmStart::of(&start).start(MAX_WARM_START + 1), None);
+        assert_eq!(size_of::<WarmStart>(), 8 * MAX_WARM_START);
+    }
+
     #[test]
     fn batch_rooms_set_aside_and_take_back() {
         let (mut entries, mut spare) = (vec![10, 11, 12, 13], Vec::new());
