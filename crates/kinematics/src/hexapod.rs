@@ -262,8 +262,8 @@ impl Hexapod {
     }
 
     /// The contacts at `readings` (at checked parameters `params`) from
-    /// the warm starts `starts`, in batches of up to `batch` (at most [`LANES`]), each
-    /// outcome in order into `out`:
+    /// the warm starts `starts`, in batches of up to `batch` (at most
+    /// [`LANES`]), each outcome in order into `out`:
     /// `lanes(out, first, q, poses)` solves the batch from `first` (its
     /// legs' extensions `q` and start poses, checked) and writes its
     /// outcomes, or returns `false` when its lanes fail; such a batch, and

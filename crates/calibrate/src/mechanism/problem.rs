@@ -329,8 +329,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// data's touch start if they have one) and, with
     /// [`group_size`] 4, its calibrated radius; with every point's cache
     /// (empty for a sample's, the warm start of the pose reached for a
-    /// touch's) and every
-    /// touch's tool point there, in the order of the points.
+    /// touch's) and every touch's tool point there, in the order of the
+    /// points.
     pub(crate) fn start_blocks(&self, params: &[f64]) -> StartBlocks<C> {
         let mechanism = self.data.mechanism.as_ref();
         let o = &self.data.observations;
@@ -416,8 +416,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The row of touch point `i` that reached `reached` on its ball of
     /// the group block `block` (or, for a tied ball, its unknowns in the
     /// global block `global`) into `out`, the warm start of the pose it
-    /// reached left in
-    /// `cache` (the start of its next evaluation).
+    /// reached left in `cache` (the start of its next evaluation).
     fn touch_row(
         &self,
         i: usize,
@@ -443,8 +442,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// [`MechanismProblem::touch_row`] of a touch reached along the global
     /// step `dg` (`along`, [`MechanismProblem::reach_along`]): its row but
-    /// `d_global` into `out`, the warm start predicted after the step left in
-    /// `cache`, and `d_global · dg` returned (the parameters' share from
+    /// `d_global` into `out`, the warm start predicted after the step left
+    /// in `cache`, and `d_global · dg` returned (the parameters' share from
     /// `dT/dp |_q · dp`, a tied ball's from its columns).
     #[allow(clippy::too_many_arguments)]
     fn touch_row_along(
@@ -911,9 +910,10 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// `touches` (indices into `all`): the best fit, with its radius, of the
 /// tool points the touches reach with parameters `params` and the
 /// controller's `configured` ([`best_fit`]; the last
-/// iterate of a fit that did not converge); with the pose and the tool
-/// point each touch reached, in the order of `touches`. With a `start`,
-/// each touch is reached from its pose there and the centre is its.
+/// iterate of a fit that did not converge); with the warm start and the
+/// tool point each touch reached, in the order of `touches`. With a
+/// `start`, each touch is reached from its pose's warm start there and
+/// the centre is its.
 #[allow(
     clippy::too_many_arguments,
     reason = "a ball, its touches and where they start"

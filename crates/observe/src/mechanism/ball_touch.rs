@@ -92,8 +92,8 @@ impl BallTouch {
     /// The whitened row at true parameters `params`, configured parameters
     /// `configured`, the ball's centre `centre` and radius `radius`
     /// (module doc), the forward kinematics of a touch at readings started
-    /// from `start` if given ([`Actuation::tool_point`]). An error if the
-    /// tool point is at the centre (no normal).
+    /// from the warm start `start` if given ([`Actuation::tool_point`]).
+    /// An error if the tool point is at the centre (no normal).
     pub fn evaluate(
         &self,
         mechanism: &dyn Mechanism,

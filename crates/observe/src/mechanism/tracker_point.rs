@@ -90,10 +90,10 @@ pub struct TrackerPointRows {
 impl TrackerPoint {
     /// The whitened rows at true parameters `params`, configured
     /// parameters `configured` and the tracker's frame `frame` (module
-    /// doc), the forward kinematics of readings started from `start` if
-    /// given ([`Actuation::tool_point`]); with the actuators' zero
-    /// `offsets`, at the readings `q + S⁻¹o` and with `dr/do` (module
-    /// doc).
+    /// doc), the forward kinematics of readings started from the warm
+    /// start `start` if given ([`Actuation::tool_point`]); with the
+    /// actuators' zero `offsets`, at the readings `q + S⁻¹o` and with
+    /// `dr/do` (module doc).
     pub fn evaluate(
         &self,
         mechanism: &dyn Mechanism,
