@@ -938,7 +938,7 @@ pub(crate) fn ball_centre(
         kind: ObservationKind::Touch,
         index: t,
     };
-    let warm_starts = match start {
+    let given = match start {
         Some(start) => {
             let coordinates = mechanism.pose_coordinates().len();
             (touches.iter())
@@ -951,7 +951,7 @@ pub(crate) fn ball_centre(
         }
         None => vec![None; touches.len()],
     };
-    let starts: Vec<Option<&[f64]>> = (warm_starts.iter())
+    let starts: Vec<Option<&[f64]>> = (given.iter())
         .map(|s| s.as_ref().map(DVector::as_slice))
         .collect();
     let mut reached = Vec::with_capacity(touches.len());
