@@ -25,7 +25,10 @@
 //! and no factorisation need be kept per contact (what the SIMD lanes of
 //! [`crate::forward_batch`] leave).
 
-use nalgebra::{Matrix3, Matrix3x6, Matrix6x3, SMatrix, Vector3, Vector6};
+use nalgebra::{
+    Matrix, Matrix3, Matrix3x6, Matrix6x3, MatrixView3, MatrixView6x3, SMatrix, Storage, U3,
+    Vector3, Vector6,
+};
 
 use crate::forward::{forward_in_place, step};
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
@@ -135,46 +138,76 @@ impl FactoredTipJacobian {
         leg_rows(
             &(self.weights * h),
             &self.rotation,
-            &self.directions,
+            |i| self.directions[i],
             h,
             out,
         );
     }
 
-    /// `J_f` itself (3 x 33) into `out`, column-major (entry `(a, k)` at
-    /// `a + 3 k`): row `a` is [`FactoredTipJacobian::params_row`] of the
-    /// base-frame axis `a`, each leg's `R^T n_i` formed once for the three.
-    pub fn write_columns(&self, out: &mut [f64]) {
-        let out: &mut [f64; 3 * N_PARAMS] = out
+    /// The number of its values ([`FactoredTipJacobian::write_values`]).
+    pub const VALUES: usize = 45;
+
+    /// Its values into `out`, as [`FactoredValues`] reads them: `K^T` (18,
+    /// column-major), `R` (9, column-major) and the six `n_i` (18).
+    pub fn write_values(&self, out: &mut [f64]) {
+        let out: &mut [f64; Self::VALUES] = out
             .first_chunk_mut()
-            .expect("the 3 x 33 entries of the parameters' columns");
-        for (i, n) in self.directions.iter().enumerate() {
-            let n_platform = self.rotation.tr_mul(n);
-            let y = self.weights.row(i);
-            for a in 0..3 {
-                for c in 0..3 {
-                    if let Some(k) = BASE_INDEX[i][c] {
-                        out[a + 3 * k] = y[a] * n[c];
-                    }
-                    if let Some(k) = PLATFORM_INDEX[i][c] {
-                        out[a + 3 * k] = -y[a] * n_platform[c];
-                    }
-                }
-                out[a + 3 * leg_index(i)] = y[a];
-            }
-        }
-        // The tool columns: `h^T R` of the axis `h = e_a` is row `a` of `R`.
-        for c in 0..3 {
-            for a in 0..3 {
-                out[a + 3 * (TOOL_OFFSET + c)] = self.rotation[(a, c)];
-            }
+            .expect("room for a factored J_f's values");
+        out[..18].copy_from_slice(self.weights.as_slice());
+        out[18..27].copy_from_slice(self.rotation.as_slice());
+        for (o, n) in out[27..].chunks_exact_mut(3).zip(&self.directions) {
+            o.copy_from_slice(n.as_slice());
         }
     }
 
     /// `J_f dp` (mm).
     pub fn along(&self, dp: &Params) -> Vec3 {
-        let v = closure_change(&self.rotation, &self.directions, dp);
+        let v = closure_change(&self.rotation, |i| self.directions[i], dp);
         self.rotation * tool_step(dp) - self.weights.tr_mul(&v)
+    }
+}
+
+/// A [`FactoredTipJacobian`]'s values ([`FactoredTipJacobian::write_values`]),
+/// read where they are: its products without a copy of it.
+#[derive(Debug, Clone, Copy)]
+pub struct FactoredValues<'a>(&'a [f64; FactoredTipJacobian::VALUES]);
+
+impl<'a> FactoredValues<'a> {
+    /// The values at the start of `values`.
+    ///
+    /// # Panics
+    /// If `values` holds fewer than [`FactoredTipJacobian::VALUES`].
+    pub fn new(values: &'a [f64]) -> Self {
+        Self(values.first_chunk().expect("a factored J_f's values"))
+    }
+
+    /// `R`.
+    fn rotation(&self) -> MatrixView3<'a, f64> {
+        MatrixView3::from_slice(&self.0[18..27])
+    }
+
+    /// `n_i`.
+    fn direction(&self, i: usize) -> Vec3 {
+        Vec3::from_column_slice(&self.0[27 + 3 * i..30 + 3 * i])
+    }
+
+    /// [`FactoredTipJacobian::params_row`].
+    pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
+        let weights = MatrixView6x3::from_slice(&self.0[..18]);
+        leg_rows(
+            &(weights * h),
+            &self.rotation(),
+            |i| self.direction(i),
+            h,
+            out,
+        );
+    }
+
+    /// [`FactoredTipJacobian::along`].
+    pub fn along(&self, dp: &Params) -> Vec3 {
+        let weights = MatrixView6x3::from_slice(&self.0[..18]);
+        let v = closure_change(&self.rotation(), |i| self.direction(i), dp);
+        self.rotation() * tool_step(dp) - weights.tr_mul(&v)
     }
 }
 
@@ -216,10 +249,10 @@ impl SolutionJacobian {
 /// `h^T J_f` from the closure weights `y = K^T h` (33 values into `out`):
 /// leg `i` adds `y_i` times its row `(n_i; -R^T n_i; 1)` at its base joint,
 /// platform joint and length, and the tool columns are `h^T R`.
-fn leg_rows(
+fn leg_rows<S: Storage<f64, U3, U3>>(
     y: &Vector6<f64>,
-    rotation: &Matrix3<f64>,
-    directions: &[Vec3; 6],
+    rotation: &Matrix<f64, U3, U3, S>,
+    directions: impl Fn(usize) -> Vec3,
     h: &Vec3,
     out: &mut [f64],
 ) {
@@ -228,8 +261,8 @@ fn leg_rows(
         .first_chunk_mut()
         .expect("a parameter row holds the 33 parameters");
     for i in 0..6 {
-        let n = &directions[i];
-        let n_platform = rotation.tr_mul(n);
+        let n = directions(i);
+        let n_platform = rotation.tr_mul(&n);
         for c in 0..3 {
             if let Some(k) = BASE_INDEX[i][c] {
                 out[k] = y[i] * n[c];
@@ -246,10 +279,14 @@ fn leg_rows(
 
 /// `v = (d phi / dp) dp`: leg `i` changes by
 /// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`.
-fn closure_change(rotation: &Matrix3<f64>, directions: &[Vec3; 6], dp: &Params) -> Vector6<f64> {
+fn closure_change<S: Storage<f64, U3, U3>>(
+    rotation: &Matrix<f64, U3, U3, S>,
+    directions: impl Fn(usize) -> Vec3,
+    dp: &Params,
+) -> Vector6<f64> {
     Vector6::from_fn(|i, _| {
-        let n = &directions[i];
-        let n_platform = rotation.tr_mul(n);
+        let n = directions(i);
+        let n_platform = rotation.tr_mul(&n);
         let mut change = -dp[leg_index(i)];
         for c in 0..3 {
             if let Some(k) = BASE_INDEX[i][c] {
@@ -342,7 +379,7 @@ impl TipDerivatives {
         leg_rows(
             &self.closure_weights(h),
             &legs.rotation,
-            &legs.direction,
+            |i| legs.direction[i],
             h,
             out,
         );
@@ -352,7 +389,7 @@ impl TipDerivatives {
     /// ([`DerivativeAlong`]): one LU solve.
     pub fn along(&self, dp: &Params) -> DerivativeAlong {
         let legs = &self.solution.legs;
-        let v = closure_change(&legs.rotation, &legs.direction, dp);
+        let v = closure_change(&legs.rotation, |i| legs.direction[i], dp);
         let pose = -self.solution.factor.solve(&v);
         let (dt, w) = (
             Vec3::from(pose.fixed_rows::<3>(0)),
@@ -404,7 +441,7 @@ impl TipDerivatives {
         for axis in 0..3 {
             let h = Vector3::ith(axis, 1.0);
             let y = self.closure_weights(&h);
-            leg_rows(&y, &legs.rotation, &legs.direction, &h, &mut row);
+            leg_rows(&y, &legs.rotation, |i| legs.direction[i], &h, &mut row);
             d_params.row_mut(axis).copy_from_slice(&row);
             d_q.row_mut(axis).copy_from(&y.transpose());
         }

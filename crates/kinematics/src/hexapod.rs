@@ -35,7 +35,9 @@ use nalgebra::{
 };
 
 use crate::closure::Legs;
-use crate::derivatives::{FactoredTipJacobian, SolutionAlong, SolutionJacobian, TipDerivatives};
+use crate::derivatives::{
+    FactoredTipJacobian, FactoredValues, SolutionAlong, SolutionJacobian, TipDerivatives,
+};
 use crate::forward::{forward, step};
 use crate::forward_batch::{LANES, PivotOrder, forward_along_batch, forward_jacobian_batch};
 use crate::mechanism::{
@@ -47,7 +49,52 @@ use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
     leg_index, to_params,
 };
+use crate::params_jacobian::{DENSE, JacobianForm, ParamsJacobian};
 use crate::{ForwardOptions, Geometry, KinematicsError, Params, Pose, PriorSigma, actuators};
+
+/// A hexapod's `dT/dp |_q` over the 33: its `J_f` in factored form, the
+/// values [`FactoredTipJacobian::write_values`] writes, read in place
+/// ([`FactoredValues`]): a combination of rows is one 6 x 3 product and a
+/// sparse row per leg, a product with a step one closure change.
+static LEGS: JacobianForm = JacobianForm {
+    name: "hexapod legs",
+    combine: |values, h, out| FactoredValues::new(values).params_row(h, out),
+    apply: |values, v| FactoredValues::new(values).along(&Params::from_column_slice(v)),
+};
+
+/// A hexapod's `dT/dp |_q` with the actuators' scales after the 33 (module
+/// doc): [`LEGS`]'s values, then the contact's six readings `q_i`, with
+/// `dT/ds_i = q_i dT/dl_i` and a step's legs `dl_i + q_i ds_i`.
+static SCALED_LEGS: JacobianForm = JacobianForm {
+    name: "hexapod legs with scales",
+    combine: |values, h, out| {
+        let (factors, readings) = values.split_at(FactoredTipJacobian::VALUES);
+        let (lengths, scales) = out.split_at_mut(N_PARAMS);
+        FactoredValues::new(factors).params_row(h, lengths);
+        for (i, (s, q)) in scales.iter_mut().zip(readings).enumerate() {
+            *s = q * lengths[leg_index(i)];
+        }
+    },
+    apply: |values, v| {
+        let (factors, readings) = values.split_at(FactoredTipJacobian::VALUES);
+        FactoredValues::new(factors).along(&legs_step(v, Some(readings)))
+    },
+};
+
+/// The step of the 33 geometric parameters that moves a contact at
+/// `readings` as the step `dp` does: the step itself over the 33, and with
+/// scales (`readings` given) leg `i`'s `dl_i + q_i ds_i` (the extension
+/// `s_i q_i` and the length `l_i` enter the closure as their sum; module
+/// doc).
+fn legs_step(dp: &[f64], readings: Option<&[f64]>) -> Params {
+    let mut step = Params::from_column_slice(&dp[..N_PARAMS]);
+    if let Some(readings) = readings {
+        for (i, (ds, q)) in dp[N_PARAMS..].iter().zip(readings).enumerate() {
+            step[leg_index(i)] += q * ds;
+        }
+    }
+    step
+}
 
 /// The pose coordinates of a hexapod.
 const POSE: [PoseCoordinate; 6] = [
@@ -208,38 +255,44 @@ impl Hexapod {
         Ok(std::array::from_fn(|i| self.scale(params, i) * readings[i]))
     }
 
+    /// Its `dT/dp |_q`'s form: [`LEGS`], or with scales [`SCALED_LEGS`].
+    fn form(&self) -> &'static JacobianForm {
+        if self.scaled { &SCALED_LEGS } else { &LEGS }
+    }
+
+    /// The number of values of its `dT/dp |_q` ([`Hexapod::form`]).
+    fn form_len(&self) -> usize {
+        FactoredTipJacobian::VALUES + if self.scaled { 6 } else { 0 }
+    }
+
     /// `dT/dp |_q` (3 x parameters) of a contact at `readings` from the
-    /// crate's `J_f` over the 33 in factored form: with scales, `dT/ds_i =
-    /// q_i dT/dl_i` after them (module doc).
-    fn reached_rows(&self, readings: &[f64], jacobian: &FactoredTipJacobian) -> DMatrix<f64> {
-        let mut d_params = DMatrix::zeros(3, self.parameters.len());
+    /// crate's `J_f` over the 33 in factored form ([`Hexapod::form`]).
+    fn reached_rows(&self, readings: &[f64], jacobian: &FactoredTipJacobian) -> ParamsJacobian {
+        let mut d_params =
+            ParamsJacobian::factored(self.form(), self.parameters.len(), self.form_len());
         self.write_reached_rows(readings, jacobian, &mut d_params);
         d_params
     }
 
-    /// [`Hexapod::reached_rows`] into `d_params` (3 x parameters), every
-    /// entry written.
+    /// [`Hexapod::reached_rows`] into `d_params` (room for its form).
     fn write_reached_rows(
         &self,
         readings: &[f64],
         jacobian: &FactoredTipJacobian,
-        d_params: &mut DMatrix<f64>,
+        d_params: &mut ParamsJacobian,
     ) {
-        // Column-major, three rows: entry `(a, k)` at `a + 3 k`.
-        let entries = d_params.as_mut_slice();
-        jacobian.write_columns(entries);
+        let (factors, scaled) = d_params
+            .values_mut()
+            .split_at_mut(FactoredTipJacobian::VALUES);
+        jacobian.write_values(factors);
         if self.scaled {
-            for i in 0..6 {
-                for a in 0..3 {
-                    entries[a + 3 * (N_PARAMS + i)] = readings[i] * entries[a + 3 * leg_index(i)];
-                }
-            }
+            scaled.copy_from_slice(&readings[..6]);
         }
     }
 
     /// Where a forward-kinematics `solution` at `readings` reached, into
-    /// `room` (every value written), `dT/dp` from `J_f` in factored form
-    /// ([`FactoredTipJacobian::write_columns`]).
+    /// `room` (every value written), `dT/dp` in factored form
+    /// ([`Hexapod::form`]).
     fn write_solution(&self, readings: &[f64], solution: &SolutionJacobian, room: &mut Reached) {
         room.warm_start
             .copy_from_slice(&warm_start_values(&solution.pose));
@@ -248,17 +301,10 @@ impl Hexapod {
     }
 
     /// The step of the 33 geometric parameters that moves a contact at
-    /// `readings` as the step `dp` of this hexapod's parameters does: with
-    /// scales, leg `i`'s `dl_i + q_i ds_i` (the extension `s_i q_i` and the
-    /// length `l_i` enter the closure as their sum; module doc).
+    /// `readings` as the step `dp` of this hexapod's parameters does
+    /// ([`legs_step`]).
     fn kinematic_step(&self, dp: &[f64], readings: &[f64]) -> Params {
-        let mut step = Params::from_column_slice(&dp[..N_PARAMS]);
-        if self.scaled {
-            for i in 0..6 {
-                step[leg_index(i)] += readings[i] * dp[N_PARAMS + i];
-            }
-        }
-        step
+        legs_step(dp, self.scaled.then_some(readings))
     }
 
     /// The contacts at `readings` (at checked parameters `params`) from
@@ -383,14 +429,14 @@ fn write_along(
         index,
         |room| {
             room.reached.warm_start.len() == WARM_START_LEN
-                && room.reached.d_params.shape() == (3, 1)
+                && room.reached.d_params.fits(&DENSE, 1, 3)
                 && room.predicted.len() == WARM_START_LEN
         },
         || ReachedAlong {
             reached: Reached {
                 warm_start: DVector::zeros(WARM_START_LEN),
                 point: Vector3::zeros(),
-                d_params: DMatrix::zeros(3, 1),
+                d_params: ParamsJacobian::zeros(1),
             },
             predicted: DVector::zeros(WARM_START_LEN),
         },
@@ -401,6 +447,7 @@ fn write_along(
             room.reached.point = solution.tool_tip;
             room.reached
                 .d_params
+                .values_mut()
                 .copy_from_slice(solution.tip.as_slice());
             room.predicted
                 .copy_from_slice(&warm_start_values(&solution.predicted));
@@ -565,9 +612,18 @@ impl Mechanism for Hexapod {
                 );
                 solved.is_ok_and(|()| {
                     for (l, solution) in solutions.iter().enumerate() {
-                        write_reached(reached, first + l, WARM_START_LEN, n_params, |room| {
-                            self.write_solution(readings[first + l], solution, room);
-                        });
+                        let (form, len) = (self.form(), self.form_len());
+                        write_reached(
+                            reached,
+                            first + l,
+                            WARM_START_LEN,
+                            form,
+                            n_params,
+                            len,
+                            |room| {
+                                self.write_solution(readings[first + l], solution, room);
+                            },
+                        );
                     }
                     true
                 })
@@ -774,7 +830,9 @@ mod tests {
             .unwrap();
         let implicit = implicit_tool_point_at_readings(&rev, p, q.as_slice(), start.as_slice());
         // Two differentiations of one closure: rounding.
-        assert!((&own.d_params - implicit.unwrap().d_params).amax() < 1e-9);
+        let own_dense = own.d_params.to_dense();
+        assert!((&own_dense - implicit.unwrap().d_params.to_dense()).amax() < 1e-9);
+        assert_products_are_the_matrix(&own.d_params);
         let at = |p: &[f64]| {
             rev.tool_point_at_readings(p, q.as_slice(), start.as_slice())
                 .unwrap()
@@ -789,7 +847,7 @@ mod tests {
             // The forward kinematics' closure tolerance, 1e-10 mm, over
             // 2h: 5e-7; truncation h^2 q^3 |T'''| / 6 with q below 100
             // rev: as small.
-            let difference = (column - own.d_params.column(k)).amax();
+            let difference = (column - own_dense.column(k)).amax();
             assert!(difference < 1e-6, "parameter {k}: {difference:e}");
         }
     }
@@ -898,9 +956,28 @@ mod tests {
             let reached_pose = hexapod.pose_of_warm_start(reached.warm_start.as_slice());
             let turned = pose_of(reached_pose.unwrap().as_slice()).inverse() * pose;
             assert!(turned.translation.vector.amax() < 1e-9 && turned.rotation.angle() < 1e-9);
-            let difference = (reached.d_params - &reference).amax();
+            let difference = (reached.d_params.to_dense() - &reference).amax();
             assert!(difference < 1e-9, "{difference:e}");
+            assert_products_are_the_matrix(&reached.d_params);
         }
+    }
+
+    /// A `dT/dp |_q`'s products, dense or factored, against its matrix
+    /// (whose rows are its combinations of the base-frame axes): a
+    /// combination of rows and a product with a step, of entries of order
+    /// 1 and sums of at most 45 products, to rounding.
+    fn assert_products_are_the_matrix(d_params: &ParamsJacobian) {
+        let dense = d_params.to_dense();
+        let n = dense.ncols();
+        let v = DVector::from_fn(n, |k, _| ((k as f64) * 0.37).sin());
+        let difference = (d_params.apply(v.as_slice()) - &dense * &v).amax();
+        assert!(
+            difference < 1e-12 * dense.amax() * n as f64,
+            "J v: {difference:e}"
+        );
+        let h = Vector3::new(0.6, -0.3, 1.1);
+        let difference = (d_params.combination(&h) - dense.tr_mul(&h)).amax();
+        assert!(difference < 1e-12 * dense.amax(), "h^T J: {difference:e}");
     }
 
     #[test]
@@ -988,7 +1065,7 @@ mod tests {
                     // forward kinematics' 1e-9 mm.
                     assert!((reached.point - one.point).amax() < 1e-9);
                     assert!((&reached.warm_start - &one.warm_start).amax() < 1e-9);
-                    let difference = (&reached.d_params - &one.d_params).amax();
+                    let difference = (reached.d_params.to_dense() - one.d_params.to_dense()).amax();
                     assert!(difference < 1e-9, "{difference:e}");
                 }
             };
@@ -1049,10 +1126,13 @@ mod tests {
             // Rounding of the forward kinematics' 1e-9 mm, as above.
             assert!((lanes.reached.point - rows.reached.point).amax() < 1e-9);
             assert!((&lanes.reached.warm_start - &rows.reached.warm_start).amax() < 1e-9);
-            assert_eq!(lanes.reached.d_params.shape(), (3, 1));
+            assert_eq!(lanes.reached.d_params.ncols(), 1);
             let product = &rows.reached.d_params;
-            let difference = (&lanes.reached.d_params - product).amax();
-            assert!(difference < 1e-9 * product.amax(), "{k}: {difference:e}");
+            let difference = (lanes.reached.d_params.to_dense() - product.to_dense()).amax();
+            assert!(
+                difference < 1e-9 * product.to_dense().amax(),
+                "{k}: {difference:e}"
+            );
             // The pose moves by ~1e-4 (mm and rad) along the step; the
             // prediction's error is of its square over the machine's
             // ~100 mm: 1e-10 and below.

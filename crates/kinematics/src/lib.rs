@@ -64,12 +64,13 @@ pub mod lu6;
 pub mod mechanism;
 pub mod mechanisms;
 pub mod params;
+pub mod params_jacobian;
 pub mod pose_fit;
 mod simd;
 
 pub use derivatives::{
-    DerivativeAlong, FactoredTipJacobian, SolutionAlong, SolutionJacobian, TipDerivatives,
-    TipJacobians, tip_jacobians, tip_jacobians_at,
+    DerivativeAlong, FactoredTipJacobian, FactoredValues, SolutionAlong, SolutionJacobian,
+    TipDerivatives, TipJacobians, tip_jacobians, tip_jacobians_at,
 };
 pub use error::KinematicsError;
 pub use forward::{ForwardOptions, ForwardSolution, forward, forward_from_home};

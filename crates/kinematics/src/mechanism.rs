@@ -90,6 +90,7 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use crate::KinematicsError;
+use crate::params_jacobian::{JacobianForm, ParamsJacobian};
 
 /// One kinematic parameter: what it is and what the designer knows of it.
 #[derive(Debug, Clone, PartialEq)]
@@ -622,11 +623,12 @@ pub struct Reached {
     pub warm_start: DVector<f64>,
     /// The tool point `T(p, x)` (mm).
     pub point: Vector3<f64>,
-    /// `dT/dp |_q` (3 x parameters); in a [`ReachedAlong`], the derivative
-    /// along its step, `dT/dp |_q · dp` (3 x 1: the derivative by `t` of
-    /// `T` at `p + t dp`), so that what takes a `Reached` gives its rows'
-    /// derivative along the step alike.
-    pub d_params: DMatrix<f64>,
+    /// `dT/dp |_q` (3 x parameters), dense or in its mechanism's factored
+    /// form; in a [`ReachedAlong`], the derivative along its step, `dT/dp
+    /// |_q · dp` (3 x 1: the derivative by `t` of `T` at `p + t dp`), so
+    /// that what takes a `Reached` gives its rows' derivative along the
+    /// step alike.
+    pub d_params: ParamsJacobian,
 }
 
 /// Where the machine is at given readings and how its tool point moves
@@ -703,11 +705,11 @@ pub fn along_of_reached<M: Mechanism + ?Sized>(
         dp,
         reached.d_params.ncols(),
     )?;
-    let d_step = &reached.d_params * DVector::from_column_slice(dp);
+    let d_step = reached.d_params.apply(dp);
     Ok(ReachedAlong {
         predicted: reached.warm_start.clone(),
         reached: Reached {
-            d_params: DMatrix::from_column_slice(3, 1, d_step.as_slice()),
+            d_params: DMatrix::from_column_slice(3, 1, d_step.as_slice()).into(),
             ..reached
         },
     })
@@ -726,24 +728,26 @@ pub fn warm_start_at_readings<M: Mechanism + ?Sized>(
 
 /// Entry `index` of `reached` (at most its length: an entry is added at
 /// the end) set to where a contact is, as `write` writes it into room for
-/// a warm start of `warm_start` values and `dT/dp` of 3 x `params`: the
-/// room of the `Ok` entry there when it has those sizes, else new zero
-/// room.
+/// a warm start of `warm_start` values and `dT/dp` of `params` columns
+/// held as `len` values of `form`: the room of the `Ok` entry there when
+/// it has those sizes, else new zero room.
 pub fn write_reached(
     reached: &mut Vec<Result<Reached, MechanismError>>,
     index: usize,
     warm_start: usize,
+    form: &'static JacobianForm,
     params: usize,
+    len: usize,
     write: impl FnOnce(&mut Reached),
 ) {
     write_entry(
         reached,
         index,
-        |room| room.warm_start.len() == warm_start && room.d_params.shape() == (3, params),
+        |room| room.warm_start.len() == warm_start && room.d_params.fits(form, params, len),
         || Reached {
             warm_start: DVector::zeros(warm_start),
             point: Vector3::zeros(),
-            d_params: DMatrix::zeros(3, params),
+            d_params: ParamsJacobian::factored(form, params, len),
         },
         write,
     );
@@ -808,7 +812,7 @@ pub fn implicit_tool_point_at_readings<M: Mechanism + ?Sized>(
     Ok(Reached {
         warm_start: mechanism.warm_start(pose.as_slice())?,
         point: tool.point,
-        d_params,
+        d_params: d_params.into(),
     })
 }
 

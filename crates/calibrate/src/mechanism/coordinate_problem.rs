@@ -174,7 +174,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = WarmStart::of(predicted.as_slice());
         put_local(out, &rows, &ball);
-        let params_step = rows.d_tip * Vector3::from_column_slice(rows.d_tip_params.as_slice());
+        let params_step = rows.d_tip * rows.d_tip_params.apply(&[1.0]);
         let step = params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
         // The room back where it came from, for the next batch.
         *along = Ok(ReachedAlong {

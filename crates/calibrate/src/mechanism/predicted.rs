@@ -643,7 +643,7 @@ fn predict_tracker(
         }
         d_params
             .view_mut((rows, 0), (3, n))
-            .copy_from(&(block.d_tip * &reached.d_params));
+            .copy_from(&(block.d_tip * reached.d_params.to_dense()));
         noise
             .view_mut((rows, rows), (3, 3))
             .copy_from(&point.weight.covariance());

@@ -428,13 +428,10 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     ) -> Result<(), MechanismCalibrationError> {
         let (reached, row, ball) = self.radius_row(i, global, block, reached, |r| r)?;
         *cache = WarmStart::of(reached.warm_start.as_slice());
-        // uᵀ dT/dp |_q over σ a column at a time, the other columns zero.
+        // uᵀ dT/dp |_q over σ, the other columns zero.
         let n = self.n_params();
         let (params, others) = out.d_global.as_mut_slice().split_at_mut(n);
-        let columns = reached.d_params.as_slice().chunks_exact(3);
-        for (d, column) in params.iter_mut().zip(columns) {
-            *d = row.d_column(column);
-        }
+        row.d_params(&reached.d_params, params);
         others.fill(0.0);
         put_touch_local(out, &row, &ball);
         Ok(())
@@ -460,7 +457,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let reached = &along.reached;
         *cache = WarmStart::of(along.predicted.as_slice());
         put_touch_local(out, &row, &ball);
-        let params_step = SVector::<f64, 1>::new(row.d_column(reached.d_params.as_slice()));
+        let mut params_step = SVector::<f64, 1>::zeros();
+        row.d_params(&reached.d_params, params_step.as_mut_slice());
         let d_radius = SVector::<f64, 1>::new(row.d_radius());
         Ok(params_step + ball.tied_step(&row.d_centre(), &d_radius, dg))
     }

@@ -12,7 +12,8 @@
 //! a tied ball's centre and radius columns (`L⁻¹ dc/dC`, `L⁻¹ dc/dρ`);
 //! zero elsewhere.
 
-use nalgebra::{DMatrix, DVector, Matrix3, SVector, Vector3};
+use nalgebra::{DVector, Matrix3, SVector, Vector3};
+use parcal_kinematics::params_jacobian::ParamsJacobian;
 use parcal_observe::mechanism::CoordinateRows;
 use parcal_solver::GlobalJacobian;
 
@@ -22,7 +23,7 @@ pub(crate) struct TouchJacobian {
     /// `L⁻¹ dc/dT = −L⁻¹` ([`CoordinateRows::d_tip`]).
     d_tip: Matrix3<f64>,
     /// `dT/dp |_q` (3 × parameters), the global block's first columns.
-    d_tip_params: DMatrix<f64>,
+    d_tip_params: ParamsJacobian,
     /// The columns of a ball tied in the global block, if any.
     tied: Option<TiedBall>,
 }
@@ -48,14 +49,14 @@ impl TouchJacobian {
         &mut self,
         rows: &mut CoordinateRows,
         tied: Option<(usize, bool)>,
-    ) -> DMatrix<f64> {
+    ) -> ParamsJacobian {
         self.d_tip = rows.d_tip;
         self.tied = tied.map(|(column, uncertain)| TiedBall {
             column,
             d_centre: rows.d_centre,
             d_radius: uncertain.then_some(rows.d_radius),
         });
-        let d_tip_params = std::mem::replace(&mut rows.d_tip_params, DMatrix::zeros(3, 0));
+        let d_tip_params = std::mem::take(&mut rows.d_tip_params);
         std::mem::replace(&mut self.d_tip_params, d_tip_params)
     }
 }
@@ -64,7 +65,7 @@ impl GlobalJacobian<3> for TouchJacobian {
     fn zeros(_global_size: usize) -> Self {
         Self {
             d_tip: Matrix3::zeros(),
-            d_tip_params: DMatrix::zeros(3, 0),
+            d_tip_params: ParamsJacobian::default(),
             tied: None,
         }
     }
@@ -73,10 +74,7 @@ impl GlobalJacobian<3> for TouchJacobian {
         let c = Vector3::from(*c);
         let h = self.d_tip.tr_mul(&c);
         let (params, rest) = out.split_at_mut(self.d_tip_params.ncols());
-        let columns = self.d_tip_params.as_slice().chunks_exact(3);
-        for (o, column) in params.iter_mut().zip(columns) {
-            *o = h[0] * column[0] + h[1] * column[1] + h[2] * column[2];
-        }
+        self.d_tip_params.combine(&h, params);
         rest.fill(0.0);
         if let Some(ball) = &self.tied {
             let centre = ball.d_centre.tr_mul(&c);
@@ -89,7 +87,7 @@ impl GlobalJacobian<3> for TouchJacobian {
 
     fn apply(&self, v: &DVector<f64>) -> SVector<f64, 3> {
         let n = self.d_tip_params.ncols();
-        let mut product = self.d_tip * (&self.d_tip_params * v.rows(0, n));
+        let mut product = self.d_tip * self.d_tip_params.apply(&v.as_slice()[..n]);
         if let Some(ball) = &self.tied {
             product += ball.d_centre * v.fixed_rows::<3>(ball.column);
             if let Some(d_radius) = &ball.d_radius {
@@ -112,7 +110,7 @@ impl GlobalJacobian<3> for TouchJacobian {
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{Matrix3x2, OMatrix, U3};
+    use nalgebra::{DMatrix, Matrix3x2, OMatrix, U3};
 
     use super::*;
 
@@ -133,7 +131,7 @@ mod tests {
         CoordinateRows {
             residual: Vector3::new(0.3, -0.1, 0.2),
             d_tip: -Matrix3::new(2.0, 0.0, 0.0, 0.5, 1.5, 0.0, -0.3, 0.2, 3.0),
-            d_tip_params: DMatrix::from_fn(3, n, |i, j| f(3 * j + i)),
+            d_tip_params: DMatrix::from_fn(3, n, |i, j| f(3 * j + i)).into(),
             d_centre: Matrix3::from_fn(|i, j| f(200 + 3 * j + i)),
             d_radius: Vector3::from_fn(|i, _| f(300 + i)),
             d_angles: Matrix3x2::zeros(),
@@ -152,7 +150,7 @@ mod tests {
             let d_params = rows.d_params();
             let mut jacobian = TouchJacobian::zeros(g);
             let room = jacobian.set(&mut rows, tied.map(|column| (column, uncertain)));
-            assert_eq!((room.shape(), rows.d_tip_params.shape()), ((3, 0), (3, 0)));
+            assert_eq!((room.ncols(), rows.d_tip_params.ncols()), (0, 0));
             let mut expected = OMatrix::<f64, U3, nalgebra::Dyn>::zeros(g);
             expected.columns_mut(0, n).copy_from(&d_params);
             if let Some(column) = tied {

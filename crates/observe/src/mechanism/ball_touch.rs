@@ -23,6 +23,7 @@
 
 use nalgebra::{DVector, Dyn, RowVector3, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached};
+use parcal_kinematics::params_jacobian::ParamsJacobian;
 
 use super::commanded::{Actuation, Rows, check_sigma};
 use crate::CoordinateWhitening;
@@ -118,11 +119,8 @@ impl BallTouch {
         radius: f64,
     ) -> Result<TouchRows, MechanismError> {
         let row = self.radius_row(&reached.point, centre, radius)?;
-        // uᵀ dT/dp |_q over σ, a column at a time.
-        let d_params = DVector::from_iterator(
-            reached.d_params.ncols(),
-            (reached.d_params.as_slice().chunks_exact(3)).map(|column| row.d_column(column)),
-        );
+        let mut d_params = DVector::zeros(reached.d_params.ncols());
+        row.d_params(&reached.d_params, d_params.as_mut_slice());
         let n = d_params.len();
         Ok(TouchRows {
             rows: Rows {
@@ -174,10 +172,15 @@ pub struct RadiusRow {
 }
 
 impl RadiusRow {
-    /// `dr/dp_k` from column `k` of `dT/dp |_q` (its three entries).
-    pub fn d_column(&self, column: &[f64]) -> f64 {
-        let u = &self.normal;
-        (column[0] * u.x + column[1] * u.y + column[2] * u.z) / self.sigma
+    /// `dr/dT = uᵀ / σ`.
+    pub fn d_tip(&self) -> Vector3<f64> {
+        self.normal / self.sigma
+    }
+
+    /// `dr/dp = (dr/dT) dT/dp |_q` into `out`, one value per column of
+    /// `d_tip_params` (a combination of its rows).
+    pub fn d_params(&self, d_tip_params: &ParamsJacobian, out: &mut [f64]) {
+        d_tip_params.combine(&self.d_tip(), out);
     }
 
     /// `dr/dc`.

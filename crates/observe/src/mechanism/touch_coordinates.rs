@@ -18,8 +18,9 @@
 //! with `W = σ² I`, the fit of a touch's coordinates is that of its
 //! radius row (eq. 9, [`BallTouch::row`]).
 
-use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Matrix3x2, OMatrix, U3, Vector2, Vector3};
+use nalgebra::{DVector, Dyn, Matrix3, Matrix3x2, OMatrix, U3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached};
+use parcal_kinematics::params_jacobian::ParamsJacobian;
 
 use super::ball_touch::BallTouch;
 use super::commanded::check_sigma;
@@ -36,8 +37,8 @@ pub struct CoordinateRows {
     /// `aᵀ L⁻¹ dc/dp = (d_tipᵀ a)ᵀ dT/dp` costs what one of the whitened
     /// rows would, and no column of `dT/dp` is whitened.
     pub d_tip: Matrix3<f64>,
-    /// `dT/dp |_q` (3 × parameters), the mechanism's.
-    pub d_tip_params: DMatrix<f64>,
+    /// `dT/dp |_q` (3 × parameters), the mechanism's, dense or factored.
+    pub d_tip_params: ParamsJacobian,
     /// `L⁻¹ dc/dC`.
     pub d_centre: Matrix3<f64>,
     /// `L⁻¹ dc/dρ`.
@@ -52,7 +53,7 @@ impl CoordinateRows {
     /// `L⁻¹ dc/dp` (3 × parameters): [`CoordinateRows::d_tip`]'s two
     /// factors multiplied.
     pub fn d_params(&self) -> OMatrix<f64, U3, Dyn> {
-        self.d_tip * &self.d_tip_params
+        self.d_tip * self.d_tip_params.to_dense()
     }
 }
 
@@ -113,6 +114,8 @@ impl BallTouch {
 
 #[cfg(test)]
 mod tests {
+    use nalgebra::DMatrix;
+
     use super::*;
     use crate::mechanism::test_support::{HexapodTouch, delta, differences, hexapod_touch};
     use crate::mechanism::{Actuation, Approach};

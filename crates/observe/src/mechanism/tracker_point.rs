@@ -155,7 +155,7 @@ impl TrackerPoint {
         }
         .evaluate(&reached.point);
         let whitening = self.weight.inverse_factor();
-        let d_params = whitening * block.d_tip * &reached.d_params;
+        let d_params = whitening * block.d_tip * reached.d_params.to_dense();
         let d_params = DMatrix::from_column_slice(3, d_params.ncols(), d_params.as_slice());
         TrackerPointRows {
             rows: Rows {
