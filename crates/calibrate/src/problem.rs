@@ -20,7 +20,9 @@ use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector6};
 use parcal_dataset::Dataset;
-use parcal_kinematics::forward_batch::{PivotOrder, forward_along_batch, forward_jacobian_batch};
+use parcal_kinematics::forward_batch::{
+    LANES, PivotOrder, forward_along_batch, forward_jacobian_batch,
+};
 use parcal_kinematics::params::leg_index;
 use parcal_kinematics::{
     ForwardOptions, Geometry, KinematicsError, N_PARAMS, Params, Pose, SolutionAlong,
@@ -643,7 +645,8 @@ where
     /// most [`BATCH`], of one ball) at the canonical geometry of the current
     /// parameters, the ball centre and the contacts' angles: forward
     /// kinematics (paper eq. 1) of all of them from their cached poses
-    /// (updated; in SIMD lanes where the machine has AVX2), then for each
+    /// (updated; four at a time in SIMD lanes where the machine has AVX2,
+    /// [`in_lanes`]), then for each
     /// the tool tip (eq. 2) and its derivatives and the observation block.
     /// An error names the first failing contact, as one contact at a time
     /// would. The lanes' row order is carried from batch to batch in the
@@ -661,15 +664,17 @@ where
         let n = out.len();
         let extensions = self.batch_extensions(&global.scales, first, n);
         let extensions: [&[f64; 6]; BATCH] = std::array::from_fn(|j| &extensions[j]);
-        let kinematics = forward_jacobian_batch(
-            &global.geometry,
-            &extensions[..n],
-            caches,
-            &self.forward_options,
-            workspace,
-            out,
-            |out| &mut out.d_global.tip,
-        );
+        let kinematics = in_lanes(n, |lanes| {
+            forward_jacobian_batch(
+                &global.geometry,
+                &extensions[lanes.clone()],
+                &caches[lanes.clone()],
+                &self.forward_options,
+                &mut *workspace,
+                &mut out[lanes],
+                |out| &mut out.d_global.tip,
+            )
+        });
         let (ball, in_global) = self.ball_unknowns(first, global, group);
         self.contact_by_contact(first, n, kinematics, |j| {
             let solution = &out[j].d_global.tip;
@@ -747,7 +752,9 @@ where
             )
         };
         let kinematics = match global.scales.column {
-            None => along(0..n, d_params, &mut solutions[..n]),
+            None => in_lanes(n, |lanes| {
+                along(lanes.clone(), d_params, &mut solutions[lanes])
+            }),
             Some(_) => (0..n).try_for_each(|j| {
                 let dp = global.scales.along(d_params, self.actuators(first + j), dg);
                 along(j..j + 1, &dp, &mut solutions[j..j + 1]).map_err(|(_, e)| (j, e))
@@ -918,6 +925,18 @@ impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
             InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
         Ok(())
     }
+}
+
+/// `solve(lanes)` of the contacts `0..n` of a batch, at most [`LANES`] at a
+/// time, in order: the first error, its contact's index in the batch.
+fn in_lanes(
+    n: usize,
+    mut solve: impl FnMut(Range<usize>) -> Result<(), (usize, KinematicsError)>,
+) -> Result<(), (usize, KinematicsError)> {
+    for first in (0..n).step_by(LANES) {
+        solve(first..(first + LANES).min(n)).map_err(|(j, e)| (first + j, e))?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -283,8 +283,12 @@ pub const fn point_degrees_of_freedom(rows: usize, point_unknowns: usize) -> usi
     }
 }
 
-/// Points linearised together at most ([`Problem::linearize_batch`]).
-pub const BATCH: usize = 4;
+/// Points linearised together at most ([`Problem::linearize_batch`]): a
+/// group of up to 8 points (a ball's touches) in one call, so that a
+/// problem pays its per-call work (its parameters prepared, its batch
+/// gathered) once per group and runs the points in SIMD lanes of 4 (twice
+/// that) as it likes.
+pub const BATCH: usize = 8;
 
 /// A least-squares problem with one global block (`G` unknowns,
 /// [`global_size`](Problem::global_size)), `n_groups` group blocks (`C`
