@@ -646,7 +646,7 @@ where
     /// parameters, the ball centre and the contacts' angles: forward
     /// kinematics (paper eq. 1) of all of them from their cached poses
     /// (updated; four at a time in SIMD lanes where the machine has AVX2,
-    /// [`in_lanes`]), then for each
+    /// `in_lanes`), then for each
     /// the tool tip (eq. 2) and its derivatives and the observation block.
     /// An error names the first failing contact, as one contact at a time
     /// would. The lanes' row order is carried from batch to batch in the

@@ -134,8 +134,8 @@ impl BallTouch {
     }
 
     /// [`BallTouch::row`] at the tool point `point`, without `dr/dp`: what
-    /// forms it from `dT/dp |_q` a column at a time
-    /// ([`RadiusRow::d_column`]), into room of the caller's.
+    /// forms it from `dT/dp |_q` ([`RadiusRow::d_params`]) into room of the
+    /// caller's.
     pub fn radius_row(
         &self,
         point: &Vector3<f64>,
