@@ -476,6 +476,7 @@ fn predict_balls(
             b,
             ball.radius,
             None,
+            &mut Vec::new(),
         )?
         .centre;
         let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);

@@ -358,7 +358,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             .balls
             .par_iter()
             .enumerate()
-            .map(|(b, ball)| {
+            .map_init(Vec::new, |reached, (b, ball)| {
                 let touches: Vec<usize> = self.ball_points[b]
                     .clone()
                     .map(|i| self.touch_order[i - self.sample_points()])
@@ -372,6 +372,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                     b,
                     ball.radius,
                     self.data.touch_start.as_ref(),
+                    reached,
                 )?;
                 Ok((block(&fit.centre, ball.radius), fit))
             })
@@ -911,7 +912,8 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// iterate of a fit that did not converge); with the warm start and the
 /// tool point each touch reached, in the order of `touches`. With a
 /// `start`, each touch is reached from its pose's warm start there and
-/// the centre is its.
+/// the centre is its. `reached` is room for the touches' outcomes, kept
+/// from ball to ball so that their rooms are allocated once.
 #[allow(
     clippy::too_many_arguments,
     reason = "a ball, its touches and where they start"
@@ -925,6 +927,7 @@ pub(crate) fn ball_centre(
     b: usize,
     radius: f64,
     start: Option<&TouchStart>,
+    reached: &mut Vec<Result<ReachedAlong, MechanismError>>,
 ) -> Result<BallFit, MechanismCalibrationError> {
     // Together: a mechanism may reach several at once (the hexapod's
     // lanes), each from its start pose's warm start. Of each only its
@@ -952,7 +955,6 @@ pub(crate) fn ball_centre(
     let starts: Vec<Option<&[f64]>> = (given.iter())
         .map(|s| s.as_ref().map(DVector::as_slice))
         .collect();
-    let mut reached = Vec::with_capacity(touches.len());
     let zero_step = vec![0.0; params.len()];
     Actuation::tool_points_along(
         mechanism,
@@ -961,18 +963,18 @@ pub(crate) fn ball_centre(
         &actuations,
         &starts,
         &zero_step,
-        &mut reached,
+        reached,
     );
-    let (points, warm_starts): (Vec<Vector3<f64>>, Vec<WarmStart>) = reached
-        .into_iter()
+    let (points, warm_starts): (Vec<Vector3<f64>>, Vec<WarmStart>) = (reached.iter())
         .zip(touches)
         .map(|(along, &t)| {
             along
+                .as_ref()
                 .map(|along| {
-                    let reached = along.reached;
+                    let reached = &along.reached;
                     (reached.point, WarmStart::of(reached.warm_start.as_slice()))
                 })
-                .map_err(|e| failed(touch(t), e))
+                .map_err(|e| failed(touch(t), e.clone()))
         })
         .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
         .into_iter()
