@@ -26,7 +26,10 @@
 //!   starts from [`Geometry::home_pose`].
 //! - At readings, the tool point's `dT/dp |_q` is the crate's `J_f`
 //!   ([`TipDerivatives::jacobians`]) from the LU the forward kinematics
-//!   ends with, where the generic path factors `G_x` again.
+//!   ends with, where the generic path factors `G_x` again, handed over in
+//!   factored form (`K^T`, `R` and the leg directions, [`FactoredValues`]):
+//!   what a calibration takes of it, a combination of rows or a product
+//!   with a step, without its 3 x 33 entries.
 
 use std::borrow::Cow;
 
