@@ -185,20 +185,21 @@ fn a_batch_is_its_contacts_one_at_a_time() {
 fn a_batch_names_its_first_failing_contact() {
     let mut dataset = dataset();
     let (setup, observations) = setup(&dataset);
-    // The third contact of ball 0 (sorted order) cannot be reached, and
-    // neither can the fourth.
+    // The sixth contact of ball 0 (sorted order) cannot be reached, and
+    // neither can the seventh: both in the batch's second group of lanes.
     let contacts = setup.groups[0].clone();
-    for j in [2, 3] {
+    assert!(contacts.len() > 6 && contacts.len() <= BATCH, "one batch");
+    for j in [5, 6] {
         let row = setup.order[contacts.start + j] as usize;
         dataset.measurements.q[row] = [-1e4; 6];
     }
     let problem = setup.problem(&dataset, &options(), observations);
     let global = problem.prepare_global(&global_block(&setup.initial_params));
     let centre = setup.initial_centres[0];
-    let angles = vec![Vector2::zeros(); BATCH];
-    let range = contacts.start..contacts.start + BATCH;
+    let range = contacts;
+    let angles = vec![Vector2::zeros(); range.len()];
     let mut poses = setup.poses[range.clone()].to_vec();
-    let mut batch: Vec<Lin> = (0..BATCH).map(|_| Lin::zeros(N_PARAMS)).collect();
+    let mut batch: Vec<Lin> = range.clone().map(|_| Lin::zeros(N_PARAMS)).collect();
     let workspace = &mut PivotOrder::default();
     let (failed, error) = problem
         .linearize_batch(
@@ -211,8 +212,8 @@ fn a_batch_names_its_first_failing_contact() {
             workspace,
         )
         .expect_err("an unreachable contact");
-    assert_eq!(failed, range.start + 2);
-    let mut steps = vec![SVector::<f64, 3>::zeros(); BATCH];
+    assert_eq!(failed, range.start + 5);
+    let mut steps = vec![SVector::<f64, 3>::zeros(); range.len()];
     let along = problem
         .linearize_along_batch(
             range.start,
