@@ -97,12 +97,10 @@ impl BallTouch {
             radius,
             chart: *chart,
         };
-        let whitened = block
-            .evaluate(&reached.point, centre, angles)
-            .whiten(&weight);
+        let whitened = block.evaluate_whitened(&reached.point, centre, angles, &weight);
         Ok(CoordinateRows {
             residual: whitened.residual,
-            d_tip: -weight.inverse_factor(),
+            d_tip: whitened.d_tip,
             d_tip_params: reached.d_params,
             d_centre: whitened.d_centre,
             d_radius: whitened.d_radius,
