@@ -556,6 +556,21 @@ impl Mechanism for Hexapod {
         })
     }
 
+    /// Each point `geometry.tool_tip(pose)`, as [`Mechanism::tool_point`]
+    /// gives it, the geometry built once.
+    fn tool_points_at_poses(
+        &self,
+        params: &[f64],
+        poses: &[&[f64]],
+    ) -> Vec<Result<Vector3<f64>, MechanismError>> {
+        match self.geometry(params) {
+            Ok(geometry) => (poses.iter())
+                .map(|pose| Ok(geometry.tool_tip(&self.pose(pose)?)))
+                .collect(),
+            Err(e) => vec![Err(e); poses.len()],
+        }
+    }
+
     /// The forward kinematics in place and `J_f` from its factored
     /// closure ([`TipDerivatives::jacobians`]: three transposed solves of
     /// the LU the forward kinematics ends with), what the generic implicit
@@ -778,6 +793,36 @@ mod tests {
         // Canonical by construction: no gauge freedom left.
         assert!(hexapod.gauge_freedoms(p.as_slice()).unwrap().is_empty());
         assert_eq!(hexapod.parameters()[LEG_OFFSET].group, "leg lengths");
+    }
+
+    /// The points at several poses, the geometry built once, are
+    /// `tool_point`'s, to the bit; a pose refused is refused alone, and
+    /// parameters refused refuse every pose.
+    #[test]
+    fn tool_points_at_poses_are_each_tool_point() {
+        let hexapod = hexapod();
+        let p = design(&hexapod);
+        let poses: Vec<DVector<f64>> = [sample_pose(), Pose::identity()]
+            .iter()
+            .map(pose_vector)
+            .collect();
+        let refused = [0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0];
+        let mut slices: Vec<&[f64]> = poses.iter().map(|x| x.as_slice()).collect();
+        slices.insert(1, &refused);
+        let points = hexapod.tool_points_at_poses(p.as_slice(), &slices);
+        assert_eq!(points.len(), 3);
+        for (point, pose) in points.iter().zip(&slices) {
+            match hexapod.tool_point(p.as_slice(), pose) {
+                Ok(expected) => assert_eq!(point.as_ref().unwrap(), &expected.point),
+                Err(e) => assert_eq!(point.as_ref().unwrap_err(), &e),
+            }
+        }
+        assert!(points[1].is_err());
+        let mut wrong = p.clone();
+        wrong[LEG_OFFSET] = f64::INFINITY;
+        let refused_params = hexapod.tool_points_at_poses(wrong.as_slice(), &slices);
+        assert_eq!(refused_params.len(), 3);
+        assert!(refused_params.iter().all(Result::is_err));
     }
 
     #[test]

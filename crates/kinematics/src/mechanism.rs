@@ -338,6 +338,20 @@ pub trait Mechanism: Send + Sync {
         })
     }
 
+    /// The tool points `T(p, x)` at several `poses`, in order, without
+    /// their derivatives: [`Mechanism::tool_point`]'s points by default; a
+    /// mechanism that builds something of `p` for each point overrides it
+    /// with the same values, built once (the hexapod: its geometry).
+    fn tool_points_at_poses(
+        &self,
+        params: &[f64],
+        poses: &[&[f64]],
+    ) -> Vec<Result<Vector3<f64>, MechanismError>> {
+        (poses.iter())
+            .map(|pose| Ok(self.tool_point(params, pose)?.point))
+            .collect()
+    }
+
     /// The number of values of a warm start (module doc): the pose
     /// coordinates' by default.
     fn warm_start_len(&self) -> usize {

@@ -911,8 +911,8 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// controller's `configured` ([`best_fit`]; the last
 /// iterate of a fit that did not converge); with the warm start and the
 /// tool point each touch reached, in the order of `touches`. With a
-/// `start`, each touch is reached from its pose's warm start there and
-/// the centre is its. `reached` is room for the touches' outcomes, kept
+/// `start`, the ball and its touches are where it put them
+/// ([`ball_at_start`]). `reached` is room for the touches' outcomes, kept
 /// from ball to ball so that their rooms are allocated once.
 #[allow(
     clippy::too_many_arguments,
@@ -929,39 +929,21 @@ pub(crate) fn ball_centre(
     start: Option<&TouchStart>,
     reached: &mut Vec<Result<ReachedAlong, MechanismError>>,
 ) -> Result<BallFit, MechanismCalibrationError> {
+    if let Some(start) = start {
+        return ball_at_start(mechanism, params, touches, b, start);
+    }
     // Together: a mechanism may reach several at once (the hexapod's
-    // lanes), each from its start pose's warm start. Of each only its
-    // tool point and warm start are wanted, not `dT/dp |_q`: the touches
-    // along a zero step, which a mechanism's batches give without forming
-    // `dT/dp |_q`.
+    // lanes), each from its start pose. Of each only its tool point and
+    // warm start are wanted, not `dT/dp |_q`: the touches along a zero
+    // step, which a mechanism's batches give without forming `dT/dp |_q`.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
-    let touch = |t| ObservationRef {
-        kind: ObservationKind::Touch,
-        index: t,
-    };
-    let given = match start {
-        Some(start) => {
-            let coordinates = mechanism.pose_coordinates().len();
-            (touches.iter())
-                .map(|&t| {
-                    (mechanism.warm_start(start.pose(t, coordinates)))
-                        .map(Some)
-                        .map_err(|e| failed(touch(t), e))
-                })
-                .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
-        }
-        None => vec![None; touches.len()],
-    };
-    let starts: Vec<Option<&[f64]>> = (given.iter())
-        .map(|s| s.as_ref().map(DVector::as_slice))
-        .collect();
     let zero_step = vec![0.0; params.len()];
     Actuation::tool_points_along(
         mechanism,
         params,
         configured,
         &actuations,
-        &starts,
+        &vec![None; touches.len()],
         &zero_step,
         reached,
     );
@@ -974,18 +956,11 @@ pub(crate) fn ball_centre(
                     let reached = &along.reached;
                     (reached.point, WarmStart::of(reached.warm_start.as_slice()))
                 })
-                .map_err(|e| failed(touch(t), e.clone()))
+                .map_err(|e| failed(touch_ref(t), e))
         })
         .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
         .into_iter()
         .unzip();
-    if let Some(start) = start {
-        return Ok(BallFit {
-            centre: Vector3::from(start.centres[b]),
-            warm_starts,
-            tips: points,
-        });
-    }
     match best_fit(&points, radius) {
         Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(BallFit {
             centre: fit.centre,
@@ -996,6 +971,47 @@ pub(crate) fn ball_centre(
             what: format!("ball {b}"),
             reason: format!("its touches do not locate its centre: {e}"),
         }),
+    }
+}
+
+/// Ball `b` and its `touches` where `start` put them: its centre the
+/// start's, each touch's tool point `T(p, x)` at its start pose `x`
+/// ([`Mechanism::tool_points_at_poses`], parameters `params`) and the warm
+/// start of that pose. No forward kinematics: the pose is where the other
+/// set-up reached the touch's readings, and the first pass starts there.
+fn ball_at_start(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    touches: &[usize],
+    b: usize,
+    start: &TouchStart,
+) -> Result<BallFit, MechanismCalibrationError> {
+    let coordinates = mechanism.pose_coordinates().len();
+    let poses: Vec<&[f64]> = (touches.iter())
+        .map(|&t| start.pose(t, coordinates))
+        .collect();
+    let tips = mechanism.tool_points_at_poses(params, &poses);
+    let (tips, warm_starts) = (touches.iter().zip(tips).zip(&poses))
+        .map(|((&t, tip), pose)| {
+            let warm_start = tip.and_then(|tip| Ok((tip, mechanism.warm_start(pose)?)));
+            let (tip, warm_start) = warm_start.map_err(|e| failed(touch_ref(t), e))?;
+            Ok((tip, WarmStart::of(warm_start.as_slice())))
+        })
+        .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
+        .into_iter()
+        .unzip();
+    Ok(BallFit {
+        centre: Vector3::from(start.centres[b]),
+        warm_starts,
+        tips,
+    })
+}
+
+/// Touch `t` as an observation.
+fn touch_ref(t: usize) -> ObservationRef {
+    ObservationRef {
+        kind: ObservationKind::Touch,
+        index: t,
     }
 }
 

@@ -6,7 +6,9 @@
 //! carry the own set-up's ([`super::MechanismData::from_hexapod_touches`]: the
 //! design's forward kinematics of every contact and each ball's centre, or
 //! its mirror image), so that the common calibration starts where the
-//! hexapod's own does, its touches' forward kinematics each a step or none.
+//! hexapod's own does: each touch's tool point at its given pose
+//! ([`Mechanism::tool_points_at_poses`](parcal_kinematics::mechanism::Mechanism::tool_points_at_poses)),
+//! without forward kinematics.
 
 use super::error::MechanismCalibrationError;
 
