@@ -107,21 +107,18 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     }
 
     /// The rows of touch point `i` that reached `reached` at its angles
-    /// `angles` on its ball (of the group block `block`, or the global
-    /// block for a tied ball) into `out`, the warm start of the pose it
-    /// reached left in `cache`.
-    #[allow(clippy::too_many_arguments)]
+    /// `angles` on its ball `ball` into `out`, the warm start of the pose
+    /// it reached left in `cache`.
     fn touch_rows(
         &self,
         i: usize,
-        global: &DVector<f64>,
-        block: &SVector<f64, C>,
+        ball: &TouchedBall,
         angles: &Vector2<f64>,
         reached: &mut Result<Reached, MechanismError>,
         cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
-        let (t, touch, ball) = self.base.touch_and_ball(i, global, block);
+        let (t, touch) = self.base.touch_of(i);
         let chart = DirectionChart::about(&self.directions[i]);
         let mut rows = std::mem::replace(reached, Ok(Reached::default()))
             .and_then(|reached| {
@@ -129,7 +126,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = WarmStart::of(rows.warm_start.as_slice());
-        put_local(out, &rows, &ball);
+        put_local(out, &rows, ball);
         let tied = ball.tied.map(|column| (column, ball.uncertain));
         let room = out.d_global.set(&mut rows, tied);
         // The warm start and the room of `dT/dp` back where they came
@@ -150,15 +147,14 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     fn touch_rows_along(
         &self,
         i: usize,
-        global: &DVector<f64>,
-        block: &SVector<f64, C>,
+        ball: &TouchedBall,
         angles: &Vector2<f64>,
         along: &mut Result<ReachedAlong, MechanismError>,
         dg: &DVector<f64>,
         cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 3>, MechanismCalibrationError> {
-        let (t, touch, ball) = self.base.touch_and_ball(i, global, block);
+        let (t, touch) = self.base.touch_of(i);
         let chart = DirectionChart::about(&self.directions[i]);
         let (rows, predicted) = std::mem::replace(along, Ok(ReachedAlong::default()))
             .and_then(|along| {
@@ -173,7 +169,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
             })
             .map_err(|e| touch_failed(t, touch.ball, e))?;
         *cache = WarmStart::of(predicted.as_slice());
-        put_local(out, &rows, &ball);
+        put_local(out, &rows, ball);
         let params_step = rows.d_tip * rows.d_tip_params.apply(&[1.0]);
         let step = params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
         // The room back where it came from, for the next batch.
@@ -204,9 +200,10 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         self.base
             .reach(first..first + out.len(), global, caches, reaches);
+        let ball = self.base.group_ball(first, global, group);
         let each = reaches.at.iter_mut().zip(points).zip(caches).zip(out);
         for (j, (((reached, angles), cache), out)) in each.enumerate() {
-            self.touch_rows(first + j, global, group, angles, reached, cache, out)
+            self.touch_rows(first + j, &ball, angles, reached, cache, out)
                 .map_err(|e| (first + j, e))?;
         }
         Ok(())
@@ -348,12 +345,13 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         let batch = first..first + out.len();
         self.base.reach_along(batch, global, dg, caches, reaches);
+        let ball = self.base.group_ball(first, global, group);
         let each = (reaches.along.iter_mut().zip(points))
             .zip(caches.iter_mut().zip(out))
             .zip(steps);
         for (j, (((along, angles), (cache, out)), step)) in each.enumerate() {
             *step = self
-                .touch_rows_along(first + j, global, group, angles, along, dg, cache, out)
+                .touch_rows_along(first + j, &ball, angles, along, dg, cache, out)
                 .map_err(|e| (first + j, e))?;
         }
         Ok(())

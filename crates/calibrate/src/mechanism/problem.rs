@@ -414,27 +414,25 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             })
     }
 
-    /// The row of touch point `i` that reached `reached` on its ball of
-    /// the group block `block` (or, for a tied ball, its unknowns in the
-    /// global block `global`) into `out`, the warm start of the pose it
-    /// reached left in `cache` (the start of its next evaluation).
+    /// The row of touch point `i` that reached `reached` on its ball
+    /// `ball` into `out`, the warm start of the pose it reached left in
+    /// `cache` (the start of its next evaluation).
     fn touch_row(
         &self,
         i: usize,
-        global: &DVector<f64>,
-        block: &SVector<f64, C>,
+        ball: &TouchedBall,
         reached: &Result<Reached, MechanismError>,
         cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
-        let (reached, row, ball) = self.radius_row(i, global, block, reached, |r| r)?;
+        let (reached, row) = self.radius_row(i, ball, reached, |r| r)?;
         *cache = WarmStart::of(reached.warm_start.as_slice());
         // uᵀ dT/dp |_q over σ, the other columns zero.
         let n = self.n_params();
         let (params, others) = out.d_global.as_mut_slice().split_at_mut(n);
         row.d_params(&reached.d_params, params);
         others.fill(0.0);
-        put_touch_local(out, &row, &ball);
+        put_touch_local(out, &row, ball);
         Ok(())
     }
 
@@ -443,59 +441,61 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// `d_global` into `out`, the warm start predicted after the step left
     /// in `cache`, and `d_global · dg` returned (the parameters' share from
     /// `dT/dp |_q · dp`, a tied ball's from its columns).
-    #[allow(clippy::too_many_arguments)]
     fn touch_row_along(
         &self,
         i: usize,
-        global: &DVector<f64>,
-        block: &SVector<f64, C>,
+        ball: &TouchedBall,
         along: &Result<ReachedAlong, MechanismError>,
         dg: &DVector<f64>,
         cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 1>, MechanismCalibrationError> {
-        let (along, row, ball) = self.radius_row(i, global, block, along, |a| &a.reached)?;
+        let (along, row) = self.radius_row(i, ball, along, |a| &a.reached)?;
         let reached = &along.reached;
         *cache = WarmStart::of(along.predicted.as_slice());
-        put_touch_local(out, &row, &ball);
+        put_touch_local(out, &row, ball);
         let mut params_step = SVector::<f64, 1>::zeros();
         row.d_params(&reached.d_params, params_step.as_mut_slice());
         let d_radius = SVector::<f64, 1>::new(row.d_radius());
         Ok(params_step + ball.tied_step(&row.d_centre(), &d_radius, dg))
     }
 
-    /// Touch point `i`'s radius row ([`BallTouch::radius_row`]) where
-    /// `outcome` reached (`reached` of it), with that outcome and its
-    /// ball's unknowns at `global` and `block`; the touch named in an
-    /// error.
+    /// Touch point `i`'s radius row ([`BallTouch::radius_row`]) on its
+    /// ball `ball` where `outcome` reached (`reached` of it), with that
+    /// outcome; the touch named in an error.
     fn radius_row<'r, T>(
         &self,
         i: usize,
-        global: &DVector<f64>,
-        block: &SVector<f64, C>,
+        ball: &TouchedBall,
         outcome: &'r Result<T, MechanismError>,
         reached: impl Fn(&T) -> &Reached,
-    ) -> Result<(&'r T, RadiusRow, TouchedBall), MechanismCalibrationError> {
-        let (t, touch, ball) = self.touch_and_ball(i, global, block);
+    ) -> Result<(&'r T, RadiusRow), MechanismCalibrationError> {
+        let (t, touch) = self.touch_of(i);
         let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
         let outcome = outcome.as_ref().map_err(failed)?;
         let point = &reached(outcome).point;
         let row = (touch.radius_row(point, &ball.centre, ball.radius)).map_err(|e| failed(&e))?;
-        Ok((outcome, row, ball))
+        Ok((outcome, row))
     }
 
-    /// Touch point `i`'s touch (its index and itself) and its ball's
-    /// unknowns at the global block `global` and its group's block `block`
+    /// Touch point `i`'s touch: its index and itself.
+    pub(crate) fn touch_of(&self, i: usize) -> (usize, &BallTouch) {
+        let t = self.touch_at(i);
+        (t, &self.data.observations.touches[t])
+    }
+
+    /// The ball of the group whose touch point `first` is (every touch
+    /// point of a group is its ball's), its unknowns at the global block
+    /// `global` and the group's block `block`
     /// ([`MechanismProblem::touched_ball`]).
-    pub(crate) fn touch_and_ball(
+    pub(crate) fn group_ball(
         &self,
-        i: usize,
+        first: usize,
         global: &DVector<f64>,
         block: &SVector<f64, C>,
-    ) -> (usize, &BallTouch, TouchedBall) {
-        let t = self.touch_at(i);
-        let touch = &self.data.observations.touches[t];
-        (t, touch, self.touched_ball(touch.ball, global, block))
+    ) -> TouchedBall {
+        let (_, touch) = self.touch_of(first);
+        self.touched_ball(touch.ball, global, block)
     }
 
     /// Ball `b`'s centre set to `centre` in the global block `global` when
@@ -647,10 +647,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             return Ok(());
         }
         self.reach_along(first..first + out.len(), global, dg, caches, reaches);
+        let ball = self.group_ball(first, global, group);
         let each = reaches.along.iter().zip(caches).zip(out).zip(steps);
         for (j, (((along, cache), out), step)) in each.enumerate() {
             *step = self
-                .touch_row_along(first + j, global, group, along, dg, cache, out)
+                .touch_row_along(first + j, &ball, along, dg, cache, out)
                 .map_err(|e| (first + j, e))?;
         }
         Ok(())
@@ -671,9 +672,10 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         if first >= self.sample_points() {
             // The touches together: each from the warm start it last left.
             self.reach(first..first + out.len(), global, caches, reaches);
+            let ball = self.group_ball(first, global, group);
             let each = reaches.at.iter().zip(out).zip(caches);
             for (j, ((reached, out), cache)) in each.enumerate() {
-                self.touch_row(first + j, global, group, reached, cache, out)
+                self.touch_row(first + j, &ball, reached, cache, out)
                     .map_err(|e| (first + j, e))?;
             }
             return Ok(());
