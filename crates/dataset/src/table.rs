@@ -106,7 +106,8 @@ impl Row<'_> {
         }
     }
 
-    /// The finite numbers in `columns` (named `names`).
+    /// The finite numbers in `columns` (named `names`), each parsed from
+    /// its field's bytes as `str::parse::<f64>` parses its text.
     pub(crate) fn numbers<const N: usize>(
         &self,
         columns: &[usize; N],
@@ -115,17 +116,14 @@ impl Row<'_> {
         let mut out = [0.0; N];
         for ((slot, &column), &name) in out.iter_mut().zip(columns).zip(names) {
             let bytes = self.field(column);
-            let value = std::str::from_utf8(bytes)
-                .ok()
-                .and_then(|text| text.parse::<f64>().ok())
-                .ok_or_else(|| {
-                    let message = if bytes.is_empty() {
-                        "empty field, expected a number".to_owned()
-                    } else {
-                        format!("expected a number, found {}", quoted_bytes(bytes))
-                    };
-                    self.error(Some(name), message)
-                })?;
+            let value = fast_float2::parse::<f64, _>(bytes).ok().ok_or_else(|| {
+                let message = if bytes.is_empty() {
+                    "empty field, expected a number".to_owned()
+                } else {
+                    format!("expected a number, found {}", quoted_bytes(bytes))
+                };
+                self.error(Some(name), message)
+            })?;
             if !value.is_finite() {
                 return Err(self.error(Some(name), not_finite(value)));
             }
@@ -248,9 +246,11 @@ fn located<R: Read + Seek>(
 /// [`PIECE_LEN`] bytes per thread of rayon's pool, cut at line ends, and
 /// each block into one piece per thread, parsed side by side; `gather`
 /// empties the accumulators in file order, so that what they held does not
-/// depend on the number of threads. From a block with a quote character
-/// on (whose quoted fields may hold line ends), the rest of the file is
-/// one piece. Of several errors, the one earliest in the file.
+/// depend on the number of threads. A piece is split at its line ends and
+/// commas ([`split_piece`]); from a block with a quote character on (whose
+/// quoted fields may hold line ends and commas), the rest of the file is
+/// one piece, parsed by csv's reader. Of several errors, the one earliest
+/// in the file.
 pub(crate) fn read_file_in_pieces<C: Sync, A: Default + Send>(
     path: &Path,
     expected: &str,
@@ -308,7 +308,7 @@ pub(crate) fn read_file_in_pieces<C: Sync, A: Default + Send>(
                 .map(|(bounds, accumulator)| {
                     let (start, stop) = (bounds[0], bounds[1]);
                     let bytes = &block[start..stop];
-                    parse_piece(bytes, offset + start as u64, skipped, &header, |row| {
+                    split_piece(bytes, offset + start as u64, skipped, &header, |row| {
                         each(&columns, row, accumulator)
                     })
                 })
@@ -352,6 +352,69 @@ fn parse_piece(
             cap: CSV_LINE_CAP,
         });
     each_row(&mut reader, header, start - skipped, each)
+}
+
+/// Parses the rows of `bytes`, a piece of the file without a quote
+/// character from offset `start` (the beginning of a line; `skipped` bytes
+/// of byte order mark), with `each`, as [`parse_piece`] would; the number
+/// of rows. Without quotes a record is a line and its fields are what its
+/// commas separate, so the piece is cut with memchr's search rather than by
+/// csv's state machine: at every `\n` and `\r` (csv's line ends: `\n`,
+/// `\r\n` and `\r` alone), empty lines skipped, then each line at its
+/// commas. A line (from one `\n` to the next) longer than the cap is
+/// refused as [`LineLimited`] refuses it.
+fn split_piece(
+    bytes: &[u8],
+    start: u64,
+    skipped: u64,
+    header: &Header,
+    mut each: impl FnMut(&Row) -> Result<(), Failure>,
+) -> Result<usize, Failure> {
+    let base = start - skipped;
+    let mut record = ByteRecord::new();
+    let mut rows = 0usize;
+    // The current line: where it begins (after a `\n`) and its number in
+    // the piece (the estimate of `RowPlace`).
+    let (mut line_start, mut line) = (0, 1);
+    let mut from = 0;
+    while from < bytes.len() {
+        let stop =
+            memchr::memchr2(b'\n', b'\r', &bytes[from..]).map_or(bytes.len(), |at| from + at);
+        if (stop - line_start) as u64 > CSV_LINE_CAP {
+            let offset = start + line_start as u64 + CSV_LINE_CAP;
+            let too_long = LineTooLong {
+                offset,
+                cap: CSV_LINE_CAP,
+            };
+            return Err(Failure::Csv(io::Error::other(too_long).into()));
+        }
+        let text = &bytes[from..stop];
+        let ends_line = bytes.get(stop) == Some(&b'\n');
+        // Just past the record's line end (or its last byte, at the end).
+        from = (stop + 1).min(bytes.len());
+        if !text.is_empty() {
+            record.clear();
+            let mut field = 0;
+            for comma in memchr::memchr_iter(b',', text) {
+                record.push_field(&text[field..comma]);
+                field = comma + 1;
+            }
+            record.push_field(&text[field..]);
+            let mut position = csv::Position::new();
+            position.set_line(line);
+            record.set_position(Some(position));
+            let row = Row {
+                record: &record,
+                end: base + from as u64,
+            };
+            take_row(&row, header, &mut each)?;
+            rows += 1;
+        }
+        if ends_line {
+            (line_start, line) = (from, line + 1);
+        }
+    }
+    Ok(rows)
 }
 
 /// The bounds of `count` pieces of `rows` of about equal length, each
@@ -584,16 +647,26 @@ fn each_row<R: Read>(
             record: &record,
             end: base + reader.position().byte(),
         };
-        if record.len() != header.width() {
-            return Err(row.error(
-                None,
-                format!("expected {} fields, found {}", header.width(), record.len()),
-            ));
-        }
-        each(&row)?;
+        take_row(&row, header, &mut each)?;
         rows += 1;
     }
     Ok(rows)
+}
+
+/// Passes `row` to `each` once it is checked to have the header's width.
+fn take_row(
+    row: &Row,
+    header: &Header,
+    each: &mut impl FnMut(&Row) -> Result<(), Failure>,
+) -> Result<(), Failure> {
+    let width = row.record.len();
+    if width != header.width() {
+        return Err(row.error(
+            None,
+            format!("expected {} fields, found {width}", header.width()),
+        ));
+    }
+    each(row)
 }
 
 /// Writes `path` atomically as CSV: the `header`, then the rows `fill`
@@ -641,5 +714,104 @@ impl<W: io::Write> NumberWriter<W> {
     /// Ends the row.
     pub(crate) fn end_row(&mut self) -> Result<(), csv::Error> {
         self.writer.write_record(None::<&[u8]>)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// What a piece's parse gave: each row's fields and end, then the error
+    /// that stopped it (its text and place), if any.
+    type Parsed = (Vec<(Vec<Vec<u8>>, u64)>, Option<String>);
+
+    /// [`Parsed`], and each row's line number as its record's position
+    /// gives it.
+    fn parsed(
+        parse: impl FnOnce(&mut dyn FnMut(&Row) -> Result<(), Failure>) -> Result<usize, Failure>,
+    ) -> (Parsed, Vec<u64>) {
+        let (mut rows, mut lines) = (Vec::new(), Vec::new());
+        let outcome = parse(&mut |row: &Row| {
+            let fields = row.record.iter().map(<[u8]>::to_vec).collect();
+            rows.push((fields, row.end));
+            lines.push(row.record.position().map_or(0, csv::Position::line));
+            // A row whose first field is `x` fails, to compare the stops.
+            match row.record.get(0) {
+                Some(b"x") => Err(row.error(None, "x".to_owned())),
+                _ => Ok(()),
+            }
+        });
+        let error = match outcome {
+            Ok(count) => {
+                assert_eq!(count, rows.len());
+                None
+            }
+            Err(Failure::Csv(e)) => Some(format!("{e:?}")),
+            // The place's line estimate is checked apart (`both`).
+            Err(Failure::At { place, message, .. }) => {
+                Some(format!("{message} {} {}", place.end, place.inner_newlines))
+            }
+        };
+        ((rows, error), lines)
+    }
+
+    fn header(width: usize) -> Header {
+        Header {
+            record: ByteRecord::from(vec!["h"; width]),
+            end: 0,
+        }
+    }
+
+    /// Both ways of parsing a piece without quotes: csv's reader and the
+    /// split at line ends and commas. The split's line numbers are checked
+    /// to be each row's line in the piece (csv's miss its blank lines).
+    fn both(bytes: &[u8], start: u64, skipped: u64, width: usize) -> (Parsed, Parsed) {
+        let header = header(width);
+        let (by_csv, _) = parsed(|each| parse_piece(bytes, start, skipped, &header, each));
+        let (by_split, lines) = parsed(|each| split_piece(bytes, start, skipped, &header, each));
+        for ((_, end), line) in by_split.0.iter().zip(lines) {
+            let last = usize::try_from(end - (start - skipped)).unwrap() - 1;
+            let newlines = bytes[..last].iter().filter(|&&b| b == b'\n').count();
+            assert_eq!(line, 1 + newlines as u64, "{bytes:?}");
+        }
+        (by_csv, by_split)
+    }
+
+    proptest! {
+        /// Any piece without quotes (line ends `\n`, `\r\n` and `\r`,
+        /// empty and blank lines, rows of the wrong width, a failing row)
+        /// gives csv's rows, offsets and errors when it is split.
+        #[test]
+        fn a_split_piece_is_parsed_as_csv_parses_it(
+            bytes in proptest::collection::vec(
+                prop::sample::select(b"1x ,,\r\n\n".to_vec()), 0..80),
+            width in 1usize..4,
+            start in 0u64..50,
+            bom in any::<bool>(),
+        ) {
+            let skipped = if bom { 3 } else { 0 };
+            let (by_csv, by_split) = both(&bytes, start + skipped, skipped, width);
+            prop_assert_eq!(by_csv, by_split);
+        }
+    }
+
+    /// A line longer than the cap is refused at the same offset both ways,
+    /// after a line end of either kind.
+    #[test]
+    fn a_split_piece_refuses_a_line_over_the_cap_as_csv_does() {
+        for before in ["1,1\n", "1,1\r\n", "1,1\r"] {
+            let long = "1".repeat(CSV_LINE_CAP as usize + 1);
+            let bytes = format!("{before}{long}\n1,1\n");
+            let (by_csv, by_split) = both(bytes.as_bytes(), 10, 0, 2);
+            assert!(
+                by_csv
+                    .1
+                    .as_deref()
+                    .is_some_and(|e| e.contains("LineTooLong"))
+            );
+            assert_eq!(by_csv, by_split);
+        }
     }
 }
