@@ -797,6 +797,33 @@ mod tests {
         }
     }
 
+    proptest! {
+        /// A field's number is `str::parse`'s, to the bit, and a field it
+        /// refuses is refused: signs, exponents, `inf` and `nan` in any
+        /// case, stray characters, invalid UTF-8.
+        #[test]
+        fn a_field_is_parsed_as_str_parses_it(
+            bytes in proptest::collection::vec(
+                prop::sample::select(b"0123456789.eE+-infatyINFATY_x \xc3".to_vec()), 0..24),
+        ) {
+            let by_str = std::str::from_utf8(&bytes).ok().and_then(|t| t.parse::<f64>().ok());
+            let by_bytes = fast_float2::parse::<f64, _>(&bytes).ok();
+            let bits = |v: Option<f64>| v.map(|v| if v.is_nan() { f64::NAN.to_bits() } else { v.to_bits() });
+            prop_assert_eq!(bits(by_str), bits(by_bytes));
+        }
+
+        /// Any double written as parcal writes it (`{}`), in exponent form
+        /// or cut to a few digits, is read back as `str::parse` reads it.
+        #[test]
+        fn a_written_number_is_parsed_as_str_parses_it(value in any::<f64>(), digits in 0usize..20) {
+            for text in [format!("{value}"), format!("{value:e}"), format!("{value:.digits$}")] {
+                let by_str = text.parse::<f64>().map(f64::to_bits).ok();
+                let by_bytes = fast_float2::parse::<f64, _>(text.as_bytes()).map(f64::to_bits).ok();
+                prop_assert_eq!(by_str, by_bytes, "{}", text);
+            }
+        }
+    }
+
     /// A line longer than the cap is refused at the same offset both ways,
     /// after a line end of either kind.
     #[test]
