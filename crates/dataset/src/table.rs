@@ -116,7 +116,7 @@ impl Row<'_> {
         let mut out = [0.0; N];
         for ((slot, &column), &name) in out.iter_mut().zip(columns).zip(names) {
             let bytes = self.field(column);
-            let value = fast_float2::parse::<f64, _>(bytes).ok().ok_or_else(|| {
+            let value = fast_float2::parse::<f64, _>(bytes).map_err(|_| {
                 let message = if bytes.is_empty() {
                     "empty field, expected a number".to_owned()
                 } else {
