@@ -125,8 +125,11 @@ fn balls_tied_by_a_plate_through_the_common_calibration_are_its_own() {
         .as_array()
         .unwrap()
         .iter()
-        .filter(|o| o["kind"] == "ball distance")
-        .map(|o| o["index"].as_u64().unwrap())
+        .filter(|run| run["kind"] == "ball distance")
+        .flat_map(|run| {
+            let first = run["index"].as_u64().unwrap();
+            first..first + run.get("count").map_or(1, |c| c.as_u64().unwrap())
+        })
         .collect();
     assert_eq!(tested, (0..12).collect::<Vec<u64>>());
 }
@@ -329,13 +332,18 @@ fn the_default_options_through_the_common_calibration_are_the_own() {
     assert_same_minimum(&own, &common);
     // The record names the touches' observation equation.
     assert_eq!(common["observation"], "coordinates");
-    let touch = common["tests"]["observations"]
+    let touches = common["tests"]["observations"]
         .as_array()
         .unwrap()
         .iter()
-        .find(|o| o["kind"] == "ball touch")
+        .find(|run| run["kind"] == "ball touch")
         .unwrap();
-    assert_eq!(touch["residuals"].as_array().unwrap().len(), 3);
+    let count = touches.get("count").map_or(1, |c| c.as_u64().unwrap());
+    assert_eq!(
+        touches["residuals"].as_array().unwrap().len() as u64,
+        3 * count,
+        "three rows a touch"
+    );
 }
 
 #[test]

@@ -383,27 +383,26 @@ fn serialize_document<T: Serialize>(
     w.write_all(b"\n").map_err(write_error(path))
 }
 
-/// How many elements [`serialize_seq_on_threads`] formats at once.
-const WAVE: usize = 1 << 13;
-
 /// Serializes the list `element(0)`, ..., `element(len - 1)` into
 /// `serializer`, a JSON one that writes each element on one line (as
 /// compact JSON, or from [`Layout`]'s `one_line_from`): each wave of
-/// [`WAVE`] elements is formatted as compact JSON on the threads while the
-/// wave before is written, the same bytes as formatting each in turn (a
-/// calibration's 10^6 observation records). JSON only: another format
-/// would write each element as a [`RawValue`].
+/// `wave` elements (at least one) is formatted as compact JSON on the
+/// threads while the wave before is written, the same bytes as formatting
+/// each in turn (a calibration's observation records of 10^6 touches).
+/// JSON only: another format would write each element as a [`RawValue`].
 pub(crate) fn serialize_seq_on_threads<S, T>(
     serializer: S,
     len: usize,
+    wave: usize,
     element: impl Fn(usize) -> T + Sync,
 ) -> std::result::Result<S::Ok, S::Error>
 where
     S: Serializer,
     T: Serialize,
 {
+    let wave = wave.max(1);
     let format = |start: usize| -> serde_json::Result<Vec<Box<RawValue>>> {
-        (start..len.min(start + WAVE))
+        (start..len.min(start + wave))
             .into_par_iter()
             .map(|k| to_raw_value(&element(k)))
             .collect()
@@ -412,7 +411,7 @@ where
     // The wave being written, and the one written before it (freed on
     // the threads too).
     let (mut formatted, mut written) = (Vec::new(), Vec::new());
-    for start in (0..len).step_by(WAVE) {
+    for start in (0..len).step_by(wave) {
         let mut next = Ok(Vec::new());
         rayon::in_place_scope(|scope| {
             scope.spawn(|_| {
@@ -593,10 +592,11 @@ mod tests {
     /// compact JSON; empty, and in any number of threads.
     #[test]
     fn a_list_formatted_on_the_threads_is_the_list_written_in_turn() {
+        const WAVE: usize = 64;
         struct OnThreads<'a>(&'a [serde_json::Value]);
         impl Serialize for OnThreads<'_> {
             fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-                serialize_seq_on_threads(s, self.0.len(), |k| &self.0[k])
+                serialize_seq_on_threads(s, self.0.len(), WAVE, |k| &self.0[k])
             }
         }
         let elements: Vec<serde_json::Value> = (0..2 * WAVE + 5)

@@ -1,11 +1,17 @@
 //! Every observation's residuals and tests in a mechanism calibration's
 //! record: held as two columns, the observations and their rows (no
 //! allocation per observation: a hexapod's calibration has 10^6 touches),
-//! and written as the format's list of one object per observation,
+//! and written as the format's list of runs: observations of one kind at
+//! consecutive indices, each of the same number of rows,
 //!
 //! ```json
-//! {"kind": "ball touch", "index": 0, "residuals": [...], "redundancy": [...], "normalised": [...]}
+//! {"kind": "ball touch", "index": 0, "count": 64, "residuals": [...], "redundancy": [...], "normalised": [...]}
 //! ```
+//!
+//! the run's `count` observations (1 when absent) from `index` on, each
+//! list holding their rows observation by observation, `len / count` rows
+//! each. A run holds at most [`RUN_CAP`] observations, and an observation
+//! without rows is a run of its own.
 
 use std::borrow::Cow;
 use std::fmt;
@@ -141,6 +147,66 @@ impl ObservationRecords {
     }
 }
 
+/// The most observations a run of the record holds: a run's text stays a
+/// few kilobytes, and the runs of a wave are formatted side by side.
+pub const RUN_CAP: usize = 64;
+
+/// How many runs are formatted at once: as many observations as
+/// `RUN_CAP` each hold.
+const RUNS_A_WAVE: usize = 128;
+
+/// A run of observations (module doc): `count` of kind `kind` from index
+/// `index` on, their rows `rows`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Run<'a> {
+    kind: &'a str,
+    index: usize,
+    count: usize,
+    rows: &'a [RowCheck],
+}
+
+impl ObservationRecords {
+    /// The observations in runs (module doc), in order: where each run's
+    /// observations start.
+    fn run_starts(&self) -> Vec<usize> {
+        let mut starts = Vec::new();
+        let mut run_start = 0;
+        for k in 0..self.len() {
+            let extends = k > run_start
+                && k - run_start < RUN_CAP
+                && self.record(k).continues(&self.record(k - 1));
+            if !extends {
+                starts.push(k);
+                run_start = k;
+            }
+        }
+        starts
+    }
+
+    /// The run of observations `first..end`.
+    fn run(&self, first: usize, end: usize) -> Run<'_> {
+        let start = first.checked_sub(1).map_or(0, |j| self.entries[j].end);
+        let entry = &self.entries[first];
+        Run {
+            kind: &entry.kind,
+            index: entry.index,
+            count: end - first,
+            rows: &self.rows[start..self.entries[end - 1].end],
+        }
+    }
+}
+
+impl ObservationRecord<'_> {
+    /// Whether it follows `before` in a run: of the same kind, at the next
+    /// index, with as many rows (at least one).
+    fn continues(&self, before: &ObservationRecord<'_>) -> bool {
+        self.kind == before.kind
+            && before.index.checked_add(1) == Some(self.index)
+            && self.rows.len() == before.rows.len()
+            && !self.rows.is_empty()
+    }
+}
+
 /// A column of one field of some rows, written as a list.
 struct Column<'a, T>(&'a [RowCheck], fn(&RowCheck) -> T);
 
@@ -150,11 +216,14 @@ impl<T: Serialize> Serialize for Column<'_, T> {
     }
 }
 
-impl Serialize for ObservationRecord<'_> {
+impl Serialize for Run<'_> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut s = serializer.serialize_struct("ObservationRecord", 5)?;
+        let mut s = serializer.serialize_struct("Run", 6)?;
         s.serialize_field("kind", self.kind)?;
         s.serialize_field("index", &self.index)?;
+        if self.count != 1 {
+            s.serialize_field("count", &self.count)?;
+        }
         s.serialize_field("residuals", &Column(self.rows, |r| r.residual))?;
         s.serialize_field("redundancy", &Column(self.rows, |r| r.redundancy))?;
         s.serialize_field("normalised", &Column(self.rows, |r| r.normalised))?;
@@ -162,23 +231,34 @@ impl Serialize for ObservationRecord<'_> {
     }
 }
 
-/// The observations formatted on the threads: JSON only (the record's
-/// format).
+/// The observations in runs, formatted on the threads: JSON only (the
+/// record's format).
 impl Serialize for ObservationRecords {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        json::serialize_seq_on_threads(serializer, self.len(), |k| self.record(k))
+        let starts = self.run_starts();
+        let end = |j: usize| starts.get(j + 1).copied().unwrap_or(self.len());
+        json::serialize_seq_on_threads(serializer, starts.len(), RUNS_A_WAVE, |j| {
+            self.run(starts[j], end(j))
+        })
     }
 }
 
-/// One observation as the format lists it, read.
+/// One run as the format lists it, read.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct OwnedRecord {
+struct OwnedRun {
     kind: String,
     index: usize,
+    #[serde(default = "one")]
+    count: usize,
     residuals: Vec<f32>,
     redundancy: Vec<f32>,
     normalised: Vec<Option<f32>>,
+}
+
+/// A run's count when the format leaves it out.
+fn one() -> usize {
+    1
 }
 
 impl<'de> Deserialize<'de> for ObservationRecords {
@@ -193,14 +273,25 @@ impl<'de> Deserialize<'de> for ObservationRecords {
 
             fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
                 let mut records = ObservationRecords::default();
-                while let Some(r) = seq.next_element::<OwnedRecord>()? {
+                while let Some(r) = seq.next_element::<OwnedRun>()? {
                     let rows = r.residuals.len();
+                    let refused = |why: String| {
+                        de::Error::custom(format!("observation {}: {why}", records.len()))
+                    };
                     if r.redundancy.len() != rows || r.normalised.len() != rows {
-                        return Err(de::Error::custom(format!(
-                            "observation {}: its residuals, redundancy and normalised lists differ in length ({rows}, {}, {})",
-                            records.len(),
+                        return Err(refused(format!(
+                            "its residuals, redundancy and normalised lists differ in length ({rows}, {}, {})",
                             r.redundancy.len(),
                             r.normalised.len()
+                        )));
+                    }
+                    // At least a row each, but for an observation of its own:
+                    // the runs a file holds are bounded by its numbers.
+                    let fits = r.count == 1 || (r.count > 1 && rows % r.count == 0 && rows > 0);
+                    if !fits || r.index.checked_add(r.count).is_none() {
+                        return Err(refused(format!(
+                            "a run of {} observations from index {} cannot share its {rows} rows",
+                            r.count, r.index
                         )));
                     }
                     let each = r.residuals.iter().zip(&r.redundancy).zip(&r.normalised);
@@ -213,7 +304,10 @@ impl<'de> Deserialize<'de> for ObservationRecords {
                                 normalised,
                             }),
                         );
-                    records.push(Cow::Owned(r.kind), r.index, rows);
+                    let kind: Cow<'static, str> = Cow::Owned(r.kind);
+                    for k in 0..r.count {
+                        records.push(kind.clone(), r.index + k, rows / r.count);
+                    }
                 }
                 Ok(records)
             }
@@ -272,6 +366,103 @@ mod tests {
         assert_eq!(touch.worst(), Some((2, -5.0)));
         assert_eq!(read.iter().map(|r| r.index).collect::<Vec<_>>(), [7, 2]);
         assert!(read.get(2).is_none());
+    }
+
+    /// Observations of one kind at consecutive indices with as many rows
+    /// are written as runs of at most [`RUN_CAP`]; a change of kind, an
+    /// index skipped, another number of rows or none start a new run. Read
+    /// back, they are the same observations; written again, the same text.
+    #[test]
+    fn observations_in_sequence_are_written_as_runs_and_read_back() {
+        let touches = RUN_CAP + 3;
+        let mut rows = Vec::new();
+        let mut layout: Vec<(&'static str, usize, usize)> = Vec::new();
+        for k in 0..touches {
+            layout.push(("ball touch", k, 3));
+        }
+        layout.extend([
+            ("ball touch", touches + 1, 3),
+            ("ball touch", touches + 2, 2),
+            ("probe height", touches + 3, 1),
+            ("probe height", touches + 4, 0),
+            ("probe height", touches + 5, 0),
+            ("probe height", touches + 6, 1),
+        ]);
+        for (j, &(_, _, n)) in layout.iter().enumerate() {
+            for i in 0..n {
+                let x = (j * 3 + i) as f32;
+                rows.push(row(x / 8.0, x / 64.0, (i != 1).then_some(-x)));
+            }
+        }
+        let mut records = ObservationRecords::of_rows(rows);
+        for &(kind, index, n) in &layout {
+            assert!(records.push(Cow::Borrowed(kind), index, n));
+        }
+        let json = serde_json::to_string(&records).unwrap();
+        let runs: Vec<serde_json::Value> = serde_json::from_str(&json).unwrap();
+        let shape: Vec<(String, u64, u64, usize)> = runs
+            .iter()
+            .map(|r| {
+                (
+                    r["kind"].as_str().unwrap().to_string(),
+                    r["index"].as_u64().unwrap(),
+                    r.get("count").map_or(1, |c| c.as_u64().unwrap()),
+                    r["residuals"].as_array().unwrap().len(),
+                )
+            })
+            .collect();
+        let touch = |index: usize, count: usize, rows: usize| {
+            ("ball touch".to_string(), index as u64, count as u64, rows)
+        };
+        let probe = |index: usize, rows: usize| ("probe height".to_string(), index as u64, 1, rows);
+        assert_eq!(
+            shape,
+            [
+                touch(0, RUN_CAP, 3 * RUN_CAP),
+                touch(RUN_CAP, 3, 9),
+                touch(touches + 1, 1, 3),
+                touch(touches + 2, 1, 2),
+                probe(touches + 3, 1),
+                probe(touches + 4, 0),
+                probe(touches + 5, 0),
+                probe(touches + 6, 1),
+            ]
+        );
+        assert!(runs[2].get("count").is_none(), "a run of one has no count");
+        let read: ObservationRecords = serde_json::from_str(&json).unwrap();
+        assert_eq!(read, records);
+        assert_eq!(serde_json::to_string(&read).unwrap(), json);
+    }
+
+    /// A run whose count its rows cannot share, a count of none, a run of
+    /// observations without rows (which a file could make of any size)
+    /// and indices past the largest are refused, naming the observation.
+    #[test]
+    fn runs_that_cannot_share_their_rows_are_refused() {
+        let run = |count: &str, index: &str, rows: &str| {
+            format!(
+                r#"[{{"kind":"probe height","index":0,"residuals":[1.0],"redundancy":[0.5],"normalised":[1.0]}},{{"kind":"ball touch","index":{index},"count":{count},"residuals":{rows},"redundancy":{rows},"normalised":{rows}}}]"#
+            )
+        };
+        for (count, index, rows) in [
+            ("2", "0", "[1.0,2.0,3.0]"),
+            ("0", "0", "[]"),
+            ("0", "0", "[1.0]"),
+            ("1000000000000", "0", "[]"),
+            ("2", &usize::MAX.to_string(), "[1.0,2.0]"),
+        ] {
+            let error = serde_json::from_str::<ObservationRecords>(&run(count, index, rows))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                error.contains("observation 1:") && error.contains("cannot share"),
+                "{count} {index} {rows}: {error}"
+            );
+        }
+        let fine = run("2", "5", "[1.0,2.0,3.0,4.0]");
+        let read: ObservationRecords = serde_json::from_str(&fine).unwrap();
+        let indices: Vec<_> = read.iter().map(|r| (r.index, r.rows.len())).collect();
+        assert_eq!(indices, [(0, 1), (5, 2), (6, 2)]);
     }
 
     #[test]
