@@ -67,11 +67,11 @@ pub fn worst_row(rows: &[RowCheck]) -> Option<(usize, f64)> {
         .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
 }
 
-/// An observation of [`ObservationRecords`]: its kind, its index and where
-/// its rows end.
+/// An observation of [`ObservationRecords`]: its kind (its place among
+/// the kinds), its index and where its rows end.
 #[derive(Debug, Clone, PartialEq)]
 struct Entry {
-    kind: Cow<'static, str>,
+    kind: usize,
     index: usize,
     end: usize,
 }
@@ -79,6 +79,9 @@ struct Entry {
 /// Every observation's residuals and tests, in order (module doc).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ObservationRecords {
+    /// The kinds present, each once (a few: one name per kind, not per
+    /// observation).
+    kinds: Vec<Cow<'static, str>>,
     entries: Vec<Entry>,
     rows: Vec<RowCheck>,
 }
@@ -88,6 +91,7 @@ impl ObservationRecords {
     /// yet ([`ObservationRecords::push`] takes them in turn).
     pub fn of_rows(rows: Vec<RowCheck>) -> Self {
         Self {
+            kinds: Vec::new(),
             entries: Vec::new(),
             rows,
         }
@@ -97,12 +101,37 @@ impl ObservationRecords {
     /// next `rows` rows; `false` (nothing added) when fewer are left.
     pub fn push(&mut self, kind: Cow<'static, str>, index: usize, rows: usize) -> bool {
         let start = self.entries.last().map_or(0, |e| e.end);
-        let end = start + rows;
-        if end > self.rows.len() {
+        if rows > self.rows.len() - start {
             return false;
         }
-        self.entries.push(Entry { kind, index, end });
+        let kind = self.place_of(kind);
+        self.push_placed(kind, index, rows);
         true
+    }
+
+    /// The place of `kind` among the kinds, added if new (the last
+    /// observation's kind looked at first).
+    fn place_of(&mut self, kind: Cow<'static, str>) -> usize {
+        let last = self.entries.last().map(|e| e.kind);
+        match last.filter(|&k| self.kinds[k] == kind) {
+            Some(k) => k,
+            None => self
+                .kinds
+                .iter()
+                .position(|k| *k == kind)
+                .unwrap_or_else(|| {
+                    self.kinds.push(kind);
+                    self.kinds.len() - 1
+                }),
+        }
+    }
+
+    /// The next observation, of the kind at place `kind`, holding the next
+    /// `rows` rows (as many are left).
+    fn push_placed(&mut self, kind: usize, index: usize, rows: usize) {
+        let end = self.entries.last().map_or(0, |e| e.end) + rows;
+        debug_assert!(end <= self.rows.len(), "rows held by observations");
+        self.entries.push(Entry { kind, index, end });
     }
 
     /// Rows no observation holds: none once every observation is pushed.
@@ -130,7 +159,7 @@ impl ObservationRecords {
         let entry = &self.entries[k];
         let start = k.checked_sub(1).map_or(0, |j| self.entries[j].end);
         ObservationRecord {
-            kind: &entry.kind,
+            kind: &self.kinds[entry.kind],
             index: entry.index,
             rows: &self.rows[start..entry.end],
         }
@@ -140,7 +169,7 @@ impl ObservationRecords {
     pub fn iter(&self) -> impl Iterator<Item = ObservationRecord<'_>> + '_ {
         let starts = std::iter::once(0).chain(self.entries.iter().map(|e| e.end));
         (self.entries.iter().zip(starts)).map(|(entry, start)| ObservationRecord {
-            kind: &entry.kind,
+            kind: &self.kinds[entry.kind],
             index: entry.index,
             rows: &self.rows[start..entry.end],
         })
@@ -188,7 +217,7 @@ impl ObservationRecords {
         let start = first.checked_sub(1).map_or(0, |j| self.entries[j].end);
         let entry = &self.entries[first];
         Run {
-            kind: &entry.kind,
+            kind: &self.kinds[entry.kind],
             index: entry.index,
             count: end - first,
             rows: &self.rows[start..self.entries[end - 1].end],
@@ -304,9 +333,9 @@ impl<'de> Deserialize<'de> for ObservationRecords {
                                 normalised,
                             }),
                         );
-                    let kind: Cow<'static, str> = Cow::Owned(r.kind);
+                    let kind = records.place_of(Cow::Owned(r.kind));
                     for k in 0..r.count {
-                        records.push(kind.clone(), r.index + k, rows / r.count);
+                        records.push_placed(kind, r.index + k, rows / r.count);
                     }
                 }
                 Ok(records)
