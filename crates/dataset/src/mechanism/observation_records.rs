@@ -100,8 +100,7 @@ impl ObservationRecords {
     /// The next observation, of kind `kind` and index `index`, holding the
     /// next `rows` rows; `false` (nothing added) when fewer are left.
     pub fn push(&mut self, kind: Cow<'static, str>, index: usize, rows: usize) -> bool {
-        let start = self.entries.last().map_or(0, |e| e.end);
-        if rows > self.rows.len() - start {
+        if rows > self.unclaimed_rows() {
             return false;
         }
         let kind = self.place_of(kind);
@@ -129,14 +128,14 @@ impl ObservationRecords {
     /// The next observation, of the kind at place `kind`, holding the next
     /// `rows` rows (as many are left).
     fn push_placed(&mut self, kind: usize, index: usize, rows: usize) {
-        let end = self.entries.last().map_or(0, |e| e.end) + rows;
+        let end = self.rows_start(self.len()) + rows;
         debug_assert!(end <= self.rows.len(), "rows held by observations");
         self.entries.push(Entry { kind, index, end });
     }
 
     /// Rows no observation holds: none once every observation is pushed.
     pub fn unclaimed_rows(&self) -> usize {
-        self.rows.len() - self.entries.last().map_or(0, |e| e.end)
+        self.rows.len() - self.rows_start(self.len())
     }
 
     /// The number of observations.
@@ -157,11 +156,10 @@ impl ObservationRecords {
     /// Observation `k`, one of them.
     fn record(&self, k: usize) -> ObservationRecord<'_> {
         let entry = &self.entries[k];
-        let start = k.checked_sub(1).map_or(0, |j| self.entries[j].end);
         ObservationRecord {
             kind: &self.kinds[entry.kind],
             index: entry.index,
-            rows: &self.rows[start..entry.end],
+            rows: &self.rows[self.rows_start(k)..entry.end],
         }
     }
 
@@ -195,15 +193,30 @@ struct Run<'a> {
 }
 
 impl ObservationRecords {
+    /// Where observation `k`'s rows start (for `k` the number held, the
+    /// next observation's).
+    fn rows_start(&self, k: usize) -> usize {
+        k.checked_sub(1).map_or(0, |j| self.entries[j].end)
+    }
+
+    /// Whether observation `k` follows observation `k - 1` in a run: of
+    /// the same kind, at the next index, with as many rows (at least one).
+    fn continues_run(&self, k: usize) -> bool {
+        let (before, entry) = (&self.entries[k - 1], &self.entries[k]);
+        let rows = entry.end - before.end;
+        entry.kind == before.kind
+            && before.index.checked_add(1) == Some(entry.index)
+            && rows == before.end - self.rows_start(k - 1)
+            && rows > 0
+    }
+
     /// The observations in runs (module doc), in order: where each run's
     /// observations start.
     fn run_starts(&self) -> Vec<usize> {
         let mut starts = Vec::new();
         let mut run_start = 0;
         for k in 0..self.len() {
-            let extends = k > run_start
-                && k - run_start < RUN_CAP
-                && self.record(k).continues(&self.record(k - 1));
+            let extends = k > run_start && k - run_start < RUN_CAP && self.continues_run(k);
             if !extends {
                 starts.push(k);
                 run_start = k;
@@ -214,25 +227,13 @@ impl ObservationRecords {
 
     /// The run of observations `first..end`.
     fn run(&self, first: usize, end: usize) -> Run<'_> {
-        let start = first.checked_sub(1).map_or(0, |j| self.entries[j].end);
         let entry = &self.entries[first];
         Run {
             kind: &self.kinds[entry.kind],
             index: entry.index,
             count: end - first,
-            rows: &self.rows[start..self.entries[end - 1].end],
+            rows: &self.rows[self.rows_start(first)..self.entries[end - 1].end],
         }
-    }
-}
-
-impl ObservationRecord<'_> {
-    /// Whether it follows `before` in a run: of the same kind, at the next
-    /// index, with as many rows (at least one).
-    fn continues(&self, before: &ObservationRecord<'_>) -> bool {
-        self.kind == before.kind
-            && before.index.checked_add(1) == Some(self.index)
-            && self.rows.len() == before.rows.len()
-            && !self.rows.is_empty()
     }
 }
 
