@@ -142,12 +142,15 @@ impl MechanismData {
             .ball
             .par_iter()
             .zip(&m.q)
-            .zip(start.weights)
-            .map(|((&ball, q), weight)| BallTouch {
-                sigma: weight.sigma,
-                weight: weight.coordinates,
-                approach: weight.approach,
-                ..BallTouch::new(ball as usize, Actuation::Readings(legs.actuation(q)), 0.0)
+            .enumerate()
+            .map(|(row, (&ball, q))| {
+                let weight = start.weight(row);
+                BallTouch {
+                    sigma: weight.sigma,
+                    weight: weight.coordinates,
+                    approach: weight.approach,
+                    ..BallTouch::new(ball as usize, Actuation::Readings(legs.actuation(q)), 0.0)
+                }
             })
             .collect();
         let instruments = instrument_observations(dataset, &legs)?;
@@ -390,8 +393,11 @@ struct ContactWeight {
 /// What the hexapod calibration computes at the design before its first
 /// iteration (module doc).
 struct DesignStart {
-    /// Every contact's weight, in the order of the measurements.
-    weights: Vec<ContactWeight>,
+    /// The set-up's observations: every contact's weight, in the set-up's
+    /// sorted order ([`DesignStart::weight`] takes a contact's).
+    observations: SetupObservations,
+    /// Each contact's slot in that order, in the order of the measurements.
+    slot: Vec<u32>,
     /// Each ball's centre: the best fit of its design tool tips, or its
     /// mirror image.
     centres: Vec<Vec3>,
@@ -418,31 +424,39 @@ fn design_start(
     for (k, &row) in setup.order.iter().enumerate() {
         slot[row as usize] = k as u32;
     }
-    let weight = |k: usize| match &observations {
-        SetupObservations::Radius(radius) => ContactWeight {
-            sigma: radius.weights[k].sigma(),
-            ..ContactWeight::default()
-        },
-        SetupObservations::Coordinates(coordinates) => {
-            let (whitening, u0) = (&coordinates.weights[k], &coordinates.directions[k]);
-            ContactWeight {
-                sigma: whitening.variance_along(u0).sqrt(),
-                coordinates: Some(*whitening),
-                approach: coordinates.angle_sigma.map(|sigma| Approach {
-                    direction: u0.into_inner().into(),
-                    sigma,
-                }),
-            }
-        }
-    };
-    let weights = slot.par_iter().map(|&k| weight(k as usize)).collect();
     let mut poses = vec![0.0; 6 * slot.len()];
     poses.par_chunks_mut(6).zip(&slot).for_each(|(pose, &k)| {
         pose.copy_from_slice(pose_vector(&setup.poses[k as usize]).as_slice())
     });
     Ok(DesignStart {
-        weights,
+        observations,
+        slot,
         centres: setup.initial_centres,
         poses,
     })
+}
+
+impl DesignStart {
+    /// The weight of the contact on row `row` of the measurements, as the
+    /// set-up formed it (formed as the touches are, not kept for each).
+    fn weight(&self, row: usize) -> ContactWeight {
+        let k = self.slot[row] as usize;
+        match &self.observations {
+            SetupObservations::Radius(radius) => ContactWeight {
+                sigma: radius.weights[k].sigma(),
+                ..ContactWeight::default()
+            },
+            SetupObservations::Coordinates(coordinates) => {
+                let (whitening, u0) = (&coordinates.weights[k], &coordinates.directions[k]);
+                ContactWeight {
+                    sigma: whitening.variance_along(u0).sqrt(),
+                    coordinates: Some(*whitening),
+                    approach: coordinates.angle_sigma.map(|sigma| Approach {
+                        direction: u0.into_inner().into(),
+                        sigma,
+                    }),
+                }
+            }
+        }
+    }
 }
