@@ -108,21 +108,15 @@ impl ObservationRecords {
         true
     }
 
-    /// The place of `kind` among the kinds, added if new (the last
-    /// observation's kind looked at first).
+    /// The place of `kind` among the kinds, added if new.
     fn place_of(&mut self, kind: Cow<'static, str>) -> usize {
-        let last = self.entries.last().map(|e| e.kind);
-        match last.filter(|&k| self.kinds[k] == kind) {
-            Some(k) => k,
-            None => self
-                .kinds
-                .iter()
-                .position(|k| *k == kind)
-                .unwrap_or_else(|| {
-                    self.kinds.push(kind);
-                    self.kinds.len() - 1
-                }),
-        }
+        self.kinds
+            .iter()
+            .position(|k| *k == kind)
+            .unwrap_or_else(|| {
+                self.kinds.push(kind);
+                self.kinds.len() - 1
+            })
     }
 
     /// The next observation, of the kind at place `kind`, holding the next
