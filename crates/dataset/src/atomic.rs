@@ -13,7 +13,8 @@
 //! Temporaries are hidden (`.NAME.parcal-PID-XXXXXX.tmp`), registered so
 //! that [`remove_in_flight`] removes them when the program is interrupted,
 //! and removed by a later write into the same directory once their process
-//! is gone.
+//! is gone. A large file's data goes to the device while it is being
+//! written ([`WriteBehind`]), so that its sync waits only for the last part.
 
 use std::fs::{self, File, Metadata};
 use std::io::{self, BufWriter, Write};
@@ -25,6 +26,11 @@ use crate::error::{DatasetError, Result};
 use crate::temp::{self, InFlight};
 
 pub use crate::temp::remove_in_flight;
+pub use crate::write_behind::{SYNC_BEHIND, WriteBehind};
+
+/// What a file is written through: buffered, its data synced behind the
+/// writer.
+pub type FileWriter<'f> = BufWriter<WriteBehind<'f>>;
 
 /// Symbolic links followed before a path is taken as a loop (Linux's limit).
 const MAX_LINKS: usize = 40;
@@ -39,7 +45,7 @@ const MAX_LINKS: usize = 40;
 /// own (e.g. a serializer's) against `path`.
 pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
 where
-    F: FnOnce(&mut BufWriter<&File>) -> Result<()>,
+    F: FnOnce(&mut FileWriter<'_>) -> Result<()>,
 {
     let staged = stage(path, fill)?;
     // Within a set, the rename waits for the set's other members.
@@ -68,7 +74,7 @@ struct Staged {
 /// error the temporary is removed.
 fn stage<F>(path: &Path, fill: F) -> Result<Staged>
 where
-    F: FnOnce(&mut BufWriter<&File>) -> Result<()>,
+    F: FnOnce(&mut FileWriter<'_>) -> Result<()>,
 {
     let target = resolve(path)?;
     let existing = regular_or_absent(&target, path)?;
@@ -80,12 +86,12 @@ where
                 DatasetError::io(path, "keep the permissions of the file it replaces", e)
             })?;
     }
-    let mut writer = BufWriter::new(tmp.as_file());
+    let mut writer = BufWriter::new(WriteBehind::new(tmp.as_file()));
     fill(&mut writer)?;
     writer
         .into_inner()
         .map_err(|e| DatasetError::io(path, "write", e.into_error()))?
-        .sync_all()
+        .finish()
         .map_err(|e| DatasetError::io(path, "write", e))?;
     Ok(Staged {
         tmp,

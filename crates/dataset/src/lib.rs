@@ -115,6 +115,7 @@ mod temp;
 mod tracker;
 mod truth;
 mod validation;
+mod write_behind;
 
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
 pub use calibration::{

@@ -4,13 +4,13 @@
 
 use std::fmt::Write as _;
 use std::fs::File;
-use std::io::{self, BufWriter, Read, Seek, SeekFrom};
+use std::io::{self, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use csv::{ByteRecord, ReaderBuilder};
 use rayon::prelude::*;
 
-use crate::atomic::{write_atomic, write_error};
+use crate::atomic::{FileWriter, write_atomic, write_error};
 use crate::check::not_finite;
 use crate::error::DatasetError;
 use crate::input;
@@ -674,7 +674,7 @@ fn take_row(
 pub(crate) fn write_file(
     path: &Path,
     header: &[&str],
-    fill: impl FnOnce(&mut NumberWriter<&mut BufWriter<&File>>) -> Result<(), csv::Error>,
+    fill: impl FnOnce(&mut NumberWriter<&mut FileWriter<'_>>) -> Result<(), csv::Error>,
 ) -> Result<(), DatasetError> {
     write_atomic(path, |w| {
         let to_error = |e: csv::Error| DatasetError::io(path, "write", e.into());
