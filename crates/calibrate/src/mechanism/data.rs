@@ -12,6 +12,7 @@ use parcal_observe::mechanism::{
     Actuation, BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES,
     PartDistance, PointSample, ProbeHeight, TrackerPoint, TrackerPose,
 };
+use rayon::prelude::*;
 
 use super::correlation::check_correlation;
 use super::error::MechanismCalibrationError;
@@ -680,7 +681,7 @@ impl MechanismData {
 /// least [`MIN_TOUCHES_PER_BALL`] times.
 fn check_balls(
     observations: &Observations,
-    check_at: impl Fn(ObservationRef, &Actuation) -> Result<(), MechanismCalibrationError>,
+    check_at: impl Fn(ObservationRef, &Actuation) -> Result<(), MechanismCalibrationError> + Sync,
 ) -> Result<(), MechanismCalibrationError> {
     let balls = &observations.balls;
     let ball_error = |b: usize, reason: String| MechanismCalibrationError::InvalidData {
@@ -720,24 +721,31 @@ fn check_balls(
             }
         }
     }
-    let mut touches_of = vec![0usize; balls.len()];
-    for (k, touch) in observations.touches.iter().enumerate() {
+    // The touches on the threads, the first refused named.
+    let refused = (observations.touches.par_iter().enumerate()).find_map_first(|(k, touch)| {
         let id = ObservationRef {
             kind: ObservationKind::Touch,
             index: k,
         };
-        if touch.ball >= balls.len() {
-            return Err(observation_error(
+        let checked = if touch.ball >= balls.len() {
+            Err(observation_error(
                 id,
                 format!(
                     "it touches ball {}, and there are {} balls",
                     touch.ball,
                     balls.len()
                 ),
-            ));
-        }
-        check_at(id, &touch.at)?;
-        check_sigma(id, touch.sigma)?;
+            ))
+        } else {
+            check_at(id, &touch.at).and_then(|()| check_sigma(id, touch.sigma))
+        };
+        checked.err()
+    });
+    if let Some(error) = refused {
+        return Err(error);
+    }
+    let mut touches_of = vec![0usize; balls.len()];
+    for touch in &observations.touches {
         touches_of[touch.ball] += 1;
     }
     match touches_of

@@ -85,7 +85,7 @@
 //! noise ([`predict_from_reference`]). A sample's pose is located by its
 //! own readings: reference observations are refused beside samples.
 
-use nalgebra::{DMatrix, DVector, Isometry3};
+use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, tool_point_reading_jacobian};
 use parcal_observe::mechanism::{BodyFrame, PointSample, Rows, TrackerFrame, TrackerPoint};
 use parcal_observe::{FrameCorrection, PointBlock};
@@ -96,7 +96,7 @@ use parcal_observe::mechanism::BallTouch;
 use super::data::Observations;
 use super::error::MechanismCalibrationError;
 use super::observation::{HeldOut, ObservationKind, ObservationRef};
-use super::problem::ball_centre;
+use super::problem::{BallFit, WarmStart, ball_centre};
 use super::trackers::{Seen, locate_frame, points_of, poses_of, reach};
 
 /// The most touches of one held-out ball: its rows' noise covariance is
@@ -477,8 +477,11 @@ fn predict_balls(
             ball.radius,
             None,
             &mut Vec::new(),
-        )?
-        .centre;
+            BallFit {
+                warm_starts: &mut vec![WarmStart::default(); locating.len()],
+                tips: &mut vec![Vector3::zeros(); locating.len()],
+            },
+        )?;
         let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
         noise.view_mut((row, row), (k, k)).fill(radius_variance);
         for &t in touches {

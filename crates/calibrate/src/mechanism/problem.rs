@@ -182,8 +182,12 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let trackers = Trackers::locate(data, &prior_means(data).as_slice()[..n], frames)?;
         let tied = o.tied_balls(m);
         let prior = global_prior(data, &tied);
+        // Each ball's touches in their order (the identity for data
+        // grouped by ball, which needs no sort).
         let mut touch_order: Vec<usize> = (0..o.touches.len()).collect();
-        touch_order.sort_by_key(|&t| o.touches[t].ball);
+        if !o.touches.is_sorted_by_key(|touch| touch.ball) {
+            touch_order.sort_by_key(|&t| o.touches[t].ball);
+        }
         let mut counts = vec![0; o.balls.len()];
         for touch in &o.touches {
             counts[touch.ball] += 1;
@@ -352,41 +356,37 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 })?;
             blocks.push(block(&Vector3::new(pose[0], pose[1], pose[2]), 0.0));
         }
-        // Each ball on the threads, the first failing ball named.
+        // Each ball on the threads, its touches' warm starts and tool
+        // points written in their places; the first failing ball named.
         let configured = self.data.configured.as_slice();
-        let centres: Vec<Result<BallStart<C>, MechanismCalibrationError>> = o
-            .balls
-            .par_iter()
-            .enumerate()
-            .map_init(Vec::new, |reached, (b, ball)| {
-                let touches: Vec<usize> = self.ball_points[b]
-                    .clone()
-                    .map(|i| self.touch_order[i - self.sample_points()])
-                    .collect();
-                let fit = ball_centre(
-                    mechanism,
-                    params,
-                    configured,
-                    &o.touches,
-                    &touches,
-                    b,
-                    ball.radius,
-                    self.data.touch_start.as_ref(),
-                    reached,
-                )?;
-                Ok((block(&fit.centre, ball.radius), fit))
-            })
-            .collect();
-        let mut caches = vec![WarmStart::default(); self.sample_points()];
-        caches.reserve(self.touch_order.len());
-        let mut all_tips = Vec::with_capacity(self.touch_order.len());
+        let samples = self.sample_points();
+        let mut caches = vec![WarmStart::default(); samples + self.touch_order.len()];
+        let mut tips = vec![Vector3::zeros(); self.touch_order.len()];
+        let rooms = ball_rooms(&self.ball_points, &mut caches[samples..], &mut tips);
+        let centres: Vec<Result<SVector<f64, C>, MechanismCalibrationError>> =
+            (o.balls.par_iter().enumerate().zip(rooms))
+                .map_init(Vec::new, |reached, ((b, ball), fit)| {
+                    let points = &self.ball_points[b];
+                    let touches = &self.touch_order[points.start - samples..points.end - samples];
+                    let centre = ball_centre(
+                        mechanism,
+                        params,
+                        configured,
+                        &o.touches,
+                        touches,
+                        b,
+                        ball.radius,
+                        self.data.touch_start.as_ref(),
+                        reached,
+                        fit,
+                    )?;
+                    Ok(block(&centre, ball.radius))
+                })
+                .collect();
         for centre in centres {
-            let (block, fit) = centre?;
-            blocks.push(block);
-            caches.extend(fit.warm_starts);
-            all_tips.extend(fit.tips);
+            blocks.push(centre?);
         }
-        Ok((blocks, caches, all_tips))
+        Ok((blocks, caches, tips))
     }
 
     /// The rows of point sample `s` at its pose.
@@ -756,17 +756,34 @@ pub(crate) struct Start<const C: usize> {
 type StartBlocks<const C: usize> =
     Result<(Vec<SVector<f64, C>>, Vec<WarmStart>, Vec<Vector3<f64>>), MechanismCalibrationError>;
 
-/// A ball's start: its block, and the fit of its touches.
-type BallStart<const C: usize> = (SVector<f64, C>, BallFit);
-
-/// A ball located by its touches ([`ball_centre`]).
-pub(crate) struct BallFit {
-    /// Its centre.
-    pub centre: Vector3<f64>,
+/// Where [`ball_centre`] puts what a ball's touches reached, in the order
+/// of its touches.
+pub(crate) struct BallFit<'a> {
     /// The warm start of the pose each touch reached.
-    pub warm_starts: Vec<WarmStart>,
+    pub warm_starts: &'a mut [WarmStart],
     /// The tool point each touch reached.
-    pub tips: Vec<Vector3<f64>>,
+    pub tips: &'a mut [Vector3<f64>],
+}
+
+/// Each ball's [`BallFit`] in `warm_starts` and `tips` (the touches'
+/// places, in the order of their points), the balls' points `ball_points`
+/// one after the other.
+fn ball_rooms<'a>(
+    ball_points: &[Range<usize>],
+    mut warm_starts: &'a mut [WarmStart],
+    mut tips: &'a mut [Vector3<f64>],
+) -> Vec<BallFit<'a>> {
+    let mut rooms = Vec::with_capacity(ball_points.len());
+    for points in ball_points {
+        let (ball_warm_starts, rest_warm_starts) = warm_starts.split_at_mut(points.len());
+        let (ball_tips, rest_tips) = tips.split_at_mut(points.len());
+        rooms.push(BallFit {
+            warm_starts: ball_warm_starts,
+            tips: ball_tips,
+        });
+        (warm_starts, tips) = (rest_warm_starts, rest_tips);
+    }
+    rooms
 }
 
 /// A touched ball's unknowns' values and where they are
@@ -911,14 +928,14 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// `touches` (indices into `all`): the best fit, with its radius, of the
 /// tool points the touches reach with parameters `params` and the
 /// controller's `configured` ([`best_fit`]; the last
-/// iterate of a fit that did not converge); with the warm start and the
-/// tool point each touch reached, in the order of `touches`. With a
+/// iterate of a fit that did not converge); the warm start and the tool
+/// point each touch reached into `fit`, in the order of `touches`. With a
 /// `start`, the ball and its touches are where it put them
 /// ([`ball_at_start`]). `reached` is room for the touches' outcomes, kept
 /// from ball to ball so that their rooms are allocated once.
 #[allow(
     clippy::too_many_arguments,
-    reason = "a ball, its touches and where they start"
+    reason = "a ball, its touches, where they start and where they are put"
 )]
 pub(crate) fn ball_centre(
     mechanism: &dyn Mechanism,
@@ -930,9 +947,10 @@ pub(crate) fn ball_centre(
     radius: f64,
     start: Option<&TouchStart>,
     reached: &mut Vec<Result<ReachedAlong, MechanismError>>,
-) -> Result<BallFit, MechanismCalibrationError> {
+    fit: BallFit<'_>,
+) -> Result<Vector3<f64>, MechanismCalibrationError> {
     if let Some(start) = start {
-        return ball_at_start(mechanism, params, touches, b, start);
+        return ball_at_start(mechanism, params, touches, b, start, fit);
     }
     // Together: a mechanism may reach several at once (the hexapod's
     // lanes), each from its start pose. Of each only its tool point and
@@ -949,26 +967,14 @@ pub(crate) fn ball_centre(
         &zero_step,
         reached,
     );
-    let (points, warm_starts): (Vec<Vector3<f64>>, Vec<WarmStart>) = (reached.iter())
-        .zip(touches)
-        .map(|(along, &t)| {
-            along
-                .as_ref()
-                .map(|along| {
-                    let reached = &along.reached;
-                    (reached.point, WarmStart::of(reached.warm_start.as_slice()))
-                })
-                .map_err(|e| failed(touch_ref(t), e))
-        })
-        .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
-        .into_iter()
-        .unzip();
-    match best_fit(&points, radius) {
-        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(BallFit {
-            centre: fit.centre,
-            warm_starts,
-            tips: points,
-        }),
+    let rooms = fit.tips.iter_mut().zip(fit.warm_starts.iter_mut());
+    for ((along, &t), (tip, warm_start)) in reached.iter().zip(touches).zip(rooms) {
+        let along = along.as_ref().map_err(|e| failed(touch_ref(t), e))?;
+        *tip = along.reached.point;
+        *warm_start = WarmStart::of(along.reached.warm_start.as_slice());
+    }
+    match best_fit(fit.tips, radius) {
+        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(fit.centre),
         Err(e) => Err(MechanismCalibrationError::InvalidData {
             what: format!("ball {b}"),
             reason: format!("its touches do not locate its centre: {e}"),
@@ -979,34 +985,30 @@ pub(crate) fn ball_centre(
 /// Ball `b` and its `touches` where `start` put them: its centre the
 /// start's, each touch's tool point `T(p, x)` at its start pose `x`
 /// ([`Mechanism::tool_points_at_poses`], parameters `params`) and the warm
-/// start of that pose. No forward kinematics: the pose is where the other
-/// set-up reached the touch's readings, and the first pass starts there.
+/// start of that pose into `fit`. No forward kinematics: the pose is where
+/// the other set-up reached the touch's readings, and the first pass
+/// starts there.
 fn ball_at_start(
     mechanism: &dyn Mechanism,
     params: &[f64],
     touches: &[usize],
     b: usize,
     start: &TouchStart,
-) -> Result<BallFit, MechanismCalibrationError> {
+    fit: BallFit<'_>,
+) -> Result<Vector3<f64>, MechanismCalibrationError> {
     let coordinates = mechanism.pose_coordinates().len();
     let poses: Vec<&[f64]> = (touches.iter())
         .map(|&t| start.pose(t, coordinates))
         .collect();
     let tips = mechanism.tool_points_at_poses(params, &poses);
-    let (tips, warm_starts) = (touches.iter().zip(tips).zip(&poses))
-        .map(|((&t, tip), pose)| {
-            let warm_start = tip.and_then(|tip| Ok((tip, mechanism.warm_start(pose)?)));
-            let (tip, warm_start) = warm_start.map_err(|e| failed(touch_ref(t), e))?;
-            Ok((tip, WarmStart::of(warm_start.as_slice())))
-        })
-        .collect::<Result<Vec<_>, MechanismCalibrationError>>()?
-        .into_iter()
-        .unzip();
-    Ok(BallFit {
-        centre: Vector3::from(start.centres[b]),
-        warm_starts,
-        tips,
-    })
+    let rooms = fit.tips.iter_mut().zip(fit.warm_starts.iter_mut());
+    for (((&t, tip), pose), (room, warm_start)) in touches.iter().zip(tips).zip(&poses).zip(rooms) {
+        let reached = tip.and_then(|tip| Ok((tip, mechanism.warm_start(pose)?)));
+        let (tip, reached) = reached.map_err(|e| failed(touch_ref(t), e))?;
+        *room = tip;
+        *warm_start = WarmStart::of(reached.as_slice());
+    }
+    Ok(Vector3::from(start.centres[b]))
 }
 
 /// Touch `t` as an observation.
