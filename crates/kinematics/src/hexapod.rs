@@ -37,6 +37,7 @@ use nalgebra::{
     DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3, Vector6,
 };
 
+use crate::batch_workspace::BatchWorkspace;
 use crate::closure::Legs;
 use crate::derivatives::{
     FactoredTipJacobian, FactoredValues, SolutionAlong, SolutionJacobian, TipDerivatives,
@@ -357,6 +358,29 @@ impl Hexapod {
         }
     }
 
+    /// The canonical geometry of `params` ([`Hexapod::geometry`]), made
+    /// again only when they differ from the last batch's, and the row
+    /// order the lanes carry from batch to batch, both kept in
+    /// `workspace` (its first batch starts from [`design_pivot_order`]).
+    fn shared<'w>(
+        &self,
+        params: &[f64],
+        workspace: &'w mut BatchWorkspace,
+    ) -> Result<(&'w Geometry, &'w mut PivotOrder), MechanismError> {
+        let SharedByBatches { prepared, order } = workspace.held(|| SharedByBatches {
+            prepared: None,
+            order: self.pivot_order,
+        });
+        if !prepared
+            .as_ref()
+            .is_some_and(|(last, _)| same_bits(last, params))
+        {
+            *prepared = Some((params.to_vec(), self.geometry(params)?));
+        }
+        let (_, geometry) = prepared.as_ref().expect("the geometry of `params` is held");
+        Ok((geometry, order))
+    }
+
     /// The pose of a pose vector (checked).
     fn pose(&self, pose: &[f64]) -> Result<Pose, MechanismError> {
         check_vector(self, "pose coordinates", pose, 6)?;
@@ -398,6 +422,21 @@ fn design_pivot_order(design: &Geometry, options: &ForwardOptions) -> PivotOrder
     let q = [0.0; 6];
     forward(design, &q, &design.home_pose(&q), options)
         .map_or_else(|_| PivotOrder::default(), |at| PivotOrder::of(&at.factor))
+}
+
+/// What a hexapod's batches of one [`BatchWorkspace`] share: the last
+/// parameters and their canonical geometry, and the row order the last
+/// factorisation of the lanes ended with, where the next one starts.
+struct SharedByBatches {
+    prepared: Option<(Vec<f64>, Geometry)>,
+    order: PivotOrder,
+}
+
+/// Whether `a` and `b` hold the same numbers, bit for bit (every pair
+/// compared, without a branch per pair).
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    let differing = (a.iter().zip(b)).fold(0, |bits, (x, y)| bits | (x.to_bits() ^ y.to_bits()));
+    a.len() == b.len() && differing == 0
 }
 
 /// The isometry of a pose vector `(t, r)`.
@@ -603,12 +642,12 @@ impl Mechanism for Hexapod {
         params: &[f64],
         readings: &[&[f64]],
         starts: &[&[f64]],
+        workspace: &mut BatchWorkspace,
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
-        let Ok(geometry) = self.geometry(params) else {
+        let Ok((geometry, order)) = self.shared(params, workspace) else {
             return tool_points_one_by_one(self, params, readings, starts, reached);
         };
-        let mut order = self.pivot_order;
         let mut solutions: [SolutionJacobian; LANES] = Default::default();
         let n_params = self.parameters.len();
         self.in_batches(
@@ -620,11 +659,11 @@ impl Mechanism for Hexapod {
             |reached, first, q, poses| {
                 let solutions = &mut solutions[..q.len()];
                 let solved = forward_jacobian_batch(
-                    &geometry,
+                    geometry,
                     q,
                     poses,
                     &self.options,
-                    &mut order,
+                    &mut *order,
                     solutions,
                     |s| s,
                 );
@@ -661,14 +700,15 @@ impl Mechanism for Hexapod {
         readings: &[&[f64]],
         starts: &[&[f64]],
         dp: &[f64],
+        workspace: &mut BatchWorkspace,
         along: &mut Vec<Result<ReachedAlong, MechanismError>>,
     ) {
         let step_refused = check_vector(self, "parameter step values", dp, self.parameters.len());
-        let geometry = match (self.geometry(params), step_refused) {
-            (Ok(geometry), Ok(())) => geometry,
-            _ => return tool_points_along_by_rows(self, params, readings, starts, dp, along),
+        let shared = step_refused.and_then(|()| self.shared(params, workspace));
+        let Ok((geometry, order)) = shared else {
+            let by_rows = tool_points_along_by_rows;
+            return by_rows(self, params, readings, starts, dp, workspace, along);
         };
-        let mut order = self.pivot_order;
         let mut solutions = [SolutionAlong::default(); LANES];
         let batch = if self.scaled { 1 } else { LANES };
         self.in_batches(
@@ -681,12 +721,12 @@ impl Mechanism for Hexapod {
                 let solutions = &mut solutions[..q.len()];
                 let step = self.kinematic_step(dp, readings[first]);
                 let solved = forward_along_batch(
-                    &geometry,
+                    geometry,
                     q,
                     poses,
                     &step,
                     &self.options,
-                    &mut order,
+                    &mut *order,
                     solutions,
                 );
                 solved.is_ok_and(|()| {
@@ -1104,7 +1144,7 @@ mod tests {
         let mut q: Vec<&[f64]> = readings.iter().map(|q| q.as_slice()).collect();
         let x: Vec<&[f64]> = starts.iter().map(|x| x.as_slice()).collect();
         let same_as_one_by_one =
-            |q: &[&[f64]], x: &[&[f64]], batch: &[Result<Reached, MechanismError>]| {
+            |p: &[f64], q: &[&[f64]], x: &[&[f64]], batch: &[Result<Reached, MechanismError>]| {
                 assert_eq!(batch.len(), q.len());
                 for ((q, x), reached) in q.iter().zip(x).zip(batch) {
                     let one = hexapod.tool_point_at_readings(p, q, x).unwrap();
@@ -1117,13 +1157,13 @@ mod tests {
                     assert!(difference < 1e-9, "{difference:e}");
                 }
             };
-        let mut batch = Vec::new();
-        hexapod.tool_points_at_readings(p, &q, &x, &mut batch);
-        same_as_one_by_one(&q, &x, &batch);
+        let (mut batch, workspace) = (Vec::new(), &mut BatchWorkspace::default());
+        hexapod.tool_points_at_readings(p, &q, &x, workspace, &mut batch);
+        same_as_one_by_one(p, &q, &x, &batch);
         // Into the room of the first batch, one contact's readings refused.
         let full = q.clone();
         q[5] = &q[5][..5];
-        hexapod.tool_points_at_readings(p, &q, &x, &mut batch);
+        hexapod.tool_points_at_readings(p, &q, &x, workspace, &mut batch);
         for (k, reached) in batch.iter().enumerate() {
             match k {
                 5 => assert_eq!(
@@ -1137,10 +1177,16 @@ mod tests {
         let (mut q, mut x) = (full, x.clone());
         q.reverse();
         x.reverse();
-        hexapod.tool_points_at_readings(p, &q, &x, &mut batch);
-        same_as_one_by_one(&q, &x, &batch);
-        hexapod.tool_points_at_readings(p, &q[..3], &x[..3], &mut batch);
-        same_as_one_by_one(&q[..3], &x[..3], &batch);
+        hexapod.tool_points_at_readings(p, &q, &x, workspace, &mut batch);
+        same_as_one_by_one(p, &q, &x, &batch);
+        hexapod.tool_points_at_readings(p, &q[..3], &x[..3], workspace, &mut batch);
+        same_as_one_by_one(p, &q[..3], &x[..3], &batch);
+        // Other parameters in the same workspace (a leg 0.1 mm longer):
+        // their own geometry, not the last batch's.
+        let mut longer = p.to_vec();
+        longer[LEG_OFFSET] += 0.1;
+        hexapod.tool_points_at_readings(&longer, &q, &x, workspace, &mut batch);
+        same_as_one_by_one(&longer, &q, &x, &batch);
     }
 
     #[test]
@@ -1164,10 +1210,19 @@ mod tests {
             let size = if k < N_PARAMS { 1e-4 } else { 1e-6 * p[k] };
             size * (1.0 + k as f64).sin()
         });
-        let mut along = Vec::new();
-        hexapod.tool_points_along(p.as_slice(), &q, &x, dp.as_slice(), &mut along);
-        let mut by_rows = Vec::new();
-        tool_points_along_by_rows(hexapod, p.as_slice(), &q, &x, dp.as_slice(), &mut by_rows);
+        let (mut along, workspace) = (Vec::new(), &mut BatchWorkspace::default());
+        hexapod.tool_points_along(p.as_slice(), &q, &x, dp.as_slice(), workspace, &mut along);
+        let (mut by_rows, fresh) = (Vec::new(), &mut BatchWorkspace::default());
+        let by_rows_of = tool_points_along_by_rows;
+        by_rows_of(
+            hexapod,
+            p.as_slice(),
+            &q,
+            &x,
+            dp.as_slice(),
+            fresh,
+            &mut by_rows,
+        );
         let moved = &p + &dp;
         for (k, (lanes, rows)) in along.iter().zip(&by_rows).enumerate() {
             let (lanes, rows) = (lanes.as_ref().unwrap(), rows.as_ref().unwrap());
@@ -1194,7 +1249,8 @@ mod tests {
                 "{k}: {shift:e} {error:e}"
             );
         }
-        hexapod.tool_points_along(p.as_slice(), &q, &x, &dp.as_slice()[1..], &mut along);
+        let short = &dp.as_slice()[1..];
+        hexapod.tool_points_along(p.as_slice(), &q, &x, short, workspace, &mut along);
         assert_eq!(along.len(), q.len());
         for outcome in &along {
             let error = outcome.as_ref().unwrap_err().to_string();

@@ -48,6 +48,7 @@
 //! ```
 
 pub mod assembly;
+pub mod batch_workspace;
 pub mod cable;
 pub mod closure;
 pub mod delta;

@@ -90,6 +90,7 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use crate::KinematicsError;
+use crate::batch_workspace::BatchWorkspace;
 use crate::params_jacobian::{JacobianForm, ParamsJacobian};
 
 /// One kinematic parameter: what it is and what the designer knows of it.
@@ -401,7 +402,8 @@ pub trait Mechanism: Send + Sync {
     /// overrides it with the same values, to rounding (the hexapod: four
     /// in SIMD lanes), and may write them into the room of the `Ok`
     /// entries `reached` holds ([`write_reached`]), so that a caller who
-    /// keeps `reached` from batch to batch allocates nothing.
+    /// keeps `reached` from batch to batch allocates nothing, and keep in
+    /// `workspace` what its batches share ([`BatchWorkspace`]).
     ///
     /// # Panics
     /// If `readings` and `starts` differ in length.
@@ -410,6 +412,7 @@ pub trait Mechanism: Send + Sync {
         params: &[f64],
         readings: &[&[f64]],
         starts: &[&[f64]],
+        _workspace: &mut BatchWorkspace,
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
         tool_points_one_by_one(self, params, readings, starts, reached);
@@ -424,7 +427,8 @@ pub trait Mechanism: Send + Sync {
     /// prediction ([`along_of_reached`]); a mechanism that can form the
     /// product without `dT/dp` and predict the pose overrides it (the
     /// hexapod: four in SIMD lanes), writing into the room of the `Ok`
-    /// entries `along` holds ([`write_entry`]).
+    /// entries `along` holds ([`write_entry`]), with `workspace` as
+    /// [`Mechanism::tool_points_at_readings`]'s.
     ///
     /// # Panics
     /// If `readings` and `starts` differ in length.
@@ -434,9 +438,10 @@ pub trait Mechanism: Send + Sync {
         readings: &[&[f64]],
         starts: &[&[f64]],
         dp: &[f64],
+        workspace: &mut BatchWorkspace,
         along: &mut Vec<Result<ReachedAlong, MechanismError>>,
     ) {
-        tool_points_along_by_rows(self, params, readings, starts, dp, along);
+        tool_points_along_by_rows(self, params, readings, starts, dp, workspace, along);
     }
 
     /// A pose near the one `readings` reach, for an iterative
@@ -694,10 +699,11 @@ pub fn tool_points_along_by_rows<M: Mechanism + ?Sized>(
     readings: &[&[f64]],
     starts: &[&[f64]],
     dp: &[f64],
+    workspace: &mut BatchWorkspace,
     along: &mut Vec<Result<ReachedAlong, MechanismError>>,
 ) {
     let mut reached = Vec::with_capacity(readings.len());
-    mechanism.tool_points_at_readings(params, readings, starts, &mut reached);
+    mechanism.tool_points_at_readings(params, readings, starts, workspace, &mut reached);
     along.clear();
     along.extend(
         (reached.into_iter())
@@ -769,22 +775,21 @@ pub fn write_reached(
 
 /// Entry `index` of `entries` (at most its length: an entry is added at
 /// the end) set to `Ok`, as `write` writes it into room: the room of the
-/// `Ok` entry there when it `fits`, else `fresh` room.
-pub fn write_entry<T: Default>(
+/// `Ok` entry there when it `fits` (written in place), else `fresh` room.
+pub fn write_entry<T>(
     entries: &mut Vec<Result<T, MechanismError>>,
     index: usize,
     fits: impl FnOnce(&T) -> bool,
     fresh: impl FnOnce() -> T,
     write: impl FnOnce(&mut T),
 ) {
-    let old = match entries.get_mut(index) {
-        Some(entry) => std::mem::replace(entry, Ok(T::default())),
-        None => Ok(T::default()),
-    };
-    let mut room = match old {
-        Ok(room) if fits(&room) => room,
-        _ => fresh(),
-    };
+    if let Some(Ok(room)) = entries.get_mut(index)
+        && fits(room)
+    {
+        write(room);
+        return;
+    }
+    let mut room = fresh();
     write(&mut room);
     put_entry(entries, index, Ok(room));
 }

@@ -38,6 +38,7 @@
 use std::ops::Range;
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
+use parcal_kinematics::batch_workspace::BatchWorkspace;
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAlong};
 use parcal_observe::mechanism::{Actuation, BallTouch, RadiusRow, Rows, SampleRows, gathered};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
@@ -75,6 +76,9 @@ pub(crate) struct Reaches {
     spare_at: Vec<Result<Reached, MechanismError>>,
     /// The rooms of `along` beyond the last batch.
     spare_along: Vec<Result<ReachedAlong, MechanismError>>,
+    /// What the mechanism's batches share (the hexapod's geometry of the
+    /// pass's parameters and its lanes' row order).
+    kinematics: BatchWorkspace,
 }
 
 /// `entries` cut or grown to `n` entries from and into `spare` (as far as
@@ -565,6 +569,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 self.data.configured.as_slice(),
                 actuations,
                 starts,
+                &mut reaches.kinematics,
                 &mut reaches.at,
             );
         });
@@ -615,6 +620,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
                 actuations,
                 starts,
                 &dg.as_slice()[..n],
+                &mut reaches.kinematics,
                 &mut reaches.along,
             );
         });
@@ -965,6 +971,7 @@ pub(crate) fn ball_centre(
         &actuations,
         &vec![None; touches.len()],
         &zero_step,
+        &mut BatchWorkspace::default(),
         reached,
     );
     let rooms = fit.tips.iter_mut().zip(fit.warm_starts.iter_mut());

@@ -5,6 +5,7 @@
 use std::borrow::Cow;
 
 use nalgebra::{DMatrix, DVector};
+use parcal_kinematics::batch_workspace::BatchWorkspace;
 use parcal_kinematics::mechanism::{
     Mechanism, MechanismError, Reached, ReachedAlong, along_of_reached, warm_start_at_readings,
 };
@@ -144,7 +145,8 @@ impl Actuation {
     /// those at readings together ([`Mechanism::tool_points_at_readings`],
     /// the hexapod's SIMD lanes), the others one at a time. When every one
     /// is at readings from a warm start given (a calibration's iterations),
-    /// the mechanism writes into the room `reached` holds.
+    /// the mechanism writes into the room `reached` holds. The batches
+    /// share `workspace` ([`BatchWorkspace`]).
     ///
     /// # Panics
     /// If `actuations` and `starts` differ in length.
@@ -154,10 +156,11 @@ impl Actuation {
         configured: &[f64],
         actuations: &[&Actuation],
         starts: &[Option<&[f64]>],
+        workspace: &mut BatchWorkspace,
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
         let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
-            mechanism.tool_points_at_readings(params, readings, starts, reached);
+            mechanism.tool_points_at_readings(params, readings, starts, workspace, reached);
         };
         if Self::from_warm_starts(actuations, starts, batch).is_some() {
             return;
@@ -190,7 +193,7 @@ impl Actuation {
         }
         let readings: Vec<&[f64]> = at_readings.iter().map(|(_, q, _)| *q).collect();
         let starts: Vec<&[f64]> = at_readings.iter().map(|(_, _, x)| x.as_ref()).collect();
-        mechanism.tool_points_at_readings(params, &readings, &starts, reached);
+        mechanism.tool_points_at_readings(params, &readings, &starts, workspace, reached);
         for ((k, _, _), outcome) in at_readings.iter().zip(reached.drain(..)) {
             outcomes[*k] = Some(outcome);
         }
@@ -219,10 +222,11 @@ impl Actuation {
         actuations: &[&Actuation],
         starts: &[Option<&[f64]>],
         dp: &[f64],
+        workspace: &mut BatchWorkspace,
         along: &mut Vec<Result<ReachedAlong, MechanismError>>,
     ) {
         let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
-            mechanism.tool_points_along(params, readings, starts, dp, along);
+            mechanism.tool_points_along(params, readings, starts, dp, workspace, along);
         };
         if Self::from_warm_starts(actuations, starts, batch).is_some() {
             return;
@@ -234,6 +238,7 @@ impl Actuation {
             configured,
             actuations,
             starts,
+            workspace,
             &mut reached,
         );
         along.clear();
@@ -260,6 +265,7 @@ impl Actuation {
             configured,
             actuations,
             &starts,
+            &mut BatchWorkspace::default(),
             &mut reached,
         );
         reached
@@ -321,7 +327,8 @@ mod tests {
         let starts = [None, Some(&start[..]), None, None];
         let refs: Vec<&Actuation> = actuations.iter().collect();
         let mut together = Vec::new();
-        Actuation::tool_points(&delta, p, c, &refs, &starts, &mut together);
+        let workspace = &mut BatchWorkspace::default();
+        Actuation::tool_points(&delta, p, c, &refs, &starts, workspace, &mut together);
         for ((actuation, start), reached) in actuations.iter().zip(starts).zip(together) {
             let alone = actuation.tool_point(&delta, p, c, start).unwrap();
             assert_eq!(reached.unwrap(), alone);
@@ -342,14 +349,16 @@ mod tests {
         ];
         let refs: Vec<&Actuation> = actuations.iter().collect();
         // From the mechanism's starts, then from starts given (straight
-        // into the room of the first outcomes).
+        // into the room of the first outcomes, the geometry and row order
+        // the first batch left in the workspace).
         let home = hexapod
             .start_pose(p, &legs([0.0, 0.0, 240.0, 0.0, 0.0, 0.0]))
             .unwrap();
         let home = hexapod.warm_start(home.as_slice()).unwrap();
         let mut together = Vec::new();
+        let workspace = &mut BatchWorkspace::default();
         for starts in [[None; 3], [Some(home.as_slice()); 3]] {
-            Actuation::tool_points(hexapod, p, &[], &refs, &starts, &mut together);
+            Actuation::tool_points(hexapod, p, &[], &refs, &starts, workspace, &mut together);
             assert_eq!(together.len(), 3);
             assert_eq!(
                 together[1].as_ref().unwrap_err().to_string(),
@@ -376,14 +385,16 @@ mod tests {
         let refs: Vec<&Actuation> = actuations.iter().collect();
         let dp: Vec<f64> = (0..p.len()).map(|k| 1e-3 * (k as f64).cos()).collect();
         let mut along = Vec::new();
-        Actuation::tool_points_along(&delta, p, c, &refs, &starts, &dp, &mut along);
+        let workspace = &mut BatchWorkspace::default();
+        Actuation::tool_points_along(&delta, p, c, &refs, &starts, &dp, workspace, &mut along);
         for ((actuation, start), along) in actuations.iter().zip(starts).zip(&along) {
             let alone = actuation.tool_point(&delta, p, c, start).unwrap();
             let expected = along_of_reached(&delta, alone, &dp).unwrap();
             assert_eq!(along.as_ref().unwrap(), &expected);
             assert_eq!(expected.predicted, expected.reached.warm_start);
         }
-        Actuation::tool_points_along(&delta, p, c, &refs, &starts, &dp[1..], &mut along);
+        let short = &dp[1..];
+        Actuation::tool_points_along(&delta, p, c, &refs, &starts, short, workspace, &mut along);
         for outcome in &along {
             let error = outcome.as_ref().unwrap_err().to_string();
             assert!(error.contains("parameter step values"), "{error}");
@@ -399,9 +410,20 @@ mod tests {
         let dp = vec![1e-4; p.len()];
         let read = Actuation::Readings(readings.clone());
         let starts = [Some(home.as_slice())];
-        Actuation::tool_points_along(hexapod, p, &[], &[&read], &starts, &dp, &mut along);
-        let mut own = Vec::new();
-        hexapod.tool_points_along(p, &[&readings], &[home.as_slice()], &dp, &mut own);
+        let workspace = &mut BatchWorkspace::default();
+        Actuation::tool_points_along(
+            hexapod,
+            p,
+            &[],
+            &[&read],
+            &starts,
+            &dp,
+            workspace,
+            &mut along,
+        );
+        let (mut own, workspace) = (Vec::new(), &mut BatchWorkspace::default());
+        let x = [home.as_slice()];
+        hexapod.tool_points_along(p, &[&readings], &x, &dp, workspace, &mut own);
         assert_eq!(along, own);
     }
 }
