@@ -18,8 +18,7 @@ use std::ops::Range;
 
 use nalgebra::{Const, DVector, Dyn, SVector, U2, UnitVector3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
-use parcal_observe::mechanism::CoordinateRows;
-use parcal_observe::{DirectionChart, unit_direction};
+use parcal_observe::{CoordinateJacobians, DirectionChart, unit_direction};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 use rayon::prelude::*;
 
@@ -108,7 +107,8 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
 
     /// The rows of touch point `i` that reached `reached` at its angles
     /// `angles` on its ball `ball` into `out`, the warm start of the pose
-    /// it reached left in `cache`.
+    /// it reached left in `cache`: its `dT/dp |_q` goes to `out`, whose
+    /// room takes its place in `reached`.
     fn touch_rows(
         &self,
         i: usize,
@@ -119,23 +119,16 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         out: &mut Local<C>,
     ) -> Result<(), MechanismCalibrationError> {
         let (t, touch) = self.base.touch_of(i);
+        let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
+        let reached = reached.as_mut().map_err(|e| failed(e))?;
         let chart = DirectionChart::about(&self.directions[i]);
-        let mut rows = std::mem::replace(reached, Ok(Reached::default()))
-            .and_then(|reached| {
-                touch.coordinate_rows(reached, &chart, &ball.centre, ball.radius, angles)
-            })
-            .map_err(|e| touch_failed(t, touch.ball, e))?;
-        *cache = WarmStart::of(rows.warm_start.as_slice());
+        let rows = touch.coordinate_rows(&reached.point, &chart, &ball.centre, ball.radius, angles);
+        let rows = rows.map_err(|e| failed(&e))?;
+        *cache = WarmStart::of(reached.warm_start.as_slice());
         put_local(out, &rows, ball);
+        // `dT/dp` to the solver, the room it held left for the next batch.
         let tied = ball.tied.map(|column| (column, ball.uncertain));
-        let room = out.d_global.set(&mut rows, tied);
-        // The warm start and the room of `dT/dp` back where they came
-        // from, for the next batch.
-        *reached = Ok(Reached {
-            warm_start: rows.warm_start,
-            point: Vector3::zeros(),
-            d_params: room,
-        });
+        out.d_global.set(&rows, &mut reached.d_params, tied);
         Ok(())
     }
 
@@ -149,39 +142,22 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         i: usize,
         ball: &TouchedBall,
         angles: &Vector2<f64>,
-        along: &mut Result<ReachedAlong, MechanismError>,
+        along: &Result<ReachedAlong, MechanismError>,
         dg: &DVector<f64>,
         cache: &mut WarmStart,
         out: &mut Local<C>,
     ) -> Result<SVector<f64, 3>, MechanismCalibrationError> {
         let (t, touch) = self.base.touch_of(i);
+        let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
+        let along = along.as_ref().map_err(&failed)?;
         let chart = DirectionChart::about(&self.directions[i]);
-        let (rows, predicted) = std::mem::replace(along, Ok(ReachedAlong::default()))
-            .and_then(|along| {
-                let rows = touch.coordinate_rows(
-                    along.reached,
-                    &chart,
-                    &ball.centre,
-                    ball.radius,
-                    angles,
-                )?;
-                Ok((rows, along.predicted))
-            })
-            .map_err(|e| touch_failed(t, touch.ball, e))?;
-        *cache = WarmStart::of(predicted.as_slice());
+        let point = &along.reached.point;
+        let rows = touch.coordinate_rows(point, &chart, &ball.centre, ball.radius, angles);
+        let rows = rows.map_err(|e| failed(&e))?;
+        *cache = WarmStart::of(along.predicted.as_slice());
         put_local(out, &rows, ball);
-        let params_step = rows.d_tip * rows.d_tip_params.apply(&[1.0]);
-        let step = params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
-        // The room back where it came from, for the next batch.
-        *along = Ok(ReachedAlong {
-            reached: Reached {
-                warm_start: rows.warm_start,
-                point: Vector3::zeros(),
-                d_params: rows.d_tip_params,
-            },
-            predicted,
-        });
-        Ok(step)
+        let params_step = rows.d_tip * along.reached.d_params.apply(&[1.0]);
+        Ok(params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg))
     }
 
     /// The touch points `first..first + out.len()` (one ball's) at its
@@ -213,7 +189,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
 /// A touch's rows but `d_global` into `out`: its residual, its angles'
 /// columns and, when its ball is in its group, its ball's
 /// ([`put_group_columns`]), the group's other columns zero.
-fn put_local<const C: usize>(out: &mut Local<C>, rows: &CoordinateRows, ball: &TouchedBall) {
+fn put_local<const C: usize>(out: &mut Local<C>, rows: &CoordinateJacobians, ball: &TouchedBall) {
     out.residual = rows.residual;
     out.d_group.fill(0.0);
     out.d_point = rows.d_angles;
@@ -346,7 +322,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         let batch = first..first + out.len();
         self.base.reach_along(batch, global, dg, caches, reaches);
         let ball = self.base.group_ball(first, global, group);
-        let each = (reaches.along.iter_mut().zip(points))
+        let each = (reaches.along.iter().zip(points))
             .zip(caches.iter_mut().zip(out))
             .zip(steps);
         for (j, (((along, angles), (cache, out)), step)) in each.enumerate() {

@@ -14,13 +14,13 @@
 
 use nalgebra::{DVector, Matrix3, SVector, Vector3};
 use parcal_kinematics::params_jacobian::ParamsJacobian;
-use parcal_observe::mechanism::CoordinateRows;
+use parcal_observe::CoordinateJacobians;
 use parcal_solver::GlobalJacobian;
 
 /// A touch's `L⁻¹ dc/dg` (module doc).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TouchJacobian {
-    /// `L⁻¹ dc/dT = −L⁻¹` ([`CoordinateRows::d_tip`]).
+    /// `L⁻¹ dc/dT = −L⁻¹` ([`CoordinateJacobians::d_tip`]).
     d_tip: Matrix3<f64>,
     /// `dT/dp |_q` (3 × parameters), the global block's first columns.
     d_tip_params: ParamsJacobian,
@@ -41,23 +41,24 @@ struct TiedBall {
 }
 
 impl TouchJacobian {
-    /// The derivative of `rows`, its ball's columns those of a ball tied
-    /// at `tied` (its first column, and whether its radius is an unknown),
-    /// if it is. `rows`' `dT/dp` is moved here (an empty one left there),
-    /// and the one held before returned, as room for the next touch's.
+    /// The derivative of `rows` where the machine's `dT/dp |_q` is
+    /// `d_tip_params`, its ball's columns those of a ball tied at `tied`
+    /// (its first column, and whether its radius is an unknown), if it is.
+    /// `d_tip_params` is swapped with the one held before, which is left
+    /// there as room for the next touch's.
     pub(crate) fn set(
         &mut self,
-        rows: &mut CoordinateRows,
+        rows: &CoordinateJacobians,
+        d_tip_params: &mut ParamsJacobian,
         tied: Option<(usize, bool)>,
-    ) -> ParamsJacobian {
+    ) {
         self.d_tip = rows.d_tip;
         self.tied = tied.map(|(column, uncertain)| TiedBall {
             column,
             d_centre: rows.d_centre,
             d_radius: uncertain.then_some(rows.d_radius),
         });
-        let d_tip_params = std::mem::take(&mut rows.d_tip_params);
-        std::mem::replace(&mut self.d_tip_params, d_tip_params)
+        std::mem::swap(&mut self.d_tip_params, d_tip_params);
     }
 }
 
@@ -125,18 +126,18 @@ mod tests {
         rows
     }
 
-    /// Rows whose every derivative is distinct.
-    fn rows(n: usize) -> CoordinateRows {
+    /// Rows and a `dT/dp` of `n` columns whose every derivative is
+    /// distinct.
+    fn rows(n: usize) -> (CoordinateJacobians, DMatrix<f64>) {
         let f = |k: usize| ((k * 37 % 101) as f64 - 50.0) / 7.0;
-        CoordinateRows {
+        let rows = CoordinateJacobians {
             residual: Vector3::new(0.3, -0.1, 0.2),
             d_tip: -Matrix3::new(2.0, 0.0, 0.0, 0.5, 1.5, 0.0, -0.3, 0.2, 3.0),
-            d_tip_params: DMatrix::from_fn(3, n, |i, j| f(3 * j + i)).into(),
             d_centre: Matrix3::from_fn(|i, j| f(200 + 3 * j + i)),
             d_radius: Vector3::from_fn(|i, _| f(300 + i)),
             d_angles: Matrix3x2::zeros(),
-            warm_start: DVector::zeros(7),
-        }
+        };
+        (rows, DMatrix::from_fn(3, n, |i, j| f(3 * j + i)))
     }
 
     /// Its rows, combinations and product with a vector, against the dense
@@ -146,11 +147,13 @@ mod tests {
     fn the_factored_rows_are_the_dense_rows() {
         let (n, g) = (7, 15);
         for (tied, uncertain) in [(None, false), (Some(9), false), (Some(10), true)] {
-            let mut rows = rows(n);
-            let d_params = rows.d_params();
+            let (rows, d_tip_params) = rows(n);
+            let d_params = rows.d_tip * &d_tip_params;
             let mut jacobian = TouchJacobian::zeros(g);
-            let room = jacobian.set(&mut rows, tied.map(|column| (column, uncertain)));
-            assert_eq!((room.ncols(), rows.d_tip_params.ncols()), (0, 0));
+            let mut room = ParamsJacobian::from(d_tip_params);
+            jacobian.set(&rows, &mut room, tied.map(|column| (column, uncertain)));
+            // The room held before (none yet) left in its place.
+            assert_eq!(room.ncols(), 0);
             let mut expected = OMatrix::<f64, U3, nalgebra::Dyn>::zeros(g);
             expected.columns_mut(0, n).copy_from(&d_params);
             if let Some(column) = tied {

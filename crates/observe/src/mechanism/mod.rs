@@ -72,7 +72,6 @@ pub use part_distance::PartDistance;
 pub use point_sample::{PointSample, SampleRows};
 pub use probe::ProbeHeight;
 pub use quantity::MeasuredQuantity;
-pub use touch_coordinates::CoordinateRows;
 pub use tracker_point::{TrackerFrame, TrackerPoint, TrackerPointRows};
 pub use tracker_pose::{BodyFrame, TrackerPose, TrackerPoseRows};
 

@@ -8,7 +8,7 @@
 //!
 //! whitened by the touch's weight `L⁻¹` ([`BallTouch::weight`], `σ⁻¹ I`
 //! when none is given; `L⁻¹ dc/dp = −L⁻¹ dT/dp |_q` kept as its two
-//! factors, [`CoordinateRows::d_tip`]), with the contact's two angles `θ` unknowns of its
+//! factors, [`CoordinateJacobians::d_tip`] beside the mechanism's `dT/dp |_q`), with the contact's two angles `θ` unknowns of its
 //! own, charted about its approach's direction when one is known, else
 //! about the direction of its tool point from its ball's centre where the
 //! fit starts ([`DirectionChart`]). With its approach's `σ_θ`, the angles
@@ -18,44 +18,14 @@
 //! with `W = σ² I`, the fit of a touch's coordinates is that of its
 //! radius row (eq. 9, [`BallTouch::row`]).
 
-use nalgebra::{DVector, Dyn, Matrix3, Matrix3x2, OMatrix, U3, Vector2, Vector3};
-use parcal_kinematics::mechanism::{MechanismError, Reached};
-use parcal_kinematics::params_jacobian::ParamsJacobian;
+use nalgebra::{Vector2, Vector3};
+use parcal_kinematics::mechanism::MechanismError;
 
 use super::ball_touch::BallTouch;
 use super::commanded::check_sigma;
-use crate::{CoordinateBlock, CoordinateWhitening, DirectionChart, ObserveError};
-
-/// A touch's three whitened coordinate rows (module doc) and their
-/// derivatives.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CoordinateRows {
-    /// `L⁻¹ c`.
-    pub residual: Vector3<f64>,
-    /// `L⁻¹ dc/dT = −L⁻¹`: the rows' `L⁻¹ dc/dp` is `d_tip · d_tip_params`,
-    /// kept as its two factors, so that a combination of the rows
-    /// `aᵀ L⁻¹ dc/dp = (d_tipᵀ a)ᵀ dT/dp` costs what one of the whitened
-    /// rows would, and no column of `dT/dp` is whitened.
-    pub d_tip: Matrix3<f64>,
-    /// `dT/dp |_q` (3 × parameters), the mechanism's, dense or factored.
-    pub d_tip_params: ParamsJacobian,
-    /// `L⁻¹ dc/dC`.
-    pub d_centre: Matrix3<f64>,
-    /// `L⁻¹ dc/dρ`.
-    pub d_radius: Vector3<f64>,
-    /// `L⁻¹ dc/dθ` (per rad).
-    pub d_angles: Matrix3x2<f64>,
-    /// The warm start of the pose the machine reached at the touch.
-    pub warm_start: DVector<f64>,
-}
-
-impl CoordinateRows {
-    /// `L⁻¹ dc/dp` (3 × parameters): [`CoordinateRows::d_tip`]'s two
-    /// factors multiplied.
-    pub fn d_params(&self) -> OMatrix<f64, U3, Dyn> {
-        self.d_tip * self.d_tip_params.to_dense()
-    }
-}
+use crate::{
+    CoordinateBlock, CoordinateJacobians, CoordinateWhitening, DirectionChart, ObserveError,
+};
 
 impl BallTouch {
     /// The chart of its contact angles (module doc): about its approach's
@@ -80,39 +50,34 @@ impl BallTouch {
         }
     }
 
-    /// Its whitened coordinate rows (module doc) where the machine reached
-    /// `reached` ([`Actuation::tool_points`](super::Actuation::tool_points)), on the ball of centre
-    /// `centre` and radius `radius`, at the contact's angles `angles` in
-    /// `chart` ([`BallTouch::chart`]).
+    /// Its whitened coordinate rows (module doc) where the machine's tool
+    /// point is `point` (where it reached,
+    /// [`Actuation::tool_points`](super::Actuation::tool_points)), on the
+    /// ball of centre `centre` and radius `radius`, at the contact's angles
+    /// `angles` in `chart` ([`BallTouch::chart`]): the rows' `L⁻¹ dc/dp` is
+    /// their `d_tip` times the mechanism's `dT/dp |_q`
+    /// ([`Reached::d_params`](parcal_kinematics::mechanism::Reached::d_params)).
     pub fn coordinate_rows(
         &self,
-        reached: Reached,
+        point: &Vector3<f64>,
         chart: &DirectionChart,
         centre: &Vector3<f64>,
         radius: f64,
         angles: &Vector2<f64>,
-    ) -> Result<CoordinateRows, MechanismError> {
+    ) -> Result<CoordinateJacobians, MechanismError> {
         let weight = self.coordinate_weight()?;
         let block = CoordinateBlock {
             radius,
             chart: *chart,
         };
-        let whitened = block.evaluate_whitened(&reached.point, centre, angles, &weight);
-        Ok(CoordinateRows {
-            residual: whitened.residual,
-            d_tip: whitened.d_tip,
-            d_tip_params: reached.d_params,
-            d_centre: whitened.d_centre,
-            d_radius: whitened.d_radius,
-            d_angles: whitened.d_angles,
-            warm_start: reached.warm_start,
-        })
+        Ok(block.evaluate_whitened(point, centre, angles, &weight))
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::DMatrix;
+    use nalgebra::{DMatrix, DVector, Dyn, Matrix3, OMatrix, U3};
+    use parcal_kinematics::mechanism::Reached;
 
     use super::*;
     use crate::mechanism::test_support::{HexapodTouch, delta, differences, hexapod_touch};
@@ -122,7 +87,7 @@ mod tests {
     /// radius and contact angles) over those, against the analytic columns
     /// (bound 1e-6 of the largest, steps 1e-5).
     fn check_local_columns(
-        at: impl Fn(&Vector3<f64>, f64, &Vector2<f64>) -> CoordinateRows,
+        at: impl Fn(&Vector3<f64>, f64, &Vector2<f64>) -> CoordinateJacobians,
         centre: Vector3<f64>,
         radius: f64,
         angles: Vector2<f64>,
@@ -156,6 +121,12 @@ mod tests {
         );
     }
 
+    /// The rows' `L⁻¹ dc/dp` where the machine reached `reached`: their
+    /// `d_tip` times its `dT/dp |_q`.
+    fn d_params(rows: &CoordinateJacobians, reached: &Reached) -> OMatrix<f64, U3, Dyn> {
+        rows.d_tip * reached.d_params.to_dense()
+    }
+
     #[test]
     fn a_deltas_coordinates_match_central_differences() {
         let (delta, configured, truth) = delta();
@@ -174,22 +145,21 @@ mod tests {
         let angles = Vector2::new(0.03, -0.02);
         let at = |p: &[f64]| {
             let reached = touch.at.tool_point(&delta, p, c, None).unwrap();
-            touch
-                .coordinate_rows(reached, &chart, &centre, 12.7, &angles)
-                .unwrap()
+            let rows = touch.coordinate_rows(&reached.point, &chart, &centre, 12.7, &angles);
+            (rows.unwrap(), reached)
         };
-        let analytic = at(truth.as_slice());
+        let (analytic, reached) = at(truth.as_slice());
         let numeric = differences(&delta, &truth, 1e-4, |p| {
-            DVector::from_column_slice(at(p).residual.as_slice())
+            DVector::from_column_slice(at(p).0.residual.as_slice())
         });
-        let error = (analytic.d_params() - &numeric).amax();
+        let error = (d_params(&analytic, &reached) - &numeric).amax();
         assert!(error < 1e-6 * numeric.amax(), "{error:e}");
         let local = |centre: &Vector3<f64>, radius, angles: &Vector2<f64>| {
             let reached = touch
                 .at
                 .tool_point(&delta, truth.as_slice(), c, None)
                 .unwrap();
-            (touch.coordinate_rows(reached, &chart, centre, radius, angles)).unwrap()
+            (touch.coordinate_rows(&reached.point, &chart, centre, radius, angles)).unwrap()
         };
         check_local_columns(local, centre, 12.7, angles);
     }
@@ -208,22 +178,21 @@ mod tests {
         let angles = Vector2::new(-0.01, 0.04);
         let at = |params: &[f64]| {
             let reached = touch.at.tool_point(hexapod, params, &[], None).unwrap();
-            touch
-                .coordinate_rows(reached, &chart, &centre, 5.0, &angles)
-                .unwrap()
+            let rows = touch.coordinate_rows(&reached.point, &chart, &centre, 5.0, &angles);
+            (rows.unwrap(), reached)
         };
-        let analytic = at(p.as_slice());
+        let (analytic, reached) = at(p.as_slice());
         let numeric = differences(hexapod, &p, 1e-4, |params| {
-            DVector::from_column_slice(at(params).residual.as_slice())
+            DVector::from_column_slice(at(params).0.residual.as_slice())
         });
-        let error = (analytic.d_params() - &numeric).amax();
+        let error = (d_params(&analytic, &reached) - &numeric).amax();
         assert!(error < 1e-6 * numeric.amax(), "{error:e}");
         let local = |centre: &Vector3<f64>, radius, angles: &Vector2<f64>| {
             let reached = touch
                 .at
                 .tool_point(hexapod, p.as_slice(), &[], None)
                 .unwrap();
-            (touch.coordinate_rows(reached, &chart, centre, radius, angles)).unwrap()
+            (touch.coordinate_rows(&reached.point, &chart, centre, radius, angles)).unwrap()
         };
         check_local_columns(local, centre, 5.0, angles);
     }
@@ -244,7 +213,7 @@ mod tests {
         let u0 = (reached.point - centre) / 3.0;
         let chart = touch.chart(&(reached.point - centre)).unwrap();
         let rows = touch
-            .coordinate_rows(reached.clone(), &chart, &centre, 2.5, &Vector2::zeros())
+            .coordinate_rows(&reached.point, &chart, &centre, 2.5, &Vector2::zeros())
             .unwrap();
         let expected = (2.5 - 3.0) / 0.01 * u0;
         assert!(
@@ -266,7 +235,7 @@ mod tests {
         // A touch whose sigma is not positive has no weight.
         let bad = BallTouch::new(0, touch.at.clone(), -1.0);
         let error = bad
-            .coordinate_rows(reached, &chart, &centre, 2.5, &Vector2::zeros())
+            .coordinate_rows(&reached.point, &chart, &centre, 2.5, &Vector2::zeros())
             .unwrap_err();
         assert!(error.to_string().contains("touch sigma"), "{error}");
         assert!(touch.chart(&Vector3::zeros()).is_err());
