@@ -161,6 +161,9 @@ pub(crate) struct MechanismProblem<'a, const C: usize> {
     data: &'a MechanismData,
     prior: Option<GaussianPrior<Dyn>>,
     loss: Loss,
+    /// The number of points of the samples' rows, before the touches'
+    /// (made once: each touch's lookup needs it).
+    sample_points: usize,
     /// The touches in the order of their balls (stable).
     touch_order: Vec<usize>,
     /// The points of each ball, after the samples' rows.
@@ -197,7 +200,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             counts[touch.ball] += 1;
         }
         let mut ball_points = Vec::with_capacity(o.balls.len());
-        let mut first = o.samples.len() * data.mechanism.actuators().len();
+        let sample_points = o.samples.len() * data.mechanism.actuators().len();
+        let mut first = sample_points;
         for count in counts {
             ball_points.push(first..first + count);
             first += count;
@@ -207,6 +211,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
             data,
             prior,
             loss,
+            sample_points,
             touch_order,
             ball_points,
             tied,
@@ -285,7 +290,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// The number of point samples' rows (the first points).
     fn sample_points(&self) -> usize {
-        self.data.observations.samples.len() * self.actuators()
+        self.sample_points
     }
 
     /// The mechanism's number of actuators: a point sample's rows.
