@@ -141,8 +141,9 @@ pub struct Hexapod {
     /// (mm).
     scaled: bool,
     options: ForwardOptions,
-    /// Where a batch of contacts first tries to factorise its closure
-    /// Jacobians ([`design_pivot_order`]).
+    /// Where the first batch of contacts of a [`BatchWorkspace`] tries to
+    /// factorise its closure Jacobians ([`design_pivot_order`]); later
+    /// batches start where the one before ended.
     pivot_order: PivotOrder,
 }
 
@@ -706,8 +707,7 @@ impl Mechanism for Hexapod {
         let step_refused = check_vector(self, "parameter step values", dp, self.parameters.len());
         let shared = step_refused.and_then(|()| self.shared(params, workspace));
         let Ok((geometry, order)) = shared else {
-            let by_rows = tool_points_along_by_rows;
-            return by_rows(self, params, readings, starts, dp, workspace, along);
+            return tool_points_along_by_rows(self, params, readings, starts, dp, workspace, along);
         };
         let mut solutions = [SolutionAlong::default(); LANES];
         let batch = if self.scaled { 1 } else { LANES };
@@ -1213,8 +1213,7 @@ mod tests {
         let (mut along, workspace) = (Vec::new(), &mut BatchWorkspace::default());
         hexapod.tool_points_along(p.as_slice(), &q, &x, dp.as_slice(), workspace, &mut along);
         let (mut by_rows, fresh) = (Vec::new(), &mut BatchWorkspace::default());
-        let by_rows_of = tool_points_along_by_rows;
-        by_rows_of(
+        tool_points_along_by_rows(
             hexapod,
             p.as_slice(),
             &q,
