@@ -37,6 +37,11 @@ pub struct ObservationChecks {
     observations: Vec<(ObservationRef, usize)>,
     /// The rows of every observation, in turn.
     rows: Vec<RowCheck>,
+    /// The observation of largest `|w_j|` (its place in `observations`),
+    /// its row and that `w_j`: found as the observations are pushed, so
+    /// that the verdict, its reasons and snooping do not each pass over
+    /// every row again.
+    worst: Option<(usize, usize, f64)>,
 }
 
 impl ObservationChecks {
@@ -46,15 +51,25 @@ impl ObservationChecks {
         Self {
             observations: Vec::new(),
             rows,
+            worst: None,
         }
     }
 
     /// The next observation, holding the next `rows` rows; `false`
     /// (nothing added) when fewer are left.
     pub(crate) fn push(&mut self, observation: ObservationRef, rows: usize) -> bool {
-        let end = self.observations.last().map_or(0, |&(_, end)| end) + rows;
+        let start = self.observations.last().map_or(0, |&(_, end)| end);
+        let end = start + rows;
         if end > self.rows.len() {
             return false;
+        }
+        if let Some((row, w)) = worst_row(&self.rows[start..end]) {
+            // The last of equal `|w_j|`, as `Iterator::max_by` keeps it.
+            let larger =
+                |&(_, _, worst): &(usize, usize, f64)| w.abs().total_cmp(&worst.abs()).is_ge();
+            if self.worst.as_ref().is_none_or(larger) {
+                self.worst = Some((self.observations.len(), row, w));
+            }
         }
         self.observations.push((observation, end));
         true
@@ -78,6 +93,13 @@ impl ObservationChecks {
             observation,
             rows: &self.rows[start..end],
         })
+    }
+
+    /// The observation of largest `|w_j|` (the last of equals), its row of
+    /// largest `|w_j|` and that `w_j`; `None` when no row is tested.
+    pub fn worst(&self) -> Option<(ObservationCheck<'_>, usize, f64)> {
+        let (k, row, w) = self.worst?;
+        Some((self.get(k)?, row, w))
     }
 
     /// Every observation's, in order.
@@ -150,6 +172,8 @@ mod tests {
         let second = checks.get(1).unwrap();
         assert_eq!((second.observation, second.rows.len()), (touch, 3));
         assert_eq!(second.worst(), Some((1, -2.75)));
+        let (worst, row, w) = checks.worst().unwrap();
+        assert_eq!((worst.observation, row, w), (touch, 1, -2.75));
         assert!(checks.get(2).is_none());
         let residuals: Vec<Vec<f32>> = (checks.iter())
             .map(|c| c.rows.iter().map(|r| r.residual).collect())

@@ -435,18 +435,13 @@ fn body_estimate(
 
 /// The observation of largest `|w|` among `observations`.
 fn worst(observations: &ObservationChecks) -> Option<Worst<ObservationRef>> {
-    observations
-        .iter()
-        .filter_map(|c| {
-            let (row, normalised) = c.worst()?;
-            Some(Worst {
-                observation: c.observation,
-                row,
-                normalised,
-                gross_error: f64::from(c.rows[row].residual) / f64::from(c.rows[row].redundancy),
-            })
-        })
-        .max_by(|a, b| a.normalised.abs().total_cmp(&b.normalised.abs()))
+    let (c, row, normalised) = observations.worst()?;
+    Some(Worst {
+        observation: c.observation,
+        row,
+        normalised,
+        gross_error: f64::from(c.rows[row].residual) / f64::from(c.rows[row].redundancy),
+    })
 }
 
 /// How a fit that is a result ([`super::fit`]: the others are errors)
