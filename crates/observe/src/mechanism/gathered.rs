@@ -16,7 +16,7 @@ pub fn gathered<T: Copy, R>(n: usize, item: impl Fn(usize) -> T, f: impl FnOnce(
     }
     let first = item(0);
     let mut items = [first; ON_STACK];
-    for (k, slot) in items.iter_mut().enumerate().take(n).skip(1) {
+    for (slot, k) in items[1..n].iter_mut().zip(1..) {
         *slot = item(k);
     }
     f(&items[..n])
