@@ -172,8 +172,23 @@ mod tests {
         let second = checks.get(1).unwrap();
         assert_eq!((second.observation, second.rows.len()), (touch, 3));
         assert_eq!(second.worst(), Some((1, -2.75)));
-        let (worst, row, w) = checks.worst().unwrap();
-        assert_eq!((worst.observation, row, w), (touch, 1, -2.75));
+        let (worst, at, w) = checks.worst().unwrap();
+        assert_eq!((worst.observation, at, w), (touch, 1, -2.75));
+        // Of equal |w|, the last (as a pass over every row with
+        // `Iterator::max_by` finds it); untested rows are passed over.
+        let mut ties = ObservationChecks::of_rows(vec![
+            row(1.0, Some(2.0)),
+            row(1.0, None),
+            row(-1.0, Some(-2.0)),
+        ]);
+        assert!(ties.push(probe, 1) && ties.push(probe, 1) && ties.push(touch, 1));
+        let (worst, at, w) = ties.worst().unwrap();
+        assert_eq!((worst.observation, at, w), (touch, 0, -2.0));
+        assert!(
+            ObservationChecks::of_rows(vec![row(1.0, None)])
+                .worst()
+                .is_none()
+        );
         assert!(checks.get(2).is_none());
         let residuals: Vec<Vec<f32>> = (checks.iter())
             .map(|c| c.rows.iter().map(|r| r.residual).collect())
