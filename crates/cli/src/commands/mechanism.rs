@@ -217,8 +217,13 @@ pub fn calibrate_with(
     let calibration = calibrate_mechanism(&data, options, observer)
         .map_err(|error| placed(&path, mechanism, &error))?;
     progress.finish();
-    // Its memory is the room of the record's.
-    drop(data);
+    // Freed beside the record's making and writing (a million touches'
+    // readings are as many allocations), on a thread of its own when one
+    // can be had (else here, as the failed spawn drops it).
+    let freeing = std::thread::Builder::new()
+        .name("parcal-free".to_string())
+        .spawn(move || drop(data))
+        .ok();
     let record = calibration.into_record();
     let destination = if record.accepted {
         out.clone()
@@ -235,6 +240,9 @@ pub fn calibrate_with(
             None => Ok(()),
         }
     })?;
+    if let Some(freeing) = freeing {
+        (freeing.join()).map_err(|_| anyhow::anyhow!("freeing the mechanism data panicked"))?;
+    }
     let mut stdout = std::io::stdout().lock();
     print_summary(&record, from_dataset.truth, &mut stdout)?;
     writeln!(stdout, "calibration written to {file}")?;
