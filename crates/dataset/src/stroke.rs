@@ -70,11 +70,15 @@ impl Dataset {
             (POSES_FILE, &self.tracker.poses.q),
             (POINTS_FILE, &self.tracker.points.q),
         ];
-        let count = files
-            .iter()
-            .flat_map(|(_, rows)| rows.iter().flatten())
-            .filter(|q| outside(q))
-            .count();
+        // Counted over each file's readings as one slice (a loop the
+        // compiler vectorises: 6 million readings at 10^6 contacts), and
+        // looked for again only when there is one.
+        let count: usize = (files.iter())
+            .map(|(_, rows)| rows.as_flattened().iter().filter(|q| outside(q)).count())
+            .sum();
+        if count == 0 {
+            return None;
+        }
         files.iter().find_map(|(file, rows)| {
             rows.iter().enumerate().find_map(|(row, q)| {
                 q.iter().position(outside).map(|i| OutsideStroke {
