@@ -122,7 +122,7 @@ fn tested(
 pub fn of_run(
     run: &CalibrationRun,
     dataset: &Dataset,
-    original: &dyn Fn(ObservationId) -> ObservationId,
+    original: &(dyn Fn(ObservationId) -> ObservationId + Sync),
 ) -> Diagnostics {
     let (prior_sigma, determined_by) = attribution(run);
     let reliability = run.reliability.as_ref();
