@@ -366,7 +366,7 @@ impl MechanismDataset {
             let path = dir.join(file);
             let check = Check::new(&path);
             for (k, row) in rows.enumerate() {
-                check.lengths(format!("row {}", k + 1), row)?;
+                check.lengths(format_args!("row {}", k + 1), row)?;
             }
             Ok(())
         };
@@ -379,12 +379,12 @@ impl MechanismDataset {
         let path = dir.join(POINTS_FILE);
         let check = Check::new(&path);
         for (k, sample) in self.samples.iter().enumerate() {
-            check.values(format!("row {}", k + 1), &sample.readings)?;
+            check.values(format_args!("row {}", k + 1), &sample.readings)?;
             if let Some(position) = &sample.position {
-                check.lengths(format!("row {}", k + 1), position)?;
+                check.lengths(format_args!("row {}", k + 1), position)?;
             }
             if let Some(loads) = &sample.loads {
-                check.values(format!("row {} loads", k + 1), loads)?;
+                check.values(format_args!("row {} loads", k + 1), loads)?;
             }
         }
         if !self.quantities.is_empty() {

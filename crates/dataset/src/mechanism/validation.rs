@@ -127,7 +127,7 @@ impl MechanismValidationRecord {
             )?;
         }
         for (k, row) in self.rows.iter().enumerate() {
-            check.values(format!("rows[{k}]"), &[row.residual, row.sigma, row.w])?;
+            check.values(format_args!("rows[{k}]"), &[row.residual, row.sigma, row.w])?;
         }
         for (k, shift) in self.shifts.iter().enumerate() {
             check.values(format!("shifts[{k}]"), &[shift.shift, shift.sigma])?;
