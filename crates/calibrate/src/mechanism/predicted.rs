@@ -475,7 +475,6 @@ fn predict_balls(
             locating,
             b,
             ball.radius,
-            None,
             &mut Vec::new(),
             BallFit {
                 warm_starts: &mut vec![WarmStart::default(); locating.len()],

@@ -151,6 +151,11 @@ impl WarmStart {
     }
 }
 
+/// The number of touches whose start [`MechanismProblem::touches_at_start`]
+/// takes at a time: enough that what the mechanism builds of the
+/// parameters for them is made seldom, few enough for the threads to share.
+const START_CHUNK: usize = 1024;
+
 /// The sigma of the unit prior that holds a block's unused fourth unknown
 /// (module doc).
 const UNUSED: f64 = 1.0;
@@ -189,15 +194,20 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let trackers = Trackers::locate(data, &prior_means(data).as_slice()[..n], frames)?;
         let tied = o.tied_balls(m);
         let prior = global_prior(data, &tied);
+        // Each ball's number of touches, and whether the touches come ball
+        // by ball, in one pass over them.
+        let mut counts = vec![0; o.balls.len()];
+        let (mut grouped, mut last) = (true, 0);
+        for touch in &o.touches {
+            counts[touch.ball] += 1;
+            grouped &= last <= touch.ball;
+            last = touch.ball;
+        }
         // Each ball's touches in their order (the identity for data
         // grouped by ball, which needs no sort).
         let mut touch_order: Vec<usize> = (0..o.touches.len()).collect();
-        if !o.touches.is_sorted_by_key(|touch| touch.ball) {
+        if !grouped {
             touch_order.sort_by_key(|&t| o.touches[t].ball);
-        }
-        let mut counts = vec![0; o.balls.len()];
-        for touch in &o.touches {
-            counts[touch.ball] += 1;
         }
         let mut ball_points = Vec::with_capacity(o.balls.len());
         let sample_points = o.samples.len() * data.mechanism.actuators().len();
@@ -338,8 +348,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// The start of every local block: each point sample's pose (its
     /// measured pose, else the forward kinematics of its readings at
-    /// `params`), then each ball's centre ([`ball_centre`], from the
-    /// data's touch start if they have one) and, with
+    /// `params`), then each ball's centre ([`ball_centre`]; the data's
+    /// touch start's if they have one, [`Self::touches_at_start`]) and, with
     /// [`group_size`] 4, its calibrated radius; with every point's cache
     /// (empty for a sample's, the warm start of the pose reached for a
     /// touch's) and every touch's tool point there, in the order of the
@@ -367,35 +377,88 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         }
         // Each ball on the threads, its touches' warm starts and tool
         // points written in their places; the first failing ball named.
+        // With a touch start, the touches where it put them, a chunk of
+        // them at a time, and each ball at its centre.
         let configured = self.data.configured.as_slice();
         let samples = self.sample_points();
         let mut caches = vec![WarmStart::default(); samples + self.touch_order.len()];
         let mut tips = vec![Vector3::zeros(); self.touch_order.len()];
-        let rooms = ball_rooms(&self.ball_points, &mut caches[samples..], &mut tips);
         let centres: Vec<Result<SVector<f64, C>, MechanismCalibrationError>> =
-            (o.balls.par_iter().enumerate().zip(rooms))
-                .map_init(Vec::new, |reached, ((b, ball), fit)| {
-                    let points = &self.ball_points[b];
-                    let touches = &self.touch_order[points.start - samples..points.end - samples];
-                    let centre = ball_centre(
-                        mechanism,
-                        params,
-                        configured,
-                        &o.touches,
-                        touches,
-                        b,
-                        ball.radius,
-                        self.data.touch_start.as_ref(),
-                        reached,
-                        fit,
-                    )?;
-                    Ok(block(&centre, ball.radius))
-                })
-                .collect();
+            match &self.data.touch_start {
+                Some(start) => {
+                    self.touches_at_start(params, start, &mut caches[samples..], &mut tips)?;
+                    (o.balls.iter().zip(&start.centres))
+                        .map(|(ball, centre)| Ok(block(&Vector3::from(*centre), ball.radius)))
+                        .collect()
+                }
+                None => {
+                    let rooms = ball_rooms(&self.ball_points, &mut caches[samples..], &mut tips);
+                    (o.balls.par_iter().enumerate().zip(rooms))
+                        .map_init(Vec::new, |reached, ((b, ball), fit)| {
+                            let points = &self.ball_points[b];
+                            let touches =
+                                &self.touch_order[points.start - samples..points.end - samples];
+                            let centre = ball_centre(
+                                mechanism,
+                                params,
+                                configured,
+                                &o.touches,
+                                touches,
+                                b,
+                                ball.radius,
+                                reached,
+                                fit,
+                            )?;
+                            Ok(block(&centre, ball.radius))
+                        })
+                        .collect()
+                }
+            };
         for centre in centres {
             blocks.push(centre?);
         }
         Ok((blocks, caches, tips))
+    }
+
+    /// Each touch where `start` put it (the touch points' `caches` and
+    /// `tips`, in their order): the warm start of its start pose `x` and
+    /// its tool point `T(p, x)` at parameters `params`
+    /// ([`Mechanism::tool_points_at_poses`], which builds what it needs of
+    /// `p` once for a chunk of [`START_CHUNK`] touches), on the threads. No
+    /// forward kinematics: the pose is where the other set-up reached the
+    /// touch's readings, and the first pass starts there. The first
+    /// failing touch named.
+    fn touches_at_start(
+        &self,
+        params: &[f64],
+        start: &TouchStart,
+        caches: &mut [WarmStart],
+        tips: &mut [Vector3<f64>],
+    ) -> Result<(), MechanismCalibrationError> {
+        let mechanism = self.data.mechanism.as_ref();
+        let coordinates = mechanism.pose_coordinates().len();
+        let chunks = (self.touch_order.par_chunks(START_CHUNK))
+            .zip(caches.par_chunks_mut(START_CHUNK))
+            .zip(tips.par_chunks_mut(START_CHUNK));
+        let outcomes: Vec<Result<(), MechanismCalibrationError>> = chunks
+            .map(|((touches, caches), tips)| {
+                let poses: Vec<&[f64]> = (touches.iter())
+                    .map(|&t| start.pose(t, coordinates))
+                    .collect();
+                let reached = mechanism.tool_points_at_poses(params, &poses);
+                let rooms = tips.iter_mut().zip(caches.iter_mut());
+                for (((&t, tip), pose), (room, cache)) in
+                    touches.iter().zip(reached).zip(&poses).zip(rooms)
+                {
+                    let reached = tip.and_then(|tip| Ok((tip, mechanism.warm_start(pose)?)));
+                    let (tip, warm_start) = reached.map_err(|e| failed(touch_ref(t), e))?;
+                    *room = tip;
+                    *cache = WarmStart::of(warm_start.as_slice());
+                }
+                Ok(())
+            })
+            .collect();
+        outcomes.into_iter().collect()
     }
 
     /// The rows of point sample `s` at its pose.
@@ -940,13 +1003,12 @@ fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<
 /// tool points the touches reach with parameters `params` and the
 /// controller's `configured` ([`best_fit`]; the last
 /// iterate of a fit that did not converge); the warm start and the tool
-/// point each touch reached into `fit`, in the order of `touches`. With a
-/// `start`, the ball and its touches are where it put them
-/// ([`ball_at_start`]). `reached` is room for the touches' outcomes, kept
-/// from ball to ball so that their rooms are allocated once.
+/// point each touch reached into `fit`, in the order of `touches`.
+/// `reached` is room for the touches' outcomes, kept from ball to ball so
+/// that their rooms are allocated once.
 #[allow(
     clippy::too_many_arguments,
-    reason = "a ball, its touches, where they start and where they are put"
+    reason = "a ball, its touches and where they are put"
 )]
 pub(crate) fn ball_centre(
     mechanism: &dyn Mechanism,
@@ -956,13 +1018,9 @@ pub(crate) fn ball_centre(
     touches: &[usize],
     b: usize,
     radius: f64,
-    start: Option<&TouchStart>,
     reached: &mut Vec<Result<ReachedAlong, MechanismError>>,
     fit: BallFit<'_>,
 ) -> Result<Vector3<f64>, MechanismCalibrationError> {
-    if let Some(start) = start {
-        return ball_at_start(mechanism, params, touches, b, start, fit);
-    }
     // Together: a mechanism may reach several at once (the hexapod's
     // lanes), each from its start pose. Of each only its tool point and
     // warm start are wanted, not `dT/dp |_q`: the touches along a zero
@@ -992,35 +1050,6 @@ pub(crate) fn ball_centre(
             reason: format!("its touches do not locate its centre: {e}"),
         }),
     }
-}
-
-/// Ball `b` and its `touches` where `start` put them: its centre the
-/// start's, each touch's tool point `T(p, x)` at its start pose `x`
-/// ([`Mechanism::tool_points_at_poses`], parameters `params`) and the warm
-/// start of that pose into `fit`. No forward kinematics: the pose is where
-/// the other set-up reached the touch's readings, and the first pass
-/// starts there.
-fn ball_at_start(
-    mechanism: &dyn Mechanism,
-    params: &[f64],
-    touches: &[usize],
-    b: usize,
-    start: &TouchStart,
-    fit: BallFit<'_>,
-) -> Result<Vector3<f64>, MechanismCalibrationError> {
-    let coordinates = mechanism.pose_coordinates().len();
-    let poses: Vec<&[f64]> = (touches.iter())
-        .map(|&t| start.pose(t, coordinates))
-        .collect();
-    let tips = mechanism.tool_points_at_poses(params, &poses);
-    let rooms = fit.tips.iter_mut().zip(fit.warm_starts.iter_mut());
-    for (((&t, tip), pose), (room, warm_start)) in touches.iter().zip(tips).zip(&poses).zip(rooms) {
-        let reached = tip.and_then(|tip| Ok((tip, mechanism.warm_start(pose)?)));
-        let (tip, reached) = reached.map_err(|e| failed(touch_ref(t), e))?;
-        *room = tip;
-        *warm_start = WarmStart::of(reached.as_slice());
-    }
-    Ok(Vector3::from(start.centres[b]))
 }
 
 /// Touch `t` as an observation.

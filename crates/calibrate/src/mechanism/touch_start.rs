@@ -10,6 +10,8 @@
 //! ([`Mechanism::tool_points_at_poses`](parcal_kinematics::mechanism::Mechanism::tool_points_at_poses)),
 //! without forward kinematics.
 
+use rayon::prelude::*;
+
 use super::error::MechanismCalibrationError;
 
 /// Each ball's centre and each touch's pose, where a fit starts them
@@ -57,7 +59,7 @@ impl TouchStart {
         if let Some(b) = (self.centres.iter()).position(|c| c.iter().any(|v| !v.is_finite())) {
             return Err(invalid(format!("ball {b}'s centre is not finite")));
         }
-        if let Some(k) = self.poses.iter().position(|v| !v.is_finite()) {
+        if let Some(k) = self.poses.par_iter().position_first(|v| !v.is_finite()) {
             return Err(invalid(format!(
                 "touch {}'s pose is not finite",
                 k / coordinates.max(1)
