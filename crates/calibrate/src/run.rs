@@ -11,6 +11,7 @@ use parcal_kinematics::{PARAM_NAMES, Vec3};
 use parcal_solver::{IterationRecord, SolverOptions, Status};
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
+use crate::options::{GAUSS_NEWTON_ITERATIONS, LEVENBERG_MARQUARDT_ITERATIONS};
 use crate::problem::CalibrationProblem;
 use crate::setup::{Observations, Setup, kinematic_prior};
 use crate::verdict::at_minimum;
@@ -34,8 +35,9 @@ use solve::SolverRun;
 /// more than `RUNAWAY_RISE`-fold, or with a cost above its first, or
 /// with a robust loss: a blunder or a start far from the solution, where
 /// full steps overshoot) is made again with Levenberg-Marquardt, whose
-/// steps never raise the cost; [`CalibrationRun::gauss_newton`] keeps how
-/// the first run ended.
+/// steps never raise the cost, within what is left of the time limit and
+/// an iteration limit of its own ([`rerun_iterations`]);
+/// [`CalibrationRun::gauss_newton`] keeps how the first run ended.
 pub fn calibrate(
     dataset: &Dataset,
     options: &CalibrationOptions,
@@ -72,6 +74,7 @@ pub fn calibrate(
         return Ok(run);
     }
     let mut lm = options.clone().levenberg_marquardt();
+    lm.max_iterations = rerun_iterations(options.max_iterations);
     // What is left of the budget.
     lm.time_limit = options
         .time_limit
@@ -85,6 +88,18 @@ pub fn calibrate(
         iterations: run.history.len().saturating_sub(1),
     });
     Ok(again)
+}
+
+/// The iteration limit of the Levenberg-Marquardt run made again after a
+/// Gauss-Newton run of limit `limit` ran away ([`calibrate`]): the
+/// default limits' proportion, [`LEVENBERG_MARQUARDT_ITERATIONS`] damped
+/// steps for [`GAUSS_NEWTON_ITERATIONS`] full ones, at most the former,
+/// so that a limit given bounds the run made again too (3 allows 12).
+fn rerun_iterations(limit: usize) -> usize {
+    let ratio = LEVENBERG_MARQUARDT_ITERATIONS / GAUSS_NEWTON_ITERATIONS;
+    limit
+        .saturating_mul(ratio)
+        .min(LEVENBERG_MARQUARDT_ITERATIONS)
 }
 
 /// The rise of the cost in one Gauss-Newton step that marks a run that

@@ -172,3 +172,23 @@ fn a_tip_at_the_ball_centre_is_run_again_and_rejected() {
     assert!(first.final_cost > first.initial_cost);
     assert!(!run.verdict().accepted);
 }
+
+/// An iteration limit given bounds the run made again too: the blunder
+/// above at a limit of 3, Gauss-Newton runs away and Levenberg-Marquardt
+/// is given 12 steps (the default limits' proportion, 200 for 50), not its
+/// default 200, which this run, not settling, would use up.
+#[test]
+fn a_limit_given_bounds_the_run_made_again() {
+    let mut blundered = paper();
+    blundered.measurements.q[38][2] -= 5.0;
+    let options = CalibrationOptions {
+        max_iterations: 3,
+        ..robust(HUBER)
+    };
+    let run = calibrate(&blundered, &options, &mut |_| {}).unwrap();
+    let first = run.gauss_newton.as_ref().expect("run again");
+    assert_eq!(first.iterations, 3);
+    let steps = run.history.len() - 1;
+    assert!((1..=12).contains(&steps), "{steps} steps made again");
+    assert!(!run.verdict().accepted);
+}

@@ -50,7 +50,9 @@ pub struct Args {
     #[arg(long)]
     lm: bool,
     /// Iteration limit (default 50 for Gauss-Newton, 200 for
-    /// Levenberg-Marquardt or a robust --loss).
+    /// Levenberg-Marquardt or a robust --loss); a Gauss-Newton run that
+    /// runs away is made again with Levenberg-Marquardt, of four times
+    /// this limit, at most 200.
     #[arg(long, value_parser = Bounded(bounds::MAX_ITERATIONS))]
     max_iterations: Option<usize>,
     /// Wall-clock budget of the calibration, seconds: when it has passed the
