@@ -87,15 +87,16 @@ struct DistanceFile {
     sigma: f64,
 }
 
-/// The index of each ball id in a list of balls.
-pub(crate) type BallIndex<'a> = FxHashMap<&'a str, usize>;
+/// The index of each ball id (its bytes, as a CSV field holds it) in a
+/// list of balls.
+pub(crate) type BallIndex<'a> = FxHashMap<&'a [u8], usize>;
 
 /// Index of each ball id in `balls`; the error is the first duplicated id, as
 /// (index of its first use, index of its second use).
 pub(crate) fn ball_index(balls: &[Ball]) -> std::result::Result<BallIndex<'_>, (usize, usize)> {
     let mut index = BallIndex::with_capacity_and_hasher(balls.len(), Default::default());
     for (i, ball) in balls.iter().enumerate() {
-        match index.entry(ball.id.as_str()) {
+        match index.entry(ball.id.as_bytes()) {
             Entry::Vacant(slot) => {
                 slot.insert(i);
             }
@@ -113,7 +114,7 @@ impl Artefacts {
         // The ids must be unique to be resolved; `validate` checks the rest.
         let index = validate_balls(check, &file.balls)?;
         let resolve = |i: usize, end: &str, id: &str| {
-            index.get(id).copied().ok_or_else(|| {
+            index.get(id.as_bytes()).copied().ok_or_else(|| {
                 check.error(
                     format!("distances[{i}].{end}"),
                     format!("unknown ball id {} (not in balls)", quoted(id)),
@@ -138,7 +139,8 @@ impl Artefacts {
             balls: file.balls,
             distances,
         };
-        artefacts.validate(check)?;
+        // The balls were checked above: what is left of `validate`.
+        artefacts.validate_distances(check)?;
         Ok(artefacts)
     }
 

@@ -125,7 +125,7 @@ impl Dataset {
             let measurements = if tracker_only {
                 Ok(Measurements::default())
             } else {
-                Measurements::read(&measurements_path, balls, scale)
+                Measurements::read(&measurements_path, &index, scale)
             };
             (measurements, truth.join())
         });

@@ -11,11 +11,10 @@
 
 use std::path::Path;
 
-use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
-use crate::artefacts::Ball;
+use crate::artefacts::{Ball, BallIndex};
 use crate::check::{self, Check, not_finite};
 use crate::error::{DatasetError, Result};
 use crate::quote::quoted_bytes;
@@ -51,13 +50,7 @@ impl Measurements {
 
     /// Reads `measurements.csv`, resolving ball ids against `balls` (whose
     /// ids are unique); `scale` is the actuators' (mm per unit).
-    pub(crate) fn read(path: &Path, balls: &[Ball], scale: &[f64; 6]) -> Result<Self> {
-        // The ids are unique (the caller's premise): each is its ball's.
-        let index: FxHashMap<&[u8], u32> = balls
-            .iter()
-            .zip(0..)
-            .map(|(ball, i)| (ball.id.as_bytes(), i))
-            .collect();
+    pub(crate) fn read(path: &Path, index: &BallIndex, scale: &[f64; 6]) -> Result<Self> {
         let expected = format!("{BALL},{}", Q.join(","));
         let mut out = Self::default();
         table::read_file_in_pieces(
@@ -65,7 +58,7 @@ impl Measurements {
             &expected,
             "measurement",
             |header| Columns::locate(header, &expected),
-            |columns, row, piece: &mut Self| Self::push_row(piece, row, columns, &index, scale),
+            |columns, row, piece: &mut Self| Self::push_row(piece, row, columns, index, scale),
             |piece| {
                 out.ball.append(&mut piece.ball);
                 out.q.append(&mut piece.q);
@@ -84,7 +77,7 @@ impl Measurements {
         out: &mut Self,
         row: &Row,
         columns: &Columns,
-        index: &FxHashMap<&[u8], u32>,
+        index: &BallIndex,
         scale: &[f64; 6],
     ) -> Result<(), Failure> {
         let id = row.field(columns.ball);
@@ -105,6 +98,15 @@ impl Measurements {
         if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
             return Err(row.error(column, message));
         }
+        let ball = u32::try_from(ball).map_err(|_| {
+            row.error(
+                Some(BALL),
+                format!(
+                    "ball index {ball} is beyond the {} a measurement can hold",
+                    u32::MAX
+                ),
+            )
+        })?;
         out.ball.push(ball);
         out.q.push(q);
         if let Some(d) = direction {

@@ -276,7 +276,7 @@ impl<'de> Visitor<'de> for BallId<'_> {
     }
 
     fn visit_str<E: de::Error>(self, id: &str) -> std::result::Result<usize, E> {
-        self.0.get(id).copied().ok_or_else(|| {
+        self.0.get(id.as_bytes()).copied().ok_or_else(|| {
             E::custom(format!(
                 "unknown ball id {} (not in artefacts.json)",
                 quoted(id)
