@@ -244,7 +244,8 @@ fn located<R: Read + Seek>(
 /// (`what`), each checked to have the header's width and passed to `each`
 /// with the accumulator of its piece. The rows are read in blocks of
 /// [`PIECE_LEN`] bytes per thread of rayon's pool, cut at line ends, and
-/// each block into one piece per thread, parsed side by side; `gather`
+/// each block into one piece per thread, parsed side by side while the
+/// next block is read (two blocks in memory); `gather`
 /// empties the accumulators in file order, so that what they held does not
 /// depend on the number of threads. A piece is split at its line ends and
 /// commas ([`split_piece`]); from a block with a quote character on (whose
@@ -273,57 +274,59 @@ pub(crate) fn read_file_in_pieces<C: Sync, A: Default + Send>(
     file.seek(SeekFrom::Start(offset)).map_err(io_error)?;
     let threads = rayon::current_num_threads().max(1);
     let block_len = PIECE_LEN * threads;
+    // The block parsed, and the next one, read beside its parsing.
     let mut block = Vec::with_capacity(block_len);
+    let mut next = Vec::with_capacity(block_len);
+    let mut end_of_file = fill(&mut file, &mut block, block_len).map_err(io_error)?;
     // One accumulator per piece, emptied by `gather` and reused from block
     // to block: the pieces allocate once, not once per block.
     let mut accumulators: Vec<A> = (0..threads).map(|_| A::default()).collect();
     let mut rows = 0;
-    loop {
-        let kept = block.len();
-        block.resize(block_len, 0);
-        let read = read_full(&mut file, &mut block[kept..]).map_err(io_error)?;
-        let end_of_file = kept + read < block_len;
-        block.truncate(kept + read);
-        if block.is_empty() {
-            break;
-        }
-        let quoted = block.contains(&b'"');
-        let parsed: Vec<Result<usize, Failure>> = if quoted {
+    while !block.is_empty() {
+        if block.contains(&b'"') {
             let rest = io::Cursor::new(std::mem::take(&mut block)).chain(&mut file);
             let accumulator = &mut accumulators[0];
-            let rows = parse_piece(rest, offset, skipped, &header, |row| {
+            let piece = parse_piece(rest, offset, skipped, &header, |row| {
                 each(&columns, row, accumulator)
             });
-            vec![rows]
-        } else {
-            // A block without a line end holds part of a line longer
-            // than the cap, which its piece refuses.
-            let end = match (end_of_file, block.iter().rposition(|&b| b == b'\n')) {
-                (false, Some(last)) => last + 1,
-                _ => block.len(),
-            };
-            let parsed = pieces(&block[..end], threads)
-                .par_windows(2)
-                .zip(accumulators.par_iter_mut())
-                .map(|(bounds, accumulator)| {
-                    let (start, stop) = (bounds[0], bounds[1]);
-                    let bytes = &block[start..stop];
-                    split_piece(bytes, offset + start as u64, skipped, &header, |row| {
-                        each(&columns, row, accumulator)
-                    })
-                })
-                .collect();
-            block.drain(..end);
-            offset += end as u64;
-            parsed
+            rows += piece.map_err(|f| located(path, &mut file, skipped, f))?;
+            gather(accumulator);
+            break;
+        }
+        // A block without a line end holds part of a line longer than the
+        // cap, which its piece refuses.
+        let end = match (end_of_file, block.iter().rposition(|&b| b == b'\n')) {
+            (false, Some(last)) => last + 1,
+            _ => block.len(),
         };
+        // The next block starts with the rest of this one; its bytes are
+        // read while this one's pieces are parsed.
+        next.clear();
+        next.extend_from_slice(&block[end..]);
+        let (read, parsed) = rayon::join(
+            || fill(&mut file, &mut next, block_len),
+            || {
+                (pieces(&block[..end], threads).par_windows(2))
+                    .zip(accumulators.par_iter_mut())
+                    .map(|(bounds, accumulator)| {
+                        let (start, stop) = (bounds[0], bounds[1]);
+                        let bytes = &block[start..stop];
+                        split_piece(bytes, offset + start as u64, skipped, &header, |row| {
+                            each(&columns, row, accumulator)
+                        })
+                    })
+                    .collect::<Vec<Result<usize, Failure>>>()
+            },
+        );
+        // This block's errors before the next one's: the earliest in the
+        // file first.
         for (piece, accumulator) in parsed.into_iter().zip(&mut accumulators) {
             rows += piece.map_err(|f| located(path, &mut file, skipped, f))?;
             gather(accumulator);
         }
-        if quoted {
-            break;
-        }
+        end_of_file = read.map_err(io_error)?;
+        offset += end as u64;
+        std::mem::swap(&mut block, &mut next);
     }
     if rows == 0 {
         let failure = header.error(format!("the header is followed by no {what} row"));
@@ -437,6 +440,16 @@ fn pieces(rows: &[u8], count: usize) -> Vec<usize> {
 /// line may have, [`CSV_LINE_CAP`]): the memory of reading a file of any
 /// length in pieces.
 const PIECE_LEN: usize = 4 << 20;
+
+/// Fills `block`, which holds the bytes kept from the block before, up to
+/// `len` bytes from `input`; whether the input ended.
+fn fill(input: &mut impl Read, block: &mut Vec<u8>, len: usize) -> io::Result<bool> {
+    let kept = block.len();
+    block.resize(len.max(kept), 0);
+    let read = read_full(input, &mut block[kept..]);
+    block.truncate(kept + *read.as_ref().unwrap_or(&0));
+    Ok(kept + read? < len)
+}
 
 /// Fills `buffer` from `input` as far as it goes; the bytes read (fewer
 /// than the buffer's length only at the end of the input).
