@@ -36,7 +36,8 @@ use solve::SolverRun;
 /// with a robust loss: a blunder or a start far from the solution, where
 /// full steps overshoot) is made again with Levenberg-Marquardt, whose
 /// steps never raise the cost, within what is left of the time limit and
-/// an iteration limit of its own ([`rerun_iterations`]);
+/// four times the iteration limit, at most
+/// Levenberg-Marquardt's default limit, 200 (`rerun_iterations`);
 /// [`CalibrationRun::gauss_newton`] keeps how the first run ended.
 pub fn calibrate(
     dataset: &Dataset,
