@@ -802,7 +802,7 @@ fn what_the_common_calibration_does_not_model_is_refused_by_name() {
     assert!(message.contains("touch 7"), "{message}");
     assert!(message.contains("6 coordinates"), "{message}");
     // Readings of the wrong length.
-    data.observations.touches[7].at = Actuation::Readings(vec![0.0; 5]);
+    data.observations.touches[7].at = Actuation::Readings(vec![0.0; 5].into());
     let error = calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap_err();
     let message = error.to_string();
     assert!(

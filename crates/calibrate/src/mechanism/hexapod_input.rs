@@ -89,7 +89,9 @@ use parcal_kinematics::mechanism::design;
 use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::CoordinateWhitening;
 use parcal_observe::KinematicPrior;
-use parcal_observe::mechanism::{Actuation, Approach, BallTouch, TrackerPoint, TrackerPose};
+use parcal_observe::mechanism::{
+    Actuation, Approach, BallTouch, Readings, TrackerPoint, TrackerPose,
+};
 use rayon::prelude::*;
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
@@ -252,10 +254,10 @@ impl LegReadings {
     }
 
     /// The mechanism's readings of a contact's readings `q`.
-    fn actuation(&self, q: &[f64; 6]) -> Vec<f64> {
+    fn actuation(&self, q: &[f64; 6]) -> Readings {
         match self {
             Self::KnownScales(scale) => (0..6).map(|i| scale[i] * q[i]).collect(),
-            Self::UnknownScales { .. } => q.to_vec(),
+            Self::UnknownScales { .. } => Readings::from_slice(q),
         }
     }
 }
@@ -343,7 +345,7 @@ fn instrument_observations(
     let poses = (0..tracker.poses.len())
         .map(|j| TrackerPose {
             tracker: tracker.poses.session[j] as usize,
-            readings: legs.actuation(&tracker.poses.q[j]),
+            readings: legs.actuation(&tracker.poses.q[j]).to_vec(),
             measured: measured[j],
             // In leg length (mm), as the hexapod calibration whitens them:
             // at unknown scales the rows are too (`TrackerPose`'s `S`).

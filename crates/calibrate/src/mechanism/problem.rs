@@ -1941,7 +1941,7 @@ pub(crate) mod tests {
             let tip = hexapod.tool_point(params.as_slice(), &x).unwrap().point;
             observations.tracker_points.push(TrackerPoint {
                 tracker: j % 2,
-                at: Actuation::Readings(readings),
+                at: Actuation::Readings(readings.into()),
                 measured: frames[j % 2].transform_point(&tip.into()).coords.into(),
                 weight: CoordinateWhitening::isotropic(0.01),
             });

@@ -9,6 +9,7 @@ use parcal_kinematics::batch_workspace::BatchWorkspace;
 use parcal_kinematics::mechanism::{
     Mechanism, MechanismError, Reached, ReachedAlong, along_of_reached, warm_start_at_readings,
 };
+use smallvec::SmallVec;
 
 use super::gathered::gathered;
 
@@ -60,6 +61,11 @@ fn reached_at_command(
 /// starts from.
 type AtReadings<'a> = (usize, &'a [f64], Cow<'a, [f64]>);
 
+/// The actuators' readings of an [`Actuation`], one per actuator: inline up
+/// to a hexapod's six, so that a million touches' readings are not as many
+/// allocations; more on the heap.
+pub type Readings = SmallVec<[f64; 6]>;
+
 /// How the machine was put where it observed: a position `x_c` its
 /// controller commanded (the readings `g(p_c, x_c)` follow from the
 /// configured parameters), or the readings `q` its actuators gave (a
@@ -69,7 +75,7 @@ pub enum Actuation {
     /// A commanded position `x_c` (mm, the controller's coordinates).
     Commanded([f64; 3]),
     /// The actuators' readings `q`, one per actuator.
-    Readings(Vec<f64>),
+    Readings(Readings),
 }
 
 impl Actuation {
@@ -303,11 +309,7 @@ mod tests {
     ) {
         let (delta, configured, truth) = delta();
         let read = |x: [f64; 3]| {
-            delta
-                .inverse(truth.as_slice(), &x)
-                .unwrap()
-                .as_slice()
-                .to_vec()
+            Readings::from_slice(delta.inverse(truth.as_slice(), &x).unwrap().as_slice())
         };
         let actuations = [
             Actuation::Commanded([40.0, -30.0, 18.0]),
@@ -339,7 +341,7 @@ mod tests {
         let hexapod = hexapod.as_ref();
         let p = design(hexapod);
         let p = p.as_slice();
-        let legs = |x: [f64; 6]| hexapod.inverse(p, &x).unwrap().as_slice().to_vec();
+        let legs = |x: [f64; 6]| Readings::from_slice(hexapod.inverse(p, &x).unwrap().as_slice());
         let mut short = legs([5.0, 0.0, 235.0, 0.0, 0.02, 0.0]);
         short.pop();
         let actuations = [
@@ -405,7 +407,7 @@ mod tests {
         let p = design(hexapod);
         let p = p.as_slice();
         let pose = [-30.0, 20.0, 240.0, 0.08, -0.05, 0.1];
-        let readings = hexapod.inverse(p, &pose).unwrap().as_slice().to_vec();
+        let readings = Readings::from_slice(hexapod.inverse(p, &pose).unwrap().as_slice());
         let home = warm_start_at_readings(hexapod, p, &readings).unwrap();
         let dp = vec![1e-4; p.len()];
         let read = Actuation::Readings(readings.clone());

@@ -65,7 +65,7 @@ mod tracker_pose;
 
 pub use ball_distance::{BallDistance, BallDistanceRow};
 pub use ball_touch::{Approach, BallTouch, RadiusRow, TouchRows};
-pub use commanded::{Actuation, POSE_COORDINATES, Rows, reached};
+pub use commanded::{Actuation, POSE_COORDINATES, Readings, Rows, reached};
 pub use commanded_point::CommandedPoint;
 pub use gathered::{ON_STACK, gathered};
 pub use part_distance::PartDistance;

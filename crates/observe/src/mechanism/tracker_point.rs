@@ -38,7 +38,7 @@ use parcal_kinematics::mechanism::{
     Mechanism, MechanismError, Reached, check_vector, tool_point_reading_jacobian,
 };
 
-use super::commanded::{Actuation, Rows};
+use super::commanded::{Actuation, Readings, Rows};
 use crate::{CoordinateWhitening, FrameCorrection, PointBlock};
 
 /// One point a tracker measured (module doc).
@@ -117,7 +117,7 @@ impl TrackerPoint {
         };
         // `s_i`, where the scales are parameters.
         let scales = mechanism.scales(params);
-        let shifted: Vec<f64> = (readings.iter().zip(offsets).enumerate())
+        let shifted: Readings = (readings.iter().zip(offsets).enumerate())
             .map(|(i, (q, o))| q + o / scales.map_or(1.0, |s| s[i]))
             .collect();
         let reached = Actuation::Readings(shifted).tool_point(
