@@ -48,8 +48,9 @@ impl Measurements {
         self.ball.is_empty()
     }
 
-    /// Reads `measurements.csv`, resolving ball ids against `balls` (whose
-    /// ids are unique); `scale` is the actuators' (mm per unit).
+    /// Reads `measurements.csv`, resolving ball ids by the artefacts' `index`
+    /// ([`crate::artefacts::ball_index`]); `scale` is the actuators' (mm per
+    /// unit).
     pub(crate) fn read(path: &Path, index: &BallIndex, scale: &[f64; 6]) -> Result<Self> {
         let expected = format!("{BALL},{}", Q.join(","));
         let mut out = Self::default();

@@ -447,8 +447,9 @@ fn fill(input: &mut impl Read, block: &mut Vec<u8>, len: usize) -> io::Result<bo
     let kept = block.len();
     block.resize(len.max(kept), 0);
     let read = read_full(input, &mut block[kept..]);
-    block.truncate(kept + *read.as_ref().unwrap_or(&0));
-    Ok(kept + read? < len)
+    let filled = kept + read.as_ref().map_or(0, |&n| n);
+    block.truncate(filled);
+    read.map(|_| filled < len)
 }
 
 /// Fills `buffer` from `input` as far as it goes; the bytes read (fewer
