@@ -634,9 +634,8 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
                 None => y.fill(0.0),
             }
         }
-        times_factor_rows::<R>(level.factor, reduced, coordinates, C);
         first_row += n;
-        let m = gram_rows::<R>(coordinates, n, cw);
+        let m = eliminated_gram::<R>(n, level.factor, reduced, coordinates, C);
         out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
         // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
         for (r, z_r) in z.chunks_exact_mut(g).enumerate() {
@@ -676,6 +675,47 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
                 let (y, z) = row.split_at(C);
                 prior_leverage.groups += norm2(y) + norm2(z);
             }
+        }
+    }
+}
+
+/// `V` of a point's `n` eliminated rows and `M = VVᵀ`: `Lᵀu_e` of its
+/// first `n` reduced rows `reduced` (`R × G`) into columns `offset..` of
+/// `coordinates` ([`times_factor_rows`]), then [`gram_rows`], for those
+/// rows alone when `n` is one or two, so that a touch by its coordinates
+/// without an angle prior (three rows, one eliminated) goes through `Lᵀ`
+/// once, not three times. The rows computed get the same sums in the same
+/// order whatever `n`, so the same bits; rows of `coordinates` from `n` on
+/// are left as they were, and unused.
+#[inline(always)]
+fn eliminated_gram<const R: usize>(
+    n: usize,
+    factor: &[f64],
+    reduced: &[f64],
+    coordinates: &mut [f64],
+    offset: usize,
+) -> SMatrix<f64, R, R> {
+    /// The first `N` rows alone, `M` in the top left of an `R × R` zero.
+    #[inline(always)]
+    fn first<const R: usize, const N: usize>(
+        factor: &[f64],
+        reduced: &[f64],
+        coordinates: &mut [f64],
+        offset: usize,
+    ) -> SMatrix<f64, R, R> {
+        let g = reduced.len() / R;
+        times_factor_rows::<N>(factor, &reduced[..N * g], coordinates, offset);
+        let mut m = SMatrix::<f64, R, R>::zeros();
+        m.fixed_view_mut::<N, N>(0, 0)
+            .copy_from(&gram_rows::<N>(coordinates, N, offset + g));
+        m
+    }
+    match n {
+        1 if R > 1 => first::<R, 1>(factor, reduced, coordinates, offset),
+        2 if R > 2 => first::<R, 2>(factor, reduced, coordinates, offset),
+        _ => {
+            times_factor_rows::<R>(factor, reduced, coordinates, offset);
+            gram_rows::<R>(coordinates, n, offset + reduced.len() / R)
         }
     }
 }
@@ -900,6 +940,36 @@ mod tests {
         for r in 0..3 {
             let expected = norm2(&v[r * width..(r + 1) * width]);
             assert_eq!(norms[r].to_bits(), expected.to_bits(), "row {r}");
+        }
+    }
+
+    /// A point's `V` and `M` for its eliminated rows alone give the bits
+    /// of all `R` rows through `Lᵀ` (rows from `n` on zero), for every `n`.
+    #[test]
+    fn the_eliminated_rows_alone_give_the_bits_of_all_rows() {
+        let (g, offset) = (33, 4);
+        let width = offset + g;
+        let value = |i: usize| ((i * 7919 % 1013) as f64 - 506.0) * 1.37e-3;
+        let mut factor = vec![0.0; g * g];
+        for i in 0..g {
+            for k in 0..=i {
+                factor[i * g + k] = value(i * g + k + 5);
+            }
+        }
+        for n in 0..=3 {
+            let mut reduced: Vec<f64> = (0..3 * g).map(value).collect();
+            reduced[n * g..].fill(0.0);
+            let mut all: Vec<f64> = (0..3 * width).map(|i| value(i + 11)).collect();
+            let mut alone = all.clone();
+            times_factor_rows::<3>(&factor, &reduced, &mut all, offset);
+            let expected = gram_rows::<3>(&all, n, width);
+            let m = eliminated_gram::<3>(n, &factor, &reduced, &mut alone, offset);
+            for (a, b) in m.iter().zip(expected.iter()) {
+                assert_eq!(a.to_bits(), b.to_bits(), "n = {n}: M");
+            }
+            for (a, b) in alone[..n * width].iter().zip(&all[..n * width]) {
+                assert_eq!(a.to_bits(), b.to_bits(), "n = {n}: V");
+            }
         }
     }
 
