@@ -50,7 +50,7 @@ fn the_common_calibration_of_a_hexapod_is_its_own() {
 }
 
 /// The common calibration starts where the own one does (the own
-/// set-up's ball centres and design poses, `TouchStart`): the same cost at
+/// set-up's ball centres and design poses as warm starts, `TouchStart`): the same cost at
 /// the start, to rounding; the same number of iterations; the same cost at
 /// the end, to the stopping rule's level. A start of the wrong size is
 /// refused by name.
@@ -75,13 +75,13 @@ fn the_common_hexapod_starts_where_the_own_does() {
         assert!(last < 2.0 * SIGMA_TOLERANCE.powi(2), "{last:e}");
         let mut wrong = data.clone();
         let mut start = data.touch_start.clone().unwrap();
-        start.poses.pop();
+        start.warm_starts.pop();
         wrong.touch_start = Some(start);
         let error = calibrate_mechanism(&wrong, &common_options, &mut |_| {})
             .unwrap_err()
             .to_string();
         assert!(
-            error.contains("touches' start") && error.contains("189 touches of 6 each"),
+            error.contains("touches' start") && error.contains("189 touches of 7 each"),
             "{error}"
         );
     }

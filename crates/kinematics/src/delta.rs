@@ -788,6 +788,24 @@ mod tests {
         assert!((q[1] - q[2]).abs() < 1e-9, "B and C symmetric: {q}");
     }
 
+    /// The default tool points at warm starts (a delta's warm start is
+    /// its pose) are `tool_point`'s, to the bit; a start refused is
+    /// refused alone.
+    #[test]
+    fn tool_points_at_warm_starts_are_each_tool_point() {
+        let delta = LinearDelta::typical();
+        let p = design(&delta);
+        let (x, y, refused) = ([10.0, -20.0, 5.0], [0.0, 30.0, 40.0], [0.0, f64::NAN, 1.0]);
+        let starts: [&[f64]; 3] = [&x, &refused, &y];
+        let points = delta.tool_points_at_warm_starts(p.as_slice(), &starts);
+        assert_eq!(points.len(), 3);
+        for (point, pose) in [&points[0], &points[2]].into_iter().zip([&x, &y]) {
+            let expected = delta.tool_point(p.as_slice(), pose).unwrap().point;
+            assert_eq!(point.as_ref().unwrap(), &expected);
+        }
+        assert!(points[1].is_err());
+    }
+
     #[test]
     fn forward_inverts_inverse_over_the_workspace() {
         let delta = LinearDelta::typical();

@@ -406,10 +406,10 @@ impl Hexapod {
 }
 
 /// The number of values of a hexapod's warm start `(t, q)` (module doc).
-const WARM_START_LEN: usize = 7;
+pub const WARM_START_LEN: usize = 7;
 
 /// The warm start `(t, q)` of an isometry (module doc).
-fn warm_start_values(pose: &Pose) -> [f64; WARM_START_LEN] {
+pub fn warm_start_values(pose: &Pose) -> [f64; WARM_START_LEN] {
     let (t, q) = (pose.translation.vector, pose.rotation.coords);
     [t.x, t.y, t.z, q.x, q.y, q.z, q.w]
 }
@@ -596,18 +596,19 @@ impl Mechanism for Hexapod {
         })
     }
 
-    /// Each point `geometry.tool_tip(pose)`, as [`Mechanism::tool_point`]
-    /// gives it, the geometry built once.
-    fn tool_points_at_poses(
+    /// Each point `geometry.tool_tip(pose)` at the pose of its warm start
+    /// `(t, q)` (the quaternion normalised, no trigonometry), the geometry
+    /// built once.
+    fn tool_points_at_warm_starts(
         &self,
         params: &[f64],
-        poses: &[&[f64]],
+        starts: &[&[f64]],
     ) -> Vec<Result<Vector3<f64>, MechanismError>> {
         match self.geometry(params) {
-            Ok(geometry) => (poses.iter())
-                .map(|pose| Ok(geometry.tool_tip(&self.pose(pose)?)))
+            Ok(geometry) => (starts.iter())
+                .map(|start| Ok(geometry.tool_tip(&self.start(start)?)))
                 .collect(),
-            Err(e) => vec![Err(e); poses.len()],
+            Err(e) => vec![Err(e); starts.len()],
         }
     }
 
@@ -835,33 +836,35 @@ mod tests {
         assert_eq!(hexapod.parameters()[LEG_OFFSET].group, "leg lengths");
     }
 
-    /// The points at several poses, the geometry built once, are
-    /// `tool_point`'s, to the bit; a pose refused is refused alone, and
-    /// parameters refused refuse every pose.
+    /// The points at several warm starts, the geometry built once, are
+    /// the tool points at their poses (to rounding: a pose from its
+    /// quaternion, not its rotation vector); a start refused (not finite,
+    /// or a zero quaternion) is refused alone, and parameters refused
+    /// refuse every start.
     #[test]
-    fn tool_points_at_poses_are_each_tool_point() {
+    fn tool_points_at_warm_starts_are_each_tool_point() {
         let hexapod = hexapod();
         let p = design(&hexapod);
-        let poses: Vec<DVector<f64>> = [sample_pose(), Pose::identity()]
-            .iter()
-            .map(pose_vector)
-            .collect();
-        let refused = [0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0];
-        let mut slices: Vec<&[f64]> = poses.iter().map(|x| x.as_slice()).collect();
-        slices.insert(1, &refused);
-        let points = hexapod.tool_points_at_poses(p.as_slice(), &slices);
-        assert_eq!(points.len(), 3);
-        for (point, pose) in points.iter().zip(&slices) {
-            match hexapod.tool_point(p.as_slice(), pose) {
-                Ok(expected) => assert_eq!(point.as_ref().unwrap(), &expected.point),
-                Err(e) => assert_eq!(point.as_ref().unwrap_err(), &e),
-            }
+        let poses = [sample_pose(), Pose::identity()];
+        let starts: Vec<[f64; WARM_START_LEN]> = poses.iter().map(warm_start_values).collect();
+        let not_finite = [0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0, 1.0];
+        let no_rotation = [0.0, 0.0, 240.0, 0.0, 0.0, 0.0, 0.0];
+        let mut slices: Vec<&[f64]> = starts.iter().map(|x| x.as_slice()).collect();
+        slices.insert(1, &not_finite);
+        slices.push(&no_rotation);
+        let points = hexapod.tool_points_at_warm_starts(p.as_slice(), &slices);
+        assert_eq!(points.len(), 4);
+        for (point, pose) in [&points[0], &points[2]].into_iter().zip(&poses) {
+            let expected = (hexapod.tool_point(p.as_slice(), pose_vector(pose).as_slice()))
+                .unwrap()
+                .point;
+            assert!((point.as_ref().unwrap() - expected).amax() < 1e-12);
         }
-        assert!(points[1].is_err());
+        assert!(points[1].is_err() && points[3].is_err());
         let mut wrong = p.clone();
         wrong[LEG_OFFSET] = f64::INFINITY;
-        let refused_params = hexapod.tool_points_at_poses(wrong.as_slice(), &slices);
-        assert_eq!(refused_params.len(), 3);
+        let refused_params = hexapod.tool_points_at_warm_starts(wrong.as_slice(), &slices);
+        assert_eq!(refused_params.len(), 4);
         assert!(refused_params.iter().all(Result::is_err));
     }
 

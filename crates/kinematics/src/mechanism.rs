@@ -339,17 +339,23 @@ pub trait Mechanism: Send + Sync {
         })
     }
 
-    /// The tool points `T(p, x)` at several `poses`, in order, without
-    /// their derivatives: [`Mechanism::tool_point`]'s points by default; a
-    /// mechanism that builds something of `p` for each point overrides it
-    /// with the same values, built once (the hexapod: its geometry).
-    fn tool_points_at_poses(
+    /// The tool points `T(p, x)` at the poses `x` of several warm starts
+    /// `starts` (module doc), in order, without their derivatives:
+    /// [`Mechanism::tool_point`]'s points at
+    /// [`Mechanism::pose_of_warm_start`] by default; a mechanism that
+    /// builds something of `p` for each point overrides it with the same
+    /// values, built once (the hexapod: its geometry, each pose from its
+    /// translation and quaternion).
+    fn tool_points_at_warm_starts(
         &self,
         params: &[f64],
-        poses: &[&[f64]],
+        starts: &[&[f64]],
     ) -> Vec<Result<Vector3<f64>, MechanismError>> {
-        (poses.iter())
-            .map(|pose| Ok(self.tool_point(params, pose)?.point))
+        (starts.iter())
+            .map(|start| {
+                let pose = self.pose_of_warm_start(start)?;
+                Ok(self.tool_point(params, pose.as_slice())?.point)
+            })
             .collect()
     }
 

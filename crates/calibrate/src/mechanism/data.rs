@@ -668,7 +668,7 @@ impl MechanismData {
             Some(start) => start.validate(
                 observations.balls.len(),
                 observations.touches.len(),
-                coordinates,
+                mechanism.warm_start_len(),
             ),
             None => Ok(()),
         }

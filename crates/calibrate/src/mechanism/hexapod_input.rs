@@ -59,7 +59,7 @@
 //!
 //! - The start: the own set-up's ([`TouchStart`]): each ball's centre (the
 //!   best fit of its design tool tips, or its mirror image) and each
-//!   contact's pose by the design's forward kinematics.
+//!   contact's pose by the design's forward kinematics, as its warm start.
 //!
 //! Both calibrations then minimise the same cost from the same start (but for a
 //! tracker with poses, whose frame the common calibration locates by the
@@ -84,7 +84,7 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, Isometry3};
 use parcal_dataset::{ArtefactFrame, Dataset};
-use parcal_kinematics::hexapod::{Hexapod, TOOL_GROUP, pose_vector};
+use parcal_kinematics::hexapod::{Hexapod, TOOL_GROUP, WARM_START_LEN, warm_start_values};
 use parcal_kinematics::mechanism::design;
 use parcal_kinematics::{N_PARAMS, Vec3};
 use parcal_observe::CoordinateWhitening;
@@ -169,7 +169,7 @@ impl MechanismData {
         // The common calibration starts where the own one does.
         let touch_start = TouchStart {
             centres: start.centres.iter().map(|c| [c.x, c.y, c.z]).collect(),
-            poses: start.poses,
+            warm_starts: start.warm_starts,
         };
         let data =
             Self::new(Arc::new(hexapod), configured, observations).with_touch_start(touch_start);
@@ -403,9 +403,9 @@ struct DesignStart {
     /// Each ball's centre: the best fit of its design tool tips, or its
     /// mirror image.
     centres: Vec<Vec3>,
-    /// Every contact's pose by the design's forward kinematics (the
-    /// hexapod's pose coordinates), in the order of the measurements.
-    poses: Vec<f64>,
+    /// Every contact's pose by the design's forward kinematics, as the
+    /// hexapod's warm start `(t, q)`, in the order of the measurements.
+    warm_starts: Vec<f64>,
 }
 
 /// The weights and the balls' centres the hexapod calibration forms at
@@ -421,20 +421,22 @@ fn design_start(
     let (setup, observations) =
         Setup::new(dataset, options).map_err(|error| invalid(error.to_string()))?;
     // The set-up's sorted slot of each contact, then each contact's weight
-    // and pose from its slot, contacts on the threads.
+    // and warm start from its slot, contacts on the threads.
     let mut slot = vec![0u32; setup.order.len()];
     for (k, &row) in setup.order.iter().enumerate() {
         slot[row as usize] = k as u32;
     }
-    let mut poses = vec![0.0; 6 * slot.len()];
-    poses.par_chunks_mut(6).zip(&slot).for_each(|(pose, &k)| {
-        pose.copy_from_slice(pose_vector(&setup.poses[k as usize]).as_slice())
-    });
+    let mut warm_starts = vec![0.0; WARM_START_LEN * slot.len()];
+    (warm_starts.par_chunks_mut(WARM_START_LEN))
+        .zip(&slot)
+        .for_each(|(start, &k)| {
+            start.copy_from_slice(&warm_start_values(&setup.poses[k as usize]))
+        });
     Ok(DesignStart {
         observations,
         slot,
         centres: setup.initial_centres,
-        poses,
+        warm_starts,
     })
 }
 

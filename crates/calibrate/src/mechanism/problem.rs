@@ -421,13 +421,13 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     }
 
     /// Each touch where `start` put it (the touch points' `caches` and
-    /// `tips`, in their order): the warm start of its start pose `x` and
-    /// its tool point `T(p, x)` at parameters `params`
-    /// ([`Mechanism::tool_points_at_poses`], which builds what it needs of
-    /// `p` once for a chunk of [`START_CHUNK`] touches), on the threads. No
-    /// forward kinematics: the pose is where the other set-up reached the
-    /// touch's readings, and the first pass starts there. The first
-    /// failing touch named.
+    /// `tips`, in their order): its warm start, and its tool point `T(p,
+    /// x)` at parameters `params` there
+    /// ([`Mechanism::tool_points_at_warm_starts`], which builds what it
+    /// needs of `p` once for a chunk of [`START_CHUNK`] touches), on the
+    /// threads. No forward kinematics: the pose is where the other set-up
+    /// reached the touch's readings, and the first pass starts there. The
+    /// first failing touch named.
     fn touches_at_start(
         &self,
         params: &[f64],
@@ -436,24 +436,22 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         tips: &mut [Vector3<f64>],
     ) -> Result<(), MechanismCalibrationError> {
         let mechanism = self.data.mechanism.as_ref();
-        let coordinates = mechanism.pose_coordinates().len();
+        let len = mechanism.warm_start_len();
         let chunks = (self.touch_order.par_chunks(START_CHUNK))
             .zip(caches.par_chunks_mut(START_CHUNK))
             .zip(tips.par_chunks_mut(START_CHUNK));
         let outcomes: Vec<Result<(), MechanismCalibrationError>> = chunks
             .map(|((touches, caches), tips)| {
-                let poses: Vec<&[f64]> = (touches.iter())
-                    .map(|&t| start.pose(t, coordinates))
+                let starts: Vec<&[f64]> = (touches.iter())
+                    .map(|&t| start.warm_start(t, len))
                     .collect();
-                let reached = mechanism.tool_points_at_poses(params, &poses);
+                let reached = mechanism.tool_points_at_warm_starts(params, &starts);
                 let rooms = tips.iter_mut().zip(caches.iter_mut());
-                for (((&t, tip), pose), (room, cache)) in
-                    touches.iter().zip(reached).zip(&poses).zip(rooms)
+                for (((&t, tip), warm_start), (room, cache)) in
+                    touches.iter().zip(reached).zip(&starts).zip(rooms)
                 {
-                    let reached = tip.and_then(|tip| Ok((tip, mechanism.warm_start(pose)?)));
-                    let (tip, warm_start) = reached.map_err(|e| failed(touch_ref(t), e))?;
-                    *room = tip;
-                    *cache = WarmStart::of(warm_start.as_slice());
+                    *room = tip.map_err(|e| failed(touch_ref(t), e))?;
+                    *cache = WarmStart::of(warm_start);
                 }
                 Ok(())
             })
