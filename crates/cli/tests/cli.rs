@@ -483,7 +483,14 @@ fn calibrate_writes_calibration_json_and_compares_with_the_truth() {
     assert!(output.status.success(), "{}", text(&output.stderr));
     let per_ball = parcal_dataset_calibration(&out);
     assert!(per_ball.contains("\"radius\": \"ball\""), "{per_ball}");
-    assert!(per_ball.contains("\"radius_sigma\": "), "{per_ball}");
+    let read: serde_json::Value = serde_json::from_str(&per_ball).unwrap();
+    let centres = read["ball_centres"].as_object().unwrap();
+    assert!(!centres.is_empty());
+    assert!(
+        centres
+            .values()
+            .all(|c| c["radius_sigma"].as_f64() > Some(0.0))
+    );
 
     // Paper mode: the prior warning fires.
     let out = temp.path().join("paper.json");

@@ -11,7 +11,7 @@ use serde::Serialize;
 use serde::de::{
     self, DeserializeOwned, DeserializeSeed, Deserializer, IgnoredAny, MapAccess, Visitor,
 };
-use serde::ser::{Error as _, SerializeSeq, Serializer};
+use serde::ser::{SerializeMap, SerializeSeq, Serializer};
 use serde_json::error::Category;
 use serde_json::value::{RawValue, to_raw_value};
 
@@ -383,13 +383,17 @@ fn serialize_document<T: Serialize>(
     w.write_all(b"\n").map_err(write_error(path))
 }
 
+/// How many elements of a few hundred bytes (a ball's record) a wave of
+/// [`serialize_seq_on_threads`] or [`serialize_map_on_threads`] formats:
+/// about a megabyte.
+pub(crate) const ELEMENTS_A_WAVE: usize = 4096;
+
 /// Serializes the list `element(0)`, ..., `element(len - 1)` into
-/// `serializer`, a JSON one that writes each element on one line (as
-/// compact JSON, or from [`Layout`]'s `one_line_from`): each wave of
-/// `wave` elements (at least one) is formatted as compact JSON on the
-/// threads while the wave before is written, the same bytes as formatting
-/// each in turn (a calibration's observation records of 10^6 touches).
-/// JSON only: another format would write each element as a [`RawValue`].
+/// `serializer`, a JSON one, each element on one line (as compact JSON,
+/// under any layout) and formatted on the threads ([`in_waves`]): the same
+/// bytes as writing each in turn as compact JSON (a calibration's
+/// observation records of 10^6 touches, its 10^5 balls). JSON only:
+/// another format would write each element as a [`RawValue`].
 pub(crate) fn serialize_seq_on_threads<S, T>(
     serializer: S,
     len: usize,
@@ -400,17 +404,58 @@ where
     S: Serializer,
     T: Serialize,
 {
+    let mut seq = serializer.serialize_seq(Some(len))?;
+    in_waves::<S::Error, _>(len, wave, element, |_, raw| seq.serialize_element(raw))?;
+    seq.end()
+}
+
+/// Serializes the map of the entries `entry(0)`, ..., `entry(len - 1)`
+/// (key, value) into `serializer`, as [`serialize_seq_on_threads`] does a
+/// list: each value on one line, formatted on the threads, each key
+/// written in turn.
+pub(crate) fn serialize_map_on_threads<S, K, V>(
+    serializer: S,
+    len: usize,
+    wave: usize,
+    entry: impl Fn(usize) -> (K, V) + Sync,
+) -> std::result::Result<S::Ok, S::Error>
+where
+    S: Serializer,
+    K: Serialize,
+    V: Serialize,
+{
+    let mut map = serializer.serialize_map(Some(len))?;
+    in_waves::<S::Error, _>(
+        len,
+        wave,
+        |k| entry(k).1,
+        |k, raw| map.serialize_entry(&entry(k).0, raw),
+    )?;
+    map.end()
+}
+
+/// `value(0)`, ..., `value(len - 1)` formatted as compact JSON and handed
+/// in order to `write` with their index: each wave of `wave` values (at
+/// least one) formatted on the threads while the wave before is written
+/// (and the one before that freed).
+fn in_waves<E: serde::ser::Error, T: Serialize>(
+    len: usize,
+    wave: usize,
+    value: impl Fn(usize) -> T + Sync,
+    mut write: impl FnMut(usize, &RawValue) -> std::result::Result<(), E>,
+) -> std::result::Result<(), E> {
     let wave = wave.max(1);
     let format = |start: usize| -> serde_json::Result<Vec<Box<RawValue>>> {
         (start..len.min(start + wave))
             .into_par_iter()
-            .map(|k| to_raw_value(&element(k)))
+            .map(|k| to_raw_value(&value(k)))
             .collect()
     };
-    let mut seq = serializer.serialize_seq(Some(len))?;
-    // The wave being written, and the one written before it (freed on
-    // the threads too).
-    let (mut formatted, mut written) = (Vec::new(), Vec::new());
+    let mut write_wave = |start: usize, formatted: &[Box<RawValue>]| {
+        (formatted.iter().enumerate()).try_for_each(|(j, raw)| write(start + j, raw))
+    };
+    // The wave being written (from `at`), and the one written before it.
+    let (mut at, mut formatted, mut written) = (0, Vec::new(), Vec::new());
     for start in (0..len).step_by(wave) {
         let mut next = Ok(Vec::new());
         rayon::in_place_scope(|scope| {
@@ -418,16 +463,12 @@ where
                 drop(written);
                 next = format(start);
             });
-            formatted
-                .iter()
-                .try_for_each(|raw| seq.serialize_element(raw))
+            write_wave(at, &formatted)
         })?;
-        written = std::mem::replace(&mut formatted, next.map_err(S::Error::custom)?);
+        written = std::mem::replace(&mut formatted, next.map_err(E::custom)?);
+        at = start;
     }
-    formatted
-        .iter()
-        .try_for_each(|raw| seq.serialize_element(raw))?;
-    seq.end()
+    write_wave(at, &formatted)
 }
 
 /// serde_json's pretty layout (indent 1, a value per line) down to the
@@ -586,18 +627,33 @@ mod tests {
         assert_eq!(read, value);
     }
 
-    /// A list of more than two waves, formatted on the threads, is the
-    /// same bytes as written in turn: under [`Layout`] (its elements on
-    /// one line, the list pretty, as a calibration's observations) and as
-    /// compact JSON; empty, and in any number of threads.
+    /// A list or a map of more than two waves, formatted on the threads,
+    /// is its elements written in turn, each on one line: the same bytes
+    /// as [`Layout`] writes where its containers go on one line, and as
+    /// compact JSON; the same value under a pretty layout; empty, and in
+    /// any number of threads.
     #[test]
-    fn a_list_formatted_on_the_threads_is_the_list_written_in_turn() {
+    fn a_list_or_map_formatted_on_the_threads_is_written_as_in_turn() {
         const WAVE: usize = 64;
-        struct OnThreads<'a>(&'a [serde_json::Value]);
-        impl Serialize for OnThreads<'_> {
+        struct List<'a>(&'a [serde_json::Value]);
+        impl Serialize for List<'_> {
             fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
                 serialize_seq_on_threads(s, self.0.len(), WAVE, |k| &self.0[k])
             }
+        }
+        struct Map<'a>(&'a [serde_json::Value]);
+        impl Serialize for Map<'_> {
+            fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+                serialize_map_on_threads(s, self.0.len(), WAVE, |k| (key(k), &self.0[k]))
+            }
+        }
+        fn key(k: usize) -> String {
+            format!("k{k:04}")
+        }
+        #[derive(Serialize)]
+        struct Document<'a> {
+            list: List<'a>,
+            map: Map<'a>,
         }
         let elements: Vec<serde_json::Value> = (0..2 * WAVE + 5)
             .map(|k| serde_json::json!({"k": k, "x": [k as f64 / 7.0, null], "s": "a\"b"}))
@@ -608,31 +664,45 @@ mod tests {
                 .build()
                 .unwrap();
             for list in [&elements[..], &elements[..3], &[]] {
-                let in_turn = serde_json::json!({ "list": list });
-                let mut bytes = Vec::new();
-                pool.install(|| {
-                    #[derive(Serialize)]
-                    struct Document<'a> {
-                        list: OnThreads<'a>,
-                    }
+                let map: serde_json::Map<String, serde_json::Value> = (list.iter().enumerate())
+                    .map(|(k, v)| (key(k), v.clone()))
+                    .collect();
+                let in_turn = serde_json::json!({ "list": list, "map": map });
+                let laid_out = |one_line_from: usize| {
+                    let mut bytes = Vec::new();
+                    let layout = Layout::new(one_line_from);
+                    let mut serializer = serde_json::Serializer::with_formatter(&mut bytes, layout);
                     let document = Document {
-                        list: OnThreads(list),
+                        list: List(list),
+                        map: Map(list),
                     };
-                    let mut serializer =
-                        serde_json::Serializer::with_formatter(&mut bytes, Layout::new(3));
-                    document.serialize(&mut serializer).unwrap();
-                });
-                let laid_out = String::from_utf8(bytes).unwrap();
+                    pool.install(|| document.serialize(&mut serializer).unwrap());
+                    String::from_utf8(bytes).unwrap()
+                };
+                let one_line = laid_out(3);
                 assert_eq!(
-                    laid_out,
+                    one_line,
                     written(&in_turn, Layout::new(3)),
                     "{threads} threads"
                 );
-                let compact = pool.install(|| serde_json::to_string(&OnThreads(list)).unwrap());
+                let pretty = laid_out(usize::MAX);
+                let read: serde_json::Value = serde_json::from_str(&pretty).unwrap();
+                assert_eq!(read, in_turn);
+                // Each element on a line of its own, as compact JSON.
+                let lines: Vec<&str> = pretty.lines().map(str::trim).collect();
+                for (k, element) in list.iter().enumerate() {
+                    let compact = serde_json::to_string(element).unwrap();
+                    let comma = if k + 1 < list.len() { "," } else { "" };
+                    assert!(lines.contains(&format!("{compact}{comma}").as_str()));
+                    let entry = format!("\"{}\": {compact}{comma}", key(k));
+                    assert!(lines.contains(&entry.as_str()), "{entry}");
+                }
+                let compact = pool.install(|| serde_json::to_string(&List(list)).unwrap());
                 assert_eq!(compact, serde_json::to_string(list).unwrap());
             }
         }
     }
+
     fn check(format: &str) -> Result<()> {
         MACHINE.check(Path::new("machine.json"), format)
     }

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::Point3;
 use crate::geometry::GeometryRecord;
+use crate::json;
 use crate::machine::{Actuator, Machine};
 use crate::session::SessionRecord;
 use crate::shape;
@@ -91,7 +92,10 @@ pub struct Calibration {
     #[serde(deserialize_with = "shape::bounded_matrix::<_, MAX_PARAMETERS>")]
     pub covariance: Vec<Vec<f64>>,
     /// Identified ball centres by ball id.
-    #[serde(deserialize_with = "shape::unique_map")]
+    #[serde(
+        deserialize_with = "shape::unique_map",
+        serialize_with = "centres_on_threads"
+    )]
     pub ball_centres: BTreeMap<String, CentreEstimate>,
     /// The prior used: `"paper"`, `"propagated"` or `"none"`.
     pub prior: String,
@@ -159,6 +163,18 @@ pub struct Calibration {
     /// files written before they were recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub diagnostics: Option<Diagnostics>,
+}
+
+/// The ball centres, each on one line, formatted on the threads (a
+/// calibration has up to 10^5).
+fn centres_on_threads<S: serde::Serializer>(
+    centres: &BTreeMap<String, CentreEstimate>,
+    serializer: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    let entries: Vec<_> = centres.iter().collect();
+    json::serialize_map_on_threads(serializer, entries.len(), json::ELEMENTS_A_WAVE, |k| {
+        entries[k]
+    })
 }
 
 /// What calibration.json keeps of a run's checks: enough for `parcal

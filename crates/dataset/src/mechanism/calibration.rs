@@ -207,7 +207,11 @@ pub struct MechanismCalibrationRecord {
     pub identifiability: Option<IdentifiabilityRecord>,
     /// The calibrated balls' centres and radii, numbered as in the
     /// dataset (none without touches).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        serialize_with = "balls_on_threads"
+    )]
     pub balls: Vec<BallRecord>,
     /// The balls found on the wrong side of their touches and re-seeded
     /// (none: absent).
@@ -224,6 +228,17 @@ pub struct MechanismCalibrationRecord {
     /// angles a touch); absent without touches.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub observation: Option<String>,
+}
+
+/// The balls, each on one line, formatted on the threads (a hexapod's
+/// calibration has 10^5).
+fn balls_on_threads<S: serde::Serializer>(
+    balls: &[BallRecord],
+    serializer: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    json::serialize_seq_on_threads(serializer, balls.len(), json::ELEMENTS_A_WAVE, |b| {
+        &balls[b]
+    })
 }
 
 impl MechanismCalibrationRecord {
