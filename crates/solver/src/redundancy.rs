@@ -432,8 +432,10 @@ impl<'a, const C: usize, const P: usize, const R: usize> RedundancySink<'a, C, P
             rows,
             points: Vec::with_capacity(largest),
             weighed: VecDeque::with_capacity(BATCH),
-            coordinates: vec![0.0; R * (C + g)],
-            reduced: vec![0.0; R * g],
+            // A group's eliminated rows, and `R` more (module doc of
+            // `point_leverages`' scratch).
+            coordinates: vec![0.0; (largest + 1) * R * (C + g)],
+            reduced: vec![0.0; (largest + 1) * R * g],
             z: vec![0.0; R * g],
             out: Vec::with_capacity(points),
             global_z: global_z.then(|| Vec::with_capacity(points * R * g)),
@@ -543,8 +545,11 @@ struct GroupLevel<'a> {
     g: usize,
 }
 
-/// The scratch of [`point_leverages`]: `V` of a point (`R` rows of
-/// `C + G`), its reduced rows (`R × G`), the `z_j` of its data rows (`R × G`).
+/// The scratch of [`point_leverages`]: `V` of a group's eliminated rows
+/// (rows of `C + G`), their reduced rows (rows of `G`), each with room
+/// for `R` rows past the group's (read, and their sums dropped, by a point
+/// whose Gram is formed over all `R`), and the `z_j` of a point's data
+/// rows (`R × G`).
 struct Scratch<'a> {
     coordinates: &'a mut [f64],
     reduced: &'a mut [f64],
@@ -620,29 +625,32 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
         reduced,
         z,
     } = scratch;
+    // The reduced rows `u` of all the group's eliminated rows, then `Lᵀu`
+    // of them all at once.
+    let eliminated: usize = points.iter().map(|point| point.eliminated).sum();
+    for (e, row) in rows.chunks_exact(w).take(eliminated).enumerate() {
+        let u = &mut reduced[e * g..(e + 1) * g];
+        u.copy_from_slice(&row[C..C + g]);
+        let y = &mut coordinates[e * cw..e * cw + C];
+        match level.top {
+            Some(top) => eliminate_group::<C>(top, g, &row[..C], y, u),
+            None => y.fill(0.0),
+        }
+    }
+    times_factor_all(level.factor, g, &reduced[..eliminated * g], coordinates, C);
     let mut first_row = 0;
     for (point, out) in points.iter().zip(out) {
         let n = point.eliminated;
-        // The reduced rows `u_e` (rows `n..R` zero), then `Lᵀu_e` of all.
-        reduced.fill(0.0);
-        for (e, u) in reduced.chunks_exact_mut(g).take(n).enumerate() {
-            let row = &rows[(first_row + e) * w..(first_row + e + 1) * w];
-            u.copy_from_slice(&row[C..C + g]);
-            let y = &mut coordinates[e * cw..e * cw + C];
-            match level.top {
-                Some(top) => eliminate_group::<C>(top, g, &row[..C], y, u),
-                None => y.fill(0.0),
-            }
-        }
+        let v = &coordinates[first_row * cw..];
         first_row += n;
-        let m = eliminated_gram::<R>(n, level.factor, reduced, coordinates, C);
+        let m = eliminated_gram::<R>(n, v, cw);
         out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
         // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
         for (r, z_r) in z.chunks_exact_mut(g).enumerate() {
             z_r.fill(0.0);
             for e in 0..n {
                 let q = point.data[(r, e)];
-                let v = &coordinates[e * cw + C..(e + 1) * cw];
+                let v = &v[e * cw + C..(e + 1) * cw];
                 for (z, v) in z_r.iter_mut().zip(v) {
                     *z += q * v;
                 }
@@ -664,13 +672,14 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
         // the `C`th are zero and their sums unused).
         for first in (0..C).step_by(R) {
             let rows = R.min(C - first);
-            reduced.fill(0.0);
-            for (e, u) in reduced.chunks_exact_mut(g).take(rows).enumerate() {
+            let batch = &mut reduced[..R * g];
+            batch.fill(0.0);
+            for (e, u) in batch.chunks_exact_mut(g).take(rows).enumerate() {
                 let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(first + e, b)]);
                 let y = &mut coordinates[e * cw..e * cw + C];
                 eliminate_group::<C>(top, g, &u_row, y, u);
             }
-            times_factor_rows::<R>(level.factor, reduced, coordinates, C);
+            times_factor_rows::<R>(level.factor, batch, coordinates, C);
             for row in coordinates.chunks_exact(cw).take(rows) {
                 let (y, z) = row.split_at(C);
                 prior_leverage.groups += norm2(y) + norm2(z);
@@ -679,44 +688,55 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
     }
 }
 
-/// `V` of a point's `n` eliminated rows and `M = VVᵀ`: `Lᵀu_e` of its
-/// first `n` reduced rows `reduced` (`R × G`) into columns `offset..` of
-/// `coordinates` ([`times_factor_rows`]), then [`gram_rows`], for those
-/// rows alone when `n` is one or two, so that a touch by its coordinates
-/// without an angle prior (three rows, one eliminated) goes through `Lᵀ`
-/// once, not three times. The rows computed get the same sums in the same
-/// order whatever `n`, so the same bits; rows of `coordinates` from `n` on
-/// are left as they were, and unused.
+/// `M = VVᵀ` of a point's `n` eliminated rows, the first rows of `v`
+/// (rows of `width`): [`gram_rows`] over those rows alone when `n` is one
+/// or two (a touch by its coordinates without an angle prior has three
+/// rows, one eliminated), else over `R` rows (`v` holds them). The
+/// entries kept get the same sums in the same order whatever `n`.
 #[inline(always)]
-fn eliminated_gram<const R: usize>(
-    n: usize,
-    factor: &[f64],
-    reduced: &[f64],
-    coordinates: &mut [f64],
-    offset: usize,
-) -> SMatrix<f64, R, R> {
+fn eliminated_gram<const R: usize>(n: usize, v: &[f64], width: usize) -> SMatrix<f64, R, R> {
     /// The first `N` rows alone, `M` in the top left of an `R × R` zero.
     #[inline(always)]
-    fn first<const R: usize, const N: usize>(
-        factor: &[f64],
-        reduced: &[f64],
-        coordinates: &mut [f64],
-        offset: usize,
-    ) -> SMatrix<f64, R, R> {
-        let g = reduced.len() / R;
-        times_factor_rows::<N>(factor, &reduced[..N * g], coordinates, offset);
+    fn first<const R: usize, const N: usize>(v: &[f64], width: usize) -> SMatrix<f64, R, R> {
         let mut m = SMatrix::<f64, R, R>::zeros();
         m.fixed_view_mut::<N, N>(0, 0)
-            .copy_from(&gram_rows::<N>(coordinates, N, offset + g));
+            .copy_from(&gram_rows::<N>(v, N, width));
         m
     }
     match n {
-        1 if R > 1 => first::<R, 1>(factor, reduced, coordinates, offset),
-        2 if R > 2 => first::<R, 2>(factor, reduced, coordinates, offset),
-        _ => {
-            times_factor_rows::<R>(factor, reduced, coordinates, offset);
-            gram_rows::<R>(coordinates, n, offset + reduced.len() / R)
+        1 if R > 1 => first::<R, 1>(v, width),
+        2 if R > 2 => first::<R, 2>(v, width),
+        _ => gram_rows::<R>(v, n, width),
+    }
+}
+
+/// Rows of `Lᵀu` at a time in [`times_factor_all`]: with
+/// [`FACTOR_BLOCK`] columns, the sums of four rows in eight AVX2
+/// registers, each row of `L` read once for all of them.
+const ROWS_AT_ONCE: usize = 4;
+
+/// `z_e = Lᵀu_e` for every row `u_e` of `reduced` (rows of `G`), into
+/// columns `offset..offset + G` of the rows of `out` (rows of `offset +
+/// G`): [`ROWS_AT_ONCE`] rows at a time, then the rest together
+/// ([`times_factor_rows`]), so that a group's touches, one eliminated row
+/// each, share the reads of `L`. Each row gets the sums of
+/// [`times_factor`], whatever rows it goes with.
+#[inline(always)]
+fn times_factor_all(factor: &[f64], g: usize, reduced: &[f64], out: &mut [f64], offset: usize) {
+    let width = offset + g;
+    let rows = reduced.len() / g;
+    let mut r = 0;
+    while r < rows {
+        let (reduced, out) = (&reduced[r * g..], &mut out[r * width..]);
+        let at_once = ROWS_AT_ONCE.min(rows - r);
+        let reduced = &reduced[..at_once * g];
+        match at_once {
+            1 => times_factor_rows::<1>(factor, reduced, out, offset),
+            2 => times_factor_rows::<2>(factor, reduced, out, offset),
+            3 => times_factor_rows::<3>(factor, reduced, out, offset),
+            _ => times_factor_rows::<ROWS_AT_ONCE>(factor, reduced, out, offset),
         }
+        r += at_once;
     }
 }
 
@@ -943,32 +963,18 @@ mod tests {
         }
     }
 
-    /// A point's `V` and `M` for its eliminated rows alone give the bits
-    /// of all `R` rows through `Lᵀ` (rows from `n` on zero), for every `n`.
+    /// A point's `M` over its eliminated rows alone gives the bits of the
+    /// Gram of all `R` rows, for every `n`.
     #[test]
     fn the_eliminated_rows_alone_give_the_bits_of_all_rows() {
-        let (g, offset) = (33, 4);
-        let width = offset + g;
+        let width = 37;
         let value = |i: usize| ((i * 7919 % 1013) as f64 - 506.0) * 1.37e-3;
-        let mut factor = vec![0.0; g * g];
-        for i in 0..g {
-            for k in 0..=i {
-                factor[i * g + k] = value(i * g + k + 5);
-            }
-        }
+        let v: Vec<f64> = (0..3 * width).map(value).collect();
         for n in 0..=3 {
-            let mut reduced: Vec<f64> = (0..3 * g).map(value).collect();
-            reduced[n * g..].fill(0.0);
-            let mut all: Vec<f64> = (0..3 * width).map(|i| value(i + 11)).collect();
-            let mut alone = all.clone();
-            times_factor_rows::<3>(&factor, &reduced, &mut all, offset);
-            let expected = gram_rows::<3>(&all, n, width);
-            let m = eliminated_gram::<3>(n, &factor, &reduced, &mut alone, offset);
+            let expected = gram_rows::<3>(&v, n, width);
+            let m = eliminated_gram::<3>(n, &v, width);
             for (a, b) in m.iter().zip(expected.iter()) {
                 assert_eq!(a.to_bits(), b.to_bits(), "n = {n}: M");
-            }
-            for (a, b) in alone[..n * width].iter().zip(&all[..n * width]) {
-                assert_eq!(a.to_bits(), b.to_bits(), "n = {n}: V");
             }
         }
     }
@@ -998,13 +1004,26 @@ mod tests {
             let offset = 2;
             let mut out = vec![f64::NAN; 3 * (offset + g)];
             times_factor_rows::<3>(&factor, &reduced, &mut out, offset);
-            for e in 0..3 {
+            let expected = |e: usize, reduced: &[f64]| {
                 let mut z = vec![0.0; g];
                 times_factor(&factor, &reduced[e * g..(e + 1) * g], &mut z);
-                let row = &out[e * (offset + g) + offset..(e + 1) * (offset + g)];
-                for (a, b) in row.iter().zip(&z) {
-                    assert_eq!(a.to_bits(), b.to_bits(), "G = {g}, row {e}");
+                z
+            };
+            let check = |out: &[f64], rows: usize, reduced: &[f64], what: &str| {
+                for e in 0..rows {
+                    let row = &out[e * (offset + g) + offset..(e + 1) * (offset + g)];
+                    for (a, b) in row.iter().zip(&expected(e, reduced)) {
+                        assert_eq!(a.to_bits(), b.to_bits(), "{what}: G = {g}, row {e}");
+                    }
                 }
+            };
+            check(&out, 3, &reduced, "3 rows");
+            // A group's rows, four at a time and the rest together.
+            let many: Vec<f64> = (0..9 * g).map(|_| next()).collect();
+            for rows in 1..=9 {
+                let mut out = vec![f64::NAN; (rows + 1) * (offset + g)];
+                times_factor_all(&factor, g, &many[..rows * g], &mut out, offset);
+                check(&out, rows, &many, &format!("{rows} rows at once"));
             }
         }
     }
