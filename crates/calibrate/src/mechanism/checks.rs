@@ -8,6 +8,7 @@
 use std::borrow::Cow;
 
 use parcal_dataset::mechanism::{ObservationRecords, RowCheck, worst_row};
+use rayon::prelude::*;
 
 use super::observation::ObservationRef;
 
@@ -20,6 +21,18 @@ pub struct ObservationCheck<'a> {
     /// Its rows' residuals, redundancy numbers and normalised residuals
     /// (`None` for a row no other row checks).
     pub rows: &'a [RowCheck],
+}
+
+/// The row of largest `|w_j|` among `rows` (the last of equals, as
+/// [`worst_row`] keeps it) and that `w_j`, found on the threads: the
+/// largest by `|w_j|`, then by place, whatever the threads' shares.
+fn worst_of(rows: &[RowCheck]) -> Option<(usize, f64)> {
+    (rows.par_iter().enumerate())
+        .filter_map(|(j, row)| row.normalised.map(|w| (j, f64::from(w))))
+        .reduce_with(|a, b| {
+            let order = a.1.abs().total_cmp(&b.1.abs()).then(a.0.cmp(&b.0));
+            if order.is_gt() { a } else { b }
+        })
 }
 
 impl ObservationCheck<'_> {
@@ -38,41 +51,40 @@ pub struct ObservationChecks {
     /// The rows of every observation, in turn.
     rows: Vec<RowCheck>,
     /// The observation of largest `|w_j|` (its place in `observations`),
-    /// its row and that `w_j`: found as the observations are pushed, so
-    /// that the verdict, its reasons and snooping do not each pass over
-    /// every row again.
+    /// its row and that `w_j`: found once, so that the verdict, its
+    /// reasons and snooping do not each pass over every row again.
     worst: Option<(usize, usize, f64)>,
 }
 
 impl ObservationChecks {
-    /// The checks of the observations whose rows, in order, are `rows`:
-    /// none yet ([`ObservationChecks::push`] takes them in turn).
-    pub(crate) fn of_rows(rows: Vec<RowCheck>) -> Self {
+    /// The checks of `observations`, each with its number of rows, whose
+    /// rows, in order, are `rows`: those of the observations that fit in
+    /// `rows` (the caller's are all of them, with no row left), the one of
+    /// largest `|w_j|` found over their rows on the threads.
+    pub(crate) fn new(
+        rows: Vec<RowCheck>,
+        observations: impl IntoIterator<Item = (ObservationRef, usize)>,
+    ) -> Self {
+        let mut end = 0;
+        let observations: Vec<(ObservationRef, usize)> = (observations.into_iter())
+            .map_while(|(observation, count)| {
+                let next = end + count;
+                (next <= rows.len()).then(|| {
+                    end = next;
+                    (observation, next)
+                })
+            })
+            .collect();
+        let worst = worst_of(&rows[..end]).map(|(j, w)| {
+            let k = observations.partition_point(|&(_, end)| end <= j);
+            let start = k.checked_sub(1).map_or(0, |k| observations[k].1);
+            (k, j - start, w)
+        });
         Self {
-            observations: Vec::new(),
+            observations,
             rows,
-            worst: None,
+            worst,
         }
-    }
-
-    /// The next observation, holding the next `rows` rows; `false`
-    /// (nothing added) when fewer are left.
-    pub(crate) fn push(&mut self, observation: ObservationRef, rows: usize) -> bool {
-        let start = self.observations.last().map_or(0, |&(_, end)| end);
-        let end = start + rows;
-        if end > self.rows.len() {
-            return false;
-        }
-        if let Some((row, w)) = worst_row(&self.rows[start..end]) {
-            // The last of equal `|w_j|`, as `Iterator::max_by` keeps it.
-            let larger =
-                |&(_, _, worst): &(usize, usize, f64)| w.abs().total_cmp(&worst.abs()).is_ge();
-            if self.worst.as_ref().is_none_or(larger) {
-                self.worst = Some((self.observations.len(), row, w));
-            }
-        }
-        self.observations.push((observation, end));
-        true
     }
 
     /// The number of observations.
@@ -125,11 +137,17 @@ impl ObservationChecks {
     pub(crate) fn into_records(self) -> ObservationRecords {
         let mut records = ObservationRecords::of_rows(self.rows);
         let mut start = 0;
-        for (observation, end) in self.observations {
-            let kind = Cow::Borrowed(observation.kind.name());
-            let pushed = records.push(kind, observation.index, end - start);
+        for same_kind in self.observations.chunk_by(|a, b| a.0.kind == b.0.kind) {
+            let kind = Cow::Borrowed(same_kind[0].0.kind.name());
+            let pushed = records.push_of_kind(
+                kind,
+                same_kind.iter().map(|&(observation, end)| {
+                    let rows = end - start;
+                    start = end;
+                    (observation.index, rows)
+                }),
+            );
             debug_assert!(pushed, "the rows end where the observations' do");
-            start = end;
         }
         records
     }
@@ -159,33 +177,45 @@ mod tests {
             kind: ObservationKind::Probe,
             index: 1,
         };
-        let mut checks = ObservationChecks::of_rows(vec![
+        let rows = vec![
             row(0.3, Some(0.42)),
             row(1.0, None),
             row(-2.0, Some(-2.75)),
             row(0.5, Some(0.7)),
-        ]);
-        assert!(checks.push(probe, 1));
-        assert!(checks.push(touch, 3));
-        assert!(!checks.push(probe, 1), "no row is left");
-        assert_eq!(checks.len(), 2);
+        ];
+        let mut checks = ObservationChecks::new(rows, [(probe, 1), (touch, 3), (probe, 1)]);
+        assert_eq!(checks.len(), 2, "no row is left for the third");
         let second = checks.get(1).unwrap();
         assert_eq!((second.observation, second.rows.len()), (touch, 3));
         assert_eq!(second.worst(), Some((1, -2.75)));
         let (worst, at, w) = checks.worst().unwrap();
         assert_eq!((worst.observation, at, w), (touch, 1, -2.75));
         // Of equal |w|, the last (as a pass over every row with
-        // `Iterator::max_by` finds it); untested rows are passed over.
-        let mut ties = ObservationChecks::of_rows(vec![
-            row(1.0, Some(2.0)),
-            row(1.0, None),
-            row(-1.0, Some(-2.0)),
+        // `Iterator::max_by` finds it), on any number of threads;
+        // untested rows, and rows of no observation, are passed over.
+        let mut ties = vec![row(1.0, Some(2.0)), row(1.0, None), row(-1.0, Some(-2.0))];
+        ties.extend((0..5000).map(|k| row(0.1, Some(if k % 7 == 0 { 2.0 } else { 1.0 }))));
+        ties.extend([
+            row(1.0, Some(-2.0)),
+            row(1.0, Some(1.0)),
+            row(1.0, Some(9.0)),
         ]);
-        assert!(ties.push(probe, 1) && ties.push(probe, 1) && ties.push(touch, 1));
-        let (worst, at, w) = ties.worst().unwrap();
-        assert_eq!((worst.observation, at, w), (touch, 0, -2.0));
+        let observations = (0..ties.len() - 1).map(|index| (ObservationRef { index, ..touch }, 1));
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let ties = pool.install(|| ObservationChecks::new(ties.clone(), observations.clone()));
+            let (worst, at, w) = ties.worst().unwrap();
+            assert_eq!(
+                (worst.observation.index, at, w),
+                (5003, 0, -2.0),
+                "{threads}"
+            );
+        }
         assert!(
-            ObservationChecks::of_rows(vec![row(1.0, None)])
+            ObservationChecks::new(vec![row(1.0, None)], [(probe, 1)])
                 .worst()
                 .is_none()
         );

@@ -17,6 +17,7 @@ use parcal_solver::{
     BlockId, GlobalObservations, IterationRecord, Loss, Problem, Solution, SolverOptions, State,
     Status, group_sigmas, normalised_residual, redundancy, solve_with_caches,
 };
+use rayon::prelude::*;
 
 use crate::mirror::remaining;
 use crate::options::Observation;
@@ -382,7 +383,12 @@ where
     let order = base.touch_order();
     let sample_points = base.n_points() - order.len();
     let touches = global_rows + R * sample_points;
-    let mut rows = vec![RowCheck::default(); touches + R * order.len()];
+    // Written on the threads: its pages are had on both.
+    let mut rows = Vec::new();
+    rows.par_extend(rayon::iter::repeat_n(
+        RowCheck::default(),
+        touches + R * order.len(),
+    ));
     let mut point = 0usize;
     let global = redundancy::<C, P, R, _>(
         problem,
@@ -410,7 +416,6 @@ where
     for (room, check) in rows[..global_rows].iter_mut().zip(global_checks) {
         *room = check;
     }
-    let mut checks = ObservationChecks::of_rows(rows);
     let observations = (refs.iter().copied())
         .chain((0..R * sample_points / base.actuators()).map(|index| {
             let kind = ObservationKind::Sample;
@@ -420,10 +425,12 @@ where
             let kind = ObservationKind::Touch;
             (ObservationRef { kind, index }, R)
         }));
-    for (observation, rows) in observations {
-        let pushed = checks.push(observation, rows);
-        debug_assert!(pushed, "the rows end where the observations' do");
-    }
+    let checks = ObservationChecks::new(rows, observations);
+    debug_assert_eq!(
+        checks.len(),
+        refs.len() + sample_points * R / base.actuators() + order.len(),
+        "the rows end where the observations' do"
+    );
     Ok((checks, global.group_sigmas))
 }
 

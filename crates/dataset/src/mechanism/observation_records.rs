@@ -100,11 +100,25 @@ impl ObservationRecords {
     /// The next observation, of kind `kind` and index `index`, holding the
     /// next `rows` rows; `false` (nothing added) when fewer are left.
     pub fn push(&mut self, kind: Cow<'static, str>, index: usize, rows: usize) -> bool {
-        if rows > self.unclaimed_rows() {
-            return false;
-        }
+        rows <= self.unclaimed_rows() && self.push_of_kind(kind, [(index, rows)])
+    }
+
+    /// The next observations, all of kind `kind`, each given by its index
+    /// and its number of rows, as [`ObservationRecords::push`] takes them
+    /// in turn (the kind looked up once); `false` at the first that has
+    /// fewer rows left, which is not added, nor any after it.
+    pub fn push_of_kind(
+        &mut self,
+        kind: Cow<'static, str>,
+        observations: impl IntoIterator<Item = (usize, usize)>,
+    ) -> bool {
         let kind = self.place_of(kind);
-        self.push_placed(kind, index, rows);
+        for (index, rows) in observations {
+            if rows > self.unclaimed_rows() {
+                return false;
+            }
+            self.push_placed(kind, index, rows);
+        }
         true
     }
 
@@ -368,6 +382,24 @@ mod tests {
         assert!(records.push(Cow::Borrowed("probe height"), 2, 1));
         assert_eq!(records.unclaimed_rows(), 0);
         records
+    }
+
+    /// Observations of one kind pushed together are those pushed in turn;
+    /// the first with fewer rows left ends them.
+    #[test]
+    fn observations_of_one_kind_pushed_together_are_those_pushed_in_turn() {
+        let rows: Vec<RowCheck> = (0..7).map(|k| row(k as f32, 0.5, None)).collect();
+        let mut in_turn = ObservationRecords::of_rows(rows.clone());
+        assert!(in_turn.push(Cow::Borrowed("probe height"), 0, 1));
+        for (index, count) in [(3, 2), (4, 3)] {
+            assert!(in_turn.push(Cow::Borrowed("ball touch"), index, count));
+        }
+        let mut together = ObservationRecords::of_rows(rows);
+        assert!(together.push_of_kind(Cow::Borrowed("probe height"), [(0, 1)]));
+        let touches = [(3, 2), (4, 3), (5, 3), (6, 1)];
+        assert!(!together.push_of_kind(Cow::Borrowed("ball touch"), touches));
+        assert_eq!(together, in_turn);
+        assert_eq!(together.unclaimed_rows(), 1);
     }
 
     /// The format's objects, one per observation, each with its rows'
