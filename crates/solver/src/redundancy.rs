@@ -668,18 +668,16 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
     }
     if let (Some(top), Some(prior)) = (level.top, prior) {
         // The rows [U_c | 0]: q = 1, E_c = U_c, E_g = 0; through `Lᵀ` `R`
-        // at a time, as a point's rows (in the last batch the rows beyond
-        // the `C`th are zero and their sums unused).
+        // at a time, as a point's rows.
         for first in (0..C).step_by(R) {
             let rows = R.min(C - first);
-            let batch = &mut reduced[..R * g];
-            batch.fill(0.0);
-            for (e, u) in batch.chunks_exact_mut(g).take(rows).enumerate() {
+            for (e, u) in reduced.chunks_exact_mut(g).take(rows).enumerate() {
                 let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(first + e, b)]);
                 let y = &mut coordinates[e * cw..e * cw + C];
+                u.fill(0.0);
                 eliminate_group::<C>(top, g, &u_row, y, u);
             }
-            times_factor_rows::<R>(level.factor, batch, coordinates, C);
+            times_factor_all(level.factor, g, &reduced[..rows * g], coordinates, C);
             for row in coordinates.chunks_exact(cw).take(rows) {
                 let (y, z) = row.split_at(C);
                 prior_leverage.groups += norm2(y) + norm2(z);
