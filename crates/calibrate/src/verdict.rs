@@ -14,6 +14,7 @@
 //! `χ²_{α/2}(r)` says the fit is better than the stated noise allows (the
 //! repeatabilities are pessimistic and the sigmas overstated).
 
+use rayon::prelude::*;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 use parcal_solver::{Problem, Status};
@@ -117,7 +118,10 @@ where
         .filter_map(|&k| problem.group_prior(k))
         .map(|prior| (0..C).filter(|&c| prior.information[(c, c)] > 0.0).count())
         .sum();
+    // Counted on the threads: a point's prior may look at its touch, and
+    // there are 10^6 of them in the data's order, not the points'.
     let point_priors = (0..points)
+        .into_par_iter()
         .filter(|&i| P > 0 && problem.point_prior(i).is_some())
         .count();
     let rows = R * points + global_rows + global_prior + group_priors + P * point_priors;
