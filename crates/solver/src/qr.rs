@@ -101,8 +101,12 @@ fn reflect_columns<const B: usize>(
 /// Sets the reflectors below the diagonal to exact zeros.
 #[inline(always)]
 fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
-    for (r, row) in a[n..m * n].chunks_exact_mut(n).enumerate() {
-        row[..kk.min(r + 1)].fill(0.0);
+    // Column by column: a few entries a row, which a fill would hand to
+    // `memset`, one call a row.
+    for j in 0..kk {
+        for row in a[(j + 1) * n..m * n].chunks_exact_mut(n) {
+            row[j] = 0.0;
+        }
     }
 }
 
