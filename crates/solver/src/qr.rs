@@ -17,7 +17,6 @@ pub(crate) const RANK_TOLERANCE: f64 = 1e-10;
 /// reflectors, `min(k, m)`.
 #[inline(always)]
 fn householder_panel(a: &mut [f64], m: usize, n: usize, k: usize, tau: &mut [f64]) -> usize {
-    assert!(k <= n, "the panel lies in the rows");
     let kk = k.min(m);
     for j in 0..kk {
         // Row j and the rows below it, each cut to the panel's k columns.
@@ -362,8 +361,9 @@ mod tests {
 
     #[test]
     fn householder_preserves_gram_matrix_and_zeroes_leading_columns() {
-        // 34 columns: 31 trailing ones, a block of each width (16, 8, 4, 2
-        // and 1); a first column zero below the diagonal (no reflector).
+        // (9, 34, 3): 31 trailing columns, a block of each width (16, 8, 4,
+        // 2 and 1); (6, 34, 4): a first column zero below the diagonal (no
+        // reflector).
         for (m, n, k) in [(7, 5, 3), (9, 34, 3), (24, 37, 3), (6, 34, 4)] {
             let mut seed = 1;
             let mut a0: Vec<f64> = (0..m * n).map(|_| lcg(&mut seed)).collect();
