@@ -374,7 +374,7 @@ fn variants_table() {
                 "  {}: residual {:.1} sigma, w = {:.2}",
                 check.observation,
                 check.rows[0].residual,
-                check.rows[0].normalised.unwrap_or(f32::NAN)
+                check.rows[0].normalised().unwrap_or(f64::NAN)
             );
         }
         for parameter in all

@@ -26,7 +26,9 @@ use crate::quote::sanitized;
 pub(crate) struct Kind {
     /// E.g. `parcal-machine`.
     name: &'static str,
-    /// What this crate writes, e.g. `parcal-machine/1`.
+    /// What this crate writes, e.g. `parcal-machine/1` (major version
+    /// [`MAJOR`], with a minor version where the format has changed within
+    /// it).
     current: &'static str,
     /// The nesting depth (the document is depth 1) from which arrays and
     /// objects are written on one line ([`Layout`]); `usize::MAX`: none.
@@ -60,7 +62,7 @@ pub(crate) const MECHANISM_TRUTH: Kind = Kind {
 };
 pub(crate) const MECHANISM_CALIBRATION: Kind = Kind {
     name: "parcal-mechanism-calibration",
-    current: "parcal-mechanism-calibration/1",
+    current: "parcal-mechanism-calibration/1.1",
     one_line_from: 4,
 };
 pub(crate) const MECHANISM_VALIDATION: Kind = Kind {
@@ -87,8 +89,8 @@ impl Kind {
         };
         let malformed = || {
             error(format!(
-                "is not a {} format (expected \"{}\" or \"{}.N\")",
-                self.name, self.current, self.current
+                "is not a {} format (expected \"{}/{MAJOR}\" or \"{}/{MAJOR}.N\")",
+                self.name, self.name, self.name
             ))
         };
         let (name, version) = format.split_once('/').ok_or_else(malformed)?;

@@ -303,5 +303,7 @@ pub use problem::{
     BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
     WeighedRows, point_degrees_of_freedom,
 };
-pub use redundancy::{PointRows, PriorLeverage, Redundancy, normalised_residual, redundancy};
+pub use redundancy::{
+    MIN_REDUNDANCY, PointRows, PriorLeverage, Redundancy, normalised_residual, redundancy,
+};
 pub use solution::{BlockId, IterationRecord, Solution, Status};

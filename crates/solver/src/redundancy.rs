@@ -187,7 +187,7 @@ const CHUNKS_PER_WAVE: usize = 16;
 
 /// Redundancy at or below which a row counts as determined by the unknowns
 /// it touches: its residual and its redundancy are both rounding noise.
-const MIN_REDUNDANCY: f64 = 1e-10;
+pub const MIN_REDUNDANCY: f64 = 1e-10;
 
 /// The normalised (studentised) residual `w_j = e_j / √r_j` of a row with
 /// whitened residual `e_j` and redundancy number `r_j`: standard normal

@@ -1,7 +1,7 @@
 //! Every observation's numbers at the solution: its rows' whitened
 //! residuals `e_j / σ_j` (weighted by a robust loss's `√w` when there is
-//! one), redundancy numbers `r_j` and normalised residuals
-//! `w_j = e_j / √r_j` (Baarda's w-test), held as two columns, the
+//! one) and redundancy numbers `r_j`, which give their normalised
+//! residuals `w_j = e_j / √r_j` (Baarda's w-test), held as two columns, the
 //! observations and their rows, with no allocation per observation, and
 //! moved as they are into calibration.json's record.
 
@@ -18,8 +18,8 @@ use super::observation::ObservationRef;
 pub struct ObservationCheck<'a> {
     /// The observation.
     pub observation: ObservationRef,
-    /// Its rows' residuals, redundancy numbers and normalised residuals
-    /// (`None` for a row no other row checks).
+    /// Its rows' residuals and redundancy numbers (which give their
+    /// normalised residuals, [`RowCheck::normalised`]).
     pub rows: &'a [RowCheck],
 }
 
@@ -28,7 +28,7 @@ pub struct ObservationCheck<'a> {
 /// largest by `|w_j|`, then by place, whatever the threads' shares.
 fn worst_of(rows: &[RowCheck]) -> Option<(usize, f64)> {
     (rows.par_iter().enumerate())
-        .filter_map(|(j, row)| row.normalised.map(|w| (j, f64::from(w))))
+        .filter_map(|(j, row)| row.normalised().map(|w| (j, w)))
         .reduce_with(|a, b| {
             let order = a.1.abs().total_cmp(&b.1.abs()).then(a.0.cmp(&b.0));
             if order.is_gt() { a } else { b }
@@ -155,14 +155,39 @@ impl ObservationChecks {
 
 #[cfg(test)]
 mod tests {
+    use parcal_dataset::mechanism::UNCHECKED_REDUNDANCY;
+
     use super::*;
     use crate::mechanism::ObservationKind;
 
-    fn row(residual: f32, normalised: Option<f32>) -> RowCheck {
+    /// A row whose normalised residual is its residual, `w`.
+    fn tested(w: f32) -> RowCheck {
+        RowCheck {
+            residual: w,
+            redundancy: 1.0,
+        }
+    }
+
+    /// A row no other row checks.
+    fn untested(residual: f32) -> RowCheck {
         RowCheck {
             residual,
-            redundancy: 0.5,
-            normalised,
+            redundancy: 0.0,
+        }
+    }
+
+    /// A row the record keeps untested is one the solver's checks leave
+    /// untested: the two thresholds are one.
+    #[test]
+    fn the_records_untested_rows_are_the_solvers() {
+        assert_eq!(UNCHECKED_REDUNDANCY, parcal_solver::MIN_REDUNDANCY);
+        for (residual, redundancy) in [(0.5, 0.25), (-1.5, 1e-9), (0.3, 1e-11), (0.3, 0.0)] {
+            let row = RowCheck {
+                residual,
+                redundancy,
+            };
+            let solver = parcal_solver::normalised_residual(residual.into(), redundancy.into());
+            assert_eq!(row.normalised().is_some(), solver.is_some(), "{redundancy}");
         }
     }
 
@@ -177,12 +202,7 @@ mod tests {
             kind: ObservationKind::Probe,
             index: 1,
         };
-        let rows = vec![
-            row(0.3, Some(0.42)),
-            row(1.0, None),
-            row(-2.0, Some(-2.75)),
-            row(0.5, Some(0.7)),
-        ];
+        let rows = vec![tested(0.3), untested(1.0), tested(-2.75), tested(0.5)];
         let mut checks = ObservationChecks::new(rows, [(probe, 1), (touch, 3), (probe, 1)]);
         assert_eq!(checks.len(), 2, "no row is left for the third");
         let second = checks.get(1).unwrap();
@@ -193,13 +213,9 @@ mod tests {
         // Of equal |w|, the last (as a pass over every row with
         // `Iterator::max_by` finds it), on any number of threads;
         // untested rows, and rows of no observation, are passed over.
-        let mut ties = vec![row(1.0, Some(2.0)), row(1.0, None), row(-1.0, Some(-2.0))];
-        ties.extend((0..5000).map(|k| row(0.1, Some(if k % 7 == 0 { 2.0 } else { 1.0 }))));
-        ties.extend([
-            row(1.0, Some(-2.0)),
-            row(1.0, Some(1.0)),
-            row(1.0, Some(9.0)),
-        ]);
+        let mut ties = vec![tested(2.0), untested(1.0), tested(-2.0)];
+        ties.extend((0..5000).map(|k| tested(if k % 7 == 0 { 2.0 } else { 1.0 })));
+        ties.extend([tested(-2.0), tested(1.0), tested(9.0)]);
         let observations = (0..ties.len() - 1).map(|index| (ObservationRef { index, ..touch }, 1));
         for threads in [1, 2, 3] {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -215,7 +231,7 @@ mod tests {
             );
         }
         assert!(
-            ObservationChecks::new(vec![row(1.0, None)], [(probe, 1)])
+            ObservationChecks::new(vec![untested(1.0)], [(probe, 1)])
                 .worst()
                 .is_none()
         );
@@ -223,7 +239,7 @@ mod tests {
         let residuals: Vec<Vec<f32>> = (checks.iter())
             .map(|c| c.rows.iter().map(|r| r.residual).collect())
             .collect();
-        assert_eq!(residuals, [vec![0.3], vec![1.0, -2.0, 0.5]]);
+        assert_eq!(residuals, [vec![0.3], vec![1.0, -2.75, 0.5]]);
         checks.rename(|o| ObservationRef {
             index: o.index + 10,
             ..o

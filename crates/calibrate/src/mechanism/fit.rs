@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, DVector, SVector, Vector3};
 use parcal_dataset::mechanism::RowCheck;
 use parcal_solver::{
     BlockId, GlobalObservations, IterationRecord, Loss, Problem, Solution, SolverOptions, State,
-    Status, group_sigmas, normalised_residual, redundancy, solve_with_caches,
+    Status, group_sigmas, redundancy, solve_with_caches,
 };
 use rayon::prelude::*;
 
@@ -373,7 +373,6 @@ where
     let row = |residual: f64, redundancy: f64| RowCheck {
         residual: residual as f32,
         redundancy: redundancy as f32,
-        normalised: normalised_residual(residual, redundancy).map(|w| w as f32),
     };
     // Every row in the order of the data, each written in its place: the
     // global observations' once the pass has given them, then each point

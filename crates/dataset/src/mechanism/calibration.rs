@@ -1,5 +1,5 @@
 //! The record of a mechanism calibration (`calibration.json`, format
-//! `parcal-mechanism-calibration/1`): the mechanism, the estimated
+//! `parcal-mechanism-calibration/1.1`): the mechanism, the estimated
 //! parameters in its canonical frame with their sigmas, priors and
 //! covariance, the verdict and its reasons, the tests (global test,
 //! w-tests, snooping) and the identifiability, so that `export` and

@@ -70,7 +70,9 @@ pub use calibration::{
     ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord, UndeterminedRecord,
 };
 pub use machine::{MechanismMachine, Noise, ValuePrior};
-pub use observation_records::{ObservationRecord, ObservationRecords, RowCheck, worst_row};
+pub use observation_records::{
+    ObservationRecord, ObservationRecords, RowCheck, UNCHECKED_REDUNDANCY, worst_row,
+};
 pub use observations::{
     DISTANCE_COLUMNS, LOAD_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS,
     SampleRow,

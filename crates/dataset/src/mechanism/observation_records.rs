@@ -5,13 +5,16 @@
 //! consecutive indices, each of the same number of rows,
 //!
 //! ```json
-//! {"kind": "ball touch", "index": 0, "count": 64, "residuals": [...], "redundancy": [...], "normalised": [...]}
+//! {"kind": "ball touch", "index": 0, "count": 64, "residuals": [...], "redundancy": [...]}
 //! ```
 //!
 //! the run's `count` observations (1 when absent) from `index` on, each
 //! list holding their rows observation by observation, `len / count` rows
 //! each. A run holds at most [`RUN_CAP`] observations, and an observation
-//! without rows is a run of its own.
+//! without rows is a run of its own. Records of version 1.0 list each
+//! row's normalised residual too (`"normalised": [...]`): that list is
+//! read past, its length checked, since the residuals and redundancy
+//! numbers give it ([`RowCheck::normalised`]).
 
 use std::borrow::Cow;
 use std::fmt;
@@ -22,22 +25,36 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::json;
 
-/// One row's test: its whitened residual, its redundancy number and its
-/// normalised residual, in single precision (16 bytes a row), as the
-/// hexapod's own checks keep theirs: their rounding, a relative 6e-8, is
-/// far below what they are read for (a normalised residual against a
-/// critical value near 4, a redundancy number against 0.1). Written as
-/// the shortest decimals that read back as the same single-precision
-/// numbers (within a relative 1.2e-7 of the values before rounding).
+/// The largest redundancy number of a row that no other row checks: its
+/// normalised residual is not formed. The solver's threshold
+/// (`parcal_solver::MIN_REDUNDANCY`; the calibration's tests assert that
+/// the two agree).
+pub const UNCHECKED_REDUNDANCY: f64 = 1e-10;
+
+/// One row's test: its whitened residual and its redundancy number, in
+/// single precision (8 bytes a row), as the hexapod's own checks keep
+/// theirs: their rounding, a relative 6e-8, is far below what they are
+/// read for (a normalised residual against a critical value near 4, a
+/// redundancy number against 0.1). Written as the shortest decimals that
+/// read back as the same single-precision numbers (within a relative
+/// 1.2e-7 of the values before rounding). Its normalised residual follows
+/// from the two ([`RowCheck::normalised`]), and is not kept.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RowCheck {
     /// The whitened residual `e_j / σ_j`.
     pub residual: f32,
     /// The redundancy number `r_j`.
     pub redundancy: f32,
-    /// The normalised residual `w_j = e_j / √r_j` (`None`: no other row
-    /// checks it).
-    pub normalised: Option<f32>,
+}
+
+impl RowCheck {
+    /// The normalised residual `w_j = e_j / √r_j` of its residual and
+    /// redundancy number as kept; `None` for a row no other row checks
+    /// (`r_j` at most [`UNCHECKED_REDUNDANCY`]).
+    pub fn normalised(&self) -> Option<f64> {
+        let redundancy = f64::from(self.redundancy);
+        (redundancy > UNCHECKED_REDUNDANCY).then(|| f64::from(self.residual) / redundancy.sqrt())
+    }
 }
 
 /// One observation's residuals and tests, borrowed from
@@ -63,7 +80,7 @@ impl ObservationRecord<'_> {
 /// The row of largest `|w_j|` among `rows`, and that `w_j`.
 pub fn worst_row(rows: &[RowCheck]) -> Option<(usize, f64)> {
     (rows.iter().enumerate())
-        .filter_map(|(j, row)| row.normalised.map(|w| (j, f64::from(w))))
+        .filter_map(|(j, row)| row.normalised().map(|w| (j, w)))
         .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
 }
 
@@ -256,7 +273,7 @@ impl<T: Serialize> Serialize for Column<'_, T> {
 
 impl Serialize for Run<'_> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut s = serializer.serialize_struct("Run", 6)?;
+        let mut s = serializer.serialize_struct("Run", 5)?;
         s.serialize_field("kind", self.kind)?;
         s.serialize_field("index", &self.index)?;
         if self.count != 1 {
@@ -264,7 +281,6 @@ impl Serialize for Run<'_> {
         }
         s.serialize_field("residuals", &Column(self.rows, |r| r.residual))?;
         s.serialize_field("redundancy", &Column(self.rows, |r| r.redundancy))?;
-        s.serialize_field("normalised", &Column(self.rows, |r| r.normalised))?;
         s.end()
     }
 }
@@ -291,7 +307,9 @@ struct OwnedRun {
     count: usize,
     residuals: Vec<f32>,
     redundancy: Vec<f32>,
-    normalised: Vec<Option<f32>>,
+    /// Version 1.0's list of the rows' normalised residuals (module doc).
+    #[serde(default)]
+    normalised: Option<Vec<Option<f32>>>,
 }
 
 /// A run's count when the format leaves it out.
@@ -316,11 +334,11 @@ impl<'de> Deserialize<'de> for ObservationRecords {
                     let refused = |why: String| {
                         de::Error::custom(format!("observation {}: {why}", records.len()))
                     };
-                    if r.redundancy.len() != rows || r.normalised.len() != rows {
+                    let normalised = r.normalised.as_ref().map_or(rows, Vec::len);
+                    if r.redundancy.len() != rows || normalised != rows {
                         return Err(refused(format!(
-                            "its residuals, redundancy and normalised lists differ in length ({rows}, {}, {})",
+                            "its residuals, redundancy and normalised lists differ in length ({rows}, {}, {normalised})",
                             r.redundancy.len(),
-                            r.normalised.len()
                         )));
                     }
                     // At least a row each, but for an observation of its own:
@@ -332,16 +350,13 @@ impl<'de> Deserialize<'de> for ObservationRecords {
                             r.count, r.index
                         )));
                     }
-                    let each = r.residuals.iter().zip(&r.redundancy).zip(&r.normalised);
+                    let each = r.residuals.iter().zip(&r.redundancy);
                     records
                         .rows
-                        .extend(
-                            each.map(|((&residual, &redundancy), &normalised)| RowCheck {
-                                residual,
-                                redundancy,
-                                normalised,
-                            }),
-                        );
+                        .extend(each.map(|(&residual, &redundancy)| RowCheck {
+                            residual,
+                            redundancy,
+                        }));
                     let kind = records.place_of(Cow::Owned(r.kind));
                     for k in 0..r.count {
                         records.push_placed(kind, r.index + k, rows / r.count);
@@ -358,20 +373,19 @@ impl<'de> Deserialize<'de> for ObservationRecords {
 mod tests {
     use super::*;
 
-    fn row(residual: f32, redundancy: f32, normalised: Option<f32>) -> RowCheck {
+    fn row(residual: f32, redundancy: f32) -> RowCheck {
         RowCheck {
             residual,
             redundancy,
-            normalised,
         }
     }
 
     fn two() -> ObservationRecords {
         let rows = vec![
-            row(0.5, 0.25, Some(1.0)),
-            row(-0.1, 0.5, None),
-            row(0.2, 0.04, Some(-5.0)),
-            row(1.5, 0.9, Some(1.58)),
+            row(0.5, 0.25),
+            row(-0.1, 0.0),
+            row(-1.5, 0.5625),
+            row(1.5, 0.9),
         ];
         let mut records = ObservationRecords::of_rows(rows);
         assert!(records.push(Cow::Borrowed("ball touch"), 7, 3));
@@ -384,11 +398,24 @@ mod tests {
         records
     }
 
+    /// A row's normalised residual is its residual over the root of its
+    /// redundancy number, and none where that number is at most the
+    /// threshold.
+    #[test]
+    fn a_rows_normalised_residual_follows_from_its_residual_and_redundancy() {
+        assert_eq!(row(0.5, 0.25).normalised(), Some(1.0));
+        assert_eq!(row(-1.5, 0.5625).normalised(), Some(-2.0));
+        assert_eq!(row(0.2, 0.0).normalised(), None);
+        assert_eq!(row(0.2, 1e-11).normalised(), None);
+        let w = row(1e-5, 1e-9).normalised().unwrap();
+        assert!((w - 1e-5 / 1e-9f64.sqrt()).abs() < 1e-6 * w, "{w}");
+    }
+
     /// Observations of one kind pushed together are those pushed in turn;
     /// the first with fewer rows left ends them.
     #[test]
     fn observations_of_one_kind_pushed_together_are_those_pushed_in_turn() {
-        let rows: Vec<RowCheck> = (0..7).map(|k| row(k as f32, 0.5, None)).collect();
+        let rows: Vec<RowCheck> = (0..7).map(|k| row(k as f32, 0.5)).collect();
         let mut in_turn = ObservationRecords::of_rows(rows.clone());
         assert!(in_turn.push(Cow::Borrowed("probe height"), 0, 1));
         for (index, count) in [(3, 2), (4, 3)] {
@@ -410,7 +437,7 @@ mod tests {
         let json = serde_json::to_string(&records).unwrap();
         assert_eq!(
             json,
-            r#"[{"kind":"ball touch","index":7,"residuals":[0.5,-0.1,0.2],"redundancy":[0.25,0.5,0.04],"normalised":[1.0,null,-5.0]},{"kind":"probe height","index":2,"residuals":[1.5],"redundancy":[0.9],"normalised":[1.58]}]"#
+            r#"[{"kind":"ball touch","index":7,"residuals":[0.5,-0.1,-1.5],"redundancy":[0.25,0.0,0.5625]},{"kind":"probe height","index":2,"residuals":[1.5],"redundancy":[0.9]}]"#
         );
         let read: ObservationRecords = serde_json::from_str(&json).unwrap();
         assert_eq!(read, records.clone());
@@ -419,9 +446,18 @@ mod tests {
             (touch.kind, touch.index, touch.rows.len()),
             ("ball touch", 7, 3)
         );
-        assert_eq!(touch.worst(), Some((2, -5.0)));
+        assert_eq!(touch.worst(), Some((2, -2.0)));
         assert_eq!(read.iter().map(|r| r.index).collect::<Vec<_>>(), [7, 2]);
         assert!(read.get(2).is_none());
+    }
+
+    /// A record of version 1.0, which lists the rows' normalised residuals
+    /// too, reads as the same rows.
+    #[test]
+    fn the_normalised_lists_of_version_1_0_are_read_past() {
+        let old = r#"[{"kind":"ball touch","index":7,"residuals":[0.5,-0.1,-1.5],"redundancy":[0.25,0.0,0.5625],"normalised":[1.0,null,-2.0]},{"kind":"probe height","index":2,"residuals":[1.5],"redundancy":[0.9],"normalised":[1.58]}]"#;
+        let read: ObservationRecords = serde_json::from_str(old).unwrap();
+        assert_eq!(read, two());
     }
 
     /// Observations of one kind at consecutive indices with as many rows
@@ -447,7 +483,7 @@ mod tests {
         for (j, &(_, _, n)) in layout.iter().enumerate() {
             for i in 0..n {
                 let x = (j * 3 + i) as f32;
-                rows.push(row(x / 8.0, x / 64.0, (i != 1).then_some(-x)));
+                rows.push(row(x / 8.0, x / 64.0));
             }
         }
         let mut records = ObservationRecords::of_rows(rows);
@@ -523,14 +559,24 @@ mod tests {
 
     #[test]
     fn lists_of_different_lengths_are_refused() {
-        let json = r#"[{"kind":"probe height","index":0,"residuals":[1.0,2.0],"redundancy":[0.5],"normalised":[1.0,2.0]}]"#;
-        let error = serde_json::from_str::<ObservationRecords>(json)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains("observation 0") && error.contains("(2, 1, 2)"),
-            "{error}"
-        );
+        for (json, lengths) in [
+            (
+                r#"[{"kind":"probe height","index":0,"residuals":[1.0,2.0],"redundancy":[0.5]}]"#,
+                "(2, 1, 2)",
+            ),
+            (
+                r#"[{"kind":"probe height","index":0,"residuals":[1.0,2.0],"redundancy":[0.5,0.5],"normalised":[1.0]}]"#,
+                "(2, 2, 1)",
+            ),
+        ] {
+            let error = serde_json::from_str::<ObservationRecords>(json)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                error.contains("observation 0") && error.contains(lengths),
+                "{error}"
+            );
+        }
         let unknown = r#"[{"kind":"probe height","index":0,"residuals":[],"redundancy":[],"normalised":[],"w":1}]"#;
         assert!(serde_json::from_str::<ObservationRecords>(unknown).is_err());
     }
