@@ -88,9 +88,9 @@ impl Kind {
             message,
         };
         let malformed = || {
+            let name = self.name;
             error(format!(
-                "is not a {} format (expected \"{}/{MAJOR}\" or \"{}/{MAJOR}.N\")",
-                self.name, self.name, self.name
+                "is not a {name} format (expected \"{name}/{MAJOR}\" or \"{name}/{MAJOR}.N\")"
             ))
         };
         let (name, version) = format.split_once('/').ok_or_else(malformed)?;
