@@ -26,8 +26,8 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
 use super::problem::{
-    FitProblem, MechanismProblem, Reaches, Start, TouchedBall, WarmStart, put_group_columns,
-    touch_failed,
+    FitProblem, MechanismProblem, Reaches, Start, TouchedBall, WarmStart, filled,
+    put_group_columns, touch_failed,
 };
 use super::touch_jacobian::TouchJacobian;
 use crate::options::Observation;
@@ -78,7 +78,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         let touches = &data.observations.touches;
         // Each touch's chart on the threads, into its place; of the touches
         // whose chart fails, the first named.
-        let mut directions = vec![UnitVector3::new_unchecked(Vector3::z()); tips.len()];
+        let mut directions = filled(UnitVector3::new_unchecked(Vector3::z()), tips.len());
         let failed = (directions.par_iter_mut().enumerate())
             .filter_map(|(i, direction)| {
                 let t = base.touch_at(i);

@@ -252,6 +252,34 @@ impl Observations {
         TiedBalls::new(&self.ball_distances, &radius_unknown, first)
     }
 
+    /// Each ball's number of touches, and whether the touches come ball by
+    /// ball (their balls' indices never decrease); every touch on a ball
+    /// that exists. The touches are read a chunk at a time on the threads,
+    /// each chunk as its runs of touches of one ball, which are then added
+    /// up in order.
+    pub(crate) fn touches_per_ball(&self) -> (Vec<usize>, bool) {
+        let runs: Vec<Vec<(usize, usize)>> = (self.touches.par_chunks(COUNT_CHUNK))
+            .map(|touches| {
+                let mut runs: Vec<(usize, usize)> = Vec::new();
+                for touch in touches {
+                    match runs.last_mut() {
+                        Some((ball, count)) if *ball == touch.ball => *count += 1,
+                        _ => runs.push((touch.ball, 1)),
+                    }
+                }
+                runs
+            })
+            .collect();
+        let mut counts = vec![0; self.balls.len()];
+        let (mut grouped, mut last) = (true, 0);
+        for &(ball, count) in runs.iter().flatten() {
+            counts[ball] += count;
+            grouped &= last <= ball;
+            last = ball;
+        }
+        (counts, grouped)
+    }
+
     /// These observations without `observation`.
     pub fn without(&self, observation: ObservationRef) -> Self {
         let mut rest = self.clone();
@@ -270,6 +298,10 @@ impl Observations {
         rest
     }
 }
+
+/// The number of touches [`Observations::touches_per_ball`] reads at a time
+/// on the threads.
+const COUNT_CHUNK: usize = 4096;
 
 /// A Gaussian prior on one unknown: its mean and standard deviation;
 /// without a standard deviation, no prior, the mean being only where the
@@ -744,10 +776,7 @@ fn check_balls(
     if let Some(error) = refused {
         return Err(error);
     }
-    let mut touches_of = vec![0usize; balls.len()];
-    for touch in &observations.touches {
-        touches_of[touch.ball] += 1;
-    }
+    let (touches_of, _) = observations.touches_per_ball();
     match touches_of
         .iter()
         .position(|&count| count < MIN_TOUCHES_PER_BALL)
@@ -1076,5 +1105,55 @@ fn check_prior(
             "prior sigma {sigma} is not finite and positive (no prior: none)"
         )),
         _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Touches of `balls` balls in the order `order`.
+    fn observations(balls: usize, order: &[usize]) -> Observations {
+        let ball = Ball {
+            radius: 5.0,
+            radius_sigma: None,
+            centre_prior: None,
+        };
+        Observations {
+            balls: vec![ball; balls],
+            touches: (order.iter())
+                .map(|&b| BallTouch::new(b, Actuation::Commanded([0.0, 0.0, 10.0]), 0.01))
+                .collect(),
+            ..Observations::default()
+        }
+    }
+
+    /// Each ball's count, and whether the touches come ball by ball, as
+    /// one pass in order finds them, for runs that cross the threads'
+    /// chunks and for a ball whose touches come back after another's.
+    #[test]
+    fn touches_are_counted_per_ball_across_chunks() {
+        let n = 3 * COUNT_CHUNK + 17;
+        let grouped: Vec<usize> = (0..n).map(|t| t * 5 / n).collect();
+        let mut back = grouped.clone();
+        back[2 * COUNT_CHUNK] = 0;
+        // A decrease exactly at a chunk's first touch.
+        let at_boundary: Vec<usize> = (0..n)
+            .map(|t| if t < COUNT_CHUNK { 5 } else { t * 5 / n })
+            .collect();
+        for (order, expected) in [(grouped, true), (back, false), (at_boundary, false)] {
+            let mut counts = vec![0; 6];
+            let (mut in_order, mut last) = (true, 0);
+            for &b in &order {
+                counts[b] += 1;
+                in_order &= last <= b;
+                last = b;
+            }
+            assert_eq!(in_order, expected);
+            assert_eq!(
+                observations(6, &order).touches_per_ball(),
+                (counts, in_order)
+            );
+        }
     }
 }

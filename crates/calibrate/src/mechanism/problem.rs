@@ -151,6 +151,14 @@ impl WarmStart {
     }
 }
 
+/// `len` copies of `value`, written on the threads: a million touches'
+/// room is first touched by all of them, not by one before they start.
+pub(crate) fn filled<T: Clone + Send + Sync>(value: T, len: usize) -> Vec<T> {
+    let mut filled = Vec::new();
+    filled.par_extend(rayon::iter::repeat_n(value, len));
+    filled
+}
+
 /// The number of touches whose start [`MechanismProblem::touches_at_start`]
 /// takes at a time: enough that what the mechanism builds of the
 /// parameters for them is made seldom, few enough for the threads to share.
@@ -194,15 +202,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let trackers = Trackers::locate(data, &prior_means(data).as_slice()[..n], frames)?;
         let tied = o.tied_balls(m);
         let prior = global_prior(data, &tied);
-        // Each ball's number of touches, and whether the touches come ball
-        // by ball, in one pass over them.
-        let mut counts = vec![0; o.balls.len()];
-        let (mut grouped, mut last) = (true, 0);
-        for touch in &o.touches {
-            counts[touch.ball] += 1;
-            grouped &= last <= touch.ball;
-            last = touch.ball;
-        }
+        let (counts, grouped) = o.touches_per_ball();
         // Each ball's touches in their order (the identity for data
         // grouped by ball, which needs no sort).
         let mut touch_order: Vec<usize> = (0..o.touches.len()).collect();
@@ -381,8 +381,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         // them at a time, and each ball at its centre.
         let configured = self.data.configured.as_slice();
         let samples = self.sample_points();
-        let mut caches = vec![WarmStart::default(); samples + self.touch_order.len()];
-        let mut tips = vec![Vector3::zeros(); self.touch_order.len()];
+        let mut caches = filled(WarmStart::default(), samples + self.touch_order.len());
+        let mut tips = filled(Vector3::zeros(), self.touch_order.len());
         let centres: Vec<Result<SVector<f64, C>, MechanismCalibrationError>> =
             match &self.data.touch_start {
                 Some(start) => {

@@ -17,6 +17,10 @@ use rayon::prelude::*;
 
 use super::error::MechanismCalibrationError;
 
+/// The number of touches whose warm starts [`TouchStart::validate`] checks
+/// at a time on the threads: a few hundred shares of a million touches.
+const CHECK_CHUNK: usize = 4096;
+
 /// Each ball's centre and each touch's warm start, where a fit starts them
 /// (module doc).
 #[derive(Debug, Clone, PartialEq)]
@@ -63,13 +67,23 @@ impl TouchStart {
         if let Some(b) = (self.centres.iter()).position(|c| c.iter().any(|v| !v.is_finite())) {
             return Err(invalid(format!("ball {b}'s centre is not finite")));
         }
-        if let Some(k) = (self.warm_starts.par_iter()).position_first(|v| !v.is_finite()) {
-            return Err(invalid(format!(
-                "touch {}'s warm start is not finite",
-                k / len.max(1)
-            )));
+        // A chunk of touches at a time on the threads, the first that holds
+        // a value not finite searched touch by touch.
+        let len = len.max(1);
+        let chunk = len * CHECK_CHUNK;
+        let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
+        let refused = (self.warm_starts.par_chunks(chunk))
+            .position_first(|values| !finite(values))
+            .and_then(|c| {
+                let values = &self.warm_starts[c * chunk..];
+                (values.chunks(len).take(CHECK_CHUNK))
+                    .position(|start| !finite(start))
+                    .map(|t| c * CHECK_CHUNK + t)
+            });
+        match refused {
+            Some(t) => Err(invalid(format!("touch {t}'s warm start is not finite"))),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 
@@ -108,5 +122,20 @@ mod tests {
         let mut centre = start;
         centre.centres[0][1] = f64::NAN;
         assert!(refused(&centre, 3).contains("ball 0's centre"));
+        // The first touch not finite is named, in a later chunk of those the
+        // threads check, whichever others follow it.
+        let touches = 2 * CHECK_CHUNK + 9;
+        let mut long = TouchStart {
+            centres: vec![[0.0, 0.0, 10.0]; balls],
+            warm_starts: vec![1.0; 7 * touches],
+        };
+        let first = CHECK_CHUNK + 5;
+        long.warm_starts[7 * first + 6] = f64::NAN;
+        long.warm_starts[7 * (2 * CHECK_CHUNK + 1)] = f64::INFINITY;
+        let error = long.validate(balls, touches, 7).unwrap_err().to_string();
+        assert!(
+            error.contains(&format!("touch {first}'s warm start")),
+            "{error}"
+        );
     }
 }
