@@ -216,21 +216,23 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         .collect();
     let truth = super::truth::hexapod(&dataset, data.mechanism.parameters().len(), &trackers)?;
     // The touches are in `data`: the dataset's memory is the room of the
-    // calibration's.
-    drop(dataset);
+    // calibration's, given back as it starts.
+    let freeing = super::mechanism::free_beside(dataset);
     let from_dataset = parcal::report::mechanism::FromDataset {
         probes: None,
         truth: truth.as_ref().map(|t| t.values.as_slice()),
         true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
     };
-    super::mechanism::calibrate_with(
+    let calibrated = super::mechanism::calibrate_with(
         HEXAPOD,
         data,
         &options,
         from_dataset,
         request,
         read.elapsed(),
-    )
+    );
+    super::mechanism::freed(freeing, "the dataset")?;
+    calibrated
 }
 
 /// A number of seconds, finite and not negative.

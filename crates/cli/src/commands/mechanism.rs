@@ -7,6 +7,7 @@
 use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use parcal::calibration::mechanism::{
@@ -172,6 +173,24 @@ impl CalibrateRequest {
     }
 }
 
+/// `value` dropped beside the work that follows (a million touches'
+/// memory given back page by page), on a thread of its own when one can
+/// be had, else here (the failed spawn drops it); [`freed`] waits for it.
+pub fn free_beside<T: Send + 'static>(value: T) -> Option<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("parcal-free".to_string())
+        .spawn(move || drop(value))
+        .ok()
+}
+
+/// Waits for `what` dropped by [`free_beside`].
+pub fn freed(freeing: Option<JoinHandle<()>>, what: &str) -> anyhow::Result<()> {
+    match freeing {
+        Some(freeing) => (freeing.join()).map_err(|_| anyhow::anyhow!("freeing {what} panicked")),
+        None => Ok(()),
+    }
+}
+
 /// The common calibration of `data` under `options`, read from the
 /// dataset of `request` in `read` (its probe points, if any, drawn in the
 /// report): as [`calibrate`], once the outputs are checked
@@ -217,13 +236,7 @@ pub fn calibrate_with(
     let calibration = calibrate_mechanism(&data, options, observer)
         .map_err(|error| placed(&path, mechanism, &error))?;
     progress.finish();
-    // Freed beside the record's making and writing (a million touches'
-    // readings are as many allocations), on a thread of its own when one
-    // can be had (else here, as the failed spawn drops it).
-    let freeing = std::thread::Builder::new()
-        .name("parcal-free".to_string())
-        .spawn(move || drop(data))
-        .ok();
+    let freeing = free_beside(data);
     let record = calibration.into_record();
     let destination = if record.accepted {
         out.clone()
@@ -240,9 +253,7 @@ pub fn calibrate_with(
             None => Ok(()),
         }
     })?;
-    if let Some(freeing) = freeing {
-        (freeing.join()).map_err(|_| anyhow::anyhow!("freeing the mechanism data panicked"))?;
-    }
+    freed(freeing, "the mechanism data")?;
     let mut stdout = std::io::stdout().lock();
     print_summary(&record, from_dataset.truth, &mut stdout)?;
     writeln!(stdout, "calibration written to {file}")?;
