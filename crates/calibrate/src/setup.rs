@@ -9,7 +9,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{DMatrix, DVector, Dyn, Matrix3x6, Matrix6, SMatrix, SVector, UnitVector3, Vector6};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix3x6, SMatrix, SVector, UnitVector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
 use parcal_kinematics::forward_batch::{LANES, forward_batch};
 use parcal_kinematics::{
@@ -544,7 +544,6 @@ impl DesignStart<'_> {
             values: dataset.machine.actuator.scale,
             column: None,
         };
-        let per_reading = Matrix6::from_diagonal(&scales.values.into());
         let mut out: Vec<Result<BallKinematics, CalibrateError>> = rows
             .iter()
             .map(|rows| Ok(BallKinematics::with_capacity(rows.len())))
@@ -591,7 +590,11 @@ impl DesignStart<'_> {
                         slots[b].poses[j] = pose;
                         kinematics.points.push(geometry.tool_tip(&pose));
                         // dT/dq per unit of the reading: J_q diag(s).
-                        kinematics.d_q.push(derivatives[b].d_q() * per_reading);
+                        let mut d_q = derivatives[b].d_q();
+                        for (mut column, scale) in d_q.column_iter_mut().zip(scales.values) {
+                            column *= scale;
+                        }
+                        kinematics.d_q.push(d_q);
                     }
                     // Not a lane: a ball that failed has none.
                     (Ok(()), Err(_)) => {}

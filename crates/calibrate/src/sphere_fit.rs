@@ -52,17 +52,12 @@ pub fn best_fit(points: &[Vec3], radius: f64) -> Result<SphereFit, SphereFitErro
     }
     // Centre the points for conditioning.
     let mean = mean(points);
-    let (mut normal, mut rhs) = (Matrix4::<f64>::zeros(), Vector4::<f64>::zeros());
-    for p in points {
-        let d = p - mean;
-        let row = Vector4::new(2.0 * d.x, 2.0 * d.y, 2.0 * d.z, 1.0);
-        normal += row * row.transpose();
-        rhs += row * d.norm_squared();
-    }
-    let scale = normal.diagonal().max();
-    let eigen = normal.symmetric_eigenvalues();
-    let determined = eigen.min() > 1e-12 * scale;
-    if !determined {
+    let (normal, rhs) = algebraic_normal(points, &mean);
+    // Determined when the smallest eigenvalue of the normal matrix exceeds
+    // `DETERMINED * max diag`: exactly when the matrix less that multiple of
+    // `I` is positive definite, which its Cholesky factorisation tells.
+    let floor = Matrix4::from_diagonal_element(DETERMINED * normal.diagonal().max());
+    if (normal - floor).cholesky().is_none() {
         return Err(SphereFitError::Degenerate);
     }
     let solution = normal
@@ -70,6 +65,19 @@ pub fn best_fit(points: &[Vec3], radius: f64) -> Result<SphereFit, SphereFitErro
         .ok_or(SphereFitError::Degenerate)?
         .solve(&rhs);
     refine_centre(points, radius, &(solution.xyz() + mean))
+}
+
+/// The normal equations of the algebraic fit of `points` about `mean`:
+/// the rows `(2 d, 1)` and right-hand sides `|d|²`, `d = x - mean`.
+fn algebraic_normal(points: &[Vec3], mean: &Vec3) -> (Matrix4<f64>, Vector4<f64>) {
+    let (mut normal, mut rhs) = (Matrix4::<f64>::zeros(), Vector4::<f64>::zeros());
+    for p in points {
+        let d = p - mean;
+        let row = Vector4::new(2.0 * d.x, 2.0 * d.y, 2.0 * d.z, 1.0);
+        normal += row * row.transpose();
+        rhs += row * d.norm_squared();
+    }
+    (normal, rhs)
 }
 
 /// The other local minimum of a fit whose points lie near a circle (a band
@@ -165,6 +173,10 @@ fn mean(points: &[Vec3]) -> Vec3 {
     points.iter().sum::<Vec3>() / points.len() as f64
 }
 
+/// The smallest eigenvalue of the algebraic fit's normal matrix, relative
+/// to its largest diagonal entry, below which the points do not determine
+/// a sphere ([`best_fit`]).
+const DETERMINED: f64 = 1e-12;
 /// Gauss-Newton steps of the fit before giving up.
 const MAX_ITERATIONS: usize = 100;
 /// Converged when a step moves the centre less than this (mm): far below
@@ -255,5 +267,34 @@ mod tests {
             .map(|k| Vec3::new(k as f64, (k * k) as f64, 1.0))
             .collect();
         assert_eq!(best_fit(&flat, 5.0), Err(SphereFitError::Degenerate));
+    }
+
+    /// Points of a circle lifted off its plane by `±lift` in turn: from
+    /// flat (no sphere) to well spread, through the threshold.
+    #[test]
+    fn a_fit_is_refused_exactly_when_the_smallest_eigenvalue_is_below_the_threshold() {
+        let mut refused = 0;
+        for step in 0..400 {
+            let lift = 10f64.powf(-9.0 + 0.02 * f64::from(step));
+            let points: Vec<Vec3> = (0..7)
+                .map(|k| {
+                    let angle = 0.9 * f64::from(k);
+                    let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+                    Vec3::new(5.0 * angle.cos(), 5.0 * angle.sin(), 400.0 + sign * lift)
+                })
+                .collect();
+            let (normal, _) = algebraic_normal(&points, &mean(&points));
+            let smallest = normal.symmetric_eigenvalues().min();
+            let threshold = DETERMINED * normal.diagonal().max();
+            let fit = best_fit(&points, 5.0);
+            refused += usize::from(fit.is_err());
+            // Rounding decides within a hair of the threshold.
+            if (smallest / threshold - 1.0).abs() > 1e-6 {
+                let degenerate = fit == Err(SphereFitError::Degenerate);
+                assert_eq!(degenerate, smallest <= threshold, "lift {lift:e}");
+            }
+        }
+        // The sweep crosses the threshold.
+        assert!(refused > 0 && refused < 400, "{refused} refused");
     }
 }

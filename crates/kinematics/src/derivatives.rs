@@ -365,10 +365,26 @@ impl TipDerivatives {
     /// `y = K^T h = A^-T P^T h`, `P^T h = (h, R E_T x h)`: the weights of the
     /// closure rows in `h^T J_f`; also `h^T dT/dq = y^T`.
     pub fn closure_weights(&self, h: &Vec3) -> Vector6<f64> {
-        let m = self.tool.cross(h);
-        self.solution
-            .factor
-            .solve_transpose(&Vector6::new(h.x, h.y, h.z, m.x, m.y, m.z))
+        let [y] = self.closure_weights_each(&[*h]);
+        y
+    }
+
+    /// [`TipDerivatives::closure_weights`] of each of `K` directions,
+    /// side by side ([`Lu6::solve_transpose_each`]: the bits of each
+    /// alone).
+    ///
+    /// [`Lu6::solve_transpose_each`]: crate::lu6::Lu6::solve_transpose_each
+    fn closure_weights_each<const K: usize>(&self, h: &[Vec3; K]) -> [Vector6<f64>; K] {
+        let b = h.map(|h| {
+            let m = self.tool.cross(&h);
+            Vector6::new(h.x, h.y, h.z, m.x, m.y, m.z)
+        });
+        self.solution.factor.solve_transpose_each(&b)
+    }
+
+    /// [`TipDerivatives::closure_weights`] of the three base-frame axes.
+    fn axes_closure_weights(&self) -> [Vector6<f64>; 3] {
+        self.closure_weights_each(&std::array::from_fn(|axis| Vector3::ith(axis, 1.0)))
     }
 
     /// `h^T J_f`, written into `out` (33 values): leg `i` adds `y_i` times
@@ -422,8 +438,7 @@ impl TipDerivatives {
     /// the base-frame axis `a`.
     pub fn d_q(&self) -> Matrix3x6<f64> {
         let mut d_q = Matrix3x6::zeros();
-        for axis in 0..3 {
-            let y = self.closure_weights(&Vector3::ith(axis, 1.0));
+        for (axis, y) in self.axes_closure_weights().iter().enumerate() {
             d_q.row_mut(axis).copy_from(&y.transpose());
         }
         d_q
@@ -438,10 +453,9 @@ impl TipDerivatives {
         let mut d_params = SMatrix::<f64, 3, N_PARAMS>::zeros();
         let mut d_q = Matrix3x6::zeros();
         let mut row = [0.0; N_PARAMS];
-        for axis in 0..3 {
+        for (axis, y) in self.axes_closure_weights().iter().enumerate() {
             let h = Vector3::ith(axis, 1.0);
-            let y = self.closure_weights(&h);
-            leg_rows(&y, &legs.rotation, |i| legs.direction[i], &h, &mut row);
+            leg_rows(y, &legs.rotation, |i| legs.direction[i], &h, &mut row);
             d_params.row_mut(axis).copy_from_slice(&row);
             d_q.row_mut(axis).copy_from(&y.transpose());
         }

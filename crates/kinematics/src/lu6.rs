@@ -136,17 +136,32 @@ impl Lu6 {
 
     /// `x` with `A^T x = b`: `U^T y = b`, `L^T z = y`, `x = P^T z`.
     pub fn solve_transpose(&self, b: &Vector6<f64>) -> Vector6<f64> {
+        let [x] = self.solve_transpose_each(&[*b]);
+        x
+    }
+
+    /// [`Lu6::solve_transpose`] of each of `K` right-hand sides, side by
+    /// side: each column's sums are those of a solve alone, in the same
+    /// order (the same bits), and the columns' independent chains of
+    /// latency overlap.
+    pub fn solve_transpose_each<const K: usize>(&self, b: &[Vector6<f64>; K]) -> [Vector6<f64>; K] {
         let lu = &self.lu;
-        let mut z = [0.0; 6];
+        let mut z = [[0.0; K]; 6];
         for i in 0..6 {
-            z[i] = (b[i] - (0..i).map(|j| lu[j][i] * z[j]).sum::<f64>()) * lu[i][i];
+            for c in 0..K {
+                z[i][c] = (b[c][i] - (0..i).map(|j| lu[j][i] * z[j][c]).sum::<f64>()) * lu[i][i];
+            }
         }
         for i in (0..6).rev() {
-            z[i] -= (i + 1..6).map(|j| lu[j][i] * z[j]).sum::<f64>();
+            for c in 0..K {
+                z[i][c] -= (i + 1..6).map(|j| lu[j][i] * z[j][c]).sum::<f64>();
+            }
         }
-        let mut x = Vector6::zeros();
+        let mut x = [Vector6::zeros(); K];
         for (k, &row) in self.permutation.iter().enumerate() {
-            x[usize::from(row)] = z[k];
+            for c in 0..K {
+                x[c][usize::from(row)] = z[k][c];
+            }
         }
         x
     }
@@ -264,6 +279,20 @@ mod tests {
     fn solves_by_the_matrix_and_its_transpose() {
         let a = matrix();
         assert_solves(&Lu6::factor(rows(&a)).unwrap(), &a);
+    }
+
+    /// Side by side, each right-hand side gets the bits of its solve alone.
+    #[test]
+    fn transposed_solves_side_by_side_give_the_bits_of_each_alone() {
+        let lu = Lu6::factor(rows(&matrix())).unwrap();
+        let b: [Vector6<f64>; 3] = std::array::from_fn(|c| {
+            Vector6::from_fn(|i, _| (1.0 + c as f64) / (1.0 + i as f64) - 0.3 * c as f64)
+        });
+        let each = lu.solve_transpose_each(&b);
+        for (x, b) in each.iter().zip(&b) {
+            let alone = lu.solve_transpose(b);
+            assert_eq!(x.map(f64::to_bits), alone.map(f64::to_bits));
+        }
     }
 
     /// The rows of `a` from the smallest `|a[(i, 0)]|` to the largest.
