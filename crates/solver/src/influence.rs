@@ -27,9 +27,11 @@ use nalgebra::{DMatrix, DVector};
 use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::Chunk;
 use crate::eliminate::eliminate_chunk;
+use crate::factor_product::times_factor;
 use crate::iterate::status_of;
 use crate::problem::{Problem, State};
-use crate::redundancy::{RedundancySink, covariance_factor, times_factor};
+use crate::reduced::covariance_factor;
+use crate::redundancy::RedundancySink;
 use crate::solution::Status;
 
 /// A whitened row of a problem.

@@ -18,7 +18,7 @@ use crate::policy::{
     Ending, GaussNewton, LevenbergMarquardt, MAX_LAMBDA, Response, StepPolicy, Trial, Unusable,
 };
 use crate::problem::{Problem, State};
-use crate::reduced::{ReducedSystem, ScaledCholesky};
+use crate::reduced::{ReducedSystem, ScaledCholesky, covariance_factor};
 use crate::solution::{IterationRecord, Solution, Status};
 
 /// Solves the problem from `initial`; `observer` sees every history record
@@ -529,7 +529,8 @@ where
         let group_sigmas = covariance
             .as_ref()
             .filter(|_| self.options.group_sigmas)
-            .and_then(|cov| self.ctx.group_sigmas(&state, cov).ok());
+            .and_then(|cov| covariance_factor(cov, system.size()).ok())
+            .and_then(|(_, factor)| self.ctx.group_sigmas(&state, factor.as_slice()).ok());
         let mut solution = self.end(state, status);
         solution.covariance = covariance;
         solution.group_sigmas = group_sigmas;

@@ -277,6 +277,7 @@ pub mod dense_reference;
 mod diagnostics;
 pub mod effects;
 mod eliminate;
+mod factor_product;
 mod gram;
 mod influence;
 mod iterate;

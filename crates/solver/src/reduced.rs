@@ -2,13 +2,14 @@
 //! summed in chunk order, the global prior, the global observations and the
 //! damping added, and its Cholesky factorisation.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks;
 use crate::eliminate::{Failure, NormalSink, damping_diagonal, eliminate_chunk, find_non_finite};
 use crate::problem::{GlobalObservations, Problem, State, WeighedRows};
 use crate::qr::all_finite;
+use crate::solution::Status;
 
 /// `S δg = −b` on the global block, with the cost at the state it was built
 /// at.
@@ -422,6 +423,27 @@ impl ScaledCholesky {
         }
         inv
     }
+}
+
+/// `Cov(g)` (`G × G`, from the lower triangle of `covariance`) and `L`
+/// with `Cov(g) = LLᵀ` (row-major, lower triangular); fails with
+/// [`Status::InvalidProblem`] if it is not `G × G` and numerically positive
+/// definite.
+pub(crate) fn covariance_factor(
+    covariance: &DMatrix<f64>,
+    g: usize,
+) -> Result<(DMatrix<f64>, Vec<f64>), Status> {
+    let invalid = |message: String| Status::InvalidProblem { message };
+    if covariance.shape() != (g, g) {
+        let (rows, columns) = covariance.shape();
+        return Err(invalid(format!(
+            "a {rows} x {columns} covariance for {g} global unknowns"
+        )));
+    }
+    let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
+    let factor = ScaledCholesky::new(symmetric.as_slice(), g)
+        .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
+    Ok((symmetric, factor.lower_factor()))
 }
 
 #[cfg(test)]

@@ -103,10 +103,11 @@ use crate::chunks::{Absorb, run_chunks_in_waves};
 use crate::covariance::GroupSigmas;
 use crate::effects::{EffectProjection, EffectSums};
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
+use crate::factor_product::{times_factor, times_factor_rows};
 use crate::iterate::status_of;
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::PriorRows;
-use crate::reduced::ScaledCholesky;
+use crate::reduced::covariance_factor;
 use crate::solution::Status;
 
 /// The numbers of one point's `R` data rows at a state, handed by
@@ -239,7 +240,7 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
         .global_observations(&state.global)
         .map_err(|f| status_of(f, 0))?;
     let (mut prior_leverage, group_sigmas, mut effect_sums) = ctx
-        .point_redundancy(state, covariance, &factor, visit)
+        .point_redundancy(state, &factor, visit)
         .map_err(|f| status_of(f, 0))?;
     let k = ctx.dims.effects;
     let mut mean_effects = DMatrix::zeros(g, k);
@@ -285,27 +286,6 @@ pub fn redundancy<const C: usize, const P: usize, const R: usize, Pr: Problem<C,
     })
 }
 
-/// `Cov(g)` (`G × G`, from the lower triangle of `covariance`) and `L`
-/// with `Cov(g) = LLᵀ` (row-major, lower triangular); fails with
-/// [`Status::InvalidProblem`] if it is not `G × G` and numerically positive
-/// definite.
-pub(crate) fn covariance_factor(
-    covariance: &DMatrix<f64>,
-    g: usize,
-) -> Result<(DMatrix<f64>, Vec<f64>), Status> {
-    let invalid = |message: String| Status::InvalidProblem { message };
-    if covariance.shape() != (g, g) {
-        let (rows, columns) = covariance.shape();
-        return Err(invalid(format!(
-            "a {rows} x {columns} covariance for {g} global unknowns"
-        )));
-    }
-    let symmetric = DMatrix::from_fn(g, g, |i, j| covariance[(i.max(j), i.min(j))]);
-    let factor = ScaledCholesky::new(symmetric.as_slice(), g)
-        .ok_or_else(|| invalid("the covariance is not positive definite".into()))?;
-    Ok((symmetric, factor.lower_factor()))
-}
-
 impl<const C: usize, const P: usize, const R: usize, Pr> ChunkedProblem<'_, C, P, R, Pr>
 where
     Pr: Problem<C, P, R>,
@@ -313,12 +293,11 @@ where
     /// The redundancy of every point's rows, handed to `visit` in the
     /// order of the points, the leverage of the point and group priors,
     /// every group's marginal sigmas and the effects' sums over the
-    /// reduced rows at `state`, given `Cov(g)` and `L` with `Cov(g) = LLᵀ`
-    /// (row-major, lower triangular).
+    /// reduced rows at `state`, given `L` with `Cov(g) = LLᵀ` (row-major,
+    /// lower triangular).
     fn point_redundancy(
         &mut self,
         state: &State<C, P>,
-        covariance: &DMatrix<f64>,
         factor: &[f64],
         mut visit: impl FnMut(&PointRows<R>),
     ) -> Result<(PriorLeverage, Vec<SVector<f64, C>>, EffectSums), Failure> {
@@ -344,7 +323,7 @@ where
                 rows.reserve(largest * R * dims.group_width());
                 let mut sink =
                     RedundancySink::new(factor, dims.g, rows, largest, chunk.points.len(), false);
-                sink.sigmas = Some(GroupSigmas::new(covariance, chunk.groups.len()));
+                sink.sigmas = Some(GroupSigmas::new(factor, dims.g, chunk.groups.len()));
                 sink.effects = Some(EffectSums::new(dims.g, dims.effects));
                 eliminate_chunk::<C, P, R, _, _>(
                     problem, chunk, state, global, caches, 0.0, dims, bufs, None, &mut sink,
@@ -407,7 +386,7 @@ pub(crate) struct RedundancySink<'a, const C: usize, const P: usize, const R: us
     pub(crate) global_z: Option<Vec<f64>>,
     /// If asked ([`redundancy`]), the marginal sigmas of the chunk's
     /// groups.
-    pub(crate) sigmas: Option<GroupSigmas<C>>,
+    pub(crate) sigmas: Option<GroupSigmas<'a, C>>,
     /// If asked ([`redundancy`]), the effects' sums over the chunk's
     /// reduced rows.
     pub(crate) effects: Option<EffectSums>,
@@ -785,80 +764,6 @@ fn eliminate_group<const C: usize>(
         let r_cg = &top[a * w + C..a * w + C + g];
         for (u, r) in u.iter_mut().zip(r_cg) {
             *u -= r * y[a];
-        }
-    }
-}
-
-/// Columns of `Lᵀu` at a time: as many as an AVX2 build keeps in two
-/// registers per row.
-const FACTOR_BLOCK: usize = 8;
-
-/// `z_e = Lᵀu_e` ([`times_factor`], the same sums in the same order) for
-/// the `R` rows `u_e` of `reduced` (`R × G`), into columns `offset..offset
-/// + G` of the rows of `out` (`R` rows of `offset + G`): a block of
-/// [`FACTOR_BLOCK`] columns of every row at a time, so that each row of
-/// `L` is read once for all of them and the sums stay in registers. The
-/// block of columns `j..` starts at row `j` of `L`: the rows above are
-/// zero there, and their `±0` products leave the sums' bits as they are
-/// ([`times_factor`]).
-#[inline(always)]
-fn times_factor_rows<const R: usize>(
-    factor: &[f64],
-    reduced: &[f64],
-    out: &mut [f64],
-    offset: usize,
-) {
-    let g = reduced.len() / R;
-    let mut j = 0;
-    while j + FACTOR_BLOCK <= g {
-        factor_block::<R, FACTOR_BLOCK>(factor, reduced, out, offset, j);
-        j += FACTOR_BLOCK;
-    }
-    while j < g {
-        factor_block::<R, 1>(factor, reduced, out, offset, j);
-        j += 1;
-    }
-}
-
-/// Columns `j..j + B` of [`times_factor_rows`].
-#[inline(always)]
-fn factor_block<const R: usize, const B: usize>(
-    factor: &[f64],
-    reduced: &[f64],
-    out: &mut [f64],
-    offset: usize,
-    j: usize,
-) {
-    let g = reduced.len() / R;
-    let mut sums = [[0.0; B]; R];
-    for (i, row) in factor.chunks_exact(g).enumerate().skip(j) {
-        let l: &[f64; B] = row[j..j + B].try_into().expect("B columns");
-        for (e, sum) in sums.iter_mut().enumerate() {
-            let u = reduced[e * g + i];
-            for (s, l) in sum.iter_mut().zip(l) {
-                *s += l * u;
-            }
-        }
-    }
-    let width = offset + g;
-    for (e, sum) in sums.iter().enumerate() {
-        out[e * width + offset + j..e * width + offset + j + B].copy_from_slice(sum);
-    }
-}
-
-/// `z = Lᵀu` for the lower-triangular `L` (`G × G`, row-major, zeros above
-/// the diagonal) with `Cov(g) = LLᵀ`, so that `|z|² = uᵀ Cov(g) u`; by
-/// whole rows of `L` (`z += L[i, ..] u_i`, lanes independent, every row of
-/// one length), whose zeros add `±0` to sums that are never `−0`: the
-/// bits of the lower triangle's products alone. Inlined, so that
-/// [`point_leverages`]' AVX2 build has its own.
-#[inline(always)]
-pub(crate) fn times_factor(factor: &[f64], u: &[f64], z: &mut [f64]) {
-    let g = u.len();
-    z.fill(0.0);
-    for (row, &ui) in factor.chunks_exact(g).zip(u) {
-        for (z, l) in z.iter_mut().zip(row) {
-            *z += l * ui;
         }
     }
 }
