@@ -5,7 +5,7 @@
 //! or given by the redundancy pass, [`crate::redundancy`]).
 //! A fixed group is not an unknown: its sigmas are zero.
 
-use nalgebra::{Const, DMatrix, Dim, Dyn, Matrix, OMatrix, SMatrix, SVector, StorageMut};
+use nalgebra::{Const, DMatrix, Dim, Matrix, SMatrix, SVector, StorageMut};
 
 use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks;
@@ -22,10 +22,8 @@ use crate::solution::Status;
 pub(crate) struct GroupSigmas<'a, const C: usize> {
     /// `L` with `Cov(g) = LLᵀ` ([`covariance_factor`]).
     factor: &'a [f64],
-    /// `K = R_cc⁻¹R_cg` of the current group (`C × G`).
-    gain: OMatrix<f64, Const<C>, Dyn>,
-    /// The rows of `K`, row-major.
-    gain_rows: Vec<f64>,
+    /// `K = R_cc⁻¹R_cg` of the current group (`C × G`, row-major).
+    gain: Vec<f64>,
     /// Room for `LᵀKᵀ` (`C × G`).
     z: Vec<f64>,
     pub(crate) out: Vec<SVector<f64, C>>,
@@ -36,8 +34,7 @@ impl<'a, const C: usize> GroupSigmas<'a, C> {
     pub(crate) fn new(factor: &'a [f64], g: usize, groups: usize) -> Self {
         Self {
             factor,
-            gain: OMatrix::zeros_generic(Const::<C>, Dyn(g)),
-            gain_rows: vec![0.0; C * g],
+            gain: vec![0.0; C * g],
             z: vec![0.0; C * g],
             out: Vec::with_capacity(groups),
         }
@@ -59,24 +56,16 @@ impl<'a, const C: usize> GroupSigmas<'a, C> {
     /// `R_cc⁻¹R_cc⁻ᵀ + K Cov(g) Kᵀ`, whose second term's `a`-th entry is
     /// `|Lᵀk_a|²` for row `k_a` of `K` ([`quadratic_forms`]).
     fn group_sigma(&mut self, top: &[f64]) -> SVector<f64, C> {
-        let g = self.gain.ncols();
+        let g = self.gain.len() / C;
         let w = top.len() / C;
         let r_cc = SMatrix::<f64, C, C>::from_fn(|a, b| if b >= a { top[a * w + b] } else { 0.0 });
         let mut m = SMatrix::<f64, C, C>::identity();
         upper_solve(&r_cc, &mut m);
-        let gain = &mut self.gain;
-        for a in 0..C {
-            for j in 0..g {
-                gain[(a, j)] = top[a * w + C + j];
-            }
+        for (a, k) in self.gain.chunks_exact_mut(g).enumerate() {
+            k.copy_from_slice(&top[a * w + C..a * w + C + g]);
         }
-        upper_solve(&r_cc, gain);
-        for (a, row) in self.gain_rows.chunks_exact_mut(g).enumerate() {
-            for (j, k) in row.iter_mut().enumerate() {
-                *k = gain[(a, j)];
-            }
-        }
-        let spreads = quadratic_forms::<C>(self.factor, &self.gain_rows, &mut self.z);
+        upper_solve_rows(&r_cc, &mut self.gain);
+        let spreads = quadratic_forms::<C>(self.factor, &self.gain, &mut self.z);
         SVector::<f64, C>::from_fn(|a, _| (m.row(a).norm_squared() + spreads[a]).sqrt())
     }
 }
@@ -101,6 +90,26 @@ impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R,
     ) {
         debug_assert_eq!(k, self.first_group + self.sigmas.out.len());
         self.sigmas.push(top);
+    }
+}
+
+/// [`upper_solve`] of the `C` rows of `b` (row-major, rows of one
+/// length): each entry's products and subtractions in the same order.
+fn upper_solve_rows<const C: usize>(u: &SMatrix<f64, C, C>, b: &mut [f64]) {
+    let n = b.len() / C;
+    for a in (0..C).rev() {
+        let (head, tail) = b.split_at_mut((a + 1) * n);
+        let row = &mut head[a * n..];
+        for (l, below) in (a + 1..C).zip(tail.chunks_exact(n)) {
+            let ual = u[(a, l)];
+            for (x, y) in row.iter_mut().zip(below) {
+                *x -= ual * y;
+            }
+        }
+        let inv = 1.0 / u[(a, a)];
+        for x in row {
+            *x *= inv;
+        }
     }
 }
 
@@ -180,4 +189,37 @@ pub fn group_sigmas<const C: usize, const P: usize, const R: usize, Pr: Problem<
     let (_, factor) = covariance_factor(covariance, ctx.dims.g)?;
     ctx.group_sigmas(state, &factor)
         .map_err(|f| status_of(f, 0))
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, Dyn, OMatrix};
+
+    use super::*;
+
+    /// Row by row, `U⁻¹B` gets the bits of the solve on the column-major
+    /// matrix.
+    #[test]
+    fn the_row_major_solve_gives_the_bits_of_the_matrix_one() {
+        let u = SMatrix::<f64, 4, 4>::from_fn(|a, b| {
+            if b >= a {
+                1.0 + ((a * 5 + b * 3) % 7) as f64 / 3.0
+            } else {
+                0.0
+            }
+        });
+        let b = DMatrix::from_fn(4, 37, |a, j| ((a * 13 + j * 7) % 11) as f64 / 7.0 - 0.6);
+        let mut matrix = OMatrix::<f64, Const<4>, Dyn>::from_fn(37, |a, j| b[(a, j)]);
+        upper_solve(&u, &mut matrix);
+        let mut rows: Vec<f64> = b.transpose().as_slice().to_vec();
+        upper_solve_rows(&u, &mut rows);
+        for a in 0..4 {
+            for j in 0..37 {
+                assert_eq!(rows[a * 37 + j].to_bits(), matrix[(a, j)].to_bits());
+            }
+        }
+        // And it solves: U (U⁻¹B) = B.
+        let solved = DMatrix::from_row_slice(4, 37, &rows);
+        assert!((u * solved - b).amax() < 1e-12);
+    }
 }
