@@ -5,7 +5,7 @@
 //! or given by the redundancy pass, [`crate::redundancy`]).
 //! A fixed group is not an unknown: its sigmas are zero.
 
-use nalgebra::{DMatrix, SMatrix, SVector};
+use nalgebra::{DMatrix, SVector};
 
 use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks;
@@ -13,7 +13,7 @@ use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
 use crate::factor_product::quadratic_forms;
 use crate::iterate::status_of;
 use crate::problem::{Problem, State};
-use crate::qr::PriorRows;
+use crate::qr::{PriorRows, solve_upper_in_place};
 use crate::reduced::covariance_factor;
 use crate::solution::Status;
 
@@ -61,16 +61,16 @@ impl<'a, const C: usize> GroupSigmas<'a, C> {
     fn group_sigma(&mut self, top: &[f64]) -> SVector<f64, C> {
         let g = self.gain.len() / C;
         let w = top.len() / C;
-        let r_cc = SMatrix::<f64, C, C>::from_fn(|a, b| if b >= a { top[a * w + b] } else { 0.0 });
+        // R_cc⁻¹ and K = R_cc⁻¹R_cg, R_cc read where the triangle holds it.
         self.inverse.fill(0.0);
         for a in 0..C {
             self.inverse[a * C + a] = 1.0;
         }
-        upper_solve(&r_cc, &mut self.inverse);
+        solve_upper_in_place(top, w, C, &mut self.inverse, C);
         for (a, k) in self.gain.chunks_exact_mut(g).enumerate() {
             k.copy_from_slice(&top[a * w + C..a * w + C + g]);
         }
-        upper_solve(&r_cc, &mut self.gain);
+        solve_upper_in_place(top, w, C, &mut self.gain, g);
         let spreads = quadratic_forms::<C>(self.factor, &self.gain, &mut self.z);
         let rows = self.inverse.chunks_exact(C);
         let mut sigmas = SVector::<f64, C>::zeros();
@@ -101,26 +101,6 @@ impl<const C: usize, const P: usize, const R: usize, J> EliminationSink<C, P, R,
     ) {
         debug_assert_eq!(k, self.first_group + self.sigmas.out.len());
         self.sigmas.push(top);
-    }
-}
-
-/// `B ← U⁻¹ B` for upper-triangular `U` and the `C` rows of `b`
-/// (row-major, rows of one length), row by row from the last.
-fn upper_solve<const C: usize>(u: &SMatrix<f64, C, C>, b: &mut [f64]) {
-    let n = b.len() / C;
-    for a in (0..C).rev() {
-        let (head, tail) = b.split_at_mut((a + 1) * n);
-        let row = &mut head[a * n..];
-        for (l, below) in (a + 1..C).zip(tail.chunks_exact(n)) {
-            let ual = u[(a, l)];
-            for (x, y) in row.iter_mut().zip(below) {
-                *x -= ual * y;
-            }
-        }
-        let inv = 1.0 / u[(a, a)];
-        for x in row {
-            *x *= inv;
-        }
     }
 }
 
@@ -165,7 +145,8 @@ where
 /// covariance `Cov(g)` of the global block there (what
 /// [`Solution::group_sigmas`](crate::Solution::group_sigmas) holds): one
 /// pass over the points. `caches` as [`linear_step`](crate::linear_step)
-/// takes them.
+/// takes them. Fails with [`Status::InvalidProblem`] if the covariance is
+/// not `G × G` and numerically positive definite.
 pub fn group_sigmas<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
     state: &State<C, P>,
@@ -178,32 +159,4 @@ pub fn group_sigmas<const C: usize, const P: usize, const R: usize, Pr: Problem<
     let (_, factor) = covariance_factor(covariance, ctx.dims.g)?;
     ctx.group_sigmas(state, &factor)
         .map_err(|f| status_of(f, 0))
-}
-
-#[cfg(test)]
-mod tests {
-    use nalgebra::DMatrix;
-
-    use super::*;
-
-    /// `U⁻¹B` row by row is the triangular solve's.
-    #[test]
-    fn the_triangular_solve_solves() {
-        let u = SMatrix::<f64, 4, 4>::from_fn(|a, b| {
-            if b >= a {
-                1.0 + ((a * 5 + b * 3) % 7) as f64 / 3.0
-            } else {
-                0.0
-            }
-        });
-        let b = DMatrix::from_fn(4, 37, |a, j| ((a * 13 + j * 7) % 11) as f64 / 7.0 - 0.6);
-        let mut rows: Vec<f64> = b.transpose().as_slice().to_vec();
-        upper_solve(&u, &mut rows);
-        let solved = DMatrix::from_row_slice(4, 37, &rows);
-        let reference = DMatrix::from_fn(4, 4, |a, c| u[(a, c)])
-            .solve_upper_triangular(&b)
-            .expect("an invertible triangle");
-        assert!((&solved - &reference).amax() < 1e-14 * reference.amax());
-        assert!((u * solved - b).amax() < 1e-12);
-    }
 }
