@@ -68,9 +68,10 @@
 //! its global part is `Cov(g) u_j ∇` (Schur complement), `u_j = Ũᵀ q_j`
 //! the row's reduced row. Measured in the global block's own noise, its
 //! size is `∇ √(u_jᵀ Cov(g) u_j) = ∇ |z_j|`, `z_j = Lᵀ u_j = Σ_e q_j[e]
-//! V[e, C..]`: the row's **global leverage** `|z_j|² ≤ h_j`, a by-product
-//! of the pass (for a global observation row it is its whole leverage
-//! `1 − r_o`). With `∇` the row's minimal detectable bias `δ₀ / √r_j`, the
+//! V[e, C..]`: the row's **global leverage** `|z_j|² = q_jᵀ V_g V_gᵀ q_j ≤
+//! h_j` (`V_g` the global columns of `V`, whose Gram is part of `M`), a
+//! by-product of the pass (for a global observation row it is its whole
+//! leverage `1 − r_o`). With `∇` the row's minimal detectable bias `δ₀ / √r_j`, the
 //! bias-to-noise ratio of the global block is `δ₀ √(|z_j|² / r_j)`
 //! (Baarda 1968; Förstner and Wrobel 2016, section 4.6.5, whose
 //! `δ₀ √((1 − r_j) / r_j)` is the same over all unknowns).
@@ -95,6 +96,7 @@
 //! quadratic forms of size `m − P`.
 
 use std::collections::VecDeque;
+use std::ops::Range;
 
 use nalgebra::{DMatrix, SMatrix, SVector};
 
@@ -552,10 +554,12 @@ struct GroupPoints<'a, const C: usize, const P: usize, const R: usize> {
 }
 
 /// Each point of a group done ([`GroupPoints`]): `V` (a row `[R_cc⁻ᵀ
-/// E_c[e,·]ᵀ | LᵀŨ[e,·]ᵀ]` per eliminated row), `M = VVᵀ`, each data
-/// row's `r_j = |q_j|² − q_jᵀ M q_j` and global leverage `|z_j|²`,
-/// `z_j = Σ_e q_j[e] V[e, C..]` (module doc) into `out`; each `z_j` onto
-/// `global_z` if kept; the leverage `1 − r` of the points' prior rows
+/// E_c[e,·]ᵀ | LᵀŨ[e,·]ᵀ]` per eliminated row), `M = V_c V_cᵀ + V_g
+/// V_gᵀ` (the Grams of its group's and its global columns), each data
+/// row's `r_j = |q_j|² − q_jᵀ M q_j` and global leverage `|z_j|² =
+/// q_jᵀ V_g V_gᵀ q_j`, `z_j = Σ_e q_j[e] V[e, C..]` (module doc) into
+/// `out`; each `z_j`, formed only then, onto `global_z` if kept; the
+/// leverage `1 − r` of the points' prior rows
 /// added to `prior_leverage.points`, then that of the group's prior rows
 /// `[U_c | 0]` (`|R_cc⁻ᵀ U_cᵀ|² + |LᵀŨ|²` a row) to `prior_leverage.groups`.
 ///
@@ -604,16 +608,23 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
         reduced,
         z,
     } = scratch;
-    // The reduced rows `u` of all the group's eliminated rows, then `Lᵀu`
-    // of them all at once.
+    // The group coordinates `y` of all the group's eliminated rows (their
+    // divisions independent of one another), their reduced rows `u`, then
+    // `Lᵀu` of them all at once.
     let eliminated: usize = points.iter().map(|point| point.eliminated).sum();
-    for (e, row) in rows.chunks_exact(w).take(eliminated).enumerate() {
-        let u = &mut reduced[e * g..(e + 1) * g];
-        u.copy_from_slice(&row[C..C + g]);
+    let eliminated_rows = || rows.chunks_exact(w).take(eliminated).enumerate();
+    for (e, row) in eliminated_rows() {
         let y = &mut coordinates[e * cw..e * cw + C];
         match level.top {
-            Some(top) => eliminate_group::<C>(top, g, &row[..C], y, u),
+            Some(top) => group_coordinates::<C>(top, &row[..C], y),
             None => y.fill(0.0),
+        }
+    }
+    for (e, row) in eliminated_rows() {
+        let u = &mut reduced[e * g..(e + 1) * g];
+        u.copy_from_slice(&row[C..C + g]);
+        if let Some(top) = level.top {
+            reduce_row::<C>(top, &coordinates[e * cw..e * cw + C], u);
         }
     }
     times_factor_all(level.factor, g, &reduced[..eliminated * g], coordinates, C);
@@ -622,21 +633,24 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
         let n = point.eliminated;
         let v = &coordinates[first_row * cw..];
         first_row += n;
-        let m = eliminated_gram::<R>(n, v, cw);
+        // M = V_c V_cᵀ + V_g V_gᵀ, the group's and the global columns of V.
+        let m_group = eliminated_gram::<R>(n, v, cw, 0..C);
+        let m_global = eliminated_gram::<R>(n, v, cw, C..cw);
+        let m = m_group + m_global;
         out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
-        // |z_j|², z_j = Σ_e q_j[e] V[e, C..].
-        for (r, z_r) in z.chunks_exact_mut(g).enumerate() {
-            z_r.fill(0.0);
-            for e in 0..n {
-                let q = point.data[(r, e)];
-                let v = &v[e * cw + C..(e + 1) * cw];
-                for (z, v) in z_r.iter_mut().zip(v) {
-                    *z += q * v;
+        // |z_j|² = q_jᵀ V_g V_gᵀ q_j, z_j = Σ_e q_j[e] V[e, C..].
+        out.global_leverage = SVector::from_fn(|r, _| quadratic_form(&point.data, r, &m_global, n));
+        if let Some(zs) = global_z.as_mut() {
+            for (r, z_r) in z.chunks_exact_mut(g).enumerate() {
+                z_r.fill(0.0);
+                for e in 0..n {
+                    let q = point.data[(r, e)];
+                    let v = &v[e * cw + C..(e + 1) * cw];
+                    for (z, v) in z_r.iter_mut().zip(v) {
+                        *z += q * v;
+                    }
                 }
             }
-        }
-        out.global_leverage = norms2_rows::<R>(z, g);
-        if let Some(zs) = global_z.as_mut() {
             zs.extend_from_slice(z);
         }
         if let Some(q) = &point.prior {
@@ -654,7 +668,8 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
                 let u_row: [f64; C] = std::array::from_fn(|b| prior.sqrt[(first + e, b)]);
                 let y = &mut coordinates[e * cw..e * cw + C];
                 u.fill(0.0);
-                eliminate_group::<C>(top, g, &u_row, y, u);
+                group_coordinates::<C>(top, &u_row, y);
+                reduce_row::<C>(top, y, u);
             }
             times_factor_all(level.factor, g, &reduced[..rows * g], coordinates, C);
             for row in coordinates.chunks_exact(cw).take(rows) {
@@ -665,25 +680,35 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
     }
 }
 
-/// `M = VVᵀ` of a point's `n` eliminated rows, the first rows of `v`
-/// (rows of `width`): [`gram_rows`] over those rows alone when `n` is one
-/// or two (a touch by its coordinates without an angle prior has three
-/// rows, one eliminated), else over `R` rows (`v` holds them). The
-/// entries kept get the same sums in the same order whatever `n`.
+/// `M = VVᵀ` over the columns `columns` of a point's `n` eliminated rows,
+/// the first rows of `v` (rows of `width`): [`gram_rows`] over those rows
+/// alone when `n` is one or two (a touch by its coordinates without an
+/// angle prior has three rows, one eliminated), else over `R` rows (`v`
+/// holds them). The entries kept get the same sums in the same order
+/// whatever `n`.
 #[inline(always)]
-fn eliminated_gram<const R: usize>(n: usize, v: &[f64], width: usize) -> SMatrix<f64, R, R> {
+fn eliminated_gram<const R: usize>(
+    n: usize,
+    v: &[f64],
+    width: usize,
+    columns: Range<usize>,
+) -> SMatrix<f64, R, R> {
     /// The first `N` rows alone, `M` in the top left of an `R × R` zero.
     #[inline(always)]
-    fn first<const R: usize, const N: usize>(v: &[f64], width: usize) -> SMatrix<f64, R, R> {
+    fn first<const R: usize, const N: usize>(
+        v: &[f64],
+        width: usize,
+        columns: Range<usize>,
+    ) -> SMatrix<f64, R, R> {
         let mut m = SMatrix::<f64, R, R>::zeros();
         m.fixed_view_mut::<N, N>(0, 0)
-            .copy_from(&gram_rows::<N>(v, N, width));
+            .copy_from(&gram_rows::<N>(v, N, width, columns));
         m
     }
     match n {
-        1 if R > 1 => first::<R, 1>(v, width),
-        2 if R > 2 => first::<R, 2>(v, width),
-        _ => gram_rows::<R>(v, n, width),
+        1 if R > 1 => first::<R, 1>(v, width, columns),
+        2 if R > 2 => first::<R, 2>(v, width, columns),
+        _ => gram_rows::<R>(v, n, width, columns),
     }
 }
 
@@ -724,34 +749,16 @@ fn row_redundancy<const K: usize, const R: usize>(
     m: &SMatrix<f64, R, R>,
     n: usize,
 ) -> f64 {
-    let mut length2 = 0.0;
-    let mut leverage = 0.0;
-    for e in 0..n {
-        let qe = q[(j, e)];
-        length2 += qe * qe;
-        let mut mq = 0.0;
-        for f in 0..n {
-            mq += m[(e, f)] * q[(j, f)];
-        }
-        leverage += qe * mq;
-    }
-    length2 - leverage
+    let length2: f64 = (0..n).fold(0.0, |sum, e| sum + q[(j, e)] * q[(j, e)]);
+    length2 - quadratic_form(q, j, m, n)
 }
 
-/// A row `[a_c | a_g]` at the group level of the triangle `top`
-/// (`[R_cc | R_cg | z_c]`, row-major, `C` rows of width `C + G + 1` and
-/// any effects' columns): `y = R_cc⁻ᵀ a_c`
-/// into `y`, and `u ← u − R_cgᵀ y` (`u` holds `a_g` on entry; the reduced
-/// row `a_g − Kᵀa_c` on return). Inlined, so that [`point_leverages`]'
-/// AVX2 build has its own.
+/// The group coordinates `y = R_cc⁻ᵀ a_c` of a row `[a_c | a_g]` at the
+/// group level of the triangle `top` (`[R_cc | R_cg | z_c]`, row-major,
+/// `C` rows of width `C + G + 1` and any effects' columns), into `y`.
+/// Inlined, so that [`point_leverages`]' AVX2 build has its own.
 #[inline(always)]
-fn eliminate_group<const C: usize>(
-    top: &[f64],
-    g: usize,
-    a_c: &[f64],
-    y: &mut [f64],
-    u: &mut [f64],
-) {
+fn group_coordinates<const C: usize>(top: &[f64], a_c: &[f64], y: &mut [f64]) {
     let w = top.len() / C;
     for a in 0..C {
         let mut s = a_c[a];
@@ -760,53 +767,104 @@ fn eliminate_group<const C: usize>(
         }
         y[a] = s / top[a * w + a];
     }
-    for a in 0..C {
-        let r_cg = &top[a * w + C..a * w + C + g];
+}
+
+/// The reduced row `u ← u − R_cgᵀ y` of a row whose global part `a_g` `u`
+/// holds on entry, `y` its [`group_coordinates`] in the triangle `top`:
+/// `a_g − Kᵀa_c` on return. Inlined, as [`group_coordinates`].
+#[inline(always)]
+fn reduce_row<const C: usize>(top: &[f64], y: &[f64], u: &mut [f64]) {
+    let w = top.len() / C;
+    for (a, &y) in y.iter().enumerate() {
+        let r_cg = &top[a * w + C..a * w + C + u.len()];
         for (u, r) in u.iter_mut().zip(r_cg) {
-            *u -= r * y[a];
+            *u -= r * y;
         }
     }
 }
 
-/// `M = V Vᵀ` of the first `n` rows of `v` (`R` rows of `width`; `M`
-/// zero beyond the first `n`): each entry [`dot`]'s sum in the same order,
-/// the entries' sums side by side (independent chains rather than one
-/// after another), over all `R` rows so that the loops unroll (the sums of
-/// rows from `n` on are dropped).
+/// Partial sums that each entry of [`gram_rows`] keeps side by side, a
+/// column in turn to each: independent chains of additions, so that the
+/// sum of a 33-column row does not wait on the latency of each addition.
+const PARTIAL_SUMS: usize = 4;
+
+/// `M = V Vᵀ` over the columns `columns` of the first `n` rows of `v`
+/// (`R` rows of `width`; `M` zero beyond the first `n`): each entry
+/// [`partial_dot`]'s sum in the same order, the entries' sums side by side
+/// (independent chains rather than one after another), over all `R` rows
+/// so that the loops unroll (the sums of rows from `n` on are dropped).
 #[inline(always)]
-fn gram_rows<const R: usize>(v: &[f64], n: usize, width: usize) -> SMatrix<f64, R, R> {
-    let rows: [&[f64]; R] = std::array::from_fn(|e| &v[e * width..(e + 1) * width]);
-    let mut sums = [[-0.0; R]; R];
-    for k in 0..width {
+fn gram_rows<const R: usize>(
+    v: &[f64],
+    n: usize,
+    width: usize,
+    columns: Range<usize>,
+) -> SMatrix<f64, R, R> {
+    let rows: [&[f64]; R] =
+        std::array::from_fn(|e| &v[e * width..(e + 1) * width][columns.clone()]);
+    let mut sums = [[[-0.0; PARTIAL_SUMS]; R]; R];
+    let mut add = |k: usize, lane: usize| {
         for e in 0..R {
             let ve = rows[e][k];
             for f in 0..=e {
-                sums[e][f] += ve * rows[f][k];
+                sums[e][f][lane] += ve * rows[f][k];
             }
         }
+    };
+    let whole = columns.len() - columns.len() % PARTIAL_SUMS;
+    for first in (0..whole).step_by(PARTIAL_SUMS) {
+        for lane in 0..PARTIAL_SUMS {
+            add(first + lane, lane);
+        }
+    }
+    for k in whole..columns.len() {
+        add(k, k - whole);
     }
     let mut m = SMatrix::<f64, R, R>::zeros();
     for e in 0..n {
         for f in 0..=e {
-            m[(e, f)] = sums[e][f];
-            m[(f, e)] = sums[e][f];
+            let entry = combined(&sums[e][f]);
+            m[(e, f)] = entry;
+            m[(f, e)] = entry;
         }
     }
     m
 }
 
-/// [`norm2`] of each of the `R` rows of `z` (rows of `width`), each sum in
-/// the same order, side by side.
+/// The total of [`PARTIAL_SUMS`] partial sums, in pairs.
 #[inline(always)]
-fn norms2_rows<const R: usize>(z: &[f64], width: usize) -> SVector<f64, R> {
-    let rows: [&[f64]; R] = std::array::from_fn(|r| &z[r * width..(r + 1) * width]);
-    let mut sums = [-0.0; R];
-    for k in 0..width {
-        for (sum, row) in sums.iter_mut().zip(rows) {
-            *sum += row[k] * row[k];
-        }
+fn combined(partial: &[f64; PARTIAL_SUMS]) -> f64 {
+    (partial[0] + partial[1]) + (partial[2] + partial[3])
+}
+
+/// `aᵀb` as [`gram_rows`] sums each entry: column `k` into partial sum `k
+/// mod` [`PARTIAL_SUMS`], then [`combined`].
+#[cfg(test)]
+fn partial_dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut sums = [-0.0; PARTIAL_SUMS];
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        sums[k % PARTIAL_SUMS] += x * y;
     }
-    SVector::from(sums)
+    combined(&sums)
+}
+
+/// `q_jᵀ M q_j` for row `j` of `q` (its first `n` values).
+#[inline(always)]
+fn quadratic_form<const K: usize, const R: usize>(
+    q: &SMatrix<f64, K, R>,
+    j: usize,
+    m: &SMatrix<f64, R, R>,
+    n: usize,
+) -> f64 {
+    let mut form = 0.0;
+    for e in 0..n {
+        let mut mq = 0.0;
+        for f in 0..n {
+            mq += m[(e, f)] * q[(j, f)];
+        }
+        form += q[(j, e)] * mq;
+    }
+    form
 }
 
 #[inline]
@@ -831,38 +889,38 @@ mod tests {
         assert_eq!(normalised_residual(0.0, -1e-16), None);
     }
 
-    /// The sums side by side give the bits of [`dot`] and [`norm2`], one
-    /// after another.
+    /// The sums side by side give the bits of [`partial_dot`], one entry
+    /// after another, over any range of columns; and, summed in another
+    /// order, what [`dot`] gives within its rounding.
     #[test]
     fn side_by_side_sums_give_the_bits_of_one_at_a_time() {
         let width = 37;
         let v: Vec<f64> = (0..3 * width)
             .map(|i| ((i * 7919 % 1013) as f64 - 506.0) * 1.37e-3)
             .collect();
-        for n in 0..=3 {
-            let m = gram_rows::<3>(&v, n, width);
-            for e in 0..3 {
-                for f in 0..3 {
-                    let expected = if e < n && f < n {
-                        dot(
-                            &v[e * width..(e + 1) * width],
-                            &v[f * width..(f + 1) * width],
-                        )
-                    } else {
-                        0.0
-                    };
-                    assert_eq!(
-                        m[(e, f)].to_bits(),
-                        expected.to_bits(),
-                        "n = {n}, ({e}, {f})"
-                    );
+        let row =
+            |e: usize, columns: &Range<usize>| &v[e * width..(e + 1) * width][columns.clone()];
+        for columns in [0..width, 0..3, 3..width, 5..6] {
+            for n in 0..=3 {
+                let m = gram_rows::<3>(&v, n, width, columns.clone());
+                for e in 0..3 {
+                    for f in 0..3 {
+                        let (a, b) = (row(e, &columns), row(f, &columns));
+                        let expected = if e < n && f < n {
+                            partial_dot(a, b)
+                        } else {
+                            0.0
+                        };
+                        let what = format!("n = {n}, ({e}, {f}), columns {columns:?}");
+                        assert_eq!(m[(e, f)].to_bits(), expected.to_bits(), "{what}");
+                        if e < n && f < n {
+                            let bound =
+                                1e-15 * columns.len() as f64 * norm2(a).sqrt() * norm2(b).sqrt();
+                            assert!((m[(e, f)] - dot(a, b)).abs() <= bound, "{what}");
+                        }
+                    }
                 }
             }
-        }
-        let norms = norms2_rows::<3>(&v, width);
-        for r in 0..3 {
-            let expected = norm2(&v[r * width..(r + 1) * width]);
-            assert_eq!(norms[r].to_bits(), expected.to_bits(), "row {r}");
         }
     }
 
@@ -873,11 +931,46 @@ mod tests {
         let width = 37;
         let value = |i: usize| ((i * 7919 % 1013) as f64 - 506.0) * 1.37e-3;
         let v: Vec<f64> = (0..3 * width).map(value).collect();
-        for n in 0..=3 {
-            let expected = gram_rows::<3>(&v, n, width);
-            let m = eliminated_gram::<3>(n, &v, width);
-            for (a, b) in m.iter().zip(expected.iter()) {
-                assert_eq!(a.to_bits(), b.to_bits(), "n = {n}: M");
+        for columns in [0..width, 0..3, 3..width] {
+            for n in 0..=3 {
+                let expected = gram_rows::<3>(&v, n, width, columns.clone());
+                let m = eliminated_gram::<3>(n, &v, width, columns.clone());
+                for (a, b) in m.iter().zip(expected.iter()) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "n = {n}, columns {columns:?}: M");
+                }
+            }
+        }
+    }
+
+    /// `|z_j|²` as the quadratic form `q_jᵀ V_g V_gᵀ q_j` and
+    /// `r_j = |q_j|² − q_jᵀ M q_j` agree with `z_j = Σ_e q_j[e] V_g[e]`
+    /// formed and squared, and with `M = VVᵀ` over all columns, within
+    /// rounding.
+    #[test]
+    fn leverages_from_the_split_gram_match_the_rows_formed() {
+        let (c, width) = (3, 36);
+        let value = |i: usize| ((i * 7919 % 1013) as f64 - 506.0) * 1.37e-3;
+        let v: Vec<f64> = (0..3 * width).map(value).collect();
+        let q = SMatrix::<f64, 3, 3>::new(0.6, -0.3, 0.2, 0.5, 0.7, -0.1, -0.4, 0.2, 0.9);
+        for n in 1..=3 {
+            let m_global = eliminated_gram::<3>(n, &v, width, c..width);
+            let m = eliminated_gram::<3>(n, &v, width, 0..c) + m_global;
+            let full = eliminated_gram::<3>(n, &v, width, 0..width);
+            for j in 0..3 {
+                let z: Vec<f64> = (c..width)
+                    .map(|k| (0..n).map(|e| q[(j, e)] * v[e * width + k]).sum())
+                    .collect();
+                let leverage = quadratic_form(&q, j, &m_global, n);
+                let scale = norm2(&v);
+                assert!(
+                    (leverage - norm2(&z)).abs() <= 1e-14 * scale,
+                    "n = {n}, row {j}"
+                );
+                let (split, whole) = (
+                    row_redundancy(&q, j, &m, n),
+                    row_redundancy(&q, j, &full, n),
+                );
+                assert!((split - whole).abs() <= 1e-14 * scale, "n = {n}, row {j}");
             }
         }
     }
