@@ -35,7 +35,9 @@
 
 use nalgebra::{DMatrix, SVector};
 use parcal_dataset::Histogram;
-use parcal_solver::{Problem, State, normalised_residual, point_degrees_of_freedom, redundancy};
+use parcal_solver::{
+    MIN_REDUNDANCY, Problem, State, normalised_residual, point_degrees_of_freedom, redundancy,
+};
 
 use crate::CalibrateError;
 use crate::external::{self, ExternalShift, external_shifts};
@@ -122,19 +124,30 @@ impl From<Stored> for Numbers {
 /// One observation's check, from its rows' redundancy numbers `r`,
 /// whitened residuals `e` and global leverages `global`: its [`Numbers`],
 /// its worst row, and its bias-to-noise ratio for a minimal detectable
-/// bias of `delta0 / √r` row sigmas (`None` when no row is checked).
-fn check_rows(r: &[f64], e: &[f64], global: &[f64], delta0: f64) -> (Numbers, u8, Option<f64>) {
-    let bias_to_noise = r
+/// bias of `delta0 / √r` row sigmas (`None` when no row is checked), the
+/// largest `delta0 √(h / r)` taken as `delta0 √max(h / r)`, the same
+/// value since both functions are monotonic. Each checked row's normalised
+/// residual goes to `normalised`, in the order of the rows.
+fn check_rows(
+    r: &[f64],
+    e: &[f64],
+    global: &[f64],
+    delta0: f64,
+    mut normalised: impl FnMut(f64),
+) -> (Numbers, u8, Option<f64>) {
+    let largest_ratio = r
         .iter()
         .zip(global)
-        .filter(|(r, _)| normalised_residual(0.0, **r).is_some())
-        .map(|(r, h)| delta0 * (h.max(0.0) / r).sqrt())
+        .filter(|(r, _)| **r > MIN_REDUNDANCY)
+        .map(|(r, h)| h.max(0.0) / r)
         .max_by(f64::total_cmp);
+    let bias_to_noise = largest_ratio.map(|ratio| delta0 * ratio.sqrt());
     let worst = r
         .iter()
         .zip(e)
         .enumerate()
         .filter_map(|(j, (&r, &e))| normalised_residual(e, r).map(|w| (j, w, e, r)))
+        .inspect(|&(_, w, _, _)| normalised(w))
         .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
     // `j` indexes an observation's rows: at most six.
     let (row, worst_residual, worst_redundancy) =
@@ -272,15 +285,9 @@ impl Summary {
         global: &[f64],
         cost: f64,
     ) -> (Numbers, u8) {
-        let (numbers, row, lambda) = check_rows(r, e, global, self.delta0);
+        let histogram = &mut self.row_normalised;
+        let (numbers, row, lambda) = check_rows(r, e, global, self.delta0, |w| histogram.add(w));
         add_to_component(&mut self.components, observation, cost, &numbers);
-        for w in e
-            .iter()
-            .zip(r)
-            .filter_map(|(&e, &r)| normalised_residual(e, r))
-        {
-            self.row_normalised.add(w);
-        }
         if let Some(lambda) = lambda {
             let at = self
                 .least_reliable
@@ -593,7 +600,12 @@ mod tests {
     fn a_check_keeps_its_worst_row() {
         // Rows: w = 0.5 / √0.25 = 1, -0.9 / √0.36 = -1.5, unchecked.
         let r = [0.25, 0.36, 1e-12];
-        let (numbers, row, lambda) = check_rows(&r, &[0.5, -0.9, 3.0], &[0.04, 0.09, 0.5], 2.0);
+        let mut normalised = Vec::new();
+        let (numbers, row, lambda) =
+            check_rows(&r, &[0.5, -0.9, 3.0], &[0.04, 0.09, 0.5], 2.0, |w| {
+                normalised.push(w)
+            });
+        assert_eq!(normalised, [0.5 / 0.5, -0.9 / 0.6]);
         let check = ObservationCheck {
             observation: ObservationId::Pose(7),
             numbers,
@@ -605,7 +617,7 @@ mod tests {
         assert_eq!(check.row(), 1);
         // λ = 2 √(h / r): 2 √0.16 = 0.8 and 2 √0.25 = 1.
         assert_eq!(lambda, Some(2.0 * (0.09f64 / 0.36).sqrt()));
-        let (numbers, _, lambda) = check_rows(&[1e-11], &[1.0], &[1.0], 2.0);
+        let (numbers, _, lambda) = check_rows(&[1e-11], &[1.0], &[1.0], 2.0, |_| ());
         let unchecked = ObservationCheck { numbers, ..check };
         assert_eq!(unchecked.normalised(), None);
         assert_eq!(unchecked.gross_error(), None);
