@@ -637,9 +637,13 @@ fn point_leverages_in<const C: usize, const P: usize, const R: usize>(
         let m_group = eliminated_gram::<R>(n, v, cw, 0..C);
         let m_global = eliminated_gram::<R>(n, v, cw, C..cw);
         let m = m_group + m_global;
-        out.redundancy = SVector::from_fn(|r, _| row_redundancy(&point.data, r, &m, n));
+        out.redundancy = SVector::from(std::array::from_fn(|r| {
+            row_redundancy(&point.data, r, &m, n)
+        }));
         // |z_j|² = q_jᵀ V_g V_gᵀ q_j, z_j = Σ_e q_j[e] V[e, C..].
-        out.global_leverage = SVector::from_fn(|r, _| quadratic_form(&point.data, r, &m_global, n));
+        out.global_leverage = SVector::from(std::array::from_fn(|r| {
+            quadratic_form(&point.data, r, &m_global, n)
+        }));
         if let Some(zs) = global_z.as_mut() {
             for (r, z_r) in z.chunks_exact_mut(g).enumerate() {
                 z_r.fill(0.0);
@@ -802,23 +806,30 @@ fn gram_rows<const R: usize>(
 ) -> SMatrix<f64, R, R> {
     let rows: [&[f64]; R] =
         std::array::from_fn(|e| &v[e * width..(e + 1) * width][columns.clone()]);
-    let mut sums = [[[-0.0; PARTIAL_SUMS]; R]; R];
-    let mut add = |k: usize, lane: usize| {
+    /// Column `k` of the rows into partial sum `lane` of every entry.
+    #[inline(always)]
+    fn add<const R: usize>(
+        sums: &mut [[[f64; PARTIAL_SUMS]; R]; R],
+        rows: &[&[f64]; R],
+        k: usize,
+        lane: usize,
+    ) {
         for e in 0..R {
             let ve = rows[e][k];
             for f in 0..=e {
                 sums[e][f][lane] += ve * rows[f][k];
             }
         }
-    };
+    }
+    let mut sums = [[[-0.0; PARTIAL_SUMS]; R]; R];
     let whole = columns.len() - columns.len() % PARTIAL_SUMS;
     for first in (0..whole).step_by(PARTIAL_SUMS) {
         for lane in 0..PARTIAL_SUMS {
-            add(first + lane, lane);
+            add(&mut sums, &rows, first + lane, lane);
         }
     }
     for k in whole..columns.len() {
-        add(k, k - whole);
+        add(&mut sums, &rows, k, k - whole);
     }
     let mut m = SMatrix::<f64, R, R>::zeros();
     for e in 0..n {
