@@ -288,7 +288,14 @@ impl Summary {
         let histogram = &mut self.row_normalised;
         let (numbers, row, lambda) = check_rows(r, e, global, self.delta0, |w| histogram.add(w));
         add_to_component(&mut self.components, observation, cost, &numbers);
-        if let Some(lambda) = lambda {
+        // Kept when larger than the smallest of a full list.
+        let kept = |lambda: &f64| match self.least_reliable.last() {
+            Some((_, last)) if self.least_reliable.len() == LEAST_RELIABLE => {
+                last.total_cmp(lambda).is_lt()
+            }
+            _ => true,
+        };
+        if let Some(lambda) = lambda.filter(kept) {
             let at = self
                 .least_reliable
                 .partition_point(|(_, l)| l.total_cmp(&lambda) != std::cmp::Ordering::Less);

@@ -413,13 +413,16 @@ impl Histogram {
         histogram
     }
 
-    /// Counts `v` (as above if it is not finite).
+    /// Counts `v` (as above if it is not finite) in bin `⌊x⌋`, `x = (v −
+    /// lower) / width`: below when `x < 0`, above unless `x` is less than
+    /// the number of bins (an integer, so `⌊x⌋ < n` exactly when `x < n`),
+    /// and `x` truncated is `⌊x⌋` in between.
     pub fn add(&mut self, v: f64) {
-        let k = ((v - self.lower) / self.width).floor();
-        if k < 0.0 {
+        let x = (v - self.lower) / self.width;
+        if x < 0.0 {
             self.below += 1;
-        } else if k < self.counts.len() as f64 {
-            self.counts[k as usize] += 1;
+        } else if x < self.counts.len() as f64 {
+            self.counts[x as usize] += 1;
         } else {
             self.above += 1;
         }
@@ -563,5 +566,35 @@ mod tests {
         assert_eq!(h.counts, [1, 2, 1, 1]);
         assert_eq!((h.below, h.above), (1, 2));
         assert_eq!(h.total(), 8);
+    }
+
+    /// Each value goes where its bin `⌊(v − lower) / width⌋` says: at and
+    /// about every edge, at `±0`, far out and not finite.
+    #[test]
+    fn a_value_goes_to_the_bin_of_its_floor() {
+        let (lower, width, bins) = (-4.0, 0.25, 32);
+        let by_floor = |v: f64| {
+            let k = ((v - lower) / width).floor();
+            match k {
+                k if k < 0.0 => None,
+                k if k < bins as f64 => Some(k as usize),
+                _ => Some(bins),
+            }
+        };
+        let mut values = vec![0.0, -0.0, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY];
+        for k in -3..=bins as i32 + 3 {
+            let edge = lower + f64::from(k) * width;
+            values.extend([edge, edge.next_down(), edge.next_up(), edge + 0.1 * width]);
+        }
+        for v in values {
+            let h = Histogram::of([v], lower, width, bins);
+            let bin = match (h.below, h.above) {
+                (1, 0) => None,
+                (0, 1) => Some(bins),
+                _ => h.counts.iter().position(|&c| c == 1),
+            };
+            assert_eq!(bin, by_floor(v), "{v:e}");
+            assert_eq!(h.total(), 1, "{v:e}");
+        }
     }
 }
