@@ -88,6 +88,46 @@ struct Numbers {
     worst_redundancy: f64,
 }
 
+impl Numbers {
+    /// The normalised residual of its worst row; `None` when no other
+    /// observation checks it.
+    fn normalised(&self) -> Option<f64> {
+        normalised_residual(self.worst_residual, self.worst_redundancy)
+    }
+}
+
+/// The observation of largest normalised residual in magnitude among those
+/// seen, the first of [`Reliability::observations`] among equals (under
+/// `total_cmp`), whatever order they are seen in.
+#[derive(Debug, Default)]
+struct Largest(Option<(f64, usize)>);
+
+impl Largest {
+    /// Sees the observation at `index` of [`Reliability::observations`],
+    /// of check `numbers` (as kept).
+    fn see(&mut self, index: usize, numbers: &Numbers) {
+        let Some(w) = numbers.normalised().map(f64::abs) else {
+            return;
+        };
+        let larger = match self.0 {
+            None => true,
+            Some((largest, at)) => match w.total_cmp(&largest) {
+                std::cmp::Ordering::Greater => true,
+                std::cmp::Ordering::Equal => index < at,
+                std::cmp::Ordering::Less => false,
+            },
+        };
+        if larger {
+            self.0 = Some((w, index));
+        }
+    }
+
+    /// Its index, if any observation was checked.
+    fn index(&self) -> Option<usize> {
+        self.0.map(|(_, index)| index)
+    }
+}
+
 /// [`Numbers`] as every contact keeps them, in single precision (12 bytes
 /// a contact): their rounding, a relative 6e-8, is far below what they are
 /// read for (a normalised residual against a critical value near 4, a
@@ -182,7 +222,7 @@ impl ObservationCheck {
     /// Its normalised residual: that of its row of largest magnitude;
     /// `None` when no other observation checks it.
     pub fn normalised(&self) -> Option<f64> {
-        normalised_residual(self.numbers.worst_residual, self.numbers.worst_redundancy)
+        self.numbers.normalised()
     }
 
     /// That row's estimated gross error `e / r`, in units of the row's
@@ -343,6 +383,7 @@ impl Reliability {
         let mut seen = vec![0u64; rows.len().div_ceil(64)];
         let mut points = 0;
         let mut bad_row = None;
+        let mut largest = Largest::default();
         let robust = !problem.loss().is_squared();
         let mut down_weighted = Vec::new();
         let contact_dof = point_degrees_of_freedom(R, P);
@@ -364,6 +405,7 @@ impl Reliability {
                 p.residual.norm_squared(),
             );
             contacts[row] = numbers.into();
+            largest.see(row, &contacts[row].into());
             down_weighted.extend(robust::down_weighted(
                 ObservationId::Contact(row),
                 p.weight,
@@ -415,6 +457,7 @@ impl Reliability {
                 &global_leverage[range.clone()],
                 cost,
             );
+            largest.see(contacts.len() + global_checks.len(), &numbers);
             global_checks.push(ObservationCheck {
                 observation,
                 numbers,
@@ -448,19 +491,18 @@ impl Reliability {
                 redundancy: prior_rows as f64 - numbers.prior_leverage.total(),
             });
         }
-        let mut reliability = Self {
+        let reliability = Self {
             components,
             row_normalised: summary.row_normalised,
             contacts,
             global: global_checks,
             least_reliable: summary.least_reliable,
             redundancy: summary.redundancy,
-            worst: None,
+            worst: largest.index(),
             external,
             down_weighted: robust.then_some(down_weighted),
             systematic: systematic_tests(effects, &numbers.effects),
         };
-        reliability.worst = reliability.largest_normalised();
         Ok((reliability, numbers.group_sigmas))
     }
 
@@ -526,23 +568,6 @@ impl Reliability {
         self.worst.map(|k| self.observation(k))
     }
 
-    /// The index in [`Reliability::observations`] of [`Reliability::worst`],
-    /// found once, when the checks are made.
-    fn largest_normalised(&self) -> Option<usize> {
-        let w = |c: &ObservationCheck| c.normalised().map_or(0.0, f64::abs);
-        self.observations()
-            .enumerate()
-            .filter(|(_, c)| c.normalised().is_some())
-            .reduce(|a, b| {
-                if w(&b.1).total_cmp(&w(&a.1)).is_gt() {
-                    b
-                } else {
-                    a
-                }
-            })
-            .map(|(k, _)| k)
-    }
-
     /// At most `n` (and [`LEAST_RELIABLE`]) observations of largest
     /// bias-to-noise ratio, largest first (external reliability: those
     /// whose undetected blunders would move the parameters most), each
@@ -602,6 +627,29 @@ fn add_to_component(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_largest_is_the_first_among_equals_in_any_order() {
+        let numbers = |e: f64| Numbers {
+            redundancy: 0.25,
+            worst_residual: e,
+            worst_redundancy: 0.25,
+        };
+        let unchecked = Numbers::default();
+        // |w| = 2|e|: 1.2 at 7 and 3, 0.6 at 1, none at 0.
+        let seen = [(7, 0.6), (1, -0.3), (0, f64::NAN), (3, -0.6)];
+        for order in [[0, 1, 2, 3], [3, 2, 1, 0], [2, 0, 3, 1]] {
+            let mut largest = Largest::default();
+            largest.see(0, &unchecked);
+            for k in order {
+                let (index, e) = seen[k];
+                let checked = if e.is_nan() { unchecked } else { numbers(e) };
+                largest.see(index, &checked);
+            }
+            assert_eq!(largest.index(), Some(3), "{order:?}");
+        }
+        assert_eq!(Largest::default().index(), None);
+    }
 
     #[test]
     fn a_check_keeps_its_worst_row() {
