@@ -757,6 +757,25 @@ fn row_redundancy<const K: usize, const R: usize>(
     length2 - quadratic_form(q, j, m, n)
 }
 
+/// `q_jᵀ M q_j` for row `j` of `q` (its first `n` values).
+#[inline(always)]
+fn quadratic_form<const K: usize, const R: usize>(
+    q: &SMatrix<f64, K, R>,
+    j: usize,
+    m: &SMatrix<f64, R, R>,
+    n: usize,
+) -> f64 {
+    let mut form = 0.0;
+    for e in 0..n {
+        let mut mq = 0.0;
+        for f in 0..n {
+            mq += m[(e, f)] * q[(j, f)];
+        }
+        form += q[(j, e)] * mq;
+    }
+    form
+}
+
 /// The group coordinates `y = R_cc⁻ᵀ a_c` of a row `[a_c | a_g]` at the
 /// group level of the triangle `top` (`[R_cc | R_cg | z_c]`, row-major,
 /// `C` rows of width `C + G + 1` and any effects' columns), into `y`.
@@ -857,25 +876,6 @@ fn partial_dot(a: &[f64], b: &[f64]) -> f64 {
         sums[k % PARTIAL_SUMS] += x * y;
     }
     combined(&sums)
-}
-
-/// `q_jᵀ M q_j` for row `j` of `q` (its first `n` values).
-#[inline(always)]
-fn quadratic_form<const K: usize, const R: usize>(
-    q: &SMatrix<f64, K, R>,
-    j: usize,
-    m: &SMatrix<f64, R, R>,
-    n: usize,
-) -> f64 {
-    let mut form = 0.0;
-    for e in 0..n {
-        let mut mq = 0.0;
-        for f in 0..n {
-            mq += m[(e, f)] * q[(j, f)];
-        }
-        form += q[(j, e)] * mq;
-    }
-    form
 }
 
 #[inline]
