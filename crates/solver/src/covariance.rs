@@ -10,7 +10,7 @@ use nalgebra::{DMatrix, SVector};
 use crate::chunked_problem::ChunkedProblem;
 use crate::chunks::run_chunks;
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
-use crate::factor_product::quadratic_forms;
+use crate::factor_product::{norm2, quadratic_forms};
 use crate::iterate::status_of;
 use crate::problem::{Problem, State};
 use crate::qr::{PriorRows, solve_upper_in_place};
@@ -75,7 +75,7 @@ impl<'a, const C: usize> GroupSigmas<'a, C> {
         let rows = self.inverse.chunks_exact(C);
         let mut sigmas = SVector::<f64, C>::zeros();
         for ((sigma, row), spread) in sigmas.iter_mut().zip(rows).zip(spreads) {
-            *sigma = (row.iter().map(|x| x * x).sum::<f64>() + spread).sqrt();
+            *sigma = (norm2(row) + spread).sqrt();
         }
         sigmas
     }

@@ -37,7 +37,13 @@ fn quadratic_forms_avx2<const R: usize>(factor: &[f64], rows: &[f64], z: &mut [f
 fn quadratic_forms_in<const R: usize>(factor: &[f64], rows: &[f64], z: &mut [f64]) -> [f64; R] {
     let g = rows.len() / R;
     times_factor_rows::<R>(factor, rows, z, 0);
-    std::array::from_fn(|a| z[a * g..(a + 1) * g].iter().map(|z| z * z).sum())
+    std::array::from_fn(|a| norm2(&z[a * g..(a + 1) * g]))
+}
+
+/// `|a|²`, summed in order. Inlined, so that each AVX2 build has its own.
+#[inline(always)]
+pub(crate) fn norm2(a: &[f64]) -> f64 {
+    a.iter().map(|x| x * x).sum()
 }
 
 /// Columns of `Lᵀu` at a time: as many as an AVX2 build keeps in two

@@ -105,7 +105,7 @@ use crate::chunks::{Absorb, run_chunks_in_waves};
 use crate::covariance::GroupSigmas;
 use crate::effects::{EffectProjection, EffectSums};
 use crate::eliminate::{EliminationSink, Failure, eliminate_chunk};
-use crate::factor_product::{times_factor, times_factor_rows};
+use crate::factor_product::{norm2, times_factor, times_factor_rows};
 use crate::iterate::status_of;
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::PriorRows;
@@ -878,14 +878,10 @@ fn partial_dot(a: &[f64], b: &[f64]) -> f64 {
     combined(&sums)
 }
 
-#[inline]
+/// `aᵀb`, summed in order.
+#[cfg(test)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-#[inline]
-fn norm2(a: &[f64]) -> f64 {
-    dot(a, a)
 }
 
 #[cfg(test)]
