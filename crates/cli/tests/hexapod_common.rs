@@ -323,10 +323,22 @@ fn the_default_options_through_the_common_calibration_are_the_own() {
         temp.path().join("common.json"),
     );
     ok(&["calibrate", s(&data), "--out", s(&own)]);
-    let printed = ok(&["calibrate", s(&data), "--common", "--out", s(&common)]);
+    let run = parcal(&["calibrate", s(&data), "--common", "--out", s(&common)]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let printed = text(&run.stdout);
     assert!(
         printed.contains("189 ball touches by their coordinates (eq. 10)"),
         "{printed}"
+    );
+    // The progress says what the reading took and what the conversion
+    // (the hexapod calibration's start at the design) took.
+    let progress = text(&run.stderr);
+    assert!(
+        progress.starts_with("read the dataset in ")
+            && progress.contains(
+                "\nmade 189 observations of it, with the hexapod calibration's start and weights, in "
+            ),
+        "{progress}"
     );
     let (own, common) = (read(&own), read(&common));
     assert_same_minimum(&own, &common);

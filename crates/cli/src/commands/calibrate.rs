@@ -203,14 +203,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let request = args.mechanism_request();
     request.check_outputs()?;
-    let read = Instant::now();
+    let started = Instant::now();
     let without_true_contacts = ReadOptions {
         true_contacts: false,
         ..ReadOptions::default()
     };
     let dataset = super::read_dataset_with(&args.dataset, &without_true_contacts)?;
+    let read = format!(
+        "read the dataset in {:.2} s",
+        started.elapsed().as_secs_f64()
+    );
+    let converting = Instant::now();
     let (data, options) = common_calibration(&dataset, &args.flags())
         .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
+    let converted = format!(
+        "made {} observations of it, with the hexapod calibration's start and weights, in {:.2} s",
+        data.observations.len(),
+        converting.elapsed().as_secs_f64()
+    );
     let trackers: Vec<&str> = (data.observations.trackers.iter())
         .map(|t| t.label.as_str())
         .collect();
@@ -229,7 +239,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         &options,
         from_dataset,
         request,
-        read.elapsed(),
+        &[read, converted],
     );
     super::mechanism::freed(freeing, "the dataset")?;
     calibrated

@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use parcal::calibration::mechanism::{
     MechanismCalibrationError, MechanismData, MechanismOptions, ObservationKind,
@@ -71,14 +71,12 @@ pub fn calibrate(
         truth: truth.as_ref().map(|t| t.values.as_slice()),
         true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
     };
-    calibrate_with(
-        mechanism,
-        data,
-        options,
-        from_dataset,
-        request,
-        read.elapsed(),
-    )
+    let read = format!(
+        "read {} observations in {:.2} s",
+        data.observations.len(),
+        read.elapsed().as_secs_f64()
+    );
+    calibrate_with(mechanism, data, options, from_dataset, request, &[read])
 }
 
 /// `parcal inspect` on the mechanism dataset `path`: read, converted and
@@ -192,8 +190,9 @@ pub fn freed(freeing: Option<JoinHandle<()>>, what: &str) -> anyhow::Result<()> 
 }
 
 /// The common calibration of `data` under `options`, read from the
-/// dataset of `request` in `read` (its probe points, if any, drawn in the
-/// report): as [`calibrate`], once the outputs are checked
+/// dataset of `request` (its probe points, if any, drawn in the report),
+/// the progress lines `before` (what was read and made, with its time)
+/// shown first: as [`calibrate`], once the outputs are checked
 /// ([`CalibrateRequest::check_outputs`]).
 pub fn calibrate_with(
     mechanism: &str,
@@ -201,7 +200,7 @@ pub fn calibrate_with(
     options: &MechanismOptions,
     from_dataset: FromDataset<'_>,
     request: CalibrateRequest,
-    read: Duration,
+    before: &[String],
 ) -> anyhow::Result<()> {
     let CalibrateRequest {
         dataset: path,
@@ -210,11 +209,9 @@ pub fn calibrate_with(
     } = request;
     let report_directory = report.then(|| super::report::directory_of(&out).to_path_buf());
     let progress = Progress::bar("iteration", options.max_iterations as u64);
-    progress.line(&format!(
-        "read {} observations in {:.2} s",
-        data.observations.len(),
-        read.as_secs_f64()
-    ));
+    for line in before {
+        progress.line(line);
+    }
     let touches = match data.observations.touches.is_empty() {
         true => String::new(),
         false => format!(
