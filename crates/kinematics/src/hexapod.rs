@@ -257,7 +257,13 @@ impl Hexapod {
     /// parameters `params` (the readings checked).
     fn extensions(&self, params: &[f64], readings: &[f64]) -> Result<[f64; 6], MechanismError> {
         check_vector(self, "readings", readings, 6)?;
-        Ok(std::array::from_fn(|i| self.scale(params, i) * readings[i]))
+        Ok(self.extensions_of(params, readings))
+    }
+
+    /// [`Hexapod::extensions`] of six readings whose values are not
+    /// checked.
+    fn extensions_of(&self, params: &[f64], readings: &[f64]) -> [f64; 6] {
+        std::array::from_fn(|i| self.scale(params, i) * readings[i])
     }
 
     /// Its `dT/dp |_q`'s form: [`LEGS`], or with scales [`SCALED_LEGS`].
@@ -316,10 +322,11 @@ impl Hexapod {
     /// the warm starts `starts`, in batches of up to `batch` (at most
     /// [`LANES`]), each outcome in order into `out`:
     /// `lanes(out, first, q, poses)` solves the batch from `first` (its
-    /// legs' extensions `q` and start poses, checked) and writes its
-    /// outcomes, or returns `false` when its lanes fail; such a batch, and
-    /// one whose readings or starts are refused, goes one contact at a
-    /// time through `alone(l)`, each with its own outcome.
+    /// legs' extensions `q` and start poses, of their lengths checked) and
+    /// writes its outcomes, or returns `false` when its lanes fail; such a
+    /// batch, and one with readings or a start of another length or a
+    /// start of zero quaternion, goes one contact at a time through
+    /// `alone(l)`, each with its own outcome.
     ///
     /// # Panics
     /// If `readings` and `starts` differ in length.
@@ -340,18 +347,28 @@ impl Hexapod {
     ) {
         assert_eq!(readings.len(), starts.len(), "a start for each contact");
         out.truncate(readings.len());
-        // The lanes' inputs, on the stack.
+        // The lanes' inputs, on the stack, of their lengths checked: a
+        // value that is not finite makes its lane's forward kinematics
+        // fail (the closure's factorisation refuses a pivot that is not
+        // finite), and the batch then goes one contact at a time, where it
+        // is refused by name.
         let mut q = [[0.0; 6]; LANES];
         let mut poses = [Pose::identity(); LANES];
         for first in (0..readings.len()).step_by(batch) {
             let n = batch.min(readings.len() - first);
-            let checked = (0..n).try_for_each(|l| {
-                q[l] = self.extensions(params, readings[first + l])?;
-                poses[l] = self.start(starts[first + l])?;
-                Ok::<_, MechanismError>(())
+            let checked = (0..n).all(|l| {
+                let (readings, start) = (readings[first + l], starts[first + l]);
+                if readings.len() != 6 || start.len() != WARM_START_LEN {
+                    return false;
+                }
+                q[l] = self.extensions_of(params, readings);
+                pose_of_start(start).is_some_and(|pose| {
+                    poses[l] = pose;
+                    true
+                })
             });
             let legs: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
-            if checked.is_err() || !lanes(out, first, &legs[..n], &poses[..n]) {
+            if !checked || !lanes(out, first, &legs[..n], &poses[..n]) {
                 for l in first..first + n {
                     put_entry(out, l, alone(l));
                 }
@@ -393,16 +410,22 @@ impl Hexapod {
     /// rotation.
     fn start(&self, start: &[f64]) -> Result<Pose, MechanismError> {
         check_vector(self, "warm start values", start, WARM_START_LEN)?;
-        let q = Quaternion::new(start[6], start[3], start[4], start[5]);
-        let rotation =
-            UnitQuaternion::try_new(q, 0.0).ok_or_else(|| MechanismError::Unreachable {
-                reason: "the warm start's quaternion is zero: it holds no rotation".to_string(),
-            })?;
-        Ok(Isometry3::from_parts(
-            Translation3::new(start[0], start[1], start[2]),
-            rotation,
-        ))
+        pose_of_start(start).ok_or_else(|| MechanismError::Unreachable {
+            reason: "the warm start's quaternion is zero: it holds no rotation".to_string(),
+        })
     }
+}
+
+/// The pose of the [`WARM_START_LEN`] values of a warm start `(t, q)`
+/// whose values are not checked, its quaternion normalised; none for a
+/// zero quaternion.
+fn pose_of_start(start: &[f64]) -> Option<Pose> {
+    let q = Quaternion::new(start[6], start[3], start[4], start[5]);
+    let rotation = UnitQuaternion::try_new(q, 0.0)?;
+    Some(Isometry3::from_parts(
+        Translation3::new(start[0], start[1], start[2]),
+        rotation,
+    ))
 }
 
 /// The number of values of a hexapod's warm start `(t, q)` (module doc).
@@ -1174,6 +1197,39 @@ mod tests {
                     "hexapod needs 6 readings, got 5"
                 ),
                 _ => assert!(reached.is_ok(), "{k}: {reached:?}"),
+            }
+        }
+        // A reading and a warm start value that are not finite: each
+        // contact refused by name, as one at a time, the others reached.
+        let mut q = full.clone();
+        let mut not_finite = x.clone();
+        let nan_reading = readings[2].map(|v| v + f64::NAN);
+        let mut infinite_start = starts[4].clone();
+        infinite_start[1] = f64::INFINITY;
+        (q[2], not_finite[4]) = (nan_reading.as_slice(), infinite_start.as_slice());
+        for along in [false, true] {
+            let outcomes: Vec<Result<(), MechanismError>> = if along {
+                let dp = vec![0.0; p.len()];
+                let mut along = Vec::new();
+                hexapod.tool_points_along(p, &q, &not_finite, &dp, workspace, &mut along);
+                along.into_iter().map(|r| r.map(drop)).collect()
+            } else {
+                hexapod.tool_points_at_readings(p, &q, &not_finite, workspace, &mut batch);
+                batch
+                    .iter()
+                    .map(|r| r.as_ref().map(drop).map_err(Clone::clone))
+                    .collect()
+            };
+            for (k, outcome) in outcomes.iter().enumerate() {
+                match k {
+                    2 | 4 => {
+                        let alone = hexapod.tool_point_at_readings(p, q[k], not_finite[k]);
+                        let error = outcome.as_ref().unwrap_err().to_string();
+                        assert_eq!(error, alone.unwrap_err().to_string());
+                        assert!(error.contains("not a finite number"), "{k}: {error}");
+                    }
+                    _ => assert!(outcome.is_ok(), "{k}: {outcome:?}"),
+                }
             }
         }
         // The contacts in another order into that room, then fewer.
