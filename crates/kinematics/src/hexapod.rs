@@ -377,17 +377,23 @@ impl Hexapod {
     }
 
     /// The canonical geometry of `params` ([`Hexapod::geometry`]), made
-    /// again only when they differ from the last batch's, and the row
-    /// order the lanes carry from batch to batch, both kept in
-    /// `workspace` (its first batch starts from [`design_pivot_order`]).
+    /// again only when they differ from the last batch's, the row order
+    /// the lanes carry from batch to batch and the room of their
+    /// solutions, all kept in `workspace` (its first batch starts from
+    /// [`design_pivot_order`]).
     fn shared<'w>(
         &self,
         params: &[f64],
         workspace: &'w mut BatchWorkspace,
-    ) -> Result<(&'w Geometry, &'w mut PivotOrder), MechanismError> {
-        let SharedByBatches { prepared, order } = workspace.held(|| SharedByBatches {
+    ) -> Result<Shared<'w>, MechanismError> {
+        let SharedByBatches {
+            prepared,
+            order,
+            solutions,
+        } = workspace.held(|| SharedByBatches {
             prepared: None,
             order: self.pivot_order,
+            solutions: Default::default(),
         });
         if !prepared
             .as_ref()
@@ -396,7 +402,7 @@ impl Hexapod {
             *prepared = Some((params.to_vec(), self.geometry(params)?));
         }
         let (_, geometry) = prepared.as_ref().expect("the geometry of `params` is held");
-        Ok((geometry, order))
+        Ok((geometry, order, solutions))
     }
 
     /// The pose of a pose vector (checked).
@@ -449,12 +455,23 @@ fn design_pivot_order(design: &Geometry, options: &ForwardOptions) -> PivotOrder
 }
 
 /// What a hexapod's batches of one [`BatchWorkspace`] share: the last
-/// parameters and their canonical geometry, and the row order the last
-/// factorisation of the lanes ended with, where the next one starts.
+/// parameters and their canonical geometry, the row order the last
+/// factorisation of the lanes ended with, where the next one starts, and
+/// the room of the lanes' solutions with `J_f`, which each batch writes
+/// whole (kept, so that no batch clears its own).
 struct SharedByBatches {
     prepared: Option<(Vec<f64>, Geometry)>,
     order: PivotOrder,
+    solutions: [SolutionJacobian; LANES],
 }
+
+/// [`SharedByBatches`] as a batch uses it: the geometry of its parameters,
+/// the lanes' row order and the room of their solutions.
+type Shared<'w> = (
+    &'w Geometry,
+    &'w mut PivotOrder,
+    &'w mut [SolutionJacobian; LANES],
+);
 
 /// Whether `a` and `b` hold the same numbers, bit for bit (every pair
 /// compared, without a branch per pair).
@@ -670,10 +687,9 @@ impl Mechanism for Hexapod {
         workspace: &mut BatchWorkspace,
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
-        let Ok((geometry, order)) = self.shared(params, workspace) else {
+        let Ok((geometry, order, solutions)) = self.shared(params, workspace) else {
             return tool_points_one_by_one(self, params, readings, starts, reached);
         };
-        let mut solutions: [SolutionJacobian; LANES] = Default::default();
         let n_params = self.parameters.len();
         self.in_batches(
             params,
@@ -730,7 +746,7 @@ impl Mechanism for Hexapod {
     ) {
         let step_refused = check_vector(self, "parameter step values", dp, self.parameters.len());
         let shared = step_refused.and_then(|()| self.shared(params, workspace));
-        let Ok((geometry, order)) = shared else {
+        let Ok((geometry, order, _)) = shared else {
             return tool_points_along_by_rows(self, params, readings, starts, dp, workspace, along);
         };
         let mut solutions = [SolutionAlong::default(); LANES];
