@@ -1149,7 +1149,8 @@ mod tests {
     fn the_lanes_reach_what_one_contact_at_a_time_reaches() {
         // Seven contacts (a batch of four lanes and one of three), each
         // from its home pose; then the same with a short reading vector
-        // among them, which is refused alone.
+        // among them, which is refused alone, and with a reading and a warm
+        // start value that are not finite, each refused alone.
         for hexapod in [hexapod(), scaled()] {
             lanes_reach_one_by_one(&hexapod);
         }
