@@ -362,10 +362,11 @@ impl Hexapod {
                     return false;
                 }
                 q[l] = self.extensions_of(params, readings);
-                pose_of_start(start).is_some_and(|pose| {
-                    poses[l] = pose;
-                    true
-                })
+                let Some(pose) = pose_of_start(start) else {
+                    return false;
+                };
+                poses[l] = pose;
+                true
             });
             let legs: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
             if !checked || !lanes(out, first, &legs[..n], &poses[..n]) {
