@@ -620,8 +620,9 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// Where the machine is at the touch points `points` (one group's, of
     /// touches), each from the pose in its cache: together, so that a
-    /// mechanism may reach them at once ([`Actuation::tool_points`]), into
-    /// `reaches.at`.
+    /// mechanism may reach them at once
+    /// ([`Mechanism::tool_points_at_readings`], [`Actuation::tool_points`]),
+    /// into `reaches.at`.
     pub(crate) fn reach(
         &self,
         points: Range<usize>,
@@ -630,46 +631,70 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         reaches: &mut Reaches,
     ) {
         batch_rooms(&mut reaches.at, &mut reaches.spare_at, points.len());
-        self.actuations(points, caches, |actuations, starts| {
-            Actuation::tool_points(
-                self.data.mechanism.as_ref(),
-                &global.as_slice()[..self.n_params()],
-                self.data.configured.as_slice(),
-                actuations,
-                starts,
-                &mut reaches.kinematics,
-                &mut reaches.at,
-            );
-        });
+        let mechanism = self.data.mechanism.as_ref();
+        let params = &global.as_slice()[..self.n_params()];
+        self.actuations(
+            points,
+            caches,
+            reaches,
+            |reaches, readings, starts| {
+                let workspace = &mut reaches.kinematics;
+                mechanism.tool_points_at_readings(
+                    params,
+                    readings,
+                    starts,
+                    workspace,
+                    &mut reaches.at,
+                );
+            },
+            |reaches, actuations, starts| {
+                Actuation::tool_points(
+                    mechanism,
+                    params,
+                    self.data.configured.as_slice(),
+                    actuations,
+                    starts,
+                    &mut reaches.kinematics,
+                    &mut reaches.at,
+                );
+            },
+        );
     }
 
-    /// `f` of how the machine was put at the touch points `points` and the
-    /// warm start each one's forward kinematics starts from (its cache's,
-    /// if any), [`gathered`] (a batch of them on the stack).
+    /// `at_readings` of the readings of the touch points `points` and the
+    /// warm starts in their caches when every one is at readings with a
+    /// warm start there (a calibration's iterations,
+    /// [`Actuation::at_readings`]); else `others` of how the machine was
+    /// put at each and the warm start in its cache, if any, [`gathered`]
+    /// (a batch of them on the stack). Either is handed `reaches`.
     fn actuations(
         &self,
         points: Range<usize>,
         caches: &[WarmStart],
-        f: impl FnOnce(&[&Actuation], &[Option<&[f64]>]),
+        reaches: &mut Reaches,
+        at_readings: impl FnOnce(&mut Reaches, &[&[f64]], &[&[f64]]),
+        others: impl FnOnce(&mut Reaches, &[&Actuation], &[Option<&[f64]>]),
     ) {
         let touches = &self.data.observations.touches;
         let at = |k: usize| &touches[self.touch_at(points.start + k)].at;
         let len = self.data.mechanism.warm_start_len();
+        let start = |k: usize| caches[k].start(len);
+        let batch = |readings: &[&[f64]], starts: &[&[f64]]| at_readings(reaches, readings, starts);
+        if Actuation::at_readings(points.len(), at, start, batch).is_some() {
+            return;
+        }
         gathered(points.len(), at, |actuations| {
-            gathered(
-                caches.len(),
-                |k| caches[k].start(len),
-                |starts| {
-                    f(actuations, starts);
-                },
-            );
+            gathered(caches.len(), start, |starts| {
+                others(reaches, actuations, starts);
+            });
         });
     }
 
     /// [`MechanismProblem::reach`] along the global step `dg`, into
-    /// `reaches.along` ([`Actuation::tool_points_along`]: each touch's
-    /// `dT/dp |_q` only as its product with the parameters' step, and the
-    /// warm start predicted after the step).
+    /// `reaches.along` ([`Mechanism::tool_points_along`],
+    /// [`Actuation::tool_points_along`]: each touch's `dT/dp |_q` only as
+    /// its product with the parameters' step, and the warm start predicted
+    /// after the step).
     pub(crate) fn reach_along(
         &self,
         points: Range<usize>,
@@ -679,19 +704,37 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         reaches: &mut Reaches,
     ) {
         batch_rooms(&mut reaches.along, &mut reaches.spare_along, points.len());
+        let mechanism = self.data.mechanism.as_ref();
         let n = self.n_params();
-        self.actuations(points, caches, |actuations, starts| {
-            Actuation::tool_points_along(
-                self.data.mechanism.as_ref(),
-                &global.as_slice()[..n],
-                self.data.configured.as_slice(),
-                actuations,
-                starts,
-                &dg.as_slice()[..n],
-                &mut reaches.kinematics,
-                &mut reaches.along,
-            );
-        });
+        let (params, dp) = (&global.as_slice()[..n], &dg.as_slice()[..n]);
+        self.actuations(
+            points,
+            caches,
+            reaches,
+            |reaches, readings, starts| {
+                let workspace = &mut reaches.kinematics;
+                mechanism.tool_points_along(
+                    params,
+                    readings,
+                    starts,
+                    dp,
+                    workspace,
+                    &mut reaches.along,
+                );
+            },
+            |reaches, actuations, starts| {
+                Actuation::tool_points_along(
+                    mechanism,
+                    params,
+                    self.data.configured.as_slice(),
+                    actuations,
+                    starts,
+                    dp,
+                    &mut reaches.kinematics,
+                    &mut reaches.along,
+                );
+            },
+        );
     }
 
     /// [`MechanismProblem::fill`] for a back-substitution along the global

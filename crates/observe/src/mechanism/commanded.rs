@@ -11,7 +11,7 @@ use parcal_kinematics::mechanism::{
 };
 use smallvec::SmallVec;
 
-use super::gathered::gathered;
+use super::gathered::ON_STACK;
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
 pub const POSE_COORDINATES: usize = 3;
@@ -79,44 +79,33 @@ pub enum Actuation {
 }
 
 impl Actuation {
-    /// `batch` of the readings and warm starts of `actuations` (gathered,
-    /// [`gathered`]) when every one is at readings from a warm start given
-    /// in `starts` (a calibration's iterations); `None`, `batch` not
-    /// called, otherwise.
-    ///
-    /// # Panics
-    /// If `actuations` and `starts` differ in length.
-    fn from_warm_starts<R>(
-        actuations: &[&Actuation],
-        starts: &[Option<&[f64]>],
+    /// `batch` of the readings and warm starts of the `n` actuations
+    /// `actuation(k)`, each from its warm start `start(k)`, when every one
+    /// is at readings from a warm start given (a calibration's
+    /// iterations): gathered in one pass, on the stack for a batch of at
+    /// most [`ON_STACK`] (a solver's batch, some hundred thousand a pass).
+    /// `None`, `batch` not called, otherwise.
+    pub fn at_readings<'a, R>(
+        n: usize,
+        actuation: impl Fn(usize) -> &'a Actuation,
+        start: impl Fn(usize) -> Option<&'a [f64]>,
         batch: impl FnOnce(&[&[f64]], &[&[f64]]) -> R,
     ) -> Option<R> {
-        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
-        let from_starts = (actuations.iter().zip(starts))
-            .all(|pair| matches!(pair, (Self::Readings(_), Some(_))));
-        from_starts.then(|| {
-            let n = actuations.len();
-            gathered(
-                n,
-                |k| actuations[k].readings(),
-                |readings| {
-                    gathered(
-                        n,
-                        |k| starts[k].unwrap_or_default(),
-                        |starts| batch(readings, starts),
-                    )
-                },
-            )
-        })
-    }
-
-    /// The readings of an actuation at readings; none (an empty slice) for
-    /// a commanded position.
-    fn readings(&self) -> &[f64] {
-        match self {
-            Self::Readings(readings) => readings,
-            Self::Commanded(_) => &[],
+        let pair = |k| match (actuation(k), start(k)) {
+            (Self::Readings(readings), Some(start)) => Some((readings.as_slice(), start)),
+            _ => None,
+        };
+        if n > ON_STACK {
+            let pairs = (0..n).map(pair).collect::<Option<Vec<_>>>()?;
+            let (readings, starts): (Vec<_>, Vec<_>) = pairs.into_iter().unzip();
+            return Some(batch(&readings, &starts));
         }
+        let mut readings: [&[f64]; ON_STACK] = [&[]; ON_STACK];
+        let mut starts: [&[f64]; ON_STACK] = [&[]; ON_STACK];
+        for k in 0..n {
+            (readings[k], starts[k]) = pair(k)?;
+        }
+        Some(batch(&readings[..n], &starts[..n]))
     }
 
     /// The pose (as a warm start) and tool point the machine of true
@@ -168,7 +157,9 @@ impl Actuation {
         let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
             mechanism.tool_points_at_readings(params, readings, starts, workspace, reached);
         };
-        if Self::from_warm_starts(actuations, starts, batch).is_some() {
+        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
+        let (n, actuation, start) = (actuations.len(), |k| actuations[k], |k| starts[k]);
+        if Self::at_readings(n, actuation, start, batch).is_some() {
             return;
         }
         let mut outcomes: Vec<Option<Result<Reached, MechanismError>>> =
@@ -234,7 +225,9 @@ impl Actuation {
         let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
             mechanism.tool_points_along(params, readings, starts, dp, workspace, along);
         };
-        if Self::from_warm_starts(actuations, starts, batch).is_some() {
+        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
+        let (n, actuation, start) = (actuations.len(), |k| actuations[k], |k| starts[k]);
+        if Self::at_readings(n, actuation, start, batch).is_some() {
             return;
         }
         let mut reached = Vec::with_capacity(actuations.len());
@@ -318,6 +311,47 @@ mod tests {
             Actuation::Commanded([0.0, 60.0, 5.0]),
         ];
         (delta, configured, truth, actuations, [9.0, 5.5, 29.0])
+    }
+
+    /// A batch at readings hands over each one's readings and warm start
+    /// in order, on the stack and beyond it; one commanded position or one
+    /// missing warm start hands over none.
+    #[test]
+    fn a_batch_at_readings_is_gathered_only_when_every_one_has_a_start() {
+        let actuations: Vec<Actuation> = (0..ON_STACK + 3)
+            .map(|k| Actuation::Readings(Readings::from_slice(&[k as f64, -(k as f64)])))
+            .collect();
+        let starts: Vec<[f64; 1]> = (0..actuations.len()).map(|k| [0.5 * k as f64]).collect();
+        /// The pairs `at_readings` hands over, copied.
+        type Pairs = Vec<(Vec<f64>, Vec<f64>)>;
+        fn gathered<'a>(
+            n: usize,
+            actuations: &'a [Actuation],
+            start: impl Fn(usize) -> Option<&'a [f64]>,
+        ) -> Option<Pairs> {
+            let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
+                let pairs = readings.iter().zip(starts);
+                pairs.map(|(q, x)| (q.to_vec(), x.to_vec())).collect()
+            };
+            Actuation::at_readings(n, |k| &actuations[k], start, batch)
+        }
+        for n in [0, 1, ON_STACK, ON_STACK + 3] {
+            let all = gathered(n, &actuations, |k| Some(&starts[k][..])).unwrap();
+            let expected: Vec<(Vec<f64>, Vec<f64>)> = (0..n)
+                .map(|k| (vec![k as f64, -(k as f64)], vec![0.5 * k as f64]))
+                .collect();
+            assert_eq!(all, expected, "{n} actuations");
+        }
+        for n in [3, ON_STACK + 2] {
+            let missing = |k: usize| (k != 1).then_some(&starts[k][..]);
+            assert!(
+                gathered(n, &actuations, missing).is_none(),
+                "{n} actuations"
+            );
+            let mut commanded = actuations.clone();
+            commanded[n - 1] = Actuation::Commanded([0.0, 0.0, 1.0]);
+            assert!(gathered(n, &commanded, |k| Some(&starts[k][..])).is_none());
+        }
     }
 
     #[test]
