@@ -40,7 +40,9 @@ use std::ops::Range;
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
 use parcal_kinematics::batch_workspace::BatchWorkspace;
 use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAlong};
-use parcal_observe::mechanism::{Actuation, BallTouch, RadiusRow, Rows, SampleRows, gathered};
+use parcal_observe::mechanism::{
+    Actuation, ActuationBatch, BallTouch, RadiusRow, Rows, SampleRows,
+};
 use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
 use rayon::prelude::*;
 
@@ -79,6 +81,34 @@ pub(crate) struct Reaches {
     /// What the mechanism's batches share (the hexapod's geometry of the
     /// pass's parameters and its lanes' row order).
     kinematics: BatchWorkspace,
+}
+
+/// A batch of touch points as a mechanism's batch takes them
+/// ([`ActuationBatch`]): each one's touch's actuation and the warm start in
+/// its cache, read in place (a pass hands the mechanism some hundred
+/// thousand batches).
+struct TouchBatch<'b> {
+    touches: &'b [BallTouch],
+    /// The batch's touches, in the order of its points.
+    order: &'b [usize],
+    /// Their caches.
+    caches: &'b [WarmStart],
+    /// The mechanism's [`Mechanism::warm_start_len`].
+    warm_start_len: usize,
+}
+
+impl ActuationBatch for TouchBatch<'_> {
+    fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    fn actuation(&self, k: usize) -> &Actuation {
+        &self.touches[self.order[k]].at
+    }
+
+    fn start(&self, k: usize) -> Option<&[f64]> {
+        self.caches[k].start(self.warm_start_len)
+    }
 }
 
 /// `entries` cut or grown to `n` entries from and into `spare` (as far as
@@ -620,9 +650,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
 
     /// Where the machine is at the touch points `points` (one group's, of
     /// touches), each from the pose in its cache: together, so that a
-    /// mechanism may reach them at once
-    /// ([`Mechanism::tool_points_at_readings`], [`Actuation::tool_points`]),
-    /// into `reaches.at`.
+    /// mechanism may reach them at once ([`Actuation::tool_points`]), into
+    /// `reaches.at`.
     pub(crate) fn reach(
         &self,
         points: Range<usize>,
@@ -631,70 +660,33 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         reaches: &mut Reaches,
     ) {
         batch_rooms(&mut reaches.at, &mut reaches.spare_at, points.len());
-        let mechanism = self.data.mechanism.as_ref();
-        let params = &global.as_slice()[..self.n_params()];
-        self.actuations(
-            points,
-            caches,
-            reaches,
-            |reaches, readings, starts| {
-                let workspace = &mut reaches.kinematics;
-                mechanism.tool_points_at_readings(
-                    params,
-                    readings,
-                    starts,
-                    workspace,
-                    &mut reaches.at,
-                );
-            },
-            |reaches, actuations, starts| {
-                Actuation::tool_points(
-                    mechanism,
-                    params,
-                    self.data.configured.as_slice(),
-                    actuations,
-                    starts,
-                    &mut reaches.kinematics,
-                    &mut reaches.at,
-                );
-            },
+        Actuation::tool_points(
+            self.data.mechanism.as_ref(),
+            &global.as_slice()[..self.n_params()],
+            self.data.configured.as_slice(),
+            &self.touch_batch(points, caches),
+            &mut reaches.kinematics,
+            &mut reaches.at,
         );
     }
 
-    /// `at_readings` of the readings of the touch points `points` and the
-    /// warm starts in their caches when every one is at readings with a
-    /// warm start there (a calibration's iterations,
-    /// [`Actuation::at_readings`]); else `others` of how the machine was
-    /// put at each and the warm start in its cache, if any, [`gathered`]
-    /// (a batch of them on the stack). Either is handed `reaches`.
-    fn actuations(
-        &self,
-        points: Range<usize>,
-        caches: &[WarmStart],
-        reaches: &mut Reaches,
-        at_readings: impl FnOnce(&mut Reaches, &[&[f64]], &[&[f64]]),
-        others: impl FnOnce(&mut Reaches, &[&Actuation], &[Option<&[f64]>]),
-    ) {
-        let touches = &self.data.observations.touches;
-        let at = |k: usize| &touches[self.touch_at(points.start + k)].at;
-        let len = self.data.mechanism.warm_start_len();
-        let start = |k: usize| caches[k].start(len);
-        let batch = |readings: &[&[f64]], starts: &[&[f64]]| at_readings(reaches, readings, starts);
-        if Actuation::at_readings(points.len(), at, start, batch).is_some() {
-            return;
+    /// The touch points `points` as a mechanism's batch takes them: each
+    /// one's actuation and the warm start in its cache, read in place
+    /// ([`TouchBatch`]).
+    fn touch_batch<'b>(&'b self, points: Range<usize>, caches: &'b [WarmStart]) -> TouchBatch<'b> {
+        let order = &self.touch_order[points.start - self.sample_points()..];
+        TouchBatch {
+            touches: &self.data.observations.touches,
+            order: &order[..points.len()],
+            caches,
+            warm_start_len: self.data.mechanism.warm_start_len(),
         }
-        gathered(points.len(), at, |actuations| {
-            gathered(caches.len(), start, |starts| {
-                others(reaches, actuations, starts);
-            });
-        });
     }
 
     /// [`MechanismProblem::reach`] along the global step `dg`, into
-    /// `reaches.along` ([`Mechanism::tool_points_along`],
-    /// [`Actuation::tool_points_along`]: each touch's `dT/dp |_q` only as
-    /// its product with the parameters' step, and the warm start predicted
-    /// after the step).
+    /// `reaches.along` ([`Actuation::tool_points_along`]: each touch's
+    /// `dT/dp |_q` only as its product with the parameters' step, and the
+    /// warm start predicted after the step).
     pub(crate) fn reach_along(
         &self,
         points: Range<usize>,
@@ -704,36 +696,15 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         reaches: &mut Reaches,
     ) {
         batch_rooms(&mut reaches.along, &mut reaches.spare_along, points.len());
-        let mechanism = self.data.mechanism.as_ref();
         let n = self.n_params();
-        let (params, dp) = (&global.as_slice()[..n], &dg.as_slice()[..n]);
-        self.actuations(
-            points,
-            caches,
-            reaches,
-            |reaches, readings, starts| {
-                let workspace = &mut reaches.kinematics;
-                mechanism.tool_points_along(
-                    params,
-                    readings,
-                    starts,
-                    dp,
-                    workspace,
-                    &mut reaches.along,
-                );
-            },
-            |reaches, actuations, starts| {
-                Actuation::tool_points_along(
-                    mechanism,
-                    params,
-                    self.data.configured.as_slice(),
-                    actuations,
-                    starts,
-                    dp,
-                    &mut reaches.kinematics,
-                    &mut reaches.along,
-                );
-            },
+        Actuation::tool_points_along(
+            self.data.mechanism.as_ref(),
+            &global.as_slice()[..n],
+            self.data.configured.as_slice(),
+            &self.touch_batch(points, caches),
+            &dg.as_slice()[..n],
+            &mut reaches.kinematics,
+            &mut reaches.along,
         );
     }
 
@@ -1069,13 +1040,12 @@ pub(crate) fn ball_centre(
     // warm start are wanted, not `dT/dp |_q`: the touches along a zero
     // step, which a mechanism's batches give without forming `dT/dp |_q`.
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
-    let zero_step = vec![0.0; params.len()];
+    let (starts, zero_step) = (vec![None; touches.len()], vec![0.0; params.len()]);
     Actuation::tool_points_along(
         mechanism,
         params,
         configured,
-        &actuations,
-        &vec![None; touches.len()],
+        &(&actuations[..], &starts[..]),
         &zero_step,
         &mut BatchWorkspace::default(),
         reached,

@@ -11,7 +11,9 @@ use parcal_kinematics::mechanism::{
 };
 use smallvec::SmallVec;
 
-use super::gathered::ON_STACK;
+/// The most actuations of a batch [`Actuation::at_readings`] gathers on the
+/// stack: two batches of the hexapod's four SIMD lanes.
+pub const ON_STACK: usize = 8;
 
 /// The number of pose coordinates these kinds need: a position `(x, y, z)`.
 pub const POSE_COORDINATES: usize = 3;
@@ -78,20 +80,56 @@ pub enum Actuation {
     Readings(Readings),
 }
 
+/// Actuations by index, each with the warm start its forward kinematics
+/// starts from, if any ([`Actuation::tool_points`]): a calibration's batch
+/// reads them in place from its touches and their caches, a pair of slices
+/// holds them side by side.
+pub trait ActuationBatch {
+    /// The number of actuations.
+    fn len(&self) -> usize;
+
+    /// Whether there are none.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Actuation `k`.
+    fn actuation(&self, k: usize) -> &Actuation;
+
+    /// The warm start of actuation `k`, if any.
+    fn start(&self, k: usize) -> Option<&[f64]>;
+}
+
+/// The actuations and, side by side, their warm starts.
+impl ActuationBatch for (&[&Actuation], &[Option<&[f64]>]) {
+    /// # Panics
+    /// If the actuations and the starts differ in length.
+    fn len(&self) -> usize {
+        assert_eq!(self.0.len(), self.1.len(), "a start for each actuation");
+        self.0.len()
+    }
+
+    fn actuation(&self, k: usize) -> &Actuation {
+        self.0[k]
+    }
+
+    fn start(&self, k: usize) -> Option<&[f64]> {
+        self.1[k]
+    }
+}
+
 impl Actuation {
-    /// `batch` of the readings and warm starts of the `n` actuations
-    /// `actuation(k)`, each from its warm start `start(k)`, when every one
-    /// is at readings from a warm start given (a calibration's
+    /// `batch` of the readings and warm starts of `actuations` when every
+    /// one is at readings from a warm start given (a calibration's
     /// iterations): gathered in one pass, on the stack for a batch of at
     /// most [`ON_STACK`] (a solver's batch, some hundred thousand a pass).
     /// `None`, `batch` not called, otherwise.
-    pub fn at_readings<'a, R>(
-        n: usize,
-        actuation: impl Fn(usize) -> &'a Actuation,
-        start: impl Fn(usize) -> Option<&'a [f64]>,
+    pub fn at_readings<R>(
+        actuations: &impl ActuationBatch,
         batch: impl FnOnce(&[&[f64]], &[&[f64]]) -> R,
     ) -> Option<R> {
-        let pair = |k| match (actuation(k), start(k)) {
+        let n = actuations.len();
+        let pair = |k| match (actuations.actuation(k), actuations.start(k)) {
             (Self::Readings(readings), Some(start)) => Some((readings.as_slice(), start)),
             _ => None,
         };
@@ -136,30 +174,25 @@ impl Actuation {
     }
 
     /// [`Actuation::tool_point`] of each of `actuations`, from its warm
-    /// start in `starts` if given, each outcome in order into `reached`:
+    /// start if given, each outcome in order into `reached`:
     /// those at readings together ([`Mechanism::tool_points_at_readings`],
     /// the hexapod's SIMD lanes), the others one at a time. When every one
     /// is at readings from a warm start given (a calibration's iterations),
     /// the mechanism writes into the room `reached` holds. The batches
     /// share `workspace` ([`BatchWorkspace`]).
     ///
-    /// # Panics
-    /// If `actuations` and `starts` differ in length.
     pub fn tool_points(
         mechanism: &dyn Mechanism,
         params: &[f64],
         configured: &[f64],
-        actuations: &[&Actuation],
-        starts: &[Option<&[f64]>],
+        actuations: &impl ActuationBatch,
         workspace: &mut BatchWorkspace,
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
         let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
             mechanism.tool_points_at_readings(params, readings, starts, workspace, reached);
         };
-        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
-        let (n, actuation, start) = (actuations.len(), |k| actuations[k], |k| starts[k]);
-        if Self::at_readings(n, actuation, start, batch).is_some() {
+        if Self::at_readings(actuations, batch).is_some() {
             return;
         }
         let mut outcomes: Vec<Option<Result<Reached, MechanismError>>> =
@@ -167,13 +200,13 @@ impl Actuation {
         // The actuations at readings, by index, each with its start: the
         // one given, or the mechanism's.
         let mut at_readings: Vec<AtReadings<'_>> = Vec::new();
-        for (k, (actuation, start)) in actuations.iter().zip(starts).enumerate() {
-            let outcome = match (actuation, start) {
+        for k in 0..actuations.len() {
+            let outcome = match (actuations.actuation(k), actuations.start(k)) {
                 (Self::Commanded(commanded), _) => {
                     Some(reached_at_command(mechanism, params, configured, commanded))
                 }
                 (Self::Readings(readings), Some(start)) => {
-                    at_readings.push((k, readings, Cow::Borrowed(*start)));
+                    at_readings.push((k, readings, Cow::Borrowed(start)));
                     None
                 }
                 (Self::Readings(readings), None) => {
@@ -209,15 +242,11 @@ impl Actuation {
     /// [`Mechanism::tool_points_along`], into the room `along` holds; else
     /// from [`Actuation::tool_points`], each warm start its own prediction.
     ///
-    /// # Panics
-    /// If `actuations` and `starts` differ in length.
-    #[allow(clippy::too_many_arguments)]
     pub fn tool_points_along(
         mechanism: &dyn Mechanism,
         params: &[f64],
         configured: &[f64],
-        actuations: &[&Actuation],
-        starts: &[Option<&[f64]>],
+        actuations: &impl ActuationBatch,
         dp: &[f64],
         workspace: &mut BatchWorkspace,
         along: &mut Vec<Result<ReachedAlong, MechanismError>>,
@@ -225,9 +254,7 @@ impl Actuation {
         let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
             mechanism.tool_points_along(params, readings, starts, dp, workspace, along);
         };
-        assert_eq!(actuations.len(), starts.len(), "a start for each actuation");
-        let (n, actuation, start) = (actuations.len(), |k| actuations[k], |k| starts[k]);
-        if Self::at_readings(n, actuation, start, batch).is_some() {
+        if Self::at_readings(actuations, batch).is_some() {
             return;
         }
         let mut reached = Vec::with_capacity(actuations.len());
@@ -236,7 +263,6 @@ impl Actuation {
             params,
             configured,
             actuations,
-            starts,
             workspace,
             &mut reached,
         );
@@ -262,8 +288,7 @@ impl Actuation {
             mechanism,
             params,
             configured,
-            actuations,
-            &starts,
+            &(actuations, &starts[..]),
             &mut BatchWorkspace::default(),
             &mut reached,
         );
@@ -322,35 +347,39 @@ mod tests {
             .map(|k| Actuation::Readings(Readings::from_slice(&[k as f64, -(k as f64)])))
             .collect();
         let starts: Vec<[f64; 1]> = (0..actuations.len()).map(|k| [0.5 * k as f64]).collect();
-        /// The pairs `at_readings` hands over, copied.
+        /// The pairs `at_readings` hands over for the first `n`
+        /// actuations, copied.
         type Pairs = Vec<(Vec<f64>, Vec<f64>)>;
-        fn gathered<'a>(
+        fn handed_over(
             n: usize,
-            actuations: &'a [Actuation],
-            start: impl Fn(usize) -> Option<&'a [f64]>,
+            actuations: &[Actuation],
+            starts: &[Option<&[f64]>],
         ) -> Option<Pairs> {
+            let refs: Vec<&Actuation> = actuations[..n].iter().collect();
             let batch = |readings: &[&[f64]], starts: &[&[f64]]| {
                 let pairs = readings.iter().zip(starts);
                 pairs.map(|(q, x)| (q.to_vec(), x.to_vec())).collect()
             };
-            Actuation::at_readings(n, |k| &actuations[k], start, batch)
+            Actuation::at_readings(&(&refs[..], &starts[..n]), batch)
         }
+        let given: Vec<Option<&[f64]>> = starts.iter().map(|x| Some(&x[..])).collect();
         for n in [0, 1, ON_STACK, ON_STACK + 3] {
-            let all = gathered(n, &actuations, |k| Some(&starts[k][..])).unwrap();
+            let all = handed_over(n, &actuations, &given).unwrap();
             let expected: Vec<(Vec<f64>, Vec<f64>)> = (0..n)
                 .map(|k| (vec![k as f64, -(k as f64)], vec![0.5 * k as f64]))
                 .collect();
             assert_eq!(all, expected, "{n} actuations");
         }
         for n in [3, ON_STACK + 2] {
-            let missing = |k: usize| (k != 1).then_some(&starts[k][..]);
+            let mut missing = given.clone();
+            missing[1] = None;
             assert!(
-                gathered(n, &actuations, missing).is_none(),
+                handed_over(n, &actuations, &missing).is_none(),
                 "{n} actuations"
             );
             let mut commanded = actuations.clone();
             commanded[n - 1] = Actuation::Commanded([0.0, 0.0, 1.0]);
-            assert!(gathered(n, &commanded, |k| Some(&starts[k][..])).is_none());
+            assert!(handed_over(n, &commanded, &given).is_none());
         }
     }
 
@@ -364,7 +393,14 @@ mod tests {
         let refs: Vec<&Actuation> = actuations.iter().collect();
         let mut together = Vec::new();
         let workspace = &mut BatchWorkspace::default();
-        Actuation::tool_points(&delta, p, c, &refs, &starts, workspace, &mut together);
+        Actuation::tool_points(
+            &delta,
+            p,
+            c,
+            &(&refs[..], &starts[..]),
+            workspace,
+            &mut together,
+        );
         for ((actuation, start), reached) in actuations.iter().zip(starts).zip(together) {
             let alone = actuation.tool_point(&delta, p, c, start).unwrap();
             assert_eq!(reached.unwrap(), alone);
@@ -394,7 +430,8 @@ mod tests {
         let mut together = Vec::new();
         let workspace = &mut BatchWorkspace::default();
         for starts in [[None; 3], [Some(home.as_slice()); 3]] {
-            Actuation::tool_points(hexapod, p, &[], &refs, &starts, workspace, &mut together);
+            let batch = (&refs[..], &starts[..]);
+            Actuation::tool_points(hexapod, p, &[], &batch, workspace, &mut together);
             assert_eq!(together.len(), 3);
             assert_eq!(
                 together[1].as_ref().unwrap_err().to_string(),
@@ -422,7 +459,8 @@ mod tests {
         let dp: Vec<f64> = (0..p.len()).map(|k| 1e-3 * (k as f64).cos()).collect();
         let mut along = Vec::new();
         let workspace = &mut BatchWorkspace::default();
-        Actuation::tool_points_along(&delta, p, c, &refs, &starts, &dp, workspace, &mut along);
+        let batch = (&refs[..], &starts[..]);
+        Actuation::tool_points_along(&delta, p, c, &batch, &dp, workspace, &mut along);
         for ((actuation, start), along) in actuations.iter().zip(starts).zip(&along) {
             let alone = actuation.tool_point(&delta, p, c, start).unwrap();
             let expected = along_of_reached(&delta, alone, &dp).unwrap();
@@ -430,7 +468,7 @@ mod tests {
             assert_eq!(expected.predicted, expected.reached.warm_start);
         }
         let short = &dp[1..];
-        Actuation::tool_points_along(&delta, p, c, &refs, &starts, short, workspace, &mut along);
+        Actuation::tool_points_along(&delta, p, c, &batch, short, workspace, &mut along);
         for outcome in &along {
             let error = outcome.as_ref().unwrap_err().to_string();
             assert!(error.contains("parameter step values"), "{error}");
@@ -451,8 +489,7 @@ mod tests {
             hexapod,
             p,
             &[],
-            &[&read],
-            &starts,
+            &(&[&read][..], &starts[..]),
             &dp,
             workspace,
             &mut along,

@@ -54,7 +54,6 @@ mod ball_distance;
 mod ball_touch;
 mod commanded;
 mod commanded_point;
-mod gathered;
 mod part_distance;
 mod point_sample;
 mod probe;
@@ -65,9 +64,10 @@ mod tracker_pose;
 
 pub use ball_distance::{BallDistance, BallDistanceRow};
 pub use ball_touch::{Approach, BallTouch, RadiusRow, TouchRows};
-pub use commanded::{Actuation, POSE_COORDINATES, Readings, Rows, reached};
+pub use commanded::{
+    Actuation, ActuationBatch, ON_STACK, POSE_COORDINATES, Readings, Rows, reached,
+};
 pub use commanded_point::CommandedPoint;
-pub use gathered::{ON_STACK, gathered};
 pub use part_distance::PartDistance;
 pub use point_sample::{PointSample, SampleRows};
 pub use probe::ProbeHeight;
