@@ -180,7 +180,6 @@ impl Actuation {
     /// is at readings from a warm start given (a calibration's iterations),
     /// the mechanism writes into the room `reached` holds. The batches
     /// share `workspace` ([`BatchWorkspace`]).
-    ///
     pub fn tool_points(
         mechanism: &dyn Mechanism,
         params: &[f64],
@@ -241,7 +240,6 @@ impl Actuation {
     /// a warm start given (a calibration's iterations), the mechanism's
     /// [`Mechanism::tool_points_along`], into the room `along` holds; else
     /// from [`Actuation::tool_points`], each warm start its own prediction.
-    ///
     pub fn tool_points_along(
         mechanism: &dyn Mechanism,
         params: &[f64],
