@@ -59,8 +59,9 @@ impl Measurements {
             &expected,
             "measurement",
             |header| Columns::locate(header, &expected),
-            |columns, row, piece: &mut Self| Self::push_row(piece, row, columns, index, scale),
+            |columns, row, piece: &mut Piece| piece.push_row(row, columns, index, scale),
             |piece| {
+                let piece = &mut piece.touches;
                 out.ball.append(&mut piece.ball);
                 out.q.append(&mut piece.q);
                 // A piece without rows has no directions to add.
@@ -70,50 +71,6 @@ impl Measurements {
             },
         )?;
         Ok(out)
-    }
-
-    /// Appends the contact of `row` (its `columns`; ball ids resolved by
-    /// `index`, `scale` the actuators') to `out`.
-    fn push_row(
-        out: &mut Self,
-        row: &Row,
-        columns: &Columns,
-        index: &BallIndex,
-        scale: &[f64; 6],
-    ) -> Result<(), Failure> {
-        let id = row.field(columns.ball);
-        let ball = *index.get(id).ok_or_else(|| {
-            row.error(
-                Some(BALL),
-                format!(
-                    "unknown ball id {} (not in artefacts.json)",
-                    quoted_bytes(id)
-                ),
-            )
-        })?;
-        let q = row.numbers(&columns.q, &Q)?;
-        let direction = match &columns.dir {
-            Some(dir) => Some(row.numbers(dir, &DIR)?),
-            None => None,
-        };
-        if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
-            return Err(row.error(column, message));
-        }
-        let ball = u32::try_from(ball).map_err(|_| {
-            row.error(
-                Some(BALL),
-                format!(
-                    "ball index {ball} is beyond the {} a measurement can hold",
-                    u32::MAX
-                ),
-            )
-        })?;
-        out.ball.push(ball);
-        out.q.push(q);
-        if let Some(d) = direction {
-            out.direction.get_or_insert_with(Vec::new).push(d);
-        }
-        Ok(())
     }
 
     /// Writes `measurements.csv` (the caller has validated): floats in Rust's
@@ -186,6 +143,69 @@ impl Measurements {
             }
         }
         counts
+    }
+}
+
+/// The contacts of one piece of measurements.csv, and the ball id its last
+/// row resolved: a ball's touches are usually consecutive rows, whose id is
+/// then compared with that one instead of looked up again.
+#[derive(Default)]
+struct Piece<'a> {
+    touches: Measurements,
+    last: Option<(&'a [u8], usize)>,
+}
+
+impl<'a> Piece<'a> {
+    /// Appends the contact of `row` (its `columns`; ball ids resolved by
+    /// `index`, `scale` the actuators').
+    fn push_row(
+        &mut self,
+        row: &Row,
+        columns: &Columns,
+        index: &BallIndex<'a>,
+        scale: &[f64; 6],
+    ) -> Result<(), Failure> {
+        let id = row.field(columns.ball);
+        let ball = match self.last {
+            Some((last, ball)) if last == id => ball,
+            _ => {
+                let (&key, &ball) = index.get_key_value(id).ok_or_else(|| {
+                    row.error(
+                        Some(BALL),
+                        format!(
+                            "unknown ball id {} (not in artefacts.json)",
+                            quoted_bytes(id)
+                        ),
+                    )
+                })?;
+                self.last = Some((key, ball));
+                ball
+            }
+        };
+        let q = row.numbers(&columns.q, &Q)?;
+        let direction = match &columns.dir {
+            Some(dir) => Some(row.numbers(dir, &DIR)?),
+            None => None,
+        };
+        if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
+            return Err(row.error(column, message));
+        }
+        let ball = u32::try_from(ball).map_err(|_| {
+            row.error(
+                Some(BALL),
+                format!(
+                    "ball index {ball} is beyond the {} a measurement can hold",
+                    u32::MAX
+                ),
+            )
+        })?;
+        let out = &mut self.touches;
+        out.ball.push(ball);
+        out.q.push(q);
+        if let Some(d) = direction {
+            out.direction.get_or_insert_with(Vec::new).push(d);
+        }
+        Ok(())
     }
 }
 
