@@ -7,6 +7,8 @@
 //! the product, and that reservation alone exceeds an address-space limit
 //! of a few hundred MiB (docs/reliability.md, "Address space").
 
+use crate::rows::rows;
+
 /// Output rows of a tile: one AVX-512 or two AVX2 registers per column.
 const TILE_ROWS: usize = 8;
 /// Output columns of a tile: with [`TILE_ROWS`], 32 sums in registers.
@@ -127,7 +129,7 @@ fn add_tile<const I: usize, const J: usize>(
     for (t, column) in sums.iter_mut().enumerate() {
         *column = *normal[(j + t) * w + i..].first_chunk::<I>().expect(IN_ROW);
     }
-    for row in block.chunks_exact(w) {
+    for row in rows(block, w) {
         let x = row[i..].first_chunk::<I>().expect(IN_ROW);
         let y = row[j..].first_chunk::<J>().expect(IN_ROW);
         for t in 0..J {
@@ -139,8 +141,16 @@ fn add_tile<const I: usize, const J: usize>(
     for (t, column) in sums.iter().enumerate() {
         // Rows i + s ≥ j + t only: the lower triangle.
         let first = (j + t).saturating_sub(i).min(I);
-        let out = &mut normal[(j + t) * w + i..][..I];
-        out[first..].copy_from_slice(&column[first..]);
+        let out = normal[(j + t) * w + i..]
+            .first_chunk_mut::<I>()
+            .expect(IN_ROW);
+        // Entry by entry over the tile's fixed length: a copy of the
+        // variable tail would be a call to `memcpy`.
+        for (s, (o, x)) in out.iter_mut().zip(column).enumerate() {
+            if s >= first {
+                *o = *x;
+            }
+        }
     }
     I
 }

@@ -290,6 +290,7 @@ mod qr;
 mod reduced;
 mod redundancy;
 pub mod refine;
+mod rows;
 mod solution;
 
 pub use chunks::split_by;

@@ -4,6 +4,8 @@
 
 use nalgebra::{Const, SMatrix, SVector};
 
+use crate::rows::{rows, rows_mut};
+
 /// Relative size below which a diagonal entry of a triangular factor counts as
 /// zero: `|R_jj| ≤ RANK_TOLERANCE · |column j|` means column `j` depends on
 /// the columns before it.
@@ -23,7 +25,7 @@ fn householder_panel(a: &mut [f64], m: usize, n: usize, k: usize, tau: &mut [f64
         let (top, below) = a[j * n..m * n].split_at_mut(n);
         let top = &mut top[..k];
         let mut sigma = 0.0;
-        for row in below.chunks_exact(n) {
+        for row in rows(below, n) {
             sigma += row[j] * row[j];
         }
         let alpha = top[j];
@@ -36,18 +38,18 @@ fn householder_panel(a: &mut [f64], m: usize, n: usize, k: usize, tau: &mut [f64
         // H = I − τ v vᵀ with v = (1, x₁…/(α − β)), H x = β e₁.
         tau[j] = (beta - alpha) / beta;
         let inv = 1.0 / (alpha - beta);
-        for row in below.chunks_exact_mut(n) {
+        for row in rows_mut(below, n) {
             row[j] *= inv;
         }
         top[j] = beta;
         for c in j + 1..k {
             let mut s = top[c];
-            for row in below.chunks_exact(n) {
+            for row in rows(below, n) {
                 s += row[j] * row[c];
             }
             s *= tau[j];
             top[c] -= s;
-            for row in below.chunks_exact_mut(n) {
+            for row in rows_mut(below, n) {
                 row[c] -= s * row[j];
             }
         }
@@ -77,7 +79,7 @@ fn reflect_columns<const B: usize>(
     let (top, below) = a[j * n..m * n].split_at_mut(n);
     let top = top[c..].first_chunk_mut::<B>().expect(IN_ROW);
     let mut w = *top;
-    for row in below.chunks_exact(n) {
+    for row in rows(below, n) {
         let (v, x) = (row[j], row[c..].first_chunk::<B>().expect(IN_ROW));
         for t in 0..B {
             w[t] += v * x[t];
@@ -87,7 +89,7 @@ fn reflect_columns<const B: usize>(
         *x *= tau;
         *y -= *x;
     }
-    for row in below.chunks_exact_mut(n) {
+    for row in rows_mut(below, n) {
         let v = row[j];
         let x = row[c..].first_chunk_mut::<B>().expect(IN_ROW);
         for t in 0..B {
@@ -103,7 +105,7 @@ fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
     // Column by column: a few entries a row, which a fill would hand to
     // `memset`, one call a row.
     for j in 0..kk {
-        for row in a[(j + 1) * n..m * n].chunks_exact_mut(n) {
+        for row in rows_mut(&mut a[(j + 1) * n..m * n], n) {
             row[j] = 0.0;
         }
     }
@@ -209,7 +211,7 @@ pub(crate) fn add_column_norms2(a: &[f64], m: usize, n: usize, k: usize, out: &m
     if k == 0 {
         return;
     }
-    for row in a[..m * n].chunks_exact(n) {
+    for row in rows(&a[..m * n], n) {
         for (o, x) in out[..k].iter_mut().zip(&row[..k]) {
             *o += x * x;
         }
