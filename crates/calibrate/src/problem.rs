@@ -492,13 +492,18 @@ impl<O, const G: usize> CalibrationProblem<'_, O, G> {
         } else {
             self.radius(i)
         };
-        let block = self
-            .observations
-            .block(i, radius, tip, &centre, angles)
-            .map_err(|source| CalibrateError::Observation {
-                row: self.row(i),
-                source,
-            })?;
+        // Read where the call returned it: moving the block out of its
+        // `Result` would copy it whole.
+        let evaluated = self.observations.block(i, radius, tip, &centre, angles);
+        let block = match evaluated {
+            Ok(ref block) => block,
+            Err(source) => {
+                return Err(CalibrateError::Observation {
+                    row: self.row(i),
+                    source,
+                });
+            }
+        };
         out.residual = block.residual;
         out.d_global.d_tip = block.d_tip;
         let mut d_ball = SMatrix::<f64, R, G>::zeros();

@@ -578,7 +578,7 @@ impl DesignStart<'_> {
                     .filter(|s| predicted[l].is_none_or(|start| landed(geometry, &s.pose, &start)));
                 let reached = match lane {
                     Some(solution) => {
-                        derivatives[b] = TipDerivatives::new(geometry, solution);
+                        derivatives[b].set(geometry, solution);
                         Ok(())
                     }
                     None => one_contact(geometry, &mut derivatives[b], &q[l], predicted[l], row),

@@ -315,6 +315,14 @@ impl TipDerivatives {
         }
     }
 
+    /// These derivatives made [`TipDerivatives::new`]'s of `geometry`'s tip
+    /// at `solution`, in place (the solution copied once, not into a new
+    /// value and then moved).
+    pub fn set(&mut self, geometry: &Geometry, solution: &ForwardSolution) {
+        self.tool = solution.legs.rotation * geometry.tool;
+        self.solution.clone_from(solution);
+    }
+
     /// The derivatives at `pose` (evaluates and factorises the legs).
     pub fn at(geometry: &Geometry, pose: &Pose) -> Result<Self, KinematicsError> {
         let legs = Legs::at(geometry, pose);

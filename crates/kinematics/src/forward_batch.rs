@@ -413,8 +413,15 @@ mod avx2 {
         mut scalar: impl FnMut(usize, &Pose, &mut T) -> Result<(), KinematicsError>,
     ) -> Result<(), (usize, KinematicsError)> {
         let n = q.len();
-        let padded = std::array::from_fn(|l| starts[l.min(n - 1)]);
+        // Filled in place: an array made by `from_fn` is moved out whole.
+        let mut padded = [Pose::identity(); LANES];
+        for (l, pose) in padded.iter_mut().enumerate() {
+            *pose = starts[l.min(n - 1)];
+        }
         let fallback = lanes(&padded, (1 << n) - 1, items);
+        if fallback == 0 {
+            return Ok(());
+        }
         let mut errors: [Option<KinematicsError>; LANES] = Default::default();
         for l in 0..n {
             if fallback & 1 << l != 0 {
