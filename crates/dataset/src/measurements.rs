@@ -152,7 +152,7 @@ impl Measurements {
 #[derive(Default)]
 struct Piece<'a> {
     touches: Measurements,
-    last: Option<(&'a [u8], usize)>,
+    last: Option<(&'a [u8], u32)>,
 }
 
 impl<'a> Piece<'a> {
@@ -178,6 +178,15 @@ impl<'a> Piece<'a> {
                         ),
                     )
                 })?;
+                let ball = u32::try_from(ball).map_err(|_| {
+                    row.error(
+                        Some(BALL),
+                        format!(
+                            "ball index {ball} is beyond the {} a measurement can hold",
+                            u32::MAX
+                        ),
+                    )
+                })?;
                 self.last = Some((key, ball));
                 ball
             }
@@ -190,15 +199,6 @@ impl<'a> Piece<'a> {
         if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
             return Err(row.error(column, message));
         }
-        let ball = u32::try_from(ball).map_err(|_| {
-            row.error(
-                Some(BALL),
-                format!(
-                    "ball index {ball} is beyond the {} a measurement can hold",
-                    u32::MAX
-                ),
-            )
-        })?;
         let out = &mut self.touches;
         out.ball.push(ball);
         out.q.push(q);
