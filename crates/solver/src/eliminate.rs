@@ -11,6 +11,7 @@ use nalgebra::{SMatrix, SVector, Vector3};
 
 use crate::chunks::{Chunk, Dims, ElimBuffers};
 use crate::gram::add_gram_lower;
+use crate::point_panel::{panel_normal, panel_qr, prior_panel_qr};
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
 use crate::qr::{
     PriorRows, RANK_TOLERANCE, add_column_norms2, householder_rows, triangle_has_full_rank,
@@ -70,8 +71,9 @@ pub(crate) struct PointFactor<const P: usize> {
 /// Builds and factorises the panel of a point into `buf` (the panel, `m × P`
 /// row-major, then `Q`, `m × m` row-major, at offset `(R + 2P) · P`; only
 /// the columns from `first_column` on are formed; for 3 data rows and 2
-/// point unknowns, in closed form by [`panel_normal`] and [`panel_qr`]).
-/// Returns `None` if the panel is rank deficient.
+/// point unknowns, undamped, in closed form by [`panel_normal`] and
+/// [`panel_qr`], or with the point's prior by [`prior_panel_qr`] where it
+/// takes the panel). Returns `None` if the panel is rank deficient.
 pub(crate) fn factor_point<const C: usize, const P: usize, const R: usize, J>(
     lin: &Linearization<C, P, R, J>,
     prior: Option<&PriorRows<P>>,
@@ -87,21 +89,35 @@ pub(crate) fn factor_point<const C: usize, const P: usize, const R: usize, J>(
             damping: SVector::zeros(),
         });
     }
-    if R == 3 && P == 2 && prior.is_none() && lambda == 0.0 {
-        // Three data rows and two point unknowns, the common case, in
-        // closed form: the eliminated row, and for the back-substitution
-        // the rest of `Q` and `R`.
+    if R == 3 && P == 2 && lambda == 0.0 {
         let column = |j| Vector3::from_fn(|r, _| lin.d_point[(r, j)]);
         let (c1, c2) = (column(0), column(1));
-        let q = &mut q[..R * R];
-        let full_rank = panel_normal(&c1, &c2, q);
-        if first_column < P {
-            panel_qr(&c1, &c2, panel, q);
+        if let Some(prior) = prior {
+            // With the prior's two rows, the common case of the paper
+            // prior's angles: in closed form where the panel is well
+            // conditioned.
+            let s = [prior.sqrt[(0, 0)], prior.sqrt[(0, 1)], prior.sqrt[(1, 1)]];
+            let q = &mut q[..(R + P) * (R + P)];
+            if prior_panel_qr(&c1, &c2, s, panel, q, first_column).is_some() {
+                return Some(PointFactor {
+                    rows: R + P,
+                    damping: SVector::zeros(),
+                });
+            }
+        } else {
+            // Three data rows and two point unknowns, the common case, in
+            // closed form: the eliminated row, and for the
+            // back-substitution the rest of `Q` and `R`.
+            let q = &mut q[..R * R];
+            let full_rank = panel_normal(&c1, &c2, q);
+            if first_column < P {
+                panel_qr(&c1, &c2, panel, q);
+            }
+            return full_rank.then_some(PointFactor {
+                rows: R,
+                damping: SVector::zeros(),
+            });
         }
-        return full_rank.then_some(PointFactor {
-            rows: R,
-            damping: SVector::zeros(),
-        });
     }
     let (panel, _) = panel.as_chunks_mut::<P>();
     let mut m = 0;
@@ -165,46 +181,6 @@ pub(crate) fn factor_point<const C: usize, const P: usize, const R: usize, J>(
         }
     }
     full_rank.then_some(PointFactor { rows: m, damping })
-}
-
-/// The column `Q[·, 2]` of a 3 x 2 panel `[c1 c2]` (its point-eliminated
-/// row), into `q` (3 x 3, row-major; the other columns are not formed):
-/// the unit normal `n = (c1 × c2) / |c1 × c2|` of the panel's columns,
-/// which is the Householder path's column up to its sign. Returns whether
-/// the panel has full rank by the Householder path's test,
-/// `R_22² > RANK_TOLERANCE² |c2|²` with `R_22 = |c1 × c2| / |c1|`, i.e.
-/// `|c1 × c2|² > RANK_TOLERANCE² |c1|² |c2|²` (false for a zero or
-/// non-finite column).
-#[inline(always)]
-fn panel_normal(c1: &Vector3<f64>, c2: &Vector3<f64>, q: &mut [f64]) -> bool {
-    let n = c1.cross(c2);
-    let cross2 = n.norm_squared();
-    let scale = cross2.sqrt().recip();
-    for (r, x) in n.iter().enumerate() {
-        q[r * 3 + 2] = x * scale;
-    }
-    cross2 > RANK_TOLERANCE * RANK_TOLERANCE * c1.norm_squared() * c2.norm_squared()
-}
-
-/// The rest of the QR of a 3 x 2 panel `[c1 c2]` beside
-/// [`panel_normal`]'s column: `R` (2 x 2, upper triangular) into the first
-/// two rows of `panel` (3 x 2, row-major, zero below the diagonal) and the
-/// columns 0 and 1 of `Q` into `q` (3 x 3, row-major), by Gram-Schmidt:
-/// `r11 = |c1|`, `q1 = c1 / r11`, `r12 = q1 · c2`, `q2 = u / r22` with
-/// `u = c2 − r12 q1`, `r22 = |u|`; then `q1 × q2` is the normal. Meaningful
-/// when [`panel_normal`] found the panel of full rank.
-#[inline(always)]
-fn panel_qr(c1: &Vector3<f64>, c2: &Vector3<f64>, panel: &mut [f64], q: &mut [f64]) {
-    let r11 = c1.norm();
-    let q1 = c1 / r11;
-    let r12 = q1.dot(c2);
-    let u = c2 - r12 * q1;
-    let r22 = u.norm();
-    panel[..6].copy_from_slice(&[r11, r12, 0.0, r22, 0.0, 0.0]);
-    for r in 0..3 {
-        q[r * 3] = q1[r];
-        q[r * 3 + 1] = u[r] / r22;
-    }
 }
 
 #[inline(always)]
@@ -964,6 +940,109 @@ mod tests {
                 }
                 assert_is_qr_of(c1, c2);
             }
+        }
+    }
+
+    /// The Householder path's `Q` (5 x 5) and `R` of the panel `[c1 c2;
+    /// S]` with the prior rows `S = [[s00, s01], [0, s11]]`.
+    fn householder_with_prior(c1: [f64; 3], c2: [f64; 3], s: [f64; 3]) -> ([f64; 25], [f64; 4]) {
+        let mut panel = [c1[0], c1[1], c1[2], s[0], 0.0].map(|x| [x, 0.0]);
+        for (row, x) in panel.iter_mut().zip([c2[0], c2[1], c2[2], s[1], s[2]]) {
+            row[1] = x;
+        }
+        let tau = point_householder(&mut panel);
+        let mut q = [0.0; 25];
+        point_q(&panel, &tau, &mut q, 0);
+        (q, [panel[0][0], panel[0][1], 0.0, panel[1][1]])
+    }
+
+    /// [`prior_panel_qr`] against the Householder path: an orthogonal `Q`
+    /// whose first two columns and `R` are Householder's up to the signs of
+    /// `R`'s rows, and whose last three span the same space (the projector
+    /// `Q₂ Q₂ᵀ` is the same), formed alike from column 2 on; the panels it
+    /// leaves to Householder refused.
+    #[test]
+    fn prior_panel_qr_is_the_householder_factorisation_up_to_a_basis_of_q2() {
+        let panels = [
+            ([0.3, 0.8, -0.5], [-1.2, 0.1, 0.7], [2.0, 0.3, 1.5]),
+            // A touch's whitened angle derivatives against a weak prior.
+            (
+                [1.2e4, -3.0e3, 2.0e2],
+                [5.0e2, 1.1e4, -4.0e3],
+                [10.0, 0.0, 10.0],
+            ),
+            // A prior far stronger than the data.
+            ([1e-3, 2e-3, 0.0], [0.0, -1e-3, 3e-3], [1e3, -2e2, 5e2]),
+        ];
+        for (c1, c2, s) in panels {
+            let (mut panel, mut q) = ([f64::NAN; 14], [f64::NAN; 25]);
+            prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut q, 0)
+                .expect("a well-conditioned panel");
+            let (hq, hr) = householder_with_prior(c1, c2, s);
+            let a = [0, 1, 2, 3, 4].map(|r| {
+                let prior = [[s[0], s[1]], [0.0, s[2]]];
+                if r < 3 { [c1[r], c2[r]] } else { prior[r - 3] }
+            });
+            let scale = a.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
+            for i in 0..5 {
+                for j in 0..5 {
+                    let d: f64 = (0..5).map(|r| q[r * 5 + i] * q[r * 5 + j]).sum();
+                    assert!(
+                        (d - f64::from(u8::from(i == j))).abs() < 1e-14,
+                        "{i} {j}: {d}"
+                    );
+                    let p: f64 = (2..5).map(|e| q[i * 5 + e] * q[j * 5 + e]).sum();
+                    let hp: f64 = (2..5).map(|e| hq[i * 5 + e] * hq[j * 5 + e]).sum();
+                    assert!((p - hp).abs() < 1e-14, "projector {i} {j}: {p} vs {hp}");
+                }
+                for j in 0..2 {
+                    let x: f64 = (0..5).map(|r| q[r * 5 + i] * a[r][j]).sum();
+                    let want = if i < 2 { panel[i * 2 + j] } else { 0.0 };
+                    assert!(
+                        (x - want).abs() < 1e-14 * scale,
+                        "Qᵀ A {i} {j}: {x} vs {want}"
+                    );
+                }
+            }
+            for (row, sign) in [(0, hr[0].signum()), (1, hr[3].signum())] {
+                for j in 0..2 {
+                    let (ours, theirs) = (panel[row * 2 + j], sign * hr[row * 2 + j]);
+                    assert!(
+                        (ours - theirs).abs() < 1e-14 * scale,
+                        "R {row} {j}: {ours} vs {theirs}"
+                    );
+                    for r in 0..5 {
+                        let (ours, theirs) = (q[r * 5 + row], sign * hq[r * 5 + row]);
+                        assert!(
+                            (ours - theirs).abs() < 1e-14,
+                            "Q {r} {row}: {ours} vs {theirs}"
+                        );
+                    }
+                }
+            }
+            assert_eq!(panel[4..10], [0.0; 6], "zero below R");
+            let mut from_two = [f64::NAN; 25];
+            prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut from_two, 2)
+                .expect("the same panel");
+            for r in 0..5 {
+                assert_eq!(from_two[r * 5 + 2..r * 5 + 5], q[r * 5 + 2..r * 5 + 5]);
+            }
+        }
+        let refused = [
+            // Data rows of rank one, a singular prior, a non-finite value.
+            ([1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [1.0, 0.0, 1.0]),
+            ([0.3, 0.8, -0.5], [-1.2, 0.1, 0.7], [1.0, 0.5, 0.0]),
+            ([0.3, f64::NAN, -0.5], [-1.2, 0.1, 0.7], [1.0, 0.0, 1.0]),
+            (
+                [0.3, 0.8, -0.5],
+                [-1.2, 0.1, 0.7],
+                [f64::INFINITY, 0.0, 1.0],
+            ),
+        ];
+        for (c1, c2, s) in refused {
+            let (mut panel, mut q) = ([0.0; 14], [0.0; 25]);
+            let taken = prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut q, 0);
+            assert!(taken.is_none(), "{c1:?} {c2:?} {s:?}");
         }
     }
 }

@@ -284,6 +284,7 @@ mod iterate;
 mod loss;
 mod monitor;
 mod options;
+mod point_panel;
 mod policy;
 mod problem;
 mod qr;
