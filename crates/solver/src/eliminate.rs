@@ -98,7 +98,7 @@ pub(crate) fn factor_point<const C: usize, const P: usize, const R: usize, J>(
             // conditioned.
             let s = [prior.sqrt[(0, 0)], prior.sqrt[(0, 1)], prior.sqrt[(1, 1)]];
             let q = &mut q[..(R + P) * (R + P)];
-            if prior_panel_qr(&c1, &c2, s, panel, q, first_column).is_some() {
+            if prior_panel_qr(&c1, &c2, s, panel, q, first_column) {
                 return Some(PointFactor {
                     rows: R + P,
                     damping: SVector::zeros(),
@@ -976,8 +976,8 @@ mod tests {
         ];
         for (c1, c2, s) in panels {
             let (mut panel, mut q) = ([f64::NAN; 14], [f64::NAN; 25]);
-            prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut q, 0)
-                .expect("a well-conditioned panel");
+            let taken = prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut q, 0);
+            assert!(taken, "a well-conditioned panel");
             let (hq, hr) = householder_with_prior(c1, c2, s);
             let a = [0, 1, 2, 3, 4].map(|r| {
                 let prior = [[s[0], s[1]], [0.0, s[2]]];
@@ -1022,8 +1022,8 @@ mod tests {
             }
             assert_eq!(panel[4..10], [0.0; 6], "zero below R");
             let mut from_two = [f64::NAN; 25];
-            prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut from_two, 2)
-                .expect("the same panel");
+            let taken = prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut from_two, 2);
+            assert!(taken, "the same panel");
             for r in 0..5 {
                 assert_eq!(from_two[r * 5 + 2..r * 5 + 5], q[r * 5 + 2..r * 5 + 5]);
             }
@@ -1042,7 +1042,7 @@ mod tests {
         for (c1, c2, s) in refused {
             let (mut panel, mut q) = ([0.0; 14], [0.0; 25]);
             let taken = prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut q, 0);
-            assert!(taken.is_none(), "{c1:?} {c2:?} {s:?}");
+            assert!(!taken, "{c1:?} {c2:?} {s:?}");
         }
     }
 }

@@ -79,10 +79,10 @@ pub(crate) fn panel_qr(c1: &Vector3<f64>, c2: &Vector3<f64>, panel: &mut [f64], 
 /// `Q₁ = [T, 0; 0, I] W` and `R` from the QR `W R = [R_d; S]` (4 x 2, by
 /// Gram–Schmidt).
 ///
-/// Returns `None` where the closed form is not taken (a panel or data rows
-/// not well conditioned, [`WELL_CONDITIONED`], a singular or non-finite
-/// `S`): the Householder path then factorises it. A panel it factorises has
-/// full rank.
+/// Returns whether it took the panel: not one whose data rows or whole
+/// columns are not well conditioned ([`WELL_CONDITIONED`]) or whose `S` is
+/// singular or not finite, which the Householder path then factorises. A
+/// panel it takes has full rank.
 #[inline(always)]
 pub(crate) fn prior_panel_qr(
     c1: &Vector3<f64>,
@@ -91,7 +91,7 @@ pub(crate) fn prior_panel_qr(
     panel: &mut [f64],
     q: &mut [f64],
     first_column: usize,
-) -> Option<()> {
+) -> bool {
     let [s00, s01, s11] = s;
     // Every quantity below is formed from the panel's dot products with as
     // few square roots and divisions in a row as may be: `R_d`'s entries
@@ -102,13 +102,14 @@ pub(crate) fn prior_panel_qr(
     let r22_2 = u.norm_squared();
     // `[R_d; S]`'s columns, in the coordinates `(t1, t2, prior rows)`.
     let (b1_2, b12) = (a + s00 * s00, b + s00 * s01);
-    let b2_2 = c2.norm_squared() + s01 * s01 + s11 * s11;
+    let d2 = c2.norm_squared();
+    let b2_2 = d2 + s01 * s01 + s11 * s11;
     let rho22_2 = b2_2 - b12 * b12 / b1_2;
-    let well = r22_2 > WELL_CONDITIONED * c2.norm_squared()
+    let well = r22_2 > WELL_CONDITIONED * d2
         && rho22_2 > WELL_CONDITIONED * b2_2
         && (s00 * s11).is_normal();
     if !well {
-        return None;
+        return false;
     }
     let (r11, r22) = (a.sqrt(), r22_2.sqrt());
     let r12 = ratio * r11;
@@ -161,5 +162,5 @@ pub(crate) fn prior_panel_qr(
         }
         panel[..10].copy_from_slice(&[rho11, rho12, 0.0, rho22, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
     }
-    Some(())
+    true
 }
