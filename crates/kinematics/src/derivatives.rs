@@ -310,16 +310,21 @@ impl TipDerivatives {
     /// `solution`.
     pub fn new(geometry: &Geometry, solution: &ForwardSolution) -> Self {
         Self {
-            tool: solution.legs.rotation * geometry.tool,
+            tool: Self::tool_at(geometry, solution),
             solution: solution.clone(),
         }
+    }
+
+    /// The tool offset in the base frame at `solution`, `R E_T`.
+    fn tool_at(geometry: &Geometry, solution: &ForwardSolution) -> Vec3 {
+        solution.legs.rotation * geometry.tool
     }
 
     /// These derivatives made [`TipDerivatives::new`]'s of `geometry`'s tip
     /// at `solution`, in place (the solution copied once, not into a new
     /// value and then moved).
     pub fn set(&mut self, geometry: &Geometry, solution: &ForwardSolution) {
-        self.tool = solution.legs.rotation * geometry.tool;
+        self.tool = Self::tool_at(geometry, solution);
         self.solution.clone_from(solution);
     }
 
@@ -361,7 +366,7 @@ impl TipDerivatives {
     ) -> Result<(), KinematicsError> {
         self.solution.pose = *start;
         forward_in_place(geometry, q, options, &mut self.solution)?;
-        self.tool = self.solution.legs.rotation * geometry.tool;
+        self.tool = Self::tool_at(geometry, &self.solution);
         Ok(())
     }
 

@@ -866,13 +866,21 @@ mod tests {
         }
     }
 
+    /// The Householder path's factorisation of the panel `a`: its `R`
+    /// (above the diagonal; the reflectors below) and its `Q` (`M x M`,
+    /// row-major, every column).
+    fn householder<const M: usize>(a: [[f64; 2]; M]) -> ([[f64; 2]; M], Vec<f64>) {
+        let mut panel = a;
+        let tau = point_householder(&mut panel);
+        let mut q = vec![0.0; M * M];
+        point_q(&panel, &tau, &mut q, 0);
+        (panel, q)
+    }
+
     /// The Householder path's rank test and column 2 of its `Q`.
     fn householder_normal(c1: [f64; 3], c2: [f64; 3]) -> (bool, [f64; 3]) {
         let a0 = [0, 1, 2].map(|r| [c1[r], c2[r]]);
-        let mut panel = a0;
-        let tau = point_householder(&mut panel);
-        let mut q = [0.0; 9];
-        point_q(&panel, &tau, &mut q, 2);
+        let (panel, q) = householder(a0);
         let full_rank = (0..2).all(|j| {
             let norm2: f64 = a0.iter().map(|row| row[j] * row[j]).sum();
             norm2 > 0.0 && panel[j][j] * panel[j][j] > RANK_TOLERANCE * RANK_TOLERANCE * norm2
@@ -943,19 +951,6 @@ mod tests {
         }
     }
 
-    /// The Householder path's `Q` (5 x 5) and `R` of the panel `[c1 c2;
-    /// S]` with the prior rows `S = [[s00, s01], [0, s11]]`.
-    fn householder_with_prior(c1: [f64; 3], c2: [f64; 3], s: [f64; 3]) -> ([f64; 25], [f64; 4]) {
-        let mut panel = [c1[0], c1[1], c1[2], s[0], 0.0].map(|x| [x, 0.0]);
-        for (row, x) in panel.iter_mut().zip([c2[0], c2[1], c2[2], s[1], s[2]]) {
-            row[1] = x;
-        }
-        let tau = point_householder(&mut panel);
-        let mut q = [0.0; 25];
-        point_q(&panel, &tau, &mut q, 0);
-        (q, [panel[0][0], panel[0][1], 0.0, panel[1][1]])
-    }
-
     /// [`prior_panel_qr`] against the Householder path: an orthogonal `Q`
     /// whose first two columns and `R` are Householder's up to the signs of
     /// `R`'s rows, and whose last three span the same space (the projector
@@ -978,11 +973,19 @@ mod tests {
             let (mut panel, mut q) = ([f64::NAN; 14], [f64::NAN; 25]);
             let taken = prior_panel_qr(&c1.into(), &c2.into(), s, &mut panel, &mut q, 0);
             assert!(taken, "a well-conditioned panel");
-            let (hq, hr) = householder_with_prior(c1, c2, s);
+            // The panel `[c1 c2; S]`, its prior rows `S = [[s00, s01], [0,
+            // s11]]`.
             let a = [0, 1, 2, 3, 4].map(|r| {
                 let prior = [[s[0], s[1]], [0.0, s[2]]];
                 if r < 3 { [c1[r], c2[r]] } else { prior[r - 3] }
             });
+            let (householder_panel, hq) = householder(a);
+            let hr = [
+                householder_panel[0][0],
+                householder_panel[0][1],
+                0.0,
+                householder_panel[1][1],
+            ];
             let scale = a.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
             for i in 0..5 {
                 for j in 0..5 {
