@@ -11,7 +11,7 @@ use crate::atomic;
 use crate::check::Check;
 use crate::checksum::Crc32;
 use crate::error::{DatasetError, Result};
-use crate::truth::BallValues;
+use crate::truth::{BallValues, TruthFile};
 use crate::{
     ARTEFACTS_FILE, Artefacts, MACHINE_FILE, MEASUREMENTS_FILE, Machine, Measurements, POINTS_FILE,
     POSES_FILE, TRUTH_FILE, Tracker, Truth, snapshot,
@@ -91,9 +91,9 @@ impl Dataset {
     }
 
     /// Reads the dataset in directory `dir`: `machine.json`,
-    /// `artefacts.json`, `measurements.csv` (read in blocks, each parsed
-    /// in pieces side by side) and, if present, `truth.json` (parsed
-    /// meanwhile), checking each and their consistency.
+    /// `artefacts.json` and, if present, `truth.json`, parsed while
+    /// `measurements.csv` is read (in blocks, each parsed in pieces side by
+    /// side), checking each and their consistency.
     ///
     /// `artefacts.json` and `measurements.csv` may be absent together when
     /// `poses.csv` or `points.csv` is there.
@@ -106,34 +106,17 @@ impl Dataset {
         let tracker_only =
             !tracker.is_empty() && !artefacts_path.exists() && !measurements_path.exists();
         let truth_path = dir.join(TRUTH_FILE);
-        let artefacts = if tracker_only {
-            Artefacts::default()
-        } else {
-            Artefacts::read(&artefacts_path)?
-        };
-        let balls = &artefacts.balls;
-        let index = ball_index(balls).expect("ball ids are unique");
-        // truth.json is parsed on a thread of its own while the
-        // measurements are read, into room allocated here: what that
-        // thread frees is all it allocated, none of it left resident.
-        let values = BallValues::new(balls.len());
-        let (measurements, truth) = std::thread::scope(|scope| {
-            let truth = scope.spawn(|| {
-                let contacts = options.true_contacts;
-                Truth::parse_if_present(&truth_path, balls, &index, &values, contacts)
-            });
-            let measurements = if tracker_only {
-                Ok(Measurements::default())
-            } else {
-                Measurements::read(&measurements_path, &index, scale)
-            };
-            (measurements, truth.join())
-        });
-        let truth = truth.unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-        let (measurements, truth) = (measurements?, truth?);
+        let touches = (!tracker_only).then_some((&*artefacts_path, &*measurements_path));
+        let Touches {
+            artefacts,
+            measurements,
+            truth,
+        } = read_touches(touches, &truth_path, scale, options.true_contacts)?;
         let dataset = Self {
             truth: truth
-                .map(|file| file.checked(&truth_path, &artefacts.balls, values, measurements.len()))
+                .map(|(file, values)| {
+                    file.checked(&truth_path, &artefacts.balls, values, measurements.len())
+                })
                 .transpose()?,
             machine,
             artefacts,
@@ -340,4 +323,60 @@ impl Dataset {
             }),
         }
     }
+}
+
+/// What [`read_touches`] reads: the artefacts, the touches, and the truth
+/// with the balls' values it holds.
+struct Touches {
+    artefacts: Artefacts,
+    measurements: Measurements,
+    truth: Option<(TruthFile, BallValues)>,
+}
+
+/// `artefacts.json` and `measurements.csv` (`touches`' paths; none for a
+/// dataset of instrument data alone) and, if present, `truth.json`
+/// (`contacts`: its true contacts read), the JSON parsed while the CSV is
+/// read on a thread of its own, its ball ids kept as written and resolved
+/// once both are read: what the dataset keeps of the JSON is allocated on
+/// this thread, as it was before the CSV was read beside it. An error in
+/// the CSV, or an id that does not resolve, has the CSV read again with the
+/// ids resolved row by row, which names the earliest; the artefacts' errors
+/// come first, the truth's last.
+fn read_touches(
+    touches: Option<(&Path, &Path)>,
+    truth_path: &Path,
+    scale: &[f64; 6],
+    contacts: bool,
+) -> Result<Touches> {
+    std::thread::scope(|scope| {
+        let csv = touches.map(|(_, csv)| {
+            let read = scope.spawn(move || Measurements::read_unresolved(csv, scale));
+            (csv, read)
+        });
+        let artefacts = match touches {
+            Some((json, _)) => Artefacts::read(json)?,
+            None => Artefacts::default(),
+        };
+        let index = ball_index(&artefacts.balls).expect("ball ids are unique");
+        let values = BallValues::new(artefacts.balls.len());
+        let truth =
+            Truth::parse_if_present(truth_path, &artefacts.balls, &index, &values, contacts);
+        let measurements = match csv {
+            None => Measurements::default(),
+            Some((path, read)) => {
+                let read = (read.join()).unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                match read.ok().and_then(|unresolved| unresolved.resolve(&index)) {
+                    Some(measurements) => measurements,
+                    None => Measurements::read(path, &index, scale)?,
+                }
+            }
+        };
+        let truth = truth?;
+        drop(index);
+        Ok(Touches {
+            artefacts,
+            measurements,
+            truth: truth.map(|file| (file, values)),
+        })
+    })
 }

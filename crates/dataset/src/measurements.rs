@@ -49,28 +49,53 @@ impl Measurements {
     }
 
     /// Reads `measurements.csv`, resolving ball ids by the artefacts' `index`
-    /// ([`crate::artefacts::ball_index`]); `scale` is the actuators' (mm per
-    /// unit).
+    /// ([`crate::artefacts::ball_index`]) row by row; `scale` is the
+    /// actuators' (mm per unit). Of several errors, the one earliest in the
+    /// file, an unknown ball id among them.
     pub(crate) fn read(path: &Path, index: &BallIndex, scale: &[f64; 6]) -> Result<Self> {
-        let expected = format!("{BALL},{}", Q.join(","));
         let mut out = Self::default();
-        table::read_file_in_pieces(
+        read_rows(
             path,
-            &expected,
-            "measurement",
-            |header| Columns::locate(header, &expected),
             |columns, row, piece: &mut Piece| piece.push_row(row, columns, index, scale),
+            |piece| out.append(&mut piece.touches),
+        )?;
+        Ok(out)
+    }
+
+    /// Reads `measurements.csv` before the artefacts are known: each row's
+    /// ball id kept as it is written, to be resolved by
+    /// [`Unresolved::resolve`]. An error here, or an id that does not
+    /// resolve, is named by [`Measurements::read`].
+    pub(crate) fn read_unresolved(path: &Path, scale: &[f64; 6]) -> Result<Unresolved> {
+        let mut out = Unresolved::default();
+        read_rows(
+            path,
+            |columns, row, piece: &mut Unresolved| piece.push_row(row, columns, scale),
             |piece| {
-                let piece = &mut piece.touches;
-                out.ball.append(&mut piece.ball);
-                out.q.append(&mut piece.q);
-                // A piece without rows has no directions to add.
-                if let Some(more) = &mut piece.direction {
-                    out.direction.get_or_insert_with(Vec::new).append(more);
-                }
+                out.touches.append(&mut piece.touches);
+                out.ids.append(&mut piece.ids);
             },
         )?;
         Ok(out)
+    }
+
+    /// Moves the contacts of `more` to the end of these.
+    fn append(&mut self, more: &mut Self) {
+        self.ball.append(&mut more.ball);
+        self.q.append(&mut more.q);
+        // A piece without rows has no directions to add.
+        if let Some(more) = &mut more.direction {
+            self.direction.get_or_insert_with(Vec::new).append(more);
+        }
+    }
+
+    /// Appends a row's readings `q` and approach `direction` (its ball's
+    /// index is the caller's).
+    fn push_readings(&mut self, (q, direction): ([f64; 6], Option<Point3>)) {
+        self.q.push(q);
+        if let Some(d) = direction {
+            self.direction.get_or_insert_with(Vec::new).push(d);
+        }
     }
 
     /// Writes `measurements.csv` (the caller has validated): floats in Rust's
@@ -191,21 +216,114 @@ impl<'a> Piece<'a> {
                 ball
             }
         };
-        let q = row.numbers(&columns.q, &Q)?;
-        let direction = match &columns.dir {
-            Some(dir) => Some(row.numbers(dir, &DIR)?),
-            None => None,
-        };
-        if let Some((column, message)) = row_problem(&q, direction.as_ref(), scale) {
-            return Err(row.error(column, message));
-        }
-        let out = &mut self.touches;
-        out.ball.push(ball);
-        out.q.push(q);
-        if let Some(d) = direction {
-            out.direction.get_or_insert_with(Vec::new).push(d);
-        }
+        let readings = readings(row, columns, scale)?;
+        self.touches.ball.push(ball);
+        self.touches.push_readings(readings);
         Ok(())
+    }
+}
+
+/// The contacts of measurements.csv read before the artefacts (their balls'
+/// indices not yet known) and their rows' ball ids.
+#[derive(Default)]
+pub(crate) struct Unresolved {
+    touches: Measurements,
+    ids: IdRuns,
+}
+
+impl Unresolved {
+    /// Appends the contact of `row` (its `columns`, `scale` the actuators'),
+    /// its ball id kept.
+    fn push_row(&mut self, row: &Row, columns: &Columns, scale: &[f64; 6]) -> Result<(), Failure> {
+        let readings = readings(row, columns, scale)?;
+        self.ids.push(row.field(columns.ball));
+        self.touches.push_readings(readings);
+        Ok(())
+    }
+
+    /// The contacts, their balls' indices by the artefacts' `index`;
+    /// `None` if an id is not in it (or its index does not fit a
+    /// measurement's `u32`), for [`Measurements::read`] to name.
+    pub(crate) fn resolve(self, index: &BallIndex) -> Option<Measurements> {
+        let Self { mut touches, ids } = self;
+        touches.ball.reserve_exact(touches.q.len());
+        let mut start = 0;
+        for &(end, rows) in &ids.runs {
+            let ball = u32::try_from(*index.get(&ids.bytes[start..end])?).ok()?;
+            touches.ball.extend(std::iter::repeat_n(ball, rows));
+            start = end;
+        }
+        Some(touches)
+    }
+}
+
+/// Ball ids of rows in file order, as runs of consecutive rows of one id
+/// (a ball's touches are usually consecutive): each run's id once, the
+/// ids' bytes side by side.
+#[derive(Default)]
+struct IdRuns {
+    bytes: Vec<u8>,
+    /// Each run's end in `bytes` (its start the run before's end) and its
+    /// number of rows.
+    runs: Vec<(usize, usize)>,
+}
+
+impl IdRuns {
+    /// The id of the next row.
+    fn push(&mut self, id: &[u8]) {
+        let start = self.runs.len().checked_sub(2).map_or(0, |k| self.runs[k].0);
+        match self.runs.last_mut() {
+            Some((end, rows)) if &self.bytes[start..*end] == id => *rows += 1,
+            _ => {
+                self.bytes.extend_from_slice(id);
+                self.runs.push((self.bytes.len(), 1));
+            }
+        }
+    }
+
+    /// Moves the runs of `more` (the rows after these) to the end.
+    fn append(&mut self, more: &mut Self) {
+        let offset = self.bytes.len();
+        self.bytes.append(&mut more.bytes);
+        let runs = more.runs.drain(..).map(|(end, rows)| (end + offset, rows));
+        self.runs.extend(runs);
+    }
+}
+
+/// The rows of `measurements.csv` at `path`, each passed to `each` with
+/// its piece's accumulator, the pieces emptied by `gather` in file order
+/// ([`table::read_file_in_pieces`]).
+fn read_rows<A: Default + Send>(
+    path: &Path,
+    each: impl Fn(&Columns, &Row, &mut A) -> Result<(), Failure> + Sync,
+    gather: impl FnMut(&mut A),
+) -> Result<()> {
+    let expected = format!("{BALL},{}", Q.join(","));
+    table::read_file_in_pieces(
+        path,
+        &expected,
+        "measurement",
+        |header| Columns::locate(header, &expected),
+        each,
+        gather,
+    )
+}
+
+/// A row's readings and approach direction (its `columns`), checked
+/// ([`row_problem`], `scale` the actuators').
+fn readings(
+    row: &Row,
+    columns: &Columns,
+    scale: &[f64; 6],
+) -> Result<([f64; 6], Option<Point3>), Failure> {
+    let q = row.numbers(&columns.q, &Q)?;
+    let direction = match &columns.dir {
+        Some(dir) => Some(row.numbers(dir, &DIR)?),
+        None => None,
+    };
+    match row_problem(&q, direction.as_ref(), scale) {
+        Some((column, message)) => Err(row.error(column, message)),
+        None => Ok((q, direction)),
     }
 }
 
@@ -282,5 +400,36 @@ impl Columns {
             }
         };
         Ok(Self { ball, q, dir })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ids in runs, a ball's touches apart and runs split between pieces,
+    /// resolve to the indices row by row resolution gives.
+    #[test]
+    fn id_runs_resolve_row_by_row() {
+        let rows: [&[u8]; 7] = [b"b2", b"b2", b"b10", b"b2", b"b1", b"b1", b"b10"];
+        let index: BallIndex = [(&b"b1"[..], 0), (b"b2", 1), (b"b10", 2)]
+            .into_iter()
+            .collect();
+        let piece = |rows: &[&[u8]]| {
+            let mut piece = Unresolved::default();
+            for id in rows {
+                piece.ids.push(id);
+                piece.touches.push_readings(([0.0; 6], None));
+            }
+            piece
+        };
+        let (mut all, mut second) = (piece(&rows[..4]), piece(&rows[4..]));
+        all.touches.append(&mut second.touches);
+        all.ids.append(&mut second.ids);
+        assert_eq!(all.ids.runs.len(), 5);
+        let resolved = all.resolve(&index).expect("every id is in the index");
+        let by_row: Vec<u32> = rows.iter().map(|id| index[id] as u32).collect();
+        assert_eq!(resolved.ball, by_row);
+        assert_eq!(piece(&[b"b3"]).resolve(&index), None);
     }
 }

@@ -244,7 +244,7 @@ fn located<R: Read + Seek>(
 /// (`what`), each checked to have the header's width and passed to `each`
 /// with the accumulator of its piece. The rows are read in blocks of
 /// [`PIECE_LEN`] bytes per thread of rayon's pool, cut at line ends, and
-/// each block into one piece per thread, parsed side by side while the
+/// each block into [`PIECES_PER_THREAD`] pieces per thread, parsed side by side while the
 /// next block is read (two blocks in memory); `gather`
 /// empties the accumulators in file order, so that what they held does not
 /// depend on the number of threads. A piece is split at its line ends and
@@ -280,7 +280,8 @@ pub(crate) fn read_file_in_pieces<C: Sync, A: Default + Send>(
     let mut end_of_file = fill(&mut file, &mut block, block_len).map_err(io_error)?;
     // One accumulator per piece, emptied by `gather` and reused from block
     // to block: the pieces allocate once, not once per block.
-    let mut accumulators: Vec<A> = (0..threads).map(|_| A::default()).collect();
+    let count = threads * PIECES_PER_THREAD;
+    let mut accumulators: Vec<A> = (0..count).map(|_| A::default()).collect();
     let mut rows = 0;
     while !block.is_empty() {
         if block.contains(&b'"') {
@@ -306,7 +307,7 @@ pub(crate) fn read_file_in_pieces<C: Sync, A: Default + Send>(
         let (read, parsed) = rayon::join(
             || fill(&mut file, &mut next, block_len),
             || {
-                (pieces(&block[..end], threads).par_windows(2))
+                (pieces(&block[..end], count).par_windows(2))
                     .zip(accumulators.par_iter_mut())
                     .map(|(bounds, accumulator)| {
                         let (start, stop) = (bounds[0], bounds[1]);
@@ -436,10 +437,15 @@ fn pieces(rows: &[u8], count: usize) -> Vec<usize> {
     bounds
 }
 
-/// The bytes of rows one thread parses at a time (4 MiB, more than a
+/// The bytes of rows a block holds for each thread (4 MiB, more than a
 /// line may have, [`CSV_LINE_CAP`]): the memory of reading a file of any
 /// length in pieces.
 const PIECE_LEN: usize = 4 << 20;
+
+/// The pieces a block is cut into for each thread: more pieces than
+/// threads, so that a thread that ends its piece early (or reads the next
+/// block first) takes another instead of waiting.
+const PIECES_PER_THREAD: usize = 4;
 
 /// Fills `block`, which holds the bytes kept from the block before, up to
 /// `len` bytes from `input`; whether the input ended.

@@ -89,9 +89,7 @@ impl<T: Clone + Default> ByBall<T> {
     }
 }
 
-/// Where the parse puts the balls' values, allocated by its caller: a
-/// parse on another thread allocates nothing it keeps, so that what it
-/// frees is all it used.
+/// Where the parse puts the balls' values, allocated by its caller.
 pub(crate) struct BallValues {
     centres: Mutex<ByBall<P3>>,
     radii: Mutex<ByBall<f64>>,

@@ -679,6 +679,16 @@ fn csv_unknown_ball_id() {
         &csv_with(HEADER, "", &["b01,1,2,3,4,5,6", "", "b04,1,2,3,4,5,6"]),
         "line 4, column ball: unknown ball id \"b04\" (not in artefacts.json)",
     );
+    // The earliest error in the file, whichever its kind, although the ids
+    // are resolved once every row is read.
+    expect_csv_error(
+        &csv_with(HEADER, "", &["b04,1,2,3,4,5,6", "b01,1,2,3,four,5,6"]),
+        "line 2, column ball: unknown ball id \"b04\"",
+    );
+    expect_csv_error(
+        &csv_with(HEADER, "", &["b01,1,2,3,four,5,6", "b04,1,2,3,4,5,6"]),
+        "line 2, column q4: expected a number, found \"four\"",
+    );
 }
 
 #[test]
