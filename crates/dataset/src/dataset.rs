@@ -337,11 +337,11 @@ struct Touches {
 /// dataset of instrument data alone) and, if present, `truth.json`
 /// (`contacts`: its true contacts read), the JSON parsed while the CSV is
 /// read on a thread of its own, its ball ids kept as written and resolved
-/// once both are read: what the dataset keeps of the JSON is allocated on
-/// this thread, as it was before the CSV was read beside it. An error in
-/// the CSV, or an id that does not resolve, has the CSV read again with the
-/// ids resolved row by row, which names the earliest; the artefacts' errors
-/// come first, the truth's last.
+/// once both are read. What the dataset keeps of the JSON is allocated on
+/// this thread: another thread's allocator arena would keep the copies its
+/// growth left, resident. An error in the CSV, or an id that does not
+/// resolve, has the CSV read again with the ids resolved row by row, which
+/// names the earliest; the artefacts' errors come first, the truth's last.
 fn read_touches(
     touches: Option<(&Path, &Path)>,
     truth_path: &Path,

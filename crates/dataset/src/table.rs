@@ -244,8 +244,8 @@ fn located<R: Read + Seek>(
 /// (`what`), each checked to have the header's width and passed to `each`
 /// with the accumulator of its piece. The rows are read in blocks of
 /// [`PIECE_LEN`] bytes per thread of rayon's pool, cut at line ends, and
-/// each block into [`PIECES_PER_THREAD`] pieces per thread, parsed side by side while the
-/// next block is read (two blocks in memory); `gather`
+/// each block into [`PIECES_PER_THREAD`] pieces per thread, parsed side by
+/// side while the next block is read (two blocks in memory); `gather`
 /// empties the accumulators in file order, so that what they held does not
 /// depend on the number of threads. A piece is split at its line ends and
 /// commas ([`split_piece`]); from a block with a quote character on (whose
