@@ -20,7 +20,7 @@ use parcal_observe::{
     CoordinateWhitening, DistanceBlock, KinematicPrior, ObserveError, RadiusWhitening,
     Repeatability, WeightModel, coordinate_covariance, radius_variance, unit_direction,
 };
-use parcal_solver::{GaussianPrior, State, split_by};
+use parcal_solver::{GaussianPrior, State, filled, split_by};
 use rayon::prelude::*;
 
 use crate::instruments::observations::{self, group_priors, initial_block};
@@ -374,8 +374,8 @@ impl DesignStart<'_> {
         // Each ball writes its contacts' slots of the outputs: nothing per
         // ball is collected and copied again.
         let n = self.order.len();
-        let (mut directions, mut weights) = (vec![Vec3::z_axis(); n], vec![T::default(); n]);
-        let mut poses = vec![Pose::identity(); n];
+        let (mut directions, mut weights) = (filled(Vec3::z_axis(), n), filled(T::default(), n));
+        let mut poses = filled(Pose::identity(), n);
         let lengths = || self.groups.iter().map(|g| g.len());
         let (mut ball_directions, mut ball_weights, mut ball_poses) = (
             split_by(&mut directions, lengths()),

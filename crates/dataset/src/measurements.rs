@@ -11,6 +11,7 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::Point3;
@@ -142,20 +143,21 @@ impl Measurements {
         let bad = |row: usize, column: &str, message: String| {
             DatasetError::csv(check.path(), line(row), Some(column), message)
         };
-        for (row, (&ball, q)) in self.ball.iter().zip(&self.q).enumerate() {
-            if ball as usize >= ball_count {
-                return Err(bad(
-                    row,
-                    BALL,
-                    format!("ball index {ball} is out of range ({ball_count} balls)"),
-                ));
-            }
-            let direction = self.direction.as_ref().map(|d| &d[row]);
-            if let Some((column, message)) = row_problem(q, direction, scale) {
-                return Err(DatasetError::csv(check.path(), line(row), column, message));
-            }
-        }
-        Ok(())
+        // The rows on the threads, the first bad one named.
+        let first_bad =
+            (self.ball.par_iter().zip(&self.q).enumerate()).find_map_first(|(row, (&ball, q))| {
+                if ball as usize >= ball_count {
+                    return Some(bad(
+                        row,
+                        BALL,
+                        format!("ball index {ball} is out of range ({ball_count} balls)"),
+                    ));
+                }
+                let direction = self.direction.as_ref().map(|d| &d[row]);
+                let (column, message) = row_problem(q, direction, scale)?;
+                Some(DatasetError::csv(check.path(), line(row), column, message))
+            });
+        first_bad.map_or(Ok(()), Err)
     }
 
     /// Number of contacts of each of `ball_count` balls.

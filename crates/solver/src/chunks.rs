@@ -186,6 +186,14 @@ pub(crate) fn make_chunks(
     Ok(chunks)
 }
 
+/// `len` copies of `value`, written on the threads: a million contacts'
+/// room is first touched by all of them, not by one before they start.
+pub fn filled<T: Clone + Send + Sync>(value: T, len: usize) -> Vec<T> {
+    let mut filled = Vec::new();
+    filled.par_extend(rayon::iter::repeat_n(value, len));
+    filled
+}
+
 /// Splits `items` into consecutive mutable slices of the given lengths
 /// (e.g. per-point arrays into the points of each group, to be filled in
 /// parallel).

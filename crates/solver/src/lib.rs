@@ -294,7 +294,7 @@ pub mod refine;
 mod rows;
 mod solution;
 
-pub use chunks::split_by;
+pub use chunks::{filled, split_by};
 pub use covariance::group_sigmas;
 pub use diagnostics::{SpectrumDiagnostics, WeakDirection};
 pub use influence::{RowId, RowInfluence, row_influence};

@@ -19,15 +19,17 @@ use std::ops::Range;
 use nalgebra::{Const, DVector, Dyn, SVector, U2, UnitVector3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
 use parcal_observe::{CoordinateJacobians, DirectionChart, unit_direction};
-use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
+use parcal_solver::{
+    GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State, filled,
+};
 use rayon::prelude::*;
 
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
 use super::problem::{
-    FitProblem, MechanismProblem, Reaches, Start, TouchedBall, WarmStart, filled,
-    put_group_columns, touch_failed,
+    FitProblem, MechanismProblem, Reaches, Start, TouchedBall, WarmStart, put_group_columns,
+    touch_failed,
 };
 use super::touch_jacobian::TouchJacobian;
 use crate::options::Observation;

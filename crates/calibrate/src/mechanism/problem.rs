@@ -43,7 +43,9 @@ use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAl
 use parcal_observe::mechanism::{
     Actuation, ActuationBatch, BallTouch, RadiusRow, Rows, SampleRows,
 };
-use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
+use parcal_solver::{
+    GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State, filled,
+};
 use rayon::prelude::*;
 
 use crate::sphere_fit::{SphereFitError, best_fit};
@@ -181,14 +183,6 @@ impl WarmStart {
             .then(|| self.values.get(..len))
             .flatten()
     }
-}
-
-/// `len` copies of `value`, written on the threads: a million touches'
-/// room is first touched by all of them, not by one before they start.
-pub(crate) fn filled<T: Clone + Send + Sync>(value: T, len: usize) -> Vec<T> {
-    let mut filled = Vec::new();
-    filled.par_extend(rayon::iter::repeat_n(value, len));
-    filled
 }
 
 /// The number of touches whose start [`MechanismProblem::touches_at_start`]
