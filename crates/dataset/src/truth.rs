@@ -1,9 +1,9 @@
 //! `truth.json` (simulated datasets only): the true geometry, balls and
 //! contact points.
 
+use std::cell::RefCell;
 use std::fmt;
 use std::path::Path;
-use std::sync::{Mutex, PoisonError};
 
 use serde::de::{self, DeserializeSeed, Deserializer, IgnoredAny, MapAccess, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
@@ -89,18 +89,19 @@ impl<T: Clone + Default> ByBall<T> {
     }
 }
 
-/// Where the parse puts the balls' values, allocated by its caller.
+/// Where the parse puts the balls' values, allocated by its caller and
+/// shared by the seeds the parse copies as it descends.
 pub(crate) struct BallValues {
-    centres: Mutex<ByBall<P3>>,
-    radii: Mutex<ByBall<f64>>,
+    centres: RefCell<ByBall<P3>>,
+    radii: RefCell<ByBall<f64>>,
 }
 
 impl BallValues {
     /// Room for `n` balls.
     pub(crate) fn new(n: usize) -> Self {
         Self {
-            centres: Mutex::new(ByBall::new(n)),
-            radii: Mutex::new(ByBall::new(n)),
+            centres: RefCell::new(ByBall::new(n)),
+            radii: RefCell::new(ByBall::new(n)),
         }
     }
 }
@@ -118,7 +119,7 @@ struct BallsSeed<'a> {
 
 impl<'a> BallsSeed<'a> {
     /// Reads an object keyed by ball id into `into`.
-    fn by_ball<T>(&self, into: &'a Mutex<ByBall<T>>) -> ByBallSeed<'a, T> {
+    fn by_ball<T>(&self, into: &'a RefCell<ByBall<T>>) -> ByBallSeed<'a, T> {
         ByBallSeed {
             balls: self.balls,
             index: self.index,
@@ -220,7 +221,7 @@ impl<'de> DeserializeSeed<'de> for PointsSeed {
 struct ByBallSeed<'a, T> {
     balls: &'a [Ball],
     index: &'a BallIndex<'a>,
-    into: &'a Mutex<ByBall<T>>,
+    into: &'a RefCell<ByBall<T>>,
 }
 
 impl<'de, T: Deserialize<'de>> DeserializeSeed<'de> for ByBallSeed<'_, T> {
@@ -239,7 +240,7 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for ByBallSeed<'_, T> {
     }
 
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> std::result::Result<(), A::Error> {
-        let mut out = self.into.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut out = self.into.borrow_mut();
         // A parse again (to name the field of an error) starts afresh.
         out.given.fill(false);
         while let Some(i) = map.next_key_seed(BallId(self.index))? {
@@ -420,10 +421,10 @@ impl<T: Serialize> Serialize for Keyed<'_, T> {
 fn every_ball<T>(
     check: Check,
     field: &str,
-    by_ball: Mutex<ByBall<T>>,
+    by_ball: RefCell<ByBall<T>>,
     balls: &[Ball],
 ) -> Result<Vec<T>> {
-    let by_ball = by_ball.into_inner().unwrap_or_else(PoisonError::into_inner);
+    let by_ball = by_ball.into_inner();
     match by_ball.given.iter().position(|&given| !given) {
         Some(i) => Err(check.error(
             field,
