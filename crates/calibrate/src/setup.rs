@@ -474,8 +474,13 @@ impl DesignStart<'_> {
             .collect();
         let shift = Vec3::from_fn(|axis, _| {
             let mut values: Vec<f64> = offsets.iter().map(|o| o[axis]).collect();
-            values.sort_by(f64::total_cmp);
-            values.get(values.len() / 2).copied().unwrap_or(0.0)
+            let middle = values.len() / 2;
+            // The element a sort would put there, found without sorting.
+            if values.is_empty() {
+                0.0
+            } else {
+                *values.select_nth_unstable_by(middle, f64::total_cmp).1
+            }
         });
         for (ball, group) in self.groups.iter().enumerate() {
             let miss = |centre: &Vec3| (centre - nominal[ball] - shift).norm();
