@@ -22,7 +22,18 @@ import sys
 # the checks' and the external reliability's passes eliminate too, so they
 # come before the elimination passes.
 PHASES = [
-    ("read the dataset", ("read_dataset_with", "Dataset::read_with", "parse_piece", "json::deserialize")),
+    (
+        "read the dataset",
+        (
+            "read_dataset_with",
+            "Dataset::read_with",
+            "read_touches",
+            "read_unresolved",
+            "read_file_in_pieces",
+            "parcal_dataset::table::",
+            "json::deserialize",
+        ),
+    ),
     ("set-up", ("DesignStart", "calibrate::setup::", "sphere_fit")),
     ("checks' pass", ("solver::redundancy", "Reliability")),
     ("external reliability", ("calibrate::external",)),
