@@ -11,7 +11,7 @@ use crate::atomic;
 use crate::check::Check;
 use crate::checksum::Crc32;
 use crate::error::{DatasetError, Result};
-use crate::truth::{BallValues, TruthFile};
+use crate::truth::TruthFile;
 use crate::{
     ARTEFACTS_FILE, Artefacts, MACHINE_FILE, MEASUREMENTS_FILE, Machine, Measurements, POINTS_FILE,
     POSES_FILE, TRUTH_FILE, Tracker, Truth, snapshot,
@@ -114,9 +114,7 @@ impl Dataset {
         } = read_touches(touches, &truth_path, scale, options.true_contacts)?;
         let dataset = Self {
             truth: truth
-                .map(|(file, values)| {
-                    file.checked(&truth_path, &artefacts.balls, values, measurements.len())
-                })
+                .map(|file| file.checked(&truth_path, &artefacts.balls, measurements.len()))
                 .transpose()?,
             machine,
             artefacts,
@@ -325,12 +323,11 @@ impl Dataset {
     }
 }
 
-/// What [`read_touches`] reads: the artefacts, the touches, and the truth
-/// with the balls' values it holds.
+/// What [`read_touches`] reads: the artefacts, the touches, and the truth.
 struct Touches {
     artefacts: Artefacts,
     measurements: Measurements,
-    truth: Option<(TruthFile, BallValues)>,
+    truth: Option<TruthFile>,
 }
 
 /// `artefacts.json` and `measurements.csv` (`touches`' paths; none for a
@@ -358,9 +355,7 @@ fn read_touches(
             None => Artefacts::default(),
         };
         let index = ball_index(&artefacts.balls).expect("ball ids are unique");
-        let values = BallValues::new(artefacts.balls.len());
-        let truth =
-            Truth::parse_if_present(truth_path, &artefacts.balls, &index, &values, contacts);
+        let truth = Truth::parse_if_present(truth_path, &artefacts.balls, &index, contacts);
         let measurements = match csv {
             None => Measurements::default(),
             Some((path, read)) => {
@@ -372,11 +367,10 @@ fn read_touches(
             }
         };
         let truth = truth?;
-        drop(index);
         Ok(Touches {
             artefacts,
             measurements,
-            truth: truth.map(|file| (file, values)),
+            truth,
         })
     })
 }

@@ -72,10 +72,7 @@ impl Measurements {
         read_rows(
             path,
             |columns, row, piece: &mut Unresolved| piece.push_row(row, columns, scale),
-            |piece| {
-                out.touches.append(&mut piece.touches);
-                out.ids.append(&mut piece.ids);
-            },
+            |piece| out.append(piece),
         )?;
         Ok(out)
     }
@@ -241,6 +238,12 @@ impl Unresolved {
         self.ids.push(row.field(columns.ball));
         self.touches.push_readings(readings);
         Ok(())
+    }
+
+    /// Moves the contacts of `more` (the rows after these) to the end.
+    fn append(&mut self, more: &mut Self) {
+        self.touches.append(&mut more.touches);
+        self.ids.append(&mut more.ids);
     }
 
     /// The contacts, their balls' indices by the artefacts' `index`;
@@ -426,8 +429,7 @@ mod tests {
             piece
         };
         let (mut all, mut second) = (piece(&rows[..4]), piece(&rows[4..]));
-        all.touches.append(&mut second.touches);
-        all.ids.append(&mut second.ids);
+        all.append(&mut second);
         assert_eq!(all.ids.runs.len(), 5);
         let resolved = all.resolve(&index).expect("every id is in the index");
         let by_row: Vec<u32> = rows.iter().map(|id| index[id] as u32).collect();

@@ -60,6 +60,7 @@ struct Balls<'a> {
 pub(crate) struct TruthFile {
     geometry: GeometryRecord,
     rest: ReadBalls,
+    values: BallValues,
     /// Whether the contact points were parsed.
     contacts: bool,
 }
@@ -89,16 +90,16 @@ impl<T: Clone + Default> ByBall<T> {
     }
 }
 
-/// Where the parse puts the balls' values, allocated by its caller and
-/// shared by the seeds the parse copies as it descends.
-pub(crate) struct BallValues {
+/// Where the parse puts the balls' values, shared by the seeds it copies
+/// as it descends.
+struct BallValues {
     centres: RefCell<ByBall<P3>>,
     radii: RefCell<ByBall<f64>>,
 }
 
 impl BallValues {
     /// Room for `n` balls.
-    pub(crate) fn new(n: usize) -> Self {
+    fn new(n: usize) -> Self {
         Self {
             centres: RefCell::new(ByBall::new(n)),
             radii: RefCell::new(ByBall::new(n)),
@@ -286,15 +287,10 @@ impl<'de> Visitor<'de> for BallId<'_> {
 
 impl TruthFile {
     /// The truth, checked as [`Truth::validate`] checks it, every ball
-    /// given (`balls` and `values` those the file was parsed with), against
-    /// `rows` measurement rows (`truth.json` at `path`).
-    pub(crate) fn checked(
-        self,
-        path: &Path,
-        balls: &[Ball],
-        values: BallValues,
-        rows: usize,
-    ) -> Result<Truth> {
+    /// given (`balls` those the file was parsed with), against `rows`
+    /// measurement rows (`truth.json` at `path`).
+    pub(crate) fn checked(self, path: &Path, balls: &[Ball], rows: usize) -> Result<Truth> {
+        let values = self.values;
         let check = Check::new(path);
         let ReadBalls {
             contacts,
@@ -318,8 +314,8 @@ impl TruthFile {
 }
 
 impl Truth {
-    /// Parses `truth.json` if it exists, its balls' values put into
-    /// `values` in the order of `balls` (`index` theirs) as they are read; without its contact
+    /// Parses `truth.json` if it exists, its balls' values put in the order
+    /// of `balls` (`index` theirs) as they are read; without its contact
     /// points (skipped unparsed, [`Truth::contacts`] left empty) unless
     /// `contacts`. [`TruthFile::checked`] checks it against the
     /// measurements.
@@ -327,19 +323,20 @@ impl Truth {
         path: &Path,
         balls: &[Ball],
         index: &BallIndex,
-        values: &BallValues,
         contacts: bool,
     ) -> Result<Option<TruthFile>> {
+        let values = BallValues::new(balls.len());
         let seed = GeometryAnd(BallsSeed {
             balls,
             index,
-            values,
+            values: &values,
             contacts,
         });
         let file = json::read_if_present_with(path, json::TRUTH, seed)?;
         Ok(file.map(|file| TruthFile {
             geometry: file.geometry,
             rest: file.rest,
+            values,
             contacts,
         }))
     }
