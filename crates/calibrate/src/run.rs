@@ -215,7 +215,7 @@ fn calibrate_once(
         let d = solved.params - prior.mean();
         conflicts.push(ConflictTest::new(
             "kinematic parameters",
-            PARAM_NAMES.iter().map(|s| s.to_string()),
+            |k| PARAM_NAMES[k].to_string(),
             d.as_slice(),
             prior.covariance().diagonal().as_slice(),
             covariance.diagonal().as_slice(),
@@ -290,20 +290,19 @@ fn centre_conflict(
     sigmas: &[Vec3],
     ids: &[String],
 ) -> ConflictTest {
-    let (mut names, mut d, mut prior, mut posterior) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut d, mut prior, mut posterior) = (Vec::new(), Vec::new(), Vec::new());
     let mut chi_square = 0.0;
     for (k, ball) in dataset.artefacts.balls.iter().enumerate() {
-        for (c, axis) in ["x", "y", "z"].into_iter().enumerate() {
+        for c in 0..3 {
             let difference = centres[k][c] - setup.initial_centres[k][c];
-            names.push(["centre ", ids[k].as_str(), ".", axis].concat());
             d.push(difference);
             prior.push(ball.centre_sigma.powi(2));
             posterior.push(sigmas[k][c].powi(2));
             chi_square += (difference / ball.centre_sigma).powi(2);
         }
     }
-    ConflictTest::new("ball centres", names, &d, &prior, &posterior, chi_square)
+    let name = |j: usize| format!("centre {}.{}", ids[j / 3], ["x", "y", "z"][j % 3]);
+    ConflictTest::new("ball centres", name, &d, &prior, &posterior, chi_square)
 }
 
 /// The conflict test of the radius priors of a per-ball radius (mean: the
@@ -311,10 +310,10 @@ fn centre_conflict(
 /// `radius ID`: a calibrated radius the touches contradict shows here.
 fn radius_conflict(dataset: &Dataset, radii: &[f64], sigmas: &[f64]) -> ConflictTest {
     let balls = &dataset.artefacts.balls;
-    let names = balls.iter().map(|ball| format!("radius {}", ball.id));
+    let name = |k: usize| format!("radius {}", balls[k].id);
     let d: Vec<f64> = balls.iter().zip(radii).map(|(b, r)| r - b.radius).collect();
     let prior: Vec<f64> = balls.iter().map(|b| b.radius_sigma.powi(2)).collect();
     let posterior: Vec<f64> = sigmas.iter().map(|s| s * s).collect();
     let chi_square = d.iter().zip(&prior).map(|(d, v)| d * d / v).sum();
-    ConflictTest::new("ball radii", names, &d, &prior, &posterior, chi_square)
+    ConflictTest::new("ball radii", name, &d, &prior, &posterior, chi_square)
 }

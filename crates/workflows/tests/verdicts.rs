@@ -145,9 +145,9 @@ fn a_wrong_radius_is_named_by_its_radius_prior() {
         .find(|c| c.what == "ball radii")
         .expect("the radius priors' test");
     let offenders: Vec<(&str, f64)> = radii
-        .offenders()
+        .offenders
         .iter()
-        .map(|i| (i.name.as_str(), i.z.unwrap()))
+        .map(|i| (i.name.as_str(), i.z))
         .collect();
     println!("radius priors' offenders: {offenders:?}");
     assert_eq!(offenders.len(), 1, "{offenders:?}");
