@@ -105,23 +105,20 @@ impl ParameterGroup {
     /// sessions' labels.
     fn names(self, ball_ids: &[String], sessions: &[String]) -> Vec<String> {
         const FRAME: [&str; 6] = ["wx", "wy", "wz", "tx", "ty", "tz"];
-        let axes = ["x", "y", "z"];
         match self {
             Self::Kinematic => PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
             Self::KinematicWithoutTool => PARAM_NAMES[..TOOL_OFFSET]
                 .iter()
                 .map(|s| s.to_string())
                 .collect(),
-            Self::BallCentre { ball } => axes
-                .map(|axis| format!("centre {}.{axis}", ball_ids[ball]))
-                .into(),
-            Self::BallRadius { ball } => vec![format!("radius {}", ball_ids[ball])],
+            Self::BallCentre { ball } => (0..3).map(|c| centre_name(&ball_ids[ball], c)).collect(),
+            Self::BallRadius { ball } => vec![radius_name(&ball_ids[ball])],
             Self::ActuatorScales => (1..=6).map(|i| format!("s_{i}")).collect(),
             Self::TrackerFrame { session } => FRAME
                 .map(|c| format!("frame {}.{c}", sessions[session]))
                 .into(),
             Self::BodyFrame => FRAME.map(|c| format!("body.{c}")).into(),
-            Self::BodyOrigin { session } => axes
+            Self::BodyOrigin { session } => AXES
                 .map(|axis| format!("body origin {}.{axis}", sessions[session]))
                 .into(),
             Self::BodyRotation { session } => ["wx", "wy", "wz"]
@@ -335,6 +332,20 @@ pub(crate) fn kinematic_params(global: &DVector<f64>) -> Params {
     let mut params = Params::zeros();
     params.copy_from_slice(&global.as_slice()[..N_PARAMS]);
     params
+}
+
+/// The names of the three coordinate axes.
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// The name of coordinate `axis` (0, 1, 2: x, y, z) of the centre of the
+/// ball `id`, as parameters, conflict tests and records name it.
+pub(crate) fn centre_name(id: &str, axis: usize) -> String {
+    format!("centre {id}.{}", AXES[axis])
+}
+
+/// The name of the radius of the ball `id`.
+pub(crate) fn radius_name(id: &str) -> String {
+    format!("radius {id}")
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use parcal_kinematics::{PARAM_NAMES, Vec3};
 use parcal_solver::{IterationRecord, SolverOptions, Status};
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
+use crate::layout::{centre_name, radius_name};
 use crate::options::{GAUSS_NEWTON_ITERATIONS, LEVENBERG_MARQUARDT_ITERATIONS};
 use crate::problem::CalibrationProblem;
 use crate::setup::{Observations, Setup, kinematic_prior};
@@ -301,7 +302,7 @@ fn centre_conflict(
             chi_square += (difference / ball.centre_sigma).powi(2);
         }
     }
-    let name = |j: usize| format!("centre {}.{}", ids[j / 3], ["x", "y", "z"][j % 3]);
+    let name = |j: usize| centre_name(&ids[j / 3], j % 3);
     ConflictTest::new("ball centres", name, &d, &prior, &posterior, chi_square)
 }
 
@@ -310,7 +311,7 @@ fn centre_conflict(
 /// `radius ID`: a calibrated radius the touches contradict shows here.
 fn radius_conflict(dataset: &Dataset, radii: &[f64], sigmas: &[f64]) -> ConflictTest {
     let balls = &dataset.artefacts.balls;
-    let name = |k: usize| format!("radius {}", balls[k].id);
+    let name = |k: usize| radius_name(&balls[k].id);
     let d: Vec<f64> = balls.iter().zip(radii).map(|(b, r)| r - b.radius).collect();
     let prior: Vec<f64> = balls.iter().map(|b| b.radius_sigma.powi(2)).collect();
     let posterior: Vec<f64> = sigmas.iter().map(|s| s * s).collect();
