@@ -189,12 +189,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let report = args.report_request(&out, truth.as_ref());
     let destination = super::calibration_destination(&record, &out);
     let printed = if run.has_touches() {
-        print_results(truth.as_ref(), &run, &record, &destination, report.as_ref())
+        print_results(truth.as_ref(), &run, &record)
     } else {
-        print_instruments(&run, &record, &destination, report.as_ref())
+        print_instruments(&run, &record)
     };
-    super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
-    printed
+    let rejected =
+        super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
+    // Said once the files are there, not before.
+    let printed = printed.and_then(|()| print_written(&destination, report.as_ref()));
+    match rejected {
+        Some(rejected) => Err(rejected.into()),
+        None => printed,
+    }
 }
 
 /// `parcal calibrate --common`: the hexapod's ball touches by the common
@@ -257,18 +263,14 @@ fn seconds(text: &str) -> Result<Duration, String> {
 fn print_instruments(
     run: &CalibrationRun,
     record: &parcal::dataset::Calibration,
-    calibration: &Path,
-    report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
     let mut stdout = std::io::stdout().lock();
     writeln!(
         stdout,
-        "{}\n{}\ncalibration written to {}",
+        "{}\n{}",
         instruments::summary(run, record),
         instruments::parameters(run),
-        calibration.display()
     )?;
-    print_report(&mut stdout, report)?;
     Ok(())
 }
 
@@ -335,16 +337,18 @@ impl Args {
     }
 }
 
-/// Where `report` goes, on `stdout`.
-fn print_report(stdout: &mut impl Write, report: Option<&ReportRequest>) -> std::io::Result<()> {
-    match report {
-        Some(request) => writeln!(
+/// Where the calibration and its `report` went, on stdout.
+fn print_written(calibration: &Path, report: Option<&ReportRequest>) -> anyhow::Result<()> {
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "calibration written to {}", calibration.display())?;
+    if let Some(request) = report {
+        writeln!(
             stdout,
             "report written to {}",
             report::listed(&request.directory)
-        ),
-        None => Ok(()),
+        )?;
     }
+    Ok(())
 }
 
 /// `error` with the file of its row in front, if it names one: the line of
@@ -371,8 +375,6 @@ fn print_results(
     truth: Option<&TrueMachine>,
     run: &CalibrationRun,
     record: &parcal::dataset::Calibration,
-    calibration: &Path,
-    report: Option<&ReportRequest>,
 ) -> anyhow::Result<()> {
     let maps = before_after(truth, run, &MapGrid::paper()).context("accuracy map")?;
     let mut stdout = std::io::stdout().lock();
@@ -395,7 +397,5 @@ fn print_results(
     for line in record.reasons.iter().chain(&record.warnings) {
         writeln!(stdout, "  {line}")?;
     }
-    writeln!(stdout, "calibration written to {}", calibration.display())?;
-    print_report(&mut stdout, report)?;
     Ok(())
 }

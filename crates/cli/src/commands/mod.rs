@@ -142,16 +142,16 @@ impl ReportRequest<'_> {
 /// Stamps `record` with its provenance (this parcal, the dataset given as
 /// `path` and its checksum), writes it to its
 /// [`calibration_destination`] and, if asked, its report beside it (a
-/// rejected calibration's too: the report says why), and turns a rejected
-/// verdict into [`Rejected`] (which says where it went and that `out` is
-/// kept).
+/// rejected calibration's too: the report says why); a rejected verdict
+/// comes back as [`Rejected`] (which says where it went and that `out` is
+/// kept), for the caller to return once it has said what was written.
 pub fn write_calibration(
     mut record: parcal::dataset::Calibration,
     dataset: &Dataset,
     path: &Path,
     out: &Path,
     report: Option<&ReportRequest>,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Option<Rejected>> {
     record.provenance = Some(parcal::command::provenance(
         dataset,
         &path.display().to_string(),
@@ -185,14 +185,13 @@ pub fn write_calibration(
         } else {
             String::new()
         };
-        return Err(Rejected(format!(
+        return Ok(Some(Rejected(format!(
             "{} (written to {}{kept}; accuracy and validate refuse it without --accept-rejected)",
             failed.join("; "),
             destination.display()
-        ))
-        .into());
+        ))));
     }
-    Ok(())
+    Ok(None)
 }
 
 /// Reads a calibration to apply: refuses a rejected one unless
