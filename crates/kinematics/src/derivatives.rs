@@ -116,9 +116,10 @@ impl SolutionAlong {
 
 /// `J_f` in factored form, `J_f = -K d phi/dp + dT/dp|pose` with
 /// `K = P A^-1` (module documentation), kept as `K^T` (6 x 3), `R` and the
-/// leg directions `n_i` instead of the closure LU: a combination of its rows
-/// `h^T J_f` costs the product `y = K^T h` and a sparse row per leg, and
-/// `J_f dp = -K v + R dE_T` (`v` as in [`DerivativeAlong`]).
+/// leg directions `n_i` (with `R^T n_i`, formed once for every row) instead
+/// of the closure LU: a combination of its rows `h^T J_f` costs the product
+/// `y = K^T h` and a sparse row per leg, and `J_f dp = -K v + R dE_T` (`v`
+/// as in [`DerivativeAlong`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FactoredTipJacobian {
     /// `K^T = A^-T P^T`: column `a` is [`TipDerivatives::closure_weights`]
@@ -128,9 +129,19 @@ pub struct FactoredTipJacobian {
     pub rotation: Matrix3<f64>,
     /// The leg directions `n_i`.
     pub directions: [Vec3; 6],
+    /// The leg directions in the platform frame, `R^T n_i`: the platform
+    /// joints' columns of every row (a contact under eq. 10 with an angle
+    /// prior combines three).
+    pub platform_directions: [Vec3; 6],
 }
 
 impl FactoredTipJacobian {
+    /// `R^T n_i` of each leg direction `n_i` under `rotation`
+    /// ([`FactoredTipJacobian::platform_directions`]).
+    pub fn platform_directions(rotation: &Matrix3<f64>, directions: &[Vec3; 6]) -> [Vec3; 6] {
+        directions.map(|n| rotation.tr_mul(&n))
+    }
+
     /// `h^T J_f`, written into `out` (33 values), as
     /// [`TipDerivatives::params_row`] forms it.
     #[inline]
@@ -138,31 +149,34 @@ impl FactoredTipJacobian {
         leg_rows(
             &(self.weights * h),
             &self.rotation,
-            |i| self.directions[i],
+            |i| (self.directions[i], self.platform_directions[i]),
             h,
             out,
         );
     }
 
     /// The number of its values ([`FactoredTipJacobian::write_values`]).
-    pub const VALUES: usize = 45;
+    pub const VALUES: usize = 63;
 
     /// Its values into `out`, as [`FactoredValues`] reads them: `K^T` (18,
-    /// column-major), `R` (9, column-major) and the six `n_i` (18).
+    /// column-major), `R` (9, column-major), the six `n_i` (18) and the six
+    /// `R^T n_i` (18).
     pub fn write_values(&self, out: &mut [f64]) {
         let out: &mut [f64; Self::VALUES] = out
             .first_chunk_mut()
             .expect("room for a factored J_f's values");
         out[..18].copy_from_slice(self.weights.as_slice());
         out[18..27].copy_from_slice(self.rotation.as_slice());
-        for (o, n) in out[27..].chunks_exact_mut(3).zip(&self.directions) {
+        let legs = self.directions.iter().chain(&self.platform_directions);
+        for (o, n) in out[27..].chunks_exact_mut(3).zip(legs) {
             o.copy_from_slice(n.as_slice());
         }
     }
 
     /// `J_f dp` (mm).
     pub fn along(&self, dp: &Params) -> Vec3 {
-        let v = closure_change(&self.rotation, |i| self.directions[i], dp);
+        let legs = |i: usize| (self.directions[i], self.platform_directions[i]);
+        let v = closure_change(legs, dp);
         self.rotation * tool_step(dp) - self.weights.tr_mul(&v)
     }
 }
@@ -186,27 +200,23 @@ impl<'a> FactoredValues<'a> {
         MatrixView3::from_slice(&self.0[18..27])
     }
 
-    /// `n_i`.
-    fn direction(&self, i: usize) -> Vec3 {
-        Vec3::from_column_slice(&self.0[27 + 3 * i..30 + 3 * i])
+    /// `(n_i, R^T n_i)`.
+    fn leg(&self, i: usize) -> (Vec3, Vec3) {
+        let value =
+            |first: usize| Vec3::from_column_slice(&self.0[first + 3 * i..first + 3 * i + 3]);
+        (value(27), value(45))
     }
 
     /// [`FactoredTipJacobian::params_row`].
     pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
         let weights = MatrixView6x3::from_slice(&self.0[..18]);
-        leg_rows(
-            &(weights * h),
-            &self.rotation(),
-            |i| self.direction(i),
-            h,
-            out,
-        );
+        leg_rows(&(weights * h), &self.rotation(), |i| self.leg(i), h, out);
     }
 
     /// [`FactoredTipJacobian::along`].
     pub fn along(&self, dp: &Params) -> Vec3 {
         let weights = MatrixView6x3::from_slice(&self.0[..18]);
-        let v = closure_change(&self.rotation(), |i| self.direction(i), dp);
+        let v = closure_change(|i| self.leg(i), dp);
         self.rotation() * tool_step(dp) - weights.tr_mul(&v)
     }
 }
@@ -248,11 +258,12 @@ impl SolutionJacobian {
 
 /// `h^T J_f` from the closure weights `y = K^T h` (33 values into `out`):
 /// leg `i` adds `y_i` times its row `(n_i; -R^T n_i; 1)` at its base joint,
-/// platform joint and length, and the tool columns are `h^T R`.
+/// platform joint and length, and the tool columns are `h^T R`; `legs(i)`
+/// is `(n_i, R^T n_i)`.
 fn leg_rows<S: Storage<f64, U3, U3>>(
     y: &Vector6<f64>,
     rotation: &Matrix<f64, U3, U3, S>,
-    directions: impl Fn(usize) -> Vec3,
+    legs: impl Fn(usize) -> (Vec3, Vec3),
     h: &Vec3,
     out: &mut [f64],
 ) {
@@ -261,8 +272,7 @@ fn leg_rows<S: Storage<f64, U3, U3>>(
         .first_chunk_mut()
         .expect("a parameter row holds the 33 parameters");
     for i in 0..6 {
-        let n = directions(i);
-        let n_platform = rotation.tr_mul(&n);
+        let (n, n_platform) = legs(i);
         for c in 0..3 {
             if let Some(k) = BASE_INDEX[i][c] {
                 out[k] = y[i] * n[c];
@@ -278,15 +288,10 @@ fn leg_rows<S: Storage<f64, U3, U3>>(
 }
 
 /// `v = (d phi / dp) dp`: leg `i` changes by
-/// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`.
-fn closure_change<S: Storage<f64, U3, U3>>(
-    rotation: &Matrix<f64, U3, U3, S>,
-    directions: impl Fn(usize) -> Vec3,
-    dp: &Params,
-) -> Vector6<f64> {
+/// `-n_i . dB_i + (R^T n_i) . dE_i - dl_i`; `legs(i)` is `(n_i, R^T n_i)`.
+fn closure_change(legs: impl Fn(usize) -> (Vec3, Vec3), dp: &Params) -> Vector6<f64> {
     Vector6::from_fn(|i, _| {
-        let n = directions(i);
-        let n_platform = rotation.tr_mul(&n);
+        let (n, n_platform) = legs(i);
         let mut change = -dp[leg_index(i)];
         for c in 0..3 {
             if let Some(k) = BASE_INDEX[i][c] {
@@ -408,7 +413,7 @@ impl TipDerivatives {
         leg_rows(
             &self.closure_weights(h),
             &legs.rotation,
-            |i| legs.direction[i],
+            |i| legs.direction_in_both_frames(i),
             h,
             out,
         );
@@ -418,7 +423,7 @@ impl TipDerivatives {
     /// ([`DerivativeAlong`]): one LU solve.
     pub fn along(&self, dp: &Params) -> DerivativeAlong {
         let legs = &self.solution.legs;
-        let v = closure_change(&legs.rotation, |i| legs.direction[i], dp);
+        let v = closure_change(|i| legs.direction_in_both_frames(i), dp);
         let pose = -self.solution.factor.solve(&v);
         let (dt, w) = (
             Vec3::from(pose.fixed_rows::<3>(0)),
@@ -436,6 +441,10 @@ impl TipDerivatives {
             weights: self.d_q().transpose(),
             rotation: legs.rotation,
             directions: legs.direction,
+            platform_directions: FactoredTipJacobian::platform_directions(
+                &legs.rotation,
+                &legs.direction,
+            ),
         }
     }
 
@@ -468,7 +477,13 @@ impl TipDerivatives {
         let mut row = [0.0; N_PARAMS];
         for (axis, y) in self.axes_closure_weights().iter().enumerate() {
             let h = Vector3::ith(axis, 1.0);
-            leg_rows(y, &legs.rotation, |i| legs.direction[i], &h, &mut row);
+            leg_rows(
+                y,
+                &legs.rotation,
+                |i| legs.direction_in_both_frames(i),
+                &h,
+                &mut row,
+            );
             d_params.row_mut(axis).copy_from_slice(&row);
             d_q.row_mut(axis).copy_from(&y.transpose());
         }

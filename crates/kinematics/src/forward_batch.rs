@@ -350,6 +350,7 @@ mod avx2 {
             let weights = closure_weights(geometry, lanes.legs, lanes.factor);
             let tool_tips = tool_tips(geometry, lanes.poses);
             let legs = lanes.legs;
+            let platform = platform_directions(legs);
             for l in lanes.lanes() {
                 let at = |v: &Lane| v.as_array()[l];
                 let solution = solution(&mut items[l]);
@@ -361,6 +362,7 @@ mod avx2 {
                         jacobian.weights[(r, a)] = at(&weights[a][r]);
                     }
                     jacobian.directions[r] = vec_of(&legs.direction[r], l);
+                    jacobian.platform_directions[r] = vec_of(&platform[r], l);
                 }
                 jacobian.rotation = Matrix3::from_fn(|r, c| at(&legs.rotation[r][c]));
                 solution.iterations = lanes.iterations;
@@ -916,6 +918,20 @@ mod avx2 {
         Vec3::new(v[0].as_array()[l], v[1].as_array()[l], v[2].as_array()[l])
     }
 
+    /// The leg directions in the platform frame, `R^T n_i` (column `c` of
+    /// `R` dotted with `n_i`), in the scalar code's order
+    /// ([`crate::FactoredTipJacobian::platform_directions`]).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn platform_directions(legs: &LaneLegs) -> [[Lane; 3]; 6] {
+        let rotation = &legs.rotation;
+        legs.direction.map(|n| {
+            std::array::from_fn(|c| {
+                rotation[0][c] * n[0] + rotation[1][c] * n[1] + rotation[2][c] * n[2]
+            })
+        })
+    }
+
     /// [`crate::TipDerivatives::along`] in lanes, at the solutions of
     /// `legs` and `factor`: the pose's first-order change `(dt, w) = -A^-1 v` along
     /// `dp` (leg `i`: `v_i = -n_i . dB_i + (R^T n_i) . dE_i - dl_i`) and
@@ -936,11 +952,9 @@ mod avx2 {
                 rotation[r][0] * x[0] + rotation[r][1] * x[1] + rotation[r][2] * x[2]
             })
         };
+        let platform = platform_directions(legs);
         let v: [Lane; 6] = std::array::from_fn(|i| {
-            let n = &legs.direction[i];
-            let n_platform: [Lane; 3] = std::array::from_fn(|c| {
-                rotation[0][c] * n[0] + rotation[1][c] * n[1] + rotation[2][c] * n[2]
-            });
+            let (n, n_platform) = (&legs.direction[i], &platform[i]);
             let mut change = -param(leg_index(i));
             for c in 0..3 {
                 if let Some(k) = BASE_INDEX[i][c] {

@@ -563,6 +563,15 @@ fn factored_tip_jacobian_in_lanes_is_the_scalar_one() {
             for (n, m) in a.directions.iter().zip(&b.directions) {
                 assert_close(n.as_slice(), m.as_slice(), 1e-12, "n_i");
             }
+            // `R^T n_i` made in the lanes as the scalar code makes it, to
+            // the bit.
+            for jacobian in [a, b] {
+                let platform = FactoredTipJacobian::platform_directions(
+                    &jacobian.rotation,
+                    &jacobian.directions,
+                );
+                assert_eq!(jacobian.platform_directions, platform, "R^T n_i");
+            }
         }
     });
 }
