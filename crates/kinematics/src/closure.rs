@@ -37,13 +37,6 @@ impl Legs {
         legs
     }
 
-    /// Leg `i`'s direction in the base frame and in the platform's,
-    /// `(n_i, R^T n_i)`.
-    pub fn direction_in_both_frames(&self, i: usize) -> (Vec3, Vec3) {
-        let n = self.direction[i];
-        (n, self.rotation.tr_mul(&n))
-    }
-
     /// Evaluates the legs of `geometry` at `pose` in place.
     #[inline]
     pub fn evaluate(&mut self, geometry: &Geometry, pose: &Pose) {

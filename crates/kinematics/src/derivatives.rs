@@ -116,10 +116,10 @@ impl SolutionAlong {
 
 /// `J_f` in factored form, `J_f = -K d phi/dp + dT/dp|pose` with
 /// `K = P A^-1` (module documentation), kept as `K^T` (6 x 3), `R` and the
-/// leg directions `n_i` (with `R^T n_i`, formed once for every row) instead
-/// of the closure LU: a combination of its rows `h^T J_f` costs the product
-/// `y = K^T h` and a sparse row per leg, and `J_f dp = -K v + R dE_T` (`v`
-/// as in [`DerivativeAlong`]).
+/// leg directions `n_i` (and `R^T n_i`, formed once for all its rows)
+/// instead of the closure LU: a combination of its rows `h^T J_f` costs the
+/// product `y = K^T h` and a sparse row per leg, and `J_f dp = -K v + R dE_T`
+/// (`v` as in [`DerivativeAlong`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FactoredTipJacobian {
     /// `K^T = A^-T P^T`: column `a` is [`TipDerivatives::closure_weights`]
@@ -410,10 +410,11 @@ impl TipDerivatives {
     /// length, and the tool columns are `h^T R`.
     pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
         let legs = &self.solution.legs;
+        let platform = FactoredTipJacobian::platform_directions(&legs.rotation, &legs.direction);
         leg_rows(
             &self.closure_weights(h),
             &legs.rotation,
-            |i| legs.direction_in_both_frames(i),
+            |i| (legs.direction[i], platform[i]),
             h,
             out,
         );
@@ -423,7 +424,8 @@ impl TipDerivatives {
     /// ([`DerivativeAlong`]): one LU solve.
     pub fn along(&self, dp: &Params) -> DerivativeAlong {
         let legs = &self.solution.legs;
-        let v = closure_change(|i| legs.direction_in_both_frames(i), dp);
+        let platform = FactoredTipJacobian::platform_directions(&legs.rotation, &legs.direction);
+        let v = closure_change(|i| (legs.direction[i], platform[i]), dp);
         let pose = -self.solution.factor.solve(&v);
         let (dt, w) = (
             Vec3::from(pose.fixed_rows::<3>(0)),
@@ -475,15 +477,11 @@ impl TipDerivatives {
         let mut d_params = SMatrix::<f64, 3, N_PARAMS>::zeros();
         let mut d_q = Matrix3x6::zeros();
         let mut row = [0.0; N_PARAMS];
+        let platform = FactoredTipJacobian::platform_directions(&legs.rotation, &legs.direction);
         for (axis, y) in self.axes_closure_weights().iter().enumerate() {
             let h = Vector3::ith(axis, 1.0);
-            leg_rows(
-                y,
-                &legs.rotation,
-                |i| legs.direction_in_both_frames(i),
-                &h,
-                &mut row,
-            );
+            let legs_of = |i: usize| (legs.direction[i], platform[i]);
+            leg_rows(y, &legs.rotation, legs_of, &h, &mut row);
             d_params.row_mut(axis).copy_from_slice(&row);
             d_q.row_mut(axis).copy_from(&y.transpose());
         }
