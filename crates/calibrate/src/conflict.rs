@@ -72,20 +72,18 @@ impl ConflictTest {
         posterior_variances: &[f64],
         chi_square: f64,
     ) -> Self {
-        // `z` of each value, `None` when the data do not inform it (its
-        // posterior variance is its prior's up to `UNINFORMED`).
-        let z = |k: usize| {
-            let (difference, prior) = (differences[k], prior_variances[k]);
-            let variance = prior - posterior_variances[k];
-            (variance > UNINFORMED * prior).then(|| difference / variance.sqrt())
-        };
+        // The variance the data take off value `k`'s prior: the data inform
+        // it unless its posterior variance is its prior's up to `UNINFORMED`.
+        let variance = |k: usize| prior_variances[k] - posterior_variances[k];
+        let informs = |k: &usize| variance(*k) > UNINFORMED * prior_variances[*k];
         let degrees_of_freedom = differences.len();
-        let informed = (0..degrees_of_freedom).filter(|&k| z(k).is_some()).count();
+        let informed = (0..degrees_of_freedom).filter(informs).count();
         let z_limit = z_limit(informed);
         let mut offenders: Vec<Innovation> = (0..degrees_of_freedom)
+            .filter(informs)
             .filter_map(|k| {
-                let z = z(k).filter(|z| z.abs() > z_limit)?;
-                Some(Innovation {
+                let z = differences[k] / variance(k).sqrt();
+                (z.abs() > z_limit).then(|| Innovation {
                     name: name(k),
                     difference: differences[k],
                     z,
