@@ -13,9 +13,7 @@ use crate::chunks::{Chunk, Dims, ElimBuffers};
 use crate::gram::add_gram_lower;
 use crate::point_panel::{panel_normal, panel_qr, prior_panel_qr};
 use crate::problem::{BATCH, GlobalJacobian, Linearization, Problem, State};
-use crate::qr::{
-    PriorRows, RANK_TOLERANCE, add_column_norms2, householder_rows, triangle_has_full_rank,
-};
+use crate::qr::{PriorRows, RANK_TOLERANCE, householder_rows, triangle_has_full_rank};
 use crate::solution::BlockId;
 
 /// Levenberg–Marquardt diagonal entries are clamped to this range (as in
@@ -383,9 +381,6 @@ pub(crate) struct GroupRows<'w, const C: usize> {
     width: usize,
     capacity: usize,
     rows: usize,
-    /// Rows `fresh..rows` have not yet entered `norms2`.
-    fresh: usize,
-    norms2: [f64; C],
 }
 
 impl<'w, const C: usize> GroupRows<'w, C> {
@@ -397,16 +392,12 @@ impl<'w, const C: usize> GroupRows<'w, C> {
             width,
             capacity,
             rows: 0,
-            fresh: 0,
-            norms2: [0.0; C],
         }
     }
 
     /// Starts the next group.
     pub(crate) fn reset(&mut self) {
         self.rows = 0;
-        self.fresh = 0;
-        self.norms2 = [0.0; C];
     }
 
     /// A slot for the next row (its old contents must be overwritten).
@@ -427,19 +418,11 @@ impl<'w, const C: usize> GroupRows<'w, C> {
     /// of the rows below the triangle.
     fn fold(&mut self, scratch: &mut Vec<f64>, emit: &mut impl FnMut(&[f64])) {
         let w = self.width;
-        add_column_norms2(
-            &self.buf[self.fresh * w..],
-            self.rows - self.fresh,
-            w,
-            C,
-            &mut self.norms2,
-        );
         householder_rows(self.buf, self.rows, w, C, scratch);
         for r in C..self.rows {
             emit(&self.buf[r * w + C..(r + 1) * w]);
         }
         self.rows = self.rows.min(C);
-        self.fresh = self.rows;
     }
 
     /// Folds the remaining rows; returns the group's triangular rows
@@ -452,7 +435,7 @@ impl<'w, const C: usize> GroupRows<'w, C> {
     ) -> Option<&[f64]> {
         self.fold(scratch, emit);
         let w = self.width;
-        triangle_has_full_rank(self.buf, self.rows, w, C, &self.norms2).then(|| &self.buf[..C * w])
+        triangle_has_full_rank(self.buf, self.rows, w, C).then(|| &self.buf[..C * w])
     }
 }
 

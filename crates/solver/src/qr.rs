@@ -205,36 +205,20 @@ pub(crate) fn all_finite(values: &[f64]) -> bool {
     acc.iter().sum::<f64>() == 0.0
 }
 
-/// Squared norms of the leading `k` columns of the `m × n` row-major block,
-/// added to `out[0..k]`.
-pub(crate) fn add_column_norms2(a: &[f64], m: usize, n: usize, k: usize, out: &mut [f64]) {
-    if k == 0 {
-        return;
-    }
-    for row in rows(&a[..m * n], n) {
-        for (o, x) in out[..k].iter_mut().zip(&row[..k]) {
-            *o += x * x;
-        }
-    }
-}
-
 /// Whether the triangular factor left by [`householder_rows`] in the leading
-/// `k` columns of the `m`-row block `a` (row stride `n`) has full rank
-/// relative to the squared column norms `norms2` taken before the
-/// factorisation.
-pub(crate) fn triangle_has_full_rank(
-    a: &[f64],
-    m: usize,
-    n: usize,
-    k: usize,
-    norms2: &[f64],
-) -> bool {
+/// `k` columns of the `m`-row block `a` (row stride `n`) has full rank:
+/// `|R_jj| > RANK_TOLERANCE · |column j|` for every `j`, with `|column j|²
+/// = Σ_{i ≤ j} R_ij²` the squared norm of column `j` of the rows before the
+/// factorisation (the reflections preserve it, and leave the rows below the
+/// triangle zero in these columns), and not zero.
+pub(crate) fn triangle_has_full_rank(a: &[f64], m: usize, n: usize, k: usize) -> bool {
     if m < k {
         return false;
     }
     (0..k).all(|j| {
+        let norm2: f64 = rows(&a[..(j + 1) * n], n).map(|row| row[j] * row[j]).sum();
         let d = a[j * n + j].abs();
-        norms2[j] > 0.0 && d > RANK_TOLERANCE * norms2[j].sqrt()
+        norm2 > 0.0 && d > RANK_TOLERANCE * norm2.sqrt()
     })
 }
 
@@ -440,6 +424,28 @@ mod tests {
             }
             assert_reflects(&a0, m, n, k);
         }
+    }
+
+    #[test]
+    fn rank_is_judged_against_the_columns_norms_before_the_factorisation() {
+        // Column 2 of the 6 x 5 block is 2 c_0 - c_1 (plus `noise` in one
+        // row): dependent without it, independent with a relative 1e-6.
+        for (noise, full) in [(0.0, false), (1e-6, true)] {
+            let (m, n, k) = (6, 5, 3);
+            let mut seed = 11;
+            let mut a: Vec<f64> = (0..m * n).map(|_| lcg(&mut seed)).collect();
+            for r in 0..m {
+                a[r * n + 2] = 2.0 * a[r * n] - a[r * n + 1];
+            }
+            a[3 * n + 2] += noise;
+            householder_rows(&mut a, m, n, k, &mut Vec::new());
+            assert_eq!(triangle_has_full_rank(&a, m, n, k), full, "noise {noise}");
+        }
+        // A zero column, and fewer rows than columns.
+        let mut a = vec![1.0, 0.0, 3.0, 2.0, 0.0, 1.0, 4.0, 0.0, 5.0];
+        householder_rows(&mut a, 3, 3, 2, &mut Vec::new());
+        assert!(!triangle_has_full_rank(&a, 3, 3, 2));
+        assert!(!triangle_has_full_rank(&[1.0, 2.0, 3.0], 1, 3, 2));
     }
 
     #[test]
