@@ -180,7 +180,6 @@ where
     let ElimBuffers {
         point: point_buf,
         group: group_buf,
-        scratch,
         ..
     } = bufs;
     // Group rows [d_group | t], t = r + d_global δg.
@@ -265,7 +264,7 @@ where
                     continue;
                 }
                 for e in P..m {
-                    let row = group.next_row(scratch, &mut discard);
+                    let row = group.next_row(&mut discard);
                     stepped_row(lin, &t, prior.as_ref(), q, m, e, row);
                 }
             }
@@ -285,11 +284,10 @@ where
                 &[],
                 raw_norms2,
                 lambda,
-                scratch,
                 &mut discard,
             );
             let top = group
-                .finish(scratch, &mut discard)
+                .finish(&mut discard)
                 .ok_or(Failure::Singular(BlockId::Group(k)))?;
             let mut z = [0.0; C];
             for (a, z) in z.iter_mut().enumerate() {

@@ -76,8 +76,6 @@ pub(crate) struct Workspace {
     pub(crate) group: Vec<f64>,
     /// Reduced rows waiting for the Gram update, row-major.
     pub(crate) reduced: Vec<f64>,
-    /// Householder scratch (grows to the largest need, then stays).
-    pub(crate) scratch: Vec<f64>,
     /// One group row (`C + G + 1` values).
     pub(crate) row: Vec<f64>,
     /// Back-substitution data of the points of the current group.
@@ -90,7 +88,6 @@ impl Workspace {
             point: vec![0.0; d.point_rows() * (d.p + d.point_rows())],
             group: vec![0.0; d.group_capacity() * d.group_width()],
             reduced: vec![0.0; CHUNK_BUFFER_ROWS * d.reduced_width()],
-            scratch: Vec::new(),
             row: vec![0.0; d.group_width()],
             point_data: Vec::new(),
         }
@@ -103,7 +100,6 @@ impl Workspace {
             ElimBuffers {
                 point: &mut self.point,
                 group: &mut self.group,
-                scratch: &mut self.scratch,
                 row: &mut self.row,
             },
             &mut self.reduced,
@@ -116,7 +112,6 @@ impl Workspace {
 pub(crate) struct ElimBuffers<'w> {
     pub(crate) point: &'w mut [f64],
     pub(crate) group: &'w mut [f64],
-    pub(crate) scratch: &'w mut Vec<f64>,
     /// One group row: scratch for a row that skips the group buffer, or
     /// for a global Jacobian's rows (its first `G` values).
     pub(crate) row: &'w mut [f64],

@@ -401,13 +401,9 @@ impl<'w, const C: usize> GroupRows<'w, C> {
     }
 
     /// A slot for the next row (its old contents must be overwritten).
-    pub(crate) fn next_row(
-        &mut self,
-        scratch: &mut Vec<f64>,
-        emit: &mut impl FnMut(&[f64]),
-    ) -> &mut [f64] {
+    pub(crate) fn next_row(&mut self, emit: &mut impl FnMut(&[f64])) -> &mut [f64] {
         if self.rows == self.capacity {
-            self.fold(scratch, emit);
+            self.fold(emit);
         }
         let w = self.width;
         self.rows += 1;
@@ -416,9 +412,9 @@ impl<'w, const C: usize> GroupRows<'w, C> {
 
     /// QR on the group columns; emits the trailing columns (from column `C`)
     /// of the rows below the triangle.
-    fn fold(&mut self, scratch: &mut Vec<f64>, emit: &mut impl FnMut(&[f64])) {
+    fn fold(&mut self, emit: &mut impl FnMut(&[f64])) {
         let w = self.width;
-        householder_rows(self.buf, self.rows, w, C, scratch);
+        householder_rows::<C>(self.buf, self.rows, w);
         for r in C..self.rows {
             emit(&self.buf[r * w + C..(r + 1) * w]);
         }
@@ -428,12 +424,8 @@ impl<'w, const C: usize> GroupRows<'w, C> {
     /// Folds the remaining rows; returns the group's triangular rows
     /// `[R_cc | R_c… | z_c]` (`C` rows of the buffer's width), or `None` if
     /// the group block is rank deficient.
-    pub(crate) fn finish(
-        &mut self,
-        scratch: &mut Vec<f64>,
-        emit: &mut impl FnMut(&[f64]),
-    ) -> Option<&[f64]> {
-        self.fold(scratch, emit);
+    pub(crate) fn finish(&mut self, emit: &mut impl FnMut(&[f64])) -> Option<&[f64]> {
+        self.fold(emit);
         let w = self.width;
         triangle_has_full_rank(self.buf, self.rows, w, C).then(|| &self.buf[..C * w])
     }
@@ -451,12 +443,11 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
     effects: &[SVector<f64, C>],
     mut raw_norms2: [f64; C],
     lambda: f64,
-    scratch: &mut Vec<f64>,
     emit: &mut impl FnMut(&[f64]),
 ) -> SVector<f64, C> {
     if let Some(prior) = prior {
         for row in 0..C {
-            let dst = group.next_row(scratch, emit);
+            let dst = group.next_row(emit);
             dst.fill(0.0);
             for j in row..C {
                 dst[j] = prior.sqrt[(row, j)];
@@ -470,7 +461,7 @@ pub(crate) fn push_group_prior_and_damping<const C: usize>(
     if lambda > 0.0 {
         for j in 0..C {
             diagonal[j] = damping_diagonal(raw_norms2[j]);
-            let dst = group.next_row(scratch, emit);
+            let dst = group.next_row(emit);
             dst.fill(0.0);
             dst[j] = (lambda * diagonal[j]).sqrt();
         }
@@ -580,7 +571,6 @@ where
     let ElimBuffers {
         point: point_buf,
         group: group_buf,
-        scratch,
         row: single,
     } = bufs;
     let mut group = GroupRows::<C>::new(group_buf, dims.group_width());
@@ -649,7 +639,7 @@ where
                     let row = if fixed {
                         &mut *single
                     } else {
-                        group.next_row(scratch, &mut |row| sink.reduced_row(row))
+                        group.next_row(&mut |row| sink.reduced_row(row))
                     };
                     let (row, effects) = row.split_at_mut(residual_end);
                     eliminated_row(lin, prior.as_ref(), q, m, e, row);
@@ -698,11 +688,10 @@ where
             group_effects,
             raw_norms2,
             lambda,
-            scratch,
             &mut |row| sink.reduced_row(row),
         );
         let top = group
-            .finish(scratch, &mut |row| sink.reduced_row(row))
+            .finish(&mut |row| sink.reduced_row(row))
             .ok_or(Failure::Singular(BlockId::Group(k)))?;
         sink.group_done(k, Some(top), prior.as_ref(), group_data);
     }

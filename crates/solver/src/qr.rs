@@ -11,26 +11,44 @@ use crate::rows::{rows, rows_mut};
 /// the columns before it.
 pub(crate) const RANK_TOLERANCE: f64 = 1e-10;
 
-/// Householder factorisation of the leading `k` columns of the `m × n`
+/// A row holds its `NARROW` last columns.
+const NARROW_IN_ROW: &str = "the narrow columns lie in the row";
+
+/// Householder factorisation of the leading `K` columns of the `m × n`
 /// row-major block `a` (row stride `n`), the reflections applied to those
-/// `k` columns only: afterwards the upper triangle holds `R`, and below the
-/// diagonal of column `i` the reflector `v_i` (unit diagonal implicit), with
-/// `H_i = I − τ_i v_i v_iᵀ` and `τ_i` in `tau`. Returns the number of
-/// reflectors, `min(k, m)`.
+/// `K` columns and to the last `NARROW` columns: afterwards the upper
+/// triangle holds `R`, and below the diagonal of column `i` the reflector
+/// `v_i` (unit diagonal implicit), with `H_i = I − τ_i v_i v_iᵀ` and `τ_i`
+/// in `tau`. Returns the number of reflectors, `min(K, m)`.
+///
+/// Each reflector makes two passes over the rows below it, every column it
+/// reflects here at once: the first scales `v_j` and sums each column's
+/// `s_c = a_jc + Σ_r v_r a_rc`, the second subtracts `τ_j s_c v_r` and sums
+/// the next reflector's `σ = Σ_r a_r,j+1²`. Each sum runs over the rows in
+/// order, as one column at a time would take it (the same bits), and the
+/// columns' sums are independent chains side by side instead of one after
+/// another.
 #[inline(always)]
-fn householder_panel(a: &mut [f64], m: usize, n: usize, k: usize, tau: &mut [f64]) -> usize {
-    let kk = k.min(m);
+fn householder_panel<const K: usize, const NARROW: usize>(
+    a: &mut [f64],
+    m: usize,
+    n: usize,
+    tau: &mut [f64; K],
+) -> usize {
+    let kk = K.min(m);
+    let first_narrow = n - NARROW;
+    let below_diagonal = |a: &[f64], j: usize| -> f64 {
+        rows(&a[(j + 1) * n..m * n], n).fold(0.0, |s, row| s + row[j] * row[j])
+    };
+    let mut sigma = if kk > 0 { below_diagonal(a, 0) } else { 0.0 };
     for j in 0..kk {
-        // Row j and the rows below it, each cut to the panel's k columns.
         let (top, below) = a[j * n..m * n].split_at_mut(n);
-        let top = &mut top[..k];
-        let mut sigma = 0.0;
-        for row in rows(below, n) {
-            sigma += row[j] * row[j];
-        }
         let alpha = top[j];
         if sigma == 0.0 {
             tau[j] = 0.0;
+            if j + 1 < kk {
+                sigma = below_diagonal(a, j + 1);
+            }
             continue;
         }
         let norm = (alpha * alpha + sigma).sqrt();
@@ -38,23 +56,80 @@ fn householder_panel(a: &mut [f64], m: usize, n: usize, k: usize, tau: &mut [f64
         // H = I − τ v vᵀ with v = (1, x₁…/(α − β)), H x = β e₁.
         tau[j] = (beta - alpha) / beta;
         let inv = 1.0 / (alpha - beta);
+        // The sums of the panel's columns after j, and of the narrow ones:
+        // every panel column's, so that the loops have fixed lengths and
+        // the sums stay in registers (those up to j are not used).
+        let mut panel = *top.first_chunk::<K>().expect("the panel lies in the row");
+        let mut tail = *top[first_narrow..]
+            .first_chunk::<NARROW>()
+            .expect(NARROW_IN_ROW);
         for row in rows_mut(below, n) {
-            row[j] *= inv;
+            // The panel's values read before `v` is stored in their midst
+            // (a wide load over a narrower store waits for it).
+            let x = *row.first_chunk::<K>().expect("the panel lies in the row");
+            let v = x[j] * inv;
+            row[j] = v;
+            for (s, x) in panel.iter_mut().zip(&x) {
+                *s += v * x;
+            }
+            let x = row[first_narrow..]
+                .first_chunk::<NARROW>()
+                .expect(NARROW_IN_ROW);
+            for (s, x) in tail.iter_mut().zip(x) {
+                *s += v * x;
+            }
         }
         top[j] = beta;
-        for c in j + 1..k {
-            let mut s = top[c];
-            for row in rows(below, n) {
-                s += row[j] * row[c];
-            }
-            s *= tau[j];
-            top[c] -= s;
-            for row in rows_mut(below, n) {
-                row[c] -= s * row[j];
+        for c in j + 1..K {
+            panel[c] *= tau[j];
+            top[c] -= panel[c];
+        }
+        let top = top[first_narrow..]
+            .first_chunk_mut::<NARROW>()
+            .expect(NARROW_IN_ROW);
+        for (y, s) in top.iter_mut().zip(&mut tail) {
+            *s *= tau[j];
+            *y -= *s;
+        }
+        let mut below = rows_mut(below, n);
+        if let Some(row) = below.next() {
+            reflect_row(row, j, first_narrow, &panel, &tail);
+        }
+        let mut next = 0.0;
+        for row in below {
+            reflect_row(row, j, first_narrow, &panel, &tail);
+            if j + 1 < kk {
+                next += row[j + 1] * row[j + 1];
             }
         }
+        sigma = next;
     }
     kk
+}
+
+/// A row below reflector `j` of [`householder_panel`], `v = row[j]`, less
+/// `v s_c` in the panel's columns after `j` (`panel[c]`, `τ_j` applied)
+/// and in the narrow columns from `first_narrow` on (`tail`).
+#[inline(always)]
+fn reflect_row<const K: usize, const NARROW: usize>(
+    row: &mut [f64],
+    j: usize,
+    first_narrow: usize,
+    panel: &[f64; K],
+    tail: &[f64; NARROW],
+) {
+    let v = row[j];
+    for (c, s) in panel.iter().enumerate() {
+        if c > j {
+            row[c] -= s * v;
+        }
+    }
+    let x = row[first_narrow..]
+        .first_chunk_mut::<NARROW>()
+        .expect(NARROW_IN_ROW);
+    for (x, s) in x.iter_mut().zip(tail) {
+        *x -= s * v;
+    }
 }
 
 /// Trailing columns reflected together: their part of `w = v_jᵀ A_t` stays
@@ -111,77 +186,73 @@ fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
     }
 }
 
-/// Householder QR of the leading `k` columns of the `m × n` row-major block
+/// Householder QR of the leading `K` columns of the `m × n` row-major block
 /// `a` (row stride `n`); the reflections are applied to all `n` columns.
 ///
-/// Afterwards rows `0..min(m, k)` hold the upper-triangular factor in columns
-/// `0..k` (and the transformed trailing columns), and rows `k..m` are exactly
-/// zero in columns `0..k`. The reflections are orthogonal, so sums of squares
+/// Afterwards rows `0..min(m, K)` hold the upper-triangular factor in columns
+/// `0..K` (and the transformed trailing columns), and rows `K..m` are exactly
+/// zero in columns `0..K`. The reflections are orthogonal, so sums of squares
 /// of every column (and `AᵀA` of the whole block) are preserved.
 ///
 /// Each reflector `H_j = I − τ_j v_j v_jᵀ` is applied to the trailing columns
 /// in turn, `A_t −= τ_j v_j (v_jᵀ A_t)`, a block of [`BLOCK`] columns at a
-/// time (then blocks of 8, 4, 2 and 1 for the rest): two passes over the
-/// rows per block, with the block's part of `v_jᵀ A_t` in registers. A group
-/// has few columns to eliminate (`k` = 3 for a ball centre) and a handful of
-/// rows, where this cost half the instructions of the compact-WY form
-/// (`Q = I − V T Vᵀ` and two GEMMs), whose GEMM calls were dominated by
-/// their set-up; the column blocks cost 28 % fewer instructions than a pass
-/// over whole rows with `v_jᵀ A_t` in a scratch row (docs/performance.md).
-/// `scratch` grows as needed.
+/// time (then blocks of 8 and 4; the last `(n − K) mod 4` columns go with
+/// the panel, [`householder_panel`]): two passes over the rows per block,
+/// with the block's part of `v_jᵀ A_t` in registers. A group has few columns
+/// to eliminate (`K` = 3 for a ball centre) and a handful of rows, where
+/// this cost half the instructions of the compact-WY form (`Q = I − V T Vᵀ`
+/// and two GEMMs), whose GEMM calls were dominated by their set-up; the
+/// column blocks cost 28 % fewer instructions than a pass over whole rows
+/// with `v_jᵀ A_t` in a scratch row (docs/performance.md).
 ///
 /// Compiled twice: for AVX2, chosen at run time where the machine has it
 /// (the column blocks four wide instead of two), and for any x86-64. Both
 /// multiply and add in the same order, so they give the same bits.
 #[allow(unsafe_code, reason = "the AVX2 build, called after the feature check")]
-pub(crate) fn householder_rows(
-    a: &mut [f64],
-    m: usize,
-    n: usize,
-    k: usize,
-    scratch: &mut Vec<f64>,
-) {
+pub(crate) fn householder_rows<const K: usize>(a: &mut [f64], m: usize, n: usize) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the machine runs AVX2.
-        return unsafe { householder_rows_avx2(a, m, n, k, scratch) };
+        return unsafe { householder_rows_avx2::<K>(a, m, n) };
     }
-    householder_rows_in(a, m, n, k, scratch);
+    householder_rows_in::<K>(a, m, n);
 }
 
 /// [`householder_rows`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn householder_rows_avx2(a: &mut [f64], m: usize, n: usize, k: usize, scratch: &mut Vec<f64>) {
-    householder_rows_in(a, m, n, k, scratch);
+fn householder_rows_avx2<const K: usize>(a: &mut [f64], m: usize, n: usize) {
+    householder_rows_in::<K>(a, m, n);
 }
 
 /// The body of [`householder_rows`], inlined into each of its builds.
 #[inline(always)]
-fn householder_rows_in(a: &mut [f64], m: usize, n: usize, k: usize, scratch: &mut Vec<f64>) {
-    debug_assert!(a.len() >= m * n && k <= n);
-    let kk = k.min(m);
+fn householder_rows_in<const K: usize>(a: &mut [f64], m: usize, n: usize) {
+    debug_assert!(a.len() >= m * n && K <= n);
+    let kk = K.min(m);
     if kk == 0 {
         return;
     }
-    if scratch.len() < kk {
-        scratch.resize(kk, 0.0);
-    }
-    let tau = &mut scratch[..kk];
-    householder_panel(a, m, n, k, tau);
+    // The last columns that no block of four takes go with the panel.
+    let mut tau = [0.0; K];
+    match (n - K) % 4 {
+        0 => householder_panel::<K, 0>(a, m, n, &mut tau),
+        1 => householder_panel::<K, 1>(a, m, n, &mut tau),
+        2 => householder_panel::<K, 2>(a, m, n, &mut tau),
+        _ => householder_panel::<K, 3>(a, m, n, &mut tau),
+    };
+    let end = n - (n - K) % 4;
     for j in 0..kk {
         if tau[j] == 0.0 {
             continue;
         }
-        // Blocks of BLOCK columns, then the last columns in halving blocks.
-        let mut c = k;
-        while c < n {
-            c += match n - c {
+        // Blocks of BLOCK columns, then of 8 and 4.
+        let mut c = K;
+        while c < end {
+            c += match end - c {
                 BLOCK.. => reflect_columns::<BLOCK>(a, m, n, j, c, tau[j]),
                 8.. => reflect_columns::<8>(a, m, n, j, c, tau[j]),
-                4.. => reflect_columns::<4>(a, m, n, j, c, tau[j]),
-                2.. => reflect_columns::<2>(a, m, n, j, c, tau[j]),
-                _ => reflect_columns::<1>(a, m, n, j, c, tau[j]),
+                _ => reflect_columns::<4>(a, m, n, j, c, tau[j]),
             };
         }
     }
@@ -311,6 +382,21 @@ mod tests {
         ((*seed >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
     }
 
+    /// [`householder_rows`] (or, `portable`, the build for any x86-64) of
+    /// the leading `k` columns, `k` as a run-time value.
+    fn qr(a: &mut [f64], m: usize, n: usize, k: usize, portable: bool) {
+        let run: fn(&mut [f64], usize, usize) = match (k, portable) {
+            (1, false) => householder_rows::<1>,
+            (2, false) => householder_rows::<2>,
+            (3, false) => householder_rows::<3>,
+            (4, false) => householder_rows::<4>,
+            (1, true) => householder_rows_in::<1>,
+            (3, true) => householder_rows_in::<3>,
+            _ => unreachable!("no test factorises {k} columns"),
+        };
+        run(a, m, n);
+    }
+
     /// The textbook Householder QR of the leading `k` columns, entry by
     /// entry: for each reflector, every later column in turn, `s = a_jc +
     /// Σ_r v_r a_rc` over the rows in order, then `a_rc −= τ s v_r`.
@@ -347,10 +433,19 @@ mod tests {
 
     #[test]
     fn householder_preserves_gram_matrix_and_zeroes_leading_columns() {
-        // (9, 34, 3): 31 trailing columns, a block of each width (16, 8, 4,
-        // 2 and 1); (6, 34, 4): a first column zero below the diagonal (no
-        // reflector).
-        for (m, n, k) in [(7, 5, 3), (9, 34, 3), (24, 37, 3), (6, 34, 4)] {
+        // (9, 34, 3): 31 trailing columns, a block of each width (16, 8 and
+        // 4) and three with the panel; (7, 5, 3), (24, 37, 3), (24, 4, 3)
+        // and (12, 11, 3): two, two, one and none with the panel; (6, 34,
+        // 4): a first column zero below the diagonal (no reflector).
+        let shapes = [
+            (7, 5, 3),
+            (9, 34, 3),
+            (24, 37, 3),
+            (24, 4, 3),
+            (12, 11, 3),
+            (6, 34, 4),
+        ];
+        for (m, n, k) in shapes {
             let mut seed = 1;
             let mut a0: Vec<f64> = (0..m * n).map(|_| lcg(&mut seed)).collect();
             if k == 4 {
@@ -360,7 +455,7 @@ mod tests {
             }
             assert_reflects(&a0, m, n, k);
             let mut blocked = a0.clone();
-            householder_rows(&mut blocked, m, n, k, &mut Vec::new());
+            qr(&mut blocked, m, n, k, false);
             let mut textbook = a0;
             householder_reference(&mut textbook, m, n, k);
             assert!(
@@ -381,9 +476,9 @@ mod tests {
             let mut seed = 3;
             let a0: Vec<f64> = (0..m * n).map(|_| lcg(&mut seed)).collect();
             let mut dispatched = a0.clone();
-            householder_rows(&mut dispatched, m, n, k, &mut Vec::new());
+            qr(&mut dispatched, m, n, k, false);
             let mut portable = a0;
-            householder_rows_in(&mut portable, m, n, k, &mut Vec::new());
+            qr(&mut portable, m, n, k, true);
             assert!(
                 dispatched
                     .iter()
@@ -397,8 +492,7 @@ mod tests {
     /// keeps the Gram matrix `AᵀA` and zeroes below the diagonal.
     fn assert_reflects(a0: &[f64], m: usize, n: usize, k: usize) {
         let mut a = a0.to_vec();
-        let mut w = Vec::new();
-        householder_rows(&mut a, m, n, k, &mut w);
+        qr(&mut a, m, n, k, false);
         for i in 0..n {
             for j in 0..n {
                 let g0: f64 = (0..m).map(|r| a0[r * n + i] * a0[r * n + j]).sum();
@@ -438,12 +532,12 @@ mod tests {
                 a[r * n + 2] = 2.0 * a[r * n] - a[r * n + 1];
             }
             a[3 * n + 2] += noise;
-            householder_rows(&mut a, m, n, k, &mut Vec::new());
+            qr(&mut a, m, n, k, false);
             assert_eq!(triangle_has_full_rank(&a, m, n, k), full, "noise {noise}");
         }
         // A zero column, and fewer rows than columns.
         let mut a = vec![1.0, 0.0, 3.0, 2.0, 0.0, 1.0, 4.0, 0.0, 5.0];
-        householder_rows(&mut a, 3, 3, 2, &mut Vec::new());
+        qr(&mut a, 3, 3, 2, false);
         assert!(!triangle_has_full_rank(&a, 3, 3, 2));
         assert!(!triangle_has_full_rank(&[1.0, 2.0, 3.0], 1, 3, 2));
     }
