@@ -199,11 +199,11 @@ fn clear_reflectors(a: &mut [f64], m: usize, n: usize, kk: usize) {
 /// time (then blocks of 8 and 4; the last `(n − K) mod 4` columns go with
 /// the panel, [`householder_panel`]): two passes over the rows per block,
 /// with the block's part of `v_jᵀ A_t` in registers. A group has few columns
-/// to eliminate (`K` = 3 for a ball centre) and a handful of rows, where
-/// this cost half the instructions of the compact-WY form (`Q = I − V T Vᵀ`
-/// and two GEMMs), whose GEMM calls were dominated by their set-up; the
-/// column blocks cost 28 % fewer instructions than a pass over whole rows
-/// with `v_jᵀ A_t` in a scratch row (docs/performance.md).
+/// to eliminate (`K` = 3 for a ball centre) and a handful of rows, where the
+/// compact-WY form (`Q = I − V T Vᵀ` and two GEMMs) spends its instructions
+/// on the GEMM calls' set-up, and a pass over whole rows with `v_jᵀ A_t` in
+/// a scratch row loads and stores it once a row
+/// (docs/performance-iteration.md).
 ///
 /// Compiled twice: for AVX2, chosen at run time where the machine has it
 /// (the column blocks four wide instead of two), and for any x86-64. Both
