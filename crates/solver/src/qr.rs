@@ -91,6 +91,7 @@ fn householder_panel<const K: usize, const NARROW: usize>(
             *s *= tau[j];
             *y -= *s;
         }
+        // Row j + 1 holds the next reflector's diagonal, outside its σ.
         let mut below = rows_mut(below, n);
         if let Some(row) = below.next() {
             reflect_row(row, j, first_narrow, &panel, &tail);
