@@ -140,8 +140,14 @@ pub fn cost_sentence(cost: &PositionErrors, workspace: &Workspace) -> String {
         um(cost.volume_rms),
         um(cost.volume_max),
         workspace.height,
-        um(cost.z_offset)
+        hundredths(um(cost.z_offset))
     )
+}
+
+/// `value` rounded to hundredths, a value that rounds to zero written
+/// without a sign.
+fn hundredths(value: f64) -> f64 {
+    (value * 100.0).round() / 100.0 + 0.0
 }
 
 /// `params` in the linear delta's canonical frame.
@@ -188,6 +194,15 @@ mod tests {
         p.diagonal = [270.12, 269.91, 270.04];
         p.tilt = [0.05, -0.02];
         p
+    }
+
+    #[test]
+    fn an_offset_that_rounds_to_zero_is_written_without_a_sign() {
+        let written = |value: f64| format!("{:.2}", hundredths(value));
+        assert_eq!(written(-0.001), "0.00");
+        assert_eq!(written(-0.0), "0.00");
+        assert_eq!(written(-0.274), "-0.27");
+        assert_eq!(written(0.276), "0.28");
     }
 
     #[test]
