@@ -374,6 +374,9 @@ class MechanismDataset:
     def trigger_height(self) -> Optional[dict[str, float]]:
         """The probe's trigger height: value and prior sigma (mm)."""
     @property
+    def print_radius(self) -> Optional[float]:
+        """A printer's printable radius (mm), or None."""
+    @property
     def probes(self) -> FloatArray:
         """Probe heights (n x 3: x, y, z mm)."""
     @property

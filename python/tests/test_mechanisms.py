@@ -48,6 +48,7 @@ def test_read_dataset_reads_the_kind_machine_json_declares(hangprinter):
     assert ds.quantities["quantity"] == [f"line_length_{c}" for c in "abcd"]
     assert ds.probes.shape == (0, 3) and ds.distances.shape == (0, 7) and ds.truth is None
     assert ds.machine == {"design": None, **machine}  # as written: no design, the configured values
+    assert ds.print_radius is None  # a cable robot's machine.json states none
 
 
 def test_a_mechanism_dataset_written_reads_back_the_same(delta, tmp_path):
@@ -57,6 +58,7 @@ def test_a_mechanism_dataset_written_reads_back_the_same(delta, tmp_path):
     for name in ("probes", "distances", "configured", "design", "prior_sigmas"):
         assert np.array_equal(getattr(copy, name), getattr(original, name)), name
     assert copy.machine == original.machine and copy.trigger_height == {"value": 0.7, "sigma": 0.05}
+    assert copy.print_radius == original.print_radius == 100.0  # the simulated printer's
     assert np.array_equal(copy.truth["parameters"], original.truth["parameters"])
     with pytest.raises(parcal.Error, match="copy"):
         original.write(tmp_path / "copy")

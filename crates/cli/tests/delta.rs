@@ -106,21 +106,24 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
     assert!(summary.contains("diagonal_a"), "{summary}");
     let calibration = data.join("calibration.json");
     let out = d.join("new.g");
+    // The printable radius is config.g's (M665 B100), which the dataset
+    // beside the calibration keeps.
     let said = ok(&[
         "export",
         "--calibration",
         s(&calibration),
         "--format",
         "reprapfirmware",
-        "--print-radius",
-        "100",
         "--out",
         s(&out),
     ]);
     assert!(said.contains("cost"), "{said}");
+    assert!(said.contains("printable radius: 100 mm"), "{said}");
     let written = fs::read_to_string(&out).unwrap();
     assert!(written.contains("; parcal: cost: "), "{written}");
-    let back = read_config(&out).unwrap().delta.to_params();
+    let exported = read_config(&out).unwrap().delta;
+    assert_eq!(exported.print_radius, 100.0);
+    let back = exported.to_params();
     let record: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(&calibration).unwrap()).unwrap();
     let value = |name: &str| -> f64 {
@@ -157,6 +160,60 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
             value(name)
         );
     }
+}
+
+#[test]
+fn a_calibration_away_from_its_dataset_needs_the_printable_radius() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    let data = import_printer(d, false);
+    ok(&["calibrate", s(&data)]);
+    let away = d.join("calibration.json");
+    fs::copy(data.join("calibration.json"), &away).unwrap();
+    let out = d.join("new.g");
+    let export = |radius: Option<&'static str>| {
+        let mut args = vec![
+            "export",
+            "--calibration",
+            s(&away),
+            "--format",
+            "reprapfirmware",
+        ];
+        args.extend(radius.map(|r| ["--print-radius", r]).into_iter().flatten());
+        args.extend(["--out", s(&out)]);
+        args
+    };
+    let err = fails(&export(None));
+    assert!(err.contains("needs the printable radius"), "{err}");
+    assert!(err.contains("--print-radius"), "{err}");
+    assert!(!out.exists());
+    ok(&export(Some("90")));
+    assert_eq!(read_config(&out).unwrap().delta.print_radius, 90.0);
+}
+
+#[test]
+fn a_plan_probes_within_the_printers_own_printable_radius() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    // A printer whose printable disc (M665 B85) is smaller than the
+    // typical 110 mm: its probes are planned on it, out to its edge.
+    fs::write(d.join("config.g"), CONFIG.replace("B100", "B85")).unwrap();
+    let data = import_printer(d, false);
+    let next = d.join("next.csv");
+    ok(&["plan", s(&data), "--measurements", "12", "--out", s(&next)]);
+    let radii: Vec<f64> = (fs::read_to_string(&next).unwrap().lines().skip(1))
+        .map(|line| {
+            let xy: Vec<f64> = (line.split(',').take(2))
+                .map(|v| v.parse().unwrap())
+                .collect();
+            xy[0].hypot(xy[1])
+        })
+        .collect();
+    assert_eq!(radii.len(), 12);
+    assert!(radii.iter().all(|&r| r <= 85.0 + 1e-9), "{radii:?}");
+    assert!(radii.iter().any(|&r| r > 75.0), "{radii:?}");
 }
 
 #[test]

@@ -1,10 +1,13 @@
 //! A mechanism dataset's machine.json: a group made as a matched set
 //! (`"matched"`) written and read back, and refused, naming the field,
-//! when it has no tolerance or is looser than it.
+//! when it has no tolerance or is looser than it; a printer's printable
+//! radius (`"print_radius"`) written and read back, and refused when it
+//! is not a positive length.
 
 use std::fs;
 
 use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise};
+use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::delta::LinearDelta;
 
 /// A delta probed twice, its rods cut as a set within `matched` mm, its
@@ -63,4 +66,34 @@ fn a_matched_group_without_a_tolerance_or_looser_than_it_is_refused() {
     let error = MechanismDataset::read(dir.path()).unwrap_err().to_string();
     assert!(error.contains("machine.json"), "{error}");
     assert!(error.contains("matched.diagonal rods"), "{error}");
+}
+
+#[test]
+fn a_printable_radius_is_written_read_back_and_refused_when_not_positive() {
+    let mut dataset = with_rods(0.02, Some(0.5));
+    dataset.machine.print_radius = Some(95.5);
+    let dir = tempfile::tempdir().unwrap();
+    dataset.write(dir.path()).unwrap();
+    let read = MechanismDataset::read(dir.path()).unwrap();
+    assert_eq!(read.machine.print_radius, Some(95.5));
+    let path = dir.path().join("machine.json");
+    let text = fs::read_to_string(&path).unwrap();
+    let start = text.find("\"print_radius\"").unwrap();
+    let end = start + text[start..].find([',', '}']).unwrap();
+    for bad in ["0", "-95.5", "1e300"] {
+        let field = format!("\"print_radius\": {bad}");
+        fs::write(&path, format!("{}{field}{}", &text[..start], &text[end..])).unwrap();
+        let error = MechanismDataset::read(dir.path()).unwrap_err().to_string();
+        assert!(error.contains("print_radius"), "{bad}: {error}");
+    }
+    // Only a printer has one.
+    let mut cable = MechanismDataset {
+        machine: MechanismMachine::of(&CableRobot::typical()),
+        ..MechanismDataset::default()
+    };
+    cable.machine.print_radius = Some(95.5);
+    let dir = tempfile::tempdir().unwrap();
+    let error = cable.write(dir.path()).unwrap_err().to_string();
+    assert!(error.contains("print_radius"), "{error}");
+    assert!(error.contains("no printable radius"), "{error}");
 }

@@ -389,6 +389,13 @@ impl LinearDelta {
         &self.limits
     }
 
+    /// This delta with the printable radius `print_radius` (mm, its
+    /// firmware's `M665 B`): the nozzle stays within it.
+    pub fn within_print_radius(mut self, print_radius: f64) -> Self {
+        self.limits.print_radius = print_radius;
+        self
+    }
+
     /// The carriages' heights at their endstops in the firmware's
     /// coordinate, `Z_i^home = H + sqrt(L_i^2 - r_i^2) + e_i` (mm): a
     /// reading `q_i` is the carriage at `Z_i = q_i + Z_i^home`.

@@ -23,6 +23,20 @@ pub fn by_name(name: &str) -> Option<Box<dyn Mechanism>> {
     }
 }
 
+/// [`by_name`] within the printable radius `print_radius` (mm) when one
+/// is given: a linear delta whose nozzle stays within it (its
+/// firmware's `M665 B`, machine.json's `print_radius`); `None` for an
+/// unknown name or a printable radius given to another mechanism.
+pub fn by_name_within(name: &str, print_radius: Option<f64>) -> Option<Box<dyn Mechanism>> {
+    match (name, print_radius) {
+        (_, None) => by_name(name),
+        ("linear delta", Some(radius)) => {
+            Some(Box::new(LinearDelta::typical().within_print_radius(radius)))
+        }
+        _ => None,
+    }
+}
+
 /// The mechanism named `name` with the parameters `parameters` (name and
 /// unit of each, in order) of a calibration's record: the typical design
 /// ([`by_name`]) when they are its own, else its variant that has them (a
@@ -67,6 +81,26 @@ mod tests {
             crate::mechanism::check_params(mechanism.as_ref(), design.as_slice()).unwrap();
         }
         assert!(by_name("scara").is_none());
+    }
+
+    #[test]
+    fn only_a_delta_is_built_within_a_printable_radius() {
+        let delta = by_name_within("linear delta", Some(85.0)).unwrap();
+        let params = crate::mechanism::design(delta.as_ref());
+        delta
+            .check_feasible(params.as_slice(), &[84.0, 0.0, 1.0])
+            .unwrap();
+        let beyond = delta.check_feasible(params.as_slice(), &[0.0, 86.0, 1.0]);
+        assert!(
+            beyond.unwrap_err().to_string().contains("print radius 85"),
+            "beyond the printable radius"
+        );
+        for name in NAMES {
+            let typical = by_name_within(name, None).unwrap();
+            assert_eq!(typical.name(), name);
+        }
+        assert!(by_name_within("cable robot", Some(85.0)).is_none());
+        assert!(by_name_within("hexapod", Some(85.0)).is_none());
     }
 
     #[test]

@@ -11,10 +11,10 @@ use common::dense_prior;
 use nalgebra::DMatrix;
 use parcal_calibrate::mechanism::MechanismData;
 use parcal_dataset::mechanism::Noise;
-use parcal_kinematics::delta::{FIRST_LAYER, LinearDelta};
+use parcal_kinematics::delta::FIRST_LAYER;
 use parcal_plan::mechanism::greedy::{dense_covariance, group_trace};
 use parcal_plan::mechanism::information::{Linearisation, whitened_rows};
-use parcal_plan::mechanism::workspace::{distance_candidates, grid_candidates};
+use parcal_plan::mechanism::workspace::{Grid, distance_candidates, grid_candidates};
 use parcal_plan::mechanism::{Candidate, MechanismPlan, PlanRequest, plan_mechanism};
 use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
@@ -45,9 +45,9 @@ fn printer() -> MechanismData {
 fn plan(data: &MechanismData, probes: usize, distances: usize) -> MechanismPlan {
     let mechanism = data.mechanism.as_ref();
     let design: Vec<f64> = data.priors.iter().map(|p| p.mean).collect();
-    let mut candidates = distance_candidates(mechanism, 11).unwrap();
+    let mut candidates = distance_candidates(mechanism, grid(11)).unwrap();
     if probes > 0 {
-        candidates.extend(grid_candidates(mechanism, &design, 11, false).unwrap());
+        candidates.extend(grid_candidates(mechanism, &design, grid(11), false).unwrap());
     }
     plan_mechanism(&PlanRequest {
         data,
@@ -61,9 +61,18 @@ fn plan(data: &MechanismData, probes: usize, distances: usize) -> MechanismPlan 
     .unwrap()
 }
 
-/// The print radius the candidates cover (the typical delta's).
+/// The print radius the candidates cover (the simulated printer's, its
+/// machine.json's).
 fn print_radius() -> f64 {
-    LinearDelta::typical().limits().print_radius
+    DeltaScenario::typical().print_radius
+}
+
+/// The grid of `per_axis` points per axis over the printable disc.
+fn grid(per_axis: usize) -> Grid {
+    Grid {
+        per_axis,
+        print_radius: Some(print_radius()),
+    }
 }
 
 /// The rods' RMS sigma of a trace of their covariance.
@@ -221,7 +230,7 @@ fn a_plan_of_part_distances_alone() {
     assert!(plan.parameters.iter().all(|p| p.name != "trigger_height"));
     // A distance without the calliper's noise is refused, naming it.
     let mechanism = data.mechanism.as_ref();
-    let candidates = distance_candidates(mechanism, 5).unwrap();
+    let candidates = distance_candidates(mechanism, grid(5)).unwrap();
     let error = plan_mechanism(&PlanRequest {
         data: &data,
         noise: Noise::default(),

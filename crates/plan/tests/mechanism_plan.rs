@@ -14,7 +14,7 @@ use parcal_dataset::mechanism::{MechanismDataset, Noise, SampleRow};
 use parcal_kinematics::delta::probe_rings;
 use parcal_plan::mechanism::greedy::{dense_covariance, group_trace};
 use parcal_plan::mechanism::information::{Linearisation, whitened_rows};
-use parcal_plan::mechanism::workspace::grid_candidates;
+use parcal_plan::mechanism::workspace::{Grid, grid_candidates};
 use parcal_plan::mechanism::{Candidate, MechanismPlan, PlanRequest, Start, plan_mechanism};
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 use parcal_simulate::{CableScenario, Rng, simulate_cable_dataset};
@@ -41,7 +41,7 @@ fn plan_samples(
 ) -> (Vec<Candidate>, MechanismPlan) {
     let mechanism = data.mechanism.as_ref();
     let n = mechanism.parameters().len();
-    let candidates = grid_candidates(mechanism, &start.values[..n], 12, false).unwrap();
+    let candidates = grid_candidates(mechanism, &start.values[..n], Grid::new(12), false).unwrap();
     let plan = plan_mechanism(&PlanRequest {
         data,
         noise: dataset.machine.noise,
@@ -178,7 +178,12 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
     let mechanism = data.mechanism.as_ref();
     let n = mechanism.parameters().len();
     let design: Vec<f64> = data.priors.iter().map(|p| p.mean).collect();
-    let candidates = grid_candidates(mechanism, &design[..n], 11, false).unwrap();
+    // The grid over the simulated printer's own printable disc.
+    let grid = Grid {
+        per_axis: 11,
+        print_radius: dataset.machine.print_radius,
+    };
+    let candidates = grid_candidates(mechanism, &design[..n], grid, false).unwrap();
     let plan = plan_mechanism(&PlanRequest {
         data: &data,
         noise: Noise {

@@ -389,6 +389,7 @@ pub fn measure_delta(
             value: scenario.trigger_height,
             sigma: Some(scenario.trigger_sigma),
         }),
+        print_radius: Some(scenario.print_radius),
         ..MechanismMachine::stating_tolerances(&delta)
     };
     Ok(MechanismDataset {

@@ -236,6 +236,13 @@ impl MechanismDataset {
         to_python(py, &self.inner.machine.trigger_height)
     }
 
+    /// A printer's printable radius (mm), as its firmware holds it, or
+    /// `None` when machine.json states none.
+    #[getter]
+    fn print_radius(&self) -> Option<f64> {
+        self.inner.machine.print_radius
+    }
+
     /// The probe heights (n x 3, probes.csv's `x, y, z`: the commanded
     /// position and the height at which the probe triggered, mm).
     #[getter]

@@ -5,7 +5,7 @@
 
 use numpy::PyArray1;
 use parcal::plan::bounds::{GRID, MEASUREMENTS};
-use parcal::plan::mechanism::workspace::{DEFAULT_GRID, plan_candidates};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, Grid, plan_candidates};
 use parcal::plan::mechanism::{
     PlanRequest, Start, default_group, linearisation_point, plan_mechanism as plan,
 };
@@ -52,6 +52,10 @@ pub fn plan_mechanism<'py>(
     let dataset = dataset.get();
     let machine = dataset.inner.machine.clone();
     let noise = machine.noise;
+    let grid = Grid {
+        per_axis: grid,
+        print_radius: machine.print_radius,
+    };
     let machine_only = Inner {
         machine,
         ..Inner::default()

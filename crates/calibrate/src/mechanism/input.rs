@@ -1,6 +1,7 @@
 //! A mechanism dataset read from files
 //! ([`parcal_dataset::mechanism::MechanismDataset`]) as the data of a
-//! calibration: the mechanism from the one list, the configured
+//! calibration: the mechanism from the one list (a printer within its
+//! printable radius), the configured
 //! parameters, the design as the priors' means with the mechanism's
 //! tolerances overridden per group and the matched groups' correlation,
 //! the trigger height's prior, each
@@ -46,13 +47,23 @@ impl MechanismData {
     /// error here (a dataset built in memory).
     pub fn from_dataset(dataset: &MechanismDataset) -> Result<Self, MechanismCalibrationError> {
         let machine = &dataset.machine;
-        let mechanism = mechanisms::by_name(&machine.mechanism).ok_or_else(|| {
-            MechanismCalibrationError::InvalidData {
-                what: "mechanism".to_string(),
-                reason: format!(
-                    "unknown mechanism {:?} (known: {})",
-                    machine.mechanism,
-                    mechanisms::NAMES.join(", ")
+        let mechanism = machine.mechanism().ok_or_else(|| {
+            let invalid = |what: &str, reason| MechanismCalibrationError::InvalidData {
+                what: what.to_string(),
+                reason,
+            };
+            match mechanisms::by_name(&machine.mechanism) {
+                Some(_) => invalid(
+                    "print_radius",
+                    format!("the {} has no printable radius", machine.mechanism),
+                ),
+                None => invalid(
+                    "mechanism",
+                    format!(
+                        "unknown mechanism {:?} (known: {})",
+                        machine.mechanism,
+                        mechanisms::NAMES.join(", ")
+                    ),
                 ),
             }
         })?;

@@ -174,6 +174,7 @@ fn dataset(
         value: configured.trigger_height,
         sigma: Some(tolerances.trigger_sigma),
     });
+    machine.print_radius = Some(configured.print_radius);
     MechanismDataset {
         machine,
         probes: probes

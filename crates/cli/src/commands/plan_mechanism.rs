@@ -14,7 +14,7 @@ use parcal::dataset::mechanism::{
 };
 use parcal::plan::bounds;
 use parcal::plan::mechanism::plan_file::{distances_path, write_mechanism_plan};
-use parcal::plan::mechanism::workspace::{DEFAULT_GRID, plan_candidates};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, Grid, plan_candidates};
 use parcal::plan::mechanism::{
     MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, linearisation_point,
     plan_mechanism,
@@ -109,6 +109,7 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
     let machine_file = request.dir.join(MACHINE_FILE);
     let machine = MechanismMachine::read(&machine_file)?;
     let mut noise = machine.noise;
+    let print_radius = machine.print_radius;
     if let Some(sigma) = options.distance_sigma {
         anyhow::ensure!(
             sigma.is_finite() && sigma > 0.0 && sigma <= 1.0,
@@ -143,7 +144,10 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         !options.measured_positions || mechanism.name() == "cable robot",
         "--measured-positions applies to a cable robot's samples"
     );
-    let grid = options.grid.unwrap_or(DEFAULT_GRID);
+    let grid = Grid {
+        per_axis: options.grid.unwrap_or(DEFAULT_GRID),
+        print_radius,
+    };
     let candidates = plan_candidates(
         mechanism,
         &params,

@@ -1,7 +1,7 @@
 //! A mechanism dataset's `machine.json`: the mechanism by name, the
 //! parameters its controller runs with and the design, the builder's
-//! tolerances per parameter group, the noise of each kind of measurement
-//! and the probe's trigger height.
+//! tolerances per parameter group, the noise of each kind of measurement,
+//! the probe's trigger height and a printer's printable radius.
 //!
 //! ```json
 //! {
@@ -12,7 +12,8 @@
 //!  "tolerances": { "diagonal rods": 0.5, "tower radii": null },
 //!  "matched": { "diagonal rods": 0.02 },
 //!  "noise": { "probe": 0.01, "actuator": 0.005, "position": 0.01, "distance": 0.02 },
-//!  "trigger_height": { "value": 0.7, "sigma": 0.05 }
+//!  "trigger_height": { "value": 0.7, "sigma": 0.05 },
+//!  "print_radius": 100.0
 //! }
 //! ```
 //!
@@ -26,7 +27,9 @@
 //! group's tolerance says, so that the parts' priors are correlated; the
 //! sigma is positive and at most the group's tolerance. Every noise is
 //! optional, but the one of each kind of measurement the dataset holds is
-//! required.
+//! required. `print_radius` (mm, optional), a printer's printable radius
+//! as its firmware holds it (RepRapFirmware's `M665 B`, Klipper's
+//! `print_radius`), is what `parcal export` writes back to the firmware.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -98,6 +101,9 @@ pub struct MechanismMachine {
     /// The probe's trigger height (mm; G31 Z for RepRapFirmware) and its
     /// prior sigma.
     pub trigger_height: Option<ValuePrior>,
+    /// A printer's printable radius (mm), as its firmware holds it (module
+    /// doc).
+    pub print_radius: Option<f64>,
 }
 
 /// `machine.json` as read.
@@ -116,6 +122,8 @@ struct MachineFile {
     noise: Noise,
     #[serde(default)]
     trigger_height: Option<ValuePrior>,
+    #[serde(default)]
+    print_radius: Option<f64>,
 }
 
 /// `machine.json` as written: names in the mechanism's order.
@@ -131,6 +139,8 @@ struct MachineOut<'a> {
     noise: Noise,
     #[serde(skip_serializing_if = "Option::is_none")]
     trigger_height: Option<ValuePrior>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    print_radius: Option<f64>,
 }
 
 /// An object of named values, in the order given.
@@ -202,7 +212,7 @@ pub(crate) fn by_parameter(
 
 impl MechanismMachine {
     /// The machine of `mechanism` run with its design values, without
-    /// tolerance overrides, noise or trigger height.
+    /// tolerance overrides, noise, trigger height or printable radius.
     pub fn of(mechanism: &dyn Mechanism) -> Self {
         let design: Vec<f64> = mechanism.parameters().iter().map(|p| p.design).collect();
         Self {
@@ -213,6 +223,7 @@ impl MechanismMachine {
             matched: Vec::new(),
             noise: Noise::default(),
             trigger_height: None,
+            print_radius: None,
         }
     }
 
@@ -232,10 +243,11 @@ impl MechanismMachine {
         }
     }
 
-    /// The mechanism (its typical design from the one list; the dataset's
-    /// own values are in [`Self::configured`] and [`Self::design`]).
+    /// The mechanism (its typical design from the one list, within the
+    /// printable radius machine.json states; the dataset's own values are
+    /// in [`Self::configured`] and [`Self::design`]).
     pub fn mechanism(&self) -> Option<Box<dyn Mechanism>> {
-        mechanisms::by_name(&self.mechanism)
+        mechanisms::by_name_within(&self.mechanism, self.print_radius)
     }
 
     /// Reads and checks `machine.json` at `path`; a hexapod's (no
@@ -280,6 +292,7 @@ impl MechanismMachine {
             matched,
             noise: file.noise,
             trigger_height: file.trigger_height,
+            print_radius: file.print_radius,
         };
         machine.validate(check)?;
         Ok(machine)
@@ -315,6 +328,7 @@ impl MechanismMachine {
             ),
             noise: self.noise,
             trigger_height: self.trigger_height,
+            print_radius: self.print_radius,
         };
         json::write(path, json::MACHINE, &out)
     }
@@ -322,7 +336,8 @@ impl MechanismMachine {
     /// The checks of [`Self::read`] and [`Self::write`]: a known mechanism,
     /// one value per parameter, finite and within the length bound; known
     /// groups; sigmas within their bounds; a matched group's sigma at most
-    /// its tolerance.
+    /// its tolerance; a printable radius positive and within the length
+    /// bound.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
         let mechanism = mechanism_named(check.path(), "mechanism", &self.mechanism)?;
         let parameters = mechanism.parameters();
@@ -409,6 +424,18 @@ impl MechanismMachine {
             check.length("trigger_height.value", trigger.value)?;
             if let Some(sigma) = trigger.sigma {
                 check.sigma("trigger_height.sigma", sigma)?;
+            }
+        }
+        if let Some(radius) = self.print_radius {
+            check.positive_length("print_radius", radius)?;
+            if mechanisms::by_name_within(&self.mechanism, Some(radius)).is_none() {
+                return Err(check.error(
+                    "print_radius",
+                    format!(
+                        "the {} has no printable radius (a linear delta's)",
+                        self.mechanism
+                    ),
+                ));
             }
         }
         Ok(())

@@ -2,7 +2,8 @@
 //! workspace, of the kind of measurement its calibration takes there.
 //!
 //! - A linear delta: probe heights at commanded `(x, y)` on a square grid
-//!   over the bed, those within its print radius (`M665 B`); part
+//!   over the bed, those within its print radius (`M665 B`: machine.json's
+//!   `print_radius`, else its typical design's); part
 //!   distances between every two points of that grid at the first
 //!   layer's height ([`distance_candidates`]).
 //! - A cable robot: encoder samples on a cubic grid over the box of its
@@ -22,27 +23,49 @@ use crate::DesignError;
 /// The candidate grid's points per axis unless asked another.
 pub const DEFAULT_GRID: usize = 12;
 
+/// The grid candidates are taken on: `per_axis` points per axis over the
+/// mechanism's workspace, a delta's bed within `print_radius` (mm,
+/// machine.json's; its typical design's when `None`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grid {
+    /// Points per axis.
+    pub per_axis: usize,
+    /// A delta's printable radius.
+    pub print_radius: Option<f64>,
+}
+
+impl Grid {
+    /// `per_axis` points per axis, a delta's bed its typical design's.
+    pub fn new(per_axis: usize) -> Self {
+        Self {
+            per_axis,
+            print_radius: None,
+        }
+    }
+}
+
 /// `count` values evenly from `low` to `high`.
 fn along(low: f64, high: f64, count: usize) -> impl Iterator<Item = f64> + Clone {
     (0..count).map(move |i| low + (high - low) * i as f64 / (count - 1).max(1) as f64)
 }
 
-/// The points of a square grid of `per_axis` per axis over a delta's bed
-/// within its print radius.
-fn bed_grid(per_axis: usize) -> impl Iterator<Item = [f64; 2]> + Clone {
-    let radius = LinearDelta::typical().limits().print_radius;
-    let xs = along(-radius, radius, per_axis);
+/// The points of a square grid over a delta's bed within its print
+/// radius ([`Grid`]).
+fn bed_grid(grid: Grid) -> impl Iterator<Item = [f64; 2]> + Clone {
+    let radius =
+        (grid.print_radius).unwrap_or_else(|| LinearDelta::typical().limits().print_radius);
+    let xs = along(-radius, radius, grid.per_axis);
     xs.clone()
         .flat_map(move |x| xs.clone().map(move |y| [x, y]))
         .filter(move |[x, y]| x.hypot(*y) <= radius)
 }
 
-/// A delta's part distances: between every two points of the bed's grid
-/// of `per_axis` per axis, at the first layer's height (where a printed
-/// part's features are measured); an error for another mechanism.
+/// A delta's part distances: between every two points of the bed's
+/// `grid`, at the first layer's height (where a printed part's features
+/// are measured); an error for another mechanism.
 pub fn distance_candidates(
     mechanism: &dyn Mechanism,
-    per_axis: usize,
+    grid: Grid,
 ) -> Result<Vec<Candidate>, DesignError> {
     if mechanism.name() != "linear delta" {
         return Err(DesignError::Options(format!(
@@ -50,9 +73,7 @@ pub fn distance_candidates(
             mechanism.name()
         )));
     }
-    let points: Vec<[f64; 3]> = bed_grid(per_axis)
-        .map(|[x, y]| [x, y, FIRST_LAYER])
-        .collect();
+    let points: Vec<[f64; 3]> = bed_grid(grid).map(|[x, y]| [x, y, FIRST_LAYER]).collect();
     Ok(points
         .iter()
         .enumerate()
@@ -65,38 +86,39 @@ pub fn distance_candidates(
 }
 
 /// The candidates of a plan of `count` measurements and `distances` part
-/// distances on a grid of `per_axis` points per axis: the grid's
-/// ([`grid_candidates`], with `measured`) if `count > 0`, then a delta's
-/// part distances ([`distance_candidates`]) if `distances > 0`.
+/// distances on `grid`: the grid's ([`grid_candidates`], with `measured`)
+/// if `count > 0`, then a delta's part distances
+/// ([`distance_candidates`]) if `distances > 0`.
 pub fn plan_candidates(
     mechanism: &dyn Mechanism,
     params: &[f64],
-    per_axis: usize,
+    grid: Grid,
     measured: bool,
     count: usize,
     distances: usize,
 ) -> Result<Vec<Candidate>, DesignError> {
     let mut candidates = Vec::new();
     if count > 0 {
-        candidates = grid_candidates(mechanism, params, per_axis, measured)?;
+        candidates = grid_candidates(mechanism, params, grid, measured)?;
     }
     if distances > 0 {
-        candidates.extend(distance_candidates(mechanism, per_axis)?);
+        candidates.extend(distance_candidates(mechanism, grid)?);
     }
     Ok(candidates)
 }
 
-/// The candidates of `mechanism` at parameters `params` on a grid of
-/// `per_axis` points per axis (module doc); a cable robot's samples with
-/// their position measured if `measured`.
+/// The candidates of `mechanism` at parameters `params` on `grid` (module
+/// doc); a cable robot's samples with their position measured if
+/// `measured`.
 pub fn grid_candidates(
     mechanism: &dyn Mechanism,
     params: &[f64],
-    per_axis: usize,
+    grid: Grid,
     measured: bool,
 ) -> Result<Vec<Candidate>, DesignError> {
+    let per_axis = grid.per_axis;
     match mechanism.name() {
-        "linear delta" => Ok(bed_grid(per_axis).map(Candidate::Probe).collect()),
+        "linear delta" => Ok(bed_grid(grid).map(Candidate::Probe).collect()),
         "cable robot" => {
             let robot = CableRobot::typical();
             let anchors: Vec<_> = (0..mechanism.actuators().len())
