@@ -430,6 +430,10 @@ class MechanismCalibration:
     def mechanism(self) -> str:
         """The mechanism's name."""
     @property
+    def print_radius(self) -> Optional[float]:
+        """A printer's printable radius (mm), its dataset's, which
+        ``compensate`` keeps targets within; None when it stated none."""
+    @property
     def verdict(self) -> Literal["accepted", "rejected"]:
         """The verdict."""
     @property

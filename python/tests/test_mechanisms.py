@@ -221,6 +221,10 @@ def test_compensate_gives_the_commands_of_the_cli(delta, cli, tmp_path):
     assert np.array_equal(in_memory["q"], mine["q"])
     with pytest.raises(parcal.Error, match=r"1 of 2 targets cannot be reached by the calibrated linear delta:\n  target row 1: "):
         parcal.compensate(str(calibration), [[0.0, 0.0, 5.0], [0.0, 0.0, 5000.0]])
+    # The calibration carries the printer's printable radius (100 mm, not the typical 110 mm).
+    assert parcal.MechanismCalibration.read(calibration).print_radius == 100.0
+    with pytest.raises(parcal.Error, match=r"target row 1: .*beyond the print radius 100"):
+        parcal.compensate(str(calibration), [[0.0, 0.0, 5.0], [105.0, 0.0, 5.0]])
 
 
 def test_plan_chooses_the_probes_of_the_cli(delta, cli, tmp_path):

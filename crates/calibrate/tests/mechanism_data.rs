@@ -167,6 +167,23 @@ fn a_dataset_calibrates_from_its_files_and_its_record_reads_back() {
     assert_eq!(back, record);
     assert_eq!(back.mechanism, "linear delta");
     assert_eq!(back.parameters.len(), 17);
+    // The printer's printable radius travels from machine.json to the
+    // record, which refuses one that is not a positive length.
+    assert_eq!(data.print_radius, Some(scenario.print_radius));
+    assert_eq!(back.print_radius, Some(scenario.print_radius));
+    let negative = path.join("negative.json");
+    let error = MechanismCalibrationRecord {
+        print_radius: Some(-5.0),
+        ..back.clone()
+    }
+    .write(&negative)
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("negative.json") && error.contains("print_radius"),
+        "{error}"
+    );
+    assert!(!negative.exists());
     assert_eq!(
         back.parameter("radius").unwrap().value,
         run.parameter("radius").unwrap().value

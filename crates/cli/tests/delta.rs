@@ -106,8 +106,8 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
     assert!(summary.contains("diagonal_a"), "{summary}");
     let calibration = data.join("calibration.json");
     let out = d.join("new.g");
-    // The printable radius is config.g's (M665 B100), which the dataset
-    // beside the calibration keeps.
+    // The printable radius is config.g's (M665 B100), which the
+    // calibration carries from its dataset.
     let said = ok(&[
         "export",
         "--calibration",
@@ -163,32 +163,74 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
 }
 
 #[test]
-fn a_calibration_away_from_its_dataset_needs_the_printable_radius() {
+fn a_calibration_carries_its_printers_printable_radius() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     printer(d);
     let data = import_printer(d, false);
     ok(&["calibrate", s(&data)]);
+    // Moved away from its dataset, the calibration still knows config.g's
+    // M665 B100: export writes it back, --print-radius overrides it.
     let away = d.join("calibration.json");
     fs::copy(data.join("calibration.json"), &away).unwrap();
     let out = d.join("new.g");
-    let export = |radius: Option<&'static str>| {
+    fn export<'a>(calibration: &'a Path, out: &'a Path, radius: Option<&'a str>) -> Vec<&'a str> {
         let mut args = vec![
             "export",
             "--calibration",
-            s(&away),
+            s(calibration),
             "--format",
             "reprapfirmware",
         ];
         args.extend(radius.map(|r| ["--print-radius", r]).into_iter().flatten());
-        args.extend(["--out", s(&out)]);
+        args.extend(["--out", s(out)]);
         args
-    };
-    let err = fails(&export(None));
-    assert!(err.contains("needs the printable radius"), "{err}");
+    }
+    let said = ok(&export(&away, &out, None));
+    assert!(said.contains("printable radius: 100 mm"), "{said}");
+    assert_eq!(read_config(&out).unwrap().delta.print_radius, 100.0);
+    ok(&export(&away, &out, Some("90")));
+    assert_eq!(read_config(&out).unwrap().delta.print_radius, 90.0);
+
+    // Compensation keeps the nozzle within 100 mm, not the typical
+    // printer's 110 mm: a target at 105 mm is refused, by its line.
+    let targets = d.join("targets.csv");
+    let commands = d.join("commands.csv");
+    let compensate = [
+        "compensate",
+        "--calibration",
+        s(&away),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ];
+    fs::write(&targets, "x,y,z\n0,0,5\n0,95,5\n105,0,5\n").unwrap();
+    let err = fails(&compensate);
+    assert!(
+        err.contains("line 4:") && err.contains("beyond the print radius 100"),
+        "{err}"
+    );
+    assert!(!commands.exists());
+    fs::write(&targets, "x,y,z\n0,0,5\n0,95,5\n").unwrap();
+    ok(&compensate);
+    assert_eq!(fs::read_to_string(&commands).unwrap().lines().count(), 3);
+
+    // A dataset that states no printable radius gives a calibration that
+    // needs --print-radius to be exported.
+    let machine = data.join("machine.json");
+    let mut stated: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&machine).unwrap()).unwrap();
+    assert_eq!(stated["print_radius"], 100.0);
+    stated.as_object_mut().unwrap().remove("print_radius");
+    fs::write(&machine, serde_json::to_string(&stated).unwrap()).unwrap();
+    ok(&["calibrate", s(&data)]);
+    let unstated = data.join("calibration.json");
+    let err = fails(&export(&unstated, &out, None));
+    assert!(err.contains("states no printable radius"), "{err}");
     assert!(err.contains("--print-radius"), "{err}");
-    assert!(!out.exists());
-    ok(&export(Some("90")));
+    fs::remove_file(&out).unwrap();
+    ok(&export(&unstated, &out, Some("90")));
     assert_eq!(read_config(&out).unwrap().delta.print_radius, 90.0);
 }
 

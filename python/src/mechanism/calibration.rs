@@ -152,6 +152,14 @@ impl MechanismCalibration {
         &self.record.mechanism
     }
 
+    /// A printer's printable radius (mm), its dataset's, which
+    /// `compensate` keeps targets within; `None` when the dataset stated
+    /// none.
+    #[getter]
+    fn print_radius(&self) -> Option<f64> {
+        self.record.print_radius
+    }
+
     /// `"accepted"` or `"rejected"`.
     #[getter]
     fn verdict(&self) -> &str {

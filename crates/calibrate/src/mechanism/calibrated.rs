@@ -34,9 +34,11 @@ pub struct CalibratedMechanism {
 
 impl CalibratedMechanism {
     /// From a calibration's record: a known mechanism (the variant of its
-    /// parameters, [`mechanisms::with_parameters`]), its parameters in its
-    /// order (then `trigger_height`, if any), and a covariance (a
-    /// calibration that did not converge has none and is refused).
+    /// parameters, [`mechanisms::with_parameters`]; a printer within the
+    /// printable radius the record states, [`mechanisms::by_name_within`]),
+    /// its parameters in its order (then `trigger_height`, if any), and a
+    /// covariance (a calibration that did not converge has none and is
+    /// refused).
     pub fn from_record(
         record: &MechanismCalibrationRecord,
     ) -> Result<Self, MechanismCalibrationError> {
@@ -50,20 +52,24 @@ impl CalibratedMechanism {
             .filter(|p| p.name != TRIGGER_HEIGHT)
             .map(|p| (p.name.as_str(), p.unit.as_str()))
             .collect();
-        let mechanism: Arc<dyn Mechanism> =
-            mechanisms::with_parameters(&record.mechanism, &recorded)
-                .or_else(|| mechanisms::by_name(&record.mechanism))
-                .ok_or_else(|| {
-                    invalid(
-                        "mechanism",
-                        format!(
-                            "unknown mechanism {:?} (known: {})",
-                            record.mechanism,
-                            mechanisms::NAMES.join(", ")
-                        ),
-                    )
-                })?
-                .into();
+        // A printer within its printable radius has its own parameters.
+        let known = match record.print_radius {
+            Some(_) => mechanisms::by_name_within(&record.mechanism, record.print_radius),
+            None => mechanisms::with_parameters(&record.mechanism, &recorded)
+                .or_else(|| mechanisms::by_name(&record.mechanism)),
+        };
+        let mechanism: Arc<dyn Mechanism> = known
+            .ok_or_else(|| {
+                invalid(
+                    "mechanism",
+                    format!(
+                        "unknown mechanism {:?} (known: {})",
+                        record.mechanism,
+                        mechanisms::NAMES.join(", ")
+                    ),
+                )
+            })?
+            .into();
         let names: Vec<String> = mechanism
             .parameters()
             .iter()

@@ -338,6 +338,11 @@ pub struct MechanismData {
     /// located them ([`TouchStart`]); `None`: from the mechanism's start
     /// poses.
     pub touch_start: Option<TouchStart>,
+    /// A printer's printable radius (mm, machine.json's), which
+    /// [`Self::mechanism`] keeps the nozzle within and the calibration's
+    /// record carries to what applies it (compensation, the firmware's
+    /// lines); `None`: the mechanism's own limits, unrecorded.
+    pub print_radius: Option<f64>,
 }
 
 impl fmt::Debug for MechanismData {
@@ -350,6 +355,7 @@ impl fmt::Debug for MechanismData {
             .field("trigger_height", &self.trigger_height)
             .field("observations", &self.observations)
             .field("touch_start", &self.touch_start.as_ref().map(|_| "given"))
+            .field("print_radius", &self.print_radius)
             .finish()
     }
 }
@@ -383,6 +389,7 @@ impl MechanismData {
             },
             observations,
             touch_start: None,
+            print_radius: None,
         }
     }
 

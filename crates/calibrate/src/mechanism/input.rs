@@ -202,6 +202,7 @@ impl MechanismData {
         if let Some(trigger) = machine.trigger_height {
             data = data.with_trigger_height(trigger.value, trigger.sigma);
         }
+        data.print_radius = machine.print_radius;
         Ok(data)
     }
 

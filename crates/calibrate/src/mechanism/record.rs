@@ -58,6 +58,7 @@ impl MechanismCalibration {
             .collect();
         MechanismCalibrationRecord {
             mechanism: self.mechanism,
+            print_radius: self.print_radius,
             status: format!("{:?}", self.status),
             iterations: self.iterations,
             accepted: self.verdict.accepted,

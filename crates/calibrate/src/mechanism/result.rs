@@ -118,6 +118,9 @@ fn correction_sigma(covariance: Option<&Matrix6<f64>>) -> Option<[f64; 6]> {
 pub struct MechanismCalibration {
     /// The mechanism's name.
     pub mechanism: String,
+    /// A printer's printable radius (mm), that of the data
+    /// ([`MechanismData::print_radius`](super::MechanismData)).
+    pub print_radius: Option<f64>,
     /// The mechanism's parameters, then the trigger height when there were
     /// probe heights: values and sigmas in the canonical frame.
     pub parameters: Vec<EstimatedParameter>,
@@ -327,6 +330,7 @@ pub(crate) fn assemble(
     let verdict = Verdict::new(&fit.status, global_test, outlier);
     let mut calibration = MechanismCalibration {
         mechanism: mechanism.name().to_string(),
+        print_radius: data.print_radius,
         parameters,
         covariance: frame
             .covariance

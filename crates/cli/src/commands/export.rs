@@ -11,7 +11,7 @@ use parcal::apply::machine::calibrated_machine;
 use parcal::apply::summary::summary;
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::atomic::write_file;
-use parcal::dataset::mechanism::{MechanismCalibrationRecord, MechanismMachine};
+use parcal::dataset::mechanism::MechanismCalibrationRecord;
 use parcal::firmware::accuracy::Workspace;
 use parcal::firmware::export::{Firmware, cost_sentence, export};
 use parcal::firmware::hangprinter::HangprinterConfig;
@@ -73,9 +73,9 @@ pub struct Args {
     #[arg(long)]
     accept_rejected: bool,
     /// The printable radius of a delta (mm, M665 B or print_radius) that
-    /// --format reprapfirmware and klipper write back. Default: the one
-    /// machine.json beside the calibration states (parcal import keeps the
-    /// firmware's there).
+    /// --format reprapfirmware and klipper write back. Default: the one the
+    /// calibration carries from its dataset (parcal import keeps the
+    /// firmware's).
     #[arg(long, value_name = "MM")]
     print_radius: Option<f64>,
 }
@@ -150,7 +150,7 @@ fn mismatch_of(path: &Path, mechanism: &str, format: Format) -> Option<anyhow::E
 fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
     let path = &args.calibration;
     let record = mechanism_record(args)?;
-    let print_radius = print_radius(args, &record.mechanism)?;
+    let print_radius = print_radius(args, &record)?;
     let calibrated = delta_parameters(&record, path)?;
     let workspace = Workspace::of_printer(print_radius, calibrated.homed_height);
     let exported = export(&calibrated, print_radius, firmware, &workspace)
@@ -164,10 +164,9 @@ fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
 }
 
 /// The printable radius a delta's export writes back: `--print-radius`,
-/// else the one the dataset's machine.json beside the calibration (of the
-/// same `mechanism`) states, which `parcal import` keeps from the
-/// firmware's files; where it came from printed.
-fn print_radius(args: &Args, mechanism: &str) -> anyhow::Result<f64> {
+/// else the one the calibration's record carries from its dataset
+/// (machine.json's, which `parcal import` takes from the firmware).
+fn print_radius(args: &Args, record: &MechanismCalibrationRecord) -> anyhow::Result<f64> {
     if let Some(radius) = args.print_radius {
         anyhow::ensure!(
             radius.is_finite() && radius > 0.0,
@@ -175,27 +174,17 @@ fn print_radius(args: &Args, mechanism: &str) -> anyhow::Result<f64> {
         );
         return Ok(radius);
     }
-    let needed = || {
-        format!(
-            "--format {} needs the printable radius (M665 B or print_radius): --print-radius, or a machine.json beside the calibration that states it (parcal import writes the firmware's there)",
+    match record.print_radius {
+        Some(radius) => {
+            println!("printable radius: {radius} mm (the calibration's dataset's)");
+            Ok(radius)
+        }
+        None => anyhow::bail!(
+            "{}: the calibration states no printable radius (its dataset's machine.json has no print_radius): --format {} needs --print-radius (M665 B or print_radius)",
+            args.calibration.display(),
             args.format.name()
-        )
-    };
-    let beside = args.calibration.with_file_name("machine.json");
-    anyhow::ensure!(beside.is_file(), needed());
-    let machine = MechanismMachine::read(&beside).with_context(needed)?;
-    let stated = machine
-        .print_radius
-        .filter(|_| machine.mechanism == mechanism);
-    let radius = stated.with_context(|| {
-        format!(
-            "{}: states no printable radius of this {mechanism}; {}",
-            beside.display(),
-            needed()
-        )
-    })?;
-    println!("printable radius: {radius} mm ({})", beside.display());
-    Ok(radius)
+        ),
+    }
 }
 
 /// The calibration record of `args`, of the mechanism `args.format`

@@ -1,5 +1,6 @@
 //! The record of a mechanism calibration (`calibration.json`, format
-//! `parcal-mechanism-calibration/1.1`): the mechanism, the estimated
+//! `parcal-mechanism-calibration/1.2`): the mechanism (and a printer's
+//! printable radius, since 1.2), the estimated
 //! parameters in its canonical frame with their sigmas, priors and
 //! covariance, the verdict and its reasons, the tests (global test,
 //! w-tests, snooping) and the identifiability, so that `export` and
@@ -15,7 +16,7 @@ use crate::error::Result;
 use crate::json;
 use crate::{FrameRecord, GlobalTestRecord};
 
-use super::machine::mechanism_named;
+use super::machine::{check_print_radius, mechanism_named};
 use super::observation_records::ObservationRecords;
 
 /// The name of the probe's trigger height among the estimated unknowns,
@@ -183,6 +184,11 @@ pub struct TrackerRecord {
 pub struct MechanismCalibrationRecord {
     /// The mechanism's name.
     pub mechanism: String,
+    /// A printer's printable radius (mm), its dataset's (machine.json's
+    /// `print_radius`): what applying the calibration keeps the nozzle
+    /// within and writes back to the firmware (absent: none stated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub print_radius: Option<f64>,
     /// How the solver ended.
     pub status: String,
     /// Its linear solves.
@@ -270,6 +276,7 @@ impl MechanismCalibrationRecord {
     /// observation.
     fn validate(&self, check: Check) -> Result<()> {
         mechanism_named(check.path(), "mechanism", &self.mechanism)?;
+        check_print_radius(check, &self.mechanism, self.print_radius)?;
         let mut names = BTreeSet::new();
         for (k, p) in self.parameters.iter().enumerate() {
             let field = |name: &str| format!("parameters[{k}].{name}");

@@ -426,18 +426,23 @@ impl MechanismMachine {
                 check.sigma("trigger_height.sigma", sigma)?;
             }
         }
-        if let Some(radius) = self.print_radius {
-            check.positive_length("print_radius", radius)?;
-            if mechanisms::by_name_within(&self.mechanism, Some(radius)).is_none() {
-                return Err(check.error(
-                    "print_radius",
-                    format!(
-                        "the {} has no printable radius (a linear delta's)",
-                        self.mechanism
-                    ),
-                ));
-            }
-        }
-        Ok(())
+        check_print_radius(check, &self.mechanism, self.print_radius)
     }
+}
+
+/// Refuses a printable radius (`print_radius`, mm) that is not a positive
+/// length, or that the mechanism named `mechanism` has none of (a linear
+/// delta's alone).
+pub(crate) fn check_print_radius(check: Check, mechanism: &str, radius: Option<f64>) -> Result<()> {
+    let Some(radius) = radius else {
+        return Ok(());
+    };
+    check.positive_length("print_radius", radius)?;
+    if mechanisms::by_name_within(mechanism, Some(radius)).is_none() {
+        return Err(check.error(
+            "print_radius",
+            format!("the {mechanism} has no printable radius (a linear delta's)"),
+        ));
+    }
+    Ok(())
 }
