@@ -199,6 +199,16 @@ pub fn w_test_sentence(calibration: &MechanismCalibrationRecord) -> String {
     }
 }
 
+/// The printable radius the calibration carries from its dataset, and
+/// what uses it; `None` when it states none.
+pub fn print_radius_sentence(calibration: &MechanismCalibrationRecord) -> Option<String> {
+    calibration.print_radius.map(|radius| {
+        format!(
+            "Printable radius: {radius} mm, the dataset's; compensate keeps targets within it and export writes it back to the firmware."
+        )
+    })
+}
+
 /// The observations tested, one line per kind present; the ball touches'
 /// with their observation equation when the record names it.
 pub fn observation_counts(calibration: &MechanismCalibrationRecord) -> Vec<String> {
@@ -624,6 +634,9 @@ fn blocks(
             ),
         ),
     ];
+    if let Some(sentence) = print_radius_sentence(calibration) {
+        blocks.push(Block::Paragraph(Tone::Plain, sentence));
+    }
     if !calibration.mirrored.is_empty() {
         blocks.push(Block::Heading(3, "Balls re-seeded".into()));
         blocks.push(Block::List(Tone::Warning, mirrored_sentences(calibration)));
@@ -838,6 +851,16 @@ mod tests {
         assert!(markdown.contains("probe height 5 (row 0)"), "{markdown}");
         assert!(markdown.contains("| diagonal\\_a | mm |"), "{markdown}");
         assert!(markdown.contains("24 probe heights"), "{markdown}");
+        assert!(!markdown.contains("Printable radius"), "{markdown}");
+        let within = MechanismCalibrationRecord {
+            print_radius: Some(85.0),
+            ..record.clone()
+        };
+        let stated = rendered(&within, &probes, Format::Markdown);
+        assert!(
+            stated.contains("Printable radius: 85 mm, the dataset's"),
+            "{stated}"
+        );
         // Probe heights alone: the rods' scale is the prior's, and the
         // report says what would determine it.
         assert!(
