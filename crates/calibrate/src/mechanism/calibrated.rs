@@ -52,9 +52,10 @@ impl CalibratedMechanism {
             .filter(|p| p.name != TRIGGER_HEIGHT)
             .map(|p| (p.name.as_str(), p.unit.as_str()))
             .collect();
-        // A printer within its printable radius has its own parameters.
+        // A printer is built within the printable radius it was calibrated
+        // for; any other mechanism as the variant its parameters name.
         let known = match record.print_radius {
-            Some(_) => mechanisms::by_name_within(&record.mechanism, record.print_radius),
+            Some(radius) => mechanisms::by_name_within(&record.mechanism, Some(radius)),
             None => mechanisms::with_parameters(&record.mechanism, &recorded)
                 .or_else(|| mechanisms::by_name(&record.mechanism)),
         };
