@@ -28,6 +28,7 @@ from ._parcal import (
     MechanismDataset,
     __version__,
     accuracy,
+    export,
     read_dataset,
     simulate,
 )
@@ -125,6 +126,7 @@ __all__ = [
     "accuracy",
     "calibrate",
     "compensate",
+    "export",
     "plan",
     "read_dataset",
     "simulate",

@@ -581,3 +581,16 @@ def plan_mechanism(
     """``parcal.plan`` on a mechanism dataset: ``kind``, ``position`` (n x 3),
     ``trace``, ``trace_before``, ``group``, ``feasible``,
     ``from_calibration``, ``parameters``, ``statements``."""
+
+def export(
+    calibration: Union[MechanismCalibration, PathLike],
+    format: Literal["reprapfirmware", "klipper", "hangprinter"],
+    *,
+    print_radius: Optional[float] = None,
+    accept_rejected: bool = False,
+) -> dict[str, Any]:
+    """A mechanism's calibration as its firmware's lines, as ``parcal
+    export --format`` writes them: ``text``, ``lost`` (what the firmware
+    cannot hold), and for a delta ``print_radius``, ``cost`` (mm:
+    ``z_offset``, ``flatness_rms``, ``flatness_max``, ``volume_rms``,
+    ``volume_max``) and ``cost_sentence``; None for a cable robot."""

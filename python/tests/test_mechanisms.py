@@ -509,3 +509,36 @@ def test_motion_capture_poses_through_the_common_calibration(tmp_path, cli):
         if name.endswith("_eT"):
             assert bare.values[k] == design[k]["prior_mean"]
             assert bare.sigmas[k] == pytest.approx(design[k]["prior_sigma"], rel=1e-9)
+
+
+def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tmp_path):
+    calibration = tmp_path / "calibration.json"
+    cli("calibrate", delta, "--out", calibration)
+    for firmware in ("reprapfirmware", "klipper"):
+        out = tmp_path / f"{firmware}.txt"
+        cli("export", "--calibration", calibration, "--format", firmware, "--out", out)
+        mine = parcal.export(str(calibration), firmware)
+        assert mine["text"] == out.read_text()
+        assert mine["print_radius"] == 100.0  # the simulated printer's, carried by its calibration
+        comment = {"reprapfirmware": ";", "klipper": "#"}[firmware]
+        assert f"{comment} parcal: cost: {mine['cost_sentence']}\n" in mine["text"]
+        cost = mine["cost"]
+        assert 0 <= cost["flatness_rms"] <= cost["flatness_max"] and 0 <= cost["volume_rms"] <= cost["volume_max"]
+    # Klipper holds no bed tilt: what is lost is said.
+    assert any("bed tilt" in sentence for sentence in mine["lost"])
+    given = parcal.export(parcal.MechanismCalibration.read(calibration), "reprapfirmware", print_radius=90.0)
+    assert given["print_radius"] == 90.0 and " B90.0 " in given["text"]
+    with pytest.raises(parcal.Error, match="format: expected one of reprapfirmware, klipper, hangprinter"):
+        parcal.export(str(calibration), "marlin")
+    with pytest.raises(parcal.Error, match="a linear delta calibration; hangprinter exports a cable robot's"):
+        parcal.export(str(calibration), "hangprinter")
+    with pytest.raises(parcal.Error, match="print_radius must be a positive number of mm"):
+        parcal.export(str(calibration), "klipper", print_radius=-1.0)
+
+    robot = tmp_path / "robot.json"
+    cli("calibrate", hangprinter, "--out", robot)
+    out = tmp_path / "hangprinter.g"
+    cli("export", "--calibration", robot, "--format", "hangprinter", "--out", out)
+    lines = parcal.export(str(robot), "hangprinter")
+    assert lines["text"] == out.read_text() and "\nM669 K6 A" in lines["text"]
+    assert lines["lost"] == [] and lines["cost"] is None and lines["print_radius"] is None

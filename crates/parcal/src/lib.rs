@@ -33,7 +33,9 @@
 //!   against a truth, the paper's reproduction);
 //! - [`command`]: a calibration as `parcal calibrate` makes it, with
 //!   calibration.json's record, for every front end;
-//! - [`maps`]: the accuracy maps as `parcal accuracy` makes them.
+//! - [`maps`]: the accuracy maps as `parcal accuracy` makes them;
+//! - [`firmware_lines`]: a mechanism's calibration as its firmware's
+//!   lines, as `parcal export` writes them.
 //!
 //! # Example
 //!
@@ -119,6 +121,7 @@ pub use parcal_simulate as simulation;
 pub use parcal_workflows as workflows;
 
 pub mod command;
+pub mod firmware_lines;
 pub mod maps;
 
 // The data: a dataset in memory, its files, a calibration's record.

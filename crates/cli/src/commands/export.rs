@@ -12,12 +12,7 @@ use parcal::apply::summary::summary;
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::atomic::write_file;
 use parcal::dataset::mechanism::MechanismCalibrationRecord;
-use parcal::firmware::accuracy::Workspace;
-use parcal::firmware::export::{Firmware, cost_sentence, export};
-use parcal::firmware::hangprinter::HangprinterConfig;
-use parcal::kinematics::cable::CableRobot;
-use parcal::kinematics::delta::{DeltaParams, N_PARAMS};
-use parcal::kinematics::mechanisms;
+use parcal::firmware_lines::{FirmwareFormat, FirmwareLinesError, firmware_lines};
 
 use super::Recorded;
 
@@ -86,9 +81,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         std::slice::from_ref(&args.out),
     )?;
     match args.format {
-        Format::Reprapfirmware => export_delta(args, Firmware::RepRapFirmware)?,
-        Format::Klipper => export_delta(args, Firmware::Klipper)?,
-        Format::Hangprinter => export_hangprinter(args)?,
+        Format::Reprapfirmware => export_firmware(args, FirmwareFormat::RepRapFirmware)?,
+        Format::Klipper => export_firmware(args, FirmwareFormat::Klipper)?,
+        Format::Hangprinter => export_firmware(args, FirmwareFormat::Hangprinter)?,
         Format::MachineJson | Format::Genhexkins | Format::Summary => export_hexapod(args)?,
     }
     println!("{}", args.out.display());
@@ -144,47 +139,39 @@ fn mismatch_of(path: &Path, mechanism: &str, format: Format) -> Option<anyhow::E
     })
 }
 
-/// Exports a linear delta's calibration for `firmware`: what the
-/// firmware cannot hold and what that costs are printed and written in
-/// the file's comment lines.
-fn export_delta(args: &Args, firmware: Firmware) -> anyhow::Result<()> {
+/// Exports a linear delta's or a cable robot's calibration as `format`'s
+/// lines: what the firmware cannot hold and what that costs are printed
+/// (and written in a delta's comment lines), as is the printable radius
+/// the calibration carries when `--print-radius` does not give one.
+fn export_firmware(args: &Args, format: FirmwareFormat) -> anyhow::Result<()> {
     let path = &args.calibration;
     let record = mechanism_record(args)?;
-    let print_radius = print_radius(args, &record)?;
-    let calibrated = delta_parameters(&record, path)?;
-    let workspace = Workspace::of_printer(print_radius, calibrated.homed_height);
-    let exported = export(&calibrated, print_radius, firmware, &workspace)
-        .with_context(|| format!("{}", path.display()))?;
-    write_file(&args.out, exported.text.as_bytes())?;
-    for sentence in &exported.lost {
+    let lines =
+        firmware_lines(&record, format, args.print_radius).map_err(|error| match error {
+            FirmwareLinesError::NoPrintRadius => anyhow::anyhow!(
+                "{}: {error}: --format {} needs --print-radius (M665 B or print_radius)",
+                path.display(),
+                format.name()
+            ),
+            FirmwareLinesError::PrintRadius(radius) => {
+                anyhow::anyhow!("--print-radius must be a positive number of mm, got {radius}")
+            }
+            error => anyhow::anyhow!("{}: {error}", path.display()),
+        })?;
+    if let Some((_, workspace)) = lines.cost.filter(|_| args.print_radius.is_none()) {
+        println!(
+            "printable radius: {} mm (the calibration's dataset's)",
+            workspace.print_radius
+        );
+    }
+    write_file(&args.out, lines.text.as_bytes())?;
+    for sentence in &lines.lost {
         println!("lost: {sentence}");
     }
-    println!("cost: {}", cost_sentence(&exported.cost, &workspace));
+    if let Some(sentence) = lines.cost_sentence() {
+        println!("cost: {sentence}");
+    }
     Ok(())
-}
-
-/// The printable radius a delta's export writes back: `--print-radius`,
-/// else the one the calibration's record carries from its dataset
-/// (machine.json's, which `parcal import` takes from the firmware).
-fn print_radius(args: &Args, record: &MechanismCalibrationRecord) -> anyhow::Result<f64> {
-    if let Some(radius) = args.print_radius {
-        anyhow::ensure!(
-            radius.is_finite() && radius > 0.0,
-            "--print-radius must be a positive number of mm, got {radius}"
-        );
-        return Ok(radius);
-    }
-    match record.print_radius {
-        Some(radius) => {
-            println!("printable radius: {radius} mm (the calibration's dataset's)");
-            Ok(radius)
-        }
-        None => anyhow::bail!(
-            "{}: the calibration states no printable radius (its dataset's machine.json has no print_radius): --format {} needs --print-radius (M665 B or print_radius)",
-            args.calibration.display(),
-            args.format.name()
-        ),
-    }
 }
 
 /// The calibration record of `args`, of the mechanism `args.format`
@@ -203,57 +190,4 @@ fn mechanism_record(args: &Args) -> anyhow::Result<MechanismCalibrationRecord> {
         record.reasons.join("; ")
     );
     Ok(record)
-}
-
-/// Exports a cable robot's calibration as the Hangprinter's `M669` and
-/// `M666 R` lines.
-fn export_hangprinter(args: &Args) -> anyhow::Result<()> {
-    let path = &args.calibration;
-    let record = mechanism_record(args)?;
-    let robot = CableRobot::typical();
-    let values = named_values(&record, path)?;
-    let config = HangprinterConfig::from_params(&robot, &values)
-        .with_context(|| format!("{}", path.display()))?;
-    write_file(&args.out, config.lines().as_bytes())?;
-    Ok(())
-}
-
-/// The delta's parameters of a calibration record, by name.
-fn delta_parameters(
-    record: &MechanismCalibrationRecord,
-    path: &Path,
-) -> anyhow::Result<DeltaParams> {
-    let values = named_values(record, path)?;
-    anyhow::ensure!(
-        values.len() == N_PARAMS,
-        "{}: not a linear delta's parameters",
-        path.display()
-    );
-    Ok(DeltaParams::from_slice(&values))
-}
-
-/// The values of a calibration record's mechanism parameters, in the
-/// mechanism's order, by name.
-fn named_values(record: &MechanismCalibrationRecord, path: &Path) -> anyhow::Result<Vec<f64>> {
-    let mechanism = mechanisms::by_name(&record.mechanism).with_context(|| {
-        format!(
-            "{}: unknown mechanism {:?}",
-            path.display(),
-            record.mechanism
-        )
-    })?;
-    mechanism
-        .parameters()
-        .iter()
-        .map(|p| {
-            record.parameter(&p.name).map(|r| r.value).with_context(|| {
-                format!(
-                    "{}: no parameter {} of the {}",
-                    path.display(),
-                    p.name,
-                    record.mechanism
-                )
-            })
-        })
-        .collect()
 }

@@ -1,0 +1,258 @@
+//! A mechanism's calibration as its firmware's configuration lines, as
+//! `parcal export --format reprapfirmware | klipper | hangprinter` writes
+//! them, for every front end: a linear delta's `M665`/`M666` lines or
+//! Klipper's `SAVE_CONFIG` block with what the firmware cannot hold and
+//! what that costs (docs/delta.md, "Export: what the firmware can hold"),
+//! a cable robot's `M669` anchors and `M666 R` spool radii
+//! (docs/cable-robots.md).
+
+use parcal_dataset::mechanism::MechanismCalibrationRecord;
+use parcal_firmware::FirmwareError;
+use parcal_firmware::accuracy::{PositionErrors, Workspace};
+use parcal_firmware::export::{Firmware, cost_sentence, export};
+use parcal_firmware::hangprinter::HangprinterConfig;
+use parcal_kinematics::cable::CableRobot;
+use parcal_kinematics::delta::DeltaParams;
+use parcal_kinematics::mechanisms;
+
+/// A firmware whose configuration lines a calibration is written as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FirmwareFormat {
+    /// A linear delta's `M665`/`M666` lines for RepRapFirmware.
+    RepRapFirmware,
+    /// A linear delta's `SAVE_CONFIG` block for Klipper.
+    Klipper,
+    /// A cable robot's `M669` and `M666 R` lines for the Hangprinter's
+    /// RepRapFirmware.
+    Hangprinter,
+}
+
+impl FirmwareFormat {
+    /// The formats by their names (`parcal export --format`'s).
+    pub const NAMES: [(&'static str, Self); 3] = [
+        ("reprapfirmware", Self::RepRapFirmware),
+        ("klipper", Self::Klipper),
+        ("hangprinter", Self::Hangprinter),
+    ];
+
+    /// The format named `name` ([`Self::NAMES`]), if any.
+    pub fn by_name(name: &str) -> Option<Self> {
+        Self::NAMES
+            .iter()
+            .find(|(known, _)| *known == name)
+            .map(|&(_, format)| format)
+    }
+
+    /// Its name ([`Self::NAMES`]).
+    pub fn name(self) -> &'static str {
+        Self::NAMES
+            .iter()
+            .find(|(_, format)| *format == self)
+            .map_or("", |(name, _)| name)
+    }
+
+    /// The mechanism whose calibration it writes.
+    pub fn mechanism(self) -> &'static str {
+        match self {
+            Self::RepRapFirmware | Self::Klipper => "linear delta",
+            Self::Hangprinter => "cable robot",
+        }
+    }
+}
+
+/// A calibration written as a firmware's lines.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct FirmwareLines {
+    /// The file's text: a delta's with comment lines saying what is lost
+    /// and what it costs, then the firmware's lines.
+    pub text: String,
+    /// What the firmware cannot hold, one sentence each.
+    pub lost: Vec<String>,
+    /// A delta's: the position errors of the firmware reading `text` on
+    /// the calibrated printer over its workspace, whose printable radius is
+    /// the one written back.
+    pub cost: Option<(PositionErrors, Workspace)>,
+}
+
+impl FirmwareLines {
+    /// The cost in one sentence ([`cost_sentence`]), if any.
+    pub fn cost_sentence(&self) -> Option<String> {
+        self.cost
+            .as_ref()
+            .map(|(errors, workspace)| cost_sentence(errors, workspace))
+    }
+}
+
+/// Why a calibration cannot be written as a firmware's lines.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FirmwareLinesError {
+    /// The calibration is of another mechanism than the format's.
+    #[error("a {found} calibration; {format} exports a {expected}'s")]
+    OtherMechanism {
+        /// The calibration's mechanism.
+        found: String,
+        /// The format's name.
+        format: &'static str,
+        /// The format's mechanism.
+        expected: &'static str,
+    },
+    /// Neither the caller nor the calibration gives a delta's printable
+    /// radius.
+    #[error(
+        "the calibration states no printable radius (its dataset's machine.json has no print_radius)"
+    )]
+    NoPrintRadius,
+    /// The printable radius given is not a positive length.
+    #[error("the printable radius must be a positive number of mm, got {0}")]
+    PrintRadius(f64),
+    /// The record lacks one of its mechanism's parameters.
+    #[error("no parameter {name} of the {mechanism}")]
+    MissingParameter {
+        /// The parameter's name.
+        name: String,
+        /// The mechanism's name.
+        mechanism: String,
+    },
+    /// The firmware cannot hold the calibrated machine.
+    #[error(transparent)]
+    Firmware(#[from] FirmwareError),
+}
+
+/// `record` written as `format`'s lines; a delta's printable radius is
+/// `print_radius` if given, else the one the record carries from its
+/// dataset. Whether a rejected calibration may be used is the caller's
+/// decision.
+pub fn firmware_lines(
+    record: &MechanismCalibrationRecord,
+    format: FirmwareFormat,
+    print_radius: Option<f64>,
+) -> Result<FirmwareLines, FirmwareLinesError> {
+    if record.mechanism != format.mechanism() {
+        return Err(FirmwareLinesError::OtherMechanism {
+            found: record.mechanism.clone(),
+            format: format.name(),
+            expected: format.mechanism(),
+        });
+    }
+    let values = mechanism_values(record)?;
+    let firmware = match format {
+        FirmwareFormat::RepRapFirmware => Firmware::RepRapFirmware,
+        FirmwareFormat::Klipper => Firmware::Klipper,
+        FirmwareFormat::Hangprinter => {
+            let config = HangprinterConfig::from_params(&CableRobot::typical(), &values)?;
+            return Ok(FirmwareLines {
+                text: config.lines(),
+                lost: Vec::new(),
+                cost: None,
+            });
+        }
+    };
+    let print_radius = print_radius
+        .or(record.print_radius)
+        .ok_or(FirmwareLinesError::NoPrintRadius)?;
+    if !(print_radius.is_finite() && print_radius > 0.0) {
+        return Err(FirmwareLinesError::PrintRadius(print_radius));
+    }
+    let calibrated = DeltaParams::from_slice(&values);
+    let workspace = Workspace::of_printer(print_radius, calibrated.homed_height);
+    let exported = export(&calibrated, print_radius, firmware, &workspace)?;
+    Ok(FirmwareLines {
+        text: exported.text,
+        lost: exported.lost,
+        cost: Some((exported.cost, workspace)),
+    })
+}
+
+/// The values of `record`'s mechanism parameters, in the mechanism's
+/// order, found by name (a record of a known mechanism: the format's).
+fn mechanism_values(record: &MechanismCalibrationRecord) -> Result<Vec<f64>, FirmwareLinesError> {
+    let mechanism =
+        mechanisms::by_name(&record.mechanism).expect("the format's mechanism is a known one");
+    mechanism
+        .parameters()
+        .iter()
+        .map(|p| {
+            record.parameter(&p.name).map(|r| r.value).ok_or_else(|| {
+                FirmwareLinesError::MissingParameter {
+                    name: p.name.clone(),
+                    mechanism: record.mechanism.clone(),
+                }
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
+    use parcal_simulate::delta::{DeltaScenario, simulate_delta};
+
+    /// A simulated printer's calibration (printable radius 100 mm).
+    fn printer() -> MechanismCalibrationRecord {
+        let dataset = simulate_delta(&DeltaScenario::typical(), 3).unwrap();
+        let data = MechanismData::from_dataset(&dataset).unwrap();
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {})
+            .unwrap()
+            .record()
+    }
+
+    #[test]
+    fn each_format_is_found_by_its_name_and_writes_a_known_mechanism() {
+        for (name, format) in FirmwareFormat::NAMES {
+            assert_eq!(FirmwareFormat::by_name(name), Some(format));
+            assert_eq!(format.name(), name);
+            assert!(mechanisms::by_name(format.mechanism()).is_some());
+        }
+        assert_eq!(FirmwareFormat::by_name("marlin"), None);
+    }
+
+    #[test]
+    fn a_printers_lines_take_its_printable_radius_unless_one_is_given() {
+        let record = printer();
+        assert_eq!(record.print_radius, Some(100.0));
+        let carried = firmware_lines(&record, FirmwareFormat::RepRapFirmware, None).unwrap();
+        let (_, workspace) = carried.cost.unwrap();
+        assert_eq!(workspace.print_radius, 100.0);
+        assert!(carried.text.contains(" B100.0 "), "{}", carried.text);
+        assert!(carried.cost_sentence().unwrap().contains("radius 100.0 mm"));
+        // Klipper's SAVE_CONFIG holds no printable radius: it bounds the
+        // workspace the cost is taken over.
+        let given = firmware_lines(&record, FirmwareFormat::Klipper, Some(90.0)).unwrap();
+        assert!(given.cost_sentence().unwrap().contains("radius 90.0 mm"));
+        assert_eq!(given.cost.unwrap().1.print_radius, 90.0);
+
+        let unstated = MechanismCalibrationRecord {
+            print_radius: None,
+            ..record.clone()
+        };
+        let error = firmware_lines(&unstated, FirmwareFormat::Klipper, None).unwrap_err();
+        assert!(
+            matches!(error, FirmwareLinesError::NoPrintRadius),
+            "{error}"
+        );
+        for radius in [0.0, -5.0, f64::NAN, f64::INFINITY] {
+            let error = firmware_lines(&record, FirmwareFormat::Klipper, Some(radius)).unwrap_err();
+            assert!(
+                matches!(error, FirmwareLinesError::PrintRadius(_)),
+                "{error}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_calibration_of_another_mechanism_or_without_a_parameter_is_named() {
+        let record = printer();
+        let error = firmware_lines(&record, FirmwareFormat::Hangprinter, None).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "a linear delta calibration; hangprinter exports a cable robot's"
+        );
+        let mut partial = record.clone();
+        partial.parameters.retain(|p| p.name != "radius");
+        let error = firmware_lines(&partial, FirmwareFormat::RepRapFirmware, None).unwrap_err();
+        assert_eq!(error.to_string(), "no parameter radius of the linear delta");
+    }
+}
