@@ -36,13 +36,20 @@ enum Format {
 }
 
 impl Format {
+    /// The firmware this format writes a mechanism's lines for; `None`
+    /// for a hexapod's formats.
+    fn firmware(self) -> Option<FirmwareFormat> {
+        match self {
+            Self::MachineJson | Self::Genhexkins | Self::Summary => None,
+            Self::Reprapfirmware => Some(FirmwareFormat::RepRapFirmware),
+            Self::Klipper => Some(FirmwareFormat::Klipper),
+            Self::Hangprinter => Some(FirmwareFormat::Hangprinter),
+        }
+    }
+
     /// The mechanism whose calibration this format exports.
     fn mechanism(self) -> &'static str {
-        match self {
-            Self::MachineJson | Self::Genhexkins | Self::Summary => HEXAPOD,
-            Self::Reprapfirmware | Self::Klipper => "linear delta",
-            Self::Hangprinter => "cable robot",
-        }
+        self.firmware().map_or(HEXAPOD, FirmwareFormat::mechanism)
     }
 
     /// The format's name on the command line.
@@ -80,11 +87,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         std::slice::from_ref(&args.calibration),
         std::slice::from_ref(&args.out),
     )?;
-    match args.format {
-        Format::Reprapfirmware => export_firmware(args, FirmwareFormat::RepRapFirmware)?,
-        Format::Klipper => export_firmware(args, FirmwareFormat::Klipper)?,
-        Format::Hangprinter => export_firmware(args, FirmwareFormat::Hangprinter)?,
-        Format::MachineJson | Format::Genhexkins | Format::Summary => export_hexapod(args)?,
+    match args.format.firmware() {
+        Some(firmware) => export_firmware(args, firmware)?,
+        None => export_hexapod(args)?,
     }
     println!("{}", args.out.display());
     Ok(())
