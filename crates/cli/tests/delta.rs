@@ -761,11 +761,12 @@ fn klipper_import_and_export_round_trip() {
     // Klipper holds no bed tilt: export says so and what it costs.
     assert!(said.contains("lost: the bed tilt"), "{said}");
     let block = fs::read_to_string(&out).unwrap();
-    let back = parcal::firmware::klipper::parse_printer_cfg(
+    let back = parcal::firmware::klipper::parse_printer(
         &format!("[printer]\nkinematics: delta\n{block}"),
         &out,
     )
     .unwrap()
+    .delta
     .to_params();
     let record: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(data.join("calibration.json")).unwrap()).unwrap();
@@ -841,4 +842,158 @@ fn rods_cut_as_a_matched_set_are_imported_as_one() {
     let error = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(error.contains("matched.diagonal rods"), "{error}");
     assert!(!d.join("loose").exists(), "nothing is left half-written");
+}
+
+/// A Klipper printer configured as [`CONFIG`]'s (radius 135, rods 270,
+/// endstops at 300, 0.0125 mm a step) whose true geometry is [`truth`]'s.
+const KLIPPER_SETTINGS: &str = "[printer]\nkinematics: delta\ndelta_radius: 135\nprint_radius: 100\n\n\
+     [stepper_a]\nrotation_distance: 40\nmicrosteps: 16\narm_length: 270\nposition_endstop: 300\n\n\
+     [stepper_b]\nrotation_distance: 40\nmicrosteps: 16\n\n\
+     [stepper_c]\nrotation_distance: 40\nmicrosteps: 16\n";
+
+#[test]
+fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
+    const STEP: f64 = 0.0125;
+    const Z_OFFSET: f64 = 0.7;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let delta = LinearDelta::typical();
+    let (t, c) = (
+        truth().to_vector(),
+        DeltaParams::symmetric(270.0, 135.0, 300.0).to_vector(),
+    );
+    // Readings as Klipper saves them (steps down from the endstops, to
+    // 0.001 step), and the commanded position at them.
+    let stable = |q: &[f64]| -> String {
+        let steps: Vec<String> = q.iter().map(|q| format!("{:.3}", -q / STEP)).collect();
+        steps.join(",")
+    };
+    let commanded = |q: &[f64]| delta.forward(c.as_slice(), q, &[0.0; 3]).unwrap();
+    // DELTA_CALIBRATE: the probe triggers with the true nozzle Z_OFFSET
+    // above the bed.
+    let mut saved = String::from(
+        "#*# <---------------------- SAVE_CONFIG ---------------------->\n\
+         #*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n\
+         #*# [delta_calibrate]\n",
+    );
+    let mut probes = String::from("x,y,z\n");
+    for (i, [x, y]) in probe_rings(95.0, 3, 12).into_iter().enumerate() {
+        let q = delta.inverse(t.as_slice(), &[x, y, Z_OFFSET]).unwrap();
+        saved.push_str(&format!(
+            "#*# height{i} = {Z_OFFSET}\n#*# height{i}_pos = {}\n",
+            stable(q.as_slice())
+        ));
+        let p = commanded(q.as_slice());
+        probes.push_str(&format!("{},{},{}\n", p[0], p[1], p[2] - Z_OFFSET));
+    }
+    // DELTA_ANALYZE: three diameters of a printed disc at 0.2 mm.
+    let mut distances = String::from("x1,y1,z1,x2,y2,z2,distance\n");
+    for (i, angle) in [0.0f64, 60.0, 120.0].into_iter().enumerate() {
+        let (sin, cos) = angle.to_radians().sin_cos();
+        let ends = [
+            [90.0 * cos, 90.0 * sin, 0.2],
+            [-90.0 * cos, -90.0 * sin, 0.2],
+        ]
+        .map(|end| delta.inverse(c.as_slice(), &end).unwrap());
+        let printed = ends.clone().map(|q| {
+            delta
+                .forward(t.as_slice(), q.as_slice(), &[0.0; 3])
+                .unwrap()
+        });
+        let distance = (&printed[0] - &printed[1]).norm();
+        saved.push_str(&format!(
+            "#*# distance{i} = {distance:.4}\n#*# distance{i}_pos1 = {}\n#*# distance{i}_pos2 = {}\n",
+            stable(ends[0].as_slice()),
+            stable(ends[1].as_slice())
+        ));
+        let [a, b] = ends.map(|q| commanded(q.as_slice()));
+        distances.push_str(&format!(
+            "{},{},{},{},{},{},{distance:.4}\n",
+            a[0], a[1], a[2], b[0], b[1], b[2]
+        ));
+    }
+    fs::write(
+        d.join("printer.cfg"),
+        format!("{KLIPPER_SETTINGS}\n{saved}"),
+    )
+    .unwrap();
+    fs::write(d.join("probes.csv"), probes).unwrap();
+    fs::write(d.join("distances.csv"), distances).unwrap();
+    let config = d.join("printer.cfg");
+    let said = ok(&[
+        "import",
+        "klipper",
+        "--config",
+        s(&config),
+        "--out",
+        s(&d.join("saved")),
+    ]);
+    assert!(
+        said.contains("37 probe heights (saved in") && said.contains("3 part distances (saved in"),
+        "{said}"
+    );
+    ok(&[
+        "import",
+        "klipper",
+        "--config",
+        s(&config),
+        "--probes",
+        s(&d.join("probes.csv")),
+        "--distances",
+        s(&d.join("distances.csv")),
+        "--out",
+        s(&d.join("logged")),
+    ]);
+    let parameters = |data: &str| -> Vec<(String, f64, f64)> {
+        let path = d.join(data);
+        let summary = ok(&["calibrate", s(&path)]);
+        assert!(summary.contains("accepted"), "{summary}");
+        let record: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(path.join("calibration.json")).unwrap())
+                .unwrap();
+        (record["parameters"].as_array().unwrap().iter())
+            .map(|p| {
+                let number = |key: &str| p[key].as_f64().unwrap_or(0.0);
+                (
+                    p["name"].as_str().unwrap().to_string(),
+                    number("value"),
+                    number("sigma"),
+                )
+            })
+            .collect()
+    };
+    // The saved probes' commanded heights are the log's plus the z_offset,
+    // and so is their trigger height; the parameters are the same but for
+    // the saved steps' rounding: half a step, 6e-6 mm, is 6e-4 of the
+    // probes' 10 µm sigma, and moves an estimate by about that fraction of
+    // its sigma (a gauge-fixed parameter, of sigma 0, is 0 in both).
+    let (saved, logged) = (parameters("saved"), parameters("logged"));
+    assert_eq!(saved.len(), logged.len());
+    for ((name, value, sigma), (_, logged, _)) in saved.iter().zip(&logged) {
+        let shift = if name == "trigger_height" {
+            Z_OFFSET
+        } else {
+            0.0
+        };
+        assert!(
+            (value - logged - shift).abs() <= 0.002 * sigma,
+            "{name}: {value} from the saved probes, {logged} from the log (sigma {sigma})"
+        );
+    }
+    // Nothing saved and no log: refused, saying what to give.
+    fs::write(&config, KLIPPER_SETTINGS).unwrap();
+    let error = fails(&[
+        "import",
+        "klipper",
+        "--config",
+        s(&config),
+        "--out",
+        s(&d.join("none")),
+    ]);
+    assert!(
+        error.contains(
+            "no probes: give --probes (header x,y,z), or run DELTA_CALIBRATE and SAVE_CONFIG first"
+        ),
+        "{error}"
+    );
 }

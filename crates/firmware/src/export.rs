@@ -17,7 +17,7 @@ use parcal_kinematics::mechanism::Mechanism;
 
 use crate::FirmwareError;
 use crate::accuracy::{PositionErrors, Workspace, position_errors};
-use crate::klipper::{KlipperDelta, parse_printer_cfg};
+use crate::klipper::{KlipperDelta, parse_printer};
 use crate::rrf::{RrfDelta, parse_config};
 
 /// The firmware to write for.
@@ -171,7 +171,8 @@ fn read_back(lines: &str, firmware: Firmware) -> Result<DeltaParams, FirmwareErr
         Firmware::RepRapFirmware => parse_config(lines, source)?.delta.to_params(),
         // The block ends a printer.cfg whose [printer] has delta kinematics.
         Firmware::Klipper => {
-            parse_printer_cfg(&format!("[printer]\nkinematics: delta\n{lines}"), source)?
+            parse_printer(&format!("[printer]\nkinematics: delta\n{lines}"), source)?
+                .delta
                 .to_params()
         }
     })

@@ -1,7 +1,9 @@
 //! Klipper's linear delta configuration: the `printer.cfg` settings of its
 //! delta kinematics, read as Klipper reads them (its main part, then the
-//! `SAVE_CONFIG` block at the end overriding it), and the `SAVE_CONFIG`
-//! block written as Klipper writes it after `DELTA_CALIBRATE`.
+//! `SAVE_CONFIG` block at the end overriding it), with the probes and part
+//! distances its last `DELTA_CALIBRATE` saved ([`DeltaCalibrateResults`]), and
+//! the `SAVE_CONFIG` block written as Klipper writes it after
+//! `DELTA_CALIBRATE`.
 //!
 //! - `[printer]`: `kinematics: delta`, `delta_radius`, `print_radius`
 //!   (default: the delta radius).
@@ -28,6 +30,10 @@ use parcal_kinematics::delta::{DeltaParams, NOMINAL_ANGLE};
 use crate::FirmwareError;
 use crate::files::read_capped;
 use crate::rrf::MAX_CONFIG_BYTES;
+
+mod delta_calibrate;
+
+pub use delta_calibrate::{DeltaCalibrateResults, MAX_ENTRIES};
 
 /// The line that opens Klipper's `SAVE_CONFIG` block.
 const SAVE_CONFIG_MARKER: &str = "#*# <---------------------- SAVE_CONFIG ---------------------->";
@@ -111,6 +117,36 @@ struct Options {
 }
 
 impl Options {
+    /// The options of `text` (`path` names it in errors): its main part,
+    /// then the `SAVE_CONFIG` block's, which override it.
+    pub(crate) fn parse(text: &str, path: &Path) -> Result<Self, FirmwareError> {
+        let numbered: Vec<(u64, &str)> = text
+            .lines()
+            .enumerate()
+            .map(|(i, line)| (i as u64 + 1, line))
+            .collect();
+        let block_start = numbered
+            .iter()
+            .position(|(_, line)| line.trim_end() == SAVE_CONFIG_MARKER)
+            .unwrap_or(numbered.len());
+        let mut options = Options {
+            path: path.to_path_buf(),
+            values: HashMap::new(),
+        };
+        options.read(&numbered[..block_start])?;
+        let block: Vec<(u64, &str)> = numbered[block_start..]
+            .iter()
+            .skip(1)
+            .filter_map(|(line, text)| {
+                let rest = text.strip_prefix(SAVE_CONFIG_PREFIX)?;
+                let rest = rest.strip_prefix(' ').unwrap_or(rest);
+                (rest != SAVE_CONFIG_NOTICE).then_some((*line, rest))
+            })
+            .collect();
+        options.read(&block)?;
+        Ok(options)
+    }
+
     /// Reads numbered lines into the options, a later value of a key
     /// replacing an earlier one.
     fn read(&mut self, lines: &[(u64, &str)]) -> Result<(), FirmwareError> {
@@ -151,6 +187,21 @@ impl Options {
         Ok(())
     }
 
+    /// The text of `section`/`key` and its line, if given.
+    fn text(&self, section: &str, key: &str) -> Option<(&str, u64)> {
+        (self.values.get(&(section.to_string(), key.to_string())))
+            .map(|(value, line)| (value.as_str(), *line))
+    }
+
+    /// An error at `line` of the file.
+    fn at(&self, line: u64, message: String) -> FirmwareError {
+        FirmwareError::Line {
+            path: self.path.clone(),
+            line,
+            message,
+        }
+    }
+
     /// The number of `section`/`key`, if given.
     fn float(&self, section: &str, key: &str) -> Result<Option<f64>, FirmwareError> {
         let Some((value, line)) = self.values.get(&(section.to_string(), key.to_string())) else {
@@ -189,38 +240,33 @@ fn strip_comment(text: &str) -> &str {
     text
 }
 
-/// Reads the delta settings of a `printer.cfg`.
-pub fn read_printer_cfg(path: &Path) -> Result<KlipperDelta, FirmwareError> {
-    parse_printer_cfg(&read_capped(path, MAX_CONFIG_BYTES, "configuration")?, path)
+/// A `printer.cfg`'s delta: its settings and the measurements its last
+/// `DELTA_CALIBRATE` saved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KlipperPrinter {
+    /// The delta settings.
+    pub delta: KlipperDelta,
+    /// The `[delta_calibrate]` measurements, at the positions of the
+    /// settings' parameters (none saved: empty).
+    pub saved: DeltaCalibrateResults,
 }
 
-/// [`read_printer_cfg`] of a text already read (`path` names it in
-/// errors).
-pub fn parse_printer_cfg(text: &str, path: &Path) -> Result<KlipperDelta, FirmwareError> {
-    let numbered: Vec<(u64, &str)> = text
-        .lines()
-        .enumerate()
-        .map(|(i, line)| (i as u64 + 1, line))
-        .collect();
-    let block_start = numbered
-        .iter()
-        .position(|(_, line)| line.trim_end() == SAVE_CONFIG_MARKER)
-        .unwrap_or(numbered.len());
-    let mut options = Options {
-        path: path.to_path_buf(),
-        values: HashMap::new(),
-    };
-    options.read(&numbered[..block_start])?;
-    let block: Vec<(u64, &str)> = numbered[block_start..]
-        .iter()
-        .skip(1)
-        .filter_map(|(line, text)| {
-            let rest = text.strip_prefix(SAVE_CONFIG_PREFIX)?;
-            let rest = rest.strip_prefix(' ').unwrap_or(rest);
-            (rest != SAVE_CONFIG_NOTICE).then_some((*line, rest))
-        })
-        .collect();
-    options.read(&block)?;
+/// Reads a `printer.cfg`'s delta settings and saved measurements.
+pub fn read_printer(path: &Path) -> Result<KlipperPrinter, FirmwareError> {
+    parse_printer(&read_capped(path, MAX_CONFIG_BYTES, "configuration")?, path)
+}
+
+/// [`read_printer`] of a text already read (`path` names it in errors).
+pub fn parse_printer(text: &str, path: &Path) -> Result<KlipperPrinter, FirmwareError> {
+    let options = Options::parse(text, path)?;
+    let delta = delta_settings(&options)?;
+    let saved = delta_calibrate::read(&options, &delta.to_params())?;
+    Ok(KlipperPrinter { delta, saved })
+}
+
+/// The delta settings of a `printer.cfg`'s options.
+fn delta_settings(options: &Options) -> Result<KlipperDelta, FirmwareError> {
+    let path = options.path.as_path();
     let kinematics = options
         .values
         .get(&("printer".to_string(), "kinematics".to_string()));

@@ -5,7 +5,8 @@
 //!
 //! - [`rrf`]: RepRapFirmware's `M665`/`M666`/`G31` lines, read from a
 //!   `config.g` and written back.
-//! - [`klipper`]: Klipper's delta settings in a `printer.cfg`, read and
+//! - [`klipper`]: Klipper's delta settings in a `printer.cfg`, read with
+//!   the probes and part distances its `DELTA_CALIBRATE` saved, and
 //!   written as its `SAVE_CONFIG` block.
 //! - [`probes`]: probe heights (`probes.csv`, `x,y,z` as `G30 S-1`
 //!   reports them).

@@ -4,5 +4,6 @@
 
 mod autocal;
 mod config;
+mod delta_calibrate;
 mod fuzz;
 mod klipper;

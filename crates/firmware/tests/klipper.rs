@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use parcal_firmware::klipper::{KlipperDelta, parse_printer_cfg, read_printer_cfg};
+use parcal_firmware::klipper::{KlipperDelta, parse_printer, read_printer};
 
 const PRINTER_CFG: &str = "\
 # A kit delta
@@ -33,7 +33,9 @@ gcode:
 
 #[test]
 fn reads_the_settings_with_klippers_defaults() {
-    let delta = parse_printer_cfg(PRINTER_CFG, Path::new("printer.cfg")).unwrap();
+    let delta = parse_printer(PRINTER_CFG, Path::new("printer.cfg"))
+        .unwrap()
+        .delta;
     assert_eq!(delta.delta_radius, 134.5);
     assert_eq!(delta.print_radius, 110.0);
     assert_eq!(delta.angles, [210.0, 329.8, 90.0]);
@@ -58,7 +60,7 @@ fn the_save_config_block_overrides_and_reads_back() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("printer.cfg");
     std::fs::write(&path, &text).unwrap();
-    let back = read_printer_cfg(&path).unwrap();
+    let back = read_printer(&path).unwrap().delta;
     // Written to 1e-6: equal to the values, which have six decimals.
     assert_eq!(back, calibrated);
     let params = back.to_params();
@@ -73,12 +75,12 @@ fn the_save_config_block_overrides_and_reads_back() {
 #[test]
 fn errors_name_the_file_and_line() {
     let path = Path::new("printer.cfg");
-    let err = parse_printer_cfg(&PRINTER_CFG.replace("134.5", "13x"), path).unwrap_err();
+    let err = parse_printer(&PRINTER_CFG.replace("134.5", "13x"), path).unwrap_err();
     assert_eq!(
         err.to_string(),
         "printer.cfg: line 18: [printer] delta_radius: '13x' is not a number"
     );
-    let err = parse_printer_cfg(
+    let err = parse_printer(
         &PRINTER_CFG.replace("kinematics: delta", "kinematics: corexy"),
         path,
     )
@@ -87,17 +89,17 @@ fn errors_name_the_file_and_line() {
         err.to_string(),
         "printer.cfg: line 16: kinematics 'corexy': not a linear delta"
     );
-    let err = parse_printer_cfg(&PRINTER_CFG.replace("delta_radius: 134.5", ""), path).unwrap_err();
+    let err = parse_printer(&PRINTER_CFG.replace("delta_radius: 134.5", ""), path).unwrap_err();
     assert_eq!(
         err.to_string(),
         "printer.cfg: no delta_radius in [printer] (includes are not followed)"
     );
-    let err = parse_printer_cfg("orphan: 1\n", path).unwrap_err();
+    let err = parse_printer("orphan: 1\n", path).unwrap_err();
     assert_eq!(
         err.to_string(),
         "printer.cfg: line 1: 'orphan: 1' comes before any section"
     );
-    let mut tilted = parse_printer_cfg(PRINTER_CFG, path).unwrap().to_params();
+    let mut tilted = parse_printer(PRINTER_CFG, path).unwrap().delta.to_params();
     tilted.tilt = [0.1, 0.0];
     assert!(KlipperDelta::from_params(&tilted, 110.0).is_err());
 }

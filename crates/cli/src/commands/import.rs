@@ -1,4 +1,5 @@
-//! `parcal import`: a printer's firmware configuration and probe log as a
+//! `parcal import`: a printer's firmware configuration and probe log (or
+//! the probes its firmware saved with its configuration, Klipper's) as a
 //! mechanism dataset (docs/delta.md): the configured parameters the
 //! firmware ran with, also the prior's means, the builder's tolerances as
 //! the prior's sigmas, and each probe as a probe height at the commanded
@@ -8,7 +9,7 @@
 use std::path::PathBuf;
 
 use parcal::dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
-use parcal::firmware::klipper::read_printer_cfg;
+use parcal::firmware::klipper::{DeltaCalibrateResults, read_printer};
 use parcal::firmware::probes::{ProbePoint, read_distances, read_probes};
 use parcal::firmware::rrf::read_config;
 use parcal::kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
@@ -30,7 +31,8 @@ enum Firmware {
     /// heights G30 S-1 reported.
     Reprapfirmware(FirmwareArgs),
     /// Klipper: printer.cfg's delta settings (the SAVE_CONFIG block
-    /// included), and the probe heights less the probe's z_offset.
+    /// included) and the probes and part distances its DELTA_CALIBRATE
+    /// saved, or the probe heights of --probes less the probe's z_offset.
     Klipper(FirmwareArgs),
 }
 
@@ -40,12 +42,14 @@ struct FirmwareArgs {
     #[arg(long)]
     config: PathBuf,
     /// The probe log: header x,y,z, the commanded XY of each probe and the
-    /// height reported there (mm).
+    /// height reported there (mm). Klipper's without it: the probes its
+    /// DELTA_CALIBRATE saved in printer.cfg.
     #[arg(long)]
-    probes: PathBuf,
+    probes: Option<PathBuf>,
     /// Part distances measured on a printed part: header
     /// x1,y1,z1,x2,y2,z2,distance, two commanded positions and the distance
-    /// measured between them (mm).
+    /// measured between them (mm). Klipper's without it: those its
+    /// DELTA_ANALYZE saved in printer.cfg, if any.
     #[arg(long)]
     distances: Option<PathBuf>,
     /// The dataset directory to write (it must not exist or be empty,
@@ -96,8 +100,8 @@ pub struct ToleranceArgs {
     #[arg(long, value_name = "MM", default_value_t = 0.02, value_parser = sigma)]
     distance_sigma: f64,
     /// The trigger height's standard deviation about the configured one
-    /// (G31 Z; Klipper's z_offset is taken as 0), mm: a first-layer
-    /// test's.
+    /// (G31 Z; Klipper's z_offset with the probes it saved, else 0), mm: a
+    /// first-layer test's.
     #[arg(long, value_name = "MM", default_value_t = 0.05, value_parser = sigma)]
     trigger_sigma: f64,
 }
@@ -136,10 +140,11 @@ struct Configured {
     trigger_height: f64,
 }
 
-/// The mechanism dataset of a firmware's configuration and probe log.
+/// The mechanism dataset of a firmware's configuration, its probes (the
+/// commanded position at each trigger) and part distances.
 fn dataset(
     configured: &Configured,
-    probes: &[ProbePoint],
+    probes: Vec<[f64; 3]>,
     distances: Vec<[f64; 7]>,
     tolerances: &ToleranceArgs,
 ) -> MechanismDataset {
@@ -177,10 +182,7 @@ fn dataset(
     machine.print_radius = Some(configured.print_radius);
     MechanismDataset {
         machine,
-        probes: probes
-            .iter()
-            .map(|p| [p.x, p.y, p.z + configured.trigger_height])
-            .collect(),
+        probes,
         distances,
         ..MechanismDataset::default()
     }
@@ -191,40 +193,66 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Firmware::Reprapfirmware(files) => ("RepRapFirmware", files),
         Firmware::Klipper(files) => ("Klipper", files),
     };
-    let configured = match &args.firmware {
+    // The configuration, and what its firmware saved of its last
+    // calibration (Klipper's DELTA_CALIBRATE): probes and part distances.
+    let (mut configured, saved) = match &args.firmware {
         Firmware::Reprapfirmware(files) => {
             let config = read_config(&files.config)?;
-            Configured {
+            let configured = Configured {
                 params: config.delta.to_params(),
                 print_radius: config.delta.print_radius,
                 trigger_height: config.probe.trigger_height,
-            }
+            };
+            (configured, DeltaCalibrateResults::default())
         }
         Firmware::Klipper(files) => {
-            let delta = read_printer_cfg(&files.config)?;
-            Configured {
-                params: delta.to_params(),
-                print_radius: delta.print_radius,
+            let printer = read_printer(&files.config)?;
+            let configured = Configured {
+                params: printer.delta.to_params(),
+                print_radius: printer.delta.print_radius,
                 trigger_height: 0.0,
-            }
+            };
+            (configured, printer.saved)
         }
     };
-    let probes = read_probes(&files.probes)?;
-    let distances = files
-        .distances
-        .as_deref()
-        .map(read_distances)
-        .transpose()?
-        .unwrap_or_default();
+    let (probes, probes_from) = match &files.probes {
+        Some(path) => {
+            let commanded = (read_probes(path)?.iter())
+                .map(|p: &ProbePoint| [p.x, p.y, p.z + configured.trigger_height])
+                .collect();
+            (commanded, path.display().to_string())
+        }
+        None if !saved.probes.is_empty() => {
+            configured.trigger_height = saved.z_offset.unwrap_or_default();
+            let from = format!("saved in {}", files.config.display());
+            (saved.probes, from)
+        }
+        None => anyhow::bail!(
+            "{}: no probes: give --probes (header x,y,z){}",
+            files.config.display(),
+            match args.firmware {
+                Firmware::Klipper(_) => ", or run DELTA_CALIBRATE and SAVE_CONFIG first",
+                Firmware::Reprapfirmware(_) => "",
+            }
+        ),
+    };
+    // A file given replaces what the firmware saved, each kind its own.
+    let (distances, distances_from) = match &files.distances {
+        Some(path) => (read_distances(path)?, format!(" ({})", path.display())),
+        None if !saved.distances.is_empty() => (
+            saved.distances,
+            format!(" (saved in {})", files.config.display()),
+        ),
+        None => (Vec::new(), String::new()),
+    };
     let n_distances = distances.len();
-    dataset(&configured, &probes, distances, &files.tolerances)
+    let n_probes = probes.len();
+    dataset(&configured, probes, distances, &files.tolerances)
         .write_with(&files.out, files.force)?;
     println!(
-        "{}: {firmware}'s configuration ({}), {} probe heights ({}) and {n_distances} part distances",
+        "{}: {firmware}'s configuration ({}), {n_probes} probe heights ({probes_from}) and {n_distances} part distances{distances_from}",
         files.out.display(),
         files.config.display(),
-        probes.len(),
-        files.probes.display()
     );
     Ok(())
 }
