@@ -587,10 +587,13 @@ def export(
     format: Literal["reprapfirmware", "klipper", "hangprinter"],
     *,
     print_radius: Optional[float] = None,
+    config: Optional[PathLike] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
     """A mechanism's calibration as its firmware's lines, as ``parcal
     export --format`` writes them: ``text``, ``lost`` (what the firmware
     cannot hold), and for a delta ``print_radius``, ``cost`` (mm:
     ``z_offset``, ``flatness_rms``, ``flatness_max``, ``volume_rms``,
-    ``volume_max``) and ``cost_sentence``; None for a cable robot."""
+    ``volume_max``) and ``cost_sentence``; None for a cable robot. With
+    ``"klipper"`` and ``config`` (a printer.cfg), ``text`` is that whole
+    file with its SAVE_CONFIG block updated (``--config``)."""

@@ -534,6 +534,15 @@ def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tm
         parcal.export(str(calibration), "hangprinter")
     with pytest.raises(parcal.Error, match="print_radius must be a positive number of mm"):
         parcal.export(str(calibration), "klipper", print_radius=-1.0)
+    # Into a printer.cfg: the whole file, as the command writes it.
+    printer_cfg = tmp_path / "printer.cfg"
+    printer_cfg.write_text("[printer]\nkinematics: delta\ndelta_radius: 135\n\n[stepper_a]\narm_length: 270\nposition_endstop: 300\n")
+    out = tmp_path / "new.cfg"
+    cli("export", "--calibration", calibration, "--format", "klipper", "--config", printer_cfg, "--out", out)
+    into = parcal.export(str(calibration), "klipper", config=printer_cfg)
+    assert into["text"] == out.read_text() and into["text"].startswith(printer_cfg.read_text())
+    with pytest.raises(parcal.Error, match="config: reprapfirmware's lines are written alone"):
+        parcal.export(str(calibration), "reprapfirmware", config=printer_cfg)
 
     robot = tmp_path / "robot.json"
     cli("calibrate", hangprinter, "--out", robot)

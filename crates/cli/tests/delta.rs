@@ -871,7 +871,7 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
     let commanded = |q: &[f64]| delta.forward(c.as_slice(), q, &[0.0; 3]).unwrap();
     // DELTA_CALIBRATE: the probe triggers with the true nozzle Z_OFFSET
     // above the bed.
-    let mut saved = String::from(
+    let mut block = String::from(
         "#*# <---------------------- SAVE_CONFIG ---------------------->\n\
          #*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n\
          #*# [delta_calibrate]\n",
@@ -879,7 +879,7 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
     let mut probes = String::from("x,y,z\n");
     for (i, [x, y]) in probe_rings(95.0, 3, 12).into_iter().enumerate() {
         let q = delta.inverse(t.as_slice(), &[x, y, Z_OFFSET]).unwrap();
-        saved.push_str(&format!(
+        block.push_str(&format!(
             "#*# height{i} = {Z_OFFSET}\n#*# height{i}_pos = {}\n",
             stable(q.as_slice())
         ));
@@ -901,7 +901,7 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
                 .unwrap()
         });
         let distance = (&printed[0] - &printed[1]).norm();
-        saved.push_str(&format!(
+        block.push_str(&format!(
             "#*# distance{i} = {distance:.4}\n#*# distance{i}_pos1 = {}\n#*# distance{i}_pos2 = {}\n",
             stable(ends[0].as_slice()),
             stable(ends[1].as_slice())
@@ -914,7 +914,7 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
     }
     fs::write(
         d.join("printer.cfg"),
-        format!("{KLIPPER_SETTINGS}\n{saved}"),
+        format!("{KLIPPER_SETTINGS}\n{block}"),
     )
     .unwrap();
     fs::write(d.join("probes.csv"), probes).unwrap();
@@ -980,6 +980,55 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
             "{name}: {value} from the saved probes, {logged} from the log (sigma {sigma})"
         );
     }
+    // Exported into the printer's printer.cfg: its main part and what
+    // DELTA_CALIBRATE saved kept, the calibrated settings in its block.
+    let new = d.join("new.cfg");
+    let export = |format: &str, out: &Path| {
+        [
+            "export",
+            "--calibration",
+            s(&d.join("saved/calibration.json")),
+            "--format",
+            format,
+            "--config",
+            s(&config),
+            "--out",
+            s(out),
+        ]
+        .map(str::to_string)
+    };
+    let said = ok(&export("klipper", &new).each_ref().map(String::as_str));
+    assert!(
+        said.contains("lost: the bed tilt") && said.contains("cost: "),
+        "{said}"
+    );
+    let written = fs::read_to_string(&new).unwrap();
+    let main = format!("{KLIPPER_SETTINGS}\n");
+    assert!(
+        written.starts_with(&format!("{main}# parcal: the calibrated")),
+        "{written}"
+    );
+    let kept = &block[block.find("#*# [delta_calibrate]").unwrap()..];
+    assert!(written.contains(kept), "{written}");
+    let back = parcal::firmware::klipper::parse_printer(&written, &new).unwrap();
+    assert_eq!(back.saved.probes.len(), 37);
+    assert_eq!(back.saved.distances.len(), 3);
+    // Written to 1e-6, the endstop corrections as differences of two such.
+    let endstops = back.delta.to_params().endstop;
+    for ((name, value, _), read) in saved.iter().zip(endstops) {
+        assert!((value - read).abs() < 2e-6, "{name}: {value} vs {read}");
+    }
+    let error = fails(
+        &export("reprapfirmware", &d.join("x.g"))
+            .each_ref()
+            .map(String::as_str),
+    );
+    assert!(
+        error.contains("--config: reprapfirmware's lines are written alone"),
+        "{error}"
+    );
+    let error = fails(&export("klipper", &config).each_ref().map(String::as_str));
+    assert!(error.contains("which this run reads"), "{error}");
     // Nothing saved and no log: refused, saying what to give.
     fs::write(&config, KLIPPER_SETTINGS).unwrap();
     let error = fails(&[

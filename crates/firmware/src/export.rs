@@ -5,8 +5,9 @@
 //! ([`LinearDelta::canonicalize`]), where the per-tower radius
 //! corrections and tower C's angle correction are zero: a gauge that no
 //! firmware needs. What remains is written as the firmware writes it
-//! (RepRapFirmware's `M665`/`M666` lines, Klipper's `SAVE_CONFIG` block),
-//! read back by this crate's reader of that firmware, and the machine the
+//! (RepRapFirmware's `M665`/`M666` lines, Klipper's `SAVE_CONFIG` block,
+//! alone or in the printer's `printer.cfg`), read back by this crate's
+//! reader of that firmware, and the machine the
 //! firmware will then believe in is compared with the calibrated one by
 //! [`position_errors`]: the cost of the export, rounding included.
 
@@ -17,8 +18,9 @@ use parcal_kinematics::mechanism::Mechanism;
 
 use crate::FirmwareError;
 use crate::accuracy::{PositionErrors, Workspace, position_errors};
+use crate::files::read_capped;
 use crate::klipper::{KlipperDelta, parse_printer};
-use crate::rrf::{RrfDelta, parse_config};
+use crate::rrf::{MAX_CONFIG_BYTES, RrfDelta, parse_config};
 
 /// The firmware to write for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -52,7 +54,8 @@ impl Firmware {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Export {
     /// The file's text: comment lines saying what is lost and what it
-    /// costs, then the firmware's lines.
+    /// costs, then the firmware's lines (in a configuration: its text
+    /// before them, then these).
     pub text: String,
     /// The parameters the firmware reads from `text`.
     pub written: DeltaParams,
@@ -64,12 +67,15 @@ pub struct Export {
 }
 
 /// The calibrated parameters `calibrated` of a delta with printable
-/// radius `print_radius`, written for `firmware` (module documentation);
-/// the cost evaluated over `workspace`.
+/// radius `print_radius`, written for `firmware` (module documentation),
+/// alone or into the configuration `into` (Klipper's `printer.cfg`, its
+/// `SAVE_CONFIG` block updated as Klipper's `SAVE_CONFIG` would:
+/// [`KlipperDelta::saved_into`]); the cost evaluated over `workspace`.
 pub fn export(
     calibrated: &DeltaParams,
     print_radius: f64,
     firmware: Firmware,
+    into: Option<&Path>,
     workspace: &Workspace,
 ) -> Result<Export, FirmwareError> {
     let canonical = canonical(calibrated, print_radius)?;
@@ -81,11 +87,22 @@ pub fn export(
             calibrated.angle[2]
         ));
     }
-    let (lines, precision) = match firmware {
-        Firmware::RepRapFirmware => (
-            RrfDelta::from_params(&canonical, print_radius)?.calibration_lines(),
-            "lengths and angles to 0.001, the tilt to 0.001 %",
-        ),
+    // The text before the lines (a configuration's), and the lines.
+    let (before, lines, precision) = match firmware {
+        Firmware::RepRapFirmware => {
+            if let Some(path) = into {
+                return Err(FirmwareError::Configuration {
+                    path: path.to_path_buf(),
+                    message: "RepRapFirmware's lines are written alone, for config-override.g"
+                        .to_string(),
+                });
+            }
+            (
+                String::new(),
+                RrfDelta::from_params(&canonical, print_radius)?.calibration_lines(),
+                "lengths and angles to 0.001, the tilt to 0.001 %",
+            )
+        }
         Firmware::Klipper => {
             let mut held = canonical;
             if held.tilt != [0.0; 2] {
@@ -95,21 +112,32 @@ pub fn export(
                 ));
                 held.tilt = [0.0; 2];
             }
-            (
-                KlipperDelta::from_params(&held, print_radius)?.save_config_block(),
-                "values to 1e-6",
-            )
+            let klipper = KlipperDelta::from_params(&held, print_radius)?;
+            let (before, block) = match into {
+                Some(path) => {
+                    let text = read_capped(path, MAX_CONFIG_BYTES, "configuration")?;
+                    let (main, block) = klipper.saved_into(&text);
+                    let newline = if main.is_empty() || main.ends_with('\n') {
+                        ""
+                    } else {
+                        "\n"
+                    };
+                    (format!("{main}{newline}"), block)
+                }
+                None => (String::new(), klipper.save_config_block()),
+            };
+            (before, block, "values to 1e-6")
         }
     };
     lost.push(format!(
         "rounding as {} writes ({precision})",
         firmware.name()
     ));
-    let written = read_back(&lines, firmware)?;
+    let written = read_back(&before, &lines, firmware, into)?;
     let cost = position_errors(&canonical, &written, workspace)?;
     let comment = firmware.comment();
     let mut text = format!(
-        "{comment} parcal: the calibrated linear delta for {}\n",
+        "{before}{comment} parcal: the calibrated linear delta for {}\n",
         firmware.name()
     );
     for sentence in &lost {
@@ -164,14 +192,26 @@ fn canonical(params: &DeltaParams, print_radius: f64) -> Result<DeltaParams, Fir
     Ok(DeltaParams::from_slice(canonical.as_slice()))
 }
 
-/// The parameters `firmware`'s reader takes from `lines`.
-fn read_back(lines: &str, firmware: Firmware) -> Result<DeltaParams, FirmwareError> {
-    let source = Path::new("the exported lines");
+/// The parameters `firmware`'s reader takes from `lines` after `before`,
+/// the text of the configuration `into` if any.
+fn read_back(
+    before: &str,
+    lines: &str,
+    firmware: Firmware,
+    into: Option<&Path>,
+) -> Result<DeltaParams, FirmwareError> {
+    let source = into.unwrap_or(Path::new("the exported lines"));
     Ok(match firmware {
         Firmware::RepRapFirmware => parse_config(lines, source)?.delta.to_params(),
-        // The block ends a printer.cfg whose [printer] has delta kinematics.
+        // Alone, the block ends a printer.cfg whose [printer] has delta
+        // kinematics.
         Firmware::Klipper => {
-            parse_printer(&format!("[printer]\nkinematics: delta\n{lines}"), source)?
+            let before = if into.is_some() {
+                before
+            } else {
+                "[printer]\nkinematics: delta\n"
+            };
+            parse_printer(&format!("{before}{lines}"), source)?
                 .delta
                 .to_params()
         }
@@ -209,7 +249,14 @@ mod tests {
     #[test]
     fn reprapfirmware_holds_the_machine_to_its_rounding() {
         let workspace = Workspace::of_printer(110.0, 300.0);
-        let export = export(&calibrated(), 110.0, Firmware::RepRapFirmware, &workspace).unwrap();
+        let export = export(
+            &calibrated(),
+            110.0,
+            Firmware::RepRapFirmware,
+            None,
+            &workspace,
+        )
+        .unwrap();
         // Rounding to 0.001 mm moves the nozzle by a few µm at most.
         assert!(export.cost.volume_max < 0.01, "{:?}", export.cost);
         assert!(export.text.contains("; parcal: lost: the per-tower radius"));
@@ -220,7 +267,7 @@ mod tests {
     #[test]
     fn klipper_loses_the_tilt_and_says_what_it_costs() {
         let workspace = Workspace::of_printer(110.0, 300.0);
-        let export = export(&calibrated(), 110.0, Firmware::Klipper, &workspace).unwrap();
+        let export = export(&calibrated(), 110.0, Firmware::Klipper, None, &workspace).unwrap();
         assert_eq!(export.written.tilt, [0.0; 2]);
         assert!(export.lost.iter().any(|s| s.contains("bed tilt")));
         // A tilt of 0.05 % across a radius of 110 mm: 55 µm at the edge.
@@ -235,6 +282,57 @@ mod tests {
             export
                 .text
                 .starts_with("# parcal: the calibrated linear delta for Klipper\n")
+        );
+    }
+
+    #[test]
+    fn into_a_printer_cfg_the_block_is_updated_and_the_rest_kept() {
+        let workspace = Workspace::of_printer(110.0, 300.0);
+        let main = "[printer]\nkinematics: delta\ndelta_radius: 134\n\n[stepper_a]\n\
+                    arm_length: 269\nposition_endstop: 299\nrotation_distance: 40\n\
+                    microsteps: 16\n[stepper_b]\nrotation_distance: 40\nmicrosteps: 16\n\
+                    [stepper_c]\nrotation_distance: 40\nmicrosteps: 16\n";
+        let saved = "#*# [probe]\n#*# z_offset = 0.650\n#*#\n#*# [delta_calibrate]\n\
+                     #*# height0 = 0.65\n#*# height0_pos = 19000.000,19000.000,19000.000\n";
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("printer.cfg");
+        let old = KlipperDelta::from_params(&DeltaParams::symmetric(269.0, 134.0, 299.0), 110.0)
+            .unwrap()
+            .save_config_block();
+        std::fs::write(&path, format!("{main}{old}{saved}")).unwrap();
+        let into = export(
+            &calibrated(),
+            110.0,
+            Firmware::Klipper,
+            Some(&path),
+            &workspace,
+        )
+        .unwrap();
+        let alone = export(&calibrated(), 110.0, Firmware::Klipper, None, &workspace).unwrap();
+        assert_eq!(into.written, alone.written);
+        assert_eq!(into.cost, alone.cost);
+        assert!(
+            into.text
+                .starts_with(&format!("{main}# parcal: the calibrated")),
+            "{}",
+            into.text
+        );
+        assert!(into.text.ends_with(saved), "{}", into.text);
+        let back = parse_printer(&into.text, &path).unwrap();
+        assert_eq!(back.delta.to_params(), into.written);
+        assert_eq!(back.saved.probes.len(), 1);
+        let refused = export(
+            &calibrated(),
+            110.0,
+            Firmware::RepRapFirmware,
+            Some(&path),
+            &workspace,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            refused.contains("written alone, for config-override.g"),
+            "{refused}"
         );
     }
 }

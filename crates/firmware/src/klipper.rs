@@ -32,16 +32,11 @@ use crate::files::read_capped;
 use crate::rrf::MAX_CONFIG_BYTES;
 
 mod delta_calibrate;
+mod save_config;
 
 pub use delta_calibrate::{DeltaCalibrateResults, MAX_ENTRIES};
+use save_config::SaveConfig;
 
-/// The line that opens Klipper's `SAVE_CONFIG` block.
-const SAVE_CONFIG_MARKER: &str = "#*# <---------------------- SAVE_CONFIG ---------------------->";
-/// The notice on the block's second line.
-const SAVE_CONFIG_NOTICE: &str =
-    "DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.";
-/// The prefix of every line of the block.
-const SAVE_CONFIG_PREFIX: &str = "#*#";
 /// The steppers of the towers.
 const STEPPERS: [&str; 3] = ["stepper_a", "stepper_b", "stepper_c"];
 
@@ -96,15 +91,35 @@ impl KlipperDelta {
     /// The `SAVE_CONFIG` block Klipper writes after `DELTA_CALIBRATE`
     /// (values to 1e-6, as Klipper writes them), to end a `printer.cfg`.
     pub fn save_config_block(&self) -> String {
-        let mut block = format!(
-            "{SAVE_CONFIG_MARKER}\n{SAVE_CONFIG_PREFIX} {SAVE_CONFIG_NOTICE}\n#*#\n#*# [printer]\n#*# delta_radius = {:.6}\n",
-            self.delta_radius
+        self.saved_in(SaveConfig::default()).render()
+    }
+
+    /// `printer_cfg` as Klipper's `SAVE_CONFIG` would leave it with these
+    /// settings: the text before its block, unchanged, and the block with
+    /// `delta_radius` and each stepper's `angle`, `arm_length` and
+    /// `position_endstop` set, its other sections and options (a saved
+    /// `[delta_calibrate]`, a probe's `z_offset`, a bed mesh) kept.
+    pub fn saved_into<'a>(&self, printer_cfg: &'a str) -> (&'a str, String) {
+        let (main, block) = SaveConfig::split(printer_cfg);
+        (main, self.saved_in(block).render())
+    }
+
+    /// `block` with these settings set.
+    fn saved_in(&self, mut block: SaveConfig) -> SaveConfig {
+        block.set(
+            "printer",
+            "delta_radius",
+            &format!("{:.6}", self.delta_radius),
         );
         for (i, stepper) in STEPPERS.iter().enumerate() {
-            block.push_str(&format!(
-                "#*#\n#*# [{stepper}]\n#*# angle = {:.6}\n#*# arm_length = {:.6}\n#*# position_endstop = {:.6}\n",
-                self.angles[i], self.arm_lengths[i], self.position_endstops[i]
-            ));
+            block.set(stepper, "angle", &format!("{:.6}", self.angles[i]));
+            block.set(
+                stepper,
+                "arm_length",
+                &format!("{:.6}", self.arm_lengths[i]),
+            );
+            let endstop = format!("{:.6}", self.position_endstops[i]);
+            block.set(stepper, "position_endstop", &endstop);
         }
         block
     }
@@ -127,7 +142,7 @@ impl Options {
             .collect();
         let block_start = numbered
             .iter()
-            .position(|(_, line)| line.trim_end() == SAVE_CONFIG_MARKER)
+            .position(|(_, line)| save_config::is_marker(line))
             .unwrap_or(numbered.len());
         let mut options = Options {
             path: path.to_path_buf(),
@@ -138,9 +153,9 @@ impl Options {
             .iter()
             .skip(1)
             .filter_map(|(line, text)| {
-                let rest = text.strip_prefix(SAVE_CONFIG_PREFIX)?;
+                let rest = text.strip_prefix(save_config::PREFIX)?;
                 let rest = rest.strip_prefix(' ').unwrap_or(rest);
-                (rest != SAVE_CONFIG_NOTICE).then_some((*line, rest))
+                (rest != save_config::NOTICE).then_some((*line, rest))
             })
             .collect();
         options.read(&block)?;

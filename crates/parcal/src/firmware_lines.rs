@@ -6,6 +6,8 @@
 //! a cable robot's `M669` anchors and `M666 R` spool radii
 //! (docs/cable-robots.md).
 
+use std::path::Path;
+
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use parcal_firmware::FirmwareError;
 use parcal_firmware::accuracy::{PositionErrors, Workspace};
@@ -65,7 +67,8 @@ impl FirmwareFormat {
 #[non_exhaustive]
 pub struct FirmwareLines {
     /// The file's text: a delta's with comment lines saying what is lost
-    /// and what it costs, then the firmware's lines.
+    /// and what it costs, then the firmware's lines; written into a
+    /// configuration, its text before them.
     pub text: String,
     /// What the firmware cannot hold, one sentence each.
     pub lost: Vec<String>,
@@ -115,20 +118,31 @@ pub enum FirmwareLinesError {
         /// The mechanism's name.
         mechanism: String,
     },
+    /// A configuration to write into was given for a format written alone.
+    #[error(
+        "{0}'s lines are written alone: only Klipper's are written into a configuration (its printer.cfg)"
+    )]
+    Into(&'static str),
     /// The firmware cannot hold the calibrated machine.
     #[error(transparent)]
     Firmware(#[from] FirmwareError),
 }
 
-/// `record` written as `format`'s lines; a delta's printable radius is
-/// `print_radius` if given, else the one the record carries from its
-/// dataset. Whether a rejected calibration may be used is the caller's
-/// decision.
+/// `record` written as `format`'s lines, or with Klipper into the
+/// `printer.cfg` at `into` (the whole file, its `SAVE_CONFIG` block
+/// updated: [`parcal_firmware::klipper::KlipperDelta::saved_into`]); a
+/// delta's printable radius is `print_radius` if given, else the one the
+/// record carries from its dataset. Whether a rejected calibration may be
+/// used is the caller's decision.
 pub fn firmware_lines(
     record: &MechanismCalibrationRecord,
     format: FirmwareFormat,
     print_radius: Option<f64>,
+    into: Option<&Path>,
 ) -> Result<FirmwareLines, FirmwareLinesError> {
+    if into.is_some() && format != FirmwareFormat::Klipper {
+        return Err(FirmwareLinesError::Into(format.name()));
+    }
     if record.mechanism != format.mechanism() {
         return Err(FirmwareLinesError::OtherMechanism {
             found: record.mechanism.clone(),
@@ -157,7 +171,7 @@ pub fn firmware_lines(
     }
     let calibrated = DeltaParams::from_slice(&values);
     let workspace = Workspace::of_printer(print_radius, calibrated.homed_height);
-    let exported = export(&calibrated, print_radius, firmware, &workspace)?;
+    let exported = export(&calibrated, print_radius, firmware, into, &workspace)?;
     Ok(FirmwareLines {
         text: exported.text,
         lost: exported.lost,
@@ -213,14 +227,14 @@ mod tests {
     fn a_printers_lines_take_its_printable_radius_unless_one_is_given() {
         let record = printer();
         assert_eq!(record.print_radius, Some(100.0));
-        let carried = firmware_lines(&record, FirmwareFormat::RepRapFirmware, None).unwrap();
+        let carried = firmware_lines(&record, FirmwareFormat::RepRapFirmware, None, None).unwrap();
         let (_, workspace) = carried.cost.unwrap();
         assert_eq!(workspace.print_radius, 100.0);
         assert!(carried.text.contains(" B100.0 "), "{}", carried.text);
         assert!(carried.cost_sentence().unwrap().contains("radius 100.0 mm"));
         // Klipper's SAVE_CONFIG holds no printable radius: it bounds the
         // workspace the cost is taken over.
-        let given = firmware_lines(&record, FirmwareFormat::Klipper, Some(90.0)).unwrap();
+        let given = firmware_lines(&record, FirmwareFormat::Klipper, Some(90.0), None).unwrap();
         assert!(given.cost_sentence().unwrap().contains("radius 90.0 mm"));
         assert_eq!(given.cost.unwrap().1.print_radius, 90.0);
 
@@ -228,13 +242,14 @@ mod tests {
             print_radius: None,
             ..record.clone()
         };
-        let error = firmware_lines(&unstated, FirmwareFormat::Klipper, None).unwrap_err();
+        let error = firmware_lines(&unstated, FirmwareFormat::Klipper, None, None).unwrap_err();
         assert!(
             matches!(error, FirmwareLinesError::NoPrintRadius),
             "{error}"
         );
         for radius in [0.0, -5.0, f64::NAN, f64::INFINITY] {
-            let error = firmware_lines(&record, FirmwareFormat::Klipper, Some(radius)).unwrap_err();
+            let error =
+                firmware_lines(&record, FirmwareFormat::Klipper, Some(radius), None).unwrap_err();
             assert!(
                 matches!(error, FirmwareLinesError::PrintRadius(_)),
                 "{error}"
@@ -245,14 +260,22 @@ mod tests {
     #[test]
     fn a_calibration_of_another_mechanism_or_without_a_parameter_is_named() {
         let record = printer();
-        let error = firmware_lines(&record, FirmwareFormat::Hangprinter, None).unwrap_err();
+        let error = firmware_lines(&record, FirmwareFormat::Hangprinter, None, None).unwrap_err();
         assert_eq!(
             error.to_string(),
             "a linear delta calibration; hangprinter exports a cable robot's"
         );
         let mut partial = record.clone();
         partial.parameters.retain(|p| p.name != "radius");
-        let error = firmware_lines(&partial, FirmwareFormat::RepRapFirmware, None).unwrap_err();
+        let error =
+            firmware_lines(&partial, FirmwareFormat::RepRapFirmware, None, None).unwrap_err();
         assert_eq!(error.to_string(), "no parameter radius of the linear delta");
+        let into = Some(Path::new("printer.cfg"));
+        let error =
+            firmware_lines(&record, FirmwareFormat::RepRapFirmware, None, into).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "reprapfirmware's lines are written alone: only Klipper's are written into a configuration (its printer.cfg)"
+        );
     }
 }

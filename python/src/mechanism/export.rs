@@ -3,6 +3,8 @@
 //! hangprinter` writes them (docs/delta.md, docs/cable-robots.md).
 
 use parcal::firmware_lines::{FirmwareFormat, FirmwareLinesError, firmware_lines};
+use std::path::PathBuf;
+
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -13,7 +15,10 @@ use crate::error::to_py;
 /// path) written as `format`'s lines (`"reprapfirmware"`, `"klipper"`: a
 /// linear delta's; `"hangprinter"`: a cable robot's), as `parcal export`
 /// writes them. A delta's printable radius is `print_radius` (mm) if
-/// given, else the one the calibration carries from its dataset.
+/// given, else the one the calibration carries from its dataset. With
+/// `"klipper"` and `config` (the printer's printer.cfg), `text` is that
+/// whole file with its SAVE_CONFIG block updated as Klipper's SAVE_CONFIG
+/// would, its other sections and options kept.
 ///
 /// Returns a dict: `text` (the file's text), `lost` (what the firmware
 /// cannot hold, one sentence each), and for a delta `print_radius` (the
@@ -23,12 +28,13 @@ use crate::error::to_py;
 /// `parcal export` prints it; `None` for a cable robot. A rejected
 /// calibration is used only with `accept_rejected`.
 #[pyfunction(name = "export")]
-#[pyo3(signature = (calibration, format, *, print_radius=None, accept_rejected=false))]
+#[pyo3(signature = (calibration, format, *, print_radius=None, config=None, accept_rejected=false))]
 pub fn export_firmware<'py>(
     py: Python<'py>,
     calibration: &Bound<'py, PyAny>,
     format: &str,
     print_radius: Option<f64>,
+    config: Option<PathBuf>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let format = FirmwareFormat::by_name(format).ok_or_else(|| {
@@ -42,15 +48,19 @@ pub fn export_firmware<'py>(
         ))
     })?;
     let (record, name) = calibration_record(calibration, accept_rejected)?;
-    let lines = firmware_lines(&record, format, print_radius).map_err(|error| match error {
-        FirmwareLinesError::NoPrintRadius => to_py(format!(
-            "{name}: {error}: give print_radius (mm, the firmware's M665 B or print_radius)"
-        )),
-        FirmwareLinesError::PrintRadius(radius) => to_py(format!(
-            "print_radius must be a positive number of mm, got {radius}"
-        )),
-        error => to_py(format!("{name}: {error}")),
-    })?;
+    let lines =
+        firmware_lines(&record, format, print_radius, config.as_deref()).map_err(|error| {
+            match error {
+                FirmwareLinesError::NoPrintRadius => to_py(format!(
+                    "{name}: {error}: give print_radius (mm, the firmware's M665 B or print_radius)"
+                )),
+                FirmwareLinesError::PrintRadius(radius) => to_py(format!(
+                    "print_radius must be a positive number of mm, got {radius}"
+                )),
+                FirmwareLinesError::Into(_) => to_py(format!("config: {error}")),
+                error => to_py(format!("{name}: {error}")),
+            }
+        })?;
     let dict = PyDict::new(py);
     dict.set_item("text", &lines.text)?;
     dict.set_item("lost", &lines.lost)?;

@@ -80,13 +80,20 @@ pub struct Args {
     /// firmware's).
     #[arg(long, value_name = "MM")]
     print_radius: Option<f64>,
+    /// With --format klipper: the printer's printer.cfg, written to --out
+    /// whole with its SAVE_CONFIG block updated as Klipper's SAVE_CONFIG
+    /// would (its other sections and options kept: a saved
+    /// [delta_calibrate], the probe's z_offset, a bed mesh).
+    #[arg(long, value_name = "PRINTER_CFG")]
+    config: Option<PathBuf>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    crate::outputs::check(
-        std::slice::from_ref(&args.calibration),
-        std::slice::from_ref(&args.out),
-    )?;
+    let inputs: Vec<PathBuf> = std::iter::once(&args.calibration)
+        .chain(&args.config)
+        .cloned()
+        .collect();
+    crate::outputs::check(&inputs, std::slice::from_ref(&args.out))?;
     match args.format.firmware() {
         Some(firmware) => export_firmware(args, firmware)?,
         None => export_hexapod(args)?,
@@ -97,6 +104,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 /// Exports a hexapod's calibration as `args.format`.
 fn export_hexapod(args: &Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.config.is_none(),
+        "--config: --format {} is written alone: only Klipper's lines are written into a configuration (its printer.cfg)",
+        args.format.name()
+    );
     let record = super::read_calibration(&args.calibration, args.accept_rejected)
         .map_err(|error| mismatch(&args.calibration, args.format).unwrap_or(error))?;
     let model = AppliedModel::from_record(&record)
@@ -151,8 +163,8 @@ fn mismatch_of(path: &Path, mechanism: &str, format: Format) -> Option<anyhow::E
 fn export_firmware(args: &Args, format: FirmwareFormat) -> anyhow::Result<()> {
     let path = &args.calibration;
     let record = mechanism_record(args)?;
-    let lines =
-        firmware_lines(&record, format, args.print_radius).map_err(|error| match error {
+    let lines = firmware_lines(&record, format, args.print_radius, args.config.as_deref())
+        .map_err(|error| match error {
             FirmwareLinesError::NoPrintRadius => anyhow::anyhow!(
                 "{}: {error}: --format {} needs --print-radius (M665 B or print_radius)",
                 path.display(),
@@ -161,6 +173,7 @@ fn export_firmware(args: &Args, format: FirmwareFormat) -> anyhow::Result<()> {
             FirmwareLinesError::PrintRadius(radius) => {
                 anyhow::anyhow!("--print-radius must be a positive number of mm, got {radius}")
             }
+            FirmwareLinesError::Into(_) => anyhow::anyhow!("--config: {error}"),
             error => anyhow::anyhow!("{}: {error}", path.display()),
         })?;
     if let Some((_, workspace)) = lines.cost.filter(|_| args.print_radius.is_none()) {
