@@ -134,7 +134,7 @@ struct Options {
 impl Options {
     /// The options of `text` (`path` names it in errors): its main part,
     /// then the `SAVE_CONFIG` block's, which override it.
-    pub(crate) fn parse(text: &str, path: &Path) -> Result<Self, FirmwareError> {
+    fn parse(text: &str, path: &Path) -> Result<Self, FirmwareError> {
         let numbered: Vec<(u64, &str)> = text
             .lines()
             .enumerate()
@@ -258,6 +258,7 @@ fn strip_comment(text: &str) -> &str {
 /// A `printer.cfg`'s delta: its settings and the measurements its last
 /// `DELTA_CALIBRATE` saved.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct KlipperPrinter {
     /// The delta settings.
     pub delta: KlipperDelta,

@@ -50,6 +50,7 @@ pub const MAX_ENTRIES: usize = 999;
 /// `gear_ratio`, or `step_distance`), at which the configured parameters'
 /// forward kinematics puts the nozzle.
 #[derive(Debug, Clone, PartialEq, Default)]
+#[non_exhaustive]
 pub struct DeltaCalibrateResults {
     /// The probes' `z_offset` (mm), if any probe was saved.
     pub z_offset: Option<f64>,
@@ -130,10 +131,10 @@ fn entries(options: &Options, name: &str, suffixes: &[&str]) -> Result<Vec<Entry
     let mut entries = Vec::new();
     for index in 0..MAX_ENTRIES {
         let key = format!("{name}{index}");
-        let Some(value) = options.float(SECTION, &key)? else {
+        let Some((_, line)) = options.text(SECTION, &key) else {
             break;
         };
-        let (_, line) = options.text(SECTION, &key).unwrap_or(("", 0));
+        let value = options.required(SECTION, &key)?;
         let positions = (suffixes.iter())
             .map(|suffix| stable_position(options, &format!("{key}{suffix}"), line))
             .collect::<Result<_, _>>()?;
