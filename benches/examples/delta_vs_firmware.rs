@@ -1,11 +1,14 @@
 //! docs/delta.md's side-by-side table: on simulated kit printers, the
 //! first-layer flatness and the 3D error over the build volume after
-//! RepRapFirmware's 6-, 7- and 9-factor auto-calibration and after
-//! parcal's calibration, on the same probe heights, and parcal with a few
-//! part distances added.
+//! RepRapFirmware's 6-, 7- and 9-factor auto-calibration, Klipper's
+//! `DELTA_CALIBRATE` and parcal's calibration, on the same probe heights,
+//! and Klipper's enhanced calibration and parcal with a few part distances
+//! added.
 //!
-//! `cargo run --release -p parcal-benches --example delta_vs_firmware -- [PRINTERS [SEED [DRAW]]]`
-//! (30 printers, seed 1 and DRAW `uniform` by default; or `prior`).
+//! `cargo run --release -p parcal-benches --example delta_vs_firmware -- [PRINTERS [SEED [DRAW [tilt]]]]`
+//! (30 printers, seed 1 and DRAW `uniform` by default; or `prior`; `tilt`:
+//! every printer's bed tilt drawn, then set to zero, so that its errors
+//! are within Klipper's kinematics but for the towers' own radii).
 //!
 //! Each printer (its own random stream of the seed): rods 250-300 mm,
 //! delta radius 120-150 mm, homed height 300 mm, printable radius 0.75 of
@@ -37,6 +40,7 @@ use parcal_calibrate::mechanism::{
 };
 use parcal_firmware::accuracy::{PositionErrors, Workspace, position_errors};
 use parcal_firmware::autocal::auto_calibrate;
+use parcal_firmware::klipper::{KlipperDelta, ReadDistance, fit};
 use parcal_firmware::probes::ProbePoint;
 use parcal_firmware::rrf::RrfDelta;
 use parcal_kinematics::delta::{
@@ -95,8 +99,9 @@ struct Distance {
     measured: f64,
 }
 
-/// Printer `index` of `seed` (module documentation).
-fn printer(seed: u64, index: u64, draw: Draw) -> Printer {
+/// Printer `index` of `seed` (module documentation), its bed level if
+/// `level`.
+fn printer(seed: u64, index: u64, draw: Draw, level: bool) -> Printer {
     let mut rng = Rng::new(seed, index);
     let diagonal = rng.uniform(250.0, 300.0);
     let radius = rng.uniform(120.0, 150.0);
@@ -127,6 +132,9 @@ fn printer(seed: u64, index: u64, draw: Draw) -> Printer {
     truth.radius += error(t.radius, 0.3);
     truth.homed_height += error(t.homed_height, 0.3);
     truth.tilt = [error(t.tilt, 0.1), error(t.tilt, 0.1)];
+    if level {
+        truth.tilt = [0.0; 2];
+    }
     let delta = kinematics(&configured);
     let (t, c) = (truth.to_vector(), configured.to_params().to_vector());
     let probes = probe_rings(configured.print_radius, 3, 8)
@@ -225,6 +233,36 @@ fn parcal(printer: &Printer, with_distances: bool) -> DeltaParams {
     DeltaParams::from_slice(&calibration.values().as_slice()[..N_PARAMS])
 }
 
+/// Klipper's `DELTA_CALIBRATE` of `printer` from its probe heights and,
+/// if `with_distances`, its part distances (the enhanced calibration),
+/// each at the carriages' readings of its commanded position; the probe's
+/// `z_offset` the trigger height.
+fn klipper(printer: &Printer, with_distances: bool) -> DeltaParams {
+    let configured = printer.configured.to_params();
+    let delta = kinematics(&printer.configured);
+    let c = configured.to_vector();
+    let readings = |x: &[f64; 3]| {
+        let q = delta.inverse(c.as_slice(), x).expect("reach");
+        [q[0], q[1], q[2]]
+    };
+    let probes: Vec<[f64; 3]> = (printer.probes.iter())
+        .map(|p| readings(&[p.x, p.y, p.z + TRIGGER_HEIGHT.0]))
+        .collect();
+    let distances: Vec<ReadDistance> = (printer.distances.iter())
+        .filter(|_| with_distances)
+        .map(|d| ReadDistance {
+            first: readings(&d.first),
+            second: readings(&d.second),
+            distance: d.measured,
+        })
+        .collect();
+    let settings =
+        KlipperDelta::from_params(&configured, printer.configured.print_radius).expect("no tilt");
+    fit(&settings, &probes, TRIGGER_HEIGHT.0, &distances)
+        .expect("fit")
+        .to_params()
+}
+
 /// The errors of each method on one printer.
 fn errors(printer: &Printer) -> Vec<PositionErrors> {
     let workspace = Workspace::of_printer(
@@ -238,7 +276,9 @@ fn errors(printer: &Printer) -> Vec<PositionErrors> {
         let fit = auto_calibrate(&printer.configured, &printer.probes, factors).expect("fit");
         rows.push(on_truth(&fit.delta.to_params()));
     }
+    rows.push(on_truth(&klipper(printer, false)));
     rows.push(on_truth(&parcal(printer, false)));
+    rows.push(on_truth(&klipper(printer, true)));
     rows.push(on_truth(&parcal(printer, true)));
     rows
 }
@@ -260,6 +300,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("prior") => Draw::Prior,
         Some(other) => return Err(format!("DRAW is uniform or prior, got {other}").into()),
     };
+    let level = match args.next().as_deref() {
+        None => false,
+        Some("tilt") => true,
+        Some(other) => return Err(format!("the fourth argument is tilt, got {other}").into()),
+    };
     if !(2..=MAX_PRINTERS).contains(&printers) {
         return Err(format!("PRINTERS must be from 2 to {MAX_PRINTERS}, got {printers}").into());
     }
@@ -268,14 +313,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "RepRapFirmware 6-factor",
         "RepRapFirmware 7-factor",
         "RepRapFirmware 9-factor",
+        "Klipper DELTA_CALIBRATE",
         "parcal, probe heights",
+        "Klipper enhanced, 6 part distances",
         "parcal, probe heights and 6 part distances",
     ];
     let results: Vec<Vec<PositionErrors>> = (0..printers as u64)
-        .map(|index| errors(&printer(seed, index, draw)))
+        .map(|index| errors(&printer(seed, index, draw, level)))
         .collect();
     println!(
-        "{printers} printers, seed {seed}, errors {draw:?}: mean over the printers (standard error), um; paired difference of the RMS against the 9-factor fit"
+        "{printers} printers, seed {seed}, errors {draw:?}{}: mean over the printers (standard error), um; paired difference of the RMS against the 9-factor fit",
+        if level { ", bed level" } else { "" }
     );
     println!(
         "| method | flatness RMS | flatness max | 3D RMS | 3D max | flatness RMS - 9-factor | 3D RMS - 9-factor |"

@@ -32,9 +32,11 @@ use crate::files::read_capped;
 use crate::rrf::MAX_CONFIG_BYTES;
 
 mod delta_calibrate;
+mod fit;
 mod save_config;
 
 pub use delta_calibrate::{DeltaCalibrateResults, MAX_ENTRIES};
+pub use fit::{ReadDistance, fit};
 use save_config::SaveConfig;
 
 /// The steppers of the towers.

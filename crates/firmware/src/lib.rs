@@ -7,7 +7,7 @@
 //!   `config.g` and written back.
 //! - [`klipper`]: Klipper's delta settings in a `printer.cfg`, read with
 //!   the probes and part distances its `DELTA_CALIBRATE` saved, and
-//!   written as its `SAVE_CONFIG` block.
+//!   written as its `SAVE_CONFIG` block; its `DELTA_CALIBRATE` fit.
 //! - [`probes`]: probe heights (`probes.csv`, `x,y,z` as `G30 S-1`
 //!   reports them).
 //! - [`autocal`]: RepRapFirmware's 3- to 9-factor auto-calibration.
