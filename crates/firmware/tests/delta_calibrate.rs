@@ -142,6 +142,13 @@ fn what_cannot_be_read_is_refused_naming_the_line() {
         no_steps.contains("no rotation_distance in [stepper_a]"),
         "{no_steps}"
     );
+    let microsteps = error(&printer_cfg("").replacen("microsteps: 16", "microsteps: 0", 1));
+    assert!(
+        microsteps.starts_with(
+            "printer.cfg: line 8: [stepper_a] microsteps: 0 is not a positive integer"
+        ),
+        "{microsteps}"
+    );
     let gears = error(&printer_cfg("").replace("2:1", "2:0"));
     assert!(gears.contains("[stepper_b] gear_ratio: '2:0'"), "{gears}");
     let far = error(&printer_cfg("").replace("distance0_pos2 = ", "distance0_pos2 = 90000"));

@@ -171,21 +171,34 @@ fn stable_position(options: &Options, key: &str, line: u64) -> Result<[f64; 3], 
 fn step_distances(options: &Options) -> Result<[f64; 3], FirmwareError> {
     let mut steps = [0.0; 3];
     for (step, stepper) in steps.iter_mut().zip(STEPPERS) {
-        *step = match options.float(stepper, "step_distance")? {
-            Some(d) => d,
-            None => {
-                let rotation = options.required(stepper, "rotation_distance")?;
-                let microsteps = options.required(stepper, "microsteps")?;
-                let full_steps = options
-                    .float(stepper, "full_steps_per_rotation")?
-                    .unwrap_or(200.0);
-                rotation / (full_steps * microsteps * gear_ratio(options, stepper)?)
+        // Each a positive length or count, refused at its line.
+        let positive = |key: &str, whole: bool, default: Option<f64>| {
+            let value = match default {
+                Some(default) => options.float(stepper, key)?.unwrap_or(default),
+                None => options.required(stepper, key)?,
+            };
+            if value > 0.0 && (!whole || value.fract() == 0.0) {
+                return Ok(value);
             }
+            let (_, line) = options.text(stepper, key).unwrap_or_default();
+            let kind = if whole { "integer" } else { "length (mm)" };
+            Err(options.at(
+                line,
+                format!("[{stepper}] {key}: {value} is not a positive {kind}"),
+            ))
         };
-        if !(step.is_finite() && *step > 0.0) {
+        *step = if options.text(stepper, "step_distance").is_some() {
+            positive("step_distance", false, None)?
+        } else {
+            positive("rotation_distance", false, None)?
+                / (positive("full_steps_per_rotation", true, Some(200.0))?
+                    * positive("microsteps", true, None)?
+                    * gear_ratio(options, stepper)?)
+        };
+        if !(step.is_normal() && *step > 0.0) {
             return Err(FirmwareError::Configuration {
                 path: options.path.clone(),
-                message: format!("[{stepper}]'s step distance {step} mm is not positive"),
+                message: format!("[{stepper}]'s step distance, {step} mm, is not a usable length"),
             });
         }
     }
