@@ -1,8 +1,8 @@
 //! The linear delta: one inverse and forward kinematics, the readings'
 //! analytic derivatives, the probe heights' Jacobian at 25 points, and
-//! on those 25 probes RepRapFirmware's 9-factor auto-calibration and
-//! parcal's calibration (all 16 parameters, the trigger height, the
-//! default tolerances as the prior).
+//! on those 25 probes RepRapFirmware's 9-factor auto-calibration, Klipper's
+//! `DELTA_CALIBRATE` and parcal's calibration (all 16 parameters, the
+//! trigger height, the default tolerances as the prior).
 
 use std::sync::Arc;
 
@@ -11,6 +11,7 @@ use parcal_calibrate::mechanism::{
     MechanismData, MechanismOptions, Observations, calibrate_mechanism,
 };
 use parcal_firmware::autocal::auto_calibrate;
+use parcal_firmware::klipper::{KlipperDelta, fit};
 use parcal_firmware::probes::ProbePoint;
 use parcal_firmware::rrf::RrfDelta;
 use parcal_kinematics::delta::{LinearDelta, probe_height, probe_height_jacobian, probe_rings};
@@ -78,6 +79,17 @@ fn delta(c: &mut Criterion) {
         .collect();
     c.bench_function("RepRapFirmware 9-factor auto-calibration, 25 points", |b| {
         b.iter(|| auto_calibrate(black_box(&firmware), black_box(&probes), 9).unwrap())
+    });
+    // Klipper: the same probes at their carriages' readings, z_offset 0.
+    let readings: Vec<[f64; 3]> = (probes.iter())
+        .map(|p| {
+            let q = delta.inverse(f.as_slice(), &[p.x, p.y, p.z]).unwrap();
+            [q[0], q[1], q[2]]
+        })
+        .collect();
+    let settings = KlipperDelta::from_params(&firmware.to_params(), 110.0).unwrap();
+    c.bench_function("Klipper DELTA_CALIBRATE, 25 points", |b| {
+        b.iter(|| fit(black_box(&settings), black_box(&readings), 0.0, &[]).unwrap())
     });
     // The same probes, the trigger height 0 mm known to 0.05 mm.
     let observations = Observations {
