@@ -182,11 +182,7 @@ fn kinematics(configured: &RrfDelta) -> LinearDelta {
     LinearDelta::new(
         &configured.to_params(),
         &Default::default(),
-        parcal_kinematics::delta::Limits {
-            print_radius: configured.print_radius,
-            max_arm_angle: 90.0,
-            travel: f64::INFINITY,
-        },
+        parcal_kinematics::delta::Limits::reach_only(configured.print_radius),
     )
 }
 

@@ -118,11 +118,7 @@ pub fn position_errors(
 ) -> Result<PositionErrors, FirmwareError> {
     let (levels, _) = workspace.check()?;
     // The kinematics only: no limits beyond reach.
-    let limits = Limits {
-        print_radius: workspace.print_radius,
-        max_arm_angle: 90.0,
-        travel: f64::INFINITY,
-    };
+    let limits = Limits::reach_only(workspace.print_radius);
     let delta = LinearDelta::new(machine, &Tolerances::default(), limits);
     let kinematics =
         |e: parcal_kinematics::mechanism::MechanismError| FirmwareError::Calibration(e.to_string());

@@ -77,11 +77,7 @@ impl Firmware {
     fn new(rrf: &RrfDelta) -> Result<Self, FirmwareError> {
         let params = rrf.to_params();
         // The kinematics only: no limits beyond reach.
-        let limits = Limits {
-            print_radius: rrf.print_radius,
-            max_arm_angle: 90.0,
-            travel: f64::INFINITY,
-        };
+        let limits = Limits::reach_only(rrf.print_radius);
         let delta = LinearDelta::new(&params, &Tolerances::default(), limits);
         let params = params.to_vector();
         let homed = delta

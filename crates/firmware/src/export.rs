@@ -180,11 +180,7 @@ fn hundredths(value: f64) -> f64 {
 
 /// `params` in the linear delta's canonical frame.
 fn canonical(params: &DeltaParams, print_radius: f64) -> Result<DeltaParams, FirmwareError> {
-    let limits = Limits {
-        print_radius,
-        max_arm_angle: 90.0,
-        travel: f64::INFINITY,
-    };
+    let limits = Limits::reach_only(print_radius);
     let delta = LinearDelta::new(params, &Tolerances::default(), limits);
     let canonical = delta
         .canonicalize(params.to_vector().as_slice())

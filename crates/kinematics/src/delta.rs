@@ -206,6 +206,19 @@ pub struct Limits {
     pub travel: f64,
 }
 
+impl Limits {
+    /// The kinematics' own limits only, within the printable radius
+    /// `print_radius` (infinite: none): arms up to the horizontal,
+    /// carriages without an end of travel (what a firmware's files state).
+    pub fn reach_only(print_radius: f64) -> Self {
+        Self {
+            print_radius,
+            max_arm_angle: 90.0,
+            travel: f64::INFINITY,
+        }
+    }
+}
+
 /// A linear delta design with its tolerances and limits.
 #[derive(Debug, Clone)]
 pub struct LinearDelta {

@@ -149,11 +149,7 @@ fn dataset(
     tolerances: &ToleranceArgs,
 ) -> MechanismDataset {
     // The kinematics only: the files state no joint or travel limits.
-    let limits = Limits {
-        print_radius: configured.print_radius,
-        max_arm_angle: 90.0,
-        travel: f64::INFINITY,
-    };
+    let limits = Limits::reach_only(configured.print_radius);
     let delta = LinearDelta::new(&configured.params, &tolerances.tolerances(), limits);
     let mut machine = MechanismMachine::of(&delta);
     for parameter in delta.parameters() {

@@ -70,10 +70,11 @@ pub(super) fn read(
     if let Some((_, line)) = options.text(SECTION, "manual_height0") {
         return Err(options.at(
             line,
-            "[delta_calibrate] manual_height0: a manually entered height (DELTA_ANALYZE \
-             MANUAL_HEIGHT) is not read: parcal's probe heights share one trigger height; \
-             remove the manual heights to import the probes"
-                .to_string(),
+            format!(
+                "[{SECTION}] manual_height0: a manually entered height (DELTA_ANALYZE \
+                 MANUAL_HEIGHT) is not read: parcal's probe heights share one trigger height; \
+                 remove the manual heights to import the probes"
+            ),
         ));
     }
     let heights = entries(options, "height", &["_pos"])?;
@@ -90,7 +91,7 @@ pub(super) fn read(
                 return Err(options.at(
                     h.line,
                     format!(
-                        "[delta_calibrate] height{}: z_offset {} differs from height0's {}: \
+                        "[{SECTION}] height{}: z_offset {} differs from height0's {}: \
                          the probes of one calibration share the probe's z_offset",
                         h.index,
                         h.value,
@@ -245,11 +246,7 @@ struct Stable {
 impl Stable {
     fn new(configured: &DeltaParams, steps: [f64; 3]) -> Self {
         // Only the kinematics: no limit applies to a position reached.
-        let limits = Limits {
-            print_radius: f64::INFINITY,
-            max_arm_angle: 90.0,
-            travel: f64::INFINITY,
-        };
+        let limits = Limits::reach_only(f64::INFINITY);
         Self {
             delta: LinearDelta::new(configured, &Tolerances::default(), limits),
             params: configured.to_vector(),

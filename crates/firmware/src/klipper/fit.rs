@@ -83,11 +83,7 @@ pub fn fit(
         1.0
     };
     // Only the kinematics: the settings tried come with each evaluation.
-    let limits = Limits {
-        print_radius: f64::INFINITY,
-        max_arm_angle: 90.0,
-        travel: f64::INFINITY,
-    };
+    let limits = Limits::reach_only(f64::INFINITY);
     let delta = LinearDelta::new(&configured.to_params(), &Tolerances::default(), limits);
     let error = |settings: &KlipperDelta| -> f64 {
         let params = settings.to_params().to_vector();
