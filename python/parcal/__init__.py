@@ -29,6 +29,7 @@ from ._parcal import (
     __version__,
     accuracy,
     export,
+    import_firmware,
     read_dataset,
     simulate,
 )
@@ -127,6 +128,7 @@ __all__ = [
     "calibrate",
     "compensate",
     "export",
+    "import_firmware",
     "plan",
     "read_dataset",
     "simulate",

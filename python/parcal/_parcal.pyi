@@ -582,6 +582,31 @@ def plan_mechanism(
     ``trace``, ``trace_before``, ``group``, ``feasible``,
     ``from_calibration``, ``parameters``, ``statements``."""
 
+def import_firmware(
+    firmware: Literal["reprapfirmware", "klipper"],
+    config: PathLike,
+    *,
+    probes: Optional[PathLike] = None,
+    distances: Optional[PathLike] = None,
+    diagonal_tolerance: Optional[float] = None,
+    matched_rods: Optional[float] = None,
+    radius_tolerance: Optional[float] = None,
+    tower_radius_tolerance: Optional[float] = None,
+    angle_tolerance: Optional[float] = None,
+    endstop_tolerance: Optional[float] = None,
+    homed_height_tolerance: Optional[float] = None,
+    tilt_tolerance: Optional[float] = None,
+    probe_sigma: Optional[float] = None,
+    distance_sigma: Optional[float] = None,
+    trigger_sigma: Optional[float] = None,
+) -> MechanismDataset:
+    """A printer's firmware configuration (config.g, printer.cfg) and probe
+    log as its dataset, as ``parcal import reprapfirmware | klipper``
+    makes it: the configured parameters as the prior's means, the
+    tolerances (None: a kit printer's) as its sigmas; Klipper's probes
+    and part distances saved in printer.cfg where ``probes`` or
+    ``distances`` is not given."""
+
 def export(
     calibration: Union[MechanismCalibration, PathLike],
     format: Literal["reprapfirmware", "klipper", "hangprinter"],

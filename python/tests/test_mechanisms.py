@@ -3,6 +3,7 @@ the parcal binary: reading, calibration, validation, compensation, plan."""
 
 import csv
 import json
+import os
 import shutil
 
 import numpy as np
@@ -551,3 +552,54 @@ def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tm
     lines = parcal.export(str(robot), "hangprinter")
     assert lines["text"] == out.read_text() and "\nM669 K6 A" in lines["text"]
     assert lines["lost"] == [] and lines["cost"] is None and lines["print_radius"] is None
+
+
+CONFIG_G = "; config.g of a kit delta\nM665 L270 R135 H300 B100\nM666 X0 Y0 Z0\nG31 P500 X0 Y0 Z0.7\n"
+
+
+def test_import_firmware_makes_the_datasets_of_the_cli(cli, tmp_path):
+    sim = tmp_path / "sim"
+    parcal.simulate(5, mechanism="delta", part_distances=3).write(sim)
+    probes, distances = sim / "probes.csv", sim / "distances.csv"
+    config = tmp_path / "config.g"
+    config.write_text(CONFIG_G)
+    out = tmp_path / "cli"
+    cli("import", "reprapfirmware", "--config", config, "--probes", probes, "--distances", distances,
+        "--diagonal-tolerance", "0.3", "--matched-rods", "0.05", "--trigger-sigma", "0.02", "--out", out)
+    ds = parcal.import_firmware("reprapfirmware", config, probes=probes, distances=distances,
+                                diagonal_tolerance=0.3, matched_rods=0.05, trigger_sigma=0.02)
+    mine = tmp_path / "mine"
+    ds.write(mine)
+    assert sorted(os.listdir(mine)) == sorted(os.listdir(out)) == ["distances.csv", "machine.json", "probes.csv"]
+    for name in os.listdir(out):
+        assert (mine / name).read_bytes() == (out / name).read_bytes(), name
+    # Each probe at its commanded position: the height reported plus G31's trigger height.
+    logged = np.loadtxt(probes, delimiter=",", skiprows=1)
+    assert np.array_equal(ds.probes[:, :2], logged[:, :2])
+    assert np.allclose(ds.probes[:, 2], logged[:, 2] + 0.7, rtol=0, atol=1e-12)
+    assert ds.mechanism == "linear delta" and ds.print_radius == 100.0 and len(ds.distances) == 3
+    assert parcal.calibrate(ds).verdict in ("accepted", "rejected")
+
+    # Klipper: printer.cfg's settings and a probe log, as the command makes it.
+    printer_cfg = tmp_path / "printer.cfg"
+    printer_cfg.write_text("[printer]\nkinematics: delta\ndelta_radius: 135\nprint_radius: 100\n\n"
+                           "[stepper_a]\narm_length: 270\nposition_endstop: 300\n\n[stepper_b]\n\n[stepper_c]\n")
+    out = tmp_path / "klipper"
+    cli("import", "klipper", "--config", printer_cfg, "--probes", probes, "--out", out)
+    klipper = tmp_path / "klipper-mine"
+    parcal.import_firmware("klipper", printer_cfg, probes=probes).write(klipper)
+    for name in os.listdir(out):
+        assert (klipper / name).read_bytes() == (out / name).read_bytes(), name
+
+    # Refusals name what is wrong.
+    with pytest.raises(parcal.Error, match=r"printer.cfg: no probe log given, and no probes saved "
+                       r"\(run DELTA_CALIBRATE and SAVE_CONFIG\): give probes="):
+        parcal.import_firmware("klipper", printer_cfg)
+    with pytest.raises(parcal.Error, match="firmware: expected reprapfirmware or klipper, got \"hangprinter\""):
+        parcal.import_firmware("hangprinter", config, probes=probes)
+    with pytest.raises(parcal.Error, match=r"tilt_tolerance: 0 is not a standard deviation in \(0, 100\]"):
+        parcal.import_firmware("reprapfirmware", config, probes=probes, tilt_tolerance=0.0)
+    with pytest.raises(parcal.Error, match="matched_rods: inf is not a standard deviation"):
+        parcal.import_firmware("reprapfirmware", config, probes=probes, matched_rods=float("inf"))
+    with pytest.raises(parcal.Error, match="nowhere.g"):
+        parcal.import_firmware("reprapfirmware", tmp_path / "nowhere.g", probes=probes)

@@ -1041,7 +1041,7 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
     ]);
     assert!(
         error.contains(
-            "no probes: give --probes (header x,y,z), or run DELTA_CALIBRATE and SAVE_CONFIG first"
+            "printer.cfg: no probe log given, and no probes saved (run DELTA_CALIBRATE and SAVE_CONFIG): give --probes (header x,y,z)"
         ),
         "{error}"
     );

@@ -34,6 +34,8 @@
 //! - [`command`]: a calibration as `parcal calibrate` makes it, with
 //!   calibration.json's record, for every front end;
 //! - [`maps`]: the accuracy maps as `parcal accuracy` makes them;
+//! - [`firmware_import`]: a printer's firmware configuration and probe
+//!   log as a mechanism dataset, as `parcal import` makes it;
 //! - [`firmware_lines`]: a mechanism's calibration as its firmware's
 //!   lines, as `parcal export` writes them.
 //!
@@ -121,6 +123,7 @@ pub use parcal_simulate as simulation;
 pub use parcal_workflows as workflows;
 
 pub mod command;
+pub mod firmware_import;
 pub mod firmware_lines;
 pub mod maps;
 

@@ -1,0 +1,327 @@
+//! A printer's firmware configuration and probe log (or the probes its
+//! firmware saved with its configuration, Klipper's) as a mechanism
+//! dataset, as `parcal import` makes it, for every front end
+//! (docs/delta.md): the configured parameters the firmware ran with, also
+//! the prior's means, the builder's tolerances as the prior's sigmas, and
+//! each probe as a probe height at the commanded position where it
+//! triggered, `(x, y, z + trigger height)`, the trigger height an unknown
+//! with its own prior.
+
+use std::path::{Path, PathBuf};
+
+use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
+use parcal_firmware::FirmwareError;
+use parcal_firmware::klipper::{DeltaCalibrateResults, read_printer};
+use parcal_firmware::probes::{read_distances, read_probes};
+use parcal_firmware::rrf::read_config;
+use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
+use parcal_kinematics::mechanism::Mechanism;
+
+use crate::firmware_lines::FirmwareFormat;
+
+/// The largest tolerance or standard deviation accepted (mm, degrees or
+/// percent): beyond it a prior says nothing.
+pub const MAX_SIGMA: f64 = 100.0;
+
+/// The builder's tolerances (one standard deviation each) and the
+/// measurements' noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct ImportOptions {
+    /// The parameters' tolerances; by default a kit printer's
+    /// ([`Tolerances::default`]).
+    pub tolerances: Tolerances,
+    /// The rods were cut as a matched set: each within this of the set's
+    /// length (mm, at most the rods' tolerance).
+    pub matched_rods: Option<f64>,
+    /// The probe's repeatability (mm).
+    pub probe_sigma: f64,
+    /// The part distances' standard deviation, a calliper's (mm).
+    pub distance_sigma: f64,
+    /// The trigger height's standard deviation about the configured one
+    /// (RepRapFirmware's `G31 Z`; Klipper's `z_offset` with the probes it
+    /// saved, else 0), a first-layer test's (mm).
+    pub trigger_sigma: f64,
+}
+
+impl Default for ImportOptions {
+    /// A kit printer's tolerances, a probe of 10 um, a calliper of 20 um,
+    /// a trigger height known to 50 um.
+    fn default() -> Self {
+        Self {
+            tolerances: Tolerances::default(),
+            matched_rods: None,
+            probe_sigma: 0.01,
+            distance_sigma: 0.02,
+            trigger_sigma: 0.05,
+        }
+    }
+}
+
+impl ImportOptions {
+    /// Every standard deviation by its option's name (`parcal import`'s
+    /// long flag with `_` for `-`).
+    pub fn sigmas(&self) -> [(&'static str, Option<f64>); 11] {
+        let t = &self.tolerances;
+        [
+            ("diagonal_tolerance", Some(t.diagonal)),
+            ("matched_rods", self.matched_rods),
+            ("radius_tolerance", Some(t.radius)),
+            ("tower_radius_tolerance", Some(t.tower_radius)),
+            ("angle_tolerance", Some(t.angle)),
+            ("endstop_tolerance", Some(t.endstop)),
+            ("homed_height_tolerance", Some(t.homed_height)),
+            ("tilt_tolerance", Some(t.tilt)),
+            ("probe_sigma", Some(self.probe_sigma)),
+            ("distance_sigma", Some(self.distance_sigma)),
+            ("trigger_sigma", Some(self.trigger_sigma)),
+        ]
+    }
+
+    /// Whether every standard deviation is one: finite, positive and at
+    /// most [`MAX_SIGMA`].
+    pub fn check(&self) -> Result<(), FirmwareImportError> {
+        match self
+            .sigmas()
+            .into_iter()
+            .find_map(|(option, value)| value.filter(|&v| !is_sigma(v)).map(|v| (option, v)))
+        {
+            Some((option, value)) => Err(FirmwareImportError::Sigma { option, value }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Whether `value` is a standard deviation [`ImportOptions`] accepts.
+pub fn is_sigma(value: f64) -> bool {
+    value.is_finite() && value > 0.0 && value <= MAX_SIGMA
+}
+
+/// Where a kind of observation was read from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Source {
+    /// A file given.
+    File(PathBuf),
+    /// The firmware's configuration, which saved them.
+    Saved(PathBuf),
+}
+
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::File(path) => write!(f, "{}", path.display()),
+            Self::Saved(path) => write!(f, "saved in {}", path.display()),
+        }
+    }
+}
+
+/// A firmware's files as a mechanism dataset.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub struct FirmwareImport {
+    /// The dataset (not yet written).
+    pub dataset: MechanismDataset,
+    /// Where its probe heights came from.
+    pub probes_from: Source,
+    /// Where its part distances came from, if it has any.
+    pub distances_from: Option<Source>,
+}
+
+/// Why a firmware's files cannot be imported.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FirmwareImportError {
+    /// The format's files are not imported (only a linear delta's are).
+    #[error(
+        "{0}'s files are not imported: only a linear delta's firmware (reprapfirmware, klipper)"
+    )]
+    NotImported(&'static str),
+    /// No probe log was given and the configuration saved no probes.
+    #[error("{}: no probe log given{}", config.display(),
+        if *klipper { ", and no probes saved (run DELTA_CALIBRATE and SAVE_CONFIG)" } else { "" })]
+    NoProbes {
+        /// The configuration.
+        config: PathBuf,
+        /// Whether it is Klipper's, which saves its probes.
+        klipper: bool,
+    },
+    /// A tolerance or noise is not a standard deviation.
+    #[error("{option}: {value} is not a standard deviation in (0, {MAX_SIGMA}]")]
+    Sigma {
+        /// The option's name.
+        option: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A file cannot be read, or says something the firmware would not.
+    #[error(transparent)]
+    Firmware(#[from] FirmwareError),
+}
+
+/// What a firmware's files say: the configured parameters, the printable
+/// radius and the trigger height.
+struct Configured {
+    params: DeltaParams,
+    print_radius: f64,
+    trigger_height: f64,
+}
+
+/// The dataset of the printer configured in `config` (`format`'s file:
+/// RepRapFirmware's config.g, Klipper's printer.cfg), probed as the log at
+/// `probes` says (header `x,y,z`: the commanded XY and the height
+/// reported there, mm) and measured as `distances` says (header
+/// `x1,y1,z1,x2,y2,z2,distance`); with Klipper each of them, when not
+/// given, what its `DELTA_CALIBRATE` and `DELTA_ANALYZE` saved in
+/// printer.cfg (a file given replaces what was saved, each kind its own).
+pub fn firmware_import(
+    format: FirmwareFormat,
+    config: &Path,
+    probes: Option<&Path>,
+    distances: Option<&Path>,
+    options: &ImportOptions,
+) -> Result<FirmwareImport, FirmwareImportError> {
+    options.check()?;
+    let (mut configured, saved) = match format {
+        FirmwareFormat::RepRapFirmware => {
+            let config = read_config(config)?;
+            let configured = Configured {
+                params: config.delta.to_params(),
+                print_radius: config.delta.print_radius,
+                trigger_height: config.probe.trigger_height,
+            };
+            (configured, DeltaCalibrateResults::default())
+        }
+        FirmwareFormat::Klipper => {
+            let printer = read_printer(config)?;
+            let configured = Configured {
+                params: printer.delta.to_params(),
+                print_radius: printer.delta.print_radius,
+                trigger_height: 0.0,
+            };
+            (configured, printer.saved)
+        }
+        FirmwareFormat::Hangprinter => {
+            return Err(FirmwareImportError::NotImported(format.name()));
+        }
+    };
+    let (probes, probes_from) = match probes {
+        Some(path) => {
+            let commanded = (read_probes(path)?.iter())
+                .map(|p| [p.x, p.y, p.z + configured.trigger_height])
+                .collect();
+            (commanded, Source::File(path.to_path_buf()))
+        }
+        None if !saved.probes.is_empty() => {
+            configured.trigger_height = saved.z_offset.unwrap_or_default();
+            (saved.probes, Source::Saved(config.to_path_buf()))
+        }
+        None => {
+            return Err(FirmwareImportError::NoProbes {
+                config: config.to_path_buf(),
+                klipper: format == FirmwareFormat::Klipper,
+            });
+        }
+    };
+    let (distances, distances_from) = match distances {
+        Some(path) => (
+            read_distances(path)?,
+            Some(Source::File(path.to_path_buf())),
+        ),
+        None if !saved.distances.is_empty() => {
+            (saved.distances, Some(Source::Saved(config.to_path_buf())))
+        }
+        None => (Vec::new(), None),
+    };
+    Ok(FirmwareImport {
+        dataset: dataset(&configured, probes, distances, options),
+        probes_from,
+        distances_from,
+    })
+}
+
+/// The mechanism dataset of a firmware's configuration, its probes (the
+/// commanded position at each trigger) and part distances.
+fn dataset(
+    configured: &Configured,
+    probes: Vec<[f64; 3]>,
+    distances: Vec<[f64; 7]>,
+    options: &ImportOptions,
+) -> MechanismDataset {
+    // The kinematics only: the files state no joint or travel limits.
+    let limits = Limits::reach_only(configured.print_radius);
+    let delta = LinearDelta::new(&configured.params, &options.tolerances, limits);
+    let mut machine = MechanismMachine::of(&delta);
+    for parameter in delta.parameters() {
+        if !machine
+            .tolerances
+            .iter()
+            .any(|(group, _)| group == parameter.group)
+        {
+            machine
+                .tolerances
+                .push((parameter.group.to_string(), Some(parameter.prior_sigma)));
+        }
+    }
+    if let Some(sigma) = options.matched_rods {
+        machine.matched.push((RODS.to_string(), sigma));
+    }
+    machine.noise = Noise {
+        probe: Some(options.probe_sigma),
+        distance: (!distances.is_empty()).then_some(options.distance_sigma),
+        ..Noise::default()
+    };
+    machine.trigger_height = Some(ValuePrior {
+        value: configured.trigger_height,
+        sigma: Some(options.trigger_sigma),
+    });
+    machine.print_radius = Some(configured.print_radius);
+    MechanismDataset {
+        machine,
+        probes,
+        distances,
+        ..MechanismDataset::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tolerance_that_is_not_a_standard_deviation_is_named() {
+        assert!(ImportOptions::default().check().is_ok());
+        let named = |options: ImportOptions| match options.check() {
+            Err(FirmwareImportError::Sigma { option, value }) => (option, value.to_string()),
+            other => panic!("{other:?}"),
+        };
+        let mut options = ImportOptions::default();
+        options.tolerances.angle = 0.0;
+        assert_eq!(named(options), ("angle_tolerance", "0".to_string()));
+        let options = ImportOptions {
+            matched_rods: Some(f64::NAN),
+            ..ImportOptions::default()
+        };
+        assert_eq!(named(options), ("matched_rods", "NaN".to_string()));
+        let options = ImportOptions {
+            trigger_sigma: MAX_SIGMA * 1.5,
+            ..ImportOptions::default()
+        };
+        assert_eq!(named(options), ("trigger_sigma", "150".to_string()));
+    }
+
+    #[test]
+    fn a_cable_robots_files_are_not_imported() {
+        let error = firmware_import(
+            FirmwareFormat::Hangprinter,
+            Path::new("config.g"),
+            None,
+            None,
+            &ImportOptions::default(),
+        )
+        .unwrap_err();
+        assert!(matches!(
+            error,
+            FirmwareImportError::NotImported("hangprinter")
+        ));
+    }
+}
