@@ -31,6 +31,7 @@ from ._parcal import (
     export,
     import_firmware,
     read_dataset,
+    report,
     simulate,
 )
 
@@ -131,6 +132,7 @@ __all__ = [
     "import_firmware",
     "plan",
     "read_dataset",
+    "report",
     "simulate",
     "validate",
 ]

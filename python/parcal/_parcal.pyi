@@ -582,6 +582,19 @@ def plan_mechanism(
     ``trace``, ``trace_before``, ``group``, ``feasible``,
     ``from_calibration``, ``parameters``, ``statements``."""
 
+def report(
+    calibration: Union[Calibration, MechanismCalibration, PathLike],
+    *,
+    dataset: Union[Dataset, MechanismDataset, None] = None,
+    format: Literal["html", "markdown"] = "html",
+    other_data: bool = False,
+) -> str:
+    """A calibration's report as ``parcal report`` writes it: report.html
+    (a self-contained page; ``IPython.display.HTML(text)`` shows it) or
+    report.md. ``dataset`` (the one calibrated, another hexapod's only with
+    ``other_data``) adds the accuracy map's machine, a printer's probe
+    residuals and a simulation's truth."""
+
 def import_firmware(
     firmware: Literal["reprapfirmware", "klipper"],
     config: PathLike,

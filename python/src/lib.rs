@@ -4,7 +4,8 @@
 //! `parcal calibrate` makes it (`calibrate`, `run`), and the other
 //! commands with numpy arrays where the command writes CSV (`commands`);
 //! the same for a linear delta or a cable robot (`mechanism`), the
-//! dataset's kind read from its machine.json (`read`).
+//! dataset's kind read from its machine.json (`read`); the report of a
+//! calibration of either kind (`report`).
 //! Every error is `parcal.Error`, a `ValueError` (`error`).
 
 mod calibrate;
@@ -15,6 +16,7 @@ mod error;
 mod mechanism;
 mod options;
 mod read;
+mod report;
 mod run;
 
 use pyo3::prelude::*;
@@ -28,6 +30,7 @@ fn _parcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::Calibration>()?;
     m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(read::read_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(report::report, m)?)?;
     mechanism::register(m)?;
     commands::register(m)
 }

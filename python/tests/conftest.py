@@ -34,6 +34,14 @@ def paper(tmp_path):
 
 
 @pytest.fixture(scope="session")
+def delta(tmp_path_factory, cli):
+    """A simulated linear delta: 33 probe heights on 4 rings and 12 part distances, with its truth."""
+    path = tmp_path_factory.mktemp("delta") / "delta"
+    cli("simulate", "--mechanism", "delta", "--seed", 5, "--probe-rings", 4, "--part-distances", 12, "--out", path)
+    return path
+
+
+@pytest.fixture(scope="session")
 def medium(tmp_path_factory, cli):
     """A simulated campaign of 300 balls touched 7 times each (2100 contacts)."""
     path = tmp_path_factory.mktemp("medium") / "data"

@@ -21,14 +21,6 @@ def hangprinter(tmp_path):
     return path
 
 
-@pytest.fixture(scope="session")
-def delta(tmp_path_factory, cli):
-    """A simulated linear delta: 33 probe heights on 4 rings and 12 part distances, with its truth."""
-    path = tmp_path_factory.mktemp("delta") / "delta"
-    cli("simulate", "--mechanism", "delta", "--seed", 5, "--probe-rings", 4, "--part-distances", 12, "--out", path)
-    return path
-
-
 def test_read_dataset_reads_the_kind_machine_json_declares(hangprinter):
     ds = parcal.read_dataset(hangprinter)
     assert isinstance(ds, parcal.MechanismDataset)

@@ -17,6 +17,7 @@ use parcal_calibrate::{
     CalibrateError, CalibrationOptions, CalibrationRun, IterationRecord, Loss, Observation,
     PriorMode, RadiusModel, Simulation, WeightModel, calibrate,
 };
+use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use parcal_dataset::{Calibration, Dataset, DatasetError, Provenance, ReadOptions};
 use parcal_report::record;
 
@@ -206,5 +207,26 @@ pub fn provenance(dataset: &Dataset, given: &str) -> Provenance {
         parcal_version: env!("CARGO_PKG_VERSION").to_string(),
         dataset: given.to_string(),
         dataset_checksum: dataset.checksum(),
+    }
+}
+
+/// A calibration.json of either kind.
+#[derive(Debug, Clone)]
+pub enum Recorded {
+    /// The hexapod's own calibration.
+    Own(Box<Calibration>),
+    /// A mechanism's (a hexapod's too, through the common path).
+    Mechanism(Box<MechanismCalibrationRecord>),
+}
+
+/// Reads the calibration.json at `path` as the hexapod's own, else as a
+/// mechanism's; the own reader's error when it is neither.
+pub fn read_either(path: &Path) -> Result<Recorded, DatasetError> {
+    match Calibration::read(path) {
+        Ok(own) => Ok(Recorded::Own(Box::new(own))),
+        Err(own) => match MechanismCalibrationRecord::read(path) {
+            Ok(record) => Ok(Recorded::Mechanism(Box::new(record))),
+            Err(_) => Err(own),
+        },
     }
 }

@@ -34,6 +34,8 @@
 //! - [`command`]: a calibration as `parcal calibrate` makes it, with
 //!   calibration.json's record, for every front end;
 //! - [`maps`]: the accuracy maps as `parcal accuracy` makes them;
+//! - [`report_pages`]: a calibration's report as `parcal report`
+//!   renders it;
 //! - [`firmware_import`]: a printer's firmware configuration and probe
 //!   log as a mechanism dataset, as `parcal import` makes it;
 //! - [`firmware_lines`]: a mechanism's calibration as its firmware's
@@ -126,6 +128,7 @@ pub mod command;
 pub mod firmware_import;
 pub mod firmware_lines;
 pub mod maps;
+pub mod report_pages;
 
 // The data: a dataset in memory, its files, a calibration's record.
 pub use parcal_dataset::{

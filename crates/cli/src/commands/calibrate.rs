@@ -15,6 +15,7 @@ use parcal::calibration::{
 use parcal::command::{CalibrateFlags, RecordedRun, calibrate_recorded, common_calibration};
 use parcal::dataset::{CALIBRATION_FILE, HEXAPOD, MEASUREMENTS_FILE, ReadOptions};
 use parcal::report::{instruments, tables};
+use parcal::report_pages::{MechanismTrue, hexapod_truth};
 use parcal::workflows::evaluate::{TrueMachine, before_after};
 
 use super::{ReportRequest, report};
@@ -230,15 +231,12 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
     let trackers: Vec<&str> = (data.observations.trackers.iter())
         .map(|t| t.label.as_str())
         .collect();
-    let truth = super::truth::hexapod(&dataset, data.mechanism.parameters().len(), &trackers)?;
+    let truth = hexapod_truth(&dataset, data.mechanism.parameters().len(), &trackers)
+        .map_err(|error| anyhow::anyhow!("{}: {error}", args.dataset.display()))?;
     // The touches are in `data`: the dataset's memory is the room of the
     // calibration's, given back as it starts.
     let freeing = super::mechanism::free_beside(dataset);
-    let from_dataset = parcal::report::mechanism::FromDataset {
-        probes: None,
-        truth: truth.as_ref().map(|t| t.values.as_slice()),
-        true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
-    };
+    let from_dataset = MechanismTrue::from_dataset(truth.as_ref(), None);
     let calibrated = super::mechanism::calibrate_with(
         HEXAPOD,
         data,

@@ -14,7 +14,7 @@ use parcal::dataset::atomic::write_file;
 use parcal::dataset::mechanism::MechanismCalibrationRecord;
 use parcal::firmware_lines::{FirmwareFormat, FirmwareLinesError, firmware_lines};
 
-use super::Recorded;
+use parcal::command::{Recorded, read_either};
 
 /// What to export.
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -127,7 +127,7 @@ fn export_hexapod(args: &Args) -> anyhow::Result<()> {
 /// has neither the design nor its frames) for a hexapod's format, if it
 /// is one (read as either kind of calibration).
 fn mismatch(path: &Path, format: Format) -> Option<anyhow::Error> {
-    let mechanism = match super::read_either(path).ok()? {
+    let mechanism = match read_either(path).ok()? {
         Recorded::Mechanism(record)
             if record.mechanism == HEXAPOD && format.mechanism() == HEXAPOD =>
         {

@@ -24,6 +24,7 @@ use parcal::report::mechanism::{
     touch_equation, verdict_sentence,
 };
 use parcal::report::mechanism_validation::placed_error;
+use parcal::report_pages::{MechanismTrue, mechanism_truth};
 
 use crate::progress::Progress;
 
@@ -65,12 +66,9 @@ pub fn calibrate(
     let dataset = MechanismDataset::read(path)?;
     let data =
         MechanismData::from_dataset(&dataset).map_err(|error| placed(path, mechanism, &error))?;
-    let truth = super::truth::mechanism(path, &dataset, &data)?;
-    let from_dataset = FromDataset {
-        probes: Some(dataset.probes.as_slice()),
-        truth: truth.as_ref().map(|t| t.values.as_slice()),
-        true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
-    };
+    let truth = mechanism_truth(&dataset, &data)
+        .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
+    let from_dataset = MechanismTrue::from_dataset(truth.as_ref(), Some(&dataset.probes));
     let read = format!(
         "read {} observations in {:.2} s",
         data.observations.len(),

@@ -15,7 +15,6 @@ pub mod plan_mechanism;
 pub mod report;
 pub mod simulate;
 pub mod simulate_mechanism;
-pub mod truth;
 pub mod validate;
 
 use std::path::{Path, PathBuf};
@@ -244,26 +243,6 @@ pub fn accepted<R: Judged>(record: R, path: &Path, accept_rejected: bool) -> any
         record.reasons().join("; ")
     );
     Ok(record)
-}
-
-/// A calibration.json of either kind.
-pub enum Recorded {
-    /// The hexapod's own calibration.
-    Own(Box<parcal::dataset::Calibration>),
-    /// A mechanism's (a hexapod's too, through the common path).
-    Mechanism(Box<MechanismCalibrationRecord>),
-}
-
-/// Reads the calibration.json at `path` as the hexapod's own, else as a
-/// mechanism's; the own reader's error when it is neither.
-pub fn read_either(path: &Path) -> anyhow::Result<Recorded> {
-    match parcal::dataset::Calibration::read(path) {
-        Ok(own) => Ok(Recorded::Own(Box::new(own))),
-        Err(own) => match MechanismCalibrationRecord::read(path) {
-            Ok(record) => Ok(Recorded::Mechanism(Box::new(record))),
-            Err(_) => Err(own.into()),
-        },
-    }
 }
 
 #[cfg(test)]

@@ -7,11 +7,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use parcal::calibration::mechanism::MechanismData;
+use parcal::command::{Recorded, read_either};
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
-use parcal::report::calibration_report::{Format, Subject, predicted_accuracy, render};
+use parcal::report::calibration_report::{Format, Subject, render};
 use parcal::report::mechanism::FromDataset;
+use parcal::report_pages::{
+    ReportDataset, ReportPageError, hexapod_report, mechanism_page, mechanism_report,
+};
 
 /// The report's two files in its directory: the HTML page and the Markdown.
 pub const REPORT_FILES: [(&str, Format); 2] = [
@@ -53,32 +57,37 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .with_context(|| format!("{}: cannot create the directory", directory.display()))?;
     }
     crate::outputs::check(&inputs, &report_paths(&directory))?;
-    let calibration = match super::read_either(&args.calibration)? {
-        super::Recorded::Own(calibration) => *calibration,
-        super::Recorded::Mechanism(record) => return write_mechanism(&record, args, &directory),
+    let calibration = match read_either(&args.calibration)? {
+        Recorded::Own(calibration) => *calibration,
+        Recorded::Mechanism(record) => return write_mechanism(&record, args, &directory),
     };
     let dataset = args
         .dataset
         .as_deref()
         .map(super::read_dataset)
         .transpose()?;
-    if let (Some(dataset), Some(provenance)) = (&dataset, &calibration.provenance) {
-        anyhow::ensure!(
-            args.other_data || provenance.dataset_checksum == dataset.checksum(),
-            "{}: the calibration is of another dataset ({}, checksum {}; this one's is {}); give --other-data to report with it anyway",
-            args.calibration.display(),
-            provenance.dataset,
-            provenance.dataset_checksum,
-            dataset.checksum()
-        );
-    }
     let file = args.calibration.display().to_string();
-    let subject = Subject {
-        calibration: &calibration,
-        file: &file,
-        accuracy: predicted_accuracy(&calibration, dataset.as_ref()),
-    };
-    write(&subject, &directory)?;
+    let texts = REPORT_FILES.map(|(name, format)| {
+        hexapod_report(
+            &calibration,
+            &file,
+            dataset.as_ref(),
+            args.other_data,
+            format,
+        )
+        .map(|text| (directory.join(name), text))
+    });
+    let texts = texts
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|error| match error {
+            ReportPageError::OtherData { .. } => anyhow::anyhow!(
+                "{}: {error}; give --other-data to report with it anyway",
+                args.calibration.display()
+            ),
+            error => anyhow::anyhow!("{file}: {error}"),
+        })?;
+    write_texts(&texts)?;
     writeln!(
         std::io::stdout().lock(),
         "verdict: {}\nreport written to {}",
@@ -110,33 +119,35 @@ fn write_mechanism(
     args: &Args,
     directory: &Path,
 ) -> anyhow::Result<()> {
-    let (mut probes, mut truth) = (None, None);
-    let mechanism_dataset;
-    match &args.dataset {
+    let file = args.calibration.display().to_string();
+    let hexapod;
+    let mechanism;
+    let dataset = match &args.dataset {
         Some(path) if record.mechanism == HEXAPOD => {
-            let dataset = super::read_dataset(path)?;
-            let trackers: Vec<&str> = record.trackers.iter().map(|t| t.label.as_str()).collect();
-            truth = super::truth::hexapod(&dataset, record.parameters.len(), &trackers)
-                .map_err(|error| anyhow::anyhow!("{}: {error:#}", path.display()))?;
+            hexapod = super::read_dataset(path)?;
+            Some((path, ReportDataset::Hexapod(&hexapod)))
         }
         Some(path) => {
-            mechanism_dataset = MechanismDataset::read(path)?;
-            let data = MechanismData::from_dataset(&mechanism_dataset)
+            let dataset = MechanismDataset::read(path)?;
+            let data = MechanismData::from_dataset(&dataset)
                 .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
-            truth = super::truth::mechanism(path, &mechanism_dataset, &data)?;
-            probes = Some(mechanism_dataset.probes.as_slice());
+            mechanism = (dataset, data);
+            Some((path, ReportDataset::Mechanism(&mechanism.0, &mechanism.1)))
         }
-        None => {}
-    }
-    let from_dataset = FromDataset {
-        probes,
-        truth: truth.as_ref().map(|t| t.values.as_slice()),
-        true_frames: truth.as_ref().map(|t| t.frames.as_slice()),
+        None => None,
     };
-    let file = args.calibration.display().to_string();
-    write_set(&[], || {
-        write_mechanism_report(record, &file, from_dataset, directory)
-    })?;
+    let texts = REPORT_FILES.map(|(name, format)| {
+        mechanism_report(record, &file, dataset.map(|(_, d)| d), format)
+            .map(|text| (directory.join(name), text))
+    });
+    let texts = texts
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|error| match (&error, dataset) {
+            (ReportPageError::Figure(_), _) | (_, None) => anyhow::anyhow!("{file}: {error}"),
+            (_, Some((path, _))) => anyhow::anyhow!("{}: {error}", path.display()),
+        })?;
+    write_texts(&texts)?;
     writeln!(
         std::io::stdout().lock(),
         "{}\nreport written to {}",
@@ -164,13 +175,18 @@ pub fn listed(directory: &Path) -> String {
 }
 
 /// Renders `subject` in both forms into `directory` ([`REPORT_FILES`]),
-/// both rendered before either is written, and written as a set: both
-/// new or both as they were.
+/// both rendered before either is written ([`write_texts`]).
 pub fn write(subject: &Subject, directory: &Path) -> anyhow::Result<()> {
     let texts = REPORT_FILES
         .iter()
         .map(|(name, format)| Ok((directory.join(name), render(subject, *format)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
+    write_texts(&texts)
+}
+
+/// Writes the report's files, each `(path, text)` rendered before, as a
+/// set: all new or all as they were.
+fn write_texts(texts: &[(PathBuf, String)]) -> anyhow::Result<()> {
     write_set(&[], || {
         texts
             .iter()
@@ -189,8 +205,8 @@ pub fn write_mechanism_report(
     directory: &Path,
 ) -> anyhow::Result<()> {
     for (name, format) in REPORT_FILES {
-        let text = parcal::report::mechanism::render(record, file, from_dataset, format)
-            .map_err(|e| anyhow::anyhow!("{file}: cannot draw the report's figure: {e}"))?;
+        let text = mechanism_page(record, file, from_dataset, format)
+            .map_err(|error| anyhow::anyhow!("{file}: {error}"))?;
         parcal::report::write_text(&directory.join(name), &text)?;
     }
     Ok(())

@@ -17,8 +17,8 @@ use parcal::dataset::VALIDATION_FILE;
 
 use crate::bounds::Bounded;
 
-use super::Recorded;
 use super::mechanism_apply::validate_hexapod;
+use parcal::command::{Recorded, read_either};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -81,7 +81,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     crate::outputs::check(&inputs, std::slice::from_ref(&out))?;
     let (validation, calibration) = match (&args.calibration, args.folds) {
         (Some(path), _) => {
-            let record = match super::read_either(path)? {
+            let record = match read_either(path)? {
                 Recorded::Own(record) => super::accepted(*record, path, args.accept_rejected)?,
                 // A hexapod's calibration through the common path.
                 Recorded::Mechanism(record) => {
