@@ -621,17 +621,19 @@ def import_firmware(
     ``distances`` is not given."""
 
 def export(
-    calibration: Union[MechanismCalibration, PathLike],
-    format: Literal["reprapfirmware", "klipper", "hangprinter"],
+    calibration: Union[Calibration, MechanismCalibration, PathLike],
+    format: Literal["machine-json", "genhexkins", "summary", "reprapfirmware", "klipper", "hangprinter"],
     *,
     print_radius: Optional[float] = None,
     config: Optional[PathLike] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
-    """A mechanism's calibration as its firmware's lines, as ``parcal
-    export --format`` writes them: ``text``, ``lost`` (what the firmware
-    cannot hold), and for a delta ``print_radius``, ``cost`` (mm:
-    ``z_offset``, ``flatness_rms``, ``flatness_max``, ``volume_rms``,
-    ``volume_max``) and ``cost_sentence``; None for a cable robot. With
-    ``"klipper"`` and ``config`` (a printer.cfg), ``text`` is that whole
-    file with its SAVE_CONFIG block updated (``--config``)."""
+    """A calibration in the form other tools load, as ``parcal export
+    --format`` writes it: a hexapod's own as ``"machine-json"``,
+    ``"genhexkins"`` or ``"summary"``; a mechanism's as its firmware's
+    lines. Returns ``text``, ``lost`` (what the firmware cannot hold), and
+    for a delta ``print_radius``, ``cost`` (mm: ``z_offset``,
+    ``flatness_rms``, ``flatness_max``, ``volume_rms``, ``volume_max``)
+    and ``cost_sentence``; None otherwise. With ``"klipper"`` and
+    ``config`` (a printer.cfg), ``text`` is that whole file with its
+    SAVE_CONFIG block updated (``--config``)."""

@@ -4,8 +4,8 @@
 //! `parcal calibrate` makes it (`calibrate`, `run`), and the other
 //! commands with numpy arrays where the command writes CSV (`commands`);
 //! the same for a linear delta or a cable robot (`mechanism`), the
-//! dataset's kind read from its machine.json (`read`); the report of a
-//! calibration of either kind (`report`).
+//! dataset's kind read from its machine.json (`read`); a calibration of
+//! either kind (`recorded`) reported (`report`) and exported (`export`).
 //! Every error is `parcal.Error`, a `ValueError` (`error`).
 
 mod calibrate;
@@ -13,9 +13,11 @@ mod commands;
 mod convert;
 mod dataset;
 mod error;
+mod export;
 mod mechanism;
 mod options;
 mod read;
+mod recorded;
 mod report;
 mod run;
 
@@ -31,6 +33,7 @@ fn _parcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(read::read_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(report::report, m)?)?;
+    m.add_function(wrap_pyfunction!(export::export, m)?)?;
     mechanism::register(m)?;
     commands::register(m)
 }

@@ -2,9 +2,7 @@
 //! (`parcal::report_pages`, which both call): the self-contained HTML
 //! page or its Markdown twin, as text.
 
-use std::path::PathBuf;
-
-use parcal::command::{Recorded, read_either};
+use parcal::command::Recorded;
 use parcal::report_pages::{
     Format, ReportDataset, ReportPageError, hexapod_report, mechanism_report,
 };
@@ -12,9 +10,8 @@ use pyo3::prelude::*;
 
 use crate::dataset::Dataset;
 use crate::error::to_py;
-use crate::mechanism::calibration::MechanismCalibration;
 use crate::mechanism::dataset::MechanismDataset;
-use crate::run::Calibration;
+use crate::recorded::recorded;
 
 /// The report of `calibration` (a `parcal.Calibration`, a
 /// `parcal.MechanismCalibration`, or a calibration.json's path; a
@@ -43,7 +40,8 @@ pub fn report(
             )));
         }
     };
-    let (recorded, file) = recorded(calibration)?;
+    let (recorded, path) = recorded(calibration)?;
+    let file = path.map_or("in memory".to_string(), |path| path.display().to_string());
     let hexapod = dataset.and_then(|d| d.cast::<Dataset>().ok());
     let mechanism = dataset.and_then(|d| d.cast::<MechanismDataset>().ok());
     if let (Some(given), None, None) = (dataset, &hexapod, &mechanism) {
@@ -79,25 +77,4 @@ pub fn report(
         )),
         error => to_py(format!("{file}: {error}")),
     })
-}
-
-/// The calibration given, of either kind, and its name in the page and in
-/// messages: its file's path, or "in memory".
-fn recorded(calibration: &Bound<'_, PyAny>) -> PyResult<(Recorded, String)> {
-    const IN_MEMORY: &str = "in memory";
-    if let Ok(run) = calibration.cast::<Calibration>() {
-        let record = Box::new(run.get().record().clone());
-        return Ok((Recorded::Own(record), IN_MEMORY.to_string()));
-    }
-    if let Ok(run) = calibration.cast::<MechanismCalibration>() {
-        let record = Box::new(run.get().record.clone());
-        return Ok((Recorded::Mechanism(record), IN_MEMORY.to_string()));
-    }
-    let path: PathBuf = calibration.extract().map_err(|_| {
-        to_py(format!(
-            "calibration: expected a parcal.Calibration, a parcal.MechanismCalibration or a calibration.json's path, got {calibration}"
-        ))
-    })?;
-    let recorded = read_either(&path).map_err(to_py)?;
-    Ok((recorded, path.display().to_string()))
 }

@@ -101,3 +101,27 @@ def test_plan_chooses_the_touches_of_the_cli(paper, cli, tmp_path):
     assert mine["predicted"] == summary["predicted"] and mine["pool_size"] == summary["pool_size"]
     with pytest.raises(parcal.Error, match=r'criterion: "e" is not one of registered, d, a, g'):
         parcal.plan(parcal.Dataset.read(paper), 40, 20, criterion="e")
+
+
+def test_export_writes_a_hexapods_files_as_the_cli(paper, cli, tmp_path):
+    calibration = tmp_path / "calibration.json"
+    cli("calibrate", paper, "--out", calibration)
+    run = parcal.calibrate(parcal.read_dataset(paper))
+    for fmt in ("machine-json", "genhexkins", "summary"):
+        out = tmp_path / fmt
+        cli("export", "--calibration", calibration, "--format", fmt, "--out", out)
+        exported = parcal.export(str(calibration), fmt)
+        assert exported["text"] == out.read_text(), fmt
+        assert exported["lost"] == [] and exported["cost"] is None and exported["print_radius"] is None
+    # The calibrated machine.json is the design of the next calibration.
+    assert json.loads(parcal.export(run, "machine-json")["text"])["format"] == "parcal-machine/1"
+    assert "setp genhexkins." in parcal.export(run, "genhexkins")["text"]
+    # Refusals name what is wrong.
+    with pytest.raises(parcal.Error, match="a hexapod calibration; reprapfirmware exports a linear delta's"):
+        parcal.export(run, "reprapfirmware")
+    common = tmp_path / "common.json"
+    cli("calibrate", paper, "--common", "--out", common)
+    with pytest.raises(parcal.Error, match="a hexapod's calibration through the common path"):
+        parcal.export(str(common), "genhexkins")
+    with pytest.raises(parcal.Error, match="format: expected one of machine-json, genhexkins, summary, reprapfirmware"):
+        parcal.export(run, "gcode")

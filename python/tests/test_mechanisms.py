@@ -521,7 +521,7 @@ def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tm
     assert any("bed tilt" in sentence for sentence in mine["lost"])
     given = parcal.export(parcal.MechanismCalibration.read(calibration), "reprapfirmware", print_radius=90.0)
     assert given["print_radius"] == 90.0 and " B90.0 " in given["text"]
-    with pytest.raises(parcal.Error, match="format: expected one of reprapfirmware, klipper, hangprinter"):
+    with pytest.raises(parcal.Error, match="format: expected one of machine-json, genhexkins, summary, reprapfirmware, klipper, hangprinter, got \"marlin\""):
         parcal.export(str(calibration), "marlin")
     with pytest.raises(parcal.Error, match="a linear delta calibration; hangprinter exports a cable robot's"):
         parcal.export(str(calibration), "hangprinter")

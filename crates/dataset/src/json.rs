@@ -334,6 +334,19 @@ pub(crate) fn write<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<(
     write_atomic(path, |w| serialize_document(path, w, kind, body))
 }
 
+/// The text [`write`] writes of `body` (errors name `path`).
+pub(crate) fn text<T: Serialize>(path: &Path, kind: Kind, body: &T) -> Result<String> {
+    let mut bytes = Vec::new();
+    serialize_document(path, &mut bytes, kind, body)?;
+    String::from_utf8(bytes).map_err(|e| {
+        DatasetError::io(
+            path,
+            "write",
+            std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+        )
+    })
+}
+
 /// [`write`], with `check` run beside the writing: if it fails, its error
 /// is returned (before any error of the writing) and nothing is written.
 pub(crate) fn write_checked<T: Serialize>(

@@ -356,6 +356,14 @@ impl Machine {
         json::write(path, json::MACHINE, &self.file())
     }
 
+    /// Checks the machine and returns the text [`Self::write`] writes
+    /// (errors name the file `machine.json`).
+    pub fn to_json(&self) -> Result<String> {
+        let path = Path::new(crate::MACHINE_FILE);
+        self.validate(Check::new(path))?;
+        json::text(path, json::MACHINE, &self.file())
+    }
+
     /// The object `machine.json` holds (without `format`).
     fn file(&self) -> WithGeometry<&GeometryRecord, Conditions> {
         WithGeometry {

@@ -25,6 +25,27 @@ fn all_combinations() -> Vec<Parts> {
 }
 
 #[test]
+fn a_machines_text_is_the_file_written() {
+    let machine = dataset(Parts {
+        truth: false,
+        directions: false,
+        distances: false,
+    })
+    .machine;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(MACHINE_FILE);
+    machine.write(&path).unwrap();
+    assert_eq!(
+        machine.to_json().unwrap(),
+        fs::read_to_string(&path).unwrap()
+    );
+    let mut bad = machine;
+    bad.geometry.leg_lengths[2] = f64::NAN;
+    let error = bad.to_json().unwrap_err().to_string();
+    assert!(error.starts_with("machine.json"), "{error}");
+}
+
+#[test]
 fn write_then_read_is_bitwise_identical() {
     for parts in all_combinations() {
         let original = dataset(parts);

@@ -39,7 +39,9 @@
 //! - [`firmware_import`]: a printer's firmware configuration and probe
 //!   log as a mechanism dataset, as `parcal import` makes it;
 //! - [`firmware_lines`]: a mechanism's calibration as its firmware's
-//!   lines, as `parcal export` writes them.
+//!   lines, as `parcal export` writes them;
+//! - [`hexapod_export`]: a hexapod's calibration in the forms other tools
+//!   load, as `parcal export` writes them.
 //!
 //! # Example
 //!
@@ -127,6 +129,7 @@ pub use parcal_workflows as workflows;
 pub mod command;
 pub mod firmware_import;
 pub mod firmware_lines;
+pub mod hexapod_export;
 pub mod maps;
 pub mod report_pages;
 

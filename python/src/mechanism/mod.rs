@@ -1,16 +1,14 @@
 //! parcal for a mechanism other than the hexapod (a linear delta, a cable
 //! robot, docs/mechanisms.md): its dataset ([`dataset`]), its calibration
 //! ([`calibration`]), and the commands on them as `parcal validate`,
-//! `parcal compensate`, `parcal plan` and `parcal export` (a firmware's
-//! lines) make them ([`apply`], [`plan`], [`export`]), and a printer's
-//! firmware files as its dataset, as `parcal import` makes it
-//! ([`firmware_import`]).
+//! `parcal compensate` and `parcal plan` make them ([`apply`], [`plan`]),
+//! and a printer's firmware files as its dataset, as `parcal import`
+//! makes it ([`firmware_import`]).
 //! Errors name the file and line of an observation, as the commands do.
 
 pub mod apply;
 pub mod calibration;
 pub mod dataset;
-pub mod export;
 pub mod firmware_import;
 pub mod plan;
 
@@ -34,7 +32,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(apply::validate_common, m)?)?;
     m.add_function(wrap_pyfunction!(apply::compensate_mechanism, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan_mechanism, m)?)?;
-    m.add_function(wrap_pyfunction!(export::export_firmware, m)?)?;
     m.add_function(wrap_pyfunction!(firmware_import::import_firmware, m)?)?;
     Ok(())
 }

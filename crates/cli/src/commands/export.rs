@@ -5,14 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use parcal::apply::AppliedModel;
-use parcal::apply::genhexkins::hal_snippet;
-use parcal::apply::machine::calibrated_machine;
-use parcal::apply::summary::summary;
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::atomic::write_file;
 use parcal::dataset::mechanism::MechanismCalibrationRecord;
 use parcal::firmware_lines::{FirmwareFormat, FirmwareLinesError, firmware_lines};
+use parcal::hexapod_export::{HexapodFormat, hexapod_export};
 
 use parcal::command::{Recorded, read_either};
 
@@ -111,13 +108,10 @@ fn export_hexapod(args: &Args) -> anyhow::Result<()> {
     );
     let record = super::read_calibration(&args.calibration, args.accept_rejected)
         .map_err(|error| mismatch(&args.calibration, args.format).unwrap_or(error))?;
-    let model = AppliedModel::from_record(&record)
+    let format = HexapodFormat::by_name(&args.format.name())
+        .expect("a hexapod's format is named as the facade names it");
+    let text = hexapod_export(&record, format)
         .with_context(|| format!("{}", args.calibration.display()))?;
-    let text = match args.format {
-        Format::MachineJson => return Ok(calibrated_machine(&record, &model)?.write(&args.out)?),
-        Format::Genhexkins => hal_snippet(&model),
-        _ => summary(&record, &model),
-    };
     write_file(&args.out, text.as_bytes())?;
     Ok(())
 }

@@ -1,0 +1,148 @@
+//! `parcal.export`: a calibration in the form other tools load, as
+//! `parcal export --format` writes it: a hexapod's own calibration as
+//! machine.json, a LinuxCNC genhexkins snippet or a summary
+//! (`parcal::hexapod_export`, docs/apply.md); a linear delta's or a cable
+//! robot's as its firmware's lines (`parcal::firmware_lines`,
+//! docs/delta.md, docs/cable-robots.md).
+
+use std::path::PathBuf;
+
+use parcal::command::Recorded;
+use parcal::dataset::HEXAPOD;
+use parcal::firmware_lines::{FirmwareFormat, FirmwareLinesError, firmware_lines};
+use parcal::hexapod_export::{HexapodFormat, hexapod_export};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::error::to_py;
+use crate::recorded::recorded;
+
+/// `calibration` (a `parcal.Calibration`, a `parcal.MechanismCalibration`,
+/// or a calibration.json's path) written as `format`, as `parcal export`
+/// writes it: a hexapod's own calibration as `"machine-json"`,
+/// `"genhexkins"` or `"summary"`; a linear delta's as `"reprapfirmware"`
+/// or `"klipper"`, a cable robot's as `"hangprinter"`. A delta's printable
+/// radius is `print_radius` (mm) if given, else the one the calibration
+/// carries from its dataset. With `"klipper"` and `config` (the printer's
+/// printer.cfg), `text` is that whole file with its SAVE_CONFIG block
+/// updated as Klipper's SAVE_CONFIG would, its other sections and options
+/// kept.
+///
+/// Returns a dict: `text` (the file's text), `lost` (what the firmware
+/// cannot hold, one sentence each), and for a delta `print_radius` (the
+/// one written back), `cost` (the position errors of the firmware reading
+/// `text` on the calibrated printer, mm: `z_offset`, `flatness_rms`,
+/// `flatness_max`, `volume_rms`, `volume_max`) and `cost_sentence`, as
+/// `parcal export` prints it; `None` for a hexapod or a cable robot. A
+/// rejected calibration is used only with `accept_rejected`.
+#[pyfunction]
+#[pyo3(signature = (calibration, format, *, print_radius=None, config=None, accept_rejected=false))]
+pub fn export<'py>(
+    py: Python<'py>,
+    calibration: &Bound<'py, PyAny>,
+    format: &str,
+    print_radius: Option<f64>,
+    config: Option<PathBuf>,
+    accept_rejected: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let wanted = match (
+        HexapodFormat::by_name(format),
+        FirmwareFormat::by_name(format),
+    ) {
+        (Some(hexapod), _) => Wanted::Hexapod(hexapod),
+        (None, Some(firmware)) => Wanted::Firmware(firmware),
+        (None, None) => {
+            let names: Vec<&str> = (HexapodFormat::NAMES.iter().map(|(name, _)| *name))
+                .chain(FirmwareFormat::NAMES.iter().map(|(name, _)| *name))
+                .collect();
+            return Err(to_py(format!(
+                "format: expected one of {}, got {format:?}",
+                names.join(", ")
+            )));
+        }
+    };
+    let (recorded, path) = recorded(calibration)?;
+    let name = path.map_or("(in memory)".to_string(), |path| path.display().to_string());
+    let (rejected, reasons) = match &recorded {
+        Recorded::Own(record) => (record.is_rejected(), &record.reasons),
+        Recorded::Mechanism(record) => (!record.accepted, &record.reasons),
+    };
+    if rejected && !accept_rejected {
+        return Err(to_py(format!(
+            "{name}: the calibration was rejected ({}); give accept_rejected=True to use it anyway",
+            reasons.join("; ")
+        )));
+    }
+    let dict = PyDict::new(py);
+    let (record, format) = match (recorded, wanted) {
+        (Recorded::Own(record), Wanted::Hexapod(hexapod)) => {
+            let text =
+                hexapod_export(&record, hexapod).map_err(|e| to_py(format!("{name}: {e}")))?;
+            dict.set_item("text", text)?;
+            dict.set_item("lost", Vec::<String>::new())?;
+            for key in ["print_radius", "cost", "cost_sentence"] {
+                dict.set_item(key, py.None())?;
+            }
+            return Ok(dict);
+        }
+        (Recorded::Mechanism(record), Wanted::Hexapod(_)) if record.mechanism == HEXAPOD => {
+            return Err(to_py(format!(
+                "{name}: a hexapod's calibration through the common path, a mechanism's record (its parameters in the canonical frames, without the design it started from); {format} exports the hexapod's own calibration (parcal.calibrate without common=True)"
+            )));
+        }
+        (Recorded::Mechanism(record), Wanted::Hexapod(_)) => {
+            return Err(to_py(format!(
+                "{name}: a {} calibration; {format} exports a {HEXAPOD}'s",
+                record.mechanism
+            )));
+        }
+        (Recorded::Own(_), Wanted::Firmware(firmware)) => {
+            return Err(to_py(format!(
+                "{name}: a {HEXAPOD} calibration; {format} exports a {}'s",
+                firmware.mechanism()
+            )));
+        }
+        (Recorded::Mechanism(record), Wanted::Firmware(firmware)) => (record, firmware),
+    };
+    let lines =
+        firmware_lines(&record, format, print_radius, config.as_deref()).map_err(|error| {
+            match error {
+                FirmwareLinesError::NoPrintRadius => to_py(format!(
+                    "{name}: {error}: give print_radius (mm, the firmware's M665 B or print_radius)"
+                )),
+                FirmwareLinesError::PrintRadius(radius) => to_py(format!(
+                    "print_radius must be a positive number of mm, got {radius}"
+                )),
+                FirmwareLinesError::Into(_) => to_py(format!("config: {error}")),
+                error => to_py(format!("{name}: {error}")),
+            }
+        })?;
+    dict.set_item("text", &lines.text)?;
+    dict.set_item("lost", &lines.lost)?;
+    dict.set_item("cost_sentence", lines.cost_sentence())?;
+    match lines.cost {
+        Some((errors, workspace)) => {
+            let cost = PyDict::new(py);
+            cost.set_item("z_offset", errors.z_offset)?;
+            cost.set_item("flatness_rms", errors.flatness_rms)?;
+            cost.set_item("flatness_max", errors.flatness_max)?;
+            cost.set_item("volume_rms", errors.volume_rms)?;
+            cost.set_item("volume_max", errors.volume_max)?;
+            dict.set_item("print_radius", workspace.print_radius)?;
+            dict.set_item("cost", cost)?;
+        }
+        None => {
+            dict.set_item("print_radius", py.None())?;
+            dict.set_item("cost", py.None())?;
+        }
+    }
+    Ok(dict)
+}
+
+/// What a format exports.
+enum Wanted {
+    /// A hexapod's own calibration.
+    Hexapod(HexapodFormat),
+    /// A mechanism's, as its firmware's lines.
+    Firmware(FirmwareFormat),
+}
