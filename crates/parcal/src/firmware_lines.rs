@@ -39,18 +39,12 @@ impl FirmwareFormat {
 
     /// The format named `name` ([`Self::NAMES`]), if any.
     pub fn by_name(name: &str) -> Option<Self> {
-        Self::NAMES
-            .iter()
-            .find(|(known, _)| *known == name)
-            .map(|&(_, format)| format)
+        crate::named::by_name(&Self::NAMES, name)
     }
 
     /// Its name ([`Self::NAMES`]).
     pub fn name(self) -> &'static str {
-        Self::NAMES
-            .iter()
-            .find(|(_, format)| *format == self)
-            .map_or("", |(name, _)| name)
+        crate::named::name_of(&Self::NAMES, &self)
     }
 
     /// The mechanism whose calibration it writes.

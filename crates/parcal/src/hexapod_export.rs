@@ -31,10 +31,7 @@ impl HexapodFormat {
 
     /// The format named `name` ([`Self::NAMES`]), if any.
     pub fn by_name(name: &str) -> Option<Self> {
-        Self::NAMES
-            .iter()
-            .find(|(known, _)| *known == name)
-            .map(|&(_, format)| format)
+        crate::named::by_name(&Self::NAMES, name)
     }
 }
 

@@ -131,6 +131,7 @@ pub mod firmware_import;
 pub mod firmware_lines;
 pub mod hexapod_export;
 pub mod maps;
+mod named;
 pub mod report_pages;
 
 // The data: a dataset in memory, its files, a calibration's record.
