@@ -330,6 +330,7 @@ class MechanismDataset:
         machine: Mapping[str, Any],
         *,
         probes: Optional[npt.ArrayLike] = None,
+        heights: Optional[npt.ArrayLike] = None,
         distances: Optional[npt.ArrayLike] = None,
         samples: Optional[Mapping[str, Any]] = None,
         quantities: Optional[Mapping[str, Any]] = None,
@@ -379,6 +380,10 @@ class MechanismDataset:
     @property
     def probes(self) -> FloatArray:
         """Probe heights (n x 3: x, y, z mm)."""
+    @property
+    def heights(self) -> FloatArray:
+        """Heights measured by hand (n x 4: commanded x, y, z and the
+        nozzle's height above the bed there, mm)."""
     @property
     def balls(self) -> FloatArray:
         """Calibrated balls (n x 2: radius, its sigma, 0 if exact; mm); n x 6
@@ -601,6 +606,7 @@ def import_firmware(
     *,
     probes: Optional[PathLike] = None,
     distances: Optional[PathLike] = None,
+    heights: Optional[PathLike] = None,
     diagonal_tolerance: Optional[float] = None,
     matched_rods: Optional[float] = None,
     radius_tolerance: Optional[float] = None,
@@ -611,6 +617,7 @@ def import_firmware(
     tilt_tolerance: Optional[float] = None,
     probe_sigma: Optional[float] = None,
     distance_sigma: Optional[float] = None,
+    height_sigma: Optional[float] = None,
     trigger_sigma: Optional[float] = None,
 ) -> MechanismDataset:
     """A printer's firmware configuration (config.g, printer.cfg) and probe

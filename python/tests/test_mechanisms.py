@@ -555,14 +555,19 @@ def test_import_firmware_makes_the_datasets_of_the_cli(cli, tmp_path):
     probes, distances = sim / "probes.csv", sim / "distances.csv"
     config = tmp_path / "config.g"
     config.write_text(CONFIG_G)
+    heights = tmp_path / "heights.csv"
+    heights.write_text("x,y,z,height\n0,0,5,5.12\n40,-20,2,1.97\n")
     out = tmp_path / "cli"
     cli("import", "reprapfirmware", "--config", config, "--probes", probes, "--distances", distances,
+        "--heights", heights, "--height-sigma", "0.03",
         "--diagonal-tolerance", "0.3", "--matched-rods", "0.05", "--trigger-sigma", "0.02", "--out", out)
-    ds = parcal.import_firmware("reprapfirmware", config, probes=probes, distances=distances,
-                                diagonal_tolerance=0.3, matched_rods=0.05, trigger_sigma=0.02)
+    ds = parcal.import_firmware("reprapfirmware", config, probes=probes, distances=distances, heights=heights,
+                                height_sigma=0.03, diagonal_tolerance=0.3, matched_rods=0.05, trigger_sigma=0.02)
     mine = tmp_path / "mine"
     ds.write(mine)
-    assert sorted(os.listdir(mine)) == sorted(os.listdir(out)) == ["distances.csv", "machine.json", "probes.csv"]
+    assert sorted(os.listdir(mine)) == sorted(os.listdir(out)) == [
+        "distances.csv", "heights.csv", "machine.json", "probes.csv"]
+    assert ds.heights.tolist() == [[0, 0, 5, 5.12], [40, -20, 2, 1.97]] and ds.noise["height"] == 0.03
     for name in os.listdir(out):
         assert (mine / name).read_bytes() == (out / name).read_bytes(), name
     # Each probe at its commanded position: the height reported plus G31's trigger height.

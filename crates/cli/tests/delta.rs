@@ -851,39 +851,163 @@ const KLIPPER_SETTINGS: &str = "[printer]\nkinematics: delta\ndelta_radius: 135\
      [stepper_b]\nrotation_distance: 40\nmicrosteps: 16\n\n\
      [stepper_c]\nrotation_distance: 40\nmicrosteps: 16\n";
 
+/// The `[delta_calibrate]` block Klipper saves for the printer [`truth`]
+/// run with [`KLIPPER_SETTINGS`], written entry by entry: readings as
+/// Klipper saves them (steps down from the endstops, to 0.001 step).
+struct SavedBlock {
+    delta: LinearDelta,
+    truth: nalgebra::DVector<f64>,
+    configured: nalgebra::DVector<f64>,
+    text: String,
+}
+
+impl SavedBlock {
+    /// The steppers' step distance in [`KLIPPER_SETTINGS`] (mm).
+    const STEP: f64 = 0.0125;
+
+    fn new() -> Self {
+        Self {
+            delta: LinearDelta::typical(),
+            truth: truth().to_vector(),
+            configured: DeltaParams::symmetric(270.0, 135.0, 300.0).to_vector(),
+            text: String::from(
+                "#*# <---------------------- SAVE_CONFIG ---------------------->\n\
+                 #*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n\
+                 #*# [delta_calibrate]\n",
+            ),
+        }
+    }
+
+    /// The stable position of readings `q`, as Klipper saves it.
+    fn stable(q: &[f64]) -> String {
+        let steps: Vec<String> = (q.iter())
+            .map(|q| format!("{:.3}", -q / Self::STEP))
+            .collect();
+        steps.join(",")
+    }
+
+    /// The commanded position at readings `q`.
+    fn commanded(&self, q: &[f64]) -> nalgebra::DVector<f64> {
+        (self.delta)
+            .forward(self.configured.as_slice(), q, &[0.0; 3])
+            .unwrap()
+    }
+
+    /// DELTA_CALIBRATE's probe `i` at `(x, y)`, triggered with the true
+    /// nozzle `trigger` above the bed and saved with the probe's
+    /// `z_offset`; the commanded position at the trigger.
+    fn probe(&mut self, i: usize, [x, y]: [f64; 2], trigger: f64, z_offset: f64) -> [f64; 3] {
+        let q = (self.delta)
+            .inverse(self.truth.as_slice(), &[x, y, trigger])
+            .unwrap();
+        self.text.push_str(&format!(
+            "#*# height{i} = {z_offset}\n#*# height{i}_pos = {}\n",
+            Self::stable(q.as_slice())
+        ));
+        let p = self.commanded(q.as_slice());
+        [p[0], p[1], p[2]]
+    }
+
+    /// DELTA_ANALYZE MANUAL_HEIGHT's height `i`, measured exactly with
+    /// the nozzle sent to `commanded`; the height.
+    fn manual_height(&mut self, i: usize, commanded: [f64; 3]) -> f64 {
+        let q = (self.delta)
+            .inverse(self.configured.as_slice(), &commanded)
+            .unwrap();
+        let reached = (self.delta)
+            .forward(self.truth.as_slice(), q.as_slice(), &[0.0; 3])
+            .unwrap();
+        self.text.push_str(&format!(
+            "#*# manual_height{i} = {:.4}\n#*# manual_height{i}_pos = {}\n",
+            reached[2],
+            Self::stable(q.as_slice())
+        ));
+        reached[2]
+    }
+}
+
+#[test]
+fn klippers_manual_heights_find_a_probe_triggering_off_its_z_offset() {
+    // The probe triggers with the nozzle 0.9 mm above the bed while
+    // printer.cfg says 0.7: probe heights alone cannot tell that from the
+    // printer's height, and the prior about 0.7 holds the trigger height
+    // there. Three heights measured by hand (a gauge block, 10 µm) can.
+    const Z_OFFSET: f64 = 0.7;
+    const TRIGGER: f64 = 0.9;
+    const GAUGE: f64 = 0.01;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut block = SavedBlock::new();
+    for (i, xy) in probe_rings(95.0, 3, 12).into_iter().enumerate() {
+        block.probe(i, xy, TRIGGER, Z_OFFSET);
+    }
+    let probes_only = format!("{KLIPPER_SETTINGS}\n{}", block.text);
+    for (i, commanded) in [[0.0, 0.0, 5.0], [60.0, -30.0, 5.0], [-40.0, 70.0, 5.0]]
+        .into_iter()
+        .enumerate()
+    {
+        let height = block.manual_height(i, commanded);
+        assert!((height - 5.0).abs() < 1.0, "{height}");
+    }
+    let trigger_height = |text: &str, name: &str| -> (f64, f64, String) {
+        let config = d.join(format!("{name}.cfg"));
+        fs::write(&config, text).unwrap();
+        let data = d.join(name);
+        let said = ok(&[
+            "import",
+            "klipper",
+            "--config",
+            s(&config),
+            "--height-sigma",
+            &GAUGE.to_string(),
+            "--out",
+            s(&data),
+        ]);
+        ok(&["calibrate", s(&data)]);
+        let record: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(data.join("calibration.json")).unwrap())
+                .unwrap();
+        let trigger = (record["parameters"].as_array().unwrap().iter())
+            .find(|p| p["name"] == "trigger_height")
+            .unwrap()
+            .clone();
+        let number = |key: &str| trigger[key].as_f64().unwrap();
+        (number("value"), number("sigma"), said)
+    };
+    let (alone, alone_sigma, said) = trigger_height(&probes_only, "probes");
+    assert!(!said.contains("measured by hand"), "{said}");
+    // Held at its prior: within a sigma of 0.7, four of them from 0.9.
+    assert!(
+        (alone - Z_OFFSET).abs() < alone_sigma,
+        "{alone} ± {alone_sigma}"
+    );
+    let (found, sigma, said) =
+        trigger_height(&format!("{KLIPPER_SETTINGS}\n{}", block.text), "manual");
+    assert!(
+        said.contains("3 heights measured by hand (saved in"),
+        "{said}"
+    );
+    // Noiseless heights: the estimate is the truth but for the prior's
+    // pull, a few thousandths of the 0.2 mm; its sigma about the gauge's
+    // over the three.
+    eprintln!(
+        "trigger height: probes alone {alone:.4} ± {alone_sigma:.4}, with manual heights {found:.4} ± {sigma:.4} (true {TRIGGER})"
+    );
+    assert!(sigma < 0.5 * alone_sigma, "{sigma} against {alone_sigma}");
+    assert!((found - TRIGGER).abs() < 4.0 * sigma, "{found} ± {sigma}");
+}
+
 #[test]
 fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
-    const STEP: f64 = 0.0125;
     const Z_OFFSET: f64 = 0.7;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let delta = LinearDelta::typical();
-    let (t, c) = (
-        truth().to_vector(),
-        DeltaParams::symmetric(270.0, 135.0, 300.0).to_vector(),
-    );
-    // Readings as Klipper saves them (steps down from the endstops, to
-    // 0.001 step), and the commanded position at them.
-    let stable = |q: &[f64]| -> String {
-        let steps: Vec<String> = q.iter().map(|q| format!("{:.3}", -q / STEP)).collect();
-        steps.join(",")
-    };
-    let commanded = |q: &[f64]| delta.forward(c.as_slice(), q, &[0.0; 3]).unwrap();
+    let mut block = SavedBlock::new();
     // DELTA_CALIBRATE: the probe triggers with the true nozzle Z_OFFSET
     // above the bed.
-    let mut block = String::from(
-        "#*# <---------------------- SAVE_CONFIG ---------------------->\n\
-         #*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n\
-         #*# [delta_calibrate]\n",
-    );
     let mut probes = String::from("x,y,z\n");
-    for (i, [x, y]) in probe_rings(95.0, 3, 12).into_iter().enumerate() {
-        let q = delta.inverse(t.as_slice(), &[x, y, Z_OFFSET]).unwrap();
-        block.push_str(&format!(
-            "#*# height{i} = {Z_OFFSET}\n#*# height{i}_pos = {}\n",
-            stable(q.as_slice())
-        ));
-        let p = commanded(q.as_slice());
+    for (i, xy) in probe_rings(95.0, 3, 12).into_iter().enumerate() {
+        let p = block.probe(i, xy, Z_OFFSET, Z_OFFSET);
         probes.push_str(&format!("{},{},{}\n", p[0], p[1], p[2] - Z_OFFSET));
     }
     // DELTA_ANALYZE: three diameters of a printed disc at 0.2 mm.
@@ -894,19 +1018,23 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
             [90.0 * cos, 90.0 * sin, 0.2],
             [-90.0 * cos, -90.0 * sin, 0.2],
         ]
-        .map(|end| delta.inverse(c.as_slice(), &end).unwrap());
+        .map(|end| {
+            (block.delta)
+                .inverse(block.configured.as_slice(), &end)
+                .unwrap()
+        });
         let printed = ends.clone().map(|q| {
-            delta
-                .forward(t.as_slice(), q.as_slice(), &[0.0; 3])
+            (block.delta)
+                .forward(block.truth.as_slice(), q.as_slice(), &[0.0; 3])
                 .unwrap()
         });
         let distance = (&printed[0] - &printed[1]).norm();
-        block.push_str(&format!(
+        block.text.push_str(&format!(
             "#*# distance{i} = {distance:.4}\n#*# distance{i}_pos1 = {}\n#*# distance{i}_pos2 = {}\n",
-            stable(ends[0].as_slice()),
-            stable(ends[1].as_slice())
+            SavedBlock::stable(ends[0].as_slice()),
+            SavedBlock::stable(ends[1].as_slice())
         ));
-        let [a, b] = ends.map(|q| commanded(q.as_slice()));
+        let [a, b] = ends.map(|q| block.commanded(q.as_slice()));
         distances.push_str(&format!(
             "{},{},{},{},{},{},{distance:.4}\n",
             a[0], a[1], a[2], b[0], b[1], b[2]
@@ -914,7 +1042,7 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
     }
     fs::write(
         d.join("printer.cfg"),
-        format!("{KLIPPER_SETTINGS}\n{block}"),
+        format!("{KLIPPER_SETTINGS}\n{}", block.text),
     )
     .unwrap();
     fs::write(d.join("probes.csv"), probes).unwrap();
@@ -1008,7 +1136,7 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
         written.starts_with(&format!("{main}# parcal: the calibrated")),
         "{written}"
     );
-    let kept = &block[block.find("#*# [delta_calibrate]").unwrap()..];
+    let kept = &block.text[block.text.find("#*# [delta_calibrate]").unwrap()..];
     assert!(written.contains(kept), "{written}");
     let back = parcal::firmware::klipper::parse_printer(&written, &new).unwrap();
     assert_eq!(back.saved.probes.len(), 37);

@@ -97,3 +97,28 @@ fn a_printable_radius_is_written_read_back_and_refused_when_not_positive() {
     assert!(error.contains("print_radius"), "{error}");
     assert!(error.contains("no printable radius"), "{error}");
 }
+
+#[test]
+fn heights_measured_by_hand_are_written_and_read_back_with_their_noise() {
+    let mut dataset = with_rods(0.02, Some(0.5));
+    dataset.heights = vec![[0.0, 0.0, 5.0, 5.12], [40.0, -20.0, 2.0, 1.97]];
+    dataset.machine.noise.height = Some(0.05);
+    let dir = tempfile::tempdir().unwrap();
+    dataset.write(dir.path()).unwrap();
+    let text = fs::read_to_string(dir.path().join("heights.csv")).unwrap();
+    assert!(text.starts_with("x,y,z,height\n"), "{text}");
+    assert_eq!(MechanismDataset::read(dir.path()).unwrap(), dataset);
+    // Heights without their noise, and a row out of the length bound,
+    // are refused naming the field and the row.
+    let mut silent = dataset.clone();
+    silent.machine.noise.height = None;
+    let error = silent.write(&dir.path().join("x")).unwrap_err().to_string();
+    assert!(error.contains("noise.height"), "{error}");
+    let mut far = dataset;
+    far.heights[1][3] = 1e9;
+    let error = far.write(&dir.path().join("y")).unwrap_err().to_string();
+    assert!(
+        error.contains("heights.csv") && error.contains("row 2"),
+        "{error}"
+    );
+}

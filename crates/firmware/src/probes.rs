@@ -4,7 +4,8 @@
 //! height when the probe triggered less the trigger height (`G31 Z`):
 //! zero on a perfectly calibrated printer, positive where the bed is
 //! higher than the firmware believes. And part distances measured on a
-//! printed part ([`read_distances`]).
+//! printed part ([`read_distances`]), and heights of the nozzle measured
+//! by hand ([`read_heights`]).
 
 use std::io::Read;
 use std::path::Path;
@@ -56,6 +57,19 @@ pub const DISTANCE_COLUMNS: [&str; 7] = ["x1", "y1", "z1", "x2", "y2", "z2", "di
 pub fn read_distances(path: &Path) -> Result<Vec<[f64; 7]>, FirmwareError> {
     let text = read_capped(path, MAX_PROBE_BYTES, "distance file")?;
     parse_rows(text.as_bytes(), path, &DISTANCE_COLUMNS, "distances")
+}
+
+/// The columns of a file of heights measured by hand.
+pub const HEIGHT_COLUMNS: [&str; 4] = ["x", "y", "z", "height"];
+
+/// Reads a file of heights measured by hand: header `x,y,z,height`, one
+/// row per measurement, the commanded nozzle position (mm, firmware
+/// coordinates) and the nozzle's height above the bed measured there (a
+/// gauge block or feeler gauge under the nozzle, mm), at most
+/// [`MAX_PROBE_POINTS`] rows.
+pub fn read_heights(path: &Path) -> Result<Vec<[f64; 4]>, FirmwareError> {
+    let text = read_capped(path, MAX_PROBE_BYTES, "height file")?;
+    parse_rows(text.as_bytes(), path, &HEIGHT_COLUMNS, "heights")
 }
 
 /// The rows of a CSV file of header `columns`, every field a finite

@@ -102,6 +102,29 @@ fn saved_probes_and_distances_are_the_nozzles_positions() {
 }
 
 #[test]
+fn manual_heights_are_read_at_their_positions() {
+    // DELTA_ANALYZE MANUAL_HEIGHT: the nozzle measured 5.2 mm and 0.8 mm
+    // above the bed where the configured printer puts it at 5 and 1.
+    let manual = format!(
+        "#*# manual_height0 = 5.2\n#*# manual_height0_pos = {}\n\
+         #*# manual_height1 = 0.8\n#*# manual_height1_pos = {}\n",
+        stable([10.0, 20.0, 5.0]),
+        stable([-40.0, 70.0, 1.0])
+    );
+    let saved = parse_printer(&printer_cfg(&manual), Path::new("printer.cfg"))
+        .unwrap()
+        .saved;
+    assert_eq!(saved.probes.len(), PROBES.len());
+    assert_eq!(saved.manual_heights.len(), 2);
+    let wanted = [[10.0, 20.0, 5.0, 5.2], [-40.0, 70.0, 1.0, 0.8]];
+    for (got, want) in saved.manual_heights.iter().zip(wanted) {
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < SAVED_TO, "{got:?} vs {want:?}");
+        }
+    }
+}
+
+#[test]
 fn a_configuration_without_saved_measurements_has_none() {
     let printer = parse_printer(SETTINGS, Path::new("printer.cfg")).unwrap();
     assert_eq!(printer.saved.z_offset, None);
@@ -115,11 +138,9 @@ fn what_cannot_be_read_is_refused_naming_the_line() {
     // The block's height0 is line 26 (SETTINGS has 20 lines, then a blank,
     // the marker, the notice, "#*#" and the section), each entry two lines
     // (a distance three), the extra lines from 37 on.
-    let manual = error(&printer_cfg(
-        "#*# manual_height0 = 0.5\n#*# manual_height0_pos = 1,2,3\n",
-    ));
+    let manual = error(&printer_cfg("#*# manual_height0 = 0.5\n"));
     assert!(
-        manual.starts_with("printer.cfg: line 37: [delta_calibrate] manual_height0"),
+        manual.starts_with("printer.cfg: line 37: [delta_calibrate] manual_height0_pos: missing"),
         "{manual}"
     );
     let differs = error(&printer_cfg("").replace("height2 = 1.25", "height2 = 1.3"));

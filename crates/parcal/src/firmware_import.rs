@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
 use parcal_firmware::FirmwareError;
 use parcal_firmware::klipper::{DeltaCalibrateResults, read_printer};
-use parcal_firmware::probes::{read_distances, read_probes};
+use parcal_firmware::probes::{read_distances, read_heights, read_probes};
 use parcal_firmware::rrf::read_config;
 use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
 use parcal_kinematics::mechanism::Mechanism;
@@ -38,6 +38,8 @@ pub struct ImportOptions {
     pub probe_sigma: f64,
     /// The part distances' standard deviation, a calliper's (mm).
     pub distance_sigma: f64,
+    /// The standard deviation of a height measured by hand (mm).
+    pub height_sigma: f64,
     /// The trigger height's standard deviation about the configured one
     /// (RepRapFirmware's `G31 Z`; Klipper's `z_offset` with the probes it
     /// saved, else 0), a first-layer test's (mm).
@@ -46,13 +48,14 @@ pub struct ImportOptions {
 
 impl Default for ImportOptions {
     /// A kit printer's tolerances, a probe of 10 um, a calliper of 20 um,
-    /// a trigger height known to 50 um.
+    /// heights measured by hand and a trigger height known to 50 um.
     fn default() -> Self {
         Self {
             tolerances: Tolerances::default(),
             matched_rods: None,
             probe_sigma: 0.01,
             distance_sigma: 0.02,
+            height_sigma: 0.05,
             trigger_sigma: 0.05,
         }
     }
@@ -61,7 +64,7 @@ impl Default for ImportOptions {
 impl ImportOptions {
     /// Every standard deviation by its option's name (`parcal import`'s
     /// long flag with `_` for `-`).
-    pub fn sigmas(&self) -> [(&'static str, Option<f64>); 11] {
+    pub fn sigmas(&self) -> [(&'static str, Option<f64>); 12] {
         let t = &self.tolerances;
         [
             ("diagonal_tolerance", Some(t.diagonal)),
@@ -74,6 +77,7 @@ impl ImportOptions {
             ("tilt_tolerance", Some(t.tilt)),
             ("probe_sigma", Some(self.probe_sigma)),
             ("distance_sigma", Some(self.distance_sigma)),
+            ("height_sigma", Some(self.height_sigma)),
             ("trigger_sigma", Some(self.trigger_sigma)),
         ]
     }
@@ -95,6 +99,17 @@ impl ImportOptions {
 /// Whether `value` is a standard deviation [`ImportOptions`] accepts.
 pub fn is_sigma(value: f64) -> bool {
     value.is_finite() && value > 0.0 && value <= MAX_SIGMA
+}
+
+/// The files of observations given (each `None`: not given).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ObservationFiles<'a> {
+    /// The probe log (header `x,y,z`).
+    pub probes: Option<&'a Path>,
+    /// Part distances (header `x1,y1,z1,x2,y2,z2,distance`).
+    pub distances: Option<&'a Path>,
+    /// Heights measured by hand (header `x,y,z,height`).
+    pub heights: Option<&'a Path>,
 }
 
 /// Where a kind of observation was read from.
@@ -125,6 +140,8 @@ pub struct FirmwareImport {
     pub probes_from: Source,
     /// Where its part distances came from, if it has any.
     pub distances_from: Option<Source>,
+    /// Where its heights measured by hand came from, if it has any.
+    pub heights_from: Option<Source>,
 }
 
 /// Why a firmware's files cannot be imported.
@@ -169,15 +186,16 @@ struct Configured {
 /// The dataset of the printer configured in `config` (`format`'s file:
 /// RepRapFirmware's config.g, Klipper's printer.cfg), probed as the log at
 /// `probes` says (header `x,y,z`: the commanded XY and the height
-/// reported there, mm) and measured as `distances` says (header
-/// `x1,y1,z1,x2,y2,z2,distance`); with Klipper each of them, when not
-/// given, what its `DELTA_CALIBRATE` and `DELTA_ANALYZE` saved in
-/// printer.cfg (a file given replaces what was saved, each kind its own).
+/// reported there, mm), measured as `files.distances` says (header
+/// `x1,y1,z1,x2,y2,z2,distance`) and as `files.heights` says (header
+/// `x,y,z,height`, the nozzle's height above the bed measured by hand at a
+/// commanded position); with Klipper each of them, when not given, what
+/// its `DELTA_CALIBRATE` and `DELTA_ANALYZE` saved in printer.cfg (a file
+/// given replaces what was saved, each kind its own).
 pub fn firmware_import(
     format: FirmwareFormat,
     config: &Path,
-    probes: Option<&Path>,
-    distances: Option<&Path>,
+    files: &ObservationFiles<'_>,
     options: &ImportOptions,
 ) -> Result<FirmwareImport, FirmwareImportError> {
     options.check()?;
@@ -204,7 +222,7 @@ pub fn firmware_import(
             return Err(FirmwareImportError::NotImported(format.name()));
         }
     };
-    let (probes, probes_from) = match probes {
+    let (probes, probes_from) = match files.probes {
         Some(path) => {
             let commanded = (read_probes(path)?.iter())
                 .map(|p| [p.x, p.y, p.z + configured.trigger_height])
@@ -222,31 +240,61 @@ pub fn firmware_import(
             });
         }
     };
-    let (distances, distances_from) = match distances {
-        Some(path) => (
-            read_distances(path)?,
-            Some(Source::File(path.to_path_buf())),
-        ),
-        None if !saved.distances.is_empty() => {
-            (saved.distances, Some(Source::Saved(config.to_path_buf())))
-        }
-        None => (Vec::new(), None),
+    let (distances, distances_from) =
+        file_or_saved(files.distances, read_distances, saved.distances, config)?;
+    let (heights, heights_from) =
+        file_or_saved(files.heights, read_heights, saved.manual_heights, config)?;
+    let observations = Observed {
+        probes,
+        heights,
+        distances,
     };
     Ok(FirmwareImport {
-        dataset: dataset(&configured, probes, distances, options),
+        dataset: dataset(&configured, observations, options),
         probes_from,
         distances_from,
+        heights_from,
     })
 }
 
-/// The mechanism dataset of a firmware's configuration, its probes (the
-/// commanded position at each trigger) and part distances.
+/// The rows of the file at `path` if given (read by `read`), else those
+/// `saved` in the configuration `config`, and where they came from (none
+/// if there are none).
+fn file_or_saved<const N: usize>(
+    path: Option<&Path>,
+    read: fn(&Path) -> Result<Vec<[f64; N]>, FirmwareError>,
+    saved: Vec<[f64; N]>,
+    config: &Path,
+) -> Result<(Vec<[f64; N]>, Option<Source>), FirmwareError> {
+    Ok(match path {
+        Some(path) => (read(path)?, Some(Source::File(path.to_path_buf()))),
+        None if !saved.is_empty() => (saved, Some(Source::Saved(config.to_path_buf()))),
+        None => (Vec::new(), None),
+    })
+}
+
+/// The observations of a firmware's files.
+struct Observed {
+    /// Each probe's commanded position at its trigger.
+    probes: Vec<[f64; 3]>,
+    /// Heights measured by hand: the commanded position, the height.
+    heights: Vec<[f64; 4]>,
+    /// Part distances.
+    distances: Vec<[f64; 7]>,
+}
+
+/// The mechanism dataset of a firmware's configuration and what was
+/// measured on the printer it configures.
 fn dataset(
     configured: &Configured,
-    probes: Vec<[f64; 3]>,
-    distances: Vec<[f64; 7]>,
+    observed: Observed,
     options: &ImportOptions,
 ) -> MechanismDataset {
+    let Observed {
+        probes,
+        heights,
+        distances,
+    } = observed;
     // The kinematics only: the files state no joint or travel limits.
     let limits = Limits::reach_only(configured.print_radius);
     let delta = LinearDelta::new(&configured.params, &options.tolerances, limits);
@@ -268,6 +316,7 @@ fn dataset(
     machine.noise = Noise {
         probe: Some(options.probe_sigma),
         distance: (!distances.is_empty()).then_some(options.distance_sigma),
+        height: (!heights.is_empty()).then_some(options.height_sigma),
         ..Noise::default()
     };
     machine.trigger_height = Some(ValuePrior {
@@ -278,6 +327,7 @@ fn dataset(
     MechanismDataset {
         machine,
         probes,
+        heights,
         distances,
         ..MechanismDataset::default()
     }
@@ -314,8 +364,7 @@ mod tests {
         let error = firmware_import(
             FirmwareFormat::Hangprinter,
             Path::new("config.g"),
-            None,
-            None,
+            &ObservationFiles::default(),
             &ImportOptions::default(),
         )
         .unwrap_err();

@@ -27,6 +27,7 @@ const NOISE: Noise = Noise {
     position: None,
     touch: None,
     tracker: None,
+    height: None,
 };
 
 /// The index of `diagonal_a`, the first rod.

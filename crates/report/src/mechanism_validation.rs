@@ -14,9 +14,9 @@ use parcal_calibrate::mechanism::{
 };
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::mechanism::{
-    BALL_DISTANCES_FILE, BALLS_FILE, DISTANCES_FILE, KindRecord, MechanismValidationRecord,
-    POINTS_FILE, PROBES_FILE, QUANTITIES_FILE, RowRecord, ShiftRecord, TOUCHES_FILE,
-    TRACKER_POINTS_FILE,
+    BALL_DISTANCES_FILE, BALLS_FILE, DISTANCES_FILE, HEIGHTS_FILE, KindRecord,
+    MechanismValidationRecord, POINTS_FILE, PROBES_FILE, QUANTITIES_FILE, RowRecord, ShiftRecord,
+    TOUCHES_FILE, TRACKER_POINTS_FILE,
 };
 use parcal_dataset::{
     ARTEFACTS_FILE, HEXAPOD, MEASUREMENTS_FILE, POINTS_FILE as HEXAPOD_POINTS_FILE,
@@ -95,6 +95,7 @@ impl Files {
     fn of_kind(self, kind: ObservationKind) -> Option<(&'static str, bool)> {
         let file = match kind {
             ObservationKind::Probe => PROBES_FILE,
+            ObservationKind::ManualHeight => HEIGHTS_FILE,
             ObservationKind::Distance => DISTANCES_FILE,
             ObservationKind::Sample => POINTS_FILE,
             ObservationKind::Quantity => QUANTITIES_FILE,

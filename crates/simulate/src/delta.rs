@@ -384,6 +384,7 @@ pub fn measure_delta(
             position: (scenario.known_samples > 0).then_some(scenario.position_sigma),
             touch: (!touches.is_empty()).then_some(scenario.touch_sigma),
             tracker: (!tracker_points.is_empty()).then_some(scenario.tracker_sigma),
+            height: None,
         },
         trigger_height: Some(ValuePrior {
             value: scenario.trigger_height,
@@ -395,6 +396,7 @@ pub fn measure_delta(
     Ok(MechanismDataset {
         machine,
         probes,
+        heights: Vec::new(),
         distances,
         samples,
         quantities: Vec::new(),

@@ -27,15 +27,15 @@ use crate::error::to_py;
 
 /// A mechanism dataset: its machine (the mechanism by name, the
 /// configured and design parameters, the tolerances as prior sigmas, the
-/// noise) and its observations: probe heights, part distances, encoder
-/// samples (readings, with the position where measured and the loads where
-/// given) and quantities measured directly.
+/// noise) and its observations: probe heights, heights measured by hand,
+/// part distances, encoder samples (readings, with the position where
+/// measured and the loads where given) and quantities measured directly.
 ///
 /// `MechanismDataset.read(path)` reads a directory whose machine.json
 /// names its `"mechanism"`; `parcal.read_dataset(path)` reads either kind.
-/// `MechanismDataset(machine, probes=, distances=, samples=, quantities=)`
-/// builds one in memory: `machine` holds what machine.json holds, `probes`
-/// n x 3, `distances` n x 7, `samples` a dict of `readings` (n x A),
+/// `MechanismDataset(machine, probes=, heights=, distances=, samples=,
+/// quantities=)` builds one in memory: `machine` holds what machine.json
+/// holds, `probes` n x 3, `heights` n x 4, `distances` n x 7, `samples` a dict of `readings` (n x A),
 /// `position` (n x 3, a row of NaN where not measured) and `loads`
 /// (n x A), `quantities` a dict of `quantity`, `value`, `sigma`, `balls`
 /// n x 2 (`radius`, `radius_sigma`, 0 for an exact radius), `touches`
@@ -84,11 +84,12 @@ impl MechanismDataset {
 #[pymethods]
 impl MechanismDataset {
     #[new]
-    #[pyo3(signature = (machine, *, probes=None, distances=None, samples=None, quantities=None, balls=None, touches=None, ball_distances=None, tracker_points=None))]
+    #[pyo3(signature = (machine, *, probes=None, heights=None, distances=None, samples=None, quantities=None, balls=None, touches=None, ball_distances=None, tracker_points=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         machine: &Bound<'_, PyAny>,
         probes: Option<&Bound<'_, PyAny>>,
+        heights: Option<&Bound<'_, PyAny>>,
         distances: Option<&Bound<'_, PyAny>>,
         samples: Option<&Bound<'_, PyDict>>,
         quantities: Option<&Bound<'_, PyDict>>,
@@ -111,6 +112,10 @@ impl MechanismDataset {
         let inner = Inner {
             probes: probes
                 .map(|p| rows::<3>(p, "probes"))
+                .transpose()?
+                .unwrap_or_default(),
+            heights: heights
+                .map(|h| rows::<4>(h, "heights"))
                 .transpose()?
                 .unwrap_or_default(),
             distances: distances
@@ -248,6 +253,14 @@ impl MechanismDataset {
     #[getter]
     fn probes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         array2(py, &self.inner.probes)
+    }
+
+    /// The heights measured by hand (n x 4, heights.csv's `x, y, z,
+    /// height`: the commanded position and the nozzle's height above the
+    /// bed measured there, mm).
+    #[getter]
+    fn heights<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        array2(py, &self.inner.heights)
     }
 
     /// The part distances (n x 7, distances.csv's `x1, y1, z1, x2, y2,

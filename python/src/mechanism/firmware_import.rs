@@ -4,7 +4,9 @@
 
 use std::path::PathBuf;
 
-use parcal::firmware_import::{FirmwareImportError, ImportOptions, firmware_import};
+use parcal::firmware_import::{
+    FirmwareImportError, ImportOptions, ObservationFiles, firmware_import,
+};
 use parcal::firmware_lines::FirmwareFormat;
 use pyo3::prelude::*;
 
@@ -17,10 +19,11 @@ use crate::error::to_py;
 /// parameters as the prior's means, the tolerances (mm, degrees, percent;
 /// `None` a kit printer's, docs/delta.md) as its sigmas, the probe log at
 /// `probes` (a CSV with header `x,y,z`, the commanded XY and the height
-/// reported there) as probe heights, and the part distances at
-/// `distances` (header `x1,y1,z1,x2,y2,z2,distance`). With Klipper, each
-/// of the two not given is what its DELTA_CALIBRATE and DELTA_ANALYZE
-/// saved in printer.cfg. `dataset.write(path)` writes the command's files
+/// reported there) as probe heights, the part distances at `distances`
+/// (header `x1,y1,z1,x2,y2,z2,distance`) and the heights measured by hand
+/// at `heights` (header `x,y,z,height`). With Klipper, each of the three
+/// not given is what its DELTA_CALIBRATE and DELTA_ANALYZE saved in
+/// printer.cfg. `dataset.write(path)` writes the command's files
 /// byte for byte.
 #[pyfunction]
 #[pyo3(signature = (
@@ -29,6 +32,7 @@ use crate::error::to_py;
     *,
     probes=None,
     distances=None,
+    heights=None,
     diagonal_tolerance=None,
     matched_rods=None,
     radius_tolerance=None,
@@ -39,6 +43,7 @@ use crate::error::to_py;
     tilt_tolerance=None,
     probe_sigma=None,
     distance_sigma=None,
+    height_sigma=None,
     trigger_sigma=None,
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -48,6 +53,7 @@ pub fn import_firmware(
     config: PathBuf,
     probes: Option<PathBuf>,
     distances: Option<PathBuf>,
+    heights: Option<PathBuf>,
     diagonal_tolerance: Option<f64>,
     matched_rods: Option<f64>,
     radius_tolerance: Option<f64>,
@@ -58,6 +64,7 @@ pub fn import_firmware(
     tilt_tolerance: Option<f64>,
     probe_sigma: Option<f64>,
     distance_sigma: Option<f64>,
+    height_sigma: Option<f64>,
     trigger_sigma: Option<f64>,
 ) -> PyResult<MechanismDataset> {
     let format = match FirmwareFormat::by_name(firmware) {
@@ -80,6 +87,7 @@ pub fn import_firmware(
         (&mut t.tilt, tilt_tolerance),
         (&mut options.probe_sigma, probe_sigma),
         (&mut options.distance_sigma, distance_sigma),
+        (&mut options.height_sigma, height_sigma),
         (&mut options.trigger_sigma, trigger_sigma),
     ] {
         if let Some(given) = given {
@@ -89,13 +97,12 @@ pub fn import_firmware(
     options.matched_rods = matched_rods;
     let imported = py
         .detach(|| {
-            firmware_import(
-                format,
-                &config,
-                probes.as_deref(),
-                distances.as_deref(),
-                &options,
-            )
+            let files = ObservationFiles {
+                probes: probes.as_deref(),
+                distances: distances.as_deref(),
+                heights: heights.as_deref(),
+            };
+            firmware_import(format, &config, &files, &options)
         })
         .map_err(|error| match error {
             FirmwareImportError::NoProbes { .. } => {

@@ -9,8 +9,8 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, Isometry3};
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_observe::mechanism::{
-    Actuation, BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, POSE_COORDINATES,
-    PartDistance, PointSample, ProbeHeight, TrackerPoint, TrackerPose,
+    Actuation, BallDistance, BallTouch, CommandedPoint, ManualHeight, MeasuredQuantity,
+    POSE_COORDINATES, PartDistance, PointSample, ProbeHeight, TrackerPoint, TrackerPose,
 };
 use rayon::prelude::*;
 
@@ -59,6 +59,8 @@ pub const MIN_POINTS_PER_TRACKER: usize = 3;
 pub struct Observations {
     /// Probe heights.
     pub probes: Vec<ProbeHeight>,
+    /// Heights of the nozzle measured by hand.
+    pub manual_heights: Vec<ManualHeight>,
     /// Part distances.
     pub distances: Vec<PartDistance>,
     /// Measured points at commanded positions.
@@ -228,6 +230,7 @@ impl Observations {
             ObservationKind::BallDistance => self.ball_distances.len(),
             ObservationKind::TrackerPoint => self.tracker_points.len(),
             ObservationKind::TrackerPose => self.tracker_poses.len(),
+            ObservationKind::ManualHeight => self.manual_heights.len(),
         }
     }
 
@@ -294,6 +297,7 @@ impl Observations {
             ObservationKind::BallDistance => drop(rest.ball_distances.remove(k)),
             ObservationKind::TrackerPoint => drop(rest.tracker_points.remove(k)),
             ObservationKind::TrackerPose => drop(rest.tracker_poses.remove(k)),
+            ObservationKind::ManualHeight => drop(rest.manual_heights.remove(k)),
         }
         rest
     }
@@ -616,6 +620,13 @@ impl MechanismData {
             needs_position(id)?;
             check_values(id, "commanded position", &probe.commanded)?;
             check_sigma(id, probe.sigma)?;
+        }
+        for (k, manual) in observations.manual_heights.iter().enumerate() {
+            let id = at(ObservationKind::ManualHeight, k);
+            needs_position(id)?;
+            check_values(id, "commanded position", &manual.commanded)?;
+            check_values(id, "height", &[manual.height])?;
+            check_sigma(id, manual.sigma)?;
         }
         for (k, distance) in observations.distances.iter().enumerate() {
             let id = at(ObservationKind::Distance, k);

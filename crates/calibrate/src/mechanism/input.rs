@@ -19,8 +19,8 @@ use parcal_dataset::mechanism::{MechanismDataset, MechanismTruth, tracker_labels
 use parcal_kinematics::mechanisms;
 use parcal_observe::CoordinateWhitening;
 use parcal_observe::mechanism::{
-    Actuation, BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
-    TrackerPoint,
+    Actuation, BallDistance, BallTouch, ManualHeight, MeasuredQuantity, PartDistance, PointSample,
+    ProbeHeight, TrackerPoint,
 };
 
 use super::data::{Ball, CentrePrior, MechanismData, Observations, Tracker};
@@ -81,6 +81,17 @@ impl MechanismData {
                 Ok(ProbeHeight {
                     commanded,
                     sigma: noise(n.probe, "probe")?,
+                })
+            })
+            .collect::<Result<_, MechanismCalibrationError>>()?;
+        let manual_heights = dataset
+            .heights
+            .iter()
+            .map(|&[x, y, z, height]| {
+                Ok(ManualHeight {
+                    commanded: [x, y, z],
+                    height,
+                    sigma: noise(n.height, "height")?,
                 })
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;
@@ -177,6 +188,7 @@ impl MechanismData {
         let trackers = labels.into_iter().map(Tracker::new).collect();
         let observations = Observations {
             probes,
+            manual_heights,
             distances,
             samples,
             quantities,

@@ -5,8 +5,8 @@ use std::fmt;
 
 #[cfg(doc)]
 use parcal_observe::mechanism::{
-    BallDistance, BallTouch, CommandedPoint, MeasuredQuantity, PartDistance, PointSample,
-    ProbeHeight, TrackerPoint, TrackerPose,
+    BallDistance, BallTouch, CommandedPoint, ManualHeight, MeasuredQuantity, PartDistance,
+    PointSample, ProbeHeight, TrackerPoint, TrackerPose,
 };
 
 /// The kinds of observation of a mechanism calibration.
@@ -34,11 +34,14 @@ pub enum ObservationKind {
     /// A body on the platform measured by a tracker in its own frame
     /// ([`TrackerPose`]).
     TrackerPose = 8,
+    /// The nozzle's height above the bed measured by hand
+    /// ([`ManualHeight`]).
+    ManualHeight = 9,
 }
 
 impl ObservationKind {
     /// Every kind, in the order of [`Self::index`].
-    pub const ALL: [Self; 9] = [
+    pub const ALL: [Self; 10] = [
         Self::Probe,
         Self::Distance,
         Self::Point,
@@ -48,6 +51,7 @@ impl ObservationKind {
         Self::BallDistance,
         Self::TrackerPoint,
         Self::TrackerPose,
+        Self::ManualHeight,
     ];
 
     /// Its place in [`Self::ALL`].
@@ -56,7 +60,8 @@ impl ObservationKind {
     }
 
     /// Its name in messages and files: `probe height`, `part distance`,
-    /// `measured point`, `point sample`, `measured quantity`, `ball touch`.
+    /// `measured point`, `point sample`, `measured quantity`, `ball touch`,
+    /// `manual height`, ...
     pub fn name(self) -> &'static str {
         match self {
             Self::Probe => "probe height",
@@ -68,6 +73,7 @@ impl ObservationKind {
             Self::BallDistance => "ball distance",
             Self::TrackerPoint => "tracker point",
             Self::TrackerPose => "tracker pose",
+            Self::ManualHeight => "manual height",
         }
     }
 }

@@ -171,6 +171,13 @@ pub fn predict(
         rows.d_global[(0, n)] = evaluated.d_trigger_height * probe.sigma;
         predicted.push(rows);
     }
+    for (k, manual) in observations.manual_heights.iter().enumerate() {
+        let id = at(ObservationKind::ManualHeight, k);
+        let rows = manual
+            .evaluate(mechanism, params, configured)
+            .map_err(|e| failed(id, e))?;
+        predicted.push(unwhitened(id, &rows, &[manual.sigma], g));
+    }
     for (k, distance) in observations.distances.iter().enumerate() {
         let id = at(ObservationKind::Distance, k);
         let rows = distance

@@ -351,6 +351,11 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         let refs =
             |kind, count, rows| (0..count).map(move |index| (ObservationRef { kind, index }, rows));
         refs(ObservationKind::Probe, o.probes.len(), 1)
+            .chain(refs(
+                ObservationKind::ManualHeight,
+                o.manual_heights.len(),
+                1,
+            ))
             .chain(refs(ObservationKind::Distance, o.distances.len(), 1))
             .chain(refs(ObservationKind::Point, o.points.len(), 3))
             .chain(refs(ObservationKind::Quantity, o.quantities.len(), 1))
@@ -1199,6 +1204,13 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
             let d_trigger_height = evaluated.as_ref().map_or(0.0, |e| e.d_trigger_height);
             let at = put(ObservationKind::Probe, k, evaluated.map(|e| e.rows))?;
             trigger_rows.push((at, d_trigger_height));
+        }
+        for (k, manual) in o.manual_heights.iter().enumerate() {
+            put(
+                ObservationKind::ManualHeight,
+                k,
+                manual.evaluate(mechanism, params, configured),
+            )?;
         }
         for (k, distance) in o.distances.iter().enumerate() {
             put(

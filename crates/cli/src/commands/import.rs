@@ -5,7 +5,8 @@
 use std::path::PathBuf;
 
 use parcal::firmware_import::{
-    FirmwareImportError, ImportOptions, MAX_SIGMA, firmware_import, is_sigma,
+    FirmwareImportError, ImportOptions, MAX_SIGMA, ObservationFiles, Source, firmware_import,
+    is_sigma,
 };
 use parcal::firmware_lines::FirmwareFormat;
 use parcal::kinematics::delta::Tolerances;
@@ -22,8 +23,9 @@ enum Firmware {
     /// heights G30 S-1 reported.
     Reprapfirmware(FirmwareArgs),
     /// Klipper: printer.cfg's delta settings (the SAVE_CONFIG block
-    /// included) and the probes and part distances its DELTA_CALIBRATE
-    /// saved, or the probe heights of --probes less the probe's z_offset.
+    /// included) and the probes, manual heights and part distances its
+    /// DELTA_CALIBRATE and DELTA_ANALYZE saved, or the probe heights of
+    /// --probes less the probe's z_offset.
     Klipper(FirmwareArgs),
 }
 
@@ -43,6 +45,12 @@ struct FirmwareArgs {
     /// DELTA_ANALYZE saved in printer.cfg, if any.
     #[arg(long)]
     distances: Option<PathBuf>,
+    /// Heights of the nozzle above the bed measured by hand (a gauge block
+    /// or feeler gauge): header x,y,z,height, the commanded position and
+    /// the height measured there (mm). Klipper's without it: those its
+    /// DELTA_ANALYZE MANUAL_HEIGHT saved in printer.cfg, if any.
+    #[arg(long)]
+    heights: Option<PathBuf>,
     /// The dataset directory to write (it must not exist or be empty,
     /// unless --force).
     #[arg(long)]
@@ -90,6 +98,9 @@ pub struct ToleranceArgs {
     /// The part distances' standard deviation (a calliper's), mm.
     #[arg(long, value_name = "MM", default_value_t = ImportOptions::default().distance_sigma, value_parser = sigma)]
     distance_sigma: f64,
+    /// The standard deviation of a height measured by hand, mm.
+    #[arg(long, value_name = "MM", default_value_t = ImportOptions::default().height_sigma, value_parser = sigma)]
+    height_sigma: f64,
     /// The trigger height's standard deviation about the configured one
     /// (G31 Z; Klipper's z_offset with the probes it saved, else 0), mm: a
     /// first-layer test's.
@@ -112,6 +123,7 @@ impl ToleranceArgs {
         options.matched_rods = self.matched_rods;
         options.probe_sigma = self.probe_sigma;
         options.distance_sigma = self.distance_sigma;
+        options.height_sigma = self.height_sigma;
         options.trigger_sigma = self.trigger_sigma;
         options
     }
@@ -139,8 +151,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let imported = firmware_import(
         format,
         &files.config,
-        files.probes.as_deref(),
-        files.distances.as_deref(),
+        &ObservationFiles {
+            probes: files.probes.as_deref(),
+            distances: files.distances.as_deref(),
+            heights: files.heights.as_deref(),
+        },
         &files.tolerances.options(),
     )
     .map_err(|error| match error {
@@ -150,17 +165,25 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         error => error.into(),
     })?;
     let dataset = &imported.dataset;
-    let distances_from = (imported.distances_from.as_ref())
-        .map(|from| format!(" ({from})"))
-        .unwrap_or_default();
+    let from =
+        |source: Option<&Source>| source.map(|from| format!(" ({from})")).unwrap_or_default();
+    let heights = match &imported.heights_from {
+        Some(source) => format!(
+            ", {} heights measured by hand{}",
+            dataset.heights.len(),
+            from(Some(source))
+        ),
+        None => String::new(),
+    };
     dataset.write_with(&files.out, files.force)?;
     println!(
-        "{}: {firmware}'s configuration ({}), {} probe heights ({}) and {} part distances{distances_from}",
+        "{}: {firmware}'s configuration ({}), {} probe heights ({}){heights} and {} part distances{}",
         files.out.display(),
         files.config.display(),
         dataset.probes.len(),
         imported.probes_from,
         dataset.distances.len(),
+        from(imported.distances_from.as_ref()),
     );
     Ok(())
 }

@@ -61,6 +61,9 @@ pub struct Noise {
     /// A measured distance (mm).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub distance: Option<f64>,
+    /// A height of the nozzle above the bed measured by hand (mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height: Option<f64>,
     /// A touch of a calibrated ball, along its normal (mm).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub touch: Option<f64>,
@@ -413,6 +416,7 @@ impl MechanismMachine {
             ("actuator", noise.actuator),
             ("position", noise.position),
             ("distance", noise.distance),
+            ("height", noise.height),
             ("touch", noise.touch),
             ("tracker", noise.tracker),
         ] {

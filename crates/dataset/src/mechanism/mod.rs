@@ -5,6 +5,7 @@
 //! |---|---|---|
 //! | `machine.json` | the mechanism by name, configured and design parameters, tolerances, noise, trigger height | [`MechanismMachine`] |
 //! | `probes.csv` | probe heights (`x,y,z`) | [`MechanismDataset::probes`] |
+//! | `heights.csv` | heights of the nozzle above the bed measured by hand at commanded positions (`x,y,z,height`) | [`MechanismDataset::heights`] |
 //! | `distances.csv` | part distances (`x1,y1,z1,x2,y2,z2,distance`) | [`MechanismDataset::distances`] |
 //! | `points.csv` | readings, with the position where known and optionally the loads (`q1..qA,x,y,z[,f1..fA]`) | [`SampleRow`] |
 //! | `quantities.csv` | quantities of the machine measured directly (`quantity,value,sigma`) | [`QuantityRow`] |
@@ -74,8 +75,8 @@ pub use observation_records::{
     ObservationRecord, ObservationRecords, RowCheck, UNCHECKED_REDUNDANCY, worst_row,
 };
 pub use observations::{
-    DISTANCE_COLUMNS, LOAD_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS,
-    SampleRow,
+    DISTANCE_COLUMNS, HEIGHT_COLUMNS, LOAD_COLUMNS, OBSERVATIONS, POSITION_COLUMNS, PROBE_COLUMNS,
+    READING_COLUMNS, SampleRow,
 };
 pub use quantities::{QUANTITY_COLUMNS, QuantityRow};
 pub use targets::{TARGETS, command_header, read_targets};
@@ -101,6 +102,8 @@ use tracker_points::{read_tracker_points, write_tracker_points};
 pub const MACHINE_FILE: &str = "machine.json";
 /// The file of the probe heights.
 pub const PROBES_FILE: &str = "probes.csv";
+/// The file of the heights measured by hand.
+pub const HEIGHTS_FILE: &str = "heights.csv";
 /// The file of the part distances.
 pub const DISTANCES_FILE: &str = "distances.csv";
 /// The file of the readings at unknown or measured positions.
@@ -128,6 +131,10 @@ pub struct MechanismDataset {
     /// Probe heights: commanded `x, y` and the height `z` at which the
     /// probe triggered (mm, the controller's coordinates).
     pub probes: Vec<[f64; 3]>,
+    /// Heights measured by hand: a commanded position and the nozzle's
+    /// height above the bed measured there (a gauge, Klipper's
+    /// `MANUAL_HEIGHT`; mm).
+    pub heights: Vec<[f64; 4]>,
     /// Part distances: two commanded positions and the distance measured
     /// between them (mm).
     pub distances: Vec<[f64; 7]>,
@@ -155,6 +162,7 @@ impl Default for MechanismDataset {
         Self {
             machine: MechanismMachine::of(&parcal_kinematics::delta::LinearDelta::typical()),
             probes: Vec::new(),
+            heights: Vec::new(),
             distances: Vec::new(),
             samples: Vec::new(),
             quantities: Vec::new(),
@@ -177,6 +185,10 @@ impl MechanismDataset {
         };
         let probes = match present(PROBES_FILE)? {
             Some(path) => read_rows(&path, &PROBE_COLUMNS, "probe")?,
+            None => Vec::new(),
+        };
+        let heights = match present(HEIGHTS_FILE)? {
+            Some(path) => read_rows(&path, &HEIGHT_COLUMNS, "height")?,
             None => Vec::new(),
         };
         let distances = match present(DISTANCES_FILE)? {
@@ -221,6 +233,7 @@ impl MechanismDataset {
         let dataset = Self {
             machine,
             probes,
+            heights,
             distances,
             samples,
             quantities,
@@ -250,6 +263,9 @@ impl MechanismDataset {
             self.machine.write(&new.join(MACHINE_FILE))?;
             if !self.probes.is_empty() {
                 write_rows(&new.join(PROBES_FILE), &PROBE_COLUMNS, &self.probes)?;
+            }
+            if !self.heights.is_empty() {
+                write_rows(&new.join(HEIGHTS_FILE), &HEIGHT_COLUMNS, &self.heights)?;
             }
             if !self.distances.is_empty() {
                 write_rows(
@@ -296,6 +312,7 @@ impl MechanismDataset {
         self.machine.validate(check)?;
         let counts = [
             (PROBES_FILE, self.probes.len()),
+            (HEIGHTS_FILE, self.heights.len()),
             (DISTANCES_FILE, self.distances.len()),
             (POINTS_FILE, self.samples.len()),
             (QUANTITIES_FILE, self.quantities.len()),
@@ -306,7 +323,7 @@ impl MechanismDataset {
             return Err(DatasetError::Refused {
                 path: dir.to_path_buf(),
                 message: format!(
-                    "the dataset holds no observation: none of {PROBES_FILE}, {DISTANCES_FILE}, {POINTS_FILE}, {QUANTITIES_FILE}, {TOUCHES_FILE}, {TRACKER_POINTS_FILE}"
+                    "the dataset holds no observation: none of {PROBES_FILE}, {HEIGHTS_FILE}, {DISTANCES_FILE}, {POINTS_FILE}, {QUANTITIES_FILE}, {TOUCHES_FILE}, {TRACKER_POINTS_FILE}"
                 ),
             });
         }
@@ -323,6 +340,7 @@ impl MechanismDataset {
         let noise = &self.machine.noise;
         for (needed, sigma, field) in [
             (!self.probes.is_empty(), noise.probe, "noise.probe"),
+            (!self.heights.is_empty(), noise.height, "noise.height"),
             (!self.distances.is_empty(), noise.distance, "noise.distance"),
             (!self.touches.is_empty(), noise.touch, "noise.touch"),
             (
@@ -373,6 +391,7 @@ impl MechanismDataset {
             Ok(())
         };
         rows(PROBES_FILE, &mut self.probes.iter().map(|r| r.as_slice()))?;
+        rows(HEIGHTS_FILE, &mut self.heights.iter().map(|r| r.as_slice()))?;
         rows(
             DISTANCES_FILE,
             &mut self.distances.iter().map(|r| r.as_slice()),

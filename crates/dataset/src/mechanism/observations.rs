@@ -27,6 +27,8 @@ pub const OBSERVATIONS: Count = Count::new(
 
 /// The columns of probes.csv.
 pub const PROBE_COLUMNS: [&str; 3] = ["x", "y", "z"];
+/// The columns of heights.csv.
+pub const HEIGHT_COLUMNS: [&str; 4] = ["x", "y", "z", "height"];
 /// The columns of distances.csv.
 pub const DISTANCE_COLUMNS: [&str; 7] = ["x1", "y1", "z1", "x2", "y2", "z2", "distance"];
 /// The reading columns of points.csv, of which a mechanism of `A`

@@ -9,9 +9,10 @@
 //! - `distance{i} = d`, `distance{i}_pos1`, `distance{i}_pos2`: a distance
 //!   `d` measured on a printed part (Klipper's calibration object, enhanced
 //!   delta calibration) between two stable positions.
-//! - `manual_height{i}` (`DELTA_ANALYZE MANUAL_HEIGHT`): a height known
-//!   exactly, which parcal's probe model (one trigger height, an unknown)
-//!   does not hold; refused, naming the line.
+//! - `manual_height{i} = h`, `manual_height{i}_pos`: the nozzle measured
+//!   by hand `h` above the bed at a stable position
+//!   (`DELTA_ANALYZE MANUAL_HEIGHT`), a height of its own rather than the
+//!   probe's trigger height.
 //!
 //! Each list is read from `i = 0` to the first index missing, at most
 //! [`MAX_ENTRIES`], as Klipper reads it.
@@ -41,8 +42,9 @@ pub const MAX_ENTRIES: usize = 999;
 
 /// The measurements `DELTA_CALIBRATE` and `DELTA_ANALYZE` saved in a
 /// `printer.cfg`'s `[delta_calibrate]` section (`height{i}` and
-/// `height{i}_pos`, `distance{i}` and `distance{i}_pos1`, `_pos2`; at most
-/// [`MAX_ENTRIES`] of each; a manually entered height is refused), as
+/// `height{i}_pos`, `manual_height{i}` and `manual_height{i}_pos`,
+/// `distance{i}` and `distance{i}_pos1`, `_pos2`; at most [`MAX_ENTRIES`]
+/// of each), as
 /// positions of the nozzle under the configured parameters: a stable
 /// position `s`, each tower's steps down from its endstop, is the delta's
 /// readings `q_i = −s_i d_i` (`d_i` the stepper's step distance, from
@@ -56,6 +58,9 @@ pub struct DeltaCalibrateResults {
     pub z_offset: Option<f64>,
     /// The nozzle's position at each probe's trigger (mm).
     pub probes: Vec<[f64; 3]>,
+    /// Each height measured by hand: the nozzle's position and the height
+    /// measured there (`x, y, z, h`, mm).
+    pub manual_heights: Vec<[f64; 4]>,
     /// Each part distance: its two positions and the distance measured
     /// (`x1, y1, z1, x2, y2, z2, d`, mm).
     pub distances: Vec<[f64; 7]>,
@@ -67,19 +72,10 @@ pub(super) fn read(
     options: &Options,
     configured: &DeltaParams,
 ) -> Result<DeltaCalibrateResults, FirmwareError> {
-    if let Some((_, line)) = options.text(SECTION, "manual_height0") {
-        return Err(options.at(
-            line,
-            format!(
-                "[{SECTION}] manual_height0: a manually entered height (DELTA_ANALYZE \
-                 MANUAL_HEIGHT) is not read: parcal's probe heights share one trigger height; \
-                 remove the manual heights to import the probes"
-            ),
-        ));
-    }
     let heights = entries(options, "height", &["_pos"])?;
+    let manual = entries(options, "manual_height", &["_pos"])?;
     let distances = entries(options, "distance", &["_pos1", "_pos2"])?;
-    if heights.is_empty() && distances.is_empty() {
+    if heights.is_empty() && manual.is_empty() && distances.is_empty() {
         return Ok(DeltaCalibrateResults::default());
     }
     let steps = step_distances(options)?;
@@ -102,6 +98,12 @@ pub(super) fn read(
             delta.position(&h.positions[0], options, h.line)
         })
         .collect::<Result<_, _>>()?;
+    let manual_heights = (manual.iter())
+        .map(|m| {
+            let [x, y, z] = delta.position(&m.positions[0], options, m.line)?;
+            Ok([x, y, z, m.value])
+        })
+        .collect::<Result<_, FirmwareError>>()?;
     let distances = (distances.iter())
         .map(|d| {
             let first = delta.position(&d.positions[0], options, d.line)?;
@@ -114,6 +116,7 @@ pub(super) fn read(
     Ok(DeltaCalibrateResults {
         z_offset,
         probes,
+        manual_heights,
         distances,
     })
 }

@@ -6,6 +6,8 @@
 //!
 //! - [`ProbeHeight`]: a probe triggering on the bed, `(z(x) − h) / σ`
 //!   (1 row; unknowns `p`, the trigger height `h`);
+//! - [`ManualHeight`]: the nozzle's height above the bed measured by hand,
+//!   `(z(x) − h_m) / σ` (1 row; unknowns `p`);
 //! - [`PartDistance`]: the distance between two commanded positions as
 //!   measured on a printed or reference part (1 row; unknowns `p`);
 //! - [`CommandedPoint`]: the effector's position measured at a commanded
@@ -54,6 +56,7 @@ mod ball_distance;
 mod ball_touch;
 mod commanded;
 mod commanded_point;
+mod manual_height;
 mod part_distance;
 mod point_sample;
 mod probe;
@@ -68,6 +71,7 @@ pub use commanded::{
     Actuation, ActuationBatch, ON_STACK, POSE_COORDINATES, Readings, Rows, reached,
 };
 pub use commanded_point::CommandedPoint;
+pub use manual_height::ManualHeight;
 pub use part_distance::PartDistance;
 pub use point_sample::{PointSample, SampleRows};
 pub use probe::ProbeHeight;
