@@ -101,6 +101,49 @@ fn held_out_data_of_the_same_printer_fit_their_predicted_covariance() {
 }
 
 #[test]
+fn held_out_heights_measured_by_hand_fit_their_predicted_covariance() {
+    // Heights measured by hand (manual heights, σ 50 µm) on the centre and a
+    // ring of 8 at 60 mm, 5 mm up, of each calibrated printer: their rows
+    // are predicted without the trigger height, T/n of mean 1.
+    const SIGMA: f64 = 0.05;
+    let commanded: Vec<[f64; 3]> = std::iter::once([0.0, 0.0, 5.0])
+        .chain((0..8).map(|k| {
+            let (sin, cos) = (k as f64 * std::f64::consts::FRAC_PI_4).sin_cos();
+            [60.0 * cos, 60.0 * sin, 5.0]
+        }))
+        .collect();
+    let mut ratios = Vec::new();
+    for seed in 0..30 {
+        let (scenario, calibrated, truth) = calibrated(seed);
+        let mut held_out = measure_delta(&scenario, &truth, seed + HELD_OUT).unwrap();
+        let delta: LinearDelta = scenario.delta();
+        let mut noise = Rng::new(seed + HELD_OUT, 77);
+        let configured = held_out.machine.configured.clone();
+        held_out.heights = (commanded.iter())
+            .map(|&[x, y, z]| {
+                let q = delta.inverse(&configured, &[x, y, z]).unwrap();
+                let reached = delta
+                    .forward(&truth.parameters, q.as_slice(), &[x, y, z])
+                    .unwrap();
+                [x, y, z, reached[2] + noise.normal(SIGMA)]
+            })
+            .collect();
+        held_out.probes.clear();
+        held_out.distances.clear();
+        held_out.machine.noise.height = Some(SIGMA);
+        let validation = validate_mechanism(&calibrated, &data(&held_out), ALPHA, None).unwrap();
+        assert_eq!(validation.rows.len(), commanded.len());
+        ratios.push(validation.statistic / validation.rows.len() as f64);
+    }
+    let (mean, standard_error) = mean_and_standard_error(&ratios);
+    eprintln!("manual heights, 30 printers x 9: mean T/n {mean:.4} +- {standard_error:.4}");
+    assert!(
+        (mean - 1.0).abs() < 4.0 * standard_error,
+        "mean T/n {mean:.4} +- {standard_error:.4}"
+    );
+}
+
+#[test]
 #[ignore = "400 printers: cargo test -p parcal-calibrate --test integration mechanism_validation:: -- --ignored --nocapture"]
 fn false_alarm_rates_over_400_printers() {
     let (mean, standard_error, global, w) = false_alarms(400);

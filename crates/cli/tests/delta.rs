@@ -995,6 +995,25 @@ fn klippers_manual_heights_find_a_probe_triggering_off_its_z_offset() {
     );
     assert!(sigma < 0.5 * alone_sigma, "{sigma} against {alone_sigma}");
     assert!((found - TRIGGER).abs() < 4.0 * sigma, "{found} ± {sigma}");
+    // The same heights held out, the second measured 1 mm high: named by
+    // its line.
+    let held = d.join("held");
+    fs::create_dir(&held).unwrap();
+    fs::copy(d.join("manual/machine.json"), held.join("machine.json")).unwrap();
+    let heights = fs::read_to_string(d.join("manual/heights.csv")).unwrap();
+    let mut rows: Vec<String> = heights.lines().map(str::to_string).collect();
+    let mut fields: Vec<f64> = (rows[2].split(',')).map(|v| v.parse().unwrap()).collect();
+    fields[3] += 1.0;
+    rows[2] = (fields.iter().map(f64::to_string))
+        .collect::<Vec<_>>()
+        .join(",");
+    fs::write(held.join("heights.csv"), rows.join("\n") + "\n").unwrap();
+    let calibration = d.join("manual/calibration.json");
+    let error = fails(&["validate", s(&held), "--calibration", s(&calibration)]);
+    assert!(
+        error.contains("heights.csv line 3 (manual height 1, row 0)"),
+        "{error}"
+    );
 }
 
 #[test]
