@@ -185,7 +185,7 @@ struct Configured {
 
 /// The dataset of the printer configured in `config` (`format`'s file:
 /// RepRapFirmware's config.g, Klipper's printer.cfg), probed as the log at
-/// `probes` says (header `x,y,z`: the commanded XY and the height
+/// `files.probes` says (header `x,y,z`: the commanded XY and the height
 /// reported there, mm), measured as `files.distances` says (header
 /// `x1,y1,z1,x2,y2,z2,distance`) and as `files.heights` says (header
 /// `x,y,z,height`, the nozzle's height above the bed measured by hand at a
