@@ -205,6 +205,8 @@ def simulate(
     part_distances: Optional[int] = None,
     probe_sigma: Optional[float] = None,
     distance_sigma: Optional[float] = None,
+    manual_heights: Optional[int] = None,
+    height_sigma: Optional[float] = None,
     trackers: Optional[int] = None,
     points_per_tracker: Optional[int] = None,
     tracker_sigma: Optional[float] = None,
@@ -219,7 +221,7 @@ def simulate(
     """A simulated linear delta (``balls``, ``points_per_ball``,
     ``plate``, ``plate_sigma``, ``trackers``, ``points_per_tracker``,
     ``tracker_sigma`` and the ``probe_*``, ``part_distances``,
-    ``distance_sigma`` options) or cable
+    ``distance_sigma``, ``manual_heights``, ``height_sigma`` options) or cable
     robot (``samples``, ``known_positions``, ``reading_sigma``,
     ``measured_sigma``) with its truth, as ``parcal simulate --mechanism``
     makes it; ``truth`` (a simulated dataset) measures its true machine

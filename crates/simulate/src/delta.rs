@@ -12,7 +12,10 @@
 //! `f_z(p, g(p_c, (x, y, z_t))) = h + ε`, by Newton's method with slope 1.
 //! A part distance is measured between two commanded positions opposite
 //! each other about the centre at angles spread over the bed, at the
-//! height of a first layer (0.2 mm), with noise `N(0, σ_d²)`. A point
+//! height of a first layer (0.2 mm), with noise `N(0, σ_d²)`. A height
+//! measured by hand (a 5 mm gauge block under the nozzle sent 5 mm up, at
+//! the centre and then on a ring at 0.6 of the print radius) is the true
+//! nozzle's height there, `f_z(p, g(p_c, x_c)) + N(0, σ_m²)`. A point
 //! sample's readings are `g(p, x) + N(0, σ_q²)` at a pose `x` drawn in the
 //! print volume, its position measured with noise `N(0, σ_x²)` for the
 //! first ones. Calibrated balls rest on the bed on a ring at 0.6 of the
@@ -85,6 +88,10 @@ pub struct DeltaScenario {
     pub distances: usize,
     /// Their standard deviation (mm).
     pub distance_sigma: f64,
+    /// Heights measured by hand.
+    pub manual_heights: usize,
+    /// Their standard deviation (mm).
+    pub height_sigma: f64,
     /// Point samples at unknown positions.
     pub unknown_samples: usize,
     /// Point samples at measured positions.
@@ -133,6 +140,8 @@ impl DeltaScenario {
             trigger_sigma: 0.05,
             distances: 0,
             distance_sigma: 0.02,
+            manual_heights: 0,
+            height_sigma: 0.05,
             unknown_samples: 0,
             known_samples: 0,
             actuator_sigma: 0.005,
@@ -172,6 +181,7 @@ impl DeltaScenario {
         .map_err(SimulateError::TooLarge)?;
         for (name, count) in [
             ("distances", self.distances),
+            ("manual heights", self.manual_heights),
             ("point samples", self.unknown_samples + self.known_samples),
         ] {
             if count > 0 {
@@ -220,6 +230,7 @@ impl DeltaScenario {
             self.probe_sigma,
             self.trigger_sigma,
             self.distance_sigma,
+            self.height_sigma,
             self.actuator_sigma,
             self.position_sigma,
             self.ball_radius,
@@ -249,6 +260,7 @@ enum Stream {
     Samples = 3,
     Balls = 4,
     Trackers = 5,
+    Heights = 6,
 }
 
 /// Simulates `scenario` with `seed` (module doc).
@@ -328,6 +340,19 @@ pub fn measure_delta(
         })
         .collect::<Result<Vec<_>, SimulateError>>()?;
 
+    let mut noise = rng(Stream::Heights);
+    let heights = (0..scenario.manual_heights)
+        .map(|k| {
+            let commanded = manual_height_position(scenario, k);
+            let reached = delta
+                .inverse(&configured, &commanded)
+                .and_then(|q| delta.forward(&truth, q.as_slice(), &commanded))
+                .map_err(|e| failed(format!("manual height {k}: {e}")))?;
+            let [x, y, z] = commanded;
+            Ok([x, y, z, reached[2] + noise.normal(scenario.height_sigma)])
+        })
+        .collect::<Result<Vec<_>, SimulateError>>()?;
+
     let mut noise = rng(Stream::Samples);
     let total = scenario.known_samples + scenario.unknown_samples;
     let samples = (0..total)
@@ -384,7 +409,7 @@ pub fn measure_delta(
             position: (scenario.known_samples > 0).then_some(scenario.position_sigma),
             touch: (!touches.is_empty()).then_some(scenario.touch_sigma),
             tracker: (!tracker_points.is_empty()).then_some(scenario.tracker_sigma),
-            height: None,
+            height: (!heights.is_empty()).then_some(scenario.height_sigma),
         },
         trigger_height: Some(ValuePrior {
             value: scenario.trigger_height,
@@ -396,7 +421,7 @@ pub fn measure_delta(
     Ok(MechanismDataset {
         machine,
         probes,
-        heights: Vec::new(),
+        heights,
         distances,
         samples,
         quantities: Vec::new(),
@@ -406,6 +431,19 @@ pub fn measure_delta(
         tracker_points,
         truth: Some(truth_record),
     })
+}
+
+/// Where height `k` is measured by hand (module doc): the centre, then
+/// evenly on a ring at 0.6 of the print radius, 5 mm up.
+fn manual_height_position(scenario: &DeltaScenario, k: usize) -> [f64; 3] {
+    const GAUGE: f64 = 5.0;
+    if k == 0 {
+        return [0.0, 0.0, GAUGE];
+    }
+    let around = (scenario.manual_heights - 1) as f64;
+    let angle = 2.0 * std::f64::consts::PI * (k - 1) as f64 / around;
+    let r = 0.6 * scenario.print_radius;
+    [r * angle.cos(), r * angle.sin(), GAUGE]
 }
 
 /// The trackers of `scenario` measuring the printer of true parameters

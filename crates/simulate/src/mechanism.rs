@@ -35,6 +35,8 @@ pub const RINGS: Count = Count::new(1, 20, "a bed probed on more rings than 20 g
 pub const PER_RING: Count = Count::new(3, 360, "a point every degree at most");
 /// The bounds of `part_distances`.
 pub const DISTANCES: Count = Count::new(0, 180, "one distance per degree at most");
+/// The bounds of `manual_heights`.
+pub const MANUAL_HEIGHTS: Count = Count::new(0, 1000, "each is measured by hand");
 /// The bounds of `trackers`.
 pub const TRACKERS: Count = parcal_dataset::mechanism::TRACKERS;
 /// The bounds of `points_per_tracker`: three locate a tracker's frame.
@@ -82,11 +84,16 @@ pub struct MechanismOptions {
     /// Delta: distances measured across a printed disc on the first layer
     /// (default 0; [`DISTANCES`]).
     pub part_distances: Option<usize>,
+    /// Delta: heights of the nozzle measured by hand with a 5 mm gauge
+    /// block, at the centre and on a ring (default 0; [`MANUAL_HEIGHTS`]).
+    pub manual_heights: Option<usize>,
     /// Delta: the probe's noise, 1 sigma, mm (default 0.01, at most 1).
     pub probe_sigma: Option<f64>,
     /// Delta: the part distances' noise, 1 sigma, mm (default 0.01, at
     /// most 1).
     pub distance_sigma: Option<f64>,
+    /// Delta: the heights' noise, 1 sigma, mm (default 0.05, at most 1).
+    pub height_sigma: Option<f64>,
     /// Delta: calibrated balls (12.7 mm radius, calibrated to 1 µm) on a
     /// ring on the bed, touched by the probe (default none; [`COUNT`]).
     pub balls: Option<usize>,
@@ -132,13 +139,15 @@ impl MechanismOptions {
     }
 
     /// A delta's options, each with whether it is given.
-    fn delta_given(&self) -> [(&'static str, bool); 11] {
+    fn delta_given(&self) -> [(&'static str, bool); 13] {
         [
             ("probe_rings", self.probe_rings.is_some()),
             ("probes_per_ring", self.probes_per_ring.is_some()),
             ("part_distances", self.part_distances.is_some()),
             ("probe_sigma", self.probe_sigma.is_some()),
             ("distance_sigma", self.distance_sigma.is_some()),
+            ("manual_heights", self.manual_heights.is_some()),
+            ("height_sigma", self.height_sigma.is_some()),
             ("balls", self.balls.is_some()),
             ("points_per_ball", self.points_per_ball.is_some()),
             ("plate", self.plate.is_some()),
@@ -345,6 +354,20 @@ fn delta(
             options.part_distances,
             typical.distances,
             DISTANCES,
+            spelling,
+        )?,
+        manual_heights: count(
+            "manual_heights",
+            options.manual_heights,
+            typical.manual_heights,
+            MANUAL_HEIGHTS,
+            spelling,
+        )?,
+        height_sigma: sigma(
+            "height_sigma",
+            options.height_sigma,
+            typical.height_sigma,
+            1.0,
             spelling,
         )?,
         probe_sigma: sigma("probe_sigma", options.probe_sigma, 0.01, 1.0, spelling)?,

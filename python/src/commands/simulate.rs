@@ -30,8 +30,8 @@ use crate::mechanism::dataset::MechanismDataset;
 /// With `mechanism` `"delta"` (`"linear delta"`) or `"cable"` (`"cable
 /// robot"`), a `parcal.MechanismDataset`: a delta's `probe_rings`,
 /// `probes_per_ring`, `part_distances`, `probe_sigma`, `distance_sigma`,
-/// `balls`, `points_per_ball`, `plate`, `trackers`, `points_per_tracker`
-/// and `tracker_sigma`, or a cable robot's `samples`,
+/// `manual_heights`, `height_sigma`, `balls`, `points_per_ball`, `plate`,
+/// `trackers`, `points_per_tracker` and `tracker_sigma`, or a cable robot's `samples`,
 /// `known_positions`, `reading_sigma` and `measured_sigma`; `truth` (a
 /// simulated `parcal.MechanismDataset`, with its truth) measures that true
 /// machine again instead of drawing one: held-out data, refused if it is
@@ -57,8 +57,10 @@ use crate::mechanism::dataset::MechanismDataset;
     probe_rings=None,
     probes_per_ring=None,
     part_distances=None,
+    manual_heights=None,
     probe_sigma=None,
     distance_sigma=None,
+    height_sigma=None,
     trackers=None,
     points_per_tracker=None,
     tracker_sigma=None,
@@ -82,8 +84,10 @@ pub fn simulate(
     probe_rings: Option<usize>,
     probes_per_ring: Option<usize>,
     part_distances: Option<usize>,
+    manual_heights: Option<usize>,
     probe_sigma: Option<f64>,
     distance_sigma: Option<f64>,
+    height_sigma: Option<f64>,
     trackers: Option<usize>,
     points_per_tracker: Option<usize>,
     tracker_sigma: Option<f64>,
@@ -100,8 +104,10 @@ pub fn simulate(
         probe_rings,
         probes_per_ring,
         part_distances,
+        manual_heights,
         probe_sigma,
         distance_sigma,
+        height_sigma,
         balls,
         points_per_ball,
         trackers,

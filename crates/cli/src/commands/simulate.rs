@@ -150,6 +150,13 @@ pub struct Args {
     /// Delta: the part distances' noise, 1 sigma, mm (default 0.01).
     #[arg(long, value_name = "MM", requires = "mechanism")]
     distance_sigma: Option<f64>,
+    /// Delta: heights of the nozzle measured by hand with a 5 mm gauge
+    /// block, at the centre and on a ring (heights.csv; default 0).
+    #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::MANUAL_HEIGHTS))]
+    manual_heights: Option<usize>,
+    /// Delta: the heights' noise, 1 sigma, mm (default 0.05).
+    #[arg(long, value_name = "MM", requires = "mechanism")]
+    height_sigma: Option<f64>,
     /// Delta: trackers placed about the printer, each measuring the tool
     /// point in its own frame (tracker_points.csv; default none).
     #[arg(long, requires = "mechanism", value_parser = Bounded(mechanism::TRACKERS))]
@@ -227,6 +234,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 part_distances: args.part_distances,
                 probe_sigma: args.probe_sigma,
                 distance_sigma: args.distance_sigma,
+                manual_heights: args.manual_heights,
+                height_sigma: args.height_sigma,
                 balls: args.balls,
                 points_per_ball: args.points_per_ball,
                 plate: plate(args)?,

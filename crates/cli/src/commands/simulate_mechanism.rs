@@ -91,8 +91,12 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
             format!(", {} points of {k} trackers", dataset.tracker_points.len())
         }
     };
+    let heights = match dataset.heights.len() {
+        0 => String::new(),
+        n => format!(", {n} heights measured by hand"),
+    };
     println!(
-        "{}: a {name}, {} probe heights, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls{plate}{trackers}, seed {} (truth.json: {machine})",
+        "{}: a {name}, {} probe heights{heights}, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls{plate}{trackers}, seed {} (truth.json: {machine})",
         request.out.display(),
         dataset.probes.len(),
         dataset.distances.len(),
