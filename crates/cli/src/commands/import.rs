@@ -167,11 +167,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let dataset = &imported.dataset;
     let from =
         |source: Option<&Source>| source.map(|from| format!(" ({from})")).unwrap_or_default();
-    let heights = match &imported.heights_from {
-        Some(source) => format!(
+    let heights = match imported.heights_from {
+        Some(_) => format!(
             ", {} heights measured by hand{}",
             dataset.heights.len(),
-            from(Some(source))
+            from(imported.heights_from.as_ref())
         ),
         None => String::new(),
     };

@@ -197,7 +197,9 @@ impl RadiusRow {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::test_support::{HexapodTouch, delta, differences, hexapod_touch};
+    use crate::mechanism::test_support::{
+        HexapodTouch, assert_matches, delta, differences, hexapod_touch,
+    };
 
     #[test]
     fn derivatives_match_central_differences() {
@@ -210,8 +212,7 @@ mod tests {
         };
         let analytic = at(truth.as_slice(), &centre, 12.7);
         let numeric = differences(&delta, &truth, 1e-4, |p| at(p, &centre, 12.7).rows.residual);
-        let error = (&analytic.rows.d_params - &numeric).amax();
-        assert!(error < 1e-6 * numeric.amax(), "{error:e}");
+        assert_matches(&analytic.rows.d_params, &numeric);
         let h = 1e-4;
         for k in 0..3 {
             let step = Vector3::from_fn(|i, _| if i == k { h } else { 0.0 });
@@ -253,8 +254,7 @@ mod tests {
         // Steps of 1e-4 mm through forward kinematics converged far below
         // its 1e-9 mm tolerance (Newton's quadratic convergence).
         let numeric = differences(hexapod, &p, 1e-4, |params| at(params).rows.residual);
-        let error = (&analytic.rows.d_params - &numeric).amax();
-        assert!(error < 1e-6 * numeric.amax(), "{error:e}");
+        assert_matches(&analytic.rows.d_params, &numeric);
         // Started from the pose it reached, the same row to the forward
         // kinematics' tolerance (1e-9 mm, over σ).
         let warm = touch

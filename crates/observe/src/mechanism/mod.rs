@@ -81,8 +81,9 @@ pub use tracker_pose::{BodyFrame, TrackerPose, TrackerPoseRows};
 
 #[cfg(test)]
 pub(crate) mod test_support {
-    //! A perturbed delta and central differences over its parameters.
-    use nalgebra::{DMatrix, DVector, Vector3};
+    //! A perturbed delta, central differences over its parameters and
+    //! the check of an analytic Jacobian against them.
+    use nalgebra::{DMatrix, DVector, Dim, Dyn, Matrix, Storage, Vector3};
     use parcal_kinematics::delta::{DeltaParams, LinearDelta};
     use parcal_kinematics::mechanism::{Mechanism, design};
     use parcal_kinematics::mechanisms::by_name;
@@ -166,5 +167,19 @@ pub(crate) mod test_support {
             jacobian.set_column(k, &column);
         }
         jacobian
+    }
+
+    /// Asserts that `analytic` is `numeric` (central differences of steps
+    /// of 1e-4 on rows of O(100) per unit: truncation ~1e-8 relative,
+    /// rounding ~1e-16 · 1e4 / 1e-4) within 1e-6 of its largest entry.
+    pub fn assert_matches<R: Dim, S: Storage<f64, R, Dyn>>(
+        analytic: &Matrix<f64, R, Dyn, S>,
+        numeric: &DMatrix<f64>,
+    ) {
+        assert_eq!(analytic.shape(), numeric.shape());
+        let error = (analytic.iter().zip(numeric.iter()))
+            .map(|(a, n)| (a - n).abs())
+            .fold(0.0, f64::max);
+        assert!(error < 1e-6 * numeric.amax(), "{error:e}");
     }
 }

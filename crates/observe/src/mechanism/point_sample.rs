@@ -82,7 +82,7 @@ impl PointSample {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::test_support::{delta, differences};
+    use crate::mechanism::test_support::{assert_matches, delta, differences};
 
     #[test]
     fn derivatives_match_central_differences() {
@@ -98,8 +98,7 @@ mod tests {
         let at = |p: &[f64], x: &[f64]| sample.evaluate(&delta, p, x).unwrap();
         let analytic = at(truth.as_slice(), &pose);
         let numeric = differences(&delta, &truth, 1e-4, |p| at(p, &pose).rows.residual);
-        let error = (&analytic.rows.d_params - &numeric).amax();
-        assert!(error < 1e-6 * numeric.amax(), "{error:e}");
+        assert_matches(&analytic.rows.d_params, &numeric);
         let mut d_pose = DMatrix::zeros(3, 3);
         for k in 0..3 {
             let step = DVector::from_fn(3, |i, _| if i == k { 1e-4 } else { 0.0 });
