@@ -110,7 +110,8 @@ def compensate(calibration: Any, targets: Any, **options: Any) -> "dict[str, Any
 
 def plan(dataset: Union[Dataset, MechanismDataset], *args: Any, **options: Any) -> "dict[str, Any]":
     """The measurements to make next, as ``parcal plan`` chooses them: for
-    a mechanism ``plan(dataset, measurements, group=, grid=,
+    a mechanism ``plan(dataset, measurements, heights=, distances=,
+    height_sigma=, distance_sigma=, gauge=, group=, grid=,
     measured_positions=, after=)``, for a hexapod ``plan(dataset,
     contacts, tilt, criterion=, ...)``."""
     if isinstance(dataset, MechanismDataset):

@@ -578,16 +578,22 @@ def compensate_mechanism(
 
 def plan_mechanism(
     dataset: MechanismDataset,
-    measurements: int,
+    measurements: int = 0,
     *,
+    heights: int = 0,
+    distances: int = 0,
+    height_sigma: Optional[float] = None,
+    distance_sigma: Optional[float] = None,
+    gauge: float = 5.0,
     group: Optional[str] = None,
     grid: int = 12,
     measured_positions: bool = False,
     after: Union[MechanismCalibration, PathLike, None] = None,
 ) -> dict[str, Any]:
-    """``parcal.plan`` on a mechanism dataset: ``kind``, ``position`` (n x 3),
-    ``trace``, ``trace_before``, ``group``, ``feasible``,
-    ``from_calibration``, ``parameters``, ``statements``."""
+    """``parcal.plan`` on a mechanism dataset: ``kind``, ``position`` (n x 3;
+    a part distance's first end), ``end`` (n x 3, a part distance's second
+    end, NaN otherwise), ``trace``, ``trace_before``, ``group``,
+    ``feasible``, ``from_calibration``, ``parameters``, ``statements``."""
 
 def report(
     calibration: Union[Calibration, MechanismCalibration, PathLike],

@@ -238,6 +238,36 @@ def test_plan_chooses_the_probes_of_the_cli(delta, cli, tmp_path):
         parcal.plan(parcal.read_dataset(delta), 0)
 
 
+def test_plan_chooses_the_heights_and_distances_of_the_cli(delta, cli, tmp_path):
+    # Probe heights, then heights measured by hand on a 10 mm gauge, then part distances.
+    cli("plan", delta, "--measurements", 3, "--heights", 2, "--height-sigma", 0.02, "--gauge", 10,
+        "--distances", 2, "--out", tmp_path / "next.csv")
+    summary = json.loads((tmp_path / "next.json").read_text())
+    dataset = parcal.read_dataset(delta)
+    plan = parcal.plan(dataset, 3, heights=2, height_sigma=0.02, gauge=10, distances=2)
+    measurements = summary["measurements"]
+    assert plan["kind"] == [m["kind"] for m in measurements]
+    assert plan["kind"] == ["probe height"] * 3 + ["manual height"] * 2 + ["part distance"] * 2
+    assert np.array_equal(plan["position"][:5], [m["target"] for m in measurements[:5]])
+    assert np.all(plan["position"][3:5, 2] == 10.0)
+    assert np.array_equal(plan["position"][5:], [m["ends"][0] for m in measurements[5:]])
+    assert np.array_equal(plan["end"][5:], [m["ends"][1] for m in measurements[5:]])
+    assert np.all(np.isnan(plan["end"][:5]))
+    assert np.array_equal(plan["trace"], [m["trace_after"] for m in measurements])
+    # Heights alone after a calibration, minimising the trigger height's variance.
+    after = parcal.plan(dataset, heights=2, height_sigma=0.02, group="trigger height",
+                        after=parcal.calibrate(dataset))
+    assert after["kind"] == ["manual height"] * 2 and after["group"] == "trigger height"
+    trigger = after["parameters"]["name"].index("trigger_height")
+    assert after["parameters"]["after"][trigger] < after["parameters"]["before"][trigger]
+    with pytest.raises(parcal.Error, match="noise.height"):
+        parcal.plan(dataset, heights=2)
+    with pytest.raises(parcal.Error, match=r"height_sigma must be in \(0, 1\] mm, got NaN"):
+        parcal.plan(dataset, heights=2, height_sigma=float("nan"))
+    with pytest.raises(parcal.Error, match=r"must be in \(0, 100\] mm, got 500"):
+        parcal.plan(dataset, heights=2, height_sigma=0.02, gauge=500)
+
+
 def test_bad_input_raises_parcal_error_naming_the_file_and_line(delta, hangprinter, tmp_path):
     bad = tmp_path / "bad"
     shutil.copytree(delta, bad)

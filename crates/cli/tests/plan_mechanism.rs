@@ -1,5 +1,6 @@
 //! `parcal plan` on mechanism datasets: a delta's probe heights from its
-//! prior, a cable robot's encoder samples after a calibration, each
+//! prior, its heights measured by hand after a calibration, a cable
+//! robot's encoder samples after a calibration, each
 //! written as the dataset's own file to fill in with the predicted sigmas
 //! beside it; the hexapod's options refused.
 
@@ -113,6 +114,128 @@ fn a_delta_s_plan_is_a_probes_csv_to_fill_in() {
         serde_json::from_str(&fs::read_to_string(dir.path().join("next.json")).unwrap()).unwrap();
     assert!(json["distances_csv_checksum"].is_string());
     assert_eq!(json["measurements"][10]["kind"], "part distance");
+}
+
+#[test]
+fn a_delta_s_heights_by_hand_are_planned_into_a_heights_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    ok(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--seed",
+        "2",
+        "--out",
+        s(&sim),
+    ]);
+    ok(&["calibrate", s(&sim)]);
+    let calibration = sim.join("calibration.json");
+    let out = dir.path().join("heights.csv");
+    let run = |extra: &[&str], succeeds: bool| {
+        let mut args = vec!["plan", s(&sim), "--out", s(&out)];
+        args.extend(extra);
+        if succeeds { ok(&args) } else { fails(&args) }
+    };
+    let after = ["--after", s(&calibration), "--heights", "3"];
+    // The simulated printer has no heights yet: their sigma is asked for.
+    let err = run(&after, false);
+    assert!(err.contains("noise.height"), "{err}");
+    let trigger = [
+        &after[..],
+        &["--height-sigma", "0.02", "--group", "trigger height"],
+    ]
+    .concat();
+    let summary = run(&trigger, true);
+    assert!(summary.contains("3 measurements from"), "{summary}");
+    // Three commanded positions on the gauge block, the height to fill in.
+    let text = fs::read_to_string(&out).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "x,y,z,height");
+    assert_eq!(lines.len(), 4);
+    assert!(lines[1..].iter().all(|l| {
+        let fields: Vec<&str> = l.split(',').collect();
+        fields.len() == 4 && fields[2] == "5" && fields[3].is_empty()
+    }));
+    let json: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(dir.path().join("heights.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["start"], "calibration");
+    assert_eq!(json["group"], "trigger height");
+    assert_eq!(json["measurements"][0]["kind"], "manual height");
+    let sigmas = json["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "trigger_height")
+        .unwrap();
+    // Three heights of 20 um where the probes left the prior's 50 um.
+    assert!(sigmas["after"].as_f64().unwrap() < 0.5 * sigmas["before"].as_f64().unwrap());
+    // Another gauge; one out of bounds is refused with its bound.
+    let gauge = [&trigger[..], &["--gauge", "10"]].concat();
+    run(&gauge, true);
+    let text = fs::read_to_string(&out).unwrap();
+    assert!(
+        text.lines()
+            .skip(1)
+            .all(|l| l.split(',').nth(2) == Some("10")),
+        "{text}"
+    );
+    let err = run(&[&trigger[..], &["--gauge", "500"]].concat(), false);
+    assert!(err.contains("must be in (0, 100] mm, got 500"), "{err}");
+    // Every stage at once, from the prior: the probes in the file itself,
+    // the heights and the part distances beside it, in that order.
+    let next = dir.path().join("next.csv");
+    let summary = ok(&[
+        "plan",
+        s(&sim),
+        "--measurements",
+        "10",
+        "--heights",
+        "2",
+        "--distances",
+        "1",
+        "--height-sigma",
+        "0.02",
+        "--distance-sigma",
+        "0.02",
+        "--out",
+        s(&next),
+    ]);
+    assert!(
+        summary.contains("next.csv, ")
+            && summary.contains("next-heights.csv, ")
+            && summary.contains("next-distances.csv and"),
+        "{summary}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(dir.path().join("next.json")).unwrap()).unwrap();
+    let kinds: Vec<&str> = (json["measurements"].as_array().unwrap().iter())
+        .map(|m| m["kind"].as_str().unwrap())
+        .collect();
+    let expected = [
+        vec!["probe height"; 10],
+        vec!["manual height"; 2],
+        vec!["part distance"],
+    ]
+    .concat();
+    assert_eq!(kinds, expected);
+    assert!(json["heights_csv_checksum"].is_string() && json["distances_csv_checksum"].is_string());
+    let heights = fs::read_to_string(dir.path().join("next-heights.csv")).unwrap();
+    assert_eq!(heights.lines().count(), 3);
+    // A hexapod has no heights to plan.
+    let paper = dir.path().join("paper");
+    ok(&[
+        "simulate",
+        "--seed",
+        "1",
+        "--balls",
+        "3",
+        "--out",
+        s(&paper),
+    ]);
+    let err = fails(&["plan", s(&paper), "--heights", "2", "--out", s(&out)]);
+    assert!(err.contains("--heights"), "{err}");
 }
 
 #[test]

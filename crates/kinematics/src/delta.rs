@@ -729,6 +729,11 @@ pub fn probe_height_jacobian(
 /// on a printed part (the simulator's, the planner's candidates).
 pub const FIRST_LAYER: f64 = 0.2;
 
+/// The height of the gauge block a height is measured on by hand (mm):
+/// the nozzle is sent this far up and the block slid under it (the
+/// simulator's manual heights, the planner's candidates).
+pub const GAUGE_BLOCK: f64 = 5.0;
+
 /// Probe points on rings over the bed: the centre, then `per_ring` points
 /// on each of `rings` circles out to `radius`, the first point of each
 /// ring towards tower A (as RepRapFirmware's calibration wizards place

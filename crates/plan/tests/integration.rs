@@ -5,6 +5,7 @@
 mod common;
 
 mod mechanism_distances;
+mod mechanism_heights;
 mod mechanism_plan;
 mod plan_then_calibrate;
 mod plan_tracker_poses;

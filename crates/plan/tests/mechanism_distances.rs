@@ -11,11 +11,11 @@ use common::dense_prior;
 use nalgebra::DMatrix;
 use parcal_calibrate::mechanism::MechanismData;
 use parcal_dataset::mechanism::Noise;
-use parcal_kinematics::delta::FIRST_LAYER;
+use parcal_kinematics::delta::{FIRST_LAYER, GAUGE_BLOCK};
 use parcal_plan::mechanism::greedy::{dense_covariance, group_trace};
 use parcal_plan::mechanism::information::{Linearisation, whitened_rows};
 use parcal_plan::mechanism::workspace::{Grid, distance_candidates, grid_candidates};
-use parcal_plan::mechanism::{Candidate, MechanismPlan, PlanRequest, plan_mechanism};
+use parcal_plan::mechanism::{Candidate, Counts, MechanismPlan, PlanRequest, plan_mechanism};
 use parcal_simulate::Rng;
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 
@@ -56,8 +56,11 @@ fn plan(data: &MechanismData, probes: usize, distances: usize) -> MechanismPlan 
         start: None,
         candidates: &candidates,
         group: "diagonal rods",
-        count: probes,
-        distances,
+        counts: Counts {
+            measurements: probes,
+            distances,
+            ..Counts::default()
+        },
     })
     .unwrap()
 }
@@ -73,6 +76,7 @@ fn grid(per_axis: usize) -> Grid {
     Grid {
         per_axis,
         print_radius: Some(print_radius()),
+        gauge: GAUGE_BLOCK,
     }
 }
 
@@ -238,8 +242,10 @@ fn a_plan_of_part_distances_alone() {
         start: None,
         candidates: &candidates,
         group: "diagonal rods",
-        count: 0,
-        distances: 1,
+        counts: Counts {
+            distances: 1,
+            ..Counts::default()
+        },
     })
     .unwrap_err()
     .to_string();

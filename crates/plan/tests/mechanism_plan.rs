@@ -11,11 +11,13 @@ use common::dense_prior;
 use nalgebra::DMatrix;
 use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
 use parcal_dataset::mechanism::{MechanismDataset, Noise, SampleRow};
-use parcal_kinematics::delta::probe_rings;
+use parcal_kinematics::delta::{GAUGE_BLOCK, probe_rings};
 use parcal_plan::mechanism::greedy::{dense_covariance, group_trace};
 use parcal_plan::mechanism::information::{Linearisation, whitened_rows};
 use parcal_plan::mechanism::workspace::{Grid, grid_candidates};
-use parcal_plan::mechanism::{Candidate, MechanismPlan, PlanRequest, Start, plan_mechanism};
+use parcal_plan::mechanism::{
+    Candidate, Counts, MechanismPlan, PlanRequest, Start, plan_mechanism,
+};
 use parcal_simulate::delta::{DeltaScenario, simulate_delta};
 use parcal_simulate::{CableScenario, Rng, simulate_cable_dataset};
 
@@ -48,8 +50,10 @@ fn plan_samples(
         start: Some(start.clone()),
         candidates: &candidates,
         group: "anchors",
-        count,
-        distances: 0,
+        counts: Counts {
+            measurements: count,
+            ..Counts::default()
+        },
     })
     .unwrap();
     (candidates, plan)
@@ -182,6 +186,7 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
     let grid = Grid {
         per_axis: 11,
         print_radius: dataset.machine.print_radius,
+        gauge: GAUGE_BLOCK,
     };
     let candidates = grid_candidates(mechanism, &design[..n], grid, false).unwrap();
     let plan = plan_mechanism(&PlanRequest {
@@ -193,8 +198,10 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
         start: None,
         candidates: &candidates,
         group: "diagonal rods",
-        count: 25,
-        distances: 0,
+        counts: Counts {
+            measurements: 25,
+            ..Counts::default()
+        },
     })
     .unwrap();
     let picked: Vec<String> = plan
@@ -287,8 +294,10 @@ fn probe_heights_leave_the_xy_scale_to_the_prior() {
         start: None,
         candidates: &candidates,
         group: "diagonal rods",
-        count: 5,
-        distances: 0,
+        counts: Counts {
+            measurements: 5,
+            ..Counts::default()
+        },
     })
     .unwrap_err()
     .to_string();
@@ -306,8 +315,10 @@ fn bad_requests_are_named() {
             start: None,
             candidates,
             group,
-            count,
-            distances: 0,
+            counts: Counts {
+                measurements: count,
+                ..Counts::default()
+            },
         })
         .unwrap_err()
         .to_string()

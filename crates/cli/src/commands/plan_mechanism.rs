@@ -1,9 +1,10 @@
 //! `parcal plan` on a mechanism dataset (machine.json naming a linear
 //! delta or a cable robot): the probe heights or encoder samples to
-//! measure next, and a delta's part distances, by
-//! [`parcal::plan::mechanism`], written as the dataset's own probes.csv,
-//! points.csv or distances.csv to fill in, with the predicted sigmas
-//! before and after (docs/delta-measurements.md, docs/cable-robots.md).
+//! measure next, and a delta's heights measured by hand and part
+//! distances, by [`parcal::plan::mechanism`], written as the dataset's own
+//! probes.csv, points.csv, heights.csv or distances.csv to fill in, with
+//! the predicted sigmas before and after (docs/delta-measurements.md,
+//! docs/cable-robots.md).
 
 use std::io::Write;
 use std::path::Path;
@@ -13,13 +14,15 @@ use parcal::dataset::mechanism::{
     MACHINE_FILE, MechanismCalibrationRecord, MechanismDataset, MechanismMachine,
 };
 use parcal::plan::bounds;
-use parcal::plan::mechanism::plan_file::{distances_path, write_mechanism_plan};
+use parcal::plan::mechanism::plan_file::{stage_paths, write_mechanism_plan};
 use parcal::plan::mechanism::workspace::{DEFAULT_GRID, Grid, plan_candidates};
 use parcal::plan::mechanism::{
-    MechanismPlan, PlanRequest, PlannedParameter, Start, default_group, linearisation_point,
-    plan_mechanism,
+    Counts, MechanismPlan, PlanRequest, PlannedParameter, Start, default_group,
+    linearisation_point, plan_mechanism, with_sigmas,
 };
 use parcal::plan::plan_file::summary_path;
+
+use parcal::kinematics::delta::GAUGE_BLOCK;
 
 use crate::bounds::Bounded;
 
@@ -30,9 +33,24 @@ pub struct MechanismArgs {
     /// samples) to plan.
     #[arg(long, value_parser = Bounded(bounds::MEASUREMENTS))]
     measurements: Option<usize>,
+    /// A delta's plan: how many heights measured by hand (the nozzle sent
+    /// --gauge above a point of the grid, the height under it measured) to
+    /// plan after the measurements; written to OUT itself without
+    /// --measurements, else beside it (next.csv -> next-heights.csv).
+    #[arg(long, value_parser = Bounded(bounds::MEASUREMENTS))]
+    heights: Option<usize>,
+    /// A delta's plan: the heights measured by hand, 1 sigma, mm (default:
+    /// machine.json's noise.height; needed when the dataset has no such
+    /// heights yet).
+    #[arg(long, value_name = "MM", requires = "heights")]
+    height_sigma: Option<f64>,
+    /// A delta's plan: how high the nozzle is sent for a height measured
+    /// by hand, mm (the gauge block's height; default 5).
+    #[arg(long, value_name = "MM", requires = "heights")]
+    gauge: Option<f64>,
     /// A delta's plan: how many part distances (between two points of the
     /// grid on the first layer, measured on a printed part) to plan after
-    /// the measurements; written to OUT itself without --measurements,
+    /// the measurements and heights; written to OUT itself when alone,
     /// else beside it (next.csv -> next-distances.csv).
     #[arg(long, value_parser = Bounded(bounds::MEASUREMENTS))]
     distances: Option<usize>,
@@ -61,12 +79,12 @@ impl MechanismArgs {
     pub fn refuse_for_hexapod(&self) -> anyhow::Result<()> {
         anyhow::ensure!(
             self.measurements.is_none()
+                && self.heights.is_none()
                 && self.distances.is_none()
-                && self.distance_sigma.is_none()
                 && self.group.is_none()
                 && self.grid.is_none()
                 && !self.measured_positions,
-            "--measurements, --distances, --distance-sigma, --group, --grid and --measured-positions apply to a mechanism's plan (a delta, a cable robot), not a hexapod's"
+            "--measurements, --heights, --distances, --group, --grid and --measured-positions apply to a mechanism's plan (a delta, a cable robot), not a hexapod's"
         );
         Ok(())
     }
@@ -89,34 +107,35 @@ pub struct Request<'a> {
 /// Plans, writes the files and prints the summary.
 pub fn run(request: &Request) -> anyhow::Result<()> {
     let options = request.options;
-    let (count, distances) = (
-        options.measurements.unwrap_or(0),
-        options.distances.unwrap_or(0),
-    );
+    let counts = Counts {
+        measurements: options.measurements.unwrap_or(0),
+        heights: options.heights.unwrap_or(0),
+        distances: options.distances.unwrap_or(0),
+    };
     anyhow::ensure!(
-        count + distances > 0,
-        "--measurements is needed for a {}'s plan (or a delta's --distances)",
+        counts.total() > 0,
+        "--measurements is needed for a {}'s plan (or a delta's --heights or --distances)",
         request.mechanism
     );
     let mut inputs = crate::outputs::dataset_inputs(request.dir);
     inputs.extend(request.after.map(Path::to_path_buf));
     let out = request.out.to_path_buf();
-    let mut outputs = vec![out.clone(), summary_path(&out)];
-    if count > 0 && distances > 0 {
-        outputs.push(distances_path(&out));
-    }
+    let files: Vec<_> = stage_paths(&out, counts)
+        .into_iter()
+        .map(|(_, file)| file)
+        .collect();
+    let mut outputs = files.clone();
+    outputs.push(summary_path(&out));
     crate::outputs::check(&inputs, &outputs)?;
     let machine_file = request.dir.join(MACHINE_FILE);
     let machine = MechanismMachine::read(&machine_file)?;
-    let mut noise = machine.noise;
+    let noise = with_sigmas(
+        machine.noise,
+        [options.height_sigma, options.distance_sigma],
+        ["--height-sigma", "--distance-sigma"],
+    )?;
     let print_radius = machine.print_radius;
-    if let Some(sigma) = options.distance_sigma {
-        anyhow::ensure!(
-            sigma.is_finite() && sigma > 0.0 && sigma <= 1.0,
-            "--distance-sigma must be in (0, 1] mm, got {sigma}"
-        );
-        noise.distance = Some(sigma);
-    }
+    let gauge = options.gauge.unwrap_or(GAUGE_BLOCK);
     let dataset = MechanismDataset {
         machine,
         ..MechanismDataset::default()
@@ -147,15 +166,9 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
     let grid = Grid {
         per_axis: options.grid.unwrap_or(DEFAULT_GRID),
         print_radius,
+        gauge,
     };
-    let candidates = plan_candidates(
-        mechanism,
-        &params,
-        grid,
-        options.measured_positions,
-        count,
-        distances,
-    )?;
+    let candidates = plan_candidates(mechanism, &params, grid, options.measured_positions, counts)?;
     let group = options
         .group
         .clone()
@@ -166,35 +179,28 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         start,
         candidates: &candidates,
         group: &group,
-        count,
-        distances,
+        counts,
     })
     .map_err(|error| anyhow::anyhow!("{}: {error}", request.dir.display()))?;
     write_mechanism_plan(&out, &plan, mechanism.actuators().len())?;
-    let beside = (count > 0 && distances > 0).then(|| distances_path(&out));
-    print_summary(
-        &plan,
-        &out,
-        beside.as_deref(),
-        &mut std::io::stdout().lock(),
-    )?;
+    print_summary(&plan, &files, &out, &mut std::io::stdout().lock())?;
     Ok(())
 }
 
-/// The plan on stdout: where it went (`distances`: the part distances'
-/// file beside), the measurements with the group's RMS sigma after each,
-/// each unknown's sigma before and after, and what stays at the prior.
+/// The plan on stdout: where it went (`files`, then the summary beside
+/// `out`), the measurements with the group's RMS sigma after each, each
+/// unknown's sigma before and after, and what stays at the prior.
 fn print_summary(
     plan: &MechanismPlan,
+    files: &[std::path::PathBuf],
     out: &Path,
-    distances: Option<&Path>,
     to: &mut impl Write,
 ) -> std::io::Result<()> {
-    let beside = distances.map_or(String::new(), |path| format!(", {}", path.display()));
+    let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     writeln!(
         to,
-        "plan written to {}{beside} and {}",
-        out.display(),
+        "plan written to {} and {}",
+        files.join(", "),
         summary_path(out).display()
     )?;
     let start = if plan.from_calibration {

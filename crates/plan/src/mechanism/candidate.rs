@@ -4,7 +4,8 @@
 //! a probe height and a measured point are taken at a commanded position
 //! (the pose is a function of the parameters, with the shared trigger
 //! height for a probe; a part distance is between two commanded
-//! positions), a sample at an unknown pose has a pose of its
+//! positions; a height measured by hand too, with no trigger height), a
+//! sample at an unknown pose has a pose of its
 //! own that absorbs part of its readings, and a sample whose position is
 //! measured has that pose held by the measurement.
 
@@ -24,6 +25,37 @@ pub enum Candidate {
     /// The distance between two commanded positions measured on a
     /// printed part: a distances.csv row's `x1,y1,z1` and `x2,y2,z2`.
     Distance([[f64; 3]; 2]),
+    /// The nozzle's height above the bed measured by hand at the
+    /// commanded `position` (mm): a heights.csv row's `x, y, z`.
+    Height([f64; 3]),
+}
+
+/// The sets a plan picks from in turn, each with its own count: the
+/// measurements a machine makes itself (probe heights, encoder samples,
+/// measured points), then heights measured by hand, then part distances,
+/// each set from the covariance the sets before leave.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Probe heights, samples and measured points.
+    Measurements,
+    /// Heights measured by hand.
+    Heights,
+    /// Part distances.
+    Distances,
+}
+
+impl Stage {
+    /// Every stage, in the order a plan picks them.
+    pub const ALL: [Stage; 3] = [Stage::Measurements, Stage::Heights, Stage::Distances];
+
+    /// What the stage's picks are called.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Measurements => "measurements",
+            Stage::Heights => "manual heights",
+            Stage::Distances => "part distances",
+        }
+    }
 }
 
 impl Candidate {
@@ -34,6 +66,16 @@ impl Candidate {
             Candidate::Sample(_) | Candidate::MeasuredSample(_) => "point sample",
             Candidate::Point(_) => "measured point",
             Candidate::Distance(_) => "part distance",
+            Candidate::Height(_) => "manual height",
+        }
+    }
+
+    /// The stage of the plan that picks it.
+    pub fn stage(&self) -> Stage {
+        match self {
+            Candidate::Height(_) => Stage::Heights,
+            Candidate::Distance(_) => Stage::Distances,
+            _ => Stage::Measurements,
         }
     }
 
@@ -43,7 +85,10 @@ impl Candidate {
     pub fn positions(&self, trigger_height: f64) -> Vec<[f64; 3]> {
         match *self {
             Candidate::Probe([x, y]) => vec![[x, y, trigger_height]],
-            Candidate::Sample(p) | Candidate::MeasuredSample(p) | Candidate::Point(p) => vec![p],
+            Candidate::Sample(p)
+            | Candidate::MeasuredSample(p)
+            | Candidate::Point(p)
+            | Candidate::Height(p) => vec![p],
             Candidate::Distance(ends) => ends.to_vec(),
         }
     }
@@ -54,7 +99,10 @@ impl Candidate {
     pub fn is_commanded(&self) -> bool {
         matches!(
             self,
-            Candidate::Probe(_) | Candidate::Point(_) | Candidate::Distance(_)
+            Candidate::Probe(_)
+                | Candidate::Point(_)
+                | Candidate::Distance(_)
+                | Candidate::Height(_)
         )
     }
 }

@@ -16,14 +16,17 @@
 //! the part of the rows the pose cannot absorb (rank `A − 3` for `A`
 //! actuators: one for a cable robot of four lines). A measured position
 //! adds rows `(x − m)/σ_x`, `J` zero and `K = I/σ_x` there, before the
-//! reduction. A probe height, a measured point or a part distance is taken
-//! at commanded positions: no pose of its own, `M = J` (a probe's last
-//! column the trigger height's `−1/σ`).
+//! reduction. A probe height, a height measured by hand, a measured point
+//! or a part distance is taken at commanded positions: no pose of its own,
+//! `M = J` (a probe's last column the trigger height's `−1/σ`; a height
+//! measured by hand has no trigger height).
 
 use nalgebra::DMatrix;
 use parcal_dataset::mechanism::Noise;
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
-use parcal_observe::mechanism::{CommandedPoint, PartDistance, PointSample, ProbeHeight};
+use parcal_observe::mechanism::{
+    CommandedPoint, ManualHeight, PartDistance, PointSample, ProbeHeight,
+};
 
 use super::candidate::Candidate;
 
@@ -93,6 +96,19 @@ pub fn whitened_rows(
             };
             Ok(padded(
                 &point
+                    .evaluate(mechanism, at.params, at.configured)?
+                    .d_params,
+            ))
+        }
+        Candidate::Height(commanded) => {
+            // The measured height enters the residual only, not the rows.
+            let height = ManualHeight {
+                commanded,
+                height: commanded[2],
+                sigma: sigma(noise.height, "height")?,
+            };
+            Ok(padded(
+                &height
                     .evaluate(mechanism, at.params, at.configured)?
                     .d_params,
             ))
@@ -238,5 +254,34 @@ mod tests {
         at.unknowns = n;
         let error = whitened_rows(&delta, &at, &noise, &probe).unwrap_err();
         assert_eq!(error, RowsError::NoTriggerHeight);
+    }
+
+    /// A height measured by hand is a probe whose trigger height is known:
+    /// the probe's rows at the same sigma, without the trigger height's
+    /// column.
+    #[test]
+    fn a_height_by_hand_is_a_probe_with_a_known_trigger_height() {
+        let delta = LinearDelta::typical();
+        let p = design(&delta);
+        let n = p.len();
+        let at = Linearisation {
+            params: p.as_slice(),
+            configured: p.as_slice(),
+            trigger_height: 5.0,
+            unknowns: n + 1,
+        };
+        let noise = Noise {
+            probe: Some(0.02),
+            height: Some(0.02),
+            ..Noise::default()
+        };
+        let probe = whitened_rows(&delta, &at, &noise, &Candidate::Probe([30.0, -20.0])).unwrap();
+        let height = Candidate::Height([30.0, -20.0, 5.0]);
+        let m = whitened_rows(&delta, &at, &noise, &height).unwrap();
+        assert_eq!(m.shape(), (1, n + 1));
+        assert_eq!(m.columns(0, n), probe.columns(0, n));
+        assert_eq!(m[(0, n)], 0.0);
+        let error = whitened_rows(&delta, &at, &Noise::default(), &height).unwrap_err();
+        assert_eq!(error, RowsError::Noise("height"));
     }
 }

@@ -1,6 +1,6 @@
 //! A mechanism plan's files: the measurements to fill in, in the dataset's
 //! own format, and its summary beside it (`FILE.json`,
-//! [`crate::plan_file::summary_path`]), written as a pair.
+//! [`crate::plan_file::summary_path`]), written as a set.
 //!
 //! - Probe heights: probes.csv, `x,y,z`, each row the commanded `x, y`
 //!   with `z` empty: the height `G30 S-1` reports there goes in.
@@ -9,75 +9,101 @@
 //!   replaced by the measured position), empty where it is not (the
 //!   effector is moved near the target the summary lists and left there
 //!   unmeasured).
+//! - Heights measured by hand: heights.csv, `x,y,z,height`, each row the
+//!   commanded position with `height` empty: the nozzle's height above
+//!   the bed measured there goes in.
 //! - Part distances: distances.csv, `x1,y1,z1,x2,y2,z2,distance`, each row
 //!   the two commanded positions with `distance` empty: the distance
-//!   measured between them on the printed part goes in. In the file
-//!   itself when the plan has only part distances, else beside it
-//!   ([`distances_path`]).
+//!   measured between them on the printed part goes in.
 //!
-//! The summary (JSON): the mechanism, the group, the start, the
-//! measurements with their targets and the group's trace after each, the
-//! sigma of every unknown before and after, and the statements.
+//! The first stage planned ([`Stage`]) goes in the file itself, each later
+//! one beside it ([`stage_paths`]). The summary (JSON): the mechanism, the
+//! group, the start, the measurements with their targets and the group's
+//! trace after each, the sigma of every unknown before and after, and the
+//! statements.
 
 use std::path::{Path, PathBuf};
 
 use parcal_dataset::mechanism::{
-    DISTANCE_COLUMNS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS,
+    DISTANCE_COLUMNS, HEIGHT_COLUMNS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS,
 };
 
-use super::candidate::Candidate;
-use super::predict::MechanismPlan;
+use super::candidate::{Candidate, Stage};
+use super::predict::{Counts, MechanismPlan};
 use crate::DesignError;
-use crate::plan_file::{write_pair, write_pair_with};
+use crate::plan_file::write_pair_with;
 
-/// The field of the summary that records the distances file's checksum.
-const DISTANCES_CHECKSUM: &str = "distances_csv_checksum";
-
-/// Where a plan with part distances and other measurements writes the
-/// distances: `DIR/next.csv` -> `DIR/next-distances.csv`.
-pub fn distances_path(path: &Path) -> PathBuf {
-    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
-    path.with_file_name(format!("{stem}-distances.csv"))
+/// The word a stage's file beside the plan's is named by.
+fn suffix(stage: Stage) -> &'static str {
+    match stage {
+        Stage::Measurements => "measurements",
+        Stage::Heights => "heights",
+        Stage::Distances => "distances",
+    }
 }
 
-/// The fill-in file of `picks` (one kind of measurement), for a mechanism
-/// of `actuators` actuators; an error for picks mixing kinds or of
+/// The files a plan of `counts` writes its picks to, stage by stage: the
+/// first stage with picks in `path` itself, each later one beside it
+/// (`DIR/next.csv` -> `DIR/next-heights.csv`, `DIR/next-distances.csv`).
+pub fn stage_paths(path: &Path, counts: Counts) -> Vec<(Stage, PathBuf)> {
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    Stage::ALL
+        .into_iter()
+        .filter(|&stage| counts.of(stage) > 0)
+        .enumerate()
+        .map(|(k, stage)| {
+            let file = if k == 0 {
+                path.to_path_buf()
+            } else {
+                path.with_file_name(format!("{stem}-{}.csv", suffix(stage)))
+            };
+            (stage, file)
+        })
+        .collect()
+}
+
+/// A CSV's header line.
+fn header(columns: &[&str]) -> String {
+    format!("{}\n", columns.join(","))
+}
+
+/// The fill-in file of `picks` (one stage's), for a mechanism of
+/// `actuators` actuators; an error for measurements mixing kinds or of
 /// measured points, which have no dataset file.
 fn fill_in(
     picks: &[Candidate],
     trigger_height: f64,
     actuators: usize,
 ) -> Result<String, DesignError> {
-    let probes = picks.iter().all(|c| matches!(c, Candidate::Probe(_)));
-    let samples = picks
-        .iter()
-        .all(|c| matches!(c, Candidate::Sample(_) | Candidate::MeasuredSample(_)));
-    let distances = picks.iter().all(|c| matches!(c, Candidate::Distance(_)));
-    let mut text = String::new();
-    if probes {
-        text.push_str(&PROBE_COLUMNS.join(","));
-        text.push('\n');
+    let all = |kind: fn(&Candidate) -> bool| picks.iter().all(kind);
+    let mut text;
+    if all(|c| matches!(c, Candidate::Probe(_))) {
+        text = header(&PROBE_COLUMNS);
         for candidate in picks {
             let [x, y, _] = candidate.positions(trigger_height)[0];
             text.push_str(&format!("{x},{y},\n"));
         }
-    } else if distances {
-        text.push_str(&DISTANCE_COLUMNS.join(","));
-        text.push('\n');
+    } else if all(|c| matches!(c, Candidate::Height(_))) {
+        text = header(&HEIGHT_COLUMNS);
+        for candidate in picks {
+            let [x, y, z] = candidate.positions(trigger_height)[0];
+            text.push_str(&format!("{x},{y},{z},\n"));
+        }
+    } else if all(|c| matches!(c, Candidate::Distance(_))) {
+        text = header(&DISTANCE_COLUMNS);
         for candidate in picks {
             for [x, y, z] in candidate.positions(trigger_height) {
                 text.push_str(&format!("{x},{y},{z},"));
             }
             text.push('\n');
         }
-    } else if samples {
+    } else if all(|c| matches!(c, Candidate::Sample(_) | Candidate::MeasuredSample(_))) {
         let columns: Vec<&str> = READING_COLUMNS[..actuators]
             .iter()
             .chain(&POSITION_COLUMNS)
             .copied()
             .collect();
-        text.push_str(&columns.join(","));
-        text.push('\n');
+        text = header(&columns);
         let empty = ",".repeat(actuators);
         for candidate in picks {
             match candidate {
@@ -89,32 +115,41 @@ fn fill_in(
         }
     } else {
         return Err(DesignError::Options(
-            "a plan's file holds one kind of measurement of the dataset: probe heights, part distances or encoder samples".into(),
+            "a plan's file holds one kind of measurement of the dataset: probe heights, encoder samples, manual heights or part distances".into(),
         ));
     }
     Ok(text)
 }
 
-/// Writes `plan` to `path` (the fill-in file), its part distances to
-/// [`distances_path`] if it has other measurements too, and its summary
+/// Writes `plan` to `path` and, when it has picks of more than one
+/// stage, the later stages' beside it ([`stage_paths`]), with its summary
 /// beside `path`, as a set.
 pub fn write_mechanism_plan(
     path: &Path,
     plan: &MechanismPlan,
     actuators: usize,
 ) -> Result<(), DesignError> {
-    let (distances, others): (Vec<Candidate>, Vec<Candidate>) = plan
-        .picks
-        .iter()
-        .map(|(c, _)| *c)
-        .partition(|c| matches!(c, Candidate::Distance(_)));
-    let fill = |picks: &[Candidate]| fill_in(picks, plan.trigger_height, actuators);
-    let (text, beside) = if others.is_empty() {
-        (fill(&distances)?, None)
-    } else if distances.is_empty() {
-        (fill(&others)?, None)
-    } else {
-        (fill(&others)?, Some(fill(&distances)?))
+    let of_stage = |stage: Stage| -> Vec<Candidate> {
+        plan.picks
+            .iter()
+            .map(|(c, _)| *c)
+            .filter(|c| c.stage() == stage)
+            .collect()
+    };
+    let counts = Counts {
+        measurements: of_stage(Stage::Measurements).len(),
+        heights: of_stage(Stage::Heights).len(),
+        distances: of_stage(Stage::Distances).len(),
+    };
+    let files = stage_paths(path, counts)
+        .into_iter()
+        .map(|(stage, file)| {
+            let text = fill_in(&of_stage(stage), plan.trigger_height, actuators)?;
+            Ok((stage, file, text))
+        })
+        .collect::<Result<Vec<_>, DesignError>>()?;
+    let Some(((_, _, text), beside)) = files.split_first() else {
+        return Err(DesignError::Options("a plan with no measurements".into()));
     };
     let measurements: Vec<serde_json::Value> = plan
         .picks
@@ -144,13 +179,14 @@ pub fn write_mechanism_plan(
         "parameters": plan.parameters,
         "statements": plan.statements,
     });
-    match beside {
-        None => write_pair(path, &text, summary),
-        Some(distances) => write_pair_with(
-            path,
-            &text,
-            &[(&distances_path(path), &distances, DISTANCES_CHECKSUM)],
-            summary,
-        ),
-    }
+    let fields: Vec<String> = beside
+        .iter()
+        .map(|(stage, _, _)| format!("{}_csv_checksum", suffix(*stage)))
+        .collect();
+    let beside: Vec<(&Path, &str, &str)> = beside
+        .iter()
+        .zip(&fields)
+        .map(|((_, file, text), field)| (file.as_path(), text.as_str(), field.as_str()))
+        .collect();
+    write_pair_with(path, text, &beside, summary)
 }

@@ -2,9 +2,11 @@
 //! calibration's, or the design's prior alone), the candidates' rows
 //! ([`super::information`]) and the greedy selection ([`super::greedy`]),
 //! the measurements to make and the predicted sigma of every parameter
-//! before and after them. Part distances, when asked, are picked after the
-//! other measurements, from the covariance those leave: each then gains
-//! what the probe heights could not give.
+//! before and after them. The picks come in stages
+//! ([`super::candidate::Stage`]): the machine's own measurements, then
+//! heights measured by hand, then part distances, each stage from the
+//! covariance the stages before leave: each then gains what the probe
+//! heights could not give.
 //!
 //! Everything is linearised at one point: the calibration's estimate, or
 //! the design (the priors' means), with the controller running its
@@ -28,7 +30,7 @@ use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, Noise};
 use parcal_kinematics::mechanism::Mechanism;
 
-use super::candidate::Candidate;
+use super::candidate::{Candidate, Stage};
 use super::greedy::{group_trace, select};
 use super::information::{Linearisation, RowsError, whitened_rows};
 use crate::DesignError;
@@ -114,14 +116,72 @@ pub struct PlanRequest<'a> {
     pub start: Option<Start>,
     /// The candidates.
     pub candidates: &'a [Candidate],
-    /// The parameter group whose covariance's trace is minimised.
+    /// The parameter group whose covariance's trace is minimised (or
+    /// [`TRIGGER_GROUP`]).
     pub group: &'a str,
-    /// How many measurements to plan among the candidates other than part
-    /// distances.
-    pub count: usize,
-    /// How many part distances to plan among the candidates that are
-    /// ([`Candidate::Distance`]), after the others.
+    /// How many of each stage's candidates to plan.
+    pub counts: Counts,
+}
+
+/// How many picks a plan makes of each stage's candidates
+/// ([`Candidate::stage`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Probe heights, samples or measured points.
+    pub measurements: usize,
+    /// Heights measured by hand ([`Candidate::Height`]).
+    pub heights: usize,
+    /// Part distances ([`Candidate::Distance`]).
     pub distances: usize,
+}
+
+impl Counts {
+    /// The count of `stage`.
+    pub fn of(&self, stage: Stage) -> usize {
+        match stage {
+            Stage::Measurements => self.measurements,
+            Stage::Heights => self.heights,
+            Stage::Distances => self.distances,
+        }
+    }
+
+    /// Every stage's together.
+    pub fn total(&self) -> usize {
+        self.measurements + self.heights + self.distances
+    }
+}
+
+/// The group of the trigger height, an unknown of a plan with probe
+/// heights: a plan may minimise its variance.
+pub const TRIGGER_GROUP: &str = "trigger height";
+
+/// The largest sigma a plan takes for a measurement by hand (mm).
+const MAX_SIGMA: f64 = 1.0;
+
+/// machine.json's `noise` with the sigmas of the heights measured by hand
+/// and of the part distances a plan is given instead (mm; a dataset
+/// without such measurements yet states none); an error names a sigma
+/// outside `(0, 1]` by `names` (the front end's words for the two).
+pub fn with_sigmas(
+    mut noise: Noise,
+    [heights, distances]: [Option<f64>; 2],
+    names: [&str; 2],
+) -> Result<Noise, DesignError> {
+    for ((sigma, name), slot) in [heights, distances]
+        .into_iter()
+        .zip(names)
+        .zip([&mut noise.height, &mut noise.distance])
+    {
+        if let Some(sigma) = sigma {
+            if !(sigma > 0.0 && sigma <= MAX_SIGMA) {
+                return Err(DesignError::Options(format!(
+                    "{name} must be in (0, {MAX_SIGMA}] mm, got {sigma}"
+                )));
+            }
+            *slot = Some(sigma);
+        }
+    }
+    Ok(noise)
 }
 
 /// The parameter group a plan minimises unless asked another: a linear
@@ -247,34 +307,31 @@ fn check(request: &PlanRequest) -> Result<(), DesignError> {
     let options = |reason: String| Err(DesignError::Options(reason));
     MEASUREMENTS
         .check(
-            "measurements and part distances",
-            request.count + request.distances,
+            "measurements, manual heights and part distances",
+            request.counts.total(),
         )
         .map_err(DesignError::Options)?;
     let candidates = request.candidates.len();
     if candidates == 0 || candidates > MAX_CANDIDATES {
         return options(format!("{candidates} candidates: 1 to {MAX_CANDIDATES}"));
     }
-    for (count, distance, what) in [
-        (request.count, false, "measurements"),
-        (request.distances, true, "part distances"),
-    ] {
-        let offered = request
-            .candidates
-            .iter()
-            .any(|c| matches!(c, Candidate::Distance(_)) == distance);
+    for stage in Stage::ALL {
+        let count = request.counts.of(stage);
+        let offered = request.candidates.iter().any(|c| c.stage() == stage);
         if count > 0 && !offered {
-            return options(format!("{count} {what} asked, and no candidate of them"));
+            return options(format!(
+                "{count} {} asked, and no candidate of them",
+                stage.name()
+            ));
         }
     }
     let mechanism = request.data.mechanism.as_ref();
-    if !mechanism
-        .parameters()
-        .iter()
-        .any(|p| p.group == request.group)
-    {
-        let mut groups: Vec<&str> = mechanism.parameters().iter().map(|p| p.group).collect();
-        groups.dedup();
+    let mut groups: Vec<&str> = mechanism.parameters().iter().map(|p| p.group).collect();
+    groups.dedup();
+    if has_trigger_height(request) {
+        groups.push(TRIGGER_GROUP);
+    }
+    if !groups.contains(&request.group) {
         return options(format!(
             "the {} has no parameter group {:?} (its groups: {})",
             mechanism.name(),
@@ -283,6 +340,17 @@ fn check(request: &PlanRequest) -> Result<(), DesignError> {
         ));
     }
     Ok(())
+}
+
+/// Whether the trigger height is among a plan's unknowns: probe heights
+/// are offered, or the calibration it starts from had them.
+fn has_trigger_height(request: &PlanRequest) -> bool {
+    let n = request.data.mechanism.parameters().len();
+    request
+        .candidates
+        .iter()
+        .any(|c| matches!(c, Candidate::Probe(_)))
+        || request.start.as_ref().is_some_and(|s| s.values.len() > n)
 }
 
 /// Plans `request` (module doc).
@@ -310,9 +378,8 @@ pub fn plan_mechanism(request: &PlanRequest) -> Result<MechanismPlan, DesignErro
     let transform = canonical(mechanism, &values, None, &scale)
         .map_err(|e| failed(&e))?
         .transform;
-    let group: Vec<usize> = (0..n)
-        .filter(|&k| parameters[k].group == request.group)
-        .collect();
+    let group_of = |k: usize| parameters.get(k).map_or(TRIGGER_GROUP, |p| p.group);
+    let group: Vec<usize> = (0..g).filter(|&k| group_of(k) == request.group).collect();
     let objective = transform.select_rows(&group);
     let at = Linearisation {
         params,
@@ -346,38 +413,35 @@ pub fn plan_mechanism(request: &PlanRequest) -> Result<MechanismPlan, DesignErro
     let feasible = rows.iter().flatten().count();
     check_product(
         &[
-            ("measurements", request.count + request.distances),
+            ("measurements", request.counts.total()),
             ("feasible candidates", feasible),
         ],
         MAX_MECHANISM_EVALUATIONS,
         "candidate evaluations",
     )
     .map_err(DesignError::Options)?;
-    // The other measurements first, then the part distances from what
-    // they leave.
+    // Stage by stage, each from what the stages before leave.
     let mut after = covariance.clone();
-    let mut picks = Vec::with_capacity(request.count + request.distances);
-    for (count, distance) in [(request.count, false), (request.distances, true)] {
+    let mut picks = Vec::with_capacity(request.counts.total());
+    for stage in Stage::ALL {
+        let count = request.counts.of(stage);
         if count == 0 {
             continue;
         }
-        let of_kind: Vec<Option<DMatrix<f64>>> = rows
+        let of_stage: Vec<Option<DMatrix<f64>>> = rows
             .iter()
             .zip(request.candidates)
-            .map(|(m, c)| {
-                m.clone()
-                    .filter(|_| matches!(c, Candidate::Distance(_)) == distance)
-            })
+            .map(|(m, c)| m.clone().filter(|_| c.stage() == stage))
             .collect();
         let offered = request
             .candidates
             .iter()
-            .filter(|c| matches!(c, Candidate::Distance(_)) == distance)
+            .filter(|c| c.stage() == stage)
             .count();
-        let (chosen, left) = select(&after, &of_kind, &objective, count).ok_or_else(|| {
+        let (chosen, left) = select(&after, &of_stage, &objective, count).ok_or_else(|| {
             DesignError::Options(format!(
                 "none of the {offered} candidate {} is feasible for the {} (outside its limits, or singular)",
-                if distance { "part distances" } else { "measurements" },
+                stage.name(),
                 mechanism.name()
             ))
         })?;
@@ -396,7 +460,7 @@ pub fn plan_mechanism(request: &PlanRequest) -> Result<MechanismPlan, DesignErro
                 None => (
                     TRIGGER_HEIGHT.to_string(),
                     "mm",
-                    "trigger height",
+                    TRIGGER_GROUP,
                     data.trigger_height.sigma,
                 ),
             };

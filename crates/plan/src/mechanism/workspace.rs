@@ -5,7 +5,9 @@
 //!   over the bed, those within its print radius (`M665 B`: machine.json's
 //!   `print_radius`, else its typical design's); part
 //!   distances between every two points of that grid at the first
-//!   layer's height ([`distance_candidates`]).
+//!   layer's height ([`distance_candidates`]); heights measured by hand at
+//!   the points of that grid, the nozzle at the gauge block's height
+//!   ([`height_candidates`]).
 //! - A cable robot: encoder samples on a cubic grid over the box of its
 //!   anchors from the bed (`z = 0`) up, the position unknown or measured.
 //!
@@ -14,32 +16,42 @@
 //! travel, a cable robot's lines all taut), which the plan checks.
 
 use parcal_kinematics::cable::CableRobot;
-use parcal_kinematics::delta::{FIRST_LAYER, LinearDelta};
+use parcal_kinematics::delta::{FIRST_LAYER, GAUGE_BLOCK, LinearDelta};
 use parcal_kinematics::mechanism::Mechanism;
 
-use super::candidate::Candidate;
+use super::candidate::{Candidate, Stage};
+use super::predict::Counts;
 use crate::DesignError;
 
 /// The candidate grid's points per axis unless asked another.
 pub const DEFAULT_GRID: usize = 12;
 
+/// The highest gauge a height measured by hand is planned on (mm): a
+/// stack of gauge blocks, far above any first layer.
+pub const MAX_GAUGE: f64 = 100.0;
+
 /// The grid candidates are taken on: `per_axis` points per axis over the
 /// mechanism's workspace, a delta's bed within `print_radius` (mm,
-/// machine.json's; its typical design's when `None`).
+/// machine.json's; its typical design's when `None`), its heights
+/// measured by hand with the nozzle `gauge` above the bed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Grid {
     /// Points per axis.
     pub per_axis: usize,
     /// A delta's printable radius.
     pub print_radius: Option<f64>,
+    /// The height a delta's heights are measured at by hand (mm).
+    pub gauge: f64,
 }
 
 impl Grid {
-    /// `per_axis` points per axis, a delta's bed its typical design's.
+    /// `per_axis` points per axis, a delta's bed its typical design's, its
+    /// heights measured on a [`GAUGE_BLOCK`].
     pub fn new(per_axis: usize) -> Self {
         Self {
             per_axis,
             print_radius: None,
+            gauge: GAUGE_BLOCK,
         }
     }
 }
@@ -60,6 +72,37 @@ fn bed_grid(grid: Grid) -> impl Iterator<Item = [f64; 2]> + Clone {
         .filter(move |[x, y]| x.hypot(*y) <= radius)
 }
 
+/// An error unless `mechanism` is a linear delta: `what` is planned on a
+/// printer's bed.
+fn on_a_bed(mechanism: &dyn Mechanism, what: &str) -> Result<(), DesignError> {
+    if mechanism.name() == "linear delta" {
+        return Ok(());
+    }
+    Err(DesignError::Options(format!(
+        "{what} are planned on a linear delta's bed, not a {}'s",
+        mechanism.name()
+    )))
+}
+
+/// A delta's heights measured by hand: at the points of the bed's `grid`,
+/// the nozzle `grid.gauge` above the bed; an error for another mechanism
+/// or a gauge outside `(0, MAX_GAUGE]`.
+pub fn height_candidates(
+    mechanism: &dyn Mechanism,
+    grid: Grid,
+) -> Result<Vec<Candidate>, DesignError> {
+    on_a_bed(mechanism, Stage::Heights.name())?;
+    if !(grid.gauge > 0.0 && grid.gauge <= MAX_GAUGE) {
+        return Err(DesignError::Options(format!(
+            "the gauge of the heights measured by hand must be in (0, {MAX_GAUGE}] mm, got {}",
+            grid.gauge
+        )));
+    }
+    Ok(bed_grid(grid)
+        .map(|[x, y]| Candidate::Height([x, y, grid.gauge]))
+        .collect())
+}
+
 /// A delta's part distances: between every two points of the bed's
 /// `grid`, at the first layer's height (where a printed part's features
 /// are measured); an error for another mechanism.
@@ -67,12 +110,7 @@ pub fn distance_candidates(
     mechanism: &dyn Mechanism,
     grid: Grid,
 ) -> Result<Vec<Candidate>, DesignError> {
-    if mechanism.name() != "linear delta" {
-        return Err(DesignError::Options(format!(
-            "part distances are planned on a linear delta's printed part, not a {}'s",
-            mechanism.name()
-        )));
-    }
+    on_a_bed(mechanism, Stage::Distances.name())?;
     let points: Vec<[f64; 3]> = bed_grid(grid).map(|[x, y]| [x, y, FIRST_LAYER]).collect();
     Ok(points
         .iter()
@@ -85,24 +123,24 @@ pub fn distance_candidates(
         .collect())
 }
 
-/// The candidates of a plan of `count` measurements and `distances` part
-/// distances on `grid`: the grid's ([`grid_candidates`], with `measured`)
-/// if `count > 0`, then a delta's part distances
-/// ([`distance_candidates`]) if `distances > 0`.
+/// The candidates of a plan of `counts` on `grid`, each stage's where it
+/// has a count: the grid's measurements ([`grid_candidates`], with
+/// `measured`), a delta's heights measured by hand
+/// ([`height_candidates`]) and part distances ([`distance_candidates`]).
 pub fn plan_candidates(
     mechanism: &dyn Mechanism,
     params: &[f64],
     grid: Grid,
     measured: bool,
-    count: usize,
-    distances: usize,
+    counts: Counts,
 ) -> Result<Vec<Candidate>, DesignError> {
     let mut candidates = Vec::new();
-    if count > 0 {
-        candidates = grid_candidates(mechanism, params, grid, measured)?;
-    }
-    if distances > 0 {
-        candidates.extend(distance_candidates(mechanism, grid)?);
+    for stage in Stage::ALL.into_iter().filter(|&s| counts.of(s) > 0) {
+        candidates.extend(match stage {
+            Stage::Measurements => grid_candidates(mechanism, params, grid, measured)?,
+            Stage::Heights => height_candidates(mechanism, grid)?,
+            Stage::Distances => distance_candidates(mechanism, grid)?,
+        });
     }
     Ok(candidates)
 }
