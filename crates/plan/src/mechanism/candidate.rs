@@ -58,6 +58,34 @@ impl Stage {
     }
 }
 
+/// How many picks a plan makes of each stage's candidates
+/// ([`Candidate::stage`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Probe heights, samples or measured points.
+    pub measurements: usize,
+    /// Heights measured by hand ([`Candidate::Height`]).
+    pub heights: usize,
+    /// Part distances ([`Candidate::Distance`]).
+    pub distances: usize,
+}
+
+impl Counts {
+    /// The count of `stage`.
+    pub fn of(&self, stage: Stage) -> usize {
+        match stage {
+            Stage::Measurements => self.measurements,
+            Stage::Heights => self.heights,
+            Stage::Distances => self.distances,
+        }
+    }
+
+    /// Every stage's together.
+    pub fn total(&self) -> usize {
+        self.measurements + self.heights + self.distances
+    }
+}
+
 impl Candidate {
     /// The observation kind's name, as the calibration names it.
     pub fn kind(&self) -> &'static str {

@@ -25,9 +25,9 @@ pub mod plan_file;
 pub mod predict;
 pub mod workspace;
 
-pub use candidate::{Candidate, Stage};
+pub use candidate::{Candidate, Counts, Stage};
 pub use greedy::Pick;
 pub use predict::{
-    Counts, MechanismPlan, PlanRequest, PlannedParameter, Start, TRIGGER_GROUP, default_group,
+    MechanismPlan, PlanRequest, PlannedParameter, Start, TRIGGER_GROUP, default_group,
     linearisation_point, plan_mechanism, with_sigmas,
 };

@@ -28,8 +28,8 @@ use parcal_dataset::mechanism::{
     DISTANCE_COLUMNS, HEIGHT_COLUMNS, POSITION_COLUMNS, PROBE_COLUMNS, READING_COLUMNS,
 };
 
-use super::candidate::{Candidate, Stage};
-use super::predict::{Counts, MechanismPlan};
+use super::candidate::{Candidate, Counts, Stage};
+use super::predict::MechanismPlan;
 use crate::DesignError;
 use crate::plan_file::write_pair_with;
 

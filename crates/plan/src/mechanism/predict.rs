@@ -30,7 +30,7 @@ use parcal_dataset::bounds::check_product;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, Noise};
 use parcal_kinematics::mechanism::Mechanism;
 
-use super::candidate::{Candidate, Stage};
+use super::candidate::{Candidate, Counts, Stage};
 use super::greedy::{group_trace, select};
 use super::information::{Linearisation, RowsError, whitened_rows};
 use crate::DesignError;
@@ -121,34 +121,6 @@ pub struct PlanRequest<'a> {
     pub group: &'a str,
     /// How many of each stage's candidates to plan.
     pub counts: Counts,
-}
-
-/// How many picks a plan makes of each stage's candidates
-/// ([`Candidate::stage`]).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Counts {
-    /// Probe heights, samples or measured points.
-    pub measurements: usize,
-    /// Heights measured by hand ([`Candidate::Height`]).
-    pub heights: usize,
-    /// Part distances ([`Candidate::Distance`]).
-    pub distances: usize,
-}
-
-impl Counts {
-    /// The count of `stage`.
-    pub fn of(&self, stage: Stage) -> usize {
-        match stage {
-            Stage::Measurements => self.measurements,
-            Stage::Heights => self.heights,
-            Stage::Distances => self.distances,
-        }
-    }
-
-    /// Every stage's together.
-    pub fn total(&self) -> usize {
-        self.measurements + self.heights + self.distances
-    }
 }
 
 /// The group of the trigger height, an unknown of a plan with probe

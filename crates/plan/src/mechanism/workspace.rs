@@ -19,8 +19,7 @@ use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::delta::{FIRST_LAYER, GAUGE_BLOCK, LinearDelta};
 use parcal_kinematics::mechanism::Mechanism;
 
-use super::candidate::{Candidate, Stage};
-use super::predict::Counts;
+use super::candidate::{Candidate, Counts, Stage};
 use crate::DesignError;
 
 /// The candidate grid's points per axis unless asked another.
