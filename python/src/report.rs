@@ -20,8 +20,9 @@ use crate::recorded::recorded;
 /// shows it in a notebook) or `"markdown"` (report.md). With `dataset`
 /// (the `parcal.Dataset` or `parcal.MechanismDataset` calibrated; another
 /// hexapod dataset only with `other_data`): a hexapod's machine places
-/// the accuracy map, a printer's probe residuals are drawn over the bed,
-/// and a simulation's truth stands beside the estimates.
+/// the accuracy map, a printer's probe and manual height residuals are
+/// drawn over the bed, and a simulation's truth stands beside the
+/// estimates.
 #[pyfunction]
 #[pyo3(signature = (calibration, *, dataset=None, format="html", other_data=false))]
 pub fn report(

@@ -607,6 +607,58 @@ fn a_simulated_printers_trackers_are_judged_against_their_truth() {
 }
 
 #[test]
+fn the_report_draws_a_simulated_printers_manual_heights_over_the_bed() {
+    // 25 probes and 5 heights measured by hand: one figure, a circle per
+    // probe and a square per height, titled with each kind's largest
+    // |e / sigma| as calibration.json holds it.
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let simulate = ["simulate", "--mechanism", "delta", "--seed", "2"];
+    ok(&[&simulate[..], &["--manual-heights", "5", "--out", s(&sim)]].concat());
+    ok(&["calibrate", s(&sim)]);
+    let markdown = reported(&sim, dir.path());
+    let html = fs::read_to_string(dir.path().join("report/report.html")).unwrap();
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(sim.join("calibration.json")).unwrap()).unwrap();
+    let largest = |kind: &str| {
+        (record["tests"]["observations"].as_array().unwrap().iter())
+            .filter(|run| run["kind"] == kind)
+            .flat_map(|run| run["residuals"].as_array().unwrap())
+            .map(|e| e.as_f64().unwrap().abs())
+            .fold(0.0, f64::max)
+    };
+    let (probes, heights) = (largest("probe height"), largest("manual height"));
+    assert!(heights > 0.0, "no manual height tested");
+    let title = format!(
+        "e / sigma: probe heights (largest {probes:.2}), manual heights (largest {heights:.2})"
+    );
+    assert!(html.contains(&title), "{html}");
+    // The residuals' markers: filled red or open blue.
+    let markers = |element: &str| {
+        (html.lines())
+            .filter(|line| line.starts_with(element))
+            .filter(|line| line.contains("#D62728") || line.contains("#1F77B4"))
+            .count()
+    };
+    assert_eq!((markers("<circle"), markers("<rect")), (25, 5), "{html}");
+    assert_eq!(markdown.matches("## Residuals over the bed").count(), 1);
+    assert!(
+        markdown.contains("Each probe height (circle) and each manual height (square)"),
+        "{markdown}"
+    );
+    // The probes alone: no square, and a caption of probes only.
+    let probed = dir.path().join("probed");
+    ok(&[&simulate[..], &["--out", s(&probed)]].concat());
+    ok(&["calibrate", s(&probed)]);
+    let markdown = reported(&probed, dir.path());
+    assert!(
+        markdown.contains("Each probe height (circle) at its commanded XY")
+            && !markdown.contains("manual height"),
+        "{markdown}"
+    );
+}
+
+#[test]
 fn a_simulated_printer_touches_calibrated_balls() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");

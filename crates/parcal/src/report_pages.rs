@@ -1,8 +1,8 @@
 //! The report of one calibration as `parcal report` renders it, for every
 //! front end: a self-contained HTML page or its Markdown twin, verdict and
-//! tests first, with what a dataset adds (a printer's probe residuals over
-//! the bed, the accuracy map placed by the hexapod's machine, a
-//! simulation's truth beside the estimates).
+//! tests first, with what a dataset adds (a printer's probe and manual
+//! height residuals over the bed, the accuracy map placed by the hexapod's
+//! machine, a simulation's truth beside the estimates).
 
 use parcal_calibrate::mechanism::MechanismData;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
@@ -28,13 +28,16 @@ pub struct MechanismTrue {
 }
 
 impl MechanismTrue {
-    /// What it adds to a mechanism's report: the "true" columns.
+    /// What it adds to a mechanism's report, the "true" columns, with what
+    /// `dataset` adds: its probes' and manual heights' residuals over the
+    /// bed.
     pub fn from_dataset<'a>(
         truth: Option<&'a Self>,
-        probes: Option<&'a [[f64; 3]]>,
+        dataset: Option<&'a MechanismDataset>,
     ) -> FromDataset<'a> {
         FromDataset {
-            probes,
+            probes: dataset.map(|d| d.probes.as_slice()),
+            heights: dataset.map(|d| d.heights.as_slice()),
             truth: truth.map(|t| t.values.as_slice()),
             true_frames: truth.map(|t| t.frames.as_slice()),
         }
@@ -166,20 +169,21 @@ pub fn hexapod_report(
 pub enum ReportDataset<'a> {
     /// A hexapod's, calibrated through the common path: its truth.
     Hexapod(&'a Dataset),
-    /// Another mechanism's, with its data: its probes and truth.
+    /// Another mechanism's, with its data: its probes, manual heights and
+    /// truth.
     Mechanism(&'a MechanismDataset, &'a MechanismData),
 }
 
 /// The report of a mechanism's calibration `record` (its file `file`, as
-/// given) in `format`, with what `dataset` adds: a mechanism's probe
-/// residuals over the bed, a simulated machine's truth.
+/// given) in `format`, with what `dataset` adds: a mechanism's probe and
+/// manual height residuals over the bed, a simulated machine's truth.
 pub fn mechanism_report(
     record: &MechanismCalibrationRecord,
     file: &str,
     dataset: Option<ReportDataset<'_>>,
     format: Format,
 ) -> Result<String, ReportPageError> {
-    let (truth, probes) = match dataset {
+    let (truth, bed) = match dataset {
         None => (None, None),
         Some(ReportDataset::Hexapod(dataset)) => {
             same_mechanism(record, parcal_dataset::HEXAPOD)?;
@@ -192,10 +196,10 @@ pub fn mechanism_report(
         Some(ReportDataset::Mechanism(dataset, data)) => {
             same_mechanism(record, data.mechanism.name())?;
             let truth = mechanism_truth(dataset, data)?;
-            (truth, Some(dataset.probes.as_slice()))
+            (truth, Some(dataset))
         }
     };
-    let from_dataset = MechanismTrue::from_dataset(truth.as_ref(), probes);
+    let from_dataset = MechanismTrue::from_dataset(truth.as_ref(), bed);
     mechanism_page(record, file, from_dataset, format)
 }
 

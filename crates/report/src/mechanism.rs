@@ -18,9 +18,13 @@ use crate::calibration_report::{html, markdown};
 /// What a mechanism's dataset adds to the report of its calibration.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FromDataset<'a> {
-    /// Its probe heights (probes.csv's rows): the plot of their residuals
-    /// over the bed.
+    /// Its probe heights (probes.csv's rows: commanded `x, y` and the
+    /// trigger's `z`): circles in the figure of the residuals over the bed.
     pub probes: Option<&'a [[f64; 3]]>,
+    /// Its heights measured by hand (heights.csv's rows: a commanded
+    /// position `x, y, z` and the height measured there): squares in the
+    /// figure of the residuals over the bed.
+    pub heights: Option<&'a [[f64; 4]]>,
     /// The true values of a simulated machine, one per parameter of the
     /// calibration, in its order and frame: the parameter table's "true"
     /// and "error / sigma" columns.
@@ -41,11 +45,11 @@ pub fn render(
 ) -> Result<String, String> {
     let title = format!("Calibration of a {} ({file})", calibration.mechanism);
     let mut blocks = blocks(calibration, &dataset, &title);
-    if let Some(probes) = dataset.probes.filter(|p| !p.is_empty()) {
-        blocks.push(Block::Heading(2, "Probe residuals over the bed".into()));
+    if let Some(figure) = bed_residual_figure(calibration, &dataset)? {
+        blocks.push(Block::Heading(2, "Residuals over the bed".into()));
         blocks.push(Block::Figure {
-            svg: probe_residual_svg(calibration, probes)?,
-            caption: "Each probe at its commanded XY: a filled circle where the bed is higher than the calibrated machine predicts (positive residual), an open one where lower; the radius grows with |e / sigma|; a cross marks a probe removed by data snooping.".into(),
+            svg: figure.svg,
+            caption: figure.caption,
         });
     }
     Ok(match format {
@@ -54,55 +58,174 @@ pub fn render(
     })
 }
 
-/// The probe residuals over the bed (the figure of [`render`]): each
-/// probe's whitened residual `e / sigma` at its commanded `(x, y)`; an
-/// error names a probe of the record that `probes` does not hold.
-pub fn probe_residual_svg(
+/// The figure of the residuals over the bed: its SVG and its caption.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BedFigure {
+    /// The SVG, titled with the kinds drawn and each one's largest
+    /// `|e / sigma|`.
+    pub svg: String,
+    /// The caption: the kinds drawn, their markers, each one's largest
+    /// `|e / sigma|`.
+    pub caption: String,
+}
+
+/// How an observation is marked over the bed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Marker {
+    /// A circle of radius `size` pixels.
+    Circle,
+    /// A square of half side `size` pixels.
+    Square,
+}
+
+impl Marker {
+    /// Its name in the caption.
+    fn name(self) -> &'static str {
+        match self {
+            Self::Circle => "circle",
+            Self::Square => "square",
+        }
+    }
+}
+
+/// A kind of observation drawn over the bed.
+struct BedKind {
+    /// The kind.
+    kind: ObservationKind,
+    /// Its name in the plural.
+    plural: &'static str,
+    /// Its marker.
+    marker: Marker,
+    /// The commanded `(x, y)` of each of the dataset's observations of the
+    /// kind, by index (none: the dataset gives none).
+    commanded: fn(&FromDataset<'_>) -> Vec<(f64, f64)>,
+}
+
+/// The kinds drawn over the bed, each with its marker.
+const BED_KINDS: [BedKind; 2] = [
+    BedKind {
+        kind: ObservationKind::Probe,
+        plural: "probe heights",
+        marker: Marker::Circle,
+        commanded: |dataset| commanded_xy(dataset.probes),
+    },
+    BedKind {
+        kind: ObservationKind::ManualHeight,
+        plural: "manual heights",
+        marker: Marker::Square,
+        commanded: |dataset| commanded_xy(dataset.heights),
+    },
+];
+
+/// The commanded `(x, y)` of each row of `rows` (its first two columns).
+fn commanded_xy<const N: usize>(rows: Option<&[[f64; N]]>) -> Vec<(f64, f64)> {
+    rows.unwrap_or_default()
+        .iter()
+        .map(|row| (row[0], row[1]))
+        .collect()
+}
+
+/// The observations of one kind drawn over the bed.
+struct Drawn<'k> {
+    /// Their kind.
+    kind: &'k BedKind,
+    /// Each tested one's commanded `(x, y)` and whitened residual
+    /// `e / sigma`.
+    tested: Vec<((f64, f64), f64)>,
+    /// The commanded `(x, y)` of each one removed by data snooping.
+    removed: Vec<(f64, f64)>,
+}
+
+impl Drawn<'_> {
+    /// The largest `|e / sigma|` of the tested ones, as the figure states
+    /// it ("none tested" when every one was removed).
+    fn largest(&self) -> String {
+        (self.tested.iter())
+            .map(|(_, e)| e.abs())
+            .reduce(f64::max)
+            .map_or_else(|| "none tested".to_string(), |e| format!("{e:.2}"))
+    }
+}
+
+/// The residuals over the bed (the figure of [`render`]): each probe
+/// height's and manual height's whitened residual `e / sigma` at its
+/// commanded `(x, y)`, of the kinds `dataset` gives (`None` when it gives
+/// neither). An error names an observation of the record that the
+/// dataset's rows of its kind do not hold.
+pub fn bed_residual_figure(
     calibration: &MechanismCalibrationRecord,
-    probes: &[[f64; 3]],
-) -> Result<String, String> {
-    let probe = ObservationKind::Probe.name();
-    let at = |index: usize| {
-        probes
-            .get(index)
-            .map(|p| (p[0], p[1]))
-            .ok_or_else(|| format!("{probe} {index} is not among the {} probes", probes.len()))
-    };
-    let residuals = calibration
-        .tests
-        .observations
-        .iter()
-        .filter(|o| o.kind == probe)
-        .map(|o| {
-            Ok((
-                at(o.index)?,
-                o.rows.first().map_or(0.0, |r| f64::from(r.residual)),
-            ))
-        })
-        .collect::<Result<Vec<_>, String>>()?;
-    let removed = calibration
-        .tests
-        .removed
-        .iter()
-        .filter(|r| r.kind == probe)
-        .map(|r| at(r.index))
-        .collect::<Result<Vec<_>, String>>()?;
-    let reach = probes
-        .iter()
-        .map(|p| p[0].abs().max(p[1].abs()))
-        .fold(1.0, f64::max)
-        * 1.1;
-    let largest = residuals.iter().map(|(_, e)| e.abs()).fold(1.0, f64::max);
+    dataset: &FromDataset<'_>,
+) -> Result<Option<BedFigure>, String> {
+    let tests = &calibration.tests;
+    let mut drawn = Vec::new();
+    let mut reach = 1.0;
+    for kind in &BED_KINDS {
+        let commanded = (kind.commanded)(dataset);
+        if commanded.is_empty() {
+            continue;
+        }
+        let name = kind.kind.name();
+        let at = |index: usize| {
+            commanded.get(index).copied().ok_or_else(|| {
+                format!(
+                    "{name} {index} is not among the {} {}",
+                    commanded.len(),
+                    kind.plural
+                )
+            })
+        };
+        let tested = (tests.observations.iter())
+            .filter(|o| o.kind == name)
+            .map(|o| {
+                let residual = o.rows.first().map_or(0.0, |r| f64::from(r.residual));
+                Ok((at(o.index)?, residual))
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        let removed = (tests.removed.iter())
+            .filter(|r| r.kind == name)
+            .map(|r| at(r.index))
+            .collect::<Result<Vec<_>, String>>()?;
+        reach = (commanded.iter())
+            .map(|(x, y)| x.abs().max(y.abs()))
+            .fold(reach, f64::max);
+        drawn.push(Drawn {
+            kind,
+            tested,
+            removed,
+        });
+    }
+    if drawn.is_empty() {
+        return Ok(None);
+    }
+    let reach = 1.1 * reach;
+    // One size rule for every kind: the largest |e / sigma| drawn (at
+    // least 1) is the largest marker.
+    let largest = (drawn.iter())
+        .flat_map(|d| d.tested.iter().map(|(_, e)| e.abs()))
+        .fold(1.0, f64::max);
+    let title = (drawn.iter())
+        .map(|d| format!("{} (largest {})", d.kind.plural, d.largest()))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let title = format!("e / sigma: {title}");
+    let markers = (drawn.iter())
+        .map(|d| format!("{} ({})", d.kind.kind.name(), d.kind.marker.name()))
+        .collect::<Vec<_>>()
+        .join(" and each ");
+    let largests = (drawn.iter())
+        .map(|d| format!("{} {}", d.kind.plural, d.largest()))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let caption = format!(
+        "Each {markers} at its commanded XY: filled where the bed is higher than the calibrated machine predicts (positive residual), open where lower; the size grows with |e / sigma| (largest: {largests}); a cross marks one removed by data snooping."
+    );
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (640, 600)).into_drawing_area();
         let draw = || -> Result<(), Box<dyn std::error::Error + '_>> {
             root.fill(&WHITE)?;
             let mut chart = ChartBuilder::on(&root)
-                .caption(
-                    format!("Probe residuals e / sigma (largest |e / sigma| {largest:.2})"),
-                    ("sans-serif", 20),
-                )
+                .caption(&title, ("sans-serif", 16))
                 .margin(15)
                 .x_label_area_size(40)
                 .y_label_area_size(50)
@@ -114,26 +237,38 @@ pub fn probe_residual_svg(
                 .draw()?;
             let blue = RGBColor(31, 119, 180);
             let red = RGBColor(214, 39, 40);
-            chart.draw_series(residuals.iter().map(|&((x, y), e)| {
-                let size = (3.0 + 12.0 * e.abs() / largest).round() as i32;
-                let style = if e >= 0.0 {
-                    red.filled()
-                } else {
-                    blue.stroke_width(2)
+            // The last kind first: a circle where a square is stays
+            // visible inside it.
+            for kind in drawn.iter().rev() {
+                let markers = kind.tested.iter().map(|&(xy, e)| {
+                    let size = (3.0 + 12.0 * e.abs() / largest).round() as i32;
+                    let style = if e >= 0.0 {
+                        red.filled()
+                    } else {
+                        blue.stroke_width(2)
+                    };
+                    (xy, size, style)
+                });
+                match kind.kind.marker {
+                    Marker::Circle => chart.draw_series(
+                        markers.map(|(xy, size, style)| Circle::new(xy, size, style)),
+                    )?,
+                    Marker::Square => chart.draw_series(markers.map(|(xy, size, style)| {
+                        EmptyElement::at(xy) + Rectangle::new([(-size, -size), (size, size)], style)
+                    }))?,
                 };
-                Circle::new((x, y), size, style)
-            }))?;
+            }
             chart.draw_series(
-                removed
-                    .iter()
-                    .map(|&(x, y)| Cross::new((x, y), 8, BLACK.stroke_width(2))),
+                (drawn.iter())
+                    .flat_map(|kind| kind.removed.iter())
+                    .map(|&xy| Cross::new(xy, 8, BLACK.stroke_width(2))),
             )?;
             root.present()?;
             Ok(())
         };
         draw().map_err(|e| e.to_string())?;
     }
-    Ok(svg)
+    Ok(Some(BedFigure { svg, caption }))
 }
 
 /// The verdict in one sentence: accepted or rejected, and why.
@@ -781,6 +916,7 @@ mod tests {
     fn with_probes(probes: &[[f64; 3]]) -> FromDataset<'_> {
         FromDataset {
             probes: Some(probes),
+            heights: None,
             truth: None,
             true_frames: None,
         }
@@ -830,6 +966,7 @@ mod tests {
         }
         let dataset = FromDataset {
             probes: Some(&probes),
+            heights: None,
             truth: Some(&truth),
             true_frames: None,
         };
@@ -871,8 +1008,8 @@ mod tests {
         // One circle per probe tested, a cross for the one removed.
         assert_eq!(html.matches("<circle").count(), 24, "circles");
         // A record's probe that the probes given do not hold is named.
-        let err = probe_residual_svg(&record, &probes[..3]).unwrap_err();
-        assert!(err.contains("is not among the 3 probes"), "{err}");
+        let err = bed_residual_figure(&record, &with_probes(&probes[..3])).unwrap_err();
+        assert!(err.contains("is not among the 3 probe heights"), "{err}");
         assert!(!markdown.contains("Calibrated balls"), "{markdown}");
         // A record with a ball: its table.
         let mut record = record;
@@ -927,6 +1064,163 @@ mod tests {
         );
     }
 
+    /// Five heights measured by hand 5 mm above the bed of the printer of
+    /// [`printer`]: with its probes and the fourth height measured 0.3 mm
+    /// high if `probed`, else alone and exact (no probe on the machine).
+    /// Calibrated with snooping.
+    fn measured_by_hand(probed: bool) -> (MechanismCalibrationRecord, MechanismDataset) {
+        let mut dataset = printer();
+        dataset.machine.noise.height = Some(0.01);
+        dataset.heights = [
+            [0.0, 0.0],
+            [60.0, 0.0],
+            [0.0, 60.0],
+            [-60.0, 0.0],
+            [0.0, -60.0],
+        ]
+        .into_iter()
+        .map(|[x, y]| [x, y, 5.0, 5.0])
+        .collect();
+        if probed {
+            dataset.heights[3][3] += 0.3;
+        } else {
+            dataset.probes.clear();
+            dataset.machine.trigger_height = None;
+        }
+        let data = MechanismData::from_dataset(&dataset).unwrap();
+        let options = MechanismOptions::default().with_snooping(true);
+        let record = calibrate_mechanism(&data, &options, &mut |_| {})
+            .unwrap()
+            .record();
+        (record, dataset)
+    }
+
+    /// What `dataset` adds: its probes and heights.
+    fn bed_of(dataset: &MechanismDataset) -> FromDataset<'_> {
+        FromDataset {
+            probes: Some(&dataset.probes),
+            heights: Some(&dataset.heights),
+            truth: None,
+            true_frames: None,
+        }
+    }
+
+    /// The markers of `svg` drawn in the residuals' colours: `element`s
+    /// (`"<circle"`, `"<rect"`) filled red or stroked blue.
+    fn markers(svg: &str, element: &str) -> usize {
+        (svg.lines())
+            .filter(|line| line.trim_start().starts_with(element))
+            .filter(|line| line.contains("#D62728") || line.contains("#1F77B4"))
+            .count()
+    }
+
+    /// The crosses of `svg`: black lines 2 wide, two per cross.
+    fn crosses(svg: &str) -> usize {
+        (svg.lines())
+            .filter(|line| {
+                line.trim_start().starts_with("<line") || line.trim_start().starts_with("<polyline")
+            })
+            .filter(|line| {
+                line.contains("stroke=\"#000000\"") && line.contains("stroke-width=\"2\"")
+            })
+            .count()
+            / 2
+    }
+
+    #[test]
+    fn the_bed_figure_draws_manual_heights_beside_the_probes() {
+        let (record, dataset) = measured_by_hand(true);
+        let removed: Vec<(&str, usize)> = (record.tests.removed.iter())
+            .map(|r| (r.kind.as_str(), r.index))
+            .collect();
+        assert_eq!(removed, [("probe height", 5), ("manual height", 3)]);
+        let figure = bed_residual_figure(&record, &bed_of(&dataset))
+            .unwrap()
+            .unwrap();
+        // One circle per probe and one square per height tested, a cross
+        // for each one removed.
+        assert_eq!(markers(&figure.svg, "<circle"), 24, "{}", figure.svg);
+        assert_eq!(markers(&figure.svg, "<rect"), 4, "{}", figure.svg);
+        assert_eq!(crosses(&figure.svg), 2, "{}", figure.svg);
+        // Title and caption name both kinds, with each one's largest.
+        let largest = |kind: &str| {
+            (record.tests.observations.iter())
+                .filter(|o| o.kind == kind)
+                .map(|o| f64::from(o.rows[0].residual).abs())
+                .fold(0.0, f64::max)
+        };
+        let (probe, manual) = (largest("probe height"), largest("manual height"));
+        assert!(
+            figure.svg.contains(&format!(
+                "e / sigma: probe heights (largest {probe:.2}), manual heights (largest {manual:.2})"
+            )),
+            "{}",
+            figure.svg
+        );
+        let markdown = render(
+            &record,
+            "calibration.json",
+            bed_of(&dataset),
+            Format::Markdown,
+        )
+        .unwrap();
+        assert!(
+            markdown.contains(
+                "Each probe height (circle) and each manual height (square) at its commanded XY"
+            ) && markdown.contains(&format!(
+                "(largest: probe heights {probe:.2}, manual heights {manual:.2})"
+            )),
+            "{markdown}"
+        );
+        assert_eq!(markdown.matches("## Residuals over the bed").count(), 1);
+        // The probes alone: no square, their caption alone.
+        let probes = bed_residual_figure(&record, &with_probes(&dataset.probes))
+            .unwrap()
+            .unwrap();
+        assert_eq!(markers(&probes.svg, "<rect"), 0);
+        assert_eq!(crosses(&probes.svg), 1);
+        assert!(
+            probes
+                .caption
+                .starts_with("Each probe height (circle) at its")
+                && !probes.caption.contains("manual"),
+            "{}",
+            probes.caption
+        );
+        // A record's height that the heights given do not hold is named.
+        let two = FromDataset {
+            heights: Some(&dataset.heights[..2]),
+            ..bed_of(&dataset)
+        };
+        let err = render(&record, "calibration.json", two, Format::Html).unwrap_err();
+        assert_eq!(err, "manual height 2 is not among the 2 manual heights");
+    }
+
+    #[test]
+    fn a_dataset_of_heights_alone_gets_the_bed_figure() {
+        let (record, dataset) = measured_by_hand(false);
+        let html = render(&record, "calibration.json", bed_of(&dataset), Format::Html).unwrap();
+        assert!(html.contains("Residuals over the bed"), "{html}");
+        assert_eq!(markers(&html, "<rect"), 5, "{html}");
+        assert_eq!(markers(&html, "<circle"), 0, "{html}");
+        assert_eq!(crosses(&html), 0, "{html}");
+        assert!(
+            html.contains("e / sigma: manual heights (largest ")
+                && html.contains("Each manual height (square) at its commanded XY")
+                && !html.contains("probe heights ("),
+            "{html}"
+        );
+        // Without the dataset's heights, no figure.
+        let bare = render(
+            &record,
+            "calibration.json",
+            FromDataset::default(),
+            Format::Html,
+        )
+        .unwrap();
+        assert!(!bare.contains("Residuals over the bed"), "{bare}");
+    }
+
     #[test]
     fn a_simulated_trackers_error_is_given_in_its_sigmas() {
         // Tracker "left" estimated at F_true ∘ E, E turning the canonical
@@ -962,6 +1256,7 @@ mod tests {
         assert!(tracker_rows(&record, None).iter().all(|row| row.len() == 5));
         let dataset = FromDataset {
             probes: Some(&probes),
+            heights: None,
             truth: None,
             true_frames: Some(&true_frames),
         };

@@ -68,7 +68,7 @@ pub fn calibrate(
         MechanismData::from_dataset(&dataset).map_err(|error| placed(path, mechanism, &error))?;
     let truth = mechanism_truth(&dataset, &data)
         .map_err(|error| anyhow::anyhow!("{}: {error}", path.display()))?;
-    let from_dataset = MechanismTrue::from_dataset(truth.as_ref(), Some(&dataset.probes));
+    let from_dataset = MechanismTrue::from_dataset(truth.as_ref(), Some(&dataset));
     let read = format!(
         "read {} observations in {:.2} s",
         data.observations.len(),
@@ -188,9 +188,9 @@ pub fn freed(freeing: Option<JoinHandle<()>>, what: &str) -> anyhow::Result<()> 
 }
 
 /// The common calibration of `data` under `options`, read from the
-/// dataset of `request` (its probe points, if any, drawn in the report),
-/// the progress lines `before` (what was read and made, with its time)
-/// shown first: as [`calibrate`], once the outputs are checked
+/// dataset of `request` (its probes and manual heights, if any, drawn in
+/// the report), the progress lines `before` (what was read and made, with
+/// its time) shown first: as [`calibrate`], once the outputs are checked
 /// ([`CalibrateRequest::check_outputs`]).
 pub fn calibrate_with(
     mechanism: &str,

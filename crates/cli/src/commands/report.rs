@@ -111,9 +111,9 @@ pub fn directory_of(file: &Path) -> &Path {
 
 /// Writes the report of a mechanism's calibration `record` (read from
 /// `args.calibration`) into `directory` (report.html and report.md, as a
-/// set); with `args.dataset`, what it adds: a mechanism's probe residuals
-/// over the bed, a simulated machine's truth (a hexapod's, through the
-/// common path, has no probes).
+/// set); with `args.dataset`, what it adds: a mechanism's probe and manual
+/// height residuals over the bed, a simulated machine's truth (a
+/// hexapod's, through the common path, has neither).
 fn write_mechanism(
     record: &MechanismCalibrationRecord,
     args: &Args,
@@ -195,9 +195,10 @@ fn write_texts(texts: &[(PathBuf, String)]) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes the report of `record` (calibration.json at `file`), with the
-/// residuals of the dataset's `probes` if given, into `directory`:
-/// report.html and report.md ([`REPORT_FILES`]).
+/// Writes the report of `record` (calibration.json at `file`), with what
+/// `from_dataset` adds (the residuals of the dataset's probes and manual
+/// heights over the bed, if given), into `directory`: report.html and
+/// report.md ([`REPORT_FILES`]).
 pub fn write_mechanism_report(
     record: &MechanismCalibrationRecord,
     file: &str,
