@@ -89,7 +89,7 @@ fn delta(c: &mut Criterion) {
         .collect();
     let settings = KlipperDelta::from_params(&firmware.to_params(), 110.0).unwrap();
     c.bench_function("Klipper DELTA_CALIBRATE, 25 points", |b| {
-        b.iter(|| fit(black_box(&settings), black_box(&readings), 0.0, &[]).unwrap())
+        b.iter(|| fit(black_box(&settings), black_box(&readings), 0.0, &[], &[]).unwrap())
     });
     // The same probes, the trigger height 0 mm known to 0.05 mm.
     let observations = Observations {

@@ -1,9 +1,10 @@
 //! docs/delta.md's side-by-side table: on simulated kit printers, the
 //! first-layer flatness and the 3D error over the build volume after
 //! RepRapFirmware's 6-, 7- and 9-factor auto-calibration, Klipper's
-//! `DELTA_CALIBRATE` and parcal's calibration, on the same probe heights,
-//! and Klipper's enhanced calibration and parcal with a few part distances
-//! added.
+//! `DELTA_CALIBRATE` and parcal's calibration, on the same probe heights;
+//! Klipper's enhanced calibration and parcal with a few part distances
+//! added; and Klipper's and parcal's fits with the probe triggering off
+//! its configured height, without and with a few heights measured by hand.
 //!
 //! `cargo run --release -p parcal-benches --example delta_vs_firmware -- [PRINTERS [SEED [DRAW [tilt]]]]`
 //! (30 printers, seed 1 and DRAW `uniform` by default; or `prior`; `tilt`:
@@ -25,13 +26,30 @@
 //! directions), measured to 10 um. parcal's prior: the configuration and
 //! the default tolerances, the trigger height to 0.05 mm.
 //!
+//! The probe off its trigger height: the same printer and probe heights,
+//! the probe triggering at a true height drawn from parcal's prior about
+//! the configured 0.7 mm (normal, sigma 0.05 mm): each probe height is
+//! raised by the difference, and both fits still take 0.7 mm (Klipper's
+//! `z_offset`, parcal's prior). Manual heights: 5, at the commanded
+//! positions of `parcal simulate --manual-heights`
+//! (`parcal_simulate::delta::manual_height_positions`: a 5 mm gauge block
+//! at the centre and on a ring at 0.6 of the printable radius), each the
+//! true nozzle's height there measured to 20 um; Klipper weighs each as a
+//! probe (`klipper::fit`), parcal as its noise says. The trigger height
+//! and these heights are drawn from a stream of their own, `(seed,
+//! MAX_PRINTERS + printer)`, so that the other rows are unchanged.
+//!
 //! Errors (`parcal_firmware::accuracy`): the machine's canonical frame,
 //! the first layer's height offset removed; flatness at z = 0 over the
 //! printable disc, 3D over the cylinder to half the homed height, on a
 //! 10 mm grid. The table gives the mean over the printers of each
 //! printer's RMS and max, with the standard error of the mean, and for
 //! each method against the firmware's 9-factor fit the mean paired
-//! difference of the RMS with its standard error.
+//! difference of the RMS with its standard error. The last column is
+//! what manual heights are for, the first layer's height: the mean over
+//! the printers of the offset's size, `|mean e_z(z = 0)|` over the
+//! printable disc (the nozzle's true height above the bed where the fit
+//! sends it to z = 0), with its standard error.
 
 use std::sync::Arc;
 
@@ -40,15 +58,16 @@ use parcal_calibrate::mechanism::{
 };
 use parcal_firmware::accuracy::{PositionErrors, Workspace, position_errors};
 use parcal_firmware::autocal::auto_calibrate;
-use parcal_firmware::klipper::{KlipperDelta, ReadDistance, fit};
+use parcal_firmware::klipper::{KlipperDelta, ReadDistance, ReadHeight, fit};
 use parcal_firmware::probes::ProbePoint;
 use parcal_firmware::rrf::RrfDelta;
 use parcal_kinematics::delta::{
     DeltaParams, LinearDelta, N_PARAMS, Tolerances, probe_height, probe_rings,
 };
 use parcal_kinematics::mechanism::Mechanism;
-use parcal_observe::mechanism::{PartDistance, ProbeHeight};
+use parcal_observe::mechanism::{ManualHeight, PartDistance, ProbeHeight};
 use parcal_simulate::Rng;
+use parcal_simulate::delta::manual_height_positions;
 
 /// The largest number of printers a run takes.
 const MAX_PRINTERS: usize = 10_000;
@@ -69,6 +88,8 @@ const CHORDS: [(f64, f64); 6] = [
 ];
 /// The first layer's height, where the part distances are measured (mm).
 const FIRST_LAYER: f64 = 0.2;
+/// The heights measured by hand: how many, and their noise (mm).
+const MANUAL_HEIGHTS: (usize, f64) = (5, 0.02);
 
 /// How a printer's errors are drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -90,6 +111,9 @@ struct Printer {
     configured: RrfDelta,
     probes: Vec<ProbePoint>,
     distances: Vec<Distance>,
+    /// The probe heights with the probe off its trigger height.
+    probes_off_trigger: Vec<ProbePoint>,
+    manual_heights: Vec<Height>,
 }
 
 /// A distance measured between two commanded positions.
@@ -97,6 +121,21 @@ struct Distance {
     first: [f64; 3],
     second: [f64; 3],
     measured: f64,
+}
+
+/// A height of the nozzle above the bed measured by hand at a commanded
+/// position.
+struct Height {
+    commanded: [f64; 3],
+    measured: f64,
+}
+
+/// What one calibration is given.
+#[derive(Clone, Copy)]
+struct Given<'a> {
+    probes: &'a [ProbePoint],
+    distances: &'a [Distance],
+    manual_heights: &'a [Height],
 }
 
 /// Printer `index` of `seed` (module documentation), its bed level if
@@ -145,7 +184,7 @@ fn printer(seed: u64, index: u64, draw: Draw, level: bool) -> Printer {
             z: probe_height(&delta, t.as_slice(), c.as_slice(), x, y).expect("probe")
                 + rng.normal(PROBE_SIGMA),
         })
-        .collect();
+        .collect::<Vec<_>>();
     let ring = 0.9 * configured.print_radius;
     let on_ring = |angle: f64| {
         let (sin, cos) = angle.to_radians().sin_cos();
@@ -169,11 +208,30 @@ fn printer(seed: u64, index: u64, draw: Draw, level: bool) -> Printer {
             }
         })
         .collect();
+    // The probe off its trigger height and the manual heights: a stream of
+    // their own.
+    let mut rng = Rng::new(seed, MAX_PRINTERS as u64 + index);
+    let trigger_error = rng.normal(TRIGGER_HEIGHT.1);
+    let probes_off_trigger = (probes.iter())
+        .map(|p| ProbePoint {
+            z: p.z + trigger_error,
+            ..*p
+        })
+        .collect();
+    let manual_heights = manual_height_positions(configured.print_radius, MANUAL_HEIGHTS.0)
+        .into_iter()
+        .map(|commanded| Height {
+            commanded,
+            measured: reached(&commanded)[2] + rng.normal(MANUAL_HEIGHTS.1),
+        })
+        .collect();
     Printer {
         truth,
         configured,
         probes,
         distances,
+        probes_off_trigger,
+        manual_heights,
     }
 }
 
@@ -186,36 +244,35 @@ fn kinematics(configured: &RrfDelta) -> LinearDelta {
     )
 }
 
-/// parcal's calibration of `printer` from its probe heights and, if
-/// `with_distances`, its part distances; the default tolerances as the
-/// prior about the configuration.
-fn parcal(printer: &Printer, with_distances: bool) -> DeltaParams {
+/// parcal's calibration of `printer` from what it is `given`; the default
+/// tolerances as the prior about the configuration.
+fn parcal(printer: &Printer, given: &Given) -> DeltaParams {
     let configured = printer.configured.to_params().to_vector();
-    let probes = printer
-        .probes
-        .iter()
+    let probes = (given.probes.iter())
         .map(|p| ProbeHeight {
             commanded: [p.x, p.y, p.z + TRIGGER_HEIGHT.0],
             sigma: PROBE_SIGMA,
         })
         .collect();
-    let distances = if with_distances {
-        printer
-            .distances
-            .iter()
-            .map(|d| PartDistance {
-                first: d.first,
-                second: d.second,
-                distance: d.measured,
-                sigma: DISTANCE_SIGMA,
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let distances = (given.distances.iter())
+        .map(|d| PartDistance {
+            first: d.first,
+            second: d.second,
+            distance: d.measured,
+            sigma: DISTANCE_SIGMA,
+        })
+        .collect();
+    let manual_heights = (given.manual_heights.iter())
+        .map(|h| ManualHeight {
+            commanded: h.commanded,
+            height: h.measured,
+            sigma: MANUAL_HEIGHTS.1,
+        })
+        .collect();
     let observations = Observations {
         probes,
         distances,
+        manual_heights,
         ..Default::default()
     };
     let data = MechanismData::new(
@@ -229,11 +286,11 @@ fn parcal(printer: &Printer, with_distances: bool) -> DeltaParams {
     DeltaParams::from_slice(&calibration.values().as_slice()[..N_PARAMS])
 }
 
-/// Klipper's `DELTA_CALIBRATE` of `printer` from its probe heights and,
-/// if `with_distances`, its part distances (the enhanced calibration),
-/// each at the carriages' readings of its commanded position; the probe's
-/// `z_offset` the trigger height.
-fn klipper(printer: &Printer, with_distances: bool) -> DeltaParams {
+/// Klipper's `DELTA_CALIBRATE` of `printer` from what it is `given` (with
+/// part distances, the enhanced calibration), each measurement at the
+/// carriages' readings of its commanded position; the probe's `z_offset`
+/// the configured trigger height.
+fn klipper(printer: &Printer, given: &Given) -> DeltaParams {
     let configured = printer.configured.to_params();
     let delta = kinematics(&printer.configured);
     let c = configured.to_vector();
@@ -241,11 +298,16 @@ fn klipper(printer: &Printer, with_distances: bool) -> DeltaParams {
         let q = delta.inverse(c.as_slice(), x).expect("reach");
         [q[0], q[1], q[2]]
     };
-    let probes: Vec<[f64; 3]> = (printer.probes.iter())
+    let probes: Vec<[f64; 3]> = (given.probes.iter())
         .map(|p| readings(&[p.x, p.y, p.z + TRIGGER_HEIGHT.0]))
         .collect();
-    let distances: Vec<ReadDistance> = (printer.distances.iter())
-        .filter(|_| with_distances)
+    let manual_heights: Vec<ReadHeight> = (given.manual_heights.iter())
+        .map(|h| ReadHeight {
+            readings: readings(&h.commanded),
+            height: h.measured,
+        })
+        .collect();
+    let distances: Vec<ReadDistance> = (given.distances.iter())
         .map(|d| ReadDistance {
             first: readings(&d.first),
             second: readings(&d.second),
@@ -254,9 +316,15 @@ fn klipper(printer: &Printer, with_distances: bool) -> DeltaParams {
         .collect();
     let settings =
         KlipperDelta::from_params(&configured, printer.configured.print_radius).expect("no tilt");
-    fit(&settings, &probes, TRIGGER_HEIGHT.0, &distances)
-        .expect("fit")
-        .to_params()
+    fit(
+        &settings,
+        &probes,
+        TRIGGER_HEIGHT.0,
+        &manual_heights,
+        &distances,
+    )
+    .expect("fit")
+    .to_params()
 }
 
 /// The errors of each method on one printer.
@@ -272,10 +340,30 @@ fn errors(printer: &Printer) -> Vec<PositionErrors> {
         let fit = auto_calibrate(&printer.configured, &printer.probes, factors).expect("fit");
         rows.push(on_truth(&fit.delta.to_params()));
     }
-    rows.push(on_truth(&klipper(printer, false)));
-    rows.push(on_truth(&parcal(printer, false)));
-    rows.push(on_truth(&klipper(printer, true)));
-    rows.push(on_truth(&parcal(printer, true)));
+    let probes = Given {
+        probes: &printer.probes,
+        distances: &[],
+        manual_heights: &[],
+    };
+    let off_trigger = Given {
+        probes: &printer.probes_off_trigger,
+        ..probes
+    };
+    for given in [
+        probes,
+        Given {
+            distances: &printer.distances,
+            ..probes
+        },
+        off_trigger,
+        Given {
+            manual_heights: &printer.manual_heights,
+            ..off_trigger
+        },
+    ] {
+        rows.push(on_truth(&klipper(printer, &given)));
+        rows.push(on_truth(&parcal(printer, &given)));
+    }
     rows
 }
 
@@ -313,18 +401,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "parcal, probe heights",
         "Klipper enhanced, 6 part distances",
         "parcal, probe heights and 6 part distances",
+        "Klipper DELTA_CALIBRATE, probe off its trigger height",
+        "parcal, probe heights, probe off its trigger height",
+        "Klipper, probe off its trigger height, 5 manual heights",
+        "parcal, probe off its trigger height, 5 manual heights",
     ];
     let results: Vec<Vec<PositionErrors>> = (0..printers as u64)
         .map(|index| errors(&printer(seed, index, draw, level)))
         .collect();
     println!(
-        "{printers} printers, seed {seed}, errors {draw:?}{}: mean over the printers (standard error), um; paired difference of the RMS against the 9-factor fit",
+        "{printers} printers, seed {seed}, errors {draw:?}{}: mean over the printers (standard error), um; paired difference of the RMS against the 9-factor fit; the first layer's height offset's size",
         if level { ", bed level" } else { "" }
     );
     println!(
-        "| method | flatness RMS | flatness max | 3D RMS | 3D max | flatness RMS - 9-factor | 3D RMS - 9-factor |"
+        "| method | flatness RMS | flatness max | 3D RMS | 3D max | flatness RMS - 9-factor | 3D RMS - 9-factor | first-layer height |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
     let baseline = 3;
     for (m, name) in methods.iter().enumerate() {
         let column = |f: &dyn Fn(&PositionErrors) -> f64| {
@@ -340,13 +432,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let cell = |(mean, error): (f64, f64)| format!("{mean:.1} ({error:.1})");
         println!(
-            "| {name} | {} | {} | {} | {} | {} | {} |",
+            "| {name} | {} | {} | {} | {} | {} | {} | {} |",
             cell(column(&|e| e.flatness_rms)),
             cell(column(&|e| e.flatness_max)),
             cell(column(&|e| e.volume_rms)),
             cell(column(&|e| e.volume_max)),
             cell(paired(&|e| e.flatness_rms)),
             cell(paired(&|e| e.volume_rms)),
+            cell(column(&|e| e.z_offset.abs())),
         );
     }
     Ok(())

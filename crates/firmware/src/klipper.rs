@@ -36,7 +36,7 @@ mod fit;
 mod save_config;
 
 pub use delta_calibrate::{DeltaCalibrateResults, MAX_ENTRIES};
-pub use fit::{ReadDistance, fit};
+pub use fit::{ReadDistance, ReadHeight, fit};
 use save_config::SaveConfig;
 
 /// The steppers of the towers.

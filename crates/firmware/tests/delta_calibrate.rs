@@ -5,7 +5,9 @@
 
 use std::path::Path;
 
-use parcal_firmware::klipper::parse_printer;
+use parcal_firmware::klipper::{ReadHeight, fit, parse_printer};
+use parcal_kinematics::delta::{LinearDelta, probe_rings};
+use parcal_kinematics::mechanism::Mechanism;
 
 /// A printer whose steppers have 40 mm a turn at 16 microsteps (tower B
 /// through a 2:1 reduction of an 80 mm pulley, tower C in the older
@@ -122,6 +124,62 @@ fn manual_heights_are_read_at_their_positions() {
             assert!((g - w).abs() < SAVED_TO, "{got:?} vs {want:?}");
         }
     }
+}
+
+#[test]
+fn saved_manual_heights_reach_klippers_fit() {
+    // Six probes more, on a ring, so that the points outnumber Klipper's
+    // six settings; the nozzle measured by hand 0.1 mm higher than the
+    // settings put it, 5 mm up at each probe's point, where the saved
+    // probes agree with the settings.
+    let ring = &probe_rings(80.0, 1, 6)[1..];
+    let raised = 0.1;
+    let mut extra = String::new();
+    for (i, [x, y]) in ring.iter().enumerate() {
+        let i = PROBES.len() + i;
+        extra.push_str(&format!(
+            "#*# height{i} = {Z_OFFSET}\n#*# height{i}_pos = {}\n",
+            stable([*x, *y, Z_OFFSET])
+        ));
+    }
+    for (i, [x, y]) in PROBES.iter().chain(ring).enumerate() {
+        extra.push_str(&format!(
+            "#*# manual_height{i} = {}\n#*# manual_height{i}_pos = {}\n",
+            5.0 + raised,
+            stable([*x, *y, 5.0])
+        ));
+    }
+    let printer = parse_printer(&printer_cfg(&extra), Path::new("printer.cfg")).unwrap();
+    let configured = printer.delta.to_params().to_vector();
+    let delta = LinearDelta::typical();
+    let readings = |x: &[f64]| {
+        let q = delta.inverse(configured.as_slice(), x).unwrap();
+        [q[0], q[1], q[2]]
+    };
+    let probes: Vec<[f64; 3]> = printer.saved.probes.iter().map(|x| readings(x)).collect();
+    let manual_heights: Vec<ReadHeight> = (printer.saved.manual_heights.iter())
+        .map(|m| ReadHeight {
+            readings: readings(&m[..3]),
+            height: m[3],
+        })
+        .collect();
+    assert_eq!((probes.len(), manual_heights.len()), (10, 10));
+    // DELTA_CALIBRATE on the probes and the manual heights, the saved
+    // distance aside, each height weighing as a probe (klipper::fit): the
+    // settings but for a common height s leave E = K s² + M (s − 0.1)²,
+    // least at s = 0.1 M / (K + M), 0.05 mm for as many manual heights as
+    // probes at the same points (where no other setting's pattern of
+    // heights does better, its product with the residuals being zero).
+    let z_offset = printer.saved.z_offset.unwrap();
+    let fitted = fit(&printer.delta, &probes, z_offset, &manual_heights, &[]).unwrap();
+    let sent = fitted.to_params().to_vector();
+    let q = delta.inverse(sent.as_slice(), &[0.0; 3]).unwrap();
+    let height = delta
+        .forward(configured.as_slice(), q.as_slice(), &[0.0; 3])
+        .unwrap()[2];
+    // Within the saved positions' rounding and the descent's stop (its
+    // steps summing to 1e-5).
+    assert!((height + raised / 2.0).abs() < SAVED_TO + 1e-5, "{height}");
 }
 
 #[test]

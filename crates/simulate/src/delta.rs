@@ -46,7 +46,7 @@ use parcal_dataset::mechanism::{
 };
 use parcal_kinematics::Vec3;
 use parcal_kinematics::delta::{
-    DeltaParams, FIRST_LAYER, Limits, LinearDelta, Tolerances, probe_rings,
+    DeltaParams, FIRST_LAYER, GAUGE_BLOCK, Limits, LinearDelta, Tolerances, probe_rings,
 };
 use parcal_kinematics::mechanism::Mechanism;
 
@@ -341,9 +341,10 @@ pub fn measure_delta(
         .collect::<Result<Vec<_>, SimulateError>>()?;
 
     let mut noise = rng(Stream::Heights);
-    let heights = (0..scenario.manual_heights)
-        .map(|k| {
-            let commanded = manual_height_position(scenario, k);
+    let heights = manual_height_positions(scenario.print_radius, scenario.manual_heights)
+        .into_iter()
+        .enumerate()
+        .map(|(k, commanded)| {
             let reached = delta
                 .inverse(&configured, &commanded)
                 .and_then(|q| delta.forward(&truth, q.as_slice(), &commanded))
@@ -433,17 +434,22 @@ pub fn measure_delta(
     })
 }
 
-/// Where height `k` is measured by hand (module doc): the centre, then
-/// evenly on a ring at 0.6 of the print radius, 5 mm up.
-fn manual_height_position(scenario: &DeltaScenario, k: usize) -> [f64; 3] {
-    const GAUGE: f64 = 5.0;
-    if k == 0 {
-        return [0.0, 0.0, GAUGE];
-    }
-    let around = (scenario.manual_heights - 1) as f64;
-    let angle = 2.0 * std::f64::consts::PI * (k - 1) as f64 / around;
-    let r = 0.6 * scenario.print_radius;
-    [r * angle.cos(), r * angle.sin(), GAUGE]
+/// Where `count` heights are measured by hand within the print radius
+/// `print_radius` (module doc): the commanded positions, the first at the
+/// centre, the others evenly on a ring at 0.6 of the print radius from
+/// +x, the nozzle over a gauge block ([`GAUGE_BLOCK`]).
+pub fn manual_height_positions(print_radius: f64, count: usize) -> Vec<[f64; 3]> {
+    let around = count.saturating_sub(1) as f64;
+    let r = 0.6 * print_radius;
+    (0..count)
+        .map(|k| {
+            if k == 0 {
+                return [0.0, 0.0, GAUGE_BLOCK];
+            }
+            let angle = 2.0 * std::f64::consts::PI * (k - 1) as f64 / around;
+            [r * angle.cos(), r * angle.sin(), GAUGE_BLOCK]
+        })
+        .collect()
 }
 
 /// The trackers of `scenario` measuring the printer of true parameters

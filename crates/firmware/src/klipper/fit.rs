@@ -1,19 +1,24 @@
 //! Klipper's `DELTA_CALIBRATE` fit, reimplemented from its published
-//! behaviour: the baseline beside RepRapFirmware's [`crate::autocal`].
+//! behaviour (`calculate_params` of klippy/extras/delta_calibrate.py): the
+//! baseline beside RepRapFirmware's [`crate::autocal`].
 //!
-//! Klipper fits its delta settings to probes and, in its enhanced
-//! calibration (`DELTA_ANALYZE`), to distances measured on a printed part,
-//! every position given by the carriages' readings `q` (its stable
-//! positions: `q_i = −s_i d_i`, [`super::DeltaCalibrateResults`]) and
-//! placed by the forward kinematics `f(p, q)` of the settings `p` tried:
+//! Klipper fits its delta settings to probes, to heights measured by hand
+//! (`DELTA_ANALYZE MANUAL_HEIGHT`) and, in its enhanced calibration
+//! (`DELTA_ANALYZE`), to distances measured on a printed part, every
+//! position given by the carriages' readings `q` (its stable positions:
+//! `q_i = −s_i d_i`, [`super::DeltaCalibrateResults`]) and placed by the
+//! forward kinematics `f(p, q)` of the settings `p` tried:
 //!
 //! ```text
-//! E(p) = w Σ_k (z(f(p, q_k)) − z_offset)² + Σ_j (|f(p, q_a,j) − f(p, q_b,j)| − d_j)²
+//! E(p) = w [Σ_m (z(f(p, q_m)) − h_m)² + Σ_k (z(f(p, q_k)) − z_offset)²]
+//!        + Σ_j (|f(p, q_a,j) − f(p, q_b,j)| − d_j)²
 //! ```
 //!
-//! with `w = D / (0.5 K)` for `K` probes and `D` distances (1 without
-//! distances). It adjusts `delta_radius`, the angles of towers A and B and
-//! the three `position_endstop`s, and with distances the three
+//! over the manual heights `h_m`, the probes and the distances `d_j`, with
+//! `w = D / (0.5 K)` for `K` probes and `D` distances (1 without
+//! distances): a manual height weighs as a probe, but only the probes
+//! count in `w`. It adjusts `delta_radius`, the angles of towers A and B
+//! and the three `position_endstop`s, and with distances the three
 //! `arm_length`s too, by coordinate descent: each parameter in turn is
 //! moved by its step (1 mm or degree at first) up, else down; a move that
 //! lowers `E` is kept and its step grows by 1.1, else the step shrinks by
@@ -50,32 +55,57 @@ pub struct ReadDistance {
     pub distance: f64,
 }
 
+/// A height of the nozzle above the bed measured by hand at the position
+/// of the carriages' readings (mm; Klipper's `manual_height{i}` at
+/// `manual_height{i}_pos`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadHeight {
+    /// The carriages' readings.
+    pub readings: [f64; 3],
+    /// The height measured.
+    pub height: f64,
+}
+
 /// The settings Klipper's `DELTA_CALIBRATE` fits to probes that triggered
-/// at the readings `probes` with the probe's `z_offset`, and to
-/// `distances` if any (module doc), starting from `configured`.
+/// at the readings `probes` with the probe's `z_offset`, to the heights
+/// measured by hand `manual_heights` and to `distances`, if any (module
+/// doc), starting from `configured`.
 pub fn fit(
     configured: &KlipperDelta,
     probes: &[[f64; 3]],
     z_offset: f64,
+    manual_heights: &[ReadHeight],
     distances: &[ReadDistance],
 ) -> Result<KlipperDelta, FirmwareError> {
-    if probes.len() < 3 || probes.len() > MAX_PROBE_POINTS || distances.len() > MAX_PROBE_POINTS {
+    if probes.len() < 3
+        || probes.len() > MAX_PROBE_POINTS
+        || manual_heights.len() > MAX_PROBE_POINTS
+        || distances.len() > MAX_PROBE_POINTS
+    {
         return Err(FirmwareError::Calibration(format!(
-            "Klipper's fit takes 3 to {MAX_PROBE_POINTS} probes and at most as many distances, got {} and {}",
+            "Klipper's fit takes 3 to {MAX_PROBE_POINTS} probes and at most as many manual heights and distances, got {}, {} and {}",
             probes.len(),
+            manual_heights.len(),
             distances.len()
         )));
     }
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
     if !(z_offset.is_finite()
         && probes.iter().all(|q| finite(q))
+        && (manual_heights.iter()).all(|m| finite(&m.readings) && m.height.is_finite())
         && (distances.iter())
             .all(|d| finite(&d.first) && finite(&d.second) && d.distance.is_finite()))
     {
         return Err(FirmwareError::Calibration(
-            "Klipper's fit takes finite readings, z_offset and distances".into(),
+            "Klipper's fit takes finite readings, z_offset, manual heights and distances".into(),
         ));
     }
+    // Klipper's `height_positions`: the manual heights, then the probes,
+    // each the height its readings should be at.
+    let height_positions: Vec<(f64, &[f64; 3])> = (manual_heights.iter())
+        .map(|m| (m.height, &m.readings))
+        .chain(probes.iter().map(|q| (z_offset, q)))
+        .collect();
     let extended = !distances.is_empty();
     let z_weight = if extended {
         distances.len() as f64 / (MEASURE_WEIGHT * probes.len() as f64)
@@ -93,11 +123,11 @@ pub fn fit(
                 .map(|x| Vector3::new(x[0], x[1], x[2]))
         };
         let mut heights = 0.0;
-        for q in probes {
+        for &(goal, q) in &height_positions {
             let Some(x) = at(q) else {
                 return UNREACHABLE;
             };
-            heights += (x.z - z_offset).powi(2);
+            heights += (x.z - goal).powi(2);
         }
         let mut total = z_weight * heights;
         for d in distances {
@@ -199,7 +229,7 @@ mod tests {
                 }
             })
             .collect();
-        let fitted = fit(&configured, &probes, z_offset, &distances).unwrap();
+        let fitted = fit(&configured, &probes, z_offset, &[], &distances).unwrap();
         // The descent stops when its steps sum to 1e-5, but moving one
         // setting at a time it creeps along the valleys of correlated
         // settings (the rods against the radius and the angles): it stops
@@ -218,9 +248,75 @@ mod tests {
             );
         }
         // Probes alone leave the rods as configured.
-        let heights_only = fit(&configured, &probes, z_offset, &[]).unwrap();
+        let heights_only = fit(&configured, &probes, z_offset, &[], &[]).unwrap();
         assert_eq!(heights_only.arm_lengths, configured.arm_lengths);
-        assert!(fit(&configured, &probes[..2], z_offset, &[]).is_err());
-        assert!(fit(&configured, &probes, f64::NAN, &[]).is_err());
+        assert!(fit(&configured, &probes[..2], z_offset, &[], &[]).is_err());
+        assert!(fit(&configured, &probes, f64::NAN, &[], &[]).is_err());
+    }
+
+    /// The nozzle's true height on `truth` where `fitted` sends it to the
+    /// bed's centre at z = 0: the first layer's absolute height error.
+    fn centre_height(truth: &KlipperDelta, fitted: &KlipperDelta) -> f64 {
+        let delta = LinearDelta::typical();
+        let sent = fitted.to_params().to_vector();
+        let q = delta.inverse(sent.as_slice(), &[0.0; 3]).unwrap();
+        let reached = truth.to_params().to_vector();
+        delta
+            .forward(reached.as_slice(), q.as_slice(), &[0.0; 3])
+            .unwrap()[2]
+    }
+
+    #[test]
+    fn manual_heights_weigh_as_probes_on_the_bed_height() {
+        // Off in the six settings fitted without distances, the rods right.
+        let (configured, mut truth) = printer();
+        truth.arm_lengths = configured.arm_lengths;
+        // The probe triggers d above the bed where its z_offset says 0.7.
+        let (z_offset, d) = (0.7, 0.1);
+        let points = probe_rings(95.0, 3, 12);
+        let probes: Vec<[f64; 3]> = (points.iter())
+            .map(|&[x, y]| readings(&truth, [x, y, z_offset + d]))
+            .collect();
+        // Each probe point measured again by hand on a 5 and a 10 mm gauge
+        // block, exactly.
+        let manual: Vec<ReadHeight> = [5.0, 10.0]
+            .into_iter()
+            .flat_map(|gauge| points.iter().map(move |&[x, y]| [x, y, gauge]))
+            .map(|x| ReadHeight {
+                readings: readings(&truth, x),
+                height: x[2],
+            })
+            .collect();
+        // With the settings true but for a common height s (the three
+        // endstops moved together move the nozzle by s at any readings),
+        // E = K (d + s)² + M s², least at s = −d K / (K + M): the fitted
+        // z = 0 is d K / (K + M) above the bed. Any other setting moves
+        // the heights by a pattern g(x, y) (hardly changing over 10 mm of
+        // height), whose product with these residuals, d M / (K + M) at
+        // the probes and −d K / (K + M) at the manual heights, is
+        // d K M / (K + M) (mean of g over the probes − over the manual
+        // heights): zero here, the manual heights at the probes' points,
+        // so that this is the least squares. Elsewhere the radius's bowl
+        // would take part of the offset.
+        // The descent stops when its steps sum to THRESHOLD, each setting
+        // then within its step of where moving it alone lowers E no more;
+        // the centre's height moves by a third of each endstop's change,
+        // by R / sqrt(L² − R²) ≈ 0.58 of the radius's and not at first
+        // order with an angle: within THRESHOLD of the least squares'.
+        let (k, m) = (probes.len() as f64, manual.len() as f64);
+        for (heights, wanted) in [(&[][..], d), (&manual[..], d * k / (k + m))] {
+            let fitted = fit(&configured, &probes, z_offset, heights, &[]).unwrap();
+            let height = centre_height(&truth, &fitted);
+            assert!(
+                (height - wanted).abs() < THRESHOLD,
+                "{} manual heights: {height} mm against {wanted}",
+                heights.len()
+            );
+        }
+        let mut unmeasured = manual.clone();
+        unmeasured[3].height = f64::INFINITY;
+        assert!(fit(&configured, &probes, z_offset, &unmeasured, &[]).is_err());
+        let too_many = vec![manual[0]; MAX_PROBE_POINTS + 1];
+        assert!(fit(&configured, &probes, z_offset, &too_many, &[]).is_err());
     }
 }
