@@ -33,8 +33,11 @@ use crate::recorded::recorded;
 /// one written back), `cost` (the position errors of the firmware reading
 /// `text` on the calibrated printer, mm: `z_offset`, `flatness_rms`,
 /// `flatness_max`, `volume_rms`, `volume_max`) and `cost_sentence`, as
-/// `parcal export` prints it; `None` for a hexapod or a cable robot. A
-/// rejected calibration is used only with `accept_rejected`.
+/// `parcal export` prints it, `trigger_height` (the probe's, mm, written
+/// where the data determine it, else `None`) and `trigger_sentence`
+/// (whether it was written or kept, and why); `None` for a hexapod or a
+/// cable robot. A rejected calibration is used only with
+/// `accept_rejected`.
 #[pyfunction]
 #[pyo3(signature = (calibration, format, *, print_radius=None, config=None, accept_rejected=false))]
 pub fn export<'py>(
@@ -80,7 +83,13 @@ pub fn export<'py>(
                 hexapod_export(&record, hexapod).map_err(|e| to_py(format!("{name}: {e}")))?;
             dict.set_item("text", text)?;
             dict.set_item("lost", Vec::<String>::new())?;
-            for key in ["print_radius", "cost", "cost_sentence"] {
+            for key in [
+                "print_radius",
+                "cost",
+                "cost_sentence",
+                "trigger_height",
+                "trigger_sentence",
+            ] {
                 dict.set_item(key, py.None())?;
             }
             return Ok(dict);
@@ -120,6 +129,8 @@ pub fn export<'py>(
     dict.set_item("text", &lines.text)?;
     dict.set_item("lost", &lines.lost)?;
     dict.set_item("cost_sentence", lines.cost_sentence())?;
+    dict.set_item("trigger_height", lines.trigger_height)?;
+    dict.set_item("trigger_sentence", &lines.trigger_sentence)?;
     match lines.cost {
         Some((errors, workspace)) => {
             let cost = PyDict::new(py);

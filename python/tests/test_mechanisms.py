@@ -549,6 +549,21 @@ def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tm
         assert 0 <= cost["flatness_rms"] <= cost["flatness_max"] and 0 <= cost["volume_rms"] <= cost["volume_max"]
     # Klipper holds no bed tilt: what is lost is said.
     assert any("bed tilt" in sentence for sentence in mine["lost"])
+    # Probe heights alone leave the trigger height at its prior: kept, said why.
+    assert mine["trigger_height"] is None and mine["trigger_sentence"].startswith("kept: ")
+    assert f"# parcal: {mine['trigger_sentence']}\n" in mine["text"]
+    # Heights measured by hand determine it: written, as the command writes it.
+    heights = tmp_path / "heights"
+    cli("simulate", "--mechanism", "delta", "--seed", 5, "--manual-heights", 5, "--height-sigma", 0.02, "--out", heights)
+    determined = tmp_path / "determined.json"
+    cli("calibrate", heights, "--out", determined)
+    out = tmp_path / "determined.g"
+    cli("export", "--calibration", determined, "--format", "reprapfirmware", "--out", out)
+    written = parcal.export(str(determined), "reprapfirmware")
+    assert written["text"] == out.read_text() and written["trigger_sentence"].startswith("written: ")
+    trigger = parcal.MechanismCalibration.read(determined)
+    value = trigger.values[trigger.names.index("trigger_height")]
+    assert written["trigger_height"] == round(value, 3) and f"\nG31 Z{value:.3f}\n" in written["text"]
     given = parcal.export(parcal.MechanismCalibration.read(calibration), "reprapfirmware", print_radius=90.0)
     assert given["print_radius"] == 90.0 and " B90.0 " in given["text"]
     with pytest.raises(parcal.Error, match="format: expected one of machine-json, genhexkins, summary, reprapfirmware, klipper, hangprinter, got \"marlin\""):

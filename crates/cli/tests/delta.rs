@@ -847,6 +847,44 @@ fn klipper_import_and_export_round_trip() {
             value(name)
         );
     }
+    // The probe's z_offset configured (a BLTouch's): the same log's
+    // commanded heights are PROBE's, the trigger height's prior that
+    // z_offset. Moving the carriages together moves the nozzle straight
+    // up, so every parameter is the same and the trigger height moves by
+    // the z_offset.
+    let bltouch = d.join("bltouch.cfg");
+    let text = fs::read_to_string(d.join("printer.cfg")).unwrap();
+    fs::write(&bltouch, format!("{text}\n[bltouch]\nz_offset: 1.5\n")).unwrap();
+    let offset = d.join("offset");
+    ok(&[
+        "import",
+        "klipper",
+        "--config",
+        s(&bltouch),
+        "--probes",
+        s(&d.join("probes.csv")),
+        "--out",
+        s(&offset),
+    ]);
+    let machine: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(offset.join("machine.json")).unwrap()).unwrap();
+    assert_eq!(machine["trigger_height"]["value"], 1.5);
+    ok(&["calibrate", s(&offset)]);
+    let shifted: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(offset.join("calibration.json")).unwrap())
+            .unwrap();
+    for parameter in shifted["parameters"].as_array().unwrap() {
+        let name = parameter["name"].as_str().unwrap();
+        let shift = if name == "trigger_height" { 1.5 } else { 0.0 };
+        let sigma = parameter["sigma"].as_f64().unwrap_or(0.0);
+        let moved = parameter["value"].as_f64().unwrap() - value(name) - shift;
+        // The carriages' common move is exact: what differs is rounding,
+        // some 1e-13 mm.
+        assert!(
+            moved.abs() <= 1e-9 * sigma.max(1e-3),
+            "{name}: {moved:e} (sigma {sigma})"
+        );
+    }
 }
 
 #[test]
@@ -1047,6 +1085,35 @@ fn klippers_manual_heights_find_a_probe_triggering_off_its_z_offset() {
     );
     assert!(sigma < 0.5 * alone_sigma, "{sigma} against {alone_sigma}");
     assert!((found - TRIGGER).abs() < 4.0 * sigma, "{found} ± {sigma}");
+    // Exported into the printer.cfg: the z_offset the manual heights found,
+    // as PROBE_CALIBRATE saves it; from the probes alone it is left as
+    // configured, and the file says why.
+    let exported = |name: &str| {
+        let out = d.join(format!("{name}-new.cfg"));
+        ok(&[
+            "export",
+            "--calibration",
+            s(&d.join(name).join("calibration.json")),
+            "--format",
+            "klipper",
+            "--config",
+            s(&d.join(format!("{name}.cfg"))),
+            "--out",
+            s(&out),
+        ]);
+        fs::read_to_string(out).unwrap()
+    };
+    let text = exported("manual");
+    assert!(
+        text.contains(&format!("#*# [probe]\n#*# z_offset = {found:.3}\n")),
+        "{text}"
+    );
+    let text = exported("probes");
+    assert!(!text.contains("z_offset = "), "{text}");
+    assert!(
+        text.contains("# parcal: kept: the probe's trigger height as configured"),
+        "{text}"
+    );
     // The same heights held out, the second measured 1 mm high: named by
     // its line.
     let held = d.join("held");

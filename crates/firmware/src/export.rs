@@ -9,7 +9,10 @@
 //! alone or in the printer's `printer.cfg`), read back by this crate's
 //! reader of that firmware, and the machine the
 //! firmware will then believe in is compared with the calibrated one by
-//! [`position_errors`]: the cost of the export, rounding included.
+//! [`position_errors`]: the cost of the export, rounding included. The
+//! probe's trigger height is written too where the data determined it
+//! ([`TriggerHeight`]: RepRapFirmware's `G31 Z`, Klipper's `z_offset`),
+//! and read back.
 
 use std::path::Path;
 
@@ -50,6 +53,51 @@ impl Firmware {
     }
 }
 
+/// The probe's trigger height, the nozzle's height above the bed when the
+/// probe triggers (mm), as a calibration leaves it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TriggerHeight {
+    /// An unknown the data determined: written (`G31 Z`, the probe's
+    /// `z_offset`).
+    Determined(f64),
+    /// An unknown the data left at its prior (`ratio`: its sigma over the
+    /// prior's): left as configured.
+    AtPrior {
+        /// The posterior sigma over the prior sigma.
+        ratio: f64,
+    },
+    /// Not an unknown (no probe heights): left as configured.
+    Absent,
+}
+
+impl TriggerHeight {
+    /// The value to write, if any.
+    fn written(self) -> Option<f64> {
+        match self {
+            Self::Determined(value) => Some(value),
+            Self::AtPrior { .. } | Self::Absent => None,
+        }
+    }
+
+    /// What the export does with it, in one sentence that says whether it
+    /// is `written:` or `kept:` (none when absent).
+    fn sentence(self, firmware: Firmware) -> Option<String> {
+        let setting = match firmware {
+            Firmware::RepRapFirmware => "G31 Z",
+            Firmware::Klipper => "the probe's z_offset",
+        };
+        match self {
+            Self::Determined(value) => Some(format!(
+                "written: the probe's trigger height, {value:.3} mm, which the data determine ({setting})"
+            )),
+            Self::AtPrior { ratio } => Some(format!(
+                "kept: the probe's trigger height as configured ({setting}): the data determine it no better than its prior (sigma {ratio:.2} of the prior's); heights measured by hand do"
+            )),
+            Self::Absent => None,
+        }
+    }
+}
+
 /// A calibrated delta written for a firmware.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Export {
@@ -59,6 +107,11 @@ pub struct Export {
     pub text: String,
     /// The parameters the firmware reads from `text`.
     pub written: DeltaParams,
+    /// The trigger height the firmware reads from `text`, if written.
+    pub trigger_height: Option<f64>,
+    /// Whether the trigger height was written or kept, and why, in one
+    /// sentence (none without a trigger height among the unknowns).
+    pub trigger_sentence: Option<String>,
     /// What the firmware cannot hold, one sentence each.
     pub lost: Vec<String>,
     /// The position errors of the firmware reading `text` on the
@@ -67,12 +120,14 @@ pub struct Export {
 }
 
 /// The calibrated parameters `calibrated` of a delta with printable
-/// radius `print_radius`, written for `firmware` (module documentation),
-/// alone or into the configuration `into` (Klipper's `printer.cfg`, its
-/// `SAVE_CONFIG` block updated as Klipper's `SAVE_CONFIG` would:
-/// [`KlipperDelta::saved_into`]); the cost evaluated over `workspace`.
+/// radius `print_radius`, and its probe's `trigger` height, written for
+/// `firmware` (module documentation), alone or into the configuration
+/// `into` (Klipper's `printer.cfg`, its `SAVE_CONFIG` block updated as
+/// Klipper's `SAVE_CONFIG` would: [`KlipperDelta::saved_into`]); the cost
+/// evaluated over `workspace`.
 pub fn export(
     calibrated: &DeltaParams,
+    trigger: TriggerHeight,
     print_radius: f64,
     firmware: Firmware,
     into: Option<&Path>,
@@ -97,9 +152,13 @@ pub fn export(
                         .to_string(),
                 });
             }
+            let mut lines = RrfDelta::from_params(&canonical, print_radius)?.calibration_lines();
+            if let Some(value) = trigger.written() {
+                lines.push_str(&format!("G31 Z{value:.3}\n"));
+            }
             (
                 String::new(),
-                RrfDelta::from_params(&canonical, print_radius)?.calibration_lines(),
+                lines,
                 "lengths and angles to 0.001, the tilt to 0.001 %",
             )
         }
@@ -116,7 +175,7 @@ pub fn export(
             let (before, block) = match into {
                 Some(path) => {
                     let text = read_capped(path, MAX_CONFIG_BYTES, "configuration")?;
-                    let (main, block) = klipper.saved_into(&text);
+                    let (main, block) = klipper.saved_into(&text, trigger.written());
                     let newline = if main.is_empty() || main.ends_with('\n') {
                         ""
                     } else {
@@ -124,7 +183,7 @@ pub fn export(
                     };
                     (format!("{main}{newline}"), block)
                 }
-                None => (String::new(), klipper.save_config_block()),
+                None => (String::new(), klipper.save_config_block(trigger.written())),
             };
             (before, block, "values to 1e-6")
         }
@@ -133,7 +192,8 @@ pub fn export(
         "rounding as {} writes ({precision})",
         firmware.name()
     ));
-    let written = read_back(&before, &lines, firmware, into)?;
+    let (written, trigger_height) = read_back(&before, &lines, firmware, into)?;
+    let trigger_height = trigger_height.filter(|_| trigger.written().is_some());
     let cost = position_errors(&canonical, &written, workspace)?;
     let comment = firmware.comment();
     let mut text = format!(
@@ -147,10 +207,16 @@ pub fn export(
         "{comment} parcal: cost: {}\n",
         cost_sentence(&cost, workspace)
     ));
+    let trigger_sentence = trigger.sentence(firmware);
+    if let Some(sentence) = &trigger_sentence {
+        text.push_str(&format!("{comment} parcal: {sentence}\n"));
+    }
     text.push_str(&lines);
     Ok(Export {
         text,
         written,
+        trigger_height,
+        trigger_sentence,
         lost,
         cost,
     })
@@ -188,17 +254,22 @@ fn canonical(params: &DeltaParams, print_radius: f64) -> Result<DeltaParams, Fir
     Ok(DeltaParams::from_slice(canonical.as_slice()))
 }
 
-/// The parameters `firmware`'s reader takes from `lines` after `before`,
-/// the text of the configuration `into` if any.
+/// The parameters and trigger height `firmware`'s reader takes from
+/// `lines` after `before`, the text of the configuration `into` if any
+/// (RepRapFirmware's trigger height its default where no `G31` is
+/// written).
 fn read_back(
     before: &str,
     lines: &str,
     firmware: Firmware,
     into: Option<&Path>,
-) -> Result<DeltaParams, FirmwareError> {
+) -> Result<(DeltaParams, Option<f64>), FirmwareError> {
     let source = into.unwrap_or(Path::new("the exported lines"));
     Ok(match firmware {
-        Firmware::RepRapFirmware => parse_config(lines, source)?.delta.to_params(),
+        Firmware::RepRapFirmware => {
+            let config = parse_config(lines, source)?;
+            (config.delta.to_params(), Some(config.probe.trigger_height))
+        }
         // Alone, the block ends a printer.cfg whose [printer] has delta
         // kinematics.
         Firmware::Klipper => {
@@ -207,9 +278,8 @@ fn read_back(
             } else {
                 "[printer]\nkinematics: delta\n"
             };
-            parse_printer(&format!("{before}{lines}"), source)?
-                .delta
-                .to_params()
+            let printer = parse_printer(&format!("{before}{lines}"), source)?;
+            (printer.delta.to_params(), printer.z_offset)
         }
     })
 }
@@ -247,6 +317,7 @@ mod tests {
         let workspace = Workspace::of_printer(110.0, 300.0);
         let export = export(
             &calibrated(),
+            TriggerHeight::Absent,
             110.0,
             Firmware::RepRapFirmware,
             None,
@@ -263,7 +334,15 @@ mod tests {
     #[test]
     fn klipper_loses_the_tilt_and_says_what_it_costs() {
         let workspace = Workspace::of_printer(110.0, 300.0);
-        let export = export(&calibrated(), 110.0, Firmware::Klipper, None, &workspace).unwrap();
+        let export = export(
+            &calibrated(),
+            TriggerHeight::Absent,
+            110.0,
+            Firmware::Klipper,
+            None,
+            &workspace,
+        )
+        .unwrap();
         assert_eq!(export.written.tilt, [0.0; 2]);
         assert!(export.lost.iter().any(|s| s.contains("bed tilt")));
         // A tilt of 0.05 % across a radius of 110 mm: 55 µm at the edge.
@@ -294,17 +373,26 @@ mod tests {
         let path = dir.path().join("printer.cfg");
         let old = KlipperDelta::from_params(&DeltaParams::symmetric(269.0, 134.0, 299.0), 110.0)
             .unwrap()
-            .save_config_block();
+            .save_config_block(None);
         std::fs::write(&path, format!("{main}{old}{saved}")).unwrap();
         let into = export(
             &calibrated(),
+            TriggerHeight::Absent,
             110.0,
             Firmware::Klipper,
             Some(&path),
             &workspace,
         )
         .unwrap();
-        let alone = export(&calibrated(), 110.0, Firmware::Klipper, None, &workspace).unwrap();
+        let alone = export(
+            &calibrated(),
+            TriggerHeight::Absent,
+            110.0,
+            Firmware::Klipper,
+            None,
+            &workspace,
+        )
+        .unwrap();
         assert_eq!(into.written, alone.written);
         assert_eq!(into.cost, alone.cost);
         assert!(
@@ -319,6 +407,7 @@ mod tests {
         assert_eq!(back.saved.probes.len(), 1);
         let refused = export(
             &calibrated(),
+            TriggerHeight::Absent,
             110.0,
             Firmware::RepRapFirmware,
             Some(&path),
@@ -330,5 +419,77 @@ mod tests {
             refused.contains("written alone, for config-override.g"),
             "{refused}"
         );
+    }
+
+    /// A determined trigger height is written as each firmware writes it
+    /// and read back to its rounding; one at its prior is left as
+    /// configured, and the file says why.
+    #[test]
+    fn a_determined_trigger_height_is_written_and_read_back() {
+        let workspace = Workspace::of_printer(110.0, 300.0);
+        let at = |trigger, firmware, into: Option<&Path>| {
+            export(&calibrated(), trigger, 110.0, firmware, into, &workspace).unwrap()
+        };
+        let determined = TriggerHeight::Determined(0.89687);
+        let rrf = at(determined, Firmware::RepRapFirmware, None);
+        assert!(rrf.text.ends_with("G31 Z0.897\n"), "{}", rrf.text);
+        assert_eq!(rrf.trigger_height, Some(0.897));
+        assert!(rrf.text.contains(
+            "; parcal: written: the probe's trigger height, 0.897 mm, which the data determine (G31 Z)\n"
+        ));
+        let klipper = at(determined, Firmware::Klipper, None);
+        assert!(
+            klipper.text.contains("#*# [probe]\n#*# z_offset = 0.897\n"),
+            "{}",
+            klipper.text
+        );
+        assert_eq!(klipper.trigger_height, Some(0.897));
+        // Neither the parameters nor the cost change with it.
+        let absent = at(TriggerHeight::Absent, Firmware::Klipper, None);
+        assert_eq!(
+            (klipper.written, klipper.cost),
+            (absent.written, absent.cost)
+        );
+        assert!(!absent.text.contains("z_offset") && !absent.text.contains("trigger height"));
+        // At its prior: nothing written, the reason said.
+        for firmware in [Firmware::RepRapFirmware, Firmware::Klipper] {
+            let kept = at(TriggerHeight::AtPrior { ratio: 0.998 }, firmware, None);
+            assert_eq!(kept.trigger_height, None);
+            assert!(
+                !kept.text.contains("\nG31") && !kept.text.contains("z_offset = "),
+                "{}",
+                kept.text
+            );
+            assert!(
+                kept.text
+                    .contains("parcal: kept: the probe's trigger height as configured")
+                    && kept.text.contains("sigma 1.00 of the prior's"),
+                "{}",
+                kept.text
+            );
+        }
+        // Into a printer.cfg with a BLTouch: its section holds the offset,
+        // the saved one replaced.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("printer.cfg");
+        let main = "[printer]\nkinematics: delta\ndelta_radius: 134\n\n[stepper_a]\n\
+                    arm_length: 269\nposition_endstop: 299\n[bltouch]\nsensor_pin: ^PA1\n\
+                    z_offset: 0.5\n";
+        let saved = "#*# <---------------------- SAVE_CONFIG ---------------------->\n\
+                     #*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n\
+                     #*#\n#*# [bltouch]\n#*# z_offset = 0.650\n";
+        std::fs::write(&path, format!("{main}{saved}")).unwrap();
+        let into = at(determined, Firmware::Klipper, Some(&path));
+        assert!(
+            into.text.contains("#*# [bltouch]\n#*# z_offset = 0.897\n"),
+            "{}",
+            into.text
+        );
+        assert!(
+            !into.text.contains("[probe]") && !into.text.contains("0.650"),
+            "{}",
+            into.text
+        );
+        assert_eq!(into.trigger_height, Some(0.897));
     }
 }

@@ -10,6 +10,9 @@
 //! - `[stepper_a]`, `[stepper_b]`, `[stepper_c]`: `angle` (degrees,
 //!   absolute; defaults 210, 330, 90), `arm_length` (B and C default to
 //!   A's), `position_endstop` (mm; B and C default to A's).
+//! - `[probe]` or `[bltouch]` ([`PROBE_SECTIONS`]): `z_offset`, the
+//!   nozzle's height above the bed when the probe triggers (mm), which
+//!   `PROBE_CALIBRATE` saves in the block.
 //!
 //! Klipper's homed carriage height is `position_endstop_i +
 //! sqrt(arm_length_i^2 - delta_radius^2)`, the kinematics crate's
@@ -41,6 +44,10 @@ use save_config::SaveConfig;
 
 /// The steppers of the towers.
 const STEPPERS: [&str; 3] = ["stepper_a", "stepper_b", "stepper_c"];
+
+/// The sections a probe's `z_offset` is read from and saved in, the first
+/// a `printer.cfg` has: Klipper's probe, a BLTouch.
+pub const PROBE_SECTIONS: [&str; 2] = ["probe", "bltouch"];
 
 /// The parameters of a linear delta as Klipper holds them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,23 +98,32 @@ impl KlipperDelta {
     }
 
     /// The `SAVE_CONFIG` block Klipper writes after `DELTA_CALIBRATE`
-    /// (values to 1e-6, as Klipper writes them), to end a `printer.cfg`.
-    pub fn save_config_block(&self) -> String {
-        self.saved_in(SaveConfig::default()).render()
+    /// (values to 1e-6, as Klipper writes them), to end a `printer.cfg`;
+    /// with `z_offset`, the `[probe]` `z_offset` too, as
+    /// `PROBE_CALIBRATE` writes it (to 1e-3).
+    pub fn save_config_block(&self, z_offset: Option<f64>) -> String {
+        let probe = z_offset.map(|z| (PROBE_SECTIONS[0], z));
+        self.saved_in(SaveConfig::default(), probe).render()
     }
 
     /// `printer_cfg` as Klipper's `SAVE_CONFIG` would leave it with these
     /// settings: the text before its block, unchanged, and the block with
     /// `delta_radius` and each stepper's `angle`, `arm_length` and
-    /// `position_endstop` set, its other sections and options (a saved
-    /// `[delta_calibrate]`, a probe's `z_offset`, a bed mesh) kept.
-    pub fn saved_into<'a>(&self, printer_cfg: &'a str) -> (&'a str, String) {
+    /// `position_endstop` set, and with `z_offset` the probe's (in the
+    /// first of [`PROBE_SECTIONS`] the file has, else `[probe]`), its other
+    /// sections and options (a saved `[delta_calibrate]`, a bed mesh) kept.
+    pub fn saved_into<'a>(&self, printer_cfg: &'a str, z_offset: Option<f64>) -> (&'a str, String) {
         let (main, block) = SaveConfig::split(printer_cfg);
-        (main, self.saved_in(block).render())
+        let probe = z_offset.map(|z| (probe_section(main), z));
+        (main, self.saved_in(block, probe).render())
     }
 
-    /// `block` with these settings set.
-    fn saved_in(&self, mut block: SaveConfig) -> SaveConfig {
+    /// `block` with these settings set, and `probe`'s `z_offset` in its
+    /// section.
+    fn saved_in(&self, mut block: SaveConfig, probe: Option<(&str, f64)>) -> SaveConfig {
+        if let Some((section, z_offset)) = probe {
+            block.set(section, "z_offset", &format!("{z_offset:.3}"));
+        }
         block.set(
             "printer",
             "delta_radius",
@@ -257,6 +273,23 @@ fn strip_comment(text: &str) -> &str {
     text
 }
 
+/// The first of [`PROBE_SECTIONS`] that the main part of a `printer.cfg`,
+/// `main`, opens, else `[probe]`.
+fn probe_section(main: &str) -> &'static str {
+    let opened = |name: &str| {
+        main.lines()
+            .map(|line| strip_comment(line).trim())
+            .any(|line| {
+                line.strip_prefix('[')
+                    .and_then(|h| h.strip_suffix(']'))
+                    .is_some_and(|h| h.trim() == name)
+            })
+    };
+    (PROBE_SECTIONS.into_iter())
+        .find(|name| opened(name))
+        .unwrap_or(PROBE_SECTIONS[0])
+}
+
 /// A `printer.cfg`'s delta: its settings and the measurements its last
 /// `DELTA_CALIBRATE` saved.
 #[derive(Debug, Clone, PartialEq)]
@@ -264,6 +297,9 @@ fn strip_comment(text: &str) -> &str {
 pub struct KlipperPrinter {
     /// The delta settings.
     pub delta: KlipperDelta,
+    /// The probe's `z_offset` (mm), from the first of [`PROBE_SECTIONS`]
+    /// that gives one.
+    pub z_offset: Option<f64>,
     /// The `[delta_calibrate]` measurements, at the positions of the
     /// settings' parameters (none saved: empty).
     pub saved: DeltaCalibrateResults,
@@ -279,7 +315,18 @@ pub fn parse_printer(text: &str, path: &Path) -> Result<KlipperPrinter, Firmware
     let options = Options::parse(text, path)?;
     let delta = delta_settings(&options)?;
     let saved = delta_calibrate::read(&options, &delta.to_params())?;
-    Ok(KlipperPrinter { delta, saved })
+    let mut z_offset = None;
+    for section in PROBE_SECTIONS {
+        if let Some(z) = options.float(section, "z_offset")? {
+            z_offset = Some(z);
+            break;
+        }
+    }
+    Ok(KlipperPrinter {
+        delta,
+        z_offset,
+        saved,
+    })
 }
 
 /// The delta settings of a `printer.cfg`'s options.

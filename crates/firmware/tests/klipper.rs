@@ -56,7 +56,7 @@ fn the_save_config_block_overrides_and_reads_back() {
         arm_lengths: [270.111111, 269.888888, 270.0],
         position_endstops: [301.234567, 300.765432, 301.0],
     };
-    let text = format!("{PRINTER_CFG}\n{}", calibrated.save_config_block());
+    let text = format!("{PRINTER_CFG}\n{}", calibrated.save_config_block(None));
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("printer.cfg");
     std::fs::write(&path, &text).unwrap();
@@ -67,8 +67,37 @@ fn the_save_config_block_overrides_and_reads_back() {
     assert_eq!(
         KlipperDelta::from_params(&params, 110.0)
             .unwrap()
-            .save_config_block(),
-        calibrated.save_config_block()
+            .save_config_block(None),
+        calibrated.save_config_block(None)
+    );
+}
+
+#[test]
+fn the_probe_s_z_offset_is_read_and_saved_as_probe_calibrate_saves_it() {
+    let path = Path::new("printer.cfg");
+    assert_eq!(parse_printer(PRINTER_CFG, path).unwrap().z_offset, None);
+    let with = |section: &str, value: &str| {
+        format!("{PRINTER_CFG}\n[{section}]\nsensor_pin: ^PA1\nz_offset: {value}\n")
+    };
+    for section in ["probe", "bltouch"] {
+        let text = with(section, "1.25");
+        assert_eq!(parse_printer(&text, path).unwrap().z_offset, Some(1.25));
+        // SAVE_CONFIG's value overrides the main part's, to 1e-3.
+        let delta = parse_printer(&text, path).unwrap().delta;
+        let (main, block) = delta.saved_into(&text, Some(0.8126));
+        let saved = format!("{main}{block}");
+        assert!(
+            saved.contains(&format!("#*# [{section}]\n#*# z_offset = 0.813\n")),
+            "{saved}"
+        );
+        assert_eq!(parse_printer(&saved, path).unwrap().z_offset, Some(0.813));
+    }
+    let err = parse_printer(&with("probe", "high"), path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("[probe] z_offset: 'high' is not a number"),
+        "{err}"
     );
 }
 

@@ -42,7 +42,7 @@ pub struct ImportOptions {
     pub height_sigma: f64,
     /// The trigger height's standard deviation about the configured one
     /// (RepRapFirmware's `G31 Z`; Klipper's `z_offset` with the probes it
-    /// saved, else 0), a first-layer test's (mm).
+    /// saved, else its probe's, else 0), a first-layer test's (mm).
     pub trigger_sigma: f64,
 }
 
@@ -211,10 +211,12 @@ pub fn firmware_import(
         }
         FirmwareFormat::Klipper => {
             let printer = read_printer(config)?;
+            // A probe log's heights are PROBE's less the probe's z_offset:
+            // each commanded position is PROBE's, at the z_offset.
             let configured = Configured {
                 params: printer.delta.to_params(),
                 print_radius: printer.delta.print_radius,
-                trigger_height: 0.0,
+                trigger_height: printer.z_offset.unwrap_or_default(),
             };
             (configured, printer.saved)
         }

@@ -3,15 +3,18 @@
 //! them, for every front end: a linear delta's `M665`/`M666` lines or
 //! Klipper's `SAVE_CONFIG` block with what the firmware cannot hold and
 //! what that costs (docs/delta.md, "Export: what the firmware can hold"),
+//! and the probe's trigger height where the data determined it,
 //! a cable robot's `M669` anchors and `M666 R` spool radii
 //! (docs/cable-robots.md).
 
 use std::path::Path;
 
+use parcal_calibrate::mechanism::TRIGGER_HEIGHT;
+use parcal_calibrate::mechanism::identifiability::PRIOR_BOUND;
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
 use parcal_firmware::FirmwareError;
 use parcal_firmware::accuracy::{PositionErrors, Workspace};
-use parcal_firmware::export::{Firmware, cost_sentence, export};
+use parcal_firmware::export::{Firmware, TriggerHeight, cost_sentence, export};
 use parcal_firmware::hangprinter::HangprinterConfig;
 use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::delta::DeltaParams;
@@ -70,6 +73,12 @@ pub struct FirmwareLines {
     /// the calibrated printer over its workspace, whose printable radius is
     /// the one written back.
     pub cost: Option<(PositionErrors, Workspace)>,
+    /// A delta's probe's trigger height as written and read back (mm), if
+    /// the data determined it ([`trigger_height`]).
+    pub trigger_height: Option<f64>,
+    /// Whether a delta's trigger height was written or kept as configured,
+    /// and why, in one sentence (none without probe heights).
+    pub trigger_sentence: Option<String>,
 }
 
 impl FirmwareLines {
@@ -154,6 +163,8 @@ pub fn firmware_lines(
                 text: config.lines(),
                 lost: Vec::new(),
                 cost: None,
+                trigger_height: None,
+                trigger_sentence: None,
             });
         }
     };
@@ -165,12 +176,37 @@ pub fn firmware_lines(
     }
     let calibrated = DeltaParams::from_slice(&values);
     let workspace = Workspace::of_printer(print_radius, calibrated.homed_height);
-    let exported = export(&calibrated, print_radius, firmware, into, &workspace)?;
+    let trigger = trigger_height(record);
+    let exported = export(
+        &calibrated,
+        trigger,
+        print_radius,
+        firmware,
+        into,
+        &workspace,
+    )?;
     Ok(FirmwareLines {
         text: exported.text,
         lost: exported.lost,
         cost: Some((exported.cost, workspace)),
+        trigger_height: exported.trigger_height,
+        trigger_sentence: exported.trigger_sentence,
     })
+}
+
+/// The probe's trigger height as `record` leaves it: determined when its
+/// sigma is below [`PRIOR_BOUND`] of its prior's (or it had no prior), as
+/// the calibration's own statements judge it, else at its prior; absent
+/// without probe heights, or without a sigma to judge by.
+pub fn trigger_height(record: &MechanismCalibrationRecord) -> TriggerHeight {
+    let Some(trigger) = record.parameter(TRIGGER_HEIGHT) else {
+        return TriggerHeight::Absent;
+    };
+    match (trigger.sigma, trigger.sigma_ratio) {
+        (Some(_), Some(ratio)) if ratio >= PRIOR_BOUND => TriggerHeight::AtPrior { ratio },
+        (Some(_), _) => TriggerHeight::Determined(trigger.value),
+        (None, _) => TriggerHeight::Absent,
+    }
 }
 
 /// The values of `record`'s mechanism parameters, in the mechanism's
@@ -200,11 +236,54 @@ mod tests {
 
     /// A simulated printer's calibration (printable radius 100 mm).
     fn printer() -> MechanismCalibrationRecord {
-        let dataset = simulate_delta(&DeltaScenario::typical(), 3).unwrap();
+        calibrated(&DeltaScenario::typical())
+    }
+
+    /// The calibration of the printer `scenario` simulates, seed 3.
+    fn calibrated(scenario: &DeltaScenario) -> MechanismCalibrationRecord {
+        let dataset = simulate_delta(scenario, 3).unwrap();
         let data = MechanismData::from_dataset(&dataset).unwrap();
         calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {})
             .unwrap()
             .record()
+    }
+
+    #[test]
+    fn the_trigger_height_is_written_where_the_data_determine_it() {
+        // Probe heights alone leave it at its prior: not written.
+        let probes = printer();
+        let at_prior = trigger_height(&probes);
+        assert!(
+            matches!(at_prior, TriggerHeight::AtPrior { ratio } if ratio >= PRIOR_BOUND),
+            "{at_prior:?}"
+        );
+        let lines = firmware_lines(&probes, FirmwareFormat::RepRapFirmware, None, None).unwrap();
+        assert_eq!(lines.trigger_height, None);
+        assert!(!lines.text.contains("\nG31"), "{}", lines.text);
+        // Five heights measured by hand determine it: written, read back.
+        let heights = calibrated(&DeltaScenario {
+            manual_heights: 5,
+            height_sigma: 0.02,
+            ..DeltaScenario::typical()
+        });
+        let value = heights.parameter(TRIGGER_HEIGHT).unwrap().value;
+        assert_eq!(trigger_height(&heights), TriggerHeight::Determined(value));
+        for format in [FirmwareFormat::RepRapFirmware, FirmwareFormat::Klipper] {
+            let lines = firmware_lines(&heights, format, None, None).unwrap();
+            let written = lines.trigger_height.unwrap();
+            assert!((written - value).abs() <= 5e-4, "{written} for {value}");
+            let text = format!("{written:.3}");
+            assert!(lines.text.contains(&text), "{}", lines.text);
+        }
+        // No probe heights, or no sigma to judge by: absent.
+        let mut without = heights.clone();
+        without.parameters.retain(|p| p.name != TRIGGER_HEIGHT);
+        assert_eq!(trigger_height(&without), TriggerHeight::Absent);
+        let mut unjudged = heights;
+        (unjudged.parameters.iter_mut())
+            .filter(|p| p.name == TRIGGER_HEIGHT)
+            .for_each(|p| p.sigma = None);
+        assert_eq!(trigger_height(&unjudged), TriggerHeight::Absent);
     }
 
     #[test]

@@ -34,7 +34,7 @@ use super::error::MechanismCalibrationError;
 const NAMED_COMPONENT: f64 = 0.25;
 /// A parameter whose posterior sigma is at least this fraction of its
 /// prior sigma is stated as determined by its prior.
-const PRIOR_BOUND: f64 = 0.9;
+pub const PRIOR_BOUND: f64 = 0.9;
 
 /// A combination of the unknowns that the data alone do not determine.
 #[derive(Debug, Clone, PartialEq)]

@@ -183,6 +183,9 @@ fn export_firmware(args: &Args, format: FirmwareFormat) -> anyhow::Result<()> {
     if let Some(sentence) = lines.cost_sentence() {
         println!("cost: {sentence}");
     }
+    if let Some(sentence) = &lines.trigger_sentence {
+        println!("{sentence}");
+    }
     Ok(())
 }
 
