@@ -8,21 +8,12 @@ use crate::common;
 
 use std::fs;
 
-use common::{fails, ok, s};
+use common::{fails, ok, s, simulated};
 
 #[test]
 fn a_delta_s_plan_is_a_probes_csv_to_fill_in() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    ok(&[
-        "simulate",
-        "--mechanism",
-        "delta",
-        "--seed",
-        "2",
-        "--out",
-        s(&sim),
-    ]);
+    let sim = simulated(dir.path(), "delta", 2);
     let out = dir.path().join("probes.csv");
     let summary = ok(&["plan", s(&sim), "--measurements", "10", "--out", s(&out)]);
     assert!(summary.contains("10 measurements from"), "{summary}");
@@ -119,16 +110,7 @@ fn a_delta_s_plan_is_a_probes_csv_to_fill_in() {
 #[test]
 fn a_delta_s_heights_by_hand_are_planned_into_a_heights_csv() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    ok(&[
-        "simulate",
-        "--mechanism",
-        "delta",
-        "--seed",
-        "2",
-        "--out",
-        s(&sim),
-    ]);
+    let sim = simulated(dir.path(), "delta", 2);
     ok(&["calibrate", s(&sim)]);
     let calibration = sim.join("calibration.json");
     let out = dir.path().join("heights.csv");
@@ -241,16 +223,7 @@ fn a_delta_s_heights_by_hand_are_planned_into_a_heights_csv() {
 #[test]
 fn a_cable_robot_s_plan_after_its_calibration_is_a_points_csv_and_repeats() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    ok(&[
-        "simulate",
-        "--mechanism",
-        "cable",
-        "--seed",
-        "4",
-        "--out",
-        s(&sim),
-    ]);
+    let sim = simulated(dir.path(), "cable", 4);
     // Seed 4's calibration is accepted (a plan refuses a rejected one).
     ok(&["calibrate", s(&sim)]);
     let calibration = sim.join("calibration.json");

@@ -303,6 +303,13 @@ mod tests {
         p
     }
 
+    /// [`calibrated`] exported with `trigger` for `firmware`, alone or
+    /// `into` a configuration, its cost over a printer of radius 110 mm.
+    fn exported(trigger: TriggerHeight, firmware: Firmware, into: Option<&Path>) -> Export {
+        let workspace = Workspace::of_printer(110.0, 300.0);
+        export(&calibrated(), trigger, 110.0, firmware, into, &workspace).unwrap()
+    }
+
     #[test]
     fn an_offset_that_rounds_to_zero_is_written_without_a_sign() {
         let written = |value: f64| format!("{:.2}", hundredths(value));
@@ -314,16 +321,7 @@ mod tests {
 
     #[test]
     fn reprapfirmware_holds_the_machine_to_its_rounding() {
-        let workspace = Workspace::of_printer(110.0, 300.0);
-        let export = export(
-            &calibrated(),
-            TriggerHeight::Absent,
-            110.0,
-            Firmware::RepRapFirmware,
-            None,
-            &workspace,
-        )
-        .unwrap();
+        let export = exported(TriggerHeight::Absent, Firmware::RepRapFirmware, None);
         // Rounding to 0.001 mm moves the nozzle by a few µm at most.
         assert!(export.cost.volume_max < 0.01, "{:?}", export.cost);
         assert!(export.text.contains("; parcal: lost: the per-tower radius"));
@@ -333,16 +331,7 @@ mod tests {
 
     #[test]
     fn klipper_loses_the_tilt_and_says_what_it_costs() {
-        let workspace = Workspace::of_printer(110.0, 300.0);
-        let export = export(
-            &calibrated(),
-            TriggerHeight::Absent,
-            110.0,
-            Firmware::Klipper,
-            None,
-            &workspace,
-        )
-        .unwrap();
+        let export = exported(TriggerHeight::Absent, Firmware::Klipper, None);
         assert_eq!(export.written.tilt, [0.0; 2]);
         assert!(export.lost.iter().any(|s| s.contains("bed tilt")));
         // A tilt of 0.05 % across a radius of 110 mm: 55 µm at the edge.
@@ -375,24 +364,8 @@ mod tests {
             .unwrap()
             .save_config_block(None);
         std::fs::write(&path, format!("{main}{old}{saved}")).unwrap();
-        let into = export(
-            &calibrated(),
-            TriggerHeight::Absent,
-            110.0,
-            Firmware::Klipper,
-            Some(&path),
-            &workspace,
-        )
-        .unwrap();
-        let alone = export(
-            &calibrated(),
-            TriggerHeight::Absent,
-            110.0,
-            Firmware::Klipper,
-            None,
-            &workspace,
-        )
-        .unwrap();
+        let into = exported(TriggerHeight::Absent, Firmware::Klipper, Some(&path));
+        let alone = exported(TriggerHeight::Absent, Firmware::Klipper, None);
         assert_eq!(into.written, alone.written);
         assert_eq!(into.cost, alone.cost);
         assert!(
@@ -426,18 +399,14 @@ mod tests {
     /// configured, and the file says why.
     #[test]
     fn a_determined_trigger_height_is_written_and_read_back() {
-        let workspace = Workspace::of_printer(110.0, 300.0);
-        let at = |trigger, firmware, into: Option<&Path>| {
-            export(&calibrated(), trigger, 110.0, firmware, into, &workspace).unwrap()
-        };
         let determined = TriggerHeight::Determined(0.89687);
-        let rrf = at(determined, Firmware::RepRapFirmware, None);
+        let rrf = exported(determined, Firmware::RepRapFirmware, None);
         assert!(rrf.text.ends_with("G31 Z0.897\n"), "{}", rrf.text);
         assert_eq!(rrf.trigger_height, Some(0.897));
         assert!(rrf.text.contains(
             "; parcal: written: the probe's trigger height, 0.897 mm, which the data determine (G31 Z)\n"
         ));
-        let klipper = at(determined, Firmware::Klipper, None);
+        let klipper = exported(determined, Firmware::Klipper, None);
         assert!(
             klipper.text.contains("#*# [probe]\n#*# z_offset = 0.897\n"),
             "{}",
@@ -445,7 +414,7 @@ mod tests {
         );
         assert_eq!(klipper.trigger_height, Some(0.897));
         // Neither the parameters nor the cost change with it.
-        let absent = at(TriggerHeight::Absent, Firmware::Klipper, None);
+        let absent = exported(TriggerHeight::Absent, Firmware::Klipper, None);
         assert_eq!(
             (klipper.written, klipper.cost),
             (absent.written, absent.cost)
@@ -453,7 +422,7 @@ mod tests {
         assert!(!absent.text.contains("z_offset") && !absent.text.contains("trigger height"));
         // At its prior: nothing written, the reason said.
         for firmware in [Firmware::RepRapFirmware, Firmware::Klipper] {
-            let kept = at(TriggerHeight::AtPrior { ratio: 0.998 }, firmware, None);
+            let kept = exported(TriggerHeight::AtPrior { ratio: 0.998 }, firmware, None);
             assert_eq!(kept.trigger_height, None);
             assert!(
                 !kept.text.contains("\nG31") && !kept.text.contains("z_offset = "),
@@ -479,7 +448,7 @@ mod tests {
                      #*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n\
                      #*#\n#*# [bltouch]\n#*# z_offset = 0.650\n";
         std::fs::write(&path, format!("{main}{saved}")).unwrap();
-        let into = at(determined, Firmware::Klipper, Some(&path));
+        let into = exported(determined, Firmware::Klipper, Some(&path));
         assert!(
             into.text.contains("#*# [bltouch]\n#*# z_offset = 0.897\n"),
             "{}",

@@ -237,13 +237,13 @@ pub fn bed_residual_figure(
                 .draw()?;
             let blue = RGBColor(31, 119, 180);
             let red = RGBColor(214, 39, 40);
-            // The last kind first: a circle where a square is stays
-            // visible inside it.
+            // The last kind first, every filled marker translucent: a probe
+            // and a height at one place (the bed's centre) both show.
             for kind in drawn.iter().rev() {
                 let markers = kind.tested.iter().map(|&(xy, e)| {
                     let size = (3.0 + 12.0 * e.abs() / largest).round() as i32;
                     let style = if e >= 0.0 {
-                        red.filled()
+                        red.mix(0.6).filled()
                     } else {
                         blue.stroke_width(2)
                     };

@@ -49,6 +49,23 @@ pub fn s(path: &Path) -> &str {
     path.to_str().unwrap()
 }
 
+/// `dir/sim`, the dataset `parcal simulate --mechanism MECHANISM --seed
+/// SEED` writes.
+pub fn simulated(dir: &Path, mechanism: &str, seed: u64) -> PathBuf {
+    let sim = dir.join("sim");
+    let seed = seed.to_string();
+    ok(&[
+        "simulate",
+        "--mechanism",
+        mechanism,
+        "--seed",
+        &seed,
+        "--out",
+        s(&sim),
+    ]);
+    sim
+}
+
 /// A copy of the fixture `name`'s `files` in `dir/data`.
 pub fn copy_fixture(name: &str, dir: &Path, files: &[&str]) -> PathBuf {
     let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
