@@ -28,6 +28,7 @@ from ._parcal import (
     MechanismDataset,
     __version__,
     accuracy,
+    correction_table,
     export,
     import_firmware,
     read_dataset,
@@ -112,8 +113,14 @@ def plan(dataset: Union[Dataset, MechanismDataset], *args: Any, **options: Any) 
     """The measurements to make next, as ``parcal plan`` chooses them: for
     a mechanism ``plan(dataset, measurements, heights=, distances=,
     height_sigma=, distance_sigma=, gauge=, group=, grid=,
-    measured_positions=, after=)``, for a hexapod ``plan(dataset,
-    contacts, tilt, criterion=, ...)``."""
+    measured_positions=, after=)``; for a hexapod its ball touches,
+    ``plan(dataset, contacts, tilt, criterion=, ...)``, or with
+    ``tracker`` (``"poses"``, ``"points"``, ``"both"``; ``"poses"`` for a
+    dataset without balls) the platform poses an instrument measures, as
+    ``parcal plan --tracker``: ``plan(dataset, tilt=, poses=, tracker=,
+    sessions=1, workspace=(half_width, z_min, z_max), criterion=)``,
+    returning plan.csv's ``session``, ``angles``, ``tip``, ``q`` and
+    plan.json's ``prior``, ``predicted``, ``pool_size``."""
     if isinstance(dataset, MechanismDataset):
         return _parcal.plan_mechanism(dataset, *args, **options)
     return _parcal.plan(dataset, *args, **options)
@@ -129,6 +136,7 @@ __all__ = [
     "accuracy",
     "calibrate",
     "compensate",
+    "correction_table",
     "export",
     "import_firmware",
     "plan",

@@ -262,11 +262,34 @@ def accuracy(
     ``y`` (mm), ``z``, and each map (``before_predicted_absolute``, ...,
     ``after_true_registered``) as a ``len(y) x len(x)`` array (mm)."""
 
+def correction_table(
+    calibration: Union[Calibration, PathLike],
+    *,
+    x: Optional[tuple[float, float, int]] = None,
+    y: Optional[tuple[float, float, int]] = None,
+    z: Optional[tuple[float, float, int]] = None,
+    roll: Optional[tuple[float, float, int]] = None,
+    pitch: Optional[tuple[float, float, int]] = None,
+    yaw: Optional[tuple[float, float, int]] = None,
+    nominal: bool = False,
+    accept_rejected: bool = False,
+) -> dict[str, Any]:
+    """The correction table ``parcal compensate --table`` writes, each axis
+    ``(min, max, n)`` (mm, rad; absent: at 0): table.csv's columns ``x``
+    .. ``yaw``, ``dx`` .. ``dyaw`` (numpy, one value per node, ``x``
+    slowest), ``shape`` (six axis lengths) and the interpolation error at
+    the cell midpoints: ``points``, ``position_rms``, ``position_max``
+    (mm), ``angle_max`` (rad)."""
+
 def plan(
     dataset: Dataset,
-    contacts: int,
-    tilt: float,
+    contacts: Optional[int] = None,
+    tilt: Optional[float] = None,
     *,
+    poses: Optional[int] = None,
+    tracker: Optional[Literal["poses", "points", "both"]] = None,
+    sessions: int = 1,
+    workspace: Optional[Sequence[float]] = None,
     criterion: Literal["registered", "d", "a", "g"] = "registered",
     pool: int = 20000,
     seed: int = 1,
@@ -277,10 +300,14 @@ def plan(
     radius: Optional[Literal["ball", "contact"]] = None,
     after: Union[Calibration, PathLike, None] = None,
 ) -> dict[str, Any]:
-    """The ball touches ``parcal plan`` chooses for the same options: a dict
-    of ``ball`` (ids), ``direction`` (n x 3), ``angles`` (n x 3: roll,
-    pitch, yaw), ``q`` (n x 6), and ``prior``, ``predicted``,
-    ``pool_size``, ``stroke``."""
+    """The plan ``parcal plan`` makes for the same options (``tilt``
+    always): ``contacts`` ball touches, a dict of ``ball`` (ids),
+    ``direction`` (n x 3), ``angles`` (n x 3: roll, pitch, yaw), ``q``
+    (n x 6), ``stroke``; or with ``tracker`` (``"poses"`` for a dataset
+    without balls) ``poses`` platform poses in ``sessions`` sessions within
+    ``workspace`` ``(half_width, z_min, z_max)``, a dict of plan.csv's
+    ``session`` (labels), ``angles``, ``tip`` (n x 3, mm), ``q``. Both:
+    ``prior``, ``predicted``, ``pool_size`` (plan.json's)."""
 
 def read_dataset(path: PathLike) -> Union[Dataset, "MechanismDataset"]:
     """Reads the dataset at ``path`` as the kind its machine.json declares:

@@ -12,13 +12,24 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="session")
-def cli():
-    """Runs the parcal binary with the given arguments; returns its exit status."""
+def cli_output():
+    """Runs the parcal binary with the given arguments; returns the finished
+    process (its returncode, stdout and stderr), whatever its exit status."""
     binary = Path(os.environ.get("PARCAL_CLI", ROOT / "target" / "debug" / "parcal"))
     assert binary.is_file(), f"{binary}: no parcal binary (cargo build -p parcal-cli, or set PARCAL_CLI)"
 
     def run(*args):
-        done = subprocess.run([str(binary), *map(str, args)], capture_output=True, text=True)
+        return subprocess.run([str(binary), *map(str, args)], capture_output=True, text=True)
+
+    return run
+
+
+@pytest.fixture(scope="session")
+def cli(cli_output):
+    """Runs the parcal binary with the given arguments; returns its exit status."""
+
+    def run(*args):
+        done = cli_output(*args)
         assert done.returncode in (0, 3), done.stderr
         return done.returncode
 

@@ -41,7 +41,11 @@
 //! - [`firmware_lines`]: a mechanism's calibration as its firmware's
 //!   lines, as `parcal export` writes them;
 //! - [`hexapod_export`]: a hexapod's calibration in the forms other tools
-//!   load, as `parcal export` writes them.
+//!   load, as `parcal export` writes them;
+//! - [`hexapod_plan`]: a hexapod's plan (ball touches or instrument poses)
+//!   as `parcal plan` asks for it;
+//! - [`correction_table`]: a hexapod calibration's correction table as
+//!   `parcal compensate --table` makes it.
 //!
 //! # Example
 //!
@@ -127,9 +131,11 @@ pub use parcal_simulate as simulation;
 pub use parcal_workflows as workflows;
 
 pub mod command;
+pub mod correction_table;
 pub mod firmware_import;
 pub mod firmware_lines;
 pub mod hexapod_export;
+pub mod hexapod_plan;
 pub mod maps;
 mod named;
 pub mod report_pages;

@@ -18,6 +18,7 @@ use crate::run::Calibration;
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(accuracy::accuracy, m)?)?;
     m.add_function(wrap_pyfunction!(compensate::compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(compensate::correction_table, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;

@@ -11,9 +11,10 @@ use parcal::apply::{
     AppliedModel, ApplyError, CorrectionTable, TableGrid, Target, compensate, corrected_poses,
     predicted_registered,
 };
+use parcal::correction_table::{AxisRange, correction_table, table_grid};
 use parcal::dataset::atomic::write_set;
-use parcal::dataset::bounds::{Count, check_product};
 use parcal::dataset::{read_numbers, write_numbers};
+use parcal::simulation::mechanism::Spelling;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -158,18 +159,10 @@ fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<(
     Ok(())
 }
 
-/// The nodes of a correction table, on one axis and in all: each costs an
-/// inverse and a forward kinematics, and the table is held in memory (a
-/// row of 12 numbers per node, about 1 GB at the bound).
-const TABLE_NODES: Count = Count::new(
-    1,
-    10_000_000,
-    "each node costs an inverse and a forward kinematics and a row held in memory",
-);
-
-/// Parses `x=MIN:MAX:N,...` (module doc of `--table`).
+/// Parses `x=MIN:MAX:N,...` (module doc of `--table`) into the grid
+/// ([`parcal::correction_table::table_grid`], which bounds the nodes).
 fn grid(spec: &str) -> anyhow::Result<TableGrid> {
-    let mut axes: [Vec<f64>; 6] = Default::default();
+    let mut ranges: [Option<AxisRange>; 6] = [None; 6];
     for part in spec.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let (name, range) = part
             .split_once('=')
@@ -190,43 +183,20 @@ fn grid(spec: &str) -> anyhow::Result<TableGrid> {
                 .zip(n.trim().parse::<usize>().ok()),
             _ => None,
         };
-        let ((min, max), n) = parsed
+        let ((min, max), nodes) = parsed
             .filter(|&((min, max), _)| min.is_finite() && max.is_finite())
             .with_context(|| {
                 format!("--table: {part:?} is not AXIS=MIN:MAX:N with finite MIN, MAX and N >= 1")
             })?;
-        TABLE_NODES
-            .check(&format!("--table: the nodes N of axis {name},"), n)
-            .map_err(anyhow::Error::msg)?;
-        anyhow::ensure!(axes[axis].is_empty(), "--table: axis {name} given twice");
-        axes[axis] = match n {
-            1 => vec![min],
-            _ => (0..n)
-                .map(|k| min + (max - min) * k as f64 / (n - 1) as f64)
-                .collect(),
-        };
+        anyhow::ensure!(ranges[axis].is_none(), "--table: axis {name} given twice");
+        ranges[axis] = Some(AxisRange { min, max, nodes });
     }
-    for values in &mut axes {
-        if values.is_empty() {
-            values.push(0.0);
-        }
-    }
-    let counts: Vec<(&str, usize)> = Target::COLUMNS
-        .iter()
-        .zip(&axes)
-        .map(|(name, values)| (*name, values.len()))
-        .collect();
-    check_product(&counts, TABLE_NODES.max, "nodes, the most a table may have")
-        .map_err(|message| anyhow::anyhow!("--table: {message}"))?;
-    Ok(TableGrid { axes })
+    table_grid(&ranges, Spelling::Flags).map_err(anyhow::Error::msg)
 }
 
 fn table(args: &Args, model: &AppliedModel, spec: &str) -> anyhow::Result<()> {
     let grid = grid(spec)?;
-    let table = CorrectionTable::new(model, &grid).context("the correction table")?;
-    let error = table
-        .midpoint_error(model)
-        .context("the correction table's midpoints")?;
+    let (table, error) = correction_table(model, &grid)?;
     write_numbers(&args.out, &CorrectionTable::HEADER, &table.rows())?;
     println!(
         "correction table: {} nodes -> {}; multilinear interpolation error at the {} cell midpoints: position RMS {:.2} um, max {:.2} um; angles max {:.2e} rad",

@@ -7,11 +7,13 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use parcal::calibration::RadiusModel;
 use parcal::dataset::{ARTEFACTS_FILE, Artefacts, MACHINE_FILE, Machine};
+use parcal::hexapod_plan::{self, PosePlanRequest};
 use parcal::plan::plan_file::{summary_path, write_plan};
 use parcal::plan::tracker::plan_file::write_pose_plan;
-use parcal::plan::tracker::{PosePlanOptions, plan_poses};
+use parcal::plan::tracker::plan_poses;
 use parcal::plan::{Criterion, CriterionValues, PlanOptions, bounds, plan, plan_next};
-use parcal::simulation::Workspace;
+use parcal::simulation::mechanism::Spelling;
+use parcal::simulation::{TrackerKind, Workspace};
 
 use crate::bounds::Bounded;
 use crate::progress::Progress;
@@ -128,13 +130,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         });
     }
     args.mechanism.refuse_for_hexapod()?;
-    let Some(tilt) = args.tilt else {
-        anyhow::bail!("--tilt is needed for a hexapod's plan");
-    };
-    anyhow::ensure!(
-        tilt.is_finite() && (0.0..90.0).contains(&tilt),
-        "--tilt must be in [0, 90) degrees, got {tilt}"
-    );
+    let tilt = hexapod_plan::tilt(args.tilt, Spelling::Flags).map_err(anyhow::Error::msg)?;
     // plan.csv and plan.json are checked before the work, against every
     // file the plan reads.
     let mut inputs = crate::outputs::dataset_inputs(&args.dir);
@@ -142,19 +138,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     crate::outputs::check(&inputs, &[args.out.clone(), summary_path(&args.out)])?;
     let machine = Machine::read(&args.dir.join(MACHINE_FILE))?;
     let artefacts_file = args.dir.join(ARTEFACTS_FILE);
-    let tracker = args
-        .tracker
-        .or_else(|| (!artefacts_file.exists()).then_some(super::simulate::Kind::Poses));
+    let tracker = hexapod_plan::planned_tracker(
+        args.tracker.map(super::simulate::Kind::tracker_kind),
+        artefacts_file.exists(),
+    );
     if let Some(kind) = tracker {
         return run_tracker(args, &machine, kind, tilt);
     }
-    anyhow::ensure!(
-        args.sessions == 1,
-        "--sessions applies to pose plans only (--tracker)"
-    );
-    let Some(contacts) = args.contacts else {
-        anyhow::bail!("--contacts is needed for a plan of ball touches");
-    };
+    let contacts = hexapod_plan::touch_contacts(args.contacts, args.sessions, Spelling::Flags)
+        .map_err(anyhow::Error::msg)?;
     let artefacts = Artefacts::read(&artefacts_file)?;
     let defaults = PlanOptions::new(contacts, tilt);
     let options = PlanOptions {
@@ -197,36 +189,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 }
 
 /// A pose plan (`--tracker`, or DIR without artefacts.json).
-fn run_tracker(
-    args: &Args,
-    machine: &Machine,
-    kind: super::simulate::Kind,
-    tilt: f64,
-) -> anyhow::Result<()> {
-    let Some(poses) = args.poses else {
-        anyhow::bail!(
-            "--poses is needed for a pose plan (--tracker, or DIR without artefacts.json)"
-        );
-    };
-    let Some(workspace) = args.workspace else {
-        anyhow::bail!("--workspace HALF_WIDTH,Z_MIN,Z_MAX is needed for a pose plan");
-    };
-    anyhow::ensure!(
-        args.after.is_none()
-            && args.per_ball.is_none()
-            && args.min_balls.is_none()
-            && args.radius.is_none(),
-        "--after, --per-ball, --min-balls and --radius apply to ball touches only"
-    );
-    let options = PosePlanOptions {
-        poses,
-        kind: kind.tracker_kind(),
-        workspace,
+fn run_tracker(args: &Args, machine: &Machine, kind: TrackerKind, tilt: f64) -> anyhow::Result<()> {
+    let request = PosePlanRequest {
+        poses: args.poses,
+        kind,
+        workspace: args.workspace,
         tilt_degrees: tilt,
         criterion: criterion(args.criterion),
-        passes: PlanOptions::new(1, 0.0).passes,
         sessions: args.sessions,
+        touch_options: args.after.is_some()
+            || args.per_ball.is_some()
+            || args.min_balls.is_some()
+            || args.radius.is_some(),
     };
+    let options =
+        hexapod_plan::pose_plan_options(&request, Spelling::Flags).map_err(anyhow::Error::msg)?;
     let progress = Progress::spinner();
     let mut report = |line: &str| progress.line(&format!("  {line}"));
     let planned = plan_poses(machine, &options, &mut report).context("planning failed")?;
@@ -257,19 +234,7 @@ fn parse_workspace(value: &str) -> Result<Workspace, String> {
         .split(',')
         .map(|v| v.trim().parse::<f64>().map_err(|e| format!("{v:?}: {e}")))
         .collect::<Result<_, _>>()?;
-    match numbers[..] {
-        [half_width, low, high]
-            if numbers.iter().all(|v| v.is_finite()) && half_width >= 0.0 && low <= high =>
-        {
-            Ok(Workspace {
-                half_width,
-                height: [low, high],
-            })
-        }
-        _ => Err(format!(
-            "{value:?}: three finite numbers HALF_WIDTH,Z_MIN,Z_MAX with HALF_WIDTH >= 0 and Z_MIN <= Z_MAX"
-        )),
-    }
+    hexapod_plan::workspace(&numbers, value, Spelling::Flags)
 }
 
 /// The plan's summary on stdout: where it was written, how many `what`
