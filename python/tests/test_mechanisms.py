@@ -255,8 +255,7 @@ def test_plan_chooses_the_heights_and_distances_of_the_cli(delta, cli, tmp_path)
     assert np.all(np.isnan(plan["end"][:5]))
     assert np.array_equal(plan["trace"], [m["trace_after"] for m in measurements])
     # Heights alone after a calibration, minimising the trigger height's variance.
-    after = parcal.plan(dataset, heights=2, height_sigma=0.02, group="trigger height",
-                        after=parcal.calibrate(dataset))
+    after = parcal.plan(dataset, heights=2, height_sigma=0.02, after=parcal.calibrate(dataset))
     assert after["kind"] == ["manual height"] * 2 and after["group"] == "trigger height"
     trigger = after["parameters"]["name"].index("trigger_height")
     assert after["parameters"]["after"][trigger] < after["parameters"]["before"][trigger]

@@ -144,6 +144,11 @@ fn a_delta_s_heights_by_hand_are_planned_into_a_heights_csv() {
             .unwrap();
     assert_eq!(json["start"], "calibration");
     assert_eq!(json["group"], "trigger height");
+    // Heights alone after a calibration minimise the trigger height's
+    // variance unless asked another group: the same plan.
+    let asked = fs::read_to_string(&out).unwrap();
+    run(&[&after[..], &["--height-sigma", "0.02"]].concat(), true);
+    assert_eq!(fs::read_to_string(&out).unwrap(), asked);
     assert_eq!(json["measurements"][0]["kind"], "manual height");
     let sigmas = json["parameters"]
         .as_array()

@@ -25,8 +25,9 @@ use crate::error::to_py;
 /// machine.json; its observations are not used), then a delta's `heights`
 /// heights measured by hand (the nozzle `gauge` mm up) and `distances`
 /// part distances, that minimise the trace of the predicted covariance of
-/// the parameter group `group` (default: a delta's "diagonal rods", a
-/// cable robot's "anchors"; "trigger height" with probe heights), chosen
+/// the parameter group `group` (default: a delta's "diagonal rods", or
+/// its "trigger height" for heights alone after a calibration; a cable
+/// robot's "anchors"), chosen
 /// from a grid of `grid` candidates per axis over its workspace, as
 /// `parcal plan` chooses them for the same options. `height_sigma` and
 /// `distance_sigma` (mm) stand for machine.json's noise of those kinds.
@@ -116,7 +117,8 @@ pub fn plan_mechanism<'py>(
         None => None,
     };
     let params = linearisation_point(&data, start.as_ref());
-    let group = group.unwrap_or_else(|| default_group(mechanism).to_string());
+    let group =
+        group.unwrap_or_else(|| default_group(mechanism, counts, start.as_ref()).to_string());
     let planned = py
         .detach(|| {
             let candidates = plan_candidates(mechanism, &params, grid, measured_positions, counts)?;

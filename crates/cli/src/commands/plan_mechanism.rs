@@ -60,7 +60,8 @@ pub struct MechanismArgs {
     #[arg(long, value_name = "MM", requires = "distances")]
     distance_sigma: Option<f64>,
     /// A mechanism's plan: the parameter group whose predicted covariance's
-    /// trace is minimised (default: a delta's "diagonal rods", a cable
+    /// trace is minimised (default: a delta's "diagonal rods", or its
+    /// "trigger height" for --heights alone after a calibration; a cable
     /// robot's "anchors").
     #[arg(long, value_name = "GROUP")]
     group: Option<String>,
@@ -172,7 +173,7 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
     let group = options
         .group
         .clone()
-        .unwrap_or_else(|| default_group(mechanism).to_string());
+        .unwrap_or_else(|| default_group(mechanism, counts, start.as_ref()).to_string());
     let plan = plan_mechanism(&PlanRequest {
         data: &data,
         noise,

@@ -156,10 +156,22 @@ pub fn with_sigmas(
     Ok(noise)
 }
 
-/// The parameter group a plan minimises unless asked another: a linear
-/// delta's diagonal rods (what probe heights see least), a cable robot's
-/// anchors, another mechanism's first parameter's group.
-pub fn default_group(mechanism: &dyn Mechanism) -> &'static str {
+/// The parameter group a plan of `counts` minimises unless asked another:
+/// the trigger height's ([`TRIGGER_GROUP`]) for heights measured by hand
+/// alone after a calibration that has it among its unknowns (`start`),
+/// what such heights determine; else a linear delta's diagonal rods (what
+/// probe heights see least), a cable robot's anchors, another mechanism's
+/// first parameter's group.
+pub fn default_group(
+    mechanism: &dyn Mechanism,
+    counts: Counts,
+    start: Option<&Start>,
+) -> &'static str {
+    let heights_alone = counts.heights == counts.total();
+    let n = mechanism.parameters().len();
+    if heights_alone && start.is_some_and(|s| s.values.len() > n) {
+        return TRIGGER_GROUP;
+    }
     match mechanism.name() {
         "linear delta" => "diagonal rods",
         "cable robot" => "anchors",
