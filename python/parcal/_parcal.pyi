@@ -185,13 +185,31 @@ def simulate(
     points_per_ball: Optional[int] = None,
     tilt: Optional[float] = None,
     design_drawn: bool = False,
+    readings: Optional[Literal["mm", "rev"]] = None,
+    tracker: Optional[Literal["poses", "points", "both"]] = None,
+    machine: Optional[Literal["paper", "jugglebot"]] = None,
+    touches: bool = False,
+    sessions: Optional[int] = None,
+    rows: Optional[int] = None,
+    rehome: Optional[float] = None,
+    position_sigma: Optional[float] = None,
+    orientation_sigma: Optional[float] = None,
+    plan: Union[PathLike, Mapping[str, Any], None] = None,
     plate: Union[Literal["all"], int, None] = None,
     plate_sigma: Optional[float] = None,
 ) -> Dataset:
-    """A simulated campaign of ball touches, as ``parcal simulate`` makes
-    it (``points_per_ball`` default 7, ``tilt`` default 10 degrees;
-    ``plate``: a ball plate's distances, ``"all"`` pairs or a number drawn,
-    each to ``plate_sigma`` micrometres, default 1)."""
+    """A hexapod's simulated campaign, as ``parcal simulate`` makes it:
+    ball touches (``points_per_ball`` default 7, ``tilt`` default 10
+    degrees, ``readings`` ``"mm"`` or ``"rev"``; ``plate``: a ball plate's
+    distances, ``"all"`` pairs or a number drawn, each to ``plate_sigma``
+    micrometres, default 1), or with ``tracker`` an instrument campaign of
+    the ``machine`` (``"paper"``, ``"jugglebot"``) in ``sessions`` (default
+    3) of ``rows`` rows, re-homed by ``rehome`` mm, the instrument's noise
+    ``position_sigma`` (mm) and ``orientation_sigma`` (rad), ``touches``
+    adding the paper's ball touches. ``plan``: a plan.csv's path or the
+    dict ``parcal.plan`` returns (touches; poses with ``tracker``),
+    simulated exactly. An option the command refuses with another
+    (``balls`` with ``tracker``, ``sessions`` without it) is refused."""
 
 @overload
 def simulate(

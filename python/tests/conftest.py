@@ -11,6 +11,25 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
+def flags(options):
+    """The command's flags of keyword arguments ``options`` (``True``: the
+    flag alone)."""
+    out = []
+    for name, value in options.items():
+        out.append("--" + name.replace("_", "-"))
+        if value is not True:
+            out.append(value)
+    return out
+
+
+def assert_same_files(written, expected):
+    """The directories hold the same files, byte for byte."""
+    names = sorted(p.name for p in written.iterdir())
+    assert names == sorted(p.name for p in expected.iterdir())
+    for name in names:
+        assert (written / name).read_bytes() == (expected / name).read_bytes(), name
+
+
 @pytest.fixture(scope="session")
 def cli_output():
     """Runs the parcal binary with the given arguments; returns the finished

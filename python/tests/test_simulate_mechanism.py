@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import parcal
-from conftest import ROOT
+from conftest import ROOT, assert_same_files, flags
 
 DELTA = {
     "probe_rings": 4,
@@ -21,19 +21,6 @@ DELTA = {
     "points_per_ball": 5,
 }
 CABLE = {"samples": 30, "known_positions": 5, "reading_sigma": 2.0, "measured_sigma": 0.5}
-
-
-def flags(options):
-    """The command's flags of keyword arguments ``options``."""
-    return [item for name, value in options.items() for item in ("--" + name.replace("_", "-"), value)]
-
-
-def assert_same_files(written, expected):
-    """The directories hold the same files, byte for byte."""
-    names = sorted(p.name for p in written.iterdir())
-    assert names == sorted(p.name for p in expected.iterdir())
-    for name in names:
-        assert (written / name).read_bytes() == (expected / name).read_bytes(), name
 
 
 @pytest.mark.parametrize(("mechanism", "options"), [("delta", DELTA), ("cable", CABLE)])

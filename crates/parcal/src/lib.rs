@@ -44,6 +44,8 @@
 //!   load, as `parcal export` writes them;
 //! - [`hexapod_plan`]: a hexapod's plan (ball touches or instrument poses)
 //!   as `parcal plan` asks for it;
+//! - [`hexapod_simulation`]: a hexapod's simulated campaign (ball touches,
+//!   instrument sessions, a plan's) as `parcal simulate` asks for it;
 //! - [`correction_table`]: a hexapod calibration's correction table as
 //!   `parcal compensate --table` makes it.
 //!
@@ -136,6 +138,7 @@ pub mod firmware_import;
 pub mod firmware_lines;
 pub mod hexapod_export;
 pub mod hexapod_plan;
+pub mod hexapod_simulation;
 pub mod maps;
 mod named;
 pub mod report_pages;

@@ -1,18 +1,26 @@
 //! `parcal.simulate`: a simulated dataset with its truth, as `parcal
-//! simulate` makes it: the hexapod's campaign of ball touches (the paper's
-//! scenario, or a scaled one), or with `mechanism` a linear delta's or a
-//! cable robot's dataset ([`parcal::simulation::mechanism`]), held-out
-//! data of a simulated one's true machine included.
+//! simulate` makes it: the hexapod's campaign of ball touches or of
+//! instrument measurements ([`parcal::hexapod_simulation`]), or with
+//! `mechanism` a linear delta's or a cable robot's dataset
+//! ([`parcal::simulation::mechanism`]), held-out data of a simulated one's
+//! true machine included.
+
+use std::path::PathBuf;
 
 use parcal::dataset::HEXAPOD;
+use parcal::hexapod_plan;
+use parcal::hexapod_simulation::{self, HexapodOptions, PlanSource, hexapod_scenario};
+use parcal::plan::plan_file::PlanRow;
+use parcal::plan::tracker::plan_file::PosePlanRow;
 use parcal::simulation::mechanism::{
     MechanismOptions, MechanismRequest, Spelling, TrueMachine, mechanism_name, simulate_mechanism,
 };
-use parcal::simulation::{COUNT, Plate, PlatePairs};
-use parcal::{Scenario, simulate as simulate_campaign};
+use parcal::simulation::{Plate, PlatePairs};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use pyo3::{IntoPyObjectExt, Py, PyAny};
 
+use crate::convert::rows;
 use crate::dataset::Dataset;
 use crate::error::to_py;
 use crate::mechanism::dataset::MechanismDataset;
@@ -24,8 +32,17 @@ use crate::mechanism::dataset::MechanismDataset;
 /// Without `mechanism` (or with `"hexapod"`), a `parcal.Dataset` of ball
 /// touches: the paper's 27 balls (or `balls` on a regular grid) touched
 /// `points_per_ball` times each (default 7), the platform tilted by up to
-/// `tilt` degrees (default 10); `design_drawn` draws the design about the
-/// truth by its tolerance.
+/// `tilt` degrees (default 10), the legs read in `readings` (`"mm"`, or
+/// `"rev"`: motor revolutions, scales unknown); `design_drawn` draws the
+/// design about the truth by its tolerance. With `tracker` (`"poses"`,
+/// `"points"`, `"both"`), an instrument campaign instead: `sessions`
+/// (default 3) of `rows` rows each, of the `machine` `"paper"` (default)
+/// or `"jugglebot"`, legs re-homed between sessions with sigma `rehome`
+/// (mm, 0: none), the instrument's noise `position_sigma` (mm) and
+/// `orientation_sigma` (rad); `touches` adds the paper's ball touches of
+/// the same machine. `plan` (a plan.csv's path, or the dict `parcal.plan`
+/// returns) simulates exactly its touches, or with `tracker` its poses'
+/// readings in each session.
 ///
 /// With `mechanism` `"delta"` (`"linear delta"`) or `"cable"` (`"cable
 /// robot"`), a `parcal.MechanismDataset`: a delta's `probe_rings`,
@@ -43,8 +60,10 @@ use crate::mechanism::dataset::MechanismDataset;
 /// of `plate_sigma` micrometres (default 1); the touches are those of the
 /// same seed without it.
 ///
-/// An option of another mechanism than the one simulated is refused,
-/// naming it; every count is bounded as the command bounds it.
+/// An option of another mechanism than the one simulated, or one the
+/// command refuses with another (`balls` with `tracker`, `sessions`
+/// without it), is refused, naming it; every count is bounded as the
+/// command bounds it.
 #[pyfunction]
 #[pyo3(signature = (
     seed=1,
@@ -54,6 +73,16 @@ use crate::mechanism::dataset::MechanismDataset;
     points_per_ball=None,
     tilt=None,
     design_drawn=false,
+    readings=None,
+    tracker=None,
+    machine=None,
+    touches=false,
+    sessions=None,
+    rows=None,
+    rehome=None,
+    position_sigma=None,
+    orientation_sigma=None,
+    plan=None,
     probe_rings=None,
     probes_per_ring=None,
     part_distances=None,
@@ -81,6 +110,16 @@ pub fn simulate(
     points_per_ball: Option<usize>,
     tilt: Option<f64>,
     design_drawn: bool,
+    readings: Option<&str>,
+    tracker: Option<&str>,
+    machine: Option<&str>,
+    touches: bool,
+    sessions: Option<usize>,
+    rows: Option<usize>,
+    rehome: Option<f64>,
+    position_sigma: Option<f64>,
+    orientation_sigma: Option<f64>,
+    plan: Option<&Bound<'_, PyAny>>,
     probe_rings: Option<usize>,
     probes_per_ring: Option<usize>,
     part_distances: Option<usize>,
@@ -100,6 +139,36 @@ pub fn simulate(
     truth: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
     let plate = ball_plate(plate, plate_sigma)?;
+    let spelling = Spelling::Keywords;
+    let tracker = tracker
+        .map(|name| hexapod_plan::tracker_kind(name, spelling))
+        .transpose()
+        .map_err(to_py)?;
+    let hexapod = HexapodOptions {
+        balls,
+        points_per_ball,
+        readings: readings
+            .map(|name| hexapod_simulation::reading_unit(name, spelling))
+            .transpose()
+            .map_err(to_py)?,
+        tilt,
+        tracker,
+        machine: machine
+            .map(|name| hexapod_simulation::tracked_machine(name, spelling))
+            .transpose()
+            .map_err(to_py)?,
+        touches,
+        sessions,
+        rows,
+        rehome,
+        position_sigma,
+        orientation_sigma,
+        plate,
+        plan: plan
+            .map(|plan| plan_source(plan, tracker.is_some()))
+            .transpose()?,
+        design_drawn,
+    };
     let options = MechanismOptions {
         probe_rings,
         probes_per_ring,
@@ -124,22 +193,29 @@ pub fn simulate(
             let mut others: Vec<&str> = options
                 .given()
                 .into_iter()
-                .filter(|name| !HEXAPOD_TOO.contains(name))
+                .filter(|name| !SHARED.contains(name))
                 .collect();
             others.extend(truth.map(|_| "truth"));
             refuse(
                 &others,
                 "apply to a mechanism other than the hexapod (give mechanism=\"delta\" or \"cable\")",
             )?;
-            hexapod(py, seed, &options, tilt, design_drawn)?.into_py_any(py)
+            hexapod.check_combinations(spelling).map_err(to_py)?;
+            let simulation = py
+                .detach(|| {
+                    let scenario = hexapod_scenario(&hexapod, seed, spelling)
+                        .map_err(|error| error.to_string())?;
+                    scenario.simulate(seed).map_err(|error| error.to_string())
+                })
+                .map_err(to_py)?;
+            Dataset::in_memory(simulation.dataset).into_py_any(py)
         }
         Some(name) => {
-            let name = mechanism_name(name, Spelling::Keywords).map_err(to_py)?;
-            let hexapod_only = [("tilt", tilt.is_some()), ("design_drawn", design_drawn)];
-            let others: Vec<&str> = hexapod_only
-                .iter()
-                .filter(|(_, given)| *given)
-                .map(|(name, _)| *name)
+            let name = mechanism_name(name, spelling).map_err(to_py)?;
+            let others: Vec<&str> = hexapod
+                .given()
+                .into_iter()
+                .filter(|name| !SHARED.contains(name))
                 .collect();
             refuse(&others, &format!("do not apply to a {name}"))?;
             let truth = truth
@@ -157,7 +233,7 @@ pub fn simulate(
                         dataset: &dataset.inner,
                         name,
                     }),
-                spelling: Spelling::Keywords,
+                spelling,
             };
             let dataset = py.detach(|| simulate_mechanism(&request)).map_err(to_py)?;
             MechanismDataset::in_memory(dataset)?.into_py_any(py)
@@ -165,8 +241,88 @@ pub fn simulate(
     }
 }
 
-/// The mechanism options a hexapod's campaign takes too.
-const HEXAPOD_TOO: [&str; 3] = ["balls", "points_per_ball", "plate"];
+/// The options a hexapod's campaign and a mechanism's both take.
+const SHARED: [&str; 3] = ["balls", "points_per_ball", "plate"];
+
+/// The plan `plan` names: a plan.csv's path, or the dict `parcal.plan`
+/// returns, of poses (`session`, `q`) if `poses`, else of ball touches
+/// (`ball`, `direction`, `angles`); its values are checked by the
+/// facade, as plan.csv's reader checks them.
+fn plan_source(plan: &Bound<'_, PyAny>, poses: bool) -> PyResult<PlanSource> {
+    let Ok(dict) = plan.cast::<PyDict>() else {
+        return plan
+            .extract::<PathBuf>()
+            .map(PlanSource::File)
+            .map_err(|_| {
+                to_py(format!(
+                    "plan: expected a plan.csv's path or the dict parcal.plan returns, got {plan}"
+                ))
+            });
+    };
+    let required = |key: &str, kind: &str| {
+        dict.get_item(key)?.ok_or_else(|| {
+            to_py(format!(
+                "plan: missing {key:?} (a plan of {kind}, as parcal.plan returns it)"
+            ))
+        })
+    };
+    let labels = |key: &str, kind: &str| -> PyResult<Vec<String>> {
+        required(key, kind)?
+            .extract()
+            .map_err(|_| to_py(format!("plan[{key:?}]: expected a sequence of strings")))
+    };
+    if poses {
+        let kind = "poses (tracker=)";
+        let session = labels("session", kind)?;
+        let q = rows::<6>(&required("q", kind)?, "plan[\"q\"]")?;
+        if session.len() != q.len() {
+            return Err(to_py(format!(
+                "plan: session and q have {} and {} rows: one of each per pose",
+                session.len(),
+                q.len()
+            )));
+        }
+        // The angles and tips are not simulated (the readings are).
+        Ok(PlanSource::Poses(
+            session
+                .into_iter()
+                .zip(q)
+                .map(|(session, q)| PosePlanRow {
+                    session,
+                    angles: [f64::NAN; 3],
+                    tip: [f64::NAN; 3].into(),
+                    q,
+                })
+                .collect(),
+        ))
+    } else {
+        let kind = "ball touches";
+        let ball = labels("ball", kind)?;
+        let direction = rows::<3>(&required("direction", kind)?, "plan[\"direction\"]")?;
+        let angles = rows::<3>(&required("angles", kind)?, "plan[\"angles\"]")?;
+        if ball.len() != direction.len() || ball.len() != angles.len() {
+            return Err(to_py(format!(
+                "plan: ball, direction and angles have {}, {} and {} rows: one of each per touch",
+                ball.len(),
+                direction.len(),
+                angles.len()
+            )));
+        }
+        // The readings are not simulated (the touches are).
+        Ok(PlanSource::Touches(
+            ball.into_iter()
+                .zip(direction)
+                .zip(angles)
+                .map(|((ball, direction), angles)| PlanRow {
+                    ball,
+                    direction: direction.into(),
+                    angles,
+                    q: [f64::NAN; 6],
+                })
+                .collect(),
+        ))
+    }
+}
 
 /// The ball plate of `plate` (`"all"` or a number of pairs) and
 /// `plate_sigma` (micrometres, default 1), as `--plate` and
@@ -217,47 +373,4 @@ fn mechanism_dataset<'py>(
     } else {
         format!("truth: expected a simulated parcal.MechanismDataset, got {truth}")
     }))
-}
-
-/// The hexapod's campaign of ball touches (the paper's scenario, or
-/// `balls` on a grid), as `parcal simulate` makes it.
-fn hexapod(
-    py: Python<'_>,
-    seed: u64,
-    options: &MechanismOptions,
-    tilt: Option<f64>,
-    design_drawn: bool,
-) -> PyResult<Dataset> {
-    let tilt = tilt.unwrap_or(10.0);
-    if !(tilt.is_finite() && (0.0..90.0).contains(&tilt)) {
-        return Err(to_py(format!(
-            "tilt must be in [0, 90) degrees, got {tilt}"
-        )));
-    }
-    let paper = Scenario::paper();
-    let points_per_ball = COUNT
-        .check(
-            "points_per_ball",
-            options.points_per_ball.unwrap_or(paper.points_per_ball),
-        )
-        .map_err(to_py)?;
-    let mut scenario = match options.balls {
-        None => Scenario {
-            points_per_ball,
-            max_tilt: tilt.to_radians(),
-            ..paper
-        },
-        Some(balls) => {
-            COUNT.check("balls", balls).map_err(to_py)?;
-            Scenario::scaled(balls, points_per_ball, tilt.to_radians())
-        }
-    };
-    if design_drawn {
-        scenario = scenario.design_drawn(seed);
-    }
-    scenario.plate = options.plate;
-    let simulation = py
-        .detach(|| simulate_campaign(&scenario, seed))
-        .map_err(to_py)?;
-    Ok(Dataset::in_memory(simulation.dataset))
 }

@@ -9,13 +9,12 @@ use std::str::FromStr;
 
 use anyhow::Context;
 use parcal::dataset::{Dataset, DatasetError, WriteOptions};
-use parcal::kinematics::rotation_zyx;
-use parcal::plan::plan_file::read_plan;
-use parcal::plan::tracker::plan_file::read_pose_plan;
-use parcal::simulation::mechanism::{self, MechanismOptions};
+use parcal::hexapod_simulation::{
+    self, HexapodOptions, HexapodScenario, PlanSource, hexapod_scenario,
+};
+use parcal::simulation::mechanism::{self, MechanismOptions, Spelling};
 use parcal::simulation::{
-    COUNT, PlannedTouch, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind,
-    TrackerScenario, ball_id, check_rows, simulate, simulate_mixed, simulate_tracker,
+    COUNT, Plate, PlatePairs, Readings, Scenario, Simulation, TrackerKind, TrackerScenario,
 };
 
 use super::{SNAPSHOT_FILE, simulate_mechanism};
@@ -52,7 +51,7 @@ pub struct Args {
     readings: ReadingUnit,
     /// Largest |yaw|, |pitch|, |roll| of the platform at a contact or a
     /// tracked pose, degrees.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = hexapod_simulation::DEFAULT_TILT)]
     tilt: f64,
     /// Simulate instrument measurements instead of ball touches: platform body
     /// poses (poses.csv), tool points (points.csv) or both, in sessions, each
@@ -253,11 +252,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.execute.truth().is_none(),
         "--truth needs --run (commands run on a hexapod's truth) or --mechanism (a mechanism's truth measured again)"
     );
-    anyhow::ensure!(
-        args.tilt.is_finite() && (0.0..90.0).contains(&args.tilt),
-        "--tilt must be in [0, 90) degrees, got {}",
-        args.tilt
-    );
+    hexapod_simulation::tilt(args.tilt, Spelling::Flags).map_err(anyhow::Error::msg)?;
     Dataset::check_target(&args.out, args.force).map_err(|error| {
         let exists = matches!(&error, DatasetError::Io { source, .. }
             if source.kind() == std::io::ErrorKind::AlreadyExists);
@@ -268,9 +263,37 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         };
         anyhow::anyhow!("{error}{hint}")
     })?;
-    match args.tracker {
-        Some(kind) => run_tracker(args, kind),
-        None => run_touches(args),
+    let options = HexapodOptions {
+        balls: args.balls,
+        points_per_ball: args.points_per_ball,
+        readings: Some(match args.readings {
+            ReadingUnit::Mm => hexapod_simulation::ReadingUnit::Mm,
+            ReadingUnit::Rev => hexapod_simulation::ReadingUnit::Rev,
+        }),
+        tilt: Some(args.tilt),
+        tracker: args.tracker.map(Kind::tracker_kind),
+        machine: Some(match args.machine {
+            TrackedMachine::Paper => hexapod_simulation::TrackedMachine::Paper,
+            TrackedMachine::Jugglebot => hexapod_simulation::TrackedMachine::Jugglebot,
+        }),
+        touches: args.touches,
+        sessions: args.sessions,
+        rows: args.rows,
+        rehome: args.rehome,
+        position_sigma: args.position_sigma,
+        orientation_sigma: args.orientation_sigma,
+        plate: plate(args)?,
+        plan: args.plan.clone().map(PlanSource::File),
+        design_drawn: args.design_drawn,
+    };
+    let scenario = hexapod_scenario(&options, args.seed, Spelling::Flags)?;
+    let simulation = scenario.simulate(args.seed).context("simulation failed")?;
+    write_dataset(args, &simulation)?;
+    match &scenario {
+        HexapodScenario::Touches(touches) => summarise_touches(args, touches, &simulation),
+        HexapodScenario::Tracker { tracker, touches } => {
+            summarise_tracker(tracker, touches.is_some(), &simulation)
+        }
     }
 }
 
@@ -288,33 +311,12 @@ fn plate(args: &Args) -> anyhow::Result<Option<Plate>> {
     }))
 }
 
-/// A campaign of ball touches.
-fn run_touches(args: &Args) -> anyhow::Result<()> {
-    let plate = plate(args)?;
-    let paper = Scenario::paper();
-    let balls = args.balls.unwrap_or(paper.centres.len());
-    let points_per_ball = args.points_per_ball.unwrap_or(paper.points_per_ball);
-    check_rows(&[("--balls", balls), ("--points-per-ball", points_per_ball)])?;
-    let mut scenario = match args.balls {
-        None => Scenario {
-            points_per_ball,
-            max_tilt: args.tilt.to_radians(),
-            ..paper
-        },
-        Some(balls) => Scenario::scaled(balls, points_per_ball, args.tilt.to_radians()),
-    };
-    scenario.plate = plate;
-    if let Some(path) = &args.plan {
-        scenario.plan = Some(planned_touches(path, scenario.centres.len())?);
-    }
-    if args.readings == ReadingUnit::Rev {
-        scenario = scenario.reading(Readings::of(&TrackerScenario::jugglebot_like()));
-    }
-    if args.design_drawn {
-        scenario = scenario.design_drawn(args.seed);
-    }
-    let simulation = simulate(&scenario, args.seed).context("simulation failed")?;
-    write_dataset(args, &simulation)?;
+/// The summary of a simulated campaign of ball touches.
+fn summarise_touches(
+    args: &Args,
+    scenario: &Scenario,
+    simulation: &Simulation,
+) -> anyhow::Result<()> {
     let s = &simulation.summary;
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "  balls              {}", s.balls)?;
@@ -342,7 +344,7 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
     if !scenario.readings.is_default() {
         write_readings(&mut stdout, &scenario.readings)?;
     }
-    write_ranges(&mut stdout, &simulation)?;
+    write_ranges(&mut stdout, simulation)?;
     writeln!(
         stdout,
         "  FK check           every contact's tip back on its ball, worst {:.2} sigma of the noise",
@@ -351,146 +353,16 @@ fn run_touches(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The touches of plan.csv on the scenario's `balls` balls (ids `b01`..).
-fn planned_touches(path: &std::path::Path, balls: usize) -> anyhow::Result<Vec<PlannedTouch>> {
-    let rows = read_plan(path)?;
-    rows.iter()
-        .enumerate()
-        .map(|(k, row)| {
-            let ball = (0..balls)
-                .find(|&b| ball_id(b, balls) == row.ball)
-                .with_context(|| {
-                    format!(
-                        "{}: line {}: ball {:?} is not one of the simulated balls {} .. {}",
-                        path.display(),
-                        k + 2,
-                        row.ball,
-                        ball_id(0, balls),
-                        ball_id(balls - 1, balls)
-                    )
-                })?;
-            let [roll, pitch, yaw] = row.angles;
-            Ok(PlannedTouch {
-                ball,
-                direction: row.direction.normalize(),
-                rotation: rotation_zyx(yaw, pitch, roll),
-            })
-        })
-        .collect()
-}
-
-/// The planned readings of a pose plan.csv by session, in order of the
-/// sessions' first rows; every session must have as many poses.
-fn planned_sessions(path: &std::path::Path) -> anyhow::Result<Vec<Vec<[f64; 6]>>> {
-    let mut labels: Vec<String> = Vec::new();
-    let mut sessions: Vec<Vec<[f64; 6]>> = Vec::new();
-    for row in read_pose_plan(path)? {
-        match labels.iter().position(|l| *l == row.session) {
-            Some(k) => sessions[k].push(row.q),
-            None => {
-                labels.push(row.session);
-                sessions.push(vec![row.q]);
-            }
-        }
-    }
-    if let Some(k) = sessions.iter().position(|s| s.len() != sessions[0].len()) {
-        anyhow::bail!(
-            "{}: session {:?} has {} poses and session {:?} {}: the simulator measures as many in every session",
-            path.display(),
-            labels[k],
-            sessions[k].len(),
-            labels[0],
-            sessions[0].len()
-        );
-    }
-    Ok(sessions)
-}
-
-/// A campaign of instrument measurements.
-fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
-    let mut scenario = match args.machine {
-        TrackedMachine::Paper => TrackerScenario::paper_like(),
-        TrackedMachine::Jugglebot => TrackerScenario::jugglebot_like(),
-    };
-    scenario.kind = kind.tracker_kind();
-    scenario.max_tilt = args.tilt.to_radians();
-    if let Some(sessions) = args.sessions {
-        scenario.sessions = sessions;
-    }
-    if let Some(rows) = args.rows {
-        scenario.rows_per_session = rows;
-    }
-    if let Some(sigma) = args.rehome {
-        anyhow::ensure!(
-            sigma.is_finite() && sigma >= 0.0,
-            "--rehome must be a sigma in mm (0: none), got {sigma}"
-        );
-        scenario.session_model.leg_offset_sigma = (sigma > 0.0).then_some(sigma);
-    }
-    for (option, value, field) in [
-        (
-            "--position-sigma",
-            args.position_sigma,
-            &mut scenario.position_sigma,
-        ),
-        (
-            "--orientation-sigma",
-            args.orientation_sigma,
-            &mut scenario.orientation_sigma,
-        ),
-    ] {
-        if let Some(value) = value {
-            anyhow::ensure!(
-                value.is_finite() && value > 0.0,
-                "{option} must be positive, got {value}"
-            );
-            *field = value;
-        }
-    }
-    if let Some(path) = &args.plan {
-        let plan = planned_sessions(path)?;
-        anyhow::ensure!(
-            args.rows.is_none(),
-            "--rows and --plan: the plan's {} poses per session are the rows of each session",
-            plan[0].len()
-        );
-        if plan.len() > 1 {
-            anyhow::ensure!(
-                args.sessions.is_none_or(|k| k == plan.len()),
-                "--sessions {} and --plan: the plan has {} sessions",
-                args.sessions.unwrap_or_default(),
-                plan.len()
-            );
-            scenario.sessions = plan.len();
-        }
-        scenario.rows_per_session = plan[0].len();
-        scenario.plan = Some(plan);
-    }
-    check_rows(&[
-        ("--sessions", scenario.sessions),
-        ("--rows", scenario.rows_per_session),
-        ("files (poses and points)", scenario.kind.files()),
-    ])?;
-    let simulation = if args.touches {
-        anyhow::ensure!(
-            args.machine == TrackedMachine::Paper,
-            "--touches: the ball touches are the paper machine's (--machine paper)"
-        );
-        scenario.true_scale = [1.0; 6];
-        scenario.scale_sigma = None;
-        let touches = Scenario {
-            max_tilt: args.tilt.to_radians(),
-            ..Scenario::paper()
-        };
-        simulate_mixed(&touches, &scenario, args.seed)
-    } else {
-        simulate_tracker(&scenario, args.seed)
-    }
-    .context("simulation failed")?;
-    write_dataset(args, &simulation)?;
+/// The summary of a simulated campaign of instrument measurements, with
+/// the paper's touches of the same machine if `touches`.
+fn summarise_tracker(
+    scenario: &TrackerScenario,
+    touches: bool,
+    simulation: &Simulation,
+) -> anyhow::Result<()> {
     let s = &simulation.summary;
     let mut stdout = std::io::stdout().lock();
-    if args.touches {
+    if touches {
         writeln!(stdout, "  balls              {}", s.balls)?;
         writeln!(stdout, "  contacts           {}", s.contacts)?;
     }
@@ -504,7 +376,7 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
             )?;
         }
     }
-    write_readings(&mut stdout, &Readings::of(&scenario))?;
+    write_readings(&mut stdout, &Readings::of(scenario))?;
     write!(
         stdout,
         "  noise              actuators {} {}, position {} mm",
@@ -520,7 +392,7 @@ fn run_tracker(args: &Args, kind: Kind) -> anyhow::Result<()> {
             "  re-homing          leg offsets of sigma {sigma} mm"
         )?;
     }
-    write_ranges(&mut stdout, &simulation)?;
+    write_ranges(&mut stdout, simulation)?;
     Ok(())
 }
 

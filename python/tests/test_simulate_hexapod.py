@@ -1,0 +1,143 @@
+"""parcal.simulate of a hexapod against ``parcal simulate``: instrument
+campaigns (``tracker=``), readings in revolutions and plans (a plan.csv's
+path or the dict ``parcal.plan`` returns) give the command's files for the
+same seed and options, and every combination the command refuses is
+refused, naming the keyword."""
+
+import numpy as np
+import pytest
+
+import parcal
+from conftest import assert_same_files, flags
+
+TOUCH_FILES = {"artefacts.json", "machine.json", "measurements.csv", "truth.json"}
+
+
+@pytest.mark.parametrize(
+    ("options", "files"),
+    [
+        (
+            {"tracker": "both", "sessions": 2, "rows": 10, "rehome": 0.5},
+            {"machine.json", "poses.csv", "points.csv", "truth.json"},
+        ),
+        (
+            {"tracker": "poses", "machine": "jugglebot", "rehome": 2, "position_sigma": 0.3,
+             "orientation_sigma": 0.001, "rows": 20, "tilt": 15},
+            {"machine.json", "poses.csv", "truth.json"},
+        ),
+        ({"tracker": "points", "sessions": 1}, {"machine.json", "points.csv", "truth.json"}),
+        ({"tracker": "both", "touches": True, "rows": 10}, TOUCH_FILES | {"poses.csv", "points.csv"}),
+        ({"readings": "rev", "balls": 8, "points_per_ball": 5}, TOUCH_FILES),
+        ({"readings": "mm", "design_drawn": True}, TOUCH_FILES),
+    ],
+)
+def test_a_hexapod_campaign_is_the_command_s_byte_for_byte(tmp_path, cli, options, files):
+    ds = parcal.simulate(3, **options)
+    assert isinstance(ds, parcal.Dataset)
+    ds.write(tmp_path / "python")
+    assert {p.name for p in (tmp_path / "python").iterdir()} == files
+    cli("simulate", "--seed", 3, *flags(options), "--out", tmp_path / "cli")
+    assert_same_files(tmp_path / "python", tmp_path / "cli")
+
+
+def test_the_options_reach_the_dataset():
+    ds = parcal.simulate(3, tracker="poses", sessions=2, rows=6, rehome=0.5, position_sigma=0.02)
+    assert ds.poses["q"].shape == (12, 6) and len(ds.points["q"]) == 0
+    assert sorted(set(ds.poses["session"])) == ["1", "2"]
+    assert ds.machine["session_model"]["leg_offset_sigma"] == 0.5
+    assert ds.machine["repeatability"]["position"] == 0.02
+    rev = parcal.simulate(3, readings="rev")
+    assert rev.machine["actuator"]["unit"] == "rev"
+    assert not np.array_equal(rev.q, parcal.simulate(3).q)
+
+
+def test_a_plan_is_simulated_from_its_file_or_its_dict_as_the_command_does(tmp_path, cli):
+    template = tmp_path / "template"
+    cli("simulate", "--balls", 8, "--points-per-ball", 5, "--out", template)
+    plan_csv = tmp_path / "plan.csv"
+    cli("plan", template, "--contacts", 40, "--tilt", 20, "--pool", 2000, "--out", plan_csv)
+    cli("simulate", "--seed", 2, "--balls", 8, "--plan", plan_csv, "--out", tmp_path / "cli")
+    planned = parcal.plan(parcal.Dataset.read(template), 40, 20, pool=2000)
+    from_dict = parcal.simulate(2, balls=8, plan=planned)
+    assert from_dict.contacts == 40
+    from_dict.write(tmp_path / "dict")
+    assert_same_files(tmp_path / "dict", tmp_path / "cli")
+    parcal.simulate(2, balls=8, plan=plan_csv).write(tmp_path / "file")
+    assert_same_files(tmp_path / "file", tmp_path / "cli")
+    # The planned touches, not random ones.
+    assert not np.array_equal(from_dict.q, parcal.simulate(2, balls=8, points_per_ball=5).q[:40])
+
+
+def test_a_pose_plan_is_simulated_in_its_sessions_as_the_command_does(tmp_path, cli):
+    template = tmp_path / "template"
+    cli("simulate", "--tracker", "poses", "--sessions", 1, "--rows", 6, "--out", template)
+    plan_csv = tmp_path / "plan.csv"
+    cli("plan", template, "--poses", 6, "--tilt", 10, "--workspace", "60,300,380", "--sessions", 2,
+        "--out", plan_csv)
+    cli("simulate", "--seed", 4, "--tracker", "both", "--plan", plan_csv, "--out", tmp_path / "cli")
+    planned = parcal.plan(parcal.Dataset.read(template), tilt=10, poses=6, workspace=(60, 300, 380),
+                          sessions=2)
+    assert sorted(set(planned["session"])) == ["1", "2"]
+    ds = parcal.simulate(4, tracker="both", plan=planned)
+    assert ds.poses["q"].shape == (6, 6)
+    ds.write(tmp_path / "dict")
+    assert_same_files(tmp_path / "dict", tmp_path / "cli")
+    parcal.simulate(4, tracker="both", plan=str(plan_csv)).write(tmp_path / "file")
+    assert_same_files(tmp_path / "file", tmp_path / "cli")
+    with pytest.raises(parcal.Error, match="^sessions=3 and plan: the plan has 2 sessions"):
+        parcal.simulate(4, tracker="both", plan=planned, sessions=3)
+    with pytest.raises(parcal.Error, match="^rows and plan: the plan's 3 poses per session"):
+        parcal.simulate(4, tracker="both", plan=planned, rows=3)
+
+
+TOUCH = {"ball": ["b01"], "direction": [[0.0, 0.0, -1.0]], "angles": [[0.0, 0.0, 0.0]]}
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"tracker": "both", "balls": 3, "plate": "all"}, "balls, plate cannot be used with tracker"),
+        ({"tracker": "poses", "readings": "mm"}, "readings cannot be used with tracker"),
+        ({"tracker": "points", "design_drawn": True}, "design_drawn cannot be used with tracker"),
+        ({"sessions": 2, "rehome": 0.5}, "sessions, rehome cannot be used without tracker"),
+        ({"machine": "paper", "touches": True}, "machine, touches cannot be used without tracker"),
+        ({"mechanism": "delta", "tracker": "poses"}, "tracker do not apply to a linear delta"),
+        ({"mechanism": "cable", "readings": "rev", "plan": "plan.csv"}, "readings, plan do not apply to a cable robot"),
+        ({"tracker": "laser"}, 'tracker: "laser" is not one of poses, points, both'),
+        ({"tracker": "poses", "machine": "stewart"}, 'machine: "stewart" is not one of paper, jugglebot'),
+        ({"readings": "revolutions"}, 'readings: "revolutions" is not one of mm, rev'),
+        ({"tracker": "both", "touches": True, "machine": "jugglebot"},
+         r"touches: the ball touches are the paper machine's \(machine=\"paper\"\)"),
+        ({"tracker": "points", "rows": 0}, "rows 0: must be a whole number from 1 to 10000000"),
+        ({"tracker": "points", "sessions": 0}, "sessions 0: must be a whole number from 1 to 10000000"),
+        ({"tracker": "both", "sessions": 10**6, "rows": 10**6}, "too large: sessions 1000000 x rows 1000000"),
+        ({"balls": 10**7, "points_per_ball": 2}, "too large: balls 10000000 x points_per_ball 2"),
+        ({"tracker": "poses", "rehome": -1}, r"rehome must be a sigma in mm \(0: none\), got -1"),
+        ({"tracker": "poses", "position_sigma": 0}, "position_sigma must be positive, got 0"),
+        ({"tracker": "poses", "orientation_sigma": float("nan")}, "orientation_sigma must be positive, got NaN"),
+        ({"tilt": 90, "tracker": "poses"}, r"tilt must be in \[0, 90\) degrees, got 90"),
+        ({"plan": 3}, "plan: expected a plan.csv's path or the dict parcal.plan returns, got 3"),
+        ({"plan": {"ball": ["b01"]}}, 'plan: missing "direction"'),
+        ({"plan": {**TOUCH, "ball": "b01"}}, r'plan\["ball"\]: expected a sequence of strings'),
+        ({"plan": {**TOUCH, "ball": ["b01", "b02"]}}, "plan: ball, direction and angles have 2, 1 and 1 rows"),
+        ({"plan": {**TOUCH, "direction": [[0.0, 0.0, -1.1]]}}, r"plan: row 0: u = \(0, 0, -1.1\) is not a unit vector"),
+        ({"plan": {**TOUCH, "angles": [[0.0, float("inf"), 0.0]]}}, "plan: row 0: direction .* must be finite"),
+        ({"plan": {**TOUCH, "ball": ["b28"]}}, 'plan: row 0: ball "b28" is not one of the simulated balls b01 .. b27'),
+        ({"plan": {k: np.empty((0, 3)) for k in ("direction", "angles")} | {"ball": []}}, "plan: no touches"),
+        ({"plan": TOUCH, "tracker": "poses"}, r'plan: missing "session" \(a plan of poses'),
+        ({"plan": {"session": ["1"], "q": [[1.0] * 5 + [np.inf]]}, "tracker": "poses"}, r"plan: row 0: q \[.*\] must be finite"),
+        ({"plan": {"session": [""], "q": [[1.0] * 6]}, "tracker": "poses"}, 'plan: row 0: session "": expected a label'),
+        ({"plan": {"session": ["a", "b", "a"], "q": [[1.0] * 6] * 3}, "tracker": "poses"},
+         'plan: session "b" has 1 poses and session "a" 2'),
+    ],
+)
+def test_what_the_command_refuses_is_refused_naming_the_keyword(options, message):
+    with pytest.raises(parcal.Error, match=f"^{message}"):
+        parcal.simulate(1, **options)
+
+
+def test_a_missing_plan_file_is_named(tmp_path):
+    missing = tmp_path / "nothing.csv"
+    for tracker in (None, "poses"):
+        with pytest.raises(parcal.Error, match="nothing.csv"):
+            parcal.simulate(1, tracker=tracker, plan=missing)
