@@ -27,11 +27,11 @@ use rayon::prelude::*;
 use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::options::MechanismOptions;
-use super::problem::{
-    FitProblem, MechanismProblem, Reaches, Start, TouchedBall, WarmStart, put_group_columns,
-    touch_failed,
-};
+use super::problem::{FitProblem, MechanismProblem, Start};
+use super::reaches::Reaches;
 use super::touch_jacobian::TouchJacobian;
+use super::touched_ball::{TouchedBall, put_group_columns, touch_failed};
+use super::warm_start::WarmStart;
 use crate::options::Observation;
 
 /// A touch point's linearisation: groups of `C` unknowns, two angles,

@@ -63,3 +63,14 @@ pub enum MechanismCalibrationError {
         status: Status,
     },
 }
+
+/// Observation `observation` failed, for `reason`.
+pub(crate) fn failed(
+    observation: ObservationRef,
+    reason: impl std::fmt::Display,
+) -> MechanismCalibrationError {
+    MechanismCalibrationError::Observation {
+        observation,
+        reason: reason.to_string(),
+    }
+}

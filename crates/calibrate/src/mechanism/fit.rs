@@ -30,8 +30,9 @@ use super::error::MechanismCalibrationError;
 use super::mirror::{MirroredBall, WrongSideWatch};
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::problem::{FitProblem, MechanismProblem, Start, WarmStart, group_size};
+use super::problem::{FitProblem, MechanismProblem, Start, group_size};
 use super::trackers::Trackers;
+use super::warm_start::WarmStart;
 
 /// What one fit gives (module doc).
 pub(crate) struct Fit {
@@ -439,8 +440,8 @@ mod tests {
 
     use super::*;
     use crate::CalibrationOptions;
-    use crate::mechanism::problem::Reaches;
     use crate::mechanism::problem::tests::sigmas_apart;
+    use crate::mechanism::reaches::Reaches;
     use crate::options::{PriorMode, RadiusModel, Simulation};
     use crate::sphere_fit::{best_fit, mirror_fit};
 

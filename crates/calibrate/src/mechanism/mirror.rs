@@ -16,7 +16,9 @@ use parcal_solver::{Decision, Iterate, IterationRecord, Monitor, Problem};
 use crate::fit::misfit_balls;
 use crate::mirror::{SETTLED, mirror_side};
 
-use super::problem::{MechanismProblem, Reaches, WarmStart};
+use super::problem::MechanismProblem;
+use super::reaches::Reaches;
+use super::warm_start::WarmStart;
 
 /// A ball found on the wrong side of its touches.
 #[derive(Debug, Clone, PartialEq)]

@@ -93,14 +93,18 @@ mod options;
 mod predicted;
 pub mod prior;
 mod problem;
+mod problem_rows;
+mod reaches;
 mod record;
 mod result;
 mod snooping;
 mod tied;
 mod touch_jacobian;
 mod touch_start;
+mod touched_ball;
 mod trackers;
 mod validation;
+mod warm_start;
 
 pub use calibrated::CalibratedMechanism;
 pub use checks::{ObservationCheck, ObservationChecks};

@@ -205,6 +205,14 @@ pub fn number_ranges(numbers: impl IntoIterator<Item = usize>) -> String {
     runs.iter().map(run).collect::<Vec<_>>().join(", ")
 }
 
+/// Touch `t` as an observation.
+pub(crate) fn touch_ref(t: usize) -> ObservationRef {
+    ObservationRef {
+        kind: ObservationKind::Touch,
+        index: t,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -96,8 +96,9 @@ use parcal_observe::mechanism::BallTouch;
 use super::data::Observations;
 use super::error::MechanismCalibrationError;
 use super::observation::{HeldOut, ObservationKind, ObservationRef};
-use super::problem::{BallFit, WarmStart, ball_centre};
+use super::touched_ball::{BallFit, ball_centre};
 use super::trackers::{Seen, locate_frame, points_of, poses_of, reach};
+use super::warm_start::WarmStart;
 
 /// The most touches of one held-out ball: its rows' noise covariance is
 /// dense, `(K − 3)²` numbers factored in `O(K³)`.

@@ -17,10 +17,12 @@
 //! (their lengths uncertain together, their differences far less;
 //! [`MechanismData::with_matched_group`]).
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector, Dyn};
+use parcal_solver::GaussianPrior;
 
 use super::data::{MechanismData, ParameterPrior};
 use super::error::MechanismCalibrationError;
+use super::tied::TiedBalls;
 
 /// The global block's priors: the parameters', then the trigger height's
 /// when it is an unknown (there are probe heights), then each tracker's
@@ -165,6 +167,45 @@ impl MechanismData {
         }
         Ok(self.with_prior_correlation(correlation))
     }
+}
+
+/// The mechanism's part of the global block's priors' means.
+pub(super) fn prior_means(data: &MechanismData) -> DVector<f64> {
+    let priors = global_priors(data);
+    DVector::from_iterator(priors.len(), priors.iter().map(|p| p.mean))
+}
+
+/// The prior on the global block (module doc): the mechanism's part's
+/// ([`prior_information`]), and each tied ball's centre prior and its
+/// radius's calibration sigma, independent of it and of each other;
+/// `None` when no unknown has one.
+pub(super) fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<Dyn>> {
+    let m = global_priors(data).len();
+    let g = m + tied.unknowns();
+    let mut mean = prior_means(data).resize_vertically(g, 0.0);
+    let mut information = DMatrix::zeros(g, g);
+    let mechanism = prior_information(data);
+    if let Some(mechanism) = &mechanism {
+        information.view_mut((0, 0), (m, m)).copy_from(mechanism);
+    }
+    let mut any = mechanism.is_some();
+    for (b, columns) in tied.iter() {
+        let column = columns.start;
+        let ball = &data.observations.balls[b];
+        if let Some(prior) = ball.centre_prior {
+            for k in 0..3 {
+                mean[column + k] = prior.centre[k];
+                information[(column + k, column + k)] = prior.sigma.powi(-2);
+            }
+            any = true;
+        }
+        if let Some(sigma) = ball.radius_sigma {
+            mean[column + 3] = ball.radius;
+            information[(column + 3, column + 3)] = sigma.powi(-2);
+            any = true;
+        }
+    }
+    any.then(|| GaussianPrior::new(mean, information))
 }
 
 #[cfg(test)]

@@ -37,95 +37,27 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector, Vector3};
-use parcal_kinematics::batch_workspace::BatchWorkspace;
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, Reached, ReachedAlong};
-use parcal_observe::mechanism::{
-    Actuation, ActuationBatch, BallTouch, RadiusRow, Rows, SampleRows,
-};
-use parcal_solver::{
-    GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State, filled,
-};
+use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, SVector, Vector3};
+use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
+use parcal_observe::mechanism::{Actuation, BallTouch, RadiusRow, SampleRows};
+use parcal_solver::{GaussianPrior, Linearization, Loss, Problem, State, filled};
 use rayon::prelude::*;
 
-use crate::sphere_fit::{SphereFitError, best_fit};
-
-use super::data::{MAX_WARM_START, MechanismData};
-use super::error::MechanismCalibrationError;
-use super::observation::{ObservationKind, ObservationRef};
-use super::prior::{global_priors, prior_information};
+use super::data::MechanismData;
+use super::error::{MechanismCalibrationError, failed};
+use super::observation::{ObservationKind, ObservationRef, touch_ref};
+use super::prior::{global_prior, global_priors, prior_means};
+use super::reaches::{Reaches, TouchBatch, batch_rooms};
 use super::tied::TiedBalls;
 use super::touch_start::TouchStart;
+use super::touched_ball::{TouchedBall, ball_centre, ball_rooms, put_ball_columns, touch_failed};
 use super::trackers::Trackers;
+use super::warm_start::WarmStart;
 
 /// The solver's problem: groups of `C` unknowns (a sample's pose, a
 /// ball's centre, and with [`group_size`] 4 a ball's radius), no point
 /// unknowns, one row per point.
-type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
-
-/// Where the touches of a batch are: a worker's, kept from batch to batch
-/// (the solver's workspace), so that the mechanism writes into the room
-/// the last batch left: the coordinate rows hand each touch's room back,
-/// the radius rows (eq. 9, `BallTouch::radius_row`) borrow it. A batch
-/// shorter than the one before leaves its extra rooms aside for the next
-/// longer one (a ball's 7 touches go in batches of 4 and 3).
-#[derive(Debug, Default)]
-pub(crate) struct Reaches {
-    /// Where they are, with `dT/dp |_q` ([`MechanismProblem::reach`]).
-    pub(crate) at: Vec<Result<Reached, MechanismError>>,
-    /// Where they are along a step, for a back-substitution
-    /// ([`MechanismProblem::reach_along`]).
-    pub(crate) along: Vec<Result<ReachedAlong, MechanismError>>,
-    /// The rooms of `at` beyond the last batch.
-    spare_at: Vec<Result<Reached, MechanismError>>,
-    /// The rooms of `along` beyond the last batch.
-    spare_along: Vec<Result<ReachedAlong, MechanismError>>,
-    /// What the mechanism's batches share (the hexapod's geometry of the
-    /// pass's parameters and its lanes' row order).
-    kinematics: BatchWorkspace,
-}
-
-/// A batch of touch points as a mechanism's batch takes them
-/// ([`ActuationBatch`]): each one's touch's actuation and the warm start in
-/// its cache, read in place (a pass hands the mechanism some hundred
-/// thousand batches).
-struct TouchBatch<'b> {
-    touches: &'b [BallTouch],
-    /// The batch's touches, in the order of its points.
-    order: &'b [usize],
-    /// Their caches.
-    caches: &'b [WarmStart],
-    /// The mechanism's [`Mechanism::warm_start_len`].
-    warm_start_len: usize,
-}
-
-impl ActuationBatch for TouchBatch<'_> {
-    fn len(&self) -> usize {
-        self.order.len()
-    }
-
-    fn actuation(&self, k: usize) -> &Actuation {
-        &self.touches[self.order[k]].at
-    }
-
-    fn start(&self, k: usize) -> Option<&[f64]> {
-        self.caches[k].start(self.warm_start_len)
-    }
-}
-
-/// `entries` cut or grown to `n` entries from and into `spare` (as far as
-/// it holds them), so that what is written into them finds its room.
-fn batch_rooms<T>(entries: &mut Vec<T>, spare: &mut Vec<T>, n: usize) {
-    if entries.len() > n {
-        spare.extend(entries.drain(n..));
-    }
-    while entries.len() < n {
-        match spare.pop() {
-            Some(room) => entries.push(room),
-            None => break,
-        }
-    }
-}
+pub(super) type Local<const C: usize> = Linearization<C, 0, 1, OMatrix<f64, Const<1>, Dyn>>;
 
 /// The unknowns of each local block of `data` (module doc): 4 when some
 /// ball's radius has a calibration sigma, else 3.
@@ -138,53 +70,6 @@ pub(crate) fn group_size(data: &MechanismData) -> usize {
     }
 }
 
-/// A point's cache: the warm start of the pose its touch last reached
-/// (none before its first evaluation and for every other point), where
-/// its next forward kinematics starts
-/// ([`Mechanism::warm_start`](parcal_kinematics::mechanism::Mechanism::warm_start));
-/// held inline, so that a million touches' caches make no allocation,
-/// its length the mechanism's and none a NaN first value, so that it
-/// holds nothing else.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct WarmStart {
-    values: [f64; MAX_WARM_START],
-}
-
-impl Default for WarmStart {
-    /// None.
-    fn default() -> Self {
-        Self {
-            values: [f64::NAN; MAX_WARM_START],
-        }
-    }
-}
-
-impl WarmStart {
-    /// The cache of the warm start `start`; none for one of more values
-    /// than it holds (which [`MechanismData::validate`] refuses), or that
-    /// is not finite, whose next evaluation then starts from the
-    /// mechanism's start pose.
-    pub(crate) fn of(start: &[f64]) -> Self {
-        let mut last = Self::default();
-        // `x · 0` is 0 for a finite `x` and NaN otherwise: one sum, without
-        // a branch a value (a million touches' caches twice an iteration).
-        if let Some(room) = last.values.get_mut(..start.len())
-            && start.iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0
-        {
-            room.copy_from_slice(start);
-        }
-        last
-    }
-
-    /// The warm start of a mechanism whose warm starts have `len` values,
-    /// if any.
-    fn start(&self, len: usize) -> Option<&[f64]> {
-        (!self.values[0].is_nan())
-            .then(|| self.values.get(..len))
-            .flatten()
-    }
-}
-
 /// The number of touches whose start [`MechanismProblem::touches_at_start`]
 /// takes at a time: enough that what the mechanism builds of the
 /// parameters for them is made seldom, few enough for the threads to share.
@@ -192,25 +77,25 @@ const START_CHUNK: usize = 1024;
 
 /// The sigma of the unit prior that holds a block's unused fourth unknown
 /// (module doc).
-const UNUSED: f64 = 1.0;
+pub(super) const UNUSED: f64 = 1.0;
 
 /// The problem of [`MechanismData`] (module doc), its local blocks of `C`
 /// unknowns ([`group_size`]).
 pub(crate) struct MechanismProblem<'a, const C: usize> {
-    data: &'a MechanismData,
-    prior: Option<GaussianPrior<Dyn>>,
-    loss: Loss,
+    pub(super) data: &'a MechanismData,
+    pub(super) prior: Option<GaussianPrior<Dyn>>,
+    pub(super) loss: Loss,
     /// The number of points of the samples' rows, before the touches'
     /// (made once: each touch's lookup needs it).
     sample_points: usize,
     /// The touches in the order of their balls (stable).
     touch_order: Vec<usize>,
     /// The points of each ball, after the samples' rows.
-    ball_points: Vec<Range<usize>>,
+    pub(super) ball_points: Vec<Range<usize>>,
     /// The tied balls' places in the global block.
-    tied: TiedBalls,
+    pub(super) tied: TiedBalls,
     /// The trackers' references and places in the global block.
-    trackers: Trackers,
+    pub(super) trackers: Trackers,
 }
 
 impl<'a, const C: usize> MechanismProblem<'a, C> {
@@ -715,7 +600,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         clippy::too_many_arguments,
         reason = "Problem::linearize_along_batch's"
     )]
-    fn fill_along(
+    pub(super) fn fill_along(
         &self,
         first: usize,
         global: &DVector<f64>,
@@ -747,7 +632,7 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
     /// The points `first..first + out.len()` (one group's) at its block
     /// `group`, with their caches: a sample's rows from one evaluation, or
     /// touches.
-    fn fill(
+    pub(super) fn fill(
         &self,
         first: usize,
         global: &DVector<f64>,
@@ -843,106 +728,6 @@ pub(crate) struct Start<const C: usize> {
 type StartBlocks<const C: usize> =
     Result<(Vec<SVector<f64, C>>, Vec<WarmStart>, Vec<Vector3<f64>>), MechanismCalibrationError>;
 
-/// Where [`ball_centre`] puts what a ball's touches reached, in the order
-/// of its touches.
-pub(crate) struct BallFit<'a> {
-    /// The warm start of the pose each touch reached.
-    pub warm_starts: &'a mut [WarmStart],
-    /// The tool point each touch reached.
-    pub tips: &'a mut [Vector3<f64>],
-}
-
-/// Each ball's [`BallFit`] in `warm_starts` and `tips` (the touches'
-/// places, in the order of their points), the balls' points `ball_points`
-/// one after the other.
-fn ball_rooms<'a>(
-    ball_points: &[Range<usize>],
-    mut warm_starts: &'a mut [WarmStart],
-    mut tips: &'a mut [Vector3<f64>],
-) -> Vec<BallFit<'a>> {
-    let mut rooms = Vec::with_capacity(ball_points.len());
-    for points in ball_points {
-        let (ball_warm_starts, rest_warm_starts) = warm_starts.split_at_mut(points.len());
-        let (ball_tips, rest_tips) = tips.split_at_mut(points.len());
-        rooms.push(BallFit {
-            warm_starts: ball_warm_starts,
-            tips: ball_tips,
-        });
-        (warm_starts, tips) = (rest_warm_starts, rest_tips);
-    }
-    rooms
-}
-
-/// A touched ball's unknowns' values and where they are
-/// ([`MechanismProblem::touched_ball`]).
-pub(crate) struct TouchedBall {
-    /// Its centre.
-    pub centre: Vector3<f64>,
-    /// Its radius.
-    pub radius: f64,
-    /// Its first column in the global block when it is tied.
-    pub tied: Option<usize>,
-    /// Whether its radius is an unknown.
-    pub uncertain: bool,
-}
-
-impl TouchedBall {
-    /// The product of a touch's rows' derivatives with respect to the
-    /// ball's centre `d_centre` and radius `d_radius` with the global step
-    /// `dg`: their share of `d_global · dg` when the ball is tied (its
-    /// radius's only when it is an unknown), else none.
-    pub(crate) fn tied_step<const R: usize>(
-        &self,
-        d_centre: &SMatrix<f64, R, 3>,
-        d_radius: &SVector<f64, R>,
-        dg: &DVector<f64>,
-    ) -> SVector<f64, R> {
-        let Some(column) = self.tied else {
-            return SVector::zeros();
-        };
-        let mut step = d_centre * dg.fixed_rows::<3>(column);
-        if self.uncertain {
-            step += d_radius * dg[column + 3];
-        }
-        step
-    }
-}
-
-/// A touch's rows' derivatives with respect to its ball's centre
-/// `d_centre` and radius `d_radius` written into `out` where the ball's
-/// unknowns are ([`TouchedBall`]): the global block's columns when it is
-/// tied, else its group's; the radius's only when it is an unknown.
-pub(crate) fn put_ball_columns<const C: usize, const P: usize, const R: usize>(
-    out: &mut Linearization<C, P, R, OMatrix<f64, Const<R>, Dyn>>,
-    ball: &TouchedBall,
-    d_centre: &SMatrix<f64, R, 3>,
-    d_radius: &SVector<f64, R>,
-) {
-    match ball.tied {
-        Some(column) => {
-            out.d_global.columns_mut(column, 3).copy_from(d_centre);
-            if ball.uncertain {
-                out.d_global.column_mut(column + 3).copy_from(d_radius);
-            }
-        }
-        None => put_group_columns(&mut out.d_group, ball, d_centre, d_radius),
-    }
-}
-
-/// [`put_ball_columns`] of a ball in its group: `d_centre` and, when its
-/// radius is an unknown, `d_radius` into the group's columns `d_group`.
-pub(crate) fn put_group_columns<const C: usize, const R: usize>(
-    d_group: &mut SMatrix<f64, R, C>,
-    ball: &TouchedBall,
-    d_centre: &SMatrix<f64, R, 3>,
-    d_radius: &SVector<f64, R>,
-) {
-    d_group.fixed_columns_mut::<3>(0).copy_from(d_centre);
-    if ball.uncertain {
-        d_group.column_mut(3).copy_from(d_radius);
-    }
-}
-
 /// A touch's radius row but `d_global` into `out`: its residual and its
 /// ball's columns ([`put_ball_columns`]), the group's other columns zero.
 fn put_touch_local<const C: usize>(out: &mut Local<C>, row: &RadiusRow, ball: &TouchedBall) {
@@ -952,449 +737,9 @@ fn put_touch_local<const C: usize>(out: &mut Local<C>, row: &RadiusRow, ball: &T
     put_ball_columns(out, ball, &row.d_centre(), &d_radius);
 }
 
-/// The error of touch `t` on ball `ball`.
-pub(crate) fn touch_failed(
-    t: usize,
-    ball: usize,
-    error: impl std::fmt::Display,
-) -> MechanismCalibrationError {
-    failed(
-        ObservationRef {
-            kind: ObservationKind::Touch,
-            index: t,
-        },
-        format!("on ball {ball}: {error}"),
-    )
-}
-
 /// A local block of `C` unknowns: `xyz`, then (with `C` 4) `fourth`.
-fn block<const C: usize>(xyz: &Vector3<f64>, fourth: f64) -> SVector<f64, C> {
+pub(super) fn block<const C: usize>(xyz: &Vector3<f64>, fourth: f64) -> SVector<f64, C> {
     SVector::from_fn(|k, _| if k < 3 { xyz[k] } else { fourth })
-}
-
-/// The mechanism's part of the global block's priors' means.
-fn prior_means(data: &MechanismData) -> DVector<f64> {
-    let priors = global_priors(data);
-    DVector::from_iterator(priors.len(), priors.iter().map(|p| p.mean))
-}
-
-/// The prior on the global block (module doc): the mechanism's part's
-/// ([`prior_information`]), and each tied ball's centre prior and its
-/// radius's calibration sigma, independent of it and of each other;
-/// `None` when no unknown has one.
-fn global_prior(data: &MechanismData, tied: &TiedBalls) -> Option<GaussianPrior<Dyn>> {
-    let m = global_priors(data).len();
-    let g = m + tied.unknowns();
-    let mut mean = prior_means(data).resize_vertically(g, 0.0);
-    let mut information = DMatrix::zeros(g, g);
-    let mechanism = prior_information(data);
-    if let Some(mechanism) = &mechanism {
-        information.view_mut((0, 0), (m, m)).copy_from(mechanism);
-    }
-    let mut any = mechanism.is_some();
-    for (b, columns) in tied.iter() {
-        let column = columns.start;
-        let ball = &data.observations.balls[b];
-        if let Some(prior) = ball.centre_prior {
-            for k in 0..3 {
-                mean[column + k] = prior.centre[k];
-                information[(column + k, column + k)] = prior.sigma.powi(-2);
-            }
-            any = true;
-        }
-        if let Some(sigma) = ball.radius_sigma {
-            mean[column + 3] = ball.radius;
-            information[(column + 3, column + 3)] = sigma.powi(-2);
-            any = true;
-        }
-    }
-    any.then(|| GaussianPrior::new(mean, information))
-}
-
-/// The centre of ball `b` of calibrated radius `radius` from its
-/// `touches` (indices into `all`): the best fit, with its radius, of the
-/// tool points the touches reach with parameters `params` and the
-/// controller's `configured` ([`best_fit`]; the last
-/// iterate of a fit that did not converge); the warm start and the tool
-/// point each touch reached into `fit`, in the order of `touches`.
-/// `reached` is room for the touches' outcomes, kept from ball to ball so
-/// that their rooms are allocated once.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "a ball, its touches and where they are put"
-)]
-pub(crate) fn ball_centre(
-    mechanism: &dyn Mechanism,
-    params: &[f64],
-    configured: &[f64],
-    all: &[BallTouch],
-    touches: &[usize],
-    b: usize,
-    radius: f64,
-    reached: &mut Vec<Result<ReachedAlong, MechanismError>>,
-    fit: BallFit<'_>,
-) -> Result<Vector3<f64>, MechanismCalibrationError> {
-    // Together: a mechanism may reach several at once (the hexapod's
-    // lanes), each from its start pose. Of each only its tool point and
-    // warm start are wanted, not `dT/dp |_q`: the touches along a zero
-    // step, which a mechanism's batches give without forming `dT/dp |_q`.
-    let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
-    let (starts, zero_step) = (vec![None; touches.len()], vec![0.0; params.len()]);
-    Actuation::tool_points_along(
-        mechanism,
-        params,
-        configured,
-        &(&actuations[..], &starts[..]),
-        &zero_step,
-        &mut BatchWorkspace::default(),
-        reached,
-    );
-    let rooms = fit.tips.iter_mut().zip(fit.warm_starts.iter_mut());
-    for ((along, &t), (tip, warm_start)) in reached.iter().zip(touches).zip(rooms) {
-        let along = along.as_ref().map_err(|e| failed(touch_ref(t), e))?;
-        *tip = along.reached.point;
-        *warm_start = WarmStart::of(along.reached.warm_start.as_slice());
-    }
-    match best_fit(fit.tips, radius) {
-        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(fit.centre),
-        Err(e) => Err(MechanismCalibrationError::InvalidData {
-            what: format!("ball {b}"),
-            reason: format!("its touches do not locate its centre: {e}"),
-        }),
-    }
-}
-
-/// Touch `t` as an observation.
-fn touch_ref(t: usize) -> ObservationRef {
-    ObservationRef {
-        kind: ObservationKind::Touch,
-        index: t,
-    }
-}
-
-fn failed(observation: ObservationRef, error: impl std::fmt::Display) -> MechanismCalibrationError {
-    MechanismCalibrationError::Observation {
-        observation,
-        reason: error.to_string(),
-    }
-}
-
-/// Groups of `C` unknowns, points of one row (module doc).
-impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
-    type PointCache = WarmStart;
-    type Workspace = Reaches;
-    type Error = MechanismCalibrationError;
-    type Jacobian = OMatrix<f64, Const<1>, Dyn>;
-    type Global = DVector<f64>;
-
-    fn global_size(&self) -> usize {
-        self.global_len()
-    }
-
-    fn prepare_global(&self, global: &DVector<f64>) -> DVector<f64> {
-        global.clone()
-    }
-
-    fn n_groups(&self) -> usize {
-        self.data.observations.samples.len() + self.ball_points.len()
-    }
-
-    /// A tied ball's block: its unknowns are global (module doc).
-    fn group_is_fixed(&self, k: usize) -> bool {
-        k.checked_sub(self.data.observations.samples.len())
-            .is_some_and(|b| self.tied.column(b).is_some())
-    }
-
-    fn group_points(&self, k: usize) -> Range<usize> {
-        let samples = self.data.observations.samples.len();
-        if k < samples {
-            let a = self.actuators();
-            k * a..(k + 1) * a
-        } else {
-            self.ball_points[k - samples].clone()
-        }
-    }
-
-    /// No pose yet: a touch at readings first starts from the
-    /// mechanism's [`Mechanism::start_pose`].
-    fn initial_cache(&self, _i: usize) -> WarmStart {
-        WarmStart::default()
-    }
-
-    /// The row of point `i` at its group's block (module doc).
-    fn linearize(
-        &self,
-        i: usize,
-        global: &DVector<f64>,
-        group: &SVector<f64, C>,
-        _point: &SVector<f64, 0>,
-        cache: &mut WarmStart,
-        out: &mut Local<C>,
-    ) -> Result<(), MechanismCalibrationError> {
-        let caches = std::slice::from_mut(cache);
-        let out = std::slice::from_mut(out);
-        self.fill(i, global, group, caches, out, &mut Reaches::default())
-            .map_err(|(_, e)| e)
-    }
-
-    /// A sample's rows of the batch from one evaluation.
-    fn linearize_batch(
-        &self,
-        first: usize,
-        global: &DVector<f64>,
-        group: &SVector<f64, C>,
-        _points: &[SVector<f64, 0>],
-        caches: &mut [WarmStart],
-        out: &mut [Local<C>],
-        reaches: &mut Reaches,
-    ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill(first, global, group, caches, out, reaches)
-    }
-
-    /// A group's rows along the step ([`MechanismProblem::fill_along`]):
-    /// its touches' `d_global` not written, each touch's cache at the pose
-    /// predicted after the step.
-    fn linearize_along_batch(
-        &self,
-        first: usize,
-        global: &DVector<f64>,
-        group: &SVector<f64, C>,
-        _points: &[SVector<f64, 0>],
-        caches: &mut [WarmStart],
-        dg: &DVector<f64>,
-        out: &mut [Local<C>],
-        steps: &mut [SVector<f64, 1>],
-        reaches: &mut Reaches,
-    ) -> Result<(), (usize, MechanismCalibrationError)> {
-        self.fill_along(first, global, group, caches, dg, out, steps, reaches)
-    }
-
-    /// Every probe height's, part distance's, measured point's, measured
-    /// quantity's, ball distance's and tracker point's rows (module doc).
-    fn global_observations(
-        &self,
-        global: &DVector<f64>,
-        out: &mut GlobalObservations,
-    ) -> Result<(), MechanismCalibrationError> {
-        let mechanism = self.data.mechanism.as_ref();
-        let n = self.n_params();
-        let params = &global.as_slice()[..n];
-        let configured = self.data.configured.as_slice();
-        let m = self
-            .global_observation_refs()
-            .iter()
-            .map(|(_, rows)| rows)
-            .sum();
-        *out = GlobalObservations::zeros(m, global.len());
-        let mut row = 0;
-        let mut put = |kind, index, evaluated: Result<Rows, MechanismError>| {
-            let rows = evaluated.map_err(|e| failed(ObservationRef { kind, index }, e))?;
-            let m = rows.residual.len();
-            out.residual.rows_mut(row, m).copy_from(&rows.residual);
-            out.jacobian
-                .view_mut((row, 0), (m, n))
-                .copy_from(&rows.d_params);
-            row += m;
-            Ok::<usize, MechanismCalibrationError>(row - m)
-        };
-        let o = &self.data.observations;
-        let mut trigger_rows = Vec::with_capacity(o.probes.len());
-        for (k, probe) in o.probes.iter().enumerate() {
-            let evaluated = probe.evaluate(mechanism, params, configured, global[n]);
-            let d_trigger_height = evaluated.as_ref().map_or(0.0, |e| e.d_trigger_height);
-            let at = put(ObservationKind::Probe, k, evaluated.map(|e| e.rows))?;
-            trigger_rows.push((at, d_trigger_height));
-        }
-        for (k, manual) in o.manual_heights.iter().enumerate() {
-            put(
-                ObservationKind::ManualHeight,
-                k,
-                manual.evaluate(mechanism, params, configured),
-            )?;
-        }
-        for (k, distance) in o.distances.iter().enumerate() {
-            put(
-                ObservationKind::Distance,
-                k,
-                distance.evaluate(mechanism, params, configured),
-            )?;
-        }
-        for (k, point) in o.points.iter().enumerate() {
-            put(
-                ObservationKind::Point,
-                k,
-                point.evaluate(mechanism, params, configured),
-            )?;
-        }
-        for (k, quantity) in o.quantities.iter().enumerate() {
-            put(
-                ObservationKind::Quantity,
-                k,
-                quantity.evaluate(mechanism, params),
-            )?;
-        }
-        for (at, d_trigger_height) in trigger_rows {
-            out.jacobian[(at, n)] = d_trigger_height;
-        }
-        for (k, distance) in o.ball_distances.iter().enumerate() {
-            let id = ObservationRef {
-                kind: ObservationKind::BallDistance,
-                index: k,
-            };
-            let (Some(a), Some(b)) = (
-                self.tied.column(distance.first),
-                self.tied.column(distance.second),
-            ) else {
-                return Err(failed(id, "its balls' centres are not global unknowns"));
-            };
-            let centre = |c: usize| Vector3::from_column_slice(&global.as_slice()[c..c + 3]);
-            let evaluated = distance
-                .evaluate(&centre(a), &centre(b))
-                .map_err(|e| failed(id, e))?;
-            out.residual[row] = evaluated.residual;
-            let mut jacobian = out.jacobian.row_mut(row);
-            jacobian.columns_mut(a, 3).copy_from(&evaluated.d_first);
-            jacobian.columns_mut(b, 3).copy_from(&evaluated.d_second);
-            row += 1;
-        }
-        for (k, point) in o.tracker_points.iter().enumerate() {
-            let id = ObservationRef {
-                kind: ObservationKind::TrackerPoint,
-                index: k,
-            };
-            let frame = self.trackers.frame(point.tracker, global);
-            let offsets = self.trackers.offsets(point.tracker, global);
-            let evaluated = point
-                .evaluate(mechanism, params, configured, &frame, offsets, None)
-                .map_err(|e| failed(id, e))?;
-            out.residual
-                .rows_mut(row, 3)
-                .copy_from(&evaluated.rows.residual);
-            out.jacobian
-                .view_mut((row, 0), (3, n))
-                .copy_from(&evaluated.rows.d_params);
-            let columns = self.trackers.columns(point.tracker);
-            out.jacobian
-                .view_mut((row, columns.start), (3, columns.len()))
-                .copy_from(&evaluated.d_frame);
-            if let (Some(columns), Some(d_offsets)) = (
-                self.trackers.offset_columns(point.tracker),
-                &evaluated.d_offsets,
-            ) {
-                out.jacobian
-                    .view_mut((row, columns.start), (3, columns.len()))
-                    .copy_from(d_offsets);
-            }
-            row += 3;
-        }
-        for (k, pose) in o.tracker_poses.iter().enumerate() {
-            let id = ObservationRef {
-                kind: ObservationKind::TrackerPose,
-                index: k,
-            };
-            let (Some(body), Some(body_columns)) = (
-                self.trackers.body_of(pose.tracker, global),
-                self.trackers.body_columns(),
-            ) else {
-                return Err(failed(id, "the body frame is not an unknown"));
-            };
-            let frame = self.trackers.frame(pose.tracker, global);
-            let offsets = self.trackers.offsets(pose.tracker, global);
-            let evaluated = pose
-                .evaluate(mechanism, params, &frame, &body, offsets)
-                .map_err(|e| failed(id, e))?;
-            let m = evaluated.rows.residual.len();
-            out.residual
-                .rows_mut(row, m)
-                .copy_from(&evaluated.rows.residual);
-            let mut put = |columns: Range<usize>, d: &DMatrix<f64>| {
-                out.jacobian
-                    .view_mut((row, columns.start), (m, columns.len()))
-                    .copy_from(d);
-            };
-            put(0..n, &evaluated.rows.d_params);
-            put(self.trackers.columns(pose.tracker), &evaluated.d_frame);
-            put(body_columns, &evaluated.d_body);
-            // A body shift adds to the body's correction: the same columns.
-            let shift = self.trackers.body_shift(pose.tracker);
-            if let Some(start) = shift.rotation {
-                put(
-                    start..start + 3,
-                    &evaluated.d_body.columns(0, 3).into_owned(),
-                );
-            }
-            if let Some(start) = shift.origin {
-                put(
-                    start..start + 3,
-                    &evaluated.d_body.columns(3, 3).into_owned(),
-                );
-            }
-            if let (Some(columns), Some(d_offsets)) = (
-                self.trackers.offset_columns(pose.tracker),
-                &evaluated.d_offsets,
-            ) {
-                put(columns, d_offsets);
-            }
-            row += m;
-        }
-        Ok(())
-    }
-
-    fn loss(&self) -> Loss {
-        self.loss
-    }
-
-    fn global_observation_rows(&self) -> Option<Vec<usize>> {
-        Some(
-            self.global_observation_refs()
-                .into_iter()
-                .map(|(_, rows)| rows)
-                .collect(),
-        )
-    }
-
-    fn global_prior(&self) -> Option<&GaussianPrior<Dyn>> {
-        self.prior.as_ref()
-    }
-
-    /// A measured pose's coordinates with their sigmas; a ball's centre
-    /// prior; with `C` 4, an uncertain ball's radius with its calibration
-    /// sigma, and the unit prior of every unused fourth unknown (module
-    /// doc).
-    fn group_prior(&self, k: usize) -> Option<GaussianPrior<Const<C>>> {
-        let o = &self.data.observations;
-        let (mean, sigma) = match o.samples.get(k) {
-            Some(sample) => match sample.known_pose {
-                Some((pose, sigma)) => (
-                    block(&Vector3::from(pose), 0.0),
-                    block(&Vector3::from(sigma), UNUSED),
-                ),
-                None if C == 4 => (
-                    SVector::zeros(),
-                    block(&Vector3::repeat(f64::INFINITY), UNUSED),
-                ),
-                None => return None,
-            },
-            None => {
-                let b = k - o.samples.len();
-                let ball = &o.balls[b];
-                // A tied ball's priors are on its global unknowns.
-                if self.tied.column(b).is_some() || (ball.centre_prior.is_none() && C == 3) {
-                    return None;
-                }
-                let (centre, sigma) = ball
-                    .centre_prior
-                    .map_or((Vector3::zeros(), f64::INFINITY), |prior| {
-                        (Vector3::from(prior.centre), prior.sigma)
-                    });
-                (
-                    block(&centre, ball.radius),
-                    block(&Vector3::repeat(sigma), ball.radius_sigma.unwrap_or(UNUSED)),
-                )
-            }
-        };
-        Some(GaussianPrior::from_sigmas(mean, sigma))
-    }
 }
 
 #[cfg(test)]
@@ -1414,7 +759,9 @@ pub(crate) mod tests {
         BallDistance, BallTouch, MeasuredQuantity, PartDistance, PointSample, ProbeHeight,
         TrackerPoint, TrackerPose,
     };
-    use parcal_solver::{SolverOptions, Status, dense_reference, linear_step, solve};
+    use parcal_solver::{
+        GlobalObservations, SolverOptions, Status, dense_reference, linear_step, solve,
+    };
 
     use super::*;
     use crate::mechanism::data::{Ball, CentrePrior, Observations, Tracker};
@@ -1634,46 +981,6 @@ pub(crate) mod tests {
         let reference = dense.global_covariance().unwrap();
         let error = (&covariance - &reference).amax();
         assert!(error < 1e-7 * reference.amax(), "{error:e}");
-    }
-
-    /// Batches of 4, 3 and 4 keep the rooms: the fourth set aside and
-    /// taken back, the vector never shorter than a batch it can fill.
-    #[test]
-    fn a_warm_start_cache_holds_a_finite_start_that_fits() {
-        // A delta's three values and a hexapod's seven come back at their
-        // mechanism's length; a start too long, not finite or never set
-        // is none.
-        let start = [1.0, -2.0, 3.5, 0.1, 0.2, 0.3, 0.9];
-        for len in [3, 7] {
-            let cache = WarmStart::of(&start[..len]);
-            assert_eq!(cache.start(len), Some(&start[..len]));
-        }
-        assert_eq!(WarmStart::default().start(3), None);
-        assert_eq!(WarmStart::of(&[0.0; MAX_WARM_START + 1]).start(3), None);
-        assert_eq!(WarmStart::of(&[1.0, f64::NAN, 2.0]).start(3), None);
-        assert_eq!(
-            WarmStart::of(&[-1.0, 2.0, f64::NEG_INFINITY]).start(3),
-            None
-        );
-        assert_eq!(WarmStart::of(&start).start(MAX_WARM_START + 1), None);
-        assert_eq!(size_of::<WarmStart>(), 8 * MAX_WARM_START);
-    }
-
-    #[test]
-    fn batch_rooms_set_aside_and_take_back() {
-        let (mut entries, mut spare) = (vec![10, 11, 12, 13], Vec::new());
-        batch_rooms(&mut entries, &mut spare, 3);
-        assert_eq!(
-            (entries.as_slice(), spare.as_slice()),
-            (&[10, 11, 12][..], &[13][..])
-        );
-        batch_rooms(&mut entries, &mut spare, 4);
-        assert_eq!(
-            (entries.as_slice(), spare.len()),
-            (&[10, 11, 12, 13][..], 0)
-        );
-        batch_rooms(&mut entries, &mut spare, 6);
-        assert_eq!(entries.len(), 4, "only what is set aside is taken back");
     }
 
     #[test]
