@@ -1,14 +1,13 @@
 //! The bounds of a plan's counts ([`parcal_dataset::bounds`]), checked by
 //! [`crate::plan`] and [`crate::tracker::plan_poses`] before any work and
-//! by `parcal plan` as it parses its flags. The figures behind them are in
-//! docs/plan.md ("Speed"): 189 touches from a pool of about 20,000 take
-//! about 7 s on 2 cores, and the time grows with the budget times the
-//! pool times the restarts.
+//! by `parcal plan` as it parses its flags. A selection's time grows with
+//! the budget times the pool times the restarts; the measured figures
+//! behind the bounds are in docs/plan.md ("Speed").
 
 use parcal_dataset::bounds::Count;
 
-/// A touch plan's budget: 50 times the paper's 189 touches, whose
-/// selection at the default pool then takes about 6 minutes.
+/// A touch plan's budget: 50 times the paper's 189 touches, each
+/// addition and exchange evaluating the whole pool.
 pub const CONTACTS: Count = Count::new(
     1,
     10_000,
@@ -28,7 +27,7 @@ pub const POOL: Count = Count::new(
 pub const RESTARTS: Count = Count::new(
     1,
     100,
-    "each restart is a whole selection: 100 of the paper's plan take about 12 minutes",
+    "each restart is a whole selection, as long as the first",
 );
 
 /// The per-ball capacity and the least number of balls touched: no more
@@ -40,16 +39,15 @@ pub const PER_BALL: Count = Count::new(1, CONTACTS.max, "no more than the larges
 pub const MIN_BALLS: Count = Count::new(0, CONTACTS.max, "no more than the largest budget");
 
 /// The most candidate evaluations of a touch plan, budget x pool x
-/// restarts: 50 times the paper's plan (189 x 20,000), a few minutes.
+/// restarts: 50 times the paper's plan (189 x 20,000).
 pub const MAX_EVALUATIONS: usize = 200_000_000;
 
 /// A pose plan's budget: the selection inverts the information once per
-/// pose and evaluates every candidate (60 poses from 3375 candidates take
-/// about 10 s), so 1000 poses take a few minutes.
+/// pose and evaluates every candidate, so its time grows with the poses.
 pub const POSES: Count = Count::new(
     1,
     1000,
-    "the selection's time grows with the poses: 60 poses take about 10 s",
+    "the selection inverts the information once per pose and evaluates every candidate",
 );
 
 /// A pose plan's sessions: each adds its nuisances to every candidate's
