@@ -263,7 +263,7 @@ def test_plan_chooses_the_heights_and_distances_of_the_cli(delta, cli, tmp_path)
         parcal.plan(dataset, heights=2)
     with pytest.raises(parcal.Error, match=r"height_sigma must be in \(0, 1\] mm, got NaN"):
         parcal.plan(dataset, heights=2, height_sigma=float("nan"))
-    with pytest.raises(parcal.Error, match=r"must be in \(0, 100\] mm, got 500"):
+    with pytest.raises(parcal.Error, match=r"gauge must be in \(0, 100\] mm, got 500"):
         parcal.plan(dataset, heights=2, height_sigma=0.02, gauge=500)
 
 

@@ -169,7 +169,10 @@ fn a_delta_s_heights_by_hand_are_planned_into_a_heights_csv() {
         "{text}"
     );
     let err = run(&[&trigger[..], &["--gauge", "500"]].concat(), false);
-    assert!(err.contains("must be in (0, 100] mm, got 500"), "{err}");
+    assert!(
+        err.contains("--gauge must be in (0, 100] mm, got 500"),
+        "{err}"
+    );
     // Every stage at once, from the prior: the probes in the file itself,
     // the heights and the part distances beside it, in that order.
     let next = dir.path().join("next.csv");

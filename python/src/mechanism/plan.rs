@@ -7,7 +7,7 @@
 use numpy::PyArray1;
 use parcal::kinematics::delta::GAUGE_BLOCK;
 use parcal::plan::bounds::{GRID, MEASUREMENTS};
-use parcal::plan::mechanism::workspace::{DEFAULT_GRID, Grid, plan_candidates};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, Grid, checked_gauge, plan_candidates};
 use parcal::plan::mechanism::{
     Candidate, Counts, PlanRequest, Start, default_group, linearisation_point,
     plan_mechanism as plan, with_sigmas,
@@ -87,7 +87,7 @@ pub fn plan_mechanism<'py>(
     let grid = Grid {
         per_axis: grid,
         print_radius: machine.print_radius,
-        gauge,
+        gauge: checked_gauge(gauge, "gauge").map_err(to_py)?,
     };
     let machine_only = Inner {
         machine,

@@ -15,7 +15,7 @@ use parcal::dataset::mechanism::{
 };
 use parcal::plan::bounds;
 use parcal::plan::mechanism::plan_file::{stage_paths, write_mechanism_plan};
-use parcal::plan::mechanism::workspace::{DEFAULT_GRID, Grid, plan_candidates};
+use parcal::plan::mechanism::workspace::{DEFAULT_GRID, Grid, checked_gauge, plan_candidates};
 use parcal::plan::mechanism::{
     Counts, MechanismPlan, PlanRequest, PlannedParameter, Start, default_group,
     linearisation_point, plan_mechanism, with_sigmas,
@@ -136,7 +136,7 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         ["--height-sigma", "--distance-sigma"],
     )?;
     let print_radius = machine.print_radius;
-    let gauge = options.gauge.unwrap_or(GAUGE_BLOCK);
+    let gauge = checked_gauge(options.gauge.unwrap_or(GAUGE_BLOCK), "--gauge")?;
     let dataset = MechanismDataset {
         machine,
         ..MechanismDataset::default()

@@ -83,20 +83,28 @@ fn on_a_bed(mechanism: &dyn Mechanism, what: &str) -> Result<(), DesignError> {
     )))
 }
 
+/// `gauge` (mm), the height a plan's heights are measured at by hand, if
+/// it lies in `(0, MAX_GAUGE]`; else an error naming it by `name` (the
+/// front end's word for it).
+pub fn checked_gauge(gauge: f64, name: &str) -> Result<f64, DesignError> {
+    if gauge > 0.0 && gauge <= MAX_GAUGE {
+        Ok(gauge)
+    } else {
+        Err(DesignError::Options(format!(
+            "{name} must be in (0, {MAX_GAUGE}] mm, got {gauge}"
+        )))
+    }
+}
+
 /// A delta's heights measured by hand: at the points of the bed's `grid`,
 /// the nozzle `grid.gauge` above the bed; an error for another mechanism
-/// or a gauge outside `(0, MAX_GAUGE]`.
+/// or a gauge outside `(0, MAX_GAUGE]` ([`checked_gauge`]).
 pub fn height_candidates(
     mechanism: &dyn Mechanism,
     grid: Grid,
 ) -> Result<Vec<Candidate>, DesignError> {
     on_a_bed(mechanism, Stage::Heights.name())?;
-    if !(grid.gauge > 0.0 && grid.gauge <= MAX_GAUGE) {
-        return Err(DesignError::Options(format!(
-            "the gauge of the heights measured by hand must be in (0, {MAX_GAUGE}] mm, got {}",
-            grid.gauge
-        )));
-    }
+    checked_gauge(grid.gauge, "the gauge of the heights measured by hand")?;
     Ok(bed_grid(grid)
         .map(|[x, y]| Candidate::Height([x, y, grid.gauge]))
         .collect())
