@@ -9,6 +9,8 @@
 //! skipped and expressions are not evaluated: a parameter parcal needs
 //! that holds one is refused.
 
+use crate::files::bounded_number;
+
 /// One command and its parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Command {
@@ -61,13 +63,12 @@ impl Command {
             && text
                 .chars()
                 .all(|c| c.is_ascii_digit() || matches!(c, '.' | '-' | '+'));
-        match text.parse::<f64>() {
-            Ok(v) if is_number && v.is_finite() => Ok(v),
-            _ => Err(format!(
-                "{}{} parameter {letter}: '{value}' is not a number",
-                self.letter, self.number
-            )),
-        }
+        let number = if is_number {
+            bounded_number(text)
+        } else {
+            Err(format!("'{value}' is not a number"))
+        };
+        number.map_err(|why| format!("{}{} parameter {letter}: {why}", self.letter, self.number))
     }
 }
 

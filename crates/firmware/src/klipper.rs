@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 use parcal_kinematics::delta::{DeltaParams, NOMINAL_ANGLE};
 
 use crate::FirmwareError;
-use crate::files::read_capped;
+use crate::files::{bounded_number, read_capped};
 use crate::rrf::MAX_CONFIG_BYTES;
 
 mod delta_calibrate;
@@ -240,14 +240,13 @@ impl Options {
         let Some((value, line)) = self.values.get(&(section.to_string(), key.to_string())) else {
             return Ok(None);
         };
-        match value.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(Some(v)),
-            _ => Err(FirmwareError::Line {
+        bounded_number(value)
+            .map(Some)
+            .map_err(|why| FirmwareError::Line {
                 path: self.path.clone(),
                 line: *line,
-                message: format!("[{section}] {key}: '{value}' is not a number"),
-            }),
-        }
+                message: format!("[{section}] {key}: {why}"),
+            })
     }
 
     /// The number of `section`/`key`, required.
@@ -315,18 +314,36 @@ pub fn parse_printer(text: &str, path: &Path) -> Result<KlipperPrinter, Firmware
     let options = Options::parse(text, path)?;
     let delta = delta_settings(&options)?;
     let saved = delta_calibrate::read(&options, &delta.to_params())?;
-    let mut z_offset = None;
-    for section in PROBE_SECTIONS {
-        if let Some(z) = options.float(section, "z_offset")? {
-            z_offset = Some(z);
-            break;
-        }
-    }
+    let z_offset = probe_z_offset(&options)?;
     Ok(KlipperPrinter {
         delta,
         z_offset,
         saved,
     })
+}
+
+/// The probe's `z_offset`, from whichever of [`PROBE_SECTIONS`] gives one;
+/// an error naming the second's line when two do (Klipper runs one probe,
+/// and refuses a `printer.cfg` with both).
+fn probe_z_offset(options: &Options) -> Result<Option<f64>, FirmwareError> {
+    let mut found: Option<(&str, f64)> = None;
+    for section in PROBE_SECTIONS {
+        let Some(z) = options.float(section, "z_offset")? else {
+            continue;
+        };
+        if let Some((first, _)) = found {
+            let (_, line) = &options.values[&(section.to_string(), "z_offset".to_string())];
+            return Err(FirmwareError::Line {
+                path: options.path.clone(),
+                line: *line,
+                message: format!(
+                    "[{section}] z_offset: the file gives [{first}] a z_offset too; Klipper runs one probe"
+                ),
+            });
+        }
+        found = Some((section, z));
+    }
+    Ok(found.map(|(_, z)| z))
 }
 
 /// The delta settings of a `printer.cfg`'s options.

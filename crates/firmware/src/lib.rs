@@ -34,3 +34,4 @@ pub mod probes;
 pub mod rrf;
 
 pub use error::FirmwareError;
+pub use files::MAX_MAGNITUDE;

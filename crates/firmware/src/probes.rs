@@ -11,7 +11,7 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::FirmwareError;
-use crate::files::read_capped;
+use crate::files::{bounded_number, read_capped};
 
 /// The most probe points a file may hold (a bed probed every 2 mm over a
 /// 200 mm circle holds fewer).
@@ -120,16 +120,8 @@ fn parse_rows<R: Read, const N: usize>(
         }
         let mut values = [0.0; N];
         for (k, name) in columns.iter().enumerate() {
-            values[k] = record[k]
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    at(
-                        line,
-                        format!("{name}: '{}' is not a finite number", &record[k]),
-                    )
-                })?;
+            values[k] =
+                bounded_number(&record[k]).map_err(|why| at(line, format!("{name}: {why}")))?;
         }
         rows.push(values);
     }
@@ -161,6 +153,11 @@ mod tests {
             err.to_string(),
             "probes.csv: line 3: z: 'nan' is not a finite number"
         );
+        let err = parse_probes("x,y,z\n0,0,0.05\n5e6,0,0.1\n".as_bytes(), path).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "probes.csv: line 3: x: '5e6' is beyond the 1e6 a firmware's number may be (1 km in mm: a unit error?)"
+        );
         let err = parse_probes("x,y,height\n0,0,0\n".as_bytes(), path).unwrap_err();
         assert_eq!(
             err.to_string(),
@@ -186,7 +183,7 @@ mod tests {
         let err = parse_rows(text.as_bytes(), path, &DISTANCE_COLUMNS, "distances").unwrap_err();
         assert_eq!(
             err.to_string(),
-            "distances.csv: line 3: distance: 'x' is not a finite number"
+            "distances.csv: line 3: distance: 'x' is not a number"
         );
     }
 

@@ -47,6 +47,13 @@ fn errors_name_the_file_and_line() {
         err.to_string(),
         "sys/config.g: line 2: M665 parameter R: '13.5.1' is not a number"
     );
+    // A length no printer has, named where it stands, not in the dataset
+    // an import would write.
+    let err = parse_config("M665 L2000000 R135\n", path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "sys/config.g: line 1: M665 parameter L: '2000000' is beyond the 1e6 a firmware's number may be (1 km in mm: a unit error?)"
+    );
     let err = parse_config("M665 L270:270:270:270 R135\n", path).unwrap_err();
     assert_eq!(
         err.to_string(),

@@ -99,6 +99,24 @@ fn the_probe_s_z_offset_is_read_and_saved_as_probe_calibrate_saves_it() {
         err.contains("[probe] z_offset: 'high' is not a number"),
         "{err}"
     );
+    let err = parse_printer(&with("probe", "1e300"), path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("[probe] z_offset: '1e300' is beyond the 1e6 a firmware's number may be"),
+        "{err}"
+    );
+    // Klipper runs one probe: a z_offset in both sections is refused at
+    // the second.
+    let both = format!("{}[bltouch]\nz_offset: 0.9\n", with("probe", "1.25"));
+    let line = both.lines().count();
+    let err = parse_printer(&both, path).unwrap_err().to_string();
+    assert_eq!(
+        err,
+        format!(
+            "printer.cfg: line {line}: [bltouch] z_offset: the file gives [probe] a z_offset too; Klipper runs one probe"
+        )
+    );
 }
 
 #[test]

@@ -339,6 +339,17 @@ fn dataset(
 mod tests {
     use super::*;
 
+    /// A firmware's file refuses, naming its line, any number a dataset
+    /// would refuse as a length: an import never writes a dataset its own
+    /// check refuses.
+    #[test]
+    fn a_firmware_number_is_bounded_as_a_datasets_length() {
+        assert_eq!(
+            parcal_firmware::MAX_MAGNITUDE,
+            parcal_dataset::MAX_LENGTH_MM
+        );
+    }
+
     #[test]
     fn a_tolerance_that_is_not_a_standard_deviation_is_named() {
         assert!(ImportOptions::default().check().is_ok());
