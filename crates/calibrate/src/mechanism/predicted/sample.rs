@@ -1,0 +1,170 @@
+//! A held-out point sample's rows ([`predict_sample`]).
+//!
+//! - A point sample whose position `m` was measured: the position its
+//!   readings `q` imply, `x̂ = f(p̂, q)`, against `m` (3 rows, mm):
+//!
+//!   ```text
+//!   r = x̂ − m,   G = dx/dp|_q = −G_x⁺ G_p,   D = Σ_m + σ_q² (G_xᵀ G_x)⁻¹,
+//!   ```
+//!
+//!   `x̂` the forward kinematics: for more actuators than coordinates the
+//!   maximum-likelihood pose of readings of equal noise `σ_q` (least
+//!   squares in the readings, `parcal_kinematics::pose_fit`), `G_x⁺ =
+//!   (G_xᵀ G_x)⁻¹ G_xᵀ`; for as many actuators as coordinates, the exact
+//!   pose and `−G_x⁻¹ G_p` ([`pose_derivative`]).
+//! - A point sample at an unknown pose: its pose is its own unknown, fitted
+//!   to its readings; with `A` actuators, `A − 3` combinations of the
+//!   readings remain, what no pose change can absorb (the local unknown
+//!   projected out, [`super::projection`]): `r = g(p̂, x̂) − q`, `dr/dx = G_x`,
+//!   `dr/dp = G_p`, `Σ = σ_q² I`, so `D = σ_q² I`. A delta's (`A = 3`)
+//!   has no row: its readings only locate their own pose.
+
+use nalgebra::{DMatrix, DVector};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError};
+use parcal_observe::mechanism::PointSample;
+
+use super::super::observation::{HeldOut, ObservationRef};
+use super::projection::{LocalRows, project_out};
+use super::rows::{PredictedRows, widened};
+
+/// A point sample's rows (module doc); `None` for one at an unknown pose
+/// with no redundant reading.
+pub(super) fn predict_sample(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    observation: ObservationRef,
+    sample: &PointSample,
+    g: usize,
+) -> Result<Option<PredictedRows>, MechanismError> {
+    let actuators = mechanism.actuators().len();
+    if sample.known_pose.is_none() && actuators <= 3 {
+        return Ok(None);
+    }
+    let start = sample.known_pose.map_or([0.0; 3], |(pose, _)| pose);
+    let pose = mechanism.forward(params, &sample.readings, &start)?;
+    let jacobians = mechanism.reading_jacobians(params, pose.as_slice())?;
+    let (g_x, g_p) = (&jacobians.d_pose, &jacobians.d_params);
+    let variance = sample.sigma * sample.sigma;
+    let rows = match sample.known_pose {
+        Some((measured, sigma)) => {
+            let (d_params, normal_inverse) = pose_derivative(g_x, g_p)?;
+            let mut noise = &normal_inverse * variance;
+            for k in 0..3 {
+                noise[(k, k)] += sigma[k] * sigma[k];
+            }
+            PredictedRows {
+                observation: HeldOut::Observation(observation),
+                residuals: DVector::from_fn(3, |k, _| pose[k] - measured[k]),
+                noise,
+                d_global: widened(&d_params, g),
+                row_observations: Vec::new(),
+            }
+        }
+        None => {
+            let predicted = mechanism.inverse(params, pose.as_slice())?;
+            let local = LocalRows {
+                residuals: predicted - DVector::from_column_slice(&sample.readings),
+                d_local: g_x,
+                d_params: g_p,
+                noise: DMatrix::identity(actuators, actuators) * variance,
+            };
+            // J = G_x: a pose its readings do not locate is a singular one.
+            project_out(HeldOut::Observation(observation), &local, g)
+                .ok_or(MechanismError::Singular)?
+        }
+    };
+    Ok(Some(rows))
+}
+
+/// `dx/dp|_q = −G_x⁺ G_p` of the readings' least-squares pose (module
+/// doc), and `(G_xᵀ G_x)⁻¹`; an error at a singular configuration.
+pub fn pose_derivative(
+    g_x: &DMatrix<f64>,
+    g_p: &DMatrix<f64>,
+) -> Result<(DMatrix<f64>, DMatrix<f64>), MechanismError> {
+    let normal_inverse = (g_x.transpose() * g_x)
+        .try_inverse()
+        .filter(|m| m.iter().all(|v| v.is_finite()))
+        .ok_or(MechanismError::Singular)?;
+    let d_params = -(&normal_inverse * g_x.transpose() * g_p);
+    Ok((d_params, normal_inverse))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanism::observation::ObservationKind;
+    use parcal_kinematics::cable::CableRobot;
+    use parcal_kinematics::mechanism::{design, prior_sigma};
+
+    /// `G_i = dr/dθ` of a cable robot's samples (four lines: the
+    /// least-squares pose) against central differences of the predicted
+    /// residuals, for a measured position and an unknown one.
+    #[test]
+    fn sample_derivatives_match_central_differences() {
+        let robot = CableRobot::typical();
+        let mut params = design(&robot);
+        for (k, value) in params.iter_mut().enumerate() {
+            *value += 0.3 * ((k as f64) * 1.7).sin();
+        }
+        let pose = [120.0, -80.0, 400.0];
+        let readings: Vec<f64> = robot
+            .inverse(params.as_slice(), &pose)
+            .unwrap()
+            .iter()
+            .copied()
+            .collect();
+        let known = PointSample {
+            readings: readings.clone(),
+            sigma: 1.0,
+            known_pose: Some(([121.0, -79.5, 400.2], [0.1; 3])),
+            loads: None,
+        };
+        let unknown = PointSample {
+            readings,
+            sigma: 1.0,
+            known_pose: None,
+            loads: None,
+        };
+        let n = params.len();
+        let id = ObservationRef {
+            kind: ObservationKind::Sample,
+            index: 0,
+        };
+        let steps = prior_sigma(&robot) * 1e-4;
+        for sample in [&known, &unknown] {
+            let at = |p: &DVector<f64>| {
+                predict_sample(&robot, p.as_slice(), id, sample, n)
+                    .unwrap()
+                    .unwrap()
+            };
+            let analytic = at(&params).d_global;
+            for k in 0..n {
+                let (mut plus, mut minus) = (params.clone(), params.clone());
+                plus[k] += steps[k];
+                minus[k] -= steps[k];
+                let column = (at(&plus).residuals - at(&minus).residuals) / (2.0 * steps[k]);
+                let error = (&column - analytic.column(k)).amax();
+                assert!(
+                    error < 1e-6 * analytic.amax(),
+                    "column {k}: {error:e} against {:e}",
+                    analytic.amax()
+                );
+            }
+        }
+        // The unknown pose leaves one combination of the four readings.
+        assert_eq!(at_rows(&robot, &params, &unknown), 1);
+    }
+
+    fn at_rows(robot: &CableRobot, params: &DVector<f64>, sample: &PointSample) -> usize {
+        let id = ObservationRef {
+            kind: ObservationKind::Sample,
+            index: 0,
+        };
+        predict_sample(robot, params.as_slice(), id, sample, params.len())
+            .unwrap()
+            .unwrap()
+            .residuals
+            .len()
+    }
+}
