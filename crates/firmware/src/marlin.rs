@@ -145,7 +145,7 @@ impl MarlinDelta {
     /// floats, a few 1e-5 mm at 300 mm).
     pub fn calibration_lines(&self) -> String {
         let [ta, tb, tc] = self.rod_trims.map(thousandths);
-        let [ax, ay, az] = self.angle_trims;
+        let [ax, ay, az] = self.angle_trims.map(thousandths);
         let [ex, ey, ez] = self.endstop_adjustments.map(thousandths);
         format!(
             "; Delta parameters\n\
