@@ -654,7 +654,7 @@ def report(
     residuals and a simulation's truth."""
 
 def import_firmware(
-    firmware: Literal["reprapfirmware", "klipper"],
+    firmware: Literal["reprapfirmware", "klipper", "marlin"],
     config: PathLike,
     *,
     probes: Optional[PathLike] = None,
@@ -672,17 +672,19 @@ def import_firmware(
     distance_sigma: Optional[float] = None,
     height_sigma: Optional[float] = None,
     trigger_sigma: Optional[float] = None,
+    print_radius: Optional[float] = None,
 ) -> MechanismDataset:
-    """A printer's firmware configuration (config.g, printer.cfg) and probe
-    log as its dataset, as ``parcal import reprapfirmware | klipper``
-    makes it: the configured parameters as the prior's means, the
-    tolerances (None: a kit printer's) as its sigmas; Klipper's probes
-    and part distances saved in printer.cfg where ``probes`` or
-    ``distances`` is not given."""
+    """A printer's firmware configuration (config.g, printer.cfg, or what
+    Marlin's M503 reported) and probe log as its dataset, as ``parcal
+    import reprapfirmware | klipper | marlin`` makes it: the configured
+    parameters as the prior's means, the tolerances (None: a kit
+    printer's) as its sigmas; Klipper's probes and part distances saved in
+    printer.cfg where ``probes`` or ``distances`` is not given. Marlin's
+    needs ``print_radius`` (mm), which M503 does not report."""
 
 def export(
     calibration: Union[Calibration, MechanismCalibration, PathLike],
-    format: Literal["machine-json", "genhexkins", "summary", "reprapfirmware", "klipper", "hangprinter"],
+    format: Literal["machine-json", "genhexkins", "summary", "reprapfirmware", "klipper", "marlin", "hangprinter"],
     *,
     print_radius: Optional[float] = None,
     config: Optional[PathLike] = None,

@@ -20,8 +20,8 @@ use crate::recorded::recorded;
 /// `calibration` (a `parcal.Calibration`, a `parcal.MechanismCalibration`,
 /// or a calibration.json's path) written as `format`, as `parcal export`
 /// writes it: a hexapod's own calibration as `"machine-json"`,
-/// `"genhexkins"` or `"summary"`; a linear delta's as `"reprapfirmware"`
-/// or `"klipper"`, a cable robot's as `"hangprinter"`. A delta's printable
+/// `"genhexkins"` or `"summary"`; a linear delta's as `"reprapfirmware"`,
+/// `"klipper"` or `"marlin"`, a cable robot's as `"hangprinter"`. A delta's printable
 /// radius is `print_radius` (mm) if given, else the one the calibration
 /// carries from its dataset. With `"klipper"` and `config` (the printer's
 /// printer.cfg), `text` is that whole file with its SAVE_CONFIG block

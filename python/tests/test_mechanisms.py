@@ -536,21 +536,22 @@ def test_motion_capture_poses_through_the_common_calibration(tmp_path, cli):
 def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tmp_path):
     calibration = tmp_path / "calibration.json"
     cli("calibrate", delta, "--out", calibration)
-    for firmware in ("reprapfirmware", "klipper"):
+    for firmware in ("reprapfirmware", "klipper", "marlin"):
         out = tmp_path / f"{firmware}.txt"
         cli("export", "--calibration", calibration, "--format", firmware, "--out", out)
         mine = parcal.export(str(calibration), firmware)
         assert mine["text"] == out.read_text()
         assert mine["print_radius"] == 100.0  # the simulated printer's, carried by its calibration
-        comment = {"reprapfirmware": ";", "klipper": "#"}[firmware]
+        comment = {"reprapfirmware": ";", "klipper": "#", "marlin": ";"}[firmware]
         assert f"{comment} parcal: cost: {mine['cost_sentence']}\n" in mine["text"]
         cost = mine["cost"]
         assert 0 <= cost["flatness_rms"] <= cost["flatness_max"] and 0 <= cost["volume_rms"] <= cost["volume_max"]
-    # Klipper holds no bed tilt: what is lost is said.
+    # Marlin holds no bed tilt: what is lost is said; its lines end saving them.
     assert any("bed tilt" in sentence for sentence in mine["lost"])
+    assert mine["text"].endswith("M500\n") and "\nM665 L" in mine["text"]
     # Probe heights alone leave the trigger height at its prior: kept, said why.
     assert mine["trigger_height"] is None and mine["trigger_sentence"].startswith("kept: ")
-    assert f"# parcal: {mine['trigger_sentence']}\n" in mine["text"]
+    assert f"; parcal: {mine['trigger_sentence']}\n" in mine["text"]
     # Heights measured by hand determine it: written, as the command writes it.
     heights = tmp_path / "heights"
     cli("simulate", "--mechanism", "delta", "--seed", 5, "--manual-heights", 5, "--height-sigma", 0.02, "--out", heights)
@@ -563,10 +564,14 @@ def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tm
     trigger = parcal.MechanismCalibration.read(determined)
     value = trigger.values[trigger.names.index("trigger_height")]
     assert written["trigger_height"] == round(value, 3) and f"\nG31 Z{value:.3f}\n" in written["text"]
+    marlin = parcal.export(str(determined), "marlin")
+    out = tmp_path / "determined.gcode"
+    cli("export", "--calibration", determined, "--format", "marlin", "--out", out)
+    assert marlin["text"] == out.read_text() and f"\nM851 Z{-value:.3f}\nM500\n" in marlin["text"]
     given = parcal.export(parcal.MechanismCalibration.read(calibration), "reprapfirmware", print_radius=90.0)
     assert given["print_radius"] == 90.0 and " B90.0 " in given["text"]
-    with pytest.raises(parcal.Error, match="format: expected one of machine-json, genhexkins, summary, reprapfirmware, klipper, hangprinter, got \"marlin\""):
-        parcal.export(str(calibration), "marlin")
+    with pytest.raises(parcal.Error, match="format: expected one of machine-json, genhexkins, summary, reprapfirmware, klipper, marlin, hangprinter, got \"smoothieware\""):
+        parcal.export(str(calibration), "smoothieware")
     with pytest.raises(parcal.Error, match="a linear delta calibration; hangprinter exports a cable robot's"):
         parcal.export(str(calibration), "hangprinter")
     with pytest.raises(parcal.Error, match="print_radius must be a positive number of mm"):
@@ -632,11 +637,31 @@ def test_import_firmware_makes_the_datasets_of_the_cli(cli, tmp_path):
     for name in os.listdir(out):
         assert (klipper / name).read_bytes() == (out / name).read_bytes(), name
 
+    # Marlin: what M503 reported, the printable radius given, and G30's probe
+    # positions less M851's X Y offsets: the nozzle's.
+    m503 = tmp_path / "m503.txt"
+    m503.write_text("echo:  M665 L270.00 R135.00 H299.30 S200.00 X0.00 Y0.00 Z0.00 A0.00 B0.00 C0.00\n"
+                    "echo:  M666 X0.00 Y0.00 Z0.00\n"
+                    "echo:  M851 X2.00 Y-3.00 Z-0.70 ; (mm)\nok\n")
+    out = tmp_path / "marlin"
+    cli("import", "marlin", "--config", m503, "--probes", probes, "--print-radius", 100, "--out", out)
+    marlin = parcal.import_firmware("marlin", m503, probes=probes, print_radius=100.0)
+    mine = tmp_path / "marlin-mine"
+    marlin.write(mine)
+    for name in os.listdir(out):
+        assert (mine / name).read_bytes() == (out / name).read_bytes(), name
+    assert np.allclose(marlin.probes, logged + [-2.0, 3.0, 0.7], rtol=0, atol=1e-12)
+    assert marlin.print_radius == 100.0
+    with pytest.raises(parcal.Error, match=r"m503.txt: Marlin's M503 reports no printable radius .*: give print_radius="):
+        parcal.import_firmware("marlin", m503, probes=probes)
+    with pytest.raises(parcal.Error, match="print_radius: reprapfirmware's configuration states its own"):
+        parcal.import_firmware("reprapfirmware", config, probes=probes, print_radius=100.0)
+
     # Refusals name what is wrong.
     with pytest.raises(parcal.Error, match=r"printer.cfg: no probe log given, and no probes saved "
                        r"\(run DELTA_CALIBRATE and SAVE_CONFIG\): give probes="):
         parcal.import_firmware("klipper", printer_cfg)
-    with pytest.raises(parcal.Error, match="firmware: expected reprapfirmware or klipper, got \"hangprinter\""):
+    with pytest.raises(parcal.Error, match="firmware: expected reprapfirmware, klipper or marlin, got \"hangprinter\""):
         parcal.import_firmware("hangprinter", config, probes=probes)
     with pytest.raises(parcal.Error, match=r"tilt_tolerance: 0 is not a standard deviation in \(0, 100\]"):
         parcal.import_firmware("reprapfirmware", config, probes=probes, tilt_tolerance=0.0)

@@ -9,6 +9,7 @@ mod apply;
 mod cable_simulation;
 mod cli;
 mod delta;
+mod delta_marlin;
 mod hangprinter;
 mod held_out;
 mod hexapod_common;

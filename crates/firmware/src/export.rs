@@ -6,13 +6,16 @@
 //! corrections and tower C's angle correction are zero: a gauge that no
 //! firmware needs. What remains is written as the firmware writes it
 //! (RepRapFirmware's `M665`/`M666` lines, Klipper's `SAVE_CONFIG` block,
-//! alone or in the printer's `printer.cfg`), read back by this crate's
-//! reader of that firmware, and the machine the
+//! alone or in the printer's `printer.cfg`, Marlin's `M665`/`M666` lines
+//! and `M500`), read back by this crate's reader of that firmware, and the
+//! machine the
 //! firmware will then believe in is compared with the calibrated one by
 //! [`position_errors`]: the cost of the export, rounding included. The
 //! probe's trigger height is written too where the data determined it
-//! ([`TriggerHeight`]: RepRapFirmware's `G31 Z`, Klipper's `z_offset`),
-//! and read back.
+//! ([`TriggerHeight`]: RepRapFirmware's `G31 Z`, Klipper's `z_offset`,
+//! Marlin's `M851 Z`, its negative), and read back. Marlin's `M665 H`
+//! counts the probe's `M851 Z` ([`crate::marlin`]): it is written for the
+//! trigger height written, else the configured one.
 
 use std::path::Path;
 
@@ -23,6 +26,7 @@ use crate::FirmwareError;
 use crate::accuracy::{PositionErrors, Workspace, position_errors};
 use crate::files::read_capped;
 use crate::klipper::{KlipperDelta, parse_printer};
+use crate::marlin::{self, MarlinDelta, thousandths};
 use crate::rrf::{MAX_CONFIG_BYTES, RrfDelta, parse_config};
 
 /// The firmware to write for.
@@ -33,6 +37,8 @@ pub enum Firmware {
     RepRapFirmware,
     /// Klipper: the `SAVE_CONFIG` block that ends a `printer.cfg`.
     Klipper,
+    /// Marlin: `M665`/`M666` lines and `M500`, to send to the printer.
+    Marlin,
 }
 
 impl Firmware {
@@ -41,13 +47,14 @@ impl Firmware {
         match self {
             Self::RepRapFirmware => "RepRapFirmware",
             Self::Klipper => "Klipper",
+            Self::Marlin => "Marlin",
         }
     }
 
     /// The firmware's comment prefix.
     fn comment(self) -> &'static str {
         match self {
-            Self::RepRapFirmware => ";",
+            Self::RepRapFirmware | Self::Marlin => ";",
             Self::Klipper => "#",
         }
     }
@@ -65,6 +72,8 @@ pub enum TriggerHeight {
     AtPrior {
         /// The posterior sigma over the prior sigma.
         ratio: f64,
+        /// The configured trigger height, the prior's mean (mm).
+        configured: f64,
     },
     /// Not an unknown (no probe heights): left as configured.
     Absent,
@@ -85,12 +94,13 @@ impl TriggerHeight {
         let setting = match firmware {
             Firmware::RepRapFirmware => "G31 Z",
             Firmware::Klipper => "the probe's z_offset",
+            Firmware::Marlin => "M851 Z",
         };
         match self {
             Self::Determined(value) => Some(format!(
                 "written: the probe's trigger height, {value:.3} mm, which the data determine ({setting})"
             )),
-            Self::AtPrior { ratio } => Some(format!(
+            Self::AtPrior { ratio, .. } => Some(format!(
                 "kept: the probe's trigger height as configured ({setting}): the data determine it no better than its prior (sigma {ratio:.2} of the prior's); heights measured by hand do"
             )),
             Self::Absent => None,
@@ -163,14 +173,7 @@ pub fn export(
             )
         }
         Firmware::Klipper => {
-            let mut held = canonical;
-            if held.tilt != [0.0; 2] {
-                lost.push(format!(
-                    "the bed tilt (x {:.4} %, y {:.4} %): Klipper's delta has none (a bed mesh can correct it)",
-                    canonical.tilt[0], canonical.tilt[1]
-                ));
-                held.tilt = [0.0; 2];
-            }
+            let held = without_tilt(&canonical, firmware, &mut lost);
             let klipper = KlipperDelta::from_params(&held, print_radius)?;
             let (before, block) = match into {
                 Some(path) => {
@@ -187,12 +190,41 @@ pub fn export(
             };
             (before, block, "values to 1e-6")
         }
+        Firmware::Marlin => {
+            if let Some(path) = into {
+                return Err(FirmwareError::Configuration {
+                    path: path.to_path_buf(),
+                    message: "Marlin's lines are written alone, to send to the printer".to_string(),
+                });
+            }
+            let held = without_tilt(&canonical, firmware, &mut lost);
+            // M665 H counts the M851 Z Marlin will have: the one written,
+            // as written, else the configured one.
+            let written = trigger.written().map(thousandths);
+            let probe = match (written, trigger) {
+                (Some(value), _) => value,
+                (None, TriggerHeight::AtPrior { configured, .. }) => configured,
+                (None, _) => {
+                    lost.push(
+                        "the probe's Z offset: with no trigger height among the unknowns, M665 H is written for none (M851 Z0); with a probe, add its M851 Z to H"
+                            .to_string(),
+                    );
+                    0.0
+                }
+            };
+            let mut lines = MarlinDelta::from_params(&held, probe)?.calibration_lines();
+            if let Some(value) = written {
+                lines.push_str(&format!("M851 Z{:.3}\n", -value + 0.0));
+            }
+            lines.push_str("M500\n");
+            (String::new(), lines, "lengths and angles to 0.001")
+        }
     };
     lost.push(format!(
         "rounding as {} writes ({precision})",
         firmware.name()
     ));
-    let (written, trigger_height) = read_back(&before, &lines, firmware, into)?;
+    let (written, trigger_height) = read_back(&before, &lines, firmware, into, trigger)?;
     let trigger_height = trigger_height.filter(|_| trigger.written().is_some());
     let cost = position_errors(&canonical, &written, workspace)?;
     let comment = firmware.comment();
@@ -244,6 +276,23 @@ fn hundredths(value: f64) -> f64 {
     (value * 100.0).round() / 100.0 + 0.0
 }
 
+/// `params` without the bed tilt, which `firmware`'s delta cannot hold
+/// (said in `lost`, with the tilt, if there is one).
+fn without_tilt(params: &DeltaParams, firmware: Firmware, lost: &mut Vec<String>) -> DeltaParams {
+    if params.tilt != [0.0; 2] {
+        lost.push(format!(
+            "the bed tilt (x {:.4} %, y {:.4} %): {}'s delta has none (a bed mesh can correct it)",
+            params.tilt[0],
+            params.tilt[1],
+            firmware.name()
+        ));
+    }
+    DeltaParams {
+        tilt: [0.0; 2],
+        ..*params
+    }
+}
+
 /// `params` in the linear delta's canonical frame.
 fn canonical(params: &DeltaParams, print_radius: f64) -> Result<DeltaParams, FirmwareError> {
     let limits = Limits::reach_only(print_radius);
@@ -257,12 +306,13 @@ fn canonical(params: &DeltaParams, print_radius: f64) -> Result<DeltaParams, Fir
 /// The parameters and trigger height `firmware`'s reader takes from
 /// `lines` after `before`, the text of the configuration `into` if any
 /// (RepRapFirmware's trigger height its default where no `G31` is
-/// written).
+/// written; Marlin's the configured one of `trigger` where no `M851` is).
 fn read_back(
     before: &str,
     lines: &str,
     firmware: Firmware,
     into: Option<&Path>,
+    trigger: TriggerHeight,
 ) -> Result<(DeltaParams, Option<f64>), FirmwareError> {
     let source = into.unwrap_or(Path::new("the exported lines"));
     Ok(match firmware {
@@ -280,6 +330,14 @@ fn read_back(
             };
             let printer = parse_printer(&format!("{before}{lines}"), source)?;
             (printer.delta.to_params(), printer.z_offset)
+        }
+        Firmware::Marlin => {
+            let configured = match trigger {
+                TriggerHeight::AtPrior { configured, .. } => format!("M851 Z{}\n", -configured),
+                TriggerHeight::Determined(_) | TriggerHeight::Absent => String::new(),
+            };
+            let config = marlin::parse_config(&format!("{configured}{lines}"), source)?;
+            (config.to_params(), Some(config.trigger_height()))
         }
     })
 }
@@ -422,7 +480,11 @@ mod tests {
         assert!(!absent.text.contains("z_offset") && !absent.text.contains("trigger height"));
         // At its prior: nothing written, the reason said.
         for firmware in [Firmware::RepRapFirmware, Firmware::Klipper] {
-            let kept = exported(TriggerHeight::AtPrior { ratio: 0.998 }, firmware, None);
+            let at_prior = TriggerHeight::AtPrior {
+                ratio: 0.998,
+                configured: 0.7,
+            };
+            let kept = exported(at_prior, firmware, None);
             assert_eq!(kept.trigger_height, None);
             assert!(
                 !kept.text.contains("\nG31") && !kept.text.contains("z_offset = "),

@@ -8,6 +8,8 @@
 //! - [`klipper`]: Klipper's delta settings in a `printer.cfg`, read with
 //!   the probes and part distances its `DELTA_CALIBRATE` saved, and
 //!   written as its `SAVE_CONFIG` block; its `DELTA_CALIBRATE` fit.
+//! - [`marlin`]: Marlin's `M665`/`M666`/`M851` settings, read from an
+//!   `M503` report and written back.
 //! - [`probes`]: probe heights (`probes.csv`, `x,y,z` as `G30 S-1`
 //!   reports them).
 //! - [`autocal`]: RepRapFirmware's 3- to 9-factor auto-calibration.
@@ -30,6 +32,7 @@ mod files;
 pub mod gcode;
 pub mod hangprinter;
 pub mod klipper;
+pub mod marlin;
 pub mod probes;
 pub mod rrf;
 

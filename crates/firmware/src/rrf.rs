@@ -207,15 +207,22 @@ impl RrfDelta {
                 self.radius, self.print_radius
             ));
         }
-        match self.diagonals.iter().position(|l| *l <= self.radius) {
-            Some(i) => Err(format!(
-                "the diagonal rod of tower {} ({} mm) is not longer than the delta radius ({} mm)",
-                ["X", "Y", "Z"][i],
-                self.diagonals[i],
-                self.radius
-            )),
-            None => Ok(()),
-        }
+        check_rods(&self.diagonals, self.radius)
+    }
+}
+
+/// Refuses rods no delta has: one not longer than the delta radius
+/// `radius` (towers named X, Y, Z, as RepRapFirmware and Marlin name
+/// them).
+pub(crate) fn check_rods(diagonals: &[f64; 3], radius: f64) -> Result<(), String> {
+    match diagonals.iter().position(|l| *l <= radius) {
+        Some(i) => Err(format!(
+            "the diagonal rod of tower {} ({} mm) is not longer than the delta radius ({} mm)",
+            ["X", "Y", "Z"][i],
+            diagonals[i],
+            radius
+        )),
+        None => Ok(()),
     }
 }
 

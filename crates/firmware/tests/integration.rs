@@ -7,3 +7,4 @@ mod config;
 mod delta_calibrate;
 mod fuzz;
 mod klipper;
+mod marlin;

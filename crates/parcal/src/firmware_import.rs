@@ -4,14 +4,16 @@
 //! (docs/delta.md): the configured parameters the firmware ran with, also
 //! the prior's means, the builder's tolerances as the prior's sigmas, and
 //! each probe as a probe height at the commanded position where it
-//! triggered, `(x, y, z + trigger height)`, the trigger height an unknown
-//! with its own prior.
+//! triggered, `(x, y, z + trigger height)` (Marlin's `G30` places the
+//! probe at `x, y`: the nozzle is there less the probe's `M851 X Y`), the
+//! trigger height an unknown with its own prior.
 
 use std::path::{Path, PathBuf};
 
 use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
 use parcal_firmware::FirmwareError;
 use parcal_firmware::klipper::{DeltaCalibrateResults, read_printer};
+use parcal_firmware::marlin;
 use parcal_firmware::probes::{read_distances, read_heights, read_probes};
 use parcal_firmware::rrf::read_config;
 use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
@@ -42,8 +44,13 @@ pub struct ImportOptions {
     pub height_sigma: f64,
     /// The trigger height's standard deviation about the configured one
     /// (RepRapFirmware's `G31 Z`; Klipper's `z_offset` with the probes it
-    /// saved, else its probe's, else 0), a first-layer test's (mm).
+    /// saved, else its probe's, else 0; Marlin's `-M851 Z`), a first-layer
+    /// test's (mm).
     pub trigger_sigma: f64,
+    /// The printable radius (mm) of a printer whose configuration states
+    /// none: Marlin's, whose `PRINTABLE_RADIUS` is compiled in (needed
+    /// for it, refused for the others, whose configuration states theirs).
+    pub print_radius: Option<f64>,
 }
 
 impl Default for ImportOptions {
@@ -57,6 +64,7 @@ impl Default for ImportOptions {
             distance_sigma: 0.02,
             height_sigma: 0.05,
             trigger_sigma: 0.05,
+            print_radius: None,
         }
     }
 }
@@ -150,9 +158,19 @@ pub struct FirmwareImport {
 pub enum FirmwareImportError {
     /// The format's files are not imported (only a linear delta's are).
     #[error(
-        "{0}'s files are not imported: only a linear delta's firmware (reprapfirmware, klipper)"
+        "{0}'s files are not imported: only a linear delta's firmware (reprapfirmware, klipper, marlin)"
     )]
     NotImported(&'static str),
+    /// Marlin's settings state no printable radius and none was given.
+    #[error("{}: Marlin's M503 reports no printable radius (PRINTABLE_RADIUS is compiled in)", config.display())]
+    NoPrintRadius {
+        /// The configuration.
+        config: PathBuf,
+    },
+    /// A printable radius given that is not a positive length, or given
+    /// for a firmware whose configuration states its own.
+    #[error("print_radius: {0}")]
+    PrintRadius(String),
     /// No probe log was given and the configuration saved no probes.
     #[error("{}: no probe log given{}", config.display(),
         if *klipper { ", and no probes saved (run DELTA_CALIBRATE and SAVE_CONFIG)" } else { "" })]
@@ -176,11 +194,13 @@ pub enum FirmwareImportError {
 }
 
 /// What a firmware's files say: the configured parameters, the printable
-/// radius and the trigger height.
+/// radius, the trigger height and the probe's horizontal offsets from the
+/// nozzle where a probe log's positions are the probe's (Marlin's).
 struct Configured {
     params: DeltaParams,
     print_radius: f64,
     trigger_height: f64,
+    probe_xy: [f64; 2],
 }
 
 /// The dataset of the printer configured in `config` (`format`'s file:
@@ -199,6 +219,20 @@ pub fn firmware_import(
     options: &ImportOptions,
 ) -> Result<FirmwareImport, FirmwareImportError> {
     options.check()?;
+    match (format, options.print_radius) {
+        (FirmwareFormat::Marlin, Some(r)) if !(r.is_finite() && r > 0.0) => {
+            return Err(FirmwareImportError::PrintRadius(format!(
+                "{r} is not a positive number of mm"
+            )));
+        }
+        (FirmwareFormat::RepRapFirmware | FirmwareFormat::Klipper, Some(_)) => {
+            return Err(FirmwareImportError::PrintRadius(format!(
+                "{}'s configuration states its own (M665 B, print_radius): the option is Marlin's",
+                format.name()
+            )));
+        }
+        _ => {}
+    }
     let (mut configured, saved) = match format {
         FirmwareFormat::RepRapFirmware => {
             let config = read_config(config)?;
@@ -206,6 +240,21 @@ pub fn firmware_import(
                 params: config.delta.to_params(),
                 print_radius: config.delta.print_radius,
                 trigger_height: config.probe.trigger_height,
+                probe_xy: [0.0; 2],
+            };
+            (configured, DeltaCalibrateResults::default())
+        }
+        FirmwareFormat::Marlin => {
+            let settings = marlin::read_config(config)?;
+            let configured = Configured {
+                params: settings.to_params(),
+                print_radius: options.print_radius.ok_or_else(|| {
+                    FirmwareImportError::NoPrintRadius {
+                        config: config.to_path_buf(),
+                    }
+                })?,
+                trigger_height: settings.trigger_height(),
+                probe_xy: settings.probe_xy(),
             };
             (configured, DeltaCalibrateResults::default())
         }
@@ -217,6 +266,7 @@ pub fn firmware_import(
                 params: printer.delta.to_params(),
                 print_radius: printer.delta.print_radius,
                 trigger_height: printer.z_offset.unwrap_or_default(),
+                probe_xy: [0.0; 2],
             };
             (configured, printer.saved)
         }
@@ -226,8 +276,9 @@ pub fn firmware_import(
     };
     let (probes, probes_from) = match files.probes {
         Some(path) => {
+            let [dx, dy] = configured.probe_xy;
             let commanded = (read_probes(path)?.iter())
-                .map(|p| [p.x, p.y, p.z + configured.trigger_height])
+                .map(|p| [p.x - dx, p.y - dy, p.z + configured.trigger_height])
                 .collect();
             (commanded, Source::File(path.to_path_buf()))
         }

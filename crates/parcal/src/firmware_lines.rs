@@ -1,7 +1,8 @@
 //! A mechanism's calibration as its firmware's configuration lines, as
-//! `parcal export --format reprapfirmware | klipper | hangprinter` writes
-//! them, for every front end: a linear delta's `M665`/`M666` lines or
-//! Klipper's `SAVE_CONFIG` block with what the firmware cannot hold and
+//! `parcal export --format reprapfirmware | klipper | marlin | hangprinter`
+//! writes them, for every front end: a linear delta's `M665`/`M666` lines
+//! (RepRapFirmware's, Marlin's with `M500`) or Klipper's `SAVE_CONFIG`
+//! block with what the firmware cannot hold and
 //! what that costs (docs/delta.md, "Export: what the firmware can hold"),
 //! and the probe's trigger height where the data determined it,
 //! a cable robot's `M669` anchors and `M666 R` spool radii
@@ -27,6 +28,8 @@ pub enum FirmwareFormat {
     RepRapFirmware,
     /// A linear delta's `SAVE_CONFIG` block for Klipper.
     Klipper,
+    /// A linear delta's `M665`/`M666` lines and `M500` for Marlin.
+    Marlin,
     /// A cable robot's `M669` and `M666 R` lines for the Hangprinter's
     /// RepRapFirmware.
     Hangprinter,
@@ -34,9 +37,10 @@ pub enum FirmwareFormat {
 
 impl FirmwareFormat {
     /// The formats by their names (`parcal export --format`'s).
-    pub const NAMES: [(&'static str, Self); 3] = [
+    pub const NAMES: [(&'static str, Self); 4] = [
         ("reprapfirmware", Self::RepRapFirmware),
         ("klipper", Self::Klipper),
+        ("marlin", Self::Marlin),
         ("hangprinter", Self::Hangprinter),
     ];
 
@@ -53,7 +57,7 @@ impl FirmwareFormat {
     /// The mechanism whose calibration it writes.
     pub fn mechanism(self) -> &'static str {
         match self {
-            Self::RepRapFirmware | Self::Klipper => "linear delta",
+            Self::RepRapFirmware | Self::Klipper | Self::Marlin => "linear delta",
             Self::Hangprinter => "cable robot",
         }
     }
@@ -157,6 +161,7 @@ pub fn firmware_lines(
     let firmware = match format {
         FirmwareFormat::RepRapFirmware => Firmware::RepRapFirmware,
         FirmwareFormat::Klipper => Firmware::Klipper,
+        FirmwareFormat::Marlin => Firmware::Marlin,
         FirmwareFormat::Hangprinter => {
             let config = HangprinterConfig::from_params(&CableRobot::typical(), &values)?;
             return Ok(FirmwareLines {
@@ -203,7 +208,10 @@ pub fn trigger_height(record: &MechanismCalibrationRecord) -> TriggerHeight {
         return TriggerHeight::Absent;
     };
     match (trigger.sigma, trigger.sigma_ratio) {
-        (Some(_), Some(ratio)) if ratio >= PRIOR_BOUND => TriggerHeight::AtPrior { ratio },
+        (Some(_), Some(ratio)) if ratio >= PRIOR_BOUND => TriggerHeight::AtPrior {
+            ratio,
+            configured: trigger.prior_mean,
+        },
         (Some(_), _) => TriggerHeight::Determined(trigger.value),
         (None, _) => TriggerHeight::Absent,
     }
@@ -254,7 +262,7 @@ mod tests {
         let probes = printer();
         let at_prior = trigger_height(&probes);
         assert!(
-            matches!(at_prior, TriggerHeight::AtPrior { ratio } if ratio >= PRIOR_BOUND),
+            matches!(at_prior, TriggerHeight::AtPrior { ratio, .. } if ratio >= PRIOR_BOUND),
             "{at_prior:?}"
         );
         let lines = firmware_lines(&probes, FirmwareFormat::RepRapFirmware, None, None).unwrap();
@@ -268,7 +276,12 @@ mod tests {
         });
         let value = heights.parameter(TRIGGER_HEIGHT).unwrap().value;
         assert_eq!(trigger_height(&heights), TriggerHeight::Determined(value));
-        for format in [FirmwareFormat::RepRapFirmware, FirmwareFormat::Klipper] {
+        let formats = [
+            FirmwareFormat::RepRapFirmware,
+            FirmwareFormat::Klipper,
+            FirmwareFormat::Marlin,
+        ];
+        for format in formats {
             let lines = firmware_lines(&heights, format, None, None).unwrap();
             let written = lines.trigger_height.unwrap();
             assert!((written - value).abs() <= 5e-4, "{written} for {value}");
@@ -293,7 +306,7 @@ mod tests {
             assert_eq!(format.name(), name);
             assert!(mechanisms::by_name(format.mechanism()).is_some());
         }
-        assert_eq!(FirmwareFormat::by_name("marlin"), None);
+        assert_eq!(FirmwareFormat::by_name("smoothieware"), None);
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! `parcal.import_firmware`: a printer's firmware configuration and probe
-//! log as a mechanism dataset, as `parcal import reprapfirmware | klipper`
-//! makes it (docs/delta.md).
+//! log as a mechanism dataset, as `parcal import reprapfirmware | klipper |
+//! marlin` makes it (docs/delta.md, docs/delta-marlin.md).
 
 use std::path::PathBuf;
 
@@ -14,12 +14,15 @@ use super::dataset::MechanismDataset;
 use crate::error::to_py;
 
 /// The linear delta configured in `config` (`firmware`'s file:
-/// `"reprapfirmware"`'s config.g, `"klipper"`'s printer.cfg) as a
+/// `"reprapfirmware"`'s config.g, `"klipper"`'s printer.cfg, what
+/// `"marlin"`'s M503 reported, whose printable radius `print_radius` gives)
+/// as a
 /// `parcal.MechanismDataset`, as `parcal import` makes it: the configured
 /// parameters as the prior's means, the tolerances (mm, degrees, percent;
 /// `None` a kit printer's, docs/delta.md) as its sigmas, the probe log at
 /// `probes` (a CSV with header `x,y,z`, the commanded XY and the height
-/// reported there) as probe heights, the part distances at `distances`
+/// reported there; Marlin's G30 takes the probe's XY) as probe heights,
+/// the part distances at `distances`
 /// (header `x1,y1,z1,x2,y2,z2,distance`) and the heights measured by hand
 /// at `heights` (header `x,y,z,height`). With Klipper, each of the three
 /// not given is what its DELTA_CALIBRATE and DELTA_ANALYZE saved in
@@ -45,6 +48,7 @@ use crate::error::to_py;
     distance_sigma=None,
     height_sigma=None,
     trigger_sigma=None,
+    print_radius=None,
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn import_firmware(
@@ -66,12 +70,17 @@ pub fn import_firmware(
     distance_sigma: Option<f64>,
     height_sigma: Option<f64>,
     trigger_sigma: Option<f64>,
+    print_radius: Option<f64>,
 ) -> PyResult<MechanismDataset> {
     let format = match FirmwareFormat::by_name(firmware) {
-        Some(format @ (FirmwareFormat::RepRapFirmware | FirmwareFormat::Klipper)) => format,
+        Some(
+            format @ (FirmwareFormat::RepRapFirmware
+            | FirmwareFormat::Klipper
+            | FirmwareFormat::Marlin),
+        ) => format,
         _ => {
             return Err(to_py(format!(
-                "firmware: expected reprapfirmware or klipper, got {firmware:?}"
+                "firmware: expected reprapfirmware, klipper or marlin, got {firmware:?}"
             )));
         }
     };
@@ -95,6 +104,7 @@ pub fn import_firmware(
         }
     }
     options.matched_rods = matched_rods;
+    options.print_radius = print_radius;
     let imported = py
         .detach(|| {
             let files = ObservationFiles {
@@ -107,6 +117,9 @@ pub fn import_firmware(
         .map_err(|error| match error {
             FirmwareImportError::NoProbes { .. } => {
                 to_py(format!("{error}: give probes= (a CSV with header x,y,z)"))
+            }
+            FirmwareImportError::NoPrintRadius { .. } => {
+                to_py(format!("{error}: give print_radius= (mm)"))
             }
             error => to_py(error),
         })?;

@@ -27,6 +27,8 @@ enum Format {
     Reprapfirmware,
     /// A linear delta's SAVE_CONFIG block for Klipper's printer.cfg.
     Klipper,
+    /// A linear delta's M665/M666 lines and M500 for Marlin.
+    Marlin,
     /// A cable robot's M669 anchors and M666 R spool radii for the
     /// Hangprinter's RepRapFirmware config.g.
     Hangprinter,
@@ -40,6 +42,7 @@ impl Format {
             Self::MachineJson | Self::Genhexkins | Self::Summary => None,
             Self::Reprapfirmware => Some(FirmwareFormat::RepRapFirmware),
             Self::Klipper => Some(FirmwareFormat::Klipper),
+            Self::Marlin => Some(FirmwareFormat::Marlin),
             Self::Hangprinter => Some(FirmwareFormat::Hangprinter),
         }
     }
@@ -71,8 +74,9 @@ pub struct Args {
     /// Use a calibration whose verdict is "rejected".
     #[arg(long)]
     accept_rejected: bool,
-    /// The printable radius of a delta (mm, M665 B or print_radius) that
-    /// --format reprapfirmware and klipper write back. Default: the one the
+    /// The printable radius of a delta (mm, M665 B, print_radius or
+    /// Marlin's PRINTABLE_RADIUS) that --format reprapfirmware writes back
+    /// and the cost is taken over. Default: the one the
     /// calibration carries from its dataset (parcal import keeps the
     /// firmware's).
     #[arg(long, value_name = "MM")]

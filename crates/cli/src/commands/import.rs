@@ -27,16 +27,31 @@ enum Firmware {
     /// DELTA_CALIBRATE and DELTA_ANALYZE saved, or the probe heights of
     /// --probes less the probe's z_offset.
     Klipper(FirmwareArgs),
+    /// Marlin: the M665, M666 and M851 lines M503 reported, and the
+    /// heights G30 reported at the probe's XY.
+    Marlin(MarlinArgs),
+}
+
+#[derive(clap::Args)]
+struct MarlinArgs {
+    #[command(flatten)]
+    files: FirmwareArgs,
+    /// The printable radius (mm, Configuration.h's PRINTABLE_RADIUS, which
+    /// M503 does not report).
+    #[arg(long, value_name = "MM")]
+    print_radius: f64,
 }
 
 #[derive(clap::Args)]
 struct FirmwareArgs {
-    /// The firmware's configuration (config.g or printer.cfg).
+    /// The firmware's configuration (config.g, printer.cfg, or what
+    /// Marlin's M503 reported).
     #[arg(long)]
     config: PathBuf,
-    /// The probe log: header x,y,z, the commanded XY of each probe and the
-    /// height reported there (mm). Klipper's without it: the probes its
-    /// DELTA_CALIBRATE saved in printer.cfg.
+    /// The probe log: header x,y,z, the commanded XY of each probe (with
+    /// Marlin, the probe's, as G30 takes them) and the height reported
+    /// there (mm). Klipper's without it: the probes its DELTA_CALIBRATE
+    /// saved in printer.cfg.
     #[arg(long)]
     probes: Option<PathBuf>,
     /// Part distances measured on a printed part: header
@@ -102,8 +117,8 @@ pub struct ToleranceArgs {
     #[arg(long, value_name = "MM", default_value_t = ImportOptions::default().height_sigma, value_parser = sigma)]
     height_sigma: f64,
     /// The trigger height's standard deviation about the configured one
-    /// (G31 Z; Klipper's z_offset with the probes it saved, else 0), mm: a
-    /// first-layer test's.
+    /// (G31 Z; Klipper's z_offset with the probes it saved, else 0;
+    /// Marlin's -M851 Z), mm: a first-layer test's.
     #[arg(long, value_name = "MM", default_value_t = ImportOptions::default().trigger_sigma, value_parser = sigma)]
     trigger_sigma: f64,
 }
@@ -142,12 +157,23 @@ fn sigma(text: &str) -> Result<f64, String> {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let (format, firmware, files) = match &args.firmware {
-        Firmware::Reprapfirmware(files) => {
-            (FirmwareFormat::RepRapFirmware, "RepRapFirmware", files)
-        }
-        Firmware::Klipper(files) => (FirmwareFormat::Klipper, "Klipper", files),
+    let (format, firmware, files, print_radius) = match &args.firmware {
+        Firmware::Reprapfirmware(files) => (
+            FirmwareFormat::RepRapFirmware,
+            "RepRapFirmware",
+            files,
+            None,
+        ),
+        Firmware::Klipper(files) => (FirmwareFormat::Klipper, "Klipper", files, None),
+        Firmware::Marlin(marlin) => (
+            FirmwareFormat::Marlin,
+            "Marlin",
+            &marlin.files,
+            Some(marlin.print_radius),
+        ),
     };
+    let mut options = files.tolerances.options();
+    options.print_radius = print_radius;
     let imported = firmware_import(
         format,
         &files.config,
@@ -156,11 +182,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             distances: files.distances.as_deref(),
             heights: files.heights.as_deref(),
         },
-        &files.tolerances.options(),
+        &options,
     )
     .map_err(|error| match error {
         FirmwareImportError::NoProbes { .. } => {
             anyhow::anyhow!("{error}: give --probes (header x,y,z)")
+        }
+        FirmwareImportError::PrintRadius(reason) => {
+            anyhow::anyhow!("--print-radius: {reason}")
         }
         error => error.into(),
     })?;
