@@ -9,7 +9,9 @@ use std::path::PathBuf;
 
 use parcal::command::Recorded;
 use parcal::dataset::HEXAPOD;
-use parcal::firmware_lines::{FirmwareFormat, FirmwareLinesError, firmware_lines};
+use parcal::firmware_lines::{
+    FirmwareFormat, FirmwareLinesError, firmware_lines, refused_print_radius,
+};
 use parcal::hexapod_export::{HexapodFormat, hexapod_export};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -119,9 +121,9 @@ pub fn export<'py>(
                 FirmwareLinesError::NoPrintRadius => to_py(format!(
                     "{name}: {error}: give print_radius (mm, the firmware's M665 B or print_radius)"
                 )),
-                FirmwareLinesError::PrintRadius(radius) => to_py(format!(
-                    "print_radius must be a positive number of mm, got {radius}"
-                )),
+                FirmwareLinesError::PrintRadius(radius) => {
+                    to_py(refused_print_radius("print_radius", radius))
+                }
                 FirmwareLinesError::Into(_) => to_py(format!("config: {error}")),
                 error => to_py(format!("{name}: {error}")),
             }

@@ -247,11 +247,16 @@ fn bad_marlin_files_are_named_with_their_line() {
         err.contains("short.txt: line 4: no M665 H (delta height) given"),
         "{err}"
     );
-    let err = import(&d.join("m503.txt"), "-5");
-    assert!(
-        err.contains("--print-radius: -5 is not a positive number of mm"),
-        "{err}"
-    );
+    for (radius, shown) in [("-5", "-5"), ("1e300", "1e300"), ("nan", "NaN")] {
+        let err = import(&d.join("m503.txt"), radius);
+        assert!(
+            err.contains(&format!(
+                "--print-radius: {shown} is not a positive number of mm up to 1e6 (1 km)"
+            )),
+            "{err}"
+        );
+    }
+    assert!(!d.join("data").exists());
     let err = fails(&[
         "import",
         "marlin",

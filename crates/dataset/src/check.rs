@@ -214,7 +214,7 @@ impl<'a> Check<'a> {
 
 /// A number as a message shows it: in scientific notation when very large
 /// or very small (`1e300`, not 301 digits).
-pub(crate) fn shown(value: f64) -> String {
+pub fn shown(value: f64) -> String {
     let magnitude = value.abs();
     if magnitude != 0.0 && !(1e-4..1e6).contains(&magnitude) {
         format!("{value:e}")

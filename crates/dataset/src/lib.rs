@@ -125,7 +125,7 @@ pub use calibration::{
     ParameterTable, Provenance, RemovedObservation, SystematicSensitivityRecord,
     SystematicTestRecord, VarianceComponentRecord, WeakDirectionRecord,
 };
-pub use check::{MAX_LENGTH_MM, MIN_SCALE, MIN_SIGMA};
+pub use check::{MAX_LENGTH_MM, MIN_SCALE, MIN_SIGMA, shown};
 pub use dataset::{Dataset, MIN_CONTACTS_PER_BALL, ReadOptions, WriteOptions};
 pub use declared::{HEXAPOD, declared_mechanism};
 pub use error::DatasetError;

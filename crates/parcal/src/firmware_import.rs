@@ -11,11 +11,11 @@
 use std::path::{Path, PathBuf};
 
 use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise, ValuePrior};
-use parcal_firmware::FirmwareError;
 use parcal_firmware::klipper::{DeltaCalibrateResults, read_printer};
 use parcal_firmware::marlin;
 use parcal_firmware::probes::{read_distances, read_heights, read_probes};
 use parcal_firmware::rrf::read_config;
+use parcal_firmware::{FirmwareError, MAX_MAGNITUDE};
 use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
 use parcal_kinematics::mechanism::Mechanism;
 
@@ -220,9 +220,10 @@ pub fn firmware_import(
 ) -> Result<FirmwareImport, FirmwareImportError> {
     options.check()?;
     match (format, options.print_radius) {
-        (FirmwareFormat::Marlin, Some(r)) if !(r.is_finite() && r > 0.0) => {
+        (FirmwareFormat::Marlin, Some(r)) if !(r > 0.0 && r <= MAX_MAGNITUDE) => {
             return Err(FirmwareImportError::PrintRadius(format!(
-                "{r} is not a positive number of mm"
+                "{} is not a positive number of mm up to {MAX_MAGNITUDE:e} (1 km)",
+                parcal_dataset::shown(r)
             )));
         }
         (FirmwareFormat::RepRapFirmware | FirmwareFormat::Klipper, Some(_)) => {

@@ -13,10 +13,11 @@ use std::path::Path;
 use parcal_calibrate::mechanism::TRIGGER_HEIGHT;
 use parcal_calibrate::mechanism::identifiability::PRIOR_BOUND;
 use parcal_dataset::mechanism::MechanismCalibrationRecord;
-use parcal_firmware::FirmwareError;
+use parcal_dataset::shown;
 use parcal_firmware::accuracy::{PositionErrors, Workspace};
 use parcal_firmware::export::{Firmware, TriggerHeight, cost_sentence, export};
 use parcal_firmware::hangprinter::HangprinterConfig;
+use parcal_firmware::{FirmwareError, MAX_MAGNITUDE};
 use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::delta::DeltaParams;
 use parcal_kinematics::mechanisms;
@@ -114,8 +115,9 @@ pub enum FirmwareLinesError {
         "the calibration states no printable radius (its dataset's machine.json has no print_radius)"
     )]
     NoPrintRadius,
-    /// The printable radius given is not a positive length.
-    #[error("the printable radius must be a positive number of mm, got {0}")]
+    /// The printable radius given is not a positive length within
+    /// [`MAX_MAGNITUDE`].
+    #[error("{}", refused_print_radius("the printable radius", *.0))]
     PrintRadius(f64),
     /// The record lacks one of its mechanism's parameters.
     #[error("no parameter {name} of the {mechanism}")]
@@ -133,6 +135,16 @@ pub enum FirmwareLinesError {
     /// The firmware cannot hold the calibrated machine.
     #[error(transparent)]
     Firmware(#[from] FirmwareError),
+}
+
+/// Why `radius` (mm), a printable radius named `name` (the front end's
+/// word for it), is refused: it must be positive and at most
+/// [`MAX_MAGNITUDE`].
+pub fn refused_print_radius(name: &str, radius: f64) -> String {
+    format!(
+        "{name} must be a positive number of mm up to {MAX_MAGNITUDE:e} (1 km), got {}",
+        shown(radius)
+    )
 }
 
 /// `record` written as `format`'s lines, or with Klipper into the
@@ -176,7 +188,7 @@ pub fn firmware_lines(
     let print_radius = print_radius
         .or(record.print_radius)
         .ok_or(FirmwareLinesError::NoPrintRadius)?;
-    if !(print_radius.is_finite() && print_radius > 0.0) {
+    if !(print_radius > 0.0 && print_radius <= MAX_MAGNITUDE) {
         return Err(FirmwareLinesError::PrintRadius(print_radius));
     }
     let calibrated = DeltaParams::from_slice(&values);

@@ -8,7 +8,9 @@ use anyhow::Context;
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::atomic::write_file;
 use parcal::dataset::mechanism::MechanismCalibrationRecord;
-use parcal::firmware_lines::{FirmwareFormat, FirmwareLinesError, firmware_lines};
+use parcal::firmware_lines::{
+    FirmwareFormat, FirmwareLinesError, firmware_lines, refused_print_radius,
+};
 use parcal::hexapod_export::{HexapodFormat, hexapod_export};
 
 use parcal::command::{Recorded, read_either};
@@ -169,7 +171,7 @@ fn export_firmware(args: &Args, format: FirmwareFormat) -> anyhow::Result<()> {
                 format.name()
             ),
             FirmwareLinesError::PrintRadius(radius) => {
-                anyhow::anyhow!("--print-radius must be a positive number of mm, got {radius}")
+                anyhow::anyhow!(refused_print_radius("--print-radius", radius))
             }
             FirmwareLinesError::Into(_) => anyhow::anyhow!("--config: {error}"),
             error => anyhow::anyhow!("{}: {error}", path.display()),
