@@ -843,8 +843,17 @@ fn gram_rows<const R: usize>(
     let mut sums = [[[-0.0; PARTIAL_SUMS]; R]; R];
     let whole = columns.len() - columns.len() % PARTIAL_SUMS;
     for first in (0..whole).step_by(PARTIAL_SUMS) {
-        for lane in 0..PARTIAL_SUMS {
-            add(&mut sums, &rows, first + lane, lane);
+        // The four columns' products of an entry side by side, one vector
+        // operation where the build has one: lane `l` takes column
+        // `first + l`, as `add` would.
+        for e in 0..R {
+            let ve = &rows[e][first..first + PARTIAL_SUMS];
+            for f in 0..=e {
+                let vf = &rows[f][first..first + PARTIAL_SUMS];
+                for lane in 0..PARTIAL_SUMS {
+                    sums[e][f][lane] += ve[lane] * vf[lane];
+                }
+            }
         }
     }
     for k in whole..columns.len() {
