@@ -40,6 +40,22 @@ impl Command {
             .transpose()
     }
 
+    /// For each of `letters` the command gives, in order, `set(k, value)`
+    /// with `k` the letter's index in `letters`; the first error of a
+    /// value or of `set`.
+    pub fn each_float(
+        &self,
+        letters: &[char],
+        mut set: impl FnMut(usize, f64) -> Result<(), String>,
+    ) -> Result<(), String> {
+        for (k, &letter) in letters.iter().enumerate() {
+            if let Some(v) = self.float(letter)? {
+                set(k, v)?;
+            }
+        }
+        Ok(())
+    }
+
     /// The `:`-separated numbers of parameter `letter`, if given.
     pub fn floats(&self, letter: char) -> Result<Option<Vec<f64>>, String> {
         self.get(letter)

@@ -177,58 +177,50 @@ struct Given {
 impl Given {
     /// `M665`: the parameters it gives replace those before.
     fn m665(&mut self, command: &Command) -> Result<(), String> {
-        let scalars = [
-            ('L', &mut self.diagonal_rod),
-            ('R', &mut self.radius),
-            ('H', &mut self.height),
-        ];
-        for (letter, slot) in scalars {
-            if let Some(v) = command.float(letter)? {
-                *slot = Some(v);
-            }
-        }
+        let mut scalars = [&mut self.diagonal_rod, &mut self.radius, &mut self.height];
+        command.each_float(&['L', 'R', 'H'], |k, v| {
+            *scalars[k] = Some(v);
+            Ok(())
+        })?;
+        command.each_float(&['X', 'Y', 'Z'], |i, v| {
+            self.angle_trims[i] = Some(v);
+            Ok(())
+        })?;
         // A `B` without `A` or `C` is an older Marlin's calibration radius:
         // a Marlin with rod trims reports the three.
-        let rod_trims = command.get('A').is_some() || command.get('C').is_some();
-        for i in 0..3 {
-            if let Some(v) = command.float(['X', 'Y', 'Z'][i])? {
-                self.angle_trims[i] = Some(v);
-            }
-            if !rod_trims {
-                continue;
-            }
-            if let Some(v) = command.float(['A', 'B', 'C'][i])? {
-                self.rod_trims[i] = v;
-            }
+        if command.get('A').is_none() && command.get('C').is_none() {
+            return Ok(());
         }
-        Ok(())
+        command.each_float(&['A', 'B', 'C'], |i, v| {
+            self.rod_trims[i] = v;
+            Ok(())
+        })
     }
 
     /// `M666`: the adjustments it gives replace those before; a positive
     /// one is refused, as Marlin refuses it.
     fn m666(&mut self, command: &Command) -> Result<(), String> {
-        for (i, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-            if let Some(v) = command.float(letter)? {
-                if v > 0.0 {
-                    return Err(format!(
-                        "M666 parameter {letter}: {v} is positive; Marlin refuses it (M666 offsets must be <= 0)"
-                    ));
-                }
-                self.endstop_adjustments[i] = Some(v);
+        const LETTERS: [char; 3] = ['X', 'Y', 'Z'];
+        command.each_float(&LETTERS, |i, v| {
+            if v > 0.0 {
+                return Err(format!(
+                    "M666 parameter {}: {v} is positive; Marlin refuses it (M666 offsets must be <= 0)",
+                    LETTERS[i]
+                ));
             }
-        }
-        Ok(())
+            self.endstop_adjustments[i] = Some(v);
+            Ok(())
+        })
     }
 
     /// `M851`: the offsets it gives replace those before (zero until
     /// given).
     fn m851(&mut self, command: &Command) -> Result<(), String> {
         let mut offset = self.probe_offset.unwrap_or_default();
-        for (i, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-            if let Some(v) = command.float(letter)? {
-                offset[i] = v;
-            }
-        }
+        command.each_float(&['X', 'Y', 'Z'], |i, v| {
+            offset[i] = v;
+            Ok(())
+        })?;
         self.probe_offset = Some(offset);
         Ok(())
     }

@@ -165,37 +165,31 @@ impl RrfDelta {
                 self.diagonals[i] = values.get(i).copied().unwrap_or(values[0]);
             }
         }
-        let scalars = [
-            ('R', &mut self.radius),
-            ('B', &mut self.print_radius),
-            ('H', &mut self.homed_height),
+        let mut scalars = [
+            &mut self.radius,
+            &mut self.print_radius,
+            &mut self.homed_height,
         ];
-        for (letter, slot) in scalars {
-            if let Some(v) = command.float(letter)? {
-                *slot = v;
-            }
-        }
-        for (i, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-            if let Some(v) = command.float(letter)? {
-                self.angle_corrections[i] = v;
-            }
-        }
-        Ok(())
+        command.each_float(&['R', 'B', 'H'], |k, v| {
+            *scalars[k] = v;
+            Ok(())
+        })?;
+        command.each_float(&['X', 'Y', 'Z'], |i, v| {
+            self.angle_corrections[i] = v;
+            Ok(())
+        })
     }
 
     /// `M666`: the parameters it gives replace those before.
     fn configure_m666(&mut self, command: &Command) -> Result<(), String> {
-        for (i, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
-            if let Some(v) = command.float(letter)? {
-                self.endstop_adjustments[i] = v;
-            }
-        }
-        for (i, letter) in ['A', 'B'].into_iter().enumerate() {
-            if let Some(v) = command.float(letter)? {
-                self.tilt[i] = v;
-            }
-        }
-        Ok(())
+        command.each_float(&['X', 'Y', 'Z'], |i, v| {
+            self.endstop_adjustments[i] = v;
+            Ok(())
+        })?;
+        command.each_float(&['A', 'B'], |i, v| {
+            self.tilt[i] = v;
+            Ok(())
+        })
     }
 
     /// Refuses a geometry no delta has: a non-positive radius or printable
@@ -236,12 +230,10 @@ impl ZProbe {
         if let Some(z) = command.float('Z')? {
             self.trigger_height = z;
         }
-        for (i, letter) in ['X', 'Y'].into_iter().enumerate() {
-            if let Some(v) = command.float(letter)? {
-                self.offset[i] = v;
-            }
-        }
-        Ok(())
+        command.each_float(&['X', 'Y'], |i, v| {
+            self.offset[i] = v;
+            Ok(())
+        })
     }
 }
 

@@ -19,7 +19,7 @@ use parcal_firmware::{FirmwareError, MAX_MAGNITUDE};
 use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
 use parcal_kinematics::mechanism::Mechanism;
 
-use crate::firmware_lines::FirmwareFormat;
+use crate::firmware_lines::{FirmwareFormat, is_print_radius};
 
 /// The largest tolerance or standard deviation accepted (mm, degrees or
 /// percent): beyond it a prior says nothing.
@@ -220,7 +220,7 @@ pub fn firmware_import(
 ) -> Result<FirmwareImport, FirmwareImportError> {
     options.check()?;
     match (format, options.print_radius) {
-        (FirmwareFormat::Marlin, Some(r)) if !(r > 0.0 && r <= MAX_MAGNITUDE) => {
+        (FirmwareFormat::Marlin, Some(r)) if !is_print_radius(r) => {
             return Err(FirmwareImportError::PrintRadius(format!(
                 "{} is not a positive number of mm up to {MAX_MAGNITUDE:e} (1 km)",
                 parcal_dataset::shown(r)

@@ -137,9 +137,14 @@ pub enum FirmwareLinesError {
     Firmware(#[from] FirmwareError),
 }
 
+/// Whether `radius` (mm) may be a printable radius: positive and at most
+/// [`MAX_MAGNITUDE`], the dataset's bound on a length.
+pub fn is_print_radius(radius: f64) -> bool {
+    radius > 0.0 && radius <= MAX_MAGNITUDE
+}
+
 /// Why `radius` (mm), a printable radius named `name` (the front end's
-/// word for it), is refused: it must be positive and at most
-/// [`MAX_MAGNITUDE`].
+/// word for it), is refused ([`is_print_radius`]).
 pub fn refused_print_radius(name: &str, radius: f64) -> String {
     format!(
         "{name} must be a positive number of mm up to {MAX_MAGNITUDE:e} (1 km), got {}",
@@ -188,7 +193,7 @@ pub fn firmware_lines(
     let print_radius = print_radius
         .or(record.print_radius)
         .ok_or(FirmwareLinesError::NoPrintRadius)?;
-    if !(print_radius > 0.0 && print_radius <= MAX_MAGNITUDE) {
+    if !is_print_radius(print_radius) {
         return Err(FirmwareLinesError::PrintRadius(print_radius));
     }
     let calibrated = DeltaParams::from_slice(&values);
