@@ -11,7 +11,7 @@ mod progress;
 use std::io::ErrorKind;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 #[derive(Parser)]
 #[command(
@@ -51,7 +51,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = parse_arguments();
     clean_up_when_interrupted();
     let result = match cli.command {
         Command::Simulate(args) => commands::simulate::run(&args),
@@ -81,6 +81,27 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The command line, parsed as [`Cli::parse`] does, but for a value that
+/// looks like a negative number: an option taking a value takes it
+/// (`--gauge -1` is then refused by the option's own bound, not as an
+/// unknown flag).
+fn parse_arguments() -> Cli {
+    let mut command = negative_values_taken(Cli::command());
+    let parsed = Cli::from_arg_matches_mut(&mut command.get_matches_mut());
+    parsed.unwrap_or_else(|error| error.format(&mut command).exit())
+}
+
+/// `command` and its subcommands, every option that takes a value
+/// allowed a negative number as its value.
+fn negative_values_taken(command: clap::Command) -> clap::Command {
+    command
+        .mut_args(|arg| match arg.get_action().takes_values() {
+            true => arg.allow_negative_numbers(true),
+            false => arg,
+        })
+        .mut_subcommands(negative_values_taken)
 }
 
 /// On SIGINT or SIGTERM: removes the temporary files and directories of

@@ -168,11 +168,13 @@ fn a_delta_s_heights_by_hand_are_planned_into_a_heights_csv() {
             .all(|l| l.split(',').nth(2) == Some("10")),
         "{text}"
     );
-    let err = run(&[&trigger[..], &["--gauge", "500"]].concat(), false);
-    assert!(
-        err.contains("--gauge must be in (0, 100] mm, got 500"),
-        "{err}"
-    );
+    for (gauge, shown) in [("500", "500"), ("-1", "-1")] {
+        let err = run(&[&trigger[..], &["--gauge", gauge]].concat(), false);
+        assert!(
+            err.contains(&format!("--gauge must be in (0, 100] mm, got {shown}")),
+            "{err}"
+        );
+    }
     // Every stage at once, from the prior: the probes in the file itself,
     // the heights and the part distances beside it, in that order.
     let next = dir.path().join("next.csv");
