@@ -325,6 +325,28 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
         parcal.MechanismDataset({**machine, "mechanism": "scara"}, probes=probes)
 
 
+def test_elastic_lines_in_a_machine_dict_calibrate_as_the_clis_machine_json(hangprinter, cli, tmp_path):
+    machine = json.loads((hangprinter / "machine.json").read_text())
+    points = np.genfromtxt(hangprinter / "points.csv", delimiter=",", skip_header=1)
+    machine["configured"]["compliance_abcd"] = 50.0
+    machine["elasticity"] = {"compliance_of_line": [0, 0, 0, 0], "zero_loads": list(points[0, 7:])}
+    (hangprinter / "machine.json").write_text(json.dumps(machine))
+    out = tmp_path / "calibration.json"
+    assert cli("calibrate", hangprinter, "--out", out) == 0
+    built = parcal.MechanismDataset(
+        machine, samples={"readings": points[:, :4], "position": points[:, 4:7], "loads": points[:, 7:]})
+    assert built.parameters[-1] == "compliance_abcd"
+    assert built.machine["elasticity"] == machine["elasticity"]
+    run = parcal.calibrate(parcal.read_dataset(hangprinter))
+    record = json.loads(run.to_json())
+    assert record["elasticity"] == machine["elasticity"]
+    cli_record = json.loads(out.read_text())
+    assert [p["value"] for p in record["parameters"]] == [p["value"] for p in cli_record["parameters"]]
+    with pytest.raises(parcal.Error, match=r"elasticity: the loads at the encoder zero lists 3 values for 4 lines"):
+        parcal.MechanismDataset({**machine, "elasticity": {"compliance_of_line": [0] * 4, "zero_loads": [1.0] * 3}},
+                                samples={"readings": points[:, :4]})
+
+
 def test_a_cable_robot_plans_measured_samples_as_the_cli(hangprinter, cli, tmp_path):
     cli("plan", hangprinter, "--measurements", 3, "--measured-positions", "--grid", 6, "--out", tmp_path / "next.csv")
     summary = json.loads((tmp_path / "next.json").read_text())

@@ -11,11 +11,11 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 use parcal_calibrate::mechanism::{
-    MechanismCalibration, MechanismData, MechanismOptions, ObservationKind, Observations,
-    calibrate_mechanism,
+    CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, ObservationKind,
+    Observations, ParameterPrior, calibrate_mechanism,
 };
-use parcal_dataset::mechanism::{MechanismDataset, SampleRow};
-use parcal_kinematics::cable::{CableRobot, Elasticity, Tolerances};
+use parcal_dataset::mechanism::{LineElasticity, MechanismDataset, SampleRow};
+use parcal_kinematics::cable::{CableRobot, Elasticity, TYPICAL_COMPLIANCE, Tolerances};
 use parcal_kinematics::mechanism::{Mechanism, design, forward_under_loads};
 use parcal_observe::mechanism::{MeasuredQuantity, PointSample};
 
@@ -443,4 +443,56 @@ fn the_fixture_holds_the_chosen_model() {
     let chosen = calibrate(&CHOSEN, &dataset.samples, |_| true);
     let difference = (from_files.values() - chosen.values()).amax();
     assert!(difference < 1e-9, "{difference:e}");
+}
+
+/// The fixture's lines made elastic by its machine.json (one compliance,
+/// the encoders zeroed under sample 0's loads, the compliance at its
+/// typical value and prior): the same calibration as the rigid fixture's
+/// data given the robot made elastic in code; its record carries the
+/// elastic lines, and the calibrated robot built from the record has the
+/// compliance among its parameters.
+#[test]
+fn elastic_lines_in_machine_json_calibrate_as_the_robot_made_elastic_in_code() {
+    let rigid = dataset();
+    let zero_loads = rigid.samples[0].loads.clone().unwrap();
+    let lines = LineElasticity {
+        compliance_of_line: vec![0; 4],
+        zero_loads: zero_loads.clone(),
+    };
+    let mut switched = rigid.clone();
+    switched.machine.elasticity = Some(lines.clone());
+    switched.machine.configured.push(TYPICAL_COMPLIANCE);
+    switched.machine.design.push(TYPICAL_COMPLIANCE);
+    let dir = tempfile::tempdir().unwrap();
+    switched.write(dir.path()).unwrap();
+    let read = MechanismDataset::read(dir.path()).unwrap();
+    let options = MechanismOptions::default();
+    let by_file = MechanismData::from_dataset(&read).unwrap();
+    let by_file = calibrate_mechanism(&by_file, &options, &mut |_| {}).unwrap();
+
+    let mut in_code = MechanismData::from_dataset(&rigid).unwrap();
+    let robot = CableRobot::typical()
+        .with_elasticity(Elasticity::typical(vec![0; 4], zero_loads))
+        .unwrap();
+    in_code.mechanism = Arc::new(robot);
+    in_code.configured.push(TYPICAL_COMPLIANCE);
+    in_code.priors.push(ParameterPrior {
+        mean: TYPICAL_COMPLIANCE,
+        sigma: Some(TYPICAL_COMPLIANCE),
+    });
+    let in_code = calibrate_mechanism(&in_code, &options, &mut |_| {}).unwrap();
+
+    assert_eq!(by_file.parameters, in_code.parameters);
+    let compliance = by_file.parameters.last().unwrap();
+    assert_eq!(compliance.name, "compliance_abcd");
+    // The data inform it: its sigma under its prior's.
+    assert!(
+        compliance.sigma.unwrap() < 0.5 * TYPICAL_COMPLIANCE,
+        "{compliance:?}"
+    );
+    let record = by_file.record();
+    assert_eq!(record.elasticity, Some(lines));
+    let calibrated = CalibratedMechanism::from_record(&record).unwrap();
+    let last = calibrated.mechanism.parameters().last().unwrap();
+    assert_eq!(last.name, "compliance_abcd");
 }

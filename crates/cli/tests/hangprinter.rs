@@ -153,3 +153,90 @@ fn validate_names_the_discarded_positions_and_compensate_reaches_targets() {
     );
     assert_eq!(written.lines().count(), 3);
 }
+
+/// The fixture's machine.json with its lines made elastic: one compliance,
+/// named in `configured` at its typical value, the encoders zeroed under
+/// sample 0's loads (`points.csv`'s `f1..f4`).
+fn elastic_machine(data: &std::path::Path) {
+    let points = fs::read_to_string(data.join("points.csv")).unwrap();
+    let first = points.lines().nth(1).unwrap();
+    let zero_loads: Vec<f64> = (first.split(',').skip(7))
+        .map(|f| f.parse().unwrap())
+        .collect();
+    let path = data.join("machine.json");
+    let mut machine: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
+    machine["configured"]["compliance_abcd"] = serde_json::json!(50.0);
+    machine["elasticity"] = serde_json::json!({
+        "compliance_of_line": [0, 0, 0, 0],
+        "zero_loads": zero_loads,
+    });
+    fs::write(&path, machine.to_string()).unwrap();
+}
+
+#[test]
+fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = copy_fixture("hangprinter", dir.path(), &["machine.json", "points.csv"]);
+    elastic_machine(&data);
+    let summary = ok(&["calibrate", s(&data)]);
+    assert!(summary.contains("compliance_abcd"), "{summary}");
+    let calibration = data.join("calibration.json");
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&calibration).unwrap()).unwrap();
+    assert_eq!(record["format"], "parcal-mechanism-calibration/1.3");
+    assert_eq!(
+        record["elasticity"]["compliance_of_line"],
+        serde_json::json!([0, 0, 0, 0])
+    );
+    // The discarded positions with their loads, judged by the elastic
+    // robot: every row predicted.
+    let held_out = untrusted_dataset(dir.path());
+    let loads: Vec<String> = (fs::read_to_string(data.join("points.csv")).unwrap())
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').skip(7).collect::<Vec<_>>().join(","))
+        .collect();
+    let untrusted = fs::read_to_string(dir.path().join("fixture/data/untrusted.csv")).unwrap();
+    let rows: Vec<String> = fs::read_to_string(held_out.join("points.csv"))
+        .unwrap()
+        .lines()
+        .zip(untrusted.lines())
+        .map(|(row, sample)| match sample.split_once(',') {
+            Some((k, _)) if k != "sample" => {
+                format!("{row},{}", loads[k.parse::<usize>().unwrap()])
+            }
+            _ => format!("{row},f1,f2,f3,f4"),
+        })
+        .collect();
+    fs::write(held_out.join("points.csv"), rows.join("\n") + "\n").unwrap();
+    fs::copy(data.join("machine.json"), held_out.join("machine.json")).unwrap();
+    let out = common::parcal(&["validate", s(&held_out), "--calibration", s(&calibration)]);
+    assert_eq!(out.status.code(), Some(3), "{}", common::text(&out.stderr));
+    let validation: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(held_out.join("validation.json")).unwrap())
+            .unwrap();
+    assert_eq!(validation["rows"].as_array().unwrap().len(), 96);
+    // The Hangprinter's lines hold no compliance: export says so.
+    let out = dir.path().join("anchors.g");
+    let said = ok(&[
+        "export",
+        "--calibration",
+        s(&calibration),
+        "--format",
+        "hangprinter",
+        "--out",
+        s(&out),
+    ]);
+    assert!(
+        said.contains("lost: compliance_abcd =")
+            && said.contains("hold the anchors and spool radii alone"),
+        "{said}"
+    );
+    let lines = fs::read_to_string(&out).unwrap();
+    assert!(
+        lines.starts_with("; parcal: lost: compliance_abcd"),
+        "{lines}"
+    );
+    read_config(&out).unwrap();
+}

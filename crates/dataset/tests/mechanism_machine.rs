@@ -2,13 +2,19 @@
 //! (`"matched"`) written and read back, and refused, naming the field,
 //! when it has no tolerance or is looser than it; a printer's printable
 //! radius (`"print_radius"`) written and read back, and refused when it
-//! is not a positive length.
+//! is not a positive length; a cable robot's elastic lines
+//! (`"elasticity"`) written and read back, their compliances among the
+//! parameters, and refused, naming the field, for another mechanism or
+//! when they do not fit the robot's lines.
 
 use std::fs;
 
-use parcal_dataset::mechanism::{MechanismDataset, MechanismMachine, Noise};
-use parcal_kinematics::cable::CableRobot;
+use parcal_dataset::mechanism::{
+    LineElasticity, MechanismDataset, MechanismMachine, Noise, SampleRow,
+};
+use parcal_kinematics::cable::{CableRobot, Elasticity, TYPICAL_COMPLIANCE};
 use parcal_kinematics::delta::LinearDelta;
+use parcal_kinematics::mechanism::Mechanism;
 
 /// A delta probed twice, its rods cut as a set within `matched` mm, its
 /// rods' tolerance `tolerance`.
@@ -96,6 +102,105 @@ fn a_printable_radius_is_written_read_back_and_refused_when_not_positive() {
     let error = cable.write(dir.path()).unwrap_err().to_string();
     assert!(error.contains("print_radius"), "{error}");
     assert!(error.contains("no printable radius"), "{error}");
+}
+
+/// A cable robot whose lines share one compliance, zeroed under the
+/// loads `zero_loads`.
+fn elastic_robot(zero_loads: Vec<f64>) -> (CableRobot, LineElasticity) {
+    let lines = LineElasticity {
+        compliance_of_line: vec![0; 4],
+        zero_loads,
+    };
+    let elasticity =
+        Elasticity::typical(lines.compliance_of_line.clone(), lines.zero_loads.clone());
+    let robot = CableRobot::typical().with_elasticity(elasticity).unwrap();
+    (robot, lines)
+}
+
+#[test]
+fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
+    let (robot, lines) = elastic_robot(vec![13.7, 14.5, 14.1, 12.5]);
+    // One sample of its readings at the design, under other loads.
+    let design: Vec<f64> = robot.parameters().iter().map(|p| p.design).collect();
+    let readings = robot.inverse(&design, &[0.0, 0.0, 100.0]).unwrap();
+    let mut dataset = MechanismDataset {
+        machine: MechanismMachine::of(&robot),
+        samples: vec![SampleRow {
+            readings: readings.iter().copied().collect(),
+            position: None,
+            loads: Some(vec![12.0, 15.0, 13.0, 30.0]),
+        }],
+        ..MechanismDataset::default()
+    };
+    dataset.machine.noise.actuator = Some(1.0);
+    dataset.machine.elasticity = Some(lines.clone());
+    let dir = tempfile::tempdir().unwrap();
+    dataset.write(dir.path()).unwrap();
+    let path = dir.path().join("machine.json");
+    let text = fs::read_to_string(&path).unwrap();
+    assert!(
+        text.contains("\"elasticity\"") && text.contains("\"compliance_abcd\": 50.0"),
+        "{text}"
+    );
+    let read = MechanismDataset::read(dir.path()).unwrap();
+    assert_eq!(read.machine.elasticity, Some(lines.clone()));
+    // The machine's mechanism has the compliance among its parameters,
+    // as the robot made elastic in code.
+    let mechanism = read.machine.mechanism().unwrap();
+    let names = |m: &dyn Mechanism| -> Vec<String> {
+        m.parameters().iter().map(|p| p.name.clone()).collect()
+    };
+    assert_eq!(names(mechanism.as_ref()), names(&robot));
+    let compliance = mechanism.parameters().last().unwrap();
+    assert_eq!(
+        (compliance.design, compliance.prior_sigma),
+        (TYPICAL_COMPLIANCE, TYPICAL_COMPLIANCE)
+    );
+    // Loads for three of the four lines, a compliance no line uses, the
+    // compliance left out of "configured": refused by field.
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let edited = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut json = json.clone();
+        edit(&mut json);
+        json.to_string()
+    };
+    for (bad, expected) in [
+        (
+            edited(&|j| j["elasticity"]["zero_loads"] = serde_json::json!([13.7, 14.5, 14.1])),
+            "the loads at the encoder zero lists 3 values for 4 lines",
+        ),
+        (
+            edited(&|j| j["elasticity"]["compliance_of_line"] = serde_json::json!([1, 1, 1, 1])),
+            "compliance 1 is used by no line",
+        ),
+        (
+            edited(&|j| {
+                drop(
+                    j["configured"]
+                        .as_object_mut()
+                        .unwrap()
+                        .remove("compliance_abcd"),
+                )
+            }),
+            "configured.compliance_abcd",
+        ),
+    ] {
+        fs::write(&path, bad).unwrap();
+        let error = MechanismDataset::read(dir.path()).unwrap_err().to_string();
+        assert!(error.contains("machine.json"), "{error}");
+        assert!(error.contains(expected), "{error}");
+    }
+    // Only a cable robot has lines.
+    let mut printer = with_rods(0.02, Some(0.5));
+    printer.machine.elasticity = Some(lines);
+    let error = printer
+        .write(&dir.path().join("x"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("elasticity") && error.contains("the linear delta has no lines"),
+        "{error}"
+    );
 }
 
 #[test]

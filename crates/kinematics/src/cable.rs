@@ -83,7 +83,7 @@ use crate::mechanism::{
     Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, Quantity,
     QuantityValue, ReadingJacobians, check_params, check_vector,
 };
-pub use elasticity::{COMPLIANCE_SCALE, COMPLIANCE_UNIT, Elasticity};
+pub use elasticity::{COMPLIANCE_SCALE, COMPLIANCE_UNIT, Elasticity, TYPICAL_COMPLIANCE};
 
 use crate::pose_fit::pose_of_readings;
 

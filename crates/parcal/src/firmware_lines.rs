@@ -20,6 +20,7 @@ use parcal_firmware::hangprinter::HangprinterConfig;
 use parcal_firmware::{FirmwareError, MAX_MAGNITUDE};
 use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::delta::DeltaParams;
+use parcal_kinematics::mechanism::Mechanism;
 use parcal_kinematics::mechanisms;
 
 /// A firmware whose configuration lines a calibration is written as.
@@ -181,9 +182,13 @@ pub fn firmware_lines(
         FirmwareFormat::Marlin => Firmware::Marlin,
         FirmwareFormat::Hangprinter => {
             let config = HangprinterConfig::from_params(&CableRobot::typical(), &values)?;
+            let lost = lines_compliance(record);
+            let said: String = (lost.iter())
+                .map(|l| format!("; parcal: lost: {l}\n"))
+                .collect();
             return Ok(FirmwareLines {
-                text: config.lines(),
-                lost: Vec::new(),
+                text: format!("{said}{}", config.lines()),
+                lost,
                 cost: None,
                 trigger_height: None,
                 trigger_sentence: None,
@@ -236,6 +241,22 @@ pub fn trigger_height(record: &MechanismCalibrationRecord) -> TriggerHeight {
 
 /// The values of `record`'s mechanism parameters, in the mechanism's
 /// order, found by name (a record of a known mechanism: the format's).
+/// What a cable robot's lines for the Hangprinter lose: each compliance
+/// of elastic lines the calibration estimated, one sentence each.
+fn lines_compliance(record: &MechanismCalibrationRecord) -> Vec<String> {
+    let rigid = CableRobot::typical();
+    (record.parameters.iter())
+        .filter(|p| p.name != TRIGGER_HEIGHT && !rigid.parameters().iter().any(|r| r.name == p.name))
+        .map(|p| {
+            let sigma = p.sigma.map_or(String::new(), |s| format!(" +- {s:.2}"));
+            format!(
+                "{} = {:.2}{sigma} {} (the lines' compliance): M669 and M666 R hold the anchors and spool radii alone",
+                p.name, p.value, p.unit
+            )
+        })
+        .collect()
+}
+
 fn mechanism_values(record: &MechanismCalibrationRecord) -> Result<Vec<f64>, FirmwareLinesError> {
     let mechanism =
         mechanisms::by_name(&record.mechanism).expect("the format's mechanism is a known one");

@@ -35,7 +35,9 @@ pub struct CalibratedMechanism {
 impl CalibratedMechanism {
     /// From a calibration's record: a known mechanism (the variant of its
     /// parameters, [`mechanisms::with_parameters`]; a printer within the
-    /// printable radius the record states, [`mechanisms::by_name_within`]),
+    /// printable radius the record states, [`mechanisms::by_name_within`];
+    /// a cable robot with the elastic lines it states,
+    /// [`LineElasticity::cable_robot`](parcal_dataset::mechanism::LineElasticity::cable_robot)),
     /// its parameters in its order (then `trigger_height`, if any), and a
     /// covariance (a calibration that did not converge has none and is
     /// refused).
@@ -53,10 +55,14 @@ impl CalibratedMechanism {
             .map(|p| (p.name.as_str(), p.unit.as_str()))
             .collect();
         // A printer is built within the printable radius it was calibrated
-        // for; any other mechanism as the variant its parameters name.
-        let known = match record.print_radius {
-            Some(radius) => mechanisms::by_name_within(&record.mechanism, Some(radius)),
-            None => mechanisms::with_parameters(&record.mechanism, &recorded)
+        // for, a cable robot with the elastic lines it was calibrated with;
+        // any other mechanism as the variant its parameters name.
+        let known = match (record.print_radius, &record.elasticity) {
+            (_, Some(elasticity)) => {
+                Some((elasticity.cable_robot()).map_err(|reason| invalid("elasticity", reason))?)
+            }
+            (Some(radius), None) => mechanisms::by_name_within(&record.mechanism, Some(radius)),
+            (None, None) => mechanisms::with_parameters(&record.mechanism, &recorded)
                 .or_else(|| mechanisms::by_name(&record.mechanism)),
         };
         let mechanism: Arc<dyn Mechanism> = known

@@ -59,6 +59,7 @@ impl MechanismCalibration {
         MechanismCalibrationRecord {
             mechanism: self.mechanism,
             print_radius: self.print_radius,
+            elasticity: self.elasticity,
             status: format!("{:?}", self.status),
             iterations: self.iterations,
             accepted: self.verdict.accepted,

@@ -6,6 +6,7 @@
 //! ([`super::identifiability`]).
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
+use parcal_dataset::mechanism::LineElasticity;
 use parcal_solver::Status;
 
 use crate::hypothesis::critical_value;
@@ -121,6 +122,9 @@ pub struct MechanismCalibration {
     /// A printer's printable radius (mm), that of the data
     /// ([`MechanismData::print_radius`](super::MechanismData)).
     pub print_radius: Option<f64>,
+    /// A cable robot's elastic lines, those of the data
+    /// ([`MechanismData::elasticity`](super::MechanismData)).
+    pub elasticity: Option<LineElasticity>,
     /// The mechanism's parameters, then the trigger height when there were
     /// probe heights: values and sigmas in the canonical frame.
     pub parameters: Vec<EstimatedParameter>,
@@ -331,6 +335,7 @@ pub(crate) fn assemble(
     let mut calibration = MechanismCalibration {
         mechanism: mechanism.name().to_string(),
         print_radius: data.print_radius,
+        elasticity: data.elasticity.clone(),
         parameters,
         covariance: frame
             .covariance

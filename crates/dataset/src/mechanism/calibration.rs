@@ -1,6 +1,7 @@
 //! The record of a mechanism calibration (`calibration.json`, format
-//! `parcal-mechanism-calibration/1.2`): the mechanism (and a printer's
-//! printable radius, since 1.2), the estimated
+//! `parcal-mechanism-calibration/1.3`): the mechanism (and a printer's
+//! printable radius, since 1.2; a cable robot's elastic lines, since
+//! 1.3), the estimated
 //! parameters in its canonical frame with their sigmas, priors and
 //! covariance, the verdict and its reasons, the tests (global test,
 //! w-tests, snooping) and the identifiability, so that `export` and
@@ -16,7 +17,7 @@ use crate::error::Result;
 use crate::json;
 use crate::{FrameRecord, GlobalTestRecord};
 
-use super::machine::{check_print_radius, mechanism_named};
+use super::machine::{LineElasticity, check_print_radius, machine_mechanism};
 use super::observation_records::ObservationRecords;
 
 /// The name of the probe's trigger height among the estimated unknowns,
@@ -189,6 +190,11 @@ pub struct MechanismCalibrationRecord {
     /// within and writes back to the firmware (absent: none stated).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub print_radius: Option<f64>,
+    /// A cable robot's elastic lines, its dataset's (machine.json's
+    /// `elasticity`): what evaluating the calibrated robot under loads
+    /// needs besides its parameters (absent: rigid lines).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub elasticity: Option<LineElasticity>,
     /// How the solver ended.
     pub status: String,
     /// Its linear solves.
@@ -269,13 +275,14 @@ impl MechanismCalibrationRecord {
         })
     }
 
-    /// A known mechanism; unique parameter names; finite values, sigmas
+    /// A known mechanism (elastic lines a cable robot's, fitting its
+    /// lines); unique parameter names; finite values, sigmas
     /// and covariance of the parameters' size; a prior correlation of the
     /// size of the parameters but the trigger height, unit diagonal, entries within ±1;
     /// finite ball centres and radii; every observation row held by an
     /// observation.
     fn validate(&self, check: Check) -> Result<()> {
-        mechanism_named(check.path(), "mechanism", &self.mechanism)?;
+        machine_mechanism(check.path(), &self.mechanism, self.elasticity.as_ref())?;
         check_print_radius(check, &self.mechanism, self.print_radius)?;
         let mut names = BTreeSet::new();
         for (k, p) in self.parameters.iter().enumerate() {

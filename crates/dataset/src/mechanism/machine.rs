@@ -30,10 +30,19 @@
 //! required. `print_radius` (mm, optional), a printer's printable radius
 //! as its firmware holds it (RepRapFirmware's `M665 B`, Klipper's
 //! `print_radius`), is what `parcal export` writes back to the firmware.
+//! `elasticity` (optional, a cable robot's) makes its lines elastic
+//! (`parcal_kinematics::cable::elasticity`): `{"compliance_of_line": [0,
+//! 0, 0, 0], "zero_loads": [13.7, 14.5, 14.1, 12.5]}` gives each line the
+//! index of its compliance among the compliance parameters (here one
+//! shared, `compliance_abcd`; `[0, 1, 2, 3]`: one per line) and the
+//! lines' loads when the encoders were zeroed (N, the unit of the
+//! samples' loads); the compliance parameters are then named in
+//! `configured` like the others, their group `line compliance`.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use parcal_kinematics::cable::CableRobot;
 use parcal_kinematics::mechanism::Mechanism;
 use parcal_kinematics::mechanisms;
 use serde::ser::SerializeMap;
@@ -84,6 +93,27 @@ pub struct ValuePrior {
     pub sigma: Option<f64>,
 }
 
+/// A cable robot's elastic lines as machine.json states them (module
+/// doc).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LineElasticity {
+    /// For each line, the index of its compliance among the compliance
+    /// parameters.
+    pub compliance_of_line: Vec<usize>,
+    /// The lines' loads when the encoders were zeroed (N).
+    pub zero_loads: Vec<f64>,
+}
+
+impl LineElasticity {
+    /// The typical cable robot with these elastic lines
+    /// ([`mechanisms::elastic_cable_robot`]); an error saying what does
+    /// not fit its lines.
+    pub fn cable_robot(&self) -> std::result::Result<Box<dyn Mechanism>, String> {
+        mechanisms::elastic_cable_robot(&self.compliance_of_line, &self.zero_loads)
+    }
+}
+
 /// A mechanism dataset's machine (module doc).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MechanismMachine {
@@ -107,6 +137,8 @@ pub struct MechanismMachine {
     /// A printer's printable radius (mm), as its firmware holds it (module
     /// doc).
     pub print_radius: Option<f64>,
+    /// A cable robot's elastic lines (module doc); `None`: rigid lines.
+    pub elasticity: Option<LineElasticity>,
 }
 
 /// `machine.json` as read.
@@ -127,6 +159,8 @@ struct MachineFile {
     trigger_height: Option<ValuePrior>,
     #[serde(default)]
     print_radius: Option<f64>,
+    #[serde(default)]
+    elasticity: Option<LineElasticity>,
 }
 
 /// `machine.json` as written: names in the mechanism's order.
@@ -144,6 +178,8 @@ struct MachineOut<'a> {
     trigger_height: Option<ValuePrior>,
     #[serde(skip_serializing_if = "Option::is_none")]
     print_radius: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    elasticity: Option<&'a LineElasticity>,
 }
 
 /// An object of named values, in the order given.
@@ -163,6 +199,32 @@ impl<T: Serialize> Serialize for Named<'_, T> {
         }
         map.end()
     }
+}
+
+/// The mechanism named `name`, its lines elastic as `elasticity` states
+/// (a cable robot's alone); an error naming `mechanism` or `elasticity`
+/// of `path`.
+pub(crate) fn machine_mechanism(
+    path: &Path,
+    name: &str,
+    elasticity: Option<&LineElasticity>,
+) -> Result<Box<dyn Mechanism>> {
+    let mechanism = mechanism_named(path, "mechanism", name)?;
+    let Some(elasticity) = elasticity else {
+        return Ok(mechanism);
+    };
+    let cable_robot = CableRobot::typical();
+    if mechanism.name() != cable_robot.name() {
+        return Err(DatasetError::field(
+            path,
+            "elasticity",
+            format!(
+                "the {name} has no lines: elastic lines are a {}'s",
+                cable_robot.name()
+            ),
+        ));
+    }
+    (elasticity.cable_robot()).map_err(|reason| DatasetError::field(path, "elasticity", reason))
 }
 
 /// The mechanism named `name`, or an error naming `field` of `path`.
@@ -215,7 +277,9 @@ pub(crate) fn by_parameter(
 
 impl MechanismMachine {
     /// The machine of `mechanism` run with its design values, without
-    /// tolerance overrides, noise, trigger height or printable radius.
+    /// tolerance overrides, noise, trigger height, printable radius or
+    /// elastic lines (a cable robot made elastic needs its
+    /// [`Self::elasticity`] set too).
     pub fn of(mechanism: &dyn Mechanism) -> Self {
         let design: Vec<f64> = mechanism.parameters().iter().map(|p| p.design).collect();
         Self {
@@ -227,6 +291,7 @@ impl MechanismMachine {
             noise: Noise::default(),
             trigger_height: None,
             print_radius: None,
+            elasticity: None,
         }
     }
 
@@ -247,10 +312,15 @@ impl MechanismMachine {
     }
 
     /// The mechanism (its typical design from the one list, within the
-    /// printable radius machine.json states; the dataset's own values are
-    /// in [`Self::configured`] and [`Self::design`]).
+    /// printable radius machine.json states, its lines elastic as it
+    /// states; the dataset's own values are in [`Self::configured`] and
+    /// [`Self::design`]).
     pub fn mechanism(&self) -> Option<Box<dyn Mechanism>> {
-        mechanisms::by_name_within(&self.mechanism, self.print_radius)
+        match &self.elasticity {
+            None => mechanisms::by_name_within(&self.mechanism, self.print_radius),
+            Some(elasticity) => (elasticity.cable_robot().ok())
+                .filter(|robot| robot.name() == self.mechanism && self.print_radius.is_none()),
+        }
     }
 
     /// Reads and checks `machine.json` at `path`; a hexapod's (no
@@ -270,7 +340,7 @@ impl MechanismMachine {
         let file: MachineFile = json::read(path, json::MACHINE)?;
         let check = Check::new(path);
         let name = file.mechanism.unwrap_or_default();
-        let mechanism = mechanism_named(path, "mechanism", &name)?;
+        let mechanism = machine_mechanism(path, &name, file.elasticity.as_ref())?;
         let configured = by_parameter(check, mechanism.as_ref(), "configured", &file.configured)?;
         let design = match &file.design {
             Some(design) => by_parameter(check, mechanism.as_ref(), "design", design)?,
@@ -296,6 +366,7 @@ impl MechanismMachine {
             noise: file.noise,
             trigger_height: file.trigger_height,
             print_radius: file.print_radius,
+            elasticity: file.elasticity,
         };
         machine.validate(check)?;
         Ok(machine)
@@ -305,7 +376,7 @@ impl MechanismMachine {
     pub fn write(&self, path: &Path) -> Result<()> {
         let check = Check::new(path);
         self.validate(check)?;
-        let mechanism = mechanism_named(path, "mechanism", &self.mechanism)?;
+        let mechanism = machine_mechanism(path, &self.mechanism, self.elasticity.as_ref())?;
         let names: Vec<&str> = mechanism
             .parameters()
             .iter()
@@ -332,6 +403,7 @@ impl MechanismMachine {
             noise: self.noise,
             trigger_height: self.trigger_height,
             print_radius: self.print_radius,
+            elasticity: self.elasticity.as_ref(),
         };
         json::write(path, json::MACHINE, &out)
     }
@@ -340,9 +412,9 @@ impl MechanismMachine {
     /// one value per parameter, finite and within the length bound; known
     /// groups; sigmas within their bounds; a matched group's sigma at most
     /// its tolerance; a printable radius positive and within the length
-    /// bound.
+    /// bound; elastic lines a cable robot's, fitting its lines.
     pub(crate) fn validate(&self, check: Check) -> Result<()> {
-        let mechanism = mechanism_named(check.path(), "mechanism", &self.mechanism)?;
+        let mechanism = machine_mechanism(check.path(), &self.mechanism, self.elasticity.as_ref())?;
         let parameters = mechanism.parameters();
         for (field, values) in [("configured", &self.configured), ("design", &self.design)] {
             if values.len() != parameters.len() {

@@ -70,7 +70,7 @@ pub use calibration::{
     BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
     ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord, UndeterminedRecord,
 };
-pub use machine::{MechanismMachine, Noise, ValuePrior};
+pub use machine::{LineElasticity, MechanismMachine, Noise, ValuePrior};
 pub use observation_records::{
     ObservationRecord, ObservationRecords, RowCheck, UNCHECKED_REDUNDANCY, worst_row,
 };

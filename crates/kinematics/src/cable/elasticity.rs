@@ -24,6 +24,10 @@ use crate::mechanism::Parameter;
 pub const COMPLIANCE_UNIT: &str = "um/m/N";
 /// One compliance unit as a strain per newton.
 pub const COMPLIANCE_SCALE: f64 = 1e-6;
+/// A line's compliance when nothing else is stated, and its prior sigma
+/// (um/m/N): a stiffness per unit length `E A` of 20000 N (module doc),
+/// as uncertain as its value.
+pub const TYPICAL_COMPLIANCE: f64 = 50.0;
 
 /// The elasticity option of a cable robot (module documentation).
 #[derive(Debug, Clone, PartialEq)]
@@ -41,6 +45,18 @@ pub struct Elasticity {
 }
 
 impl Elasticity {
+    /// Lines elastic as `compliance_of_line` shares their compliances,
+    /// pulled by `zero_loads` at the encoder zero, each compliance
+    /// [`TYPICAL_COMPLIANCE`] with that sigma.
+    pub fn typical(compliance_of_line: Vec<usize>, zero_loads: Vec<f64>) -> Self {
+        Self {
+            compliance_of_line,
+            zero_loads,
+            compliance: TYPICAL_COMPLIANCE,
+            compliance_sigma: TYPICAL_COMPLIANCE,
+        }
+    }
+
     /// Refuses an option that does not fit `cables` lines: lists of
     /// another length, a compliance index without its parameter or a
     /// parameter no line uses, a non-finite load, a prior that is not a

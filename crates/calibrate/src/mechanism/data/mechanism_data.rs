@@ -8,6 +8,7 @@ use std::fmt;
 use std::sync::Arc;
 
 use nalgebra::DMatrix;
+use parcal_dataset::mechanism::LineElasticity;
 use parcal_kinematics::mechanism::Mechanism;
 
 use super::super::error::MechanismCalibrationError;
@@ -54,6 +55,11 @@ pub struct MechanismData {
     /// record carries to what applies it (compensation, the firmware's
     /// lines); `None`: the mechanism's own limits, unrecorded.
     pub print_radius: Option<f64>,
+    /// A cable robot's elastic lines as machine.json states them, which
+    /// [`Self::mechanism`] has and the calibration's record carries to
+    /// what evaluates the calibrated robot under loads (validation);
+    /// `None`: unrecorded (rigid lines, or a mechanism built in memory).
+    pub elasticity: Option<LineElasticity>,
 }
 
 impl fmt::Debug for MechanismData {
@@ -67,6 +73,7 @@ impl fmt::Debug for MechanismData {
             .field("observations", &self.observations)
             .field("touch_start", &self.touch_start.as_ref().map(|_| "given"))
             .field("print_radius", &self.print_radius)
+            .field("elasticity", &self.elasticity)
             .finish()
     }
 }
@@ -101,6 +108,7 @@ impl MechanismData {
             observations,
             touch_start: None,
             print_radius: None,
+            elasticity: None,
         }
     }
 
