@@ -9,6 +9,20 @@ use std::fs;
 use common::{copy_fixture, fails, ok, s};
 use parcal::firmware::hangprinter::read_config;
 
+/// `parcal export` of `calibration` as the Hangprinter's lines into
+/// `out`; what it said.
+fn export_hangprinter(calibration: &std::path::Path, out: &std::path::Path) -> String {
+    ok(&[
+        "export",
+        "--calibration",
+        s(calibration),
+        "--format",
+        "hangprinter",
+        "--out",
+        s(out),
+    ])
+}
+
 #[test]
 fn calibrate_export_reads_back_the_anchors_and_radii() {
     let dir = tempfile::tempdir().unwrap();
@@ -17,15 +31,7 @@ fn calibrate_export_reads_back_the_anchors_and_radii() {
     assert!(summary.contains("accepted"), "{summary}");
     let calibration = data.join("calibration.json");
     let out = dir.path().join("anchors.g");
-    ok(&[
-        "export",
-        "--calibration",
-        s(&calibration),
-        "--format",
-        "hangprinter",
-        "--out",
-        s(&out),
-    ]);
+    export_hangprinter(&calibration, &out);
     let back = read_config(&out).unwrap();
     let record: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(&calibration).unwrap()).unwrap();
@@ -219,15 +225,7 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
     assert_eq!(validation["rows"].as_array().unwrap().len(), 96);
     // The Hangprinter's lines hold no compliance: export says so.
     let out = dir.path().join("anchors.g");
-    let said = ok(&[
-        "export",
-        "--calibration",
-        s(&calibration),
-        "--format",
-        "hangprinter",
-        "--out",
-        s(&out),
-    ]);
+    let said = export_hangprinter(&calibration, &out);
     assert!(
         said.contains("lost: compliance_abcd =")
             && said.contains("hold the anchors and spool radii alone"),
