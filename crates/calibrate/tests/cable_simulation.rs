@@ -7,21 +7,33 @@
 //! draws' own scatter). With the line lengths at the encoder zero
 //! measured (the true lengths with Gaussian noise, as by hand) as
 //! observations of their own, the same must hold: their sigma is
-//! honoured.
+//! honoured. So must it for elastic lines under loads that vary from
+//! sample to sample, the compliance one more parameter; and a held-out
+//! campaign of the same machine, under its own loads, must fit the
+//! covariance its validation predicts (`T / n` of mean 1).
 
 use std::sync::Arc;
 
+use nalgebra::DVector;
 use parcal_calibrate::mechanism::{
-    MechanismData, MechanismOptions, Observations, calibrate_mechanism,
+    CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, Observations,
+    calibrate_mechanism, validate_mechanism,
 };
-use parcal_kinematics::cable::CableRobot;
+use parcal_dataset::mechanism::LineElasticity;
+use parcal_kinematics::cable::{CableRobot, Elasticity};
 use parcal_kinematics::mechanism::{Mechanism, design};
 use parcal_observe::mechanism::{MeasuredQuantity, PointSample};
-use parcal_simulate::{CableScenario, Rng, simulate_cable};
+use parcal_simulate::{CableScenario, CableSimulation, Rng, measure_cable, simulate_cable};
+
+use crate::mean::mean_and_standard_error;
 
 /// The stream of the line lengths' noise (the simulation's own streams
 /// are below it).
 const LINE_LENGTH_STREAM: u64 = 1000;
+/// The stream of the loads and of the readings under them.
+const LOADS_STREAM: u64 = 1001;
+/// The seed offset of the held-out campaigns.
+const HELD_OUT: u64 = 10_000;
 
 /// The NEES of the calibration of the campaign of `seed`, with the line
 /// lengths at the encoder zero measured to `line_length_sigma` (mm) if
@@ -63,8 +75,28 @@ fn nees(
         quantities,
         ..Default::default()
     };
+    nees_of(robot, &simulation.truth, observations, seed)
+}
+
+/// The NEES of the calibration of `observations` of `robot`, started at
+/// its design, against the true parameters `truth` (the campaign of
+/// `seed`).
+fn nees_of(robot: &CableRobot, truth: &DVector<f64>, observations: Observations, seed: u64) -> f64 {
+    nees_against(&calibrated(robot, observations, None, seed), truth)
+}
+
+/// The calibration of `observations` of `robot` (its lines elastic as
+/// `elasticity` states, if given), started at its design; converged (the
+/// campaign of `seed`).
+fn calibrated(
+    robot: &CableRobot,
+    observations: Observations,
+    elasticity: Option<LineElasticity>,
+    seed: u64,
+) -> MechanismCalibration {
     let configured: Vec<f64> = design(robot).iter().copied().collect();
-    let data = MechanismData::new(Arc::new(robot.clone()), configured, observations);
+    let mut data = MechanismData::new(Arc::new(robot.clone()), configured, observations);
+    data.elasticity = elasticity;
     let calibration =
         calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(
@@ -72,8 +104,14 @@ fn nees(
         "seed {seed}: {:?}",
         calibration.status
     );
-    let n = robot.parameters().len();
-    let error = calibration.values().rows(0, n) - &simulation.truth;
+    calibration
+}
+
+/// `(p̂ − p)ᵀ C⁻¹ (p̂ − p)` of `calibration` against the true parameters
+/// `truth`.
+fn nees_against(calibration: &MechanismCalibration, truth: &DVector<f64>) -> f64 {
+    let n = truth.len();
+    let error = calibration.values().rows(0, n) - truth;
     let covariance = calibration
         .covariance
         .as_ref()
@@ -82,6 +120,88 @@ fn nees(
         .clone_owned();
     let solved = covariance.cholesky().unwrap().solve(&error);
     error.dot(&solved)
+}
+
+/// The samples of `simulation` (positions and measured positions of a
+/// campaign of `robot`, true parameters `truth`), each but the encoder
+/// zero under loads drawn uniformly from 10 N below to 20 N above
+/// `zero_loads`, its readings the true machine's under them with the
+/// scenario's noise, drawn from `rng`.
+fn samples_under_loads(
+    robot: &CableRobot,
+    truth: &[f64],
+    simulation: &CableSimulation,
+    zero_loads: &[f64],
+    scenario: &CableScenario,
+    rng: &mut Rng,
+) -> Vec<PointSample> {
+    (simulation.samples.iter().enumerate())
+        .map(|(i, sample)| {
+            let loads: Vec<f64> = match i {
+                0 => zero_loads.to_vec(),
+                _ => (zero_loads.iter())
+                    .map(|f| f + rng.uniform(-10.0, 20.0))
+                    .collect(),
+            };
+            let (exact, _) = robot
+                .loaded_readings(truth, &sample.position, &loads)
+                .unwrap();
+            PointSample {
+                readings: (exact.iter())
+                    .map(|q| q + rng.normal(scenario.reading_sigma))
+                    .collect(),
+                sigma: scenario.reading_sigma,
+                known_pose: sample.known.map(|p| (p, scenario.position_sigma)),
+                loads: Some(loads),
+            }
+        })
+        .collect()
+}
+
+/// For the campaign of `seed` on `robot`, its lines elastic as `lines`
+/// state, under varying loads ([`samples_under_loads`]): the NEES of its
+/// calibration, and `T / n` of that calibration validated on a held-out
+/// campaign of the same machine (other positions, loads and noise).
+fn elastic_draw(robot: &CableRobot, lines: &LineElasticity, seed: u64) -> (f64, f64) {
+    let scenario = CableScenario::hangprinter();
+    let simulation = simulate_cable(robot, &scenario, seed).unwrap();
+    let truth = simulation.truth.clone();
+    let mut rng = Rng::new(seed, LOADS_STREAM);
+    let samples = samples_under_loads(
+        robot,
+        truth.as_slice(),
+        &simulation,
+        &lines.zero_loads,
+        &scenario,
+        &mut rng,
+    );
+    let observations = Observations {
+        samples,
+        ..Default::default()
+    };
+    let calibration = calibrated(robot, observations, Some(lines.clone()), seed);
+    let held_out = measure_cable(robot, &scenario, truth.clone(), seed + HELD_OUT).unwrap();
+    let mut rng = Rng::new(seed + HELD_OUT, LOADS_STREAM);
+    let samples = samples_under_loads(
+        robot,
+        truth.as_slice(),
+        &held_out,
+        &lines.zero_loads,
+        &scenario,
+        &mut rng,
+    );
+    let configured: Vec<f64> = design(robot).iter().copied().collect();
+    let observations = Observations {
+        samples,
+        ..Default::default()
+    };
+    let held_out = MechanismData::new(Arc::new(robot.clone()), configured, observations);
+    let applied = CalibratedMechanism::of_calibration(&calibration).unwrap();
+    let validation = validate_mechanism(&applied, &held_out, 0.05, None).unwrap();
+    (
+        nees_against(&calibration, &truth),
+        validation.statistic / validation.rows.len() as f64,
+    )
 }
 
 /// Mean NEES over `draws` seeds, its standard error, and the number of
@@ -141,4 +261,38 @@ fn measured_line_lengths_are_honoured_over_400_draws() {
         "with line lengths: mean NEES {mean:.2} +- {standard_error:.2} over 400 draws, {parameters} parameters"
     );
     assert!((mean - parameters).abs() <= 4.0 * standard_error);
+}
+
+#[test]
+fn elastic_lines_under_loads_are_recovered_and_predicted_within_the_reported_sigmas() {
+    let lines = LineElasticity {
+        compliance_of_line: vec![0; 4],
+        zero_loads: vec![15.0, 15.0, 15.0, 30.0],
+    };
+    let robot = CableRobot::typical()
+        .with_elasticity(Elasticity::typical(
+            lines.compliance_of_line.clone(),
+            lines.zero_loads.clone(),
+        ))
+        .unwrap();
+    let draws = 40;
+    let (nees, ratios): (Vec<f64>, Vec<f64>) = (0..draws)
+        .map(|seed| elastic_draw(&robot, &lines, seed))
+        .unzip();
+    let parameters = robot.parameters().len() as f64;
+    let (mean, standard_error) = mean_and_standard_error(&nees);
+    eprintln!(
+        "elastic lines: mean NEES {mean:.2} +- {standard_error:.2} over {draws} draws, {parameters} parameters"
+    );
+    assert!(
+        (mean - parameters).abs() <= 4.0 * standard_error,
+        "mean NEES {mean} vs {parameters} (standard error {standard_error})"
+    );
+    // Held out: T = rᵀ C⁻¹ r is χ²(n) under the model, E[T / n] = 1.
+    let (mean, standard_error) = mean_and_standard_error(&ratios);
+    eprintln!("elastic lines held out: mean T/n {mean:.4} +- {standard_error:.4}");
+    assert!(
+        (mean - 1.0).abs() <= 4.0 * standard_error,
+        "mean T/n {mean:.4} +- {standard_error:.4}"
+    );
 }

@@ -58,7 +58,9 @@ pub struct MechanismData {
     /// A cable robot's elastic lines as machine.json states them, which
     /// [`Self::mechanism`] has and the calibration's record carries to
     /// what evaluates the calibrated robot under loads (validation);
-    /// `None`: unrecorded (rigid lines, or a mechanism built in memory).
+    /// `None`: rigid lines. Data built in memory around a robot made
+    /// elastic in code state its lines here too, or the calibration's
+    /// record names parameters no robot rebuilt from it has.
     pub elasticity: Option<LineElasticity>,
 }
 
