@@ -44,7 +44,7 @@ use parcal_kinematics::delta::DeltaParams;
 use crate::FirmwareError;
 use crate::files::read_capped;
 use crate::gcode::{Command, parse_line};
-use crate::rrf::{MAX_CONFIG_BYTES, check_rods};
+use crate::rrf::{MAX_CONFIG_BYTES, check_rods, refuse_tower_radius};
 
 /// The parameters of a linear delta as Marlin holds them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -115,13 +115,7 @@ impl MarlinDelta {
     /// cannot hold: a tower's own radius correction or a bed tilt (put the
     /// parameters in the canonical frame and drop the tilt first).
     pub fn from_params(params: &DeltaParams, trigger_height: f64) -> Result<Self, FirmwareError> {
-        if let Some(i) = params.tower_radius.iter().position(|r| *r != 0.0) {
-            return Err(FirmwareError::Calibration(format!(
-                "tower {} has a radius correction of {} mm of its own, which Marlin cannot hold: express the parameters in the canonical frame first",
-                ["X", "Y", "Z"][i],
-                params.tower_radius[i]
-            )));
-        }
+        refuse_tower_radius(params, "Marlin")?;
         if params.tilt != [0.0; 2] {
             return Err(FirmwareError::Calibration(format!(
                 "a bed tilt of {} %, {} %, which Marlin's delta cannot hold",

@@ -116,13 +116,7 @@ impl RrfDelta {
     /// [`parcal_kinematics::delta::LinearDelta`]'s canonical frame has
     /// none).
     pub fn from_params(params: &DeltaParams, print_radius: f64) -> Result<Self, FirmwareError> {
-        if let Some(i) = params.tower_radius.iter().position(|r| *r != 0.0) {
-            return Err(FirmwareError::Calibration(format!(
-                "tower {} has a radius correction of {} mm of its own, which RepRapFirmware cannot hold: express the parameters in the canonical frame first",
-                ["X", "Y", "Z"][i],
-                params.tower_radius[i]
-            )));
-        }
+        refuse_tower_radius(params, "RepRapFirmware")?;
         Ok(Self {
             diagonals: params.diagonal,
             radius: params.radius,
@@ -202,6 +196,24 @@ impl RrfDelta {
             ));
         }
         check_rods(&self.diagonals, self.radius)
+    }
+}
+
+/// Refuses a tower's radius correction of its own, which `firmware`
+/// (RepRapFirmware, Marlin) cannot hold: the parameters go to the
+/// canonical frame first ([`parcal_kinematics::delta::LinearDelta`]'s has
+/// none).
+pub(crate) fn refuse_tower_radius(
+    params: &DeltaParams,
+    firmware: &str,
+) -> Result<(), FirmwareError> {
+    match params.tower_radius.iter().position(|r| *r != 0.0) {
+        Some(i) => Err(FirmwareError::Calibration(format!(
+            "tower {} has a radius correction of {} mm of its own, which {firmware} cannot hold: express the parameters in the canonical frame first",
+            ["X", "Y", "Z"][i],
+            params.tower_radius[i]
+        ))),
+        None => Ok(()),
     }
 }
 
