@@ -10,7 +10,7 @@
 use std::fs;
 
 use parcal_dataset::mechanism::{
-    LineElasticity, MechanismDataset, MechanismMachine, Noise, SampleRow,
+    LineElasticity, MechanismDataset, MechanismMachine, MechanismTruth, Noise, SampleRow,
 };
 use parcal_kinematics::cable::{CableRobot, Elasticity, TYPICAL_COMPLIANCE};
 use parcal_kinematics::delta::LinearDelta;
@@ -134,8 +134,21 @@ fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
     };
     dataset.machine.noise.actuator = Some(1.0);
     dataset.machine.elasticity = Some(lines.clone());
+    // Its truth names the compliance too.
+    let mut truth = design.clone();
+    *truth.last_mut().unwrap() = 61.5;
+    dataset.truth = Some(MechanismTruth {
+        parameters: truth,
+        trigger_height: None,
+        trackers: Default::default(),
+    });
     let dir = tempfile::tempdir().unwrap();
     dataset.write(dir.path()).unwrap();
+    let truth_text = fs::read_to_string(dir.path().join("truth.json")).unwrap();
+    assert!(
+        truth_text.contains("\"compliance_abcd\": 61.5"),
+        "{truth_text}"
+    );
     let path = dir.path().join("machine.json");
     let text = fs::read_to_string(&path).unwrap();
     assert!(
@@ -144,6 +157,7 @@ fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
     );
     let read = MechanismDataset::read(dir.path()).unwrap();
     assert_eq!(read.machine.elasticity, Some(lines.clone()));
+    assert_eq!(read.truth, dataset.truth);
     // The machine's mechanism has the compliance among its parameters,
     // as the robot made elastic in code.
     let mechanism = read.machine.mechanism().unwrap();

@@ -229,7 +229,7 @@ impl MechanismDataset {
             Some(path) => read_tracker_points(&path)?,
             None => Vec::new(),
         };
-        let truth = MechanismTruth::read_if_present(&dir.join(TRUTH_FILE), &machine.mechanism)?;
+        let truth = MechanismTruth::read_if_present(&dir.join(TRUTH_FILE), &machine)?;
         let dataset = Self {
             machine,
             probes,
@@ -293,7 +293,7 @@ impl MechanismDataset {
                 write_tracker_points(&new.join(TRACKER_POINTS_FILE), &self.tracker_points)?;
             }
             if let Some(truth) = &self.truth {
-                truth.write(&new.join(TRUTH_FILE), name)?;
+                truth.write(&new.join(TRUTH_FILE), &self.machine)?;
             }
             Ok(())
         })

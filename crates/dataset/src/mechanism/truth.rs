@@ -23,7 +23,7 @@ use crate::check::Check;
 use crate::error::Result;
 use crate::json;
 
-use super::machine::{Named, by_parameter, mechanism_named};
+use super::machine::{MechanismMachine, Named, by_parameter, machine_mechanism};
 
 /// The true machine of a simulated dataset.
 #[derive(Debug, Clone, PartialEq)]
@@ -58,13 +58,14 @@ struct TruthOut<'a> {
 }
 
 impl MechanismTruth {
-    /// Reads `truth.json` at `path` if present, for the mechanism `name`.
-    pub fn read_if_present(path: &Path, name: &str) -> Result<Option<Self>> {
+    /// Reads `truth.json` at `path` if present, for the mechanism of
+    /// `machine` (its lines elastic as it states).
+    pub fn read_if_present(path: &Path, machine: &MechanismMachine) -> Result<Option<Self>> {
         let Some(file) = json::read_if_present::<TruthFile>(path, json::MECHANISM_TRUTH)? else {
             return Ok(None);
         };
         let check = Check::new(path);
-        let mechanism = mechanism_named(path, "mechanism", name)?;
+        let mechanism = machine_mechanism(path, &machine.mechanism, machine.elasticity.as_ref())?;
         let parameters = by_parameter(check, mechanism.as_ref(), "parameters", &file.parameters)?;
         let truth = Self {
             parameters,
@@ -88,10 +89,12 @@ impl MechanismTruth {
         Ok(())
     }
 
-    /// Writes `truth.json` at `path` atomically, for the mechanism `name`.
-    pub fn write(&self, path: &Path, name: &str) -> Result<()> {
+    /// Writes `truth.json` at `path` atomically, for the mechanism of
+    /// `machine` (its lines elastic as it states).
+    pub fn write(&self, path: &Path, machine: &MechanismMachine) -> Result<()> {
         let check = Check::new(path);
-        let mechanism = mechanism_named(path, "mechanism", name)?;
+        let name = &machine.mechanism;
+        let mechanism = machine_mechanism(path, name, machine.elasticity.as_ref())?;
         let parameters = mechanism.parameters();
         if self.parameters.len() != parameters.len() {
             return Err(check.error(
