@@ -232,6 +232,9 @@ def simulate(
     known_positions: Optional[int] = None,
     reading_sigma: Optional[float] = None,
     measured_sigma: Optional[float] = None,
+    zero_loads: Optional[Sequence[float]] = None,
+    compliance_of_line: Optional[Sequence[int]] = None,
+    load_range: Optional[tuple[float, float]] = None,
     plate: Union[Literal["all"], int, None] = None,
     plate_sigma: Optional[float] = None,
     truth: Optional["MechanismDataset"] = None,
@@ -241,7 +244,8 @@ def simulate(
     ``tracker_sigma`` and the ``probe_*``, ``part_distances``,
     ``distance_sigma``, ``manual_heights``, ``height_sigma`` options) or cable
     robot (``samples``, ``known_positions``, ``reading_sigma``,
-    ``measured_sigma``) with its truth, as ``parcal simulate --mechanism``
+    ``measured_sigma``; elastic lines with ``zero_loads``, N per line,
+    ``compliance_of_line`` and ``load_range``, N) with its truth, as ``parcal simulate --mechanism``
     makes it; ``truth`` (a simulated dataset) measures its true machine
     again: held-out data. An option of another mechanism is refused."""
 

@@ -123,3 +123,35 @@ def test_the_hexapod_is_still_simulated_without_a_mechanism():
     for mechanism in (None, "hexapod"):
         ds = parcal.simulate(1, mechanism=mechanism, balls=4, points_per_ball=3)
         assert isinstance(ds, parcal.Dataset) and ds.q.shape == (12, 6)
+
+
+ELASTIC = {"zero_loads": [15.0, 15.0, 15.0, 30.0], "compliance_of_line": [0, 0, 1, 1], "load_range": (10.0, 30.0)}
+ELASTIC_FLAGS = ["--zero-loads", "15,15,15,30", "--compliance-of-line", "0,0,1,1", "--load-range", "10,30"]
+
+
+def test_elastic_lines_are_the_command_s_with_their_loads(tmp_path, cli):
+    ds = parcal.simulate(4, mechanism="cable", **ELASTIC)
+    # The rigid robot's 19 parameters and two compliances.
+    assert len(ds.truth["parameters"]) == 21
+    loads = ds.samples["loads"]
+    assert loads.shape == (44, 4)
+    assert np.array_equal(loads[0], ELASTIC["zero_loads"])
+    assert np.all((loads[1:] >= 10.0) & (loads[1:] < 30.0))
+    ds.write(tmp_path / "python")
+    cli("simulate", "--mechanism", "cable", "--seed", 4, *ELASTIC_FLAGS, "--out", tmp_path / "cli")
+    assert_same_files(tmp_path / "python", tmp_path / "cli")
+    # Held out: the true machine's lines, under loads of their own.
+    held_out = parcal.simulate(5, mechanism="cable", truth=ds)
+    held_out.write(tmp_path / "held-out")
+    truth = ["--truth", tmp_path / "cli"]
+    cli("simulate", "--mechanism", "cable", "--seed", 5, *truth, "--out", tmp_path / "held-out-cli")
+    assert_same_files(tmp_path / "held-out", tmp_path / "held-out-cli")
+    assert not np.array_equal(held_out.samples["loads"][1:], loads[1:])
+    with pytest.raises(parcal.Error, match=r"^zero_loads with truth \(in memory\): the true machine's lines"):
+        parcal.simulate(5, mechanism="cable", truth=ds, zero_loads=[1.0, 2.0, 3.0, 4.0])
+    with pytest.raises(parcal.Error, match="^load_range needs zero_loads"):
+        parcal.simulate(5, mechanism="cable", load_range=(1.0, 2.0))
+    with pytest.raises(parcal.Error, match=r"the loads' range \[30, 10\] N must be within"):
+        parcal.simulate(5, mechanism="cable", zero_loads=[15.0] * 4, load_range=(30.0, 10.0))
+    with pytest.raises(parcal.Error, match="zero_loads do not apply to a linear delta"):
+        parcal.simulate(5, mechanism="delta", zero_loads=[15.0] * 4)

@@ -30,8 +30,6 @@ use crate::mean::mean_and_standard_error;
 /// The stream of the line lengths' noise (the simulation's own streams
 /// are below it).
 const LINE_LENGTH_STREAM: u64 = 1000;
-/// The stream of the loads and of the readings under them.
-const LOADS_STREAM: u64 = 1001;
 /// The seed offset of the held-out campaigns.
 const HELD_OUT: u64 = 10_000;
 
@@ -45,16 +43,7 @@ fn nees(
     line_length_sigma: Option<f64>,
 ) -> f64 {
     let simulation = simulate_cable(robot, scenario, seed).unwrap();
-    let samples = simulation
-        .samples
-        .iter()
-        .map(|sample| PointSample {
-            readings: sample.readings.clone(),
-            sigma: scenario.reading_sigma,
-            known_pose: sample.known.map(|p| (p, scenario.position_sigma)),
-            loads: None,
-        })
-        .collect();
+    let samples = point_samples(&simulation, scenario);
     let mut rng = Rng::new(seed, LINE_LENGTH_STREAM);
     let quantities = match line_length_sigma {
         Some(sigma) => (0..robot.quantities().len())
@@ -122,77 +111,37 @@ fn nees_against(calibration: &MechanismCalibration, truth: &DVector<f64>) -> f64
     error.dot(&solved)
 }
 
-/// The samples of `simulation` (positions and measured positions of a
-/// campaign of `robot`, true parameters `truth`), each but the encoder
-/// zero under loads drawn uniformly from 10 N below to 20 N above
-/// `zero_loads`, its readings the true machine's under them with the
-/// scenario's noise, drawn from `rng`.
-fn samples_under_loads(
-    robot: &CableRobot,
-    truth: &[f64],
-    simulation: &CableSimulation,
-    zero_loads: &[f64],
-    scenario: &CableScenario,
-    rng: &mut Rng,
-) -> Vec<PointSample> {
-    (simulation.samples.iter().enumerate())
-        .map(|(i, sample)| {
-            let loads: Vec<f64> = match i {
-                0 => zero_loads.to_vec(),
-                _ => (zero_loads.iter())
-                    .map(|f| f + rng.uniform(-10.0, 20.0))
-                    .collect(),
-            };
-            let (exact, _) = robot
-                .loaded_readings(truth, &sample.position, &loads)
-                .unwrap();
-            PointSample {
-                readings: (exact.iter())
-                    .map(|q| q + rng.normal(scenario.reading_sigma))
-                    .collect(),
-                sigma: scenario.reading_sigma,
-                known_pose: sample.known.map(|p| (p, scenario.position_sigma)),
-                loads: Some(loads),
-            }
+/// The samples of `simulation`, a campaign of `scenario`, as the
+/// calibration observes them (with their loads, if any).
+fn point_samples(simulation: &CableSimulation, scenario: &CableScenario) -> Vec<PointSample> {
+    (simulation.samples.iter())
+        .map(|sample| PointSample {
+            readings: sample.readings.clone(),
+            sigma: scenario.reading_sigma,
+            known_pose: sample.known.map(|p| (p, scenario.position_sigma)),
+            loads: sample.loads.clone(),
         })
         .collect()
 }
 
 /// For the campaign of `seed` on `robot`, its lines elastic as `lines`
-/// state, under varying loads ([`samples_under_loads`]): the NEES of its
-/// calibration, and `T / n` of that calibration validated on a held-out
-/// campaign of the same machine (other positions, loads and noise).
+/// state and every sample but the encoder zero under drawn loads
+/// ([`simulate_cable`]): the NEES of its calibration, and `T / n` of that
+/// calibration validated on a held-out campaign of the same machine
+/// (other positions, loads and noise).
 fn elastic_draw(robot: &CableRobot, lines: &LineElasticity, seed: u64) -> (f64, f64) {
     let scenario = CableScenario::hangprinter();
     let simulation = simulate_cable(robot, &scenario, seed).unwrap();
-    let truth = simulation.truth.clone();
-    let mut rng = Rng::new(seed, LOADS_STREAM);
-    let samples = samples_under_loads(
-        robot,
-        truth.as_slice(),
-        &simulation,
-        &lines.zero_loads,
-        &scenario,
-        &mut rng,
-    );
     let observations = Observations {
-        samples,
+        samples: point_samples(&simulation, &scenario),
         ..Default::default()
     };
     let calibration = calibrated(robot, observations, Some(lines.clone()), seed);
+    let truth = simulation.truth;
     let held_out = measure_cable(robot, &scenario, truth.clone(), seed + HELD_OUT).unwrap();
-    let mut rng = Rng::new(seed + HELD_OUT, LOADS_STREAM);
-    let samples = samples_under_loads(
-        robot,
-        truth.as_slice(),
-        &held_out,
-        &lines.zero_loads,
-        &scenario,
-        &mut rng,
-    );
     let configured: Vec<f64> = design(robot).iter().copied().collect();
     let observations = Observations {
-        samples,
+        samples: point_samples(&held_out, &scenario),
         ..Default::default()
     };
     let held_out = MechanismData::new(Arc::new(robot.clone()), configured, observations);

@@ -1,11 +1,15 @@
 //! A simulated cable robot end to end: `parcal simulate --mechanism cable`
 //! writes the Hangprinter-shaped campaign with its truth, `parcal
 //! calibrate` recovers the truth within the sigmas it reports, and both
-//! are functions of the seed.
+//! are functions of the seed. With elastic lines (`--zero-loads`) the
+//! same holds, the compliance among the parameters, and held-out data of
+//! the same machine under their own loads fit the covariance `parcal
+//! validate` predicts.
 
 use crate::common;
 
 use std::fs;
+use std::path::Path;
 
 use common::{fails, ok, parcal, s};
 use nalgebra::{DMatrix, DVector};
@@ -53,15 +57,20 @@ fn a_simulated_cable_robot_calibrates_to_its_truth_for_a_seed() {
             "{file} differs between two runs of one seed"
         );
     }
-    // The normalised estimation error of this draw, (p̂ − p)ᵀ C⁻¹ (p̂ − p),
-    // is chi-square with one degree of freedom per parameter when the
-    // reported covariance C is right (every parameter is identifiable from
-    // the 9 measured positions: C has full rank); a draw is refused above
-    // the 0.999 quantile, which a correct calibration exceeds once in a
-    // thousand seeds.
-    let dataset = MechanismDataset::read(&first).unwrap();
+    assert_nees_below_limit(&first, &calibration(&first));
+}
+
+/// Asserts that the normalised estimation error of the calibration
+/// `calibration` of the simulated dataset `data`, `(p̂ − p)ᵀ C⁻¹ (p̂ − p)`,
+/// is below the 0.999 quantile of chi-square with one degree of freedom
+/// per parameter: its distribution when the reported covariance `C` is
+/// right (every parameter is identifiable from the measured positions: `C`
+/// has full rank). A correct calibration exceeds it once in a thousand
+/// seeds.
+fn assert_nees_below_limit(data: &Path, calibration: &Path) {
+    let dataset = MechanismDataset::read(data).unwrap();
     let truth = DVector::from_vec(dataset.truth.unwrap().parameters);
-    let record = MechanismCalibrationRecord::read(&calibration(&first)).unwrap();
+    let record = MechanismCalibrationRecord::read(calibration).unwrap();
     let estimate = DVector::from_iterator(
         record.parameters.len(),
         record.parameters.iter().map(|p| p.value),
@@ -76,6 +85,79 @@ fn a_simulated_cable_robot_calibrates_to_its_truth_for_a_seed() {
         error.len()
     );
     assert!(nees < limit, "NEES {nees} above {limit}");
+}
+
+#[test]
+fn elastic_lines_are_simulated_calibrated_and_validated_under_their_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, held_out) = (dir.path().join("data"), dir.path().join("held-out"));
+    let calibration = dir.path().join("calibration.json");
+    ok(&[
+        "simulate",
+        "--mechanism",
+        "cable",
+        "--seed",
+        "4",
+        "--zero-loads",
+        "15,15,15,30",
+        "--load-range",
+        "5,35",
+        "--out",
+        s(&data),
+    ]);
+    let dataset = MechanismDataset::read(&data).unwrap();
+    let lines = dataset.machine.elasticity.as_ref().unwrap();
+    assert_eq!(lines.zero_loads, [15.0, 15.0, 15.0, 30.0]);
+    assert_eq!(lines.compliance_of_line, [0; 4]);
+    assert!(dataset.samples.iter().all(|sample| sample.loads.is_some()));
+    let status = parcal(&["calibrate", s(&data), "--out", s(&calibration)]).status;
+    assert!(matches!(status.code(), Some(0 | 3)), "{status:?}");
+    let record = MechanismCalibrationRecord::read(&calibration).unwrap();
+    assert_eq!(record.parameters.last().unwrap().name, "compliance_abcd");
+    assert_nees_below_limit(&data, &calibration);
+    // Held-out data of the same machine, its lines as its machine.json
+    // states, under loads of their own: T = rᵀ C⁻¹ r of their residuals is
+    // chi-square with one degree of freedom per row when the calibration
+    // predicts them under their loads; a draw is refused above its 0.999
+    // quantile.
+    ok(&[
+        "simulate",
+        "--mechanism",
+        "cable",
+        "--seed",
+        "5",
+        "--truth",
+        s(&data),
+        "--out",
+        s(&held_out),
+    ]);
+    let status = parcal(&["validate", s(&held_out), "--calibration", s(&calibration)]).status;
+    assert!(matches!(status.code(), Some(0 | 3)), "{status:?}");
+    let validation: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(held_out.join("validation.json")).unwrap())
+            .unwrap();
+    let test = &validation["test"];
+    let (statistic, rows) = (
+        test["statistic"].as_f64().unwrap(),
+        test["degrees_of_freedom"].as_u64().unwrap() as usize,
+    );
+    let limit = chi_square_quantile(rows, 0.999);
+    eprintln!("held out: T {statistic:.1} over {rows} rows (limit {limit:.1})");
+    assert!(statistic < limit, "T {statistic} above {limit}");
+    let err = fails(&[
+        "simulate",
+        "--mechanism",
+        "cable",
+        "--seed",
+        "5",
+        "--truth",
+        s(&data),
+        "--compliance-of-line",
+        "0,0,1,1",
+        "--out",
+        s(&dir.path().join("restated")),
+    ]);
+    assert!(err.contains("--compliance-of-line with --truth"), "{err}");
 }
 
 #[test]

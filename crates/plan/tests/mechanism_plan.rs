@@ -23,7 +23,7 @@ use parcal_simulate::{CableScenario, Rng, simulate_cable_dataset};
 
 /// The Hangprinter-shaped simulation of `seed`, calibrated.
 fn calibrated_cable(seed: u64) -> (MechanismDataset, MechanismData, Start) {
-    let dataset = simulate_cable_dataset(&CableScenario::hangprinter(), seed).unwrap();
+    let dataset = simulate_cable_dataset(&CableScenario::hangprinter(), None, seed).unwrap();
     let data = MechanismData::from_dataset(&dataset).unwrap();
     let calibration =
         calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();

@@ -41,7 +41,7 @@ mod tracker;
 use parcal_dataset::bounds::{Count, check_product};
 
 pub use cable::{
-    CableSample, CableScenario, CableSimulation, measure_cable, measure_cable_dataset,
+    CableSample, CableScenario, CableSimulation, MAX_LOAD, measure_cable, measure_cable_dataset,
     simulate_cable, simulate_cable_dataset,
 };
 pub use campaign::{Simulation, Summary, ball_id, random_plan, simulate};

@@ -9,19 +9,24 @@
 //! cable robot (docs/cable-robots.md) by [`simulate_cable_dataset`]: the
 //! Hangprinter's shape, its true anchors, radii and encoder zero a draw of
 //! the prior, encoder samples where every line is taut, the encoder zero's
-//! and a few bed positions measured.
+//! and a few bed positions measured; its lines elastic if their loads at
+//! the encoder zero are given (the true compliances a draw of their
+//! prior, every other sample under drawn loads).
 //!
 //! Given a simulated dataset ([`TrueMachine`]), its true machine is
 //! measured again instead of drawn: held-out data for validation (new
-//! noise with another seed, or another pattern with other options); its
-//! own measurements (the same seed and pattern) are refused.
+//! noise with another seed, or another pattern with other options; a
+//! cable robot's lines as its machine.json states them); its own
+//! measurements (the same seed and pattern) are refused.
 //!
 //! Every count is bounded before work starts, an option of another
 //! mechanism is refused, and every message names the option as the front
 //! end spells it ([`Spelling`]).
 
 use parcal_dataset::bounds::Count;
-use parcal_dataset::mechanism::{MACHINE_FILE, MechanismDataset, MechanismTruth};
+use parcal_dataset::mechanism::{LineElasticity, MACHINE_FILE, MechanismDataset, MechanismTruth};
+use parcal_kinematics::cable::CableRobot;
+use parcal_kinematics::mechanism::Mechanism;
 use parcal_kinematics::mechanisms;
 
 use crate::delta::{DeltaScenario, measure_delta, simulate_delta};
@@ -126,6 +131,15 @@ pub struct MechanismOptions {
     /// Cable robot: a measured position's noise, 1 sigma per coordinate,
     /// mm (default 1, at most 100).
     pub measured_sigma: Option<f64>,
+    /// Cable robot: the lines' loads at the encoder zero (N, one per
+    /// line), which makes them elastic (default: rigid lines).
+    pub zero_loads: Option<Vec<f64>>,
+    /// Cable robot, elastic lines: the compliance of each line, by its
+    /// index among the compliances (default one shared, `0` for each).
+    pub compliance_of_line: Option<Vec<usize>>,
+    /// Cable robot, elastic lines: the range each line's load is drawn
+    /// from at every other sample (N, low then high; default 5 to 35).
+    pub load_range: Option<[f64; 2]>,
 }
 
 impl MechanismOptions {
@@ -158,12 +172,15 @@ impl MechanismOptions {
     }
 
     /// A cable robot's options, each with whether it is given.
-    fn cable_given(&self) -> [(&'static str, bool); 4] {
+    fn cable_given(&self) -> [(&'static str, bool); 7] {
         [
             ("samples", self.samples.is_some()),
             ("known_positions", self.known_positions.is_some()),
             ("reading_sigma", self.reading_sigma.is_some()),
             ("measured_sigma", self.measured_sigma.is_some()),
+            ("zero_loads", self.zero_loads.is_some()),
+            ("compliance_of_line", self.compliance_of_line.is_some()),
+            ("load_range", self.load_range.is_some()),
         ]
     }
 }
@@ -450,12 +467,57 @@ fn cable(
         known,
         reading_sigma: sigma("reading_sigma", options.reading_sigma, 1.0, 90.0, spelling)?,
         position_sigma: [position; 3],
+        loads: options.load_range.unwrap_or(hangprinter.loads),
         ..hangprinter
     };
+    let lines = elastic_lines(request)?;
     match truth {
-        Some(truth) => measure_cable_dataset(&scenario, truth, request.seed),
-        None => simulate_cable_dataset(&scenario, request.seed),
+        Some(truth) => measure_cable_dataset(&scenario, truth, lines.as_ref(), request.seed),
+        None => simulate_cable_dataset(&scenario, lines.as_ref(), request.seed),
     }
+}
+
+/// The cable robot's elastic lines that `request` asks for: those of the
+/// true machine's dataset if given, else those the options state; `None`:
+/// rigid lines. By default the lines share one compliance. An option of
+/// elastic lines without `zero_loads`, or the
+/// lines stated beside a true machine (whose machine.json states them),
+/// is refused by name.
+fn elastic_lines(request: &MechanismRequest) -> Result<Option<LineElasticity>, SimulateError> {
+    let (options, spelling) = (request.options, request.spelling);
+    let stated = [
+        ("zero_loads", options.zero_loads.is_some()),
+        ("compliance_of_line", options.compliance_of_line.is_some()),
+    ];
+    if let Some(source) = &request.truth {
+        return match stated.iter().find(|(_, given)| *given) {
+            Some((option, _)) => Err(SimulateError::Options(format!(
+                "{} with {}: the true machine's lines are those its {MACHINE_FILE} states",
+                spelling.name(option),
+                source.name
+            ))),
+            None => Ok(source.dataset.machine.elasticity.clone()),
+        };
+    }
+    let Some(zero_loads) = &options.zero_loads else {
+        let elastic_only = [
+            ("compliance_of_line", options.compliance_of_line.is_some()),
+            ("load_range", options.load_range.is_some()),
+        ];
+        return match elastic_only.iter().find(|(_, given)| *given) {
+            Some((option, _)) => Err(SimulateError::Options(format!(
+                "{} needs {}: it describes elastic lines, which the loads at the encoder zero make",
+                spelling.name(option),
+                spelling.name("zero_loads")
+            ))),
+            None => Ok(None),
+        };
+    };
+    let lines = CableRobot::typical().actuators().len();
+    Ok(Some(LineElasticity {
+        compliance_of_line: (options.compliance_of_line.clone()).unwrap_or_else(|| vec![0; lines]),
+        zero_loads: zero_loads.clone(),
+    }))
 }
 
 /// Refuses held-out data `measured` of `source` that the calibration could
@@ -664,5 +726,106 @@ mod tests {
             ..request("delta", 6, &options, Spelling::Keywords)
         });
         assert!(untrue.contains("no truth.json"), "{untrue}");
+    }
+
+    #[test]
+    fn elastic_lines_are_stated_and_held_out_data_keep_the_true_machines() {
+        let options = MechanismOptions {
+            zero_loads: Some(vec![15.0, 15.0, 15.0, 30.0]),
+            compliance_of_line: Some(vec![0, 0, 1, 1]),
+            load_range: Some([10.0, 20.0]),
+            ..MechanismOptions::default()
+        };
+        let simulated =
+            simulate_mechanism(&request("cable", 5, &options, Spelling::Flags)).unwrap();
+        let lines = simulated.machine.elasticity.clone().unwrap();
+        assert_eq!(lines.zero_loads, [15.0, 15.0, 15.0, 30.0]);
+        assert_eq!(lines.compliance_of_line, [0, 0, 1, 1]);
+        // Two compliances beside the rigid robot's 19 parameters.
+        assert_eq!(simulated.truth.as_ref().unwrap().parameters.len(), 21);
+        let loads: Vec<&Vec<f64>> = (simulated.samples.iter())
+            .map(|sample| sample.loads.as_ref().unwrap())
+            .collect();
+        assert_eq!(loads[0], &lines.zero_loads);
+        assert!(
+            loads[1..]
+                .iter()
+                .flat_map(|l| l.iter())
+                .all(|f| (10.0..20.0).contains(f))
+        );
+        let truth = TrueMachine {
+            dataset: &simulated,
+            name: "--truth D",
+        };
+        let held_out = simulate_mechanism(&MechanismRequest {
+            truth: Some(truth),
+            ..request("cable", 6, &MechanismOptions::default(), Spelling::Flags)
+        })
+        .unwrap();
+        assert_eq!(held_out.machine, simulated.machine);
+        // The default range: 5 to 35 N.
+        let drawn = held_out.samples[1..]
+            .iter()
+            .flat_map(|s| s.loads.clone().unwrap());
+        assert!(drawn.into_iter().all(|f| (5.0..35.0).contains(&f)));
+        let restated = refusal(&MechanismRequest {
+            truth: Some(truth),
+            ..request("cable", 6, &options, Spelling::Flags)
+        });
+        assert_eq!(
+            restated,
+            "--zero-loads with --truth D: the true machine's lines are those its machine.json states"
+        );
+    }
+
+    #[test]
+    fn elastic_options_without_zero_loads_or_out_of_bounds_are_refused() {
+        let cases = [
+            (
+                MechanismOptions {
+                    load_range: Some([1.0, 2.0]),
+                    ..MechanismOptions::default()
+                },
+                "load_range needs zero_loads: it describes elastic lines, which the loads at the encoder zero make",
+            ),
+            (
+                MechanismOptions {
+                    zero_loads: Some(vec![15.0, 0.0, 15.0, 30.0]),
+                    ..MechanismOptions::default()
+                },
+                "cable robot: elastic lines: a load at the encoder zero, 0 N, is not in (0, 2000]: a line is taut under a positive load",
+            ),
+            (
+                MechanismOptions {
+                    zero_loads: Some(vec![15.0; 3]),
+                    ..MechanismOptions::default()
+                },
+                "cable robot: elastic lines: line elasticity: the loads at the encoder zero lists 3 values for 4 lines",
+            ),
+            (
+                MechanismOptions {
+                    zero_loads: Some(vec![15.0; 4]),
+                    load_range: Some([20.0, 10.0]),
+                    ..MechanismOptions::default()
+                },
+                "cable robot: the loads' range [20, 10] N must be within (0, 2000], its low end first",
+            ),
+            (
+                MechanismOptions {
+                    zero_loads: Some(vec![15.0; 4]),
+                    ..MechanismOptions::default()
+                },
+                "zero_loads do not apply to a linear delta",
+            ),
+        ];
+        for (i, (options, expected)) in cases.iter().enumerate() {
+            let mechanism = if i == 4 { "delta" } else { "cable" };
+            let found =
+                match simulate_mechanism(&request(mechanism, 1, options, Spelling::Keywords)) {
+                    Err(error) => error.to_string(),
+                    Ok(_) => panic!("case {i} not refused"),
+                };
+            assert!(found.ends_with(expected), "case {i}: {found}");
+        }
     }
 }

@@ -49,7 +49,9 @@ use crate::mechanism::dataset::MechanismDataset;
 /// `probes_per_ring`, `part_distances`, `probe_sigma`, `distance_sigma`,
 /// `manual_heights`, `height_sigma`, `balls`, `points_per_ball`, `plate`,
 /// `trackers`, `points_per_tracker` and `tracker_sigma`, or a cable robot's `samples`,
-/// `known_positions`, `reading_sigma` and `measured_sigma`; `truth` (a
+/// `known_positions`, `reading_sigma`, `measured_sigma` and, for elastic
+/// lines, `zero_loads` (N, one per line), `compliance_of_line` and
+/// `load_range` (N, `(low, high)`); `truth` (a
 /// simulated `parcal.MechanismDataset`, with its truth) measures that true
 /// machine again instead of drawing one: held-out data, refused if it is
 /// the dataset's own measurements (the same seed and options).
@@ -97,6 +99,9 @@ use crate::mechanism::dataset::MechanismDataset;
     known_positions=None,
     reading_sigma=None,
     measured_sigma=None,
+    zero_loads=None,
+    compliance_of_line=None,
+    load_range=None,
     plate=None,
     plate_sigma=None,
     truth=None,
@@ -134,6 +139,9 @@ pub fn simulate(
     known_positions: Option<usize>,
     reading_sigma: Option<f64>,
     measured_sigma: Option<f64>,
+    zero_loads: Option<Vec<f64>>,
+    compliance_of_line: Option<Vec<usize>>,
+    load_range: Option<(f64, f64)>,
     plate: Option<&Bound<'_, PyAny>>,
     plate_sigma: Option<f64>,
     truth: Option<&Bound<'_, PyAny>>,
@@ -186,6 +194,9 @@ pub fn simulate(
         known_positions,
         reading_sigma,
         measured_sigma,
+        zero_loads,
+        compliance_of_line,
+        load_range: load_range.map(|(low, high)| [low, high]),
         plate,
     };
     match mechanism.filter(|name| *name != HEXAPOD) {

@@ -181,6 +181,32 @@ pub struct Args {
     /// mm (default 1).
     #[arg(long, value_name = "MM", requires = "mechanism")]
     measured_sigma: Option<f64>,
+    /// Cable robot: the lines' loads at the encoder zero, N, one per line
+    /// (A,B,C,D): the lines are elastic, machine.json states them, their
+    /// true compliances are a draw of their prior (50 +- 50 um/m/N) and
+    /// every other sample is measured under loads drawn from
+    /// --load-range (default: rigid lines).
+    #[arg(
+        long,
+        value_name = "N,N,N,N",
+        value_delimiter = ',',
+        requires = "mechanism"
+    )]
+    zero_loads: Option<Vec<f64>>,
+    /// Cable robot, elastic lines: each line's compliance by its index
+    /// among the compliances, as machine.json's "compliance_of_line"
+    /// (default 0,0,0,0: one shared).
+    #[arg(
+        long,
+        value_name = "K,K,K,K",
+        value_delimiter = ',',
+        requires = "mechanism"
+    )]
+    compliance_of_line: Option<Vec<usize>>,
+    /// Cable robot, elastic lines: the range each line's load is drawn
+    /// from at every sample but the encoder zero, N (default 5,35).
+    #[arg(long, value_name = "LOW,HIGH", requires = "mechanism", value_parser = load_range)]
+    load_range: Option<[f64; 2]>,
 }
 
 /// `--tracker` (also `parcal plan`'s).
@@ -245,6 +271,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 known_positions: args.known_positions,
                 reading_sigma: args.reading_sigma,
                 measured_sigma: args.measured_sigma,
+                zero_loads: args.zero_loads.clone(),
+                compliance_of_line: args.compliance_of_line.clone(),
+                load_range: args.load_range,
             },
         });
     }
@@ -309,6 +338,18 @@ fn plate(args: &Args) -> anyhow::Result<Option<Plate>> {
         pairs,
         sigma: args.plate_sigma * 1e-3,
     }))
+}
+
+/// `--load-range`: two numbers, `LOW,HIGH` (N); the simulation checks
+/// their values.
+fn load_range(text: &str) -> Result<[f64; 2], String> {
+    let values: Vec<&str> = text.split(',').collect();
+    let [low, high] = values.as_slice() else {
+        return Err(format!("{text:?} is not two loads LOW,HIGH (N)"));
+    };
+    let number =
+        |value: &str| (value.trim().parse::<f64>()).map_err(|error| format!("{value:?}: {error}"));
+    Ok([number(low)?, number(high)?])
 }
 
 /// The summary of a simulated campaign of ball touches.
