@@ -1,10 +1,12 @@
 //! One Gauss-Newton iteration (evaluate every block, eliminate, solve,
 //! back-substitute) of simulation IV with the propagated prior, at 10^3 to
-//! 10^6 contacts, with 1 and 2 threads.
+//! 10^6 contacts, with 1 and 2 threads; beside it, its first pass alone
+//! (`reduced-N-thread`: evaluate, eliminate, solve for the global step, no
+//! back-substitution), whose difference is the back-substitution's pass.
 
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use parcal_benches::{campaign, setup, warm_problem};
-use parcal_solver::{SolverOptions, linear_step};
+use parcal_solver::{SolverOptions, linear_step, reduced_step};
 
 fn iteration(c: &mut Criterion) {
     let mut group = c.benchmark_group("iteration");
@@ -31,6 +33,22 @@ fn iteration(c: &mut Criterion) {
                         |mut poses| {
                             let step = pool.install(|| {
                                 linear_step(&problem, &state, &mut poses, 0.0, chunk).expect("step")
+                            });
+                            (step, poses)
+                        },
+                        BatchSize::PerIteration,
+                    )
+                },
+            );
+            group.bench_with_input(
+                BenchmarkId::new(format!("reduced-{threads}-thread"), contacts),
+                &contacts,
+                |b, _| {
+                    b.iter_batched(
+                        || setup.poses.clone(),
+                        |mut poses| {
+                            let step = pool.install(|| {
+                                reduced_step(&problem, &state, &mut poses, chunk).expect("step")
                             });
                             (step, poses)
                         },
