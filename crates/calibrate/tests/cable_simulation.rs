@@ -19,7 +19,6 @@ use parcal_calibrate::mechanism::{
     CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, Observations,
     calibrate_mechanism, validate_mechanism,
 };
-use parcal_dataset::mechanism::LineElasticity;
 use parcal_kinematics::cable::{CableRobot, Elasticity};
 use parcal_kinematics::mechanism::{Mechanism, design};
 use parcal_observe::mechanism::{MeasuredQuantity, PointSample};
@@ -71,21 +70,14 @@ fn nees(
 /// its design, against the true parameters `truth` (the campaign of
 /// `seed`).
 fn nees_of(robot: &CableRobot, truth: &DVector<f64>, observations: Observations, seed: u64) -> f64 {
-    nees_against(&calibrated(robot, observations, None, seed), truth)
+    nees_against(&calibrated(robot, observations, seed), truth)
 }
 
-/// The calibration of `observations` of `robot` (its lines elastic as
-/// `elasticity` states, if given), started at its design; converged (the
-/// campaign of `seed`).
-fn calibrated(
-    robot: &CableRobot,
-    observations: Observations,
-    elasticity: Option<LineElasticity>,
-    seed: u64,
-) -> MechanismCalibration {
+/// The calibration of `observations` of `robot` (its lines elastic or
+/// not), started at its design; converged (the campaign of `seed`).
+fn calibrated(robot: &CableRobot, observations: Observations, seed: u64) -> MechanismCalibration {
     let configured: Vec<f64> = design(robot).iter().copied().collect();
-    let mut data = MechanismData::new(Arc::new(robot.clone()), configured, observations);
-    data.elasticity = elasticity;
+    let data = MechanismData::new(Arc::new(robot.clone()), configured, observations);
     let calibration =
         calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
     assert!(
@@ -124,19 +116,19 @@ fn point_samples(simulation: &CableSimulation, scenario: &CableScenario) -> Vec<
         .collect()
 }
 
-/// For the campaign of `seed` on `robot`, its lines elastic as `lines`
-/// state and every sample but the encoder zero under drawn loads
-/// ([`simulate_cable`]): the NEES of its calibration, and `T / n` of that
-/// calibration validated on a held-out campaign of the same machine
-/// (other positions, loads and noise).
-fn elastic_draw(robot: &CableRobot, lines: &LineElasticity, seed: u64) -> (f64, f64) {
+/// For the campaign of `seed` on `robot`, whose lines are elastic, every
+/// sample but the encoder zero under drawn loads ([`simulate_cable`]): the
+/// NEES of its calibration, and `T / n` of that calibration validated on a
+/// held-out campaign of the same machine (other positions, loads and
+/// noise).
+fn elastic_draw(robot: &CableRobot, seed: u64) -> (f64, f64) {
     let scenario = CableScenario::hangprinter();
     let simulation = simulate_cable(robot, &scenario, seed).unwrap();
     let observations = Observations {
         samples: point_samples(&simulation, &scenario),
         ..Default::default()
     };
-    let calibration = calibrated(robot, observations, Some(lines.clone()), seed);
+    let calibration = calibrated(robot, observations, seed);
     let truth = simulation.truth;
     let held_out = measure_cable(robot, &scenario, truth.clone(), seed + HELD_OUT).unwrap();
     let configured: Vec<f64> = design(robot).iter().copied().collect();
@@ -214,20 +206,15 @@ fn measured_line_lengths_are_honoured_over_400_draws() {
 
 #[test]
 fn elastic_lines_under_loads_are_recovered_and_predicted_within_the_reported_sigmas() {
-    let lines = LineElasticity {
-        compliance_of_line: vec![0; 4],
-        zero_loads: vec![15.0, 15.0, 15.0, 30.0],
-    };
     let robot = CableRobot::typical()
         .with_elasticity(Elasticity::typical(
-            lines.compliance_of_line.clone(),
-            lines.zero_loads.clone(),
+            vec![0; 4],
+            vec![15.0, 15.0, 15.0, 30.0],
         ))
         .unwrap();
     let draws = 40;
-    let (nees, ratios): (Vec<f64>, Vec<f64>) = (0..draws)
-        .map(|seed| elastic_draw(&robot, &lines, seed))
-        .unzip();
+    let (nees, ratios): (Vec<f64>, Vec<f64>) =
+        (0..draws).map(|seed| elastic_draw(&robot, seed)).unzip();
     let parameters = robot.parameters().len() as f64;
     let (mean, standard_error) = mean_and_standard_error(&nees);
     eprintln!(

@@ -133,7 +133,8 @@ fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
         ..MechanismDataset::default()
     };
     dataset.machine.noise.actuator = Some(1.0);
-    dataset.machine.elasticity = Some(lines.clone());
+    // The machine of the robot has its lines.
+    assert_eq!(dataset.machine.elasticity, Some(lines.clone()));
     // Its truth names the compliance too.
     let mut truth = design.clone();
     *truth.last_mut().unwrap() = 61.5;

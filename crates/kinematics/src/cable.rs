@@ -360,7 +360,8 @@ impl CableRobot {
         Ok(self)
     }
 
-    /// The elasticity option, if the lines are elastic.
+    /// The elasticity option, if the lines are elastic
+    /// ([`Mechanism::line_compliances`] gives what rebuilds it).
     pub fn elasticity(&self) -> Option<&Elasticity> {
         self.elasticity.as_ref()
     }
@@ -749,6 +750,11 @@ impl Mechanism for CableRobot {
     }
 
     /// The line lengths at the encoder zero, `line_length_a`, ...
+    fn line_compliances(&self) -> Option<(&[usize], &[f64])> {
+        (self.elasticity.as_ref())
+            .map(|e| (e.compliance_of_line.as_slice(), e.zero_loads.as_slice()))
+    }
+
     fn quantities(&self) -> &[Quantity] {
         &self.quantities
     }

@@ -507,6 +507,16 @@ pub trait Mechanism: Send + Sync {
         })
     }
 
+    /// The load model of [`Mechanism::loaded_readings`] as what rebuilds
+    /// the mechanism states it: for each actuator's line the index of its
+    /// compliance among the compliance parameters, and the loads the
+    /// actuators held when they were zeroed (a cable robot's elastic
+    /// lines). `None` (the default): readings that do not depend on the
+    /// load.
+    fn line_compliances(&self) -> Option<(&[usize], &[f64])> {
+        None
+    }
+
     /// The platform's frame (platform → base) at `pose` (module doc). By
     /// default a mechanism's pose fixes no orientation: an error.
     fn platform_frame(&self, pose: &[f64]) -> Result<Isometry3<f64>, MechanismError> {

@@ -270,7 +270,7 @@ pub fn simulate_cable_dataset(
     check_dataset_noise(scenario)?;
     let robot = typical_robot(lines)?;
     let simulation = simulate_cable(&robot, scenario, seed)?;
-    Ok(cable_dataset(scenario, &robot, lines, simulation))
+    Ok(cable_dataset(scenario, &robot, simulation))
 }
 
 /// [`measure_cable`] of the true machine `truth` of [`CableRobot::typical`],
@@ -287,7 +287,7 @@ pub fn measure_cable_dataset(
     let robot = typical_robot(lines)?;
     let truth = DVector::from_column_slice(&truth.parameters);
     let simulation = measure_cable(&robot, scenario, truth, seed)?;
-    Ok(cable_dataset(scenario, &robot, lines, simulation))
+    Ok(cable_dataset(scenario, &robot, simulation))
 }
 
 /// [`CableRobot::typical`], its lines elastic as `lines` states if given,
@@ -331,11 +331,10 @@ fn check_dataset_noise(scenario: &CableScenario) -> Result<(), SimulateError> {
 }
 
 /// The dataset of `simulation`, a campaign of `scenario` on `robot`
-/// ([`CableRobot::typical`], its lines elastic as `lines` states).
+/// ([`CableRobot::typical`], its lines elastic or not).
 fn cable_dataset(
     scenario: &CableScenario,
     robot: &CableRobot,
-    lines: Option<&LineElasticity>,
     simulation: CableSimulation,
 ) -> MechanismDataset {
     let samples = simulation
@@ -353,7 +352,6 @@ fn cable_dataset(
             position: Some(scenario.position_sigma[0]),
             ..Noise::default()
         },
-        elasticity: lines.cloned(),
         ..MechanismMachine::stating_tolerances(robot)
     };
     MechanismDataset {

@@ -106,6 +106,15 @@ pub struct LineElasticity {
 }
 
 impl LineElasticity {
+    /// The elastic lines of `mechanism` ([`Mechanism::line_compliances`]);
+    /// `None` for readings that do not depend on the load.
+    pub fn of(mechanism: &dyn Mechanism) -> Option<Self> {
+        (mechanism.line_compliances()).map(|(compliance_of_line, zero_loads)| Self {
+            compliance_of_line: compliance_of_line.to_vec(),
+            zero_loads: zero_loads.to_vec(),
+        })
+    }
+
     /// The typical cable robot with these elastic lines
     /// ([`mechanisms::elastic_cable_robot`]); an error saying what does
     /// not fit its lines.
@@ -276,10 +285,9 @@ pub(crate) fn by_parameter(
 }
 
 impl MechanismMachine {
-    /// The machine of `mechanism` run with its design values, without
-    /// tolerance overrides, noise, trigger height, printable radius or
-    /// elastic lines (a cable robot made elastic needs its
-    /// [`Self::elasticity`] set too).
+    /// The machine of `mechanism` run with its design values, its lines
+    /// elastic as the mechanism's are ([`LineElasticity::of`]), without
+    /// tolerance overrides, noise, trigger height or printable radius.
     pub fn of(mechanism: &dyn Mechanism) -> Self {
         let design: Vec<f64> = mechanism.parameters().iter().map(|p| p.design).collect();
         Self {
@@ -291,7 +299,7 @@ impl MechanismMachine {
             noise: Noise::default(),
             trigger_height: None,
             print_radius: None,
-            elasticity: None,
+            elasticity: LineElasticity::of(mechanism),
         }
     }
 

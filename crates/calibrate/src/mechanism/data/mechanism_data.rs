@@ -58,9 +58,8 @@ pub struct MechanismData {
     /// A cable robot's elastic lines as machine.json states them, which
     /// [`Self::mechanism`] has and the calibration's record carries to
     /// what evaluates the calibrated robot under loads (validation);
-    /// `None`: rigid lines. Data built in memory around a robot made
-    /// elastic in code state its lines here too, or the calibration's
-    /// record names parameters no robot rebuilt from it has.
+    /// `None`: rigid lines. [`Self::new`] takes them from the mechanism
+    /// ([`LineElasticity::of`]).
     pub elasticity: Option<LineElasticity>,
 }
 
@@ -84,7 +83,8 @@ impl MechanismData {
     /// The data of `mechanism` run with `configured` parameters: each
     /// parameter's prior its design value and tolerance
     /// ([`parcal_kinematics::mechanism::Parameter`]), the trigger height
-    /// without a prior, starting at 0.
+    /// without a prior, starting at 0, the lines elastic as the
+    /// mechanism's are.
     pub fn new(
         mechanism: Arc<dyn Mechanism>,
         configured: Vec<f64>,
@@ -98,6 +98,7 @@ impl MechanismData {
                 sigma: Some(p.prior_sigma),
             })
             .collect();
+        let elasticity = LineElasticity::of(mechanism.as_ref());
         Self {
             mechanism,
             configured,
@@ -110,7 +111,7 @@ impl MechanismData {
             observations,
             touch_start: None,
             print_radius: None,
-            elasticity: None,
+            elasticity,
         }
     }
 
