@@ -4,9 +4,16 @@
 //! (`reduced-N-thread`: evaluate, eliminate, solve for the global step, no
 //! back-substitution), whose difference is the back-substitution's pass.
 
+use std::any::Any;
+
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use parcal_benches::{campaign, setup, warm_problem};
+use parcal_kinematics::Pose;
 use parcal_solver::{SolverOptions, linear_step, reduced_step};
+
+/// One step from the warm starts given (which it updates), its result
+/// kept to be dropped untimed.
+type Step<'a> = dyn Fn(&mut Vec<Pose>) -> Box<dyn Any + Send> + Sync + 'a;
 
 fn iteration(c: &mut Criterion) {
     let mut group = c.benchmark_group("iteration");
@@ -21,41 +28,23 @@ fn iteration(c: &mut Criterion) {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            group.bench_with_input(
-                BenchmarkId::new(format!("{threads}-thread"), contacts),
-                &contacts,
-                |b, _| {
-                    // The warm starts come back with the step, to be
-                    // dropped untimed: a run keeps them from iteration to
-                    // iteration.
+            // The warm starts come back with the step, to be dropped
+            // untimed: a run keeps them from iteration to iteration.
+            let mut bench = |name: String, step: &Step| {
+                group.bench_with_input(BenchmarkId::new(name, contacts), &contacts, |b, _| {
                     b.iter_batched(
                         || setup.poses.clone(),
-                        |mut poses| {
-                            let step = pool.install(|| {
-                                linear_step(&problem, &state, &mut poses, 0.0, chunk).expect("step")
-                            });
-                            (step, poses)
-                        },
+                        |mut poses| (pool.install(|| step(&mut poses)), poses),
                         BatchSize::PerIteration,
                     )
-                },
-            );
-            group.bench_with_input(
-                BenchmarkId::new(format!("reduced-{threads}-thread"), contacts),
-                &contacts,
-                |b, _| {
-                    b.iter_batched(
-                        || setup.poses.clone(),
-                        |mut poses| {
-                            let step = pool.install(|| {
-                                reduced_step(&problem, &state, &mut poses, chunk).expect("step")
-                            });
-                            (step, poses)
-                        },
-                        BatchSize::PerIteration,
-                    )
-                },
-            );
+                });
+            };
+            bench(format!("{threads}-thread"), &|poses| {
+                Box::new(linear_step(&problem, &state, poses, 0.0, chunk).expect("step"))
+            });
+            bench(format!("reduced-{threads}-thread"), &|poses| {
+                Box::new(reduced_step(&problem, &state, poses, chunk).expect("step"))
+            });
         }
     }
     group.finish();

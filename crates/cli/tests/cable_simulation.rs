@@ -87,6 +87,24 @@ fn assert_nees_below_limit(data: &Path, calibration: &Path) {
     assert!(nees < limit, "NEES {nees} above {limit}");
 }
 
+/// `parcal simulate`'s arguments for seed 5's held-out campaign of the
+/// true machine of the cable robot dataset `data`, with `flags`, written
+/// to `out`.
+fn held_out_args<'a>(data: &'a Path, flags: &[&'a str], out: &'a Path) -> Vec<&'a str> {
+    let mut args = vec![
+        "simulate",
+        "--mechanism",
+        "cable",
+        "--seed",
+        "5",
+        "--truth",
+        s(data),
+    ];
+    args.extend(flags);
+    args.extend(["--out", s(out)]);
+    args
+}
+
 #[test]
 fn elastic_lines_are_simulated_calibrated_and_validated_under_their_loads() {
     let dir = tempfile::tempdir().unwrap();
@@ -120,17 +138,7 @@ fn elastic_lines_are_simulated_calibrated_and_validated_under_their_loads() {
     // chi-square with one degree of freedom per row when the calibration
     // predicts them under their loads; a draw is refused above its 0.999
     // quantile.
-    ok(&[
-        "simulate",
-        "--mechanism",
-        "cable",
-        "--seed",
-        "5",
-        "--truth",
-        s(&data),
-        "--out",
-        s(&held_out),
-    ]);
+    ok(&held_out_args(&data, &[], &held_out));
     let status = parcal(&["validate", s(&held_out), "--calibration", s(&calibration)]).status;
     assert!(matches!(status.code(), Some(0 | 3)), "{status:?}");
     let validation: serde_json::Value =
@@ -144,19 +152,12 @@ fn elastic_lines_are_simulated_calibrated_and_validated_under_their_loads() {
     let limit = chi_square_quantile(rows, 0.999);
     eprintln!("held out: T {statistic:.1} over {rows} rows (limit {limit:.1})");
     assert!(statistic < limit, "T {statistic} above {limit}");
-    let err = fails(&[
-        "simulate",
-        "--mechanism",
-        "cable",
-        "--seed",
-        "5",
-        "--truth",
-        s(&data),
-        "--compliance-of-line",
-        "0,0,1,1",
-        "--out",
-        s(&dir.path().join("restated")),
-    ]);
+    let restated = dir.path().join("restated");
+    let err = fails(&held_out_args(
+        &data,
+        &["--compliance-of-line", "0,0,1,1"],
+        &restated,
+    ));
     assert!(err.contains("--compliance-of-line with --truth"), "{err}");
 }
 
