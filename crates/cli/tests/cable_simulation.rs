@@ -110,7 +110,7 @@ fn elastic_lines_are_simulated_calibrated_and_validated_under_their_loads() {
     let dir = tempfile::tempdir().unwrap();
     let (data, held_out) = (dir.path().join("data"), dir.path().join("held-out"));
     let calibration = dir.path().join("calibration.json");
-    ok(&[
+    let said = ok(&[
         "simulate",
         "--mechanism",
         "cable",
@@ -123,6 +123,12 @@ fn elastic_lines_are_simulated_calibrated_and_validated_under_their_loads() {
         "--out",
         s(&data),
     ]);
+    assert!(
+        said.contains(
+            "under loads (elastic lines zeroed under [15.0, 15.0, 15.0, 30.0] N; the others' from "
+        ),
+        "{said}"
+    );
     let dataset = MechanismDataset::read(&data).unwrap();
     let lines = dataset.machine.elasticity.as_ref().unwrap();
     assert_eq!(lines.zero_loads, [15.0, 15.0, 15.0, 30.0]);

@@ -95,8 +95,27 @@ pub fn run(request: &Request) -> anyhow::Result<()> {
         0 => String::new(),
         n => format!(", {n} heights measured by hand"),
     };
+    let loads = match &dataset.machine.elasticity {
+        None => String::new(),
+        Some(lines) => {
+            let drawn: Vec<f64> = (dataset.samples.iter().skip(1))
+                .flat_map(|sample| sample.loads.iter().flatten().copied())
+                .collect();
+            let others = match drawn.iter().copied().reduce(f64::min) {
+                Some(low) => {
+                    let high = drawn.iter().copied().fold(low, f64::max);
+                    format!("; the others' from {low:.1} to {high:.1} N")
+                }
+                None => String::new(),
+            };
+            format!(
+                " under loads (elastic lines zeroed under {:?} N{others})",
+                lines.zero_loads
+            )
+        }
+    };
     println!(
-        "{}: a {name}, {} probe heights{heights}, {} part distances, {} encoder samples ({known} with a measured position), {} touches of {} balls{plate}{trackers}, seed {} (truth.json: {machine})",
+        "{}: a {name}, {} probe heights{heights}, {} part distances, {} encoder samples ({known} with a measured position){loads}, {} touches of {} balls{plate}{trackers}, seed {} (truth.json: {machine})",
         request.out.display(),
         dataset.probes.len(),
         dataset.distances.len(),
