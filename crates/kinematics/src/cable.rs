@@ -414,6 +414,17 @@ impl CableRobot {
             .expect("the Hangprinter v4's design is valid")
     }
 
+    /// [`Self::typical`] with elastic lines ([`Self::with_elasticity`],
+    /// [`Elasticity::typical`]): each line's compliance among
+    /// `compliance_of_line`'s, pulled by `zero_loads` (N) at the encoder
+    /// zero; an error naming what does not fit its lines.
+    pub fn typical_elastic(
+        compliance_of_line: Vec<usize>,
+        zero_loads: Vec<f64>,
+    ) -> Result<Self, CableDesignError> {
+        Self::typical().with_elasticity(Elasticity::typical(compliance_of_line, zero_loads))
+    }
+
     /// The number of lines `N`.
     pub fn cables(&self) -> usize {
         self.radius_of_spool.len()

@@ -2,7 +2,7 @@
 //! module and implements [`Mechanism`]; a file names its mechanism by one
 //! of [`NAMES`] and [`by_name`] builds its typical design.
 
-use crate::cable::{CableRobot, Elasticity};
+use crate::cable::CableRobot;
 use crate::delta::LinearDelta;
 use crate::hexapod::Hexapod;
 use crate::mechanism::Mechanism;
@@ -38,15 +38,14 @@ pub fn by_name_within(name: &str, print_radius: Option<f64>) -> Option<Box<dyn M
 }
 
 /// The typical cable robot ([`by_name`]) with elastic lines
-/// ([`Elasticity::typical`]): each line's compliance among
+/// ([`CableRobot::typical_elastic`]): each line's compliance among
 /// `compliance_of_line`'s, pulled by `zero_loads` (N) at the encoder zero;
 /// an error saying what does not fit its lines.
 pub fn elastic_cable_robot(
     compliance_of_line: &[usize],
     zero_loads: &[f64],
 ) -> Result<Box<dyn Mechanism>, String> {
-    let elasticity = Elasticity::typical(compliance_of_line.to_vec(), zero_loads.to_vec());
-    match CableRobot::typical().with_elasticity(elasticity) {
+    match CableRobot::typical_elastic(compliance_of_line.to_vec(), zero_loads.to_vec()) {
         Ok(robot) => Ok(Box::new(robot)),
         Err(error) => Err(error.to_string()),
     }

@@ -295,9 +295,8 @@ pub fn measure_cable_dataset(
 /// what does not fit its lines, or a load at the encoder zero that is not
 /// positive (a slack line).
 fn typical_robot(lines: Option<&LineElasticity>) -> Result<CableRobot, SimulateError> {
-    let robot = CableRobot::typical();
     let Some(lines) = lines else {
-        return Ok(robot);
+        return Ok(CableRobot::typical());
     };
     let refused =
         |reason: String| SimulateError::Scenario(format!("cable robot: elastic lines: {reason}"));
@@ -310,10 +309,7 @@ fn typical_robot(lines: Option<&LineElasticity>) -> Result<CableRobot, SimulateE
             "a load at the encoder zero, {load} N, is not in (0, {MAX_LOAD}]: a line is taut under a positive load"
         )));
     }
-    let elasticity =
-        Elasticity::typical(lines.compliance_of_line.clone(), lines.zero_loads.clone());
-    robot
-        .with_elasticity(elasticity)
+    CableRobot::typical_elastic(lines.compliance_of_line.clone(), lines.zero_loads.clone())
         .map_err(|error| refused(error.to_string()))
 }
 

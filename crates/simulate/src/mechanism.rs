@@ -480,20 +480,21 @@ fn cable(
 /// The cable robot's elastic lines that `request` asks for: those of the
 /// true machine's dataset if given, else those the options state; `None`:
 /// rigid lines. By default the lines share one compliance. An option of
-/// elastic lines without `zero_loads`, or the
-/// lines stated beside a true machine (whose machine.json states them),
-/// is refused by name.
+/// elastic lines without `zero_loads`, or the lines stated beside a true
+/// machine (whose machine.json states them), is refused by name.
 fn elastic_lines(request: &MechanismRequest) -> Result<Option<LineElasticity>, SimulateError> {
     let (options, spelling) = (request.options, request.spelling);
+    let given = |options: &[(&'static str, bool)]| {
+        (options.iter().find(|(_, given)| *given)).map(|(option, _)| spelling.name(option))
+    };
     let stated = [
         ("zero_loads", options.zero_loads.is_some()),
         ("compliance_of_line", options.compliance_of_line.is_some()),
     ];
     if let Some(source) = &request.truth {
-        return match stated.iter().find(|(_, given)| *given) {
-            Some((option, _)) => Err(SimulateError::Options(format!(
-                "{} with {}: the true machine's lines are those its {MACHINE_FILE} states",
-                spelling.name(option),
+        return match given(&stated) {
+            Some(option) => Err(SimulateError::Options(format!(
+                "{option} with {}: the true machine's lines are those its {MACHINE_FILE} states",
                 source.name
             ))),
             None => Ok(source.dataset.machine.elasticity.clone()),
@@ -504,10 +505,9 @@ fn elastic_lines(request: &MechanismRequest) -> Result<Option<LineElasticity>, S
             ("compliance_of_line", options.compliance_of_line.is_some()),
             ("load_range", options.load_range.is_some()),
         ];
-        return match elastic_only.iter().find(|(_, given)| *given) {
-            Some((option, _)) => Err(SimulateError::Options(format!(
-                "{} needs {}: it describes elastic lines, which the loads at the encoder zero make",
-                spelling.name(option),
+        return match given(&elastic_only) {
+            Some(option) => Err(SimulateError::Options(format!(
+                "{option} needs {}: it describes elastic lines, which the loads at the encoder zero make",
                 spelling.name("zero_loads")
             ))),
             None => Ok(None),
