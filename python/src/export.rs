@@ -25,7 +25,11 @@ use crate::recorded::recorded;
 /// `"genhexkins"` or `"summary"`; a linear delta's as `"reprapfirmware"`,
 /// `"klipper"` or `"marlin"`, a cable robot's as `"hangprinter"`. A delta's printable
 /// radius is `print_radius` (mm) if given, else the one the calibration
-/// carries from its dataset. With `"klipper"` and `config` (the printer's
+/// carries from its dataset. With `"marlin"`, `radius_trims` (mm, towers
+/// X, Y, Z) are those the firmware was compiled with
+/// (`DELTA_RADIUS_TRIM_TOWER`), by default the towers' radius corrections
+/// the calibration's prior states (those `parcal.import_firmware` was
+/// given). With `"klipper"` and `config` (the printer's
 /// printer.cfg), `text` is that whole file with its SAVE_CONFIG block
 /// updated as Klipper's SAVE_CONFIG would, its other sections and options
 /// kept.
@@ -37,16 +41,19 @@ use crate::recorded::recorded;
 /// `flatness_max`, `volume_rms`, `volume_max`) and `cost_sentence`, as
 /// `parcal export` prints it, `trigger_height` (the probe's, mm, written
 /// where the data determine it, else `None`) and `trigger_sentence`
-/// (whether it was written or kept, and why); `None` for a hexapod or a
-/// cable robot. A rejected calibration is used only with
+/// (whether it was written or kept, and why), and for Marlin
+/// `radius_trims` (the trims the lines are written for); `None` for a
+/// hexapod or a cable robot. A rejected calibration is used only with
 /// `accept_rejected`.
 #[pyfunction]
-#[pyo3(signature = (calibration, format, *, print_radius=None, config=None, accept_rejected=false))]
+#[pyo3(signature = (calibration, format, *, print_radius=None, radius_trims=None, config=None, accept_rejected=false))]
+#[allow(clippy::too_many_arguments)]
 pub fn export<'py>(
     py: Python<'py>,
     calibration: &Bound<'py, PyAny>,
     format: &str,
     print_radius: Option<f64>,
+    radius_trims: Option<[f64; 3]>,
     config: Option<PathBuf>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -80,6 +87,11 @@ pub fn export<'py>(
     }
     let dict = PyDict::new(py);
     let (record, format) = match (recorded, wanted) {
+        (_, Wanted::Hexapod(_)) if radius_trims.is_some() => {
+            return Err(to_py(format!(
+                "radius_trims: radius trims are Marlin's (DELTA_RADIUS_TRIM_TOWER, compiled in); {format} exports a {HEXAPOD}'s"
+            )));
+        }
         (Recorded::Own(record), Wanted::Hexapod(hexapod)) => {
             let text =
                 hexapod_export(&record, hexapod).map_err(|e| to_py(format!("{name}: {e}")))?;
@@ -91,6 +103,7 @@ pub fn export<'py>(
                 "cost_sentence",
                 "trigger_height",
                 "trigger_sentence",
+                "radius_trims",
             ] {
                 dict.set_item(key, py.None())?;
             }
@@ -115,24 +128,30 @@ pub fn export<'py>(
         }
         (Recorded::Mechanism(record), Wanted::Firmware(firmware)) => (record, firmware),
     };
-    let lines =
-        firmware_lines(&record, format, print_radius, config.as_deref()).map_err(|error| {
-            match error {
-                FirmwareLinesError::NoPrintRadius => to_py(format!(
-                    "{name}: {error}: give print_radius (mm, the firmware's M665 B or print_radius)"
-                )),
-                FirmwareLinesError::PrintRadius(radius) => {
-                    to_py(refused_print_radius("print_radius", radius))
-                }
-                FirmwareLinesError::Into(_) => to_py(format!("config: {error}")),
-                error => to_py(format!("{name}: {error}")),
-            }
-        })?;
+    let lines = firmware_lines(
+        &record,
+        format,
+        print_radius,
+        radius_trims,
+        config.as_deref(),
+    )
+    .map_err(|error| match error {
+        FirmwareLinesError::NoPrintRadius => to_py(format!(
+            "{name}: {error}: give print_radius (mm, the firmware's M665 B or print_radius)"
+        )),
+        FirmwareLinesError::PrintRadius(radius) => {
+            to_py(refused_print_radius("print_radius", radius))
+        }
+        FirmwareLinesError::Into(_) => to_py(format!("config: {error}")),
+        FirmwareLinesError::RadiusTrims(_) => to_py(format!("radius_trims: {error}")),
+        error => to_py(format!("{name}: {error}")),
+    })?;
     dict.set_item("text", &lines.text)?;
     dict.set_item("lost", &lines.lost)?;
     dict.set_item("cost_sentence", lines.cost_sentence())?;
     dict.set_item("trigger_height", lines.trigger_height)?;
     dict.set_item("trigger_sentence", &lines.trigger_sentence)?;
+    dict.set_item("radius_trims", lines.radius_trims)?;
     match lines.cost {
         Some((errors, workspace)) => {
             let cost = PyDict::new(py);

@@ -590,6 +590,16 @@ def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tm
     out = tmp_path / "determined.gcode"
     cli("export", "--calibration", determined, "--format", "marlin", "--out", out)
     assert marlin["text"] == out.read_text() and f"\nM851 Z{-value:.3f}\nM500\n" in marlin["text"]
+    # Lines for a Marlin compiled with radius trims, as the command writes them.
+    out = tmp_path / "trimmed.gcode"
+    cli("export", "--calibration", calibration, "--format", "marlin", "--radius-trims", "0.5,-0.25,0", "--out", out)
+    trimmed = parcal.export(str(calibration), "marlin", radius_trims=(0.5, -0.25, 0.0))
+    assert trimmed["text"] == out.read_text() and trimmed["radius_trims"] == [0.5, -0.25, 0.0]
+    assert "; for a Marlin compiled with DELTA_RADIUS_TRIM_TOWER { 0.5, -0.25, 0 }\n" in trimmed["text"]
+    assert parcal.export(str(calibration), "marlin")["radius_trims"] == [0.0, 0.0, 0.0]
+    assert parcal.export(str(calibration), "klipper")["radius_trims"] is None
+    with pytest.raises(parcal.Error, match="radius_trims: radius trims are Marlin's"):
+        parcal.export(str(calibration), "klipper", radius_trims=(0.5, 0.0, 0.0))
     given = parcal.export(parcal.MechanismCalibration.read(calibration), "reprapfirmware", print_radius=90.0)
     assert given["print_radius"] == 90.0 and " B90.0 " in given["text"]
     with pytest.raises(parcal.Error, match="format: expected one of machine-json, genhexkins, summary, reprapfirmware, klipper, marlin, hangprinter, got \"smoothieware\""):
@@ -678,6 +688,20 @@ def test_import_firmware_makes_the_datasets_of_the_cli(cli, tmp_path):
         parcal.import_firmware("marlin", m503, probes=probes)
     with pytest.raises(parcal.Error, match="print_radius: reprapfirmware's configuration states its own"):
         parcal.import_firmware("reprapfirmware", config, probes=probes, print_radius=100.0)
+    # Compiled-in radius trims (DELTA_RADIUS_TRIM_TOWER), as the command takes them.
+    out = tmp_path / "marlin-trims"
+    cli("import", "marlin", "--config", m503, "--probes", probes, "--print-radius", 100,
+        "--radius-trims", "0.5,-0.25,0", "--out", out)
+    trimmed = tmp_path / "marlin-trims-mine"
+    parcal.import_firmware("marlin", m503, probes=probes, print_radius=100.0, radius_trims=(0.5, -0.25, 0.0)).write(trimmed)
+    for name in os.listdir(out):
+        assert (trimmed / name).read_bytes() == (out / name).read_bytes(), name
+    configured = json.loads((out / "machine.json").read_text())["configured"]
+    assert [configured[f"radius_{t}"] for t in "abc"] == [0.5, -0.25, 0.0]
+    with pytest.raises(parcal.Error, match="radius_trims: radius trims are Marlin's"):
+        parcal.import_firmware("klipper", printer_cfg, probes=probes, radius_trims=(0.5, 0.0, 0.0))
+    with pytest.raises(parcal.Error, match="tower Y's radius trim must be a finite number of mm within 1e6, got NaN"):
+        parcal.import_firmware("marlin", m503, probes=probes, print_radius=100.0, radius_trims=(0.0, float("nan"), 0.0))
 
     # Refusals name what is wrong.
     with pytest.raises(parcal.Error, match=r"printer.cfg: no probe log given, and no probes saved "

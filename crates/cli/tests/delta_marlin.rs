@@ -390,3 +390,154 @@ fn simulated_printers_probed_by_marlin_calibrate_to_their_truth() {
     );
     assert!(largest < 4.5, "{largest}");
 }
+
+/// A Marlin compiled with radius trims (`DELTA_RADIUS_TRIM_TOWER`, which
+/// `M503` does not report): imported with `--radius-trims`, the configured
+/// towers stand at the delta radius plus their trims and the calibration
+/// reaches the truth within its sigmas; exported, the lines are written
+/// for those trims (the calibration's prior states them) and, read back
+/// with them, are the calibrated machine to the lines' rounding. Trims for
+/// another firmware, or that no tower can have, are refused by name.
+#[test]
+fn radius_trims_compiled_into_marlin_are_imported_and_exported() {
+    const TRIMS: [f64; 3] = [0.6, -0.4, 0.2];
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fs::write(d.join("m503.txt"), M503).unwrap();
+    let firmware = read_config(&d.join("m503.txt"))
+        .unwrap()
+        .with_radius_trims(TRIMS)
+        .unwrap()
+        .to_params();
+    let mut truth = truth();
+    truth.tower_radius = [0.7, -0.5, 0.2];
+    let (t, f) = (truth.to_vector(), firmware.to_vector());
+    let mut csv = String::from("x,y,z\n");
+    for [x, y] in probe_rings(75.0, 3, 12) {
+        let nozzle = [x - PROBE_XY[0], y - PROBE_XY[1]];
+        let z = triggered(t.as_slice(), f.as_slice(), nozzle, TRIGGER) - TRIGGER;
+        csv.push_str(&format!("{x:.2},{y:.2},{z:.3}\n"));
+    }
+    fs::write(d.join("probes.csv"), csv).unwrap();
+    let import = |trims: &str, out: &Path| {
+        vec![
+            "import".to_string(),
+            "marlin".into(),
+            "--config".into(),
+            s(&d.join("m503.txt")).into(),
+            "--probes".into(),
+            s(&d.join("probes.csv")).into(),
+            "--print-radius".into(),
+            "85".into(),
+            format!("--radius-trims={trims}"),
+            "--out".into(),
+            s(out).into(),
+        ]
+    };
+    fn args(v: &[String]) -> Vec<&str> {
+        v.iter().map(String::as_str).collect()
+    }
+    let data = d.join("data");
+    ok(&args(&import("0.6,-0.4,0.2", &data)));
+    let machine: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(data.join("machine.json")).unwrap()).unwrap();
+    let design = |name: &str| machine["configured"][name].as_f64().unwrap();
+    assert_eq!(["radius_a", "radius_b", "radius_c"].map(design), TRIMS);
+    let summary = ok(&["calibrate", s(&data)]);
+    assert!(summary.contains("accepted"), "{summary}");
+    let calibration = data.join("calibration.json");
+    let delta = LinearDelta::typical();
+    let canonical = delta.canonicalize(t.as_slice()).unwrap();
+    let names: Vec<String> = delta.parameters().iter().map(|p| p.name.clone()).collect();
+    for (name, value, sigma) in parameters(&calibration) {
+        let (Some(sigma), Some(k)) = (
+            sigma.filter(|s| *s > 0.0),
+            names.iter().position(|n| *n == name),
+        ) else {
+            continue;
+        };
+        let error = (value - canonical[k]) / sigma;
+        assert!(
+            error.abs() < 3.0,
+            "{name}: {value} ± {sigma} for {}",
+            canonical[k]
+        );
+    }
+
+    let out = d.join("new.gcode");
+    let export = [
+        "export",
+        "--calibration",
+        s(&calibration),
+        "--format",
+        "marlin",
+        "--out",
+        s(&out),
+    ];
+    let said = ok(&export);
+    assert!(
+        said.contains(
+            "radius trims: 0.6, -0.4, 0.2 mm (DELTA_RADIUS_TRIM_TOWER, the calibration's prior's"
+        ),
+        "{said}"
+    );
+    let written = fs::read_to_string(&out).unwrap();
+    assert!(
+        written
+            .contains("; for a Marlin compiled with DELTA_RADIUS_TRIM_TOWER { 0.6, -0.4, 0.2 }\n"),
+        "{written}"
+    );
+    fs::write(&out, format!("M851 Z-0.75\n{written}")).unwrap();
+    let back = read_config(&out)
+        .unwrap()
+        .with_radius_trims(TRIMS)
+        .unwrap()
+        .to_params();
+    let back = delta.canonicalize(back.to_vector().as_slice()).unwrap();
+    let calibrated: Vec<f64> = (names.iter())
+        .map(|n| {
+            (parameters(&calibration).into_iter())
+                .find(|(name, _, _)| name == n)
+                .unwrap()
+                .1
+        })
+        .collect();
+    let tilt = names.iter().position(|n| n == "tilt_x").unwrap();
+    for (k, name) in names
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| *k < tilt || *k > tilt + 1)
+    {
+        assert!(
+            (back[k] - calibrated[k]).abs() < 3e-3,
+            "{name}: calibrated {}, read back {}",
+            calibrated[k],
+            back[k]
+        );
+    }
+
+    // Refused by name: trims for Klipper, two trims, a tower at no radius.
+    let err = fails(&[
+        "export",
+        "--calibration",
+        s(&calibration),
+        "--format",
+        "klipper",
+        "--radius-trims",
+        "1,2,3",
+        "--out",
+        s(&d.join("printer.cfg")),
+    ]);
+    assert!(
+        err.contains("--radius-trims: radius trims are Marlin's"),
+        "{err}"
+    );
+    let err = fails(&[&export[..], &["--radius-trims", "1,2"]].concat());
+    assert!(err.contains("is not three radius trims X,Y,Z"), "{err}");
+    let err = fails(&args(&import("0,0,-98", &d.join("refused"))));
+    assert!(
+        err.contains("--radius-trims: tower Z's radius trim -98 mm puts it at radius -0.5 mm"),
+        "{err}"
+    );
+    assert!(!d.join("refused").exists());
+}

@@ -15,7 +15,11 @@
 //! ([`TriggerHeight`]: RepRapFirmware's `G31 Z`, Klipper's `z_offset`,
 //! Marlin's `M851 Z`, its negative), and read back. Marlin's `M665 H`
 //! counts the probe's `M851 Z` ([`crate::marlin`]): it is written for the
-//! trigger height written, else the configured one.
+//! trigger height written, else the configured one. Marlin's towers
+//! stand at the delta radius plus the radius trims it was compiled with
+//! (`DELTA_RADIUS_TRIM_TOWER`): its lines are written for the machine in
+//! the frame of those trims ([`MarlinDelta::from_params`]), and read back
+//! with them.
 
 use std::path::Path;
 
@@ -30,7 +34,7 @@ use crate::marlin::{self, MarlinDelta, thousandths};
 use crate::rrf::{MAX_CONFIG_BYTES, RrfDelta, parse_config};
 
 /// The firmware to write for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Firmware {
     /// RepRapFirmware: `M665`/`M666` lines for `config.g` or
     /// `config-override.g`.
@@ -38,7 +42,11 @@ pub enum Firmware {
     /// Klipper: the `SAVE_CONFIG` block that ends a `printer.cfg`.
     Klipper,
     /// Marlin: `M665`/`M666` lines and `M500`, to send to the printer.
-    Marlin,
+    Marlin {
+        /// The radius trims of towers X, Y, Z it was compiled with (mm,
+        /// `DELTA_RADIUS_TRIM_TOWER`; zero by default).
+        radius_trims: [f64; 3],
+    },
 }
 
 impl Firmware {
@@ -47,14 +55,14 @@ impl Firmware {
         match self {
             Self::RepRapFirmware => "RepRapFirmware",
             Self::Klipper => "Klipper",
-            Self::Marlin => "Marlin",
+            Self::Marlin { .. } => "Marlin",
         }
     }
 
     /// The firmware's comment prefix.
     fn comment(self) -> &'static str {
         match self {
-            Self::RepRapFirmware | Self::Marlin => ";",
+            Self::RepRapFirmware | Self::Marlin { .. } => ";",
             Self::Klipper => "#",
         }
     }
@@ -94,7 +102,7 @@ impl TriggerHeight {
         let setting = match firmware {
             Firmware::RepRapFirmware => "G31 Z",
             Firmware::Klipper => "the probe's z_offset",
-            Firmware::Marlin => "M851 Z",
+            Firmware::Marlin { .. } => "M851 Z",
         };
         match self {
             Self::Determined(value) => Some(format!(
@@ -190,7 +198,7 @@ pub fn export(
             };
             (before, block, "values to 1e-6")
         }
-        Firmware::Marlin => {
+        Firmware::Marlin { radius_trims } => {
             if let Some(path) = into {
                 return Err(FirmwareError::Configuration {
                     path: path.to_path_buf(),
@@ -212,7 +220,8 @@ pub fn export(
                     0.0
                 }
             };
-            let mut lines = MarlinDelta::from_params(&held, probe)?.calibration_lines();
+            let mut lines =
+                MarlinDelta::from_params(&held, probe, radius_trims)?.calibration_lines();
             if let Some(value) = written {
                 lines.push_str(&format!("M851 Z{:.3}\n", -value + 0.0));
             }
@@ -331,12 +340,14 @@ fn read_back(
             let printer = parse_printer(&format!("{before}{lines}"), source)?;
             (printer.delta.to_params(), printer.z_offset)
         }
-        Firmware::Marlin => {
+        Firmware::Marlin { radius_trims } => {
             let configured = match trigger {
                 TriggerHeight::AtPrior { configured, .. } => format!("M851 Z{}\n", -configured),
                 TriggerHeight::Determined(_) | TriggerHeight::Absent => String::new(),
             };
-            let config = marlin::parse_config(&format!("{configured}{lines}"), source)?;
+            let config = marlin::parse_config(&format!("{configured}{lines}"), source)?
+                .with_radius_trims(radius_trims)
+                .map_err(FirmwareError::Calibration)?;
             (config.to_params(), Some(config.trigger_height()))
         }
     })

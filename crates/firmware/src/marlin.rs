@@ -12,10 +12,11 @@
 //!   radius, reported without `A` and `C`) are not read.
 //! - Towers (`module/delta.cpp`, `recalc_delta_settings`): tower X, Y, Z
 //!   at `210 + X`, `330 + Y`, `90 + Z` degrees counter-clockwise from +x,
-//!   at radius `R` (plus `DELTA_RADIUS_TRIM_TOWER`, compiled in, not
-//!   reported, taken as zero), rods `L + A`, `L + B`, `L + C`: towers X,
-//!   Y, Z are towers A, B, C of [`parcal_kinematics::delta`], with its
-//!   angles and rods.
+//!   at radius `R` plus their radius trims (`DELTA_RADIUS_TRIM_TOWER`,
+//!   compiled in and not reported: zero unless the caller states them,
+//!   [`MarlinConfig::with_radius_trims`]), rods `L + A`, `L + B`, `L + C`:
+//!   towers X, Y, Z are towers A, B, C of [`parcal_kinematics::delta`],
+//!   with its angles, rods and per-tower radius corrections.
 //! - `M666 X Y Z` (`gcode/calibrate/M666.cpp`): endstop adjustments (mm),
 //!   refused when positive. Homing (`module/motion.cpp`, `homeaxis`) moves
 //!   each carriage down by its adjustment from the endstop and calls that
@@ -44,7 +45,7 @@ use parcal_kinematics::delta::DeltaParams;
 use crate::FirmwareError;
 use crate::files::read_capped;
 use crate::gcode::{Command, parse_line};
-use crate::rrf::{MAX_CONFIG_BYTES, check_rods, refuse_tower_radius};
+use crate::rrf::{MAX_CONFIG_BYTES, check_rods};
 
 /// The parameters of a linear delta as Marlin holds them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,6 +56,10 @@ pub struct MarlinDelta {
     pub rod_trims: [f64; 3],
     /// Delta radius (mm, `M665 R`).
     pub radius: f64,
+    /// Radius trims of towers X, Y, Z (mm, `DELTA_RADIUS_TRIM_TOWER`):
+    /// compiled in, not reported by `M503`, zero as read
+    /// ([`MarlinConfig::with_radius_trims`]).
+    pub radius_trims: [f64; 3],
     /// Delta height (mm, `M665 H`): the homed nozzle's height plus
     /// `M851 Z` with a probe.
     pub height: f64,
@@ -88,16 +93,36 @@ impl MarlinConfig {
         self.probe_offset.map_or([0.0; 2], |[x, y, _]| [x, y])
     }
 
+    /// These settings on a Marlin compiled with the radius trims `trims`
+    /// (mm, `DELTA_RADIUS_TRIM_TOWER` of towers X, Y, Z); an error, naming
+    /// the tower, for a trim not finite or one that puts its tower at no
+    /// positive radius its rod reaches beyond.
+    pub fn with_radius_trims(mut self, trims: [f64; 3]) -> Result<Self, String> {
+        let d = &self.delta;
+        for (i, trim) in trims.iter().enumerate() {
+            let tower = ["X", "Y", "Z"][i];
+            let radius = d.radius + trim;
+            let rod = d.diagonal_rod + d.rod_trims[i];
+            if !trim.is_finite() || radius <= 0.0 || radius >= rod {
+                return Err(format!(
+                    "tower {tower}'s radius trim {trim} mm puts it at radius {radius} mm: it must be positive and shorter than its diagonal rod ({rod} mm)"
+                ));
+            }
+        }
+        self.delta.radius_trims = trims;
+        Ok(self)
+    }
+
     /// The parameters in [`parcal_kinematics::delta`]'s form (module
-    /// documentation): no per-tower radius, no bed tilt (Marlin's delta
-    /// has neither).
+    /// documentation): the radius trims as the towers' own radius
+    /// corrections, no bed tilt (Marlin's delta has none).
     pub fn to_params(&self) -> DeltaParams {
         let d = &self.delta;
         DeltaParams {
             endstop: d.endstop_adjustments.map(|a| -a + 0.0),
             homed_height: d.height + self.trigger_height(),
             radius: d.radius,
-            tower_radius: [0.0; 3],
+            tower_radius: d.radius_trims,
             angle: d.angle_trims,
             diagonal: d.rod_trims.map(|t| d.diagonal_rod + t),
             tilt: [0.0; 2],
@@ -107,27 +132,36 @@ impl MarlinConfig {
 
 impl MarlinDelta {
     /// Marlin's parameters of `params` for a probe of trigger height
-    /// `trigger_height` (`M851 Z` its negative; zero without a probe): the
-    /// endstop adjustments as `M666` takes them, the highest zero and the
-    /// others below it (the homed height taking the difference, which
-    /// changes no carriage's endstop height), the rod the towers' mean
-    /// to 0.001 mm and each tower's trim from it. An error for what Marlin
-    /// cannot hold: a tower's own radius correction or a bed tilt (put the
-    /// parameters in the canonical frame and drop the tilt first).
-    pub fn from_params(params: &DeltaParams, trigger_height: f64) -> Result<Self, FirmwareError> {
-        refuse_tower_radius(params, "Marlin")?;
+    /// `trigger_height` (`M851 Z` its negative; zero without a probe) on a
+    /// Marlin compiled with the radius trims `radius_trims` (mm): the same
+    /// machine in the frame where the towers' own radius corrections are
+    /// those trims ([`DeltaParams::with_tower_radius`]), the endstop
+    /// adjustments as `M666` takes them, the highest zero and the others
+    /// below it (the homed height taking the difference, which changes no
+    /// carriage's endstop height), the rod the towers' mean to 0.001 mm and
+    /// each tower's trim from it. An error for what Marlin cannot hold: a
+    /// bed tilt (drop it first), or trims no frame near the towers has.
+    pub fn from_params(
+        params: &DeltaParams,
+        trigger_height: f64,
+        radius_trims: [f64; 3],
+    ) -> Result<Self, FirmwareError> {
         if params.tilt != [0.0; 2] {
             return Err(FirmwareError::Calibration(format!(
                 "a bed tilt of {} %, {} %, which Marlin's delta cannot hold",
                 params.tilt[0], params.tilt[1]
             )));
         }
+        let params = params
+            .with_tower_radius(radius_trims)
+            .map_err(|e| FirmwareError::Calibration(format!("Marlin's radius trims: {e}")))?;
         let lowest = params.endstop.iter().copied().fold(f64::INFINITY, f64::min);
         let diagonal_rod = thousandths(params.diagonal.iter().sum::<f64>() / 3.0);
         Ok(Self {
             diagonal_rod,
             rod_trims: params.diagonal.map(|l| l - diagonal_rod),
             radius: params.radius,
+            radius_trims,
             height: params.homed_height + lowest - trigger_height,
             angle_trims: params.angle,
             endstop_adjustments: params.endstop.map(|e| lowest - e),
@@ -136,13 +170,20 @@ impl MarlinDelta {
 
     /// The lines Marlin executes to take these parameters: `M665` and
     /// `M666`, lengths and angles to 0.001 (Marlin holds them as 32-bit
-    /// floats, a few 1e-5 mm at 300 mm).
+    /// floats, a few 1e-5 mm at 300 mm); after a comment naming the radius
+    /// trims they are for, when not zero.
     pub fn calibration_lines(&self) -> String {
         let [ta, tb, tc] = self.rod_trims.map(thousandths);
         let [ax, ay, az] = self.angle_trims.map(thousandths);
         let [ex, ey, ez] = self.endstop_adjustments.map(thousandths);
+        let trims = match self.radius_trims {
+            [0.0, 0.0, 0.0] => String::new(),
+            [x, y, z] => format!(
+                "; for a Marlin compiled with DELTA_RADIUS_TRIM_TOWER {{ {x}, {y}, {z} }}\n"
+            ),
+        };
         format!(
-            "; Delta parameters\n\
+            "{trims}; Delta parameters\n\
              M665 L{:.3} R{:.3} H{:.3} X{ax:.3} Y{ay:.3} Z{az:.3} A{ta:.3} B{tb:.3} C{tc:.3}\n\
              M666 X{ex:.3} Y{ey:.3} Z{ez:.3}\n",
             self.diagonal_rod, self.radius, self.height
@@ -239,6 +280,7 @@ impl Given {
                 .ok_or_else(|| missing("M665", 'L', "diagonal rod"))?,
             rod_trims: self.rod_trims,
             radius: (self.radius).ok_or_else(|| missing("M665", 'R', "delta radius"))?,
+            radius_trims: [0.0; 3],
             height: (self.height).ok_or_else(|| missing("M665", 'H', "delta height"))?,
             angle_trims: all(&self.angle_trims)
                 .map_err(|i| missing("M665", xyz[i], "tower angle trim"))?,

@@ -130,7 +130,7 @@ fn calibration_lines_read_back_the_machine_written() {
     params.angle = [0.234, -0.123, 0.0];
     params.endstop = [0.123, -0.346, 0.222];
     for trigger in [0.0, 0.75] {
-        let delta = MarlinDelta::from_params(&params, trigger).unwrap();
+        let delta = MarlinDelta::from_params(&params, trigger, [0.0; 3]).unwrap();
         // Marlin's M666 is at most zero: the highest carriage's is zero.
         assert!(delta.endstop_adjustments.iter().all(|a| *a <= 0.0));
         assert_eq!(delta.endstop_adjustments[1], 0.0);
@@ -148,20 +148,28 @@ fn calibration_lines_read_back_the_machine_written() {
     }
     let mut tilted = params;
     tilted.tilt = [0.05, 0.0];
-    let error = MarlinDelta::from_params(&tilted, 0.0).unwrap_err();
+    let error = MarlinDelta::from_params(&tilted, 0.0, [0.0; 3]).unwrap_err();
     assert!(
         error.to_string().contains("Marlin's delta cannot hold"),
         "{error}"
     );
+    // A tower radius of its own is the trim of a Marlin compiled with it,
+    // the rest unchanged; on a Marlin without trims, the same machine in
+    // another frame.
     let mut own = params;
     own.tower_radius = [0.1, 0.0, 0.0];
-    let error = MarlinDelta::from_params(&own, 0.0).unwrap_err();
-    assert!(
-        error
-            .to_string()
-            .contains("tower X has a radius correction"),
-        "{error}"
+    let trimmed = MarlinDelta::from_params(&own, 0.0, own.tower_radius).unwrap();
+    let plain = MarlinDelta::from_params(&params, 0.0, [0.0; 3]).unwrap();
+    assert_eq!(
+        trimmed,
+        MarlinDelta {
+            radius_trims: own.tower_radius,
+            ..plain
+        }
     );
+    let moved = MarlinDelta::from_params(&own, 0.0, [0.0; 3]).unwrap();
+    assert_eq!(moved.radius_trims, [0.0; 3]);
+    assert!((moved.radius - 97.512).abs() > 0.01, "{moved:?}");
 }
 
 /// A simulated printer's calibration exported for Marlin: the lines
@@ -181,7 +189,9 @@ fn a_calibrated_printer_is_exported_with_what_marlin_loses() {
             &calibrated,
             trigger,
             85.0,
-            Firmware::Marlin,
+            Firmware::Marlin {
+                radius_trims: [0.0; 3],
+            },
             None,
             &workspace,
         )
@@ -249,10 +259,90 @@ fn a_calibrated_printer_is_exported_with_what_marlin_loses() {
         &calibrated,
         TriggerHeight::Absent,
         85.0,
-        Firmware::Marlin,
+        Firmware::Marlin {
+            radius_trims: [0.0; 3],
+        },
         Some(Path::new("m503.txt")),
         &workspace,
     )
     .unwrap_err();
     assert!(refused.to_string().contains("written alone"), "{refused}");
+}
+
+/// A Marlin compiled with radius trims (`DELTA_RADIUS_TRIM_TOWER`, which
+/// `M503` does not report): its settings read with them put each tower at
+/// the delta radius plus its trim, and the calibrated machine is written
+/// in the frame of those trims, so that the lines read back with them are
+/// the calibrated machine, and read without them another.
+#[test]
+fn radius_trims_compiled_in_are_read_and_written() {
+    let trims = [0.8, -0.5, 0.3];
+    let config = parse_config(M503, Path::new("m503.txt")).unwrap();
+    let trimmed = config.with_radius_trims(trims).unwrap().to_params();
+    assert_eq!(trimmed.tower_radius, trims);
+    assert_eq!(
+        DeltaParams {
+            tower_radius: [0.0; 3],
+            ..trimmed
+        },
+        config.to_params()
+    );
+    let refused = config.with_radius_trims([0.0, f64::NAN, 0.0]).unwrap_err();
+    assert!(
+        refused.contains("tower Y's radius trim NaN mm"),
+        "{refused}"
+    );
+    let refused = config.with_radius_trims([0.0, 0.0, -98.0]).unwrap_err();
+    assert!(
+        refused.contains("tower Z's radius trim -98 mm"),
+        "{refused}"
+    );
+
+    let mut calibrated = DeltaParams::symmetric(218.0, 97.5, 301.0);
+    calibrated.endstop = [0.21, -0.13, -0.08];
+    calibrated.angle = [0.23, -0.11, 0.05];
+    calibrated.tower_radius = [0.1, -0.05, 0.02];
+    calibrated.diagonal = [218.12, 217.91, 218.04];
+    let workspace = Workspace::of_printer(85.0, 301.0);
+    let exported = |radius_trims| {
+        export(
+            &calibrated,
+            TriggerHeight::Determined(0.7468),
+            85.0,
+            Firmware::Marlin { radius_trims },
+            None,
+            &workspace,
+        )
+        .unwrap()
+    };
+    let (plain, with_trims) = (exported([0.0; 3]), exported(trims));
+    assert!(
+        with_trims
+            .text
+            .contains("; for a Marlin compiled with DELTA_RADIUS_TRIM_TOWER { 0.8, -0.5, 0.3 }\n"),
+        "{}",
+        with_trims.text
+    );
+    assert!(
+        !plain.text.contains("DELTA_RADIUS_TRIM_TOWER"),
+        "{}",
+        plain.text
+    );
+    assert_eq!(with_trims.written.tower_radius, trims);
+    // Both cost the rounding of their lines alone: 0.001 mm and 0.001
+    // degree move a point of the printable disc by a few um.
+    for export in [&plain, &with_trims] {
+        assert!(export.cost.volume_max < 5e-3, "{:?}", export.cost);
+    }
+    // The trims' lines on a Marlin compiled without them: another machine.
+    let lines: String = (with_trims.text.lines())
+        .filter(|l| !l.starts_with(';'))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let untrimmed = parse_config(&lines, Path::new("exported"))
+        .unwrap()
+        .to_params();
+    let cost =
+        parcal_firmware::accuracy::position_errors(&calibrated, &untrimmed, &workspace).unwrap();
+    assert!(cost.volume_max > 0.1, "{cost:?}");
 }

@@ -74,6 +74,14 @@ pub const TOWERS: [&str; 3] = ["a", "b", "c"];
 /// The towers' nominal angles (degrees, counter-clockwise from +x).
 pub const NOMINAL_ANGLE: [f64; 3] = [210.0, 330.0, 90.0];
 
+/// The most Newton steps [`DeltaParams::with_tower_radius`] takes: from
+/// corrections of a few mm it needs three or four.
+const FRAME_ITERATIONS: usize = 50;
+/// Where [`DeltaParams::with_tower_radius`] stops: each tower's distance
+/// from the new origin within this share of the largest tower radius of
+/// its radius.
+const FRAME_TOLERANCE: f64 = 1e-14;
+
 const POSE: [PoseCoordinate; 3] = [
     PoseCoordinate {
         name: "x",
@@ -154,6 +162,82 @@ impl DeltaParams {
             diagonal: std::array::from_fn(|i| p[DIAGONAL + i]),
             tilt: [p[TILT], p[TILT + 1]],
         }
+    }
+
+    /// The same machine in the frame, moved along the bed, in which each
+    /// tower's own radius correction is `tower_radius` (mm): how a firmware
+    /// with fixed per-tower radius corrections (Marlin's compiled-in
+    /// `DELTA_RADIUS_TRIM_TOWER`) holds it. The towers `P_i` stay where
+    /// they are; the frame's origin moves to the point `d` whose distances
+    /// to them are `R' + dr_i`, `|P_i - d| = R' + dr_i` (three equations in
+    /// `d` and the new delta radius `R'`, solved by Newton's method from
+    /// `d = 0`), and each angle correction becomes the direction of `P_i -
+    /// d`. The carriages' homed heights `Z_i^home` and the bed plane are
+    /// kept: the bed's height at the new origin, `t . d`, is taken off, and
+    /// each endstop correction takes up the change of its tower's rise
+    /// `sqrt(L_i^2 - r_i^2)`. Unchanged when the corrections already are
+    /// `tower_radius`; an error when no such frame is near (corrections
+    /// of the order of the delta radius).
+    pub fn with_tower_radius(&self, tower_radius: [f64; 3]) -> Result<Self, MechanismError> {
+        if self.tower_radius == tower_radius {
+            return Ok(*self);
+        }
+        let towers = Towers::of(self)?;
+        let position = towers.position;
+        let mut d = [0.0; 2];
+        let mut radius = (0..3)
+            .map(|i| towers.radius[i] - tower_radius[i])
+            .sum::<f64>()
+            / 3.0;
+        let scale = towers.radius.iter().copied().fold(0.0, f64::max);
+        let mut converged = false;
+        for _ in 0..FRAME_ITERATIONS {
+            let distance = |i: usize| (position[i][0] - d[0]).hypot(position[i][1] - d[1]);
+            let residual = Vector3::from_fn(|i, _| distance(i) - tower_radius[i] - radius);
+            if residual.amax() <= FRAME_TOLERANCE * scale {
+                converged = true;
+                break;
+            }
+            let jacobian = nalgebra::Matrix3::from_fn(|i, k| match k {
+                2 => -1.0,
+                _ => -(position[i][k] - d[k]) / distance(i),
+            });
+            let Some(step) = jacobian.lu().solve(&residual) else {
+                break;
+            };
+            d = [d[0] - step[0], d[1] - step[1]];
+            radius -= step[2];
+        }
+        if !converged || radius <= 0.0 {
+            return Err(MechanismError::Unreachable {
+                reason: format!(
+                    "no frame near the towers' gives them the radius corrections {tower_radius:?} mm"
+                ),
+            });
+        }
+        let tilt = towers.tilt;
+        let offset = tilt[0] * d[0] + tilt[1] * d[1];
+        let mut moved = *self;
+        moved.radius = radius;
+        moved.tower_radius = tower_radius;
+        moved.homed_height = self.homed_height - offset;
+        for i in 0..3 {
+            let (x, y) = (position[i][0] - d[0], position[i][1] - d[1]);
+            let correction = y.atan2(x).to_degrees() - NOMINAL_ANGLE[i];
+            moved.angle[i] = (correction + 180.0).rem_euclid(360.0) - 180.0;
+            let r = radius + tower_radius[i];
+            let square = self.diagonal[i].powi(2) - r * r;
+            if square <= 0.0 {
+                return Err(MechanismError::Unreachable {
+                    reason: format!(
+                        "tower {}: the diagonal rod {:.3} mm does not reach a tower at radius {r:.3} mm",
+                        TOWERS[i], self.diagonal[i]
+                    ),
+                });
+            }
+            moved.endstop[i] = towers.homed[i] - offset - moved.homed_height - square.sqrt();
+        }
+        Ok(moved)
     }
 }
 
@@ -987,6 +1071,58 @@ mod tests {
             let again = delta.canonicalize(canonical.as_slice()).unwrap();
             assert!((again - &canonical).amax() < 1e-9);
         }
+    }
+
+    #[test]
+    fn a_frame_with_given_tower_radius_corrections_is_the_same_machine() {
+        let delta = LinearDelta::typical();
+        let mut rng = StdRng::seed_from_u64(11);
+        for _ in 0..20 {
+            let p = perturbed(&mut rng);
+            let trims: [f64; 3] = std::array::from_fn(|_| rng.random_range(-2.0..2.0));
+            let moved = p.with_tower_radius(trims).unwrap();
+            assert_eq!(moved.tower_radius, trims);
+            // The towers where they were, seen from the new origin.
+            let (before, after) = (Towers::of(&p).unwrap(), Towers::of(&moved).unwrap());
+            let shift = |i: usize| {
+                [
+                    before.position[i][0] - after.position[i][0],
+                    before.position[i][1] - after.position[i][1],
+                ]
+            };
+            for i in 1..3 {
+                let (d0, di) = (shift(0), shift(i));
+                assert!(
+                    (d0[0] - di[0]).hypot(d0[1] - di[1]) < 1e-9,
+                    "{d0:?} vs {di:?}"
+                );
+            }
+            // The same machine: the same canonical parameters, and the same
+            // probe heights for a firmware that knows the design.
+            let (p, moved) = (p.to_vector(), moved.to_vector());
+            let canonical = delta.canonicalize(p.as_slice()).unwrap();
+            let again = delta.canonicalize(moved.as_slice()).unwrap();
+            assert!(
+                (&again - &canonical).amax() < 1e-9,
+                "{again} vs {canonical}"
+            );
+            let firmware = design(&delta);
+            for [x, y] in probe_rings(100.0, 2, 6) {
+                let before = probe_height(&delta, p.as_slice(), firmware.as_slice(), x, y).unwrap();
+                let after =
+                    probe_height(&delta, moved.as_slice(), firmware.as_slice(), x, y).unwrap();
+                assert!((before - after).abs() < 1e-9, "{before} vs {after}");
+            }
+        }
+        // Already in that frame: unchanged, bit for bit.
+        let p = perturbed(&mut rng);
+        assert_eq!(p.with_tower_radius(p.tower_radius).unwrap(), p);
+        // Corrections no frame near the towers has.
+        let error = p
+            .with_tower_radius([400.0, 0.0, 0.0])
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("radius corrections"), "{error}");
     }
 
     #[test]

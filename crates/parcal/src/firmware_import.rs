@@ -19,7 +19,7 @@ use parcal_firmware::{FirmwareError, MAX_MAGNITUDE};
 use parcal_kinematics::delta::{DeltaParams, Limits, LinearDelta, RODS, Tolerances};
 use parcal_kinematics::mechanism::Mechanism;
 
-use crate::firmware_lines::{FirmwareFormat, is_print_radius};
+use crate::firmware_lines::{FirmwareFormat, check_radius_trims, is_print_radius};
 
 /// The largest tolerance or standard deviation accepted (mm, degrees or
 /// percent): beyond it a prior says nothing.
@@ -51,6 +51,11 @@ pub struct ImportOptions {
     /// none: Marlin's, whose `PRINTABLE_RADIUS` is compiled in (needed
     /// for it, refused for the others, whose configuration states theirs).
     pub print_radius: Option<f64>,
+    /// The radius trims of towers X, Y, Z (mm) of a Marlin compiled with
+    /// them (`DELTA_RADIUS_TRIM_TOWER`, which `M503` does not report):
+    /// the configured towers' own radius corrections (refused for the
+    /// other firmwares, whose configuration states their geometry).
+    pub radius_trims: Option<[f64; 3]>,
 }
 
 impl Default for ImportOptions {
@@ -65,6 +70,7 @@ impl Default for ImportOptions {
             height_sigma: 0.05,
             trigger_sigma: 0.05,
             print_radius: None,
+            radius_trims: None,
         }
     }
 }
@@ -171,6 +177,10 @@ pub enum FirmwareImportError {
     /// for a firmware whose configuration states its own.
     #[error("print_radius: {0}")]
     PrintRadius(String),
+    /// Radius trims given for a firmware other than Marlin, or that no
+    /// delta with the configured radius and rods has.
+    #[error("radius_trims: {0}")]
+    RadiusTrims(String),
     /// No probe log was given and the configuration saved no probes.
     #[error("{}: no probe log given{}", config.display(),
         if *klipper { ", and no probes saved (run DELTA_CALIBRATE and SAVE_CONFIG)" } else { "" })]
@@ -234,6 +244,7 @@ pub fn firmware_import(
         }
         _ => {}
     }
+    check_radius_trims(format, options.radius_trims).map_err(FirmwareImportError::RadiusTrims)?;
     let (mut configured, saved) = match format {
         FirmwareFormat::RepRapFirmware => {
             let config = read_config(config)?;
@@ -247,6 +258,9 @@ pub fn firmware_import(
         }
         FirmwareFormat::Marlin => {
             let settings = marlin::read_config(config)?;
+            let settings = settings
+                .with_radius_trims(options.radius_trims.unwrap_or_default())
+                .map_err(FirmwareImportError::RadiusTrims)?;
             let configured = Configured {
                 params: settings.to_params(),
                 print_radius: options.print_radius.ok_or_else(|| {

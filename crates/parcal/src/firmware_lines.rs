@@ -12,7 +12,7 @@ use std::path::Path;
 
 use parcal_calibrate::mechanism::TRIGGER_HEIGHT;
 use parcal_calibrate::mechanism::identifiability::PRIOR_BOUND;
-use parcal_dataset::mechanism::MechanismCalibrationRecord;
+use parcal_dataset::mechanism::{MechanismCalibrationRecord, ParameterRecord};
 use parcal_dataset::shown;
 use parcal_firmware::accuracy::{PositionErrors, Workspace};
 use parcal_firmware::export::{Firmware, TriggerHeight, cost_sentence, export};
@@ -85,6 +85,9 @@ pub struct FirmwareLines {
     /// Whether a delta's trigger height was written or kept as configured,
     /// and why, in one sentence (none without probe heights).
     pub trigger_sentence: Option<String>,
+    /// Marlin's: the radius trims of towers X, Y, Z the lines are written
+    /// for (mm, `DELTA_RADIUS_TRIM_TOWER`).
+    pub radius_trims: Option<[f64; 3]>,
 }
 
 impl FirmwareLines {
@@ -128,6 +131,10 @@ pub enum FirmwareLinesError {
         /// The mechanism's name.
         mechanism: String,
     },
+    /// Radius trims were given for a format other than Marlin's, or one
+    /// of them is not a finite length within [`MAX_MAGNITUDE`].
+    #[error("{0}")]
+    RadiusTrims(String),
     /// A configuration to write into was given for a format written alone.
     #[error(
         "{0}'s lines are written alone: only Klipper's are written into a configuration (its printer.cfg)"
@@ -136,6 +143,32 @@ pub enum FirmwareLinesError {
     /// The firmware cannot hold the calibrated machine.
     #[error(transparent)]
     Firmware(#[from] FirmwareError),
+}
+
+/// Refuses radius trims for a format other than Marlin's, and trims not
+/// finite or beyond [`MAX_MAGNITUDE`] (each named by its tower); why, in
+/// one sentence.
+pub fn check_radius_trims(format: FirmwareFormat, trims: Option<[f64; 3]>) -> Result<(), String> {
+    let Some(trims) = trims else {
+        return Ok(());
+    };
+    if format != FirmwareFormat::Marlin {
+        return Err(format!(
+            "radius trims are Marlin's (DELTA_RADIUS_TRIM_TOWER, compiled in): {}'s configuration states its own geometry",
+            format.name()
+        ));
+    }
+    match trims
+        .iter()
+        .position(|t| !t.is_finite() || t.abs() > MAX_MAGNITUDE)
+    {
+        Some(i) => Err(format!(
+            "tower {}'s radius trim must be a finite number of mm within {MAX_MAGNITUDE:e}, got {}",
+            ["X", "Y", "Z"][i],
+            shown(trims[i])
+        )),
+        None => Ok(()),
+    }
 }
 
 /// Whether `radius` (mm) may be a printable radius: positive and at most
@@ -157,17 +190,23 @@ pub fn refused_print_radius(name: &str, radius: f64) -> String {
 /// `printer.cfg` at `into` (the whole file, its `SAVE_CONFIG` block
 /// updated: [`parcal_firmware::klipper::KlipperDelta::saved_into`]); a
 /// delta's printable radius is `print_radius` if given, else the one the
-/// record carries from its dataset. Whether a rejected calibration may be
-/// used is the caller's decision.
+/// record carries from its dataset; Marlin's lines for a firmware compiled
+/// with the radius trims `radius_trims` of towers X, Y, Z (mm,
+/// `DELTA_RADIUS_TRIM_TOWER`) if given, else with the towers' radius
+/// corrections the record's prior states (the configured ones: those
+/// `parcal import marlin` was given, zero by default). Whether a rejected
+/// calibration may be used is the caller's decision.
 pub fn firmware_lines(
     record: &MechanismCalibrationRecord,
     format: FirmwareFormat,
     print_radius: Option<f64>,
+    radius_trims: Option<[f64; 3]>,
     into: Option<&Path>,
 ) -> Result<FirmwareLines, FirmwareLinesError> {
     if into.is_some() && format != FirmwareFormat::Klipper {
         return Err(FirmwareLinesError::Into(format.name()));
     }
+    check_radius_trims(format, radius_trims).map_err(FirmwareLinesError::RadiusTrims)?;
     if record.mechanism != format.mechanism() {
         return Err(FirmwareLinesError::OtherMechanism {
             found: record.mechanism.clone(),
@@ -175,11 +214,19 @@ pub fn firmware_lines(
             expected: format.mechanism(),
         });
     }
-    let values = mechanism_values(record)?;
+    let values = mechanism_values(record, |p| p.value)?;
     let firmware = match format {
         FirmwareFormat::RepRapFirmware => Firmware::RepRapFirmware,
         FirmwareFormat::Klipper => Firmware::Klipper,
-        FirmwareFormat::Marlin => Firmware::Marlin,
+        FirmwareFormat::Marlin => Firmware::Marlin {
+            radius_trims: match radius_trims {
+                Some(trims) => trims,
+                None => {
+                    DeltaParams::from_slice(&mechanism_values(record, |p| p.prior_mean)?)
+                        .tower_radius
+                }
+            },
+        },
         FirmwareFormat::Hangprinter => {
             let config = HangprinterConfig::from_params(&CableRobot::typical(), &values)?;
             let lost = lines_compliance(record);
@@ -192,6 +239,7 @@ pub fn firmware_lines(
                 cost: None,
                 trigger_height: None,
                 trigger_sentence: None,
+                radius_trims: None,
             });
         }
     };
@@ -218,6 +266,10 @@ pub fn firmware_lines(
         cost: Some((exported.cost, workspace)),
         trigger_height: exported.trigger_height,
         trigger_sentence: exported.trigger_sentence,
+        radius_trims: match firmware {
+            Firmware::Marlin { radius_trims } => Some(radius_trims),
+            Firmware::RepRapFirmware | Firmware::Klipper => None,
+        },
     })
 }
 
@@ -257,14 +309,17 @@ fn lines_compliance(record: &MechanismCalibrationRecord) -> Vec<String> {
         .collect()
 }
 
-fn mechanism_values(record: &MechanismCalibrationRecord) -> Result<Vec<f64>, FirmwareLinesError> {
+fn mechanism_values(
+    record: &MechanismCalibrationRecord,
+    value: impl Fn(&ParameterRecord) -> f64,
+) -> Result<Vec<f64>, FirmwareLinesError> {
     let mechanism =
         mechanisms::by_name(&record.mechanism).expect("the format's mechanism is a known one");
     mechanism
         .parameters()
         .iter()
         .map(|p| {
-            record.parameter(&p.name).map(|r| r.value).ok_or_else(|| {
+            record.parameter(&p.name).map(&value).ok_or_else(|| {
                 FirmwareLinesError::MissingParameter {
                     name: p.name.clone(),
                     mechanism: record.mechanism.clone(),
@@ -303,7 +358,8 @@ mod tests {
             matches!(at_prior, TriggerHeight::AtPrior { ratio, .. } if ratio >= PRIOR_BOUND),
             "{at_prior:?}"
         );
-        let lines = firmware_lines(&probes, FirmwareFormat::RepRapFirmware, None, None).unwrap();
+        let lines =
+            firmware_lines(&probes, FirmwareFormat::RepRapFirmware, None, None, None).unwrap();
         assert_eq!(lines.trigger_height, None);
         assert!(!lines.text.contains("\nG31"), "{}", lines.text);
         // Five heights measured by hand determine it: written, read back.
@@ -320,7 +376,7 @@ mod tests {
             FirmwareFormat::Marlin,
         ];
         for format in formats {
-            let lines = firmware_lines(&heights, format, None, None).unwrap();
+            let lines = firmware_lines(&heights, format, None, None, None).unwrap();
             let written = lines.trigger_height.unwrap();
             assert!((written - value).abs() <= 5e-4, "{written} for {value}");
             let text = format!("{written:.3}");
@@ -351,14 +407,16 @@ mod tests {
     fn a_printers_lines_take_its_printable_radius_unless_one_is_given() {
         let record = printer();
         assert_eq!(record.print_radius, Some(100.0));
-        let carried = firmware_lines(&record, FirmwareFormat::RepRapFirmware, None, None).unwrap();
+        let carried =
+            firmware_lines(&record, FirmwareFormat::RepRapFirmware, None, None, None).unwrap();
         let (_, workspace) = carried.cost.unwrap();
         assert_eq!(workspace.print_radius, 100.0);
         assert!(carried.text.contains(" B100.0 "), "{}", carried.text);
         assert!(carried.cost_sentence().unwrap().contains("radius 100.0 mm"));
         // Klipper's SAVE_CONFIG holds no printable radius: it bounds the
         // workspace the cost is taken over.
-        let given = firmware_lines(&record, FirmwareFormat::Klipper, Some(90.0), None).unwrap();
+        let given =
+            firmware_lines(&record, FirmwareFormat::Klipper, Some(90.0), None, None).unwrap();
         assert!(given.cost_sentence().unwrap().contains("radius 90.0 mm"));
         assert_eq!(given.cost.unwrap().1.print_radius, 90.0);
 
@@ -366,14 +424,15 @@ mod tests {
             print_radius: None,
             ..record.clone()
         };
-        let error = firmware_lines(&unstated, FirmwareFormat::Klipper, None, None).unwrap_err();
+        let error =
+            firmware_lines(&unstated, FirmwareFormat::Klipper, None, None, None).unwrap_err();
         assert!(
             matches!(error, FirmwareLinesError::NoPrintRadius),
             "{error}"
         );
         for radius in [0.0, -5.0, f64::NAN, f64::INFINITY] {
-            let error =
-                firmware_lines(&record, FirmwareFormat::Klipper, Some(radius), None).unwrap_err();
+            let error = firmware_lines(&record, FirmwareFormat::Klipper, Some(radius), None, None)
+                .unwrap_err();
             assert!(
                 matches!(error, FirmwareLinesError::PrintRadius(_)),
                 "{error}"
@@ -384,7 +443,8 @@ mod tests {
     #[test]
     fn a_calibration_of_another_mechanism_or_without_a_parameter_is_named() {
         let record = printer();
-        let error = firmware_lines(&record, FirmwareFormat::Hangprinter, None, None).unwrap_err();
+        let error =
+            firmware_lines(&record, FirmwareFormat::Hangprinter, None, None, None).unwrap_err();
         assert_eq!(
             error.to_string(),
             "a linear delta calibration; hangprinter exports a cable robot's"
@@ -392,11 +452,11 @@ mod tests {
         let mut partial = record.clone();
         partial.parameters.retain(|p| p.name != "radius");
         let error =
-            firmware_lines(&partial, FirmwareFormat::RepRapFirmware, None, None).unwrap_err();
+            firmware_lines(&partial, FirmwareFormat::RepRapFirmware, None, None, None).unwrap_err();
         assert_eq!(error.to_string(), "no parameter radius of the linear delta");
         let into = Some(Path::new("printer.cfg"));
         let error =
-            firmware_lines(&record, FirmwareFormat::RepRapFirmware, None, into).unwrap_err();
+            firmware_lines(&record, FirmwareFormat::RepRapFirmware, None, None, into).unwrap_err();
         assert_eq!(
             error.to_string(),
             "reprapfirmware's lines are written alone: only Klipper's are written into a configuration (its printer.cfg)"

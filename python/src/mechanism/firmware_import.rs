@@ -15,8 +15,9 @@ use crate::error::to_py;
 
 /// The linear delta configured in `config` (`firmware`'s file:
 /// `"reprapfirmware"`'s config.g, `"klipper"`'s printer.cfg, what
-/// `"marlin"`'s M503 reported, whose printable radius `print_radius` gives)
-/// as a
+/// `"marlin"`'s M503 reported, whose printable radius `print_radius` gives
+/// and whose compiled-in radius trims `radius_trims` give, mm, towers X, Y,
+/// Z, default none) as a
 /// `parcal.MechanismDataset`, as `parcal import` makes it: the configured
 /// parameters as the prior's means, the tolerances (mm, degrees, percent;
 /// `None` a kit printer's, docs/delta.md) as its sigmas, the probe log at
@@ -49,6 +50,7 @@ use crate::error::to_py;
     height_sigma=None,
     trigger_sigma=None,
     print_radius=None,
+    radius_trims=None,
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn import_firmware(
@@ -71,6 +73,7 @@ pub fn import_firmware(
     height_sigma: Option<f64>,
     trigger_sigma: Option<f64>,
     print_radius: Option<f64>,
+    radius_trims: Option<[f64; 3]>,
 ) -> PyResult<MechanismDataset> {
     let format = match FirmwareFormat::by_name(firmware) {
         Some(
@@ -105,6 +108,7 @@ pub fn import_firmware(
     }
     options.matched_rods = matched_rods;
     options.print_radius = print_radius;
+    options.radius_trims = radius_trims;
     let imported = py
         .detach(|| {
             let files = ObservationFiles {

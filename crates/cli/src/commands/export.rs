@@ -83,6 +83,12 @@ pub struct Args {
     /// firmware's).
     #[arg(long, value_name = "MM")]
     print_radius: Option<f64>,
+    /// With --format marlin: the radius trims of towers X, Y, Z the
+    /// firmware was compiled with (mm, DELTA_RADIUS_TRIM_TOWER). Default:
+    /// the towers' radius corrections the calibration's prior states (those
+    /// parcal import marlin was given, else 0,0,0).
+    #[arg(long, value_name = "X,Y,Z", value_parser = super::import::radius_trims)]
+    radius_trims: Option<[f64; 3]>,
     /// With --format klipper: the printer's printer.cfg, written to --out
     /// whole with its SAVE_CONFIG block updated as Klipper's SAVE_CONFIG
     /// would (its other sections and options kept: a saved
@@ -107,6 +113,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 /// Exports a hexapod's calibration as `args.format`.
 fn export_hexapod(args: &Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.radius_trims.is_none(),
+        "--radius-trims: radius trims are Marlin's (DELTA_RADIUS_TRIM_TOWER, compiled in), not a {}'s",
+        args.format.mechanism()
+    );
     anyhow::ensure!(
         args.config.is_none(),
         "--config: --format {} is written alone: only Klipper's lines are written into a configuration (its printer.cfg)",
@@ -163,23 +174,37 @@ fn mismatch_of(path: &Path, mechanism: &str, format: Format) -> Option<anyhow::E
 fn export_firmware(args: &Args, format: FirmwareFormat) -> anyhow::Result<()> {
     let path = &args.calibration;
     let record = mechanism_record(args)?;
-    let lines = firmware_lines(&record, format, args.print_radius, args.config.as_deref())
-        .map_err(|error| match error {
-            FirmwareLinesError::NoPrintRadius => anyhow::anyhow!(
-                "{}: {error}: --format {} needs --print-radius (M665 B or print_radius)",
-                path.display(),
-                format.name()
-            ),
-            FirmwareLinesError::PrintRadius(radius) => {
-                anyhow::anyhow!(refused_print_radius("--print-radius", radius))
-            }
-            FirmwareLinesError::Into(_) => anyhow::anyhow!("--config: {error}"),
-            error => anyhow::anyhow!("{}: {error}", path.display()),
-        })?;
+    let lines = firmware_lines(
+        &record,
+        format,
+        args.print_radius,
+        args.radius_trims,
+        args.config.as_deref(),
+    )
+    .map_err(|error| match error {
+        FirmwareLinesError::NoPrintRadius => anyhow::anyhow!(
+            "{}: {error}: --format {} needs --print-radius (M665 B or print_radius)",
+            path.display(),
+            format.name()
+        ),
+        FirmwareLinesError::PrintRadius(radius) => {
+            anyhow::anyhow!(refused_print_radius("--print-radius", radius))
+        }
+        FirmwareLinesError::Into(_) => anyhow::anyhow!("--config: {error}"),
+        FirmwareLinesError::RadiusTrims(_) => anyhow::anyhow!("--radius-trims: {error}"),
+        error => anyhow::anyhow!("{}: {error}", path.display()),
+    })?;
     if let Some((_, workspace)) = lines.cost.filter(|_| args.print_radius.is_none()) {
         println!(
             "printable radius: {} mm (the calibration's dataset's)",
             workspace.print_radius
+        );
+    }
+    if let Some(trims @ [x, y, z]) = lines.radius_trims.filter(|_| args.radius_trims.is_none())
+        && trims != [0.0; 3]
+    {
+        println!(
+            "radius trims: {x}, {y}, {z} mm (DELTA_RADIUS_TRIM_TOWER, the calibration's prior's; --radius-trims states others)"
         );
     }
     write_file(&args.out, lines.text.as_bytes())?;

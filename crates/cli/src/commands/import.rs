@@ -40,6 +40,26 @@ struct MarlinArgs {
     /// M503 does not report).
     #[arg(long, value_name = "MM")]
     print_radius: f64,
+    /// The radius trims of towers X, Y, Z the firmware was compiled with
+    /// (mm, Configuration.h's DELTA_RADIUS_TRIM_TOWER, which M503 does not
+    /// report; default 0,0,0): each tower stands at the delta radius plus
+    /// its trim.
+    #[arg(long, value_name = "X,Y,Z", value_parser = radius_trims)]
+    radius_trims: Option<[f64; 3]>,
+}
+
+/// `--radius-trims` (also `parcal export`'s): three numbers, `X,Y,Z`
+/// (mm); the import and the export check their values.
+pub(crate) fn radius_trims(text: &str) -> Result<[f64; 3], String> {
+    let values: Vec<&str> = text.split(',').collect();
+    let [x, y, z] = values.as_slice() else {
+        return Err(format!(
+            "{text:?} is not three radius trims X,Y,Z (mm), one for each tower"
+        ));
+    };
+    let number =
+        |value: &str| (value.trim().parse::<f64>()).map_err(|error| format!("{value:?}: {error}"));
+    Ok([number(x)?, number(y)?, number(z)?])
 }
 
 #[derive(clap::Args)]
@@ -157,7 +177,7 @@ fn sigma(text: &str) -> Result<f64, String> {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let (format, firmware, files, print_radius) = match &args.firmware {
+    let (format, firmware, files, marlin) = match &args.firmware {
         Firmware::Reprapfirmware(files) => (
             FirmwareFormat::RepRapFirmware,
             "RepRapFirmware",
@@ -169,11 +189,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             FirmwareFormat::Marlin,
             "Marlin",
             &marlin.files,
-            Some(marlin.print_radius),
+            Some(marlin),
         ),
     };
     let mut options = files.tolerances.options();
-    options.print_radius = print_radius;
+    options.print_radius = marlin.map(|m| m.print_radius);
+    options.radius_trims = marlin.and_then(|m| m.radius_trims);
     let imported = firmware_import(
         format,
         &files.config,
@@ -190,6 +211,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         FirmwareImportError::PrintRadius(reason) => {
             anyhow::anyhow!("--print-radius: {reason}")
+        }
+        FirmwareImportError::RadiusTrims(reason) => {
+            anyhow::anyhow!("--radius-trims: {reason}")
         }
         error => error.into(),
     })?;
