@@ -1045,6 +1045,17 @@ mod tests {
         );
     }
 
+    /// Asserts that the machines `a` and `b` give the same probe heights to
+    /// 1e-9 mm, a firmware that knows the design probing them.
+    fn same_probe_heights(delta: &LinearDelta, a: &[f64], b: &[f64]) {
+        let firmware = design(delta);
+        for [x, y] in probe_rings(100.0, 2, 6) {
+            let before = probe_height(delta, a, firmware.as_slice(), x, y).unwrap();
+            let after = probe_height(delta, b, firmware.as_slice(), x, y).unwrap();
+            assert!((before - after).abs() < 1e-9, "{before} vs {after}");
+        }
+    }
+
     #[test]
     fn canonicalize_keeps_the_machine_and_fixes_the_gauge() {
         let delta = LinearDelta::typical();
@@ -1057,16 +1068,10 @@ mod tests {
             assert!(c.angle[2].abs() < 1e-12);
             assert!(c.endstop.iter().sum::<f64>().abs() < 1e-12);
             // The same machine: its probe heights (a firmware that knows
-            // the design probing it) are the same to 1e-9 mm.
-            let firmware = design(&delta);
-            for [x, y] in probe_rings(100.0, 2, 6) {
-                let before = probe_height(&delta, p.as_slice(), firmware.as_slice(), x, y).unwrap();
-                let after =
-                    probe_height(&delta, canonical.as_slice(), firmware.as_slice(), x, y).unwrap();
-                // Rigid motions move the probed point over the bed, not its
-                // height: a flat bed reads the same.
-                assert!((before - after).abs() < 1e-9, "{before} vs {after}");
-            }
+            // the design probing it) are the same to 1e-9 mm. Rigid motions
+            // move the probed point over the bed, not its height: a flat bed
+            // reads the same.
+            same_probe_heights(&delta, p.as_slice(), canonical.as_slice());
             // Canonical twice is canonical.
             let again = delta.canonicalize(canonical.as_slice()).unwrap();
             assert!((again - &canonical).amax() < 1e-9);
@@ -1106,13 +1111,7 @@ mod tests {
                 (&again - &canonical).amax() < 1e-9,
                 "{again} vs {canonical}"
             );
-            let firmware = design(&delta);
-            for [x, y] in probe_rings(100.0, 2, 6) {
-                let before = probe_height(&delta, p.as_slice(), firmware.as_slice(), x, y).unwrap();
-                let after =
-                    probe_height(&delta, moved.as_slice(), firmware.as_slice(), x, y).unwrap();
-                assert!((before - after).abs() < 1e-9, "{before} vs {after}");
-            }
+            same_probe_heights(&delta, p.as_slice(), moved.as_slice());
         }
         // Already in that frame: unchanged, bit for bit.
         let p = perturbed(&mut rng);
