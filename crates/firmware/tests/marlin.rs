@@ -346,3 +346,38 @@ fn radius_trims_compiled_in_are_read_and_written() {
         parcal_firmware::accuracy::position_errors(&calibrated, &untrimmed, &workspace).unwrap();
     assert!(cost.volume_max > 0.1, "{cost:?}");
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Any printer of the usual sizes, off its design by up to a few
+    /// tenths, exported for a Marlin compiled with radius trims of up to 3
+    /// mm: the lines read back with the trims are the calibrated machine to
+    /// their rounding (0.001 mm and degree: a few um over the build
+    /// volume).
+    #[test]
+    fn lines_for_any_radius_trims_read_back_the_machine(
+        rod in 250.0..300.0f64,
+        radius in 120.0..150.0f64,
+        small in proptest::collection::vec(-0.3..0.3f64, 12),
+        trims in proptest::array::uniform3(-3.0..3.0f64),
+    ) {
+        let mut calibrated = DeltaParams::symmetric(rod, radius, 300.0);
+        calibrated.endstop = [small[0], small[1], small[2]];
+        calibrated.tower_radius = [small[3], small[4], small[5]];
+        calibrated.angle = [small[6], small[7], small[8]];
+        calibrated.diagonal = [rod + small[9], rod + small[10], rod + small[11]];
+        let workspace = Workspace::of_printer(100.0, 300.0);
+        let exported = export(
+            &calibrated,
+            TriggerHeight::Absent,
+            100.0,
+            Firmware::Marlin { radius_trims: trims },
+            None,
+            &workspace,
+        )
+        .unwrap();
+        proptest::prop_assert_eq!(exported.written.tower_radius, trims);
+        proptest::prop_assert!(exported.cost.volume_max < 5e-3, "{:?}", exported.cost);
+    }
+}
