@@ -448,7 +448,7 @@ fn the_fixture_holds_the_chosen_model() {
 /// The fixture's lines made elastic by its machine.json (one compliance,
 /// the encoders zeroed under sample 0's loads, the compliance at its
 /// typical value and prior): the same calibration as the rigid fixture's
-/// data given the robot made elastic in code; its record carries the
+/// data given the robot made elastic in code; both records carry the
 /// elastic lines, and the calibrated robot built from the record has the
 /// compliance among its parameters.
 #[test]
@@ -491,7 +491,10 @@ fn elastic_lines_in_machine_json_calibrate_as_the_robot_made_elastic_in_code() {
         "{compliance:?}"
     );
     let record = by_file.record();
-    assert_eq!(record.elasticity, Some(lines));
+    assert_eq!(record.elasticity, Some(lines.clone()));
+    // The record takes the lines from the robot calibrated, also when the
+    // data's robot was swapped for the elastic one after they were made.
+    assert_eq!(in_code.record().elasticity, Some(lines));
     let calibrated = CalibratedMechanism::from_record(&record).unwrap();
     let last = calibrated.mechanism.parameters().last().unwrap();
     assert_eq!(last.name, "compliance_abcd");

@@ -215,7 +215,6 @@ impl MechanismData {
             data = data.with_trigger_height(trigger.value, trigger.sigma);
         }
         data.print_radius = machine.print_radius;
-        data.elasticity = machine.elasticity.clone();
         Ok(data)
     }
 

@@ -122,8 +122,8 @@ pub struct MechanismCalibration {
     /// A printer's printable radius (mm), that of the data
     /// ([`MechanismData::print_radius`](super::MechanismData)).
     pub print_radius: Option<f64>,
-    /// A cable robot's elastic lines, those of the data
-    /// ([`MechanismData::elasticity`](super::MechanismData)).
+    /// A cable robot's elastic lines, those of the data's mechanism
+    /// ([`LineElasticity::of`]).
     pub elasticity: Option<LineElasticity>,
     /// The mechanism's parameters, then the trigger height when there were
     /// probe heights: values and sigmas in the canonical frame.
@@ -335,7 +335,7 @@ pub(crate) fn assemble(
     let mut calibration = MechanismCalibration {
         mechanism: mechanism.name().to_string(),
         print_radius: data.print_radius,
-        elasticity: data.elasticity.clone(),
+        elasticity: LineElasticity::of(mechanism),
         parameters,
         covariance: frame
             .covariance

@@ -8,7 +8,6 @@ use std::fmt;
 use std::sync::Arc;
 
 use nalgebra::DMatrix;
-use parcal_dataset::mechanism::LineElasticity;
 use parcal_kinematics::mechanism::Mechanism;
 
 use super::super::error::MechanismCalibrationError;
@@ -55,12 +54,6 @@ pub struct MechanismData {
     /// record carries to what applies it (compensation, the firmware's
     /// lines); `None`: the mechanism's own limits, unrecorded.
     pub print_radius: Option<f64>,
-    /// A cable robot's elastic lines as machine.json states them, which
-    /// [`Self::mechanism`] has and the calibration's record carries to
-    /// what evaluates the calibrated robot under loads (validation);
-    /// `None`: rigid lines. [`Self::new`] takes them from the mechanism
-    /// ([`LineElasticity::of`]).
-    pub elasticity: Option<LineElasticity>,
 }
 
 impl fmt::Debug for MechanismData {
@@ -74,7 +67,6 @@ impl fmt::Debug for MechanismData {
             .field("observations", &self.observations)
             .field("touch_start", &self.touch_start.as_ref().map(|_| "given"))
             .field("print_radius", &self.print_radius)
-            .field("elasticity", &self.elasticity)
             .finish()
     }
 }
@@ -83,8 +75,7 @@ impl MechanismData {
     /// The data of `mechanism` run with `configured` parameters: each
     /// parameter's prior its design value and tolerance
     /// ([`parcal_kinematics::mechanism::Parameter`]), the trigger height
-    /// without a prior, starting at 0, the lines elastic as the
-    /// mechanism's are.
+    /// without a prior, starting at 0.
     pub fn new(
         mechanism: Arc<dyn Mechanism>,
         configured: Vec<f64>,
@@ -98,7 +89,6 @@ impl MechanismData {
                 sigma: Some(p.prior_sigma),
             })
             .collect();
-        let elasticity = LineElasticity::of(mechanism.as_ref());
         Self {
             mechanism,
             configured,
@@ -111,7 +101,6 @@ impl MechanismData {
             observations,
             touch_start: None,
             print_radius: None,
-            elasticity,
         }
     }
 
