@@ -41,7 +41,7 @@
 
 use std::f64::consts::PI;
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::mechanism::{
     Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians,
@@ -78,8 +78,8 @@ pub const NOMINAL_ANGLE: [f64; 3] = [210.0, 330.0, 90.0];
 /// corrections of a few mm it needs three or four.
 const FRAME_ITERATIONS: usize = 50;
 /// Where [`DeltaParams::with_tower_radius`] stops: each tower's distance
-/// from the new origin within this share of the largest tower radius of
-/// its radius.
+/// from the new origin within this fraction of the largest tower radius
+/// of the distance it is to have.
 const FRAME_TOLERANCE: f64 = 1e-14;
 
 const POSE: [PoseCoordinate; 3] = [
@@ -198,7 +198,7 @@ impl DeltaParams {
                 converged = true;
                 break;
             }
-            let jacobian = nalgebra::Matrix3::from_fn(|i, k| match k {
+            let jacobian = Matrix3::from_fn(|i, k| match k {
                 2 => -1.0,
                 _ => -(position[i][k] - d[k]) / distance(i),
             });
@@ -223,20 +223,11 @@ impl DeltaParams {
         moved.homed_height = self.homed_height - offset;
         for i in 0..3 {
             let (x, y) = (position[i][0] - d[0], position[i][1] - d[1]);
-            let correction = y.atan2(x).to_degrees() - NOMINAL_ANGLE[i];
-            moved.angle[i] = (correction + 180.0).rem_euclid(360.0) - 180.0;
-            let r = radius + tower_radius[i];
-            let square = self.diagonal[i].powi(2) - r * r;
-            if square <= 0.0 {
-                return Err(MechanismError::Unreachable {
-                    reason: format!(
-                        "tower {}: the diagonal rod {:.3} mm does not reach a tower at radius {r:.3} mm",
-                        TOWERS[i], self.diagonal[i]
-                    ),
-                });
-            }
-            moved.endstop[i] = towers.homed[i] - offset - moved.homed_height - square.sqrt();
+            moved.angle[i] = angle_correction(y.atan2(x), NOMINAL_ANGLE[i]);
         }
+        let rise = Towers::of(&moved)?.rise;
+        let homed_height = moved.homed_height;
+        moved.endstop = std::array::from_fn(|i| towers.homed[i] - offset - homed_height - rise[i]);
         Ok(moved)
     }
 }
@@ -309,6 +300,13 @@ pub struct LinearDelta {
     parameters: Vec<Parameter>,
     actuators: Vec<Actuator>,
     limits: Limits,
+}
+
+/// The angle correction (degrees, in `[-180, 180)`) of a tower in the
+/// direction `direction` (rad, counter-clockwise from +x) whose nominal
+/// angle is `nominal` (degrees).
+fn angle_correction(direction: f64, nominal: f64) -> f64 {
+    (direction.to_degrees() - nominal + 180.0).rem_euclid(360.0) - 180.0
 }
 
 /// The towers of a parameter vector, where the kinematics need them.
@@ -700,9 +698,7 @@ impl Mechanism for LinearDelta {
             .zip(towers.position)
             .zip(NOMINAL_ANGLE)
         {
-            let angle = (y - centre[1]).atan2(x - centre[0]) + turn;
-            let correction = angle.to_degrees() - nominal;
-            *slot = (correction + 180.0).rem_euclid(360.0) - 180.0;
+            *slot = angle_correction((y - centre[1]).atan2(x - centre[0]) + turn, nominal);
         }
         // The bed plane Z = t . x + 0 in the old frame is, with
         // x = centre + rot(-turn) x', the plane Z = (rot(turn) t) . x' + t . centre.

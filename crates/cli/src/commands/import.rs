@@ -51,15 +51,7 @@ struct MarlinArgs {
 /// `--radius-trims` (also `parcal export`'s): three numbers, `X,Y,Z`
 /// (mm); the import and the export check their values.
 pub(crate) fn radius_trims(text: &str) -> Result<[f64; 3], String> {
-    let values: Vec<&str> = text.split(',').collect();
-    let [x, y, z] = values.as_slice() else {
-        return Err(format!(
-            "{text:?} is not three radius trims X,Y,Z (mm), one for each tower"
-        ));
-    };
-    let number =
-        |value: &str| (value.trim().parse::<f64>()).map_err(|error| format!("{value:?}: {error}"));
-    Ok([number(x)?, number(y)?, number(z)?])
+    super::numbers(text, "three radius trims X,Y,Z (mm), one for each tower")
 }
 
 #[derive(clap::Args)]

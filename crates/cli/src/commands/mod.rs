@@ -245,6 +245,20 @@ pub fn accepted<R: Judged>(record: R, path: &Path, accept_rejected: bool) -> any
     Ok(record)
 }
 
+/// `N` numbers separated by commas, an option's value; an error saying
+/// the text is not `what`, or naming the value that is not a number.
+pub(crate) fn numbers<const N: usize>(text: &str, what: &str) -> Result<[f64; N], String> {
+    let values: Vec<&str> = text.split(',').collect();
+    if values.len() != N {
+        return Err(format!("{text:?} is not {what}"));
+    }
+    let mut numbers = [0.0; N];
+    for (number, value) in numbers.iter_mut().zip(values) {
+        *number = (value.trim().parse::<f64>()).map_err(|error| format!("{value:?}: {error}"))?;
+    }
+    Ok(numbers)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -343,13 +343,7 @@ fn plate(args: &Args) -> anyhow::Result<Option<Plate>> {
 /// `--load-range`: two numbers, `LOW,HIGH` (N); the simulation checks
 /// their values.
 fn load_range(text: &str) -> Result<[f64; 2], String> {
-    let values: Vec<&str> = text.split(',').collect();
-    let [low, high] = values.as_slice() else {
-        return Err(format!("{text:?} is not two loads LOW,HIGH (N)"));
-    };
-    let number =
-        |value: &str| (value.trim().parse::<f64>()).map_err(|error| format!("{value:?}: {error}"));
-    Ok([number(low)?, number(high)?])
+    super::numbers(text, "two loads LOW,HIGH (N)")
 }
 
 /// The summary of a simulated campaign of ball touches.
