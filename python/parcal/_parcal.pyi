@@ -677,6 +677,7 @@ def import_firmware(
     height_sigma: Optional[float] = None,
     trigger_sigma: Optional[float] = None,
     print_radius: Optional[float] = None,
+    radius_trims: Optional[tuple[float, float, float]] = None,
 ) -> MechanismDataset:
     """A printer's firmware configuration (config.g, printer.cfg, or what
     Marlin's M503 reported) and probe log as its dataset, as ``parcal
@@ -684,13 +685,16 @@ def import_firmware(
     parameters as the prior's means, the tolerances (None: a kit
     printer's) as its sigmas; Klipper's probes and part distances saved in
     printer.cfg where ``probes`` or ``distances`` is not given. Marlin's
-    needs ``print_radius`` (mm), which M503 does not report."""
+    needs ``print_radius`` (mm), which M503 does not report, and takes the
+    radius trims it was compiled with, ``radius_trims`` (mm, towers X, Y,
+    Z: DELTA_RADIUS_TRIM_TOWER), which it does not report either."""
 
 def export(
     calibration: Union[Calibration, MechanismCalibration, PathLike],
     format: Literal["machine-json", "genhexkins", "summary", "reprapfirmware", "klipper", "marlin", "hangprinter"],
     *,
     print_radius: Optional[float] = None,
+    radius_trims: Optional[tuple[float, float, float]] = None,
     config: Optional[PathLike] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
@@ -700,6 +704,8 @@ def export(
     lines. Returns ``text``, ``lost`` (what the firmware cannot hold), and
     for a delta ``print_radius``, ``cost`` (mm: ``z_offset``,
     ``flatness_rms``, ``flatness_max``, ``volume_rms``, ``volume_max``)
-    and ``cost_sentence``; None otherwise. With ``"klipper"`` and
-    ``config`` (a printer.cfg), ``text`` is that whole file with its
-    SAVE_CONFIG block updated (``--config``)."""
+    and ``cost_sentence``, for Marlin ``radius_trims`` (those the lines are
+    written for: ``radius_trims`` if given, else the calibration prior's);
+    None otherwise. With ``"klipper"`` and ``config`` (a printer.cfg),
+    ``text`` is that whole file with its SAVE_CONFIG block updated
+    (``--config``)."""
