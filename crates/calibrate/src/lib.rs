@@ -14,8 +14,9 @@
 //!   their result ([`instruments::InstrumentResult`]), validation;
 //! - [`cross_validation`]: k-fold cross-validation of poses and points;
 //! - [`layout`]: the global block, named groups of parameters;
-//! - [`mechanism`]: the calibration of any mechanism with a 3-coordinate
-//!   pose (a linear delta, a cable robot) through the `Mechanism` trait;
+//! - [`mechanism`]: the calibration of any mechanism (a linear delta, a
+//!   cable robot, the hexapod's ball touches and tracker data) through the
+//!   `Mechanism` trait ([`mechanism::calibrate_mechanism`]);
 //! - [`mirror`]: a ball on the wrong side of its contacts;
 //! - [`mixed`]: ball touches with measured poses and points;
 //! - [`verdict`]: the global test and the verdict of a run;

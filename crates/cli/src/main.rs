@@ -1,5 +1,6 @@
-//! `parcal`: artefact calibration of parallel mechanisms (hexapods) with a
-//! priori knowledge, after Sato et al., Meas. Sci. Technol. 15 (2004) 1158.
+//! `parcal`: artefact calibration of parallel mechanisms (hexapods, linear
+//! deltas, cable robots) with a priori knowledge, after Sato et al., Meas.
+//! Sci. Technol. 15 (2004) 1158.
 //!
 //! A thin binary: it parses arguments and wires the crates together.
 
@@ -40,9 +41,9 @@ enum Command {
     Paper(commands::paper::Args),
     /// Apply a calibration: targets to actuator commands, corrected poses, correction tables.
     Compensate(commands::compensate::Args),
-    /// Export a calibration: calibrated machine.json, LinuxCNC genhexkins HAL, summary; a delta's firmware lines.
+    /// Export a calibration: calibrated machine.json, LinuxCNC genhexkins HAL, summary; a delta's or a Hangprinter's firmware lines.
     Export(commands::export::Args),
-    /// A delta printer's firmware configuration and probe log as a dataset (RepRapFirmware, Klipper).
+    /// A delta printer's firmware configuration and probe log as a dataset (RepRapFirmware, Klipper, Marlin).
     Import(commands::import::Args),
     /// Plan the measurements: the most accurate calibration for a budget.
     Plan(commands::plan::Args),

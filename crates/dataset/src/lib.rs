@@ -1,6 +1,8 @@
-//! Reader and writer of parcal's dataset format, version 1.
+//! Reader and writer of parcal's dataset format, version 1: a hexapod's
+//! dataset (below), and another mechanism's, a linear delta's or a cable
+//! robot's ([`mechanism`]).
 //!
-//! A dataset is one directory (lengths in mm, angles in rad):
+//! A hexapod's dataset is one directory (lengths in mm, angles in rad):
 //!
 //! | file | content | type |
 //! |---|---|---|

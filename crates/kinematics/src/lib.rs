@@ -1,6 +1,7 @@
-//! Kinematics of 6-6 Stewart platforms (hexapods) for artefact calibration,
-//! after Sato, Shimojima, Furutani and Takamasu, Meas. Sci. Technol. 15
-//! (2004) 1158.
+//! Kinematics of parallel mechanisms for artefact calibration, after Sato,
+//! Shimojima, Furutani and Takamasu, Meas. Sci. Technol. 15 (2004) 1158:
+//! the 6-6 Stewart platform (hexapod) in the modules listed first, and
+//! every mechanism through one interface (the paragraph after them).
 //!
 //! - [`Geometry`]: joint centres, tool offset and initial leg lengths;
 //!   [`paper`] holds table 2 of the paper.

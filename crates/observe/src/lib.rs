@@ -1,9 +1,10 @@
-//! Observation blocks of hexapod artefact calibration, after Sato,
-//! Shimojima, Furutani and Takamasu, Meas. Sci. Technol. 15 (2004) 1158:
-//! what one touch of a calibration ball says about the 33 kinematic
+//! Observation blocks of artefact calibration, after Sato, Shimojima,
+//! Furutani and Takamasu, Meas. Sci. Technol. 15 (2004) 1158: what one
+//! touch of a calibration ball says about a hexapod's 33 kinematic
 //! parameters `p`, the ball's centre `C_i` and the contact's direction, as a
 //! residual with its Jacobian blocks, weighted by the observation covariance;
-//! and the a priori knowledge as Gaussian priors.
+//! the a priori knowledge as Gaussian priors; and every observation kind of
+//! any mechanism ([`mechanism`]).
 //!
 //! - [`Tip`]: the tool tip `T = f(q, p)` (paper eq. 2) with `J_f = dT/dp`
 //!   and `J_q = dT/dq`, the input of every block.
@@ -30,10 +31,11 @@
 //! - [`prior`]: paper eq. (7), [`KinematicPrior`] (paper or propagated form)
 //!   and [`DiagonalPrior`] for centres and angles.
 //!
-//! - [`mechanism`]: the observation kinds of any mechanism with a
-//!   3-coordinate pose (a linear delta, a cable robot), through the
-//!   `Mechanism` trait: probe heights, part distances, measured points,
-//!   readings at unknown poses.
+//! - [`mechanism`]: the observation kinds of any mechanism (a linear delta,
+//!   a cable robot, the hexapod) through the `Mechanism` trait: probe
+//!   heights, heights measured by hand, part distances, measured points
+//!   and quantities, readings at unknown poses, ball touches and the
+//!   distances between balls, tracker points and poses.
 //!
 //! Lengths in mm, angles in rad, everything in the canonical base frame.
 //!

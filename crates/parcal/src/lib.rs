@@ -28,7 +28,8 @@
 //!   tables, maps);
 //! - [`plan`]: planning the next measurements (`parcal plan`);
 //! - [`firmware`]: printer firmware's configuration files, read and
-//!   written (RepRapFirmware, Klipper);
+//!   written (RepRapFirmware, Klipper, Marlin; a Hangprinter's anchors and
+//!   spools);
 //! - [`workflows`]: the workflows built on a calibration (evaluation
 //!   against a truth, the paper's reproduction);
 //! - [`command`]: a calibration as `parcal calibrate` makes it, with

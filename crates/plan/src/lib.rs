@@ -1,6 +1,7 @@
-//! Measurement planning (`parcal plan`) for hexapod artefact calibration: which ball touches
-//! to measure, at which platform orientations, so that the calibrated
-//! machine is most accurate for a given number of touches. The paper
+//! Measurement planning (`parcal plan`): for a hexapod's artefact
+//! calibration, which ball touches to measure, at which platform
+//! orientations, so that the calibrated machine is most accurate for a
+//! given number of touches; for another mechanism, [`mechanism`]. The paper
 //! (Sato et al., Meas. Sci. Technol. 15 (2004) 1158) measures at random and
 //! names the choice as future work; docs/plan.md gives the method and
 //! the figures.
