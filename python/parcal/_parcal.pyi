@@ -90,8 +90,27 @@ class Dataset:
     def points(self) -> dict[str, Any]:
         """The measured tool points: ``session``, ``q``, ``position``."""
     @property
+    def truth(self) -> Optional[HexapodTruth]:
+        """A simulated dataset's truth in its calibration's terms; None for
+        measured data."""
+    @property
     def checksum(self) -> str:
         """What was measured, as a checksum (calibration.json's provenance)."""
+
+class HexapodTruth(TypedDict):
+    """A simulated hexapod dataset's truth.json in its calibration's terms:
+    the 33 canonical parameters (``names``, ``canonical``: in the order of a
+    ``Calibration``'s first 33 ``names``), the balls' centres (n x 3, the
+    true canonical base frame) and radii in the order of ``ball_ids``, the
+    legs' true scales (None without machine.json's ``actuator``) and the
+    geometry as written (machine.json's frames)."""
+
+    names: list[str]
+    canonical: FloatArray
+    ball_centres: FloatArray
+    ball_radii: FloatArray
+    actuator_scale: Optional[FloatArray]
+    geometry: dict[str, Any]
 
 class Calibration:
     """A calibration: its verdict and reasons, the identified parameters

@@ -5,10 +5,11 @@
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use numpy::PyArray2;
+use numpy::{PyArray1, PyArray2};
 use parcal::command::read_dataset;
 use parcal::dataset::{ARTEFACTS_FILE, MACHINE_FILE};
-use parcal::{Artefacts, Machine, Measurements, Points, Poses, Tracker};
+use parcal::workflows::evaluate::TrueMachine;
+use parcal::{Artefacts, Machine, Measurements, PARAM_NAMES, Points, Poses, Tracker};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -211,6 +212,43 @@ impl Dataset {
             &points.q,
             &points.position,
         )
+    }
+
+    /// A simulated dataset's truth (truth.json) in the terms of its
+    /// calibration's values: `names` and `canonical` (the true machine's
+    /// 33 parameters in its canonical frames, in the order of a
+    /// `Calibration`'s first 33 `names`), `ball_centres` (n x 3, mm, in
+    /// the true canonical base frame, where a calibration's centres are) and
+    /// `ball_radii` (n), both in the order of `ball_ids`, `actuator_scale`
+    /// (the legs' true scales, or `None` when machine.json has no
+    /// `actuator`) and `geometry` (truth.json's geometry as written, in
+    /// machine.json's frames); `None` for measured data.
+    #[getter]
+    fn truth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let (Some(record), Some(truth)) = (&self.inner.truth, TrueMachine::of(&self.inner)) else {
+            return Ok(None);
+        };
+        let truth = truth.map_err(|e| {
+            to_py(format!(
+                "{}: truth.json: the true geometry is degenerate: {e}",
+                self.given
+            ))
+        })?;
+        let centres: Vec<[f64; 3]> = truth.centres.iter().map(|c| [c.x, c.y, c.z]).collect();
+        let dict = PyDict::new(py);
+        dict.set_item("names", PARAM_NAMES.to_vec())?;
+        dict.set_item(
+            "canonical",
+            PyArray1::from_slice(py, truth.params.as_slice()),
+        )?;
+        dict.set_item("ball_centres", array2(py, &centres))?;
+        dict.set_item("ball_radii", PyArray1::from_slice(py, &record.ball_radii))?;
+        dict.set_item(
+            "actuator_scale",
+            (record.actuator_scale).map(|scale| PyArray1::from_slice(py, &scale)),
+        )?;
+        dict.set_item("geometry", to_python(py, &record.geometry)?)?;
+        Ok(Some(dict))
     }
 
     /// What was measured, as a checksum (calibration.json's provenance).

@@ -238,3 +238,16 @@ def test_export_writes_a_hexapods_files_as_the_cli(paper, cli, tmp_path):
         parcal.export(str(common), "genhexkins")
     with pytest.raises(parcal.Error, match="format: expected one of machine-json, genhexkins, summary, reprapfirmware"):
         parcal.export(run, "gcode")
+
+
+def test_the_package_exports_its_functions_and_types_and_nothing_else():
+    # `from parcal import *` gives the API, not the modules the package
+    # itself imports (json, os, typing's names).
+    public = {name for name in dir(parcal) if not name.startswith("_")}
+    api = {name for name in public if callable(getattr(parcal, name)) and name[0].islower()}
+    api |= {"Calibration", "Dataset", "Error", "MechanismCalibration", "MechanismDataset"}
+    api -= {"overload"}
+    assert set(parcal.__all__) == api | {"__version__"}
+    namespace = {}
+    exec("from parcal import *", namespace)
+    assert {name for name in namespace if name != "__builtins__"} == set(parcal.__all__)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import parcal
-from conftest import assert_same_files, flags
+from conftest import ROOT, assert_same_files, flags
 
 TOUCH_FILES = {"artefacts.json", "machine.json", "measurements.csv", "truth.json"}
 
@@ -141,3 +141,64 @@ def test_a_missing_plan_file_is_named(tmp_path):
     for tracker in (None, "poses"):
         with pytest.raises(parcal.Error, match="nothing.csv"):
             parcal.simulate(1, tracker=tracker, plan=missing)
+
+
+def _canonical_frame(joints):
+    """Rows x, y, z of the canonical frame of three joints (paper 2.1):
+    origin at the first, +y towards the second, the third in z = 0, +z on
+    the input frame's +z side."""
+    first, second, third = np.asarray(joints[:3], float)
+    y = (second - first) / np.linalg.norm(second - first)
+    x = (third - first) - (third - first).dot(y) * y
+    x /= np.linalg.norm(x)
+    if np.cross(x, y)[2] < 0:
+        x = -x
+    return np.array([x, y, np.cross(x, y)])
+
+
+def test_a_simulated_dataset_s_truth_is_in_its_calibration_s_terms(tmp_path):
+    ds = parcal.simulate(1)
+    truth = ds.truth
+    # The 33 canonical parameters, formed here from truth.json's geometry
+    # by the paper's frames (section 2.1), not by parcal's code.
+    g = truth["geometry"]
+    base, platform = np.array(g["base_joints"]), np.array(g["platform_joints"])
+    rb, re = _canonical_frame(base), _canonical_frame(platform)
+    b, e = (base - base[0]) @ rb.T, (platform - platform[0]) @ re.T
+    tool = (np.array(g["tool"]) - platform[0]) @ re.T
+    canonical = np.concatenate(
+        [[b[1, 1], b[2, 0], b[2, 1]], b[3:].ravel(), g["leg_lengths"],
+         [e[1, 1], e[2, 0], e[2, 1]], e[3:].ravel(), tool]
+    )
+    # Sums of products of numbers below 1000 mm: rounding.
+    np.testing.assert_allclose(truth["canonical"], canonical, rtol=0, atol=1e-9)
+    # Calibrated with the default options (the propagated prior), the
+    # estimate's error has the NEES of a chi-square with 33 degrees of
+    # freedom if its covariance is honest: under its 99.9 % quantile, 63.9;
+    # every centre coordinate within 4.5 sigma (81 of them: each beyond it
+    # with probability 6.8e-6).
+    run = parcal.calibrate(ds)
+    assert run.names[:33] == truth["names"]
+    error = run.values[:33] - truth["canonical"]
+    nees = error @ np.linalg.solve(run.covariance[:33, :33], error)
+    assert nees < 63.9, nees
+    assert run.ball_ids == ds.ball_ids
+    centres = (run.ball_centres - truth["ball_centres"]) / run.ball_centre_sigmas
+    assert np.abs(centres).max() < 4.5
+    assert truth["ball_radii"].shape == (27,) and truth["actuator_scale"] is None
+    # Written and read back, the same truth; measured data have none.
+    ds.write(tmp_path / "sim")
+    back = parcal.Dataset.read(tmp_path / "sim").truth
+    for key in ("canonical", "ball_centres", "ball_radii"):
+        np.testing.assert_array_equal(back[key], truth[key])
+    assert parcal.Dataset.read(ROOT / "fixtures" / "jugglebot").truth is None
+
+
+def test_legs_read_in_revolutions_have_their_true_scales_in_the_truth():
+    # The scales are unknowns after the 33 (s_1..s_6, mm a revolution):
+    # each estimate within 4 sigma of the truth.
+    ds = parcal.simulate(2, readings="rev")
+    run = parcal.calibrate(ds)
+    assert run.names[33:39] == [f"s_{i}" for i in range(1, 7)]
+    scales = ds.truth["actuator_scale"]
+    assert np.all(np.abs(run.values[33:39] - scales) < 4 * run.sigmas[33:39])
