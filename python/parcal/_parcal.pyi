@@ -374,11 +374,16 @@ class MechanismQuantities(TypedDict):
 
 class MechanismTruth(TypedDict):
     """A simulated dataset's truth.json: the parameters as written and in
-    the canonical frame of a calibration's values, and the trigger height."""
+    the canonical frame of a calibration's values, the trigger height, and
+    the truth in the terms of the dataset's calibration (``values`` in the
+    order of its ``names``: ``canonical``, then the trigger height where
+    probe heights make it an unknown)."""
 
     parameters: FloatArray
     canonical: FloatArray
     trigger_height: Optional[float]
+    names: list[str]
+    values: FloatArray
 
 class MechanismDataset:
     """A mechanism dataset (a linear delta, a cable robot): its machine and

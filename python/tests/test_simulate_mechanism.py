@@ -155,3 +155,30 @@ def test_elastic_lines_are_the_command_s_with_their_loads(tmp_path, cli):
         parcal.simulate(5, mechanism="cable", zero_loads=[15.0] * 4, load_range=(30.0, 10.0))
     with pytest.raises(parcal.Error, match="zero_loads do not apply to a linear delta"):
         parcal.simulate(5, mechanism="delta", zero_loads=[15.0] * 4)
+
+
+@pytest.mark.parametrize(
+    ("options", "free_parameters", "quantile"),
+    [
+        # chi-square's 99.9 % quantiles: 13 degrees of freedom (a delta's
+        # 16 and the trigger height less its four gauge-fixed canonical
+        # parameters), 19 (a cable robot's, its gauge held by the priors).
+        ({"mechanism": "delta", "probe_rings": 3, "part_distances": 6}, 13, 34.53),
+        ({"mechanism": "cable", "samples": 40, "known_positions": 8}, 19, 43.82),
+    ],
+)
+def test_the_truth_is_in_the_terms_of_the_calibration_s_values(options, free_parameters, quantile):
+    ds = parcal.simulate(4, **options)
+    run = parcal.calibrate(ds)
+    truth = ds.truth
+    assert run.names == truth["names"]
+    error = run.values - truth["values"]
+    # The canonical frame fixes some parameters exactly (zero variance):
+    # there the estimate is the truth; over the others the NEES of an
+    # honest covariance is chi-square distributed.
+    free = np.diag(run.covariance) > 0
+    assert free.sum() == free_parameters
+    assert np.all(error[~free] == 0)
+    covariance = run.covariance[np.ix_(free, free)]
+    nees = error[free] @ np.linalg.solve(covariance, error[free])
+    assert nees < quantile, nees

@@ -12,8 +12,8 @@ use parcal::MechanismData;
 use parcal::MechanismDataset as Inner;
 use parcal::dataset::Distance;
 use parcal::dataset::mechanism::{
-    BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TouchRow,
-    TrackerPointRow,
+    BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TRIGGER_HEIGHT,
+    TouchRow, TrackerPointRow,
 };
 use parcal::kinematics::mechanism::Mechanism;
 use pyo3::prelude::*;
@@ -404,21 +404,34 @@ impl MechanismDataset {
     /// A simulated dataset's truth (truth.json): `parameters` (an array in
     /// the order of `parameters`), `canonical` (the same machine in the
     /// canonical frame a calibration's values are in, its gauge freedoms
-    /// fixed) and `trigger_height` (mm, or `None`); `None` for measured
-    /// data.
+    /// fixed), `trigger_height` (mm, or `None`), and `names` and `values`:
+    /// the truth in the terms of this dataset's calibration, in the order
+    /// of its `names` (`canonical`, then the trigger height where probe
+    /// heights make it an unknown); `None` for measured data.
     #[getter]
     fn truth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let Some(truth) = &self.inner.truth else {
             return Ok(None);
         };
+        let failed =
+            |e: &dyn std::fmt::Display| to_py(format!("{}: truth.json: {e}", self.path.display()));
         let canonical = self
             .model()
             .canonicalize(&truth.parameters)
-            .map_err(|e| to_py(format!("{}: truth.json: {e}", self.path.display())))?;
+            .map_err(|e| failed(&e))?;
+        let values = self.data.true_values(truth).map_err(|e| failed(&e))?;
+        let mut names: Vec<&str> = (self.model().parameters().iter())
+            .map(|p| p.name.as_str())
+            .collect();
+        if self.data.has_trigger_height() {
+            names.push(TRIGGER_HEIGHT);
+        }
         let dict = PyDict::new(py);
         dict.set_item("parameters", PyArray1::from_slice(py, &truth.parameters))?;
         dict.set_item("canonical", PyArray1::from_slice(py, canonical.as_slice()))?;
         dict.set_item("trigger_height", truth.trigger_height)?;
+        dict.set_item("names", names)?;
+        dict.set_item("values", PyArray1::from_vec(py, values))?;
         Ok(Some(dict))
     }
 
