@@ -12,7 +12,9 @@ options the command's long flags with ``_`` for ``-``; like the command,
 it takes a hexapod's dataset (``Dataset``) or another mechanism's
 (``MechanismDataset``) and does what the command does with it. Every
 error is a ``parcal.Error`` (a ``ValueError``) whose message names the
-row, line, observation, field or file. See docs/python.md.
+row, line, observation, field or file, but for an argument Python itself
+cannot convert (its ``TypeError`` or ``OverflowError``, the traceback
+naming the argument). See docs/python.md.
 """
 
 import json

@@ -4,6 +4,8 @@ path or the dict ``parcal.plan`` returns) give the command's files for the
 same seed and options, and every combination the command refuses is
 refused, naming the keyword."""
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -202,3 +204,17 @@ def test_legs_read_in_revolutions_have_their_true_scales_in_the_truth():
     assert run.names[33:39] == [f"s_{i}" for i in range(1, 7)]
     scales = ds.truth["actuator_scale"]
     assert np.all(np.abs(run.values[33:39] - scales) < 4 * run.sigmas[33:39])
+
+
+@pytest.mark.parametrize(
+    ("options", "error"),
+    [({"balls": -3}, OverflowError), ({"balls": "many"}, TypeError), ({"seed": -1}, OverflowError)],
+)
+def test_an_argument_python_cannot_convert_is_refused_naming_it(options, error):
+    # docs/python.md, "Errors": Python's own error, its note naming the
+    # argument (notes are Python 3.11's).
+    with pytest.raises(error) as raised:
+        parcal.simulate(**options)
+    if sys.version_info >= (3, 11):
+        name = next(iter(options))
+        assert f"while processing '{name}'" in raised.value.__notes__
