@@ -38,26 +38,6 @@ from ._parcal import (
     simulate,
 )
 
-__all__ = [
-    "Calibration",
-    "Dataset",
-    "Error",
-    "MechanismCalibration",
-    "MechanismDataset",
-    "__version__",
-    "accuracy",
-    "calibrate",
-    "compensate",
-    "correction_table",
-    "export",
-    "import_firmware",
-    "plan",
-    "read_dataset",
-    "report",
-    "simulate",
-    "validate",
-]
-
 
 def _mechanism_calibration(calibration):
     """Whether `calibration` is a mechanism's: a MechanismCalibration, or
