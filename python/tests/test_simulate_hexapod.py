@@ -4,6 +4,7 @@ path or the dict ``parcal.plan`` returns) give the command's files for the
 same seed and options, and every combination the command refuses is
 refused, naming the keyword."""
 
+import importlib.util
 import sys
 
 import numpy as np
@@ -218,3 +219,18 @@ def test_an_argument_python_cannot_convert_is_refused_naming_it(options, error):
     if sys.version_info >= (3, 11):
         name = next(iter(options))
         assert f"while processing '{name}'" in raised.value.__notes__
+
+
+def test_the_strategies_example_judges_each_strategy_on_each_campaign():
+    # python/examples/strategies.py on two campaigns: a row per campaign
+    # for every strategy, every figure finite.
+    spec = importlib.util.spec_from_file_location(
+        "strategies", ROOT / "python" / "examples" / "strategies.py"
+    )
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    results = example.main(2)
+    assert set(results) == set(example.STRATEGIES)
+    for rows in results.values():
+        assert len(rows) == 2
+        assert all(np.isfinite(row[1:]).all() for row in rows)
