@@ -118,6 +118,12 @@ class Calibration:
     test, and calibration.json (``to_json``, ``write``) exactly as ``parcal
     calibrate`` writes it for the same data and options."""
 
+    @staticmethod
+    def read(path: PathLike) -> Calibration:
+        """Reads a hexapod's calibration.json: its verdict, reasons,
+        parameters, covariance and ball centres (``observations``, the
+        normalised and the instruments' residuals None: the file keeps a
+        summary of them)."""
     @property
     def verdict(self) -> Literal["accepted", "rejected"]:
         """``"accepted"`` or ``"rejected"``."""
@@ -155,18 +161,21 @@ class Calibration:
     def ball_centre_sigmas(self) -> FloatArray:
         """Their posterior standard deviations (n x 3, mm)."""
     @property
-    def observations(self) -> ObservationTests:
+    def observations(self) -> Optional[ObservationTests]:
         """Every observation's test at the final state (empty when the run
-        did not converge)."""
+        did not converge; None for a calibration read back)."""
     @property
-    def normalised_residuals(self) -> FloatArray:
-        """The normalised residual of every observation."""
+    def normalised_residuals(self) -> Optional[FloatArray]:
+        """The normalised residual of every observation (None for a
+        calibration read back)."""
     @property
     def leg_residuals(self) -> Optional[FloatArray]:
-        """Each pose's leg-length residuals (n x 6, mm); None without poses or points."""
+        """Each pose's leg-length residuals (n x 6, mm); None without poses
+        or points, or read back."""
     @property
     def point_residuals(self) -> Optional[FloatArray]:
-        """Each point's residual (n x 3, mm); None without poses or points."""
+        """Each point's residual (n x 3, mm); None without poses or points,
+        or read back."""
     def to_dict(self) -> dict[str, Any]:
         """calibration.json's content as a dict."""
     def to_json(self) -> str:

@@ -72,8 +72,9 @@ impl ObservationTests {
 pub struct Calibration {
     /// calibration.json's content, provenance included.
     record: parcal::Calibration,
-    /// Every observation's test.
-    tests: ObservationTests,
+    /// Every observation's test; `None` for a calibration read back
+    /// (calibration.json keeps their summary, not each test).
+    tests: Option<ObservationTests>,
     /// A calibration with poses or points: their residuals.
     instrument_residuals: Option<InstrumentResiduals>,
 }
@@ -105,7 +106,7 @@ impl Calibration {
         });
         Self {
             record,
-            tests,
+            tests: Some(tests),
             instrument_residuals,
         }
     }
@@ -120,6 +121,21 @@ impl Calibration {
 
 #[pymethods]
 impl Calibration {
+    /// Reads a hexapod's calibration.json at `path`: its verdict, reasons,
+    /// parameters, covariance and ball centres; `observations`,
+    /// `normalised_residuals`, `leg_residuals` and `point_residuals` are
+    /// `None`, since the file keeps a summary of the tests and residuals
+    /// rather than each.
+    #[staticmethod]
+    fn read(path: PathBuf) -> PyResult<Self> {
+        let record = parcal::Calibration::read(&path).map_err(to_py)?;
+        Ok(Self {
+            record,
+            tests: None,
+            instrument_residuals: None,
+        })
+    }
+
     /// `"accepted"` or `"rejected"`.
     #[getter]
     fn verdict(&self) -> &str {
@@ -218,9 +234,12 @@ impl Calibration {
     /// of its row of largest `|w|`; NaN when nothing checks it),
     /// `residual` (that row's whitened residual, in sigmas) and
     /// `gross_error` (that row's estimated gross error `e / r`, in sigmas).
+    /// `None` for a calibration read back.
     #[getter]
-    fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let t = &self.tests;
+    fn observations<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(t) = &self.tests else {
+            return Ok(None);
+        };
         let dict = PyDict::new(py);
         dict.set_item("kind", t.kind.clone())?;
         dict.set_item(
@@ -234,19 +253,19 @@ impl Calibration {
         )?;
         dict.set_item("residual", PyArray1::from_slice(py, &t.residual))?;
         dict.set_item("gross_error", PyArray1::from_slice(py, &t.gross_error))?;
-        Ok(dict)
+        Ok(Some(dict))
     }
 
     /// The normalised residual of every observation (`observations`'
-    /// `normalised_residual`).
+    /// `normalised_residual`); `None` for a calibration read back.
     #[getter]
-    fn normalised_residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, &self.tests.normalised)
+    fn normalised_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        (self.tests.as_ref()).map(|t| PyArray1::from_slice(py, &t.normalised))
     }
 
     /// Each pose's leg-length residuals `|T E_i - B_i| - L_i` at the
     /// identified state (n x 6, mm); `None` for a calibration without
-    /// poses or points.
+    /// poses or points, or read back.
     #[getter]
     fn leg_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.instrument_residuals
@@ -255,7 +274,7 @@ impl Calibration {
     }
 
     /// Each point's residual (n x 3, mm); `None` for a calibration
-    /// without poses or points.
+    /// without poses or points, or read back.
     #[getter]
     fn point_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.instrument_residuals

@@ -180,3 +180,26 @@ def test_poses_built_in_memory_give_the_values_of_the_files(tmp_path):
     poses["orientation"] = table[:-1, 9:13]
     with pytest.raises(parcal.Error, match="poses: orientation has 107 rows and q 108"):
         parcal.Dataset(machine, poses=poses)
+
+
+def test_a_calibration_read_back_is_the_one_written(paper, tmp_path):
+    ds = parcal.Dataset.read(paper)
+    run = parcal.calibrate(ds)
+    run.write(tmp_path / "calibration.json")
+    back = parcal.Calibration.read(tmp_path / "calibration.json")
+    assert back.to_json() == (tmp_path / "calibration.json").read_text()
+    assert (back.verdict, back.names, back.ball_ids) == (run.verdict, run.names, run.ball_ids)
+    for field in ("values", "sigmas", "covariance", "ball_centres", "ball_centre_sigmas"):
+        np.testing.assert_array_equal(getattr(back, field), getattr(run, field))
+    # The file keeps the tests' summary, not each test or residual.
+    assert back.observations is None and back.normalised_residuals is None
+    assert back.leg_residuals is None and back.point_residuals is None
+    # What applies a calibration takes it as it takes the run.
+    targets = [[0.0, 0.0, 400.0, 0.0, 0.0, 0.0], [20.0, -10.0, 420.0, 0.05, 0.0, 0.0]]
+    np.testing.assert_array_equal(
+        parcal.compensate(back, targets)["q"], parcal.compensate(run, targets)["q"]
+    )
+    assert parcal.export(back, "genhexkins") == parcal.export(run, "genhexkins")
+    # Another kind of file is refused, naming it and what it is.
+    with pytest.raises(parcal.Error, match='machine.json: format "parcal-machine/1" is a parcal-machine file'):
+        parcal.Calibration.read(paper / "machine.json")
