@@ -134,6 +134,12 @@ class Calibration:
     def warnings(self) -> list[str]:
         """Every warning of the run, one sentence each."""
     @property
+    def global_test(self) -> Optional[dict[str, Any]]:
+        """The global test of the variance factor, as calibration.json holds it."""
+    @property
+    def removed(self) -> list[dict[str, Any]]:
+        """The observations data snooping removed, in order, as calibration.json holds them."""
+    @property
     def converged(self) -> bool:
         """Whether the solver converged."""
     @property

@@ -154,6 +154,21 @@ impl Calibration {
         self.record.warnings.clone()
     }
 
+    /// The global test of the variance factor (a dict as calibration.json
+    /// holds it), or `None` when it was not made.
+    #[getter]
+    fn global_test<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.record.global_test)
+    }
+
+    /// The observations data snooping removed, in order (dicts as
+    /// calibration.json holds them: `file`, `line`, `normalised_residual`,
+    /// `gross_error_sigmas`, the variance factor before and after).
+    #[getter]
+    fn removed<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.record.removed_observations)
+    }
+
     /// Whether the solver converged.
     #[getter]
     fn converged(&self) -> bool {

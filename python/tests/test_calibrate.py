@@ -189,6 +189,7 @@ def test_a_calibration_read_back_is_the_one_written(paper, tmp_path):
     back = parcal.Calibration.read(tmp_path / "calibration.json")
     assert back.to_json() == (tmp_path / "calibration.json").read_text()
     assert (back.verdict, back.names, back.ball_ids) == (run.verdict, run.names, run.ball_ids)
+    assert (back.global_test, back.removed) == (run.global_test, run.removed)
     for field in ("values", "sigmas", "covariance", "ball_centres", "ball_centre_sigmas"):
         np.testing.assert_array_equal(getattr(back, field), getattr(run, field))
     # The file keeps the tests' summary, not each test or residual.
@@ -203,3 +204,16 @@ def test_a_calibration_read_back_is_the_one_written(paper, tmp_path):
     # Another kind of file is refused, naming it and what it is.
     with pytest.raises(parcal.Error, match='machine.json: format "parcal-machine/1" is a parcal-machine file'):
         parcal.Calibration.read(paper / "machine.json")
+
+
+def test_snooping_s_removals_and_the_global_test_are_the_record_s(paper):
+    # One reading 0.5 mm long, found and removed by snooping: `removed`
+    # names its line of measurements.csv; the global test is the record's.
+    machine, artefacts, ball, q = in_memory(paper)
+    q[40, 0] += 0.5
+    run = parcal.calibrate(parcal.Dataset(machine, artefacts, ball, q), snoop=True)
+    record = run.to_dict()
+    assert run.removed == record["removed_observations"]
+    assert [r["line"] for r in run.removed] == [42]
+    assert run.global_test == record["global_test"]
+    assert run.global_test["outcome"] == "consistent"
