@@ -134,6 +134,13 @@ class Calibration:
     def warnings(self) -> list[str]:
         """Every warning of the run, one sentence each."""
     @property
+    def iterations(self) -> int:
+        """The solver's iterations (linear solves)."""
+    @property
+    def prior_sigmas(self) -> Optional[FloatArray]:
+        """The parameters' prior sigmas in the order of ``names`` (NaN: no
+        prior on it); None when calibration.json does not state them."""
+    @property
     def global_test(self) -> Optional[dict[str, Any]]:
         """The global test of the variance factor, as calibration.json holds it."""
     @property

@@ -154,6 +154,22 @@ impl Calibration {
         self.record.warnings.clone()
     }
 
+    /// The solver's iterations (linear solves).
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.record.iterations.len()
+    }
+
+    /// The parameters' prior standard deviations, in the order of `names`
+    /// (NaN: no prior on it); `None` when calibration.json does not state
+    /// them.
+    #[getter]
+    fn prior_sigmas<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        let sigmas = &self.record.diagnostics.as_ref()?.prior_sigma;
+        (!sigmas.is_empty())
+            .then(|| PyArray1::from_vec(py, sigmas.iter().map(|s| s.unwrap_or(f64::NAN)).collect()))
+    }
+
     /// The global test of the variance factor (a dict as calibration.json
     /// holds it), or `None` when it was not made.
     #[getter]

@@ -190,6 +190,12 @@ def test_a_calibration_read_back_is_the_one_written(paper, tmp_path):
     assert back.to_json() == (tmp_path / "calibration.json").read_text()
     assert (back.verdict, back.names, back.ball_ids) == (run.verdict, run.names, run.ball_ids)
     assert (back.global_test, back.removed) == (run.global_test, run.removed)
+    assert back.iterations == run.iterations == len(run.to_dict()["iterations"])
+    np.testing.assert_array_equal(back.prior_sigmas, run.prior_sigmas)
+    # The propagated prior's sigma of each of the 33, as the record states it.
+    assert run.prior_sigmas.tolist() == run.to_dict()["diagnostics"]["prior_sigma"]
+    without = parcal.calibrate(ds, prior="none")
+    assert np.isnan(without.prior_sigmas).all() and len(without.prior_sigmas) == 33
     for field in ("values", "sigmas", "covariance", "ball_centres", "ball_centre_sigmas"):
         np.testing.assert_array_equal(getattr(back, field), getattr(run, field))
     # The file keeps the tests' summary, not each test or residual.
