@@ -1,12 +1,13 @@
 //! Per contact: the kinematics of one linearisation (forward kinematics
 //! warm-started one iteration away, then one combination of the tip
 //! Jacobian's rows, as the elimination uses it; one contact at a time and
-//! four at once, `forward_batch::forward_jacobian_batch`), of one back-substitution
-//! (`J_f dp` at the converged pose, one contact at a time and four at once,
+//! `LANES` at once, `forward_batch::forward_jacobian_batch`), of one back-substitution
+//! (`J_f dp` at the converged pose, one contact at a time and `LANES` at once,
 //! `forward_batch::forward_along_batch`) and, for comparison, the full 3 x 33 tip
 //! Jacobian; and the forward kinematics alone, one contact at a time and
-//! four at once (`forward_batch::forward_batch`). Four at once run in SIMD lanes on
-//! a machine with AVX2. As in a calibration's passes, one set of derivatives is reused
+//! `LANES` at once (`forward_batch::forward_batch`). `LANES` (eight) at once run in
+//! the SIMD lanes of AVX-512 on a machine with AVX-512F, four at a time in
+//! those of AVX2 on a machine with AVX2 alone. As in a calibration's passes, one set of derivatives is reused
 //! from contact to contact (forward kinematics in place; its LU tries the
 //! previous contact's row order first).
 
@@ -53,7 +54,7 @@ fn kinematics(c: &mut Criterion) {
         },
     );
     c.bench_function(
-        "the same, 4 contacts in lanes (factored J_f), per 4 contacts",
+        &format!("the same, {LANES} contacts in lanes (factored J_f), per {LANES} contacts"),
         |b| {
             let mut trial = PivotOrder::default();
             let mut out: [SolutionJacobian; LANES] = Default::default();
@@ -80,7 +81,7 @@ fn kinematics(c: &mut Criterion) {
         })
     });
     c.bench_function(
-        "forward kinematics of 4 contacts in lanes, per 4 contacts",
+        &format!("forward kinematics of {LANES} contacts in lanes, per {LANES} contacts"),
         |b| {
             let mut solutions: [ForwardSolution; LANES] = Default::default();
             b.iter(|| {
@@ -104,7 +105,7 @@ fn kinematics(c: &mut Criterion) {
         })
     });
     c.bench_function(
-        "J_f dp at the known poses of 4 contacts in lanes, per 4 contacts",
+        &format!("J_f dp at the known poses of {LANES} contacts in lanes, per {LANES} contacts"),
         |b| {
             let mut trial = PivotOrder::default();
             let mut out = [SolutionAlong::default(); LANES];

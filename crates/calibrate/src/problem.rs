@@ -21,7 +21,7 @@ use std::ops::Range;
 use nalgebra::{Const, DMatrix, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector6};
 use parcal_dataset::Dataset;
 use parcal_kinematics::forward_batch::{
-    LANES, PivotOrder, forward_along_batch, forward_jacobian_batch,
+    LANES, PivotOrder, forward_along_batch, forward_jacobian_batch, in_groups,
 };
 use parcal_kinematics::params::leg_index;
 use parcal_kinematics::{
@@ -650,8 +650,8 @@ where
     /// most [`BATCH`], of one ball) at the canonical geometry of the current
     /// parameters, the ball centre and the contacts' angles: forward
     /// kinematics (paper eq. 1) of all of them from their cached poses
-    /// (updated; four at a time in SIMD lanes where the machine has AVX2,
-    /// `in_lanes`), then for each
+    /// (updated; in SIMD lanes where the machine has AVX2,
+    /// [`in_groups`]), then for each
     /// the tool tip (eq. 2) and its derivatives and the observation block.
     /// An error names the first failing contact, as one contact at a time
     /// would. The lanes' row order is carried from batch to batch in the
@@ -669,7 +669,7 @@ where
         let n = out.len();
         let extensions = self.batch_extensions(&global.scales, first, n);
         let extensions: [&[f64; 6]; BATCH] = std::array::from_fn(|j| &extensions[j]);
-        let kinematics = in_lanes(n, |lanes| {
+        let kinematics = in_groups(n, LANES, |lanes| {
             forward_jacobian_batch(
                 &global.geometry,
                 &extensions[lanes.clone()],
@@ -757,7 +757,7 @@ where
             )
         };
         let kinematics = match global.scales.column {
-            None => in_lanes(n, |lanes| {
+            None => in_groups(n, LANES, |lanes| {
                 along(lanes.clone(), d_params, &mut solutions[lanes])
             }),
             Some(_) => (0..n).try_for_each(|j| {
@@ -930,18 +930,6 @@ impl<'p, O, const G: usize> CalibrationProblem<'p, O, G> {
             InstrumentObservations::new(dataset, &self.design, &self.layout, initial)?;
         Ok(())
     }
-}
-
-/// `solve(lanes)` of the contacts `0..n` of a batch, at most [`LANES`] at a
-/// time, in order: the first error, its contact's index in the batch.
-fn in_lanes(
-    n: usize,
-    mut solve: impl FnMut(Range<usize>) -> Result<(), (usize, KinematicsError)>,
-) -> Result<(), (usize, KinematicsError)> {
-    for first in (0..n).step_by(LANES) {
-        solve(first..(first + LANES).min(n)).map_err(|(j, e)| (first + j, e))?;
-    }
-    Ok(())
 }
 
 #[cfg(test)]

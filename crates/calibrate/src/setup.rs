@@ -4,7 +4,7 @@
 //!
 //! Memory: everything per contact that is kept is small (its row, the
 //! initial direction `u0` and the whitening of its weight); the design-FK
-//! tips and their derivatives are computed four balls at a time (one per
+//! tips and their derivatives are computed [`LANES`] balls at a time (one per
 //! SIMD lane of the kinematics) and dropped.
 
 use std::ops::Range;

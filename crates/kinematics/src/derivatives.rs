@@ -360,7 +360,7 @@ impl TipDerivatives {
 
     /// Forward kinematics of `geometry` at `q` from `start`
     /// ([`crate::forward()`]), in place, leaving these derivatives at its
-    /// solution. Four contacts at once, in SIMD lanes:
+    /// solution. Several contacts at once, in SIMD lanes:
     /// [`crate::forward_batch::forward_jacobian_batch`].
     pub fn forward(
         &mut self,

@@ -675,7 +675,7 @@ impl Mechanism for Hexapod {
         })
     }
 
-    /// Four contacts at a time in SIMD lanes ([`forward_jacobian_batch`],
+    /// Up to eight contacts at a time in SIMD lanes ([`forward_jacobian_batch`],
     /// `J_f` in factored form, its rows those of
     /// [`TipDerivatives::jacobians`]); the contacts of a batch whose lanes
     /// fail, or whose readings or starts are refused, one at a time, each
@@ -731,7 +731,7 @@ impl Mechanism for Hexapod {
         );
     }
 
-    /// Four contacts at a time in SIMD lanes ([`forward_along_batch`]:
+    /// Up to eight contacts at a time in SIMD lanes ([`forward_along_batch`]:
     /// `J_f dp` and the pose predicted at `p + dp`, without `J_f`), as
     /// [`Mechanism::tool_points_at_readings`] runs them; with unknown
     /// scales one at a time, each contact's step of its legs its own
@@ -1148,7 +1148,7 @@ mod tests {
 
     #[test]
     fn the_lanes_reach_what_one_contact_at_a_time_reaches() {
-        // Seven contacts (a batch of four lanes and one of three), each
+        // Seven contacts (one batch of the lanes), each
         // from its home pose; then the same with a short reading vector
         // among them, which is refused alone, and with a reading and a warm
         // start value that are not finite, each refused alone.
@@ -1157,9 +1157,9 @@ mod tests {
         }
     }
 
-    /// Seven contacts' readings at the design `p` of `hexapod` (a batch of
-    /// four lanes and one of three), and each one's home pose as a warm
-    /// start.
+    /// Seven contacts' readings at the design `p` of `hexapod` (one batch of
+    /// the lanes: eight of AVX-512, or four and three of AVX2), and each
+    /// one's home pose as a warm start.
     fn seven_contacts(hexapod: &Hexapod, p: &[f64]) -> (Vec<DVector<f64>>, Vec<DVector<f64>>) {
         let readings: Vec<DVector<f64>> = (0..7)
             .map(|k| {

@@ -432,7 +432,7 @@ pub trait Mechanism: Send + Sync {
     /// from [`Mechanism::tool_points_at_readings`], each warm start its own
     /// prediction ([`along_of_reached`]); a mechanism that can form the
     /// product without `dT/dp` and predict the pose overrides it (the
-    /// hexapod: four in SIMD lanes), writing into the room of the `Ok`
+    /// hexapod: eight in SIMD lanes), writing into the room of the `Ok`
     /// entries `along` holds ([`write_entry`]), with `workspace` as
     /// [`Mechanism::tool_points_at_readings`]'s.
     ///

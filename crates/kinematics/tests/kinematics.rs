@@ -4,7 +4,7 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
 use parcal_kinematics::forward_batch::{
-    PivotOrder, forward_along_batch, forward_batch, forward_jacobian_batch,
+    LANES, PivotOrder, forward_along_batch, forward_batch, forward_jacobian_batch,
 };
 use parcal_kinematics::{
     FactoredTipJacobian, FactoredValues, ForwardOptions, ForwardSolution, Geometry,
@@ -321,13 +321,13 @@ fn singular_configuration(geometry: &Geometry) -> (Geometry, Pose) {
     (singular, upright)
 }
 
-/// Contacts of the workspace for batch `round` of a test: 1 to 4 of them,
+/// Contacts of the workspace for batch `round` of a test: 1 to [`LANES`] of them,
 /// started one iteration away (a small pose error, two Newton steps), from
 /// the home pose (four steps), or turned by up to 80 degrees (five steps and
 /// more; the scalar iteration halves some of them, and the lanes hand those
 /// contacts over to it).
 fn random_batch(rng: &mut StdRng, geometry: &Geometry, round: usize) -> Vec<([f64; 6], Pose)> {
-    (0..round % 4 + 1)
+    (0..round % LANES + 1)
         .map(|_| {
             let pose = workspace_pose(rng, geometry, 10.0);
             let q = actuators(geometry, &pose);
@@ -640,12 +640,20 @@ fn forward_kinematics_in_lanes_reports_the_first_failing_contact() {
     let good = [120.0; 6];
     // Legs too long to close: the scalar iteration's error, in lane 1.
     let far = [1.0e4, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let cases: [(&[[f64; 6]], usize); 5] = [
+    // Up to four contacts in the lanes of one AVX2 kernel, five to eight in
+    // an AVX-512 kernel's (or two AVX2 kernels').
+    let cases: [(&[[f64; 6]], usize); 8] = [
         (&[good, infeasible, nan], 1),
         (&[good, good, nan, infeasible], 2),
         (&[good, far, infeasible], 1),
         (&[good, good, good, infinite], 3),
         (&[infeasible], 0),
+        (&[good, good, good, good, good, nan, infeasible], 5),
+        (&[good, good, good, good, far, good, good, good], 4),
+        (
+            &[good, good, infinite, good, good, good, good, infeasible],
+            2,
+        ),
     ];
     let dp = Params::repeat(1e-3);
     let mut trial = PivotOrder::default();
