@@ -78,12 +78,19 @@ pub fn forward_batch<T>(
         q.len() == items.len() && q.len() <= LANES,
         "forward_batch takes up to {LANES} contacts, with one item each"
     );
-    forward_in(Width::of(q.len()), geometry, q, options, items, &solution)
+    forward_in(
+        Lanes::for_call(q.len()),
+        geometry,
+        q,
+        options,
+        items,
+        &solution,
+    )
 }
 
-/// [`forward_batch`] in the kernels of `width`.
+/// [`forward_batch`] in the kernels `width`.
 fn forward_in<T>(
-    width: Width,
+    width: Option<Lanes>,
     geometry: &Geometry,
     q: &[&[f64; 6]],
     options: &ForwardOptions,
@@ -93,12 +100,12 @@ fn forward_in<T>(
     let scalar = |l: usize, item: &mut T| forward_in_place(geometry, q[l], options, solution(item));
     match width {
         #[cfg(target_arch = "x86_64")]
-        Width::Avx512 => avx512::forward(geometry, q, options, items, solution),
+        Some(Lanes::Eight) => avx512::forward(geometry, q, options, items, solution),
         #[cfg(target_arch = "x86_64")]
-        Width::Avx2 => in_fours(items, scalar, |group, items| {
+        Some(Lanes::Four) => in_fours(items, scalar, |group, items| {
             avx2::forward(geometry, &q[group], options, items, solution)
         }),
-        Width::Scalar => one_by_one(items, scalar),
+        None => one_by_one(items, scalar),
     }
 }
 
@@ -152,18 +159,18 @@ pub fn forward_along_batch(
         q.len() == starts.len() && q.len() == out.len() && q.len() <= LANES,
         "forward_along_batch takes up to {LANES} contacts, with a start and an output each"
     );
-    let width = Width::of(q.len());
+    let width = Lanes::for_call(q.len());
     along_in(width, geometry, q, starts, dp, options, trial, out)
 }
 
-/// [`forward_along_batch`] in the kernels of `width`.
+/// [`forward_along_batch`] in the kernels `width`.
 #[allow(clippy::too_many_arguments)]
 #[cfg_attr(
     not(target_arch = "x86_64"),
     allow(unused_variables, reason = "`trial` serves the lanes only")
 )]
 fn along_in(
-    width: Width,
+    width: Option<Lanes>,
     geometry: &Geometry,
     q: &[&[f64; 6]],
     starts: &[Pose],
@@ -176,24 +183,19 @@ fn along_in(
         *out = SolutionAlong::solve(geometry, q[l], start, dp, options)?;
         Ok(())
     };
-    match width {
-        #[cfg(target_arch = "x86_64")]
-        Width::Avx512 => {
-            avx512::forward_along(geometry, q, starts, dp, options, trial, out, scalar)
-        }
-        #[cfg(target_arch = "x86_64")]
-        Width::Avx2 => in_fours(
-            out,
-            |l, out| scalar(l, &starts[l], out),
-            |group, out| {
-                let first = group.start;
-                let scalar = |l: usize, start: &Pose, out: &mut _| scalar(first + l, start, out);
-                let (q, starts) = (&q[group.clone()], &starts[group]);
+    from_starts(width, starts, out, &scalar, |lanes, group, out, scalar| {
+        let (q, starts) = (&q[group.clone()], &starts[group]);
+        match lanes {
+            #[cfg(target_arch = "x86_64")]
+            Lanes::Eight => {
+                avx512::forward_along(geometry, q, starts, dp, options, trial, out, scalar)
+            }
+            #[cfg(target_arch = "x86_64")]
+            Lanes::Four => {
                 avx2::forward_along(geometry, q, starts, dp, options, trial, out, scalar)
-            },
-        ),
-        Width::Scalar => one_by_one(out, |l, out| scalar(l, &starts[l], out)),
-    }
+            }
+        }
+    })
 }
 
 /// Forward kinematics of up to [`LANES`] contacts from `starts`, as
@@ -221,18 +223,18 @@ pub fn forward_jacobian_batch<T>(
         q.len() == starts.len() && q.len() == items.len() && q.len() <= LANES,
         "forward_jacobian_batch takes up to {LANES} contacts, with a start and an item each"
     );
-    let width = Width::of(q.len());
+    let width = Lanes::for_call(q.len());
     jacobian_in(width, geometry, q, starts, options, trial, items, &solution)
 }
 
-/// [`forward_jacobian_batch`] in the kernels of `width`.
+/// [`forward_jacobian_batch`] in the kernels `width`.
 #[allow(clippy::too_many_arguments)]
 #[cfg_attr(
     not(target_arch = "x86_64"),
     allow(unused_variables, reason = "`trial` serves the lanes only")
 )]
 fn jacobian_in<T>(
-    width: Width,
+    width: Option<Lanes>,
     geometry: &Geometry,
     q: &[&[f64; 6]],
     starts: &[Pose],
@@ -245,54 +247,55 @@ fn jacobian_in<T>(
         *solution(item) = SolutionJacobian::solve(geometry, q[l], start, options)?;
         Ok(())
     };
-    match width {
-        #[cfg(target_arch = "x86_64")]
-        Width::Avx512 => {
-            avx512::forward_jacobian(geometry, q, starts, options, trial, items, solution, scalar)
-        }
-        #[cfg(target_arch = "x86_64")]
-        Width::Avx2 => in_fours(
-            items,
-            |l, item| scalar(l, &starts[l], item),
-            |group, items| {
-                let first = group.start;
-                let scalar = |l: usize, start: &Pose, item: &mut T| scalar(first + l, start, item);
-                let (q, starts) = (&q[group.clone()], &starts[group]);
-                avx2::forward_jacobian(geometry, q, starts, options, trial, items, solution, scalar)
-            },
-        ),
-        Width::Scalar => one_by_one(items, |l, item| scalar(l, &starts[l], item)),
-    }
+    from_starts(
+        width,
+        starts,
+        items,
+        &scalar,
+        |lanes, group, items, scalar| {
+            let (q, starts) = (&q[group.clone()], &starts[group]);
+            match lanes {
+                #[cfg(target_arch = "x86_64")]
+                Lanes::Eight => avx512::forward_jacobian(
+                    geometry, q, starts, options, trial, items, solution, scalar,
+                ),
+                #[cfg(target_arch = "x86_64")]
+                Lanes::Four => avx2::forward_jacobian(
+                    geometry, q, starts, options, trial, items, solution, scalar,
+                ),
+            }
+        },
+    )
 }
 
-/// Which kernels run a call of `n` contacts (module doc).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Width {
-    /// One call of the AVX-512 kernels.
+/// The SIMD kernels that run a call (module doc); none: the scalar code,
+/// contact by contact.
+#[derive(Clone, Copy, Debug)]
+enum Lanes {
+    /// AVX-512's eight lanes, the call's contacts at once.
     #[cfg(target_arch = "x86_64")]
-    Avx512,
-    /// The AVX2 kernels on the contacts four at a time ([`in_fours`]).
+    Eight,
+    /// AVX2's four lanes, the call's contacts four at a time
+    /// ([`in_fours`]).
     #[cfg(target_arch = "x86_64")]
-    Avx2,
-    /// The scalar code, contact by contact.
-    Scalar,
+    Four,
 }
 
-impl Width {
-    /// The widest kernels of this machine for `n` contacts: AVX-512's for
-    /// more than four, AVX2's for two to four (or more, without AVX-512),
-    /// the scalar code for one or without AVX2.
-    fn of(n: usize) -> Self {
+impl Lanes {
+    /// The widest kernels of this machine for a call of `n` contacts:
+    /// AVX-512's for more than four, AVX2's for two to four (or more,
+    /// without AVX-512); none for one contact or without AVX2.
+    fn for_call(n: usize) -> Option<Self> {
         #[cfg(target_arch = "x86_64")]
         if n > 1 && crate::simd::avx2_available() {
-            return if n > avx2::LANES && crate::simd::avx512_available() {
-                Self::Avx512
+            return Some(if n > avx2::LANES && crate::simd::avx512_available() {
+                Self::Eight
             } else {
-                Self::Avx2
-            };
+                Self::Four
+            });
         }
         let _ = n;
-        Self::Scalar
+        None
     }
 }
 
@@ -308,6 +311,42 @@ pub fn in_groups(
         run(first..(first + size).min(n)).map_err(|(l, e)| (first + l, e))?;
     }
     Ok(())
+}
+
+/// The one-contact solver of a call: contact `l` from `start` into its
+/// item, its index among the call's contacts.
+type Scalar<'a, T> = &'a dyn Fn(usize, &Pose, &mut T) -> Result<(), KinematicsError>;
+
+/// A call of the contacts of `items`, contact `l` from `starts[l]`, in the
+/// kernels `width`: `lanes(kernels, group, items, scalar)` runs the
+/// contacts `group` (all of them in AVX-512's lanes, four at a time in
+/// AVX2's) and hands a lane it leaves to `scalar`, as a group of one
+/// contact and the scalar path go.
+fn from_starts<T>(
+    width: Option<Lanes>,
+    starts: &[Pose],
+    items: &mut [T],
+    scalar: Scalar<'_, T>,
+    mut lanes: impl FnMut(
+        Lanes,
+        Range<usize>,
+        &mut [T],
+        Scalar<'_, T>,
+    ) -> Result<(), (usize, KinematicsError)>,
+) -> Result<(), (usize, KinematicsError)> {
+    let one = |l: usize, item: &mut T| scalar(l, &starts[l], item);
+    match width {
+        #[cfg(target_arch = "x86_64")]
+        Some(Lanes::Eight) => lanes(Lanes::Eight, 0..items.len(), items, scalar),
+        #[cfg(target_arch = "x86_64")]
+        Some(Lanes::Four) => in_fours(items, one, |group, items| {
+            let first = group.start;
+            lanes(Lanes::Four, group, items, &|l, start, item| {
+                scalar(first + l, start, item)
+            })
+        }),
+        None => one_by_one(items, one),
+    }
 }
 
 /// The contacts of `items` four at a time: `lanes(group, items)` on a
@@ -1173,13 +1212,13 @@ mod tests {
 
     /// Every width this machine runs: the widest first, then the
     /// narrower ones.
-    fn widths() -> Vec<Width> {
-        let mut widths = vec![Width::Scalar];
+    fn widths() -> Vec<Option<Lanes>> {
+        let mut widths = vec![None];
         #[cfg(target_arch = "x86_64")]
         if crate::simd::avx2_available() {
-            widths.push(Width::Avx2);
+            widths.push(Some(Lanes::Four));
             if crate::simd::avx512_available() {
-                widths.push(Width::Avx512);
+                widths.push(Some(Lanes::Eight));
             }
         }
         widths.reverse();
