@@ -1,5 +1,8 @@
-//! Four `f64` lanes in one 256-bit AVX register, for the kernels that run
-//! the same arithmetic on four contacts at once ([`crate::forward_batch`]).
+//! Four `f64` lanes in one 256-bit AVX register ([`F64x4`]) and eight in
+//! one 512-bit AVX-512 register ([`F64x8`]), with the same operations, for
+//! the kernels that run the same arithmetic on several contacts at once
+//! ([`crate::forward_batch`]). What follows says it of [`F64x4`] and AVX2;
+//! [`F64x8`] is the same with AVX-512F ([`avx512_available`]).
 //!
 //! The operations are the AVX instructions themselves (`core::arch`
 //! intrinsics, each inlined into its caller), which are only sound on a
@@ -17,7 +20,7 @@
 
 #![allow(
     unsafe_code,
-    reason = "AVX intrinsics on values that exist only on a machine with AVX2 (module docs)"
+    reason = "SIMD intrinsics on values that exist only on a machine with their instructions (module docs)"
 )]
 
 use std::arch::x86_64::{
