@@ -1,15 +1,16 @@
 //! Per contact: the kinematics of one linearisation (forward kinematics
 //! warm-started one iteration away, then one combination of the tip
 //! Jacobian's rows, as the elimination uses it; one contact at a time and
-//! `LANES` at once, `forward_batch::forward_jacobian_batch`), of one back-substitution
-//! (`J_f dp` at the converged pose, one contact at a time and `LANES` at once,
-//! `forward_batch::forward_along_batch`) and, for comparison, the full 3 x 33 tip
-//! Jacobian; and the forward kinematics alone, one contact at a time and
-//! `LANES` at once (`forward_batch::forward_batch`). `LANES` (eight) at once run in
-//! the SIMD lanes of AVX-512 on a machine with AVX-512F, four at a time in
-//! those of AVX2 on a machine with AVX2 alone. As in a calibration's passes, one set of derivatives is reused
-//! from contact to contact (forward kinematics in place; its LU tries the
-//! previous contact's row order first).
+//! `LANES` at once, `forward_batch::forward_jacobian_batch`), of one
+//! back-substitution (`J_f dp` at the converged pose, one contact at a time
+//! and `LANES` at once, `forward_batch::forward_along_batch`) and, for
+//! comparison, the full 3 x 33 tip Jacobian; and the forward kinematics
+//! alone, one contact at a time and `LANES` at once
+//! (`forward_batch::forward_batch`). `LANES` (eight) at once run in the SIMD
+//! lanes of AVX-512 on a machine with AVX-512F, four at a time in those of
+//! AVX2 on a machine with AVX2 alone. As in a calibration's passes, one set
+//! of derivatives is reused from contact to contact (forward kinematics in
+//! place; its LU tries the previous contact's row order first).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parcal_kinematics::forward::forward_in_place;
