@@ -75,7 +75,7 @@ fn tracked(dataset: &MechanismDataset, seed: u64) -> MechanismData {
                 tracker: j % 2,
                 at,
                 measured: std::array::from_fn(|k| seen[k] + noise.normal(TRACKER_SIGMA)),
-                weight: CoordinateWhitening::isotropic(TRACKER_SIGMA),
+                weight: CoordinateWhitening::isotropic(TRACKER_SIGMA).unwrap(),
             }
         })
         .collect();

@@ -181,7 +181,12 @@ impl MechanismData {
                         .expect("every row's label is among the labels"),
                     at: Actuation::Commanded(row.commanded),
                     measured: row.measured,
-                    weight: CoordinateWhitening::isotropic(noise(n.tracker, "tracker")?),
+                    weight: CoordinateWhitening::isotropic(noise(n.tracker, "tracker")?).map_err(
+                        |e| MechanismCalibrationError::InvalidData {
+                            what: "noise.tracker".to_string(),
+                            reason: e.to_string(),
+                        },
+                    )?,
                 })
             })
             .collect::<Result<_, MechanismCalibrationError>>()?;

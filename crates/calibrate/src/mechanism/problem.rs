@@ -1093,7 +1093,7 @@ pub(crate) mod tests {
                     tracker: j % 2,
                     at,
                     measured: (seen.coords + off).into(),
-                    weight: CoordinateWhitening::isotropic(0.01),
+                    weight: CoordinateWhitening::isotropic(0.01).unwrap(),
                 }
             })
             .collect();
@@ -1273,7 +1273,7 @@ pub(crate) mod tests {
                 tracker: j % 2,
                 at: Actuation::Readings(readings.into()),
                 measured: frames[j % 2].transform_point(&tip.into()).coords.into(),
-                weight: CoordinateWhitening::isotropic(0.01),
+                weight: CoordinateWhitening::isotropic(0.01).unwrap(),
             });
         }
         MechanismData::new(Arc::new(hexapod), params.as_slice().to_vec(), observations)

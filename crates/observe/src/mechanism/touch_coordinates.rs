@@ -45,7 +45,12 @@ impl BallTouch {
             Some(weight) => Ok(weight),
             None => {
                 check_sigma("touch sigma", self.sigma)?;
-                Ok(CoordinateWhitening::isotropic(self.sigma))
+                CoordinateWhitening::isotropic(self.sigma).map_err(|_| MechanismError::NonFinite {
+                    what: format!(
+                        "touch sigma {} (its whitening 1/sigma, kept in single precision)",
+                        self.sigma
+                    ),
+                })
             }
         }
     }

@@ -336,7 +336,7 @@ mod tests {
                     tracker: 0,
                     at: Actuation::Readings(q.iter().copied().collect()),
                     measured: (frame.transform_point(&tip.into()).coords + off).into(),
-                    weight: parcal_observe::CoordinateWhitening::isotropic(1e-3),
+                    weight: parcal_observe::CoordinateWhitening::isotropic(1e-3).unwrap(),
                 }
             })
             .collect();
