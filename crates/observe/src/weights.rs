@@ -406,6 +406,14 @@ mod tests {
         assert!(CoordinateWhitening::isotropic(1e-3).is_ok());
     }
 
+    /// What every contact holds for its weight through a calibration
+    /// (docs/performance.md, "Memory").
+    #[test]
+    fn a_weight_is_held_in_single_precision() {
+        assert_eq!(size_of::<CoordinateWhitening>(), 24);
+        assert_eq!(size_of::<RadiusWhitening>(), 4);
+    }
+
     /// Simulated contacts: actuator noise through real forward kinematics,
     /// tool and radius noise; the whitened residuals of both blocks have unit
     /// covariance. Standard errors for n draws: sqrt(2/n) on a variance,
