@@ -139,8 +139,11 @@ impl RadiusWhitening {
     /// variance that is not positive and finite, or whose `1/√w` is not in
     /// single precision.
     pub fn from_variance(variance: f64) -> Result<Self, ObserveError> {
+        // A variance that is not positive and finite leaves no positive,
+        // finite `1/√w` (NaN, zero or infinity), in double precision or in
+        // single.
         let inverse_sigma = variance.sqrt().recip() as f32;
-        if variance.is_finite() && variance > 0.0 && positive_single(inverse_sigma) {
+        if positive_single(inverse_sigma) {
             Ok(Self { inverse_sigma })
         } else {
             Err(ObserveError::NotPositiveDefinite {
