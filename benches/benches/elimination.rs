@@ -41,6 +41,7 @@ impl Synthetic {
 impl Problem<3, 2, 3> for Synthetic {
     type PointCache = ();
     type Workspace = ();
+    type Anchor = ();
     type Error = std::convert::Infallible;
     type Jacobian = OMatrix<f64, U3, Dyn>;
     type Global = ();

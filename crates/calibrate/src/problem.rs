@@ -33,7 +33,8 @@ use parcal_observe::{
     ObserveError, RadiusBlock, RadiusWhitening, Whitening,
 };
 use parcal_solver::{
-    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Loss, Problem,
+    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, LocalRows, Loss,
+    Problem,
 };
 
 use crate::CalibrateError;
@@ -583,6 +584,9 @@ where
     /// Every contact of a pass is linearised at the same parameters: their
     /// canonical geometry is built once per pass.
     type Global = GlobalValues<G>;
+    /// A contact's tool tip at the new parameters, to first order: its
+    /// observation block there takes nothing else of the global block.
+    type Anchor = Vec3;
 
     /// The layout's size: 33, plus `G` per ball tied by a distance, plus
     /// the instrument groups (the scales among them).
@@ -715,8 +719,11 @@ where
             std::slice::from_mut(&mut step),
         );
         let workspace = &mut PivotOrder::default();
-        self.linearize_along_batch(i, global, group, points, caches, dg, out, steps, workspace)
-            .map_err(|(_, e)| e)?;
+        let anchors = &mut [Vec3::zeros()];
+        self.linearize_along_batch(
+            i, global, group, points, caches, dg, out, steps, anchors, workspace,
+        )
+        .map_err(|(_, e)| e)?;
         Ok(step)
     }
 
@@ -727,7 +734,7 @@ where
     /// each contact's step of its leg extensions differs
     /// (`ActuatorScales::along`): the contacts go one at a time.
     /// `d_global.tip` is not written: the back-substitution needs only
-    /// `d_global dg`.
+    /// `d_global dg`. Each contact's anchor is its tool tip plus `J_f dp`.
     fn linearize_along_batch(
         &self,
         first: usize,
@@ -738,6 +745,7 @@ where
         dg: &DVector<f64>,
         out: &mut [Linearization<G, P, R, ContactJacobian<R, G>>],
         steps: &mut [SVector<f64, R>],
+        anchors: &mut [Vec3],
         workspace: &mut PivotOrder,
     ) -> Result<(), (usize, CalibrateError)> {
         let n = out.len();
@@ -776,10 +784,43 @@ where
                 &mut out[j],
             )?;
             caches[j] = solution.predicted;
+            anchors[j] = solution.tool_tip + solution.tip;
             let d_global = &out[j].d_global;
             steps[j] = d_global.d_tip * solution.tip + d_global.centre_step(dg);
             Ok(())
         })
+    }
+
+    /// Contact `i`'s observation block at the tool tip `anchor`, its ball's
+    /// unknowns `group` and its angles `point`.
+    fn local_rows(
+        &self,
+        i: usize,
+        anchor: &Vec3,
+        group: &SVector<f64, G>,
+        point: &SVector<f64, P>,
+        out: &mut LocalRows<G, P, R>,
+    ) -> Result<bool, CalibrateError> {
+        let centre = group.fixed_rows::<3>(0).into_owned();
+        let radius = if Self::RADIUS_UNKNOWN {
+            group[G - 1]
+        } else {
+            self.radius(i)
+        };
+        let evaluated = self.observations.block(i, radius, anchor, &centre, point);
+        let block = evaluated.map_err(|source| CalibrateError::Observation {
+            row: self.row(i),
+            source,
+        })?;
+        out.residual = block.residual;
+        out.d_group
+            .fixed_columns_mut::<3>(0)
+            .copy_from(&block.d_centre);
+        if Self::RADIUS_UNKNOWN {
+            out.d_group.column_mut(G - 1).copy_from(&block.d_radius);
+        }
+        out.d_point = block.d_angles;
+        Ok(true)
     }
 
     fn global_prior(&self) -> Option<&GaussianPrior<Dyn>> {

@@ -257,14 +257,15 @@ fn compare<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>
     let cost_diff = (schur.cost - dense.cost).abs() / dense.cost;
 
     // The first update of a real run: one Gauss-Newton iteration, state
-    // after minus state before (the step alone: no group refined after
-    // it, parcal_solver::refine).
+    // after minus state before (the step alone: no local steps in its
+    // back-substitution, no group refined after it, parcal_solver::refine).
     let one = solve(
         problem,
         state.clone(),
         &SolverOptions {
             max_iterations: 1,
             refine_groups: false,
+            local_steps: 0,
             ..SolverOptions::default()
         },
         &mut |_| {},

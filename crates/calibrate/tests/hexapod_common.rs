@@ -512,10 +512,13 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     );
     // Each run stops within SIGMA_TOLERANCE of its sigmas from the minimum.
     assert!(worst_value < value_tolerance, "{worst_value:e}");
-    // The covariances are taken at estimates at most 2e-3 sigma apart:
-    // the Jacobians differ by that times sigma / (the lengths, ~100 mm),
-    // ~1e-8 relative.
-    assert!(worst_sigma < 1e-6, "{worst_sigma:e}");
+    // The covariances are taken at estimates at most 2e-3 sigma apart
+    // (the runs may stop at different iterates: each takes local steps
+    // where its problem has them): the Jacobians differ by 2e-3 of their
+    // change over one sigma, which the covariance's linearisation needs
+    // small (under 5 %: the fit is linear over its uncertainty); a sigma,
+    // the root of a quadratic form in them, by at most 2 x 2e-3 x 5 %.
+    assert!(worst_sigma < 2e-4, "{worst_sigma:e}");
     // The balls: centres (the same canonical frame) and radii, when they
     // are unknowns.
     let centre_sigmas = own.balls.centre_sigmas.as_ref().unwrap();

@@ -6,7 +6,9 @@
 //! Σ b_pᵀδp)` over its own unknowns and its points', goes to
 //! [`ChunkedProblem::group_shares`]: for an undamped step, what the
 //! group's unknowns contribute to `δᵀHδ` (up to their coupling with the
-//! global block), which [`crate::refine`] reads.
+//! global block), which [`crate::refine`] reads. With local steps
+//! ([`crate::local`]), each group's unknowns then move on from the linear
+//! step against its points' anchors.
 
 use nalgebra::{DVector, SVector};
 
@@ -16,6 +18,7 @@ use crate::eliminate::{
     Failure, GroupRows, add_group_column_norms2, batches, factor_point,
     push_group_prior_and_damping, stepped_row,
 };
+use crate::local::{LocalScratch, LocalSteps, local_steps};
 use crate::problem::{BATCH, Linearization, Problem, State};
 use crate::qr::{PriorRows, solve_upper_in_place};
 use crate::reduced::ReducedSystem;
@@ -68,12 +71,15 @@ where
     Pr: Problem<C, P, R>,
 {
     /// Completes the step `δg` of `system` (built at `state`) to all unknowns
-    /// and writes `δ` into `delta` (same shape as `state`).
+    /// and writes `δ` into `delta` (same shape as `state`); with `local`,
+    /// each group's part of `δ` goes on with local steps (the summary
+    /// stays the linear step's).
     pub(crate) fn back_substitute(
         &mut self,
         state: &State<C, P>,
         system: &ReducedSystem,
         dg: &DVector<f64>,
+        local: Option<LocalSteps>,
         delta: &mut State<C, P>,
     ) -> Result<StepSummary, Failure> {
         let problem = self.problem;
@@ -115,7 +121,7 @@ where
             |ws, (chunk, caches, out)| {
                 let (bufs, _, point_data) = ws.split();
                 back_substitute_chunk::<C, P, R, Pr>(
-                    problem, chunk, state, global, caches, dg, lambda, bufs, point_data, out,
+                    problem, chunk, state, global, caches, dg, lambda, local, bufs, point_data, out,
                 )
             },
             |part| total.add(&part),
@@ -170,6 +176,7 @@ pub(crate) fn back_substitute_chunk<const C: usize, const P: usize, const R: usi
     caches: &mut [Pr::PointCache],
     dg: &DVector<f64>,
     lambda: f64,
+    local: Option<LocalSteps>,
     bufs: ElimBuffers<'_>,
     point_data: &mut Vec<f64>,
     out: ChunkOut<'_, C, P>,
@@ -195,12 +202,17 @@ where
     let mut workspace = Pr::Workspace::default();
     let loss = problem.loss();
     let robust = !loss.is_squared();
+    let local = local.filter(|_| !robust);
+    let mut anchors = Vec::new();
+    let mut scratch = LocalScratch::default();
     for k in chunk.groups.clone() {
         let c = &state.groups[k];
         let fixed = problem.group_is_fixed(k);
         let range = problem.group_points(k);
         point_data.clear();
         point_data.resize(range.len() * stride, 0.0);
+        anchors.clear();
+        anchors.resize(range.len(), Pr::Anchor::default());
         group.reset();
         let mut raw_norms2 = [0.0; C];
         let mut b_c = SVector::<f64, C>::zeros();
@@ -208,6 +220,7 @@ where
             let n = batch.len();
             let caches = &mut caches[chunk.local(&batch)];
             let points = &state.points[batch.clone()];
+            let first = batch.start - range.start;
             problem
                 .linearize_along_batch(
                     batch.start,
@@ -218,6 +231,7 @@ where
                     dg,
                     &mut lins[..n],
                     &mut steps[..n],
+                    &mut anchors[first..first + n],
                     &mut workspace,
                 )
                 .map_err(|(i, e)| Failure::linearize(i, &e))?;
@@ -304,7 +318,7 @@ where
             dc
         };
         out.groups[k - chunk.groups.start] = dc;
-        for (j, i) in range.enumerate() {
+        for (j, i) in range.clone().enumerate() {
             let entry = &point_data[j * stride..(j + 1) * stride];
             let dp = SVector::<f64, P>::from_fn(|a, _| {
                 let row = &entry[a * gw..(a + 1) * gw];
@@ -326,6 +340,21 @@ where
             sum.damping_quad += lambda * d_p.component_mul(&dp).dot(&dp);
         }
         out.shares[k - chunk.groups.start] = -local_dot;
+        if let Some(options) = local.filter(|_| !fixed) {
+            let dp = &mut out.points[range.start - chunk.points.start..][..range.len()];
+            let dc = &mut out.groups[k - chunk.groups.start];
+            local_steps(
+                problem,
+                k,
+                range,
+                &anchors,
+                state,
+                dc,
+                dp,
+                options,
+                &mut scratch,
+            );
+        }
     }
     Ok(sum)
 }

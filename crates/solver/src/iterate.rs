@@ -12,6 +12,7 @@ use crate::backsub::StepSummary;
 use crate::chunked_problem::ChunkedProblem;
 use crate::diagnostics::SpectrumDiagnostics;
 use crate::eliminate::Failure;
+use crate::local::LocalSteps;
 use crate::monitor::{Decision, Iterate, Monitor};
 use crate::options::{Method, SolverOptions};
 use crate::policy::{
@@ -19,6 +20,7 @@ use crate::policy::{
 };
 use crate::problem::{Problem, State};
 use crate::reduced::{ReducedSystem, ScaledCholesky, covariance_factor};
+use crate::refine::SETTLED;
 use crate::solution::{IterationRecord, Solution, Status};
 
 /// Solves the problem from `initial`; `observer` sees every history record
@@ -151,10 +153,13 @@ where
         state: &State<C, P>,
         system: &ReducedSystem,
         global: Option<&DVector<f64>>,
+        local: Option<LocalSteps>,
         delta: &mut State<C, P>,
     ) -> Result<Option<StepSummary>, Failure> {
         match global {
-            Some(dg) => self.back_substitute(state, system, dg, delta).map(Some),
+            Some(dg) => self
+                .back_substitute(state, system, dg, local, delta)
+                .map(Some),
             None => Ok(None),
         }
     }
@@ -191,6 +196,33 @@ fn certified_step(system: &ReducedSystem, dg: &DVector<f64>, tolerance: f64) -> 
     })
 }
 
+/// The local steps ([`crate::local`]) of the back-substitution of the
+/// step `dg` of `system`, in a run whose initial loss was `initial_cost`:
+/// up to [`SolverOptions::local_steps`] while the iteration has not
+/// settled (the step's `δᵀHδ`, which the reduced system gives as in
+/// [`certified_step`], at least [`SETTLED`] of the cost), each while it is
+/// predicted to lower its group's cost by more than `(sigma_tolerance /
+/// 10)²`. None once it has settled (the linear step then leaves each group
+/// at its minimum to well within the stopping rule); none from an iterate
+/// above the start, where a step has overshot and the anchors' first-order
+/// predictions are no guide; none for a damped step (Levenberg–Marquardt
+/// judges it against its linear model).
+fn local_steps_of(
+    system: &ReducedSystem,
+    dg: &DVector<f64>,
+    initial_cost: f64,
+    options: &SolverOptions,
+) -> Option<LocalSteps> {
+    let cost = system.cost();
+    let unsettled = cost - system.linear_minimum(dg.as_slice()) >= SETTLED * cost;
+    let below_start = system.loss() <= initial_cost;
+    let undamped = system.lambda == 0.0;
+    (options.local_steps > 0 && undamped && below_start && unsettled).then(|| LocalSteps {
+        steps: options.local_steps,
+        least_decrease: (options.sigma_tolerance / 10.0).powi(2),
+    })
+}
+
 /// One linear step of the Schur solver, as [`linear_step`] returns it.
 #[derive(Clone, Debug)]
 pub struct LinearStep<const C: usize, const P: usize> {
@@ -224,7 +256,13 @@ pub fn linear_step<const C: usize, const P: usize, const R: usize, Pr: Problem<C
     let system = ctx.reduce(state, lambda.max(0.0)).map_err(failed)?;
     let mut delta = state.clone();
     let summary = ctx
-        .step(state, &system, global_step(&system).as_ref(), &mut delta)
+        .step(
+            state,
+            &system,
+            global_step(&system).as_ref(),
+            None,
+            &mut delta,
+        )
         .map_err(failed)?
         .ok_or_else(|| singular_at_start(&system))?;
     Ok(LinearStep {
@@ -422,7 +460,11 @@ where
             }
             // The step into `trial` and the policy's response; the trial
             // point's system if it was built.
-            let stepped = self.ctx.step(&x, &system, global.as_ref(), &mut trial);
+            let local =
+                (global.as_ref()).and_then(|dg| local_steps_of(&system, dg, initial_cost, options));
+            let stepped = self
+                .ctx
+                .step(&x, &system, global.as_ref(), local, &mut trial);
             let (step, response, next) = match stepped {
                 Err(f) => return self.fail(x, solves, f),
                 Ok(None) => (

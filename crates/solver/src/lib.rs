@@ -92,9 +92,13 @@
 //!    (its [`Problem::PointCache`] makes this cheap), folds the now known
 //!    `δg` into the residual column and repeats the small QRs; then
 //!    `R_cc δc = −(z_c + R_cg δg)` and `R_pp δp = −(z_p + R_pc δc + R_pg δg)`
-//!    (`δc = 0` for a fixed group). Once the iteration has settled, the few
-//!    groups that carry a large share of the step then take steps of their
-//!    own with `δg = 0` before the trial point is evaluated ([`refine`]).
+//!    (`δc = 0` for a fixed group). Until the iteration has settled, each
+//!    group then takes Gauss–Newton steps of its own in the same pass,
+//!    against its points' rows at the new global block predicted to first
+//!    order ([`Problem::local_rows`], [`SolverOptions::local_steps`]); once
+//!    it has, the few groups that carry a large share of the step take
+//!    steps of their own with `δg = 0` before the trial point is evaluated
+//!    ([`refine`]).
 //!
 //! 5. **Covariance** (after the last iterate, undamped): `Cov(g) = S⁻¹`, and
 //!    the full marginal covariance of each group,
@@ -223,6 +227,7 @@
 //! impl Problem<2, 0, 1> for Circles {
 //!     type PointCache = ();
 //!     type Workspace = ();
+//!     type Anchor = ();
 //!     type Error = std::convert::Infallible;
 //!     type Jacobian = OMatrix<f64, U1, Dyn>; // dense, 1 x G
 //!     type Global = f64; // the radius
@@ -281,6 +286,7 @@ mod factor_product;
 mod gram;
 mod influence;
 mod iterate;
+mod local;
 mod loss;
 mod monitor;
 mod options;
@@ -303,8 +309,8 @@ pub use loss::{CAUCHY_K, HUBER_K, Loss, Weighed};
 pub use monitor::{Decision, Iterate, Monitor};
 pub use options::{Method, SIGMA_TOLERANCE, SolverOptions};
 pub use problem::{
-    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, Problem, State,
-    WeighedRows, point_degrees_of_freedom,
+    BATCH, GaussianPrior, GlobalJacobian, GlobalObservations, Linearization, LocalRows, Problem,
+    State, WeighedRows, point_degrees_of_freedom,
 };
 pub use redundancy::{
     MIN_REDUNDANCY, PointRows, PriorLeverage, Redundancy, normalised_residual, redundancy,

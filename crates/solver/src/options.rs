@@ -76,6 +76,12 @@ pub struct SolverOptions {
     /// unknowns, the global block fixed ([`crate::refine`]). Least squares
     /// with the sigma tolerance on only.
     pub refine_groups: bool,
+    /// The most local steps of each group after the back-substitution of a
+    /// step while the iteration has not settled: Gauss–Newton steps of its
+    /// own unknowns and its points' against their rows at the new global
+    /// block, predicted to first order (`crate::local`; for a problem with
+    /// [`Problem::local_rows`](crate::Problem::local_rows)). 0: none.
+    pub local_steps: usize,
     /// Groups per unit of parallel work. The partial reduced systems are
     /// summed in chunk order, so results depend on this number but not on the
     /// number of threads.
@@ -94,6 +100,7 @@ impl Default for SolverOptions {
             time_limit: None,
             group_sigmas: true,
             refine_groups: true,
+            local_steps: 2,
             groups_per_chunk: 64,
         }
     }

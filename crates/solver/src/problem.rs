@@ -203,6 +203,29 @@ where
     }
 }
 
+/// A point's whitened residual and its Jacobians with respect to its
+/// group's block and its own, the global block's part held at an anchor
+/// ([`Problem::local_rows`]): the rows of a local step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LocalRows<const C: usize, const P: usize, const R: usize> {
+    /// Whitened residual `r_i`.
+    pub residual: SVector<f64, R>,
+    /// `∂r_i/∂c_k(i)`.
+    pub d_group: SMatrix<f64, R, C>,
+    /// `∂r_i/∂p_i`.
+    pub d_point: SMatrix<f64, R, P>,
+}
+
+impl<const C: usize, const P: usize, const R: usize> Default for LocalRows<C, P, R> {
+    fn default() -> Self {
+        Self {
+            residual: SVector::zeros(),
+            d_group: SMatrix::zeros(),
+            d_point: SMatrix::zeros(),
+        }
+    }
+}
+
 /// Residual rows that depend on the global block only, whitened, with their
 /// dense Jacobian: `m` rows `r_o(g)` and `J_o = ∂r_o/∂g` (`m × G`), `m`
 /// small (tens to a few hundred). [`Problem::global_observations`] fills
@@ -324,6 +347,13 @@ pub trait Problem<const C: usize, const P: usize, const R: usize>: Sync {
     /// geometry built from parameters), made once per pass over the points
     /// by [`prepare_global`](Problem::prepare_global).
     type Global: Sync;
+    /// What a point's rows take of the global block, as a linearisation
+    /// along a step predicts it at the new global block
+    /// ([`Problem::linearize_along_batch`]): what
+    /// [`local_rows`](Problem::local_rows) evaluates them at, without the
+    /// global block's own work (e.g. a tool point, without its forward
+    /// kinematics). `()` for a problem without local rows.
+    type Anchor: Clone + Default + Send;
 
     /// The number `G` of global unknowns: the length of the state's global
     /// block.
@@ -419,7 +449,9 @@ pub trait Problem<const C: usize, const P: usize, const R: usize>: Sync {
 
     /// [`Problem::linearize_along`] of the points `first..first +
     /// out.len()` as [`Problem::linearize_batch`] takes them; `d_global ·
-    /// dg` of each into `steps`.
+    /// dg` of each into `steps`, and each point's anchor at the global
+    /// block `g + dg`, to first order, into `anchors` (a problem with local
+    /// rows; the default writes none).
     #[allow(clippy::too_many_arguments)]
     fn linearize_along_batch(
         &self,
@@ -431,9 +463,10 @@ pub trait Problem<const C: usize, const P: usize, const R: usize>: Sync {
         dg: &DVector<f64>,
         out: &mut [Linearization<C, P, R, Self::Jacobian>],
         steps: &mut [SVector<f64, R>],
+        anchors: &mut [Self::Anchor],
         workspace: &mut Self::Workspace,
     ) -> Result<(), (usize, Self::Error)> {
-        let _ = workspace;
+        let _ = (workspace, anchors);
         let points = points.iter().zip(caches);
         for (j, ((out, step), (point, cache))) in out.iter_mut().zip(steps).zip(points).enumerate()
         {
@@ -443,6 +476,24 @@ pub trait Problem<const C: usize, const P: usize, const R: usize>: Sync {
                 .map_err(|e| (i, e))?;
         }
         Ok(())
+    }
+
+    /// Point `i`'s rows at its group's block `group` and its own `point`,
+    /// what they take of the global block held at `anchor`
+    /// ([`Problem::Anchor`]), into `out`: the rows of local steps, which
+    /// move a group's unknowns and its points' against a global block held
+    /// fixed. Returns whether the problem has local rows (the default:
+    /// none, and `out` is not written).
+    fn local_rows(
+        &self,
+        i: usize,
+        anchor: &Self::Anchor,
+        group: &SVector<f64, C>,
+        point: &SVector<f64, P>,
+        out: &mut LocalRows<C, P, R>,
+    ) -> Result<bool, Self::Error> {
+        let _ = (i, anchor, group, point, out);
+        Ok(false)
     }
 
     /// The global observations at the global block `global`: residual rows

@@ -140,6 +140,7 @@ where
                     &mut caches[points.clone()],
                     &dg,
                     0.0,
+                    None,
                     bufs,
                     point_data,
                     out,

@@ -7,6 +7,7 @@ mod common;
 mod convergence;
 mod effects;
 mod influence;
+mod local;
 mod monitor;
 mod redundancy;
 mod refine;

@@ -6,7 +6,7 @@ use crate::common;
 
 use std::time::Instant;
 
-use common::{Spec, couple, distances, perturb, touches};
+use common::{Spec, couple, distances, in_pool, perturb, touches};
 use nalgebra::{DMatrix, SVector};
 use parcal_solver::{
     PointRows, Problem, Redundancy, SolverOptions, State, Status, dense_reference, linear_step,
@@ -352,14 +352,6 @@ fn check_unit_variance<const C: usize, const R: usize>(
         (cost - dof).abs() < 5.0 * (2.0 * dof).sqrt(),
         "{cost} vs {dof}"
     );
-}
-
-fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
 }
 
 fn bits<const C: usize, const R: usize>(r: &Numbers<C, R>) -> Vec<u64> {

@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use common::{Rng, Spec, perturb, touches};
+use common::{Rng, Spec, perturb, sigmas_apart, touches};
 use nalgebra::Vector3;
 use parcal_solver::{Solution, SolverOptions, State, Status, solve};
 
@@ -84,35 +84,6 @@ fn a_well_behaved_problem_converges_as_before() {
 /// unknown (and every linear function of them) within 1e-3 of its sigma
 /// of the limit, so within 2e-3 of each other's.
 fn assert_same_minimum(plain: &Solution<3, 2>, refined: &Solution<3, 2>) {
-    let covariance = plain.covariance.as_ref().expect("covariance");
-    for (j, (a, b)) in plain
-        .state
-        .global
-        .iter()
-        .zip(refined.state.global.iter())
-        .enumerate()
-    {
-        let z = (a - b) / covariance[(j, j)].sqrt();
-        assert!(
-            z.abs() < 2e-3,
-            "global unknown {j} differs by {z:.2e} sigma"
-        );
-    }
-    let sigmas = plain.group_sigmas.as_ref().expect("group sigmas");
-    for (k, ((a, b), s)) in plain
-        .state
-        .groups
-        .iter()
-        .zip(&refined.state.groups)
-        .zip(sigmas)
-        .enumerate()
-    {
-        for i in 0..3 {
-            let z = (a[i] - b[i]) / s[i];
-            assert!(
-                z.abs() < 2e-3,
-                "group {k} coordinate {i} differs by {z:.2e} sigma"
-            );
-        }
-    }
+    let apart = sigmas_apart(plain, refined);
+    assert!(apart < 2e-3, "{apart:.2e} sigma apart");
 }

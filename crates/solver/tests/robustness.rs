@@ -7,8 +7,8 @@ use crate::common;
 use std::ops::Range;
 
 use common::{
-    Fail, G, ObservationFault, Spec, TestError, couple, distances, flatten, perturb, rel_diff,
-    touches,
+    Fail, G, ObservationFault, Spec, TestError, couple, distances, flatten, in_pool, perturb,
+    rel_diff, touches,
 };
 use nalgebra::{DVector, Dyn, OMatrix, SMatrix, SVector, U2, U3, Vector1};
 use parcal_solver::{
@@ -19,14 +19,6 @@ use parcal_solver::{
 const LM: Method = Method::LevenbergMarquardt {
     initial_lambda: 1e-3,
 };
-
-fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
-}
 
 fn bits<const C: usize, const P: usize>(s: &Solution<C, P>) -> Vec<u64> {
     let mut v: Vec<u64> = flatten(&s.state).iter().map(|x| x.to_bits()).collect();
@@ -243,6 +235,7 @@ struct Exponential {
 impl Problem<1, 0, 2> for Exponential {
     type PointCache = ();
     type Workspace = ();
+    type Anchor = ();
     type Error = TestError;
     type Jacobian = OMatrix<f64, U2, Dyn>;
     type Global = f64;
@@ -465,6 +458,7 @@ fn problem_without_blind_point() -> Degenerate {
 impl Problem<1, 2, 3> for Degenerate {
     type PointCache = ();
     type Workspace = ();
+    type Anchor = ();
     type Error = TestError;
     type Jacobian = OMatrix<f64, U3, Dyn>;
     type Global = f64;

@@ -11,9 +11,9 @@ use parcal_calibrate::problem::{ContactJacobian, CoordinateObservations};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_dataset::Dataset;
 use parcal_kinematics::forward_batch::PivotOrder;
-use parcal_kinematics::{N_PARAMS, Params, Pose};
+use parcal_kinematics::{N_PARAMS, Params, Pose, Vec3};
 use parcal_simulate::{Scenario, simulate};
-use parcal_solver::{BATCH, GlobalJacobian, Linearization, Problem};
+use parcal_solver::{BATCH, GlobalJacobian, Linearization, LocalRows, Problem};
 
 type Lin = Linearization<3, 2, 3, ContactJacobian<3, 3>>;
 
@@ -121,6 +121,7 @@ fn a_batch_is_its_contacts_one_at_a_time() {
                 let mut poses = setup.poses[range.clone()].to_vec();
                 let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros(N_PARAMS)).collect();
                 let mut steps = vec![SVector::<f64, 3>::zeros(); n];
+                let mut anchors = vec![Vec3::zeros(); n];
                 if along {
                     problem
                         .linearize_along_batch(
@@ -132,6 +133,7 @@ fn a_batch_is_its_contacts_one_at_a_time() {
                             &dg,
                             &mut batch,
                             &mut steps,
+                            &mut anchors,
                             &mut workspace,
                         )
                         .unwrap();
@@ -224,6 +226,7 @@ fn a_batch_names_its_first_failing_contact() {
             &DVector::from_element(N_PARAMS, 1e-3),
             &mut batch,
             &mut steps,
+            &mut vec![Vec3::zeros(); range.len()],
             workspace,
         )
         .expect_err("an unreachable contact");
@@ -241,4 +244,96 @@ fn a_batch_names_its_first_failing_contact() {
         .expect_err("the same contact alone");
     assert_eq!(error.to_string(), single.to_string());
     assert!(error.to_string().contains("measurement row"), "{error}");
+}
+
+/// The back-substitution's anchors: each contact's tool tip at the new
+/// parameters to first order, `T + J_f dg`, at which its local rows are
+/// its rows along the step. The observation block is affine in the tip
+/// with a `d_group` and `d_point` that do not depend on it, so the local
+/// rows' residual is `r + d_global dg` to rounding and their Jacobians
+/// are the linearisation's; and the anchor's distance from the tip that
+/// forward kinematics gives at `p + dg` is of second order in `dg`.
+#[test]
+fn a_contact_s_local_rows_at_its_anchor_are_its_rows_along_the_step() {
+    let dataset = dataset();
+    let (setup, observations) = setup(&dataset);
+    let problem = setup.problem(&dataset, &options(), observations);
+    let params = setup.initial_params + Params::repeat(1e-3);
+    let global = problem.prepare_global(&global_block(&params));
+    let direction = DVector::from_fn(N_PARAMS, |k, _| 1e-3 * (k as f64 - 16.0));
+    let k = 0;
+    let centre = setup.initial_centres[k];
+    let range = problem.group_points(k);
+    let n = range.len().min(BATCH);
+    let angles: Vec<_> = (0..n)
+        .map(|j| Vector2::new(2e-3 * j as f64, -1e-3))
+        .collect();
+    let workspace = &mut PivotOrder::default();
+    // The anchor's error from the tip after the step, for `dg` and `dg / 2`.
+    let mut errors = Vec::new();
+    for scale in [1.0, 0.5] {
+        let dg = &direction * scale;
+        let mut poses = setup.poses[range.start..range.start + n].to_vec();
+        let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros(N_PARAMS)).collect();
+        let mut steps = vec![SVector::<f64, 3>::zeros(); n];
+        let mut anchors = vec![Vec3::zeros(); n];
+        problem
+            .linearize_along_batch(
+                range.start,
+                &global,
+                &centre,
+                &angles,
+                &mut poses,
+                &dg,
+                &mut batch,
+                &mut steps,
+                &mut anchors,
+                workspace,
+            )
+            .unwrap();
+        let stepped = problem.prepare_global(&global_block(
+            &(params + Params::from_column_slice(dg.as_slice())),
+        ));
+        let mut worst = 0.0_f64;
+        for j in 0..n {
+            let i = range.start + j;
+            let mut rows = LocalRows::default();
+            let has = problem.local_rows(i, &anchors[j], &centre, &angles[j], &mut rows);
+            assert!(has.unwrap(), "the calibration's contacts have local rows");
+            let along = batch[j].residual + steps[j];
+            assert_close(
+                rows.residual.as_slice(),
+                along.as_slice(),
+                WHITENED_ROUNDING,
+                "residual",
+            );
+            assert_close(
+                rows.d_group.as_slice(),
+                batch[j].d_group.as_slice(),
+                1e-12,
+                "d_group",
+            );
+            assert_close(
+                rows.d_point.as_slice(),
+                batch[j].d_point.as_slice(),
+                1e-12,
+                "d_point",
+            );
+            let mut pose = setup.poses[i];
+            let mut after = Lin::zeros(N_PARAMS);
+            problem
+                .linearize(i, &stepped, &centre, &angles[j], &mut pose, &mut after)
+                .unwrap();
+            worst = worst.max((anchors[j] - after.d_global.tip.tool_tip).norm());
+        }
+        errors.push(worst);
+    }
+    // Second order: halving the step quarters the error (within 10 %),
+    // an error far above the kinematics' tolerance.
+    let ratio = errors[0] / errors[1];
+    assert!(errors[1] > 1e-9, "errors {errors:?}");
+    assert!(
+        (ratio - 4.0).abs() < 0.4,
+        "errors {errors:?}, ratio {ratio}"
+    );
 }

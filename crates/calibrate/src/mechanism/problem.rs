@@ -516,14 +516,26 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         global: &DVector<f64>,
         block: &SVector<f64, C>,
     ) -> TouchedBall {
+        match self.tied.column(b) {
+            Some(column) => self.ball_of(b, &global.as_slice()[column..], Some(column)),
+            None => self.ball_of(b, block.as_slice(), None),
+        }
+    }
+
+    /// Ball `b` as its group's block `block` holds it; `None` for a tied
+    /// ball, whose unknowns are in the global block.
+    pub(crate) fn ball_in_group(&self, b: usize, block: &SVector<f64, C>) -> Option<TouchedBall> {
+        match self.tied.column(b) {
+            Some(_) => None,
+            None => Some(self.ball_of(b, block.as_slice(), None)),
+        }
+    }
+
+    /// Ball `b` of the `unknowns` its centre, then its radius when
+    /// uncertain, start, tied at `tied`.
+    fn ball_of(&self, b: usize, unknowns: &[f64], tied: Option<usize>) -> TouchedBall {
         let ball = &self.data.observations.balls[b];
         let uncertain = ball.radius_sigma.is_some();
-        let tied = self.tied.column(b);
-        // The ball's centre, then its radius when uncertain.
-        let unknowns = match tied {
-            Some(column) => &global.as_slice()[column..],
-            None => block.as_slice(),
-        };
         TouchedBall {
             centre: Vector3::new(unknowns[0], unknowns[1], unknowns[2]),
             radius: if uncertain { unknowns[3] } else { ball.radius },

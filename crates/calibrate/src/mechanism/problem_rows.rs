@@ -20,6 +20,7 @@ use super::warm_start::WarmStart;
 impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
     type PointCache = WarmStart;
     type Workspace = Reaches;
+    type Anchor = ();
     type Error = MechanismCalibrationError;
     type Jacobian = OMatrix<f64, Const<1>, Dyn>;
     type Global = DVector<f64>;
@@ -101,6 +102,7 @@ impl<const C: usize> Problem<C, 0, 1> for MechanismProblem<'_, C> {
         dg: &DVector<f64>,
         out: &mut [Local<C>],
         steps: &mut [SVector<f64, 1>],
+        _anchors: &mut [()],
         reaches: &mut Reaches,
     ) -> Result<(), (usize, MechanismCalibrationError)> {
         self.fill_along(first, global, group, caches, dg, out, steps, reaches)

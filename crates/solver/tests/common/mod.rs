@@ -19,7 +19,9 @@ use nalgebra::{
     DMatrix, DVector, Dyn, Matrix3, OMatrix, RowVector3, SMatrix, SVector, U1, U2, U3, Vector2,
     Vector3,
 };
-use parcal_solver::{GaussianPrior, GlobalObservations, Linearization, Loss, Problem, State};
+use parcal_solver::{
+    GaussianPrior, GlobalObservations, Linearization, LocalRows, Loss, Problem, Solution, State,
+};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
@@ -275,9 +277,34 @@ impl Data {
 /// P = 2, R = 3: `r = (m − D(c + ρ u(θ, φ); g)) / σ`.
 pub struct Touches(pub Data);
 
+impl Touches {
+    /// Point `i`'s rows at the global block `global`, into `out`.
+    fn rows(
+        &self,
+        i: usize,
+        global: &DVector<f64>,
+        group: &SVector<f64, 3>,
+        point: &SVector<f64, 2>,
+        out: &mut Linearization<3, 2, 3>,
+    ) {
+        let (u, du) = direction(point);
+        let y = self.0.centre(i, global, group) + self.0.radius * u;
+        let (d, dy, dg) = distort(&y, &global.fixed_rows::<G>(0).into_owned(), self.0.unseen);
+        let s = 1.0 / self.0.sigma;
+        out.residual = s * (self.0.measurements[i] - d);
+        self.0
+            .global_jacobian(i, &(-s * dg), &(-s * dy), &mut out.d_global);
+        out.d_group = -s * dy;
+        out.d_point = -s * self.0.radius * dy * du;
+    }
+}
+
 impl Problem<3, 2, 3> for Touches {
     type PointCache = u32;
     type Workspace = ();
+    /// The global block after the step itself: the local rows are the
+    /// rows there, exactly.
+    type Anchor = DVector<f64>;
     type Error = TestError;
     type Jacobian = OMatrix<f64, U3, Dyn>;
     type Global = DVector<f64>;
@@ -309,16 +336,49 @@ impl Problem<3, 2, 3> for Touches {
         out: &mut Linearization<3, 2, 3>,
     ) -> Result<(), TestError> {
         self.0.check_fail(i, cache)?;
-        let (u, du) = direction(point);
-        let y = self.0.centre(i, global, group) + self.0.radius * u;
-        let (d, dy, dg) = distort(&y, &global.fixed_rows::<G>(0).into_owned(), self.0.unseen);
-        let s = 1.0 / self.0.sigma;
-        out.residual = s * (self.0.measurements[i] - d);
-        self.0
-            .global_jacobian(i, &(-s * dg), &(-s * dy), &mut out.d_global);
-        out.d_group = -s * dy;
-        out.d_point = -s * self.0.radius * dy * du;
+        self.rows(i, global, group, point, out);
         Ok(())
+    }
+    #[allow(clippy::too_many_arguments)]
+    fn linearize_along_batch(
+        &self,
+        first: usize,
+        global: &DVector<f64>,
+        group: &SVector<f64, 3>,
+        points: &[SVector<f64, 2>],
+        caches: &mut [u32],
+        dg: &DVector<f64>,
+        out: &mut [Linearization<3, 2, 3>],
+        steps: &mut [SVector<f64, 3>],
+        anchors: &mut [DVector<f64>],
+        _workspace: &mut (),
+    ) -> Result<(), (usize, TestError)> {
+        let each = out.iter_mut().zip(steps).zip(anchors);
+        for (j, ((out, step), anchor)) in each.enumerate() {
+            let i = first + j;
+            *step = self
+                .linearize_along(i, global, group, &points[j], &mut caches[j], dg, out)
+                .map_err(|e| (i, e))?;
+            *anchor = global + dg;
+        }
+        Ok(())
+    }
+    fn local_rows(
+        &self,
+        i: usize,
+        anchor: &DVector<f64>,
+        group: &SVector<f64, 3>,
+        point: &SVector<f64, 2>,
+        out: &mut LocalRows<3, 2, 3>,
+    ) -> Result<bool, TestError> {
+        let mut lin = Linearization::zeros(anchor.len());
+        self.rows(i, anchor, group, point, &mut lin);
+        *out = LocalRows {
+            residual: lin.residual,
+            d_group: lin.d_group,
+            d_point: lin.d_point,
+        };
+        Ok(true)
     }
     fn global_observations(
         &self,
@@ -374,6 +434,7 @@ pub struct Distances(pub Data);
 impl Problem<3, 0, 1> for Distances {
     type PointCache = u32;
     type Workspace = ();
+    type Anchor = ();
     type Error = TestError;
     type Jacobian = OMatrix<f64, U1, Dyn>;
     type Global = DVector<f64>;
@@ -711,4 +772,38 @@ pub fn flatten<const C: usize, const P: usize>(s: &State<C, P>) -> Vec<f64> {
     v.extend(s.groups.iter().flat_map(|c| c.iter().copied()));
     v.extend(s.points.iter().flat_map(|p| p.iter().copied()));
     v
+}
+
+/// `f` on a pool of `threads` threads.
+pub fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+/// The largest difference between two solutions' global unknowns and
+/// group blocks, in the sigmas of `reference` (its covariance and group
+/// sigmas).
+pub fn sigmas_apart<const P: usize>(reference: &Solution<3, P>, other: &Solution<3, P>) -> f64 {
+    let covariance = reference.covariance.as_ref().expect("covariance");
+    let mut apart = 0.0_f64;
+    for (j, (a, b)) in reference
+        .state
+        .global
+        .iter()
+        .zip(&other.state.global)
+        .enumerate()
+    {
+        apart = apart.max((a - b).abs() / covariance[(j, j)].sqrt());
+    }
+    let sigmas = reference.group_sigmas.as_ref().expect("group sigmas");
+    let groups = reference.state.groups.iter().zip(&other.state.groups);
+    for ((a, b), s) in groups.zip(sigmas) {
+        // A fixed group's sigmas are zero, and so is its difference.
+        let z = (a - b).zip_map(s, |d, s| if d == 0.0 { 0.0 } else { d.abs() / s });
+        apart = apart.max(z.amax());
+    }
+    apart
 }
