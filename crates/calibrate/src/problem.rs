@@ -487,6 +487,41 @@ impl<O, const G: usize> CalibrationProblem<'_, O, G> {
     where
         O: ContactObservations<R, P>,
     {
+        let mut d_ball = SMatrix::<f64, R, G>::zeros();
+        let rows = (&mut out.residual, &mut d_ball, &mut out.d_point);
+        out.d_global.d_tip = self.ball_rows(i, tip, ball, angles, rows)?;
+        match in_global {
+            Some(start) => {
+                out.d_global.centre = Some((start, d_ball));
+                out.d_group = SMatrix::zeros();
+            }
+            None => {
+                out.d_global.centre = None;
+                out.d_group = d_ball;
+            }
+        }
+        Ok(())
+    }
+
+    /// Contact `i`'s whitened observation block at the tool tip `tip`, its
+    /// ball's unknowns `ball` (the centre, then the radius when it is an
+    /// unknown) and its angles: the residual, `dc/d(C, r)` and `dc/dθ` into
+    /// `rows`, `dc/dT` returned.
+    fn ball_rows<const R: usize, const P: usize>(
+        &self,
+        i: usize,
+        tip: &Vec3,
+        ball: &SVector<f64, G>,
+        angles: &SVector<f64, P>,
+        (residual, d_ball, d_angles): (
+            &mut SVector<f64, R>,
+            &mut SMatrix<f64, R, G>,
+            &mut SMatrix<f64, R, P>,
+        ),
+    ) -> Result<SMatrix<f64, R, 3>, CalibrateError>
+    where
+        O: ContactObservations<R, P>,
+    {
         let centre = ball.fixed_rows::<3>(0).into_owned();
         let radius = if Self::RADIUS_UNKNOWN {
             ball[G - 1]
@@ -505,25 +540,13 @@ impl<O, const G: usize> CalibrationProblem<'_, O, G> {
                 });
             }
         };
-        out.residual = block.residual;
-        out.d_global.d_tip = block.d_tip;
-        let mut d_ball = SMatrix::<f64, R, G>::zeros();
+        *residual = block.residual;
         d_ball.fixed_columns_mut::<3>(0).copy_from(&block.d_centre);
         if Self::RADIUS_UNKNOWN {
             d_ball.column_mut(G - 1).copy_from(&block.d_radius);
         }
-        match in_global {
-            Some(start) => {
-                out.d_global.centre = Some((start, d_ball));
-                out.d_group = SMatrix::zeros();
-            }
-            None => {
-                out.d_global.centre = None;
-                out.d_group = d_ball;
-            }
-        }
-        out.d_point = block.d_angles;
-        Ok(())
+        *d_angles = block.d_angles;
+        Ok(block.d_tip)
     }
 
     /// The common errors of the entered data that the problem's rows
@@ -801,25 +824,8 @@ where
         point: &SVector<f64, P>,
         out: &mut LocalRows<G, P, R>,
     ) -> Result<bool, CalibrateError> {
-        let centre = group.fixed_rows::<3>(0).into_owned();
-        let radius = if Self::RADIUS_UNKNOWN {
-            group[G - 1]
-        } else {
-            self.radius(i)
-        };
-        let evaluated = self.observations.block(i, radius, anchor, &centre, point);
-        let block = evaluated.map_err(|source| CalibrateError::Observation {
-            row: self.row(i),
-            source,
-        })?;
-        out.residual = block.residual;
-        out.d_group
-            .fixed_columns_mut::<3>(0)
-            .copy_from(&block.d_centre);
-        if Self::RADIUS_UNKNOWN {
-            out.d_group.column_mut(G - 1).copy_from(&block.d_radius);
-        }
-        out.d_point = block.d_angles;
+        let rows = (&mut out.residual, &mut out.d_group, &mut out.d_point);
+        self.ball_rows(i, anchor, group, point, rows)?;
         Ok(true)
     }
 
