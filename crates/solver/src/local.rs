@@ -52,6 +52,8 @@ pub(crate) struct LocalSteps {
 pub(crate) struct LocalScratch<const C: usize, const P: usize, const R: usize> {
     /// The points' values being stepped.
     values: Vec<SVector<f64, P>>,
+    /// The points' priors, their information whole ([`symmetric`]).
+    priors: Vec<Option<GaussianPrior<Const<P>>>>,
     /// Each point's rows at the values being stepped from.
     rows: Vec<LocalRows<C, P, R>>,
     /// Each point's `A_p⁻¹ B_p` and `A_p⁻¹ b_p` (the point's normal block
@@ -67,6 +69,7 @@ impl<const C: usize, const P: usize, const R: usize> Default for LocalScratch<C,
     fn default() -> Self {
         Self {
             values: Vec::new(),
+            priors: Vec::new(),
             rows: Vec::new(),
             solves: Vec::new(),
             tried: Vec::new(),
@@ -75,36 +78,37 @@ impl<const C: usize, const P: usize, const R: usize> Default for LocalScratch<C,
     }
 }
 
-/// A prior's information with its upper triangle taken from its lower one
-/// (the only one [`GaussianPrior`] reads).
-fn information<const D: usize>(prior: &GaussianPrior<Const<D>>) -> SMatrix<f64, D, D> {
-    let mut information = prior.information;
-    information.fill_upper_triangle_with_lower_triangle();
-    information
+/// `prior` with its information's upper triangle taken from its lower one
+/// (the only one [`GaussianPrior`] reads), so that products with it may
+/// read the whole matrix.
+fn symmetric<const D: usize>(mut prior: GaussianPrior<Const<D>>) -> GaussianPrior<Const<D>> {
+    prior.information.fill_upper_triangle_with_lower_triangle();
+    prior
 }
 
-/// The cost of group `k` (points `range`) at its values `group` and
-/// `points`, each point's rows at its anchor written into `rows`: `Σ
-/// |r_i|²` plus its points' priors and its own. `None` if a point's rows
+/// The cost of a group at its values `group` and `points` (their priors
+/// `group_prior` and `priors`), each point's rows at its anchor written into
+/// `rows`: `Σ |r_i|²` plus the priors' terms. `None` if a point's rows
 /// cannot be evaluated or the problem has none.
+#[allow(clippy::too_many_arguments)]
 fn group_cost<const C: usize, const P: usize, const R: usize, Pr: Problem<C, P, R>>(
     problem: &Pr,
-    k: usize,
     range: &Range<usize>,
     anchors: &[Pr::Anchor],
     group: &SVector<f64, C>,
     points: &[SVector<f64, P>],
+    group_prior: Option<&GaussianPrior<Const<C>>>,
+    priors: &[Option<GaussianPrior<Const<P>>>],
     rows: &mut [LocalRows<C, P, R>],
 ) -> Option<f64> {
-    let mut cost = problem
-        .group_prior(k)
-        .map_or(0.0, |prior| prior.cost(group));
-    for (((i, anchor), point), rows) in range.clone().zip(anchors).zip(points).zip(rows) {
+    let mut cost = group_prior.map_or(0.0, |prior| prior.cost(group));
+    let each = range.clone().zip(anchors).zip(points.iter().zip(priors));
+    for (((i, anchor), (point, prior)), rows) in each.zip(rows) {
         if !matches!(problem.local_rows(i, anchor, group, point, rows), Ok(true)) {
             return None;
         }
         cost += rows.residual.norm_squared();
-        if let Some(prior) = problem.point_prior(i) {
+        if let Some(prior) = prior {
             cost += prior.cost(point);
         }
     }
@@ -154,6 +158,7 @@ impl<const C: usize, const P: usize, const R: usize> LocalScratch<C, P, R> {
     ) -> usize {
         let Self {
             values: points,
+            priors,
             rows,
             solves,
             tried,
@@ -163,31 +168,41 @@ impl<const C: usize, const P: usize, const R: usize> LocalScratch<C, P, R> {
         rows.resize(n, LocalRows::default());
         tried_rows.resize(n, LocalRows::default());
         solves.resize(n, (SMatrix::zeros(), SVector::zeros()));
-        let Some(mut cost) = group_cost(problem, k, range, anchors, group, points, rows) else {
+        priors.clear();
+        priors.extend(range.clone().map(|i| problem.point_prior(i).map(symmetric)));
+        let group_prior = problem.group_prior(k).map(symmetric);
+        let group_prior = group_prior.as_ref();
+        let at = |group: &SVector<f64, C>, points: &[SVector<f64, P>], rows: &mut [_]| {
+            group_cost(
+                problem,
+                range,
+                anchors,
+                group,
+                points,
+                group_prior,
+                priors,
+                rows,
+            )
+        };
+        let Some(mut cost) = at(group, points, rows) else {
             return 0;
         };
-        let group_prior = problem.group_prior(k);
         let mut kept = 0;
         while kept < options.steps {
             // The Schur complement `S δc = −s` of the group's normal equations.
-            let (mut schur, mut s) = match &group_prior {
-                Some(prior) => {
-                    let information = information(prior);
-                    let s = information * (*group - prior.mean);
-                    (information, s)
-                }
+            let (mut schur, mut s) = match group_prior {
+                Some(prior) => (prior.information, prior.information * (*group - prior.mean)),
                 None => (SMatrix::<f64, C, C>::zeros(), SVector::<f64, C>::zeros()),
             };
             // `Σ b_pᵀ A_p⁻¹ b_p`, the points' part of the predicted decrease.
             let mut points_decrease = 0.0;
-            let eliminated = range.clone().zip(points.iter().zip(rows.iter()));
-            for ((i, (point, rows)), solve) in eliminated.zip(solves.iter_mut()) {
+            let eliminated = (points.iter().zip(priors.iter())).zip(rows.iter());
+            for (((point, prior), rows), solve) in eliminated.zip(solves.iter_mut()) {
                 let mut a = rows.d_point.tr_mul(&rows.d_point);
                 let mut b = rows.d_point.tr_mul(&rows.residual);
-                if let Some(prior) = problem.point_prior(i) {
-                    let information = information(&prior);
-                    a += information;
-                    b += information * (point - prior.mean);
+                if let Some(prior) = prior {
+                    a += prior.information;
+                    b += prior.information * (point - prior.mean);
                 }
                 let Some(a) = a.try_inverse() else {
                     return kept;
@@ -214,7 +229,7 @@ impl<const C: usize, const P: usize, const R: usize> LocalScratch<C, P, R> {
                 tried.push(point - (own + coupled * dc));
             }
             let next = *group + dc;
-            match group_cost(problem, k, range, anchors, &next, tried, tried_rows) {
+            match at(&next, tried, tried_rows) {
                 Some(lower) if lower < cost => {
                     cost = lower;
                     *group = next;
