@@ -202,7 +202,6 @@ where
     let mut workspace = Pr::Workspace::default();
     let loss = problem.loss();
     let robust = !loss.is_squared();
-    let local = local.filter(|_| !robust);
     let mut anchors = Vec::new();
     let mut scratch = LocalScratch::default();
     for k in chunk.groups.clone() {

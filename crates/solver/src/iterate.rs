@@ -206,7 +206,8 @@ fn certified_step(system: &ReducedSystem, dg: &DVector<f64>, tolerance: f64) -> 
 /// at its minimum to well within the stopping rule); none from an iterate
 /// above the start, where a step has overshot and the anchors' first-order
 /// predictions are no guide; none for a damped step (Levenberg–Marquardt
-/// judges it against its linear model).
+/// judges it against its linear model) or under a robust loss (whose
+/// reweighting is the joint iteration's).
 fn local_steps_of(
     system: &ReducedSystem,
     dg: &DVector<f64>,
@@ -216,8 +217,10 @@ fn local_steps_of(
     let cost = system.cost();
     let unsettled = cost - system.linear_minimum(dg.as_slice()) >= SETTLED * cost;
     let below_start = system.loss() <= initial_cost;
+    let least_squares = system.loss_cost.is_none();
     let undamped = system.lambda == 0.0;
-    (options.local_steps > 0 && undamped && below_start && unsettled).then(|| LocalSteps {
+    let taken = least_squares && undamped && below_start && unsettled;
+    (options.local_steps > 0 && taken).then(|| LocalSteps {
         steps: options.local_steps,
         least_decrease: (options.sigma_tolerance / 10.0).powi(2),
     })

@@ -29,8 +29,8 @@
 //! step's linear model predicts is below the iteration's threshold. The
 //! sums that judge the iteration (`δᵀHδ`, `|δ|`, the stopping rule) stay
 //! the back-substitution's: the stopping rule judges the joint step
-//! computed at an iterate, as without local steps. Least squares only (a
-//! robust loss's reweighting is the joint iteration's).
+//! computed at an iterate, as without local steps. When they are taken:
+//! `iterate::local_steps_of`.
 
 use std::ops::Range;
 
