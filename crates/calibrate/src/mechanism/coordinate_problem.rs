@@ -190,32 +190,33 @@ impl<'a, const C: usize> CoordinateProblem<'a, C> {
     }
 }
 
-/// A touch's rows but `d_global` into `out` ([`local_rows`]).
+/// A touch's rows but `d_global` into `out` ([`put_rows`]).
 fn put_local<const C: usize>(out: &mut Local<C>, rows: &CoordinateJacobians, ball: &TouchedBall) {
-    let LocalRows {
-        residual,
-        d_group,
-        d_point,
-    } = local_rows(rows, ball);
-    (out.residual, out.d_group, out.d_point) = (residual, d_group, d_point);
+    put_rows(
+        rows,
+        ball,
+        (&mut out.residual, &mut out.d_group, &mut out.d_point),
+    );
 }
 
-/// A touch's rows but `d_global`: its residual, its angles' columns and,
-/// when its ball is in its group, its ball's ([`put_group_columns`]), the
-/// group's other columns zero.
-fn local_rows<const C: usize>(
+/// A touch's rows but `d_global` into their places: its residual, its
+/// angles' columns and, when its ball is in its group, its ball's
+/// ([`put_group_columns`]), the group's other columns zero.
+fn put_rows<const C: usize>(
     rows: &CoordinateJacobians,
     ball: &TouchedBall,
-) -> LocalRows<C, 2, 3> {
-    let mut local = LocalRows {
-        residual: rows.residual,
-        d_group: SMatrix::zeros(),
-        d_point: rows.d_angles,
-    };
+    (residual, d_group, d_angles): (
+        &mut SVector<f64, 3>,
+        &mut SMatrix<f64, 3, C>,
+        &mut SMatrix<f64, 3, 2>,
+    ),
+) {
+    *residual = rows.residual;
+    d_group.fill(0.0);
+    *d_angles = rows.d_angles;
     if ball.tied.is_none() {
-        put_group_columns(&mut local.d_group, ball, &rows.d_centre, &rows.d_radius);
+        put_group_columns(d_group, ball, &rows.d_centre, &rows.d_radius);
     }
-    local
 }
 
 /// A re-seeded ball's touches are charted again (module doc): about the
@@ -375,7 +376,11 @@ impl<const C: usize> Problem<C, 2, 3> for CoordinateProblem<'_, C> {
         let chart = DirectionChart::about(&self.directions[i]);
         let rows = touch.coordinate_rows(anchor, &chart, &ball.centre, ball.radius, point);
         let rows = rows.map_err(|e| touch_failed(t, touch.ball, e))?;
-        *out = local_rows(&rows, &ball);
+        put_rows(
+            &rows,
+            &ball,
+            (&mut out.residual, &mut out.d_group, &mut out.d_point),
+        );
         Ok(true)
     }
 

@@ -531,8 +531,8 @@ impl<'a, const C: usize> MechanismProblem<'a, C> {
         }
     }
 
-    /// Ball `b` of the `unknowns` its centre, then its radius when
-    /// uncertain, start, tied at `tied`.
+    /// Ball `b` from `unknowns`, which start with its centre, then its
+    /// radius when uncertain; tied at the global column `tied`, if any.
     fn ball_of(&self, b: usize, unknowns: &[f64], tied: Option<usize>) -> TouchedBall {
         let ball = &self.data.observations.balls[b];
         let uncertain = ball.radius_sigma.is_some();
