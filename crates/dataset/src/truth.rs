@@ -244,7 +244,13 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for ByBallSeed<'_, T> {
         let mut out = self.into.borrow_mut();
         // A parse again (to name the field of an error) starts afresh.
         out.given.fill(false);
-        while let Some(i) = map.next_key_seed(BallId(self.index))? {
+        let mut next = 0;
+        while let Some(i) = map.next_key_seed(BallId {
+            balls: self.balls,
+            index: self.index,
+            next,
+        })? {
+            next = i + 1;
             if std::mem::replace(&mut out.given[i], true) {
                 return Err(de::Error::custom(format!(
                     "ball id {} appears twice",
@@ -257,8 +263,14 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for ByBallSeed<'_, T> {
     }
 }
 
-/// A ball id, read as its index among the balls.
-struct BallId<'a>(&'a BallIndex<'a>);
+/// A ball id, read as its index among the balls: the ball after the last
+/// key read (`next`) first, since the writer keys the balls in their
+/// order, any other through the index.
+struct BallId<'a> {
+    balls: &'a [Ball],
+    index: &'a BallIndex<'a>,
+    next: usize,
+}
 
 impl<'de> DeserializeSeed<'de> for BallId<'_> {
     type Value = usize;
@@ -276,7 +288,10 @@ impl<'de> Visitor<'de> for BallId<'_> {
     }
 
     fn visit_str<E: de::Error>(self, id: &str) -> std::result::Result<usize, E> {
-        self.0.get(id.as_bytes()).copied().ok_or_else(|| {
+        if self.balls.get(self.next).is_some_and(|ball| ball.id == id) {
+            return Ok(self.next);
+        }
+        self.index.get(id.as_bytes()).copied().ok_or_else(|| {
             E::custom(format!(
                 "unknown ball id {} (not in artefacts.json)",
                 quoted(id)

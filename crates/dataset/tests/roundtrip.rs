@@ -536,6 +536,34 @@ fn a_key_given_twice_in_calibration_json_is_refused() {
     );
 }
 
+/// Balls keyed in another order than the artefacts' are read by their
+/// ids, as in order.
+#[test]
+fn the_truths_balls_read_in_any_order() {
+    let original = dataset(ALL);
+    let dir = tempfile::tempdir().unwrap();
+    original.write(dir.path()).unwrap();
+    let path = dir.path().join(TRUTH_FILE);
+    let mut truth: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
+    let mut reversed = Vec::new();
+    for key in ["ball_centres", "ball_radii"] {
+        let entries: Vec<String> = (truth[key].as_object().unwrap().iter().rev())
+            .map(|(id, value)| format!("{}: {value}", serde_json::Value::from(id.as_str())))
+            .collect();
+        reversed.push((format!("\"@{key}\""), format!("{{{}}}", entries.join(", "))));
+        truth[key] = serde_json::Value::from(format!("@{key}"));
+    }
+    let mut text = truth.to_string();
+    for (placeholder, object) in &reversed {
+        text = text.replace(placeholder, object);
+    }
+    assert!(text.find("\"plate-3\"").unwrap() < text.find("\"b01\"").unwrap());
+    fs::write(&path, text).unwrap();
+    let read = Dataset::read(dir.path()).unwrap();
+    assert_eq!(read.truth, original.truth);
+}
+
 #[test]
 fn the_truth_reads_without_its_contact_points() {
     let original = dataset(ALL);
