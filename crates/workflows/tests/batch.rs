@@ -7,7 +7,9 @@ use crate::common;
 
 use common::options;
 use nalgebra::{DVector, SVector, Vector2};
-use parcal_calibrate::problem::{ContactJacobian, CoordinateObservations};
+use parcal_calibrate::problem::{
+    CalibrationProblem, ContactJacobian, CoordinateObservations, GlobalValues,
+};
 use parcal_calibrate::setup::{Observations, Setup};
 use parcal_dataset::Dataset;
 use parcal_kinematics::forward_batch::PivotOrder;
@@ -53,6 +55,43 @@ fn assert_close(a: &[f64], b: &[f64], tolerance: f64, what: &str) {
 /// The lanes' LU pivots as the scalar code does only to rounding, and
 /// the two forward kinematics may end an ulp apart.
 const WHITENED_ROUNDING: f64 = 16.0 * f64::EPSILON * 500.0 / 1e-3;
+
+type Calibration<'a> = CalibrationProblem<'a, CoordinateObservations, 3>;
+
+/// `linearize_along_batch` of the contacts `first..first + angles.len()`
+/// of the ball at `centre` along `dg`, from `poses` (left predicted after
+/// the step): their linearisations, `d_global dg` and anchors.
+#[allow(clippy::too_many_arguments)]
+fn along_batch(
+    problem: &Calibration<'_>,
+    first: usize,
+    global: &GlobalValues<3>,
+    centre: &SVector<f64, 3>,
+    angles: &[Vector2<f64>],
+    poses: &mut [Pose],
+    dg: &DVector<f64>,
+    workspace: &mut PivotOrder,
+) -> (Vec<Lin>, Vec<SVector<f64, 3>>, Vec<Vec3>) {
+    let n = angles.len();
+    let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros(N_PARAMS)).collect();
+    let mut steps = vec![SVector::<f64, 3>::zeros(); n];
+    let mut anchors = vec![Vec3::zeros(); n];
+    problem
+        .linearize_along_batch(
+            first,
+            global,
+            centre,
+            angles,
+            poses,
+            dg,
+            &mut batch,
+            &mut steps,
+            &mut anchors,
+            workspace,
+        )
+        .unwrap();
+    (batch, steps, anchors)
+}
 
 /// The linearisations agree: the blocks to rounding, and (`global`) the
 /// global Jacobian row by row.
@@ -119,25 +158,19 @@ fn a_batch_is_its_contacts_one_at_a_time() {
             let mut workspace = PivotOrder::default();
             for along in [false, true] {
                 let mut poses = setup.poses[range.clone()].to_vec();
-                let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros(N_PARAMS)).collect();
-                let mut steps = vec![SVector::<f64, 3>::zeros(); n];
-                let mut anchors = vec![Vec3::zeros(); n];
-                if along {
-                    problem
-                        .linearize_along_batch(
-                            first,
-                            &global,
-                            &centre,
-                            &angles,
-                            &mut poses,
-                            &dg,
-                            &mut batch,
-                            &mut steps,
-                            &mut anchors,
-                            &mut workspace,
-                        )
-                        .unwrap();
+                let (batch, steps, _) = if along {
+                    along_batch(
+                        &problem,
+                        first,
+                        &global,
+                        &centre,
+                        &angles,
+                        &mut poses,
+                        &dg,
+                        &mut workspace,
+                    )
                 } else {
+                    let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros(N_PARAMS)).collect();
                     problem
                         .linearize_batch(
                             first,
@@ -149,7 +182,8 @@ fn a_batch_is_its_contacts_one_at_a_time() {
                             &mut workspace,
                         )
                         .unwrap();
-                }
+                    (batch, Vec::new(), Vec::new())
+                };
                 for (j, i) in range.clone().enumerate() {
                     let mut pose = setup.poses[i];
                     let mut single = Lin::zeros(N_PARAMS);
@@ -274,23 +308,16 @@ fn a_contact_s_local_rows_at_its_anchor_are_its_rows_along_the_step() {
     for scale in [1.0, 0.5] {
         let dg = &direction * scale;
         let mut poses = setup.poses[range.start..range.start + n].to_vec();
-        let mut batch: Vec<Lin> = (0..n).map(|_| Lin::zeros(N_PARAMS)).collect();
-        let mut steps = vec![SVector::<f64, 3>::zeros(); n];
-        let mut anchors = vec![Vec3::zeros(); n];
-        problem
-            .linearize_along_batch(
-                range.start,
-                &global,
-                &centre,
-                &angles,
-                &mut poses,
-                &dg,
-                &mut batch,
-                &mut steps,
-                &mut anchors,
-                workspace,
-            )
-            .unwrap();
+        let (batch, steps, anchors) = along_batch(
+            &problem,
+            range.start,
+            &global,
+            &centre,
+            &angles,
+            &mut poses,
+            &dg,
+            workspace,
+        );
         let stepped = problem.prepare_global(&global_block(
             &(params + Params::from_column_slice(dg.as_slice())),
         ));
