@@ -11,10 +11,9 @@ use std::ops::Range;
 
 use nalgebra::{DMatrix, DVector, Dyn, Matrix3x6, SMatrix, SVector, UnitVector3, Vector6};
 use parcal_dataset::{ArtefactFrame, Dataset};
-use parcal_kinematics::forward_batch::{LANES, forward_batch};
+use parcal_kinematics::forward_batch::{LANES, forward_derivatives_batch};
 use parcal_kinematics::{
-    Canonical, ForwardOptions, ForwardSolution, Geometry, N_PARAMS, Params, Pose, TipDerivatives,
-    Vec3, params,
+    Canonical, ForwardOptions, Geometry, N_PARAMS, Params, Pose, TipDerivatives, Vec3, params,
 };
 use parcal_observe::{
     CoordinateWhitening, DistanceBlock, KinematicPrior, ObserveError, RadiusWhitening,
@@ -529,13 +528,12 @@ impl DesignStart<'_> {
 
     /// The design's forward kinematics of the contacts of up to [`LANES`]
     /// balls (`rows[b]`, ball `b` in lane `b`), contact after contact, the
-    /// lanes in lockstep ([`forward_batch`]); writes each contact's pose
-    /// into its ball's `slots` and gives each ball's tips and `dT/dq` per
-    /// unit of the reading, or its first error. A ball's first contact
+    /// lanes in lockstep ([`forward_derivatives_batch`]); writes each
+    /// contact's pose into its ball's `slots` and gives each ball's tips and
+    /// `dT/dq` per unit of the reading, or its first error. A ball's first contact
     /// starts from the home pose, each next one from the pose predicted by
-    /// the previous solution (3.1 Newton steps per contact instead of 4.0
-    /// on the simulated campaigns), and from the home pose again if that
-    /// fails.
+    /// the previous solution (fewer Newton steps than from the home pose),
+    /// and from the home pose again if that fails.
     fn kinematics<T>(
         &self,
         rows: &[&[u32]],
@@ -561,7 +559,8 @@ impl DesignStart<'_> {
             let mut lanes = [0; LANES];
             let mut q = [[0.0; 6]; LANES];
             let mut predicted: [Option<Pose>; LANES] = [None; LANES];
-            let mut solutions: [ForwardSolution; LANES] = Default::default();
+            let mut starts = [Pose::identity(); LANES];
+            let mut active = [false; LANES];
             let mut n = 0;
             for b in (0..rows.len()).filter(|&b| j < rows[b].len() && out[b].is_ok()) {
                 let reading = scales.extensions(&dataset.measurements.q[rows[b][j] as usize]);
@@ -569,24 +568,30 @@ impl DesignStart<'_> {
                     derivatives[b].predicted_pose(&Vector6::from_fn(|i, _| reading[i] - before[i]))
                 });
                 previous[b] = Some(reading);
-                solutions[n].pose = predicted[n].unwrap_or_else(|| geometry.home_pose(&reading));
-                (lanes[n], q[n]) = (b, reading);
+                starts[n] = predicted[n].unwrap_or_else(|| geometry.home_pose(&reading));
+                (lanes[n], q[n], active[b]) = (b, reading, true);
                 n += 1;
             }
             let q_refs: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
+            // Each ball's derivatives solved where they are kept.
+            let mut items: Vec<&mut TipDerivatives> = derivatives
+                .iter_mut()
+                .zip(active)
+                .filter_map(|(d, a)| a.then_some(d))
+                .collect();
             let solved =
-                forward_batch(geometry, &q_refs[..n], &fk, &mut solutions[..n], |s| s).is_ok();
+                forward_derivatives_batch(geometry, &q_refs[..n], &starts[..n], &fk, &mut items)
+                    .is_ok();
+            drop(items);
             for (l, &b) in lanes[..n].iter().enumerate() {
                 let row = rows[b][j] as usize;
-                let lane = solved
-                    .then_some(&solutions[l])
-                    .filter(|s| predicted[l].is_none_or(|start| landed(geometry, &s.pose, &start)));
-                let reached = match lane {
-                    Some(solution) => {
-                        derivatives[b].set(geometry, solution);
-                        Ok(())
-                    }
-                    None => one_contact(geometry, &mut derivatives[b], &q[l], predicted[l], row),
+                let near = |start: Pose| landed(geometry, &derivatives[b].solution().pose, &start);
+                let reached = if solved && predicted[l].is_none_or(near) {
+                    Ok(())
+                } else {
+                    // The lanes tried the prediction if they solved.
+                    let untried = predicted[l].filter(|_| !solved);
+                    one_contact(geometry, &mut derivatives[b], &q[l], untried, row)
                 };
                 match (reached, &mut out[b]) {
                     (Err(error), slot) => *slot = Err(error),
@@ -692,8 +697,8 @@ fn landed(geometry: &Geometry, pose: &Pose, start: &Pose) -> bool {
 
 /// The design's forward kinematics of one contact (measurements.csv row
 /// `row`, leg extensions `q`) into `derivatives`, one by one: from the
-/// `predicted` pose if it lands near it, else from the home pose; an error
-/// naming the row.
+/// `predicted` pose if one is given and it lands near it, else from the
+/// home pose; an error naming the row.
 fn one_contact(
     geometry: &Geometry,
     derivatives: &mut TipDerivatives,

@@ -141,6 +141,16 @@ pub fn refine_centre(
             .cholesky()
             .ok_or(SphereFitError::Degenerate)?
             .solve(&-jtr);
+        // A step this short ends the fit: taken as it is, since the change
+        // of the cost it makes is below the cost's rounding, which step
+        // halving would chase for nothing.
+        if step.norm() < STEP_TOLERANCE_MM {
+            let centre = centre + step;
+            return Ok(SphereFit {
+                centre: centre + mean,
+                cost: cost(&centre),
+            });
+        }
         // Step halving keeps every accepted step downhill.
         let mut scale = 1.0;
         let (next, next_cost) = loop {

@@ -53,9 +53,9 @@ pub struct TipJacobians {
 pub struct TipDerivatives {
     /// The forward kinematics: the legs (`R`, `n_i`) and the LU of the
     /// closure Jacobian `A` where they are.
-    solution: ForwardSolution,
+    pub(crate) solution: ForwardSolution,
     /// `R E_T`: the tool offset rotated into the base frame.
-    tool: Vec3,
+    pub(crate) tool: Vec3,
 }
 
 /// The pose's and the tip's derivatives along a parameter direction `dp` at
@@ -321,16 +321,8 @@ impl TipDerivatives {
     }
 
     /// The tool offset in the base frame at `solution`, `R E_T`.
-    fn tool_at(geometry: &Geometry, solution: &ForwardSolution) -> Vec3 {
+    pub(crate) fn tool_at(geometry: &Geometry, solution: &ForwardSolution) -> Vec3 {
         solution.legs.rotation * geometry.tool
-    }
-
-    /// These derivatives made [`TipDerivatives::new`]'s of `geometry`'s tip
-    /// at `solution`, in place (the solution copied once, not into a new
-    /// value and then moved).
-    pub fn set(&mut self, geometry: &Geometry, solution: &ForwardSolution) {
-        self.tool = Self::tool_at(geometry, solution);
-        self.solution.clone_from(solution);
     }
 
     /// The derivatives at `pose` (evaluates and factorises the legs).
@@ -361,7 +353,7 @@ impl TipDerivatives {
     /// Forward kinematics of `geometry` at `q` from `start`
     /// ([`crate::forward()`]), in place, leaving these derivatives at its
     /// solution. Several contacts at once, in SIMD lanes:
-    /// [`crate::forward_batch::forward_jacobian_batch`].
+    /// [`crate::forward_batch::forward_derivatives_batch`].
     pub fn forward(
         &mut self,
         geometry: &Geometry,

@@ -47,7 +47,7 @@
 
 use std::ops::Range;
 
-use crate::derivatives::{SolutionAlong, SolutionJacobian};
+use crate::derivatives::{SolutionAlong, SolutionJacobian, TipDerivatives};
 use crate::forward::forward_in_place;
 use crate::lu6::Lu6;
 use crate::{ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose};
@@ -107,6 +107,33 @@ fn forward_in<T>(
         }),
         None => one_by_one(items, scalar),
     }
+}
+
+/// [`TipDerivatives::forward`] of up to [`LANES`] contacts at once
+/// ([`forward_batch`]): `items[l]` solved for actuator values `q[l]` from
+/// `starts[l]`, in place, each left at its solution with its tool offset.
+/// An error is that of the first failing contact, with its index; the
+/// other items are then unspecified.
+///
+/// # Panics
+/// If `q`, `starts` and `items` differ in length or hold more than
+/// [`LANES`] contacts.
+pub fn forward_derivatives_batch(
+    geometry: &Geometry,
+    q: &[&[f64; 6]],
+    starts: &[Pose],
+    options: &ForwardOptions,
+    items: &mut [&mut TipDerivatives],
+) -> Result<(), (usize, KinematicsError)> {
+    assert_eq!(starts.len(), items.len(), "one start per contact");
+    for (item, start) in items.iter_mut().zip(starts) {
+        item.solution.pose = *start;
+    }
+    forward_batch(geometry, q, options, items, |item| &mut item.solution)?;
+    for item in items.iter_mut() {
+        item.tool = TipDerivatives::tool_at(geometry, &item.solution);
+    }
+    Ok(())
 }
 
 /// The row order in which the lanes first try to factorise the closure
@@ -1291,6 +1318,33 @@ mod tests {
                     assert!((a.pose.translation.vector - b.pose.translation.vector).amax() < 1e-10);
                 }
             }
+        }
+    }
+
+    /// Derivatives solved in place, eight at once, are each contact's own
+    /// ([`TipDerivatives::forward`]) to rounding: the pose, and `dT/dq`
+    /// through the tool offset kept beside the solution.
+    #[test]
+    fn derivatives_solved_in_place_are_each_contacts_own() {
+        let geometry = paper::truth();
+        let options = ForwardOptions::default();
+        let (q, starts) = eight_contacts(&geometry);
+        let q: Vec<&[f64; 6]> = q.iter().collect();
+        let mut batch = vec![TipDerivatives::default(); q.len()];
+        let mut items: Vec<&mut TipDerivatives> = batch.iter_mut().collect();
+        let solved = forward_derivatives_batch(&geometry, &q, &starts, &options, &mut items);
+        assert_eq!(solved, Ok(()));
+        for (l, solved) in batch.iter().enumerate() {
+            let mut own = TipDerivatives::default();
+            own.forward(&geometry, q[l], &starts[l], &options).unwrap();
+            let (a, b) = (solved.solution(), own.solution());
+            assert!((a.pose.translation.vector - b.pose.translation.vector).amax() < 1e-10);
+            assert!(
+                a.pose.rotation.angle_to(&b.pose.rotation) < 1e-12,
+                "contact {l}"
+            );
+            let (a, b) = (solved.d_q(), own.d_q());
+            assert!((a - b).amax() < 1e-9 * b.amax(), "contact {l}");
         }
     }
 
