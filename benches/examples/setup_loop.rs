@@ -10,7 +10,7 @@
 
 use std::time::Instant;
 
-use parcal_benches::{campaign, setup};
+use parcal_benches::{campaign, print_times, setup};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -32,15 +32,7 @@ fn main() {
         // Dropped untimed.
         drop(made);
     }
-    let listed: Vec<String> = times.iter().map(|t| format!("{t:.1}")).collect();
-    println!("ms per set-up: {}", listed.join(", "));
-    let mean = times.iter().sum::<f64>() / times.len() as f64;
-    times.sort_by(f64::total_cmp);
-    println!(
-        "mean {mean:.1} median {:.1} min {:.1}",
-        times[times.len() / 2],
-        times[0]
-    );
+    print_times("set-up", times);
 }
 
 fn usage() -> ! {

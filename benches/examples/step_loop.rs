@@ -12,7 +12,7 @@
 
 use std::time::Instant;
 
-use parcal_benches::{campaign, setup, warm_problem};
+use parcal_benches::{campaign, print_times, setup, warm_problem};
 use parcal_solver::{SolverOptions, linear_step};
 
 fn main() {
@@ -37,15 +37,7 @@ fn main() {
         // Dropped untimed, as in the benchmark.
         drop((step, warm_starts));
     }
-    let listed: Vec<String> = times.iter().map(|t| format!("{t:.1}")).collect();
-    println!("ms per step: {}", listed.join(", "));
-    let mean = times.iter().sum::<f64>() / times.len() as f64;
-    times.sort_by(f64::total_cmp);
-    println!(
-        "mean {mean:.1} median {:.1} min {:.1}",
-        times[times.len() / 2],
-        times[0]
-    );
+    print_times("step", times);
 }
 
 fn usage() -> ! {

@@ -65,3 +65,17 @@ pub fn warm_problem<'a>(
     };
     (problem, state)
 }
+
+/// Prints the times of a loop's runs (ms) as made, then their mean,
+/// median and fastest: the `step_loop` and `setup_loop` examples' output.
+pub fn print_times(what: &str, mut times: Vec<f64>) {
+    let listed: Vec<String> = times.iter().map(|t| format!("{t:.1}")).collect();
+    println!("ms per {what}: {}", listed.join(", "));
+    let mean = times.iter().sum::<f64>() / times.len() as f64;
+    times.sort_by(f64::total_cmp);
+    println!(
+        "mean {mean:.1} median {:.1} min {:.1}",
+        times[times.len() / 2],
+        times[0]
+    );
+}
