@@ -551,56 +551,65 @@ impl DesignStart<'_> {
             .iter()
             .map(|rows| Ok(BallKinematics::with_capacity(rows.len())))
             .collect();
-        // Per lane, on the stack: no allocation per contact.
+        // Per lane, on the stack: no allocation per contact. Ball `lanes[l]`
+        // is in lane `l`, its derivatives `derivatives[l]`.
         let mut derivatives: [TipDerivatives; LANES] = Default::default();
+        let mut lanes: [usize; LANES] = std::array::from_fn(|b| b);
+        let mut n = rows.len();
         let mut previous: [Option<[f64; 6]>; LANES] = [None; LANES];
         let longest = rows.iter().map(|r| r.len()).max().unwrap_or(0);
         for j in 0..longest {
-            let mut lanes = [0; LANES];
+            // A ball out of contacts, or failed, leaves its lane; the others
+            // move down in order, each with its derivatives.
+            let mut kept = 0;
+            for l in 0..n {
+                let b = lanes[l];
+                if j < rows[b].len() && out[b].is_ok() {
+                    derivatives.swap(kept, l);
+                    lanes[kept] = b;
+                    kept += 1;
+                }
+            }
+            n = kept;
             let mut q = [[0.0; 6]; LANES];
             let mut predicted: [Option<Pose>; LANES] = [None; LANES];
             let mut starts = [Pose::identity(); LANES];
-            let mut active = [false; LANES];
-            let mut n = 0;
-            for b in (0..rows.len()).filter(|&b| j < rows[b].len() && out[b].is_ok()) {
+            for (l, &b) in lanes[..n].iter().enumerate() {
                 let reading = scales.extensions(&dataset.measurements.q[rows[b][j] as usize]);
-                predicted[n] = previous[b].map(|before| {
-                    derivatives[b].predicted_pose(&Vector6::from_fn(|i, _| reading[i] - before[i]))
+                predicted[l] = previous[b].map(|before| {
+                    derivatives[l].predicted_pose(&Vector6::from_fn(|i, _| reading[i] - before[i]))
                 });
                 previous[b] = Some(reading);
-                starts[n] = predicted[n].unwrap_or_else(|| geometry.home_pose(&reading));
-                (lanes[n], q[n], active[b]) = (b, reading, true);
-                n += 1;
+                starts[l] = predicted[l].unwrap_or_else(|| geometry.home_pose(&reading));
+                q[l] = reading;
             }
             let q_refs: [&[f64; 6]; LANES] = std::array::from_fn(|l| &q[l]);
-            // Each ball's derivatives solved where they are kept.
-            let mut items: Vec<&mut TipDerivatives> = derivatives
-                .iter_mut()
-                .zip(active)
-                .filter_map(|(d, a)| a.then_some(d))
-                .collect();
-            let solved =
-                forward_derivatives_batch(geometry, &q_refs[..n], &starts[..n], &fk, &mut items)
-                    .is_ok();
-            drop(items);
+            let solved = forward_derivatives_batch(
+                geometry,
+                &q_refs[..n],
+                &starts[..n],
+                &fk,
+                &mut derivatives[..n],
+            )
+            .is_ok();
             for (l, &b) in lanes[..n].iter().enumerate() {
                 let row = rows[b][j] as usize;
-                let near = |start: Pose| landed(geometry, &derivatives[b].solution().pose, &start);
+                let near = |start: Pose| landed(geometry, &derivatives[l].solution().pose, &start);
                 let reached = if solved && predicted[l].is_none_or(near) {
                     Ok(())
                 } else {
                     // The lanes tried the prediction if they solved.
                     let untried = predicted[l].filter(|_| !solved);
-                    one_contact(geometry, &mut derivatives[b], &q[l], untried, row)
+                    one_contact(geometry, &mut derivatives[l], &q[l], untried, row)
                 };
                 match (reached, &mut out[b]) {
                     (Err(error), slot) => *slot = Err(error),
                     (Ok(()), Ok(kinematics)) => {
-                        let pose = derivatives[b].solution().pose;
+                        let pose = derivatives[l].solution().pose;
                         slots[b].poses[j] = pose;
                         kinematics.points.push(geometry.tool_tip(&pose));
                         // dT/dq per unit of the reading: J_q diag(s).
-                        let mut d_q = derivatives[b].d_q();
+                        let mut d_q = derivatives[l].d_q();
                         for (mut column, scale) in d_q.column_iter_mut().zip(scales.values) {
                             column *= scale;
                         }

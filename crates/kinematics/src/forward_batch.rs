@@ -112,6 +112,7 @@ fn forward_in<T>(
 /// [`TipDerivatives::forward`] of up to [`LANES`] contacts at once
 /// ([`forward_batch`]): `items[l]` solved for actuator values `q[l]` from
 /// `starts[l]`, in place, each left at its solution with its tool offset.
+/// The lanes first try the row order of `items[0]`'s last factorisation.
 /// An error is that of the first failing contact, with its index; the
 /// other items are then unspecified.
 ///
@@ -123,7 +124,7 @@ pub fn forward_derivatives_batch(
     q: &[&[f64; 6]],
     starts: &[Pose],
     options: &ForwardOptions,
-    items: &mut [&mut TipDerivatives],
+    items: &mut [TipDerivatives],
 ) -> Result<(), (usize, KinematicsError)> {
     assert_eq!(starts.len(), items.len(), "one start per contact");
     for (item, start) in items.iter_mut().zip(starts) {
@@ -1331,8 +1332,7 @@ mod tests {
         let (q, starts) = eight_contacts(&geometry);
         let q: Vec<&[f64; 6]> = q.iter().collect();
         let mut batch = vec![TipDerivatives::default(); q.len()];
-        let mut items: Vec<&mut TipDerivatives> = batch.iter_mut().collect();
-        let solved = forward_derivatives_batch(&geometry, &q, &starts, &options, &mut items);
+        let solved = forward_derivatives_batch(&geometry, &q, &starts, &options, &mut batch);
         assert_eq!(solved, Ok(()));
         for (l, solved) in batch.iter().enumerate() {
             let mut own = TipDerivatives::default();
