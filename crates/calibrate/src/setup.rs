@@ -565,7 +565,9 @@ impl DesignStart<'_> {
             for l in 0..n {
                 let b = lanes[l];
                 if j < rows[b].len() && out[b].is_ok() {
-                    derivatives.swap(kept, l);
+                    if kept != l {
+                        derivatives.swap(kept, l);
+                    }
                     lanes[kept] = b;
                     kept += 1;
                 }
