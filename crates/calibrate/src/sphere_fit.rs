@@ -141,22 +141,16 @@ pub fn refine_centre(
             .cholesky()
             .ok_or(SphereFitError::Degenerate)?
             .solve(&-jtr);
-        // A step this short ends the fit: taken as it is, since the change
-        // of the cost it makes is below the cost's rounding, which step
+        // Step halving keeps every accepted step downhill, except a step
+        // this short, which ends the fit below: taken as it is, since the
+        // change of the cost it makes is below the cost's rounding, which
         // halving would chase for nothing.
-        if step.norm() < STEP_TOLERANCE_MM {
-            let centre = centre + step;
-            return Ok(SphereFit {
-                centre: centre + mean,
-                cost: cost(&centre),
-            });
-        }
-        // Step halving keeps every accepted step downhill.
+        let short = step.norm() < STEP_TOLERANCE_MM;
         let mut scale = 1.0;
         let (next, next_cost) = loop {
             let candidate = centre + scale * step;
             let candidate_cost = cost(&candidate);
-            if candidate_cost <= current || scale < 1e-6 {
+            if short || candidate_cost <= current || scale < 1e-6 {
                 break (candidate, candidate_cost);
             }
             scale *= 0.5;
