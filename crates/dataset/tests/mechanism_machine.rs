@@ -171,8 +171,9 @@ fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
         (compliance.design, compliance.prior_sigma),
         (TYPICAL_COMPLIANCE, TYPICAL_COMPLIANCE)
     );
-    // Loads for three of the four lines, a compliance no line uses, the
-    // compliance left out of "configured": refused by field.
+    // Loads for three of the four lines, a compliance no line uses, a
+    // slack line at the encoder zero, the compliance left out of
+    // "configured": refused by field.
     let json: serde_json::Value = serde_json::from_str(&text).unwrap();
     let edited = |edit: &dyn Fn(&mut serde_json::Value)| {
         let mut json = json.clone();
@@ -186,7 +187,13 @@ fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
         ),
         (
             edited(&|j| j["elasticity"]["compliance_of_line"] = serde_json::json!([1, 1, 1, 1])),
-            "compliance 1 is used by no line",
+            "no line has compliance index 0: the indices run from 0 to 1 without a gap",
+        ),
+        (
+            edited(&|j| {
+                j["elasticity"]["zero_loads"] = serde_json::json!([13.7, -14.5, 14.1, 12.5])
+            }),
+            "a load at the encoder zero, -14.5 N, is not positive and finite",
         ),
         (
             edited(&|j| {

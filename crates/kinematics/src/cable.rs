@@ -613,6 +613,8 @@ impl CableRobot {
     /// dtheta_j/dr_j = k_j (r_j / R_j - 1)
     /// dtheta_j/dc_j = -g_j (F_j - F0_j) |a_j - p|
     /// ```
+    ///
+    /// A load that is not positive is refused: it would be a slack line's.
     fn readings_under(
         &self,
         params: &[f64],
@@ -624,6 +626,15 @@ impl CableRobot {
         let n = self.cables();
         if let Some(loads) = loads {
             check_vector(self, "loads", loads, n)?;
+            if let Some(j) = loads.iter().position(|f| !elasticity::is_taut(*f)) {
+                return Err(MechanismError::Unreachable {
+                    reason: format!(
+                        "line {}'s load, {} N, is not positive: a line is taut under a positive load",
+                        cable_name(j).to_ascii_uppercase(),
+                        loads[j]
+                    ),
+                });
+            }
         }
         let mut q = DVector::zeros(n);
         let mut d_params = DMatrix::zeros(n, self.parameters.len());

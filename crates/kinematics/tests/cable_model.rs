@@ -170,6 +170,13 @@ fn forward_under_loads_inverts_the_loaded_readings() {
         let error = (back - DVector::from_column_slice(&pose)).amax();
         assert!(error < 1e-7, "{error:e}");
     }
+    // A line's load that is not positive is a slack line's: refused, by
+    // its line.
+    let p = design(&robot);
+    let error = robot
+        .loaded_readings(p.as_slice(), &[0.0, 0.0, 300.0], &[10.0, 10.0, 0.0, 10.0])
+        .unwrap_err();
+    assert!(error.to_string().contains("line C's load, 0 N"), "{error}");
     // A mechanism without a load model says so.
     let delta = parcal_kinematics::delta::LinearDelta::typical();
     let p = design(&delta);
@@ -192,8 +199,12 @@ fn elasticity_options_that_do_not_fit_are_named() {
         other => panic!("{other:?}"),
     };
     assert!(refused(option(vec![0; 3], vec![1.0; 4], 1.0)).contains("3 values for 4 lines"));
-    assert!(refused(option(vec![0, 2, 2, 2], vec![1.0; 4], 1.0)).contains("compliance 2"));
+    // The index left out, as the option counts them (from 0).
+    let gap = refused(option(vec![0, 2, 2, 2], vec![1.0; 4], 1.0));
+    assert!(gap.contains("no line has compliance index 1"), "{gap}");
     assert!(refused(option(vec![0; 4], vec![1.0, f64::NAN, 1.0, 1.0], 1.0)).contains("NaN"));
+    let slack = refused(option(vec![0; 4], vec![1.0, -2.0, 1.0, 1.0], 1.0));
+    assert!(slack.contains("-2 N, is not positive"), "{slack}");
     assert!(refused(option(vec![0; 4], vec![1.0; 4], 0.0)).contains("sigma"));
     let twice = elastic(vec![0; 4]).with_elasticity(option(vec![0; 4], vec![1.0; 4], 1.0));
     assert!(matches!(twice, Err(CableDesignError::Elasticity(_))));

@@ -72,10 +72,15 @@ impl Elasticity {
         }
         let count = self.count();
         if let Some(k) = (0..count).find(|k| !self.compliance_of_line.contains(k)) {
-            return Err(format!("compliance {} is used by no line", k + 1));
+            return Err(format!(
+                "no line has compliance index {k}: the indices run from 0 to {} without a gap",
+                count - 1
+            ));
         }
-        if let Some(load) = self.zero_loads.iter().find(|f| !f.is_finite()) {
-            return Err(format!("a load at the encoder zero, {load}, is not finite"));
+        if let Some(load) = self.zero_loads.iter().find(|f| !is_taut(**f)) {
+            return Err(format!(
+                "a load at the encoder zero, {load} N, is not positive and finite: a line is taut under a positive load"
+            ));
         }
         if !self.compliance.is_finite() {
             return Err(format!("the compliance {} is not finite", self.compliance));
@@ -114,4 +119,10 @@ impl Elasticity {
             })
             .collect()
     }
+}
+
+/// Whether a line's load `force` (N) is one a taut line holds: positive
+/// and finite.
+pub fn is_taut(force: f64) -> bool {
+    force.is_finite() && force > 0.0
 }
