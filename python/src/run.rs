@@ -28,7 +28,9 @@ struct ObservationTests {
     normalised: Vec<f64>,
     /// That row's whitened residual `e` (in units of its sigma).
     residual: Vec<f64>,
-    /// That row's estimated gross error `e / r` (in units of its sigma).
+    /// Its estimated gross error `w / √r` (in sigmas of what its test
+    /// sees: a contact's over its redundancy, a pose's or a point's row
+    /// over that row's).
     gross_error: Vec<f64>,
 }
 
@@ -47,18 +49,16 @@ impl ObservationTests {
                 ObservationId::Pose(k) => ("pose", k),
                 ObservationId::Point(k) => ("point", k),
             };
-            let (w, g) = (check.normalised(), check.gross_error());
             tests.kind.push(kind);
             tests.index.push(index);
             tests.redundancy.push(check.redundancy());
-            tests.normalised.push(w.unwrap_or(f64::NAN));
-            tests.gross_error.push(g.unwrap_or(f64::NAN));
-            // w = e / √r and g = e / r: e = w² / g (0 when g is).
-            tests.residual.push(match (w, g) {
-                (Some(w), Some(g)) if g != 0.0 => w * w / g,
-                (Some(_), Some(_)) => 0.0,
-                _ => f64::NAN,
-            });
+            tests
+                .normalised
+                .push(check.normalised().unwrap_or(f64::NAN));
+            tests.residual.push(check.residual().unwrap_or(f64::NAN));
+            tests
+                .gross_error
+                .push(check.gross_error().unwrap_or(f64::NAN));
         }
         tests
     }
@@ -264,7 +264,9 @@ impl Calibration {
     /// `redundancy` (its redundancy number), `normalised_residual` (`w`
     /// of its row of largest `|w|`; NaN when nothing checks it),
     /// `residual` (that row's whitened residual, in sigmas) and
-    /// `gross_error` (that row's estimated gross error `e / r`, in sigmas).
+    /// `gross_error` (its estimated gross error `w / √r`, in sigmas of what
+    /// its test sees: a contact's over its redundancy, tested as one; a
+    /// pose's or a point's row over that row's, `e / r`).
     /// `None` for a calibration read back.
     #[getter]
     fn observations<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {

@@ -26,6 +26,17 @@ pub fn minimal_detectable_bias(r: f64, level: f64) -> f64 {
     (normal.inverse_cdf(1.0 - level / 2.0) + normal.inverse_cdf(POWER)) / r.sqrt()
 }
 
+/// The estimated gross error of an observation tested by its normalised
+/// residual `w` over redundancy `r`, in units of the standard deviation of
+/// what the test sees: `∇̂ = w / √r` (Förstner and Wrobel, "Photogrammetric
+/// Computer Vision", 2016, section 4.6.4: of a single row, `e / r`). A
+/// contact of three coordinate rows is tested as one observation along its
+/// one direction of residual, `r` the sum over its rows; a row of a pose
+/// or a point is tested alone, `r` its own.
+pub fn estimated_gross_error(w: f64, r: f64) -> f64 {
+    w / r.sqrt()
+}
+
 fn standard_normal() -> Normal {
     Normal::new(0.0, 1.0).expect("a standard normal")
 }

@@ -41,7 +41,9 @@ use parcal_solver::{
 
 use crate::CalibrateError;
 use crate::external::{self, ExternalShift, external_shifts};
-use crate::hypothesis::{SNOOPING_LEVEL, critical_value, minimal_detectable_bias};
+use crate::hypothesis::{
+    SNOOPING_LEVEL, critical_value, estimated_gross_error, minimal_detectable_bias,
+};
 use crate::observation::ObservationId;
 use crate::robust::{self, DownWeighted};
 use crate::systematic::{Effect, SystematicTest, systematic_tests};
@@ -225,15 +227,23 @@ impl ObservationCheck {
         self.numbers.normalised()
     }
 
-    /// That row's estimated gross error `e / r`, in units of the row's
-    /// standard deviation.
+    /// Its estimated gross error `w / √r` ([`estimated_gross_error`]), in
+    /// units of the standard deviation of what its test sees: a
+    /// contact's, tested as one, over its redundancy (the sum over its
+    /// rows); a pose's or a point's, tested by row, that row's `e / r`.
     pub fn gross_error(&self) -> Option<f64> {
-        let Numbers {
-            worst_residual: e,
-            worst_redundancy: r,
-            ..
-        } = self.numbers;
-        self.normalised().map(|_| e / r)
+        let r = match self.observation.tests() {
+            1 => self.numbers.redundancy,
+            _ => self.numbers.worst_redundancy,
+        };
+        self.normalised().map(|w| estimated_gross_error(w, r))
+    }
+
+    /// The whitened residual `e` of its row of largest `|w|` (in units of
+    /// that row's standard deviation); `None` when no other observation
+    /// checks it.
+    pub fn residual(&self) -> Option<f64> {
+        self.normalised().map(|_| self.numbers.worst_residual)
     }
 
     /// That row, among a pose's or a point's (its leg, its coordinate); 0
@@ -668,7 +678,17 @@ mod tests {
         };
         assert_eq!(check.redundancy(), r.iter().sum::<f64>());
         assert_eq!(check.normalised(), Some(-0.9 / 0.6));
-        assert_eq!(check.gross_error(), Some(-0.9 / 0.36));
+        // A pose's row is tested alone: its gross error is that row's e / r.
+        let gross = check.gross_error().unwrap();
+        assert!((gross - -0.9 / 0.36).abs() < 1e-15, "{gross}");
+        assert_eq!(check.residual(), Some(-0.9));
+        // A contact is tested as one: w over the root of its rows' sum.
+        let contact = ObservationCheck {
+            observation: ObservationId::Contact(7),
+            ..check
+        };
+        let sum = r.iter().sum::<f64>();
+        assert_eq!(contact.gross_error(), Some(-0.9 / 0.6 / sum.sqrt()));
         assert_eq!(check.row(), 1);
         // λ = 2 √(h / r): 2 √0.16 = 0.8 and 2 √0.25 = 1.
         assert_eq!(lambda, Some(2.0 * (0.09f64 / 0.36).sqrt()));

@@ -611,9 +611,15 @@ fn compare_on(dataset: &Dataset, options: &CalibrationOptions) {
     assert_eq!(own_worst.observation(), expected);
     // Each run stops within SIGMA_TOLERANCE of the minimum in the norm of
     // H: the row's residual moves by at most 2 SIGMA_TOLERANCE √h, `w =
-    // e / √r` by that over √r (`h = 1 − r` its leverage, `r = (w / (e /
-    // r))²`), beside the rounding.
-    let r = (w / worst.gross_error).powi(2);
+    // e / √r` by that over √r (`h = 1 − r` its leverage, `r` the row's
+    // redundancy), beside the rounding.
+    let r = f64::from(
+        (common.observations.iter())
+            .find(|c| c.observation == observation)
+            .expect("the worst observation is checked")
+            .rows[worst.row]
+            .redundancy,
+    );
     let bound = 1e-6 * w.abs() + 2.0 * SIGMA_TOLERANCE * ((1.0 - r) / r).sqrt();
     let difference = w.abs() - own_worst.normalised().unwrap().abs();
     assert!(difference.abs() < bound, "{difference:e} against {bound:e}");

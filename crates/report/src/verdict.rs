@@ -110,7 +110,7 @@ pub fn with_removals(
 ) {
     for removal in removals {
         record.reasons.push(format!(
-            "data snooping removed {}: normalised residual {:+.1}, estimated gross error {:+.1} (its row's sigmas); variance factor {:.3} -> {:.3}",
+            "data snooping removed {}: normalised residual {:+.1}, estimated gross error {:+.1} sigma; variance factor {:.3} -> {:.3}",
             place_and_row(removal.observation, removal.row),
             removal.normalised,
             removal.gross_error,

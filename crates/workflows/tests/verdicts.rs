@@ -8,6 +8,7 @@ use common::{removed, rms, snoop, true_registered_rms};
 use parcal_calibrate::hypothesis::SNOOPING_LEVEL;
 use parcal_calibrate::hypothesis::minimal_detectable_bias;
 use parcal_calibrate::observation::ObservationId;
+use parcal_calibrate::reliability::ObservationCheck;
 use parcal_calibrate::systematic::{Effect, SYSTEMATIC_LEVEL};
 use parcal_calibrate::verdict::Outcome;
 use parcal_calibrate::{
@@ -397,16 +398,20 @@ fn a_mislabelled_artefact_frame_is_rejected_and_the_priors_named() {
     assert_eq!(largest.group, "priors");
 }
 
-/// The normalised residual of the contact of measurements.csv row `row`
-/// in a run (its rows' largest).
-fn contact_w(run: &CalibrationRun, row: usize) -> f64 {
+/// The check of the contact of measurements.csv row `row` in a run.
+fn contact_check(run: &CalibrationRun, row: usize) -> ObservationCheck {
     run.reliability
         .as_ref()
         .unwrap()
         .observations()
         .find(|c| c.observation() == ObservationId::Contact(row))
-        .and_then(|c| c.normalised())
         .unwrap()
+}
+
+/// The normalised residual of the contact of measurements.csv row `row`
+/// in a run (its rows' largest).
+fn contact_w(run: &CalibrationRun, row: usize) -> f64 {
+    contact_check(run, row).normalised().unwrap()
 }
 
 /// Blunders of 0.02 to 5 mm in one reading of the paper scenario (seed 1,
@@ -415,6 +420,11 @@ fn contact_w(run: &CalibrationRun, row: usize) -> f64 {
 /// `b`, `w(b) = w(0) + s b`: `MDB = δ₀ / |s|`, `δ₀` at the data-snooping
 /// level of one test (Bonferroni) with power 80 %; `|s|` from blunders of
 /// ±50 um (`(|w(+b)| + |w(−b)|) / 2b`, exact while `|s b| > |w(0)|`).
+/// The estimated gross error of the +50 um blunder, `w / √r` in the
+/// sigmas its test sees (the contact's three rows tested as one, `r`
+/// their sum), is the blunder in those sigmas, `s b / √r` (the MDB's
+/// sigmas: `δ₀ / √r` for `δ₀ / |s|` mm), within four of its standard
+/// deviations `1 / √r` (`w(0)` is standard normal).
 /// Every blunder above the MDB is detected: the run is rejected without
 /// snooping, and snooping removes that contact alone; detection never gets
 /// worse as the blunder grows. The runs are given the iterations to
@@ -437,13 +447,24 @@ fn detection_is_monotone_in_the_blunder_above_its_minimal_detectable_bias() {
         d
     };
     let probe = 0.05;
-    let w = |b: f64| {
-        contact_w(
+    let check = |b: f64| {
+        contact_check(
             &calibrate(&with_blunder(b), &options, &mut |_| {}).unwrap(),
             row,
         )
     };
-    let slope = (w(probe).abs() + w(-probe).abs()) / (2.0 * probe);
+    let (above, below) = (check(probe), check(-probe));
+    let w = |c: &ObservationCheck| c.normalised().unwrap();
+    let slope = (w(&above).abs() + w(&below).abs()) / (2.0 * probe);
+    let r = above.redundancy();
+    let (estimated, planted) = (above.gross_error().unwrap(), slope * probe / r.sqrt());
+    println!(
+        "50 um: estimated gross error {estimated:.2} sigma, planted {planted:.2} sigma (r {r:.3})"
+    );
+    assert!(
+        (estimated.abs() - planted).abs() < 4.0 / r.sqrt(),
+        "{estimated} against {planted}"
+    );
     let reliability_tests = calibrate(&clean, &options, &mut |_| {})
         .unwrap()
         .reliability

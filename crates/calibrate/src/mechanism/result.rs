@@ -9,7 +9,7 @@ use nalgebra::{DMatrix, DVector, Isometry3, Matrix6};
 use parcal_dataset::mechanism::LineElasticity;
 use parcal_solver::Status;
 
-use crate::hypothesis::critical_value;
+use crate::hypothesis::{critical_value, estimated_gross_error};
 use crate::options::Observation;
 use crate::snooping::{Removal, Worst};
 use crate::verdict::{GlobalTest, Outcome, Verdict};
@@ -21,7 +21,7 @@ use super::fit::Fit;
 use super::frame::{canonical_by, canonical_params};
 use super::identifiability::{Identifiability, Inputs, gauge_directions, identifiability};
 use super::mirror::MirroredBall;
-use super::observation::ObservationRef;
+use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::prior::prior_covariance;
 
@@ -442,14 +442,21 @@ fn body_estimate(
     })
 }
 
-/// The observation of largest `|w|` among `observations`.
+/// The observation of largest `|w|` among `observations`, its estimated
+/// gross error over the redundancy of what its test sees
+/// ([`estimated_gross_error`]): a touch's rows are tested as one, the
+/// others' rows alone.
 fn worst(observations: &ObservationChecks) -> Option<Worst<ObservationRef>> {
     let (c, row, normalised) = observations.worst()?;
+    let redundancy = match c.observation.kind {
+        ObservationKind::Touch => c.rows.iter().map(|r| f64::from(r.redundancy)).sum(),
+        _ => f64::from(c.rows[row].redundancy),
+    };
     Some(Worst {
         observation: c.observation,
         row,
         normalised,
-        gross_error: f64::from(c.rows[row].residual) / f64::from(c.rows[row].redundancy),
+        gross_error: estimated_gross_error(normalised, redundancy),
     })
 }
 
@@ -541,4 +548,34 @@ pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
         "rejected".to_string()
     });
     reasons
+}
+
+#[cfg(test)]
+mod tests {
+    use parcal_dataset::mechanism::RowCheck;
+
+    use super::*;
+
+    /// A touch's rows are tested as one: its gross error is `w` over the
+    /// root of their summed redundancy; a sample's rows alone, `e / r`.
+    #[test]
+    fn the_worst_gross_error_is_over_the_redundancy_its_test_sees() {
+        let row = |residual: f32, redundancy: f32| RowCheck {
+            residual,
+            redundancy,
+        };
+        let rows = vec![row(0.3, 0.25), row(-0.9, 0.36), row(0.02, 0.01)];
+        let sum: f64 = rows.iter().map(|r| f64::from(r.redundancy)).sum();
+        let w = f64::from(-0.9f32) / f64::from(0.36f32).sqrt();
+        for (kind, r) in [
+            (ObservationKind::Touch, sum),
+            (ObservationKind::Sample, f64::from(0.36f32)),
+        ] {
+            let observation = ObservationRef { kind, index: 4 };
+            let checks = ObservationChecks::new(rows.clone(), [(observation, 3)]);
+            let worst = worst(&checks).unwrap();
+            assert_eq!((worst.row, worst.normalised), (1, w));
+            assert_eq!(worst.gross_error, w / r.sqrt(), "{kind:?}");
+        }
+    }
 }

@@ -58,8 +58,9 @@ pub struct Worst<P> {
     pub row: usize,
     /// That row's normalised residual `w = e / √r` (`e` whitened).
     pub normalised: f64,
-    /// That row's estimated gross error `e / r`, in units of its standard
-    /// deviation.
+    /// Its estimated gross error `w / √r`, in units of the standard
+    /// deviation of what its test sees
+    /// ([`estimated_gross_error`](crate::hypothesis::estimated_gross_error)).
     pub gross_error: f64,
 }
 
@@ -94,7 +95,9 @@ pub struct Removal<P> {
     pub row: usize,
     /// That row's normalised residual when it was removed.
     pub normalised: f64,
-    /// That row's estimated gross error, in units of its standard deviation.
+    /// Its estimated gross error when it was removed, in units of the
+    /// standard deviation of what its test sees
+    /// ([`estimated_gross_error`](crate::hypothesis::estimated_gross_error)).
     pub gross_error: f64,
     /// The a-posteriori variance factor before its removal.
     pub variance_factor_before: f64,

@@ -373,8 +373,10 @@ pub struct ObservationCheck {
     pub redundancy: f64,
     /// Its normalised residual `w` (`null`: nothing checks it).
     pub normalised_residual: Option<f64>,
-    /// Its estimated gross error `e / r`, in units of its standard
-    /// deviation (`null`: nothing checks it).
+    /// Its estimated gross error `w / √r`, in units of the standard
+    /// deviation of what its test sees: a contact's over its redundancy
+    /// (tested as one), a pose's or a point's row over that row's, `e / r`
+    /// (`null`: nothing checks it).
     pub gross_error_sigmas: Option<f64>,
     /// Its minimal detectable bias at the test's level and 80 % power, in
     /// units of its standard deviation (`null`: nothing checks it).
@@ -463,8 +465,8 @@ pub struct RemovedObservation {
     /// Its normalised residual when it was removed (of its row of largest
     /// magnitude, for an observation of several rows).
     pub normalised_residual: f64,
-    /// That row's estimated gross error, in units of its standard
-    /// deviation.
+    /// Its estimated gross error when it was removed, as
+    /// [`ObservationCheck::gross_error_sigmas`].
     pub gross_error_sigmas: f64,
     /// The a-posteriori variance factor before and after its removal.
     pub variance_factor: [f64; 2],

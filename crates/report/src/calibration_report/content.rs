@@ -539,7 +539,7 @@ fn observations(c: &Calibration) -> Result<Vec<Block>, String> {
     {
         out.push(Block::Paragraph(
             Tone::Note,
-            "A contact's w and estimated gross error are those of its row of largest |w| (in that row's sigmas); its redundancy is the sum over its rows, and its MDB (minimal detectable bias, at the test's per-observation level and 80% power) follows from that sum.".into(),
+            "A contact is tested as one observation: its w is that of its row of largest |w| (its rows' |w| are equal under the coordinate observation), its redundancy the sum over its rows, and its estimated gross error (w / √r) and MDB (minimal detectable bias, at the test's per-observation level and 80% power) follow from that sum, in sigmas of its error along the direction the test sees.".into(),
         ));
     }
     out.push(Block::Heading(3, "Uncontrolled observations".into()));
