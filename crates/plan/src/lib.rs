@@ -260,6 +260,7 @@ fn plan_with(
             max_approach: options.max_approach_degrees.to_radians(),
             min_conditioning: options.min_conditioning,
             stroke,
+            scale: machine.actuator.scale,
             joint_limits: machine.joint_limits.map(|l| l.limits()),
         },
     )?;

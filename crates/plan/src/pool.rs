@@ -49,8 +49,12 @@ pub struct PoolOptions {
     /// Smallest accepted `sigma_min / sigma_max` of the scaled closure
     /// Jacobian (module doc).
     pub min_conditioning: f64,
-    /// The range of every actuator reading `[min, max]` (mm).
+    /// The range of every actuator reading `[min, max]` (the readings'
+    /// unit).
     pub stroke: [f64; 2],
+    /// The design's actuator scales `s_i` (mm per reading unit): a
+    /// reading is its leg's extension over its scale.
+    pub scale: [f64; 6],
     /// The largest joint angles, when the machine has any.
     pub joint_limits: Option<JointLimits>,
 }
@@ -166,14 +170,16 @@ pub fn candidate_pool(
         && low.is_finite()
         && high.is_finite()
         && low < high
+        && options.scale.iter().all(|s| s.is_finite() && *s > 0.0)
         && !balls.is_empty();
     if !valid {
         return Err(DesignError::Options(format!(
-            "pool: tilt {} rad, approach {} rad, conditioning {}, stroke {:?}, size {}, {} ball(s)",
+            "pool: tilt {} rad, approach {} rad, conditioning {}, stroke {:?}, scales {:?}, size {}, {} ball(s)",
             options.tilt,
             options.max_approach,
             options.min_conditioning,
             options.stroke,
+            options.scale,
             options.size,
             balls.len()
         )));
@@ -196,7 +202,7 @@ pub fn candidate_pool(
                 if let Some(q) = feasible_commands(
                     design,
                     &pose,
-                    &[1.0; 6],
+                    &options.scale,
                     &options.stroke,
                     options.min_conditioning,
                     options.joint_limits.as_ref(),
@@ -277,6 +283,7 @@ mod tests {
             max_approach: MAX_APPROACH_DEGREES.to_radians(),
             min_conditioning: MIN_CONDITIONING,
             stroke: [20.0, 250.0],
+            scale: [1.0; 6],
             joint_limits: None,
         }
     }
@@ -305,6 +312,34 @@ mod tests {
         let t = 30f64.to_radians();
         assert!(pool.iter().any(|c| c.angles == [t, t, t]));
         assert!(pool.iter().any(|c| c.angles == [-t, -t, -t]));
+    }
+
+    /// Legs read in another unit (2 mm a unit) under the same stroke in
+    /// that unit: the same candidates, their readings the extensions over
+    /// the scale.
+    #[test]
+    fn readings_in_another_unit_keep_the_pool() {
+        let (design, balls) = (paper::design(), paper_balls());
+        let in_mm = candidate_pool(&design, &balls, &options(30.0)).unwrap();
+        let in_units = PoolOptions {
+            stroke: [10.0, 125.0],
+            scale: [2.0; 6],
+            ..options(30.0)
+        };
+        let read = candidate_pool(&design, &balls, &in_units).unwrap();
+        assert_eq!(read.len(), in_mm.len());
+        for (r, m) in read.iter().zip(&in_mm) {
+            assert_eq!(
+                (r.ball, r.angles, r.direction),
+                (m.ball, m.angles, m.direction)
+            );
+            assert_eq!(r.q, m.q.map(|q| q / 2.0));
+        }
+        let unscaled = PoolOptions {
+            scale: [1.0, 1.0, 0.0, 1.0, 1.0, 1.0],
+            ..options(30.0)
+        };
+        assert!(candidate_pool(&design, &balls, &unscaled).is_err());
     }
 
     #[test]

@@ -687,6 +687,7 @@ mod tests {
                 max_approach: 1.3,
                 min_conditioning: 0.05,
                 stroke: [20.0, 250.0],
+                scale: [1.0; 6],
                 joint_limits: None,
             },
         )
