@@ -80,6 +80,7 @@ pub mod problem;
 pub mod reliability;
 pub mod robust;
 mod run;
+mod run_away;
 pub mod setup;
 pub mod snooping;
 pub mod sphere_fit;
@@ -95,6 +96,7 @@ pub use options::{
 pub use parcal_kinematics::ParamCovariance;
 pub use parcal_observe::WeightModel;
 pub use parcal_solver::{CAUCHY_K, HUBER_K, IterationRecord, Loss, Method};
-pub use run::{CalibratedBalls, CalibrationRun, RunAway, calibrate};
+pub use run::{CalibratedBalls, CalibrationRun, calibrate};
+pub use run_away::RunAway;
 pub use touch_validation::validate_touches;
 pub use validate::{MIN_CONTACTS_PER_BALL, validate};

@@ -8,21 +8,21 @@ use std::time::Instant;
 
 use parcal_dataset::Dataset;
 use parcal_kinematics::{PARAM_NAMES, Vec3};
-use parcal_solver::{IterationRecord, SolverOptions, Status};
+use parcal_solver::{IterationRecord, SolverOptions};
 
 use crate::conflict::{ConflictTest, paper_prior_consistency};
 use crate::layout::{centre_name, radius_name};
-use crate::options::{GAUSS_NEWTON_ITERATIONS, LEVENBERG_MARQUARDT_ITERATIONS};
 use crate::problem::CalibrationProblem;
+use crate::run_away::{RunAway, rerun_iterations};
 use crate::setup::{Observations, Setup, kinematic_prior};
 use crate::verdict::at_minimum;
-use crate::{CalibrateError, CalibrationOptions, Method, PriorMode, RadiusModel};
+use crate::{CalibrateError, CalibrationOptions, PriorMode, RadiusModel};
 
 mod record;
 mod result;
 mod solve;
 
-pub use result::{CalibratedBalls, CalibrationRun, RunAway};
+pub use result::{CalibratedBalls, CalibrationRun};
 use solve::SolverRun;
 
 /// Calibrates `dataset` (docs/paper-scenario.md section 4): its ball
@@ -31,15 +31,9 @@ use solve::SolverRun;
 /// [`crate::instruments::run`], least squares only). `observer` sees each
 /// iteration. The dataset is validated first ([`crate::validate`]).
 ///
-/// A Gauss-Newton run that runs away (it ends diverged, or failed after
-/// its first step, or at its iteration limit after a step raised the cost
-/// more than `RUNAWAY_RISE`-fold, or with a cost above its first, or
-/// with a robust loss: a blunder or a start far from the solution, where
-/// full steps overshoot) is made again with Levenberg-Marquardt, whose
-/// steps never raise the cost, within what is left of the time limit and
-/// four times the iteration limit, at most
-/// Levenberg-Marquardt's default limit, 200 (`rerun_iterations`);
-/// [`CalibrationRun::gauss_newton`] keeps how the first run ended.
+/// A Gauss-Newton run that runs away is made again with
+/// Levenberg-Marquardt ([`RunAway`] says when); [`CalibrationRun::gauss_newton`]
+/// keeps how the first run ended.
 pub fn calibrate(
     dataset: &Dataset,
     options: &CalibrationOptions,
@@ -50,31 +44,11 @@ pub fn calibrate(
     }
     let started = Instant::now();
     let run = calibrate_once(dataset, options, observer)?;
-    let costs = run.history.first().zip(run.history.last());
-    let overshot = run
-        .history
-        .windows(2)
-        .any(|pair| pair[1].cost > RUNAWAY_RISE * pair[0].cost);
-    let ran_away = matches!(options.method, Method::GaussNewton)
-        && costs.is_some()
-        && match run.status {
-            Status::Diverged { .. } => true,
-            // A full step to where the machine's forward kinematics fails
-            // (large tilts): Levenberg-Marquardt rejects such a step.
-            Status::ProblemFailed { iteration, .. } => iteration > 0,
-            // Or ended above where it started; or, with a robust loss,
-            // did not settle at all (its reweighting can keep full steps
-            // from settling where damped ones do).
-            Status::IterationLimit => {
-                overshot
-                    || costs.is_some_and(|(first, last)| last.cost > first.cost)
-                    || !options.loss.is_squared()
-            }
-            _ => false,
-        };
-    if !ran_away {
+    let costs: Vec<f64> = run.history.iter().map(|record| record.cost).collect();
+    let squared = options.loss.is_squared();
+    let Some(run_away) = RunAway::of(options.method, &run.status, &costs, squared) else {
         return Ok(run);
-    }
+    };
     let mut lm = options.clone().levenberg_marquardt();
     lm.max_iterations = rerun_iterations(options.max_iterations);
     // What is left of the budget.
@@ -82,31 +56,9 @@ pub fn calibrate(
         .time_limit
         .map(|limit| limit.saturating_sub(started.elapsed()));
     let mut again = calibrate_once(dataset, &lm, observer)?;
-    let (first, last) = costs.expect("checked above");
-    again.gauss_newton = Some(RunAway {
-        status: run.status,
-        initial_cost: first.cost,
-        final_cost: last.cost,
-        iterations: run.history.len().saturating_sub(1),
-    });
+    again.gauss_newton = Some(run_away);
     Ok(again)
 }
-
-/// The iteration limit of the Levenberg-Marquardt run made again after a
-/// Gauss-Newton run of limit `limit` ran away ([`calibrate`]): the
-/// default limits' proportion, [`LEVENBERG_MARQUARDT_ITERATIONS`] damped
-/// steps for [`GAUSS_NEWTON_ITERATIONS`] full ones, at most the former,
-/// so that a limit given bounds the run made again too (3 allows 12).
-fn rerun_iterations(limit: usize) -> usize {
-    let ratio = LEVENBERG_MARQUARDT_ITERATIONS / GAUSS_NEWTON_ITERATIONS;
-    limit
-        .saturating_mul(ratio)
-        .min(LEVENBERG_MARQUARDT_ITERATIONS)
-}
-
-/// The rise of the cost in one Gauss-Newton step that marks a run that
-/// did not converge as run away ([`calibrate`]).
-pub const RUNAWAY_RISE: f64 = 10.0;
 
 /// The calibration of the poses and points of `dataset`, which has no
 /// ball touches: the instrument stage's solution as a run whose touch

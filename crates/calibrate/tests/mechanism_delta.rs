@@ -274,6 +274,37 @@ fn a_probe_blunder_of_0_3_mm_is_named_and_removed_by_snooping() {
     ));
 }
 
+/// A probe height typed 350 mm off (the decimal point lost): Gauss-Newton's
+/// first full step goes where a tower no longer reaches the effector, so
+/// the fit is made again with Levenberg-Marquardt, which names the blunder
+/// (a rejected calibration, not an error), and snooping removes it.
+#[test]
+fn a_gross_probe_blunder_makes_gauss_newton_run_away_and_is_still_named() {
+    let mut dataset = simulate_delta(&scenario(5, 4), 5).unwrap();
+    let blunder = 11;
+    dataset.probes[blunder][2] += 350.0;
+    let probe = ObservationRef {
+        kind: ObservationKind::Probe,
+        index: blunder,
+    };
+    let default = MechanismOptions::default();
+    let (plain, snooped) = blunder_is_named_and_removed(&dataset, probe, &default, &mut |_| {});
+    let run_away = plain.gauss_newton.as_ref().expect("Gauss-Newton ran away");
+    assert!(
+        matches!(run_away.status, Status::ProblemFailed { .. }),
+        "{:?}",
+        run_away.status
+    );
+    assert_eq!(plain.status, Status::Converged);
+    // Without the blunder, Gauss-Newton converges on its own.
+    assert!(snooped.gauss_newton.is_none());
+    // The record says so.
+    let record = plain.record();
+    let ran = record.gauss_newton.expect("recorded");
+    assert!(ran.status.contains("failed"), "{}", ran.status);
+    assert_eq!(ran.iterations, run_away.iterations);
+}
+
 #[test]
 fn readings_at_unknown_and_measured_poses_calibrate_a_delta() {
     // Point samples only: 40 at unknown poses (three readings fix a pose

@@ -302,9 +302,11 @@ fn calibrate_with_report_writes_the_report_beside_the_calibration_rejected_too()
     assert_eq!(fs::read_to_string(again.join("report.html")).unwrap(), html);
     assert_eq!(fs::read_to_string(again.join("report.md")).unwrap(), md);
 
-    // A run stopped by its iteration limit is rejected, and its report says
-    // why; the accepted calibration.json is kept.
+    // A run stopped by its iteration limit is rejected, and its report,
+    // beside the accepted one's, says why; the accepted calibration.json
+    // and its report are kept.
     let accepted = fs::read(&out).unwrap();
+    let accepted_report = fs::read(directory.join("report.html")).unwrap();
     let rejected = parcal(&[
         "calibrate",
         s(&data),
@@ -316,7 +318,13 @@ fn calibrate_with_report_writes_the_report_beside_the_calibration_rejected_too()
     ]);
     assert_eq!(rejected.status.code(), Some(3));
     assert_eq!(fs::read(&out).unwrap(), accepted);
-    let html = fs::read_to_string(directory.join("report.html")).unwrap();
+    assert_eq!(
+        fs::read(directory.join("report.html")).unwrap(),
+        accepted_report
+    );
+    let stdout = String::from_utf8_lossy(&rejected.stdout);
+    assert!(stdout.contains("report.rejected.html"), "{stdout}");
+    let html = fs::read_to_string(directory.join("report.rejected.html")).unwrap();
     let line = verdict_line(&html);
     assert!(
         line.starts_with("REJECTED") && line.contains("the solver stopped"),
@@ -339,7 +347,7 @@ fn calibrate_with_report_writes_the_report_beside_the_calibration_rejected_too()
         "{stderr}"
     );
     assert!(
-        verdict_line(&fs::read_to_string(directory.join("report.html")).unwrap())
+        verdict_line(&fs::read_to_string(directory.join("report.rejected.html")).unwrap())
             .starts_with("REJECTED")
     );
 }

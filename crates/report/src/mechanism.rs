@@ -639,6 +639,21 @@ fn rotation_vector_degrees([x, y, z, w]: [f64; 4]) -> [f64; 3] {
     [x, y, z].map(|c| (c / sine * angle).to_degrees())
 }
 
+/// The sentence of a Gauss-Newton fit that ran away, when the calibration
+/// was made again with Levenberg-Marquardt.
+pub fn run_away_sentence(calibration: &MechanismCalibrationRecord) -> Option<String> {
+    let cost = |v: Option<f64>| v.map_or_else(|| "not finite".to_string(), |v| format!("{v:.3e}"));
+    calibration.gauss_newton.as_ref().map(|run| {
+        format!(
+            "Gauss-Newton ran away after {} iterations, cost {} -> {} ({}): the calibration was made again with Levenberg-Marquardt",
+            run.iterations,
+            cost(run.cost[0]),
+            cost(run.cost[1]),
+            run.status
+        )
+    })
+}
+
 /// One sentence per ball found on the wrong side of its touches and
 /// re-seeded.
 pub fn mirrored_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
@@ -771,6 +786,9 @@ fn blocks(
     ];
     if let Some(sentence) = print_radius_sentence(calibration) {
         blocks.push(Block::Paragraph(Tone::Plain, sentence));
+    }
+    if let Some(sentence) = run_away_sentence(calibration) {
+        blocks.push(Block::Paragraph(Tone::Warning, sentence));
     }
     if !calibration.mirrored.is_empty() {
         blocks.push(Block::Heading(3, "Balls re-seeded".into()));

@@ -8,6 +8,11 @@
 //! touch's row are gathered back into their observation's check) or by
 //! their coordinates ([`super::coordinate_problem`], a touch's point its
 //! three rows).
+//!
+//! A Gauss-Newton fit that runs away is made again with
+//! Levenberg-Marquardt ([`RunAway`], as the hexapod's own calibration
+//! does): a blunder or a start far from the solution, where full steps
+//! overshoot to where the machine's kinematics fails.
 
 use std::time::Instant;
 
@@ -21,6 +26,7 @@ use rayon::prelude::*;
 
 use crate::mirror::remaining;
 use crate::options::Observation;
+use crate::run_away::{RunAway, rerun_iterations};
 use crate::verdict::{at_minimum, rows_and_unknowns};
 
 use super::checks::ObservationChecks;
@@ -74,31 +80,79 @@ pub(crate) struct Fit {
     pub tests: usize,
     /// The trackers' references and places in the global block.
     pub trackers: Trackers,
+    /// When this is the Levenberg-Marquardt fit made after a Gauss-Newton
+    /// fit ran away: how that one ended.
+    pub gauss_newton: Option<RunAway>,
 }
 
 /// One fit of `data` (validated) with `options` (module doc), its local
 /// blocks of [`group_size`] unknowns, within what is left of the time
 /// budget of the calibration that began at `started`; `observer` sees
-/// each iteration.
+/// each iteration, of the run made again too when the first ran away.
 pub(crate) fn fit(
     data: &MechanismData,
     options: &MechanismOptions,
     started: Instant,
     observer: &mut dyn FnMut(&IterationRecord),
 ) -> Result<Fit, MechanismCalibrationError> {
+    let mut costs = Vec::new();
+    let first = fit_once(data, options, started, &mut |record| {
+        costs.push(record.cost);
+        observer(record)
+    })?;
+    let status = match &first {
+        Ended::Fitted(fit) => &fit.status,
+        Ended::Failed(status, _) => status,
+    };
+    let squared = options.loss.is_squared();
+    let Some(run_away) = RunAway::of(options.method, status, &costs, squared) else {
+        return first.into_result();
+    };
+    let again = options
+        .clone()
+        .levenberg_marquardt()
+        .with_max_iterations(Some(rerun_iterations(options.max_iterations)));
+    let mut fit = fit_once(data, &again, started, observer)?.into_result()?;
+    fit.gauss_newton = Some(run_away);
+    Ok(fit)
+}
+
+/// How one run of the solver ended: a fit, or a status that makes the
+/// calibration fail, with its error ([`failure`]).
+enum Ended {
+    Fitted(Box<Fit>),
+    Failed(Status, MechanismCalibrationError),
+}
+
+impl Ended {
+    fn into_result(self) -> Result<Fit, MechanismCalibrationError> {
+        match self {
+            Self::Fitted(fit) => Ok(*fit),
+            Self::Failed(_, error) => Err(error),
+        }
+    }
+}
+
+/// [`fit`]'s one run of the solver with `options`.
+fn fit_once(
+    data: &MechanismData,
+    options: &MechanismOptions,
+    started: Instant,
+    observer: &mut dyn FnMut(&IterationRecord),
+) -> Result<Ended, MechanismCalibrationError> {
     match group_size(data) {
         3 => fit_blocks::<3>(data, options, started, observer),
         _ => fit_blocks::<4>(data, options, started, observer),
     }
 }
 
-/// [`fit`] with local blocks of `C` unknowns.
+/// [`fit_once`] with local blocks of `C` unknowns.
 fn fit_blocks<const C: usize>(
     data: &MechanismData,
     options: &MechanismOptions,
     started: Instant,
     observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<Fit, MechanismCalibrationError> {
+) -> Result<Ended, MechanismCalibrationError> {
     match options.observation {
         Observation::Radius => {
             let mut problem = MechanismProblem::<C>::new(data, options.loss)?;
@@ -113,8 +167,8 @@ fn fit_blocks<const C: usize>(
     }
 }
 
-/// [`fit`] of `problem` from `state` and its points' `caches`: `R` rows and
-/// `P` unknowns a point.
+/// [`fit_once`] of `problem` from `state` and its points' `caches`: `R`
+/// rows and `P` unknowns a point.
 fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem<C, P, R>>(
     problem: &mut Q,
     state: State<C, P>,
@@ -122,7 +176,7 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
     options: &MechanismOptions,
     started: Instant,
     observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<Fit, MechanismCalibrationError> {
+) -> Result<Ended, MechanismCalibrationError> {
     // The time limit is what is left of the budget now.
     let now = Instant::now();
     let solver_options = SolverOptions {
@@ -137,7 +191,7 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
     let data = base.data();
     let points = base.n_points();
     if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
-        return Err(error);
+        return Ok(Ended::Failed(solution.status, error));
     }
     let refs = base.global_observation_refs();
     let global_rows: usize = refs.iter().map(|(_, rows)| rows).sum();
@@ -189,7 +243,7 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
     // are reported with the balls.
     let m = base.mechanism_len();
     let mechanism_block = |matrix: &DMatrix<f64>| matrix.view((0, 0), (m, m)).into_owned();
-    Ok(Fit {
+    Ok(Ended::Fitted(Box::new(Fit {
         poses: solution.state.groups[..samples]
             .iter()
             .map(|v| [v[0], v[1], v[2]])
@@ -210,7 +264,8 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
         data_rows: global_rows + R * points,
         tests: global_rows + points,
         trackers: base.trackers().clone(),
-    })
+        gauss_newton: None,
+    })))
 }
 
 /// The solve of `problem` from `state` (its points' caches `caches`) with

@@ -5,11 +5,11 @@
 use nalgebra::DMatrix;
 use parcal_dataset::mechanism::{
     BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
-    ParameterRecord, RemovalRecord, TestsRecord, TrackerRecord, UndeterminedRecord,
+    ParameterRecord, RemovalRecord, RunAwayRecord, TestsRecord, TrackerRecord, UndeterminedRecord,
 };
 use parcal_dataset::{FrameRecord, GlobalTestRecord};
 
-use super::result::{EstimatedBody, MechanismCalibration};
+use super::result::{EstimatedBody, MechanismCalibration, not_converged};
 
 impl MechanismCalibration {
     /// The record of this calibration ([`MechanismCalibration::into_record`]
@@ -120,6 +120,11 @@ impl MechanismCalibration {
                     centre: m.centre,
                 })
                 .collect(),
+            gauss_newton: self.gauss_newton.as_ref().map(|run| RunAwayRecord {
+                status: not_converged(&run.status),
+                iterations: run.iterations,
+                cost: [finite(run.initial_cost), finite(run.final_cost)],
+            }),
             trackers: self
                 .trackers
                 .iter()

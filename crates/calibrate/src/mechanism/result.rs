@@ -11,6 +11,7 @@ use parcal_solver::Status;
 
 use crate::hypothesis::{critical_value, estimated_gross_error};
 use crate::options::Observation;
+use crate::run_away::RunAway;
 use crate::snooping::{Removal, Worst};
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
@@ -175,6 +176,9 @@ pub struct MechanismCalibration {
     /// settled, re-seeded at the mirror image of their centre fit before
     /// it resumed.
     pub mirrored: Vec<MirroredBall>,
+    /// When this is the Levenberg-Marquardt fit made after a Gauss-Newton
+    /// fit ran away ([`RunAway`]): how that one ended.
+    pub gauss_newton: Option<RunAway>,
     /// The observations data snooping removed, in order.
     pub removals: Vec<Removal<ObservationRef>>,
     /// Why snooping stopped before every observation passed, if it did.
@@ -356,6 +360,7 @@ pub(crate) fn assemble(
         data_rows: fit.data_rows,
         tests: fit.tests,
         mirrored: fit.mirrored,
+        gauss_newton: fit.gauss_newton,
         alpha: options.alpha,
         reasons: Vec::new(),
         removals: Vec::new(),
@@ -460,15 +465,18 @@ fn worst(observations: &ObservationChecks) -> Option<Worst<ObservationRef>> {
     })
 }
 
-/// How a fit that is a result ([`super::fit`]: the others are errors)
-/// ended without converging, in words.
-fn not_converged(status: &Status) -> String {
+/// How a fit ended without converging, in words: a fit that is a result
+/// ([`super::fit`]), or a Gauss-Newton fit that ran away.
+pub(super) fn not_converged(status: &Status) -> String {
     match status {
         Status::IterationLimit => "it reached its iteration limit".to_string(),
         Status::TimeLimit => "it reached the time limit".to_string(),
         Status::Diverged { iteration, reason } => {
             format!("it diverged at iteration {iteration}: {reason}")
         }
+        Status::ProblemFailed {
+            iteration, message, ..
+        } => format!("its step of iteration {iteration} failed: {message}"),
         other => format!("{other:?}"),
     }
 }

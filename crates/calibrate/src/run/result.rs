@@ -14,6 +14,7 @@ use crate::instruments::InstrumentResult;
 use crate::layout::{ParameterGroup, ParameterLayout};
 use crate::mirror::Mirrored;
 use crate::reliability::Reliability;
+use crate::run_away::RunAway;
 use crate::verdict::{GlobalTest, Verdict};
 
 /// The outcome of one calibration. What every run has (the options, the
@@ -230,17 +231,4 @@ impl CalibrationRun {
         };
         (cost / self.residual_rows as f64).sqrt()
     }
-}
-
-/// How a Gauss-Newton run that ran away ended ([`calibrate`](crate::calibrate)).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RunAway {
-    /// Its status.
-    pub status: Status,
-    /// Its cost at the start.
-    pub initial_cost: f64,
-    /// Its cost at its end.
-    pub final_cost: f64,
-    /// Its iterations.
-    pub iterations: usize,
 }

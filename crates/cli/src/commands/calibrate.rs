@@ -80,8 +80,9 @@ pub struct Args {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Also write the calibration's report (report.html and report.md, as
-    /// `parcal report` does) into the directory of calibration.json, a
-    /// rejected calibration's too.
+    /// `parcal report` does) into the directory of calibration.json; a
+    /// rejected calibration's as report.rejected.html and .md, leaving an
+    /// accepted one's as it was.
     #[arg(long)]
     report: bool,
     /// Calibrate a hexapod's ball touches by the common calibration of
@@ -197,7 +198,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let rejected =
         super::write_calibration(record, &dataset, &args.dataset, &out, report.as_ref())?;
     // Said once the files are there, not before.
-    let printed = printed.and_then(|()| print_written(&destination, report.as_ref()));
+    let printed =
+        printed.and_then(|()| print_written(&destination, rejected.is_some(), report.as_ref()));
     match rejected {
         Some(rejected) => Err(rejected.into()),
         None => printed,
@@ -335,15 +337,20 @@ impl Args {
     }
 }
 
-/// Where the calibration and its `report` went, on stdout.
-fn print_written(calibration: &Path, report: Option<&ReportRequest>) -> anyhow::Result<()> {
+/// Where the calibration (`rejected` or not) and its `report` went, on
+/// stdout.
+fn print_written(
+    calibration: &Path,
+    rejected: bool,
+    report: Option<&ReportRequest>,
+) -> anyhow::Result<()> {
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "calibration written to {}", calibration.display())?;
     if let Some(request) = report {
         writeln!(
             stdout,
             "report written to {}",
-            report::listed(&request.directory)
+            report::listed(&request.paths(rejected))
         )?;
     }
     Ok(())

@@ -21,7 +21,7 @@ use parcal::dataset::{HEXAPOD, declared_mechanism};
 use parcal::report::mechanism::{
     FromDataset, counted, identifiability_statements, mirrored_sentences, observation_counts,
     parameter_header, parameter_rows, prior_correlation_sentence, removal_sentences,
-    touch_equation, verdict_sentence,
+    run_away_sentence, touch_equation, verdict_sentence,
 };
 use parcal::report::mechanism_validation::placed_error;
 use parcal::report_pages::{MechanismTrue, mechanism_truth};
@@ -160,9 +160,12 @@ impl CalibrateRequest {
     pub fn check_outputs(&self) -> anyhow::Result<()> {
         super::check_calibration_outputs(&self.dataset, &self.out)?;
         if self.report {
+            let directory = super::report::directory_of(&self.out);
+            let paths = [false, true]
+                .map(|rejected| super::report::calibration_report_paths(directory, rejected));
             crate::outputs::check(
                 &crate::outputs::dataset_inputs(&self.dataset),
-                &super::report::report_paths(super::report::directory_of(&self.out)),
+                &paths.concat(),
             )?;
         }
         Ok(())
@@ -239,11 +242,13 @@ pub fn calibrate_with(
         super::rejected_path(&out)
     };
     let file = destination.display().to_string();
+    let report_paths = (report_directory.as_deref())
+        .map(|directory| super::report::calibration_report_paths(directory, !record.accepted));
     write_set(&[], || -> anyhow::Result<()> {
         record.write(&destination)?;
-        match &report_directory {
-            Some(directory) => {
-                super::report::write_mechanism_report(&record, &file, from_dataset, directory)
+        match &report_paths {
+            Some(paths) => {
+                super::report::write_mechanism_report(&record, &file, from_dataset, paths)
             }
             None => Ok(()),
         }
@@ -252,12 +257,8 @@ pub fn calibrate_with(
     let mut stdout = std::io::stdout().lock();
     print_summary(&record, from_dataset.truth, &mut stdout)?;
     writeln!(stdout, "calibration written to {file}")?;
-    if let Some(directory) = &report_directory {
-        writeln!(
-            stdout,
-            "report written to {}",
-            super::report::listed(directory)
-        )?;
+    if let Some(paths) = &report_paths {
+        writeln!(stdout, "report written to {}", super::report::listed(paths))?;
     }
     if !record.accepted {
         return Err(super::Rejected(format!(
@@ -278,6 +279,9 @@ pub fn print_summary(
     out: &mut impl Write,
 ) -> std::io::Result<()> {
     writeln!(out, "{}", verdict_sentence(calibration))?;
+    if let Some(run_away) = run_away_sentence(calibration) {
+        writeln!(out, "NOTE: {run_away}")?;
+    }
     for mirrored in mirrored_sentences(calibration) {
         writeln!(out, "{mirrored}")?;
     }

@@ -119,7 +119,8 @@ impl ReportRequest<'_> {
     /// written and are none of the dataset's files nor the calibration's
     /// destinations (`out` and [`rejected_path`]), which do not exist yet.
     pub fn check(&self, dataset: &Path, out: &Path) -> anyhow::Result<()> {
-        let files = report::report_paths(&self.directory);
+        let files = self.paths(false);
+        let files = [files, self.paths(true)].concat();
         for destination in [out.to_path_buf(), rejected_path(out)] {
             let directory = report::directory_of(&destination);
             let clash = files.iter().find(|file| {
@@ -136,12 +137,19 @@ impl ReportRequest<'_> {
         }
         crate::outputs::check(&crate::outputs::dataset_inputs(dataset), &files)
     }
+
+    /// Its files beside a calibration `rejected` or not
+    /// ([`report::calibration_report_paths`]).
+    pub fn paths(&self, rejected: bool) -> Vec<PathBuf> {
+        report::calibration_report_paths(&self.directory, rejected)
+    }
 }
 
 /// Stamps `record` with its provenance (this parcal, the dataset given as
 /// `path` and its checksum), writes it to its
 /// [`calibration_destination`] and, if asked, its report beside it (a
-/// rejected calibration's too: the report says why); a rejected verdict
+/// rejected calibration's too, under the rejected names: the report says
+/// why); a rejected verdict
 /// comes back as [`Rejected`] (which says where it went and that `out` is
 /// kept), for the caller to return once it has said what was written.
 pub fn write_calibration(
@@ -166,7 +174,7 @@ pub fn write_calibration(
                 file: &file,
                 accuracy: accuracy_with(&record, Some(&dataset.machine), request.truth),
             };
-            report::write(&subject, &request.directory)?;
+            report::write(&subject, &request.paths(record.is_rejected()))?;
         }
         Ok(())
     })?;

@@ -96,7 +96,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         } else {
             &calibration.verdict
         },
-        listed(&directory)
+        listed(&report_paths(&directory))
     )?;
     Ok(())
 }
@@ -152,7 +152,7 @@ fn write_mechanism(
         std::io::stdout().lock(),
         "{}\nreport written to {}",
         parcal::report::mechanism::verdict_sentence(record),
-        listed(directory)
+        listed(&report_paths(directory))
     )?;
     Ok(())
 }
@@ -165,21 +165,33 @@ pub fn report_paths(directory: &Path) -> Vec<PathBuf> {
         .collect()
 }
 
-/// `directory/report.html and directory/report.md`, for stdout.
-pub fn listed(directory: &Path) -> String {
-    let paths: Vec<String> = report_paths(directory)
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
+/// The report's files that `calibrate --report` writes in `directory`
+/// beside a calibration: [`report_paths`], or for a rejected one their
+/// rejected names ([`super::rejected_path`]: `report.rejected.html`), so
+/// that its report never replaces an accepted calibration's.
+pub fn calibration_report_paths(directory: &Path, rejected: bool) -> Vec<PathBuf> {
+    let paths = report_paths(directory);
+    match rejected {
+        true => paths
+            .iter()
+            .map(|path| super::rejected_path(path))
+            .collect(),
+        false => paths,
+    }
+}
+
+/// `paths`, for stdout: `directory/report.html and directory/report.md`.
+pub fn listed(paths: &[PathBuf]) -> String {
+    let paths: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
     paths.join(" and ")
 }
 
-/// Renders `subject` in both forms into `directory` ([`REPORT_FILES`]),
-/// both rendered before either is written ([`write_texts`]).
-pub fn write(subject: &Subject, directory: &Path) -> anyhow::Result<()> {
-    let texts = REPORT_FILES
-        .iter()
-        .map(|(name, format)| Ok((directory.join(name), render(subject, *format)?)))
+/// Renders `subject` in both forms ([`REPORT_FILES`]) into `paths` (in
+/// their order), both rendered before either is written
+/// ([`write_texts`]).
+pub fn write(subject: &Subject, paths: &[PathBuf]) -> anyhow::Result<()> {
+    let texts = (REPORT_FILES.iter().zip(paths))
+        .map(|((_, format), path)| Ok((path.clone(), render(subject, *format)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
     write_texts(&texts)
 }
@@ -197,18 +209,18 @@ fn write_texts(texts: &[(PathBuf, String)]) -> anyhow::Result<()> {
 
 /// Writes the report of `record` (calibration.json at `file`), with what
 /// `from_dataset` adds (the residuals of the dataset's probes and manual
-/// heights over the bed, if given), into `directory`: report.html and
-/// report.md ([`REPORT_FILES`]).
+/// heights over the bed, if given), into `paths`: its HTML and Markdown
+/// forms ([`REPORT_FILES`]).
 pub fn write_mechanism_report(
     record: &MechanismCalibrationRecord,
     file: &str,
     from_dataset: FromDataset<'_>,
-    directory: &Path,
+    paths: &[PathBuf],
 ) -> anyhow::Result<()> {
-    for (name, format) in REPORT_FILES {
-        let text = mechanism_page(record, file, from_dataset, format)
+    for ((_, format), path) in REPORT_FILES.iter().zip(paths) {
+        let text = mechanism_page(record, file, from_dataset, *format)
             .map_err(|error| anyhow::anyhow!("{file}: {error}"))?;
-        parcal::report::write_text(&directory.join(name), &text)?;
+        parcal::report::write_text(path, &text)?;
     }
     Ok(())
 }

@@ -1,10 +1,11 @@
 //! The record of a mechanism calibration (`calibration.json`, format
-//! `parcal-mechanism-calibration/1.3`): the mechanism (and a printer's
+//! `parcal-mechanism-calibration/1.4`): the mechanism (and a printer's
 //! printable radius, since 1.2; a cable robot's elastic lines, since
 //! 1.3), the estimated
 //! parameters in its canonical frame with their sigmas, priors and
 //! covariance, the verdict and its reasons, the tests (global test,
-//! w-tests, snooping) and the identifiability, so that `export` and
+//! w-tests, snooping), the identifiability and a Gauss-Newton fit that ran
+//! away before (since 1.4), so that `export` and
 //! `report` read one without the calibration's code.
 
 use std::collections::BTreeSet;
@@ -123,6 +124,19 @@ pub struct BallRecord {
     pub radius_sigma: Option<f64>,
 }
 
+/// A Gauss-Newton fit that ran away, made again with Levenberg-Marquardt
+/// (since 1.4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunAwayRecord {
+    /// How it ended, in words.
+    pub status: String,
+    /// Its iterations.
+    pub iterations: usize,
+    /// Its cost at its start and at its end (`null` where not finite).
+    pub cost: [Option<f64>; 2],
+}
+
 /// A ball found on the wrong side of its touches and re-seeded at the
 /// mirror image of its centre fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -229,6 +243,10 @@ pub struct MechanismCalibrationRecord {
     /// (none: absent).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mirrored: Vec<MirroredRecord>,
+    /// When the fit is the Levenberg-Marquardt one made after a
+    /// Gauss-Newton fit ran away: how that one ended (absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gauss_newton: Option<RunAwayRecord>,
     /// The trackers' frames, in the dataset's order (none: absent).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub trackers: Vec<TrackerRecord>,
@@ -279,8 +297,8 @@ impl MechanismCalibrationRecord {
     /// lines); unique parameter names; finite values, sigmas
     /// and covariance of the parameters' size; a prior correlation of the
     /// size of the parameters but the trigger height, unit diagonal, entries within ±1;
-    /// finite ball centres and radii; every observation row held by an
-    /// observation.
+    /// finite ball centres and radii; a run-away fit's status a text and
+    /// its costs finite; every observation row held by an observation.
     fn validate(&self, check: Check) -> Result<()> {
         machine_mechanism(check.path(), &self.mechanism, self.elasticity.as_ref())?;
         check_print_radius(check, &self.mechanism, self.print_radius)?;
@@ -349,6 +367,13 @@ impl MechanismCalibrationRecord {
             if let Some(sigma) = ball.radius_sigma {
                 check.non_negative(format_args!("balls[{b}].radius_sigma"), sigma)?;
             }
+        }
+        if let Some(run) = &self.gauss_newton {
+            check.text("gauss_newton.status", &run.status)?;
+            check.values(
+                "gauss_newton.cost",
+                &run.cost.iter().flatten().copied().collect::<Vec<_>>(),
+            )?;
         }
         let unclaimed = self.tests.observations.unclaimed_rows();
         if unclaimed > 0 {

@@ -68,7 +68,8 @@ pub use balls::{
 };
 pub use calibration::{
     BallRecord, BodyRecord, IdentifiabilityRecord, MechanismCalibrationRecord, MirroredRecord,
-    ParameterRecord, RemovalRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord, UndeterminedRecord,
+    ParameterRecord, RemovalRecord, RunAwayRecord, TRIGGER_HEIGHT, TestsRecord, TrackerRecord,
+    UndeterminedRecord,
 };
 pub use machine::{LineElasticity, MechanismMachine, Noise, ValuePrior};
 pub use observation_records::{
