@@ -314,6 +314,11 @@ fn statements(
             by_prior.join(", ")
         ));
     }
+    if undetermined.is_empty() && by_prior.is_empty() {
+        statements.push(format!(
+            "the data determine every parameter: none is left to its prior (every posterior sigma below {PRIOR_BOUND} of the prior's, where there is one)"
+        ));
+    }
     statements
 }
 
@@ -341,8 +346,15 @@ mod tests {
 
     #[test]
     fn a_weak_direction_has_its_ratio_and_an_unseen_one_none() {
+        // Data far stronger than the priors: every parameter determined,
+        // and said so.
+        let strong = of([1e8, 1e8]);
+        assert!(strong.undetermined.is_empty());
+        assert_eq!(strong.statements.len(), 1, "{:?}", strong.statements);
+        assert!(strong.statements[0].starts_with("the data determine every parameter"));
         // Data information 1/4 on b: alone it would give b two prior sigmas.
         let weak = of([1e8, 0.25]);
+        assert!(!weak.statements.iter().any(|s| s.contains("every parameter")));
         assert_eq!(weak.undetermined.len(), 1);
         assert_eq!(
             weak.undetermined[0].components,
@@ -385,7 +397,8 @@ mod tests {
         })
         .unwrap();
         assert!(free.undetermined.is_empty(), "{:?}", free.statements);
-        assert!(free.statements.is_empty(), "{:?}", free.statements);
+        assert_eq!(free.statements.len(), 1, "{:?}", free.statements);
+        assert!(free.statements[0].starts_with("the data determine every parameter"));
         // None on b: 1/(1 + 0) - 1 is exact here, but a rounding of 1e-13
         // (far below 2 ε 1e8) must not be read as data seeing it.
         for data in [0.0, 1e-13] {
