@@ -238,3 +238,36 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
     );
     read_config(&out).unwrap();
 }
+
+/// The fixture with its anchors' prior dropped and every position but the
+/// encoder zero's blanked: rotations about that point move no reading, so
+/// the calibration is refused, the combination named by its parameters.
+#[test]
+fn anchors_no_data_nor_prior_determine_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = copy_fixture(
+        "hangprinter",
+        dir.path(),
+        &["machine.json", "points.csv", "quantities.csv"],
+    );
+    let path = data.join("machine.json");
+    let mut machine: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
+    machine["tolerances"]["anchors"] = serde_json::Value::Null;
+    fs::write(&path, machine.to_string()).unwrap();
+    let points = fs::read_to_string(data.join("points.csv")).unwrap();
+    let blanked: Vec<String> = (points.lines().enumerate())
+        .map(|(k, line)| match k {
+            0 | 1 => line.to_string(),
+            _ => {
+                let mut fields: Vec<&str> = line.split(',').collect();
+                fields[4..7].fill("");
+                fields.join(",")
+            }
+        })
+        .collect();
+    fs::write(data.join("points.csv"), blanked.join("\n") + "\n").unwrap();
+    let said = fails(&["calibrate", s(&data)]);
+    assert!(said.contains("not determined"), "{said}");
+    assert!(said.contains(" anchor_"), "{said}");
+}

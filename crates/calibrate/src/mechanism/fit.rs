@@ -17,7 +17,7 @@
 use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, SVector, Vector3};
-use parcal_dataset::mechanism::RowCheck;
+use parcal_dataset::mechanism::{RowCheck, TRIGGER_HEIGHT};
 use parcal_solver::{
     BlockId, GlobalObservations, IterationRecord, Loss, Problem, Solution, SolverOptions, State,
     Status, group_sigmas, redundancy, solve_with_caches,
@@ -37,6 +37,7 @@ use super::mirror::{MirroredBall, WrongSideWatch};
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::problem::{FitProblem, MechanismProblem, Start, group_size};
+
 use super::trackers::Trackers;
 use super::warm_start::WarmStart;
 
@@ -190,7 +191,7 @@ fn solve_and_check<const C: usize, const P: usize, const R: usize, Q: FitProblem
     let base = problem.base();
     let data = base.data();
     let points = base.n_points();
-    if let Some(error) = failure(&solution.status, data.observations.samples.len()) {
+    if let Some(error) = failure(&solution.status, data) {
         return Ok(Ended::Failed(solution.status, error));
     }
     let refs = base.global_observation_refs();
@@ -362,12 +363,14 @@ fn ball_unknowns<const C: usize>(
         .unzip()
 }
 
-/// The error of a run that could not fit at all: a failed evaluation (the
-/// observation it names), the unknowns not determined, an invalid start.
+/// The error of a run of `data` that could not fit at all: a failed
+/// evaluation (the observation it names), the unknowns not determined
+/// (each combination named by its largest components), an invalid start.
 /// A run that merely did not converge is a result (its verdict rejects
-/// it). The solver's groups are the `samples` point samples' poses, then
-/// the balls' centres.
-fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError> {
+/// it). The solver's groups are the point samples' poses, then the balls'
+/// centres.
+fn failure(status: &Status, data: &MechanismData) -> Option<MechanismCalibrationError> {
+    let samples = data.observations.samples.len();
     match status {
         Status::ProblemFailed {
             iteration, message, ..
@@ -376,10 +379,20 @@ fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError>
             message: message.clone(),
         }),
         Status::Singular { diagnostics, .. } => {
-            let weak = diagnostics.weakest.iter().filter(|w| !w.identified).count();
+            let unseen: Vec<String> = (diagnostics.weakest.iter())
+                .filter(|w| !w.identified)
+                .map(|w| {
+                    let components = w.dominant.iter();
+                    let named =
+                        components.map(|&(k, v)| format!("{v:+.2} {}", global_name(data, k)));
+                    named.collect::<Vec<_>>().join(" ")
+                })
+                .collect();
             Some(MechanismCalibrationError::NotDetermined {
                 reason: format!(
-                    "{weak} combination(s) of the unknowns are seen by neither the data nor a prior; give their parameters a prior"
+                    "{} combination(s) of the unknowns are seen by neither the data nor a prior ({}); give their parameters a prior",
+                    unseen.len(),
+                    unseen.join("; ")
                 ),
             })
         }
@@ -399,6 +412,18 @@ fn failure(status: &Status, samples: usize) -> Option<MechanismCalibrationError>
             status: status.clone(),
         }),
         _ => None,
+    }
+}
+
+/// The name of unknown `k` of the global block of `data`'s fit: a
+/// parameter of the mechanism's, the trigger height, or its place in the
+/// block past them (a tracker's frame or offsets, a tied ball's centre).
+fn global_name(data: &MechanismData, k: usize) -> String {
+    let parameters = data.mechanism.parameters();
+    match parameters.get(k) {
+        Some(parameter) => parameter.name.clone(),
+        None if k == parameters.len() && data.has_trigger_height() => TRIGGER_HEIGHT.to_string(),
+        None => format!("global unknown {k}"),
     }
 }
 

@@ -354,7 +354,12 @@ mod tests {
         assert!(strong.statements[0].starts_with("the data determine every parameter"));
         // Data information 1/4 on b: alone it would give b two prior sigmas.
         let weak = of([1e8, 0.25]);
-        assert!(!weak.statements.iter().any(|s| s.contains("every parameter")));
+        assert!(
+            !weak
+                .statements
+                .iter()
+                .any(|s| s.contains("every parameter"))
+        );
         assert_eq!(weak.undetermined.len(), 1);
         assert_eq!(
             weak.undetermined[0].components,
