@@ -62,12 +62,17 @@ fn sizes_beyond_the_bound_are_refused_before_anything_is_allocated() {
                 "--tracker",
                 "both",
                 "--sessions",
-                "1000000",
+                "100",
                 "--rows",
                 "1000000",
             ],
             1,
-            "too large: --sessions 1000000 x --rows 1000000",
+            "too large: --sessions 100 x --rows 1000000",
+        ),
+        (
+            vec!["--tracker", "poses", "--sessions", "101"],
+            2,
+            "--sessions 101: must be a whole number from 1 to 100",
         ),
         (
             vec![

@@ -48,6 +48,17 @@ impl Count {
     }
 }
 
+/// The sessions of instrument measurements a dataset holds: each adds
+/// its instrument frame (and, re-homed, six leg offsets) to the dense
+/// global block every iteration solves, whose memory grows as the square
+/// of their number and its factorisation as the cube (300 sessions of 6
+/// poses take about 100 s and 480 MB).
+pub const SESSIONS: Count = Count::new(
+    1,
+    100,
+    "each session adds up to twelve unknowns to the dense block every iteration solves",
+);
+
 /// The product of `counts` (name, value) if it is at most `max` (checked
 /// arithmetic: an overflow is beyond it), else a message naming every
 /// factor, the bound and `reason`.

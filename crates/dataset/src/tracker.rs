@@ -351,8 +351,12 @@ impl Sessions {
         if let Some(&i) = self.index.get(label) {
             return Ok(i);
         }
+        let refused = |message| row.error(Some(SESSION), message);
+        crate::bounds::SESSIONS
+            .check("sessions", self.labels.len() + 1)
+            .map_err(refused)?;
         let i = u32::try_from(self.labels.len())
-            .map_err(|_| row.error(Some(SESSION), "more than 2^32 sessions".into()))?;
+            .map_err(|_| refused("more than 2^32 sessions".into()))?;
         self.labels.push(label.to_owned());
         self.index.insert(label.to_owned(), i);
         Ok(i)
@@ -471,6 +475,24 @@ mod tests {
             &[1.0; 6],
         )
         .unwrap();
+    }
+
+    /// A 101st session is refused at its first row, by line and column.
+    #[test]
+    fn sessions_are_bounded() {
+        let row = |k: usize| format!("s{k},1,2,3,4,5,6,0,0,700,0,0,0,1\n");
+        let header = "session,q1,q2,q3,q4,q5,q6,x,y,z,qx,qy,qz,qw\n";
+        let hundred: String = (0..100).map(row).collect();
+        let t = read(&format!("{header}{hundred}{}", row(7)), None).unwrap();
+        assert_eq!(t.sessions.len(), 100);
+        let error = read(&format!("{header}{hundred}{}", row(100)), None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("line 102")
+                && error.contains("sessions 101: must be a whole number from 1 to 100"),
+            "{error}"
+        );
     }
 
     #[test]

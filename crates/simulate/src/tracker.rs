@@ -173,6 +173,9 @@ fn check(s: &TrackerScenario) -> Result<(), SimulateError> {
             s.sessions, s.rows_per_session
         ));
     }
+    parcal_dataset::bounds::SESSIONS
+        .check("sessions", s.sessions)
+        .map_err(SimulateError::TooLarge)?;
     crate::check_rows(&[
         ("sessions", s.sessions),
         ("rows per session", s.rows_per_session),

@@ -298,7 +298,7 @@ fn an_unreachable_stroke_is_an_error_naming_the_row() {
 #[test]
 fn an_instrument_campaign_beyond_the_row_bound_is_refused() {
     let huge = TrackerScenario {
-        sessions: 1 << 20,
+        sessions: 100,
         rows_per_session: 1 << 20,
         ..TrackerScenario::paper_like()
     };
@@ -308,8 +308,23 @@ fn an_instrument_campaign_beyond_the_row_bound_is_refused() {
     let error = error.to_string();
     assert!(
         error.starts_with(
-            "too large: sessions 1048576 x rows per session 1048576 x files (poses and points) 2"
+            "too large: sessions 100 x rows per session 1048576 x files (poses and points) 2"
         ),
+        "{error}"
+    );
+    // More sessions than a dataset may hold: refused by their own bound.
+    let many = TrackerScenario {
+        sessions: 101,
+        rows_per_session: 1,
+        ..TrackerScenario::paper_like()
+    };
+    let Err(error) = simulate_tracker(&many, 1) else {
+        panic!("simulated")
+    };
+    assert!(
+        error
+            .to_string()
+            .starts_with("too large: sessions 101: must be a whole number from 1 to 100"),
         "{error}"
     );
 }

@@ -69,7 +69,7 @@ pub struct Args {
     #[arg(long, requires = "tracker")]
     touches: bool,
     /// Number of measuring sessions (default: 3).
-    #[arg(long, requires = "tracker", value_parser = Bounded(COUNT))]
+    #[arg(long, requires = "tracker", value_parser = Bounded(parcal::dataset::bounds::SESSIONS))]
     sessions: Option<usize>,
     /// Rows of each file per session (default: 50 for the paper's machine,
     /// 108 for Jugglebot's).
