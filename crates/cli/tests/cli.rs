@@ -401,6 +401,20 @@ fn a_calibration_of_poses_alone_leaves_the_tool_out_and_accuracy_says_so() {
     assert!(!output.status.success());
     let stderr = text(&output.stderr);
     assert!(stderr.contains("did not calibrate the tool"), "{stderr}");
+    // The calibrated scales are held twice, as parameters and in the
+    // calibrated machine: a copy edited apart is refused by name.
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&calibration).unwrap()).unwrap();
+    let scale = &mut json["machine"]["actuator"]["scale"][0];
+    *scale = (scale.as_f64().unwrap() * 1.1).into();
+    std::fs::write(&calibration, json.to_string()).unwrap();
+    let error = parcal::dataset::Calibration::read(&calibration)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("field machine.actuator.scale[0]") && error.contains("s_1 = "),
+        "{error}"
+    );
 }
 
 #[test]

@@ -11,7 +11,8 @@
 //! - **one geometry**: the named kinematic parameters
 //!   ([`PARAM_NAMES`]) equal the `canonical` geometry's
 //!   ([`params::to_params`]), whose coordinates zero by definition are
-//!   zero, within [`AGREEMENT`];
+//!   zero, and the calibrated actuator scales (`s_1` ... `s_6`) the
+//!   calibrated machine's (`machine.actuator.scale`), within [`AGREEMENT`];
 //! - **a covariance**: square (one row and column per parameter),
 //!   symmetric, positive semi-definite (its correlation matrix plus
 //!   [`SEMIDEFINITE`] times the identity has a Cholesky factor), with
@@ -165,8 +166,9 @@ impl Calibration {
         Ok(())
     }
 
-    /// The named kinematic parameters are the `canonical` geometry's, and
-    /// that geometry is in its canonical frames.
+    /// The named kinematic parameters are the `canonical` geometry's, that
+    /// geometry is in its canonical frames, and the calibrated scales are
+    /// the calibrated machine's.
     fn validate_geometry(&self, check: Check) -> Result<()> {
         let c = &self.canonical;
         for (body, joints, index) in [
@@ -202,6 +204,25 @@ impl Calibration {
                         "{} disagrees with parameters.values[{k}], {name} = {}: the canonical \
                          geometry and the parameters are two copies of one result",
                         canonical[j], value
+                    ),
+                ));
+            }
+        }
+        let Some(machine) = &self.machine else {
+            return Ok(());
+        };
+        for (i, &scale) in machine.actuator.scale.iter().enumerate() {
+            let name = format!("s_{}", i + 1);
+            let Some(k) = p.names.iter().position(|known| *known == name) else {
+                continue;
+            };
+            if !agree(p.values[k], scale) {
+                return Err(check.error(
+                    format!("machine.actuator.scale[{i}]"),
+                    format!(
+                        "{} disagrees with parameters.values[{k}], {name} = {}: the calibrated \
+                         machine and the parameters are two copies of one result",
+                        scale, p.values[k]
                     ),
                 ));
             }
