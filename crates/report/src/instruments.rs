@@ -37,7 +37,7 @@ pub fn summary(run: &CalibrationRun, record: &Calibration) -> String {
         out,
         "{} after {} iterations",
         status(run),
-        run.history.len().saturating_sub(1)
+        run.iterations()
     );
     let _ = writeln!(out, "verdict: {}", record.verdict);
     for reason in record.reasons.iter().chain(&record.warnings) {
