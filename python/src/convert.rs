@@ -19,6 +19,21 @@ fn json_text(object: &Bound<'_, PyAny>, what: &str) -> PyResult<String> {
         .map_err(|error| to_py(format!("{what}: not JSON: {error}")))
 }
 
+/// Refuses a key of `dict` (`what`) that is none of `keys`: a misspelt
+/// key would otherwise be passed over without a word.
+pub fn known_keys(dict: &Bound<'_, PyDict>, what: &str, keys: &[&str]) -> PyResult<()> {
+    for key in dict.keys() {
+        let name = key.str()?.to_string();
+        if !keys.contains(&name.as_str()) {
+            return Err(to_py(format!(
+                "{what}: unknown key {name:?} (its keys are {})",
+                keys.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// `value` as Python objects (dicts, lists, numbers), by its JSON form.
 pub fn to_python<'py>(py: Python<'py>, value: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(value).map_err(to_py)?;

@@ -13,7 +13,7 @@ use parcal::{Artefacts, Machine, Measurements, PARAM_NAMES, Points, Poses, Track
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{array2, rows, through_file, to_python};
+use crate::convert::{array2, known_keys, rows, through_file, to_python};
 use crate::error::to_py;
 
 /// What calibration.json's provenance names a dataset built in memory.
@@ -80,6 +80,7 @@ impl Dataset {
         let measurements = measurements(&artefacts, ball, q, direction)?;
         let mut tracker = Tracker::default();
         if let Some(poses) = poses {
+            known_keys(poses, "poses", &["session", "q", "position", "orientation"])?;
             let Points {
                 session,
                 q,
@@ -104,6 +105,7 @@ impl Dataset {
             };
         }
         if let Some(points) = points {
+            known_keys(points, "points", &["session", "q", "position"])?;
             tracker.points = instrument_rows(points, "points", &mut tracker.sessions)?;
         }
         Ok(Self::in_memory(parcal::Dataset {

@@ -180,6 +180,8 @@ def test_poses_built_in_memory_give_the_values_of_the_files(tmp_path):
     poses["orientation"] = table[:-1, 9:13]
     with pytest.raises(parcal.Error, match="poses: orientation has 107 rows and q 108"):
         parcal.Dataset(machine, poses=poses)
+    with pytest.raises(parcal.Error, match=r'poses: unknown key "sessions" \(its keys are session, q, position, orientation\)'):
+        parcal.Dataset(machine, poses={**poses, "sessions": ["1"] * 108})
 
 
 def test_a_calibration_read_back_is_the_one_written(paper, tmp_path):

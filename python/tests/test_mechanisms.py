@@ -321,6 +321,9 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
         parcal.MechanismDataset({**delta_machine, "noise": {"probe": 0.01}}, distances=np.ones((2, 7)))
     with pytest.raises(parcal.Error, match=r"samples\[\"readings\"\]: expected 4 columns, got 3"):
         parcal.MechanismDataset(machine, samples={"readings": np.ones((2, 3))})
+    # A misspelt key is refused, not passed over (the loads would be lost).
+    with pytest.raises(parcal.Error, match=r'samples: unknown key "load" \(its keys are readings, position, loads\)'):
+        parcal.MechanismDataset(machine, samples={"readings": np.ones((2, 4)), "load": np.ones((2, 4))})
     with pytest.raises(parcal.Error, match=r"machine\.json: .*unknown mechanism"):
         parcal.MechanismDataset({**machine, "mechanism": "scara"}, probes=probes)
 

@@ -339,7 +339,7 @@ impl Machine {
                 path,
                 "mechanism",
                 format!(
-                    "{} is not the hexapod this reader reads: read its dataset with the mechanism reader (parcal_dataset::mechanism::MechanismDataset::read)",
+                    "{} is not the hexapod this reader reads: read its dataset with the mechanism reader (MechanismDataset)",
                     quoted(&name)
                 ),
             ));

@@ -18,6 +18,10 @@ use parcal_workflows::evaluate::{BeforeAfter, TrueMachine, accuracy};
 /// the calibration's name in front of [`MapsError::Calibration`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum MapsError {
+    /// The calibration is of another dataset (its checksum differs), and
+    /// another was not allowed: what is said is the front end's way to
+    /// allow it.
+    OtherData(String),
     /// The calibration cannot be mapped on this dataset.
     Calibration(String),
     /// The dataset's design, prior or truth, or the maps themselves.
@@ -27,7 +31,9 @@ pub enum MapsError {
 impl fmt::Display for MapsError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Calibration(message) | Self::Dataset(message) => f.write_str(message),
+            Self::OtherData(message) | Self::Calibration(message) | Self::Dataset(message) => {
+                f.write_str(message)
+            }
         }
     }
 }
@@ -49,12 +55,12 @@ pub fn calibrated_params(
         && !other_data
         && provenance.dataset_checksum != dataset.checksum()
     {
-        return refuse(format!(
-            "the calibration is of another dataset ({}, checksum {}; this one's is {}); give --other-data to map it here anyway",
+        return Err(MapsError::OtherData(format!(
+            "the calibration is of another dataset ({}, checksum {}; this one's is {})",
             provenance.dataset,
             provenance.dataset_checksum,
             dataset.checksum()
-        ));
+        )));
     }
     let names = &calibration.parameters.names;
     // A calibration of poses alone holds the joints and legs but no tool.

@@ -33,12 +33,7 @@ pub fn summary(run: &CalibrationRun, record: &Calibration) -> String {
         "whitened residual RMS {:.3} (1 when the repeatabilities of machine.json are right)",
         run.residual_rms()
     );
-    let _ = writeln!(
-        out,
-        "{} after {} iterations",
-        status(run),
-        run.iterations()
-    );
+    let _ = writeln!(out, "{} after {} iterations", status(run), run.iterations());
     let _ = writeln!(out, "verdict: {}", record.verdict);
     for reason in record.reasons.iter().chain(&record.warnings) {
         let _ = writeln!(out, "  {reason}");

@@ -36,8 +36,12 @@ pub fn accuracy<'py>(
     let calibrated = calibration
         .map(|calibration| {
             let (record, name) = calibration_record(calibration, accept_rejected)?;
-            calibrated_params(&record, dataset, other_data)
-                .map_err(|e| to_py(format!("{name}: {e}")))
+            calibrated_params(&record, dataset, other_data).map_err(|e| match e {
+                MapsError::OtherData(_) => to_py(format!(
+                    "{name}: {e}; give other_data=True to map it here anyway"
+                )),
+                e => to_py(format!("{name}: {e}")),
+            })
         })
         .transpose()?;
     let maps = py

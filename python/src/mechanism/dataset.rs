@@ -21,7 +21,8 @@ use pyo3::types::PyDict;
 
 use super::data_error;
 use crate::convert::{
-    array2, rows, table, table_rows, table_rows_of, through_file, to_python, written_text,
+    array2, known_keys, rows, table, table_rows, table_rows_of, through_file, to_python,
+    written_text,
 };
 use crate::error::to_py;
 
@@ -453,6 +454,7 @@ impl MechanismDataset {
 /// NaN where not measured) and `loads` (n x A, a row of NaN where not
 /// given), the last two optional.
 fn sample_rows(dict: &Bound<'_, PyDict>, actuators: usize) -> PyResult<Vec<SampleRow>> {
+    known_keys(dict, "samples", &["readings", "position", "loads"])?;
     let column = |key: &str, width: usize| -> PyResult<Option<Vec<Vec<f64>>>> {
         dict.get_item(key)?
             .filter(|value| !value.is_none())
@@ -542,6 +544,11 @@ fn touch_rows(touches: &Bound<'_, PyAny>) -> PyResult<Vec<TouchRow>> {
 /// `tracker_points` (a dict of `tracker`, `commanded`, `measured`) as
 /// tracker_points.csv's rows.
 fn tracker_point_rows(dict: &Bound<'_, PyDict>) -> PyResult<Vec<TrackerPointRow>> {
+    known_keys(
+        dict,
+        "tracker_points",
+        &["tracker", "commanded", "measured"],
+    )?;
     let entry = |key: &str| {
         dict.get_item(key)?
             .ok_or_else(|| to_py(format!("tracker_points: missing {key:?}")))
@@ -601,6 +608,7 @@ fn ball_number(value: f64, at: impl Fn() -> String) -> PyResult<usize> {
 
 /// The quantities of a dict: `quantity` (names), `value` and `sigma`.
 fn quantity_rows(dict: &Bound<'_, PyDict>) -> PyResult<Vec<QuantityRow>> {
+    known_keys(dict, "quantities", &["quantity", "value", "sigma"])?;
     let entry = |key: &str| {
         dict.get_item(key)?
             .ok_or_else(|| to_py(format!("quantities: missing {key:?}")))

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use parcal::dataset::atomic::write_set;
-use parcal::maps::{accuracy_maps, calibrated_params};
+use parcal::maps::{MapsError, accuracy_maps, calibrated_params};
 use parcal::report::maps::{map_files, write_maps};
 use parcal::report::tables;
 
@@ -41,6 +41,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .map(|path| -> anyhow::Result<_> {
             let calibration = super::read_calibration(path, args.accept_rejected)?;
             calibrated_params(&calibration, &dataset, args.other_data)
+                .map_err(|error| match error {
+                    MapsError::OtherData(_) => {
+                        anyhow::anyhow!("{error}; give --other-data to map it here anyway")
+                    }
+                    error => error.into(),
+                })
                 .with_context(|| path.display().to_string())
         })
         .transpose()?;

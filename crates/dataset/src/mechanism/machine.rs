@@ -341,7 +341,7 @@ impl MechanismMachine {
                 return Err(DatasetError::field(
                     path,
                     "mechanism",
-                    "this is a hexapod's machine (no mechanism named, or \"hexapod\"): read its dataset with the hexapod reader (parcal_dataset::Dataset::read)",
+                    "this is a hexapod's machine (no mechanism named, or \"hexapod\"): read its dataset with the hexapod reader (Dataset)",
                 ));
             }
         }
