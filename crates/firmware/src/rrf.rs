@@ -2,7 +2,11 @@
 //! `G31` lines of `config.g` (or `config-override.g`), read as the
 //! firmware executes them, in order, each given parameter replacing the
 //! value before it, and the calibration lines written as the firmware
-//! writes them (`M500`).
+//! writes them (`M500`). Where `config.g` loads `config-override.g`
+//! (`M501`, or `M98 P"config-override.g"`), the firmware runs that file's
+//! lines there, so they are read there too, from beside `config.g`; a
+//! configuration that loads an override not beside it is refused, since
+//! the printer runs values parcal would not see.
 //!
 //! - `M665 L R H B X Y Z`: diagonal rods (`L` one value for all towers,
 //!   or `a:b:c`; with two values the third is the first, as the firmware
@@ -20,7 +24,7 @@
 //! Towers X, Y, Z of the firmware are towers A, B, C of
 //! [`parcal_kinematics::delta`], at 210, 330 and 90 degrees.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use parcal_kinematics::delta::DeltaParams;
 
@@ -254,8 +258,12 @@ pub fn read_config(path: &Path) -> Result<RrfConfig, FirmwareError> {
     parse_config(&read_capped(path, MAX_CONFIG_BYTES, "configuration")?, path)
 }
 
-/// [`read_config`] of a text already read (`path` names it in errors).
-/// Lines other than `M665`, `M666` and `G31` are skipped; a configuration
+/// The file `M501` loads, beside `config.g`.
+pub const OVERRIDE_FILE: &str = "config-override.g";
+
+/// [`read_config`] of a text already read (`path` names it in errors; the
+/// override it loads is read from beside it). Lines other than `M665`,
+/// `M666`, `G31` and the override's loading are skipped; a configuration
 /// without `M665` is not a delta's.
 pub fn parse_config(text: &str, path: &Path) -> Result<RrfConfig, FirmwareError> {
     let mut config = RrfConfig {
@@ -263,6 +271,34 @@ pub fn parse_config(text: &str, path: &Path) -> Result<RrfConfig, FirmwareError>
         probe: ZProbe::default(),
     };
     let mut last_m665 = None;
+    run_lines(text, path, &mut config, &mut last_m665, true)?;
+    let Some((path, line)) = last_m665 else {
+        return Err(FirmwareError::Configuration {
+            path: path.to_path_buf(),
+            message: "no M665 line: not a linear delta's configuration".into(),
+        });
+    };
+    config
+        .delta
+        .check()
+        .map_err(|message| FirmwareError::Line {
+            path,
+            line,
+            message,
+        })?;
+    Ok(config)
+}
+
+/// The lines of `text` (file `path`) run into `config` in order, the place
+/// of the last `M665` into `last_m665`; with `loads_override`, the
+/// override's lines run where the text loads it (module doc).
+fn run_lines(
+    text: &str,
+    path: &Path,
+    config: &mut RrfConfig,
+    last_m665: &mut Option<(PathBuf, u64)>,
+    loads_override: bool,
+) -> Result<(), FirmwareError> {
     for (index, line) in text.lines().enumerate() {
         let line_number = index as u64 + 1;
         let at_line = |message: String| FirmwareError::Line {
@@ -275,7 +311,7 @@ pub fn parse_config(text: &str, path: &Path) -> Result<RrfConfig, FirmwareError>
         };
         let applied = match (command.letter, command.number) {
             ('M', 665) => {
-                last_m665 = Some(line_number);
+                *last_m665 = Some((path.to_path_buf(), line_number));
                 config.delta.configure_m665(&command)
             }
             ('M', 666) => config.delta.configure_m666(&command),
@@ -283,20 +319,30 @@ pub fn parse_config(text: &str, path: &Path) -> Result<RrfConfig, FirmwareError>
             _ => Ok(()),
         };
         applied.map_err(at_line)?;
+        if loads_override && loads_the_override(&command) {
+            let file = path.with_file_name(OVERRIDE_FILE);
+            if !file.is_file() {
+                return Err(at_line(format!(
+                    "{}{} loads {OVERRIDE_FILE}, whose values the printer runs: give the printer's {OVERRIDE_FILE} beside this file (or take the line out if the printer has none)",
+                    command.letter, command.number
+                )));
+            }
+            let text = read_capped(&file, MAX_CONFIG_BYTES, "configuration")?;
+            run_lines(&text, &file, config, last_m665, false)?;
+        }
     }
-    let Some(line) = last_m665 else {
-        return Err(FirmwareError::Configuration {
-            path: path.to_path_buf(),
-            message: "no M665 line: not a linear delta's configuration".into(),
-        });
-    };
-    config
-        .delta
-        .check()
-        .map_err(|message| FirmwareError::Line {
-            path: path.to_path_buf(),
-            line,
-            message,
-        })?;
-    Ok(config)
+    Ok(())
+}
+
+/// Whether `command` loads the override: `M501`, or `M98` of
+/// [`OVERRIDE_FILE`] (quoted or not, with or without its folder).
+fn loads_the_override(command: &Command) -> bool {
+    match (command.letter, command.number) {
+        ('M', 501) => true,
+        ('M', 98) => command
+            .get('P')
+            .map(|p| p.trim_matches('"'))
+            .is_some_and(|p| p.rsplit(['/', ':']).next() == Some(OVERRIDE_FILE)),
+        _ => false,
+    }
 }

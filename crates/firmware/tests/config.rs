@@ -124,3 +124,54 @@ fn calibration_lines_read_back_to_the_values_written() {
     // And written again, identical.
     assert_eq!(back.calibration_lines(), text);
 }
+
+/// `M501` (or `M98 P"config-override.g"`) runs config-override.g's lines
+/// where it stands, as the firmware does: its values replace config.g's
+/// before it and those after it replace its; an override config.g loads
+/// that is not beside it is refused by the line that loads it.
+#[test]
+fn the_override_runs_where_config_g_loads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("config.g");
+    std::fs::write(
+        dir.path().join("config-override.g"),
+        "; saved by M500\nM665 L270.3:270.4:270.2 R135.8 H298.5 X1.2\nM666 X0.6 Y0.3 Z-0.9\n",
+    )
+    .unwrap();
+    for load in [
+        "M501",
+        "M98 P\"config-override.g\"",
+        "M98 P\"0:/sys/config-override.g\"",
+    ] {
+        let text = format!("M665 L270 R135 H300 B100\nM666 X0 Y0 Z0\n{load}\nM666 Z-1.0\n");
+        let read = parse_config(&text, &config).unwrap().delta;
+        assert_eq!(read.diagonals, [270.3, 270.4, 270.2], "{load}");
+        assert_eq!(
+            (read.radius, read.homed_height, read.print_radius),
+            (135.8, 298.5, 100.0)
+        );
+        assert_eq!(read.angle_corrections, [1.2, 0.0, 0.0]);
+        assert_eq!(read.endstop_adjustments, [0.6, 0.3, -1.0], "{load}");
+    }
+    // Another macro is not the override.
+    let other = parse_config("M665 L270 R135\nM98 P\"homedelta.g\"\n", &config).unwrap();
+    assert_eq!(other.delta.diagonals, [270.0; 3]);
+    // An override the printer runs but parcal cannot see.
+    let alone = tempfile::tempdir().unwrap();
+    let err = parse_config("M665 L270 R135\nM501\n", &alone.path().join("config.g"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("config.g: line 2: M501 loads config-override.g"),
+        "{err}"
+    );
+    // An error in the override names its own file and line.
+    std::fs::write(dir.path().join("config-override.g"), "M665 R13.5.1\n").unwrap();
+    let err = parse_config("M665 L270 R135\nM501\n", &config)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("config-override.g: line 1: M665 parameter R"),
+        "{err}"
+    );
+}

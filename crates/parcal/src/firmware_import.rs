@@ -97,15 +97,22 @@ impl ImportOptions {
     }
 
     /// Whether every standard deviation is one: finite, positive and at
-    /// most [`MAX_SIGMA`].
+    /// most [`MAX_SIGMA`]; and the matched rods' at most the rods'
+    /// tolerance.
     pub fn check(&self) -> Result<(), FirmwareImportError> {
-        match self
+        if let Some((option, value)) = self
             .sigmas()
             .into_iter()
             .find_map(|(option, value)| value.filter(|&v| !is_sigma(v)).map(|v| (option, v)))
         {
-            Some((option, value)) => Err(FirmwareImportError::Sigma { option, value }),
-            None => Ok(()),
+            return Err(FirmwareImportError::Sigma { option, value });
+        }
+        let tolerance = self.tolerances.diagonal;
+        match self.matched_rods {
+            Some(matched) if matched > tolerance => {
+                Err(FirmwareImportError::Matched { matched, tolerance })
+            }
+            _ => Ok(()),
         }
     }
 }
@@ -197,6 +204,16 @@ pub enum FirmwareImportError {
         option: &'static str,
         /// Its value.
         value: f64,
+    },
+    /// The matched rods' sigma is more than the rods' tolerance.
+    #[error(
+        "matched_rods: {matched} is more than diagonal_tolerance {tolerance}: the rods of a matched set are closer to one another than to the design"
+    )]
+    Matched {
+        /// The matched rods' sigma.
+        matched: f64,
+        /// The rods' tolerance.
+        tolerance: f64,
     },
     /// A file cannot be read, or says something the firmware would not.
     #[error(transparent)]
@@ -431,6 +448,16 @@ mod tests {
             ..ImportOptions::default()
         };
         assert_eq!(named(options), ("matched_rods", "NaN".to_string()));
+        // Matched rods closer to the design than the rods' tolerance says.
+        let loose = ImportOptions {
+            matched_rods: Some(0.8),
+            ..ImportOptions::default()
+        };
+        let error = loose.check().unwrap_err().to_string();
+        assert!(
+            error.starts_with("matched_rods: 0.8 is more than diagonal_tolerance 0.5"),
+            "{error}"
+        );
         let options = ImportOptions {
             trigger_sigma: MAX_SIGMA * 1.5,
             ..ImportOptions::default()
