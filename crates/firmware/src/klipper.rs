@@ -10,7 +10,7 @@
 //! - `[stepper_a]`, `[stepper_b]`, `[stepper_c]`: `angle` (degrees,
 //!   absolute; defaults 210, 330, 90), `arm_length` (B and C default to
 //!   A's), `position_endstop` (mm; B and C default to A's).
-//! - `[probe]` or `[bltouch]` ([`PROBE_SECTIONS`]): `z_offset`, the
+//! - `[probe]`, `[bltouch]` or `[smart_effector]` ([`PROBE_SECTIONS`]): `z_offset`, the
 //!   nozzle's height above the bed when the probe triggers (mm), which
 //!   `PROBE_CALIBRATE` saves in the block.
 //!
@@ -46,8 +46,9 @@ use save_config::SaveConfig;
 const STEPPERS: [&str; 3] = ["stepper_a", "stepper_b", "stepper_c"];
 
 /// The sections a probe's `z_offset` is read from and saved in, the first
-/// a `printer.cfg` has: Klipper's probe, a BLTouch.
-pub const PROBE_SECTIONS: [&str; 2] = ["probe", "bltouch"];
+/// a `printer.cfg` has: Klipper's probe, a BLTouch, a Duet Smart Effector
+/// (each section saves its own, as `PROBE_CALIBRATE` does).
+pub const PROBE_SECTIONS: [&str; 3] = ["probe", "bltouch", "smart_effector"];
 
 /// The parameters of a linear delta as Klipper holds them.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -79,7 +79,7 @@ fn the_probe_s_z_offset_is_read_and_saved_as_probe_calibrate_saves_it() {
     let with = |section: &str, value: &str| {
         format!("{PRINTER_CFG}\n[{section}]\nsensor_pin: ^PA1\nz_offset: {value}\n")
     };
-    for section in ["probe", "bltouch"] {
+    for section in ["probe", "bltouch", "smart_effector"] {
         let text = with(section, "1.25");
         assert_eq!(parse_printer(&text, path).unwrap().z_offset, Some(1.25));
         // SAVE_CONFIG's value overrides the main part's, to 1e-3.
