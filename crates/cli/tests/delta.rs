@@ -930,7 +930,10 @@ fn rods_cut_as_a_matched_set_are_imported_as_one() {
     // Looser than the rods' tolerance (0.5 mm by default): refused, named.
     let args = import(&d.join("loose"), "0.9");
     let error = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    assert!(error.contains("matched.diagonal rods"), "{error}");
+    assert!(
+        error.contains("matched_rods: 0.9 is more than diagonal_tolerance 0.5"),
+        "{error}"
+    );
     assert!(!d.join("loose").exists(), "nothing is left half-written");
 }
 

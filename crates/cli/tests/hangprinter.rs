@@ -271,3 +271,32 @@ fn anchors_no_data_nor_prior_determine_are_named() {
     assert!(said.contains("not determined"), "{said}");
     assert!(said.contains(" anchor_"), "{said}");
 }
+
+/// `compensate --poses` (or `--table`), a hexapod's, given a cable robot's
+/// calibration says what compensates it: `--targets`.
+#[test]
+fn compensate_of_a_hexapods_poses_names_the_targets_a_cable_robot_takes() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = copy_fixture(
+        "hangprinter",
+        dir.path(),
+        &["machine.json", "points.csv", "quantities.csv"],
+    );
+    ok(&["calibrate", s(&data)]);
+    let poses = dir.path().join("poses.csv");
+    fs::write(&poses, "x,y,z,roll,pitch,yaw\n0,0,500,0,0,0\n").unwrap();
+    let calibration = data.join("calibration.json");
+    let said = fails(&[
+        "compensate",
+        "--calibration",
+        s(&calibration),
+        "--poses",
+        s(&poses),
+        "--out",
+        s(&dir.path().join("commands.csv")),
+    ]);
+    assert!(
+        said.contains("a cable robot's calibration: compensate it at positions with --targets"),
+        "{said}"
+    );
+}

@@ -13,6 +13,7 @@ use parcal::apply::{
 };
 use parcal::correction_table::{AxisRange, correction_table, table_grid};
 use parcal::dataset::atomic::write_set;
+use parcal::dataset::mechanism::MechanismCalibrationRecord;
 use parcal::dataset::{read_numbers, write_numbers};
 use parcal::simulation::mechanism::Spelling;
 
@@ -77,7 +78,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .cloned()
         .collect();
     crate::outputs::check(&inputs, &outputs)?;
-    let record = super::read_calibration(&args.calibration, args.accept_rejected)?;
+    let record = super::read_calibration(&args.calibration, args.accept_rejected).map_err(|error| {
+        // A mechanism's calibration read as a hexapod's: say what takes it.
+        match MechanismCalibrationRecord::read(&args.calibration) {
+            Ok(record) => anyhow::anyhow!(
+                "{}: a {}'s calibration: compensate it at positions with --targets (--poses and --table compensate a hexapod's)",
+                args.calibration.display(),
+                record.mechanism
+            ),
+            Err(_) => error,
+        }
+    })?;
     let mut model = AppliedModel::from_record(&record)
         .with_context(|| format!("{}", args.calibration.display()))?;
     let p = &model.placement;
