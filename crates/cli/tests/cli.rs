@@ -401,6 +401,22 @@ fn a_calibration_of_poses_alone_leaves_the_tool_out_and_accuracy_says_so() {
     assert!(!output.status.success());
     let stderr = text(&output.stderr);
     assert!(stderr.contains("did not calibrate the tool"), "{stderr}");
+    // Its own dataset predicted with it: in sample, and said so.
+    let output = parcal(&[
+        "validate",
+        s(&data),
+        "--calibration",
+        s(&calibration),
+        "--reference",
+        "12",
+        "--out",
+        s(&temp.path().join("validation.json")),
+    ]);
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("its rows are predicted in sample"),
+        "{stderr}"
+    );
     // The calibrated scales are held twice, as parameters and in the
     // calibrated machine: a copy edited apart is refused by name.
     let mut json: serde_json::Value =
