@@ -187,6 +187,7 @@ pub fn export(
                 Some(path) => {
                     let text = read_capped(path, MAX_CONFIG_BYTES, "configuration")?;
                     let (main, block) = klipper.saved_into(&text, trigger.written());
+                    let main = without_notes(main, firmware.comment());
                     let newline = if main.is_empty() || main.ends_with('\n') {
                         ""
                     } else {
@@ -353,6 +354,23 @@ fn read_back(
     })
 }
 
+/// `main` without the run of this exporter's note lines (`# parcal: ...`)
+/// at its end: those an earlier export wrote before the block, which this
+/// one writes anew (a user's lines before them are kept).
+fn without_notes<'a>(main: &'a str, comment: &str) -> &'a str {
+    let prefix = format!("{comment} parcal: ");
+    let mut end = main.len();
+    while end > 0 {
+        let body = main[..end].strip_suffix('\n').unwrap_or(&main[..end]);
+        let start = body.rfind('\n').map_or(0, |i| i + 1);
+        if !body[start..].starts_with(&prefix) {
+            break;
+        }
+        end = start;
+    }
+    &main[..end]
+}
+
 /// `[a, b, c]` as `a, b, c mm`.
 fn millimetres(values: &[f64; 3]) -> String {
     format!("{:.4}, {:.4}, {:.4} mm", values[0], values[1], values[2])
@@ -444,6 +462,11 @@ mod tests {
             into.text
         );
         assert!(into.text.ends_with(saved), "{}", into.text);
+        // Exported again into what it wrote: its notes replaced, not
+        // stacked.
+        std::fs::write(&path, &into.text).unwrap();
+        let again = exported(TriggerHeight::Absent, Firmware::Klipper, Some(&path));
+        assert_eq!(again.text, into.text);
         let back = parse_printer(&into.text, &path).unwrap();
         assert_eq!(back.delta.to_params(), into.written);
         assert_eq!(back.saved.probes.len(), 1);
