@@ -191,10 +191,48 @@ fn an_instrument_calibration_reports_its_rows_and_says_why_it_has_no_map() {
     assert!(html.contains("<td>poses.csv</td>"));
     let tests = &c["diagnostics"]["observations"];
     assert!(html.contains(&format!("{} observations tested", tests["tested"])));
-    assert!(
-        html.contains("No accuracy map: the map is computed for the 33 kinematic parameters alone")
-    );
+    assert!(html.contains("No accuracy map: the calibration did not calibrate the tool"));
     assert_eq!(figures(&html).len(), 3, "two histograms, the correlation");
+}
+
+/// Touches read in revolutions, the scales unknowns after the 33: the
+/// report maps the 33 with their marginal covariance, as `parcal
+/// accuracy` does.
+#[test]
+fn a_calibration_with_actuator_scales_reports_its_accuracy_map() {
+    let temp = tempfile::tempdir().unwrap();
+    let data = temp.path().join("rev");
+    ok(&[
+        "simulate",
+        "--seed",
+        "1",
+        "--readings",
+        "rev",
+        "--out",
+        s(&data),
+    ]);
+    let calibration = temp.path().join("calibration.json");
+    ok(&["calibrate", s(&data), "--out", s(&calibration)]);
+    assert_eq!(
+        json(&calibration)["parameters"]["names"]
+            .as_array()
+            .unwrap()
+            .len(),
+        39
+    );
+    ok(&["report", s(&calibration), "--dataset", s(&data)]);
+    let html = fs::read_to_string(temp.path().join("report.html")).unwrap();
+    assert!(!html.contains("No accuracy map"), "{html}");
+    let maps = temp.path().join("maps");
+    let said = ok(&[
+        "accuracy",
+        s(&data),
+        "--calibration",
+        s(&calibration),
+        "--out",
+        s(&maps),
+    ]);
+    assert!(said.contains("calibration, after"), "{said}");
 }
 
 #[test]
@@ -274,7 +312,7 @@ fn a_calibration_that_did_not_converge_is_reported_rejected_without_a_map() {
         line.starts_with("REJECTED") && line.contains("the solver stopped"),
         "{line}"
     );
-    assert!(html.contains("No accuracy map: the calibration did not converge"));
+    assert!(html.contains("No accuracy map: the calibration has no posterior covariance"));
     // A run at its iteration limit is not judged, and the page says so.
     assert!(html.contains("The observations were not tested: the run did not converge"));
 }

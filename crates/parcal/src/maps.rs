@@ -9,8 +9,7 @@ use parcal_accuracy::MapGrid;
 use parcal_calibrate::setup::{design_geometry, kinematic_prior};
 use parcal_calibrate::{ParamCovariance, PriorMode};
 use parcal_dataset::{Calibration, Dataset};
-use parcal_kinematics::params::TOOL_OFFSET;
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, params};
+use parcal_kinematics::{Params, params};
 use parcal_workflows::evaluate::{BeforeAfter, TrueMachine, accuracy};
 
 /// Why the maps could not be made: one sentence, naming the file
@@ -42,15 +41,13 @@ impl std::error::Error for MapsError {}
 
 /// The parameters and covariance of `calibration`, a calibration of
 /// `dataset` (or, if `other_data`, of another dataset: its checksum
-/// differs): its parameters must start with the 33, named and ordered as
-/// `PARAM_NAMES` (a calibration with poses or points has its instrument
-/// parameters after them), and it must have a posterior covariance.
+/// differs): its 33 kinematic parameters and their marginal covariance
+/// ([`Calibration::kinematic_estimate`]).
 pub fn calibrated_params(
     calibration: &Calibration,
     dataset: &Dataset,
     other_data: bool,
 ) -> Result<(Params, ParamCovariance), MapsError> {
-    let refuse = |message: String| Err(MapsError::Calibration(message));
     if let Some(provenance) = &calibration.provenance
         && !other_data
         && provenance.dataset_checksum != dataset.checksum()
@@ -62,38 +59,9 @@ pub fn calibrated_params(
             dataset.checksum()
         )));
     }
-    let names = &calibration.parameters.names;
-    // A calibration of poses alone holds the joints and legs but no tool.
-    let tool_left_out = names
-        .get(..TOOL_OFFSET)
-        .is_some_and(|leading| leading == &PARAM_NAMES[..TOOL_OFFSET])
-        && names.get(TOOL_OFFSET).map(String::as_str) != Some(PARAM_NAMES[TOOL_OFFSET]);
-    if tool_left_out {
-        return refuse(format!(
-            "the calibration did not calibrate the tool ({}, {}, {}: its data, poses alone, do not observe it); the accuracy maps are of the tool tip: calibrate with points or ball touches",
-            PARAM_NAMES[N_PARAMS - 3],
-            PARAM_NAMES[N_PARAMS - 2],
-            PARAM_NAMES[N_PARAMS - 1]
-        ));
-    }
-    if names.len() < N_PARAMS || !names.iter().zip(PARAM_NAMES).all(|(a, b)| a == b) {
-        return refuse(format!(
-            "expected the {N_PARAMS} kinematic parameters {} .. {} first, in that order, found {} parameters ({})",
-            PARAM_NAMES[0],
-            PARAM_NAMES[N_PARAMS - 1],
-            names.len(),
-            names.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
-        ));
-    }
-    if !(calibration.converged && calibration.covariance.len() == names.len()) {
-        return refuse(format!(
-            "the calibration has no posterior covariance (status: {})",
-            calibration.status
-        ));
-    }
-    let values = &calibration.parameters.values;
-    let covariance = ParamCovariance::from_fn(|i, j| calibration.covariance[i][j]);
-    Ok((Params::from_column_slice(&values[..N_PARAMS]), covariance))
+    calibration
+        .kinematic_estimate()
+        .map_err(MapsError::Calibration)
 }
 
 /// The accuracy maps of `dataset` on the paper's grid: before (the design

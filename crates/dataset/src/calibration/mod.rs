@@ -7,6 +7,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use parcal_kinematics::params::TOOL_OFFSET;
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params};
+
 use crate::Point3;
 use crate::geometry::GeometryRecord;
 use crate::json;
@@ -495,6 +498,47 @@ impl Calibration {
     /// Whether the verdict is `"rejected"`.
     pub fn is_rejected(&self) -> bool {
         self.verdict == "rejected"
+    }
+
+    /// The 33 kinematic parameters and their marginal covariance (the
+    /// covariance's leading block), what the tool tip's accuracy maps
+    /// take; a calibration with poses or points, or with actuator scales,
+    /// has them first and its other unknowns after them. `Err` says why
+    /// there are none: a calibration of poses alone, which does not
+    /// observe the tool; other parameters; no posterior covariance.
+    pub fn kinematic_estimate(&self) -> Result<(Params, ParamCovariance), String> {
+        let names = &self.parameters.names;
+        // A calibration of poses alone holds the joints and legs but no tool.
+        let tool_left_out = names
+            .get(..TOOL_OFFSET)
+            .is_some_and(|leading| leading == &PARAM_NAMES[..TOOL_OFFSET])
+            && names.get(TOOL_OFFSET).map(String::as_str) != Some(PARAM_NAMES[TOOL_OFFSET]);
+        if tool_left_out {
+            return Err(format!(
+                "the calibration did not calibrate the tool ({}, {}, {}: its data, poses alone, do not observe it); the accuracy maps are of the tool tip: calibrate with points or ball touches",
+                PARAM_NAMES[N_PARAMS - 3],
+                PARAM_NAMES[N_PARAMS - 2],
+                PARAM_NAMES[N_PARAMS - 1]
+            ));
+        }
+        if names.len() < N_PARAMS || !names.iter().zip(PARAM_NAMES).all(|(a, b)| a == b) {
+            return Err(format!(
+                "expected the {N_PARAMS} kinematic parameters {} .. {} first, in that order, found {} parameters ({})",
+                PARAM_NAMES[0],
+                PARAM_NAMES[N_PARAMS - 1],
+                names.len(),
+                names.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
+            ));
+        }
+        if !(self.converged && self.covariance.len() == names.len()) {
+            return Err(format!(
+                "the calibration has no posterior covariance (status: {})",
+                self.status
+            ));
+        }
+        let values = &self.parameters.values;
+        let covariance = ParamCovariance::from_fn(|i, j| self.covariance[i][j]);
+        Ok((Params::from_column_slice(&values[..N_PARAMS]), covariance))
     }
 
     /// The actuators' unit and scales to apply: the calibrated ones

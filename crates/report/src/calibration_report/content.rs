@@ -829,10 +829,7 @@ fn external_reliability(c: &Calibration, accuracy: &Result<Accuracy, String>) ->
                 );
             }
         }
-        _ => {
-            sentence +=
-                "; no map: the run did not converge or is not of the 33 kinematic parameters alone"
-        }
+        _ => sentence += "; no map: the run did not converge or did not calibrate the tool",
     }
     sentence.push('.');
     let worst_map = records

@@ -27,9 +27,8 @@ pub(crate) mod markdown;
 pub use content::{Subject, global_sentence, tests_sentence, title};
 
 use parcal_accuracy::MapGrid;
-use parcal_calibrate::ParamCovariance;
 use parcal_dataset::{Calibration, Dataset, Machine};
-use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, Params};
+use parcal_kinematics::Geometry;
 use parcal_workflows::evaluate::{Accuracy, TrueMachine, accuracy};
 
 use crate::ReportError;
@@ -56,8 +55,9 @@ pub fn render(subject: &Subject, format: Format) -> Result<String, ReportError> 
 /// ([`MapGrid::paper`]): the predicted one from its parameters and
 /// posterior covariance, placed with the design machine (the `dataset`'s
 /// machine.json if given, else calibration.json's `design`), and with a
-/// simulated dataset's truth the true one. `Err` says why there is none
-/// (not the 33 kinematic parameters alone, not converged, no design).
+/// simulated dataset's truth the true one, of the 33 kinematic parameters
+/// ([`Calibration::kinematic_estimate`]). `Err` says why there is none (no
+/// tool calibrated, not converged, no design).
 pub fn predicted_accuracy(
     calibration: &Calibration,
     dataset: Option<&Dataset>,
@@ -78,26 +78,12 @@ pub fn accuracy_with(
     machine: Option<&Machine>,
     truth: Option<&TrueMachine>,
 ) -> Result<Accuracy, String> {
-    let names = &calibration.parameters.names;
-    if names.len() != N_PARAMS || names.iter().zip(PARAM_NAMES).any(|(a, b)| a != b) {
-        return Err(format!(
-            "the map is computed for the {N_PARAMS} kinematic parameters alone, and this calibration identifies {} (actuator scales, instrument frames)",
-            names.len()
-        ));
-    }
-    if !calibration.converged || calibration.covariance.len() != N_PARAMS {
-        return Err(format!(
-            "the calibration did not converge to a posterior covariance (status: {})",
-            calibration.status
-        ));
-    }
+    let (params, covariance) = calibration.kinematic_estimate()?;
     let machine = machine
         .or(calibration.design.as_ref())
         .ok_or("calibration.json does not record its design machine; give --dataset")?;
     let g = &machine.geometry;
     let design = Geometry::from_arrays(&g.base_joints, &g.platform_joints, &g.tool, &g.leg_lengths);
-    let params = Params::from_column_slice(&calibration.parameters.values);
-    let covariance = ParamCovariance::from_fn(|i, j| calibration.covariance[i][j]);
     accuracy(&design, truth, &params, &covariance, &MapGrid::paper())
         .map_err(|e| format!("the accuracy map could not be computed: {e}"))
 }
