@@ -2,7 +2,7 @@
 //! in the design frame, the actuators' scales, the stroke and joint limits.
 
 use parcal_dataset::Calibration;
-use parcal_kinematics::{Geometry, N_PARAMS, PARAM_NAMES, ParamCovariance};
+use parcal_kinematics::{Geometry, ParamCovariance};
 
 use crate::{ApplyError, Placement, place};
 
@@ -107,13 +107,13 @@ impl AppliedModel {
     }
 }
 
-/// The leading 33 x 33 block of a calibration's covariance when its
-/// parameters start with the 33 (named as `PARAM_NAMES`), or `None`: no
-/// covariance, or a calibration that did not identify them all (poses
-/// alone leave the tool out).
+/// The marginal covariance of a calibration's 33 kinematic parameters
+/// ([`Calibration::kinematic_estimate`]), or `None`: no covariance, or a
+/// calibration that did not identify them all (poses alone leave the tool
+/// out).
 fn kinematic_covariance(record: &Calibration) -> Option<ParamCovariance> {
-    let (names, covariance) = (&record.parameters.names, &record.covariance);
-    let leading = names.len() >= N_PARAMS && names[..N_PARAMS] == PARAM_NAMES;
-    (leading && covariance.len() >= N_PARAMS && covariance.iter().all(|r| r.len() >= N_PARAMS))
-        .then(|| ParamCovariance::from_fn(|i, j| covariance[i][j]))
+    record
+        .kinematic_estimate()
+        .ok()
+        .map(|(_, covariance)| covariance)
 }

@@ -156,7 +156,7 @@ fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<(
         // A run that did not converge records none: its covariance at the
         // last iterate is no accuracy.
         println!(
-            "predicted tip error after registration: none (calibration.json has no posterior covariance of the 33 kinematic parameters: the run did not converge, or none was computed)"
+            "predicted tip error after registration: none (calibration.json gives no posterior covariance of the 33 kinematic parameters: a run that did not converge has none, and poses alone do not calibrate the tool)"
         );
     } else if let Ok(predicted) = predicted_registered(model, &commands) {
         // Three non-collinear targets at least: the registration is
