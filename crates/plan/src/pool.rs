@@ -162,27 +162,38 @@ pub fn candidate_pool(
         .check("pool size", options.size)
         .map_err(DesignError::Options)?;
     let [low, high] = options.stroke;
-    let valid = options.tilt.is_finite()
-        && (0.0..std::f64::consts::FRAC_PI_2).contains(&options.tilt)
-        && options.max_approach > 0.0
-        && options.max_approach < std::f64::consts::FRAC_PI_2
-        && (0.0..1.0).contains(&options.min_conditioning)
-        && low.is_finite()
-        && high.is_finite()
-        && low < high
-        && options.scale.iter().all(|s| s.is_finite() && *s > 0.0)
-        && !balls.is_empty();
-    if !valid {
-        return Err(DesignError::Options(format!(
-            "pool: tilt {} rad, approach {} rad, conditioning {}, stroke {:?}, scales {:?}, size {}, {} ball(s)",
-            options.tilt,
-            options.max_approach,
-            options.min_conditioning,
-            options.stroke,
-            options.scale,
-            options.size,
-            balls.len()
-        )));
+    let right_angle = std::f64::consts::FRAC_PI_2;
+    let refused = [
+        (
+            (0.0..right_angle).contains(&options.tilt),
+            format!("tilt {} rad: not in [0, pi/2)", options.tilt),
+        ),
+        (
+            options.max_approach > 0.0 && options.max_approach < right_angle,
+            format!("approach {} rad: not in (0, pi/2)", options.max_approach),
+        ),
+        (
+            (0.0..1.0).contains(&options.min_conditioning),
+            format!("conditioning {}: not in [0, 1)", options.min_conditioning),
+        ),
+        (
+            low.is_finite() && high.is_finite() && low < high,
+            format!(
+                "stroke {:?}: not a finite range, its low end first",
+                options.stroke
+            ),
+        ),
+        (
+            options.scale.iter().all(|s| s.is_finite() && *s > 0.0),
+            format!(
+                "actuator scales {:?}: not all positive and finite",
+                options.scale
+            ),
+        ),
+        (!balls.is_empty(), "no ball to touch".to_string()),
+    ];
+    if let Some((_, why)) = refused.into_iter().find(|(valid, _)| !valid) {
+        return Err(DesignError::Options(format!("pool: {why}")));
     }
     let orientations = orientation_grid(options.tilt);
     let per_orientation = options
@@ -339,7 +350,23 @@ mod tests {
             scale: [1.0, 1.0, 0.0, 1.0, 1.0, 1.0],
             ..options(30.0)
         };
-        assert!(candidate_pool(&design, &balls, &unscaled).is_err());
+        let error = candidate_pool(&design, &balls, &unscaled).unwrap_err();
+        assert!(
+            error.to_string().contains("pool: actuator scales"),
+            "{error}"
+        );
+        // The option refused is named alone.
+        let approach = PoolOptions {
+            max_approach: f64::NAN,
+            ..options(30.0)
+        };
+        let error = candidate_pool(&design, &balls, &approach).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .ends_with("pool: approach NaN rad: not in (0, pi/2)"),
+            "{error}"
+        );
     }
 
     #[test]
