@@ -245,11 +245,7 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
 #[test]
 fn anchors_no_data_nor_prior_determine_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let data = copy_fixture(
-        "hangprinter",
-        dir.path(),
-        &["machine.json", "points.csv", "quantities.csv"],
-    );
+    let data = copy_fixture("hangprinter", dir.path(), &["machine.json", "points.csv"]);
     let path = data.join("machine.json");
     let mut machine: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
@@ -277,11 +273,7 @@ fn anchors_no_data_nor_prior_determine_are_named() {
 #[test]
 fn compensate_of_a_hexapods_poses_names_the_targets_a_cable_robot_takes() {
     let dir = tempfile::tempdir().unwrap();
-    let data = copy_fixture(
-        "hangprinter",
-        dir.path(),
-        &["machine.json", "points.csv", "quantities.csv"],
-    );
+    let data = copy_fixture("hangprinter", dir.path(), &["machine.json", "points.csv"]);
     ok(&["calibrate", s(&data)]);
     let poses = dir.path().join("poses.csv");
     fs::write(&poses, "x,y,z,roll,pitch,yaw\n0,0,500,0,0,0\n").unwrap();
