@@ -1,27 +1,27 @@
-//! A Gauss-Newton run that runs away, made again with Levenberg-Marquardt:
-//! the rule of every calibration, the hexapod's own
+//! A Gauss-Newton run that runs away, made again with Levenberg-Marquardt
+//! ([`RunAway`]): the rule of every calibration, the hexapod's own
 //! ([`calibrate`](crate::calibrate)) and a mechanism's
 //! ([`calibrate_mechanism`](crate::mechanism::calibrate_mechanism)).
-//!
-//! A Gauss-Newton run runs away when it ends diverged, or failed after its
-//! first step (a full step to where the machine's kinematics fails: a
-//! blunder or a start far from the solution, where full steps overshoot),
-//! or at its iteration limit after a step raised the cost more than
-//! [`RUNAWAY_RISE`]-fold, or with a cost above its first, or with a robust
-//! loss (its reweighting can keep full steps from settling where damped
-//! ones do). It is then made again with Levenberg-Marquardt, whose steps
-//! never raise the cost, within what is left of the time limit and
-//! [`rerun_iterations`] of its iteration limit.
 
 use parcal_solver::{Method, Status};
 
 use crate::options::{GAUSS_NEWTON_ITERATIONS, LEVENBERG_MARQUARDT_ITERATIONS};
 
 /// The rise of the cost in one Gauss-Newton step that marks a run that
-/// did not converge as run away (module doc).
+/// did not converge as run away ([`RunAway`]).
 pub const RUNAWAY_RISE: f64 = 10.0;
 
-/// How a Gauss-Newton run that ran away ended (module doc).
+/// How a Gauss-Newton run that ran away ended.
+///
+/// A Gauss-Newton run runs away when it ends diverged, or failed after its
+/// first step (a full step to where the machine's kinematics fails: a
+/// blunder or a start far from the solution, where full steps overshoot),
+/// or at its iteration limit after a step raised the cost more than
+/// tenfold (`RUNAWAY_RISE`), or with a cost above its first, or with a robust
+/// loss (its reweighting can keep full steps from settling where damped
+/// ones do). It is then made again with Levenberg-Marquardt, whose steps
+/// never raise the cost, within what is left of the time limit and four
+/// times its iteration limit, at most Levenberg-Marquardt's default, 200.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunAway {
     /// Its status.
@@ -37,7 +37,7 @@ pub struct RunAway {
 impl RunAway {
     /// The run of method `method` that ended with `status` after the
     /// iterates of costs `costs` (the solver's records, in order), when it
-    /// is a Gauss-Newton run that ran away (module doc); `None` otherwise,
+    /// is a Gauss-Newton run that ran away (the type's doc); `None` otherwise,
     /// and for a run without an iterate. `squared`: whether its loss is
     /// least squares.
     pub(crate) fn of(

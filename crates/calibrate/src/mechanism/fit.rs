@@ -37,7 +37,6 @@ use super::mirror::{MirroredBall, WrongSideWatch};
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
 use super::problem::{FitProblem, MechanismProblem, Start, group_size};
-
 use super::trackers::Trackers;
 use super::warm_start::WarmStart;
 
