@@ -160,7 +160,7 @@ fn a_run_that_did_not_converge_quotes_no_posterior_accuracy() {
         s(&commands),
     ]);
     assert!(
-        out.contains("predicted tip error after registration: none (calibration.json has no posterior covariance"),
+        out.contains("predicted tip error after registration: none (calibration.json gives no posterior covariance"),
         "{out}"
     );
     assert!(!out.contains(" um"), "{out}");
