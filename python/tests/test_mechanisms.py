@@ -519,6 +519,9 @@ def test_a_hexapod_through_the_common_calibration_gives_the_calibration_json_of_
     own = parcal.calibrate(parcal.read_dataset(paper))
     assert np.all(np.abs(run.values - own.values) < 2e-3 * run.sigmas)
     assert run.to_dict()["tests"]["data_rows"] == 3 * 189
+    # What takes a hexapod's own calibration says so of this one.
+    with pytest.raises(parcal.Error, match=r"a parcal\.MechanismCalibration .*common=True"):
+        parcal.accuracy(parcal.read_dataset(paper), run)
 
 
 def test_unknown_scales_through_the_common_calibration(cli, tmp_path):

@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 
 use crate::error::to_py;
+use crate::mechanism::calibration::MechanismCalibration;
 use crate::run::Calibration;
 
 /// Adds the commands' functions to module `m`.
@@ -34,8 +35,17 @@ fn calibration_record(
 ) -> PyResult<(parcal::Calibration, String)> {
     let (record, name) = match calibration.cast::<Calibration>() {
         Ok(run) => (run.get().record().clone(), "(in memory)".to_string()),
+        Err(_) if calibration.cast::<MechanismCalibration>().is_ok() => {
+            return Err(to_py(
+                "calibration: a parcal.MechanismCalibration (a mechanism's, or a hexapod's through common=True): this takes a hexapod's own calibration (parcal.calibrate without common=True) or its calibration.json's path",
+            ));
+        }
         Err(_) => {
-            let path: PathBuf = calibration.extract()?;
+            let path: PathBuf = calibration.extract().map_err(|_| {
+                to_py(format!(
+                    "calibration: expected a parcal.Calibration or a calibration.json's path, got {calibration}"
+                ))
+            })?;
             let record = parcal::Calibration::read(&path).map_err(to_py)?;
             (record, path.display().to_string())
         }
