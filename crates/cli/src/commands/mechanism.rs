@@ -161,11 +161,9 @@ impl CalibrateRequest {
         super::check_calibration_outputs(&self.dataset, &self.out)?;
         if self.report {
             let directory = super::report::directory_of(&self.out);
-            let paths = [false, true]
-                .map(|rejected| super::report::calibration_report_paths(directory, rejected));
             crate::outputs::check(
                 &crate::outputs::dataset_inputs(&self.dataset),
-                &paths.concat(),
+                &super::report::either_verdicts_report_paths(directory),
             )?;
         }
         Ok(())

@@ -119,8 +119,7 @@ impl ReportRequest<'_> {
     /// written and are none of the dataset's files nor the calibration's
     /// destinations (`out` and [`rejected_path`]), which do not exist yet.
     pub fn check(&self, dataset: &Path, out: &Path) -> anyhow::Result<()> {
-        let files = self.paths(false);
-        let files = [files, self.paths(true)].concat();
+        let files = report::either_verdicts_report_paths(&self.directory);
         for destination in [out.to_path_buf(), rejected_path(out)] {
             let directory = report::directory_of(&destination);
             let clash = files.iter().find(|file| {

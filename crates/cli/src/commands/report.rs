@@ -180,6 +180,15 @@ pub fn calibration_report_paths(directory: &Path, rejected: bool) -> Vec<PathBuf
     }
 }
 
+/// The report's files `calibrate --report` may write in `directory`,
+/// whatever the verdict ([`calibration_report_paths`] of both): what is
+/// checked before the calibration runs.
+pub fn either_verdicts_report_paths(directory: &Path) -> Vec<PathBuf> {
+    [false, true]
+        .map(|rejected| calibration_report_paths(directory, rejected))
+        .concat()
+}
+
 /// `paths`, for stdout: `directory/report.html and directory/report.md`.
 pub fn listed(paths: &[PathBuf]) -> String {
     let paths: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
