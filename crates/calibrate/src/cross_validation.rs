@@ -64,6 +64,7 @@ impl CrossValidation {
                 (cost / passes as f64, redundancy / passes)
             }),
             explanations: Vec::new(),
+            mirrored_balls: Vec::new(),
         }
     }
 }

@@ -81,6 +81,45 @@ pub fn mirror_side(tips: &[Vec3], radius: f64, centre: &Vec3) -> Option<(SphereF
     (mirror.cost * MIRROR_GAIN < side.cost).then_some((side, mirror))
 }
 
+/// The centre of a ball located by its `reference` contact points, of
+/// which `fit` is the best fit with the ball's `radius`, the ball's
+/// other points predicted from it (a validation's reference touches): of
+/// `fit` and its mirror image through the points' plane
+/// ([`mirror_fit`]), the one the reference points fit
+/// [`MIRROR_GAIN`] times better; when they fit both about as well (a few
+/// points near one circle), the one `all` the ball's points fit
+/// [`MIRROR_GAIN`] times better, else `fit`. Returns the centre, and
+/// whether `all` chose the mirror image. The other points only choose
+/// between two images `2h` apart, `h` the centre's height above the
+/// plane: where `2h` is far above the noise the choice is certain, and
+/// where it is not the two images predict those points alike.
+pub fn located_side(
+    fit: SphereFit,
+    reference: &[Vec3],
+    all: &[Vec3],
+    radius: f64,
+) -> (SphereFit, bool) {
+    let Ok(mirror) = mirror_fit(reference, radius, &fit) else {
+        return (fit, false);
+    };
+    if mirror.cost * MIRROR_GAIN < fit.cost {
+        return (mirror, false);
+    }
+    if fit.cost * MIRROR_GAIN < mirror.cost {
+        return (fit, false);
+    }
+    let cost = |centre: &Vec3| {
+        all.iter()
+            .map(|p| ((p - centre).norm() - radius).powi(2))
+            .sum::<f64>()
+    };
+    if cost(&mirror.centre) * MIRROR_GAIN < cost(&fit.centre) {
+        (mirror, true)
+    } else {
+        (fit, false)
+    }
+}
+
 /// `options` for what is left of the iteration and time limits after
 /// `used` iterations since `started`: a solve resumed after re-seeding.
 pub(crate) fn remaining(options: &SolverOptions, used: usize, started: Instant) -> SolverOptions {

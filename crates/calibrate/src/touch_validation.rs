@@ -9,9 +9,11 @@
 //! contacts are predicted. The calibrated centres are not used: their
 //! errors are correlated with the parameters' (a rigid motion of the
 //! canonical base frame moves both), and calibration.json keeps only their
-//! marginal sigmas. Reference touches on one side of a ball, nearly in
-//! one plane, fit the centre's mirror image through that plane about as
-//! well (`crate::mirror`): give enough of them, spread over the ball.
+//! marginal sigmas. Reference touches on one side of a ball, near one
+//! circle, fit the centre's mirror image through their plane about as
+//! well: the image all its touches fit is then kept and the ball named
+//! ([`crate::mirror::located_side`]); enough reference touches, spread
+//! over the ball, tell the images apart by themselves.
 //!
 //! The predicted residual of a contact, to first order, is
 //! `δr = G δp − n K ε_ref + ε`, `G = nᵀ J_f − n K B`: `n` its normal, `J_f`
@@ -36,6 +38,7 @@ use parcal_observe::{Repeatability, WeightModel, radius_variance};
 
 use crate::CalibrateError;
 use crate::instruments::Validation;
+use crate::mirror::located_side;
 use crate::prediction;
 use crate::problem::ActuatorScales;
 use crate::sphere_fit::best_fit;
@@ -94,6 +97,7 @@ pub fn validate_touches(
     // Each predicted contact: its residual, its noise variance and its row
     // of U (module doc).
     let (mut residuals, mut noises, mut common) = (Vec::new(), Vec::new(), Vec::new());
+    let mut mirrored_balls = Vec::new();
     for (k, ball) in dataset.artefacts.balls.iter().enumerate() {
         let rows: Vec<usize> = (0..measurements.len())
             .filter(|&row| measurements.ball[row] as usize == k)
@@ -126,9 +130,13 @@ pub fn validate_touches(
             ball: ball.id.clone(),
             source,
         };
-        let centre = best_fit(&points, ball.radius)
-            .map_err(centre_fit_error)?
-            .centre;
+        let fit = best_fit(&points, ball.radius).map_err(centre_fit_error)?;
+        let all: Vec<Vec3> = tips.iter().map(|(.., tip)| *tip).collect();
+        let (fit, mirror) = located_side(fit, &points, &all, ball.radius);
+        if mirror {
+            mirrored_balls.push(ball.id.clone());
+        }
+        let centre = fit.centre;
         // The centre fit linearised: A (normals), W, B (nᵀ J_f).
         let mut information = Matrix3::zeros();
         let mut weighted = Vec::with_capacity(n_ref);
@@ -214,6 +222,7 @@ pub fn validate_touches(
         residuals,
         predicted_sigmas: sigmas,
         explanations: Vec::new(),
+        mirrored_balls,
     })
 }
 

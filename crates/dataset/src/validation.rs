@@ -54,6 +54,11 @@ pub struct ValidationRecord {
     /// The test behind the verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test: Option<PredictionTestRecord>,
+    /// The balls (artefacts.json ids) whose reference touches fit their
+    /// centre and its mirror image through their plane about as well,
+    /// located at the image all their touches fit: the mirror image.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mirrored_balls: Vec<String>,
 }
 
 /// The test of a validation's residuals `r` against their predicted

@@ -157,6 +157,7 @@ pub fn validation_record(validation: &Validation, calibration: String) -> Valida
         verdict: if accepted { "accepted" } else { "rejected" }.to_owned(),
         reasons,
         test: test.as_ref().map(test_record),
+        mirrored_balls: validation.mirrored_balls.clone(),
     }
 }
 
@@ -260,6 +261,18 @@ fn rejection_advice(validation: &Validation) -> String {
     }
 }
 
+/// What a validation did for the balls named `balls` whose first
+/// `reference` touches fit their centre's mirror image about as well.
+pub(crate) fn mirrored_sentence(balls: &[String], reference: usize) -> String {
+    let (these, each) = match balls {
+        [one] => (format!("ball {one}"), "the ball's"),
+        _ => (format!("balls {}", balls.join(", ")), "each ball's"),
+    };
+    format!(
+        "{these}: the first {reference} touches fit the centre and its mirror image through their plane about as well; the image all {each} touches fit was kept (more reference touches, spread over the ball, would tell them apart)"
+    )
+}
+
 /// A validation in a few lines: its verdict and reasons, what was
 /// applied, what was re-fitted, the residuals observed and predicted.
 pub fn validation(record: &ValidationRecord) -> String {
@@ -283,6 +296,13 @@ pub fn validation(record: &ValidationRecord) -> String {
                 out,
                 "  candidate {}: expected prediction RMS {:.4} mm",
                 candidate.model, candidate.expected_rms_mm
+            );
+        }
+        if !record.mirrored_balls.is_empty() {
+            let _ = writeln!(
+                out,
+                "  {}",
+                mirrored_sentence(&record.mirrored_balls, record.reference_rows)
             );
         }
     }

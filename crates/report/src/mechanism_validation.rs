@@ -23,7 +23,7 @@ use parcal_dataset::{
     POSES_FILE as HEXAPOD_POSES_FILE,
 };
 
-use crate::instruments::{test_record, test_statement};
+use crate::instruments::{mirrored_sentence, test_record, test_statement};
 
 /// The failing rows the reasons name one by one (the others counted).
 const NAMED_ROWS: usize = 10;
@@ -52,6 +52,7 @@ pub fn validation_record(
         kinds: kinds(&rows),
         untested: validation.untested,
         reference: validation.reference,
+        mirrored_balls: validation.mirrored_balls.clone(),
         shifts: validation
             .shifts
             .iter()
@@ -400,6 +401,18 @@ fn reasons(validation: &MechanismValidation, record: &MechanismValidationRecord)
         let located: Vec<String> = balls.into_iter().chain(trackers).collect();
         if !located.is_empty() {
             reasons.push(format!("{}, the others predicted", located.join(" and ")));
+        }
+        if !validation.mirrored_balls.is_empty() {
+            let (file, by_line) = files.balls();
+            let names: Vec<String> = validation
+                .mirrored_balls
+                .iter()
+                .map(|b| match by_line {
+                    true => format!("{b} ({file} line {})", b + 2),
+                    false => format!("{b} (in {file})"),
+                })
+                .collect();
+            reasons.push(mirrored_sentence(&names, n));
         }
     }
     if record.untested > 0 {

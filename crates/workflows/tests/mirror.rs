@@ -25,16 +25,31 @@ fn options() -> CalibrationOptions {
 /// (heights -0.10, -0.11 and -0.12 radii), the platform tilted over the
 /// scenario's range as in the campaign.
 fn with_band(scenario: &Scenario, ball: usize) -> Dataset {
-    let mut dataset = simulate(scenario, 1).unwrap().dataset;
+    with_touches(scenario, 1, ball, |j| {
+        (-0.1 - 0.01 * (j % 3) as f64, 0.9 * j as f64, 0.0)
+    })
+}
+
+/// The paper campaign of `seed` with the contacts of ball `ball` replaced
+/// by noise-free touches of the true machine, touch `j` at the height
+/// (in radii) and azimuth `at(j)` on the ball, the platform tilted over
+/// the scenario's range as in the campaign.
+fn with_touches(
+    scenario: &Scenario,
+    seed: u64,
+    ball: usize,
+    at: impl Fn(usize) -> (f64, f64, f64),
+) -> Dataset {
+    let mut dataset = simulate(scenario, seed).unwrap().dataset;
     let rows = (0..dataset.measurements.ball.len())
         .filter(|&row| dataset.measurements.ball[row] as usize == ball)
         .collect::<Vec<_>>();
     let truth = &scenario.truth;
     for (j, row) in rows.into_iter().enumerate() {
-        let (height, azimuth) = (-0.1 - 0.01 * (j % 3) as f64, 0.9 * j as f64);
+        let (height, azimuth, off) = at(j);
         let across = (1.0 - height * height).sqrt();
         let direction = Vec3::new(across * azimuth.cos(), across * azimuth.sin(), height);
-        let tip = scenario.centres[ball] + scenario.radius * direction;
+        let tip = scenario.centres[ball] + (scenario.radius + off) * direction;
         let tilt = |phase: f64| scenario.max_tilt * (2.1 * j as f64 + phase).sin();
         let rotation = rotation_zyx(tilt(0.0), tilt(1.7), tilt(3.1));
         let pose = Pose::from_parts(Translation3::from(tip - rotation * truth.tool), rotation);
@@ -113,4 +128,60 @@ fn the_two_solves_share_the_iteration_limit() {
     assert!(run.balls.mirrored[0].iteration < 5);
     assert_eq!(run.status, parcal_solver::Status::IterationLimit);
     assert_eq!(run.iterations(), 5);
+}
+
+/// A validation locates each ball's centre on its first 4 touches. Ball
+/// 1's first 4 lie on one circle 0.2 radii below its equator, off the
+/// sphere by 1 um (the first outwards, the others inwards): their best
+/// fit is the centre's mirror image through their plane, 0.4 radii below
+/// it. Its other 3 touches are high on the ball, which only the true side
+/// fits. Through the hexapod's own validation and through the common
+/// path's, the ball is located on the true side and named, and the
+/// campaign is predicted as well as the calibration says.
+#[test]
+fn a_validation_locates_a_ball_whose_reference_touches_fit_its_mirror_image() {
+    use parcal_calibrate::mechanism::{
+        CalibratedMechanism, MechanismData, MechanismOptions, calibrate_mechanism,
+        validate_mechanism,
+    };
+    use parcal_calibrate::sphere_fit::best_fit;
+    use parcal_calibrate::validate_touches;
+    use parcal_kinematics::forward_from_home;
+    let scenario = Scenario::paper();
+    let ball = 1;
+    let fitted = simulate(&scenario, 1).unwrap().dataset;
+    let other = with_touches(&scenario, 2, ball, |j| match j {
+        0 => (-0.2, 0.0, 0.001),
+        1..4 => (-0.2, 1.6 * j as f64, -0.001),
+        _ => (0.6 + 0.1 * (j - 4) as f64, 2.0 * j as f64, 0.0),
+    });
+    // The reference touches' best fit, at the true geometry, is the
+    // mirror image, 2 x 0.2 radii below the centre.
+    let tips: Vec<Vec3> = (0..other.measurements.ball.len())
+        .filter(|&row| other.measurements.ball[row] as usize == ball)
+        .take(4)
+        .map(|row| {
+            let q = &other.measurements.q[row];
+            let solution = forward_from_home(&scenario.truth, q, &Default::default()).unwrap();
+            scenario.truth.tool_tip(&solution.pose)
+        })
+        .collect();
+    let reference_fit = best_fit(&tips, scenario.radius).unwrap();
+    let above = reference_fit.centre - scenario.centres[ball];
+    assert!((above.z / scenario.radius + 0.4).abs() < 0.01, "{above:?}");
+
+    let run = calibrate(&fitted, &options(), &mut |_| {}).unwrap();
+    let validation = validate_touches(&other, &run.record(String::new()), Some(4)).unwrap();
+    let id = &other.artefacts.balls[ball].id;
+    assert_eq!(validation.mirrored_balls, [id.clone()]);
+    assert!(validation.accepted(), "{:?}", validation.test());
+
+    let data = MechanismData::from_hexapod_touches(&fitted, &options()).unwrap();
+    let calibration =
+        calibrate_mechanism(&data, &MechanismOptions::default(), &mut |_| {}).unwrap();
+    let calibrated = CalibratedMechanism::of_calibration(&calibration).unwrap();
+    let held_out = MechanismData::hexapod_held_out(&other).unwrap();
+    let common = validate_mechanism(&calibrated, &held_out, 0.05, Some(4)).unwrap();
+    assert_eq!(common.mirrored_balls, [ball]);
+    assert!(common.accepted(), "{:?}", common.test);
 }

@@ -185,6 +185,10 @@ pub struct Validation {
     /// nuisance models whose residuals would pass it, the least predicted
     /// RMS first.
     pub explanations: Vec<Explanation>,
+    /// The balls (artefacts.json ids) whose reference touches fit their
+    /// centre's mirror image about as well, and whose other touches chose
+    /// the mirror image ([`crate::mirror::located_side`]).
+    pub mirrored_balls: Vec<String>,
 }
 
 /// A nuisance model that explains a rejected validation: re-fitted with it,
@@ -383,6 +387,7 @@ pub fn validate_calibration(
         statistic: chosen.statistic,
         calibration_test: calibrated.global_test,
         explanations: Vec::new(),
+        mirrored_balls: Vec::new(),
     };
     if reference.is_some() && !validation.accepted() {
         validation.explanations = explanations(

@@ -10,7 +10,7 @@ use parcal_kinematics::mechanism::{Mechanism, MechanismError, ReachedAlong};
 use parcal_observe::mechanism::{Actuation, BallTouch};
 use parcal_solver::Linearization;
 
-use crate::sphere_fit::{SphereFitError, best_fit};
+use crate::sphere_fit::{SphereFit, SphereFitError, best_fit};
 
 use super::error::{MechanismCalibrationError, failed};
 use super::observation::{ObservationKind, ObservationRef, touch_ref};
@@ -132,13 +132,10 @@ pub(crate) fn touch_failed(
 }
 
 /// The centre of ball `b` of calibrated radius `radius` from its
-/// `touches` (indices into `all`): the best fit, with its radius, of the
-/// tool points the touches reach with parameters `params` and the
-/// controller's `configured` ([`best_fit`]; the last
-/// iterate of a fit that did not converge); the warm start and the tool
-/// point each touch reached into `fit`, in the order of `touches`.
-/// `reached` is room for the touches' outcomes, kept from ball to ball so
-/// that their rooms are allocated once.
+/// `touches` (indices into `all`): the best fit ([`fitted_centre`]) of
+/// the tool points the touches reach with parameters `params` and the
+/// controller's `configured`, put with their warm starts into `fit`
+/// ([`reach_touches`]).
 #[allow(
     clippy::too_many_arguments,
     reason = "a ball, its touches and where they are put"
@@ -154,6 +151,24 @@ pub(crate) fn ball_centre(
     reached: &mut Vec<Result<ReachedAlong, MechanismError>>,
     fit: BallFit<'_>,
 ) -> Result<Vector3<f64>, MechanismCalibrationError> {
+    let tips = reach_touches(mechanism, params, configured, all, touches, reached, fit)?;
+    Ok(fitted_centre(tips, radius, b)?.centre)
+}
+
+/// The tool points the `touches` (indices into `all`) reach with
+/// parameters `params` and the controller's `configured`, and their warm
+/// starts, put into `fit` in the order of `touches`; returns the tool
+/// points. `reached` is room for the touches' outcomes, kept from ball to
+/// ball so that their rooms are allocated once.
+pub(crate) fn reach_touches<'a>(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
+    all: &[BallTouch],
+    touches: &[usize],
+    reached: &mut Vec<Result<ReachedAlong, MechanismError>>,
+    fit: BallFit<'a>,
+) -> Result<&'a [Vector3<f64>], MechanismCalibrationError> {
     // Together: a mechanism may reach several at once (the hexapod's
     // lanes), each from its start pose. Of each only its tool point and
     // warm start are wanted, not `dT/dp |_q`: the touches along a zero
@@ -175,8 +190,19 @@ pub(crate) fn ball_centre(
         *tip = along.reached.point;
         *warm_start = WarmStart::of(along.reached.warm_start.as_slice());
     }
-    match best_fit(fit.tips, radius) {
-        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(fit.centre),
+    Ok(fit.tips)
+}
+
+/// The best fit of the sphere of radius `radius` through ball `b`'s tool
+/// points `tips` ([`best_fit`]; the last iterate of a fit that did not
+/// converge).
+pub(crate) fn fitted_centre(
+    tips: &[Vector3<f64>],
+    radius: f64,
+    b: usize,
+) -> Result<SphereFit, MechanismCalibrationError> {
+    match best_fit(tips, radius) {
+        Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(fit),
         Err(e) => Err(MechanismCalibrationError::InvalidData {
             what: format!("ball {b}"),
             reason: format!("its touches do not locate its centre: {e}"),

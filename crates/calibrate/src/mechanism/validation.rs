@@ -112,6 +112,11 @@ pub struct MechanismValidation {
     /// The single-unknown changes that best explain the residuals, the
     /// best first.
     pub shifts: Vec<ParameterShift>,
+    /// The held-out balls (their indices) whose reference touches fit
+    /// their centre and its mirror image about as well, located at the
+    /// mirror image, which all their touches fit
+    /// ([`located_side`](crate::mirror::located_side)).
+    pub mirrored_balls: Vec<usize>,
 }
 
 impl MechanismValidation {
@@ -227,6 +232,10 @@ pub fn validate_mechanism(
             HeldOut::Ball { .. } | HeldOut::Tracker { .. } | HeldOut::TiedBalls { .. } => false,
         })
         .count();
+    let mirrored_balls = predicted
+        .iter()
+        .flat_map(|p| p.mirrored_balls.iter().copied())
+        .collect();
     Ok(MechanismValidation {
         mechanism: mechanism.name().to_string(),
         rows,
@@ -237,6 +246,7 @@ pub fn validate_mechanism(
         alpha,
         critical_value: critical_value(alpha, n),
         shifts,
+        mirrored_balls,
     })
 }
 

@@ -103,6 +103,11 @@ pub struct MechanismValidationRecord {
     /// its rows).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<usize>,
+    /// The held-out balls (their indices) whose reference touches fit
+    /// their centre and its mirror image through their plane about as
+    /// well, located at the mirror image, which all their touches fit.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mirrored_balls: Vec<usize>,
     /// The single changes that best explain the residuals, the best
     /// first.
     pub shifts: Vec<ShiftRecord>,

@@ -7,7 +7,9 @@
 //! one row). The tool points the touches reach,
 //! `x_k = f(p̂, g(p_c, x_c,k))` ([`BallTouch`]), locate its centre `ĉ`,
 //! the best fit of the sphere of its calibrated radius `ρ` through them
-//! (as the calibration starts it, [`ball_centre`]), and
+//! (as the calibration starts it, [`fitted_centre`]; located by reference
+//! touches, the side of them all its touches fit,
+//! [`located_side`]), and
 //!
 //! ```text
 //! r_k = |x_k − ĉ| − ρ,   dr_k/dc = −u_kᵀ,   dr_k/dp = u_kᵀ dx_k/dp|_q,
@@ -29,6 +31,8 @@
 //! (touches on a small cap: `1` nearly in the span of `J_c`).
 
 use nalgebra::{DMatrix, DVector, Vector3};
+
+use crate::mirror::located_side;
 use parcal_kinematics::mechanism::Mechanism;
 
 #[cfg(doc)]
@@ -39,7 +43,7 @@ use parcal_observe::mechanism::BallTouch;
 use super::super::data::Observations;
 use super::super::error::MechanismCalibrationError;
 use super::super::observation::{ObservationKind, ObservationRef};
-use super::super::touched_ball::{BallFit, ball_centre};
+use super::super::touched_ball::{BallFit, fitted_centre, reach_touches};
 use super::super::warm_start::WarmStart;
 use super::ball_sets::BallSet;
 use super::projection::{LocalRows, predict_from_reference, project_out};
@@ -71,15 +75,16 @@ pub(super) fn predict_balls(
     let mut noise = DMatrix::zeros(m, m);
     let mut centres = Vec::with_capacity(set.balls.len());
     let mut sources = Vec::with_capacity(m);
+    let mut mirrored_balls = Vec::new();
     let mut row = 0;
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
         let k = touches.len();
         let locating = match reference {
-            None => touches.as_slice(),
+            None => k,
             Some(n) if n < k => {
                 reference_rows.extend(row..row + n);
-                &touches[..n]
+                n
             }
             Some(n) => {
                 return Err(MechanismCalibrationError::InvalidData {
@@ -90,20 +95,27 @@ pub(super) fn predict_balls(
                 });
             }
         };
-        let centre = ball_centre(
+        let (mut warm_starts, mut tips) =
+            (vec![WarmStart::default(); k], vec![Vector3::zeros(); k]);
+        let fit = BallFit {
+            warm_starts: &mut warm_starts,
+            tips: &mut tips,
+        };
+        let tips = reach_touches(
             mechanism,
             params,
             configured,
             all,
-            locating,
-            b,
-            ball.radius,
+            touches,
             &mut Vec::new(),
-            BallFit {
-                warm_starts: &mut vec![WarmStart::default(); locating.len()],
-                tips: &mut vec![Vector3::zeros(); locating.len()],
-            },
+            fit,
         )?;
+        let fit = fitted_centre(&tips[..locating], ball.radius, b)?;
+        let (fit, mirror) = located_side(fit, &tips[..locating], tips, ball.radius);
+        if mirror {
+            mirrored_balls.push(b);
+        }
+        let centre = fit.centre;
         let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
         noise.view_mut((row, row), (k, k)).fill(radius_variance);
         for &t in touches {
@@ -172,10 +184,12 @@ pub(super) fn predict_balls(
             "reference",
         ),
     };
-    predicted.ok_or_else(|| MechanismCalibrationError::InvalidData {
+    let mut predicted = predicted.ok_or_else(|| MechanismCalibrationError::InvalidData {
         what: held_out.to_string(),
         reason: format!("the {locating} touches do not locate the centres"),
-    })
+    })?;
+    predicted.mirrored_balls = mirrored_balls;
+    Ok(predicted)
 }
 
 #[cfg(test)]

@@ -149,6 +149,7 @@ fn unwhitened(observation: ObservationRef, rows: &Rows, sigma: &[f64], g: usize)
         noise: DMatrix::from_fn(m, m, |i, j| if i == j { sigma[i] * sigma[i] } else { 0.0 }),
         d_global,
         row_observations: Vec::new(),
+        mirrored_balls: Vec::new(),
     }
 }
 

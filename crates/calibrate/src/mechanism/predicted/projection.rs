@@ -59,6 +59,7 @@ pub(super) fn project_out(
         noise: basis_t * &local.noise * basis_t.transpose(),
         d_global: widened(&(basis_t * local.d_params), g),
         row_observations: Vec::new(),
+        mirrored_balls: Vec::new(),
     })
 }
 
@@ -117,5 +118,6 @@ pub(super) fn predict_from_reference(
         noise: &a * &local.noise * a.transpose(),
         d_global: widened(&(&a * local.d_params), g),
         row_observations: others.iter().map(|&o| sources[o]).collect(),
+        mirrored_balls: Vec::new(),
     })
 }

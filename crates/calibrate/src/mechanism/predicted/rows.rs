@@ -26,6 +26,10 @@ pub struct PredictedRows {
     /// [`predict_from_reference`](super::projection::predict_from_reference)); empty when a row combines several (a
     /// projection) or is one of an observation's own rows.
     pub row_observations: Vec<(ObservationRef, usize)>,
+    /// The balls (their indices) located at the mirror image of their
+    /// reference touches' fit, which all their touches chose
+    /// ([`located_side`](crate::mirror::located_side)).
+    pub mirrored_balls: Vec<usize>,
 }
 
 /// `d_params` with zero columns appended up to `g`.

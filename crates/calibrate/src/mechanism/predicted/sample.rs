@@ -85,6 +85,7 @@ pub(super) fn predict_sample(
                 noise,
                 d_global: widened(&d_params, g),
                 row_observations: Vec::new(),
+                mirrored_balls: Vec::new(),
             }
         }
         None => {
