@@ -699,7 +699,7 @@ def report(
 ) -> str:
     """A calibration's report as ``parcal report`` writes it: report.html
     (a self-contained page; ``IPython.display.HTML(text)`` shows it) or
-    report.md. ``dataset`` (the one calibrated, another hexapod's only with
+    report.md. ``dataset`` (the one calibrated, another only with
     ``other_data``) adds the accuracy map's machine, a printer's probe
     residuals and a simulation's truth."""
 

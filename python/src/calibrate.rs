@@ -51,7 +51,7 @@ pub fn calibrate(
     .map_err(to_py)?;
     Ok(Calibration::new(
         recorded,
-        provenance(&dataset.inner, &dataset.given),
+        provenance(dataset.inner.checksum(), &dataset.given),
     ))
 }
 

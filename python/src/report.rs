@@ -69,7 +69,7 @@ pub fn report(
                 (_, Some(d)) => Some(ReportDataset::Mechanism(&d.get().inner, &d.get().data)),
                 _ => None,
             };
-            py.detach(|| mechanism_report(record, &file, dataset, format))
+            py.detach(|| mechanism_report(record, &file, dataset, other_data, format))
         }
     };
     text.map_err(|error| match error {

@@ -45,6 +45,13 @@ def test_a_mechanisms_report_is_the_commands(delta, paper, cli, tmp_path):
     # The truth adds its columns, the probes their residuals over the bed.
     bare = parcal.report(str(calibration), format="markdown")
     assert "error / sigma" in markdown and "error / sigma" not in bare
+    # Another printer's data are not the dataset calibrated: refused unless asked for.
+    other = tmp_path / "other-delta"
+    cli("simulate", "--mechanism", "delta", "--seed", 9, "--out", other)
+    other = parcal.read_dataset(other)
+    with pytest.raises(parcal.Error, match="the calibration is of another dataset .*give other_data=True"):
+        parcal.report(str(calibration), dataset=other)
+    assert parcal.report(str(calibration), dataset=other, other_data=True).startswith("<!DOCTYPE html>")
 
     # A hexapod through the common path, its truth from the hexapod dataset.
     common = tmp_path / "common.json"

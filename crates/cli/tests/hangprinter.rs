@@ -190,7 +190,7 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
     let calibration = data.join("calibration.json");
     let record: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(&calibration).unwrap()).unwrap();
-    assert_eq!(record["format"], "parcal-mechanism-calibration/1.4");
+    assert_eq!(record["format"], "parcal-mechanism-calibration/1.5");
     assert_eq!(
         record["elasticity"]["compliance_of_line"],
         serde_json::json!([0, 0, 0, 0])

@@ -94,6 +94,41 @@ fn a_delta_s_held_out_data_accept_its_printer_and_name_a_longer_rod() {
     let (status, said) = validate(&held_out, &calibration);
     assert_eq!(status, Some(0), "{said}");
     assert!(said.contains("accepted"), "{said}");
+    assert!(!said.contains("in sample"), "{said}");
+
+    // The calibration records the data it was fitted on: validated on
+    // them, a note says the rows are predicted in sample; a report with
+    // other data is refused unless asked for.
+    let (_, said) = validate(&sim, &calibration);
+    assert!(
+        said.contains("the same checksum): its rows are predicted in sample"),
+        "{said}"
+    );
+    let report_dir = d.join("report");
+    let report = |dataset: &Path, other: &[&str]| {
+        let args = [
+            &["report", s(&calibration), "--dataset", s(dataset)],
+            other,
+            &["--out", s(&report_dir)],
+        ]
+        .concat();
+        parcal(&args)
+    };
+    let refused = report(&held_out, &[]);
+    assert_eq!(refused.status.code(), Some(1));
+    let said = common::text(&refused.stderr);
+    assert!(
+        said.contains("the calibration is of another dataset") && said.contains("--other-data"),
+        "{said}"
+    );
+    assert!(!report_dir.join("report.html").exists());
+    let allowed = report(&held_out, &["--other-data"]);
+    assert_eq!(
+        allowed.status.code(),
+        Some(0),
+        "{}",
+        common::text(&allowed.stderr)
+    );
 
     // Rod A 0.3 mm longer: rejected, the rod named.
     let longer = changed(&sim, &d.join("longer"), DIAGONAL, 0.3);

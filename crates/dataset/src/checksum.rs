@@ -25,6 +25,17 @@ pub fn of_file(path: &Path) -> Result<String> {
     Ok(crc.checksum())
 }
 
+/// The checksum ([`of_bytes`]) of `value` in the snapshot's encoding
+/// (postcard), encoded into the CRC through a buffer, never held whole:
+/// the same data, the same checksum, whatever the files' formatting.
+pub(crate) fn of_encoded<T: serde::Serialize>(value: &T) -> String {
+    let mut crc = Crc32::default();
+    // The buffer, dropped, flushes into the CRC, which takes any bytes.
+    let encoded = postcard::to_io(value, io::BufWriter::with_capacity(1 << 16, &mut crc));
+    drop(encoded.expect("data in memory has a snapshot encoding"));
+    crc.checksum()
+}
+
 /// A writer that keeps only the CRC-32 of what is written to it: the
 /// checksum of a stream of any length in constant memory.
 #[derive(Default)]

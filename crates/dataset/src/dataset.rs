@@ -1,7 +1,7 @@
 //! A whole dataset: one directory, or one binary snapshot.
 
 use std::fs;
-use std::io::{self, BufWriter};
+use std::io;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::artefacts::ball_index;
 use crate::atomic;
 use crate::check::Check;
-use crate::checksum::Crc32;
+use crate::checksum;
 use crate::error::{DatasetError, Result};
 use crate::truth::TruthFile;
 use crate::{
@@ -139,12 +139,7 @@ impl Dataset {
             &self.measurements,
             &self.tracker,
         );
-        // Encoded into the CRC through a buffer, never held whole; the
-        // buffer, dropped, flushes into the CRC, which takes any bytes.
-        let mut crc = Crc32::default();
-        let encoded = postcard::to_io(&measured, BufWriter::with_capacity(1 << 16, &mut crc));
-        drop(encoded.expect("data in memory has a snapshot encoding"));
-        crc.checksum()
+        checksum::of_encoded(&measured)
     }
 
     /// Whether the dataset has ball touches.

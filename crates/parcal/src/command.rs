@@ -199,14 +199,16 @@ pub fn calibrate_recorded(
     })
 }
 
-/// calibration.json's provenance of a calibration of `dataset`, given as
-/// `given` (a directory or a snapshot's path): this parcal's version, that
-/// name, the dataset's checksum.
-pub fn provenance(dataset: &Dataset, given: &str) -> Provenance {
+/// calibration.json's provenance of a calibration of the dataset of
+/// checksum `checksum` ([`Dataset::checksum`], a mechanism's
+/// [`MechanismDataset::checksum`](parcal_dataset::mechanism::MechanismDataset::checksum)),
+/// given as `given` (a directory or a snapshot's path): this parcal's
+/// version, that name, the checksum.
+pub fn provenance(checksum: String, given: &str) -> Provenance {
     Provenance {
         parcal_version: env!("CARGO_PKG_VERSION").to_string(),
         dataset: given.to_string(),
-        dataset_checksum: dataset.checksum(),
+        dataset_checksum: checksum,
     }
 }
 

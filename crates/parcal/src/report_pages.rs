@@ -6,7 +6,7 @@
 
 use parcal_calibrate::mechanism::MechanismData;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismDataset};
-use parcal_dataset::{Calibration, Dataset, FrameRecord};
+use parcal_dataset::{Calibration, Dataset, FrameRecord, Provenance};
 use parcal_kinematics::N_PARAMS;
 use parcal_report::calibration_report::{Subject, predicted_accuracy, render};
 use parcal_report::mechanism::FromDataset;
@@ -146,15 +146,12 @@ pub fn hexapod_report(
     other_data: bool,
     format: Format,
 ) -> Result<String, ReportPageError> {
-    if let (Some(dataset), Some(provenance)) = (dataset, &calibration.provenance) {
-        let given = dataset.checksum();
-        if !other_data && provenance.dataset_checksum != given {
-            return Err(ReportPageError::OtherData {
-                dataset: provenance.dataset.clone(),
-                recorded: provenance.dataset_checksum.clone(),
-                given,
-            });
-        }
+    if let Some(dataset) = dataset {
+        same_data(
+            calibration.provenance.as_ref(),
+            dataset.checksum(),
+            other_data,
+        )?;
     }
     let subject = Subject {
         calibration,
@@ -175,18 +172,21 @@ pub enum ReportDataset<'a> {
 }
 
 /// The report of a mechanism's calibration `record` (its file `file`, as
-/// given) in `format`, with what `dataset` adds: a mechanism's probe and
-/// manual height residuals over the bed, a simulated machine's truth.
+/// given) in `format`, with what `dataset` (the one calibrated, unless
+/// `other_data`) adds: a mechanism's probe and manual height residuals
+/// over the bed, a simulated machine's truth.
 pub fn mechanism_report(
     record: &MechanismCalibrationRecord,
     file: &str,
     dataset: Option<ReportDataset<'_>>,
+    other_data: bool,
     format: Format,
 ) -> Result<String, ReportPageError> {
     let (truth, bed) = match dataset {
         None => (None, None),
         Some(ReportDataset::Hexapod(dataset)) => {
             same_mechanism(record, parcal_dataset::HEXAPOD)?;
+            same_data(record.provenance.as_ref(), dataset.checksum(), other_data)?;
             let trackers: Vec<&str> = record.trackers.iter().map(|t| t.label.as_str()).collect();
             (
                 hexapod_truth(dataset, record.parameters.len(), &trackers)?,
@@ -195,6 +195,7 @@ pub fn mechanism_report(
         }
         Some(ReportDataset::Mechanism(dataset, data)) => {
             same_mechanism(record, data.mechanism.name())?;
+            same_data(record.provenance.as_ref(), dataset.checksum(), other_data)?;
             let truth = mechanism_truth(dataset, data)?;
             (truth, Some(dataset))
         }
@@ -212,6 +213,26 @@ pub fn mechanism_page(
 ) -> Result<String, ReportPageError> {
     parcal_report::mechanism::render(record, file, from_dataset, format)
         .map_err(|error| ReportPageError::Figure(error.to_string()))
+}
+
+/// Whether the dataset of checksum `given` is the one a calibration of
+/// `provenance` calibrated, unless `other_data` allows another (a record
+/// without provenance names none).
+fn same_data(
+    provenance: Option<&Provenance>,
+    given: String,
+    other_data: bool,
+) -> Result<(), ReportPageError> {
+    match provenance {
+        Some(provenance) if !other_data && provenance.dataset_checksum != given => {
+            Err(ReportPageError::OtherData {
+                dataset: provenance.dataset.clone(),
+                recorded: provenance.dataset_checksum.clone(),
+                given,
+            })
+        }
+        _ => Ok(()),
+    }
 }
 
 /// Whether `record` is a calibration of `mechanism`'s.

@@ -9,7 +9,7 @@ use numpy::{PyArray1, PyArray2};
 use parcal::calibration::Observation;
 use parcal::calibration::bounds::MAX_ITERATIONS;
 use parcal::calibration::mechanism::{ObservationKind, ObservationRef};
-use parcal::command::{CalibrateFlags, common_calibration};
+use parcal::command::{CalibrateFlags, common_calibration, provenance};
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::mechanism::ObservationRecord;
 use parcal::report::mechanism::identifiability_statements;
@@ -80,9 +80,12 @@ pub fn calibrate_mechanism(
         calibrate(&dataset.data, &options, observer)
     })?
     .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
-    Ok(MechanismCalibration {
-        record: calibration.into_record(),
-    })
+    let mut record = calibration.into_record();
+    record.provenance = Some(provenance(
+        dataset.inner.checksum(),
+        &dataset.path.display().to_string(),
+    ));
+    Ok(MechanismCalibration { record })
 }
 
 /// Calibrates a hexapod's ball touches (`dataset`, a `Dataset`) by the
@@ -109,9 +112,9 @@ pub fn calibrate_common(
         calibrate(&data, &options, observer)
     })?
     .map_err(|error| data_error(given, HEXAPOD, error))?;
-    Ok(MechanismCalibration {
-        record: calibration.into_record(),
-    })
+    let mut record = calibration.into_record();
+    record.provenance = Some(provenance(dataset.inner.checksum(), &dataset.given));
+    Ok(MechanismCalibration { record })
 }
 
 /// A mechanism's calibration: its verdict and reasons, the parameters

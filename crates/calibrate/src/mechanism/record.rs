@@ -58,6 +58,7 @@ impl MechanismCalibration {
             .collect();
         MechanismCalibrationRecord {
             mechanism: self.mechanism,
+            provenance: None,
             print_radius: self.print_radius,
             elasticity: self.elasticity,
             status: format!("{:?}", self.status),

@@ -235,6 +235,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         .collect();
     let truth = hexapod_truth(&dataset, data.mechanism.parameters().len(), &trackers)
         .map_err(|error| anyhow::anyhow!("{}: {error}", args.dataset.display()))?;
+    let checksum = dataset.checksum();
     // The touches are in `data`: the dataset's memory is the room of the
     // calibration's, given back as it starts.
     let freeing = super::mechanism::free_beside(dataset);
@@ -245,7 +246,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         &options,
         from_dataset,
         request,
-        &[read, converted],
+        (&[read, converted], checksum),
     );
     super::mechanism::freed(freeing, "the dataset")?;
     calibrated

@@ -74,7 +74,16 @@ pub fn calibrate(
         data.observations.len(),
         read.elapsed().as_secs_f64()
     );
-    calibrate_with(mechanism, data, options, from_dataset, request, &[read])
+    let checksum = dataset.checksum();
+    let read = [read];
+    calibrate_with(
+        mechanism,
+        data,
+        options,
+        from_dataset,
+        request,
+        (&read, checksum),
+    )
 }
 
 /// `parcal inspect` on the mechanism dataset `path`: read, converted and
@@ -190,16 +199,16 @@ pub fn freed(freeing: Option<JoinHandle<()>>, what: &str) -> anyhow::Result<()> 
 
 /// The common calibration of `data` under `options`, read from the
 /// dataset of `request` (its probes and manual heights, if any, drawn in
-/// the report), the progress lines `before` (what was read and made, with
-/// its time) shown first: as [`calibrate`], once the outputs are checked
-/// ([`CalibrateRequest::check_outputs`]).
+/// the report) whose checksum is `checksum`, the progress lines `before`
+/// (what was read and made, with its time) shown first: as [`calibrate`],
+/// once the outputs are checked ([`CalibrateRequest::check_outputs`]).
 pub fn calibrate_with(
     mechanism: &str,
     data: MechanismData,
     options: &MechanismOptions,
     from_dataset: FromDataset<'_>,
     request: CalibrateRequest,
-    before: &[String],
+    (before, checksum): (&[String], String),
 ) -> anyhow::Result<()> {
     let CalibrateRequest {
         dataset: path,
@@ -233,7 +242,11 @@ pub fn calibrate_with(
         .map_err(|error| placed(&path, mechanism, &error))?;
     progress.finish();
     let freeing = free_beside(data);
-    let record = calibration.into_record();
+    let mut record = calibration.into_record();
+    record.provenance = Some(parcal::command::provenance(
+        checksum,
+        &path.display().to_string(),
+    ));
     let destination = if record.accepted {
         out.clone()
     } else {

@@ -76,8 +76,12 @@ pub fn validate(
     );
     inputs.push(calibration.to_path_buf());
     crate::outputs::check(&inputs, &[out.to_path_buf()])?;
-    let calibrated = calibrated(calibration, accept_rejected)?;
+    let record = read_calibration(calibration, accept_rejected)?;
+    let calibrated = CalibratedMechanism::from_record(&record)
+        .map_err(|error| anyhow::anyhow!("{}: {error}", calibration.display()))?;
     let held_out = MechanismDataset::read(dataset)?;
+    let provenance = record.provenance.as_ref();
+    super::note_in_sample(provenance, held_out.checksum(), dataset, calibration);
     let mechanism = held_out.machine.mechanism.as_str();
     let data =
         MechanismData::from_dataset(&held_out).map_err(|e| data_error(dataset, mechanism, e))?;
@@ -104,6 +108,8 @@ pub fn validate_hexapod(
 ) -> anyhow::Result<()> {
     let calibrated = CalibratedMechanism::from_record(record)
         .map_err(|error| anyhow::anyhow!("{}: {error}", calibration.display()))?;
+    let provenance = record.provenance.as_ref();
+    super::note_in_sample(provenance, dataset.checksum(), path, calibration);
     let data =
         MechanismData::hexapod_held_out(dataset).map_err(|e| data_error(path, HEXAPOD, e))?;
     let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL, reference)

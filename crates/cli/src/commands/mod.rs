@@ -72,6 +72,24 @@ fn validation_outcome(rejected: bool, reasons: &[String], out: &Path) -> anyhow:
     Ok(())
 }
 
+/// Notes on stderr when the dataset `dataset` (checksum `checksum`) is the
+/// one the calibration at `calibration` (of `provenance`) calibrated: its
+/// rows are then predicted in sample.
+fn note_in_sample(
+    provenance: Option<&parcal::dataset::Provenance>,
+    checksum: String,
+    dataset: &Path,
+    calibration: &Path,
+) {
+    if provenance.is_some_and(|p| p.dataset_checksum == checksum) {
+        eprintln!(
+            "note: {} is the dataset {} calibrated (the same checksum): its rows are predicted in sample, so this checks the fit, not new data (give data not used for the fit, or --folds for a cross-validation)",
+            dataset.display(),
+            calibration.display()
+        );
+    }
+}
+
 /// Where a calibration whose verdict is rejected goes instead of `out`:
 /// `NAME.rejected.EXT` beside it (`calibration.rejected.json`), so that a
 /// rejected run never replaces an accepted calibration.
@@ -159,7 +177,7 @@ pub fn write_calibration(
     report: Option<&ReportRequest>,
 ) -> anyhow::Result<Option<Rejected>> {
     record.provenance = Some(parcal::command::provenance(
-        dataset,
+        dataset.checksum(),
         &path.display().to_string(),
     ));
     let destination = calibration_destination(&record, out);

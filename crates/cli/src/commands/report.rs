@@ -137,13 +137,22 @@ fn write_mechanism(
         None => None,
     };
     let texts = REPORT_FILES.map(|(name, format)| {
-        mechanism_report(record, &file, dataset.map(|(_, d)| d), format)
-            .map(|text| (directory.join(name), text))
+        mechanism_report(
+            record,
+            &file,
+            dataset.map(|(_, d)| d),
+            args.other_data,
+            format,
+        )
+        .map(|text| (directory.join(name), text))
     });
     let texts = texts
         .into_iter()
         .collect::<Result<Vec<_>, _>>()
         .map_err(|error| match (&error, dataset) {
+            (ReportPageError::OtherData { .. }, _) => {
+                anyhow::anyhow!("{file}: {error}; give --other-data to report with it anyway")
+            }
             (ReportPageError::Figure(_), _) | (_, None) => anyhow::anyhow!("{file}: {error}"),
             (_, Some((path, _))) => anyhow::anyhow!("{}: {error}", path.display()),
         })?;

@@ -96,17 +96,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     );
                 }
             };
-            let in_sample = record
-                .provenance
-                .as_ref()
-                .is_some_and(|p| p.dataset_checksum == dataset.checksum());
-            if in_sample {
-                eprintln!(
-                    "note: {} is the dataset {} calibrated (the same checksum): its rows are predicted in sample, so this checks the fit, not new data (give data not used for the fit, or --folds for a cross-validation)",
-                    args.dataset.display(),
-                    path.display()
-                );
-            }
+            super::note_in_sample(
+                record.provenance.as_ref(),
+                dataset.checksum(),
+                &args.dataset,
+                path,
+            );
             let validation = if dataset.tracker.is_empty() {
                 validate_touches(&dataset, &record, args.reference)
                     .with_context(|| path.display().to_string())?

@@ -577,7 +577,8 @@ pub struct Provenance {
     pub parcal_version: String,
     /// The dataset as it was given (a directory or a snapshot).
     pub dataset: String,
-    /// The dataset's checksum ([`crate::Dataset::checksum`]).
+    /// The dataset's checksum ([`crate::Dataset::checksum`], a
+    /// mechanism's [`crate::mechanism::MechanismDataset::checksum`]).
     pub dataset_checksum: String,
 }
 

@@ -34,7 +34,7 @@ pub const PLACEMENT_COLUMNS: [&str; 4] = ["x", "y", "z", "centre_sigma"];
 pub const TOUCH_COLUMNS: [&str; 4] = ["ball", "x", "y", "z"];
 
 /// One row of balls.csv.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct BallRow {
     /// The calibrated radius (mm, positive).
     pub radius: f64,
@@ -47,7 +47,7 @@ pub struct BallRow {
 
 /// Where a ball was placed: its centre (mm, the controller's coordinates)
 /// and the standard deviation of each coordinate (mm, positive).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct BallPlacement {
     /// The centre.
     pub centre: [f64; 3],
@@ -56,7 +56,7 @@ pub struct BallPlacement {
 }
 
 /// One row of touches.csv.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct TouchRow {
     /// The ball's number (its row in balls.csv, from 0).
     pub ball: usize,

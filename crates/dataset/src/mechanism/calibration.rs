@@ -1,11 +1,12 @@
 //! The record of a mechanism calibration (`calibration.json`, format
-//! `parcal-mechanism-calibration/1.4`): the mechanism (and a printer's
+//! `parcal-mechanism-calibration/1.5`): the mechanism (and a printer's
 //! printable radius, since 1.2; a cable robot's elastic lines, since
 //! 1.3), the estimated
 //! parameters in its canonical frame with their sigmas, priors and
 //! covariance, the verdict and its reasons, the tests (global test,
 //! w-tests, snooping), the identifiability and a Gauss-Newton fit that ran
-//! away before (since 1.4), so that `export` and
+//! away before (since 1.4), the dataset's provenance (since 1.5), so that
+//! `export` and
 //! `report` read one without the calibration's code.
 
 use std::collections::BTreeSet;
@@ -16,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::check::Check;
 use crate::error::Result;
 use crate::json;
-use crate::{FrameRecord, GlobalTestRecord};
+use crate::{FrameRecord, GlobalTestRecord, Provenance};
 
 use super::machine::{LineElasticity, check_print_radius, machine_mechanism};
 use super::observation_records::ObservationRecords;
@@ -199,6 +200,10 @@ pub struct TrackerRecord {
 pub struct MechanismCalibrationRecord {
     /// The mechanism's name.
     pub mechanism: String,
+    /// The dataset calibrated, as given, and its checksum (absent: data
+    /// built in memory, or a record written before 1.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
     /// A printer's printable radius (mm), its dataset's (machine.json's
     /// `print_radius`): what applying the calibration keeps the nozzle
     /// within and writes back to the firmware (absent: none stated).

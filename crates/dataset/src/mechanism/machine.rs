@@ -124,7 +124,7 @@ impl LineElasticity {
 }
 
 /// A mechanism dataset's machine (module doc).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MechanismMachine {
     /// The mechanism's name, one of `parcal_kinematics::mechanisms::NAMES`.
     pub mechanism: String,

@@ -177,6 +177,26 @@ impl Default for MechanismDataset {
 }
 
 impl MechanismDataset {
+    /// A checksum of what was measured, as [`crate::Dataset::checksum`]:
+    /// CRC-32 of the machine and every observation in the snapshot's
+    /// encoding (a simulation's truth is not part of it), `crc32:` and 8
+    /// hex digits. It recognises a dataset; it is not a cryptographic hash.
+    pub fn checksum(&self) -> String {
+        let measured = (
+            &self.machine,
+            &self.probes,
+            &self.heights,
+            &self.distances,
+            &self.samples,
+            &self.quantities,
+            &self.balls,
+            &self.touches,
+            &self.ball_distances,
+            &self.tracker_points,
+        );
+        crate::checksum::of_encoded(&measured)
+    }
+
     /// Reads the dataset in directory `dir` (module doc).
     pub fn read(dir: &Path) -> Result<Self> {
         let machine = MechanismMachine::read(&dir.join(MACHINE_FILE))?;

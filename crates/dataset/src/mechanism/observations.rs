@@ -42,7 +42,7 @@ pub const LOAD_COLUMNS: [&str; 8] = ["f1", "f2", "f3", "f4", "f5", "f6", "f7", "
 
 /// One row of points.csv: the readings, and the position if it was
 /// measured.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SampleRow {
     /// The readings, one per actuator.
     pub readings: Vec<f64>,

@@ -19,7 +19,7 @@ use super::observations::{OBSERVATIONS, too_many};
 pub const QUANTITY_COLUMNS: [&str; 3] = ["quantity", "value", "sigma"];
 
 /// One row of quantities.csv.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct QuantityRow {
     /// The quantity's name (`line_length_a`).
     pub quantity: String,

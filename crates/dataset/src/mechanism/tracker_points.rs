@@ -24,7 +24,7 @@ pub const TRACKER_POINT_COLUMNS: [&str; 7] = ["tracker", "x_c", "y_c", "z_c", "x
 pub const TRACKERS: Count = Count::new(1, 16, "each tracker's frame is six unknowns of the fit");
 
 /// One row of tracker_points.csv.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct TrackerPointRow {
     /// The tracker's label.
     pub tracker: String,
