@@ -195,9 +195,10 @@ pub fn mechanism_report(
         }
         Some(ReportDataset::Mechanism(dataset, data)) => {
             same_mechanism(record, data.mechanism.name())?;
-            same_data(record.provenance.as_ref(), dataset.checksum(), other_data)?;
+            // Another dataset's probes are not the residuals' places.
+            let same = same_data(record.provenance.as_ref(), dataset.checksum(), other_data)?;
             let truth = mechanism_truth(dataset, data)?;
-            (truth, Some(dataset))
+            (truth, same.then_some(dataset))
         }
     };
     let from_dataset = MechanismTrue::from_dataset(truth.as_ref(), bed);
@@ -215,23 +216,25 @@ pub fn mechanism_page(
         .map_err(|error| ReportPageError::Figure(error.to_string()))
 }
 
-/// Whether the dataset of checksum `given` is the one a calibration of
-/// `provenance` calibrated, unless `other_data` allows another (a record
-/// without provenance names none).
+/// Whether the dataset of checksum `given` may be taken as the one a
+/// calibration of `provenance` calibrated (a record without provenance
+/// names none): `Ok(false)` for another that `other_data` allows, an error
+/// for another it does not.
 fn same_data(
     provenance: Option<&Provenance>,
     given: String,
     other_data: bool,
-) -> Result<(), ReportPageError> {
+) -> Result<bool, ReportPageError> {
     match provenance {
-        Some(provenance) if !other_data && provenance.dataset_checksum != given => {
-            Err(ReportPageError::OtherData {
+        Some(provenance) if provenance.dataset_checksum != given => match other_data {
+            true => Ok(false),
+            false => Err(ReportPageError::OtherData {
                 dataset: provenance.dataset.clone(),
                 recorded: provenance.dataset_checksum.clone(),
                 given,
-            })
-        }
-        _ => Ok(()),
+            }),
+        },
+        _ => Ok(true),
     }
 }
 
