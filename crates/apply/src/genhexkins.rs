@@ -25,7 +25,7 @@ use std::fmt::Write as _;
 
 use parcal_kinematics::Vec3;
 
-use crate::AppliedModel;
+use crate::{AppliedModel, UNSEEN_TOOL};
 
 /// The HAL snippet (module doc). Numbers in Rust's shortest round-trip
 /// form.
@@ -39,6 +39,9 @@ pub fn hal_snippet(model: &AppliedModel) -> String {
     line("# parcal: calibrated geometry for LinuxCNC genhexkins (docs/apply.md)".into());
     line("# Base joints in the design frame; platform joints relative to the tool tip.".into());
     line("# Lengths in mm; genhexkins.spindle-offset and genhexkins.tool-offset must be 0.".into());
+    if !model.tool_calibrated {
+        line(format!("# {UNSEEN_TOOL}"));
+    }
     let set = |out: &mut String, body: &str, n: usize, p: &Vec3| {
         for (axis, v) in ["x", "y", "z"].iter().zip(p.iter()) {
             writeln!(out, "setp genhexkins.{body}.{n}.{axis} {v}").expect("writing to a String");

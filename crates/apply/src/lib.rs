@@ -31,7 +31,7 @@ mod target;
 pub use compensate::{Command, SINGULARITY_RATIO, command, compensate};
 pub use corrected::{corrected_pose, corrected_poses};
 pub use error::{ApplyError, Refusal};
-pub use model::AppliedModel;
+pub use model::{AppliedModel, UNSEEN_TOOL};
 pub use placement::{Placement, place};
 pub use predicted::predicted_registered;
 pub use table::{CorrectionTable, InterpolationError, TableGrid};
@@ -60,6 +60,7 @@ mod tests {
             placement,
             canonical: truth,
             covariance: None,
+            tool_calibrated: true,
         }
     }
 }

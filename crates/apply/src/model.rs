@@ -2,7 +2,8 @@
 //! in the design frame, the actuators' scales, the stroke and joint limits.
 
 use parcal_dataset::Calibration;
-use parcal_kinematics::{Geometry, ParamCovariance};
+use parcal_kinematics::params::TOOL_OFFSET;
+use parcal_kinematics::{Geometry, PARAM_NAMES, ParamCovariance};
 
 use crate::{ApplyError, Placement, place};
 
@@ -32,7 +33,15 @@ pub struct AppliedModel {
     /// The posterior covariance of the 33 kinematic parameters (the leading
     /// block of calibration.json's `covariance`), if computed.
     pub covariance: Option<ParamCovariance>,
+    /// Whether the data determined the tool (calibration.json's parameters
+    /// hold `x_eT, y_eT, z_eT`): poses alone do not see it, and it then
+    /// keeps the design's coordinates in the platform's canonical frame.
+    pub tool_calibrated: bool,
 }
+
+/// What the exports say of a model whose tool the data did not see
+/// ([`AppliedModel::tool_calibrated`]).
+pub const UNSEEN_TOOL: &str = "the tool tip E_T is not calibrated: the data (poses of the platform) do not see the tool, which keeps the design's coordinates in the platform's canonical frame; points of the tool tip or ball touches calibrate it";
 
 impl AppliedModel {
     /// The model of `record`: its `canonical` geometry placed onto its
@@ -80,6 +89,9 @@ impl AppliedModel {
             placement,
             canonical,
             covariance: kinematic_covariance(record),
+            tool_calibrated: PARAM_NAMES[TOOL_OFFSET..]
+                .iter()
+                .all(|name| record.parameters.names.iter().any(|n| n == name)),
         })
     }
 

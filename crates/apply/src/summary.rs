@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use parcal_dataset::Calibration;
 
-use crate::AppliedModel;
+use crate::{AppliedModel, UNSEEN_TOOL};
 
 /// The summary text (module doc).
 pub fn summary(record: &Calibration, model: &AppliedModel) -> String {
@@ -59,6 +59,9 @@ fn write_summary(out: &mut String, record: &Calibration, model: &AppliedModel) -
         row(out, format!("E{}", i + 1), &g.platform[i], &d.platform[i])?;
     }
     row(out, "E_T".to_string(), &g.tool, &d.tool)?;
+    if !model.tool_calibrated {
+        writeln!(out, "       {UNSEEN_TOOL}")?;
+    }
     for i in 0..6 {
         writeln!(
             out,

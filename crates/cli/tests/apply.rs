@@ -128,10 +128,41 @@ fn exports_are_written_and_the_machine_reads_as_a_design() {
         summary.contains("posterior covariance as correlations"),
         "{summary}"
     );
+    // Touches see the tool: nothing is said of it.
+    assert!(
+        !summary.contains(UNSEEN) && !hal.contains(UNSEEN),
+        "{summary}"
+    );
     // The exported machine is the design of a next calibration.
     fs::copy(dir.path().join("machine-json"), data.join("machine.json")).unwrap();
     ok(&["inspect", s(&data)]);
+
+    // Poses of the platform do not see the tool: both exports say that
+    // theirs is not calibrated.
+    let jugglebot = copy_fixture(
+        "jugglebot",
+        &dir.path().join("jb"),
+        &["machine.json", "poses.csv"],
+    );
+    let calibration = dir.path().join("jb.json");
+    ok(&["calibrate", s(&jugglebot), "--out", s(&calibration)]);
+    for format in ["genhexkins", "summary"] {
+        let out = dir.path().join(format!("jb-{format}"));
+        let export = [
+            "export",
+            "--calibration",
+            s(&calibration),
+            "--format",
+            format,
+        ];
+        ok(&[&export[..], &["--out", s(&out)]].concat());
+        let text = fs::read_to_string(&out).unwrap();
+        assert!(text.contains(UNSEEN), "{format}: {text}");
+    }
 }
+
+/// What the exports say of a tool the data do not see.
+const UNSEEN: &str = "the tool tip E_T is not calibrated";
 
 #[test]
 fn a_run_that_did_not_converge_quotes_no_posterior_accuracy() {
