@@ -348,13 +348,18 @@ fn a_blunder_is_named_and_removed_by_snooping() {
     lines[11] = format!("{},{},{}", fields[0], fields[1], fields[2] + 0.3);
     fs::write(d.join("probes.csv"), lines.join("\n") + "\n").unwrap();
     let data = import_printer(d, false);
-    // Without snooping the blunder fails the tests; with it, probe height
-    // 10 (0-based) is removed and the rest pass.
+    // Without snooping the blunder fails the tests, named by its line;
+    // with it, probe height 10 (0-based, line 12) is removed and the rest
+    // pass.
     let err = fails(&["calibrate", s(&data)]);
-    assert!(err.contains("rejected"), "{err}");
+    assert!(
+        err.contains("rejected")
+            && err.contains("probes.csv line 12 (probe height 10, row 0) fails its w-test"),
+        "{err}"
+    );
     let summary = ok(&["calibrate", s(&data), "--snoop"]);
     assert!(
-        summary.contains("removed by data snooping: probe height 10 "),
+        summary.contains("removed by data snooping: probes.csv line 12 (probe height 10, row 0)"),
         "{summary}"
     );
     assert!(summary.contains("Verdict: accepted"), "{summary}");

@@ -6,7 +6,7 @@
 //! ([`crate::calibration_report`]'s HTML and Markdown). Every number is
 //! the record's or computed from it.
 
-use parcal_calibrate::mechanism::ObservationKind;
+use parcal_calibrate::mechanism::{ObservationKind, ObservationRef};
 use parcal_dataset::FrameRecord;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, TrackerRecord};
 use plotters::prelude::*;
@@ -14,6 +14,7 @@ use plotters::prelude::*;
 use crate::calibration_report::Format;
 use crate::calibration_report::document::{Block, Cell, Tone};
 use crate::calibration_report::{html, markdown};
+use crate::mechanism_validation::observation_row_place;
 
 /// What a mechanism's dataset adds to the report of its calibration.
 #[derive(Debug, Clone, Copy, Default)]
@@ -677,11 +678,21 @@ pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String
         .removed
         .iter()
         .map(|r| {
+            let observation = ObservationKind::ALL
+                .into_iter()
+                .find(|kind| kind.name() == r.kind)
+                .map(|kind| ObservationRef {
+                    kind,
+                    index: r.index,
+                });
+            let place = match observation {
+                Some(observation) => {
+                    observation_row_place(&calibration.mechanism, observation, Some(r.row))
+                }
+                None => format!("{} {} (row {})", r.kind, r.index, r.row),
+            };
             format!(
-                "{} {} (row {}): normalised residual {:.2}; variance factor {} before, {} after",
-                r.kind,
-                r.index,
-                r.row,
+                "{place}: normalised residual {:.2}; variance factor {} before, {} after",
                 r.normalised,
                 factor(r.variance_factor_before),
                 factor(r.variance_factor_after)
@@ -1003,7 +1014,10 @@ mod tests {
             "{markdown}"
         );
         assert!(markdown.contains("Removed by data snooping"), "{markdown}");
-        assert!(markdown.contains("probe height 5 (row 0)"), "{markdown}");
+        assert!(
+            markdown.contains("probes.csv line 7 (probe height 5, row 0)"),
+            "{markdown}"
+        );
         assert!(markdown.contains("| diagonal\\_a | mm |"), "{markdown}");
         assert!(markdown.contains("24 probe heights"), "{markdown}");
         assert!(!markdown.contains("Printable radius"), "{markdown}");

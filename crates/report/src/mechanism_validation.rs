@@ -160,6 +160,28 @@ pub fn observation_place(mechanism: &str, observation: ObservationRef) -> String
     }
 }
 
+/// An observation of the mechanism named `mechanism` by its file and line
+/// as [`observation_place`], with the row of it a test names: `probes.csv
+/// line 5 (probe height 3, row 0)`; the calibration's own naming when it
+/// is read from no file: `measured point 2 (row 1)`.
+pub fn observation_row_place(
+    mechanism: &str,
+    observation: ObservationRef,
+    row: Option<usize>,
+) -> String {
+    let Some(row) = row else {
+        return observation_place(mechanism, observation);
+    };
+    match Files::of(mechanism).of_kind(observation.kind) {
+        Some((file, true)) => format!(
+            "{file} line {} ({observation}, row {row})",
+            observation.index + 2
+        ),
+        Some((file, false)) => format!("{file} ({observation}, row {row})"),
+        None => format!("{observation} (row {row})"),
+    }
+}
+
 /// What went wrong with a calibration of the mechanism named `mechanism`,
 /// an observation's failure placed by its file and line
 /// ([`observation_place`]): `probes.csv line 5 (probe height 3):

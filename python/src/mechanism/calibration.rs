@@ -13,7 +13,7 @@ use parcal::command::{CalibrateFlags, common_calibration, provenance};
 use parcal::dataset::HEXAPOD;
 use parcal::dataset::mechanism::ObservationRecord;
 use parcal::report::mechanism::identifiability_statements;
-use parcal::report::mechanism_validation::observation_place;
+use parcal::report::mechanism_validation::{observation_place, observation_row_place};
 use parcal::{MechanismCalibrationRecord, calibrate_mechanism as calibrate};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -76,10 +76,13 @@ pub fn calibrate_mechanism(
     };
     let options = flags.mechanism_options().with_observation(observation);
     let dataset = dataset.get();
-    let calibration = observed(py, progress.as_ref(), |observer| {
+    let mut calibration = observed(py, progress.as_ref(), |observer| {
         calibrate(&dataset.data, &options, observer)
     })?
     .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
+    let mechanism = dataset.data.mechanism.name();
+    calibration
+        .place_observations(&|observation, row| observation_row_place(mechanism, observation, row));
     let mut record = calibration.into_record();
     record.provenance = Some(provenance(
         dataset.inner.checksum(),
@@ -108,10 +111,12 @@ pub fn calibrate_common(
     let given = Path::new(&dataset.given);
     let (data, options) = common_calibration(&dataset.inner, &flags)
         .map_err(|error| data_error(given, HEXAPOD, error))?;
-    let calibration = observed(py, progress.as_ref(), |observer| {
+    let mut calibration = observed(py, progress.as_ref(), |observer| {
         calibrate(&data, &options, observer)
     })?
     .map_err(|error| data_error(given, HEXAPOD, error))?;
+    calibration
+        .place_observations(&|observation, row| observation_row_place(HEXAPOD, observation, row));
     let mut record = calibration.into_record();
     record.provenance = Some(provenance(dataset.inner.checksum(), &dataset.given));
     Ok(MechanismCalibration { record })

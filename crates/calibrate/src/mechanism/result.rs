@@ -206,6 +206,14 @@ impl MechanismCalibration {
         matches!(self.status, Status::Converged)
     }
 
+    /// The verdict's reasons made again with each observation, and the
+    /// row of it a test names, named by `place` (a front end's file and
+    /// line: `probes.csv line 5 (probe height 3, row 0)`) instead of
+    /// [`named`]'s kind and index.
+    pub fn place_observations(&mut self, place: &dyn Fn(ObservationRef, Option<usize>) -> String) {
+        self.reasons = reasons(self, place);
+    }
+
     /// The observation of largest `|w|`.
     pub fn worst(&self) -> Option<Worst<ObservationRef>> {
         worst(&self.observations)
@@ -367,7 +375,7 @@ pub(crate) fn assemble(
         snooping_stopped: None,
         identifiability,
     };
-    calibration.reasons = reasons(&calibration);
+    calibration.reasons = reasons(&calibration, &named);
     Ok(calibration)
 }
 
@@ -491,8 +499,21 @@ fn family(calibration: &MechanismCalibration) -> String {
     }
 }
 
-/// The verdict's reasons, in words.
-pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
+/// An observation by its kind and index, and the row of it a test names:
+/// `probe height 3 (row 0)`.
+pub(crate) fn named(observation: ObservationRef, row: Option<usize>) -> String {
+    match row {
+        Some(row) => format!("{observation} (row {row})"),
+        None => observation.to_string(),
+    }
+}
+
+/// The verdict's reasons, in words, each observation (and the row a test
+/// names) named by `place` ([`named`], or a front end's file and line).
+pub(crate) fn reasons(
+    calibration: &MechanismCalibration,
+    place: &dyn Fn(ObservationRef, Option<usize>) -> String,
+) -> Vec<String> {
     let alpha = calibration.alpha;
     let mut reasons = Vec::new();
     if !calibration.converged() {
@@ -526,14 +547,15 @@ pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
     {
         let critical = calibration.critical_value;
         let family = format!("family-wise level {alpha} over {}", family(calibration));
+        let observation = place(observation, Some(row));
         reasons.push(if w.abs() > critical {
             format!(
-                "{observation} (row {row}) fails its w-test: |w| = {:.2} > {critical:.2} ({family}): a blunder that snooping would remove",
+                "{observation} fails its w-test: |w| = {:.2} > {critical:.2} ({family}): a blunder that snooping would remove",
                 w.abs()
             )
         } else {
             format!(
-                "every w-test passes: the largest, {observation} (row {row}), |w| = {:.2} <= {critical:.2} ({family})",
+                "every w-test passes: the largest, {observation}, |w| = {:.2} <= {critical:.2} ({family})",
                 w.abs()
             )
         });
@@ -541,7 +563,7 @@ pub(crate) fn reasons(calibration: &MechanismCalibration) -> Vec<String> {
     for removal in &calibration.removals {
         reasons.push(format!(
             "{} removed by snooping (|w| = {:.2}; variance factor {:.3} -> {:.3})",
-            removal.observation,
+            place(removal.observation, None),
             removal.normalised.abs(),
             removal.variance_factor_before,
             removal.variance_factor_after

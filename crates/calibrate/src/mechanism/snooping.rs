@@ -13,7 +13,7 @@ use super::error::MechanismCalibrationError;
 use super::fit::fit;
 use super::observation::{ObservationKind, ObservationRef};
 use super::options::MechanismOptions;
-use super::result::{MechanismCalibration, assemble, reasons};
+use super::result::{MechanismCalibration, assemble, named, reasons};
 
 impl Place for ObservationRef {
     const KINDS: usize = ObservationKind::ALL.len();
@@ -101,6 +101,6 @@ pub(crate) fn snoop(
     (run.observations).rename(|observation| snooped.remaining.original(observation));
     run.removals = snooped.removals;
     run.snooping_stopped = snooped.stopped;
-    run.reasons = reasons(&run);
+    run.reasons = reasons(&run, &named);
     Ok(run)
 }

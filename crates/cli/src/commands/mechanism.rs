@@ -23,7 +23,7 @@ use parcal::report::mechanism::{
     parameter_header, parameter_rows, prior_correlation_sentence, removal_sentences,
     run_away_sentence, touch_equation, verdict_sentence,
 };
-use parcal::report::mechanism_validation::placed_error;
+use parcal::report::mechanism_validation::{observation_row_place, placed_error};
 use parcal::report_pages::{MechanismTrue, mechanism_truth};
 
 use crate::progress::Progress;
@@ -238,10 +238,12 @@ pub fn calibrate_with(
     ));
     let started = Instant::now();
     let observer = &mut |record: &IterationRecord| progress.iteration(record, started);
-    let calibration = calibrate_mechanism(&data, options, observer)
+    let mut calibration = calibrate_mechanism(&data, options, observer)
         .map_err(|error| placed(&path, mechanism, &error))?;
     progress.finish();
     let freeing = free_beside(data);
+    calibration
+        .place_observations(&|observation, row| observation_row_place(mechanism, observation, row));
     let mut record = calibration.into_record();
     record.provenance = Some(parcal::command::provenance(
         checksum,
