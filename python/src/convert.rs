@@ -11,12 +11,67 @@ use serde::Serialize;
 
 use crate::error::to_py;
 
-/// `object` (a dict, a list...) as JSON text, by Python's `json.dumps`.
+/// `object` (a dict, a list...) as JSON text, by Python's `json.dumps`:
+/// numpy's numbers and arrays as Python's (their `tolist()`); a number
+/// that is not finite, which JSON cannot hold, refused by its keys.
 fn json_text(object: &Bound<'_, PyAny>, what: &str) -> PyResult<String> {
-    let json = object.py().import("json")?;
-    json.call_method1("dumps", (object,))
+    let py = object.py();
+    if let Some(place) = non_finite(object, String::new())? {
+        return Err(to_py(format!(
+            "{what}: {place}: not a finite number (NaN and infinities have no JSON form)"
+        )));
+    }
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("allow_nan", false)?;
+    let to_list = py
+        .import("operator")?
+        .call_method1("methodcaller", ("tolist",))?;
+    kwargs.set_item("default", to_list)?;
+    py.import("json")?
+        .call_method("dumps", (object,), Some(&kwargs))
         .and_then(|text| text.extract())
         .map_err(|error| to_py(format!("{what}: not JSON: {error}")))
+}
+
+/// Where in `object` (a dict, a list, numbers, numpy's numbers and arrays)
+/// a number is not finite: its keys and indices from `place`
+/// (`noise.probe`, `design[2]`), or `None`.
+fn non_finite(object: &Bound<'_, PyAny>, place: String) -> PyResult<Option<String>> {
+    let at = |key: String| match place.is_empty() {
+        true => key,
+        false => format!("{place}.{key}"),
+    };
+    if let Ok(dict) = object.cast::<PyDict>() {
+        for (key, value) in dict.iter() {
+            if let Some(found) = non_finite(&value, at(key.str()?.to_string()))? {
+                return Ok(Some(found));
+            }
+        }
+        return Ok(None);
+    }
+    if object.hasattr("tolist")? && !object.is_instance_of::<pyo3::types::PyString>() {
+        return non_finite(&object.call_method0("tolist")?, place);
+    }
+    if let Ok(list) = object.cast::<pyo3::types::PyList>() {
+        for (k, value) in list.iter().enumerate() {
+            if let Some(found) = non_finite(&value, format!("{place}[{k}]"))? {
+                return Ok(Some(found));
+            }
+        }
+        return Ok(None);
+    }
+    if let Ok(tuple) = object.cast::<pyo3::types::PyTuple>() {
+        for (k, value) in tuple.iter().enumerate() {
+            if let Some(found) = non_finite(&value, format!("{place}[{k}]"))? {
+                return Ok(Some(found));
+            }
+        }
+        return Ok(None);
+    }
+    if let Ok(number) = object.cast::<pyo3::types::PyFloat>() {
+        return Ok((!number.value().is_finite()).then_some(place));
+    }
+    Ok(None)
 }
 
 /// Refuses a key of `dict` (`what`) that is none of `keys`: a misspelt

@@ -17,7 +17,7 @@ use crate::convert::{array2, known_keys, rows, through_file, to_python};
 use crate::error::to_py;
 
 /// What calibration.json's provenance names a dataset built in memory.
-const IN_MEMORY: &str = "(in memory)";
+pub(crate) const IN_MEMORY: &str = "(in memory)";
 
 /// A calibration dataset: the machine, the artefacts (balls and calibrated
 /// distances) and the measurements (ball touches; poses and points of an

@@ -15,11 +15,13 @@ from conftest import ROOT
 
 def fitted(record):
     """A calibration's record (a run, or calibration.json's text) but for
-    the dataset it names: a directory, or "(in memory)" for one built in
-    memory; its checksum stays, the same for the same data."""
+    the dataset it names, a directory or "(in memory)" (its checksum stays,
+    the same for the same data), and the reasons' names of observations
+    (by file and line, or in memory by kind and index)."""
     text = record if isinstance(record, str) else record.to_json()
     record = json.loads(text)
     record["provenance"].pop("dataset")
+    record.pop("reasons")
     return record
 
 
@@ -316,12 +318,26 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
         rows = list(csv.DictReader(f))
     quantities = {"quantity": [r["quantity"] for r in rows], "value": [float(r["value"]) for r in rows],
                   "sigma": [float(r["sigma"]) for r in rows]}
-    built = parcal.MechanismDataset(
-        machine, samples={"readings": points[:, :4], "position": points[:, 4:7], "loads": points[:, 7:]},
-        quantities=quantities)
+    samples = {"readings": points[:, :4], "position": points[:, 4:7], "loads": points[:, 7:]}
+    built = parcal.MechanismDataset(machine, samples=samples, quantities=quantities)
     from_files = parcal.read_dataset(hangprinter)
     assert np.array_equal(built.samples["measured"], from_files.samples["measured"])
-    assert fitted(parcal.calibrate(built)) == fitted(parcal.calibrate(from_files))
+    run, run_of_files = parcal.calibrate(built), parcal.calibrate(from_files)
+    assert fitted(run) == fitted(run_of_files)
+    # The reasons name the largest w-test's sample by its line in the files,
+    # by its index in memory.
+    by_line = [r for r in run_of_files.reasons if "w-test" in r]
+    assert len(by_line) == 1 and "points.csv line " in by_line[0], run_of_files.reasons
+    by_index = [r for r in run.reasons if "w-test" in r]
+    assert len(by_index) == 1 and "points.csv" not in by_index[0], run.reasons
+    # numpy's numbers in the machine's dict read as Python's; a number that
+    # is not finite is named by its keys.
+    as_numpy = {**machine, "configured": {k: np.float64(v) for k, v in machine["configured"].items()}}
+    as_numpy["configured"]["radius_a"] = np.array(75.0)
+    assert parcal.MechanismDataset(as_numpy, samples=samples, quantities=quantities).machine == built.machine
+    as_numpy["configured"]["radius_b"] = float("nan")
+    with pytest.raises(parcal.Error, match=r"machine.json: configured.radius_b: not a finite number"):
+        parcal.MechanismDataset(as_numpy, samples=samples, quantities=quantities)
     delta_machine = json.loads((delta / "machine.json").read_text())
     probes = np.loadtxt(delta / "probes.csv", delimiter=",", skiprows=1)
     probes[3, 2] = np.inf

@@ -22,7 +22,7 @@ use super::data_error;
 use super::dataset::MechanismDataset;
 use crate::calibrate::observed;
 use crate::convert::to_python;
-use crate::dataset::Dataset;
+use crate::dataset::{Dataset, IN_MEMORY};
 use crate::error::to_py;
 use crate::options::{choice, flags, seconds};
 
@@ -80,9 +80,12 @@ pub fn calibrate_mechanism(
         calibrate(&dataset.data, &options, observer)
     })?
     .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
-    let mechanism = dataset.data.mechanism.name();
-    calibration
-        .place_observations(&|observation, row| observation_row_place(mechanism, observation, row));
+    if dataset.from_files() {
+        let mechanism = dataset.data.mechanism.name();
+        calibration.place_observations(&|observation, row| {
+            observation_row_place(mechanism, observation, row)
+        });
+    }
     let mut record = calibration.into_record();
     record.provenance = Some(provenance(
         dataset.inner.checksum(),
@@ -115,8 +118,11 @@ pub fn calibrate_common(
         calibrate(&data, &options, observer)
     })?
     .map_err(|error| data_error(given, HEXAPOD, error))?;
-    calibration
-        .place_observations(&|observation, row| observation_row_place(HEXAPOD, observation, row));
+    if dataset.given != IN_MEMORY {
+        calibration.place_observations(&|observation, row| {
+            observation_row_place(HEXAPOD, observation, row)
+        });
+    }
     let mut record = calibration.into_record();
     record.provenance = Some(provenance(dataset.inner.checksum(), &dataset.given));
     Ok(MechanismCalibration { record })

@@ -5,7 +5,7 @@
 //! ball_distances.csv, tracker_points.csv, truth.json), its parameters and
 //! observations as numpy arrays.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use numpy::{PyArray1, PyArray2};
 use parcal::MechanismData;
@@ -24,6 +24,7 @@ use crate::convert::{
     array2, known_keys, rows, table, table_rows, table_rows_of, through_file, to_python,
     written_text,
 };
+use crate::dataset::IN_MEMORY;
 use crate::error::to_py;
 
 /// A mechanism dataset: its machine (the mechanism by name, the
@@ -58,6 +59,12 @@ pub struct MechanismDataset {
 }
 
 impl MechanismDataset {
+    /// Whether the dataset was read from files (not made in memory): its
+    /// observations are then named by their files' lines.
+    pub fn from_files(&self) -> bool {
+        self.path != Path::new(IN_MEMORY)
+    }
+
     /// The mechanism of the dataset's data.
     fn model(&self) -> &dyn Mechanism {
         self.data.mechanism.as_ref()
@@ -74,7 +81,7 @@ impl MechanismDataset {
     /// The dataset `inner`, made in memory (built or simulated), checked
     /// as its files would be.
     pub fn in_memory(inner: Inner) -> PyResult<Self> {
-        let path = PathBuf::from("(in memory)");
+        let path = PathBuf::from(IN_MEMORY);
         inner.validate(&path).map_err(to_py)?;
         let data = MechanismData::from_dataset(&inner)
             .map_err(|e| data_error(&path, &inner.machine.mechanism, e))?;
