@@ -237,6 +237,46 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
         "{lines}"
     );
     read_config(&out).unwrap();
+
+    // Targets with loads: refused by the column, not passed over; without
+    // them, the commands are written.
+    let targets = dir.path().join("targets.csv");
+    fs::write(&targets, "x,y,z,f1,f2,f3,f4\n0,0,100,20,20,20,20\n").unwrap();
+    let commands = dir.path().join("commands.csv");
+    let compensate = [
+        "compensate",
+        "--calibration",
+        s(&calibration),
+        "--targets",
+        s(&targets),
+        "--out",
+        s(&commands),
+    ];
+    let said = fails(&compensate);
+    assert!(
+        said.contains(
+            "column f1: the commands are those under the loads the lines held when they were zeroed"
+        ),
+        "{said}"
+    );
+    assert!(!commands.exists());
+    fs::write(&targets, "x,y,z\n0,0,100\n").unwrap();
+    ok(&compensate);
+
+    // A load column misspelt in points.csv is refused by its name, not
+    // read as no loads.
+    let points = fs::read_to_string(data.join("points.csv")).unwrap();
+    fs::write(
+        data.join("points.csv"),
+        points.replacen(",f1,", ",load1,", 1),
+    )
+    .unwrap();
+    let said = fails(&["calibrate", s(&data)]);
+    assert!(
+        said.contains("points.csv")
+            && said.contains("column \"load1\", which is not one of this file's"),
+        "{said}"
+    );
 }
 
 /// The fixture with its anchors' prior dropped and every position but the

@@ -19,20 +19,33 @@ pub fn read_numbers<const N: usize>(
     columns: &[&'static str; N],
     what: &str,
 ) -> Result<Vec<[f64; N]>> {
-    read_numbers_within(path, columns, what, None)
+    read_numbers_within(path, columns, what, (None, OtherColumns::Allowed))
+}
+
+/// Whether a table may have columns besides those read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum OtherColumns {
+    /// Passed over (a file `parcal` wrote with more, read again).
+    Allowed,
+    /// Refused, each by its name ([`Header::only`]).
+    Refused,
 }
 
 /// [`read_numbers`] of at most `limit.max` rows when a `limit` is given:
-/// the row after them is refused at its line, before it is stored.
+/// the row after them is refused at its line, before it is stored; other
+/// columns as `others` says.
 pub(crate) fn read_numbers_within<const N: usize>(
     path: &Path,
     columns: &[&'static str; N],
     what: &str,
-    limit: Option<&Count>,
+    (limit, others): (Option<&Count>, OtherColumns),
 ) -> Result<Vec<[f64; N]>> {
     let expected = columns.join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
+        if others == OtherColumns::Refused {
+            header.only(columns, &expected)?;
+        }
         let at = header.require_all(columns, &expected)?;
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, what, |row| {

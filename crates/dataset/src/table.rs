@@ -624,6 +624,22 @@ impl Header {
         })
     }
 
+    /// Refuses a column that is none of `known` (its name trimmed), naming
+    /// it and the `expected` header: a misspelt column would otherwise be
+    /// passed over without a word (loads read as none).
+    pub(crate) fn only(&self, known: &[&str], expected: &str) -> Result<(), Failure> {
+        for field in &self.record {
+            let name = String::from_utf8_lossy(field.trim_ascii());
+            if !known.contains(&name.as_ref()) {
+                return Err(self.error(format!(
+                    "the header names column {:?}, which is not one of this file's (the header is {expected})",
+                    name
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// The columns named `names`, all required.
     pub(crate) fn require_all<const N: usize>(
         &self,

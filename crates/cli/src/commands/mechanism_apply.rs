@@ -12,8 +12,8 @@ use parcal::calibration::mechanism::{
     compensate_targets, validate_mechanism,
 };
 use parcal::dataset::mechanism::{
-    DISTANCES_FILE, MechanismCalibrationRecord, MechanismDataset, PROBES_FILE, command_header,
-    read_targets,
+    DISTANCES_FILE, LOAD_COLUMNS, MechanismCalibrationRecord, MechanismDataset, PROBES_FILE,
+    command_header, read_targets,
 };
 use parcal::dataset::write_numbers;
 use parcal::dataset::{Dataset, HEXAPOD};
@@ -150,7 +150,13 @@ pub fn compensate(
         .iter()
         .map(|c| c.name)
         .collect();
-    let poses = read_targets(targets, &pose)?;
+    // A mechanism's loads are points.csv's columns f1..fA.
+    let actuators = calibrated.mechanism.actuators().len();
+    let loads = match calibrated.mechanism.line_compliances() {
+        Some(_) => &LOAD_COLUMNS[..actuators],
+        None => &[],
+    };
+    let poses = read_targets(targets, &pose, loads)?;
     let compensations = compensate_targets(&calibrated, &poses).map_err(|unreachable| {
         anyhow::anyhow!(
             "{}: {} (nothing written)",

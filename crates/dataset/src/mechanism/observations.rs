@@ -13,7 +13,7 @@ use std::path::Path;
 
 use crate::bounds::Count;
 use crate::error::{DatasetError, Result};
-use crate::numbers::read_numbers_within;
+use crate::numbers::{OtherColumns, read_numbers_within};
 use crate::table::{self, Failure, Header, Row};
 
 /// The bounds of the rows of each observation file: at least one (an
@@ -61,14 +61,15 @@ pub(crate) fn too_many(row: &Row, what: &str) -> Failure {
     )
 }
 
-/// Reads the table `path` of `columns` (in any order), every field a
-/// finite number, at most [`OBSERVATIONS`] rows.
+/// Reads the table `path` of `columns` (in any order, no other), every
+/// field a finite number, at most [`OBSERVATIONS`] rows.
 pub(crate) fn read_rows<const N: usize>(
     path: &Path,
     columns: &[&'static str; N],
     what: &str,
 ) -> Result<Vec<[f64; N]>> {
-    read_numbers_within(path, columns, what, Some(&OBSERVATIONS))
+    let within = (Some(&OBSERVATIONS), OtherColumns::Refused);
+    read_numbers_within(path, columns, what, within)
 }
 
 /// Writes `rows` under `columns` to `path` atomically.
@@ -88,9 +89,11 @@ pub(crate) fn write_rows<const N: usize>(
 
 /// Reads points.csv at `path` for a mechanism of `actuators` actuators:
 /// `q1..qA` and `x,y,z`, the position's three fields all empty or all
-/// numbers, and `f1..fA` if the header names them, likewise.
+/// numbers, and `f1..fA` if the header names them, likewise; no other
+/// column.
 pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRow>> {
     let readings = &READING_COLUMNS[..actuators];
+    let loads = &LOAD_COLUMNS[..actuators];
     let expected = readings
         .iter()
         .chain(&POSITION_COLUMNS)
@@ -99,12 +102,18 @@ pub(crate) fn read_samples(path: &Path, actuators: usize) -> Result<Vec<SampleRo
         .join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
+        let known: Vec<&str> = readings
+            .iter()
+            .chain(&POSITION_COLUMNS)
+            .chain(loads)
+            .copied()
+            .collect();
+        header.only(&known, &format!("{expected}[,{}]", loads.join(",")))?;
         let at_readings = readings
             .iter()
             .map(|name| header.require(name, &expected))
             .collect::<std::result::Result<Vec<usize>, Failure>>()?;
         let at_position = header.require_all(&POSITION_COLUMNS, &expected)?;
-        let loads = &LOAD_COLUMNS[..actuators];
         let at_loads = optional_group(&header, "load", loads)?;
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, "point", |row| {

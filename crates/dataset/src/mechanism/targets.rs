@@ -7,7 +7,8 @@ use std::path::Path;
 
 use crate::bounds::Count;
 use crate::error::{DatasetError, Result};
-use crate::numbers::read_numbers_within;
+use crate::numbers::{OtherColumns, read_numbers_within};
+use crate::table::{self, Header};
 
 /// The bounds of a targets file's rows: each costs an inverse kinematics
 /// and its derivatives, and a row of the commands held in memory.
@@ -18,10 +19,30 @@ pub const TARGETS: Count = Count::new(
 );
 
 /// Reads the targets file `path`, its header the pose coordinates
-/// `columns` (3 or 6 of them), at most [`TARGETS`] rows; errors name the
-/// file, the line and the column.
-pub fn read_targets(path: &Path, columns: &[&'static str]) -> Result<Vec<Vec<f64>>> {
-    let limit = Some(&TARGETS);
+/// `columns` (3 or 6 of them; others are passed over, as in the commands
+/// `compensate` writes), at most [`TARGETS`] rows; errors name the file,
+/// the line and the column. A column of `loads` (points.csv's `f1..fA` of
+/// a mechanism whose readings depend on its actuators' loads) is refused:
+/// the commands are those under the loads held when the actuators were
+/// zeroed, and a load given would be passed over.
+pub fn read_targets(
+    path: &Path,
+    columns: &[&'static str],
+    loads: &[&'static str],
+) -> Result<Vec<Vec<f64>>> {
+    let named = table::read_file(path, |reader| {
+        let header = Header::read(reader, &columns.join(","))?;
+        for load in loads {
+            if header.find(load)?.is_some() {
+                return Err(header.error(format!(
+                    "column {load}: the commands are those under the loads the lines held when they were zeroed (machine.json's zero_loads); commands under other loads are not computed"
+                )));
+            }
+        }
+        Ok(())
+    });
+    named?;
+    let limit = (Some(&TARGETS), OtherColumns::Allowed);
     Ok(match *columns {
         [x, y, z] => rows(read_numbers_within(path, &[x, y, z], "target", limit)?),
         [a, b, c, d, e, f] => rows(read_numbers_within(
