@@ -51,6 +51,7 @@ pub fn validate_touches(
     reference: Option<usize>,
 ) -> Result<Validation, CalibrateError> {
     crate::validate(dataset)?;
+    crate::validate::same_unit(dataset, calibration.actuator_unit())?;
     let refuse = |reason: String| CalibrateError::Calibration { reason };
     let names = &calibration.parameters.names;
     if names.len() < N_PARAMS || names[..N_PARAMS] != PARAM_NAMES {

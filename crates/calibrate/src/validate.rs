@@ -2,6 +2,8 @@
 //! dataset it cannot index or fit, with an error instead of a panic, however
 //! the dataset was made (read from files, or built in memory).
 
+#[cfg(doc)]
+use parcal_dataset::Calibration;
 use parcal_dataset::Dataset;
 
 use crate::CalibrateError;
@@ -22,4 +24,20 @@ pub const MIN_CONTACTS_PER_BALL: usize = parcal_dataset::MIN_CONTACTS_PER_BALL;
 /// ([`CalibrateError::InvalidDataset`], [`CalibrateError::TooFewContacts`]).
 pub fn validate(dataset: &Dataset) -> Result<(), CalibrateError> {
     dataset.validate().map_err(CalibrateError::invalid_dataset)
+}
+
+/// Refuses to apply a calibration whose actuators read in `unit`
+/// ([`Calibration::actuator_unit`]) to `dataset` when its actuators read
+/// in another: the calibrated scales (mm per unit) would be applied to
+/// readings in another unit.
+pub(crate) fn same_unit(dataset: &Dataset, unit: &str) -> Result<(), CalibrateError> {
+    let given = dataset.machine.actuator.unit.as_str();
+    if given == unit {
+        return Ok(());
+    }
+    Err(CalibrateError::Calibration {
+        reason: format!(
+            "its actuators read in {unit}, the dataset's in {given} (machine.json's actuator.unit): its scales (mm per {unit}) do not apply to these readings"
+        ),
+    })
 }

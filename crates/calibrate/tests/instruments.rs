@@ -325,6 +325,16 @@ fn errors_name_the_row_and_the_session() {
         .unwrap_err()
         .to_string();
     assert!(error.contains("none is left to predict"), "{error}");
+    // Readings in another unit than the calibration's are refused.
+    let mut in_mm = jugglebot();
+    in_mm.machine.actuator.unit = "mm".into();
+    let error = validate_calibration(&in_mm, &calibrated, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("its actuators read in rev, the dataset's in mm"),
+        "{error}"
+    );
 }
 
 /// A ball-touch calibration applied to another simulated campaign of the
@@ -368,6 +378,16 @@ fn touch_calibration_predicts_other_touches() {
         .unwrap_err()
         .to_string();
     assert!(error.contains("give their number"), "{error}");
+    // Readings in another unit than the calibration's are refused.
+    let mut in_revolutions = fitted.clone();
+    in_revolutions.machine.actuator.unit = "rev".into();
+    let error = validate_touches(&in_revolutions, &record, Some(5))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("its actuators read in mm, the dataset's in rev"),
+        "{error}"
+    );
 }
 
 /// The session of the issue: fixtures/jugglebot's poses recorded after the

@@ -1169,6 +1169,18 @@ fn a_re_mounted_marker_body_fails_validation_with_status_3_naming_the_body_origi
     assert_eq!(test.outcome, "too large");
     assert_eq!(test.degrees_of_freedom, 6 * 96);
     assert!(test.ratio > test.interval[1]);
+    // Without reference rows, its session (labelled as the calibration's)
+    // is predicted in the calibration's frames: the message says that the
+    // instrument or the body may have moved, which reference rows re-fit.
+    let output = parcal(&args[..4]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains(
+            "the instrument or the marker body may have moved since, which reference rows re-fit"
+        ),
+        "{stderr}"
+    );
     // The fixture itself as another day's session is accepted, and said
     // to be predicted in sample.
     let output = parcal(&[

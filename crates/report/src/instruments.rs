@@ -257,7 +257,7 @@ fn rejection_advice(validation: &Validation) -> String {
     } else if validation.contacts > 0 {
         "each ball's centre was re-fitted: the machine has changed since the calibration (a joint, a leg, a scale), or a ball's radius is wrong; re-calibrate on touches of the machine as it is".to_owned()
     } else {
-        "the calibration does not predict rows of its own sessions: the repeatabilities of machine.json understate the noise, or the model misses an effect of the data (the calibration's global test and residuals say which)".to_owned()
+        "the calibration does not predict these rows of its sessions (their frames the calibration's): if they were measured after it, the instrument or the marker body may have moved since, which reference rows re-fit (validate with reference rows); if not, the repeatabilities of machine.json understate the noise, or the model misses an effect of the data (the calibration's global test and residuals say which)".to_owned()
     }
 }
 

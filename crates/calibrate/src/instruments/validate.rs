@@ -73,6 +73,8 @@ pub struct Calibrated {
     /// Its global test `(Ω, r)`, if it has one: the prediction test's
     /// reference ([`crate::prediction`]).
     pub global_test: Option<(f64, usize)>,
+    /// The unit its actuators read in (its scales are mm per unit).
+    pub unit: String,
 }
 
 impl Calibrated {
@@ -118,6 +120,7 @@ impl Calibrated {
                 .global_test
                 .as_ref()
                 .map(|t| (t.cost, t.redundancy)),
+            unit: calibration.actuator_unit().to_string(),
         })
     }
 }
@@ -318,6 +321,7 @@ pub fn validate_calibration(
     reference: Option<usize>,
 ) -> Result<Validation, CalibrateError> {
     crate::validate(dataset)?;
+    crate::validate::same_unit(dataset, &calibrated.unit)?;
     let tracker = &dataset.tracker;
     check_validatable(tracker, calibrated)?;
     let n_ref = reference.unwrap_or(0);

@@ -550,6 +550,12 @@ impl Calibration {
             .map(|m| &m.actuator)
             .or(self.design.as_ref().map(|d| &d.actuator))
     }
+
+    /// The unit the actuators read in ([`Self::actuator`]'s; millimetres
+    /// when the file has none).
+    pub fn actuator_unit(&self) -> &str {
+        self.actuator().map_or("mm", |a| a.unit.as_str())
+    }
 }
 
 /// The global test of a calibration: `Ω ~ χ²(r)` under the model and the
