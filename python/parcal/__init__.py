@@ -88,7 +88,8 @@ def validate(dataset: Union[Dataset, MechanismDataset], **options: Any) -> "dict
     ``calibration`` (a ``MechanismCalibration`` or its calibration.json's
     path; options ``reference``, each held-out ball's centre and tracker's
     frame located by its first touches, points and poses, and
-    ``accept_rejected``), a hexapod's ball touches
+    ``accept_rejected``) or its own data by ``folds`` (K-fold
+    cross-validation), a hexapod's ball touches
     against a hexapod's ``MechanismCalibration`` (the same options), or a
     hexapod's against its own calibration (options ``calibration``,
     ``reference``, ``folds``, ``accept_rejected``)."""

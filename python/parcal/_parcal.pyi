@@ -645,11 +645,14 @@ def calibrate_common(
 def validate_mechanism(
     dataset: MechanismDataset,
     *,
-    calibration: Union[MechanismCalibration, PathLike],
+    calibration: Union[MechanismCalibration, PathLike, None] = None,
     reference: Optional[int] = None,
+    folds: Optional[int] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
-    """``parcal.validate`` on a mechanism dataset: validation.json's content."""
+    """``parcal.validate`` on a mechanism dataset: validation.json's content
+    (against ``calibration``, or the K-fold cross-validation of its own
+    calibration with ``folds``)."""
 
 def validate_common(
     dataset: Dataset,

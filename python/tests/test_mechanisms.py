@@ -185,6 +185,14 @@ def test_validate_the_hangprinter_on_its_held_out_positions_as_the_cli(hangprint
     in_memory = parcal.calibrate(parcal.read_dataset(hangprinter))
     again = parcal.validate(parcal.read_dataset(held_out), calibration=in_memory)
     assert again == {**mine, "calibration": "(in memory)"}
+    # Its own samples and line lengths, each fold by the others' calibration.
+    cli("validate", hangprinter, "--folds", 4, "--out", tmp_path / "cv.json")
+    expected = json.loads((tmp_path / "cv.json").read_text())
+    del expected["format"]
+    assert parcal.validate(parcal.read_dataset(hangprinter), folds=4) == expected
+    assert expected["calibration"] == "4-fold cross-validation" and expected["verdict"] == "accepted"
+    with pytest.raises(parcal.Error, match="give calibration or folds"):
+        parcal.validate(parcal.read_dataset(hangprinter), calibration=in_memory, folds=4)
 
 
 def split_probes(delta, path):

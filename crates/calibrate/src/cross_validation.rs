@@ -41,7 +41,6 @@ impl CrossValidation {
             .iter()
             .map(|v| v.calibration_test)
             .collect();
-        let passes = self.folds.saturating_sub(1).max(1);
         let all = |part: fn(&Validation) -> &Vec<f64>| -> Vec<f64> {
             self.validations
                 .iter()
@@ -58,15 +57,21 @@ impl CrossValidation {
             residuals: all(|v| &v.residuals),
             predicted_sigmas: all(|v| &v.predicted_sigmas),
             statistic: self.validations.iter().map(|v| v.statistic).sum(),
-            calibration_test: tests.map(|tests| {
-                let cost: f64 = tests.iter().map(|t| t.0).sum();
-                let redundancy: usize = tests.iter().map(|t| t.1).sum();
-                (cost / passes as f64, redundancy / passes)
-            }),
+            calibration_test: tests.map(|tests| pooled_global_test(&tests)),
             explanations: Vec::new(),
             mirrored_balls: Vec::new(),
         }
     }
+}
+
+/// The global tests `(Ω_k, r_k)` of the `K` folds' calibrations as one
+/// pass over the data (each row is in `K − 1` of them):
+/// `(Σ Ω_k, Σ r_k) / (K − 1)`.
+pub(crate) fn pooled_global_test(tests: &[(f64, usize)]) -> (f64, usize) {
+    let passes = tests.len().saturating_sub(1).max(1);
+    let cost: f64 = tests.iter().map(|t| t.0).sum();
+    let redundancy: usize = tests.iter().map(|t| t.1).sum();
+    (cost / passes as f64, redundancy / passes)
 }
 
 /// Cross-validates the instrument calibration of `dataset` with `folds`

@@ -14,6 +14,7 @@ mod hangprinter_validation;
 mod hexapod_common;
 mod instruments;
 mod large_tilts;
+mod mechanism_cross_validation;
 mod mechanism_data;
 mod mechanism_delta;
 mod mechanism_validation;

@@ -332,3 +332,43 @@ fn compensate_of_a_hexapods_poses_names_the_targets_a_cable_robot_takes() {
         "{said}"
     );
 }
+
+/// The fixture's own samples and line lengths judged by 4-fold
+/// cross-validation: each fold predicted by the calibration of the other
+/// three, accepted, every row named by its line; --reference is refused.
+#[test]
+fn validate_folds_judges_each_fold_by_the_others_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = copy_fixture(
+        "hangprinter",
+        dir.path(),
+        &["machine.json", "points.csv", "quantities.csv"],
+    );
+    let out = dir.path().join("cv.json");
+    let said = ok(&["validate", s(&data), "--folds", "4", "--out", s(&out)]);
+    assert!(said.starts_with("verdict: accepted"), "{said}");
+    assert!(said.contains("applied: 4-fold cross-validation"), "{said}");
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&out).unwrap()).unwrap();
+    let rows = record["rows"].as_array().unwrap();
+    let lines: Vec<u64> = (rows.iter())
+        .filter(|row| row["file"] == "points.csv")
+        .map(|row| row["line"].as_u64().unwrap())
+        .collect();
+    // Every sample is predicted, named by its line.
+    let samples = fs::read_to_string(data.join("points.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    let mut distinct = lines.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let every: Vec<u64> = (2..samples as u64 + 2).collect();
+    assert_eq!(distinct, every, "{lines:?}");
+    let error = fails(&["validate", s(&data), "--folds", "4", "--reference", "3"]);
+    assert!(
+        error.contains("a cross-validation's folds hold no balls or trackers"),
+        "{error}"
+    );
+}

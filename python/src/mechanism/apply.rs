@@ -5,10 +5,12 @@
 
 use std::path::Path;
 
-use parcal::calibration::bounds::REFERENCE;
+use parcal::calibration::bounds::{FOLDS, REFERENCE};
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
-use parcal::calibration::mechanism::compensate_targets;
 use parcal::calibration::mechanism::{MechanismCalibrationError, MechanismValidation};
+use parcal::calibration::mechanism::{
+    MechanismOptions, compensate_targets, cross_validate_mechanism,
+};
 use parcal::dataset::mechanism::TARGETS;
 use parcal::report::mechanism_validation::validation_record;
 use parcal::{
@@ -37,17 +39,41 @@ fn calibrated(record: &MechanismCalibrationRecord, name: &str) -> PyResult<Calib
 /// it writes to validation.json: a dict with its `verdict`, `reasons`, the
 /// `test` of the held-out residuals, each kind's RMS, the worst rows named
 /// by file and line. A rejected calibration only with `accept_rejected`.
+/// With `folds` instead of `calibration`: the K-fold cross-validation of
+/// the dataset's own calibration under the default options (observation
+/// `j` of each kind in fold `j mod K`), as `parcal validate --folds`.
 #[pyfunction]
-#[pyo3(signature = (dataset, *, calibration, reference=None, accept_rejected=false))]
+#[pyo3(signature = (dataset, *, calibration=None, reference=None, folds=None, accept_rejected=false))]
 pub fn validate_mechanism<'py>(
     py: Python<'py>,
     dataset: &Bound<'py, MechanismDataset>,
-    calibration: &Bound<'py, PyAny>,
+    calibration: Option<&Bound<'py, PyAny>>,
     reference: Option<usize>,
+    folds: Option<usize>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let dataset = dataset.get();
     checked_reference(reference)?;
+    let calibration = match (calibration, folds) {
+        (Some(calibration), None) => calibration,
+        (None, Some(folds)) => {
+            FOLDS.check("folds", folds).map_err(to_py)?;
+            if reference.is_some() {
+                return Err(to_py(
+                    "reference: a cross-validation's folds hold no balls or trackers to locate",
+                ));
+            }
+            let data = &dataset.data;
+            let validation = py
+                .detach(|| {
+                    cross_validate_mechanism(data, &MechanismOptions::default(), folds, &mut |_| {})
+                })
+                .map_err(|e| data_error(&dataset.path, data.mechanism.name(), e))?;
+            let name = format!("{folds}-fold cross-validation");
+            return to_python(py, &validation_record(&validation, name));
+        }
+        _ => return Err(to_py("give calibration or folds (one of them)")),
+    };
     judged(
         py,
         calibration,

@@ -27,6 +27,8 @@
 //!   gauge projected out);
 //! - [`identifiability`]: what the data determine and what only the priors
 //!   do;
+//! - `calibrate`: the entry ([`calibrate_mechanism`]): the data checked,
+//!   fitted once or with data snooping;
 //! - `result`: the result ([`MechanismCalibration`]), its tests and
 //!   verdict;
 //! - `snooping`: data snooping;
@@ -41,6 +43,8 @@
 //!   out);
 //! - `validation`: a calibration judged on held-out data
 //!   ([`validate_mechanism`]);
+//! - `cross_validation`: each fold of the data judged by the calibration
+//!   of the others ([`cross_validate_mechanism`]);
 //! - `compensation`: the actuator commands that reach target positions
 //!   ([`compensate_mechanism`]).
 //!
@@ -71,15 +75,13 @@
 //! # Ok::<(), parcal_calibrate::mechanism::MechanismCalibrationError>(())
 //! ```
 
-use std::time::Instant;
-
-use parcal_solver::IterationRecord;
-
+mod calibrate;
 mod calibrated;
 mod checks;
 mod compensation;
 mod coordinate_problem;
 mod correlation;
+mod cross_validation;
 mod data;
 mod error;
 mod fit;
@@ -106,11 +108,13 @@ mod trackers;
 mod validation;
 mod warm_start;
 
+pub use calibrate::{calibrate_mechanism, check_mechanism_data};
 pub use calibrated::CalibratedMechanism;
 pub use checks::{ObservationCheck, ObservationChecks};
 pub use compensation::{
     Compensation, NAMED_TARGETS, UnreachableTargets, compensate_mechanism, compensate_targets,
 };
+pub use cross_validation::cross_validate_mechanism;
 pub use data::{
     Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_POSE_COORDINATES,
     MAX_TIED_BALLS, MAX_TRACKERS, MAX_WARM_START, MIN_ACTUATORS, MIN_POINTS_PER_TRACKER,
@@ -128,74 +132,3 @@ pub use result::{
 };
 pub use touch_start::TouchStart;
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};
-
-/// Calibrates `data` with `options`: validates both, refuses a gauge
-/// freedom that no prior holds, fits (with data snooping if asked) and
-/// returns the estimate in the canonical frame with its tests, verdict and
-/// identifiability. `observer` sees each iteration of each fit, as the
-/// hexapod's own [`calibrate`](crate::calibrate) shows them.
-pub fn calibrate_mechanism(
-    data: &MechanismData,
-    options: &MechanismOptions,
-    observer: &mut dyn FnMut(&IterationRecord),
-) -> Result<MechanismCalibration, MechanismCalibrationError> {
-    let started = Instant::now();
-    options.validate()?;
-    data.validate()?;
-    coordinate_problem::check_observation(data, options)?;
-    check_gauge_priors(data)?;
-    if options.snoop {
-        snooping::snoop(data, options, started, observer)
-    } else {
-        snooping::calibrate_once(data, options, started, observer)
-    }
-}
-
-/// Checks `data` as [`calibrate_mechanism`] does before its first step:
-/// valid, every gauge freedom held by a prior, and every observation
-/// evaluated at the start (the priors' means; each point sample's pose
-/// from its readings, each ball's centre from its touches), so that a
-/// commanded position the machine cannot reach, readings no pose
-/// explains or touches that fit no sphere are named.
-pub fn check_mechanism_data(data: &MechanismData) -> Result<(), MechanismCalibrationError> {
-    data.validate()?;
-    check_gauge_priors(data)?;
-    fit::check_start(data)
-}
-
-/// Refuses data where some gauge freedom moves only parameters without a
-/// prior: nothing would determine it.
-fn check_gauge_priors(data: &MechanismData) -> Result<(), MechanismCalibrationError> {
-    let mechanism = data.mechanism.as_ref();
-    let means: Vec<f64> = data.priors.iter().map(|p| p.mean).collect();
-    let freedoms = mechanism.gauge_freedoms(&means).map_err(|source| {
-        MechanismCalibrationError::Kinematics {
-            mechanism: mechanism.name().to_string(),
-            source,
-        }
-    })?;
-    for freedom in freedoms {
-        let held = freedom
-            .direction
-            .iter()
-            .zip(&data.priors)
-            .any(|(z, prior)| z.abs() > 1e-9 && prior.sigma.is_some());
-        if !held {
-            let moved: Vec<&str> = freedom
-                .direction
-                .iter()
-                .zip(mechanism.parameters())
-                .filter(|(z, _)| z.abs() > 1e-9)
-                .map(|(_, p)| p.name.as_str())
-                .collect();
-            return Err(MechanismCalibrationError::NotDetermined {
-                reason: format!(
-                    "no measurement sees the {} ({}), and none of its parameters has a prior: give one of them a prior",
-                    freedom.name,
-                    moved.join(", ")
-                ),
-            });
-        }
-    }
-    Ok(())
-}

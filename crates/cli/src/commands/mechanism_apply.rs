@@ -6,10 +6,12 @@
 use std::io::Write;
 use std::path::Path;
 
+use crate::progress::Progress;
+
 use parcal::calibration::hypothesis::SNOOPING_LEVEL;
 use parcal::calibration::mechanism::{
-    CalibratedMechanism, MechanismCalibrationError, MechanismData, MechanismValidation,
-    compensate_targets, validate_mechanism,
+    CalibratedMechanism, MechanismCalibrationError, MechanismData, MechanismOptions,
+    MechanismValidation, compensate_targets, cross_validate_mechanism, validate_mechanism,
 };
 use parcal::dataset::mechanism::{
     DISTANCES_FILE, LOAD_COLUMNS, MechanismCalibrationRecord, MechanismDataset, PROBES_FILE,
@@ -87,7 +89,46 @@ pub fn validate(
         MechanismData::from_dataset(&held_out).map_err(|e| data_error(dataset, mechanism, e))?;
     let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL, reference)
         .map_err(|e| data_error(dataset, mechanism, e))?;
-    judged(&validation, calibration, out)
+    judged(&validation, calibration.display().to_string(), out)
+}
+
+/// K-fold cross-validation of the calibration of the mechanism dataset
+/// `dataset` under the default options ([`cross_validate_mechanism`]),
+/// each fold's end shown on stderr: writes the pooled validation to
+/// `out`, prints its summary, and turns a rejection into
+/// [`super::Rejected`]. Reference observations are refused: folds hold
+/// none of the observations they locate.
+pub fn cross_validate(
+    dataset: &Path,
+    folds: usize,
+    reference: Option<usize>,
+    out: &Path,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        reference.is_none(),
+        "--reference: a cross-validation's folds hold no balls or trackers to locate"
+    );
+    let mut inputs = crate::outputs::dataset_inputs(dataset);
+    inputs.extend(
+        [PROBES_FILE, DISTANCES_FILE]
+            .iter()
+            .map(|name| dataset.join(name))
+            .filter(|file| file.exists()),
+    );
+    crate::outputs::check(&inputs, &[out.to_path_buf()])?;
+    let read = MechanismDataset::read(dataset)?;
+    let mechanism = read.machine.mechanism.as_str();
+    let data = MechanismData::from_dataset(&read).map_err(|e| data_error(dataset, mechanism, e))?;
+    let progress = Progress::bar("fold", folds as u64);
+    let options = MechanismOptions::default();
+    let validation = cross_validate_mechanism(&data, &options, folds, &mut |r| {
+        progress.step(&format!(
+            "fold {r} of {folds} predicted by the others' calibration"
+        ))
+    })
+    .map_err(|e| data_error(dataset, mechanism, e))?;
+    progress.finish();
+    judged(&validation, format!("{folds}-fold cross-validation"), out)
 }
 
 /// Validates `record`, a hexapod's calibration through the common path
@@ -114,13 +155,14 @@ pub fn validate_hexapod(
         MechanismData::hexapod_held_out(dataset).map_err(|e| data_error(path, HEXAPOD, e))?;
     let validation = validate_mechanism(&calibrated, &data, SNOOPING_LEVEL, reference)
         .map_err(|e| data_error(path, HEXAPOD, e))?;
-    judged(&validation, calibration, out)
+    judged(&validation, calibration.display().to_string(), out)
 }
 
-/// Writes `validation` of the calibration at `calibration` to `out`,
-/// prints its summary, and turns a rejection into [`super::Rejected`].
-fn judged(validation: &MechanismValidation, calibration: &Path, out: &Path) -> anyhow::Result<()> {
-    let record = validation_record(validation, calibration.display().to_string());
+/// Writes `validation` of the calibration `calibration` (its file, or
+/// the cross-validation) to `out`, prints its summary, and turns a
+/// rejection into [`super::Rejected`].
+fn judged(validation: &MechanismValidation, calibration: String, out: &Path) -> anyhow::Result<()> {
+    let record = validation_record(validation, calibration);
     record.write(out)?;
     let mut stdout = std::io::stdout().lock();
     write!(stdout, "{}", summary(&record))?;

@@ -39,7 +39,8 @@ pub struct Args {
     #[arg(long, value_name = "N", value_parser = Bounded(bounds::REFERENCE))]
     reference: Option<usize>,
     /// Instead of applying a calibration: K-fold cross-validation of the
-    /// dataset's own calibration (row j in fold j mod K).
+    /// dataset's own calibration (row j in fold j mod K; a mechanism's
+    /// observation j of each kind, without balls or trackers).
     #[arg(long, value_name = "K", value_parser = Bounded(bounds::FOLDS))]
     folds: Option<usize>,
     /// Apply a calibration whose verdict is "rejected".
@@ -59,21 +60,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         };
         directory.join(VALIDATION_FILE)
     });
-    if let Some(mechanism) = super::mechanism::declared(&args.dataset)? {
-        let calibration = match (&args.calibration, args.folds) {
-            (Some(calibration), None) => calibration,
-            _ => anyhow::bail!(
-                "{}: a {mechanism}'s dataset is validated with --calibration (and --reference for its balls and trackers), not --folds",
-                args.dataset.display()
+    if super::mechanism::declared(&args.dataset)?.is_some() {
+        return match (&args.calibration, args.folds) {
+            (Some(calibration), None) => super::mechanism_apply::validate(
+                &args.dataset,
+                calibration,
+                args.reference,
+                args.accept_rejected,
+                &out,
             ),
+            (None, Some(folds)) => {
+                super::mechanism_apply::cross_validate(&args.dataset, folds, args.reference, &out)
+            }
+            _ => unreachable!("clap requires one of --calibration and --folds"),
         };
-        return super::mechanism_apply::validate(
-            &args.dataset,
-            calibration,
-            args.reference,
-            args.accept_rejected,
-            &out,
-        );
     }
     let dataset = super::read_dataset(&args.dataset)?;
     let mut inputs = crate::outputs::dataset_inputs(&args.dataset);

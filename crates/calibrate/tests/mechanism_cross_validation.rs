@@ -1,0 +1,119 @@
+//! A mechanism's K-fold cross-validation
+//! (`parcal_calibrate::mechanism::cross_validate_mechanism`): each fold's
+//! rows are those its own validation gives, named by their index in the
+//! whole data; on printers simulated by `parcal_simulate::delta` the
+//! pooled statistic has its degrees of freedom as mean; balls and too many
+//! folds are refused.
+
+use parcal_calibrate::mechanism::{
+    CalibratedMechanism, HeldOut, MechanismData, MechanismOptions, Observations,
+    calibrate_mechanism, cross_validate_mechanism, validate_mechanism,
+};
+use parcal_simulate::delta::{DeltaScenario, simulate_delta};
+
+use crate::mean::mean_and_standard_error;
+
+/// A simulated printer's data: 24 probe heights and 4 part distances.
+fn printer(seed: u64) -> MechanismData {
+    let scenario = DeltaScenario {
+        distances: 4,
+        ..DeltaScenario::typical()
+    };
+    let dataset = simulate_delta(&scenario, seed).unwrap();
+    MechanismData::from_dataset(&dataset).unwrap()
+}
+
+/// Fold 1 of 3 made by hand (observations 1, 4, 7, ... of each kind held
+/// out, the others calibrated): its rows are the cross-validation's rows of
+/// that fold, each named by its index in the whole data.
+#[test]
+fn a_fold_is_the_validation_of_its_observations_by_the_others_calibration() {
+    let data = printer(1);
+    let options = MechanismOptions::default();
+    let mut done = Vec::new();
+    let cross = cross_validate_mechanism(&data, &options, 3, &mut |r| done.push(r)).unwrap();
+    assert_eq!(done, [0, 1, 2]);
+    let o = &data.observations;
+    let pick = |keep: &dyn Fn(usize) -> bool| Observations {
+        probes: (o.probes.iter().enumerate())
+            .filter(|(j, _)| keep(*j))
+            .map(|(_, p)| p.clone())
+            .collect(),
+        distances: (o.distances.iter().enumerate())
+            .filter(|(j, _)| keep(*j))
+            .map(|(_, d)| d.clone())
+            .collect(),
+        ..o.clone()
+    };
+    let fit = data.with_observations(pick(&|j| j % 3 != 1));
+    let calibration = calibrate_mechanism(&fit, &options, &mut |_| {}).unwrap();
+    let calibrated = CalibratedMechanism::of_calibration(&calibration).unwrap();
+    let held_out = data.with_observations(pick(&|j| j % 3 == 1));
+    let fold = validate_mechanism(&calibrated, &held_out, options.alpha, None).unwrap();
+    let of_fold: Vec<_> = (cross.rows.iter())
+        .filter(|row| matches!(&row.observation, HeldOut::Observation(o) if o.index % 3 == 1))
+        .collect();
+    assert_eq!(of_fold.len(), fold.rows.len());
+    for (pooled, own) in of_fold.iter().zip(&fold.rows) {
+        let (HeldOut::Observation(a), HeldOut::Observation(b)) =
+            (&pooled.observation, &own.observation)
+        else {
+            panic!("{pooled:?} {own:?}");
+        };
+        assert_eq!((a.kind, a.index), (b.kind, 3 * b.index + 1));
+        assert_eq!((pooled.residual, pooled.sigma), (own.residual, own.sigma));
+    }
+    // Every observation is predicted once.
+    assert_eq!(cross.rows.len(), o.probes.len() + o.distances.len());
+}
+
+/// Over 40 simulated printers, 4 folds each: the pooled `T / n` has mean
+/// 1 within 4 standard errors (`T` is `χ²(n)` to first order when the
+/// stated noise is the noise).
+#[test]
+fn the_pooled_statistic_has_its_degrees_of_freedom_as_mean() {
+    let ratios: Vec<f64> = (0..40)
+        .map(|seed| {
+            let data = printer(100 + seed);
+            let cross =
+                cross_validate_mechanism(&data, &MechanismOptions::default(), 4, &mut |_| {})
+                    .unwrap();
+            cross.statistic / cross.rows.len() as f64
+        })
+        .collect();
+    let (mean, se) = mean_and_standard_error(&ratios);
+    println!("pooled T/n over 40 printers: {mean:.3} ± {se:.3}");
+    assert!((mean - 1.0).abs() < 4.0 * se, "{mean} ± {se}");
+}
+
+#[test]
+fn balls_and_folds_that_would_hold_nothing_are_refused() {
+    let data = printer(1);
+    let options = MechanismOptions::default();
+    let refused = |folds: usize, data: &MechanismData| {
+        cross_validate_mechanism(data, &options, folds, &mut |_| {})
+            .unwrap_err()
+            .to_string()
+    };
+    let n = data.observations.probes.len();
+    assert!(
+        refused(1, &data).contains("give from 2 to"),
+        "{}",
+        refused(1, &data)
+    );
+    let error = refused(n + 1, &data);
+    assert!(
+        error.contains(&format!("whose most numerous kind has {n} observations")),
+        "{error}"
+    );
+    let scenario = DeltaScenario {
+        balls: 3,
+        ..DeltaScenario::typical()
+    };
+    let with_balls = MechanismData::from_dataset(&simulate_delta(&scenario, 1).unwrap()).unwrap();
+    let error = refused(3, &with_balls);
+    assert!(
+        error.contains("balls' touches and trackers' points and poses are predicted together"),
+        "{error}"
+    );
+}
