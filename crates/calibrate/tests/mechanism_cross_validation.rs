@@ -37,11 +37,11 @@ fn a_fold_is_the_validation_of_its_observations_by_the_others_calibration() {
     let pick = |keep: &dyn Fn(usize) -> bool| Observations {
         probes: (o.probes.iter().enumerate())
             .filter(|(j, _)| keep(*j))
-            .map(|(_, p)| p.clone())
+            .map(|(_, p)| *p)
             .collect(),
         distances: (o.distances.iter().enumerate())
             .filter(|(j, _)| keep(*j))
-            .map(|(_, d)| d.clone())
+            .map(|(_, d)| *d)
             .collect(),
         ..o.clone()
     };

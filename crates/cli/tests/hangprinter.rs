@@ -5,6 +5,7 @@
 use crate::common;
 
 use std::fs;
+use std::path::Path;
 
 use common::{copy_fixture, fails, ok, s};
 use parcal::firmware::hangprinter::read_config;
@@ -128,15 +129,7 @@ fn validate_names_the_discarded_positions_and_compensate_reaches_targets() {
     let targets = dir.path().join("targets.csv");
     fs::write(&targets, "x,y,z\n0,0,100\n-200,150,600\n0,0,5000\n").unwrap();
     let commands = dir.path().join("commands.csv");
-    let error = fails(&[
-        "compensate",
-        "--calibration",
-        s(&calibration),
-        "--targets",
-        s(&targets),
-        "--out",
-        s(&commands),
-    ]);
+    let error = fails(&compensate(&calibration, &targets, &commands));
     assert!(
         error.contains("line 4:") && error.contains("1 of 3 targets"),
         "{error}"
@@ -158,6 +151,20 @@ fn validate_names_the_discarded_positions_and_compensate_reaches_targets() {
         "{written}"
     );
     assert_eq!(written.lines().count(), 3);
+}
+
+/// `parcal compensate` of `calibration` at the targets of `targets`,
+/// written to `out`.
+fn compensate<'a>(calibration: &'a Path, targets: &'a Path, out: &'a Path) -> [&'a str; 7] {
+    [
+        "compensate",
+        "--calibration",
+        s(calibration),
+        "--targets",
+        s(targets),
+        "--out",
+        s(out),
+    ]
 }
 
 /// The fixture's machine.json with its lines made elastic: one compliance,
@@ -243,15 +250,7 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
     let targets = dir.path().join("targets.csv");
     fs::write(&targets, "x,y,z,f1,f2,f3,f4\n0,0,100,20,20,20,20\n").unwrap();
     let commands = dir.path().join("commands.csv");
-    let compensate = [
-        "compensate",
-        "--calibration",
-        s(&calibration),
-        "--targets",
-        s(&targets),
-        "--out",
-        s(&commands),
-    ];
+    let compensate = compensate(&calibration, &targets, &commands);
     let said = fails(&compensate);
     assert!(
         said.contains(

@@ -173,7 +173,7 @@ fn a_validation_locates_a_ball_whose_reference_touches_fit_its_mirror_image() {
     let run = calibrate(&fitted, &options(), &mut |_| {}).unwrap();
     let validation = validate_touches(&other, &run.record(String::new()), Some(4)).unwrap();
     let id = &other.artefacts.balls[ball].id;
-    assert_eq!(validation.mirrored_balls, [id.clone()]);
+    assert_eq!(validation.mirrored_balls, std::slice::from_ref(id));
     assert!(validation.accepted(), "{:?}", validation.test());
 
     let data = MechanismData::from_hexapod_touches(&fitted, &options()).unwrap();

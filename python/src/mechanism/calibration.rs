@@ -80,7 +80,7 @@ pub fn calibrate_mechanism(
         calibrate(&dataset.data, &options, observer)
     })?
     .map_err(|error| data_error(&dataset.path, dataset.data.mechanism.name(), error))?;
-    if dataset.from_files() {
+    if dataset.read_from_files() {
         let mechanism = dataset.data.mechanism.name();
         calibration.place_observations(&|observation, row| {
             observation_row_place(mechanism, observation, row)

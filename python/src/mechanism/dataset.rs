@@ -61,7 +61,7 @@ pub struct MechanismDataset {
 impl MechanismDataset {
     /// Whether the dataset was read from files (not made in memory): its
     /// observations are then named by their files' lines.
-    pub fn from_files(&self) -> bool {
+    pub fn read_from_files(&self) -> bool {
         self.path != Path::new(IN_MEMORY)
     }
 

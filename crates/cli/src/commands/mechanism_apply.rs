@@ -4,7 +4,7 @@
 //! words `parcal::report::mechanism_validation`'s.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::progress::Progress;
 
@@ -57,6 +57,19 @@ fn data_error(dataset: &Path, mechanism: &str, error: MechanismCalibrationError)
     }
 }
 
+/// The files of the mechanism dataset `dataset` a validation reads, which
+/// its output must not replace.
+fn dataset_inputs(dataset: &Path) -> Vec<PathBuf> {
+    let mut inputs = crate::outputs::dataset_inputs(dataset);
+    inputs.extend(
+        [PROBES_FILE, DISTANCES_FILE]
+            .iter()
+            .map(|name| dataset.join(name))
+            .filter(|file| file.exists()),
+    );
+    inputs
+}
+
 /// Validates the calibration at `calibration` on the mechanism dataset
 /// `dataset` (each held-out ball's centre and tracker's frame located by
 /// its first `reference` touches, points and poses if given): writes the
@@ -69,13 +82,7 @@ pub fn validate(
     accept_rejected: bool,
     out: &Path,
 ) -> anyhow::Result<()> {
-    let mut inputs = crate::outputs::dataset_inputs(dataset);
-    inputs.extend(
-        [PROBES_FILE, DISTANCES_FILE]
-            .iter()
-            .map(|name| dataset.join(name))
-            .filter(|file| file.exists()),
-    );
+    let mut inputs = dataset_inputs(dataset);
     inputs.push(calibration.to_path_buf());
     crate::outputs::check(&inputs, &[out.to_path_buf()])?;
     let record = read_calibration(calibration, accept_rejected)?;
@@ -108,14 +115,7 @@ pub fn cross_validate(
         reference.is_none(),
         "--reference: a cross-validation's folds hold no balls or trackers to locate"
     );
-    let mut inputs = crate::outputs::dataset_inputs(dataset);
-    inputs.extend(
-        [PROBES_FILE, DISTANCES_FILE]
-            .iter()
-            .map(|name| dataset.join(name))
-            .filter(|file| file.exists()),
-    );
-    crate::outputs::check(&inputs, &[out.to_path_buf()])?;
+    crate::outputs::check(&dataset_inputs(dataset), &[out.to_path_buf()])?;
     let read = MechanismDataset::read(dataset)?;
     let mechanism = read.machine.mechanism.as_str();
     let data = MechanismData::from_dataset(&read).map_err(|e| data_error(dataset, mechanism, e))?;
