@@ -208,8 +208,8 @@ impl MechanismCalibration {
 
     /// The verdict's reasons made again with each observation, and the
     /// row of it a test names, named by `place` (a front end's file and
-    /// line: `probes.csv line 5 (probe height 3, row 0)`) instead of
-    /// [`named`]'s kind and index.
+    /// line: `probes.csv line 5 (probe height 3, row 0)`) instead of its
+    /// kind and index (`probe height 3 (row 0)`).
     pub fn place_observations(&mut self, place: &dyn Fn(ObservationRef, Option<usize>) -> String) {
         self.reasons = reasons(self, place);
     }
