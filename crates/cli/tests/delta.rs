@@ -532,12 +532,18 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     // And in the report, from the dataset given.
     let markdown = reported(&sim, dir.path());
     assert!(markdown.contains("| true | error / sigma |"), "{markdown}");
-    // A hexapod's way of validating is refused, saying the mechanism's.
-    let err = fails(&["validate", s(&sim), "--folds", "3"]);
-    assert!(
-        err.contains("a linear delta's dataset is validated with --calibration"),
-        "{err}"
-    );
+    // Its own probe heights and part distances, 3-fold cross-validated:
+    // every probe height and distance predicted once, each by its line.
+    let said = ok(&["validate", s(&sim), "--folds", "3"]);
+    assert!(said.contains("applied: 3-fold cross-validation"), "{said}");
+    let record = read(sim.join("validation.json"));
+    let rows = record["rows"].as_array().unwrap();
+    let probes = fs::read_to_string(sim.join("probes.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    assert_eq!(rows.len(), probes + 3);
     let err = fails(&[
         "simulate",
         "--mechanism",

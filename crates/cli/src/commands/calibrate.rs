@@ -246,7 +246,10 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         &options,
         from_dataset,
         request,
-        (&[read, converted], checksum),
+        super::mechanism::DatasetRead {
+            said: &[read, converted],
+            checksum,
+        },
     );
     super::mechanism::freed(freeing, "the dataset")?;
     calibrated

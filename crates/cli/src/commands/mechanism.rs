@@ -74,16 +74,11 @@ pub fn calibrate(
         data.observations.len(),
         read.elapsed().as_secs_f64()
     );
-    let checksum = dataset.checksum();
-    let read = [read];
-    calibrate_with(
-        mechanism,
-        data,
-        options,
-        from_dataset,
-        request,
-        (&read, checksum),
-    )
+    let read = DatasetRead {
+        said: &[read],
+        checksum: dataset.checksum(),
+    };
+    calibrate_with(mechanism, data, options, from_dataset, request, read)
 }
 
 /// `parcal inspect` on the mechanism dataset `path`: read, converted and
@@ -197,18 +192,28 @@ pub fn freed(freeing: Option<JoinHandle<()>>, what: &str) -> anyhow::Result<()> 
     }
 }
 
+/// What reading a dataset gave besides its data: the progress lines that
+/// say what was read and made (with its time), and the dataset's checksum
+/// (the calibration's provenance).
+pub struct DatasetRead<'a> {
+    /// The progress lines.
+    pub said: &'a [String],
+    /// The dataset's checksum.
+    pub checksum: String,
+}
+
 /// The common calibration of `data` under `options`, read from the
 /// dataset of `request` (its probes and manual heights, if any, drawn in
-/// the report) whose checksum is `checksum`, the progress lines `before`
-/// (what was read and made, with its time) shown first: as [`calibrate`],
-/// once the outputs are checked ([`CalibrateRequest::check_outputs`]).
+/// the report), what reading it gave in `read` (its progress lines shown
+/// first): as [`calibrate`], once the outputs are checked
+/// ([`CalibrateRequest::check_outputs`]).
 pub fn calibrate_with(
     mechanism: &str,
     data: MechanismData,
     options: &MechanismOptions,
     from_dataset: FromDataset<'_>,
     request: CalibrateRequest,
-    (before, checksum): (&[String], String),
+    read: DatasetRead<'_>,
 ) -> anyhow::Result<()> {
     let CalibrateRequest {
         dataset: path,
@@ -217,7 +222,7 @@ pub fn calibrate_with(
     } = request;
     let report_directory = report.then(|| super::report::directory_of(&out).to_path_buf());
     let progress = Progress::bar("iteration", options.max_iterations as u64);
-    for line in before {
+    for line in read.said {
         progress.line(line);
     }
     let touches = match data.observations.touches.is_empty() {
@@ -246,7 +251,7 @@ pub fn calibrate_with(
         .place_observations(&|observation, row| observation_row_place(mechanism, observation, row));
     let mut record = calibration.into_record();
     record.provenance = Some(parcal::command::provenance(
-        checksum,
+        read.checksum,
         &path.display().to_string(),
     ));
     let destination = if record.accepted {

@@ -123,7 +123,8 @@ pub fn cross_validate(
     let options = MechanismOptions::default();
     let validation = cross_validate_mechanism(&data, &options, folds, &mut |r| {
         progress.step(&format!(
-            "fold {r} of {folds} predicted by the others' calibration"
+            "fold {r} of folds 0-{} predicted by the others' calibration",
+            folds - 1
         ))
     })
     .map_err(|e| data_error(dataset, mechanism, e))?;

@@ -31,14 +31,14 @@
 //! (touches on a small cap: `1` nearly in the span of `J_c`).
 
 use nalgebra::{DMatrix, DVector, Vector3};
-
-use crate::mirror::located_side;
 use parcal_kinematics::mechanism::Mechanism;
 
 #[cfg(doc)]
 use super::super::observation::HeldOut;
 #[cfg(doc)]
 use parcal_observe::mechanism::BallTouch;
+
+use crate::mirror::located_side;
 
 use super::super::data::Observations;
 use super::super::error::MechanismCalibrationError;
@@ -80,7 +80,7 @@ pub(super) fn predict_balls(
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
         let k = touches.len();
-        let locating = match reference {
+        let references = match reference {
             None => k,
             Some(n) if n < k => {
                 reference_rows.extend(row..row + n);
@@ -110,8 +110,8 @@ pub(super) fn predict_balls(
             &mut Vec::new(),
             fit,
         )?;
-        let fit = fitted_centre(&tips[..locating], ball.radius, b)?;
-        let (fit, mirror) = located_side(fit, &tips[..locating], tips, ball.radius);
+        let fit = fitted_centre(&tips[..references], ball.radius, b)?;
+        let (fit, mirror) = located_side(fit, &tips[..references], tips, ball.radius);
         if mirror {
             mirrored_balls.push(b);
         }
