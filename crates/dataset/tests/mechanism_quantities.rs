@@ -115,6 +115,13 @@ fn bad_quantities_and_loads_are_named() {
             "quantity,value\nline_length_a,1597\n",
             &["quantities.csv", "sigma"][..],
         ),
+        (
+            "quantity,value,sigma,unit\nline_length_a,1597,10,mm\n",
+            &[
+                "quantities.csv",
+                "column \"unit\", which is not one of this file's",
+            ][..],
+        ),
     ];
     for (text, expected) in cases {
         fs::write(&quantities, text).unwrap();
@@ -137,6 +144,14 @@ fn bad_quantities_and_loads_are_named() {
         (
             "q1,q2,q3,q4,x,y,z,f1,f2,f3,f4\n0,0,0,0,,,,1,2,x,4\n",
             &["points.csv", "line 2", "f3"][..],
+        ),
+        (
+            "q1,q2,q3,q4,x,y,z,load1\n0,0,0,0,,,,1\n",
+            &[
+                "points.csv",
+                "line 1",
+                "column \"load1\", which is not one of this file's",
+            ][..],
         ),
     ];
     for (text, expected) in cases {

@@ -47,6 +47,7 @@ pub(crate) fn read_ball_distances(path: &Path, balls: usize) -> Result<Vec<Dista
     let expected = BALL_DISTANCE_COLUMNS.join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
+        header.only(&BALL_DISTANCE_COLUMNS, &expected)?;
         let [first_at, second_at, distance_at, sigma_at] =
             header.require_all(&BALL_DISTANCE_COLUMNS, &expected)?;
         let of = not_a_ball(balls);

@@ -104,6 +104,15 @@ pub(crate) fn read_balls(path: &Path) -> Result<Vec<BallRow>> {
     let expected = BALL_COLUMNS.join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
+        let known: Vec<&str> = BALL_COLUMNS
+            .iter()
+            .chain(&PLACEMENT_COLUMNS)
+            .copied()
+            .collect();
+        header.only(
+            &known,
+            &format!("{expected}[,{}]", PLACEMENT_COLUMNS.join(",")),
+        )?;
         let [ball_at, radius_at, sigma_at] = header.require_all(&BALL_COLUMNS, &expected)?;
         let at_placement = optional_group(&header, "placement", &PLACEMENT_COLUMNS)?;
         let mut rows: Vec<BallRow> = Vec::new();
@@ -155,6 +164,7 @@ pub(crate) fn read_touches(path: &Path, balls: usize) -> Result<Vec<TouchRow>> {
     let expected = TOUCH_COLUMNS.join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
+        header.only(&TOUCH_COLUMNS, &expected)?;
         let [ball_at, x_at, y_at, z_at] = header.require_all(&TOUCH_COLUMNS, &expected)?;
         let mut rows = Vec::new();
         let of = not_a_ball(balls);

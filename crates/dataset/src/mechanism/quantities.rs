@@ -41,6 +41,7 @@ pub(crate) fn read_quantities(path: &Path, mechanism: &dyn Mechanism) -> Result<
         .collect();
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
+        header.only(&QUANTITY_COLUMNS, &expected)?;
         let [name_at, value_at, sigma_at] = header.require_all(&QUANTITY_COLUMNS, &expected)?;
         let mut rows = Vec::new();
         table::for_each_row(reader, &header, "quantity", |row| {

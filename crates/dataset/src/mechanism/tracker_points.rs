@@ -41,6 +41,7 @@ pub(crate) fn read_tracker_points(path: &Path) -> Result<Vec<TrackerPointRow>> {
     let expected = TRACKER_POINT_COLUMNS.join(",");
     table::read_file(path, |reader| {
         let header = Header::read(reader, &expected)?;
+        header.only(&TRACKER_POINT_COLUMNS, &expected)?;
         let [tracker_at, xc, yc, zc, x, y, z] =
             header.require_all(&TRACKER_POINT_COLUMNS, &expected)?;
         let mut rows = Vec::new();
