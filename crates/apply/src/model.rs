@@ -2,8 +2,7 @@
 //! in the design frame, the actuators' scales, the stroke and joint limits.
 
 use parcal_dataset::Calibration;
-use parcal_kinematics::params::TOOL_OFFSET;
-use parcal_kinematics::{Geometry, PARAM_NAMES, ParamCovariance};
+use parcal_kinematics::{Geometry, ParamCovariance};
 
 use crate::{ApplyError, Placement, place};
 
@@ -33,9 +32,8 @@ pub struct AppliedModel {
     /// The posterior covariance of the 33 kinematic parameters (the leading
     /// block of calibration.json's `covariance`), if computed.
     pub covariance: Option<ParamCovariance>,
-    /// Whether the data determined the tool (calibration.json's parameters
-    /// hold `x_eT, y_eT, z_eT`): poses alone do not see it, and it then
-    /// keeps the design's coordinates in the platform's canonical frame.
+    /// Whether the data determined the tool
+    /// ([`Calibration::calibrates_tool`]).
     pub tool_calibrated: bool,
 }
 
@@ -89,9 +87,7 @@ impl AppliedModel {
             placement,
             canonical,
             covariance: kinematic_covariance(record),
-            tool_calibrated: PARAM_NAMES[TOOL_OFFSET..]
-                .iter()
-                .all(|name| record.parameters.names.iter().any(|n| n == name)),
+            tool_calibrated: record.calibrates_tool(),
         })
     }
 

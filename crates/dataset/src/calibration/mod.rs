@@ -500,6 +500,16 @@ impl Calibration {
         self.verdict == "rejected"
     }
 
+    /// Whether the data determined the tool: the parameters hold `x_eT,
+    /// y_eT, z_eT` (poses of the platform alone do not see it, and it then
+    /// keeps the design's coordinates in the platform's canonical frame).
+    pub fn calibrates_tool(&self) -> bool {
+        let names = &self.parameters.names;
+        PARAM_NAMES[TOOL_OFFSET..]
+            .iter()
+            .all(|tool| names.iter().any(|name| name == tool))
+    }
+
     /// The 33 kinematic parameters and their marginal covariance (the
     /// covariance's leading block), what the tool tip's accuracy maps
     /// take; a calibration with poses or points, or with actuator scales,
@@ -512,7 +522,7 @@ impl Calibration {
         let tool_left_out = names
             .get(..TOOL_OFFSET)
             .is_some_and(|leading| leading == &PARAM_NAMES[..TOOL_OFFSET])
-            && names.get(TOOL_OFFSET).map(String::as_str) != Some(PARAM_NAMES[TOOL_OFFSET]);
+            && !self.calibrates_tool();
         if tool_left_out {
             return Err(format!(
                 "the calibration did not calibrate the tool ({}, {}, {}: its data, poses alone, do not observe it); the accuracy maps are of the tool tip: calibrate with points or ball touches",
