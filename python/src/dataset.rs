@@ -139,10 +139,12 @@ impl Dataset {
         .map_err(to_py)
     }
 
-    /// machine.json's content.
+    /// machine.json's content, as the dataset writes it (what
+    /// `Dataset(machine, ...)` takes).
     #[getter]
     fn machine<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_python(py, &self.inner.machine)
+        let text = self.inner.machine.to_json().map_err(to_py)?;
+        py.import("json")?.call_method1("loads", (text,))
     }
 
     /// The balls' ids, in artefacts.json's order.

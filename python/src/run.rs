@@ -315,9 +315,9 @@ impl Calibration {
             .map(|r| array2(py, &r.points))
     }
 
-    /// calibration.json's content as a dict.
+    /// calibration.json's content as a dict (`json.loads(to_json())`).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_python(py, &self.record)
+        py.import("json")?.call_method1("loads", (self.to_json()?,))
     }
 
     /// calibration.json's text: the bytes `parcal calibrate` writes for

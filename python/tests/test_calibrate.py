@@ -184,6 +184,18 @@ def test_poses_built_in_memory_give_the_values_of_the_files(tmp_path):
         parcal.Dataset(machine, poses={**poses, "sessions": ["1"] * 108})
 
 
+def test_a_dataset_s_machine_and_a_calibration_s_dict_are_their_files(paper, tmp_path):
+    # What a getter returns, the constructor takes back: the same dataset.
+    ds = parcal.Dataset.read(paper)
+    assert ds.machine == json.loads((paper / "machine.json").read_text())
+    _, artefacts, ball, q = in_memory(paper)
+    again = parcal.Dataset(ds.machine, artefacts, ball, q)
+    assert again.checksum == ds.checksum
+    run = parcal.calibrate(ds)
+    run.write(tmp_path / "calibration.json")
+    assert run.to_dict() == json.loads((tmp_path / "calibration.json").read_text())
+
+
 def test_a_calibration_read_back_is_the_one_written(paper, tmp_path):
     ds = parcal.Dataset.read(paper)
     run = parcal.calibrate(ds)
