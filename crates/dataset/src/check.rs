@@ -176,6 +176,27 @@ impl<'a> Check<'a> {
         Ok(())
     }
 
+    /// Every value of row `k` (0-based) of a table of `columns` finite;
+    /// an error names `row k + 1, column name`, as a file's rows are named.
+    pub(crate) fn row_values(&self, k: usize, columns: &[&str], values: &[f64]) -> Result<()> {
+        match values.iter().position(|v| !v.is_finite()) {
+            None => Ok(()),
+            Some(i) => Err(self.error(cell(k, columns, i), not_finite(values[i]))),
+        }
+    }
+
+    /// Every value of row `k` (0-based) of a table of `columns` a length
+    /// ([`Check::length`]); an error names `row k + 1, column name`.
+    pub(crate) fn row_lengths(&self, k: usize, columns: &[&str], values: &[f64]) -> Result<()> {
+        match values
+            .iter()
+            .position(|v| !v.is_finite() || v.abs() > self.max_length)
+        {
+            None => Ok(()),
+            Some(i) => self.length(cell(k, columns, i), values[i]),
+        }
+    }
+
     /// Every element finite; an error names `field[i]`.
     pub(crate) fn values(&self, field: impl Display, values: &[f64]) -> Result<()> {
         match values.iter().position(|v| !v.is_finite()) {
@@ -221,6 +242,12 @@ pub fn shown(value: f64) -> String {
     } else {
         format!("{value}")
     }
+}
+
+/// The field of row `k` (0-based), column `i` of a table of `columns`:
+/// `row k + 1, column name`.
+fn cell(k: usize, columns: &[&str], i: usize) -> String {
+    format!("row {}, column {}", k + 1, columns[i])
 }
 
 /// The message for a value that is NaN or infinite.

@@ -162,3 +162,36 @@ fn bad_quantities_and_loads_are_named() {
         }
     }
 }
+
+/// A dataset made in memory is checked before it is written: a value that
+/// is not a number is named by its row, counted from 1 as the file's rows
+/// are, and its column's name.
+#[test]
+fn a_bad_value_in_memory_is_named_by_its_row_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let error = |change: &dyn Fn(&mut MechanismDataset)| {
+        let mut dataset = cable_dataset();
+        change(&mut dataset);
+        dataset
+            .write(&dir.path().join("cable"))
+            .unwrap_err()
+            .to_string()
+    };
+    let load = error(&|d| d.samples[1].loads.as_mut().unwrap()[2] = f64::NAN);
+    assert!(
+        load.ends_with("points.csv: field row 2, column f3: value NaN is not a finite number"),
+        "{load}"
+    );
+    let position = error(&|d| d.samples[0].position.as_mut().unwrap()[1] = f64::INFINITY);
+    assert!(
+        position.ends_with("points.csv: field row 1, column y: value inf is not a finite number"),
+        "{position}"
+    );
+    let value = error(&|d| d.quantities[3].value = f64::NAN);
+    assert!(
+        value.ends_with(
+            "quantities.csv: field row 4, column value: value NaN is not a finite number"
+        ),
+        "{value}"
+    );
+}

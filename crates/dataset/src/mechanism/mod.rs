@@ -403,30 +403,37 @@ impl MechanismDataset {
                 format!("no tracker of this label measured in {TRACKER_POINTS_FILE}"),
             ));
         }
-        let rows = |file: &str, rows: &mut dyn Iterator<Item = &[f64]>| -> Result<()> {
+        let rows = |file: &str, columns: &[&str], rows: &mut dyn Iterator<Item = &[f64]>| {
             let path = dir.join(file);
             let check = Check::new(&path);
-            for (k, row) in rows.enumerate() {
-                check.lengths(format_args!("row {}", k + 1), row)?;
-            }
-            Ok(())
+            rows.enumerate()
+                .try_for_each(|(k, row)| check.row_lengths(k, columns, row))
         };
-        rows(PROBES_FILE, &mut self.probes.iter().map(|r| r.as_slice()))?;
-        rows(HEIGHTS_FILE, &mut self.heights.iter().map(|r| r.as_slice()))?;
+        rows(
+            PROBES_FILE,
+            &PROBE_COLUMNS,
+            &mut self.probes.iter().map(|r| r.as_slice()),
+        )?;
+        rows(
+            HEIGHTS_FILE,
+            &HEIGHT_COLUMNS,
+            &mut self.heights.iter().map(|r| r.as_slice()),
+        )?;
         rows(
             DISTANCES_FILE,
+            &DISTANCE_COLUMNS,
             &mut self.distances.iter().map(|r| r.as_slice()),
         )?;
         self.validate_tracker_points(dir)?;
         let path = dir.join(POINTS_FILE);
         let check = Check::new(&path);
         for (k, sample) in self.samples.iter().enumerate() {
-            check.values(format_args!("row {}", k + 1), &sample.readings)?;
+            check.row_values(k, &READING_COLUMNS, &sample.readings)?;
             if let Some(position) = &sample.position {
-                check.lengths(format_args!("row {}", k + 1), position)?;
+                check.row_lengths(k, &POSITION_COLUMNS, position)?;
             }
             if let Some(loads) = &sample.loads {
-                check.values(format_args!("row {} loads", k + 1), loads)?;
+                check.row_values(k, &LOAD_COLUMNS, loads)?;
             }
         }
         if !self.quantities.is_empty() {
@@ -446,7 +453,7 @@ impl MechanismDataset {
                         ),
                     ));
                 }
-                check.values(field.clone(), &[row.value])?;
+                check.row_values(k, &QUANTITY_COLUMNS[1..2], &[row.value])?;
                 if !(row.sigma.is_finite() && row.sigma > 0.0) {
                     return Err(check.error(
                         &field,
@@ -476,8 +483,8 @@ impl MechanismDataset {
             if row.tracker.is_empty() {
                 return Err(check.error(&field, "empty tracker label"));
             }
-            check.lengths(field.clone(), &row.commanded)?;
-            check.lengths(field, &row.measured)?;
+            check.row_lengths(k, &TRACKER_POINT_COLUMNS[1..4], &row.commanded)?;
+            check.row_lengths(k, &TRACKER_POINT_COLUMNS[4..], &row.measured)?;
         }
         Ok(())
     }
@@ -530,13 +537,13 @@ impl MechanismDataset {
                 return Err(check.error(
                     &field,
                     format!(
-                        "ball {} is not one of the {} of {BALLS_FILE}",
+                        "ball {} is not one of the {} of {BALLS_FILE} (numbered from 0)",
                         touch.ball,
                         self.balls.len()
                     ),
                 ));
             }
-            check.lengths(field, &touch.commanded)?;
+            check.row_lengths(k, &TOUCH_COLUMNS[1..], &touch.commanded)?;
         }
         validate_ball_distances(&distances_path, &self.ball_distances, self.balls.len())
     }
