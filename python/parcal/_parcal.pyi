@@ -67,7 +67,7 @@ class Dataset:
         snapshot file."""
     @property
     def machine(self) -> dict[str, Any]:
-        """machine.json's content."""
+        """machine.json's content, as written (what the constructor takes)."""
     @property
     def ball_ids(self) -> list[str]:
         """The balls' ids, in artefacts.json's order."""
@@ -190,7 +190,7 @@ class Calibration:
         """Each point's residual (n x 3, mm); None without poses or points,
         or read back."""
     def to_dict(self) -> dict[str, Any]:
-        """calibration.json's content as a dict."""
+        """calibration.json's content as a dict: ``json.loads(to_json())``."""
     def to_json(self) -> str:
         """calibration.json's text, as ``parcal calibrate`` writes it."""
     def write(self, path: PathLike) -> None:
@@ -446,7 +446,7 @@ class MechanismDataset:
         """The mechanism's name ("linear delta", "cable robot")."""
     @property
     def machine(self) -> dict[str, Any]:
-        """machine.json's content."""
+        """machine.json's content, as written (what the constructor takes)."""
     @property
     def parameters(self) -> list[str]:
         """The mechanism's parameters' names, in its order."""
@@ -543,7 +543,7 @@ class MechanismCalibration:
         """Why, one sentence each."""
     @property
     def warnings(self) -> list[str]:
-        """Why data snooping stopped early, if it did."""
+        """Why data snooping stopped early, if it did, then the observations given twice."""
     @property
     def status(self) -> str:
         """How the solver's run ended."""
@@ -605,7 +605,7 @@ class MechanismCalibration:
         """The body frame the tracker poses saw: frame (body to platform)
         and sigma (rad, then mm); None without tracker poses."""
     def to_dict(self) -> dict[str, Any]:
-        """calibration.json's content as a dict."""
+        """calibration.json's content as a dict: ``json.loads(to_json())``."""
     def to_json(self) -> str:
         """calibration.json's text, as ``parcal calibrate`` writes it."""
     def write(self, path: PathLike) -> None:

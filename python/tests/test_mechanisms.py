@@ -338,6 +338,12 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
     assert len(by_line) == 1 and "points.csv line " in by_line[0], run_of_files.reasons
     by_index = [r for r in run.reasons if "w-test" in r]
     assert len(by_index) == 1 and "points.csv" not in by_index[0], run.reasons
+    # A sample given twice is warned of, by its index in memory.
+    copied = {key: np.vstack([rows, rows[5:6]]) for key, rows in samples.items()}
+    twice = parcal.calibrate(parcal.MechanismDataset(machine, samples=copied, quantities=quantities))
+    assert run.warnings == [] and len(twice.warnings) == 1, twice.warnings
+    assert twice.warnings[0].startswith("point sample 44 repeats point sample 5 in every number")
+    assert twice.to_dict()["warnings"] == twice.warnings
     # numpy's numbers in the machine's dict read as Python's; a number that
     # is not finite is named by its keys.
     as_numpy = {**machine, "configured": {k: np.float64(v) for k, v in machine["configured"].items()}}
@@ -349,7 +355,7 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
     delta_machine = json.loads((delta / "machine.json").read_text())
     probes = np.loadtxt(delta / "probes.csv", delimiter=",", skiprows=1)
     probes[3, 2] = np.inf
-    with pytest.raises(parcal.Error, match=r"\(in memory\)/probes\.csv: field row 4\[2\]: value inf is not a finite number"):
+    with pytest.raises(parcal.Error, match=r"\(in memory\)/probes\.csv: field row 4, column z: value inf is not a finite number"):
         parcal.MechanismDataset(delta_machine, probes=probes)
     with pytest.raises(parcal.Error, match=r"noise\.distance: required"):
         parcal.MechanismDataset({**delta_machine, "noise": {"probe": 0.01}}, distances=np.ones((2, 7)))

@@ -197,7 +197,7 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
     let calibration = data.join("calibration.json");
     let record: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(&calibration).unwrap()).unwrap();
-    assert_eq!(record["format"], "parcal-mechanism-calibration/1.5");
+    assert_eq!(record["format"], "parcal-mechanism-calibration/1.6");
     assert_eq!(
         record["elasticity"]["compliance_of_line"],
         serde_json::json!([0, 0, 0, 0])
@@ -305,6 +305,43 @@ fn anchors_no_data_nor_prior_determine_are_named() {
     let said = fails(&["calibrate", s(&data)]);
     assert!(said.contains("not determined"), "{said}");
     assert!(said.contains(" anchor_"), "{said}");
+}
+
+/// A sample copied to the end of points.csv is named by `inspect` and by
+/// `calibrate` (its summary and calibration.json's warnings), with the line
+/// it copies; the fixture as it is has no warning.
+#[test]
+fn a_sample_given_twice_is_warned_of_by_its_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = copy_fixture("hangprinter", dir.path(), &["machine.json", "points.csv"]);
+    let points = fs::read_to_string(data.join("points.csv")).unwrap();
+    assert!(!ok(&["inspect", s(&data)]).contains("warning"));
+    let line_7 = points.lines().nth(6).unwrap();
+    let rows = points.lines().count();
+    fs::write(data.join("points.csv"), format!("{points}{line_7}\n")).unwrap();
+    let warning = format!(
+        "points.csv line {} (point sample {}) repeats points.csv line 7 (point sample 5) in every number",
+        rows + 1,
+        rows - 1
+    );
+    let inspected = ok(&["inspect", s(&data)]);
+    assert!(
+        inspected.contains(&format!("warning: {warning}")),
+        "{inspected}"
+    );
+    let summary = ok(&["calibrate", s(&data)]);
+    assert!(
+        summary.contains(&format!("warning: {warning}")),
+        "{summary}"
+    );
+    let record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(data.join("calibration.json")).unwrap()).unwrap();
+    let warnings = record["warnings"].as_array().unwrap();
+    assert_eq!(warnings.len(), 1);
+    assert!(
+        warnings[0].as_str().unwrap().starts_with(&warning),
+        "{record}"
+    );
 }
 
 /// `compensate --poses` (or `--table`), a hexapod's, given a cable robot's

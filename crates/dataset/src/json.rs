@@ -62,7 +62,7 @@ pub(crate) const MECHANISM_TRUTH: Kind = Kind {
 };
 pub(crate) const MECHANISM_CALIBRATION: Kind = Kind {
     name: "parcal-mechanism-calibration",
-    current: "parcal-mechanism-calibration/1.5",
+    current: "parcal-mechanism-calibration/1.6",
     one_line_from: 4,
 };
 pub(crate) const MECHANISM_VALIDATION: Kind = Kind {

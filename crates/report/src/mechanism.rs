@@ -812,6 +812,10 @@ fn blocks(
     if let Some(why) = &calibration.tests.snooping_stopped {
         blocks.push(Block::Paragraph(Tone::Warning, why.clone()));
     }
+    if !calibration.warnings.is_empty() {
+        blocks.push(Block::Heading(3, "Warnings".into()));
+        blocks.push(Block::List(Tone::Warning, calibration.warnings.clone()));
+    }
     blocks.push(Block::Heading(2, "Observations tested".into()));
     blocks.push(Block::List(Tone::Plain, observation_counts(calibration)));
     blocks.push(Block::Heading(2, "Parameters (canonical frame)".into()));

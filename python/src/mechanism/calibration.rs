@@ -190,11 +190,12 @@ impl MechanismCalibration {
         self.record.reasons.clone()
     }
 
-    /// Why data snooping stopped early, if it did (the only warning a
-    /// mechanism's calibration gives besides its reasons).
+    /// Why data snooping stopped early, if it did, then the observations
+    /// given twice (the warnings besides the verdict's reasons).
     #[getter]
     fn warnings(&self) -> Vec<String> {
-        self.record.tests.snooping_stopped.iter().cloned().collect()
+        let stopped = self.record.tests.snooping_stopped.iter();
+        stopped.chain(&self.record.warnings).cloned().collect()
     }
 
     /// How the solver's run ended.

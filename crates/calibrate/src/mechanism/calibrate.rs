@@ -11,13 +11,13 @@ use super::data::MechanismData;
 use super::error::MechanismCalibrationError;
 use super::fit;
 use super::options::MechanismOptions;
-use super::result::MechanismCalibration;
+use super::result::{MechanismCalibration, named, repeat_warnings};
 use super::snooping;
 
 /// Calibrates `data` with `options`: validates both, refuses a gauge
 /// freedom that no prior holds, fits (with data snooping if asked) and
-/// returns the estimate in the canonical frame with its tests, verdict and
-/// identifiability. `observer` sees each iteration of each fit, as the
+/// returns the estimate in the canonical frame with its tests, verdict,
+/// identifiability and the observations given twice (warned of). `observer` sees each iteration of each fit, as the
 /// hexapod's own [`calibrate`](crate::calibrate) shows them.
 pub fn calibrate_mechanism(
     data: &MechanismData,
@@ -29,11 +29,14 @@ pub fn calibrate_mechanism(
     data.validate()?;
     coordinate_problem::check_observation(data, options)?;
     check_gauge_priors(data)?;
-    if options.snoop {
+    let mut run = if options.snoop {
         snooping::snoop(data, options, started, observer)
     } else {
         snooping::calibrate_once(data, options, started, observer)
-    }
+    }?;
+    run.repeats = data.observations.repeats();
+    run.warnings = repeat_warnings(&run.repeats, &named);
+    Ok(run)
 }
 
 /// Checks `data` as [`calibrate_mechanism`] does before its first step:

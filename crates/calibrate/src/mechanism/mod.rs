@@ -118,7 +118,7 @@ pub use cross_validation::cross_validate_mechanism;
 pub use data::{
     Ball, CentrePrior, MAX_ACTUATORS, MAX_BALLS, MAX_OBSERVATIONS, MAX_POSE_COORDINATES,
     MAX_TIED_BALLS, MAX_TRACKERS, MAX_WARM_START, MIN_ACTUATORS, MIN_POINTS_PER_TRACKER,
-    MIN_TOUCHES_PER_BALL, MechanismData, Observations, ParameterPrior, Tracker,
+    MIN_TOUCHES_PER_BALL, MechanismData, Observations, ParameterPrior, Repeat, Tracker,
 };
 pub use error::MechanismCalibrationError;
 pub use identifiability::{Identifiability, Undetermined};
@@ -128,7 +128,7 @@ pub use options::{MAX_ITERATIONS, MechanismOptions};
 pub use predicted::MAX_HELD_OUT_TOUCHES_PER_BALL;
 pub use result::{
     EstimatedBall, EstimatedBody, EstimatedParameter, EstimatedTracker, MechanismCalibration,
-    TRIGGER_HEIGHT,
+    TRIGGER_HEIGHT, repeat_warnings,
 };
 pub use touch_start::TouchStart;
 pub use validation::{MechanismValidation, ParameterShift, ValidatedRow, validate_mechanism};

@@ -65,6 +65,7 @@ impl MechanismCalibration {
             iterations: self.iterations,
             accepted: self.verdict.accepted,
             reasons: self.reasons,
+            warnings: self.warnings,
             parameters,
             covariance: self.covariance.as_ref().map(rows),
             prior_correlation: self.prior_correlation.as_ref().map(rows),

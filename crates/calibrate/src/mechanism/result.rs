@@ -16,7 +16,7 @@ use crate::snooping::{Removal, Worst};
 use crate::verdict::{GlobalTest, Outcome, Verdict};
 
 use super::checks::ObservationChecks;
-use super::data::{MechanismData, ParameterPrior};
+use super::data::{MechanismData, ParameterPrior, Repeat};
 use super::error::MechanismCalibrationError;
 use super::fit::Fit;
 use super::frame::{canonical_by, canonical_params};
@@ -172,6 +172,13 @@ pub struct MechanismCalibration {
     pub verdict: Verdict,
     /// Why, in words.
     pub reasons: Vec<String>,
+    /// The observations that repeat an earlier one in every number
+    /// ([`Observations::repeats`](super::Observations::repeats)), named by
+    /// their place in the data given.
+    pub repeats: Vec<Repeat>,
+    /// What else the data showed, in words: [`Self::repeats`] (not the
+    /// verdict's).
+    pub warnings: Vec<String>,
     /// The balls found on the wrong side of their touches once the fit had
     /// settled, re-seeded at the mirror image of their centre fit before
     /// it resumed.
@@ -212,6 +219,7 @@ impl MechanismCalibration {
     /// kind and index (`probe height 3 (row 0)`).
     pub fn place_observations(&mut self, place: &dyn Fn(ObservationRef, Option<usize>) -> String) {
         self.reasons = reasons(self, place);
+        self.warnings = repeat_warnings(&self.repeats, place);
     }
 
     /// The observation of largest `|w|`.
@@ -371,6 +379,8 @@ pub(crate) fn assemble(
         gauss_newton: fit.gauss_newton,
         alpha: options.alpha,
         reasons: Vec::new(),
+        repeats: Vec::new(),
+        warnings: Vec::new(),
         removals: Vec::new(),
         snooping_stopped: None,
         identifiability,
@@ -506,6 +516,25 @@ pub(crate) fn named(observation: ObservationRef, row: Option<usize>) -> String {
         Some(row) => format!("{observation} (row {row})"),
         None => observation.to_string(),
     }
+}
+
+/// The warnings of `repeats` ([`MechanismCalibration::warnings`]), each
+/// observation named by `place` (as [`MechanismCalibration::place_observations`]
+/// takes it).
+pub fn repeat_warnings(
+    repeats: &[Repeat],
+    place: &dyn Fn(ObservationRef, Option<usize>) -> String,
+) -> Vec<String> {
+    repeats
+        .iter()
+        .map(|Repeat { copy, of }| {
+            format!(
+                "{} repeats {} in every number, as a row given twice does (a measurement repeated reads otherwise): remove the copy, which counts the measurement twice",
+                place(*copy, None),
+                place(*of, None)
+            )
+        })
+        .collect()
 }
 
 /// The verdict's reasons, in words, each observation (and the row a test

@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use parcal::calibration::mechanism::{
     MechanismCalibrationError, MechanismData, MechanismOptions, ObservationKind,
-    calibrate_mechanism, check_mechanism_data,
+    calibrate_mechanism, check_mechanism_data, repeat_warnings,
 };
 use parcal::calibration::{IterationRecord, Method};
 use parcal::dataset::atomic::write_set;
@@ -111,6 +111,10 @@ pub fn inspect(path: &Path, mechanism: &str) -> anyhow::Result<()> {
         "  observations       {}",
         counted(&counts).join(", ")
     )?;
+    let place = |observation, row| observation_row_place(mechanism, observation, row);
+    for warning in repeat_warnings(&o.repeats(), &place) {
+        writeln!(stdout, "  warning: {warning}")?;
+    }
     if !o.balls.is_empty() {
         let mut per_ball = vec![0usize; o.balls.len()];
         for touch in &o.touches {
@@ -305,6 +309,9 @@ pub fn print_summary(
     }
     for removal in removal_sentences(calibration) {
         writeln!(out, "removed by data snooping: {removal}")?;
+    }
+    for warning in &calibration.warnings {
+        writeln!(out, "warning: {warning}")?;
     }
     let counts = observation_counts(calibration);
     if !counts.is_empty() {

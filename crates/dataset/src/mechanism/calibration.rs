@@ -1,11 +1,12 @@
 //! The record of a mechanism calibration (`calibration.json`, format
-//! `parcal-mechanism-calibration/1.5`): the mechanism (and a printer's
+//! `parcal-mechanism-calibration/1.6`): the mechanism (and a printer's
 //! printable radius, since 1.2; a cable robot's elastic lines, since
 //! 1.3), the estimated
 //! parameters in its canonical frame with their sigmas, priors and
 //! covariance, the verdict and its reasons, the tests (global test,
 //! w-tests, snooping), the identifiability and a Gauss-Newton fit that ran
-//! away before (since 1.4), the dataset's provenance (since 1.5), so that
+//! away before (since 1.4), the dataset's provenance (since 1.5), warnings
+//! that are not the verdict's (since 1.6: observations given twice), so that
 //! `export` and
 //! `report` read one without the calibration's code.
 
@@ -222,6 +223,10 @@ pub struct MechanismCalibrationRecord {
     pub accepted: bool,
     /// Why, in words.
     pub reasons: Vec<String>,
+    /// What else the data showed, in words (observations given twice);
+    /// none: absent.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// The mechanism's parameters, then the trigger height if estimated.
     pub parameters: Vec<ParameterRecord>,
     /// Their covariance (canonical frame), row by row.

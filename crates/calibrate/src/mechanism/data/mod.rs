@@ -8,6 +8,7 @@
 //! - `limits`: what a calibration accepts (the most and fewest of each);
 //! - `tracker`, `ball`: an instrument at one placement, a calibrated ball;
 //! - `observations`: the observations by kind ([`Observations`]);
+//! - `repeats`: observations given twice ([`Repeat`]);
 //! - `mechanism_data`: the data ([`MechanismData`]) and their priors
 //!   ([`ParameterPrior`]), built from a mechanism's design;
 //! - `value_checks`: the checks every kind's values share;
@@ -20,6 +21,7 @@ mod ball_checks;
 mod limits;
 mod mechanism_data;
 mod observations;
+mod repeats;
 mod tracker;
 mod tracker_checks;
 mod validate;
@@ -32,4 +34,5 @@ pub use limits::{
 };
 pub use mechanism_data::{MechanismData, ParameterPrior};
 pub use observations::Observations;
+pub use repeats::Repeat;
 pub use tracker::Tracker;
