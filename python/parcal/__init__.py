@@ -104,7 +104,8 @@ def compensate(calibration: Any, targets: Any, **options: Any) -> "dict[str, Any
     """The actuator commands that reach `targets` with `calibration`, as
     ``parcal compensate`` computes them: a mechanism's (targets n x P, its
     pose coordinates: 3 for a delta or a cable robot, 6 for a hexapod
-    calibrated with ``common=True``; returns ``target``, ``q``,
+    calibrated with ``common=True``; ``loads=`` n x A an elastic cable
+    robot's line loads at the targets; returns ``target``, ``q``,
     ``nominal``, ``sigma``) or a hexapod's own (targets n x 6; returns
     ``q``, ``conditioning``, ``corrected_poses``)."""
     if _mechanism_calibration(calibration):

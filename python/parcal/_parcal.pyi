@@ -668,10 +668,12 @@ def compensate_mechanism(
     calibration: Union[MechanismCalibration, PathLike],
     targets: npt.ArrayLike,
     *,
+    loads: Optional[npt.ArrayLike] = None,
     accept_rejected: bool = False,
 ) -> dict[str, FloatArray]:
     """``parcal.compensate`` with a mechanism's calibration (targets n x P,
-    its pose coordinates): ``target`` (n x P), ``q`` and ``nominal`` (n x
+    its pose coordinates; an elastic cable robot's ``loads`` n x A, N, the
+    commands under them): ``target`` (n x P), ``q`` and ``nominal`` (n x
     A), ``sigma`` (n x P, of the pose increment reached)."""
 
 def plan_mechanism(

@@ -368,7 +368,7 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
         parcal.MechanismDataset({**machine, "mechanism": "scara"}, probes=probes)
 
 
-def test_elastic_lines_in_a_machine_dict_calibrate_as_the_clis_machine_json(hangprinter, cli, tmp_path):
+def test_elastic_lines_in_a_machine_dict_calibrate_and_compensate_as_the_cli(hangprinter, delta, cli, tmp_path):
     machine = json.loads((hangprinter / "machine.json").read_text())
     points = np.genfromtxt(hangprinter / "points.csv", delimiter=",", skip_header=1)
     machine["configured"]["compliance_abcd"] = 50.0
@@ -385,6 +385,19 @@ def test_elastic_lines_in_a_machine_dict_calibrate_as_the_clis_machine_json(hang
     assert record["elasticity"] == machine["elasticity"]
     cli_record = json.loads(out.read_text())
     assert [p["value"] for p in record["parameters"]] == [p["value"] for p in cli_record["parameters"]]
+    # Commands under the lines' loads, as the CLI's from a targets file with f1..f4.
+    targets, loads = np.array([[0.0, 0.0, 100.0], [50.0, -20.0, 300.0]]), np.array([[30.0] * 4, [10.0, 20.0, 30.0, 25.0]])
+    (tmp_path / "targets.csv").write_text(
+        "x,y,z,f1,f2,f3,f4\n" + "".join(",".join(map(str, [*t.tolist(), *f.tolist()])) + "\n" for t, f in zip(targets, loads)))
+    assert cli("compensate", "--calibration", out, "--targets", tmp_path / "targets.csv", "--out", tmp_path / "q.csv") == 0
+    from_cli = np.genfromtxt(tmp_path / "q.csv", delimiter=",", skip_header=1)
+    commands = parcal.compensate(out, targets, loads=loads)
+    np.testing.assert_allclose(commands["q"], from_cli[:, 7:11], rtol=1e-12)
+    assert not np.allclose(commands["q"], parcal.compensate(out, targets)["q"], rtol=1e-9)
+    with pytest.raises(parcal.Error, match=r"loads has 1 rows and targets 2"):
+        parcal.compensate(out, targets, loads=loads[:1])
+    with pytest.raises(parcal.Error, match=r"loads: the linear delta's readings do not depend"):
+        parcal.compensate(parcal.calibrate(parcal.read_dataset(delta)), targets, loads=loads, accept_rejected=True)
     with pytest.raises(parcal.Error, match=r"elasticity: the loads at the encoder zero lists 3 values for 4 lines"):
         parcal.MechanismDataset({**machine, "elasticity": {"compliance_of_line": [0] * 4, "zero_loads": [1.0] * 3}},
                                 samples={"readings": points[:, :4]})

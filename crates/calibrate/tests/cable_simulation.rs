@@ -8,19 +8,22 @@
 //! measured (the true lengths with Gaussian noise, as by hand) as
 //! observations of their own, the same must hold: their sigma is
 //! honoured. So must it for elastic lines under loads that vary from
-//! sample to sample, the compliance one more parameter; and a held-out
+//! sample to sample, the compliance one more parameter; a held-out
 //! campaign of the same machine, under its own loads, must fit the
-//! covariance its validation predicts (`T / n` of mean 1).
+//! covariance its validation predicts (`T / n` of mean 1); and the
+//! commands compensated under loads must put the true machine on its
+//! targets within the covariance compensation predicts (`eᵀ C⁻¹ e` of
+//! mean 3).
 
 use std::sync::Arc;
 
-use nalgebra::DVector;
+use nalgebra::{DVector, Matrix3, Vector3};
 use parcal_calibrate::mechanism::{
     CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, Observations,
-    calibrate_mechanism, validate_mechanism,
+    calibrate_mechanism, compensate_mechanism, validate_mechanism,
 };
 use parcal_kinematics::cable::{CableRobot, Elasticity};
-use parcal_kinematics::mechanism::{Mechanism, design};
+use parcal_kinematics::mechanism::{Mechanism, design, forward_under_loads};
 use parcal_observe::mechanism::{MeasuredQuantity, PointSample};
 use parcal_simulate::{CableScenario, CableSimulation, Rng, measure_cable, simulate_cable};
 
@@ -31,6 +34,17 @@ use crate::mean::mean_and_standard_error;
 const LINE_LENGTH_STREAM: u64 = 1000;
 /// The seed offset of the held-out campaigns.
 const HELD_OUT: u64 = 10_000;
+/// The stream of the compensated targets' loads.
+const TARGET_LOAD_STREAM: u64 = 1001;
+/// The targets compensated under loads (mm, within the anchors' hull).
+const TARGETS: [[f64; 3]; 6] = [
+    [0.0, 0.0, 0.0],
+    [300.0, -200.0, 400.0],
+    [-250.0, 150.0, 800.0],
+    [100.0, 300.0, 1200.0],
+    [-100.0, -100.0, 200.0],
+    [200.0, 100.0, 1500.0],
+];
 
 /// The NEES of the calibration of the campaign of `seed`, with the line
 /// lengths at the encoder zero measured to `line_length_sigma` (mm) if
@@ -118,10 +132,10 @@ fn point_samples(simulation: &CableSimulation, scenario: &CableScenario) -> Vec<
 
 /// For the campaign of `seed` on `robot`, whose lines are elastic, every
 /// sample but the encoder zero under drawn loads ([`simulate_cable`]): the
-/// NEES of its calibration, and `T / n` of that calibration validated on a
+/// NEES of its calibration, `T / n` of that calibration validated on a
 /// held-out campaign of the same machine (other positions, loads and
-/// noise).
-fn elastic_draw(robot: &CableRobot, seed: u64) -> (f64, f64) {
+/// noise), and its compensation's `eᵀ C⁻¹ e` ([`compensation_error`]).
+fn elastic_draw(robot: &CableRobot, seed: u64) -> (f64, f64, f64) {
     let scenario = CableScenario::hangprinter();
     let simulation = simulate_cable(robot, &scenario, seed).unwrap();
     let observations = Observations {
@@ -142,7 +156,54 @@ fn elastic_draw(robot: &CableRobot, seed: u64) -> (f64, f64) {
     (
         nees_against(&calibration, &truth),
         validation.statistic / validation.rows.len() as f64,
+        compensation_error(robot, &applied, &truth, seed),
     )
+}
+
+/// The commands `applied` compensates for [`TARGETS`] under loads drawn
+/// from 5 to 35 N (the campaign of `seed`), run on the true machine
+/// (parameters `truth`) under those loads: the error `e` of the pose each
+/// reaches, `eᵀ C⁻¹ e` with `C` the covariance compensation predicts,
+/// averaged over the targets (they share the calibration's error). The
+/// calibrated machine itself reaches each target under its loads, to 1e-6
+/// mm; the commands under the loads of the encoder zero are those without
+/// loads.
+fn compensation_error(
+    robot: &CableRobot,
+    applied: &CalibratedMechanism,
+    truth: &DVector<f64>,
+    seed: u64,
+) -> f64 {
+    let mut rng = Rng::new(seed, TARGET_LOAD_STREAM);
+    let loads: Vec<Vec<f64>> = (TARGETS.iter())
+        .map(|_| (0..4).map(|_| rng.uniform(5.0, 35.0)).collect())
+        .collect();
+    let (_, zero_loads) = robot.line_compliances().unwrap();
+    let unloaded = compensate_mechanism(applied, &TARGETS, &[]);
+    let at_zero = compensate_mechanism(applied, &TARGETS, &vec![zero_loads.to_vec(); 6]);
+    for (a, b) in unloaded.iter().zip(&at_zero) {
+        let (a, b) = (&a.as_ref().unwrap().readings, &b.as_ref().unwrap().readings);
+        assert!((a - b).amax() <= 1e-9 * a.amax(), "{a} vs {b}");
+    }
+    let compensations = compensate_mechanism(applied, &TARGETS, &loads);
+    let mut sum = 0.0;
+    for ((target, loads), compensation) in TARGETS.iter().zip(&loads).zip(compensations) {
+        let compensation = compensation.unwrap();
+        let readings = compensation.readings.as_slice();
+        let calibrated = applied.params();
+        let own = forward_under_loads(robot, calibrated, readings, loads, target, 1e-9).unwrap();
+        let miss = (Vector3::new(own[0], own[1], own[2]) - Vector3::from(*target)).norm();
+        assert!(
+            miss <= 1e-6,
+            "{target:?} under {loads:?}: missed by {miss} mm"
+        );
+        let reached =
+            forward_under_loads(robot, truth.as_slice(), readings, loads, target, 1e-9).unwrap();
+        let error = Vector3::new(reached[0], reached[1], reached[2]) - Vector3::from(*target);
+        let covariance: Matrix3<f64> = compensation.covariance.fixed_view::<3, 3>(0, 0).into();
+        sum += error.dot(&(covariance.try_inverse().unwrap() * error));
+    }
+    sum / TARGETS.len() as f64
 }
 
 /// Mean NEES over `draws` seeds, its standard error, and the number of
@@ -205,7 +266,7 @@ fn measured_line_lengths_are_honoured_over_400_draws() {
 }
 
 #[test]
-fn elastic_lines_under_loads_are_recovered_and_predicted_within_the_reported_sigmas() {
+fn elastic_lines_under_loads_are_recovered_predicted_and_compensated_within_the_reported_sigmas() {
     let robot = CableRobot::typical()
         .with_elasticity(Elasticity::typical(
             vec![0; 4],
@@ -213,8 +274,11 @@ fn elastic_lines_under_loads_are_recovered_and_predicted_within_the_reported_sig
         ))
         .unwrap();
     let draws = 40;
-    let (nees, ratios): (Vec<f64>, Vec<f64>) =
-        (0..draws).map(|seed| elastic_draw(&robot, seed)).unzip();
+    let draws_made: Vec<(f64, f64, f64)> =
+        (0..draws).map(|seed| elastic_draw(&robot, seed)).collect();
+    let nees: Vec<f64> = draws_made.iter().map(|d| d.0).collect();
+    let ratios: Vec<f64> = draws_made.iter().map(|d| d.1).collect();
+    let compensated: Vec<f64> = draws_made.iter().map(|d| d.2).collect();
     let parameters = robot.parameters().len() as f64;
     let (mean, standard_error) = mean_and_standard_error(&nees);
     eprintln!(
@@ -230,5 +294,14 @@ fn elastic_lines_under_loads_are_recovered_and_predicted_within_the_reported_sig
     assert!(
         (mean - 1.0).abs() <= 4.0 * standard_error,
         "mean T/n {mean:.4} +- {standard_error:.4}"
+    );
+    // Compensated under loads: e ~ N(0, C) over 3 coordinates.
+    let (mean, standard_error) = mean_and_standard_error(&compensated);
+    eprintln!(
+        "elastic lines compensated under loads: mean eᵀC⁻¹e {mean:.3} +- {standard_error:.3} (expected 3)"
+    );
+    assert!(
+        (mean - 3.0).abs() <= 4.0 * standard_error,
+        "mean eᵀC⁻¹e {mean:.3} +- {standard_error:.3}"
     );
 }

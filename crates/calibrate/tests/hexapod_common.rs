@@ -919,9 +919,10 @@ fn a_hexapod_calibrated_through_the_interface_is_compensated_on_target_poses() {
                 .to_vec()
         })
         .collect();
-    for (target, compensation) in targets
-        .iter()
-        .zip(compensate_mechanism(&calibrated, &targets))
+    for (target, compensation) in
+        targets
+            .iter()
+            .zip(compensate_mechanism(&calibrated, &targets, &[]))
     {
         let compensation = compensation.unwrap();
         let error = |q: &nalgebra::DVector<f64>| {

@@ -213,9 +213,10 @@ fn compensated_commands_reach_the_targets_within_the_predicted_uncertainty() {
         let delta: LinearDelta = scenario.delta();
         let true_params = delta.canonicalize(&truth.parameters).unwrap();
         let mut sum = 0.0;
-        for (target, compensation) in targets
-            .iter()
-            .zip(compensate_mechanism(&calibrated, &targets))
+        for (target, compensation) in
+            targets
+                .iter()
+                .zip(compensate_mechanism(&calibrated, &targets, &[]))
         {
             let compensation = compensation.unwrap();
             let reached = |q: &DVector<f64>| {
@@ -243,7 +244,7 @@ fn compensated_commands_reach_the_targets_within_the_predicted_uncertainty() {
 #[test]
 fn an_unreachable_target_is_named() {
     let (_, calibrated, _) = calibrated(1);
-    let results = compensate_mechanism(&calibrated, &[[0.0, 0.0, 10.0], [400.0, 0.0, 10.0]]);
+    let results = compensate_mechanism(&calibrated, &[[0.0, 0.0, 10.0], [400.0, 0.0, 10.0]], &[]);
     assert!(results[0].is_ok());
     let error = results[1].as_ref().unwrap_err().to_string();
     assert!(

@@ -167,15 +167,20 @@ fn compensate<'a>(calibration: &'a Path, targets: &'a Path, out: &'a Path) -> [&
     ]
 }
 
+/// Sample 0's loads, those of the encoder zero (`points.csv`'s `f1..f4`).
+fn zero_loads(data: &Path) -> Vec<f64> {
+    let points = fs::read_to_string(data.join("points.csv")).unwrap();
+    let first = points.lines().nth(1).unwrap();
+    (first.split(',').skip(7))
+        .map(|f| f.parse().unwrap())
+        .collect()
+}
+
 /// The fixture's machine.json with its lines made elastic: one compliance,
 /// named in `configured` at its typical value, the encoders zeroed under
 /// sample 0's loads (`points.csv`'s `f1..f4`).
 fn elastic_machine(data: &std::path::Path) {
-    let points = fs::read_to_string(data.join("points.csv")).unwrap();
-    let first = points.lines().nth(1).unwrap();
-    let zero_loads: Vec<f64> = (first.split(',').skip(7))
-        .map(|f| f.parse().unwrap())
-        .collect();
+    let zero_loads = zero_loads(data);
     let path = data.join("machine.json");
     let mut machine: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
@@ -245,22 +250,53 @@ fn elastic_lines_from_machine_json_are_calibrated_validated_and_said_lost_by_exp
     );
     read_config(&out).unwrap();
 
-    // Targets with loads: refused by the column, not passed over; without
-    // them, the commands are written.
+    // Targets under loads: the commands under them, the loads written
+    // beside each target, so that the commands read back as targets give
+    // the same commands. A row without loads is under the encoder zero's,
+    // as a file without the columns; some of the columns are refused.
     let targets = dir.path().join("targets.csv");
-    fs::write(&targets, "x,y,z,f1,f2,f3,f4\n0,0,100,20,20,20,20\n").unwrap();
     let commands = dir.path().join("commands.csv");
-    let compensate = compensate(&calibration, &targets, &commands);
-    let said = fails(&compensate);
+    let numbers = |path: &Path| -> Vec<Vec<f64>> {
+        (fs::read_to_string(path).unwrap().lines().skip(1))
+            .map(|line| line.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    fs::write(&targets, "x,y,z\n0,0,100\n").unwrap();
+    ok(&compensate(&calibration, &targets, &commands));
+    let unloaded = numbers(&commands);
+    fs::write(
+        &targets,
+        "x,y,z,f1,f2,f3,f4\n0,0,100,,,,\n0,0,100,30,30,30,30\n",
+    )
+    .unwrap();
+    ok(&compensate(&calibration, &targets, &commands));
+    let text = fs::read_to_string(&commands).unwrap();
     assert!(
-        said.contains(
-            "column f1: the commands are those under the loads the lines held when they were zeroed"
-        ),
+        text.starts_with("x,y,z,f1,f2,f3,f4,q1,q2,q3,q4,nominal_q1,"),
+        "{text}"
+    );
+    let loaded = numbers(&commands);
+    let (zero, pulled) = (&loaded[0], &loaded[1]);
+    assert_eq!(zero[3..7], *zero_loads(&data));
+    for (k, (a, b)) in zero[7..].iter().zip(&unloaded[0][3..]).enumerate() {
+        assert!(
+            (a - b).abs() <= 1e-9 * b.abs().max(1.0),
+            "column {k}: {a} vs {b}"
+        );
+    }
+    assert!(
+        pulled[7..11].iter().zip(&zero[7..11]).all(|(a, b)| a != b),
+        "{text}"
+    );
+    let again = dir.path().join("again.csv");
+    ok(&compensate(&calibration, &commands, &again));
+    assert_eq!(fs::read_to_string(&again).unwrap(), text);
+    fs::write(&targets, "x,y,z,f1,f2\n0,0,100,20,20\n").unwrap();
+    let said = fails(&compensate(&calibration, &targets, &commands));
+    assert!(
+        said.contains("the header names some of the load columns f1,f2,f3,f4 but not all"),
         "{said}"
     );
-    assert!(!commands.exists());
-    fs::write(&targets, "x,y,z\n0,0,100\n").unwrap();
-    ok(&compensate);
 
     // A load column misspelt in points.csv is refused by its name, not
     // read as no loads.

@@ -149,15 +149,18 @@ fn judged<'py>(
 /// readings, in the actuators' unit), `nominal` (n x A, what the design
 /// the calibration started from commands) and `sigma` (n x P, the
 /// predicted standard deviation of each coordinate of the pose increment
-/// reached, from the calibration's covariance, mm and rad). A target the machine cannot reach
-/// raises `parcal.Error` naming its row (0-based); a rejected calibration
-/// is used only with `accept_rejected`.
+/// reached, from the calibration's covariance, mm and rad). `loads` (n x
+/// A, N), an elastic cable robot's line loads at each target, gives the
+/// commands under them (none: under the loads of the encoder zero). A
+/// target the machine cannot reach raises `parcal.Error` naming its row
+/// (0-based); a rejected calibration is used only with `accept_rejected`.
 #[pyfunction]
-#[pyo3(signature = (calibration, targets, *, accept_rejected=false))]
+#[pyo3(signature = (calibration, targets, *, loads=None, accept_rejected=false))]
 pub fn compensate_mechanism<'py>(
     py: Python<'py>,
     calibration: &Bound<'py, PyAny>,
     targets: &Bound<'py, PyAny>,
+    loads: Option<&Bound<'py, PyAny>>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (record, name) = calibration_record(calibration, accept_rejected)?;
@@ -165,10 +168,27 @@ pub fn compensate_mechanism<'py>(
     let pose = calibrated.mechanism.pose_coordinates().len();
     let targets = table_rows(targets, pose, "targets")?;
     TARGETS.check("targets", targets.len()).map_err(to_py)?;
-    let compensations = py
-        .detach(|| compensate_targets(&calibrated, &targets))
-        .map_err(|unreachable| to_py(unreachable.message(|k| format!("target row {k}"))))?;
     let actuators = calibrated.mechanism.actuators().len();
+    let loads = match loads {
+        None => Vec::new(),
+        Some(_) if calibrated.mechanism.line_compliances().is_none() => {
+            return Err(to_py(format!(
+                "loads: the {}'s readings do not depend on its actuators' loads (machine.json's elasticity makes a cable robot's lines elastic)",
+                calibrated.mechanism.name()
+            )));
+        }
+        Some(loads) => table_rows(loads, actuators, "loads")?,
+    };
+    if !loads.is_empty() && loads.len() != targets.len() {
+        return Err(to_py(format!(
+            "loads has {} rows and targets {}",
+            loads.len(),
+            targets.len()
+        )));
+    }
+    let compensations = py
+        .detach(|| compensate_targets(&calibrated, &targets, &loads))
+        .map_err(|unreachable| to_py(unreachable.message(|k| format!("target row {k}"))))?;
     let table = |of: &dyn Fn(&Compensation) -> &[f64]| {
         let flat: Vec<f64> = compensations.iter().flat_map(|c| of(c).to_vec()).collect();
         table(py, flat, actuators)

@@ -4,7 +4,11 @@
 //! vector): `q = g(p̂, x)` (the inverse kinematics at the calibrated
 //! parameters, after [`Mechanism::check_feasible`]), beside the nominal
 //! `q_0 = g(p_0, x)` of the design the calibration started from (what a
-//! controller configured from the design commands).
+//! controller configured from the design commands). A mechanism whose
+//! readings depend on its actuators' loads `F` (a cable robot's elastic
+//! lines) is commanded under the loads it holds at the target, `q =
+//! g_F(p̂, x)` ([`Mechanism::loaded_readings`]), when they are given; `g`
+//! is the readings under the loads held when the actuators were zeroed.
 //!
 //! Where the machine truly is at `q` differs from `x` by the calibration's
 //! error: to first order `δx = (dx/dp|_q) δp` (`δx` the pose increment
@@ -50,18 +54,25 @@ impl Compensation {
     }
 }
 
-/// Each target pose's commands with `calibrated`, or why the calibrated
-/// (or the nominal) machine cannot reach it, in the order of `targets`.
+/// Each target pose's commands with `calibrated`, under the loads
+/// `loads[k]` of target `k` (`loads` empty: those held when the actuators
+/// were zeroed), or why the calibrated (or the nominal) machine cannot
+/// reach it, in the order of `targets`.
 pub fn compensate_mechanism<T: AsRef<[f64]>>(
     calibrated: &CalibratedMechanism,
     targets: &[T],
+    loads: &[Vec<f64>],
 ) -> Vec<Result<Compensation, MechanismError>> {
     let mechanism = calibrated.mechanism.as_ref();
     let n = calibrated.n_params();
     let sigma_p = calibrated.covariance.view((0, 0), (n, n)).into_owned();
     targets
         .iter()
-        .map(|target| compensate_one(mechanism, calibrated, &sigma_p, target.as_ref()))
+        .enumerate()
+        .map(|(k, target)| {
+            let loads = loads.get(k).map(Vec::as_slice);
+            compensate_one(mechanism, calibrated, &sigma_p, target.as_ref(), loads)
+        })
         .collect()
 }
 
@@ -70,16 +81,22 @@ fn compensate_one(
     calibrated: &CalibratedMechanism,
     sigma_p: &DMatrix<f64>,
     target: &[f64],
+    loads: Option<&[f64]>,
 ) -> Result<Compensation, MechanismError> {
     let params = calibrated.params();
     mechanism.check_feasible(params, target)?;
-    let readings = mechanism.inverse(params, target)?;
-    let nominal = mechanism
-        .inverse(&calibrated.nominal, target)
-        .map_err(|error| MechanismError::Unreachable {
+    let readings_at = |params: &[f64]| match loads {
+        Some(loads) => mechanism.loaded_readings(params, target, loads),
+        None => Ok((
+            mechanism.inverse(params, target)?,
+            mechanism.reading_jacobians(params, target)?,
+        )),
+    };
+    let (readings, jacobians) = readings_at(params)?;
+    let (nominal, _) =
+        readings_at(&calibrated.nominal).map_err(|error| MechanismError::Unreachable {
             reason: format!("the nominal machine cannot reach it: {error}"),
         })?;
-    let jacobians = mechanism.reading_jacobians(params, target)?;
     let (j, _) = pose_derivative(&jacobians.d_pose, &jacobians.d_params)?;
     Ok(Compensation {
         target: DVector::from_column_slice(target),
@@ -132,13 +149,14 @@ impl UnreachableTargets {
     }
 }
 
-/// Every target's commands with `calibrated` ([`compensate_mechanism`]),
-/// or every target it cannot reach.
+/// Every target's commands with `calibrated` under `loads`
+/// ([`compensate_mechanism`]), or every target it cannot reach.
 pub fn compensate_targets<T: AsRef<[f64]>>(
     calibrated: &CalibratedMechanism,
     targets: &[T],
+    loads: &[Vec<f64>],
 ) -> Result<Vec<Compensation>, UnreachableTargets> {
-    let results = compensate_mechanism(calibrated, targets);
+    let results = compensate_mechanism(calibrated, targets, loads);
     let unreachable: Vec<(usize, MechanismError)> = results
         .iter()
         .enumerate()

@@ -36,6 +36,9 @@ pub struct Args {
     /// t_x,t_y,t_z in mm and rotation vector r_x,r_y,r_z in rad); the
     /// commands are written with the target and the nominal machine's
     /// beside them (header: the pose's, q1..qA, nominal_q1..nominal_qA).
+    /// An elastic cable robot's targets may give the lines' loads f1..fA
+    /// (N): the commands are then those under them, the loads written
+    /// after the pose.
     #[arg(long, conflicts_with_all = ["table", "corrected_poses", "nominal"])]
     targets: Option<PathBuf>,
     /// Instead of targets: a correction table over the grid

@@ -172,10 +172,10 @@ fn judged(validation: &MechanismValidation, calibration: String, out: &Path) -> 
 }
 
 /// The commands that reach the target poses of `targets` (a column per
-/// pose coordinate of the mechanism) with the calibration
-/// at `calibration`, written to `out` beside the nominal ones; nothing is
-/// written when a target cannot be reached, and every such target is
-/// named by its line.
+/// pose coordinate of the mechanism; an elastic cable robot's line loads
+/// `f1..fA` too, where given) with the calibration at `calibration`,
+/// written to `out` beside the nominal ones; nothing is written when a
+/// target cannot be reached, and every such target is named by its line.
 pub fn compensate(
     calibration: &Path,
     targets: &Path,
@@ -193,32 +193,37 @@ pub fn compensate(
         .iter()
         .map(|c| c.name)
         .collect();
-    // A mechanism's loads are points.csv's columns f1..fA.
+    // A mechanism's loads are points.csv's columns f1..fA; a row without
+    // them is under the loads of the actuators' zero.
     let actuators = calibrated.mechanism.actuators().len();
-    let loads = match calibrated.mechanism.line_compliances() {
-        Some(_) => &LOAD_COLUMNS[..actuators],
-        None => &[],
+    let (load_columns, zero_loads) = match calibrated.mechanism.line_compliances() {
+        Some((_, zero_loads)) => (&LOAD_COLUMNS[..actuators], zero_loads),
+        None => (&[][..], &[][..]),
     };
-    let poses = read_targets(targets, &pose, loads)?;
-    let compensations = compensate_targets(&calibrated, &poses).map_err(|unreachable| {
-        anyhow::anyhow!(
-            "{}: {} (nothing written)",
-            targets.display(),
-            unreachable.message(|k| format!("line {}", k + 2))
-        )
-    })?;
-    let rows: Vec<Vec<f64>> = compensations
-        .iter()
-        .map(|c| {
-            c.target
-                .iter()
+    let read = read_targets(targets, &pose, load_columns)?;
+    let loads: Vec<Vec<f64>> = (read.loads.into_iter())
+        .map(|loads| loads.unwrap_or_else(|| zero_loads.to_vec()))
+        .collect();
+    let load_columns = if loads.is_empty() { &[] } else { load_columns };
+    let compensations =
+        compensate_targets(&calibrated, &read.poses, &loads).map_err(|unreachable| {
+            anyhow::anyhow!(
+                "{}: {} (nothing written)",
+                targets.display(),
+                unreachable.message(|k| format!("line {}", k + 2))
+            )
+        })?;
+    let rows: Vec<Vec<f64>> = (compensations.iter().enumerate())
+        .map(|(k, c)| {
+            let loads = loads.get(k).into_iter().flatten();
+            (c.target.iter().chain(loads))
                 .chain(c.readings.iter())
                 .chain(c.nominal.iter())
                 .copied()
                 .collect()
         })
         .collect();
-    let header = command_header(&pose, calibrated.mechanism.actuators().len());
+    let header = command_header(&pose, load_columns, actuators);
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
     write_numbers(out, &header, &rows)?;
     // The position's: the first three pose coordinates (a hexapod's

@@ -80,7 +80,7 @@ pub use observations::{
     READING_COLUMNS, SampleRow,
 };
 pub use quantities::{QUANTITY_COLUMNS, QuantityRow};
-pub use targets::{TARGETS, command_header, read_targets};
+pub use targets::{TARGETS, Targets, command_header, read_targets};
 pub use tracker_points::{TRACKER_POINT_COLUMNS, TRACKERS, TrackerPointRow, tracker_labels};
 pub use truth::MechanismTruth;
 pub use validation::{KindRecord, MechanismValidationRecord, RowRecord, ShiftRecord};

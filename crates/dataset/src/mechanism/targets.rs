@@ -10,6 +10,8 @@ use crate::error::{DatasetError, Result};
 use crate::numbers::{OtherColumns, read_numbers_within};
 use crate::table::{self, Header};
 
+use super::observations::{optional_group, whole_or_empty};
+
 /// The bounds of a targets file's rows: each costs an inverse kinematics
 /// and its derivatives, and a row of the commands held in memory.
 pub const TARGETS: Count = Count::new(
@@ -18,30 +20,52 @@ pub const TARGETS: Count = Count::new(
     "each costs an inverse kinematics and a row of commands held in memory",
 );
 
+/// The targets of a targets file: each pose, and the loads the actuators
+/// hold there where given.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Targets {
+    /// Each target's pose coordinates.
+    pub poses: Vec<Vec<f64>>,
+    /// Each target's loads, one per actuator (`None`: those held when the
+    /// actuators were zeroed); empty when the file has no load columns.
+    pub loads: Vec<Option<Vec<f64>>>,
+}
+
 /// Reads the targets file `path`, its header the pose coordinates
 /// `columns` (3 or 6 of them; others are passed over, as in the commands
 /// `compensate` writes), at most [`TARGETS`] rows; errors name the file,
-/// the line and the column. A column of `loads` (points.csv's `f1..fA` of
-/// a mechanism whose readings depend on its actuators' loads) is refused:
-/// the commands are those under the loads held when the actuators were
-/// zeroed, and a load given would be passed over.
+/// the line and the column. The columns `loads` (points.csv's `f1..fA` of
+/// a mechanism whose readings depend on its actuators' loads; none for
+/// another) are read when the header names them: all or none, each row's
+/// whole or empty (empty: the loads held when the actuators were zeroed),
+/// as points.csv's.
 pub fn read_targets(
     path: &Path,
     columns: &[&'static str],
     loads: &[&'static str],
-) -> Result<Vec<Vec<f64>>> {
-    let named = table::read_file(path, |reader| {
-        let header = Header::read(reader, &columns.join(","))?;
-        for load in loads {
-            if header.find(load)?.is_some() {
-                return Err(header.error(format!(
-                    "column {load}: the commands are those under the loads the lines held when they were zeroed (machine.json's zero_loads); commands under other loads are not computed"
-                )));
-            }
-        }
-        Ok(())
-    });
-    named?;
+) -> Result<Targets> {
+    let poses = read_poses(path, columns)?;
+    let loads = match loads {
+        [] => Vec::new(),
+        loads => table::read_file(path, |reader| {
+            let header = Header::read(reader, &columns.join(","))?;
+            let Some(at) = optional_group(&header, "load", loads)? else {
+                return Ok(Vec::new());
+            };
+            let mut rows = Vec::with_capacity(poses.len());
+            table::for_each_row(reader, &header, "target", |row| {
+                rows.push(whole_or_empty(row, &at, loads, "loads")?);
+                Ok(())
+            })?;
+            Ok(rows)
+        })?,
+    };
+    Ok(Targets { poses, loads })
+}
+
+/// The pose coordinates `columns` of each row of the targets file `path`
+/// ([`read_targets`]).
+fn read_poses(path: &Path, columns: &[&'static str]) -> Result<Vec<Vec<f64>>> {
     let limit = (Some(&TARGETS), OtherColumns::Allowed);
     Ok(match *columns {
         [x, y, z] => rows(read_numbers_within(path, &[x, y, z], "target", limit)?),
@@ -70,10 +94,12 @@ fn rows<const N: usize>(rows: Vec<[f64; N]>) -> Vec<Vec<f64>> {
 }
 
 /// The header of the commands of a mechanism of pose coordinates `pose`
-/// and `actuators` actuators: the target, the calibrated readings
-/// `q1..qA`, then the nominal ones `nominal_q1..nominal_qA`.
-pub fn command_header(pose: &[&str], actuators: usize) -> Vec<String> {
+/// and `actuators` actuators: the target, then its `loads` columns if
+/// any, the calibrated readings `q1..qA`, then the nominal ones
+/// `nominal_q1..nominal_qA` (read back as targets, the same targets).
+pub fn command_header(pose: &[&str], loads: &[&str], actuators: usize) -> Vec<String> {
     pose.iter()
+        .chain(loads)
         .map(|c| c.to_string())
         .chain((1..=actuators).map(|k| format!("q{k}")))
         .chain((1..=actuators).map(|k| format!("nominal_q{k}")))
