@@ -544,6 +544,28 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
         .count()
         - 1;
     assert_eq!(rows.len(), probes + 3);
+    // A printer's ball touches: each ball held out with its touches, its
+    // centre fitted to them, its rows named by balls.csv's line.
+    let touched = dir.path().join("touched");
+    ok(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--seed",
+        "4",
+        "--balls",
+        "6",
+        "--out",
+        s(&touched),
+    ]);
+    let said = ok(&["validate", s(&touched), "--folds", "3"]);
+    assert!(said.contains("predicted 24 ball rows"), "{said}");
+    let record = read(touched.join("validation.json"));
+    let lines: std::collections::BTreeSet<u64> = (record["rows"].as_array().unwrap().iter())
+        .filter(|row| row["file"] == "balls.csv")
+        .map(|row| row["line"].as_u64().unwrap())
+        .collect();
+    assert_eq!(lines, (2..8).collect(), "{record}");
     let err = fails(&[
         "simulate",
         "--mechanism",

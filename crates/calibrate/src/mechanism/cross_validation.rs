@@ -6,11 +6,15 @@
 //! freedom summed, the folds' global tests as one pass over the data, a
 //! w-test per row over all the rows.
 //!
-//! Observations that need others of their fold to be predicted (a ball's
-//! touches, the distances between balls, a tracker's points and poses,
-//! which share the ball's centre or the tracker's frame) are not folded:
-//! their data are refused here, and held-out campaigns judge them
-//! ([`validate_mechanism`] with reference observations).
+//! A ball's touches share its unknown centre, and balls tied by ball
+//! distances share the distances: each set of balls (a ball alone, or the
+//! balls distances tie together), numbered in the order of its first ball,
+//! is in fold `s mod K` with its touches and distances, and a held-out
+//! set's centres are fitted to its own touches as a held-out campaign's
+//! are ([`validate_mechanism`] without reference touches). A tracker's
+//! points and poses share its frame and are not folded: data with
+//! trackers are refused here, and held-out campaigns judge them (with
+//! reference observations).
 
 use crate::cross_validation::pooled_global_test;
 use crate::hypothesis::critical_value;
@@ -26,10 +30,11 @@ use super::validation::{MechanismValidation, validate_mechanism};
 
 /// Cross-validates the calibration of `data` under `options` with `folds`
 /// folds (module doc); `fold_done` is told of each fold as it ends. Each
-/// row is named by its observation's index in `data`. Errors: fewer than
-/// two folds, more folds than any kind has observations (a fold would hold
-/// none), data with balls or trackers, a fold whose calibration does not
-/// converge or cannot predict its observations.
+/// row is named by its observation's (or ball's) index in `data`. Errors:
+/// fewer than two folds, more folds than any kind has observations or
+/// there are sets of balls (a fold would hold none), data with trackers,
+/// a fold whose calibration does not converge or cannot predict its
+/// observations.
 pub fn cross_validate_mechanism(
     data: &MechanismData,
     options: &MechanismOptions,
@@ -41,24 +46,29 @@ pub fn cross_validate_mechanism(
         reason,
     };
     let o = &data.observations;
-    if !(o.touches.is_empty() && o.ball_distances.is_empty() && o.trackers.is_empty()) {
+    if !o.trackers.is_empty() {
         return Err(refuse(
-            "balls' touches and trackers' points and poses are predicted together (a ball's centre, a tracker's frame): judge them with held-out data and reference observations".to_string(),
+            "a tracker's points and poses are predicted together (its frame): judge them with held-out data and reference observations".to_string(),
         ));
     }
-    let most = ObservationKind::ALL
-        .iter()
+    let (ball_set, sets) = ball_sets(o);
+    let most = (ObservationKind::ALL.iter())
+        .filter(|&&kind| !matches!(kind, ObservationKind::Touch | ObservationKind::BallDistance))
         .map(|&kind| o.count(kind))
+        .chain([sets])
         .max()
         .unwrap_or(0);
     if folds < 2 || folds > most {
         return Err(refuse(format!(
-            "{folds} folds of data whose most numerous kind has {most} observations: give from 2 to {most}"
+            "{folds} folds of data whose most numerous kind has {most} observations (a set of balls counted as one): give from 2 to {most}"
         )));
     }
     let mut pooled = Vec::with_capacity(folds);
     for r in 0..folds {
-        let fit = data.with_observations(fold(o, |j| j % folds != r));
+        let in_fold = |j: usize| j % folds == r;
+        let ball_in_fold = |b: usize| in_fold(ball_set[b]);
+        let fit =
+            data.with_observations(fold(o, |j| !in_fold(j), |b| !ball_in_fold(b)).observations);
         let calibration = calibrate_mechanism(&fit, options, &mut |_| {})?;
         if !calibration.converged() {
             return Err(refuse(format!(
@@ -67,13 +77,11 @@ pub fn cross_validate_mechanism(
             )));
         }
         let calibrated = CalibratedMechanism::of_calibration(&calibration)?;
-        let held_out = data.with_observations(fold(o, |j| j % folds == r));
+        let held = fold(o, in_fold, ball_in_fold);
+        let held_out = data.with_observations(held.observations.clone());
         let mut validation = validate_mechanism(&calibrated, &held_out, options.alpha, None)?;
-        // Each row named by its observation's index in `data`.
         for row in &mut validation.rows {
-            if let HeldOut::Observation(observation) = &mut row.observation {
-                observation.index = observation.index * folds + r;
-            }
+            held.name_in_data(&mut row.observation);
         }
         pooled.push((validation, calibrated.global_test));
         fold_done(r);
@@ -100,22 +108,144 @@ pub fn cross_validate_mechanism(
     })
 }
 
-/// The observations of `o` whose index within their kind `keep` takes,
-/// of the kinds that are folded (module doc).
-fn fold(o: &Observations, keep: impl Fn(usize) -> bool) -> Observations {
-    fn kept<T: Clone>(all: &[T], keep: &impl Fn(usize) -> bool) -> Vec<T> {
-        (all.iter().enumerate())
-            .filter(|(j, _)| keep(*j))
-            .map(|(_, item)| item.clone())
-            .collect()
+/// Each ball's set (module doc) and the number of sets: balls tied by
+/// ball distances are one set, numbered in the order of their first ball.
+fn ball_sets(o: &Observations) -> (Vec<usize>, usize) {
+    // Union-find over the distances, each set's root its first ball.
+    let mut root: Vec<usize> = (0..o.balls.len()).collect();
+    fn find(root: &mut [usize], mut b: usize) -> usize {
+        while root[b] != b {
+            root[b] = root[root[b]];
+            b = root[b];
+        }
+        b
     }
-    Observations {
-        probes: kept(&o.probes, &keep),
-        manual_heights: kept(&o.manual_heights, &keep),
-        distances: kept(&o.distances, &keep),
-        points: kept(&o.points, &keep),
-        samples: kept(&o.samples, &keep),
-        quantities: kept(&o.quantities, &keep),
-        ..o.clone()
+    for d in &o.ball_distances {
+        let (a, b) = (find(&mut root, d.first), find(&mut root, d.second));
+        let (low, high) = (a.min(b), a.max(b));
+        root[high] = low;
+    }
+    let mut set = vec![0; o.balls.len()];
+    let mut sets = 0;
+    for b in 0..o.balls.len() {
+        let first = find(&mut root, b);
+        set[b] = if first == b {
+            sets += 1;
+            sets - 1
+        } else {
+            set[first]
+        };
+    }
+    (set, sets)
+}
+
+/// A fold's observations, and where each of them is in the data.
+struct Fold {
+    /// The observations.
+    observations: Observations,
+    /// For each kind ([`ObservationKind::index`]), the index in the data
+    /// of each of the fold's observations of that kind.
+    index: Vec<Vec<usize>>,
+    /// The index in the data of each of the fold's balls.
+    balls: Vec<usize>,
+}
+
+impl Fold {
+    /// `held_out`, named by its place in the fold, renamed by its place
+    /// in the data.
+    fn name_in_data(&self, held_out: &mut HeldOut) {
+        let of = |kind: ObservationKind| &self.index[kind.index()];
+        let map = |indices: &mut Vec<usize>, to: &[usize]| {
+            for k in indices.iter_mut() {
+                *k = to[*k];
+            }
+        };
+        match held_out {
+            HeldOut::Observation(observation) => {
+                observation.index = of(observation.kind)[observation.index];
+            }
+            HeldOut::Ball { ball, touches } => {
+                *ball = self.balls[*ball];
+                map(touches, of(ObservationKind::Touch));
+            }
+            HeldOut::TiedBalls {
+                balls,
+                touches,
+                distances,
+            } => {
+                map(balls, &self.balls);
+                map(touches, of(ObservationKind::Touch));
+                map(distances, of(ObservationKind::BallDistance));
+            }
+            HeldOut::Tracker { .. } => {
+                unreachable!("data with trackers are not folded")
+            }
+        }
+    }
+}
+
+/// The observations of `o` whose index within their kind `keep` takes,
+/// and the balls `keep_ball` takes with their touches and the distances
+/// between them (a set of balls is kept or left whole, module doc).
+fn fold(o: &Observations, keep: impl Fn(usize) -> bool, keep_ball: impl Fn(usize) -> bool) -> Fold {
+    let mut index = vec![Vec::new(); ObservationKind::ALL.len()];
+    let mut kept = |kind: ObservationKind, count: usize, keep: &dyn Fn(usize) -> bool| {
+        let kept: Vec<usize> = (0..count).filter(|&j| keep(j)).collect();
+        index[kind.index()] = kept.clone();
+        kept
+    };
+    fn taken<T: Clone>(all: &[T], kept: &[usize]) -> Vec<T> {
+        kept.iter().map(|&j| all[j].clone()).collect()
+    }
+    let probes = kept(ObservationKind::Probe, o.probes.len(), &keep);
+    let manual_heights = kept(ObservationKind::ManualHeight, o.manual_heights.len(), &keep);
+    let distances = kept(ObservationKind::Distance, o.distances.len(), &keep);
+    let points = kept(ObservationKind::Point, o.points.len(), &keep);
+    let samples = kept(ObservationKind::Sample, o.samples.len(), &keep);
+    let quantities = kept(ObservationKind::Quantity, o.quantities.len(), &keep);
+    let balls: Vec<usize> = (0..o.balls.len()).filter(|&b| keep_ball(b)).collect();
+    let mut new_ball = vec![usize::MAX; o.balls.len()];
+    for (k, &b) in balls.iter().enumerate() {
+        new_ball[b] = k;
+    }
+    let touches = kept(ObservationKind::Touch, o.touches.len(), &|j| {
+        keep_ball(o.touches[j].ball)
+    });
+    let ball_distances = kept(
+        ObservationKind::BallDistance,
+        o.ball_distances.len(),
+        &|j| keep_ball(o.ball_distances[j].first),
+    );
+    let observations = Observations {
+        probes: taken(&o.probes, &probes),
+        manual_heights: taken(&o.manual_heights, &manual_heights),
+        distances: taken(&o.distances, &distances),
+        points: taken(&o.points, &points),
+        samples: taken(&o.samples, &samples),
+        quantities: taken(&o.quantities, &quantities),
+        balls: taken(&o.balls, &balls),
+        touches: (touches.iter())
+            .map(|&j| {
+                let mut touch = o.touches[j].clone();
+                touch.ball = new_ball[touch.ball];
+                touch
+            })
+            .collect(),
+        ball_distances: (ball_distances.iter())
+            .map(|&j| {
+                let mut distance = o.ball_distances[j];
+                distance.first = new_ball[distance.first];
+                distance.second = new_ball[distance.second];
+                distance
+            })
+            .collect(),
+        // Data with trackers are not folded.
+        body_reference: o.body_reference,
+        ..Observations::default()
+    };
+    Fold {
+        observations,
+        index,
+        balls,
     }
 }

@@ -113,7 +113,7 @@ pub fn cross_validate(
 ) -> anyhow::Result<()> {
     anyhow::ensure!(
         reference.is_none(),
-        "--reference: a cross-validation's folds hold no balls or trackers to locate"
+        "--reference: a cross-validation fits each held-out ball's centre to all its touches (trackers are not folded)"
     );
     crate::outputs::check(&dataset_inputs(dataset), &[out.to_path_buf()])?;
     let read = MechanismDataset::read(dataset)?;
