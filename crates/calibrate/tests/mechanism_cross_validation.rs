@@ -69,23 +69,29 @@ fn a_fold_is_the_validation_of_its_observations_by_the_others_calibration() {
     assert_eq!(cross.rows.len(), o.probes.len() + o.distances.len());
 }
 
-/// Over 40 simulated printers, 4 folds each: the pooled `T / n` has mean
-/// 1 within 4 standard errors (`T` is `χ²(n)` to first order when the
-/// stated noise is the noise).
-#[test]
-fn the_pooled_statistic_has_its_degrees_of_freedom_as_mean() {
+/// Over the 40 printers `printer(0..40)`, `folds` folds each: the pooled
+/// `T / n` has mean 1 within 4 standard errors (`T` is `χ²(n)` to first
+/// order when the stated noise is the noise); `what` names them in the
+/// printed figure.
+fn pooled_ratio_has_mean_one(what: &str, printer: impl Fn(u64) -> MechanismData, folds: usize) {
     let ratios: Vec<f64> = (0..40)
         .map(|seed| {
-            let data = printer(100 + seed);
+            let data = printer(seed);
             let cross =
-                cross_validate_mechanism(&data, &MechanismOptions::default(), 4, &mut |_| {})
+                cross_validate_mechanism(&data, &MechanismOptions::default(), folds, &mut |_| {})
                     .unwrap();
             cross.statistic / cross.rows.len() as f64
         })
         .collect();
     let (mean, se) = mean_and_standard_error(&ratios);
-    println!("pooled T/n over 40 printers: {mean:.3} ± {se:.3}");
+    println!("pooled T/n over 40 printers{what}: {mean:.3} ± {se:.3}");
     assert!((mean - 1.0).abs() < 4.0 * se, "{mean} ± {se}");
+}
+
+/// Over 40 simulated printers, 4 folds each.
+#[test]
+fn the_pooled_statistic_has_its_degrees_of_freedom_as_mean() {
+    pooled_ratio_has_mean_one("", |seed| printer(100 + seed), 4);
 }
 
 /// A simulated printer's data with `balls` balls touched 7 times each
@@ -185,21 +191,10 @@ fn a_ball_is_held_out_with_its_touches_and_tied_balls_together() {
 }
 
 /// Over 40 simulated printers with 6 balls besides their probe heights, 3
-/// folds each: the pooled `T / n` has mean 1 within 4 standard errors.
+/// folds each.
 #[test]
 fn the_pooled_statistic_with_balls_has_its_degrees_of_freedom_as_mean() {
-    let ratios: Vec<f64> = (0..40)
-        .map(|seed| {
-            let data = touched(200 + seed, 6, false);
-            let cross =
-                cross_validate_mechanism(&data, &MechanismOptions::default(), 3, &mut |_| {})
-                    .unwrap();
-            cross.statistic / cross.rows.len() as f64
-        })
-        .collect();
-    let (mean, se) = mean_and_standard_error(&ratios);
-    println!("pooled T/n with balls over 40 printers: {mean:.3} ± {se:.3}");
-    assert!((mean - 1.0).abs() < 4.0 * se, "{mean} ± {se}");
+    pooled_ratio_has_mean_one(" with balls", |seed| touched(200 + seed, 6, false), 3);
 }
 
 #[test]

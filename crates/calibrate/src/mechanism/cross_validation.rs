@@ -51,7 +51,7 @@ pub fn cross_validate_mechanism(
             "a tracker's points and poses are predicted together (its frame): judge them with held-out data and reference observations".to_string(),
         ));
     }
-    let (ball_set, sets) = ball_sets(o);
+    let (ball_set, sets) = o.ball_sets();
     let most = (ObservationKind::ALL.iter())
         .filter(|&&kind| !matches!(kind, ObservationKind::Touch | ObservationKind::BallDistance))
         .map(|&kind| o.count(kind))
@@ -106,37 +106,6 @@ pub fn cross_validate_mechanism(
         shifts: Vec::new(),
         mirrored_balls: Vec::new(),
     })
-}
-
-/// Each ball's set (module doc) and the number of sets: balls tied by
-/// ball distances are one set, numbered in the order of their first ball.
-fn ball_sets(o: &Observations) -> (Vec<usize>, usize) {
-    // Union-find over the distances, each set's root its first ball.
-    let mut root: Vec<usize> = (0..o.balls.len()).collect();
-    fn find(root: &mut [usize], mut b: usize) -> usize {
-        while root[b] != b {
-            root[b] = root[root[b]];
-            b = root[b];
-        }
-        b
-    }
-    for d in &o.ball_distances {
-        let (a, b) = (find(&mut root, d.first), find(&mut root, d.second));
-        let (low, high) = (a.min(b), a.max(b));
-        root[high] = low;
-    }
-    let mut set = vec![0; o.balls.len()];
-    let mut sets = 0;
-    for b in 0..o.balls.len() {
-        let first = find(&mut root, b);
-        set[b] = if first == b {
-            sets += 1;
-            sets - 1
-        } else {
-            set[first]
-        };
-    }
-    (set, sets)
 }
 
 /// A fold's observations, and where each of them is in the data.

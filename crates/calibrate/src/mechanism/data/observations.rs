@@ -89,6 +89,39 @@ impl Observations {
         TiedBalls::new(&self.ball_distances, &radius_unknown, first)
     }
 
+    /// Each ball's set and the number of sets: the balls the ball
+    /// distances tie together (connected through them) are one set, a ball
+    /// tied to none a set of its own, the sets numbered in the order of
+    /// their first ball.
+    pub(crate) fn ball_sets(&self) -> (Vec<usize>, usize) {
+        // Union of each distance's two balls, each set's first ball its
+        // representative.
+        let mut first: Vec<usize> = (0..self.balls.len()).collect();
+        fn root(first: &mut [usize], mut b: usize) -> usize {
+            while first[b] != b {
+                first[b] = first[first[b]];
+                b = first[b];
+            }
+            b
+        }
+        for d in &self.ball_distances {
+            let (a, b) = (root(&mut first, d.first), root(&mut first, d.second));
+            first[a.max(b)] = a.min(b);
+        }
+        let mut set = vec![0; self.balls.len()];
+        let mut sets = 0;
+        for b in 0..self.balls.len() {
+            let r = root(&mut first, b);
+            set[b] = if r == b {
+                sets += 1;
+                sets - 1
+            } else {
+                set[r]
+            };
+        }
+        (set, sets)
+    }
+
     /// Each ball's number of touches, and whether the touches come ball by
     /// ball (their balls' indices never decrease); every touch on a ball
     /// that exists. The touches are read a chunk at a time on the threads,

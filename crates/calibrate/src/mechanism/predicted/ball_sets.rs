@@ -52,39 +52,21 @@ pub(super) fn tied_sets(
     observations: &Observations,
     touches: Vec<Vec<usize>>,
 ) -> Result<Vec<BallSet>, MechanismCalibrationError> {
-    // Each ball's set: the smallest ball it is tied to, by union of the
-    // distances' two balls (the set's first ball its representative).
-    let mut first: Vec<usize> = (0..touches.len()).collect();
-    fn root(first: &mut [usize], mut b: usize) -> usize {
-        while first[b] != b {
-            first[b] = first[first[b]];
-            b = first[b];
-        }
-        b
-    }
-    for d in &observations.ball_distances {
-        let (a, b) = (root(&mut first, d.first), root(&mut first, d.second));
-        let (low, high) = (a.min(b), a.max(b));
-        first[high] = low;
-    }
-    let mut sets: Vec<BallSet> = Vec::new();
-    let mut set_of = vec![usize::MAX; touches.len()];
+    let (set_of, count) = observations.ball_sets();
+    let mut sets: Vec<BallSet> = (0..count)
+        .map(|_| BallSet {
+            balls: Vec::new(),
+            touches: Vec::new(),
+            distances: Vec::new(),
+        })
+        .collect();
     for (b, own) in touches.into_iter().enumerate() {
-        let r = root(&mut first, b);
-        if r == b {
-            set_of[b] = sets.len();
-            sets.push(BallSet {
-                balls: Vec::new(),
-                touches: Vec::new(),
-                distances: Vec::new(),
-            });
-        }
-        let set = &mut sets[set_of[r]];
+        let set = &mut sets[set_of[b]];
         set.balls.push(b);
         set.touches.push(own);
     }
     for (k, d) in observations.ball_distances.iter().enumerate() {
-        sets[set_of[root(&mut first, d.first)]].distances.push(k);
+        sets[set_of[d.first]].distances.push(k);
     }
     sets.retain(|set| !set.distances.is_empty() || !set.touches[0].is_empty());
     for set in &sets {
