@@ -3,8 +3,9 @@
 //! rows are those its own validation gives, named by their index in the
 //! whole data; on printers simulated by `parcal_simulate::delta` the
 //! pooled statistic has its degrees of freedom as mean, with ball touches
-//! (each ball, or the balls a plate ties, held out whole) as with probe
-//! heights; trackers and too many folds are refused.
+//! (each ball, or the balls a plate ties, held out whole) and tracker
+//! points (each tracker in every fold) as with probe heights; too many
+//! folds are refused.
 
 use parcal_calibrate::mechanism::{
     CalibratedMechanism, HeldOut, MechanismData, MechanismOptions, Observations,
@@ -197,8 +198,56 @@ fn the_pooled_statistic_with_balls_has_its_degrees_of_freedom_as_mean() {
     pooled_ratio_has_mean_one(" with balls", |seed| touched(200 + seed, 6, false), 3);
 }
 
+/// A simulated printer's data with `trackers` trackers of `points` points
+/// each besides its probe heights.
+fn tracked(seed: u64, trackers: usize, points: usize) -> MechanismData {
+    let scenario = DeltaScenario {
+        trackers,
+        points_per_tracker: points,
+        ..DeltaScenario::typical()
+    };
+    MechanismData::from_dataset(&simulate_delta(&scenario, seed).unwrap()).unwrap()
+}
+
+/// A tracker's `k`-th point is in fold `k mod K`: each tracker's rows in
+/// each fold name its points there by their indices in the whole data,
+/// every point once.
 #[test]
-fn trackers_and_folds_that_would_hold_nothing_are_refused() {
+fn a_tracker_is_in_every_fold_with_its_points_interleaved() {
+    let data = tracked(3, 2, 12);
+    let cross =
+        cross_validate_mechanism(&data, &MechanismOptions::default(), 3, &mut |_| {}).unwrap();
+    let mut seen: Vec<(usize, Vec<usize>)> = Vec::new();
+    for row in &cross.rows {
+        if let HeldOut::Tracker {
+            tracker, points, ..
+        } = &row.observation
+            && seen.last() != Some(&(*tracker, points.clone()))
+        {
+            seen.push((*tracker, points.clone()));
+        }
+    }
+    let o = &data.observations;
+    let of = |t: usize| -> Vec<usize> {
+        (0..o.tracker_points.len())
+            .filter(|&j| o.tracker_points[j].tracker == t)
+            .collect()
+    };
+    let expected: Vec<(usize, Vec<usize>)> = (0..3)
+        .flat_map(|r| (0..2).map(move |t| (t, of(t).into_iter().skip(r).step_by(3).collect())))
+        .collect();
+    assert_eq!(seen, expected);
+}
+
+/// Over 40 simulated printers with 2 trackers of 12 points besides their
+/// probe heights, 3 folds each.
+#[test]
+fn the_pooled_statistic_with_trackers_has_its_degrees_of_freedom_as_mean() {
+    pooled_ratio_has_mean_one(" with trackers", |seed| tracked(300 + seed, 2, 12), 3);
+}
+
+#[test]
+fn folds_that_would_hold_too_little_are_refused() {
     let data = printer(1);
     let options = MechanismOptions::default();
     let refused = |folds: usize, data: &MechanismData| {
@@ -217,14 +266,10 @@ fn trackers_and_folds_that_would_hold_nothing_are_refused() {
         error.contains(&format!("whose most numerous kind has {n} observations")),
         "{error}"
     );
-    let scenario = DeltaScenario {
-        trackers: 2,
-        ..DeltaScenario::typical()
-    };
-    let tracked = MechanismData::from_dataset(&simulate_delta(&scenario, 1).unwrap()).unwrap();
-    let error = refused(3, &tracked);
+    // 3 folds of a tracker's 8 points would leave 2 in a fold.
+    let error = refused(3, &tracked(1, 2, 8));
     assert!(
-        error.contains("a tracker's points and poses are predicted together"),
+        error.contains("has 8 points and poses: 3 folds need 9 (3 a fold, to locate its frame)"),
         "{error}"
     );
 }

@@ -566,6 +566,22 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
         .map(|row| row["line"].as_u64().unwrap())
         .collect();
     assert_eq!(lines, (2..8).collect(), "{record}");
+    // Two trackers of 12 points, each in every fold: 4 points (12 rows) a
+    // fold, its frame fitted to them (6 rows less).
+    let tracked = dir.path().join("tracked");
+    ok(&[
+        "simulate",
+        "--mechanism",
+        "delta",
+        "--seed",
+        "4",
+        "--trackers",
+        "2",
+        "--out",
+        s(&tracked),
+    ]);
+    let said = ok(&["validate", s(&tracked), "--folds", "3"]);
+    assert!(said.contains("predicted 36 tracker rows"), "{said}");
     let err = fails(&[
         "simulate",
         "--mechanism",

@@ -440,7 +440,7 @@ fn validate_folds_judges_each_fold_by_the_others_calibration() {
     assert_eq!(distinct, every, "{lines:?}");
     let error = fails(&["validate", s(&data), "--folds", "4", "--reference", "3"]);
     assert!(
-        error.contains("a cross-validation fits each held-out ball's centre to all its touches"),
+        error.contains("a cross-validation fits each held-out ball's centre and tracker's frame"),
         "{error}"
     );
 }

@@ -42,7 +42,8 @@ fn calibrated(record: &MechanismCalibrationRecord, name: &str) -> PyResult<Calib
 /// With `folds` instead of `calibration`: the K-fold cross-validation of
 /// the dataset's own calibration under the default options (observation
 /// `j` of each kind in fold `j mod K`, a ball with its touches, or the
-/// balls a plate ties, as one), as `parcal validate --folds`.
+/// balls a plate ties, as one, a tracker's `k`-th point and pose in fold
+/// `k mod K`), as `parcal validate --folds`.
 #[pyfunction]
 #[pyo3(signature = (dataset, *, calibration=None, reference=None, folds=None, accept_rejected=false))]
 pub fn validate_mechanism<'py>(
@@ -61,7 +62,7 @@ pub fn validate_mechanism<'py>(
             FOLDS.check("folds", folds).map_err(to_py)?;
             if reference.is_some() {
                 return Err(to_py(
-                    "reference: a cross-validation fits each held-out ball's centre to all its touches (trackers are not folded)",
+                    "reference: a cross-validation fits each held-out ball's centre and tracker's frame to all its fold's touches, points and poses",
                 ));
             }
             let data = &dataset.data;

@@ -12,9 +12,11 @@
 //! is in fold `s mod K` with its touches and distances, and a held-out
 //! set's centres are fitted to its own touches as a held-out campaign's
 //! are ([`validate_mechanism`] without reference touches). A tracker's
-//! points and poses share its frame and are not folded: data with
-//! trackers are refused here, and held-out campaigns judge them (with
-//! reference observations).
+//! points and poses share its frame: its `k`-th point and its `k`-th pose
+//! are in fold `k mod K`, every tracker in every fold, and a held-out
+//! fold's frames are fitted to its own points and poses, as a held-out
+//! campaign's are; each tracker needs [`MIN_POINTS_PER_TRACKER`] of them
+//! in each fold.
 
 use crate::cross_validation::pooled_global_test;
 use crate::hypothesis::critical_value;
@@ -22,7 +24,7 @@ use crate::prediction::PredictionTest;
 
 use super::calibrate::calibrate_mechanism;
 use super::calibrated::CalibratedMechanism;
-use super::data::{MechanismData, Observations};
+use super::data::{MIN_POINTS_PER_TRACKER, MechanismData, Observations};
 use super::error::MechanismCalibrationError;
 use super::observation::{HeldOut, ObservationKind};
 use super::options::MechanismOptions;
@@ -30,11 +32,12 @@ use super::validation::{MechanismValidation, validate_mechanism};
 
 /// Cross-validates the calibration of `data` under `options` with `folds`
 /// folds (module doc); `fold_done` is told of each fold as it ends. Each
-/// row is named by its observation's (or ball's) index in `data`. Errors:
-/// fewer than two folds, more folds than any kind has observations or
-/// there are sets of balls (a fold would hold none), data with trackers,
-/// a fold whose calibration does not converge or cannot predict its
-/// observations.
+/// row is named by its observation's (or ball's, or tracker's) index in
+/// `data`. Errors: fewer than two folds, more folds than any kind has
+/// observations or there are sets of balls (a fold would hold none), a
+/// tracker with fewer than [`MIN_POINTS_PER_TRACKER`] points and poses in
+/// a fold, a fold whose calibration does not converge or cannot predict
+/// its observations.
 pub fn cross_validate_mechanism(
     data: &MechanismData,
     options: &MechanismOptions,
@@ -46,11 +49,6 @@ pub fn cross_validate_mechanism(
         reason,
     };
     let o = &data.observations;
-    if !o.trackers.is_empty() {
-        return Err(refuse(
-            "a tracker's points and poses are predicted together (its frame): judge them with held-out data and reference observations".to_string(),
-        ));
-    }
     let (ball_set, sets) = o.ball_sets();
     let most = (ObservationKind::ALL.iter())
         .filter(|&&kind| !matches!(kind, ObservationKind::Touch | ObservationKind::BallDistance))
@@ -63,12 +61,22 @@ pub fn cross_validate_mechanism(
             "{folds} folds of data whose most numerous kind has {most} observations (a set of balls counted as one): give from 2 to {most}"
         )));
     }
+    let ranks = TrackerRanks::of(o);
+    if let Some((t, count)) =
+        (ranks.counts.iter().enumerate()).find(|&(_, &n)| n < folds * MIN_POINTS_PER_TRACKER)
+    {
+        return Err(refuse(format!(
+            "tracker {t} ({:?}) has {count} points and poses: {folds} folds need {} ({MIN_POINTS_PER_TRACKER} a fold, to locate its frame)",
+            o.trackers[t].label,
+            folds * MIN_POINTS_PER_TRACKER
+        )));
+    }
     let mut pooled = Vec::with_capacity(folds);
     for r in 0..folds {
         let in_fold = |j: usize| j % folds == r;
         let ball_in_fold = |b: usize| in_fold(ball_set[b]);
-        let fit =
-            data.with_observations(fold(o, |j| !in_fold(j), |b| !ball_in_fold(b)).observations);
+        let fit = fold(o, &ranks, |j| !in_fold(j), |b| !ball_in_fold(b));
+        let fit = data.with_observations(fit.observations);
         let calibration = calibrate_mechanism(&fit, options, &mut |_| {})?;
         if !calibration.converged() {
             return Err(refuse(format!(
@@ -77,7 +85,7 @@ pub fn cross_validate_mechanism(
             )));
         }
         let calibrated = CalibratedMechanism::of_calibration(&calibration)?;
-        let held = fold(o, in_fold, ball_in_fold);
+        let held = fold(o, &ranks, in_fold, ball_in_fold);
         let held_out = data.with_observations(held.observations.clone());
         let mut validation = validate_mechanism(&calibrated, &held_out, options.alpha, None)?;
         for row in &mut validation.rows {
@@ -146,17 +154,53 @@ impl Fold {
                 map(touches, of(ObservationKind::Touch));
                 map(distances, of(ObservationKind::BallDistance));
             }
-            HeldOut::Tracker { .. } => {
-                unreachable!("data with trackers are not folded")
+            HeldOut::Tracker {
+                tracker: _,
+                points,
+                poses,
+            } => {
+                map(points, of(ObservationKind::TrackerPoint));
+                map(poses, of(ObservationKind::TrackerPose));
             }
         }
     }
 }
 
-/// The observations of `o` whose index within their kind `keep` takes,
-/// and the balls `keep_ball` takes with their touches and the distances
+/// Each tracker point's and pose's rank among its tracker's (module doc),
+/// and each tracker's count of them.
+struct TrackerRanks {
+    points: Vec<usize>,
+    poses: Vec<usize>,
+    counts: Vec<usize>,
+}
+
+impl TrackerRanks {
+    fn of(o: &Observations) -> Self {
+        let mut counts = vec![0; o.trackers.len()];
+        let mut rank = |tracker: usize| {
+            counts[tracker] += 1;
+            counts[tracker] - 1
+        };
+        let points = o.tracker_points.iter().map(|p| rank(p.tracker)).collect();
+        let poses = o.tracker_poses.iter().map(|p| rank(p.tracker)).collect();
+        Self {
+            points,
+            poses,
+            counts,
+        }
+    }
+}
+
+/// The observations of `o` whose index within their kind (a tracker's
+/// point's or pose's rank among its tracker's, `ranks`) `keep` takes, and
+/// the balls `keep_ball` takes with their touches and the distances
 /// between them (a set of balls is kept or left whole, module doc).
-fn fold(o: &Observations, keep: impl Fn(usize) -> bool, keep_ball: impl Fn(usize) -> bool) -> Fold {
+fn fold(
+    o: &Observations,
+    ranks: &TrackerRanks,
+    keep: impl Fn(usize) -> bool,
+    keep_ball: impl Fn(usize) -> bool,
+) -> Fold {
     let mut index = vec![Vec::new(); ObservationKind::ALL.len()];
     let mut kept = |kind: ObservationKind, count: usize, keep: &dyn Fn(usize) -> bool| {
         let kept: Vec<usize> = (0..count).filter(|&j| keep(j)).collect();
@@ -185,6 +229,14 @@ fn fold(o: &Observations, keep: impl Fn(usize) -> bool, keep_ball: impl Fn(usize
         o.ball_distances.len(),
         &|j| keep_ball(o.ball_distances[j].first),
     );
+    let tracker_points = kept(
+        ObservationKind::TrackerPoint,
+        o.tracker_points.len(),
+        &|j| keep(ranks.points[j]),
+    );
+    let tracker_poses = kept(ObservationKind::TrackerPose, o.tracker_poses.len(), &|j| {
+        keep(ranks.poses[j])
+    });
     let observations = Observations {
         probes: taken(&o.probes, &probes),
         manual_heights: taken(&o.manual_heights, &manual_heights),
@@ -208,9 +260,10 @@ fn fold(o: &Observations, keep: impl Fn(usize) -> bool, keep_ball: impl Fn(usize
                 distance
             })
             .collect(),
-        // Data with trackers are not folded.
+        trackers: o.trackers.clone(),
+        tracker_points: taken(&o.tracker_points, &tracker_points),
+        tracker_poses: taken(&o.tracker_poses, &tracker_poses),
         body_reference: o.body_reference,
-        ..Observations::default()
     };
     Fold {
         observations,

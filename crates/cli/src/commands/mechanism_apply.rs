@@ -113,7 +113,7 @@ pub fn cross_validate(
 ) -> anyhow::Result<()> {
     anyhow::ensure!(
         reference.is_none(),
-        "--reference: a cross-validation fits each held-out ball's centre to all its touches (trackers are not folded)"
+        "--reference: a cross-validation fits each held-out ball's centre and tracker's frame to all its fold's touches, points and poses"
     );
     crate::outputs::check(&dataset_inputs(dataset), &[out.to_path_buf()])?;
     let read = MechanismDataset::read(dataset)?;
