@@ -145,7 +145,7 @@ fn a_ball_is_held_out_with_its_touches_and_tied_balls_together() {
                 .filter(|(j, _)| keep(*j, held))
                 .map(|(_, p)| *p)
                 .collect(),
-            balls: balls.iter().map(|&b| o.balls[b].clone()).collect(),
+            balls: balls.iter().map(|&b| o.balls[b]).collect(),
             touches: (o.touches.iter())
                 .filter(|t| keep(t.ball, held))
                 .map(|t| {
