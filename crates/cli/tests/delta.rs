@@ -371,21 +371,23 @@ fn a_blunder_is_named_and_removed_by_snooping() {
     );
 }
 
+/// `parcal simulate --mechanism delta` with `flags`, written into
+/// `dir/name`.
+fn simulated_printer(dir: &Path, name: &str, flags: &[&str]) -> PathBuf {
+    let sim = dir.join(name);
+    let simulate = ["simulate", "--mechanism", "delta"];
+    ok(&[&simulate[..], flags, &["--out", s(&sim)]].concat());
+    sim
+}
+
 /// `parcal simulate --mechanism delta --seed 3 --balls 3` and `flags`,
 /// written into `dir/sim`.
 fn printer_touching_balls(dir: &Path, flags: &[&str]) -> PathBuf {
-    let sim = dir.join("sim");
-    let simulate = [
-        "simulate",
-        "--mechanism",
-        "delta",
-        "--seed",
-        "3",
-        "--balls",
-        "3",
-    ];
-    ok(&[&simulate[..], flags, &["--out", s(&sim)]].concat());
-    sim
+    simulated_printer(
+        dir,
+        "sim",
+        &[&["--seed", "3", "--balls", "3"], flags].concat(),
+    )
 }
 
 #[test]
@@ -546,18 +548,7 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     assert_eq!(rows.len(), probes + 3);
     // A printer's ball touches: each ball held out with its touches, its
     // centre fitted to them, its rows named by balls.csv's line.
-    let touched = dir.path().join("touched");
-    ok(&[
-        "simulate",
-        "--mechanism",
-        "delta",
-        "--seed",
-        "4",
-        "--balls",
-        "6",
-        "--out",
-        s(&touched),
-    ]);
+    let touched = simulated_printer(dir.path(), "touched", &["--seed", "4", "--balls", "6"]);
     let said = ok(&["validate", s(&touched), "--folds", "3"]);
     assert!(said.contains("predicted 24 ball rows"), "{said}");
     let record = read(touched.join("validation.json"));
@@ -568,18 +559,7 @@ fn a_simulated_printer_is_written_with_its_truth_and_calibrates() {
     assert_eq!(lines, (2..8).collect(), "{record}");
     // Two trackers of 12 points, each in every fold: 4 points (12 rows) a
     // fold, its frame fitted to them (6 rows less).
-    let tracked = dir.path().join("tracked");
-    ok(&[
-        "simulate",
-        "--mechanism",
-        "delta",
-        "--seed",
-        "4",
-        "--trackers",
-        "2",
-        "--out",
-        s(&tracked),
-    ]);
+    let tracked = simulated_printer(dir.path(), "tracked", &["--seed", "4", "--trackers", "2"]);
     let said = ok(&["validate", s(&tracked), "--folds", "3"]);
     assert!(said.contains("predicted 36 tracker rows"), "{said}");
     let err = fails(&[

@@ -17,8 +17,9 @@ use super::snooping;
 /// Calibrates `data` with `options`: validates both, refuses a gauge
 /// freedom that no prior holds, fits (with data snooping if asked) and
 /// returns the estimate in the canonical frame with its tests, verdict,
-/// identifiability and the observations given twice (warned of). `observer` sees each iteration of each fit, as the
-/// hexapod's own [`calibrate`](crate::calibrate) shows them.
+/// identifiability and the observations given twice (warned of).
+/// `observer` sees each iteration of each fit, as the hexapod's own
+/// [`calibrate`](crate::calibrate) shows them.
 pub fn calibrate_mechanism(
     data: &MechanismData,
     options: &MechanismOptions,

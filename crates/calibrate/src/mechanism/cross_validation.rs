@@ -75,8 +75,8 @@ pub fn cross_validate_mechanism(
     for r in 0..folds {
         let in_fold = |j: usize| j % folds == r;
         let ball_in_fold = |b: usize| in_fold(ball_set[b]);
-        let fit = fold(o, &ranks, |j| !in_fold(j), |b| !ball_in_fold(b));
-        let fit = data.with_observations(fit.observations);
+        let (fit, _) = fold(o, &ranks, |j| !in_fold(j), |b| !ball_in_fold(b));
+        let fit = data.with_observations(fit);
         let calibration = calibrate_mechanism(&fit, options, &mut |_| {})?;
         if !calibration.converged() {
             return Err(refuse(format!(
@@ -85,11 +85,11 @@ pub fn cross_validate_mechanism(
             )));
         }
         let calibrated = CalibratedMechanism::of_calibration(&calibration)?;
-        let held = fold(o, &ranks, in_fold, ball_in_fold);
-        let held_out = data.with_observations(held.observations.clone());
+        let (held_out, names) = fold(o, &ranks, in_fold, ball_in_fold);
+        let held_out = data.with_observations(held_out);
         let mut validation = validate_mechanism(&calibrated, &held_out, options.alpha, None)?;
         for row in &mut validation.rows {
-            held.name_in_data(&mut row.observation);
+            names.name_in_data(&mut row.observation);
         }
         pooled.push((validation, calibrated.global_test));
         fold_done(r);
@@ -116,10 +116,8 @@ pub fn cross_validate_mechanism(
     })
 }
 
-/// A fold's observations, and where each of them is in the data.
-struct Fold {
-    /// The observations.
-    observations: Observations,
+/// Where each of a fold's observations and balls is in the data.
+struct FoldNames {
     /// For each kind ([`ObservationKind::index`]), the index in the data
     /// of each of the fold's observations of that kind.
     index: Vec<Vec<usize>>,
@@ -127,7 +125,7 @@ struct Fold {
     balls: Vec<usize>,
 }
 
-impl Fold {
+impl FoldNames {
     /// `held_out`, named by its place in the fold, renamed by its place
     /// in the data.
     fn name_in_data(&self, held_out: &mut HeldOut) {
@@ -194,13 +192,14 @@ impl TrackerRanks {
 /// The observations of `o` whose index within their kind (a tracker's
 /// point's or pose's rank among its tracker's, `ranks`) `keep` takes, and
 /// the balls `keep_ball` takes with their touches and the distances
-/// between them (a set of balls is kept or left whole, module doc).
+/// between them (a set of balls is kept or left whole, module doc); and
+/// where each is in `o`.
 fn fold(
     o: &Observations,
     ranks: &TrackerRanks,
     keep: impl Fn(usize) -> bool,
     keep_ball: impl Fn(usize) -> bool,
-) -> Fold {
+) -> (Observations, FoldNames) {
     let mut index = vec![Vec::new(); ObservationKind::ALL.len()];
     let mut kept = |kind: ObservationKind, count: usize, keep: &dyn Fn(usize) -> bool| {
         let kept: Vec<usize> = (0..count).filter(|&j| keep(j)).collect();
@@ -265,9 +264,5 @@ fn fold(
         tracker_poses: taken(&o.tracker_poses, &tracker_poses),
         body_reference: o.body_reference,
     };
-    Fold {
-        observations,
-        index,
-        balls,
-    }
+    (observations, FoldNames { index, balls })
 }
