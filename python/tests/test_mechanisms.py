@@ -355,7 +355,7 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
     delta_machine = json.loads((delta / "machine.json").read_text())
     probes = np.loadtxt(delta / "probes.csv", delimiter=",", skiprows=1)
     probes[3, 2] = np.inf
-    with pytest.raises(parcal.Error, match=r"\(in memory\)/probes\.csv: field row 4, column z: value inf is not a finite number"):
+    with pytest.raises(parcal.Error, match=r"\(in memory\)/probes\.csv: field row 3, column z: value inf is not a finite number"):
         parcal.MechanismDataset(delta_machine, probes=probes)
     with pytest.raises(parcal.Error, match=r"noise\.distance: required"):
         parcal.MechanismDataset({**delta_machine, "noise": {"probe": 0.01}}, distances=np.ones((2, 7)))
@@ -496,7 +496,7 @@ def test_a_ball_plate_ties_a_deltas_balls_in_memory_as_in_its_files(cli, tmp_pat
     assert len(tied) == 3 * 7 + 3 - 9, validation["rows"]
     distances = from_files.ball_distances.copy()
     distances[1, 1] = 0
-    with pytest.raises(parcal.Error, match=r"ball_distances\.csv: field row 2: balls 0 and 0 are not two distinct balls"):
+    with pytest.raises(parcal.Error, match=r"ball_distances\.csv: field row 1: balls 0 and 0 are not two distinct balls"):
         parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls,
                                 touches=from_files.touches, ball_distances=distances)
     with pytest.raises(parcal.Error, match="plate_sigma needs plate"):

@@ -176,24 +176,24 @@ impl<'a> Check<'a> {
         Ok(())
     }
 
-    /// Every value of row `k` (0-based) of a table of `columns` finite;
-    /// an error names `row k + 1, column name`, as a file's rows are named.
-    pub(crate) fn row_values(&self, k: usize, columns: &[&str], values: &[f64]) -> Result<()> {
+    /// Every value of the row named `row` (`line 5`, `row 3`) of a table
+    /// of `columns` finite; an error names `row, column name`.
+    pub(crate) fn row_values(&self, row: &str, columns: &[&str], values: &[f64]) -> Result<()> {
         match values.iter().position(|v| !v.is_finite()) {
             None => Ok(()),
-            Some(i) => Err(self.error(cell(k, columns, i), not_finite(values[i]))),
+            Some(i) => Err(self.error(cell(row, columns, i), not_finite(values[i]))),
         }
     }
 
-    /// Every value of row `k` (0-based) of a table of `columns` a length
-    /// ([`Check::length`]); an error names `row k + 1, column name`.
-    pub(crate) fn row_lengths(&self, k: usize, columns: &[&str], values: &[f64]) -> Result<()> {
+    /// Every value of the row named `row` of a table of `columns` a length
+    /// ([`Check::length`]); an error names `row, column name`.
+    pub(crate) fn row_lengths(&self, row: &str, columns: &[&str], values: &[f64]) -> Result<()> {
         match values
             .iter()
             .position(|v| !v.is_finite() || v.abs() > self.max_length)
         {
             None => Ok(()),
-            Some(i) => self.length(cell(k, columns, i), values[i]),
+            Some(i) => self.length(cell(row, columns, i), values[i]),
         }
     }
 
@@ -244,10 +244,10 @@ pub fn shown(value: f64) -> String {
     }
 }
 
-/// The field of row `k` (0-based), column `i` of a table of `columns`:
-/// `row k + 1, column name`.
-fn cell(k: usize, columns: &[&str], i: usize) -> String {
-    format!("row {}, column {}", k + 1, columns[i])
+/// The field of the row named `row`, column `i` of a table of `columns`:
+/// `row, column name`.
+fn cell(row: &str, columns: &[&str], i: usize) -> String {
+    format!("{row}, column {}", columns[i])
 }
 
 /// The message for a value that is NaN or infinite.

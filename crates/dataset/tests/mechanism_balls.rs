@@ -306,7 +306,8 @@ fn bad_ball_distances_are_named() {
         error.contains(BALL_DISTANCES_FILE) && error.contains("need balls.csv"),
         "{error}"
     );
-    // In memory, the same checks name the row.
+    // Written from memory, the same checks name the line the row would
+    // have.
     let mut twice = plated();
     twice.ball_distances[2] = Distance {
         a: 1,
@@ -319,8 +320,8 @@ fn bad_ball_distances_are_named() {
         .to_string();
     assert!(
         error.contains(BALL_DISTANCES_FILE)
-            && error.contains("row 3")
-            && error.contains("first in row 1"),
+            && error.contains("line 4")
+            && error.contains("first in line 2"),
         "{error}"
     );
 }

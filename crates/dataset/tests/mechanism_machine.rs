@@ -245,7 +245,7 @@ fn heights_measured_by_hand_are_written_and_read_back_with_their_noise() {
     far.heights[1][3] = 1e9;
     let error = far.write(&dir.path().join("y")).unwrap_err().to_string();
     assert!(
-        error.contains("heights.csv") && error.contains("row 2"),
+        error.contains("heights.csv") && error.contains("line 3"),
         "{error}"
     );
 }

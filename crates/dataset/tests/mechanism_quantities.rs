@@ -6,7 +6,7 @@ use std::fs;
 use std::path::Path;
 
 use parcal_dataset::mechanism::{
-    MechanismDataset, MechanismMachine, Noise, QuantityRow, SampleRow,
+    MechanismDataset, MechanismMachine, Noise, QuantityRow, RowNames, SampleRow,
 };
 use parcal_kinematics::cable::CableRobot;
 
@@ -163,11 +163,11 @@ fn bad_quantities_and_loads_are_named() {
     }
 }
 
-/// A dataset made in memory is checked before it is written: a value that
-/// is not a number is named by its row, counted from 1 as the file's rows
-/// are, and its column's name.
+/// A dataset is checked before it is written: a value that is not a number
+/// is named by the line its row would have and its column's name; built in
+/// memory (Python's), by its row's 0-based index.
 #[test]
-fn a_bad_value_in_memory_is_named_by_its_row_and_column() {
+fn a_bad_value_is_named_by_its_line_or_in_memory_its_row_and_column() {
     let dir = tempfile::tempdir().unwrap();
     let error = |change: &dyn Fn(&mut MechanismDataset)| {
         let mut dataset = cable_dataset();
@@ -177,20 +177,27 @@ fn a_bad_value_in_memory_is_named_by_its_row_and_column() {
             .unwrap_err()
             .to_string()
     };
+    let mut in_memory = cable_dataset();
+    in_memory.samples[1].loads.as_mut().unwrap()[2] = f64::NAN;
+    let indexed = in_memory.validate_named(Path::new("(in memory)"), RowNames::Indices);
+    assert_eq!(
+        indexed.unwrap_err().to_string(),
+        "(in memory)/points.csv: field row 1, column f3: value NaN is not a finite number"
+    );
     let load = error(&|d| d.samples[1].loads.as_mut().unwrap()[2] = f64::NAN);
     assert!(
-        load.ends_with("points.csv: field row 2, column f3: value NaN is not a finite number"),
+        load.ends_with("points.csv: field line 3, column f3: value NaN is not a finite number"),
         "{load}"
     );
     let position = error(&|d| d.samples[0].position.as_mut().unwrap()[1] = f64::INFINITY);
     assert!(
-        position.ends_with("points.csv: field row 1, column y: value inf is not a finite number"),
+        position.ends_with("points.csv: field line 2, column y: value inf is not a finite number"),
         "{position}"
     );
     let value = error(&|d| d.quantities[3].value = f64::NAN);
     assert!(
         value.ends_with(
-            "quantities.csv: field row 4, column value: value NaN is not a finite number"
+            "quantities.csv: field line 5, column value: value NaN is not a finite number"
         ),
         "{value}"
     );

@@ -12,8 +12,8 @@ use parcal::MechanismData;
 use parcal::MechanismDataset as Inner;
 use parcal::dataset::Distance;
 use parcal::dataset::mechanism::{
-    BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, SampleRow, TRIGGER_HEIGHT,
-    TouchRow, TrackerPointRow,
+    BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, RowNames, SampleRow,
+    TRIGGER_HEIGHT, TouchRow, TrackerPointRow,
 };
 use parcal::kinematics::mechanism::Mechanism;
 use pyo3::prelude::*;
@@ -82,7 +82,7 @@ impl MechanismDataset {
     /// as its files would be.
     pub fn in_memory(inner: Inner) -> PyResult<Self> {
         let path = PathBuf::from(IN_MEMORY);
-        inner.validate(&path).map_err(to_py)?;
+        (inner.validate_named(&path, RowNames::Indices)).map_err(to_py)?;
         let data = MechanismData::from_dataset(&inner)
             .map_err(|e| data_error(&path, &inner.machine.mechanism, e))?;
         Ok(Self { inner, data, path })

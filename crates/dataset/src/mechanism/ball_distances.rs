@@ -20,6 +20,7 @@ use crate::check::Check;
 use crate::error::Result;
 use crate::table::{self, Header, RowPlace};
 
+use super::RowNames;
 use super::balls::{ball_number, not_a_ball, positive};
 use super::observations::OBSERVATIONS;
 
@@ -96,6 +97,7 @@ pub(super) fn validate_ball_distances(
     path: &Path,
     distances: &[Distance],
     balls: usize,
+    names: RowNames,
 ) -> Result<()> {
     let check = Check::new(path);
     if distances.len() > BALL_DISTANCES.max {
@@ -104,7 +106,7 @@ pub(super) fn validate_ball_distances(
     }
     let mut rows = HashMap::with_capacity(distances.len());
     for (k, distance) in distances.iter().enumerate() {
-        let field = format!("row {}", k + 1);
+        let field = names.of(k);
         let (a, b) = (distance.a, distance.b);
         if a.max(b) >= balls || a == b {
             return Err(check.error(
@@ -116,8 +118,8 @@ pub(super) fn validate_ball_distances(
             return Err(check.error(
                 &field,
                 format!(
-                    "the distance between balls {a} and {b} is given twice, first in row {}",
-                    first + 1
+                    "the distance between balls {a} and {b} is given twice, first in {}",
+                    names.of(first)
                 ),
             ));
         }

@@ -326,8 +326,14 @@ impl MechanismDataset {
     /// one of the mechanism's with a positive sigma, the truth's trigger
     /// height given for a machine with a probe and its trackers among
     /// those measured. Errors name the files in
-    /// `dir` (a dataset built in memory: `Path::new("")`, the files' names).
+    /// `dir` and a table's row by its line ([`RowNames::Lines`]).
     pub fn validate(&self, dir: &Path) -> Result<()> {
+        self.validate_named(dir, RowNames::Lines)
+    }
+
+    /// [`Self::validate`], a table's row named as `names` says (a dataset
+    /// built in memory: by its 0-based index, as an array's).
+    pub fn validate_named(&self, dir: &Path, names: RowNames) -> Result<()> {
         let machine_path = dir.join(MACHINE_FILE);
         let check = Check::new(&machine_path);
         self.machine.validate(check)?;
@@ -348,7 +354,7 @@ impl MechanismDataset {
                 ),
             });
         }
-        self.validate_balls(dir)?;
+        self.validate_balls(dir, names)?;
         for (file, count) in counts {
             if count > OBSERVATIONS.max {
                 let path = dir.join(file);
@@ -407,7 +413,7 @@ impl MechanismDataset {
             let path = dir.join(file);
             let check = Check::new(&path);
             rows.enumerate()
-                .try_for_each(|(k, row)| check.row_lengths(k, columns, row))
+                .try_for_each(|(k, row)| check.row_lengths(&names.of(k), columns, row))
         };
         rows(
             PROBES_FILE,
@@ -424,16 +430,16 @@ impl MechanismDataset {
             &DISTANCE_COLUMNS,
             &mut self.distances.iter().map(|r| r.as_slice()),
         )?;
-        self.validate_tracker_points(dir)?;
+        self.validate_tracker_points(dir, names)?;
         let path = dir.join(POINTS_FILE);
         let check = Check::new(&path);
         for (k, sample) in self.samples.iter().enumerate() {
-            check.row_values(k, &READING_COLUMNS, &sample.readings)?;
+            check.row_values(&names.of(k), &READING_COLUMNS, &sample.readings)?;
             if let Some(position) = &sample.position {
-                check.row_lengths(k, &POSITION_COLUMNS, position)?;
+                check.row_lengths(&names.of(k), &POSITION_COLUMNS, position)?;
             }
             if let Some(loads) = &sample.loads {
-                check.row_values(k, &LOAD_COLUMNS, loads)?;
+                check.row_values(&names.of(k), &LOAD_COLUMNS, loads)?;
             }
         }
         if !self.quantities.is_empty() {
@@ -442,7 +448,7 @@ impl MechanismDataset {
             let mechanism = mechanism_named(&path, "mechanism", &self.machine.mechanism)?;
             let quantities = mechanism.quantities();
             for (k, row) in self.quantities.iter().enumerate() {
-                let field = format!("row {}", k + 1);
+                let field = names.of(k);
                 if !quantities.iter().any(|q| q.name == row.quantity) {
                     return Err(check.error(
                         &field,
@@ -453,7 +459,7 @@ impl MechanismDataset {
                         ),
                     ));
                 }
-                check.row_values(k, &QUANTITY_COLUMNS[1..2], &[row.value])?;
+                check.row_values(&names.of(k), &QUANTITY_COLUMNS[1..2], &[row.value])?;
                 if !(row.sigma.is_finite() && row.sigma > 0.0) {
                     return Err(check.error(
                         &field,
@@ -467,7 +473,7 @@ impl MechanismDataset {
 
     /// The trackers' points: labels not empty, at most [`TRACKERS`]`.max`
     /// of them, positions within the length bound.
-    fn validate_tracker_points(&self, dir: &Path) -> Result<()> {
+    fn validate_tracker_points(&self, dir: &Path, names: RowNames) -> Result<()> {
         let path = dir.join(TRACKER_POINTS_FILE);
         let check = Check::new(&path);
         let labels = tracker_labels(&self.tracker_points);
@@ -479,12 +485,12 @@ impl MechanismDataset {
             ));
         }
         for (k, row) in self.tracker_points.iter().enumerate() {
-            let field = format!("row {}", k + 1);
+            let field = names.of(k);
             if row.tracker.is_empty() {
                 return Err(check.error(&field, "empty tracker label"));
             }
-            check.row_lengths(k, &TRACKER_POINT_COLUMNS[1..4], &row.commanded)?;
-            check.row_lengths(k, &TRACKER_POINT_COLUMNS[4..], &row.measured)?;
+            check.row_lengths(&names.of(k), &TRACKER_POINT_COLUMNS[1..4], &row.commanded)?;
+            check.row_lengths(&names.of(k), &TRACKER_POINT_COLUMNS[4..], &row.measured)?;
         }
         Ok(())
     }
@@ -495,7 +501,7 @@ impl MechanismDataset {
     /// finite where given, every touch on a ball that exists with its
     /// position within the length bound, every distance between two
     /// balls that exist ([`BALL_DISTANCES`]).
-    fn validate_balls(&self, dir: &Path) -> Result<()> {
+    fn validate_balls(&self, dir: &Path, names: RowNames) -> Result<()> {
         let balls_path = dir.join(BALLS_FILE);
         let touches_path = dir.join(TOUCHES_FILE);
         let distances_path = dir.join(BALL_DISTANCES_FILE);
@@ -518,7 +524,7 @@ impl MechanismDataset {
             return Err(check.error("rows", BALLS.refusal("the number of rows", &count)));
         }
         for (k, ball) in self.balls.iter().enumerate() {
-            let field = format!("row {}", k + 1);
+            let field = names.of(k);
             let positive = |v: f64| v.is_finite() && v > 0.0;
             if !positive(ball.radius) || !ball.radius_sigma.is_none_or(positive) {
                 return Err(check.error(
@@ -532,7 +538,7 @@ impl MechanismDataset {
         }
         let check = Check::new(&touches_path);
         for (k, touch) in self.touches.iter().enumerate() {
-            let field = format!("row {}", k + 1);
+            let field = names.of(k);
             if touch.ball >= self.balls.len() {
                 return Err(check.error(
                     &field,
@@ -543,9 +549,35 @@ impl MechanismDataset {
                     ),
                 ));
             }
-            check.row_lengths(k, &TOUCH_COLUMNS[1..], &touch.commanded)?;
+            check.row_lengths(&names.of(k), &TOUCH_COLUMNS[1..], &touch.commanded)?;
         }
-        validate_ball_distances(&distances_path, &self.ball_distances, self.balls.len())
+        validate_ball_distances(
+            &distances_path,
+            &self.ball_distances,
+            self.balls.len(),
+            names,
+        )
+    }
+}
+
+/// How errors name a row of a dataset's table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowNames {
+    /// By its line in the file (`line 5` for the fourth row, the header
+    /// on line 1): a dataset read or written.
+    Lines,
+    /// By its 0-based index (`row 3`), as an array's: a dataset built in
+    /// memory.
+    Indices,
+}
+
+impl RowNames {
+    /// The name of the row of 0-based index `k`.
+    pub fn of(self, k: usize) -> String {
+        match self {
+            Self::Lines => format!("line {}", k + 2),
+            Self::Indices => format!("row {k}"),
+        }
     }
 }
 
