@@ -16,6 +16,8 @@ use crate::error::{DatasetError, Result};
 use crate::numbers::{OtherColumns, read_numbers_within};
 use crate::table::{self, Failure, Header, Row};
 
+use super::RowNames;
+
 /// The bounds of the rows of each observation file: at least one (an
 /// empty file is an error), at most a million (far beyond a calibration's
 /// needs; each row costs a forward kinematics per iteration).
@@ -196,7 +198,7 @@ pub(super) fn whole_or_empty(
 
 /// Writes points.csv at `path` for a mechanism of `actuators` actuators,
 /// with the load columns if any row has loads. Refuses a row of another
-/// number of readings or loads, naming it (1-based).
+/// number of readings or loads, naming the line it would have.
 pub(crate) fn write_samples(path: &Path, actuators: usize, rows: &[SampleRow]) -> Result<()> {
     let miscounted = |r: &SampleRow| {
         r.readings.len() != actuators || r.loads.as_ref().is_some_and(|f| f.len() != actuators)
@@ -204,7 +206,7 @@ pub(crate) fn write_samples(path: &Path, actuators: usize, rows: &[SampleRow]) -
     if let Some(k) = rows.iter().position(miscounted) {
         return Err(DatasetError::Field {
             path: path.to_path_buf(),
-            field: format!("row {}", k + 1),
+            field: RowNames::Lines.of(k),
             message: format!(
                 "{} readings and {} loads for {actuators} actuators",
                 rows[k].readings.len(),
