@@ -108,13 +108,17 @@ impl Dataset {
             known_keys(points, "points", &["session", "q", "position"])?;
             tracker.points = instrument_rows(points, "points", &mut tracker.sessions)?;
         }
-        Ok(Self::in_memory(parcal::Dataset {
+        let dataset = parcal::Dataset {
             machine,
             artefacts,
             measurements,
             tracker,
             truth: None,
-        }))
+        };
+        // Checked as a calibration checks it first, so that a bad value is
+        // refused here, by its 0-based row and its field.
+        parcal::calibration::validate(&dataset).map_err(to_py)?;
+        Ok(Self::in_memory(dataset))
     }
 
     /// Reads the dataset at `path`: a directory of files, or a binary
