@@ -176,24 +176,34 @@ impl<'a> Check<'a> {
         Ok(())
     }
 
-    /// Every value of the row named `row` (`line 5`, `row 3`) of a table
-    /// of `columns` finite; an error names `row, column name`.
-    pub(crate) fn row_values(&self, row: &str, columns: &[&str], values: &[f64]) -> Result<()> {
+    /// Every value of a row of a table of `columns` finite; an error names
+    /// `row(), column name` (`row()`: `line 5`, `row 3`, named only then).
+    pub(crate) fn row_values(
+        &self,
+        row: impl Fn() -> String,
+        columns: &[&str],
+        values: &[f64],
+    ) -> Result<()> {
         match values.iter().position(|v| !v.is_finite()) {
             None => Ok(()),
-            Some(i) => Err(self.error(cell(row, columns, i), not_finite(values[i]))),
+            Some(i) => Err(self.error(cell(&row(), columns, i), not_finite(values[i]))),
         }
     }
 
-    /// Every value of the row named `row` of a table of `columns` a length
-    /// ([`Check::length`]); an error names `row, column name`.
-    pub(crate) fn row_lengths(&self, row: &str, columns: &[&str], values: &[f64]) -> Result<()> {
+    /// Every value of a row of a table of `columns` a length
+    /// ([`Check::length`]); an error names `row(), column name`.
+    pub(crate) fn row_lengths(
+        &self,
+        row: impl Fn() -> String,
+        columns: &[&str],
+        values: &[f64],
+    ) -> Result<()> {
         match values
             .iter()
             .position(|v| !v.is_finite() || v.abs() > self.max_length)
         {
             None => Ok(()),
-            Some(i) => self.length(cell(row, columns, i), values[i]),
+            Some(i) => self.length(cell(&row(), columns, i), values[i]),
         }
     }
 

@@ -413,7 +413,7 @@ impl MechanismDataset {
             let path = dir.join(file);
             let check = Check::new(&path);
             rows.enumerate()
-                .try_for_each(|(k, row)| check.row_lengths(&names.of(k), columns, row))
+                .try_for_each(|(k, row)| check.row_lengths(|| names.of(k), columns, row))
         };
         rows(
             PROBES_FILE,
@@ -434,12 +434,12 @@ impl MechanismDataset {
         let path = dir.join(POINTS_FILE);
         let check = Check::new(&path);
         for (k, sample) in self.samples.iter().enumerate() {
-            check.row_values(&names.of(k), &READING_COLUMNS, &sample.readings)?;
+            check.row_values(|| names.of(k), &READING_COLUMNS, &sample.readings)?;
             if let Some(position) = &sample.position {
-                check.row_lengths(&names.of(k), &POSITION_COLUMNS, position)?;
+                check.row_lengths(|| names.of(k), &POSITION_COLUMNS, position)?;
             }
             if let Some(loads) = &sample.loads {
-                check.row_values(&names.of(k), &LOAD_COLUMNS, loads)?;
+                check.row_values(|| names.of(k), &LOAD_COLUMNS, loads)?;
             }
         }
         if !self.quantities.is_empty() {
@@ -448,10 +448,10 @@ impl MechanismDataset {
             let mechanism = mechanism_named(&path, "mechanism", &self.machine.mechanism)?;
             let quantities = mechanism.quantities();
             for (k, row) in self.quantities.iter().enumerate() {
-                let field = names.of(k);
+                let field = || names.of(k);
                 if !quantities.iter().any(|q| q.name == row.quantity) {
                     return Err(check.error(
-                        &field,
+                        field(),
                         format!(
                             "{:?} is not a quantity of the {}",
                             row.quantity,
@@ -459,10 +459,10 @@ impl MechanismDataset {
                         ),
                     ));
                 }
-                check.row_values(&names.of(k), &QUANTITY_COLUMNS[1..2], &[row.value])?;
+                check.row_values(|| names.of(k), &QUANTITY_COLUMNS[1..2], &[row.value])?;
                 if !(row.sigma.is_finite() && row.sigma > 0.0) {
                     return Err(check.error(
-                        &field,
+                        field(),
                         format!("sigma {} is not finite and positive", row.sigma),
                     ));
                 }
@@ -485,12 +485,12 @@ impl MechanismDataset {
             ));
         }
         for (k, row) in self.tracker_points.iter().enumerate() {
-            let field = names.of(k);
+            let field = || names.of(k);
             if row.tracker.is_empty() {
-                return Err(check.error(&field, "empty tracker label"));
+                return Err(check.error(field(), "empty tracker label"));
             }
-            check.row_lengths(&names.of(k), &TRACKER_POINT_COLUMNS[1..4], &row.commanded)?;
-            check.row_lengths(&names.of(k), &TRACKER_POINT_COLUMNS[4..], &row.measured)?;
+            check.row_lengths(|| names.of(k), &TRACKER_POINT_COLUMNS[1..4], &row.commanded)?;
+            check.row_lengths(|| names.of(k), &TRACKER_POINT_COLUMNS[4..], &row.measured)?;
         }
         Ok(())
     }
@@ -524,11 +524,11 @@ impl MechanismDataset {
             return Err(check.error("rows", BALLS.refusal("the number of rows", &count)));
         }
         for (k, ball) in self.balls.iter().enumerate() {
-            let field = names.of(k);
+            let field = || names.of(k);
             let positive = |v: f64| v.is_finite() && v > 0.0;
             if !positive(ball.radius) || !ball.radius_sigma.is_none_or(positive) {
                 return Err(check.error(
-                    &field,
+                    field(),
                     format!(
                         "radius {} and its sigma {:?} must be finite and positive",
                         ball.radius, ball.radius_sigma
@@ -538,10 +538,10 @@ impl MechanismDataset {
         }
         let check = Check::new(&touches_path);
         for (k, touch) in self.touches.iter().enumerate() {
-            let field = names.of(k);
+            let field = || names.of(k);
             if touch.ball >= self.balls.len() {
                 return Err(check.error(
-                    &field,
+                    field(),
                     format!(
                         "ball {} is not one of the {} of {BALLS_FILE} (numbered from 0)",
                         touch.ball,
@@ -549,7 +549,7 @@ impl MechanismDataset {
                     ),
                 ));
             }
-            check.row_lengths(&names.of(k), &TOUCH_COLUMNS[1..], &touch.commanded)?;
+            check.row_lengths(|| names.of(k), &TOUCH_COLUMNS[1..], &touch.commanded)?;
         }
         validate_ball_distances(
             &distances_path,
