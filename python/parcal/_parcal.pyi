@@ -747,12 +747,15 @@ def export(
     print_radius: Optional[float] = None,
     radius_trims: Optional[tuple[float, float, float]] = None,
     config: Optional[PathLike] = None,
+    machine: Optional[PathLike] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
     """A calibration in the form other tools load, as ``parcal export
     --format`` writes it: a hexapod's own as ``"machine-json"``,
     ``"genhexkins"`` or ``"summary"``; a mechanism's as its firmware's
-    lines. Returns ``text``, ``lost`` (what the firmware cannot hold), and
+    lines, or as ``"machine-json"``: the machine.json it was calibrated
+    from (``machine``, by default its dataset's) with the calibrated
+    parameters as its design. Returns ``text``, ``lost`` (what the firmware cannot hold), and
     for a delta ``print_radius``, ``cost`` (mm: ``z_offset``,
     ``flatness_rms``, ``flatness_max``, ``volume_rms``, ``volume_max``)
     and ``cost_sentence``, for Marlin ``radius_trims`` (those the lines are

@@ -13,6 +13,7 @@ use parcal::firmware_lines::{
     FirmwareFormat, FirmwareLinesError, firmware_lines, refused_print_radius,
 };
 use parcal::hexapod_export::{HexapodFormat, hexapod_export};
+use parcal::mechanism_machine::{machine_path, mechanism_machine_json};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -45,8 +46,14 @@ use crate::recorded::recorded;
 /// `radius_trims` (the trims the lines are written for); `None` for a
 /// hexapod or a cable robot. A rejected calibration is used only with
 /// `accept_rejected`.
+///
+/// A linear delta's or a cable robot's calibration as `"machine-json"` is
+/// the machine.json it was calibrated from (`machine`, a path; by default
+/// the one in the dataset the calibration names) with the calibrated
+/// parameters as its design and the calibrated trigger height
+/// (`parcal::mechanism_machine`).
 #[pyfunction]
-#[pyo3(signature = (calibration, format, *, print_radius=None, radius_trims=None, config=None, accept_rejected=false))]
+#[pyo3(signature = (calibration, format, *, print_radius=None, radius_trims=None, config=None, machine=None, accept_rejected=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn export<'py>(
     py: Python<'py>,
@@ -55,6 +62,7 @@ pub fn export<'py>(
     print_radius: Option<f64>,
     radius_trims: Option<[f64; 3]>,
     config: Option<PathBuf>,
+    machine: Option<PathBuf>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let wanted = match (
@@ -86,28 +94,40 @@ pub fn export<'py>(
         )));
     }
     let dict = PyDict::new(py);
+    let machine_json = matches!(wanted, Wanted::Hexapod(HexapodFormat::MachineJson));
+    if machine.is_some() && !machine_json {
+        return Err(to_py(format!(
+            "machine: a mechanism's machine.json is what \"machine-json\" starts from; {format} does not read one"
+        )));
+    }
     let (record, format) = match (recorded, wanted) {
         (_, Wanted::Hexapod(_)) if radius_trims.is_some() => {
             return Err(to_py(format!(
                 "radius_trims: radius trims are Marlin's (DELTA_RADIUS_TRIM_TOWER, compiled in); {format} exports a {HEXAPOD}'s"
             )));
         }
+        (Recorded::Mechanism(record), Wanted::Hexapod(_))
+            if machine_json && record.mechanism != HEXAPOD =>
+        {
+            if print_radius.is_some() || config.is_some() {
+                return Err(to_py(
+                    "print_radius and config are a firmware's: \"machine-json\" keeps the printable radius of the machine.json it starts from",
+                ));
+            }
+            let text = machine_path(&record, machine.as_deref())
+                .and_then(|path| mechanism_machine_json(&record, &path))
+                .map_err(|e| to_py(format!("{name}: {e} (machine=)")))?;
+            return without_firmware(py, &dict, text);
+        }
+        (Recorded::Own(_), Wanted::Hexapod(_)) if machine.is_some() => {
+            return Err(to_py(format!(
+                "machine: {name}: a hexapod's own calibration carries the design it started from"
+            )));
+        }
         (Recorded::Own(record), Wanted::Hexapod(hexapod)) => {
             let text =
                 hexapod_export(&record, hexapod).map_err(|e| to_py(format!("{name}: {e}")))?;
-            dict.set_item("text", text)?;
-            dict.set_item("lost", Vec::<String>::new())?;
-            for key in [
-                "print_radius",
-                "cost",
-                "cost_sentence",
-                "trigger_height",
-                "trigger_sentence",
-                "radius_trims",
-            ] {
-                dict.set_item(key, py.None())?;
-            }
-            return Ok(dict);
+            return without_firmware(py, &dict, text);
         }
         (Recorded::Mechanism(record), Wanted::Hexapod(_)) if record.mechanism == HEXAPOD => {
             return Err(to_py(format!(
@@ -169,6 +189,28 @@ pub fn export<'py>(
         }
     }
     Ok(dict)
+}
+
+/// `dict` holding `text`, a file no firmware reads: nothing lost, no
+/// firmware's figures.
+fn without_firmware<'py>(
+    py: Python<'py>,
+    dict: &Bound<'py, PyDict>,
+    text: String,
+) -> PyResult<Bound<'py, PyDict>> {
+    dict.set_item("text", text)?;
+    dict.set_item("lost", Vec::<String>::new())?;
+    for key in [
+        "print_radius",
+        "cost",
+        "cost_sentence",
+        "trigger_height",
+        "trigger_sentence",
+        "radius_trims",
+    ] {
+        dict.set_item(key, py.None())?;
+    }
+    Ok(dict.clone())
 }
 
 /// What a format exports.

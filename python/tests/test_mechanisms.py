@@ -686,6 +686,27 @@ def test_export_writes_the_firmware_lines_of_the_cli(delta, hangprinter, cli, tm
     assert lines["lost"] == [] and lines["cost"] is None and lines["print_radius"] is None
 
 
+def test_export_machine_json_of_a_mechanism_is_the_clis(hangprinter, cli, tmp_path):
+    robot = tmp_path / "robot.json"
+    cli("calibrate", hangprinter, "--out", robot)
+    out = tmp_path / "machine.json"
+    cli("export", "--calibration", robot, "--format", "machine-json", "--out", out)
+    # The machine.json of the dataset the calibration names, or the one given.
+    mine = parcal.export(str(robot), "machine-json")
+    assert mine["text"] == out.read_text()
+    given = parcal.export(str(robot), "machine-json", machine=hangprinter / "machine.json")
+    assert given["text"] == mine["text"] and given["lost"] == [] and given["cost"] is None
+    machine, record = json.loads(mine["text"]), json.loads(robot.read_text())
+    assert machine["design"] == {p["name"]: p["value"] for p in record["parameters"]}
+    assert machine["configured"] == json.loads((hangprinter / "machine.json").read_text())["configured"]
+    sim = tmp_path / "sim"
+    parcal.simulate(5, mechanism="delta").write(sim)
+    with pytest.raises(parcal.Error, match="mechanism: the calibration is a cable robot's, machine.json a linear delta's"):
+        parcal.export(str(robot), "machine-json", machine=sim / "machine.json")
+    with pytest.raises(parcal.Error, match="machine: a mechanism's machine.json is what \"machine-json\" starts from"):
+        parcal.export(str(robot), "hangprinter", machine=hangprinter / "machine.json")
+
+
 CONFIG_G = "; config.g of a kit delta\nM665 L270 R135 H300 B100\nM666 X0 Y0 Z0\nG31 P500 X0 Y0 Z0.7\n"
 
 

@@ -12,9 +12,9 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 use parcal_calibrate::mechanism::{
     CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, ObservationKind,
-    Observations, ParameterPrior, calibrate_mechanism,
+    Observations, ParameterPrior, calibrate_mechanism, calibrated_machine,
 };
-use parcal_dataset::mechanism::{LineElasticity, MechanismDataset, SampleRow};
+use parcal_dataset::mechanism::{LineElasticity, MechanismDataset, MechanismMachine, SampleRow};
 use parcal_kinematics::cable::{CableRobot, Elasticity, TYPICAL_COMPLIANCE, Tolerances};
 use parcal_kinematics::mechanism::{Mechanism, design, forward_under_loads};
 use parcal_observe::mechanism::{MeasuredQuantity, PointSample};
@@ -445,6 +445,80 @@ fn the_fixture_holds_the_chosen_model() {
     assert!(difference < 1e-9, "{difference:e}");
 }
 
+/// The fixture with its lines made elastic by its machine.json: one
+/// compliance, at its typical value, the encoders zeroed under sample 0's
+/// loads.
+fn elastic_fixture() -> MechanismDataset {
+    let mut elastic = dataset();
+    elastic.machine.elasticity = Some(LineElasticity {
+        compliance_of_line: vec![0; 4],
+        zero_loads: elastic.samples[0].loads.clone().unwrap(),
+    });
+    elastic.machine.configured.push(TYPICAL_COMPLIANCE);
+    elastic.machine.design.push(TYPICAL_COMPLIANCE);
+    elastic
+}
+
+/// The calibrated machine.json of the elastic fixture: its design the
+/// estimates, all else (what the controller runs, the tolerances, the
+/// noise, the lines) as the machine calibrated; written and read back, the
+/// data calibrated with it have their priors about those estimates, to the
+/// bit, and it is the machine of that calibration in turn. A machine whose
+/// design is not the calibration's prior is refused, naming the parameter,
+/// as is another mechanism's.
+#[test]
+fn the_calibrated_machine_is_the_design_of_the_next_calibration() {
+    let fixture = elastic_fixture();
+    let options = MechanismOptions::default();
+    let fit = |dataset: &MechanismDataset| {
+        let data = MechanismData::from_dataset(dataset).unwrap();
+        calibrate_mechanism(&data, &options, &mut |_| {})
+            .unwrap()
+            .record()
+    };
+    let record = fit(&fixture);
+    let machine = calibrated_machine(&record, &fixture.machine).unwrap();
+    let estimates: Vec<f64> = record.parameters.iter().map(|p| p.value).collect();
+    assert_eq!(machine.design, estimates);
+    assert_ne!(machine.design, fixture.machine.design);
+    assert_eq!(
+        MechanismMachine {
+            design: fixture.machine.design.clone(),
+            ..machine.clone()
+        },
+        fixture.machine
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let next = MechanismDataset {
+        machine,
+        ..fixture.clone()
+    };
+    next.write(dir.path()).unwrap();
+    let read = MechanismDataset::read(dir.path()).unwrap();
+    assert_eq!(read.machine, next.machine);
+    let second = fit(&read);
+    let means: Vec<f64> = second.parameters.iter().map(|p| p.prior_mean).collect();
+    assert_eq!(means, estimates);
+    assert!(calibrated_machine(&second, &read.machine).is_ok());
+
+    let mut moved = fixture.machine.clone();
+    moved.design[13] += 1e-9;
+    let error = calibrated_machine(&record, &moved).unwrap_err().to_string();
+    assert!(
+        error.starts_with(
+            "radius_b: the calibration's prior mean is 75, machine.json's design 75.000000001"
+        ),
+        "{error}"
+    );
+    let delta = MechanismMachine::of(&parcal_kinematics::delta::LinearDelta::typical());
+    let error = calibrated_machine(&record, &delta).unwrap_err().to_string();
+    assert!(
+        error.starts_with("mechanism: the calibration is a cable robot's"),
+        "{error}"
+    );
+}
+
 /// The fixture's lines made elastic by its machine.json (one compliance,
 /// the encoders zeroed under sample 0's loads, the compliance at its
 /// typical value and prior): the same calibration as the rigid fixture's
@@ -454,15 +528,9 @@ fn the_fixture_holds_the_chosen_model() {
 #[test]
 fn elastic_lines_in_machine_json_calibrate_as_the_robot_made_elastic_in_code() {
     let rigid = dataset();
-    let zero_loads = rigid.samples[0].loads.clone().unwrap();
-    let lines = LineElasticity {
-        compliance_of_line: vec![0; 4],
-        zero_loads: zero_loads.clone(),
-    };
-    let mut switched = rigid.clone();
-    switched.machine.elasticity = Some(lines.clone());
-    switched.machine.configured.push(TYPICAL_COMPLIANCE);
-    switched.machine.design.push(TYPICAL_COMPLIANCE);
+    let switched = elastic_fixture();
+    let lines = switched.machine.elasticity.clone().unwrap();
+    let zero_loads = lines.zero_loads.clone();
     let dir = tempfile::tempdir().unwrap();
     switched.write(dir.path()).unwrap();
     let read = MechanismDataset::read(dir.path()).unwrap();

@@ -162,6 +162,110 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
     }
 }
 
+/// `export --format machine-json` of a delta's calibration: the
+/// machine.json of its dataset (found by the calibration's provenance, or
+/// --machine) with the estimates as its design and the calibrated
+/// trigger height; the next calibration from it has its priors about
+/// those. Without the dataset, or with a firmware's format, --machine is
+/// asked for or refused by name.
+#[test]
+fn a_delta_exports_its_calibrated_machine_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    printer(d);
+    let data = import_printer(d, true);
+    ok(&["calibrate", s(&data)]);
+    // Away from its dataset, which it names.
+    let calibration = d.join("calibration.json");
+    fs::copy(data.join("calibration.json"), &calibration).unwrap();
+    let out = d.join("machine.json");
+    let export = |extra: &[&str]| {
+        let mut args = vec![
+            "export".to_string(),
+            "--calibration".to_string(),
+            s(&calibration).to_string(),
+            "--format".to_string(),
+            "machine-json".to_string(),
+            "--out".to_string(),
+            s(&out).to_string(),
+        ];
+        args.extend(extra.iter().map(|a| a.to_string()));
+        args
+    };
+    let run = |extra: &[&str], succeeds: bool| {
+        let args = export(extra);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        if succeeds { ok(&args) } else { fails(&args) }
+    };
+    let said = run(&[], true);
+    let found = format!(
+        "machine: {} (the calibration's dataset's)",
+        s(&data.join("machine.json"))
+    );
+    assert!(said.contains(&found), "{said}");
+    let json = |path: &Path| -> serde_json::Value {
+        serde_json::from_str(&fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let (record, machine, given) = (
+        json(&calibration),
+        json(&out),
+        json(&data.join("machine.json")),
+    );
+    for p in record["parameters"].as_array().unwrap() {
+        let name = p["name"].as_str().unwrap();
+        let written = match name {
+            "trigger_height" => &machine["trigger_height"]["value"],
+            _ => &machine["design"][name],
+        };
+        assert_eq!(written, &p["value"], "{name}");
+    }
+    assert_eq!(machine["configured"], given["configured"]);
+    assert_eq!(machine["tolerances"], given["tolerances"]);
+    assert_eq!(machine["noise"], given["noise"]);
+
+    let next = d.join("next");
+    fs::create_dir(&next).unwrap();
+    for file in ["probes.csv", "distances.csv"] {
+        fs::copy(data.join(file), next.join(file)).unwrap();
+    }
+    fs::copy(&out, next.join("machine.json")).unwrap();
+    ok(&["calibrate", s(&next)]);
+    let second = json(&next.join("calibration.json"));
+    for (p, q) in (record["parameters"].as_array().unwrap().iter())
+        .zip(second["parameters"].as_array().unwrap())
+    {
+        assert_eq!(q["prior_mean"], p["value"], "{}", p["name"]);
+    }
+
+    let err = run(&["--machine", s(&next.join("machine.json"))], false);
+    assert!(
+        err.contains("the calibration's prior mean is 0, machine.json's design"),
+        "{err}"
+    );
+    fs::rename(&data, d.join("moved")).unwrap();
+    let err = run(&[], false);
+    let missing = format!(
+        "a linear delta's calibration does not carry its machine's noise and tolerances, and its dataset's is not at {}: give the machine.json it was calibrated from (--machine)",
+        s(&data.join("machine.json"))
+    );
+    assert!(err.contains(&missing), "{err}");
+    let err = fails(&[
+        "export",
+        "--calibration",
+        s(&calibration),
+        "--format",
+        "reprapfirmware",
+        "--machine",
+        s(&out),
+        "--out",
+        s(&d.join("new.g")),
+    ]);
+    assert!(
+        err.contains("--machine: a mechanism's machine.json is what --format machine-json starts from; --format reprapfirmware does not read one"),
+        "{err}"
+    );
+}
+
 #[test]
 fn a_calibration_carries_its_printers_printable_radius() {
     let dir = tempfile::tempdir().unwrap();

@@ -43,6 +43,8 @@
 //!   lines, as `parcal export` writes them;
 //! - [`hexapod_export`]: a hexapod's calibration in the forms other tools
 //!   load, as `parcal export` writes them;
+//! - [`mechanism_machine`]: a mechanism's calibration as the machine.json
+//!   of its next calibration, as `parcal export` writes it;
 //! - [`hexapod_plan`]: a hexapod's plan (ball touches or instrument poses)
 //!   as `parcal plan` asks for it;
 //! - [`hexapod_simulation`]: a hexapod's simulated campaign (ball touches,
@@ -141,6 +143,7 @@ pub mod hexapod_export;
 pub mod hexapod_plan;
 pub mod hexapod_simulation;
 pub mod maps;
+pub mod mechanism_machine;
 mod named;
 pub mod report_pages;
 

@@ -38,6 +38,8 @@
 //! - `record`: a result as its `calibration.json` record;
 //! - `calibrated`: a `calibration.json` record as the numbers that apply
 //!   it ([`CalibratedMechanism`]);
+//! - `calibrated_machine`: a record as the `machine.json` of the next
+//!   calibration ([`calibrated_machine`]);
 //! - `predicted`: held-out observations predicted by a calibration, with
 //!   their derivatives (a ball's touches together, its centre projected
 //!   out);
@@ -77,6 +79,7 @@
 
 mod calibrate;
 mod calibrated;
+mod calibrated_machine;
 mod checks;
 mod compensation;
 mod coordinate_problem;
@@ -110,6 +113,7 @@ mod warm_start;
 
 pub use calibrate::{calibrate_mechanism, check_mechanism_data};
 pub use calibrated::CalibratedMechanism;
+pub use calibrated_machine::calibrated_machine;
 pub use checks::{ObservationCheck, ObservationChecks};
 pub use compensation::{
     Compensation, NAMED_TARGETS, UnreachableTargets, compensate_mechanism, compensate_targets,

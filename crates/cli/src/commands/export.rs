@@ -12,14 +12,16 @@ use parcal::firmware_lines::{
     FirmwareFormat, FirmwareLinesError, firmware_lines, refused_print_radius,
 };
 use parcal::hexapod_export::{HexapodFormat, hexapod_export};
+use parcal::mechanism_machine::{machine_path, mechanism_machine_json};
 
 use parcal::command::{Recorded, read_either};
 
 /// What to export.
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Format {
-    /// The calibrated machine.json in the design frame (the design of the
-    /// next calibration).
+    /// The calibrated machine.json (the design of the next calibration): a
+    /// hexapod's in the design frame; a mechanism's from the machine.json
+    /// it was calibrated from (--machine).
     MachineJson,
     /// A LinuxCNC genhexkins HAL snippet (setp of the 36 joint coordinates).
     Genhexkins,
@@ -38,7 +40,7 @@ enum Format {
 
 impl Format {
     /// The firmware this format writes a mechanism's lines for; `None`
-    /// for a hexapod's formats.
+    /// for the machine.json and a hexapod's formats.
     fn firmware(self) -> Option<FirmwareFormat> {
         match self {
             Self::MachineJson | Self::Genhexkins | Self::Summary => None,
@@ -95,24 +97,47 @@ pub struct Args {
     /// [delta_calibrate], the probe's z_offset, a bed mesh).
     #[arg(long, value_name = "PRINTER_CFG")]
     config: Option<PathBuf>,
+    /// With --format machine-json and a mechanism's calibration (a delta,
+    /// a cable robot): the machine.json it was calibrated from, whose
+    /// noise, tolerances and configured parameters the calibrated one
+    /// keeps. Default: the one in the dataset the calibration names.
+    #[arg(long, value_name = "MACHINE_JSON")]
+    machine: Option<PathBuf>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let inputs: Vec<PathBuf> = std::iter::once(&args.calibration)
         .chain(&args.config)
+        .chain(&args.machine)
         .cloned()
         .collect();
     crate::outputs::check(&inputs, std::slice::from_ref(&args.out))?;
+    anyhow::ensure!(
+        args.machine.is_none() || matches!(args.format, Format::MachineJson),
+        "--machine: a mechanism's machine.json is what --format machine-json starts from; --format {} does not read one",
+        args.format.name()
+    );
     match args.format.firmware() {
         Some(firmware) => export_firmware(args, firmware)?,
-        None => export_hexapod(args)?,
+        None => {
+            let text = match args.format {
+                Format::MachineJson => machine_json(args)?,
+                _ => hexapod_text(
+                    args,
+                    super::read_calibration(&args.calibration, args.accept_rejected).map_err(
+                        |error| mismatch(&args.calibration, args.format).unwrap_or(error),
+                    )?,
+                )?,
+            };
+            write_file(&args.out, text.as_bytes())?;
+        }
     }
     println!("{}", args.out.display());
     Ok(())
 }
 
-/// Exports a hexapod's calibration as `args.format`.
-fn export_hexapod(args: &Args) -> anyhow::Result<()> {
+/// The text of `record`, a hexapod's own calibration, as `args.format`.
+fn hexapod_text(args: &Args, record: parcal::dataset::Calibration) -> anyhow::Result<String> {
     anyhow::ensure!(
         args.radius_trims.is_none(),
         "--radius-trims: radius trims are Marlin's (DELTA_RADIUS_TRIM_TOWER, compiled in), not a {}'s",
@@ -123,14 +148,47 @@ fn export_hexapod(args: &Args) -> anyhow::Result<()> {
         "--config: --format {} is written alone: only Klipper's lines are written into a configuration (its printer.cfg)",
         args.format.name()
     );
-    let record = super::read_calibration(&args.calibration, args.accept_rejected)
-        .map_err(|error| mismatch(&args.calibration, args.format).unwrap_or(error))?;
     let format = HexapodFormat::by_name(&args.format.name())
         .expect("a hexapod's format is named as the facade names it");
-    let text = hexapod_export(&record, format)
-        .with_context(|| format!("{}", args.calibration.display()))?;
-    write_file(&args.out, text.as_bytes())?;
-    Ok(())
+    hexapod_export(&record, format).with_context(|| format!("{}", args.calibration.display()))
+}
+
+/// The calibrated machine.json of `args.calibration`: a hexapod's own
+/// calibration's ([`hexapod_text`]), or a mechanism's from the machine.json
+/// it was calibrated from (`--machine`, else its dataset's; the one read
+/// is printed).
+fn machine_json(args: &Args) -> anyhow::Result<String> {
+    let path = &args.calibration;
+    let record = match read_either(path) {
+        Ok(Recorded::Mechanism(record)) if record.mechanism != HEXAPOD => record,
+        Ok(Recorded::Own(record)) if args.machine.is_none() => {
+            return hexapod_text(args, super::accepted(*record, path, args.accept_rejected)?);
+        }
+        Ok(Recorded::Own(_)) => anyhow::bail!(
+            "--machine: {}: a hexapod's own calibration carries the design it started from",
+            path.display()
+        ),
+        Ok(Recorded::Mechanism(_)) => {
+            return Err(mismatch(path, args.format).unwrap_or_else(|| {
+                anyhow::anyhow!("{}: a hexapod's common record", path.display())
+            }));
+        }
+        Err(error) => return Err(error.into()),
+    };
+    let record = super::accepted(*record, path, args.accept_rejected)?;
+    anyhow::ensure!(
+        args.radius_trims.is_none() && args.config.is_none() && args.print_radius.is_none(),
+        "--print-radius, --radius-trims and --config are a firmware's: --format machine-json keeps the printable radius of the machine.json it starts from"
+    );
+    let machine = machine_path(&record, args.machine.as_deref())
+        .map_err(|error| anyhow::anyhow!("{}: {error} (--machine)", path.display()))?;
+    if args.machine.is_none() {
+        println!(
+            "machine: {} (the calibration's dataset's)",
+            machine.display()
+        );
+    }
+    Ok(mechanism_machine_json(&record, &machine)?)
 }
 
 /// The error of a calibration at `path` that is of another mechanism than

@@ -382,6 +382,19 @@ impl MechanismMachine {
 
     /// Checks and writes `machine.json` at `path` atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
+        self.with_names(path, |out| json::write(path, json::MACHINE, out))
+    }
+
+    /// Checks the machine and returns the text [`Self::write`] writes
+    /// (errors name the file `machine.json`).
+    pub fn to_json(&self) -> Result<String> {
+        let path = Path::new(crate::MACHINE_FILE);
+        self.with_names(path, |out| json::text(path, json::MACHINE, out))
+    }
+
+    /// `emit` of the machine as written, its values named, once it is
+    /// checked (errors naming `path`).
+    fn with_names<T>(&self, path: &Path, emit: impl FnOnce(&MachineOut) -> Result<T>) -> Result<T> {
         let check = Check::new(path);
         self.validate(check)?;
         let mechanism = machine_mechanism(path, &self.mechanism, self.elasticity.as_ref())?;
@@ -413,7 +426,7 @@ impl MechanismMachine {
             print_radius: self.print_radius,
             elasticity: self.elasticity.as_ref(),
         };
-        json::write(path, json::MACHINE, &out)
+        emit(&out)
     }
 
     /// The checks of [`Self::read`] and [`Self::write`]: a known mechanism,

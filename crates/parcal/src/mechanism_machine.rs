@@ -1,0 +1,82 @@
+//! A mechanism's calibration as the machine.json of its next calibration,
+//! as `parcal export --format machine-json` writes it for every front end
+//! ([`calibrated_machine`]: the machine it was made from, its design the
+//! calibrated parameters). A mechanism's record does not carry the noise
+//! and tolerances: they come from that machine.json, given, or found in
+//! the dataset the record names.
+
+use std::path::{Path, PathBuf};
+
+use parcal_calibrate::mechanism::calibrated_machine;
+use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismMachine};
+use parcal_dataset::{DatasetError, MACHINE_FILE};
+
+/// Why a mechanism's calibrated machine.json cannot be written.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MachineExportError {
+    /// No machine.json was given and the record names no dataset that has
+    /// one.
+    #[error(
+        "a {mechanism}'s calibration does not carry its machine's noise and tolerances, and {where_}: give the machine.json it was calibrated from"
+    )]
+    NoMachine {
+        /// The calibration's mechanism.
+        mechanism: String,
+        /// Where it was looked for, in words.
+        where_: String,
+    },
+    /// The machine.json could not be read.
+    #[error(transparent)]
+    Read(#[from] DatasetError),
+    /// The calibration is not one of that machine (another mechanism, a
+    /// prior mean that is not its design).
+    #[error("{path}: {reason}")]
+    Other {
+        /// The machine.json.
+        path: PathBuf,
+        /// Why, naming the field or parameter.
+        reason: String,
+    },
+}
+
+/// The machine.json `record` was calibrated from: `given`, else the one in
+/// the dataset directory its provenance names, if there is one there.
+pub fn machine_path(
+    record: &MechanismCalibrationRecord,
+    given: Option<&Path>,
+) -> Result<PathBuf, MachineExportError> {
+    if let Some(path) = given {
+        return Ok(path.to_path_buf());
+    }
+    let missing = |where_: String| MachineExportError::NoMachine {
+        mechanism: record.mechanism.clone(),
+        where_,
+    };
+    let provenance = (record.provenance.as_ref())
+        .ok_or_else(|| missing("it names no dataset (one built in memory)".to_string()))?;
+    let path = Path::new(&provenance.dataset).join(MACHINE_FILE);
+    if path.is_file() {
+        Ok(path)
+    } else {
+        Err(missing(format!(
+            "its dataset's is not at {}",
+            path.display()
+        )))
+    }
+}
+
+/// The text of `record`'s calibrated machine.json ([`calibrated_machine`]),
+/// from the machine.json at `machine`.
+pub fn mechanism_machine_json(
+    record: &MechanismCalibrationRecord,
+    machine: &Path,
+) -> Result<String, MachineExportError> {
+    let design = MechanismMachine::read(machine)?;
+    let calibrated =
+        calibrated_machine(record, &design).map_err(|error| MachineExportError::Other {
+            path: machine.to_path_buf(),
+            reason: error.to_string(),
+        })?;
+    Ok(calibrated.to_json()?)
+}
