@@ -43,8 +43,8 @@ pub const UNSEEN_TOOL: &str = "the tool tip E_T is not calibrated: the data (pos
 
 impl AppliedModel {
     /// The model of `record`: its `canonical` geometry placed onto its
-    /// `design` geometry, the scales of [`Calibration::actuator`] (the
-    /// calibrated ones when identified, else the design's), the design's stroke. Leg offsets of
+    /// `design` geometry, its [`Calibration::calibrated_scales`] (the
+    /// design's when not identified), the design's stroke. Leg offsets of
     /// later instrument sessions are not applied: the first session's
     /// homing is the one the initial leg lengths hold.
     ///
@@ -72,16 +72,12 @@ impl AppliedModel {
                 .map_err(|source| ApplyError::Geometry { what, source })?;
         }
         let (calibrated, placement) = place(&canonical, &design)?;
-        let actuator = record
-            .machine
-            .as_ref()
-            .map_or(&design_machine.actuator, |m| &m.actuator);
         Ok(Self {
             design,
             design_scale: design_machine.actuator.scale,
             calibrated,
-            scale: actuator.scale,
-            unit: actuator.unit.clone(),
+            scale: record.calibrated_scales(),
+            unit: record.actuator_unit().to_string(),
             stroke: design_machine.stroke,
             joint_limits: design_machine.joint_limits.map(|l| l.limits()),
             placement,

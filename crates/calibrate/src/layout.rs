@@ -38,7 +38,7 @@ use std::ops::Range;
 
 use nalgebra::{DMatrix, DVector, SVector};
 use parcal_kinematics::params::TOOL_OFFSET;
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, Vec3};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, Params, SCALE_NAMES, Vec3};
 
 /// One named group of the global block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -113,7 +113,7 @@ impl ParameterGroup {
                 .collect(),
             Self::BallCentre { ball } => (0..3).map(|c| centre_name(&ball_ids[ball], c)).collect(),
             Self::BallRadius { ball } => vec![radius_name(&ball_ids[ball])],
-            Self::ActuatorScales => (1..=6).map(|i| format!("s_{i}")).collect(),
+            Self::ActuatorScales => SCALE_NAMES.map(str::to_string).into(),
             Self::TrackerFrame { session } => FRAME
                 .map(|c| format!("frame {}.{c}", sessions[session]))
                 .into(),

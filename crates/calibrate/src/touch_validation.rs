@@ -32,7 +32,8 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3xX, Matrix6, RowDVector};
 use parcal_dataset::{Calibration, Dataset};
 use parcal_kinematics::{
-    ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, Vec3, forward_from_home, tip_jacobians,
+    ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, SCALE_NAMES, Vec3, forward_from_home,
+    tip_jacobians,
 };
 use parcal_observe::{Repeatability, WeightModel, radius_variance};
 
@@ -66,11 +67,14 @@ pub fn validate_touches(
     }
     // The calibrated parameters the touches depend on: the 33, then the
     // scales if identified.
-    let scale_names: Vec<String> = (1..=6).map(|i| format!("s_{i}")).collect();
     let scale_columns = names
         .iter()
-        .position(|name| *name == scale_names[0])
-        .filter(|&k| names.get(k..k + 6) == Some(&scale_names[..]));
+        .position(|name| *name == SCALE_NAMES[0])
+        .filter(|&k| {
+            names
+                .get(k..k + 6)
+                .is_some_and(|found| found == SCALE_NAMES)
+        });
     let columns: Vec<usize> = (0..N_PARAMS)
         .chain(scale_columns.into_iter().flat_map(|k| k..k + 6))
         .collect();
@@ -83,9 +87,7 @@ pub fn validate_touches(
     let forward = ForwardOptions::default();
     let measurements = &dataset.measurements;
     let scales = ActuatorScales {
-        values: calibration
-            .actuator()
-            .map_or(dataset.machine.actuator.scale, |a| a.scale),
+        values: calibration.calibrated_scales(),
         column: None,
     };
     let Some(n_ref) = reference else {

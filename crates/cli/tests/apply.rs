@@ -273,3 +273,62 @@ fn refusals_name_the_file_and_the_row_and_write_nothing() {
             .starts_with("x,y,z,roll,pitch,yaw")
     );
 }
+
+/// A calibration.json whose `machine` was left out (Jugglebot's, read in
+/// revolutions, its scales identified): the scales are its parameters
+/// `s_1..s_6`, so that validating held-out poses and compensating give
+/// what the whole record gives. The scales used to be taken as 1 mm per
+/// revolution, and `validate --reference` failed to locate the instrument
+/// from the poses those made.
+#[test]
+fn a_calibration_without_its_machine_applies_its_identified_scales() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let jugglebot = copy_fixture("jugglebot", &d.join("jb"), &["machine.json", "poses.csv"]);
+    let whole = d.join("whole.json");
+    ok(&["calibrate", s(&jugglebot), "--out", s(&whole)]);
+    let mut record: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&whole).unwrap()).unwrap();
+    assert!(record.as_object_mut().unwrap().remove("machine").is_some());
+    let without = d.join("without.json");
+    fs::write(&without, record.to_string()).unwrap();
+    let run = |calibration: &Path, what: &str| {
+        let validation = d.join(format!("validation-{what}.json"));
+        let said = common::parcal(&[
+            "validate",
+            s(&jugglebot),
+            "--calibration",
+            s(calibration),
+            "--reference",
+            "40",
+            "--out",
+            s(&validation),
+        ]);
+        let said = common::text(&said.stderr);
+        let (targets, commands) = (
+            d.join("targets.csv"),
+            d.join(format!("commands-{what}.csv")),
+        );
+        fs::write(
+            &targets,
+            "x,y,z,roll,pitch,yaw\n0,0,760,0,0,0\n10,-5,770,0.02,0,0.01\n",
+        )
+        .unwrap();
+        ok(&[
+            "compensate",
+            "--calibration",
+            s(calibration),
+            "--poses",
+            s(&targets),
+            "--out",
+            s(&commands),
+        ]);
+        let mut validation: serde_json::Value = serde_json::from_str(
+            &fs::read_to_string(&validation).unwrap_or_else(|_| panic!("{what}: {said}")),
+        )
+        .unwrap();
+        validation["calibration"] = serde_json::Value::Null;
+        (validation, fs::read_to_string(&commands).unwrap())
+    };
+    assert_eq!(run(&without, "without"), run(&whole, "whole"));
+}

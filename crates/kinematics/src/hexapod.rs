@@ -212,7 +212,7 @@ impl Hexapod {
         self.parameters.truncate(N_PARAMS);
         let per_unit: Cow<'static, str> = format!("mm/{unit}").into();
         self.parameters.extend((0..6).map(|i| Parameter {
-            name: format!("s_{}", i + 1),
+            name: crate::SCALE_NAMES[i].to_string(),
             unit: per_unit.clone(),
             group: "actuator scales",
             design: design[i],

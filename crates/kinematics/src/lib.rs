@@ -80,4 +80,4 @@ pub use frames::{Canonical, PriorSigma};
 pub use geometry::{Geometry, Pose, Vec3, paper, rotation_zyx};
 pub use inverse::{actuators, leg_lengths};
 pub use joints::{JointAngles, JointEnd, JointLimits, JointViolation};
-pub use params::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params};
+pub use params::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params, SCALE_NAMES};

@@ -85,6 +85,7 @@ pub fn with_parameters(name: &str, parameters: &[(&str, &str)]) -> Option<Box<dy
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::SCALE_NAMES;
 
     #[test]
     fn every_listed_mechanism_is_built_under_its_name() {
@@ -133,7 +134,7 @@ mod tests {
             .collect();
         let found = with_parameters("hexapod", &view(&parameters)).unwrap();
         assert_eq!(found.parameters().len(), 33);
-        parameters.extend((1..=6).map(|i| (format!("s_{i}"), "mm/rev".to_string())));
+        parameters.extend(SCALE_NAMES.map(|name| (name.to_string(), "mm/rev".to_string())));
         let found = with_parameters("hexapod", &view(&parameters)).unwrap();
         assert_eq!(found.parameters().len(), 39);
         assert_eq!(found.actuators()[0].unit, "rev");

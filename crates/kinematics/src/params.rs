@@ -32,6 +32,11 @@ pub const PARAM_NAMES: [&str; N_PARAMS] = [
     "x_e5", "y_e5", "z_e5", "x_e6", "y_e6", "z_e6", "x_eT", "y_eT", "z_eT",
 ];
 
+/// The names of the actuators' scales `s_1..s_6` (mm per unit of their
+/// readings: leg `i` is `l_i + s_i q_i` long), the parameters after
+/// [`PARAM_NAMES`] when a calibration identifies them.
+pub const SCALE_NAMES: [&str; 6] = ["s_1", "s_2", "s_3", "s_4", "s_5", "s_6"];
+
 /// Index of leg length `l_1` in the parameter vector.
 pub const LEG_OFFSET: usize = 12;
 /// Index of the tool coordinate `x_eT` in the parameter vector.

@@ -100,10 +100,7 @@ impl Calibrated {
             Geometry::from_arrays(&c.base_joints, &c.platform_joints, &c.tool, &c.leg_lengths);
         Ok(Self {
             params: params::to_params(&geometry),
-            scales: calibration
-                .machine
-                .as_ref()
-                .map_or([1.0; 6], |m| m.actuator.scale),
+            scales: calibration.calibrated_scales(),
             sessions: calibration
                 .sessions
                 .iter()

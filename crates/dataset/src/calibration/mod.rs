@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use parcal_kinematics::params::TOOL_OFFSET;
-use parcal_kinematics::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params};
+use parcal_kinematics::{N_PARAMS, PARAM_NAMES, ParamCovariance, Params, SCALE_NAMES};
 
 use crate::Point3;
 use crate::geometry::GeometryRecord;
@@ -551,14 +551,32 @@ impl Calibration {
         Ok((Params::from_column_slice(&values[..N_PARAMS]), covariance))
     }
 
-    /// The actuators' unit and scales to apply: the calibrated ones
-    /// (`machine.actuator`) when the calibration identified them, else the
-    /// design's (`design.actuator`); `None` when the file has neither.
+    /// The actuators as the calibrated machine states them
+    /// (`machine.actuator`), else as the design does (`design.actuator`);
+    /// `None` when the file has neither. The scales to apply are
+    /// [`Self::calibrated_scales`].
     pub fn actuator(&self) -> Option<&Actuator> {
         self.machine
             .as_ref()
             .map(|m| &m.actuator)
             .or(self.design.as_ref().map(|d| &d.actuator))
+    }
+
+    /// The actuators' calibrated scales (mm per unit): the parameters
+    /// `s_1..s_6` when the calibration identified them (they are the
+    /// estimates `machine` copies), else [`Self::actuator`]'s, else 1 (the
+    /// millimetres of [`Self::actuator_unit`]).
+    pub fn calibrated_scales(&self) -> [f64; 6] {
+        let p = &self.parameters;
+        let estimated = SCALE_NAMES.map(|name| {
+            let k = p.names.iter().position(|known| known == name)?;
+            p.values.get(k).copied()
+        });
+        if estimated.iter().all(Option::is_some) {
+            estimated.map(Option::unwrap_or_default)
+        } else {
+            self.actuator().map_or([1.0; 6], |a| a.scale)
+        }
     }
 
     /// The unit the actuators read in ([`Self::actuator`]'s; millimetres

@@ -31,7 +31,7 @@
 use std::path::Path;
 
 use parcal_kinematics::params::{self, BASE_INDEX, LEG_OFFSET, PLATFORM_INDEX, TOOL_OFFSET};
-use parcal_kinematics::{Geometry, PARAM_NAMES};
+use parcal_kinematics::{Geometry, PARAM_NAMES, SCALE_NAMES};
 
 use super::{Calibration, Diagnostics};
 use crate::check::{Check, shown};
@@ -211,8 +211,7 @@ impl Calibration {
         let Some(machine) = &self.machine else {
             return Ok(());
         };
-        for (i, &scale) in machine.actuator.scale.iter().enumerate() {
-            let name = format!("s_{}", i + 1);
+        for (i, (&scale, name)) in machine.actuator.scale.iter().zip(SCALE_NAMES).enumerate() {
             let Some(k) = p.names.iter().position(|known| *known == name) else {
                 continue;
             };
