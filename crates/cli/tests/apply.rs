@@ -5,7 +5,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use crate::common;
-use common::{PAPER_FILES, copy_fixture, fails, ok, s};
+use common::{PAPER_FILES, compensate_poses, copy_fixture, fails, ok, s};
 
 /// fixtures/paper-seed1 calibrated in `dir`; returns the dataset directory.
 fn calibrated(dir: &Path) -> PathBuf {
@@ -211,17 +211,8 @@ fn refusals_name_the_file_and_the_row_and_write_nothing() {
     let calibration = data.join("calibration.json");
     let targets = dir.path().join("targets.csv");
     let commands = dir.path().join("commands.csv");
-    let compensate = |calibration: &Path| {
-        fails(&[
-            "compensate",
-            "--calibration",
-            s(calibration),
-            "--poses",
-            s(&targets),
-            "--out",
-            s(&commands),
-        ])
-    };
+    let compensate =
+        |calibration: &Path| fails(&compensate_poses(calibration, &targets, &commands));
     fs::write(
         &targets,
         "x,y,z,roll,pitch,yaw\n0,0,400,0,0,0\n0,x,400,0,0,0\n",
@@ -257,15 +248,7 @@ fn refusals_name_the_file_and_the_row_and_write_nothing() {
     assert!(!commands.exists());
 
     // The output is one of the inputs.
-    let error = fails(&[
-        "compensate",
-        "--calibration",
-        s(&calibration),
-        "--poses",
-        s(&targets),
-        "--out",
-        s(&targets),
-    ]);
+    let error = fails(&compensate_poses(&calibration, &targets, &targets));
     assert!(error.contains("which this run reads"), "{error}");
     assert!(
         fs::read_to_string(&targets)
@@ -314,15 +297,7 @@ fn a_calibration_without_its_machine_applies_its_identified_scales() {
             "x,y,z,roll,pitch,yaw\n0,0,760,0,0,0\n10,-5,770,0.02,0,0.01\n",
         )
         .unwrap();
-        ok(&[
-            "compensate",
-            "--calibration",
-            s(calibration),
-            "--poses",
-            s(&targets),
-            "--out",
-            s(&commands),
-        ]);
+        ok(&compensate_poses(calibration, &targets, &commands));
         let mut validation: serde_json::Value = serde_json::from_str(
             &fs::read_to_string(&validation).unwrap_or_else(|_| panic!("{what}: {said}")),
         )

@@ -7,7 +7,7 @@ use std::fs;
 use std::path::Path;
 
 use crate::common;
-use common::{PAPER_FILES, copy_fixture, fails, ok, s};
+use common::{PAPER_FILES, compensate_poses, copy_fixture, fails, ok, s};
 
 /// The JSON file `from` edited by `edit`, written to `to`.
 fn edit_json(from: &Path, to: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
@@ -40,15 +40,7 @@ fn a_target_below_the_base_and_commands_outside_the_stroke_are_refused_naming_th
     // Without and with joint limits: the second target's platform is
     // 400 + 60.4 mm (the tool) below the base.
     for calibration in [&calibration, &limited] {
-        let error = fails(&[
-            "compensate",
-            "--calibration",
-            s(calibration),
-            "--poses",
-            s(&targets),
-            "--out",
-            s(&commands),
-        ]);
+        let error = fails(&compensate_poses(calibration, &targets, &commands));
         assert!(
             error.contains("targets.csv: line 3: the platform would be 460."),
             "{error}"

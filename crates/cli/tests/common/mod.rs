@@ -49,6 +49,24 @@ pub fn s(path: &Path) -> &str {
     path.to_str().unwrap()
 }
 
+/// `parcal compensate`'s arguments: the target poses of `targets` through
+/// the calibration `calibration`, the commands to `commands`.
+pub fn compensate_poses<'a>(
+    calibration: &'a Path,
+    targets: &'a Path,
+    commands: &'a Path,
+) -> [&'a str; 7] {
+    [
+        "compensate",
+        "--calibration",
+        s(calibration),
+        "--poses",
+        s(targets),
+        "--out",
+        s(commands),
+    ]
+}
+
 /// `dir/sim`, the dataset `parcal simulate --mechanism MECHANISM --seed
 /// SEED` writes.
 pub fn simulated(dir: &Path, mechanism: &str, seed: u64) -> PathBuf {
