@@ -412,7 +412,9 @@ class MechanismDataset:
     its probe heights, part distances, encoder samples and measured
     quantities, as numpy arrays. Built in memory from what machine.json
     holds and the observations' arrays (``samples``: ``readings`` n x A,
-    ``position`` n x 3 with NaN rows where not measured, ``loads`` n x A;
+    ``position`` n x 3 with NaN rows where not measured, ``measured``
+    (optional, as the property gives it) n booleans that must agree,
+    ``loads`` n x A;
     ``quantities``: ``quantity``, ``value``, ``sigma``; ``balls`` n x 2:
     radius and its sigma, 0 for an exact radius, or n x 6 with where each
     ball was placed, ``x, y, z, centre_sigma`` (all four NaN for a ball not
@@ -747,15 +749,16 @@ def export(
     print_radius: Optional[float] = None,
     radius_trims: Optional[tuple[float, float, float]] = None,
     config: Optional[PathLike] = None,
-    machine: Optional[PathLike] = None,
+    machine: Optional[Union[PathLike, Mapping[str, Any]]] = None,
     accept_rejected: bool = False,
 ) -> dict[str, Any]:
     """A calibration in the form other tools load, as ``parcal export
     --format`` writes it: a hexapod's own as ``"machine-json"``,
     ``"genhexkins"`` or ``"summary"``; a mechanism's as its firmware's
     lines, or as ``"machine-json"``: the machine.json it was calibrated
-    from (``machine``, by default its dataset's) with the calibrated
-    parameters as its design. Returns ``text``, ``lost`` (what the firmware cannot hold), and
+    from (``machine``: a path, or its content as ``MechanismDataset.machine``
+    gives it; by default its dataset's) with the calibrated parameters as
+    its design. Returns ``text``, ``lost`` (what the firmware cannot hold), and
     for a delta ``print_radius``, ``cost`` (mm: ``z_offset``,
     ``flatness_rms``, ``flatness_max``, ``volume_rms``, ``volume_max``)
     and ``cost_sentence``, for Marlin ``radius_trims`` (those the lines are

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use numpy::{PyArray1, PyArray2};
 use parcal::command::read_dataset;
+use parcal::dataset::IN_MEMORY;
 use parcal::dataset::{ARTEFACTS_FILE, MACHINE_FILE};
 use parcal::workflows::evaluate::TrueMachine;
 use parcal::{Artefacts, Machine, Measurements, PARAM_NAMES, Points, Poses, Tracker};
@@ -15,9 +16,6 @@ use pyo3::types::PyDict;
 
 use crate::convert::{array2, known_keys, rows, through_file, to_python};
 use crate::error::to_py;
-
-/// What calibration.json's provenance names a dataset built in memory.
-pub(crate) const IN_MEMORY: &str = "(in memory)";
 
 /// A calibration dataset: the machine, the artefacts (balls and calibrated
 /// distances) and the measurements (ball touches; poses and points of an

@@ -5,18 +5,23 @@
 //! robot's as its firmware's lines (`parcal::firmware_lines`,
 //! docs/delta.md, docs/cable-robots.md).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use parcal::command::Recorded;
 use parcal::dataset::HEXAPOD;
+use parcal::dataset::mechanism::MechanismMachine;
+use parcal::dataset::{IN_MEMORY, MACHINE_FILE};
 use parcal::firmware_lines::{
     FirmwareFormat, FirmwareLinesError, firmware_lines, refused_print_radius,
 };
 use parcal::hexapod_export::{HexapodFormat, hexapod_export};
-use parcal::mechanism_machine::{machine_path, mechanism_machine_json};
+use parcal::mechanism_machine::{
+    MachineExportError, calibrated_machine_json, machine_path, mechanism_machine_json,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::convert::through_file;
 use crate::error::to_py;
 use crate::recorded::recorded;
 
@@ -48,9 +53,10 @@ use crate::recorded::recorded;
 /// `accept_rejected`.
 ///
 /// A linear delta's or a cable robot's calibration as `"machine-json"` is
-/// the machine.json it was calibrated from (`machine`, a path; by default
-/// the one in the dataset the calibration names) with the calibrated
-/// parameters as its design and the calibrated trigger height
+/// the machine.json it was calibrated from (`machine`: its path, or its
+/// content as a dict, a `MechanismDataset`'s `machine`; by default the one
+/// in the dataset the calibration names) with the calibrated parameters as
+/// its design and the calibrated trigger height
 /// (`parcal::mechanism_machine`).
 #[pyfunction]
 #[pyo3(signature = (calibration, format, *, print_radius=None, radius_trims=None, config=None, machine=None, accept_rejected=false))]
@@ -62,7 +68,7 @@ pub fn export<'py>(
     print_radius: Option<f64>,
     radius_trims: Option<[f64; 3]>,
     config: Option<PathBuf>,
-    machine: Option<PathBuf>,
+    machine: Option<&Bound<'py, PyAny>>,
     accept_rejected: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let wanted = match (
@@ -82,7 +88,7 @@ pub fn export<'py>(
         }
     };
     let (recorded, path) = recorded(calibration)?;
-    let name = path.map_or("(in memory)".to_string(), |path| path.display().to_string());
+    let name = path.map_or(IN_MEMORY.to_string(), |path| path.display().to_string());
     let (rejected, reasons) = match &recorded {
         Recorded::Own(record) => (record.is_rejected(), &record.reasons),
         Recorded::Mechanism(record) => (!record.accepted, &record.reasons),
@@ -114,9 +120,25 @@ pub fn export<'py>(
                     "print_radius and config are a firmware's: \"machine-json\" keeps the printable radius of the machine.json it starts from",
                 ));
             }
-            let text = machine_path(&record, machine.as_deref())
-                .and_then(|path| mechanism_machine_json(&record, &path))
-                .map_err(|e| to_py(format!("{name}: {e} (machine=)")))?;
+            let failed = |e: MachineExportError| to_py(format!("{name}: {e} (machine=)"));
+            let text = match machine {
+                Some(content) if content.is_instance_of::<PyDict>() => {
+                    let read = through_file(
+                        content,
+                        "parcal-machine/1",
+                        MACHINE_FILE,
+                        MechanismMachine::read,
+                    )?;
+                    let path = Path::new(IN_MEMORY).join(MACHINE_FILE);
+                    calibrated_machine_json(&record, &read, &path)
+                }
+                given => {
+                    let given: Option<PathBuf> = given.map(|path| path.extract()).transpose()?;
+                    machine_path(&record, given.as_deref())
+                        .and_then(|path| mechanism_machine_json(&record, &path))
+                }
+            }
+            .map_err(failed)?;
             return without_firmware(py, &dict, text);
         }
         (Recorded::Own(_), Wanted::Hexapod(_)) if machine.is_some() => {

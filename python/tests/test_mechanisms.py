@@ -54,6 +54,15 @@ def test_read_dataset_reads_the_kind_machine_json_declares(hangprinter):
     assert ds.probes.shape == (0, 3) and ds.distances.shape == (0, 7) and ds.truth is None
     assert ds.machine == {"design": None, **machine}  # as written: no design, the configured values
     assert ds.print_radius is None  # a cable robot's machine.json states none
+    # What the properties give, the constructor takes back; measured must
+    # agree with the positions given.
+    again = parcal.MechanismDataset(ds.machine, samples=ds.samples, quantities=ds.quantities)
+    assert np.array_equal(again.samples["position"], samples["position"], equal_nan=True)
+    assert np.array_equal(again.samples["measured"], samples["measured"])
+    flipped = {**samples, "measured": ~samples["measured"]}
+    first = "a position" if flipped["measured"][0] else "no position"
+    with pytest.raises(parcal.Error, match=f"samples: row 0: measured says {first} was measured, position says otherwise"):
+        parcal.MechanismDataset(ds.machine, samples=flipped)
 
 
 def test_a_mechanism_dataset_written_reads_back_the_same(delta, tmp_path):
@@ -362,7 +371,7 @@ def test_a_dataset_built_in_memory_calibrates_as_its_files(hangprinter, delta):
     with pytest.raises(parcal.Error, match=r"samples\[\"readings\"\]: expected 4 columns, got 3"):
         parcal.MechanismDataset(machine, samples={"readings": np.ones((2, 3))})
     # A misspelt key is refused, not passed over (the loads would be lost).
-    with pytest.raises(parcal.Error, match=r'samples: unknown key "load" \(its keys are readings, position, loads\)'):
+    with pytest.raises(parcal.Error, match=r'samples: unknown key "load" \(its keys are readings, position, measured, loads\)'):
         parcal.MechanismDataset(machine, samples={"readings": np.ones((2, 4)), "load": np.ones((2, 4))})
     with pytest.raises(parcal.Error, match=r"machine\.json: .*unknown mechanism"):
         parcal.MechanismDataset({**machine, "mechanism": "scara"}, probes=probes)
@@ -696,6 +705,13 @@ def test_export_machine_json_of_a_mechanism_is_the_clis(hangprinter, cli, tmp_pa
     assert mine["text"] == out.read_text()
     given = parcal.export(str(robot), "machine-json", machine=hangprinter / "machine.json")
     assert given["text"] == mine["text"] and given["lost"] == [] and given["cost"] is None
+    # A calibration made in memory names no dataset: its machine is given,
+    # as a path or as the dataset's machine.json content.
+    ds = parcal.read_dataset(hangprinter)
+    run = parcal.calibrate(parcal.MechanismDataset(ds.machine, samples=ds.samples, quantities=ds.quantities))
+    with pytest.raises(parcal.Error, match="it names no dataset \\(one built in memory\\): give the machine.json it was calibrated from \\(machine=\\)"):
+        parcal.export(run, "machine-json")
+    assert parcal.export(run, "machine-json", machine=ds.machine)["text"] == mine["text"]
     machine, record = json.loads(mine["text"]), json.loads(robot.read_text())
     assert machine["design"] == {p["name"]: p["value"] for p in record["parameters"]}
     assert machine["configured"] == json.loads((hangprinter / "machine.json").read_text())["configured"]

@@ -122,7 +122,7 @@ mod write_behind;
 pub use artefacts::{ArtefactFrame, Artefacts, Ball, Distance};
 pub use calibration::{
     CalibratedMachine, Calibration, CentreEstimate, Diagnostics, DownWeightedObservation,
-    ExternalReliabilityRecord, GlobalTestRecord, Histogram, IterationSummary, MAX_BINS,
+    ExternalReliabilityRecord, GlobalTestRecord, Histogram, IN_MEMORY, IterationSummary, MAX_BINS,
     MAX_ITERATIONS, MAX_LISTED, MAX_PARAMETERS, MAX_SENTENCES, ObservationCheck, ObservationTests,
     ParameterTable, Provenance, RemovedObservation, SystematicSensitivityRecord,
     SystematicTestRecord, VarianceComponentRecord, WeakDirectionRecord,

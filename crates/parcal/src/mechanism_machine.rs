@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use parcal_calibrate::mechanism::calibrated_machine;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismMachine};
-use parcal_dataset::{DatasetError, MACHINE_FILE};
+use parcal_dataset::{DatasetError, IN_MEMORY, MACHINE_FILE};
 
 /// Why a mechanism's calibrated machine.json cannot be written.
 #[derive(Debug, thiserror::Error)]
@@ -54,6 +54,7 @@ pub fn machine_path(
         where_,
     };
     let provenance = (record.provenance.as_ref())
+        .filter(|provenance| provenance.dataset != IN_MEMORY)
         .ok_or_else(|| missing("it names no dataset (one built in memory)".to_string()))?;
     let path = Path::new(&provenance.dataset).join(MACHINE_FILE);
     if path.is_file() {
@@ -72,10 +73,19 @@ pub fn mechanism_machine_json(
     record: &MechanismCalibrationRecord,
     machine: &Path,
 ) -> Result<String, MachineExportError> {
-    let design = MechanismMachine::read(machine)?;
+    calibrated_machine_json(record, &MechanismMachine::read(machine)?, machine)
+}
+
+/// The text of `record`'s calibrated machine.json ([`calibrated_machine`]),
+/// from `machine`, read from `path` (what an error names).
+pub fn calibrated_machine_json(
+    record: &MechanismCalibrationRecord,
+    machine: &MechanismMachine,
+    path: &Path,
+) -> Result<String, MachineExportError> {
     let calibrated =
-        calibrated_machine(record, &design).map_err(|error| MachineExportError::Other {
-            path: machine.to_path_buf(),
+        calibrated_machine(record, machine).map_err(|error| MachineExportError::Other {
+            path: path.to_path_buf(),
             reason: error.to_string(),
         })?;
     Ok(calibrated.to_json()?)

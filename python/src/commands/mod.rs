@@ -9,6 +9,7 @@ mod validate;
 
 use std::path::PathBuf;
 
+use parcal::dataset::IN_MEMORY;
 use pyo3::prelude::*;
 
 use crate::error::to_py;
@@ -34,7 +35,7 @@ fn calibration_record(
     accept_rejected: bool,
 ) -> PyResult<(parcal::Calibration, String)> {
     let (record, name) = match calibration.cast::<Calibration>() {
-        Ok(run) => (run.get().record().clone(), "(in memory)".to_string()),
+        Ok(run) => (run.get().record().clone(), IN_MEMORY.to_string()),
         Err(_) if calibration.cast::<MechanismCalibration>().is_ok() => {
             return Err(to_py(
                 "calibration: a parcal.MechanismCalibration (a mechanism's, or a hexapod's through common=True): this takes a hexapod's own calibration (parcal.calibrate without common=True) or its calibration.json's path",

@@ -10,8 +10,8 @@ use parcal::calibration::Observation;
 use parcal::calibration::bounds::MAX_ITERATIONS;
 use parcal::calibration::mechanism::{ObservationKind, ObservationRef};
 use parcal::command::{CalibrateFlags, common_calibration, provenance};
-use parcal::dataset::HEXAPOD;
 use parcal::dataset::mechanism::ObservationRecord;
+use parcal::dataset::{HEXAPOD, IN_MEMORY};
 use parcal::report::mechanism::identifiability_statements;
 use parcal::report::mechanism_validation::{observation_place, observation_row_place};
 use parcal::{MechanismCalibrationRecord, calibrate_mechanism as calibrate};
@@ -22,7 +22,7 @@ use super::data_error;
 use super::dataset::MechanismDataset;
 use crate::calibrate::observed;
 use crate::convert::to_python;
-use crate::dataset::{Dataset, IN_MEMORY};
+use crate::dataset::Dataset;
 use crate::error::to_py;
 use crate::options::{choice, flags, seconds};
 

@@ -11,6 +11,7 @@ use numpy::{PyArray1, PyArray2};
 use parcal::MechanismData;
 use parcal::MechanismDataset as Inner;
 use parcal::dataset::Distance;
+use parcal::dataset::IN_MEMORY;
 use parcal::dataset::mechanism::{
     BallPlacement, BallRow, MACHINE_FILE, MechanismMachine, QuantityRow, RowNames, SampleRow,
     TRIGGER_HEIGHT, TouchRow, TrackerPointRow,
@@ -24,7 +25,6 @@ use crate::convert::{
     array2, known_keys, rows, table, table_rows, table_rows_of, through_file, to_python,
     written_text,
 };
-use crate::dataset::IN_MEMORY;
 use crate::error::to_py;
 
 /// A mechanism dataset: its machine (the mechanism by name, the
@@ -38,8 +38,8 @@ use crate::error::to_py;
 /// `MechanismDataset(machine, probes=, heights=, distances=, samples=,
 /// quantities=)` builds one in memory: `machine` holds what machine.json
 /// holds, `probes` n x 3, `heights` n x 4, `distances` n x 7, `samples` a dict of `readings` (n x A),
-/// `position` (n x 3, a row of NaN where not measured) and `loads`
-/// (n x A), `quantities` a dict of `quantity`, `value`, `sigma`, `balls`
+/// `position` (n x 3, a row of NaN where not measured; `measured`, n
+/// booleans, optional, must agree) and `loads` (n x A), `quantities` a dict of `quantity`, `value`, `sigma`, `balls`
 /// n x 2 (`radius`, `radius_sigma`, 0 for an exact radius), `touches`
 /// n x 4 (`ball`, the commanded `x, y, z`), `ball_distances` n x 4
 /// (`first, second, distance, sigma`: two balls' numbers and the
@@ -459,9 +459,15 @@ impl MechanismDataset {
 
 /// The samples of a dict: `readings` (n x A), `position` (n x 3, a row of
 /// NaN where not measured) and `loads` (n x A, a row of NaN where not
-/// given), the last two optional.
+/// given), the last two optional; `measured` (n booleans), optional too,
+/// must say which positions were given, as the `samples` property writes
+/// it.
 fn sample_rows(dict: &Bound<'_, PyDict>, actuators: usize) -> PyResult<Vec<SampleRow>> {
-    known_keys(dict, "samples", &["readings", "position", "loads"])?;
+    known_keys(
+        dict,
+        "samples",
+        &["readings", "position", "measured", "loads"],
+    )?;
     let column = |key: &str, width: usize| -> PyResult<Option<Vec<Vec<f64>>>> {
         dict.get_item(key)?
             .filter(|value| !value.is_none())
@@ -488,6 +494,30 @@ fn sample_rows(dict: &Bound<'_, PyDict>, actuators: usize) -> PyResult<Vec<Sampl
             .map(|rows| rows[k].clone())
             .filter(|row| !row.iter().all(|v| v.is_nan()))
     };
+    if let Some(measured) = dict.get_item("measured")?.filter(|v| !v.is_none()) {
+        let measured: Vec<bool> = measured
+            .extract()
+            .map_err(|_| to_py("samples[\"measured\"]: expected a sequence of booleans"))?;
+        if measured.len() != readings.len() {
+            return Err(to_py(format!(
+                "samples: measured has {} rows and readings {}: one of each per sample",
+                measured.len(),
+                readings.len()
+            )));
+        }
+        if let Some(k) =
+            (0..readings.len()).find(|&k| measured[k] != given(&positions, k).is_some())
+        {
+            let said = if measured[k] {
+                "a position"
+            } else {
+                "no position"
+            };
+            return Err(to_py(format!(
+                "samples: row {k}: measured says {said} was measured, position says otherwise (a row of NaN where none was)"
+            )));
+        }
+    }
     Ok(readings
         .into_iter()
         .enumerate()

@@ -14,6 +14,7 @@ pub mod plan;
 
 use std::path::{Path, PathBuf};
 
+use parcal::dataset::IN_MEMORY;
 use parcal::report::mechanism_validation::placed_error;
 use parcal::{MechanismCalibrationError, MechanismCalibrationRecord};
 use pyo3::prelude::*;
@@ -55,7 +56,7 @@ fn calibration_record(
     accept_rejected: bool,
 ) -> PyResult<(MechanismCalibrationRecord, String)> {
     let (record, name) = match calibration.cast::<MechanismCalibration>() {
-        Ok(run) => (run.get().record.clone(), "(in memory)".to_string()),
+        Ok(run) => (run.get().record.clone(), IN_MEMORY.to_string()),
         Err(_) => {
             let path: PathBuf = calibration.extract().map_err(|_| {
                 to_py(format!(

@@ -604,12 +604,16 @@ pub struct GlobalTestRecord {
     pub outcome: String,
 }
 
+/// What [`Provenance::dataset`] names a dataset built in memory by.
+pub const IN_MEMORY: &str = "(in memory)";
+
 /// Where a calibration comes from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Provenance {
     /// The parcal version that computed it.
     pub parcal_version: String,
-    /// The dataset as it was given (a directory or a snapshot).
+    /// The dataset as it was given (a directory or a snapshot), or
+    /// [`IN_MEMORY`].
     pub dataset: String,
     /// The dataset's checksum ([`crate::Dataset::checksum`], a
     /// mechanism's [`crate::mechanism::MechanismDataset::checksum`]).
