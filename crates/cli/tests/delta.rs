@@ -242,6 +242,13 @@ fn a_delta_exports_its_calibrated_machine_json() {
         err.contains("the calibration's prior mean is 0, machine.json's design"),
         "{err}"
     );
+    let hexapod =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/paper-seed1/machine.json");
+    let err = run(&["--machine", s(&hexapod)], false);
+    assert!(
+        err.contains("mechanism: the calibration is a linear delta's, machine.json a hexapod's: the calibration was not made from this machine.json"),
+        "{err}"
+    );
     fs::rename(&data, d.join("moved")).unwrap();
     let err = run(&[], false);
     let missing = format!(

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use parcal_calibrate::mechanism::calibrated_machine;
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, MechanismMachine};
-use parcal_dataset::{DatasetError, IN_MEMORY, MACHINE_FILE};
+use parcal_dataset::{DatasetError, HEXAPOD, IN_MEMORY, MACHINE_FILE, declared_mechanism};
 
 /// Why a mechanism's calibrated machine.json cannot be written.
 #[derive(Debug, thiserror::Error)]
@@ -68,11 +68,21 @@ pub fn machine_path(
 }
 
 /// The text of `record`'s calibrated machine.json ([`calibrated_machine`]),
-/// from the machine.json at `machine`.
+/// from the machine.json at `machine` (a hexapod's refused as another
+/// mechanism's is).
 pub fn mechanism_machine_json(
     record: &MechanismCalibrationRecord,
     machine: &Path,
 ) -> Result<String, MachineExportError> {
+    if declared_mechanism(machine)?.is_none_or(|name| name == HEXAPOD) {
+        return Err(MachineExportError::Other {
+            path: machine.to_path_buf(),
+            reason: format!(
+                "mechanism: the calibration is a {}'s, machine.json a {HEXAPOD}'s: the calibration was not made from this machine.json",
+                record.mechanism
+            ),
+        });
+    }
     calibrated_machine_json(record, &MechanismMachine::read(machine)?, machine)
 }
 
