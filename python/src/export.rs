@@ -55,7 +55,8 @@ use crate::recorded::recorded;
 /// A linear delta's or a cable robot's calibration as `"machine-json"` is
 /// the machine.json it was calibrated from (`machine`: its path, or its
 /// content as a dict, a `MechanismDataset`'s `machine`; by default the one
-/// in the dataset the calibration names) with the calibrated parameters as
+/// in the dataset the calibration names, else the one beside the
+/// calibration's file) with the calibrated parameters as
 /// its design and the calibrated trigger height
 /// (`parcal::mechanism_machine`).
 #[pyfunction]
@@ -88,7 +89,9 @@ pub fn export<'py>(
         }
     };
     let (recorded, path) = recorded(calibration)?;
-    let name = path.map_or(IN_MEMORY.to_string(), |path| path.display().to_string());
+    let name = path
+        .as_ref()
+        .map_or(IN_MEMORY.to_string(), |path| path.display().to_string());
     let (rejected, reasons) = match &recorded {
         Recorded::Own(record) => (record.is_rejected(), &record.reasons),
         Recorded::Mechanism(record) => (!record.accepted, &record.reasons),
@@ -134,7 +137,7 @@ pub fn export<'py>(
                 }
                 given => {
                     let given: Option<PathBuf> = given.map(|path| path.extract()).transpose()?;
-                    machine_path(&record, given.as_deref())
+                    machine_path(&record, given.as_deref(), path.as_deref())
                         .and_then(|path| mechanism_machine_json(&record, &path))
                 }
             }

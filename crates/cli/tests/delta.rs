@@ -178,7 +178,7 @@ fn a_delta_exports_its_calibrated_machine_json() {
     // Away from its dataset, which it names.
     let calibration = d.join("calibration.json");
     fs::copy(data.join("calibration.json"), &calibration).unwrap();
-    let out = d.join("machine.json");
+    let out = d.join("calibrated-machine.json");
     let export = |extra: &[&str]| {
         let mut args = vec![
             "export".to_string(),
@@ -198,10 +198,7 @@ fn a_delta_exports_its_calibrated_machine_json() {
         if succeeds { ok(&args) } else { fails(&args) }
     };
     let said = run(&[], true);
-    let found = format!(
-        "machine: {} (the calibration's dataset's)",
-        s(&data.join("machine.json"))
-    );
+    let found = format!("machine: {}\n", s(&data.join("machine.json")));
     assert!(said.contains(&found), "{said}");
     let json = |path: &Path| -> serde_json::Value {
         serde_json::from_str(&fs::read_to_string(path).unwrap()).unwrap()
@@ -249,13 +246,40 @@ fn a_delta_exports_its_calibrated_machine_json() {
         err.contains("mechanism: the calibration is a linear delta's, machine.json a hexapod's: the calibration was not made from this machine.json"),
         "{err}"
     );
-    fs::rename(&data, d.join("moved")).unwrap();
+    // Its dataset moved: none to be found by its provenance, nor beside
+    // the copy; the one beside the record in the moved dataset.
+    let moved = d.join("moved");
+    fs::rename(&data, &moved).unwrap();
     let err = run(&[], false);
     let missing = format!(
-        "a linear delta's calibration does not carry its machine's noise and tolerances, and its dataset's is not at {}: give the machine.json it was calibrated from (--machine)",
-        s(&data.join("machine.json"))
+        "a linear delta's calibration does not carry its machine's noise and tolerances, and none is at {} or {}: give the machine.json it was calibrated from (--machine)",
+        s(&data.join("machine.json")),
+        s(&d.join("machine.json"))
     );
     assert!(err.contains(&missing), "{err}");
+    let beside = |out: &Path| {
+        [
+            "export",
+            "--calibration",
+            s(&moved.join("calibration.json")),
+            "--format",
+            "machine-json",
+            "--out",
+        ]
+        .into_iter()
+        .chain([s(out)])
+        .map(str::to_string)
+        .collect::<Vec<String>>()
+    };
+    let args = beside(&out);
+    let said = ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(
+        said.contains(&format!("machine: {}\n", s(&moved.join("machine.json")))),
+        "{said}"
+    );
+    let args = beside(&moved.join("machine.json"));
+    let err = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(err.contains("which this run reads"), "{err}");
     let err = fails(&[
         "export",
         "--calibration",

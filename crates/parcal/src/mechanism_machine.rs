@@ -40,31 +40,38 @@ pub enum MachineExportError {
     },
 }
 
-/// The machine.json `record` was calibrated from: `given`, else the one in
-/// the dataset directory its provenance names, if there is one there.
+/// The machine.json `record` (read from the file `read_from`, if any) was
+/// calibrated from: `given`, else the one in the dataset directory its
+/// provenance names (as it was given, from the directory it was
+/// calibrated in), else the one beside the record (where `parcal
+/// calibrate` writes it by default), the first that is there.
 pub fn machine_path(
     record: &MechanismCalibrationRecord,
     given: Option<&Path>,
+    read_from: Option<&Path>,
 ) -> Result<PathBuf, MachineExportError> {
     if let Some(path) = given {
         return Ok(path.to_path_buf());
     }
-    let missing = |where_: String| MachineExportError::NoMachine {
-        mechanism: record.mechanism.clone(),
-        where_,
-    };
     let provenance = (record.provenance.as_ref())
         .filter(|provenance| provenance.dataset != IN_MEMORY)
-        .ok_or_else(|| missing("it names no dataset (one built in memory)".to_string()))?;
-    let path = Path::new(&provenance.dataset).join(MACHINE_FILE);
-    if path.is_file() {
-        Ok(path)
-    } else {
-        Err(missing(format!(
-            "its dataset's is not at {}",
-            path.display()
-        )))
+        .map(|provenance| Path::new(&provenance.dataset).join(MACHINE_FILE));
+    let beside = read_from.map(|path| path.with_file_name(MACHINE_FILE));
+    let candidates: Vec<PathBuf> = provenance.into_iter().chain(beside).collect();
+    if let Some(found) = candidates.iter().find(|path| path.is_file()) {
+        return Ok(found.clone());
     }
+    let where_ = match candidates.as_slice() {
+        [] => "it names no dataset (one built in memory)".to_string(),
+        paths => {
+            let paths: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+            format!("none is at {}", paths.join(" or "))
+        }
+    };
+    Err(MachineExportError::NoMachine {
+        mechanism: record.mechanism.clone(),
+        where_,
+    })
 }
 
 /// The text of `record`'s calibrated machine.json ([`calibrated_machine`]),

@@ -100,7 +100,8 @@ pub struct Args {
     /// With --format machine-json and a mechanism's calibration (a delta,
     /// a cable robot): the machine.json it was calibrated from, whose
     /// noise, tolerances and configured parameters the calibrated one
-    /// keeps. Default: the one in the dataset the calibration names.
+    /// keeps. Default: the one in the dataset the calibration names, else
+    /// the one beside the calibration.
     #[arg(long, value_name = "MACHINE_JSON")]
     machine: Option<PathBuf>,
 }
@@ -180,13 +181,14 @@ fn machine_json(args: &Args) -> anyhow::Result<String> {
         args.radius_trims.is_none() && args.config.is_none() && args.print_radius.is_none(),
         "--print-radius, --radius-trims and --config are a firmware's: --format machine-json keeps the printable radius of the machine.json it starts from"
     );
-    let machine = machine_path(&record, args.machine.as_deref())
+    let machine = machine_path(&record, args.machine.as_deref(), Some(path))
         .map_err(|error| anyhow::anyhow!("{}: {error} (--machine)", path.display()))?;
+    crate::outputs::check(
+        std::slice::from_ref(&machine),
+        std::slice::from_ref(&args.out),
+    )?;
     if args.machine.is_none() {
-        println!(
-            "machine: {} (the calibration's dataset's)",
-            machine.display()
-        );
+        println!("machine: {}", machine.display());
     }
     Ok(mechanism_machine_json(&record, &machine)?)
 }
