@@ -162,6 +162,18 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
     }
 }
 
+/// The printer of [`printer`] in `dir`, imported (with its part
+/// distances if `with_distances`) and calibrated: its dataset, and a copy
+/// of its calibration.json in `dir`, away from the dataset it names.
+fn calibrated_away(dir: &Path, with_distances: bool) -> (PathBuf, PathBuf) {
+    printer(dir);
+    let data = import_printer(dir, with_distances);
+    ok(&["calibrate", s(&data)]);
+    let away = dir.join("calibration.json");
+    fs::copy(data.join("calibration.json"), &away).unwrap();
+    (data, away)
+}
+
 /// `export --format machine-json` of a delta's calibration: the
 /// machine.json of its dataset (found by the calibration's provenance, or
 /// --machine) with the estimates as its design and the calibrated
@@ -172,32 +184,22 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
 fn a_delta_exports_its_calibrated_machine_json() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    printer(d);
-    let data = import_printer(d, true);
-    ok(&["calibrate", s(&data)]);
-    // Away from its dataset, which it names.
-    let calibration = d.join("calibration.json");
-    fs::copy(data.join("calibration.json"), &calibration).unwrap();
+    let (data, calibration) = calibrated_away(d, true);
     let out = d.join("calibrated-machine.json");
-    let export = |extra: &[&str]| {
+    // `export` of `calibration` as `format` to `out`, with `extra`
+    // arguments; its output, or its error when it is to fail.
+    let run = |calibration: &Path, format: &str, out: &Path, extra: &[&str], succeeds: bool| {
         let mut args = vec![
-            "export".to_string(),
-            "--calibration".to_string(),
-            s(&calibration).to_string(),
-            "--format".to_string(),
-            "machine-json".to_string(),
-            "--out".to_string(),
-            s(&out).to_string(),
+            "export",
+            "--calibration",
+            s(calibration),
+            "--format",
+            format,
         ];
-        args.extend(extra.iter().map(|a| a.to_string()));
-        args
-    };
-    let run = |extra: &[&str], succeeds: bool| {
-        let args = export(extra);
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        args.extend(["--out", s(out)].iter().chain(extra));
         if succeeds { ok(&args) } else { fails(&args) }
     };
-    let said = run(&[], true);
+    let said = run(&calibration, "machine-json", &out, &[], true);
     let found = format!("machine: {}\n", s(&data.join("machine.json")));
     assert!(said.contains(&found), "{said}");
     let json = |path: &Path| -> serde_json::Value {
@@ -234,63 +236,61 @@ fn a_delta_exports_its_calibrated_machine_json() {
         assert_eq!(q["prior_mean"], p["value"], "{}", p["name"]);
     }
 
-    let err = run(&["--machine", s(&next.join("machine.json"))], false);
-    assert!(
-        err.contains("the calibration's prior mean is 0, machine.json's design"),
-        "{err}"
-    );
+    // A machine.json the calibration was not made from: the next one's,
+    // a hexapod's.
     let hexapod =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/paper-seed1/machine.json");
-    let err = run(&["--machine", s(&hexapod)], false);
-    assert!(
-        err.contains("mechanism: the calibration is a linear delta's, machine.json a hexapod's: the calibration was not made from this machine.json"),
-        "{err}"
-    );
+    for (machine, refusal) in [
+        (
+            next.join("machine.json"),
+            "the calibration's prior mean is 0, machine.json's design",
+        ),
+        (
+            hexapod,
+            "mechanism: the calibration is a linear delta's, machine.json a hexapod's: the calibration was not made from this machine.json",
+        ),
+    ] {
+        let err = run(
+            &calibration,
+            "machine-json",
+            &out,
+            &["--machine", s(&machine)],
+            false,
+        );
+        assert!(err.contains(refusal), "{err}");
+    }
     // Its dataset moved: none to be found by its provenance, nor beside
     // the copy; the one beside the record in the moved dataset.
     let moved = d.join("moved");
     fs::rename(&data, &moved).unwrap();
-    let err = run(&[], false);
+    let err = run(&calibration, "machine-json", &out, &[], false);
     let missing = format!(
         "a linear delta's calibration does not carry its machine's noise and tolerances, and none is at {} or {}: give the machine.json it was calibrated from (--machine)",
         s(&data.join("machine.json")),
         s(&d.join("machine.json"))
     );
     assert!(err.contains(&missing), "{err}");
-    let beside = |out: &Path| {
-        [
-            "export",
-            "--calibration",
-            s(&moved.join("calibration.json")),
-            "--format",
-            "machine-json",
-            "--out",
-        ]
-        .into_iter()
-        .chain([s(out)])
-        .map(str::to_string)
-        .collect::<Vec<String>>()
-    };
-    let args = beside(&out);
-    let said = ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let beside = moved.join("calibration.json");
+    let said = run(&beside, "machine-json", &out, &[], true);
     assert!(
         said.contains(&format!("machine: {}\n", s(&moved.join("machine.json")))),
         "{said}"
     );
-    let args = beside(&moved.join("machine.json"));
-    let err = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = run(
+        &beside,
+        "machine-json",
+        &moved.join("machine.json"),
+        &[],
+        false,
+    );
     assert!(err.contains("which this run reads"), "{err}");
-    let err = fails(&[
-        "export",
-        "--calibration",
-        s(&calibration),
-        "--format",
+    let err = run(
+        &calibration,
         "reprapfirmware",
-        "--machine",
-        s(&out),
-        "--out",
-        s(&d.join("new.g")),
-    ]);
+        &d.join("new.g"),
+        &["--machine", s(&out)],
+        false,
+    );
     assert!(
         err.contains("--machine: a mechanism's machine.json is what --format machine-json starts from; --format reprapfirmware does not read one"),
         "{err}"
@@ -301,13 +301,9 @@ fn a_delta_exports_its_calibrated_machine_json() {
 fn a_calibration_carries_its_printers_printable_radius() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    printer(d);
-    let data = import_printer(d, false);
-    ok(&["calibrate", s(&data)]);
     // Moved away from its dataset, the calibration still knows config.g's
     // M665 B100: export writes it back, --print-radius overrides it.
-    let away = d.join("calibration.json");
-    fs::copy(data.join("calibration.json"), &away).unwrap();
+    let (data, away) = calibrated_away(d, false);
     let out = d.join("new.g");
     fn export<'a>(calibration: &'a Path, out: &'a Path, radius: Option<&'a str>) -> Vec<&'a str> {
         let mut args = vec![
