@@ -65,6 +65,25 @@ def test_read_dataset_reads_the_kind_machine_json_declares(hangprinter):
         parcal.MechanismDataset(ds.machine, samples=flipped)
 
 
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"mechanism": "delta", "balls": 3, "plate": "all", "trackers": 2, "part_distances": 3, "manual_heights": 3},
+        {"mechanism": "cable", "samples": 12, "known_positions": 4, "zero_loads": [14.0, 14.5, 13.5, 12.5]},
+    ],
+)
+def test_what_a_mechanism_dataset_gives_its_constructor_takes_back(options):
+    ds = parcal.simulate(4, **options)
+    kinds = ("probes", "heights", "distances", "balls", "touches", "ball_distances", "tracker_points", "samples", "quantities")
+    again = parcal.MechanismDataset(ds.machine, **{kind: getattr(ds, kind) for kind in kinds})
+    for kind in kinds:
+        given, taken = getattr(ds, kind), getattr(again, kind)
+        pairs = [(given[k], taken[k]) for k in given] if isinstance(given, dict) else [(given, taken)]
+        for a, b in pairs:
+            assert (a is None and b is None) or np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f"), kind
+    assert again.machine == ds.machine
+
+
 def test_a_mechanism_dataset_written_reads_back_the_same(delta, tmp_path):
     original = parcal.MechanismDataset.read(delta)
     original.write(tmp_path / "copy")
