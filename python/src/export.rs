@@ -102,7 +102,6 @@ pub fn export<'py>(
             reasons.join("; ")
         )));
     }
-    let dict = PyDict::new(py);
     let machine_json = matches!(wanted, Wanted::Hexapod(HexapodFormat::MachineJson));
     if machine.is_some() && !machine_json {
         return Err(to_py(format!(
@@ -142,7 +141,7 @@ pub fn export<'py>(
                 }
             }
             .map_err(failed)?;
-            return without_firmware(py, &dict, text);
+            return without_firmware(py, text);
         }
         (Recorded::Own(_), Wanted::Hexapod(_)) if machine.is_some() => {
             return Err(to_py(format!(
@@ -152,7 +151,7 @@ pub fn export<'py>(
         (Recorded::Own(record), Wanted::Hexapod(hexapod)) => {
             let text =
                 hexapod_export(&record, hexapod).map_err(|e| to_py(format!("{name}: {e}")))?;
-            return without_firmware(py, &dict, text);
+            return without_firmware(py, text);
         }
         (Recorded::Mechanism(record), Wanted::Hexapod(_)) if record.mechanism == HEXAPOD => {
             return Err(to_py(format!(
@@ -191,6 +190,7 @@ pub fn export<'py>(
         FirmwareLinesError::RadiusTrims(_) => to_py(format!("radius_trims: {error}")),
         error => to_py(format!("{name}: {error}")),
     })?;
+    let dict = PyDict::new(py);
     dict.set_item("text", &lines.text)?;
     dict.set_item("lost", &lines.lost)?;
     dict.set_item("cost_sentence", lines.cost_sentence())?;
@@ -216,13 +216,10 @@ pub fn export<'py>(
     Ok(dict)
 }
 
-/// `dict` holding `text`, a file no firmware reads: nothing lost, no
+/// The dict of `text`, a file no firmware reads: nothing lost, no
 /// firmware's figures.
-fn without_firmware<'py>(
-    py: Python<'py>,
-    dict: &Bound<'py, PyDict>,
-    text: String,
-) -> PyResult<Bound<'py, PyDict>> {
+fn without_firmware(py: Python<'_>, text: String) -> PyResult<Bound<'_, PyDict>> {
+    let dict = PyDict::new(py);
     dict.set_item("text", text)?;
     dict.set_item("lost", Vec::<String>::new())?;
     for key in [
@@ -235,7 +232,7 @@ fn without_firmware<'py>(
     ] {
         dict.set_item(key, py.None())?;
     }
-    Ok(dict.clone())
+    Ok(dict)
 }
 
 /// What a format exports.
