@@ -35,12 +35,22 @@ PHASES = [
         ),
     ),
     ("set-up", ("DesignStart", "calibrate::setup::", "sphere_fit")),
+    (
+        "the common path's start (the touches made, checked and placed)",
+        (
+            "hexapod_input",
+            "mechanism::data::validate",
+            "touches_at_start",
+            "start_state",
+            "BallTouch>::chart",
+        ),
+    ),
     ("checks' pass", ("solver::redundancy", "Reliability")),
     ("external reliability", ("calibrate::external",)),
     ("group refinement", ("solver::refine",)),
     ("back-substitution passes", ("solver::backsub",)),
     ("elimination passes", ("eliminate_chunk", "NormalSink", "solver::reduced::")),
-    ("write calibration.json", ("write_calibration",)),
+    ("write calibration.json", ("write_calibration", "write_behind", "json::in_waves")),
 ]
 
 # Frames of the thread pool, closures and the standard library: they only
