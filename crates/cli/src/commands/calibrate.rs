@@ -223,13 +223,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     let converting = Instant::now();
-    // The checksum (the record's provenance) on the core the conversion's
-    // serial parts leave idle.
-    let (conversion, checksum) = rayon::join(
-        || common_calibration(&dataset, &args.flags()),
-        || dataset.checksum(),
-    );
-    let (data, options) = conversion
+    let (data, options) = common_calibration(&dataset, &args.flags())
         .map_err(|error| anyhow::anyhow!("{}: --common: {error}", args.dataset.display()))?;
     let converted = format!(
         "made {} observations of it, with the hexapod calibration's start and weights, in {:.2} s",
@@ -241,6 +235,7 @@ fn calibrate_common(args: &Args) -> anyhow::Result<()> {
         .collect();
     let truth = hexapod_truth(&dataset, data.mechanism.parameters().len(), &trackers)
         .map_err(|error| anyhow::anyhow!("{}: {error}", args.dataset.display()))?;
+    let checksum = dataset.checksum();
     // The touches are in `data`: the dataset's memory is the room of the
     // calibration's, given back as it starts.
     let freeing = super::mechanism::free_beside(dataset);
