@@ -108,15 +108,7 @@ fn import_calibrate_export_reads_back_the_calibrated_parameters() {
     let out = d.join("new.g");
     // The printable radius is config.g's (M665 B100), which the
     // calibration carries from its dataset.
-    let said = ok(&[
-        "export",
-        "--calibration",
-        s(&calibration),
-        "--format",
-        "reprapfirmware",
-        "--out",
-        s(&out),
-    ]);
+    let said = ok(&export_args(&calibration, "reprapfirmware", &out, &[]));
     assert!(said.contains("cost"), "{said}");
     assert!(said.contains("printable radius: 100 mm"), "{said}");
     let written = fs::read_to_string(&out).unwrap();
@@ -174,6 +166,26 @@ fn calibrated_away(dir: &Path, with_distances: bool) -> (PathBuf, PathBuf) {
     (data, away)
 }
 
+/// `parcal export` of `calibration` as `format` to `out`, with `extra`
+/// arguments before `--out`.
+fn export_args<'a>(
+    calibration: &'a Path,
+    format: &'a str,
+    out: &'a Path,
+    extra: &[&'a str],
+) -> Vec<&'a str> {
+    let mut args = vec![
+        "export",
+        "--calibration",
+        s(calibration),
+        "--format",
+        format,
+    ];
+    args.extend(extra);
+    args.extend(["--out", s(out)]);
+    args
+}
+
 /// `export --format machine-json` of a delta's calibration: the
 /// machine.json of its dataset (found by the calibration's provenance, or
 /// --machine) with the estimates as its design and the calibrated
@@ -189,14 +201,7 @@ fn a_delta_exports_its_calibrated_machine_json() {
     // `export` of `calibration` as `format` to `out`, with `extra`
     // arguments; its output, or its error when it is to fail.
     let run = |calibration: &Path, format: &str, out: &Path, extra: &[&str], succeeds: bool| {
-        let mut args = vec![
-            "export",
-            "--calibration",
-            s(calibration),
-            "--format",
-            format,
-        ];
-        args.extend(["--out", s(out)].iter().chain(extra));
+        let args = export_args(calibration, format, out, extra);
         if succeeds { ok(&args) } else { fails(&args) }
     };
     let said = run(&calibration, "machine-json", &out, &[], true);
@@ -305,22 +310,15 @@ fn a_calibration_carries_its_printers_printable_radius() {
     // M665 B100: export writes it back, --print-radius overrides it.
     let (data, away) = calibrated_away(d, false);
     let out = d.join("new.g");
-    fn export<'a>(calibration: &'a Path, out: &'a Path, radius: Option<&'a str>) -> Vec<&'a str> {
-        let mut args = vec![
-            "export",
-            "--calibration",
-            s(calibration),
-            "--format",
-            "reprapfirmware",
-        ];
-        args.extend(radius.map(|r| ["--print-radius", r]).into_iter().flatten());
-        args.extend(["--out", s(out)]);
-        args
-    }
-    let said = ok(&export(&away, &out, None));
+    let said = ok(&export_args(&away, "reprapfirmware", &out, &[]));
     assert!(said.contains("printable radius: 100 mm"), "{said}");
     assert_eq!(read_config(&out).unwrap().delta.print_radius, 100.0);
-    ok(&export(&away, &out, Some("90")));
+    ok(&export_args(
+        &away,
+        "reprapfirmware",
+        &out,
+        &["--print-radius", "90"],
+    ));
     assert_eq!(read_config(&out).unwrap().delta.print_radius, 90.0);
 
     // Compensation keeps the nozzle within 100 mm, not the typical
@@ -357,11 +355,16 @@ fn a_calibration_carries_its_printers_printable_radius() {
     fs::write(&machine, serde_json::to_string(&stated).unwrap()).unwrap();
     ok(&["calibrate", s(&data)]);
     let unstated = data.join("calibration.json");
-    let err = fails(&export(&unstated, &out, None));
+    let err = fails(&export_args(&unstated, "reprapfirmware", &out, &[]));
     assert!(err.contains("states no printable radius"), "{err}");
     assert!(err.contains("--print-radius"), "{err}");
     fs::remove_file(&out).unwrap();
-    ok(&export(&unstated, &out, Some("90")));
+    ok(&export_args(
+        &unstated,
+        "reprapfirmware",
+        &out,
+        &["--print-radius", "90"],
+    ));
     assert_eq!(read_config(&out).unwrap().delta.print_radius, 90.0);
 }
 
@@ -430,15 +433,13 @@ fn a_format_of_another_mechanism_is_refused() {
     printer(d);
     let data = import_printer(d, false);
     ok(&["calibrate", s(&data)]);
-    let err = fails(&[
-        "export",
-        "--calibration",
-        s(&data.join("calibration.json")),
-        "--format",
+    let calibration = data.join("calibration.json");
+    let err = fails(&export_args(
+        &calibration,
         "genhexkins",
-        "--out",
-        s(&d.join("hal")),
-    ]);
+        &d.join("hal"),
+        &[],
+    ));
     assert!(err.contains("linear delta"), "{err}");
     assert!(!d.join("hal").exists());
 }
@@ -449,17 +450,13 @@ fn a_hexapod_calibration_is_not_exported_for_a_printer() {
     let data = common::copy_fixture("paper-seed1", dir.path(), &common::PAPER_FILES);
     ok(&["calibrate", s(&data)]);
     let out = dir.path().join("new.g");
-    let err = fails(&[
-        "export",
-        "--calibration",
-        s(&data.join("calibration.json")),
-        "--format",
+    let calibration = data.join("calibration.json");
+    let err = fails(&export_args(
+        &calibration,
         "reprapfirmware",
-        "--print-radius",
-        "100",
-        "--out",
-        s(&out),
-    ]);
+        &out,
+        &["--print-radius", "100"],
+    ));
     assert!(
         err.contains("a hexapod calibration; --format reprapfirmware exports a linear delta's"),
         "{err}"
@@ -959,17 +956,13 @@ fn klipper_import_and_export_round_trip() {
     ]);
     ok(&["calibrate", s(&data)]);
     let out = d.join("save_config.cfg");
-    let said = ok(&[
-        "export",
-        "--calibration",
-        s(&data.join("calibration.json")),
-        "--format",
+    let calibration = data.join("calibration.json");
+    let said = ok(&export_args(
+        &calibration,
         "klipper",
-        "--print-radius",
-        "100",
-        "--out",
-        s(&out),
-    ]);
+        &out,
+        &["--print-radius", "100"],
+    ));
     // Klipper holds no bed tilt: export says so and what it costs.
     assert!(said.contains("lost: the bed tilt"), "{said}");
     let block = fs::read_to_string(&out).unwrap();
@@ -1253,17 +1246,16 @@ fn klippers_manual_heights_find_a_probe_triggering_off_its_z_offset() {
     // configured, and the file says why.
     let exported = |name: &str| {
         let out = d.join(format!("{name}-new.cfg"));
-        ok(&[
-            "export",
-            "--calibration",
-            s(&d.join(name).join("calibration.json")),
-            "--format",
+        let (calibration, config) = (
+            d.join(name).join("calibration.json"),
+            d.join(format!("{name}.cfg")),
+        );
+        ok(&export_args(
+            &calibration,
             "klipper",
-            "--config",
-            s(&d.join(format!("{name}.cfg"))),
-            "--out",
-            s(&out),
-        ]);
+            &out,
+            &["--config", s(&config)],
+        ));
         fs::read_to_string(out).unwrap()
     };
     let text = exported("manual");
@@ -1412,21 +1404,9 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
     // Exported into the printer's printer.cfg: its main part and what
     // DELTA_CALIBRATE saved kept, the calibrated settings in its block.
     let new = d.join("new.cfg");
-    let export = |format: &str, out: &Path| {
-        [
-            "export",
-            "--calibration",
-            s(&d.join("saved/calibration.json")),
-            "--format",
-            format,
-            "--config",
-            s(&config),
-            "--out",
-            s(out),
-        ]
-        .map(str::to_string)
-    };
-    let said = ok(&export("klipper", &new).each_ref().map(String::as_str));
+    let saved_record = d.join("saved/calibration.json");
+    let with_config = ["--config", s(&config)];
+    let said = ok(&export_args(&saved_record, "klipper", &new, &with_config));
     assert!(
         said.contains("lost: the bed tilt") && said.contains("cost: "),
         "{said}"
@@ -1447,16 +1427,22 @@ fn klippers_saved_probes_and_distances_are_those_of_a_probe_log() {
     for ((name, value, _), read) in saved.iter().zip(endstops) {
         assert!((value - read).abs() < 2e-6, "{name}: {value} vs {read}");
     }
-    let error = fails(
-        &export("reprapfirmware", &d.join("x.g"))
-            .each_ref()
-            .map(String::as_str),
-    );
+    let error = fails(&export_args(
+        &saved_record,
+        "reprapfirmware",
+        &d.join("x.g"),
+        &with_config,
+    ));
     assert!(
         error.contains("--config: reprapfirmware's lines are written alone"),
         "{error}"
     );
-    let error = fails(&export("klipper", &config).each_ref().map(String::as_str));
+    let error = fails(&export_args(
+        &saved_record,
+        "klipper",
+        &config,
+        &with_config,
+    ));
     assert!(error.contains("which this run reads"), "{error}");
     // Nothing saved and no log: refused, saying what to give.
     fs::write(&config, KLIPPER_SETTINGS).unwrap();
