@@ -25,10 +25,8 @@
 //! and no factorisation need be kept per contact (what the SIMD lanes of
 //! [`crate::forward_batch`] leave).
 
-use nalgebra::{
-    Matrix, Matrix3, Matrix3x6, Matrix6x3, MatrixView3, MatrixView6x3, SMatrix, Storage, U3,
-    Vector3, Vector6,
-};
+use bytemuck::{Pod, Zeroable};
+use nalgebra::{Matrix, Matrix3, Matrix3x6, Matrix6x3, SMatrix, Storage, U3, Vector3, Vector6};
 
 use crate::forward::{forward_in_place, step};
 use crate::params::{BASE_INDEX, N_PARAMS, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
@@ -120,7 +118,12 @@ impl SolutionAlong {
 /// instead of the closure LU: a combination of its rows `h^T J_f` costs the
 /// product `y = K^T h` and a sparse row per leg, and `J_f dp = -K v + R dE_T`
 /// (`v` as in [`DerivativeAlong`]).
-#[derive(Debug, Clone, Default, PartialEq)]
+///
+/// Its 63 values are held in the order of its fields (`#[repr(C)]`, plain
+/// data): a form's values are read and written in place
+/// ([`FactoredTipJacobian::in_values`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+#[repr(C)]
 pub struct FactoredTipJacobian {
     /// `K^T = A^-T P^T`: column `a` is [`TipDerivatives::closure_weights`]
     /// of the base-frame axis `a` (and `dT/dq = K`).
@@ -155,22 +158,28 @@ impl FactoredTipJacobian {
         );
     }
 
-    /// The number of its values ([`FactoredTipJacobian::write_values`]).
-    pub const VALUES: usize = 63;
+    /// The number of its values ([`FactoredTipJacobian::in_values`]).
+    pub const VALUES: usize = size_of::<Self>() / size_of::<f64>();
 
-    /// Its values into `out`, as [`FactoredValues`] reads them: `K^T` (18,
-    /// column-major), `R` (9, column-major), the six `n_i` (18) and the six
-    /// `R^T n_i` (18).
-    pub fn write_values(&self, out: &mut [f64]) {
-        let out: &mut [f64; Self::VALUES] = out
-            .first_chunk_mut()
-            .expect("room for a factored J_f's values");
-        out[..18].copy_from_slice(self.weights.as_slice());
-        out[18..27].copy_from_slice(self.rotation.as_slice());
-        let legs = self.directions.iter().chain(&self.platform_directions);
-        for (o, n) in out[27..].chunks_exact_mut(3).zip(legs) {
-            o.copy_from_slice(n.as_slice());
-        }
+    /// The one held in the first [`FactoredTipJacobian::VALUES`] of
+    /// `values`, in the order of its fields: `K^T` (18, column-major), `R`
+    /// (9, column-major), the six `n_i` (18) and the six `R^T n_i` (18).
+    ///
+    /// # Panics
+    /// If `values` holds fewer than [`FactoredTipJacobian::VALUES`].
+    pub fn in_values(values: &[f64]) -> &Self {
+        let values: &[f64; Self::VALUES] = values.first_chunk().expect("a factored J_f's values");
+        bytemuck::cast_ref(values)
+    }
+
+    /// [`FactoredTipJacobian::in_values`], to be written.
+    ///
+    /// # Panics
+    /// If `values` holds fewer than [`FactoredTipJacobian::VALUES`].
+    pub fn in_values_mut(values: &mut [f64]) -> &mut Self {
+        let values: &mut [f64; Self::VALUES] =
+            (values.first_chunk_mut()).expect("room for a factored J_f's values");
+        bytemuck::cast_mut(values)
     }
 
     /// `J_f dp` (mm).
@@ -178,46 +187,6 @@ impl FactoredTipJacobian {
         let legs = |i: usize| (self.directions[i], self.platform_directions[i]);
         let v = closure_change(legs, dp);
         self.rotation * tool_step(dp) - self.weights.tr_mul(&v)
-    }
-}
-
-/// A [`FactoredTipJacobian`]'s values ([`FactoredTipJacobian::write_values`]),
-/// read where they are: its products without a copy of it.
-#[derive(Debug, Clone, Copy)]
-pub struct FactoredValues<'a>(&'a [f64; FactoredTipJacobian::VALUES]);
-
-impl<'a> FactoredValues<'a> {
-    /// The values at the start of `values`.
-    ///
-    /// # Panics
-    /// If `values` holds fewer than [`FactoredTipJacobian::VALUES`].
-    pub fn new(values: &'a [f64]) -> Self {
-        Self(values.first_chunk().expect("a factored J_f's values"))
-    }
-
-    /// `R`.
-    fn rotation(&self) -> MatrixView3<'a, f64> {
-        MatrixView3::from_slice(&self.0[18..27])
-    }
-
-    /// `(n_i, R^T n_i)`.
-    fn leg(&self, i: usize) -> (Vec3, Vec3) {
-        let value =
-            |first: usize| Vec3::from_column_slice(&self.0[first + 3 * i..first + 3 * i + 3]);
-        (value(27), value(45))
-    }
-
-    /// [`FactoredTipJacobian::params_row`].
-    pub fn params_row(&self, h: &Vec3, out: &mut [f64]) {
-        let weights = MatrixView6x3::from_slice(&self.0[..18]);
-        leg_rows(&(weights * h), &self.rotation(), |i| self.leg(i), h, out);
-    }
-
-    /// [`FactoredTipJacobian::along`].
-    pub fn along(&self, dp: &Params) -> Vec3 {
-        let weights = MatrixView6x3::from_slice(&self.0[..18]);
-        let v = closure_change(|i| self.leg(i), dp);
-        self.rotation() * tool_step(dp) - weights.tr_mul(&v)
     }
 }
 
@@ -253,6 +222,36 @@ impl SolutionJacobian {
             jacobian: derivatives.factored(),
             iterations: solution.iterations,
         })
+    }
+}
+
+/// Where a contact's forward-kinematics solution with `J_f` is kept
+/// ([`crate::forward_batch::forward_jacobian_batch`] writes into it): a
+/// [`SolutionJacobian`], or a mechanism's own room for what it returns,
+/// so that the SIMD lanes write `J_f` where it is read, not into a copy.
+pub trait SolutionRoom {
+    /// The solution at `pose`, its tool tip `tool_tip` after `iterations`
+    /// Newton steps, kept; and the room of its `J_f`, which the caller
+    /// writes whole.
+    fn solved(
+        &mut self,
+        pose: &Pose,
+        tool_tip: &Vec3,
+        iterations: usize,
+    ) -> &mut FactoredTipJacobian;
+}
+
+impl SolutionRoom for SolutionJacobian {
+    fn solved(
+        &mut self,
+        pose: &Pose,
+        tool_tip: &Vec3,
+        iterations: usize,
+    ) -> &mut FactoredTipJacobian {
+        self.pose = *pose;
+        self.tool_tip = *tool_tip;
+        self.iterations = iterations;
+        &mut self.jacobian
     }
 }
 

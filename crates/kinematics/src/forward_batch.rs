@@ -47,7 +47,7 @@
 
 use std::ops::Range;
 
-use crate::derivatives::{SolutionAlong, SolutionJacobian, TipDerivatives};
+use crate::derivatives::{SolutionAlong, SolutionJacobian, SolutionRoom, TipDerivatives};
 use crate::forward::forward_in_place;
 use crate::lu6::Lu6;
 use crate::{ForwardOptions, ForwardSolution, Geometry, KinematicsError, Params, Pose};
@@ -228,8 +228,9 @@ fn along_in(
 
 /// Forward kinematics of up to [`LANES`] contacts from `starts`, as
 /// [`forward_batch`] runs it, and at each solution `J_f` in factored form
-/// ([`SolutionJacobian`], what [`SolutionJacobian::solve`] gives): the
-/// solution for `q[l]` into `solution(&mut items[l])`. In SIMD lanes where
+/// (what [`SolutionJacobian::solve`] gives): the solution for `q[l]`
+/// written where `solution(&mut items[l])` keeps it ([`SolutionRoom`], such
+/// as a [`SolutionJacobian`]), the lanes' `J_f` straight into its room. In SIMD lanes where
 /// the machine has AVX2 (module doc), contact by contact otherwise. `trial` is the row
 /// order the lanes try first, updated for the next call. An error is that
 /// of the first failing contact, with its index; the other outputs are
@@ -238,14 +239,14 @@ fn along_in(
 /// # Panics
 /// If `q`, `starts` and `items` differ in length or hold more than
 /// [`LANES`] contacts.
-pub fn forward_jacobian_batch<T>(
+pub fn forward_jacobian_batch<T, R: SolutionRoom + ?Sized>(
     geometry: &Geometry,
     q: &[&[f64; 6]],
     starts: &[Pose],
     options: &ForwardOptions,
     trial: &mut PivotOrder,
     items: &mut [T],
-    solution: impl Fn(&mut T) -> &mut SolutionJacobian,
+    solution: impl Fn(&mut T) -> &mut R,
 ) -> Result<(), (usize, KinematicsError)> {
     assert!(
         q.len() == starts.len() && q.len() == items.len() && q.len() <= LANES,
@@ -261,7 +262,7 @@ pub fn forward_jacobian_batch<T>(
     not(target_arch = "x86_64"),
     allow(unused_variables, reason = "`trial` serves the lanes only")
 )]
-fn jacobian_in<T>(
+fn jacobian_in<T, R: SolutionRoom + ?Sized>(
     width: Option<Lanes>,
     geometry: &Geometry,
     q: &[&[f64; 6]],
@@ -269,10 +270,11 @@ fn jacobian_in<T>(
     options: &ForwardOptions,
     trial: &mut PivotOrder,
     items: &mut [T],
-    solution: &impl Fn(&mut T) -> &mut SolutionJacobian,
+    solution: &impl Fn(&mut T) -> &mut R,
 ) -> Result<(), (usize, KinematicsError)> {
     let scalar = |l: usize, start: &Pose, item: &mut T| {
-        *solution(item) = SolutionJacobian::solve(geometry, q[l], start, options)?;
+        let solved = SolutionJacobian::solve(geometry, q[l], start, options)?;
+        *solution(item).solved(&solved.pose, &solved.tool_tip, solved.iterations) = solved.jacobian;
         Ok(())
     };
     from_starts(
@@ -415,7 +417,7 @@ macro_rules! lane_kernels {
             use nalgebra::{Matrix3, Quaternion, Translation3, UnitQuaternion};
 
             use super::PivotOrder;
-            use crate::derivatives::{SolutionAlong, SolutionJacobian};
+            use crate::derivatives::{SolutionAlong, SolutionRoom};
             use crate::forward::{SHORT_STEP, forward_in_place};
             use crate::lu6::{SINGULAR_PIVOT_RATIO, THRESHOLD};
             use crate::params::{BASE_INDEX, PLATFORM_INDEX, TOOL_OFFSET, leg_index};
@@ -530,14 +532,14 @@ macro_rules! lane_kernels {
             /// [`super::forward_jacobian_batch`] in lanes, `scalar` its contact by
             /// contact path; the machine runs `$feature` code.
             #[allow(clippy::too_many_arguments)]
-            pub(super) fn forward_jacobian<T>(
+            pub(super) fn forward_jacobian<T, R: SolutionRoom + ?Sized>(
                 geometry: &Geometry,
                 q: &[&[f64; 6]],
                 starts: &[Pose],
                 options: &ForwardOptions,
                 trial: &mut PivotOrder,
                 items: &mut [T],
-                solution: &impl Fn(&mut T) -> &mut SolutionJacobian,
+                solution: &impl Fn(&mut T) -> &mut R,
                 scalar: impl FnMut(usize, &Pose, &mut T) -> Result<(), KinematicsError>,
             ) -> Result<(), (usize, KinematicsError)> {
                 let trial = &mut trial.0;
@@ -557,7 +559,7 @@ macro_rules! lane_kernels {
             /// as it finishes; returns the lanes left to the scalar path.
             #[allow(clippy::too_many_arguments)]
             #[target_feature(enable = $feature)]
-            fn jacobian_lockstep<T>(
+            fn jacobian_lockstep<T, R: SolutionRoom + ?Sized>(
                 geometry: &Geometry,
                 q: &[&[f64; 6]],
                 options: &ForwardOptions,
@@ -565,7 +567,7 @@ macro_rules! lane_kernels {
                 feasible: u32,
                 trial: &mut [u8; 6],
                 items: &mut [T],
-                solution: &impl Fn(&mut T) -> &mut SolutionJacobian,
+                solution: &impl Fn(&mut T) -> &mut R,
             ) -> u32 {
                 let mut finish = |lanes: &Finishing| {
                     let weights = closure_weights(geometry, lanes.legs, lanes.factor);
@@ -574,10 +576,11 @@ macro_rules! lane_kernels {
                     let platform = platform_directions(legs);
                     for l in lanes.lanes() {
                         let at = |v: &Lane| v.as_array()[l];
-                        let solution = solution(&mut items[l]);
-                        solution.pose = pose_of(lanes.poses, l);
-                        solution.tool_tip = vec_of(&tool_tips, l);
-                        let jacobian = &mut solution.jacobian;
+                        let jacobian = solution(&mut items[l]).solved(
+                            &pose_of(lanes.poses, l),
+                            &vec_of(&tool_tips, l),
+                            lanes.iterations,
+                        );
                         for r in 0..6 {
                             for a in 0..3 {
                                 jacobian.weights[(r, a)] = at(&weights[a][r]);
@@ -586,7 +589,6 @@ macro_rules! lane_kernels {
                             jacobian.platform_directions[r] = vec_of(&platform[r], l);
                         }
                         jacobian.rotation = Matrix3::from_fn(|r, c| at(&legs.rotation[r][c]));
-                        solution.iterations = lanes.iterations;
                     }
                 };
                 lockstep(geometry, q, options, starts, feasible, trial, &mut finish)

@@ -27,21 +27,21 @@
 //! - At readings, the tool point's `dT/dp |_q` is the crate's `J_f`
 //!   ([`TipDerivatives::jacobians`]) from the LU the forward kinematics
 //!   ends with, where the generic path factors `G_x` again, handed over in
-//!   factored form (`K^T`, `R` and the leg directions, [`FactoredValues`]):
-//!   what a calibration takes of it, a combination of rows or a product
-//!   with a step, without its 3 x 33 entries.
+//!   factored form (`K^T`, `R` and the leg directions,
+//!   [`FactoredTipJacobian`], which the lanes write where the caller reads
+//!   it): what a calibration takes of it, a combination of rows or a
+//!   product with a step, without its 3 x 33 entries.
 
 use std::borrow::Cow;
 
+use bytemuck::TransparentWrapper;
 use nalgebra::{
     DMatrix, DVector, Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3, Vector6,
 };
 
 use crate::batch_workspace::BatchWorkspace;
 use crate::closure::Legs;
-use crate::derivatives::{
-    FactoredTipJacobian, FactoredValues, SolutionAlong, SolutionJacobian, TipDerivatives,
-};
+use crate::derivatives::{FactoredTipJacobian, SolutionAlong, SolutionRoom, TipDerivatives};
 use crate::forward::{forward, step};
 use crate::forward_batch::{LANES, PivotOrder, forward_along_batch, forward_jacobian_batch};
 use crate::mechanism::{
@@ -56,14 +56,14 @@ use crate::params::{
 use crate::params_jacobian::{DENSE, JacobianForm, ParamsJacobian};
 use crate::{ForwardOptions, Geometry, KinematicsError, Params, Pose, PriorSigma, actuators};
 
-/// A hexapod's `dT/dp |_q` over the 33: its `J_f` in factored form, the
-/// values [`FactoredTipJacobian::write_values`] writes, read in place
-/// ([`FactoredValues`]): a combination of rows is one 6 x 3 product and a
-/// sparse row per leg, a product with a step one closure change.
+/// A hexapod's `dT/dp |_q` over the 33: its `J_f` in factored form, read
+/// where its values are ([`FactoredTipJacobian::in_values`]): a combination
+/// of rows is one 6 x 3 product and a sparse row per leg, a product with a
+/// step one closure change.
 static LEGS: JacobianForm = JacobianForm {
     name: "hexapod legs",
-    combine: |values, h, out| FactoredValues::new(values).params_row(h, out),
-    apply: |values, v| FactoredValues::new(values).along(&Params::from_column_slice(v)),
+    combine: |values, h, out| FactoredTipJacobian::in_values(values).params_row(h, out),
+    apply: |values, v| FactoredTipJacobian::in_values(values).along(&Params::from_column_slice(v)),
 };
 
 /// A hexapod's `dT/dp |_q` with the actuators' scales after the 33 (module
@@ -74,14 +74,14 @@ static SCALED_LEGS: JacobianForm = JacobianForm {
     combine: |values, h, out| {
         let (factors, readings) = values.split_at(FactoredTipJacobian::VALUES);
         let (lengths, scales) = out.split_at_mut(N_PARAMS);
-        FactoredValues::new(factors).params_row(h, lengths);
+        FactoredTipJacobian::in_values(factors).params_row(h, lengths);
         for (i, (s, q)) in scales.iter_mut().zip(readings).enumerate() {
             *s = q * lengths[leg_index(i)];
         }
     },
     apply: |values, v| {
         let (factors, readings) = values.split_at(FactoredTipJacobian::VALUES);
-        FactoredValues::new(factors).along(&legs_step(v, Some(readings)))
+        FactoredTipJacobian::in_values(factors).along(&legs_step(v, Some(readings)))
     },
 };
 
@@ -292,23 +292,16 @@ impl Hexapod {
         jacobian: &FactoredTipJacobian,
         d_params: &mut ParamsJacobian,
     ) {
-        let (factors, scaled) = d_params
-            .values_mut()
-            .split_at_mut(FactoredTipJacobian::VALUES);
-        jacobian.write_values(factors);
-        if self.scaled {
-            scaled.copy_from_slice(&readings[..6]);
-        }
+        *FactoredTipJacobian::in_values_mut(d_params.values_mut()) = *jacobian;
+        self.write_readings(readings, d_params);
     }
 
-    /// Where a forward-kinematics `solution` at `readings` reached, into
-    /// `room` (every value written), `dT/dp` in factored form
-    /// ([`Hexapod::form`]).
-    fn write_solution(&self, readings: &[f64], solution: &SolutionJacobian, room: &mut Reached) {
-        room.warm_start
-            .copy_from_slice(&warm_start_values(&solution.pose));
-        room.point = solution.tool_tip;
-        self.write_reached_rows(readings, &solution.jacobian, &mut room.d_params);
+    /// The values after `J_f`'s in `d_params` (room for its form): with
+    /// scales, the contact's `readings` ([`SCALED_LEGS`]).
+    fn write_readings(&self, readings: &[f64], d_params: &mut ParamsJacobian) {
+        if self.scaled {
+            d_params.values_mut()[FactoredTipJacobian::VALUES..].copy_from_slice(&readings[..6]);
+        }
     }
 
     /// The step of the 33 geometric parameters that moves a contact at
@@ -378,23 +371,17 @@ impl Hexapod {
     }
 
     /// The canonical geometry of `params` ([`Hexapod::geometry`]), made
-    /// again only when they differ from the last batch's, the row order
-    /// the lanes carry from batch to batch and the room of their
-    /// solutions, all kept in `workspace` (its first batch starts from
-    /// [`design_pivot_order`]).
+    /// again only when they differ from the last batch's, and the row order
+    /// the lanes carry from batch to batch, both kept in `workspace` (its
+    /// first batch starts from [`design_pivot_order`]).
     fn shared<'w>(
         &self,
         params: &[f64],
         workspace: &'w mut BatchWorkspace,
     ) -> Result<Shared<'w>, MechanismError> {
-        let SharedByBatches {
-            prepared,
-            order,
-            solutions,
-        } = workspace.held(|| SharedByBatches {
+        let SharedByBatches { prepared, order } = workspace.held(|| SharedByBatches {
             prepared: None,
             order: self.pivot_order,
-            solutions: Default::default(),
         });
         if !prepared
             .as_ref()
@@ -403,7 +390,7 @@ impl Hexapod {
             *prepared = Some((params.to_vec(), self.geometry(params)?));
         }
         let (_, geometry) = prepared.as_ref().expect("the geometry of `params` is held");
-        Ok((geometry, order, solutions))
+        Ok((geometry, order))
     }
 
     /// The pose of a pose vector (checked).
@@ -456,23 +443,39 @@ fn design_pivot_order(design: &Geometry, options: &ForwardOptions) -> PivotOrder
 }
 
 /// What a hexapod's batches of one [`BatchWorkspace`] share: the last
-/// parameters and their canonical geometry, the row order the last
-/// factorisation of the lanes ended with, where the next one starts, and
-/// the room of the lanes' solutions with `J_f`, which each batch writes
-/// whole (kept, so that no batch clears its own).
+/// parameters and their canonical geometry, and the row order the last
+/// factorisation of the lanes ended with, where the next one starts.
 struct SharedByBatches {
     prepared: Option<(Vec<f64>, Geometry)>,
     order: PivotOrder,
-    solutions: [SolutionJacobian; LANES],
 }
 
-/// [`SharedByBatches`] as a batch uses it: the geometry of its parameters,
-/// the lanes' row order and the room of their solutions.
-type Shared<'w> = (
-    &'w Geometry,
-    &'w mut PivotOrder,
-    &'w mut [SolutionJacobian; LANES],
-);
+/// [`SharedByBatches`] as a batch uses it: the geometry of its parameters
+/// and the lanes' row order.
+type Shared<'w> = (&'w Geometry, &'w mut PivotOrder);
+
+/// A hexapod contact's [`Reached`] as the lanes write it
+/// ([`SolutionRoom`]): its values of its form's room ([`Hexapod::form`]).
+#[derive(TransparentWrapper)]
+#[repr(transparent)]
+struct RoomOfReached(Reached);
+
+impl SolutionRoom for RoomOfReached {
+    /// The warm start of `pose` and the tool tip into the room, and `J_f`'s
+    /// room in its `dT/dp |_q` (the readings after it, with scales, are the
+    /// caller's).
+    fn solved(
+        &mut self,
+        pose: &Pose,
+        tool_tip: &Vector3<f64>,
+        _iterations: usize,
+    ) -> &mut FactoredTipJacobian {
+        let room = &mut self.0;
+        room.warm_start.copy_from_slice(&warm_start_values(pose));
+        room.point = *tool_tip;
+        FactoredTipJacobian::in_values_mut(room.d_params.values_mut())
+    }
+}
 
 /// Whether `a` and `b` hold the same numbers, bit for bit (every pair
 /// compared, without a branch per pair).
@@ -688,10 +691,10 @@ impl Mechanism for Hexapod {
         workspace: &mut BatchWorkspace,
         reached: &mut Vec<Result<Reached, MechanismError>>,
     ) {
-        let Ok((geometry, order, solutions)) = self.shared(params, workspace) else {
+        let Ok((geometry, order)) = self.shared(params, workspace) else {
             return tool_points_one_by_one(self, params, readings, starts, reached);
         };
-        let n_params = self.parameters.len();
+        let (n_params, form, len) = (self.parameters.len(), self.form(), self.form_len());
         self.in_batches(
             params,
             readings,
@@ -699,33 +702,32 @@ impl Mechanism for Hexapod {
             LANES,
             reached,
             |reached, first, q, poses| {
-                let solutions = &mut solutions[..q.len()];
+                // Each contact's room, with its readings after `J_f`; the
+                // lanes write the rest into it.
+                for (l, readings) in readings[first..first + q.len()].iter().enumerate() {
+                    write_reached(
+                        reached,
+                        first + l,
+                        WARM_START_LEN,
+                        form,
+                        n_params,
+                        len,
+                        |room| {
+                            self.write_readings(readings, &mut room.d_params);
+                        },
+                    );
+                }
+                let rooms = &mut reached[first..first + q.len()];
                 let solved = forward_jacobian_batch(
                     geometry,
                     q,
                     poses,
                     &self.options,
                     &mut *order,
-                    solutions,
-                    |s| s,
+                    rooms,
+                    |room| RoomOfReached::wrap_mut(room.as_mut().expect("a room written above")),
                 );
-                solved.is_ok_and(|()| {
-                    for (l, solution) in solutions.iter().enumerate() {
-                        let (form, len) = (self.form(), self.form_len());
-                        write_reached(
-                            reached,
-                            first + l,
-                            WARM_START_LEN,
-                            form,
-                            n_params,
-                            len,
-                            |room| {
-                                self.write_solution(readings[first + l], solution, room);
-                            },
-                        );
-                    }
-                    true
-                })
+                solved.is_ok()
             },
             |l| self.tool_point_at_readings(params, readings[l], starts[l]),
         );
@@ -747,7 +749,7 @@ impl Mechanism for Hexapod {
     ) {
         let step_refused = check_vector(self, "parameter step values", dp, self.parameters.len());
         let shared = step_refused.and_then(|()| self.shared(params, workspace));
-        let Ok((geometry, order, _)) = shared else {
+        let Ok((geometry, order)) = shared else {
             return tool_points_along_by_rows(self, params, readings, starts, dp, workspace, along);
         };
         let mut solutions = [SolutionAlong::default(); LANES];

@@ -71,7 +71,7 @@ pub mod pose_fit;
 mod simd;
 
 pub use derivatives::{
-    DerivativeAlong, FactoredTipJacobian, FactoredValues, SolutionAlong, SolutionJacobian,
+    DerivativeAlong, FactoredTipJacobian, SolutionAlong, SolutionJacobian, SolutionRoom,
     TipDerivatives, TipJacobians, tip_jacobians, tip_jacobians_at,
 };
 pub use error::KinematicsError;

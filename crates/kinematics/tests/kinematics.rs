@@ -7,9 +7,9 @@ use parcal_kinematics::forward_batch::{
     LANES, PivotOrder, forward_along_batch, forward_batch, forward_jacobian_batch,
 };
 use parcal_kinematics::{
-    FactoredTipJacobian, FactoredValues, ForwardOptions, ForwardSolution, Geometry,
-    KinematicsError, N_PARAMS, Params, Pose, SolutionAlong, SolutionJacobian, TipDerivatives, Vec3,
-    actuators, forward, forward_from_home, paper, params, rotation_zyx, tip_jacobians,
+    FactoredTipJacobian, ForwardOptions, ForwardSolution, Geometry, KinematicsError, N_PARAMS,
+    Params, Pose, SolutionAlong, SolutionJacobian, TipDerivatives, Vec3, actuators, forward,
+    forward_from_home, paper, params, rotation_zyx, tip_jacobians,
 };
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -600,14 +600,20 @@ fn factored_tip_jacobian_is_the_tip_derivatives() {
         factored.params_row(&h, &mut a);
         derivatives.params_row(&h, &mut b);
         assert_close(&a, &b, 1e-12, "h^T J_f");
-        // Its values, read where they are: the same products, to the bit.
+        // Held in values in the order of its fields, as its doc says.
         let mut values = [0.0; FactoredTipJacobian::VALUES];
-        factored.write_values(&mut values);
-        let read = FactoredValues::new(&values);
-        read.params_row(&h, &mut b);
-        assert_eq!(a, b, "h^T J_f of the values");
+        *FactoredTipJacobian::in_values_mut(&mut values) = factored;
+        assert_eq!(&values[..18], factored.weights.as_slice(), "K^T first");
+        assert_eq!(&values[18..27], factored.rotation.as_slice(), "then R");
+        assert_eq!(
+            &values[27..30],
+            factored.directions[0].as_slice(),
+            "then n_1"
+        );
+        let last = factored.platform_directions[5];
+        assert_eq!(&values[60..], last.as_slice(), "R^T n_6 last");
+        assert_eq!(FactoredTipJacobian::in_values(&values), &factored);
         let dp = Params::from_fn(|_, _| rng.random_range(-1.0..1.0));
-        assert_eq!(read.along(&dp), factored.along(&dp), "J_f dp of the values");
         let along = derivatives.along(&dp).tip;
         assert_close(
             factored.along(&dp).as_slice(),
