@@ -230,9 +230,10 @@ fn along_in(
 /// [`forward_batch`] runs it, and at each solution `J_f` in factored form
 /// (what [`SolutionJacobian::solve`] gives): the solution for `q[l]`
 /// written where `solution(&mut items[l])` keeps it ([`SolutionRoom`], such
-/// as a [`SolutionJacobian`]), the lanes' `J_f` straight into its room. In SIMD lanes where
-/// the machine has AVX2 (module doc), contact by contact otherwise. `trial` is the row
-/// order the lanes try first, updated for the next call. An error is that
+/// as a [`SolutionJacobian`]), the lanes' `J_f` straight into its room. In
+/// SIMD lanes where the machine has AVX2 (module doc), contact by contact
+/// otherwise. `trial` is the row order the lanes try first, updated for the
+/// next call. An error is that
 /// of the first failing contact, with its index; the other outputs are
 /// then unspecified.
 ///
