@@ -281,19 +281,9 @@ impl Hexapod {
     fn reached_rows(&self, readings: &[f64], jacobian: &FactoredTipJacobian) -> ParamsJacobian {
         let mut d_params =
             ParamsJacobian::factored(self.form(), self.parameters.len(), self.form_len());
-        self.write_reached_rows(readings, jacobian, &mut d_params);
-        d_params
-    }
-
-    /// [`Hexapod::reached_rows`] into `d_params` (room for its form).
-    fn write_reached_rows(
-        &self,
-        readings: &[f64],
-        jacobian: &FactoredTipJacobian,
-        d_params: &mut ParamsJacobian,
-    ) {
         *FactoredTipJacobian::in_values_mut(d_params.values_mut()) = *jacobian;
-        self.write_readings(readings, d_params);
+        self.write_readings(readings, &mut d_params);
+        d_params
     }
 
     /// The values after `J_f`'s in `d_params` (room for its form): with
@@ -454,8 +444,9 @@ struct SharedByBatches {
 /// and the lanes' row order.
 type Shared<'w> = (&'w Geometry, &'w mut PivotOrder);
 
-/// A hexapod contact's [`Reached`] as the lanes write it
-/// ([`SolutionRoom`]): its values of its form's room ([`Hexapod::form`]).
+/// A hexapod contact's [`Reached`] as the lanes write into it
+/// ([`SolutionRoom`]): `J_f` into the first values of its `dT/dp |_q`, which
+/// has room for the hexapod's form ([`Hexapod::form`]).
 #[derive(TransparentWrapper)]
 #[repr(transparent)]
 struct RoomOfReached(Reached);
