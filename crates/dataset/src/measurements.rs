@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::Point3;
 use crate::artefacts::{Ball, BallIndex};
 use crate::check::{self, Check, not_finite};
+use crate::checksum::Crc32;
 use crate::error::{DatasetError, Result};
 use crate::quote::quoted_bytes;
 use crate::table::{self, Failure, Header, Row};
@@ -47,6 +48,22 @@ impl Measurements {
     /// Whether there is no contact.
     pub fn is_empty(&self) -> bool {
         self.ball.is_empty()
+    }
+
+    /// The CRC-32 of its snapshot encoding (postcard, as its `Serialize`
+    /// writes it: `ball`, `q`, then `direction` as an option), each column
+    /// in pieces on the threads ([`Crc32::of_seq`]).
+    pub(crate) fn encoded_crc(&self) -> Crc32 {
+        let mut crc = Crc32::of_seq(&self.ball);
+        crc.append(&Crc32::of_seq(&self.q));
+        match &self.direction {
+            None => crc.encode(&None::<()>),
+            Some(direction) => {
+                crc.encode(&Some(()));
+                crc.append(&Crc32::of_seq(direction));
+            }
+        }
+        crc
     }
 
     /// Reads `measurements.csv`, resolving ball ids by the artefacts' `index`
@@ -411,6 +428,30 @@ impl Columns {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The columns' CRC in pieces is the CRC of the whole encoding, with
+    /// and without approach directions, over several pieces and none.
+    #[test]
+    fn encoded_crc_is_that_of_the_whole_encoding() {
+        let whole =
+            |m: &Measurements| crate::checksum::of_bytes(&postcard::to_allocvec(m).unwrap());
+        for n in [0, 1, 40_000] {
+            let mut m = Measurements {
+                ball: (0..n).map(|i| (i * 7919 % 300) as u32).collect(),
+                q: (0..n)
+                    .map(|i| [i as f64 * 0.25, -1.5, 3.0, 1e-9, f64::MAX, -0.0])
+                    .collect(),
+                direction: None,
+            };
+            assert_eq!(m.encoded_crc().checksum(), whole(&m), "{n} rows");
+            m.direction = Some((0..n).map(|i| [i as f64, 0.5, -2.0]).collect());
+            assert_eq!(
+                m.encoded_crc().checksum(),
+                whole(&m),
+                "{n} rows with directions"
+            );
+        }
+    }
 
     /// Ids in runs, a ball's touches apart and runs split between pieces,
     /// resolve to the indices row by row resolution gives.
