@@ -29,15 +29,6 @@ pub fn of_file(path: &Path) -> Result<String> {
     Ok(crc.checksum())
 }
 
-/// The checksum ([`of_bytes`]) of `value` in the snapshot's encoding
-/// (postcard), encoded into the CRC through a buffer, never held whole:
-/// the same data, the same checksum, whatever the files' formatting.
-pub(crate) fn of_encoded<T: Serialize>(value: &T) -> String {
-    let mut crc = Crc32::default();
-    crc.encode(value);
-    crc.checksum()
-}
-
 /// How many elements a piece of [`Crc32::of_seq`] encodes.
 const PIECE: usize = 1 << 14;
 

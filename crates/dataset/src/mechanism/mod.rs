@@ -88,6 +88,7 @@ pub use validation::{KindRecord, MechanismValidationRecord, RowRecord, ShiftReco
 use crate::Distance;
 use crate::atomic;
 use crate::check::Check;
+use crate::checksum::Crc32;
 use crate::dataset::Dataset;
 use crate::error::{DatasetError, Result};
 use crate::input;
@@ -182,19 +183,25 @@ impl MechanismDataset {
     /// encoding (a simulation's truth is not part of it), `crc32:` and 8
     /// hex digits. It recognises a dataset; it is not a cryptographic hash.
     pub fn checksum(&self) -> String {
-        let measured = (
-            &self.machine,
-            &self.probes,
-            &self.heights,
-            &self.distances,
-            &self.samples,
-            &self.quantities,
-            &self.balls,
-            &self.touches,
-            &self.ball_distances,
-            &self.tracker_points,
-        );
-        crate::checksum::of_encoded(&measured)
+        // The encoding of the machine and the observations in turn, each
+        // list in pieces on the threads (`Crc32::of_seq`).
+        let mut crc = Crc32::default();
+        crc.encode(&self.machine);
+        let lists = [
+            Crc32::of_seq(&self.probes),
+            Crc32::of_seq(&self.heights),
+            Crc32::of_seq(&self.distances),
+            Crc32::of_seq(&self.samples),
+            Crc32::of_seq(&self.quantities),
+            Crc32::of_seq(&self.balls),
+            Crc32::of_seq(&self.touches),
+            Crc32::of_seq(&self.ball_distances),
+            Crc32::of_seq(&self.tracker_points),
+        ];
+        for list in &lists {
+            crc.append(list);
+        }
+        crc.checksum()
     }
 
     /// Reads the dataset in directory `dir` (module doc).
@@ -587,5 +594,71 @@ fn without_balls(path: std::path::PathBuf, what: &str) -> DatasetError {
     DatasetError::Refused {
         path,
         message: format!("{what} need {BALLS_FILE}, which is not there"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The checksum made list by list in pieces is that of the whole
+    /// encoding of the machine and every list, each list of other rows
+    /// than the next, one over several pieces.
+    #[test]
+    fn the_checksum_is_that_of_the_whole_encoding() {
+        let dataset = MechanismDataset {
+            probes: (0..40_000).map(|i| [i as f64, -0.5, 1e-3]).collect(),
+            heights: vec![[1.0, 2.0, 3.0, 0.25]],
+            distances: vec![[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]; 2],
+            samples: vec![SampleRow {
+                readings: vec![1.0, 2.0, 3.0],
+                position: Some([4.0, 5.0, 6.0]),
+                loads: None,
+            }],
+            quantities: vec![QuantityRow {
+                quantity: "r".to_string(),
+                value: 140.0,
+                sigma: 0.1,
+            }],
+            balls: vec![BallRow {
+                radius: 12.7,
+                radius_sigma: Some(0.001),
+                placement: None,
+            }],
+            touches: vec![
+                TouchRow {
+                    ball: 0,
+                    commanded: [1.0, -1.0, 30.0],
+                };
+                3
+            ],
+            ball_distances: vec![Distance {
+                a: 0,
+                b: 1,
+                length: 100.0,
+                sigma: 0.002,
+            }],
+            tracker_points: vec![TrackerPointRow {
+                tracker: "t".to_string(),
+                commanded: [0.0; 3],
+                measured: [1.0; 3],
+            }],
+            ..MechanismDataset::default()
+        };
+        let d = &dataset;
+        let whole = (
+            &d.machine,
+            &d.probes,
+            &d.heights,
+            &d.distances,
+            &d.samples,
+            &d.quantities,
+            &d.balls,
+            &d.touches,
+            &d.ball_distances,
+            &d.tracker_points,
+        );
+        let bytes = postcard::to_allocvec(&whole).unwrap();
+        assert_eq!(dataset.checksum(), crate::checksum::of_bytes(&bytes));
     }
 }
