@@ -81,6 +81,8 @@ impl Command {
                 .all(|c| c.is_ascii_digit() || matches!(c, '.' | '-' | '+'));
         let number = if is_number {
             bounded_number(text)
+        } else if text.is_empty() {
+            Err("no number follows the letter".to_string())
         } else {
             Err(format!("'{value}' is not a number"))
         };

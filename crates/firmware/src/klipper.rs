@@ -258,7 +258,32 @@ impl Options {
                 message: format!("no {key} in [{section}] (includes are not followed)"),
             })
     }
+
+    /// The number of `section`/`key`, if given, refused at its line unless
+    /// positive (as Klipper refuses a radius: `above=0.`).
+    fn positive(&self, section: &str, key: &str) -> Result<Option<f64>, FirmwareError> {
+        match self.float(section, key)? {
+            Some(value) if value <= 0.0 => {
+                let (_, line) = &self.values[&(section.to_string(), key.to_string())];
+                Err(self.at(
+                    *line,
+                    format!("[{section}] {key}: {value} must be positive"),
+                ))
+            }
+            value => Ok(value),
+        }
+    }
+
+    /// [`Options::positive`], required.
+    fn required_positive(&self, section: &str, key: &str) -> Result<f64, FirmwareError> {
+        self.positive(section, key)?;
+        self.required(section, key)
+    }
 }
+
+/// How [`parse_printer`] reads a stepper's number: [`Options::float`] or
+/// [`Options::positive`].
+type ReadNumber = fn(&Options, &str, &str) -> Result<Option<f64>, FirmwareError>;
 
 /// The line without an inline comment (`#` or `;` at its start or after
 /// whitespace).
@@ -369,12 +394,12 @@ fn delta_settings(options: &Options) -> Result<KlipperDelta, FirmwareError> {
             });
         }
     }
-    let delta_radius = options.required("printer", "delta_radius")?;
+    let delta_radius = options.required_positive("printer", "delta_radius")?;
     let print_radius = options
-        .float("printer", "print_radius")?
+        .positive("printer", "print_radius")?
         .unwrap_or(delta_radius);
     let arm_a = options.required(STEPPERS[0], "arm_length")?;
-    let endstop_a = options.required(STEPPERS[0], "position_endstop")?;
+    let endstop_a = options.required_positive(STEPPERS[0], "position_endstop")?;
     let mut delta = KlipperDelta {
         delta_radius,
         print_radius,
@@ -383,13 +408,19 @@ fn delta_settings(options: &Options) -> Result<KlipperDelta, FirmwareError> {
         position_endstops: [endstop_a; 3],
     };
     for (i, stepper) in STEPPERS.iter().enumerate() {
-        let given = [
-            ("angle", &mut delta.angles[i]),
-            ("arm_length", &mut delta.arm_lengths[i]),
-            ("position_endstop", &mut delta.position_endstops[i]),
+        // The nozzle homes above the bed: each carriage's endstop height
+        // is positive.
+        let given: [(&str, &mut f64, ReadNumber); 3] = [
+            ("angle", &mut delta.angles[i], Options::float),
+            ("arm_length", &mut delta.arm_lengths[i], Options::float),
+            (
+                "position_endstop",
+                &mut delta.position_endstops[i],
+                Options::positive,
+            ),
         ];
-        for (key, slot) in given {
-            if let Some(v) = options.float(stepper, key)? {
+        for (key, slot, read) in given {
+            if let Some(v) = read(options, stepper, key)? {
                 *slot = v;
             }
         }

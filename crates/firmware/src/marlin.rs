@@ -45,7 +45,7 @@ use parcal_kinematics::delta::DeltaParams;
 use crate::FirmwareError;
 use crate::files::read_capped;
 use crate::gcode::{Command, parse_line};
-use crate::rrf::{MAX_CONFIG_BYTES, check_rods};
+use crate::rrf::{MAX_CONFIG_BYTES, check_rods, homed_below_the_bed};
 
 /// The parameters of a linear delta as Marlin holds them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -292,6 +292,12 @@ impl Given {
             return Err(at(
                 "M665",
                 format!("delta radius {} must be positive", delta.radius),
+            ));
+        }
+        if delta.height <= 0.0 {
+            return Err(at(
+                "M665",
+                homed_below_the_bed("delta height", delta.height),
             ));
         }
         check_rods(&rods, delta.radius).map_err(|message| at("M665", message))?;

@@ -190,14 +190,18 @@ impl RrfDelta {
         })
     }
 
-    /// Refuses a geometry no delta has: a non-positive radius or printable
-    /// radius, a rod not longer than the radius.
+    /// Refuses a geometry no delta has: a non-positive radius, printable
+    /// radius or homed height (the nozzle homes above the bed), a rod not
+    /// longer than the radius.
     fn check(&self) -> Result<(), String> {
         if !(self.radius > 0.0 && self.print_radius > 0.0) {
             return Err(format!(
                 "delta radius {} and printable radius {} must be positive",
                 self.radius, self.print_radius
             ));
+        }
+        if self.homed_height <= 0.0 {
+            return Err(homed_below_the_bed("homed height", self.homed_height));
         }
         check_rods(&self.diagonals, self.radius)
     }
@@ -219,6 +223,13 @@ pub(crate) fn refuse_tower_radius(
         ))),
         None => Ok(()),
     }
+}
+
+/// Why a homed nozzle height `height` (RepRapFirmware's `M665 H`,
+/// Marlin's delta height) is refused: it is not above the bed, where every
+/// probe point lies.
+pub(crate) fn homed_below_the_bed(name: &str, height: f64) -> String {
+    format!("{name} {height} mm must be positive: the nozzle homes above the bed")
 }
 
 /// Refuses rods no delta has: one not longer than the delta radius

@@ -54,6 +54,18 @@ fn errors_name_the_file_and_line() {
         err.to_string(),
         "sys/config.g: line 1: M665 parameter L: '2000000' is beyond the 1e6 a firmware's number may be (1 km in mm: a unit error?)"
     );
+    // A letter with no number (`Rnan` reads as `R`, then `N`, `A`, `N`).
+    let err = parse_config("M665 L270 Rnan\n", path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "sys/config.g: line 1: M665 parameter R: no number follows the letter"
+    );
+    // The nozzle homed at or below the bed, where the probe points lie.
+    let err = parse_config("M665 L270 R135 H-5\n", path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "sys/config.g: line 1: homed height -5 mm must be positive: the nozzle homes above the bed"
+    );
     let err = parse_config("M665 L270:270:270:270 R135\n", path).unwrap_err();
     assert_eq!(
         err.to_string(),

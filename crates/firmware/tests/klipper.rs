@@ -141,6 +141,26 @@ fn errors_name_the_file_and_line() {
         err.to_string(),
         "printer.cfg: no delta_radius in [printer] (includes are not followed)"
     );
+    // What Klipper refuses (`above=0.`), and a nozzle homed below the bed.
+    let err = parse_printer(&PRINTER_CFG.replace("134.5", "-134.5"), path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "printer.cfg: line 18: [printer] delta_radius: -134.5 must be positive"
+    );
+    let err = parse_printer(
+        &PRINTER_CFG.replace("print_radius: 110", "print_radius: 0"),
+        path,
+    )
+    .unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "printer.cfg: line 19: [printer] print_radius: 0 must be positive"
+    );
+    let err = parse_printer(&PRINTER_CFG.replace("300.9", "-5"), path).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "printer.cfg: line 13: [stepper_c] position_endstop: -5 must be positive"
+    );
     let err = parse_printer("orphan: 1\n", path).unwrap_err();
     assert_eq!(
         err.to_string(),

@@ -111,6 +111,10 @@ fn errors_name_the_file_and_line() {
         error("M665 L218 R-97.5 H300 X0 Y0 Z0\nM666 X0 Y0 Z0\n")
             .starts_with("m503.txt: line 1: delta radius -97.5 must be positive"),
     );
+    assert_eq!(
+        error("M665 L218 R97.5 H0 X0 Y0 Z0\nM666 X0 Y0 Z0\n"),
+        "m503.txt: line 1: delta height 0 mm must be positive: the nozzle homes above the bed"
+    );
     let err = read_config(Path::new("/nonexistent/m503.txt")).unwrap_err();
     assert!(
         err.to_string()
