@@ -11,8 +11,9 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 use parcal_calibrate::mechanism::{
-    CalibratedMechanism, MechanismCalibration, MechanismData, MechanismOptions, ObservationKind,
-    Observations, ParameterPrior, calibrate_mechanism, calibrated_machine,
+    CalibratedMechanism, MechanismCalibration, MechanismCalibrationError, MechanismData,
+    MechanismOptions, ObservationKind, Observations, ParameterPrior, calibrate_mechanism,
+    calibrated_machine, check_mechanism_data,
 };
 use parcal_dataset::mechanism::{LineElasticity, MechanismDataset, MechanismMachine, SampleRow};
 use parcal_kinematics::cable::{CableRobot, Elasticity, TYPICAL_COMPLIANCE, Tolerances};
@@ -566,4 +567,25 @@ fn elastic_lines_in_machine_json_calibrate_as_the_robot_made_elastic_in_code() {
     let calibrated = CalibratedMechanism::from_record(&record).unwrap();
     let last = calibrated.mechanism.parameters().last().unwrap();
     assert_eq!(last.name, "compliance_abcd");
+}
+
+#[test]
+fn a_spool_radius_that_is_not_positive_is_refused_by_name() {
+    // Before any work, naming the parameter rather than the first sample
+    // whose start pose its kinematics refuses.
+    let mut data = MechanismData::from_dataset(&dataset()).unwrap();
+    let k = (data.mechanism.parameters().iter())
+        .position(|p| p.name == "radius_c")
+        .unwrap();
+    data.configured[k] = 0.0;
+    match check_mechanism_data(&data) {
+        Err(MechanismCalibrationError::InvalidData { what, reason }) => {
+            assert_eq!(what, "parameter radius_c");
+            assert_eq!(
+                reason,
+                "configured value 0: a spool radius must be positive"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
 }

@@ -5,7 +5,8 @@
 //! is not a positive length; a cable robot's elastic lines
 //! (`"elasticity"`) written and read back, their compliances among the
 //! parameters, and refused, naming the field, for another mechanism or
-//! when they do not fit the robot's lines.
+//! when they do not fit the robot's lines; a parameter value no machine
+//! of its kind has refused, naming the field.
 
 use std::fs;
 
@@ -123,8 +124,10 @@ fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
     // One sample of its readings at the design, under other loads.
     let design: Vec<f64> = robot.parameters().iter().map(|p| p.design).collect();
     let readings = robot.inverse(&design, &[0.0, 0.0, 100.0]).unwrap();
+    let mut machine = MechanismMachine::of(&robot);
+    machine.noise.actuator = Some(1.0);
     let mut dataset = MechanismDataset {
-        machine: MechanismMachine::of(&robot),
+        machine,
         samples: vec![SampleRow {
             readings: readings.iter().copied().collect(),
             position: None,
@@ -248,4 +251,54 @@ fn heights_measured_by_hand_are_written_and_read_back_with_their_noise() {
         error.contains("heights.csv") && error.contains("line 3"),
         "{error}"
     );
+}
+
+#[test]
+fn a_parameter_no_machine_has_is_refused_naming_its_field() {
+    let robot = CableRobot::typical();
+    let k = (robot.parameters().iter())
+        .position(|p| p.name == "radius_b")
+        .unwrap();
+    let mut machine = MechanismMachine::of(&robot);
+    machine.noise.actuator = Some(1.0);
+    let mut dataset = MechanismDataset {
+        machine,
+        samples: vec![SampleRow {
+            readings: vec![0.0; 4],
+            position: None,
+            loads: None,
+        }],
+        ..MechanismDataset::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    dataset.write(dir.path()).unwrap();
+    // Written: refused before a file is.
+    dataset.machine.configured[k] = 0.0;
+    let error = dataset
+        .write(tempfile::tempdir().unwrap().path())
+        .unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .ends_with("field configured.radius_b: a spool radius must be positive, found 0"),
+        "{error}"
+    );
+    // Read: the design's as well as the configured values.
+    let path = dir.path().join("machine.json");
+    let text = fs::read_to_string(&path).unwrap();
+    for field in ["configured", "design"] {
+        let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        if json["design"].is_null() {
+            json["design"] = json["configured"].clone();
+        }
+        json[field]["radius_b"] = serde_json::json!(-75.0);
+        fs::write(&path, json.to_string()).unwrap();
+        let error = MechanismDataset::read(dir.path()).unwrap_err().to_string();
+        assert!(
+            error.ends_with(&format!(
+                "machine.json: field {field}.radius_b: a spool radius must be positive, found -75"
+            )),
+            "{error}"
+        );
+    }
 }

@@ -496,24 +496,6 @@ impl CableRobot {
             / self.buildup(j)
     }
 
-    /// Refuses parameters of the wrong length, non-finite or with a spool
-    /// radius that is not positive (named).
-    fn checked(&self, params: &[f64]) -> Result<(), MechanismError> {
-        check_params(self, params)?;
-        for k in 0..self.radii {
-            let r = params[self.radius_index(k)];
-            if r <= 0.0 {
-                return Err(MechanismError::Unreachable {
-                    reason: format!(
-                        "{} = {r:.3} mm: a spool radius must be positive",
-                        self.parameters[self.radius_index(k)].name
-                    ),
-                });
-            }
-        }
-        Ok(())
-    }
-
     fn line(&self, params: &[f64], j: usize, pose: &[f64]) -> Result<Line, MechanismError> {
         let anchor = self.anchor(params, j);
         let to_pose = Vector3::from_column_slice(pose) - anchor;
@@ -559,7 +541,7 @@ impl CableRobot {
         params: &[f64],
         pose: &[f64],
     ) -> Result<DVector<f64>, MechanismError> {
-        self.checked(params)?;
+        self.check_parameters(params)?;
         check_vector(self, "pose coordinates", pose, 3)?;
         let mut changes = DVector::zeros(self.cables());
         for j in 0..self.cables() {
@@ -577,7 +559,7 @@ impl CableRobot {
         params: &[f64],
         readings: &[f64],
     ) -> Result<DVector<f64>, MechanismError> {
-        self.checked(params)?;
+        self.check_parameters(params)?;
         check_vector(self, "readings", readings, self.cables())?;
         let mut changes = DVector::zeros(self.cables());
         for j in 0..self.cables() {
@@ -621,7 +603,7 @@ impl CableRobot {
         pose: &[f64],
         loads: Option<&[f64]>,
     ) -> Result<(DVector<f64>, ReadingJacobians), MechanismError> {
-        self.checked(params)?;
+        self.check_parameters(params)?;
         check_vector(self, "pose coordinates", pose, 3)?;
         let n = self.cables();
         if let Some(loads) = loads {
@@ -681,7 +663,7 @@ impl CableRobot {
     /// of them, `v`, by `w x v`. Six directions, each normalised. They are
     /// not [`Mechanism::gauge_freedoms`]: a measured position sees them.
     pub fn rigid_motions(&self, params: &[f64]) -> Result<Vec<GaugeFreedom>, MechanismError> {
-        self.checked(params)?;
+        self.check_parameters(params)?;
         let points: Vec<usize> = (0..self.cables())
             .map(|j| self.anchor_index(j))
             .chain([self.zero_index()])
@@ -730,6 +712,23 @@ impl Mechanism for CableRobot {
 
     fn actuators(&self) -> &[Actuator] {
         &self.actuators
+    }
+
+    /// Refuses parameters of the wrong length, non-finite or with a spool
+    /// radius that is not positive.
+    fn check_parameters(&self, params: &[f64]) -> Result<(), MechanismError> {
+        check_params(self, params)?;
+        for k in 0..self.radii {
+            let value = params[self.radius_index(k)];
+            if value <= 0.0 {
+                return Err(MechanismError::Parameter {
+                    name: self.parameters[self.radius_index(k)].name.clone(),
+                    value,
+                    reason: "a spool radius must be positive".to_string(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// `theta_j = k_j (sqrt(r_j^2 + c_j dL_j) - r_j)` (module
@@ -784,7 +783,7 @@ impl Mechanism for CableRobot {
     /// `|a_j - z_0|`, with `d/da_j = -u0_j` and `d/dz_0 = u0_j`
     /// (`u0_j = (z_0 - a_j)/|z_0 - a_j|`).
     fn quantity(&self, index: usize, params: &[f64]) -> Result<QuantityValue, MechanismError> {
-        self.checked(params)?;
+        self.check_parameters(params)?;
         if index >= self.cables() {
             return Err(MechanismError::NoModel {
                 mechanism: self.name().to_string(),

@@ -243,6 +243,16 @@ pub enum MechanismError {
         /// The value (`parameter diagonal_b`, `reading 2`).
         what: String,
     },
+    /// A parameter's value that no machine of its kind has.
+    #[error("parameter {name} = {value}: {reason}")]
+    Parameter {
+        /// The parameter.
+        name: String,
+        /// Its value.
+        value: f64,
+        /// Why no machine has it.
+        reason: String,
+    },
     /// The pose is outside the mechanism's reach or limits.
     #[error("unreachable: {reason}")]
     Unreachable {
@@ -279,6 +289,14 @@ pub trait Mechanism: Send + Sync {
 
     /// The actuators, in the order of every reading vector.
     fn actuators(&self) -> &[Actuator];
+
+    /// Refuses parameters no machine of this kind has, naming the first
+    /// parameter at fault ([`MechanismError::Parameter`]); by default a
+    /// vector of the wrong length or with a value that is not finite
+    /// ([`check_params`]).
+    fn check_parameters(&self, params: &[f64]) -> Result<(), MechanismError> {
+        check_params(self, params)
+    }
 
     /// The parameters that are the actuators' scales when they are
     /// unknowns: actuator `i`'s scale `s_i` (its extension per unit of its

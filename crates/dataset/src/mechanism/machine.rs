@@ -43,7 +43,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use parcal_kinematics::cable::CableRobot;
-use parcal_kinematics::mechanism::Mechanism;
+use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 use parcal_kinematics::mechanisms;
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize, Serializer};
@@ -284,6 +284,29 @@ pub(crate) fn by_parameter(
         .collect()
 }
 
+/// Refuses parameter values `values` (of `field`) that no machine of
+/// `mechanism`'s kind has ([`Mechanism::check_parameters`]), naming
+/// `field.NAME`.
+pub(crate) fn check_machine(
+    check: Check,
+    mechanism: &dyn Mechanism,
+    field: &str,
+    values: &[f64],
+) -> Result<()> {
+    match mechanism.check_parameters(values) {
+        Ok(()) => Ok(()),
+        Err(MechanismError::Parameter {
+            name,
+            value,
+            reason,
+        }) => Err(check.error(
+            format!("{field}.{name}"),
+            format!("{reason}, found {value}"),
+        )),
+        Err(other) => Err(check.error(field, other.to_string())),
+    }
+}
+
 impl MechanismMachine {
     /// The machine of `mechanism` run with its design values, its lines
     /// elastic as the mechanism's are ([`LineElasticity::of`]), without
@@ -452,6 +475,7 @@ impl MechanismMachine {
             for (p, &value) in parameters.iter().zip(values.iter()) {
                 check.length(format!("{field}.{}", p.name), value)?;
             }
+            check_machine(check, mechanism.as_ref(), field, values)?;
         }
         let known_group = |field: String, group: &str| {
             if parameters.iter().any(|p| p.group == group) {

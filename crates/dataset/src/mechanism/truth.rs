@@ -23,7 +23,7 @@ use crate::check::Check;
 use crate::error::Result;
 use crate::json;
 
-use super::machine::{MechanismMachine, Named, by_parameter, machine_mechanism};
+use super::machine::{MechanismMachine, Named, by_parameter, check_machine, machine_mechanism};
 
 /// The true machine of a simulated dataset.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,6 +67,7 @@ impl MechanismTruth {
         let check = Check::new(path);
         let mechanism = machine_mechanism(path, &machine.mechanism, machine.elasticity.as_ref())?;
         let parameters = by_parameter(check, mechanism.as_ref(), "parameters", &file.parameters)?;
+        check_machine(check, mechanism.as_ref(), "parameters", &parameters)?;
         let truth = Self {
             parameters,
             trigger_height: file.trigger_height,
@@ -109,6 +110,7 @@ impl MechanismTruth {
         for (p, &value) in parameters.iter().zip(&self.parameters) {
             check.length(format!("parameters.{}", p.name), value)?;
         }
+        check_machine(check, mechanism.as_ref(), "parameters", &self.parameters)?;
         self.check_values(check)?;
         let out = TruthOut {
             parameters: Named(

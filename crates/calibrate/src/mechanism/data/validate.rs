@@ -4,6 +4,7 @@
 //! balls' and trackers' by their own checks), the touch start's sizes; the
 //! first problem named.
 
+use parcal_kinematics::mechanism::MechanismError;
 use parcal_observe::mechanism::{Actuation, POSE_COORDINATES};
 
 use super::super::correlation::check_correlation;
@@ -102,6 +103,20 @@ impl MechanismData {
                 );
             }
             check_prior(&self.priors[k], what)?;
+        }
+        match mechanism.check_parameters(&self.configured) {
+            Ok(()) => {}
+            Err(MechanismError::Parameter {
+                name,
+                value,
+                reason,
+            }) => {
+                return invalid(
+                    format!("parameter {name}"),
+                    format!("configured value {value}: {reason}"),
+                );
+            }
+            Err(other) => return invalid("configured parameters".to_string(), other.to_string()),
         }
         check_prior(&self.trigger_height, || "trigger height".to_string())?;
         if let Some(correlation) = &self.prior_correlation {
