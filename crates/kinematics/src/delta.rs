@@ -333,17 +333,35 @@ impl Towers {
         let radius: [f64; 3] = std::array::from_fn(|i| p.radius + p.tower_radius[i]);
         let angle: [f64; 3] = std::array::from_fn(|i| (NOMINAL_ANGLE[i] + p.angle[i]).to_radians());
         let mut rise = [0.0; 3];
-        for i in 0..3 {
-            let square = p.diagonal[i].powi(2) - radius[i].powi(2);
-            if square <= 0.0 || radius[i] <= 0.0 {
-                return Err(MechanismError::Unreachable {
+        for (i, tower) in TOWERS.iter().enumerate() {
+            if radius[i] <= 0.0 {
+                // The tower's own radius correction, if it has one, else
+                // the common radius.
+                let (name, value) = if p.tower_radius[i] == 0.0 {
+                    ("radius".to_string(), p.radius)
+                } else {
+                    (format!("radius_{tower}"), p.tower_radius[i])
+                };
+                return Err(MechanismError::Parameter {
+                    name,
+                    value,
                     reason: format!(
-                        "tower {}: the diagonal rod {:.3} mm does not reach from the centre to the tower at radius {:.3} mm",
-                        TOWERS[i], p.diagonal[i], radius[i]
+                        "tower {tower} stands at radius {:.3} mm from the centre: it must be positive",
+                        radius[i]
                     ),
                 });
             }
-            rise[i] = square.sqrt();
+            if p.diagonal[i] <= radius[i] {
+                return Err(MechanismError::Parameter {
+                    name: format!("diagonal_{tower}"),
+                    value: p.diagonal[i],
+                    reason: format!(
+                        "the diagonal rod must be longer than tower {tower}'s radius {:.3} mm to reach the centre",
+                        radius[i]
+                    ),
+                });
+            }
+            rise[i] = (p.diagonal[i].powi(2) - radius[i].powi(2)).sqrt();
         }
         Ok(Self {
             position: std::array::from_fn(|i| {
@@ -519,6 +537,13 @@ impl Mechanism for LinearDelta {
 
     fn actuators(&self) -> &[Actuator] {
         &self.actuators
+    }
+
+    /// Refuses parameters of the wrong length, non-finite, with a tower at
+    /// a radius that is not positive or a diagonal rod not longer than its
+    /// tower's radius.
+    fn check_parameters(&self, params: &[f64]) -> Result<(), MechanismError> {
+        self.towers(params).map(|_| ())
     }
 
     fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError> {
@@ -1152,5 +1177,43 @@ mod tests {
             .check_feasible(p.as_slice(), &[0.0, 0.0, 50.0])
             .unwrap_err();
         assert!(err.to_string().contains("lean"), "{err}");
+    }
+
+    #[test]
+    fn parameters_no_delta_has_are_refused_by_name() {
+        let delta = LinearDelta::typical();
+        let base = DeltaParams::symmetric(270.0, 135.0, 300.0);
+        assert_eq!(delta.check_parameters(base.to_vector().as_slice()), Ok(()));
+        let refused = |edit: &dyn Fn(&mut DeltaParams)| {
+            let mut p = base;
+            edit(&mut p);
+            match delta.check_parameters(p.to_vector().as_slice()) {
+                Err(MechanismError::Parameter { name, value, .. }) => (name, value),
+                other => panic!("{other:?}"),
+            }
+        };
+        assert_eq!(
+            refused(&|p| p.diagonal[1] = 135.0),
+            ("diagonal_b".into(), 135.0)
+        );
+        assert_eq!(
+            refused(&|p| p.diagonal[2] = -300.0),
+            ("diagonal_c".into(), -300.0)
+        );
+        assert_eq!(refused(&|p| p.radius = 0.0), ("radius".into(), 0.0));
+        assert_eq!(
+            refused(&|p| p.tower_radius[0] = -140.0),
+            ("radius_a".into(), -140.0)
+        );
+        // The kinematics refuse them alike.
+        let mut p = base;
+        p.diagonal[0] = 100.0;
+        let err = delta
+            .inverse(p.to_vector().as_slice(), &[0.0, 0.0, 0.0])
+            .unwrap_err();
+        assert!(
+            err.to_string().starts_with("parameter diagonal_a = 100:"),
+            "{err}"
+        );
     }
 }
