@@ -42,44 +42,42 @@ fn per_tower_rods_fill_as_the_firmware_fills_them() {
 #[test]
 fn errors_name_the_file_and_line() {
     let path = Path::new("sys/config.g");
-    let err = parse_config("G28\nM665 L270 R13.5.1\n", path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "sys/config.g: line 2: M665 parameter R: '13.5.1' is not a number"
-    );
-    // A length no printer has, named where it stands, not in the dataset
-    // an import would write.
-    let err = parse_config("M665 L2000000 R135\n", path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "sys/config.g: line 1: M665 parameter L: '2000000' is beyond the 1e6 a firmware's number may be (1 km in mm: a unit error?)"
-    );
-    // A letter with no number (`Rnan` reads as `R`, then `N`, `A`, `N`).
-    let err = parse_config("M665 L270 Rnan\n", path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "sys/config.g: line 1: M665 parameter R: no number follows the letter"
-    );
-    // The nozzle homed at or below the bed, where the probe points lie.
-    let err = parse_config("M665 L270 R135 H-5\n", path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "sys/config.g: line 1: homed height -5 mm must be positive: the nozzle homes above the bed"
-    );
-    let err = parse_config("M665 L270:270:270:270 R135\n", path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "sys/config.g: line 1: M665 L gives 4 diagonals: parcal reads deltas of three towers"
-    );
-    let err = parse_config("M666 X0.1\n", path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "sys/config.g: no M665 line: not a linear delta's configuration"
-    );
-    let err = parse_config("; rods\nM665 L120 R135\n", path).unwrap_err();
+    let error = |text: &str| parse_config(text, path).unwrap_err().to_string();
+    for (text, expected) in [
+        (
+            "G28\nM665 L270 R13.5.1\n",
+            "sys/config.g: line 2: M665 parameter R: '13.5.1' is not a number",
+        ),
+        // A length no printer has, named where it stands, not in the
+        // dataset an import would write.
+        (
+            "M665 L2000000 R135\n",
+            "sys/config.g: line 1: M665 parameter L: '2000000' is beyond the 1e6 a firmware's number may be (1 km in mm: a unit error?)",
+        ),
+        // A letter with no number (`Rnan` reads as `R`, then `N`, `A`, `N`).
+        (
+            "M665 L270 Rnan\n",
+            "sys/config.g: line 1: M665 parameter R: no number follows the letter",
+        ),
+        // The nozzle homed at or below the bed, where the probe points lie.
+        (
+            "M665 L270 R135 H-5\n",
+            "sys/config.g: line 1: homed height -5 mm must be positive: the nozzle homes above the bed",
+        ),
+        (
+            "M665 L270:270:270:270 R135\n",
+            "sys/config.g: line 1: M665 L gives 4 diagonals: parcal reads deltas of three towers",
+        ),
+        (
+            "M666 X0.1\n",
+            "sys/config.g: no M665 line: not a linear delta's configuration",
+        ),
+    ] {
+        assert_eq!(error(text), expected);
+    }
+    let err = error("; rods\nM665 L120 R135\n");
     assert!(
-        err.to_string()
-            .starts_with("sys/config.g: line 2: the diagonal rod of tower X"),
+        err.starts_with("sys/config.g: line 2: the diagonal rod of tower X"),
         "{err}"
     );
     let err = read_config(Path::new("/nonexistent/config.g")).unwrap_err();

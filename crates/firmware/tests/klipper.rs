@@ -122,48 +122,46 @@ fn the_probe_s_z_offset_is_read_and_saved_as_probe_calibrate_saves_it() {
 #[test]
 fn errors_name_the_file_and_line() {
     let path = Path::new("printer.cfg");
-    let err = parse_printer(&PRINTER_CFG.replace("134.5", "13x"), path).unwrap_err();
+    let error = |text: &str| parse_printer(text, path).unwrap_err().to_string();
+    let edited = |from: &str, to: &str| error(&PRINTER_CFG.replace(from, to));
+    for (from, to, expected) in [
+        (
+            "134.5",
+            "13x",
+            "printer.cfg: line 18: [printer] delta_radius: '13x' is not a number",
+        ),
+        (
+            "kinematics: delta",
+            "kinematics: corexy",
+            "printer.cfg: line 16: kinematics 'corexy': not a linear delta",
+        ),
+        (
+            "delta_radius: 134.5",
+            "",
+            "printer.cfg: no delta_radius in [printer] (includes are not followed)",
+        ),
+        // What Klipper refuses (`above=0.`), and a nozzle homed below the
+        // bed.
+        (
+            "134.5",
+            "-134.5",
+            "printer.cfg: line 18: [printer] delta_radius: -134.5 must be positive",
+        ),
+        (
+            "print_radius: 110",
+            "print_radius: 0",
+            "printer.cfg: line 19: [printer] print_radius: 0 must be positive",
+        ),
+        (
+            "300.9",
+            "-5",
+            "printer.cfg: line 13: [stepper_c] position_endstop: -5 must be positive",
+        ),
+    ] {
+        assert_eq!(edited(from, to), expected);
+    }
     assert_eq!(
-        err.to_string(),
-        "printer.cfg: line 18: [printer] delta_radius: '13x' is not a number"
-    );
-    let err = parse_printer(
-        &PRINTER_CFG.replace("kinematics: delta", "kinematics: corexy"),
-        path,
-    )
-    .unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "printer.cfg: line 16: kinematics 'corexy': not a linear delta"
-    );
-    let err = parse_printer(&PRINTER_CFG.replace("delta_radius: 134.5", ""), path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "printer.cfg: no delta_radius in [printer] (includes are not followed)"
-    );
-    // What Klipper refuses (`above=0.`), and a nozzle homed below the bed.
-    let err = parse_printer(&PRINTER_CFG.replace("134.5", "-134.5"), path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "printer.cfg: line 18: [printer] delta_radius: -134.5 must be positive"
-    );
-    let err = parse_printer(
-        &PRINTER_CFG.replace("print_radius: 110", "print_radius: 0"),
-        path,
-    )
-    .unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "printer.cfg: line 19: [printer] print_radius: 0 must be positive"
-    );
-    let err = parse_printer(&PRINTER_CFG.replace("300.9", "-5"), path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "printer.cfg: line 13: [stepper_c] position_endstop: -5 must be positive"
-    );
-    let err = parse_printer("orphan: 1\n", path).unwrap_err();
-    assert_eq!(
-        err.to_string(),
+        error("orphan: 1\n"),
         "printer.cfg: line 1: 'orphan: 1' comes before any section"
     );
     let mut tilted = parse_printer(PRINTER_CFG, path).unwrap().delta.to_params();
