@@ -124,10 +124,8 @@ fn elastic_lines_are_written_read_back_and_refused_when_they_do_not_fit() {
     // One sample of its readings at the design, under other loads.
     let design: Vec<f64> = robot.parameters().iter().map(|p| p.design).collect();
     let readings = robot.inverse(&design, &[0.0, 0.0, 100.0]).unwrap();
-    let mut machine = MechanismMachine::of(&robot);
-    machine.noise.actuator = Some(1.0);
     let mut dataset = MechanismDataset {
-        machine,
+        machine: MechanismMachine::of(&robot),
         samples: vec![SampleRow {
             readings: readings.iter().copied().collect(),
             position: None,

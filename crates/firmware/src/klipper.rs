@@ -252,11 +252,16 @@ impl Options {
 
     /// The number of `section`/`key`, required.
     fn required(&self, section: &str, key: &str) -> Result<f64, FirmwareError> {
-        self.float(section, key)?
-            .ok_or_else(|| FirmwareError::Configuration {
-                path: self.path.clone(),
-                message: format!("no {key} in [{section}] (includes are not followed)"),
-            })
+        self.given(section, key, self.float(section, key)?)
+    }
+
+    /// `value`, `section`/`key`'s as read, or the error that it is not
+    /// given.
+    fn given(&self, section: &str, key: &str, value: Option<f64>) -> Result<f64, FirmwareError> {
+        value.ok_or_else(|| FirmwareError::Configuration {
+            path: self.path.clone(),
+            message: format!("no {key} in [{section}] (includes are not followed)"),
+        })
     }
 
     /// The number of `section`/`key`, if given, refused at its line unless
@@ -276,8 +281,7 @@ impl Options {
 
     /// [`Options::positive`], required.
     fn required_positive(&self, section: &str, key: &str) -> Result<f64, FirmwareError> {
-        self.positive(section, key)?;
-        self.required(section, key)
+        self.given(section, key, self.positive(section, key)?)
     }
 }
 
