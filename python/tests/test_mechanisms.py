@@ -327,6 +327,10 @@ def test_bad_input_raises_parcal_error_naming_the_file_and_line(delta, hangprint
         (hangprinter / "points.csv").write_text("q1,q2,q3\n1,2,3\n")
         parcal.read_dataset(hangprinter)
     ds = parcal.read_dataset(delta)
+    distances = ds.distances.copy()
+    distances[1, 6] = -distances[1, 6]
+    with pytest.raises(parcal.Error, match=r"distances\.csv: field row 1, column distance: must be positive"):
+        parcal.MechanismDataset(ds.machine, probes=ds.probes, distances=distances)
     with pytest.raises(parcal.Error, match="time_limit: -1"):
         parcal.calibrate(ds, time_limit=-1)
     with pytest.raises(parcal.Error, match="loss: "):
@@ -478,6 +482,9 @@ def test_a_delta_touching_balls_built_in_memory_calibrates_as_its_files(cli, tmp
     touches = from_files.touches.copy()
     touches[2, 0] = 0.5
     with pytest.raises(parcal.Error, match=r"touches row 2: ball 0\.5 is not a ball's number"):
+        parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls, touches=touches)
+    touches[2, 0] = 1e300
+    with pytest.raises(parcal.Error, match=r"touches row 2: ball 1e300 is not a ball's number"):
         parcal.MechanismDataset(machine, probes=from_files.probes, balls=from_files.balls, touches=touches)
 
 

@@ -6,7 +6,8 @@
 //! (`"elasticity"`) written and read back, their compliances among the
 //! parameters, and refused, naming the field, for another mechanism or
 //! when they do not fit the robot's lines; a parameter value no machine
-//! of its kind has refused, naming the field.
+//! of its kind has refused, naming the field; a part distance that is
+//! not positive refused at its line.
 
 use std::fs;
 
@@ -249,6 +250,36 @@ fn heights_measured_by_hand_are_written_and_read_back_with_their_noise() {
         error.contains("heights.csv") && error.contains("line 3"),
         "{error}"
     );
+}
+
+#[test]
+fn a_part_distance_that_is_not_positive_is_refused_at_its_line() {
+    let mut dataset = with_rods(0.02, Some(0.5));
+    dataset.distances = vec![[-40.0, 0.0, 0.2, 40.0, 0.0, 0.2, 80.01]];
+    dataset.machine.noise.distance = Some(0.01);
+    let dir = tempfile::tempdir().unwrap();
+    dataset.write(dir.path()).unwrap();
+    let path = dir.path().join("distances.csv");
+    let text = fs::read_to_string(&path).unwrap();
+    for (bad, shown) in [("-80.01", "-80.01"), ("0", "0")] {
+        fs::write(&path, text.replace("80.01", bad)).unwrap();
+        let error = MechanismDataset::read(dir.path()).unwrap_err().to_string();
+        assert!(
+            error.ends_with(&format!(
+                "distances.csv: field line 2, column distance: must be positive, found {shown}"
+            )),
+            "{error}"
+        );
+    }
+    // Refused before it is written, at the line it would have.
+    dataset.distances[0][6] = -80.01;
+    let target = dir.path().join("x");
+    let error = dataset.write(&target).unwrap_err().to_string();
+    assert!(
+        error.ends_with("field line 2, column distance: must be positive, found -80.01"),
+        "{error}"
+    );
+    assert!(!target.exists());
 }
 
 #[test]

@@ -437,6 +437,14 @@ impl MechanismDataset {
             &DISTANCE_COLUMNS,
             &mut self.distances.iter().map(|r| r.as_slice()),
         )?;
+        // A measured distance is a length between two points: positive.
+        let path = dir.join(DISTANCES_FILE);
+        let check = Check::new(&path);
+        let distance = DISTANCE_COLUMNS.len() - 1;
+        for (k, row) in self.distances.iter().enumerate() {
+            let field = format!("{}, column {}", names.of(k), DISTANCE_COLUMNS[distance]);
+            check.positive(field, row[distance])?;
+        }
         self.validate_tracker_points(dir, names)?;
         let path = dir.join(POINTS_FILE);
         let check = Check::new(&path);

@@ -3,7 +3,7 @@
 //! | file | header | one row per |
 //! |---|---|---|
 //! | `probes.csv` | `x,y,z` | probe: the commanded XY and the height at which it triggered (mm) |
-//! | `distances.csv` | `x1,y1,z1,x2,y2,z2,distance` | distance measured between two commanded positions (mm) |
+//! | `distances.csv` | `x1,y1,z1,x2,y2,z2,distance` | distance measured between two commanded positions (mm, positive) |
 //! | `points.csv` | `q1..qA,x,y,z[,f1..fA]` | readings of the `A` actuators, the position where known (`x,y,z` empty where not), and optionally the actuators' loads (`f1..fA`, a cable robot's line forces; empty where not recorded) |
 //!
 //! Every file holds at most [`OBSERVATIONS`]`.max` rows, counted as they are
