@@ -81,7 +81,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::mechanism::{
     Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, Quantity,
-    QuantityValue, ReadingJacobians, check_params, check_vector,
+    QuantityValue, ReadingJacobians, check_params, check_pose, check_vector,
 };
 pub use elasticity::{COMPLIANCE_SCALE, COMPLIANCE_UNIT, Elasticity, TYPICAL_COMPLIANCE};
 
@@ -542,7 +542,7 @@ impl CableRobot {
         pose: &[f64],
     ) -> Result<DVector<f64>, MechanismError> {
         self.check_parameters(params)?;
-        check_vector(self, "pose coordinates", pose, 3)?;
+        check_pose(self, pose, 3)?;
         let mut changes = DVector::zeros(self.cables());
         for j in 0..self.cables() {
             let line = self.line(params, j, pose)?;
@@ -604,7 +604,7 @@ impl CableRobot {
         loads: Option<&[f64]>,
     ) -> Result<(DVector<f64>, ReadingJacobians), MechanismError> {
         self.check_parameters(params)?;
-        check_vector(self, "pose coordinates", pose, 3)?;
+        check_pose(self, pose, 3)?;
         let n = self.cables();
         if let Some(loads) = loads {
             check_vector(self, "loads", loads, n)?;

@@ -45,7 +45,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::mechanism::{
     Actuator, GaugeFreedom, Mechanism, MechanismError, Parameter, PoseCoordinate, ReadingJacobians,
-    check_params, check_vector, pose_jacobian_at_fixed_readings,
+    check_params, check_pose, check_vector, pose_jacobian_at_fixed_readings,
 };
 
 /// Number of parameters of a linear delta.
@@ -548,7 +548,7 @@ impl Mechanism for LinearDelta {
 
     fn inverse(&self, params: &[f64], pose: &[f64]) -> Result<DVector<f64>, MechanismError> {
         let towers = self.towers(params)?;
-        check_vector(self, "pose coordinates", pose, 3)?;
+        check_pose(self, pose, 3)?;
         let height = towers.tower_height(pose);
         let mut q = DVector::zeros(3);
         for i in 0..3 {
@@ -621,7 +621,7 @@ impl Mechanism for LinearDelta {
         pose: &[f64],
     ) -> Result<ReadingJacobians, MechanismError> {
         let towers = self.towers(params)?;
-        check_vector(self, "pose coordinates", pose, 3)?;
+        check_pose(self, pose, 3)?;
         let mut d_params = DMatrix::zeros(3, N_PARAMS);
         let mut d_pose = DMatrix::zeros(3, 3);
         for i in 0..3 {

@@ -46,8 +46,9 @@ use crate::forward::{forward, step};
 use crate::forward_batch::{LANES, PivotOrder, forward_along_batch, forward_jacobian_batch};
 use crate::mechanism::{
     Actuator, Mechanism, MechanismError, Parameter, PlatformPose, PoseCoordinate, Reached,
-    ReachedAlong, ReadingJacobians, ToolPoint, along_of_reached, check_params, check_vector,
-    put_entry, tool_points_along_by_rows, tool_points_one_by_one, write_entry, write_reached,
+    ReachedAlong, ReadingJacobians, ToolPoint, along_of_reached, check_params, check_pose,
+    check_vector, put_entry, tool_points_along_by_rows, tool_points_one_by_one, write_entry,
+    write_reached,
 };
 use crate::params::{
     BASE_INDEX, LEG_OFFSET, N_PARAMS, PARAM_NAMES, PLATFORM_INDEX, TOOL_OFFSET, from_params,
@@ -385,7 +386,7 @@ impl Hexapod {
 
     /// The pose of a pose vector (checked).
     fn pose(&self, pose: &[f64]) -> Result<Pose, MechanismError> {
-        check_vector(self, "pose coordinates", pose, 6)?;
+        check_pose(self, pose, 6)?;
         Ok(pose_of(pose))
     }
 
@@ -1356,6 +1357,12 @@ mod tests {
         assert_eq!(err.to_string(), "parameter l_2 is not a finite number");
         let err = hexapod.inverse(p.as_slice(), &[0.0; 5]).unwrap_err();
         assert_eq!(err.to_string(), "hexapod needs 6 pose coordinates, got 5");
+        let pose = [0.0, 0.0, 200.0, 0.0, f64::INFINITY, 0.0];
+        let err = hexapod.inverse(p.as_slice(), &pose).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "pose coordinate r_y is not a finite number"
+        );
         let scaled = scaled();
         let mut p = design(&scaled);
         p[N_PARAMS + 2] = 0.0;

@@ -349,7 +349,7 @@ pub trait Mechanism: Send + Sync {
     /// is (an error otherwise).
     fn tool_point(&self, params: &[f64], pose: &[f64]) -> Result<ToolPoint, MechanismError> {
         check_params(self, params)?;
-        check_vector(self, "pose coordinates", pose, 3)?;
+        check_pose(self, pose, 3)?;
         Ok(ToolPoint {
             point: Vector3::new(pose[0], pose[1], pose[2]),
             d_params: DMatrix::zeros(3, params.len()),
@@ -605,13 +605,47 @@ pub fn check_params<M: Mechanism + ?Sized>(
     }
 }
 
-/// Refuses a vector of `what` (`pose coordinates` or `readings`) of length
-/// other than `expected` or with a non-finite value.
+/// Refuses a vector of `what` (`readings`, `loads`) of length other than
+/// `expected` or with a non-finite value, naming it by its position.
 pub fn check_vector<M: Mechanism + ?Sized>(
     mechanism: &M,
     what: &'static str,
     values: &[f64],
     expected: usize,
+) -> Result<(), MechanismError> {
+    check_values(mechanism, what, values, expected, |k| {
+        format!("{what} {}", k + 1)
+    })
+}
+
+/// Refuses a pose of other than `expected` coordinates or with a
+/// non-finite one, naming it ([`Mechanism::pose_coordinates`]: `pose
+/// coordinate x`).
+pub fn check_pose<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    pose: &[f64],
+    expected: usize,
+) -> Result<(), MechanismError> {
+    check_values(
+        mechanism,
+        "pose coordinates",
+        pose,
+        expected,
+        |k| match mechanism.pose_coordinates().get(k) {
+            Some(coordinate) => format!("pose coordinate {}", coordinate.name),
+            None => format!("pose coordinate {}", k + 1),
+        },
+    )
+}
+
+/// Refuses `values` (of `what`) of length other than `expected`, or with
+/// a non-finite value, the `k`-th named `name(k)`.
+fn check_values<M: Mechanism + ?Sized>(
+    mechanism: &M,
+    what: &'static str,
+    values: &[f64],
+    expected: usize,
+    name: impl Fn(usize) -> String,
 ) -> Result<(), MechanismError> {
     if values.len() != expected {
         return Err(MechanismError::Dimension {
@@ -622,9 +656,7 @@ pub fn check_vector<M: Mechanism + ?Sized>(
         });
     }
     match values.iter().position(|v| !v.is_finite()) {
-        Some(k) => Err(MechanismError::NonFinite {
-            what: format!("{what} {}", k + 1),
-        }),
+        Some(k) => Err(MechanismError::NonFinite { what: name(k) }),
         None => Ok(()),
     }
 }

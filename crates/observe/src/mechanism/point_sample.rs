@@ -18,7 +18,7 @@
 //! [`Mechanism::loaded_readings`] (an error for a mechanism without one).
 
 use nalgebra::{DMatrix, DVector};
-use parcal_kinematics::mechanism::{Mechanism, MechanismError, check_vector};
+use parcal_kinematics::mechanism::{Mechanism, MechanismError, check_pose, check_vector};
 
 use super::commanded::{POSE_COORDINATES, Rows, check_sigma};
 
@@ -58,7 +58,7 @@ impl PointSample {
         check_sigma("reading sigma", self.sigma)?;
         let actuators = mechanism.actuators().len();
         check_vector(mechanism, "readings", &self.readings, actuators)?;
-        check_vector(mechanism, "pose coordinates", pose, POSE_COORDINATES)?;
+        check_pose(mechanism, pose, POSE_COORDINATES)?;
         let (predicted, jacobians) = match &self.loads {
             Some(loads) => mechanism.loaded_readings(params, pose, loads)?,
             None => (
