@@ -136,7 +136,7 @@ pub use input::JSON_CAP;
 pub use machine::{Actuator, JointLimitsRecord, Machine, Repeatability, SessionModel};
 pub use measurements::Measurements;
 pub use numbers::{
-    read_labelled_numbers, read_numbers, read_optionally_labelled_numbers, write_numbers,
+    COMMANDS, read_labelled_numbers, read_numbers, read_optionally_labelled_numbers, write_numbers,
 };
 pub use parcal_kinematics::PriorSigma;
 pub use session::{FrameRecord, SessionRecord};

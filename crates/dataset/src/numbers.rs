@@ -9,17 +9,26 @@ use crate::error::Result;
 use crate::quote::{has_control, quoted_bytes};
 use crate::table::{self, Header};
 
+/// The most rows of actuator commands a commands file may hold.
+pub const COMMANDS: Count = Count::new(
+    1,
+    1_000_000,
+    "each costs a forward kinematics and a row of poses held in memory",
+);
+
 /// Reads the CSV file `path` whose header names (at least) `columns`, in any
-/// order; returns every data row's values in the order of `columns`. `what`
-/// names a row in errors (`"target"`). Errors name the file, the line and
-/// the column, as for measurements.csv; a file without data rows is an
-/// error.
+/// order; returns every data row's values in the order of `columns`, at most
+/// `limit.max` of them (the row after them refused at its line, before the
+/// rest is read). `what` names a row in errors (`"target"`). Errors name the
+/// file, the line and the column, as for measurements.csv; a file without
+/// data rows is an error.
 pub fn read_numbers<const N: usize>(
     path: &Path,
     columns: &[&'static str; N],
     what: &str,
+    limit: &Count,
 ) -> Result<Vec<[f64; N]>> {
-    read_numbers_within(path, columns, what, (None, OtherColumns::Allowed))
+    read_numbers_within(path, columns, what, (Some(limit), OtherColumns::Allowed))
 }
 
 /// Whether a table may have columns besides those read.
@@ -180,7 +189,7 @@ mod tests {
         let path = dir.path().join("t.csv");
         let rows = vec![vec![1.0, -0.0, 1.0 / 3.0], vec![1e-300, 2.5, -7.0]];
         write_numbers(&path, &["a", "b", "c"], &rows).unwrap();
-        let read = read_numbers(&path, &["c", "a", "b"], "test").unwrap();
+        let read = read_numbers(&path, &["c", "a", "b"], "test", &COMMANDS).unwrap();
         assert_eq!(
             read[0].map(f64::to_bits),
             [1.0 / 3.0, 1.0, -0.0].map(f64::to_bits)
@@ -188,7 +197,7 @@ mod tests {
         assert_eq!(read[1], [-7.0, 1e-300, 2.5]);
 
         std::fs::write(&path, "a,b\n1,2\n\n3,x\n").unwrap();
-        let error = read_numbers(&path, &["a", "b"], "test")
+        let error = read_numbers(&path, &["a", "b"], "test", &COMMANDS)
             .unwrap_err()
             .to_string();
         assert!(
@@ -196,10 +205,23 @@ mod tests {
             "{error}"
         );
         std::fs::write(&path, "a,c\n1,2\n").unwrap();
-        let error = read_numbers(&path, &["a", "b"], "test")
+        let error = read_numbers(&path, &["a", "b"], "test", &COMMANDS)
             .unwrap_err()
             .to_string();
         assert!(error.contains("the header has no column b"), "{error}");
+
+        // The row after the bound is refused at its line.
+        let two = Count::new(1, 2, "a test's");
+        std::fs::write(&path, "a,b\n1,2\n3,4\n5,6\n").unwrap();
+        let error = read_numbers(&path, &["a", "b"], "test", &two)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("line 4") && error.contains("the number of test rows"),
+            "{error}"
+        );
+        std::fs::write(&path, "a,b\n1,2\n3,4\n").unwrap();
+        assert_eq!(read_numbers(&path, &["a", "b"], "test", &two).unwrap().len(), 2);
 
         std::fs::write(&path, "id,a\nb01,1\n\n,2\n").unwrap();
         let labelled = |path: &Path| {

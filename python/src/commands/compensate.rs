@@ -11,6 +11,7 @@ use parcal::apply::{
 use parcal::correction_table::{
     AxisRange, TableError, correction_table as correction_table_of, table_grid,
 };
+use parcal::dataset::mechanism::TARGETS;
 use parcal::simulation::mechanism::Spelling;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -45,6 +46,7 @@ pub fn compensate<'py>(
         .iter()
         .map(Target::from_row)
         .collect();
+    TARGETS.check("targets", targets.len()).map_err(to_py)?;
     let named = |error: ApplyError| match error {
         ApplyError::Refused { row, refusal } => to_py(format!("target row {}: {refusal}", row - 1)),
         other => to_py(other),

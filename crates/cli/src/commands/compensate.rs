@@ -14,6 +14,7 @@ use parcal::apply::{
 use parcal::correction_table::{AxisRange, correction_table, table_grid};
 use parcal::dataset::atomic::write_set;
 use parcal::dataset::mechanism::MechanismCalibrationRecord;
+use parcal::dataset::mechanism::TARGETS;
 use parcal::dataset::{read_numbers, write_numbers};
 use parcal::simulation::mechanism::Spelling;
 
@@ -111,7 +112,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 }
 
 fn commands(args: &Args, model: &AppliedModel, poses: &Path) -> anyhow::Result<()> {
-    let targets: Vec<Target> = read_numbers(poses, &Target::COLUMNS, "target")?
+    let targets: Vec<Target> = read_numbers(poses, &Target::COLUMNS, "target", &TARGETS)?
         .iter()
         .map(Target::from_row)
         .collect();

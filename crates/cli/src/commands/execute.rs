@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use parcal::apply::Target;
 use parcal::apply::predicted::{registered_errors, rms};
-use parcal::dataset::{read_numbers, write_numbers};
+use parcal::dataset::mechanism::TARGETS;
+use parcal::dataset::{COMMANDS, read_numbers, write_numbers};
 use parcal::kinematics::{Geometry, Vec3};
 use parcal::simulation::{MachineLimits, SimulateError};
 
@@ -69,13 +70,14 @@ pub fn run(args: &RunArgs, out: &Path) -> anyhow::Result<()> {
         commands_path,
         &["q1", "q2", "q3", "q4", "q5", "q6"],
         "command",
+        &COMMANDS,
     )?;
     // Every input is read and checked before anything is written.
     let goals = args
         .targets
         .as_ref()
         .map(|path| -> anyhow::Result<Vec<Vec3>> {
-            let targets = read_numbers(path, &Target::COLUMNS, "target")?;
+            let targets = read_numbers(path, &Target::COLUMNS, "target", &TARGETS)?;
             anyhow::ensure!(
                 targets.len() == commands.len(),
                 "{}: {} targets for {} commands",
