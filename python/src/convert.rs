@@ -176,16 +176,26 @@ pub fn written_text<E: std::fmt::Display>(
     std::fs::read_to_string(&path).map_err(to_py)
 }
 
-/// `object` as a float64 numpy array (numpy's `asarray`).
+/// `object` as a float64 numpy array (numpy's `asarray`); complex
+/// numbers refused, which the cast would cut to their real parts.
 fn float_array<'py>(
     object: &Bound<'py, PyAny>,
     what: &str,
 ) -> PyResult<Bound<'py, numpy::PyUntypedArray>> {
     let py = object.py();
+    let numpy = py.import("numpy")?;
+    if numpy
+        .call_method1("iscomplexobj", (object,))
+        .and_then(|complex| complex.is_truthy())
+        .unwrap_or(false)
+    {
+        return Err(to_py(format!(
+            "{what}: complex numbers, where real ones are expected"
+        )));
+    }
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
-    let array = py
-        .import("numpy")?
+    let array = numpy
         .call_method("asarray", (object,), Some(&kwargs))
         .map_err(|error| to_py(format!("{what}: not an array of numbers: {error}")))?;
     Ok(array.cast_into::<numpy::PyUntypedArray>()?)

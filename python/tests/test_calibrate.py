@@ -84,6 +84,9 @@ def test_bad_input_raises_parcal_error_naming_the_row(paper):
         parcal.Dataset(machine, artefacts, ball, q)
     with pytest.raises(parcal.Error, match=r"q: expected 6 columns, got 5"):
         parcal.Dataset(machine, artefacts, ball[:-1], q[:, :5])
+    # Not cut to their real parts, as numpy's cast would.
+    with pytest.raises(parcal.Error, match=r"q: complex numbers, where real ones are expected"):
+        parcal.Dataset(machine, artefacts, ball, q + 1e-3j)
     del machine["prior_sigma"]
     with pytest.raises(parcal.Error, match=r"machine.json.*prior_sigma"):
         parcal.Dataset(machine, artefacts)

@@ -636,8 +636,9 @@ fn ball_distance_rows(distances: &Bound<'_, PyAny>) -> PyResult<Vec<Distance>> {
 fn ball_number(value: f64, at: impl Fn() -> String) -> PyResult<usize> {
     if value < 0.0 || value.fract() != 0.0 || value > u32::MAX as f64 {
         return Err(to_py(format!(
-            "{}: ball {value} is not a ball's number (0, 1, 2, ...)",
-            at()
+            "{}: ball {} is not a ball's number (0, 1, 2, ...)",
+            at(),
+            parcal::dataset::shown(value)
         )));
     }
     Ok(value as usize)
