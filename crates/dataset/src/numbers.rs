@@ -221,7 +221,8 @@ mod tests {
             "{error}"
         );
         std::fs::write(&path, "a,b\n1,2\n3,4\n").unwrap();
-        assert_eq!(read_numbers(&path, &["a", "b"], "test", &two).unwrap().len(), 2);
+        let read = read_numbers(&path, &["a", "b"], "test", &two).unwrap();
+        assert_eq!(read, [[1.0, 2.0], [3.0, 4.0]]);
 
         std::fs::write(&path, "id,a\nb01,1\n\n,2\n").unwrap();
         let labelled = |path: &Path| {
