@@ -790,9 +790,12 @@ fn the_report_draws_a_simulated_printers_manual_heights_over_the_bed() {
         "e / sigma: probe heights (largest {probes:.2}), manual heights (largest {heights:.2})"
     );
     assert!(html.contains(&title), "{html}");
-    // The residuals' markers: filled red or open blue.
+    // The residuals' markers in the bed's figure: filled red or open
+    // blue.
+    let bed = &html[html.find(">Residuals over the bed</h2>").unwrap()..];
+    let bed = bed.find("<h2").map_or(bed, |end| &bed[..end]);
     let markers = |element: &str| {
-        (html.lines())
+        (bed.lines())
             .filter(|line| line.starts_with(element))
             .filter(|line| line.contains("#D62728") || line.contains("#1F77B4"))
             .count()

@@ -2,17 +2,20 @@
 //! mechanism's calibration.json, [`MechanismCalibrationRecord`]): the
 //! verdict and its tests first, then the observations tested, the
 //! parameters with their sigmas beside their prior sigmas, and what the
-//! data determine. Rendered as the calibration report is
+//! data determine; a printer's residuals over the bed, and the histogram
+//! of every checked row's normalised residual. Rendered as the calibration report is
 //! ([`crate::calibration_report`]'s HTML and Markdown). Every number is
 //! the record's or computed from it.
 
 use parcal_calibrate::mechanism::{ObservationKind, ObservationRef};
-use parcal_dataset::FrameRecord;
-use parcal_dataset::mechanism::{MechanismCalibrationRecord, TrackerRecord};
+use parcal_calibrate::reliability::NORMALISED_BINS;
+use parcal_dataset::mechanism::{MechanismCalibrationRecord, RowCheck, TrackerRecord};
+use parcal_dataset::{FrameRecord, Histogram};
 use plotters::prelude::*;
 
 use crate::calibration_report::Format;
 use crate::calibration_report::document::{Block, Cell, Tone};
+use crate::calibration_report::figures::normalised_histogram;
 use crate::calibration_report::{html, markdown};
 use crate::mechanism_validation::observation_row_place;
 
@@ -52,6 +55,10 @@ pub fn render(
             svg: figure.svg,
             caption: figure.caption,
         });
+    }
+    if let Some(figure) = normalised_residuals(calibration)? {
+        blocks.push(Block::Heading(2, "Normalised residuals".into()));
+        blocks.push(figure);
     }
     Ok(match format {
         Format::Html => html::render(&title, &blocks),
@@ -270,6 +277,23 @@ pub fn bed_residual_figure(
         draw().map_err(|e| e.to_string())?;
     }
     Ok(Some(BedFigure { svg, caption }))
+}
+
+/// The histogram of every checked row's normalised residual `w_j = e_j /
+/// √r_j` ([`RowCheck::normalised`], as calibration.json keeps the row) in
+/// the bins of the hexapod's ([`NORMALISED_BINS`]), against the counts a
+/// standard normal expects, with the critical value of the w-tests;
+/// `None` when no row is checked by another.
+fn normalised_residuals(calibration: &MechanismCalibrationRecord) -> Result<Option<Block>, String> {
+    let tests = &calibration.tests;
+    let w =
+        (tests.observations.iter()).flat_map(|o| o.rows.iter().filter_map(RowCheck::normalised));
+    let (lower, width, bins) = NORMALISED_BINS;
+    let histogram = Histogram::of(w, lower, width, bins);
+    if histogram.total() == 0 {
+        return Ok(None);
+    }
+    normalised_histogram(&histogram, tests.critical_value).map(Some)
 }
 
 /// The verdict in one sentence: accepted or rejected, and why.
@@ -903,7 +927,7 @@ mod tests {
     use super::*;
     use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
     use parcal_dataset::mechanism::{
-        MechanismDataset, MechanismMachine, MechanismTruth, Noise, ValuePrior,
+        MechanismDataset, MechanismMachine, MechanismTruth, Noise, ObservationRecords, ValuePrior,
     };
     use parcal_kinematics::delta::{LinearDelta, probe_rings};
 
@@ -1150,6 +1174,50 @@ mod tests {
             .count()
     }
 
+    /// The part of the page `html` from the heading `heading` to the next
+    /// heading of its level.
+    fn section<'h>(html: &'h str, heading: &str) -> &'h str {
+        let start = html
+            .find(&format!(">{heading}</h2>"))
+            .unwrap_or_else(|| panic!("no section {heading}: {html}"));
+        let rest = &html[start..];
+        rest.find("<h2").map_or(rest, |end| &rest[..end])
+    }
+
+    #[test]
+    fn every_checked_row_is_in_the_histogram_of_normalised_residuals() {
+        let (mut record, probes) = calibrated();
+        let checked = (record.tests.observations.iter())
+            .flat_map(|o| o.rows.iter().filter_map(RowCheck::normalised))
+            .count();
+        assert!(checked > 20, "{checked}");
+        let html = rendered(&record, &probes, Format::Html);
+        let figure = section(&html, "Normalised residuals");
+        assert!(
+            figure.contains(&format!(
+                "Normalised residuals of the {checked} checked residual rows (bins of 0.25)"
+            )) && figure.contains(&format!(
+                "dashed: the critical value ±{:.2}",
+                record.tests.critical_value
+            )),
+            "{figure}"
+        );
+        let markdown = rendered(&record, &probes, Format::Markdown);
+        assert_eq!(markdown.matches("## Normalised residuals").count(), 1);
+        // No row checked by another: no histogram.
+        let observations: Vec<(String, usize, usize)> = (record.tests.observations.iter())
+            .map(|o| (o.kind.to_string(), o.index, o.rows.len()))
+            .collect();
+        let rows = observations.iter().map(|o| o.2).sum();
+        let mut unchecked = ObservationRecords::of_rows(vec![RowCheck::default(); rows]);
+        for (kind, index, rows) in observations {
+            assert!(unchecked.push(kind.into(), index, rows));
+        }
+        record.tests.observations = unchecked;
+        let html = rendered(&record, &probes, Format::Html);
+        assert!(!html.contains("Normalised residuals"), "{html}");
+    }
+
     /// The crosses of `svg`: black lines 2 wide, two per cross.
     fn crosses(svg: &str) -> usize {
         (svg.lines())
@@ -1236,10 +1304,10 @@ mod tests {
     fn a_dataset_of_heights_alone_gets_the_bed_figure() {
         let (record, dataset) = measured_by_hand(false);
         let html = render(&record, "calibration.json", bed_of(&dataset), Format::Html).unwrap();
-        assert!(html.contains("Residuals over the bed"), "{html}");
-        assert_eq!(markers(&html, "<rect"), 5, "{html}");
-        assert_eq!(markers(&html, "<circle"), 0, "{html}");
-        assert_eq!(crosses(&html), 0, "{html}");
+        let bed = section(&html, "Residuals over the bed");
+        assert_eq!(markers(bed, "<rect"), 5, "{html}");
+        assert_eq!(markers(bed, "<circle"), 0, "{html}");
+        assert_eq!(crosses(bed), 0, "{html}");
         assert!(
             html.contains("e / sigma: manual heights (largest ")
                 && html.contains("Each manual height (square) at its commanded XY")

@@ -562,7 +562,10 @@ fn observations(c: &Calibration) -> Result<Vec<Block>, String> {
     if !t.least_controlled.is_empty() {
         out.push(checks_table(&t.least_controlled, t.critical_value));
     }
-    out.push(figures::normalised_histogram(t)?);
+    out.push(figures::normalised_histogram(
+        &t.normalised_histogram,
+        t.critical_value,
+    )?);
     out.push(figures::redundancy_histogram(t)?);
     Ok(out)
 }

@@ -3,7 +3,7 @@
 //! numbers, the accuracy map.
 
 use parcal_accuracy::AccuracyMap;
-use parcal_dataset::ObservationTests;
+use parcal_dataset::{Histogram, ObservationTests};
 
 use super::document::Block;
 use crate::maps::error_heat_map;
@@ -12,11 +12,11 @@ use crate::plots::{BarChart, HeatMap, Series, bar_chart_svg, heat_map_svg};
 /// Points of the density curve per bin.
 const CURVE_STEPS: usize = 8;
 
-/// The histogram of every residual row's normalised residual with the
+/// The histogram `h` of every residual row's normalised residual with the
 /// counts a standard normal expects, `N h φ(w)` (`N` rows, `h` the bin
-/// width), and the critical values `±c`.
-pub fn normalised_histogram(t: &ObservationTests) -> Result<Block, String> {
-    let h = &t.normalised_histogram;
+/// width), and the critical values `±c` (`critical_value`): a hexapod's
+/// ([`ObservationTests::normalised_histogram`]) or any mechanism's.
+pub(crate) fn normalised_histogram(h: &Histogram, critical_value: f64) -> Result<Block, String> {
     let rows = h.total() as f64;
     let bins = h.counts.len();
     let curve: Vec<(f64, f64)> = (0..=bins * CURVE_STEPS)
@@ -26,7 +26,7 @@ pub fn normalised_histogram(t: &ObservationTests) -> Result<Block, String> {
             (w, rows * h.width * density)
         })
         .collect();
-    let marks = [-t.critical_value, t.critical_value];
+    let marks = [-critical_value, critical_value];
     let svg = bar_chart_svg(&BarChart {
         title: "Normalised residuals",
         x_label: "normalised residual w",
@@ -47,7 +47,7 @@ pub fn normalised_histogram(t: &ObservationTests) -> Result<Block, String> {
             "Normalised residuals of the {} checked residual rows (bins of {}), against the counts a standard normal expects; dashed: the critical value ±{:.2}. {} row{} outside [{}, {}] not drawn.",
             h.total(),
             h.width,
-            t.critical_value,
+            critical_value,
             outside,
             if outside == 1 { "" } else { "s" },
             h.lower,

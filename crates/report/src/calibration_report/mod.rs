@@ -20,7 +20,7 @@
 
 mod content;
 pub(crate) mod document;
-mod figures;
+pub(crate) mod figures;
 pub mod html;
 pub(crate) mod markdown;
 
