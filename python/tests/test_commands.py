@@ -208,6 +208,7 @@ def test_correction_table_gives_the_table_of_the_cli(paper, cli, cli_output, tmp
          r"^x 1 x y 10000 x z 1 x roll 1 x pitch 1 x yaw 10000 make more than 10000000 nodes"),
         (dict(pitch=(0, 1)), r"^pitch: expected \(min, max, n\) with n a whole number, got \(0, 1\)$"),
         (dict(z=(5000, 5000, 1)), r"^the correction table: row 0: "),
+        (dict(), r"^no axis given: one of x, y, z, roll, pitch, yaw as \(min, max, n\)$"),
     ]:
         with pytest.raises(parcal.Error, match=message):
             parcal.correction_table(str(calibration), **bad)

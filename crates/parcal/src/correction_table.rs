@@ -45,15 +45,25 @@ impl AxisRange {
 
 /// The grid of `ranges`, one per target coordinate
 /// ([`Target::COLUMNS`]: x, y, z, roll, pitch, yaw), an axis not given at
-/// 0; each axis's nodes and their product within [`TABLE_NODES`], checked
-/// before any value is made. A refusal names the axis as the front end
-/// spells it (`--table: the nodes N of axis x, 0: ...`, `x: n 0: ...`).
-/// Values that cannot be interpolated (not finite, not increasing) are
-/// [`CorrectionTable::new`]'s to refuse.
+/// 0, at least one given (a table of the origin alone is a mistake: an
+/// empty `--table`); each axis's nodes and their product within
+/// [`TABLE_NODES`], checked before any value is made. A refusal names the
+/// axis as the front end spells it (`--table: the nodes N of axis x, 0:
+/// ...`, `x: n 0: ...`). Values that cannot be interpolated (not finite,
+/// not increasing) are [`CorrectionTable::new`]'s to refuse.
 pub fn table_grid(
     ranges: &[Option<AxisRange>; 6],
     spelling: Spelling,
 ) -> Result<TableGrid, String> {
+    if ranges.iter().all(Option::is_none) {
+        let axes = Target::COLUMNS.join(", ");
+        return Err(match spelling {
+            Spelling::Flags => {
+                format!("--table: no axis given (AXIS=MIN:MAX:N, AXIS one of {axes})")
+            }
+            Spelling::Keywords => format!("no axis given: one of {axes} as (min, max, n)"),
+        });
+    }
     for (name, range) in Target::COLUMNS.iter().zip(ranges) {
         if let Some(range) = range {
             let option = match spelling {
@@ -128,6 +138,19 @@ mod tests {
         assert_eq!(grid.axes[3], [0.1]);
         assert_eq!(grid.axes[2], [0.0]);
         assert_eq!(grid.len(), 5);
+    }
+
+    #[test]
+    fn a_grid_of_no_axis_is_refused() {
+        let none = [None; 6];
+        assert_eq!(
+            table_grid(&none, Spelling::Flags).unwrap_err(),
+            "--table: no axis given (AXIS=MIN:MAX:N, AXIS one of x, y, z, roll, pitch, yaw)"
+        );
+        assert_eq!(
+            table_grid(&none, Spelling::Keywords).unwrap_err(),
+            "no axis given: one of x, y, z, roll, pitch, yaw as (min, max, n)"
+        );
     }
 
     #[test]
