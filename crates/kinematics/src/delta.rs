@@ -48,6 +48,12 @@ use crate::mechanism::{
     check_params, check_pose, check_vector, pose_jacobian_at_fixed_readings,
 };
 
+/// How far beyond the print radius, relative to it, a point still lies
+/// on it: the rounding of `r (cos θ, sin θ)` and of its distance from the
+/// centre (a few units in the last place), so that a probe ring at the
+/// print radius is within it.
+pub const ON_THE_PRINT_RADIUS: f64 = 1e-12;
+
 /// Number of parameters of a linear delta.
 pub const N_PARAMS: usize = 16;
 /// Index of the endstop correction of tower A (then B, C).
@@ -748,16 +754,16 @@ impl Mechanism for LinearDelta {
         Ok(result)
     }
 
-    /// Within the print radius, every arm within its largest angle from
-    /// the vertical, every carriage between its endstop and the end of its
-    /// travel.
+    /// Within the print radius (a point on it, to [`ON_THE_PRINT_RADIUS`],
+    /// too), every arm within its largest angle from the vertical, every
+    /// carriage between its endstop and the end of its travel.
     fn check_feasible(&self, params: &[f64], pose: &[f64]) -> Result<(), MechanismError> {
         let q = self.inverse(params, pose)?;
         let towers = self.towers(params)?;
         let limits = &self.limits;
         let reach = pose[0].hypot(pose[1]);
         let unreachable = |reason| Err(MechanismError::Unreachable { reason });
-        if reach > limits.print_radius {
+        if reach > limits.print_radius * (1.0 + ON_THE_PRINT_RADIUS) {
             return unreachable(format!(
                 "the effector at ({:.3}, {:.3}) is {reach:.3} mm from the centre, beyond the print radius {:.3} mm",
                 pose[0], pose[1], limits.print_radius
@@ -1158,6 +1164,15 @@ mod tests {
             .check_feasible(p.as_slice(), &[120.0, 0.0, 50.0])
             .unwrap_err();
         assert!(err.to_string().contains("print radius"), "{err}");
+        // On the print radius (110 mm), a point is within it whatever the
+        // rounding of its coordinates; a micrometre beyond, it is not.
+        for k in 0..360 {
+            let angle = f64::from(k).to_radians();
+            let on = [110.0 * angle.cos(), 110.0 * angle.sin(), 50.0];
+            assert!(delta.check_feasible(p.as_slice(), &on).is_ok(), "{k}");
+        }
+        let beyond = [0.0, 110.001, 50.0];
+        assert!(delta.check_feasible(p.as_slice(), &beyond).is_err());
         let err = delta
             .check_feasible(p.as_slice(), &[0.0, 0.0, 310.0])
             .unwrap_err();
