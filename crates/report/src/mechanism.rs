@@ -8,7 +8,7 @@
 //! the record's or computed from it.
 
 use parcal_calibrate::mechanism::{ObservationKind, ObservationRef};
-use parcal_calibrate::reliability::NORMALISED_BINS;
+use parcal_calibrate::reliability::{NORMALISED_BINS, UNCONTROLLED};
 use parcal_dataset::mechanism::{MechanismCalibrationRecord, RowCheck, TrackerRecord};
 use parcal_dataset::{FrameRecord, Histogram};
 use plotters::prelude::*;
@@ -694,6 +694,73 @@ pub fn mirrored_sentences(calibration: &MechanismCalibrationRecord) -> Vec<Strin
         .collect()
 }
 
+/// Row `row` (`None`: all its rows) of observation `index` of the kind
+/// the record names `kind`, by its file and line
+/// ([`observation_row_place`]), or as the record names it for a kind the
+/// report does not know.
+fn row_place(
+    calibration: &MechanismCalibrationRecord,
+    kind: &str,
+    index: usize,
+    row: Option<usize>,
+) -> String {
+    let observation = (ObservationKind::ALL.into_iter())
+        .find(|known| known.name() == kind)
+        .map(|kind| ObservationRef { kind, index });
+    match (observation, row) {
+        (Some(observation), row) => observation_row_place(&calibration.mechanism, observation, row),
+        (None, Some(row)) => format!("{kind} {index} (row {row})"),
+        (None, None) => format!("{kind} {index}"),
+    }
+}
+
+/// How many rows named in one sentence ([`uncontrolled_sentence`]).
+const NAMED_ROWS: usize = 10;
+
+/// The tests of redundancy under [`UNCONTROLLED`] (a row's redundancy
+/// number; a touch's summed over its rows, which are tested as one,
+/// [`ObservationKind::rows_tested_as_one`]), the first [`NAMED_ROWS`] of
+/// them (in the record's order) named: an error there shows in the
+/// residuals by less than a tenth of its size, the rest going into the
+/// estimates, so its w-test hardly sees it; `None` when every test is
+/// controlled.
+pub fn uncontrolled_sentence(calibration: &MechanismCalibrationRecord) -> Option<String> {
+    let redundancy = |r: &RowCheck| f64::from(r.redundancy);
+    let mut tests = 0;
+    let mut uncontrolled: Vec<(&str, usize, Option<usize>)> = Vec::new();
+    for o in calibration.tests.observations.iter() {
+        let as_one = (ObservationKind::ALL.into_iter())
+            .find(|kind| kind.name() == o.kind)
+            .is_some_and(ObservationKind::rows_tested_as_one);
+        if as_one {
+            tests += 1;
+            if o.rows.iter().map(redundancy).sum::<f64>() < UNCONTROLLED {
+                uncontrolled.push((o.kind, o.index, None));
+            }
+        } else {
+            tests += o.rows.len();
+            let under = (o.rows.iter().enumerate()).filter(|(_, r)| redundancy(r) < UNCONTROLLED);
+            uncontrolled.extend(under.map(|(j, _)| (o.kind, o.index, Some(j))));
+        }
+    }
+    if uncontrolled.is_empty() {
+        return None;
+    }
+    let named: Vec<String> = (uncontrolled.iter().take(NAMED_ROWS))
+        .map(|&(kind, index, row)| row_place(calibration, kind, index, row))
+        .collect();
+    let first = if uncontrolled.len() > NAMED_ROWS {
+        format!("the first {NAMED_ROWS}: ")
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "{} of the {tests} w-tests have a redundancy under {UNCONTROLLED}: an error there shows in the residuals by less than a tenth of its size and goes into the estimates, hardly seen by its test ({first}{}).",
+        uncontrolled.len(),
+        named.join(", ")
+    ))
+}
+
 /// One sentence per observation removed by data snooping.
 pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
     let factor = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3}"));
@@ -702,19 +769,7 @@ pub fn removal_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String
         .removed
         .iter()
         .map(|r| {
-            let observation = ObservationKind::ALL
-                .into_iter()
-                .find(|kind| kind.name() == r.kind)
-                .map(|kind| ObservationRef {
-                    kind,
-                    index: r.index,
-                });
-            let place = match observation {
-                Some(observation) => {
-                    observation_row_place(&calibration.mechanism, observation, Some(r.row))
-                }
-                None => format!("{} {} (row {})", r.kind, r.index, r.row),
-            };
+            let place = row_place(calibration, &r.kind, r.index, Some(r.row));
             format!(
                 "{place}: normalised residual {:.2}; variance factor {} before, {} after",
                 r.normalised,
@@ -811,14 +866,17 @@ fn blocks(
         Block::Heading(2, "Tests".into()),
         Block::Paragraph(Tone::Plain, global_test_sentence(calibration)),
         Block::Paragraph(Tone::Plain, w_test_sentence(calibration)),
-        Block::Paragraph(
-            Tone::Plain,
-            format!(
-                "Solver: {} after {} linear solves.",
-                calibration.status, calibration.iterations
-            ),
-        ),
     ];
+    if let Some(sentence) = uncontrolled_sentence(calibration) {
+        blocks.push(Block::Paragraph(Tone::Warning, sentence));
+    }
+    blocks.push(Block::Paragraph(
+        Tone::Plain,
+        format!(
+            "Solver: {} after {} linear solves.",
+            calibration.status, calibration.iterations
+        ),
+    ));
     if let Some(sentence) = print_radius_sentence(calibration) {
         blocks.push(Block::Paragraph(Tone::Plain, sentence));
     }
@@ -1205,17 +1263,99 @@ mod tests {
         let markdown = rendered(&record, &probes, Format::Markdown);
         assert_eq!(markdown.matches("## Normalised residuals").count(), 1);
         // No row checked by another: no histogram.
+        with_redundancies(&mut record, |_| 0.0);
+        let html = rendered(&record, &probes, Format::Html);
+        assert!(!html.contains("Normalised residuals"), "{html}");
+    }
+
+    /// `record`'s observations as they are, each row's redundancy number
+    /// `redundancy(k)` (`k` counting the rows in order), its residual 1.
+    fn with_redundancies(
+        record: &mut MechanismCalibrationRecord,
+        redundancy: impl Fn(usize) -> f32,
+    ) {
         let observations: Vec<(String, usize, usize)> = (record.tests.observations.iter())
             .map(|o| (o.kind.to_string(), o.index, o.rows.len()))
             .collect();
         let rows = observations.iter().map(|o| o.2).sum();
-        let mut unchecked = ObservationRecords::of_rows(vec![RowCheck::default(); rows]);
+        let checks = (0..rows)
+            .map(|k| RowCheck {
+                residual: 1.0,
+                redundancy: redundancy(k),
+            })
+            .collect();
+        let mut records = ObservationRecords::of_rows(checks);
         for (kind, index, rows) in observations {
-            assert!(unchecked.push(kind.into(), index, rows));
+            assert!(records.push(kind.into(), index, rows));
         }
-        record.tests.observations = unchecked;
+        record.tests.observations = records;
+    }
+
+    #[test]
+    fn tests_of_redundancy_under_a_tenth_are_counted_and_the_first_named() {
+        let (mut record, probes) = calibrated();
+        // The run's own: as many as the record holds under 0.1 (a probe
+        // height is one row, tested alone).
+        let rows: Vec<f32> = (record.tests.observations.iter())
+            .flat_map(|o| o.rows.iter().map(|r| r.redundancy))
+            .collect();
+        let under = rows.iter().filter(|&&r| f64::from(r) < 0.1).count();
+        let stated = uncontrolled_sentence(&record);
+        match under {
+            0 => assert_eq!(stated, None),
+            n => assert!(
+                stated
+                    .unwrap()
+                    .starts_with(&format!("{n} of the {} w-tests", rows.len()))
+            ),
+        }
+        // Twelve under it: ten named, in order, from the first probe's
+        // line on.
+        with_redundancies(&mut record, |k| if k < 12 { 0.05 } else { 0.5 });
+        // (Probe height 5 was removed by snooping: not among the rows.)
+        let sentence = uncontrolled_sentence(&record).unwrap();
+        let named: Vec<String> = [0, 1, 2, 3, 4, 6, 7, 8, 9, 10]
+            .iter()
+            .map(|k| format!("probes.csv line {} (probe height {k}, row 0)", k + 2))
+            .collect();
+        assert_eq!(
+            sentence,
+            format!(
+                "12 of the {} w-tests have a redundancy under 0.1: an error there shows in the residuals by less than a tenth of its size and goes into the estimates, hardly seen by its test (the first 10: {}).",
+                rows.len(),
+                named.join(", ")
+            )
+        );
         let html = rendered(&record, &probes, Format::Html);
-        assert!(!html.contains("Normalised residuals"), "{html}");
+        assert!(html.contains(&sentence), "{html}");
+        // None under it: no sentence.
+        with_redundancies(&mut record, |_| 0.1);
+        assert_eq!(uncontrolled_sentence(&record), None);
+        // A touch's rows are one test, of their summed redundancy: 0.09
+        // is under 0.1, 0.12 is not, though each of its rows is.
+        let redundancies = [0.02, 0.03, 0.04, 0.02, 0.05, 0.05, 0.05];
+        let checks = (redundancies.iter())
+            .map(|&redundancy| RowCheck {
+                residual: 1.0,
+                redundancy,
+            })
+            .collect();
+        let mut touched = ObservationRecords::of_rows(checks);
+        assert!(touched.push("ball touch".into(), 0, 3));
+        assert!(touched.push("ball touch".into(), 1, 3));
+        assert!(touched.push("probe height".into(), 0, 1));
+        record.tests.observations = touched;
+        let touch = ObservationRef {
+            kind: ObservationKind::Touch,
+            index: 0,
+        };
+        assert_eq!(
+            uncontrolled_sentence(&record).unwrap(),
+            format!(
+                "2 of the 3 w-tests have a redundancy under 0.1: an error there shows in the residuals by less than a tenth of its size and goes into the estimates, hardly seen by its test ({}, probes.csv line 2 (probe height 0, row 0)).",
+                observation_row_place(&record.mechanism, touch, None)
+            )
+        );
     }
 
     /// The crosses of `svg`: black lines 2 wide, two per cross.

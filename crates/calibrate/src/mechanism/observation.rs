@@ -59,6 +59,13 @@ impl ObservationKind {
         self as usize
     }
 
+    /// Whether an observation of the kind is tested as one, over all its
+    /// rows (a touch: one point of the solver, its rows together), rather
+    /// than row by row (every other kind).
+    pub fn rows_tested_as_one(self) -> bool {
+        self == Self::Touch
+    }
+
     /// Its name in messages and files: `probe height`, `part distance`,
     /// `measured point`, `point sample`, `measured quantity`, `ball touch`,
     /// `manual height`, ...

@@ -22,7 +22,7 @@ use super::fit::Fit;
 use super::frame::{canonical_by, canonical_params};
 use super::identifiability::{Identifiability, Inputs, gauge_directions, identifiability};
 use super::mirror::MirroredBall;
-use super::observation::{ObservationKind, ObservationRef};
+use super::observation::ObservationRef;
 use super::options::MechanismOptions;
 use super::prior::prior_covariance;
 
@@ -471,9 +471,10 @@ fn body_estimate(
 /// others' rows alone.
 fn worst(observations: &ObservationChecks) -> Option<Worst<ObservationRef>> {
     let (c, row, normalised) = observations.worst()?;
-    let redundancy = match c.observation.kind {
-        ObservationKind::Touch => c.rows.iter().map(|r| f64::from(r.redundancy)).sum(),
-        _ => f64::from(c.rows[row].redundancy),
+    let redundancy = if c.observation.kind.rows_tested_as_one() {
+        c.rows.iter().map(|r| f64::from(r.redundancy)).sum()
+    } else {
+        f64::from(c.rows[row].redundancy)
     };
     Some(Worst {
         observation: c.observation,
@@ -613,6 +614,7 @@ pub(crate) fn reasons(
 mod tests {
     use parcal_dataset::mechanism::RowCheck;
 
+    use super::super::observation::ObservationKind;
     use super::*;
 
     /// A touch's rows are tested as one: its gross error is `w` over the
