@@ -714,12 +714,12 @@ fn row_place(
     }
 }
 
-/// How many rows named in one sentence ([`uncontrolled_sentence`]).
-const NAMED_ROWS: usize = 10;
+/// How many tests named in one sentence ([`uncontrolled_sentence`]).
+const NAMED_TESTS: usize = 10;
 
 /// The tests of redundancy under [`UNCONTROLLED`] (a row's redundancy
 /// number; a touch's summed over its rows, which are tested as one,
-/// [`ObservationKind::rows_tested_as_one`]), the first [`NAMED_ROWS`] of
+/// [`ObservationKind::rows_tested_as_one`]), the first [`NAMED_TESTS`] of
 /// them (in the record's order) named: an error there shows in the
 /// residuals by less than a tenth of its size, the rest going into the
 /// estimates, so its w-test hardly sees it; `None` when every test is
@@ -746,11 +746,11 @@ pub fn uncontrolled_sentence(calibration: &MechanismCalibrationRecord) -> Option
     if uncontrolled.is_empty() {
         return None;
     }
-    let named: Vec<String> = (uncontrolled.iter().take(NAMED_ROWS))
+    let named: Vec<String> = (uncontrolled.iter().take(NAMED_TESTS))
         .map(|&(kind, index, row)| row_place(calibration, kind, index, row))
         .collect();
-    let first = if uncontrolled.len() > NAMED_ROWS {
-        format!("the first {NAMED_ROWS}: ")
+    let first = if uncontrolled.len() > NAMED_TESTS {
+        format!("the first {NAMED_TESTS}: ")
     } else {
         String::new()
     };
