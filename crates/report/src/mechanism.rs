@@ -719,7 +719,7 @@ const NAMED_TESTS: usize = 10;
 
 /// The tests of redundancy under [`UNCONTROLLED`] (a row's redundancy
 /// number; a touch's summed over its rows, which are tested as one,
-/// [`ObservationKind::rows_tested_as_one`]), the first [`NAMED_TESTS`] of
+/// [`ObservationKind::rows_tested_as_one`]), the first ten of
 /// them (in the record's order) named: an error there shows in the
 /// residuals by less than a tenth of its size, the rest going into the
 /// estimates, so its w-test hardly sees it; `None` when every test is
