@@ -704,9 +704,7 @@ fn row_place(
     index: usize,
     row: Option<usize>,
 ) -> String {
-    let observation = (ObservationKind::ALL.into_iter())
-        .find(|known| known.name() == kind)
-        .map(|kind| ObservationRef { kind, index });
+    let observation = ObservationKind::named(kind).map(|kind| ObservationRef { kind, index });
     match (observation, row) {
         (Some(observation), row) => observation_row_place(&calibration.mechanism, observation, row),
         (None, Some(row)) => format!("{kind} {index} (row {row})"),
@@ -729,9 +727,8 @@ pub fn uncontrolled_sentence(calibration: &MechanismCalibrationRecord) -> Option
     let mut tests = 0;
     let mut uncontrolled: Vec<(&str, usize, Option<usize>)> = Vec::new();
     for o in calibration.tests.observations.iter() {
-        let as_one = (ObservationKind::ALL.into_iter())
-            .find(|kind| kind.name() == o.kind)
-            .is_some_and(ObservationKind::rows_tested_as_one);
+        let as_one =
+            ObservationKind::named(o.kind).is_some_and(ObservationKind::rows_tested_as_one);
         if as_one {
             tests += 1;
             if o.rows.iter().map(redundancy).sum::<f64>() < UNCONTROLLED {

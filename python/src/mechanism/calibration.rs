@@ -142,13 +142,10 @@ pub struct MechanismCalibration {
 
 /// The observation of `observation`'s kind and index.
 fn observation_ref(observation: ObservationRecord) -> Option<ObservationRef> {
-    ObservationKind::ALL
-        .into_iter()
-        .find(|kind| kind.name() == observation.kind)
-        .map(|kind| ObservationRef {
-            kind,
-            index: observation.index,
-        })
+    ObservationKind::named(observation.kind).map(|kind| ObservationRef {
+        kind,
+        index: observation.index,
+    })
 }
 
 #[pymethods]

@@ -59,6 +59,12 @@ impl ObservationKind {
         self as usize
     }
 
+    /// The kind whose [`Self::name`] is `name`, if any (as a record
+    /// names it).
+    pub fn named(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|kind| kind.name() == name)
+    }
+
     /// Whether an observation of the kind is tested as one, over all its
     /// rows (a touch: one point of the solver, its rows together), rather
     /// than row by row (every other kind).
