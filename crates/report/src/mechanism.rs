@@ -9,7 +9,7 @@
 
 use parcal_calibrate::mechanism::{ObservationKind, ObservationRef};
 use parcal_calibrate::reliability::{NORMALISED_BINS, UNCONTROLLED};
-use parcal_dataset::mechanism::{MechanismCalibrationRecord, RowCheck, TrackerRecord};
+use parcal_dataset::mechanism::{BallRecord, MechanismCalibrationRecord, RowCheck, TrackerRecord};
 use parcal_dataset::{FrameRecord, Histogram};
 use plotters::prelude::*;
 
@@ -481,14 +481,69 @@ pub fn parameter_header(truth: bool) -> Vec<&'static str> {
     header
 }
 
-/// The calibrated balls' table: centre and its sigmas (the frame of the
+/// How many calibrated balls a page lists when it does not list them all
+/// ([`listed_balls`]).
+const LISTED_BALLS: usize = 20;
+
+/// A ball's centre sigma `|σ_c| = √(σ_x² + σ_y² + σ_z²)` (mm), if it has
+/// sigmas.
+fn centre_sigma(ball: &BallRecord) -> Option<f64> {
+    ball.centre_sigma
+        .map(|[x, y, z]| (x * x + y * y + z * z).sqrt())
+}
+
+/// The balls a page lists, by index: every ball when there are at most
+/// [`LISTED_BALLS`], else the [`LISTED_BALLS`] least determined, of
+/// largest centre sigma `|σ_c|` first ([`centre_sigma`]; a ball without
+/// sigmas after every other, ties by index).
+pub fn listed_balls(calibration: &MechanismCalibrationRecord) -> Vec<usize> {
+    let mut balls: Vec<usize> = (0..calibration.balls.len()).collect();
+    if balls.len() > LISTED_BALLS {
+        let sigma = |b: &usize| centre_sigma(&calibration.balls[*b]).unwrap_or(f64::NEG_INFINITY);
+        balls.sort_by(|a, b| sigma(b).total_cmp(&sigma(a)).then(a.cmp(b)));
+        balls.truncate(LISTED_BALLS);
+    }
+    balls
+}
+
+/// What a page that lists some of the balls ([`listed_balls`]) says of
+/// them all: how many, the range and median of their centre sigmas
+/// `|σ_c|`, and which are listed; none when it lists every ball.
+pub fn balls_sentence(calibration: &MechanismCalibrationRecord) -> Option<String> {
+    let n = calibration.balls.len();
+    if n <= LISTED_BALLS {
+        return None;
+    }
+    let mut sigmas: Vec<f64> = calibration.balls.iter().filter_map(centre_sigma).collect();
+    if sigmas.is_empty() {
+        return Some(format!(
+            "{n} balls calibrated, none with sigmas; listed: the first {LISTED_BALLS}; calibration.json holds every ball."
+        ));
+    }
+    sigmas.sort_by(f64::total_cmp);
+    let m = sigmas.len();
+    let median = match m % 2 {
+        1 => sigmas[m / 2],
+        _ => 0.5 * (sigmas[m / 2 - 1] + sigmas[m / 2]),
+    };
+    let without = match n - m {
+        0 => String::new(),
+        k => format!(" ({k} without sigmas)"),
+    };
+    Some(format!(
+        "{n} balls calibrated{without}: their centre sigmas |σ_c| (the root sum of squares of the three) run from {:.4} to {:.4} mm, median {median:.4} mm. Listed: the {LISTED_BALLS} of largest |σ_c|, the least determined, largest first; calibration.json holds every ball.",
+        sigmas[0],
+        sigmas[m - 1],
+    ))
+}
+
+/// The calibrated balls' table, a row for each ball of `listed` (by
+/// index, [`listed_balls`]): centre and its sigmas (the frame of the
 /// commanded positions), radius and its sigma (`exact` without one).
-pub fn ball_rows(calibration: &MechanismCalibrationRecord) -> Vec<Vec<String>> {
-    calibration
-        .balls
-        .iter()
-        .enumerate()
-        .map(|(b, ball)| {
+pub fn ball_rows(calibration: &MechanismCalibrationRecord, listed: &[usize]) -> Vec<Vec<String>> {
+    (listed.iter())
+        .map(|&b| {
+            let ball = &calibration.balls[b];
             let [x, y, z] = ball.centre;
             let sigmas = ball.centre_sigma.map_or_else(
                 || "-".to_string(),
@@ -929,9 +984,12 @@ fn blocks(
     }
     if !calibration.balls.is_empty() {
         blocks.push(Block::Heading(2, "Calibrated balls".into()));
+        if let Some(sentence) = balls_sentence(calibration) {
+            blocks.push(Block::Paragraph(Tone::Plain, sentence));
+        }
         blocks.push(Block::Table {
             header: BALL_HEADER.iter().map(|s| s.to_string()).collect(),
-            rows: ball_rows(calibration)
+            rows: ball_rows(calibration, &listed_balls(calibration))
                 .into_iter()
                 .map(|row| row.into_iter().map(Cell::text).collect())
                 .collect(),
@@ -1041,6 +1099,46 @@ mod tests {
         format: Format,
     ) -> String {
         render(record, "calibration.json", with_probes(probes), format).unwrap()
+    }
+
+    #[test]
+    fn a_page_of_many_balls_lists_the_least_determined_and_sums_up_the_rest() {
+        // 25 balls of centre sigmas |σ_c| 0.01, 0.02, ..., 0.25 mm and one
+        // without sigmas: the page lists the 20 of largest |σ_c| (balls 24
+        // down to 5) and states the range and median of all 25.
+        let (mut record, probes) = calibrated();
+        record.balls = (0..26)
+            .map(|b| BallRecord {
+                centre: [b as f64, 0.0, 12.7],
+                centre_sigma: (b < 25).then(|| [0.01 * (b + 1) as f64, 0.0, 0.0]),
+                radius: 12.7,
+                radius_sigma: None,
+            })
+            .collect();
+        let markdown = rendered(&record, &probes, Format::Markdown);
+        let start = markdown
+            .find("## Calibrated balls")
+            .expect("the balls' section");
+        let balls = &markdown[start..];
+        let balls = &balls[..balls.find("\n## ").unwrap_or(balls.len())];
+        let sentence = balls_sentence(&record).expect("a sentence on all the balls");
+        assert!(
+            sentence.starts_with(
+                "26 balls calibrated (1 without sigmas): their centre sigmas |σ_c| (the root sum of squares of the three) run from 0.0100 to 0.2500 mm, median 0.1300 mm. Listed: the 20 of largest |σ_c|"
+            ),
+            "{sentence}"
+        );
+        assert!(balls.contains("26 balls calibrated"), "{balls}");
+        let listed: Vec<&str> = (balls.lines())
+            .filter_map(|line| line.strip_prefix("| ")?.split(' ').next())
+            .filter(|first| first.parse::<usize>().is_ok())
+            .collect();
+        let expected: Vec<String> = (5..25).rev().map(|b| b.to_string()).collect();
+        assert_eq!(listed, expected, "{balls}");
+        // At most LISTED_BALLS balls: every one, in order, and no sentence.
+        record.balls.truncate(LISTED_BALLS);
+        assert_eq!(listed_balls(&record), (0..LISTED_BALLS).collect::<Vec<_>>());
+        assert_eq!(balls_sentence(&record), None);
     }
 
     #[test]
