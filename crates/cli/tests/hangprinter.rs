@@ -378,6 +378,26 @@ fn a_sample_given_twice_is_warned_of_by_its_lines() {
         warnings[0].as_str().unwrap().starts_with(&warning),
         "{record}"
     );
+    // The whole file given twice: one warning counts the 44 copies and
+    // names the first ten, by their lines.
+    let header_and_rows: Vec<&str> = points.lines().collect();
+    let twice = [&header_and_rows[..], &header_and_rows[1..]]
+        .concat()
+        .join("\n")
+        + "\n";
+    fs::write(data.join("points.csv"), twice).unwrap();
+    let copies = rows - 1;
+    let counted = format!("warning: {copies} observations repeat an earlier one in every number");
+    let first = format!(
+        "(the first 10: points.csv line {} (point sample {}) repeats points.csv line 2 (point sample 0); ",
+        rows + 1,
+        rows - 1
+    );
+    for said in [ok(&["inspect", s(&data)]), ok(&["calibrate", s(&data)])] {
+        assert_eq!(said.matches("warning:").count(), 1, "{said}");
+        assert!(said.contains(&counted), "{said}");
+        assert!(said.contains(&first), "{said}");
+    }
 }
 
 /// `compensate --poses` (or `--table`), a hexapod's, given a cable robot's

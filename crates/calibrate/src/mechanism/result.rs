@@ -519,23 +519,38 @@ pub(crate) fn named(observation: ObservationRef, row: Option<usize>) -> String {
     }
 }
 
+/// How many repeats [`repeat_warnings`] names when it does not name them
+/// all.
+pub const NAMED_REPEATS: usize = 10;
+
 /// The warnings of `repeats` ([`MechanismCalibration::warnings`]), each
 /// observation named by `place` (as [`MechanismCalibration::place_observations`]
-/// takes it).
+/// takes it): one a repeat when there are at most [`NAMED_REPEATS`], else
+/// one that counts them and names the first [`NAMED_REPEATS`] (a file
+/// given twice over would otherwise warn once a row).
 pub fn repeat_warnings(
     repeats: &[Repeat],
     place: &dyn Fn(ObservationRef, Option<usize>) -> String,
 ) -> Vec<String> {
-    repeats
-        .iter()
-        .map(|Repeat { copy, of }| {
-            format!(
-                "{} repeats {} in every number, as a row given twice does (a measurement repeated reads otherwise): remove the copy, which counts the measurement twice",
-                place(*copy, None),
-                place(*of, None)
-            )
-        })
-        .collect()
+    let pair = |Repeat { copy, of }: &Repeat| {
+        format!("{} repeats {}", place(*copy, None), place(*of, None))
+    };
+    if repeats.len() <= NAMED_REPEATS {
+        return (repeats.iter())
+            .map(|repeat| {
+                format!(
+                    "{} in every number, as a row given twice does (a measurement repeated reads otherwise): remove the copy, which counts the measurement twice",
+                    pair(repeat)
+                )
+            })
+            .collect();
+    }
+    let named: Vec<String> = repeats.iter().take(NAMED_REPEATS).map(pair).collect();
+    vec![format!(
+        "{} observations repeat an earlier one in every number, as rows given twice do (a measurement repeated reads otherwise): remove the copies, which count their measurements twice (the first {NAMED_REPEATS}: {})",
+        repeats.len(),
+        named.join("; ")
+    )]
 }
 
 /// The verdict's reasons, in words, each observation (and the row a test
@@ -638,5 +653,37 @@ mod tests {
             assert_eq!((worst.row, worst.normalised), (1, w));
             assert_eq!(worst.gross_error, w / r.sqrt(), "{kind:?}");
         }
+    }
+
+    /// Up to [`NAMED_REPEATS`] repeats, a warning each; more, one warning
+    /// that counts them all and names the first [`NAMED_REPEATS`].
+    #[test]
+    fn many_repeats_are_counted_in_one_warning_that_names_the_first() {
+        let sample = |index| ObservationRef {
+            kind: ObservationKind::Sample,
+            index,
+        };
+        let repeats: Vec<Repeat> = (0..NAMED_REPEATS + 2)
+            .map(|k| Repeat {
+                copy: sample(100 + k),
+                of: sample(k),
+            })
+            .collect();
+        let few = repeat_warnings(&repeats[..NAMED_REPEATS], &named);
+        assert_eq!(few.len(), NAMED_REPEATS);
+        assert!(
+            few[9].starts_with("point sample 109 repeats point sample 9 in every number"),
+            "{few:?}"
+        );
+        let many = repeat_warnings(&repeats, &named);
+        assert_eq!(many.len(), 1, "{many:?}");
+        assert!(
+            many[0].starts_with("12 observations repeat an earlier one in every number"),
+            "{many:?}"
+        );
+        assert!(
+            many[0].ends_with("(the first 10: point sample 100 repeats point sample 0; point sample 101 repeats point sample 1; point sample 102 repeats point sample 2; point sample 103 repeats point sample 3; point sample 104 repeats point sample 4; point sample 105 repeats point sample 5; point sample 106 repeats point sample 6; point sample 107 repeats point sample 7; point sample 108 repeats point sample 8; point sample 109 repeats point sample 9)"),
+            "{many:?}"
+        );
     }
 }
