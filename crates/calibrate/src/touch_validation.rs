@@ -27,7 +27,10 @@
 //! ball's contacts its centre's: their covariance is `C = D + U Uᵀ`, `D`
 //! the contacts' noise `σ²` and a row of `U` `[G Σ_p^{1/2}, nᵀ Σ_C^{1/2}]`
 //! (the second block in its ball's three columns), and `rᵀ C⁻¹ r` gives the
-//! verdict ([`crate::prediction`]).
+//! verdict ([`crate::prediction`]), each ball's columns eliminated in turn
+//! ([`crate::prediction::grouped_statistic`]): neither `U`, with its three
+//! columns a ball, nor `C` is formed, and a ball's contacts are found in one
+//! pass over the dataset.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3xX, Matrix6, RowDVector};
 use parcal_dataset::{Calibration, Dataset};
@@ -90,23 +93,29 @@ pub fn validate_touches(
         values: calibration.calibrated_scales(),
         column: None,
     };
+    // Each ball's rows in dataset order (measurements.csv's ball column,
+    // checked by the dataset's reader against the artefacts).
+    let mut rows_by_ball = vec![Vec::new(); dataset.artefacts.balls.len()];
+    for (row, &ball) in measurements.ball.iter().enumerate() {
+        rows_by_ball[ball as usize].push(row);
+    }
     let Some(n_ref) = reference else {
         return Err(refuse(
             "a ball-touch validation fits each ball's centre on its first touches: give their number (at least 4)".into(),
         ));
     };
     let covariance_root = prediction::square_root(&covariance);
-    let balls = dataset.artefacts.balls.len();
     // Each predicted contact: its residual, its noise variance and its row
-    // of U (module doc).
-    let (mut residuals, mut noises, mut common) = (Vec::new(), Vec::new(), Vec::new());
+    // of U (module doc): `m` values in the parameters' columns (`global`,
+    // row by row) and three in its ball's (`local`); each ball's first
+    // predicted contact (`starts`).
+    let (mut residuals, mut noises) = (Vec::new(), Vec::new());
+    let (mut global, mut local, mut starts) = (Vec::<f64>::new(), Vec::<Vec3>::new(), Vec::new());
     let mut mirrored_balls = Vec::new();
     for (k, ball) in dataset.artefacts.balls.iter().enumerate() {
-        let rows: Vec<usize> = (0..measurements.len())
-            .filter(|&row| measurements.ball[row] as usize == k)
-            .collect();
+        let rows = &rows_by_ball[k];
         let mut tips = Vec::with_capacity(rows.len());
-        for &row in &rows {
+        for &row in rows {
             let extensions = scales.extensions(&measurements.q[row]);
             let solution = forward_from_home(&geometry, &extensions, &forward)
                 .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
@@ -167,6 +176,7 @@ pub fn validate_touches(
         let response = weighted.iter().fold(Matrix3xX::zeros(m), |sum, (a, b)| {
             sum + centre_covariance * a * b
         });
+        starts.push(residuals.len());
         for (row, (d_params, d_q), tip) in &tips[n_ref.min(tips.len())..] {
             let offset = tip - centre;
             let distance = offset.norm();
@@ -178,11 +188,9 @@ pub fn validate_touches(
                 });
             }
             let normal = offset / distance;
-            let gain = normal.transpose() * (d_params - &response);
-            let mut u = RowDVector::zeros(m + 3 * balls);
-            u.columns_mut(0, m).copy_from(&(gain * &covariance_root));
-            u.columns_mut(m + 3 * k, 3)
-                .copy_from(&(normal.transpose() * centre_root));
+            let gain: RowDVector<f64> = normal.transpose() * (d_params - &response);
+            global.extend((gain * &covariance_root).iter());
+            local.push(centre_root.transpose() * normal);
             residuals.push(distance - ball.radius);
             noises.push(contact_variance(
                 machine,
@@ -191,24 +199,21 @@ pub fn validate_touches(
                 &normal,
                 *row,
             )?);
-            common.push(u);
         }
     }
-    let mut u = DMatrix::zeros(common.len(), m + 3 * balls);
-    for (i, row) in common.iter().enumerate() {
-        u.row_mut(i).copy_from(row);
-    }
-    let sigmas = noises
-        .iter()
-        .enumerate()
-        .map(|(i, noise)| (noise + u.row(i).norm_squared()).sqrt())
+    let mut v = DMatrix::from_row_slice(residuals.len(), m, &global);
+    let sigmas = (noises.iter().zip(v.row_iter()).zip(&local))
+        .map(|((noise, g), b)| (noise + g.norm_squared() + b.norm_squared()).sqrt())
         .collect();
     // Whitened by the contacts' noise.
-    let scale = DVector::from_iterator(noises.len(), noises.iter().map(|v| 1.0 / v.sqrt()));
-    let z = DVector::from_column_slice(&residuals).component_mul(&scale);
-    let mut v = u;
-    for (i, mut row) in v.row_iter_mut().enumerate() {
-        row *= scale[i];
+    let scale: Vec<f64> = noises.iter().map(|v| 1.0 / v.sqrt()).collect();
+    let z = DVector::from_iterator(
+        residuals.len(),
+        residuals.iter().zip(&scale).map(|(r, s)| r * s),
+    );
+    for ((mut row, b), s) in v.row_iter_mut().zip(&mut local).zip(&scale) {
+        row *= *s;
+        *b *= *s;
     }
     Ok(Validation {
         poses: 0,
@@ -217,7 +222,7 @@ pub fn validate_touches(
         reference: n_ref,
         refitted: vec!["ball centres".into()],
         selection: Vec::new(),
-        statistic: prediction::statistic(&z, &v),
+        statistic: prediction::grouped_statistic(&z, &v, &local, &starts),
         calibration_test: calibration
             .global_test
             .as_ref()
