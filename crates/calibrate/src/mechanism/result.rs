@@ -521,13 +521,13 @@ pub(crate) fn named(observation: ObservationRef, row: Option<usize>) -> String {
 
 /// How many repeats [`repeat_warnings`] names when it does not name them
 /// all.
-pub const NAMED_REPEATS: usize = 10;
+const NAMED_REPEATS: usize = 10;
 
 /// The warnings of `repeats` ([`MechanismCalibration::warnings`]), each
 /// observation named by `place` (as [`MechanismCalibration::place_observations`]
-/// takes it): one a repeat when there are at most [`NAMED_REPEATS`], else
-/// one that counts them and names the first [`NAMED_REPEATS`] (a file
-/// given twice over would otherwise warn once a row).
+/// takes it): one a repeat when there are at most ten (`NAMED_REPEATS`),
+/// else one that counts them and names the first ten (a file given twice
+/// over would otherwise warn once a row).
 pub fn repeat_warnings(
     repeats: &[Repeat],
     place: &dyn Fn(ObservationRef, Option<usize>) -> String,
