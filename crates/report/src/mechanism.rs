@@ -492,10 +492,10 @@ fn centre_sigma(ball: &BallRecord) -> Option<f64> {
         .map(|[x, y, z]| (x * x + y * y + z * z).sqrt())
 }
 
-/// The balls a page lists, by index: every ball when there are at most
-/// [`LISTED_BALLS`], else the [`LISTED_BALLS`] least determined, of
-/// largest centre sigma `|σ_c|` first ([`centre_sigma`]; a ball without
-/// sigmas after every other, ties by index).
+/// The balls a page lists, by index: every ball when there are at most 20
+/// (`LISTED_BALLS`), else the 20 least determined, of largest centre sigma
+/// `|σ_c| = √(σ_x² + σ_y² + σ_z²)` first (a ball without sigmas after every
+/// other, ties by index).
 pub fn listed_balls(calibration: &MechanismCalibrationRecord) -> Vec<usize> {
     let mut balls: Vec<usize> = (0..calibration.balls.len()).collect();
     if balls.len() > LISTED_BALLS {
