@@ -91,6 +91,27 @@ impl<'a> WhitenedCovariance<'a> {
         });
         x.dot(y) - correction
     }
+
+    /// `(a_kᵀ (I + V Vᵀ)⁻¹ a_k, a_kᵀ (I + V Vᵀ)⁻¹ y)` of each column `a_k`
+    /// of `a`: [`WhitenedCovariance::inner`]'s values, `Vᵀ a` formed once
+    /// for every column (one pass over the rows, not two a column).
+    pub fn inner_columns(&self, a: &DMatrix<f64>, y: &DVector<f64>) -> Vec<(f64, f64)> {
+        let (va, vy) = (self.v.transpose() * a, self.v.transpose() * y);
+        let ay = a.transpose() * y;
+        (0..a.ncols())
+            .map(|k| {
+                let (column, va_k) = (a.column(k), va.column(k));
+                let (aa, az) = (column.norm_squared(), ay[k]);
+                match &self.capacitance {
+                    Some(factor) => {
+                        let solved = factor.solve(&va_k.into_owned());
+                        (aa - va_k.dot(&solved), az - solved.dot(&vy))
+                    }
+                    None => (aa, az),
+                }
+            })
+            .collect()
+    }
 }
 
 /// `T = rᵀ C⁻¹ r` when the common errors are of two kinds (module doc):
@@ -287,6 +308,28 @@ mod tests {
             (grouped - dense).abs() < 1e-12 * dense,
             "{grouped} against {dense}"
         );
+    }
+
+    /// Every column's pair of inner products at once, as one at a time.
+    #[test]
+    fn the_columns_inner_products_are_each_columns() {
+        let (n, k, c) = (13, 4, 3);
+        let v = matrix(n, k, 2.1);
+        let a = matrix(n, c, 0.6);
+        let y = DVector::from_fn(n, |i, _| (i as f64 * 0.41).cos());
+        let metric = WhitenedCovariance::new(&v);
+        for (j, (aa, ay)) in metric.inner_columns(&a, &y).into_iter().enumerate() {
+            let column = a.column(j).into_owned();
+            let (one_aa, one_ay) = (metric.inner(&column, &column), metric.inner(&column, &y));
+            assert!(
+                (aa - one_aa).abs() < 1e-12 * one_aa.abs(),
+                "{aa} against {one_aa}"
+            );
+            assert!(
+                (ay - one_ay).abs() < 1e-12 * one_ay.abs().max(1.0),
+                "{ay} against {one_ay}"
+            );
+        }
     }
 
     #[test]

@@ -375,9 +375,9 @@ fn shifts(
 ) -> Vec<ParameterShift> {
     let n = whitened.z.len();
     let mut shifts: Vec<(f64, ParameterShift)> = Vec::new();
-    for k in 0..whitened.w.ncols() {
-        let a = whitened.w.column(k).into_owned();
-        let (aa, az) = (metric.inner(&a, &a), metric.inner(&a, &whitened.z));
+    let inner = metric.inner_columns(&whitened.w, &whitened.z);
+    for (k, &(aa, az)) in inner.iter().enumerate() {
+        let a = whitened.w.column(k);
         // A column the data do not see (or see only through the
         // calibration's uncertainty, relative to rounding) explains
         // nothing.
