@@ -174,7 +174,8 @@ fn descend(
             jtj += n * n.transpose();
             jtr += n * (distance - radius);
             if curvature == Curvature::Exact {
-                bend += (Matrix3::identity() - n * n.transpose()) * ((distance - radius) / distance);
+                bend +=
+                    (Matrix3::identity() - n * n.transpose()) * ((distance - radius) / distance);
             }
         }
         let newton = (curvature == Curvature::Exact)

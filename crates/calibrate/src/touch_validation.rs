@@ -138,11 +138,12 @@ pub fn validate_touches(
             )));
         }
         let points: Vec<Vec3> = tips[..n_ref].iter().map(|(.., tip)| *tip).collect();
-        let centre_fit_error = |source| CalibrateError::CentreFit {
-            ball: ball.id.clone(),
-            source,
-        };
-        let fit = best_fit(&points, ball.radius).map_err(centre_fit_error)?;
+        let fit = best_fit(&points, ball.radius).map_err(|e| {
+            refuse(format!(
+                "the first {n_ref} touches of ball {:?} do not locate its centre: {e} (more reference touches may)",
+                ball.id
+            ))
+        })?;
         let all: Vec<Vec3> = tips.iter().map(|(.., tip)| *tip).collect();
         let (fit, mirror) = located_side(fit, &points, &all, ball.radius);
         if mirror {
