@@ -194,18 +194,26 @@ pub(crate) fn reach_touches<'a>(
 }
 
 /// The best fit of the sphere of radius `radius` through ball `b`'s tool
-/// points `tips` ([`best_fit`]; the last iterate of a fit that did not
-/// converge).
+/// points `tips` ([`sphere_through`]).
 pub(crate) fn fitted_centre(
     tips: &[Vector3<f64>],
     radius: f64,
     b: usize,
 ) -> Result<SphereFit, MechanismCalibrationError> {
+    sphere_through(tips, radius).map_err(|e| MechanismCalibrationError::InvalidData {
+        what: format!("ball {b}"),
+        reason: format!("its touches do not locate its centre: {e}"),
+    })
+}
+
+/// The best fit of the sphere of radius `radius` through the tool points
+/// `tips` ([`best_fit`]; the last iterate of a fit that did not converge).
+pub(crate) fn sphere_through(
+    tips: &[Vector3<f64>],
+    radius: f64,
+) -> Result<SphereFit, SphereFitError> {
     match best_fit(tips, radius) {
         Ok(fit) | Err(SphereFitError::NotConverged { last: fit }) => Ok(fit),
-        Err(e) => Err(MechanismCalibrationError::InvalidData {
-            what: format!("ball {b}"),
-            reason: format!("its touches do not locate its centre: {e}"),
-        }),
+        Err(e) => Err(e),
     }
 }

@@ -7,7 +7,7 @@
 //! one row). The tool points the touches reach,
 //! `x_k = f(p̂, g(p_c, x_c,k))` ([`BallTouch`]), locate its centre `ĉ`,
 //! the best fit of the sphere of its calibrated radius `ρ` through them
-//! (as the calibration starts it, [`fitted_centre`]; located by reference
+//! (as the calibration starts it, [`sphere_through`]; located by reference
 //! touches, the side of them all its touches fit,
 //! [`located_side`]), and
 //!
@@ -43,7 +43,7 @@ use crate::mirror::located_side;
 use super::super::data::Observations;
 use super::super::error::MechanismCalibrationError;
 use super::super::observation::{ObservationKind, ObservationRef};
-use super::super::touched_ball::{BallFit, fitted_centre, reach_touches};
+use super::super::touched_ball::{BallFit, reach_touches, sphere_through};
 use super::super::warm_start::WarmStart;
 use super::ball_sets::BallSet;
 use super::projection::{LocalRows, predict_from_reference, project_out};
@@ -110,7 +110,14 @@ pub(super) fn predict_balls(
             &mut Vec::new(),
             fit,
         )?;
-        let fit = fitted_centre(&tips[..references], ball.radius, b)?;
+        let fit = sphere_through(&tips[..references], ball.radius).map_err(|e| {
+            MechanismCalibrationError::InvalidData {
+                what: format!("ball {b}"),
+                reason: format!(
+                    "its first {references} touches do not locate its centre: {e} (more reference touches may)"
+                ),
+            }
+        })?;
         let (fit, mirror) = located_side(fit, &tips[..references], tips, ball.radius);
         if mirror {
             mirrored_balls.push(b);

@@ -194,7 +194,7 @@ mod tests {
         );
         let two = said(&ball, 2);
         assert!(
-            two.starts_with("ball 0: its touches do not locate its centre"),
+            two.starts_with("ball 0: its first 2 touches do not locate its centre"),
             "{two}"
         );
         let tracker = tracked(&machine, &Isometry3::identity(), 4, || 0.0);
