@@ -53,7 +53,7 @@
 //! the lower one it is accepted and said (the predicted covariance is
 //! pessimistic).
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix3, Vector3};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix3, Matrix3xX, Vector3};
 
 use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 
@@ -153,23 +153,27 @@ pub fn grouped_statistic(
     let mut reduced = y_global;
     let mut local_part = 0.0;
     let ends = starts.iter().skip(1).copied().chain([n]);
+    // `M_gkᵀ` (3 × m) and `M_kk⁻¹ M_gkᵀ`, room kept from group to group.
+    let (mut coupling, mut solved) = (Matrix3xX::zeros(m), Matrix3xX::zeros(m));
     for (start, end) in starts.iter().copied().zip(ends) {
         let rows = global.rows(start, end - start);
-        let (mut block, mut coupling, mut y_k) =
-            (Matrix3::identity(), DMatrix::zeros(m, 3), Vector3::zeros());
+        let (mut block, mut y_k) = (Matrix3::identity(), Vector3::zeros());
+        coupling.fill(0.0);
         for (j, v) in local[start..end].iter().enumerate() {
             block += v * v.transpose();
-            coupling += rows.row(j).transpose() * v.transpose();
+            coupling.ger(1.0, v, &rows.row(j).transpose(), 1.0);
             y_k += v * z[start + j];
         }
         let Some(factor) = block.cholesky() else {
             return f64::NAN;
         };
-        local_part += y_k.dot(&factor.solve(&y_k));
-        // M_gk M_kk⁻¹ (M_gkᵀ, y_k), by the factor's solves.
-        let solved = factor.solve(&coupling.transpose());
-        schur -= &coupling * &solved;
-        reduced -= &coupling * factor.solve(&y_k);
+        let solved_y = factor.solve(&y_k);
+        local_part += y_k.dot(&solved_y);
+        // S −= M_gk M_kk⁻¹ M_gkᵀ, ȳ −= M_gk M_kk⁻¹ y_k.
+        solved.copy_from(&coupling);
+        factor.solve_mut(&mut solved);
+        schur.gemm_tr(-1.0, &coupling, &solved, 1.0);
+        reduced.gemv_tr(-1.0, &coupling, &solved_y, 1.0);
     }
     let global_part = schur
         .cholesky()

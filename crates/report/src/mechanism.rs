@@ -497,13 +497,19 @@ fn centre_sigma(ball: &BallRecord) -> Option<f64> {
 /// `|σ_c| = √(σ_x² + σ_y² + σ_z²)` first (a ball without sigmas after every
 /// other, ties by index).
 pub fn listed_balls(calibration: &MechanismCalibrationRecord) -> Vec<usize> {
-    let mut balls: Vec<usize> = (0..calibration.balls.len()).collect();
-    if balls.len() > LISTED_BALLS {
-        let sigma = |b: &usize| centre_sigma(&calibration.balls[*b]).unwrap_or(f64::NEG_INFINITY);
-        balls.sort_by(|a, b| sigma(b).total_cmp(&sigma(a)).then(a.cmp(b)));
-        balls.truncate(LISTED_BALLS);
+    let n = calibration.balls.len();
+    if n <= LISTED_BALLS {
+        return (0..n).collect();
     }
-    balls
+    let mut keyed: Vec<(f64, usize)> = (calibration.balls.iter().enumerate())
+        .map(|(b, ball)| (centre_sigma(ball).unwrap_or(f64::NEG_INFINITY), b))
+        .collect();
+    keyed.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    keyed
+        .into_iter()
+        .take(LISTED_BALLS)
+        .map(|(_, b)| b)
+        .collect()
 }
 
 /// What a page that lists some of the balls ([`listed_balls`]) says of
