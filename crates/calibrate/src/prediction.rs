@@ -53,7 +53,7 @@
 //! the lower one it is accepted and said (the predicted covariance is
 //! pessimistic).
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix3, Matrix3xX, Vector3};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix, Matrix3, Matrix3xX, Storage, U1, Vector3};
 
 use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 
@@ -62,55 +62,113 @@ use crate::verdict::{GLOBAL_TEST_LEVEL, GlobalTest, Outcome};
 /// `T = rᵀ C⁻¹ r` from the whitened residuals `z = L⁻¹ r` and the whitened
 /// common errors `V = L⁻¹ U` (module doc).
 pub fn statistic(z: &DVector<f64>, v: &DMatrix<f64>) -> f64 {
-    WhitenedCovariance::new(v).inner(z, z)
+    let mut products = RowProducts::new(v.ncols());
+    products.add(v, &z.column(0));
+    let (zz, vv, vz) = products.sums();
+    WhitenedCovariance::from_gram(&vv).inner(zz, &vz, &vz)
 }
 
-/// The predicted covariance of whitened rows, `I + V Vᵀ`, whose inverse
-/// is applied by the Woodbury identity (module doc):
-/// `xᵀ (I + V Vᵀ)⁻¹ y = xᵀ y − (Vᵀ x)ᵀ (I + VᵀV)⁻¹ (Vᵀ y)`.
-pub struct WhitenedCovariance<'a> {
-    v: &'a DMatrix<f64>,
+/// The products `zᵀz`, `AᵀA` and `Aᵀz` of rows of `[A z]` given a few at a
+/// time, summed [`RowProducts::BLOCK`] rows at a time: each sum runs down
+/// columns of a block that stays in cache, where summing an observation's
+/// few rows at a time would pay a call a product, and summing down the
+/// whole of `A` would stream it from memory once a product.
+pub(crate) struct RowProducts {
+    /// `zᵀz` so far.
+    zz: f64,
+    /// `AᵀA` so far.
+    aa: DMatrix<f64>,
+    /// `Aᵀz` so far.
+    az: DVector<f64>,
+    /// The rows of `A` not yet summed (the first `filled`).
+    block: DMatrix<f64>,
+    /// Their `z`.
+    block_z: DVector<f64>,
+    /// How many rows `block` holds.
+    filled: usize,
+}
+
+impl RowProducts {
+    /// The rows a block holds.
+    const BLOCK: usize = 256;
+
+    /// No rows yet, of `columns` columns.
+    pub(crate) fn new(columns: usize) -> Self {
+        Self {
+            zz: 0.0,
+            aa: DMatrix::zeros(columns, columns),
+            az: DVector::zeros(columns),
+            block: DMatrix::zeros(Self::BLOCK, columns),
+            block_z: DVector::zeros(Self::BLOCK),
+            filled: 0,
+        }
+    }
+
+    /// The rows `a` of `A`, `z` of `z`.
+    pub(crate) fn add<S, T>(&mut self, a: &Matrix<f64, Dyn, Dyn, S>, z: &Matrix<f64, Dyn, U1, T>)
+    where
+        S: Storage<f64, Dyn, Dyn>,
+        T: Storage<f64, Dyn, U1>,
+    {
+        for i in 0..a.nrows() {
+            if self.filled == Self::BLOCK {
+                self.flush();
+            }
+            self.block.row_mut(self.filled).copy_from(&a.row(i));
+            self.block_z[self.filled] = z[i];
+            self.filled += 1;
+        }
+    }
+
+    /// The block's rows added to the sums.
+    fn flush(&mut self) {
+        let (a, z) = (
+            self.block.rows(0, self.filled),
+            self.block_z.rows(0, self.filled),
+        );
+        self.zz += z.norm_squared();
+        self.aa.gemm_tr(1.0, &a, &a, 1.0);
+        self.az.gemv_tr(1.0, &a, &z, 1.0);
+        self.filled = 0;
+    }
+
+    /// `(zᵀz, AᵀA, Aᵀz)` over every row added.
+    pub(crate) fn sums(mut self) -> (f64, DMatrix<f64>, DVector<f64>) {
+        self.flush();
+        (self.zz, self.aa, self.az)
+    }
+}
+
+/// The predicted covariance `I + V Vᵀ` of whitened rows, known by the Gram
+/// matrix `VᵀV` of their common errors: its inverse is applied by the
+/// Woodbury identity (module doc),
+///
+/// ```text
+/// xᵀ (I + V Vᵀ)⁻¹ y = xᵀ y − (Vᵀ x)ᵀ (I + VᵀV)⁻¹ (Vᵀ y),
+/// ```
+///
+/// from the products `xᵀ y`, `Vᵀ x` and `Vᵀ y` alone, so that neither `V`
+/// (`n × m`) nor `x` and `y` need be kept.
+pub struct WhitenedCovariance {
+    /// The Cholesky factor of the capacitance `I + VᵀV`.
     capacitance: Option<Cholesky<f64, Dyn>>,
 }
 
-impl<'a> WhitenedCovariance<'a> {
-    /// The covariance `I + V Vᵀ` of the whitened common errors `v`.
-    pub fn new(v: &'a DMatrix<f64>) -> Self {
-        let capacitance = DMatrix::identity(v.ncols(), v.ncols()) + v.transpose() * v;
+impl WhitenedCovariance {
+    /// The covariance `I + V Vᵀ` of whitened rows whose common errors have
+    /// the Gram matrix `gram = VᵀV`.
+    pub fn from_gram(gram: &DMatrix<f64>) -> Self {
+        let capacitance = DMatrix::identity(gram.nrows(), gram.ncols()) + gram;
         Self {
-            v,
             capacitance: capacitance.cholesky(),
         }
     }
 
-    /// `xᵀ (I + V Vᵀ)⁻¹ y`.
-    pub fn inner(&self, x: &DVector<f64>, y: &DVector<f64>) -> f64 {
-        let correction = self.capacitance.as_ref().map_or(0.0, |factor| {
-            let (vx, vy) = (self.v.transpose() * x, self.v.transpose() * y);
-            vx.dot(&factor.solve(&vy))
-        });
-        x.dot(y) - correction
-    }
-
-    /// `(a_kᵀ (I + V Vᵀ)⁻¹ a_k, a_kᵀ (I + V Vᵀ)⁻¹ y)` of each column `a_k`
-    /// of `a`: [`WhitenedCovariance::inner`]'s values, `Vᵀ a` formed once
-    /// for every column (one pass over the rows, not two a column).
-    pub fn inner_columns(&self, a: &DMatrix<f64>, y: &DVector<f64>) -> Vec<(f64, f64)> {
-        let (va, vy) = (self.v.transpose() * a, self.v.transpose() * y);
-        let ay = a.transpose() * y;
-        (0..a.ncols())
-            .map(|k| {
-                let (column, va_k) = (a.column(k), va.column(k));
-                let (aa, az) = (column.norm_squared(), ay[k]);
-                match &self.capacitance {
-                    Some(factor) => {
-                        let solved = factor.solve(&va_k.into_owned());
-                        (aa - va_k.dot(&solved), az - solved.dot(&vy))
-                    }
-                    None => (aa, az),
-                }
-            })
-            .collect()
+    /// `xᵀ (I + V Vᵀ)⁻¹ y` from `xy = xᵀ y`, `vx = Vᵀ x` and `vy = Vᵀ y`.
+    pub fn inner(&self, xy: f64, vx: &DVector<f64>, vy: &DVector<f64>) -> f64 {
+        let correction =
+            (self.capacitance.as_ref()).map_or(0.0, |factor| vx.dot(&factor.solve(vy)));
+        xy - correction
     }
 }
 
@@ -148,9 +206,10 @@ pub fn grouped_statistic(
         starts.first().is_none_or(|&s| s == 0) && starts.is_sorted() && starts.last() <= Some(&n),
         "groups of consecutive rows from the first"
     );
-    let y_global = global.transpose() * z;
-    let mut schur = DMatrix::identity(m, m) + global.transpose() * global;
-    let mut reduced = y_global;
+    let mut products = RowProducts::new(m);
+    products.add(global, &z.column(0));
+    let (_, gram, mut reduced) = products.sums();
+    let mut schur = DMatrix::identity(m, m) + gram;
     let mut local_part = 0.0;
     let ends = starts.iter().skip(1).copied().chain([n]);
     // `M_gkᵀ` (3 × m) and `M_kk⁻¹ M_gkᵀ`, room kept from group to group.
@@ -314,26 +373,49 @@ mod tests {
         );
     }
 
-    /// Every column's pair of inner products at once, as one at a time.
+    /// Rows given in pieces of any length, across blocks, sum to the
+    /// products of the whole matrix.
     #[test]
-    fn the_columns_inner_products_are_each_columns() {
-        let (n, k, c) = (13, 4, 3);
-        let v = matrix(n, k, 2.1);
-        let a = matrix(n, c, 0.6);
-        let y = DVector::from_fn(n, |i, _| (i as f64 * 0.41).cos());
-        let metric = WhitenedCovariance::new(&v);
-        for (j, (aa, ay)) in metric.inner_columns(&a, &y).into_iter().enumerate() {
-            let column = a.column(j).into_owned();
-            let (one_aa, one_ay) = (metric.inner(&column, &column), metric.inner(&column, &y));
-            assert!(
-                (aa - one_aa).abs() < 1e-12 * one_aa.abs(),
-                "{aa} against {one_aa}"
-            );
-            assert!(
-                (ay - one_ay).abs() < 1e-12 * one_ay.abs().max(1.0),
-                "{ay} against {one_ay}"
-            );
+    fn row_products_given_in_pieces_are_the_whole_products() {
+        let (n, k) = (3 * RowProducts::BLOCK + 17, 5);
+        let a = matrix(n, k, 0.9);
+        let z = DVector::from_fn(n, |i, _| (i as f64 * 0.37).sin());
+        let mut products = RowProducts::new(k);
+        let mut start = 0;
+        for piece in [0, 1, 7, RowProducts::BLOCK + 3, 2 * RowProducts::BLOCK]
+            .into_iter()
+            .cycle()
+        {
+            let rows = piece.min(n - start);
+            products.add(&a.rows(start, rows), &z.rows(start, rows));
+            start += rows;
+            if start == n {
+                break;
+            }
         }
+        let (zz, aa, az) = products.sums();
+        let scale = n as f64;
+        assert!((zz - z.norm_squared()).abs() < 1e-13 * scale);
+        assert!((aa - a.transpose() * &a).amax() < 1e-13 * scale);
+        assert!((az - a.transpose() * &z).amax() < 1e-13 * scale);
+    }
+
+    /// The inner product from `xᵀ y`, `Vᵀ x` and `Vᵀ y` is the dense
+    /// `xᵀ (I + V Vᵀ)⁻¹ y`, for two different vectors.
+    #[test]
+    fn the_inner_product_from_the_products_is_the_dense_one() {
+        let (n, k) = (13, 4);
+        let v = matrix(n, k, 2.1);
+        let x = DVector::from_fn(n, |i, _| (i as f64 * 0.63 + 0.2).sin());
+        let y = DVector::from_fn(n, |i, _| (i as f64 * 0.41).cos());
+        let covariance = DMatrix::identity(n, n) + &v * v.transpose();
+        let dense = x.dot(&covariance.cholesky().unwrap().solve(&y));
+        let metric = WhitenedCovariance::from_gram(&v.tr_mul(&v));
+        let woodbury = metric.inner(x.dot(&y), &v.tr_mul(&x), &v.tr_mul(&y));
+        assert!(
+            (woodbury - dense).abs() < 1e-12 * dense.abs().max(1.0),
+            "{woodbury} against {dense}"
+        );
     }
 
     #[test]

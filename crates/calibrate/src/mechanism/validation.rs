@@ -33,11 +33,16 @@
 //! `a_k = L⁻¹ G e_k` and `⟨x, y⟩ = xᵀ (I + V Vᵀ)⁻¹ y`, its sigma
 //! `⟨a_k, a_k⟩^{-1/2}`, and the statistic left,
 //! `T − ⟨a_k, z⟩² / ⟨a_k, a_k⟩` ([`ParameterShift`]).
+//!
+//! With `W = L⁻¹ G` (its columns the `a_k`) and `V = W Σ_θ^{1/2}`, every
+//! product these take is one of `zᵀz`, `Wᵀz` and `WᵀW`: `VᵀV = Σ_θ^{1/2}ᵀ
+//! WᵀW Σ_θ^{1/2}`, `Vᵀz` and `Vᵀa_k` likewise. They are summed as the rows
+//! are whitened, so that `W` and `V` (`n × g` each) are never kept.
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::hypothesis::critical_value;
-use crate::prediction::{PredictionTest, WhitenedCovariance, square_root};
+use crate::prediction::{PredictionTest, RowProducts, WhitenedCovariance, square_root};
 
 use super::calibrated::CalibratedMechanism;
 use super::data::MechanismData;
@@ -184,10 +189,11 @@ pub fn validate_mechanism(
         &data.observations,
         reference,
     )?;
-    let whitened = Whitened::of(&predicted, &covariance)?;
-    let metric = WhitenedCovariance::new(&whitened.v);
-    let statistic = metric.inner(&whitened.z, &whitened.z);
-    let n = whitened.z.len();
+    let root = square_root(&covariance);
+    let whitened = Whitened::of(&predicted, &root)?;
+    let metric = whitened.metric(&root);
+    let statistic = metric.inner(whitened.zz, &whitened.vz, &whitened.vz);
+    let n = whitened.rows;
     let test = PredictionTest::new(statistic, n, calibrated.global_test);
     let reading_unit = &*mechanism.actuators()[0].unit;
     let mut rows = Vec::with_capacity(n);
@@ -297,14 +303,21 @@ fn global_block(
     Ok((global, extended, names))
 }
 
-/// The predicted rows whitened by their own noise (module doc).
+/// The predicted rows whitened by their own noise, as the products the
+/// tests take (module doc).
 struct Whitened {
-    /// `z = L⁻¹ r`.
-    z: DVector<f64>,
-    /// `W = L⁻¹ G`.
-    w: DMatrix<f64>,
-    /// `V = W Σ_θ^{1/2}`.
-    v: DMatrix<f64>,
+    /// The rows `n`.
+    rows: usize,
+    /// `zᵀz`, `z = L⁻¹ r`.
+    zz: f64,
+    /// `WᵀW`, `W = L⁻¹ G`.
+    ww: DMatrix<f64>,
+    /// `Wᵀz`.
+    wz: DVector<f64>,
+    /// `VᵀW = Σ_θ^{1/2}ᵀ WᵀW`: its column `k` is `Vᵀa_k`.
+    vw: DMatrix<f64>,
+    /// `Vᵀz = Σ_θ^{1/2}ᵀ Wᵀz`.
+    vz: DVector<f64>,
     /// `C_jj` of every row.
     variances: Vec<f64>,
     /// Each observation's first row.
@@ -312,23 +325,22 @@ struct Whitened {
 }
 
 impl Whitened {
-    /// An error names an observation whose noise covariance is not
-    /// positive definite (it always is for valid data: a sigma's square,
-    /// or a measured position's plus a positive semi-definite term).
+    /// The rows `predicted` whitened, `root` the square root `Σ_θ^{1/2}` of
+    /// the global block's covariance. An error names an observation whose
+    /// noise covariance is not positive definite (it always is for valid
+    /// data: a sigma's square, or a measured position's plus a positive
+    /// semi-definite term).
     fn of(
         predicted: &[PredictedRows],
-        covariance: &DMatrix<f64>,
+        root: &DMatrix<f64>,
     ) -> Result<Self, MechanismCalibrationError> {
-        let root = square_root(covariance);
-        let g = covariance.nrows();
-        let n: usize = predicted.iter().map(|p| p.residuals.len()).sum();
-        let (mut z, mut w) = (DVector::zeros(n), DMatrix::zeros(n, g));
-        let mut variances = Vec::with_capacity(n);
+        let g = root.nrows();
+        let mut products = RowProducts::new(g);
+        let mut variances = Vec::new();
         let mut first_rows = Vec::with_capacity(predicted.len());
-        let mut at = 0;
         for rows in predicted {
             let m = rows.residuals.len();
-            first_rows.push(at);
+            first_rows.push(variances.len());
             let reason = "its predicted noise covariance is not positive definite".to_string();
             let not_definite = || match &rows.observation {
                 HeldOut::Observation(observation) => MechanismCalibrationError::Observation {
@@ -343,23 +355,29 @@ impl Whitened {
             let l = rows.noise.clone().cholesky().ok_or_else(not_definite)?.l();
             let solve = |b: &DMatrix<f64>| l.solve_lower_triangular(b).ok_or_else(not_definite);
             let residuals = DMatrix::from_column_slice(m, 1, rows.residuals.as_slice());
-            z.rows_mut(at, m).copy_from(&solve(&residuals)?);
-            w.view_mut((at, 0), (m, g))
-                .copy_from(&solve(&rows.d_global)?);
-            let common = &rows.d_global * &root;
+            products.add(&solve(&rows.d_global)?, &solve(&residuals)?.column(0));
+            let common = &rows.d_global * root;
             for j in 0..m {
                 variances.push(rows.noise[(j, j)] + common.row(j).norm_squared());
             }
-            at += m;
         }
-        let v = &w * &root;
+        let (zz, ww, wz) = products.sums();
         Ok(Self {
-            z,
-            w,
-            v,
+            rows: variances.len(),
+            zz,
+            vz: root.tr_mul(&wz),
+            vw: root.tr_mul(&ww),
+            ww,
+            wz,
             variances,
             first_rows,
         })
+    }
+
+    /// The covariance `I + V Vᵀ` of the whitened rows, by `VᵀV = VᵀW
+    /// Σ_θ^{1/2}`.
+    fn metric(&self, root: &DMatrix<f64>) -> WhitenedCovariance {
+        WhitenedCovariance::from_gram(&(&self.vw * root))
     }
 }
 
@@ -373,15 +391,17 @@ fn shifts(
     names: &[String],
     units: &[&str],
 ) -> Vec<ParameterShift> {
-    let n = whitened.z.len();
+    let n = whitened.rows;
     let mut shifts: Vec<(f64, ParameterShift)> = Vec::new();
-    let inner = metric.inner_columns(&whitened.w, &whitened.z);
-    for (k, &(aa, az)) in inner.iter().enumerate() {
-        let a = whitened.w.column(k);
+    for k in 0..whitened.vw.ncols() {
+        let va_k = whitened.vw.column(k).into_owned();
+        let squared = whitened.ww[(k, k)];
+        let aa = metric.inner(squared, &va_k, &va_k);
+        let az = metric.inner(whitened.wz[k], &va_k, &whitened.vz);
         // A column the data do not see (or see only through the
         // calibration's uncertainty, relative to rounding) explains
         // nothing.
-        let seen = aa > 1e-12 * a.norm_squared().max(f64::MIN_POSITIVE);
+        let seen = aa > 1e-12 * squared.max(f64::MIN_POSITIVE);
         if !seen {
             continue;
         }
