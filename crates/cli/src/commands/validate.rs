@@ -87,9 +87,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 Recorded::Mechanism(record) => {
                     let record = super::accepted(*record, path, args.accept_rejected)?;
                     return validate_hexapod(
-                        &dataset,
+                        dataset,
                         &args.dataset,
-                        &record,
+                        record,
                         path,
                         args.reference,
                         &out,
