@@ -154,6 +154,10 @@ pub fn variance_components(components: &[VarianceComponent]) -> String {
     format!("variance components: {}", parts.join(", "))
 }
 
+/// The balls moved to their mirror image (re-seeded in a calibration, kept
+/// at the image in a validation) a report names at most, one by one.
+pub(crate) const NAMED_MIRRORED: usize = 10;
+
 /// " and N more" after a list cut short, nothing if it was not.
 pub(crate) fn and_more(more: usize) -> String {
     if more > 0 {

@@ -9,6 +9,7 @@ use parcal_calibrate::prediction::PredictionTest;
 use parcal_calibrate::verdict::Outcome;
 use parcal_dataset::{Calibration, NuisanceCandidate, PredictionTestRecord, ValidationRecord};
 
+use crate::checks::{NAMED_MIRRORED, and_more};
 use crate::diagnostics::determined_by;
 use crate::sentences::status;
 
@@ -262,11 +263,21 @@ fn rejection_advice(validation: &Validation) -> String {
 }
 
 /// What a validation did for the balls named `balls` whose first
-/// `reference` touches fit their centre's mirror image about as well.
+/// `reference` touches fit their centre's mirror image about as well (the
+/// first [`NAMED_MIRRORED`] named, the others counted: validation.json
+/// lists every one).
 pub(crate) fn mirrored_sentence(balls: &[String], reference: usize) -> String {
+    let named = &balls[..balls.len().min(NAMED_MIRRORED)];
     let (these, each) = match balls {
         [one] => (format!("ball {one}"), "the ball's"),
-        _ => (format!("balls {}", balls.join(", ")), "each ball's"),
+        _ => (
+            format!(
+                "balls {}{}",
+                named.join(", "),
+                and_more(balls.len() - named.len())
+            ),
+            "each ball's",
+        ),
     };
     format!(
         "{these}: the first {reference} touches fit the centre and its mirror image through their plane about as well; the image all {each} touches fit was kept (more reference touches, spread over the ball, would tell them apart)"
@@ -331,4 +342,31 @@ pub fn validation(record: &ValidationRecord) -> String {
         );
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Past [`NAMED_MIRRORED`] balls, the sentence names the first and
+    /// counts the rest.
+    #[test]
+    fn a_sentence_on_many_mirrored_balls_names_the_first_and_counts_the_rest() {
+        let balls: Vec<String> = (0..NAMED_MIRRORED + 3)
+            .map(|b| format!("b{b:03}"))
+            .collect();
+        let sentence = mirrored_sentence(&balls, 4);
+        let last = format!("b{:03}", NAMED_MIRRORED - 1);
+        assert!(sentence.starts_with("balls b000, b001, "), "{sentence}");
+        assert!(
+            sentence.contains(&format!("{last} and 3 more: the first 4 touches")),
+            "{sentence}"
+        );
+        assert!(
+            !sentence.contains(&format!("b{NAMED_MIRRORED:03}")),
+            "{sentence}"
+        );
+        let one = mirrored_sentence(&balls[..1], 4);
+        assert!(one.starts_with("ball b000: the first 4 touches"), "{one}");
+    }
 }

@@ -17,6 +17,7 @@ use crate::calibration_report::Format;
 use crate::calibration_report::document::{Block, Cell, Tone};
 use crate::calibration_report::figures::normalised_histogram;
 use crate::calibration_report::{html, markdown};
+use crate::checks::NAMED_MIRRORED;
 use crate::mechanism_validation::observation_row_place;
 
 /// What a mechanism's dataset adds to the report of its calibration.
@@ -741,18 +742,21 @@ pub fn run_away_sentence(calibration: &MechanismCalibrationRecord) -> Option<Str
 }
 
 /// One sentence per ball found on the wrong side of its touches and
-/// re-seeded.
+/// re-seeded, for the first [`NAMED_MIRRORED`], then one counting the
+/// others (calibration.json lists every one).
 pub fn mirrored_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
-    calibration
-        .mirrored
-        .iter()
-        .map(|m| {
-            format!(
-                "ball {} was on the wrong side of its touches after {} linear solves (chi-square {:.1}; its touches' tool points there fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
-                m.ball, m.iteration, m.chi_square, m.gain
-            )
-        })
-        .collect()
+    let mirrored = &calibration.mirrored;
+    let named = mirrored.iter().take(NAMED_MIRRORED).map(|m| {
+        format!(
+            "ball {} was on the wrong side of its touches after {} linear solves (chi-square {:.1}; its touches' tool points there fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
+            m.ball, m.iteration, m.chi_square, m.gain
+        )
+    });
+    let more = mirrored.len().saturating_sub(NAMED_MIRRORED);
+    let counted = (more > 0).then(|| {
+        format!("{more} more balls were on the wrong side of their touches and were re-seeded likewise (calibration.json's mirrored lists every one)")
+    });
+    named.chain(counted).collect()
 }
 
 /// Row `row` (`None`: all its rows) of observation `index` of the kind
@@ -1046,7 +1050,8 @@ mod tests {
     use super::*;
     use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
     use parcal_dataset::mechanism::{
-        MechanismDataset, MechanismMachine, MechanismTruth, Noise, ObservationRecords, ValuePrior,
+        MechanismDataset, MechanismMachine, MechanismTruth, MirroredRecord, Noise,
+        ObservationRecords, ValuePrior,
     };
     use parcal_kinematics::delta::{LinearDelta, probe_rings};
 
@@ -1105,6 +1110,39 @@ mod tests {
         format: Format,
     ) -> String {
         render(record, "calibration.json", with_probes(probes), format).unwrap()
+    }
+
+    /// Past [`NAMED_MIRRORED`] re-seeded balls, one sentence counts the
+    /// rest; up to it, each has its own.
+    #[test]
+    fn many_re_seeded_balls_are_named_up_to_a_bound_and_the_rest_counted() {
+        let (mut record, _) = calibrated();
+        let mirrored = |n: usize| {
+            (0..n)
+                .map(|ball| MirroredRecord {
+                    ball,
+                    iteration: 2,
+                    chi_square: 40.0,
+                    gain: 9.0,
+                    centre: [0.0; 3],
+                })
+                .collect()
+        };
+        record.mirrored = mirrored(NAMED_MIRRORED);
+        let sentences = mirrored_sentences(&record);
+        assert_eq!(sentences.len(), NAMED_MIRRORED);
+        assert!(sentences.iter().all(|s| s.starts_with("ball ")));
+        record.mirrored = mirrored(NAMED_MIRRORED + 2);
+        let sentences = mirrored_sentences(&record);
+        assert_eq!(sentences.len(), NAMED_MIRRORED + 1);
+        assert!(
+            sentences[NAMED_MIRRORED - 1].starts_with(&format!("ball {} ", NAMED_MIRRORED - 1))
+        );
+        assert!(
+            sentences[NAMED_MIRRORED].starts_with("2 more balls were on the wrong side"),
+            "{}",
+            sentences[NAMED_MIRRORED]
+        );
     }
 
     #[test]

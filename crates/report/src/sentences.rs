@@ -10,7 +10,7 @@ use parcal_calibrate::verdict::{GlobalTest, Outcome};
 use parcal_dataset::SystematicSensitivityRecord;
 use parcal_kinematics::PARAM_NAMES;
 
-use crate::checks::and_more;
+use crate::checks::{NAMED_MIRRORED, and_more};
 use crate::verdict::solver_status;
 
 /// The status in one sentence (calibration.json's `status`), naming
@@ -112,7 +112,8 @@ pub fn systematic_sentence(test: &SystematicTest, global: &GlobalTest) -> Option
 }
 
 /// What the run did beyond the method's iteration, one sentence each (the
-/// balls re-seeded on the other side of their contacts).
+/// balls re-seeded on the other side of their contacts: the first
+/// [`NAMED_MIRRORED`], then their count).
 pub fn notes(run: &CalibrationRun) -> Vec<String> {
     let run_away = run.gauss_newton.as_ref().map(|g| {
         format!(
@@ -123,9 +124,16 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
             g.final_cost
         )
     });
+    let mirrored = &run.balls.mirrored;
+    let more = mirrored.len().saturating_sub(NAMED_MIRRORED);
+    let counted = (more > 0).then(|| {
+        format!(
+            "{more} more balls were on the wrong side of their contacts and were re-seeded likewise"
+        )
+    });
     run_away
         .into_iter()
-        .chain(run.balls.mirrored.iter().map(|m| {
+        .chain(mirrored.iter().take(NAMED_MIRRORED).map(|m| {
             format!(
                 "ball {} was on the wrong side of its contacts at iteration {} (chi-square {:.1}; its contact points at that iterate's geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
                 m.id,
@@ -134,6 +142,7 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
                 m.side.side.cost / m.side.mirror.cost
             )
         }))
+        .chain(counted)
         .collect()
 }
 
