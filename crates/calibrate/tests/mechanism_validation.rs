@@ -252,3 +252,34 @@ fn an_unreachable_target_is_named() {
         "{error}"
     );
 }
+
+/// A validation of more observations than the threads whiten at a time
+/// (1 + 12 x 100 probe heights) and of balls predicted on the threads (40,
+/// 7 touches each) is the same, bit for bit, on 1, 2 and 3 threads.
+#[test]
+fn a_validation_is_the_same_on_any_number_of_threads() {
+    let (scenario, calibrated, truth) = calibrated(3);
+    let many = DeltaScenario {
+        rings: 12,
+        per_ring: 100,
+        balls: 40,
+        ..scenario
+    };
+    let held_out = data(&measure_delta(&many, &truth, 3 + HELD_OUT).unwrap());
+    assert!(held_out.observations.probes.len() > 1200);
+    assert_eq!(held_out.observations.touches.len(), 40 * 7);
+    let on = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| validate_mechanism(&calibrated, &held_out, ALPHA, None).unwrap())
+    };
+    let one = on(1);
+    // Each ball's seven touches less its centre's three unknowns.
+    let o = &held_out.observations;
+    assert_eq!(one.rows.len(), o.probes.len() + o.distances.len() + 40 * 4);
+    for threads in [2, 3] {
+        assert_eq!(on(threads), one, "{threads} threads");
+    }
+}

@@ -40,6 +40,7 @@
 //! are whitened, so that `W` and `V` (`n × g` each) are never kept.
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use crate::hypothesis::critical_value;
 use crate::prediction::{PredictionTest, RowProducts, WhitenedCovariance, square_root};
@@ -335,33 +336,24 @@ impl Whitened {
         root: &DMatrix<f64>,
     ) -> Result<Self, MechanismCalibrationError> {
         let g = root.nrows();
-        let mut products = RowProducts::new(g);
+        // Pieces of observations on the threads, each summed on its own,
+        // then the pieces' sums added in their order: the same bits on any
+        // number of threads, the first error in the observations' order.
+        let pieces: Vec<_> = (predicted.par_chunks(WHITENED_PIECE))
+            .map(|piece| whiten_piece(piece, root))
+            .collect();
+        let (mut zz, mut ww, mut wz) = (0.0, DMatrix::zeros(g, g), DVector::zeros(g));
         let mut variances = Vec::new();
         let mut first_rows = Vec::with_capacity(predicted.len());
-        for rows in predicted {
-            let m = rows.residuals.len();
-            first_rows.push(variances.len());
-            let reason = "its predicted noise covariance is not positive definite".to_string();
-            let not_definite = || match &rows.observation {
-                HeldOut::Observation(observation) => MechanismCalibrationError::Observation {
-                    observation: *observation,
-                    reason: reason.clone(),
-                },
-                ball => MechanismCalibrationError::InvalidData {
-                    what: ball.to_string(),
-                    reason: reason.clone(),
-                },
-            };
-            let l = rows.noise.clone().cholesky().ok_or_else(not_definite)?.l();
-            let solve = |b: &DMatrix<f64>| l.solve_lower_triangular(b).ok_or_else(not_definite);
-            let residuals = DMatrix::from_column_slice(m, 1, rows.residuals.as_slice());
-            products.add(&solve(&rows.d_global)?, &solve(&residuals)?.column(0));
-            let common = &rows.d_global * root;
-            for j in 0..m {
-                variances.push(rows.noise[(j, j)] + common.row(j).norm_squared());
-            }
+        for piece in pieces {
+            let piece = piece?;
+            zz += piece.zz;
+            ww += piece.ww;
+            wz += piece.wz;
+            let offset = variances.len();
+            first_rows.extend(piece.first_rows.iter().map(|first| offset + first));
+            variances.extend(piece.variances);
         }
-        let (zz, ww, wz) = products.sums();
         Ok(Self {
             rows: variances.len(),
             zz,
@@ -379,6 +371,64 @@ impl Whitened {
     fn metric(&self, root: &DMatrix<f64>) -> WhitenedCovariance {
         WhitenedCovariance::from_gram(&(&self.vw * root))
     }
+}
+
+/// The observations [`Whitened::of`] whitens at a time on a thread.
+const WHITENED_PIECE: usize = 1024;
+
+/// A piece of observations whitened: its sums and each row's `C_jj`.
+struct WhitenedPiece {
+    /// `zᵀz` over its rows.
+    zz: f64,
+    /// `WᵀW` over its rows.
+    ww: DMatrix<f64>,
+    /// `Wᵀz` over its rows.
+    wz: DVector<f64>,
+    /// `C_jj` of each of its rows.
+    variances: Vec<f64>,
+    /// Each observation's first row among them.
+    first_rows: Vec<usize>,
+}
+
+/// The observations `piece` whitened ([`Whitened::of`]).
+fn whiten_piece(
+    piece: &[PredictedRows],
+    root: &DMatrix<f64>,
+) -> Result<WhitenedPiece, MechanismCalibrationError> {
+    let mut products = RowProducts::new(root.nrows());
+    let mut variances = Vec::new();
+    let mut first_rows = Vec::with_capacity(piece.len());
+    for rows in piece {
+        let m = rows.residuals.len();
+        let reason = "its predicted noise covariance is not positive definite".to_string();
+        let not_definite = || match &rows.observation {
+            HeldOut::Observation(observation) => MechanismCalibrationError::Observation {
+                observation: *observation,
+                reason: reason.clone(),
+            },
+            ball => MechanismCalibrationError::InvalidData {
+                what: ball.to_string(),
+                reason: reason.clone(),
+            },
+        };
+        let l = rows.noise.clone().cholesky().ok_or_else(not_definite)?.l();
+        let solve = |b: &DMatrix<f64>| l.solve_lower_triangular(b).ok_or_else(not_definite);
+        let residuals = DMatrix::from_column_slice(m, 1, rows.residuals.as_slice());
+        products.add(&solve(&rows.d_global)?, &solve(&residuals)?.column(0));
+        let common = &rows.d_global * root;
+        first_rows.push(variances.len());
+        for j in 0..m {
+            variances.push(rows.noise[(j, j)] + common.row(j).norm_squared());
+        }
+    }
+    let (zz, ww, wz) = products.sums();
+    Ok(WhitenedPiece {
+        zz,
+        ww,
+        wz,
+        variances,
+        first_rows,
+    })
 }
 
 /// The [`SHIFTS`] single-unknown shifts that leave the least statistic

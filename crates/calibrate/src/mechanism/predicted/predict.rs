@@ -10,6 +10,7 @@
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
 use parcal_observe::mechanism::Rows;
+use rayon::prelude::*;
 
 use super::super::data::Observations;
 use super::super::error::MechanismCalibrationError;
@@ -118,16 +119,23 @@ pub fn predict(
             g,
         )?);
     }
-    for set in tied_sets(observations, balls)? {
-        predicted.push(predict_balls(
-            mechanism,
-            params,
-            configured,
-            observations,
-            set,
-            reference,
-            g,
-        )?);
+    // The sets on the threads, each on its own; the first error in their
+    // order is the one returned, on any number of threads.
+    let sets: Vec<_> = (tied_sets(observations, balls)?.into_par_iter())
+        .map(|set| {
+            predict_balls(
+                mechanism,
+                params,
+                configured,
+                observations,
+                set,
+                reference,
+                g,
+            )
+        })
+        .collect();
+    for set in sets {
+        predicted.push(set?);
     }
     Ok(predicted)
 }
