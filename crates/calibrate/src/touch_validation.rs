@@ -33,7 +33,7 @@
 //! pass over the dataset.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3xX, Matrix6, RowDVector};
-use parcal_dataset::{Calibration, Dataset};
+use parcal_dataset::{Ball, Calibration, Dataset, Measurements};
 use parcal_kinematics::{
     ForwardOptions, Geometry, N_PARAMS, PARAM_NAMES, SCALE_NAMES, Vec3, forward_from_home,
     tip_jacobians,
@@ -46,6 +46,7 @@ use crate::mirror::located_side;
 use crate::prediction;
 use crate::problem::ActuatorScales;
 use crate::sphere_fit::best_fit;
+use rayon::prelude::*;
 
 /// Applies the ball-touch `calibration` to the touches of `dataset` (module
 /// doc).
@@ -56,15 +57,14 @@ pub fn validate_touches(
 ) -> Result<Validation, CalibrateError> {
     crate::validate(dataset)?;
     crate::validate::same_unit(dataset, calibration.actuator_unit())?;
-    let refuse = |reason: String| CalibrateError::Calibration { reason };
     let names = &calibration.parameters.names;
     if names.len() < N_PARAMS || names[..N_PARAMS] != PARAM_NAMES {
-        return Err(refuse(
+        return Err(refused(
             "its parameters are not the 33 kinematic parameters of a ball-touch calibration".into(),
         ));
     }
     if calibration.covariance.len() != names.len() {
-        return Err(refuse(
+        return Err(refused(
             "it has no covariance (the calibration did not converge)".into(),
         ));
     }
@@ -100,109 +100,54 @@ pub fn validate_touches(
         rows_by_ball[ball as usize].push(row);
     }
     let Some(n_ref) = reference else {
-        return Err(refuse(
+        return Err(refused(
             "a ball-touch validation fits each ball's centre on its first touches: give their number (at least 4)".into(),
         ));
     };
-    let covariance_root = prediction::square_root(&covariance);
-    // Each predicted contact: its residual, its noise variance and its row
-    // of U (module doc): `m` values in the parameters' columns (`global`,
-    // row by row) and three in its ball's (`local`); each ball's first
-    // predicted contact (`starts`).
-    let (mut residuals, mut noises) = (Vec::new(), Vec::new());
-    let (mut global, mut local, mut starts) = (Vec::<f64>::new(), Vec::<Vec3>::new(), Vec::new());
-    let mut mirrored_balls = Vec::new();
-    for (k, ball) in dataset.artefacts.balls.iter().enumerate() {
-        let rows = &rows_by_ball[k];
-        let mut tips = Vec::with_capacity(rows.len());
-        for &row in rows {
-            let extensions = scales.extensions(&measurements.q[row]);
-            let solution = forward_from_home(&geometry, &extensions, &forward)
-                .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
-            let jacobians = tip_jacobians(&geometry, &solution);
-            // dT/dp on the calibrated parameters; dT/dq per unit of the
-            // reading, J_q diag(s).
-            let q = &measurements.q[row];
-            let d_params = Matrix3xX::from_fn(m, |a, k| match k {
-                _ if k < N_PARAMS => jacobians.d_params[(a, k)],
-                _ => jacobians.d_q[(a, k - N_PARAMS)] * q[k - N_PARAMS],
-            });
-            let d_q = jacobians.d_q * Matrix6::from_diagonal(&scales.values.into());
-            tips.push((row, (d_params, d_q), geometry.tool_tip(&solution.pose)));
-        }
-        if rows.len() <= n_ref {
-            return Err(refuse(format!(
-                "ball {:?} has {} contacts: none is left to predict after the {n_ref} reference contacts",
-                ball.id,
-                rows.len()
-            )));
-        }
-        let points: Vec<Vec3> = tips[..n_ref].iter().map(|(.., tip)| *tip).collect();
-        let fit = best_fit(&points, ball.radius).map_err(|e| {
-            refuse(format!(
-                "the first {n_ref} touches of ball {:?} do not locate its centre: {e} (more reference touches may)",
-                ball.id
-            ))
-        })?;
-        let all: Vec<Vec3> = tips.iter().map(|(.., tip)| *tip).collect();
-        let (fit, mirror) = located_side(fit, &points, &all, ball.radius);
-        if mirror {
-            mirrored_balls.push(ball.id.clone());
-        }
-        let centre = fit.centre;
-        // The centre fit linearised: A (normals), W, B (nᵀ J_f).
-        let mut information = Matrix3::zeros();
-        let mut weighted = Vec::with_capacity(n_ref);
-        for (row, (d_params, d_q), tip) in &tips[..n_ref] {
-            let normal = (tip - centre).normalize();
-            let variance = contact_variance(machine, ball.radius_sigma, d_q, &normal, *row)?;
-            information += normal * normal.transpose() / variance;
-            weighted.push((normal / variance, normal.transpose() * d_params));
-        }
-        let centre_covariance = information.try_inverse().ok_or_else(|| {
-            refuse(format!(
-                "the reference contacts of ball {:?} do not determine its centre",
-                ball.id
-            ))
-        })?;
-        let centre_root = Matrix3::from_column_slice(
-            prediction::square_root(&DMatrix::from_column_slice(
-                3,
-                3,
-                centre_covariance.as_slice(),
-            ))
-            .as_slice(),
-        );
-        // K B: the centre's first-order response to the parameters (3 x m).
-        let response = weighted.iter().fold(Matrix3xX::zeros(m), |sum, (a, b)| {
-            sum + centre_covariance * a * b
-        });
-        starts.push(residuals.len());
-        for (row, (d_params, d_q), tip) in &tips[n_ref.min(tips.len())..] {
-            let offset = tip - centre;
-            let distance = offset.norm();
-            if distance == 0.0 {
-                return Err(CalibrateError::InvalidDataset {
-                    row: Some(*row),
-                    field: "q".into(),
-                    message: "the tool tip is at the ball's centre".into(),
-                });
+    let predictor = BallPredictor {
+        measurements,
+        geometry: &geometry,
+        scales: &scales,
+        forward: &forward,
+        machine,
+        covariance_root: prediction::square_root(&covariance),
+        reference: n_ref,
+    };
+    // Pieces of balls on the threads, each predicted on its own, then put
+    // one after another in their order: the same bits on any number of
+    // threads, the first error in the balls' order.
+    let balls = &dataset.artefacts.balls;
+    let pieces: Vec<_> = (balls.par_chunks(BALL_PIECE))
+        .zip(rows_by_ball.par_chunks(BALL_PIECE))
+        .map(|(balls, rows)| {
+            let mut piece = PredictedContacts::default();
+            for (ball, rows) in balls.iter().zip(rows) {
+                predictor.predict(ball, rows, &mut piece)?;
             }
-            let normal = offset / distance;
-            let gain: RowDVector<f64> = normal.transpose() * (d_params - &response);
-            global.extend((gain * &covariance_root).iter());
-            local.push(centre_root.transpose() * normal);
-            residuals.push(distance - ball.radius);
-            noises.push(contact_variance(
-                machine,
-                ball.radius_sigma,
-                d_q,
-                &normal,
-                *row,
-            )?);
+            Ok::<_, CalibrateError>(piece)
+        })
+        .collect();
+    let pieces = pieces.into_iter().collect::<Result<Vec<_>, _>>()?;
+    // U's parameter columns filled piece by piece, each piece's rows let go
+    // once copied.
+    let mut v = DMatrix::zeros(pieces.iter().map(|p| p.residuals.len()).sum(), m);
+    let mut predicted = PredictedContacts::default();
+    for mut piece in pieces {
+        let first = predicted.residuals.len();
+        for (i, row) in piece.global.chunks_exact(m).enumerate() {
+            v.row_mut(first + i).copy_from_slice(row);
         }
+        piece.global = Vec::new();
+        predicted.append(piece);
     }
-    let mut v = DMatrix::from_row_slice(residuals.len(), m, &global);
+    let PredictedContacts {
+        residuals,
+        noises,
+        mut local,
+        starts,
+        mirrored_balls,
+        ..
+    } = predicted;
     let sigmas = (noises.iter().zip(v.row_iter()).zip(&local))
         .map(|((noise, g), b)| (noise + g.norm_squared() + b.norm_squared()).sqrt())
         .collect();
@@ -233,6 +178,164 @@ pub fn validate_touches(
         explanations: Vec::new(),
         mirrored_balls,
     })
+}
+
+/// The balls [`validate_touches`] predicts at a time on a thread.
+const BALL_PIECE: usize = 256;
+
+/// A calibration refused, for `reason`.
+fn refused(reason: String) -> CalibrateError {
+    CalibrateError::Calibration { reason }
+}
+
+/// The predicted contacts of balls one after another (module doc).
+#[derive(Default)]
+struct PredictedContacts {
+    /// Each contact's residual (mm).
+    residuals: Vec<f64>,
+    /// Its noise variance (mm²).
+    noises: Vec<f64>,
+    /// Its row of `U` in the parameters' columns, row after row.
+    global: Vec<f64>,
+    /// Its row of `U` in its ball's three columns.
+    local: Vec<Vec3>,
+    /// Each ball's first contact.
+    starts: Vec<usize>,
+    /// The balls kept at their mirror image.
+    mirrored_balls: Vec<String>,
+}
+
+impl PredictedContacts {
+    /// `other`'s balls after these, but for their rows of `U` in the
+    /// parameters' columns, which [`validate_touches`] copies itself.
+    fn append(&mut self, other: Self) {
+        let offset = self.residuals.len();
+        self.starts
+            .extend(other.starts.iter().map(|start| offset + start));
+        self.residuals.extend(other.residuals);
+        self.noises.extend(other.noises);
+        self.local.extend(other.local);
+        self.mirrored_balls.extend(other.mirrored_balls);
+    }
+}
+
+/// What a ball's prediction takes of the calibration and the dataset.
+struct BallPredictor<'a> {
+    /// The dataset's readings.
+    measurements: &'a Measurements,
+    /// The calibrated geometry.
+    geometry: &'a Geometry,
+    /// The calibrated actuator scales.
+    scales: &'a ActuatorScales,
+    /// The forward kinematics' options.
+    forward: &'a ForwardOptions,
+    /// The machine's repeatabilities.
+    machine: &'a parcal_dataset::Repeatability,
+    /// `Σ_p^{1/2}` of the calibrated parameters.
+    covariance_root: DMatrix<f64>,
+    /// The reference contacts `N` of each ball.
+    reference: usize,
+}
+
+impl BallPredictor<'_> {
+    /// The contacts `rows` of `ball` predicted, into `out` (module doc);
+    /// an error names the ball or the row that cannot be predicted.
+    fn predict(
+        &self,
+        ball: &Ball,
+        rows: &[usize],
+        out: &mut PredictedContacts,
+    ) -> Result<(), CalibrateError> {
+        let (m, n_ref) = (self.covariance_root.nrows(), self.reference);
+        let mut tips = Vec::with_capacity(rows.len());
+        for &row in rows {
+            let extensions = self.scales.extensions(&self.measurements.q[row]);
+            let solution = forward_from_home(self.geometry, &extensions, self.forward)
+                .map_err(|source| CalibrateError::ForwardKinematics { row, source })?;
+            let jacobians = tip_jacobians(self.geometry, &solution);
+            // dT/dp on the calibrated parameters; dT/dq per unit of the
+            // reading, J_q diag(s).
+            let q = &self.measurements.q[row];
+            let d_params = Matrix3xX::from_fn(m, |a, k| match k {
+                _ if k < N_PARAMS => jacobians.d_params[(a, k)],
+                _ => jacobians.d_q[(a, k - N_PARAMS)] * q[k - N_PARAMS],
+            });
+            let d_q = jacobians.d_q * Matrix6::from_diagonal(&self.scales.values.into());
+            tips.push((row, (d_params, d_q), self.geometry.tool_tip(&solution.pose)));
+        }
+        if rows.len() <= n_ref {
+            return Err(refused(format!(
+                "ball {:?} has {} contacts: none is left to predict after the {n_ref} reference contacts",
+                ball.id,
+                rows.len()
+            )));
+        }
+        let points: Vec<Vec3> = tips[..n_ref].iter().map(|(.., tip)| *tip).collect();
+        let fit = best_fit(&points, ball.radius).map_err(|e| {
+        refused(format!(
+            "the first {n_ref} touches of ball {:?} do not locate its centre: {e} (more reference touches may)",
+            ball.id
+        ))
+    })?;
+        let all: Vec<Vec3> = tips.iter().map(|(.., tip)| *tip).collect();
+        let (fit, mirror) = located_side(fit, &points, &all, ball.radius);
+        if mirror {
+            out.mirrored_balls.push(ball.id.clone());
+        }
+        let centre = fit.centre;
+        // The centre fit linearised: A (normals), W, B (nᵀ J_f).
+        let mut information = Matrix3::zeros();
+        let mut weighted = Vec::with_capacity(n_ref);
+        for (row, (d_params, d_q), tip) in &tips[..n_ref] {
+            let normal = (tip - centre).normalize();
+            let variance = contact_variance(self.machine, ball.radius_sigma, d_q, &normal, *row)?;
+            information += normal * normal.transpose() / variance;
+            weighted.push((normal / variance, normal.transpose() * d_params));
+        }
+        let centre_covariance = information.try_inverse().ok_or_else(|| {
+            refused(format!(
+                "the reference contacts of ball {:?} do not determine its centre",
+                ball.id
+            ))
+        })?;
+        let centre_root = Matrix3::from_column_slice(
+            prediction::square_root(&DMatrix::from_column_slice(
+                3,
+                3,
+                centre_covariance.as_slice(),
+            ))
+            .as_slice(),
+        );
+        // K B: the centre's first-order response to the parameters (3 x m).
+        let response = weighted.iter().fold(Matrix3xX::zeros(m), |sum, (a, b)| {
+            sum + centre_covariance * a * b
+        });
+        out.starts.push(out.residuals.len());
+        for (row, (d_params, d_q), tip) in &tips[n_ref.min(tips.len())..] {
+            let offset = tip - centre;
+            let distance = offset.norm();
+            if distance == 0.0 {
+                return Err(CalibrateError::InvalidDataset {
+                    row: Some(*row),
+                    field: "q".into(),
+                    message: "the tool tip is at the ball's centre".into(),
+                });
+            }
+            let normal = offset / distance;
+            let gain: RowDVector<f64> = normal.transpose() * (d_params - &response);
+            out.global.extend((gain * &self.covariance_root).iter());
+            out.local.push(centre_root.transpose() * normal);
+            out.residuals.push(distance - ball.radius);
+            out.noises.push(contact_variance(
+                self.machine,
+                ball.radius_sigma,
+                d_q,
+                &normal,
+                *row,
+            )?);
+        }
+        Ok(())
+    }
 }
 
 /// The variance of a contact's radius row (mm²): the repeatabilities

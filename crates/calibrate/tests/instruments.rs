@@ -390,6 +390,32 @@ fn touch_calibration_predicts_other_touches() {
     );
 }
 
+/// A ball-touch validation of more balls than the threads predict at a
+/// time (300) is the same, bit for bit, on 1, 2 and 3 threads.
+#[test]
+fn a_touch_validation_is_the_same_on_any_number_of_threads() {
+    use parcal_calibrate::validate_touches;
+    use parcal_simulate::{Scenario, simulate};
+    let scenario = Scenario::scaled(300, 7, 25f64.to_radians());
+    let fitted = simulate(&scenario, 1).unwrap().dataset;
+    let run =
+        parcal_calibrate::calibrate(&fitted, &CalibrationOptions::default(), &mut |_| {}).unwrap();
+    let record = run.record(String::new());
+    let other = simulate(&scenario, 2).unwrap().dataset;
+    let on = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| validate_touches(&other, &record, Some(5)).unwrap())
+    };
+    let one = on(1);
+    assert_eq!(one.contacts, 300 * 2);
+    for threads in [2, 3] {
+        assert_eq!(on(threads), one, "{threads} threads");
+    }
+}
+
 /// The session of the issue: fixtures/jugglebot's poses recorded after the
 /// marker body was re-mounted 7.1 mm away (`re_mounted`), validated on 12
 /// reference poses against the calibration of the fixture (with its
