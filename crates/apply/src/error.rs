@@ -2,6 +2,7 @@
 //! target.
 
 use parcal_kinematics::KinematicsError;
+use rayon::prelude::*;
 
 /// Why one target cannot be commanded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -112,20 +113,53 @@ pub enum ApplyError {
     Grid(String),
 }
 
-/// `f` of every item, in order; the first refusal is an error naming its
-/// row (1-based).
-pub(crate) fn row_by_row<T, U>(
+/// `f` of every item, in order, made on the threads; the first refusal in
+/// the items' order, on any number of threads, is an error naming its row
+/// (1-based).
+pub(crate) fn row_by_row<T: Sync, U: Send>(
     items: &[T],
-    f: impl Fn(&T) -> Result<U, Refusal>,
+    f: impl Fn(&T) -> Result<U, Refusal> + Sync + Send,
 ) -> Result<Vec<U>, ApplyError> {
-    items
-        .iter()
-        .enumerate()
-        .map(|(k, item)| {
-            f(item).map_err(|refusal| ApplyError::Refused {
+    let outcomes: Vec<Result<U, Refusal>> = items.par_iter().map(f).collect();
+    (outcomes.into_iter().enumerate())
+        .map(|(k, outcome)| {
+            outcome.map_err(|refusal| ApplyError::Refused {
                 row: k + 1,
                 refusal,
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Of several refused rows, the first in order is named, on any number
+    /// of threads; otherwise every row's value, in order.
+    #[test]
+    fn the_first_refused_row_is_named_on_any_number_of_threads() {
+        let items: Vec<usize> = (0..5000).collect();
+        let refuse_at = |bad: &'static [usize]| {
+            move |&k: &usize| match bad.contains(&k) {
+                true => Err(Refusal::NonFinite { what: "x" }),
+                false => Ok(2 * k),
+            }
+        };
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let error = pool
+                .install(|| row_by_row(&items, refuse_at(&[4321, 17, 2600])))
+                .unwrap_err();
+            assert!(
+                matches!(error, ApplyError::Refused { row: 18, .. }),
+                "{threads} threads: {error}"
+            );
+            let values = pool.install(|| row_by_row(&items, refuse_at(&[]))).unwrap();
+            assert!(values.iter().enumerate().all(|(k, &v)| v == 2 * k));
+        }
+    }
 }

@@ -10,9 +10,10 @@
 //! and the value at target `k` is `sqrt(trace(J_k Σ_p J_kᵀ))` (mm). The
 //! uncertainty of calibrated actuator scales is not included.
 
-use nalgebra::{Rotation3, Translation3, UnitQuaternion};
+use nalgebra::{Rotation3, SMatrix, Translation3, UnitQuaternion};
 use parcal_accuracy::{RigidMotion, remove_rigid_motions};
 use parcal_kinematics::{Pose, Vec3, tip_jacobians_at};
+use rayon::prelude::*;
 
 use crate::{AppliedModel, ApplyError, Command};
 
@@ -40,19 +41,31 @@ pub fn predicted_registered(
         isometry(&model.placement.base),
         isometry(&model.placement.platform),
     );
-    let mut points = Vec::with_capacity(commands.len());
-    let mut jacobians = Vec::with_capacity(commands.len());
-    for (k, command) in commands.iter().enumerate() {
-        let pose_c = base.inverse() * command.pose * platform;
-        let tip = tip_jacobians_at(&model.canonical, &pose_c)
-            .map_err(|e| ApplyError::Prediction(format!("row {}: {e}", k + 1)))?;
-        points.push(model.canonical.tool_tip(&pose_c));
-        jacobians.push(tip.d_params);
+    // Each command's tip and Jacobian on the threads, written in place; the
+    // first row that fails, on any number of threads, is named.
+    let n = commands.len();
+    let (mut points, mut jacobians) = (vec![Vec3::zeros(); n], vec![SMatrix::zeros(); n]);
+    let failed = (points.par_iter_mut().zip(&mut jacobians).zip(commands))
+        .enumerate()
+        .filter_map(|(k, ((point, jacobian), command))| {
+            let pose_c = base.inverse() * command.pose * platform;
+            match tip_jacobians_at(&model.canonical, &pose_c) {
+                Ok(tip) => {
+                    *point = model.canonical.tool_tip(&pose_c);
+                    *jacobian = tip.d_params;
+                    None
+                }
+                Err(e) => Some((k, e)),
+            }
+        })
+        .min_by_key(|&(k, _)| k);
+    if let Some((k, e)) = failed {
+        return Err(ApplyError::Prediction(format!("row {}: {e}", k + 1)));
     }
     remove_rigid_motions(&points, &mut jacobians)
         .map_err(|e| ApplyError::Prediction(e.to_string()))?;
     Ok(jacobians
-        .iter()
+        .par_iter()
         .map(|j| (j * covariance).component_mul(j).sum().max(0.0).sqrt())
         .collect())
 }
