@@ -23,6 +23,7 @@
 
 use nalgebra::{DMatrix, DVector};
 use parcal_kinematics::mechanism::{Mechanism, MechanismError};
+use rayon::prelude::*;
 
 use super::calibrated::CalibratedMechanism;
 use super::predicted::pose_derivative;
@@ -57,8 +58,9 @@ impl Compensation {
 /// Each target pose's commands with `calibrated`, under the loads
 /// `loads[k]` of target `k` (`loads` empty: those held when the actuators
 /// were zeroed), or why the calibrated (or the nominal) machine cannot
-/// reach it, in the order of `targets`.
-pub fn compensate_mechanism<T: AsRef<[f64]>>(
+/// reach it, in the order of `targets` (each solved on its own, on the
+/// threads).
+pub fn compensate_mechanism<T: AsRef<[f64]> + Sync>(
     calibrated: &CalibratedMechanism,
     targets: &[T],
     loads: &[Vec<f64>],
@@ -67,7 +69,7 @@ pub fn compensate_mechanism<T: AsRef<[f64]>>(
     let n = calibrated.n_params();
     let sigma_p = calibrated.covariance.view((0, 0), (n, n)).into_owned();
     targets
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(k, target)| {
             let loads = loads.get(k).map(Vec::as_slice);
@@ -151,7 +153,7 @@ impl UnreachableTargets {
 
 /// Every target's commands with `calibrated` under `loads`
 /// ([`compensate_mechanism`]), or every target it cannot reach.
-pub fn compensate_targets<T: AsRef<[f64]>>(
+pub fn compensate_targets<T: AsRef<[f64]> + Sync>(
     calibrated: &CalibratedMechanism,
     targets: &[T],
     loads: &[Vec<f64>],
