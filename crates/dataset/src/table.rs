@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 use std::fs::File;
-use std::io::{self, Read, Seek, SeekFrom};
+use std::io::{self, Read, Seek, SeekFrom, Write as _};
 use std::path::Path;
 
 use csv::{ByteRecord, ReaderBuilder};
@@ -721,6 +721,25 @@ pub(crate) fn write_file(
         numbers.writer.write_record(header).map_err(to_error)?;
         fill(&mut numbers).map_err(to_error)?;
         numbers.writer.flush().map_err(write_error(path))
+    })
+}
+
+/// Writes `path` atomically as CSV: the `header`, as [`write_file`] writes
+/// it, then the text `fill` writes (whole rows, each ended by a newline).
+pub(crate) fn write_text_file(
+    path: &Path,
+    header: &[&str],
+    fill: impl FnOnce(&mut FileWriter<'_>) -> io::Result<()>,
+) -> Result<(), DatasetError> {
+    write_atomic(path, |w| {
+        let mut line = csv::Writer::from_writer(Vec::new());
+        let header = (line.write_record(header))
+            .and_then(|()| line.into_inner().map_err(|e| e.into_error().into()))
+            .map_err(|e| DatasetError::io(path, "write", e.into()))?;
+        (w.write_all(&header))
+            .and_then(|()| fill(w))
+            .and_then(|()| w.flush())
+            .map_err(write_error(path))
     })
 }
 
