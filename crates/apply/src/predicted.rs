@@ -37,8 +37,8 @@ pub fn predicted_registered(
                 .into(),
         )
     })?;
-    let (base, platform) = (
-        isometry(&model.placement.base),
+    let (base_inverse, platform) = (
+        isometry(&model.placement.base).inverse(),
         isometry(&model.placement.platform),
     );
     // Each command's tip and Jacobian on the threads, written in place; the
@@ -48,7 +48,7 @@ pub fn predicted_registered(
     let failed = (points.par_iter_mut().zip(&mut jacobians).zip(commands))
         .enumerate()
         .filter_map(|(k, ((point, jacobian), command))| {
-            let pose_c = base.inverse() * command.pose * platform;
+            let pose_c = base_inverse * command.pose * platform;
             match tip_jacobians_at(&model.canonical, &pose_c) {
                 Ok(tip) => {
                     *point = model.canonical.tool_tip(&pose_c);

@@ -30,7 +30,8 @@
 //! verdict ([`crate::prediction`]), each ball's columns eliminated in turn
 //! ([`crate::prediction::grouped_statistic`]): neither `U`, with its three
 //! columns a ball, nor `C` is formed, and a ball's contacts are found in one
-//! pass over the dataset.
+//! pass over the dataset. The balls are predicted on the threads, in pieces
+//! put together in their order: the same bits on any number of threads.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3xX, Matrix6, RowDVector};
 use parcal_dataset::{Ball, Calibration, Dataset, Measurements};
@@ -132,12 +133,11 @@ pub fn validate_touches(
     // once copied.
     let mut v = DMatrix::zeros(pieces.iter().map(|p| p.residuals.len()).sum(), m);
     let mut predicted = PredictedContacts::default();
-    for mut piece in pieces {
+    for piece in pieces {
         let first = predicted.residuals.len();
         for (i, row) in piece.global.chunks_exact(m).enumerate() {
             v.row_mut(first + i).copy_from_slice(row);
         }
-        piece.global = Vec::new();
         predicted.append(piece);
     }
     let PredictedContacts {
@@ -207,7 +207,8 @@ struct PredictedContacts {
 
 impl PredictedContacts {
     /// `other`'s balls after these, but for their rows of `U` in the
-    /// parameters' columns, which [`validate_touches`] copies itself.
+    /// parameters' columns, which [`validate_touches`] copies itself (and
+    /// lets go of here).
     fn append(&mut self, other: Self) {
         let offset = self.residuals.len();
         self.starts

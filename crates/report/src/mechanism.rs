@@ -742,8 +742,8 @@ pub fn run_away_sentence(calibration: &MechanismCalibrationRecord) -> Option<Str
 }
 
 /// One sentence per ball found on the wrong side of its touches and
-/// re-seeded, for the first [`NAMED_MIRRORED`], then one counting the
-/// others (calibration.json lists every one).
+/// re-seeded, for the first 10, then one counting the others
+/// (calibration.json lists every one).
 pub fn mirrored_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
     let mirrored = &calibration.mirrored;
     let named = mirrored.iter().take(NAMED_MIRRORED).map(|m| {

@@ -112,8 +112,8 @@ pub fn systematic_sentence(test: &SystematicTest, global: &GlobalTest) -> Option
 }
 
 /// What the run did beyond the method's iteration, one sentence each (the
-/// balls re-seeded on the other side of their contacts: the first
-/// [`NAMED_MIRRORED`], then their count).
+/// balls re-seeded on the other side of their contacts: the first 10, then
+/// their count).
 pub fn notes(run: &CalibrationRun) -> Vec<String> {
     let run_away = run.gauss_newton.as_ref().map(|g| {
         format!(
