@@ -158,6 +158,18 @@ pub fn variance_components(components: &[VarianceComponent]) -> String {
 /// at the image in a validation) a report names at most, one by one.
 pub(crate) const NAMED_MIRRORED: usize = 10;
 
+/// A sentence for each of the first [`NAMED_MIRRORED`] re-seeded balls
+/// (`each`), then one counting the others (`rest` of their number), if any.
+pub(crate) fn re_seeded_sentences<T>(
+    balls: &[T],
+    each: impl Fn(&T) -> String,
+    rest: impl FnOnce(usize) -> String,
+) -> Vec<String> {
+    let more = balls.len().saturating_sub(NAMED_MIRRORED);
+    let named = balls.iter().take(NAMED_MIRRORED).map(each);
+    named.chain((more > 0).then(|| rest(more))).collect()
+}
+
 /// " and N more" after a list cut short, nothing if it was not.
 pub(crate) fn and_more(more: usize) -> String {
     if more > 0 {

@@ -17,7 +17,7 @@ use crate::calibration_report::Format;
 use crate::calibration_report::document::{Block, Cell, Tone};
 use crate::calibration_report::figures::normalised_histogram;
 use crate::calibration_report::{html, markdown};
-use crate::checks::NAMED_MIRRORED;
+use crate::checks::re_seeded_sentences;
 use crate::mechanism_validation::observation_row_place;
 
 /// What a mechanism's dataset adds to the report of its calibration.
@@ -745,18 +745,20 @@ pub fn run_away_sentence(calibration: &MechanismCalibrationRecord) -> Option<Str
 /// re-seeded, for the first 10, then one counting the others
 /// (calibration.json lists every one).
 pub fn mirrored_sentences(calibration: &MechanismCalibrationRecord) -> Vec<String> {
-    let mirrored = &calibration.mirrored;
-    let named = mirrored.iter().take(NAMED_MIRRORED).map(|m| {
-        format!(
-            "ball {} was on the wrong side of its touches after {} linear solves (chi-square {:.1}; its touches' tool points there fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
-            m.ball, m.iteration, m.chi_square, m.gain
-        )
-    });
-    let more = mirrored.len().saturating_sub(NAMED_MIRRORED);
-    let counted = (more > 0).then(|| {
-        format!("{more} more balls were on the wrong side of their touches and were re-seeded likewise (calibration.json's mirrored lists every one)")
-    });
-    named.chain(counted).collect()
+    re_seeded_sentences(
+        &calibration.mirrored,
+        |m| {
+            format!(
+                "ball {} was on the wrong side of its touches after {} linear solves (chi-square {:.1}; its touches' tool points there fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
+                m.ball, m.iteration, m.chi_square, m.gain
+            )
+        },
+        |more| {
+            format!(
+                "{more} more balls were on the wrong side of their touches and were re-seeded likewise (calibration.json's mirrored lists every one)"
+            )
+        },
+    )
 }
 
 /// Row `row` (`None`: all its rows) of observation `index` of the kind
@@ -1048,6 +1050,7 @@ fn blocks(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::checks::NAMED_MIRRORED;
     use parcal_calibrate::mechanism::{MechanismData, MechanismOptions, calibrate_mechanism};
     use parcal_dataset::mechanism::{
         MechanismDataset, MechanismMachine, MechanismTruth, MirroredRecord, Noise,

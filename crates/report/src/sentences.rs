@@ -10,7 +10,7 @@ use parcal_calibrate::verdict::{GlobalTest, Outcome};
 use parcal_dataset::SystematicSensitivityRecord;
 use parcal_kinematics::PARAM_NAMES;
 
-use crate::checks::{NAMED_MIRRORED, and_more};
+use crate::checks::{and_more, re_seeded_sentences};
 use crate::verdict::solver_status;
 
 /// The status in one sentence (calibration.json's `status`), naming
@@ -124,16 +124,9 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
             g.final_cost
         )
     });
-    let mirrored = &run.balls.mirrored;
-    let more = mirrored.len().saturating_sub(NAMED_MIRRORED);
-    let counted = (more > 0).then(|| {
-        format!(
-            "{more} more balls were on the wrong side of their contacts and were re-seeded likewise"
-        )
-    });
-    run_away
-        .into_iter()
-        .chain(mirrored.iter().take(NAMED_MIRRORED).map(|m| {
+    let re_seeded = re_seeded_sentences(
+        &run.balls.mirrored,
+        |m| {
             format!(
                 "ball {} was on the wrong side of its contacts at iteration {} (chi-square {:.1}; its contact points at that iterate's geometry fit the mirror image of its centre {:.0} times better): re-seeded there, and the calibration resumed",
                 m.id,
@@ -141,9 +134,14 @@ pub fn notes(run: &CalibrationRun) -> Vec<String> {
                 m.side.chi_square,
                 m.side.side.cost / m.side.mirror.cost
             )
-        }))
-        .chain(counted)
-        .collect()
+        },
+        |more| {
+            format!(
+                "{more} more balls were on the wrong side of their contacts and were re-seeded likewise"
+            )
+        },
+    );
+    run_away.into_iter().chain(re_seeded).collect()
 }
 
 /// Every warning about the priors and the balls' fit, one sentence each.
