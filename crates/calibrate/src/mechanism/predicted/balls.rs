@@ -31,20 +31,20 @@
 //! (touches on a small cap: `1` nearly in the span of `J_c`).
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use parcal_kinematics::mechanism::Mechanism;
+use parcal_kinematics::batch_workspace::BatchWorkspace;
+use parcal_kinematics::mechanism::{Mechanism, Reached};
+use parcal_observe::mechanism::{Actuation, BallTouch};
 
 #[cfg(doc)]
 use super::super::observation::HeldOut;
-#[cfg(doc)]
-use parcal_observe::mechanism::BallTouch;
 
 use crate::mirror::located_side;
 
 use super::super::data::Observations;
 use super::super::error::MechanismCalibrationError;
-use super::super::observation::{ObservationKind, ObservationRef};
-use super::super::touched_ball::{BallFit, reach_touches, sphere_through};
-use super::super::warm_start::WarmStart;
+use super::super::error::failed;
+use super::super::observation::{ObservationKind, ObservationRef, touch_ref};
+use super::super::touched_ball::sphere_through;
 use super::ball_sets::BallSet;
 use super::projection::{LocalRows, predict_from_reference, project_out};
 use super::rows::PredictedRows;
@@ -77,6 +77,7 @@ pub(super) fn predict_balls(
     let mut sources = Vec::with_capacity(m);
     let mut mirrored_balls = Vec::new();
     let mut row = 0;
+    let mut workspace = BatchWorkspace::default();
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
         let k = touches.len();
@@ -95,21 +96,8 @@ pub(super) fn predict_balls(
                 });
             }
         };
-        let (mut warm_starts, mut tips) =
-            (vec![WarmStart::default(); k], vec![Vector3::zeros(); k]);
-        let fit = BallFit {
-            warm_starts: &mut warm_starts,
-            tips: &mut tips,
-        };
-        let tips = reach_touches(
-            mechanism,
-            params,
-            configured,
-            all,
-            touches,
-            &mut Vec::new(),
-            fit,
-        )?;
+        let reached = reach_ball(mechanism, params, configured, all, touches, &mut workspace)?;
+        let tips: Vec<Vector3<f64>> = reached.iter().map(|r| r.point).collect();
         let fit = sphere_through(&tips[..references], ball.radius).map_err(|e| {
             MechanismCalibrationError::InvalidData {
                 what: format!("ball {b}"),
@@ -118,25 +106,22 @@ pub(super) fn predict_balls(
                 ),
             }
         })?;
-        let (fit, mirror) = located_side(fit, &tips[..references], tips, ball.radius);
+        let (fit, mirror) = located_side(fit, &tips[..references], &tips, ball.radius);
         if mirror {
             mirrored_balls.push(b);
         }
         let centre = fit.centre;
         let radius_variance = ball.radius_sigma.map_or(0.0, |s| s * s);
         noise.view_mut((row, row), (k, k)).fill(radius_variance);
-        for &t in touches {
+        for (&t, reached) in touches.iter().zip(reached) {
             let touch = &all[t];
-            let observation = ObservationRef {
-                kind: ObservationKind::Touch,
-                index: t,
-            };
-            let evaluated = touch
-                .evaluate(mechanism, params, configured, &centre, ball.radius, None)
-                .map_err(|e| MechanismCalibrationError::Observation {
+            let observation = touch_ref(t);
+            let evaluated = touch.row(reached, &centre, ball.radius).map_err(|e| {
+                MechanismCalibrationError::Observation {
                     observation,
                     reason: format!("on ball {b}: {e}"),
-                })?;
+                }
+            })?;
             sources.push((observation, 0));
             let sigma = touch.sigma;
             residuals[row] = evaluated.rows.residual[0] * sigma;
@@ -197,6 +182,36 @@ pub(super) fn predict_balls(
     })?;
     predicted.mirrored_balls = mirrored_balls;
     Ok(predicted)
+}
+
+/// Where each of a ball's `touches` (indices into `all`) puts the machine
+/// of parameters `params`, reached together from the mechanism's start
+/// poses ([`Actuation::tool_points`]: the hexapod's SIMD lanes) with
+/// `dT/dp |_q`: their tool points locate the ball's centre, and the same
+/// `Reached` give their rows ([`BallTouch::row`]). The first touch that
+/// cannot be reached named.
+fn reach_ball(
+    mechanism: &dyn Mechanism,
+    params: &[f64],
+    configured: &[f64],
+    all: &[BallTouch],
+    touches: &[usize],
+    workspace: &mut BatchWorkspace,
+) -> Result<Vec<Reached>, MechanismCalibrationError> {
+    let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
+    let starts = vec![None; touches.len()];
+    let mut reached = Vec::with_capacity(touches.len());
+    Actuation::tool_points(
+        mechanism,
+        params,
+        configured,
+        &(&actuations[..], &starts[..]),
+        workspace,
+        &mut reached,
+    );
+    (reached.into_iter().zip(touches))
+        .map(|(outcome, &t)| outcome.map_err(|e| failed(touch_ref(t), e)))
+        .collect()
 }
 
 #[cfg(test)]
