@@ -120,7 +120,22 @@ pub(crate) fn row_by_row<T: Sync, U: Send>(
     items: &[T],
     f: impl Fn(&T) -> Result<U, Refusal> + Sync + Send,
 ) -> Result<Vec<U>, ApplyError> {
-    let outcomes: Vec<Result<U, Refusal>> = items.par_iter().map(f).collect();
+    first_refused(items.par_iter().map(f).collect())
+}
+
+/// [`row_by_row`] with `f` given the items `size` at a time (the last
+/// piece may hold fewer), each piece's outcomes in its items' order.
+pub(crate) fn in_pieces<T: Sync, U: Send>(
+    items: &[T],
+    size: usize,
+    f: impl Fn(&[T]) -> Vec<Result<U, Refusal>> + Sync + Send,
+) -> Result<Vec<U>, ApplyError> {
+    first_refused(items.par_chunks(size).flat_map_iter(f).collect())
+}
+
+/// Every value of `outcomes`, in order, or the first refusal, naming its
+/// row (1-based).
+fn first_refused<U>(outcomes: Vec<Result<U, Refusal>>) -> Result<Vec<U>, ApplyError> {
     (outcomes.into_iter().enumerate())
         .map(|(k, outcome)| {
             outcome.map_err(|refusal| ApplyError::Refused {
@@ -160,6 +175,22 @@ mod tests {
             );
             let values = pool.install(|| row_by_row(&items, refuse_at(&[]))).unwrap();
             assert!(values.iter().enumerate().all(|(k, &v)| v == 2 * k));
+            // Pieces of 8 (the last of 5000 - 4992 = 8, then of 3 with 4995
+            // items) name the same row and give the same values.
+            for n in [5000, 4995] {
+                let pieces = |bad: &'static [usize]| {
+                    let f = refuse_at(bad);
+                    move |piece: &[usize]| piece.iter().map(&f).collect::<Vec<_>>()
+                };
+                let error = pool
+                    .install(|| in_pieces(&items[..n], 8, pieces(&[4321, 17, 2600])))
+                    .unwrap_err();
+                assert!(matches!(error, ApplyError::Refused { row: 18, .. }));
+                let values = pool
+                    .install(|| in_pieces(&items[..n], 8, pieces(&[])))
+                    .unwrap();
+                assert_eq!(values, (0..n).map(|k| 2 * k).collect::<Vec<_>>());
+            }
         }
     }
 }

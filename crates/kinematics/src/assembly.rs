@@ -15,9 +15,13 @@
 //! - [`platform_height`]: the platform on the home pose's side of the base;
 //! - [`reached_from_home`]: the forward kinematics from the home pose of
 //!   the pose's own leg lengths comes back to the pose, within
-//!   [`REACH_TOLERANCE`] ([`pose_distance`]).
+//!   [`REACH_TOLERANCE`] ([`pose_distance`]); several poses at once in
+//!   SIMD lanes ([`reached_from_home_batch`]).
 
-use crate::{ForwardOptions, Geometry, KinematicsError, Pose, Vec3, forward_from_home};
+use crate::forward_batch::forward_batch;
+use crate::{
+    ForwardOptions, ForwardSolution, Geometry, KinematicsError, Pose, Vec3, forward_from_home,
+};
 
 /// The largest [`pose_distance`] (mm) between a pose and the pose the
 /// forward kinematics of its leg lengths reaches for it to count as
@@ -58,9 +62,52 @@ pub fn pose_distance(geometry: &Geometry, a: &Pose, b: &Pose) -> f64 {
 /// within [`REACH_TOLERANCE`]; for its mirror image through a planar base,
 /// `pose` mirrored back.
 pub fn reached_from_home(geometry: &Geometry, pose: &Pose) -> Result<Pose, KinematicsError> {
+    forward_from_home(
+        geometry,
+        &extensions_at(geometry, pose),
+        &ForwardOptions::default(),
+    )
+    .map(|s| s.pose)
+}
+
+/// [`reached_from_home`] of each of up to
+/// [`LANES`](crate::forward_batch::LANES) poses, in order,
+/// together: in SIMD lanes ([`forward_batch`]) from their home poses, and
+/// one by one where the batch fails, so that each outcome is its own.
+///
+/// # Panics
+/// If there are more than [`LANES`](crate::forward_batch::LANES) poses.
+pub fn reached_from_home_batch(
+    geometry: &Geometry,
+    poses: &[Pose],
+) -> Vec<Result<Pose, KinematicsError>> {
+    let extensions: Vec<[f64; 6]> = poses.iter().map(|p| extensions_at(geometry, p)).collect();
+    let mut solutions: Vec<ForwardSolution> = (extensions.iter())
+        .map(|q| ForwardSolution {
+            pose: geometry.home_pose(q),
+            ..ForwardSolution::default()
+        })
+        .collect();
+    let q: Vec<&[f64; 6]> = extensions.iter().collect();
+    match forward_batch(
+        geometry,
+        &q,
+        &ForwardOptions::default(),
+        &mut solutions,
+        |s| s,
+    ) {
+        Ok(()) => solutions.into_iter().map(|s| Ok(s.pose)).collect(),
+        Err(_) => poses
+            .iter()
+            .map(|p| reached_from_home(geometry, p))
+            .collect(),
+    }
+}
+
+/// The extensions `L_i(pose) - l_i` at which the legs hold `pose`.
+fn extensions_at(geometry: &Geometry, pose: &Pose) -> [f64; 6] {
     let lengths = crate::leg_lengths(geometry, pose);
-    let extensions: [f64; 6] = std::array::from_fn(|i| lengths[i] - geometry.legs[i]);
-    forward_from_home(geometry, &extensions, &ForwardOptions::default()).map(|s| s.pose)
+    std::array::from_fn(|i| lengths[i] - geometry.legs[i])
 }
 
 #[cfg(test)]
@@ -129,5 +176,42 @@ mod tests {
         let radius = design.platform.iter().map(|e| e.norm()).fold(0.0, f64::max);
         let expected = 2.0 * radius * 0.005f64.sin();
         assert!((pose_distance(&design, &pose, &turned) - expected).abs() < 1e-12);
+    }
+    /// Poses reached together in lanes are those reached one by one, to
+    /// within the forward kinematics' tolerance (1e-10 mm of closure, some
+    /// 1e-8 mm of pose at the worst conditioning: 1e-7 mm allowed), a
+    /// mirror image among them too; a pose that fails, fails alone.
+    #[test]
+    fn poses_reached_together_are_those_reached_one_by_one() {
+        let design = paper::design();
+        let pose = |k: usize| {
+            let f = k as f64;
+            Pose::from_parts(
+                Translation3::new(20.0 * f.sin(), -15.0 * f.cos(), 320.0 + 5.0 * f),
+                rotation_zyx(0.1 * f.cos(), -0.05 * f.sin(), 0.03 * f),
+            )
+        };
+        let mut poses: Vec<Pose> = (0..8).map(pose).collect();
+        poses[5] = mirrored(&poses[5]);
+        let together = reached_from_home_batch(&design, &poses);
+        for (k, (reached, pose)) in together.iter().zip(&poses).enumerate() {
+            let alone = reached_from_home(&design, pose).unwrap();
+            let reached = reached.as_ref().unwrap();
+            assert!(pose_distance(&design, reached, &alone) < 1e-7, "pose {k}");
+        }
+        // A pose not finite fails the batch: each is then reached alone,
+        // that one refused by name, the others as before.
+        poses[2] = Pose::from_parts(
+            Translation3::new(0.0, f64::NAN, 300.0),
+            rotation_zyx(0.0, 0.0, 0.0),
+        );
+        let together = reached_from_home_batch(&design, &poses[..7]);
+        for (k, pose) in poses[..7].iter().enumerate() {
+            match (&together[k], reached_from_home(&design, pose)) {
+                (Ok(a), Ok(b)) => assert!(pose_distance(&design, a, &b) < 1e-7, "pose {k}"),
+                (Err(a), Err(b)) => assert_eq!((k, a.to_string()), (2, b.to_string())),
+                (a, b) => panic!("pose {k}: {a:?} together, {b:?} alone"),
+            }
+        }
     }
 }
