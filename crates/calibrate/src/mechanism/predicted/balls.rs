@@ -31,7 +31,6 @@
 //! (touches on a small cap: `1` nearly in the span of `J_c`).
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use parcal_kinematics::batch_workspace::BatchWorkspace;
 use parcal_kinematics::mechanism::{Mechanism, Reached};
 use parcal_observe::mechanism::{Actuation, BallTouch};
 
@@ -77,7 +76,6 @@ pub(super) fn predict_balls(
     let mut sources = Vec::with_capacity(m);
     let mut mirrored_balls = Vec::new();
     let mut row = 0;
-    let mut workspace = BatchWorkspace::default();
     for (s, (&b, touches)) in set.balls.iter().zip(&set.touches).enumerate() {
         let ball = observations.balls[b];
         let k = touches.len();
@@ -96,7 +94,7 @@ pub(super) fn predict_balls(
                 });
             }
         };
-        let reached = reach_ball(mechanism, params, configured, all, touches, &mut workspace)?;
+        let reached = reach_ball(mechanism, params, configured, all, touches)?;
         let tips: Vec<Vector3<f64>> = reached.iter().map(|r| r.point).collect();
         let fit = sphere_through(&tips[..references], ball.radius).map_err(|e| {
             MechanismCalibrationError::InvalidData {
@@ -186,30 +184,20 @@ pub(super) fn predict_balls(
 
 /// Where each of a ball's `touches` (indices into `all`) puts the machine
 /// of parameters `params`, reached together from the mechanism's start
-/// poses ([`Actuation::tool_points`]: the hexapod's SIMD lanes) with
-/// `dT/dp |_q`: their tool points locate the ball's centre, and the same
-/// `Reached` give their rows ([`BallTouch::row`]). The first touch that
-/// cannot be reached named.
+/// poses ([`Actuation::tool_points_from_scratch`]: the hexapod's SIMD
+/// lanes) with `dT/dp |_q`: their tool points locate the ball's centre, and
+/// the same `Reached` give their rows ([`BallTouch::row`]). The first touch
+/// that cannot be reached named.
 fn reach_ball(
     mechanism: &dyn Mechanism,
     params: &[f64],
     configured: &[f64],
     all: &[BallTouch],
     touches: &[usize],
-    workspace: &mut BatchWorkspace,
 ) -> Result<Vec<Reached>, MechanismCalibrationError> {
     let actuations: Vec<&Actuation> = touches.iter().map(|&t| &all[t].at).collect();
-    let starts = vec![None; touches.len()];
-    let mut reached = Vec::with_capacity(touches.len());
-    Actuation::tool_points(
-        mechanism,
-        params,
-        configured,
-        &(&actuations[..], &starts[..]),
-        workspace,
-        &mut reached,
-    );
-    (reached.into_iter().zip(touches))
+    (Actuation::tool_points_from_scratch(mechanism, params, configured, &actuations).into_iter())
+        .zip(touches)
         .map(|(outcome, &t)| outcome.map_err(|e| failed(touch_ref(t), e)))
         .collect()
 }
