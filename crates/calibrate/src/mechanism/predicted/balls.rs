@@ -40,8 +40,7 @@ use super::super::observation::HeldOut;
 use crate::mirror::located_side;
 
 use super::super::data::Observations;
-use super::super::error::MechanismCalibrationError;
-use super::super::error::failed;
+use super::super::error::{MechanismCalibrationError, failed};
 use super::super::observation::{ObservationKind, ObservationRef, touch_ref};
 use super::super::touched_ball::sphere_through;
 use super::ball_sets::BallSet;
