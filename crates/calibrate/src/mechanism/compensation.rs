@@ -87,18 +87,23 @@ fn compensate_one(
 ) -> Result<Compensation, MechanismError> {
     let params = calibrated.params();
     mechanism.check_feasible(params, target)?;
-    let readings_at = |params: &[f64]| match loads {
-        Some(loads) => mechanism.loaded_readings(params, target, loads),
-        None => Ok((
+    let (readings, jacobians) = match loads {
+        Some(loads) => mechanism.loaded_readings(params, target, loads)?,
+        None => (
             mechanism.inverse(params, target)?,
             mechanism.reading_jacobians(params, target)?,
-        )),
+        ),
     };
-    let (readings, jacobians) = readings_at(params)?;
-    let (nominal, _) =
-        readings_at(&calibrated.nominal).map_err(|error| MechanismError::Unreachable {
-            reason: format!("the nominal machine cannot reach it: {error}"),
-        })?;
+    // Of the nominal machine, its readings alone.
+    let nominal = match loads {
+        Some(loads) => mechanism
+            .loaded_readings(&calibrated.nominal, target, loads)
+            .map(|(readings, _)| readings),
+        None => mechanism.inverse(&calibrated.nominal, target),
+    }
+    .map_err(|error| MechanismError::Unreachable {
+        reason: format!("the nominal machine cannot reach it: {error}"),
+    })?;
     let (j, _) = pose_derivative(&jacobians.d_pose, &jacobians.d_params)?;
     Ok(Compensation {
         target: DVector::from_column_slice(target),
