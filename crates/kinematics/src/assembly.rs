@@ -177,6 +177,7 @@ mod tests {
         let expected = 2.0 * radius * 0.005f64.sin();
         assert!((pose_distance(&design, &pose, &turned) - expected).abs() < 1e-12);
     }
+
     /// Poses reached together in lanes are those reached one by one, to
     /// within the forward kinematics' tolerance (1e-10 mm of closure, some
     /// 1e-8 mm of pose at the worst conditioning: 1e-7 mm allowed), a
